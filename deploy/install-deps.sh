@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# deploy/install-deps.sh - installs the Debian packages seamtex builds, tests and runs with.
+# Idempotent: asks dpkg first and calls apt-get only for what is missing. Needs root (or sudo)
+# only when something is missing.
+set -euo pipefail
+
+PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
+      libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev)
+
+missing=()
+for p in "${PKGS[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+# clang's libFuzzer runtime ships in libclang-rt-<ver>-dev; the version follows clang's.
+if command -v clang >/dev/null 2>&1; then
+    cv=$(clang -dumpversion | cut -d. -f1)
+    dpkg-query -W -f='${Status}' "libclang-rt-$cv-dev" 2>/dev/null | grep -q "install ok installed" \
+        || missing+=("libclang-rt-$cv-dev")
+fi
+
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+echo "install-deps: installing ${missing[*]}" >&2
+SUDO=""
+[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+# a fresh clang may have pulled a newer runtime version: check once more
+if command -v clang >/dev/null 2>&1; then
+    cv=$(clang -dumpversion | cut -d. -f1)
+    dpkg-query -W -f='${Status}' "libclang-rt-$cv-dev" 2>/dev/null | grep -q "install ok installed" \
+        || $SUDO apt-get install -y -qq --no-install-recommends "libclang-rt-$cv-dev" >/dev/null
+fi

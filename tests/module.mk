@@ -1,0 +1,64 @@
+# tests/module.mk - test, benchmark and fuzz targets (included by the top Makefile).
+#
+#   tests/unit/test_*.c         one cmocka binary each, linked with every library
+#   tests/integration/test_*.c  the same, but they start seamtexd on loopback
+#   tests/common/*.c            helpers shared by tests and benchmarks (libtestutil.a)
+#   tests/bench/bench_*.c       benchmarks; tests/bench/run.sh runs them (make bench)
+#   tests/fuzz/fuzz_*.c         libFuzzer targets built with clang; tests/run.sh runs each
+#                               for a bounded time (FUZZ_SECONDS, default 20)
+
+TESTUTIL_OBJ := $(patsubst %.c,$(B)/%.o,$(sort $(wildcard tests/common/*.c)))
+LIB_TESTUTIL := $(B)/libtestutil.a
+$(LIB_TESTUTIL): $(TESTUTIL_OBJ)
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+# LIB_CLIENT and LIB_SERVER come from client/module.mk and server/module.mk when they exist.
+ST_LINK := $(LIB_TESTUTIL) $(LIB_CLIENT) $(LIB_SERVER) $(LIB_PROTO) $(LIB_STORE)
+
+TEST_SRC  := $(sort $(wildcard tests/unit/test_*.c tests/integration/test_*.c))
+TEST_BINS += $(patsubst tests/%.c,$(B)/tests/%,$(TEST_SRC))
+BENCH_SRC := $(sort $(wildcard tests/bench/bench_*.c))
+BENCH_BINS += $(patsubst tests/bench/%.c,$(B)/bench/%,$(BENCH_SRC))
+
+$(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
+	@mkdir -p $(@D)
+	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) -lcmocka $(LDLIBS)
+
+$(B)/bench/%: $(B)/tests/bench/%.o $(ST_LINK)
+	@mkdir -p $(@D)
+	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) $(LDLIBS)
+
+# ---- fuzz targets: clang + libFuzzer + ASan, their own object tree -------------------------
+FUZZ_CC   ?= clang
+FUZZ_CXX  ?= clang++
+FZ        := $(B)/fuzz
+FUZZ_SRC  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_BINS := $(patsubst tests/fuzz/%.c,$(FZ)/%,$(FUZZ_SRC))
+FUZZ_FLAGS := -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer
+FUZZ_LIB_OBJ := $(STORE_C:%.c=$(FZ)/obj/%.o) $(STORE_CXX:%.cpp=$(FZ)/obj/%.o) \
+                $(PROTO_OBJ:$(B)/%.o=$(FZ)/obj/%.o)
+
+$(FZ)/obj/%.o: %.c
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS) -std=c11 $(WARN) $(FUZZ_FLAGS) -c $< -o $@
+
+$(FZ)/obj/%.o: %.cpp
+	@mkdir -p $(@D)
+	$(FUZZ_CXX) $(CPPFLAGS) -std=c++17 $(WARN) -Wno-unused-parameter $(PKG_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@
+
+$(FZ)/libfuzz.a: $(FUZZ_LIB_OBJ)
+	rm -f $@ && ar rcs $@ $^
+
+$(FZ)/fuzz_%: tests/fuzz/fuzz_%.c $(FZ)/libfuzz.a
+	$(FUZZ_CC) $(CPPFLAGS) -std=c11 $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined \
+		-fno-omit-frame-pointer -o $@ $< $(FZ)/libfuzz.a $(LDLIBS)
+
+ifeq ($(SAN),1)
+tests-build: $(TEST_BINS) $(ALL_BINS)
+else
+tests-build: $(TEST_BINS) $(ALL_BINS) $(FUZZ_BINS)
+endif
+bench-build: $(BENCH_BINS) $(ALL_BINS)
+
+.SECONDARY:
