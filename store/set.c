@@ -23,6 +23,19 @@ static unsigned floor_log2(uint32_t x)
     return l;
 }
 
+/* A level holds w*h texels, or for a BC1 set ceil(w/4)*ceil(h/4) blocks of 8 bytes. */
+static size_t level_units(const st_set_info *info, const st_face *F, unsigned l)
+{
+    size_t w = st_level_w(F, l), h = st_level_h(F, l);
+    if (info->kind == ST_KIND_BC1)
+        return ((w + 3) / 4) * ((h + 3) / 4);
+    return w * h;
+}
+static size_t level_unit_size(const st_set_info *info, size_t tsize)
+{
+    return info->kind == ST_KIND_BC1 ? 8 : tsize;
+}
+
 int st_set_check_adjacency(const st_set *s, st_error *e)
 {
     uint32_t n = s->info.nfaces;
@@ -129,6 +142,8 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
         return st_fail(e, ST_EINVAL, "alpha channel %d but only %u channels", info->alpha_chan,
                        info->nchan);
     size_t tsize = csize * info->nchan;
+    if (info->kind == ST_KIND_BC1 && (info->dtype != ST_DT_U8 || info->nchan != 4))
+        return st_fail(e, ST_EINVAL, "a BC1 set decodes to 4 channels of u8");
 
     st_set *s = calloc(1, sizeof *s);
     if (!s)
@@ -179,7 +194,7 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
         } else {
             for (unsigned l = 0; l < F->nlevels; l++) {
                 size_t lb;
-                if (st_mul_size((size_t)st_level_w(F, l) * st_level_h(F, l), tsize, &lb) ||
+                if (st_mul_size(level_units(info, F, l), level_unit_size(info, tsize), &lb) ||
                     st_add_size(fb, lb, &fb)) {
                     rc = st_fail(e, ST_ETOOBIG, "face %u: size overflows", f);
                     goto fail;
@@ -211,7 +226,7 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
         for (unsigned l = 0; l < F->nlevels; l++) {
             s->level_off[F->lvl + l] = off;
             if (!(F->flags & ST_FACE_CONSTANT))
-                off += (size_t)st_level_w(F, l) * st_level_h(F, l) * tsize;
+                off += level_units(info, F, l) * level_unit_size(info, tsize);
         }
         if (F->flags & ST_FACE_CONSTANT)
             off += tsize;
@@ -272,6 +287,8 @@ static void reduce_level(const st_set *s, uint32_t f, unsigned l)
 
 void st_set_build_mips(st_set *s, uint32_t f)
 {
+    if (s->info.kind == ST_KIND_BC1)
+        return; /* BC1 levels are encoded from reduced uncompressed levels, see bc1.h */
     uint32_t lo = f == UINT32_MAX ? 0 : f, hi = f == UINT32_MAX ? s->info.nfaces : f + 1;
     for (uint32_t i = lo; i < hi && i < s->info.nfaces; i++) {
         if (s->faces[i].flags & ST_FACE_CONSTANT)
@@ -286,6 +303,8 @@ int st_face_is_uniform(const st_set *s, uint32_t f)
     const st_face *F = &s->faces[f];
     if (F->flags & ST_FACE_CONSTANT)
         return 1;
+    if (s->info.kind == ST_KIND_BC1)
+        return 0;
     size_t ts = st_texel_size(s), n = (size_t)F->w * F->h;
     const uint8_t *p = st_face_level(s, f, 0);
     for (size_t i = 1; i < n; i++)

@@ -49,7 +49,9 @@ typedef enum st_kind {
     ST_KIND_PERFACE = 0,         /* Ptex-style quad faces */
     ST_KIND_CUBE    = 1,         /* 6 faces, fixed adjacency, see cube.h */
     ST_KIND_ATLAS   = 2,         /* face 0 is the atlas image; mesh and seams in ext */
-    ST_KIND_BC1     = 3          /* texels are BC1 blocks, see bc1.h */
+    ST_KIND_BC1     = 3          /* levels hold BC1 blocks (8 bytes per 4x4 texels, row-major
+                                    blocks, ceil(w/4) x ceil(h/4)); dtype u8, 4 channels as
+                                    decoded; a constant face holds one texel of 4 bytes */
 } st_kind;
 
 typedef enum st_colorspace { ST_CS_LINEAR = 0, ST_CS_SRGB = 1 } st_colorspace;
