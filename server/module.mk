@@ -1,0 +1,1 @@
+# server/module.mk - the daemon seamtexd. Included by the top Makefile.

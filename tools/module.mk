@@ -1,0 +1,1 @@
+# tools/module.mk - developer and report tools. Included by the top Makefile.
