@@ -19,6 +19,7 @@ CXX      ?= g++
 PREFIX   ?= /usr/local
 DESTDIR  ?=
 SAN      ?= 0
+NPROC    := $(shell nproc 2>/dev/null || echo 2)
 
 ifeq ($(SAN),1)
 B        := build-san
@@ -89,15 +90,15 @@ deps:
 	@bash deploy/install-deps.sh
 
 test: deps
-	@$(MAKE) --no-print-directory all tests-build
+	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
 	@B=$(B) bash tests/run.sh
 
 bench: deps
-	@$(MAKE) --no-print-directory all bench-build
+	@$(MAKE) --no-print-directory -j$(NPROC) all bench-build
 	@B=$(B) bash tests/bench/run.sh
 
 run: deps
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory -j$(NPROC) all
 	@B=$(B) bash deploy/run-main.sh
 
 asan:
