@@ -1,0 +1,243 @@
+/* tests/common/daemon_fixture.c - see daemon_fixture.h. */
+#include "daemon_fixture.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <ftw.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+extern char **environ;
+
+static long long now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+int st_daemon_init(st_daemon *d)
+{
+    memset(d, 0, sizeof *d);
+    const char *tmp = getenv("TMPDIR");
+    if (!tmp || !*tmp)
+        tmp = "/tmp";
+    snprintf(d->dir, sizeof d->dir, "%s/seamtexd-test-XXXXXX", tmp);
+    if (!mkdtemp(d->dir)) {
+        fprintf(stderr, "daemon_fixture: mkdtemp %s: %s\n", d->dir, strerror(errno));
+        return -1;
+    }
+    snprintf(d->datadir, sizeof d->datadir, "%s/data", d->dir);
+    snprintf(d->log, sizeof d->log, "%s/daemon.log", d->dir);
+    snprintf(d->host, sizeof d->host, "127.0.0.1");
+    return 0;
+}
+
+int st_daemon_connect(const st_daemon *d)
+{
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        return -1;
+    struct sockaddr_in sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    sa.sin_port = htons((uint16_t)d->port);
+    inet_pton(AF_INET, d->host, &sa.sin_addr);
+    if (connect(fd, (struct sockaddr *)&sa, sizeof sa) != 0) {
+        close(fd);
+        return -1;
+    }
+    int one = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    return fd;
+}
+
+void st_daemon_dump_log(const st_daemon *d, int lines)
+{
+    FILE *f = fopen(d->log, "r");
+    if (!f)
+        return;
+    /* keep the last `lines` lines in a ring */
+    char ring[64][512];
+    int n = 0;
+    if (lines > 64)
+        lines = 64;
+    while (fgets(ring[n % lines], sizeof ring[0], f))
+        n++;
+    fclose(f);
+    int start = n > lines ? n - lines : 0;
+    fprintf(stderr, "---- last lines of %s ----\n", d->log);
+    for (int i = start; i < n; i++)
+        fputs(ring[i % lines], stderr);
+    fprintf(stderr, "----\n");
+}
+
+int st_daemon_start(st_daemon *d, const char *const *extra)
+{
+    if (d->pid > 0)
+        return -1;
+    const char *bdir = getenv("SEAMTEX_BUILD");
+    char exe[512], portfile[320];
+    snprintf(exe, sizeof exe, "%s/seamtexd", bdir && *bdir ? bdir : "build");
+    snprintf(portfile, sizeof portfile, "%s/port", d->dir);
+    unlink(portfile);
+    if (access(exe, X_OK) != 0) {
+        fprintf(stderr, "daemon_fixture: %s is not there (SEAMTEX_BUILD=%s)\n", exe,
+                bdir ? bdir : "(unset)");
+        return -1;
+    }
+    const char *argv[64];
+    int ac = 0;
+    argv[ac++] = exe;
+    argv[ac++] = "--listen";
+    argv[ac++] = "127.0.0.1:0";
+    argv[ac++] = "--data-dir";
+    argv[ac++] = d->datadir;
+    argv[ac++] = "--port-file";
+    argv[ac++] = portfile;
+    for (int i = 0; extra && extra[i] && ac < 62; i++)
+        argv[ac++] = extra[i];
+    argv[ac] = NULL;
+
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    const char *through = getenv("SEAMTEX_DAEMON_LOG");
+    if (!(through && *through == '1'))
+        posix_spawn_file_actions_addopen(&fa, 2, d->log, O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    pid_t pid;
+    int rc = posix_spawn(&pid, exe, &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) {
+        fprintf(stderr, "daemon_fixture: posix_spawn %s: %s\n", exe, strerror(rc));
+        return -1;
+    }
+    d->pid = pid;
+    d->port = 0;
+    long long deadline = now_ms() + 30000;
+    while (now_ms() < deadline) {
+        int status;
+        if (waitpid(pid, &status, WNOHANG) == pid) {
+            d->pid = 0;
+            d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+            fprintf(stderr, "daemon_fixture: seamtexd exited at start (status %d)\n",
+                    d->exit_status);
+            st_daemon_dump_log(d, 20);
+            return -1;
+        }
+        FILE *f = fopen(portfile, "r");
+        if (f) {
+            int port = 0;
+            if (fscanf(f, "%d", &port) == 1 && port > 0)
+                d->port = port;
+            fclose(f);
+        }
+        if (d->port > 0) {
+            int fd = st_daemon_connect(d);
+            if (fd >= 0) {
+                close(fd);
+                return 0;
+            }
+        }
+        sleep_ms(10);
+    }
+    fprintf(stderr, "daemon_fixture: seamtexd did not answer within 30 s\n");
+    st_daemon_dump_log(d, 20);
+    st_daemon_kill(d);
+    return -1;
+}
+
+static int reap(st_daemon *d, int timeout_ms)
+{
+    long long deadline = now_ms() + timeout_ms;
+    for (;;) {
+        int status;
+        pid_t r = waitpid(d->pid, &status, WNOHANG);
+        if (r == d->pid) {
+            d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+            d->pid = 0;
+            return d->exit_status;
+        }
+        if (r < 0 && errno != EINTR) {
+            d->pid = 0;
+            return -1;
+        }
+        if (now_ms() >= deadline)
+            return -2;
+        sleep_ms(5);
+    }
+}
+
+int st_daemon_stop(st_daemon *d, int timeout_ms)
+{
+    if (d->pid <= 0)
+        return -1;
+    kill(d->pid, SIGTERM);
+    int rc = reap(d, timeout_ms);
+    if (rc == -2) {
+        fprintf(stderr, "daemon_fixture: seamtexd ignored SIGTERM for %d ms, killing\n",
+                timeout_ms);
+        st_daemon_dump_log(d, 20);
+        st_daemon_kill(d);
+        return -1;
+    }
+    return rc;
+}
+
+void st_daemon_kill(st_daemon *d)
+{
+    if (d->pid <= 0)
+        return;
+    kill(d->pid, SIGKILL);
+    reap(d, 10000);
+}
+
+int st_daemon_signal(st_daemon *d, int sig)
+{
+    return d->pid > 0 ? kill(d->pid, sig) : -1;
+}
+
+static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb; (void)ftw;
+    if (flag == FTW_DP)
+        rmdir(p);
+    else
+        unlink(p);
+    return 0;
+}
+
+void st_daemon_cleanup(st_daemon *d)
+{
+    if (d->pid > 0)
+        st_daemon_stop(d, 10000);
+    if (d->dir[0] && !getenv("SEAMTEX_KEEP_TMP"))
+        nftw(d->dir, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+    d->dir[0] = 0;
+}
+
+int st_daemon_data_path(char *out, size_t cap, const char *rel)
+{
+    const char *root = getenv("SEAMTEX_DATA");
+    if (!root || !*root)
+        root = "../shared/data";
+    snprintf(out, cap, "%s/%s", root, rel);
+    return access(out, R_OK) == 0 ? 0 : -1;
+}
