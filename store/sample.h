@@ -81,6 +81,16 @@ enum st_qstatus {
 int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                     float *out, float *coverage, uint8_t *status);
 
+/* The point (u, v) of face f (on or beyond edge `edge`) in the uv of the neighbour across that
+ * edge, through the edge rotation (the mapping Traverse uses; ARCHITECTURE.md, "Sampler").
+ * Returns 0 and fills g, gu, gv, or -1 when the edge is a boundary or f/edge is out of range. */
+int st_uv_across_edge(const st_set *s, uint32_t f, unsigned edge, float u, float v,
+                      uint32_t *g, float *gu, float *gv);
+/* The same across corner `corner` into the diagonal face of a regular (valence 4, interior)
+ * vertex; -1 at irregular or boundary vertices. */
+int st_uv_across_corner(const st_set *s, uint32_t f, unsigned corner, float u, float v,
+                        uint32_t *g, float *gu, float *gv);
+
 /* Names for the protocol, CLI and reports ("discard", "bilinear", ...); NULL when unknown. */
 const char *st_mode_name(unsigned mode);
 const char *st_filter_name(unsigned filter);

@@ -1,0 +1,74 @@
+/* store/sample_internal.h - what sample.c (query loop, fast in-face probes) and sample_tap.c
+ * (taps outside the face: Discard, Clamp, Traverse across edges and corners) share. Not a
+ * public header: nothing outside sample*.c includes it.
+ */
+#ifndef ST_SAMPLE_INTERNAL_H
+#define ST_SAMPLE_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bc1_texel.h"
+#include "sample.h"
+
+#define ST_AI static inline __attribute__((always_inline))
+
+/* One level of one face, resolved once per probe. */
+typedef struct st_view {
+    const uint8_t *base;
+    int32_t w, h;      /* level size in texels */
+    size_t xs, ys;     /* bytes per texel step in x and in y; 0 for a constant face */
+    uint32_t bw;       /* BC1: blocks per row; 0 when the level holds plain texels */
+} st_view;
+
+/* Running sums of one query: sum(w T) per channel and sum(w). */
+typedef struct st_acc {
+    float c[ST_MAX_CHANNELS];
+    float w;
+} st_acc;
+
+ST_AI void st_view_init(st_view *v, const st_set *s, uint32_t f, unsigned level)
+{
+    const st_face *F = &s->faces[f];
+    v->base = st_face_level(s, f, level);
+    v->w = (int32_t)st_level_w(F, level);
+    v->h = (int32_t)st_level_h(F, level);
+    v->bw = 0;
+    if (F->flags & ST_FACE_CONSTANT) {
+        v->xs = v->ys = 0;
+    } else if (s->info.kind == ST_KIND_BC1) {
+        v->xs = v->ys = 0;
+        v->bw = (uint32_t)(v->w + 3) / 4;
+    } else {
+        v->xs = st_texel_size(s);
+        v->ys = v->xs * (size_t)v->w;
+    }
+}
+
+/* floor() for |x| < 2^31 without a libm call (-O2 without SSE4.1 has no inline floorf). */
+ST_AI int32_t st_ifloor(float x)
+{
+    int32_t i = (int32_t)x;
+    return i - (x < (float)i);
+}
+
+/* Reads texel (i, j), inside the level, as floats (any dtype, BC1 decoded). */
+void st_fetch_any(const st_set *s, const st_view *v, int32_t i, int32_t j, float out[4]);
+
+/* A bilinear probe of face f at `level` whose four taps (i0 + {0,1}, j0 + {0,1}) are not all
+ * inside the face; fx, fy are the bilinear fractions, pw the probe's weight. Applies the
+ * mode's rule to every outside tap and adds to a. */
+void st_probe_bilinear_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
+                            const st_view *v, int32_t i0, int32_t j0, float fx, float fy,
+                            float pw, st_acc *a);
+
+/* The same for the one tap of a point probe. */
+void st_probe_point_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
+                         const st_view *v, int32_t i, int32_t j, float pw, st_acc *a);
+
+/* Clamp-to-edge lookup of face f at level (bilinear, or nearest when point) at (u, v),
+ * weight pw; never leaves the face. */
+void st_lookup_clamped(const st_set *s, uint32_t f, unsigned level, float u, float v,
+                       int point, float pw, st_acc *a);
+
+#endif

@@ -1,0 +1,204 @@
+/* store/sample_tap.c - the sampler's slow path: probes with taps outside their face.
+ *
+ * Owns: the per-tap rules of the three modes (Discard drops the tap, Clamp clamps its index,
+ * Traverse reads it from the neighbour across the edge or the diagonal face across the
+ * corner), the edge and corner uv mappings, the choice of the neighbour's level, and the
+ * generic (any dtype, BC1) texel fetch. Does not own: option and query validation, level
+ * selection, the in-face fast path (sample.c).
+ *
+ * Every rule here is written out in ARCHITECTURE.md, "Sampler".
+ */
+#include "sample_internal.h"
+
+void st_fetch_any(const st_set *s, const st_view *v, int32_t i, int32_t j, float out[4])
+{
+    if (v->bw) {
+        const uint8_t *blk = v->base + ((size_t)(j >> 2) * v->bw + (size_t)(i >> 2)) * 8;
+        uint8_t rgba[4];
+        st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)j & 3u, rgba);
+        for (int c = 0; c < 4; c++)
+            out[c] = rgba[c] * (1.0f / 255.0f);
+        return;
+    }
+    const uint8_t *p = v->base + (size_t)i * v->xs + (size_t)j * v->ys;
+    unsigned nc = s->info.nchan, dt = s->info.dtype;
+    for (unsigned c = 0; c < nc; c++)
+        out[c] = st_channel_get(dt, p, c);
+}
+
+static void add_tap(const st_set *s, const st_view *v, int32_t i, int32_t j, float w, st_acc *a)
+{
+    float t[4];
+    st_fetch_any(s, v, i, j, t);
+    unsigned nc = s->info.nchan;
+    for (unsigned c = 0; c < nc; c++)
+        a->c[c] += w * t[c];
+    a->w += w;
+}
+
+static int32_t clampi(int32_t x, int32_t hi) { return x < 0 ? 0 : x > hi ? hi : x; }
+
+void st_lookup_clamped(const st_set *s, uint32_t f, unsigned level, float u, float v,
+                       int point, float pw, st_acc *a)
+{
+    st_view V;
+    st_view_init(&V, s, f, level);
+    if (point) {
+        int32_t i = st_ifloor(u * (float)V.w), j = st_ifloor(v * (float)V.h);
+        add_tap(s, &V, clampi(i, V.w - 1), clampi(j, V.h - 1), pw, a);
+        return;
+    }
+    float x = u * (float)V.w - 0.5f, y = v * (float)V.h - 0.5f;
+    int32_t i0 = st_ifloor(x), j0 = st_ifloor(y);
+    float fx = x - (float)i0, fy = y - (float)j0;
+    float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    for (int k = 0; k < 4; k++) {
+        if (w[k] == 0.0f)
+            continue;
+        int32_t i = clampi(i0 + (k & 1), V.w - 1), j = clampi(j0 + (k >> 1), V.h - 1);
+        add_tap(s, &V, i, j, pw * w[k], a);
+    }
+}
+
+/* Edge frame of edge e: s along the edge (in its direction), d the outward depth. */
+static void edge_frame(unsigned e, float u, float v, float *s, float *d)
+{
+    switch (e) {
+    case 0:  *s = u;        *d = -v;       break;
+    case 1:  *s = v;        *d = u - 1.0f; break;
+    case 2:  *s = 1.0f - u; *d = v - 1.0f; break;
+    default: *s = 1.0f - v; *d = -u;       break;
+    }
+}
+static void edge_frame_inv(unsigned e, float s, float d, float *u, float *v)
+{
+    switch (e) {
+    case 0:  *u = s;        *v = -d;       break;
+    case 1:  *u = 1.0f + d; *v = s;        break;
+    case 2:  *u = 1.0f - s; *v = 1.0f + d; break;
+    default: *u = -d;       *v = 1.0f - s; break;
+    }
+}
+/* Corner frame of corner c: origin at the corner, X along edge c into the face, Y along edge
+ * (c+3)%4 reversed, into the face. */
+static void corner_frame(unsigned c, float u, float v, float *X, float *Y)
+{
+    switch (c) {
+    case 0:  *X = u;        *Y = v;        break;
+    case 1:  *X = v;        *Y = 1.0f - u; break;
+    case 2:  *X = 1.0f - u; *Y = 1.0f - v; break;
+    default: *X = 1.0f - v; *Y = u;        break;
+    }
+}
+static void corner_frame_inv(unsigned c, float X, float Y, float *u, float *v)
+{
+    switch (c) {
+    case 0:  *u = X;        *v = Y;        break;
+    case 1:  *u = 1.0f - Y; *v = X;        break;
+    case 2:  *u = 1.0f - X; *v = 1.0f - Y; break;
+    default: *u = Y;        *v = 1.0f - X; break;
+    }
+}
+
+/* log2 of the level-0 resolution of face F along edge e (edges 0, 2 run along u). */
+static int along_log2(const st_face *F, unsigned e) { return (e & 1) ? F->vlog2 : F->ulog2; }
+
+/* Public helper (sample.h): the point (u, v) of face f, beyond or on edge `edge`, expressed
+ * in the neighbour's uv. */
+int st_uv_across_edge(const st_set *s, uint32_t f, unsigned edge, float u, float v,
+                      uint32_t *g, float *gu, float *gv)
+{
+    if (f >= s->info.nfaces || edge > 3)
+        return -1;
+    const st_face *F = &s->faces[f];
+    if (F->adjface[edge] < 0)
+        return -1;
+    float es, ed;
+    edge_frame(edge, u, v, &es, &ed);
+    edge_frame_inv(F->adjedge[edge], 1.0f - es, -ed, gu, gv);
+    *g = (uint32_t)F->adjface[edge];
+    return 0;
+}
+
+int st_uv_across_corner(const st_set *s, uint32_t f, unsigned corner, float u, float v,
+                        uint32_t *g, float *gu, float *gv)
+{
+    if (f >= s->info.nfaces || corner > 3)
+        return -1;
+    const st_face *F = &s->faces[f];
+    if (F->cornerface[corner] < 0)
+        return -1;
+    float X, Y;
+    corner_frame(corner, u, v, &X, &Y);
+    corner_frame_inv(F->cornercorner[corner], -X, -Y, gu, gv);
+    *g = (uint32_t)F->cornerface[corner];
+    return 0;
+}
+
+/* Traverse: tap (i, j) of face f at `level` lies outside the face. Its centre is mapped into
+ * the neighbour (edge) or the diagonal face (corner, regular vertices only) and read there,
+ * clamped inside, at the neighbour level whose resolution along the shared edge matches.
+ * A tap with no face to go to is dropped (its weight is not counted in the coverage). */
+static void traverse_tap(const st_set *s, uint32_t f, unsigned level, const st_view *v,
+                         int32_t i, int32_t j, int point, float w, st_acc *a)
+{
+    const st_face *F = &s->faces[f];
+    float uc = ((float)i + 0.5f) / (float)v->w, vc = ((float)j + 0.5f) / (float)v->h;
+    int ou = i < 0 ? -1 : i >= v->w ? 1 : 0;
+    int ov = j < 0 ? -1 : j >= v->h ? 1 : 0;
+    uint32_t g;
+    float gu, gv;
+    int dlog;
+    if (ou && ov) {
+        unsigned c = ov < 0 ? (ou < 0 ? 0u : 1u) : (ou > 0 ? 2u : 3u);
+        if (st_uv_across_corner(s, f, c, uc, vc, &g, &gu, &gv))
+            return;
+        dlog = along_log2(&s->faces[g], F->cornercorner[c]) - along_log2(F, c);
+    } else {
+        unsigned e = ov < 0 ? 0u : ou > 0 ? 1u : ov > 0 ? 2u : 3u;
+        if (st_uv_across_edge(s, f, e, uc, vc, &g, &gu, &gv))
+            return;
+        dlog = along_log2(&s->faces[g], F->adjedge[e]) - along_log2(F, e);
+    }
+    const st_face *G = &s->faces[g];
+    int gl = (int)level + dlog;
+    gl = gl < 0 ? 0 : gl >= G->nlevels ? G->nlevels - 1 : gl;
+    st_lookup_clamped(s, g, (unsigned)gl, gu, gv, point, w, a);
+}
+
+static void outside_tap(const st_set *s, unsigned mode, uint32_t f, unsigned level,
+                        const st_view *v, int32_t i, int32_t j, int point, float w, st_acc *a)
+{
+    if ((uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h) {
+        add_tap(s, v, i, j, w, a);
+        return;
+    }
+    switch (mode) {
+    case ST_MODE_CLAMP:
+        add_tap(s, v, clampi(i, v->w - 1), clampi(j, v->h - 1), w, a);
+        break;
+    case ST_MODE_TRAVERSE:
+        traverse_tap(s, f, level, v, i, j, point, w, a);
+        break;
+    default: /* Discard: zero weight */
+        break;
+    }
+}
+
+void st_probe_bilinear_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
+                            const st_view *v, int32_t i0, int32_t j0, float fx, float fy,
+                            float pw, st_acc *a)
+{
+    float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    for (int k = 0; k < 4; k++) {
+        if (w[k] == 0.0f)
+            continue; /* a zero-weight tap neither reads nor counts */
+        outside_tap(s, mode, f, level, v, i0 + (k & 1), j0 + (k >> 1), 0, pw * w[k], a);
+    }
+}
+
+void st_probe_point_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
+                         const st_view *v, int32_t i, int32_t j, float pw, st_acc *a)
+{
+    outside_tap(s, mode, f, level, v, i, j, 1, pw, a);
+}
