@@ -1,0 +1,293 @@
+/* client/seamtex.h - libseamtex, the client library of the seamtex texture service.
+ *
+ * Owns: connections to seamtexd, blocking calls for every request of the protocol, a
+ * pipelined append / flush / get-reply API, timeouts, error reporting.
+ * Does not own: the wire format (protocol/proto.h, PROTOCOL.md), printing, process exit: the
+ * library never prints and never exits; every failure is a return code plus a message.
+ *
+ * Self-contained: this header needs only <stddef.h> and <stdint.h>. Link with -lseamtex
+ * (pkg-config seamtex), which needs libseamtex_proto.a's objects (bundled into libseamtex.a).
+ *
+ * THREADING: a connection is used by one thread at a time (one connection per thread, or
+ * your own lock around it). Different connections are independent; the library has no
+ * global state. Writes use MSG_NOSIGNAL, so a closed peer never raises SIGPIPE.
+ *
+ * OWNERSHIP: stc_connect returns a connection the caller frees with stc_close (NULL accepted).
+ * Everything a call hands back through a pointer into the library (lists, stats, sample
+ * results, replies, info face records, stc_errmsg) is OWNED BY THE CONNECTION and valid until
+ * the next call on that connection (any stc_* call taking it, except stc_errmsg, stc_error,
+ * stc_server, stc_pending). Copy what you keep. Buffers the caller passes in stay the
+ * caller's; the library does not keep pointers to them after the call returns.
+ *
+ * ERRORS: functions return 0 (STC_OK) or a negative code:
+ *   - local codes STC_EINVAL .. STC_ESTATE;
+ *   - server statuses, -(STC_SERVER_BASE + status), e.g. STC_ENOTFOUND: the server refused
+ *     this request; the connection stays usable; stc_errmsg gives the server's message.
+ * A broken connection (I/O error, peer closed, protocol violation, out of memory while
+ * reading) is STICKY: that error is returned by every later call (stc_error tells it).
+ * A timeout (STC_ETIMEDOUT) is NOT sticky: the request stays outstanding, its late reply is
+ * recognised by its request id and discarded, and the connection can be used at once.
+ */
+#ifndef SEAMTEX_H
+#define SEAMTEX_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define STC_SERVER_BASE 100
+
+enum stc_err {
+    STC_OK        = 0,
+    STC_EINVAL    = -1,   /* a bad argument (NULL, a name that is not valid, n too big) */
+    STC_ENOMEM    = -2,
+    STC_ECONNECT  = -3,   /* name resolution or connect() failed */
+    STC_EIO       = -4,   /* send/recv failed (sticky) */
+    STC_ECLOSED   = -5,   /* the server closed the connection (sticky) */
+    STC_EPROTO    = -6,   /* the server broke the protocol (sticky) */
+    STC_ETIMEDOUT = -7,   /* a connect or request timeout (not sticky) */
+    STC_EFILE     = -8,   /* a local file could not be read or written */
+    STC_ECHECKSUM = -9,   /* downloaded data did not match its checksum */
+    STC_ESTATE    = -10,  /* a call that is not allowed now (e.g. a blocking call while
+                             pipelined replies are unread, get_reply with nothing pending) */
+    STC_ECANCELED = -11,  /* an upload/fetch progress callback asked to stop */
+    /* server statuses (protocol/proto.h enum stp_status), negated and offset */
+    STC_EBADREQUEST    = -(STC_SERVER_BASE + 1),
+    STC_EUNKNOWNOP     = -(STC_SERVER_BASE + 2),
+    STC_EBADVERSION    = -(STC_SERVER_BASE + 3),
+    STC_ETOOLARGE      = -(STC_SERVER_BASE + 4),
+    STC_ENOTFOUND      = -(STC_SERVER_BASE + 5),
+    STC_EEXISTS        = -(STC_SERVER_BASE + 6),
+    STC_EUNSUPPORTED   = -(STC_SERVER_BASE + 7),
+    STC_EPERM          = -(STC_SERVER_BASE + 8),
+    STC_EBUSY          = -(STC_SERVER_BASE + 9),
+    STC_ESERVERTIMEOUT = -(STC_SERVER_BASE + 10),
+    STC_EINTERNAL      = -(STC_SERVER_BASE + 11),
+    STC_ECORRUPT       = -(STC_SERVER_BASE + 12),
+    STC_EINVALID       = -(STC_SERVER_BASE + 13),
+    STC_EFORMAT        = -(STC_SERVER_BASE + 14),
+    STC_ESERVERNOMEM   = -(STC_SERVER_BASE + 15),
+    STC_ESERVERIO      = -(STC_SERVER_BASE + 16),
+    STC_ESERVERCANCELED= -(STC_SERVER_BASE + 17),
+    STC_EADJ           = -(STC_SERVER_BASE + 18),
+    STC_ENOUV          = -(STC_SERVER_BASE + 19),
+    STC_ESHUTDOWN      = -(STC_SERVER_BASE + 20)
+};
+
+/* 1 when code is a server status (the connection is fine); its stp_status number. */
+static inline int stc_is_server_error(int code) { return code <= -STC_SERVER_BASE; }
+static inline int stc_server_status(int code) { return code <= -STC_SERVER_BASE ? -code - STC_SERVER_BASE : 0; }
+/* Stable short name of a code: "OK", "EIO", "NOT_FOUND", ... */
+const char *stc_strerror(int code);
+
+typedef struct stc_conn stc_conn;
+
+/* ---- connecting ----------------------------------------------------------------------------- */
+
+typedef struct stc_opts {
+    int         connect_timeout_ms;   /* 0 = 5000; < 0 = wait as long as the OS does */
+    int         request_timeout_ms;   /* default per-request timeout; 0 = none */
+    const char *token;                /* sent in HELLO; needed for mutating requests when the
+                                         server has one; NULL = none */
+    const char *client_name;          /* informational, NULL = "libseamtex" */
+    int         no_hello;             /* 1: skip the HELLO exchange (protocol v1 defaults) */
+    uint32_t    max_body;             /* cap on reply bodies the client accepts; 0 = 256 MiB */
+} stc_opts;
+
+/* Connects (TCP; host is a name or address, IPv4 or IPv6), then sends HELLO unless
+ * opts->no_hello. opts may be NULL (defaults). On failure returns NULL, stores the code in
+ * *err and a message in errmsg (errmsg_len bytes, may be NULL / 0). */
+stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *opts, int *err,
+                           char *errmsg, size_t errmsg_len);
+/* Shorthand: defaults except the connect timeout. */
+stc_conn *stc_connect(const char *host, unsigned port, int timeout_ms, int *err);
+void stc_close(stc_conn *c);
+
+/* The message of the last failed call on c ("" after a success); owned by c. */
+const char *stc_errmsg(const stc_conn *c);
+/* The sticky error of c (0 while the connection is healthy). */
+int stc_error(const stc_conn *c);
+/* Per-request timeout for later calls; 0 = none. */
+void stc_set_timeout(stc_conn *c, int timeout_ms);
+
+typedef struct stc_server {
+    unsigned version;                 /* protocol version in use */
+    uint32_t caps;                    /* STP_CAP_* bits (protocol/proto.h, PROTOCOL.md) */
+    uint32_t max_body, max_batch, max_chunk, max_inflight;
+    int      authenticated;
+    char     name[256];
+} stc_server;
+/* What HELLO told (protocol defaults when no_hello). Owned by c. */
+const stc_server *stc_server_info(const stc_conn *c);
+
+/* ---- blocking calls -------------------------------------------------------------------------
+ * Each sends one request and waits for its reply (per-request timeout). They return
+ * STC_ESTATE while pipelined requests are outstanding (read their replies first). */
+
+int stc_ping(stc_conn *c);
+
+typedef struct stc_set_entry {
+    const char *name;
+    unsigned    kind, nchan, dtype;   /* store/set.h st_kind, channel count, st_dtype */
+    uint32_t    nfaces;
+    uint64_t    memory;
+} stc_set_entry;
+/* All sets (pages through LIST as needed). *sets (n entries) is owned by c. */
+int stc_list(stc_conn *c, const stc_set_entry **sets, size_t *n);
+
+typedef struct stc_face {
+    uint32_t w, h;
+    int32_t  adjface[4];
+    uint8_t  adjedge[4];
+    uint8_t  flags, nlevels;
+} stc_face;
+typedef struct stc_info {
+    uint32_t nfaces;
+    unsigned nchan, dtype, kind, colorspace, premultiplied, border_u, border_v, meshtype;
+    int      alpha_chan;
+    uint64_t memory, texel_bytes;
+    uint32_t min_w, max_w, min_h, max_h;
+    uint32_t nconstant, nsubfaces, boundary_edges, irregular_corners, max_valence, nmeta;
+    uint32_t face_first, nrec;        /* per-face records asked for */
+    const stc_face *faces;            /* nrec records, owned by c */
+} stc_info;
+/* Facts about one set; face_count > 0 also asks for per-face records from face_first. */
+int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t face_count,
+                 stc_info *out);
+
+/* Sampling. mode / filter / zero_rule use store/sample.h's numbering: mode 0 discard,
+ * 1 traverse, 2 clamp; filter 0 point, 1 bilinear, 2 trilinear, 3 aniso, 8..15 Ptex family. */
+enum { STC_OUT_F32 = 0, STC_OUT_UNORM8 = 1, STC_OUT_UNORM16 = 2 };
+enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2 };
+typedef struct stc_sample_opts {
+    unsigned mode, filter, zero_rule, max_aniso;
+    unsigned outfmt;                  /* STC_OUT_* */
+    unsigned want;                    /* STC_WANT_* */
+    unsigned footprint;               /* direction sampling: 0 derivatives, 1 cone */
+    float    sharpness, width, blur;
+} stc_sample_opts;
+typedef struct stc_query {            /* same meaning as store/sample.h st_query */
+    uint32_t face;
+    float u, v, dudx, dvdx, dudy, dvdy;
+} stc_query;
+typedef struct stc_dir_query {        /* direction sampling of cube maps */
+    float dir[3], ddx[3], ddy[3];     /* cone: ddx[0] = full angle in radians, rest 0 */
+} stc_dir_query;
+typedef struct stc_sample_result {
+    uint32_t count;
+    unsigned nchan, outfmt;
+    uint32_t nbad;                    /* queries whose status is not OK */
+    const void    *values;            /* count*nchan of float / uint8_t / uint16_t (outfmt),
+                                         native byte order, owned by c */
+    const float   *coverage;          /* count, or NULL when not asked for */
+    const uint8_t *status;            /* count st_qstatus bytes, or NULL when not asked for */
+} stc_sample_result;
+int stc_sample(stc_conn *c, const char *set, const stc_sample_opts *o, const stc_query *q,
+               size_t n, stc_sample_result *res);
+int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
+                   const stc_dir_query *q, size_t n, stc_sample_result *res);
+
+/* Uploads. progress(user, sent, total) is called after each acknowledged chunk; returning
+ * non-zero aborts the upload (UPLOAD_ABORT is sent) and the call returns STC_ECANCELED.
+ * On any failure after UPLOAD_BEGIN the library sends UPLOAD_ABORT when the connection is
+ * still usable, so the server never keeps a half-made set. */
+typedef int (*stc_progress_fn)(void *user, uint64_t done, uint64_t total);
+enum { STC_UPLOAD_REPLACE = 1 };
+typedef struct stc_upload_opts {
+    const char     *hint;             /* "ptx", "png", ...; NULL = from the file extension */
+    const char     *options;          /* "texture=<set> cube=latlong:512"; NULL = none */
+    unsigned        flags;            /* STC_UPLOAD_* */
+    uint32_t        chunk;            /* bytes per chunk; 0 = min(1 MiB, server max_chunk) */
+    stc_progress_fn progress;
+    void           *user;
+} stc_upload_opts;
+typedef struct stc_upload_result {
+    char     name[256];
+    unsigned kind, nchan, dtype;
+    uint32_t nfaces;
+    uint64_t memory;
+    uint32_t crc32c;                  /* of what was sent */
+} stc_upload_result;
+int stc_upload_file(stc_conn *c, const char *path, const char *set, const stc_upload_opts *o,
+                    stc_upload_result *out);
+int stc_upload_buffer(stc_conn *c, const void *data, size_t len, const char *set,
+                      const stc_upload_opts *o, stc_upload_result *out);
+
+int stc_delete(stc_conn *c, const char *set);
+
+typedef struct stc_stat {
+    const char *key;
+    int         is_float;
+    uint64_t    u;                    /* when !is_float */
+    double      f;                    /* when is_float */
+} stc_stat;
+/* Server counters; *stats (n entries) owned by c. */
+int stc_stats(stc_conn *c, const stc_stat **stats, size_t *n);
+/* Looks a key up in the last stc_stats result; NULL when absent. */
+const stc_stat *stc_stat_find(const stc_stat *stats, size_t n, const char *key);
+
+enum { STC_COMPRESS_SEAM_AWARE = 1, STC_COMPRESS_REPLACE = 2 };
+enum { STC_JOB_QUEUED = 0, STC_JOB_RUNNING = 1, STC_JOB_DONE = 2, STC_JOB_FAILED = 3,
+       STC_JOB_CANCELED = 4 };
+typedef struct stc_job {
+    uint64_t id;
+    unsigned state;                   /* STC_JOB_* */
+    float    progress;                /* 0..1 */
+    int      result;                  /* 0 or an stc_err server code of a finished job */
+    char     message[1024];
+} stc_job;
+int stc_compress(stc_conn *c, const char *set, const char *target, unsigned level,
+                 unsigned flags, uint64_t *job_id);
+int stc_job_status(stc_conn *c, uint64_t job_id, stc_job *out);
+int stc_job_cancel(stc_conn *c, uint64_t job_id, stc_job *out);   /* out may be NULL */
+/* Polls until the job is DONE/FAILED/CANCELED or wait_ms passes (STC_ETIMEDOUT; < 0 =
+ * forever). Returns 0 when DONE, the job's result code when FAILED. */
+int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out);
+
+enum { STC_FETCH_PTX = 0, STC_FETCH_DDS = 1 };
+/* Downloads a set as a file (written to path + ".part", checked against the server's
+ * CRC32C, then renamed onto path). */
+int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *path,
+                   stc_progress_fn progress, void *user);
+
+/* ---- pipelined API ----------------------------------------------------------------------------
+ * stc_append_* encode a request into the connection's output buffer and return its request
+ * id in *reqid (nothing is sent yet; up to a few MiB queue before append flushes by itself).
+ * stc_flush sends everything queued (per-request timeout; on timeout the unsent rest stays
+ * queued). stc_get_reply waits up to timeout_ms (< 0 = the connection's request timeout) for
+ * the next reply of an appended request, in the order the server sends them (match by
+ * reqid). The reply, and what stc_reply_* decode from it, are owned by c until the next call.
+ * A reply with a non-OK status has status != 0 and its message in errmsg. */
+typedef struct stc_reply {
+    uint32_t       reqid;
+    unsigned       opcode;
+    int            status;            /* 0, or an stc_err server code */
+    const char    *errmsg;            /* "" when status == 0 */
+    const uint8_t *body;              /* raw body (PROTOCOL.md layout) */
+    size_t         body_len;
+} stc_reply;
+
+int stc_append_ping(stc_conn *c, const void *payload, size_t len, uint32_t *reqid);
+int stc_append_sample(stc_conn *c, const char *set, const stc_sample_opts *o,
+                      const stc_query *q, size_t n, uint32_t *reqid);
+int stc_append_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
+                          const stc_dir_query *q, size_t n, uint32_t *reqid);
+int stc_append_info(stc_conn *c, const char *set, uint32_t *reqid);
+int stc_append_stats(stc_conn *c, uint32_t *reqid);
+/* Any request with a body already encoded (PROTOCOL.md layout), e.g. for tests. */
+int stc_append_raw(stc_conn *c, unsigned opcode, const void *body, size_t len, uint32_t *reqid);
+int stc_flush(stc_conn *c);
+int stc_get_reply(stc_conn *c, int timeout_ms, stc_reply *r);
+/* Requests appended and not yet answered (abandoned ones after a timeout excluded). */
+size_t stc_pending(const stc_conn *c);
+/* Decoders for replies from stc_get_reply (results owned by c). */
+int stc_reply_sample(stc_conn *c, const stc_reply *r, stc_sample_result *res);
+int stc_reply_info(stc_conn *c, const stc_reply *r, stc_info *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
