@@ -1,0 +1,500 @@
+/* store/bc1_encode.c - the BC1 block encoder (fast and high-quality levels) and the threaded
+ * image encoder.
+ *
+ * Owns: choosing endpoints and selectors for one 4x4 block, measured with the exact
+ * truncating decoder (bc1_texel.h); splitting an image over threads. Does not own: sets,
+ * seams or files (bc1_set.c, bc1_seam.c, seammask.c, dds.c).
+ *
+ * Method (written from scratch; ideas are the usual ones):
+ *   1. principal axis of the block's colours (covariance + power iteration);
+ *   2. initial endpoints: the extreme projections on the axis (FAST insets them by 1/16);
+ *   3. rounds of: round endpoints to RGB565 -> choose every selector by the exact palette
+ *      distance -> solve the two endpoints by least squares for those selectors (the
+ *      weights 0, 1/3, 2/3, 1); the best exact error wins;
+ *   4. HQ only: a greedy +-1 search over the six 565 components of the best pair (the
+ *      "rounding neighbourhood"), then a 3-colour trial (c0 <= c1, selectors 0..2, weights
+ *      0, 1/2, 1), kept when its exact error is lower. Opaque input never gets selector 3
+ *      in 3-colour mode, which would be transparent black.
+ *   5. a block of one colour uses the generated optimal tables (bc1_tables.h).
+ * Texels with alpha < 128 force 3-colour mode with selector 3 on them.
+ */
+#include "bc1.h"
+#include "bc1_tables.h"
+#include "bc1_texel.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* A block's opaque colours, channel-planar. Always 16 entries: texels that do not count
+ * (transparent ones) have weight 0, so every loop below has a fixed trip count of 16 and the
+ * compiler vectorises it. */
+typedef struct blk {
+    float r[16], g[16], b[16], w[16];
+    int   n;              /* texels of weight 1 */
+} blk;
+
+typedef struct cand {
+    uint16_t c0, c1;      /* as written to the block */
+    uint8_t  sel[16];
+    float    err;
+} cand;
+
+static inline uint16_t pack565(int r5, int g6, int b5)
+{
+    return (uint16_t)((r5 << 11) | (g6 << 5) | b5);
+}
+
+static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+/* Rounds an 8-bit-scale colour to 565 (nearest expanded value, via the usual scaling). */
+static inline uint16_t round565(float r, float g, float b)
+{
+    int r5 = clampi((int)(r * (31.0f / 255.0f) + 0.5f), 0, 31);
+    int g6 = clampi((int)(g * (63.0f / 255.0f) + 0.5f), 0, 63);
+    int b5 = clampi((int)(b * (31.0f / 255.0f) + 0.5f), 0, 31);
+    return pack565(r5, g6, b5);
+}
+
+/* Exact palette as floats: pal[k][j] (channel-major); four = 4-colour mode. */
+static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4])
+{
+    uint8_t e0[3], e1[3];
+    st_bc1_565_to_rgb8(c0, e0);
+    st_bc1_565_to_rgb8(c1, e1);
+    for (int k = 0; k < 3; k++) {
+        int a = e0[k], b = e1[k];
+        pal[k][0] = (float)a;
+        pal[k][1] = (float)b;
+        if (four) {
+            pal[k][2] = (float)((2 * a + b) / 3);
+            pal[k][3] = (float)((a + 2 * b) / 3);
+        } else {
+            pal[k][2] = (float)((a + b) / 2);
+            pal[k][3] = 2000.0f; /* never chosen: far from 0..255 */
+        }
+    }
+}
+
+/* Picks selectors for (c0, c1) in the mode implied by their order and returns the squared
+ * error. The caller guarantees c0 > c1 for 4-colour and c0 <= c1 for 3-colour. */
+static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel)
+{
+    float pal[3][4];
+    palette_f(c0, c1, c0 > c1, pal);
+    /* key = distance << 2 | selector: one integer minimum picks both (distances are
+     * integers below 2^18, the unused 4th entry of 3-colour mode sits far away) */
+    int key[16];
+    for (int i = 0; i < 16; i++) {
+        int m = 0x7fffffff;
+        for (int j = 0; j < 4; j++) {
+            float dr = B->r[i] - pal[0][j], dg = B->g[i] - pal[1][j], db = B->b[i] - pal[2][j];
+            int k = ((int)(dr * dr + dg * dg + db * db) << 2) | j;
+            m = k < m ? k : m;
+        }
+        key[i] = m;
+    }
+    float err = 0;
+    for (int i = 0; i < 16; i++) {
+        err += (float)(key[i] >> 2) * B->w[i];
+        sel[i] = (uint8_t)(key[i] & 3);
+    }
+    return err;
+}
+
+/* Error only (selectors are not kept): used by the neighbourhood search. */
+static float eval_only(const blk *B, uint16_t c0, uint16_t c1)
+{
+    uint8_t sel[16];
+    return select_eval(B, c0, c1, sel);
+}
+
+/* Evaluates a 4-colour candidate given as a possibly unordered pair: orders it, handles
+ * c0 == c1 (which would decode in 3-colour mode: all selectors 0 then). */
+static void try4(const blk *B, uint16_t a, uint16_t b, cand *best)
+{
+    cand c;
+    if (a == b) {
+        uint8_t e[3];
+        st_bc1_565_to_rgb8(a, e);
+        float err = 0;
+        for (int i = 0; i < 16; i++) {
+            float dr = B->r[i] - e[0], dg = B->g[i] - e[1], db = B->b[i] - e[2];
+            err += (dr * dr + dg * dg + db * db) * B->w[i];
+        }
+        if (err < best->err) {
+            best->c0 = best->c1 = a;
+            memset(best->sel, 0, sizeof best->sel);
+            best->err = err;
+        }
+        return;
+    }
+    c.c0 = a > b ? a : b;
+    c.c1 = a > b ? b : a;
+    c.err = select_eval(B, c.c0, c.c1, c.sel);
+    if (c.err < best->err)
+        *best = c;
+}
+
+/* 3-colour candidate (selectors 0..2): orders the pair so that c0 <= c1. */
+static void try3(const blk *B, uint16_t a, uint16_t b, cand *best)
+{
+    cand c;
+    c.c0 = a < b ? a : b;
+    c.c1 = a < b ? b : a;
+    c.err = select_eval(B, c.c0, c.c1, c.sel);
+    if (c.err < best->err)
+        *best = c;
+}
+
+/* Least-squares endpoints for the selectors of `c` (4-colour weights when four, else
+ * 3-colour). Returns 0 when the system is singular (all texels on one weight). */
+static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3], float e1[3])
+{
+    /* weight of endpoint 1 per selector */
+    static const float t4[4] = {0.0f, 1.0f, 1.0f / 3.0f, 2.0f / 3.0f}, t3[4] = {0.0f, 1.0f, 0.5f, 0.0f};
+    const float *tw = four ? t4 : t3;
+    float cnt[4] = {0, 0, 0, 0}, sr[4] = {0, 0, 0, 0}, sg[4] = {0, 0, 0, 0}, sb[4] = {0, 0, 0, 0};
+    for (int i = 0; i < 16; i++) {
+        int j = sel[i];
+        cnt[j] += B->w[i];
+        sr[j] += B->r[i] * B->w[i];
+        sg[j] += B->g[i] * B->w[i];
+        sb[j] += B->b[i] * B->w[i];
+    }
+    float aa = 0, ab = 0, bb = 0, ax[3] = {0, 0, 0}, bx[3] = {0, 0, 0};
+    for (int j = 0; j < 4; j++) {
+        float t = tw[j], s = 1.0f - t;
+        aa += s * s * cnt[j];
+        ab += s * t * cnt[j];
+        bb += t * t * cnt[j];
+        ax[0] += s * sr[j];
+        ax[1] += s * sg[j];
+        ax[2] += s * sb[j];
+        bx[0] += t * sr[j];
+        bx[1] += t * sg[j];
+        bx[2] += t * sb[j];
+    }
+    float det = aa * bb - ab * ab;
+    if (fabsf(det) < 1e-6f)
+        return 0;
+    float inv = 1.0f / det;
+    for (int k = 0; k < 3; k++) {
+        float v0 = (bb * ax[k] - ab * bx[k]) * inv, v1 = (aa * bx[k] - ab * ax[k]) * inv;
+        e0[k] = v0 < 0 ? 0 : v0 > 255 ? 255 : v0;
+        e1[k] = v1 < 0 ? 0 : v1 > 255 ? 255 : v1;
+    }
+    return 1;
+}
+
+/* Principal axis endpoints: e0 at the largest projection, e1 at the smallest. inset: fraction
+ * of the range moved inwards at both ends. */
+static void axis_endpoints(const blk *B, float inset, float e0[3], float e1[3])
+{
+    float m[3] = {0, 0, 0};
+    for (int i = 0; i < 16; i++) {
+        m[0] += B->r[i] * B->w[i];
+        m[1] += B->g[i] * B->w[i];
+        m[2] += B->b[i] * B->w[i];
+    }
+    float inv = 1.0f / (float)B->n;
+    m[0] *= inv;
+    m[1] *= inv;
+    m[2] *= inv;
+    float c[6] = {0, 0, 0, 0, 0, 0}; /* rr rg rb gg gb bb */
+    for (int i = 0; i < 16; i++) {
+        float r = (B->r[i] - m[0]) * B->w[i], g = (B->g[i] - m[1]) * B->w[i],
+              b = (B->b[i] - m[2]) * B->w[i];
+        c[0] += r * r;
+        c[1] += r * g;
+        c[2] += r * b;
+        c[3] += g * g;
+        c[4] += g * b;
+        c[5] += b * b;
+    }
+    /* start from the covariance row of largest diagonal (robust against the (1,1,1) null) */
+    float v[3];
+    if (c[0] >= c[3] && c[0] >= c[5]) {
+        v[0] = c[0]; v[1] = c[1]; v[2] = c[2];
+    } else if (c[3] >= c[5]) {
+        v[0] = c[1]; v[1] = c[3]; v[2] = c[4];
+    } else {
+        v[0] = c[2]; v[1] = c[4]; v[2] = c[5];
+    }
+    for (int it = 0; it < 4; it++) {
+        float x = c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
+        float y = c[1] * v[0] + c[3] * v[1] + c[4] * v[2];
+        float z = c[2] * v[0] + c[4] * v[1] + c[5] * v[2];
+        float ax = fabsf(x), ay = fabsf(y), az = fabsf(z);
+        float mx = ax > ay ? ax : ay;
+        mx = mx > az ? mx : az;
+        if (mx < 1e-12f)
+            break;
+        v[0] = x / mx;
+        v[1] = y / mx;
+        v[2] = z / mx;
+    }
+    float len2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if (len2 < 1e-12f) {
+        v[0] = v[1] = v[2] = 1;
+        len2 = 3;
+    }
+    float lo = 1e30f, hi = -1e30f;
+    for (int i = 0; i < 16; i++) { /* weight-0 texels carry an opaque texel's colour */
+        float p = (B->r[i] - m[0]) * v[0] + (B->g[i] - m[1]) * v[1] + (B->b[i] - m[2]) * v[2];
+        lo = p < lo ? p : lo;
+        hi = p > hi ? p : hi;
+    }
+    float d = (hi - lo) * inset;
+    lo += d;
+    hi -= d;
+    for (int k = 0; k < 3; k++) {
+        float a = m[k] + v[k] * hi / len2, b = m[k] + v[k] * lo / len2;
+        e0[k] = a < 0 ? 0 : a > 255 ? 255 : a;
+        e1[k] = b < 0 ? 0 : b > 255 ? 255 : b;
+    }
+}
+
+/* Greedy +-1 search over the six 565 components of the best pair, in its own mode. */
+static void neighbourhood(const blk *B, cand *best, int four)
+{
+    static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
+    for (int pass = 0; pass < 2; pass++) {
+        int improved = 0;
+        for (int e = 0; e < 2; e++)
+            for (int k = 0; k < 3; k++)
+                for (int d = -1; d <= 1; d += 2) {
+                    uint16_t c[2] = {best->c0, best->c1};
+                    int q = (c[e] >> sh[k]) & mx[k];
+                    if (q + d < 0 || q + d > mx[k])
+                        continue;
+                    c[e] = (uint16_t)((c[e] & ~(mx[k] << sh[k])) | ((q + d) << sh[k]));
+                    if (four ? c[0] == c[1] : 0)
+                        continue;
+                    uint16_t a = c[0], b = c[1];
+                    /* keep the mode: 4-colour needs a > b after ordering, 3 needs <= */
+                    if (four) {
+                        if (a < b) { uint16_t t = a; a = b; b = t; }
+                    } else if (a > b) {
+                        uint16_t t = a; a = b; b = t;
+                    }
+                    float err = eval_only(B, a, b);
+                    if (err < best->err) {
+                        best->c0 = a;
+                        best->c1 = b;
+                        best->err = select_eval(B, a, b, best->sel);
+                        improved = 1;
+                    }
+                }
+        if (!improved)
+            break;
+    }
+}
+
+/* Encodes the compacted opaque colours; four_ok = 0 forces 3-colour mode. */
+static void encode_colours(const blk *B, int level, int four_ok, cand *out)
+{
+    cand best;
+    best.err = 3e30f;
+    float e0[3], e1[3];
+    int hq = level != ST_BC1_FAST;
+    axis_endpoints(B, hq ? 0.0f : 1.0f / 16.0f, e0, e1);
+    if (four_ok) {
+        int rounds = hq ? 4 : 2;
+        for (int it = 0; it < rounds; it++) {
+            uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
+            float before = best.err;
+            try4(B, a, b, &best);
+            if (it > 0 && !(best.err < before))
+                break;
+            if (best.err == 0 || best.c0 == best.c1)
+                break;
+            if (!ls_endpoints(B, best.sel, 1, e0, e1))
+                break;
+        }
+        if (hq && best.c0 != best.c1)
+            neighbourhood(B, &best, 1);
+    }
+    if (!four_ok || (hq && best.err > 0)) {
+        /* 3-colour trial from the axis endpoints and from the 4-colour result */
+        cand b3;
+        b3.err = 3e30f;
+        float f0[3], f1[3];
+        axis_endpoints(B, 0.0f, f0, f1);
+        for (int it = 0; it < 3; it++) {
+            uint16_t a = round565(f0[0], f0[1], f0[2]), b = round565(f1[0], f1[1], f1[2]);
+            float before = b3.err;
+            try3(B, a, b, &b3);
+            if (it > 0 && !(b3.err < before))
+                break;
+            if (!ls_endpoints(B, b3.sel, 0, f0, f1))
+                break;
+        }
+        if (hq)
+            neighbourhood(B, &b3, 0);
+        if (b3.err < best.err)
+            best = b3;
+    }
+    *out = best;
+}
+
+static void write_block(uint16_t c0, uint16_t c1, uint32_t sel, uint8_t out[8])
+{
+    out[0] = (uint8_t)c0;
+    out[1] = (uint8_t)(c0 >> 8);
+    out[2] = (uint8_t)c1;
+    out[3] = (uint8_t)(c1 >> 8);
+    out[4] = (uint8_t)sel;
+    out[5] = (uint8_t)(sel >> 8);
+    out[6] = (uint8_t)(sel >> 16);
+    out[7] = (uint8_t)(sel >> 24);
+}
+
+/* One colour for the whole block, 4-colour mode, from the optimal tables. */
+static void encode_single(const uint8_t rgb[3], uint32_t transparent, uint8_t out[8])
+{
+    if (transparent) {
+        /* 3-colour: c0 = c1 = nearest 565, selector 0, transparent ones 3 */
+        uint16_t c = round565(rgb[0], rgb[1], rgb[2]);
+        uint32_t sel = 0;
+        for (int t = 0; t < 16; t++)
+            if (transparent >> t & 1)
+                sel |= 3u << (2 * t);
+        write_block(c, c, sel, out);
+        return;
+    }
+    const uint8_t *r = st_bc1_single5[rgb[0]], *g = st_bc1_single6[rgb[1]],
+                  *b = st_bc1_single5[rgb[2]];
+    uint16_t c0 = pack565(r[0], g[0], b[0]), c1 = pack565(r[1], g[1], b[1]);
+    if (c0 > c1)
+        write_block(c0, c1, 0xAAAAAAAAu, out); /* selector 2 = (2c0+c1)/3 */
+    else if (c0 < c1)
+        write_block(c1, c0, 0xFFFFFFFFu, out); /* swapped: selector 3 = (c0'+2c1')/3 */
+    else
+        write_block(c0, c1, 0, out); /* equal: 3-colour mode, selector 0 is the colour */
+}
+
+void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
+{
+    uint32_t transparent = 0;
+    int same = 1;
+    blk B;
+    B.n = 0;
+    int first = -1;
+    for (int t = 0; t < 16; t++) {
+        const uint8_t *p = rgba + 4 * t;
+        if (p[3] < 128) {
+            transparent |= 1u << t;
+            continue;
+        }
+        if (first < 0)
+            first = t;
+        else if (p[0] != rgba[4 * first] || p[1] != rgba[4 * first + 1] ||
+                 p[2] != rgba[4 * first + 2])
+            same = 0;
+        B.n++;
+    }
+    if (B.n == 0) {
+        write_block(0, 0, 0xFFFFFFFFu, out); /* every texel transparent */
+        return;
+    }
+    if (same) {
+        encode_single(rgba + 4 * first, transparent, out);
+        return;
+    }
+    for (int t = 0; t < 16; t++) {
+        const uint8_t *p = rgba + 4 * ((transparent >> t & 1) ? first : t);
+        B.r[t] = p[0];
+        B.g[t] = p[1];
+        B.b[t] = p[2];
+        B.w[t] = (transparent >> t & 1) ? 0.0f : 1.0f;
+    }
+    cand c;
+    encode_colours(&B, level, transparent == 0, &c);
+    uint32_t sel = 0;
+    for (int t = 0; t < 16; t++) {
+        unsigned s = (transparent >> t & 1) ? 3u : c.sel[t];
+        sel |= s << (2 * t);
+    }
+    write_block(c.c0, c.c1, sel, out);
+}
+
+/* ---- images --------------------------------------------------------------------------- */
+
+typedef struct img_job {
+    const uint8_t *rgba;
+    uint32_t w, h;
+    size_t stride;
+    int level;
+    uint8_t *blocks;
+    uint32_t row0, row1; /* block rows */
+} img_job;
+
+static void load_block(const uint8_t *rgba, uint32_t w, uint32_t h, size_t stride, uint32_t bx,
+                       uint32_t by, uint8_t tmp[64])
+{
+    for (uint32_t y = 0; y < 4; y++) {
+        uint32_t sy = by * 4 + y < h ? by * 4 + y : h - 1;
+        const uint8_t *row = rgba + (size_t)sy * stride;
+        if (bx * 4 + 3 < w) {
+            memcpy(tmp + 16 * y, row + (size_t)bx * 16, 16);
+        } else {
+            for (uint32_t x = 0; x < 4; x++) {
+                uint32_t sx = bx * 4 + x < w ? bx * 4 + x : w - 1;
+                memcpy(tmp + 16 * y + 4 * x, row + (size_t)sx * 4, 4);
+            }
+        }
+    }
+}
+
+static void *img_worker(void *arg)
+{
+    img_job *j = arg;
+    uint32_t bw = (j->w + 3) / 4;
+    uint8_t tmp[64];
+    for (uint32_t by = j->row0; by < j->row1; by++)
+        for (uint32_t bx = 0; bx < bw; bx++) {
+            load_block(j->rgba, j->w, j->h, j->stride, bx, by, tmp);
+            st_bc1_encode_block(tmp, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
+        }
+    return NULL;
+}
+
+int st_bc1_encode_image(const uint8_t *rgba, uint32_t w, uint32_t h, size_t stride, int level,
+                        int threads, uint8_t *blocks, st_error *e)
+{
+    if (w < 1 || h < 1 || w > ST_MAX_DIM || h > ST_MAX_DIM)
+        return st_fail(e, ST_EINVAL, "image size %ux%u not in 1..%u", w, h, ST_MAX_DIM);
+    if (stride < (size_t)w * 4)
+        return st_fail(e, ST_EINVAL, "row stride %zu is less than %u texels", stride, w);
+    uint32_t bh = (h + 3) / 4;
+    if (threads <= 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = n > 0 ? (int)n : 1;
+    }
+    if (threads > 64)
+        threads = 64;
+    /* below ~64K texels a thread costs more than it saves */
+    if ((uint64_t)w * h < 65536 || (uint32_t)threads > bh)
+        threads = 1;
+    img_job jobs[64];
+    pthread_t tid[64];
+    int started = 0;
+    for (int t = 0; t < threads; t++) {
+        jobs[t] = (img_job){rgba, w, h, stride, level, blocks, (uint32_t)((uint64_t)bh * t / threads),
+                            (uint32_t)((uint64_t)bh * (t + 1) / threads)};
+    }
+    for (int t = 1; t < threads; t++) {
+        if (pthread_create(&tid[t], NULL, img_worker, &jobs[t]) != 0)
+            break;
+        started = t;
+    }
+    img_worker(&jobs[0]);
+    for (int t = 1; t <= started; t++)
+        pthread_join(tid[t], NULL);
+    for (int t = started + 1; t < threads; t++)
+        img_worker(&jobs[t]); /* a thread that did not start: do its share here */
+    return ST_OK;
+}
