@@ -18,16 +18,20 @@
  *     weld id (tri_weld); Draco splits positions where UVs split, OBJ files usually do not.
  *   - Triangle edge k of triangle t runs from corner k to corner (k+1)%3.
  *
- * Seams (st_mesh_find_seams, welded positions): a mesh edge is an unordered pair of weld ids
- * used by at least one non-degenerate triangle.
+ * Seams (st_mesh_find_seams, welded positions): a mesh edge is an unordered pair of distinct
+ * weld ids used by a triangle side (a degenerate triangle, two corners welded together, still
+ * contributes its two non-zero-length sides). These rules reproduce the figures of the
+ * shared data README (duck 166 seams; spider 172 seams, 72 boundary, 16 non-manifold, 91
+ * charts; cesium milk truck 479 seams, 376 charts).
  *   - boundary edge:     used by exactly one triangle side;
  *   - non-manifold edge: used by three or more triangle sides;
  *   - seam edge:         used by exactly two triangles whose texture coordinates along it
  *                        differ (compared by value, so duplicated vt entries are not seams).
- *                        An edge between a triangle with UVs and one without counts as a seam
- *                        (the chart ends there); an edge between two triangles without UVs
- *                        is not a seam.
- *   - charts:            connected components of UV'd triangles across non-seam manifold edges.
+ *                        Both triangles must have UVs: an edge between a triangle with UVs and
+ *                        one without is counted in nuv_border, not as a seam.
+ *   - charts:            connected components of triangles across manifold non-seam edges
+ *                        between two UV'd triangles; a triangle without UVs, or one whose
+ *                        every edge is a seam / boundary / non-manifold, is a chart alone.
  * For each seam the two UV segments are stored in the same order along the 3D edge (both
  * from weld id pos[0] to pos[1]) with the UV-space winding of each triangle, so a consumer
  * knows whether one side is mirrored.
@@ -60,7 +64,6 @@ typedef struct st_seam_edge {
     uint32_t tri[2];       /* the two triangles */
     uint8_t  edge[2];      /* edge index 0..2 of the edge in tri[k] */
     int8_t   winding[2];   /* sign of tri[k]'s signed area in UV space: +1, -1, 0 degenerate */
-    uint8_t  has_uv[2];    /* 0 when tri[k] has no texture coordinates (then uv[k] is 0) */
     uint8_t  mirrored;     /* 1 when winding[0] != winding[1] (one chart is flipped) */
     float    uv[2][2][2];  /* uv[k][end][axis]: tri[k]'s texture coordinate at pos[end] */
 } st_seam_edge;
@@ -79,8 +82,9 @@ typedef struct st_seams {
     st_mesh_edge *nonmanifold;  uint32_t nnonmanifold;
     uint32_t nedges;            /* distinct edges */
     uint32_t ncharts;           /* see above */
-    uint32_t *tri_chart;        /* ntri entries: chart id, UINT32_MAX for a triangle w/o UV */
-    uint32_t ndegenerate;       /* triangles skipped (two corners share a weld id) */
+    uint32_t *tri_chart;        /* ntri entries: chart id 0..ncharts-1 */
+    uint32_t ndegenerate;       /* triangles with two corners on one weld id */
+    uint32_t nuv_border;        /* manifold edges between a UV'd and a UV-less triangle */
 } st_seams;
 
 typedef struct st_mesh {
