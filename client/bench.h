@@ -1,0 +1,134 @@
+/* client/bench.h - internal header of the load tester seamtex-bench (not installed).
+ *
+ * Owns: the run configuration, per-thread state and results shared by
+ *   bench_main.c    arguments, threads, report and JSON
+ *   bench_loop.c    one epoll loop per thread driving several connections (open/closed loop)
+ *   bench_wire.c    request frames and reply parsing, through protocol/'s encoders and parser
+ *   bench_inproc.c  the in-process sampler baseline (st_sample_batch on the same queries)
+ *   bench_sched.c   arrival schedules;  hist.c  latency histograms
+ * Does not own: the protocol (protocol/), the client library (libseamtex).
+ *
+ * Clock: CLOCK_MONOTONIC nanoseconds everywhere (bench_now_ns).
+ */
+#ifndef STC_BENCH_H
+#define STC_BENCH_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <time.h>
+
+#include "bench_sched.h"
+#include "hist.h"
+
+#define BENCH_MAX_CONNS     20000
+#define BENCH_MAX_THREADS   64
+#define BENCH_MAX_PIPELINE  4096
+#define BENCH_MAX_BATCH     65536
+#define BENCH_MAX_MIX       8
+
+typedef enum bench_op { BENCH_OP_PING = 0, BENCH_OP_SAMPLE = 1 } bench_op;
+
+typedef struct bench_cfg {
+    const char *host;          /* loopback only */
+    const char *port;
+    const char *token;         /* NULL = none */
+    const char *set;           /* set name for SAMPLE */
+    const char *json_path;     /* NULL = no JSON */
+    uint8_t     op;            /* bench_op */
+    uint8_t     open_loop;     /* 1: --rate given */
+    uint8_t     arrival;       /* stc_arrival */
+    uint8_t     quiet;
+    double      rate;          /* open loop: requests per second, all connections together */
+    double      duration_s;    /* measured time */
+    double      warmup_s;      /* before the measured time, not recorded */
+    double      timeout_s;     /* a reply later than this counts as a timeout */
+    uint64_t    max_requests;  /* 0 = no cap */
+    uint64_t    seed;
+    unsigned    conns;
+    unsigned    threads;
+    unsigned    pipeline;      /* closed loop: outstanding per connection; open loop: cap */
+    unsigned    batch;         /* SAMPLE: queries per request */
+    unsigned    nmodes, nfilters;
+    uint8_t     modes[BENCH_MAX_MIX];    /* st_mode values, one picked at random per request */
+    uint8_t     filters[BENCH_MAX_MIX];  /* st_filter values */
+    float       footprint;     /* SAMPLE: |du/dx| = |dv/dy| of every query (0 = point-like) */
+    uint32_t    nfaces;        /* SAMPLE: faces of the set (asked with INFO at start) */
+    uint8_t     nchan;         /* SAMPLE: channels of the set */
+    unsigned    idle;          /* --idle N: open N connections, ping each once, hold */
+    double      hold_s;        /* how long --idle holds them */
+} bench_cfg;
+
+/* What one thread measured; merged by bench_main.c. */
+typedef struct bench_result {
+    stc_hist corrected;        /* t_reply - t_intended */
+    stc_hist service;          /* t_reply - t_actual_send */
+    uint64_t sent;             /* requests written (whole run, warm-up included) */
+    uint64_t completed;        /* replies received (whole run) */
+    uint64_t measured;         /* replies recorded in the histograms */
+    uint64_t errors;           /* replies with a non-OK status */
+    uint64_t timeouts;         /* no reply within timeout_s, or left when the run ended */
+    uint64_t conn_errors;      /* connections that failed (reset, bad frame) */
+    uint64_t late_sends;       /* open loop: requests written more than 1 ms after due */
+    uint64_t queries;          /* SAMPLE: queries answered in the measured window */
+    uint64_t bytes_out, bytes_in;
+} bench_result;
+
+typedef struct bench_wire bench_wire;   /* per-thread request pool, bench_wire.c */
+
+typedef struct bench_thread {
+    const bench_cfg *cfg;
+    unsigned    index;
+    unsigned    conn_first, conn_count;
+    uint64_t    max_requests;  /* this thread's share of cfg->max_requests, 0 = none */
+    uint64_t    t_start;       /* common start (intended time origin) */
+    uint64_t    t_measure;     /* start + warm-up */
+    uint64_t    t_end;         /* t_measure + duration: no request is issued from then */
+    int        *fds;           /* connected sockets, conn_count of them, owned by the caller */
+    bench_wire *wire;
+    bench_result *res;         /* caller-owned, zeroed, histograms reset */
+    char        err[256];      /* first fatal error of the thread */
+} bench_thread;
+
+static inline uint64_t bench_now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+/* ---- bench_loop.c ---- */
+/* Runs one thread's connections until t_end plus the drain time; returns 0, or -1 with
+ * th->err set when the thread could not run at all. */
+int bench_loop_run(bench_thread *th);
+
+/* ---- bench_wire.c ---- */
+/* Connects one blocking socket to cfg->host:port (loopback only, checked), does whatever
+ * handshake the protocol needs (token), and returns the fd, or -1 with msg set. */
+int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t msglen);
+/* Asks the server for the set's face count and channels (SAMPLE); 0 or -1 with msg. */
+int bench_wire_set_info(bench_cfg *cfg, int fd, char *msg, size_t msglen);
+/* Builds a pool of ready request frames for one thread. */
+bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_t msglen);
+void bench_wire_free(bench_wire *w);
+/* Next request frame: *frame points into the pool (valid until the next call on w), returns
+ * its length and the number of queries it carries (*nq, 0 for PING). */
+size_t bench_wire_next(bench_wire *w, const uint8_t **frame, uint32_t *nq);
+/* Looks at the front of buf: returns the length of one complete reply frame and sets *ok
+ * (1 = status OK) and *reqid, 0 when more bytes are needed, or -1 when the bytes are not a
+ * valid reply. */
+long bench_wire_reply(const uint8_t *buf, size_t len, int *ok, uint32_t *reqid);
+/* Byte offset of the request id in a frame (the loop patches it per request). */
+#define BENCH_REQID_OFFSET 8
+
+/* ---- bench_inproc.c ---- */
+/* Samples the same kind of batches with st_sample_batch on the default set, in this process,
+ * for duration_s; prints and fills queries per second. 0 or -1 with msg. */
+int bench_inproc_run(const bench_cfg *cfg, double *qps, char *msg, size_t msglen);
+
+/* ---- shared query generator (bench_wire.c) ---- */
+/* Fills n random queries for a set of nfaces faces: face uniform, (u, v) uniform in [0,1),
+ * footprint (fp, 0) / (0, fp). */
+struct st_query;
+void bench_make_queries(struct st_query *q, size_t n, uint32_t nfaces, float fp, uint64_t *rng);
+
+#endif

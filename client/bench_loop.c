@@ -1,0 +1,387 @@
+/* client/bench_loop.c - one load-tester thread: an epoll loop over its own non-blocking
+ * connections, in open loop (requests due at intended times from a schedule per connection)
+ * or closed loop (a fixed number of requests outstanding per connection).
+ *
+ * Owns: per-connection buffers, the FIFO of outstanding requests, timestamps, timeouts.
+ * Does not own: sockets' creation (bench_main.c connects them), frame bytes (bench_wire.c).
+ *
+ * Timestamps: t_intended comes from the schedule (closed loop: equal to the send time);
+ * t_send is read just before the write() that carries the request's first byte; t_reply just
+ * after the read() that completed its reply. corrected = t_reply - t_intended (what a user
+ * waiting on that schedule sees, coordinated omission corrected), service = t_reply - t_send.
+ * Replies come back in request order on a connection (PROTOCOL.md), so a FIFO matches them.
+ *
+ * A request is recorded when its intended time lies in [t_measure, t_end). No request is
+ * issued from t_end on; outstanding ones get until t_end + min(timeout, 2 s), and whatever is
+ * left then counts as a timeout.
+ */
+#include "bench.h"
+#include "proto.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <unistd.h>
+
+#define OUT_INIT   (64 * 1024)
+#define IN_INIT    (64 * 1024)
+#define IN_MAX     ((size_t)256 << 20)     /* one reply may not exceed this */
+#define LATE_NS    1000000ull              /* a send more than 1 ms after due is "late" */
+
+typedef struct bconn {
+    int       fd;
+    int       dead;
+    uint32_t  events;           /* current epoll interest */
+    uint8_t  *out;              /* bytes not yet written: out[out_off .. out_len) */
+    size_t    out_off, out_len, out_cap;
+    uint8_t  *in;               /* bytes read, not yet parsed: in[0 .. in_len) */
+    size_t    in_len, in_cap;
+    /* FIFO of outstanding requests, ring of `cap` entries */
+    uint64_t *t_int, *t_send;
+    uint32_t *nq;
+    uint32_t *rid;              /* request id of each entry, checked against the reply */
+    uint32_t  next_rid;
+    uint32_t  head, count, unstamped;   /* the last `unstamped` entries have no t_send yet */
+    uint32_t  cap;
+    stc_sched sched;
+} bconn;
+
+static int grow(uint8_t **buf, size_t *cap, size_t need)
+{
+    if (need <= *cap)
+        return 0;
+    size_t c = *cap ? *cap : 4096;
+    while (c < need) {
+        if (c > ((size_t)1 << 40))
+            return -1;
+        c *= 2;
+    }
+    uint8_t *p = realloc(*buf, c);
+    if (!p)
+        return -1;
+    *buf = p;
+    *cap = c;
+    return 0;
+}
+
+static void conn_set_events(int ep, bconn *c, uint32_t ev, unsigned idx)
+{
+    if (c->dead || c->events == ev)
+        return;
+    struct epoll_event e = { .events = ev, .data.u32 = idx };
+    if (epoll_ctl(ep, EPOLL_CTL_MOD, c->fd, &e) == 0)
+        c->events = ev;
+}
+
+/* The connection is unusable: everything outstanding on it counts as a timeout. */
+static void conn_kill(bench_thread *th, int ep, bconn *c)
+{
+    if (c->dead)
+        return;
+    th->res->conn_errors++;
+    th->res->timeouts += c->count;
+    c->count = c->unstamped = 0;
+    epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
+    c->dead = 1;
+}
+
+/* Queues one request frame with its intended time. */
+static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
+{
+    const uint8_t *frame;
+    uint32_t nq;
+    size_t len = bench_wire_next(th->wire, &frame, &nq);
+    if (c->out_off > 0 && c->out_off == c->out_len)
+        c->out_off = c->out_len = 0;
+    if (grow(&c->out, &c->out_cap, c->out_len + len) < 0)
+        return -1;
+    memcpy(c->out + c->out_len, frame, len);
+    uint32_t slot = (c->head + c->count) % c->cap;
+    uint32_t rid = ++c->next_rid;
+    stp_wr32(c->out + c->out_len + BENCH_REQID_OFFSET, rid);
+    c->out_len += len;
+    c->rid[slot] = rid;
+    c->t_int[slot] = t_int;
+    c->t_send[slot] = 0;
+    c->nq[slot] = nq;
+    c->count++;
+    c->unstamped++;
+    th->res->sent++;
+    return 0;
+}
+
+/* Writes what is pending; stamps the requests whose bytes go out with this write. */
+static int conn_flush(bench_thread *th, bconn *c)
+{
+    while (c->out_off < c->out_len) {
+        uint64_t now = bench_now_ns();
+        while (c->unstamped > 0) {
+            uint32_t slot = (c->head + c->count - c->unstamped) % c->cap;
+            c->t_send[slot] = now;
+            if (th->cfg->open_loop && now > c->t_int[slot] + LATE_NS)
+                th->res->late_sends++;
+            c->unstamped--;
+        }
+        ssize_t w = write(c->fd, c->out + c->out_off, c->out_len - c->out_off);
+        if (w < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                return 0;
+            return -1;
+        }
+        c->out_off += (size_t)w;
+        th->res->bytes_out += (uint64_t)w;
+    }
+    c->out_off = c->out_len = 0;
+    return 0;
+}
+
+/* Reads what is there and consumes every complete reply. */
+static int conn_read(bench_thread *th, bconn *c)
+{
+    bench_result *r = th->res;
+    for (;;) {
+        if (c->in_cap - c->in_len < 16384 && grow(&c->in, &c->in_cap, c->in_len + 65536) < 0)
+            return -1;
+        ssize_t n = read(c->fd, c->in + c->in_len, c->in_cap - c->in_len);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                return 0;
+            return -1;
+        }
+        if (n == 0)
+            return -1;                      /* the server closed the connection */
+        uint64_t now = bench_now_ns();
+        c->in_len += (size_t)n;
+        r->bytes_in += (uint64_t)n;
+        size_t off = 0;
+        for (;;) {
+            int ok = 0;
+            uint32_t rid = 0;
+            long flen = bench_wire_reply(c->in + off, c->in_len - off, &ok, &rid);
+            if (flen < 0)
+                return -1;
+            if (flen == 0)
+                break;
+            if (c->count == 0 || c->count == c->unstamped)
+                return -1;                  /* a reply nobody asked for */
+            uint32_t slot = c->head;
+            if (rid != c->rid[slot])
+                return -1;                  /* out of order or foreign: cannot match it */
+            c->head = (c->head + 1) % c->cap;
+            c->count--;
+            r->completed++;
+            if (!ok)
+                r->errors++;
+            uint64_t ti = c->t_int[slot], ts = c->t_send[slot];
+            if (ti >= th->t_measure && ti < th->t_end) {
+                stc_hist_record(&r->corrected, now > ti ? now - ti : 0);
+                stc_hist_record(&r->service, now > ts ? now - ts : 0);
+                r->measured++;
+                if (ok)
+                    r->queries += c->nq[slot];
+            }
+            off += (size_t)flen;
+        }
+        if (off > 0) {
+            memmove(c->in, c->in + off, c->in_len - off);
+            c->in_len -= off;
+        }
+        if (c->in_len > IN_MAX)
+            return -1;
+        if ((size_t)n < 16384)
+            return 0;                       /* most likely drained; epoll says if not */
+    }
+}
+
+/* Sleeps in epoll until `deadline` (ns, 0 = don't sleep) or an event. */
+static int wait_events(int ep, struct epoll_event *ev, int maxev, uint64_t deadline)
+{
+    uint64_t now = bench_now_ns();
+    struct timespec ts = { 0, 0 };
+    if (deadline > now) {
+        uint64_t d = deadline - now;
+        ts.tv_sec = (time_t)(d / 1000000000ull);
+        ts.tv_nsec = (long)(d % 1000000000ull);
+    }
+    int n = epoll_pwait2(ep, ev, maxev, &ts, NULL);
+    if (n < 0 && errno == ENOSYS) {
+        int ms = (int)((ts.tv_sec * 1000) + (ts.tv_nsec + 999999) / 1000000);
+        n = epoll_wait(ep, ev, maxev, ms);
+    }
+    return n;
+}
+
+int bench_loop_run(bench_thread *th)
+{
+    const bench_cfg *cfg = th->cfg;
+    unsigned nc = th->conn_count;
+    bconn *cs = calloc(nc ? nc : 1, sizeof *cs);
+    struct epoll_event *evs = calloc(256, sizeof *evs);
+    int ep = epoll_create1(EPOLL_CLOEXEC);
+    int rc = -1;
+    if (!cs || !evs || ep < 0) {
+        snprintf(th->err, sizeof th->err, "thread %u: out of memory or epoll: %s", th->index,
+                 strerror(errno));
+        goto out;
+    }
+    uint32_t cap = cfg->open_loop ? (cfg->pipeline > 0 ? cfg->pipeline : 1024) : cfg->pipeline;
+    if (cap == 0)
+        cap = 1;
+    for (unsigned i = 0; i < nc; i++) {
+        bconn *c = &cs[i];
+        c->fd = th->fds[i];
+        c->cap = cap;
+        c->t_int = malloc(cap * sizeof *c->t_int);
+        c->t_send = malloc(cap * sizeof *c->t_send);
+        c->nq = malloc(cap * sizeof *c->nq);
+        c->rid = malloc(cap * sizeof *c->rid);
+        if (!c->t_int || !c->t_send || !c->nq || !c->rid || grow(&c->out, &c->out_cap, OUT_INIT) < 0 ||
+            grow(&c->in, &c->in_cap, IN_INIT) < 0) {
+            snprintf(th->err, sizeof th->err, "thread %u: out of memory", th->index);
+            goto out;
+        }
+        c->events = EPOLLIN;
+        struct epoll_event e = { .events = EPOLLIN, .data.u32 = i };
+        if (epoll_ctl(ep, EPOLL_CTL_ADD, c->fd, &e) < 0) {
+            snprintf(th->err, sizeof th->err, "epoll_ctl: %s", strerror(errno));
+            goto out;
+        }
+        if (cfg->open_loop) {
+            /* the total rate split evenly; uniform schedules staggered across connections */
+            unsigned gi = th->conn_first + i;
+            stc_sched_init(&c->sched, (stc_arrival)cfg->arrival, cfg->rate / cfg->conns,
+                           th->t_start, (double)gi / cfg->conns,
+                           cfg->seed * 1000003ull + gi);
+        }
+    }
+
+    uint64_t issued = 0;
+    uint64_t timeout_ns = (uint64_t)(cfg->timeout_s * 1e9);
+    uint64_t drain = timeout_ns < 2000000000ull ? timeout_ns : 2000000000ull;
+    uint64_t t_stop = th->t_end + drain;
+    unsigned alive = nc;
+
+    for (;;) {
+        uint64_t now = bench_now_ns();
+        int issuing = now < th->t_end && (!th->max_requests || issued < th->max_requests);
+        uint64_t next_due = 0;              /* earliest intended time still to issue */
+        uint64_t outstanding = 0;
+
+        for (unsigned i = 0; i < nc; i++) {
+            bconn *c = &cs[i];
+            if (c->dead)
+                continue;
+            int queued = 0;
+            if (issuing) {
+                if (cfg->open_loop) {
+                    while (c->count < c->cap && stc_sched_peek(&c->sched) <= now &&
+                           stc_sched_peek(&c->sched) < th->t_end &&
+                           (!th->max_requests || issued < th->max_requests)) {
+                        if (conn_queue(th, c, stc_sched_next(&c->sched)) < 0)
+                            goto oom;
+                        issued++;
+                        queued = 1;
+                    }
+                    uint64_t nd = stc_sched_peek(&c->sched);
+                    if (c->count < c->cap && nd < th->t_end && (!next_due || nd < next_due))
+                        next_due = nd;
+                } else {
+                    while (c->count < c->cap &&
+                           (!th->max_requests || issued < th->max_requests)) {
+                        if (conn_queue(th, c, now) < 0)
+                            goto oom;
+                        issued++;
+                        queued = 1;
+                    }
+                }
+            }
+            if (queued || c->out_len > c->out_off) {
+                if (conn_flush(th, c) < 0) {
+                    conn_kill(th, ep, c);
+                    alive--;
+                    continue;
+                }
+                conn_set_events(ep, c, c->out_len > c->out_off ? EPOLLIN | EPOLLOUT : EPOLLIN,
+                                i);
+            }
+            /* the oldest request sent on this connection is too old: give up on it */
+            if (c->count > c->unstamped && timeout_ns &&
+                now > c->t_send[c->head] + timeout_ns) {
+                conn_kill(th, ep, c);
+                alive--;
+                continue;
+            }
+            outstanding += c->count;
+        }
+
+        if (alive == 0)
+            break;
+        if (!issuing && outstanding == 0)
+            break;
+        if (now >= t_stop)
+            break;
+
+        /* sleep until the next due request, an event, or at most 50 ms */
+        uint64_t deadline = now + 50000000ull;
+        if (issuing && cfg->open_loop && next_due && next_due < deadline)
+            deadline = next_due;
+        if (issuing && th->t_end < deadline)
+            deadline = th->t_end;
+        if (!issuing && t_stop < deadline)
+            deadline = t_stop;
+        int n = wait_events(ep, evs, 256, deadline);
+        if (n < 0 && errno != EINTR) {
+            snprintf(th->err, sizeof th->err, "epoll: %s", strerror(errno));
+            goto out;
+        }
+        for (int k = 0; k < n; k++) {
+            unsigned i = evs[k].data.u32;
+            bconn *c = &cs[i];
+            if (c->dead)
+                continue;
+            int bad = 0;
+            if (evs[k].events & (EPOLLIN | EPOLLERR | EPOLLHUP))
+                bad = conn_read(th, c) < 0;
+            if (!bad && (evs[k].events & EPOLLOUT)) {
+                bad = conn_flush(th, c) < 0;
+                if (!bad)
+                    conn_set_events(ep, c,
+                                    c->out_len > c->out_off ? EPOLLIN | EPOLLOUT : EPOLLIN, i);
+            }
+            if (bad) {
+                conn_kill(th, ep, c);
+                alive--;
+            }
+        }
+    }
+    /* whatever is still outstanding never got its reply in time */
+    for (unsigned i = 0; i < nc; i++)
+        if (!cs[i].dead)
+            th->res->timeouts += cs[i].count;
+    rc = 0;
+    goto out;
+oom:
+    snprintf(th->err, sizeof th->err, "thread %u: out of memory", th->index);
+out:
+    if (cs) {
+        for (unsigned i = 0; i < nc; i++) {
+            free(cs[i].out);
+            free(cs[i].in);
+            free(cs[i].t_int);
+            free(cs[i].t_send);
+            free(cs[i].nq);
+            free(cs[i].rid);
+        }
+    }
+    free(cs);
+    free(evs);
+    if (ep >= 0)
+        close(ep);
+    return rc;
+}

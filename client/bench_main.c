@@ -1,0 +1,483 @@
+/* client/bench_main.c - seamtex-bench, the load tester: arguments, connections, threads,
+ * the report and its JSON.
+ *
+ * Owns: the command line, splitting connections and the rate across threads, merging the
+ * threads' histograms, printing percentiles, writing JSON. Does not own: the event loop
+ * (bench_loop.c), frames (bench_wire.c), the in-process baseline (bench_inproc.c).
+ *
+ * Always bounded: it stops after --duration seconds (plus warm-up and at most 2 s of drain)
+ * or --requests requests, whichever comes first, and only talks to loopback addresses.
+ */
+#include "bench.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include "sample.h"
+
+static const double PCTS[] = { 50, 90, 99, 99.9, 99.99 };
+#define NPCTS (sizeof PCTS / sizeof PCTS[0])
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+"usage: seamtex-bench [options]\n"
+"Load tester for seamtexd (loopback only). Closed loop by default (capacity); --rate gives\n"
+"an open loop (latency at a fixed rate, measured from each request's intended send time).\n"
+"\n"
+"  -h, --host HOST        server address, loopback only (127.0.0.1)\n"
+"  -p, --port PORT        server port (7411)\n"
+"  -t, --token TOKEN      access token, if the server wants one\n"
+"  -o, --op OP            ping | sample (ping)\n"
+"  -c, --conns N          connections (1)\n"
+"  -T, --threads N        threads, each owning conns/threads connections (1)\n"
+"  -P, --pipeline N       closed loop: requests outstanding per connection (1);\n"
+"                         open loop: cap on outstanding per connection (1024)\n"
+"  -r, --rate R           open loop at R requests/s over all connections\n"
+"      --arrival KIND     uniform | poisson (uniform)\n"
+"  -d, --duration S       measured seconds (5)\n"
+"  -w, --warmup S         seconds before the measurement, not recorded (1)\n"
+"  -n, --requests N       stop after N requests in all (0 = no cap)\n"
+"      --timeout S        a reply later than S seconds counts as a timeout (5)\n"
+"      --seed N           seed of the arrivals and queries (1)\n"
+"  -s, --set NAME         set to sample (default)\n"
+"  -b, --batch N          queries per SAMPLE request (4096)\n"
+"  -m, --mode LIST        comma list of discard,traverse,clamp picked at random (traverse)\n"
+"  -f, --filter LIST      comma list of filters picked at random (bilinear)\n"
+"      --footprint F      |du/dx| = |dv/dy| of every query (0.001)\n"
+"      --inproc           no server: st_sample_batch on the default set, same queries\n"
+"      --idle N           open N connections, PING each once, hold them --hold seconds\n"
+"      --hold S           (10)\n"
+"  -j, --json PATH        write the results as JSON\n"
+"  -q, --quiet            print only the summary line\n"
+"      --help\n");
+}
+
+static int parse_double(const char *s, double lo, double hi, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !(v >= lo && v <= hi))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_uint(const char *s, unsigned long long lo, unsigned long long hi,
+                      unsigned long long *out)
+{
+    char *end;
+    errno = 0;
+    if (*s == '-')
+        return -1;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* "a,b,c" -> codes through parse(); -1 on an unknown name or too many. */
+static int parse_list(const char *s, int (*parse)(const char *), uint8_t *out, unsigned *n)
+{
+    char buf[256];
+    if (strlen(s) >= sizeof buf)
+        return -1;
+    strcpy(buf, s);
+    *n = 0;
+    for (char *save = NULL, *tok = strtok_r(buf, ",", &save); tok;
+         tok = strtok_r(NULL, ",", &save)) {
+        int v = parse(tok);
+        if (v < 0 || *n >= BENCH_MAX_MIX)
+            return -1;
+        out[(*n)++] = (uint8_t)v;
+    }
+    return *n ? 0 : -1;
+}
+
+static double loadavg1(void)
+{
+    double l = -1;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f) {
+        if (fscanf(f, "%lf", &l) != 1)
+            l = -1;
+        fclose(f);
+    }
+    return l;
+}
+
+static void json_hist(FILE *f, const char *name, const stc_hist *h)
+{
+    fprintf(f, "  \"%s_us\": {", name);
+    for (size_t i = 0; i < NPCTS; i++)
+        fprintf(f, "\"p%g\": %.1f, ", PCTS[i], stc_hist_percentile(h, PCTS[i]) / 1e3);
+    fprintf(f, "\"max\": %.1f, \"mean\": %.1f}", h->max / 1e3, stc_hist_mean(h) / 1e3);
+}
+
+static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
+                      double load0, double load1, double inproc_qps)
+{
+    FILE *f = fopen(cfg->json_path, "w");
+    if (!f) {
+        fprintf(stderr, "seamtex-bench: %s: %s\n", cfg->json_path, strerror(errno));
+        return -1;
+    }
+    fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n");
+    fprintf(f, "  \"op\": \"%s\",\n  \"loop\": \"%s\",\n", cfg->op == BENCH_OP_SAMPLE ? "sample" : "ping",
+            cfg->open_loop ? "open" : "closed");
+    if (cfg->open_loop)
+        fprintf(f, "  \"arrival\": \"%s\",\n  \"target_rate\": %.1f,\n",
+                cfg->arrival == STC_ARRIVAL_POISSON ? "poisson" : "uniform", cfg->rate);
+    fprintf(f, "  \"conns\": %u,\n  \"threads\": %u,\n  \"pipeline\": %u,\n", cfg->conns,
+            cfg->threads, cfg->pipeline);
+    if (cfg->op == BENCH_OP_SAMPLE) {
+        fprintf(f, "  \"set\": \"%s\",\n  \"batch\": %u,\n  \"modes\": [", cfg->set, cfg->batch);
+        for (unsigned i = 0; i < cfg->nmodes; i++)
+            fprintf(f, "%s\"%s\"", i ? ", " : "", st_mode_name(cfg->modes[i]));
+        fprintf(f, "],\n  \"filters\": [");
+        for (unsigned i = 0; i < cfg->nfilters; i++)
+            fprintf(f, "%s\"%s\"", i ? ", " : "", st_filter_name(cfg->filters[i]));
+        fprintf(f, "],\n  \"queries_per_s\": %.1f,\n", secs > 0 ? r->queries / secs : 0.0);
+        if (inproc_qps > 0)
+            fprintf(f, "  \"inproc_queries_per_s\": %.1f,\n", inproc_qps);
+    }
+    fprintf(f, "  \"duration_s\": %.3f,\n  \"warmup_s\": %.3f,\n  \"seed\": %llu,\n", secs,
+            cfg->warmup_s, (unsigned long long)cfg->seed);
+    fprintf(f, "  \"achieved_rate\": %.1f,\n", secs > 0 ? r->measured / secs : 0.0);
+    fprintf(f, "  \"sent\": %llu,\n  \"completed\": %llu,\n  \"measured\": %llu,\n",
+            (unsigned long long)r->sent, (unsigned long long)r->completed,
+            (unsigned long long)r->measured);
+    fprintf(f, "  \"errors\": %llu,\n  \"timeouts\": %llu,\n  \"conn_errors\": %llu,\n"
+               "  \"late_sends\": %llu,\n",
+            (unsigned long long)r->errors, (unsigned long long)r->timeouts,
+            (unsigned long long)r->conn_errors, (unsigned long long)r->late_sends);
+    fprintf(f, "  \"bytes_out\": %llu,\n  \"bytes_in\": %llu,\n",
+            (unsigned long long)r->bytes_out, (unsigned long long)r->bytes_in);
+    json_hist(f, "corrected", &r->corrected);
+    fprintf(f, ",\n");
+    json_hist(f, "service", &r->service);
+    fprintf(f, ",\n  \"loadavg_before\": %.2f,\n  \"loadavg_after\": %.2f\n}\n", load0, load1);
+    int bad = ferror(f);
+    if (fclose(f) != 0 || bad) {
+        fprintf(stderr, "seamtex-bench: writing %s failed\n", cfg->json_path);
+        return -1;
+    }
+    return 0;
+}
+
+static void print_hist(const char *name, const stc_hist *h)
+{
+    printf("  %-9s", name);
+    for (size_t i = 0; i < NPCTS; i++)
+        printf(" p%-5g %8.1f", PCTS[i], stc_hist_percentile(h, PCTS[i]) / 1e3);
+    printf("  max %8.1f us\n", h->max / 1e3);
+}
+
+static void *thread_main(void *arg)
+{
+    bench_thread *th = arg;
+    bench_loop_run(th);
+    return NULL;
+}
+
+static void close_all(int *fds, unsigned n)
+{
+    for (unsigned i = 0; i < n; i++)
+        if (fds[i] >= 0)
+            close(fds[i]);
+}
+
+/* --idle: many connections that do nothing, to measure what they cost the server. */
+static int run_idle(const bench_cfg *cfg)
+{
+    int *fds = malloc(cfg->idle * sizeof *fds);
+    if (!fds)
+        return 1;
+    char msg[256];
+    unsigned n = 0;
+    for (; n < cfg->idle; n++) {
+        fds[n] = bench_wire_connect(cfg, msg, sizeof msg);
+        if (fds[n] < 0) {
+            fprintf(stderr, "seamtex-bench: connection %u: %s\n", n, msg);
+            break;
+        }
+    }
+    printf("idle: %u connections open\n", n);
+    fflush(stdout);
+    if (n == cfg->idle) {
+        struct timespec ts = { (time_t)cfg->hold_s,
+                               (long)((cfg->hold_s - (double)(time_t)cfg->hold_s) * 1e9) };
+        while (nanosleep(&ts, &ts) < 0 && errno == EINTR)
+            ;
+    }
+    close_all(fds, n);
+    free(fds);
+    return n == cfg->idle ? 0 : 3;
+}
+
+int main(int argc, char **argv)
+{
+    bench_cfg cfg = {
+        .host = "127.0.0.1", .port = "7411", .set = "default", .op = BENCH_OP_PING,
+        .arrival = STC_ARRIVAL_UNIFORM, .duration_s = 5, .warmup_s = 1, .timeout_s = 5,
+        .seed = 1, .conns = 1, .threads = 1, .pipeline = 0, .batch = 4096,
+        .footprint = 0.001f, .hold_s = 10,
+    };
+    int inproc = 0;
+    enum { O_ARRIVAL = 256, O_TIMEOUT, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP };
+    static const struct option opts[] = {
+        { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
+        { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
+        { "conns", required_argument, 0, 'c' },    { "threads", required_argument, 0, 'T' },
+        { "pipeline", required_argument, 0, 'P' }, { "rate", required_argument, 0, 'r' },
+        { "arrival", required_argument, 0, O_ARRIVAL },
+        { "duration", required_argument, 0, 'd' }, { "warmup", required_argument, 0, 'w' },
+        { "requests", required_argument, 0, 'n' },
+        { "timeout", required_argument, 0, O_TIMEOUT },
+        { "seed", required_argument, 0, O_SEED },  { "set", required_argument, 0, 's' },
+        { "batch", required_argument, 0, 'b' },    { "mode", required_argument, 0, 'm' },
+        { "filter", required_argument, 0, 'f' },
+        { "footprint", required_argument, 0, O_FOOTPRINT },
+        { "inproc", no_argument, 0, O_INPROC },    { "idle", required_argument, 0, O_IDLE },
+        { "hold", required_argument, 0, O_HOLD },  { "json", required_argument, 0, 'j' },
+        { "quiet", no_argument, 0, 'q' },          { "help", no_argument, 0, O_HELP },
+        { 0, 0, 0, 0 }
+    };
+    cfg.modes[0] = ST_MODE_TRAVERSE;
+    cfg.nmodes = 1;
+    cfg.filters[0] = ST_FILTER_BILINEAR;
+    cfg.nfilters = 1;
+    int ch;
+    unsigned long long u;
+    double d;
+    while ((ch = getopt_long(argc, argv, "h:p:t:o:c:T:P:r:d:w:n:s:b:m:f:j:q", opts, NULL)) != -1) {
+        int bad = 0;
+        switch (ch) {
+        case 'h': cfg.host = optarg; break;
+        case 'p': cfg.port = optarg; bad = parse_uint(optarg, 1, 65535, &u); break;
+        case 't': cfg.token = optarg; break;
+        case 'o':
+            if (!strcmp(optarg, "ping")) cfg.op = BENCH_OP_PING;
+            else if (!strcmp(optarg, "sample")) cfg.op = BENCH_OP_SAMPLE;
+            else bad = 1;
+            break;
+        case 'c': bad = parse_uint(optarg, 1, BENCH_MAX_CONNS, &u); cfg.conns = (unsigned)u; break;
+        case 'T': bad = parse_uint(optarg, 1, BENCH_MAX_THREADS, &u); cfg.threads = (unsigned)u; break;
+        case 'P': bad = parse_uint(optarg, 1, BENCH_MAX_PIPELINE, &u); cfg.pipeline = (unsigned)u; break;
+        case 'r': bad = parse_double(optarg, 0.001, 1e8, &cfg.rate); cfg.open_loop = 1; break;
+        case O_ARRIVAL:
+            if (!strcmp(optarg, "uniform")) cfg.arrival = STC_ARRIVAL_UNIFORM;
+            else if (!strcmp(optarg, "poisson")) cfg.arrival = STC_ARRIVAL_POISSON;
+            else bad = 1;
+            break;
+        case 'd': bad = parse_double(optarg, 0.01, 3600, &cfg.duration_s); break;
+        case 'w': bad = parse_double(optarg, 0, 600, &cfg.warmup_s); break;
+        case 'n': bad = parse_uint(optarg, 0, 1ull << 40, &u); cfg.max_requests = u; break;
+        case O_TIMEOUT: bad = parse_double(optarg, 0.001, 600, &cfg.timeout_s); break;
+        case O_SEED: bad = parse_uint(optarg, 0, UINT64_MAX, &u); cfg.seed = u; break;
+        case 's': cfg.set = optarg; break;
+        case 'b': bad = parse_uint(optarg, 1, BENCH_MAX_BATCH, &u); cfg.batch = (unsigned)u; break;
+        case 'm': bad = parse_list(optarg, st_mode_parse, cfg.modes, &cfg.nmodes); break;
+        case 'f': bad = parse_list(optarg, st_filter_parse, cfg.filters, &cfg.nfilters); break;
+        case O_FOOTPRINT:
+            bad = parse_double(optarg, 0, 100, &d);
+            cfg.footprint = (float)d;
+            break;
+        case O_INPROC: inproc = 1; break;
+        case O_IDLE: bad = parse_uint(optarg, 1, BENCH_MAX_CONNS, &u); cfg.idle = (unsigned)u; break;
+        case O_HOLD: bad = parse_double(optarg, 0, 3600, &cfg.hold_s); break;
+        case 'j': cfg.json_path = optarg; break;
+        case 'q': cfg.quiet = 1; break;
+        case O_HELP: usage(stdout); return 0;
+        default: usage(stderr); return 2;
+        }
+        if (bad) {
+            fprintf(stderr, "seamtex-bench: bad value for -%c: '%s'\n", ch < 256 ? ch : '-',
+                    optarg ? optarg : "");
+            return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "seamtex-bench: unexpected argument '%s'\n", argv[optind]);
+        usage(stderr);
+        return 2;
+    }
+    if (cfg.threads > cfg.conns)
+        cfg.threads = cfg.conns;
+    if (cfg.pipeline == 0)
+        cfg.pipeline = cfg.open_loop ? 1024 : 1;
+    signal(SIGPIPE, SIG_IGN);
+
+    double load0 = loadavg1();
+    if (inproc) {
+        double qps = 0;
+        char msg[256];
+        cfg.op = BENCH_OP_SAMPLE;
+        if (bench_inproc_run(&cfg, &qps, msg, sizeof msg) < 0) {
+            fprintf(stderr, "seamtex-bench: %s\n", msg);
+            return 1;
+        }
+        if (cfg.json_path) {
+            FILE *f = fopen(cfg.json_path, "w");
+            if (!f || fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n  \"op\": \"inproc\",\n"
+                                 "  \"batch\": %u,\n  \"threads\": %u,\n  \"queries_per_s\": %.1f,\n"
+                                 "  \"loadavg_before\": %.2f,\n  \"loadavg_after\": %.2f\n}\n",
+                              cfg.batch, cfg.threads, qps, load0, loadavg1()) < 0 ||
+                fclose(f) != 0) {
+                fprintf(stderr, "seamtex-bench: cannot write %s\n", cfg.json_path);
+                return 1;
+            }
+        }
+        return 0;
+    }
+    if (cfg.idle) {
+        struct rlimit rl;
+        if (getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < cfg.idle + 64) {
+            rl.rlim_cur = rl.rlim_max < cfg.idle + 64 ? rl.rlim_max : cfg.idle + 64;
+            setrlimit(RLIMIT_NOFILE, &rl);
+        }
+        return run_idle(&cfg);
+    }
+
+    /* connect everything first, so the measurement does not include connection setup */
+    char msg[256];
+    int *fds = malloc(cfg.conns * sizeof *fds);
+    bench_thread *ths = calloc(cfg.threads, sizeof *ths);
+    bench_result *res = calloc(cfg.threads + 1, sizeof *res);
+    pthread_t *tids = calloc(cfg.threads, sizeof *tids);
+    if (!fds || !ths || !res || !tids) {
+        fprintf(stderr, "seamtex-bench: out of memory\n");
+        return 1;
+    }
+    for (unsigned i = 0; i < cfg.conns; i++) {
+        fds[i] = bench_wire_connect(&cfg, msg, sizeof msg);
+        if (fds[i] < 0) {
+            fprintf(stderr, "seamtex-bench: connection %u: %s\n", i, msg);
+            close_all(fds, i);
+            return 3;
+        }
+    }
+    if (cfg.op == BENCH_OP_SAMPLE && bench_wire_set_info(&cfg, fds[0], msg, sizeof msg) < 0) {
+        fprintf(stderr, "seamtex-bench: %s\n", msg);
+        close_all(fds, cfg.conns);
+        return 1;
+    }
+
+    uint64_t t0 = bench_now_ns() + 20000000ull;    /* 20 ms for the threads to start */
+    uint64_t t_measure = t0 + (uint64_t)(cfg.warmup_s * 1e9);
+    uint64_t t_end = t_measure + (uint64_t)(cfg.duration_s * 1e9);
+    unsigned first = 0;
+    int rc = 0;
+    for (unsigned t = 0; t < cfg.threads; t++) {
+        bench_thread *th = &ths[t];
+        th->cfg = &cfg;
+        th->index = t;
+        th->conn_first = first;
+        th->conn_count = cfg.conns / cfg.threads + (t < cfg.conns % cfg.threads);
+        first += th->conn_count;
+        th->fds = fds + th->conn_first;
+        if (cfg.max_requests)
+            th->max_requests = cfg.max_requests / cfg.threads +
+                               (t < cfg.max_requests % cfg.threads);
+        th->t_start = t0;
+        th->t_measure = t_measure;
+        th->t_end = t_end;
+        th->res = &res[t];
+        stc_hist_reset(&th->res->corrected);
+        stc_hist_reset(&th->res->service);
+        th->wire = bench_wire_new(&cfg, cfg.seed * 7919u + t, msg, sizeof msg);
+        if (!th->wire) {
+            fprintf(stderr, "seamtex-bench: %s\n", msg);
+            return 1;
+        }
+    }
+    if (!cfg.quiet)
+        printf("seamtex-bench: %s, %s loop, %u conns, %u threads, pipeline %u%s, %.1f s "
+               "(+%.1f s warm-up)\n",
+               cfg.op == BENCH_OP_SAMPLE ? "sample" : "ping", cfg.open_loop ? "open" : "closed",
+               cfg.conns, cfg.threads, cfg.pipeline,
+               cfg.op == BENCH_OP_SAMPLE ? ", batches" : "", cfg.duration_s, cfg.warmup_s);
+    unsigned started = 0;
+    for (; started < cfg.threads; started++)
+        if (pthread_create(&tids[started], NULL, thread_main, &ths[started]) != 0) {
+            fprintf(stderr, "seamtex-bench: cannot start thread %u\n", started);
+            rc = 1;
+            break;
+        }
+    for (unsigned t = 0; t < started; t++)
+        pthread_join(tids[t], NULL);
+
+    bench_result *all = &res[cfg.threads];
+    stc_hist_reset(&all->corrected);
+    stc_hist_reset(&all->service);
+    for (unsigned t = 0; t < cfg.threads; t++) {
+        bench_result *r = &res[t];
+        if (ths[t].err[0]) {
+            fprintf(stderr, "seamtex-bench: %s\n", ths[t].err);
+            rc = 1;
+        }
+        stc_hist_merge(&all->corrected, &r->corrected);
+        stc_hist_merge(&all->service, &r->service);
+        all->sent += r->sent;
+        all->completed += r->completed;
+        all->measured += r->measured;
+        all->errors += r->errors;
+        all->timeouts += r->timeouts;
+        all->conn_errors += r->conn_errors;
+        all->late_sends += r->late_sends;
+        all->queries += r->queries;
+        all->bytes_out += r->bytes_out;
+        all->bytes_in += r->bytes_in;
+        bench_wire_free(ths[t].wire);
+    }
+    close_all(fds, cfg.conns);
+
+    /* the measured window; with a request cap the run may end before t_end */
+    double secs = cfg.duration_s;
+    double load1 = loadavg1();
+    double rate = secs > 0 ? all->measured / secs : 0;
+    if (!cfg.quiet) {
+        if (cfg.open_loop)
+            printf("  target %.0f req/s (%s), achieved %.0f req/s\n", cfg.rate,
+                   cfg.arrival == STC_ARRIVAL_POISSON ? "poisson" : "uniform", rate);
+        else
+            printf("  throughput %.0f req/s\n", rate);
+        if (cfg.op == BENCH_OP_SAMPLE)
+            printf("  %.0f queries/s (batch %u)\n", all->queries / secs, cfg.batch);
+        printf("  sent %llu, completed %llu, measured %llu, errors %llu, timeouts %llu, "
+               "conn errors %llu, late sends %llu\n",
+               (unsigned long long)all->sent, (unsigned long long)all->completed,
+               (unsigned long long)all->measured, (unsigned long long)all->errors,
+               (unsigned long long)all->timeouts, (unsigned long long)all->conn_errors,
+               (unsigned long long)all->late_sends);
+        printf("  latency (us):\n");
+        print_hist("corrected", &all->corrected);
+        print_hist("service", &all->service);
+        printf("  load average %.2f -> %.2f\n", load0, load1);
+    } else {
+        printf("%.0f req/s p50 %.1f us p99 %.1f us max %.1f us errors %llu timeouts %llu\n",
+               rate, stc_hist_percentile(&all->corrected, 50) / 1e3,
+               stc_hist_percentile(&all->corrected, 99) / 1e3, all->corrected.max / 1e3,
+               (unsigned long long)all->errors, (unsigned long long)all->timeouts);
+    }
+    if (cfg.json_path && write_json(&cfg, all, secs, load0, load1, 0) < 0)
+        rc = 1;
+    if (all->measured == 0) {
+        fprintf(stderr, "seamtex-bench: no reply was measured\n");
+        rc = rc ? rc : 1;
+    }
+    free(fds);
+    free(ths);
+    free(res);
+    free(tids);
+    return rc;
+}

@@ -1,0 +1,320 @@
+/* client/bench_wire.c - the load tester's side of the protocol: connecting (loopback only,
+ * HELLO with the token), asking INFO for the set's size, building pools of ready request
+ * frames, and recognising complete replies in a byte stream.
+ *
+ * Owns: the request pools (one per thread) and the random query batches. Does not own:
+ * framing or body layouts - every byte comes from protocol/'s encoders (stp_enc_*) and the
+ * header parser (stp_parse_header); nothing here re-implements them.
+ *
+ * The event loop copies a pool frame into a connection's output and patches the request id
+ * (header offset 8), so frames are built once, not per request.
+ */
+#include "bench.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "proto.h"
+#include "sample.h"
+
+#define POOL_SAMPLE 16          /* distinct SAMPLE frames per thread */
+
+struct bench_wire {
+    stp_buf  buf;               /* every frame of the pool, back to back */
+    size_t   off[POOL_SAMPLE + 1];
+    uint32_t nq[POOL_SAMPLE];
+    unsigned n, next;
+};
+
+void bench_make_queries(struct st_query *q, size_t n, uint32_t nfaces, float fp, uint64_t *rng)
+{
+    for (size_t i = 0; i < n; i++) {
+        q[i].face = nfaces ? (uint32_t)(stc_rng_next(rng) % nfaces) : 0;
+        q[i].u = (float)stc_rng_unit(rng);
+        q[i].v = (float)stc_rng_unit(rng);
+        q[i].dudx = fp;
+        q[i].dvdx = 0;
+        q[i].dudy = 0;
+        q[i].dvdy = fp;
+    }
+}
+
+static int is_loopback(const struct sockaddr *sa)
+{
+    if (sa->sa_family == AF_INET) {
+        const struct sockaddr_in *a = (const struct sockaddr_in *)sa;
+        return (ntohl(a->sin_addr.s_addr) >> 24) == 127;
+    }
+    if (sa->sa_family == AF_INET6) {
+        const struct sockaddr_in6 *a = (const struct sockaddr_in6 *)sa;
+        if (IN6_IS_ADDR_LOOPBACK(&a->sin6_addr))
+            return 1;
+        if (IN6_IS_ADDR_V4MAPPED(&a->sin6_addr))
+            return a->sin6_addr.s6_addr[12] == 127;
+    }
+    return 0;
+}
+
+/* Blocking: writes all of buf. */
+static int write_all(int fd, const uint8_t *p, size_t n)
+{
+    while (n > 0) {
+        ssize_t w = write(fd, p, n);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0)
+            return -1;
+        p += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
+static int read_all(int fd, uint8_t *p, size_t n)
+{
+    while (n > 0) {
+        ssize_t r = read(fd, p, n);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r <= 0)
+            return -1;
+        p += r;
+        n -= (size_t)r;
+    }
+    return 0;
+}
+
+/* Blocking request/reply on a fresh socket: sends b's frame, reads one reply frame into
+ * *body (malloc'd, caller frees). Returns 0, or -1 with msg. */
+static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *msg, size_t ml)
+{
+    *body = NULL;
+    if (write_all(fd, stp_buf_head(b), stp_buf_avail(b)) < 0) {
+        snprintf(msg, ml, "write: %s", strerror(errno));
+        return -1;
+    }
+    uint8_t hdr[STP_HEADER_SIZE];
+    int reason = 0;
+    if (read_all(fd, hdr, sizeof hdr) < 0) {
+        snprintf(msg, ml, "the server closed the connection");
+        return -1;
+    }
+    if (stp_parse_header(hdr, sizeof hdr, STP_DEFAULT_MAX_BODY, h, &reason) != STP_OK) {
+        snprintf(msg, ml, "bad reply header (%s)", stp_reason_name(reason));
+        return -1;
+    }
+    *body = malloc(h->body_len ? h->body_len : 1);
+    if (!*body || read_all(fd, *body, h->body_len) < 0) {
+        free(*body);
+        *body = NULL;
+        snprintf(msg, ml, "reply body cut short");
+        return -1;
+    }
+    return 0;
+}
+
+static void status_msg(const stp_header *h, const uint8_t *body, const char *what, char *msg,
+                       size_t ml)
+{
+    char m[STP_MAX_MSG + 1];
+    stp_dec_error(body, h->body_len, m, sizeof m);
+    snprintf(msg, ml, "%s: %s: %s", what, stp_status_name(h->status), m);
+}
+
+int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t ml)
+{
+    struct addrinfo hints = { .ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM }, *ai = NULL;
+    int g = getaddrinfo(cfg->host, cfg->port, &hints, &ai);
+    if (g != 0) {
+        snprintf(msg, ml, "%s:%s: %s", cfg->host, cfg->port, gai_strerror(g));
+        return -1;
+    }
+    int fd = -1;
+    for (struct addrinfo *a = ai; a; a = a->ai_next) {
+        if (!is_loopback(a->ai_addr)) {
+            snprintf(msg, ml, "%s is not a loopback address: seamtex-bench only loads "
+                     "servers on this machine", cfg->host);
+            continue;
+        }
+        fd = socket(a->ai_family, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0) {
+            snprintf(msg, ml, "socket: %s", strerror(errno));
+            continue;
+        }
+        if (connect(fd, a->ai_addr, a->ai_addrlen) == 0)
+            break;
+        snprintf(msg, ml, "connect %s:%s: %s", cfg->host, cfg->port, strerror(errno));
+        close(fd);
+        fd = -1;
+    }
+    freeaddrinfo(ai);
+    if (fd < 0)
+        return -1;
+    int one = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_hello_req hr;
+    memset(&hr, 0, sizeof hr);
+    hr.min_version = hr.max_version = STP_VERSION;
+    hr.caps = STP_CAP_PIPELINE;
+    if (cfg->token)
+        snprintf(hr.token, sizeof hr.token, "%s", cfg->token);
+    snprintf(hr.client_name, sizeof hr.client_name, "seamtex-bench");
+    stp_header h;
+    uint8_t *body = NULL;
+    int rc = -1;
+    if (stp_enc_hello_req(&b, 1, 0, &hr) != 0) {
+        snprintf(msg, ml, "cannot encode HELLO");
+    } else if (roundtrip(fd, &b, &h, &body, msg, ml) == 0) {
+        if (h.status != STP_S_OK)
+            status_msg(&h, body, "HELLO", msg, ml);
+        else
+            rc = 0;
+    }
+    free(body);
+    stp_buf_free(&b);
+    if (rc < 0) {
+        close(fd);
+        return -1;
+    }
+    int fl = fcntl(fd, F_GETFL);
+    if (fl < 0 || fcntl(fd, F_SETFL, fl | O_NONBLOCK) < 0) {
+        snprintf(msg, ml, "fcntl: %s", strerror(errno));
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+int bench_wire_set_info(bench_cfg *cfg, int fd, char *msg, size_t ml)
+{
+    int fl = fcntl(fd, F_GETFL);
+    if (fl < 0 || fcntl(fd, F_SETFL, fl & ~O_NONBLOCK) < 0) {
+        snprintf(msg, ml, "fcntl: %s", strerror(errno));
+        return -1;
+    }
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_info_req ir;
+    memset(&ir, 0, sizeof ir);
+    snprintf(ir.name, sizeof ir.name, "%s", cfg->set);
+    stp_header h;
+    uint8_t *body = NULL;
+    int rc = -1;
+    if (stp_enc_info_req(&b, 2, 0, &ir) != 0) {
+        snprintf(msg, ml, "cannot encode INFO for '%s'", cfg->set);
+    } else if (roundtrip(fd, &b, &h, &body, msg, ml) == 0) {
+        stp_info_reply r;
+        const char *why = "";
+        if (h.status != STP_S_OK) {
+            status_msg(&h, body, "INFO", msg, ml);
+        } else if (stp_dec_info_reply(body, h.body_len, &r, &why) != 0) {
+            snprintf(msg, ml, "INFO reply malformed (%s)", why);
+        } else if (r.nfaces == 0) {
+            snprintf(msg, ml, "set '%s' has no faces", cfg->set);
+        } else {
+            cfg->nfaces = r.nfaces;
+            cfg->nchan = r.nchan;
+            rc = 0;
+        }
+    }
+    free(body);
+    stp_buf_free(&b);
+    if (rc == 0 && fcntl(fd, F_SETFL, fl | O_NONBLOCK) < 0) {
+        snprintf(msg, ml, "fcntl: %s", strerror(errno));
+        rc = -1;
+    }
+    return rc;
+}
+
+bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_t ml)
+{
+    bench_wire *w = calloc(1, sizeof *w);
+    if (!w) {
+        snprintf(msg, ml, "out of memory");
+        return NULL;
+    }
+    stp_buf_init(&w->buf);
+    if (cfg->op == BENCH_OP_PING) {
+        w->n = 1;
+        if (stp_enc_empty(&w->buf, STP_OP_PING, 0, 0, 0) != 0)
+            goto fail;
+        w->off[1] = w->buf.len;
+        return w;
+    }
+    uint64_t rng = stc_rng_seed(seed);
+    st_query *q = malloc(cfg->batch * sizeof *q);
+    if (!q)
+        goto fail;
+    w->n = POOL_SAMPLE;
+    for (unsigned i = 0; i < POOL_SAMPLE; i++) {
+        bench_make_queries(q, cfg->batch, cfg->nfaces, cfg->footprint, &rng);
+        stp_sample_req r;
+        memset(&r, 0, sizeof r);
+        snprintf(r.p.name, sizeof r.p.name, "%s", cfg->set);
+        r.p.mode = cfg->modes[stc_rng_next(&rng) % cfg->nmodes];
+        r.p.filter = cfg->filters[stc_rng_next(&rng) % cfg->nfilters];
+        r.p.outfmt = STP_OUT_F32;
+        r.count = cfg->batch;
+        /* st_query and stp_query have the same fields in the same order */
+        _Static_assert(sizeof(st_query) == sizeof(stp_query), "query layouts differ");
+        r.queries = (const stp_query *)q;
+        w->off[i] = w->buf.len;
+        if (stp_enc_sample_req(&w->buf, 0, 0, &r) != 0) {
+            free(q);
+            goto fail;
+        }
+        w->nq[i] = cfg->batch;
+    }
+    w->off[POOL_SAMPLE] = w->buf.len;
+    free(q);
+    return w;
+fail:
+    snprintf(msg, ml, "cannot build request frames (out of memory or bad set name)");
+    bench_wire_free(w);
+    return NULL;
+}
+
+void bench_wire_free(bench_wire *w)
+{
+    if (!w)
+        return;
+    stp_buf_free(&w->buf);
+    free(w);
+}
+
+size_t bench_wire_next(bench_wire *w, const uint8_t **frame, uint32_t *nq)
+{
+    unsigned i = w->next;
+    w->next = (w->next + 1) % w->n;
+    *frame = w->buf.data + w->off[i];
+    *nq = w->nq[i];
+    return w->off[i + 1] - w->off[i];
+}
+
+long bench_wire_reply(const uint8_t *buf, size_t len, int *ok, uint32_t *reqid)
+{
+    stp_header h;
+    int reason = 0;
+    int r = stp_parse_header(buf, len, (size_t)256 << 20, &h, &reason);
+    if (r == STP_NEED_MORE)
+        return 0;
+    if (r != STP_OK || !(h.flags & STP_F_REPLY))
+        return -1;
+    size_t total = STP_HEADER_SIZE + (size_t)h.body_len;
+    if (len < total)
+        return 0;
+    *ok = h.status == STP_S_OK;
+    *reqid = h.reqid;
+    return (long)total;
+}

@@ -1,0 +1,68 @@
+/* client/cli.h - internal header of the command-line client `seamtex` (not installed).
+ *
+ * Owns: what the command files share: the global options, the connection, exit codes, the
+ * progress bar. seamtex_cli.c has main, dispatch and the small commands (ping, ls, info,
+ * stats, delete); cli_sample.c the sample command; cli_transfer.c upload, fetch, compress.
+ * Does not own: the protocol or the connection logic (libseamtex, client/seamtex.h).
+ */
+#ifndef STC_CLI_H
+#define STC_CLI_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include "seamtex.h"
+
+/* Exit codes. */
+enum {
+    CLI_OK      = 0,
+    CLI_SERVER  = 1,   /* the server refused, or a local file could not be used */
+    CLI_USAGE   = 2,
+    CLI_CONNECT = 3    /* could not connect, or the connection broke */
+};
+
+typedef struct cli_ctx {
+    const char *host;
+    unsigned    port;
+    const char *token;
+    int         timeout_ms;
+    const char *prog;          /* "seamtex" */
+    stc_conn   *conn;          /* opened by cli_connect */
+} cli_ctx;
+
+/* Opens ctx->conn; on failure prints why and returns CLI_CONNECT. */
+int cli_connect(cli_ctx *ctx);
+/* Prints "seamtex: <what>: <error>" for a failed library call and returns the exit code. */
+int cli_fail(cli_ctx *ctx, const char *what, int code);
+/* Parses numbers; 0 or -1. */
+int cli_parse_u32(const char *s, uint32_t *out);
+int cli_parse_float(const char *s, float *out);
+/* 1 when argv[i] is --help or -?. */
+int cli_is_help(const char *a);
+
+/* Names of the store's enums for printing. */
+const char *cli_kind_name(unsigned kind);
+const char *cli_dtype_name(unsigned dtype);
+/* "12.3 MiB" into buf. */
+const char *cli_bytes(uint64_t n, char *buf, size_t cap);
+
+/* Progress on stderr: a bar when stderr is a terminal, plain "what: N%" lines every 10 %
+ * otherwise. */
+typedef struct cli_progress {
+    const char *what;
+    int         tty;
+    int         last;          /* last percentage printed */
+    int         bytes;         /* 1: done/total are bytes (shown with a rate) */
+    uint64_t    t0;            /* start, ns */
+} cli_progress;
+void cli_progress_init(cli_progress *p, const char *what, int bytes);
+void cli_progress_update(cli_progress *p, uint64_t done, uint64_t total);
+void cli_progress_end(cli_progress *p);
+
+/* Commands: argc/argv start at the command name. Each returns an exit code. */
+int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv);
+int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv);
+int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv);
+int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv);
+
+#endif

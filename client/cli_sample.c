@@ -1,0 +1,295 @@
+/* client/cli_sample.c - `seamtex sample`: one query from the arguments or many from a file
+ * of text lines "face u v [dudx dvdx dudy dvdy]", answered as text (one line per query:
+ * values, coverage, status) or as raw binary values on stdout.
+ *
+ * Owns: the query file parser and the output formats. Does not own: sampling (the server)
+ * or framing (libseamtex); batches larger than the server's max_batch are split here.
+ */
+#include "cli.h"
+
+#include <ctype.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "sample.h"
+
+#define MAX_FILE_QUERIES (16u << 20)    /* 16 M queries (448 MiB of queries) at most */
+
+static const char *const SAMPLE_USAGE =
+"usage: seamtex sample SET FACE U V [options]\n"
+"       seamtex sample SET --queries FILE [options]\n"
+"Samples a set. FILE has one query per line, 'face u v [dudx dvdx dudy dvdy]' ('-' reads\n"
+"stdin; '#' starts a comment). Text output: one line per query with the channel values,\n"
+"the coverage and the status.\n"
+"  --dudx A --dvdx B --dudy C --dvdy D   footprint of a single query (default 0)\n"
+"  --mode discard|traverse|clamp          seam handling (traverse)\n"
+"  --filter NAME      point bilinear trilinear aniso, ptex-point ptex-bilinear ptex-box\n"
+"                     ptex-gaussian ptex-bicubic ptex-bspline ptex-catmullrom\n"
+"                     ptex-mitchell (bilinear)\n"
+"  --zero-rule nan|clamp  a query whose taps all fall outside (discard) (nan)\n"
+"  --max-aniso N  --sharpness S  --width W  --blur B\n"
+"  --binary           write the values raw (little-endian, count x channels) to stdout\n"
+"  --format f32|unorm8|unorm16   value format on the wire and in --binary output (f32)\n";
+
+static const char *qstatus_name(unsigned s)
+{
+    static const char *const n[] = { "OK", "BAD_FACE", "NONFINITE", "BAD_FOOTPRINT",
+                                      "ZERO_COVERAGE" };
+    return s < 5 ? n[s] : "?";
+}
+
+/* Parses one line into q; returns 1 for a query, 0 for a blank/comment line, -1 bad. */
+static int parse_line(char *line, stc_query *q)
+{
+    char *hash = strchr(line, '#');
+    if (hash)
+        *hash = '\0';
+    char *tok[8];
+    int n = 0;
+    for (char *save = NULL, *t = strtok_r(line, " \t\r\n,", &save); t;
+         t = strtok_r(NULL, " \t\r\n,", &save)) {
+        if (n == 8)
+            return -1;
+        tok[n++] = t;
+    }
+    if (n == 0)
+        return 0;
+    if (n != 3 && n != 7)
+        return -1;
+    memset(q, 0, sizeof *q);
+    float *f[6] = { &q->u, &q->v, &q->dudx, &q->dvdx, &q->dudy, &q->dvdy };
+    if (cli_parse_u32(tok[0], &q->face))
+        return -1;
+    for (int i = 1; i < n; i++)
+        if (cli_parse_float(tok[i], f[i - 1]))
+            return -1;
+    return 1;
+}
+
+static int read_queries(const char *path, stc_query **out, size_t *count)
+{
+    FILE *f = strcmp(path, "-") ? fopen(path, "r") : stdin;
+    if (!f) {
+        fprintf(stderr, "seamtex sample: %s: cannot open\n", path);
+        return CLI_SERVER;
+    }
+    stc_query *q = NULL;
+    size_t n = 0, cap = 0, lineno = 0;
+    char *line = NULL;
+    size_t lcap = 0;
+    int rc = CLI_OK;
+    while (getline(&line, &lcap, f) > 0) {
+        lineno++;
+        stc_query one;
+        int r = parse_line(line, &one);
+        if (r < 0) {
+            fprintf(stderr, "seamtex sample: %s:%zu: expected 'face u v [dudx dvdx dudy dvdy]'\n",
+                    path, lineno);
+            rc = CLI_USAGE;
+            break;
+        }
+        if (r == 0)
+            continue;
+        if (n == MAX_FILE_QUERIES) {
+            fprintf(stderr, "seamtex sample: %s: more than %u queries\n", path, MAX_FILE_QUERIES);
+            rc = CLI_USAGE;
+            break;
+        }
+        if (n == cap) {
+            size_t nc = cap ? cap * 2 : 1024;
+            stc_query *p = realloc(q, nc * sizeof *q);
+            if (!p) {
+                fprintf(stderr, "seamtex sample: out of memory\n");
+                rc = CLI_SERVER;
+                break;
+            }
+            q = p;
+            cap = nc;
+        }
+        q[n++] = one;
+    }
+    free(line);
+    if (f != stdin)
+        fclose(f);
+    if (rc == CLI_OK && n == 0) {
+        fprintf(stderr, "seamtex sample: %s has no query\n", path);
+        rc = CLI_USAGE;
+    }
+    if (rc != CLI_OK) {
+        free(q);
+        return rc;
+    }
+    *out = q;
+    *count = n;
+    return CLI_OK;
+}
+
+static int parse_filter(const char *s)
+{
+    int v = st_filter_parse(s);
+    if (v >= 0)
+        return v;
+    /* also accept ptex-bilinear for ptex_bilinear and the like */
+    char buf[32];
+    size_t n = strlen(s);
+    if (n >= sizeof buf)
+        return -1;
+    for (size_t i = 0; i <= n; i++)
+        buf[i] = s[i] == '-' ? '_' : s[i] == '_' ? '-' : s[i];
+    return st_filter_parse(buf);
+}
+
+static void print_text(const stc_query *q, const stc_sample_result *r)
+{
+    for (uint32_t i = 0; i < r->count; i++) {
+        printf("%u %g %g:", q[i].face, q[i].u, q[i].v);
+        for (unsigned c = 0; c < r->nchan; c++) {
+            size_t k = (size_t)i * r->nchan + c;
+            if (r->outfmt == STC_OUT_UNORM8)
+                printf(" %u", ((const uint8_t *)r->values)[k]);
+            else if (r->outfmt == STC_OUT_UNORM16)
+                printf(" %u", ((const uint16_t *)r->values)[k]);
+            else
+                printf(" %.6g", ((const float *)r->values)[k]);
+        }
+        if (r->coverage)
+            printf("  coverage %.4g", r->coverage[i]);
+        if (r->status)
+            printf("  %s", qstatus_name(r->status[i]));
+        printf("\n");
+    }
+}
+
+int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
+{
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = ST_MODE_TRAVERSE;
+    o.filter = ST_FILTER_BILINEAR;
+    const char *pos[4];
+    int npos = 0, binary = 0;
+    const char *qfile = NULL, *set = NULL;
+    stc_query one;
+    memset(&one, 0, sizeof one);
+
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (cli_is_help(a)) {
+            fputs(SAMPLE_USAGE, stdout);
+            return CLI_OK;
+        }
+        if (a[0] != '-' || a[1] == '\0' || (a[1] >= '0' && a[1] <= '9') || a[1] == '.') {
+            if (!set)
+                set = a;
+            else if (npos < 4)
+                pos[npos++] = a;
+            else {
+                fprintf(stderr, "seamtex sample: too many arguments (see --help)\n");
+                return CLI_USAGE;
+            }
+            continue;
+        }
+        if (!strcmp(a, "--binary")) {
+            binary = 1;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "seamtex sample: %s needs a value\n", a);
+            return CLI_USAGE;
+        }
+        const char *v = argv[++i];
+        int bad = 0;
+        uint32_t u;
+        float *fp = !strcmp(a, "--dudx") ? &one.dudx : !strcmp(a, "--dvdx") ? &one.dvdx
+                  : !strcmp(a, "--dudy") ? &one.dudy : !strcmp(a, "--dvdy") ? &one.dvdy
+                  : !strcmp(a, "--sharpness") ? &o.sharpness : !strcmp(a, "--width") ? &o.width
+                  : !strcmp(a, "--blur") ? &o.blur : NULL;
+        if (fp) {
+            bad = cli_parse_float(v, fp);
+        } else if (!strcmp(a, "--queries")) {
+            qfile = v;
+        } else if (!strcmp(a, "--mode")) {
+            int m = st_mode_parse(v);
+            bad = m < 0;
+            o.mode = (unsigned)m;
+        } else if (!strcmp(a, "--filter")) {
+            int f = parse_filter(v);
+            bad = f < 0;
+            o.filter = (unsigned)f;
+        } else if (!strcmp(a, "--zero-rule")) {
+            bad = strcmp(v, "nan") && strcmp(v, "clamp");
+            o.zero_rule = !strcmp(v, "clamp") ? ST_ZERO_CLAMP : ST_ZERO_NAN;
+        } else if (!strcmp(a, "--max-aniso")) {
+            bad = cli_parse_u32(v, &u) || u > 16;
+            o.max_aniso = u;
+        } else if (!strcmp(a, "--format")) {
+            o.outfmt = !strcmp(v, "f32") ? STC_OUT_F32 : !strcmp(v, "unorm8") ? STC_OUT_UNORM8
+                     : !strcmp(v, "unorm16") ? STC_OUT_UNORM16 : 99;
+            bad = o.outfmt == 99;
+        } else {
+            fprintf(stderr, "seamtex sample: unknown option %s (see --help)\n", a);
+            return CLI_USAGE;
+        }
+        if (bad) {
+            fprintf(stderr, "seamtex sample: bad value for %s: '%s'\n", a, v);
+            return CLI_USAGE;
+        }
+    }
+    if (!set || (qfile && npos) || (!qfile && npos != 3)) {
+        fputs(SAMPLE_USAGE, stderr);
+        return CLI_USAGE;
+    }
+    if (binary && isatty(STDOUT_FILENO)) {
+        fprintf(stderr, "seamtex sample: --binary output is not for a terminal; redirect it\n");
+        return CLI_USAGE;
+    }
+
+    stc_query *q = &one;
+    size_t n = 1;
+    if (qfile) {
+        int rc = read_queries(qfile, &q, &n);
+        if (rc)
+            return rc;
+    } else if (cli_parse_u32(pos[0], &one.face) || cli_parse_float(pos[1], &one.u) ||
+               cli_parse_float(pos[2], &one.v)) {
+        fprintf(stderr, "seamtex sample: FACE U V must be numbers\n");
+        return CLI_USAGE;
+    }
+    o.want = binary ? 0 : STC_WANT_COVERAGE | STC_WANT_STATUS;
+
+    int rc = cli_connect(ctx);
+    if (rc)
+        goto out;
+    size_t chunk = stc_server_info(ctx->conn)->max_batch;
+    if (chunk == 0 || chunk > 65536)
+        chunk = 65536;
+    uint64_t nbad = 0;
+    for (size_t at = 0; at < n; at += chunk) {
+        size_t m = n - at < chunk ? n - at : chunk;
+        stc_sample_result r;
+        int e = stc_sample(ctx->conn, set, &o, q + at, m, &r);
+        if (e) {
+            rc = cli_fail(ctx, set, e);
+            goto out;
+        }
+        nbad += r.nbad;
+        if (binary) {
+            size_t vs = r.outfmt == STC_OUT_F32 ? 4 : r.outfmt == STC_OUT_UNORM16 ? 2 : 1;
+            size_t bytes = (size_t)r.count * r.nchan * vs;
+            if (fwrite(r.values, 1, bytes, stdout) != bytes) {
+                fprintf(stderr, "seamtex sample: writing the output failed\n");
+                rc = CLI_SERVER;
+                goto out;
+            }
+        } else {
+            print_text(q + at, &r);
+        }
+    }
+    if (!binary && n > 1)
+        printf("(%zu queries, %llu not OK)\n", n, (unsigned long long)nbad);
+out:
+    if (q != &one)
+        free(q);
+    return rc;
+}

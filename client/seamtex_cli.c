@@ -1,0 +1,424 @@
+/* client/seamtex_cli.c - `seamtex`, the command-line client (in the spirit of redis-cli):
+ *
+ *   seamtex [-h host] [-p port] [-t token] [--timeout ms] <command> [args]
+ *   ping | ls | info SET | sample ... | upload ... | delete SET | stats | fetch ... | compress ...
+ *
+ * Owns: global options, dispatch, exit codes, the small commands (ping, ls, info, stats,
+ * delete), shared helpers (cli.h). Does not own: the protocol or connections (libseamtex);
+ * sample (cli_sample.c); upload, fetch, compress (cli_transfer.c).
+ *
+ * Exit codes: 0 ok, 1 the server refused (or a local file failed), 2 usage, 3 connection.
+ * Output for people goes to stdout; errors and progress to stderr.
+ */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define DEFAULT_PORT 7411
+
+static const char *const USAGE =
+"usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] COMMAND [ARGS]\n"
+"\n"
+"  ping                         round trip to the server, prints the time it took\n"
+"  ls                           the sets the server holds\n"
+"  info SET [--faces A:N]       facts about a set (and per-face records A..A+N-1)\n"
+"  sample SET FACE U V [opts]   sample one point, or --queries FILE; text or --binary\n"
+"  upload FILE NAME [opts]      upload a file as set NAME (progress bar on stderr)\n"
+"  delete SET                   remove a set\n"
+"  stats                        the server's counters\n"
+"  fetch SET FILE [--format ptx|dds]   download a set as a file\n"
+"  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
+"\n"
+"HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7411, TOKEN to\n"
+"$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command.\n"
+"Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
+
+/* ---- shared helpers (cli.h) --------------------------------------------------------------- */
+
+int cli_is_help(const char *a)
+{
+    return !strcmp(a, "--help") || !strcmp(a, "-?");
+}
+
+int cli_parse_u32(const char *s, uint32_t *out)
+{
+    char *end;
+    errno = 0;
+    if (!s || *s == '-' || *s == '\0')
+        return -1;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || *end || v > UINT32_MAX)
+        return -1;
+    *out = (uint32_t)v;
+    return 0;
+}
+
+int cli_parse_float(const char *s, float *out)
+{
+    char *end;
+    errno = 0;
+    if (!s || *s == '\0')
+        return -1;
+    double v = strtod(s, &end);
+    if (errno == ERANGE && fabs(v) > 1.0)
+        return -1;
+    if (*end)
+        return -1;
+    *out = (float)v;
+    return 0;
+}
+
+const char *cli_kind_name(unsigned kind)
+{
+    static const char *const k[] = { "perface", "cube", "atlas", "bc1" };
+    return kind < 4 ? k[kind] : "?";
+}
+
+const char *cli_dtype_name(unsigned dtype)
+{
+    static const char *const d[] = { "u8", "u16", "half", "f32" };
+    return dtype < 4 ? d[dtype] : "?";
+}
+
+const char *cli_bytes(uint64_t n, char *buf, size_t cap)
+{
+    if (n < 1024)
+        snprintf(buf, cap, "%llu B", (unsigned long long)n);
+    else if (n < (1ull << 20))
+        snprintf(buf, cap, "%.1f KiB", n / 1024.0);
+    else if (n < (1ull << 30))
+        snprintf(buf, cap, "%.1f MiB", n / 1048576.0);
+    else
+        snprintf(buf, cap, "%.2f GiB", n / 1073741824.0);
+    return buf;
+}
+
+static uint64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+void cli_progress_init(cli_progress *p, const char *what, int bytes)
+{
+    p->what = what;
+    p->bytes = bytes;
+    p->tty = isatty(STDERR_FILENO);
+    p->last = -1;
+    p->t0 = now_ns();
+}
+
+void cli_progress_update(cli_progress *p, uint64_t done, uint64_t total)
+{
+    int pct = total ? (int)(done * 100 / total) : 100;
+    if (pct > 100)
+        pct = 100;
+    if (p->tty) {
+        if (pct == p->last)
+            return;
+        double secs = (now_ns() - p->t0) / 1e9;
+        double rate = secs > 0 ? done / secs : 0;
+        char a[32], b[32], r[32];
+        int width = 30, fill = pct * width / 100;
+        fprintf(stderr, "\r%s [", p->what);
+        for (int i = 0; i < width; i++)
+            fputc(i < fill ? '#' : '.', stderr);
+        fprintf(stderr, "] %3d%%", pct);
+        if (p->bytes)
+            fprintf(stderr, " %s / %s  %s/s ", cli_bytes(done, a, sizeof a),
+                    cli_bytes(total, b, sizeof b), cli_bytes((uint64_t)rate, r, sizeof r));
+        else
+            fprintf(stderr, "  %.1f s ", secs);
+        fflush(stderr);
+    } else {
+        if (p->last >= 0 && pct / 10 == p->last / 10 && pct != 100)
+            return;
+        if (pct == p->last)
+            return;
+        fprintf(stderr, "%s: %d%%\n", p->what, pct);
+    }
+    p->last = pct;
+}
+
+void cli_progress_end(cli_progress *p)
+{
+    if (p->tty && p->last >= 0)
+        fputc('\n', stderr);
+}
+
+int cli_connect(cli_ctx *ctx)
+{
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    o.token = ctx->token;
+    o.client_name = "seamtex-cli";
+    o.request_timeout_ms = ctx->timeout_ms;
+    char msg[256] = "";
+    int err = 0;
+    ctx->conn = stc_connect_opts(ctx->host, ctx->port, &o, &err, msg, sizeof msg);
+    if (!ctx->conn) {
+        fprintf(stderr, "%s: cannot connect to %s:%u: %s%s%s\n", ctx->prog, ctx->host,
+                ctx->port, stc_strerror(err), msg[0] ? ": " : "", msg);
+        return CLI_CONNECT;
+    }
+    return CLI_OK;
+}
+
+int cli_fail(cli_ctx *ctx, const char *what, int code)
+{
+    const char *m = ctx->conn ? stc_errmsg(ctx->conn) : "";
+    fprintf(stderr, "%s: %s: %s%s%s\n", ctx->prog, what, stc_strerror(code), m && *m ? ": " : "",
+            m ? m : "");
+    if (stc_is_server_error(code))
+        return CLI_SERVER;
+    switch (code) {
+    case STC_EINVAL:
+        return CLI_USAGE;
+    case STC_EFILE: case STC_ECHECKSUM: case STC_ECANCELED: case STC_ENOMEM: case STC_ESTATE:
+        return CLI_SERVER;
+    default:
+        return CLI_CONNECT;            /* EIO, ECLOSED, EPROTO, ETIMEDOUT, ECONNECT */
+    }
+}
+
+/* ---- small commands ------------------------------------------------------------------------ */
+
+static int cmd_ping(cli_ctx *ctx, int argc, char **argv)
+{
+    if (argc > 1) {
+        fprintf(argc == 2 && cli_is_help(argv[1]) ? stdout : stderr,
+                "usage: seamtex ping\nOne PING round trip; prints PONG and the time it took.\n");
+        return argc == 2 && cli_is_help(argv[1]) ? CLI_OK : CLI_USAGE;
+    }
+    int rc = cli_connect(ctx);
+    if (rc)
+        return rc;
+    uint64_t t0 = now_ns();
+    int e = stc_ping(ctx->conn);
+    if (e)
+        return cli_fail(ctx, "ping", e);
+    printf("PONG %.1f us\n", (now_ns() - t0) / 1e3);
+    return CLI_OK;
+}
+
+static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
+{
+    if (argc > 1) {
+        fprintf(argc == 2 && cli_is_help(argv[1]) ? stdout : stderr,
+                "usage: seamtex ls\nLists the sets: name, kind, channels, type, faces, memory.\n");
+        return argc == 2 && cli_is_help(argv[1]) ? CLI_OK : CLI_USAGE;
+    }
+    int rc = cli_connect(ctx);
+    if (rc)
+        return rc;
+    const stc_set_entry *s;
+    size_t n;
+    int e = stc_list(ctx->conn, &s, &n);
+    if (e)
+        return cli_fail(ctx, "ls", e);
+    printf("%-32s %-8s %4s %-5s %9s %12s\n", "NAME", "KIND", "CHAN", "TYPE", "FACES", "MEMORY");
+    for (size_t i = 0; i < n; i++) {
+        char b[32];
+        printf("%-32s %-8s %4u %-5s %9u %12s\n", s[i].name, cli_kind_name(s[i].kind), s[i].nchan,
+               cli_dtype_name(s[i].dtype), s[i].nfaces, cli_bytes(s[i].memory, b, sizeof b));
+    }
+    printf("(%zu set%s)\n", n, n == 1 ? "" : "s");
+    return CLI_OK;
+}
+
+static int cmd_info(cli_ctx *ctx, int argc, char **argv)
+{
+    const char *set = NULL;
+    uint32_t first = 0, count = 0;
+    for (int i = 1; i < argc; i++) {
+        if (cli_is_help(argv[i])) {
+            printf("usage: seamtex info SET [--faces FIRST:COUNT]\n"
+                   "Facts about a set; --faces also prints per-face records (size, levels,\n"
+                   "neighbours across edges 0..3 as face/edge, -1 on a boundary).\n");
+            return CLI_OK;
+        } else if (!strcmp(argv[i], "--faces") && i + 1 < argc) {
+            char *colon = strchr(argv[++i], ':');
+            if (!colon) {
+                fprintf(stderr, "seamtex info: --faces wants FIRST:COUNT\n");
+                return CLI_USAGE;
+            }
+            *colon = '\0';
+            if (cli_parse_u32(argv[i], &first) || cli_parse_u32(colon + 1, &count) ||
+                count > 100000) {
+                fprintf(stderr, "seamtex info: bad --faces range\n");
+                return CLI_USAGE;
+            }
+        } else if (!set && argv[i][0] != '-') {
+            set = argv[i];
+        } else {
+            fprintf(stderr, "seamtex info: unexpected '%s' (see seamtex info --help)\n", argv[i]);
+            return CLI_USAGE;
+        }
+    }
+    if (!set) {
+        fprintf(stderr, "usage: seamtex info SET [--faces FIRST:COUNT]\n");
+        return CLI_USAGE;
+    }
+    int rc = cli_connect(ctx);
+    if (rc)
+        return rc;
+    stc_info in;
+    int e = stc_info_get(ctx->conn, set, first, count, &in);
+    if (e)
+        return cli_fail(ctx, set, e);
+    char b1[32], b2[32];
+    printf("name:              %s\n", set);
+    printf("kind:              %s\n", cli_kind_name(in.kind));
+    printf("faces:             %u (%u constant, %u subfaces)\n", in.nfaces, in.nconstant,
+           in.nsubfaces);
+    printf("channels:          %u %s%s\n", in.nchan, cli_dtype_name(in.dtype),
+           in.alpha_chan >= 0 ? " (alpha)" : "");
+    printf("colorspace:        %s%s\n", in.colorspace ? "srgb" : "linear",
+           in.premultiplied ? ", premultiplied" : "");
+    printf("face sizes:        %ux%u .. %ux%u\n", in.min_w, in.min_h, in.max_w, in.max_h);
+    printf("memory:            %s (texels %s)\n", cli_bytes(in.memory, b1, sizeof b1),
+           cli_bytes(in.texel_bytes, b2, sizeof b2));
+    printf("boundary edges:    %u\n", in.boundary_edges);
+    printf("irregular corners: %u (max valence %u)\n", in.irregular_corners, in.max_valence);
+    printf("border modes:      u %u, v %u; mesh %s\n", in.border_u, in.border_v,
+           in.meshtype ? "triangle" : "quad");
+    printf("metadata entries:  %u\n", in.nmeta);
+    for (uint32_t i = 0; i < in.nrec; i++) {
+        const stc_face *f = &in.faces[i];
+        printf("face %u: %ux%u levels %u%s adj", in.face_first + i, f->w, f->h, f->nlevels,
+               f->flags & 1 ? " constant" : "");
+        for (int k = 0; k < 4; k++)
+            printf(" %d/%u", f->adjface[k], f->adjface[k] < 0 ? 0u : f->adjedge[k]);
+        printf("\n");
+    }
+    return CLI_OK;
+}
+
+static int cmd_stats(cli_ctx *ctx, int argc, char **argv)
+{
+    if (argc > 1) {
+        fprintf(argc == 2 && cli_is_help(argv[1]) ? stdout : stderr,
+                "usage: seamtex stats\nThe server's counters, one 'key value' per line.\n");
+        return argc == 2 && cli_is_help(argv[1]) ? CLI_OK : CLI_USAGE;
+    }
+    int rc = cli_connect(ctx);
+    if (rc)
+        return rc;
+    const stc_stat *s;
+    size_t n;
+    int e = stc_stats(ctx->conn, &s, &n);
+    if (e)
+        return cli_fail(ctx, "stats", e);
+    for (size_t i = 0; i < n; i++) {
+        if (s[i].is_float)
+            printf("%-32s %.6g\n", s[i].key, s[i].f);
+        else
+            printf("%-32s %llu\n", s[i].key, (unsigned long long)s[i].u);
+    }
+    return CLI_OK;
+}
+
+static int cmd_delete(cli_ctx *ctx, int argc, char **argv)
+{
+    if (argc != 2 || cli_is_help(argv[1])) {
+        int help = argc == 2 && cli_is_help(argv[1]);
+        fprintf(help ? stdout : stderr, "usage: seamtex delete SET\nRemoves a set (needs the "
+                "token when the server has one).\n");
+        return help ? CLI_OK : CLI_USAGE;
+    }
+    int rc = cli_connect(ctx);
+    if (rc)
+        return rc;
+    int e = stc_delete(ctx->conn, argv[1]);
+    if (e)
+        return cli_fail(ctx, argv[1], e);
+    printf("deleted %s\n", argv[1]);
+    return CLI_OK;
+}
+
+/* ---- main ------------------------------------------------------------------------------------ */
+
+typedef struct cli_cmd {
+    const char *name;
+    int (*fn)(cli_ctx *, int, char **);
+} cli_cmd;
+
+static const cli_cmd CMDS[] = {
+    { "ping", cmd_ping },          { "ls", cmd_ls },          { "list", cmd_ls },
+    { "info", cmd_info },          { "sample", cli_cmd_sample },
+    { "upload", cli_cmd_upload },  { "delete", cmd_delete },  { "rm", cmd_delete },
+    { "stats", cmd_stats },        { "fetch", cli_cmd_fetch }, { "compress", cli_cmd_compress },
+};
+
+int main(int argc, char **argv)
+{
+    cli_ctx ctx = { .host = "127.0.0.1", .port = DEFAULT_PORT, .prog = "seamtex" };
+    const char *env;
+    if ((env = getenv("SEAMTEX_HOST")) && *env)
+        ctx.host = env;
+    if ((env = getenv("SEAMTEX_PORT")) && *env) {
+        uint32_t p;
+        if (cli_parse_u32(env, &p) == 0 && p > 0 && p < 65536)
+            ctx.port = p;
+    }
+    if ((env = getenv("SEAMTEX_TOKEN")) && *env)
+        ctx.token = env;
+
+    int i = 1;
+    for (; i < argc && argv[i][0] == '-'; i++) {
+        const char *a = argv[i];
+        if (cli_is_help(a)) {
+            fputs(USAGE, stdout);
+            return CLI_OK;
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "seamtex: option %s needs a value\n%s", a, USAGE);
+            return CLI_USAGE;
+        }
+        const char *v = argv[++i];
+        uint32_t u;
+        if (!strcmp(a, "-h") || !strcmp(a, "--host")) {
+            ctx.host = v;
+        } else if (!strcmp(a, "-p") || !strcmp(a, "--port")) {
+            if (cli_parse_u32(v, &u) || u == 0 || u > 65535) {
+                fprintf(stderr, "seamtex: bad port '%s'\n", v);
+                return CLI_USAGE;
+            }
+            ctx.port = u;
+        } else if (!strcmp(a, "-t") || !strcmp(a, "--token")) {
+            ctx.token = v;
+        } else if (!strcmp(a, "--timeout")) {
+            if (cli_parse_u32(v, &u) || u > 86400000) {
+                fprintf(stderr, "seamtex: bad timeout '%s'\n", v);
+                return CLI_USAGE;
+            }
+            ctx.timeout_ms = (int)u;
+        } else {
+            fprintf(stderr, "seamtex: unknown option %s\n%s", a, USAGE);
+            return CLI_USAGE;
+        }
+    }
+    if (i >= argc) {
+        fputs(USAGE, stderr);
+        return CLI_USAGE;
+    }
+    for (size_t k = 0; k < sizeof CMDS / sizeof CMDS[0]; k++) {
+        if (!strcmp(argv[i], CMDS[k].name)) {
+            int rc = CMDS[k].fn(&ctx, argc - i, argv + i);
+            stc_close(ctx.conn);
+            if (fflush(stdout) != 0 && rc == CLI_OK) {
+                fprintf(stderr, "seamtex: writing the output failed\n");
+                rc = CLI_SERVER;
+            }
+            return rc;
+        }
+    }
+    fprintf(stderr, "seamtex: unknown command '%s'\n%s", argv[i], USAGE);
+    return CLI_USAGE;
+}
