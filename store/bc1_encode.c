@@ -189,6 +189,64 @@ static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3],
     return 1;
 }
 
+/* With the selectors fixed the error separates by channel, and with per-selector sums it
+ * costs O(4) to evaluate one endpoint pair exactly (truncating palette included). For each
+ * channel, tries every (q0, q1) within +-radius of the least-squares values e0, e1 (8-bit
+ * scale) and keeps the best; returns the pair as 565 (unordered: the caller orders it). */
+static void refine_exact(const blk *B, const uint8_t *sel, int four, const float e0[3],
+                         const float e1[3], int radius, uint16_t *c0, uint16_t *c1)
+{
+    float cnt[4] = {0, 0, 0, 0}, s1[3][4];
+    memset(s1, 0, sizeof s1);
+    for (int i = 0; i < 16; i++) {
+        int j = sel[i];
+        cnt[j] += B->w[i];
+        s1[0][j] += B->r[i] * B->w[i];
+        s1[1][j] += B->g[i] * B->w[i];
+        s1[2][j] += B->b[i] * B->w[i];
+    }
+    int q[2][3];
+    for (int k = 0; k < 3; k++) {
+        int bits = k == 1 ? 6 : 5, mx = (1 << bits) - 1;
+        float sc = (float)mx / 255.0f;
+        int a0 = clampi((int)(e0[k] * sc + 0.5f), 0, mx), b0 = clampi((int)(e1[k] * sc + 0.5f), 0, mx);
+        float best = 3e30f;
+        int ba = a0, bb = b0;
+        for (int qa = a0 - radius; qa <= a0 + radius; qa++) {
+            if (qa < 0 || qa > mx)
+                continue;
+            int ea = bits == 5 ? (qa << 3) | (qa >> 2) : (qa << 2) | (qa >> 4);
+            for (int qb = b0 - radius; qb <= b0 + radius; qb++) {
+                if (qb < 0 || qb > mx)
+                    continue;
+                int eb = bits == 5 ? (qb << 3) | (qb >> 2) : (qb << 2) | (qb >> 4);
+                float p[4];
+                p[0] = (float)ea;
+                p[1] = (float)eb;
+                if (four) {
+                    p[2] = (float)((2 * ea + eb) / 3);
+                    p[3] = (float)((ea + 2 * eb) / 3);
+                } else {
+                    p[2] = (float)((ea + eb) / 2);
+                    p[3] = 0;
+                }
+                float err = 0;
+                for (int j = 0; j < 4; j++)
+                    err += p[j] * (cnt[j] * p[j] - 2.0f * s1[k][j]);
+                if (err < best) {
+                    best = err;
+                    ba = qa;
+                    bb = qb;
+                }
+            }
+        }
+        q[0][k] = ba;
+        q[1][k] = bb;
+    }
+    *c0 = pack565(q[0][0], q[0][1], q[0][2]);
+    *c1 = pack565(q[1][0], q[1][1], q[1][2]);
+}
+
 /* Principal axis endpoints: e0 at the largest projection, e1 at the smallest. inset: fraction
  * of the range moved inwards at both ends. */
 static void axis_endpoints(const blk *B, float inset, float e0[3], float e1[3])
@@ -258,10 +316,10 @@ static void axis_endpoints(const blk *B, float inset, float e0[3], float e1[3])
 }
 
 /* Greedy +-1 search over the six 565 components of the best pair, in its own mode. */
-static void neighbourhood(const blk *B, cand *best, int four)
+static void neighbourhood(const blk *B, cand *best, int four, int passes)
 {
     static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
-    for (int pass = 0; pass < 2; pass++) {
+    for (int pass = 0; pass < passes; pass++) {
         int improved = 0;
         for (int e = 0; e < 2; e++)
             for (int k = 0; k < 3; k++)
@@ -293,17 +351,30 @@ static void neighbourhood(const blk *B, cand *best, int four)
     }
 }
 
-/* Encodes the compacted opaque colours; four_ok = 0 forces 3-colour mode. */
-static void encode_colours(const blk *B, int level, int four_ok, cand *out)
+/* What a level does (see the method at the top). */
+typedef struct profile {
+    float inset;        /* of the initial axis endpoints */
+    int   rounds;       /* round -> select -> least squares rounds, 4-colour */
+    int   neigh;        /* passes of the +-1 neighbourhood search, 4-colour */
+    int   rounds3;      /* 3-colour trial rounds for opaque blocks (0 = no trial) */
+    int   neigh3;       /* neighbourhood passes of the 3-colour trial */
+    int   radius;       /* exact per-channel search radius after each least squares (0 = round) */
+} profile;
+
+static const profile PROFILES[2] = {
+    {1.0f / 16.0f, 2, 0, 0, 0, 1}, /* ST_BC1_FAST */
+    {1.0f / 16.0f, 4, 1, 3, 0, 0}, /* ST_BC1_HQ */
+};
+
+/* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
+static void encode_colours(const blk *B, const profile *P, int four_ok, cand *out)
 {
     cand best;
     best.err = 3e30f;
     float e0[3], e1[3];
-    int hq = level != ST_BC1_FAST;
-    axis_endpoints(B, hq ? 0.0f : 1.0f / 16.0f, e0, e1);
+    axis_endpoints(B, four_ok ? P->inset : 0.0f, e0, e1);
     if (four_ok) {
-        int rounds = hq ? 4 : 2;
-        for (int it = 0; it < rounds; it++) {
+        for (int it = 0; it < P->rounds; it++) {
             uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
             float before = best.err;
             try4(B, a, b, &best);
@@ -313,17 +384,22 @@ static void encode_colours(const blk *B, int level, int four_ok, cand *out)
                 break;
             if (!ls_endpoints(B, best.sel, 1, e0, e1))
                 break;
+            if (P->radius) {
+                uint16_t a2, b2;
+                refine_exact(B, best.sel, 1, e0, e1, P->radius, &a2, &b2);
+                try4(B, a2, b2, &best);
+            }
         }
-        if (hq && best.c0 != best.c1)
-            neighbourhood(B, &best, 1);
+        if (P->neigh && best.c0 != best.c1)
+            neighbourhood(B, &best, 1, P->neigh);
     }
-    if (!four_ok || (hq && best.err > 0)) {
-        /* 3-colour trial from the axis endpoints and from the 4-colour result */
+    if (!four_ok || (P->rounds3 && best.err > 0)) {
         cand b3;
         b3.err = 3e30f;
         float f0[3], f1[3];
         axis_endpoints(B, 0.0f, f0, f1);
-        for (int it = 0; it < 3; it++) {
+        int rounds = P->rounds3 ? P->rounds3 : 3;
+        for (int it = 0; it < rounds; it++) {
             uint16_t a = round565(f0[0], f0[1], f0[2]), b = round565(f1[0], f1[1], f1[2]);
             float before = b3.err;
             try3(B, a, b, &b3);
@@ -331,9 +407,14 @@ static void encode_colours(const blk *B, int level, int four_ok, cand *out)
                 break;
             if (!ls_endpoints(B, b3.sel, 0, f0, f1))
                 break;
+            if (P->radius) {
+                uint16_t a2, b2;
+                refine_exact(B, b3.sel, 0, f0, f1, P->radius, &a2, &b2);
+                try3(B, a2, b2, &b3);
+            }
         }
-        if (hq)
-            neighbourhood(B, &b3, 0);
+        if (P->neigh3)
+            neighbourhood(B, &b3, 0, P->neigh3);
         if (b3.err < best.err)
             best = b3;
     }
@@ -412,7 +493,8 @@ void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
         B.w[t] = (transparent >> t & 1) ? 0.0f : 1.0f;
     }
     cand c;
-    encode_colours(&B, level, transparent == 0, &c);
+    const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : 1];
+    encode_colours(&B, P, transparent == 0, &c);
     uint32_t sel = 0;
     for (int t = 0; t < 16; t++) {
         unsigned s = (transparent >> t & 1) ? 3u : c.sel[t];
