@@ -233,7 +233,8 @@ void stp_put_bytes(stp_buf *b, const void *p, size_t n);
 /* str16: u16 length + bytes (no NUL). s may be NULL (length 0); cut at 65535 bytes. */
 void stp_put_str(stp_buf *b, const char *s);
 
-/* Starts a frame: appends a header with body length 0 and returns its offset in b. */
+/* Starts a frame: appends a header with body length 0 and returns its offset from the head
+ * of b (stp_buf_head), which stays valid while the frame is written. */
 size_t stp_frame_begin(stp_buf *b, uint8_t opcode, uint16_t flags, uint32_t reqid,
                        uint16_t status, uint32_t timeout_ms);
 /* Patches the body length of the frame that starts at `at`; 0, or STP_S_NOMEM after a failed
