@@ -65,8 +65,8 @@
  *   by min(ulog2, vlog2) descending (a constant face counts as 1).
  *   constant   : one pixel (block size = pixel size)
  *   zipped     : inflates to u*v pixels stored planar: all of channel 0 (rows of u), then 1...
- *   diffzipped : the same, u8/u16 only, each channel plane delta-coded (x[i] - x[i-1], mod 2^n)
- *                over the whole plane in row order
+ *   diffzipped : the same, u8/u16 only, delta-coded (x[i] - x[i-1], mod 2^n) in one run
+ *                over the whole planar block (the run continues from one plane to the next)
  *   tiled      : 2 bytes tile res (s8 ulog2, s8 vlog2), u32 tileheadersize, zipped
  *                FaceDataHeaders of the tiles (row-major, u fastest), then the tile blocks
  *                (constant, zipped or diff-zipped), back to back.

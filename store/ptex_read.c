@@ -161,8 +161,7 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
     int rc = inflate_exact(r, off, size, tmp, bytes, what);
     if (rc == ST_OK) {
         if (enc == PTX_ENC_DIFFZIPPED)
-            for (unsigned c = 0; c < r->nc; c++)
-                decode_difference(r, tmp + (size_t)c * w * h * r->csize, (size_t)w * h * r->csize);
+            decode_difference(r, tmp, bytes); /* one run over all planes */
         interleave(r, tmp, w, h, dst, stride);
     }
     free(tmp);

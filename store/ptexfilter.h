@@ -25,4 +25,11 @@
 int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                         float *out, float *coverage, uint8_t *status);
 
+/* Builds what the Ptex filters read (every face at every (ulog2', vlog2') resolution, as the
+ * Ptex reader serves them, ptexres.h) for a per-face set that was not read from a .ptx
+ * (st_ptex_read_* builds it already; then this does nothing). Without it the Ptex filters
+ * return ST_EUNSUPPORTED. Call before the set is shared: it attaches set->ext and rewrites
+ * the set's levels past the square reductions with Ptex's own u/v reductions. */
+int st_ptexfilter_prepare(st_set *s, st_error *e);
+
 #endif
