@@ -13,6 +13,7 @@
  * Discard costs there.
  */
 #include "sample_internal.h"
+#include "ptexfilter.h"
 
 #include <math.h>
 #include <string.h>
@@ -297,9 +298,8 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
     if (o->filter >= ST_FILTER_PTEX_POINT && o->filter <= ST_FILTER_PTEX_MITCHELL) {
         if (s->info.kind != ST_KIND_PERFACE)
             return ST_EUNSUPPORTED;
-        /* Ptex filter family: switch to `return st_ptexfilter_batch(s, o, q, n, out, coverage,
-         * status);` (store/ptexfilter.h) once ptexfilter.c exists. */
-        return ST_EUNSUPPORTED;
+        /* Ptex filter family (store/ptexfilter.c) */
+        return st_ptexfilter_batch(s, o, q, n, out, coverage, status);
     }
     if (o->filter > ST_FILTER_ANISO)
         return ST_EINVAL;
