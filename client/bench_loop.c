@@ -9,7 +9,9 @@
  * t_send is read just before the write() that carries the request's first byte; t_reply just
  * after the read() that completed its reply. corrected = t_reply - t_intended (what a user
  * waiting on that schedule sees, coordinated omission corrected), service = t_reply - t_send.
- * Replies come back in request order on a connection (PROTOCOL.md), so a FIFO matches them.
+ * Replies are matched by request id (the server may answer out of order when it offers
+ * OUT_OF_ORDER): request ids on a connection are consecutive and request r lives in slot
+ * r % cap, so at most cap requests are outstanding and a lookup is one array access.
  *
  * A request is recorded when its intended time lies in [t_measure, t_end). No request is
  * issued from t_end on; outstanding ones get until t_end + min(timeout, 2 s), and whatever is
@@ -38,12 +40,14 @@ typedef struct bconn {
     size_t    out_off, out_len, out_cap;
     uint8_t  *in;               /* bytes read, not yet parsed: in[0 .. in_len) */
     size_t    in_len, in_cap;
-    /* FIFO of outstanding requests, ring of `cap` entries */
+    /* outstanding requests: request id r in slot r % cap */
     uint64_t *t_int, *t_send;
     uint32_t *nq;
-    uint32_t *rid;              /* request id of each entry, checked against the reply */
-    uint32_t  next_rid;
-    uint32_t  head, count, unstamped;   /* the last `unstamped` entries have no t_send yet */
+    uint32_t *rid;              /* request id held by a slot, 0 = free */
+    uint32_t  next_rid;         /* id of the next request (ids start at 1) */
+    uint32_t  stamp_from;       /* ids from here to next_rid are queued, not yet written */
+    uint32_t  oldest;           /* no request older than this is outstanding */
+    uint32_t  count;            /* outstanding (queued or sent) */
     uint32_t  cap;
     stc_sched sched;
 } bconn;
@@ -82,9 +86,15 @@ static void conn_kill(bench_thread *th, int ep, bconn *c)
         return;
     th->res->conn_errors++;
     th->res->timeouts += c->count;
-    c->count = c->unstamped = 0;
+    c->count = 0;
     epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
     c->dead = 1;
+}
+
+/* A new request fits: fewer than cap outstanding and its slot is free. */
+static inline int can_issue(const bconn *c)
+{
+    return c->count < c->cap && c->rid[c->next_rid % c->cap] == 0;
 }
 
 /* Queues one request frame with its intended time. */
@@ -98,8 +108,8 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
     if (grow(&c->out, &c->out_cap, c->out_len + len) < 0)
         return -1;
     memcpy(c->out + c->out_len, frame, len);
-    uint32_t slot = (c->head + c->count) % c->cap;
-    uint32_t rid = ++c->next_rid;
+    uint32_t rid = c->next_rid++;
+    uint32_t slot = rid % c->cap;
     stp_wr32(c->out + c->out_len + BENCH_REQID_OFFSET, rid);
     c->out_len += len;
     c->rid[slot] = rid;
@@ -107,7 +117,6 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
     c->t_send[slot] = 0;
     c->nq[slot] = nq;
     c->count++;
-    c->unstamped++;
     th->res->sent++;
     return 0;
 }
@@ -117,12 +126,11 @@ static int conn_flush(bench_thread *th, bconn *c)
 {
     while (c->out_off < c->out_len) {
         uint64_t now = bench_now_ns();
-        while (c->unstamped > 0) {
-            uint32_t slot = (c->head + c->count - c->unstamped) % c->cap;
+        for (; c->stamp_from != c->next_rid; c->stamp_from++) {
+            uint32_t slot = c->stamp_from % c->cap;
             c->t_send[slot] = now;
             if (th->cfg->open_loop && now > c->t_int[slot] + LATE_NS)
                 th->res->late_sends++;
-            c->unstamped--;
         }
         ssize_t w = write(c->fd, c->out + c->out_off, c->out_len - c->out_off);
         if (w < 0) {
@@ -168,13 +176,13 @@ static int conn_read(bench_thread *th, bconn *c)
                 return -1;
             if (flen == 0)
                 break;
-            if (c->count == 0 || c->count == c->unstamped)
-                return -1;                  /* a reply nobody asked for */
-            uint32_t slot = c->head;
-            if (rid != c->rid[slot])
-                return -1;                  /* out of order or foreign: cannot match it */
-            c->head = (c->head + 1) % c->cap;
+            uint32_t slot = rid % c->cap;
+            if (rid == 0 || c->rid[slot] != rid || rid - c->oldest >= c->stamp_from - c->oldest)
+                return -1;                  /* a reply to no request that was sent */
+            c->rid[slot] = 0;
             c->count--;
+            while (c->oldest != c->stamp_from && c->rid[c->oldest % c->cap] != c->oldest)
+                c->oldest++;
             r->completed++;
             if (!ok)
                 r->errors++;
@@ -240,9 +248,10 @@ int bench_loop_run(bench_thread *th)
         c->t_int = malloc(cap * sizeof *c->t_int);
         c->t_send = malloc(cap * sizeof *c->t_send);
         c->nq = malloc(cap * sizeof *c->nq);
-        c->rid = malloc(cap * sizeof *c->rid);
-        if (!c->t_int || !c->t_send || !c->nq || !c->rid || grow(&c->out, &c->out_cap, OUT_INIT) < 0 ||
-            grow(&c->in, &c->in_cap, IN_INIT) < 0) {
+        c->rid = calloc(cap, sizeof *c->rid);
+        c->next_rid = c->stamp_from = c->oldest = 1;
+        if (!c->t_int || !c->t_send || !c->nq || !c->rid ||
+            grow(&c->out, &c->out_cap, OUT_INIT) < 0 || grow(&c->in, &c->in_cap, IN_INIT) < 0) {
             snprintf(th->err, sizeof th->err, "thread %u: out of memory", th->index);
             goto out;
         }
@@ -280,7 +289,7 @@ int bench_loop_run(bench_thread *th)
             int queued = 0;
             if (issuing) {
                 if (cfg->open_loop) {
-                    while (c->count < c->cap && stc_sched_peek(&c->sched) <= now &&
+                    while (can_issue(c) && stc_sched_peek(&c->sched) <= now &&
                            stc_sched_peek(&c->sched) < th->t_end &&
                            (!th->max_requests || issued < th->max_requests)) {
                         if (conn_queue(th, c, stc_sched_next(&c->sched)) < 0)
@@ -289,10 +298,10 @@ int bench_loop_run(bench_thread *th)
                         queued = 1;
                     }
                     uint64_t nd = stc_sched_peek(&c->sched);
-                    if (c->count < c->cap && nd < th->t_end && (!next_due || nd < next_due))
+                    if (can_issue(c) && nd < th->t_end && (!next_due || nd < next_due))
                         next_due = nd;
                 } else {
-                    while (c->count < c->cap &&
+                    while (can_issue(c) &&
                            (!th->max_requests || issued < th->max_requests)) {
                         if (conn_queue(th, c, now) < 0)
                             goto oom;
@@ -311,8 +320,8 @@ int bench_loop_run(bench_thread *th)
                                 i);
             }
             /* the oldest request sent on this connection is too old: give up on it */
-            if (c->count > c->unstamped && timeout_ns &&
-                now > c->t_send[c->head] + timeout_ns) {
+            if (c->count > 0 && c->oldest != c->stamp_from && timeout_ns &&
+                now > c->t_send[c->oldest % c->cap] + timeout_ns) {
                 conn_kill(th, ep, c);
                 alive--;
                 continue;

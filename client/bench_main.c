@@ -33,7 +33,7 @@ static void usage(FILE *f)
 "an open loop (latency at a fixed rate, measured from each request's intended send time).\n"
 "\n"
 "  -h, --host HOST        server address, loopback only (127.0.0.1)\n"
-"  -p, --port PORT        server port (7411)\n"
+"  -p, --port PORT        server port (7450)\n"
 "  -t, --token TOKEN      access token, if the server wants one\n"
 "  -o, --op OP            ping | sample (ping)\n"
 "  -c, --conns N          connections (1)\n"
@@ -227,7 +227,7 @@ static int run_idle(const bench_cfg *cfg)
 int main(int argc, char **argv)
 {
     bench_cfg cfg = {
-        .host = "127.0.0.1", .port = "7411", .set = "default", .op = BENCH_OP_PING,
+        .host = "127.0.0.1", .port = "7450", .set = "default", .op = BENCH_OP_PING,
         .arrival = STC_ARRIVAL_UNIFORM, .duration_s = 5, .warmup_s = 1, .timeout_s = 5,
         .seed = 1, .conns = 1, .threads = 1, .pipeline = 0, .batch = 4096,
         .footprint = 0.001f, .hold_s = 10,

@@ -19,7 +19,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#define DEFAULT_PORT 7411
+#define DEFAULT_PORT 7450
 
 static const char *const USAGE =
 "usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] COMMAND [ARGS]\n"
@@ -34,7 +34,7 @@ static const char *const USAGE =
 "  fetch SET FILE [--format ptx|dds]   download a set as a file\n"
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
 "\n"
-"HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7411, TOKEN to\n"
+"HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
 "$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command.\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
 
