@@ -169,7 +169,7 @@ int st_manifest_read(const char *path, st_manifest *m, st_error *e)
     if (!f)
         return st_fail(e, errno == ENOENT ? ST_ENOTFOUND : ST_EIO, "open %s: %s", path,
                        strerror(errno));
-    char line[256];
+    char line[1200];
     int step = 0, rc = 0;
     while (!rc && fgets(line, sizeof line, f)) {
         size_t n = strlen(line);
@@ -182,10 +182,10 @@ int st_manifest_read(const char *path, st_manifest *m, st_error *e)
         if (v)
             *v++ = 0;
         static const char *const keys[] = {"seamtex-set", "name", "source", "format",
-                                           "bytes", "crc32", "end"};
-        if (step >= 7 || strcmp(line, keys[step]) != 0 || (step < 6 && !v) || (step == 6 && v)) {
+                                           "bytes", "crc32", "options", "end"};
+        if (step >= 8 || strcmp(line, keys[step]) != 0 || (step < 6 && !v) || (step == 7 && v)) {
             rc = st_fail(e, ST_EFORMAT, "%s: line %d: expected '%s'", path, step + 1,
-                         step < 7 ? keys[step] : "(nothing)");
+                         step < 8 ? keys[step] : "(nothing)");
             break;
         }
         char *end = NULL;
@@ -223,13 +223,19 @@ int st_manifest_read(const char *path, st_manifest *m, st_error *e)
             m->crc = (uint32_t)x;
             break;
         }
+        case 6:
+            if (v && strlen(v) >= sizeof m->options)
+                rc = st_fail(e, ST_EFORMAT, "%s: options too long", path);
+            else
+                snprintf(m->options, sizeof m->options, "%s", v ? v : "");
+            break;
         default:
             break;
         }
         step++;
     }
     fclose(f);
-    if (!rc && step != 7)
+    if (!rc && step != 8)
         rc = st_fail(e, ST_EFORMAT, "%s: manifest ends after %d lines", path, step);
     return rc;
 }
@@ -251,11 +257,12 @@ static int write_all(int fd, const char *p, size_t n)
 /* Writes the manifest to tmp_path and fsyncs it. */
 static int manifest_write(const char *tmp_path, const st_manifest *m, st_error *e)
 {
-    char text[512];
+    char text[1600];
     int n = snprintf(text, sizeof text,
                      "seamtex-set 1\nname %s\nsource %s\nformat %s\nbytes %" PRIu64
-                     "\ncrc32 %08x\nend\n",
-                     m->name, m->source, m->format, m->bytes, (unsigned)m->crc);
+                     "\ncrc32 %08x\noptions%s%s\nend\n",
+                     m->name, m->source, m->format, m->bytes, (unsigned)m->crc,
+                     m->options[0] ? " " : "", m->options);
     int fd = open(tmp_path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
     if (fd < 0)
         return st_fail(e, ST_EIO, "create %s: %s", tmp_path, strerror(errno));
@@ -338,12 +345,19 @@ void st_datadir_discard(const char *tmp_path)
 /* ---- commit / delete ------------------------------------------------------------------------ */
 
 int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
-                      uint64_t bytes, uint32_t crc, st_publish_fn publish, void *arg,
+                      const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
                       st_error *e)
 {
     int rc = st_name_check(name, name ? strlen(name) : 0, e);
     if (!rc)
         rc = st_format_check(fmt, e);
+    if (!rc && options) {
+        if (strlen(options) >= sizeof ((st_manifest *)0)->options)
+            rc = st_fail(e, ST_EINVAL, "import options are too long");
+        for (const char *p = options; !rc && *p; p++)
+            if ((unsigned char)*p < 0x20 || (unsigned char)*p > 0x7e)
+                rc = st_fail(e, ST_EINVAL, "import options must be printable ASCII");
+    }
     uint64_t got_bytes = 0;
     uint32_t got_crc = 0;
     if (!rc)
@@ -351,8 +365,6 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     if (!rc && got_bytes != bytes)
         rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
                      got_bytes, bytes);
-    if (!rc && got_crc != crc)
-        rc = st_fail(e, ST_ECORRUPT, "upload CRC-32 is %08x, %08x was announced", got_crc, crc);
     if (!rc)
         rc = fsync_path(tmp_path, 0, e);
     if (rc) {
@@ -365,7 +377,8 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     snprintf(m.name, sizeof m.name, "%s", name);
     snprintf(m.format, sizeof m.format, "%s", fmt);
     m.bytes = bytes;
-    m.crc = crc;
+    m.crc = got_crc;
+    snprintf(m.options, sizeof m.options, "%s", options ? options : "");
     char id[64];
     new_id(d, id, sizeof id);
     snprintf(m.source, sizeof m.source, "source-%s.%s", id, fmt);
@@ -458,6 +471,75 @@ static void move_broken(st_datadir *d, const char *name, const char *setdir)
         rm_rf(setdir);  /* cannot move it: still never load it half-way */
 }
 
+/* Checks and loads one set directory: 1 loaded, 0 removed or moved to broken/, ST_EBUSY
+ * when the loader asked to be called again later. Caller holds d->mu. */
+static int load_one(st_datadir *d, const char *sets, const char *name, st_publish_fn load,
+                    void *arg, void (*report)(void *arg, const char *name, const char *why),
+                    int final)
+{
+    struct dirent *de;
+    char setdir[PATHCAP], man[PATHCAP], src[PATHCAP];
+    pathf(setdir, "%s/%s", sets, name);
+    pathf(man, "%s/manifest", setdir);
+    st_error err;
+    st_error_clear(&err);
+    if (st_name_check(name, strlen(name), &err) != 0) {
+        if (report)
+            report(arg, name, err.msg);
+        move_broken(d, "badname", setdir);
+        return 0;
+    }
+    st_manifest m;
+    int rc = st_manifest_read(man, &m, &err);
+    if (rc == ST_ENOTFOUND) {
+        /* a new set whose commit never reached its manifest: never acknowledged */
+        if (report)
+            report(arg, name, "no manifest (interrupted upload): removed");
+        rm_rf(setdir);
+        return 0;
+    }
+    if (!rc && strcmp(m.name, name) != 0)
+        rc = st_fail(&err, ST_EFORMAT, "manifest names '%s'", m.name);
+    /* remove files the manifest does not name (an interrupted replace) */
+    if (!rc) {
+        DIR *sd = opendir(setdir);
+        while (sd && (de = readdir(sd))) {
+            if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..") ||
+                !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source))
+                continue;
+            pathf(src, "%s/%s", setdir, de->d_name);
+            rm_rf(src);
+        }
+        if (sd)
+            closedir(sd);
+        pathf(src, "%s/%s", setdir, m.source);
+        uint64_t bytes;
+        uint32_t crc;
+        rc = st_file_crc(src, &bytes, &crc, &err);
+        if (!rc && (bytes != m.bytes || crc != m.crc))
+            rc = st_fail(&err, ST_ECORRUPT,
+                         "source has %" PRIu64 " bytes crc %08x, manifest says %" PRIu64
+                         " bytes crc %08x", bytes, crc, m.bytes, m.crc);
+    }
+    if (!rc && load) {
+        rc = load(arg, &m, src);
+        if (rc == ST_EBUSY && !final)
+            return ST_EBUSY;
+        if (rc && !err.msg[0])
+            snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
+    }
+    if (rc) {
+        if (report) {
+            char why[ST_ERRMSG_LEN + 40];
+            snprintf(why, sizeof why, "%s: moved to broken/", err.msg[0] ? err.msg : "load failed");
+            report(arg, name, why);
+        }
+        move_broken(d, name, setdir);
+        return 0;
+    }
+    return 1;
+}
+
 int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
                     void (*report)(void *arg, const char *name, const char *why), st_error *e)
 {
@@ -489,70 +571,31 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
 
     int loaded = 0;
     pthread_mutex_lock(&d->mu);
-    for (size_t i = 0; i < n; i++) {
-        const char *name = names[i];
-        char setdir[PATHCAP], man[PATHCAP], src[PATHCAP];
-        pathf(setdir, "%s/%s", sets, name);
-        pathf(man, "%s/manifest", setdir);
-        st_error err;
-        st_error_clear(&err);
-        if (st_name_check(name, strlen(name), &err) != 0) {
-            if (report)
-                report(arg, name, err.msg);
-            move_broken(d, "badname", setdir);
-            continue;
-        }
-        st_manifest m;
-        int rc = st_manifest_read(man, &m, &err);
-        if (rc == ST_ENOTFOUND) {
-            /* a new set whose commit never reached its manifest: never acknowledged */
-            if (report)
-                report(arg, name, "no manifest (interrupted upload): removed");
-            rm_rf(setdir);
-            continue;
-        }
-        if (!rc && strcmp(m.name, name) != 0)
-            rc = st_fail(&err, ST_EFORMAT, "manifest names '%s'", m.name);
-        /* remove files the manifest does not name (an interrupted replace) */
-        if (!rc) {
-            DIR *sd = opendir(setdir);
-            while (sd && (de = readdir(sd))) {
-                if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..") ||
-                    !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source))
-                    continue;
-                pathf(src, "%s/%s", setdir, de->d_name);
-                rm_rf(src);
+    /* pass after pass: sets whose loader said "later" (ST_EBUSY) are retried while the
+     * previous pass loaded something; in the last pass "later" counts as a failure */
+    size_t left = n;
+    for (int final = 0; left > 0;) {
+        size_t progress = 0, deferred = 0;
+        for (size_t i = 0; i < n; i++) {
+            if (!names[i])
+                continue;
+            int r = load_one(d, sets, names[i], load, arg, report, final);
+            if (r == ST_EBUSY) {
+                deferred++;
+                continue;
             }
-            if (sd)
-                closedir(sd);
-            pathf(src, "%s/%s", setdir, m.source);
-            uint64_t bytes;
-            uint32_t crc;
-            rc = st_file_crc(src, &bytes, &crc, &err);
-            if (!rc && (bytes != m.bytes || crc != m.crc))
-                rc = st_fail(&err, ST_ECORRUPT,
-                             "source has %" PRIu64 " bytes crc %08x, manifest says %" PRIu64
-                             " bytes crc %08x", bytes, crc, m.bytes, m.crc);
-        }
-        if (!rc && load) {
-            rc = load(arg, &m, src);
-            if (rc && !err.msg[0])
-                snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
-        }
-        if (rc) {
-            if (report) {
-                char why[ST_ERRMSG_LEN + 40];
-                snprintf(why, sizeof why, "%s: moved to broken/", err.msg[0] ? err.msg : "load failed");
-                report(arg, name, why);
+            if (r == 1) {
+                loaded++;
+                progress++;
             }
-            move_broken(d, name, setdir);
-            continue;
+            free(names[i]);
+            names[i] = NULL;
         }
-        loaded++;
+        left = deferred;
+        if (!progress)
+            final = 1;
     }
     pthread_mutex_unlock(&d->mu);
-    for (size_t i = 0; i < n; i++)
-        free(names[i]);
     free(names);
     fsync_path(sets, 1, NULL);
     return loaded;

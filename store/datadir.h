@@ -25,7 +25,8 @@
  * manifest is moved to broken/.
  *
  * Manifest (text, one "key value" per line, in this order):
- *   seamtex-set 1 | name <name> | source <file> | format <ext> | bytes <n> | crc32 <8 hex> | end
+ *   seamtex-set 1 | name <name> | source <file> | format <ext> | bytes <n> | crc32 <8 hex> |
+ *   options <import options, may be empty> | end
  *
  * Threading: commit and delete serialise on a mutex inside the datadir (the fsyncs dominate);
  * the publish callback of st_datadir_commit runs under it, so the registry sees commits in the
@@ -47,6 +48,7 @@ typedef struct st_manifest {
     char     format[16];     /* the extension the importer keys on: "ptx", "png", ... */
     uint64_t bytes;
     uint32_t crc;
+    char     options[1024];  /* import options given at upload ("key=value ..."), may be "" */
 } st_manifest;
 
 /* Opens (creating when absent) the data dir at path and cleans tmp/ and trash/. */
@@ -73,11 +75,11 @@ int st_format_check(const char *fmt, st_error *e);
 typedef int (*st_publish_fn)(void *arg, const st_manifest *m, const char *source_path);
 
 /* Commits tmp_path (a file from st_datadir_tmpfile, complete) as set `name` with source
- * format fmt: verifies size and CRC-32 against bytes/crc, fsyncs, renames, writes the
- * manifest as above. Calls publish (may be NULL) under the mutex. On failure before the
+ * format fmt: verifies its size against bytes (the caller checked the upload's own checksum),
+ * computes the CRC-32 the manifest records, fsyncs, renames, writes the manifest as above. Calls publish (may be NULL) under the mutex. On failure before the
  * commit point the previous set of that name is untouched and tmp_path is removed. */
 int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
-                      uint64_t bytes, uint32_t crc, st_publish_fn publish, void *arg,
+                      const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
                       st_error *e);
 
 /* Deletes set `name` durably (rename to trash/, fsync sets/, then remove). ST_ENOTFOUND when
@@ -86,7 +88,9 @@ int st_datadir_delete(st_datadir *d, const char *name,
                       int (*unpublish)(void *arg, const char *name), void *arg, st_error *e);
 
 /* Scans sets/ as described above and calls load(arg, manifest, source_path) for each set in
- * name order. A set that fails the checks or whose load callback returns < 0 is moved to
+ * name order. A load callback that returns ST_EBUSY ("needs another set first", e.g. a mesh
+ * paired with a texture set) is called again after the others, until no progress is made. A
+ * set that fails the checks or whose load callback returns another code < 0 is moved to
  * broken/<name>.<time> and reported through report (may be NULL) with the reason. Returns
  * the number of sets loaded, or a negative code when sets/ cannot be read. */
 int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
