@@ -38,8 +38,9 @@ ST_AI float chan(int DT, const uint8_t *p, unsigned c)
 
 /* ---- probes ------------------------------------------------------------------------------ */
 
-ST_AI void probe_bilinear(const st_set *s, unsigned mode, uint32_t f, unsigned level, float u,
-                          float v, float pw, st_acc *a, int DT, unsigned nch)
+ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                          unsigned level, float u, float v, float pw, st_acc *a, int DT,
+                          unsigned nch)
 {
     st_view V;
     st_view_init(&V, s, f, level);
@@ -47,7 +48,7 @@ ST_AI void probe_bilinear(const st_set *s, unsigned mode, uint32_t f, unsigned l
     int32_t i0 = st_ifloor(x), j0 = st_ifloor(y);
     float fx = x - (float)i0, fy = y - (float)j0;
     if (!((uint32_t)i0 < (uint32_t)(V.w - 1) && (uint32_t)j0 < (uint32_t)(V.h - 1))) {
-        st_probe_bilinear_edge(s, mode, f, level, &V, i0, j0, fx, fy, pw, a);
+        st_probe_bilinear_edge(s, mode, fp, f, level, &V, i0, j0, fx, fy, pw, a);
         return;
     }
     if (DT == DT_BC1 && V.bw) {
@@ -75,8 +76,9 @@ ST_AI void probe_bilinear(const st_set *s, unsigned mode, uint32_t f, unsigned l
     a->w += pw;
 }
 
-ST_AI void probe_point(const st_set *s, unsigned mode, uint32_t f, unsigned level, float u,
-                       float v, float pw, st_acc *a, int DT, unsigned nch)
+ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                       unsigned level, float u, float v, float pw, st_acc *a, int DT,
+                       unsigned nch)
 {
     st_view V;
     st_view_init(&V, s, f, level);
@@ -87,7 +89,7 @@ ST_AI void probe_point(const st_set *s, unsigned mode, uint32_t f, unsigned leve
     if (j == V.h && v <= 1.0f)
         j = V.h - 1;
     if (!((uint32_t)i < (uint32_t)V.w && (uint32_t)j < (uint32_t)V.h)) {
-        st_probe_point_edge(s, mode, f, level, &V, i, j, pw, a);
+        st_probe_point_edge(s, mode, fp, f, level, &V, i, j, pw, a);
         return;
     }
     if (DT == DT_BC1 && V.bw) {
@@ -105,35 +107,25 @@ ST_AI void probe_point(const st_set *s, unsigned mode, uint32_t f, unsigned leve
 
 /* ---- level selection (ARCHITECTURE.md, "Sampler") --------------------------------------- */
 
-/* GL's *_MIPMAP_NEAREST: level 0 when lod <= 0.5, else ceil(lod + 0.5) - 1, clamped. */
-static inline unsigned nearest_level(float lod, unsigned nl)
-{
-    if (!(lod > 0.5f))
-        return 0;
-    float t = lod + 0.5f;
-    int32_t L = (int32_t)t;
-    L -= ((float)L == t);
-    return (unsigned)L >= nl ? nl - 1 : (unsigned)L;
-}
-
 static inline float lod_of_rho2(float rho2)
 {
     return rho2 > 0.0f ? 0.5f * log2f(rho2) : -INFINITY;
 }
 
-ST_AI void probe_trilinear(const st_set *s, unsigned mode, uint32_t f, unsigned nl, float lod,
-                           float u, float v, float pw, st_acc *a, int DT, unsigned nch)
+ST_AI void probe_trilinear(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                           unsigned nl, float lod, float u, float v, float pw, st_acc *a, int DT,
+                           unsigned nch)
 {
     if (!(lod > 0.0f)) {
-        probe_bilinear(s, mode, f, 0, u, v, pw, a, DT, nch);
+        probe_bilinear(s, mode, fp, f, 0, u, v, pw, a, DT, nch);
     } else if (lod >= (float)(nl - 1)) {
-        probe_bilinear(s, mode, f, nl - 1, u, v, pw, a, DT, nch);
+        probe_bilinear(s, mode, fp, f, nl - 1, u, v, pw, a, DT, nch);
     } else {
         unsigned L0 = (unsigned)lod;
         float t = lod - (float)L0;
-        probe_bilinear(s, mode, f, L0, u, v, pw * (1.0f - t), a, DT, nch);
+        probe_bilinear(s, mode, fp, f, L0, u, v, pw * (1.0f - t), a, DT, nch);
         if (t > 0.0f)
-            probe_bilinear(s, mode, f, L0 + 1, u, v, pw * t, a, DT, nch);
+            probe_bilinear(s, mode, fp, f, L0 + 1, u, v, pw * t, a, DT, nch);
     }
 }
 
@@ -177,21 +169,27 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
     const float W0 = (float)F->w, H0 = (float)F->h;
     const float ax = q->dudx * W0, ay = q->dvdx * H0, bx = q->dudy * W0, by = q->dvdy * H0;
     const float rx2 = ax * ax + ay * ay, ry2 = bx * bx + by * by;
+    const float rho2 = rx2 > ry2 ? rx2 : ry2;
     st_acc a = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f};
+    /* lodadj NaN: Traverse's slow path derives min(lod, 0) from rho2 only when it needs it */
+    st_fp fp = {q->dudx, q->dvdx, q->dudy, q->dvdy, rho2, NAN};
     float lod = -INFINITY;
+    unsigned level = 0;
 
     switch (o->filter) {
     case ST_FILTER_POINT:
-        lod = lod_of_rho2(rx2 > ry2 ? rx2 : ry2);
-        probe_point(s, mode, f, nearest_level(lod, nl), q->u, q->v, 1.0f, &a, DT, nch);
-        break;
     case ST_FILTER_BILINEAR:
-        lod = lod_of_rho2(rx2 > ry2 ? rx2 : ry2);
-        probe_bilinear(s, mode, f, nearest_level(lod, nl), q->u, q->v, 1.0f, &a, DT, nch);
+        if (rho2 > 2.0f) /* lod > 0.5: a minified footprint, not level 0 */
+            level = st_nearest_level(lod = lod_of_rho2(rho2), nl);
+        if (o->filter == ST_FILTER_POINT)
+            probe_point(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch);
+        else
+            probe_bilinear(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch);
         break;
     case ST_FILTER_TRILINEAR:
-        lod = lod_of_rho2(rx2 > ry2 ? rx2 : ry2);
-        probe_trilinear(s, mode, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
+        lod = lod_of_rho2(rho2);
+        fp.lodadj = lod < 0.0f ? lod : 0.0f;
+        probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
         break;
     default: { /* ST_FILTER_ANISO */
         float rx = sqrtf(rx2), ry = sqrtf(ry2);
@@ -215,13 +213,14 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
         } else {
             lod = -INFINITY;
         }
+        fp.lodadj = lod < 0.0f ? lod : 0.0f;
         if (N == 1) {
-            probe_trilinear(s, mode, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
+            probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
         } else {
             float pw = 1.0f / (float)N;
             for (unsigned k = 0; k < N; k++) {
                 float t = ((float)k + 0.5f) * pw - 0.5f;
-                probe_trilinear(s, mode, f, nl, lod, q->u + t * mu, q->v + t * mv, pw, &a, DT,
+                probe_trilinear(s, mode, &fp, f, nl, lod, q->u + t * mu, q->v + t * mv, pw, &a, DT,
                                 nch);
             }
         }
@@ -237,7 +236,9 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
             for (unsigned c = 0; c < nch; c++)
                 out[c] = a.c[c] / a.w;
         }
-        *cov = mode == ST_MODE_CLAMP ? 1.0f : a.w > 1.0f ? 1.0f : a.w;
+        /* probe weights (1 - t, t; 1/N each) need not sum to exactly 1 in float: a coverage
+         * within 2^-20 of 1 is 1 */
+        *cov = mode == ST_MODE_CLAMP || a.w > 1.0f - 0x1p-20f ? 1.0f : a.w;
         return ST_Q_OK;
     }
     /* every tap was discarded (Discard, or Traverse with no face to go to) */
@@ -246,7 +247,7 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
         st_acc z = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f};
         float u = q->u < 0.0f ? 0.0f : q->u > 1.0f ? 1.0f : q->u;
         float v = q->v < 0.0f ? 0.0f : q->v > 1.0f ? 1.0f : q->v;
-        st_lookup_clamped(s, f, nearest_level(lod, nl), u, v, 0, 1.0f, &z);
+        st_lookup_clamped(s, f, st_nearest_level(lod, nl), u, v, 0, 1.0f, &z);
         for (unsigned c = 0; c < nch; c++)
             out[c] = z.c[c] / z.w;
         return ST_Q_OK;

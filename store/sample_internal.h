@@ -21,6 +21,13 @@ typedef struct st_view {
     uint32_t bw;       /* BC1: blocks per row; 0 when the level holds plain texels */
 } st_view;
 
+/* The query's footprint, for Traverse's choice of the neighbour's level. */
+typedef struct st_fp {
+    float dudx, dvdx, dudy, dvdy;
+    float rho2;    /* max(|(dudx W0, dvdx H0)|, |(dudy W0, dvdy H0)|)^2 in the query's face */
+    float lodadj;  /* min(lod, 0): how far below level 0 the footprint asked (magnification) */
+} st_fp;
+
 /* Running sums of one query: sum(w T) per channel and sum(w). */
 typedef struct st_acc {
     float c[ST_MAX_CHANNELS];
@@ -58,13 +65,26 @@ void st_fetch_any(const st_set *s, const st_view *v, int32_t i, int32_t j, float
 /* A bilinear probe of face f at `level` whose four taps (i0 + {0,1}, j0 + {0,1}) are not all
  * inside the face; fx, fy are the bilinear fractions, pw the probe's weight. Applies the
  * mode's rule to every outside tap and adds to a. */
-void st_probe_bilinear_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
-                            const st_view *v, int32_t i0, int32_t j0, float fx, float fy,
-                            float pw, st_acc *a);
+void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                            unsigned level, const st_view *v, int32_t i0, int32_t j0, float fx,
+                            float fy, float pw, st_acc *a);
 
 /* The same for the one tap of a point probe. */
-void st_probe_point_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
-                         const st_view *v, int32_t i, int32_t j, float pw, st_acc *a);
+void st_probe_point_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                         unsigned level, const st_view *v, int32_t i, int32_t j, float pw,
+                         st_acc *a);
+
+/* GL's *_MIPMAP_NEAREST: level 0 when lod <= 0.5, else ceil(lod + 0.5) - 1, clamped to
+ * nl - 1. */
+static inline unsigned st_nearest_level(float lod, unsigned nl)
+{
+    if (!(lod > 0.5f))
+        return 0;
+    float t = lod + 0.5f;
+    int32_t L = (int32_t)t;
+    L -= ((float)L == t);
+    return (unsigned)L >= nl ? nl - 1 : (unsigned)L;
+}
 
 /* Clamp-to-edge lookup of face f at level (bilinear, or nearest when point) at (u, v),
  * weight pw; never leaves the face. */

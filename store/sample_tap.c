@@ -10,6 +10,8 @@
  */
 #include "sample_internal.h"
 
+#include <math.h>
+
 void st_fetch_any(const st_set *s, const st_view *v, int32_t i, int32_t j, float out[4])
 {
     if (v->bw) {
@@ -100,8 +102,28 @@ static void corner_frame_inv(unsigned c, float X, float Y, float *u, float *v)
     }
 }
 
-/* log2 of the level-0 resolution of face F along edge e (edges 0, 2 run along u). */
-static int along_log2(const st_face *F, unsigned e) { return (e & 1) ? F->vlog2 : F->ulog2; }
+/* Level of neighbour G for a tap of a probe at `level` of the query's face: the footprint is
+ * carried through the edge rotation (odd rotations swap u and v), measured in G's texels, and
+ * the level shifts by the log2 ratio of the two measures: lod_G = level + log2(rho_G / rho_F) +
+ * min(lod_F, 0), rounded as GL's nearest-mipmap rule. Equal sizes give level itself; a zero
+ * footprint gives level 0. */
+static unsigned neighbour_level(const st_fp *fp, unsigned level, const st_face *G, int swap)
+{
+    if (!(fp->rho2 > 0.0f))
+        return 0;
+    float W = (float)G->w, H = (float)G->h;
+    float du1 = swap ? fp->dvdx : fp->dudx, dv1 = swap ? fp->dudx : fp->dvdx;
+    float du2 = swap ? fp->dvdy : fp->dudy, dv2 = swap ? fp->dudy : fp->dvdy;
+    float ax = du1 * W, ay = dv1 * H, bx = du2 * W, by = dv2 * H;
+    float r1 = ax * ax + ay * ay, r2 = bx * bx + by * by, rg = r1 > r2 ? r1 : r2;
+    float adj = fp->lodadj;
+    if (adj != adj) { /* point and bilinear leave it to be derived here */
+        adj = 0.5f * log2f(fp->rho2);
+        adj = adj < 0.0f ? adj : 0.0f;
+    }
+    float lod = (float)level + adj + (rg == fp->rho2 ? 0.0f : 0.5f * log2f(rg / fp->rho2));
+    return st_nearest_level(lod, G->nlevels);
+}
 
 /* Public helper (sample.h): the point (u, v) of face f, beyond or on edge `edge`, expressed
  * in the neighbour's uv. */
@@ -135,12 +157,52 @@ int st_uv_across_corner(const st_set *s, uint32_t f, unsigned corner, float u, f
     return 0;
 }
 
+/* The read in neighbour G (level gl, at its uv (gu, gv)) for a tap Traverse sent there. A
+ * bilinear tap of G that falls back across the shared edge `back` (and only that edge) is read
+ * from the query's face f at the probe's level, clamped: when G is coarser than f, the point
+ * lies between f's edge and G's first texel centre, and this keeps the interpolation between
+ * true samples (second order) instead of G's clamped border (first order). At equal
+ * resolution the point is a texel centre of G, those taps have weight 0 and nothing changes.
+ * Every other tap outside G is clamped into G: no further traversal. */
+static void neighbour_read(const st_set *s, uint32_t g, unsigned gl, float gu, float gv,
+                           int point, float pw, st_acc *a, int back, uint32_t f, unsigned level)
+{
+    if (point || back < 0) {
+        st_lookup_clamped(s, g, gl, gu, gv, point, pw, a);
+        return;
+    }
+    st_view V;
+    st_view_init(&V, s, g, gl);
+    float x = gu * (float)V.w - 0.5f, y = gv * (float)V.h - 0.5f;
+    int32_t i0 = st_ifloor(x), j0 = st_ifloor(y);
+    float fx = x - (float)i0, fy = y - (float)j0;
+    float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    for (int k = 0; k < 4; k++) {
+        if (w[k] == 0.0f)
+            continue;
+        int32_t i = i0 + (k & 1), j = j0 + (k >> 1);
+        int iin = (uint32_t)i < (uint32_t)V.w, jin = (uint32_t)j < (uint32_t)V.h;
+        int across = back == 0 ? (j < 0 && iin) : back == 1 ? (i >= V.w && jin)
+                   : back == 2 ? (j >= V.h && iin) : (i < 0 && jin);
+        uint32_t f2;
+        float fu, fv;
+        if (across && !st_uv_across_edge(s, g, (unsigned)back, ((float)i + 0.5f) / (float)V.w,
+                                         ((float)j + 0.5f) / (float)V.h, &f2, &fu, &fv)) {
+            st_lookup_clamped(s, f2, level < s->faces[f2].nlevels ? level : 0, fu, fv, 0,
+                              pw * w[k], a);
+            continue;
+        }
+        (void)f;
+        add_tap(s, &V, clampi(i, V.w - 1), clampi(j, V.h - 1), pw * w[k], a);
+    }
+}
+
 /* Traverse: tap (i, j) of face f at `level` lies outside the face. Its centre is mapped into
- * the neighbour (edge) or the diagonal face (corner, regular vertices only) and read there,
- * clamped inside, at the neighbour level whose resolution along the shared edge matches.
+ * the neighbour (edge) or the diagonal face (corner, regular vertices only) and read there at
+ * the neighbour's matching level (neighbour_level, neighbour_read).
  * A tap with no face to go to is dropped (its weight is not counted in the coverage). */
-static void traverse_tap(const st_set *s, uint32_t f, unsigned level, const st_view *v,
-                         int32_t i, int32_t j, int point, float w, st_acc *a)
+static void traverse_tap(const st_set *s, const st_fp *fp, uint32_t f, unsigned level,
+                         const st_view *v, int32_t i, int32_t j, int point, float w, st_acc *a)
 {
     const st_face *F = &s->faces[f];
     float uc = ((float)i + 0.5f) / (float)v->w, vc = ((float)j + 0.5f) / (float)v->h;
@@ -148,25 +210,25 @@ static void traverse_tap(const st_set *s, uint32_t f, unsigned level, const st_v
     int ov = j < 0 ? -1 : j >= v->h ? 1 : 0;
     uint32_t g;
     float gu, gv;
-    int dlog;
+    int swap, back = -1;
     if (ou && ov) {
         unsigned c = ov < 0 ? (ou < 0 ? 0u : 1u) : (ou > 0 ? 2u : 3u);
         if (st_uv_across_corner(s, f, c, uc, vc, &g, &gu, &gv))
             return;
-        dlog = along_log2(&s->faces[g], F->cornercorner[c]) - along_log2(F, c);
+        swap = (F->cornercorner[c] ^ c) & 1;
     } else {
         unsigned e = ov < 0 ? 0u : ou > 0 ? 1u : ov > 0 ? 2u : 3u;
         if (st_uv_across_edge(s, f, e, uc, vc, &g, &gu, &gv))
             return;
-        dlog = along_log2(&s->faces[g], F->adjedge[e]) - along_log2(F, e);
+        swap = (F->adjedge[e] ^ e) & 1;
+        back = F->adjedge[e];
     }
-    const st_face *G = &s->faces[g];
-    int gl = (int)level + dlog;
-    gl = gl < 0 ? 0 : gl >= G->nlevels ? G->nlevels - 1 : gl;
-    st_lookup_clamped(s, g, (unsigned)gl, gu, gv, point, w, a);
+    unsigned gl = neighbour_level(fp, level, &s->faces[g], swap);
+    neighbour_read(s, g, gl, gu, gv, point, w, a, back, f, level);
 }
 
-static void outside_tap(const st_set *s, unsigned mode, uint32_t f, unsigned level,
+static void outside_tap(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                        unsigned level,
                         const st_view *v, int32_t i, int32_t j, int point, float w, st_acc *a)
 {
     if ((uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h) {
@@ -178,27 +240,28 @@ static void outside_tap(const st_set *s, unsigned mode, uint32_t f, unsigned lev
         add_tap(s, v, clampi(i, v->w - 1), clampi(j, v->h - 1), w, a);
         break;
     case ST_MODE_TRAVERSE:
-        traverse_tap(s, f, level, v, i, j, point, w, a);
+        traverse_tap(s, fp, f, level, v, i, j, point, w, a);
         break;
     default: /* Discard: zero weight */
         break;
     }
 }
 
-void st_probe_bilinear_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
-                            const st_view *v, int32_t i0, int32_t j0, float fx, float fy,
-                            float pw, st_acc *a)
+void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                            unsigned level, const st_view *v, int32_t i0, int32_t j0, float fx,
+                            float fy, float pw, st_acc *a)
 {
     float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
     for (int k = 0; k < 4; k++) {
         if (w[k] == 0.0f)
             continue; /* a zero-weight tap neither reads nor counts */
-        outside_tap(s, mode, f, level, v, i0 + (k & 1), j0 + (k >> 1), 0, pw * w[k], a);
+        outside_tap(s, mode, fp, f, level, v, i0 + (k & 1), j0 + (k >> 1), 0, pw * w[k], a);
     }
 }
 
-void st_probe_point_edge(const st_set *s, unsigned mode, uint32_t f, unsigned level,
-                         const st_view *v, int32_t i, int32_t j, float pw, st_acc *a)
+void st_probe_point_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
+                         unsigned level, const st_view *v, int32_t i, int32_t j, float pw,
+                         st_acc *a)
 {
-    outside_tap(s, mode, f, level, v, i, j, 1, pw, a);
+    outside_tap(s, mode, fp, f, level, v, i, j, 1, pw, a);
 }
