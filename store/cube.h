@@ -83,7 +83,7 @@ typedef struct st_cube_query {
 
 /* Maps every query to (face, u, v, footprint) and samples with st_sample_batch in chunks
  * (no allocation). Arguments and results as st_sample_batch: out n * nchan floats, coverage
- * and status (either may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE.
+ * and status (out required, the other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE.
  * Returns the number of queries not ST_Q_OK, or a negative ST_E* code (nothing written).
  * lookup is an st_cube_lookup. Traverse mode gives seamless filtering across edges and
  * corners; Clamp shows the seams; Discard renormalises inside the face. */
