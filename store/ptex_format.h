@@ -98,7 +98,8 @@
 #define PTX_EDIT_META_SIZE   8u
 #define PTX_TILE_SIZE        65536 /* target uncompressed tile size of the Ptex writer */
 #define PTX_META_THRESHOLD   1024  /* larger metadata go to large-metadata blocks */
-#define PTX_MAX_ZIP_RATIO    1032u /* deflate cannot expand more than this (+ a constant) */
+#define PTX_MAX_ZIP_RATIO    1032u
+#define PTX_MAX_LEVELS_W     17    /* level info entries the writer may emit (ulog2 <= 15, +1) */ /* deflate cannot expand more than this (+ a constant) */
 
 enum { PTX_ENC_CONSTANT = 0, PTX_ENC_ZIPPED = 1, PTX_ENC_DIFFZIPPED = 2, PTX_ENC_TILED = 3 };
 enum { PTX_FLAG_CONSTANT = 1, PTX_FLAG_HASEDITS = 2, PTX_FLAG_NBCONSTANT = 4,
