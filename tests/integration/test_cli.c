@@ -1,0 +1,378 @@
+/* tests/integration/test_cli.c - the command-line programs against a real daemon: `seamtex`
+ * (every command, its output and exit codes 0 / 1 / 2 / 3) and `seamtex-bench` (closed and
+ * open loop, JSON, loopback-only refusal).
+ *
+ * One seamtexd (tests/common/daemon_fixture.h) serves the whole group; each program runs as a
+ * child through posix_spawn (this binary links OpenImageIO: no bare fork) with stdout and
+ * stderr captured to files in the fixture's temp dir. Programs come from $SEAMTEX_BUILD.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "../common/daemon_fixture.h"
+
+extern char **environ;
+
+static st_daemon D;
+static char OUTF[400], ERRF[400];
+static char OUT[1 << 16], ERR[1 << 14];
+static size_t OUTLEN;
+
+static void slurp(const char *path, char *buf, size_t cap, size_t *len)
+{
+    size_t n = 0;
+    FILE *f = fopen(path, "rb");
+    if (f) {
+        n = fread(buf, 1, cap - 1, f);
+        fclose(f);
+    }
+    buf[n] = '\0';
+    if (len)
+        *len = n;
+}
+
+static const char *bin(const char *name)
+{
+    static char path[2][512];
+    static int k;
+    const char *b = getenv("SEAMTEX_BUILD");
+    k ^= 1;
+    snprintf(path[k], sizeof path[k], "%s/%s", b && *b ? b : "build", name);
+    return path[k];
+}
+
+/* Runs a program (NULL-terminated argv after the program name), stdin from `in` (or
+ * /dev/null), and returns its exit status (128 + signal when killed); OUT and ERR hold its
+ * output. */
+static int runv(const char *prog, const char *in, const char *const *args)
+{
+    const char *argv[64];
+    int ac = 0;
+    argv[ac++] = prog;
+    for (int i = 0; args[i] && ac < 63; i++)
+        argv[ac++] = args[i];
+    argv[ac] = NULL;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 0, in ? in : "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 1, OUTF, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&fa, 2, ERRF, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    int rc = posix_spawn(&pid, prog, &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    assert_int_equal(rc, 0);
+    int st;
+    while (waitpid(pid, &st, 0) < 0)
+        ;
+    slurp(OUTF, OUT, sizeof OUT, &OUTLEN);
+    slurp(ERRF, ERR, sizeof ERR, NULL);
+    int code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    if (getenv("TEST_CLI_VERBOSE"))
+        fprintf(stderr, "$ %s ... -> %d\n%s%s", prog, code, OUT, ERR);
+    return code;
+}
+
+static char PORT[16];
+
+/* seamtex -p PORT args... */
+#define CLI(...) runv(bin("seamtex"), NULL, (const char *const[]){ "-p", PORT, __VA_ARGS__, NULL })
+#define CLI_IN(in, ...) runv(bin("seamtex"), in, (const char *const[]){ "-p", PORT, __VA_ARGS__, NULL })
+#define BENCH(...) runv(bin("seamtex-bench"), NULL, (const char *const[]){ "-p", PORT, __VA_ARGS__, NULL })
+
+static int count_lines_ending(const char *text, const char *suffix)
+{
+    int n = 0;
+    size_t sl = strlen(suffix);
+    for (const char *p = text; *p;) {
+        const char *e = strchr(p, '\n');
+        size_t len = e ? (size_t)(e - p) : strlen(p);
+        if (len >= sl && !memcmp(p + len - sl, suffix, sl))
+            n++;
+        p += len + (e ? 1 : 0);
+    }
+    return n;
+}
+
+static int group_setup(void **state)
+{
+    (void)state;
+    if (st_daemon_init(&D) != 0 || st_daemon_start(&D, NULL) != 0)
+        return -1;
+    snprintf(PORT, sizeof PORT, "%d", D.port);
+    snprintf(OUTF, sizeof OUTF, "%s/cli.out", D.dir);
+    snprintf(ERRF, sizeof ERRF, "%s/cli.err", D.dir);
+    return 0;
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    int rc = st_daemon_stop(&D, 10000);
+    st_daemon_cleanup(&D);
+    return rc == 0 ? 0 : -1;
+}
+
+static void ping_prints_pong_and_exits_zero(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("ping"), 0);
+    assert_non_null(strstr(OUT, "PONG"));
+}
+
+static void ls_lists_the_default_set(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("ls"), 0);
+    assert_non_null(strstr(OUT, "NAME"));
+    assert_non_null(strstr(OUT, "default"));
+    assert_non_null(strstr(OUT, "384"));
+}
+
+static void info_describes_the_default_set(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("info", "default"), 0);
+    assert_non_null(strstr(OUT, "faces:             384"));
+    assert_non_null(strstr(OUT, "channels:          4 u8"));
+    assert_int_equal(CLI("info", "default", "--faces", "0:2"), 0);
+    assert_non_null(strstr(OUT, "face 0: "));
+    assert_non_null(strstr(OUT, "face 1: "));
+    assert_null(strstr(OUT, "face 2: "));
+}
+
+static void sample_one_query_prints_four_values_coverage_and_ok(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("sample", "default", "3", "0.5", "0.5", "--mode", "traverse",
+                         "--filter", "bilinear"), 0);
+    unsigned face;
+    float u, v, c[4], cov;
+    char st[32];
+    assert_int_equal(sscanf(OUT, "%u %f %f: %f %f %f %f coverage %f %31s", &face, &u, &v, &c[0],
+                            &c[1], &c[2], &c[3], &cov, st), 9);
+    assert_int_equal(face, 3);
+    for (int i = 0; i < 4; i++)
+        assert_true(c[i] >= 0.0f && c[i] <= 1.0f);
+    assert_true(cov > 0.99f && cov < 1.01f);
+    assert_string_equal(st, "OK");
+}
+
+static void sample_query_file_answers_every_line_in_each_mode(void **state)
+{
+    (void)state;
+    char qf[400];
+    snprintf(qf, sizeof qf, "%s/queries.txt", D.dir);
+    FILE *f = fopen(qf, "w");
+    assert_non_null(f);
+    fprintf(f, "# face u v [dudx dvdx dudy dvdy]\n0 0.5 0.5\n\n7 0.98 0.5 0.05 0 0 0.05\n"
+               "100 0.5 0.01 0.05 0 0 0.05\n383 0.01 0.99 0.08 0 0 0.08\n");
+    fclose(f);
+    const char *modes[] = { "traverse", "discard", "clamp" };
+    for (int m = 0; m < 3; m++) {
+        assert_int_equal(CLI("sample", "default", "--queries", qf, "--mode", modes[m]), 0);
+        assert_int_equal(count_lines_ending(OUT, " OK"), 4);
+        assert_non_null(strstr(OUT, "(4 queries, 0 not OK)"));
+    }
+    /* the same file through stdin */
+    assert_int_equal(CLI_IN(qf, "sample", "default", "--queries", "-"), 0);
+    assert_int_equal(count_lines_ending(OUT, " OK"), 4);
+}
+
+static void sample_reports_a_bad_face_per_query(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("sample", "default", "99999", "0.5", "0.5"), 0);
+    assert_non_null(strstr(OUT, "BAD_FACE"));
+}
+
+static void sample_binary_writes_count_times_channels_floats(void **state)
+{
+    (void)state;
+    char qf[400];
+    snprintf(qf, sizeof qf, "%s/q10.txt", D.dir);
+    FILE *f = fopen(qf, "w");
+    assert_non_null(f);
+    for (int i = 0; i < 10; i++)
+        fprintf(f, "%d 0.25 0.75\n", i * 7);
+    fclose(f);
+    assert_int_equal(CLI("sample", "default", "--queries", qf, "--binary"), 0);
+    assert_int_equal(OUTLEN, 10 * 4 * sizeof(float));
+    float v[40];
+    memcpy(v, OUT, sizeof v);
+    for (int i = 0; i < 40; i++)
+        assert_true(v[i] >= 0.0f && v[i] <= 1.0f);
+    assert_int_equal(CLI("sample", "default", "--queries", qf, "--binary", "--format", "unorm8"), 0);
+    assert_int_equal(OUTLEN, 10 * 4);
+}
+
+static void an_unknown_set_exits_1_with_the_servers_message(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("info", "no-such-set"), 1);
+    assert_non_null(strstr(ERR, "NOT_FOUND"));
+    assert_int_equal(CLI("sample", "no-such-set", "0", "0.5", "0.5"), 1);
+    assert_int_equal(CLI("delete", "no-such-set"), 1);
+}
+
+static void bad_usage_exits_2(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("frobnicate"), 2);
+    assert_non_null(strstr(ERR, "unknown command"));
+    assert_int_equal(CLI("sample", "default", "1"), 2);
+    assert_int_equal(CLI("sample", "default", "x", "0.5", "0.5"), 2);
+    assert_int_equal(CLI("sample", "default", "0", "0.5", "0.5", "--mode", "sideways"), 2);
+    assert_int_equal(CLI("info"), 2);
+    assert_int_equal(runv(bin("seamtex"), NULL, (const char *const[]){ "-p", "0", "ping", NULL }), 2);
+    /* --help is not an error */
+    assert_int_equal(CLI("sample", "--help"), 0);
+    assert_non_null(strstr(OUT, "usage: seamtex sample"));
+}
+
+static void no_server_exits_3(void **state)
+{
+    (void)state;
+    /* a port nobody listens on: bind one, learn it, close it */
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(fd >= 0);
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+    socklen_t al = sizeof a;
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    char port[16];
+    snprintf(port, sizeof port, "%u", ntohs(a.sin_port));
+    close(fd);
+    assert_int_equal(runv(bin("seamtex"), NULL, (const char *const[]){ "-p", port, "ping", NULL }),
+                     3);
+    assert_non_null(strstr(ERR, "cannot connect"));
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "-p", port, "-d", "0.1", NULL }), 3);
+}
+
+static void upload_ls_sample_delete_round_trip(void **state)
+{
+    (void)state;
+    char ptx[512];
+    if (st_daemon_data_path(ptx, sizeof ptx, "ptex-ref/cube1_k6_u8.ptx") != 0) {
+        printf("# SEAMTEX_DATA has no ptex-ref/cube1_k6_u8.ptx: skipping the upload test\n");
+        skip();
+    }
+    assert_int_equal(CLI("upload", ptx, "cli-cube"), 0);
+    assert_non_null(strstr(OUT, "as cli-cube"));
+    assert_non_null(strstr(ERR, "upload: 100%"));      /* plain progress: stderr is a file */
+    assert_int_equal(CLI("ls"), 0);
+    assert_non_null(strstr(OUT, "cli-cube"));
+    assert_int_equal(CLI("sample", "cli-cube", "2", "0.5", "0.5"), 0);
+    assert_int_equal(count_lines_ending(OUT, " OK"), 1);
+    /* the same name again without --replace is refused */
+    assert_int_equal(CLI("upload", ptx, "cli-cube"), 1);
+    assert_int_equal(CLI("delete", "cli-cube"), 0);
+    assert_int_equal(CLI("info", "cli-cube"), 1);
+}
+
+static void stats_prints_counters(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("stats"), 0);
+    assert_true(OUTLEN > 0);
+    assert_non_null(strchr(OUT, '\n'));
+}
+
+static double json_num(const char *json, const char *key)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\": ", key);
+    const char *p = strstr(json, k);
+    return p ? strtod(p + strlen(k), NULL) : -1.0;
+}
+
+static void bench_closed_loop_answers_every_request(void **state)
+{
+    (void)state;
+    char jf[400], js[8192];
+    snprintf(jf, sizeof jf, "%s/bench.json", D.dir);
+    assert_int_equal(BENCH("-c", "4", "-P", "4", "-n", "2000", "-d", "10", "-w", "0", "-j", jf), 0);
+    slurp(jf, js, sizeof js, NULL);
+    assert_true(json_num(js, "sent") == 2000);
+    assert_true(json_num(js, "completed") == 2000);
+    assert_true(json_num(js, "measured") == 2000);
+    assert_true(json_num(js, "errors") == 0);
+    assert_true(json_num(js, "timeouts") == 0);
+    assert_non_null(strstr(js, "\"corrected_us\": {\"p50\": "));
+}
+
+static void bench_open_loop_holds_the_target_rate(void **state)
+{
+    (void)state;
+    char jf[400], js[8192];
+    snprintf(jf, sizeof jf, "%s/open.json", D.dir);
+    assert_int_equal(BENCH("-c", "8", "-r", "2000", "-d", "1", "-w", "0.2", "-j", jf), 0);
+    slurp(jf, js, sizeof js, NULL);
+    double got = json_num(js, "achieved_rate");
+    assert_true(got > 1800 && got < 2200);
+    assert_true(json_num(js, "errors") == 0);
+    assert_true(json_num(js, "timeouts") == 0);
+    assert_non_null(strstr(js, "\"loop\": \"open\""));
+}
+
+static void bench_sample_batches_are_answered(void **state)
+{
+    (void)state;
+    char jf[400], js[8192];
+    snprintf(jf, sizeof jf, "%s/sample.json", D.dir);
+    assert_int_equal(BENCH("-o", "sample", "-b", "512", "-m", "traverse,discard,clamp", "-f",
+                           "bilinear,trilinear", "-n", "50", "-d", "10", "-w", "0", "-j", jf), 0);
+    slurp(jf, js, sizeof js, NULL);
+    assert_true(json_num(js, "completed") == 50);
+    assert_true(json_num(js, "errors") == 0);
+    assert_true(json_num(js, "queries_per_s") > 0);
+}
+
+static void bench_refuses_a_non_loopback_host(void **state)
+{
+    (void)state;
+    /* refused before any socket is made: no packet leaves the machine */
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "-h", "192.0.2.1", "-p", PORT, "-d", "0.1",
+                                                 NULL }), 3);
+    assert_non_null(strstr(ERR, "not a loopback address"));
+    assert_int_equal(BENCH("--conns", "0"), 2);
+    assert_int_equal(BENCH("--rate", "-5"), 2);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(ping_prints_pong_and_exits_zero),
+        cmocka_unit_test(ls_lists_the_default_set),
+        cmocka_unit_test(info_describes_the_default_set),
+        cmocka_unit_test(sample_one_query_prints_four_values_coverage_and_ok),
+        cmocka_unit_test(sample_query_file_answers_every_line_in_each_mode),
+        cmocka_unit_test(sample_reports_a_bad_face_per_query),
+        cmocka_unit_test(sample_binary_writes_count_times_channels_floats),
+        cmocka_unit_test(an_unknown_set_exits_1_with_the_servers_message),
+        cmocka_unit_test(bad_usage_exits_2),
+        cmocka_unit_test(no_server_exits_3),
+        cmocka_unit_test(upload_ls_sample_delete_round_trip),
+        cmocka_unit_test(stats_prints_counters),
+        cmocka_unit_test(bench_closed_loop_answers_every_request),
+        cmocka_unit_test(bench_open_loop_holds_the_target_rate),
+        cmocka_unit_test(bench_sample_batches_are_answered),
+        cmocka_unit_test(bench_refuses_a_non_loopback_host),
+    };
+    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+}
