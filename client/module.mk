@@ -2,9 +2,10 @@
 # `seamtex-bench`. Included by the top Makefile.
 
 # ---- libseamtex (owner: client library) ----
+# libseamtex.a bundles the protocol objects so that an installed client needs only -lseamtex.
 CLIENT_LIB_SRC := $(sort $(wildcard client/lib*.c))
 LIB_CLIENT     := $(B)/libseamtex.a
-$(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o)
+$(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o) $(PROTO_OBJ)
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 ALL_BINS     += $(LIB_CLIENT)

@@ -1,0 +1,91 @@
+/* client/libseamtex_int.h - private to libseamtex (client/lib*.c): the connection struct and
+ * the transport helpers shared by libconn.c (sockets, frames, pending requests), libcalls.c
+ * (blocking calls and pipelined appends) and libxfer.c (upload, fetch). Not installed.
+ */
+#ifndef STC_INT_H
+#define STC_INT_H
+
+#include <stdint.h>
+
+#include "proto.h"
+#include "seamtex.h"
+
+typedef struct stc_pend {
+    uint32_t reqid;
+    uint8_t  opcode;
+    uint8_t  abandoned;   /* timed out: the reply is read and dropped when it comes */
+    uint8_t  pipelined;   /* appended through stc_append_* (counts in stc_pending) */
+} stc_pend;
+
+struct stc_conn {
+    int      fd;
+    int      sticky;              /* 0, or the error that broke the connection */
+    char     msg[1024];           /* message of the last failure */
+    int      timeout_ms;          /* per-request timeout, 0 = none */
+    uint32_t next_reqid;
+    uint32_t max_body;            /* cap on reply bodies */
+    stc_server server;
+
+    stp_buf  out;                 /* encoded frames not yet sent */
+    stp_buf  in;                  /* received bytes not yet consumed */
+    uint64_t skip;                /* bytes of an oversized reply body still to drop */
+    size_t   hold;                /* bytes of the last returned reply, consumed at the next call */
+
+    stc_pend *pend;               /* outstanding requests: pend[phead .. pn) in send order */
+    size_t   phead, pn, pcap;
+    size_t   npipelined;          /* of them: appended, not abandoned */
+
+    stc_reply reply;              /* last reply handed out by stc_get_reply */
+    char     reply_msg[STP_MAX_MSG + 1];
+
+    /* result storage owned by the connection (valid until the next call) */
+    void    *vals;   size_t vals_cap;
+    float   *cov;    size_t cov_cap;
+    uint8_t *qst;    size_t qst_cap;
+    stc_set_entry *sets; size_t sets_cap;
+    char    *names;  size_t names_len, names_cap;
+    stc_stat *stats; size_t stats_cap;
+    stc_face *faces; size_t faces_cap;
+    stp_query *qs;   size_t qs_cap;     /* scratch: queries converted for the encoder */
+    stp_dir_query *dqs; size_t dqs_cap;
+};
+
+/* A frame as received: header plus a body that lives in c->in until the next call. */
+typedef struct stc_frame {
+    stp_header     h;
+    const uint8_t *body;
+    int            oversized;     /* body over max_body: dropped, body is NULL */
+} stc_frame;
+
+/* Records an error message (and returns code). Sticky codes also break the connection. */
+int stc__fail(stc_conn *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+int stc__break(stc_conn *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+/* Start of every call: drops the previously returned reply, checks the sticky error, clears
+ * the message. */
+int stc__begin(stc_conn *c);
+/* As stc__begin, and refuses (ESTATE) while pipelined requests are outstanding. */
+int stc__begin_blocking(stc_conn *c);
+/* Monotonic milliseconds; deadline for a timeout (-1 = none). */
+int64_t stc__now_ms(void);
+int64_t stc__deadline(int timeout_ms);
+/* Adds a request to the pending list. */
+int stc__pend_add(stc_conn *c, uint32_t reqid, uint8_t opcode, int pipelined);
+/* Removes the most recently added pending request (its frame could not be encoded). */
+void stc__pend_drop_last(stc_conn *c);
+/* Marks a pending request abandoned (its late reply will be dropped). */
+void stc__pend_abandon(stc_conn *c, uint32_t reqid);
+/* Sends everything in c->out (reading replies meanwhile so that neither side stalls). */
+int stc__flush(stc_conn *c, int64_t deadline);
+/* Waits for the reply to `reqid` (or to any non-abandoned pending request when reqid_any),
+ * dropping abandoned ones. On success *f describes it; the request is off the pending list
+ * and the frame is held until the next call. Server statuses come back as 0 with
+ * f->h.status set (the caller decides); oversized replies as STC_ENOMEM. */
+int stc__wait(stc_conn *c, uint32_t reqid, int reqid_any, int64_t deadline, stc_frame *f);
+/* Server status of f -> its code, with "OPCODE: STATUS: message" in c->msg. */
+int stc__status_error(stc_conn *c, const stc_frame *f);
+/* Maps an stp encode result to a client code. */
+int stc__enc_error(stc_conn *c, int st);
+/* Grow helpers for result storage; 0 or STC_ENOMEM. */
+int stc__grow(void **p, size_t *cap, size_t need);
+
+#endif
