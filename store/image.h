@@ -49,7 +49,8 @@ typedef struct st_image_caps {
  * the caps. */
 int st_image_read(const char *path, const st_image_caps *caps, st_image *out, st_error *e);
 
-/* Picks st_exr_read for files starting with the OpenEXR magic, st_image_read otherwise. */
+/* Picks st_exr_read for files starting with the OpenEXR magic, st_image_read otherwise (and
+ * for EXR files whose compression the OpenEXR 3.1 C API cannot decode, e.g. DWAB). */
 int st_image_read_any(const char *path, const st_image_caps *caps, st_image *out, st_error *e);
 
 /* Writes w x h x nchan texels of dtype (rows top first, interleaved) to path; the format
