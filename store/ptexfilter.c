@@ -371,7 +371,11 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     c->weight = total;
     split_apply(c, &k, (int)f, 0);
     if (c->mode == ST_MODE_DISCARD) {
+        /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
+         * negative keeps more than its total, reported as 1 */
         *cov = total != 0.0f ? c->weight / total : 0.0f;
+        if (*cov > 1.0f)
+            *cov = 1.0f;
         if (!(c->weight > 0.0f) || *cov <= 0.0f) {
             *cov = 0.0f;
             if (o->zero_rule == ST_ZERO_CLAMP) {

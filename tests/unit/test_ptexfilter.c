@@ -1,0 +1,259 @@
+/* tests/unit/test_ptexfilter.c - Ptex's filter family against the Ptex library's own outputs
+ * (SEAMTEX_DATA/ptex-ref: PtexFilter::eval of Ptex v2.4.3 on real and generated files) and
+ * its own invariants: constant textures stay constant in every mode, Discard renormalises and
+ * reports coverage, the sampler's batch entry point dispatches here, bad queries get a status.
+ *
+ * The reference check requires, per file and filter, at least 99.9% of the queries within
+ * 1e-4 (float data) or half an 8-bit step (u8 data) on every channel, and prints the table. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ptex.h"
+#include "ptexfilter.h"
+#include "sample.h"
+
+static const char *data_dir(void)
+{
+    const char *d = getenv("SEAMTEX_DATA");
+    return d && *d ? d : "../shared/data";
+}
+
+static const char *fnames[8] = {"point", "bilinear", "box", "gaussian", "bicubic", "bspline",
+                                "catmullrom", "mitchell"};
+
+static int filter_of(const char *n)
+{
+    for (int i = 0; i < 8; i++)
+        if (!strcmp(n, fnames[i]))
+            return ST_FILTER_PTEX_POINT + i;
+    return -1;
+}
+
+typedef struct refcase {
+    const char *ptx, *ref;
+} refcase;
+
+static const refcase refs[] = {
+    {"ptex-ref/cube1_k6_u8.ptx", "ptex-ref/ref_cube1_k6_u8.txt"},
+    {"ptex-ref/cube8_k6_u8_rot.ptx", "ptex-ref/ref_cube8_k6_u8_rot.txt"},
+    {"ptex-ref/cube8_k7varrot_f32.ptx", "ptex-ref/ref_cube8_k7varrot_f32.txt"},
+    {"ptx/wdas-ptex-samples/teapot/teapot.ptx", "ptex-ref/ref_teapot.txt"},
+    {"ptx/wdas-ptex-samples/envcube/envcube.ptx", "ptex-ref/ref_envcube.txt"},
+};
+
+static void traverse_matches_the_ptex_library_on_every_reference_file(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", data_dir(), refs[0].ref);
+    if (access(path, R_OK)) {
+        print_message("SEAMTEX_DATA (%s) has no ptex-ref: skipped\n", data_dir());
+        skip();
+    }
+    print_message("%-28s %-10s %7s %8s %10s\n", "file", "filter", "queries", "match%", "max|diff|");
+    for (size_t r = 0; r < sizeof refs / sizeof refs[0]; r++) {
+        snprintf(path, sizeof path, "%s/%s", data_dir(), refs[r].ptx);
+        st_set *s;
+        st_error e = {0};
+        assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
+        snprintf(path, sizeof path, "%s/%s", data_dir(), refs[r].ref);
+        FILE *fp = fopen(path, "r");
+        assert_non_null(fp);
+        float tol = s->info.dtype == ST_DT_U8 ? 0.5f / 255.0f : 1e-4f;
+        int total[8] = {0}, ok[8] = {0};
+        float maxd[8] = {0};
+        char line[512];
+        while (fgets(line, sizeof line, fp)) {
+            st_query q;
+            char fn[32];
+            float ref[4] = {0};
+            int n = sscanf(line, "%u %f %f %f %f %f %f %31s -> %f %f %f %f", &q.face, &q.u, &q.v,
+                           &q.dudx, &q.dvdx, &q.dudy, &q.dvdy, fn, &ref[0], &ref[1], &ref[2],
+                           &ref[3]);
+            if (n < 9)
+                continue;
+            int flt = filter_of(fn);
+            assert_true(flt >= 0);
+            st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = (uint8_t)flt};
+            float out[4];
+            uint8_t st;
+            /* through the sampler's public entry point */
+            assert_int_equal(st_sample_batch(s, &o, &q, 1, out, NULL, &st), 0);
+            int good = 1;
+            int fi = flt - ST_FILTER_PTEX_POINT;
+            for (int c = 0; c < n - 8 && c < s->info.nchan; c++) {
+                float d = fabsf(out[c] - ref[c]);
+                if (!(d <= tol))
+                    good = 0;
+                if (d > maxd[fi])
+                    maxd[fi] = d;
+            }
+            total[fi]++;
+            ok[fi] += good;
+        }
+        fclose(fp);
+        const char *base = strrchr(refs[r].ptx, '/') + 1;
+        for (int fi = 0; fi < 8; fi++) {
+            assert_true(total[fi] > 0);
+            print_message("%-28s %-10s %7d %8.2f %10.2g\n", base, fnames[fi], total[fi],
+                          100.0 * ok[fi] / total[fi], (double)maxd[fi]);
+            assert_true(ok[fi] * 1000 >= total[fi] * 999);
+        }
+        st_set_free(s);
+    }
+}
+
+/* 3x3 grid of faces (an open plane) of one texel value; face 4 in the middle is 4x8. */
+static st_set *plane(unsigned dtype, int constant_value, int subfaces)
+{
+    st_face_desc fd[9];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 9; f++) {
+        int x = f % 3, y = f / 3;
+        fd[f].w = f == 4 ? 4 : 8;
+        fd[f].h = 8;
+        fd[f].adjface[0] = y > 0 ? f - 3 : -1; fd[f].adjedge[0] = 2;
+        fd[f].adjface[1] = x < 2 ? f + 1 : -1; fd[f].adjedge[1] = 3;
+        fd[f].adjface[2] = y < 2 ? f + 3 : -1; fd[f].adjedge[2] = 0;
+        fd[f].adjface[3] = x > 0 ? f - 1 : -1; fd[f].adjedge[3] = 1;
+        if (subfaces && (f == 2 || f == 5))
+            fd[f].flags |= ST_FACE_SUBFACE;
+    }
+    st_set_info info = {.nfaces = 9, .nchan = 2, .dtype = (uint8_t)dtype, .alpha_chan = -1,
+                        .kind = ST_KIND_PERFACE};
+    st_set *s;
+    st_error e = {0};
+    assert_int_equal(st_set_create(&info, fd, 0, &s, &e), 0);
+    uint32_t r = 5;
+    for (uint32_t f = 0; f < 9; f++) {
+        uint8_t *p = st_face_level(s, f, 0);
+        for (size_t i = 0; i < (size_t)s->faces[f].w * s->faces[f].h; i++) {
+            r = r * 1103515245u + 12345u;
+            st_channel_put(dtype, p + i * st_texel_size(s), 0,
+                           constant_value ? 0.5f : (float)((r >> 16) & 255) / 255.0f);
+            st_channel_put(dtype, p + i * st_texel_size(s), 1, 0.25f);
+        }
+    }
+    st_set_build_mips(s, UINT32_MAX);
+    assert_int_equal(st_ptexfilter_prepare(s, &e), 0);
+    return s;
+}
+
+static void constant_texture_stays_constant_in_every_mode_and_filter(void **state)
+{
+    (void)state;
+    for (int sub = 0; sub < 2; sub++) {
+        st_set *s = plane(ST_DT_F32, 1, sub);
+        uint32_t x = 1;
+        for (int m = 0; m < 3; m++)
+            for (int flt = ST_FILTER_PTEX_POINT; flt <= ST_FILTER_PTEX_MITCHELL; flt++)
+                for (int i = 0; i < 300; i++) {
+                    x = x * 1664525u + 1013904223u;
+                    st_query q = {.face = (x >> 8) % 9,
+                                  .u = (float)((x >> 3) & 1023) / 1023.0f,
+                                  .v = (float)((x >> 13) & 1023) / 1023.0f,
+                                  .dudx = (float)((x >> 23) & 63) / 100.0f + 1e-3f,
+                                  .dvdy = (float)((x >> 17) & 63) / 100.0f + 1e-3f};
+                    st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt};
+                    float out[2], cov;
+                    uint8_t st;
+                    assert_int_equal(st_ptexfilter_batch(s, &o, &q, 1, out, &cov, &st), 0);
+                    assert_float_equal(out[0], 0.5f, 1e-4f);
+                    assert_float_equal(out[1], 0.25f, 1e-4f);
+                    if (!(cov > 0.0f && cov <= 1.0f + 1e-6f))
+                        print_message("mode %d filter %d face %u u %g v %g w %g %g cov %g\n", m, flt, q.face, q.u, q.v, q.dudx, q.dvdy, cov);
+                    assert_true(cov > 0.0f && cov <= 1.0f + 1e-6f);
+                }
+        st_set_free(s);
+    }
+}
+
+static void discard_drops_the_overhang_and_reports_coverage(void **state)
+{
+    (void)state;
+    st_set *s = plane(ST_DT_U8, 0, 0);
+    /* near the right edge of the middle face with a wide box: part of the kernel overhangs */
+    st_query q = {.face = 4, .u = 0.95f, .v = 0.5f, .dudx = 0.3f, .dvdy = 0.3f};
+    float a[2], b[2], ca, cb;
+    uint8_t st;
+    st_sample_opts od = {.mode = ST_MODE_DISCARD, .filter = ST_FILTER_PTEX_BOX};
+    st_sample_opts ot = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BOX};
+    assert_int_equal(st_ptexfilter_batch(s, &od, &q, 1, a, &ca, &st), 0);
+    assert_int_equal(st_ptexfilter_batch(s, &ot, &q, 1, b, &cb, &st), 0);
+    assert_true(ca < 0.99f && ca > 0.2f);
+    assert_float_equal(cb, 1.0f, 1e-6f);
+    assert_true(fabsf(a[0] - b[0]) > 1e-6f);   /* the neighbour contributes in Traverse only */
+    assert_float_equal(a[1], 0.25f, 2e-3f);    /* renormalised: a constant channel stays put */
+    /* in the interior all modes agree */
+    st_query qi = {.face = 4, .u = 0.5f, .v = 0.5f, .dudx = 0.01f, .dvdy = 0.01f};
+    assert_int_equal(st_ptexfilter_batch(s, &od, &qi, 1, a, &ca, &st), 0);
+    assert_int_equal(st_ptexfilter_batch(s, &ot, &qi, 1, b, &cb, &st), 0);
+    assert_float_equal(a[0], b[0], 1e-6f);
+    assert_float_equal(ca, 1.0f, 1e-6f);
+    st_set_free(s);
+}
+
+static void bad_queries_get_a_status_and_nan(void **state)
+{
+    (void)state;
+    st_set *s = plane(ST_DT_HALF, 0, 0);
+    st_query q[4] = {
+        {.face = 99, .u = 0.5f, .v = 0.5f},
+        {.face = 1, .u = NAN, .v = 0.5f},
+        {.face = 1, .u = 0.5f, .v = 0.5f, .dudx = 1e9f},
+        {.face = 1, .u = 0.5f, .v = 0.5f, .dudx = 0.1f, .dvdy = 0.1f},
+    };
+    float out[8], cov[4];
+    uint8_t st[4];
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_GAUSSIAN};
+    assert_int_equal(st_ptexfilter_batch(s, &o, q, 4, out, cov, st), 3);
+    assert_int_equal(st[0], ST_Q_BAD_FACE);
+    assert_int_equal(st[1], ST_Q_NONFINITE);
+    assert_int_equal(st[2], ST_Q_BAD_FOOTPRINT);
+    assert_int_equal(st[3], ST_Q_OK);
+    assert_true(isnan(out[0]) && isnan(out[2]) && isnan(out[4]));
+    assert_false(isnan(out[6]));
+    o.sharpness = 2.0f;
+    assert_int_equal(st_ptexfilter_batch(s, &o, q, 4, out, cov, st), ST_EINVAL);
+    st_set_free(s);
+}
+
+static void a_set_without_the_table_is_refused_until_prepared(void **state)
+{
+    (void)state;
+    st_face_desc fd = {.w = 4, .h = 4, .adjface = {-1, -1, -1, -1}};
+    st_set_info info = {.nfaces = 1, .nchan = 1, .dtype = ST_DT_U8, .alpha_chan = -1,
+                        .kind = ST_KIND_PERFACE};
+    st_set *s;
+    st_error e = {0};
+    assert_int_equal(st_set_create(&info, &fd, 0, &s, &e), 0);
+    st_query q = {.face = 0, .u = 0.5f, .v = 0.5f, .dudx = 0.1f, .dvdy = 0.1f};
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
+    float out;
+    assert_int_equal(st_ptexfilter_batch(s, &o, &q, 1, &out, NULL, NULL), ST_EUNSUPPORTED);
+    assert_int_equal(st_ptexfilter_prepare(s, &e), 0);
+    assert_int_equal(st_ptexfilter_batch(s, &o, &q, 1, &out, NULL, NULL), 0);
+    assert_float_equal(out, 0.0f, 1e-7f);
+    st_set_free(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(traverse_matches_the_ptex_library_on_every_reference_file),
+        cmocka_unit_test(constant_texture_stays_constant_in_every_mode_and_filter),
+        cmocka_unit_test(discard_drops_the_overhang_and_reports_coverage),
+        cmocka_unit_test(bad_queries_get_a_status_and_nan),
+        cmocka_unit_test(a_set_without_the_table_is_refused_until_prepared),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
