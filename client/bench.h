@@ -42,6 +42,7 @@ typedef struct bench_cfg {
     double      duration_s;    /* measured time */
     double      warmup_s;      /* before the measured time, not recorded */
     double      timeout_s;     /* a reply later than this counts as a timeout */
+    unsigned    spin_us;       /* open loop: poll instead of sleeping this close to a due time */
     uint64_t    max_requests;  /* 0 = no cap */
     uint64_t    seed;
     unsigned    conns;
@@ -71,6 +72,7 @@ typedef struct bench_result {
     uint64_t late_sends;       /* open loop: requests written more than 1 ms after due */
     uint64_t queries;          /* SAMPLE: queries answered in the measured window */
     uint64_t bytes_out, bytes_in;
+    uint64_t t_last;           /* time of the last measured reply (ns) */
 } bench_result;
 
 typedef struct bench_wire bench_wire;   /* per-thread request pool, bench_wire.c */

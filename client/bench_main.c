@@ -46,6 +46,8 @@ static void usage(FILE *f)
 "  -w, --warmup S         seconds before the measurement, not recorded (1)\n"
 "  -n, --requests N       stop after N requests in all (0 = no cap)\n"
 "      --timeout S        a reply later than S seconds counts as a timeout (5)\n"
+"      --spin-us N        open loop: poll rather than sleep within N us of a due send, as a\n"
+"                         timed sleep wakes ~60 us late here (100; 0 = always sleep)\n"
 "      --seed N           seed of the arrivals and queries (1)\n"
 "  -s, --set NAME         set to sample (default)\n"
 "  -b, --batch N          queries per SAMPLE request (4096)\n"
@@ -230,10 +232,10 @@ int main(int argc, char **argv)
         .host = "127.0.0.1", .port = "7450", .set = "default", .op = BENCH_OP_PING,
         .arrival = STC_ARRIVAL_UNIFORM, .duration_s = 5, .warmup_s = 1, .timeout_s = 5,
         .seed = 1, .conns = 1, .threads = 1, .pipeline = 0, .batch = 4096,
-        .footprint = 0.001f, .hold_s = 10,
+        .footprint = 0.001f, .hold_s = 10, .spin_us = 100,
     };
     int inproc = 0;
-    enum { O_ARRIVAL = 256, O_TIMEOUT, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP };
+    enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -243,6 +245,7 @@ int main(int argc, char **argv)
         { "duration", required_argument, 0, 'd' }, { "warmup", required_argument, 0, 'w' },
         { "requests", required_argument, 0, 'n' },
         { "timeout", required_argument, 0, O_TIMEOUT },
+        { "spin-us", required_argument, 0, O_SPIN },
         { "seed", required_argument, 0, O_SEED },  { "set", required_argument, 0, 's' },
         { "batch", required_argument, 0, 'b' },    { "mode", required_argument, 0, 'm' },
         { "filter", required_argument, 0, 'f' },
@@ -283,6 +286,7 @@ int main(int argc, char **argv)
         case 'w': bad = parse_double(optarg, 0, 600, &cfg.warmup_s); break;
         case 'n': bad = parse_uint(optarg, 0, 1ull << 40, &u); cfg.max_requests = u; break;
         case O_TIMEOUT: bad = parse_double(optarg, 0.001, 600, &cfg.timeout_s); break;
+        case O_SPIN: bad = parse_uint(optarg, 0, 100000, &u); cfg.spin_us = (unsigned)u; break;
         case O_SEED: bad = parse_uint(optarg, 0, UINT64_MAX, &u); cfg.seed = u; break;
         case 's': cfg.set = optarg; break;
         case 'b': bad = parse_uint(optarg, 1, BENCH_MAX_BATCH, &u); cfg.batch = (unsigned)u; break;
@@ -443,6 +447,12 @@ int main(int argc, char **argv)
 
     /* the measured window; with a request cap the run may end before t_end */
     double secs = cfg.duration_s;
+    uint64_t t_last = 0;
+    for (unsigned t = 0; t < cfg.threads; t++)
+        if (res[t].t_last > t_last)
+            t_last = res[t].t_last;
+    if (cfg.max_requests && t_last > t_measure && (t_last - t_measure) / 1e9 < secs)
+        secs = (t_last - t_measure) / 1e9;
     double load1 = loadavg1();
     double rate = secs > 0 ? all->measured / secs : 0;
     if (!cfg.quiet) {
