@@ -1,0 +1,503 @@
+/* store/bc1_seam.c - the seam-aware BC1 endpoint solve (declared in seammask.h).
+ *
+ * Owns: st_bc1_seam_solve. Does not own: seam sample points and masking (seammask.c), the
+ * block encoder (bc1_encode.c), sets (bc1_set.c).
+ *
+ * Unknowns: the two endpoints (8-bit scale, per channel) of every block that a seam tap
+ * touches. With the selectors fixed, a decoded texel is (1 - t) E0 + t E1 with t in
+ * {0, 1, 1/3, 2/3} (4-colour) or {0, 1, 1/2} (3-colour), so E = Ec + alpha Es is quadratic
+ * in the endpoints; it is minimised per channel by Jacobi-preconditioned conjugate gradients
+ * with the bounds 0..255 enforced by fixing the variables that leave the range and solving
+ * again (the published tool clamped after the solve, which throws much of the gain away),
+ * then rounded (not truncated) to 5/6 bits. The energy of every state is measured exactly
+ * (truncating decoder) and the best state is kept.
+ */
+#include "bc1.h"
+#include "bc1_texel.h"
+#include "seammask.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct sblock {
+    uint32_t face;
+    uint32_t bi;          /* block index in the face */
+    uint64_t tex[16];     /* global texel id of each of the 16 texels, UINT64_MAX = padding */
+} sblock;
+
+typedef struct tapref {
+    int32_t  blk;         /* index into blocks, -1 = a constant texel */
+    uint8_t  pos;         /* texel 0..15 in the block */
+    float    w;           /* signed weight (side B negative) */
+    uint64_t tex;         /* global texel id */
+} tapref;
+
+typedef struct solver {
+    const st_seam_sys *sys;
+    const uint8_t *orig, *target;
+    uint8_t *const *blocks;
+    float alpha, ow;
+    sblock *sb;
+    uint32_t nb;
+    tapref *taps;         /* 8 per point */
+    float *t;             /* nb*16 current weight of endpoint 1 per texel */
+    float *d;             /* nb*16 data weight (0 for padding) */
+} solver;
+
+static uint64_t bkey(uint32_t f, uint32_t bi) { return (uint64_t)f << 32 | bi; }
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+static uint32_t face_of(const st_seam_sys *sys, uint64_t t)
+{
+    uint32_t lo = 0, hi = sys->nfaces;
+    while (hi - lo > 1) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (sys->base[mid] <= t)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+static uint8_t *blk_ptr(const solver *S, uint32_t b)
+{
+    return S->blocks[S->sb[b].face] + (size_t)S->sb[b].bi * 8;
+}
+
+static uint16_t rd16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
+
+/* Weights of endpoint 1 per texel from the block's current selectors. */
+static void block_weights(const uint8_t *blk, float t[16])
+{
+    int four = rd16(blk) > rd16(blk + 2);
+    uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
+                   (uint32_t)blk[7] << 24;
+    static const float w4[4] = {0, 1, 1.0f / 3, 2.0f / 3}, w3[4] = {0, 1, 0.5f, 0};
+    for (int i = 0; i < 16; i++)
+        t[i] = (four ? w4 : w3)[sel >> (2 * i) & 3];
+}
+
+/* Exact decoded value of a tap, channel c. */
+static double tap_value(const solver *S, const tapref *r, unsigned c)
+{
+    if (r->blk < 0)
+        return S->target[r->tex * 4 + c];
+    uint8_t px[4];
+    st_bc1_texel(blk_ptr(S, (uint32_t)r->blk), r->pos & 3u, r->pos >> 2, px);
+    return px[c];
+}
+
+/* Exact E over the touched blocks and all points. */
+static double exact_energy(const solver *S)
+{
+    double ec = 0, es = 0;
+    for (uint32_t b = 0; b < S->nb; b++) {
+        const uint8_t *blk = blk_ptr(S, b);
+        for (int i = 0; i < 16; i++) {
+            if (S->d[16 * b + i] == 0)
+                continue;
+            uint8_t px[4];
+            st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)i >> 2, px);
+            const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
+            for (int c = 0; c < 3; c++) {
+                double dd = (double)px[c] - o[c];
+                ec += S->d[16 * b + i] * dd * dd;
+            }
+        }
+    }
+    for (size_t p = 0; p < S->sys->npts; p++) {
+        const tapref *r = &S->taps[8 * p];
+        for (unsigned c = 0; c < 3; c++) {
+            double v = 0;
+            for (int k = 0; k < 8; k++)
+                v += r[k].w * tap_value(S, &r[k], c);
+            es += S->sys->pts[p].len * v * v;
+        }
+    }
+    return ec + S->alpha * es;
+}
+
+/* y = H z over 2*nb unknowns (channel independent); fixed entries give 0. */
+static void matvec(const solver *S, const double *z, double *y, const uint8_t *fixed)
+{
+    for (uint32_t b = 0; b < S->nb; b++) {
+        double a00 = 0, a01 = 0, a11 = 0;
+        for (int i = 0; i < 16; i++) {
+            double t = S->t[16 * b + i], s = 1 - t, d = S->d[16 * b + i];
+            a00 += d * s * s;
+            a01 += d * s * t;
+            a11 += d * t * t;
+        }
+        y[2 * b] = a00 * z[2 * b] + a01 * z[2 * b + 1];
+        y[2 * b + 1] = a01 * z[2 * b] + a11 * z[2 * b + 1];
+    }
+    for (size_t p = 0; p < S->sys->npts; p++) {
+        const tapref *r = &S->taps[8 * p];
+        double v = 0;
+        for (int k = 0; k < 8; k++) {
+            if (r[k].blk < 0)
+                continue;
+            double t = S->t[16 * r[k].blk + r[k].pos];
+            v += r[k].w * ((1 - t) * z[2 * r[k].blk] + t * z[2 * r[k].blk + 1]);
+        }
+        v *= S->alpha * S->sys->pts[p].len;
+        for (int k = 0; k < 8; k++) {
+            if (r[k].blk < 0)
+                continue;
+            double t = S->t[16 * r[k].blk + r[k].pos];
+            y[2 * r[k].blk] += r[k].w * (1 - t) * v;
+            y[2 * r[k].blk + 1] += r[k].w * t * v;
+        }
+    }
+    if (fixed)
+        for (uint32_t i = 0; i < 2 * S->nb; i++)
+            if (fixed[i])
+                y[i] = 0;
+}
+
+/* Solves channel c for z (warm start given), bounded to 0..255. */
+static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uint8_t *fixed,
+                         const volatile int *cancel, st_error *e)
+{
+    uint32_t n = 2 * S->nb;
+    double *rhs = wk, *r = wk + n, *zz = wk + 2 * n, *p = wk + 3 * n, *q = wk + 4 * n,
+           *minv = wk + 5 * n;
+    /* right-hand side: data term minus the constant taps' seam contribution */
+    for (uint32_t b = 0; b < S->nb; b++) {
+        double r0 = 0, r1 = 0;
+        for (int i = 0; i < 16; i++) {
+            double d = S->d[16 * b + i];
+            if (d == 0)
+                continue;
+            double t = S->t[16 * b + i], o = S->orig[S->sb[b].tex[i] * 4 + c];
+            r0 += d * (1 - t) * o;
+            r1 += d * t * o;
+        }
+        rhs[2 * b] = r0;
+        rhs[2 * b + 1] = r1;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        minv[i] = 0;
+    for (uint32_t b = 0; b < S->nb; b++)
+        for (int i = 0; i < 16; i++) {
+            double t = S->t[16 * b + i], d = S->d[16 * b + i];
+            minv[2 * b] += d * (1 - t) * (1 - t);
+            minv[2 * b + 1] += d * t * t;
+        }
+    for (size_t pt = 0; pt < S->sys->npts; pt++) {
+        const tapref *rf = &S->taps[8 * pt];
+        double cst = 0;
+        for (int k = 0; k < 8; k++)
+            if (rf[k].blk < 0)
+                cst += rf[k].w * S->target[rf[k].tex * 4 + c];
+        double al = S->alpha * S->sys->pts[pt].len;
+        for (int k = 0; k < 8; k++) {
+            if (rf[k].blk < 0)
+                continue;
+            double t = S->t[16 * rf[k].blk + rf[k].pos];
+            rhs[2 * rf[k].blk] -= al * cst * rf[k].w * (1 - t);
+            rhs[2 * rf[k].blk + 1] -= al * cst * rf[k].w * t;
+            minv[2 * rf[k].blk] += al * rf[k].w * rf[k].w * (1 - t) * (1 - t);
+            minv[2 * rf[k].blk + 1] += al * rf[k].w * rf[k].w * t * t;
+        }
+    }
+    for (uint32_t i = 0; i < n; i++)
+        minv[i] = minv[i] > 1e-9 ? 1.0 / minv[i] : 0.0;
+    memset(fixed, 0, n);
+    for (int round = 0; round < 4; round++) {
+        /* tiny ridge: an endpoint no texel uses (all weight on the other) stays put */
+        matvec(S, z, q, round ? fixed : NULL);
+        double rz = 0, bn = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            double bi = fixed[i] ? 0 : rhs[i];
+            r[i] = fixed[i] ? 0 : bi - q[i];
+            bn += bi * bi;
+            zz[i] = minv[i] * r[i];
+            p[i] = zz[i];
+            rz += r[i] * zz[i];
+        }
+        double tol = 1e-10 * (bn > 1 ? bn : 1);
+        for (int it = 0; it < 300; it++) {
+            double rr = 0;
+            for (uint32_t i = 0; i < n; i++)
+                rr += r[i] * r[i];
+            if (rr <= tol)
+                break;
+            if (cancel && *cancel)
+                return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
+            matvec(S, p, q, fixed);
+            double pq = 0;
+            for (uint32_t i = 0; i < n; i++)
+                pq += p[i] * q[i];
+            if (!(pq > 0))
+                break;
+            double a = rz / pq, rz2 = 0;
+            for (uint32_t i = 0; i < n; i++) {
+                z[i] += a * p[i];
+                r[i] -= a * q[i];
+                zz[i] = minv[i] * r[i];
+                rz2 += r[i] * zz[i];
+            }
+            double beta = rz2 / rz;
+            rz = rz2;
+            for (uint32_t i = 0; i < n; i++)
+                p[i] = zz[i] + beta * p[i];
+        }
+        int changed = 0;
+        for (uint32_t i = 0; i < n; i++)
+            if (z[i] < 0 || z[i] > 255) {
+                z[i] = z[i] < 0 ? 0 : 255;
+                changed |= !fixed[i];
+                fixed[i] = 1;
+            }
+        if (!changed)
+            break;
+    }
+    return ST_OK;
+}
+
+/* Endpoints of a block on the 8-bit scale (expanded 565). */
+static void block_endpoints(const uint8_t *blk, double e[2][3])
+{
+    uint8_t a[3], b[3];
+    st_bc1_565_to_rgb8(rd16(blk), a);
+    st_bc1_565_to_rgb8(rd16(blk + 2), b);
+    for (int k = 0; k < 3; k++) {
+        e[0][k] = a[k];
+        e[1][k] = b[k];
+    }
+}
+
+static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+/* Writes rounded endpoints and re-selects against the target texels in the block's mode. */
+static void requantise(const solver *S, uint32_t b, const double e0[3], const double e1[3])
+{
+    uint8_t *blk = blk_ptr(S, b);
+    int four = rd16(blk) > rd16(blk + 2);
+    int q0[3], q1[3];
+    for (int k = 0; k < 3; k++) {
+        double mx = k == 1 ? 63.0 : 31.0;
+        q0[k] = clampi((int)floor(e0[k] * mx / 255.0 + 0.5), 0, (int)mx);
+        q1[k] = clampi((int)floor(e1[k] * mx / 255.0 + 0.5), 0, (int)mx);
+    }
+    uint16_t c0 = (uint16_t)(q0[0] << 11 | q0[1] << 5 | q0[2]);
+    uint16_t c1 = (uint16_t)(q1[0] << 11 | q1[1] << 5 | q1[2]);
+    if (four ? c0 < c1 : c0 > c1) {
+        uint16_t t = c0;
+        c0 = c1;
+        c1 = t;
+    }
+    if (four && c0 == c1) {
+        /* cannot stay in 4-colour mode: a flat block, selector 0 everywhere */
+        uint8_t nb[8] = {(uint8_t)c0, (uint8_t)(c0 >> 8), (uint8_t)c1, (uint8_t)(c1 >> 8), 0, 0, 0, 0};
+        memcpy(blk, nb, 8);
+        return;
+    }
+    uint8_t pal[16];
+    st_bc1_palette(c0, c1, ST_BC1_DEC_EXACT, pal);
+    int nsel = (c0 > c1) ? 4 : 3;
+    uint32_t sel = 0;
+    for (int i = 0; i < 16; i++) {
+        uint64_t t = S->sb[b].tex[i];
+        if (t == UINT64_MAX)
+            continue; /* padding: selector 0 */
+        const uint8_t *x = S->target + t * 4;
+        int best = 1 << 30, bj = 0;
+        for (int j = 0; j < nsel; j++) {
+            int dr = x[0] - pal[4 * j], dg = x[1] - pal[4 * j + 1], db = x[2] - pal[4 * j + 2];
+            int dd = dr * dr + dg * dg + db * db;
+            if (dd < best) {
+                best = dd;
+                bj = j;
+            }
+        }
+        sel |= (uint32_t)bj << (2 * i);
+    }
+    blk[0] = (uint8_t)c0;
+    blk[1] = (uint8_t)(c0 >> 8);
+    blk[2] = (uint8_t)c1;
+    blk[3] = (uint8_t)(c1 >> 8);
+    blk[4] = (uint8_t)sel;
+    blk[5] = (uint8_t)(sel >> 8);
+    blk[6] = (uint8_t)(sel >> 16);
+    blk[7] = (uint8_t)(sel >> 24);
+}
+
+static int has_transparent(const uint8_t *blk)
+{
+    if (rd16(blk) > rd16(blk + 2))
+        return 0;
+    uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
+                   (uint32_t)blk[7] << 24;
+    for (int i = 0; i < 16; i++)
+        if ((sel >> (2 * i) & 3) == 3)
+            return 1;
+    return 0;
+}
+
+int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *target,
+                      uint8_t *const *blocks, float alpha, float outside_weight, int iterations,
+                      const volatile int *cancel, st_bc1_seam_stats *stats, st_error *e)
+{
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    if (!sys->npts)
+        return ST_OK;
+    if (alpha <= 0)
+        alpha = 2.0f;
+    if (outside_weight <= 0)
+        outside_weight = 0.01f;
+    if (iterations <= 0)
+        iterations = 3;
+    if (iterations > 16)
+        iterations = 16;
+    solver S = {sys, orig, target, blocks, alpha, outside_weight, NULL, 0, NULL, NULL, NULL};
+    int rc = ST_OK;
+    uint64_t *keys = malloc((sys->nvars ? sys->nvars : 1) * sizeof *keys);
+    uint8_t *saved = NULL, *fixed = NULL;
+    double *z = NULL, *wk = NULL;
+    if (!keys)
+        return st_fail(e, ST_ENOMEM, "out of memory for seam blocks");
+    /* touched blocks */
+    uint32_t nk = 0;
+    for (uint32_t i = 0; i < sys->nvars; i++) {
+        uint64_t t = sys->vars[i];
+        uint32_t f = face_of(sys, t);
+        if (!blocks[f])
+            continue;
+        uint64_t local = t - sys->base[f];
+        uint32_t x = (uint32_t)(local % sys->fw[f]), y = (uint32_t)(local / sys->fw[f]);
+        uint32_t bw = (sys->fw[f] + 3) / 4;
+        uint32_t bi = (y / 4) * bw + x / 4;
+        if (has_transparent(blocks[f] + (size_t)bi * 8))
+            continue;
+        keys[nk++] = bkey(f, bi);
+    }
+    qsort(keys, nk, sizeof *keys, cmp_u64);
+    uint32_t nb = 0;
+    for (uint32_t i = 0; i < nk; i++)
+        if (!nb || keys[nb - 1] != keys[i])
+            keys[nb++] = keys[i];
+    S.nb = nb;
+    S.sb = malloc((nb ? nb : 1) * sizeof *S.sb);
+    S.t = malloc((size_t)(nb ? nb : 1) * 16 * sizeof *S.t);
+    S.d = malloc((size_t)(nb ? nb : 1) * 16 * sizeof *S.d);
+    S.taps = malloc((sys->npts * 8) * sizeof *S.taps);
+    saved = malloc((size_t)(nb ? nb : 1) * 8);
+    fixed = malloc((size_t)(nb ? nb : 1) * 2);
+    z = malloc((size_t)(nb ? nb : 1) * 2 * 3 * sizeof *z);
+    wk = malloc((size_t)(nb ? nb : 1) * 2 * 6 * sizeof *wk);
+    if (!S.sb || !S.t || !S.d || !S.taps || !saved || !fixed || !z || !wk) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for %u seam blocks", nb);
+        goto out;
+    }
+    for (uint32_t b = 0; b < nb; b++) {
+        uint32_t f = (uint32_t)(keys[b] >> 32), bi = (uint32_t)keys[b];
+        uint32_t bw = (sys->fw[f] + 3) / 4, bx = bi % bw, by = bi / bw;
+        S.sb[b].face = f;
+        S.sb[b].bi = bi;
+        for (int i = 0; i < 16; i++) {
+            uint32_t x = bx * 4 + (uint32_t)(i & 3), y = by * 4 + (uint32_t)(i >> 2);
+            if (x < sys->fw[f] && y < sys->fh[f]) {
+                uint64_t t = sys->base[f] + (uint64_t)y * sys->fw[f] + x;
+                S.sb[b].tex[i] = t;
+                S.d[16 * b + i] = sys->inside[t] ? 1.0f : outside_weight;
+            } else {
+                S.sb[b].tex[i] = UINT64_MAX;
+                S.d[16 * b + i] = 0;
+            }
+        }
+    }
+    for (size_t p = 0; p < sys->npts; p++)
+        for (int k = 0; k < 8; k++) {
+            tapref *r = &S.taps[8 * p + k];
+            uint32_t v = k < 4 ? sys->pts[p].va[k] : sys->pts[p].vb[k - 4];
+            r->w = k < 4 ? sys->pts[p].wa[k] : -sys->pts[p].wb[k - 4];
+            r->tex = sys->vars[v];
+            r->blk = -1;
+            r->pos = 0;
+            uint32_t f = face_of(sys, r->tex);
+            if (!blocks[f])
+                continue;
+            uint64_t local = r->tex - sys->base[f];
+            uint32_t x = (uint32_t)(local % sys->fw[f]), y = (uint32_t)(local / sys->fw[f]);
+            uint32_t bw = (sys->fw[f] + 3) / 4;
+            uint64_t key = bkey(f, (y / 4) * bw + x / 4);
+            uint32_t lo = 0, hi = nb;
+            while (lo < hi) {
+                uint32_t mid = lo + (hi - lo) / 2;
+                if (keys[mid] < key)
+                    lo = mid + 1;
+                else
+                    hi = mid;
+            }
+            if (lo < nb && keys[lo] == key) {
+                r->blk = (int32_t)lo;
+                r->pos = (uint8_t)((y & 3) * 4 + (x & 3));
+            }
+            /* else: a transparent block, kept as it is: its texel is a constant; the
+             * target value stands in for it (close to what it decodes to) */
+        }
+    double best = exact_energy(&S);
+    if (stats) {
+        stats->e_before = best;
+        stats->nblocks = nb;
+    }
+    for (uint32_t b = 0; b < nb; b++)
+        memcpy(saved + 8 * b, blk_ptr(&S, b), 8);
+    for (int it = 0; it < iterations; it++) {
+        for (uint32_t b = 0; b < nb; b++) {
+            block_weights(blk_ptr(&S, b), S.t + 16 * b);
+            double en[2][3];
+            block_endpoints(blk_ptr(&S, b), en);
+            for (int c = 0; c < 3; c++) {
+                z[(size_t)c * 2 * nb + 2 * b] = en[0][c];
+                z[(size_t)c * 2 * nb + 2 * b + 1] = en[1][c];
+            }
+        }
+        for (unsigned c = 0; c < 3; c++) {
+            rc = solve_channel(&S, c, z + (size_t)c * 2 * nb, wk, fixed, cancel, e);
+            if (rc)
+                goto out;
+        }
+        for (uint32_t b = 0; b < nb; b++) {
+            double e0[3], e1[3];
+            for (int c = 0; c < 3; c++) {
+                e0[c] = z[(size_t)c * 2 * nb + 2 * b];
+                e1[c] = z[(size_t)c * 2 * nb + 2 * b + 1];
+            }
+            requantise(&S, b, e0, e1);
+        }
+        double en = exact_energy(&S);
+        if (stats)
+            stats->iterations = it + 1;
+        if (en < best) {
+            best = en;
+            for (uint32_t b = 0; b < nb; b++)
+                memcpy(saved + 8 * b, blk_ptr(&S, b), 8);
+        }
+    }
+    for (uint32_t b = 0; b < nb; b++)
+        memcpy(blk_ptr(&S, b), saved + 8 * b, 8);
+    if (stats)
+        stats->e_after = best;
+out:
+    free(keys);
+    free(S.sb);
+    free(S.t);
+    free(S.d);
+    free(S.taps);
+    free(saved);
+    free(fixed);
+    free(z);
+    free(wk);
+    return rc;
+}

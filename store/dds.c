@@ -1,0 +1,386 @@
+/* store/dds.c - DDS files of BC1 sets (bc1.h): writing and reading.
+ *
+ * Owns: the DDS container for BC1 (legacy DXT1 header, DX10 extension, cube maps, arrays,
+ * mips) and seamtex's adjacency trailer. Does not own: encoding (bc1_encode.c), sets.
+ *
+ * File layout (little-endian):
+ *   OFFSET SIZE DESCRIPTION
+ *   0      4    "DDS "
+ *   4      124  DDS_HEADER: size 124, flags, height, width, linear size (level-0 bytes),
+ *               depth, mip count, 11 reserved, pixel format (32 bytes: size 32, flags
+ *               DDPF_FOURCC, FourCC "DXT1" or "DX10", 5 unused), caps, caps2, caps3, caps4,
+ *               reserved
+ *   128    20   DX10 header when FourCC is "DX10": DXGI format (71 BC1_UNORM, 72 _SRGB),
+ *               dimension 3 (2D), misc flags (4 = cube), array size, alpha mode
+ *   ...         for each face (array element / cube face), every mip level, blocks row-major
+ *   ...         optional trailer "STADJ001", u32 nfaces, u8 source kind, 3 pad, then per face
+ *               i32 adjface[4], u8 adjedge[4], u8 flags, 3 pad (28 bytes): written for
+ *               per-face and cube sets so that a re-read set has its adjacency back.
+ * Cube faces are written in set order (+X,-X,+Y,-Y,+Z,-Z, cube.h), each face image as stored
+ * (rows top first). A constant face is written as uniform blocks and read back as blocks.
+ */
+#include "bc1.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DDSD_CAPS        0x1u
+#define DDSD_HEIGHT      0x2u
+#define DDSD_WIDTH       0x4u
+#define DDSD_PIXELFORMAT 0x1000u
+#define DDSD_MIPMAPCOUNT 0x20000u
+#define DDSD_LINEARSIZE  0x80000u
+#define DDPF_FOURCC      0x4u
+#define DDSCAPS_COMPLEX  0x8u
+#define DDSCAPS_TEXTURE  0x1000u
+#define DDSCAPS_MIPMAP   0x400000u
+#define DDSCAPS2_CUBE_ALL 0xFE00u
+#define DXGI_BC1_TYPELESS 70u
+#define DXGI_BC1_UNORM   71u
+#define DXGI_BC1_SRGB    72u
+#define TRAILER_MAGIC    "STADJ001"
+#define TRAILER_FACE     28u
+
+/* Cube adjacency of cube.h ("face:edge" across edges 0..3 of faces +X,-X,+Y,-Y,+Z,-Z). */
+static const int8_t CUBE_ADJ[6][4][2] = {
+    {{2, 1}, {4, 3}, {3, 1}, {5, 1}}, {{2, 3}, {5, 3}, {3, 3}, {4, 1}},
+    {{4, 0}, {0, 0}, {5, 0}, {1, 0}}, {{5, 2}, {0, 2}, {4, 2}, {1, 2}},
+    {{2, 0}, {1, 3}, {3, 2}, {0, 1}}, {{2, 2}, {0, 3}, {3, 0}, {1, 1}},
+};
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    p[2] = (uint8_t)(v >> 16);
+    p[3] = (uint8_t)(v >> 24);
+}
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static size_t level_bytes(uint32_t w, uint32_t h) { return (size_t)((w + 3) / 4) * ((h + 3) / 4) * 8; }
+
+int st_dds_write_mem(const st_set *s, uint8_t **buf, size_t *len, st_error *e)
+{
+    *buf = NULL;
+    *len = 0;
+    if (s->info.kind != ST_KIND_BC1)
+        return st_fail(e, ST_EINVAL, "only BC1 sets are written as DDS");
+    const st_bc1_ext *x = s->ext;
+    uint32_t nf = s->info.nfaces;
+    const st_face *F0 = &s->faces[0];
+    for (uint32_t f = 1; f < nf; f++)
+        if (s->faces[f].w != F0->w || s->faces[f].h != F0->h)
+            return st_fail(e, ST_EUNSUPPORTED,
+                           "face %u is %ux%u but face 0 is %ux%u: DDS holds faces of one size",
+                           f, s->faces[f].w, s->faces[f].h, F0->w, F0->h);
+    int cube = x && x->src_kind == ST_KIND_CUBE && nf == 6;
+    int dx10 = !cube && nf > 1;
+    int trailer = nf > 1;
+    size_t face_bytes = 0;
+    for (unsigned l = 0; l < F0->nlevels; l++)
+        face_bytes += level_bytes(st_level_w(F0, l), st_level_h(F0, l));
+    size_t total = 128 + (dx10 ? 20 : 0), data;
+    if (st_mul_size(face_bytes, nf, &data) || st_add_size(total, data, &total))
+        return st_fail(e, ST_ETOOBIG, "DDS size overflows");
+    size_t tstart = total;
+    if (trailer && (st_add_size(total, 16 + (size_t)nf * TRAILER_FACE, &total)))
+        return st_fail(e, ST_ETOOBIG, "DDS size overflows");
+    uint8_t *b = calloc(1, total);
+    if (!b)
+        return st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of DDS", total);
+    memcpy(b, "DDS ", 4);
+    uint8_t *h = b + 4;
+    put32(h + 0, 124);
+    put32(h + 4, DDSD_CAPS | DDSD_HEIGHT | DDSD_WIDTH | DDSD_PIXELFORMAT | DDSD_MIPMAPCOUNT |
+                     DDSD_LINEARSIZE);
+    put32(h + 8, F0->h);
+    put32(h + 12, F0->w);
+    put32(h + 16, (uint32_t)level_bytes(F0->w, F0->h));
+    put32(h + 20, 0);
+    put32(h + 24, F0->nlevels);
+    put32(h + 72, 32);
+    put32(h + 76, DDPF_FOURCC);
+    memcpy(h + 80, dx10 ? "DX10" : "DXT1", 4);
+    put32(h + 104, DDSCAPS_TEXTURE | (F0->nlevels > 1 ? DDSCAPS_MIPMAP | DDSCAPS_COMPLEX : 0) |
+                       (cube ? DDSCAPS_COMPLEX : 0));
+    put32(h + 108, cube ? DDSCAPS2_CUBE_ALL : 0);
+    uint8_t *p = b + 128;
+    if (dx10) {
+        put32(p, s->info.colorspace == ST_CS_SRGB ? DXGI_BC1_SRGB : DXGI_BC1_UNORM);
+        put32(p + 4, 3);
+        put32(p + 8, 0);
+        put32(p + 12, nf);
+        put32(p + 16, x && x->punchthrough ? 1 : 3);
+        p += 20;
+    }
+    for (uint32_t f = 0; f < nf; f++) {
+        const st_face *F = &s->faces[f];
+        for (unsigned l = 0; l < F->nlevels; l++) {
+            size_t lb = level_bytes(st_level_w(F, l), st_level_h(F, l));
+            if (F->flags & ST_FACE_CONSTANT) {
+                uint8_t px[64], blk[8];
+                for (int t = 0; t < 16; t++)
+                    memcpy(px + 4 * t, st_face_level(s, f, 0), 4);
+                st_bc1_encode_block(px, ST_BC1_HQ, blk);
+                for (size_t o = 0; o < lb; o += 8)
+                    memcpy(p + o, blk, 8);
+            } else {
+                memcpy(p, st_face_level(s, f, l), lb);
+            }
+            p += lb;
+        }
+    }
+    if (trailer) {
+        p = b + tstart;
+        memcpy(p, TRAILER_MAGIC, 8);
+        put32(p + 8, nf);
+        p[12] = x ? x->src_kind : ST_KIND_PERFACE;
+        p += 16;
+        for (uint32_t f = 0; f < nf; f++, p += TRAILER_FACE) {
+            const st_face *F = &s->faces[f];
+            for (int k = 0; k < 4; k++) {
+                put32(p + 4 * k, (uint32_t)F->adjface[k]);
+                p[16 + k] = F->adjedge[k];
+            }
+            p[20] = F->flags;
+        }
+    }
+    *buf = b;
+    *len = total;
+    return ST_OK;
+}
+
+int st_dds_write_file(const st_set *s, const char *path, st_error *e)
+{
+    uint8_t *b;
+    size_t n;
+    int rc = st_dds_write_mem(s, &b, &n, e);
+    if (rc)
+        return rc;
+    FILE *fp = fopen(path, "wb");
+    if (!fp) {
+        free(b);
+        return st_fail(e, ST_EIO, "%s: %s", path, strerror(errno));
+    }
+    size_t wr = fwrite(b, 1, n, fp);
+    int cl = fclose(fp);
+    free(b);
+    if (wr != n || cl != 0)
+        return st_fail(e, ST_EIO, "%s: write failed", path);
+    return ST_OK;
+}
+
+static void ext_free(void *p) { free(p); }
+
+static unsigned full_levels(uint32_t w, uint32_t h)
+{
+    uint32_t m = w > h ? w : h;
+    unsigned l = 1;
+    while (m >>= 1)
+        l++;
+    return l;
+}
+
+int st_dds_read_mem(const uint8_t *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
+{
+    *out = NULL;
+    if (len < 128 || memcmp(buf, "DDS ", 4))
+        return st_fail(e, ST_EFORMAT, "not a DDS file (no \"DDS \" magic or shorter than 128 bytes)");
+    const uint8_t *h = buf + 4;
+    if (get32(h) != 124 || get32(h + 72) != 32)
+        return st_fail(e, ST_EFORMAT, "DDS header size %u / pixel format size %u (want 124 / 32)",
+                       get32(h), get32(h + 72));
+    uint32_t H = get32(h + 8), W = get32(h + 12), mips = get32(h + 24);
+    if (W < 1 || H < 1 || W > ST_MAX_DIM || H > ST_MAX_DIM)
+        return st_fail(e, ST_ETOOBIG, "DDS size %ux%u not in 1..%u", W, H, ST_MAX_DIM);
+    if (!(get32(h + 76) & DDPF_FOURCC))
+        return st_fail(e, ST_EUNSUPPORTED, "DDS pixel format is not compressed (no FourCC)");
+    unsigned nfull = full_levels(W, H);
+    if (mips == 0 || !(get32(h + 4) & DDSD_MIPMAPCOUNT))
+        mips = 1;
+    if (mips > nfull)
+        return st_fail(e, ST_EFORMAT, "DDS claims %u mip levels, a %ux%u texture has at most %u",
+                       mips, W, H, nfull);
+    uint32_t caps2 = get32(h + 108);
+    int cube = (caps2 & 0x200u) != 0;
+    uint32_t nf = 1;
+    size_t off = 128;
+    int srgb = 0;
+    if (!memcmp(h + 80, "DX10", 4)) {
+        if (len < 148)
+            return st_fail(e, ST_EFORMAT, "DDS DX10 header truncated");
+        uint32_t fmt = get32(buf + 128), dim = get32(buf + 132), misc = get32(buf + 136),
+                 arr = get32(buf + 140);
+        if (fmt != DXGI_BC1_UNORM && fmt != DXGI_BC1_SRGB && fmt != DXGI_BC1_TYPELESS)
+            return st_fail(e, ST_EUNSUPPORTED, "DDS DXGI format %u is not BC1 (70..72)", fmt);
+        if (dim != 3)
+            return st_fail(e, ST_EUNSUPPORTED, "DDS resource dimension %u is not 2D", dim);
+        if (arr < 1 || arr > ST_MAX_FACES)
+            return st_fail(e, ST_ETOOBIG, "DDS array size %u not in 1..%u", arr, ST_MAX_FACES);
+        srgb = fmt == DXGI_BC1_SRGB;
+        if (misc & 4u) {
+            cube = 1;
+            if (arr != 1)
+                return st_fail(e, ST_EUNSUPPORTED, "DDS cube map arrays are not supported");
+        }
+        nf = arr;
+        off = 148;
+    } else if (memcmp(h + 80, "DXT1", 4)) {
+        return st_fail(e, ST_EUNSUPPORTED, "DDS FourCC '%.4s' is not DXT1 or DX10", (const char *)h + 80);
+    }
+    if (cube) {
+        if ((caps2 & DDSCAPS2_CUBE_ALL) != DDSCAPS2_CUBE_ALL && memcmp(h + 80, "DX10", 4))
+            return st_fail(e, ST_EUNSUPPORTED, "DDS cube map without all six faces");
+        if (W != H)
+            return st_fail(e, ST_EFORMAT, "DDS cube faces are %ux%u, not square", W, H);
+        nf = 6;
+    }
+    size_t face_bytes = 0;
+    for (unsigned l = 0; l < mips; l++) {
+        uint32_t w = W >> l ? W >> l : 1, hh = H >> l ? H >> l : 1;
+        face_bytes += level_bytes(w, hh);
+    }
+    size_t need, end;
+    if (st_mul_size(face_bytes, nf, &need) || st_add_size(need, off, &end) || end > len)
+        return st_fail(e, ST_EFORMAT, "DDS data truncated: %u faces of %zu bytes need %zu bytes, file has %zu",
+                       nf, face_bytes, need, len - off);
+    /* optional adjacency trailer */
+    const uint8_t *tr = NULL;
+    uint8_t src_kind = cube ? ST_KIND_CUBE : nf == 1 ? ST_KIND_ATLAS : ST_KIND_PERFACE;
+    if (len - end >= 16 && !memcmp(buf + end, TRAILER_MAGIC, 8) && get32(buf + end + 8) == nf &&
+        (len - end - 16) / TRAILER_FACE >= nf) {
+        tr = buf + end + 16;
+        if (buf[end + 12] <= ST_KIND_ATLAS)
+            src_kind = buf[end + 12];
+    }
+    st_face_desc *fd = calloc(nf, sizeof *fd);
+    if (!fd)
+        return st_fail(e, ST_ENOMEM, "out of memory for %u faces", nf);
+    for (uint32_t f = 0; f < nf; f++) {
+        fd[f].w = W;
+        fd[f].h = H;
+        for (int k = 0; k < 4; k++) {
+            fd[f].adjface[k] = -1;
+            fd[f].adjedge[k] = 0;
+            if (tr) {
+                int32_t a = (int32_t)get32(tr + (size_t)f * TRAILER_FACE + 4 * k);
+                fd[f].adjface[k] = a < 0 ? -1 : a;
+                fd[f].adjedge[k] = (int8_t)tr[(size_t)f * TRAILER_FACE + 16 + k];
+            } else if (cube) {
+                fd[f].adjface[k] = CUBE_ADJ[f][k][0];
+                fd[f].adjedge[k] = CUBE_ADJ[f][k][1];
+            }
+        }
+        if (tr)
+            fd[f].flags = tr[(size_t)f * TRAILER_FACE + 20] & ST_FACE_SUBFACE;
+    }
+    st_set_info info;
+    memset(&info, 0, sizeof info);
+    info.nfaces = nf;
+    info.nchan = 4;
+    info.dtype = ST_DT_U8;
+    info.alpha_chan = 3;
+    info.kind = ST_KIND_BC1;
+    info.colorspace = srgb ? ST_CS_SRGB : ST_CS_LINEAR;
+    st_set *s;
+    int rc = st_set_create(&info, fd, max_bytes, &s, e);
+    free(fd);
+    if (rc)
+        return rc;
+    st_bc1_ext *x = calloc(1, sizeof *x);
+    if (!x) {
+        st_set_free(s);
+        return st_fail(e, ST_ENOMEM, "out of memory");
+    }
+    x->src_kind = src_kind;
+    x->src_nchan = 4;
+    x->src_alpha = 3;
+    x->level = ST_BC1_HQ;
+    s->ext = x;
+    s->ext_free = ext_free;
+    const uint8_t *p = buf + off;
+    int punch = 0;
+    for (uint32_t f = 0; f < nf; f++) {
+        const st_face *F = &s->faces[f];
+        for (unsigned l = 0; l < mips; l++) {
+            size_t lb = level_bytes(st_level_w(F, l), st_level_h(F, l));
+            memcpy(st_face_level(s, f, l), p, lb);
+            for (size_t o = 0; o < lb && !punch; o += 8) {
+                const uint8_t *bk = p + o;
+                if ((bk[0] | bk[1] << 8) <= (bk[2] | bk[3] << 8))
+                    for (int t = 0; t < 16; t++)
+                        punch |= ((bk[4 + t / 4] >> (2 * (t & 3))) & 3) == 3;
+            }
+            p += lb;
+        }
+        /* missing levels: decode the last one, reduce, encode */
+        for (unsigned l = mips; l < F->nlevels; l++) {
+            uint32_t sw = st_level_w(F, l - 1), sh = st_level_h(F, l - 1);
+            uint32_t dw = st_level_w(F, l), dh = st_level_h(F, l);
+            uint8_t *a = malloc((size_t)sw * sh * 4), *b = malloc((size_t)dw * dh * 4);
+            if (!a || !b) {
+                free(a);
+                free(b);
+                st_set_free(s);
+                return st_fail(e, ST_ENOMEM, "out of memory for a mip level");
+            }
+            st_bc1_decode_image(st_face_level(s, f, l - 1), sw, sh, ST_BC1_DEC_EXACT, a);
+            uint32_t xs = sw > 1 ? 2 : 1, ys = sh > 1 ? 2 : 1;
+            for (uint32_t y = 0; y < dh; y++)
+                for (uint32_t xx = 0; xx < dw; xx++)
+                    for (int c = 0; c < 4; c++) {
+                        unsigned acc = 0;
+                        for (uint32_t j = 0; j < ys; j++)
+                            for (uint32_t i = 0; i < xs; i++)
+                                acc += a[(((size_t)(y * ys + j)) * sw + xx * xs + i) * 4 + c];
+                        b[((size_t)y * dw + xx) * 4 + c] = (uint8_t)((acc + xs * ys / 2) / (xs * ys));
+                    }
+            st_bc1_encode_image(b, dw, dh, (size_t)dw * 4, ST_BC1_FAST, 1, st_face_level(s, f, l),
+                                NULL);
+            free(a);
+            free(b);
+        }
+    }
+    x->punchthrough = (uint8_t)punch;
+    if (!punch)
+        s->info.alpha_chan = -1;
+    *out = s;
+    return ST_OK;
+}
+
+int st_dds_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
+{
+    *out = NULL;
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return st_fail(e, errno == ENOENT ? ST_ENOTFOUND : ST_EIO, "%s: %s", path, strerror(errno));
+    if (fseek(fp, 0, SEEK_END) != 0) {
+        fclose(fp);
+        return st_fail(e, ST_EIO, "%s: cannot seek", path);
+    }
+    long n = ftell(fp);
+    if (n < 0 || (unsigned long)n > ((unsigned long)1 << 34)) {
+        fclose(fp);
+        return st_fail(e, n < 0 ? ST_EIO : ST_ETOOBIG, "%s: size %ld not readable or over 16 GiB", path, n);
+    }
+    rewind(fp);
+    uint8_t *b = malloc(n ? (size_t)n : 1);
+    if (!b) {
+        fclose(fp);
+        return st_fail(e, ST_ENOMEM, "out of memory for %ld bytes", n);
+    }
+    size_t rd = fread(b, 1, (size_t)n, fp);
+    fclose(fp);
+    if (rd != (size_t)n) {
+        free(b);
+        return st_fail(e, ST_EIO, "%s: short read", path);
+    }
+    int rc = st_dds_read_mem(b, (size_t)n, max_bytes, out, e);
+    free(b);
+    return rc;
+}
