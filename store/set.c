@@ -166,7 +166,8 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
                          ST_MAX_DIM);
             goto fail;
         }
-        if (info->kind != ST_KIND_ATLAS && (!is_pow2(d->w) || !is_pow2(d->h))) {
+        if (info->kind != ST_KIND_ATLAS && info->kind != ST_KIND_BC1 &&
+            (!is_pow2(d->w) || !is_pow2(d->h))) {
             rc = st_fail(e, ST_EINVAL, "face %u: size %ux%u is not a power of two", f, d->w, d->h);
             goto fail;
         }
