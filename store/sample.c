@@ -36,6 +36,41 @@ ST_AI float chan(int DT, const uint8_t *p, unsigned c)
     return st_channel_get(DT == DT_BC1 ? ST_DT_U8 : (unsigned)DT, p, c);
 }
 
+/* Four channels at once (u8 x4, f32 x4, decoded BC1) with SSE2, which every x86-64 has; the
+ * scalar loop below is the same arithmetic, one channel at a time, for everything else. */
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#define ST_SIMD4 1
+ST_AI __m128 load4(int DT, const uint8_t *p)
+{
+    if (DT == ST_DT_F32)
+        return _mm_loadu_ps((const float *)p);
+    int32_t x;
+    memcpy(&x, p, 4);
+    __m128i z = _mm_setzero_si128();
+    __m128i v = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(x), z), z);
+    return _mm_mul_ps(_mm_cvtepi32_ps(v), _mm_set1_ps(1.0f / 255.0f));
+}
+ST_AI void bilerp4(int DT, const uint8_t *p00, const uint8_t *p10, const uint8_t *p01,
+                   const uint8_t *p11, float fx, float fy, float pw, st_acc *a)
+{
+    __m128 t00 = load4(DT, p00), t10 = load4(DT, p10), t01 = load4(DT, p01), t11 = load4(DT, p11);
+    __m128 vx = _mm_set1_ps(fx), vy = _mm_set1_ps(fy);
+    __m128 r0 = _mm_add_ps(t00, _mm_mul_ps(vx, _mm_sub_ps(t10, t00)));
+    __m128 r1 = _mm_add_ps(t01, _mm_mul_ps(vx, _mm_sub_ps(t11, t01)));
+    __m128 r = _mm_add_ps(r0, _mm_mul_ps(vy, _mm_sub_ps(r1, r0)));
+    _mm_storeu_ps(a->c, _mm_add_ps(_mm_loadu_ps(a->c), _mm_mul_ps(_mm_set1_ps(pw), r)));
+}
+#else
+#define ST_SIMD4 0
+#endif
+
+ST_AI void bc1_texel_at(const st_view *v, int32_t i, int32_t j, uint8_t rgba[4])
+{
+    const uint8_t *blk = v->base + ((size_t)(j >> 2) * v->bw + (size_t)(i >> 2)) * 8;
+    st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)j & 3u, rgba);
+}
+
 /* ---- probes ------------------------------------------------------------------------------ */
 
 ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
@@ -51,6 +86,25 @@ ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint3
         st_probe_bilinear_edge(s, mode, fp, f, level, &V, i0, j0, fx, fy, pw, a);
         return;
     }
+#if ST_SIMD4
+    if (DT == DT_BC1 && V.bw) {
+        uint8_t t[4][4];
+        bc1_texel_at(&V, i0, j0, t[0]);
+        bc1_texel_at(&V, i0 + 1, j0, t[1]);
+        bc1_texel_at(&V, i0, j0 + 1, t[2]);
+        bc1_texel_at(&V, i0 + 1, j0 + 1, t[3]);
+        bilerp4(ST_DT_U8, t[0], t[1], t[2], t[3], fx, fy, pw, a);
+        a->w += pw;
+        return;
+    }
+    if (nch == 4 && (DT == ST_DT_U8 || DT == ST_DT_F32 || DT == DT_BC1)) {
+        const uint8_t *p00 = V.base + (size_t)i0 * V.xs + (size_t)j0 * V.ys;
+        bilerp4(DT == DT_BC1 ? ST_DT_U8 : DT, p00, p00 + V.xs, p00 + V.ys, p00 + V.ys + V.xs,
+                fx, fy, pw, a);
+        a->w += pw;
+        return;
+    }
+#endif
     if (DT == DT_BC1 && V.bw) {
         float t00[4], t10[4], t01[4], t11[4];
         bc1_fetch(&V, i0, j0, t00);
