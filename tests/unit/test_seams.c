@@ -1,0 +1,279 @@
+/* tests/unit/test_seams.c - welding, seam / boundary / non-manifold edges and charts of
+ * meshes (synthetic ones, and the shared meshes against the figures of the data README),
+ * atlas chart masks and chart-relative Discard. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "atlas.h"
+#include "import.h"
+#include "mesh.h"
+
+static const char *data_dir(void)
+{
+    const char *d = getenv("SEAMTEX_DATA");
+    return d && *d ? d : "../shared/data";
+}
+
+static int data_path(char *buf, size_t cap, const char *rel)
+{
+    snprintf(buf, cap, "%s/%s", data_dir(), rel);
+    if (access(buf, R_OK)) {
+        print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", data_dir(), rel);
+        return -1;
+    }
+    return 0;
+}
+
+static st_mesh *obj_str(const char *text)
+{
+    st_mesh *m = NULL;
+    st_error e;
+    int rc = st_obj_read_mem(text, strlen(text), NULL, NULL, &m, &e);
+    if (rc)
+        print_message("obj: %s\n", e.msg);
+    assert_int_equal(rc, ST_OK);
+    return m;
+}
+
+static void two_triangles_with_split_uvs_make_one_seam(void **state)
+{
+    (void)state;
+    /* a quad split along 1-3; the second triangle's UVs come from another chart */
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                         "vt 0 0\nvt .5 0\nvt .5 .5\nvt 0 .5\nvt .6 .6\nvt .9 .9\n"
+                         "f 1/1 2/2 3/3\nf 1/5 3/6 4/4\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    const st_seams *s = m->seams;
+    assert_int_equal(s->nseams, 1);
+    assert_int_equal(s->nboundary, 4);
+    assert_int_equal(s->nnonmanifold, 0);
+    assert_int_equal(s->ncharts, 2);
+    const st_seam_edge *se = &s->seams[0];
+    assert_true(se->pos[0] < se->pos[1]);
+    /* both segments run from pos[0] (vertex 1) to pos[1] (vertex 3) */
+    assert_float_equal(se->uv[0][0][0], 0.0f, 1e-6);
+    assert_float_equal(se->uv[0][1][0], 0.5f, 1e-6);
+    assert_float_equal(se->uv[1][0][0], 0.6f, 1e-6);
+    assert_float_equal(se->uv[1][1][0], 0.9f, 1e-6);
+    /* v is flipped into texture space */
+    assert_float_equal(se->uv[0][1][1], 0.5f, 1e-6);
+    assert_float_equal(se->uv[1][1][1], 1.0f - 0.9f, 1e-6);
+    st_mesh_free(m);
+}
+
+static void shared_uvs_are_not_a_seam_even_with_duplicate_vt_entries(void **state)
+{
+    (void)state;
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0 0\nvt 1 1\n"
+                         "f 1/1 2/2 3/3\nf 1/5 3/6 4/4\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->seams->nseams, 0);
+    assert_int_equal(m->seams->ncharts, 1);
+    st_mesh_free(m);
+}
+
+static void mirrored_chart_is_flagged(void **state)
+{
+    (void)state;
+    /* the second triangle's UVs are mirrored (opposite winding in UV space) */
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 2 0\nvt 2 1\n"
+                         "f 1/1 2/2 3/3\nf 1/2 3/3 4/5\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->seams->nseams, 1);
+    const st_seam_edge *se = &m->seams->seams[0];
+    assert_int_not_equal(se->winding[0], 0);
+    assert_int_equal(se->winding[0], -se->winding[1]);
+    assert_int_equal(se->mirrored, 1);
+    st_mesh_free(m);
+}
+
+static void welding_merges_split_positions_before_seams(void **state)
+{
+    (void)state;
+    /* the same quad with its shared edge's vertices duplicated (as Draco writes them) */
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 0\nv 1 1 0\n"
+                         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 5 5\nvt 6 6\n"
+                         "f 1/1 2/2 3/3\nf 5/5 6/6 4/4\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->nweld, 4);
+    assert_int_equal(m->seams->nseams, 1);
+    assert_int_equal(m->seams->nboundary, 4);
+    st_mesh_free(m);
+}
+
+static void three_triangles_on_one_edge_are_non_manifold(void **state)
+{
+    (void)state;
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nvt 0 0\n"
+                         "f 1/1 2/1 3/1\nf 2/1 1/1 4/1\nf 1/1 2/1 5/1\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->seams->nnonmanifold, 1);
+    assert_int_equal(m->seams->nonmanifold[0].count, 3);
+    assert_int_equal(m->seams->nboundary, 6);
+    assert_int_equal(m->seams->nseams, 0);
+    st_mesh_free(m);
+}
+
+static void edge_to_a_triangle_without_uvs_is_not_a_seam(void **state)
+{
+    (void)state;
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                         "f 1/1 2/2 3/3\nf 1 3 4\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->ntri_nouv, 1);
+    assert_int_equal(m->seams->nseams, 0);
+    assert_int_equal(m->seams->nuv_border, 1);
+    assert_int_equal(m->seams->ncharts, 2);
+    st_mesh_free(m);
+}
+
+typedef struct expect {
+    const char *rel;
+    int draco;
+    uint32_t ntri, seams, boundary, nonmanifold, charts;
+} expect;
+
+/* Figures from the shared data README. */
+static const expect EXPECTED[] = {
+    {"meshes/duck/Duck.obj", 0, 4212, 166, 0, 0, 10},
+    {"meshes/waterbottle/WaterBottle.obj", 0, 4510, 119, 264, 0, 5},
+    {"meshes/cesiummilktruck/CesiumMilkTruck.obj", 0, 3624, 479, 8, 0, 376},
+    {"meshes/spider/spider.obj", 0, 1368, 172, 72, 16, 91},
+    {"drc/cube_att.obj", 0, 12, 12, 0, 0, 6},
+    {"drc/cube_att.drc", 1, 12, 12, 0, 0, 6},
+    {"drc/cube_att.obj.edgebreaker.cl10.2.2.drc", 1, 12, 12, 0, 0, 6},
+    {"drc/cube_att.obj.sequential.cl3.2.2.drc", 1, 12, 12, 0, 0, 6},
+    {"drc/converted/Duck.drc", 1, 4212, 166, 0, 0, 10},
+};
+
+static void shared_meshes_match_the_data_readme(void **state)
+{
+    (void)state;
+    char path[1024];
+    for (size_t i = 0; i < sizeof EXPECTED / sizeof EXPECTED[0]; i++) {
+        const expect *x = &EXPECTED[i];
+        if (data_path(path, sizeof path, x->rel))
+            skip();
+        st_mesh *m = NULL;
+        st_error e;
+        int rc = x->draco ? st_draco_read_file(path, NULL, &m, &e) : st_obj_read_file(path, NULL, &m, &e);
+        if (rc)
+            print_message("%s: %s\n", x->rel, e.msg);
+        assert_int_equal(rc, ST_OK);
+        assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+        print_message("%-45s tris %5u seams %4u boundary %4u non-manifold %3u charts %4u\n", x->rel,
+                      m->ntri, m->seams->nseams, m->seams->nboundary, m->seams->nnonmanifold,
+                      m->seams->ncharts);
+        assert_int_equal(m->ntri, x->ntri);
+        assert_int_equal(m->seams->nseams, x->seams);
+        assert_int_equal(m->seams->nboundary, x->boundary);
+        assert_int_equal(m->seams->nnonmanifold, x->nonmanifold);
+        assert_int_equal(m->seams->ncharts, x->charts);
+        /* every seam's two segments really differ */
+        for (uint32_t k = 0; k < m->seams->nseams; k++)
+            assert_true(memcmp(m->seams->seams[k].uv[0], m->seams->seams[k].uv[1],
+                               sizeof m->seams->seams[k].uv[0]) != 0);
+        st_mesh_free(m);
+    }
+}
+
+static void draco_mesh_without_uvs_is_refused_with_enouv(void **state)
+{
+    (void)state;
+    char path[1024];
+    if (data_path(path, sizeof path, "drc/bunny_gltf.drc"))
+        skip();
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_draco_read_file(path, NULL, &m, &e), ST_OK);
+    assert_int_equal(m->nuv, 0);
+    assert_int_equal(st_mesh_require_uv(m, &e), ST_ENOUV);
+    assert_non_null(strstr(e.msg, "no texture coordinates"));
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->seams->nboundary, 223); /* README: boundary 223 */
+    st_mesh_free(m);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(path, NULL, &s, &e), ST_ENOUV);
+    assert_null(s);
+}
+
+static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(void **state)
+{
+    (void)state;
+    char obj[1024];
+    if (data_path(obj, sizeof obj, "meshes/duck/Duck.obj"))
+        skip();
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(obj, NULL, &s, &e), ST_OK);
+    const st_atlas *a = st_atlas_get(s);
+    assert_non_null(a);
+    assert_non_null(a->mesh);
+    assert_int_equal(a->mesh->seams->nseams, 166);
+    assert_int_equal(a->mask_w, 512);
+    size_t in = 0, out_px = 0;
+    for (size_t i = 0; i < (size_t)a->mask_w * a->mask_h; i++)
+        a->chart_mask[i] ? in++ : out_px++;
+    print_message("duck chart mask: %zu texels in charts, %zu outside\n", in, out_px);
+    assert_true(in > 1000 && out_px > 1000);
+    /* find a masked-out texel with a masked-in neighbour to the right */
+    long fx = -1, fy = -1;
+    for (uint32_t y = 0; y < a->mask_h && fx < 0; y++)
+        for (uint32_t x = 0; x + 1 < a->mask_w; x++)
+            if (!a->chart_mask[y * a->mask_w + x] && a->chart_mask[y * a->mask_w + x + 1]) {
+                fx = x;
+                fy = y;
+                break;
+            }
+    assert_true(fx >= 0);
+    st_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = ST_MODE_DISCARD;
+    o.filter = ST_FILTER_BILINEAR;
+    st_query q;
+    memset(&q, 0, sizeof q);
+    q.u = ((float)fx + 1.0f) / 512.0f; /* between the outside texel and the inside one */
+    q.v = ((float)fy + 0.5f) / 512.0f;
+    float v1[4], v2[4], c1, c2;
+    uint8_t s1, s2;
+    assert_true(st_atlas_sample(s, &o, ST_ATLAS_CHART_DISCARD, &q, 1, v1, &c1, &s1) >= 0);
+    assert_true(st_atlas_sample(s, &o, 0, &q, 1, v2, &c2, &s2) >= 0);
+    assert_int_equal(s1, ST_Q_OK);
+    assert_float_equal(c1, 0.5f, 1e-3);  /* half the bilinear weight was outside the chart */
+    assert_float_equal(c2, 1.0f, 1e-3);
+    /* the chart-discard result is the inside texel alone */
+    const uint8_t *px = st_face_level(s, 0, 0) + ((size_t)fy * 512 + (size_t)fx + 1) * 3;
+    assert_float_equal(v1[0], px[0] / 255.0f, 1e-4);
+    st_set_free(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(two_triangles_with_split_uvs_make_one_seam),
+        cmocka_unit_test(shared_uvs_are_not_a_seam_even_with_duplicate_vt_entries),
+        cmocka_unit_test(mirrored_chart_is_flagged),
+        cmocka_unit_test(welding_merges_split_positions_before_seams),
+        cmocka_unit_test(three_triangles_on_one_edge_are_non_manifold),
+        cmocka_unit_test(edge_to_a_triangle_without_uvs_is_not_a_seam),
+        cmocka_unit_test(shared_meshes_match_the_data_readme),
+        cmocka_unit_test(draco_mesh_without_uvs_is_refused_with_enouv),
+        cmocka_unit_test(duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
