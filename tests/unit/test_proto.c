@@ -1,0 +1,890 @@
+/* tests/unit/test_proto.c - the wire protocol without sockets: header parser (need more / ok /
+ * bad), the malformed-frame table at parser and decoder level, round trips of every body
+ * encoder/decoder, lying inner counts, zero-length batches, NaN as data, CRC32C, stp_buf. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "err.h"
+#include "proto.h"
+#include "sample.h"
+#include "seamtex.h"
+
+uint32_t stp_crc32c_sw(uint32_t crc, const void *buf, size_t n);
+
+/* Encodes into a fresh buffer, checks the frame header, returns the body. */
+typedef struct frame {
+    stp_buf b;
+    stp_header h;
+    const uint8_t *body;
+} frame;
+
+static void frame_parse(frame *f, uint8_t opcode, uint32_t reqid, int reply)
+{
+    int reason = -1;
+    assert_int_equal(f->b.err, 0);
+    assert_true(stp_buf_avail(&f->b) >= STP_HEADER_SIZE);
+    assert_int_equal(stp_parse_header(stp_buf_head(&f->b), stp_buf_avail(&f->b), UINT32_MAX,
+                                      &f->h, &reason), STP_OK);
+    assert_int_equal(reason, STP_R_NONE);
+    assert_int_equal(f->h.opcode, opcode);
+    assert_int_equal(f->h.reqid, reqid);
+    assert_int_equal(!!(f->h.flags & STP_F_REPLY), reply);
+    assert_int_equal((size_t)f->h.body_len + STP_HEADER_SIZE, stp_buf_avail(&f->b));
+    f->body = stp_buf_head(&f->b) + STP_HEADER_SIZE;
+}
+
+/* Every strict prefix of a valid body must be refused by dec (and never read past it:
+ * each prefix is copied into an exact-size heap block so ASan sees overreads). */
+typedef int (*dec_fn)(const uint8_t *body, size_t len, void *out, const char **why);
+
+static void prefixes_refused(const uint8_t *body, size_t len, dec_fn dec, void *out)
+{
+    for (size_t n = 0; n < len; n++) {
+        uint8_t *copy = malloc(n ? n : 1);
+        const char *why = NULL;
+        memcpy(copy, body, n);
+        int s = dec(copy, n, out, &why);
+        if (s == 0)
+            fail_msg("prefix of %zu of %zu bytes accepted", n, len);
+        assert_non_null(why);
+        free(copy);
+    }
+    /* and one trailing byte too many */
+    uint8_t *longer = malloc(len + 1);
+    memcpy(longer, body, len);
+    longer[len] = 0;
+    const char *why = NULL;
+    assert_int_equal(dec(longer, len + 1, out, &why), STP_S_BAD_REQUEST);
+    free(longer);
+}
+
+/* Decoders adapted to dec_fn (calling through a cast pointer would be undefined). */
+#define WRAP(name, type) \
+    static int w_##name(const uint8_t *b, size_t n, void *o, const char **why) \
+    { return stp_dec_##name(b, n, (type *)o, why); }
+WRAP(hello_req, stp_hello_req)
+WRAP(hello_reply, stp_hello_reply)
+WRAP(list_reply, stp_list_reply)
+WRAP(info_req, stp_info_req)
+WRAP(info_reply, stp_info_reply)
+WRAP(sample_reply, stp_sample_reply)
+WRAP(stats_reply, stp_stats_reply)
+WRAP(upload_begin, stp_upload_begin)
+WRAP(upload_begin_reply, stp_upload_begin_reply)
+WRAP(upload_chunk, stp_upload_chunk)
+WRAP(upload_progress, stp_upload_progress)
+WRAP(upload_done, stp_upload_done)
+WRAP(compress_req, stp_compress_req)
+WRAP(job_status, stp_job_status)
+WRAP(fetch_open, stp_fetch_open)
+WRAP(fetch_open_reply, stp_fetch_open_reply)
+WRAP(fetch_read, stp_fetch_read)
+WRAP(fetch_data, stp_fetch_data)
+static int w_sample_req(const uint8_t *b, size_t n, void *o, const char **why)
+{
+    return stp_dec_sample_req(b, n, UINT32_MAX, (stp_sample_req *)o, why);
+}
+static int w_sample_dir_req(const uint8_t *b, size_t n, void *o, const char **why)
+{
+    return stp_dec_sample_dir_req(b, n, UINT32_MAX, (stp_sample_req *)o, why);
+}
+static int w_id(const uint8_t *b, size_t n, void *o, const char **why)
+{
+    return stp_dec_id_req(b, n, (uint64_t *)o, why);
+}
+static int w_name(const uint8_t *b, size_t n, void *o, const char **why)
+{
+    return stp_dec_name_req(b, n, (char *)o, why);
+}
+
+/* ---- header ---------------------------------------------------------------------------------- */
+
+static void header_round_trips_little_endian(void **state)
+{
+    (void)state;
+    uint8_t raw[STP_HEADER_SIZE];
+    stp_header h = { STP_VERSION, STP_OP_SAMPLE, STP_F_REPLY, 0x11223344u, STP_S_NOT_FOUND,
+                     0x0a0b0c0du, 1500 }, g;
+    stp_write_header(raw, &h);
+    static const uint8_t want[STP_HEADER_SIZE] = {
+        0x53, 0x54, 0x58, 0x31, 1, 0x05, 0x01, 0x00, 0x44, 0x33, 0x22, 0x11, 0x05, 0x00,
+        0x00, 0x00, 0x0d, 0x0c, 0x0b, 0x0a, 0xdc, 0x05, 0x00, 0x00 };
+    assert_memory_equal(raw, want, sizeof want);
+    int reason;
+    assert_int_equal(stp_parse_header(raw, sizeof raw, UINT32_MAX, &g, &reason), STP_OK);
+    assert_int_equal(g.reqid, h.reqid);
+    assert_int_equal(g.body_len, h.body_len);
+    assert_int_equal(g.status, h.status);
+    assert_int_equal(g.timeout_ms, 1500);
+}
+
+static void header_needs_more_until_complete(void **state)
+{
+    (void)state;
+    uint8_t raw[STP_HEADER_SIZE];
+    stp_header h = { STP_VERSION, STP_OP_PING, 0, 7, 0, 2, 0 }, g;
+    stp_write_header(raw, &h);
+    for (size_t n = 0; n < STP_HEADER_SIZE; n++) {
+        int reason = -1;
+        assert_int_equal(stp_parse_header(raw, n, 100, &g, &reason), STP_NEED_MORE);
+        assert_int_equal(reason, STP_R_NONE);
+    }
+    assert_int_equal(stp_parse_header(raw, STP_HEADER_SIZE, 100, &g, NULL), STP_OK);
+}
+
+static void bad_magic_is_fatal_as_soon_as_seen(void **state)
+{
+    (void)state;
+    uint8_t raw[STP_HEADER_SIZE];
+    stp_header h = { STP_VERSION, STP_OP_PING, 0, 7, 0, 0, 0 }, g;
+    for (int pos = 0; pos < 4; pos++) {
+        stp_write_header(raw, &h);
+        raw[pos] ^= 0x20;
+        int reason = 0;
+        /* detected with only pos+1 bytes present */
+        assert_int_equal(stp_parse_header(raw, (size_t)pos + 1, 100, &g, &reason), STP_BAD);
+        assert_int_equal(reason, STP_R_BAD_MAGIC);
+        assert_true(stp_reason_fatal(reason));
+    }
+    /* an HTTP request is a bad magic too */
+    const char *http = "GET / HTTP/1.1\r\n\r\n";
+    int reason = 0;
+    assert_int_equal(stp_parse_header((const uint8_t *)http, strlen(http), 100, &g, &reason),
+                     STP_BAD);
+    assert_int_equal(reason, STP_R_BAD_MAGIC);
+}
+
+/* The malformed-frame table, parser level: each row with its defined outcome. */
+static void malformed_frame_table_at_parser_level(void **state)
+{
+    (void)state;
+    struct row {
+        const char *what;
+        int version, opcode;
+        uint32_t body_len;
+        size_t present;            /* header bytes given */
+        int want, reason, status, fatal;
+    } rows[] = {
+        { "bad version",         2, STP_OP_PING, 0,    24, STP_BAD, STP_R_BAD_VERSION,
+          STP_S_BAD_VERSION, 0 },
+        { "version 0",           0, STP_OP_PING, 8,    24, STP_BAD, STP_R_BAD_VERSION,
+          STP_S_BAD_VERSION, 0 },
+        { "unknown opcode",      1, 0xEE,        0,    24, STP_OK,  STP_R_NONE, STP_S_OK, 0 },
+        { "truncated header",    1, STP_OP_PING, 0,    23, STP_NEED_MORE, STP_R_NONE,
+          STP_S_OK, 0 },
+        { "body over the cap",   1, STP_OP_SAMPLE, 1025, 24, STP_BAD, STP_R_TOO_LARGE,
+          STP_S_TOO_LARGE, 0 },
+        { "body at the cap",     1, STP_OP_SAMPLE, 1024, 24, STP_OK, STP_R_NONE, STP_S_OK, 0 },
+        { "4 GiB body",          1, STP_OP_UPLOAD_CHUNK, 0xFFFFFFFFu, 24, STP_BAD,
+          STP_R_TOO_LARGE, STP_S_TOO_LARGE, 0 },
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        uint8_t raw[STP_HEADER_SIZE];
+        stp_header h = { (uint8_t)rows[i].version, (uint8_t)rows[i].opcode, 0, 99, 0,
+                         rows[i].body_len, 0 }, g;
+        int reason = -1;
+        stp_write_header(raw, &h);
+        int r = stp_parse_header(raw, rows[i].present, 1024, &g, &reason);
+        if (r != rows[i].want || reason != rows[i].reason)
+            fail_msg("%s: got %d/%d", rows[i].what, r, reason);
+        assert_int_equal(stp_reason_status(reason), rows[i].status);
+        assert_int_equal(stp_reason_fatal(reason), rows[i].fatal);
+        if (r != STP_NEED_MORE) {
+            /* even refused headers tell what to skip and whom to answer */
+            assert_int_equal(g.body_len, rows[i].body_len);
+            assert_int_equal(g.reqid, 99);
+        }
+    }
+    assert_null(stp_opcode_name(0xEE));
+    assert_string_equal(stp_opcode_name(STP_OP_SAMPLE), "SAMPLE");
+}
+
+/* ---- bodies -------------------------------------------------------------------------------- */
+
+static void hello_round_trips(void **state)
+{
+    (void)state;
+    frame f;
+    stp_hello_req rq = { 1, 1, STP_CAP_PIPELINE | STP_CAP_FETCH, "s3cret", "unit" }, rq2;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_hello_req(&f.b, 5, 0, &rq), 0);
+    frame_parse(&f, STP_OP_HELLO, 5, 0);
+    assert_int_equal(stp_dec_hello_req(f.body, f.h.body_len, &rq2, NULL), 0);
+    assert_string_equal(rq2.token, "s3cret");
+    assert_string_equal(rq2.client_name, "unit");
+    assert_int_equal(rq2.caps, rq.caps);
+    prefixes_refused(f.body, f.h.body_len, w_hello_req, &rq2);
+
+    stp_hello_reply rp = { 1, STP_CAP_AUTH, 1u << 20, 4096, 65536, 32, 1, "seamtexd" }, rp2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_hello_reply(&f.b, 5, &rp), 0);
+    frame_parse(&f, STP_OP_HELLO, 5, 1);
+    assert_int_equal(stp_dec_hello_reply(f.body, f.h.body_len, &rp2, NULL), 0);
+    assert_int_equal(rp2.max_body, 1u << 20);
+    assert_int_equal(rp2.max_batch, 4096);
+    assert_int_equal(rp2.max_chunk, 65536);
+    assert_int_equal(rp2.max_inflight, 32);
+    assert_int_equal(rp2.authenticated, 1);
+    assert_string_equal(rp2.server_name, "seamtexd");
+    prefixes_refused(f.body, f.h.body_len, w_hello_reply, &rp2);
+    stp_buf_free(&f.b);
+}
+
+static void list_round_trips_and_refuses_lying_count(void **state)
+{
+    (void)state;
+    frame f;
+    stp_list_entry e[2] = { { "ptex_a", 0, 3, 0, 12, 4096 }, { "cube.b", 1, 4, 3, 6, 1u << 30 } };
+    stp_list_reply rp = { 7, 2, e, NULL, 0 }, rp2;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_list_reply(&f.b, 9, &rp), 0);
+    frame_parse(&f, STP_OP_LIST, 9, 1);
+    assert_int_equal(stp_dec_list_reply(f.body, f.h.body_len, &rp2, NULL), 0);
+    assert_int_equal(rp2.total, 7);
+    assert_int_equal(rp2.count, 2);
+    size_t pos = 0;
+    stp_list_entry g;
+    assert_true(stp_list_next(&rp2, &pos, &g));
+    assert_string_equal(g.name, "ptex_a");
+    assert_int_equal(g.nfaces, 12);
+    assert_true(stp_list_next(&rp2, &pos, &g));
+    assert_string_equal(g.name, "cube.b");
+    assert_int_equal(g.memory, 1u << 30);
+    assert_int_equal(g.dtype, 3);
+    assert_false(stp_list_next(&rp2, &pos, &g));
+    prefixes_refused(f.body, f.h.body_len, w_list_reply, &rp2);
+
+    /* count says 3 with two entries, and a count of 2^32-1 */
+    uint8_t *b = malloc(f.h.body_len);
+    memcpy(b, f.body, f.h.body_len);
+    stp_wr32(b + 4, 3);
+    assert_int_equal(stp_dec_list_reply(b, f.h.body_len, &rp2, NULL), STP_S_BAD_REQUEST);
+    stp_wr32(b + 4, 0xFFFFFFFFu);
+    assert_int_equal(stp_dec_list_reply(b, f.h.body_len, &rp2, NULL), STP_S_BAD_REQUEST);
+    free(b);
+
+    stp_list_req lq = { 3, 10 }, lq2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_list_req(&f.b, 1, 0, &lq), 0);
+    frame_parse(&f, STP_OP_LIST, 1, 0);
+    assert_int_equal(stp_dec_list_req(f.body, f.h.body_len, &lq2, NULL), 0);
+    assert_int_equal(lq2.first, 3);
+    assert_int_equal(lq2.max, 10);
+    assert_int_equal(stp_dec_list_req(NULL, 0, &lq2, NULL), 0);     /* empty = all */
+    assert_int_equal(lq2.first, 0);
+    assert_int_equal(stp_dec_list_req(f.body, 4, &lq2, NULL), STP_S_BAD_REQUEST);
+    stp_buf_free(&f.b);
+}
+
+static void info_round_trips_with_face_records(void **state)
+{
+    (void)state;
+    frame f;
+    stp_info_req rq = { "set1", 2, 3 }, rq2;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_info_req(&f.b, 2, 0, &rq), 0);
+    frame_parse(&f, STP_OP_INFO, 2, 0);
+    assert_int_equal(stp_dec_info_req(f.body, f.h.body_len, &rq2, NULL), 0);
+    assert_string_equal(rq2.name, "set1");
+    assert_int_equal(rq2.face_first, 2);
+    assert_int_equal(rq2.face_count, 3);
+    prefixes_refused(f.body, f.h.body_len, w_info_req, &rq2);
+
+    stp_face_rec fr[2] = { { 64, 32, { 1, -1, 5, -1 }, { 3, 0, 2, 0 }, 1, 7 },
+                           { 1, 1, { -1, -1, -1, 0 }, { 0, 0, 0, 1 }, 2, 1 } };
+    stp_info_reply rp;
+    memset(&rp, 0, sizeof rp);
+    rp.nfaces = 10; rp.nchan = 4; rp.dtype = ST_DT_HALF; rp.alpha_chan = -1; rp.kind = 1;
+    rp.memory = 123456789012ull; rp.max_w = 64; rp.min_w = 1; rp.irregular_corners = 8;
+    rp.max_valence = 5; rp.face_first = 2; rp.nrec = 2; rp.faces = fr;
+    stp_info_reply rp2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_info_reply(&f.b, 2, &rp), 0);
+    frame_parse(&f, STP_OP_INFO, 2, 1);
+    assert_int_equal(f.h.body_len, 80 + 2 * STP_FACE_REC_SIZE);
+    assert_int_equal(stp_dec_info_reply(f.body, f.h.body_len, &rp2, NULL), 0);
+    assert_int_equal(rp2.alpha_chan, -1);
+    assert_int_equal(rp2.memory, 123456789012ull);
+    assert_int_equal(rp2.irregular_corners, 8);
+    assert_int_equal(rp2.nrec, 2);
+    stp_face_rec g;
+    stp_info_face(&rp2, 0, &g);
+    assert_int_equal(g.w, 64);
+    assert_int_equal(g.adjface[1], -1);
+    assert_int_equal(g.adjface[2], 5);
+    assert_int_equal(g.adjedge[0], 3);
+    assert_int_equal(g.nlevels, 7);
+    stp_info_face(&rp2, 1, &g);
+    assert_int_equal(g.flags, 2);
+    assert_int_equal(g.adjedge[3], 1);
+    prefixes_refused(f.body, f.h.body_len, w_info_reply, &rp2);
+    stp_buf_free(&f.b);
+}
+
+static void encode_sample(stp_buf *b, const char *name, uint32_t n, const stp_query *q)
+{
+    stp_sample_req rq;
+    memset(&rq, 0, sizeof rq);
+    snprintf(rq.p.name, sizeof rq.p.name, "%s", name);
+    rq.p.mode = ST_MODE_TRAVERSE;
+    rq.p.filter = ST_FILTER_PTEX_MITCHELL;
+    rq.p.zero_rule = ST_ZERO_CLAMP;
+    rq.p.max_aniso = 8;
+    rq.p.outfmt = STP_OUT_UNORM16;
+    rq.p.flags = STP_SF_COVERAGE | STP_SF_STATUS;
+    rq.p.sharpness = 0.5f;
+    rq.p.width = 2.0f;
+    rq.count = n;
+    rq.queries = q;
+    assert_int_equal(stp_enc_sample_req(b, 77, 250, &rq), 0);
+}
+
+static void sample_request_round_trips_and_keeps_nan(void **state)
+{
+    (void)state;
+    frame f;
+    stp_query q[3] = { { 0, 0.25f, 0.75f, 0.01f, 0, 0, 0.01f },
+                       { 5, NAN, 0.5f, INFINITY, -0.0f, 0, 0 },
+                       { 0xFFFFFFFFu, -3.0f, 1e30f, 0, 0, 0, 0 } };
+    stp_sample_req r;
+    stp_buf_init(&f.b);
+    encode_sample(&f.b, "tex", 3, q);
+    frame_parse(&f, STP_OP_SAMPLE, 77, 0);
+    assert_int_equal(f.h.timeout_ms, 250);
+    assert_int_equal(f.h.body_len, 2 + 3 + 24 + 3 * STP_QUERY_SIZE);
+    assert_int_equal(stp_dec_sample_req(f.body, f.h.body_len, 100, &r, NULL), 0);
+    assert_string_equal(r.p.name, "tex");
+    assert_int_equal(r.p.mode, ST_MODE_TRAVERSE);
+    assert_int_equal(r.p.filter, ST_FILTER_PTEX_MITCHELL);
+    assert_int_equal(r.p.zero_rule, ST_ZERO_CLAMP);
+    assert_int_equal(r.p.max_aniso, 8);
+    assert_int_equal(r.p.outfmt, STP_OUT_UNORM16);
+    assert_true(r.p.sharpness == 0.5f && r.p.width == 2.0f && r.p.blur == 0.0f);
+    assert_int_equal(r.count, 3);
+    stp_query g;
+    stp_sample_query(&r, 0, &g);
+    assert_memory_equal(&g, &q[0], sizeof g);
+    stp_sample_query(&r, 1, &g);
+    assert_true(isnan(g.u));                       /* NaN is data for the decoder */
+    assert_true(isinf(g.dudx));
+    assert_true(signbit(g.dvdx));
+    stp_sample_query(&r, 2, &g);
+    assert_int_equal(g.face, 0xFFFFFFFFu);
+    assert_true(g.v == 1e30f);
+    prefixes_refused(f.body, f.h.body_len, w_sample_req, &r);
+    stp_buf_free(&f.b);
+}
+
+static void sample_request_refuses_lying_counts(void **state)
+{
+    (void)state;
+    stp_query q[2] = { { 0, 0.5f, 0.5f, 0, 0, 0, 0 }, { 1, 0.5f, 0.5f, 0, 0, 0, 0 } };
+    stp_buf b;
+    stp_header h;
+    stp_sample_req r;
+    const char *why;
+    stp_buf_init(&b);
+    encode_sample(&b, "tex", 2, q);
+    assert_int_equal(stp_parse_header(stp_buf_head(&b), b.len, UINT32_MAX, &h, NULL), STP_OK);
+    uint8_t *body = b.data + STP_HEADER_SIZE;
+    size_t count_at = 2 + 3 + 20;
+    uint32_t lies[] = { 1, 3, 1000, 0xFFFFFFFFu, 0x80000000u, 0x09249249u /* *28 wraps 32 bits */ };
+    for (size_t i = 0; i < sizeof lies / sizeof lies[0]; i++) {
+        stp_wr32(body + count_at, lies[i]);
+        why = NULL;
+        assert_int_equal(stp_dec_sample_req(body, h.body_len, UINT32_MAX, &r, &why),
+                         STP_S_BAD_REQUEST);
+        assert_non_null(strstr(why, "count"));
+    }
+    /* a name length that runs past the body */
+    stp_wr32(body + count_at, 2);
+    stp_wr16(body, 0xFFFF);
+    assert_int_equal(stp_dec_sample_req(body, h.body_len, UINT32_MAX, &r, NULL),
+                     STP_S_BAD_REQUEST);
+    stp_wr16(body, 3);
+    assert_int_equal(stp_dec_sample_req(body, h.body_len, UINT32_MAX, &r, NULL), 0);
+    /* over max_batch: TOO_LARGE, after the length check */
+    assert_int_equal(stp_dec_sample_req(body, h.body_len, 1, &r, &why), STP_S_TOO_LARGE);
+    stp_buf_free(&b);
+}
+
+static void sample_request_refuses_bad_values(void **state)
+{
+    (void)state;
+    stp_buf b;
+    stp_sample_req r;
+    stp_buf_init(&b);
+    encode_sample(&b, "tex", 0, NULL);
+    uint8_t *body = b.data + STP_HEADER_SIZE;
+    size_t len = b.len - STP_HEADER_SIZE, p0 = 2 + 3;
+    struct { size_t off; uint8_t v; int want; } rows[] = {
+        { 4, 3, STP_S_INVALID },     /* outfmt 3 */
+        { 3, 17, STP_S_INVALID },    /* max_aniso 17 */
+        { 5, 4, STP_S_INVALID },     /* unknown flag bit */
+        { 3, 16, 0 },
+        { 3, 0, 0 },
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        stp_buf_clear(&b);
+        encode_sample(&b, "tex", 0, NULL);
+        body = b.data + STP_HEADER_SIZE;
+        body[p0 + rows[i].off] = rows[i].v;
+        assert_int_equal(stp_dec_sample_req(body, len, 100, &r, NULL), rows[i].want);
+    }
+    stp_buf_free(&b);
+}
+
+static void zero_length_batch_is_valid(void **state)
+{
+    (void)state;
+    stp_buf b;
+    stp_sample_req r;
+    stp_sample_reply rp, rp2;
+    stp_buf_init(&b);
+    encode_sample(&b, "tex", 0, NULL);
+    assert_int_equal(stp_dec_sample_req(b.data + STP_HEADER_SIZE, b.len - STP_HEADER_SIZE, 0,
+                                        &r, NULL), 0);
+    assert_int_equal(r.count, 0);
+    memset(&rp, 0, sizeof rp);
+    rp.nchan = 3;
+    rp.outfmt = STP_OUT_F32;
+    rp.flags = STP_SF_COVERAGE | STP_SF_STATUS;
+    stp_buf_clear(&b);
+    assert_int_equal(stp_enc_sample_reply(&b, STP_OP_SAMPLE, 1, &rp), 0);
+    assert_int_equal(b.len, STP_HEADER_SIZE + 12);
+    assert_int_equal(stp_dec_sample_reply(b.data + STP_HEADER_SIZE, 12, &rp2, NULL), 0);
+    assert_int_equal(rp2.count, 0);
+    stp_buf_free(&b);
+}
+
+static void sample_dir_request_round_trips(void **state)
+{
+    (void)state;
+    frame f;
+    stp_dir_query q[2] = { { { 1, 0, 0 }, { 0, 0.01f, 0 }, { 0, 0, 0.01f } },
+                           { { 0, NAN, -1 }, { 0.05f, 0, 0 }, { 0, 0, 0 } } };
+    stp_sample_req rq, r;
+    memset(&rq, 0, sizeof rq);
+    strcpy(rq.p.name, "sky");
+    rq.p.filter = ST_FILTER_TRILINEAR;
+    rq.p.footprint = STP_FP_CONE;
+    rq.count = 2;
+    rq.dqueries = q;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_sample_dir_req(&f.b, 4, 0, &rq), 0);
+    frame_parse(&f, STP_OP_SAMPLE_DIR, 4, 0);
+    assert_int_equal(f.h.body_len, 2 + 3 + 24 + 2 * STP_DIR_QUERY_SIZE);
+    assert_int_equal(stp_dec_sample_dir_req(f.body, f.h.body_len, 10, &r, NULL), 0);
+    assert_int_equal(r.p.footprint, STP_FP_CONE);
+    stp_dir_query g;
+    stp_sample_dir_query(&r, 0, &g);
+    assert_memory_equal(&g, &q[0], sizeof g);
+    stp_sample_dir_query(&r, 1, &g);
+    assert_true(isnan(g.dir[1]));
+    assert_true(g.ddx[0] == 0.05f);
+    prefixes_refused(f.body, f.h.body_len, w_sample_dir_req, &r);
+    /* the 28-byte SAMPLE decoder refuses a 36-byte-per-query body */
+    assert_int_equal(stp_dec_sample_req(f.body, f.h.body_len, 10, &r, NULL), STP_S_BAD_REQUEST);
+    /* unknown footprint kind */
+    uint8_t *body = (uint8_t *)f.body;
+    body[2 + 3 + 6] = 2;
+    assert_int_equal(stp_dec_sample_dir_req(f.body, f.h.body_len, 10, &r, NULL), STP_S_INVALID);
+    stp_buf_free(&f.b);
+}
+
+static void sample_reply_converts_formats(void **state)
+{
+    (void)state;
+    float vals[2 * 2] = { 0.5f, NAN, -1.0f, 2.0f };
+    float cov[2] = { 1.0f, 0.25f };
+    uint8_t st[2] = { ST_Q_OK, ST_Q_NONFINITE };
+    for (unsigned fmt = 0; fmt < 3; fmt++) {
+        frame f;
+        stp_sample_reply rp = { 2, 2, (uint8_t)fmt, STP_SF_COVERAGE | STP_SF_STATUS, 1,
+                                vals, cov, st, NULL, NULL, NULL }, rp2;
+        stp_buf_init(&f.b);
+        assert_int_equal(stp_enc_sample_reply(&f.b, STP_OP_SAMPLE, 3, &rp), 0);
+        frame_parse(&f, STP_OP_SAMPLE, 3, 1);
+        assert_int_equal(f.h.body_len, 12 + 4 * stp_outfmt_size(fmt) + 8 + 2);
+        assert_int_equal(stp_dec_sample_reply(f.body, f.h.body_len, &rp2, NULL), 0);
+        assert_int_equal(rp2.nbad, 1);
+        float out[4], c2[2];
+        stp_sample_values_f32(&rp2, out);
+        stp_sample_coverage(&rp2, c2);
+        assert_true(c2[0] == 1.0f && c2[1] == 0.25f);
+        assert_memory_equal(rp2.raw_status, st, 2);
+        if (fmt == STP_OUT_F32) {
+            assert_true(out[0] == 0.5f && isnan(out[1]) && out[2] == -1.0f && out[3] == 2.0f);
+            uint16_t u[4];
+            assert_int_equal(stp_sample_values_u16(&rp2, u), -1);
+        } else {
+            uint16_t u[4];
+            unsigned max = fmt == STP_OUT_UNORM8 ? 255 : 65535;
+            assert_int_equal(stp_sample_values_u16(&rp2, u), 0);
+            assert_int_equal(u[0], (max + 1) / 2);   /* 0.5 rounds up: 128 / 32768 */
+            assert_int_equal(u[1], 0);               /* NaN -> 0 */
+            assert_int_equal(u[2], 0);               /* clamped */
+            assert_int_equal(u[3], max);
+            assert_true(fabsf(out[0] - 0.5f) < 1.0f / max);
+        }
+        prefixes_refused(f.body, f.h.body_len, w_sample_reply, &rp2);
+        stp_buf_free(&f.b);
+    }
+}
+
+static void stats_round_trip(void **state)
+{
+    (void)state;
+    frame f;
+    stp_stat st[3] = { { "requests_total", STP_STAT_U64, { .u = 1ull << 40 } },
+                       { "latency_p99_ms", STP_STAT_F64, { .f = 0.125 } },
+                       { "connections", STP_STAT_U64, { .u = 3 } } };
+    stp_stats_reply rp = { 3, st, NULL, 0 }, rp2;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_stats_reply(&f.b, 8, &rp), 0);
+    frame_parse(&f, STP_OP_STATS, 8, 1);
+    assert_int_equal(stp_dec_stats_reply(f.body, f.h.body_len, &rp2, NULL), 0);
+    size_t pos = 0;
+    stp_stat g;
+    assert_true(stp_stats_next(&rp2, &pos, &g));
+    assert_string_equal(g.key, "requests_total");
+    assert_true(g.v.u == 1ull << 40);
+    assert_true(stp_stats_next(&rp2, &pos, &g));
+    assert_true(g.type == STP_STAT_F64 && g.v.f == 0.125);
+    assert_true(stp_stats_next(&rp2, &pos, &g));
+    assert_false(stp_stats_next(&rp2, &pos, &g));
+    prefixes_refused(f.body, f.h.body_len, w_stats_reply, &rp2);
+    /* an unknown value type is refused */
+    uint8_t *body = (uint8_t *)f.body;
+    body[4 + 2 + strlen("requests_total")] = 9;
+    assert_int_equal(stp_dec_stats_reply(f.body, f.h.body_len, &rp2, NULL), STP_S_BAD_REQUEST);
+    stp_buf_free(&f.b);
+}
+
+static void upload_bodies_round_trip(void **state)
+{
+    (void)state;
+    frame f;
+    stp_upload_begin bg, bg2;
+    memset(&bg, 0, sizeof bg);
+    strcpy(bg.name, "mesh1");
+    strcpy(bg.hint, "obj");
+    strcpy(bg.options, "texture=img1 cube=latlong:512");
+    bg.total_size = 5ull << 32;
+    bg.crc32c = 0xE3069283u;
+    bg.flags = STP_UF_REPLACE;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_upload_begin(&f.b, 1, 0, &bg), 0);
+    frame_parse(&f, STP_OP_UPLOAD_BEGIN, 1, 0);
+    assert_int_equal(stp_dec_upload_begin(f.body, f.h.body_len, &bg2, NULL), 0);
+    assert_string_equal(bg2.options, bg.options);
+    assert_string_equal(bg2.hint, "obj");
+    assert_true(bg2.total_size == bg.total_size && bg2.crc32c == bg.crc32c);
+    prefixes_refused(f.body, f.h.body_len, w_upload_begin, &bg2);
+
+    stp_upload_begin_reply br = { 42, 100, 65536 }, br2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_upload_begin_reply(&f.b, 1, &br), 0);
+    frame_parse(&f, STP_OP_UPLOAD_BEGIN, 1, 1);
+    assert_int_equal(f.h.body_len, 20);
+    assert_int_equal(stp_dec_upload_begin_reply(f.body, 20, &br2, NULL), 0);
+    assert_true(br2.upload_id == 42 && br2.received == 100 && br2.max_chunk == 65536);
+    prefixes_refused(f.body, f.h.body_len, w_upload_begin_reply, &br2);
+
+    uint8_t data[300];
+    for (int i = 0; i < 300; i++) data[i] = (uint8_t)(i * 7);
+    stp_upload_chunk ch = { 42, 100, 300, data }, ch2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_upload_chunk(&f.b, 2, 0, &ch), 0);
+    frame_parse(&f, STP_OP_UPLOAD_CHUNK, 2, 0);
+    assert_int_equal(stp_dec_upload_chunk(f.body, f.h.body_len, &ch2, NULL), 0);
+    assert_true(ch2.upload_id == 42 && ch2.offset == 100 && ch2.len == 300);
+    assert_memory_equal(ch2.data, data, 300);
+    prefixes_refused(f.body, f.h.body_len, w_upload_chunk, &ch2);
+    /* lying chunk length */
+    uint8_t *body = (uint8_t *)f.body;
+    stp_wr32(body + 16, 301);
+    assert_int_equal(stp_dec_upload_chunk(f.body, f.h.body_len, &ch2, NULL), STP_S_BAD_REQUEST);
+    stp_wr32(body + 16, 0xFFFFFFFFu);
+    assert_int_equal(stp_dec_upload_chunk(f.body, f.h.body_len, &ch2, NULL), STP_S_BAD_REQUEST);
+
+    stp_upload_progress pg = { 400, 1000 }, pg2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_upload_progress(&f.b, STP_OP_UPLOAD_CHUNK, 2, &pg), 0);
+    frame_parse(&f, STP_OP_UPLOAD_CHUNK, 2, 1);
+    assert_int_equal(stp_dec_upload_progress(f.body, f.h.body_len, &pg2, NULL), 0);
+    assert_true(pg2.received == 400 && pg2.total == 1000);
+    prefixes_refused(f.body, f.h.body_len, w_upload_progress, &pg2);
+
+    stp_upload_done dn = { "mesh1", 2, 4, 0, 1, 1u << 20 }, dn2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_upload_done(&f.b, 3, &dn), 0);
+    frame_parse(&f, STP_OP_UPLOAD_COMMIT, 3, 1);
+    assert_int_equal(stp_dec_upload_done(f.body, f.h.body_len, &dn2, NULL), 0);
+    assert_string_equal(dn2.name, "mesh1");
+    assert_true(dn2.kind == 2 && dn2.nchan == 4 && dn2.memory == 1u << 20);
+    prefixes_refused(f.body, f.h.body_len, w_upload_done, &dn2);
+    stp_buf_free(&f.b);
+}
+
+static void job_and_fetch_bodies_round_trip(void **state)
+{
+    (void)state;
+    frame f;
+    stp_compress_req cr = { "src", "dst", 5, STP_CF_SEAM_AWARE }, cr2;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_compress_req(&f.b, 1, 0, &cr), 0);
+    frame_parse(&f, STP_OP_COMPRESS, 1, 0);
+    assert_int_equal(stp_dec_compress_req(f.body, f.h.body_len, &cr2, NULL), 0);
+    assert_string_equal(cr2.target, "dst");
+    assert_true(cr2.level == 5 && cr2.flags == STP_CF_SEAM_AWARE);
+    prefixes_refused(f.body, f.h.body_len, w_compress_req, &cr2);
+    ((uint8_t *)f.body)[f.h.body_len - 2] = 10;    /* level 10 */
+    assert_int_equal(stp_dec_compress_req(f.body, f.h.body_len, &cr2, NULL), STP_S_INVALID);
+
+    stp_job_status js, js2;
+    memset(&js, 0, sizeof js);
+    js.job_id = 9; js.state = STP_JOB_FAILED; js.progress = 0.75f; js.result = STP_S_NOMEM;
+    strcpy(js.message, "ran out");
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_job_status(&f.b, STP_OP_JOB_STATUS, 2, &js), 0);
+    frame_parse(&f, STP_OP_JOB_STATUS, 2, 1);
+    assert_int_equal(stp_dec_job_status(f.body, f.h.body_len, &js2, NULL), 0);
+    assert_true(js2.job_id == 9 && js2.state == STP_JOB_FAILED && js2.progress == 0.75f);
+    assert_int_equal(js2.result, STP_S_NOMEM);
+    assert_string_equal(js2.message, "ran out");
+    prefixes_refused(f.body, f.h.body_len, w_job_status, &js2);
+
+    stp_fetch_open fo = { "set9", STP_FETCH_DDS }, fo2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_fetch_open(&f.b, 3, 0, &fo), 0);
+    frame_parse(&f, STP_OP_FETCH_OPEN, 3, 0);
+    assert_int_equal(stp_dec_fetch_open(f.body, f.h.body_len, &fo2, NULL), 0);
+    assert_true(fo2.format == STP_FETCH_DDS && strcmp(fo2.name, "set9") == 0);
+    prefixes_refused(f.body, f.h.body_len, w_fetch_open, &fo2);
+
+    stp_fetch_open_reply fr = { 5, 123456, 0xdeadbeef, 4096 }, fr2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_fetch_open_reply(&f.b, 3, &fr), 0);
+    frame_parse(&f, STP_OP_FETCH_OPEN, 3, 1);
+    assert_int_equal(stp_dec_fetch_open_reply(f.body, f.h.body_len, &fr2, NULL), 0);
+    assert_true(fr2.fetch_id == 5 && fr2.total_size == 123456 && fr2.crc32c == 0xdeadbeef);
+    prefixes_refused(f.body, f.h.body_len, w_fetch_open_reply, &fr2);
+
+    stp_fetch_read rd = { 5, 4096, 4096 }, rd2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_fetch_read(&f.b, 4, 0, &rd), 0);
+    frame_parse(&f, STP_OP_FETCH_READ, 4, 0);
+    assert_int_equal(stp_dec_fetch_read(f.body, f.h.body_len, &rd2, NULL), 0);
+    assert_true(rd2.offset == 4096 && rd2.max_len == 4096);
+    prefixes_refused(f.body, f.h.body_len, w_fetch_read, &rd2);
+
+    uint8_t data[5] = { 1, 2, 3, 4, 5 };
+    stp_fetch_data fd = { 4096, 5, data }, fd2;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_fetch_data(&f.b, 4, &fd), 0);
+    frame_parse(&f, STP_OP_FETCH_READ, 4, 1);
+    assert_int_equal(stp_dec_fetch_data(f.body, f.h.body_len, &fd2, NULL), 0);
+    assert_memory_equal(fd2.data, data, 5);
+    prefixes_refused(f.body, f.h.body_len, w_fetch_data, &fd2);
+
+    uint64_t id = 0;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_id_req(&f.b, STP_OP_JOB_CANCEL, 6, 0, 0x0102030405060708ull), 0);
+    frame_parse(&f, STP_OP_JOB_CANCEL, 6, 0);
+    assert_int_equal(stp_dec_id_req(f.body, f.h.body_len, &id, NULL), 0);
+    assert_true(id == 0x0102030405060708ull);
+    prefixes_refused(f.body, f.h.body_len, w_id, &id);
+
+    char name[STP_MAX_NAME + 1];
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_name_req(&f.b, STP_OP_DELETE, 7, 0, "old_set"), 0);
+    frame_parse(&f, STP_OP_DELETE, 7, 0);
+    assert_int_equal(stp_dec_name_req(f.body, f.h.body_len, name, NULL), 0);
+    assert_string_equal(name, "old_set");
+    prefixes_refused(f.body, f.h.body_len, w_name, name);
+    stp_buf_free(&f.b);
+}
+
+static void strings_with_nul_or_over_the_cap_are_refused(void **state)
+{
+    (void)state;
+    char name[STP_MAX_NAME + 1];
+    uint8_t body[2 + 300];
+    stp_wr16(body, 3);
+    memcpy(body + 2, "a\0b", 3);
+    assert_int_equal(stp_dec_name_req(body, 5, name, NULL), STP_S_BAD_REQUEST);
+    stp_wr16(body, 256);                    /* one over STP_MAX_NAME */
+    memset(body + 2, 'a', 256);
+    assert_int_equal(stp_dec_name_req(body, 258, name, NULL), STP_S_BAD_REQUEST);
+    stp_wr16(body, 255);
+    assert_int_equal(stp_dec_name_req(body, 257, name, NULL), 0);
+    assert_int_equal(strlen(name), 255);
+}
+
+static void error_frames_carry_a_bounded_message(void **state)
+{
+    (void)state;
+    frame f;
+    char msg[64], big[3000];
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_errorf(&f.b, STP_OP_INFO, 1, STP_S_NOT_FOUND, "no set %s", "x"), 0);
+    frame_parse(&f, STP_OP_INFO, 1, 1);
+    assert_int_equal(f.h.status, STP_S_NOT_FOUND);
+    stp_dec_error(f.body, f.h.body_len, msg, sizeof msg);
+    assert_string_equal(msg, "no set x");
+    /* the PROTOCOL.md example, byte for byte */
+    static const uint8_t want[] = { 0x53, 0x54, 0x58, 0x31, 1, 4, 1, 0, 1, 0, 0, 0, 5, 0, 0, 0,
+                                    8, 0, 0, 0, 0, 0, 0, 0, 'n', 'o', ' ', 's', 'e', 't', ' ',
+                                    'x' };
+    assert_int_equal(f.b.len, sizeof want);
+    assert_memory_equal(f.b.data, want, sizeof want);
+    memset(big, 'm', sizeof big - 1);
+    big[sizeof big - 1] = 0;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_error(&f.b, STP_OP_PING, 2, STP_S_INTERNAL, big), 0);
+    frame_parse(&f, STP_OP_PING, 2, 1);
+    assert_int_equal(f.h.body_len, STP_MAX_MSG);
+    /* a NUL inside a message is shown as '?', a short buffer cuts */
+    uint8_t odd[3] = { 'a', 0, 'b' };
+    stp_dec_error(odd, 3, msg, sizeof msg);
+    assert_string_equal(msg, "a?b");
+    stp_dec_error(odd, 3, msg, 2);
+    assert_string_equal(msg, "a");
+    stp_buf_free(&f.b);
+}
+
+static void ping_example_matches_protocol_md(void **state)
+{
+    (void)state;
+    stp_buf b;
+    static const uint8_t want[] = { 0x53, 0x54, 0x58, 0x31, 1, 2, 0, 0, 7, 0, 0, 0, 0, 0, 0, 0,
+                                    2, 0, 0, 0, 0, 0, 0, 0, 'h', 'i' };
+    stp_buf_init(&b);
+    assert_int_equal(stp_enc_raw(&b, STP_OP_PING, 0, 7, 0, 0, "hi", 2), 0);
+    assert_int_equal(b.len, sizeof want);
+    assert_memory_equal(b.data, want, sizeof want);
+    stp_buf_free(&b);
+}
+
+/* ---- buffer, crc, names, statuses --------------------------------------------------------- */
+
+static void frames_survive_buffer_compaction(void **state)
+{
+    (void)state;
+    stp_buf b;
+    stp_header h;
+    stp_buf_init(&b);
+    /* fill, consume most of it, then write a frame large enough to force compaction */
+    uint8_t junk[200] = { 0 };
+    stp_put_bytes(&b, junk, sizeof junk);
+    stp_buf_consume(&b, 190);
+    size_t at = stp_frame_begin(&b, STP_OP_PING, 0, 1, 0, 0);
+    uint8_t payload[1000];
+    memset(payload, 0xab, sizeof payload);
+    stp_put_bytes(&b, payload, sizeof payload);
+    assert_int_equal(stp_frame_end(&b, at), 0);
+    assert_int_equal(stp_buf_avail(&b), 10 + STP_HEADER_SIZE + 1000);
+    assert_int_equal(stp_parse_header(stp_buf_head(&b) + 10, stp_buf_avail(&b) - 10, 4096, &h,
+                                      NULL), STP_OK);
+    assert_int_equal(h.body_len, 1000);
+    stp_buf_free(&b);
+}
+
+static void crc32c_matches_check_value_and_both_paths_agree(void **state)
+{
+    (void)state;
+    assert_int_equal(stp_crc32c(0, "123456789", 9), 0xE3069283u);
+    assert_int_equal(stp_crc32c_sw(0, "123456789", 9), 0xE3069283u);
+    assert_int_equal(stp_crc32c(0, "", 0), 0);
+    uint8_t *d = malloc(10000);
+    uint32_t x = 12345;
+    for (int i = 0; i < 10000; i++) {
+        x = x * 1103515245u + 12345u;
+        d[i] = (uint8_t)(x >> 16);
+    }
+    for (size_t off = 0; off < 9; off++)
+        for (size_t n = 0; n < 100; n += 7) {
+            assert_int_equal(stp_crc32c(0, d + off, n * 13), stp_crc32c_sw(0, d + off, n * 13));
+        }
+    /* incremental equals one shot */
+    uint32_t whole = stp_crc32c(0, d, 10000);
+    uint32_t part = stp_crc32c(stp_crc32c(stp_crc32c(0, d, 3), d + 3, 4000), d + 4003, 5997);
+    assert_int_equal(whole, part);
+    free(d);
+}
+
+static void names_and_status_mapping(void **state)
+{
+    (void)state;
+    assert_true(stp_name_valid("a"));
+    assert_true(stp_name_valid("Tex_01.ptx-v2"));
+    assert_false(stp_name_valid(""));
+    assert_false(stp_name_valid(".hidden"));
+    assert_false(stp_name_valid("../etc"));
+    assert_false(stp_name_valid("a/b"));
+    assert_false(stp_name_valid("sp ace"));
+    char longname[300];
+    memset(longname, 'a', 256);
+    longname[256] = 0;
+    assert_false(stp_name_valid(longname));
+    longname[255] = 0;
+    assert_true(stp_name_valid(longname));
+
+    assert_int_equal(stp_status_from_st(ST_OK), STP_S_OK);
+    assert_int_equal(stp_status_from_st(ST_ENOTFOUND), STP_S_NOT_FOUND);
+    assert_int_equal(stp_status_from_st(ST_ECORRUPT), STP_S_CORRUPT);
+    assert_int_equal(stp_status_from_st(ST_EPERM), STP_S_PERM);
+    assert_int_equal(stp_status_from_st(ST_ETOOBIG), STP_S_TOO_LARGE);
+    assert_int_equal(stp_status_from_st(-99), STP_S_INTERNAL);
+    for (int code = ST_ECODE_MIN; code <= 0; code++)
+        assert_int_not_equal(stp_status_from_st(code), STP_S_INTERNAL);
+    for (unsigned s = 0; s < STP_S_COUNT_; s++)
+        assert_string_not_equal(stp_status_name(s), "?");
+    assert_string_equal(stp_status_name(STP_S_COUNT_), "?");
+    /* the client's enum is the server status, negated and offset */
+    assert_int_equal(STC_ENOTFOUND, -(STC_SERVER_BASE + STP_S_NOT_FOUND));
+    assert_int_equal(STC_ETOOLARGE, -(STC_SERVER_BASE + STP_S_TOO_LARGE));
+    assert_int_equal(STC_EPERM, -(STC_SERVER_BASE + STP_S_PERM));
+    assert_int_equal(stc_server_status(STC_ECORRUPT), STP_S_CORRUPT);
+    assert_string_equal(stc_strerror(STC_ENOTFOUND), "NOT_FOUND");
+    assert_string_equal(stc_strerror(STC_ETIMEDOUT), "ETIMEDOUT");
+    assert_true(stp_opcode_mutating(STP_OP_DELETE));
+    assert_false(stp_opcode_mutating(STP_OP_SAMPLE));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(header_round_trips_little_endian),
+        cmocka_unit_test(header_needs_more_until_complete),
+        cmocka_unit_test(bad_magic_is_fatal_as_soon_as_seen),
+        cmocka_unit_test(malformed_frame_table_at_parser_level),
+        cmocka_unit_test(hello_round_trips),
+        cmocka_unit_test(list_round_trips_and_refuses_lying_count),
+        cmocka_unit_test(info_round_trips_with_face_records),
+        cmocka_unit_test(sample_request_round_trips_and_keeps_nan),
+        cmocka_unit_test(sample_request_refuses_lying_counts),
+        cmocka_unit_test(sample_request_refuses_bad_values),
+        cmocka_unit_test(zero_length_batch_is_valid),
+        cmocka_unit_test(sample_dir_request_round_trips),
+        cmocka_unit_test(sample_reply_converts_formats),
+        cmocka_unit_test(stats_round_trip),
+        cmocka_unit_test(upload_bodies_round_trip),
+        cmocka_unit_test(job_and_fetch_bodies_round_trip),
+        cmocka_unit_test(strings_with_nul_or_over_the_cap_are_refused),
+        cmocka_unit_test(error_frames_carry_a_bounded_message),
+        cmocka_unit_test(ping_example_matches_protocol_md),
+        cmocka_unit_test(frames_survive_buffer_compaction),
+        cmocka_unit_test(crc32c_matches_check_value_and_both_paths_agree),
+        cmocka_unit_test(names_and_status_mapping),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
