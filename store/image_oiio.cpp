@@ -79,7 +79,10 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     if (!f)
         return st_fail(e, ST_ENOTFOUND, "%s: cannot open", path);
     fclose(f);
-    auto in = ImageInput::open(path);
+    /* keep alpha unassociated, as stored: texels are data, not pre-composited colour */
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = ImageInput::open(path, &config);
     if (!in) {
         std::string msg = OIIO::geterror();
         return st_fail(e, ST_EFORMAT, "%s: not an image OpenImageIO reads (%.160s)", path,
@@ -203,6 +206,7 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
     ImageSpec spec((int)w, (int)h, (int)nchan, ft);
     if (nchan == 4 || nchan == 2)
         spec.alpha_channel = (int)nchan - 1;
+    spec.attribute("oiio:UnassociatedAlpha", 1); /* write texels as given */
     if (!outp->open(path, spec)) {
         std::string msg = outp->geterror();
         return st_fail(e, ST_EIO, "%s: cannot open for writing: %.160s", path, msg.c_str());

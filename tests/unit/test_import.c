@@ -1,0 +1,557 @@
+/* tests/unit/test_import.c - the import dispatcher and its readers: every shared asset that
+ * should import does (kind, size, channels, precision), the ones that should fail fail with
+ * the right code; EXR channel order, precision round trips, OBJ features, hostile inputs
+ * (truncated files, huge dimensions, caps, NaN UVs, indices out of range). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+#include <cmocka.h>
+
+#include "atlas.h"
+#include "cube.h"
+#include "exr.h"
+#include "image.h"
+#include "import.h"
+#include "mesh.h"
+
+static const char *data_dir(void)
+{
+    const char *d = getenv("SEAMTEX_DATA");
+    return d && *d ? d : "../shared/data";
+}
+
+static int data_path(char *buf, size_t cap, const char *rel)
+{
+    snprintf(buf, cap, "%s/%s", data_dir(), rel);
+    if (access(buf, R_OK)) {
+        print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", data_dir(), rel);
+        return -1;
+    }
+    return 0;
+}
+
+static char tmpdir[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/seamtex_test_import_XXXXXX");
+    return mkdtemp(tmpdir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+static void tmp_path(char *buf, size_t cap, const char *name)
+{
+    snprintf(buf, cap, "%s/%s", tmpdir, name);
+}
+
+static void write_file(const char *path, const void *data, size_t len)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, len, f), len);
+    fclose(f);
+}
+
+static void *read_file(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    rewind(f);
+    void *b = malloc((size_t)n + 1);
+    assert_non_null(b);
+    assert_int_equal(fread(b, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    *len = (size_t)n;
+    return b;
+}
+
+typedef struct asset {
+    const char *rel;
+    int rc;             /* expected st_import_file result */
+    int kind;
+    uint32_t w, h;      /* face 0 */
+    unsigned nchan, dtype, nfaces;
+} asset;
+
+static const asset ASSETS[] = {
+    {"images/astronaut.png", 0, ST_KIND_ATLAS, 512, 512, 3, ST_DT_U8, 1},
+    {"images/brick.png", 0, ST_KIND_ATLAS, 512, 512, 1, ST_DT_U8, 1},
+    {"images/StillLife.jpg", 0, ST_KIND_ATLAS, 1240, 846, 3, ST_DT_U8, 1},
+    {"images/bc1-set/kodim01.png", 0, ST_KIND_ATLAS, 768, 512, 3, ST_DT_U8, 1},
+    {"images/bc1-set/colobot_apollo.png", 0, ST_KIND_ATLAS, 1024, 1024, 3, ST_DT_U8, 1},
+    {"cube/humus-6face/+x.jpg", 0, ST_KIND_ATLAS, 512, 512, 3, ST_DT_U8, 1},
+    {"env/StageEnvLatLong.exr", 0, ST_KIND_ATLAS, 1000, 500, 3, ST_DT_HALF, 1},
+    {"env/StageEnvCube.exr", 0, ST_KIND_CUBE, 256, 256, 3, ST_DT_HALF, 6},
+    {"env/WavyLinesLatLong.exr", 0, ST_KIND_ATLAS, 1024, 512, 3, ST_DT_HALF, 1},
+    {"env/WavyLinesCube.exr", 0, ST_KIND_CUBE, 256, 256, 3, ST_DT_HALF, 6},
+    {"env/OrientationLatLong.exr", 0, ST_KIND_ATLAS, 1024, 512, 4, ST_DT_HALF, 1},
+    {"env/OrientationCube.exr", 0, ST_KIND_CUBE, 512, 512, 4, ST_DT_HALF, 6},
+    {"env/forest.exr", 0, ST_KIND_ATLAS, 1024, 512, 3, ST_DT_F32, 1},
+    {"env/converted/forest.hdr", 0, ST_KIND_ATLAS, 1024, 512, 3, ST_DT_F32, 1},
+    {"meshes/duck/Duck.obj", 0, ST_KIND_ATLAS, 512, 512, 3, ST_DT_U8, 1},
+    {"meshes/waterbottle/WaterBottle.obj", 0, ST_KIND_ATLAS, 2048, 2048, 3, ST_DT_U8, 1},
+    {"meshes/cesiummilktruck/CesiumMilkTruck.obj", 0, ST_KIND_ATLAS, 2048, 2048, 3, ST_DT_U8, 1},
+    {"meshes/spider/spider.obj", 0, ST_KIND_ATLAS, 250, 250, 3, ST_DT_U8, 1},
+    {"ptx/wdas-ptex-samples/envcube/envcube.ptx", 0, ST_KIND_CUBE, 128, 128, 3, ST_DT_U16, 6},
+    {"ptx/wdas-ptex-samples/teapot/teapot.ptx", 0, ST_KIND_PERFACE, 0, 0, 1, ST_DT_U8, 448},
+    {"drc/bunny_gltf.drc", ST_ENOUV, 0, 0, 0, 0, 0, 0},
+    {"ptx/wdas-ptex-2009/cube/cube.obj", ST_ENOUV, 0, 0, 0, 0, 0, 0},
+    {"drc/cube_att.drc", ST_EINVAL, 0, 0, 0, 0, 0, 0},  /* a mesh with no texture to pair */
+};
+
+static void shared_assets_import_or_fail_as_expected(void **state)
+{
+    (void)state;
+    char path[1024];
+    for (size_t i = 0; i < sizeof ASSETS / sizeof ASSETS[0]; i++) {
+        const asset *a = &ASSETS[i];
+        if (data_path(path, sizeof path, a->rel))
+            skip();
+        st_set *s = NULL;
+        st_error e;
+        st_error_clear(&e);
+        int rc = st_import_file(path, NULL, &s, &e);
+        print_message("%-45s -> %s%s%s\n", a->rel, rc ? st_strerror(rc) : "ok", rc ? ": " : "",
+                      rc ? e.msg : "");
+        assert_int_equal(rc, a->rc);
+        if (rc) {
+            assert_null(s);
+            assert_true(strlen(e.msg) > 10);
+            continue;
+        }
+        assert_int_equal(s->info.kind, a->kind);
+        assert_int_equal(s->info.nfaces, a->nfaces);
+        assert_int_equal(s->info.nchan, a->nchan);
+        assert_int_equal(s->info.dtype, a->dtype);
+        if (a->w) {
+            assert_int_equal(s->faces[0].w, a->w);
+            assert_int_equal(s->faces[0].h, a->h);
+        }
+        const st_meta_entry *m = st_set_meta_find(s, "seamtex:source_format");
+        assert_non_null(m);
+        st_set_free(s);
+    }
+}
+
+static void colour_space_is_stated_and_can_be_overridden(void **state)
+{
+    (void)state;
+    char png[1024], exr[1024];
+    if (data_path(png, sizeof png, "images/astronaut.png") ||
+        data_path(exr, sizeof exr, "env/StageEnvLatLong.exr"))
+        skip();
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(png, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.colorspace, ST_CS_SRGB);
+    st_set_free(s);
+    assert_int_equal(st_import_file(exr, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.colorspace, ST_CS_LINEAR);
+    st_set_free(s);
+    st_import_opts o;
+    st_import_opts_init(&o);
+    o.colorspace = ST_IMPORT_CS_LINEAR;
+    assert_int_equal(st_import_file(png, &o, &s, &e), ST_OK);
+    assert_int_equal(s->info.colorspace, ST_CS_LINEAR);
+    st_set_free(s);
+}
+
+static void exr_channels_come_in_rgba_order_from_the_c_api(void **state)
+{
+    (void)state;
+    /* a 4-channel half EXR with a different constant per channel, written by OIIO */
+    char path[512];
+    tmp_path(path, sizeof path, "rgba_half.exr");
+    enum { W = 37, H = 21 };
+    static uint16_t px[W * H * 4];
+    const float val[4] = {0.125f, 0.25f, 0.5f, 1.0f};
+    for (int i = 0; i < W * H; i++)
+        for (int c = 0; c < 4; c++)
+            px[i * 4 + c] = st_float_to_half(val[c] + (float)(i % 7) / 64.0f);
+    st_error e;
+    assert_int_equal(st_image_write(path, W, H, 4, ST_DT_HALF, px, &e), ST_OK);
+    st_image img;
+    assert_int_equal(st_exr_read(path, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.w, W);
+    assert_int_equal(img.h, H);
+    assert_int_equal(img.nchan, 4);
+    assert_int_equal(img.dtype, ST_DT_HALF);
+    assert_int_equal(img.alpha_chan, 3);
+    assert_memory_equal(img.data, px, sizeof px);
+    st_image_free(&img);
+}
+
+static void exr_c_api_matches_openimageio_on_the_orientation_maps(void **state)
+{
+    (void)state;
+    const char *rel[] = {"env/OrientationCube.exr", "env/OrientationLatLong.exr",
+                         "env/StageEnvCube.exr"};
+    for (int i = 0; i < 3; i++) {
+        char path[1024];
+        if (data_path(path, sizeof path, rel[i]))
+            skip();
+        st_image a, b;
+        st_error e;
+        assert_int_equal(st_exr_read(path, NULL, &a, &e), ST_OK);
+        assert_int_equal(st_image_read(path, NULL, &b, &e), ST_OK);
+        assert_int_equal(a.w, b.w);
+        assert_int_equal(a.h, b.h);
+        assert_int_equal(a.nchan, b.nchan);
+        assert_int_equal(a.dtype, b.dtype);
+        assert_int_equal(a.envmap, ST_ENVMAP_NONE + (strstr(rel[i], "Cube") ? 2 : 1));
+        assert_true(a.nlevels_file > 1); /* tiled, mip-mapped */
+        assert_memory_equal(a.data, b.data, (size_t)a.w * a.h * a.nchan * 2);
+        st_image_free(&a);
+        st_image_free(&b);
+    }
+}
+
+static void precision_is_kept_for_16_bit_and_float(void **state)
+{
+    (void)state;
+    enum { W = 16, H = 8 };
+    uint16_t u16[W * H * 3];
+    float f32[W * H * 2];
+    for (int i = 0; i < W * H * 3; i++)
+        u16[i] = (uint16_t)(i * 397 + 1);
+    for (int i = 0; i < W * H * 2; i++)
+        f32[i] = 1000.0f + (float)i * 0.001f;
+    char p16[512], pf[512];
+    tmp_path(p16, sizeof p16, "u16.png");
+    tmp_path(pf, sizeof pf, "f32.exr");
+    st_error e;
+    assert_int_equal(st_image_write(p16, W, H, 3, ST_DT_U16, u16, &e), ST_OK);
+    assert_int_equal(st_image_write(pf, W, H, 2, ST_DT_F32, f32, &e), ST_OK);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p16, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.dtype, ST_DT_U16);
+    assert_memory_equal(st_face_level(s, 0, 0), u16, sizeof u16);
+    st_set_free(s);
+    st_image img;
+    assert_int_equal(st_image_read_any(pf, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.dtype, ST_DT_F32);
+    assert_int_equal(img.nchan, 2);
+    assert_memory_equal(img.data, f32, sizeof f32);
+    st_image_free(&img);
+}
+
+static void png_writer_round_trips_8_bit_and_refuses_dds(void **state)
+{
+    (void)state;
+    enum { W = 13, H = 7 };
+    uint8_t px[W * H * 4];
+    for (int i = 0; i < W * H * 4; i++)
+        px[i] = (uint8_t)(i * 31);
+    char p[512], d[512];
+    tmp_path(p, sizeof p, "rgba8.png");
+    tmp_path(d, sizeof d, "x.dds");
+    st_error e;
+    assert_int_equal(st_image_write(p, W, H, 4, ST_DT_U8, px, &e), ST_OK);
+    st_image img;
+    assert_int_equal(st_image_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 4);
+    assert_int_equal(img.alpha_chan, 3);
+    assert_memory_equal(img.data, px, sizeof px);
+    st_image_free(&img);
+    assert_int_equal(st_image_write(d, W, H, 4, ST_DT_U8, px, &e), ST_EUNSUPPORTED);
+}
+
+static void obj_reader_handles_polygons_negative_indices_groups_and_materials(void **state)
+{
+    (void)state;
+    const char *obj =
+        "# comment\r\n"
+        "mtllib m.mtl\n"
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+        "vn 0 0 1\n"
+        "g first\nusemtl red\n"
+        "f 1/1/1 2/2/1 3/3/1 4/4/1\n"          /* quad -> 2 triangles */
+        "g second\nusemtl tex\n"
+        "f -4/-4 -3/-3 \\\n -1/-1\n"           /* relative indices, continued line */
+        "f 2//1 5//1 3//1\n";                  /* no UVs */
+    const char *mtl = "newmtl red\nKd 1 0 0\nnewmtl tex\nmap_Kd -s 1 1 1 .\\sub\\t.png\n";
+    char mp[512];
+    tmp_path(mp, sizeof mp, "m.mtl");
+    write_file(mp, mtl, strlen(mtl));
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_obj_read_mem(obj, strlen(obj), tmpdir, NULL, &m, &e), ST_OK);
+    assert_int_equal(m->ntri, 4);
+    assert_int_equal(m->nfaces_src, 3);
+    assert_int_equal(m->ntri_nouv, 1);
+    assert_int_equal(m->tri_face[1], 0);
+    /* relative: -4 of 5 vertices is vertex 2 (index 1) */
+    assert_int_equal(m->tri_pos[6], 1);
+    assert_int_equal(m->tri_uv[6], 0);
+    assert_int_equal(m->tri_pos[8], 4);
+    assert_int_equal(m->tri_uv[9], ST_MESH_NO_UV);
+    assert_string_equal(m->mats[m->tri_mat[0]].name, "red");
+    assert_string_equal(m->mats[m->tri_mat[2]].name, "tex");
+    char want[600];
+    snprintf(want, sizeof want, "%s/sub/t.png", tmpdir);
+    assert_string_equal(m->mats[m->tri_mat[2]].map_kd, want);
+    /* vt v is flipped into texture space */
+    assert_float_equal(m->uv[3 * 2 + 1], 0.0f, 1e-6); /* vt 0 1 -> v = 0 */
+    st_mesh_free(m);
+}
+
+static void obj_with_backslash_texture_path_imports_as_an_atlas(void **state)
+{
+    (void)state;
+    char sub[512], tex[512], objp[512], mtlp[512];
+    tmp_path(sub, sizeof sub, "tex");
+    mkdir(sub, 0700);
+    tmp_path(tex, sizeof tex, "tex/checker.png");
+    uint8_t px[8 * 4 * 3];
+    for (int i = 0; i < 8 * 4 * 3; i++)
+        px[i] = (uint8_t)(i * 5);
+    st_error e;
+    assert_int_equal(st_image_write(tex, 8, 4, 3, ST_DT_U8, px, &e), ST_OK);
+    tmp_path(objp, sizeof objp, "quad.obj");
+    tmp_path(mtlp, sizeof mtlp, "quad.mtl");
+    const char *obj = "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                      "usemtl q\nf 1/1 2/2 3/3\n";
+    const char *mtl = "newmtl q\nmap_Kd .\\tex\\checker.png\n";
+    write_file(objp, obj, strlen(obj));
+    write_file(mtlp, mtl, strlen(mtl));
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(objp, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.kind, ST_KIND_ATLAS);
+    assert_int_equal(s->faces[0].w, 8);   /* non-power-of-two atlas sizes are fine */
+    assert_int_equal(s->faces[0].h, 4);
+    const st_atlas *a = st_atlas_get(s);
+    assert_non_null(a);
+    assert_int_equal(a->mesh->ntri, 1);
+    assert_memory_equal(st_face_level(s, 0, 0), px, sizeof px);
+    st_set_free(s);
+}
+
+static void draco_duck_pairs_with_its_texture(void **state)
+{
+    (void)state;
+    char drc[1024], png[1024];
+    if (data_path(drc, sizeof drc, "drc/converted/Duck.drc") ||
+        data_path(png, sizeof png, "meshes/duck/DuckCM.png"))
+        skip();
+    st_import_opts o;
+    st_import_opts_init(&o);
+    o.texture_path = png;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(drc, &o, &s, &e), ST_OK);
+    const st_atlas *a = st_atlas_get(s);
+    assert_non_null(a);
+    assert_int_equal(a->mesh->seams->nseams, 166);
+    /* the same with an already-imported texture set */
+    st_set *t = NULL;
+    assert_int_equal(st_import_file(png, NULL, &t, &e), ST_OK);
+    st_import_opts_init(&o);
+    o.texture = t;
+    st_set *s2 = NULL;
+    assert_int_equal(st_import_file(drc, &o, &s2, &e), ST_OK);
+    assert_memory_equal(s2->texels, s->texels, s->texel_bytes);
+    st_set_free(t);
+    st_set_free(s2);
+    st_set_free(s);
+}
+
+static void obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line(void **state)
+{
+    (void)state;
+    const char *bad[] = {
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt nan 0\nf 1/1 2/1 3/1\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 inf\nf 1/1 2/1 3/1\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+        "v 0 0 0\nv 1 0 0\nf -5 1 2\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+        "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/x 2 3\n",
+        "# nothing\n",
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        st_mesh *m = NULL;
+        st_error e;
+        st_error_clear(&e);
+        int rc = st_obj_read_mem(bad[i], strlen(bad[i]), NULL, NULL, &m, &e);
+        print_message("bad obj %zu: %s %s\n", i, st_strerror(rc), e.msg);
+        assert_int_equal(rc, ST_EFORMAT);
+        assert_null(m);
+        if (i < 9)
+            assert_non_null(strstr(e.msg, "line"));
+    }
+}
+
+static void obj_over_the_caps_is_refused(void **state)
+{
+    (void)state;
+    const char *obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+    st_mesh_caps c = {1, 0, 0};
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_obj_read_mem(obj, strlen(obj), NULL, &c, &m, &e), ST_ETOOBIG);
+    st_mesh_caps c2 = {0, 3, 0};
+    assert_int_equal(st_obj_read_mem(obj, strlen(obj), NULL, &c2, &m, &e), ST_ETOOBIG);
+    assert_null(m);
+}
+
+/* A PNG whose header claims w x h (valid CRCs, no pixel data). */
+static void huge_png(uint32_t w, uint32_t h)
+{
+    uint8_t png[8 + 25 + 12 + 12];
+    memcpy(png, "\x89PNG\r\n\x1a\n", 8);
+    uint8_t *ih = png + 8;
+    ih[0] = 0; ih[1] = 0; ih[2] = 0; ih[3] = 13;
+    memcpy(ih + 4, "IHDR", 4);
+    uint8_t *d = ih + 8;
+    d[0] = (uint8_t)(w >> 24); d[1] = (uint8_t)(w >> 16); d[2] = (uint8_t)(w >> 8); d[3] = (uint8_t)w;
+    d[4] = (uint8_t)(h >> 24); d[5] = (uint8_t)(h >> 16); d[6] = (uint8_t)(h >> 8); d[7] = (uint8_t)h;
+    d[8] = 8; d[9] = 2; d[10] = 0; d[11] = 0; d[12] = 0;
+    uint32_t crc = (uint32_t)crc32(0, ih + 4, 17);
+    ih[21] = (uint8_t)(crc >> 24); ih[22] = (uint8_t)(crc >> 16); ih[23] = (uint8_t)(crc >> 8); ih[24] = (uint8_t)crc;
+    uint8_t *id = ih + 25; /* an empty IDAT, so that the header is read to the end */
+    memcpy(id, "\0\0\0\0IDAT", 8);
+    crc = (uint32_t)crc32(0, id + 4, 4);
+    id[8] = (uint8_t)(crc >> 24); id[9] = (uint8_t)(crc >> 16); id[10] = (uint8_t)(crc >> 8); id[11] = (uint8_t)crc;
+    uint8_t *ie = id + 12;
+    memcpy(ie, "\0\0\0\0IEND", 8);
+    crc = (uint32_t)crc32(0, ie + 4, 4);
+    ie[8] = (uint8_t)(crc >> 24); ie[9] = (uint8_t)(crc >> 16); ie[10] = (uint8_t)(crc >> 8); ie[11] = (uint8_t)crc;
+    char p[512];
+    tmp_path(p, sizeof p, "huge.png");
+    write_file(p, png, sizeof png);
+    st_set *s = NULL;
+    st_error e;
+    int rc = st_import_file(p, NULL, &s, &e);
+    print_message("huge png: %s %s\n", st_strerror(rc), e.msg);
+    assert_int_equal(rc, ST_ETOOBIG);
+    assert_null(s);
+}
+
+static void huge_png_dimensions_are_refused_before_allocation(void **state)
+{
+    (void)state;
+    huge_png(100000, 100000); /* over the per-axis cap */
+    huge_png(30000, 30000);   /* within it, but 2.7 GB of texels is over the byte cap */
+}
+
+static void caps_on_dimension_and_bytes_are_enforced(void **state)
+{
+    (void)state;
+    char png[1024], exr[1024];
+    if (data_path(png, sizeof png, "meshes/duck/DuckCM.png") ||
+        data_path(exr, sizeof exr, "env/StageEnvCube.exr"))
+        skip();
+    st_import_opts o;
+    st_import_opts_init(&o);
+    o.max_dim = 256;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(png, &o, &s, &e), ST_ETOOBIG);
+    assert_int_equal(st_import_file(exr, &o, &s, &e), ST_ETOOBIG); /* 256 x 1536 */
+    st_import_opts_init(&o);
+    o.max_bytes = 4096;
+    assert_int_equal(st_import_file(png, &o, &s, &e), ST_ETOOBIG);
+    assert_null(s);
+}
+
+static void truncated_files_are_refused_cleanly(void **state)
+{
+    (void)state;
+    const char *rel[] = {"meshes/duck/DuckCM.png", "cube/humus-6face/+x.jpg",
+                         "env/StageEnvCube.exr", "env/forest.exr", "drc/converted/Duck.drc",
+                         "ptx/wdas-ptex-samples/envcube/envcube.ptx", "env/converted/forest.hdr"};
+    for (size_t i = 0; i < sizeof rel / sizeof rel[0]; i++) {
+        char path[1024];
+        if (data_path(path, sizeof path, rel[i]))
+            skip();
+        size_t len;
+        uint8_t *b = read_file(path, &len);
+        const char *ext = strrchr(rel[i], '.');
+        size_t cuts[] = {1, 7, 40, len / 3, len / 2, len - 9};
+        for (size_t k = 0; k < sizeof cuts / sizeof cuts[0]; k++) {
+            char p[512], name[64];
+            snprintf(name, sizeof name, "trunc%zu_%zu%s", i, k, ext);
+            tmp_path(p, sizeof p, name);
+            write_file(p, b, cuts[k]);
+            st_set *s = NULL;
+            st_error e;
+            st_error_clear(&e);
+            int rc = st_import_file(p, NULL, &s, &e);
+            if (rc == ST_OK) {
+                /* some decoders (JPEG) fill a truncated tail: then the set must be whole */
+                assert_non_null(s);
+                print_message("%s cut at %zu imported (decoder filled the tail)\n", rel[i], cuts[k]);
+                st_set_free(s);
+                continue;
+            }
+            assert_true(rc < 0);
+            assert_null(s);
+            assert_true(strlen(e.msg) > 0);
+            unlink(p);
+        }
+        free(b);
+    }
+}
+
+static void detection_uses_magic_before_extension(void **state)
+{
+    (void)state;
+    assert_int_equal(st_import_detect("Ptex\1", 5, "x.png"), ST_FMT_PTEX);
+    assert_int_equal(st_import_detect("\x76\x2f\x31\x01", 4, "x.png"), ST_FMT_EXR);
+    assert_int_equal(st_import_detect("DRACO\2\2", 7, "x.obj"), ST_FMT_DRACO);
+    assert_int_equal(st_import_detect("\x89PNG\r\n\x1a\n", 8, "x.exr"), ST_FMT_IMAGE);
+    assert_int_equal(st_import_detect("# a\nv 1 2 3\n", 12, "noext"), ST_FMT_OBJ);
+    assert_int_equal(st_import_detect("xx", 2, "a.penv"), ST_FMT_PTEX);
+    assert_int_equal(st_import_detect("xx", 2, "a.TIF"), ST_FMT_IMAGE);
+    assert_int_equal(st_import_detect("xx", 2, "a.bin"), ST_FMT_AUTO);
+    char p[512];
+    tmp_path(p, sizeof p, "junk.bin");
+    write_file(p, "hello world", 11);
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_EFORMAT);
+    tmp_path(p, sizeof p, "missing.png");
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_ENOTFOUND);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(shared_assets_import_or_fail_as_expected),
+        cmocka_unit_test(colour_space_is_stated_and_can_be_overridden),
+        cmocka_unit_test(exr_channels_come_in_rgba_order_from_the_c_api),
+        cmocka_unit_test(exr_c_api_matches_openimageio_on_the_orientation_maps),
+        cmocka_unit_test(precision_is_kept_for_16_bit_and_float),
+        cmocka_unit_test(png_writer_round_trips_8_bit_and_refuses_dds),
+        cmocka_unit_test(obj_reader_handles_polygons_negative_indices_groups_and_materials),
+        cmocka_unit_test(obj_with_backslash_texture_path_imports_as_an_atlas),
+        cmocka_unit_test(draco_duck_pairs_with_its_texture),
+        cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
+        cmocka_unit_test(obj_over_the_caps_is_refused),
+        cmocka_unit_test(huge_png_dimensions_are_refused_before_allocation),
+        cmocka_unit_test(caps_on_dimension_and_bytes_are_enforced),
+        cmocka_unit_test(truncated_files_are_refused_cleanly),
+        cmocka_unit_test(detection_uses_magic_before_extension),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
