@@ -43,6 +43,8 @@ typedef struct solver {
     tapref *taps;         /* 8 per point */
     float *t;             /* nb*16 current weight of endpoint 1 per texel */
     float *d;             /* nb*16 data weight (0 for padding) */
+    uint32_t *bp_off;     /* nb+1: points touching block b are bp[bp_off[b] .. bp_off[b+1]) */
+    uint32_t *bp;
 } solver;
 
 static uint64_t bkey(uint32_t f, uint32_t bi) { return (uint64_t)f << 32 | bi; }
@@ -331,6 +333,119 @@ static void requantise(const solver *S, uint32_t b, const double e0[3], const do
     blk[7] = (uint8_t)(sel >> 24);
 }
 
+/* Energy that block b's bits can change: its texels' data term plus the seam term of every
+ * point that taps it (exact decoder, other blocks as they are). */
+static double local_energy(const solver *S, uint32_t b)
+{
+    const uint8_t *blk = blk_ptr(S, b);
+    double ec = 0, es = 0;
+    for (int i = 0; i < 16; i++) {
+        double d = S->d[16 * b + i];
+        if (d == 0)
+            continue;
+        uint8_t px[4];
+        st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)i >> 2, px);
+        const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
+        for (int c = 0; c < 3; c++) {
+            double dd = (double)px[c] - o[c];
+            ec += d * dd * dd;
+        }
+    }
+    for (uint32_t k = S->bp_off[b]; k < S->bp_off[b + 1]; k++) {
+        size_t p = S->bp[k];
+        const tapref *r = &S->taps[8 * p];
+        double v[3] = {0, 0, 0};
+        for (int j = 0; j < 8; j++) {
+            uint8_t px[4];
+            if (r[j].blk < 0) {
+                const uint8_t *t = S->target + r[j].tex * 4;
+                px[0] = t[0];
+                px[1] = t[1];
+                px[2] = t[2];
+            } else {
+                st_bc1_texel(blk_ptr(S, (uint32_t)r[j].blk), r[j].pos & 3u, r[j].pos >> 2, px);
+            }
+            for (int c = 0; c < 3; c++)
+                v[c] += r[j].w * px[c];
+        }
+        es += S->sys->pts[p].len * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    }
+    return ec + S->alpha * es;
+}
+
+static void put_block(uint8_t *blk, uint16_t c0, uint16_t c1, uint32_t sel)
+{
+    blk[0] = (uint8_t)c0;
+    blk[1] = (uint8_t)(c0 >> 8);
+    blk[2] = (uint8_t)c1;
+    blk[3] = (uint8_t)(c1 >> 8);
+    blk[4] = (uint8_t)sel;
+    blk[5] = (uint8_t)(sel >> 8);
+    blk[6] = (uint8_t)(sel >> 16);
+    blk[7] = (uint8_t)(sel >> 24);
+}
+
+/* Discrete descent on block b: every selector of every texel, then +-1 on each of the six
+ * 565 components (keeping the block's mode), accepting what lowers local_energy. Returns 1
+ * when something changed. */
+static int local_search(const solver *S, uint32_t b)
+{
+    uint8_t *blk = blk_ptr(S, b);
+    double cur = local_energy(S, b);
+    int changed = 0;
+    uint16_t c0 = rd16(blk), c1 = rd16(blk + 2);
+    int four = c0 > c1;
+    int nsel = four ? 4 : 3;
+    if (!four && c0 == c1)
+        nsel = 1; /* a flat block: only selector 0 means anything */
+    for (int i = 0; i < 16; i++) {
+        if (S->d[16 * b + i] == 0)
+            continue;
+        uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
+                       (uint32_t)blk[7] << 24;
+        uint32_t keep = sel;
+        unsigned s0 = sel >> (2 * i) & 3u;
+        for (unsigned j = 0; j < (unsigned)nsel; j++) {
+            if (j == s0)
+                continue;
+            uint32_t ns = (sel & ~(3u << (2 * i))) | j << (2 * i);
+            put_block(blk, c0, c1, ns);
+            double en = local_energy(S, b);
+            if (en < cur - 1e-9) {
+                cur = en;
+                keep = ns;
+                changed = 1;
+            }
+        }
+        put_block(blk, c0, c1, keep);
+    }
+    static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
+    for (int ep = 0; ep < 2; ep++)
+        for (int k = 0; k < 3; k++)
+            for (int dlt = -1; dlt <= 1; dlt += 2) {
+                uint16_t cc[2] = {rd16(blk), rd16(blk + 2)};
+                uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 |
+                               (uint32_t)blk[6] << 16 | (uint32_t)blk[7] << 24;
+                int q = (cc[ep] >> sh[k]) & mx[k];
+                if (q + dlt < 0 || q + dlt > mx[k])
+                    continue;
+                uint16_t n0 = cc[0], n1 = cc[1];
+                uint16_t *t = ep ? &n1 : &n0;
+                *t = (uint16_t)((*t & ~(mx[k] << sh[k])) | ((q + dlt) << sh[k]));
+                if (four ? n0 <= n1 : n0 > n1)
+                    continue; /* would change the mode */
+                put_block(blk, n0, n1, sel);
+                double en = local_energy(S, b);
+                if (en < cur - 1e-9) {
+                    cur = en;
+                    changed = 1;
+                } else {
+                    put_block(blk, cc[0], cc[1], sel);
+                }
+            }
+    return changed;
+}
+
 static int has_transparent(const uint8_t *blk)
 {
     if (rd16(blk) > rd16(blk + 2))
@@ -359,7 +474,8 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
         iterations = 3;
     if (iterations > 16)
         iterations = 16;
-    solver S = {sys, orig, target, blocks, alpha, outside_weight, NULL, 0, NULL, NULL, NULL};
+    solver S = {sys, orig, target, blocks, alpha, outside_weight, NULL, 0, NULL, NULL, NULL,
+                NULL, NULL};
     int rc = ST_OK;
     uint64_t *keys = malloc((sys->nvars ? sys->nvars : 1) * sizeof *keys);
     uint8_t *saved = NULL, *fixed = NULL;
@@ -446,6 +562,45 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
             /* else: a transparent block, kept as it is: its texel is a constant; the
              * target value stands in for it (close to what it decodes to) */
         }
+    /* points per block (CSR), each point once per block */
+    S.bp_off = calloc((size_t)nb + 1, sizeof *S.bp_off);
+    if (!S.bp_off) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for the seam point index");
+        goto out;
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        for (size_t p = 0; p < sys->npts; p++) {
+            int32_t seen[8];
+            int ns = 0;
+            for (int k = 0; k < 8; k++) {
+                int32_t bk = S.taps[8 * p + k].blk;
+                int dup = bk < 0;
+                for (int j = 0; j < ns && !dup; j++)
+                    dup = seen[j] == bk;
+                if (dup)
+                    continue;
+                seen[ns++] = bk;
+                if (pass == 0)
+                    S.bp_off[bk + 1]++;
+                else
+                    S.bp[S.bp_off[bk]++] = (uint32_t)p;
+            }
+        }
+        if (pass == 0) {
+            for (uint32_t b = 0; b < nb; b++)
+                S.bp_off[b + 1] += S.bp_off[b];
+            S.bp = malloc(((size_t)S.bp_off[nb] ? S.bp_off[nb] : 1) * sizeof *S.bp);
+            if (!S.bp) {
+                rc = st_fail(e, ST_ENOMEM, "out of memory for the seam point index");
+                goto out;
+            }
+        } else {
+            /* the fill advanced each start to the next block's start: shift back */
+            for (uint32_t b = nb; b > 0; b--)
+                S.bp_off[b] = S.bp_off[b - 1];
+            S.bp_off[0] = 0;
+        }
+    }
     double best = exact_energy(&S);
     if (stats) {
         stats->e_before = best;
@@ -476,6 +631,18 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
             }
             requantise(&S, b, e0, e1);
         }
+        for (int pass = 0; pass < 2; pass++) {
+            int any = 0;
+            for (uint32_t b = 0; b < nb; b++) {
+                if (cancel && *cancel) {
+                    rc = st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
+                    goto out;
+                }
+                any |= local_search(&S, b);
+            }
+            if (!any)
+                break;
+        }
         double en = exact_energy(&S);
         if (stats)
             stats->iterations = it + 1;
@@ -495,6 +662,8 @@ out:
     free(S.t);
     free(S.d);
     free(S.taps);
+    free(S.bp_off);
+    free(S.bp);
     free(saved);
     free(fixed);
     free(z);

@@ -151,9 +151,10 @@ static const char *basename_of(const char *p)
     return s ? s + 1 : p;
 }
 
-/* Fallback chart mask: texel centres covered by a UV'd triangle (repeat addressing), then
- * dilated by one texel. */
-static void raster_charts(st_seam_sys *sys, const st_mesh *m)
+/* Chart mask: texel centres covered by a UV'd triangle (repeat addressing). Not dilated (the
+ * atlas's own mask is, for Discard sampling): texels of the gutter are exactly the ones the
+ * masking should be free to move. */
+static void raster_charts(st_seam_sys *sys, const st_mesh *m, const char *tex)
 {
     int64_t W = sys->fw[0], H = sys->fh[0];
     uint8_t *in = sys->inside;
@@ -163,6 +164,11 @@ static void raster_charts(st_seam_sys *sys, const st_mesh *m)
         if (ti[0] == ST_MESH_NO_UV || ti[1] == ST_MESH_NO_UV || ti[2] == ST_MESH_NO_UV ||
             ti[0] >= m->nuv || ti[1] >= m->nuv || ti[2] >= m->nuv)
             continue;
+        if (tex) {
+            uint32_t mi = m->tri_mat ? m->tri_mat[t] : 0;
+            if (mi >= m->nmat || strcmp(basename_of(m->mats[mi].map_kd), tex))
+                continue;
+        }
         double x[3], y[3];
         for (int k = 0; k < 3; k++) {
             x[k] = m->uv[2 * ti[k]] * (double)W;
@@ -194,23 +200,6 @@ static void raster_charts(st_seam_sys *sys, const st_mesh *m)
             }
     next:;
     }
-    /* dilate by one texel (8-neighbourhood) */
-    uint8_t *cp = malloc(sys->ntexels);
-    if (!cp)
-        return; /* keep the undilated mask */
-    memcpy(cp, in, sys->ntexels);
-    for (int64_t j = 0; j < H; j++)
-        for (int64_t i = 0; i < W; i++) {
-            if (cp[j * W + i])
-                continue;
-            for (int dj = -1; dj <= 1; dj++)
-                for (int di = -1; di <= 1; di++) {
-                    int64_t jj = j + dj, ii = i + di;
-                    if (jj >= 0 && jj < H && ii >= 0 && ii < W && cp[jj * W + ii])
-                        in[j * W + i] = 1;
-                }
-        }
-    free(cp);
 }
 
 static int build_atlas(st_seam_sys *sys, const st_set *s, float step, builder *b, st_error *e)
@@ -225,17 +214,14 @@ static int build_atlas(st_seam_sys *sys, const st_set *s, float step, builder *b
         if (rc)
             return rc;
     }
-    if (at->chart_mask && at->mask_w == sys->fw[0] && at->mask_h == sys->fh[0])
-        memcpy(sys->inside, at->chart_mask, sys->ntexels);
-    else
-        raster_charts(sys, m);
-    /* With several textured materials, keep the seams of triangles that use this texture. */
+    /* With several textured materials, keep the triangles that use this texture. */
     const char *tex = at->texture_name[0] ? basename_of(at->texture_name) : NULL;
     int filter = 0;
     if (tex)
         for (uint32_t i = 0; i < m->nmat; i++)
             if (m->mats[i].map_kd[0] && !strcmp(basename_of(m->mats[i].map_kd), tex))
                 filter = 1;
+    raster_charts(sys, m, filter ? tex : NULL);
     double W = sys->fw[0], H = sys->fh[0];
     const st_seams *S = m->seams;
     for (uint32_t k = 0; k < S->nseams; k++) {

@@ -16,8 +16,11 @@
  * each side a bilinear combination of 4 texels.
  *   - atlas set: the seams of the atlas mesh (st_mesh_find_seams); bilinear taps with
  *     REPEAT addressing (the glTF default: UVs outside [0,1], e.g. the spider, wrap), only
- *     seams whose two triangles both have UVs; texels inside charts are the atlas chart mask
- *     (rasterised here when the atlas has none);
+ *     seams whose two triangles both have UVs; when the atlas names its texture and a
+ *     material maps it, only triangles of such materials count (several textures per
+ *     mesh, e.g. the milk truck). Texels inside charts: centres covered by one of those
+ *     triangles, rasterised here WITHOUT the dilation of the atlas's own chart mask - the
+ *     gutter texels next to a chart are exactly the ones masking must be free to move;
  *   - per-face and cube sets: every shared face edge (adjacency), once per pair; the point
  *     at parameter s along edge e of face f meets the point at 1 - s along the neighbour's
  *     edge (shared edges run in opposite directions); each side is evaluated AT the edge

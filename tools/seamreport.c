@@ -1,0 +1,374 @@
+/* tools/seamreport.c - seamtex-seamreport: the measured seam report of BC1 compression.
+ *
+ * Owns: the report (a table per data set) and the close-up PNGs. Does not own any method:
+ * everything measured here is the store's (seammask.h, bc1.h).
+ *
+ * For each atlas mesh under $SEAMTEX_DATA/meshes/ and a few per-face sets from ptx/, five
+ * variants of level 0:
+ *   original | masked (8-bit, uncompressed) | plain BC1 of the original | plain BC1 of the
+ *   masked texture | seam-aware BC1
+ * with PSNR inside charts (RGB, against the original) and seam RMS (per channel, 0..255,
+ * over the seam sample points, length-weighted). BC1 is decoded with the exact decoder.
+ * Close-ups: for the seam point where plain BC1 of the masked texture is worst, the texels
+ * around side A and side B of every variant, magnified 8x with bilinear filtering, side by
+ * side, one PNG per data set in OUT (default build/report).
+ *
+ * Usage: seamtex-seamreport [--data DIR] [--out DIR] [--level fast|hq] [--step S] [--alpha A]
+ *                           [--only NAME] [--json PATH]
+ */
+#include "atlas.h"
+#include "bc1.h"
+#include "image.h"
+#include "mesh.h"
+#include "ptex.h"
+#include "seammask.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+typedef struct dataset {
+    const char *name;
+    const char *obj;     /* atlas: mesh file, NULL for per-face */
+    const char *tex;     /* atlas: texture; per-face: the .ptx */
+} dataset;
+
+static const dataset SETS[] = {
+    {"duck", "meshes/duck/Duck.obj", "meshes/duck/DuckCM.png"},
+    {"waterbottle", "meshes/waterbottle/WaterBottle.obj",
+     "meshes/waterbottle/WaterBottle_baseColor.png"},
+    {"cesiummilktruck", "meshes/cesiummilktruck/CesiumMilkTruck.obj",
+     "meshes/cesiummilktruck/CesiumMilkTruck.png"},
+    {"spider", "meshes/spider/spider.obj", "meshes/spider/drkwood2.jpg"},
+    {"ptex-teapot", NULL, "ptx/wdas-ptex-samples/teapot/teapot.ptx"},
+    {"ptex-holeycube", NULL, "ptx/wdas-ptex-samples/holeycube/holeycube.ptx"},
+    {"ptex-cube8rot", NULL, "ptex-ref/cube8_k6_u8_rot.ptx"},
+    {"ptex-nonquad", NULL, "ptx/wdas-ptex-2009/nonquad/test/pPlane1.ptx"},
+    {"ptex-textcube", NULL, "ptx/wdas-ptex-2009/cube/text/cube.ptx"},
+};
+
+enum { V_ORIG, V_MASK, V_BC1, V_BC1M, V_AWARE, NV };
+static const char *VNAME[NV] = {"original", "masked 8-bit", "plain BC1 (orig)",
+                                "plain BC1 (masked)", "seam-aware BC1"};
+
+static double now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+static void path_join(char *out, size_t n, const char *a, const char *b)
+{
+    snprintf(out, n, "%s/%s", a, b);
+}
+
+/* Encodes every face of a global RGBA8 buffer; blocks[f] NULL for 1x1 constant faces. */
+static int encode_global(const st_set *s, const st_seam_sys *sys, const uint8_t *rgba, int level,
+                         uint8_t **blocks, st_error *e)
+{
+    for (uint32_t f = 0; f < sys->nfaces; f++) {
+        blocks[f] = NULL;
+        if (s->faces[f].flags & ST_FACE_CONSTANT)
+            continue;
+        size_t nb = (size_t)((sys->fw[f] + 3) / 4) * ((sys->fh[f] + 3) / 4);
+        blocks[f] = malloc(nb * 8);
+        if (!blocks[f])
+            return st_fail(e, ST_ENOMEM, "out of memory");
+        int rc = st_bc1_encode_image(rgba + sys->base[f] * 4, sys->fw[f], sys->fh[f],
+                                     (size_t)sys->fw[f] * 4, level, 0, blocks[f], e);
+        if (rc)
+            return rc;
+    }
+    return ST_OK;
+}
+
+static void decode_global(const st_seam_sys *sys, uint8_t *const *blocks, const uint8_t *fallback,
+                          uint8_t *out)
+{
+    for (uint32_t f = 0; f < sys->nfaces; f++) {
+        if (!blocks[f]) {
+            memcpy(out + sys->base[f] * 4, fallback + sys->base[f] * 4,
+                   (size_t)(sys->base[f + 1] - sys->base[f]) * 4);
+            continue;
+        }
+        st_bc1_decode_image(blocks[f], sys->fw[f], sys->fh[f], ST_BC1_DEC_EXACT,
+                            out + sys->base[f] * 4);
+    }
+}
+
+static void free_blocks(uint8_t **b, uint32_t n)
+{
+    if (!b)
+        return;
+    for (uint32_t f = 0; f < n; f++)
+        free(b[f]);
+    free(b);
+}
+
+/* Residual magnitude of point p in buffer rgba. */
+static double point_resid(const st_seam_sys *sys, size_t k, const uint8_t *rgba)
+{
+    const st_seam_pt *p = &sys->pts[k];
+    double acc = 0;
+    for (int c = 0; c < 3; c++) {
+        double r = 0;
+        for (int j = 0; j < 4; j++)
+            r += p->wa[j] * rgba[sys->vars[p->va[j]] * 4 + (uint64_t)c] -
+                 p->wb[j] * rgba[sys->vars[p->vb[j]] * 4 + (uint64_t)c];
+        acc += r * r;
+    }
+    return sqrt(acc / 3);
+}
+
+/* Bilinear crop of R x R texels around global texel t (same face), magnified M x. */
+static void crop(const st_seam_sys *sys, const uint8_t *rgba, uint64_t t, int R, int M, uint8_t *dst,
+                 int dstride)
+{
+    uint32_t f = 0;
+    while (f + 1 < sys->nfaces && sys->base[f + 1] <= t)
+        f++;
+    uint64_t local = t - sys->base[f];
+    double cx = (double)(local % sys->fw[f]) + 0.5, cy = (double)(local / sys->fw[f]) + 0.5;
+    int W = (int)sys->fw[f], H = (int)sys->fh[f];
+    for (int y = 0; y < R * M; y++)
+        for (int x = 0; x < R * M; x++) {
+            double sx = cx - R / 2.0 + (x + 0.5) / M - 0.5, sy = cy - R / 2.0 + (y + 0.5) / M - 0.5;
+            int x0 = (int)floor(sx), y0 = (int)floor(sy);
+            double ax = sx - x0, ay = sy - y0;
+            for (int c = 0; c < 3; c++) {
+                double v = 0;
+                for (int j = 0; j < 2; j++)
+                    for (int i = 0; i < 2; i++) {
+                        int xx = x0 + i < 0 ? 0 : x0 + i >= W ? W - 1 : x0 + i;
+                        int yy = y0 + j < 0 ? 0 : y0 + j >= H ? H - 1 : y0 + j;
+                        double w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
+                        v += w * rgba[(sys->base[f] + (uint64_t)yy * W + xx) * 4 + c];
+                    }
+                dst[(size_t)y * dstride + (size_t)x * 3 + c] = (uint8_t)(v + 0.5);
+            }
+        }
+}
+
+typedef struct result {
+    double psnr[NV], rms[NV];
+    double t_mask, t_enc, t_aware;
+    uint32_t w, h, nfaces, nseams;
+    size_t npts;
+    int ok;
+} result;
+
+static int run_set(const dataset *d, const char *data, const char *outdir, int level, float step,
+                   float alpha, result *res, st_error *e)
+{
+    char p1[1024], p2[1024];
+    st_set *s = NULL;
+    int rc;
+    memset(res, 0, sizeof *res);
+    if (d->obj) {
+        path_join(p1, sizeof p1, data, d->obj);
+        path_join(p2, sizeof p2, data, d->tex);
+        st_mesh *m = NULL;
+        rc = st_obj_read_file(p1, NULL, &m, e);
+        if (rc)
+            return rc;
+        st_image img;
+        rc = st_image_read(p2, NULL, &img, e);
+        if (rc) {
+            st_mesh_free(m);
+            return rc;
+        }
+        rc = st_atlas_from_image(&img, m, 0, &s, e);
+        st_image_free(&img);
+        if (rc)
+            return rc;
+        st_atlas *at = s->ext;
+        const char *b = strrchr(d->tex, '/');
+        snprintf(at->texture_name, sizeof at->texture_name, "%s", b ? b + 1 : d->tex);
+    } else {
+        path_join(p1, sizeof p1, data, d->tex);
+        rc = st_ptex_read_file(p1, 0, &s, e);
+        if (rc)
+            return rc;
+    }
+    st_seam_sys *sys = NULL;
+    uint8_t *buf[NV] = {NULL};
+    uint8_t **bl_orig = NULL, **bl_mask = NULL;
+    rc = st_seam_sys_build(s, step, &sys, e);
+    if (rc)
+        goto out;
+    res->w = s->faces[0].w;
+    res->h = s->faces[0].h;
+    res->nfaces = s->info.nfaces;
+    res->nseams = sys->nseams;
+    res->npts = sys->npts;
+    rc = st_seam_gather_rgba8(s, sys, &buf[V_ORIG], e);
+    if (rc)
+        goto out;
+    size_t bytes = (size_t)sys->ntexels * 4;
+    for (int v = 1; v < NV; v++) {
+        buf[v] = malloc(bytes);
+        if (!buf[v]) {
+            rc = st_fail(e, ST_ENOMEM, "out of memory");
+            goto out;
+        }
+    }
+    memcpy(buf[V_MASK], buf[V_ORIG], bytes);
+    double t0 = now();
+    rc = st_seam_mask_rgba8(sys, alpha, 0, buf[V_MASK], NULL, e);
+    if (rc)
+        goto out;
+    res->t_mask = now() - t0;
+    bl_orig = calloc(sys->nfaces, sizeof *bl_orig);
+    bl_mask = calloc(sys->nfaces, sizeof *bl_mask);
+    if (!bl_orig || !bl_mask) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory");
+        goto out;
+    }
+    t0 = now();
+    if ((rc = encode_global(s, sys, buf[V_ORIG], level, bl_orig, e)) ||
+        (rc = encode_global(s, sys, buf[V_MASK], level, bl_mask, e)))
+        goto out;
+    res->t_enc = (now() - t0) / 2;
+    decode_global(sys, bl_orig, buf[V_ORIG], buf[V_BC1]);
+    decode_global(sys, bl_mask, buf[V_MASK], buf[V_BC1M]);
+    t0 = now();
+    st_bc1_seam_stats st;
+    rc = st_bc1_seam_solve(sys, getenv("H6REF") ? buf[V_MASK] : buf[V_ORIG], buf[V_MASK], bl_mask, getenv("H6A") ? strtof(getenv("H6A"), NULL) : alpha, 0, 3, NULL, &st, e);
+    if (rc)
+        goto out;
+    res->t_aware = now() - t0;
+    decode_global(sys, bl_mask, buf[V_MASK], buf[V_AWARE]);
+    for (int v = 0; v < NV; v++) {
+        res->psnr[v] = st_seam_psnr_inside(sys, buf[V_ORIG], buf[v]);
+        res->rms[v] = st_seam_rms_rgba8(sys, buf[v]);
+    }
+    res->ok = 1;
+    /* close-up of the worst point of plain BC1 (masked) */
+    if (sys->npts && outdir) {
+        size_t worst = 0;
+        double wv = -1;
+        for (size_t k = 0; k < sys->npts; k++) {
+            double r = point_resid(sys, k, buf[V_BC1M]);
+            if (r > wv) {
+                wv = r;
+                worst = k;
+            }
+        }
+        const int R = 12, M = 8, gap = 4;
+        int tile = R * M;
+        int W = NV * (tile + gap), H = 2 * tile + gap;
+        uint8_t *img = calloc((size_t)W * H, 3);
+        if (img) {
+            memset(img, 255, (size_t)W * H * 3);
+            const st_seam_pt *p = &sys->pts[worst];
+            for (int v = 0; v < NV; v++) {
+                crop(sys, buf[v], sys->vars[p->va[0]], R, M, img + (size_t)v * (tile + gap) * 3, W * 3);
+                crop(sys, buf[v], sys->vars[p->vb[0]], R, M,
+                     img + ((size_t)(tile + gap) * W + (size_t)v * (tile + gap)) * 3, W * 3);
+            }
+            char path[1200];
+            snprintf(path, sizeof path, "%s/%s_closeup.png", outdir, d->name);
+            st_error we;
+            if (st_image_write(path, (uint32_t)W, (uint32_t)H, 3, ST_DT_U8, img, &we))
+                fprintf(stderr, "seamreport: %s: %s\n", path, we.msg);
+            free(img);
+        }
+    }
+out:
+    for (int v = 0; v < NV; v++)
+        free(buf[v]);
+    if (sys) {
+        free_blocks(bl_orig, sys->nfaces);
+        free_blocks(bl_mask, sys->nfaces);
+    } else {
+        free(bl_orig);
+        free(bl_mask);
+    }
+    st_seam_sys_free(sys);
+    st_set_free(s);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    const char *data = getenv("SEAMTEX_DATA");
+    if (!data)
+        data = "../shared/data";
+    const char *outdir = "build/report", *only = NULL, *json = NULL;
+    int level = ST_BC1_HQ;
+    float step = 0.5f, alpha = 2.0f;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--data") && i + 1 < argc)
+            data = argv[++i];
+        else if (!strcmp(argv[i], "--out") && i + 1 < argc)
+            outdir = argv[++i];
+        else if (!strcmp(argv[i], "--level") && i + 1 < argc)
+            level = !strcmp(argv[++i], "fast") ? ST_BC1_FAST : ST_BC1_HQ;
+        else if (!strcmp(argv[i], "--step") && i + 1 < argc)
+            step = strtof(argv[++i], NULL);
+        else if (!strcmp(argv[i], "--alpha") && i + 1 < argc)
+            alpha = strtof(argv[++i], NULL);
+        else if (!strcmp(argv[i], "--only") && i + 1 < argc)
+            only = argv[++i];
+        else if (!strcmp(argv[i], "--json") && i + 1 < argc)
+            json = argv[++i];
+        else {
+            fprintf(stderr, "usage: %s [--data DIR] [--out DIR] [--level fast|hq] [--step S] "
+                            "[--alpha A] [--only NAME] [--json PATH]\n", argv[0]);
+            return 2;
+        }
+    }
+    mkdir(outdir, 0755);
+    printf("seam report: BC1 level %s, seam samples every %.2f texel, alpha %.2f, exact decoder\n",
+           level == ST_BC1_FAST ? "fast" : "hq", step, alpha);
+    printf("PSNR = RGB PSNR inside charts vs the original (dB); RMS = seam RMS per channel (0..255)\n\n");
+    FILE *jf = json ? fopen(json, "w") : NULL;
+    if (jf)
+        fprintf(jf, "{\"level\":\"%s\",\"step\":%g,\"alpha\":%g,\"sets\":[", level == ST_BC1_FAST ? "fast" : "hq", step, alpha);
+    int first = 1, failures = 0;
+    for (size_t i = 0; i < sizeof SETS / sizeof *SETS; i++) {
+        const dataset *d = &SETS[i];
+        if (only && !strstr(d->name, only))
+            continue;
+        result r;
+        st_error e = {0};
+        double t0 = now();
+        int rc = run_set(d, data, outdir, level, step, alpha, &r, &e);
+        if (rc) {
+            printf("%-16s  skipped: %s (%s)\n\n", d->name, e.msg, st_strerror(rc));
+            failures++;
+            continue;
+        }
+        printf("%-16s %u face%s %ux%u%s, %u seams, %zu points; mask %.2fs, encode %.2fs, "
+               "seam-aware %.2fs (total %.1fs)\n",
+               d->name, r.nfaces, r.nfaces > 1 ? "s" : "", r.w, r.h, r.nfaces > 1 ? " (face 0)" : "",
+               r.nseams, r.npts, r.t_mask, r.t_enc, r.t_aware, now() - t0);
+        printf("  %-20s %10s %10s\n", "variant", "PSNR", "seam RMS");
+        for (int v = 0; v < NV; v++)
+            printf("  %-20s %10.2f %10.2f\n", VNAME[v], r.psnr[v], r.rms[v]);
+        double ratio_m = r.rms[V_MASK] > 0 ? r.rms[V_AWARE] / r.rms[V_MASK] : 0;
+        double ratio_b = r.rms[V_AWARE] > 0 ? r.rms[V_BC1M] / r.rms[V_AWARE] : 0;
+        printf("  seam-aware / masked RMS %.2fx (target <= 1.2); plain BC1 (masked) / seam-aware "
+               "%.2fx (target >= 2); PSNR seam-aware - plain BC1 (orig) %+.2f dB (target >= -0.2)\n\n",
+               ratio_m, ratio_b, r.psnr[V_AWARE] - r.psnr[V_BC1]);
+        if (jf) {
+            fprintf(jf, "%s{\"name\":\"%s\",\"seams\":%u,\"points\":%zu,\"variants\":[", first ? "" : ",",
+                    d->name, r.nseams, r.npts);
+            for (int v = 0; v < NV; v++)
+                fprintf(jf, "%s{\"variant\":\"%s\",\"psnr\":%.3f,\"seam_rms\":%.3f}", v ? "," : "",
+                        VNAME[v], r.psnr[v], r.rms[v]);
+            fprintf(jf, "]}");
+            first = 0;
+        }
+        fflush(stdout);
+    }
+    if (jf) {
+        fprintf(jf, "]}\n");
+        fclose(jf);
+    }
+    return failures ? 1 : 0;
+}
