@@ -20,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include "proto.h"
@@ -84,6 +85,8 @@ static int read_all(int fd, uint8_t *p, size_t n)
         ssize_t r = read(fd, p, n);
         if (r < 0 && errno == EINTR)
             continue;
+        if (r == 0)
+            errno = 0;                      /* closed, not timed out */
         if (r <= 0)
             return -1;
         p += r;
@@ -104,7 +107,8 @@ static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *ms
     uint8_t hdr[STP_HEADER_SIZE];
     int reason = 0;
     if (read_all(fd, hdr, sizeof hdr) < 0) {
-        snprintf(msg, ml, "the server closed the connection");
+        snprintf(msg, ml, errno == EAGAIN || errno == EWOULDBLOCK ? "no reply within the timeout"
+                                                                   : "the server closed the connection");
         return -1;
     }
     if (stp_parse_header(hdr, sizeof hdr, STP_DEFAULT_MAX_BODY, h, &reason) != STP_OK) {
@@ -160,6 +164,11 @@ int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t ml)
         return -1;
     int one = 1;
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    /* the blocking set-up exchanges (HELLO, INFO) give up after the request timeout */
+    struct timeval tv = { .tv_sec = (time_t)cfg->timeout_s,
+                          .tv_usec = (suseconds_t)((cfg->timeout_s - (double)(time_t)cfg->timeout_s) * 1e6) };
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
 
     stp_buf b;
     stp_buf_init(&b);

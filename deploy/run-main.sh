@@ -48,15 +48,21 @@ mkdir -p "$TMP/data"
     2>"$TMP/daemon.log" &
 PID=$!
 PORT=""
-for _ in $(seq 1 300); do                      # up to 30 s
+READY=""
+START=$SECONDS
+while [ $((SECONDS - START)) -lt 30 ]; do       # up to 30 s
     kill -0 "$PID" 2>/dev/null || fail "seamtexd exited during start"
     if [ -s "$TMP/port" ]; then
         PORT=$(tr -dc '0-9' <"$TMP/port")
-        [ -n "$PORT" ] && "$CLI" -p "$PORT" ping >/dev/null 2>&1 && break
+        if [ -n "$PORT" ] && "$CLI" -p "$PORT" --timeout 2000 ping >/dev/null 2>&1; then
+            READY=1
+            break
+        fi
     fi
     sleep 0.1
 done
 [ -n "$PORT" ] || fail "seamtexd did not write its port within 30 s"
+[ -n "$READY" ] || fail "seamtexd did not answer PING within 30 s"
 echo "run-main: seamtexd pid $PID listening on 127.0.0.1:$PORT, data dir $TMP/data"
 
 run() {
