@@ -1,0 +1,849 @@
+/* tests/integration/test_client.c - libseamtex behaviours over real sockets.
+ *
+ * Two kinds of peer:
+ *   - a scripted mock server (a thread in this process on a loopback port) for behaviours a
+ *     healthy daemon never shows on demand: late replies, garbage, closes, oversized replies,
+ *     unsolicited BUSY, silence during HELLO;
+ *   - the real seamtexd (tests/common/daemon_fixture) for end-to-end calls: HELLO, ping,
+ *     upload of a .ptx from the shared data, list, info, sample, stats, delete, and server-side
+ *     statuses reaching the client (unknown opcode, lying SAMPLE length, body over the cap)
+ *     without breaking the connection. Skipped (with the reason) when the daemon or the shared
+ *     data are missing.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "../common/daemon_fixture.h"
+#include "proto.h"
+#include "seamtex.h"
+
+/* ---- scripted mock server ------------------------------------------------------------------- */
+
+enum mock_mode {
+    M_NORMAL,          /* HELLO, PING echo, SAMPLE (values = u), INFO, UPLOAD_*, FETCH_* */
+    M_DELAY_PING1,     /* the first PING is answered after 400 ms */
+    M_GARBAGE_PING,    /* a PING is answered with bytes that are not a frame */
+    M_CLOSE_PING,      /* a PING closes the connection */
+    M_HUGE_PING1,      /* the first PING is answered with a 2 MiB body */
+    M_BUSY,            /* an unsolicited BUSY with reqid 0 at accept, then close */
+    M_SILENT,          /* never answers anything */
+    M_REVERSE          /* answers pipelined PINGs in batches of 4 in reverse order */
+};
+
+typedef struct mock {
+    int lfd, port, mode, stop;
+    pthread_t th;
+    int pings;                     /* PINGs seen */
+    int aborts;                    /* UPLOAD_ABORTs seen */
+    uint8_t *up;                   /* upload being received */
+    uint64_t up_total, up_got;
+    uint32_t up_crc;
+    uint8_t *fetch;                /* file served by FETCH */
+    size_t fetch_len;
+    stp_buf held;                  /* M_REVERSE: replies held back */
+    int nheld;
+} mock;
+
+static void send_all(int fd, const void *p, size_t n)
+{
+    const uint8_t *b = p;
+    while (n) {
+        ssize_t w = send(fd, b, n, MSG_NOSIGNAL);
+        if (w <= 0)
+            return;
+        b += w;
+        n -= (size_t)w;
+    }
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = { ms / 1000, (long)(ms % 1000) * 1000000L };
+    nanosleep(&ts, NULL);
+}
+
+/* Answers one request; returns -1 to close the connection. */
+static int mock_handle(mock *m, int fd, const stp_header *h, const uint8_t *body)
+{
+    stp_buf o;
+    int rc = 0;
+    stp_buf_init(&o);
+    switch (h->opcode) {
+    case STP_OP_HELLO: {
+        stp_hello_reply r;
+        memset(&r, 0, sizeof r);
+        r.version = 1;
+        r.caps = STP_CAP_PIPELINE | (m->mode == M_REVERSE ? STP_CAP_OUT_OF_ORDER : 0);
+        r.max_body = 1u << 20;
+        r.max_batch = 1000;
+        r.max_chunk = 1000;          /* small: uploads and fetches take many chunks */
+        r.max_inflight = 16;
+        strcpy(r.server_name, "mock");
+        stp_enc_hello_reply(&o, h->reqid, &r);
+        break;
+    }
+    case STP_OP_PING:
+        m->pings++;
+        if (m->mode == M_DELAY_PING1 && m->pings == 1)
+            sleep_ms(400);
+        if (m->mode == M_GARBAGE_PING) {
+            send_all(fd, "HTTP/1.1 400 Bad Request\r\n\r\n", 28);
+            return 0;
+        }
+        if (m->mode == M_CLOSE_PING)
+            return -1;
+        if (m->mode == M_HUGE_PING1 && m->pings == 1) {
+            uint8_t *big = calloc(1, 2u << 20);
+            stp_enc_raw(&o, STP_OP_PING, STP_F_REPLY, h->reqid, 0, 0, big, 2u << 20);
+            free(big);
+            break;
+        }
+        if (m->mode == M_REVERSE) {
+            stp_buf tmp;
+            stp_buf_init(&tmp);
+            stp_enc_raw(&tmp, STP_OP_PING, STP_F_REPLY, h->reqid, 0, 0, body, h->body_len);
+            /* prepend: the held buffer ends up in reverse order */
+            stp_put_bytes(&tmp, stp_buf_head(&m->held), stp_buf_avail(&m->held));
+            stp_buf_free(&m->held);
+            m->held = tmp;
+            if (++m->nheld == 4) {
+                send_all(fd, stp_buf_head(&m->held), stp_buf_avail(&m->held));
+                stp_buf_clear(&m->held);
+                m->nheld = 0;
+            }
+            return 0;
+        }
+        stp_enc_raw(&o, STP_OP_PING, STP_F_REPLY, h->reqid, 0, 0, body, h->body_len);
+        break;
+    case STP_OP_INFO:
+        stp_enc_error(&o, STP_OP_INFO, h->reqid, STP_S_NOT_FOUND, "no set here");
+        break;
+    case STP_OP_SAMPLE: {
+        stp_sample_req rq;
+        const char *why = NULL;
+        int s = stp_dec_sample_req(body, h->body_len, 1000, &rq, &why);
+        if (s) {
+            stp_enc_error(&o, h->opcode, h->reqid, (uint16_t)s, why);
+            break;
+        }
+        float *v = calloc(rq.count * 2 + 1, sizeof *v), *cov = calloc(rq.count + 1, 4);
+        uint8_t *st = calloc(rq.count + 1, 1);
+        uint32_t bad = 0;
+        for (uint32_t i = 0; i < rq.count; i++) {
+            stp_query q;
+            stp_sample_query(&rq, i, &q);
+            v[2 * i] = q.u;
+            v[2 * i + 1] = q.v;
+            cov[i] = 1.0f;
+            st[i] = isfinite(q.u) ? 0 : 2;
+            bad += st[i] != 0;
+        }
+        stp_sample_reply rp = { rq.count, 2, rq.p.outfmt, rq.p.flags, bad, v, cov, st,
+                                NULL, NULL, NULL };
+        stp_enc_sample_reply(&o, STP_OP_SAMPLE, h->reqid, &rp);
+        free(v);
+        free(cov);
+        free(st);
+        break;
+    }
+    case STP_OP_UPLOAD_BEGIN: {
+        stp_upload_begin b;
+        stp_dec_upload_begin(body, h->body_len, &b, NULL);
+        free(m->up);
+        m->up = malloc(b.total_size + 1);
+        m->up_total = b.total_size;
+        m->up_got = 0;
+        m->up_crc = b.crc32c;
+        stp_upload_begin_reply r = { 99, 0, 1000 };
+        stp_enc_upload_begin_reply(&o, h->reqid, &r);
+        break;
+    }
+    case STP_OP_UPLOAD_CHUNK: {
+        stp_upload_chunk c;
+        if (stp_dec_upload_chunk(body, h->body_len, &c, NULL) || c.offset != m->up_got ||
+            c.len > m->up_total - m->up_got || c.len > 1000) {
+            stp_enc_error(&o, h->opcode, h->reqid, STP_S_INVALID, "bad chunk");
+            break;
+        }
+        memcpy(m->up + c.offset, c.data, c.len);
+        m->up_got += c.len;
+        stp_upload_progress p = { m->up_got, m->up_total };
+        stp_enc_upload_progress(&o, STP_OP_UPLOAD_CHUNK, h->reqid, &p);
+        break;
+    }
+    case STP_OP_UPLOAD_COMMIT:
+        if (m->up_got != m->up_total || stp_crc32c(0, m->up, m->up_got) != m->up_crc) {
+            stp_enc_error(&o, h->opcode, h->reqid, STP_S_CORRUPT, "checksum");
+        } else {
+            stp_upload_done d = { "up", 0, 1, 0, 1, m->up_total };
+            stp_enc_upload_done(&o, h->reqid, &d);
+        }
+        break;
+    case STP_OP_UPLOAD_ABORT:
+        m->aborts++;
+        stp_enc_empty(&o, STP_OP_UPLOAD_ABORT, STP_F_REPLY, h->reqid, 0);
+        break;
+    case STP_OP_FETCH_OPEN: {
+        stp_fetch_open_reply r = { 7, m->fetch_len, stp_crc32c(0, m->fetch, m->fetch_len),
+                                   1000 };
+        stp_enc_fetch_open_reply(&o, h->reqid, &r);
+        break;
+    }
+    case STP_OP_FETCH_READ: {
+        stp_fetch_read r;
+        stp_dec_fetch_read(body, h->body_len, &r, NULL);
+        size_t n = r.offset >= m->fetch_len ? 0 : m->fetch_len - r.offset;
+        if (n > r.max_len)
+            n = r.max_len;
+        if (n > 1000)
+            n = 1000;
+        stp_fetch_data d = { r.offset, (uint32_t)n, m->fetch + (n ? r.offset : 0) };
+        stp_enc_fetch_data(&o, h->reqid, &d);
+        break;
+    }
+    case STP_OP_FETCH_CLOSE:
+        stp_enc_empty(&o, STP_OP_FETCH_CLOSE, STP_F_REPLY, h->reqid, 0);
+        break;
+    default:
+        stp_enc_error(&o, h->opcode, h->reqid, STP_S_UNKNOWN_OPCODE, "mock");
+        break;
+    }
+    send_all(fd, stp_buf_head(&o), stp_buf_avail(&o));
+    stp_buf_free(&o);
+    return rc;
+}
+
+static void mock_serve(mock *m, int fd)
+{
+    stp_buf in;
+    stp_buf_init(&in);
+    if (m->mode == M_BUSY) {
+        stp_buf o;
+        stp_buf_init(&o);
+        stp_enc_error(&o, 0, 0, STP_S_BUSY, "too many connections");
+        send_all(fd, o.data, o.len);
+        stp_buf_free(&o);
+        close(fd);
+        return;
+    }
+    while (!m->stop) {
+        struct pollfd p = { fd, POLLIN, 0 };
+        if (poll(&p, 1, 100) <= 0)
+            continue;
+        stp_buf_reserve(&in, 65536);
+        ssize_t n = recv(fd, in.data + in.len, in.cap - in.len, 0);
+        if (n <= 0)
+            break;
+        in.len += (size_t)n;
+        for (;;) {
+            stp_header h;
+            int reason;
+            int r = stp_parse_header(stp_buf_head(&in), stp_buf_avail(&in), 1u << 20, &h, &reason);
+            if (r != STP_OK || stp_buf_avail(&in) < STP_HEADER_SIZE + (size_t)h.body_len)
+                break;
+            int rc = m->mode == M_SILENT ? 0
+                     : mock_handle(m, fd, &h, stp_buf_head(&in) + STP_HEADER_SIZE);
+            stp_buf_consume(&in, STP_HEADER_SIZE + h.body_len);
+            if (rc < 0)
+                goto out;
+        }
+    }
+out:
+    close(fd);
+    stp_buf_free(&in);
+}
+
+static void *mock_main(void *arg)
+{
+    mock *m = arg;
+    while (!m->stop) {
+        struct pollfd p = { m->lfd, POLLIN, 0 };
+        if (poll(&p, 1, 50) <= 0)
+            continue;
+        int fd = accept(m->lfd, NULL, NULL);
+        if (fd >= 0)
+            mock_serve(m, fd);
+    }
+    return NULL;
+}
+
+static mock *mock_start(int mode)
+{
+    mock *m = calloc(1, sizeof *m);
+    struct sockaddr_in sa;
+    socklen_t sl = sizeof sa;
+    m->mode = mode;
+    stp_buf_init(&m->held);
+    m->lfd = socket(AF_INET, SOCK_STREAM, 0);
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    assert_int_equal(bind(m->lfd, (struct sockaddr *)&sa, sizeof sa), 0);
+    assert_int_equal(listen(m->lfd, 8), 0);
+    getsockname(m->lfd, (struct sockaddr *)&sa, &sl);
+    m->port = ntohs(sa.sin_port);
+    pthread_create(&m->th, NULL, mock_main, m);
+    return m;
+}
+
+static void mock_stop(mock *m)
+{
+    m->stop = 1;
+    pthread_join(m->th, NULL);
+    close(m->lfd);
+    free(m->up);
+    free(m->fetch);
+    stp_buf_free(&m->held);
+    free(m);
+}
+
+static stc_conn *mock_connect(mock *m, int request_timeout_ms)
+{
+    stc_opts o;
+    int err = 0;
+    char msg[256];
+    memset(&o, 0, sizeof o);
+    o.connect_timeout_ms = 2000;
+    o.request_timeout_ms = request_timeout_ms;
+    o.max_body = 1u << 20;
+    stc_conn *c = stc_connect_opts("127.0.0.1", (unsigned)m->port, &o, &err, msg, sizeof msg);
+    if (!c)
+        fail_msg("connect to mock: %d %s", err, msg);
+    return c;
+}
+
+/* ---- mock tests ------------------------------------------------------------------------------ */
+
+static void connect_reports_hello_limits(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 0);
+    const stc_server *s = stc_server_info(c);
+    assert_string_equal(s->name, "mock");
+    assert_int_equal(s->max_batch, 1000);
+    assert_int_equal(s->max_inflight, 16);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void connect_to_closed_port_fails_with_message(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    int port = m->port, err = 0;
+    mock_stop(m);                            /* nothing listens there now */
+    char msg[256] = "";
+    stc_conn *c = stc_connect_opts("127.0.0.1", (unsigned)port, NULL, &err, msg, sizeof msg);
+    assert_null(c);
+    assert_int_equal(err, STC_ECONNECT);
+    assert_non_null(strstr(msg, "127.0.0.1"));
+    assert_null(stc_connect("no-such-host.invalid", 1, 1000, &err));
+    assert_int_equal(err, STC_ECONNECT);
+}
+
+static void connect_timeout_covers_a_silent_hello(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_SILENT);
+    stc_opts o;
+    int err = 0;
+    char msg[256];
+    memset(&o, 0, sizeof o);
+    o.connect_timeout_ms = 200;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    stc_conn *c = stc_connect_opts("127.0.0.1", (unsigned)m->port, &o, &err, msg, sizeof msg);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6;
+    assert_null(c);
+    assert_int_equal(err, STC_ETIMEDOUT);
+    assert_true(ms >= 150 && ms < 2000);
+    mock_stop(m);
+}
+
+static void request_timeout_does_not_poison_the_connection(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_DELAY_PING1);
+    stc_conn *c = mock_connect(m, 100);
+    assert_int_equal(stc_ping(c), STC_ETIMEDOUT);
+    assert_non_null(strstr(stc_errmsg(c), "timeout"));
+    assert_int_equal(stc_error(c), 0);           /* not sticky */
+    /* the next call works; the late reply to the first ping arrives first and is dropped */
+    stc_set_timeout(c, 2000);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(m->pings, 3);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void protocol_violation_is_sticky(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_GARBAGE_PING);
+    stc_conn *c = mock_connect(m, 2000);
+    assert_int_equal(stc_ping(c), STC_EPROTO);
+    assert_non_null(strstr(stc_errmsg(c), "magic"));
+    assert_int_equal(stc_error(c), STC_EPROTO);
+    /* every later call fails the same way without touching the socket */
+    assert_int_equal(stc_ping(c), STC_EPROTO);
+    assert_int_equal(stc_delete(c, "x"), STC_EPROTO);
+    assert_int_equal(m->pings, 1);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void server_close_is_sticky(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_CLOSE_PING);
+    stc_conn *c = mock_connect(m, 2000);
+    int rc = stc_ping(c);
+    assert_true(rc == STC_ECLOSED || rc == STC_EIO);
+    assert_int_equal(stc_error(c), rc);
+    assert_int_equal(stc_ping(c), rc);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void server_status_is_not_sticky(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 2000);
+    stc_info inf;
+    assert_int_equal(stc_info_get(c, "nothing", 0, 0, &inf), STC_ENOTFOUND);
+    assert_non_null(strstr(stc_errmsg(c), "no set here"));
+    assert_true(stc_is_server_error(STC_ENOTFOUND));
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(stc_ping(c), 0);
+    assert_string_equal(stc_errmsg(c), "");
+    /* a name the protocol does not allow is refused before anything is sent */
+    assert_int_equal(stc_info_get(c, "../etc", 0, 0, &inf), STC_EINVAL);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void oversized_reply_fails_that_request_only(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_HUGE_PING1);
+    stc_conn *c = mock_connect(m, 5000);     /* client cap 1 MiB, reply 2 MiB */
+    assert_int_equal(stc_ping(c), STC_ENOMEM);
+    assert_non_null(strstr(stc_errmsg(c), "cap"));
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(stc_ping(c), 0);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void unsolicited_busy_fails_connect_with_busy(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_BUSY);
+    int err = 0;
+    char msg[256] = "";
+    stc_conn *c = stc_connect_opts("127.0.0.1", (unsigned)m->port, NULL, &err, msg, sizeof msg);
+    assert_null(c);
+    assert_int_equal(err, STC_EBUSY);
+    assert_non_null(strstr(msg, "too many connections"));
+    mock_stop(m);
+}
+
+static void pipelined_pings_are_matched_by_reqid(void **state)
+{
+    (void)state;
+    for (int mode = M_NORMAL; mode <= M_REVERSE; mode += M_REVERSE - M_NORMAL) {
+        mock *m = mock_start(mode);
+        stc_conn *c = mock_connect(m, 5000);
+        uint32_t ids[64];
+        char payload[64][16];
+        for (int i = 0; i < 64; i++) {
+            snprintf(payload[i], sizeof payload[i], "p%d", i);
+            assert_int_equal(stc_append_ping(c, payload[i], strlen(payload[i]), &ids[i]), 0);
+        }
+        assert_int_equal(stc_pending(c), 64);
+        assert_int_equal(stc_ping(c), STC_ESTATE);   /* blocking call while replies are due */
+        assert_int_equal(stc_flush(c), 0);
+        int seen[64] = { 0 }, inorder = 1;
+        for (int k = 0; k < 64; k++) {
+            stc_reply r;
+            assert_int_equal(stc_get_reply(c, 5000, &r), 0);
+            int i;
+            for (i = 0; i < 64 && ids[i] != r.reqid; i++)
+                ;
+            assert_true(i < 64);
+            assert_int_equal(r.status, 0);
+            assert_int_equal(r.body_len, strlen(payload[i]));
+            assert_memory_equal(r.body, payload[i], r.body_len);
+            inorder &= i == k;
+            seen[i]++;
+        }
+        for (int i = 0; i < 64; i++)
+            assert_int_equal(seen[i], 1);
+        assert_int_equal(inorder, mode == M_NORMAL);
+        assert_int_equal(stc_pending(c), 0);
+        stc_reply r;
+        assert_int_equal(stc_get_reply(c, 10, &r), STC_ESTATE);
+        if (mode == M_NORMAL)        /* the reversing mock holds a lone reply back */
+            assert_int_equal(stc_ping(c), 0);
+        stc_close(c);
+        mock_stop(m);
+    }
+}
+
+static void pipelined_timeout_keeps_the_reply_coming(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_DELAY_PING1);
+    stc_conn *c = mock_connect(m, 0);
+    uint32_t id;
+    stc_reply r;
+    assert_int_equal(stc_append_ping(c, "x", 1, &id), 0);
+    assert_int_equal(stc_get_reply(c, 50, &r), STC_ETIMEDOUT);
+    assert_int_equal(stc_pending(c), 1);          /* still due: the caller may wait again */
+    assert_int_equal(stc_get_reply(c, 3000, &r), 0);
+    assert_int_equal(r.reqid, id);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void sample_results_in_every_format(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 5000);
+    stc_query q[3] = { { 0, 0.25f, 0.5f, 0, 0, 0, 0 }, { 1, NAN, 1.0f, 0, 0, 0, 0 },
+                       { 2, 1.5f, -1.0f, 0, 0, 0, 0 } };
+    for (unsigned fmt = 0; fmt < 3; fmt++) {
+        stc_sample_opts o;
+        stc_sample_result res;
+        memset(&o, 0, sizeof o);
+        o.outfmt = fmt;
+        o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+        assert_int_equal(stc_sample(c, "tex", &o, q, 3, &res), 0);
+        assert_int_equal(res.count, 3);
+        assert_int_equal(res.nchan, 2);
+        assert_int_equal(res.nbad, 1);
+        assert_non_null(res.coverage);
+        assert_int_equal(res.status[1], 2);
+        if (fmt == STC_OUT_F32) {
+            const float *v = res.values;
+            assert_true(v[0] == 0.25f && v[1] == 0.5f && isnan(v[2]) && v[4] == 1.5f);
+        } else if (fmt == STC_OUT_UNORM8) {
+            const uint8_t *v = res.values;
+            assert_int_equal(v[0], 64);
+            assert_int_equal(v[1], 128);
+            assert_int_equal(v[2], 0);
+            assert_int_equal(v[4], 255);
+            assert_int_equal(v[5], 0);
+        } else {
+            const uint16_t *v = res.values;
+            assert_int_equal(v[0], 16384);
+            assert_int_equal(v[3], 65535);
+        }
+    }
+    /* no coverage / status asked: none returned; zero queries is fine */
+    stc_sample_opts o;
+    stc_sample_result res;
+    memset(&o, 0, sizeof o);
+    assert_int_equal(stc_sample(c, "tex", &o, q, 3, &res), 0);
+    assert_null(res.coverage);
+    assert_null(res.status);
+    assert_int_equal(stc_sample(c, "tex", &o, NULL, 0, &res), 0);
+    assert_int_equal(res.count, 0);
+    /* pipelined: append two batches, decode both replies */
+    uint32_t a, b;
+    assert_int_equal(stc_append_sample(c, "tex", &o, q, 1, &a), 0);
+    assert_int_equal(stc_append_sample(c, "tex", &o, q, 3, &b), 0);
+    assert_int_equal(stc_flush(c), 0);
+    for (int k = 0; k < 2; k++) {
+        stc_reply r;
+        assert_int_equal(stc_get_reply(c, 3000, &r), 0);
+        assert_int_equal(stc_reply_sample(c, &r, &res), 0);
+        assert_int_equal(res.count, r.reqid == a ? 1 : 3);
+    }
+    stc_close(c);
+    mock_stop(m);
+}
+
+typedef struct progress { int calls; uint64_t last; int stop_at; } progress;
+
+static int on_progress(void *user, uint64_t done, uint64_t total)
+{
+    progress *p = user;
+    assert_true(done <= total);
+    assert_true(done >= p->last);
+    p->last = done;
+    p->calls++;
+    return p->stop_at && p->calls >= p->stop_at;
+}
+
+static void upload_sends_chunks_with_checksum_and_aborts_on_cancel(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 5000);
+    size_t n = 25500;                               /* 26 chunks of <= 1000 bytes */
+    uint8_t *data = malloc(n);
+    for (size_t i = 0; i < n; i++)
+        data[i] = (uint8_t)(i * 31 + 7);
+    progress p = { 0, 0, 0 };
+    stc_upload_opts o;
+    stc_upload_result res;
+    memset(&o, 0, sizeof o);
+    o.progress = on_progress;
+    o.user = &p;
+    assert_int_equal(stc_upload_buffer(c, data, n, "up", &o, &res), 0);
+    assert_int_equal(m->up_got, n);
+    assert_memory_equal(m->up, data, n);
+    assert_int_equal(res.crc32c, stp_crc32c(0, data, n));
+    assert_int_equal(res.memory, n);
+    assert_int_equal(p.calls, 26);
+    assert_int_equal(p.last, n);
+
+    /* a callback that says stop: ECANCELED, the server is told to abort */
+    progress q = { 0, 0, 3 };
+    o.user = &q;
+    assert_int_equal(stc_upload_buffer(c, data, n, "up", &o, &res), STC_ECANCELED);
+    assert_int_equal(m->aborts, 1);
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(stc_ping(c), 0);               /* in-flight chunk replies were dropped */
+
+    /* an upload of a file from disk, empty file included */
+    char path[] = "/tmp/stc-upload-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    assert_int_equal(write(fd, data, 3000), 3000);
+    close(fd);
+    assert_int_equal(stc_upload_file(c, path, "up", NULL, &res), 0);
+    assert_int_equal(m->up_got, 3000);
+    fd = open(path, O_WRONLY | O_TRUNC);
+    close(fd);
+    assert_int_equal(stc_upload_file(c, path, "up", NULL, &res), 0);
+    assert_int_equal(m->up_total, 0);
+    unlink(path);
+    assert_int_equal(stc_upload_file(c, "/nonexistent/file.ptx", "up", NULL, &res), STC_EFILE);
+    free(data);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void fetch_writes_the_file_and_checks_crc(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    m->fetch_len = 12345;
+    m->fetch = malloc(m->fetch_len);
+    for (size_t i = 0; i < m->fetch_len; i++)
+        m->fetch[i] = (uint8_t)(i ^ (i >> 8));
+    stc_conn *c = mock_connect(m, 5000);
+    char dir[] = "/tmp/stc-fetch-XXXXXX", path[300];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/out.ptx", dir);
+    progress p = { 0, 0, 0 };
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, on_progress, &p), 0);
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    uint8_t *got = malloc(m->fetch_len + 1);
+    assert_int_equal(fread(got, 1, m->fetch_len + 1, f), m->fetch_len);
+    fclose(f);
+    assert_memory_equal(got, m->fetch, m->fetch_len);
+    assert_int_equal(p.last, m->fetch_len);
+    free(got);
+    unlink(path);
+    rmdir(dir);
+    stc_close(c);
+    mock_stop(m);
+}
+
+/* ---- against the real daemon ---------------------------------------------------------------------- */
+
+typedef struct real {
+    st_daemon d;
+    int up;
+} real;
+
+static int real_setup(void **state)
+{
+    static real r;
+    memset(&r, 0, sizeof r);
+    *state = &r;
+    if (st_daemon_init(&r.d) == 0 && st_daemon_start(&r.d, NULL) == 0)
+        r.up = 1;
+    return 0;
+}
+
+static int real_teardown(void **state)
+{
+    real *r = *state;
+    st_daemon_cleanup(&r->d);
+    return 0;
+}
+
+static stc_conn *real_connect(real *r)
+{
+    int err = 0;
+    char msg[256];
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    o.request_timeout_ms = 20000;
+    stc_conn *c = stc_connect_opts(r->d.host, (unsigned)r->d.port, &o, &err, msg, sizeof msg);
+    if (!c)
+        fail_msg("connect to seamtexd: %s", msg);
+    return c;
+}
+
+static void real_daemon_end_to_end(void **state)
+{
+    real *r = *state;
+    char path[512];
+    if (!r->up)
+        skip();   /* seamtexd missing or failed to start (see the fixture's message) */
+    if (st_daemon_data_path(path, sizeof path, "ptx/wdas-ptex-2009/dispplane/wave_lo/pPlane1.ptx")) {
+        fprintf(stderr, "# SEAMTEX_DATA missing: skipping the upload round trip\n");
+        skip();
+    }
+    stc_conn *c = real_connect(r);
+    assert_int_equal(stc_ping(c), 0);
+    assert_true(stc_server_info(c)->max_body > 0);
+
+    stc_upload_result up;
+    int rc = stc_upload_file(c, path, "wave", NULL, &up);
+    if (rc)
+        fail_msg("upload: %s: %s", stc_strerror(rc), stc_errmsg(c));
+    assert_int_equal(up.nfaces, 9);
+    assert_int_equal(up.nchan, 1);
+
+    const stc_set_entry *sets;
+    size_t n, i;
+    assert_int_equal(stc_list(c, &sets, &n), 0);
+    for (i = 0; i < n && strcmp(sets[i].name, "wave") != 0; i++)
+        ;
+    assert_true(i < n);
+    assert_int_equal(sets[i].nfaces, 9);
+
+    stc_info inf;
+    assert_int_equal(stc_info_get(c, "wave", 0, 9, &inf), 0);
+    assert_int_equal(inf.nfaces, 9);
+    assert_int_equal(inf.dtype, 1);                 /* uint16 */
+    assert_int_equal(inf.max_w, 32);
+    assert_int_equal(inf.nrec, 9);
+    assert_int_equal(inf.faces[0].nlevels > 0, 1);
+
+    stc_query q[4] = { { 0, 0.5f, 0.5f, 0.01f, 0, 0, 0.01f }, { 8, 0.1f, 0.9f, 0, 0, 0, 0 },
+                       { 9, 0.5f, 0.5f, 0, 0, 0, 0 }, { 0, NAN, 0.5f, 0, 0, 0, 0 } };
+    stc_sample_opts so;
+    stc_sample_result res;
+    memset(&so, 0, sizeof so);
+    so.mode = 1;
+    so.filter = 1;
+    so.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    rc = stc_sample(c, "wave", &so, q, 4, &res);
+    if (rc)
+        fail_msg("sample: %s: %s", stc_strerror(rc), stc_errmsg(c));
+    assert_int_equal(res.count, 4);
+    assert_int_equal(res.nchan, 1);
+    assert_int_equal(res.status[0], 0);
+    assert_int_equal(res.status[2], 1);             /* face out of range */
+    assert_int_equal(res.status[3], 2);             /* NaN */
+    assert_int_equal(res.nbad, 2);
+    assert_true(isfinite(((const float *)res.values)[0]));
+
+    const stc_stat *st;
+    size_t nst;
+    assert_int_equal(stc_stats(c, &st, &nst), 0);
+    assert_true(nst > 0);
+
+    assert_int_equal(stc_info_get(c, "no_such_set", 0, 0, &inf), STC_ENOTFOUND);
+    assert_int_equal(stc_delete(c, "wave"), 0);
+    assert_int_equal(stc_info_get(c, "wave", 0, 0, &inf), STC_ENOTFOUND);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+}
+
+static void real_daemon_answers_malformed_requests_with_statuses(void **state)
+{
+    real *r = *state;
+    if (!r->up)
+        skip();
+    stc_conn *c = real_connect(r);
+    uint32_t id;
+    stc_reply rp;
+
+    /* unknown opcode */
+    assert_int_equal(stc_append_raw(c, 0x7E, NULL, 0, &id), 0);
+    assert_int_equal(stc_get_reply(c, 5000, &rp), 0);
+    assert_int_equal(rp.status, STC_EUNKNOWNOP);
+
+    /* a SAMPLE whose count lies about the body */
+    uint8_t body[2 + 3 + 24 + 28];
+    memset(body, 0, sizeof body);
+    stp_wr16(body, 3);
+    memcpy(body + 2, "tex", 3);
+    stp_wr32(body + 2 + 3 + 20, 5);                 /* says 5 queries, carries 1 */
+    assert_int_equal(stc_append_raw(c, STP_OP_SAMPLE, body, sizeof body, &id), 0);
+    assert_int_equal(stc_get_reply(c, 5000, &rp), 0);
+    assert_int_equal(rp.status, STC_EBADREQUEST);
+
+    /* a body over the server's cap is answered TOO_LARGE and skipped */
+    uint32_t cap = stc_server_info(c)->max_body;
+    if (cap && cap < (64u << 20)) {
+        uint8_t *big = calloc(1, (size_t)cap + 1);
+        assert_int_equal(stc_append_raw(c, STP_OP_PING, big, (size_t)cap + 1, &id), 0);
+        assert_int_equal(stc_get_reply(c, 20000, &rp), 0);
+        assert_int_equal(rp.status, STC_ETOOLARGE);
+        free(big);
+    }
+    /* and the connection still works */
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+}
+
+int main(void)
+{
+    const struct CMUnitTest mock_tests[] = {
+        cmocka_unit_test(connect_reports_hello_limits),
+        cmocka_unit_test(connect_to_closed_port_fails_with_message),
+        cmocka_unit_test(connect_timeout_covers_a_silent_hello),
+        cmocka_unit_test(request_timeout_does_not_poison_the_connection),
+        cmocka_unit_test(protocol_violation_is_sticky),
+        cmocka_unit_test(server_close_is_sticky),
+        cmocka_unit_test(server_status_is_not_sticky),
+        cmocka_unit_test(oversized_reply_fails_that_request_only),
+        cmocka_unit_test(unsolicited_busy_fails_connect_with_busy),
+        cmocka_unit_test(pipelined_pings_are_matched_by_reqid),
+        cmocka_unit_test(pipelined_timeout_keeps_the_reply_coming),
+        cmocka_unit_test(sample_results_in_every_format),
+        cmocka_unit_test(upload_sends_chunks_with_checksum_and_aborts_on_cancel),
+        cmocka_unit_test(fetch_writes_the_file_and_checks_crc),
+    };
+    const struct CMUnitTest real_tests[] = {
+        cmocka_unit_test(real_daemon_end_to_end),
+        cmocka_unit_test(real_daemon_answers_malformed_requests_with_statuses),
+    };
+    int fails = cmocka_run_group_tests_name("client_mock", mock_tests, NULL, NULL);
+    fails += cmocka_run_group_tests_name("client_daemon", real_tests, real_setup, real_teardown);
+    return fails;
+}
