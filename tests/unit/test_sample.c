@@ -696,6 +696,50 @@ static void bad_queries_get_a_status_not_undefined_behaviour(void **state)
     cf_cube_free(&cb);
 }
 
+/* Random queries anywhere within the accepted ranges (and beyond), on mixed-size sets of every
+ * texel type including constant and non-square faces: every status is defined, every OK
+ * result is finite, every coverage is in [0, 1]. (Run under ASan/UBSan by `make asan`.) */
+static void random_queries_give_finite_results_or_a_status(void **state)
+{
+    (void)state;
+    uint32_t rng = 77;
+    for (unsigned dt = 0; dt < 4; dt++) {
+        cf_cube cb;
+        assert_int_equal(cf_cube_build(&cb, 2, 3 + dt, 0, 7, dt, (st_dtype)dt, 1 + dt), 0);
+        cb.set->faces[5].flags |= ST_FACE_CONSTANT; /* reads its first texel only */
+        enum { N = 3000 };
+        static st_query q[N];
+        static float out[N * 4], cov[N];
+        static uint8_t st[N];
+        for (int i = 0; i < N; i++) {
+            float scale = powf(10.0f, 5.0f * cf_rand(&rng) - 3.0f); /* 1e-3 .. 1e2 */
+            q[i].face = (uint32_t)(cf_rand(&rng) * 26);             /* 24, 25: bad face */
+            q[i].u = (cf_rand(&rng) - 0.5f) * 3 * (i % 50 ? 1 : 5000);
+            q[i].v = (cf_rand(&rng) - 0.5f) * 3;
+            q[i].dudx = (cf_rand(&rng) - 0.5f) * scale;
+            q[i].dvdx = (cf_rand(&rng) - 0.5f) * scale * (i % 7 ? 1 : 0);
+            q[i].dudy = (cf_rand(&rng) - 0.5f) * scale * (i % 5 ? 1 : 0);
+            q[i].dvdy = (cf_rand(&rng) - 0.5f) * scale * (i % 3 ? 1 : 1e5f);
+        }
+        for (unsigned m = 0; m < 3; m++)
+            for (unsigned f = 0; f <= ST_FILTER_ANISO; f++)
+                for (unsigned z = 0; z < 2; z++) {
+                    st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)f,
+                                        .zero_rule = (uint8_t)z, .max_aniso = (uint8_t)(f * 4)};
+                    int bad = st_sample_batch(cb.set, &o, q, N, out, cov, st);
+                    assert_true(bad >= 0 && bad < N);
+                    for (int i = 0; i < N; i++) {
+                        assert_true(st[i] <= ST_Q_ZERO_COVERAGE);
+                        assert_true(cov[i] >= 0.0f && cov[i] <= 1.0f);
+                        if (st[i] == ST_Q_OK)
+                            for (unsigned c = 0; c < cb.set->info.nchan; c++)
+                                assert_true(isfinite(out[i * cb.set->info.nchan + c]));
+                    }
+                }
+        cf_cube_free(&cb);
+    }
+}
+
 static void bad_options_are_refused_before_writing(void **state)
 {
     (void)state;
@@ -773,6 +817,7 @@ int main(void)
         cmocka_unit_test(bc1_texel_decodes_both_palette_modes),
         cmocka_unit_test(bc1_set_is_sampled_as_rgba8),
         cmocka_unit_test(bad_queries_get_a_status_not_undefined_behaviour),
+        cmocka_unit_test(random_queries_give_finite_results_or_a_status),
         cmocka_unit_test(bad_options_are_refused_before_writing),
         cmocka_unit_test(names_round_trip),
         cmocka_unit_test(default_set_is_deterministic_and_seamless),
