@@ -1,0 +1,475 @@
+/* tests/unit/test_bc1.c - BC1 blocks (encoder levels, exact and vendor decoders), images,
+ * BC1 sets (compression pipeline, progress, cancel) and DDS files. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "bc1.h"
+#include "bc1_texel.h"
+
+static uint32_t rng_state = 12345;
+static uint32_t rnd(void)
+{
+    rng_state = rng_state * 1664525u + 1013904223u;
+    return rng_state >> 8;
+}
+
+static void random_block(uint8_t blk[8])
+{
+    for (int i = 0; i < 8; i++)
+        blk[i] = (uint8_t)rnd();
+}
+
+/* a smooth block with noise: what photos look like */
+static void gradient_block(uint8_t px[64], int noise)
+{
+    int base[3] = {(int)(rnd() % 200), (int)(rnd() % 200), (int)(rnd() % 200)};
+    int dx[3] = {(int)(rnd() % 15) - 7, (int)(rnd() % 15) - 7, (int)(rnd() % 15) - 7};
+    int dy[3] = {(int)(rnd() % 15) - 7, (int)(rnd() % 15) - 7, (int)(rnd() % 15) - 7};
+    for (int t = 0; t < 16; t++)
+        for (int k = 0; k < 3; k++) {
+            int v = base[k] + dx[k] * (t & 3) + dy[k] * (t >> 2) +
+                    (noise ? (int)(rnd() % (unsigned)(2 * noise + 1)) - noise : 0);
+            px[4 * t + k] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+            px[4 * t + 3] = 255;
+        }
+}
+
+static double block_sse(const uint8_t a[64], const uint8_t b[64])
+{
+    double s = 0;
+    for (int t = 0; t < 16; t++)
+        for (int k = 0; k < 3; k++) {
+            int d = a[4 * t + k] - b[4 * t + k];
+            s += d * d;
+        }
+    return s;
+}
+
+static void exact_decoder_matches_the_sampler_texel_rule(void **state)
+{
+    (void)state;
+    for (int n = 0; n < 20000; n++) {
+        uint8_t blk[8], px[64];
+        random_block(blk);
+        if (n & 1) { /* also force equal endpoints now and then */
+            blk[2] = blk[0];
+            blk[3] = blk[1];
+        }
+        st_bc1_decode_block(blk, ST_BC1_DEC_EXACT, px);
+        for (unsigned t = 0; t < 16; t++) {
+            uint8_t q[4];
+            st_bc1_texel(blk, t & 3, t >> 2, q);
+            assert_memory_equal(q, px + 4 * t, 4);
+        }
+    }
+}
+
+static void exact_palette_truncates_thirds(void **state)
+{
+    (void)state;
+    /* c0 = red 31 (255), c1 = red 1 (8): (2*255+8)/3 = 172.67 -> 172 exact, 173 ideal */
+    uint16_t c0 = 31 << 11, c1 = 1 << 11;
+    uint8_t pe[16], pi[16], pa[16], pn[16];
+    st_bc1_palette(c0, c1, ST_BC1_DEC_EXACT, pe);
+    st_bc1_palette(c0, c1, ST_BC1_DEC_IDEAL, pi);
+    st_bc1_palette(c0, c1, ST_BC1_DEC_AMD, pa);
+    st_bc1_palette(c0, c1, ST_BC1_DEC_NVIDIA, pn);
+    assert_int_equal(pe[8], 172);
+    assert_int_equal(pi[8], 173);
+    assert_int_equal(pa[8], (43 * 255 + 21 * 8 + 32) >> 6);
+    assert_int_equal(pn[8], ((2 * 31 + 1) * 22) / 8);
+    assert_int_equal(pe[12], (255 + 2 * 8) / 3);
+    /* 3-colour mode: index 3 transparent black under every decoder */
+    st_bc1_palette(c1, c0, ST_BC1_DEC_EXACT, pe);
+    assert_int_equal(pe[15], 0);
+    assert_int_equal(pe[12], 0);
+    assert_int_equal(pe[8], (8 + 255) / 2);
+}
+
+static void vendor_decoders_stay_close_to_exact(void **state)
+{
+    (void)state;
+    for (int n = 0; n < 5000; n++) {
+        uint8_t blk[8], a[64], b[64];
+        random_block(blk);
+        st_bc1_decode_block(blk, ST_BC1_DEC_EXACT, a);
+        for (int d = ST_BC1_DEC_IDEAL; d <= ST_BC1_DEC_NVIDIA; d++) {
+            st_bc1_decode_block(blk, (st_bc1_decoder)d, b);
+            for (int i = 0; i < 64; i++)
+                assert_true(abs(a[i] - b[i]) <= 8);
+        }
+    }
+}
+
+static void single_colour_blocks_are_near_exact(void **state)
+{
+    (void)state;
+    for (int level = ST_BC1_FAST; level <= ST_BC1_HQ; level++)
+        for (int v = 0; v < 256; v++) {
+            uint8_t px[64], blk[8], out[64];
+            for (int t = 0; t < 16; t++) {
+                px[4 * t] = (uint8_t)v;
+                px[4 * t + 1] = (uint8_t)(255 - v);
+                px[4 * t + 2] = (uint8_t)(v * 7);
+                px[4 * t + 3] = 255;
+            }
+            st_bc1_encode_block(px, level, blk);
+            st_bc1_decode_block(blk, ST_BC1_DEC_EXACT, out);
+            for (int i = 0; i < 64; i++) {
+                assert_true(abs(px[i] - out[i]) <= 2);
+            }
+        }
+}
+
+static void opaque_input_never_decodes_transparent(void **state)
+{
+    (void)state;
+    for (int level = ST_BC1_FAST; level <= ST_BC1_HQ; level++)
+        for (int n = 0; n < 20000; n++) {
+            uint8_t px[64], blk[8], out[64];
+            if (n % 3 == 0) {
+                for (int i = 0; i < 64; i++)
+                    px[i] = (uint8_t)rnd();
+                for (int t = 0; t < 16; t++)
+                    px[4 * t + 3] = (uint8_t)(128 + rnd() % 128);
+            } else {
+                gradient_block(px, n % 3 == 1 ? 0 : 6);
+                /* include black texels: 3-colour mode's index 3 would be tempting */
+                if (n % 5 == 0)
+                    memset(px, 0, 3);
+            }
+            st_bc1_encode_block(px, level, blk);
+            st_bc1_decode_block(blk, ST_BC1_DEC_EXACT, out);
+            for (int t = 0; t < 16; t++)
+                assert_int_equal(out[4 * t + 3], 255);
+        }
+}
+
+static void one_bit_alpha_uses_the_transparent_selector(void **state)
+{
+    (void)state;
+    for (int level = ST_BC1_FAST; level <= ST_BC1_HQ; level++)
+        for (int n = 0; n < 2000; n++) {
+            uint8_t px[64], blk[8], out[64];
+            gradient_block(px, 4);
+            uint32_t mask = rnd() & 0xffff;
+            if (n == 0)
+                mask = 0xffff; /* all transparent */
+            for (int t = 0; t < 16; t++)
+                px[4 * t + 3] = (mask >> t & 1) ? (uint8_t)(rnd() % 128) : 255;
+            st_bc1_encode_block(px, level, blk);
+            st_bc1_decode_block(blk, ST_BC1_DEC_EXACT, out);
+            for (int t = 0; t < 16; t++)
+                assert_int_equal(out[4 * t + 3], (mask >> t & 1) ? 0 : 255);
+        }
+}
+
+static void hq_level_is_no_worse_than_fast_overall(void **state)
+{
+    (void)state;
+    double sf = 0, sh = 0;
+    for (int n = 0; n < 5000; n++) {
+        uint8_t px[64], bf[8], bh[8], of[64], oh[64];
+        gradient_block(px, 10);
+        st_bc1_encode_block(px, ST_BC1_FAST, bf);
+        st_bc1_encode_block(px, ST_BC1_HQ, bh);
+        st_bc1_decode_block(bf, ST_BC1_DEC_EXACT, of);
+        st_bc1_decode_block(bh, ST_BC1_DEC_EXACT, oh);
+        sf += block_sse(px, of);
+        sh += block_sse(px, oh);
+    }
+    assert_true(sh < sf);
+    /* and both are good on gradients: RMS below 5 per channel */
+    assert_true(sf / (5000.0 * 48) < 60);
+}
+
+static void encoding_is_deterministic(void **state)
+{
+    (void)state;
+    uint8_t px[64], a[8], b[8];
+    gradient_block(px, 20);
+    st_bc1_encode_block(px, ST_BC1_HQ, a);
+    st_bc1_encode_block(px, ST_BC1_HQ, b);
+    assert_memory_equal(a, b, 8);
+}
+
+static uint8_t *smooth_image(uint32_t w, uint32_t h)
+{
+    uint8_t *img = malloc((size_t)w * h * 4);
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            uint8_t *p = img + ((size_t)y * w + x) * 4;
+            p[0] = (uint8_t)(x * 2 > 255 ? 255 : x * 2);
+            p[1] = (uint8_t)(y * 2 > 255 ? 255 : y * 2);
+            p[2] = (uint8_t)(x + y > 255 ? 255 : x + y);
+            p[3] = 255;
+        }
+    return img;
+}
+
+static void images_of_any_size_round_trip(void **state)
+{
+    (void)state;
+    uint32_t sizes[][2] = {{1, 1}, {3, 5}, {13, 7}, {64, 64}, {300, 260}};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++) {
+        uint32_t w = sizes[i][0], h = sizes[i][1];
+        uint8_t *img = smooth_image(w, h), *dec = malloc((size_t)w * h * 4);
+        uint8_t *blk = malloc((size_t)((w + 3) / 4) * ((h + 3) / 4) * 8);
+        st_error e;
+        assert_int_equal(st_bc1_encode_image(img, w, h, (size_t)w * 4, ST_BC1_HQ, 2, blk, &e), ST_OK);
+        st_bc1_decode_image(blk, w, h, ST_BC1_DEC_EXACT, dec);
+        double psnr = st_bc1_psnr_rgb(img, dec, (size_t)w * h);
+        if (!(psnr > 35.0))
+            print_message("%ux%u: psnr %f\n", w, h, psnr);
+        assert_true(psnr > 35.0);
+        free(img);
+        free(dec);
+        free(blk);
+    }
+    st_error e;
+    uint8_t dummy[64];
+    assert_int_equal(st_bc1_encode_image(dummy, 0, 4, 0, ST_BC1_HQ, 1, dummy, &e), ST_EINVAL);
+    assert_int_equal(st_bc1_encode_image(dummy, 4, 4, 8, ST_BC1_HQ, 1, dummy, &e), ST_EINVAL);
+}
+
+/* Two 16x16 faces side by side, RGB u8, with a colour step across the shared edge. */
+static st_set *two_face_set(unsigned nchan, int alpha)
+{
+    st_face_desc fd[2];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 2; f++) {
+        fd[f].w = fd[f].h = 16;
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
+    }
+    fd[0].adjface[1] = 1;
+    fd[0].adjedge[1] = 3;
+    fd[1].adjface[3] = 0;
+    fd[1].adjedge[3] = 1;
+    st_set_info in = {.nfaces = 2, .nchan = (uint8_t)nchan, .dtype = ST_DT_U8,
+                      .alpha_chan = (int8_t)(alpha ? (int)nchan - 1 : -1)};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_set_create(&in, fd, 0, &s, &e), ST_OK);
+    for (uint32_t f = 0; f < 2; f++) {
+        uint8_t *p = st_face_level(s, f, 0);
+        for (int i = 0; i < 256; i++)
+            for (unsigned c = 0; c < nchan; c++)
+                p[i * nchan + c] = (uint8_t)(f ? 200 - (i % 16) * 3 : 40 + (i / 16) * 5 + (int)c * 20);
+        if (alpha)
+            for (int i = 0; i < 256; i++)
+                p[i * nchan + nchan - 1] = (i % 7) ? 255 : 0;
+    }
+    st_set_build_mips(s, UINT32_MAX);
+    return s;
+}
+
+typedef struct prog {
+    double last;
+    int calls, decreasing;
+} prog;
+
+static void on_progress(void *arg, double f)
+{
+    prog *p = arg;
+    if (f < p->last)
+        p->decreasing = 1;
+    p->last = f;
+    p->calls++;
+}
+
+static void compressing_a_set_keeps_faces_and_costs_an_eighth(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(4, 0), *b = NULL;
+    st_error e;
+    prog pg = {0, 0, 0};
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    assert_int_equal(st_bc1_compress_set(s, &o, on_progress, &pg, NULL, &b, &e), ST_OK);
+    assert_int_equal(b->info.kind, ST_KIND_BC1);
+    assert_int_equal(b->info.nfaces, 2);
+    assert_int_equal(b->faces[0].adjface[1], 1);
+    assert_int_equal(b->faces[0].nlevels, 5);
+    /* 16x16 RGBA8 with mips = 4*(256+64+16+4+1) bytes; BC1: 8*(16+4+1+1+1) */
+    assert_int_equal(b->texel_bytes, 2 * 8 * (16 + 4 + 1 + 1 + 1));
+    assert_true(s->texel_bytes >= 8 * b->texel_bytes - 2 * 8 * 3 * 8);
+    assert_false(pg.decreasing);
+    assert_true(pg.calls >= 2);
+    assert_true(pg.last == 1.0);
+    const st_bc1_ext *x = b->ext;
+    assert_int_equal(x->src_kind, ST_KIND_PERFACE);
+    /* without seam masking it decodes back close to the source */
+    st_set_free(b);
+    o.seam_mode = ST_BC1_SEAM_NONE;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_OK);
+    st_set *d = NULL;
+    assert_int_equal(st_bc1_decode_set(b, ST_BC1_DEC_EXACT, &d, &e), ST_OK);
+    assert_int_equal(d->info.nchan, 4);
+    double psnr = st_bc1_psnr_rgb(st_face_level(s, 1, 0), st_face_level(d, 1, 0), 256);
+    if (!(psnr > 30))
+        print_message("psnr %f\n", psnr);
+    assert_true(psnr > 30);
+    st_set_free(d);
+    st_set_free(b);
+    st_set_free(s);
+}
+
+static void compressing_honours_cancel(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(3, 0), *b = (st_set *)1;
+    st_error e;
+    volatile int cancel = 1;
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, &cancel, &b, &e), ST_ECANCELED);
+    assert_null(b);
+    st_set_free(s);
+}
+
+static void compressing_rgba_with_holes_gives_punchthrough(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(4, 1), *b = NULL;
+    st_error e;
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    o.seam_mode = ST_BC1_SEAM_NONE;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_OK);
+    const st_bc1_ext *x = b->ext;
+    assert_int_equal(x->punchthrough, 1);
+    uint8_t px[4];
+    /* texel 0 of face 0 had alpha 0, texel 1 alpha 255 */
+    st_bc1_texel(st_face_level(b, 0, 0), 0, 0, px);
+    assert_int_equal(px[3], 0);
+    st_bc1_texel(st_face_level(b, 0, 0), 1, 0, px);
+    assert_int_equal(px[3], 255);
+    st_set_free(b);
+    st_set_free(s);
+}
+
+static void dds_round_trips_per_face_sets_with_adjacency(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(3, 0), *b = NULL, *r = NULL;
+    st_error e;
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    uint8_t *buf;
+    size_t len;
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    assert_memory_equal(buf, "DDS ", 4);
+    assert_memory_equal(buf + 84, "DX10", 4);
+    assert_int_equal(st_dds_read_mem(buf, len, 0, &r, &e), ST_OK);
+    assert_int_equal(r->info.nfaces, 2);
+    assert_int_equal(r->faces[0].adjface[1], 1);
+    assert_int_equal(r->faces[1].adjedge[3], 1);
+    assert_int_equal(r->texel_bytes, b->texel_bytes);
+    assert_memory_equal(r->texels, b->texels, b->texel_bytes);
+    /* every truncation is refused cleanly */
+    for (size_t cut = 0; cut < 300 && cut < len; cut += 7) {
+        st_set *t = NULL;
+        int rc = st_dds_read_mem(buf, cut, 0, &t, &e);
+        assert_true(rc == ST_EFORMAT || rc == ST_EUNSUPPORTED);
+        assert_null(t);
+    }
+    free(buf);
+    st_set_free(r);
+    st_set_free(b);
+    st_set_free(s);
+}
+
+static void dds_writes_a_single_face_as_a_legacy_dxt1_texture(void **state)
+{
+    (void)state;
+    st_face_desc fd;
+    memset(&fd, 0, sizeof fd);
+    fd.w = 20;
+    fd.h = 12;
+    for (int k = 0; k < 4; k++)
+        fd.adjface[k] = -1;
+    st_set_info in = {.nfaces = 1, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1,
+                      .kind = ST_KIND_ATLAS};
+    st_set *s = NULL, *b = NULL, *r = NULL;
+    st_error e;
+    assert_int_equal(st_set_create(&in, &fd, 0, &s, &e), ST_OK);
+    uint8_t *img = smooth_image(20, 12);
+    for (int i = 0; i < 240; i++)
+        memcpy(st_face_level(s, 0, 0) + 3 * i, img + 4 * i, 3);
+    free(img);
+    st_set_build_mips(s, 0);
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    char path[] = "/tmp/seamtex_test_bc1_XXXXXX";
+    int fdn = mkstemp(path);
+    assert_true(fdn >= 0);
+    close(fdn);
+    assert_int_equal(st_dds_write_file(b, path, &e), ST_OK);
+    assert_int_equal(st_dds_read_file(path, 0, &r, &e), ST_OK);
+    remove(path);
+    assert_int_equal(r->faces[0].w, 20);
+    assert_int_equal(r->faces[0].h, 12);
+    assert_int_equal(r->faces[0].nlevels, 5);
+    assert_memory_equal(r->texels, b->texels, b->texel_bytes);
+    const st_bc1_ext *x = r->ext;
+    assert_int_equal(x->src_kind, ST_KIND_ATLAS);
+    st_set_free(r);
+    st_set_free(b);
+    st_set_free(s);
+    assert_int_equal(st_dds_read_file("/nonexistent/x.dds", 0, &r, &e), ST_ENOTFOUND);
+}
+
+static void dds_refuses_hostile_headers(void **state)
+{
+    (void)state;
+    uint8_t h[148];
+    memset(h, 0, sizeof h);
+    memcpy(h, "DDS ", 4);
+    h[4] = 124;
+    h[76] = 32;
+    h[80] = 4;
+    memcpy(h + 84, "DXT1", 4);
+    /* 32768 x 32768 claimed, no data */
+    h[12] = 0x00; h[13] = 0x80; h[16] = 0x00; h[17] = 0x80;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_dds_read_mem(h, 128, 0, &s, &e), ST_EFORMAT);
+    /* too big */
+    h[14] = 0x01;
+    assert_int_equal(st_dds_read_mem(h, 128, 0, &s, &e), ST_ETOOBIG);
+    /* wrong FourCC */
+    h[14] = 0; h[12] = 4; h[13] = 0; h[16] = 4; h[17] = 0;
+    memcpy(h + 84, "DXT5", 4);
+    assert_int_equal(st_dds_read_mem(h, 148, 0, &s, &e), ST_EUNSUPPORTED);
+    /* DX10 with a huge array */
+    memcpy(h + 84, "DX10", 4);
+    h[128] = 71; h[132] = 3; h[140] = 0xff; h[141] = 0xff; h[142] = 0xff; h[143] = 0x7f;
+    assert_int_equal(st_dds_read_mem(h, 148, 0, &s, &e), ST_ETOOBIG);
+    assert_null(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(exact_decoder_matches_the_sampler_texel_rule),
+        cmocka_unit_test(exact_palette_truncates_thirds),
+        cmocka_unit_test(vendor_decoders_stay_close_to_exact),
+        cmocka_unit_test(single_colour_blocks_are_near_exact),
+        cmocka_unit_test(opaque_input_never_decodes_transparent),
+        cmocka_unit_test(one_bit_alpha_uses_the_transparent_selector),
+        cmocka_unit_test(hq_level_is_no_worse_than_fast_overall),
+        cmocka_unit_test(encoding_is_deterministic),
+        cmocka_unit_test(images_of_any_size_round_trip),
+        cmocka_unit_test(compressing_a_set_keeps_faces_and_costs_an_eighth),
+        cmocka_unit_test(compressing_honours_cancel),
+        cmocka_unit_test(compressing_rgba_with_holes_gives_punchthrough),
+        cmocka_unit_test(dds_round_trips_per_face_sets_with_adjacency),
+        cmocka_unit_test(dds_writes_a_single_face_as_a_legacy_dxt1_texture),
+        cmocka_unit_test(dds_refuses_hostile_headers),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
