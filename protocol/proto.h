@@ -220,7 +220,10 @@ void stp_buf_free(stp_buf *b);
 int  stp_buf_reserve(stp_buf *b, size_t extra);
 /* Drops n bytes from the front (cheap: advances `start`, compacts lazily). */
 void stp_buf_consume(stp_buf *b, size_t n);
-static inline const uint8_t *stp_buf_head(const stp_buf *b) { return b->data + b->start; }
+static inline const uint8_t *stp_buf_head(const stp_buf *b)
+{
+    return b->data ? b->data + b->start : b->data;   /* no arithmetic on NULL */
+}
 static inline size_t stp_buf_avail(const stp_buf *b) { return b->len - b->start; }
 void stp_buf_clear(stp_buf *b);
 
@@ -258,7 +261,7 @@ static inline size_t stp_rd_left(const stp_rd *r) { return r->len - r->off; }
 static inline const uint8_t *stp_rd_take(stp_rd *r, size_t n)
 {
     if (r->bad || n > r->len - r->off) { r->bad = 1; return NULL; }
-    const uint8_t *q = r->p + r->off;
+    const uint8_t *q = r->p ? r->p + r->off : r->p;   /* no arithmetic on NULL */
     r->off += n;
     return q;
 }
