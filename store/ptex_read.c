@@ -155,6 +155,9 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
     if (enc == PTX_ENC_DIFFZIPPED && r->dt != ST_DT_U8 && r->dt != ST_DT_U16)
         return st_fail(r->e, ST_EFORMAT, "%s: diff-zipped block for a float data type", what);
     size_t bytes = (size_t)w * h * r->psize;
+    if (!zip_bound_ok(size, bytes))
+        return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to %zu", what,
+                       (unsigned long long)size, bytes);
     uint8_t *tmp = malloc(bytes ? bytes : 1);
     if (!tmp)
         return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu bytes", what, bytes);
@@ -195,6 +198,9 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
     if (thsize > size - 6)
         return st_fail(r->e, ST_EFORMAT, "%s: tile header of %u bytes overruns the block", what,
                        thsize);
+    if (!zip_bound_ok(thsize, ntiles * 4))
+        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes cannot hold %zu tile headers",
+                       what, thsize, ntiles);
     uint8_t *th = malloc(ntiles * 4);
     if (!th)
         return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu tile headers", what, ntiles);
@@ -233,6 +239,9 @@ static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize
     if (hsize > lsize)
         return st_fail(r->e, ST_EFORMAT, "%s: %u bytes, larger than the level (%llu)", what,
                        hsize, (unsigned long long)lsize);
+    if (!zip_bound_ok(hsize, (uint64_t)nf * 4))
+        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes cannot hold %u face headers",
+                       what, hsize, nf);
     uint8_t *tmp = malloc((size_t)nf * 4 + 1);
     if (!tmp)
         return st_fail(r->e, ST_ENOMEM, "%s: out of memory", what);
@@ -363,6 +372,10 @@ static int read_meta_block(rd *r, meta_ctx *m, uint64_t pos, uint32_t zs, uint32
 {
     if (!ms)
         return ST_OK;
+    if (!in_file(r, pos, zs) || !zip_bound_ok(zs, ms))
+        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes at offset %llu cannot hold %u "
+                       "bytes inside the file", large ? "large metadata header" : "metadata", zs,
+                       (unsigned long long)pos, ms);
     uint8_t *tmp = malloc(ms);
     if (!tmp)
         return st_fail(r->e, ST_ENOMEM, "out of memory for metadata");
@@ -509,6 +522,11 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
 
     /* constant data */
     size_t cdbytes = (size_t)nfaces * r->psize;
+    if (!zip_bound_ok(cdsize, cdbytes)) {
+        rc = st_fail(e, ST_EFORMAT, "constant data: %u zipped bytes cannot hold %zu", cdsize,
+                     cdbytes);
+        goto done;
+    }
     constdata = malloc(cdbytes);
     if (!constdata) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for constant data");
@@ -526,7 +544,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             eend = UINT64_MAX;
         if (eend > len)
             eend = len;
-        while (ep + 5 <= eend) {
+        while (ep < eend && eend - ep >= 5) {
             unsigned et = b[ep];
             uint32_t esz = ptx_rd32(b + ep + 1);
             if (!esz)

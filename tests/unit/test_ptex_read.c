@@ -401,6 +401,17 @@ static void header_fields_are_checked_before_allocating(void **state)
     expect_refused(c, len, ST_EFORMAT, "overrun");
     memcpy(c, b, len); ptx_wr32(c + 28, 0x7fffffffu);
     expect_refused(c, len, ST_EFORMAT, "extended header");
+    /* an edit position near 2^64 must not wrap (found by fuzz_ptex): no edits, file loads */
+    memcpy(c, b, len); ptx_wr64(c + PTX_HEADER_SIZE + 32, UINT64_MAX - 2);
+    {
+        st_set *s = NULL;
+        st_error e = {0};
+        assert_int_equal(st_ptex_read_mem(c, len, 0, &s, &e), 0);
+        st_set_free(s);
+    }
+    /* a metadata block declared far larger than its zipped bytes could hold */
+    memcpy(c, b, len); ptx_wr32(c + 60, 0xfffffffau);
+    expect_refused(c, len, ST_EFORMAT, "metadata");
     free(c);
     free(b);
 }

@@ -1,0 +1,46 @@
+/* tests/fuzz/fuzz_ptex.c - libFuzzer target for the Ptex reader (st_ptex_read_mem). A file
+ * that loads is also sampled with every Ptex filter in Traverse mode (hostile adjacency must
+ * not crash the traversal) and written back and re-read (the writer must accept what the
+ * reader built). Seeds in tests/fuzz/seeds/fuzz_ptex/ were written by st_ptex_write_mem. */
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "ptex.h"
+#include "ptexfilter.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    st_set *s = NULL;
+    st_error e;
+    if (st_ptex_read_mem(data, size, (size_t)32 << 20, &s, &e) != ST_OK)
+        return 0;
+    st_query q[6];
+    for (int i = 0; i < 6; i++) {
+        q[i].face = (uint32_t)i % s->info.nfaces;
+        q[i].u = i * 0.23f - 0.1f;
+        q[i].v = 1.05f - i * 0.2f;
+        q[i].dudx = 0.02f + 0.2f * (float)(i & 1);
+        q[i].dvdx = 0;
+        q[i].dudy = 0;
+        q[i].dvdy = 0.7f - 0.1f * (float)i;
+    }
+    float out[6 * ST_MAX_CHANNELS], cov[6];
+    uint8_t st[6];
+    for (unsigned f = ST_FILTER_PTEX_POINT; f <= ST_FILTER_PTEX_MITCHELL; f++)
+        for (unsigned m = 0; m < 3; m++) {
+            st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)f, .sharpness = 0.5f};
+            st_ptexfilter_batch(s, &o, q, 6, out, cov, st);
+        }
+    void *buf = NULL;
+    size_t len = 0;
+    if (st_ptex_write_mem(s, &buf, &len, &e) == ST_OK) {
+        st_set *r = NULL;
+        if (st_ptex_read_mem(buf, len, (size_t)32 << 20, &r, &e) != ST_OK)
+            abort(); /* what the writer writes, the reader must read */
+        st_set_free(r);
+        free(buf);
+    }
+    st_set_free(s);
+    return 0;
+}
