@@ -23,9 +23,25 @@ void st_fetch_any(const st_set *s, const st_view *v, int32_t i, int32_t j, float
         return;
     }
     const uint8_t *p = v->base + (size_t)i * v->xs + (size_t)j * v->ys;
-    unsigned nc = s->info.nchan, dt = s->info.dtype;
-    for (unsigned c = 0; c < nc; c++)
-        out[c] = st_channel_get(dt, p, c);
+    unsigned nc = s->info.nchan;
+    switch (s->info.dtype) { /* one switch per texel, not per channel */
+    case ST_DT_U8:
+        for (unsigned c = 0; c < nc; c++)
+            out[c] = st_channel_get(ST_DT_U8, p, c);
+        break;
+    case ST_DT_U16:
+        for (unsigned c = 0; c < nc; c++)
+            out[c] = st_channel_get(ST_DT_U16, p, c);
+        break;
+    case ST_DT_HALF:
+        for (unsigned c = 0; c < nc; c++)
+            out[c] = st_channel_get(ST_DT_HALF, p, c);
+        break;
+    default:
+        for (unsigned c = 0; c < nc; c++)
+            out[c] = st_channel_get(ST_DT_F32, p, c);
+        break;
+    }
 }
 
 static void add_tap(const st_set *s, const st_view *v, int32_t i, int32_t j, float w, st_acc *a)
