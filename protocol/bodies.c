@@ -451,13 +451,14 @@ void stp_sample_dir_query(const stp_sample_req *r, uint32_t i, stp_dir_query *q)
     }
 }
 
-static uint32_t to_unorm(float v, float max)
+/* round(clamp(v, 0, 1) * max); NaN gives 0 (every comparison with NaN is false). Written as
+ * selects so that the compiler turns the loop into min/max instructions. */
+static inline uint32_t to_unorm(float v, float max)
 {
-    if (!(v > 0.0f))            /* NaN and <= 0 */
-        return 0;
-    if (v >= 1.0f)
-        return (uint32_t)max;
-    return (uint32_t)(v * max + 0.5f);
+    float x = v * max + 0.5f;
+    x = x > 0.0f ? x : 0.0f;
+    x = x < max ? x : max;
+    return (uint32_t)x;
 }
 
 int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_sample_reply *r)
