@@ -75,6 +75,57 @@ static void traverse_is_continuous_across_every_seam_and_clamp_is_not(void **sta
     cf_cube_free(&cb);
 }
 
+/* The same point and footprint seen from both sides of every seam (the footprint carried
+ * through the edge rotation, which is affine): trilinear and anisotropic Traverse agree too,
+ * with probes reaching several texels across the seam. */
+static void traverse_is_continuous_for_trilinear_and_aniso_footprints(void **state)
+{
+    (void)state;
+    cf_cube cb;
+    assert_int_equal(cf_cube_build(&cb, 3, 41, 5, 5, 0, ST_DT_F32, 3), 0);
+    const st_set *s = cb.set;
+    uint32_t rng = 8;
+    float worst[2] = {0, 0}, clampw = 0;
+    for (uint32_t f = 0; f < s->info.nfaces; f++)
+        for (unsigned e = 0; e < 4; e++)
+            for (int k = 0; k < 6; k++) {
+                float t = 0.25f + 0.5f * cf_rand(&rng), u, v;
+                switch (e) {
+                case 0: u = t; v = 0; break;
+                case 1: u = 1; v = t; break;
+                case 2: u = t; v = 1; break;
+                default: u = 0; v = t; break;
+                }
+                float ang = 6.2831853f * cf_rand(&rng), major = 1.0f + 7.0f * cf_rand(&rng);
+                st_query qa = {.face = f, .u = u, .v = v,
+                               .dudx = major * cosf(ang) / 32, .dvdx = major * sinf(ang) / 32,
+                               .dudy = -sinf(ang) / 32, .dvdy = cosf(ang) / 32};
+                uint32_t g, g1, g2;
+                float gu, gv, x1, y1, x2, y2;
+                assert_int_equal(st_uv_across_edge(s, f, e, u, v, &g, &gu, &gv), 0);
+                st_uv_across_edge(s, f, e, u + qa.dudx, v + qa.dvdx, &g1, &x1, &y1);
+                st_uv_across_edge(s, f, e, u + qa.dudy, v + qa.dvdy, &g2, &x2, &y2);
+                st_query qb = {.face = g, .u = gu, .v = gv, .dudx = x1 - gu, .dvdx = y1 - gv,
+                               .dudy = x2 - gu, .dvdy = y2 - gv};
+                for (int fi = 0; fi < 2; fi++) {
+                    unsigned filter = fi ? ST_FILTER_ANISO : ST_FILTER_TRILINEAR;
+                    float a[3], b[3];
+                    assert_int_equal(cf_sample1(s, ST_MODE_TRAVERSE, filter, &qa, a, NULL), 0);
+                    assert_int_equal(cf_sample1(s, ST_MODE_TRAVERSE, filter, &qb, b, NULL), 0);
+                    for (int c = 0; c < 3; c++)
+                        worst[fi] = maxf(worst[fi], fabsf(a[c] - b[c]));
+                    assert_int_equal(cf_sample1(s, ST_MODE_CLAMP, filter, &qa, a, NULL), 0);
+                    assert_int_equal(cf_sample1(s, ST_MODE_CLAMP, filter, &qb, b, NULL), 0);
+                    for (int c = 0; c < 3; c++)
+                        clampw = maxf(clampw, fabsf(a[c] - b[c]));
+                }
+            }
+    printf("# trilinear gap %.3g, aniso gap %.3g (clamp %.3g)\n", worst[0], worst[1], clampw);
+    assert_true(worst[0] < 1e-5f && worst[1] < 1e-5f);
+    assert_true(clampw > 1e-3f);
+    cf_cube_free(&cb);
+}
+
 static void traverse_is_continuous_on_a_plain_cube_with_rotated_frames(void **state)
 {
     (void)state;
@@ -801,6 +852,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(traverse_is_continuous_across_every_seam_and_clamp_is_not),
+        cmocka_unit_test(traverse_is_continuous_for_trilinear_and_aniso_footprints),
         cmocka_unit_test(traverse_is_continuous_on_a_plain_cube_with_rotated_frames),
         cmocka_unit_test(traverse_error_near_seams_is_of_interior_order),
         cmocka_unit_test(modes_agree_exactly_in_face_interiors),
