@@ -301,15 +301,12 @@ int stc__flush(stc_conn *c, int64_t deadline)
     return 0;
 }
 
-/* Makes sure at least `need` unconsumed bytes sit in c->in (beyond c->hold, which is 0 here). */
+/* Makes sure at least `need` unconsumed bytes sit in c->in (c->hold is 0 here). Polls
+ * before reading: right after a request was sent its reply is rarely there yet, so trying
+ * recv first would cost a wasted syscall per round trip. */
 static int fill(stc_conn *c, size_t need, int64_t deadline)
 {
     while (stp_buf_avail(&c->in) < need) {
-        int rc = read_some(c);
-        if (rc < 0)
-            return rc;
-        if (rc == 0)
-            continue;
         /* Also push out queued requests while waiting (an append may have left some). */
         struct pollfd pfd = { c->fd, POLLIN | (stp_buf_avail(&c->out) ? POLLOUT : 0), 0 };
         int pr = poll(&pfd, 1, poll_wait_ms(deadline));
@@ -325,7 +322,13 @@ static int fill(stc_conn *c, size_t need, int64_t deadline)
             if (n > 0)
                 stp_buf_consume(&c->out, (size_t)n);
             else if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
-                return stc__break(c, STC_EIO, "send: %s", strerror(errno));
+                return stc__break(c, errno == EPIPE || errno == ECONNRESET ? STC_ECLOSED
+                                  : STC_EIO, "send: %s", strerror(errno));
+        }
+        if (pfd.revents & (POLLIN | POLLHUP | POLLERR)) {
+            int rc = read_some(c);
+            if (rc < 0)
+                return rc;
         }
     }
     return 0;
