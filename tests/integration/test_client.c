@@ -821,6 +821,52 @@ static void real_daemon_answers_malformed_requests_with_statuses(void **state)
     stc_close(c);
 }
 
+static void real_daemon_requires_the_token_for_mutations(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = { "--token", "s3cret", NULL };
+    if (st_daemon_init(&d) != 0 || st_daemon_start(&d, extra) != 0) {
+        st_daemon_cleanup(&d);
+        skip();
+    }
+    stc_opts o;
+    int err = 0;
+    char msg[256];
+    memset(&o, 0, sizeof o);
+    o.request_timeout_ms = 20000;
+    stc_conn *c = stc_connect_opts(d.host, (unsigned)d.port, &o, &err, msg, sizeof msg);
+    if (!c) {
+        st_daemon_cleanup(&d);
+        fail_msg("connect: %s", msg);
+    }
+    assert_true(stc_server_info(c)->caps & STP_CAP_AUTH);
+    assert_false(stc_server_info(c)->authenticated);
+    assert_int_equal(stc_ping(c), 0);                       /* reads need no token */
+    assert_int_equal(stc_delete(c, "default"), STC_EPERM);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+
+    o.token = "wrong";
+    c = stc_connect_opts(d.host, (unsigned)d.port, &o, &err, msg, sizeof msg);
+    assert_non_null(c);
+    assert_false(stc_server_info(c)->authenticated);
+    assert_int_equal(stc_upload_buffer(c, "x", 1, "t1", NULL, NULL), STC_EPERM);
+    stc_close(c);
+
+    o.token = "s3cret";
+    c = stc_connect_opts(d.host, (unsigned)d.port, &o, &err, msg, sizeof msg);
+    assert_non_null(c);
+    assert_true(stc_server_info(c)->authenticated);
+    /* allowed now: the garbage file is refused for what it is, not for permission */
+    int rc = stc_upload_buffer(c, "not a texture", 13, "t1", NULL, NULL);
+    assert_int_not_equal(rc, STC_EPERM);
+    assert_true(stc_is_server_error(rc));
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+    st_daemon_cleanup(&d);
+}
+
 int main(void)
 {
     const struct CMUnitTest mock_tests[] = {
@@ -842,6 +888,7 @@ int main(void)
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
         cmocka_unit_test(real_daemon_answers_malformed_requests_with_statuses),
+        cmocka_unit_test(real_daemon_requires_the_token_for_mutations),
     };
     int fails = cmocka_run_group_tests_name("client_mock", mock_tests, NULL, NULL);
     fails += cmocka_run_group_tests_name("client_daemon", real_tests, real_setup, real_teardown);
