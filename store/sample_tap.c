@@ -192,6 +192,10 @@ static void neighbour_read(const st_set *s, uint32_t g, unsigned gl, float gu, f
     float x = gu * (float)V.w - 0.5f, y = gv * (float)V.h - 0.5f;
     int32_t i0 = st_ifloor(x), j0 = st_ifloor(y);
     float fx = x - (float)i0, fy = y - (float)j0;
+    if (fx == 0.0f && fy == 0.0f && (uint32_t)i0 < (uint32_t)V.w && (uint32_t)j0 < (uint32_t)V.h) {
+        add_tap(s, &V, i0, j0, pw, a); /* equal resolution: exactly a texel centre of G */
+        return;
+    }
     float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
     for (int k = 0; k < 4; k++) {
         if (w[k] == 0.0f)
