@@ -388,63 +388,124 @@ static int enc_sample(stc_conn *c, uint32_t id, int dir, const char *set,
     return encoded(c, stp_enc_sample_dir_req(&c->out, id, tmo(c), &rq));
 }
 
+/* Decodes a SAMPLE reply into the connection's result arrays at query offset `at` of a result
+ * of `total` queries (at = 0, total = count for a single reply). The arrays are sized for
+ * `total` when at == 0; later parts must agree on nchan and outfmt. */
+static int sample_decode_at(stc_conn *c, const uint8_t *body, size_t len, size_t at,
+                            size_t total, stc_sample_result *res)
+{
+    stp_sample_reply rp;
+    const char *why = NULL;
+    size_t esz, nval;
+    if (stp_dec_sample_reply(body, len, &rp, &why) != 0)
+        return bad_reply(c, why);
+    if (at == 0) {
+        memset(res, 0, sizeof *res);
+        res->nchan = rp.nchan;
+        res->outfmt = rp.outfmt;
+        esz = stp_outfmt_size(rp.outfmt);
+        if (stc__grow(&c->vals, &c->vals_cap, total * rp.nchan * esz) != 0 ||
+            stc__grow((void **)&c->cov, &c->cov_cap, total * sizeof(float)) != 0 ||
+            stc__grow((void **)&c->qst, &c->qst_cap, total) != 0)
+            return stc__fail(c, STC_ENOMEM, "out of memory for %zu results", total);
+        res->values = c->vals;
+        res->coverage = rp.raw_coverage ? c->cov : NULL;
+        res->status = rp.raw_status ? c->qst : NULL;
+    } else if (rp.nchan != res->nchan || rp.outfmt != res->outfmt ||
+               !rp.raw_coverage != !res->coverage || !rp.raw_status != !res->status) {
+        return bad_reply(c, "parts of one batch disagree on channels or format");
+    }
+    if (at + rp.count > total)
+        return bad_reply(c, "SAMPLE reply carries more queries than were asked");
+    esz = stp_outfmt_size(rp.outfmt);
+    nval = (size_t)rp.count * rp.nchan;
+    uint8_t *dst = (uint8_t *)c->vals + at * rp.nchan * esz;
+    if (rp.outfmt == STP_OUT_F32)
+        stp_sample_values_f32(&rp, (float *)(void *)dst);
+    else if (rp.outfmt == STP_OUT_UNORM8)
+        memcpy(dst, rp.raw_values, nval);
+    else
+        stp_sample_values_u16(&rp, (uint16_t *)(void *)dst);
+    if (rp.raw_coverage)
+        stp_sample_coverage(&rp, c->cov + at);
+    if (rp.raw_status && rp.count)
+        memcpy(c->qst + at, rp.raw_status, rp.count);
+    res->count = (uint32_t)(at + rp.count);
+    res->nbad += rp.nbad;
+    return 0;
+}
+
 static int sample_from_body(stc_conn *c, const uint8_t *body, size_t len, stc_sample_result *res)
 {
     stp_sample_reply rp;
     const char *why = NULL;
-    size_t nval;
+    /* peek at the count to size the arrays */
     if (stp_dec_sample_reply(body, len, &rp, &why) != 0)
         return bad_reply(c, why);
-    nval = (size_t)rp.count * rp.nchan;
-    memset(res, 0, sizeof *res);
-    res->count = rp.count;
-    res->nchan = rp.nchan;
-    res->outfmt = rp.outfmt;
-    res->nbad = rp.nbad;
-    if (stc__grow(&c->vals, &c->vals_cap, nval * stp_outfmt_size(rp.outfmt)) != 0)
-        return stc__fail(c, STC_ENOMEM, "out of memory for %zu values", nval);
-    if (rp.outfmt == STP_OUT_F32) {
-        stp_sample_values_f32(&rp, (float *)c->vals);
-    } else if (rp.outfmt == STP_OUT_UNORM8) {
-        if (nval)
-            memcpy(c->vals, rp.raw_values, nval);
-    } else {
-        stp_sample_values_u16(&rp, (uint16_t *)c->vals);
-    }
-    res->values = c->vals;
-    if (rp.raw_coverage) {
-        if (stc__grow((void **)&c->cov, &c->cov_cap, (size_t)rp.count * sizeof(float)) != 0)
-            return stc__fail(c, STC_ENOMEM, "out of memory");
-        stp_sample_coverage(&rp, c->cov);
-        res->coverage = c->cov;
-    }
-    if (rp.raw_status) {
-        if (stc__grow((void **)&c->qst, &c->qst_cap, rp.count) != 0)
-            return stc__fail(c, STC_ENOMEM, "out of memory");
-        if (rp.count)
-            memcpy(c->qst, rp.raw_status, rp.count);
-        res->status = c->qst;
-    }
-    return 0;
+    return sample_decode_at(c, body, len, 0, rp.count, res);
 }
 
+/* A batch larger than the server's max_batch is split into parts of max_batch queries, sent
+ * pipelined (a window bounded by max_inflight; one at a time when the server may reorder
+ * replies) and reassembled in order, so callers need not know the server's limit. */
 static int sample_blocking(stc_conn *c, int dir, const char *set, const stc_sample_opts *o,
                            const void *q, size_t n, stc_sample_result *res)
 {
-    stc_frame f;
-    uint32_t id;
-    int rc = stc__begin_blocking(c);
+    size_t per, nparts, sent = 0, got = 0, qsize = dir ? sizeof(stc_dir_query)
+                                                          : sizeof(stc_query);
+    uint32_t *ids;
+    int rc = stc__begin_blocking(c), window;
     if (rc)
         return rc;
     if (!res)
         return stc__fail(c, STC_EINVAL, "result is NULL");
-    if ((rc = start(c, dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, 0, &id)) != 0 ||
-        (rc = enc_sample(c, id, dir, set, o, q, n)) != 0 ||
-        (rc = finish(c, id, &f)) != 0)
-        return rc;
-    rc = sample_from_body(c, f.body, f.h.body_len, res);
-    if (rc == 0 && res->count != n)
-        return bad_reply(c, "SAMPLE reply count differs from the request's");
+    per = c->server.max_batch ? c->server.max_batch : n;
+    if (per == 0)
+        per = 1;
+    nparts = n <= per ? 1 : (n + per - 1) / per;
+    window = (c->server.caps & STP_CAP_OUT_OF_ORDER) ? 1
+             : c->server.max_inflight > 16 ? 16 : (int)c->server.max_inflight;
+    if (window < 1)
+        window = 1;
+    ids = malloc(nparts * sizeof *ids);
+    if (!ids)
+        return stc__fail(c, STC_ENOMEM, "out of memory");
+    while (got < nparts) {
+        stc_frame f;
+        int64_t dl;
+        while (sent < nparts && sent - got < (size_t)window) {
+            size_t first = sent * per, cnt = n - first < per ? n - first : per;
+            if ((rc = start(c, dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, 0, &ids[sent])) != 0 ||
+                (rc = enc_sample(c, ids[sent], dir, set, o,
+                                 q ? (const uint8_t *)q + first * qsize : NULL, cnt)) != 0)
+                goto fail;
+            sent++;
+        }
+        dl = stc__deadline(c->timeout_ms);
+        if ((rc = stc__flush(c, dl)) != 0 || (rc = stc__wait(c, ids[got], 0, dl, &f)) != 0) {
+            if (rc == STC_ETIMEDOUT)
+                stc__pend_abandon(c, ids[got]);
+            goto fail;
+        }
+        got++;
+        if (f.h.status) {
+            rc = stc__status_error(c, &f);
+            goto fail;
+        }
+        size_t first = (got - 1) * per, cnt = n - first < per ? n - first : per;
+        if ((rc = sample_decode_at(c, f.body, f.h.body_len, first, n, res)) != 0)
+            goto fail;
+        if (res->count != first + cnt) {
+            rc = bad_reply(c, "SAMPLE reply count differs from the request's");
+            goto fail;
+        }
+    }
+    free(ids);
+    return 0;
+fail:
+    for (size_t i = got; i < sent; i++)
+        stc__pend_abandon(c, ids[i]);
+    free(ids);
     return rc;
 }
 

@@ -466,10 +466,12 @@ int stc_get_reply(stc_conn *c, int timeout_ms, stc_reply *r)
         return stc__fail(c, STC_EINVAL, "reply is NULL");
     if (c->npipelined == 0)
         return stc__fail(c, STC_ESTATE, "no pipelined request is outstanding");
-    rc = stc__flush(c, stc__deadline(timeout_ms < 0 ? c->timeout_ms : timeout_ms));
+    int64_t dl = timeout_ms > 0 ? stc__deadline(timeout_ms)
+                 : timeout_ms == 0 ? stc__now_ms() : stc__deadline(c->timeout_ms);
+    rc = stc__flush(c, dl);
     if (rc)
         return rc;
-    rc = stc__wait(c, 0, 1, stc__deadline(timeout_ms < 0 ? c->timeout_ms : timeout_ms), &f);
+    rc = stc__wait(c, 0, 1, dl, &f);
     if (rc && !(rc == STC_ENOMEM && f.oversized))
         return rc;
     memset(r, 0, sizeof *r);

@@ -185,6 +185,8 @@ typedef struct stc_sample_result {
     const float   *coverage;          /* count, or NULL when not asked for */
     const uint8_t *status;            /* count st_qstatus bytes, or NULL when not asked for */
 } stc_sample_result;
+/* A batch over the server's max_batch is split into pipelined parts and reassembled, so n is
+ * not limited by the server (only by memory). */
 int stc_sample(stc_conn *c, const char *set, const stc_sample_opts *o, const stc_query *q,
                size_t n, stc_sample_result *res);
 int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
@@ -257,9 +259,10 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
  * stc_append_* encode a request into the connection's output buffer and return its request
  * id in *reqid (nothing is sent yet; up to a few MiB queue before append flushes by itself).
  * stc_flush sends everything queued (per-request timeout; on timeout the unsent rest stays
- * queued). stc_get_reply waits up to timeout_ms (< 0 = the connection's request timeout) for
- * the next reply of an appended request, in the order the server sends them (match by
- * reqid). The reply, and what stc_reply_* decode from it, are owned by c until the next call.
+ * queued). stc_get_reply waits for the next reply of an appended request, in the order the
+ * server sends them (match by reqid): up to timeout_ms when > 0; when 0 it only returns a reply
+ * that has already arrived (else STC_ETIMEDOUT at once); when < 0 it uses the connection's
+ * request timeout. A get_reply timeout leaves the request outstanding. The reply, and what stc_reply_* decode from it, are owned by c until the next call.
  * A reply with a non-OK status has status != 0 and its message in errmsg. */
 typedef struct stc_reply {
     uint32_t       reqid;

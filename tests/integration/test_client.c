@@ -520,6 +520,7 @@ static void pipelined_timeout_keeps_the_reply_coming(void **state)
     uint32_t id;
     stc_reply r;
     assert_int_equal(stc_append_ping(c, "x", 1, &id), 0);
+    assert_int_equal(stc_get_reply(c, 0, &r), STC_ETIMEDOUT);    /* nothing there yet */
     assert_int_equal(stc_get_reply(c, 50, &r), STC_ETIMEDOUT);
     assert_int_equal(stc_pending(c), 1);          /* still due: the caller may wait again */
     assert_int_equal(stc_get_reply(c, 3000, &r), 0);
@@ -572,6 +573,24 @@ static void sample_results_in_every_format(void **state)
     assert_null(res.status);
     assert_int_equal(stc_sample(c, "tex", &o, NULL, 0, &res), 0);
     assert_int_equal(res.count, 0);
+    /* a batch over the server's max_batch (1000) comes back whole, in order */
+    size_t nbig = 2500;
+    stc_query *big = malloc(nbig * sizeof *big);
+    for (size_t i = 0; i < nbig; i++) {
+        stc_query x = { 0, (float)i / nbig, 0.5f, 0, 0, 0, 0 };
+        big[i] = x;
+    }
+    big[1700].u = NAN;
+    o.want = STC_WANT_STATUS;
+    assert_int_equal(stc_sample(c, "tex", &o, big, nbig, &res), 0);
+    assert_int_equal(res.count, nbig);
+    assert_int_equal(res.nbad, 1);
+    assert_int_equal(res.status[1700], 2);
+    for (size_t i = 0; i < nbig; i++)
+        if (i != 1700 && ((const float *)res.values)[2 * i] != (float)i / nbig)
+            fail_msg("query %zu came back out of place", i);
+    free(big);
+    o.want = 0;
     /* pipelined: append two batches, decode both replies */
     uint32_t a, b;
     assert_int_equal(stc_append_sample(c, "tex", &o, q, 1, &a), 0);
