@@ -64,7 +64,7 @@ typedef struct parser {
 
 static const char *skip_ws(const char *s, const char *end)
 {
-    while (s < end && (*s == ' ' || *s == '\t' || *s == '\r'))
+    while (s < end && isspace((unsigned char)*s)) /* the same notion as the token loops */
         s++;
     return s;
 }
