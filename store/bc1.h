@@ -89,6 +89,9 @@ typedef struct st_bc1_opts {
     int      level;         /* ST_BC1_FAST or ST_BC1_HQ (default HQ) */
     int      seam_mode;     /* st_bc1_seam_mode (default ST_BC1_SEAM_AWARE) */
     float    alpha;         /* seam weight of E = Ec + alpha*Es (default 2) */
+    float    seam_boost;    /* the seam-aware BC1 stage uses alpha * seam_boost (default 2):
+                               with BC1's few degrees of freedom, the optimum at alpha itself
+                               leaves 1.2-1.9x the masked seam RMS (measured, ARCHITECTURE.md) */
     float    step;          /* seam sample spacing in texels (default 0.5) */
     int      iterations;    /* seam-aware solve / quantise / re-select rounds (default 3) */
     int      threads;       /* encoder threads, 0 = one per core */

@@ -362,7 +362,7 @@ typedef struct profile {
 } profile;
 
 static const profile PROFILES[2] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 1}, /* ST_BC1_FAST */
+    {1.0f / 16.0f, 2, 0, 0, 0, 0}, /* ST_BC1_FAST */
     {1.0f / 16.0f, 4, 1, 3, 0, 0}, /* ST_BC1_HQ */
 };
 

@@ -29,6 +29,7 @@ void st_bc1_opts_default(st_bc1_opts *o)
     o->level = ST_BC1_HQ;
     o->seam_mode = ST_BC1_SEAM_AWARE;
     o->alpha = 2.0f;
+    o->seam_boost = 2.0f;
     o->step = 0.5f;
     o->iterations = 3;
     o->threads = 0;
@@ -117,8 +118,8 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
         return st_fail(e, ST_EINVAL, "set is already BC1");
     if (opts.seam_mode < ST_BC1_SEAM_NONE || opts.seam_mode > ST_BC1_SEAM_AWARE)
         return st_fail(e, ST_EINVAL, "seam mode %d unknown", opts.seam_mode);
-    if (!(opts.alpha >= 0) || opts.alpha > 1e6)
-        return st_fail(e, ST_EINVAL, "seam weight alpha must be in 0..1e6");
+    if (!(opts.alpha >= 0) || opts.alpha > 1e6 || !(opts.seam_boost >= 0) || opts.seam_boost > 1e3)
+        return st_fail(e, ST_EINVAL, "seam weight alpha must be in 0..1e6, seam_boost in 0..1e3");
     report(progress, progress_arg, 0);
 
     int rc;
@@ -302,8 +303,9 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     report(progress, progress_arg, 0.85);
 
     if (opts.seam_mode == ST_BC1_SEAM_AWARE) {
-        rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha, 0, opts.iterations, cancel, NULL,
-                               e);
+        float boost = opts.seam_boost > 0 ? opts.seam_boost : 2.0f;
+        rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha * boost, 0, opts.iterations, cancel,
+                               NULL, e);
         if (rc)
             goto out;
     }
