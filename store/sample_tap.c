@@ -12,6 +12,10 @@
 
 #include <math.h>
 
+#ifndef ST_EXACT_OK
+#define ST_EXACT_OK 1
+#endif
+
 void st_fetch_any(const st_set *s, const st_view *v, int32_t i, int32_t j, float out[4])
 {
     if (v->bw) {
@@ -267,11 +271,74 @@ static void outside_tap(const st_set *s, unsigned mode, const st_fp *fp, uint32_
     }
 }
 
+/* Traverse's common case in integers: the probe's outside taps all lie across ONE edge e, the
+ * neighbour G is read at a level of the same size along and across the edge. Then each tap
+ * centre maps exactly onto a texel centre of G (what traverse_tap would compute in floats,
+ * with the same weights in the same order, so the result is bit-identical): F's tap at
+ * along-edge index a and depth k beyond the edge is G's texel at along index L-1-a, depth k
+ * inside. Returns 0, having added nothing, when the case does not apply. */
+static int traverse_edge_exact(const st_set *s, const st_fp *fp, uint32_t f, unsigned level,
+                               const st_view *v, int32_t i0, int32_t j0, const float w[4],
+                               float pw, st_acc *a)
+{
+    int uin = i0 >= 0 && i0 + 1 < v->w, vin = j0 >= 0 && j0 + 1 < v->h;
+    unsigned e;
+    if (vin && !uin)
+        e = i0 < 0 ? 3u : 1u;
+    else if (uin && !vin)
+        e = j0 < 0 ? 0u : 2u;
+    else
+        return 0; /* a corner quadrant is involved */
+    const st_face *F = &s->faces[f];
+    if (F->adjface[e] < 0)
+        return 0;
+    uint32_t g = (uint32_t)F->adjface[e];
+    unsigned ge = F->adjedge[e];
+    const st_face *G = &s->faces[g];
+    unsigned gl = neighbour_level(fp, level, G, (int)((ge ^ e) & 1));
+    int32_t gw = (int32_t)st_level_w(G, gl), gh = (int32_t)st_level_h(G, gl);
+    int32_t along = (e & 1) ? v->h : v->w, across = (e & 1) ? v->w : v->h;
+    int32_t galong = (ge & 1) ? gh : gw, gacross = (ge & 1) ? gw : gh;
+    if (galong != along || gacross != across)
+        return 0;
+    st_view GV;
+    st_view_init(&GV, s, g, gl);
+    for (int k = 0; k < 4; k++) {
+        if (w[k] == 0.0f)
+            continue;
+        int32_t i = i0 + (k & 1), j = j0 + (k >> 1);
+        if ((uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h) {
+            add_tap(s, v, i, j, pw * w[k], a);
+            continue;
+        }
+        int32_t al, dp; /* along-edge index in F, depth beyond the edge (0 = first) */
+        switch (e) {
+        case 0:  al = i;             dp = -1 - j;      break;
+        case 1:  al = j;             dp = i - v->w;    break;
+        case 2:  al = v->w - 1 - i;  dp = j - v->h;    break;
+        default: al = v->h - 1 - j;  dp = -1 - i;      break;
+        }
+        if (dp >= gacross) /* deeper than G: clamp in G, as the float path would */
+            dp = gacross - 1;
+        int32_t ga = along - 1 - al, gi, gj;
+        switch (ge) {
+        case 0:  gi = ga;          gj = dp;          break;
+        case 1:  gi = gw - 1 - dp; gj = ga;          break;
+        case 2:  gi = gw - 1 - ga; gj = gh - 1 - dp; break;
+        default: gi = dp;          gj = gh - 1 - ga; break;
+        }
+        add_tap(s, &GV, gi, gj, pw * w[k], a);
+    }
+    return 1;
+}
+
 void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
                             unsigned level, const st_view *v, int32_t i0, int32_t j0, float fx,
                             float fy, float pw, st_acc *a)
 {
     float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    if (ST_EXACT_OK && mode == ST_MODE_TRAVERSE && traverse_edge_exact(s, fp, f, level, v, i0, j0, w, pw, a))
+        return;
     for (int k = 0; k < 4; k++) {
         if (w[k] == 0.0f)
             continue; /* a zero-weight tap neither reads nor counts */
