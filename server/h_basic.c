@@ -1,0 +1,420 @@
+/* server/h_basic.c - handlers for the read-only requests: HELLO, PING, LIST, INFO, STATS,
+ * SAMPLE, SAMPLE_DIR.
+ *
+ * Owns: decoding their bodies (through protocol/), reading the registry, sampling into the
+ * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c).
+ * Every handler appends exactly one frame to `out`.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cube.h"
+#include "server.h"
+
+static int bad(stp_buf *out, const stp_header *h, int status, const char *why)
+{
+    char msg[160];
+    snprintf(msg, sizeof msg, "%s: %s", stp_opcode_name(h->opcode) ? stp_opcode_name(h->opcode)
+                                                                      : "request",
+             why ? why : "malformed body");
+    sts_reply_error(out, h, status, msg);
+    return 0;
+}
+
+/* Looks a set up by a wire name; replies NOT_FOUND / PERM itself and returns NULL. */
+static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp_buf *out)
+{
+    st_error e;
+    st_error_clear(&e);
+    if (st_name_check(name, strlen(name), &e) != 0) {
+        sts_reply_st(out, h, ST_EPERM, e.msg);
+        return NULL;
+    }
+    st_setref *ref = NULL;
+    if (st_registry_get(c->srv->reg, name, &ref, &e) != 0) {
+        sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
+        return NULL;
+    }
+    return ref;
+}
+
+int sts_h_hello(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    stp_hello_req rq;
+    const char *why = NULL;
+    int st = stp_dec_hello_req(body, h->body_len, &rq, &why);
+    if (st)
+        return bad(out, h, st, why);
+    if (rq.min_version > STP_VERSION || rq.max_version < STP_VERSION) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "server speaks version %d; client speaks %u..%u", STP_VERSION,
+                 rq.min_version, rq.max_version);
+        sts_reply_error(out, h, STP_S_BAD_VERSION, msg);
+        return 0;
+    }
+    c->conn->authed = sts_token_check(c->srv, rq.token);
+    stp_hello_reply r;
+    memset(&r, 0, sizeof r);
+    r.version = STP_VERSION;
+    r.caps = STP_CAP_PIPELINE | STP_CAP_SAMPLE_DIR | STP_CAP_COMPRESS | STP_CAP_FETCH |
+             STP_CAP_PTEX_FILTERS;
+    if (!sts_token_allows(c->srv, 0))
+        r.caps |= STP_CAP_AUTH;
+    uint64_t mf = STS_LIVE(c->srv, max_frame);
+    r.max_body = mf > 0xFFFFFFFFu ? 0xFFFFFFFFu : (uint32_t)mf;
+    r.max_batch = STS_LIVE(c->srv, max_batch);
+    r.max_chunk = STP_DEFAULT_MAX_CHUNK;
+    r.max_inflight = 256;
+    r.authenticated = c->conn->authed != 0 && !sts_token_allows(c->srv, 0);
+    snprintf(r.server_name, sizeof r.server_name, "seamtexd 0.1");
+    stp_enc_hello_reply(out, h->reqid, &r);
+    return 0;
+}
+
+int sts_h_ping(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    (void)c;
+    stp_enc_raw(out, h->opcode, STP_F_REPLY, h->reqid, STP_S_OK, 0, body, h->body_len);
+    return 0;
+}
+
+int sts_h_list(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    stp_list_req rq;
+    const char *why = NULL;
+    int st = stp_dec_list_req(body, h->body_len, &rq, &why);
+    if (st)
+        return bad(out, h, st, why);
+    size_t total = st_registry_count(c->srv->reg);
+    st_setref **refs = malloc((total ? total : 1) * sizeof *refs);
+    if (!refs) {
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
+    size_t n = st_registry_snapshot(c->srv->reg, refs, total);
+    size_t first = rq.first < n ? rq.first : n;
+    size_t count = n - first;
+    size_t cap = rq.max ? rq.max : 65536;
+    if (cap > 65536)
+        cap = 65536;
+    if (count > cap)
+        count = cap;
+    stp_list_entry *ents = calloc(count ? count : 1, sizeof *ents);
+    if (!ents) {
+        for (size_t i = 0; i < n; i++)
+            st_setref_release(refs[i]);
+        free(refs);
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
+    for (size_t i = 0; i < count; i++) {
+        const st_setref *r = refs[first + i];
+        snprintf(ents[i].name, sizeof ents[i].name, "%s", r->name);
+        ents[i].kind = r->set->info.kind;
+        ents[i].nchan = r->set->info.nchan;
+        ents[i].dtype = r->set->info.dtype;
+        ents[i].nfaces = r->set->info.nfaces;
+        ents[i].memory = st_set_memory(r->set);
+    }
+    stp_list_reply rep;
+    memset(&rep, 0, sizeof rep);
+    rep.total = (uint32_t)n;
+    rep.count = (uint32_t)count;
+    rep.entries = ents;
+    stp_enc_list_reply(out, h->reqid, &rep);
+    free(ents);
+    for (size_t i = 0; i < n; i++)
+        st_setref_release(refs[i]);
+    free(refs);
+    return 0;
+}
+
+int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    stp_info_req rq;
+    const char *why = NULL;
+    int st = stp_dec_info_req(body, h->body_len, &rq, &why);
+    if (st)
+        return bad(out, h, st, why);
+    st_setref *ref = get_set(c, h, rq.name, out);
+    if (!ref)
+        return 0;
+    const st_set *s = ref->set;
+    stp_info_reply r;
+    memset(&r, 0, sizeof r);
+    r.nfaces = s->info.nfaces;
+    r.nchan = s->info.nchan;
+    r.dtype = s->info.dtype;
+    r.alpha_chan = s->info.alpha_chan;
+    r.kind = s->info.kind;
+    r.colorspace = s->info.colorspace;
+    r.premultiplied = s->info.premultiplied;
+    r.border_u = s->info.border_u;
+    r.border_v = s->info.border_v;
+    r.meshtype = s->info.meshtype;
+    r.memory = st_set_memory(s);
+    r.texel_bytes = s->texel_bytes;
+    r.min_w = r.min_h = s->info.nfaces ? UINT32_MAX : 0;
+    r.nmeta = s->nmeta;
+    for (uint32_t f = 0; f < s->info.nfaces; f++) {
+        const st_face *fc = &s->faces[f];
+        if (fc->w < r.min_w) r.min_w = fc->w;
+        if (fc->w > r.max_w) r.max_w = fc->w;
+        if (fc->h < r.min_h) r.min_h = fc->h;
+        if (fc->h > r.max_h) r.max_h = fc->h;
+        if (fc->flags & ST_FACE_CONSTANT) r.nconstant++;
+        if (fc->flags & ST_FACE_SUBFACE) r.nsubfaces++;
+        for (int e = 0; e < 4; e++) {
+            if (fc->adjface[e] < 0)
+                r.boundary_edges++;
+            unsigned v = fc->valence[e];
+            unsigned val = v & ~ST_VALENCE_BOUNDARY;
+            if (val > r.max_valence)
+                r.max_valence = val;
+            if (!(v & ST_VALENCE_BOUNDARY) && val != 4)
+                r.irregular_corners++;
+        }
+    }
+    uint32_t first = rq.face_first < s->info.nfaces ? rq.face_first : s->info.nfaces;
+    uint32_t nrec = rq.face_count;
+    if (nrec > s->info.nfaces - first)
+        nrec = s->info.nfaces - first;
+    uint64_t room = (STS_LIVE(c->srv, max_frame) - 128) / STP_FACE_REC_SIZE;
+    if (nrec > room)
+        nrec = (uint32_t)room;
+    if (nrec > (1u << 20))
+        nrec = 1u << 20;
+    stp_face_rec *recs = NULL;
+    if (nrec) {
+        recs = calloc(nrec, sizeof *recs);
+        if (!recs) {
+            st_setref_release(ref);
+            sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+            return 0;
+        }
+        for (uint32_t i = 0; i < nrec; i++) {
+            const st_face *fc = &s->faces[first + i];
+            recs[i].w = fc->w;
+            recs[i].h = fc->h;
+            for (int e = 0; e < 4; e++) {
+                recs[i].adjface[e] = fc->adjface[e];
+                recs[i].adjedge[e] = fc->adjedge[e];
+            }
+            recs[i].flags = fc->flags;
+            recs[i].nlevels = fc->nlevels;
+        }
+    }
+    r.face_first = first;
+    r.nrec = nrec;
+    r.faces = recs;
+    stp_enc_info_reply(out, h->reqid, &r);
+    free(recs);
+    st_setref_release(ref);
+    return 0;
+}
+
+static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->mode = p->mode;
+    o->filter = p->filter;
+    o->zero_rule = p->zero_rule;
+    o->max_aniso = p->max_aniso;
+    o->sharpness = p->sharpness;
+    o->width = p->width;
+    o->blur = p->blur;
+    if (!st_mode_name(p->mode) || !st_filter_name(p->filter) || p->zero_rule > 1 ||
+        p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
+        return -1;
+    return 0;
+}
+
+/* Samples and replies; shared by SAMPLE and SAMPLE_DIR. dq != NULL means direction queries. */
+static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
+                         stp_buf *out)
+{
+    st_sample_opts o;
+    if (fill_opts(&rq->p, &o) != 0)
+        return bad(out, h, STP_S_INVALID, "unknown mode, filter, zero_rule or outfmt, or max_aniso > 16");
+    st_setref *ref = get_set(c, h, rq->p.name, out);
+    if (!ref)
+        return 0;
+    const st_set *s = ref->set;
+    uint32_t n = rq->count;
+    if (sts_scratch_reserve(c->scratch, n, s->info.nchan) != 0) {
+        st_setref_release(ref);
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
+        return 0;
+    }
+    sts_scratch *sc = c->scratch;
+    float *cov = (rq->p.flags & STP_SF_COVERAGE) ? sc->cov : NULL;
+    int rc;
+    if (h->opcode == STP_OP_SAMPLE) {
+        for (uint32_t i = 0; i < n; i++) {
+            stp_query q;
+            stp_sample_query(rq, i, &q);
+            st_query *d = &sc->q[i];
+            d->face = q.face;
+            d->u = q.u;
+            d->v = q.v;
+            d->dudx = q.dudx;
+            d->dvdx = q.dvdx;
+            d->dudy = q.dudy;
+            d->dvdy = q.dvdy;
+        }
+        rc = n ? st_sample_batch(s, &o, sc->q, n, sc->out, cov, sc->status) : 0;
+    } else {
+        if (s->info.kind != ST_KIND_CUBE) {
+            st_setref_release(ref);
+            sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
+            return 0;
+        }
+        st_cube_query *cq = n ? malloc((size_t)n * sizeof *cq) : NULL;
+        if (n && !cq) {
+            st_setref_release(ref);
+            sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
+            return 0;
+        }
+        for (uint32_t i = 0; i < n; i++) {
+            stp_dir_query q;
+            stp_sample_dir_query(rq, i, &q);
+            memcpy(cq[i].dir, q.dir, sizeof q.dir);
+            if (rq->p.footprint == STP_FP_CONE) {
+                cq[i].cone = q.ddx[0];
+                memset(cq[i].ddx, 0, sizeof cq[i].ddx);
+                memset(cq[i].ddy, 0, sizeof cq[i].ddy);
+            } else {
+                cq[i].cone = 0;
+                memcpy(cq[i].ddx, q.ddx, sizeof q.ddx);
+                memcpy(cq[i].ddy, q.ddy, sizeof q.ddy);
+            }
+        }
+        rc = n ? st_cube_sample_dir(s, &o, ST_CUBE_LOOKUP_PLAIN, cq, n, sc->out, cov,
+                                    sc->status)
+               : 0;
+        free(cq);
+    }
+    if (rc < 0) {
+        st_setref_release(ref);
+        sts_reply_st(out, h, rc, rc == ST_EUNSUPPORTED
+                                     ? "this filter does not apply to this kind of set"
+                                     : "invalid sampling options");
+        return 0;
+    }
+    STS_STAT_ADD(c->srv, queries, n);
+    STS_STAT_ADD(c->srv, query_errors, (uint64_t)rc);
+    stp_sample_reply r;
+    memset(&r, 0, sizeof r);
+    r.count = n;
+    r.nchan = s->info.nchan;
+    r.outfmt = rq->p.outfmt;
+    r.flags = rq->p.flags & (STP_SF_COVERAGE | STP_SF_STATUS);
+    r.nbad = (uint32_t)rc;
+    r.values = sc->out;
+    r.coverage = cov;
+    r.status = sc->status;
+    int e = stp_enc_sample_reply(out, h->opcode, h->reqid, &r);
+    st_setref_release(ref);
+    if (e)
+        sts_reply_error(out, h, e, "reply could not be encoded (too large?)");
+    return 0;
+}
+
+int sts_h_sample(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    stp_sample_req rq;
+    const char *why = NULL;
+    int st = stp_dec_sample_req(body, h->body_len, STS_LIVE(c->srv, max_batch), &rq, &why);
+    if (st)
+        return bad(out, h, st, why);
+    return sample_common(c, h, &rq, out);
+}
+
+int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    stp_sample_req rq;
+    const char *why = NULL;
+    int st = stp_dec_sample_dir_req(body, h->body_len, STS_LIVE(c->srv, max_batch), &rq, &why);
+    if (st)
+        return bad(out, h, st, why);
+    return sample_common(c, h, &rq, out);
+}
+
+/* ---- STATS ------------------------------------------------------------------------------------ */
+
+#define U(k, val) do { if (n < cap) { snprintf(s[n].key, sizeof s[n].key, "%s", k); \
+    s[n].type = STP_STAT_U64; s[n].v.u = (val); n++; } } while (0)
+#define L(f) __atomic_load_n(&srv->stats.f, __ATOMIC_RELAXED)
+
+int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    const char *why = NULL;
+    if (h->body_len && stp_dec_empty(body, h->body_len, &why))
+        return bad(out, h, STP_S_BAD_REQUEST, why);
+    sts_server *srv = c->srv;
+    enum { cap = 128 };
+    stp_stat s[cap];
+    size_t n = 0;
+    U("uptime_ms", (uint64_t)(sts_now_ms() - srv->started_ms));
+    U("conns_current", __atomic_load_n(&srv->nconns, __ATOMIC_RELAXED));
+    U("conns_accepted", L(conns_accepted));
+    U("conns_rejected", L(conns_rejected));
+    U("conns_closed", L(conns_closed));
+    U("conns_idle_closed", L(conns_idle_closed));
+    U("requests", L(requests));
+    U("replies_error", L(replies_error));
+    U("bytes_in", L(bytes_in));
+    U("bytes_out", L(bytes_out));
+    U("reads", L(reads));
+    U("writes", L(writes));
+    U("frames_bad_magic", L(frames_bad_magic));
+    U("frames_bad_version", L(frames_bad_version));
+    U("frames_too_large", L(frames_too_large));
+    U("frames_unknown_opcode", L(frames_unknown_op));
+    U("bad_requests", L(bad_requests));
+    U("perm_denied", L(perm_denied));
+    U("mem_rejected", L(mem_rejected));
+    U("deadline_expired", L(deadline_expired));
+    U("backpressure_pauses", L(backpressure_pauses));
+    U("worker_tasks", L(worker_tasks));
+    U("inline_tasks", L(inline_tasks));
+    U("queries", L(queries));
+    U("query_errors", L(query_errors));
+    U("uploads_begun", L(uploads_begun));
+    U("uploads_committed", L(uploads_committed));
+    U("uploads_failed", L(uploads_failed));
+    U("upload_bytes", L(upload_bytes));
+    U("deletes", L(deletes));
+    U("jobs_started", L(jobs_started));
+    U("jobs_done", L(jobs_done));
+    U("jobs_failed", L(jobs_failed));
+    U("jobs_canceled", L(jobs_canceled));
+    U("fetches", L(fetches));
+    U("buffer_memory", __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED));
+    U("sets", st_registry_count(srv->reg));
+    U("set_memory", st_registry_memory(srv->reg));
+    U("io_threads", srv->nio);
+    U("workers", srv->pool.nthreads);
+    U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
+    U("max_conns", STS_LIVE(srv, max_conns));
+    U("max_frame", STS_LIVE(srv, max_frame));
+    for (unsigned op = 0; op < 256; op++) {
+        uint64_t v = __atomic_load_n(&srv->stats.by_op[op], __ATOMIC_RELAXED);
+        const char *name = stp_opcode_name(op);
+        if (!name)
+            continue;
+        char key[STP_MAX_STAT_KEY + 1];
+        snprintf(key, sizeof key, "req_%s", name);
+        for (char *p = key; *p; p++)
+            if (*p >= 'A' && *p <= 'Z')
+                *p = (char)(*p - 'A' + 'a');
+        U(key, v);
+    }
+    stp_stats_reply r;
+    memset(&r, 0, sizeof r);
+    r.count = (uint32_t)n;
+    r.stats = s;
+    stp_enc_stats_reply(out, h->reqid, &r);
+    return 0;
+}

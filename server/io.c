@@ -1,0 +1,561 @@
+/* server/io.c - the I/O threads: accept, read, frame parsing, backpressure, writes, idle
+ * timeouts, the hand-back of worker replies, and the drain at stop.
+ *
+ * Owns: every connection's buffers and fd (only its I/O thread touches them). Does not own:
+ * what a request means (dispatch.c and the handlers), the worker queue (workers.c).
+ *
+ * Per wake-up a readable connection gets ONE read of up to the free input space (at least
+ * 16 KiB), every complete frame in the buffer is parsed and answered into the output buffer,
+ * then the output is written with one send: a pipelined burst of N requests costs one read
+ * and one write, not N. Level-triggered polling keeps the loop fair between connections.
+ * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
+ * (nor parsed) until the peer drains them. Memory: buffers are allocated on first use; an
+ * idle connection that has never sent anything holds only its ~150-byte struct; input
+ * buffers over 64 KiB are released when they empty.
+ */
+#include <errno.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "server.h"
+
+#define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
+#define KEEP_IN    (64u << 10)   /* input buffers above this are freed when empty */
+#define KEEP_OUT   (256u << 10)  /* output buffers above this are freed when drained */
+
+int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan)
+{
+    if (n <= s->cap)
+        return 0;
+    size_t cap = n < 4096 ? 4096 : n;
+    st_query *q = realloc(s->q, cap * sizeof *q);
+    if (q)
+        s->q = q;
+    float *out = realloc(s->out, cap * ST_MAX_CHANNELS * sizeof *out);
+    if (out)
+        s->out = out;
+    float *cov = realloc(s->cov, cap * sizeof *cov);
+    if (cov)
+        s->cov = cov;
+    uint8_t *st = realloc(s->status, cap);
+    if (st)
+        s->status = st;
+    (void)nchan;
+    if (!q || !out || !cov || !st)
+        return -1;
+    s->cap = cap;
+    return 0;
+}
+
+void sts_scratch_free(sts_scratch *s)
+{
+    free(s->q);
+    free(s->out);
+    free(s->cov);
+    free(s->status);
+    memset(s, 0, sizeof *s);
+}
+
+/* ---- memory accounting -------------------------------------------------------------------- */
+
+static void account(sts_conn *c)
+{
+    uint64_t now = (uint64_t)c->in.cap + (uint64_t)c->out.cap;
+    sts_server *srv = c->io->srv;
+    if (now > c->mem)
+        __atomic_add_fetch(&srv->mem_used, now - c->mem, __ATOMIC_RELAXED);
+    else if (now < c->mem)
+        __atomic_sub_fetch(&srv->mem_used, c->mem - now, __ATOMIC_RELAXED);
+    c->mem = now;
+}
+
+/* Makes room for `need` unparsed bytes in total (compacting first). 0 or -1. */
+static int in_reserve(sts_conn *c, size_t need)
+{
+    sts_inbuf *b = &c->in;
+    if (b->start > 0 && (b->cap - b->len < need - (b->len - b->start) || b->start == b->len)) {
+        memmove(b->data, b->data + b->start, b->len - b->start);
+        b->len -= b->start;
+        b->start = 0;
+    }
+    if (b->cap - b->start >= need)
+        return 0;
+    size_t cap = b->cap ? b->cap : READ_MIN * 2;
+    while (cap - b->start < need)
+        cap *= 2;
+    uint8_t *d = realloc(b->data, cap);
+    if (!d)
+        return -1;
+    b->data = d;
+    b->cap = cap;
+    account(c);
+    return 0;
+}
+
+static void in_consume(sts_conn *c, size_t n)
+{
+    c->in.start += n;
+    if (c->in.start == c->in.len) {
+        c->in.start = c->in.len = 0;
+        if (c->in.cap > KEEP_IN) {
+            free(c->in.data);
+            c->in.data = NULL;
+            c->in.cap = 0;
+            account(c);
+        }
+    }
+}
+
+/* ---- connection lifetime ------------------------------------------------------------------ */
+
+static void set_interest(sts_conn *c)
+{
+    sts_server *srv = c->io->srv;
+    unsigned want = 0;
+    size_t pending = stp_buf_avail(&c->out);
+    int over = pending > STS_LIVE(srv, conn_out_cap);
+    if (!c->dead && !c->busy && !c->close_after && !over &&
+        !__atomic_load_n(&srv->stopping, __ATOMIC_RELAXED))
+        want |= STS_EV_READ;
+    if (pending)
+        want |= STS_EV_WRITE;
+    if (over && !c->paused)
+        STS_STAT_ADD(srv, backpressure_pauses, 1);
+    c->paused = !(want & STS_EV_READ);
+    if (want != c->ev_mask) {
+        sts_ev_mod(c->io->ev, c->fd, want, c);
+        c->ev_mask = want;
+    }
+}
+
+static void conn_free(sts_conn *c)
+{
+    sts_io *io = c->io;
+    sts_server *srv = io->srv;
+    sts_ev_del(io->ev, c->fd);
+    close(c->fd);
+    if (c->prev)
+        c->prev->next = c->next;
+    else
+        io->conns = c->next;
+    if (c->next)
+        c->next->prev = c->prev;
+    io->nconns--;
+    free(c->in.data);
+    c->in.data = NULL;
+    c->in.cap = 0;
+    stp_buf_free(&c->out);
+    account(c);
+    sts_fetch_drop_conn(srv, c->id);
+    sts_upload_drop_conn(srv, c->id);
+    __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
+    STS_STAT_ADD(srv, conns_closed, 1);
+    free(c);
+}
+
+/* Closes now unless a worker holds the connection (then when its reply comes back). */
+static void conn_close(sts_conn *c)
+{
+    c->dead = 1;
+    if (!c->busy) {
+        conn_free(c);
+    } else if (c->ev_mask != (unsigned)-1) {
+        sts_ev_del(c->io->ev, c->fd);  /* a hung-up socket would wake the poller forever */
+        c->ev_mask = (unsigned)-1;
+    }
+}
+
+/* Writes what is pending. Returns -1 when the connection died (and was closed). */
+static int conn_flush(sts_conn *c)
+{
+    sts_server *srv = c->io->srv;
+    while (stp_buf_avail(&c->out)) {
+        ssize_t w = send(c->fd, stp_buf_head(&c->out), stp_buf_avail(&c->out),
+                         MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                break;
+            conn_close(c);
+            return -1;
+        }
+        STS_STAT_ADD(srv, writes, 1);
+        STS_STAT_ADD(srv, bytes_out, (uint64_t)w);
+        stp_buf_consume(&c->out, (size_t)w);
+    }
+    if (!stp_buf_avail(&c->out)) {
+        if (c->out.cap > KEEP_OUT) {
+            stp_buf_free(&c->out);
+            stp_buf_init(&c->out);
+            account(c);
+        } else {
+            stp_buf_clear(&c->out);
+        }
+        if (c->close_after) {
+            conn_close(c);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* Answers a frame the server refuses before dispatch, and arranges to skip its body. */
+static void refuse(sts_conn *c, const stp_header *h, int status, const char *msg)
+{
+    sts_reply_error(&c->out, h, status, msg);
+    STS_STAT_ADD(c->io->srv, replies_error, 1);
+}
+
+/* Parses and answers every complete frame in the input (see the file comment). */
+static void conn_process(sts_conn *c)
+{
+    sts_server *srv = c->io->srv;
+    while (!c->busy && !c->close_after && !c->dead) {
+        if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
+            break;  /* backpressure: answer the rest once the peer has read */
+        size_t avail = c->in.len - c->in.start;
+        if (c->skip) {
+            size_t n = avail < c->skip ? avail : (size_t)c->skip;
+            in_consume(c, n);
+            c->skip -= n;
+            if (c->skip)
+                break;
+            continue;
+        }
+        if (avail == 0)
+            break;
+        const uint8_t *head = c->in.data + c->in.start;
+        uint64_t max_frame = STS_LIVE(srv, max_frame);
+        stp_header h;
+        int reason = 0;
+        memset(&h, 0, sizeof h);
+        int rc = stp_parse_header(head, avail, (size_t)max_frame, &h, &reason);
+        if (rc == STP_NEED_MORE)
+            break;
+        if (rc == STP_BAD) {
+            if (stp_reason_fatal(reason)) {
+                /* PROTOCOL.md 2.1: the stream cannot be resynchronised; close without a reply
+                 * (replies already queued still go out first) */
+                STS_STAT_ADD(srv, frames_bad_magic, 1);
+                c->close_after = 1;
+                in_consume(c, avail);
+                break;
+            }
+            if (reason == STP_R_BAD_VERSION)
+                STS_STAT_ADD(srv, frames_bad_version, 1);
+            else
+                STS_STAT_ADD(srv, frames_too_large, 1);
+            char msg[160];
+            if (reason == STP_R_TOO_LARGE)
+                snprintf(msg, sizeof msg, "body of %u bytes is over max-frame %llu", h.body_len,
+                         (unsigned long long)max_frame);
+            else
+                snprintf(msg, sizeof msg, "protocol version %u is not spoken here (1)", h.version);
+            refuse(c, &h, stp_reason_status(reason), msg);
+            in_consume(c, STP_HEADER_SIZE);
+            c->skip = h.body_len;
+            continue;
+        }
+        const sts_handler *hd = sts_handler_find(h.opcode);
+        if (hd && hd->max_body && h.body_len > hd->max_body) {
+            STS_STAT_ADD(srv, frames_too_large, 1);
+            char msg[160];
+            snprintf(msg, sizeof msg, "%s body of %u bytes is over its cap of %u", hd->name,
+                     h.body_len, hd->max_body);
+            refuse(c, &h, STP_S_TOO_LARGE, msg);
+            in_consume(c, STP_HEADER_SIZE);
+            c->skip = h.body_len;
+            continue;
+        }
+        size_t total = STP_HEADER_SIZE + (size_t)h.body_len;
+        if (avail < total) {
+            /* the frame is not all here: make room for it, within the memory limit */
+            if (c->in.cap - c->in.start < total) {
+                uint64_t grow = total > c->in.cap ? total - c->in.cap : 0;
+                if (sts_mem_take(srv, grow) != 0 || in_reserve(c, total) != 0) {
+                    STS_STAT_ADD(srv, mem_rejected, 1);
+                    refuse(c, &h, STP_S_BUSY, "server buffer memory is at max-memory; retry");
+                    in_consume(c, STP_HEADER_SIZE);
+                    c->skip = h.body_len;
+                    continue;
+                }
+            }
+            break;
+        }
+        c->last_ms = sts_now_ms();
+        int d = sts_dispatch(c->io, c, &h, head + STP_HEADER_SIZE);
+        if (d == 1)
+            break;  /* on a worker: the frame stays in the buffer until the reply is back */
+        in_consume(c, total);
+        if (d == 2)
+            c->close_after = 1;
+    }
+}
+
+static void conn_readable(sts_conn *c)
+{
+    sts_server *srv = c->io->srv;
+    if (c->busy || c->close_after)
+        return;
+    size_t unparsed = c->in.len - c->in.start;
+    if (in_reserve(c, unparsed + READ_MIN) != 0) {
+        conn_close(c);
+        return;
+    }
+    ssize_t r;
+    do {
+        r = recv(c->fd, c->in.data + c->in.len, c->in.cap - c->in.len, MSG_DONTWAIT);
+    } while (r < 0 && errno == EINTR);
+    if (r == 0 || (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
+        conn_close(c);
+        return;
+    }
+    if (r < 0)
+        return;
+    STS_STAT_ADD(srv, reads, 1);
+    STS_STAT_ADD(srv, bytes_in, (uint64_t)r);
+    c->in.len += (size_t)r;
+    c->last_ms = sts_now_ms();
+    conn_process(c);
+    if (c->dead)
+        return;
+    if (conn_flush(c) == 0)
+        set_interest(c);
+}
+
+/* ---- accept ---------------------------------------------------------------------------------- */
+
+static void reject(sts_server *srv, int fd, int status, const char *msg)
+{
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_header h;
+    memset(&h, 0, sizeof h);
+    h.opcode = STP_OP_HELLO;
+    sts_reply_error(&b, &h, status, msg);
+    if (stp_buf_avail(&b)) {
+        ssize_t w = send(fd, stp_buf_head(&b), stp_buf_avail(&b), MSG_NOSIGNAL | MSG_DONTWAIT);
+        (void)w;
+    }
+    stp_buf_free(&b);
+    close(fd);
+    STS_STAT_ADD(srv, conns_rejected, 1);
+}
+
+static void do_accept(sts_io *io)
+{
+    sts_server *srv = io->srv;
+    for (int i = 0; i < 64; i++) {
+        int fd = accept4(srv->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0) {
+            if (errno == EMFILE || errno == ENFILE)
+                sts_logf(&srv->log, STS_WARN, "accept: %s (raise the fd limit or max-conns)",
+                         strerror(errno));
+            return;
+        }
+        if (__atomic_load_n(&srv->stopping, __ATOMIC_RELAXED)) {
+            reject(srv, fd, STP_S_SHUTDOWN, "server is stopping");
+            continue;
+        }
+        uint32_t n = __atomic_add_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
+        if (n > STS_LIVE(srv, max_conns)) {
+            __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
+            reject(srv, fd, STP_S_BUSY, "too many connections (max-conns)");
+            continue;
+        }
+        sts_conn *c = calloc(1, sizeof *c);
+        if (!c) {
+            __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
+            reject(srv, fd, STP_S_NOMEM, "out of memory");
+            continue;
+        }
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        c->fd = fd;
+        c->io = io;
+        c->id = __atomic_add_fetch(&srv->next_conn_id, 1, __ATOMIC_RELAXED);
+        c->last_ms = sts_now_ms();
+        stp_buf_init(&c->out);
+        c->ev_mask = STS_EV_READ;
+        if (sts_ev_add(io->ev, fd, STS_EV_READ, c) != 0) {
+            __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
+            free(c);
+            reject(srv, fd, STP_S_INTERNAL, "poller");
+            continue;
+        }
+        c->next = io->conns;
+        if (io->conns)
+            io->conns->prev = c;
+        io->conns = c;
+        io->nconns++;
+        STS_STAT_ADD(srv, conns_accepted, 1);
+    }
+}
+
+/* ---- completions from workers ---------------------------------------------------------------- */
+
+void sts_io_wake(sts_io *io)
+{
+    uint64_t one = 1;
+    ssize_t w = write(io->wakefd, &one, sizeof one);
+    (void)w;
+}
+
+void sts_io_complete(sts_io *io, sts_task *t)
+{
+    pthread_mutex_lock(&io->mu);
+    t->next = io->done;
+    io->done = t;
+    pthread_mutex_unlock(&io->mu);
+    sts_io_wake(io);
+}
+
+static void take_completions(sts_io *io)
+{
+    uint64_t v;
+    ssize_t r = read(io->wakefd, &v, sizeof v);
+    (void)r;
+    pthread_mutex_lock(&io->mu);
+    sts_task *list = io->done;
+    io->done = NULL;
+    pthread_mutex_unlock(&io->mu);
+    /* the list is newest first; different connections are independent and a connection has
+     * at most one task out, so the order between them does not matter */
+    while (list) {
+        sts_task *t = list;
+        list = t->next;
+        sts_conn *c = t->conn;
+        c->busy = 0;
+        if (!c->dead) {
+            stp_put_bytes(&c->out, stp_buf_head(&t->out), stp_buf_avail(&t->out));
+            in_consume(c, STP_HEADER_SIZE + (size_t)t->h.body_len);
+            if (t->close)
+                c->close_after = 1;
+        }
+        stp_buf_free(&t->out);
+        free(t);
+        if (c->dead) {
+            conn_free(c);
+            continue;
+        }
+        account(c);
+        conn_process(c);   /* pipelined requests that waited behind this one */
+        if (c->dead)
+            continue;
+        if (conn_flush(c) == 0)
+            set_interest(c);
+    }
+}
+
+/* ---- the loop ------------------------------------------------------------------------------ */
+
+static void idle_scan(sts_io *io, int64_t now)
+{
+    uint32_t idle = STS_LIVE(io->srv, idle_timeout);
+    if (!idle)
+        return;
+    sts_conn *c = io->conns;
+    while (c) {
+        sts_conn *next = c->next;
+        if (!c->busy && now - c->last_ms > (int64_t)idle * 1000) {
+            STS_STAT_ADD(io->srv, conns_idle_closed, 1);
+            conn_close(c);
+        }
+        c = next;
+    }
+}
+
+/* At stop: connections with nothing in flight and nothing to send are closed; the others
+ * finish (requests already received are still answered). Returns connections left. */
+static uint32_t drain_step(sts_io *io, int force)
+{
+    sts_conn *c = io->conns;
+    while (c) {
+        sts_conn *next = c->next;
+        if (!c->busy) {
+            if (!c->dead)
+                conn_process(c);
+            if (!c->dead && conn_flush(c) == 0) {
+                if (force || !stp_buf_avail(&c->out))
+                    conn_close(c);
+                else
+                    set_interest(c);
+            }
+        }
+        c = next;
+    }
+    return io->nconns;
+}
+
+void *sts_io_main(void *arg)
+{
+    sts_io *io = arg;
+    sts_server *srv = io->srv;
+    sts_ev_event evs[256];
+    int listening = sts_ev_add(io->ev, srv->listen_fd, STS_EV_READ | STS_EV_EXCLUSIVE, srv) == 0;
+    if (!listening)
+        sts_logf(&srv->log, STS_ERROR, "I/O thread %d cannot poll the listening socket: %s",
+                 io->index, strerror(errno));
+    sts_ev_add(io->ev, io->wakefd, STS_EV_READ, io);
+    int64_t last_scan = sts_now_ms();
+    for (;;) {
+        int stopping = __atomic_load_n(&srv->stopping, __ATOMIC_ACQUIRE);
+        if (stopping) {
+            if (listening) {
+                sts_ev_del(io->ev, srv->listen_fd);
+                listening = 0;
+                for (sts_conn *c = io->conns; c; c = c->next)
+                    if (!c->dead)
+                        set_interest(c);
+            }
+            if (drain_step(io, stopping >= 2) == 0)
+                break;
+        }
+        int n = sts_ev_wait(io->ev, evs, 256, stopping ? 20 : 1000);
+        for (int i = 0; i < n; i++) {
+            void *p = evs[i].ptr;
+            if (p == srv) {
+                do_accept(io);
+            } else if (p == io) {
+                take_completions(io);
+            } else {
+                sts_conn *c = p;
+                if (c->dead)
+                    continue;
+                if (evs[i].events & STS_EV_WRITE) {
+                    if (conn_flush(c) != 0)
+                        continue;
+                    conn_process(c);  /* backpressure released: parse what waited */
+                    if (c->dead || conn_flush(c) != 0)
+                        continue;
+                    set_interest(c);
+                }
+                if (evs[i].events & STS_EV_ERROR) {
+                    if (!c->busy && !(c->ev_mask & STS_EV_READ)) {
+                        conn_close(c);
+                        continue;
+                    }
+                }
+                if ((evs[i].events & STS_EV_READ) && (c->ev_mask & STS_EV_READ))
+                    conn_readable(c);
+                else if ((evs[i].events & STS_EV_ERROR) && c->busy)
+                    conn_close(c);  /* freed when the worker's reply comes back */
+            }
+        }
+        int64_t now = sts_now_ms();
+        if (now - last_scan >= 1000) {
+            idle_scan(io, now);
+            last_scan = now;
+        }
+    }
+    /* the loop ends with no connection left; a task still out would have kept one */
+    return NULL;
+}

@@ -1,0 +1,317 @@
+/* server/server.c - the sts_server: creation (registry, data dir, default set, listening
+ * socket), thread start, graceful stop, config reload, token and memory accounting.
+ *
+ * Owns: the server's lifetime. Does not own: signals (main.c), connections (io.c), requests
+ * (dispatch.c and the handlers).
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/eventfd.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "have.h"
+#include "server.h"
+#ifdef STS_HAVE_st_default_set
+#include "defaultset.h"
+#endif
+
+int64_t sts_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+int sts_mem_take(sts_server *srv, uint64_t n)
+{
+    uint64_t used = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED);
+    return used + n > STS_LIVE(srv, max_memory) ? -1 : 0;
+}
+
+void sts_mem_give(sts_server *srv, uint64_t n)
+{
+    (void)srv;
+    (void)n;  /* io.c's account() tracks capacities; nothing reserved ahead to give back */
+}
+
+uint32_t sts_token_check(sts_server *srv, const char *token)
+{
+    pthread_mutex_lock(&srv->cfg_mu);
+    const char *want = srv->cfg.token;
+    size_t a = strlen(want), b = strlen(token);
+    unsigned diff = (unsigned)(a ^ b);
+    for (size_t i = 0; i < b; i++)   /* time depends on the offered token's length only */
+        diff |= (unsigned char)token[i] ^ (unsigned char)want[a ? i % a : 0];
+    uint32_t gen = (a && !diff) ? srv->token_gen : 0;
+    pthread_mutex_unlock(&srv->cfg_mu);
+    return gen;
+}
+
+int sts_token_allows(sts_server *srv, uint32_t authed)
+{
+    pthread_mutex_lock(&srv->cfg_mu);
+    int ok = !srv->cfg.token[0] || (authed && authed == srv->token_gen);
+    pthread_mutex_unlock(&srv->cfg_mu);
+    return ok;
+}
+
+static void raise_nofile(sts_server *srv)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < rl.rlim_max) {
+        rlim_t old = rl.rlim_cur;
+        rl.rlim_cur = rl.rlim_max;
+        if (setrlimit(RLIMIT_NOFILE, &rl) == 0)
+            sts_logf(&srv->log, STS_DEBUG, "open-file limit raised from %llu to %llu",
+                     (unsigned long long)old, (unsigned long long)rl.rlim_max);
+    }
+    if (getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY &&
+        rl.rlim_cur < (rlim_t)srv->cfg.max_conns + 64)
+        sts_logf(&srv->log, STS_WARN, "open-file limit %llu is below max-conns %u + 64: "
+                 "connections past it fail at accept", (unsigned long long)rl.rlim_cur,
+                 srv->cfg.max_conns);
+}
+
+static int open_listener(sts_server *srv)
+{
+    char host[128];
+    int port;
+    sts_parse_listen(srv->cfg.listen, host, sizeof host, &port);
+    struct addrinfo hints, *res = NULL;
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+    char ps[16];
+    snprintf(ps, sizeof ps, "%d", port);
+    int rc = getaddrinfo(host, ps, &hints, &res);
+    if (rc != 0) {
+        sts_logf(&srv->log, STS_ERROR, "listen %s: %s", srv->cfg.listen, gai_strerror(rc));
+        return -1;
+    }
+    int fd = -1;
+    for (struct addrinfo *ai = res; ai; ai = ai->ai_next) {
+        fd = socket(ai->ai_family, ai->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+            continue;
+        int one = 1;
+        setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+        if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, 4096) == 0)
+            break;
+        sts_logf(&srv->log, STS_ERROR, "listen %s: %s", srv->cfg.listen, strerror(errno));
+        close(fd);
+        fd = -1;
+    }
+    freeaddrinfo(res);
+    if (fd < 0)
+        return -1;
+    struct sockaddr_storage ss;
+    socklen_t sl = sizeof ss;
+    getsockname(fd, (struct sockaddr *)&ss, &sl);
+    srv->port = ss.ss_family == AF_INET6 ? ntohs(((struct sockaddr_in6 *)&ss)->sin6_port)
+                                         : ntohs(((struct sockaddr_in *)&ss)->sin_port);
+    srv->listen_fd = fd;
+    return 0;
+}
+
+int sts_server_init(sts_server *srv, const sts_config *cfg)
+{
+    memset(srv, 0, sizeof *srv);
+    srv->cfg = *cfg;
+    srv->listen_fd = -1;
+    srv->token_gen = 1;
+    srv->started_ms = sts_now_ms();
+    sts_log_set_level(&srv->log, cfg->log_level);
+    pthread_mutex_init(&srv->cfg_mu, NULL);
+    pthread_mutex_init(&srv->uploads.mu, NULL);
+    pthread_mutex_init(&srv->jobs.mu, NULL);
+    pthread_cond_init(&srv->jobs.cv, NULL);
+    raise_nofile(srv);
+    srv->reg = st_registry_create();
+    if (!srv->reg) {
+        sts_logf(&srv->log, STS_ERROR, "out of memory");
+        return -1;
+    }
+    st_error e;
+    st_error_clear(&e);
+    if (cfg->data_dir[0]) {
+        if (st_datadir_open(cfg->data_dir, &srv->dd, &e) != 0) {
+            sts_logf(&srv->log, STS_ERROR, "data dir: %s", e.msg);
+            return -1;
+        }
+        if (sts_load_datadir(srv) < 0)
+            return -1;
+    } else {
+        sts_logf(&srv->log, STS_WARN, "no --data-dir: uploaded sets live in memory only");
+    }
+    if (cfg->default_set) {
+        st_setref *ref = NULL;
+        if (st_registry_get(srv->reg, "default", &ref, NULL) == 0) {
+            st_setref_release(ref);
+            sts_logf(&srv->log, STS_INFO, "set 'default' comes from the data dir");
+        } else {
+#ifdef STS_HAVE_st_default_set
+            st_set *s = NULL;
+            int64_t t0 = sts_now_ms();
+            if (st_default_set(&s, &e) == 0 &&
+                st_registry_put(srv->reg, "default", s, NULL, 0, NULL, &e) == 0)
+                sts_logf(&srv->log, STS_INFO, "built-in set 'default' loaded (%u faces, %lld ms)",
+                         s->info.nfaces, (long long)(sts_now_ms() - t0));
+            else
+                sts_logf(&srv->log, STS_WARN, "built-in set 'default' not loaded: %s", e.msg);
+#else
+            sts_logf(&srv->log, STS_WARN, "this build has no built-in default set");
+#endif
+        }
+    }
+    if (open_listener(srv) != 0)
+        return -1;
+    return 0;
+}
+
+static int write_port_file(sts_server *srv)
+{
+    if (!srv->cfg.port_file[0])
+        return 0;
+    char tmp[1100];
+    snprintf(tmp, sizeof tmp, "%s.tmp", srv->cfg.port_file);
+    FILE *f = fopen(tmp, "we");
+    if (!f) {
+        sts_logf(&srv->log, STS_ERROR, "port-file %s: %s", tmp, strerror(errno));
+        return -1;
+    }
+    fprintf(f, "%d\n", srv->port);
+    fclose(f);
+    if (rename(tmp, srv->cfg.port_file) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "port-file %s: %s", srv->cfg.port_file, strerror(errno));
+        return -1;
+    }
+    return 0;
+}
+
+int sts_server_start(sts_server *srv)
+{
+    srv->nio = srv->cfg.io_threads;
+    srv->io = calloc(srv->nio, sizeof *srv->io);
+    if (!srv->io)
+        return -1;
+    if (sts_pool_start(srv, &srv->pool, srv->cfg.workers) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "cannot start workers");
+        return -1;
+    }
+    if (sts_jobs_start(srv) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "cannot start the job thread");
+        return -1;
+    }
+    for (uint32_t i = 0; i < srv->nio; i++) {
+        sts_io *io = &srv->io[i];
+        io->srv = srv;
+        io->index = (int)i;
+        io->ev = sts_ev_create();
+        io->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+        pthread_mutex_init(&io->mu, NULL);
+        if (!io->ev || io->wakefd < 0 || pthread_create(&io->thread, NULL, sts_io_main, io) != 0) {
+            sts_logf(&srv->log, STS_ERROR, "cannot start I/O thread %u", i);
+            srv->nio = i;
+            return -1;
+        }
+    }
+    if (write_port_file(srv) != 0)
+        return -1;
+    sts_logf(&srv->log, STS_INFO, "seamtexd serving on %s (port %d): %u I/O threads, %u workers, "
+             "%zu sets, token %s", srv->cfg.listen, srv->port, srv->nio, srv->cfg.workers,
+             st_registry_count(srv->reg), srv->cfg.token[0] ? "required for changes" : "off");
+    return 0;
+}
+
+void sts_server_stop(sts_server *srv, int grace_ms)
+{
+    __atomic_store_n(&srv->stopping, 1, __ATOMIC_RELEASE);
+    for (uint32_t i = 0; i < srv->nio; i++)
+        sts_io_wake(&srv->io[i]);
+    /* wait for the I/O threads to drain; past the grace period close what is left */
+    int64_t deadline = sts_now_ms() + grace_ms;
+    for (;;) {
+        uint32_t live = 0;
+        for (uint32_t i = 0; i < srv->nio; i++)
+            live += __atomic_load_n(&srv->io[i].nconns, __ATOMIC_RELAXED) > 0;
+        if (!live || sts_now_ms() >= deadline)
+            break;
+        struct timespec ts = {0, 10 * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+    __atomic_store_n(&srv->stopping, 2, __ATOMIC_RELEASE);
+    for (uint32_t i = 0; i < srv->nio; i++) {
+        sts_io_wake(&srv->io[i]);
+        pthread_join(srv->io[i].thread, NULL);
+    }
+    sts_pool_stop(&srv->pool);
+    sts_jobs_stop(srv);
+    sts_logf(&srv->log, STS_INFO, "stopped: %llu connections, %llu requests (%llu errors), "
+             "%llu queries served", (unsigned long long)srv->stats.conns_accepted,
+             (unsigned long long)srv->stats.requests, (unsigned long long)srv->stats.replies_error,
+             (unsigned long long)srv->stats.queries);
+}
+
+void sts_server_free(sts_server *srv)
+{
+    for (uint32_t i = 0; i < srv->nio; i++) {
+        sts_io *io = &srv->io[i];
+        sts_ev_free(io->ev);
+        if (io->wakefd >= 0)
+            close(io->wakefd);
+        sts_scratch_free(&io->scratch);
+        pthread_mutex_destroy(&io->mu);
+    }
+    free(srv->io);
+    srv->io = NULL;
+    if (srv->listen_fd >= 0)
+        close(srv->listen_fd);
+    sts_uploads_free(srv);
+    st_registry_free(srv->reg);
+    st_datadir_close(srv->dd);
+    if (srv->cfg.port_file[0])
+        unlink(srv->cfg.port_file);
+}
+
+#define SET_LIVE(field) __atomic_store_n(&srv->cfg.field, fresh->field, __ATOMIC_RELAXED)
+
+void sts_server_reload(sts_server *srv, const sts_config *fresh)
+{
+    char diff[4096];
+    int n = sts_config_diff(&srv->cfg, fresh, diff, sizeof diff);
+    SET_LIVE(max_conns);
+    SET_LIVE(idle_timeout);
+    SET_LIVE(max_frame);
+    SET_LIVE(max_upload);
+    SET_LIVE(deadline_ms);
+    SET_LIVE(max_batch);
+    SET_LIVE(heavy_batch);
+    SET_LIVE(conn_out_cap);
+    SET_LIVE(max_memory);
+    SET_LIVE(max_sets);
+    SET_LIVE(max_uploads);
+    SET_LIVE(max_jobs);
+    SET_LIVE(max_set_bytes);
+    SET_LIVE(log_level);
+    sts_log_set_level(&srv->log, fresh->log_level);
+    pthread_mutex_lock(&srv->cfg_mu);
+    if (strcmp(srv->cfg.token, fresh->token) != 0) {
+        memcpy(srv->cfg.token, fresh->token, sizeof srv->cfg.token);
+        srv->token_gen++;  /* connections authenticated with the old token must HELLO again */
+    }
+    memcpy(srv->cfg.token_file, fresh->token_file, sizeof srv->cfg.token_file);
+    pthread_mutex_unlock(&srv->cfg_mu);
+    if (n)
+        sts_logf(&srv->log, STS_INFO, "reloaded config: %s", diff);
+    else
+        sts_logf(&srv->log, STS_INFO, "reloaded config: nothing changed");
+}
