@@ -358,29 +358,31 @@ int main(int argc, char **argv)
     bench_thread *ths = calloc(cfg.threads, sizeof *ths);
     bench_result *res = calloc(cfg.threads + 1, sizeof *res);
     pthread_t *tids = calloc(cfg.threads, sizeof *tids);
+    unsigned nfds = 0;
+    int rc = 0;
     if (!fds || !ths || !res || !tids) {
         fprintf(stderr, "seamtex-bench: out of memory\n");
-        return 1;
+        rc = 1;
+        goto done;
     }
-    for (unsigned i = 0; i < cfg.conns; i++) {
-        fds[i] = bench_wire_connect(&cfg, msg, sizeof msg);
-        if (fds[i] < 0) {
-            fprintf(stderr, "seamtex-bench: connection %u: %s\n", i, msg);
-            close_all(fds, i);
-            return 3;
+    for (; nfds < cfg.conns; nfds++) {
+        fds[nfds] = bench_wire_connect(&cfg, msg, sizeof msg);
+        if (fds[nfds] < 0) {
+            fprintf(stderr, "seamtex-bench: connection %u: %s\n", nfds, msg);
+            rc = 3;
+            goto done;
         }
     }
     if (cfg.op == BENCH_OP_SAMPLE && bench_wire_set_info(&cfg, fds[0], msg, sizeof msg) < 0) {
         fprintf(stderr, "seamtex-bench: %s\n", msg);
-        close_all(fds, cfg.conns);
-        return 1;
+        rc = 1;
+        goto done;
     }
 
     uint64_t t0 = bench_now_ns() + 20000000ull;    /* 20 ms for the threads to start */
     uint64_t t_measure = t0 + (uint64_t)(cfg.warmup_s * 1e9);
     uint64_t t_end = t_measure + (uint64_t)(cfg.duration_s * 1e9);
     unsigned first = 0;
-    int rc = 0;
     for (unsigned t = 0; t < cfg.threads; t++) {
         bench_thread *th = &ths[t];
         th->cfg = &cfg;
@@ -401,7 +403,8 @@ int main(int argc, char **argv)
         th->wire = bench_wire_new(&cfg, cfg.seed * 7919u + t, msg, sizeof msg);
         if (!th->wire) {
             fprintf(stderr, "seamtex-bench: %s\n", msg);
-            return 1;
+            rc = 1;
+            goto done;
         }
     }
     if (!cfg.quiet)
@@ -441,9 +444,7 @@ int main(int argc, char **argv)
         all->queries += r->queries;
         all->bytes_out += r->bytes_out;
         all->bytes_in += r->bytes_in;
-        bench_wire_free(ths[t].wire);
     }
-    close_all(fds, cfg.conns);
 
     /* the measured window; with a request cap the run may end before t_end */
     double secs = cfg.duration_s;
@@ -485,6 +486,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "seamtex-bench: no reply was measured\n");
         rc = rc ? rc : 1;
     }
+done:
+    if (fds)
+        close_all(fds, nfds);
+    for (unsigned t = 0; ths && t < cfg.threads; t++)
+        bench_wire_free(ths[t].wire);
     free(fds);
     free(ths);
     free(res);
