@@ -27,7 +27,7 @@ static int start_req(stc_conn *c, uint8_t op, uint32_t *id)
     return stc__pend_add(c, *id, op, 0);
 }
 
-static int encoded(stc_conn *c, int st)
+static int xfer_encoded(stc_conn *c, int st)
 {
     if (st == 0)
         return 0;
@@ -70,7 +70,7 @@ static void cleanup_call(stc_conn *c, uint8_t op, uint64_t xid)
         c->hold = 0;
     }
     if (start_req(c, op, &id) == 0 &&
-        encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)c->timeout_ms, xid)) == 0)
+        xfer_encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)c->timeout_ms, xid)) == 0)
         (void)roundtrip(c, id, &f);
     if (c->hold) {
         stp_buf_consume(&c->in, c->hold);
@@ -114,7 +114,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     bg.crc32c = crc;
     bg.flags = o && (o->flags & STC_UPLOAD_REPLACE) ? STP_UF_REPLACE : 0;
     if ((rc = start_req(c, STP_OP_UPLOAD_BEGIN, &id)) != 0 ||
-        (rc = encoded(c, stp_enc_upload_begin(&c->out, id, (uint32_t)c->timeout_ms, &bg))) != 0 ||
+        (rc = xfer_encoded(c, stp_enc_upload_begin(&c->out, id, (uint32_t)c->timeout_ms, &bg))) != 0 ||
         (rc = roundtrip(c, id, &f)) != 0)
         return rc;
     if (stp_dec_upload_begin_reply(f.body, f.h.body_len, &br, &why) != 0)
@@ -142,7 +142,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
             ch.len = left < chunk ? (uint32_t)left : chunk;
             ch.data = data + sent;
             if ((rc = start_req(c, STP_OP_UPLOAD_CHUNK, &id)) != 0 ||
-                (rc = encoded(c, stp_enc_upload_chunk(&c->out, id, (uint32_t)c->timeout_ms,
+                (rc = xfer_encoded(c, stp_enc_upload_chunk(&c->out, id, (uint32_t)c->timeout_ms,
                                                       &ch))) != 0)
                 goto fail;
             ids[inflight++] = id;
@@ -186,7 +186,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     }
 
     if ((rc = start_req(c, STP_OP_UPLOAD_COMMIT, &id)) != 0 ||
-        (rc = encoded(c, stp_enc_id_req(&c->out, STP_OP_UPLOAD_COMMIT, id,
+        (rc = xfer_encoded(c, stp_enc_id_req(&c->out, STP_OP_UPLOAD_COMMIT, id,
                                         (uint32_t)c->timeout_ms, br.upload_id))) != 0)
         goto fail;
     if ((rc = roundtrip(c, id, &f)) != 0) {
@@ -311,7 +311,7 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
     snprintf(fo.name, sizeof fo.name, "%s", set);
     fo.format = (uint8_t)format;
     if ((rc = start_req(c, STP_OP_FETCH_OPEN, &id)) != 0 ||
-        (rc = encoded(c, stp_enc_fetch_open(&c->out, id, (uint32_t)c->timeout_ms, &fo))) != 0 ||
+        (rc = xfer_encoded(c, stp_enc_fetch_open(&c->out, id, (uint32_t)c->timeout_ms, &fo))) != 0 ||
         (rc = roundtrip(c, id, &f)) != 0)
         return rc;
     if (stp_dec_fetch_open_reply(f.body, f.h.body_len, &fr, &why) != 0)
@@ -329,7 +329,7 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
         while (inflight < win && asked < fr.total_size) {
             stp_fetch_read rd = { fr.fetch_id, asked, chunk };
             if ((rc = start_req(c, STP_OP_FETCH_READ, &id)) != 0 ||
-                (rc = encoded(c, stp_enc_fetch_read(&c->out, id, (uint32_t)c->timeout_ms,
+                (rc = xfer_encoded(c, stp_enc_fetch_read(&c->out, id, (uint32_t)c->timeout_ms,
                                                     &rd))) != 0)
                 goto fail;
             ids[inflight++] = id;
