@@ -17,6 +17,9 @@
 
 #include <math.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "ptex_format.h"
 #include "ptexfilter_kernel.h"
@@ -24,14 +27,41 @@
 
 #define PF_MAX_DEPTH 8   /* subface re-splits; Ptex needs 2, a bad adjacency table might loop */
 
+typedef float v4f __attribute__((vector_size(16)));
+
+enum { PF_U8, PF_F32, PF_OTHER };
+
+/* One texel as 4 float lanes (raw values: u8 0..255, u16 0..65535). The u8 and float loads
+ * read 4 channels even for fewer: the set arena and the table arena end with slack, and the
+ * extra lanes are never stored. */
+static inline v4f load_u8(const uint8_t *p)
+{
+#ifdef __SSE2__
+    uint32_t x;
+    memcpy(&x, p, 4);
+    __m128i z = _mm_setzero_si128();
+    __m128i v = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128((int)x), z), z);
+    return (v4f)_mm_cvtepi32_ps(v);
+#else
+    return (v4f){(float)p[0], (float)p[1], (float)p[2], (float)p[3]};
+#endif
+}
+static inline v4f load_f32(const uint8_t *p)
+{
+    v4f v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
 typedef struct pf {
     const st_set *s;
     const st_ptexres *t;
     unsigned nc, dt;
     int mode;                /* st_mode */
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
+    int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
     float weight;
-    float res[ST_MAX_CHANNELS];
+    v4f acc;                 /* the weighted sum, raw units */
 } pf;
 
 static float one_value(unsigned dt)
@@ -47,6 +77,14 @@ static inline float texel_raw(unsigned dt, const uint8_t *p, unsigned c)
     case ST_DT_HALF: { uint16_t x; memcpy(&x, p + 2 * c, 2); return st_half_to_float(x); }
     default: { float x; memcpy(&x, p + 4 * c, 4); return x; }
     }
+}
+
+static inline v4f load_any(unsigned dt, unsigned nc, const uint8_t *p)
+{
+    v4f v = {0, 0, 0, 0};
+    for (unsigned ch = 0; ch < nc; ch++)
+        v[ch] = texel_raw(dt, p, ch);
+    return v;
 }
 
 static inline int is_subface(const pf *c, int f)
@@ -73,8 +111,7 @@ static void apply(pf *c, pk *k, int f)
     const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
     if (F->flags & ST_FACE_CONSTANT) {
         float w = pk_weight(k);
-        for (unsigned ch = 0; ch < nc; ch++)
-            c->res[ch] += texel_raw(dt, d, ch) * w;
+        c->acc += load_any(dt, nc, d) * w;
         return;
     }
     int resu = 1 << k->ulog2;
@@ -82,34 +119,39 @@ static void apply(pf *c, pk *k, int f)
     if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
         return;
     size_t ts = st_dtype_size(dt) * nc;
-    for (int j = 0; j < k->vw; j++) {
-        const uint8_t *p = d + ((size_t)(k->v + j) * resu + k->u) * ts;
-        float row[ST_MAX_CHANNELS];
-        if (dt == ST_DT_U8) {
-            for (unsigned ch = 0; ch < nc; ch++)
-                row[ch] = (float)p[ch] * ku[0];
-            for (int i = 1; i < k->uw; i++) {
-                const uint8_t *q = p + (size_t)i * ts;
-                for (unsigned ch = 0; ch < nc; ch++)
-                    row[ch] += (float)q[ch] * ku[i];
-            }
-        } else if (dt == ST_DT_F32) {
-            const float *q = (const float *)(const void *)p;
-            for (unsigned ch = 0; ch < nc; ch++)
-                row[ch] = q[ch] * ku[0];
+    const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
+    size_t rowb = (size_t)resu * ts;
+    v4f acc = c->acc;
+    switch (c->kind) {
+    case PF_U8:
+        for (int j = 0; j < k->vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_u8(p) * ku[0];
             for (int i = 1; i < k->uw; i++)
-                for (unsigned ch = 0; ch < nc; ch++)
-                    row[ch] += q[(size_t)i * nc + ch] * ku[i];
-        } else {
-            for (unsigned ch = 0; ch < nc; ch++)
-                row[ch] = texel_raw(dt, p, ch) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                for (unsigned ch = 0; ch < nc; ch++)
-                    row[ch] += texel_raw(dt, p + (size_t)i * ts, ch) * ku[i];
+                row += load_u8(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
         }
-        for (unsigned ch = 0; ch < nc; ch++)
-            c->res[ch] += row[ch] * kv[j];
+        break;
+    case PF_F32:
+        for (int j = 0; j < k->vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_f32(p) * ku[0];
+            for (int i = 1; i < k->uw; i++)
+                row += load_f32(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    default:
+        for (int j = 0; j < k->vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_any(dt, nc, p) * ku[0];
+            for (int i = 1; i < k->uw; i++)
+                row += load_any(dt, nc, p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
     }
+    c->acc = acc;
 }
 
 static void split_apply(pf *c, pk *k, int f, int depth);
@@ -360,7 +402,7 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         pk_build(pp, &k, u, v, uw, vw, F->ulog2, F->vlog2);
     }
     pk_strip_zeros(&k);
-    memset(c->res, 0, sizeof c->res);
+    c->acc = (v4f){0, 0, 0, 0};
     if (k.uw <= 0 || k.vw <= 0) {
         for (unsigned ch = 0; ch < c->nc; ch++)
             out[ch] = 0.0f;
@@ -369,7 +411,10 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     }
     float total = pk_weight(&k);
     c->weight = total;
-    split_apply(c, &k, (int)f, 0);
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2))
+        apply(c, &k, (int)f); /* the kernel lies inside the face: every mode agrees */
+    else
+        split_apply(c, &k, (int)f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
          * negative keeps more than its total, reported as 1 */
@@ -398,7 +443,7 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     }
     float scale = 1.0f / (c->weight * one_value(c->dt));
     for (unsigned ch = 0; ch < c->nc; ch++)
-        out[ch] = c->res[ch] * scale;
+        out[ch] = c->acc[ch] * scale;
     return ST_Q_OK;
 }
 
@@ -423,6 +468,7 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     pk_params_init(&pp, o->filter, o->sharpness);
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
+    c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n; i++) {
@@ -431,13 +477,13 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
         int st = ST_Q_OK;
         if (qi->face >= s->info.nfaces)
             st = ST_Q_BAD_FACE;
-        else if (!isfinite(qi->u) || !isfinite(qi->v) || !isfinite(qi->dudx) ||
-                 !isfinite(qi->dvdx) || !isfinite(qi->dudy) || !isfinite(qi->dvdy))
-            st = ST_Q_NONFINITE;
-        else if (fabsf(qi->u) > ST_MAX_COORD || fabsf(qi->v) > ST_MAX_COORD ||
-                 fabsf(qi->dudx) > ST_MAX_DERIV || fabsf(qi->dvdx) > ST_MAX_DERIV ||
-                 fabsf(qi->dudy) > ST_MAX_DERIV || fabsf(qi->dvdy) > ST_MAX_DERIV)
-            st = ST_Q_BAD_FOOTPRINT;
+        else if (!(fabsf(qi->u) <= ST_MAX_COORD && fabsf(qi->v) <= ST_MAX_COORD &&
+                   fabsf(qi->dudx) <= ST_MAX_DERIV && fabsf(qi->dvdx) <= ST_MAX_DERIV &&
+                   fabsf(qi->dudy) <= ST_MAX_DERIV && fabsf(qi->dvdy) <= ST_MAX_DERIV))
+            /* one test for the common case; NaN fails it too */
+            st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
+                 isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)
+                     ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
         if (st == ST_Q_OK)
             st = eval(&c, &pp, o, qi, oi, &cov);
         else {

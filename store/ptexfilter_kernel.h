@@ -41,8 +41,24 @@ void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, i
 
 /* Kernel operations (Ptex semantics). */
 void  pk_set(pk *dst, const pk *src);           /* copy with weights packed at index 0 */
-void  pk_strip_zeros(pk *k);
-float pk_weight(const pk *k);
+static inline float pk_accumulate(const float *p, int n)
+{
+    float r = 0;
+    for (int i = 0; i < n; i++)
+        r += p[i];
+    return r;
+}
+static inline float pk_weight(const pk *k)
+{
+    return pk_accumulate(k->kub + k->ku0, k->uw) * pk_accumulate(k->kvb + k->kv0, k->vw);
+}
+static inline void pk_strip_zeros(pk *k)
+{
+    while (k->uw > 0 && k->kub[k->ku0] == 0) { k->ku0++; k->u++; k->uw--; }
+    while (k->uw > 0 && k->kub[k->ku0 + k->uw - 1] == 0) k->uw--;
+    while (k->vw > 0 && k->kvb[k->kv0] == 0) { k->kv0++; k->v++; k->vw--; }
+    while (k->vw > 0 && k->kvb[k->kv0 + k->vw - 1] == 0) k->vw--;
+}
 void  pk_merge_l(pk *k, int black);
 void  pk_merge_r(pk *k, int black);
 void  pk_merge_b(pk *k, int black);
