@@ -333,42 +333,64 @@ static void requantise(const solver *S, uint32_t b, const double e0[3], const do
     blk[7] = (uint8_t)(sel >> 24);
 }
 
+/* Seam energy of point p (exact decoder, every block as it is now). */
+static double point_energy(const solver *S, size_t p)
+{
+    const tapref *r = &S->taps[8 * p];
+    double v[3] = {0, 0, 0};
+    for (int j = 0; j < 8; j++) {
+        uint8_t px[4];
+        if (r[j].blk < 0) {
+            const uint8_t *t = S->target + r[j].tex * 4;
+            px[0] = t[0];
+            px[1] = t[1];
+            px[2] = t[2];
+        } else {
+            st_bc1_texel(blk_ptr(S, (uint32_t)r[j].blk), r[j].pos & 3u, r[j].pos >> 2, px);
+        }
+        for (int c = 0; c < 3; c++)
+            v[c] += r[j].w * px[c];
+    }
+    return S->sys->pts[p].len * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
+static double texel_data(const solver *S, uint32_t b, const uint8_t *blk, int i)
+{
+    double d = S->d[16 * b + i];
+    if (d == 0)
+        return 0;
+    uint8_t px[4];
+    st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)i >> 2, px);
+    const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
+    double e = 0;
+    for (int c = 0; c < 3; c++) {
+        double dd = (double)px[c] - o[c];
+        e += dd * dd;
+    }
+    return d * e;
+}
+
 /* Energy that block b's bits can change: its texels' data term plus the seam term of every
- * point that taps it (exact decoder, other blocks as they are). */
-static double local_energy(const solver *S, uint32_t b)
+ * point that taps it (exact decoder, other blocks as they are). With texel >= 0, only what
+ * texel `texel` of the block changes: its data term and the points that tap it. */
+static double local_energy(const solver *S, uint32_t b, int texel)
 {
     const uint8_t *blk = blk_ptr(S, b);
     double ec = 0, es = 0;
-    for (int i = 0; i < 16; i++) {
-        double d = S->d[16 * b + i];
-        if (d == 0)
-            continue;
-        uint8_t px[4];
-        st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)i >> 2, px);
-        const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
-        for (int c = 0; c < 3; c++) {
-            double dd = (double)px[c] - o[c];
-            ec += d * dd * dd;
-        }
-    }
+    for (int i = 0; i < 16; i++)
+        if (texel < 0 || i == texel)
+            ec += texel_data(S, b, blk, i);
     for (uint32_t k = S->bp_off[b]; k < S->bp_off[b + 1]; k++) {
         size_t p = S->bp[k];
-        const tapref *r = &S->taps[8 * p];
-        double v[3] = {0, 0, 0};
-        for (int j = 0; j < 8; j++) {
-            uint8_t px[4];
-            if (r[j].blk < 0) {
-                const uint8_t *t = S->target + r[j].tex * 4;
-                px[0] = t[0];
-                px[1] = t[1];
-                px[2] = t[2];
-            } else {
-                st_bc1_texel(blk_ptr(S, (uint32_t)r[j].blk), r[j].pos & 3u, r[j].pos >> 2, px);
-            }
-            for (int c = 0; c < 3; c++)
-                v[c] += r[j].w * px[c];
+        if (texel >= 0) {
+            const tapref *r = &S->taps[8 * p];
+            int hit = 0;
+            for (int j = 0; j < 8 && !hit; j++)
+                hit = r[j].blk == (int32_t)b && r[j].pos == texel;
+            if (!hit)
+                continue;
         }
-        es += S->sys->pts[p].len * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        es += point_energy(S, p);
     }
     return ec + S->alpha * es;
 }
@@ -391,7 +413,6 @@ static void put_block(uint8_t *blk, uint16_t c0, uint16_t c1, uint32_t sel)
 static int local_search(const solver *S, uint32_t b)
 {
     uint8_t *blk = blk_ptr(S, b);
-    double cur = local_energy(S, b);
     int changed = 0;
     uint16_t c0 = rd16(blk), c1 = rd16(blk + 2);
     int four = c0 > c1;
@@ -405,12 +426,13 @@ static int local_search(const solver *S, uint32_t b)
                        (uint32_t)blk[7] << 24;
         uint32_t keep = sel;
         unsigned s0 = sel >> (2 * i) & 3u;
+        double cur = local_energy(S, b, i);
         for (unsigned j = 0; j < (unsigned)nsel; j++) {
             if (j == s0)
                 continue;
             uint32_t ns = (sel & ~(3u << (2 * i))) | j << (2 * i);
             put_block(blk, c0, c1, ns);
-            double en = local_energy(S, b);
+            double en = local_energy(S, b, i);
             if (en < cur - 1e-9) {
                 cur = en;
                 keep = ns;
@@ -420,6 +442,7 @@ static int local_search(const solver *S, uint32_t b)
         put_block(blk, c0, c1, keep);
     }
     static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
+    double cur = local_energy(S, b, -1);
     for (int ep = 0; ep < 2; ep++)
         for (int k = 0; k < 3; k++)
             for (int dlt = -1; dlt <= 1; dlt += 2) {
@@ -435,7 +458,7 @@ static int local_search(const solver *S, uint32_t b)
                 if (four ? n0 <= n1 : n0 > n1)
                     continue; /* would change the mode */
                 put_block(blk, n0, n1, sel);
-                double en = local_energy(S, b);
+                double en = local_energy(S, b, -1);
                 if (en < cur - 1e-9) {
                     cur = en;
                     changed = 1;
