@@ -774,6 +774,40 @@ static void ping_example_matches_protocol_md(void **state)
     stp_buf_free(&b);
 }
 
+static void sample_example_matches_protocol_md(void **state)
+{
+    (void)state;
+    static const uint8_t want_req[] = {
+        0x53, 0x54, 0x58, 0x31, 1, 5, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0x39, 0, 0, 0, 0, 0, 0, 0,
+        3, 0, 't', 'e', 'x', 1, 1, 0, 0, 1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        1, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0, 0x3f, 0, 0, 0x80, 0x3e, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 0, 0, 0, 0, 0 };
+    static const uint8_t want_rep[] = {
+        0x53, 0x54, 0x58, 0x31, 1, 5, 1, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0x14, 0, 0, 0, 0, 0, 0, 0,
+        1, 0, 0, 0, 3, 1, 3, 0, 0, 0, 0, 0, 0xff, 0x80, 0, 0, 0, 0x80, 0x3f, 0 };
+    stp_buf b;
+    stp_query q = { 3, 0.5f, 0.25f, 0, 0, 0, 0 };
+    stp_sample_req r;
+    memset(&r, 0, sizeof r);
+    strcpy(r.p.name, "tex");
+    r.p.mode = 1; r.p.filter = 1; r.p.outfmt = STP_OUT_UNORM8;
+    r.p.flags = STP_SF_COVERAGE | STP_SF_STATUS;
+    r.count = 1;
+    r.queries = &q;
+    stp_buf_init(&b);
+    assert_int_equal(stp_enc_sample_req(&b, 2, 0, &r), 0);
+    assert_int_equal(b.len, sizeof want_req);
+    assert_memory_equal(b.data, want_req, sizeof want_req);
+    float v[3] = { 1.0f, 0.5f, 0.0f }, cov = 1.0f;
+    uint8_t st = 0;
+    stp_sample_reply rp = { 1, 3, STP_OUT_UNORM8, 3, 0, v, &cov, &st, NULL, NULL, NULL };
+    stp_buf_clear(&b);
+    assert_int_equal(stp_enc_sample_reply(&b, STP_OP_SAMPLE, 2, &rp), 0);
+    assert_int_equal(b.len, sizeof want_rep);
+    assert_memory_equal(b.data, want_rep, sizeof want_rep);
+    stp_buf_free(&b);
+}
+
 /* ---- buffer, crc, names, statuses --------------------------------------------------------- */
 
 static void frames_survive_buffer_compaction(void **state)
@@ -882,6 +916,7 @@ int main(void)
         cmocka_unit_test(strings_with_nul_or_over_the_cap_are_refused),
         cmocka_unit_test(error_frames_carry_a_bounded_message),
         cmocka_unit_test(ping_example_matches_protocol_md),
+        cmocka_unit_test(sample_example_matches_protocol_md),
         cmocka_unit_test(frames_survive_buffer_compaction),
         cmocka_unit_test(crc32c_matches_check_value_and_both_paths_agree),
         cmocka_unit_test(names_and_status_mapping),
