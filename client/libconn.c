@@ -104,6 +104,20 @@ size_t stc_pending(const stc_conn *c)
     return c ? c->npipelined : 0;
 }
 
+size_t stc_discard_pending(stc_conn *c)
+{
+    size_t n = 0;
+    if (!c)
+        return 0;
+    for (size_t i = c->phead; i < c->pn; i++)
+        if (c->pend[i].pipelined && !c->pend[i].abandoned) {
+            c->pend[i].abandoned = 1;
+            n++;
+        }
+    c->npipelined = 0;
+    return n;
+}
+
 int stc__grow(void **p, size_t *cap, size_t need)
 {
     void *q;

@@ -286,6 +286,9 @@ int stc_flush(stc_conn *c);
 int stc_get_reply(stc_conn *c, int timeout_ms, stc_reply *r);
 /* Requests appended and not yet answered (abandoned ones after a timeout excluded). */
 size_t stc_pending(const stc_conn *c);
+/* Gives up on every outstanding pipelined request: their replies will be read and dropped
+ * when they come, and blocking calls are allowed again at once. Returns how many. */
+size_t stc_discard_pending(stc_conn *c);
 /* Decoders for replies from stc_get_reply (results owned by c). */
 int stc_reply_sample(stc_conn *c, const stc_reply *r, stc_sample_result *res);
 int stc_reply_info(stc_conn *c, const stc_reply *r, stc_info *out);

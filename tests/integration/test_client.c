@@ -525,6 +525,14 @@ static void pipelined_timeout_keeps_the_reply_coming(void **state)
     assert_int_equal(stc_pending(c), 1);          /* still due: the caller may wait again */
     assert_int_equal(stc_get_reply(c, 3000, &r), 0);
     assert_int_equal(r.reqid, id);
+    /* giving up on pipelined requests re-allows blocking calls; their replies are dropped */
+    assert_int_equal(stc_append_ping(c, "y", 1, &id), 0);
+    assert_int_equal(stc_append_ping(c, "z", 1, &id), 0);
+    assert_int_equal(stc_ping(c), STC_ESTATE);
+    assert_int_equal(stc_discard_pending(c), 2);
+    assert_int_equal(stc_pending(c), 0);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(stc_error(c), 0);
     stc_close(c);
     mock_stop(m);
 }
