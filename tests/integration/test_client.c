@@ -848,6 +848,119 @@ static void real_daemon_answers_malformed_requests_with_statuses(void **state)
     stc_close(c);
 }
 
+static int count_progress(void *user, uint64_t done, uint64_t total)
+{
+    progress *p = user;
+    if (done < p->last || done > total)
+        return 1;                      /* a regression: stop (the test then fails) */
+    p->last = done;
+    p->calls++;
+    return 0;
+}
+
+static void real_daemon_transfers_and_pipelines(void **state)
+{
+    real *r = *state;
+    char path[512], fetched[300], dir[] = "/tmp/stc-e2e-XXXXXX";
+    if (!r->up)
+        skip();
+    if (st_daemon_data_path(path, sizeof path, "ptx/wdas-ptex-2009/cube/text/cube.ptx")) {
+        fprintf(stderr, "# SEAMTEX_DATA missing: skipping\n");
+        skip();
+    }
+    stc_conn *c = real_connect(r);
+    /* a multi-chunk upload (2.37 MB in 256 KiB chunks) with progress */
+    progress p = { 0, 0, 0 };
+    stc_upload_opts uo;
+    stc_upload_result up;
+    memset(&uo, 0, sizeof uo);
+    uo.chunk = 256 << 10;
+    uo.progress = count_progress;
+    uo.user = &p;
+    int rc = stc_upload_file(c, path, "cube_text", &uo, &up);
+    if (rc)
+        fail_msg("upload: %s: %s", stc_strerror(rc), stc_errmsg(c));
+    assert_int_equal(up.nfaces, 72);
+    assert_true(p.calls >= 9);
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    assert_int_equal(p.last, (uint64_t)st.st_size);
+    /* the same name again without REPLACE: EXISTS; with REPLACE: fine */
+    assert_int_equal(stc_upload_file(c, path, "cube_text", NULL, &up), STC_EEXISTS);
+    uo.flags = STC_UPLOAD_REPLACE;
+    uo.progress = NULL;
+    assert_int_equal(stc_upload_file(c, path, "cube_text", &uo, &up), 0);
+
+    /* pipelined batches against the real sampler */
+    stc_query q[64];
+    for (int i = 0; i < 64; i++) {
+        stc_query x = { (uint32_t)i, (i % 8) / 8.0f + 0.05f, (i / 8) / 8.0f + 0.05f, 0.002f, 0,
+                        0, 0.002f };
+        q[i] = x;
+    }
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.mode = 1;
+    so.filter = 2;
+    so.outfmt = STC_OUT_UNORM8;
+    uint32_t ids[8];
+    for (int k = 0; k < 8; k++)
+        assert_int_equal(stc_append_sample(c, "cube_text", &so, q, 64, &ids[k]), 0);
+    assert_int_equal(stc_flush(c), 0);
+    stc_sample_result res;
+    for (int k = 0; k < 8; k++) {
+        stc_reply rp;
+        assert_int_equal(stc_get_reply(c, 20000, &rp), 0);
+        assert_int_equal(rp.status, 0);
+        assert_int_equal(stc_reply_sample(c, &rp, &res), 0);
+        assert_int_equal(res.count, 64);
+        assert_int_equal(res.nchan, 1);
+        assert_int_equal(res.nbad, 0);
+    }
+    /* the same queries blocking give the same bytes as a pipelined reply */
+    const uint8_t *last = res.values;
+    uint8_t keep[64];
+    memcpy(keep, last, 64);
+    assert_int_equal(stc_sample(c, "cube_text", &so, q, 64, &res), 0);
+    assert_memory_equal(res.values, keep, 64);
+
+    /* fetch as .ptx, upload the fetched file under another name, compare */
+    if (stc_server_info(c)->caps & STP_CAP_FETCH) {
+        assert_non_null(mkdtemp(dir));
+        snprintf(fetched, sizeof fetched, "%s/cube.ptx", dir);
+        rc = stc_fetch_file(c, "cube_text", STC_FETCH_PTX, fetched, NULL, NULL);
+        if (rc)
+            fail_msg("fetch: %s: %s", stc_strerror(rc), stc_errmsg(c));
+        assert_int_equal(stc_upload_file(c, fetched, "cube_again", NULL, &up), 0);
+        assert_int_equal(up.nfaces, 72);
+        stc_sample_result res2;
+        assert_int_equal(stc_sample(c, "cube_again", &so, q, 64, &res2), 0);
+        assert_memory_equal(res2.values, keep, 64);
+        unlink(fetched);
+        rmdir(dir);
+        assert_int_equal(stc_delete(c, "cube_again"), 0);
+    }
+    /* a compress job, polled to the end */
+    if (stc_server_info(c)->caps & STP_CAP_COMPRESS) {
+        uint64_t job;
+        stc_job j;
+        assert_int_equal(stc_compress(c, "cube_text", "cube_bc1", 1, STC_COMPRESS_SEAM_AWARE,
+                                      &job), 0);
+        rc = stc_job_wait(c, job, 60000, &j);
+        if (rc)
+            fail_msg("job: %s: %s", stc_strerror(rc), stc_errmsg(c));
+        assert_int_equal(j.state, STC_JOB_DONE);
+        stc_info inf;
+        assert_int_equal(stc_info_get(c, "cube_bc1", 0, 0, &inf), 0);
+        assert_int_equal(inf.kind, 3);
+        assert_int_equal(stc_job_status(c, job + 1000, &j), STC_ENOTFOUND);
+        assert_int_equal(stc_delete(c, "cube_bc1"), 0);
+    }
+    assert_int_equal(stc_delete(c, "cube_text"), 0);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+}
+
 static void real_daemon_requires_the_token_for_mutations(void **state)
 {
     (void)state;
@@ -915,6 +1028,7 @@ int main(void)
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
         cmocka_unit_test(real_daemon_answers_malformed_requests_with_statuses),
+        cmocka_unit_test(real_daemon_transfers_and_pipelines),
         cmocka_unit_test(real_daemon_requires_the_token_for_mutations),
     };
     int fails = cmocka_run_group_tests_name("client_mock", mock_tests, NULL, NULL);
