@@ -249,7 +249,11 @@ static void refine_exact(const blk *B, const uint8_t *sel, int four, const float
 
 /* Principal axis endpoints: e0 at the largest projection, e1 at the smallest. inset: fraction
  * of the range moved inwards at both ends. */
-static void axis_endpoints(const blk *B, float inset, float e0[3], float e1[3])
+typedef struct axis {
+    float m[3], v[3], len2, lo, hi;
+} axis;
+
+static void axis_compute(const blk *B, axis *A)
 {
     float m[3] = {0, 0, 0};
     for (int i = 0; i < 16; i++) {
@@ -305,11 +309,20 @@ static void axis_endpoints(const blk *B, float inset, float e0[3], float e1[3])
         lo = p < lo ? p : lo;
         hi = p > hi ? p : hi;
     }
-    float d = (hi - lo) * inset;
-    lo += d;
-    hi -= d;
     for (int k = 0; k < 3; k++) {
-        float a = m[k] + v[k] * hi / len2, b = m[k] + v[k] * lo / len2;
+        A->m[k] = m[k];
+        A->v[k] = v[k];
+    }
+    A->len2 = len2;
+    A->lo = lo;
+    A->hi = hi;
+}
+
+static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
+{
+    float d = (A->hi - A->lo) * inset, lo = A->lo + d, hi = A->hi - d;
+    for (int k = 0; k < 3; k++) {
+        float a = A->m[k] + A->v[k] * hi / A->len2, b = A->m[k] + A->v[k] * lo / A->len2;
         e0[k] = a < 0 ? 0 : a > 255 ? 255 : a;
         e1[k] = b < 0 ? 0 : b > 255 ? 255 : b;
     }
@@ -359,12 +372,35 @@ typedef struct profile {
     int   rounds3;      /* 3-colour trial rounds for opaque blocks (0 = no trial) */
     int   neigh3;       /* neighbourhood passes of the 3-colour trial */
     int   radius;       /* exact per-channel search radius after each least squares (0 = round) */
+    float inset2;       /* a second start with this inset (< 0: none) */
 } profile;
 
 static const profile PROFILES[2] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0}, /* ST_BC1_FAST */
-    {1.0f / 16.0f, 4, 1, 3, 0, 0}, /* ST_BC1_HQ */
+    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f}, /* ST_BC1_FAST */
+    {1.0f / 16.0f, 4, 1, 3, 0, 0, 0.125f}, /* ST_BC1_HQ */
 };
+
+/* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
+/* Rounds of round -> select -> least squares from (e0, e1), 4-colour. */
+static void rounds4(const blk *B, const profile *P, float e0[3], float e1[3], cand *best)
+{
+    for (int it = 0; it < P->rounds; it++) {
+        uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
+        float before = best->err;
+        try4(B, a, b, best);
+        if (it > 0 && !(best->err < before))
+            break;
+        if (best->err == 0 || best->c0 == best->c1)
+            break;
+        if (!ls_endpoints(B, best->sel, 1, e0, e1))
+            break;
+        if (P->radius) {
+            uint16_t a2, b2;
+            refine_exact(B, best->sel, 1, e0, e1, P->radius, &a2, &b2);
+            try4(B, a2, b2, best);
+        }
+    }
+}
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
 static void encode_colours(const blk *B, const profile *P, int four_ok, cand *out)
@@ -372,23 +408,14 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
     cand best;
     best.err = 3e30f;
     float e0[3], e1[3];
-    axis_endpoints(B, four_ok ? P->inset : 0.0f, e0, e1);
+    axis A;
+    axis_compute(B, &A);
     if (four_ok) {
-        for (int it = 0; it < P->rounds; it++) {
-            uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
-            float before = best.err;
-            try4(B, a, b, &best);
-            if (it > 0 && !(best.err < before))
-                break;
-            if (best.err == 0 || best.c0 == best.c1)
-                break;
-            if (!ls_endpoints(B, best.sel, 1, e0, e1))
-                break;
-            if (P->radius) {
-                uint16_t a2, b2;
-                refine_exact(B, best.sel, 1, e0, e1, P->radius, &a2, &b2);
-                try4(B, a2, b2, &best);
-            }
+        axis_endpoints(&A, P->inset, e0, e1);
+        rounds4(B, P, e0, e1, &best);
+        if (P->inset2 >= 0 && best.err > 0) {
+            axis_endpoints(&A, P->inset2, e0, e1);
+            rounds4(B, P, e0, e1, &best);
         }
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
@@ -397,7 +424,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         cand b3;
         b3.err = 3e30f;
         float f0[3], f1[3];
-        axis_endpoints(B, 0.0f, f0, f1);
+        axis_endpoints(&A, 0.0f, f0, f1);
         int rounds = P->rounds3 ? P->rounds3 : 3;
         for (int it = 0; it < rounds; it++) {
             uint16_t a = round565(f0[0], f0[1], f0[2]), b = round565(f1[0], f1[1], f1[2]);
