@@ -43,7 +43,7 @@ rss2=$(rss)
 net_stop || echo "net_idle: seamtexd did not exit 0" >&2
 load1=$(net_load)
 opened=${opened:-0}
-per=$(awk -v a="$rss0" -v b="$rss1" -v n="$opened" 'BEGIN{printf "%.2f", n > 0 ? (b - a) / n : 0}')
+per=$(awk -v a="$rss0" -v b="$rss1" -v n="$opened" 'BEGIN{printf "%.2f", (n > 0 ? (b - a) / n : 0)}')
 
 printf '\nnet_idle: %s idle connections, %s cores, load %s -> %s\n' "$opened" "$(nproc)" "$load0" "$load1"
 printf '%-44s %10s kB\n' "daemon RSS before" "$rss0"

@@ -64,8 +64,8 @@ for shape in "${shapes[@]}"; do
     if awk -v a="$q" -v b="$best" 'BEGIN{exit !(a > b)}'; then best=$q; best_shape=$shape; fi
     i=$((i + 1))
 done
-r1=$(awk -v a="$best" -v b="$in1" 'BEGIN{printf "%.2f", b > 0 ? a / b : 0}')
-r2=$(awk -v a="$best" -v b="$in2" 'BEGIN{printf "%.2f", b > 0 ? a / b : 0}')
+r1=$(awk -v a="$best" -v b="$in1" 'BEGIN{printf "%.2f", (b > 0 ? a / b : 0)}')
+r2=$(awk -v a="$best" -v b="$in2" 'BEGIN{printf "%.2f", (b > 0 ? a / b : 0)}')
 printf 'best network figure (%s): %.0f queries/s = %s x in-process 1 thread, %s x 2 threads (target >= 0.80)\n' \
     "$best_shape" "$best" "$r1" "$r2"
 printf 'daemon RSS after the runs: %s kB\n' "$rss"
