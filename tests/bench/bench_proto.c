@@ -5,6 +5,9 @@
  * decode, and libseamtex over loopback against a minimal in-process echo server (a thread
  * that answers HELLO and PING): blocking PING round trip and pipelined PINGs per second.
  * The echo server does no work, so the last two are the client library + kernel cost.
+ * Then, when build/seamtexd and the shared data are there, against the real daemon on
+ * loopback (one connection): upload and fetch of cube.ptx (2.37 MB) in MB/s, a one-query
+ * SAMPLE round trip, and pipelined 4096-query bilinear SAMPLE batches in M queries/s.
  *
  * Usage: bench_proto [--json PATH] [--reps N]   (medians of N repetitions, default 5)
  */
@@ -18,6 +21,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "../common/daemon_fixture.h"
 #include "proto.h"
 #include "seamtex.h"
 
@@ -137,6 +141,14 @@ static void echo_stop(echo *e)
     e->stop = 1;
     pthread_join(e->th, NULL);
     close(e->lfd);
+}
+
+/* Records when the last chunk was acknowledged (to split transfer from commit). */
+static int note_progress(void *user, uint64_t done, uint64_t total)
+{
+    if (done == total)
+        *(double *)user = now_s();
+    return 0;
 }
 
 /* ---- main -------------------------------------------------------------------------------------- */
@@ -298,6 +310,100 @@ int main(int argc, char **argv)
         echo_stop(&e);
     }
 
+    /* against seamtexd */
+    double up_mbps = 0, chunks_mbps = 0, commit_ms = 0, fetch_mbps = 0, srtt_us = 0, spipe_mqps = 0;
+    st_daemon dm;
+    char ptx[512];
+    if (st_daemon_data_path(ptx, sizeof ptx, "ptx/wdas-ptex-2009/cube/text/cube.ptx") == 0 &&
+        st_daemon_init(&dm) == 0 && st_daemon_start(&dm, NULL) == 0) {
+        int err;
+        stc_conn *c = stc_connect(dm.host, (unsigned)dm.port, 5000, &err);
+        if (c) {
+            stc_set_timeout(c, 60000);
+            stc_upload_opts uo;
+            stc_upload_result ur;
+            FILE *fp = fopen(ptx, "rb");
+            fseek(fp, 0, SEEK_END);
+            double mb = ftell(fp) / 1e6;
+            fclose(fp);
+            memset(&uo, 0, sizeof uo);
+            uo.flags = STC_UPLOAD_REPLACE;
+            double *t2 = calloc((size_t)reps, sizeof *t2), *t3 = calloc((size_t)reps, sizeof *t3);
+            double acked = 0;
+            uo.progress = note_progress;
+            uo.user = &acked;
+            for (int r = 0; r < reps; r++) {
+                double t0 = now_s();
+                if (stc_upload_file(c, ptx, "bench_cube", &uo, &ur) != 0)
+                    break;
+                double t1 = now_s();
+                t[r] = mb / (t1 - t0);
+                t2[r] = mb / (acked - t0);
+                t3[r] = (t1 - acked) * 1e3;
+            }
+            up_mbps = median(t, reps);
+            chunks_mbps = median(t2, reps);
+            commit_ms = median(t3, reps);
+            free(t2);
+            free(t3);
+            char out[600];
+            snprintf(out, sizeof out, "%s/fetched.ptx", dm.dir);
+            for (int r = 0; r < reps; r++) {
+                double t0 = now_s();
+                if (stc_fetch_file(c, "bench_cube", STC_FETCH_PTX, out, NULL, NULL) != 0)
+                    break;
+                fp = fopen(out, "rb");
+                fseek(fp, 0, SEEK_END);
+                t[r] = ftell(fp) / 1e6 / (now_s() - t0);
+                fclose(fp);
+            }
+            fetch_mbps = median(t, reps);
+            unlink(out);
+            stc_query *sq = malloc(NQ * sizeof *sq);
+            for (int i = 0; i < NQ; i++) {
+                stc_query x = { (uint32_t)(i % 72), (i % 61) / 61.0f, (i % 59) / 59.0f,
+                                0.002f, 0, 0, 0.002f };
+                sq[i] = x;
+            }
+            stc_sample_opts so;
+            stc_sample_result res;
+            memset(&so, 0, sizeof so);
+            so.mode = 1;
+            so.filter = 1;
+            int n = 500;
+            double *lat = malloc((size_t)n * sizeof *lat);
+            for (int i = 0; i < n; i++) {
+                double t0 = now_s();
+                stc_sample(c, "bench_cube", &so, sq + (i % NQ), 1, &res);
+                lat[i] = (now_s() - t0) * 1e6;
+            }
+            srtt_us = median(lat, n);
+            free(lat);
+            for (int r = 0; r < reps; r++) {
+                int total = 64, window = 4, sent = 0, got = 0;
+                uint32_t id;
+                stc_reply rep;
+                double t0 = now_s();
+                while (got < total) {
+                    while (sent < total && sent - got < window) {
+                        stc_append_sample(c, "bench_cube", &so, sq, NQ, &id);
+                        sent++;
+                    }
+                    if (stc_get_reply(c, 60000, &rep) != 0 || rep.status != 0)
+                        break;
+                    got++;
+                }
+                t[r] = (double)got * NQ / (now_s() - t0) / 1e6;
+            }
+            spipe_mqps = median(t, reps);
+            free(sq);
+            stc_close(c);
+        }
+        st_daemon_cleanup(&dm);
+    } else {
+        fprintf(stderr, "note: seamtexd or the shared data missing: daemon figures skipped\n");
+    }
+
     printf("%-52s %12s\n", "measure", "median");
     printf("%-52s %9.2f GB/s\n", "CRC32C, SSE4.2 path (32 MiB)", crc_hw);
     printf("%-52s %9.2f GB/s\n", "CRC32C, slice-by-8 path (8 MiB)", crc_sw);
@@ -308,6 +414,12 @@ int main(int argc, char **argv)
     printf("%-52s %9.1f Mq/s\n", "SAMPLE reply decode to floats (f32, RGBA)", dec_rep);
     printf("%-52s %9.1f us\n", "libseamtex blocking PING round trip (loopback echo)", rtt_us);
     printf("%-52s %9.1f k/s\n", "libseamtex pipelined PINGs, window 64 (loopback)", pipe_kps);
+    printf("%-52s %9.1f MB/s\n", "seamtexd: upload cube.ptx (2.37 MB), commit included", up_mbps);
+    printf("%-52s %9.1f MB/s\n", "  of which: chunks sent and acknowledged", chunks_mbps);
+    printf("%-52s %9.1f ms\n", "  of which: COMMIT (import + durable write)", commit_ms);
+    printf("%-52s %9.1f MB/s\n", "seamtexd: fetch it back as .ptx (CRC checked)", fetch_mbps);
+    printf("%-52s %9.1f us\n", "seamtexd: one-query bilinear SAMPLE round trip", srtt_us);
+    printf("%-52s %9.2f Mq/s\n", "seamtexd: pipelined 4096-query SAMPLE, 1 connection", spipe_mqps);
     printf("(medians of %d repetitions; 2-core machine shared with other jobs)\n", reps);
 
     if (json) {
@@ -322,9 +434,12 @@ int main(int argc, char **argv)
                 "  \"sample_reply_encode_f32_mqps\": %.2f,\n"
                 "  \"sample_reply_encode_unorm8_mqps\": %.2f,\n"
                 "  \"sample_reply_decode_f32_mqps\": %.2f,\n"
-                "  \"client_ping_rtt_us\": %.2f,\n  \"client_pipelined_ping_kps\": %.2f\n}\n",
+                "  \"client_ping_rtt_us\": %.2f,\n  \"client_pipelined_ping_kps\": %.2f,\n"
+                "  \"daemon_upload_mbps\": %.2f,\n  \"daemon_upload_chunks_mbps\": %.2f,\n"
+                "  \"daemon_upload_commit_ms\": %.1f,\n  \"daemon_fetch_mbps\": %.2f,\n"
+                "  \"daemon_sample1_rtt_us\": %.2f,\n  \"daemon_sample_pipelined_mqps\": %.3f\n}\n",
                 reps, crc_hw, crc_sw, enc_req, dec_req, enc_rep[0], enc_rep[1], dec_rep, rtt_us,
-                pipe_kps);
+                pipe_kps, up_mbps, chunks_mbps, commit_ms, fetch_mbps, srtt_us, spipe_mqps);
         fclose(fp);
     }
     (void)sink;
