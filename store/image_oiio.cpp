@@ -73,12 +73,40 @@ const char *ext_of(const char *path)
     return dot && (!slash || dot > slash) ? dot + 1 : "";
 }
 
+/* A PNG's chunk list must reach IEND inside the file. Checked before OIIO sees the file:
+ * OIIO 2.4's PNG read callback builds a std::string and libpng then longjmps over it when the
+ * file ends early, which leaks on every truncated upload. Returns 0 when fine or not a PNG. */
+int png_truncated(FILE *f)
+{
+    unsigned char h[8];
+    if (fread(h, 1, 8, f) != 8 || memcmp(h, "\x89PNG\r\n\x1a\n", 8))
+        return 0;
+    if (fseek(f, 0, SEEK_END))
+        return 1;
+    long size = ftell(f);
+    long pos = 8;
+    for (int n = 0; n < (1 << 24); n++) {
+        if (pos + 8 > size || fseek(f, pos, SEEK_SET) || fread(h, 1, 8, f) != 8)
+            return 1;
+        uint32_t len = (uint32_t)h[0] << 24 | (uint32_t)h[1] << 16 | (uint32_t)h[2] << 8 | h[3];
+        if (len > 0x7fffffffu || pos + 12 + (long)len > size)
+            return 1;
+        if (!memcmp(h + 4, "IEND", 4))
+            return 0;
+        pos += 12 + (long)len;
+    }
+    return 1;
+}
+
 int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
         return st_fail(e, ST_ENOTFOUND, "%s: cannot open", path);
+    int trunc = png_truncated(f);
     fclose(f);
+    if (trunc)
+        return st_fail(e, ST_EFORMAT, "%s: truncated PNG (its chunks do not reach IEND)", path);
     /* keep alpha unassociated, as stored: texels are data, not pre-composited colour */
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
@@ -180,6 +208,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
         nmip++;
     out->nlevels_file = (uint8_t)nmip;
     in->close();
+    (void)in->geterror(); /* seek_subimage past the last level leaves a message: drop it */
     return ST_OK;
 }
 
@@ -196,8 +225,11 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
     if (ext == "dds")
         return st_fail(e, ST_EUNSUPPORTED, "%s: OpenImageIO cannot write DDS (use bc1.h)", path);
     auto outp = ImageOutput::create(path);
-    if (!outp)
-        return st_fail(e, ST_EUNSUPPORTED, "%s: no writer for this extension", path);
+    if (!outp) {
+        std::string msg = OIIO::geterror(); /* also clears OIIO's pending per-thread message */
+        return st_fail(e, ST_EUNSUPPORTED, "%s: no writer for this extension (%.120s)", path,
+                       msg.c_str());
+    }
     TypeDesc ft = oiio_type(dtype);
     if ((ext == "png" || ext == "jpg" || ext == "jpeg") && (dtype == ST_DT_HALF || dtype == ST_DT_F32))
         ft = ext == "png" ? TypeDesc::UINT16 : TypeDesc::UINT8;
