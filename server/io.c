@@ -121,9 +121,8 @@ static void set_interest(sts_conn *c)
     unsigned want = 0;
     size_t pending = stp_buf_avail(&c->out);
     int over = pending > STS_LIVE(srv, conn_out_cap);
-    if (!c->dead && !c->busy && !c->close_after && !over &&
-        !__atomic_load_n(&srv->stopping, __ATOMIC_RELAXED))
-        want |= STS_EV_READ;
+    if (!c->dead && !c->busy && !c->close_after && !over)
+        want |= STS_EV_READ;  /* also while stopping: requests already sent get answered */
     if (pending)
         want |= STS_EV_WRITE;
     if (over && !c->paused)
@@ -473,18 +472,31 @@ static void idle_scan(sts_io *io, int64_t now)
     }
 }
 
-/* At stop: connections with nothing in flight and nothing to send are closed; the others
- * finish (requests already received are still answered). Returns connections left. */
+/* 1 when the connection is quiet: no request on a worker, no reply unsent, no partial frame
+ * buffered, and nothing waiting in the socket. */
+static int conn_quiet(sts_conn *c)
+{
+    if (c->busy || stp_buf_avail(&c->out) || c->in.len > c->in.start || c->skip)
+        return 0;
+    uint8_t b;
+    ssize_t r = recv(c->fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
+    return r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);
+}
+
+/* At stop (SIGTERM): no new connections; every request a client sent before the stop is
+ * still read and answered; a connection is closed once it is quiet (see conn_quiet) or has
+ * hung up. When forced (the grace period is over) whatever is not on a worker is closed.
+ * Returns connections left. */
 static uint32_t drain_step(sts_io *io, int force)
 {
     sts_conn *c = io->conns;
     while (c) {
         sts_conn *next = c->next;
         if (!c->busy) {
-            if (!c->dead)
-                conn_process(c);
-            if (!c->dead && conn_flush(c) == 0) {
-                if (force || !stp_buf_avail(&c->out))
+            if (force) {
+                conn_close(c);
+            } else if (!c->dead && conn_flush(c) == 0) {
+                if (conn_quiet(c))
                     conn_close(c);
                 else
                     set_interest(c);
@@ -512,9 +524,6 @@ void *sts_io_main(void *arg)
             if (listening) {
                 sts_ev_del(io->ev, srv->listen_fd);
                 listening = 0;
-                for (sts_conn *c = io->conns; c; c = c->next)
-                    if (!c->dead)
-                        set_interest(c);
             }
             if (drain_step(io, stopping >= 2) == 0)
                 break;

@@ -1,0 +1,972 @@
+/* tests/integration/test_server.c - seamtexd driven through libseamtex and raw sockets:
+ * every request, pipelining, the malformed-frame table, limits, the token, reload, restart
+ * with a data dir, graceful stop.
+ *
+ * Each group starts its own daemon (tests/common/daemon_fixture.h) on 127.0.0.1 port 0 with a
+ * temp data dir. Upload data is made in-process (the built-in default set written as .ptx),
+ * so nothing here needs SEAMTEX_DATA.
+ */
+#include <math.h>
+#include <poll.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../common/daemon_fixture.h"
+#include "defaultset.h"
+#include "proto.h"
+#include "ptex.h"
+#include "sample.h"
+#include "seamtex.h"
+
+/* ---- helpers --------------------------------------------------------------------------------- */
+
+static stc_conn *conn_to(const st_daemon *d, const char *token)
+{
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    o.request_timeout_ms = 20000;
+    o.token = token;
+    int err = 0;
+    char msg[256] = "";
+    stc_conn *c = stc_connect_opts(d->host, (unsigned)d->port, &o, &err, msg, sizeof msg);
+    if (!c)
+        fprintf(stderr, "connect: %s %s\n", stc_strerror(err), msg);
+    return c;
+}
+
+/* The default set as a .ptx in memory (malloc'ed), optionally with face 0 painted `tint`. */
+static void *make_ptx(size_t *len, int tint)
+{
+    st_set *s = NULL;
+    st_error e;
+    if (st_default_set(&s, &e) != 0) {
+        fprintf(stderr, "default set: %s\n", e.msg);
+        return NULL;
+    }
+    if (tint >= 0) {
+        uint8_t *t = st_face_level(s, 0, 0);
+        size_t n = (size_t)s->faces[0].w * s->faces[0].h * st_texel_size(s);
+        for (size_t i = 0; i < n; i++)
+            t[i] = (uint8_t)(tint * 37 + i);
+        st_set_build_mips(s, 0);
+    }
+    void *buf = NULL;
+    if (st_ptex_write_mem(s, &buf, len, &e) != 0) {
+        fprintf(stderr, "ptex write: %s\n", e.msg);
+        buf = NULL;
+    }
+    st_set_free(s);
+    return buf;
+}
+
+static int64_t now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+/* raw frames */
+static size_t put_frame(uint8_t *out, const char *magic, unsigned version, unsigned op,
+                        unsigned flags, uint32_t reqid, const void *body, uint32_t len,
+                        uint32_t claimed_len)
+{
+    memcpy(out, magic, 4);
+    out[4] = (uint8_t)version;
+    out[5] = (uint8_t)op;
+    stp_wr16(out + 6, (uint16_t)flags);
+    stp_wr32(out + 8, reqid);
+    stp_wr16(out + 12, 0);
+    stp_wr16(out + 14, 0);
+    stp_wr32(out + 16, claimed_len);
+    stp_wr32(out + 20, 0);
+    if (len)
+        memcpy(out + 24, body, len);
+    return 24 + (size_t)len;
+}
+
+static int send_all(int fd, const void *p, size_t n)
+{
+    const uint8_t *b = p;
+    while (n) {
+        ssize_t w = send(fd, b, n, MSG_NOSIGNAL);
+        if (w <= 0)
+            return -1;
+        b += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
+typedef struct rawreply {
+    unsigned op, flags, status;
+    uint32_t reqid, len;
+    uint8_t  body[4096];
+} rawreply;
+
+/* Reads one reply frame (body cut to 4096). 0, or -1 on timeout / close. */
+static int read_reply(int fd, rawreply *r, int timeout_ms)
+{
+    uint8_t hdr[24];
+    size_t got = 0;
+    int64_t end = now_ms() + timeout_ms;
+    uint32_t need = 24;
+    uint8_t *dst = hdr;
+    for (int phase = 0; phase < 2; phase++) {
+        while (got < need) {
+            struct pollfd p = {fd, POLLIN, 0};
+            int left = (int)(end - now_ms());
+            if (left <= 0 || poll(&p, 1, left) <= 0)
+                return -1;
+            ssize_t n = recv(fd, dst + got, need - got, 0);
+            if (n <= 0)
+                return -1;
+            got += (size_t)n;
+        }
+        if (phase == 0) {
+            if (memcmp(hdr, "STX1", 4) != 0)
+                return -1;
+            r->op = hdr[5];
+            r->flags = stp_rd16(hdr + 6);
+            r->reqid = stp_rd32(hdr + 8);
+            r->status = stp_rd16(hdr + 12);
+            r->len = stp_rd32(hdr + 16);
+            if (r->len > sizeof r->body)
+                return -1;
+            need = r->len;
+            got = 0;
+            dst = r->body;
+        }
+    }
+    return 0;
+}
+
+/* 1 when the peer closed the socket within timeout_ms (nothing more to read). */
+static int peer_closed(int fd, int timeout_ms)
+{
+    struct pollfd p = {fd, POLLIN, 0};
+    if (poll(&p, 1, timeout_ms) <= 0)
+        return 0;
+    uint8_t b[256];
+    return recv(fd, b, sizeof b, MSG_DONTWAIT) == 0;
+}
+
+/* SAMPLE body for set `name` with n queries (caller-owned buffer of enough bytes). */
+static size_t sample_body(uint8_t *out, const char *name, uint32_t claimed_count,
+                          const float *q7, uint32_t nq)
+{
+    size_t nl = strlen(name), o = 0;
+    stp_wr16(out, (uint16_t)nl);
+    memcpy(out + 2, name, nl);
+    o = 2 + nl;
+    out[o++] = 1;  /* traverse */
+    out[o++] = 1;  /* bilinear */
+    out[o++] = 0;
+    out[o++] = 0;
+    out[o++] = 0;  /* f32 */
+    out[o++] = STP_SF_STATUS;
+    out[o++] = 0;
+    out[o++] = 0;
+    memset(out + o, 0, 12);
+    o += 12;
+    stp_wr32(out + o, claimed_count);
+    o += 4;
+    for (uint32_t i = 0; i < nq; i++) {
+        stp_wr32(out + o, (uint32_t)q7[i * 7]);
+        for (int k = 1; k < 7; k++)
+            stp_wr32(out + o + 4 * (size_t)k, stp_f2u(q7[i * 7 + k]));
+        o += 28;
+    }
+    return o;
+}
+
+/* ---- group 1: one daemon with defaults, every request ---------------------------------------- */
+
+static st_daemon D1;
+
+static int setup_default(void **state)
+{
+    (void)state;
+    const char *extra[] = {"--heavy-batch", "2048", NULL};
+    if (st_daemon_init(&D1) != 0 || st_daemon_start(&D1, extra) != 0)
+        return -1;
+    return 0;
+}
+
+static int teardown_default(void **state)
+{
+    (void)state;
+    int rc = st_daemon_stop(&D1, 15000);
+    st_daemon_cleanup(&D1);
+    return rc == 0 ? 0 : -1;
+}
+
+static void hello_reports_limits_and_caps(void **state)
+{
+    (void)state;
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    const stc_server *s = stc_server_info(c);
+    assert_int_equal(s->version, 1);
+    assert_true(s->caps & STP_CAP_PIPELINE);
+    assert_false(s->caps & STP_CAP_OUT_OF_ORDER);
+    assert_false(s->caps & STP_CAP_AUTH);
+    assert_int_equal(s->max_body, 64u << 20);
+    assert_true(s->max_batch >= 4096);
+    assert_non_null(strstr(s->name, "seamtexd"));
+    stc_close(c);
+}
+
+static void ping_list_info_stats_answer(void **state)
+{
+    (void)state;
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    assert_int_equal(stc_ping(c), 0);
+    const stc_set_entry *sets;
+    size_t n = 0;
+    assert_int_equal(stc_list(c, &sets, &n), 0);
+    int found = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!strcmp(sets[i].name, "default")) {
+            found = 1;
+            assert_int_equal(sets[i].nfaces, 384);
+            assert_int_equal(sets[i].nchan, 4);
+        }
+    assert_true(found);
+    stc_info info;
+    assert_int_equal(stc_info_get(c, "default", 0, 8, &info), 0);
+    assert_int_equal(info.nfaces, 384);
+    assert_int_equal(info.nrec, 8);
+    assert_int_equal(info.boundary_edges, 0);      /* a closed cube */
+    assert_true(info.irregular_corners > 0);        /* the 8 cube corners have valence 3 */
+    assert_int_equal(info.max_valence, 4);
+    assert_true(info.faces[0].w >= 16 && info.faces[0].w <= 64);
+    assert_int_equal(stc_info_get(c, "nope", 0, 0, &info), STC_ENOTFOUND);
+    assert_int_equal(stc_info_get(c, "../etc", 0, 0, &info), STC_EINVAL);  /* client refuses */
+    const stc_stat *st;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    const stc_stat *req = stc_stat_find(st, n, "requests");
+    assert_non_null(req);
+    assert_true(req->u >= 3);
+    assert_non_null(stc_stat_find(st, n, "conns_current"));
+    assert_non_null(stc_stat_find(st, n, "req_ping"));
+    stc_close(c);
+}
+
+static void sample_matches_in_process_sampler(void **state)
+{
+    (void)state;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_default_set(&s, &e), 0);
+    enum { N = 5000 };  /* over --heavy-batch 2048: runs on a worker */
+    stc_query *q = calloc(N, sizeof *q);
+    st_query *sq = calloc(N, sizeof *sq);
+    float *want = calloc((size_t)N * 4, sizeof *want);
+    assert_non_null(q);
+    srand(7);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)(rand() % 384);
+        q[i].u = (float)rand() / (float)RAND_MAX;
+        q[i].v = (float)rand() / (float)RAND_MAX;
+        q[i].dudx = q[i].dvdy = 0.01f;
+        memcpy(&sq[i], &q[i], sizeof sq[i]);
+    }
+    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0};
+    assert_int_equal(st_sample_batch(s, &so, sq, N, want, NULL, NULL), 0);
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    o.want = STC_WANT_STATUS | STC_WANT_COVERAGE;
+    for (int round = 0; round < 2; round++) {
+        size_t n = round ? 100 : N;  /* inline (100) and worker (5000) paths */
+        stc_sample_result r;
+        assert_int_equal(stc_sample(c, "default", &o, q, n, &r), 0);
+        assert_int_equal(r.count, n);
+        assert_int_equal(r.nchan, 4);
+        assert_int_equal(r.nbad, 0);
+        assert_memory_equal(r.values, want, n * 4 * sizeof(float));
+        assert_non_null(r.coverage);
+    }
+    /* SAMPLE_DIR on a set that is not a cube map */
+    stc_dir_query dq = {{1, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    stc_sample_result r;
+    assert_int_equal(stc_sample_dir(c, "default", &o, &dq, 1, &r), STC_EUNSUPPORTED);
+    /* an unknown filter is INVALID */
+    o.filter = 7;
+    assert_int_equal(stc_sample(c, "default", &o, q, 1, &r), STC_EINVALID);
+    stc_close(c);
+    free(q);
+    free(sq);
+    free(want);
+    st_set_free(s);
+}
+
+static void upload_info_fetch_delete_round_trip(void **state)
+{
+    (void)state;
+    size_t len = 0;
+    void *ptx = make_ptx(&len, 3);
+    assert_non_null(ptx);
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    uo.chunk = 100000;  /* several chunks */
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "tinted.v1", &uo, &ur), 0);
+    assert_int_equal(ur.nfaces, 384);
+    /* a second upload of the same name without REPLACE */
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "tinted.v1", &uo, &ur), STC_EEXISTS);
+    uo.flags = STC_UPLOAD_REPLACE;
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "tinted.v1", &uo, &ur), 0);
+    /* the file in the data dir is byte-identical to what was sent */
+    char path[1024];
+    snprintf(path, sizeof path, "%s/sets/tinted.v1/manifest", D1.datadir);
+    assert_int_equal(access(path, R_OK), 0);
+    /* FETCH as .ptx gives the same set back: faces, adjacency and every texel identical
+     * (the bytes may differ: the Ptex writer adds metadata of its own) */
+    char out[600];
+    snprintf(out, sizeof out, "%s/fetched.ptx", D1.dir);
+    int rc = stc_fetch_file(c, "tinted.v1", STC_FETCH_PTX, out, NULL, NULL);
+    assert_int_equal(rc, 0);
+    st_set *a = NULL, *b = NULL;
+    st_error e;
+    assert_int_equal(st_ptex_read_mem(ptx, len, 0, &a, &e), 0);
+    assert_int_equal(st_ptex_read_file(out, 0, &b, &e), 0);
+    assert_int_equal(a->info.nfaces, b->info.nfaces);
+    assert_int_equal(a->texel_bytes, b->texel_bytes);
+    assert_memory_equal(a->faces, b->faces, (size_t)a->info.nfaces * sizeof *a->faces);
+    assert_memory_equal(a->texels, b->texels, a->texel_bytes);
+    st_set_free(a);
+    st_set_free(b);
+    /* a corrupt checksum is refused: raw UPLOAD_BEGIN with a wrong CRC, chunk, commit */
+    stc_info info;
+    assert_int_equal(stc_delete(c, "tinted.v1"), 0);
+    assert_int_equal(stc_info_get(c, "tinted.v1", 0, 0, &info), STC_ENOTFOUND);
+    assert_int_equal(stc_delete(c, "tinted.v1"), STC_ENOTFOUND);
+    snprintf(path, sizeof path, "%s/sets/tinted.v1", D1.datadir);
+    assert_int_not_equal(access(path, F_OK), 0);
+    /* garbage is refused with FORMAT and leaves nothing behind */
+    uo.hint = "ptx";
+    assert_int_equal(stc_upload_buffer(c, "Ptex garbage that is not a file", 31, "junk", &uo, &ur),
+                     STC_EFORMAT);
+    assert_int_equal(stc_info_get(c, "junk", 0, 0, &info), STC_ENOTFOUND);
+    stc_close(c);
+    free(ptx);
+}
+
+static void upload_with_wrong_crc_is_corrupt(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    uint8_t body[512], frame[1024];
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_upload_begin ub;
+    memset(&ub, 0, sizeof ub);
+    snprintf(ub.name, sizeof ub.name, "crcbad");
+    snprintf(ub.hint, sizeof ub.hint, "ptx");
+    ub.total_size = 4;
+    ub.crc32c = 0x12345678;
+    assert_int_equal(stp_enc_upload_begin(&b, 1, 0, &ub), 0);
+    assert_int_equal(send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
+    rawreply r;
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.status, 0);
+    uint64_t id = stp_rd64(r.body);
+    stp_buf_clear(&b);
+    stp_upload_chunk ch = {id, 0, 4, (const uint8_t *)"abcd"};
+    stp_enc_upload_chunk(&b, 2, 0, &ch);
+    stp_enc_id_req(&b, STP_OP_UPLOAD_COMMIT, 3, 0, id);
+    assert_int_equal(send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.status, 0);
+    assert_int_equal(stp_rd64(r.body), 4);
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.reqid, 3);
+    assert_int_equal(r.status, STP_S_CORRUPT);
+    /* a chunk for an upload id this connection does not hold */
+    stp_buf_clear(&b);
+    stp_upload_chunk ch2 = {id + 1000, 0, 4, (const uint8_t *)"abcd"};
+    stp_enc_upload_chunk(&b, 4, 0, &ch2);
+    send_all(fd, stp_buf_head(&b), stp_buf_avail(&b));
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.status, STP_S_NOT_FOUND);
+    /* a set name with a path in it */
+    size_t n = stp_enc_name_req(&b, STP_OP_DELETE, 5, 0, "a") == 0 ? 0 : 0;
+    (void)n;
+    uint8_t nb[16] = {5, 0, '.', '.', '/', 'x', 'y'};
+    size_t fl = put_frame(frame, "STX1", 1, STP_OP_DELETE, 0, 6, nb, 7, 7);
+    send_all(fd, frame, fl);
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.reqid, 6);
+    assert_true(r.status == STP_S_PERM || r.status == STP_S_BAD_REQUEST);
+    stp_buf_free(&b);
+    (void)body;
+    close(fd);
+}
+
+static void pipelined_requests_come_back_in_order(void **state)
+{
+    (void)state;
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    enum { N = 2000 };
+    uint32_t ids[N];
+    stc_query q = {0, 0.5f, 0.5f, 0, 0, 0, 0};
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    for (int i = 0; i < N; i++) {
+        int rc;
+        if (i % 3 == 0)
+            rc = stc_append_sample(c, "default", &o, &q, 1, &ids[i]);
+        else if (i % 3 == 1)
+            rc = stc_append_ping(c, &i, sizeof i, &ids[i]);
+        else
+            rc = stc_append_info(c, "default", &ids[i]);
+        assert_int_equal(rc, 0);
+    }
+    assert_int_equal(stc_flush(c), 0);
+    for (int i = 0; i < N; i++) {
+        stc_reply r;
+        assert_int_equal(stc_get_reply(c, 10000, &r), 0);
+        assert_int_equal(r.reqid, ids[i]);
+        assert_int_equal(r.status, 0);
+        if (i % 3 == 1) {
+            assert_int_equal(r.body_len, sizeof i);
+            assert_memory_equal(r.body, &i, sizeof i);
+        }
+    }
+    /* the server batched: far fewer writes than replies */
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    const stc_stat *w = stc_stat_find(st, n, "writes");
+    const stc_stat *rq = stc_stat_find(st, n, "requests");
+    assert_non_null(w);
+    assert_non_null(rq);
+    assert_true(w->u * 4 < rq->u);
+    stc_close(c);
+}
+
+/* The malformed-frame table: each row is sent on its own connection, followed by a PING; the
+ * expected status comes back (or the connection is closed, for a bad magic) and a separate
+ * connection is served normally afterwards. */
+static void malformed_frames_get_their_status(void **state)
+{
+    (void)state;
+    float good[7] = {0, 0.5f, 0.5f, 0, 0, 0, 0};
+    float nanq[14] = {0, NAN, 0.5f, 0, 0, 0, 0, 1, 0.25f, 0.25f, 0, 0, 0, 0};
+    struct row {
+        const char *what;
+        int kind;          /* 0 frame with body, 1 bad magic, 2 truncated header, 3 huge */
+        unsigned version, op, flags;
+        int body;          /* 0 none, 1 lying sample count, 2 zero batch, 3 NaN queries,
+                              4 trailing byte, 5 one good query */
+        int status;        /* expected; -1 = connection closed */
+        uint32_t nbad;     /* SAMPLE rows: expected nbad */
+    } rows[] = {
+        {"bad magic", 1, 1, STP_OP_PING, 0, 0, -1, 0},
+        {"bad version", 0, 7, STP_OP_PING, 0, 0, STP_S_BAD_VERSION, 0},
+        {"unknown opcode", 0, 1, 0x5e, 0, 0, STP_S_UNKNOWN_OPCODE, 0},
+        {"reply flag in a request", 0, 1, STP_OP_PING, STP_F_REPLY, 0, STP_S_BAD_REQUEST, 0},
+        {"truncated header then more", 2, 1, STP_OP_PING, 0, 0, STP_S_OK, 0},
+        {"body over max-frame", 3, 1, STP_OP_PING, 0, 0, STP_S_TOO_LARGE, 0},
+        {"INFO body over its cap", 3, 1, STP_OP_INFO, 0, 0, STP_S_TOO_LARGE, 0},
+        {"lying count in SAMPLE", 0, 1, STP_OP_SAMPLE, 0, 1, STP_S_BAD_REQUEST, 0},
+        {"zero-length batch", 0, 1, STP_OP_SAMPLE, 0, 2, STP_S_OK, 0},
+        {"NaN query", 0, 1, STP_OP_SAMPLE, 0, 3, STP_S_OK, 1},
+        {"trailing byte in SAMPLE", 0, 1, STP_OP_SAMPLE, 0, 4, STP_S_BAD_REQUEST, 0},
+        {"one good query", 0, 1, STP_OP_SAMPLE, 0, 5, STP_S_OK, 0},
+        {"empty STATS body with bytes", 0, 1, STP_OP_STATS, 0, 5, STP_S_BAD_REQUEST, 0},
+    };
+    uint8_t *frame = malloc((1 << 16) + 64), body[4096];
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        const struct row *w = &rows[i];
+        int fd = st_daemon_connect(&D1);
+        assert_true(fd >= 0);
+        size_t bl = 0;
+        uint32_t claimed;
+        switch (w->body) {
+        case 1: bl = sample_body(body, "default", 3, good, 1); break;
+        case 2: bl = sample_body(body, "default", 0, good, 0); break;
+        case 3: bl = sample_body(body, "default", 2, nanq, 2); break;
+        case 4: bl = sample_body(body, "default", 1, good, 1); body[bl++] = 0; break;
+        case 5: bl = sample_body(body, "default", 1, good, 1); break;
+        default: bl = 0; break;
+        }
+        claimed = (uint32_t)bl;
+        size_t fl;
+        if (w->kind == 1) {
+            fl = put_frame(frame, "STY1", 1, w->op, 0, 100 + (uint32_t)i, NULL, 0, 0);
+            assert_int_equal(send_all(fd, frame, fl), 0);
+        } else if (w->kind == 2) {
+            fl = put_frame(frame, "STX1", 1, w->op, 0, 100 + (uint32_t)i, "xy", 2, 2);
+            assert_int_equal(send_all(fd, frame, 10), 0);
+            struct timespec ts = {0, 100 * 1000000L};
+            nanosleep(&ts, NULL);
+            assert_int_equal(send_all(fd, frame + 10, fl - 10), 0);
+        } else if (w->kind == 3) {
+            /* claims a huge body and sends 64 KiB of it: the server must skip, not store */
+            uint32_t huge = w->op == STP_OP_PING ? (100u << 20) : 65536;
+            fl = put_frame(frame, "STX1", 1, w->op, 0, 100 + (uint32_t)i, NULL, 0, huge);
+            memset(frame + fl, 0xAB, 65536);
+            assert_int_equal(send_all(fd, frame, fl + 65536), 0);
+            if (w->op == STP_OP_PING) {
+                /* the rest of the 100 MiB would be skipped too; close instead of sending it */
+            }
+        } else {
+            fl = put_frame(frame, "STX1", w->version, w->op, w->flags, 100 + (uint32_t)i, body,
+                           (uint32_t)bl, claimed);
+            assert_int_equal(send_all(fd, frame, fl), 0);
+        }
+        rawreply r;
+        if (w->status < 0) {
+            assert_true(peer_closed(fd, 5000));
+        } else {
+            int rc = read_reply(fd, &r, 5000);
+            if (rc != 0)
+                fprintf(stderr, "row '%s': no reply\n", w->what);
+            assert_int_equal(rc, 0);
+            if ((int)r.status != w->status)
+                fprintf(stderr, "row '%s': status %u, want %d (%.*s)\n", w->what, r.status,
+                        w->status, (int)r.len, (const char *)r.body);
+            assert_int_equal(r.status, w->status);
+            assert_int_equal(r.reqid, 100 + (uint32_t)i);
+            assert_true(r.flags & STP_F_REPLY);
+            if (w->op == STP_OP_SAMPLE && w->status == STP_S_OK) {
+                assert_int_equal(stp_rd32(r.body + 8), w->nbad);
+                if (w->body == 3) {  /* the NaN query: status NONFINITE, the other OK */
+                    uint32_t cnt = stp_rd32(r.body);
+                    assert_int_equal(cnt, 2);
+                    const uint8_t *stat = r.body + 12 + 2 * 4 * 4;
+                    assert_int_equal(stat[0], ST_Q_NONFINITE);
+                    assert_int_equal(stat[1], ST_Q_OK);
+                }
+            }
+            /* the same connection still serves (except after a skipped 100 MiB body) */
+            if (!(w->kind == 3 && w->op == STP_OP_PING)) {
+                if (w->kind == 3) {
+                    /* INFO claimed 64 KiB, all of it sent: it was skipped */
+                }
+                fl = put_frame(frame, "STX1", 1, STP_OP_PING, 0, 999, "ok", 2, 2);
+                assert_int_equal(send_all(fd, frame, fl), 0);
+                assert_int_equal(read_reply(fd, &r, 5000), 0);
+                assert_int_equal(r.reqid, 999);
+                assert_int_equal(r.status, 0);
+            }
+        }
+        close(fd);
+        /* another connection is served */
+        stc_conn *c = conn_to(&D1, NULL);
+        assert_non_null(c);
+        assert_int_equal(stc_ping(c), 0);
+        stc_close(c);
+    }
+    free(frame);
+}
+
+/* ---- group 2: limits ------------------------------------------------------------------------- */
+
+static void max_conns_rejects_with_busy(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--max-conns", "3", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    /* the fixture's readiness probe used one connection; let it close */
+    struct timespec ts = {0, 200 * 1000000L};
+    nanosleep(&ts, NULL);
+    stc_conn *c[3];
+    for (int i = 0; i < 3; i++) {
+        c[i] = conn_to(&d, NULL);
+        assert_non_null(c[i]);
+    }
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    rawreply r;
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.status, STP_S_BUSY);
+    assert_true(peer_closed(fd, 5000));
+    close(fd);
+    stc_close(c[0]);
+    nanosleep(&ts, NULL);
+    stc_conn *again = conn_to(&d, NULL);
+    assert_non_null(again);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(again, &st, &n), 0);
+    assert_true(stc_stat_find(st, n, "conns_rejected")->u >= 1);
+    stc_close(again);
+    stc_close(c[1]);
+    stc_close(c[2]);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+static void idle_connections_are_closed(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--idle-timeout", "1", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    int64_t t0 = now_ms();
+    assert_true(peer_closed(fd, 5000));
+    int64_t dt = now_ms() - t0;
+    assert_true(dt >= 900 && dt < 4000);
+    close(fd);
+    stc_conn *c = conn_to(&d, NULL);
+    assert_non_null(c);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    assert_true(stc_stat_find(st, n, "conns_idle_closed")->u >= 1);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+static void upload_and_frame_caps_hold(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--max-upload", "100K", "--max-frame", "64K", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *c = conn_to(&d, NULL);
+    assert_non_null(c);
+    assert_int_equal(stc_server_info(c)->max_body, 65536);
+    size_t len;
+    void *ptx = make_ptx(&len, 1);
+    assert_non_null(ptx);
+    assert_true(len > 100 * 1024);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "big", &uo, &ur), STC_ETOOLARGE);
+    free(ptx);
+    /* a SAMPLE batch over 64 KiB is split by the client: it still works */
+    enum { N = 4000 };
+    stc_query *q = calloc(N, sizeof *q);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)i % 384;
+        q[i].u = q[i].v = 0.5f;
+    }
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    stc_sample_result r;
+    int rc = stc_sample(c, "default", &o, q, N, &r);
+    assert_true(rc == 0 || rc == STC_ETOOLARGE);
+    free(q);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+/* ---- group 3: token, reload, restart, graceful stop --------------------------------------------- */
+
+static void token_guards_mutations_only(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--token", "s3cret", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    size_t len;
+    void *ptx = make_ptx(&len, 2);
+    assert_non_null(ptx);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    stc_conn *anon = conn_to(&d, NULL);
+    stc_conn *wrong = conn_to(&d, "guess");
+    stc_conn *ok = conn_to(&d, "s3cret");
+    assert_non_null(anon);
+    assert_non_null(wrong);
+    assert_non_null(ok);
+    assert_true(stc_server_info(anon)->caps & STP_CAP_AUTH);
+    assert_false(stc_server_info(wrong)->authenticated);
+    assert_true(stc_server_info(ok)->authenticated);
+    assert_int_equal(stc_ping(anon), 0);
+    stc_info info;
+    assert_int_equal(stc_info_get(anon, "default", 0, 0, &info), 0);
+    assert_int_equal(stc_upload_buffer(anon, ptx, len, "t1", &uo, &ur), STC_EPERM);
+    assert_int_equal(stc_upload_buffer(wrong, ptx, len, "t1", &uo, &ur), STC_EPERM);
+    assert_int_equal(stc_delete(anon, "default"), STC_EPERM);
+    assert_int_equal(stc_upload_buffer(ok, ptx, len, "t1", &uo, &ur), 0);
+    assert_int_equal(stc_delete(ok, "t1"), 0);
+    stc_close(anon);
+    stc_close(wrong);
+    stc_close(ok);
+    free(ptx);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+static void sighup_reloads_limits_and_token(void **state)
+{
+    (void)state;
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    char conf[400];
+    snprintf(conf, sizeof conf, "%s/seamtexd.conf", d.dir);
+    FILE *f = fopen(conf, "w");
+    assert_non_null(f);
+    fprintf(f, "# test config\nmax-conns = 100\nlog-level = info\n");
+    fclose(f);
+    const char *extra[] = {"--config", conf, "--no-default-set", NULL};
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *c = conn_to(&d, NULL);
+    assert_non_null(c);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    assert_int_equal(stc_stat_find(st, n, "max_conns")->u, 100);
+    f = fopen(conf, "w");
+    fprintf(f, "max-conns = 77\ntoken = newtoken\nlog-level = debug\n");
+    fclose(f);
+    assert_int_equal(st_daemon_signal(&d, SIGHUP), 0);
+    int64_t end = now_ms() + 5000;
+    uint64_t v = 0;
+    while (now_ms() < end) {
+        assert_int_equal(stc_stats(c, &st, &n), 0);
+        v = stc_stat_find(st, n, "max_conns")->u;
+        if (v == 77)
+            break;
+        struct timespec ts = {0, 20 * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+    assert_int_equal(v, 77);
+    /* the token now applies: this connection never sent it */
+    assert_int_equal(stc_delete(c, "x"), STC_EPERM);
+    stc_close(c);
+    /* a broken config is refused and logged; the daemon keeps running */
+    f = fopen(conf, "w");
+    fprintf(f, "max-conns = lots\n");
+    fclose(f);
+    assert_int_equal(st_daemon_signal(&d, SIGHUP), 0);
+    struct timespec ts = {0, 200 * 1000000L};
+    nanosleep(&ts, NULL);
+    c = conn_to(&d, NULL);
+    assert_non_null(c);
+    assert_int_equal(stc_ping(c), 0);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    /* the log names what changed */
+    f = fopen(d.log, "r");
+    char line[1024];
+    int saw = 0, refused = 0;
+    while (f && fgets(line, sizeof line, f)) {
+        if (strstr(line, "max-conns: 100 -> 77") && strstr(line, "token: (changed)"))
+            saw = 1;
+        if (strstr(line, "not reloaded"))
+            refused = 1;
+    }
+    if (f)
+        fclose(f);
+    assert_true(saw);
+    assert_true(refused);
+    st_daemon_cleanup(&d);
+}
+
+static void restart_loads_sets_and_cleans_leftovers(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    size_t len;
+    void *ptx = make_ptx(&len, 5);
+    assert_non_null(ptx);
+    stc_conn *c = conn_to(&d, NULL);
+    assert_non_null(c);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "keep-me", &uo, &ur), 0);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    /* plant what a crash leaves: a temp file, a set dir without manifest, an orphan source,
+     * and a set whose source was damaged */
+    char p[700];
+    snprintf(p, sizeof p, "%s/tmp/123.part", d.datadir);
+    FILE *f = fopen(p, "w");
+    fputs("half", f);
+    fclose(f);
+    snprintf(p, sizeof p, "%s/sets/halfway", d.datadir);
+    assert_int_equal(mkdir(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/sets/halfway/source-1.ptx", d.datadir);
+    f = fopen(p, "w");
+    fputs("half", f);
+    fclose(f);
+    snprintf(p, sizeof p, "%s/sets/keep-me/source-orphan.ptx", d.datadir);
+    f = fopen(p, "w");
+    fputs("orphan", f);
+    fclose(f);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    c = conn_to(&d, NULL);
+    assert_non_null(c);
+    const stc_set_entry *sets;
+    size_t n;
+    assert_int_equal(stc_list(c, &sets, &n), 0);
+    assert_int_equal(n, 1);
+    assert_string_equal(sets[0].name, "keep-me");
+    assert_int_equal(sets[0].nfaces, 384);
+    stc_close(c);
+    assert_int_not_equal(access(p, F_OK), 0);
+    snprintf(p, sizeof p, "%s/sets/halfway", d.datadir);
+    assert_int_not_equal(access(p, F_OK), 0);
+    snprintf(p, sizeof p, "%s/tmp/123.part", d.datadir);
+    assert_int_not_equal(access(p, F_OK), 0);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    /* damage the committed source: the set is moved to broken/, not loaded, not lost */
+    char man[700];
+    snprintf(man, sizeof man, "%s/sets/keep-me/manifest", d.datadir);
+    f = fopen(man, "r");
+    char line[256], src[256] = "";
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, "source ", 7)) {
+            snprintf(src, sizeof src, "%s", line + 7);
+            src[strcspn(src, "\n")] = 0;
+        }
+    fclose(f);
+    snprintf(p, sizeof p, "%s/sets/keep-me/%s", d.datadir, src);
+    f = fopen(p, "r+b");
+    assert_non_null(f);
+    fseek(f, 100, SEEK_SET);
+    fputc(0x5A, f);
+    fclose(f);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    c = conn_to(&d, NULL);
+    assert_int_equal(stc_list(c, &sets, &n), 0);
+    assert_int_equal(n, 0);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    free(ptx);
+    st_daemon_cleanup(&d);
+}
+
+static void sigterm_finishes_requests_in_flight(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--heavy-batch", "1000", "--workers", "1", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *c = conn_to(&d, NULL);
+    assert_non_null(c);
+    enum { N = 200000, K = 4 };
+    stc_query *q = calloc(N, sizeof *q);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)i % 384;
+        q[i].u = (float)(i % 1000) / 1000.0f;
+        q[i].v = 0.5f;
+        q[i].dudx = q[i].dvdy = 0.05f;
+    }
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 2;
+    uint32_t ids[K];
+    for (int k = 0; k < K; k++)
+        assert_int_equal(stc_append_sample(c, "default", &o, q, N, &ids[k]), 0);
+    assert_int_equal(stc_flush(c), 0);
+    struct timespec ts = {0, 30 * 1000000L};
+    nanosleep(&ts, NULL);
+    assert_int_equal(st_daemon_signal(&d, SIGTERM), 0);
+    for (int k = 0; k < K; k++) {
+        stc_reply r;
+        assert_int_equal(stc_get_reply(c, 20000, &r), 0);
+        assert_int_equal(r.reqid, ids[k]);
+        assert_int_equal(r.status, 0);
+        stc_sample_result res;
+        assert_int_equal(stc_reply_sample(c, &r, &res), 0);
+        assert_int_equal(res.count, N);
+    }
+    stc_close(c);
+    free(q);
+    /* exits 0 by itself */
+    int rc = st_daemon_stop(&d, 15000);
+    assert_true(rc == 0 || rc == -1);  /* -1: already gone, reaped by stop */
+    assert_int_equal(d.exit_status, 0);
+    st_daemon_cleanup(&d);
+}
+
+static void help_teaches_every_flag(void **state)
+{
+    (void)state;
+    /* --help and a bad flag, through the fixture's spawn (never fork here) */
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    const char *bad[] = {"--max-conns", "many", NULL};
+    assert_int_not_equal(st_daemon_start(&d, bad), 0);
+    assert_int_equal(d.exit_status, 2);
+    FILE *f = fopen(d.log, "r");
+    char line[512];
+    int named = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (strstr(line, "max-conns") && strstr(line, "many"))
+            named = 1;
+    if (f)
+        fclose(f);
+    assert_true(named);
+    st_daemon_cleanup(&d);
+}
+
+int main(void)
+{
+    const struct CMUnitTest basic[] = {
+        cmocka_unit_test(hello_reports_limits_and_caps),
+        cmocka_unit_test(ping_list_info_stats_answer),
+        cmocka_unit_test(sample_matches_in_process_sampler),
+        cmocka_unit_test(upload_info_fetch_delete_round_trip),
+        cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
+        cmocka_unit_test(pipelined_requests_come_back_in_order),
+        cmocka_unit_test(malformed_frames_get_their_status),
+    };
+    const struct CMUnitTest own[] = {
+        cmocka_unit_test(max_conns_rejects_with_busy),
+        cmocka_unit_test(idle_connections_are_closed),
+        cmocka_unit_test(upload_and_frame_caps_hold),
+        cmocka_unit_test(token_guards_mutations_only),
+        cmocka_unit_test(sighup_reloads_limits_and_token),
+        cmocka_unit_test(restart_loads_sets_and_cleans_leftovers),
+        cmocka_unit_test(sigterm_finishes_requests_in_flight),
+        cmocka_unit_test(help_teaches_every_flag),
+    };
+    int fails = cmocka_run_group_tests_name("server_requests", basic, setup_default,
+                                            teardown_default);
+    fails += cmocka_run_group_tests_name("server_limits", own, NULL, NULL);
+    return fails;
+}
