@@ -6,6 +6,11 @@
  * generic (any dtype, BC1) texel fetch. Does not own: option and query validation, level
  * selection, the in-face fast path (sample.c).
  *
+ * Traverse has two paths: the general one maps each outside tap's centre in floats
+ * (traverse_tap); the common case of a probe crossing one edge into a same-size level is done
+ * in integers (traverse_edge_exact), bit-identical to the general path. Compiling with
+ * -DST_EXACT_OK=0 turns the integer path off, to check that identity on any set.
+ *
  * Every rule here is written out in ARCHITECTURE.md, "Sampler".
  */
 #include "sample_internal.h"
