@@ -961,6 +961,68 @@ static void real_daemon_transfers_and_pipelines(void **state)
     stc_close(c);
 }
 
+static void real_daemon_samples_cube_maps_by_direction(void **state)
+{
+    real *r = *state;
+    char path[512];
+    if (!r->up)
+        skip();
+    if (st_daemon_data_path(path, sizeof path, "env/StageEnvLatLong.exr")) {
+        fprintf(stderr, "# SEAMTEX_DATA missing: skipping\n");
+        skip();
+    }
+    stc_conn *c = real_connect(r);
+    if (!(stc_server_info(c)->caps & STP_CAP_SAMPLE_DIR)) {
+        stc_close(c);
+        skip();
+    }
+    stc_upload_opts uo;
+    stc_upload_result up;
+    memset(&uo, 0, sizeof uo);
+    uo.options = "cube=latlong:64";
+    int rc = stc_upload_file(c, path, "env64", &uo, &up);
+    if (rc)
+        fail_msg("upload: %s: %s", stc_strerror(rc), stc_errmsg(c));
+    assert_int_equal(up.kind, 1);                   /* cube map */
+    assert_int_equal(up.nfaces, 6);
+    stc_dir_query q[4] = { { { 1, 0, 0 }, { 0, 0.01f, 0 }, { 0, 0, 0.01f } },
+                           { { 0, 0, -2 }, { 0, 0, 0 }, { 0, 0, 0 } },
+                           { { 0, 0, 0 }, { 0, 0, 0 }, { 0, 0, 0 } },
+                           { { NAN, 1, 0 }, { 0, 0, 0 }, { 0, 0, 0 } } };
+    stc_sample_opts so;
+    stc_sample_result res;
+    memset(&so, 0, sizeof so);
+    so.mode = 1;
+    so.filter = 2;
+    so.want = STC_WANT_STATUS | STC_WANT_COVERAGE;
+    rc = stc_sample_dir(c, "env64", &so, q, 4, &res);
+    if (rc)
+        fail_msg("sample_dir: %s: %s", stc_strerror(rc), stc_errmsg(c));
+    assert_int_equal(res.count, 4);
+    assert_int_equal(res.nchan, 3);
+    assert_int_equal(res.status[0], 0);
+    assert_int_equal(res.status[1], 0);
+    assert_int_not_equal(res.status[2], 0);         /* a zero direction is not a direction */
+    assert_int_not_equal(res.status[3], 0);         /* NaN */
+    assert_int_equal(res.nbad, 2);
+    const float *v = res.values;
+    for (int k = 0; k < 6; k++)
+        assert_true(isfinite(v[k]));
+    /* a cone footprint */
+    so.footprint = 1;
+    stc_dir_query cone = { { 0, 1, 0 }, { 0.05f, 0, 0 }, { 0, 0, 0 } };
+    assert_int_equal(stc_sample_dir(c, "env64", &so, &cone, 1, &res), 0);
+    assert_int_equal(res.status[0], 0);
+    /* direction sampling of a per-face set is refused, the connection stays fine */
+    stc_sample_opts po = so;
+    po.footprint = 0;
+    rc = stc_sample_dir(c, "default", &po, q, 1, &res);
+    assert_true(stc_is_server_error(rc));
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(stc_delete(c, "env64"), 0);
+    stc_close(c);
+}
+
 static void real_daemon_requires_the_token_for_mutations(void **state)
 {
     (void)state;
@@ -1029,6 +1091,7 @@ int main(void)
         cmocka_unit_test(real_daemon_end_to_end),
         cmocka_unit_test(real_daemon_answers_malformed_requests_with_statuses),
         cmocka_unit_test(real_daemon_transfers_and_pipelines),
+        cmocka_unit_test(real_daemon_samples_cube_maps_by_direction),
         cmocka_unit_test(real_daemon_requires_the_token_for_mutations),
     };
     int fails = cmocka_run_group_tests_name("client_mock", mock_tests, NULL, NULL);
