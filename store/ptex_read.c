@@ -108,8 +108,16 @@ static void interleave(const rd *r, const uint8_t *src, uint32_t w, uint32_t h, 
         for (uint32_t y = 0; y < h; y++) {
             const uint8_t *s = src + (((size_t)c * h + y) * w) * cs;
             uint8_t *d = dst + y * dst_stride + c * cs;
-            for (uint32_t x = 0; x < w; x++)
-                memcpy(d + x * ps, s + x * cs, cs);
+            if (cs == 1) {
+                for (uint32_t x = 0; x < w; x++)
+                    d[x * ps] = s[x];
+            } else if (cs == 2) {
+                for (uint32_t x = 0; x < w; x++)
+                    memcpy(d + x * ps, s + 2 * (size_t)x, 2);
+            } else {
+                for (uint32_t x = 0; x < w; x++)
+                    memcpy(d + x * ps, s + 4 * (size_t)x, 4);
+            }
         }
 }
 

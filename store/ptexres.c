@@ -10,8 +10,26 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 #include "ptex_format.h"
+
+/* The arena: large ones 2 MiB aligned and marked for transparent huge pages (the table is
+ * written once, right away; 4 KiB page faults were a third of the load time). */
+static uint8_t *arena_alloc(size_t bytes)
+{
+    size_t want = bytes + 64; /* slack: the filter loads 16 bytes per texel */
+    const size_t huge = (size_t)2 << 20;
+    if (want < 2 * huge)
+        return malloc(want);
+    size_t rounded = (want + huge - 1) & ~(huge - 1);
+    uint8_t *p = aligned_alloc(huge, rounded);
+#ifdef MADV_HUGEPAGE
+    if (p)
+        madvise(p, rounded, MADV_HUGEPAGE);
+#endif
+    return p;
+}
 
 static void ptexres_free(void *p)
 {
@@ -76,8 +94,36 @@ static void reduce_axis(unsigned dt, unsigned nc, const uint8_t *src, uint32_t s
                         uint8_t *dst, int in_u)
 {
     size_t cs = st_dtype_size(dt), ts = cs * nc;
-    if (in_u) {
-        /* gather even and odd texels of each row, then one run */
+    if (in_u && dt != ST_DT_HALF) {
+        /* pairs of neighbouring texels, channel by channel */
+        uint32_t dw = sw / 2;
+        size_t n = (size_t)dw * sh;
+        switch (dt) {
+        case ST_DT_U8:
+            for (size_t t = 0; t < n; t++)
+                for (unsigned c = 0; c < nc; c++)
+                    dst[t * nc + c] = (uint8_t)((src[2 * t * nc + c] + src[(2 * t + 1) * nc + c]) >> 1);
+            break;
+        case ST_DT_U16: {
+            const uint16_t *x = (const uint16_t *)(const void *)src;
+            uint16_t *z = (uint16_t *)(void *)dst;
+            for (size_t t = 0; t < n; t++)
+                for (unsigned c = 0; c < nc; c++)
+                    z[t * nc + c] = (uint16_t)(((uint32_t)x[2 * t * nc + c] + x[(2 * t + 1) * nc + c]) >> 1);
+            break;
+        }
+        default: {
+            const float *x = (const float *)(const void *)src;
+            float *z = (float *)(void *)dst;
+            for (size_t t = 0; t < n; t++)
+                for (unsigned c = 0; c < nc; c++)
+                    z[t * nc + c] = 0.5f * (x[2 * t * nc + c] + x[(2 * t + 1) * nc + c]);
+            break;
+        }
+        }
+        (void)cs;
+    } else if (in_u) {
+        /* half: gather even and odd texels of each row, then one run */
         uint32_t dw = sw / 2;
         uint8_t ev[1024], od[1024];
         size_t chunk = sizeof ev / ts; /* texels per chunk */
@@ -192,7 +238,7 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
                 }
     }
     t->px = malloc(nent * sizeof *t->px);
-    t->arena = malloc(bytes + 64); /* slack: the filter loads 16 bytes per texel */
+    t->arena = arena_alloc(bytes);
     t->arena_bytes = bytes;
     if (!t->px || !t->arena)
         goto nomem;
