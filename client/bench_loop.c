@@ -21,6 +21,7 @@
 #include "proto.h"
 
 #include <errno.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -348,12 +349,15 @@ int bench_loop_run(bench_thread *th)
         /* sleep until the next due request, an event, or at most 50 ms. A timed sleep here
          * wakes ~60 us late (measured on this VM even with 1 ns timer slack), which would
          * count as send lateness: in open loop the last spin_ns before a due time are spent
-         * polling instead (epoll with a zero timeout). */
+         * polling instead (epoll with a zero timeout after sched_yield, so that on a small
+         * machine the spinning client does not take a core from the server). */
         uint64_t deadline = now + 50000000ull;
         if (issuing && cfg->open_loop && next_due && next_due < deadline) {
             deadline = next_due;
-            if (spin_ns && deadline > now && deadline - now <= spin_ns)
-                deadline = now;             /* poll */
+            if (spin_ns && deadline > now && deadline - now <= spin_ns) {
+                deadline = now;             /* poll, giving way to the server's threads */
+                sched_yield();
+            }
             else if (spin_ns)
                 deadline -= spin_ns;
         }
