@@ -251,8 +251,16 @@ int main(int argc, char **argv)
     memset(rat, 0, sizeof rat);
     memset(best, 0, sizeof best);
 
-    printf("bench_sample: single thread, M queries per CPU-second (median of %d x %.2fs), RGBA8\n",
-           reps, secs);
+    char load[64] = "?";
+    FILE *la = fopen("/proc/loadavg", "r");
+    if (la) {
+        if (!fgets(load, sizeof load, la))
+            strcpy(load, "?");
+        load[strcspn(load, "\n")] = 0;
+        fclose(la);
+    }
+    printf("bench_sample: single thread, M queries per CPU-second (median of %d x %.2fs), RGBA8; "
+           "load at start: %s\n", reps, secs, load);
     for (int si = 0; si < 2; si++) {
         if (si == 1 && no_big)
             break;
@@ -318,6 +326,7 @@ int main(int argc, char **argv)
         }
         fprintf(fp, "{\n  \"bench\": \"sample\",\n  \"unit\": \"M queries per second of thread CPU time, "
                     "single thread\",\n");
+        fprintf(fp, "  \"loadavg_at_start\": \"%s\",\n", load);
         fprintf(fp, "  \"reps\": %d, \"secs_per_run\": %.2f, \"mqps\": \"median of the reps\", "
                     "\"best\": \"fastest rep\",\n", reps, secs);
         fprintf(fp, "  \"footprints\": {\"point\": \"1 texel\", \"bilinear\": \"1 texel\", "
