@@ -48,6 +48,13 @@ typedef enum st_bc1_decoder {
  * other value is treated as HQ). */
 void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8]);
 
+/* The same with a weight per texel (>= 0, NULL = all 1) on its squared error: what seam-aware
+ * compression uses so that texels outside every chart do not take precision from the texels
+ * that are seen. A block whose opaque texels all have weight 0 still gets a valid encoding
+ * (the weights are then ignored for the principal axis). */
+void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int level,
+                           uint8_t out[8]);
+
 /* The 4-entry RGBA8 palette of endpoints c0, c1 under a decoder (pal[4*i + k]). */
 void st_bc1_palette(uint16_t c0, uint16_t c1, st_bc1_decoder dec, uint8_t pal[16]);
 
@@ -60,6 +67,9 @@ void st_bc1_decode_block(const uint8_t blk[8], st_bc1_decoder dec, uint8_t rgba[
  * at most 64). Decoding writes w x h texels to `rgba` (stride w*4). */
 int st_bc1_encode_image(const uint8_t *rgba, uint32_t w, uint32_t h, size_t stride, int level,
                         int threads, uint8_t *blocks, st_error *e);
+/* The same with a weight per texel (w*h floats, row-major, stride w; NULL = all 1). */
+int st_bc1_encode_image_w(const uint8_t *rgba, const float *weights, uint32_t w, uint32_t h,
+                          size_t stride, int level, int threads, uint8_t *blocks, st_error *e);
 void st_bc1_decode_image(const uint8_t *blocks, uint32_t w, uint32_t h, st_bc1_decoder dec,
                          uint8_t *rgba);
 

@@ -261,7 +261,10 @@ static void axis_compute(const blk *B, axis *A)
         m[1] += B->g[i] * B->w[i];
         m[2] += B->b[i] * B->w[i];
     }
-    float inv = 1.0f / (float)B->n;
+    float wsum = 0;
+    for (int i = 0; i < 16; i++)
+        wsum += B->w[i];
+    float inv = 1.0f / (wsum > 0 ? wsum : 1.0f);
     m[0] *= inv;
     m[1] *= inv;
     m[2] *= inv;
@@ -486,6 +489,12 @@ static void encode_single(const uint8_t rgb[3], uint32_t transparent, uint8_t ou
 
 void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
 {
+    st_bc1_encode_block_w(rgba, NULL, level, out);
+}
+
+void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int level,
+                           uint8_t out[8])
+{
     uint32_t transparent = 0;
     int same = 1;
     blk B;
@@ -512,12 +521,19 @@ void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
         encode_single(rgba + 4 * first, transparent, out);
         return;
     }
+    float wsum = 0;
+    for (int t = 0; t < 16; t++)
+        if (!(transparent >> t & 1))
+            wsum += weight ? weight[t] : 1.0f;
+    if (!(wsum > 0))
+        weight = NULL; /* nothing counts: encode as if everything did */
     for (int t = 0; t < 16; t++) {
         const uint8_t *p = rgba + 4 * ((transparent >> t & 1) ? first : t);
         B.r[t] = p[0];
         B.g[t] = p[1];
         B.b[t] = p[2];
-        B.w[t] = (transparent >> t & 1) ? 0.0f : 1.0f;
+        float w = weight ? weight[t] : 1.0f;
+        B.w[t] = (transparent >> t & 1) ? 0.0f : (w > 0 && w < 1e6f ? w : w >= 1e6f ? 1e6f : 0.0f);
     }
     cand c;
     const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : 1];
@@ -534,6 +550,7 @@ void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
 
 typedef struct img_job {
     const uint8_t *rgba;
+    const float *weights; /* w*h, row-major, or NULL */
     uint32_t w, h;
     size_t stride;
     int level;
@@ -563,16 +580,32 @@ static void *img_worker(void *arg)
     img_job *j = arg;
     uint32_t bw = (j->w + 3) / 4;
     uint8_t tmp[64];
+    float wt[16];
     for (uint32_t by = j->row0; by < j->row1; by++)
         for (uint32_t bx = 0; bx < bw; bx++) {
             load_block(j->rgba, j->w, j->h, j->stride, bx, by, tmp);
-            st_bc1_encode_block(tmp, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
+            if (j->weights) {
+                for (uint32_t t = 0; t < 16; t++) {
+                    uint32_t x = bx * 4 + (t & 3), y = by * 4 + (t >> 2);
+                    /* padding repeats the edge texel: it does not count twice */
+                    wt[t] = x < j->w && y < j->h ? j->weights[(size_t)y * j->w + x] : 0.0f;
+                }
+                st_bc1_encode_block_w(tmp, wt, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
+            } else {
+                st_bc1_encode_block(tmp, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
+            }
         }
     return NULL;
 }
 
 int st_bc1_encode_image(const uint8_t *rgba, uint32_t w, uint32_t h, size_t stride, int level,
                         int threads, uint8_t *blocks, st_error *e)
+{
+    return st_bc1_encode_image_w(rgba, NULL, w, h, stride, level, threads, blocks, e);
+}
+
+int st_bc1_encode_image_w(const uint8_t *rgba, const float *weights, uint32_t w, uint32_t h,
+                          size_t stride, int level, int threads, uint8_t *blocks, st_error *e)
 {
     if (w < 1 || h < 1 || w > ST_MAX_DIM || h > ST_MAX_DIM)
         return st_fail(e, ST_EINVAL, "image size %ux%u not in 1..%u", w, h, ST_MAX_DIM);
@@ -592,7 +625,8 @@ int st_bc1_encode_image(const uint8_t *rgba, uint32_t w, uint32_t h, size_t stri
     pthread_t tid[64];
     int started = 0;
     for (int t = 0; t < threads; t++) {
-        jobs[t] = (img_job){rgba, w, h, stride, level, blocks, (uint32_t)((uint64_t)bh * t / threads),
+        jobs[t] = (img_job){rgba, weights, w, h, stride, level, blocks,
+                            (uint32_t)((uint64_t)bh * t / threads),
                             (uint32_t)((uint64_t)bh * (t + 1) / threads)};
     }
     for (int t = 1; t < threads; t++) {

@@ -43,6 +43,8 @@ typedef struct item {
 typedef struct pool {
     const st_set *out;
     const uint8_t *const *lv;     /* lv[face_level_index] RGBA8 of that level */
+    const st_seam_sys *sys;
+    const float *w0;              /* per global level-0 texel weight, or NULL */
     const item *items;
     size_t nitems;
     int level;
@@ -60,8 +62,9 @@ static void run_item(pool *P, const item *it)
     const uint8_t *img = P->lv[F->lvl + it->level];
     uint8_t *blocks = st_face_level(P->out, it->face, it->level);
     uint32_t y0 = it->by0 * 4, y1 = it->by1 * 4 < h ? it->by1 * 4 : h;
-    st_bc1_encode_image(img + (size_t)y0 * w * 4, w, y1 - y0, (size_t)w * 4, P->level, 1,
-                        blocks + (size_t)it->by0 * bw * 8, NULL);
+    const float *wt = P->w0 && it->level == 0 ? P->w0 + P->sys->base[it->face] + (size_t)y0 * w : NULL;
+    st_bc1_encode_image_w(img + (size_t)y0 * w * 4, wt, w, y1 - y0, (size_t)w * 4, P->level, 1,
+                          blocks + (size_t)it->by0 * bw * 8, NULL);
     atomic_fetch_add(&P->done_texels, (unsigned long long)w * (y1 - y0));
 }
 
@@ -126,6 +129,7 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     st_seam_sys *sys = NULL;
     uint8_t *orig = NULL, *work = NULL, **lv = NULL, *lvmem = NULL, **blk0 = NULL;
     item *items = NULL;
+    float *w0 = NULL;
     st_set *s = NULL;
     st_face_desc *fd = NULL;
     rc = st_seam_sys_build(src, opts.seam_mode == ST_BC1_SEAM_NONE ? 4.0f : opts.step, &sys, e);
@@ -256,8 +260,22 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
         }
     }
 
+    /* seam-aware atlas: texels outside every chart are weighted down (0.05) in the level-0
+     * encode, so that they do not take precision from what is seen; the seam solve then
+     * sets them for the seams */
+    if (opts.seam_mode == ST_BC1_SEAM_AWARE && src->info.kind == ST_KIND_ATLAS) {
+        w0 = malloc((size_t)sys->ntexels * sizeof *w0 + 1);
+        if (!w0) {
+            rc = st_fail(e, ST_ENOMEM, "out of memory for texel weights");
+            goto out;
+        }
+        for (uint64_t i = 0; i < sys->ntexels; i++)
+            w0[i] = sys->inside[i] ? 1.0f : 0.05f;
+    }
     pool P;
     P.out = s;
+    P.sys = sys;
+    P.w0 = w0;
     P.lv = (const uint8_t *const *)lv;
     P.items = items;
     P.nitems = ni;
@@ -321,6 +339,7 @@ out:
     free(lvmem);
     free(blk0);
     free(items);
+    free(w0);
     free(fd);
     return rc;
 }

@@ -71,7 +71,7 @@ static void path_join(char *out, size_t n, const char *a, const char *b)
 
 /* Encodes every face of a global RGBA8 buffer; blocks[f] NULL for 1x1 constant faces. */
 static int encode_global(const st_set *s, const st_seam_sys *sys, const uint8_t *rgba, int level,
-                         uint8_t **blocks, st_error *e)
+                         float outside_weight, uint8_t **blocks, st_error *e)
 {
     for (uint32_t f = 0; f < sys->nfaces; f++) {
         blocks[f] = NULL;
@@ -81,8 +81,18 @@ static int encode_global(const st_set *s, const st_seam_sys *sys, const uint8_t 
         blocks[f] = malloc(nb * 8);
         if (!blocks[f])
             return st_fail(e, ST_ENOMEM, "out of memory");
-        int rc = st_bc1_encode_image(rgba + sys->base[f] * 4, sys->fw[f], sys->fh[f],
-                                     (size_t)sys->fw[f] * 4, level, 1, blocks[f], e);
+        float *wt = NULL;
+        if (outside_weight >= 0) {
+            size_t n = (size_t)sys->fw[f] * sys->fh[f];
+            wt = malloc(n * sizeof *wt);
+            if (!wt)
+                return st_fail(e, ST_ENOMEM, "out of memory");
+            for (size_t i = 0; i < n; i++)
+                wt[i] = sys->inside[sys->base[f] + i] ? 1.0f : outside_weight;
+        }
+        int rc = st_bc1_encode_image_w(rgba + sys->base[f] * 4, wt, sys->fw[f], sys->fh[f],
+                                       (size_t)sys->fw[f] * 4, level, 1, blocks[f], e);
+        free(wt);
         if (rc)
             return rc;
     }
@@ -199,7 +209,7 @@ static int run_set(const dataset *d, const char *data, const char *outdir, int l
     }
     st_seam_sys *sys = NULL;
     uint8_t *buf[NV] = {NULL};
-    uint8_t **bl_orig = NULL, **bl_mask = NULL;
+    uint8_t **bl_orig = NULL, **bl_mask = NULL, **bl_aw = NULL;
     rc = st_seam_sys_build(s, step, &sys, e);
     if (rc)
         goto out;
@@ -227,24 +237,29 @@ static int run_set(const dataset *d, const char *data, const char *outdir, int l
     res->t_mask = now() - t0;
     bl_orig = calloc(sys->nfaces, sizeof *bl_orig);
     bl_mask = calloc(sys->nfaces, sizeof *bl_mask);
-    if (!bl_orig || !bl_mask) {
+    bl_aw = calloc(sys->nfaces, sizeof *bl_aw);
+    if (!bl_orig || !bl_mask || !bl_aw) {
         rc = st_fail(e, ST_ENOMEM, "out of memory");
         goto out;
     }
     t0 = now();
-    if ((rc = encode_global(s, sys, buf[V_ORIG], level, bl_orig, e)) ||
-        (rc = encode_global(s, sys, buf[V_MASK], level, bl_mask, e)))
+    if ((rc = encode_global(s, sys, buf[V_ORIG], level, -1, bl_orig, e)) ||
+        (rc = encode_global(s, sys, buf[V_MASK], level, -1, bl_mask, e)))
         goto out;
     res->t_enc = (now() - t0) / 2;
     decode_global(sys, bl_orig, buf[V_ORIG], buf[V_BC1]);
     decode_global(sys, bl_mask, buf[V_MASK], buf[V_BC1M]);
     t0 = now();
+    /* seam-aware: the masked texture encoded with texels outside the charts weighted down,
+     * then the endpoint solve (st_bc1_compress_set does the same) */
+    if ((rc = encode_global(s, sys, buf[V_MASK], level, 0.05f, bl_aw, e)))
+        goto out;
     st_bc1_seam_stats st;
-    rc = st_bc1_seam_solve(sys, buf[V_ORIG], buf[V_MASK], bl_mask, alpha * boost, 0, 3, NULL, &st, e);
+    rc = st_bc1_seam_solve(sys, buf[V_ORIG], buf[V_MASK], bl_aw, alpha * boost, 0, 3, NULL, &st, e);
     if (rc)
         goto out;
     res->t_aware = now() - t0;
-    decode_global(sys, bl_mask, buf[V_MASK], buf[V_AWARE]);
+    decode_global(sys, bl_aw, buf[V_MASK], buf[V_AWARE]);
     for (int v = 0; v < NV; v++) {
         res->psnr[v] = st_seam_psnr_inside(sys, buf[V_ORIG], buf[v]);
         res->rms[v] = st_seam_rms_rgba8(sys, buf[v]);
@@ -287,9 +302,11 @@ out:
     if (sys) {
         free_blocks(bl_orig, sys->nfaces);
         free_blocks(bl_mask, sys->nfaces);
+        free_blocks(bl_aw, sys->nfaces);
     } else {
         free(bl_orig);
         free(bl_mask);
+        free(bl_aw);
     }
     st_seam_sys_free(sys);
     st_set_free(s);

@@ -190,6 +190,43 @@ static void hq_level_is_no_worse_than_fast_overall(void **state)
     assert_true(sf / (5000.0 * 48) < 60);
 }
 
+static void weighted_texels_get_the_precision(void **state)
+{
+    (void)state;
+    double sw = 0, su = 0;
+    float wt[16];
+    for (int t = 0; t < 16; t++)
+        wt[t] = (t & 3) < 2 ? 1.0f : 0.0f; /* left half counts */
+    for (int n = 0; n < 3000; n++) {
+        uint8_t px[64], bw[8], bu[8], ow[64], ou[64];
+        gradient_block(px, 3);
+        for (int t = 0; t < 16; t++)
+            if ((t & 3) >= 2)
+                for (int k = 0; k < 3; k++)
+                    px[4 * t + k] = (uint8_t)(255 - px[4 * t + k]); /* a contrasting right half */
+        st_bc1_encode_block_w(px, wt, ST_BC1_HQ, bw);
+        st_bc1_encode_block(px, ST_BC1_HQ, bu);
+        st_bc1_decode_block(bw, ST_BC1_DEC_EXACT, ow);
+        st_bc1_decode_block(bu, ST_BC1_DEC_EXACT, ou);
+        for (int t = 0; t < 16; t++)
+            if ((t & 3) < 2)
+                for (int k = 0; k < 3; k++) {
+                    sw += (px[4 * t + k] - ow[4 * t + k]) * (px[4 * t + k] - ow[4 * t + k]);
+                    su += (px[4 * t + k] - ou[4 * t + k]) * (px[4 * t + k] - ou[4 * t + k]);
+                }
+        for (int t = 0; t < 16; t++)
+            assert_int_equal(ow[4 * t + 3], 255);
+    }
+    assert_true(sw < su * 0.5);
+    /* all weights zero: still a valid opaque encoding */
+    float z[16] = {0};
+    uint8_t px[64], b[8], o[64];
+    gradient_block(px, 3);
+    st_bc1_encode_block_w(px, z, ST_BC1_FAST, b);
+    st_bc1_decode_block(b, ST_BC1_DEC_EXACT, o);
+    assert_true(block_sse(px, o) < 16 * 3 * 100);
+}
+
 static void encoding_is_deterministic(void **state)
 {
     (void)state;
@@ -462,6 +499,7 @@ int main(void)
         cmocka_unit_test(opaque_input_never_decodes_transparent),
         cmocka_unit_test(one_bit_alpha_uses_the_transparent_selector),
         cmocka_unit_test(hq_level_is_no_worse_than_fast_overall),
+        cmocka_unit_test(weighted_texels_get_the_precision),
         cmocka_unit_test(encoding_is_deterministic),
         cmocka_unit_test(images_of_any_size_round_trip),
         cmocka_unit_test(compressing_a_set_keeps_faces_and_costs_an_eighth),
