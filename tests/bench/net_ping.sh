@@ -52,10 +52,10 @@ cl_rate=$(med closed achieved_rate)
 cl_p99=$(med closed corrected_us p99)
 printf '\nnet_ping: PING over loopback, %s cores, load %s -> %s, median of %s x %s s\n' \
     "$(nproc)" "$load0" "$load1" "$REPS" "$SECS"
-printf '%-34s %-36s %s\n' "test" "seamtexd" "anchors (this machine)"
-printf '%-34s %-36s %s\n' "ping-pong, 1 conn" \
+printf '%-36s %-40s %-5s %s\n' "test" "seamtexd" "load" "anchors (this machine)"
+printf '%-36s %-40s %-5s %s\n' "ping-pong, 1 conn" \
     "$(printf '%.1fk req/s, p50 %.0f / p99 %.0f us' "$(awk -v x="$pp_rate" 'BEGIN{print x/1000}')" "$pp_p50" "$pp_p99")" \
-    "memcached 22.8k req/s, p50 39 / p99 127 us"
+    "$(med pingpong loadavg_before)" "memcached 22.8k req/s, p50 39 / p99 127 us"
 declare -A ANCH=([10000]="memcached 97 / 737, Redis 97 / 458 us"
                  [50000]="memcached 161 / 2406, Redis 55 / 645 us"
                  [100000]="memcached 834 / 5104, Redis 67 / 3926 us")
@@ -64,13 +64,14 @@ for rate in 10000 50000 100000; do
     p50=$(med open$rate corrected_us p50); p99=$(med open$rate corrected_us p99)
     s50=$(med open$rate service_us p50); s99=$(med open$rate service_us p99)
     ach=$(med open$rate achieved_rate); to=$(med open$rate timeouts); er=$(med open$rate errors)
-    printf '%-34s %-36s %s\n' "open loop $((rate / 1000))k/s, 50 conns" \
-        "$(printf 'p50 %.0f / p99 %.0f us (got %.0f/s)' "$p50" "$p99" "$ach")" "${ANCH[$rate]}"
-    json_open+="    \"open_${rate}\": {\"target_rate\": $rate, \"achieved_rate\": $ach, \"corrected_p50_us\": $p50, \"corrected_p99_us\": $p99, \"service_p50_us\": $s50, \"service_p99_us\": $s99, \"errors\": $er, \"timeouts\": $to},"$'\n'
+    printf '%-36s %-40s %-5s %s\n' "open loop $((rate / 1000))k/s, 50 conns" \
+        "$(printf 'p50 %.0f / p99 %.0f us (got %.0f/s)' "$p50" "$p99" "$ach")" \
+        "$(med open$rate loadavg_before)" "${ANCH[$rate]}"
+    json_open+="    \"open_${rate}\": {\"loadavg\": $(med open$rate loadavg_before), \"target_rate\": $rate, \"achieved_rate\": $ach, \"corrected_p50_us\": $p50, \"corrected_p99_us\": $p99, \"service_p50_us\": $s50, \"service_p99_us\": $s99, \"errors\": $er, \"timeouts\": $to},"$'\n'
 done
-printf '%-34s %-36s %s\n' "closed loop, 50 conns x pipeline 16" \
+printf '%-36s %-40s %-5s %s\n' "closed loop, 50 conns x pipeline 16" \
     "$(printf '%.0fk req/s (p99 %.0f us)' "$(awk -v x="$cl_rate" 'BEGIN{print x/1000}')" "$cl_p99")" \
-    "memcached 600-770k, Redis 570-690k req/s"
+    "$(med closed loadavg_before)" "memcached 600-770k, Redis 570-690k req/s"
 
 {
     echo "{"
@@ -78,9 +79,9 @@ printf '%-34s %-36s %s\n' "closed loop, 50 conns x pipeline 16" \
     echo "  \"machine\": {\"cores\": $(nproc), \"loadavg_before\": $load0, \"loadavg_after\": $load1},"
     echo "  \"reps\": $REPS, \"seconds\": $SECS, \"client_threads\": $THREADS,"
     echo "  \"results\": {"
-    echo "    \"pingpong\": {\"rate\": $pp_rate, \"p50_us\": $pp_p50, \"p99_us\": $pp_p99},"
+    echo "    \"pingpong\": {\"loadavg\": $(med pingpong loadavg_before), \"rate\": $pp_rate, \"p50_us\": $pp_p50, \"p99_us\": $pp_p99},"
     printf '%s' "$json_open"
-    echo "    \"closed_50x16\": {\"rate\": $cl_rate, \"p99_us\": $cl_p99}"
+    echo "    \"closed_50x16\": {\"loadavg\": $(med closed loadavg_before), \"rate\": $cl_rate, \"p99_us\": $cl_p99}"
     echo "  },"
     echo "  \"anchors\": {\"pingpong_memcached\": {\"rate\": 22800, \"p50_us\": 39, \"p99_us\": 127},"
     echo "    \"open_10000\": {\"memcached\": [97, 737], \"redis\": [97, 458]},"
