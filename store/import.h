@@ -2,7 +2,8 @@
  *
  * Owns: format detection (magic first, extension second), caps, and the choice of reader:
  *   - Ptex .ptx (magic "Ptex")                      -> per-face set (ptex.h); an environment
- *     cube (.penv, or a 6-face .ptx with envcube metadata / ST_IMPORT_CUBE_PTEX) -> cube set
+ *     cube (.penv, a 6-face .ptx whose adjacency is Ptex's env-cube layout, or any 6-face file
+ *     with ST_IMPORT_CUBE_PTEX) -> cube set
  *   - OpenEXR (magic 76 2f 31 01)                    -> exr.h (OIIO for DWAA/DWAB, which the
  *     OpenEXR 3.1 C API does not decode); envmap=cube -> cube set,
  *     envmap=latlong -> atlas set unless a cube conversion is asked for

@@ -111,6 +111,7 @@ static const asset ASSETS[] = {
     {"meshes/spider/spider.obj", 0, ST_KIND_ATLAS, 250, 250, 3, ST_DT_U8, 1},
     {"ptx/wdas-ptex-samples/envcube/envcube.ptx", 0, ST_KIND_CUBE, 128, 128, 3, ST_DT_U16, 6},
     {"ptx/wdas-ptex-samples/teapot/teapot.ptx", 0, ST_KIND_PERFACE, 0, 0, 1, ST_DT_U8, 448},
+    {"ptex-ref/cube1_k6_u8.ptx", 0, ST_KIND_PERFACE, 64, 64, 4, ST_DT_U8, 6}, /* a model, not an env */
     {"drc/bunny_gltf.drc", ST_ENOUV, 0, 0, 0, 0, 0, 0},
     {"ptx/wdas-ptex-2009/cube/cube.obj", ST_ENOUV, 0, 0, 0, 0, 0, 0},
     {"drc/cube_att.drc", ST_EINVAL, 0, 0, 0, 0, 0, 0},  /* a mesh with no texture to pair */
@@ -513,6 +514,25 @@ static void truncated_files_are_refused_cleanly(void **state)
     }
 }
 
+static void ptex_env_cube_is_recognised_by_its_layout_not_its_name(void **state)
+{
+    (void)state;
+    char src[1024];
+    if (data_path(src, sizeof src, "ptx/wdas-ptex-samples/envcube/envcube.ptx"))
+        skip();
+    size_t len;
+    void *b = read_file(src, &len);
+    char p[512];
+    tmp_path(p, sizeof p, "source-17.ptx"); /* as the daemon stores an upload */
+    write_file(p, b, len);
+    free(b);
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.kind, ST_KIND_CUBE);
+    st_set_free(s);
+}
+
 static void detection_uses_magic_before_extension(void **state)
 {
     (void)state;
@@ -551,6 +571,7 @@ int main(void)
         cmocka_unit_test(huge_png_dimensions_are_refused_before_allocation),
         cmocka_unit_test(caps_on_dimension_and_bytes_are_enforced),
         cmocka_unit_test(truncated_files_are_refused_cleanly),
+        cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
