@@ -307,11 +307,15 @@ static void axis_compute(const blk *B, axis *A)
         len2 = 3;
     }
     float lo = 1e30f, hi = -1e30f;
-    for (int i = 0; i < 16; i++) { /* weight-0 texels carry an opaque texel's colour */
+    for (int i = 0; i < 16; i++) { /* texels of weight 0 do not widen the range */
         float p = (B->r[i] - m[0]) * v[0] + (B->g[i] - m[1]) * v[1] + (B->b[i] - m[2]) * v[2];
-        lo = p < lo ? p : lo;
-        hi = p > hi ? p : hi;
+        if (B->w[i] > 0) {
+            lo = p < lo ? p : lo;
+            hi = p > hi ? p : hi;
+        }
     }
+    if (lo > hi)
+        lo = hi = 0;
     for (int k = 0; k < 3; k++) {
         A->m[k] = m[k];
         A->v[k] = v[k];
