@@ -455,6 +455,38 @@ static void huge_png_dimensions_are_refused_before_allocation(void **state)
     huge_png(30000, 30000);   /* within it, but 2.7 GB of texels is over the byte cap */
 }
 
+static void exr_with_a_huge_data_window_is_refused(void **state)
+{
+    (void)state;
+    /* write a small EXR, then patch its dataWindow to 0..99999 x 0..99999 */
+    enum { W = 8, H = 8 };
+    uint16_t px[W * H * 3];
+    memset(px, 0, sizeof px);
+    char p[512];
+    tmp_path(p, sizeof p, "huge.exr");
+    st_error e;
+    assert_int_equal(st_image_write(p, W, H, 3, ST_DT_HALF, px, &e), ST_OK);
+    size_t len;
+    uint8_t *b = read_file(p, &len);
+    const char key[] = "dataWindow\0box2i\0";
+    uint8_t *hit = NULL;
+    for (size_t i = 0; i + sizeof key + 20 < len && !hit; i++)
+        if (!memcmp(b + i, key, sizeof key - 1))
+            hit = b + i + sizeof key - 1 + 4; /* past the attribute size */
+    assert_non_null(hit);
+    int32_t box[4] = {0, 0, 99999, 99999};
+    memcpy(hit, box, sizeof box); /* little-endian host, as the file */
+    write_file(p, b, len);
+    free(b);
+    st_image img;
+    int rc = st_exr_read(p, NULL, &img, &e);
+    print_message("huge exr: %s %s\n", st_strerror(rc), e.msg);
+    assert_true(rc == ST_ETOOBIG || rc == ST_EFORMAT);
+    st_set *s = NULL;
+    assert_true(st_import_file(p, NULL, &s, &e) < 0);
+    assert_null(s);
+}
+
 static void caps_on_dimension_and_bytes_are_enforced(void **state)
 {
     (void)state;
@@ -569,6 +601,7 @@ int main(void)
         cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
         cmocka_unit_test(obj_over_the_caps_is_refused),
         cmocka_unit_test(huge_png_dimensions_are_refused_before_allocation),
+        cmocka_unit_test(exr_with_a_huge_data_window_is_refused),
         cmocka_unit_test(caps_on_dimension_and_bytes_are_enforced),
         cmocka_unit_test(truncated_files_are_refused_cleanly),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
