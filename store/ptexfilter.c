@@ -124,6 +124,27 @@ static void apply(pf *c, pk *k, int f)
     v4f acc = c->acc;
     switch (c->kind) {
     case PF_U8:
+        if (nc != 3) {
+            /* a row of the window is uw * nc contiguous bytes: dot it with the weights
+             * repeated per channel, 4 bytes at a time; lane l then holds channel l % nc. The
+             * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
+            int ne = k->uw * (int)nc, nv = (ne + 3) / 4;
+            v4f wv[(PK_MAX * 4 + 3) / 4];
+            float *we = (float *)wv;
+            for (int i = 0; i < nv * 4; i++)
+                we[i] = i < ne ? ku[i / (int)nc] : 0.0f;
+            for (int j = 0; j < k->vw; j++) {
+                const uint8_t *p = base + j * rowb;
+                v4f rs = load_u8(p) * wv[0];
+                for (int b = 1; b < nv; b++)
+                    rs += load_u8(p + 4 * b) * wv[b];
+                v4f row = nc == 4 ? rs
+                        : nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
+                                  : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
+                acc += row * kv[j];
+            }
+            break;
+        }
         for (int j = 0; j < k->vw; j++) {
             const uint8_t *p = base + j * rowb;
             v4f row = load_u8(p) * ku[0];
@@ -385,6 +406,43 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         return ST_Q_OK;
     }
     float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
+    if (pp->ftype == ST_FILTER_PTEX_BILINEAR && !(F->flags & ST_FACE_SUBFACE) &&
+        c->kind != PF_OTHER && !(F->flags & ST_FACE_CONSTANT)) {
+        /* the common case without building a kernel: Ptex's bilinear inside the face */
+        float bu = uw * width + blur, bv = vw * width + blur;
+        bu = bu < 1.0f ? bu : 1.0f;
+        bv = bv < 1.0f ? bv : 1.0f;
+        float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
+        bu = bu > lu ? bu : lu;
+        bv = bv > lv ? bv : lv;
+        int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
+        float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
+        float uf = (float)(int)upix, vf = (float)(int)vpix;
+        uf = uf > upix ? uf - 1.0f : uf;
+        vf = vf > vpix ? vf - 1.0f : vf;
+        int ui = (int)uf, vi = (int)vf;
+        float fu = upix - uf, fv = vpix - vf;
+        if (ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
+            fv > 0.0f) {
+            const uint8_t *d = st_ptexres_data(c->t, c->s, f, (unsigned)ru, (unsigned)rv);
+            size_t ts = st_dtype_size(c->dt) * c->nc, rowb = ts << ru;
+            const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
+            float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
+            v4f r0, r1;
+            if (c->kind == PF_U8) {
+                r0 = load_u8(p) * ku0 + load_u8(p + ts) * fu;
+                r1 = load_u8(p + rowb) * ku0 + load_u8(p + rowb + ts) * fu;
+            } else {
+                r0 = load_f32(p) * ku0 + load_f32(p + ts) * fu;
+                r1 = load_f32(p + rowb) * ku0 + load_f32(p + rowb + ts) * fu;
+            }
+            v4f acc = r0 * kv0 + r1 * fv;
+            float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = acc[ch] * scale;
+            return ST_Q_OK;
+        }
+    }
     pk k;
     if (F->flags & ST_FACE_SUBFACE) {
         uw = uw * width + blur * 2.0f;

@@ -350,21 +350,8 @@ float pk_make_symmetric(pk *k, float initial_weight)
 
 /* ---- kernel construction ---------------------------------------------------------------- */
 
-/* 1 / 2^power and Ptex's resolution for a width: ceil(log2(1/w)) read from the exponent. */
-static float recip_pow2(int power)
-{
-    uint32_t i = (uint32_t)(127 - power) << 23;
-    float f;
-    memcpy(&f, &i, 4);
-    return f;
-}
-
-static int res_from_width(float w)
-{
-    uint32_t i;
-    memcpy(&i, &w, 4);
-    return 127 - (int)((i >> 23) & 0xff);
-}
+#define recip_pow2 pk_recip_pow2
+#define res_from_width pk_res_from_width
 
 void pk_params_init(pk_params *p, unsigned ftype, float sharpness)
 {

@@ -14,6 +14,7 @@
 #define ST_PTEXFILTER_KERNEL_H
 
 #include <stdint.h>
+#include <string.h>
 
 #define PK_MAX 24   /* weights per axis; Ptex needs at most 10, doubled once by upres */
 
@@ -28,6 +29,21 @@ typedef struct pk {
 
 static inline float *pk_ku(pk *k) { return k->kub + k->ku0; }
 static inline float *pk_kv(pk *k) { return k->kvb + k->kv0; }
+
+/* 1 / 2^power, and Ptex's resolution for a width: ceil(log2(1/w)) read from the exponent. */
+static inline float pk_recip_pow2(int power)
+{
+    uint32_t i = (uint32_t)(127 - power) << 23;
+    float f;
+    memcpy(&f, &i, 4);
+    return f;
+}
+static inline int pk_res_from_width(float w)
+{
+    uint32_t i;
+    memcpy(&i, &w, 4);
+    return 127 - (int)((i >> 23) & 0xff);
+}
 
 /* Filter-specific kernel construction (Ptex's buildKernel); ftype is st_filter. */
 typedef struct pk_params {
