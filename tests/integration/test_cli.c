@@ -284,6 +284,28 @@ static void upload_ls_sample_delete_round_trip(void **state)
     assert_int_equal(CLI("info", "cli-cube"), 1);
 }
 
+static void compress_reports_sizes_and_fetch_writes_a_ptex_file(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("compress", "default", "cli-bc1", "--level", "0"), 0);
+    assert_non_null(strstr(OUT, "compressed default -> cli-bc1"));
+    assert_non_null(strstr(OUT, ":1)"));                 /* the compression ratio */
+    assert_non_null(strstr(ERR, "compress: 100%"));
+    assert_int_equal(CLI("info", "cli-bc1"), 0);
+    assert_non_null(strstr(OUT, "kind:              bc1"));
+    assert_int_equal(CLI("delete", "cli-bc1"), 0);
+
+    char path[400], magic[4] = { 0 };
+    snprintf(path, sizeof path, "%s/default.ptx", D.dir);
+    assert_int_equal(CLI("fetch", "default", path), 0);
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(magic, 1, 4, f), 4);
+    fclose(f);
+    assert_memory_equal(magic, "Ptex", 4);
+    assert_int_equal(CLI("fetch", "no-such-set", path), 1);
+}
+
 static void stats_prints_counters(void **state)
 {
     (void)state;
@@ -368,6 +390,7 @@ int main(void)
         cmocka_unit_test(bad_usage_exits_2),
         cmocka_unit_test(no_server_exits_3),
         cmocka_unit_test(upload_ls_sample_delete_round_trip),
+        cmocka_unit_test(compress_reports_sizes_and_fetch_writes_a_ptex_file),
         cmocka_unit_test(stats_prints_counters),
         cmocka_unit_test(bench_closed_loop_answers_every_request),
         cmocka_unit_test(bench_open_loop_holds_the_target_rate),
