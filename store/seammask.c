@@ -27,12 +27,57 @@ typedef struct rawpt {
     uint64_t ta[4], tb[4];
     float    wa[4], wb[4];
     float    len;
+    uint32_t seam;
 } rawpt;
 
 typedef struct builder {
     rawpt  *pts;
     size_t  n, cap;
+    st_seam_frame *fr;
+    size_t  nfr, capfr;
 } builder;
+
+/* Records the frame of seam number sys->nseams (called before it is counted). */
+static int push_frame(builder *b, const st_seam_frame *f, st_error *e)
+{
+    if (b->nfr == b->capfr) {
+        size_t nc = b->capfr ? b->capfr * 2 : 256;
+        st_seam_frame *n = realloc(b->fr, nc * sizeof *n);
+        if (!n)
+            return st_fail(e, ST_ENOMEM, "out of memory for seam frames");
+        b->fr = n;
+        b->capfr = nc;
+    }
+    b->fr[b->nfr++] = *f;
+    return ST_OK;
+}
+
+static void set_frame_side(st_seam_frame *fr, int k, uint32_t face, double x0, double y0, double x1,
+                           double y1, double ix, double iy)
+{
+    double tx = x1 - x0, ty = y1 - y0, L = sqrt(tx * tx + ty * ty);
+    fr->face[k] = face;
+    fr->org[k][0] = (float)x0;
+    fr->org[k][1] = (float)y0;
+    fr->len[k] = (float)L;
+    if (L > 0) {
+        tx /= L;
+        ty /= L;
+    } else {
+        tx = 1;
+        ty = 0;
+    }
+    fr->tan[k][0] = (float)tx;
+    fr->tan[k][1] = (float)ty;
+    /* the normal of the tangent that points to the interior point (ix, iy) */
+    double nx = -ty, ny = tx;
+    if ((ix - x0) * nx + (iy - y0) * ny < 0) {
+        nx = -nx;
+        ny = -ny;
+    }
+    fr->nrm[k][0] = (float)nx;
+    fr->nrm[k][1] = (float)ny;
+}
 
 static int push(builder *b, const rawpt *p, st_error *e)
 {
@@ -127,9 +172,22 @@ static int build_perface(st_seam_sys *sys, const st_set *s, float step, builder 
             corner_uv(ge, &g0u, &g0v);
             corner_uv((ge + 1) & 3, &g1u, &g1v);
             float len = (float)(0.5 * (lf + lg) / (double)n);
+            st_seam_frame fr;
+            memset(&fr, 0, sizeof fr);
+            {
+                double W0 = sys->fw[f], H0 = sys->fh[f], W1 = sys->fw[g], H1 = sys->fh[g];
+                set_frame_side(&fr, 0, f, u0 * W0, v0 * H0, u1 * W0, v1 * H0, 0.5 * W0, 0.5 * H0);
+                /* the shared edge runs the other way in g: start at its end corner */
+                set_frame_side(&fr, 1, (uint32_t)g, g1u * W1, g1v * H1, g0u * W1, g0v * H1,
+                               0.5 * W1, 0.5 * H1);
+            }
+            int rcf = push_frame(b, &fr, e);
+            if (rcf)
+                return rcf;
             for (size_t i = 0; i < n; i++) {
                 double t = ((double)i + 0.5) / (double)n;
                 rawpt p;
+                p.seam = sys->nseams;
                 taps(sys, f, u0 + (u1 - u0) * t, v0 + (v1 - v0) * t, 0, p.ta, p.wa);
                 double tg = 1.0 - t; /* the shared edge runs the other way in g */
                 taps(sys, (uint32_t)g, g0u + (g1u - g0u) * tg, g0v + (g1v - g0v) * tg, 0, p.tb,
@@ -249,9 +307,30 @@ static int build_atlas(st_seam_sys *sys, const st_set *s, float step, builder *b
         if (n < 1)
             n = 1;
         float len = (float)(0.5 * (la + lb) / (double)n);
+        st_seam_frame fr;
+        memset(&fr, 0, sizeof fr);
+        fr.wrap = 1;
+        for (int k = 0; k < 2; k++) {
+            /* the interior point: the triangle's corner that is not on the seam */
+            uint32_t t = se->tri[k];
+            double ix = 0, iy = 0;
+            if (t < m->ntri) {
+                uint32_t c = m->tri_uv[3 * t + (se->edge[k] + 2) % 3];
+                if (c < m->nuv) {
+                    ix = m->uv[2 * c] * W;
+                    iy = m->uv[2 * c + 1] * H;
+                }
+            }
+            set_frame_side(&fr, k, 0, uv[k][0][0] * W, uv[k][0][1] * H, uv[k][1][0] * W,
+                           uv[k][1][1] * H, ix, iy);
+        }
+        int rcf = push_frame(b, &fr, e);
+        if (rcf)
+            return rcf;
         for (size_t i = 0; i < n; i++) {
             double t = ((double)i + 0.5) / (double)n;
             rawpt p;
+            p.seam = sys->nseams;
             taps(sys, 0, uv[0][0][0] + (uv[0][1][0] - uv[0][0][0]) * t,
                  uv[0][0][1] + (uv[0][1][1] - uv[0][0][1]) * t, 1, p.ta, p.wa);
             taps(sys, 0, uv[1][0][0] + (uv[1][1][0] - uv[1][0][0]) * t,
@@ -295,6 +374,7 @@ void st_seam_sys_free(st_seam_sys *sys)
     free(sys->inside);
     free(sys->pts);
     free(sys->vars);
+    free(sys->frames);
     free(sys);
 }
 
@@ -392,13 +472,16 @@ int st_seam_sys_build(const st_set *s, float step, st_seam_sys **out, st_error *
             p->wb[k] = b.pts[i].wb[k];
         }
         p->len = b.pts[i].len;
+        p->seam = b.pts[i].seam;
         sys->total_len += p->len;
     }
     free(b.pts);
+    sys->frames = b.fr;
     *out = sys;
     return ST_OK;
 fail:
     free(b.pts);
+    free(b.fr);
     st_seam_sys_free(sys);
     return rc;
 }

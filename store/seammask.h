@@ -48,7 +48,18 @@ typedef struct st_seam_pt {
     uint32_t va[4], vb[4];     /* variable index (into sys->vars) of each tap, side A / B */
     float    wa[4], wb[4];     /* bilinear weights, each side sums to 1 */
     float    len;              /* segment length in texels */
+    uint32_t seam;             /* index into sys->frames */
 } st_seam_pt;
+
+/* Where a seam lies on each side, for pictures (the report's stitched close-ups): side k is
+ * on face face[k]; the seam runs from org[k] along tan[k] (texel units, both sides in the same
+ * 3D direction) for len[k] texels; nrm[k] is the unit normal pointing into side k's chart or
+ * face. Texel coordinates: x = u * w, y = v * h (texel centres at +.5). */
+typedef struct st_seam_frame {
+    uint32_t face[2];
+    float    org[2][2], tan[2][2], nrm[2][2], len[2];
+    uint8_t  wrap;             /* atlas: REPEAT addressing */
+} st_seam_frame;
 
 typedef struct st_seam_sys {
     uint32_t  nfaces;
@@ -60,7 +71,8 @@ typedef struct st_seam_sys {
     size_t    npts;
     uint64_t *vars;            /* nvars global texel ids touched by some tap, ascending */
     uint32_t  nvars;
-    uint32_t  nseams;          /* seams (edge pairs) sampled */
+    uint32_t  nseams;          /* seams (edge pairs) sampled = frames */
+    st_seam_frame *frames;
     double    total_len;       /* sum of len over points */
 } st_seam_sys;
 
