@@ -55,7 +55,8 @@
 typedef struct st_material {
     char name[128];
     char map_kd[512];      /* map_Kd as resolved to a path (backslashes turned into '/',
-                              relative to the .mtl's folder); "" when none */
+                              relative to the .mtl's folder); "" when none, or when the file
+                              names an absolute path or one with ".." (not followed) */
 } st_material;
 
 /* One side of a seam: a triangle edge and the UV segment along it. */

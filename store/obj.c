@@ -5,7 +5,8 @@
  * Handled: v (x y z [w]), vt (u [v [w]]), vn (skipped), f with i, i/j, i/j/k, i//k corners
  * and negative (relative) indices, polygons (fan-triangulated), g / o / s (ignored), usemtl,
  * mtllib (several names on a line; .mtl newmtl and map_Kd with options and Windows '\'
- * paths), comments, CRLF line ends and backslash line continuation.
+ * paths), comments, CRLF line ends and backslash line continuation. mtllib and map_Kd paths
+ * are only followed when relative and inside the OBJ's folder (no "..", not absolute).
  *
  * Hostile input: counts are capped (caps) as they grow, every index is range-checked (at the
  * end, so faces may name vertices defined later), NaN / infinite coordinates are refused, and
@@ -115,6 +116,22 @@ static int find_mat(parser *P, const char *name, size_t len)
     return (int)P->mats.n - 1;
 }
 
+/* A relative path that stays inside its folder: not absolute, no ".." component, no drive
+ * letter. Files named by an uploaded OBJ or MTL are only looked for beside it. */
+static int safe_rel(const char *p)
+{
+    if (!*p || p[0] == '/' || (isalpha((unsigned char)p[0]) && p[1] == ':'))
+        return 0;
+    for (const char *c = p; *c;) {
+        const char *slash = strchr(c, '/');
+        size_t l = slash ? (size_t)(slash - c) : strlen(c);
+        if (l == 2 && c[0] == '.' && c[1] == '.')
+            return 0;
+        c += l + (slash ? 1 : 0);
+    }
+    return 1;
+}
+
 /* Resolves an MTL map path: options skipped (last token), '\' -> '/', "./" dropped, made
  * relative to the .mtl's folder. */
 static void resolve_map(const char *dir, const char *s, const char *end, char *out, size_t cap)
@@ -137,8 +154,11 @@ static void resolve_map(const char *dir, const char *s, const char *end, char *o
     const char *n = name;
     while (n[0] == '.' && n[1] == '/')
         n += 2;
-    int r = n[0] == '/' || !dir || !*dir ? snprintf(out, cap, "%s", n)
-                                         : snprintf(out, cap, "%s/%s", dir, n);
+    if (!safe_rel(n)) {
+        out[0] = 0; /* absolute or climbing out of the mesh's folder: not followed */
+        return;
+    }
+    int r = !dir || !*dir ? snprintf(out, cap, "%s", n) : snprintf(out, cap, "%s/%s", dir, n);
     if (r < 0 || (size_t)r >= cap)
         out[0] = 0; /* too long: no texture rather than a wrong one */
 }
@@ -155,6 +175,8 @@ static void read_mtl(parser *P, const char *file, size_t flen)
     for (char *c = name; *c; c++)
         if (*c == '\\')
             *c = '/';
+    if (!safe_rel(name))
+        return;
     int r = snprintf(path, sizeof path, "%s/%s", P->base_dir, name);
     if (r < 0 || (size_t)r >= sizeof path)
         return;

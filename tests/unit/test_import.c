@@ -314,6 +314,26 @@ static void obj_reader_handles_polygons_negative_indices_groups_and_materials(vo
     st_mesh_free(m);
 }
 
+static void mtl_paths_outside_the_mesh_folder_are_not_followed(void **state)
+{
+    (void)state;
+    const char *mtl = "newmtl up\nmap_Kd ..\\..\\etc\\x.png\nnewmtl abs\nmap_Kd /etc/x.png\n"
+                      "newmtl drive\nmap_Kd C:\\tex\\x.png\nnewmtl ok\nmap_Kd sub/a..b.png\n";
+    char mp[512];
+    tmp_path(mp, sizeof mp, "paths.mtl");
+    write_file(mp, mtl, strlen(mtl));
+    const char *obj = "mtllib paths.mtl\nmtllib ../outside.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                      "usemtl up\nf 1 2 3\nusemtl abs\nf 1 2 3\nusemtl drive\nf 1 2 3\nusemtl ok\nf 1 2 3\n";
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_obj_read_mem(obj, strlen(obj), tmpdir, NULL, &m, &e), ST_OK);
+    assert_string_equal(m->mats[m->tri_mat[0]].map_kd, "");
+    assert_string_equal(m->mats[m->tri_mat[1]].map_kd, "");
+    assert_string_equal(m->mats[m->tri_mat[2]].map_kd, "");
+    assert_non_null(strstr(m->mats[m->tri_mat[3]].map_kd, "/sub/a..b.png"));
+    st_mesh_free(m);
+}
+
 static void obj_with_backslash_texture_path_imports_as_an_atlas(void **state)
 {
     (void)state;
@@ -596,6 +616,7 @@ int main(void)
         cmocka_unit_test(precision_is_kept_for_16_bit_and_float),
         cmocka_unit_test(png_writer_round_trips_8_bit_and_refuses_dds),
         cmocka_unit_test(obj_reader_handles_polygons_negative_indices_groups_and_materials),
+        cmocka_unit_test(mtl_paths_outside_the_mesh_folder_are_not_followed),
         cmocka_unit_test(obj_with_backslash_texture_path_imports_as_an_atlas),
         cmocka_unit_test(draco_duck_pairs_with_its_texture),
         cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
