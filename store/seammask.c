@@ -265,13 +265,10 @@ static int build_atlas(st_seam_sys *sys, const st_set *s, float step, builder *b
     const st_atlas *at = s->ext;
     if (!at || !at->mesh)
         return ST_OK; /* a plain image: no seams */
-    st_mesh *m = at->mesh;
-    if (!m->seams) {
-        /* the atlas finds seams when it takes the mesh; do it here if it did not */
-        int rc = st_mesh_find_seams(m, e);
-        if (rc)
-            return rc;
-    }
+    const st_mesh *m = at->mesh;
+    if (!m->seams)
+        return ST_OK; /* the atlas finds seams when it takes a mesh (atlas.h); the set is
+                         shared and read-only here, so nothing is computed into it */
     /* With several textured materials, keep the triangles that use this texture. */
     const char *tex = at->texture_name[0] ? basename_of(at->texture_name) : NULL;
     int filter = 0;
