@@ -1,6 +1,7 @@
 /* client/cli_sample.c - `seamtex sample`: one query from the arguments or many from a file
- * of text lines "face u v [dudx dvdx dudy dvdy]", answered as text (one line per query:
- * values, coverage, status) or as raw binary values on stdout.
+ * of text lines "face u v [dudx dvdx dudy dvdy]" (or, with --dir, cube-map directions
+ * "x y z [ddx(3) ddy(3)]"), answered as text (one line per query: values, coverage, status)
+ * or as raw binary values on stdout.
  *
  * Owns: the query file parser and the output formats. Does not own: sampling (the server)
  * or framing (libseamtex); batches larger than the server's max_batch are split here.
@@ -19,10 +20,13 @@
 static const char *const SAMPLE_USAGE =
 "usage: seamtex sample SET FACE U V [options]\n"
 "       seamtex sample SET --queries FILE [options]\n"
+"       seamtex sample SET --dir X Y Z [--cone RADIANS] [options]     (cube maps)\n"
+"       seamtex sample SET --dir --queries FILE [options]  lines 'x y z [ddx(3) ddy(3)]'\n"
 "Samples a set. FILE has one query per line, 'face u v [dudx dvdx dudy dvdy]' ('-' reads\n"
 "stdin; '#' starts a comment). Text output: one line per query with the channel values,\n"
 "the coverage and the status.\n"
 "  --dudx A --dvdx B --dudy C --dvdy D   footprint of a single query (default 0)\n"
+"  --cone A           with --dir: a cone footprint of full angle A radians for every query\n"
 "  --mode discard|traverse|clamp          seam handling (traverse)\n"
 "  --filter NAME      point bilinear trilinear aniso, ptex-point ptex-bilinear ptex-box\n"
 "                     ptex-gaussian ptex-bicubic ptex-bspline ptex-catmullrom\n"
@@ -67,25 +71,52 @@ static int parse_line(char *line, stc_query *q)
     return 1;
 }
 
-static int read_queries(const char *path, stc_query **out, size_t *count)
+/* Direction line "x y z [ddx0 ddx1 ddx2 ddy0 ddy1 ddy2]": 1 query, 0 blank, -1 bad. */
+static int parse_dir_line(char *line, stc_dir_query *q)
+{
+    char *hash = strchr(line, '#');
+    if (hash)
+        *hash = '\0';
+    float v[9] = { 0 };
+    int n = 0;
+    for (char *save = NULL, *t = strtok_r(line, " \t\r\n,", &save); t;
+         t = strtok_r(NULL, " \t\r\n,", &save)) {
+        if (n == 9 || cli_parse_float(t, &v[n]))
+            return -1;
+        n++;
+    }
+    if (n == 0)
+        return 0;
+    if (n != 3 && n != 9)
+        return -1;
+    memcpy(q->dir, v, sizeof q->dir);
+    memcpy(q->ddx, v + 3, sizeof q->ddx);
+    memcpy(q->ddy, v + 6, sizeof q->ddy);
+    return 1;
+}
+
+/* Reads a query file of either kind into *out (elements of `size` bytes). */
+static int read_lines(const char *path, int dir, void **out, size_t *count)
 {
     FILE *f = strcmp(path, "-") ? fopen(path, "r") : stdin;
     if (!f) {
         fprintf(stderr, "seamtex sample: %s: cannot open\n", path);
         return CLI_SERVER;
     }
-    stc_query *q = NULL;
+    size_t size = dir ? sizeof(stc_dir_query) : sizeof(stc_query);
+    uint8_t *q = NULL;
     size_t n = 0, cap = 0, lineno = 0;
     char *line = NULL;
     size_t lcap = 0;
     int rc = CLI_OK;
     while (getline(&line, &lcap, f) > 0) {
         lineno++;
-        stc_query one;
-        int r = parse_line(line, &one);
+        union { stc_query f; stc_dir_query d; } one;
+        int r = dir ? parse_dir_line(line, &one.d) : parse_line(line, &one.f);
         if (r < 0) {
-            fprintf(stderr, "seamtex sample: %s:%zu: expected 'face u v [dudx dvdx dudy dvdy]'\n",
-                    path, lineno);
+            fprintf(stderr, "seamtex sample: %s:%zu: expected '%s'\n", path, lineno,
+                    dir ? "x y z [ddx0 ddx1 ddx2 ddy0 ddy1 ddy2]"
+                        : "face u v [dudx dvdx dudy dvdy]");
             rc = CLI_USAGE;
             break;
         }
@@ -98,7 +129,7 @@ static int read_queries(const char *path, stc_query **out, size_t *count)
         }
         if (n == cap) {
             size_t nc = cap ? cap * 2 : 1024;
-            stc_query *p = realloc(q, nc * sizeof *q);
+            uint8_t *p = realloc(q, nc * size);
             if (!p) {
                 fprintf(stderr, "seamtex sample: out of memory\n");
                 rc = CLI_SERVER;
@@ -107,7 +138,8 @@ static int read_queries(const char *path, stc_query **out, size_t *count)
             q = p;
             cap = nc;
         }
-        q[n++] = one;
+        memcpy(q + n * size, &one, size);
+        n++;
     }
     free(line);
     if (f != stdin)
@@ -140,10 +172,17 @@ static int parse_filter(const char *s)
     return st_filter_parse(buf);
 }
 
-static void print_text(const stc_query *q, const stc_sample_result *r)
+/* One text line per query: the query, the values, the coverage and the status. */
+static void print_text(const void *queries, int dir, const stc_sample_result *r)
 {
     for (uint32_t i = 0; i < r->count; i++) {
-        printf("%u %g %g:", q[i].face, q[i].u, q[i].v);
+        if (dir) {
+            const stc_dir_query *q = (const stc_dir_query *)queries + i;
+            printf("%g %g %g:", q->dir[0], q->dir[1], q->dir[2]);
+        } else {
+            const stc_query *q = (const stc_query *)queries + i;
+            printf("%u %g %g:", q->face, q->u, q->v);
+        }
         for (unsigned c = 0; c < r->nchan; c++) {
             size_t k = (size_t)i * r->nchan + c;
             if (r->outfmt == STC_OUT_UNORM8)
@@ -168,10 +207,13 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     o.mode = ST_MODE_TRAVERSE;
     o.filter = ST_FILTER_BILINEAR;
     const char *pos[4];
-    int npos = 0, binary = 0;
+    int npos = 0, binary = 0, dir = 0;
     const char *qfile = NULL, *set = NULL;
     stc_query one;
+    stc_dir_query onedir;
+    float cone = -1.0f;
     memset(&one, 0, sizeof one);
+    memset(&onedir, 0, sizeof onedir);
 
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -194,6 +236,10 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             binary = 1;
             continue;
         }
+        if (!strcmp(a, "--dir")) {
+            dir = 1;
+            continue;
+        }
         if (i + 1 >= argc) {
             fprintf(stderr, "seamtex sample: %s needs a value\n", a);
             return CLI_USAGE;
@@ -204,7 +250,7 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         float *fp = !strcmp(a, "--dudx") ? &one.dudx : !strcmp(a, "--dvdx") ? &one.dvdx
                   : !strcmp(a, "--dudy") ? &one.dudy : !strcmp(a, "--dvdy") ? &one.dvdy
                   : !strcmp(a, "--sharpness") ? &o.sharpness : !strcmp(a, "--width") ? &o.width
-                  : !strcmp(a, "--blur") ? &o.blur : NULL;
+                  : !strcmp(a, "--blur") ? &o.blur : !strcmp(a, "--cone") ? &cone : NULL;
         if (fp) {
             bad = cli_parse_float(v, fp);
         } else if (!strcmp(a, "--queries")) {
@@ -236,7 +282,7 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             return CLI_USAGE;
         }
     }
-    if (!set || (qfile && npos) || (!qfile && npos != 3)) {
+    if (!set || (qfile && npos) || (!qfile && npos != 3) || (cone >= 0.0f && !dir)) {
         fputs(SAMPLE_USAGE, stderr);
         return CLI_USAGE;
     }
@@ -245,16 +291,29 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         return CLI_USAGE;
     }
 
-    stc_query *q = &one;
+    void *q = dir ? (void *)&onedir : (void *)&one;
     size_t n = 1;
     if (qfile) {
-        int rc = read_queries(qfile, &q, &n);
+        int rc = read_lines(qfile, dir, &q, &n);
         if (rc)
             return rc;
-    } else if (cli_parse_u32(pos[0], &one.face) || cli_parse_float(pos[1], &one.u) ||
-               cli_parse_float(pos[2], &one.v)) {
-        fprintf(stderr, "seamtex sample: FACE U V must be numbers\n");
+    } else if (dir ? cli_parse_float(pos[0], &onedir.dir[0]) ||
+                     cli_parse_float(pos[1], &onedir.dir[1]) ||
+                     cli_parse_float(pos[2], &onedir.dir[2])
+                   : cli_parse_u32(pos[0], &one.face) || cli_parse_float(pos[1], &one.u) ||
+                     cli_parse_float(pos[2], &one.v)) {
+        fprintf(stderr, "seamtex sample: %s must be numbers\n", dir ? "X Y Z" : "FACE U V");
         return CLI_USAGE;
+    }
+    if (dir && cone >= 0.0f) {
+        /* a cone footprint: ddx[0] is the full angle, the other five floats are 0 */
+        o.footprint = 1;
+        stc_dir_query *d = q;
+        for (size_t i = 0; i < n; i++) {
+            memset(d[i].ddx, 0, sizeof d[i].ddx);
+            memset(d[i].ddy, 0, sizeof d[i].ddy);
+            d[i].ddx[0] = cone;
+        }
     }
     o.want = binary ? 0 : STC_WANT_COVERAGE | STC_WANT_STATUS;
 
@@ -264,11 +323,14 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     size_t chunk = stc_server_info(ctx->conn)->max_batch;
     if (chunk == 0 || chunk > 65536)
         chunk = 65536;
+    size_t qsize = dir ? sizeof(stc_dir_query) : sizeof(stc_query);
     uint64_t nbad = 0;
     for (size_t at = 0; at < n; at += chunk) {
         size_t m = n - at < chunk ? n - at : chunk;
+        const void *qa = (const uint8_t *)q + at * qsize;
         stc_sample_result r;
-        int e = stc_sample(ctx->conn, set, &o, q + at, m, &r);
+        int e = dir ? stc_sample_dir(ctx->conn, set, &o, qa, m, &r)
+                    : stc_sample(ctx->conn, set, &o, qa, m, &r);
         if (e) {
             rc = cli_fail(ctx, set, e);
             goto out;
@@ -283,13 +345,13 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
                 goto out;
             }
         } else {
-            print_text(q + at, &r);
+            print_text(qa, dir, &r);
         }
     }
     if (!binary && n > 1)
         printf("(%zu queries, %llu not OK)\n", n, (unsigned long long)nbad);
 out:
-    if (q != &one)
+    if (q != &one && q != &onedir)
         free(q);
     return rc;
 }

@@ -284,6 +284,28 @@ static void upload_ls_sample_delete_round_trip(void **state)
     assert_int_equal(CLI("info", "cli-cube"), 1);
 }
 
+static void sample_dir_answers_on_a_cube_map_and_refuses_other_sets(void **state)
+{
+    (void)state;
+    char exr[512];
+    if (st_daemon_data_path(exr, sizeof exr, "env/WavyLinesCube.exr") != 0) {
+        printf("# SEAMTEX_DATA has no env/WavyLinesCube.exr: skipping the cube test\n");
+        skip();
+    }
+    assert_int_equal(CLI("upload", exr, "cli-wavy"), 0);
+    assert_non_null(strstr(OUT, "cube, 6 faces"));
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "1", "0.2", "0.1"), 0);
+    assert_int_equal(count_lines_ending(OUT, " OK"), 1);
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "1", "1", "1", "--cone", "0.1",
+                         "--filter", "trilinear"), 0);
+    assert_int_equal(count_lines_ending(OUT, " OK"), 1);
+    /* --cone without --dir is a usage error; a per-face set has no directions */
+    assert_int_equal(CLI("sample", "cli-wavy", "0", "0.5", "0.5", "--cone", "0.1"), 2);
+    assert_int_equal(CLI("sample", "default", "--dir", "1", "0", "0"), 1);
+    assert_non_null(strstr(ERR, "UNSUPPORTED"));
+    assert_int_equal(CLI("delete", "cli-wavy"), 0);
+}
+
 static void compress_reports_sizes_and_fetch_writes_a_ptex_file(void **state)
 {
     (void)state;
@@ -390,6 +412,7 @@ int main(void)
         cmocka_unit_test(bad_usage_exits_2),
         cmocka_unit_test(no_server_exits_3),
         cmocka_unit_test(upload_ls_sample_delete_round_trip),
+        cmocka_unit_test(sample_dir_answers_on_a_cube_map_and_refuses_other_sets),
         cmocka_unit_test(compress_reports_sizes_and_fetch_writes_a_ptex_file),
         cmocka_unit_test(stats_prints_counters),
         cmocka_unit_test(bench_closed_loop_answers_every_request),
