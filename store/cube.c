@@ -201,7 +201,7 @@ int st_cube_sample_dir(const st_set *cube, const st_sample_opts *o, unsigned loo
             if (pre[k] != ST_Q_OK) {
                 st[k] = pre[k];
                 for (unsigned c = 0; c < nc; c++)
-                        out[(i0 + k) * nc + c] = NAN;
+                    out[(i0 + k) * nc + c] = NAN;
                 if (coverage)
                     coverage[i0 + k] = 0.0f;
             }
