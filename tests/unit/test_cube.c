@@ -159,6 +159,67 @@ static void directions_round_trip_through_face_and_uv(void **state)
     assert_int_equal(st_cube_dir_to_face(nan3, &u, &v), -1);
 }
 
+static void footprints_from_derivatives_and_cones_follow_the_projection(void **state)
+{
+    (void)state;
+    st_set_info in = {.nchan = 1, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, 64, 0, &s, &e), ST_OK);
+    uint32_t seed = 4242;
+    int checked = 0;
+    for (int i = 0; i < 500; i++) {
+        st_cube_query q;
+        memset(&q, 0, sizeof q);
+        for (int k = 0; k < 3; k++) {
+            seed = seed * 1664525u + 1013904223u;
+            q.dir[k] = (float)(seed >> 8) / (float)(1u << 24) * 2.0f - 1.0f;
+            seed = seed * 1664525u + 1013904223u;
+            q.ddx[k] = ((float)(seed >> 8) / (float)(1u << 24) - 0.5f) * 1e-3f;
+            seed = seed * 1664525u + 1013904223u;
+            q.ddy[k] = ((float)(seed >> 8) / (float)(1u << 24) - 0.5f) * 1e-3f;
+        }
+        st_query fq;
+        uint8_t st;
+        st_cube_queries(s, ST_CUBE_LOOKUP_PLAIN, &q, 1, &fq, &st);
+        assert_int_equal(st, ST_Q_OK);
+        /* central differences of the projection itself */
+        float a[3], b[3], ua, va, ub, vb;
+        for (int k = 0; k < 3; k++) {
+            a[k] = q.dir[k] - q.ddx[k];
+            b[k] = q.dir[k] + q.ddx[k];
+        }
+        int fa = st_cube_dir_to_face(a, &ua, &va), fb = st_cube_dir_to_face(b, &ub, &vb);
+        if (fa != (int)fq.face || fb != (int)fq.face || ua <= 0 || ua >= 1 || ub <= 0 || ub >= 1 ||
+            va <= 0 || va >= 1 || vb <= 0 || vb >= 1)
+            continue; /* too close to an edge for a one-face difference */
+        float scale = fmaxf(fabsf(fq.dudx), fabsf(fq.dvdx)) + 1e-6f;
+        assert_float_equal((ub - ua) / 2.0f, fq.dudx, 0.02f * scale + 1e-6f);
+        assert_float_equal((vb - va) / 2.0f, fq.dvdx, 0.02f * scale + 1e-6f);
+        checked++;
+    }
+    assert_true(checked > 400);
+    /* a cone of angle c at a face centre is c/2 in uv both ways; at the edge midpoint the
+     * radial axis is stretched by r^2 = 2 and the tangential one by r = sqrt 2 */
+    st_cube_query q;
+    memset(&q, 0, sizeof q);
+    q.dir[2] = 1;
+    q.cone = 0.01f;
+    st_query fq;
+    uint8_t st;
+    st_cube_queries(s, 0, &q, 1, &fq, &st);
+    assert_float_equal(hypotf(fq.dudx, fq.dvdx), 0.005f, 1e-6);
+    assert_float_equal(hypotf(fq.dudy, fq.dvdy), 0.005f, 1e-6);
+    q.dir[0] = 0.999f;
+    st_cube_queries(s, 0, &q, 1, &fq, &st);
+    assert_float_equal(hypotf(fq.dudx, fq.dvdx), 0.005f * (1 + 0.999f * 0.999f), 1e-5);
+    assert_float_equal(hypotf(fq.dudy, fq.dvdy), 0.005f * sqrtf(1 + 0.999f * 0.999f), 1e-5);
+    q.cone = NAN;
+    st_cube_queries(s, 0, &q, 1, &fq, &st);
+    assert_int_equal(st, ST_Q_NONFINITE);
+    st_set_free(s);
+}
+
 static void bad_directions_get_a_status_not_a_crash(void **state)
 {
     (void)state;
@@ -607,6 +668,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(adjacency_matches_the_face_frames_and_corners_have_valence_3),
         cmocka_unit_test(directions_round_trip_through_face_and_uv),
+        cmocka_unit_test(footprints_from_derivatives_and_cones_follow_the_projection),
         cmocka_unit_test(bad_directions_get_a_status_not_a_crash),
         cmocka_unit_test(traverse_is_continuous_across_every_edge_and_corner_and_clamp_is_not),
         cmocka_unit_test(latlong_and_cube_versions_of_a_scene_agree_away_from_seams),
