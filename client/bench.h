@@ -70,6 +70,7 @@ typedef struct bench_result {
     uint64_t timeouts;         /* no reply within timeout_s, or left when the run ended */
     uint64_t conn_errors;      /* connections that failed (reset, bad frame) */
     uint64_t late_sends;       /* open loop: requests written more than 1 ms after due */
+    uint64_t unsent;           /* open loop: due before the end but never sent */
     uint64_t queries;          /* SAMPLE: queries answered in the measured window */
     uint64_t bytes_out, bytes_in;
     uint64_t t_last;           /* time of the last measured reply (ns) */

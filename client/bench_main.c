@@ -159,9 +159,10 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
             (unsigned long long)r->sent, (unsigned long long)r->completed,
             (unsigned long long)r->measured);
     fprintf(f, "  \"errors\": %llu,\n  \"timeouts\": %llu,\n  \"conn_errors\": %llu,\n"
-               "  \"late_sends\": %llu,\n",
+               "  \"late_sends\": %llu,\n  \"unsent\": %llu,\n",
             (unsigned long long)r->errors, (unsigned long long)r->timeouts,
-            (unsigned long long)r->conn_errors, (unsigned long long)r->late_sends);
+            (unsigned long long)r->conn_errors, (unsigned long long)r->late_sends,
+            (unsigned long long)r->unsent);
     fprintf(f, "  \"bytes_out\": %llu,\n  \"bytes_in\": %llu,\n",
             (unsigned long long)r->bytes_out, (unsigned long long)r->bytes_in);
     json_hist(f, "corrected", &r->corrected);
@@ -441,6 +442,7 @@ int main(int argc, char **argv)
         all->timeouts += r->timeouts;
         all->conn_errors += r->conn_errors;
         all->late_sends += r->late_sends;
+        all->unsent += r->unsent;
         all->queries += r->queries;
         all->bytes_out += r->bytes_out;
         all->bytes_in += r->bytes_in;
@@ -470,6 +472,10 @@ int main(int argc, char **argv)
                (unsigned long long)all->measured, (unsigned long long)all->errors,
                (unsigned long long)all->timeouts, (unsigned long long)all->conn_errors,
                (unsigned long long)all->late_sends);
+        if (all->unsent)
+            printf("  WARNING: %llu requests were due but never sent (connections full: "
+                   "raise --pipeline or --conns); the rate was not held\n",
+                   (unsigned long long)all->unsent);
         printf("  latency (us):\n");
         print_hist("corrected", &all->corrected);
         print_hist("service", &all->service);
