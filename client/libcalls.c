@@ -24,7 +24,8 @@ _Static_assert(offsetof(stc_dir_query, ddy) == offsetof(stp_dir_query, ddy), "di
 _Static_assert((int)STC_OUT_UNORM16 == (int)STP_OUT_UNORM16 && (int)STC_WANT_STATUS == (int)STP_SF_STATUS, "enums");
 _Static_assert(STC_ESHUTDOWN == -(STC_SERVER_BASE + STP_S_SHUTDOWN), "status numbering");
 
-#define APPEND_FLUSH_AT (4u << 20)   /* an append flushes by itself past this much queued */
+#define APPEND_FLUSH_AT (1u << 20)   /* an append sends (without waiting) past this much queued */
+#define APPEND_HARD_CAP (64u << 20)  /* an append waits for room past this much queued */
 
 /* ---- request plumbing ---------------------------------------------------------------------- */
 
@@ -626,10 +627,24 @@ int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out)
 
 /* ---- pipelined appends -------------------------------------------------------------------- */
 
+/* Before queuing: past APPEND_HARD_CAP of unsent bytes (a peer that does not read) wait up to
+ * the request timeout for room, and refuse (nothing queued) if there is none. */
+static int make_room(stc_conn *c)
+{
+    if (stp_buf_avail(&c->out) < APPEND_HARD_CAP)
+        return 0;
+    int rc = stc__flush(c, stc__deadline(c->timeout_ms));
+    if (rc == STC_ETIMEDOUT && stp_buf_avail(&c->out) >= APPEND_HARD_CAP)
+        return stc__fail(c, STC_ETIMEDOUT, "%zu bytes of requests are queued and the server "
+                         "is not reading them; nothing was appended", stp_buf_avail(&c->out));
+    return rc == STC_ETIMEDOUT ? 0 : rc;
+}
+
+/* After queuing: past APPEND_FLUSH_AT send what the socket takes now, without waiting. */
 static int appended(stc_conn *c)
 {
     if (stp_buf_avail(&c->out) >= APPEND_FLUSH_AT) {
-        int rc = stc__flush(c, stc__deadline(c->timeout_ms));
+        int rc = stc__flush(c, stc__now_ms());
         if (rc && rc != STC_ETIMEDOUT)
             return rc;
         c->msg[0] = 0;              /* a slow peer is not an error for an append */
@@ -645,7 +660,7 @@ int stc_append_ping(stc_conn *c, const void *payload, size_t len, uint32_t *reqi
         return rc;
     if (!reqid || (len && !payload))
         return stc__fail(c, STC_EINVAL, "reqid or payload is NULL");
-    if ((rc = start(c, STP_OP_PING, 1, &id)) != 0 ||
+    if ((rc = make_room(c)) != 0 || (rc = start(c, STP_OP_PING, 1, &id)) != 0 ||
         (rc = encoded(c, stp_enc_raw(&c->out, STP_OP_PING, 0, id, 0, tmo(c), payload, len))) != 0)
         return rc;
     *reqid = id;
@@ -661,7 +676,8 @@ static int append_sample(stc_conn *c, int dir, const char *set, const stc_sample
         return rc;
     if (!reqid)
         return stc__fail(c, STC_EINVAL, "reqid is NULL");
-    if ((rc = start(c, dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, 1, &id)) != 0 ||
+    if ((rc = make_room(c)) != 0 ||
+        (rc = start(c, dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, 1, &id)) != 0 ||
         (rc = enc_sample(c, id, dir, set, o, q, n)) != 0)
         return rc;
     *reqid = id;
@@ -688,7 +704,8 @@ int stc_append_info(stc_conn *c, const char *set, uint32_t *reqid)
         return rc;
     if (!reqid)
         return stc__fail(c, STC_EINVAL, "reqid is NULL");
-    if ((rc = start(c, STP_OP_INFO, 1, &id)) != 0 || (rc = enc_info(c, id, set, 0, 0)) != 0)
+    if ((rc = make_room(c)) != 0 || (rc = start(c, STP_OP_INFO, 1, &id)) != 0 ||
+        (rc = enc_info(c, id, set, 0, 0)) != 0)
         return rc;
     *reqid = id;
     return appended(c);
@@ -707,7 +724,7 @@ int stc_append_raw(stc_conn *c, unsigned opcode, const void *body, size_t len, u
         return rc;
     if (!reqid || opcode > 255 || (len && !body))
         return stc__fail(c, STC_EINVAL, "reqid NULL, opcode over 255 or body NULL");
-    if ((rc = start(c, (uint8_t)opcode, 1, &id)) != 0 ||
+    if ((rc = make_room(c)) != 0 || (rc = start(c, (uint8_t)opcode, 1, &id)) != 0 ||
         (rc = encoded(c, stp_enc_raw(&c->out, (uint8_t)opcode, 0, id, 0, tmo(c), body, len))) != 0)
         return rc;
     *reqid = id;

@@ -257,7 +257,9 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
 
 /* ---- pipelined API ----------------------------------------------------------------------------
  * stc_append_* encode a request into the connection's output buffer and return its request
- * id in *reqid (nothing is sent yet; up to a few MiB queue before append flushes by itself).
+ * id in *reqid. An append never waits while little is queued: past 1 MiB it sends what the
+ * socket takes at once; past 64 MiB unsent (a server that does not read) it waits up to the
+ * request timeout for room and otherwise returns STC_ETIMEDOUT with nothing appended.
  * stc_flush sends everything queued (per-request timeout; on timeout the unsent rest stays
  * queued). stc_get_reply waits for the next reply of an appended request, in the order the
  * server sends them (match by reqid): up to timeout_ms when > 0; when 0 it only returns a reply

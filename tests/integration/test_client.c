@@ -43,7 +43,8 @@ enum mock_mode {
     M_HUGE_PING1,      /* the first PING is answered with a 2 MiB body */
     M_BUSY,            /* an unsolicited BUSY with reqid 0 at accept, then close */
     M_SILENT,          /* never answers anything */
-    M_REVERSE          /* answers pipelined PINGs in batches of 4 in reverse order */
+    M_REVERSE,         /* answers pipelined PINGs in batches of 4 in reverse order */
+    M_SLOW_START       /* stops reading for 1 s after HELLO (the client's sends block) */
 };
 
 typedef struct mock {
@@ -96,6 +97,12 @@ static int mock_handle(mock *m, int fd, const stp_header *h, const uint8_t *body
         r.max_inflight = 16;
         strcpy(r.server_name, "mock");
         stp_enc_hello_reply(&o, h->reqid, &r);
+        if (m->mode == M_SLOW_START) {
+            send_all(fd, stp_buf_head(&o), stp_buf_avail(&o));
+            stp_buf_free(&o);
+            sleep_ms(1000);
+            return 0;
+        }
         break;
     }
     case STP_OP_PING:
@@ -533,6 +540,36 @@ static void pipelined_timeout_keeps_the_reply_coming(void **state)
     assert_int_equal(stc_pending(c), 0);
     assert_int_equal(stc_ping(c), 0);
     assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void send_timeout_keeps_the_rest_queued(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_SLOW_START);
+    stc_conn *c = mock_connect(m, 100);
+    size_t len = 900 * 1000;
+    uint8_t *payload = malloc(len);
+    uint32_t ids[40];
+    for (size_t i = 0; i < len; i++)
+        payload[i] = (uint8_t)(i * 13);
+    for (int k = 0; k < 40; k++)
+        assert_int_equal(stc_append_ping(c, payload, len, &ids[k]), 0);
+    /* 36 MB cannot all go into the socket buffers while the peer is not reading */
+    int rc = stc_flush(c);
+    assert_int_equal(rc, STC_ETIMEDOUT);
+    assert_int_equal(stc_error(c), 0);
+    /* waiting for replies also sends the rest: every frame arrives whole */
+    for (int k = 0; k < 40; k++) {
+        stc_reply r;
+        assert_int_equal(stc_get_reply(c, 10000, &r), 0);
+        assert_int_equal(r.reqid, ids[k]);
+        assert_int_equal(r.body_len, len);
+        assert_memory_equal(r.body, payload, len);
+    }
+    assert_int_equal(stc_ping(c), 0);
+    free(payload);
     stc_close(c);
     mock_stop(m);
 }
@@ -1083,6 +1120,7 @@ int main(void)
         cmocka_unit_test(unsolicited_busy_fails_connect_with_busy),
         cmocka_unit_test(pipelined_pings_are_matched_by_reqid),
         cmocka_unit_test(pipelined_timeout_keeps_the_reply_coming),
+        cmocka_unit_test(send_timeout_keeps_the_rest_queued),
         cmocka_unit_test(sample_results_in_every_format),
         cmocka_unit_test(upload_sends_chunks_with_checksum_and_aborts_on_cancel),
         cmocka_unit_test(fetch_writes_the_file_and_checks_crc),
