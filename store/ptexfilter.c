@@ -124,22 +124,28 @@ static void apply(pf *c, pk *k, int f)
     v4f acc = c->acc;
     switch (c->kind) {
     case PF_U8:
-        if (nc != 3) {
-            /* a row of the window is uw * nc contiguous bytes: dot it with the weights
-             * repeated per channel, 4 bytes at a time; lane l then holds channel l % nc. The
+        if (nc < 3) {
+            /* 1 or 2 channels: a row of the window is uw * nc contiguous bytes; dot it with the
+             * weights repeated per channel, 4 bytes at a time (lane l holds channel l % nc). The
              * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
             int ne = k->uw * (int)nc, nv = (ne + 3) / 4;
             v4f wv[(PK_MAX * 4 + 3) / 4];
             float *we = (float *)wv;
-            for (int i = 0; i < nv * 4; i++)
-                we[i] = i < ne ? ku[i / (int)nc] : 0.0f;
+            if (nc == 1) {
+                for (int i = 0; i < k->uw; i++)
+                    we[i] = ku[i];
+            } else {
+                for (int i = 0; i < k->uw; i++)
+                    we[2 * i] = we[2 * i + 1] = ku[i];
+            }
+            for (int i = ne; i < nv * 4; i++)
+                we[i] = 0.0f;
             for (int j = 0; j < k->vw; j++) {
                 const uint8_t *p = base + j * rowb;
                 v4f rs = load_u8(p) * wv[0];
                 for (int b = 1; b < nv; b++)
                     rs += load_u8(p + 4 * b) * wv[b];
-                v4f row = nc == 4 ? rs
-                        : nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
+                v4f row = nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
                                   : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
                 acc += row * kv[j];
             }
