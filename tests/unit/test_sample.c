@@ -431,6 +431,50 @@ static void valence4_corner_reads_the_diagonal_face(void **state)
     cf_cube_free(&cb);
 }
 
+/* Five quads around one interior vertex (valence 5): the corner quadrant has no single face,
+ * its tap is dropped (coverage 3/4 at the vertex), the two edge taps come from the
+ * neighbours. */
+static void valence5_corner_drops_the_corner_quadrant(void **state)
+{
+    (void)state;
+    float pos[11 * 3] = {0};
+    uint32_t quads[5 * 4];
+    for (int k = 0; k < 5; k++) {
+        float a = 6.2831853f * k / 5, b = a + 6.2831853f / 10;
+        pos[3 * (1 + k)] = cosf(a);
+        pos[3 * (1 + k) + 1] = sinf(a);
+        pos[3 * (6 + k)] = 1.3f * cosf(b);
+        pos[3 * (6 + k) + 1] = 1.3f * sinf(b);
+        quads[4 * k] = 0;
+        quads[4 * k + 1] = (uint32_t)(1 + k);
+        quads[4 * k + 2] = (uint32_t)(6 + k);
+        quads[4 * k + 3] = (uint32_t)(1 + (k + 1) % 5);
+    }
+    st_quadmesh m = {.nverts = 11, .nquads = 5, .pos = pos, .quads = quads};
+    unsigned nc = 1;
+    st_quadmesh_opts o = {.nchan = 1, .dtype = ST_DT_F32, .ulog2 = 3, .vlog2 = 3,
+                          .bake = cf_bake_smooth, .user = &nc};
+    st_set *s;
+    assert_int_equal(st_quadmesh_build(&m, &o, &s, NULL), 0);
+    for (uint32_t f = 0; f < 5; f++) {
+        assert_int_equal(s->faces[f].valence[0], 5);
+        assert_int_equal(s->faces[f].cornerface[0], -1);
+        float out, cov;
+        st_query q = cf_q(f, 0.0f, 0.0f);
+        assert_int_equal(cf_sample1(s, ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, &q, &out, &cov), 0);
+        assert_true(fabsf(cov - 0.75f) < 1e-6f);
+        /* own corner texel and the two neighbours' texels at the vertex, 1/3 each */
+        uint32_t g0 = (uint32_t)s->faces[f].adjface[0], g3 = (uint32_t)s->faces[f].adjface[3];
+        float t0 = *(float *)st_face_level(s, f, 0);
+        float ta, tb;
+        st_query qa = cf_q(g0, 0.5f / 8, 0.5f / 8), qb = cf_q(g3, 0.5f / 8, 0.5f / 8);
+        assert_int_equal(cf_sample1(s, ST_MODE_CLAMP, ST_FILTER_POINT, &qa, &ta, NULL), 0);
+        assert_int_equal(cf_sample1(s, ST_MODE_CLAMP, ST_FILTER_POINT, &qb, &tb, NULL), 0);
+        assert_true(fabsf(out - (t0 + ta + tb) / 3) < 1e-6f);
+    }
+    st_set_free(s);
+}
+
 /* A flat 2 x 2 grid of quads: 9 vertices, a boundary all around, one interior vertex. */
 static void boundary_taps_are_dropped_and_renormalised(void **state)
 {
@@ -867,6 +911,7 @@ int main(void)
         cmocka_unit_test(zero_coverage_rule_nan_or_clamp),
         cmocka_unit_test(valence3_corner_gives_one_value_from_its_three_faces),
         cmocka_unit_test(valence4_corner_reads_the_diagonal_face),
+        cmocka_unit_test(valence5_corner_drops_the_corner_quadrant),
         cmocka_unit_test(boundary_taps_are_dropped_and_renormalised),
         cmocka_unit_test(mip_level_follows_the_footprint),
         cmocka_unit_test(aniso_probes_lie_along_the_major_axis),
