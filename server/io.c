@@ -9,9 +9,9 @@
  * then the output is written with one send: a pipelined burst of N requests costs one read
  * and one write, not N. Level-triggered polling keeps the loop fair between connections.
  * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
- * (nor parsed) until the peer drains them. Memory: buffers are allocated on first use; an
- * idle connection that has never sent anything holds only its ~150-byte struct; input
- * buffers over 64 KiB are released when they empty.
+ * (nor parsed) until the peer drains them. Memory: buffers are allocated when data arrives
+ * and released as soon as everything is parsed and answered, so an idle connection holds
+ * only its struct (~200 bytes) plus the kernel's socket.
  */
 #include <errno.h>
 #include <netinet/in.h>
@@ -27,8 +27,6 @@
 #include "server.h"
 
 #define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
-#define KEEP_IN    (64u << 10)   /* input buffers above this are freed when empty */
-#define KEEP_OUT   (256u << 10)  /* output buffers above this are freed when drained */
 
 int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan)
 {
@@ -102,15 +100,27 @@ static int in_reserve(sts_conn *c, size_t need)
 static void in_consume(sts_conn *c, size_t n)
 {
     c->in.start += n;
-    if (c->in.start == c->in.len) {
+    if (c->in.start == c->in.len)
         c->in.start = c->in.len = 0;
-        if (c->in.cap > KEEP_IN) {
-            free(c->in.data);
-            c->in.data = NULL;
-            c->in.cap = 0;
-            account(c);
-        }
+}
+
+/* An idle connection keeps no buffers: once everything read is parsed and everything
+ * answered is sent, both are released (malloc of a few KiB per burst costs far less than
+ * the read and write around it, and 10k idle connections then hold only their structs). */
+static void release_idle_buffers(sts_conn *c)
+{
+    if (c->busy || c->in.len != c->in.start || stp_buf_avail(&c->out))
+        return;
+    if (c->in.data) {
+        free(c->in.data);
+        c->in.data = NULL;
+        c->in.cap = c->in.start = c->in.len = 0;
     }
+    if (c->out.data) {
+        stp_buf_free(&c->out);
+        stp_buf_init(&c->out);
+    }
+    account(c);
 }
 
 /* ---- connection lifetime ------------------------------------------------------------------ */
@@ -191,13 +201,8 @@ static int conn_flush(sts_conn *c)
         stp_buf_consume(&c->out, (size_t)w);
     }
     if (!stp_buf_avail(&c->out)) {
-        if (c->out.cap > KEEP_OUT) {
-            stp_buf_free(&c->out);
-            stp_buf_init(&c->out);
-            account(c);
-        } else {
-            stp_buf_clear(&c->out);
-        }
+        stp_buf_clear(&c->out);
+        release_idle_buffers(c);
         if (c->close_after) {
             conn_close(c);
             return -1;
