@@ -34,6 +34,8 @@ static const char *const USAGE =
 "  fetch SET FILE [--format ptx|dds]   download a set as a file\n"
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
 "\n"
+"Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
+"over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
 "$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command.\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
@@ -154,6 +156,12 @@ void cli_progress_end(cli_progress *p)
 
 int cli_connect(cli_ctx *ctx)
 {
+    if (ctx->conn) {                        /* interactive mode keeps one connection */
+        if (stc_error(ctx->conn) == 0)
+            return CLI_OK;
+        stc_close(ctx->conn);
+        ctx->conn = NULL;
+    }
     stc_opts o;
     memset(&o, 0, sizeof o);
     o.token = ctx->token;
@@ -356,6 +364,94 @@ static const cli_cmd CMDS[] = {
     { "stats", cmd_stats },        { "fetch", cli_cmd_fetch }, { "compress", cli_cmd_compress },
 };
 
+static int dispatch(cli_ctx *ctx, int argc, char **argv)
+{
+    for (size_t k = 0; k < sizeof CMDS / sizeof CMDS[0]; k++)
+        if (!strcmp(argv[0], CMDS[k].name))
+            return CMDS[k].fn(ctx, argc, argv);
+    fprintf(stderr, "seamtex: unknown command '%s'\n%s", argv[0], USAGE);
+    return CLI_USAGE;
+}
+
+/* Splits a line into words (whitespace; "double" or 'single' quotes group), in place. */
+static int split_words(char *line, char **argv, int max)
+{
+    int n = 0;
+    char *p = line;
+    for (;;) {
+        while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')
+            p++;
+        if (!*p)
+            return n;
+        if (n == max)
+            return -1;
+        char *w = p, *o = p;
+        char quote = 0;
+        for (; *p; p++) {
+            if (quote) {
+                if (*p == quote)
+                    quote = 0;
+                else
+                    *o++ = *p;
+            } else if (*p == '"' || *p == '\'') {
+                quote = *p;
+            } else if (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n') {
+                p++;
+                break;
+            } else {
+                *o++ = *p;
+            }
+        }
+        if (quote)
+            return -1;
+        *o = '\0';                          /* o never passes p: quotes only shrink */
+        argv[n++] = w;
+    }
+}
+
+/* Interactive (or piped) mode: one command per line over one connection. The exit status
+ * is that of the last command that failed, 0 when none did. */
+static int repl(cli_ctx *ctx)
+{
+    int tty = isatty(STDIN_FILENO) && isatty(STDOUT_FILENO);
+    int last_bad = CLI_OK;
+    char *line = NULL;
+    size_t cap = 0;
+    for (;;) {
+        if (tty) {
+            printf("seamtex %s:%u> ", ctx->host, ctx->port);
+            fflush(stdout);
+        }
+        if (getline(&line, &cap, stdin) < 0)
+            break;
+        char *argv[64];
+        int argc = split_words(line, argv, 63);
+        if (argc < 0) {
+            fprintf(stderr, "seamtex: unbalanced quote or too many words\n");
+            last_bad = CLI_USAGE;
+            continue;
+        }
+        if (argc == 0 || argv[0][0] == '#')
+            continue;
+        if (!strcmp(argv[0], "quit") || !strcmp(argv[0], "exit"))
+            break;
+        if (!strcmp(argv[0], "help")) {
+            fputs(USAGE, stdout);
+            continue;
+        }
+        argv[argc] = NULL;
+        int rc = dispatch(ctx, argc, argv);
+        fflush(stdout);
+        if (rc != CLI_OK)
+            last_bad = rc;
+    }
+    if (tty)
+        printf("\n");
+    free(line);
+    return last_bad;
+}
+
+
 int main(int argc, char **argv)
 {
     cli_ctx ctx = { .host = "127.0.0.1", .port = DEFAULT_PORT, .prog = "seamtex" };
@@ -404,21 +500,11 @@ int main(int argc, char **argv)
             return CLI_USAGE;
         }
     }
-    if (i >= argc) {
-        fputs(USAGE, stderr);
-        return CLI_USAGE;
+    int rc = i >= argc ? repl(&ctx) : dispatch(&ctx, argc - i, argv + i);
+    stc_close(ctx.conn);
+    if (fflush(stdout) != 0 && rc == CLI_OK) {
+        fprintf(stderr, "seamtex: writing the output failed\n");
+        rc = CLI_SERVER;
     }
-    for (size_t k = 0; k < sizeof CMDS / sizeof CMDS[0]; k++) {
-        if (!strcmp(argv[i], CMDS[k].name)) {
-            int rc = CMDS[k].fn(&ctx, argc - i, argv + i);
-            stc_close(ctx.conn);
-            if (fflush(stdout) != 0 && rc == CLI_OK) {
-                fprintf(stderr, "seamtex: writing the output failed\n");
-                rc = CLI_SERVER;
-            }
-            return rc;
-        }
-    }
-    fprintf(stderr, "seamtex: unknown command '%s'\n%s", argv[i], USAGE);
-    return CLI_USAGE;
+    return rc;
 }

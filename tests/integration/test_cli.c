@@ -328,6 +328,29 @@ static void compress_reports_sizes_and_fetch_writes_a_ptex_file(void **state)
     assert_int_equal(CLI("fetch", "no-such-set", path), 1);
 }
 
+static void commands_piped_on_stdin_share_one_connection(void **state)
+{
+    (void)state;
+    char cf[400];
+    snprintf(cf, sizeof cf, "%s/commands.txt", D.dir);
+    FILE *f = fopen(cf, "w");
+    assert_non_null(f);
+    fprintf(f, "ping\n# a comment\n\nls\nsample default 3 0.5 0.5 --mode \"discard\"\nping\n");
+    fclose(f);
+    assert_int_equal(runv(bin("seamtex"), cf, (const char *const[]){ "-p", PORT, NULL }), 0);
+    assert_non_null(strstr(OUT, "PONG"));
+    assert_non_null(strstr(strstr(OUT, "PONG") + 4, "PONG"));   /* twice */
+    assert_non_null(strstr(OUT, "default"));
+    assert_int_equal(count_lines_ending(OUT, " OK"), 1);
+    /* a failing line makes the exit status, the lines after it still run */
+    f = fopen(cf, "w");
+    assert_non_null(f);
+    fprintf(f, "info no-such-set\nping\n");
+    fclose(f);
+    assert_int_equal(runv(bin("seamtex"), cf, (const char *const[]){ "-p", PORT, NULL }), 1);
+    assert_non_null(strstr(OUT, "PONG"));
+}
+
 static void stats_prints_counters(void **state)
 {
     (void)state;
@@ -414,6 +437,7 @@ int main(void)
         cmocka_unit_test(upload_ls_sample_delete_round_trip),
         cmocka_unit_test(sample_dir_answers_on_a_cube_map_and_refuses_other_sets),
         cmocka_unit_test(compress_reports_sizes_and_fetch_writes_a_ptex_file),
+        cmocka_unit_test(commands_piped_on_stdin_share_one_connection),
         cmocka_unit_test(stats_prints_counters),
         cmocka_unit_test(bench_closed_loop_answers_every_request),
         cmocka_unit_test(bench_open_loop_holds_the_target_rate),
