@@ -23,6 +23,9 @@ _Static_assert(sizeof(stc_dir_query) == sizeof(stp_dir_query), "dir query layout
 _Static_assert(offsetof(stc_dir_query, ddy) == offsetof(stp_dir_query, ddy), "dir query layout");
 _Static_assert((int)STC_OUT_UNORM16 == (int)STP_OUT_UNORM16 && (int)STC_WANT_STATUS == (int)STP_SF_STATUS, "enums");
 _Static_assert(STC_ESHUTDOWN == -(STC_SERVER_BASE + STP_S_SHUTDOWN), "status numbering");
+_Static_assert((int)STC_CAP_AUTH == (int)STP_CAP_AUTH && (int)STC_CAP_FETCH == (int)STP_CAP_FETCH &&
+               (int)STC_CAP_OUT_OF_ORDER == (int)STP_CAP_OUT_OF_ORDER &&
+               (int)STC_CAP_SAMPLE_DIR == (int)STP_CAP_SAMPLE_DIR, "capability bits");
 
 #define APPEND_FLUSH_AT (1u << 20)   /* an append sends (without waiting) past this much queued */
 #define APPEND_HARD_CAP (64u << 20)  /* an append waits for room past this much queued */

@@ -113,9 +113,20 @@ int stc_error(const stc_conn *c);
 /* Per-request timeout for later calls; 0 = none. */
 void stc_set_timeout(stc_conn *c, int timeout_ms);
 
+/* Capability bits of stc_server.caps (PROTOCOL.md 4.1). */
+enum {
+    STC_CAP_PIPELINE      = 1u << 0,
+    STC_CAP_OUT_OF_ORDER  = 1u << 1,   /* replies may come in another order than requests */
+    STC_CAP_SAMPLE_DIR    = 1u << 2,
+    STC_CAP_UPLOAD_RESUME = 1u << 3,
+    STC_CAP_COMPRESS      = 1u << 4,
+    STC_CAP_FETCH         = 1u << 5,
+    STC_CAP_PTEX_FILTERS  = 1u << 6,
+    STC_CAP_AUTH          = 1u << 7    /* the server has a token: mutations need it */
+};
 typedef struct stc_server {
     unsigned version;                 /* protocol version in use */
-    uint32_t caps;                    /* STP_CAP_* bits (protocol/proto.h, PROTOCOL.md) */
+    uint32_t caps;                    /* STC_CAP_* bits */
     uint32_t max_body, max_batch, max_chunk, max_inflight;
     int      authenticated;
     char     name[256];
