@@ -16,15 +16,17 @@
  * Everything a call hands back through a pointer into the library (lists, stats, sample
  * results, replies, info face records, stc_errmsg) is OWNED BY THE CONNECTION and valid until
  * the next call on that connection (any stc_* call taking it, except stc_errmsg, stc_error,
- * stc_server, stc_pending). Copy what you keep. Buffers the caller passes in stay the
+ * stc_server_info, stc_pending and the stc_reply_* decoders, which may be applied to the reply
+ * stc_get_reply just returned). Copy what you keep. Buffers the caller passes in stay the
  * caller's; the library does not keep pointers to them after the call returns.
  *
  * ERRORS: functions return 0 (STC_OK) or a negative code:
- *   - local codes STC_EINVAL .. STC_ESTATE;
+ *   - local codes STC_EINVAL .. STC_ECANCELED;
  *   - server statuses, -(STC_SERVER_BASE + status), e.g. STC_ENOTFOUND: the server refused
  *     this request; the connection stays usable; stc_errmsg gives the server's message.
  * A broken connection (I/O error, peer closed, protocol violation, out of memory while
- * reading) is STICKY: that error is returned by every later call (stc_error tells it).
+ * reading, a server-initiated BUSY / SHUTDOWN) is STICKY: that error is returned by every
+ * later call (stc_error tells it); close the connection and open a new one.
  * A timeout (STC_ETIMEDOUT) is NOT sticky: the request stays outstanding, its late reply is
  * recognised by its request id and discarded, and the connection can be used at once.
  */
