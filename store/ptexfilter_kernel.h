@@ -13,6 +13,7 @@
 #ifndef ST_PTEXFILTER_KERNEL_H
 #define ST_PTEXFILTER_KERNEL_H
 
+#include <stddef.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -91,5 +92,11 @@ void  pk_downres_v(pk *k);
 void  pk_upres_u(pk *k);
 void  pk_upres_v(pk *k);
 float pk_make_symmetric(pk *k, float initial_weight);
+
+/* ptexfilter_simd.c: AVX2 + FMA rows of a 4-channel u8 window (pf_have_avx2() says whether
+ * the CPU has it); acc[4] += sum_j kv[j] sum_i ku[i] texel(i, j). */
+int  pf_have_avx2(void);
+void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
+                       const float *kv, int vw, float acc[4]);
 
 #endif
