@@ -15,9 +15,10 @@
  *   - Input with some alpha < 128 is encoded in 3-colour mode, selector 3 (transparent black)
  *     on exactly those texels ("1-bit alpha as BC1 allows"); alpha is otherwise ignored.
  *
- * Levels: ST_BC1_FAST (principal axis bounding box, one least-squares refinement) and
- * ST_BC1_HQ (principal axis, iterated least squares on the exact palette, 565 rounding
- * neighbourhood search, 3-colour trial). Figures in ARCHITECTURE.md ("BC1 and seam masking").
+ * Levels: ST_BC1_FAST (principal axis bounding box, one least-squares refinement),
+ * ST_BC1_HQ (iterated least squares on the exact palette, a local cluster fit, 565 rounding
+ * neighbourhood search, 3-colour trial) and ST_BC1_BEST (the cluster fit over every split).
+ * Figures in ARCHITECTURE.md ("BC1 and seam masking").
  *
  * Threading: block functions are pure (no allocation, no globals, deterministic); any number
  * of threads may call them. st_bc1_compress_set may start worker threads of its own (opts).
@@ -31,7 +32,7 @@
 #include "err.h"
 #include "set.h"
 
-enum { ST_BC1_FAST = 0, ST_BC1_HQ = 1 };
+enum { ST_BC1_FAST = 0, ST_BC1_HQ = 1, ST_BC1_BEST = 2 };
 
 /* Decoders. EXACT is the rule of bc1_texel.h (c2 = (2c0+c1)/3 truncating) and the one every
  * PSNR figure of seamtex uses. The others model hardware: */
@@ -44,8 +45,8 @@ typedef enum st_bc1_decoder {
 
 /* ---- block level (bc1_encode.c, bc1_decode.c) ------------------------------------------ */
 
-/* Encodes one 4x4 block of RGBA8 texels into out[8]. level: ST_BC1_FAST or ST_BC1_HQ (any
- * other value is treated as HQ). */
+/* Encodes one 4x4 block of RGBA8 texels into out[8]. level: ST_BC1_FAST, ST_BC1_HQ or
+ * ST_BC1_BEST (any other value is treated as HQ). */
 void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8]);
 
 /* The same with a weight per texel (>= 0, NULL = all 1) on its squared error: what seam-aware
@@ -96,7 +97,7 @@ typedef enum st_bc1_seam_mode {
 } st_bc1_seam_mode;
 
 typedef struct st_bc1_opts {
-    int      level;         /* ST_BC1_FAST or ST_BC1_HQ (default HQ) */
+    int      level;         /* ST_BC1_FAST, ST_BC1_HQ or ST_BC1_BEST (default HQ) */
     int      seam_mode;     /* st_bc1_seam_mode (default ST_BC1_SEAM_AWARE) */
     float    alpha;         /* seam weight of E = Ec + alpha*Es (default 2) */
     float    seam_boost;    /* the seam-aware BC1 stage uses alpha * seam_boost (default 2):

@@ -11,10 +11,13 @@
  *   3. rounds of: round endpoints to RGB565 -> choose every selector by the exact palette
  *      distance -> solve the two endpoints by least squares for those selectors (the
  *      weights 0, 1/3, 2/3, 1); the best exact error wins;
- *   4. HQ only: a greedy +-1 search over the six 565 components of the best pair (the
- *      "rounding neighbourhood"), then a 3-colour trial (c0 <= c1, selectors 0..2, weights
- *      0, 1/2, 1), kept when its exact error is lower. Opaque input never gets selector 3
- *      in 3-colour mode, which would be transparent black.
+ *   4. HQ and BEST: a cluster fit (texels sorted along the axis, ordered splits into the
+ *      four palette runs, least squares per split from prefix sums; HQ tries the splits
+ *      within +-2 of those the best selectors imply, BEST all 969), a greedy +-1 search over
+ *      the six 565 components of the best pair (the "rounding neighbourhood"), then a
+ *      3-colour trial (c0 <= c1, selectors 0..2, weights 0, 1/2, 1), kept when its exact
+ *      error is lower. Opaque input never gets selector 3 in 3-colour mode, which would be
+ *      transparent black.
  *   5. a block of one colour uses the generated optimal tables (bc1_tables.h).
  * Texels with alpha < 128 force 3-colour mode with selector 3 on them.
  */
@@ -380,14 +383,107 @@ typedef struct profile {
     int   neigh3;       /* neighbourhood passes of the 3-colour trial */
     int   radius;       /* exact per-channel search radius after each least squares (0 = round) */
     float inset2;       /* a second start with this inset (< 0: none) */
+    int   cluster;      /* a start from the cluster fit */
 } profile;
 
-static const profile PROFILES[2] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f}, /* ST_BC1_FAST */
-    {1.0f / 16.0f, 4, 1, 3, 0, 0, 0.125f}, /* ST_BC1_HQ */
+static const profile PROFILES[3] = {
+    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0},    /* ST_BC1_FAST */
+    {1.0f / 16.0f, 3, 1, 3, 0, 0, -1.0f, 2},    /* ST_BC1_HQ: cluster splits within +-2 */
+    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16},  /* ST_BC1_BEST: every split */
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
+/* Cluster fit (4-colour): the texels sorted along the axis, every ordered split into four
+ * runs (c0, 2/3 c0 + 1/3 c1, 1/3 c0 + 2/3 c1, c1), the least-squares endpoints of each split
+ * from prefix sums, the split of least continuous error wins. */
+static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int hi[3], float e0[3],
+                       float e1[3])
+{
+    float proj[16];
+    int ord[16];
+    for (int i = 0; i < 16; i++) {
+        proj[i] = (B->r[i] - A->m[0]) * A->v[0] + (B->g[i] - A->m[1]) * A->v[1] +
+                  (B->b[i] - A->m[2]) * A->v[2];
+        ord[i] = i;
+    }
+    for (int i = 1; i < 16; i++) { /* insertion sort, descending */
+        int k = ord[i];
+        int j = i - 1;
+        while (j >= 0 && proj[ord[j]] < proj[k]) {
+            ord[j + 1] = ord[j];
+            j--;
+        }
+        ord[j + 1] = k;
+    }
+    /* prefix sums of weight and weighted colour */
+    float pw[17], pr[17], pg[17], pb[17];
+    pw[0] = pr[0] = pg[0] = pb[0] = 0;
+    for (int i = 0; i < 16; i++) {
+        int k = ord[i];
+        float w = B->w[k];
+        pw[i + 1] = pw[i] + w;
+        pr[i + 1] = pr[i] + w * B->r[k];
+        pg[i + 1] = pg[i] + w * B->g[k];
+        pb[i + 1] = pb[i] + w * B->b[k];
+    }
+    float best = -1e30f;
+    int b0 = -1, b1 = -1, b2 = -1;
+    for (int i0 = lo[0]; i0 <= hi[0]; i0++)
+        for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
+            float n0 = pw[i0], n1 = pw[i1] - pw[i0];
+            float s1r = pr[i1] - pr[i0], s1g = pg[i1] - pg[i0], s1b = pb[i1] - pb[i0];
+            float X0r = pr[i0] + s1r * (2.0f / 3), X0g = pg[i0] + s1g * (2.0f / 3),
+                  X0b = pb[i0] + s1b * (2.0f / 3);
+            float Y0r = s1r * (1.0f / 3), Y0g = s1g * (1.0f / 3), Y0b = s1b * (1.0f / 3);
+            for (int i2 = i1 > lo[2] ? i1 : lo[2]; i2 <= hi[2]; i2++) {
+                float n2 = pw[i2] - pw[i1], n3 = pw[16] - pw[i2];
+                float AA = n0 + n1 * (4.0f / 9) + n2 * (1.0f / 9);
+                float BB = (n1 + n2) * (2.0f / 9);
+                float CC = n3 + n2 * (4.0f / 9) + n1 * (1.0f / 9);
+                float D = AA * CC - BB * BB;
+                if (!(D > 1e-6f))
+                    continue;
+                float s2r = pr[i2] - pr[i1], s2g = pg[i2] - pg[i1], s2b = pb[i2] - pb[i1];
+                float s3r = pr[16] - pr[i2], s3g = pg[16] - pg[i2], s3b = pb[16] - pb[i2];
+                float Xr = X0r + s2r * (1.0f / 3), Xg = X0g + s2g * (1.0f / 3),
+                      Xb = X0b + s2b * (1.0f / 3);
+                float Yr = Y0r + s3r + s2r * (2.0f / 3), Yg = Y0g + s3g + s2g * (2.0f / 3),
+                      Yb = Y0b + s3b + s2b * (2.0f / 3);
+                float xx = Xr * Xr + Xg * Xg + Xb * Xb, yy = Yr * Yr + Yg * Yg + Yb * Yb,
+                      xy = Xr * Yr + Xg * Yg + Xb * Yb;
+                /* maximise a.X + b.Y = (C|X|^2 - 2B X.Y + A|Y|^2) / D */
+                float g = (CC * xx - 2 * BB * xy + AA * yy) / D;
+                if (g > best) {
+                    best = g;
+                    b0 = i0;
+                    b1 = i1;
+                    b2 = i2;
+                }
+            }
+        }
+    int found = b0 >= 0;
+    if (found) {
+        int i0 = b0, i1 = b1, i2 = b2;
+        float n0 = pw[i0], n1 = pw[i1] - pw[i0], n2 = pw[i2] - pw[i1], n3 = pw[16] - pw[i2];
+        float AA = n0 + n1 * (4.0f / 9) + n2 * (1.0f / 9), BB = (n1 + n2) * (2.0f / 9);
+        float CC = n3 + n2 * (4.0f / 9) + n1 * (1.0f / 9), inv = 1.0f / (AA * CC - BB * BB);
+        const float *ps[3] = {pr, pg, pb};
+        for (int k = 0; k < 3; k++) {
+            const float *q = ps[k];
+            float s1 = q[i1] - q[i0], s2 = q[i2] - q[i1], s3 = q[16] - q[i2];
+            float X = q[i0] + s1 * (2.0f / 3) + s2 * (1.0f / 3);
+            float Y = s3 + s2 * (2.0f / 3) + s1 * (1.0f / 3);
+            e0[k] = (CC * X - BB * Y) * inv;
+            e1[k] = (AA * Y - BB * X) * inv;
+        }
+    }
+    for (int k = 0; k < 3 && found; k++) {
+        e0[k] = e0[k] < 0 ? 0 : e0[k] > 255 ? 255 : e0[k];
+        e1[k] = e1[k] < 0 ? 0 : e1[k] > 255 ? 255 : e1[k];
+    }
+    return found;
+}
+
 /* Rounds of round -> select -> least squares from (e0, e1), 4-colour. */
 static void rounds4(const blk *B, const profile *P, float e0[3], float e1[3], cand *best)
 {
@@ -423,6 +519,22 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         if (P->inset2 >= 0 && best.err > 0) {
             axis_endpoints(&A, P->inset2, e0, e1);
             rounds4(B, P, e0, e1, &best);
+        }
+        if (P->cluster && best.err > 0) {
+            /* splits within +-cluster of the ones the best selectors imply */
+            int cnt[4] = {0, 0, 0, 0};
+            for (int i = 0; i < 16; i++)
+                cnt[best.sel[i]] += B->w[i] > 0;
+            int sp[3] = {cnt[0], cnt[0] + cnt[2], cnt[0] + cnt[2] + cnt[3]};
+            if (best.c0 == best.c1) /* a flat result says nothing about the splits */
+                sp[0] = 4, sp[1] = 8, sp[2] = 12;
+            int lo[3], hi[3];
+            for (int k = 0; k < 3; k++) {
+                lo[k] = sp[k] - P->cluster < 0 ? 0 : sp[k] - P->cluster;
+                hi[k] = sp[k] + P->cluster > 16 ? 16 : sp[k] + P->cluster;
+            }
+            if (cluster_fit(B, &A, lo, hi, e0, e1))
+                rounds4(B, P, e0, e1, &best);
         }
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
@@ -540,7 +652,7 @@ void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int l
         B.w[t] = (transparent >> t & 1) ? 0.0f : (w > 0 && w < 1e6f ? w : w >= 1e6f ? 1e6f : 0.0f);
     }
     cand c;
-    const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : 1];
+    const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : level == ST_BC1_BEST ? 2 : 1];
     encode_colours(&B, P, transparent == 0, &c);
     uint32_t sel = 0;
     for (int t = 0; t < 16; t++) {

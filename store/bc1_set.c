@@ -195,7 +195,8 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     x->src_nchan = src->info.nchan;
     x->src_alpha = src->info.alpha_chan;
     x->punchthrough = (uint8_t)punch;
-    x->level = (uint8_t)(opts.level == ST_BC1_FAST ? ST_BC1_FAST : ST_BC1_HQ);
+    x->level = (uint8_t)(opts.level == ST_BC1_FAST || opts.level == ST_BC1_BEST ? opts.level
+                                                                              : ST_BC1_HQ);
     x->seam_mode = (uint8_t)opts.seam_mode;
     s->ext = x;
     s->ext_free = ext_free;

@@ -15,7 +15,7 @@
  * filtering; the five variants left to right in the order above; one PNG per data set in
  * OUT (default build/report/<name>_closeup.png).
  *
- * Usage: seamtex-seamreport [--data DIR] [--out DIR] [--level fast|hq] [--step S] [--alpha A]
+ * Usage: seamtex-seamreport [--data DIR] [--out DIR] [--level fast|hq|best] [--step S] [--alpha A]
  *                           [--boost B] [--only NAME] [--json PATH]
  * (alpha: masking seam weight; the seam-aware BC1 stage uses alpha * boost, as
  * st_bc1_compress_set does with its defaults 2 and 2.)
@@ -377,7 +377,11 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--out") && i + 1 < argc)
             outdir = argv[++i];
         else if (!strcmp(argv[i], "--level") && i + 1 < argc)
-            level = !strcmp(argv[++i], "fast") ? ST_BC1_FAST : ST_BC1_HQ;
+        {
+            i++;
+            level = !strcmp(argv[i], "fast") ? ST_BC1_FAST : !strcmp(argv[i], "best") ? ST_BC1_BEST
+                                                                                    : ST_BC1_HQ;
+        }
         else if (!strcmp(argv[i], "--step") && i + 1 < argc)
             step = strtof(argv[++i], NULL);
         else if (!strcmp(argv[i], "--alpha") && i + 1 < argc)
@@ -389,7 +393,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--json") && i + 1 < argc)
             json = argv[++i];
         else {
-            fprintf(stderr, "usage: %s [--data DIR] [--out DIR] [--level fast|hq] [--step S] "
+            fprintf(stderr, "usage: %s [--data DIR] [--out DIR] [--level fast|hq|best] [--step S] "
                             "[--alpha A] [--boost B] [--only NAME] [--json PATH]\n", argv[0]);
             return 2;
         }
@@ -397,12 +401,13 @@ int main(int argc, char **argv)
     mkdir(outdir, 0755);
     printf("seam report: BC1 level %s, seam samples every %.2f texel, alpha %.2f (masking) and "
            "%.2f (seam-aware BC1 stage), exact decoder\n",
-           level == ST_BC1_FAST ? "fast" : "hq", step, alpha, alpha * boost);
+           level == ST_BC1_FAST ? "fast" : level == ST_BC1_BEST ? "best" : "hq", step, alpha,
+           alpha * boost);
     printf("PSNR = RGB PSNR inside charts vs the original (dB); RMS = seam RMS per channel (0..255)\n\n");
     FILE *jf = json ? fopen(json, "w") : NULL;
     if (jf)
         fprintf(jf, "{\"level\":\"%s\",\"step\":%g,\"alpha\":%g,\"boost\":%g,\"sets\":[",
-                level == ST_BC1_FAST ? "fast" : "hq", step, alpha, boost);
+                level == ST_BC1_FAST ? "fast" : level == ST_BC1_BEST ? "best" : "hq", step, alpha, boost);
     int first = 1, failures = 0;
     for (size_t i = 0; i < sizeof SETS / sizeof *SETS; i++) {
         const dataset *d = &SETS[i];

@@ -104,8 +104,8 @@ int main(int argc, char **argv)
     printf("BC1 encoder on images/bc1-set (exact decoder, RGB PSNR over all texels; MPix per "
            "CPU-second of one thread, median of %d runs)\n", reps);
     printf("%-6s %-22s %10s %10s\n", "level", "image", "PSNR dB", "MPix/s");
-    for (int level = ST_BC1_FAST; level <= ST_BC1_HQ; level++) {
-        const char *ln = level == ST_BC1_FAST ? "fast" : "hq";
+    for (int level = ST_BC1_FAST; level <= ST_BC1_BEST; level++) {
+        const char *ln = level == ST_BC1_FAST ? "fast" : level == ST_BC1_HQ ? "hq" : "best";
         double psum = 0, tsum = 0, pix = 0;
         if (jf)
             fprintf(jf, "%s{\"level\":\"%s\",\"images\":[", level ? "," : "", ln);
