@@ -284,6 +284,47 @@ static void a_set_without_the_table_is_refused_until_prepared(void **state)
     st_set_free(s);
 }
 
+static void border_modes_follow_ptex(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/ptx/wdas-ptex-2009/bordermodes/clamp.ptx", data_dir());
+    if (access(path, R_OK)) {
+        print_message("SEAMTEX_DATA (%s) has no bordermodes: skipped\n", data_dir());
+        skip();
+    }
+    static const char *names[3] = {"clamp", "black", "periodic"};
+    st_set *s[3];
+    for (int m = 0; m < 3; m++) {
+        snprintf(path, sizeof path, "%s/ptx/wdas-ptex-2009/bordermodes/%s.ptx", data_dir(), names[m]);
+        st_error e = {0};
+        assert_int_equal(st_ptex_read_file(path, 0, &s[m], &e), 0);
+        assert_int_equal(s[m]->info.border_u, m);
+    }
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
+    float a[3], b[3], z[3];
+    st_query in = {.face = 0, .u = 0.1f, .v = 0.6f, .dudx = 0.01f, .dvdy = 0.01f};
+    st_query left = in, wrap = in, far = in;
+    left.u = -0.4f;   /* clamp: same as u = 0 */
+    wrap.u = 1.1f;    /* periodic: same as u = 0.1 */
+    far.u = -1.5f;    /* black: beyond one face width, black */
+    st_query at0 = in;
+    at0.u = 0.0f;
+    assert_int_equal(st_ptexfilter_batch(s[0], &o, &left, 1, a, NULL, NULL), 0);
+    assert_int_equal(st_ptexfilter_batch(s[0], &o, &at0, 1, b, NULL, NULL), 0);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(a[c], b[c], 1e-6f);
+    assert_int_equal(st_ptexfilter_batch(s[2], &o, &wrap, 1, a, NULL, NULL), 0);
+    assert_int_equal(st_ptexfilter_batch(s[2], &o, &in, 1, b, NULL, NULL), 0);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(a[c], b[c], 1e-5f);
+    assert_int_equal(st_ptexfilter_batch(s[1], &o, &far, 1, z, NULL, NULL), 0);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(z[c], 0.0f, 0.0f);
+    for (int m = 0; m < 3; m++)
+        st_set_free(s[m]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -292,6 +333,7 @@ int main(void)
         cmocka_unit_test(discard_drops_the_overhang_and_reports_coverage),
         cmocka_unit_test(bad_queries_get_a_status_and_nan),
         cmocka_unit_test(a_set_without_the_table_is_refused_until_prepared),
+        cmocka_unit_test(border_modes_follow_ptex),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
