@@ -44,7 +44,8 @@ enum mock_mode {
     M_BUSY,            /* an unsolicited BUSY with reqid 0 at accept, then close */
     M_SILENT,          /* never answers anything */
     M_REVERSE,         /* answers pipelined PINGs in batches of 4 in reverse order */
-    M_SLOW_START       /* stops reading for 1 s after HELLO (the client's sends block) */
+    M_SLOW_START,      /* stops reading for 1 s after HELLO (the client's sends block) */
+    M_DEAF             /* answers HELLO, then never reads again (until the test ends) */
 };
 
 typedef struct mock {
@@ -97,10 +98,11 @@ static int mock_handle(mock *m, int fd, const stp_header *h, const uint8_t *body
         r.max_inflight = 16;
         strcpy(r.server_name, "mock");
         stp_enc_hello_reply(&o, h->reqid, &r);
-        if (m->mode == M_SLOW_START) {
+        if (m->mode == M_SLOW_START || m->mode == M_DEAF) {
             send_all(fd, stp_buf_head(&o), stp_buf_avail(&o));
             stp_buf_free(&o);
-            sleep_ms(1000);
+            for (int t = 0; t < (m->mode == M_DEAF ? 200 : 20) && !m->stop; t++)
+                sleep_ms(50);
             return 0;
         }
         break;
@@ -569,6 +571,30 @@ static void send_timeout_keeps_the_rest_queued(void **state)
         assert_memory_equal(r.body, payload, len);
     }
     assert_int_equal(stc_ping(c), 0);
+    free(payload);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void appends_to_a_server_that_never_reads_are_bounded(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_DEAF);
+    stc_conn *c = mock_connect(m, 100);
+    size_t len = 900 * 1000, ok = 0;
+    uint8_t *payload = calloc(1, len);
+    uint32_t id;
+    int rc = 0;
+    for (int k = 0; k < 400 && rc == 0; k++) {
+        rc = stc_append_ping(c, payload, len, &id);
+        ok += rc == 0;
+    }
+    /* refused once ~64 MiB are queued unsent: not hundreds of MB */
+    assert_int_equal(rc, STC_ETIMEDOUT);
+    assert_true(ok * len >= (64u << 20) && ok * len < (64u << 20) + (64u << 20));
+    assert_non_null(strstr(stc_errmsg(c), "not reading"));
+    assert_int_equal(stc_error(c), 0);              /* not sticky */
+    assert_int_equal(stc_pending(c), ok);           /* the refused one was not queued */
     free(payload);
     stc_close(c);
     mock_stop(m);
@@ -1121,6 +1147,7 @@ int main(void)
         cmocka_unit_test(pipelined_pings_are_matched_by_reqid),
         cmocka_unit_test(pipelined_timeout_keeps_the_reply_coming),
         cmocka_unit_test(send_timeout_keeps_the_rest_queued),
+        cmocka_unit_test(appends_to_a_server_that_never_reads_are_bounded),
         cmocka_unit_test(sample_results_in_every_format),
         cmocka_unit_test(upload_sends_chunks_with_checksum_and_aborts_on_cancel),
         cmocka_unit_test(fetch_writes_the_file_and_checks_crc),
