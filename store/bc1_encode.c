@@ -487,13 +487,18 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
 /* Rounds of round -> select -> least squares from (e0, e1), 4-colour. */
 static void rounds4(const blk *B, const profile *P, float e0[3], float e1[3], cand *best)
 {
+    uint16_t pa = 0, pb = 0;
     for (int it = 0; it < P->rounds; it++) {
         uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
+        if (it > 0 && a == pa && b == pb)
+            break; /* the least squares did not move the rounded endpoints */
+        pa = a;
+        pb = b;
         float before = best->err;
         try4(B, a, b, best);
         if (it > 0 && !(best->err < before))
             break;
-        if (best->err == 0 || best->c0 == best->c1)
+        if (best->err == 0 || best->c0 == best->c1 || it + 1 == P->rounds)
             break;
         if (!ls_endpoints(B, best->sel, 1, e0, e1))
             break;
