@@ -71,6 +71,37 @@ static void *make_ptx(size_t *len, int tint)
     return buf;
 }
 
+/* Four 32x32 RGBA8 faces without neighbours (every face one size: DDS can hold its BC1 form)
+ * as a .ptx in memory. */
+static void *make_uniform_ptx(size_t *len)
+{
+    st_set_info info;
+    memset(&info, 0, sizeof info);
+    info.nfaces = 4;
+    info.nchan = 4;
+    info.dtype = ST_DT_U8;
+    info.alpha_chan = 3;
+    st_face_desc fd[4];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 4; f++) {
+        fd[f].w = fd[f].h = 32;
+        for (int e = 0; e < 4; e++)
+            fd[f].adjface[e] = -1;
+    }
+    st_set *s = NULL;
+    st_error e;
+    if (st_set_create(&info, fd, 0, &s, &e) != 0)
+        return NULL;
+    for (size_t i = 0; i < s->texel_bytes; i++)
+        s->texels[i] = (uint8_t)(i * 13 + (i >> 7));
+    st_set_build_mips(s, UINT32_MAX);
+    void *buf = NULL;
+    if (st_ptex_write_mem(s, &buf, len, &e) != 0)
+        buf = NULL;
+    st_set_free(s);
+    return buf;
+}
+
 static int64_t now_ms(void)
 {
     struct timespec ts;
@@ -371,6 +402,84 @@ static void upload_info_fetch_delete_round_trip(void **state)
     assert_int_equal(stc_info_get(c, "junk", 0, 0, &info), STC_ENOTFOUND);
     stc_close(c);
     free(ptx);
+}
+
+static void compress_job_fetch_dds_and_cancel(void **state)
+{
+    (void)state;
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    uint64_t job = 0;
+    assert_int_equal(stc_compress(c, "default", "default-bc1", 0, STC_COMPRESS_SEAM_AWARE, &job), 0);
+    assert_true(job > 0);
+    stc_job js;
+    assert_int_equal(stc_job_status(c, job, &js), 0);
+    assert_int_equal(js.id, job);
+    assert_true(js.state <= STC_JOB_DONE);
+    int rc = stc_job_wait(c, job, 40000, &js);
+    if (rc)
+        fprintf(stderr, "job: %s %s\n", stc_strerror(rc), js.message);
+    assert_int_equal(rc, 0);
+    assert_int_equal(js.state, STC_JOB_DONE);
+    stc_info info;
+    assert_int_equal(stc_info_get(c, "default-bc1", 0, 0, &info), 0);
+    assert_int_equal(info.kind, ST_KIND_BC1);
+    assert_int_equal(info.nfaces, 384);
+    /* durable as a .dds in the data dir when DDS can hold it; the default set has mixed face
+     * sizes, which DDS arrays cannot, so the daemon says it keeps it in memory only */
+    char p[700];
+    snprintf(p, sizeof p, "%s/sets/default-bc1/manifest", D1.datadir);
+    if (access(p, R_OK) != 0) {
+        FILE *lf = fopen(D1.log, "r");
+        char line[1024];
+        int said = 0;
+        while (lf && fgets(line, sizeof line, lf))
+            said |= strstr(line, "'default-bc1'") && strstr(line, "memory only");
+        if (lf)
+            fclose(lf);
+        assert_true(said);
+    }
+    /* the target exists now: a second job without replace is refused at once */
+    assert_int_equal(stc_compress(c, "default", "default-bc1", 0, 0, &job), STC_EEXISTS);
+    /* FETCH: .ptx is for per-face sets, .dds for BC1 sets DDS can hold (one face size) */
+    char out[600];
+    snprintf(out, sizeof out, "%s/fetched.dds", D1.dir);
+    assert_int_equal(stc_fetch_file(c, "default-bc1", STC_FETCH_PTX, out, NULL, NULL),
+                     STC_EUNSUPPORTED);
+    size_t ulen = 0;
+    void *uptx = make_uniform_ptx(&ulen);
+    assert_non_null(uptx);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, uptx, ulen, "uniform", &uo, &ur), 0);
+    free(uptx);
+    assert_int_equal(stc_compress(c, "uniform", "uniform-bc1", 9, STC_COMPRESS_SEAM_AWARE, &job), 0);
+    assert_int_equal(stc_job_wait(c, job, 40000, &js), 0);
+    snprintf(p, sizeof p, "%s/sets/uniform-bc1/manifest", D1.datadir);
+    assert_int_equal(access(p, R_OK), 0);  /* durable as .dds */
+    assert_int_equal(stc_fetch_file(c, "uniform-bc1", STC_FETCH_DDS, out, NULL, NULL), 0);
+    FILE *f = fopen(out, "rb");
+    assert_non_null(f);
+    char magic[4];
+    assert_int_equal(fread(magic, 1, 4, f), 4);
+    fclose(f);
+    assert_memory_equal(magic, "DDS ", 4);
+    assert_int_equal(stc_delete(c, "uniform-bc1"), 0);
+    assert_int_equal(stc_delete(c, "uniform"), 0);
+    /* cancel: the job ends CANCELED (or DONE when it was quicker than the cancel) */
+    assert_int_equal(stc_compress(c, "default", "bc1-canceled", 9, STC_COMPRESS_SEAM_AWARE, &job), 0);
+    assert_int_equal(stc_job_cancel(c, job, &js), 0);
+    int wrc = stc_job_wait(c, job, 40000, &js);
+    assert_true(wrc == 0 || wrc == STC_ESERVERCANCELED);
+    assert_true(js.state == STC_JOB_CANCELED || js.state == STC_JOB_DONE);
+    if (js.state == STC_JOB_CANCELED)
+        assert_int_equal(stc_info_get(c, "bc1-canceled", 0, 0, &info), STC_ENOTFOUND);
+    assert_int_equal(stc_job_status(c, 999999, &js), STC_ENOTFOUND);
+    assert_int_equal(stc_delete(c, "default-bc1"), 0);
+    stc_delete(c, "bc1-canceled");
+    stc_close(c);
 }
 
 static void upload_with_wrong_crc_is_corrupt(void **state)
@@ -951,6 +1060,7 @@ int main(void)
         cmocka_unit_test(ping_list_info_stats_answer),
         cmocka_unit_test(sample_matches_in_process_sampler),
         cmocka_unit_test(upload_info_fetch_delete_round_trip),
+        cmocka_unit_test(compress_job_fetch_dds_and_cancel),
         cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
         cmocka_unit_test(pipelined_requests_come_back_in_order),
         cmocka_unit_test(malformed_frames_get_their_status),
