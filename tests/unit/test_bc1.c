@@ -466,6 +466,57 @@ static void dds_writes_a_single_face_as_a_legacy_dxt1_texture(void **state)
     assert_int_equal(st_dds_read_file("/nonexistent/x.dds", 0, &r, &e), ST_ENOTFOUND);
 }
 
+static void dds_writes_cube_sets_as_cube_maps(void **state)
+{
+    (void)state;
+    static const int A[6][4][2] = {{{2, 1}, {4, 3}, {3, 1}, {5, 1}}, {{2, 3}, {5, 3}, {3, 3}, {4, 1}},
+                                   {{4, 0}, {0, 0}, {5, 0}, {1, 0}}, {{5, 2}, {0, 2}, {4, 2}, {1, 2}},
+                                   {{2, 0}, {1, 3}, {3, 2}, {0, 1}}, {{2, 2}, {0, 3}, {3, 0}, {1, 1}}};
+    st_face_desc fd[6];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 6; f++) {
+        fd[f].w = fd[f].h = 8;
+        for (int k = 0; k < 4; k++) {
+            fd[f].adjface[k] = A[f][k][0];
+            fd[f].adjedge[k] = (int8_t)A[f][k][1];
+        }
+    }
+    st_set_info in = {.nfaces = 6, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1,
+                      .kind = ST_KIND_CUBE};
+    st_set *s = NULL, *b = NULL, *r = NULL;
+    st_error e;
+    assert_int_equal(st_set_create(&in, fd, 0, &s, &e), ST_OK);
+    for (size_t i = 0; i < s->texel_bytes; i++)
+        s->texels[i] = (uint8_t)(i * 7);
+    st_set_build_mips(s, UINT32_MAX);
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    uint8_t *buf;
+    size_t len;
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    assert_memory_equal(buf + 84, "DXT1", 4);
+    uint32_t caps2 = (uint32_t)buf[112] | (uint32_t)buf[113] << 8;
+    assert_int_equal(caps2 & 0xFE00u, 0xFE00u);
+    assert_int_equal(st_dds_read_mem(buf, len, 0, &r, &e), ST_OK);
+    const st_bc1_ext *x = r->ext;
+    assert_int_equal(x->src_kind, ST_KIND_CUBE);
+    assert_int_equal(r->info.nfaces, 6);
+    for (int f = 0; f < 6; f++)
+        for (int k = 0; k < 4; k++)
+            assert_int_equal(r->faces[f].adjface[k], A[f][k][0]);
+    assert_memory_equal(r->texels, b->texels, b->texel_bytes);
+    /* without the trailer (a foreign cube file) the adjacency comes from the cube table */
+    st_set_free(r);
+    size_t plain = len - (16 + 6 * 28);
+    assert_int_equal(st_dds_read_mem(buf, plain, 0, &r, &e), ST_OK);
+    for (int f = 0; f < 6; f++)
+        for (int k = 0; k < 4; k++)
+            assert_int_equal(r->faces[f].adjedge[k], A[f][k][1]);
+    free(buf);
+    st_set_free(r);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 static void dds_refuses_hostile_headers(void **state)
 {
     (void)state;
@@ -513,6 +564,7 @@ int main(void)
         cmocka_unit_test(compressing_rgba_with_holes_gives_punchthrough),
         cmocka_unit_test(dds_round_trips_per_face_sets_with_adjacency),
         cmocka_unit_test(dds_writes_a_single_face_as_a_legacy_dxt1_texture),
+        cmocka_unit_test(dds_writes_cube_sets_as_cube_maps),
         cmocka_unit_test(dds_refuses_hostile_headers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
