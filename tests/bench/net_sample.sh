@@ -29,7 +29,7 @@ for t in 1 2; do
 done
 net_start
 # a few shapes; the best median is the figure (the client shares the 2 cores with the server)
-shapes=("-c 1 -P 2" "-c 2 -P 2" "-c 4 -P 2 -T 2")
+shapes=("-c 2 -P 2" "-c 4 -P 2 -T 2")
 i=0
 for shape in "${shapes[@]}"; do
     for r in $(seq 1 "$REPS"); do
