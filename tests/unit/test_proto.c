@@ -206,6 +206,101 @@ static void malformed_frame_table_at_parser_level(void **state)
     assert_string_equal(stp_opcode_name(STP_OP_SAMPLE), "SAMPLE");
 }
 
+static void encode_sample(stp_buf *b, const char *name, uint32_t n, const stp_query *q);
+
+/* The malformed-frame table, decoder level: a valid SAMPLE body (name "tex", 2 queries) and
+ * variants of it, each with the status the server must answer. */
+static void malformed_body_table_at_decoder_level(void **state)
+{
+    (void)state;
+    enum { NAME = 2 + 3, PARAMS = 24, Q = STP_QUERY_SIZE, COUNT_AT = NAME + 20 };
+    stp_query q[2] = { { 0, 0.5f, 0.5f, 0, 0, 0, 0 }, { 1, 0.25f, 0.75f, 0, 0, 0, 0 } };
+    stp_buf b;
+    stp_buf_init(&b);
+    encode_sample(&b, "tex", 2, q);
+    const uint8_t *valid = b.data + STP_HEADER_SIZE;
+    size_t vlen = b.len - STP_HEADER_SIZE;
+    assert_int_equal(vlen, NAME + PARAMS + 2 * Q);
+    struct row {
+        const char *what;
+        int edit;            /* what to change */
+        uint32_t value;
+        int want;
+    } rows[] = {
+        { "valid",                              0, 0, 0 },
+        { "count larger than the queries",      1, 3, STP_S_BAD_REQUEST },
+        { "count smaller than the queries",     1, 1, STP_S_BAD_REQUEST },
+        { "count whose *28 wraps 32 bits",      1, 0x09249249u, STP_S_BAD_REQUEST },
+        { "count 2^32-1",                       1, 0xFFFFFFFFu, STP_S_BAD_REQUEST },
+        { "name length past the end",           2, 0xFFFF, STP_S_BAD_REQUEST },
+        { "name length 0 shifts every field",   2, 0, STP_S_BAD_REQUEST },
+        { "name with a NUL byte",               3, 0, STP_S_BAD_REQUEST },
+        { "one trailing byte",                  4, 1, STP_S_BAD_REQUEST },
+        { "truncated inside the last query",    5, 3, STP_S_BAD_REQUEST },
+        { "truncated inside the parameters",    5, 2 * Q + 10, STP_S_BAD_REQUEST },
+        { "empty body",                         5, (uint32_t)vlen, STP_S_BAD_REQUEST },
+        { "zero-length batch",                  6, 0, 0 },
+        { "NaN and infinite query fields",      7, 0, 0 },
+        { "count over max_batch (1)",           8, 0, STP_S_TOO_LARGE },
+        { "unknown output format",              9, 7, STP_S_INVALID },
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        uint8_t *body = malloc(vlen + 1);
+        size_t len = vlen;
+        uint32_t max_batch = 100;
+        memcpy(body, valid, vlen);
+        switch (rows[i].edit) {
+        case 1: stp_wr32(body + COUNT_AT, rows[i].value); break;
+        case 2: stp_wr16(body, (uint16_t)rows[i].value); break;
+        case 3: body[3] = 0; break;
+        case 4: body[len++] = 0; break;
+        case 5: len -= rows[i].value; break;
+        case 6: stp_wr32(body + COUNT_AT, 0); len = NAME + PARAMS; break;
+        case 7:
+            stp_wr32(body + NAME + PARAMS + 4, stp_f2u(NAN));
+            stp_wr32(body + NAME + PARAMS + Q + 12, stp_f2u(-INFINITY));
+            break;
+        case 8: max_batch = 1; break;
+        case 9: body[NAME + 4] = (uint8_t)rows[i].value; break;
+        default: break;
+        }
+        /* exact-size copy so that ASan sees any read past `len` */
+        uint8_t *exact = malloc(len ? len : 1);
+        memcpy(exact, body, len);
+        stp_sample_req r;
+        const char *why = NULL;
+        int got = stp_dec_sample_req(exact, len, max_batch, &r, &why);
+        if (got != rows[i].want)
+            fail_msg("%s: status %d (%s), want %d", rows[i].what, got, why ? why : "",
+                     rows[i].want);
+        if (got != 0)
+            assert_non_null(why);
+        if (rows[i].edit == 7) {
+            stp_query g;
+            stp_sample_query(&r, 0, &g);
+            assert_true(isnan(g.u));
+            stp_sample_query(&r, 1, &g);
+            assert_true(isinf(g.dudx) && g.dudx < 0);
+        }
+        free(exact);
+        free(body);
+    }
+    /* other bodies: a chunk whose len lies, a HELLO with min > max, an id of 7 bytes, bytes
+     * where the body must be empty */
+    uint8_t chunk[20 + 4] = { 0 };
+    stp_wr32(chunk + 16, 5);
+    stp_upload_chunk ch;
+    assert_int_equal(stp_dec_upload_chunk(chunk, sizeof chunk, &ch, NULL), STP_S_BAD_REQUEST);
+    uint8_t hello[12] = { 2, 1 };
+    stp_hello_req hr;
+    assert_int_equal(stp_dec_hello_req(hello, sizeof hello, &hr, NULL), STP_S_INVALID);
+    uint64_t id;
+    assert_int_equal(stp_dec_id_req(chunk, 7, &id, NULL), STP_S_BAD_REQUEST);
+    assert_int_equal(stp_dec_empty(chunk, 1, NULL), STP_S_BAD_REQUEST);
+    assert_int_equal(stp_dec_empty(NULL, 0, NULL), 0);
+    stp_buf_free(&b);
+}
+
 /* ---- bodies -------------------------------------------------------------------------------- */
 
 static void hello_round_trips(void **state)
@@ -901,6 +996,7 @@ int main(void)
         cmocka_unit_test(header_needs_more_until_complete),
         cmocka_unit_test(bad_magic_is_fatal_as_soon_as_seen),
         cmocka_unit_test(malformed_frame_table_at_parser_level),
+        cmocka_unit_test(malformed_body_table_at_decoder_level),
         cmocka_unit_test(hello_round_trips),
         cmocka_unit_test(list_round_trips_and_refuses_lying_count),
         cmocka_unit_test(info_round_trips_with_face_records),
