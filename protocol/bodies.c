@@ -332,7 +332,9 @@ int stp_enc_sample_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const st
     size_t bytes;
     put_params(b, &r->p, 0);
     stp_put_u32(b, r->count);
-    if (st_mul_size(r->count, STP_QUERY_SIZE, &bytes) == 0 && stp_buf_reserve(b, bytes) == 0) {
+    if (st_mul_size(r->count, STP_QUERY_SIZE, &bytes) != 0)
+        b->err = STP_S_TOO_LARGE;
+    else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
         for (uint32_t i = 0; i < r->count; i++, p += STP_QUERY_SIZE) {
             const stp_query *q = &r->queries[i];
@@ -356,7 +358,9 @@ int stp_enc_sample_dir_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms,
     size_t bytes;
     put_params(b, &r->p, 1);
     stp_put_u32(b, r->count);
-    if (st_mul_size(r->count, STP_DIR_QUERY_SIZE, &bytes) == 0 && stp_buf_reserve(b, bytes) == 0) {
+    if (st_mul_size(r->count, STP_DIR_QUERY_SIZE, &bytes) != 0)
+        b->err = STP_S_TOO_LARGE;
+    else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
         for (uint32_t i = 0; i < r->count; i++) {
             const stp_dir_query *q = &r->dqueries[i];
@@ -474,7 +478,9 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
     stp_put_u8(b, 0);
     stp_put_u32(b, r->nbad);
     nval = (size_t)r->count * r->nchan;
-    if (st_mul_size(nval, esz, &bytes) == 0 && stp_buf_reserve(b, bytes) == 0) {
+    if (st_mul_size(nval, esz, &bytes) != 0)
+        b->err = STP_S_TOO_LARGE;
+    else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
         switch (r->outfmt) {
         case STP_OUT_F32:
