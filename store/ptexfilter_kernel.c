@@ -373,19 +373,19 @@ void pk_params_init(pk_params *p, unsigned ftype, float sharpness)
     p->coeffs[6] = 2.0f - (float)(2.0 / 3.0) * B;
 }
 
-/* The kernel function at n points: Ptex's gaussian exp(-2x^2) or the bicubic family, four
- * points at a time (x and w have room for n rounded up to 4).
+/* The kernel function at x1 + i * step, i < n: Ptex's gaussian exp(-2x^2) or the bicubic
+ * family, four points at a time (w has room for n rounded up to 4).
  * exp is 2^(x log2 e) with a degree-6 polynomial on [-1/2, 1/2]: relative error about 2e-7,
  * against the ulp of the exp that Ptex calls. */
 typedef float v4f __attribute__((vector_size(16)));
 typedef int32_t v4i __attribute__((vector_size(16)));
 
-static void kernel_eval(const pk_params *p, const float *x, float *w, int n)
+static void kernel_eval(const pk_params *p, float x1, float step, float *w, int n)
 {
     const float *c = p->coeffs;
     for (int i = 0; i < n; i += 4) {
-        v4f xv, r;
-        memcpy(&xv, x + i, sizeof xv);
+        v4f r, iv = {(float)i, (float)(i + 1), (float)(i + 2), (float)(i + 3)};
+        v4f xv = x1 + iv * step;
         if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
             v4f y = xv * xv * -2.0f * 1.44269504f;
             v4i lo = y < -126.0f;
@@ -445,14 +445,10 @@ static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *
             u2 = (u2 + 1) & ~1;
             *ku = u1;
             *kw = u2 - u1;
-            float x1 = (float)u1 - upix, xs[PK_MAX] = {0};
+            float x1 = (float)u1 - upix;
             if (*kw > PK_MAX / 2)
                 *kw = PK_MAX / 2;
-            for (int i = 0; i < *kw; i += 2) {
-                xs[i] = x1 + (float)i;
-                xs[i + 1] = xs[i] + 1.0f;
-            }
-            kernel_eval(p, xs, w, *kw);
+            kernel_eval(p, x1, 1.0f, w, *kw);
             return;
         } else if (uw < 1) {
             *kres = 1;
@@ -486,10 +482,8 @@ static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *
     *kw = u2 - u1;
     if (*kw > PK_MAX / 2)
         *kw = PK_MAX / 2; /* cannot happen: uwpix < 2 gives at most 9 */
-    float x1 = ((float)u1 - upix) / uwpix, step = 1.0f / uwpix, xs[PK_MAX] = {0};
-    for (int i = 0; i < *kw; i++)
-        xs[i] = x1 + (float)i * step;
-    kernel_eval(p, xs, w, *kw);
+    float x1 = ((float)u1 - upix) / uwpix, step = 1.0f / uwpix;
+    kernel_eval(p, x1, step, w, *kw);
 }
 
 static void box_weights(float *k, int size, float f1, float f2)
