@@ -1,0 +1,334 @@
+/* tests/unit/test_registry.c - the named-set registry and the durable data dir, tested
+ * directly (no daemon): name rules, reference counting under concurrent replace/delete,
+ * commit/replace/delete/load, and the crash leftovers the loader must clean or set aside.
+ */
+#include <dirent.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <ftw.h>
+
+#include <cmocka.h>
+
+#include "datadir.h"
+#include "registry.h"
+
+static st_set *tiny_set(uint32_t w)
+{
+    st_set_info info;
+    memset(&info, 0, sizeof info);
+    info.nfaces = 1;
+    info.nchan = 1;
+    info.dtype = ST_DT_U8;
+    info.alpha_chan = -1;
+    st_face_desc fd;
+    memset(&fd, 0, sizeof fd);
+    fd.w = fd.h = w;
+    for (int e = 0; e < 4; e++)
+        fd.adjface[e] = -1;
+    st_set *s = NULL;
+    st_error e;
+    int rc = st_set_create(&info, &fd, 0, &s, &e);
+    if (rc)
+        fprintf(stderr, "st_set_create %ux%u: %s\n", w, w, e.msg);
+    assert_int_equal(rc, 0);
+    return s;
+}
+
+static void set_names_follow_one_rule(void **state)
+{
+    (void)state;
+    static const struct { const char *name; int ok; } rows[] = {
+        {"default", 1}, {"a", 1}, {"A-b_c.9", 1}, {"x..y", 1},
+        {"", 0}, {".", 0}, {"..", 0}, {".hidden", 0}, {"a/b", 0}, {"../etc", 0},
+        {"a b", 0}, {"a\\b", 0}, {"caf\xc3\xa9", 0}, {"tab\t", 0},
+        {"0123456789012345678901234567890123456789012345678901234567890123", 1},   /* 64 */
+        {"01234567890123456789012345678901234567890123456789012345678901234", 0},  /* 65 */
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        st_error e;
+        st_error_clear(&e);
+        int rc = st_name_check(rows[i].name, strlen(rows[i].name), &e);
+        if ((rc == 0) != rows[i].ok)
+            fprintf(stderr, "name '%s': rc %d (%s)\n", rows[i].name, rc, e.msg);
+        assert_int_equal(rc == 0, rows[i].ok);
+        if (!rows[i].ok) {
+            assert_int_equal(rc, ST_EPERM);
+            assert_true(e.msg[0] != 0);
+        }
+    }
+    /* an embedded NUL is refused too (length says 3) */
+    assert_int_equal(st_name_check("a\0b", 3, NULL), ST_EPERM);
+}
+
+static void readers_keep_a_replaced_set_alive(void **state)
+{
+    (void)state;
+    st_registry *r = st_registry_create();
+    assert_non_null(r);
+    int replaced = -1;
+    assert_int_equal(st_registry_put(r, "s", tiny_set(4), NULL, 0, &replaced, NULL), 0);
+    assert_int_equal(replaced, 0);
+    st_setref *a = NULL, *b = NULL;
+    assert_int_equal(st_registry_get(r, "s", &a, NULL), 0);
+    assert_int_equal(a->set->faces[0].w, 4);
+    assert_int_equal(st_registry_put(r, "s", tiny_set(8), NULL, 0, &replaced, NULL), 0);
+    assert_int_equal(replaced, 1);
+    assert_int_equal(st_registry_get(r, "s", &b, NULL), 0);
+    assert_int_equal(b->set->faces[0].w, 8);
+    assert_true(b->gen > a->gen);
+    assert_int_equal(a->set->faces[0].w, 4);  /* still readable: a holds it */
+    assert_int_equal(st_registry_remove(r, "s", NULL), 0);
+    assert_int_equal(st_registry_remove(r, "s", NULL), ST_ENOTFOUND);
+    assert_int_equal(b->set->faces[0].w, 8);
+    st_setref_release(a);
+    st_setref_release(b);
+    st_error e;
+    assert_int_equal(st_registry_get(r, "s", &a, &e), ST_ENOTFOUND);
+    assert_non_null(strstr(e.msg, "'s'"));
+    /* bad names and the set cap */
+    assert_int_equal(st_registry_put(r, "../x", tiny_set(2), NULL, 0, NULL, NULL), ST_EPERM);
+    assert_int_equal(st_registry_put(r, "one", tiny_set(2), NULL, 2, NULL, NULL), 0);
+    assert_int_equal(st_registry_put(r, "two", tiny_set(2), NULL, 2, NULL, NULL), 0);
+    assert_int_equal(st_registry_put(r, "three", tiny_set(2), NULL, 2, NULL, NULL), ST_EBUSY);
+    assert_int_equal(st_registry_put(r, "two", tiny_set(2), NULL, 2, NULL, NULL), 0); /* replace */
+    /* snapshot is sorted by name */
+    st_setref *snap[8];
+    size_t n = st_registry_snapshot(r, snap, 8);
+    assert_int_equal(n, 2);
+    assert_string_equal(snap[0]->name, "one");
+    assert_string_equal(snap[1]->name, "two");
+    for (size_t i = 0; i < n; i++)
+        st_setref_release(snap[i]);
+    assert_true(st_registry_memory(r) > 0);
+    st_registry_free(r);
+}
+
+typedef struct race {
+    st_registry *r;
+    int stop;
+    long reads;
+} race;
+
+static void *reader(void *arg)
+{
+    race *x = arg;
+    while (!__atomic_load_n(&x->stop, __ATOMIC_RELAXED)) {
+        st_setref *ref = NULL;
+        if (st_registry_get(x->r, "hot", &ref, NULL) == 0) {
+            /* the set must be whole: its texels hold its own width everywhere */
+            const st_set *s = ref->set;
+            uint32_t w = s->faces[0].w;
+            uint8_t v = s->texels[0];
+            assert_int_equal(v, (uint8_t)w);
+            assert_int_equal(s->texels[(size_t)w * w - 1], (uint8_t)w);
+            st_setref_release(ref);
+            x->reads++;
+        }
+    }
+    return NULL;
+}
+
+static void concurrent_readers_survive_replace_and_delete(void **state)
+{
+    (void)state;
+    race x = {st_registry_create(), 0, 0};
+    pthread_t th[3];
+    for (int i = 0; i < 3; i++)
+        pthread_create(&th[i], NULL, reader, &x);
+    for (int k = 0; k < 3000; k++) {
+        uint32_t w = 1u << (1 + k % 6);  /* 2..64 */
+        st_set *s = tiny_set(w);
+        memset(s->texels, (int)w, s->texel_bytes);
+        st_registry_put(x.r, "hot", s, NULL, 0, NULL, NULL);
+        if (k % 7 == 0)
+            st_registry_remove(x.r, "hot", NULL);
+    }
+    __atomic_store_n(&x.stop, 1, __ATOMIC_RELAXED);
+    for (int i = 0; i < 3; i++)
+        pthread_join(th[i], NULL);
+    assert_true(x.reads > 0);
+    st_registry_free(x.r);
+}
+
+/* ---- data dir ------------------------------------------------------------------------------- */
+
+static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb; (void)ftw;
+    return flag == FTW_DP ? rmdir(p) : unlink(p);
+}
+
+static void write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)))
+        n += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
+    closedir(d);
+    return n;
+}
+
+typedef struct loaded {
+    char names[16][65];
+    char formats[16][16];
+    int n, reports, busy_first;
+} loaded;
+
+static int load_cb(void *arg, const st_manifest *m, const char *src)
+{
+    loaded *l = arg;
+    FILE *f = fopen(src, "r");
+    char buf[64] = "";
+    if (f) {
+        if (!fgets(buf, sizeof buf, f))
+            buf[0] = 0;
+        fclose(f);
+    }
+    if (!strcmp(buf, "needs-other") && l->busy_first++ == 0)
+        return ST_EBUSY;  /* ask to be loaded after the others */
+    if (!strcmp(buf, "bad-import"))
+        return ST_EFORMAT;
+    snprintf(l->names[l->n], sizeof l->names[0], "%s", m->name);
+    snprintf(l->formats[l->n], sizeof l->formats[0], "%s", m->format);
+    l->n++;
+    return 0;
+}
+
+static void report_cb(void *arg, const char *name, const char *why)
+{
+    (void)name; (void)why;
+    ((loaded *)arg)->reports++;
+}
+
+static int commit_text(st_datadir *d, const char *name, const char *text, const char *fmt)
+{
+    char path[4096];
+    int fd;
+    if (st_datadir_tmpfile(d, path, sizeof path, &fd, NULL) != 0)
+        return -1;
+    ssize_t w = write(fd, text, strlen(text));
+    close(fd);
+    if (w != (ssize_t)strlen(text))
+        return -1;
+    return st_datadir_commit(d, name, path, fmt, "opt=1", strlen(text), NULL, NULL, NULL);
+}
+
+static void datadir_commits_replaces_deletes_and_reloads(void **state)
+{
+    (void)state;
+    char root[] = "/tmp/st-datadir-XXXXXX";
+    assert_non_null(mkdtemp(root));
+    st_datadir *d = NULL;
+    st_error e;
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    assert_int_equal(commit_text(d, "alpha", "first", "ptx"), 0);
+    assert_int_equal(commit_text(d, "alpha", "second", "ptx"), 0);   /* replace */
+    assert_int_equal(commit_text(d, "beta", "needs-other", "obj"), 0);
+    assert_int_equal(commit_text(d, "gamma", "bad-import", "png"), 0);
+    assert_int_equal(commit_text(d, "delta", "gone soon", "exr"), 0);
+    assert_int_equal(st_datadir_delete(d, "delta", NULL, NULL, NULL), 0);
+    assert_int_equal(st_datadir_delete(d, "delta", NULL, NULL, NULL), ST_ENOTFOUND);
+    /* refused before anything is written */
+    char p[1024];
+    int fd;
+    assert_int_equal(st_datadir_tmpfile(d, p, sizeof p, &fd, NULL), 0);
+    close(fd);
+    assert_int_equal(st_datadir_commit(d, "../evil", p, "ptx", "", 0, NULL, NULL, &e), ST_EPERM);
+    assert_int_equal(st_datadir_tmpfile(d, p, sizeof p, &fd, NULL), 0);
+    assert_int_equal(write(fd, "abc", 3), 3);
+    close(fd);
+    assert_int_equal(st_datadir_commit(d, "size", p, "ptx", "", 4, NULL, NULL, &e), ST_ECORRUPT);
+    assert_int_not_equal(access(p, F_OK), 0);  /* the part was removed */
+    assert_int_equal(st_datadir_tmpfile(d, p, sizeof p, &fd, NULL), 0);
+    close(fd);
+    assert_int_equal(st_datadir_commit(d, "fmt", p, "P/X", "", 0, NULL, NULL, &e), ST_EINVAL);
+    /* one source per set after a replace */
+    snprintf(p, sizeof p, "%s/sets/alpha", root);
+    assert_int_equal(count_entries(p), 2);
+    st_manifest m;
+    snprintf(p, sizeof p, "%s/sets/alpha/manifest", root);
+    assert_int_equal(st_manifest_read(p, &m, &e), 0);
+    assert_string_equal(m.name, "alpha");
+    assert_int_equal(m.bytes, 6);
+    assert_string_equal(m.options, "opt=1");
+    st_datadir_close(d);
+
+    /* crash leftovers */
+    snprintf(p, sizeof p, "%s/tmp/99.part", root);
+    write_file(p, "half an upload");
+    snprintf(p, sizeof p, "%s/sets/newbie", root);
+    mkdir(p, 0700);
+    snprintf(p, sizeof p, "%s/sets/newbie/source-1.ptx", root);
+    write_file(p, "never committed");
+    snprintf(p, sizeof p, "%s/sets/alpha/source-orphan.ptx", root);
+    write_file(p, "interrupted replace");
+    snprintf(p, sizeof p, "%s/sets/torn", root);   /* a manifest cut short */
+    mkdir(p, 0700);
+    snprintf(p, sizeof p, "%s/sets/torn/manifest", root);
+    write_file(p, "seamtex-set 1\nname torn\nsource s.ptx\n");
+
+    loaded l;
+    memset(&l, 0, sizeof l);
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    int n = st_datadir_load(d, load_cb, &l, report_cb, &e);
+    assert_int_equal(n, 2);
+    assert_int_equal(l.n, 2);
+    assert_string_equal(l.names[0], "alpha");   /* beta was deferred, then loaded */
+    assert_string_equal(l.names[1], "beta");
+    assert_string_equal(l.formats[1], "obj");
+    assert_int_equal(l.busy_first, 2);
+    assert_int_equal(l.reports, 3);            /* newbie removed, gamma + torn set aside */
+    snprintf(p, sizeof p, "%s/tmp", root);
+    assert_int_equal(count_entries(p), 0);
+    snprintf(p, sizeof p, "%s/sets/newbie", root);
+    assert_int_not_equal(access(p, F_OK), 0);
+    snprintf(p, sizeof p, "%s/sets/alpha", root);
+    assert_int_equal(count_entries(p), 2);     /* orphan removed */
+    snprintf(p, sizeof p, "%s/broken", root);
+    assert_int_equal(count_entries(p), 2);     /* gamma and torn, not dropped */
+    snprintf(p, sizeof p, "%s/sets", root);
+    assert_int_equal(count_entries(p), 2);
+    st_datadir_close(d);
+
+    /* a flipped byte in a committed source is caught by the CRC at load */
+    snprintf(p, sizeof p, "%s/sets/alpha/manifest", root);
+    assert_int_equal(st_manifest_read(p, &m, &e), 0);
+    snprintf(p, sizeof p, "%s/sets/alpha/%s", root, m.source);
+    write_file(p, "sekond");
+    memset(&l, 0, sizeof l);
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    assert_int_equal(st_datadir_load(d, load_cb, &l, report_cb, &e), 1);
+    assert_string_equal(l.names[0], "beta");
+    st_datadir_close(d);
+    nftw(root, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(set_names_follow_one_rule),
+        cmocka_unit_test(readers_keep_a_replaced_set_alive),
+        cmocka_unit_test(concurrent_readers_survive_replace_and_delete),
+        cmocka_unit_test(datadir_commits_replaces_deletes_and_reloads),
+    };
+    return cmocka_run_group_tests_name("registry", tests, NULL, NULL);
+}
