@@ -304,7 +304,7 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
         return 0;
     }
     j->src = src;
-    snprintf(j->target, sizeof j->target, "%s", rq.target);
+    snprintf(j->target, sizeof j->target, "%.64s", rq.target);
     j->level = rq.level;
     j->flags = rq.flags;
     j->state = STP_JOB_QUEUED;

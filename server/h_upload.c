@@ -329,7 +329,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         return 0;
     }
     u->fd = -1;
-    snprintf(u->name, sizeof u->name, "%s", rq.name);
+    snprintf(u->name, sizeof u->name, "%.64s", rq.name);
     snprintf(u->fmt, sizeof u->fmt, "%s", rq.hint);
     snprintf(u->options, sizeof u->options, "%s", rq.options);
     u->total = rq.total_size;
