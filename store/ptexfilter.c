@@ -581,3 +581,17 @@ int st_ptexfilter_prepare(st_set *s, st_error *e)
         return st_fail(e, ST_EUNSUPPORTED, "Ptex filters need a per-face set");
     return st_ptexres_attach(s, NULL, NULL, NULL, 0, e);
 }
+
+size_t st_ptexfilter_memory(const st_set *s)
+{
+    const st_ptexres *t = st_ptexres_get(s);
+    if (!t)
+        return 0;
+    size_t nent = 0;
+    for (uint32_t f = 0; f < t->nfaces; f++) {
+        const st_face *F = &s->faces[f];
+        nent += F->flags & ST_FACE_CONSTANT ? 1u : (size_t)(F->ulog2 + 1u) * (F->vlog2 + 1u);
+    }
+    return sizeof *t + (size_t)t->nfaces * (sizeof *t->base + 1) + nent * sizeof *t->px +
+           t->arena_bytes;
+}

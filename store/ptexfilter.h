@@ -32,4 +32,8 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
  * the set's levels past the square reductions with Ptex's own u/v reductions. */
 int st_ptexfilter_prepare(st_set *s, st_error *e);
 
+/* Bytes the Ptex resolution table of s holds (0 when it has none); st_set_memory does not
+ * count set->ext, so memory accounting adds this. */
+size_t st_ptexfilter_memory(const st_set *s);
+
 #endif

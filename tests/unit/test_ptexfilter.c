@@ -278,7 +278,9 @@ static void a_set_without_the_table_is_refused_until_prepared(void **state)
     st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
     float out;
     assert_int_equal(st_ptexfilter_batch(s, &o, &q, 1, &out, NULL, NULL), ST_EUNSUPPORTED);
+    assert_int_equal(st_ptexfilter_memory(s), 0);
     assert_int_equal(st_ptexfilter_prepare(s, &e), 0);
+    assert_true(st_ptexfilter_memory(s) > 0);
     assert_int_equal(st_ptexfilter_batch(s, &o, &q, 1, &out, NULL, NULL), 0);
     assert_float_equal(out, 0.0f, 1e-7f);
     st_set_free(s);
