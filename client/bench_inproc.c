@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "defaultset.h"
+#include "ptexfilter.h"
 #include "sample.h"
 
 typedef struct inproc_thread {
@@ -70,6 +71,15 @@ int bench_inproc_run(const bench_cfg *cfg, double *qps, char *msg, size_t ml)
     if (st_default_set(&set, &e) != 0) {
         snprintf(msg, ml, "default set: %s", e.msg);
         return -1;
+    }
+    /* a Ptex-family filter needs the set's Ptex reductions, which a set that was not read
+     * from a .ptx has only once prepared */
+    for (unsigned i = 0; i < cfg->nfilters; i++) {
+        if (cfg->filters[i] >= ST_FILTER_PTEX_POINT && st_ptexfilter_prepare(set, &e) != 0) {
+            snprintf(msg, ml, "Ptex filters on the default set: %s", e.msg);
+            st_set_free(set);
+            return -1;
+        }
     }
     unsigned nt = cfg->threads ? cfg->threads : 1;
     inproc_thread *ts = calloc(nt, sizeof *ts);
