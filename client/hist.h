@@ -2,7 +2,7 @@
  * not packaged in Debian, so this is our own, much smaller one).
  *
  * Owns: recording values (nanoseconds), merging histograms of several threads, percentiles.
- * Does not own: clocks, threads, output formatting (bench_report.c).
+ * Does not own: clocks, threads, output formatting (bench_main.c).
  *
  * Buckets: values below 2^STC_HIST_SUB_BITS are counted exactly; above, every power of two
  * [2^m, 2^(m+1)) is cut into 2^(STC_HIST_SUB_BITS-1) equal sub-buckets, so a bucket is at
