@@ -2,7 +2,7 @@
  * connections, in open loop (requests due at intended times from a schedule per connection)
  * or closed loop (a fixed number of requests outstanding per connection).
  *
- * Owns: per-connection buffers, the FIFO of outstanding requests, timestamps, timeouts.
+ * Owns: per-connection buffers, the table of outstanding requests, timestamps, timeouts.
  * Does not own: sockets' creation (bench_main.c connects them), frame bytes (bench_wire.c).
  *
  * Timestamps: t_intended comes from the schedule (closed loop: equal to the send time);
