@@ -483,6 +483,7 @@ static int has_transparent(const uint8_t *blk)
 
 int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *target,
                       uint8_t *const *blocks, float alpha, float outside_weight, int iterations,
+                      void (*progress)(void *arg, double fraction), void *progress_arg,
                       const volatile int *cancel, st_bc1_seam_stats *stats, st_error *e)
 {
     if (stats)
@@ -662,11 +663,15 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
                     goto out;
                 }
                 any |= local_search(&S, b);
+                if (progress && (b & 1023) == 1023)
+                    progress(progress_arg, ((double)it + (pass + (double)b / nb) / 2.0) / iterations);
             }
             if (!any)
                 break;
         }
         double en = exact_energy(&S);
+        if (progress)
+            progress(progress_arg, (double)(it + 1) / iterations);
         if (stats)
             stats->iterations = it + 1;
         if (en < best) {

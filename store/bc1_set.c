@@ -107,6 +107,18 @@ static void report(st_bc1_progress_fn fn, void *arg, double f)
         fn(arg, f < 0 ? 0 : f > 1 ? 1 : f);
 }
 
+/* the seam-aware solve's 0..1 is this call's 0.85..0.99 */
+typedef struct seam_prog {
+    st_bc1_progress_fn fn;
+    void *arg;
+} seam_prog;
+
+static void on_seam_progress(void *arg, double f)
+{
+    seam_prog *sp = arg;
+    report(sp->fn, sp->arg, 0.85 + 0.14 * f);
+}
+
 int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress_fn progress,
                         void *progress_arg, const volatile int *cancel, st_set **out,
                         st_error *e)
@@ -323,8 +335,9 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
 
     if (opts.seam_mode == ST_BC1_SEAM_AWARE) {
         float boost = opts.seam_boost > 0 ? opts.seam_boost : 2.0f;
-        rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha * boost, 0, opts.iterations, cancel,
-                               NULL, e);
+        seam_prog sp = {progress, progress_arg};
+        rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha * boost, 0, opts.iterations,
+                               on_seam_progress, &sp, cancel, NULL, e);
         if (rc)
             goto out;
     }

@@ -116,7 +116,8 @@ double st_seam_psnr_inside(const st_seam_sys *sys, const uint8_t *a, const uint8
  * ceil(fh/4), row-major) or NULL for a face that is not block-coded (a constant face: its
  * texel is taken from `target`). Blocks using selector 3 in 3-colour mode (transparent
  * texels) are left alone. orig / target: global RGBA8 (st_seam_gather_rgba8 layout).
- * stats (may be NULL) gets the energy before and after and the number of blocks solved. */
+ * stats (may be NULL) gets the energy before and after and the number of blocks solved.
+ * progress (may be NULL) is called from the calling thread with 0..1 as rounds complete. */
 typedef struct st_bc1_seam_stats {
     double   e_before, e_after;  /* E = Ec + alpha Es over the touched blocks, 0..255 scale */
     uint32_t nblocks;            /* blocks whose endpoints were variables */
@@ -125,6 +126,7 @@ typedef struct st_bc1_seam_stats {
 
 int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *target,
                       uint8_t *const *blocks, float alpha, float outside_weight, int iterations,
+                      void (*progress)(void *arg, double fraction), void *progress_arg,
                       const volatile int *cancel, st_bc1_seam_stats *stats, st_error *e);
 
 #endif

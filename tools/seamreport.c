@@ -289,7 +289,7 @@ static int run_set(const dataset *d, const char *data, const char *outdir, int l
     if ((rc = encode_global(s, sys, buf[V_MASK], level, 0.05f, bl_aw, e)))
         goto out;
     st_bc1_seam_stats st;
-    rc = st_bc1_seam_solve(sys, buf[V_ORIG], buf[V_MASK], bl_aw, alpha * boost, 0, 3, NULL, &st, e);
+    rc = st_bc1_seam_solve(sys, buf[V_ORIG], buf[V_MASK], bl_aw, alpha * boost, 0, 3, NULL, NULL, NULL, &st, e);
     if (rc)
         goto out;
     res->t_aware = now() - t0;

@@ -165,7 +165,7 @@ static void seam_aware_bc1_never_raises_the_energy(void **state)
         st_bc1_decode_image(blocks[f], 16, 16, ST_BC1_DEC_EXACT, dec + 256 * 4 * f);
     double plain = st_seam_rms_rgba8(sys, dec);
     st_bc1_seam_stats st;
-    assert_int_equal(st_bc1_seam_solve(sys, orig, m, blocks, 2.0f, 0, 3, NULL, &st, &e), ST_OK);
+    assert_int_equal(st_bc1_seam_solve(sys, orig, m, blocks, 2.0f, 0, 3, NULL, NULL, NULL, &st, &e), ST_OK);
     assert_true(st.nblocks == 8);        /* 4 edge blocks per face */
     assert_true(st.e_after <= st.e_before);
     for (int f = 0; f < 2; f++)
@@ -293,7 +293,7 @@ static void duck_seams_drop_with_masking_and_seam_aware_bc1(void **state)
     assert_int_equal(st_bc1_encode_image(mk, 512, 512, 2048, ST_BC1_HQ, 0, blk[0], &e), ST_OK);
     st_bc1_decode_image(blk[0], 512, 512, ST_BC1_DEC_EXACT, dec);
     double plain = st_seam_rms_rgba8(sys, dec);
-    assert_int_equal(st_bc1_seam_solve(sys, orig, mk, blk, 2.0f, 0, 3, NULL, NULL, &e), ST_OK);
+    assert_int_equal(st_bc1_seam_solve(sys, orig, mk, blk, 2.0f, 0, 3, NULL, NULL, NULL, NULL, &e), ST_OK);
     st_bc1_decode_image(blk[0], 512, 512, ST_BC1_DEC_EXACT, dec);
     double aware = st_seam_rms_rgba8(sys, dec);
     print_message("duck seam RMS: original %.2f, masked %.2f, plain BC1 %.2f, seam-aware %.2f\n",
