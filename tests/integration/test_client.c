@@ -1086,6 +1086,87 @@ static void real_daemon_samples_cube_maps_by_direction(void **state)
     stc_close(c);
 }
 
+static int stop_after_first(void *user, uint64_t done, uint64_t total)
+{
+    (void)done;
+    (void)total;
+    return ++*(int *)user >= 1;
+}
+
+static void real_daemon_upload_abort_and_checksum(void **state)
+{
+    real *r = *state;
+    char path[512];
+    if (!r->up)
+        skip();
+    if (st_daemon_data_path(path, sizeof path, "ptx/wdas-ptex-2009/dispplane/wave_lo/pPlane1.ptx")) {
+        fprintf(stderr, "# SEAMTEX_DATA missing: skipping\n");
+        skip();
+    }
+    stc_conn *c = real_connect(r);
+    stc_info inf;
+    /* cancelled after the first chunk: aborted, no set, the name stays free */
+    int calls = 0;
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.chunk = 1024;
+    uo.progress = stop_after_first;
+    uo.user = &calls;
+    assert_int_equal(stc_upload_file(c, path, "half", &uo, NULL), STC_ECANCELED);
+    assert_int_equal(stc_info_get(c, "half", 0, 0, &inf), STC_ENOTFOUND);
+    assert_int_equal(stc_upload_file(c, path, "half", NULL, NULL), 0);
+    assert_int_equal(stc_info_get(c, "half", 0, 0, &inf), 0);
+    assert_int_equal(stc_delete(c, "half"), 0);
+
+    /* a wrong CRC32C is CORRUPT at commit and leaves nothing behind (raw frames) */
+    FILE *fp = fopen(path, "rb");
+    assert_non_null(fp);
+    uint8_t data[8192];
+    size_t n = fread(data, 1, sizeof data, fp);
+    fclose(fp);
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_upload_begin bg;
+    memset(&bg, 0, sizeof bg);
+    strcpy(bg.name, "bad_crc");
+    strcpy(bg.hint, "ptx");
+    bg.total_size = n;
+    bg.crc32c = stp_crc32c(0, data, n) ^ 1;
+    assert_int_equal(stp_enc_upload_begin(&b, 0, 0, &bg), 0);
+    uint32_t id;
+    stc_reply rp;
+    assert_int_equal(stc_append_raw(c, STP_OP_UPLOAD_BEGIN, b.data + STP_HEADER_SIZE,
+                                    b.len - STP_HEADER_SIZE, &id), 0);
+    assert_int_equal(stc_get_reply(c, 20000, &rp), 0);
+    assert_int_equal(rp.status, 0);
+    stp_upload_begin_reply br;
+    assert_int_equal(stp_dec_upload_begin_reply(rp.body, rp.body_len, &br, NULL), 0);
+    stp_buf_clear(&b);
+    stp_upload_chunk ch = { br.upload_id, 0, (uint32_t)n, data };
+    assert_int_equal(stp_enc_upload_chunk(&b, 0, 0, &ch), 0);
+    assert_int_equal(stc_append_raw(c, STP_OP_UPLOAD_CHUNK, b.data + STP_HEADER_SIZE,
+                                    b.len - STP_HEADER_SIZE, &id), 0);
+    assert_int_equal(stc_get_reply(c, 20000, &rp), 0);
+    assert_int_equal(rp.status, 0);
+    uint8_t idb[8];
+    stp_wr64(idb, br.upload_id);
+    assert_int_equal(stc_append_raw(c, STP_OP_UPLOAD_COMMIT, idb, 8, &id), 0);
+    assert_int_equal(stc_get_reply(c, 20000, &rp), 0);
+    assert_int_equal(rp.status, STC_ECORRUPT);
+    assert_int_equal(stc_info_get(c, "bad_crc", 0, 0, &inf), STC_ENOTFOUND);
+    /* a chunk for an upload that does not exist */
+    ch.upload_id = br.upload_id + 777;
+    stp_buf_clear(&b);
+    assert_int_equal(stp_enc_upload_chunk(&b, 0, 0, &ch), 0);
+    assert_int_equal(stc_append_raw(c, STP_OP_UPLOAD_CHUNK, b.data + STP_HEADER_SIZE,
+                                    b.len - STP_HEADER_SIZE, &id), 0);
+    assert_int_equal(stc_get_reply(c, 20000, &rp), 0);
+    assert_int_equal(rp.status, STC_ENOTFOUND);
+    stp_buf_free(&b);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+}
+
 static void real_daemon_requires_the_token_for_mutations(void **state)
 {
     (void)state;
@@ -1157,6 +1238,7 @@ int main(void)
         cmocka_unit_test(real_daemon_answers_malformed_requests_with_statuses),
         cmocka_unit_test(real_daemon_transfers_and_pipelines),
         cmocka_unit_test(real_daemon_samples_cube_maps_by_direction),
+        cmocka_unit_test(real_daemon_upload_abort_and_checksum),
         cmocka_unit_test(real_daemon_requires_the_token_for_mutations),
     };
     int fails = cmocka_run_group_tests_name("client_mock", mock_tests, NULL, NULL);
