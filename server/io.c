@@ -27,6 +27,7 @@
 #include "server.h"
 
 #define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
+#define KEEP_SMALL (64u << 10)   /* buffers up to this are released as soon as idle */
 
 int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan)
 {
@@ -104,9 +105,11 @@ static void in_consume(sts_conn *c, size_t n)
         c->in.start = c->in.len = 0;
 }
 
-/* An idle connection keeps no buffers: once everything read is parsed and everything
- * answered is sent, both are released (malloc of a few KiB per burst costs far less than
- * the read and write around it, and 10k idle connections then hold only their structs). */
+/* An idle connection keeps no buffers: when everything read is parsed and everything
+ * answered is sent, small buffers (<= KEEP_SMALL) are released at once (malloc hands the same
+ * chunks to the next connection, so 10k idle connections hold only their structs) and big
+ * ones once the connection has been quiet for a second (re-growing a 100 KiB+ buffer per
+ * SAMPLE request would cost mmap and page faults). */
 static void release_idle_buffers(sts_conn *c)
 {
     if (c->busy || c->in.len != c->in.start || stp_buf_avail(&c->out))
@@ -202,7 +205,8 @@ static int conn_flush(sts_conn *c)
     }
     if (!stp_buf_avail(&c->out)) {
         stp_buf_clear(&c->out);
-        release_idle_buffers(c);
+        if (c->in.cap <= KEEP_SMALL && c->out.cap <= KEEP_SMALL)
+            release_idle_buffers(c);  /* small: malloc reuses the chunks, no page faults */
         if (c->close_after) {
             conn_close(c);
             return -1;
@@ -461,17 +465,19 @@ static void take_completions(sts_io *io)
 
 /* ---- the loop ------------------------------------------------------------------------------ */
 
+/* Once a second: close connections silent for idle-timeout, release the buffers of those
+ * quiet for a second. */
 static void idle_scan(sts_io *io, int64_t now)
 {
     uint32_t idle = STS_LIVE(io->srv, idle_timeout);
-    if (!idle)
-        return;
     sts_conn *c = io->conns;
     while (c) {
         sts_conn *next = c->next;
-        if (!c->busy && now - c->last_ms > (int64_t)idle * 1000) {
+        if (!c->busy && idle && now - c->last_ms > (int64_t)idle * 1000) {
             STS_STAT_ADD(io->srv, conns_idle_closed, 1);
             conn_close(c);
+        } else if (now - c->last_ms >= 1000 && (c->in.data || c->out.data)) {
+            release_idle_buffers(c);
         }
         c = next;
     }
