@@ -45,7 +45,11 @@ typedef struct solver {
     float *d;             /* nb*16 data weight (0 for padding) */
     uint32_t *bp_off;     /* nb+1: points touching block b are bp[bp_off[b] .. bp_off[b+1]) */
     uint32_t *bp;
+    uint8_t *dec;         /* nb*16*3: the exact decode of every variable block, kept current */
 } solver;
+
+/* Refreshes the decode cache of block b from its bytes. */
+static void refresh(const solver *S, uint32_t b);
 
 static uint64_t bkey(uint32_t f, uint32_t bi) { return (uint64_t)f << 32 | bi; }
 
@@ -91,9 +95,19 @@ static double tap_value(const solver *S, const tapref *r, unsigned c)
 {
     if (r->blk < 0)
         return S->target[r->tex * 4 + c];
-    uint8_t px[4];
-    st_bc1_texel(blk_ptr(S, (uint32_t)r->blk), r->pos & 3u, r->pos >> 2, px);
-    return px[c];
+    return S->dec[((size_t)r->blk * 16 + r->pos) * 3 + c];
+}
+
+static void refresh(const solver *S, uint32_t b)
+{
+    uint8_t px[64];
+    st_bc1_decode_block(blk_ptr(S, b), ST_BC1_DEC_EXACT, px);
+    uint8_t *d = S->dec + (size_t)b * 48;
+    for (int i = 0; i < 16; i++) {
+        d[3 * i] = px[4 * i];
+        d[3 * i + 1] = px[4 * i + 1];
+        d[3 * i + 2] = px[4 * i + 2];
+    }
 }
 
 /* Exact E over the touched blocks and all points. */
@@ -101,12 +115,10 @@ static double exact_energy(const solver *S)
 {
     double ec = 0, es = 0;
     for (uint32_t b = 0; b < S->nb; b++) {
-        const uint8_t *blk = blk_ptr(S, b);
         for (int i = 0; i < 16; i++) {
             if (S->d[16 * b + i] == 0)
                 continue;
-            uint8_t px[4];
-            st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)i >> 2, px);
+            const uint8_t *px = S->dec + ((size_t)b * 16 + i) * 3;
             const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
             for (int c = 0; c < 3; c++) {
                 double dd = (double)px[c] - o[c];
@@ -339,28 +351,20 @@ static double point_energy(const solver *S, size_t p)
     const tapref *r = &S->taps[8 * p];
     double v[3] = {0, 0, 0};
     for (int j = 0; j < 8; j++) {
-        uint8_t px[4];
-        if (r[j].blk < 0) {
-            const uint8_t *t = S->target + r[j].tex * 4;
-            px[0] = t[0];
-            px[1] = t[1];
-            px[2] = t[2];
-        } else {
-            st_bc1_texel(blk_ptr(S, (uint32_t)r[j].blk), r[j].pos & 3u, r[j].pos >> 2, px);
-        }
+        const uint8_t *px = r[j].blk < 0 ? S->target + r[j].tex * 4
+                                         : S->dec + ((size_t)r[j].blk * 16 + r[j].pos) * 3;
         for (int c = 0; c < 3; c++)
             v[c] += r[j].w * px[c];
     }
     return S->sys->pts[p].len * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
 }
 
-static double texel_data(const solver *S, uint32_t b, const uint8_t *blk, int i)
+static double texel_data(const solver *S, uint32_t b, int i)
 {
     double d = S->d[16 * b + i];
     if (d == 0)
         return 0;
-    uint8_t px[4];
-    st_bc1_texel(blk, (unsigned)i & 3u, (unsigned)i >> 2, px);
+    const uint8_t *px = S->dec + ((size_t)b * 16 + i) * 3;
     const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
     double e = 0;
     for (int c = 0; c < 3; c++) {
@@ -375,11 +379,10 @@ static double texel_data(const solver *S, uint32_t b, const uint8_t *blk, int i)
  * texel `texel` of the block changes: its data term and the points that tap it. */
 static double local_energy(const solver *S, uint32_t b, int texel)
 {
-    const uint8_t *blk = blk_ptr(S, b);
     double ec = 0, es = 0;
     for (int i = 0; i < 16; i++)
         if (texel < 0 || i == texel)
-            ec += texel_data(S, b, blk, i);
+            ec += texel_data(S, b, i);
     for (uint32_t k = S->bp_off[b]; k < S->bp_off[b + 1]; k++) {
         size_t p = S->bp[k];
         if (texel >= 0) {
@@ -413,32 +416,36 @@ static void put_block(uint8_t *blk, uint16_t c0, uint16_t c1, uint32_t sel)
 static int local_search(const solver *S, uint32_t b)
 {
     uint8_t *blk = blk_ptr(S, b);
+    uint8_t *dc = S->dec + (size_t)b * 48;
     int changed = 0;
     uint16_t c0 = rd16(blk), c1 = rd16(blk + 2);
     int four = c0 > c1;
     int nsel = four ? 4 : 3;
     if (!four && c0 == c1)
         nsel = 1; /* a flat block: only selector 0 means anything */
-    for (int i = 0; i < 16; i++) {
+    uint8_t pal[16];
+    st_bc1_palette(c0, c1, ST_BC1_DEC_EXACT, pal);
+    for (int i = 0; i < 16 && nsel > 1; i++) {
         if (S->d[16 * b + i] == 0)
             continue;
         uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
                        (uint32_t)blk[7] << 24;
         uint32_t keep = sel;
-        unsigned s0 = sel >> (2 * i) & 3u;
+        unsigned s0 = sel >> (2 * i) & 3u, sk = s0;
         double cur = local_energy(S, b, i);
         for (unsigned j = 0; j < (unsigned)nsel; j++) {
             if (j == s0)
                 continue;
-            uint32_t ns = (sel & ~(3u << (2 * i))) | j << (2 * i);
-            put_block(blk, c0, c1, ns);
+            memcpy(dc + 3 * i, pal + 4 * j, 3); /* only texel i changes */
             double en = local_energy(S, b, i);
             if (en < cur - 1e-9) {
                 cur = en;
-                keep = ns;
+                keep = (sel & ~(3u << (2 * i))) | j << (2 * i);
+                sk = j;
                 changed = 1;
             }
         }
+        memcpy(dc + 3 * i, pal + 4 * sk, 3);
         put_block(blk, c0, c1, keep);
     }
     static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
@@ -457,13 +464,17 @@ static int local_search(const solver *S, uint32_t b)
                 *t = (uint16_t)((*t & ~(mx[k] << sh[k])) | ((q + dlt) << sh[k]));
                 if (four ? n0 <= n1 : n0 > n1)
                     continue; /* would change the mode */
+                uint8_t saved[48];
+                memcpy(saved, dc, 48);
                 put_block(blk, n0, n1, sel);
+                refresh(S, b);
                 double en = local_energy(S, b, -1);
                 if (en < cur - 1e-9) {
                     cur = en;
                     changed = 1;
                 } else {
                     put_block(blk, cc[0], cc[1], sel);
+                    memcpy(dc, saved, 48);
                 }
             }
     return changed;
@@ -499,7 +510,7 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
     if (iterations > 16)
         iterations = 16;
     solver S = {sys, orig, target, blocks, alpha, outside_weight, NULL, 0, NULL, NULL, NULL,
-                NULL, NULL};
+                NULL, NULL, NULL};
     int rc = ST_OK;
     uint64_t *keys = malloc((sys->nvars ? sys->nvars : 1) * sizeof *keys);
     uint8_t *saved = NULL, *fixed = NULL;
@@ -625,6 +636,13 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
             S.bp_off[0] = 0;
         }
     }
+    S.dec = malloc((size_t)(nb ? nb : 1) * 48);
+    if (!S.dec) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for the decode cache");
+        goto out;
+    }
+    for (uint32_t b = 0; b < nb; b++)
+        refresh(&S, b);
     double best = exact_energy(&S);
     if (stats) {
         stats->e_before = best;
@@ -654,6 +672,7 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
                 e1[c] = z[(size_t)c * 2 * nb + 2 * b + 1];
             }
             requantise(&S, b, e0, e1);
+            refresh(&S, b);
         }
         for (int pass = 0; pass < 2; pass++) {
             int any = 0;
@@ -692,6 +711,7 @@ out:
     free(S.taps);
     free(S.bp_off);
     free(S.bp);
+    free(S.dec);
     free(saved);
     free(fixed);
     free(z);
