@@ -1,8 +1,9 @@
 /* store/exr.c - OpenEXR reader on OpenEXR's C API (openexr.h, 3.1).
  *
  * Owns: st_exr_read, st_exr_is_magic. Reads part 0, level 0 (scanline or tiled, any level
- * mode), channels R,G,B,A by name (else Y, else the first channel alone), half kept as half,
- * float and uint as float. Does not own: other image formats (image_oiio.cpp).
+ * mode), channels R,G,B,A by name (of the default layer, else of the first layer with a
+ * "<layer>.R"; else Y; else up to 4 channels in file order), half kept as half, float and
+ * uint as float. Does not own: other image formats (image_oiio.cpp).
  *
  * Why planes: OpenEXR 3.1.5's default unpacker mis-orders 4-channel half data decoded to
  * interleaved float (fixed upstream in 3.3). Each selected channel is therefore decoded into
@@ -158,21 +159,43 @@ int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_e
     j.y0 = dw.min.y;
     j.w = (int32_t)w;
     j.h = (int32_t)h;
-    /* channel selection by name (the list is sorted alphabetically) */
+    /* channel selection by name (the list is sorted alphabetically): R,G,B,A of the default
+     * layer, else of the first layer that has a ".R" (e.g. "diffuse.R"), else Y */
     static const char *rgba[4] = {"R", "G", "B", "A"};
+    char layer[64] = "";
     int alpha = -1;
-    for (int k = 0; k < 4; k++)
-        for (int c = 0; c < chl->num_channels; c++)
-            if (!strcmp(chl->entries[c].name.str, rgba[k])) {
-                if (k == 3)
-                    alpha = j.nsel;
-                j.chan_idx[j.nsel++] = c;
+    for (int pass = 0; pass < 2 && j.nsel == 0; pass++) {
+        if (pass == 1) {
+            for (int c = 0; c < chl->num_channels && !layer[0]; c++) {
+                const char *nm = chl->entries[c].name.str;
+                size_t l = strlen(nm);
+                if (l >= 3 && l - 2 < sizeof layer && !strcmp(nm + l - 2, ".R")) {
+                    memcpy(layer, nm, l - 1); /* keeps the dot */
+                    layer[l - 1] = 0;
+                }
             }
+            if (!layer[0])
+                break;
+        }
+        for (int k = 0; k < 4; k++)
+            for (int c = 0; c < chl->num_channels; c++) {
+                const char *nm = chl->entries[c].name.str;
+                size_t ll = strlen(layer);
+                if (!strncmp(nm, layer, ll) && !strcmp(nm + ll, rgba[k])) {
+                    if (k == 3)
+                        alpha = j.nsel;
+                    j.chan_idx[j.nsel++] = c;
+                }
+            }
+    }
     if (j.nsel == 0) {
         int y = -1;
-        for (int c = 0; c < chl->num_channels; c++)
-            if (!strcmp(chl->entries[c].name.str, "Y"))
+        for (int c = 0; c < chl->num_channels; c++) {
+            const char *nm = chl->entries[c].name.str;
+            size_t l = strlen(nm);
+            if (y < 0 && (!strcmp(nm, "Y") || (l >= 2 && !strcmp(nm + l - 2, ".Y"))))
                 y = c;
+        }
         j.chan_idx[j.nsel++] = y >= 0 ? y : 0;
         if (y < 0 && chl->num_channels > 1) {
             /* no RGB(A)/Y names: take up to 4 channels in file order */

@@ -1,8 +1,10 @@
 /* store/exr.h - OpenEXR files through OpenEXR's C API (openexr.h, OpenEXR 3.1).
  *
  * Owns: reading one part of an EXR (scanline or tiled, one level or mip-mapped: level 0 is
- * read; half, float and uint channels) into an st_image, taking R,G,B,A by channel name
- * (a single Y or any single channel gives a 1-channel image). Does not own: other formats.
+ * read; half, float and uint channels) into an st_image, taking R,G,B,A by channel name: of
+ * the default layer, else of the first layer with a "<layer>.R" channel; else Y (or
+ * "<layer>.Y") as one channel; else up to 4 channels in file order. Does not own: other
+ * formats.
  *
  * OpenEXR 3.1.5's C API decodes 4-channel half data to interleaved float with the channel
  * order reversed; this reader therefore always decodes each channel to its own plane and

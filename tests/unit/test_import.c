@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
+#include <OpenEXR/openexr.h>
 #include <cmocka.h>
 
 #include "atlas.h"
@@ -196,6 +197,100 @@ static void exr_channels_come_in_rgba_order_from_the_c_api(void **state)
     assert_int_equal(img.dtype, ST_DT_HALF);
     assert_int_equal(img.alpha_chan, 3);
     assert_memory_equal(img.data, px, sizeof px);
+    st_image_free(&img);
+}
+
+/* Writes a w x h scanline EXR (no compression) through the OpenEXR C API with the given
+ * half channels; values[c] is channel c's constant plus x / 64. */
+static void write_exr_channels(const char *path, int w, int h, int nch, const char *const *names,
+                               const float *values)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    exr_context_t ctx = NULL;
+    int part = 0;
+    assert_int_equal(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_add_part(ctx, "main", EXR_STORAGE_SCANLINE, &part), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_NONE),
+                     EXR_ERR_SUCCESS);
+    for (int c = 0; c < nch; c++)
+        assert_true(exr_add_channel(ctx, part, names[c], EXR_PIXEL_HALF,
+                                    EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1) == EXR_ERR_SUCCESS);
+    assert_int_equal(exr_write_header(ctx), EXR_ERR_SUCCESS);
+    /* the C API keeps channels sorted by name: fill each by its name */
+    const exr_attr_chlist_t *chl = NULL;
+    assert_int_equal(exr_get_channels(ctx, part, &chl), EXR_ERR_SUCCESS);
+    uint16_t *rows = calloc((size_t)w * 8, sizeof *rows);
+    assert_non_null(rows);
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    for (int y = 0; y < h; y++) {
+        exr_chunk_info_t ci;
+        assert_int_equal(exr_write_scanline_chunk_info(ctx, part, y, &ci), EXR_ERR_SUCCESS);
+        if (y == 0)
+            assert_int_equal(exr_encoding_initialize(ctx, part, &ci, &enc), EXR_ERR_SUCCESS);
+        else
+            assert_int_equal(exr_encoding_update(ctx, part, &ci, &enc), EXR_ERR_SUCCESS);
+        for (int k = 0; k < enc.channel_count; k++) {
+            int c = 0;
+            while (c < nch && strcmp(names[c], chl->entries[k].name.str))
+                c++;
+            for (int x = 0; x < w; x++)
+                rows[k * w + x] = st_float_to_half(values[c] + (float)x / 64.0f);
+            enc.channels[k].encode_from_ptr = (const uint8_t *)(rows + k * w);
+            enc.channels[k].user_pixel_stride = 2;
+            enc.channels[k].user_line_stride = 2 * w;
+        }
+        assert_int_equal(exr_encoding_choose_default_routines(ctx, part, &enc), EXR_ERR_SUCCESS);
+        assert_int_equal(exr_encoding_run(ctx, part, &enc), EXR_ERR_SUCCESS);
+    }
+    exr_encoding_destroy(ctx, &enc);
+    assert_int_equal(exr_finish(&ctx), EXR_ERR_SUCCESS);
+    free(rows);
+}
+
+static void exr_takes_rgba_by_name_from_extra_channels_and_layers(void **state)
+{
+    (void)state;
+    enum { W = 16, H = 4 };
+    char p[512];
+    st_error e;
+    st_image img;
+    /* R,G,B,A plus a depth channel: Z is left out, the order is R,G,B,A */
+    const char *n1[5] = {"Z", "A", "B", "G", "R"};
+    const float v1[5] = {9.0f, 0.75f, 0.5f, 0.25f, 0.125f};
+    tmp_path(p, sizeof p, "rgbaz.exr");
+    write_exr_channels(p, W, H, 5, n1, v1);
+    assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 4);
+    assert_int_equal(img.alpha_chan, 3);
+    const uint16_t *d = img.data;
+    assert_float_equal(st_half_to_float(d[0]), 0.125f, 1e-3);
+    assert_float_equal(st_half_to_float(d[1]), 0.25f, 1e-3);
+    assert_float_equal(st_half_to_float(d[2]), 0.5f, 1e-3);
+    assert_float_equal(st_half_to_float(d[3]), 0.75f, 1e-3);
+    assert_float_equal(st_half_to_float(d[4 * 5 + 0]), 0.125f + 5.0f / 64.0f, 1e-3);
+    st_image_free(&img);
+    /* a layered file: diffuse.R/G/B beside specular.R/G/B */
+    const char *n2[6] = {"specular.R", "specular.G", "specular.B", "diffuse.B", "diffuse.G",
+                         "diffuse.R"};
+    const float v2[6] = {7, 8, 9, 0.3f, 0.2f, 0.1f};
+    tmp_path(p, sizeof p, "layers.exr");
+    write_exr_channels(p, W, H, 6, n2, v2);
+    assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 3);
+    assert_int_equal(img.alpha_chan, -1);
+    d = img.data;
+    assert_float_equal(st_half_to_float(d[0]), 0.1f, 1e-3);
+    assert_float_equal(st_half_to_float(d[1]), 0.2f, 1e-3);
+    assert_float_equal(st_half_to_float(d[2]), 0.3f, 1e-3);
+    st_image_free(&img);
+    /* luminance only */
+    const char *n3[2] = {"Y", "Z"};
+    const float v3[2] = {0.5f, 3.0f};
+    tmp_path(p, sizeof p, "y.exr");
+    write_exr_channels(p, W, H, 2, n3, v3);
+    assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 1);
+    assert_float_equal(st_half_to_float(((const uint16_t *)img.data)[0]), 0.5f, 1e-3);
     st_image_free(&img);
 }
 
@@ -612,6 +707,7 @@ int main(void)
         cmocka_unit_test(shared_assets_import_or_fail_as_expected),
         cmocka_unit_test(colour_space_is_stated_and_can_be_overridden),
         cmocka_unit_test(exr_channels_come_in_rgba_order_from_the_c_api),
+        cmocka_unit_test(exr_takes_rgba_by_name_from_extra_channels_and_layers),
         cmocka_unit_test(exr_c_api_matches_openimageio_on_the_orientation_maps),
         cmocka_unit_test(precision_is_kept_for_16_bit_and_float),
         cmocka_unit_test(png_writer_round_trips_8_bit_and_refuses_dds),
