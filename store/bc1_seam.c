@@ -138,19 +138,14 @@ static double exact_energy(const solver *S)
     return ec + S->alpha * es;
 }
 
-/* y = H z over 2*nb unknowns (channel independent); fixed entries give 0. */
-static void matvec(const solver *S, const double *z, double *y, const uint8_t *fixed)
+/* y = H z over 2*nb unknowns (channel independent); fixed entries give 0. h holds each
+ * block's data-term 2x2 matrix (a00, a01, a11), computed once per solve. */
+static void matvec(const solver *S, const double *h, const double *z, double *y,
+                   const uint8_t *fixed)
 {
     for (uint32_t b = 0; b < S->nb; b++) {
-        double a00 = 0, a01 = 0, a11 = 0;
-        for (int i = 0; i < 16; i++) {
-            double t = S->t[16 * b + i], s = 1 - t, d = S->d[16 * b + i];
-            a00 += d * s * s;
-            a01 += d * s * t;
-            a11 += d * t * t;
-        }
-        y[2 * b] = a00 * z[2 * b] + a01 * z[2 * b + 1];
-        y[2 * b + 1] = a01 * z[2 * b] + a11 * z[2 * b + 1];
+        y[2 * b] = h[3 * b] * z[2 * b] + h[3 * b + 1] * z[2 * b + 1];
+        y[2 * b + 1] = h[3 * b + 1] * z[2 * b] + h[3 * b + 2] * z[2 * b + 1];
     }
     for (size_t p = 0; p < S->sys->npts; p++) {
         const tapref *r = &S->taps[8 * p];
@@ -182,7 +177,19 @@ static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uin
 {
     uint32_t n = 2 * S->nb;
     double *rhs = wk, *r = wk + n, *zz = wk + 2 * n, *p = wk + 3 * n, *q = wk + 4 * n,
-           *minv = wk + 5 * n;
+           *minv = wk + 5 * n, *h = wk + 6 * n;
+    for (uint32_t b = 0; b < S->nb; b++) {
+        double a00 = 0, a01 = 0, a11 = 0;
+        for (int i = 0; i < 16; i++) {
+            double t = S->t[16 * b + i], s = 1 - t, d = S->d[16 * b + i];
+            a00 += d * s * s;
+            a01 += d * s * t;
+            a11 += d * t * t;
+        }
+        h[3 * b] = a00;
+        h[3 * b + 1] = a01;
+        h[3 * b + 2] = a11;
+    }
     /* right-hand side: data term minus the constant taps' seam contribution */
     for (uint32_t b = 0; b < S->nb; b++) {
         double r0 = 0, r1 = 0;
@@ -227,7 +234,7 @@ static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uin
     memset(fixed, 0, n);
     for (int round = 0; round < 4; round++) {
         /* tiny ridge: an endpoint no texel uses (all weight on the other) stays put */
-        matvec(S, z, q, round ? fixed : NULL);
+        matvec(S, h, z, q, round ? fixed : NULL);
         double rz = 0, bn = 0;
         for (uint32_t i = 0; i < n; i++) {
             double bi = fixed[i] ? 0 : rhs[i];
@@ -237,8 +244,10 @@ static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uin
             p[i] = zz[i];
             rz += r[i] * zz[i];
         }
-        double tol = 1e-10 * (bn > 1 ? bn : 1);
-        for (int it = 0; it < 300; it++) {
+        /* endpoints are rounded to 5/6 bits afterwards: 1e-8 of the right-hand side is
+         * far below a quantisation step */
+        double tol = 1e-8 * (bn > 1 ? bn : 1);
+        for (int it = 0; it < 200; it++) {
             double rr = 0;
             for (uint32_t i = 0; i < n; i++)
                 rr += r[i] * r[i];
@@ -246,7 +255,7 @@ static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uin
                 break;
             if (cancel && *cancel)
                 return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
-            matvec(S, p, q, fixed);
+            matvec(S, h, p, q, fixed);
             double pq = 0;
             for (uint32_t i = 0; i < n; i++)
                 pq += p[i] * q[i];
@@ -545,7 +554,7 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
     saved = malloc((size_t)(nb ? nb : 1) * 8);
     fixed = malloc((size_t)(nb ? nb : 1) * 2);
     z = malloc((size_t)(nb ? nb : 1) * 2 * 3 * sizeof *z);
-    wk = malloc((size_t)(nb ? nb : 1) * 2 * 6 * sizeof *wk);
+    wk = malloc((size_t)(nb ? nb : 1) * 15 * sizeof *wk); /* 6 vectors of 2nb + 3nb */
     if (!S.sb || !S.t || !S.d || !S.taps || !saved || !fixed || !z || !wk) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for %u seam blocks", nb);
         goto out;
