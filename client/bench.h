@@ -26,7 +26,20 @@
 #define BENCH_MAX_BATCH     65536
 #define BENCH_MAX_MIX       8
 
-typedef enum bench_op { BENCH_OP_PING = 0, BENCH_OP_SAMPLE = 1 } bench_op;
+typedef enum bench_op {
+    BENCH_OP_PING       = 0,
+    BENCH_OP_SAMPLE     = 1,   /* face, u, v queries */
+    BENCH_OP_SAMPLE_DIR = 2    /* cube-map direction queries (a cube set) */
+} bench_op;
+
+static inline const char *bench_op_name(unsigned op)
+{
+    return op == BENCH_OP_SAMPLE ? "sample" : op == BENCH_OP_SAMPLE_DIR ? "sample-dir" : "ping";
+}
+static inline int bench_op_samples(unsigned op)
+{
+    return op == BENCH_OP_SAMPLE || op == BENCH_OP_SAMPLE_DIR;
+}
 
 typedef struct bench_cfg {
     const char *host;          /* loopback only */
@@ -55,6 +68,7 @@ typedef struct bench_cfg {
     float       footprint;     /* SAMPLE: |du/dx| = |dv/dy| of every query (0 = point-like) */
     uint32_t    nfaces;        /* SAMPLE: faces of the set (asked with INFO at start) */
     uint8_t     nchan;         /* SAMPLE: channels of the set */
+    uint8_t     kind;          /* SAMPLE: st_kind of the set */
     unsigned    idle;          /* --idle N: open N connections, ping each once, hold */
     double      hold_s;        /* how long --idle holds them */
 } bench_cfg;

@@ -35,7 +35,7 @@ static void usage(FILE *f)
 "  -h, --host HOST        server address, loopback only (127.0.0.1)\n"
 "  -p, --port PORT        server port (7450)\n"
 "  -t, --token TOKEN      access token, if the server wants one\n"
-"  -o, --op OP            ping | sample (ping)\n"
+"  -o, --op OP            ping | sample | sample-dir (cube maps: -s a cube set) (ping)\n"
 "  -c, --conns N          connections (1)\n"
 "  -T, --threads N        threads, each owning conns/threads connections (1)\n"
 "  -P, --pipeline N       closed loop: requests outstanding per connection (1);\n"
@@ -53,7 +53,7 @@ static void usage(FILE *f)
 "  -b, --batch N          queries per SAMPLE request (4096)\n"
 "  -m, --mode LIST        comma list of discard,traverse,clamp picked at random (traverse)\n"
 "  -f, --filter LIST      comma list of filters picked at random (bilinear)\n"
-"      --footprint F      |du/dx| = |dv/dy| of every query (0.001)\n"
+"      --footprint F      |du/dx| = |dv/dy| of every query (0.001); sample-dir: cone angle\n"
 "      --inproc           no server: st_sample_batch on the default set, same queries\n"
 "      --idle N           open N connections, PING each once, hold them --hold seconds\n"
 "      --hold S           (10)\n"
@@ -134,14 +134,14 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
         return -1;
     }
     fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n");
-    fprintf(f, "  \"op\": \"%s\",\n  \"loop\": \"%s\",\n", cfg->op == BENCH_OP_SAMPLE ? "sample" : "ping",
+    fprintf(f, "  \"op\": \"%s\",\n  \"loop\": \"%s\",\n", bench_op_name(cfg->op),
             cfg->open_loop ? "open" : "closed");
     if (cfg->open_loop)
         fprintf(f, "  \"arrival\": \"%s\",\n  \"target_rate\": %.1f,\n",
                 cfg->arrival == STC_ARRIVAL_POISSON ? "poisson" : "uniform", cfg->rate);
     fprintf(f, "  \"conns\": %u,\n  \"threads\": %u,\n  \"pipeline\": %u,\n", cfg->conns,
             cfg->threads, cfg->pipeline);
-    if (cfg->op == BENCH_OP_SAMPLE) {
+    if (bench_op_samples(cfg->op)) {
         fprintf(f, "  \"set\": \"%s\",\n  \"batch\": %u,\n  \"modes\": [", cfg->set, cfg->batch);
         for (unsigned i = 0; i < cfg->nmodes; i++)
             fprintf(f, "%s\"%s\"", i ? ", " : "", st_mode_name(cfg->modes[i]));
@@ -272,6 +272,7 @@ int main(int argc, char **argv)
         case 'o':
             if (!strcmp(optarg, "ping")) cfg.op = BENCH_OP_PING;
             else if (!strcmp(optarg, "sample")) cfg.op = BENCH_OP_SAMPLE;
+            else if (!strcmp(optarg, "sample-dir")) cfg.op = BENCH_OP_SAMPLE_DIR;
             else bad = 1;
             break;
         case 'c': bad = parse_uint(optarg, 1, BENCH_MAX_CONNS, &u); cfg.conns = (unsigned)u; break;
@@ -374,7 +375,7 @@ int main(int argc, char **argv)
             goto done;
         }
     }
-    if (cfg.op == BENCH_OP_SAMPLE && bench_wire_set_info(&cfg, fds[0], msg, sizeof msg) < 0) {
+    if (bench_op_samples(cfg.op) && bench_wire_set_info(&cfg, fds[0], msg, sizeof msg) < 0) {
         fprintf(stderr, "seamtex-bench: %s\n", msg);
         rc = 1;
         goto done;
@@ -411,9 +412,9 @@ int main(int argc, char **argv)
     if (!cfg.quiet)
         printf("seamtex-bench: %s, %s loop, %u conns, %u threads, pipeline %u%s, %.1f s "
                "(+%.1f s warm-up)\n",
-               cfg.op == BENCH_OP_SAMPLE ? "sample" : "ping", cfg.open_loop ? "open" : "closed",
+               bench_op_name(cfg.op), cfg.open_loop ? "open" : "closed",
                cfg.conns, cfg.threads, cfg.pipeline,
-               cfg.op == BENCH_OP_SAMPLE ? ", batches" : "", cfg.duration_s, cfg.warmup_s);
+               bench_op_samples(cfg.op) ? ", batches" : "", cfg.duration_s, cfg.warmup_s);
     unsigned started = 0;
     for (; started < cfg.threads; started++)
         if (pthread_create(&tids[started], NULL, thread_main, &ths[started]) != 0) {
@@ -464,7 +465,7 @@ int main(int argc, char **argv)
                    cfg.arrival == STC_ARRIVAL_POISSON ? "poisson" : "uniform", rate);
         else
             printf("  throughput %.0f req/s\n", rate);
-        if (cfg.op == BENCH_OP_SAMPLE)
+        if (bench_op_samples(cfg.op))
             printf("  %.0f queries/s (batch %u)\n", all->queries / secs, cfg.batch);
         printf("  sent %llu, completed %llu, measured %llu, errors %llu, timeouts %llu, "
                "conn errors %llu, late sends %llu\n",

@@ -12,6 +12,7 @@
 #include "bench.h"
 
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -231,9 +232,12 @@ int bench_wire_set_info(bench_cfg *cfg, int fd, char *msg, size_t ml)
             snprintf(msg, ml, "INFO reply malformed (%s)", why);
         } else if (r.nfaces == 0) {
             snprintf(msg, ml, "set '%s' has no faces", cfg->set);
+        } else if (cfg->op == BENCH_OP_SAMPLE_DIR && r.kind != 1 /* ST_KIND_CUBE */) {
+            snprintf(msg, ml, "set '%s' is not a cube map: -o sample-dir needs one", cfg->set);
         } else {
             cfg->nfaces = r.nfaces;
             cfg->nchan = r.nchan;
+            cfg->kind = r.kind;
             rc = 0;
         }
     }
@@ -244,6 +248,51 @@ int bench_wire_set_info(bench_cfg *cfg, int fd, char *msg, size_t ml)
         rc = -1;
     }
     return rc;
+}
+
+/* SAMPLE_DIR frames: directions uniform on the sphere, a cone footprint of cfg->footprint
+ * radians (0 = a point-like derivative footprint). */
+static bench_wire *dir_pool(bench_wire *w, const bench_cfg *cfg, uint64_t *rng, char *msg,
+                            size_t ml)
+{
+    stp_dir_query *q = malloc(cfg->batch * sizeof *q);
+    if (!q)
+        goto fail;
+    w->n = POOL_SAMPLE;
+    for (unsigned i = 0; i < POOL_SAMPLE; i++) {
+        for (unsigned k = 0; k < cfg->batch; k++) {
+            /* uniform on the sphere: z uniform in [-1,1], the angle around z uniform */
+            double z = 2.0 * stc_rng_unit(rng) - 1.0, a = 6.283185307179586 * stc_rng_unit(rng);
+            double rxy = sqrt(1.0 - z * z);
+            memset(&q[k], 0, sizeof q[k]);
+            q[k].dir[0] = (float)(rxy * cos(a));
+            q[k].dir[1] = (float)(rxy * sin(a));
+            q[k].dir[2] = (float)z;
+            q[k].ddx[0] = cfg->footprint;
+        }
+        stp_sample_req r;
+        memset(&r, 0, sizeof r);
+        snprintf(r.p.name, sizeof r.p.name, "%s", cfg->set);
+        r.p.mode = cfg->modes[stc_rng_next(rng) % cfg->nmodes];
+        r.p.filter = cfg->filters[stc_rng_next(rng) % cfg->nfilters];
+        r.p.outfmt = STP_OUT_F32;
+        r.p.footprint = cfg->footprint > 0 ? STP_FP_CONE : STP_FP_DERIV;
+        r.count = cfg->batch;
+        r.dqueries = q;
+        w->off[i] = w->buf.len;
+        if (stp_enc_sample_dir_req(&w->buf, 0, 0, &r) != 0) {
+            free(q);
+            goto fail;
+        }
+        w->nq[i] = cfg->batch;
+    }
+    w->off[POOL_SAMPLE] = w->buf.len;
+    free(q);
+    return w;
+fail:
+    snprintf(msg, ml, "cannot build SAMPLE_DIR frames (out of memory or bad set name)");
+    bench_wire_free(w);
+    return NULL;
 }
 
 bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_t ml)
@@ -262,6 +311,8 @@ bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_
         return w;
     }
     uint64_t rng = stc_rng_seed(seed);
+    if (cfg->op == BENCH_OP_SAMPLE_DIR)
+        return dir_pool(w, cfg, &rng, msg, ml);
     st_query *q = malloc(cfg->batch * sizeof *q);
     if (!q)
         goto fail;

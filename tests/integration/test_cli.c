@@ -107,6 +107,14 @@ static int count_lines_ending(const char *text, const char *suffix)
     return n;
 }
 
+static double json_num(const char *json, const char *key)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\": ", key);
+    const char *p = strstr(json, k);
+    return p ? strtod(p + strlen(k), NULL) : -1.0;
+}
+
 static int group_setup(void **state)
 {
     (void)state;
@@ -303,6 +311,15 @@ static void sample_dir_answers_on_a_cube_map_and_refuses_other_sets(void **state
     assert_int_equal(CLI("sample", "cli-wavy", "0", "0.5", "0.5", "--cone", "0.1"), 2);
     assert_int_equal(CLI("sample", "default", "--dir", "1", "0", "0"), 1);
     assert_non_null(strstr(ERR, "UNSUPPORTED"));
+    /* the load tester's direction batches */
+    char jf[400], js[8192];
+    snprintf(jf, sizeof jf, "%s/dir.json", D.dir);
+    assert_int_equal(BENCH("-o", "sample-dir", "-s", "cli-wavy", "-b", "256", "-n", "20", "-w", "0",
+                           "-d", "10", "-j", jf), 0);
+    slurp(jf, js, sizeof js, NULL);
+    assert_true(json_num(js, "completed") == 20);
+    assert_true(json_num(js, "errors") == 0);
+    assert_int_equal(BENCH("-o", "sample-dir", "-s", "default", "-d", "0.2"), 1);
     assert_int_equal(CLI("delete", "cli-wavy"), 0);
 }
 
@@ -359,13 +376,6 @@ static void stats_prints_counters(void **state)
     assert_non_null(strchr(OUT, '\n'));
 }
 
-static double json_num(const char *json, const char *key)
-{
-    char k[64];
-    snprintf(k, sizeof k, "\"%s\": ", key);
-    const char *p = strstr(json, k);
-    return p ? strtod(p + strlen(k), NULL) : -1.0;
-}
 
 static void bench_closed_loop_answers_every_request(void **state)
 {
