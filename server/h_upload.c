@@ -474,12 +474,19 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         sts_reply_st(out, h, rc, e.msg);
         goto fail;
     }
-    if (!(u->flags & STP_UF_REPLACE)) {
+    {
         st_setref *ref = NULL;
-        if (st_registry_get(srv->reg, u->name, &ref, NULL) == 0) {
-            st_setref_release(ref);
+        int exists = st_registry_get(srv->reg, u->name, &ref, NULL) == 0;
+        st_setref_release(ref);
+        if (exists && !(u->flags & STP_UF_REPLACE)) {
             st_set_free(set);
             sts_reply_error(out, h, STP_S_EXISTS, "a set of that name exists (use REPLACE)");
+            goto fail;
+        }
+        /* refuse before the disk commit, so a set is never on disk but not served */
+        if (!exists && st_registry_count(srv->reg) >= STS_LIVE(srv, max_sets)) {
+            st_set_free(set);
+            sts_reply_error(out, h, STP_S_BUSY, "the server holds max-sets sets");
             goto fail;
         }
     }

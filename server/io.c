@@ -322,6 +322,11 @@ static void conn_readable(sts_conn *c)
     do {
         r = recv(c->fd, c->in.data + c->in.len, c->in.cap - c->in.len, MSG_DONTWAIT);
     } while (r < 0 && errno == EINTR);
+    if (r == 0 && stp_buf_avail(&c->out)) {
+        c->close_after = 1;  /* the peer half-closed: still send what it asked for */
+        set_interest(c);
+        return;
+    }
     if (r == 0 || (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
         conn_close(c);
         return;

@@ -36,12 +36,6 @@ int sts_mem_take(sts_server *srv, uint64_t n)
     return used + n > STS_LIVE(srv, max_memory) ? -1 : 0;
 }
 
-void sts_mem_give(sts_server *srv, uint64_t n)
-{
-    (void)srv;
-    (void)n;  /* io.c's account() tracks capacities; nothing reserved ahead to give back */
-}
-
 uint32_t sts_token_check(sts_server *srv, const char *token)
 {
     pthread_mutex_lock(&srv->cfg_mu);

@@ -288,8 +288,8 @@ uint32_t sts_token_check(sts_server *srv, const char *token);
 /* May a connection authenticated for generation `authed` mutate? */
 int sts_token_allows(sts_server *srv, uint32_t authed);
 
-/* Memory accounting for connection buffers: 0 when n more bytes fit under max-memory. */
+/* Memory accounting for connection buffers (io.c keeps srv->mem_used equal to the capacity
+ * of every buffer): 0 when n more bytes fit under max-memory. */
 int sts_mem_take(sts_server *srv, uint64_t n);
-void sts_mem_give(sts_server *srv, uint64_t n);
 
 #endif
