@@ -44,12 +44,12 @@ enum mock_mode {
     M_BUSY,            /* an unsolicited BUSY with reqid 0 at accept, then close */
     M_SILENT,          /* never answers anything */
     M_REVERSE,         /* answers pipelined PINGs in batches of 4 in reverse order */
-    M_SLOW_START,      /* stops reading for 1 s after HELLO (the client's sends block) */
+    M_SLOW_START,      /* stops reading after HELLO until the test sets `resume` */
     M_DEAF             /* answers HELLO, then never reads again (until the test ends) */
 };
 
 typedef struct mock {
-    int lfd, port, mode, stop;
+    int lfd, port, mode, stop, resume;
     pthread_t th;
     int pings;                     /* PINGs seen */
     int aborts;                    /* UPLOAD_ABORTs seen */
@@ -101,7 +101,9 @@ static int mock_handle(mock *m, int fd, const stp_header *h, const uint8_t *body
         if (m->mode == M_SLOW_START || m->mode == M_DEAF) {
             send_all(fd, stp_buf_head(&o), stp_buf_avail(&o));
             stp_buf_free(&o);
-            for (int t = 0; t < (m->mode == M_DEAF ? 200 : 20) && !m->stop; t++)
+            /* deaf until the test says so (at most 10 s) */
+            for (int t = 0; t < 200 && !__atomic_load_n(&m->stop, __ATOMIC_ACQUIRE) &&
+                            !__atomic_load_n(&m->resume, __ATOMIC_ACQUIRE); t++)
                 sleep_ms(50);
             return 0;
         }
@@ -313,7 +315,7 @@ static mock *mock_start(int mode)
 
 static void mock_stop(mock *m)
 {
-    m->stop = 1;
+    __atomic_store_n(&m->stop, 1, __ATOMIC_RELEASE);
     pthread_join(m->th, NULL);
     close(m->lfd);
     free(m->up);
@@ -562,6 +564,7 @@ static void send_timeout_keeps_the_rest_queued(void **state)
     int rc = stc_flush(c);
     assert_int_equal(rc, STC_ETIMEDOUT);
     assert_int_equal(stc_error(c), 0);
+    __atomic_store_n(&m->resume, 1, __ATOMIC_RELEASE);
     /* waiting for replies also sends the rest: every frame arrives whole */
     for (int k = 0; k < 40; k++) {
         stc_reply r;
@@ -1086,6 +1089,43 @@ static void real_daemon_samples_cube_maps_by_direction(void **state)
     stc_close(c);
 }
 
+static void real_daemon_deep_pipeline_does_not_deadlock(void **state)
+{
+    real *r = *state;
+    if (!r->up)
+        skip();
+    stc_conn *c = real_connect(r);
+    /* far more requests than max_inflight, each reply bigger than its request, nothing read
+     * until everything is sent: flush must keep reading replies while it writes */
+    enum { N = 3000, Q = 64 };
+    stc_query q[Q];
+    for (int i = 0; i < Q; i++) {
+        stc_query x = { (uint32_t)(i % 384), 0.5f, 0.5f, 0, 0, 0, 0 };
+        q[i] = x;
+    }
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.filter = 1;
+    so.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    static uint32_t ids[N];
+    for (int k = 0; k < N; k++)
+        assert_int_equal(stc_append_sample(c, "default", &so, q, Q, &ids[k]), 0);
+    assert_int_equal(stc_flush(c), 0);
+    for (int k = 0; k < N; k++) {
+        stc_reply rp;
+        stc_sample_result res;
+        int rc = stc_get_reply(c, 20000, &rp);
+        if (rc)
+            fail_msg("reply %d: %s: %s", k, stc_strerror(rc), stc_errmsg(c));
+        assert_int_equal(rp.status, 0);
+        assert_int_equal(rp.reqid, ids[k]);
+        assert_int_equal(stc_reply_sample(c, &rp, &res), 0);
+        assert_int_equal(res.count, Q);
+    }
+    assert_int_equal(stc_pending(c), 0);
+    stc_close(c);
+}
+
 static int stop_after_first(void *user, uint64_t done, uint64_t total)
 {
     (void)done;
@@ -1238,6 +1278,7 @@ int main(void)
         cmocka_unit_test(real_daemon_answers_malformed_requests_with_statuses),
         cmocka_unit_test(real_daemon_transfers_and_pipelines),
         cmocka_unit_test(real_daemon_samples_cube_maps_by_direction),
+        cmocka_unit_test(real_daemon_deep_pipeline_does_not_deadlock),
         cmocka_unit_test(real_daemon_upload_abort_and_checksum),
         cmocka_unit_test(real_daemon_requires_the_token_for_mutations),
     };
