@@ -79,6 +79,19 @@ static uint8_t *blk_ptr(const solver *S, uint32_t b)
 
 static uint16_t rd16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
 
+static void put_block(uint8_t *blk, uint16_t c0, uint16_t c1, uint32_t sel)
+{
+    blk[0] = (uint8_t)c0;
+    blk[1] = (uint8_t)(c0 >> 8);
+    blk[2] = (uint8_t)c1;
+    blk[3] = (uint8_t)(c1 >> 8);
+    blk[4] = (uint8_t)sel;
+    blk[5] = (uint8_t)(sel >> 8);
+    blk[6] = (uint8_t)(sel >> 16);
+    blk[7] = (uint8_t)(sel >> 24);
+}
+
+
 /* Weights of endpoint 1 per texel from the block's current selectors. */
 static void block_weights(const uint8_t *blk, float t[16])
 {
@@ -300,7 +313,10 @@ static void block_endpoints(const uint8_t *blk, double e[2][3])
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
 
-/* Writes rounded endpoints and re-selects against the target texels in the block's mode. */
+/* Writes the rounded endpoints, keeping the block's mode and its selectors (remapped when
+ * the rounding flips the endpoint order); the local search re-selects by the energy
+ * afterwards. (Re-selecting against the masked texels here instead measured about the same:
+ * duck 38.01 dB / seam RMS 5.52 against 38.16 / 5.46 kept, nonquad 7.58 against 7.79.) */
 static void requantise(const solver *S, uint32_t b, const double e0[3], const double e1[3])
 {
     uint8_t *blk = blk_ptr(S, b);
@@ -313,45 +329,30 @@ static void requantise(const solver *S, uint32_t b, const double e0[3], const do
     }
     uint16_t c0 = (uint16_t)(q0[0] << 11 | q0[1] << 5 | q0[2]);
     uint16_t c1 = (uint16_t)(q1[0] << 11 | q1[1] << 5 | q1[2]);
+    int swapped = 0;
     if (four ? c0 < c1 : c0 > c1) {
         uint16_t t = c0;
         c0 = c1;
         c1 = t;
+        swapped = 1;
     }
     if (four && c0 == c1) {
         /* cannot stay in 4-colour mode: a flat block, selector 0 everywhere */
-        uint8_t nb[8] = {(uint8_t)c0, (uint8_t)(c0 >> 8), (uint8_t)c1, (uint8_t)(c1 >> 8), 0, 0, 0, 0};
-        memcpy(blk, nb, 8);
+        put_block(blk, c0, c1, 0);
         return;
     }
-    uint8_t pal[16];
-    st_bc1_palette(c0, c1, ST_BC1_DEC_EXACT, pal);
-    int nsel = (c0 > c1) ? 4 : 3;
-    uint32_t sel = 0;
-    for (int i = 0; i < 16; i++) {
-        uint64_t t = S->sb[b].tex[i];
-        if (t == UINT64_MAX)
-            continue; /* padding: selector 0 */
-        const uint8_t *x = S->target + t * 4;
-        int best = 1 << 30, bj = 0;
-        for (int j = 0; j < nsel; j++) {
-            int dr = x[0] - pal[4 * j], dg = x[1] - pal[4 * j + 1], db = x[2] - pal[4 * j + 2];
-            int dd = dr * dr + dg * dg + db * db;
-            if (dd < best) {
-                best = dd;
-                bj = j;
-            }
+    uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
+                   (uint32_t)blk[7] << 24;
+    if (swapped) {
+        uint32_t ns = 0;
+        for (int i = 0; i < 16; i++) {
+            unsigned v = sel >> (2 * i) & 3u;
+            v = four ? v ^ 1u : v < 2 ? v ^ 1u : v; /* 0<->1, and 2<->3 in 4-colour mode */
+            ns |= v << (2 * i);
         }
-        sel |= (uint32_t)bj << (2 * i);
+        sel = ns;
     }
-    blk[0] = (uint8_t)c0;
-    blk[1] = (uint8_t)(c0 >> 8);
-    blk[2] = (uint8_t)c1;
-    blk[3] = (uint8_t)(c1 >> 8);
-    blk[4] = (uint8_t)sel;
-    blk[5] = (uint8_t)(sel >> 8);
-    blk[6] = (uint8_t)(sel >> 16);
-    blk[7] = (uint8_t)(sel >> 24);
+    put_block(blk, c0, c1, sel);
 }
 
 /* Seam energy of point p (exact decoder, every block as it is now). */
@@ -407,17 +408,6 @@ static double local_energy(const solver *S, uint32_t b, int texel)
     return ec + S->alpha * es;
 }
 
-static void put_block(uint8_t *blk, uint16_t c0, uint16_t c1, uint32_t sel)
-{
-    blk[0] = (uint8_t)c0;
-    blk[1] = (uint8_t)(c0 >> 8);
-    blk[2] = (uint8_t)c1;
-    blk[3] = (uint8_t)(c1 >> 8);
-    blk[4] = (uint8_t)sel;
-    blk[5] = (uint8_t)(sel >> 8);
-    blk[6] = (uint8_t)(sel >> 16);
-    blk[7] = (uint8_t)(sel >> 24);
-}
 
 /* Discrete descent on block b: every selector of every texel, then +-1 on each of the six
  * 565 components (keeping the block's mode), accepting what lowers local_energy. Returns 1

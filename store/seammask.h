@@ -109,8 +109,9 @@ double st_seam_psnr_inside(const st_seam_sys *sys, const uint8_t *a, const uint8
 /* ---- seam-aware BC1 (bc1_seam.c) ----------------------------------------------------------
  * With the selectors of every block touched by a seam tap fixed, solves their endpoints in
  * one bounded least-squares problem on the same energy measured on decoded texels (Ec
- * against `orig`, Es over the seam points), rounds them to RGB565, re-selects against
- * `target` (the masked texels) with the exact palette, and repeats `iterations` times; the
+ * against `orig`, Es over the seam points), rounds them to RGB565, then searches every
+ * block's selectors and +-1 endpoint steps for lower exact energy, and repeats `iterations`
+ * times; the
  * state of lowest exact energy (exact truncating decoder) is kept, so the result is never
  * worse than the input blocks. blocks[f] holds face f's level-0 blocks (ceil(fw/4) x
  * ceil(fh/4), row-major) or NULL for a face that is not block-coded (a constant face: its
