@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -800,6 +801,155 @@ static void upload_and_frame_caps_hold(void **state)
     st_daemon_cleanup(&d);
 }
 
+static uint64_t stat_of(const st_daemon *d, const char *key)
+{
+    stc_conn *c = conn_to(d, NULL);
+    if (!c)
+        return UINT64_MAX;
+    const stc_stat *st;
+    size_t n;
+    uint64_t v = UINT64_MAX;
+    if (stc_stats(c, &st, &n) == 0 && stc_stat_find(st, n, key))
+        v = stc_stat_find(st, n, key)->u;
+    stc_close(c);
+    return v;
+}
+
+/* A client that pipelines without reading: the server stops reading it once its unsent
+ * replies pass conn-out-cap, holds bounded memory, and answers everything once the client
+ * reads. */
+static void unread_replies_pause_reading(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--conn-out-cap", "256K", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    int small = 64 * 1024;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    enum { PAY = 1000, MAXF = 200000 };
+    uint8_t frame[24 + PAY];
+    memset(frame + 24, 0x5C, PAY);
+    uint32_t sent = 0;
+    size_t partial = 0;  /* bytes of frame `sent` already out */
+    for (;;) {
+        put_frame(frame, "STX1", 1, STP_OP_PING, 0, sent + 1, NULL, 0, PAY);
+        ssize_t w = send(fd, frame + partial, sizeof frame - partial, MSG_DONTWAIT | MSG_NOSIGNAL);
+        if (w < 0)
+            break;
+        partial += (size_t)w;
+        if (partial == sizeof frame) {
+            partial = 0;
+            if (++sent == MAXF)
+                break;
+        }
+    }
+    assert_true(sent < MAXF);  /* the server stopped reading: our send side filled up */
+    struct timespec ts = {0, 300 * 1000000L};
+    nanosleep(&ts, NULL);
+    assert_true(stat_of(&d, "backpressure_pauses") >= 1);
+    uint64_t mem = stat_of(&d, "buffer_memory");
+    assert_true(mem < (8u << 20));
+    /* now read everything, finishing the partial frame as the server reads again */
+    uint32_t total = sent + (partial ? 1 : 0), got = 0;
+    static uint8_t rbuf[1 << 16];
+    size_t have = 0;
+    int64_t end = now_ms() + 30000;
+    while (got < total && now_ms() < end) {
+        struct pollfd p = {fd, (short)(POLLIN | (partial ? POLLOUT : 0)), 0};
+        if (poll(&p, 1, 1000) <= 0)
+            continue;
+        if (partial && (p.revents & POLLOUT)) {
+            ssize_t w = send(fd, frame + partial, sizeof frame - partial, MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (w > 0) {
+                partial += (size_t)w;
+                if (partial == sizeof frame)
+                    partial = 0;
+            }
+        }
+        if (p.revents & POLLIN) {
+            ssize_t r = recv(fd, rbuf + have, sizeof rbuf - have, 0);
+            assert_true(r > 0);
+            have += (size_t)r;
+            size_t off = 0;
+            while (have - off >= 24 && have - off >= 24 + (size_t)stp_rd32(rbuf + off + 16)) {
+                assert_int_equal(stp_rd32(rbuf + off + 8), got + 1);  /* in order */
+                assert_int_equal(stp_rd16(rbuf + off + 12), 0);
+                assert_int_equal(stp_rd32(rbuf + off + 16), PAY);
+                off += 24 + PAY;
+                got++;
+            }
+            memmove(rbuf, rbuf + off, have - off);
+            have -= off;
+        }
+    }
+    assert_int_equal(got, total);
+    close(fd);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+static long rss_kb(pid_t pid)
+{
+    char p[64], line[256];
+    snprintf(p, sizeof p, "/proc/%d/status", (int)pid);
+    FILE *f = fopen(p, "r");
+    long kb = -1;
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, "VmRSS:", 6))
+            kb = atol(line + 6);
+    if (f)
+        fclose(f);
+    return kb;
+}
+
+/* Idle connections cost little: 2000 connections that each sent one PING add well under
+ * 2 KiB of resident memory apiece to the daemon. */
+static void idle_connections_cost_little_memory(void **state)
+{
+    (void)state;
+    struct rlimit rl;
+    getrlimit(RLIMIT_NOFILE, &rl);
+    enum { N = 2000 };
+    if (rl.rlim_max != RLIM_INFINITY && rl.rlim_max < N + 64) {
+        skip();
+    }
+    rl.rlim_cur = rl.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &rl);
+    st_daemon d;
+    const char *extra[] = {"--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    struct timespec ts = {0, 300 * 1000000L};
+    nanosleep(&ts, NULL);
+    long before = rss_kb(d.pid);
+    static int fds[N];
+    uint8_t frame[64];
+    size_t fl = put_frame(frame, "STX1", 1, STP_OP_PING, 0, 1, "x", 1, 1);
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+        assert_int_equal(send_all(fds[i], frame, fl), 0);
+    }
+    for (int i = 0; i < N; i++) {
+        rawreply r;
+        assert_int_equal(read_reply(fds[i], &r, 5000), 0);
+    }
+    nanosleep(&ts, NULL);
+    long after = rss_kb(d.pid);
+    assert_true(before > 0 && after > 0);
+    print_message("# %d idle connections: daemon RSS %ld -> %ld KiB (%.0f bytes each)\n", N,
+                  before, after, (double)(after - before) * 1024.0 / N);
+    assert_true((after - before) * 1024 < 2048L * N);
+    assert_int_equal(stat_of(&d, "conns_current"), N + 1);
+    for (int i = 0; i < N; i++)
+        close(fds[i]);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* ---- group 3: token, reload, restart, graceful stop --------------------------------------------- */
 
 static void token_guards_mutations_only(void **state)
@@ -1069,6 +1219,8 @@ int main(void)
         cmocka_unit_test(max_conns_rejects_with_busy),
         cmocka_unit_test(idle_connections_are_closed),
         cmocka_unit_test(upload_and_frame_caps_hold),
+        cmocka_unit_test(unread_replies_pause_reading),
+        cmocka_unit_test(idle_connections_cost_little_memory),
         cmocka_unit_test(token_guards_mutations_only),
         cmocka_unit_test(sighup_reloads_limits_and_token),
         cmocka_unit_test(restart_loads_sets_and_cleans_leftovers),
