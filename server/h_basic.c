@@ -6,6 +6,7 @@
  * Every handler appends exactly one frame to `out`.
  */
 #include <stdio.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -214,6 +215,11 @@ int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
     return 0;
 }
 
+#define WIRE_IS_ST_QUERY                                                                  \
+    (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && sizeof(st_query) == STP_QUERY_SIZE &&      \
+     offsetof(st_query, u) == 4 && offsetof(st_query, dudx) == 12 &&                         \
+     offsetof(st_query, dvdy) == 24)
+
 static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
 {
     memset(o, 0, sizeof *o);
@@ -250,7 +256,12 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     sts_scratch *sc = c->scratch;
     float *cov = (rq->p.flags & STP_SF_COVERAGE) ? sc->cov : NULL;
     int rc;
-    if (h->opcode == STP_OP_SAMPLE) {
+    if (h->opcode == STP_OP_SAMPLE && WIRE_IS_ST_QUERY) {
+        /* the wire query (u32 face, 6 x f32, little-endian, packed) is st_query's layout on
+         * a little-endian host: one copy instead of a decode per field */
+        memcpy(sc->q, rq->raw, (size_t)n * STP_QUERY_SIZE);
+        rc = n ? st_sample_batch(s, &o, sc->q, n, sc->out, cov, sc->status) : 0;
+    } else if (h->opcode == STP_OP_SAMPLE) {
         for (uint32_t i = 0; i < n; i++) {
             stp_query q;
             stp_sample_query(rq, i, &q);
