@@ -138,9 +138,14 @@ long bench_wire_reply(const uint8_t *buf, size_t len, int *ok, uint32_t *reqid);
 #define BENCH_REQID_OFFSET 8
 
 /* ---- bench_inproc.c ---- */
+typedef struct bench_inproc_result {
+    double   qps;              /* queries per second in the measured window */
+    uint64_t queries_total;    /* every query answered, warm-up included */
+    double   cpu_s;            /* CPU time of the process over the whole run */
+} bench_inproc_result;
 /* Samples the same kind of batches with st_sample_batch on the default set, in this process,
- * for duration_s; prints and fills queries per second. 0 or -1 with msg. */
-int bench_inproc_run(const bench_cfg *cfg, double *qps, char *msg, size_t msglen);
+ * for warmup_s + duration_s; prints and fills r. 0 or -1 with msg. */
+int bench_inproc_run(const bench_cfg *cfg, bench_inproc_result *r, char *msg, size_t msglen);
 
 /* ---- shared query generator (bench_wire.c) ---- */
 /* Fills n random queries for a set of nfaces faces: face uniform, (u, v) uniform in [0,1),

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 
 #include "defaultset.h"
 #include "ptexfilter.h"
@@ -22,6 +23,7 @@ typedef struct inproc_thread {
     uint64_t seed;
     uint64_t t_measure, t_end;
     uint64_t queries;          /* answered in the measured window */
+    uint64_t total;            /* answered, warm-up included */
     int failed;
 } inproc_thread;
 
@@ -54,6 +56,7 @@ static void *inproc_main(void *arg)
             t->failed = 1;
             break;
         }
+        t->total += n;
         if (t0 >= t->t_measure && bench_now_ns() <= t->t_end)
             t->queries += n;
     }
@@ -63,7 +66,16 @@ done:
     return NULL;
 }
 
-int bench_inproc_run(const bench_cfg *cfg, double *qps, char *msg, size_t ml)
+static double cpu_seconds(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0)
+        return 0;
+    return ru.ru_utime.tv_sec + ru.ru_stime.tv_sec +
+           (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) / 1e6;
+}
+
+int bench_inproc_run(const bench_cfg *cfg, bench_inproc_result *res, char *msg, size_t ml)
 {
     st_set *set = NULL;
     st_error e;
@@ -91,6 +103,7 @@ int bench_inproc_run(const bench_cfg *cfg, double *qps, char *msg, size_t ml)
         snprintf(msg, ml, "out of memory");
         return -1;
     }
+    double cpu0 = cpu_seconds();
     uint64_t t0 = bench_now_ns();
     uint64_t tm = t0 + (uint64_t)(cfg->warmup_s * 1e9);
     uint64_t te = tm + (uint64_t)(cfg->duration_s * 1e9);
@@ -101,19 +114,24 @@ int bench_inproc_run(const bench_cfg *cfg, double *qps, char *msg, size_t ml)
         if (pthread_create(&tid[started], NULL, inproc_main, &ts[started]) != 0)
             break;
     }
-    uint64_t total = 0;
+    uint64_t measured = 0, total = 0;
     int failed = started < nt;
     for (unsigned i = 0; i < started; i++) {
         pthread_join(tid[i], NULL);
-        total += ts[i].queries;
+        measured += ts[i].queries;
+        total += ts[i].total;
         failed |= ts[i].failed;
     }
-    *qps = (double)total / cfg->duration_s;
+    res->qps = (double)measured / cfg->duration_s;
+    res->queries_total = total;
+    res->cpu_s = cpu_seconds() - cpu0;
+    double per_cpu = res->cpu_s > 0 ? total / res->cpu_s : 0;
     if (!cfg->quiet)
         printf("seamtex-bench --inproc: st_sample_batch on the default set (%u faces), batch %u, "
-               "%u threads: %.0f queries/s\n", set->info.nfaces, cfg->batch, nt, *qps);
+               "%u threads: %.0f queries/s, %.0f queries per CPU-second\n", set->info.nfaces,
+               cfg->batch, nt, res->qps, per_cpu);
     else
-        printf("%.0f queries/s\n", *qps);
+        printf("%.0f queries/s, %.0f per CPU-second\n", res->qps, per_cpu);
     free(ts);
     free(tid);
     st_set_free(set);

@@ -325,20 +325,29 @@ int main(int argc, char **argv)
 
     double load0 = loadavg1();
     if (inproc) {
-        double qps = 0;
+        bench_inproc_result ir = { 0, 0, 0 };
         char msg[256];
         cfg.op = BENCH_OP_SAMPLE;
-        if (bench_inproc_run(&cfg, &qps, msg, sizeof msg) < 0) {
+        if (bench_inproc_run(&cfg, &ir, msg, sizeof msg) < 0) {
             fprintf(stderr, "seamtex-bench: %s\n", msg);
             return 1;
         }
         if (cfg.json_path) {
             FILE *f = fopen(cfg.json_path, "w");
-            if (!f || fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n  \"op\": \"inproc\",\n"
-                                 "  \"batch\": %u,\n  \"threads\": %u,\n  \"queries_per_s\": %.1f,\n"
+            int bad = !f;
+            if (f) {
+                bad = fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n  \"op\": \"inproc\",\n"
+                                 "  \"batch\": %u,\n  \"threads\": %u,\n"
+                                 "  \"queries_per_s\": %.1f,\n  \"queries_total\": %llu,\n"
+                                 "  \"cpu_s\": %.3f,\n  \"queries_per_cpu_s\": %.1f,\n"
                                  "  \"loadavg_before\": %.2f,\n  \"loadavg_after\": %.2f\n}\n",
-                              cfg.batch, cfg.threads, qps, load0, loadavg1()) < 0 ||
-                fclose(f) != 0) {
+                              cfg.batch, cfg.threads, ir.qps,
+                              (unsigned long long)ir.queries_total, ir.cpu_s,
+                              ir.cpu_s > 0 ? ir.queries_total / ir.cpu_s : 0.0, load0,
+                              loadavg1()) < 0;
+                bad |= fclose(f) != 0;
+            }
+            if (bad) {
                 fprintf(stderr, "seamtex-bench: cannot write %s\n", cfg.json_path);
                 return 1;
             }
