@@ -21,10 +21,16 @@ runs=()
 run() {
     local name=$1; shift
     for r in $(seq 1 "$REPS"); do
-        local f=$NET_TMP/$name.$r.json
+        local f=$NET_TMP/$name.$r.json c0 c1
+        c0=$(net_daemon_cpu)
         timeout 60 "$BENCH" -p "$NET_PORT" -d "$SECS" -w 0.5 -q -j "$f" "$@" >/dev/null \
             || { echo "net_ping: run $name failed" >&2; }
-        [ -s "$f" ] && runs+=("$f")
+        c1=$(net_daemon_cpu)
+        [ -s "$f" ] || continue
+        runs+=("$f")
+        # daemon CPU microseconds per request (warm-up included): independent of the load
+        awk -v a="$c0" -v b="$c1" -v n="$(net_json "$f" completed)" \
+            'BEGIN{printf "%.2f\n", (n > 0 ? (b - a) * 1e6 / n : 0)}' >"$NET_TMP/$name.$r.cpu"
     done
 }
 # med NAME KEY [SUB]: median over the repetitions
@@ -49,6 +55,11 @@ pp_rate=$(med pingpong achieved_rate)
 pp_p50=$(med pingpong corrected_us p50)
 pp_p99=$(med pingpong corrected_us p99)
 cl_rate=$(med closed achieved_rate)
+cpu_of() {      # cpu_of NAME: median daemon CPU us per request
+    local vals=()
+    for c in "$NET_TMP/$1".*.cpu; do [ -s "$c" ] && vals+=("$(cat "$c")"); done
+    [ ${#vals[@]} -gt 0 ] && net_median "${vals[@]}" || echo 0
+}
 cl_p99=$(med closed corrected_us p99)
 printf '\nnet_ping: PING over loopback, %s cores, load %s -> %s, median of %s x %s s\n' \
     "$(nproc)" "$load0" "$load1" "$REPS" "$SECS"
@@ -56,6 +67,8 @@ printf '%-36s %-40s %-5s %s\n' "test" "seamtexd" "load" "anchors (this machine)"
 printf '%-36s %-40s %-5s %s\n' "ping-pong, 1 conn" \
     "$(printf '%.1fk req/s, p50 %.0f / p99 %.0f us' "$(awk -v x="$pp_rate" 'BEGIN{print x/1000}')" "$pp_p50" "$pp_p99")" \
     "$(med pingpong loadavg_before)" "memcached 22.8k req/s, p50 39 / p99 127 us"
+printf 'daemon CPU per request: ping-pong %s us, closed loop 50x16 %s us, open 10k/50k/100k %s / %s / %s us\n' \
+    "$(cpu_of pingpong)" "$(cpu_of closed)" "$(cpu_of open10000)" "$(cpu_of open50000)" "$(cpu_of open100000)"
 declare -A ANCH=([10000]="memcached 97 / 737, Redis 97 / 458 us"
                  [50000]="memcached 161 / 2406, Redis 55 / 645 us"
                  [100000]="memcached 834 / 5104, Redis 67 / 3926 us")
@@ -81,6 +94,7 @@ printf '%-36s %-40s %-5s %s\n' "closed loop, 50 conns x pipeline 16" \
     echo "  \"results\": {"
     echo "    \"pingpong\": {\"loadavg\": $(med pingpong loadavg_before), \"rate\": $pp_rate, \"p50_us\": $pp_p50, \"p99_us\": $pp_p99},"
     printf '%s' "$json_open"
+    echo "    \"daemon_cpu_us_per_request\": {\"pingpong\": $(cpu_of pingpong), \"closed_50x16\": $(cpu_of closed), \"open_10000\": $(cpu_of open10000), \"open_50000\": $(cpu_of open50000), \"open_100000\": $(cpu_of open100000)},"
     echo "    \"closed_50x16\": {\"loadavg\": $(med closed loadavg_before), \"rate\": $cl_rate, \"p99_us\": $cl_p99}"
     echo "  },"
     echo "  \"anchors\": {\"pingpong_memcached\": {\"rate\": 22800, \"p50_us\": 39, \"p99_us\": 127},"

@@ -20,10 +20,6 @@ med_of() {      # med_of PREFIX KEY [SUBKEY]: median of KEY over PREFIX.*.json
 }
 runs=()
 net_start
-TICK=$(getconf CLK_TCK)
-daemon_cpu() {  # CPU seconds the daemon used so far (user + system)
-    awk -v t="$TICK" '{print ($14 + $15) / t}' /proc/"$NET_PID"/stat
-}
 # a few shapes; the best median is the figure (the client shares the 2 cores with the server).
 # The in-process and network runs alternate within each repetition, so that a change of the
 # machine's load during the script touches both sides alike.
@@ -38,11 +34,11 @@ for r in $(seq 1 "$REPS"); do
     i=0
     for shape in "${shapes[@]}"; do
         f=$NET_TMP/net$i.$r.json
-        c0=$(daemon_cpu)
+        c0=$(net_daemon_cpu)
         # shellcheck disable=SC2086
         timeout 60 "$BENCH" -p "$NET_PORT" -o sample -b "$BATCH" -m traverse -f bilinear $shape \
             -d "$SECS" -w 0.5 -q -j "$f" >/dev/null || echo "net_sample: run '$shape' failed" >&2
-        c1=$(daemon_cpu)
+        c1=$(net_daemon_cpu)
         if [ -s "$f" ]; then
             runs+=("$f")
             # queries the daemon answered per second of its own CPU time (warm-up included)
