@@ -314,7 +314,15 @@ static void conn_readable(sts_conn *c)
     if (c->busy || c->close_after)
         return;
     size_t unparsed = c->in.len - c->in.start;
-    if (in_reserve(c, unparsed + READ_MIN) != 0) {
+    size_t need = unparsed + READ_MIN;
+    if (unparsed >= STP_HEADER_SIZE && !c->skip) {
+        /* a frame is half-read and conn_process made room for all of it: read the rest
+         * into that room rather than growing the buffer past the frame */
+        size_t total = STP_HEADER_SIZE + (size_t)stp_rd32(c->in.data + c->in.start + 16);
+        if (total > unparsed && c->in.cap - c->in.start >= total)
+            need = total;
+    }
+    if (in_reserve(c, need) != 0) {
         conn_close(c);
         return;
     }
