@@ -139,9 +139,9 @@ int st_bc1_decode_set(const st_set *bc1, st_bc1_decoder dec, st_set **out, st_er
  * level-0 block bytes). One-face set -> a 2D texture; a cube set -> a DDS cube map (faces
  * +X,-X,+Y,-Y,+Z,-Z, each with its mips); a per-face set whose faces all have one size -> a
  * DX10 texture array (BC1_UNORM or BC1_UNORM_SRGB), followed by a seamtex trailer holding the
- * face adjacency (readers that do not know it ignore trailing bytes). Mixed face sizes or
- * constant faces are written expanded (a constant face is encoded as a uniform block
- * face) - a per-face set with mixed sizes is refused with ST_EUNSUPPORTED.
+ * face adjacency (readers that do not know it ignore trailing bytes); a per-face set whose
+ * faces differ in size as a plain DXT1 texture of face 0 followed by seamtex's face table and
+ * the other faces (other readers show face 0). A constant face is written as uniform blocks.
  * Reading accepts DXT1 (legacy header) and DX10 BC1 (71, 72), 2D, arrays and cubes; sizes
  * from the file are checked against the file length and the caps before anything is
  * allocated; max_bytes caps the arena (0 = ST_DEFAULT_MAX_BYTES). */

@@ -16,6 +16,9 @@
  *   ...         optional trailer "STADJ001", u32 nfaces, u8 source kind, 3 pad, then per face
  *               i32 adjface[4], u8 adjedge[4], u8 flags, 3 pad (28 bytes): written for
  *               per-face and cube sets so that a re-read set has its adjacency back.
+ * Per-face sets whose faces differ in size (most Ptex files) are written as a plain DXT1
+ * texture of face 0 (what any reader shows) followed by the "STFACES1" table (sizes and
+ * adjacency of every face) and faces 1.. with their levels (see write_mixed).
  * Cube faces are written in set order (+X,-X,+Y,-Y,+Z,-Z, cube.h), each face image as stored
  * (rows top first). A constant face is written as uniform blocks and read back as blocks.
  */
@@ -64,6 +67,196 @@ static uint32_t get32(const uint8_t *p)
 
 static size_t level_bytes(uint32_t w, uint32_t h) { return (size_t)((w + 3) / 4) * ((h + 3) / 4) * 8; }
 
+/* Every level of face f as blocks (a constant face expanded to uniform blocks). */
+static size_t face_chain_bytes(const st_face *F)
+{
+    size_t b = 0;
+    for (unsigned l = 0; l < F->nlevels; l++)
+        b += level_bytes(st_level_w(F, l), st_level_h(F, l));
+    return b;
+}
+
+static void put_face_chain(const st_set *s, uint32_t f, uint8_t *p)
+{
+    const st_face *F = &s->faces[f];
+    for (unsigned l = 0; l < F->nlevels; l++) {
+        size_t lb = level_bytes(st_level_w(F, l), st_level_h(F, l));
+        if (F->flags & ST_FACE_CONSTANT) {
+            uint8_t px[64], blk[8];
+            for (int t = 0; t < 16; t++)
+                memcpy(px + 4 * t, st_face_level(s, f, 0), 4);
+            st_bc1_encode_block(px, ST_BC1_HQ, blk);
+            for (size_t o = 0; o < lb; o += 8)
+                memcpy(p + o, blk, 8);
+        } else {
+            memcpy(p, st_face_level(s, f, l), lb);
+        }
+        p += lb;
+    }
+}
+
+static void put_header(uint8_t *b, uint32_t w, uint32_t h, unsigned nlevels, int cube)
+{
+    memcpy(b, "DDS ", 4);
+    uint8_t *hd = b + 4;
+    put32(hd + 0, 124);
+    put32(hd + 4, DDSD_CAPS | DDSD_HEIGHT | DDSD_WIDTH | DDSD_PIXELFORMAT | DDSD_MIPMAPCOUNT |
+                      DDSD_LINEARSIZE);
+    put32(hd + 8, h);
+    put32(hd + 12, w);
+    put32(hd + 16, (uint32_t)level_bytes(w, h));
+    put32(hd + 24, nlevels);
+    put32(hd + 72, 32);
+    put32(hd + 76, DDPF_FOURCC);
+    memcpy(hd + 80, "DXT1", 4);
+    put32(hd + 104, DDSCAPS_TEXTURE | (nlevels > 1 ? DDSCAPS_MIPMAP | DDSCAPS_COMPLEX : 0) |
+                        (cube ? DDSCAPS_COMPLEX : 0));
+    put32(hd + 108, cube ? DDSCAPS2_CUBE_ALL : 0);
+}
+
+/* Faces of several sizes (most Ptex files): a plain DXT1 texture of face 0 with its mips, so
+ * that any DDS reader shows face 0, then the "STFACES1" table (u32 nfaces, u8 source kind, 3
+ * pad, per face u32 w, u32 h, i32 adjface[4], u8 adjedge[4], u8 flags, 3 pad: 36 bytes), then
+ * faces 1.. with every level. */
+#define MIXED_MAGIC "STFACES1"
+#define MIXED_FACE  36u
+
+static int write_mixed(const st_set *s, uint8_t **buf, size_t *len, st_error *e)
+{
+    const st_bc1_ext *x = s->ext;
+    uint32_t nf = s->info.nfaces;
+    size_t total = 128, fb;
+    for (uint32_t f = 0; f < nf; f++)
+        if (st_add_size(total, face_chain_bytes(&s->faces[f]), &total))
+            return st_fail(e, ST_ETOOBIG, "DDS size overflows");
+    if (st_mul_size(nf, MIXED_FACE, &fb) || st_add_size(total, 16 + fb, &total))
+        return st_fail(e, ST_ETOOBIG, "DDS size overflows");
+    uint8_t *b = calloc(1, total);
+    if (!b)
+        return st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of DDS", total);
+    put_header(b, s->faces[0].w, s->faces[0].h, s->faces[0].nlevels, 0);
+    uint8_t *p = b + 128;
+    put_face_chain(s, 0, p);
+    p += face_chain_bytes(&s->faces[0]);
+    memcpy(p, MIXED_MAGIC, 8);
+    put32(p + 8, nf);
+    p[12] = x ? x->src_kind : ST_KIND_PERFACE;
+    p += 16;
+    for (uint32_t f = 0; f < nf; f++, p += MIXED_FACE) {
+        const st_face *F = &s->faces[f];
+        put32(p, F->w);
+        put32(p + 4, F->h);
+        for (int k = 0; k < 4; k++) {
+            put32(p + 8 + 4 * k, (uint32_t)F->adjface[k]);
+            p[24 + k] = F->adjedge[k];
+        }
+        p[28] = F->flags & ST_FACE_SUBFACE;
+    }
+    for (uint32_t f = 1; f < nf; f++) {
+        put_face_chain(s, f, p);
+        p += face_chain_bytes(&s->faces[f]);
+    }
+    *buf = b;
+    *len = total;
+    return ST_OK;
+}
+
+static void ext_free(void *p);
+
+/* Reads the STFACES1 layout; `p` points just after face 0's levels (`mips` of them). */
+static int read_mixed(const uint8_t *buf, size_t len, size_t face0_off, const uint8_t *p,
+                      unsigned mips, int srgb, size_t max_bytes, st_set **out, st_error *e)
+{
+    size_t at = (size_t)(p - buf);
+    uint32_t nf = get32(p + 8);
+    if (nf < 1 || nf > ST_MAX_FACES)
+        return st_fail(e, ST_ETOOBIG, "DDS face table: %u faces not in 1..%u", nf, ST_MAX_FACES);
+    size_t tb;
+    if (st_mul_size(nf, MIXED_FACE, &tb) || tb > len - at - 16)
+        return st_fail(e, ST_EFORMAT, "DDS face table of %u faces truncated", nf);
+    uint8_t kind = p[12] <= ST_KIND_ATLAS ? p[12] : ST_KIND_PERFACE;
+    const uint8_t *t = p + 16;
+    st_face_desc *fd = calloc(nf, sizeof *fd);
+    if (!fd)
+        return st_fail(e, ST_ENOMEM, "out of memory for %u faces", nf);
+    for (uint32_t f = 0; f < nf; f++) {
+        const uint8_t *q = t + (size_t)f * MIXED_FACE;
+        fd[f].w = get32(q);
+        fd[f].h = get32(q + 4);
+        for (int k = 0; k < 4; k++) {
+            int32_t a = (int32_t)get32(q + 8 + 4 * k);
+            fd[f].adjface[k] = a < 0 ? -1 : a;
+            fd[f].adjedge[k] = (int8_t)q[24 + k];
+        }
+        fd[f].flags = q[28] & ST_FACE_SUBFACE;
+    }
+    st_set_info info;
+    memset(&info, 0, sizeof info);
+    info.nfaces = nf;
+    info.nchan = 4;
+    info.dtype = ST_DT_U8;
+    info.alpha_chan = 3;
+    info.kind = ST_KIND_BC1;
+    info.colorspace = srgb ? ST_CS_SRGB : ST_CS_LINEAR;
+    st_set *s;
+    int rc = st_set_create(&info, fd, max_bytes, &s, e); /* checks sizes, caps, adjacency */
+    free(fd);
+    if (rc)
+        return rc;
+    const st_face *F0 = &s->faces[0];
+    if (F0->w != get32(buf + 16) || F0->h != get32(buf + 12) || mips != F0->nlevels) {
+        st_set_free(s);
+        return st_fail(e, ST_EFORMAT, "DDS face table: face 0 does not match the header");
+    }
+    /* every face's levels must be in the file */
+    size_t need = 0;
+    for (uint32_t f = 1; f < nf; f++)
+        if (st_add_size(need, face_chain_bytes(&s->faces[f]), &need)) {
+            st_set_free(s);
+            return st_fail(e, ST_EFORMAT, "DDS face sizes overflow");
+        }
+    size_t data = at + 16 + tb;
+    if (need > len - data) {
+        st_set_free(s);
+        return st_fail(e, ST_EFORMAT, "DDS data truncated: faces 1..%u need %zu bytes, file has %zu",
+                       nf - 1, need, len - data);
+    }
+    st_bc1_ext *x = calloc(1, sizeof *x);
+    if (!x) {
+        st_set_free(s);
+        return st_fail(e, ST_ENOMEM, "out of memory");
+    }
+    x->src_kind = kind;
+    x->src_nchan = 4;
+    x->src_alpha = 3;
+    x->level = ST_BC1_HQ;
+    s->ext = x;
+    s->ext_free = ext_free;
+    const uint8_t *src = buf + face0_off;
+    int punch = 0;
+    for (uint32_t f = 0; f < nf; f++) {
+        const st_face *F = &s->faces[f];
+        if (f == 1)
+            src = buf + data;
+        for (unsigned l = 0; l < F->nlevels; l++) {
+            size_t lb = level_bytes(st_level_w(F, l), st_level_h(F, l));
+            memcpy(st_face_level(s, f, l), src, lb);
+            for (size_t o = 0; o < lb && !punch; o += 8) {
+                const uint8_t *bk = src + o;
+                if ((bk[0] | bk[1] << 8) <= (bk[2] | bk[3] << 8))
+                    for (int tt = 0; tt < 16; tt++)
+                        punch |= ((bk[4 + tt / 4] >> (2 * (tt & 3))) & 3) == 3;
+            }
+            src += lb;
+        }
+    }
+    x->punchthrough = (uint8_t)punch;
+    if (!punch)
+        s->info.alpha_chan = -1;
+    *out = s;
+    return ST_OK;
+}
+
 int st_dds_write_mem(const st_set *s, uint8_t **buf, size_t *len, st_error *e)
 {
     *buf = NULL;
@@ -75,9 +268,7 @@ int st_dds_write_mem(const st_set *s, uint8_t **buf, size_t *len, st_error *e)
     const st_face *F0 = &s->faces[0];
     for (uint32_t f = 1; f < nf; f++)
         if (s->faces[f].w != F0->w || s->faces[f].h != F0->h)
-            return st_fail(e, ST_EUNSUPPORTED,
-                           "face %u is %ux%u but face 0 is %ux%u: DDS holds faces of one size",
-                           f, s->faces[f].w, s->faces[f].h, F0->w, F0->h);
+            return write_mixed(s, buf, len, e);
     int cube = x && x->src_kind == ST_KIND_CUBE && nf == 6;
     int dx10 = !cube && nf > 1;
     int trailer = nf > 1;
@@ -249,6 +440,9 @@ int st_dds_read_mem(const uint8_t *buf, size_t len, size_t max_bytes, st_set **o
     if (st_mul_size(face_bytes, nf, &need) || st_add_size(need, off, &end) || end > len)
         return st_fail(e, ST_EFORMAT, "DDS data truncated: %u faces of %zu bytes need %zu bytes, file has %zu",
                        nf, face_bytes, need, len - off);
+    /* faces of several sizes: face 0 is the texture, the table and the other faces follow */
+    if (nf == 1 && !cube && len - end >= 16 && !memcmp(buf + end, MIXED_MAGIC, 8))
+        return read_mixed(buf, len, off, buf + end, mips, srgb, max_bytes, out, e);
     /* optional adjacency trailer */
     const uint8_t *tr = NULL;
     uint8_t src_kind = cube ? ST_KIND_CUBE : nf == 1 ? ST_KIND_ATLAS : ST_KIND_PERFACE;

@@ -517,6 +517,73 @@ static void dds_writes_cube_sets_as_cube_maps(void **state)
     st_set_free(s);
 }
 
+static void dds_keeps_per_face_sets_of_mixed_sizes(void **state)
+{
+    (void)state;
+    /* three faces in a row: 8x8, 16x4, 4x4 (a constant one) */
+    st_face_desc fd[3];
+    memset(fd, 0, sizeof fd);
+    uint32_t W[3] = {8, 16, 4}, H[3] = {8, 4, 4};
+    for (int f = 0; f < 3; f++) {
+        fd[f].w = W[f];
+        fd[f].h = H[f];
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
+    }
+    fd[0].adjface[1] = 1; fd[0].adjedge[1] = 3;
+    fd[1].adjface[3] = 0; fd[1].adjedge[3] = 1;
+    fd[1].adjface[1] = 2; fd[1].adjedge[1] = 3;
+    fd[2].adjface[3] = 1; fd[2].adjedge[3] = 1;
+    fd[2].flags = ST_FACE_CONSTANT;
+    st_set_info in = {.nfaces = 3, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1};
+    st_set *s = NULL, *b = NULL, *r = NULL;
+    st_error e;
+    assert_int_equal(st_set_create(&in, fd, 0, &s, &e), ST_OK);
+    for (size_t i = 0; i < s->texel_bytes; i++)
+        s->texels[i] = (uint8_t)(i * 13);
+    st_set_build_mips(s, UINT32_MAX);
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    uint8_t *buf;
+    size_t len;
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    assert_memory_equal(buf + 84, "DXT1", 4);
+    assert_int_equal(buf[16], 8); /* the header describes face 0 */
+    assert_int_equal(st_dds_read_mem(buf, len, 0, &r, &e), ST_OK);
+    assert_int_equal(r->info.nfaces, 3);
+    for (int f = 0; f < 3; f++) {
+        assert_int_equal(r->faces[f].w, W[f]);
+        assert_int_equal(r->faces[f].h, H[f]);
+    }
+    assert_int_equal(r->faces[1].adjface[1], 2);
+    assert_int_equal(r->faces[2].adjedge[3], 1);
+    for (int f = 0; f < 2; f++)
+        for (unsigned l = 0; l < b->faces[f].nlevels; l++) {
+            size_t lb = (size_t)((st_level_w(&b->faces[f], l) + 3) / 4) *
+                        ((st_level_h(&b->faces[f], l) + 3) / 4) * 8;
+            assert_memory_equal(st_face_level(r, (uint32_t)f, l), st_face_level(b, (uint32_t)f, l), lb);
+        }
+    /* the constant face comes back as uniform blocks close to its colour */
+    uint8_t px[4];
+    st_bc1_texel(st_face_level(r, 2, 0), 1, 1, px);
+    for (int k = 0; k < 3; k++)
+        assert_true(abs(px[k] - st_face_level(b, 2, 0)[k]) <= 4);
+    /* truncated anywhere after the header: a clean error */
+    for (size_t cut = 128; cut < len; cut += 5) {
+        st_set *t = NULL;
+        int rc = st_dds_read_mem(buf, cut, 0, &t, &e);
+        if (rc == ST_OK) { /* cut right after face 0: a plain one-face texture */
+            assert_int_equal(t->info.nfaces, 1);
+            st_set_free(t);
+        } else {
+            assert_true(rc == ST_EFORMAT || rc == ST_ETOOBIG);
+        }
+    }
+    free(buf);
+    st_set_free(r);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 static void dds_refuses_hostile_headers(void **state)
 {
     (void)state;
@@ -565,6 +632,7 @@ int main(void)
         cmocka_unit_test(dds_round_trips_per_face_sets_with_adjacency),
         cmocka_unit_test(dds_writes_a_single_face_as_a_legacy_dxt1_texture),
         cmocka_unit_test(dds_writes_cube_sets_as_cube_maps),
+        cmocka_unit_test(dds_keeps_per_face_sets_of_mixed_sizes),
         cmocka_unit_test(dds_refuses_hostile_headers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
