@@ -12,6 +12,7 @@
 
 #include "bc1.h"
 #include "bc1_texel.h"
+#include "sample.h"
 
 static uint32_t rng_state = 12345;
 static uint32_t rnd(void)
@@ -365,6 +366,47 @@ static void compressing_a_set_keeps_faces_and_costs_an_eighth(void **state)
     st_set_free(s);
 }
 
+static void bc1_sets_sample_like_their_decoded_sets(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(4, 0), *b = NULL, *d = NULL;
+    st_error e;
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    assert_int_equal(st_bc1_decode_set(b, ST_BC1_DEC_EXACT, &d, &e), ST_OK);
+    enum { N = 400 };
+    st_query q[N];
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)(i & 1);
+        q[i].u = (float)(rnd() % 1000) / 1000.0f;
+        q[i].v = (float)(rnd() % 1000) / 1000.0f;
+        float fp = (i % 4 == 0) ? 0.2f : 1.0f / 64;
+        q[i].dudx = fp;
+        q[i].dvdx = 0;
+        q[i].dudy = 0;
+        q[i].dvdy = fp;
+    }
+    float ob[N * 4], od[N * 4];
+    const uint8_t modes[3] = {ST_MODE_DISCARD, ST_MODE_TRAVERSE, ST_MODE_CLAMP};
+    const uint8_t filters[3] = {ST_FILTER_POINT, ST_FILTER_BILINEAR, ST_FILTER_TRILINEAR};
+    for (int m = 0; m < 3; m++)
+        for (int f = 0; f < 3; f++) {
+            st_sample_opts o;
+            memset(&o, 0, sizeof o);
+            o.mode = modes[m];
+            o.filter = filters[f];
+            o.zero_rule = ST_ZERO_CLAMP;
+            int rb = st_sample_batch(b, &o, q, N, ob, NULL, NULL);
+            int rd = st_sample_batch(d, &o, q, N, od, NULL, NULL);
+            assert_int_equal(rb, rd);
+            for (int i = 0; i < N * 4; i++)
+                if (!(ob[i] != ob[i] && od[i] != od[i])) /* both NaN is equal */
+                    assert_true(ob[i] - od[i] < 1e-4f && od[i] - ob[i] < 1e-4f);
+        }
+    st_set_free(d);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 static void compressing_honours_cancel(void **state)
 {
     (void)state;
@@ -627,6 +669,7 @@ int main(void)
         cmocka_unit_test(encoding_is_deterministic),
         cmocka_unit_test(images_of_any_size_round_trip),
         cmocka_unit_test(compressing_a_set_keeps_faces_and_costs_an_eighth),
+        cmocka_unit_test(bc1_sets_sample_like_their_decoded_sets),
         cmocka_unit_test(compressing_honours_cancel),
         cmocka_unit_test(compressing_rgba_with_holes_gives_punchthrough),
         cmocka_unit_test(dds_round_trips_per_face_sets_with_adjacency),
