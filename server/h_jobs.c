@@ -83,7 +83,17 @@ static int pub_cb(void *arg, const st_manifest *m, const char *source_path)
 }
 
 /* Publishes the BC1 set as `target`, durable as a .dds when there is a data dir. */
+static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_error *e);
+
 static int store_result(sts_server *srv, sts_job *j, st_set *bc1, st_error *e)
+{
+    pthread_mutex_lock(&srv->commit_mu);
+    int rc = store_result_locked(srv, j, bc1, e);
+    pthread_mutex_unlock(&srv->commit_mu);
+    return rc;
+}
+
+static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_error *e)
 {
     if (!(j->flags & STP_CF_REPLACE)) {
         st_setref *ref = NULL;

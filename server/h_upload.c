@@ -474,17 +474,21 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         sts_reply_st(out, h, rc, e.msg);
         goto fail;
     }
+    /* two uploads of one new name must not both succeed: check and commit under one lock */
+    pthread_mutex_lock(&srv->commit_mu);
     {
         st_setref *ref = NULL;
         int exists = st_registry_get(srv->reg, u->name, &ref, NULL) == 0;
         st_setref_release(ref);
         if (exists && !(u->flags & STP_UF_REPLACE)) {
+            pthread_mutex_unlock(&srv->commit_mu);
             st_set_free(set);
             sts_reply_error(out, h, STP_S_EXISTS, "a set of that name exists (use REPLACE)");
             goto fail;
         }
         /* refuse before the disk commit, so a set is never on disk but not served */
         if (!exists && st_registry_count(srv->reg) >= STS_LIVE(srv, max_sets)) {
+            pthread_mutex_unlock(&srv->commit_mu);
             st_set_free(set);
             sts_reply_error(out, h, STP_S_BUSY, "the server holds max-sets sets");
             goto fail;
@@ -512,6 +516,7 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         m.bytes = u->total;
         rc = publish_cb(&pa, &m, u->path);
     }
+    pthread_mutex_unlock(&srv->commit_mu);
     if (rc) {
         sts_reply_st(out, h, rc, e.msg);
         goto fail;

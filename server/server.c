@@ -125,6 +125,7 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     srv->started_ms = sts_now_ms();
     sts_log_set_level(&srv->log, cfg->log_level);
     pthread_mutex_init(&srv->cfg_mu, NULL);
+    pthread_mutex_init(&srv->commit_mu, NULL);
     pthread_mutex_init(&srv->uploads.mu, NULL);
     pthread_mutex_init(&srv->jobs.mu, NULL);
     pthread_cond_init(&srv->jobs.cv, NULL);

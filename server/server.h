@@ -250,6 +250,7 @@ typedef struct sts_stats {
 struct sts_server {
     sts_config      cfg;          /* reloadable fields read with STS_LIVE; strings under cfg_mu */
     pthread_mutex_t cfg_mu;       /* guards cfg.token while reloading */
+    pthread_mutex_t commit_mu;    /* "name free?" check + disk commit + publish, atomically */
     sts_log         log;
     sts_stats       stats;
     st_registry    *reg;

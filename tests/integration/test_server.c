@@ -8,6 +8,7 @@
  */
 #include <math.h>
 #include <poll.h>
+#include <pthread.h>
 #include <setjmp.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -481,6 +482,59 @@ static void compress_job_fetch_dds_and_cancel(void **state)
     assert_int_equal(stc_delete(c, "default-bc1"), 0);
     stc_delete(c, "bc1-canceled");
     stc_close(c);
+}
+
+typedef struct racer {
+    const void *ptx;
+    size_t len;
+    int rc;
+} racer;
+
+static void *race_upload(void *arg)
+{
+    racer *r = arg;
+    stc_conn *c = conn_to(&D1, NULL);
+    if (!c) {
+        r->rc = -999;
+        return NULL;
+    }
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    r->rc = stc_upload_buffer(c, r->ptx, r->len, "raced", &uo, &ur);
+    stc_close(c);
+    return NULL;
+}
+
+/* Several uploads of one new name at once without REPLACE: exactly one wins. */
+static void concurrent_uploads_of_one_name_one_wins(void **state)
+{
+    (void)state;
+    size_t len;
+    void *ptx = make_ptx(&len, 4);
+    assert_non_null(ptx);
+    enum { K = 4 };
+    racer r[K];
+    pthread_t th[K];
+    for (int i = 0; i < K; i++) {
+        r[i].ptx = ptx;
+        r[i].len = len;
+        r[i].rc = -1;
+        assert_int_equal(pthread_create(&th[i], NULL, race_upload, &r[i]), 0);
+    }
+    int ok = 0, exists = 0;
+    for (int i = 0; i < K; i++) {
+        pthread_join(th[i], NULL);
+        ok += r[i].rc == 0;
+        exists += r[i].rc == STC_EEXISTS;
+    }
+    assert_int_equal(ok, 1);
+    assert_int_equal(exists, K - 1);
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_int_equal(stc_delete(c, "raced"), 0);
+    stc_close(c);
+    free(ptx);
 }
 
 static void upload_with_wrong_crc_is_corrupt(void **state)
@@ -1212,6 +1266,7 @@ int main(void)
         cmocka_unit_test(upload_info_fetch_delete_round_trip),
         cmocka_unit_test(compress_job_fetch_dds_and_cancel),
         cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
+        cmocka_unit_test(concurrent_uploads_of_one_name_one_wins),
         cmocka_unit_test(pipelined_requests_come_back_in_order),
         cmocka_unit_test(malformed_frames_get_their_status),
     };
