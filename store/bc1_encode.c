@@ -300,9 +300,10 @@ static void axis_compute(const blk *B, axis *A)
         mx = mx > az ? mx : az;
         if (mx < 1e-12f)
             break;
-        v[0] = x / mx;
-        v[1] = y / mx;
-        v[2] = z / mx;
+        float im = 1.0f / mx;
+        v[0] = x * im;
+        v[1] = y * im;
+        v[2] = z * im;
     }
     float len2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
     if (len2 < 1e-12f) {
@@ -616,23 +617,35 @@ void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
 void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int level,
                            uint8_t out[8])
 {
-    uint32_t transparent = 0;
-    int same = 1;
-    blk B;
-    B.n = 0;
-    int first = -1;
+    uint32_t px[16];
+    memcpy(px, rgba, 64);
+    /* alpha is byte 3 of each little-endian word: alpha >= 128 <=> bit 31 set */
+    uint32_t all = ~0u, diff = 0;
     for (int t = 0; t < 16; t++) {
-        const uint8_t *p = rgba + 4 * t;
-        if (p[3] < 128) {
-            transparent |= 1u << t;
-            continue;
+        all &= px[t];
+        diff |= (px[t] ^ px[0]) & 0x00FFFFFFu;
+    }
+    uint32_t transparent = 0;
+    int same = 1, first = 0;
+    blk B;
+    if (all & 0x80000000u) { /* opaque: the common case */
+        B.n = 16;
+        same = diff == 0;
+    } else {
+        B.n = 0;
+        first = -1;
+        for (int t = 0; t < 16; t++) {
+            const uint8_t *p = rgba + 4 * t;
+            if (p[3] < 128) {
+                transparent |= 1u << t;
+                continue;
+            }
+            if (first < 0)
+                first = t;
+            else if (((px[t] ^ px[first]) & 0x00FFFFFFu) != 0)
+                same = 0;
+            B.n++;
         }
-        if (first < 0)
-            first = t;
-        else if (p[0] != rgba[4 * first] || p[1] != rgba[4 * first + 1] ||
-                 p[2] != rgba[4 * first + 2])
-            same = 0;
-        B.n++;
     }
     if (B.n == 0) {
         write_block(0, 0, 0xFFFFFFFFu, out); /* every texel transparent */
@@ -641,6 +654,15 @@ void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int l
     if (same) {
         encode_single(rgba + 4 * first, transparent, out);
         return;
+    }
+    if (!transparent && !weight) {
+        for (int t = 0; t < 16; t++) {
+            B.r[t] = (float)(px[t] & 255u);
+            B.g[t] = (float)(px[t] >> 8 & 255u);
+            B.b[t] = (float)(px[t] >> 16 & 255u);
+            B.w[t] = 1.0f;
+        }
+        goto encode;
     }
     float wsum = 0;
     for (int t = 0; t < 16; t++)
@@ -656,6 +678,7 @@ void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int l
         float w = weight ? weight[t] : 1.0f;
         B.w[t] = (transparent >> t & 1) ? 0.0f : (w > 0 && w < 1e6f ? w : w >= 1e6f ? 1e6f : 0.0f);
     }
+encode:;
     cand c;
     const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : level == ST_BC1_BEST ? 2 : 1];
     encode_colours(&B, P, transparent == 0, &c);
