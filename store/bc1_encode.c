@@ -107,13 +107,6 @@ static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel)
     return err;
 }
 
-/* Error only (selectors are not kept): used by the neighbourhood search. */
-static float eval_only(const blk *B, uint16_t c0, uint16_t c1)
-{
-    uint8_t sel[16];
-    return select_eval(B, c0, c1, sel);
-}
-
 /* Evaluates a 4-colour candidate given as a possibly unordered pair: orders it, handles
  * c0 == c1 (which would decode in 3-colour mode: all selectors 0 then). */
 static void try4(const blk *B, uint16_t a, uint16_t b, cand *best)
@@ -362,11 +355,13 @@ static void neighbourhood(const blk *B, cand *best, int four, int passes)
                     } else if (a > b) {
                         uint16_t t = a; a = b; b = t;
                     }
-                    float err = eval_only(B, a, b);
+                    uint8_t sel[16];
+                    float err = select_eval(B, a, b, sel);
                     if (err < best->err) {
                         best->c0 = a;
                         best->c1 = b;
-                        best->err = select_eval(B, a, b, best->sel);
+                        best->err = err;
+                        memcpy(best->sel, sel, sizeof sel);
                         improved = 1;
                     }
                 }
