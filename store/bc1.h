@@ -1,7 +1,7 @@
 /* store/bc1.h - BC1 (DXT1) encoding and decoding, BC1-resident sets, seam-aware compression
- * and DDS import/export.
+ * and DDS import/export (bc1_encode.c, bc1_decode.c, bc1_set.c, bc1_seam.c, dds.c).
  *
- * Owns: the block encoder (two levels), the block decoders (exact, and the vendor variants
+ * Owns: the block encoder (three levels), the block decoders (exact, and the vendor variants
  * as an option), turning any stored set into an ST_KIND_BC1 set (with least-squares seam
  * masking and the seam-aware endpoint solve), DDS files of BC1 sets.
  * Does not own: sampling BC1 sets (the sampler decodes on tap with bc1_texel.h), seam geometry
