@@ -13,7 +13,7 @@
  *      weights 0, 1/3, 2/3, 1); the best exact error wins;
  *   4. HQ and BEST: a cluster fit (texels sorted along the axis, ordered splits into the
  *      four palette runs, least squares per split from prefix sums; HQ tries the splits
- *      within +-2 of those the best selectors imply, BEST all 969), a greedy +-1 search over
+ *      within +-3 of those the best selectors imply, BEST all 969), a greedy +-1 search over
  *      the six 565 components of the best pair (the "rounding neighbourhood"), then a
  *      3-colour trial (c0 <= c1, selectors 0..2, weights 0, 1/2, 1), kept when its exact
  *      error is lower. Opaque input never gets selector 3 in 3-colour mode, which would be
@@ -384,7 +384,7 @@ typedef struct profile {
 
 static const profile PROFILES[3] = {
     {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0},    /* ST_BC1_FAST */
-    {1.0f / 16.0f, 3, 1, 3, 0, 0, -1.0f, 2},    /* ST_BC1_HQ: cluster splits within +-2 */
+    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3},    /* ST_BC1_HQ: cluster splits within +-3 */
     {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16},  /* ST_BC1_BEST: every split */
 };
 
