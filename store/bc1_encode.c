@@ -26,10 +26,21 @@
 #include "bc1_texel.h"
 
 #include <math.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
+
+#ifdef __SSE2__
+static inline float hsum(__m128 v)
+{
+    __m128 h = _mm_add_ps(v, _mm_movehl_ps(v, v));
+    return _mm_cvtss_f32(_mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+#endif
 
 /* A block's opaque colours, channel-planar. Always 16 entries: texels that do not count
  * (transparent ones) have weight 0, so every loop below has a fixed trip count of 16 and the
@@ -82,9 +93,57 @@ static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4]
 }
 
 /* Picks selectors for (c0, c1) in the mode implied by their order and returns the squared
- * error. The caller guarantees c0 > c1 for 4-colour and c0 <= c1 for 3-colour. */
-static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel)
+ * error. The caller guarantees c0 > c1 for 4-colour and c0 <= c1 for 3-colour. `limit`: the
+ * caller only keeps a result below it, so the evaluation may stop as soon as the running
+ * error reaches it (the return value is then >= limit and sel is unspecified). */
+#ifdef __SSE2__
+static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
 {
+    float pal[3][4];
+    palette_f(c0, c1, c0 > c1, pal);
+    /* |x - p|^2 = |x|^2 + (|p|^2 - 2 x.p): the minimum of the bracket picks the entry.
+     * key = 4 * bracket + selector as a float (integers, |key| < 2^21: exact) gives both,
+     * ties going to the lower selector; the unused 3-colour entry is never the minimum. */
+    __m128 pr[4], pg[4], pb[4], pk[4];
+    for (int j = 0; j < 4; j++) {
+        pr[j] = _mm_set1_ps(-8.0f * pal[0][j]);
+        pg[j] = _mm_set1_ps(-8.0f * pal[1][j]);
+        pb[j] = _mm_set1_ps(-8.0f * pal[2][j]);
+        pk[j] = _mm_set1_ps(4.0f * (pal[0][j] * pal[0][j] + pal[1][j] * pal[1][j] +
+                                    pal[2][j] * pal[2][j]) + (float)j);
+    }
+    const __m128i three = _mm_set1_epi32(3);
+    const __m128 quarter = _mm_set1_ps(0.25f);
+    __m128 acc = _mm_setzero_ps();
+    for (int g = 0; g < 16; g += 4) {
+        __m128 r = _mm_loadu_ps(B->r + g), gg = _mm_loadu_ps(B->g + g), b = _mm_loadu_ps(B->b + g);
+        __m128 key = _mm_add_ps(_mm_add_ps(_mm_mul_ps(r, pr[0]), _mm_mul_ps(gg, pg[0])),
+                                _mm_add_ps(_mm_mul_ps(b, pb[0]), pk[0]));
+        for (int j = 1; j < 4; j++) {
+            __m128 k = _mm_add_ps(_mm_add_ps(_mm_mul_ps(r, pr[j]), _mm_mul_ps(gg, pg[j])),
+                                  _mm_add_ps(_mm_mul_ps(b, pb[j]), pk[j]));
+            key = _mm_min_ps(key, k);
+        }
+        /* key = 4 (|p|^2 - 2 x.p) + j, j = key mod 4 (key may be negative: two's
+         * complement & 3 is still the residue) */
+        __m128i ki = _mm_cvtps_epi32(key);
+        __m128i s = _mm_and_si128(ki, three);
+        __m128 bracket = _mm_mul_ps(_mm_sub_ps(key, _mm_cvtepi32_ps(s)), quarter);
+        __m128 x2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(r, r), _mm_mul_ps(gg, gg)), _mm_mul_ps(b, b));
+        acc = _mm_add_ps(acc, _mm_mul_ps(_mm_add_ps(x2, bracket), _mm_loadu_ps(B->w + g)));
+        __m128i s16 = _mm_packs_epi32(s, s);
+        __m128i s8 = _mm_packus_epi16(s16, s16);
+        uint32_t packed = (uint32_t)_mm_cvtsi128_si32(s8);
+        memcpy(sel + g, &packed, 4);
+        if (g < 12 && hsum(acc) >= limit)
+            return hsum(acc);
+    }
+    return hsum(acc);
+}
+#else
+static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
+{
+    (void)limit;
     float pal[3][4];
     palette_f(c0, c1, c0 > c1, pal);
     /* key = distance << 2 | selector: one integer minimum picks both (distances are
@@ -106,6 +165,7 @@ static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel)
     }
     return err;
 }
+#endif
 
 /* Evaluates a 4-colour candidate given as a possibly unordered pair: orders it, handles
  * c0 == c1 (which would decode in 3-colour mode: all selectors 0 then). */
@@ -129,7 +189,7 @@ static void try4(const blk *B, uint16_t a, uint16_t b, cand *best)
     }
     c.c0 = a > b ? a : b;
     c.c1 = a > b ? b : a;
-    c.err = select_eval(B, c.c0, c.c1, c.sel);
+    c.err = select_eval(B, c.c0, c.c1, c.sel, best->err);
     if (c.err < best->err)
         *best = c;
 }
@@ -140,7 +200,7 @@ static void try3(const blk *B, uint16_t a, uint16_t b, cand *best)
     cand c;
     c.c0 = a < b ? a : b;
     c.c1 = a < b ? b : a;
-    c.err = select_eval(B, c.c0, c.c1, c.sel);
+    c.err = select_eval(B, c.c0, c.c1, c.sel, best->err);
     if (c.err < best->err)
         *best = c;
 }
@@ -152,6 +212,30 @@ static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3],
     /* weight of endpoint 1 per selector */
     static const float t4[4] = {0.0f, 1.0f, 1.0f / 3.0f, 2.0f / 3.0f}, t3[4] = {0.0f, 1.0f, 0.5f, 0.0f};
     const float *tw = four ? t4 : t3;
+#ifdef __SSE2__
+    float tv[16];
+    for (int i = 0; i < 16; i++)
+        tv[i] = tw[sel[i]];
+    __m128 one = _mm_set1_ps(1.0f), z = _mm_setzero_ps();
+    __m128 vaa = z, vab = z, vbb = z, ar = z, ag = z, ab_ = z, br = z, bg = z, bb_ = z;
+    for (int i = 0; i < 16; i += 4) {
+        __m128 w = _mm_loadu_ps(B->w + i), t = _mm_loadu_ps(tv + i);
+        __m128 wt = _mm_mul_ps(w, t), ws = _mm_mul_ps(w, _mm_sub_ps(one, t));
+        __m128 s_ = _mm_sub_ps(one, t);
+        vaa = _mm_add_ps(vaa, _mm_mul_ps(ws, s_));
+        vab = _mm_add_ps(vab, _mm_mul_ps(ws, t));
+        vbb = _mm_add_ps(vbb, _mm_mul_ps(wt, t));
+        __m128 r = _mm_loadu_ps(B->r + i), g = _mm_loadu_ps(B->g + i), b = _mm_loadu_ps(B->b + i);
+        ar = _mm_add_ps(ar, _mm_mul_ps(ws, r));
+        ag = _mm_add_ps(ag, _mm_mul_ps(ws, g));
+        ab_ = _mm_add_ps(ab_, _mm_mul_ps(ws, b));
+        br = _mm_add_ps(br, _mm_mul_ps(wt, r));
+        bg = _mm_add_ps(bg, _mm_mul_ps(wt, g));
+        bb_ = _mm_add_ps(bb_, _mm_mul_ps(wt, b));
+    }
+    float aa = hsum(vaa), ab = hsum(vab), bb = hsum(vbb);
+    float ax[3] = {hsum(ar), hsum(ag), hsum(ab_)}, bx[3] = {hsum(br), hsum(bg), hsum(bb_)};
+#else
     float cnt[4] = {0, 0, 0, 0}, sr[4] = {0, 0, 0, 0}, sg[4] = {0, 0, 0, 0}, sb[4] = {0, 0, 0, 0};
     for (int i = 0; i < 16; i++) {
         int j = sel[i];
@@ -173,6 +257,7 @@ static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3],
         bx[1] += t * sg[j];
         bx[2] += t * sb[j];
     }
+#endif
     float det = aa * bb - ab * ab;
     if (fabsf(det) < 1e-6f)
         return 0;
@@ -251,6 +336,44 @@ typedef struct axis {
 
 static void axis_compute(const blk *B, axis *A)
 {
+#ifdef __SSE2__
+    float m[3], c[6]; /* c: rr rg rb gg gb bb */
+    {
+        __m128 sr = _mm_setzero_ps(), sg = sr, sb = sr, sw = sr;
+        for (int i = 0; i < 16; i += 4) {
+            __m128 w = _mm_loadu_ps(B->w + i);
+            sr = _mm_add_ps(sr, _mm_mul_ps(_mm_loadu_ps(B->r + i), w));
+            sg = _mm_add_ps(sg, _mm_mul_ps(_mm_loadu_ps(B->g + i), w));
+            sb = _mm_add_ps(sb, _mm_mul_ps(_mm_loadu_ps(B->b + i), w));
+            sw = _mm_add_ps(sw, w);
+        }
+        float wsum = hsum(sw);
+        float inv = 1.0f / (wsum > 0 ? wsum : 1.0f);
+        m[0] = hsum(sr) * inv;
+        m[1] = hsum(sg) * inv;
+        m[2] = hsum(sb) * inv;
+        __m128 mr = _mm_set1_ps(m[0]), mg = _mm_set1_ps(m[1]), mb = _mm_set1_ps(m[2]);
+        __m128 rr = _mm_setzero_ps(), rg = rr, rb = rr, gg = rr, gb = rr, bb = rr;
+        for (int i = 0; i < 16; i += 4) {
+            __m128 w = _mm_loadu_ps(B->w + i);
+            __m128 r = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->r + i), mr), w);
+            __m128 g = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->g + i), mg), w);
+            __m128 b = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->b + i), mb), w);
+            rr = _mm_add_ps(rr, _mm_mul_ps(r, r));
+            rg = _mm_add_ps(rg, _mm_mul_ps(r, g));
+            rb = _mm_add_ps(rb, _mm_mul_ps(r, b));
+            gg = _mm_add_ps(gg, _mm_mul_ps(g, g));
+            gb = _mm_add_ps(gb, _mm_mul_ps(g, b));
+            bb = _mm_add_ps(bb, _mm_mul_ps(b, b));
+        }
+        c[0] = hsum(rr);
+        c[1] = hsum(rg);
+        c[2] = hsum(rb);
+        c[3] = hsum(gg);
+        c[4] = hsum(gb);
+        c[5] = hsum(bb);
+    }
+#else
     float m[3] = {0, 0, 0};
     for (int i = 0; i < 16; i++) {
         m[0] += B->r[i] * B->w[i];
@@ -275,6 +398,7 @@ static void axis_compute(const blk *B, axis *A)
         c[4] += g * b;
         c[5] += b * b;
     }
+#endif
     /* start from the covariance row of largest diagonal (robust against the (1,1,1) null) */
     float v[3];
     if (c[0] >= c[3] && c[0] >= c[5]) {
@@ -304,6 +428,28 @@ static void axis_compute(const blk *B, axis *A)
         len2 = 3;
     }
     float lo = 1e30f, hi = -1e30f;
+#ifdef __SSE2__
+    {
+        __m128 vr = _mm_set1_ps(v[0]), vg = _mm_set1_ps(v[1]), vb = _mm_set1_ps(v[2]);
+        __m128 mr = _mm_set1_ps(m[0]), mg = _mm_set1_ps(m[1]), mb = _mm_set1_ps(m[2]);
+        __m128 vlo = _mm_set1_ps(1e30f), vhi = _mm_set1_ps(-1e30f), zero = _mm_setzero_ps();
+        for (int i = 0; i < 16; i += 4) { /* texels of weight 0 do not widen the range */
+            __m128 p = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->r + i), mr), vr),
+                           _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->g + i), mg), vg)),
+                _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->b + i), mb), vb));
+            __m128 in = _mm_cmpgt_ps(_mm_loadu_ps(B->w + i), zero);
+            vlo = _mm_min_ps(vlo, _mm_or_ps(_mm_and_ps(in, p), _mm_andnot_ps(in, vlo)));
+            vhi = _mm_max_ps(vhi, _mm_or_ps(_mm_and_ps(in, p), _mm_andnot_ps(in, vhi)));
+        }
+        vlo = _mm_min_ps(vlo, _mm_movehl_ps(vlo, vlo));
+        vlo = _mm_min_ss(vlo, _mm_shuffle_ps(vlo, vlo, 1));
+        vhi = _mm_max_ps(vhi, _mm_movehl_ps(vhi, vhi));
+        vhi = _mm_max_ss(vhi, _mm_shuffle_ps(vhi, vhi, 1));
+        lo = _mm_cvtss_f32(vlo);
+        hi = _mm_cvtss_f32(vhi);
+    }
+#else
     for (int i = 0; i < 16; i++) { /* texels of weight 0 do not widen the range */
         float p = (B->r[i] - m[0]) * v[0] + (B->g[i] - m[1]) * v[1] + (B->b[i] - m[2]) * v[2];
         if (B->w[i] > 0) {
@@ -311,6 +457,7 @@ static void axis_compute(const blk *B, axis *A)
             hi = p > hi ? p : hi;
         }
     }
+#endif
     if (lo > hi)
         lo = hi = 0;
     for (int k = 0; k < 3; k++) {
@@ -356,7 +503,7 @@ static void neighbourhood(const blk *B, cand *best, int four, int passes)
                         uint16_t t = a; a = b; b = t;
                     }
                     uint8_t sel[16];
-                    float err = select_eval(B, a, b, sel);
+                    float err = select_eval(B, a, b, sel, best->err);
                     if (err < best->err) {
                         best->c0 = a;
                         best->c1 = b;
@@ -380,12 +527,14 @@ typedef struct profile {
     int   radius;       /* exact per-channel search radius after each least squares (0 = round) */
     float inset2;       /* a second start with this inset (< 0: none) */
     int   cluster;      /* a start from the cluster fit */
+    float easy;         /* blocks whose first error is below this stop there */
+    float easy3;        /* ... and those below this skip the 3-colour trial */
 } profile;
 
 static const profile PROFILES[3] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0},    /* ST_BC1_FAST */
-    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3},    /* ST_BC1_HQ: cluster splits within +-3 */
-    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16},  /* ST_BC1_BEST: every split */
+    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0},    /* ST_BC1_FAST */
+    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3, 0, 0},    /* ST_BC1_HQ: cluster splits within +-3 */
+    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0},  /* ST_BC1_BEST: every split */
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
@@ -411,8 +560,8 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         }
         ord[j + 1] = k;
     }
-    /* prefix sums of weight and weighted colour */
-    float pw[17], pr[17], pg[17], pb[17];
+    /* prefix sums of weight and weighted colour (padded: the vector loop reads 3 past 16) */
+    float pw[20], pr[20], pg[20], pb[20];
     pw[0] = pr[0] = pg[0] = pb[0] = 0;
     for (int i = 0; i < 16; i++) {
         int k = ord[i];
@@ -422,8 +571,88 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         pg[i + 1] = pg[i] + w * B->g[k];
         pb[i + 1] = pb[i] + w * B->b[k];
     }
+    for (int i = 17; i < 20; i++) {
+        pw[i] = pw[16];
+        pr[i] = pr[16];
+        pg[i] = pg[16];
+        pb[i] = pb[16];
+    }
     float best = -1e30f;
     int b0 = -1, b1 = -1, b2 = -1;
+#ifdef __SSE2__
+    /* four consecutive i2 at once; the lanes' scores are then scanned in order so that the
+     * first best split wins, as in the scalar loop */
+    const __m128 c49 = _mm_set1_ps(4.0f / 9), c19 = _mm_set1_ps(1.0f / 9),
+                 c29 = _mm_set1_ps(2.0f / 9), c13 = _mm_set1_ps(1.0f / 3),
+                 c23 = _mm_set1_ps(2.0f / 3), two = _mm_set1_ps(2.0f), eps = _mm_set1_ps(1e-6f),
+                 ninf = _mm_set1_ps(-3e30f);
+    const __m128 w16 = _mm_set1_ps(pw[16]), r16 = _mm_set1_ps(pr[16]), g16 = _mm_set1_ps(pg[16]),
+                 bl16 = _mm_set1_ps(pb[16]);
+    for (int i0 = lo[0]; i0 <= hi[0]; i0++)
+        for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
+            float n0 = pw[i0], n1 = pw[i1] - pw[i0];
+            float s1r = pr[i1] - pr[i0], s1g = pg[i1] - pg[i0], s1b = pb[i1] - pb[i0];
+            __m128 X0r = _mm_set1_ps(pr[i0] + s1r * (2.0f / 3)),
+                   X0g = _mm_set1_ps(pg[i0] + s1g * (2.0f / 3)),
+                   X0b = _mm_set1_ps(pb[i0] + s1b * (2.0f / 3));
+            __m128 Y0r = _mm_set1_ps(s1r * (1.0f / 3)), Y0g = _mm_set1_ps(s1g * (1.0f / 3)),
+                   Y0b = _mm_set1_ps(s1b * (1.0f / 3));
+            __m128 A0 = _mm_set1_ps(n0 + n1 * (4.0f / 9)), C0 = _mm_set1_ps(n1 * (1.0f / 9)),
+                   N1 = _mm_set1_ps(n1);
+            __m128 w1 = _mm_set1_ps(pw[i1]), r1 = _mm_set1_ps(pr[i1]), g1 = _mm_set1_ps(pg[i1]),
+                   bb1 = _mm_set1_ps(pb[i1]);
+            int s0 = i1 > lo[2] ? i1 : lo[2];
+            for (int i2 = s0; i2 <= hi[2]; i2 += 4) {
+                __m128 wv = _mm_loadu_ps(pw + i2);
+                __m128 n2 = _mm_sub_ps(wv, w1), n3 = _mm_sub_ps(w16, wv);
+                __m128 AA = _mm_add_ps(A0, _mm_mul_ps(n2, c19));
+                __m128 BB = _mm_mul_ps(_mm_add_ps(N1, n2), c29);
+                __m128 CC = _mm_add_ps(_mm_add_ps(n3, _mm_mul_ps(n2, c49)), C0);
+                __m128 D = _mm_sub_ps(_mm_mul_ps(AA, CC), _mm_mul_ps(BB, BB));
+                __m128 pv, s2, s3, X, Y;
+                pv = _mm_loadu_ps(pr + i2);
+                s2 = _mm_sub_ps(pv, r1);
+                s3 = _mm_sub_ps(r16, pv);
+                X = _mm_add_ps(X0r, _mm_mul_ps(s2, c13));
+                Y = _mm_add_ps(_mm_add_ps(Y0r, s3), _mm_mul_ps(s2, c23));
+                __m128 xx = _mm_mul_ps(X, X), yy = _mm_mul_ps(Y, Y), xy = _mm_mul_ps(X, Y);
+                pv = _mm_loadu_ps(pg + i2);
+                s2 = _mm_sub_ps(pv, g1);
+                s3 = _mm_sub_ps(g16, pv);
+                X = _mm_add_ps(X0g, _mm_mul_ps(s2, c13));
+                Y = _mm_add_ps(_mm_add_ps(Y0g, s3), _mm_mul_ps(s2, c23));
+                xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
+                yy = _mm_add_ps(yy, _mm_mul_ps(Y, Y));
+                xy = _mm_add_ps(xy, _mm_mul_ps(X, Y));
+                pv = _mm_loadu_ps(pb + i2);
+                s2 = _mm_sub_ps(pv, bb1);
+                s3 = _mm_sub_ps(bl16, pv);
+                X = _mm_add_ps(X0b, _mm_mul_ps(s2, c13));
+                Y = _mm_add_ps(_mm_add_ps(Y0b, s3), _mm_mul_ps(s2, c23));
+                xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
+                yy = _mm_add_ps(yy, _mm_mul_ps(Y, Y));
+                xy = _mm_add_ps(xy, _mm_mul_ps(X, Y));
+                __m128 num = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(CC, xx),
+                                                   _mm_mul_ps(_mm_mul_ps(two, BB), xy)),
+                                        _mm_mul_ps(AA, yy));
+                __m128 ok = _mm_cmpgt_ps(D, eps);
+                __m128 gv = _mm_div_ps(num, _mm_or_ps(_mm_and_ps(ok, D),
+                                                      _mm_andnot_ps(ok, _mm_set1_ps(1.0f))));
+                gv = _mm_or_ps(_mm_and_ps(ok, gv), _mm_andnot_ps(ok, ninf));
+                float gs[4];
+                _mm_storeu_ps(gs, gv);
+                int nl = hi[2] - i2 + 1;
+                nl = nl > 4 ? 4 : nl;
+                for (int l = 0; l < nl; l++)
+                    if (gs[l] > best) {
+                        best = gs[l];
+                        b0 = i0;
+                        b1 = i1;
+                        b2 = i2 + l;
+                    }
+            }
+        }
+#else
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
         for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
             float n0 = pw[i0], n1 = pw[i1] - pw[i0];
@@ -457,6 +686,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                 }
             }
         }
+#endif
     int found = b0 >= 0;
     if (found) {
         int i0 = b0, i1 = b1, i2 = b2;
@@ -517,6 +747,10 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
     if (four_ok) {
         axis_endpoints(&A, P->inset, e0, e1);
         rounds4(B, P, e0, e1, &best);
+        if (best.err < P->easy) {
+            *out = best;
+            return;
+        }
         if (P->inset2 >= 0 && best.err > 0) {
             axis_endpoints(&A, P->inset2, e0, e1);
             rounds4(B, P, e0, e1, &best);
@@ -540,7 +774,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
     }
-    if (!four_ok || (P->rounds3 && best.err > 0)) {
+    if (!four_ok || (P->rounds3 && best.err > 0 && best.err >= P->easy3)) {
         cand b3;
         b3.err = 3e30f;
         float f0[3], f1[3];
