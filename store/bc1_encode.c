@@ -205,23 +205,17 @@ static void try3(const blk *B, uint16_t a, uint16_t b, cand *best)
         *best = c;
 }
 
-/* Least-squares endpoints for the selectors of `c` (4-colour weights when four, else
- * 3-colour). Returns 0 when the system is singular (all texels on one weight). */
-static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3], float e1[3])
+/* Least-squares endpoints for per-texel weights t of endpoint 1 (texel ~ (1-t) e0 + t e1).
+ * Returns 0 when the system is singular (all texels on one weight). */
+static int ls_t(const blk *B, const float tv[16], float e0[3], float e1[3])
 {
-    /* weight of endpoint 1 per selector */
-    static const float t4[4] = {0.0f, 1.0f, 1.0f / 3.0f, 2.0f / 3.0f}, t3[4] = {0.0f, 1.0f, 0.5f, 0.0f};
-    const float *tw = four ? t4 : t3;
 #ifdef __SSE2__
-    float tv[16];
-    for (int i = 0; i < 16; i++)
-        tv[i] = tw[sel[i]];
     __m128 one = _mm_set1_ps(1.0f), z = _mm_setzero_ps();
     __m128 vaa = z, vab = z, vbb = z, ar = z, ag = z, ab_ = z, br = z, bg = z, bb_ = z;
     for (int i = 0; i < 16; i += 4) {
         __m128 w = _mm_loadu_ps(B->w + i), t = _mm_loadu_ps(tv + i);
-        __m128 wt = _mm_mul_ps(w, t), ws = _mm_mul_ps(w, _mm_sub_ps(one, t));
         __m128 s_ = _mm_sub_ps(one, t);
+        __m128 wt = _mm_mul_ps(w, t), ws = _mm_mul_ps(w, s_);
         vaa = _mm_add_ps(vaa, _mm_mul_ps(ws, s_));
         vab = _mm_add_ps(vab, _mm_mul_ps(ws, t));
         vbb = _mm_add_ps(vbb, _mm_mul_ps(wt, t));
@@ -236,26 +230,18 @@ static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3],
     float aa = hsum(vaa), ab = hsum(vab), bb = hsum(vbb);
     float ax[3] = {hsum(ar), hsum(ag), hsum(ab_)}, bx[3] = {hsum(br), hsum(bg), hsum(bb_)};
 #else
-    float cnt[4] = {0, 0, 0, 0}, sr[4] = {0, 0, 0, 0}, sg[4] = {0, 0, 0, 0}, sb[4] = {0, 0, 0, 0};
-    for (int i = 0; i < 16; i++) {
-        int j = sel[i];
-        cnt[j] += B->w[i];
-        sr[j] += B->r[i] * B->w[i];
-        sg[j] += B->g[i] * B->w[i];
-        sb[j] += B->b[i] * B->w[i];
-    }
     float aa = 0, ab = 0, bb = 0, ax[3] = {0, 0, 0}, bx[3] = {0, 0, 0};
-    for (int j = 0; j < 4; j++) {
-        float t = tw[j], s = 1.0f - t;
-        aa += s * s * cnt[j];
-        ab += s * t * cnt[j];
-        bb += t * t * cnt[j];
-        ax[0] += s * sr[j];
-        ax[1] += s * sg[j];
-        ax[2] += s * sb[j];
-        bx[0] += t * sr[j];
-        bx[1] += t * sg[j];
-        bx[2] += t * sb[j];
+    for (int i = 0; i < 16; i++) {
+        float w = B->w[i], t = tv[i], s = 1.0f - t;
+        aa += w * s * s;
+        ab += w * s * t;
+        bb += w * t * t;
+        ax[0] += w * s * B->r[i];
+        ax[1] += w * s * B->g[i];
+        ax[2] += w * s * B->b[i];
+        bx[0] += w * t * B->r[i];
+        bx[1] += w * t * B->g[i];
+        bx[2] += w * t * B->b[i];
     }
 #endif
     float det = aa * bb - ab * ab;
@@ -268,6 +254,19 @@ static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3],
         e1[k] = v1 < 0 ? 0 : v1 > 255 ? 255 : v1;
     }
     return 1;
+}
+
+/* Least-squares endpoints for the selectors `sel` (4-colour weights when four, else
+ * 3-colour). Returns 0 when the system is singular (all texels on one weight). */
+static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3], float e1[3])
+{
+    /* weight of endpoint 1 per selector */
+    static const float t4[4] = {0.0f, 1.0f, 1.0f / 3.0f, 2.0f / 3.0f}, t3[4] = {0.0f, 1.0f, 0.5f, 0.0f};
+    const float *tw = four ? t4 : t3;
+    float tv[16];
+    for (int i = 0; i < 16; i++)
+        tv[i] = tw[sel[i]];
+    return ls_t(B, tv, e0, e1);
 }
 
 /* With the selectors fixed the error separates by channel, and with per-selector sums it
@@ -399,28 +398,37 @@ static void axis_compute(const blk *B, axis *A)
         c[5] += b * b;
     }
 #endif
-    /* start from the covariance row of largest diagonal (robust against the (1,1,1) null) */
-    float v[3];
-    if (c[0] >= c[3] && c[0] >= c[5]) {
-        v[0] = c[0]; v[1] = c[1]; v[2] = c[2];
-    } else if (c[3] >= c[5]) {
-        v[0] = c[1]; v[1] = c[3]; v[2] = c[4];
-    } else {
-        v[0] = c[2]; v[1] = c[4]; v[2] = c[5];
-    }
-    for (int it = 0; it < 4; it++) {
-        float x = c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
-        float y = c[1] * v[0] + c[3] * v[1] + c[4] * v[2];
-        float z = c[2] * v[0] + c[4] * v[1] + c[5] * v[2];
-        float ax = fabsf(x), ay = fabsf(y), az = fabsf(z);
-        float mx = ax > ay ? ax : ay;
-        mx = mx > az ? mx : az;
-        if (mx < 1e-12f)
-            break;
-        float im = 1.0f / mx;
-        v[0] = x * im;
-        v[1] = y * im;
-        v[2] = z * im;
+    /* v = C^4 applied to the unit vector of C's largest diagonal, C scaled by 1/trace (its
+     * eigenvalues then lie in 0..1: no overflow, and the dominant one is >= 1/3); C^2 and
+     * C^4 by squaring, which is shorter than four dependent power iterations. */
+    float tr = c[0] + c[3] + c[5];
+    float v[3] = {0, 0, 0};
+    if (tr > 1e-12f) {
+        float it = 1.0f / tr;
+        float q[6];
+        for (int k = 0; k < 6; k++)
+            q[k] = c[k] * it;
+        for (int sq = 0; sq < 2; sq++) { /* q = q * q (symmetric) */
+            float n0 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            float n1 = q[0] * q[1] + q[1] * q[3] + q[2] * q[4];
+            float n2 = q[0] * q[2] + q[1] * q[4] + q[2] * q[5];
+            float n3 = q[1] * q[1] + q[3] * q[3] + q[4] * q[4];
+            float n4 = q[1] * q[2] + q[3] * q[4] + q[4] * q[5];
+            float n5 = q[2] * q[2] + q[4] * q[4] + q[5] * q[5];
+            q[0] = n0; q[1] = n1; q[2] = n2; q[3] = n3; q[4] = n4; q[5] = n5;
+        }
+        /* the row (= column) of C^4 through the largest diagonal of C, times C once more */
+        float r0, r1, r2;
+        if (c[0] >= c[3] && c[0] >= c[5]) {
+            r0 = q[0]; r1 = q[1]; r2 = q[2];
+        } else if (c[3] >= c[5]) {
+            r0 = q[1]; r1 = q[3]; r2 = q[4];
+        } else {
+            r0 = q[2]; r1 = q[4]; r2 = q[5];
+        }
+        v[0] = (c[0] * r0 + c[1] * r1 + c[2] * r2) * it;
+        v[1] = (c[1] * r0 + c[3] * r1 + c[4] * r2) * it;
+        v[2] = (c[2] * r0 + c[4] * r1 + c[5] * r2) * it;
     }
     float len2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
     if (len2 < 1e-12f) {
@@ -471,9 +479,10 @@ static void axis_compute(const blk *B, axis *A)
 
 static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
 {
-    float d = (A->hi - A->lo) * inset, lo = A->lo + d, hi = A->hi - d;
+    float d = (A->hi - A->lo) * inset, il = 1.0f / A->len2;
+    float lo = (A->lo + d) * il, hi = (A->hi - d) * il;
     for (int k = 0; k < 3; k++) {
-        float a = A->m[k] + A->v[k] * hi / A->len2, b = A->m[k] + A->v[k] * lo / A->len2;
+        float a = A->m[k] + A->v[k] * hi, b = A->m[k] + A->v[k] * lo;
         e0[k] = a < 0 ? 0 : a > 255 ? 255 : a;
         e1[k] = b < 0 ? 0 : b > 255 ? 255 : b;
     }
@@ -529,12 +538,15 @@ typedef struct profile {
     int   cluster;      /* a start from the cluster fit */
     float easy;         /* blocks whose first error is below this stop there */
     float easy3;        /* ... and those below this skip the 3-colour trial */
+    int   proj;         /* FAST: least-squares rounds on projected selectors, then one exact
+                           selection (0 = the exact rounds above) */
+    int   proj_final;   /* FAST: the last selection by projection too (no palette distance) */
 } profile;
 
 static const profile PROFILES[3] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0},    /* ST_BC1_FAST */
-    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3, 0, 0},    /* ST_BC1_HQ: cluster splits within +-3 */
-    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0},  /* ST_BC1_BEST: every split */
+    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0, 1, 1}, /* ST_BC1_FAST */
+    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3, 0, 0, 0, 0}, /* ST_BC1_HQ: cluster splits within +-3 */
+    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0, 0, 0}, /* ST_BC1_BEST: every split */
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
@@ -736,6 +748,109 @@ static void rounds4(const blk *B, const profile *P, float e0[3], float e1[3], ca
     }
 }
 
+/* 4-colour weights of c1 for the 565 pair (c0, c1) by projection on the line through the
+ * decoded endpoints: t = (x - p0).d / |d|^2 rounded to thirds (no palette distances). */
+static void proj_weights(const blk *B, uint16_t c0, uint16_t c1, float tv[16])
+{
+    uint8_t p0[3], p1[3];
+    st_bc1_565_to_rgb8(c0, p0);
+    st_bc1_565_to_rgb8(c1, p1);
+    float d[3] = {(float)p1[0] - p0[0], (float)p1[1] - p0[1], (float)p1[2] - p0[2]};
+    float dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    float sc = dd > 0 ? 3.0f / dd : 0.0f;
+    float o = -(p0[0] * d[0] + p0[1] * d[1] + p0[2] * d[2]) * sc + 0.5f;
+#ifdef __SSE2__
+    __m128 dr = _mm_set1_ps(d[0] * sc), dg = _mm_set1_ps(d[1] * sc), db = _mm_set1_ps(d[2] * sc);
+    __m128 ov = _mm_set1_ps(o), zero = _mm_setzero_ps(), top = _mm_set1_ps(3.0f),
+           third = _mm_set1_ps(1.0f / 3.0f);
+    for (int g = 0; g < 16; g += 4) {
+        __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(B->r + g), dr),
+                                         _mm_mul_ps(_mm_loadu_ps(B->g + g), dg)),
+                              _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(B->b + g), db), ov));
+        t = _mm_min_ps(_mm_max_ps(t, zero), top);
+        t = _mm_cvtepi32_ps(_mm_cvttps_epi32(t));
+        _mm_storeu_ps(tv + g, _mm_mul_ps(t, third));
+    }
+#else
+    for (int i = 0; i < 16; i++) {
+        float t = B->r[i] * d[0] * sc + B->g[i] * d[1] * sc + B->b[i] * d[2] * sc + o;
+        t = t < 0 ? 0 : t > 3 ? 3 : t;
+        tv[i] = (float)(int)t * (1.0f / 3.0f);
+    }
+#endif
+}
+
+/* 4-colour selectors for c0 > c1 by projection on the line p0 -> p1 of the decoded endpoints,
+ * with the thresholds halfway between the projections of the four exact palette entries
+ * (the truncated thirds are not exactly on the line: near-exact, no distances). */
+static void proj_select(const blk *B, uint16_t c0, uint16_t c1, uint8_t sel[16])
+{
+    float pal[3][4];
+    palette_f(c0, c1, 1, pal);
+    float d[3] = {pal[0][1] - pal[0][0], pal[1][1] - pal[1][0], pal[2][1] - pal[2][0]};
+    float pj[4]; /* projections in palette order 0, 2, 3, 1 */
+    static const int order[4] = {0, 2, 3, 1};
+    for (int j = 0; j < 4; j++) {
+        int e = order[j];
+        pj[j] = pal[0][e] * d[0] + pal[1][e] * d[1] + pal[2][e] * d[2];
+    }
+    float t1 = 0.5f * (pj[0] + pj[1]), t2 = 0.5f * (pj[1] + pj[2]), t3 = 0.5f * (pj[2] + pj[3]);
+#ifdef __SSE2__
+    __m128 dr = _mm_set1_ps(d[0]), dg = _mm_set1_ps(d[1]), db = _mm_set1_ps(d[2]);
+    __m128 T1 = _mm_set1_ps(t1), T2 = _mm_set1_ps(t2), T3 = _mm_set1_ps(t3);
+    /* rank 0..3 = number of thresholds passed; selector = rank 0 -> 0, 1 -> 2, 2 -> 3, 3 -> 1 */
+    for (int g = 0; g < 16; g += 4) {
+        __m128 x = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(B->r + g), dr),
+                                         _mm_mul_ps(_mm_loadu_ps(B->g + g), dg)),
+                              _mm_mul_ps(_mm_loadu_ps(B->b + g), db));
+        __m128i m1 = _mm_castps_si128(_mm_cmpgt_ps(x, T1));
+        __m128i m2 = _mm_castps_si128(_mm_cmpgt_ps(x, T2));
+        __m128i m3 = _mm_castps_si128(_mm_cmpgt_ps(x, T3));
+        /* rank 1: 2, rank 2: 3, rank 3: 1 -> sel = (m1 & 2) | (m2 & 1) with rank 3 -> 1:
+         * m1&2 | m2&1 gives 0,2,3,3; xor with (m3 & 2) turns 3 into 1 */
+        __m128i sv = _mm_or_si128(_mm_and_si128(m1, _mm_set1_epi32(2)),
+                                  _mm_and_si128(m2, _mm_set1_epi32(1)));
+        sv = _mm_xor_si128(sv, _mm_and_si128(m3, _mm_set1_epi32(2)));
+        __m128i s16 = _mm_packs_epi32(sv, sv);
+        __m128i s8 = _mm_packus_epi16(s16, s16);
+        uint32_t packed = (uint32_t)_mm_cvtsi128_si32(s8);
+        memcpy(sel + g, &packed, 4);
+    }
+#else
+    for (int i = 0; i < 16; i++) {
+        float x = B->r[i] * d[0] + B->g[i] * d[1] + B->b[i] * d[2];
+        int rank = (x > t1) + (x > t2) + (x > t3);
+        sel[i] = (uint8_t)(rank == 0 ? 0 : rank == 1 ? 2 : rank == 2 ? 3 : 1);
+    }
+#endif
+}
+
+/* FAST: axis endpoints -> rounds of (round, projected selectors, least squares) -> one exact
+ * selection of the result. */
+static void encode_fast4(const blk *B, const profile *P, const axis *A, cand *best)
+{
+    float e0[3], e1[3];
+    axis_endpoints(A, P->inset, e0, e1);
+    for (int it = 0; it < P->proj; it++) {
+        uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
+        if (a == b)
+            break;
+        float tv[16];
+        proj_weights(B, a, b, tv);
+        if (!ls_t(B, tv, e0, e1))
+            break;
+    }
+    uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
+    if (P->proj_final && a != b) {
+        best->c0 = a > b ? a : b;
+        best->c1 = a > b ? b : a;
+        proj_select(B, best->c0, best->c1, best->sel);
+        best->err = 1.0f; /* not measured */
+        return;
+    }
+    try4(B, a, b, best);
+}
+
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
 static void encode_colours(const blk *B, const profile *P, int four_ok, cand *out)
 {
@@ -744,6 +859,11 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
     float e0[3], e1[3];
     axis A;
     axis_compute(B, &A);
+    if (four_ok && P->proj) {
+        encode_fast4(B, P, &A, &best);
+        *out = best;
+        return;
+    }
     if (four_ok) {
         axis_endpoints(&A, P->inset, e0, e1);
         rounds4(B, P, e0, e1, &best);
@@ -885,6 +1005,17 @@ void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int l
         return;
     }
     if (!transparent && !weight) {
+#ifdef __SSE2__
+        const __m128i lo8 = _mm_set1_epi32(255);
+        for (int t = 0; t < 16; t += 4) {
+            __m128i v = _mm_loadu_si128((const __m128i *)(rgba + 4 * t));
+            _mm_storeu_ps(B.r + t, _mm_cvtepi32_ps(_mm_and_si128(v, lo8)));
+            _mm_storeu_ps(B.g + t, _mm_cvtepi32_ps(_mm_and_si128(_mm_srli_epi32(v, 8), lo8)));
+            _mm_storeu_ps(B.b + t, _mm_cvtepi32_ps(_mm_and_si128(_mm_srli_epi32(v, 16), lo8)));
+            _mm_storeu_ps(B.w + t, _mm_set1_ps(1.0f));
+        }
+        goto encode;
+#endif
         for (int t = 0; t < 16; t++) {
             B.r[t] = (float)(px[t] & 255u);
             B.g[t] = (float)(px[t] >> 8 & 255u);
