@@ -488,10 +488,81 @@ static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
     }
 }
 
+#ifdef __SSE2__
+/* The neighbourhood search changes one channel of one endpoint at a time, so the squared
+ * distance of texel i to palette entry j changes only in that channel's term. For the
+ * current pair, other[k][j][i] = 4 * (distance without channel k) + j; a candidate that
+ * differs in channel k only then costs one subtraction, multiplication, addition and
+ * minimum per entry: key = other + (2 x_k - 2 p_jk)^2, exactly the key of select_raw. */
+typedef struct nbase {
+    float other[3][4][16];
+} nbase;
+
+static void nbase_fill(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
+{
+    float pal[3][4];
+    palette_f(c0, c1, c0 > c1, pal);
+    for (int j = 0; j < 4; j++) {
+        __m128 pr = _mm_set1_ps(pal[0][j]), pg = _mm_set1_ps(pal[1][j]),
+               pb = _mm_set1_ps(pal[2][j]), fj = _mm_set1_ps((float)j),
+               four = _mm_set1_ps(4.0f);
+        for (int g = 0; g < 16; g += 4) {
+            __m128 dr = _mm_sub_ps(_mm_loadu_ps(B->r + g), pr);
+            __m128 dg = _mm_sub_ps(_mm_loadu_ps(B->g + g), pg);
+            __m128 db = _mm_sub_ps(_mm_loadu_ps(B->b + g), pb);
+            dr = _mm_mul_ps(dr, dr);
+            dg = _mm_mul_ps(dg, dg);
+            db = _mm_mul_ps(db, db);
+            _mm_storeu_ps(N->other[0][j] + g, _mm_add_ps(_mm_mul_ps(_mm_add_ps(dg, db), four), fj));
+            _mm_storeu_ps(N->other[1][j] + g, _mm_add_ps(_mm_mul_ps(_mm_add_ps(dr, db), four), fj));
+            _mm_storeu_ps(N->other[2][j] + g, _mm_add_ps(_mm_mul_ps(_mm_add_ps(dr, dg), four), fj));
+        }
+    }
+}
+
+/* select_raw for a pair whose palette differs from the base's only in channel k, where it is
+ * pk[0..3]; same keys, same selectors, same error. */
+static float select_chan(const blk *B, const nbase *N, int k, const float pk[4], uint8_t *sel,
+                         float limit)
+{
+    const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
+    __m128 p2[4];
+    for (int j = 0; j < 4; j++)
+        p2[j] = _mm_set1_ps(2.0f * pk[j]);
+    const __m128i three = _mm_set1_epi32(3);
+    const __m128 quarter = _mm_set1_ps(0.25f), two = _mm_set1_ps(2.0f);
+    __m128 acc = _mm_setzero_ps();
+    for (int g = 0; g < 16; g += 4) {
+        __m128 x2 = _mm_mul_ps(_mm_loadu_ps(x + g), two);
+        __m128 t = _mm_sub_ps(x2, p2[0]);
+        __m128 key = _mm_add_ps(_mm_loadu_ps(N->other[k][0] + g), _mm_mul_ps(t, t));
+        for (int j = 1; j < 4; j++) {
+            t = _mm_sub_ps(x2, p2[j]);
+            key = _mm_min_ps(key, _mm_add_ps(_mm_loadu_ps(N->other[k][j] + g), _mm_mul_ps(t, t)));
+        }
+        __m128i s = _mm_and_si128(_mm_cvtps_epi32(key), three);
+        __m128 dist = _mm_mul_ps(_mm_sub_ps(key, _mm_cvtepi32_ps(s)), quarter);
+        acc = _mm_add_ps(acc, _mm_mul_ps(dist, _mm_loadu_ps(B->w + g)));
+        __m128i s16 = _mm_packs_epi32(s, s);
+        __m128i s8 = _mm_packus_epi16(s16, s16);
+        uint32_t packed = (uint32_t)_mm_cvtsi128_si32(s8);
+        memcpy(sel + g, &packed, 4);
+        if (g < 12 && hsum(acc) >= limit)
+            return hsum(acc);
+    }
+    return hsum(acc);
+}
+#endif
+
 /* Greedy +-1 search over the six 565 components of the best pair, in its own mode. */
 static void neighbourhood(const blk *B, cand *best, int four, int passes)
 {
     static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
+#ifdef __SSE2__
+    nbase N;
+    uint16_t nb0 = best->c0, nb1 = best->c1;
+    nbase_fill(B, nb0, nb1, &N);
+#endif
     for (int pass = 0; pass < passes; pass++) {
         int improved = 0;
         for (int e = 0; e < 2; e++)
@@ -512,7 +583,28 @@ static void neighbourhood(const blk *B, cand *best, int four, int passes)
                         uint16_t t = a; a = b; b = t;
                     }
                     uint8_t sel[16];
-                    float err = select_eval(B, a, b, sel, best->err);
+                    float err;
+#ifdef __SSE2__
+                    if (a == c[0]) { /* not reordered: only channel k of the palette moved */
+                        if (best->c0 != nb0 || best->c1 != nb1) {
+                            nb0 = best->c0;
+                            nb1 = best->c1;
+                            nbase_fill(B, nb0, nb1, &N);
+                        }
+                        int bits = k == 1 ? 6 : 5;
+                        int qa = (a >> sh[k]) & mx[k], qb = (b >> sh[k]) & mx[k];
+                        int ea = bits == 5 ? (qa << 3) | (qa >> 2) : (qa << 2) | (qa >> 4);
+                        int eb = bits == 5 ? (qb << 3) | (qb >> 2) : (qb << 2) | (qb >> 4);
+                        float pk[4] = {(float)ea, (float)eb,
+                                       (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2),
+                                       four ? (float)((ea + 2 * eb) / 3) : 2000.0f};
+                        err = select_chan(B, &N, k, pk, sel, best->err);
+                    } else {
+                        err = select_eval(B, a, b, sel, best->err);
+                    }
+#else
+                    err = select_eval(B, a, b, sel, best->err);
+#endif
                     if (err < best->err) {
                         best->c0 = a;
                         best->c1 = b;
