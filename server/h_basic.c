@@ -259,7 +259,8 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     if (h->opcode == STP_OP_SAMPLE && WIRE_IS_ST_QUERY) {
         /* the wire query (u32 face, 6 x f32, little-endian, packed) is st_query's layout on
          * a little-endian host: one copy instead of a decode per field */
-        memcpy(sc->q, rq->raw, (size_t)n * STP_QUERY_SIZE);
+        if (n)  /* with n == 0 both pointers may be NULL: memcpy must not see them */
+            memcpy(sc->q, rq->raw, (size_t)n * STP_QUERY_SIZE);
         rc = n ? st_sample_batch(s, &o, sc->q, n, sc->out, cov, sc->status) : 0;
     } else if (h->opcode == STP_OP_SAMPLE) {
         for (uint32_t i = 0; i < n; i++) {
