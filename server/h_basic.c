@@ -248,7 +248,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
         return 0;
     const st_set *s = ref->set;
     uint32_t n = rq->count;
-    if (sts_scratch_reserve(c->scratch, n, s->info.nchan) != 0) {
+    if (sts_scratch_reserve(c->scratch, n ? n : 1, s->info.nchan) != 0) {
         st_setref_release(ref);
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
         return 0;
