@@ -690,6 +690,8 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                  c29 = _mm_set1_ps(2.0f / 9), c13 = _mm_set1_ps(1.0f / 3),
                  c23 = _mm_set1_ps(2.0f / 3), two = _mm_set1_ps(2.0f), eps = _mm_set1_ps(1e-6f),
                  ninf = _mm_set1_ps(-3e30f);
+    __m128 bestv = ninf;
+    __m128i bidx = _mm_setzero_si128(), lane = _mm_set_epi32(3, 2, 1, 0);
     const __m128 w16 = _mm_set1_ps(pw[16]), r16 = _mm_set1_ps(pr[16]), g16 = _mm_set1_ps(pg[16]),
                  bl16 = _mm_set1_ps(pb[16]);
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
@@ -706,6 +708,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
             __m128 w1 = _mm_set1_ps(pw[i1]), r1 = _mm_set1_ps(pr[i1]), g1 = _mm_set1_ps(pg[i1]),
                    bb1 = _mm_set1_ps(pb[i1]);
             int s0 = i1 > lo[2] ? i1 : lo[2];
+            const __m128i lim = _mm_set1_epi32(i0 * 289 + i1 * 17 + hi[2] + 1);
             for (int i2 = s0; i2 <= hi[2]; i2 += 4) {
                 __m128 wv = _mm_loadu_ps(pw + i2);
                 __m128 n2 = _mm_sub_ps(wv, w1), n3 = _mm_sub_ps(w16, wv);
@@ -739,23 +742,39 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                 __m128 num = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(CC, xx),
                                                    _mm_mul_ps(_mm_mul_ps(two, BB), xy)),
                                         _mm_mul_ps(AA, yy));
-                __m128 ok = _mm_cmpgt_ps(D, eps);
+                /* lanes past hi[2] or with a singular system do not count */
+                __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + i2), lane);
+                __m128 ok = _mm_and_ps(_mm_cmpgt_ps(D, eps),
+                                       _mm_castsi128_ps(_mm_cmplt_epi32(idx, lim)));
                 __m128 gv = _mm_div_ps(num, _mm_or_ps(_mm_and_ps(ok, D),
                                                       _mm_andnot_ps(ok, _mm_set1_ps(1.0f))));
                 gv = _mm_or_ps(_mm_and_ps(ok, gv), _mm_andnot_ps(ok, ninf));
-                float gs[4];
-                _mm_storeu_ps(gs, gv);
-                int nl = hi[2] - i2 + 1;
-                nl = nl > 4 ? 4 : nl;
-                for (int l = 0; l < nl; l++)
-                    if (gs[l] > best) {
-                        best = gs[l];
-                        b0 = i0;
-                        b1 = i1;
-                        b2 = i2 + l;
-                    }
+                __m128 m = _mm_cmpgt_ps(gv, bestv);
+                bestv = _mm_or_ps(_mm_and_ps(m, gv), _mm_andnot_ps(m, bestv));
+                __m128i mi = _mm_castps_si128(m);
+                bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, bidx));
             }
         }
+    /* the best lane; among equal scores the first in the scalar loop's order (lowest index) */
+    {
+        float gs[4];
+        int32_t is[4];
+        _mm_storeu_ps(gs, bestv);
+        _mm_storeu_si128((__m128i *)is, bidx);
+        int bi = -1;
+        for (int l = 0; l < 4; l++)
+            if (gs[l] > best || (gs[l] == best && bi >= 0 && is[l] < bi)) {
+                if (gs[l] > -1e30f) {
+                    best = gs[l];
+                    bi = is[l];
+                }
+            }
+        if (bi >= 0) {
+            b0 = bi / 289;
+            b1 = bi / 17 % 17;
+            b2 = bi % 17;
+        }
+    }
 #else
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
         for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
