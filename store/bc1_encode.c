@@ -684,63 +684,61 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
     float best = -1e30f;
     int b0 = -1, b1 = -1, b2 = -1;
 #ifdef __SSE2__
-    /* four consecutive i2 at once; the lanes' scores are then scanned in order so that the
-     * first best split wins, as in the scalar loop */
-    const __m128 c49 = _mm_set1_ps(4.0f / 9), c19 = _mm_set1_ps(1.0f / 9),
-                 c29 = _mm_set1_ps(2.0f / 9), c13 = _mm_set1_ps(1.0f / 3),
-                 c23 = _mm_set1_ps(2.0f / 3), two = _mm_set1_ps(2.0f), eps = _mm_set1_ps(1e-6f),
-                 ninf = _mm_set1_ps(-3e30f);
+    /* four consecutive i2 at once; each lane keeps its best score and split index, and the
+     * lanes are merged so that the first best split in the scalar loop's order wins */
+    const __m128 eps = _mm_set1_ps(1e-6f), ninf = _mm_set1_ps(-3e30f);
     __m128 bestv = ninf;
     __m128i bidx = _mm_setzero_si128(), lane = _mm_set_epi32(3, 2, 1, 0);
-    const __m128 w16 = _mm_set1_ps(pw[16]), r16 = _mm_set1_ps(pr[16]), g16 = _mm_set1_ps(pg[16]),
-                 bl16 = _mm_set1_ps(pb[16]);
+    /* everything that depends on i2 alone, once: with it, X = Xc + p/3, Y = Yc - p/3,
+     * AA = Ac + w/9, BB = Bc + 2w/9, CC = Cc - 5w/9 (p, w the prefix sums at i2) */
+    float q3r[20], q3g[20], q3b[20], w9[20], w29[20], w59[20];
+    for (int i = 0; i < 20; i++) {
+        q3r[i] = pr[i] * (1.0f / 3);
+        q3g[i] = pg[i] * (1.0f / 3);
+        q3b[i] = pb[i] * (1.0f / 3);
+        w9[i] = pw[i] * (1.0f / 9);
+        w29[i] = pw[i] * (2.0f / 9);
+        w59[i] = pw[i] * (5.0f / 9);
+    }
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
         for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
             float n0 = pw[i0], n1 = pw[i1] - pw[i0];
             float s1r = pr[i1] - pr[i0], s1g = pg[i1] - pg[i0], s1b = pb[i1] - pb[i0];
-            __m128 X0r = _mm_set1_ps(pr[i0] + s1r * (2.0f / 3)),
-                   X0g = _mm_set1_ps(pg[i0] + s1g * (2.0f / 3)),
-                   X0b = _mm_set1_ps(pb[i0] + s1b * (2.0f / 3));
-            __m128 Y0r = _mm_set1_ps(s1r * (1.0f / 3)), Y0g = _mm_set1_ps(s1g * (1.0f / 3)),
-                   Y0b = _mm_set1_ps(s1b * (1.0f / 3));
-            __m128 A0 = _mm_set1_ps(n0 + n1 * (4.0f / 9)), C0 = _mm_set1_ps(n1 * (1.0f / 9)),
-                   N1 = _mm_set1_ps(n1);
-            __m128 w1 = _mm_set1_ps(pw[i1]), r1 = _mm_set1_ps(pr[i1]), g1 = _mm_set1_ps(pg[i1]),
-                   bb1 = _mm_set1_ps(pb[i1]);
+            __m128 Xr = _mm_set1_ps(pr[i0] + s1r * (2.0f / 3) - q3r[i1]),
+                   Xg = _mm_set1_ps(pg[i0] + s1g * (2.0f / 3) - q3g[i1]),
+                   Xb = _mm_set1_ps(pb[i0] + s1b * (2.0f / 3) - q3b[i1]);
+            __m128 Yr = _mm_set1_ps(s1r * (1.0f / 3) + pr[16] - 2 * q3r[i1]),
+                   Yg = _mm_set1_ps(s1g * (1.0f / 3) + pg[16] - 2 * q3g[i1]),
+                   Yb = _mm_set1_ps(s1b * (1.0f / 3) + pb[16] - 2 * q3b[i1]);
+            __m128 Ac = _mm_set1_ps(n0 + n1 * (4.0f / 9) - w9[i1]),
+                   Bc = _mm_set1_ps((n1 - pw[i1]) * (2.0f / 9)),
+                   Cc = _mm_set1_ps(pw[16] - pw[i1] * (4.0f / 9) + n1 * (1.0f / 9));
             int s0 = i1 > lo[2] ? i1 : lo[2];
             const __m128i lim = _mm_set1_epi32(i0 * 289 + i1 * 17 + hi[2] + 1);
             for (int i2 = s0; i2 <= hi[2]; i2 += 4) {
-                __m128 wv = _mm_loadu_ps(pw + i2);
-                __m128 n2 = _mm_sub_ps(wv, w1), n3 = _mm_sub_ps(w16, wv);
-                __m128 AA = _mm_add_ps(A0, _mm_mul_ps(n2, c19));
-                __m128 BB = _mm_mul_ps(_mm_add_ps(N1, n2), c29);
-                __m128 CC = _mm_add_ps(_mm_add_ps(n3, _mm_mul_ps(n2, c49)), C0);
+                __m128 AA = _mm_add_ps(Ac, _mm_loadu_ps(w9 + i2));
+                __m128 BB = _mm_add_ps(Bc, _mm_loadu_ps(w29 + i2));
+                __m128 CC = _mm_sub_ps(Cc, _mm_loadu_ps(w59 + i2));
                 __m128 D = _mm_sub_ps(_mm_mul_ps(AA, CC), _mm_mul_ps(BB, BB));
-                __m128 pv, s2, s3, X, Y;
-                pv = _mm_loadu_ps(pr + i2);
-                s2 = _mm_sub_ps(pv, r1);
-                s3 = _mm_sub_ps(r16, pv);
-                X = _mm_add_ps(X0r, _mm_mul_ps(s2, c13));
-                Y = _mm_add_ps(_mm_add_ps(Y0r, s3), _mm_mul_ps(s2, c23));
+                __m128 q, X, Y;
+                q = _mm_loadu_ps(q3r + i2);
+                X = _mm_add_ps(Xr, q);
+                Y = _mm_sub_ps(Yr, q);
                 __m128 xx = _mm_mul_ps(X, X), yy = _mm_mul_ps(Y, Y), xy = _mm_mul_ps(X, Y);
-                pv = _mm_loadu_ps(pg + i2);
-                s2 = _mm_sub_ps(pv, g1);
-                s3 = _mm_sub_ps(g16, pv);
-                X = _mm_add_ps(X0g, _mm_mul_ps(s2, c13));
-                Y = _mm_add_ps(_mm_add_ps(Y0g, s3), _mm_mul_ps(s2, c23));
+                q = _mm_loadu_ps(q3g + i2);
+                X = _mm_add_ps(Xg, q);
+                Y = _mm_sub_ps(Yg, q);
                 xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
                 yy = _mm_add_ps(yy, _mm_mul_ps(Y, Y));
                 xy = _mm_add_ps(xy, _mm_mul_ps(X, Y));
-                pv = _mm_loadu_ps(pb + i2);
-                s2 = _mm_sub_ps(pv, bb1);
-                s3 = _mm_sub_ps(bl16, pv);
-                X = _mm_add_ps(X0b, _mm_mul_ps(s2, c13));
-                Y = _mm_add_ps(_mm_add_ps(Y0b, s3), _mm_mul_ps(s2, c23));
+                q = _mm_loadu_ps(q3b + i2);
+                X = _mm_add_ps(Xb, q);
+                Y = _mm_sub_ps(Yb, q);
                 xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
                 yy = _mm_add_ps(yy, _mm_mul_ps(Y, Y));
                 xy = _mm_add_ps(xy, _mm_mul_ps(X, Y));
                 __m128 num = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(CC, xx),
-                                                   _mm_mul_ps(_mm_mul_ps(two, BB), xy)),
+                                                   _mm_mul_ps(_mm_add_ps(BB, BB), xy)),
                                         _mm_mul_ps(AA, yy));
                 /* lanes past hi[2] or with a singular system do not count */
                 __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + i2), lane);
