@@ -3,6 +3,7 @@
 
 #include <math.h>
 
+#include "ptexfilter.h"
 #include "quadmesh.h"
 
 void st_default_set_color(const float P[3], float rgba[4])
@@ -42,6 +43,8 @@ int st_default_set(st_set **out, st_error *e)
     st_quadmesh_free(&m);
     if (rc == ST_OK)
         rc = st_set_meta_add(*out, "seamtex:name", 0, "default", 8, e);
+    if (rc == ST_OK) /* so the Ptex filter family can sample it too (ptexfilter.h) */
+        rc = st_ptexfilter_prepare(*out, e);
     if (rc != ST_OK) {
         st_set_free(*out);
         *out = NULL;

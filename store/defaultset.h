@@ -3,7 +3,8 @@
  * Owns: its recipe. A cube subdivided 8 x 8 per side (384 quad faces, random frame rotations
  * so every edge rotation occurs), RGBA8, per-face sizes drawn in 16..64 per axis, baked from a
  * smooth procedural colour of the 3D position with a high-frequency stripe pattern on top (so
- * any seam shows), with mip chains. Deterministic: the same bytes on every run.
+ * any seam shows), with mip chains, prepared for the Ptex filter family too (ptexfilter.h:
+ * levels past the square reductions follow Ptex's u/v reductions). Deterministic: the same bytes on every run.
  * Does not own: the set layout (set.h), the mesh builder (quadmesh.h).
  */
 #ifndef ST_DEFAULTSET_H

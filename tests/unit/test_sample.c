@@ -898,6 +898,34 @@ static void default_set_is_deterministic_and_seamless(void **state)
     st_set_free(b);
 }
 
+/* The daemon serves the default set with every filter, the Ptex family included: in a face
+ * interior, at level 0 and zero footprint, Ptex's bilinear equals the GPU-style bilinear. */
+static void default_set_samples_with_the_ptex_filters(void **state)
+{
+    (void)state;
+    st_set *s;
+    assert_int_equal(st_default_set(&s, NULL), 0);
+    st_query q[64];
+    for (int i = 0; i < 64; i++)
+        q[i] = (st_query){.face = (uint32_t)(i * 5) % s->info.nfaces,
+                          .u = 0.25f + 0.5f * (float)(i % 8) / 8.0f,
+                          .v = 0.25f + 0.5f * (float)(i / 8) / 8.0f};
+    float gpu[64 * 4], ptx[64 * 4], cov[64];
+    uint8_t st[64];
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_BILINEAR};
+    assert_int_equal(st_sample_batch(s, &o, q, 64, gpu, cov, st), 0);
+    o.filter = ST_FILTER_PTEX_BILINEAR;
+    assert_int_equal(st_sample_batch(s, &o, q, 64, ptx, cov, st), 0);
+    for (int i = 0; i < 64; i++) {
+        assert_int_equal(st[i], ST_Q_OK);
+        for (int c = 0; c < 4; c++)
+            assert_float_equal(gpu[i * 4 + c], ptx[i * 4 + c], 1e-5);
+    }
+    o.filter = ST_FILTER_PTEX_GAUSSIAN;
+    assert_int_equal(st_sample_batch(s, &o, q, 64, ptx, cov, st), 0);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -924,6 +952,7 @@ int main(void)
         cmocka_unit_test(bad_options_are_refused_before_writing),
         cmocka_unit_test(names_round_trip),
         cmocka_unit_test(default_set_is_deterministic_and_seamless),
+        cmocka_unit_test(default_set_samples_with_the_ptex_filters),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
