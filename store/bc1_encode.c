@@ -633,12 +633,16 @@ typedef struct profile {
     int   proj;         /* FAST: least-squares rounds on projected selectors, then one exact
                            selection (0 = the exact rounds above) */
     int   proj_final;   /* FAST: the last selection by projection too (no palette distance) */
+    float r3ratio;      /* ... and its rounds go on only when the first one is within this */
+    float n3ratio;
+    float cluster_min;  /* the cluster fit runs only when the error is above this */      /* the 3-colour search runs only when the trial's error is within this
+                           factor of the 4-colour one */
 } profile;
 
 static const profile PROFILES[3] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0, 1, 1}, /* ST_BC1_FAST */
-    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3, 0, 0, 0, 0}, /* ST_BC1_HQ: cluster splits within +-3 */
-    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0, 0, 0}, /* ST_BC1_BEST: every split */
+    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0, 1, 1, 0, 0, 0}, /* ST_BC1_FAST */
+    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3, 0, 0, 0, 0, 4.0f, 1.5f, 0}, /* ST_BC1_HQ: cluster splits within +-3 */
+    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0, 0, 0, 1e30f, 1e30f, 0}, /* ST_BC1_BEST: every split */
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
@@ -984,7 +988,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             axis_endpoints(&A, P->inset2, e0, e1);
             rounds4(B, P, e0, e1, &best);
         }
-        if (P->cluster && best.err > 0) {
+        if (P->cluster && best.err > P->cluster_min) {
             /* splits within +-cluster of the ones the best selectors imply */
             int cnt[4] = {0, 0, 0, 0};
             for (int i = 0; i < 16; i++)
@@ -1015,6 +1019,8 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             try3(B, a, b, &b3);
             if (it > 0 && !(b3.err < before))
                 break;
+            if (it == 0 && four_ok && b3.err > best.err * P->r3ratio)
+                break; /* hopeless from the start */
             if (!ls_endpoints(B, b3.sel, 0, f0, f1))
                 break;
             if (P->radius) {
@@ -1023,7 +1029,8 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 try3(B, a2, b2, &b3);
             }
         }
-        if (P->neigh3)
+        /* the search moves the error by a few per cent: a trial far behind is not refined */
+        if (P->neigh3 && !(b3.err > best.err * P->n3ratio))
             neighbourhood(B, &b3, 0, P->neigh3);
         if (b3.err < best.err)
             best = b3;
