@@ -659,6 +659,34 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                   (B->b[i] - A->m[2]) * A->v[2];
         ord[i] = i;
     }
+#ifdef __SSE2__
+    /* stable descending order without branches: rank(i) = #{j: p_j > p_i} +
+     * #{j < i: p_j == p_i}, four texels i at a time */
+    {
+        __m128 P[4];
+        __m128i I[4], R[4];
+        for (int g = 0; g < 4; g++) {
+            P[g] = _mm_loadu_ps(proj + 4 * g);
+            I[g] = _mm_set_epi32(4 * g + 3, 4 * g + 2, 4 * g + 1, 4 * g);
+            R[g] = _mm_setzero_si128();
+        }
+        for (int j = 0; j < 16; j++) {
+            __m128 pj = _mm_set1_ps(proj[j]);
+            __m128i jj = _mm_set1_epi32(j);
+            for (int g = 0; g < 4; g++) {
+                __m128i gt = _mm_castps_si128(_mm_cmpgt_ps(pj, P[g]));
+                __m128i eq = _mm_and_si128(_mm_castps_si128(_mm_cmpeq_ps(pj, P[g])),
+                                           _mm_cmplt_epi32(jj, I[g]));
+                R[g] = _mm_sub_epi32(R[g], _mm_or_si128(gt, eq));
+            }
+        }
+        int32_t rank[16];
+        for (int g = 0; g < 4; g++)
+            _mm_storeu_si128((__m128i *)(rank + 4 * g), R[g]);
+        for (int i = 0; i < 16; i++)
+            ord[rank[i]] = i;
+    }
+#else
     for (int i = 1; i < 16; i++) { /* insertion sort, descending */
         int k = ord[i];
         int j = i - 1;
@@ -668,6 +696,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         }
         ord[j + 1] = k;
     }
+#endif
     /* prefix sums of weight and weighted colour (padded: the vector loop reads 3 past 16) */
     float pw[20], pr[20], pg[20], pb[20];
     pw[0] = pr[0] = pg[0] = pb[0] = 0;
