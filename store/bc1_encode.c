@@ -338,39 +338,45 @@ static void axis_compute(const blk *B, axis *A)
 #ifdef __SSE2__
     float m[3], c[6]; /* c: rr rg rb gg gb bb */
     {
-        __m128 sr = _mm_setzero_ps(), sg = sr, sb = sr, sw = sr;
+        /* raw weighted moments (independent of each other: no mean first), then
+         * c = S_xy - S_x S_y / S_w; four horizontal sums at a time by a transpose */
+        __m128 z = _mm_setzero_ps();
+        __m128 sr = z, sg = z, sb = z, sw = z, rr = z, rg = z, rb = z, gg = z, gb = z, bb = z;
         for (int i = 0; i < 16; i += 4) {
             __m128 w = _mm_loadu_ps(B->w + i);
-            sr = _mm_add_ps(sr, _mm_mul_ps(_mm_loadu_ps(B->r + i), w));
-            sg = _mm_add_ps(sg, _mm_mul_ps(_mm_loadu_ps(B->g + i), w));
-            sb = _mm_add_ps(sb, _mm_mul_ps(_mm_loadu_ps(B->b + i), w));
+            __m128 r = _mm_loadu_ps(B->r + i), g = _mm_loadu_ps(B->g + i),
+                   b = _mm_loadu_ps(B->b + i);
+            __m128 wr = _mm_mul_ps(w, r), wg = _mm_mul_ps(w, g), wb = _mm_mul_ps(w, b);
             sw = _mm_add_ps(sw, w);
+            sr = _mm_add_ps(sr, wr);
+            sg = _mm_add_ps(sg, wg);
+            sb = _mm_add_ps(sb, wb);
+            rr = _mm_add_ps(rr, _mm_mul_ps(wr, r));
+            rg = _mm_add_ps(rg, _mm_mul_ps(wr, g));
+            rb = _mm_add_ps(rb, _mm_mul_ps(wr, b));
+            gg = _mm_add_ps(gg, _mm_mul_ps(wg, g));
+            gb = _mm_add_ps(gb, _mm_mul_ps(wg, b));
+            bb = _mm_add_ps(bb, _mm_mul_ps(wb, b));
         }
-        float wsum = hsum(sw);
+        _MM_TRANSPOSE4_PS(sw, sr, sg, sb);
+        __m128 s1 = _mm_add_ps(_mm_add_ps(sw, sr), _mm_add_ps(sg, sb)); /* w r g b */
+        _MM_TRANSPOSE4_PS(rr, rg, rb, gg);
+        __m128 s2 = _mm_add_ps(_mm_add_ps(rr, rg), _mm_add_ps(rb, gg)); /* rr rg rb gg */
+        float f1[4], f2[4];
+        _mm_storeu_ps(f1, s1);
+        _mm_storeu_ps(f2, s2);
+        float sgb = hsum(gb), sbb = hsum(bb);
+        float wsum = f1[0];
         float inv = 1.0f / (wsum > 0 ? wsum : 1.0f);
-        m[0] = hsum(sr) * inv;
-        m[1] = hsum(sg) * inv;
-        m[2] = hsum(sb) * inv;
-        __m128 mr = _mm_set1_ps(m[0]), mg = _mm_set1_ps(m[1]), mb = _mm_set1_ps(m[2]);
-        __m128 rr = _mm_setzero_ps(), rg = rr, rb = rr, gg = rr, gb = rr, bb = rr;
-        for (int i = 0; i < 16; i += 4) {
-            __m128 w = _mm_loadu_ps(B->w + i);
-            __m128 r = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->r + i), mr), w);
-            __m128 g = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->g + i), mg), w);
-            __m128 b = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(B->b + i), mb), w);
-            rr = _mm_add_ps(rr, _mm_mul_ps(r, r));
-            rg = _mm_add_ps(rg, _mm_mul_ps(r, g));
-            rb = _mm_add_ps(rb, _mm_mul_ps(r, b));
-            gg = _mm_add_ps(gg, _mm_mul_ps(g, g));
-            gb = _mm_add_ps(gb, _mm_mul_ps(g, b));
-            bb = _mm_add_ps(bb, _mm_mul_ps(b, b));
-        }
-        c[0] = hsum(rr);
-        c[1] = hsum(rg);
-        c[2] = hsum(rb);
-        c[3] = hsum(gg);
-        c[4] = hsum(gb);
-        c[5] = hsum(bb);
+        m[0] = f1[1] * inv;
+        m[1] = f1[2] * inv;
+        m[2] = f1[3] * inv;
+        c[0] = f2[0] - f1[1] * m[0];
+        c[1] = f2[1] - f1[1] * m[1];
+        c[2] = f2[2] - f1[1] * m[2];
+        c[3] = f2[3] - f1[2] * m[1];
+        c[4] = sgb - f1[2] * m[2];
+        c[5] = sbb - f1[3] * m[2];
     }
 #else
     float m[3] = {0, 0, 0};
