@@ -1194,9 +1194,19 @@ encode:;
     const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : level == ST_BC1_BEST ? 2 : 1];
     encode_colours(&B, P, transparent == 0, &c);
     uint32_t sel = 0;
-    for (int t = 0; t < 16; t++) {
-        unsigned s = (transparent >> t & 1) ? 3u : c.sel[t];
-        sel |= s << (2 * t);
+    if (!transparent) {
+        /* four selectors (bytes 0..3) of a word to one byte: the multiply puts selector k
+         * at bits 24 + 2k, the cross terms stay below bit 24 or above bit 31 */
+        for (int q = 0; q < 4; q++) {
+            uint32_t v;
+            memcpy(&v, c.sel + 4 * q, 4);
+            sel |= (uint32_t)(((uint64_t)v * 0x1041040u >> 24) & 0xFFu) << (8 * q);
+        }
+    } else {
+        for (int t = 0; t < 16; t++) {
+            unsigned s = (transparent >> t & 1) ? 3u : c.sel[t];
+            sel |= s << (2 * t);
+        }
     }
     write_block(c.c0, c.c1, sel, out);
 }
