@@ -227,8 +227,14 @@ static int ls_t(const blk *B, const float tv[16], float e0[3], float e1[3])
         bg = _mm_add_ps(bg, _mm_mul_ps(wt, g));
         bb_ = _mm_add_ps(bb_, _mm_mul_ps(wt, b));
     }
-    float aa = hsum(vaa), ab = hsum(vab), bb = hsum(vbb);
-    float ax[3] = {hsum(ar), hsum(ag), hsum(ab_)}, bx[3] = {hsum(br), hsum(bg), hsum(bb_)};
+    /* nine horizontal sums: two transposes and one hsum */
+    _MM_TRANSPOSE4_PS(vaa, vab, vbb, ar);
+    _MM_TRANSPOSE4_PS(ag, ab_, br, bg);
+    float h1[4], h2[4];
+    _mm_storeu_ps(h1, _mm_add_ps(_mm_add_ps(vaa, vab), _mm_add_ps(vbb, ar)));
+    _mm_storeu_ps(h2, _mm_add_ps(_mm_add_ps(ag, ab_), _mm_add_ps(br, bg)));
+    float aa = h1[0], ab = h1[1], bb = h1[2];
+    float ax[3] = {h1[3], h2[0], h2[1]}, bx[3] = {h2[2], h2[3], hsum(bb_)};
 #else
     float aa = 0, ab = 0, bb = 0, ax[3] = {0, 0, 0}, bx[3] = {0, 0, 0};
     for (int i = 0; i < 16; i++) {
