@@ -189,6 +189,8 @@ static void try4(const blk *B, uint16_t a, uint16_t b, cand *best)
     }
     c.c0 = a > b ? a : b;
     c.c1 = a > b ? b : a;
+    if (best->err < 1e30f && c.c0 == best->c0 && c.c1 == best->c1)
+        return; /* the best itself: nothing to gain */
     c.err = select_eval(B, c.c0, c.c1, c.sel, best->err);
     if (c.err < best->err)
         *best = c;
@@ -200,6 +202,8 @@ static void try3(const blk *B, uint16_t a, uint16_t b, cand *best)
     cand c;
     c.c0 = a < b ? a : b;
     c.c1 = a < b ? b : a;
+    if (best->err < 1e30f && c.c0 == best->c0 && c.c1 == best->c1)
+        return; /* the best itself: nothing to gain */
     c.err = select_eval(B, c.c0, c.c1, c.sel, best->err);
     if (c.err < best->err)
         *best = c;
