@@ -738,57 +738,45 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
     const __m128 eps = _mm_set1_ps(1e-6f), ninf = _mm_set1_ps(-3e30f);
     __m128 bestv = ninf;
     __m128i bidx = _mm_setzero_si128(), lane = _mm_set_epi32(3, 2, 1, 0);
-    /* everything that depends on i2 alone, once: with it, X = Xc + p/3, Y = Yc - p/3,
-     * AA = Ac + w/9, BB = Bc + 2w/9, CC = Cc - 5w/9 (p, w the prefix sums at i2) */
-    float q3r[20], q3g[20], q3b[20], w9[20], w29[20], w59[20];
+    /* With P_k the prefix sums of weighted colour and W_k of weight at the splits (P = P_16,
+     * W = W_16): X = (P_i0 + P_i1 + P_i2)/3, Y = P - X, AA = (5 W_i0 + 3 W_i1 + W_i2)/9,
+     * BB = 2 (W_i2 - W_i0)/9, CC = W - AA - 2 BB, and the score
+     * CC|X|^2 - 2 BB X.Y + AA|Y|^2 = W |X|^2 - 2 (AA + BB) X.P + AA |P|^2. */
+    float q3r[20], q3g[20], q3b[20], w9[20], w29[20];
     for (int i = 0; i < 20; i++) {
         q3r[i] = pr[i] * (1.0f / 3);
         q3g[i] = pg[i] * (1.0f / 3);
         q3b[i] = pb[i] * (1.0f / 3);
         w9[i] = pw[i] * (1.0f / 9);
         w29[i] = pw[i] * (2.0f / 9);
-        w59[i] = pw[i] * (5.0f / 9);
     }
+    const __m128 Wv = _mm_set1_ps(pw[16]), Pr = _mm_set1_ps(pr[16]), Pg = _mm_set1_ps(pg[16]),
+                 Pb = _mm_set1_ps(pb[16]),
+                 PP = _mm_set1_ps(pr[16] * pr[16] + pg[16] * pg[16] + pb[16] * pb[16]);
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
         for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
-            float n0 = pw[i0], n1 = pw[i1] - pw[i0];
-            float s1r = pr[i1] - pr[i0], s1g = pg[i1] - pg[i0], s1b = pb[i1] - pb[i0];
-            __m128 Xr = _mm_set1_ps(pr[i0] + s1r * (2.0f / 3) - q3r[i1]),
-                   Xg = _mm_set1_ps(pg[i0] + s1g * (2.0f / 3) - q3g[i1]),
-                   Xb = _mm_set1_ps(pb[i0] + s1b * (2.0f / 3) - q3b[i1]);
-            __m128 Yr = _mm_set1_ps(s1r * (1.0f / 3) + pr[16] - 2 * q3r[i1]),
-                   Yg = _mm_set1_ps(s1g * (1.0f / 3) + pg[16] - 2 * q3g[i1]),
-                   Yb = _mm_set1_ps(s1b * (1.0f / 3) + pb[16] - 2 * q3b[i1]);
-            __m128 Ac = _mm_set1_ps(n0 + n1 * (4.0f / 9) - w9[i1]),
-                   Bc = _mm_set1_ps((n1 - pw[i1]) * (2.0f / 9)),
-                   Cc = _mm_set1_ps(pw[16] - pw[i1] * (4.0f / 9) + n1 * (1.0f / 9));
+            __m128 Xr = _mm_set1_ps(q3r[i0] + q3r[i1]), Xg = _mm_set1_ps(q3g[i0] + q3g[i1]),
+                   Xb = _mm_set1_ps(q3b[i0] + q3b[i1]);
+            __m128 Ac = _mm_set1_ps(5 * w9[i0] + 3 * w9[i1]), Bc = _mm_set1_ps(-w29[i0]);
             int s0 = i1 > lo[2] ? i1 : lo[2];
             const __m128i lim = _mm_set1_epi32(i0 * 289 + i1 * 17 + hi[2] + 1);
             for (int i2 = s0; i2 <= hi[2]; i2 += 4) {
                 __m128 AA = _mm_add_ps(Ac, _mm_loadu_ps(w9 + i2));
                 __m128 BB = _mm_add_ps(Bc, _mm_loadu_ps(w29 + i2));
-                __m128 CC = _mm_sub_ps(Cc, _mm_loadu_ps(w59 + i2));
+                __m128 AB = _mm_add_ps(AA, BB);
+                __m128 CC = _mm_sub_ps(_mm_sub_ps(Wv, AB), BB);
                 __m128 D = _mm_sub_ps(_mm_mul_ps(AA, CC), _mm_mul_ps(BB, BB));
-                __m128 q, X, Y;
-                q = _mm_loadu_ps(q3r + i2);
-                X = _mm_add_ps(Xr, q);
-                Y = _mm_sub_ps(Yr, q);
-                __m128 xx = _mm_mul_ps(X, X), yy = _mm_mul_ps(Y, Y), xy = _mm_mul_ps(X, Y);
-                q = _mm_loadu_ps(q3g + i2);
-                X = _mm_add_ps(Xg, q);
-                Y = _mm_sub_ps(Yg, q);
+                __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(q3r + i2));
+                __m128 xx = _mm_mul_ps(X, X), xp = _mm_mul_ps(X, Pr);
+                X = _mm_add_ps(Xg, _mm_loadu_ps(q3g + i2));
                 xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
-                yy = _mm_add_ps(yy, _mm_mul_ps(Y, Y));
-                xy = _mm_add_ps(xy, _mm_mul_ps(X, Y));
-                q = _mm_loadu_ps(q3b + i2);
-                X = _mm_add_ps(Xb, q);
-                Y = _mm_sub_ps(Yb, q);
+                xp = _mm_add_ps(xp, _mm_mul_ps(X, Pg));
+                X = _mm_add_ps(Xb, _mm_loadu_ps(q3b + i2));
                 xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
-                yy = _mm_add_ps(yy, _mm_mul_ps(Y, Y));
-                xy = _mm_add_ps(xy, _mm_mul_ps(X, Y));
-                __m128 num = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(CC, xx),
-                                                   _mm_mul_ps(_mm_add_ps(BB, BB), xy)),
-                                        _mm_mul_ps(AA, yy));
+                xp = _mm_add_ps(xp, _mm_mul_ps(X, Pb));
+                __m128 num = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(Wv, xx),
+                                                   _mm_mul_ps(_mm_add_ps(AB, AB), xp)),
+                                        _mm_mul_ps(AA, PP));
                 /* lanes past hi[2] or with a singular system do not count */
                 __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + i2), lane);
                 __m128 ok = _mm_and_ps(_mm_cmpgt_ps(D, eps),
