@@ -713,16 +713,18 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         ord[j + 1] = k;
     }
 #endif
-    /* prefix sums of weight and weighted colour (padded: the vector loop reads 3 past 16) */
+    /* prefix sums of weight and weighted colour, the colours taken relative to their mean
+     * (the fit is translation invariant, the sums stay small and P_16 = 0); padded: the
+     * vector loop reads 3 past 16 */
     float pw[20], pr[20], pg[20], pb[20];
     pw[0] = pr[0] = pg[0] = pb[0] = 0;
     for (int i = 0; i < 16; i++) {
         int k = ord[i];
         float w = B->w[k];
         pw[i + 1] = pw[i] + w;
-        pr[i + 1] = pr[i] + w * B->r[k];
-        pg[i + 1] = pg[i] + w * B->g[k];
-        pb[i + 1] = pb[i] + w * B->b[k];
+        pr[i + 1] = pr[i] + w * (B->r[k] - A->m[0]);
+        pg[i + 1] = pg[i] + w * (B->g[k] - A->m[1]);
+        pb[i + 1] = pb[i] + w * (B->b[k] - A->m[2]);
     }
     for (int i = 17; i < 20; i++) {
         pw[i] = pw[16];
@@ -738,10 +740,10 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
     const __m128 eps = _mm_set1_ps(1e-6f), ninf = _mm_set1_ps(-3e30f);
     __m128 bestv = ninf;
     __m128i bidx = _mm_setzero_si128(), lane = _mm_set_epi32(3, 2, 1, 0);
-    /* With P_k the prefix sums of weighted colour and W_k of weight at the splits (P = P_16,
-     * W = W_16): X = (P_i0 + P_i1 + P_i2)/3, Y = P - X, AA = (5 W_i0 + 3 W_i1 + W_i2)/9,
-     * BB = 2 (W_i2 - W_i0)/9, CC = W - AA - 2 BB, and the score
-     * CC|X|^2 - 2 BB X.Y + AA|Y|^2 = W |X|^2 - 2 (AA + BB) X.P + AA |P|^2. */
+    /* With P_k the prefix sums of weighted (centred) colour and W_k of weight at the splits
+     * (P_16 = 0, W = W_16): X = (P_i0 + P_i1 + P_i2)/3, Y = -X, AA = (5 W_i0 + 3 W_i1 +
+     * W_i2)/9, BB = 2 (W_i2 - W_i0)/9, CC = W - AA - 2 BB, and the score
+     * (CC|X|^2 - 2 BB X.Y + AA|Y|^2) / D = W |X|^2 / D: |X|^2 / D is compared. */
     float q3r[20], q3g[20], q3b[20], w9[20], w29[20];
     for (int i = 0; i < 20; i++) {
         q3r[i] = pr[i] * (1.0f / 3);
@@ -750,9 +752,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         w9[i] = pw[i] * (1.0f / 9);
         w29[i] = pw[i] * (2.0f / 9);
     }
-    const __m128 Wv = _mm_set1_ps(pw[16]), Pr = _mm_set1_ps(pr[16]), Pg = _mm_set1_ps(pg[16]),
-                 Pb = _mm_set1_ps(pb[16]),
-                 PP = _mm_set1_ps(pr[16] * pr[16] + pg[16] * pg[16] + pb[16] * pb[16]);
+    const __m128 Wv = _mm_set1_ps(pw[16]);
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
         for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
             __m128 Xr = _mm_set1_ps(q3r[i0] + q3r[i1]), Xg = _mm_set1_ps(q3g[i0] + q3g[i1]),
@@ -763,20 +763,14 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
             for (int i2 = s0; i2 <= hi[2]; i2 += 4) {
                 __m128 AA = _mm_add_ps(Ac, _mm_loadu_ps(w9 + i2));
                 __m128 BB = _mm_add_ps(Bc, _mm_loadu_ps(w29 + i2));
-                __m128 AB = _mm_add_ps(AA, BB);
-                __m128 CC = _mm_sub_ps(_mm_sub_ps(Wv, AB), BB);
+                __m128 CC = _mm_sub_ps(_mm_sub_ps(Wv, _mm_add_ps(AA, BB)), BB);
                 __m128 D = _mm_sub_ps(_mm_mul_ps(AA, CC), _mm_mul_ps(BB, BB));
                 __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(q3r + i2));
-                __m128 xx = _mm_mul_ps(X, X), xp = _mm_mul_ps(X, Pr);
+                __m128 num = _mm_mul_ps(X, X);
                 X = _mm_add_ps(Xg, _mm_loadu_ps(q3g + i2));
-                xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
-                xp = _mm_add_ps(xp, _mm_mul_ps(X, Pg));
+                num = _mm_add_ps(num, _mm_mul_ps(X, X));
                 X = _mm_add_ps(Xb, _mm_loadu_ps(q3b + i2));
-                xx = _mm_add_ps(xx, _mm_mul_ps(X, X));
-                xp = _mm_add_ps(xp, _mm_mul_ps(X, Pb));
-                __m128 num = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(Wv, xx),
-                                                   _mm_mul_ps(_mm_add_ps(AB, AB), xp)),
-                                        _mm_mul_ps(AA, PP));
+                num = _mm_add_ps(num, _mm_mul_ps(X, X));
                 /* lanes past hi[2] or with a singular system do not count */
                 __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + i2), lane);
                 __m128 ok = _mm_and_ps(_mm_cmpgt_ps(D, eps),
@@ -857,8 +851,8 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
             float s1 = q[i1] - q[i0], s2 = q[i2] - q[i1], s3 = q[16] - q[i2];
             float X = q[i0] + s1 * (2.0f / 3) + s2 * (1.0f / 3);
             float Y = s3 + s2 * (2.0f / 3) + s1 * (1.0f / 3);
-            e0[k] = (CC * X - BB * Y) * inv;
-            e1[k] = (AA * Y - BB * X) * inv;
+            e0[k] = (CC * X - BB * Y) * inv + A->m[k];
+            e1[k] = (AA * Y - BB * X) * inv + A->m[k];
         }
     }
     for (int k = 0; k < 3 && found; k++) {
