@@ -651,14 +651,15 @@ typedef struct profile {
     int   proj_final;   /* FAST: the last selection by projection too (no palette distance) */
     float r3ratio;      /* ... and its rounds go on only when the first one is within this */
     float n3ratio;
-    float cluster_min;  /* the cluster fit runs only when the error is above this */      /* the 3-colour search runs only when the trial's error is within this
+    float cluster_min;
+    int   seed;         /* projected least-squares rounds before the exact ones */  /* the cluster fit runs only when the error is above this */      /* the 3-colour search runs only when the trial's error is within this
                            factor of the 4-colour one */
 } profile;
 
 static const profile PROFILES[3] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0, 1, 1, 0, 0, 0}, /* ST_BC1_FAST */
-    {1.0f / 16.0f, 3, 2, 3, 1, 0, -1.0f, 3, 0, 0, 0, 0, 4.0f, 1.5f, 0}, /* ST_BC1_HQ: cluster splits within +-3 */
-    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0, 0, 0, 1e30f, 1e30f, 0}, /* ST_BC1_BEST: every split */
+    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0, 1, 1, 0, 0, 0, 0}, /* ST_BC1_FAST */
+    {1.0f / 16.0f, 2, 2, 3, 1, 0, -1.0f, 3, 0, 0, 0, 0, 4.0f, 1.5f, 0, 1}, /* ST_BC1_HQ: cluster splits within +-3 */
+    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0, 0, 0, 1e30f, 1e30f, 0, 0}, /* ST_BC1_BEST: every split */
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
@@ -967,6 +968,22 @@ static void proj_select(const blk *B, uint16_t c0, uint16_t c1, uint8_t sel[16])
 
 /* FAST: axis endpoints -> rounds of (round, projected selectors, least squares) -> one exact
  * selection of the result. */
+/* Rounds of (round, projected selectors, least squares) from the inset axis endpoints. */
+static void proj_rounds(const blk *B, const axis *A, float inset, int rounds, float e0[3],
+                        float e1[3])
+{
+    axis_endpoints(A, inset, e0, e1);
+    for (int it = 0; it < rounds; it++) {
+        uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
+        if (a == b)
+            break;
+        float tv[16];
+        proj_weights(B, a, b, tv);
+        if (!ls_t(B, tv, e0, e1))
+            break;
+    }
+}
+
 static void encode_fast4(const blk *B, const profile *P, const axis *A, cand *best)
 {
     float e0[3], e1[3];
@@ -1005,7 +1022,10 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         return;
     }
     if (four_ok) {
-        axis_endpoints(&A, P->inset, e0, e1);
+        if (P->seed)
+            proj_rounds(B, &A, P->inset, P->seed, e0, e1);
+        else
+            axis_endpoints(&A, P->inset, e0, e1);
         rounds4(B, P, e0, e1, &best);
         if (best.err < P->easy) {
             *out = best;
