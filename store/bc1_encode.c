@@ -29,6 +29,9 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h> /* AVX2 only in functions that say so, chosen at run time */
+#endif
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -255,7 +258,9 @@ static int ls_t(const blk *B, const float tv[16], float e0[3], float e1[3])
     }
 #endif
     float det = aa * bb - ab * ab;
-    if (fabsf(det) < 1e-6f)
+    /* singular when the weights barely vary (det / (aa bb) = 1 - correlation^2); relative,
+     * so that rounding of a truly singular system never passes */
+    if (!(det > 1e-5f * aa * bb))
         return 0;
     float inv = 1.0f / det;
     for (int k = 0; k < 3; k++) {
@@ -663,6 +668,65 @@ static const profile PROFILES[3] = {
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#define ST_BC1_AVX2 1
+/* The cluster fit's split scan with eight i2 at once (the +-3 window of i2 in one step), for
+ * CPUs with AVX2; the same operations lane by lane as the SSE2 loop, so the same scores and
+ * the same split. Leaves its best four lanes (scores and split indices) folded into the
+ * 128-bit form the SSE2 loop ends with. */
+__attribute__((target("avx2"))) static void
+cluster_scan_avx2(const float *q3r, const float *q3g, const float *q3b, const float *w9,
+                  const float *w29, float wsum, const int lo[3], const int hi[3], __m128 *best4,
+                  __m128i *idx4)
+{
+    const __m256 eps = _mm256_set1_ps(1e-5f), ninf = _mm256_set1_ps(-3e30f),
+                 one = _mm256_set1_ps(1.0f), Wv = _mm256_set1_ps(wsum);
+    const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
+    __m256 bestv = ninf;
+    __m256i bidx = _mm256_setzero_si256();
+    for (int i0 = lo[0]; i0 <= hi[0]; i0++)
+        for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
+            __m256 Xr = _mm256_set1_ps(q3r[i0] + q3r[i1]), Xg = _mm256_set1_ps(q3g[i0] + q3g[i1]),
+                   Xb = _mm256_set1_ps(q3b[i0] + q3b[i1]);
+            __m256 Ac = _mm256_set1_ps(5 * w9[i0] + 3 * w9[i1]), Bc = _mm256_set1_ps(-w29[i0]);
+            int s0 = i1 > lo[2] ? i1 : lo[2];
+            const __m256i lim = _mm256_set1_epi32(i0 * 289 + i1 * 17 + hi[2] + 1);
+            for (int i2 = s0; i2 <= hi[2]; i2 += 8) {
+                __m256 AA = _mm256_add_ps(Ac, _mm256_loadu_ps(w9 + i2));
+                __m256 BB = _mm256_add_ps(Bc, _mm256_loadu_ps(w29 + i2));
+                __m256 CC = _mm256_sub_ps(_mm256_sub_ps(Wv, _mm256_add_ps(AA, BB)), BB);
+                __m256 D = _mm256_sub_ps(_mm256_mul_ps(AA, CC), _mm256_mul_ps(BB, BB));
+                __m256 X = _mm256_add_ps(Xr, _mm256_loadu_ps(q3r + i2));
+                __m256 num = _mm256_mul_ps(X, X);
+                X = _mm256_add_ps(Xg, _mm256_loadu_ps(q3g + i2));
+                num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+                X = _mm256_add_ps(Xb, _mm256_loadu_ps(q3b + i2));
+                num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+                __m256i idx = _mm256_add_epi32(_mm256_set1_epi32(i0 * 289 + i1 * 17 + i2), lane);
+                __m256 ok = _mm256_and_ps(_mm256_cmp_ps(D, _mm256_mul_ps(eps, _mm256_mul_ps(AA, CC)),
+                                                        _CMP_GT_OQ),
+                                          _mm256_castsi256_ps(_mm256_cmpgt_epi32(lim, idx)));
+                __m256 gv = _mm256_div_ps(num, _mm256_blendv_ps(one, D, ok));
+                gv = _mm256_blendv_ps(ninf, gv, ok);
+                __m256 m = _mm256_cmp_ps(gv, bestv, _CMP_GT_OQ);
+                bestv = _mm256_blendv_ps(bestv, gv, m);
+                bidx = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(bidx),
+                                                            _mm256_castsi256_ps(idx), m));
+            }
+        }
+    /* fold the upper four lanes into the lower: the better score, on a tie the lower index */
+    __m128 lo4 = _mm256_castps256_ps128(bestv), hi4 = _mm256_extractf128_ps(bestv, 1);
+    __m128i loi = _mm256_castsi256_si128(bidx), hii = _mm256_extracti128_si256(bidx, 1);
+    __m128 take = _mm_or_ps(_mm_cmpgt_ps(hi4, lo4),
+                            _mm_and_ps(_mm_cmpeq_ps(hi4, lo4),
+                                       _mm_castsi128_ps(_mm_cmplt_epi32(hii, loi))));
+    *best4 = _mm_blendv_ps(lo4, hi4, take);
+    *idx4 = _mm_castps_si128(_mm_blendv_ps(_mm_castsi128_ps(loi), _mm_castsi128_ps(hii), take));
+}
+#else
+#define ST_BC1_AVX2 0
+#endif
+
 /* Cluster fit (4-colour): the texels sorted along the axis, every ordered split into four
  * runs (c0, 2/3 c0 + 1/3 c1, 1/3 c0 + 2/3 c1, c1), the least-squares endpoints of each split
  * from prefix sums, the split of least continuous error wins. */
@@ -716,8 +780,8 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
 #endif
     /* prefix sums of weight and weighted colour, the colours taken relative to their mean
      * (the fit is translation invariant, the sums stay small and P_16 = 0); padded: the
-     * vector loop reads 3 past 16 */
-    float pw[20], pr[20], pg[20], pb[20];
+     * vector loops read up to 7 past 16 */
+    float pw[24], pr[24], pg[24], pb[24];
     pw[0] = pr[0] = pg[0] = pb[0] = 0;
     for (int i = 0; i < 16; i++) {
         int k = ord[i];
@@ -727,7 +791,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         pg[i + 1] = pg[i] + w * (B->g[k] - A->m[1]);
         pb[i + 1] = pb[i] + w * (B->b[k] - A->m[2]);
     }
-    for (int i = 17; i < 20; i++) {
+    for (int i = 17; i < 24; i++) {
         pw[i] = pw[16];
         pr[i] = pr[16];
         pg[i] = pg[16];
@@ -738,15 +802,15 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
 #ifdef __SSE2__
     /* four consecutive i2 at once; each lane keeps its best score and split index, and the
      * lanes are merged so that the first best split in the scalar loop's order wins */
-    const __m128 eps = _mm_set1_ps(1e-6f), ninf = _mm_set1_ps(-3e30f);
+    const __m128 eps = _mm_set1_ps(1e-5f), ninf = _mm_set1_ps(-3e30f);
     __m128 bestv = ninf;
     __m128i bidx = _mm_setzero_si128(), lane = _mm_set_epi32(3, 2, 1, 0);
     /* With P_k the prefix sums of weighted (centred) colour and W_k of weight at the splits
      * (P_16 = 0, W = W_16): X = (P_i0 + P_i1 + P_i2)/3, Y = -X, AA = (5 W_i0 + 3 W_i1 +
      * W_i2)/9, BB = 2 (W_i2 - W_i0)/9, CC = W - AA - 2 BB, and the score
      * (CC|X|^2 - 2 BB X.Y + AA|Y|^2) / D = W |X|^2 / D: |X|^2 / D is compared. */
-    float q3r[20], q3g[20], q3b[20], w9[20], w29[20];
-    for (int i = 0; i < 20; i++) {
+    float q3r[24], q3g[24], q3b[24], w9[24], w29[24];
+    for (int i = 0; i < 24; i++) {
         q3r[i] = pr[i] * (1.0f / 3);
         q3g[i] = pg[i] * (1.0f / 3);
         q3b[i] = pb[i] * (1.0f / 3);
@@ -754,6 +818,12 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         w29[i] = pw[i] * (2.0f / 9);
     }
     const __m128 Wv = _mm_set1_ps(pw[16]);
+#if ST_BC1_AVX2
+    if (__builtin_cpu_supports("avx2")) {
+        cluster_scan_avx2(q3r, q3g, q3b, w9, w29, pw[16], lo, hi, &bestv, &bidx);
+        goto merge;
+    }
+#endif
     for (int i0 = lo[0]; i0 <= hi[0]; i0++)
         for (int i1 = i0 > lo[1] ? i0 : lo[1]; i1 <= hi[1]; i1++) {
             __m128 Xr = _mm_set1_ps(q3r[i0] + q3r[i1]), Xg = _mm_set1_ps(q3g[i0] + q3g[i1]),
@@ -774,7 +844,8 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                 num = _mm_add_ps(num, _mm_mul_ps(X, X));
                 /* lanes past hi[2] or with a singular system do not count */
                 __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + i2), lane);
-                __m128 ok = _mm_and_ps(_mm_cmpgt_ps(D, eps),
+                /* relative test: a split with (nearly) one weight is singular */
+                __m128 ok = _mm_and_ps(_mm_cmpgt_ps(D, _mm_mul_ps(eps, _mm_mul_ps(AA, CC))),
                                        _mm_castsi128_ps(_mm_cmplt_epi32(idx, lim)));
                 __m128 gv = _mm_div_ps(num, _mm_or_ps(_mm_and_ps(ok, D),
                                                       _mm_andnot_ps(ok, _mm_set1_ps(1.0f))));
@@ -785,6 +856,9 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                 bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, bidx));
             }
         }
+#if ST_BC1_AVX2
+merge:
+#endif
     /* the best lane; among equal scores the first in the scalar loop's order (lowest index) */
     {
         float gs[4];
@@ -819,7 +893,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
                 float BB = (n1 + n2) * (2.0f / 9);
                 float CC = n3 + n2 * (4.0f / 9) + n1 * (1.0f / 9);
                 float D = AA * CC - BB * BB;
-                if (!(D > 1e-6f))
+                if (!(D > 1e-5f * AA * CC))
                     continue;
                 float s2r = pr[i2] - pr[i1], s2g = pg[i2] - pg[i1], s2b = pb[i2] - pb[i1];
                 float s3r = pr[16] - pr[i2], s3g = pg[16] - pg[i2], s3b = pb[16] - pb[i2];
