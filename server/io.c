@@ -7,7 +7,8 @@
  * Per wake-up a readable connection gets ONE read of up to the free input space (at least
  * 16 KiB), every complete frame in the buffer is parsed and answered into the output buffer,
  * then the output is written with one send: a pipelined burst of N requests costs one read
- * and one write, not N. Level-triggered polling keeps the loop fair between connections.
+ * and one write, not N (once 64 KiB of replies are pending they are sent at once, so a
+ * pipeline of big SAMPLE replies streams instead of waiting for the whole burst). Level-triggered polling keeps the loop fair between connections.
  * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
  * (nor parsed) until the peer drains them. Memory: buffers are allocated when data arrives
  * and released as soon as everything is parsed and answered, so an idle connection holds
@@ -28,6 +29,7 @@
 
 #define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
 #define KEEP_SMALL (64u << 10)   /* buffers up to this are released as soon as idle */
+#define FLUSH_AT   (64u << 10)   /* replies pending past this are sent inside the parse loop */
 
 int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan)
 {
@@ -215,6 +217,23 @@ static int conn_flush(sts_conn *c)
     return 0;
 }
 
+/* Sends what the socket takes now, without closing on error (conn_flush, run after the
+ * parse loop, sees the error again and closes). Used inside the parse loop once big replies
+ * pile up, so the peer can start reading the first while the next are computed. */
+static void try_send(sts_conn *c)
+{
+    sts_server *srv = c->io->srv;
+    while (stp_buf_avail(&c->out)) {
+        ssize_t w = send(c->fd, stp_buf_head(&c->out), stp_buf_avail(&c->out),
+                         MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w <= 0)
+            return;
+        STS_STAT_ADD(srv, writes, 1);
+        STS_STAT_ADD(srv, bytes_out, (uint64_t)w);
+        stp_buf_consume(&c->out, (size_t)w);
+    }
+}
+
 /* Answers a frame the server refuses before dispatch, and arranges to skip its body. */
 static void refuse(sts_conn *c, const stp_header *h, int status, const char *msg)
 {
@@ -305,6 +324,8 @@ static void conn_process(sts_conn *c)
         in_consume(c, total);
         if (d == 2)
             c->close_after = 1;
+        if (stp_buf_avail(&c->out) >= FLUSH_AT)
+            try_send(c);
     }
 }
 
