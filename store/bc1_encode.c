@@ -29,8 +29,13 @@
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
-#if defined(__GNUC__) && defined(__x86_64__)
-#include <immintrin.h> /* AVX2 only in functions that say so, chosen at run time */
+/* AVX2 is used only in functions that say so, chosen at run time (__builtin_cpu_supports);
+ * every such function computes exactly what its SSE2 twin does. */
+#if defined(__SSE2__) && defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define ST_BC1_AVX2 1
+#else
+#define ST_BC1_AVX2 0
 #endif
 #include <pthread.h>
 #include <stdlib.h>
@@ -100,7 +105,7 @@ static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4]
  * caller only keeps a result below it, so the evaluation may stop as soon as the running
  * error reaches it (the return value is then >= limit and sel is unspecified). */
 #ifdef __SSE2__
-static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
+static float select_sse(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
 {
     float pal[3][4];
     palette_f(c0, c1, c0 > c1, pal);
@@ -167,6 +172,82 @@ static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, f
         sel[i] = (uint8_t)(key[i] & 3);
     }
     return err;
+}
+#endif
+
+#if ST_BC1_AVX2
+/* The lane sums of 16 texels in the SSE2 order (lane l: ((t_l + t_4+l) + t_8+l) + t_12+l,
+ * then across lanes), so that both paths return the same float for any weights. */
+__attribute__((target("avx2"))) static inline float sum16_avx2(__m256 a, __m256 b)
+{
+    __m128 t = _mm_add_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+    t = _mm_add_ps(t, _mm256_castps256_ps128(b));
+    t = _mm_add_ps(t, _mm256_extractf128_ps(b, 1));
+    return hsum(t);
+}
+
+__attribute__((target("avx2"))) static inline void store_sel8_avx2(__m256i s, uint8_t *sel)
+{
+    __m128i s16 = _mm_packs_epi32(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
+    _mm_storel_epi64((__m128i *)sel, _mm_packus_epi16(s16, s16));
+}
+
+/* select_sse eight texels at a time (AVX2 CPUs, chosen at run time): the same keys, so the
+ * same selectors and error. */
+__attribute__((target("avx2"))) static float select_avx2(const blk *B, uint16_t c0,
+                                                          uint16_t c1, uint8_t *sel,
+                                                          float limit)
+{
+    float pal[3][4];
+    palette_f(c0, c1, c0 > c1, pal);
+    __m256 pr[4], pg[4], pb[4], pk[4];
+    for (int j = 0; j < 4; j++) {
+        pr[j] = _mm256_set1_ps(-8.0f * pal[0][j]);
+        pg[j] = _mm256_set1_ps(-8.0f * pal[1][j]);
+        pb[j] = _mm256_set1_ps(-8.0f * pal[2][j]);
+        pk[j] = _mm256_set1_ps(4.0f * (pal[0][j] * pal[0][j] + pal[1][j] * pal[1][j] +
+                                       pal[2][j] * pal[2][j]) + (float)j);
+    }
+    const __m256i three = _mm256_set1_epi32(3);
+    const __m256 quarter = _mm256_set1_ps(0.25f);
+    __m256 part[2];
+    for (int h = 0; h < 2; h++) {
+        int g = 8 * h;
+        __m256 r = _mm256_loadu_ps(B->r + g), gg = _mm256_loadu_ps(B->g + g),
+               b = _mm256_loadu_ps(B->b + g);
+        __m256 key = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r, pr[0]), _mm256_mul_ps(gg, pg[0])),
+                                   _mm256_add_ps(_mm256_mul_ps(b, pb[0]), pk[0]));
+        for (int j = 1; j < 4; j++) {
+            __m256 k = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r, pr[j]), _mm256_mul_ps(gg, pg[j])),
+                                     _mm256_add_ps(_mm256_mul_ps(b, pb[j]), pk[j]));
+            key = _mm256_min_ps(key, k);
+        }
+        __m256i s = _mm256_and_si256(_mm256_cvtps_epi32(key), three);
+        __m256 bracket = _mm256_mul_ps(_mm256_sub_ps(key, _mm256_cvtepi32_ps(s)), quarter);
+        __m256 x2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r, r), _mm256_mul_ps(gg, gg)),
+                                  _mm256_mul_ps(b, b));
+        part[h] = _mm256_mul_ps(_mm256_add_ps(x2, bracket), _mm256_loadu_ps(B->w + g));
+        store_sel8_avx2(s, sel + g);
+        if (h == 0) {
+            __m128 t = _mm_add_ps(_mm256_castps256_ps128(part[0]),
+                                  _mm256_extractf128_ps(part[0], 1));
+            float e = hsum(t);
+            if (e >= limit)
+                return e;
+        }
+    }
+    return sum16_avx2(part[0], part[1]);
+}
+#endif
+
+#ifdef __SSE2__
+static float select_eval(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
+{
+#if ST_BC1_AVX2
+    if (__builtin_cpu_supports("avx2"))
+        return select_avx2(B, c0, c1, sel, limit);
+#endif
+    return select_sse(B, c0, c1, sel, limit);
 }
 #endif
 
@@ -575,6 +656,43 @@ static float select_chan(const blk *B, const nbase *N, int k, const float pk[4],
 }
 #endif
 
+#if ST_BC1_AVX2
+__attribute__((target("avx2"))) static float select_chan_avx2(const blk *B, const nbase *N,
+                                                               int k, const float pk[4],
+                                                               uint8_t *sel, float limit)
+{
+    const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
+    __m256 p2[4];
+    for (int j = 0; j < 4; j++)
+        p2[j] = _mm256_set1_ps(2.0f * pk[j]);
+    const __m256i three = _mm256_set1_epi32(3);
+    const __m256 quarter = _mm256_set1_ps(0.25f), two = _mm256_set1_ps(2.0f);
+    __m256 part[2];
+    for (int h = 0; h < 2; h++) {
+        int g = 8 * h;
+        __m256 x2 = _mm256_mul_ps(_mm256_loadu_ps(x + g), two);
+        __m256 t = _mm256_sub_ps(x2, p2[0]);
+        __m256 key = _mm256_add_ps(_mm256_loadu_ps(N->other[k][0] + g), _mm256_mul_ps(t, t));
+        for (int j = 1; j < 4; j++) {
+            t = _mm256_sub_ps(x2, p2[j]);
+            key = _mm256_min_ps(key, _mm256_add_ps(_mm256_loadu_ps(N->other[k][j] + g),
+                                                   _mm256_mul_ps(t, t)));
+        }
+        __m256i s = _mm256_and_si256(_mm256_cvtps_epi32(key), three);
+        __m256 dist = _mm256_mul_ps(_mm256_sub_ps(key, _mm256_cvtepi32_ps(s)), quarter);
+        part[h] = _mm256_mul_ps(dist, _mm256_loadu_ps(B->w + g));
+        store_sel8_avx2(s, sel + g);
+        if (h == 0) {
+            float e = hsum(_mm_add_ps(_mm256_castps256_ps128(part[0]),
+                                      _mm256_extractf128_ps(part[0], 1)));
+            if (e >= limit)
+                return e;
+        }
+    }
+    return sum16_avx2(part[0], part[1]);
+}
+#endif
+
 /* Greedy +-1 search over the six 565 components of the best pair, in its own mode. */
 static void neighbourhood(const blk *B, cand *best, int four, int passes)
 {
@@ -583,6 +701,9 @@ static void neighbourhood(const blk *B, cand *best, int four, int passes)
     nbase N;
     uint16_t nb0 = best->c0, nb1 = best->c1;
     nbase_fill(B, nb0, nb1, &N);
+#if ST_BC1_AVX2
+    const int avx2 = __builtin_cpu_supports("avx2");
+#endif
 #endif
     for (int pass = 0; pass < passes; pass++) {
         int improved = 0;
@@ -619,7 +740,12 @@ static void neighbourhood(const blk *B, cand *best, int four, int passes)
                         float pk[4] = {(float)ea, (float)eb,
                                        (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2),
                                        four ? (float)((ea + 2 * eb) / 3) : 2000.0f};
-                        err = select_chan(B, &N, k, pk, sel, best->err);
+#if ST_BC1_AVX2
+                        if (avx2)
+                            err = select_chan_avx2(B, &N, k, pk, sel, best->err);
+                        else
+#endif
+                            err = select_chan(B, &N, k, pk, sel, best->err);
                     } else {
                         err = select_eval(B, a, b, sel, best->err);
                     }
@@ -668,8 +794,7 @@ static const profile PROFILES[3] = {
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
-#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
-#define ST_BC1_AVX2 1
+#if ST_BC1_AVX2
 /* The cluster fit's split scan with eight i2 at once (the +-3 window of i2 in one step), for
  * CPUs with AVX2; the same operations lane by lane as the SSE2 loop, so the same scores and
  * the same split. Leaves its best four lanes (scores and split indices) folded into the
@@ -723,8 +848,6 @@ cluster_scan_avx2(const float *q3r, const float *q3g, const float *q3b, const fl
     *best4 = _mm_blendv_ps(lo4, hi4, take);
     *idx4 = _mm_castps_si128(_mm_blendv_ps(_mm_castsi128_ps(loi), _mm_castsi128_ps(hii), take));
 }
-#else
-#define ST_BC1_AVX2 0
 #endif
 
 /* Cluster fit (4-colour): the texels sorted along the axis, every ordered split into four
