@@ -20,6 +20,40 @@
 
 extern char **environ;
 
+/* Daemons started and not yet reaped: a test that fails an assertion jumps out without its
+ * cleanup, so at exit every daemon still listed is killed (no orphan keeps running). */
+#define MAX_LIVE 64
+static pid_t live[MAX_LIVE];
+static int atexit_set;
+
+static void kill_leftovers(void)
+{
+    for (int i = 0; i < MAX_LIVE; i++)
+        if (live[i] > 0) {
+            kill(live[i], SIGKILL);
+            waitpid(live[i], NULL, 0);
+            live[i] = 0;
+        }
+}
+
+static void track(pid_t pid, int add)
+{
+    if (add && !atexit_set) {
+        atexit(kill_leftovers);
+        atexit_set = 1;
+    }
+    for (int i = 0; i < MAX_LIVE; i++) {
+        if (add && live[i] == 0) {
+            live[i] = pid;
+            return;
+        }
+        if (!add && live[i] == pid) {
+            live[i] = 0;
+            return;
+        }
+    }
+}
+
 static long long now_ms(void)
 {
     struct timespec ts;
@@ -130,11 +164,13 @@ int st_daemon_start(st_daemon *d, const char *const *extra)
         return -1;
     }
     d->pid = pid;
+    track(pid, 1);
     d->port = 0;
     long long deadline = now_ms() + 30000;
     while (now_ms() < deadline) {
         int status;
         if (waitpid(pid, &status, WNOHANG) == pid) {
+            track(pid, 0);
             d->pid = 0;
             d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
             fprintf(stderr, "daemon_fixture: seamtexd exited at start (status %d)\n",
@@ -171,11 +207,13 @@ static int reap(st_daemon *d, int timeout_ms)
         int status;
         pid_t r = waitpid(d->pid, &status, WNOHANG);
         if (r == d->pid) {
+            track(d->pid, 0);
             d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
             d->pid = 0;
             return d->exit_status;
         }
         if (r < 0 && errno != EINTR) {
+            track(d->pid, 0);
             d->pid = 0;
             return -1;
         }

@@ -6,6 +6,9 @@
  * learning the port from --port-file, waiting until it accepts connections, stopping it with
  * SIGTERM (graceful) or SIGKILL (crash tests). Does not own: the protocol (use libseamtex).
  *
+ * Daemons still running when the test process exits (a failed assertion skips the test's
+ * cleanup) are killed by an atexit handler.
+ *
  * The daemon's stderr goes to <tmpdir>/daemon.log (set SEAMTEX_DAEMON_LOG=1 to let it through
  * to the test's stderr instead); on a failed start the log's tail is printed.
  */
