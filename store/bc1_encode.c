@@ -768,29 +768,31 @@ static void neighbourhood(const blk *B, cand *best, int four, int passes)
 /* What a level does (see the method at the top). */
 typedef struct profile {
     float inset;        /* of the initial axis endpoints */
+    int   seed;         /* projected least-squares rounds before the exact ones (HQ) */
     int   rounds;       /* round -> select -> least squares rounds, 4-colour */
     int   neigh;        /* passes of the +-1 neighbourhood search, 4-colour */
     int   rounds3;      /* 3-colour trial rounds for opaque blocks (0 = no trial) */
     int   neigh3;       /* neighbourhood passes of the 3-colour trial */
+    float r3ratio;      /* the trial's rounds go on only when its first error is within this
+                           factor of the 4-colour error */
+    float n3ratio;      /* ... and its neighbourhood search only when within this */
     int   radius;       /* exact per-channel search radius after each least squares (0 = round) */
     float inset2;       /* a second start with this inset (< 0: none) */
-    int   cluster;      /* a start from the cluster fit */
-    float easy;         /* blocks whose first error is below this stop there */
-    float easy3;        /* ... and those below this skip the 3-colour trial */
-    int   proj;         /* FAST: least-squares rounds on projected selectors, then one exact
-                           selection (0 = the exact rounds above) */
+    int   cluster;      /* a start from the cluster fit over the splits within +-cluster */
+    int   proj;         /* FAST: least-squares rounds on projected selectors (0 = the exact
+                           rounds above) */
     int   proj_final;   /* FAST: the last selection by projection too (no palette distance) */
-    float r3ratio;      /* ... and its rounds go on only when the first one is within this */
-    float n3ratio;
-    float cluster_min;
-    int   seed;         /* projected least-squares rounds before the exact ones */  /* the cluster fit runs only when the error is above this */      /* the 3-colour search runs only when the trial's error is within this
-                           factor of the 4-colour one */
 } profile;
 
 static const profile PROFILES[3] = {
-    {1.0f / 16.0f, 2, 0, 0, 0, 0, -1.0f, 0, 0, 0, 1, 1, 0, 0, 0, 0}, /* ST_BC1_FAST */
-    {1.0f / 16.0f, 2, 2, 3, 1, 0, -1.0f, 3, 0, 0, 0, 0, 4.0f, 1.5f, 0, 1}, /* ST_BC1_HQ: cluster splits within +-3 */
-    {1.0f / 16.0f, 4, 2, 3, 1, 0, 0.125f, 16, 0, 0, 0, 0, 1e30f, 1e30f, 0, 0}, /* ST_BC1_BEST: every split */
+    /* ST_BC1_FAST: round, projected selectors, least squares, round, projected selectors */
+    {.inset = 1.0f / 16, .rounds = 2, .inset2 = -1, .proj = 1, .proj_final = 1},
+    /* ST_BC1_HQ: cluster splits within +-3 */
+    {.inset = 1.0f / 16, .seed = 1, .rounds = 2, .neigh = 2, .rounds3 = 3, .neigh3 = 1,
+     .r3ratio = 4, .n3ratio = 1.5f, .inset2 = -1, .cluster = 3},
+    /* ST_BC1_BEST: every split */
+    {.inset = 1.0f / 16, .rounds = 4, .neigh = 2, .rounds3 = 3, .neigh3 = 1, .r3ratio = 1e30f,
+     .n3ratio = 1e30f, .inset2 = 0.125f, .cluster = 16},
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
@@ -1261,15 +1263,11 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         else
             axis_endpoints(&A, P->inset, e0, e1);
         rounds4(B, P, e0, e1, &best);
-        if (best.err < P->easy) {
-            *out = best;
-            return;
-        }
         if (P->inset2 >= 0 && best.err > 0) {
             axis_endpoints(&A, P->inset2, e0, e1);
             rounds4(B, P, e0, e1, &best);
         }
-        if (P->cluster && best.err > P->cluster_min) {
+        if (P->cluster && best.err > 0) {
             /* splits within +-cluster of the ones the best selectors imply */
             int cnt[4] = {0, 0, 0, 0};
             for (int i = 0; i < 16; i++)
@@ -1288,7 +1286,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
     }
-    if (!four_ok || (P->rounds3 && best.err > 0 && best.err >= P->easy3)) {
+    if (!four_ok || (P->rounds3 && best.err > 0)) {
         cand b3;
         b3.err = 3e30f;
         float f0[3], f1[3];
