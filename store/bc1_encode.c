@@ -6,19 +6,27 @@
  * seams or files (bc1_set.c, bc1_seam.c, seammask.c, dds.c).
  *
  * Method (written from scratch; ideas are the usual ones):
- *   1. principal axis of the block's colours (covariance + power iteration);
- *   2. initial endpoints: the extreme projections on the axis (FAST insets them by 1/16);
- *   3. rounds of: round endpoints to RGB565 -> choose every selector by the exact palette
- *      distance -> solve the two endpoints by least squares for those selectors (the
- *      weights 0, 1/3, 2/3, 1); the best exact error wins;
- *   4. HQ and BEST: a cluster fit (texels sorted along the axis, ordered splits into the
- *      four palette runs, least squares per split from prefix sums; HQ tries the splits
- *      within +-3 of those the best selectors imply, BEST all 969), a greedy +-1 search over
- *      the six 565 components of the best pair (the "rounding neighbourhood"), then a
- *      3-colour trial (c0 <= c1, selectors 0..2, weights 0, 1/2, 1), kept when its exact
- *      error is lower. Opaque input never gets selector 3 in 3-colour mode, which would be
- *      transparent black.
+ *   1. principal axis of the block's colours (weighted moments, covariance, C^5 applied to
+ *      the axis of largest variance by two squarings);
+ *   2. initial endpoints: the extreme projections on the axis, inset by 1/16;
+ *   3. FAST: round to RGB565 -> selectors by projection on the line through the decoded
+ *      endpoints (rounded to thirds) -> least-squares endpoints -> round -> selectors by
+ *      projection with the thresholds halfway between the exact palette entries. No palette
+ *      distance is computed.
+ *   4. HQ and BEST: one projected round as in FAST (HQ), then rounds of: round -> every
+ *      selector by the exact palette distance -> least squares for those selectors; a cluster
+ *      fit (texels ranked along the axis, ordered splits into the four palette runs, the
+ *      least-squares score of each split from prefix sums of centred colours; HQ tries the
+ *      splits within +-3 of those the best selectors imply, BEST all 969), a greedy +-1
+ *      search over the six 565 components of the best pair (a candidate moves one channel, so
+ *      only that channel's distance term is recomputed), then a 3-colour trial (c0 <= c1,
+ *      selectors 0..2, weights 0, 1/2, 1; HQ drops it early when far behind), kept when its
+ *      exact error is lower. Opaque input never gets selector 3 in 3-colour mode, which would
+ *      be transparent black.
  *   5. a block of one colour uses the generated optimal tables (bc1_tables.h).
+ * SSE2 throughout (x86-64 baseline; plain C elsewhere); on CPUs with AVX2 (checked at run
+ * time) the hot loops run eight texels / splits at a time with the same arithmetic lane by
+ * lane, so the output is byte-identical either way.
  * Texels with alpha < 128 force 3-colour mode with selector 3 on them.
  */
 #include "bc1.h"
