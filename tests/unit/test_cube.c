@@ -16,44 +16,26 @@
 #include "cube.h"
 #include "import.h"
 #include "ptex.h"
-
-static const char *data_dir(void)
-{
-    const char *d = getenv("SEAMTEX_DATA");
-    return d && *d ? d : "../shared/data";
-}
-
-static int data_path(char *buf, size_t cap, const char *rel)
-{
-    snprintf(buf, cap, "%s/%s", data_dir(), rel);
-    if (access(buf, R_OK)) {
-        print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", data_dir(), rel);
-        return -1;
-    }
-    return 0;
-}
+#include "../common/testdata.h"
 
 static char tmpdir[256];
 
 static int setup(void **state)
 {
     (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/seamtex_test_cube_XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
+    return st_test_mkdtemp(tmpdir, sizeof tmpdir, "test_cube");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
+    return st_test_rmtree(tmpdir);
 }
 
 static st_set *load(const char *rel, unsigned cube, uint32_t face_size)
 {
     char path[1024];
-    if (data_path(path, sizeof path, rel))
+    if (st_test_data_path(path, sizeof path, rel))
         return NULL;
     st_import_opts o;
     st_import_opts_init(&o);
@@ -599,9 +581,9 @@ static void six_face_humus_cube_imports_in_the_gl_convention(void **state)
 {
     (void)state;
     char pat[1024];
-    if (data_path(pat, sizeof pat, "cube/humus-6face/+x.jpg"))
+    if (st_test_data_path(pat, sizeof pat, "cube/humus-6face/+x.jpg"))
         skip();
-    snprintf(pat, sizeof pat, "%s/cube/humus-6face/%%s.jpg", data_dir());
+    snprintf(pat, sizeof pat, "%s/cube/humus-6face/%%s.jpg", st_test_data_dir());
     double ratio[3];
     for (int conv = 0; conv < 3; conv++) {
         st_import_opts o;
@@ -634,7 +616,7 @@ static void ptex_environment_cube_maps_each_face_by_direction(void **state)
      * continuous scene, so continuity says nothing here.) */
     static const int rot180[6] = {1, 1, 0, 0, 1, 1};
     char path[1024];
-    if (data_path(path, sizeof path, "ptx/wdas-ptex-samples/envcube/envcube.ptx"))
+    if (st_test_data_path(path, sizeof path, "ptx/wdas-ptex-samples/envcube/envcube.ptx"))
         skip();
     st_set *p = NULL, *c = NULL;
     st_error e;

@@ -21,38 +21,20 @@
 #include "image.h"
 #include "import.h"
 #include "mesh.h"
-
-static const char *data_dir(void)
-{
-    const char *d = getenv("SEAMTEX_DATA");
-    return d && *d ? d : "../shared/data";
-}
-
-static int data_path(char *buf, size_t cap, const char *rel)
-{
-    snprintf(buf, cap, "%s/%s", data_dir(), rel);
-    if (access(buf, R_OK)) {
-        print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", data_dir(), rel);
-        return -1;
-    }
-    return 0;
-}
+#include "../common/testdata.h"
 
 static char tmpdir[256];
 
 static int setup(void **state)
 {
     (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/seamtex_test_import_XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
+    return st_test_mkdtemp(tmpdir, sizeof tmpdir, "test_import");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
+    return st_test_rmtree(tmpdir);
 }
 
 static void tmp_path(char *buf, size_t cap, const char *name)
@@ -124,7 +106,7 @@ static void shared_assets_import_or_fail_as_expected(void **state)
     char path[1024];
     for (size_t i = 0; i < sizeof ASSETS / sizeof ASSETS[0]; i++) {
         const asset *a = &ASSETS[i];
-        if (data_path(path, sizeof path, a->rel))
+        if (st_test_data_path(path, sizeof path, a->rel))
             skip();
         st_set *s = NULL;
         st_error e;
@@ -156,8 +138,8 @@ static void colour_space_is_stated_and_can_be_overridden(void **state)
 {
     (void)state;
     char png[1024], exr[1024];
-    if (data_path(png, sizeof png, "images/astronaut.png") ||
-        data_path(exr, sizeof exr, "env/StageEnvLatLong.exr"))
+    if (st_test_data_path(png, sizeof png, "images/astronaut.png") ||
+        st_test_data_path(exr, sizeof exr, "env/StageEnvLatLong.exr"))
         skip();
     st_set *s = NULL;
     st_error e;
@@ -301,7 +283,7 @@ static void exr_c_api_matches_openimageio_on_the_orientation_maps(void **state)
                          "env/StageEnvCube.exr"};
     for (int i = 0; i < 3; i++) {
         char path[1024];
-        if (data_path(path, sizeof path, rel[i]))
+        if (st_test_data_path(path, sizeof path, rel[i]))
             skip();
         st_image a, b;
         st_error e;
@@ -464,8 +446,8 @@ static void draco_duck_pairs_with_its_texture(void **state)
 {
     (void)state;
     char drc[1024], png[1024];
-    if (data_path(drc, sizeof drc, "drc/converted/Duck.drc") ||
-        data_path(png, sizeof png, "meshes/duck/DuckCM.png"))
+    if (st_test_data_path(drc, sizeof drc, "drc/converted/Duck.drc") ||
+        st_test_data_path(png, sizeof png, "meshes/duck/DuckCM.png"))
         skip();
     st_import_opts o;
     st_import_opts_init(&o);
@@ -606,8 +588,8 @@ static void caps_on_dimension_and_bytes_are_enforced(void **state)
 {
     (void)state;
     char png[1024], exr[1024];
-    if (data_path(png, sizeof png, "meshes/duck/DuckCM.png") ||
-        data_path(exr, sizeof exr, "env/StageEnvCube.exr"))
+    if (st_test_data_path(png, sizeof png, "meshes/duck/DuckCM.png") ||
+        st_test_data_path(exr, sizeof exr, "env/StageEnvCube.exr"))
         skip();
     st_import_opts o;
     st_import_opts_init(&o);
@@ -630,7 +612,7 @@ static void truncated_files_are_refused_cleanly(void **state)
                          "ptx/wdas-ptex-samples/envcube/envcube.ptx", "env/converted/forest.hdr"};
     for (size_t i = 0; i < sizeof rel / sizeof rel[0]; i++) {
         char path[1024];
-        if (data_path(path, sizeof path, rel[i]))
+        if (st_test_data_path(path, sizeof path, rel[i]))
             skip();
         size_t len;
         uint8_t *b = read_file(path, &len);
@@ -665,7 +647,7 @@ static void ptex_env_cube_is_recognised_by_its_layout_not_its_name(void **state)
 {
     (void)state;
     char src[1024];
-    if (data_path(src, sizeof src, "ptx/wdas-ptex-samples/envcube/envcube.ptx"))
+    if (st_test_data_path(src, sizeof src, "ptx/wdas-ptex-samples/envcube/envcube.ptx"))
         skip();
     size_t len;
     void *b = read_file(src, &len);

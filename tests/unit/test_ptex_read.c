@@ -16,27 +16,15 @@
 #include "ptex.h"
 #include "ptex_format.h"
 #include "ptexres.h"
+#include "../common/testdata.h"
 
-static const char *data_dir(void)
-{
-    const char *d = getenv("SEAMTEX_DATA");
-    return d && *d ? d : "../shared/data";
-}
-
-static int data_path(char *out, size_t n, const char *rel)
-{
-    snprintf(out, n, "%s/%s", data_dir(), rel);
-    FILE *fp = fopen(out, "rb");
-    if (!fp)
-        return 0;
-    fclose(fp);
-    return 1;
-}
+/* 1 when the shared file is there (test_ptex_read reads it as a condition). */
+#define st_test_data_ok(buf, cap, rel) (st_test_data_path((buf), (cap), (rel)) == 0)
 
 #define NEED_DATA(path, rel)                                                                  \
     do {                                                                                      \
-        if (!data_path(path, sizeof path, rel)) {                                             \
-            print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", data_dir(), rel);        \
+        if (!st_test_data_ok(path, sizeof path, rel)) {                                             \
+            print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", st_test_data_dir(), rel);        \
             skip();                                                                           \
         }                                                                                     \
     } while (0)
@@ -81,7 +69,7 @@ static void every_shared_ptx_loads_or_is_refused_for_a_stated_reason(void **stat
     NEED_DATA(path, "ptx");
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         const expect *x = &files[i];
-        if (!data_path(path, sizeof path, x->rel)) {
+        if (!st_test_data_ok(path, sizeof path, x->rel)) {
             print_message("missing %s\n", x->rel);
             fail();
         }
@@ -193,7 +181,7 @@ static int obj_load(const char *path, objmesh *m)
 static void check_adjacency(const char *ptx, const char *obj)
 {
     char pp[1024], po[1024];
-    if (!data_path(pp, sizeof pp, ptx) || !data_path(po, sizeof po, obj)) {
+    if (!st_test_data_ok(pp, sizeof pp, ptx) || !st_test_data_ok(po, sizeof po, obj)) {
         print_message("missing %s or %s\n", ptx, obj);
         fail();
     }
@@ -316,7 +304,7 @@ static void border_modes_go_into_the_set_info(void **state)
     char path[1024];
     NEED_DATA(path, "ptx/wdas-ptex-2009/bordermodes/clamp.ptx");
     for (int i = 0; i < 3; i++) {
-        assert_true(data_path(path, sizeof path, bm[i].rel));
+        assert_true(st_test_data_ok(path, sizeof path, bm[i].rel));
         st_set *s;
         st_error e = {0};
         assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);

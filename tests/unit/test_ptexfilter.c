@@ -20,12 +20,7 @@
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "sample.h"
-
-static const char *data_dir(void)
-{
-    const char *d = getenv("SEAMTEX_DATA");
-    return d && *d ? d : "../shared/data";
-}
+#include "../common/testdata.h"
 
 static const char *fnames[8] = {"point", "bilinear", "box", "gaussian", "bicubic", "bspline",
                                 "catmullrom", "mitchell"};
@@ -54,18 +49,18 @@ static void traverse_matches_the_ptex_library_on_every_reference_file(void **sta
 {
     (void)state;
     char path[1024];
-    snprintf(path, sizeof path, "%s/%s", data_dir(), refs[0].ref);
+    snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), refs[0].ref);
     if (access(path, R_OK)) {
-        print_message("SEAMTEX_DATA (%s) has no ptex-ref: skipped\n", data_dir());
+        print_message("SEAMTEX_DATA (%s) has no ptex-ref: skipped\n", st_test_data_dir());
         skip();
     }
     print_message("%-28s %-10s %7s %8s %10s\n", "file", "filter", "queries", "match%", "max|diff|");
     for (size_t r = 0; r < sizeof refs / sizeof refs[0]; r++) {
-        snprintf(path, sizeof path, "%s/%s", data_dir(), refs[r].ptx);
+        snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), refs[r].ptx);
         st_set *s;
         st_error e = {0};
         assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
-        snprintf(path, sizeof path, "%s/%s", data_dir(), refs[r].ref);
+        snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), refs[r].ref);
         FILE *fp = fopen(path, "r");
         assert_non_null(fp);
         float tol = s->info.dtype == ST_DT_U8 ? 0.5f / 255.0f : 1e-4f;
@@ -290,15 +285,15 @@ static void border_modes_follow_ptex(void **state)
 {
     (void)state;
     char path[1024];
-    snprintf(path, sizeof path, "%s/ptx/wdas-ptex-2009/bordermodes/clamp.ptx", data_dir());
+    snprintf(path, sizeof path, "%s/ptx/wdas-ptex-2009/bordermodes/clamp.ptx", st_test_data_dir());
     if (access(path, R_OK)) {
-        print_message("SEAMTEX_DATA (%s) has no bordermodes: skipped\n", data_dir());
+        print_message("SEAMTEX_DATA (%s) has no bordermodes: skipped\n", st_test_data_dir());
         skip();
     }
     static const char *names[3] = {"clamp", "black", "periodic"};
     st_set *s[3];
     for (int m = 0; m < 3; m++) {
-        snprintf(path, sizeof path, "%s/ptx/wdas-ptex-2009/bordermodes/%s.ptx", data_dir(), names[m]);
+        snprintf(path, sizeof path, "%s/ptx/wdas-ptex-2009/bordermodes/%s.ptx", st_test_data_dir(), names[m]);
         st_error e = {0};
         assert_int_equal(st_ptex_read_file(path, 0, &s[m], &e), 0);
         assert_int_equal(s[m]->info.border_u, m);

@@ -14,6 +14,7 @@
 #include "image.h"
 #include "mesh.h"
 #include "seammask.h"
+#include "../common/testdata.h"
 
 /* Two 16x16 RGB faces sharing face 0's right edge and face 1's left edge. */
 static st_set *two_faces(uint8_t a, uint8_t b)
@@ -252,21 +253,15 @@ static void atlas_seams_are_masked_in_the_gutter(void **state)
     st_set_free(s);
 }
 
-static const char *data_dir(void)
-{
-    const char *d = getenv("SEAMTEX_DATA");
-    return d ? d : "../shared/data";
-}
-
 static void duck_seams_drop_with_masking_and_seam_aware_bc1(void **state)
 {
     (void)state;
     char obj[1024], png[1024];
-    snprintf(obj, sizeof obj, "%s/meshes/duck/Duck.obj", data_dir());
-    snprintf(png, sizeof png, "%s/meshes/duck/DuckCM.png", data_dir());
+    snprintf(obj, sizeof obj, "%s/meshes/duck/Duck.obj", st_test_data_dir());
+    snprintf(png, sizeof png, "%s/meshes/duck/DuckCM.png", st_test_data_dir());
     FILE *f = fopen(obj, "rb");
     if (!f) {
-        print_message("SEAMTEX_DATA (%s) has no meshes/duck: skipped\n", data_dir());
+        print_message("SEAMTEX_DATA (%s) has no meshes/duck: skipped\n", st_test_data_dir());
         skip();
     }
     fclose(f);

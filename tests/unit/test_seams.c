@@ -14,22 +14,7 @@
 #include "atlas.h"
 #include "import.h"
 #include "mesh.h"
-
-static const char *data_dir(void)
-{
-    const char *d = getenv("SEAMTEX_DATA");
-    return d && *d ? d : "../shared/data";
-}
-
-static int data_path(char *buf, size_t cap, const char *rel)
-{
-    snprintf(buf, cap, "%s/%s", data_dir(), rel);
-    if (access(buf, R_OK)) {
-        print_message("SEAMTEX_DATA (%s) has no %s: skipped\n", data_dir(), rel);
-        return -1;
-    }
-    return 0;
-}
+#include "../common/testdata.h"
 
 static st_mesh *obj_str(const char *text)
 {
@@ -167,7 +152,7 @@ static void shared_meshes_match_the_data_readme(void **state)
     char path[1024];
     for (size_t i = 0; i < sizeof EXPECTED / sizeof EXPECTED[0]; i++) {
         const expect *x = &EXPECTED[i];
-        if (data_path(path, sizeof path, x->rel))
+        if (st_test_data_path(path, sizeof path, x->rel))
             skip();
         st_mesh *m = NULL;
         st_error e;
@@ -196,7 +181,7 @@ static void draco_mesh_without_uvs_is_refused_with_enouv(void **state)
 {
     (void)state;
     char path[1024];
-    if (data_path(path, sizeof path, "drc/bunny_gltf.drc"))
+    if (st_test_data_path(path, sizeof path, "drc/bunny_gltf.drc"))
         skip();
     st_mesh *m = NULL;
     st_error e;
@@ -216,7 +201,7 @@ static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(voi
 {
     (void)state;
     char obj[1024];
-    if (data_path(obj, sizeof obj, "meshes/duck/Duck.obj"))
+    if (st_test_data_path(obj, sizeof obj, "meshes/duck/Duck.obj"))
         skip();
     st_set *s = NULL;
     st_error e;

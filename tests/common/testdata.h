@@ -1,0 +1,22 @@
+/* tests/common/testdata.h - where tests and benchmarks find the shared assets and scratch
+ * space. The shared data folder is $SEAMTEX_DATA (tests/run.sh and tests/bench/run.sh set
+ * it), default ../shared/data; it is never copied into the repository. */
+#ifndef ST_TESTDATA_H
+#define ST_TESTDATA_H
+
+#include <stddef.h>
+
+/* The shared data folder ($SEAMTEX_DATA or ../shared/data). */
+const char *st_test_data_dir(void);
+
+/* Writes "<data dir>/<rel>" into buf. Returns 0 when that file is readable; otherwise prints
+ * a TAP comment saying what is missing (the caller then skips) and returns -1. */
+int st_test_data_path(char *buf, size_t cap, const char *rel);
+
+/* Creates a fresh scratch directory /tmp/seamtex_<tag>_XXXXXX into buf; 0 or -1. */
+int st_test_mkdtemp(char *buf, size_t cap, const char *tag);
+
+/* Removes a directory tree made by st_test_mkdtemp; 0 or -1. */
+int st_test_rmtree(const char *dir);
+
+#endif
