@@ -15,12 +15,9 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "have.h"
 #include "ptex.h"
 #include "server.h"
-#ifdef STS_HAVE_st_bc1_compress_set
 #include "bc1.h"
-#endif
 
 #define KEEP_FINISHED 256
 #define MAX_FETCHES   256
@@ -55,7 +52,6 @@ static int bad(stp_buf *out, const stp_header *h, int status, const char *why)
 
 /* ---- the job thread ---------------------------------------------------------------------- */
 
-#ifdef STS_HAVE_st_bc1_compress_set
 static void progress_cb(void *arg, double f)
 {
     sts_job *j = arg;
@@ -104,7 +100,6 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
         }
     }
     if (srv->dd) {
-#ifdef STS_HAVE_st_dds_write_mem
         uint8_t *buf = NULL;
         size_t len = 0;
         int rc = st_dds_write_mem(bc1, &buf, &len, e);
@@ -142,21 +137,15 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
         }
         sts_logf(&srv->log, STS_WARN, "job %llu: '%s' has no DDS form (%s); kept in memory only",
                  (unsigned long long)j->id, j->target, e->msg);
-#else
-        sts_logf(&srv->log, STS_WARN, "job %llu: no DDS writer in this build; '%s' is kept in "
-                 "memory only", (unsigned long long)j->id, j->target);
-#endif
     }
     return st_registry_put(srv->reg, j->target, bc1, NULL, STS_LIVE(srv, max_sets), NULL, e);
 }
-#endif
 
 static void run_job(sts_server *srv, sts_job *j)
 {
     st_error e;
     st_error_clear(&e);
     int rc;
-#ifdef STS_HAVE_st_bc1_compress_set
     st_bc1_opts o;
     st_bc1_opts_default(&o);
     o.level = j->level >= 5 ? ST_BC1_HQ : ST_BC1_FAST;
@@ -166,9 +155,6 @@ static void run_job(sts_server *srv, sts_job *j)
     rc = st_bc1_compress_set(j->src->set, &o, progress_cb, j, &j->cancel, &bc1, &e);
     if (rc == 0)
         rc = store_result(srv, j, bc1, &e);
-#else
-    rc = st_fail(&e, ST_EUNSUPPORTED, "this build has no BC1 encoder");
-#endif
     pthread_mutex_lock(&srv->jobs.mu);
     j->result = (uint16_t)stp_status_from_st(rc);
     j->state = rc == 0 ? STP_JOB_DONE : rc == ST_ECANCELED ? STP_JOB_CANCELED : STP_JOB_FAILED;
@@ -281,10 +267,6 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     int st = stp_dec_compress_req(body, h->body_len, &rq, &why);
     if (st)
         return bad(out, h, st, why);
-#ifndef STS_HAVE_st_bc1_compress_set
-    sts_reply_error(out, h, STP_S_UNSUPPORTED, "this build has no BC1 encoder");
-    return 0;
-#else
     st_error e;
     st_error_clear(&e);
     if (st_name_check(rq.name, strlen(rq.name), &e) || st_name_check(rq.target, strlen(rq.target), &e)) {
@@ -335,7 +317,6 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     STS_STAT_ADD(srv, jobs_started, 1);
     stp_enc_id_reply(out, h->opcode, h->reqid, j->id);
     return 0;
-#endif
 }
 
 static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out,
@@ -452,23 +433,15 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     size_t len = 0;
     int rc;
     if (rq.format == STP_FETCH_PTX) {
-#ifdef STS_HAVE_st_ptex_write_mem
         void *buf = NULL;
         rc = ref->set->info.kind == ST_KIND_PERFACE
                  ? st_ptex_write_mem(ref->set, &buf, &len, &e)
                  : st_fail(&e, ST_EUNSUPPORTED, "only per-face sets are fetched as .ptx (try dds)");
         data = buf;
-#else
-        rc = st_fail(&e, ST_EUNSUPPORTED, "this build has no Ptex writer");
-#endif
     } else if (rq.format == STP_FETCH_DDS) {
-#ifdef STS_HAVE_st_dds_write_mem
         rc = ref->set->info.kind == ST_KIND_BC1
                  ? st_dds_write_mem(ref->set, &data, &len, &e)
                  : st_fail(&e, ST_EUNSUPPORTED, "only BC1 sets are fetched as .dds (COMPRESS first)");
-#else
-        rc = st_fail(&e, ST_EUNSUPPORTED, "this build has no DDS writer");
-#endif
     } else {
         rc = st_fail(&e, ST_EINVAL, "format must be 0 (ptx) or 1 (dds)");
     }

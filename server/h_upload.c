@@ -18,15 +18,10 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "have.h"
 #include "server.h"
-#ifdef STS_HAVE_st_import_file
 #include "import.h"
-#endif
 #include "ptex.h"
-#ifdef STS_HAVE_st_dds_read_file
 #include "bc1.h"
-#endif
 
 struct sts_upload {
     uint64_t    id, conn_id;
@@ -135,13 +130,8 @@ int sts_import_path(sts_server *srv, const char *path, const char *fmt, const ch
     size_t max_bytes = (size_t)STS_LIVE(srv, max_set_bytes);
     *out = NULL;
     if (!strcmp(fmt, "dds")) {
-#ifdef STS_HAVE_st_dds_read_file
         return st_dds_read_file(path, max_bytes, out, e);
-#else
-        return st_fail(e, ST_EUNSUPPORTED, "this build has no DDS reader");
-#endif
     }
-#if defined(STS_HAVE_st_import_file) && defined(STS_HAVE_st_import_opts_init)
     st_import_opts o;
     st_import_opts_init(&o);
     o.max_bytes = max_bytes;
@@ -198,13 +188,6 @@ int sts_import_path(sts_server *srv, const char *path, const char *fmt, const ch
     int rc = st_import_file(path, &o, out, e);
     st_setref_release(tex);
     return rc;
-#else
-    if (options && *options)
-        return st_fail(e, ST_EUNSUPPORTED, "this build's importer takes no options");
-    if (strcmp(fmt, "ptx") != 0)
-        return st_fail(e, ST_EUNSUPPORTED, "this build imports only .ptx (got %s)", fmt);
-    return st_ptex_read_file(path, max_bytes, out, e);
-#endif
 }
 
 /* ---- publishing ---------------------------------------------------------------------------- */

@@ -17,11 +17,8 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "have.h"
 #include "server.h"
-#ifdef STS_HAVE_st_default_set
 #include "defaultset.h"
-#endif
 
 int64_t sts_now_ms(void)
 {
@@ -153,7 +150,6 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
             st_setref_release(ref);
             sts_logf(&srv->log, STS_INFO, "set 'default' comes from the data dir");
         } else {
-#ifdef STS_HAVE_st_default_set
             st_set *s = NULL;
             int64_t t0 = sts_now_ms();
             if (st_default_set(&s, &e) == 0 &&
@@ -162,9 +158,6 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
                          s->info.nfaces, (long long)(sts_now_ms() - t0));
             else
                 sts_logf(&srv->log, STS_WARN, "built-in set 'default' not loaded: %s", e.msg);
-#else
-            sts_logf(&srv->log, STS_WARN, "this build has no built-in default set");
-#endif
         }
     }
     if (open_listener(srv) != 0)
