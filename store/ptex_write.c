@@ -13,6 +13,12 @@
  * reading the file gives the set back bit for bit; for non-square faces the levels past the
  * square reductions are re-derived by the reader with Ptex's rule (they round-trip exactly for
  * every set that the reader produced).
+ *
+ * Repeated metadata keys: st_set_meta_add appends, so a set may hold a key twice (the importer
+ * adds "seamtex:source_format" to a set read from a .ptx that already carries it). Such a key
+ * is written once, at its first position with its last value - the rule the reader applies to
+ * repeated records and metadata edits. Writing what the reader gives therefore reproduces the
+ * same bytes: write(read(write(s))) == write(s), and an upload/fetch loop does not grow.
  */
 #include "ptex.h"
 
@@ -237,6 +243,44 @@ static size_t meta_tsize(unsigned t)
     return t < 6 ? sz[t] : 0;
 }
 
+typedef struct meta_key {
+    const char *key;
+    uint32_t    idx;
+} meta_key;
+
+static int meta_key_cmp(const void *a, const void *b)
+{
+    const meta_key *x = a, *y = b;
+    int c = strcmp(x->key, y->key);
+    return c ? c : x->idx < y->idx ? -1 : x->idx > y->idx;
+}
+
+/* Fills pick[i] for each metadata entry i: the entry whose value is written at position i
+ * (the last entry with the same key) when i is the first entry with its key, else UINT32_MAX
+ * (not written). O(n log n), so a set holding many entries costs little. */
+static int meta_pick(const st_set *s, uint32_t *pick)
+{
+    uint32_t n = s->nmeta;
+    meta_key *k = malloc((size_t)n * sizeof *k + 1);
+    if (!k)
+        return -1;
+    for (uint32_t i = 0; i < n; i++) {
+        k[i].key = s->meta[i].key;
+        k[i].idx = i;
+        pick[i] = UINT32_MAX;
+    }
+    qsort(k, n, sizeof *k, meta_key_cmp);
+    for (uint32_t i = 0; i < n;) {
+        uint32_t j = i;
+        while (j + 1 < n && !strcmp(k[j + 1].key, k[i].key))
+            j++;
+        pick[k[i].idx] = k[j].idx;
+        i = j + 1;
+    }
+    free(k);
+    return 0;
+}
+
 int st_ptex_write_mem(const st_set *s, void **bufp, size_t *lenp, st_error *e)
 {
     *bufp = NULL;
@@ -272,9 +316,10 @@ int st_ptex_write_mem(const st_set *s, void **bufp, size_t *lenp, st_error *e)
     uint8_t *cd = malloc((size_t)n * w.psize);
     uint32_t *fdh = malloc((size_t)n * sizeof *fdh);
     uint32_t *faceids_r = malloc((size_t)n * sizeof *faceids_r);
+    uint32_t *mpick = malloc((size_t)s->nmeta * sizeof *mpick + 1);
     wb out = {0}, faces = {0};
     int rc = ST_OK;
-    if (!w.tmp || !fi || !cd || !fdh || !faceids_r) {
+    if (!w.tmp || !fi || !cd || !fdh || !faceids_r || !mpick || meta_pick(s, mpick)) {
         rc = st_fail(e, ST_ENOMEM, "out of memory writing %u faces", n);
         goto done;
     }
@@ -366,7 +411,9 @@ int st_ptex_write_mem(const st_set *s, void **bufp, size_t *lenp, st_error *e)
     {
         wb small = {0}, lhdr = {0}, ldata = {0};
         for (uint32_t i = 0; i < s->nmeta; i++) {
-            const st_meta_entry *m = &s->meta[i];
+            if (mpick[i] == UINT32_MAX)
+                continue; /* a repeated key: written once, at its first position */
+            const st_meta_entry *m = &s->meta[mpick[i]];
             uint8_t ks = (uint8_t)(strlen(m->key) + 1), type = m->type;
             uint32_t ds = (uint32_t)(m->count * meta_tsize(m->type));
             uint8_t d4[4];
@@ -442,6 +489,7 @@ done:
     free(cd);
     free(fdh);
     free(faceids_r);
+    free(mpick);
     return rc;
 }
 

@@ -1,7 +1,8 @@
 /* tests/unit/test_ptex_write.c - the Ptex writer: files it writes read back bit for bit
  * (every shared .ptx, synthetic sets with constant faces, subfaces, mixed resolutions, alpha,
- * border modes, small and large metadata), large faces are tiled as Ptex tiles them, and the
- * file is replaced atomically. */
+ * border modes, small and large metadata), writing what the reader gives reproduces the same
+ * bytes (no growth over upload/fetch loops, repeated metadata keys written once), large faces
+ * are tiled as Ptex tiles them, and the file is replaced atomically. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,6 +15,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "defaultset.h"
 #include "ptex.h"
 #include "ptex_format.h"
 
@@ -184,6 +186,127 @@ static void synthetic_sets_round_trip_in_every_data_type(void **state)
         }
 }
 
+static void write_mem_ok(const st_set *s, void **buf, size_t *len)
+{
+    st_error e = {0};
+    int rc = st_ptex_write_mem(s, buf, len, &e);
+    if (rc)
+        print_message("write: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+}
+
+/* write(read(b)) must give b again, byte for byte; returns the set read from b. */
+static st_set *assert_fixed_point(const void *b, size_t len, const char *what)
+{
+    st_set *r = NULL;
+    st_error e = {0};
+    int rc = st_ptex_read_mem(b, len, 0, &r, &e);
+    if (rc)
+        print_message("%s: read: %s\n", what, e.msg);
+    assert_int_equal(rc, 0);
+    void *b2;
+    size_t len2;
+    write_mem_ok(r, &b2, &len2);
+    if (len2 != len || memcmp(b, b2, len)) {
+        print_message("%s: %zu bytes written, %zu after read + write\n", what, len, len2);
+        fail();
+    }
+    free(b2);
+    return r;
+}
+
+/* The daemon's upload/fetch loop: import reads the .ptx and appends "seamtex:source_format"
+ * (the key may already be in the file), FETCH writes the set. The file must not change after
+ * the first round: write(read(write(x))) == write(x), also when a key is repeated. */
+static void writing_what_the_reader_gives_is_a_fixed_point(void **state)
+{
+    (void)state;
+    static const char *rel[] = {
+        "ptex-ref/cube1_k6_u8.ptx", "ptex-ref/cube8_k6_u8_rot.ptx",
+        "ptex-ref/cube8_k7varrot_f32.ptx", "ptx/wdas-ptex-2009/nonquad/evblur/pPlane1.ptx",
+        "ptx/wdas-ptex-2009/dispplane/rand_lo/pPlane1.ptx", "ptx/wdas-ptex-2009/tri/uv.ptx",
+        "ptx/wdas-ptex-samples/envcube/envcube.ptx", "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+    };
+    st_set *sets[sizeof rel / sizeof rel[0] + 2] = {0};
+    size_t nsets = 0;
+    st_error e = {0};
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", data_dir(), rel[0]);
+    if (access(path, R_OK)) {
+        print_message("SEAMTEX_DATA (%s) missing: shared files skipped\n", data_dir());
+    } else {
+        for (size_t i = 0; i < sizeof rel / sizeof rel[0]; i++) {
+            snprintf(path, sizeof path, "%s/%s", data_dir(), rel[i]);
+            assert_int_equal(st_ptex_read_file(path, 0, &sets[nsets], &e), 0);
+            nsets++;
+        }
+    }
+    assert_int_equal(st_default_set(&sets[nsets++], &e), 0);
+    st_set *syn = make_set(ST_DT_U16, 3, -1, 1);
+    assert_int_equal(st_set_meta_add(syn, "name", 0, "synthetic", 10, &e), 0);
+    sets[nsets++] = syn;
+    for (size_t i = 0; i < nsets; i++) {
+        const char *what = i < nsets - 2 ? rel[i] : i == nsets - 2 ? "default set" : "synthetic";
+        st_set *x = sets[i];
+        assert_int_equal(st_set_meta_add(x, "seamtex:source_format", 0, "ptex", 5, &e), 0);
+        void *b1;
+        size_t len1;
+        write_mem_ok(x, &b1, &len1);
+        st_set *r = assert_fixed_point(b1, len1, what);
+        /* the importer appends the key again: the repeated key is written once */
+        uint32_t nmeta = r->nmeta;
+        assert_int_equal(st_set_meta_add(r, "seamtex:source_format", 0, "ptex", 5, &e), 0);
+        assert_int_equal(r->nmeta, nmeta + 1);
+        void *b2;
+        size_t len2;
+        write_mem_ok(r, &b2, &len2);
+        if (len2 != len1 || memcmp(b1, b2, len1)) {
+            print_message("%s: %zu bytes, %zu with the key repeated\n", what, len1, len2);
+            fail();
+        }
+        st_set *r2 = assert_fixed_point(b2, len2, what);
+        assert_int_equal(r2->nmeta, nmeta);
+        free(b2);
+        st_set_free(r2);
+        st_set_free(r);
+        free(b1);
+        st_set_free(x);
+    }
+}
+
+/* A repeated key keeps its first position and takes its last value (the reader's rule for
+ * repeated records and metadata edits). */
+static void a_repeated_metadata_key_is_written_once_with_its_last_value(void **state)
+{
+    (void)state;
+    st_set *s = make_set(ST_DT_U8, 1, -1, 0);
+    st_error e = {0};
+    int32_t one = 1, two = 2;
+    int32_t big[400];
+    for (int i = 0; i < 400; i++)
+        big[i] = i;
+    assert_int_equal(st_set_meta_add(s, "a", 3, &one, 1, &e), 0);
+    assert_int_equal(st_set_meta_add(s, "b", 0, "x", 2, &e), 0);
+    assert_int_equal(st_set_meta_add(s, "a", 3, big, 400, &e), 0);  /* now large */
+    assert_int_equal(st_set_meta_add(s, "c", 0, "y", 2, &e), 0);
+    assert_int_equal(st_set_meta_add(s, "a", 3, &two, 1, &e), 0);   /* small again */
+    void *buf;
+    size_t len;
+    write_mem_ok(s, &buf, &len);
+    st_set *r = NULL;
+    assert_int_equal(st_ptex_read_mem(buf, len, 0, &r, &e), 0);
+    assert_int_equal(r->nmeta, 3);
+    assert_string_equal(r->meta[0].key, "a");
+    assert_string_equal(r->meta[1].key, "b");
+    assert_string_equal(r->meta[2].key, "c");
+    assert_int_equal(r->meta[0].count, 1);
+    assert_int_equal(*(const int32_t *)r->meta[0].data, 2);
+    st_set_free(assert_fixed_point(buf, len, "repeated keys"));
+    st_set_free(r);
+    free(buf);
+    st_set_free(s);
+}
+
 static void large_faces_are_tiled_as_ptex_tiles_them(void **state)
 {
     (void)state;
@@ -259,6 +382,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_shared_file_round_trips_bit_exactly),
         cmocka_unit_test(synthetic_sets_round_trip_in_every_data_type),
+        cmocka_unit_test(writing_what_the_reader_gives_is_a_fixed_point),
+        cmocka_unit_test(a_repeated_metadata_key_is_written_once_with_its_last_value),
         cmocka_unit_test(large_faces_are_tiled_as_ptex_tiles_them),
         cmocka_unit_test(write_file_replaces_atomically),
     };
