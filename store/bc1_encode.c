@@ -82,10 +82,24 @@ static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? 
 /* Rounds an 8-bit-scale colour to 565 (nearest expanded value, via the usual scaling). */
 static inline uint16_t round565(float r, float g, float b)
 {
+#if defined(__SSE2__) && defined(__x86_64__)
+    /* the same truncation of x * scale + 0.5 and clamp, three channels at once */
+    __m128 v = _mm_add_ps(_mm_mul_ps(_mm_set_ps(0.0f, b, g, r),
+                                     _mm_set_ps(0.0f, 31.0f / 255.0f, 63.0f / 255.0f,
+                                                31.0f / 255.0f)),
+                          _mm_set1_ps(0.5f));
+    __m128i q = _mm_cvttps_epi32(v);
+    q = _mm_packs_epi32(q, q);
+    q = _mm_max_epi16(q, _mm_setzero_si128());
+    q = _mm_min_epi16(q, _mm_set_epi16(0, 0, 0, 0, 0, 31, 63, 31));
+    uint64_t w = (uint64_t)_mm_cvtsi128_si64(q);
+    return pack565((int)(w & 0xFFFF), (int)(w >> 16 & 0xFFFF), (int)(w >> 32 & 0xFFFF));
+#else
     int r5 = clampi((int)(r * (31.0f / 255.0f) + 0.5f), 0, 31);
     int g6 = clampi((int)(g * (63.0f / 255.0f) + 0.5f), 0, 63);
     int b5 = clampi((int)(b * (31.0f / 255.0f) + 0.5f), 0, 31);
     return pack565(r5, g6, b5);
+#endif
 }
 
 /* Exact palette as floats: pal[k][j] (channel-major); four = 4-colour mode. */
