@@ -17,7 +17,7 @@
  *      selector by the exact palette distance -> least squares for those selectors; a cluster
  *      fit (texels ranked along the axis, ordered splits into the four palette runs, the
  *      least-squares score of each split from prefix sums of centred colours; HQ tries the
- *      splits within +-3 of those the best selectors imply, BEST all 969), a greedy +-1
+ *      splits within +-4 of those the best selectors imply, BEST all 969), a greedy +-1
  *      search over the six 565 components of the best pair (a candidate moves one channel, so
  *      only that channel's distance term is recomputed), then a 3-colour trial (c0 <= c1,
  *      selectors 0..2, weights 0, 1/2, 1; HQ drops it early when far behind), kept when its
@@ -809,9 +809,9 @@ typedef struct profile {
 static const profile PROFILES[3] = {
     /* ST_BC1_FAST: round, projected selectors, least squares, round, projected selectors */
     {.inset = 1.0f / 16, .rounds = 2, .inset2 = -1, .proj = 1, .proj_final = 1},
-    /* ST_BC1_HQ: cluster splits within +-3 */
-    {.inset = 1.0f / 16, .seed = 1, .rounds = 2, .neigh = 2, .rounds3 = 3, .neigh3 = 1,
-     .r3ratio = 4, .n3ratio = 1.5f, .inset2 = -1, .cluster = 3},
+    /* ST_BC1_HQ: cluster splits within +-4, one neighbourhood pass */
+    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = 1, .rounds3 = 3, .neigh3 = 1,
+     .r3ratio = 3, .n3ratio = 1.3f, .inset2 = -1, .cluster = 4},
     /* ST_BC1_BEST: every split */
     {.inset = 1.0f / 16, .rounds = 4, .neigh = 2, .rounds3 = 3, .neigh3 = 1, .r3ratio = 1e30f,
      .n3ratio = 1e30f, .inset2 = 0.125f, .cluster = 16},
