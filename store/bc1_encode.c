@@ -374,6 +374,52 @@ static int ls_t(const blk *B, const float tv[16], float e0[3], float e1[3])
     return 1;
 }
 
+/* ls_t when the block's sums of w and w x are known (tot, from the axis): with
+ * S = sum w t, S2 = sum w t^2 and X1 = sum w t x, aa = W - 2 S + S2, ab = S - S2, bb = S2,
+ * ax = sum w x - X1, bx = X1: five sums instead of nine. */
+static int ls_tot(const blk *B, const float tv[16], const float tot[4], float e0[3],
+                  float e1[3])
+{
+#ifdef __SSE2__
+    __m128 z = _mm_setzero_ps(), st = z, stt = z, sr = z, sg = z, sb = z;
+    for (int i = 0; i < 16; i += 4) {
+        __m128 t = _mm_loadu_ps(tv + i);
+        __m128 wt = _mm_mul_ps(_mm_loadu_ps(B->w + i), t);
+        st = _mm_add_ps(st, wt);
+        stt = _mm_add_ps(stt, _mm_mul_ps(wt, t));
+        sr = _mm_add_ps(sr, _mm_mul_ps(wt, _mm_loadu_ps(B->r + i)));
+        sg = _mm_add_ps(sg, _mm_mul_ps(wt, _mm_loadu_ps(B->g + i)));
+        sb = _mm_add_ps(sb, _mm_mul_ps(wt, _mm_loadu_ps(B->b + i)));
+    }
+    _MM_TRANSPOSE4_PS(st, stt, sr, sg);
+    float h[4];
+    _mm_storeu_ps(h, _mm_add_ps(_mm_add_ps(st, stt), _mm_add_ps(sr, sg)));
+    float S = h[0], S2 = h[1], bx[3] = {h[2], h[3], hsum(sb)};
+#else
+    float S = 0, S2 = 0, bx[3] = {0, 0, 0};
+    for (int i = 0; i < 16; i++) {
+        float wt = B->w[i] * tv[i];
+        S += wt;
+        S2 += wt * tv[i];
+        bx[0] += wt * B->r[i];
+        bx[1] += wt * B->g[i];
+        bx[2] += wt * B->b[i];
+    }
+#endif
+    float aa = tot[0] - 2 * S + S2, ab = S - S2, bb = S2;
+    float det = aa * bb - ab * ab;
+    if (!(det > 1e-5f * aa * bb))
+        return 0;
+    float inv = 1.0f / det;
+    for (int k = 0; k < 3; k++) {
+        float ax = tot[k + 1] - bx[k];
+        float v0 = (bb * ax - ab * bx[k]) * inv, v1 = (aa * bx[k] - ab * ax) * inv;
+        e0[k] = v0 < 0 ? 0 : v0 > 255 ? 255 : v0;
+        e1[k] = v1 < 0 ? 0 : v1 > 255 ? 255 : v1;
+    }
+    return 1;
+}
+
 /* Least-squares endpoints for the selectors `sel` (4-colour weights when four, else
  * 3-colour). Returns 0 when the system is singular (all texels on one weight). */
 static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3], float e1[3])
@@ -449,6 +495,7 @@ static void refine_exact(const blk *B, const uint8_t *sel, int four, const float
  * of the range moved inwards at both ends. */
 typedef struct axis {
     float m[3], v[3], len2, lo, hi;
+    float tot[4];         /* sums of w, w r, w g, w b */
 } axis;
 
 static void axis_compute(const blk *B, axis *A)
@@ -485,6 +532,8 @@ static void axis_compute(const blk *B, axis *A)
         _mm_storeu_ps(f2, s2);
         float sgb = hsum(gb), sbb = hsum(bb);
         float wsum = f1[0];
+        for (int k = 0; k < 4; k++)
+            A->tot[k] = f1[k];
         float inv = 1.0f / (wsum > 0 ? wsum : 1.0f);
         m[0] = f1[1] * inv;
         m[1] = f1[2] * inv;
@@ -506,6 +555,10 @@ static void axis_compute(const blk *B, axis *A)
     float wsum = 0;
     for (int i = 0; i < 16; i++)
         wsum += B->w[i];
+    A->tot[0] = wsum;
+    A->tot[1] = m[0];
+    A->tot[2] = m[1];
+    A->tot[3] = m[2];
     float inv = 1.0f / (wsum > 0 ? wsum : 1.0f);
     m[0] *= inv;
     m[1] *= inv;
@@ -1184,16 +1237,22 @@ static void proj_weights(const blk *B, uint16_t c0, uint16_t c1, float tv[16])
  * (the truncated thirds are not exactly on the line: near-exact, no distances). */
 static void proj_select(const blk *B, uint16_t c0, uint16_t c1, uint8_t sel[16])
 {
-    float pal[3][4];
-    palette_f(c0, c1, 1, pal);
-    float d[3] = {pal[0][1] - pal[0][0], pal[1][1] - pal[1][0], pal[2][1] - pal[2][0]};
-    float pj[4]; /* projections in palette order 0, 2, 3, 1 */
-    static const int order[4] = {0, 2, 3, 1};
-    for (int j = 0; j < 4; j++) {
-        int e = order[j];
-        pj[j] = pal[0][e] * d[0] + pal[1][e] * d[1] + pal[2][e] * d[2];
+    uint8_t a[3], b[3];
+    st_bc1_565_to_rgb8(c0, a);
+    st_bc1_565_to_rgb8(c1, b);
+    /* projections (integers) of the palette entries in the order 0, 2, 3, 1 */
+    int di[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    int pj[4] = {0, 0, 0, 0};
+    for (int k = 0; k < 3; k++) {
+        int e2 = (2 * a[k] + b[k]) / 3, e3 = (a[k] + 2 * b[k]) / 3;
+        pj[0] += a[k] * di[k];
+        pj[1] += e2 * di[k];
+        pj[2] += e3 * di[k];
+        pj[3] += b[k] * di[k];
     }
-    float t1 = 0.5f * (pj[0] + pj[1]), t2 = 0.5f * (pj[1] + pj[2]), t3 = 0.5f * (pj[2] + pj[3]);
+    float d[3] = {(float)di[0], (float)di[1], (float)di[2]};
+    float t1 = 0.5f * (float)(pj[0] + pj[1]), t2 = 0.5f * (float)(pj[1] + pj[2]),
+          t3 = 0.5f * (float)(pj[2] + pj[3]);
 #ifdef __SSE2__
     __m128 dr = _mm_set1_ps(d[0]), dg = _mm_set1_ps(d[1]), db = _mm_set1_ps(d[2]);
     __m128 T1 = _mm_set1_ps(t1), T2 = _mm_set1_ps(t2), T3 = _mm_set1_ps(t3);
@@ -1237,7 +1296,7 @@ static void proj_rounds(const blk *B, const axis *A, float inset, int rounds, fl
             break;
         float tv[16];
         proj_weights(B, a, b, tv);
-        if (!ls_t(B, tv, e0, e1))
+        if (!ls_tot(B, tv, A->tot, e0, e1))
             break;
     }
 }
@@ -1252,7 +1311,7 @@ static void encode_fast4(const blk *B, const profile *P, const axis *A, cand *be
             break;
         float tv[16];
         proj_weights(B, a, b, tv);
-        if (!ls_t(B, tv, e0, e1))
+        if (!ls_tot(B, tv, A->tot, e0, e1))
             break;
     }
     uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
