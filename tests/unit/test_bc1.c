@@ -1,5 +1,6 @@
 /* tests/unit/test_bc1.c - BC1 blocks (encoder levels, exact and vendor decoders), images,
- * BC1 sets (compression pipeline, progress, cancel) and DDS files. */
+ * BC1 sets (compression pipeline, progress, cancel) and DDS files (every kind of BC1 set
+ * round-trips: same faces, flags, adjacency, blocks, info, metadata and samples). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -12,6 +13,7 @@
 
 #include "bc1.h"
 #include "bc1_texel.h"
+#include "defaultset.h"
 #include "sample.h"
 
 static uint32_t rng_state = 12345;
@@ -604,9 +606,17 @@ static void dds_keeps_per_face_sets_of_mixed_sizes(void **state)
                         ((st_level_h(&b->faces[f], l) + 3) / 4) * 8;
             assert_memory_equal(st_face_level(r, (uint32_t)f, l), st_face_level(b, (uint32_t)f, l), lb);
         }
-    /* the constant face comes back as uniform blocks close to its colour */
+    /* the constant face comes back constant with its exact texel (other readers see it as
+     * uniform blocks close to its colour) */
+    assert_true(r->faces[2].flags & ST_FACE_CONSTANT);
+    assert_memory_equal(st_face_level(r, 2, 0), st_face_level(b, 2, 0), 4);
+    const uint8_t *blk2 = NULL; /* face 2's last level: the block before the set record */
+    for (size_t i = 128; i + 8 <= len; i++)
+        if (!memcmp(buf + i, "STSET001", 8))
+            blk2 = buf + i - 8;
+    assert_non_null(blk2);
     uint8_t px[4];
-    st_bc1_texel(st_face_level(r, 2, 0), 1, 1, px);
+    st_bc1_texel(blk2, 0, 0, px);
     for (int k = 0; k < 3; k++)
         assert_true(abs(px[k] - st_face_level(b, 2, 0)[k]) <= 4);
     /* truncated anywhere after the header: a clean error */
@@ -655,6 +665,391 @@ static void dds_refuses_hostile_headers(void **state)
     assert_null(s);
 }
 
+/* ---- DDS round trips of every kind of BC1 set ------------------------------------------------ */
+
+static void assert_same_bc1_set(const st_set *a, const st_set *b)
+{
+    assert_int_equal(a->info.nfaces, b->info.nfaces);
+    assert_int_equal(a->info.kind, b->info.kind);
+    assert_int_equal(a->info.nchan, b->info.nchan);
+    assert_int_equal(a->info.dtype, b->info.dtype);
+    assert_int_equal(a->info.alpha_chan, b->info.alpha_chan);
+    assert_int_equal(a->info.colorspace, b->info.colorspace);
+    assert_int_equal(a->info.premultiplied, b->info.premultiplied);
+    assert_int_equal(a->info.border_u, b->info.border_u);
+    assert_int_equal(a->info.border_v, b->info.border_v);
+    assert_int_equal(a->info.meshtype, b->info.meshtype);
+    for (uint32_t f = 0; f < a->info.nfaces; f++) {
+        const st_face *A = &a->faces[f], *B = &b->faces[f];
+        assert_int_equal(A->w, B->w);
+        assert_int_equal(A->h, B->h);
+        assert_int_equal(A->nlevels, B->nlevels);
+        assert_int_equal(A->flags, B->flags);
+        assert_int_equal(A->lvl, B->lvl);
+        for (int k = 0; k < 4; k++) {
+            assert_int_equal(A->adjface[k], B->adjface[k]);
+            assert_int_equal(A->adjedge[k], B->adjedge[k]);
+            assert_int_equal(A->cornerface[k], B->cornerface[k]);
+            assert_int_equal(A->valence[k], B->valence[k]);
+        }
+        for (unsigned l = 0; l < A->nlevels; l++)
+            assert_int_equal(a->level_off[A->lvl + l], b->level_off[B->lvl + l]);
+    }
+    assert_int_equal(a->texel_bytes, b->texel_bytes);
+    assert_memory_equal(a->texels, b->texels, a->texel_bytes);
+    const st_bc1_ext *x = a->ext, *y = b->ext;
+    assert_non_null(x);
+    assert_non_null(y);
+    assert_int_equal(x->src_kind, y->src_kind);
+    assert_int_equal(x->src_nchan, y->src_nchan);
+    assert_int_equal(x->src_alpha, y->src_alpha);
+    assert_int_equal(x->punchthrough, y->punchthrough);
+    assert_int_equal(x->level, y->level);
+    assert_int_equal(x->seam_mode, y->seam_mode);
+    assert_int_equal(a->nmeta, b->nmeta);
+    for (uint32_t i = 0; i < a->nmeta; i++) {
+        static const size_t tsz[] = {1, 1, 2, 4, 4, 8};
+        assert_string_equal(a->meta[i].key, b->meta[i].key);
+        assert_int_equal(a->meta[i].type, b->meta[i].type);
+        assert_int_equal(a->meta[i].count, b->meta[i].count);
+        assert_memory_equal(a->meta[i].data, b->meta[i].data, tsz[a->meta[i].type] * a->meta[i].count);
+    }
+}
+
+/* Both sets give bit-identical samples for queries on every face, near edges and corners,
+ * with small and large footprints, in every mode and filter. */
+static void assert_samples_identical(const st_set *a, const st_set *b)
+{
+    enum { N = 512 };
+    st_query *q = malloc(N * sizeof *q);
+    float *oa = malloc(N * 4 * sizeof *oa), *ob = malloc(N * 4 * sizeof *ob);
+    assert_true(q && oa && ob);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)(rnd() % a->info.nfaces);
+        q[i].u = (i % 3 == 0) ? (float)(rnd() % 3) * 0.5f : (float)(rnd() % 1000) / 1000.0f;
+        q[i].v = (i % 5 == 0) ? (float)(rnd() % 3) * 0.5f : (float)(rnd() % 1000) / 1000.0f;
+        float fp = (i % 4 == 0) ? 0.3f : (i % 4 == 1) ? 1.0f / 8 : 1.0f / 128;
+        q[i].dudx = fp;
+        q[i].dvdx = (i & 1) ? fp / 3 : 0;
+        q[i].dudy = 0;
+        q[i].dvdy = fp / ((i & 2) ? 2 : 1);
+    }
+    const uint8_t modes[3] = {ST_MODE_DISCARD, ST_MODE_TRAVERSE, ST_MODE_CLAMP};
+    const uint8_t filters[4] = {ST_FILTER_POINT, ST_FILTER_BILINEAR, ST_FILTER_TRILINEAR,
+                                ST_FILTER_ANISO};
+    for (int m = 0; m < 3; m++)
+        for (int f = 0; f < 4; f++) {
+            st_sample_opts o;
+            memset(&o, 0, sizeof o);
+            o.mode = modes[m];
+            o.filter = filters[f];
+            o.zero_rule = ST_ZERO_CLAMP;
+            int ra = st_sample_batch(a, &o, q, N, oa, NULL, NULL);
+            int rb = st_sample_batch(b, &o, q, N, ob, NULL, NULL);
+            assert_int_equal(ra, rb);
+            if (memcmp(oa, ob, N * 4 * sizeof *oa)) {
+                print_message("samples differ (mode %d, filter %d)\n", m, f);
+                fail();
+            }
+        }
+    free(q);
+    free(oa);
+    free(ob);
+}
+
+/* b -> DDS in memory and in a file -> the same set; writing what was read gives the same
+ * bytes. Returns the file size. */
+static size_t assert_dds_round_trip(const st_set *b, const char *what)
+{
+    uint8_t *buf = NULL, *buf2 = NULL;
+    size_t len = 0, len2 = 0;
+    st_error e;
+    st_error_clear(&e);
+    int rc = st_dds_write_mem(b, &buf, &len, &e);
+    if (rc)
+        print_message("%s: write: %s\n", what, e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_memory_equal(buf, "DDS ", 4);
+    st_set *r = NULL;
+    rc = st_dds_read_mem(buf, len, 0, &r, &e);
+    if (rc)
+        print_message("%s: read: %s\n", what, e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_same_bc1_set(b, r);
+    assert_samples_identical(b, r);
+    assert_int_equal(st_dds_write_mem(r, &buf2, &len2, &e), ST_OK);
+    assert_int_equal(len2, len);
+    assert_memory_equal(buf2, buf, len);
+    st_set_free(r);
+    char path[] = "/tmp/seamtex_test_dds_XXXXXX";
+    int fdn = mkstemp(path);
+    assert_true(fdn >= 0);
+    close(fdn);
+    assert_int_equal(st_dds_write_file(b, path, &e), ST_OK);
+    rc = st_dds_read_file(path, 0, &r, &e);
+    remove(path);
+    assert_int_equal(rc, ST_OK);
+    assert_same_bc1_set(b, r);
+    st_set_free(r);
+    free(buf2);
+    free(buf);
+    return len;
+}
+
+static void the_default_sets_bc1_result_survives_dds(void **state)
+{
+    (void)state;
+    st_set *d = NULL, *b = NULL;
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_default_set(&d, &e), ST_OK);
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    o.level = ST_BC1_FAST;
+    assert_int_equal(st_bc1_compress_set(d, &o, NULL, NULL, NULL, &b, &e), ST_OK);
+    /* 384 faces of several sizes, non-square ones among them */
+    int mixed = 0, nonsquare = 0;
+    for (uint32_t f = 0; f < b->info.nfaces; f++) {
+        mixed |= b->faces[f].w != b->faces[0].w || b->faces[f].h != b->faces[0].h;
+        nonsquare |= b->faces[f].w != b->faces[f].h;
+    }
+    assert_int_equal(b->info.nfaces, 384);
+    assert_true(mixed && nonsquare);
+    assert_dds_round_trip(b, "default set");
+    st_set_free(b);
+    st_set_free(d);
+}
+
+/* A per-face set: a ring of faces of the given sizes (face f's right edge meets face f+1's
+ * left edge, the last meets the first), some constant, some subfaces, values from a hash. */
+static st_set *ring_set(uint32_t n, const uint32_t (*wh)[2], uint32_t const_mask,
+                        uint32_t sub_mask, int alpha_holes)
+{
+    st_face_desc *fd = calloc(n, sizeof *fd);
+    assert_non_null(fd);
+    for (uint32_t f = 0; f < n; f++) {
+        fd[f].w = wh[f][0];
+        fd[f].h = wh[f][1];
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
+        fd[f].adjface[1] = (int32_t)((f + 1) % n);
+        fd[f].adjedge[1] = 3;
+        fd[f].adjface[3] = (int32_t)((f + n - 1) % n);
+        fd[f].adjedge[3] = 1;
+        fd[f].flags = (uint8_t)(((const_mask >> f) & 1 ? ST_FACE_CONSTANT : 0) |
+                                ((sub_mask >> f) & 1 ? ST_FACE_SUBFACE : 0));
+    }
+    st_set_info in = {.nfaces = n, .nchan = 4, .dtype = ST_DT_U8,
+                      .alpha_chan = (int8_t)(alpha_holes ? 3 : -1), .kind = ST_KIND_PERFACE,
+                      .colorspace = ST_CS_SRGB, .border_u = 2, .border_v = 1};
+    st_set *s = NULL;
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_set_create(&in, fd, 0, &s, &e), ST_OK);
+    free(fd);
+    for (uint32_t f = 0; f < n; f++) {
+        const st_face *F = &s->faces[f];
+        size_t nt = F->flags & ST_FACE_CONSTANT ? 1 : (size_t)F->w * F->h;
+        uint8_t *p = st_face_level(s, f, 0);
+        for (size_t i = 0; i < nt; i++) {
+            uint32_t x = (uint32_t)i % F->w, y = (uint32_t)i / F->w;
+            p[4 * i + 0] = (uint8_t)(f * 37 + x * 5);
+            p[4 * i + 1] = (uint8_t)(f * 11 + y * 7);
+            p[4 * i + 2] = (uint8_t)((x ^ y) * 9);
+            p[4 * i + 3] = alpha_holes && (i % 11) == 3 ? 0 : 255;
+        }
+    }
+    st_set_build_mips(s, UINT32_MAX);
+    int32_t ints[3] = {1, -2, 3};
+    assert_int_equal(st_set_meta_add(s, "seamtex:name", 0, "ring", 5, &e), ST_OK);
+    assert_int_equal(st_set_meta_add(s, "ints", 3, ints, 3, &e), ST_OK);
+    return s;
+}
+
+static st_set *compress_or_fail(const st_set *s, int level, int seam_mode)
+{
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    o.level = level;
+    o.seam_mode = seam_mode;
+    o.threads = 2;
+    st_set *b = NULL;
+    st_error e;
+    st_error_clear(&e);
+    int rc = st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e);
+    if (rc)
+        print_message("compress: %s\n", e.msg);
+    assert_int_equal(rc, ST_OK);
+    return b;
+}
+
+static void every_kind_of_bc1_set_survives_dds(void **state)
+{
+    (void)state;
+    /* per-face, every power-of-two mix incl. non-square, 1-texel-wide and constant faces */
+    static const uint32_t mixed[7][2] = {{16, 16}, {32, 8}, {4, 64}, {8, 8}, {1, 2}, {64, 4}, {2, 2}};
+    st_set *s = ring_set(7, mixed, 1u << 3 | 1u << 6, 1u << 1 | 1u << 2, 0);
+    st_set *b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_AWARE);
+    assert_true(b->faces[3].flags & ST_FACE_CONSTANT);
+    assert_dds_round_trip(b, "per-face mixed sizes");
+    st_set_free(b);
+    /* face 0 constant, 1-bit alpha, HQ without seams */
+    st_set_free(s);
+    s = ring_set(7, mixed, 1u << 0, 0, 1);
+    b = compress_or_fail(s, ST_BC1_HQ, ST_BC1_SEAM_NONE);
+    assert_int_equal(((const st_bc1_ext *)b->ext)->punchthrough, 1);
+    assert_dds_round_trip(b, "per-face mixed, face 0 constant, alpha");
+    st_set_free(b);
+    st_set_free(s);
+    /* per-face, one non-square size for all (a DX10 array), with a constant face */
+    static const uint32_t same[4][2] = {{32, 8}, {32, 8}, {32, 8}, {32, 8}};
+    s = ring_set(4, same, 1u << 2, 0, 0);
+    b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_MASK);
+    assert_dds_round_trip(b, "per-face array");
+    st_set_free(b);
+    st_set_free(s);
+    /* one per-face face whose edges meet each other (periodic) */
+    static const uint32_t one[1][2] = {{16, 4}};
+    s = ring_set(1, one, 0, 0, 0);
+    b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_AWARE);
+    assert_int_equal(b->faces[0].adjface[1], 0);
+    assert_dds_round_trip(b, "one periodic face");
+    st_set_free(b);
+    st_set_free(s);
+    /* a cube with a constant face */
+    static const int A[6][4][2] = {{{2, 1}, {4, 3}, {3, 1}, {5, 1}}, {{2, 3}, {5, 3}, {3, 3}, {4, 1}},
+                                   {{4, 0}, {0, 0}, {5, 0}, {1, 0}}, {{5, 2}, {0, 2}, {4, 2}, {1, 2}},
+                                   {{2, 0}, {1, 3}, {3, 2}, {0, 1}}, {{2, 2}, {0, 3}, {3, 0}, {1, 1}}};
+    st_face_desc fd[6];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 6; f++) {
+        fd[f].w = fd[f].h = 16;
+        for (int k = 0; k < 4; k++) {
+            fd[f].adjface[k] = A[f][k][0];
+            fd[f].adjedge[k] = (int8_t)A[f][k][1];
+        }
+    }
+    fd[4].flags = ST_FACE_CONSTANT;
+    st_set_info ci = {.nfaces = 6, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1,
+                      .kind = ST_KIND_CUBE, .colorspace = ST_CS_SRGB};
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_set_create(&ci, fd, 0, &s, &e), ST_OK);
+    for (size_t i = 0; i < s->texel_bytes; i++)
+        s->texels[i] = (uint8_t)(i * 7 + (i >> 5));
+    st_set_build_mips(s, UINT32_MAX);
+    b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_AWARE);
+    size_t len = assert_dds_round_trip(b, "cube");
+    assert_true(len > 128);
+    st_set_free(b);
+    st_set_free(s);
+    /* atlas images of non-power-of-two sizes */
+    static const uint32_t atl[3][2] = {{20, 12}, {37, 5}, {3, 1}};
+    for (int i = 0; i < 3; i++) {
+        st_face_desc af;
+        memset(&af, 0, sizeof af);
+        af.w = atl[i][0];
+        af.h = atl[i][1];
+        for (int k = 0; k < 4; k++)
+            af.adjface[k] = -1;
+        st_set_info ai = {.nfaces = 1, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
+                          .kind = ST_KIND_ATLAS};
+        assert_int_equal(st_set_create(&ai, &af, 0, &s, &e), ST_OK);
+        uint8_t *img = smooth_image(af.w, af.h);
+        memcpy(st_face_level(s, 0, 0), img, (size_t)af.w * af.h * 4);
+        free(img);
+        st_set_build_mips(s, 0);
+        b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_NONE);
+        assert_dds_round_trip(b, "atlas");
+        st_set_free(b);
+        st_set_free(s);
+    }
+}
+
+/* Files without seamtex's set record (older seamtex files, other tools) still read: faces and
+ * blocks back, constant faces as their uniform blocks. */
+static void dds_without_the_set_record_reads_as_before(void **state)
+{
+    (void)state;
+    static const uint32_t same[3][2] = {{8, 8}, {8, 8}, {8, 8}};
+    st_set *s = ring_set(3, same, 0, 0, 0), *b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_NONE);
+    uint8_t *buf;
+    size_t len;
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    /* cut the record out: header, DX10, 3 faces of 32+8+8+8 bytes, record, trailer */
+    size_t data_end = 148 + 3 * 56;
+    assert_memory_equal(buf + data_end, "STSET001", 8);
+    size_t rec = (size_t)buf[data_end + 8] | (size_t)buf[data_end + 9] << 8;
+    memmove(buf + data_end, buf + data_end + rec, len - data_end - rec);
+    st_set *r = NULL;
+    assert_int_equal(st_dds_read_mem(buf, len - rec, 0, &r, &e), ST_OK);
+    assert_int_equal(r->info.nfaces, 3);
+    assert_int_equal(r->faces[2].adjface[1], 0);
+    assert_memory_equal(r->texels, b->texels, b->texel_bytes);
+    assert_int_equal(r->nmeta, 0);
+    st_set_free(r);
+    free(buf);
+    st_set_free(b);
+    st_set_free(s);
+}
+
+/* A damaged set record is refused with EFORMAT, whatever field is wrong. */
+static void dds_refuses_a_damaged_set_record(void **state)
+{
+    (void)state;
+    static const uint32_t mixed[3][2] = {{8, 8}, {16, 4}, {4, 4}};
+    st_set *s = ring_set(3, mixed, 1u << 2, 0, 0), *b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_NONE);
+    uint8_t *buf;
+    size_t len;
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    /* the record is the last thing of a mixed-size file: find it */
+    size_t at = 0;
+    for (size_t i = 128; i + 8 <= len; i++)
+        if (!memcmp(buf + i, "STSET001", 8))
+            at = i;
+    assert_true(at > 0);
+    assert_int_equal(buf[at + 8] | buf[at + 9] << 8, len - at);
+    /* offsets of the record and a value that is out of range there */
+    static const struct { size_t off; uint8_t v; } bad[] = {
+        {8, 0x00}, {8, 0xff}, {12, 9}, {16, 2}, {17, 2}, {18, 3}, {19, 3}, {20, 2}, {21, 0},
+        {24, 3}, {25, 0}, {25, 5}, {26, 7}, {27, 2}, {28, 3}, {29, 3}, {32, 4}, {36, 9},
+        {40, 3},  /* constant face id 3 of 3 faces */
+        {48, 1},  /* first metadata key size 1 */
+        {48, 200},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        uint8_t keep = buf[at + bad[i].off];
+        buf[at + bad[i].off] = bad[i].v;
+        st_set *r = NULL;
+        int rc = st_dds_read_mem(buf, len, 0, &r, &e);
+        if (rc != ST_EFORMAT)
+            print_message("offset %zu value %u: rc %d\n", bad[i].off, bad[i].v, rc);
+        assert_int_equal(rc, ST_EFORMAT);
+        assert_null(r);
+        buf[at + bad[i].off] = keep;
+    }
+    /* bytes after the record, and every truncation inside it */
+    uint8_t *big = malloc(len + 3);
+    memcpy(big, buf, len);
+    memset(big + len, 0, 3);
+    st_set *r = NULL;
+    assert_int_equal(st_dds_read_mem(big, len + 3, 0, &r, &e), ST_EFORMAT);
+    for (size_t cut = at + 1; cut < len; cut++) { /* (cut at `at`: a file without record) */
+        assert_int_equal(st_dds_read_mem(buf, cut, 0, &r, &e), ST_EFORMAT);
+        assert_null(r);
+    }
+    assert_int_equal(st_dds_read_mem(buf, len, 0, &r, &e), ST_OK);
+    st_set_free(r);
+    free(big);
+    free(buf);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -677,6 +1072,10 @@ int main(void)
         cmocka_unit_test(dds_writes_cube_sets_as_cube_maps),
         cmocka_unit_test(dds_keeps_per_face_sets_of_mixed_sizes),
         cmocka_unit_test(dds_refuses_hostile_headers),
+        cmocka_unit_test(the_default_sets_bc1_result_survives_dds),
+        cmocka_unit_test(every_kind_of_bc1_set_survives_dds),
+        cmocka_unit_test(dds_without_the_set_record_reads_as_before),
+        cmocka_unit_test(dds_refuses_a_damaged_set_record),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
