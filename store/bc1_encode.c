@@ -315,69 +315,12 @@ static void try3(const blk *B, uint16_t a, uint16_t b, cand *best)
         *best = c;
 }
 
-/* Least-squares endpoints for per-texel weights t of endpoint 1 (texel ~ (1-t) e0 + t e1).
- * Returns 0 when the system is singular (all texels on one weight). */
-static int ls_t(const blk *B, const float tv[16], float e0[3], float e1[3])
-{
-#ifdef __SSE2__
-    __m128 one = _mm_set1_ps(1.0f), z = _mm_setzero_ps();
-    __m128 vaa = z, vab = z, vbb = z, ar = z, ag = z, ab_ = z, br = z, bg = z, bb_ = z;
-    for (int i = 0; i < 16; i += 4) {
-        __m128 w = _mm_loadu_ps(B->w + i), t = _mm_loadu_ps(tv + i);
-        __m128 s_ = _mm_sub_ps(one, t);
-        __m128 wt = _mm_mul_ps(w, t), ws = _mm_mul_ps(w, s_);
-        vaa = _mm_add_ps(vaa, _mm_mul_ps(ws, s_));
-        vab = _mm_add_ps(vab, _mm_mul_ps(ws, t));
-        vbb = _mm_add_ps(vbb, _mm_mul_ps(wt, t));
-        __m128 r = _mm_loadu_ps(B->r + i), g = _mm_loadu_ps(B->g + i), b = _mm_loadu_ps(B->b + i);
-        ar = _mm_add_ps(ar, _mm_mul_ps(ws, r));
-        ag = _mm_add_ps(ag, _mm_mul_ps(ws, g));
-        ab_ = _mm_add_ps(ab_, _mm_mul_ps(ws, b));
-        br = _mm_add_ps(br, _mm_mul_ps(wt, r));
-        bg = _mm_add_ps(bg, _mm_mul_ps(wt, g));
-        bb_ = _mm_add_ps(bb_, _mm_mul_ps(wt, b));
-    }
-    /* nine horizontal sums: two transposes and one hsum */
-    _MM_TRANSPOSE4_PS(vaa, vab, vbb, ar);
-    _MM_TRANSPOSE4_PS(ag, ab_, br, bg);
-    float h1[4], h2[4];
-    _mm_storeu_ps(h1, _mm_add_ps(_mm_add_ps(vaa, vab), _mm_add_ps(vbb, ar)));
-    _mm_storeu_ps(h2, _mm_add_ps(_mm_add_ps(ag, ab_), _mm_add_ps(br, bg)));
-    float aa = h1[0], ab = h1[1], bb = h1[2];
-    float ax[3] = {h1[3], h2[0], h2[1]}, bx[3] = {h2[2], h2[3], hsum(bb_)};
-#else
-    float aa = 0, ab = 0, bb = 0, ax[3] = {0, 0, 0}, bx[3] = {0, 0, 0};
-    for (int i = 0; i < 16; i++) {
-        float w = B->w[i], t = tv[i], s = 1.0f - t;
-        aa += w * s * s;
-        ab += w * s * t;
-        bb += w * t * t;
-        ax[0] += w * s * B->r[i];
-        ax[1] += w * s * B->g[i];
-        ax[2] += w * s * B->b[i];
-        bx[0] += w * t * B->r[i];
-        bx[1] += w * t * B->g[i];
-        bx[2] += w * t * B->b[i];
-    }
-#endif
-    float det = aa * bb - ab * ab;
-    /* singular when the weights barely vary (det / (aa bb) = 1 - correlation^2); relative,
-     * so that rounding of a truly singular system never passes */
-    if (!(det > 1e-5f * aa * bb))
-        return 0;
-    float inv = 1.0f / det;
-    for (int k = 0; k < 3; k++) {
-        float v0 = (bb * ax[k] - ab * bx[k]) * inv, v1 = (aa * bx[k] - ab * ax[k]) * inv;
-        e0[k] = v0 < 0 ? 0 : v0 > 255 ? 255 : v0;
-        e1[k] = v1 < 0 ? 0 : v1 > 255 ? 255 : v1;
-    }
-    return 1;
-}
-
-/* ls_t when the block's sums of w and w x are known (tot, from the axis): with
- * S = sum w t, S2 = sum w t^2 and X1 = sum w t x, aa = W - 2 S + S2, ab = S - S2, bb = S2,
- * ax = sum w x - X1, bx = X1: five sums instead of nine. */
-static int ls_tot(const blk *B, const float tv[16], const float tot[4], float e0[3],
+/* Least-squares endpoints for per-texel weights t of endpoint 1 (texel ~ (1-t) e0 + t e1),
+ * given the block's sums of w and w x (tot, from the axis): with S = sum w t,
+ * S2 = sum w t^2 and X1 = sum w t x, aa = W - 2 S + S2, ab = S - S2, bb = S2,
+ * ax = sum w x - X1, bx = X1. Returns 0 when the system is singular (all texels on one
+ * weight). */
+static int ls_t(const blk *B, const float tv[16], const float tot[4], float e0[3],
                   float e1[3])
 {
 #ifdef __SSE2__
@@ -422,7 +365,8 @@ static int ls_tot(const blk *B, const float tv[16], const float tot[4], float e0
 
 /* Least-squares endpoints for the selectors `sel` (4-colour weights when four, else
  * 3-colour). Returns 0 when the system is singular (all texels on one weight). */
-static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3], float e1[3])
+static int ls_endpoints(const blk *B, const uint8_t *sel, int four, const float tot[4],
+                        float e0[3], float e1[3])
 {
     /* weight of endpoint 1 per selector */
     static const float t4[4] = {0.0f, 1.0f, 1.0f / 3.0f, 2.0f / 3.0f}, t3[4] = {0.0f, 1.0f, 0.5f, 0.0f};
@@ -430,7 +374,7 @@ static int ls_endpoints(const blk *B, const uint8_t *sel, int four, float e0[3],
     float tv[16];
     for (int i = 0; i < 16; i++)
         tv[i] = tw[sel[i]];
-    return ls_t(B, tv, e0, e1);
+    return ls_t(B, tv, tot, e0, e1);
 }
 
 /* With the selectors fixed the error separates by channel, and with per-selector sums it
@@ -1175,7 +1119,8 @@ merge:
 }
 
 /* Rounds of round -> select -> least squares from (e0, e1), 4-colour. */
-static void rounds4(const blk *B, const profile *P, float e0[3], float e1[3], cand *best)
+static void rounds4(const blk *B, const profile *P, const axis *A, float e0[3], float e1[3],
+                    cand *best)
 {
     uint16_t pa = 0, pb = 0;
     for (int it = 0; it < P->rounds; it++) {
@@ -1190,7 +1135,7 @@ static void rounds4(const blk *B, const profile *P, float e0[3], float e1[3], ca
             break;
         if (best->err == 0 || best->c0 == best->c1 || it + 1 == P->rounds)
             break;
-        if (!ls_endpoints(B, best->sel, 1, e0, e1))
+        if (!ls_endpoints(B, best->sel, 1, A->tot, e0, e1))
             break;
         if (P->radius) {
             uint16_t a2, b2;
@@ -1296,7 +1241,7 @@ static void proj_rounds(const blk *B, const axis *A, float inset, int rounds, fl
             break;
         float tv[16];
         proj_weights(B, a, b, tv);
-        if (!ls_tot(B, tv, A->tot, e0, e1))
+        if (!ls_t(B, tv, A->tot, e0, e1))
             break;
     }
 }
@@ -1311,7 +1256,7 @@ static void encode_fast4(const blk *B, const profile *P, const axis *A, cand *be
             break;
         float tv[16];
         proj_weights(B, a, b, tv);
-        if (!ls_tot(B, tv, A->tot, e0, e1))
+        if (!ls_t(B, tv, A->tot, e0, e1))
             break;
     }
     uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
@@ -1343,10 +1288,10 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             proj_rounds(B, &A, P->inset, P->seed, e0, e1);
         else
             axis_endpoints(&A, P->inset, e0, e1);
-        rounds4(B, P, e0, e1, &best);
+        rounds4(B, P, &A, e0, e1, &best);
         if (P->inset2 >= 0 && best.err > 0) {
             axis_endpoints(&A, P->inset2, e0, e1);
-            rounds4(B, P, e0, e1, &best);
+            rounds4(B, P, &A, e0, e1, &best);
         }
         if (P->cluster && best.err > 0) {
             /* splits within +-cluster of the ones the best selectors imply */
@@ -1362,7 +1307,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 hi[k] = sp[k] + P->cluster > 16 ? 16 : sp[k] + P->cluster;
             }
             if (cluster_fit(B, &A, lo, hi, e0, e1))
-                rounds4(B, P, e0, e1, &best);
+                rounds4(B, P, &A, e0, e1, &best);
         }
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
@@ -1381,7 +1326,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 break;
             if (it == 0 && four_ok && b3.err > best.err * P->r3ratio)
                 break; /* hopeless from the start */
-            if (!ls_endpoints(B, b3.sel, 0, f0, f1))
+            if (!ls_endpoints(B, b3.sel, 0, A.tot, f0, f1))
                 break;
             if (P->radius) {
                 uint16_t a2, b2;
