@@ -39,7 +39,9 @@ int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error
 /* Writes a per-face set as a Ptex v1.4 file: extended header, zipped face info and constant
  * data, level 0 plus the stored reductions in Ptex's rfaceid order, zipped (u8/u16:
  * diff-zipped) planar blocks, faces larger than Ptex's tile size tiled, small and large
- * metadata (a key the set holds more than once is written once, with its last value).
+ * metadata (a key the set holds more than once is written once, with its last value; the
+ * importer's "seamtex:source_format" is not written), so that write(read(write(s))) ==
+ * write(s) byte for byte.
  * The writer stores the set's own levels as the reductions, so reading the file back gives
  * the same set bit for bit. *buf is malloc'ed, the caller frees it. */
 int st_ptex_write_mem(const st_set *s, void **buf, size_t *len, st_error *e);

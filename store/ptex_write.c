@@ -14,11 +14,13 @@
  * square reductions are re-derived by the reader with Ptex's rule (they round-trip exactly for
  * every set that the reader produced).
  *
- * Repeated metadata keys: st_set_meta_add appends, so a set may hold a key twice (the importer
- * adds "seamtex:source_format" to a set read from a .ptx that already carries it). Such a key
- * is written once, at its first position with its last value - the rule the reader applies to
- * repeated records and metadata edits. Writing what the reader gives therefore reproduces the
- * same bytes: write(read(write(s))) == write(s), and an upload/fetch loop does not grow.
+ * Metadata the writer leaves out or merges, so that write(read(write(s))) == write(s) and a
+ * daemon's upload/fetch loop gives the same bytes every round:
+ *   - "seamtex:source_format", which the importer appends to every set it makes (import.c):
+ *     it says how the set in memory was made; a .ptx written here is a new source, and the
+ *     importer would only re-add it ("ptex") to what it reads back;
+ *   - a repeated key (st_set_meta_add appends): written once, at its first position with its
+ *     last value - the rule the reader applies to repeated records and metadata edits.
  */
 #include "ptex.h"
 
@@ -255,6 +257,9 @@ static int meta_key_cmp(const void *a, const void *b)
     return c ? c : x->idx < y->idx ? -1 : x->idx > y->idx;
 }
 
+/* The importer's provenance entry, not written (see the top of this file). */
+#define META_NOT_WRITTEN "seamtex:source_format"
+
 /* Fills pick[i] for each metadata entry i: the entry whose value is written at position i
  * (the last entry with the same key) when i is the first entry with its key, else UINT32_MAX
  * (not written). O(n log n), so a set holding many entries costs little. */
@@ -274,7 +279,8 @@ static int meta_pick(const st_set *s, uint32_t *pick)
         uint32_t j = i;
         while (j + 1 < n && !strcmp(k[j + 1].key, k[i].key))
             j++;
-        pick[k[i].idx] = k[j].idx;
+        if (strcmp(k[i].key, META_NOT_WRITTEN))
+            pick[k[i].idx] = k[j].idx;
         i = j + 1;
     }
     free(k);
