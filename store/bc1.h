@@ -144,9 +144,10 @@ int st_bc1_decode_set(const st_set *bc1, st_bc1_decoder dec, st_set **out, st_er
  * the other faces (other readers show face 0). A constant face is written as uniform blocks.
  * A seamtex set record after the image data (dds.c) keeps constant faces exact, the colour
  * space, border modes, alpha channel, st_bc1_ext and the metadata, so that every set
- * st_bc1_compress_set makes reads back identical. Reading accepts DXT1 (legacy header) and DX10 BC1 (71, 72), 2D, arrays and cubes; sizes
- * from the file are checked against the file length and the caps before anything is
- * allocated; max_bytes caps the arena (0 = ST_DEFAULT_MAX_BYTES). */
+ * st_bc1_compress_set makes reads back identical. Reading accepts DXT1 (legacy header) and
+ * DX10 BC1 (71, 72), 2D, arrays and cubes; sizes from the file are checked against the file
+ * length and the caps before anything is allocated; max_bytes caps the arena
+ * (0 = ST_DEFAULT_MAX_BYTES). st_dds_write_file writes path.tmp, fsyncs it and renames it. */
 int st_dds_write_mem(const st_set *bc1set, uint8_t **buf, size_t *len, st_error *e);
 int st_dds_write_file(const st_set *bc1set, const char *path, st_error *e);
 int st_dds_read_mem(const uint8_t *buf, size_t len, size_t max_bytes, st_set **out,

@@ -52,9 +52,11 @@
 #include "bc1.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define DDSD_CAPS        0x1u
 #define DDSD_HEIGHT      0x2u
@@ -360,6 +362,8 @@ int st_dds_write_mem(const st_set *s, uint8_t **buf, size_t *len, st_error *e)
     return ST_OK;
 }
 
+/* Written to path.tmp, fsynced and renamed over path, so that a reader (or a restart after a
+ * crash) sees the old file or the new one, never a part. */
 int st_dds_write_file(const st_set *s, const char *path, st_error *e)
 {
     uint8_t *b;
@@ -367,17 +371,39 @@ int st_dds_write_file(const st_set *s, const char *path, st_error *e)
     int rc = st_dds_write_mem(s, &b, &n, e);
     if (rc)
         return rc;
-    FILE *fp = fopen(path, "wb");
-    if (!fp) {
+    char tmp[4096];
+    if ((size_t)snprintf(tmp, sizeof tmp, "%s.tmp", path) >= sizeof tmp) {
         free(b);
-        return st_fail(e, ST_EIO, "%s: %s", path, strerror(errno));
+        return st_fail(e, ST_EINVAL, "path too long: %s", path);
     }
-    size_t wr = fwrite(b, 1, n, fp);
-    int cl = fclose(fp);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        free(b);
+        return st_fail(e, ST_EIO, "%s: %s", tmp, strerror(errno));
+    }
+    const uint8_t *p = b;
+    size_t left = n;
+    while (left) {
+        ssize_t k = write(fd, p, left);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0) {
+            rc = st_fail(e, ST_EIO, "%s: write failed: %s", tmp, strerror(errno));
+            break;
+        }
+        p += k;
+        left -= (size_t)k;
+    }
+    if (!rc && fsync(fd) != 0)
+        rc = st_fail(e, ST_EIO, "%s: fsync failed: %s", tmp, strerror(errno));
+    if (close(fd) != 0 && !rc)
+        rc = st_fail(e, ST_EIO, "%s: close failed: %s", tmp, strerror(errno));
+    if (!rc && rename(tmp, path) != 0)
+        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp, path, strerror(errno));
+    if (rc)
+        unlink(tmp);
     free(b);
-    if (wr != n || cl != 0)
-        return st_fail(e, ST_EIO, "%s: write failed", path);
-    return ST_OK;
+    return rc;
 }
 
 /* ---- reading ------------------------------------------------------------------------------ */

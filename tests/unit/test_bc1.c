@@ -1050,6 +1050,37 @@ static void dds_refuses_a_damaged_set_record(void **state)
     st_set_free(s);
 }
 
+static void dds_write_file_replaces_atomically(void **state)
+{
+    (void)state;
+    static const uint32_t mixed[2][2] = {{8, 8}, {16, 4}};
+    st_set *s = ring_set(2, mixed, 0, 0, 0), *b = compress_or_fail(s, ST_BC1_FAST, ST_BC1_SEAM_NONE);
+    char dir[] = "/tmp/seamtex_ddsw_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[256], tmp[300], bad[300];
+    snprintf(path, sizeof path, "%s/out.dds", dir);
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    snprintf(bad, sizeof bad, "%s/no/such/dir/x.dds", dir);
+    st_error e;
+    st_error_clear(&e);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs("an older file, longer than nothing", f);
+    fclose(f);
+    assert_int_equal(st_dds_write_file(b, path, &e), ST_OK);
+    assert_int_not_equal(access(tmp, F_OK), 0);
+    st_set *r = NULL;
+    assert_int_equal(st_dds_read_file(path, 0, &r, &e), ST_OK);
+    assert_same_bc1_set(b, r);
+    st_set_free(r);
+    assert_int_equal(st_dds_write_file(b, bad, &e), ST_EIO);
+    assert_true(strlen(e.msg) > 0);
+    unlink(path);
+    rmdir(dir);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1076,6 +1107,7 @@ int main(void)
         cmocka_unit_test(every_kind_of_bc1_set_survives_dds),
         cmocka_unit_test(dds_without_the_set_record_reads_as_before),
         cmocka_unit_test(dds_refuses_a_damaged_set_record),
+        cmocka_unit_test(dds_write_file_replaces_atomically),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
