@@ -51,6 +51,9 @@ static const opt OPTS[] = {
     {"max-batch", T_U32, O(max_batch), 0, 1, "N", "queries per SAMPLE request (default 1048576)"},
     {"heavy-batch", T_U32, O(heavy_batch), 0, 1, "N",
      "SAMPLE batches larger than N queries run on a worker (default 16384)"},
+    {"split-batch", T_U32, O(split_batch), 0, 1, "N",
+     "SAMPLE batches of N queries or more are sampled in parts by the thread that has them and "
+     "idle workers together; 0 = never (default 2048)"},
     {"conn-out-cap", T_SIZE, O(conn_out_cap), 0, 1, "BYTES",
      "unsent reply bytes per connection before the server stops reading it (default 4M)"},
     {"max-memory", T_SIZE, O(max_memory), 0, 1, "BYTES",
@@ -80,6 +83,7 @@ void sts_config_defaults(sts_config *c)
     c->workers = 2;
     c->max_batch = 1u << 20;
     c->heavy_batch = 16384;
+    c->split_batch = 2048;
     c->conn_out_cap = 4u << 20;
     c->max_memory = 1u << 30;
     c->max_sets = 10000;

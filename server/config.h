@@ -33,6 +33,8 @@ typedef struct sts_config {
     uint32_t workers;           /* worker threads for heavy requests */
     uint32_t max_batch;         /* queries per SAMPLE request */
     uint32_t heavy_batch;       /* SAMPLE batches above this go to a worker */
+    uint32_t split_batch;       /* SAMPLE batches of this many queries or more are split with
+                                   idle workers (0 = never) */
     uint64_t conn_out_cap;      /* pending reply bytes per connection before reading pauses */
     uint64_t max_memory;        /* all connection buffers together (bytes) */
     uint32_t max_sets;          /* names in the registry */

@@ -236,7 +236,96 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     return 0;
 }
 
-/* Samples and replies; shared by SAMPLE and SAMPLE_DIR. dq != NULL means direction queries. */
+/* Queries per part of a split batch (sts_pool_parallel): ~20 us of bilinear sampling, so a
+ * helper that wakes late still finds parts to take, and the caller waits at most one part. */
+#define PART_GRAIN 256
+
+typedef struct part_arg {
+    const st_set         *s;
+    const st_sample_opts *o;
+    const st_query       *q;    /* SAMPLE */
+    const st_cube_query  *cq;   /* SAMPLE_DIR */
+    float                *out, *cov;
+    uint8_t              *status;
+    unsigned              nchan;
+} part_arg;
+
+static int part_sample(void *arg, size_t first, size_t count)
+{
+    const part_arg *a = arg;
+    return st_sample_batch(a->s, a->o, a->q + first, count, a->out + first * a->nchan,
+                           a->cov ? a->cov + first : NULL, a->status + first);
+}
+
+static int part_sample_dir(void *arg, size_t first, size_t count)
+{
+    const part_arg *a = arg;
+    return st_cube_sample_dir(a->s, a->o, ST_CUBE_LOOKUP_PLAIN, a->cq + first, count,
+                              a->out + first * a->nchan, a->cov ? a->cov + first : NULL,
+                              a->status + first);
+}
+
+/* Samples the batch on this thread, split with idle workers when it has split-batch queries
+ * or more (0 = never split). */
+static int run_batch(sts_ctx *c, size_t n, sts_part_fn fn, part_arg *a)
+{
+    uint32_t split = STS_LIVE(c->srv, split_batch);
+    if (n == 0)
+        return 0;
+    if (split && n >= split)
+        return sts_pool_parallel(&c->srv->pool, n, PART_GRAIN, fn, a);
+    return fn(a, 0, n);
+}
+
+/* f32 replies on a little-endian host: the reply's values (and coverage, status) are laid
+ * out exactly as the sampler writes them, so the frame is started in `out` and the batch is
+ * sampled straight into it: no intermediate array, no encode pass. Returns 1 when the reply
+ * is complete in `out` (*rc = bad queries), 0 when it could not be done here (no room,
+ * unaligned room, or the sampler refused the options: *rc < 0), with `out` as it was. */
+static int sample_into_reply(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
+                             uint32_t n, sts_part_fn fn, part_arg *a, stp_buf *out, int *rc)
+{
+    int want_cov = (rq->p.flags & STP_SF_COVERAGE) != 0;
+    int want_st = (rq->p.flags & STP_SF_STATUS) != 0;
+    size_t vbytes = (size_t)n * a->nchan * 4;   /* n <= max-batch (2^32 - 1) and nchan <= 4 */
+    size_t cbytes = want_cov ? (size_t)n * 4 : 0;
+    size_t bytes = vbytes + cbytes + (want_st ? n : 0);
+    size_t at = stp_frame_begin(out, h->opcode, STP_F_REPLY, h->reqid, 0, 0);
+    stp_put_u32(out, n);
+    stp_put_u8(out, (uint8_t)a->nchan);
+    stp_put_u8(out, rq->p.outfmt);
+    stp_put_u8(out, rq->p.flags & (STP_SF_COVERAGE | STP_SF_STATUS));
+    stp_put_u8(out, 0);
+    size_t nbad_at = out->len - out->start;   /* head-relative: survives compaction */
+    stp_put_u32(out, 0);
+    *rc = 0;
+    if (!out->err && stp_buf_reserve(out, bytes) == 0 &&
+        ((uintptr_t)(out->data + out->len) % _Alignof(float)) == 0) {
+        uint8_t *dst = out->data + out->len;
+        a->out = (float *)(void *)dst;
+        a->cov = want_cov ? (float *)(void *)(dst + vbytes) : NULL;
+        if (want_st)
+            a->status = dst + vbytes + cbytes;
+        *rc = run_batch(c, n, fn, a);
+        if (*rc >= 0) {
+            out->len += bytes;
+            stp_wr32(out->data + out->start + nbad_at, (uint32_t)*rc);
+            if (stp_frame_end(out, at) == 0)
+                return 1;
+            sts_reply_error(out, h, STP_S_TOO_LARGE, "reply could not be encoded (too large?)");
+            return 1;
+        }
+    }
+    /* drop the partial frame: the buffer holds whole frames only */
+    out->len = out->start + at;
+    out->err = 0;
+    a->out = c->scratch->out;
+    a->cov = want_cov ? c->scratch->cov : NULL;
+    a->status = c->scratch->status;
+    return 0;
+}
+
+/* Samples and replies; shared by SAMPLE and SAMPLE_DIR (h->opcode tells which). */
 static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
                          stp_buf *out)
 {
@@ -248,20 +337,29 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
         return 0;
     const st_set *s = ref->set;
     uint32_t n = rq->count;
-    if (sts_scratch_reserve(c->scratch, n ? n : 1, s->info.nchan) != 0) {
+    if (h->opcode == STP_OP_SAMPLE_DIR && s->info.kind != ST_KIND_CUBE) {
+        st_setref_release(ref);
+        sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
+        return 0;
+    }
+    if (sts_scratch_reserve(c->scratch, n ? n : 1, h->opcode == STP_OP_SAMPLE_DIR) != 0) {
         st_setref_release(ref);
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
         return 0;
     }
     sts_scratch *sc = c->scratch;
     float *cov = (rq->p.flags & STP_SF_COVERAGE) ? sc->cov : NULL;
-    int rc;
+    part_arg a = {s, &o, sc->q, sc->cq, sc->out, cov, sc->status, s->info.nchan};
+    sts_part_fn fn;
     if (h->opcode == STP_OP_SAMPLE && WIRE_IS_ST_QUERY) {
         /* the wire query (u32 face, 6 x f32, little-endian, packed) is st_query's layout on
-         * a little-endian host: one copy instead of a decode per field */
-        if (n)  /* with n == 0 both pointers may be NULL: memcpy must not see them */
+         * a little-endian host: sampled where it lies in the input buffer when aligned, else
+         * after one copy */
+        if (n && ((uintptr_t)rq->raw % _Alignof(st_query)) == 0)
+            a.q = (const st_query *)(const void *)rq->raw;
+        else if (n)  /* with n == 0 both pointers may be NULL: memcpy must not see them */
             memcpy(sc->q, rq->raw, (size_t)n * STP_QUERY_SIZE);
-        rc = n ? st_sample_batch(s, &o, sc->q, n, sc->out, cov, sc->status) : 0;
+        fn = part_sample;
     } else if (h->opcode == STP_OP_SAMPLE) {
         for (uint32_t i = 0; i < n; i++) {
             stp_query q;
@@ -275,19 +373,9 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
             d->dudy = q.dudy;
             d->dvdy = q.dvdy;
         }
-        rc = n ? st_sample_batch(s, &o, sc->q, n, sc->out, cov, sc->status) : 0;
+        fn = part_sample;
     } else {
-        if (s->info.kind != ST_KIND_CUBE) {
-            st_setref_release(ref);
-            sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
-            return 0;
-        }
-        st_cube_query *cq = n ? malloc((size_t)n * sizeof *cq) : NULL;
-        if (n && !cq) {
-            st_setref_release(ref);
-            sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
-            return 0;
-        }
+        st_cube_query *cq = sc->cq;
         for (uint32_t i = 0; i < n; i++) {
             stp_dir_query q;
             stp_sample_dir_query(rq, i, &q);
@@ -302,10 +390,18 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
                 memcpy(cq[i].ddy, q.ddy, sizeof q.ddy);
             }
         }
-        rc = n ? st_cube_sample_dir(s, &o, ST_CUBE_LOOKUP_PLAIN, cq, n, sc->out, cov,
-                                    sc->status)
-               : 0;
-        free(cq);
+        fn = part_sample_dir;
+    }
+    int rc = 0, replied = 0;
+    if (n && rq->p.outfmt == STP_OUT_F32 && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__)
+        replied = sample_into_reply(c, h, rq, n, fn, &a, out, &rc);
+    if (!replied && rc >= 0)
+        rc = run_batch(c, n, fn, &a);
+    if (replied && rc >= 0) {
+        STS_STAT_ADD(c->srv, queries, n);
+        STS_STAT_ADD(c->srv, query_errors, (uint64_t)rc);
+        st_setref_release(ref);
+        return 0;
     }
     if (rc < 0) {
         st_setref_release(ref);
@@ -409,6 +505,8 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     U("io_threads", srv->nio);
     U("workers", srv->pool.nthreads);
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
+    U("split_batches", __atomic_load_n(&srv->pool.split_batches, __ATOMIC_RELAXED));
+    U("parts_helped", __atomic_load_n(&srv->pool.parts_helped, __ATOMIC_RELAXED));
     U("max_conns", STS_LIVE(srv, max_conns));
     U("max_frame", STS_LIVE(srv, max_frame));
     for (unsigned op = 0; op < 256; op++) {

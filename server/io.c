@@ -25,14 +25,23 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cube.h"
 #include "server.h"
 
 #define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
 #define KEEP_SMALL (64u << 10)   /* buffers up to this are released as soon as idle */
 #define FLUSH_AT   (64u << 10)   /* replies pending past this are sent inside the parse loop */
 
-int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan)
+int sts_scratch_reserve(sts_scratch *s, size_t n, int dir)
 {
+    if (dir && n > s->cqcap) {
+        size_t cap = n < 4096 ? 4096 : n;
+        st_cube_query *cq = realloc(s->cq, cap * sizeof *cq);
+        if (!cq)
+            return -1;
+        s->cq = cq;
+        s->cqcap = cap;
+    }
     if (n <= s->cap)
         return 0;
     size_t cap = n < 4096 ? 4096 : n;
@@ -48,7 +57,6 @@ int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan)
     uint8_t *st = realloc(s->status, cap);
     if (st)
         s->status = st;
-    (void)nchan;
     if (!q || !out || !cov || !st)
         return -1;
     s->cap = cap;
@@ -61,6 +69,7 @@ void sts_scratch_free(sts_scratch *s)
     free(s->out);
     free(s->cov);
     free(s->status);
+    free(s->cq);
     memset(s, 0, sizeof *s);
 }
 
@@ -477,7 +486,13 @@ static void take_completions(sts_io *io)
         sts_conn *c = t->conn;
         c->busy = 0;
         if (!c->dead) {
-            stp_put_bytes(&c->out, stp_buf_head(&t->out), stp_buf_avail(&t->out));
+            if (!stp_buf_avail(&c->out)) {
+                stp_buf tmp = c->out;   /* nothing pending: take the worker's buffer, no copy */
+                c->out = t->out;
+                t->out = tmp;
+            } else {
+                stp_put_bytes(&c->out, stp_buf_head(&t->out), stp_buf_avail(&t->out));
+            }
             in_consume(c, STP_HEADER_SIZE + (size_t)t->h.body_len);
             if (t->close)
                 c->close_after = 1;

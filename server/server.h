@@ -67,14 +67,18 @@ struct sts_conn {
     sts_conn *prev, *next;   /* the I/O thread's list (idle scan, drain) */
 };
 
-/* Scratch memory for sampling, one per thread (I/O or worker); grows, never shrinks. */
+/* Scratch memory for sampling, one per thread (I/O or worker); grows, never shrinks, so a
+ * batch allocates nothing once the thread has seen one as large. */
 typedef struct sts_scratch {
     st_query *q;
     float    *out, *cov;
     uint8_t  *status;
     size_t    cap;           /* queries the arrays hold */
+    struct st_cube_query *cq;
+    size_t    cqcap;         /* direction queries cq holds (SAMPLE_DIR only) */
 } sts_scratch;
-int sts_scratch_reserve(sts_scratch *s, size_t n, unsigned nchan);
+/* Room for n queries (and n direction queries when dir). 0 or -1. */
+int sts_scratch_reserve(sts_scratch *s, size_t n, int dir);
 void sts_scratch_free(sts_scratch *s);
 
 struct sts_io {
@@ -171,11 +175,25 @@ struct sts_task {
     sts_task          *next;
 };
 
+/* One part of a split batch: samples queries [first, first + count). Returns the number of
+ * bad queries (>= 0) or a negative ST_E* code. Runs on the caller or on a helping worker. */
+typedef int (*sts_part_fn)(void *arg, size_t first, size_t count);
+
+typedef struct sts_par sts_par;   /* a split batch open for helpers (workers.c) */
+
 typedef struct sts_pool {
     pthread_mutex_t mu;
-    pthread_cond_t  cv;
+    pthread_cond_t  cv;           /* workers wait here for tasks or open split batches */
+    pthread_cond_t  par_cv;       /* a split batch's caller waits here for its helpers */
     sts_task       *head, *tail;
     uint32_t        queued;
+    uint32_t        idle;         /* workers waiting on cv */
+    uint32_t        ncpu;         /* online CPUs */
+    uint32_t        sampling;     /* atomic: threads inside a split-able batch (callers and
+                                     helpers); helpers are woken only while this < ncpu */
+    sts_par        *par;          /* open split batches (helpers take the first with parts left) */
+    uint64_t        split_batches;/* atomic: batches a helper was woken for (STATS) */
+    uint64_t        parts_helped; /* atomic: parts workers sampled for others (STATS) */
     int             stop;
     pthread_t      *threads;
     uint32_t        nthreads;
@@ -184,6 +202,14 @@ typedef struct sts_pool {
 int sts_pool_start(sts_server *srv, sts_pool *p, uint32_t n);
 void sts_pool_submit(sts_pool *p, sts_task *t);
 void sts_pool_stop(sts_pool *p);
+/* Runs fn over [0, n) in parts of `grain` items: the calling thread takes parts itself and
+ * idle workers (only those already idle, and only as many as there are CPUs not already
+ * sampling a batch) take the others as they wake,
+ * so the call never waits for a worker to start, only for parts a worker has already begun.
+ * With no idle worker, or n <= grain, it is one call fn(arg, 0, n) on the caller. Returns the
+ * sum of the parts' results, or the first negative one. Any thread may call it (I/O threads,
+ * a worker running a heavy request); fn must be safe to run concurrently on disjoint parts. */
+int sts_pool_parallel(sts_pool *p, size_t n, size_t grain, sts_part_fn fn, void *arg);
 
 /* ---- h_jobs.c: COMPRESS jobs and FETCH handles ---------------------------------------------- */
 

@@ -351,6 +351,108 @@ static void sample_matches_in_process_sampler(void **state)
     st_set_free(s);
 }
 
+/* Batches of split-batch (2048) queries or more are sampled in parts by the thread that has
+ * them and idle workers, straight into the reply frame when the format is f32. Every form must
+ * still equal the in-process sampler: inline and on a worker, split and not, f32 with and
+ * without coverage and status, unorm8, and an f32 reply that starts at an odd offset of the
+ * connection's output (a 1-byte PING reply queued before it: the fallback through scratch). */
+static void split_batches_match_the_sampler_in_every_form(void **state)
+{
+    (void)state;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_default_set(&s, &e), 0);
+    enum { N = 5000 };
+    stc_query *q = calloc(N, sizeof *q);
+    st_query *sq = calloc(N, sizeof *sq);
+    float *want = calloc((size_t)N * 4, sizeof *want);
+    float *wcov = calloc(N, sizeof *wcov);
+    assert_true(q && sq && want && wcov);
+    srand(11);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)(rand() % 384);
+        q[i].u = (float)rand() / (float)RAND_MAX;
+        q[i].v = (float)rand() / (float)RAND_MAX;
+        q[i].dudx = q[i].dvdy = 0.02f;
+        memcpy(&sq[i], &q[i], sizeof sq[i]);
+    }
+    q[17].u = NAN;  /* a bad query inside the first part: its status and NaN values travel */
+    sq[17].u = NAN;
+    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0};
+    assert_int_equal(st_sample_batch(s, &so, sq, N, want, wcov, NULL), 1);
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    /* sizes: 2047 inline unsplit, 2048 inline split, 5000 on a worker and split */
+    const size_t sizes[] = {2047, 2048, 5000};
+    for (int form = 0; form < 4; form++) {
+        for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+            size_t n = sizes[k];
+            stc_sample_opts o;
+            memset(&o, 0, sizeof o);
+            o.mode = 1;
+            o.filter = 1;
+            o.outfmt = form == 2 ? STC_OUT_UNORM8 : STC_OUT_F32;
+            o.want = form == 1 ? STC_WANT_COVERAGE | STC_WANT_STATUS : 0;
+            uint32_t id_ping = 0, id;
+            uint8_t one = 0x5a;
+            if (form == 3)
+                assert_int_equal(stc_append_ping(c, &one, 1, &id_ping), 0);
+            assert_int_equal(stc_append_sample(c, "default", &o, q, n, &id), 0);
+            assert_int_equal(stc_flush(c), 0);
+            stc_reply r;
+            if (form == 3) {
+                assert_int_equal(stc_get_reply(c, 10000, &r), 0);
+                assert_int_equal(r.reqid, id_ping);
+                assert_int_equal(r.body_len, 1);
+            }
+            assert_int_equal(stc_get_reply(c, 10000, &r), 0);
+            assert_int_equal(r.reqid, id);
+            assert_int_equal(r.status, 0);
+            stc_sample_result res;
+            assert_int_equal(stc_reply_sample(c, &r, &res), 0);
+            assert_int_equal(res.count, n);
+            assert_int_equal(res.nchan, 4);
+            assert_int_equal(res.nbad, 1);
+            if (form == 2) {
+                const uint8_t *v = res.values;
+                for (size_t i = 0; i < n * 4; i++) {
+                    float w = want[i] != want[i] ? 0.0f : want[i] < 0 ? 0.0f : want[i] > 1 ? 1.0f : want[i];
+                    int d = (int)v[i] - (int)lrintf(w * 255.0f);
+                    assert_true(d >= -1 && d <= 1);
+                }
+            } else {
+                /* bit for bit, NaNs included */
+                assert_memory_equal(res.values, want, n * 4 * sizeof(float));
+            }
+            if (form == 1) {
+                assert_non_null(res.coverage);
+                assert_non_null(res.status);
+                assert_memory_equal(res.coverage, wcov, n * sizeof(float));
+                for (size_t i = 0; i < n; i++)
+                    assert_int_equal(res.status[i] != 0, i == 17);
+            } else {
+                assert_null(res.coverage);
+                assert_null(res.status);
+            }
+        }
+    }
+    /* with two CPUs or more an idle worker was woken for some of those batches */
+    const stc_stat *st;
+    size_t ns;
+    assert_int_equal(stc_stats(c, &st, &ns), 0);
+    const stc_stat *sb = stc_stat_find(st, ns, "split_batches");
+    assert_non_null(sb);
+    assert_non_null(stc_stat_find(st, ns, "parts_helped"));
+    if (sysconf(_SC_NPROCESSORS_ONLN) >= 2)
+        assert_true(sb->u > 0);
+    stc_close(c);
+    free(q);
+    free(sq);
+    free(want);
+    free(wcov);
+    st_set_free(s);
+}
+
 static void upload_info_fetch_delete_round_trip(void **state)
 {
     (void)state;
@@ -1275,6 +1377,7 @@ int main(void)
         cmocka_unit_test(hello_reports_limits_and_caps),
         cmocka_unit_test(ping_list_info_stats_answer),
         cmocka_unit_test(sample_matches_in_process_sampler),
+        cmocka_unit_test(split_batches_match_the_sampler_in_every_form),
         cmocka_unit_test(upload_info_fetch_delete_round_trip),
         cmocka_unit_test(compress_job_fetch_dds_and_cancel),
         cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
