@@ -328,20 +328,33 @@ int st_set_meta_add(st_set *s, const char *key, unsigned type, const void *data,
         return st_fail(e, ST_EINVAL, "metadata '%s': type %u unknown", key, type);
     if (st_mul_size(es, count, &bytes) || bytes > ((size_t)1 << 30))
         return st_fail(e, ST_ETOOBIG, "metadata '%s': %u elements is too many", key, count);
-    st_meta_entry *m = realloc(s->meta, (s->nmeta + 1) * sizeof *m);
-    if (!m)
+    void *copy = malloc(bytes ? bytes : 1);
+    if (!copy)
         return st_fail(e, ST_ENOMEM, "out of memory for metadata");
+    if (bytes)
+        memcpy(copy, data, bytes);
+    for (uint32_t i = 0; i < s->nmeta; i++) {
+        if (!strcmp(s->meta[i].key, key)) { /* a key holds one value: the last one set */
+            free(s->meta[i].data);
+            s->meta[i].data = copy;
+            s->meta[i].type = (uint8_t)type;
+            s->meta[i].count = count;
+            return ST_OK;
+        }
+    }
+    st_meta_entry *m = realloc(s->meta, (s->nmeta + 1) * sizeof *m);
+    if (!m) {
+        free(copy);
+        return st_fail(e, ST_ENOMEM, "out of memory for metadata");
+    }
     s->meta = m;
     st_meta_entry *ent = &m[s->nmeta];
     ent->key = strdup(key);
-    ent->data = malloc(bytes ? bytes : 1);
-    if (!ent->key || !ent->data) {
-        free(ent->key);
-        free(ent->data);
+    if (!ent->key) {
+        free(copy);
         return st_fail(e, ST_ENOMEM, "out of memory for metadata");
     }
-    if (bytes)
-        memcpy(ent->data, data, bytes);
+    ent->data = copy;
     ent->type = (uint8_t)type;
     ent->count = count;
     s->nmeta++;

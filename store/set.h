@@ -199,7 +199,9 @@ void st_set_build_mips(st_set *s, uint32_t f);
  * whether to store a face as constant; nothing is changed). */
 int st_face_is_uniform(const st_set *s, uint32_t f);
 
-/* Appends one metadata entry (copies key and data). */
+/* Sets one metadata entry (copies key and data): a key already present gets the new type and
+ * value in its place (a key holds one value, the last one set, as Ptex reads repeated keys);
+ * a new key is appended. */
 int st_set_meta_add(st_set *s, const char *key, unsigned type, const void *data,
                     uint32_t count, st_error *e);
 /* Finds an entry by key, NULL when absent. */

@@ -166,6 +166,11 @@ static void metadata_is_kept(void **state)
     assert_int_equal(((int32_t *)m->data)[2], 3);
     assert_string_equal((char *)st_set_meta_find(s, "name")->data, "cube");
     assert_null(st_set_meta_find(s, "nope"));
+    int32_t w = 7; /* setting a key again replaces its value in place */
+    assert_int_equal(st_set_meta_add(s, "ints", 3, &w, 1, NULL), ST_OK);
+    assert_int_equal(s->nmeta, 2);
+    assert_int_equal(st_set_meta_find(s, "ints")->count, 1);
+    assert_int_equal(((int32_t *)st_set_meta_find(s, "ints")->data)[0], 7);
     st_set_free(s);
     st_set_free(NULL);
 }
