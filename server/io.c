@@ -170,7 +170,7 @@ static void conn_free(sts_conn *c)
         io->conns = c->next;
     if (c->next)
         c->next->prev = c->prev;
-    io->nconns--;
+    __atomic_sub_fetch(&io->nconns, 1, __ATOMIC_RELAXED);  /* read by sts_server_stop */
     free(c->in.data);
     c->in.data = NULL;
     c->in.cap = 0;
@@ -446,7 +446,7 @@ static void do_accept(sts_io *io)
         if (io->conns)
             io->conns->prev = c;
         io->conns = c;
-        io->nconns++;
+        __atomic_add_fetch(&io->nconns, 1, __ATOMIC_RELAXED);
         STS_STAT_ADD(srv, conns_accepted, 1);
     }
 }
