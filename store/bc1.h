@@ -18,7 +18,7 @@
  * Levels: ST_BC1_FAST (principal axis bounding box, one least-squares refinement),
  * ST_BC1_HQ (iterated least squares on the exact palette, a local cluster fit, 565 rounding
  * neighbourhood search, 3-colour trial) and ST_BC1_BEST (the cluster fit over every split).
- * Figures in ARCHITECTURE.md ("BC1 and seam masking").
+ * Figures in docs/bc1.md.
  *
  * Threading: block functions are pure (no allocation, no globals, deterministic); any number
  * of threads may call them. st_bc1_compress_set may start worker threads of its own (opts).
@@ -102,7 +102,7 @@ typedef struct st_bc1_opts {
     float    alpha;         /* seam weight of E = Ec + alpha*Es (default 2) */
     float    seam_boost;    /* the seam-aware BC1 stage uses alpha * seam_boost (default 2):
                                with BC1's few degrees of freedom, the optimum at alpha itself
-                               leaves 1.2-1.9x the masked seam RMS (measured, ARCHITECTURE.md) */
+                               leaves 1.2-1.9x the masked seam RMS (measured, docs/bc1.md) */
     float    step;          /* seam sample spacing in texels (default 0.5) */
     int      iterations;    /* seam-aware solve / quantise / re-select rounds (default 3) */
     int      threads;       /* encoder threads, 0 = one per core */

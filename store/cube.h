@@ -107,7 +107,7 @@ typedef enum st_cube_layout {
 } st_cube_layout;
 /* In a cross, every face is placed (rotated by a multiple of 90 degrees) so that the image
  * is continuous across every internal edge of the cross when seen from inside the cube, with
- * +Y up around +Z; the exact placements are listed in ARCHITECTURE.md. */
+ * +Y up around +Z; the exact placements are listed in docs/import.md. */
 
 /* Face images given one per file / buffer, in face order +X -X +Y -Y +Z -Z: */
 typedef enum st_cube_faces_conv {

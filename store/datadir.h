@@ -5,7 +5,7 @@
  * left half-written. Does not own: importing or validating a source (import.c / ptex_read.c:
  * the caller imports the file before committing it and again at load), the registry, sockets.
  *
- * Layout (ARCHITECTURE.md "Data dir"):
+ * Layout (docs/daemon.md, "Data dir"):
  *   <dir>/sets/<name>/manifest              what the set is (text, see below)
  *   <dir>/sets/<name>/source-<id>.<ext>     the uploaded bytes, exactly as received
  *   <dir>/tmp/                              uploads in progress, manifest temp files; emptied at open

@@ -159,7 +159,7 @@ ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t
     a->w += pw;
 }
 
-/* ---- level selection (ARCHITECTURE.md, "Sampler") --------------------------------------- */
+/* ---- level selection (docs/sampler.md) --------------------------------------- */
 
 static inline float lod_of_rho2(float rho2)
 {

@@ -1,6 +1,6 @@
 /* store/sample.h - filtered sampling of texture sets: Discard, Traverse and Clamp modes with
  * GPU-style filters (point, bilinear, trilinear, anisotropic) and, from ptexfilter.c, the Ptex
- * filter family. The exact footprint, level and corner rules are written in ARCHITECTURE.md.
+ * filter family. The exact footprint, level and corner rules are written in docs/sampler.md.
  *
  * A query names a face and a point (u, v) in that face's [0,1]^2 with the footprint vectors
  * (du/dx, dv/dx) and (du/dy, dv/dy), in face uv units. A batch shares one st_sample_opts.

@@ -11,7 +11,7 @@
  * in integers (traverse_edge_exact), bit-identical to the general path. Compiling with
  * -DST_EXACT_OK=0 turns the integer path off, to check that identity on any set.
  *
- * Every rule here is written out in ARCHITECTURE.md, "Sampler".
+ * Every rule here is written out in docs/sampler.md.
  */
 #include "sample_internal.h"
 
