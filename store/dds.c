@@ -50,6 +50,7 @@
  * faces, alpha from the blocks, linear unless DX10 says sRGB, no metadata.
  */
 #include "bc1.h"
+#include "fileio.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -371,37 +372,7 @@ int st_dds_write_file(const st_set *s, const char *path, st_error *e)
     int rc = st_dds_write_mem(s, &b, &n, e);
     if (rc)
         return rc;
-    char tmp[4096];
-    if ((size_t)snprintf(tmp, sizeof tmp, "%s.tmp", path) >= sizeof tmp) {
-        free(b);
-        return st_fail(e, ST_EINVAL, "path too long: %s", path);
-    }
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) {
-        free(b);
-        return st_fail(e, ST_EIO, "%s: %s", tmp, strerror(errno));
-    }
-    const uint8_t *p = b;
-    size_t left = n;
-    while (left) {
-        ssize_t k = write(fd, p, left);
-        if (k < 0 && errno == EINTR)
-            continue;
-        if (k <= 0) {
-            rc = st_fail(e, ST_EIO, "%s: write failed: %s", tmp, strerror(errno));
-            break;
-        }
-        p += k;
-        left -= (size_t)k;
-    }
-    if (!rc && fsync(fd) != 0)
-        rc = st_fail(e, ST_EIO, "%s: fsync failed: %s", tmp, strerror(errno));
-    if (close(fd) != 0 && !rc)
-        rc = st_fail(e, ST_EIO, "%s: close failed: %s", tmp, strerror(errno));
-    if (!rc && rename(tmp, path) != 0)
-        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp, path, strerror(errno));
-    if (rc)
-        unlink(tmp);
+    rc = st_file_write_atomic(path, b, n, e);
     free(b);
     return rc;
 }

@@ -23,6 +23,7 @@
  *     last value - the rule the reader applies to repeated records and metadata edits.
  */
 #include "ptex.h"
+#include "fileio.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -506,37 +507,7 @@ int st_ptex_write_file(const st_set *s, const char *path, st_error *e)
     int rc = st_ptex_write_mem(s, &buf, &len, e);
     if (rc)
         return rc;
-    char tmp[4096];
-    if ((size_t)snprintf(tmp, sizeof tmp, "%s.tmp", path) >= sizeof tmp) {
-        free(buf);
-        return st_fail(e, ST_EINVAL, "path too long: %s", path);
-    }
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) {
-        free(buf);
-        return st_fail(e, ST_EIO, "%s: %s", tmp, strerror(errno));
-    }
-    const uint8_t *p = buf;
-    size_t left = len;
-    while (left) {
-        ssize_t k = write(fd, p, left);
-        if (k < 0 && errno == EINTR)
-            continue;
-        if (k <= 0) {
-            rc = st_fail(e, ST_EIO, "%s: write failed: %s", tmp, strerror(errno));
-            break;
-        }
-        p += k;
-        left -= (size_t)k;
-    }
-    if (!rc && fsync(fd) != 0)
-        rc = st_fail(e, ST_EIO, "%s: fsync failed: %s", tmp, strerror(errno));
-    if (close(fd) != 0 && !rc)
-        rc = st_fail(e, ST_EIO, "%s: close failed: %s", tmp, strerror(errno));
-    if (!rc && rename(tmp, path) != 0)
-        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp, path, strerror(errno));
-    if (rc)
-        unlink(tmp);
+    rc = st_file_write_atomic(path, buf, len, e);
     free(buf);
     return rc;
 }
