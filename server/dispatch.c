@@ -55,6 +55,15 @@ void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *
     stp_enc_error(out, h->opcode, h->reqid, (uint16_t)status, msg ? msg : "");
 }
 
+int sts_reply_bad(stp_buf *out, const stp_header *h, int status, const char *why)
+{
+    const char *op = stp_opcode_name(h->opcode);
+    char msg[200];
+    snprintf(msg, sizeof msg, "%s: %s", op ? op : "request", why ? why : "malformed body");
+    sts_reply_error(out, h, status, msg);
+    return 0;
+}
+
 void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *msg)
 {
     sts_reply_error(out, h, stp_status_from_st(st_code), msg && *msg ? msg : st_strerror(st_code));

@@ -13,16 +13,6 @@
 #include "cube.h"
 #include "server.h"
 
-static int bad(stp_buf *out, const stp_header *h, int status, const char *why)
-{
-    char msg[160];
-    snprintf(msg, sizeof msg, "%s: %s", stp_opcode_name(h->opcode) ? stp_opcode_name(h->opcode)
-                                                                      : "request",
-             why ? why : "malformed body");
-    sts_reply_error(out, h, status, msg);
-    return 0;
-}
-
 /* Looks a set up by a wire name; replies NOT_FOUND / PERM itself and returns NULL. */
 static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp_buf *out)
 {
@@ -46,7 +36,7 @@ int sts_h_hello(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     const char *why = NULL;
     int st = stp_dec_hello_req(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     if (rq.min_version > STP_VERSION || rq.max_version < STP_VERSION) {
         char msg[96];
         snprintf(msg, sizeof msg, "server speaks version %d; client speaks %u..%u", STP_VERSION,
@@ -86,7 +76,7 @@ int sts_h_list(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
     const char *why = NULL;
     int st = stp_dec_list_req(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     size_t total = st_registry_count(c->srv->reg);
     st_setref **refs = malloc((total ? total : 1) * sizeof *refs);
     if (!refs) {
@@ -137,7 +127,7 @@ int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
     const char *why = NULL;
     int st = stp_dec_info_req(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     st_setref *ref = get_set(c, h, rq.name, out);
     if (!ref)
         return 0;
@@ -331,7 +321,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
 {
     st_sample_opts o;
     if (fill_opts(&rq->p, &o) != 0)
-        return bad(out, h, STP_S_INVALID, "unknown mode, filter, zero_rule or outfmt, or max_aniso > 16");
+        return sts_reply_bad(out, h, STP_S_INVALID, "unknown mode, filter, zero_rule or outfmt, or max_aniso > 16");
     st_setref *ref = get_set(c, h, rq->p.name, out);
     if (!ref)
         return 0;
@@ -435,7 +425,7 @@ int sts_h_sample(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
     const char *why = NULL;
     int st = stp_dec_sample_req(body, h->body_len, STS_LIVE(c->srv, max_batch), &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     return sample_common(c, h, &rq, out);
 }
 
@@ -445,7 +435,7 @@ int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     const char *why = NULL;
     int st = stp_dec_sample_dir_req(body, h->body_len, STS_LIVE(c->srv, max_batch), &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     return sample_common(c, h, &rq, out);
 }
 
@@ -459,7 +449,7 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
 {
     const char *why = NULL;
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
-        return bad(out, h, STP_S_BAD_REQUEST, why);
+        return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
     sts_server *srv = c->srv;
     enum { cap = 128 };
     stp_stat s[cap];

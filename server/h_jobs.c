@@ -42,14 +42,6 @@ struct sts_fetch {
     sts_fetch *next;
 };
 
-static int bad(stp_buf *out, const stp_header *h, int status, const char *why)
-{
-    char msg[200];
-    snprintf(msg, sizeof msg, "%s: %s", stp_opcode_name(h->opcode), why ? why : "malformed body");
-    sts_reply_error(out, h, status, msg);
-    return 0;
-}
-
 /* ---- the job thread ---------------------------------------------------------------------- */
 
 static void progress_cb(void *arg, double f)
@@ -266,7 +258,7 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     const char *why = NULL;
     int st = stp_dec_compress_req(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     st_error e;
     st_error_clear(&e);
     if (st_name_check(rq.name, strlen(rq.name), &e) || st_name_check(rq.target, strlen(rq.target), &e)) {
@@ -274,7 +266,7 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
         return 0;
     }
     if (rq.level > 9)
-        return bad(out, h, STP_S_INVALID, "level must be 0..9");
+        return sts_reply_bad(out, h, STP_S_INVALID, "level must be 0..9");
     st_setref *src = NULL;
     if (st_registry_get(srv->reg, rq.name, &src, &e) != 0) {
         sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
@@ -327,7 +319,7 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     const char *why = NULL;
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     stp_job_status r;
     memset(&r, 0, sizeof r);
     int found = 0;
@@ -421,7 +413,7 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     const char *why = NULL;
     int st = stp_dec_fetch_open(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     st_error e;
     st_error_clear(&e);
     st_setref *ref = NULL;
@@ -485,7 +477,7 @@ int sts_h_fetch_read(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     const char *why = NULL;
     int st = stp_dec_fetch_read(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     /* only this connection can close the handle, and not while this request runs */
     sts_fetch *f = find_fetch(c->srv, rq.fetch_id, c->conn->id, 0);
     if (!f) {
@@ -512,7 +504,7 @@ int sts_h_fetch_close(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_
     const char *why = NULL;
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     sts_fetch *f = find_fetch(c->srv, id, c->conn->id, 1);
     if (!f) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such fetch on this connection");

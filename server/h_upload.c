@@ -99,14 +99,6 @@ static sts_upload *find_upload(sts_server *srv, uint64_t id, uint64_t conn_id, i
     return found;
 }
 
-static int bad(stp_buf *out, const stp_header *h, int status, const char *why)
-{
-    char msg[200];
-    snprintf(msg, sizeof msg, "%s: %s", stp_opcode_name(h->opcode), why ? why : "malformed body");
-    sts_reply_error(out, h, status, msg);
-    return 0;
-}
-
 /* ---- importing --------------------------------------------------------------------------- */
 
 /* The extension a source of this content gets on disk (importers key on it when the content
@@ -272,7 +264,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     const char *why = NULL;
     int st = stp_dec_upload_begin(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     st_error e;
     st_error_clear(&e);
     if (st_name_check(rq.name, strlen(rq.name), &e) != 0) {
@@ -289,7 +281,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     }
     for (const char *p = rq.options; *p; p++)
         if ((unsigned char)*p < 0x20 || (unsigned char)*p > 0x7e)
-            return bad(out, h, STP_S_INVALID, "options must be printable ASCII");
+            return sts_reply_bad(out, h, STP_S_INVALID, "options must be printable ASCII");
     uint64_t max_up = STS_LIVE(srv, max_upload);
     if (rq.total_size > max_up) {
         char msg[128];
@@ -360,7 +352,7 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     const char *why = NULL;
     int st = stp_dec_upload_chunk(body, h->body_len, &rq, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     /* only this connection uses the upload, and its requests run one at a time */
     sts_upload *u = find_upload(c->srv, rq.upload_id, c->conn->id, 0);
     if (!u) {
@@ -406,7 +398,7 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     const char *why = NULL;
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     sts_upload *u = find_upload(srv, id, c->conn->id, 1);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
@@ -523,7 +515,7 @@ int sts_h_upload_abort(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     const char *why = NULL;
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     sts_upload *u = find_upload(c->srv, id, c->conn->id, 1);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
@@ -540,7 +532,7 @@ int sts_h_upload_status(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     const char *why = NULL;
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     sts_upload *u = find_upload(c->srv, id, c->conn->id, 0);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
@@ -565,7 +557,7 @@ int sts_h_delete(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
     const char *why = NULL;
     int st = stp_dec_name_req(body, h->body_len, name, &why);
     if (st)
-        return bad(out, h, st, why);
+        return sts_reply_bad(out, h, st, why);
     st_error e;
     st_error_clear(&e);
     if (st_name_check(name, strlen(name), &e) != 0) {

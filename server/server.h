@@ -141,6 +141,9 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
 
 /* Appends an error reply; a store error code gives its status. */
 void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *msg);
+/* An error reply "<OPCODE>: <why>" ("malformed body" when why is NULL); returns 0 so that a
+ * handler can `return sts_reply_bad(...)`. */
+int sts_reply_bad(stp_buf *out, const stp_header *h, int status, const char *why);
 void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *msg);
 
 /* ---- h_basic.c, h_upload.c, h_jobs.c: the handlers (see the table in dispatch.c) ---------- */
