@@ -18,6 +18,7 @@
 #include <sys/stat.h>
 
 #include "atlas.h"
+#include "bc1.h"
 #include "cube.h"
 #include "exr.h"
 #include "image.h"
@@ -39,6 +40,7 @@ const char *st_import_format_name(int fmt)
     case ST_FMT_IMAGE: return "image";
     case ST_FMT_OBJ: return "obj";
     case ST_FMT_DRACO: return "draco";
+    case ST_FMT_DDS: return "dds";
     default: return "auto";
     }
 }
@@ -86,6 +88,8 @@ int st_import_detect(const void *head, size_t len, const char *name)
         return ST_FMT_EXR;
     if (len >= 5 && !memcmp(h, "DRACO", 5))
         return ST_FMT_DRACO;
+    if (len >= 4 && !memcmp(h, "DDS ", 4))
+        return ST_FMT_DDS;
     if ((len >= 8 && !memcmp(h, "\x89PNG\r\n\x1a\n", 8)) || (len >= 3 && !memcmp(h, "\xff\xd8\xff", 3)) ||
         (len >= 4 && (!memcmp(h, "II*\0", 4) || !memcmp(h, "MM\0*", 4))) ||
         (len >= 2 && !memcmp(h, "#?", 2)) || (len >= 2 && !memcmp(h, "BM", 2)) ||
@@ -98,6 +102,8 @@ int st_import_detect(const void *head, size_t len, const char *name)
         return ST_FMT_EXR;
     if (!strcasecmp(x, "drc"))
         return ST_FMT_DRACO;
+    if (!strcasecmp(x, "dds"))
+        return ST_FMT_DDS;
     if (!strcasecmp(x, "obj") || looks_like_obj(h, len))
         return ST_FMT_OBJ;
     static const char *img[] = {"png", "jpg", "jpeg", "tif", "tiff", "hdr", "tga", "bmp", "psd",
@@ -338,6 +344,11 @@ int st_import_file(const char *path, const st_import_opts *opts, st_set **out, s
     case ST_FMT_OBJ:
     case ST_FMT_DRACO:
         rc = mesh_to_set(path, fmt, opts, &caps, out, e);
+        break;
+    case ST_FMT_DDS:
+        if (opts->cube != ST_IMPORT_CUBE_NONE)
+            return st_fail(e, ST_EINVAL, "%s: cube conversions do not apply to a BC1 DDS file", path);
+        rc = st_dds_read_file(path, opts->max_bytes, out, e);
         break;
     default:
         return st_fail(e, ST_EFORMAT, "%s: unknown format (no known magic or extension)", path);

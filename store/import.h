@@ -11,6 +11,8 @@
  *   - OBJ (.obj) / Draco (.drc, magic "DRACO")      -> a mesh, paired with o->texture to give
  *     an atlas set; without a texture: the mesh's first map_Kd (OBJ) is loaded when found,
  *     else ST_EINVAL ("a mesh needs a texture"). A mesh without UVs: ST_ENOUV.
+ *   - DDS (magic "DDS ", BC1/DXT1 only)             -> a BC1 set (bc1.h: st_dds_read_file), with
+ *     its adjacency, faces and cube layout when seamtex wrote it; other DDS formats are refused
  *   - cube conversions (o->cube): six files, strips, crosses, lat-long -> cube set.
  * Does not own: the readers themselves, the set layout, the registry or the data dir.
  *
@@ -35,7 +37,8 @@ typedef enum st_import_format {
     ST_FMT_EXR   = 2,
     ST_FMT_IMAGE = 3,   /* anything OpenImageIO reads */
     ST_FMT_OBJ   = 4,
-    ST_FMT_DRACO = 5
+    ST_FMT_DRACO = 5,
+    ST_FMT_DDS   = 6    /* BC1 (DXT1) DDS, as dds.c reads it (bc1.h) */
 } st_import_format;
 
 typedef enum st_import_cube {

@@ -16,6 +16,7 @@
 #include <cmocka.h>
 
 #include "atlas.h"
+#include "bc1.h"
 #include "cube.h"
 #include "exr.h"
 #include "image.h"
@@ -662,6 +663,54 @@ static void ptex_env_cube_is_recognised_by_its_layout_not_its_name(void **state)
     st_set_free(s);
 }
 
+/* A BC1 DDS file (what COMPRESS stores and FETCH exports) imports through the dispatcher as
+ * the same BC1 set; a DDS of another format and a truncated one are refused. */
+static void bc1_dds_imports_as_the_same_bc1_set(void **state)
+{
+    (void)state;
+    char src[512], p[512];
+    if (st_test_data_path(src, sizeof src, "ptex-ref/cube8_k6_u8_rot.ptx"))
+        skip();
+    st_set *s = NULL, *b = NULL, *r = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(src, NULL, &s, &e), ST_OK);
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    o.level = ST_BC1_FAST;
+    o.threads = 1;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_OK);
+    tmp_path(p, sizeof p, "cube8.dds");
+    assert_int_equal(st_dds_write_file(b, p, &e), ST_OK);
+    size_t len = 0;
+    unsigned char *bytes = read_file(p, &len);
+    assert_int_equal(st_import_detect(bytes, len, "noext"), ST_FMT_DDS);
+    assert_int_equal(st_import_file(p, NULL, &r, &e), ST_OK);
+    assert_int_equal(r->info.kind, ST_KIND_BC1);
+    assert_int_equal(r->info.nfaces, b->info.nfaces);
+    assert_int_equal(r->texel_bytes, b->texel_bytes);
+    assert_memory_equal(r->texels, b->texels, b->texel_bytes);
+    st_set_free(r);
+    r = NULL;
+    /* asked to be a cube: refused with a message, not silently ignored */
+    st_import_opts io;
+    st_import_opts_init(&io);
+    io.cube = ST_IMPORT_CUBE_STRIP_V;
+    assert_int_equal(st_import_file(p, &io, &r, &e), ST_EINVAL);
+    assert_null(r);
+    /* truncated: a clear error, nothing returned */
+    write_file(p, bytes, len / 2);
+    assert_true(st_import_file(p, NULL, &r, &e) < 0);
+    assert_null(r);
+    /* a DXT5 header is not BC1 */
+    bytes[84] = 'D', bytes[85] = 'X', bytes[86] = 'T', bytes[87] = '5';
+    write_file(p, bytes, len);
+    assert_true(st_import_file(p, NULL, &r, &e) < 0);
+    assert_null(r);
+    free(bytes);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 static void detection_uses_magic_before_extension(void **state)
 {
     (void)state;
@@ -673,6 +722,8 @@ static void detection_uses_magic_before_extension(void **state)
     assert_int_equal(st_import_detect("xx", 2, "a.penv"), ST_FMT_PTEX);
     assert_int_equal(st_import_detect("xx", 2, "a.TIF"), ST_FMT_IMAGE);
     assert_int_equal(st_import_detect("xx", 2, "a.bin"), ST_FMT_AUTO);
+    assert_int_equal(st_import_detect("DDS \x7c", 5, "x.png"), ST_FMT_DDS);
+    assert_int_equal(st_import_detect("xx", 2, "a.DDS"), ST_FMT_DDS);
     char p[512];
     tmp_path(p, sizeof p, "junk.bin");
     write_file(p, "hello world", 11);
@@ -688,6 +739,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(shared_assets_import_or_fail_as_expected),
         cmocka_unit_test(colour_space_is_stated_and_can_be_overridden),
+        cmocka_unit_test(bc1_dds_imports_as_the_same_bc1_set),
         cmocka_unit_test(exr_channels_come_in_rgba_order_from_the_c_api),
         cmocka_unit_test(exr_takes_rgba_by_name_from_extra_channels_and_layers),
         cmocka_unit_test(exr_c_api_matches_openimageio_on_the_orientation_maps),
