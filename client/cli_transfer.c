@@ -30,19 +30,33 @@ static const char *const UPLOAD_USAGE =
 "  --texture SET      for a mesh: the set holding its texture (atlas)\n"
 "  --cube SPEC        for an environment map: cube layout, e.g. latlong:512 or strip\n"
 "  --options 'k=v ..' more import options, passed as they are\n"
-"  --replace          replace an existing set of that name\n";
+"  --replace          replace an existing set of that name\n"
+"  --resume           continue an upload of this file that an earlier run left unfinished\n"
+"                     (the server keeps it for a while after a dropped connection)\n"
+"  --retries N        on a dropped connection, reconnect and resume up to N times\n"
+"                     (default 3; 0 = fail at once)\n";
 
 int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv)
 {
     const char *file = NULL, *name = NULL, *hint = NULL, *texture = NULL, *cube = NULL,
                *extra = NULL;
     unsigned flags = 0;
+    long retries = 3;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (cli_is_help(a))
             return usage_out(UPLOAD_USAGE, 1);
         if (!strcmp(a, "--replace")) {
             flags |= STC_UPLOAD_REPLACE;
+        } else if (!strcmp(a, "--resume")) {
+            flags |= STC_UPLOAD_RESUME;
+        } else if (!strcmp(a, "--retries")) {
+            char *end = NULL;
+            if (i + 1 >= argc || (retries = strtol(argv[++i], &end, 10), *end) || retries < 0 ||
+                retries > 1000) {
+                fprintf(stderr, "seamtex upload: --retries takes a count 0..1000\n");
+                return CLI_USAGE;
+            }
         } else if (a[0] == '-' && a[1] == '-') {
             if (i + 1 >= argc)
                 return usage_out(UPLOAD_USAGE, 0);
@@ -96,9 +110,29 @@ int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv)
     o.user = &pr;
     stc_upload_result res;
     int e = stc_upload_file(ctx->conn, file, name, &o, &res);
+    /* a dropped connection: the server keeps what it received; reconnect and resume */
+    for (long attempt = 1; attempt <= retries && (e == STC_EIO || e == STC_ECLOSED ||
+                                                  e == STC_ECONNECT); attempt++) {
+        cli_progress_end(&pr);
+        fprintf(stderr, "seamtex upload: %s (%s); reconnecting to resume (%ld of %ld)\n",
+                stc_strerror(e), stc_errmsg(ctx->conn), attempt, retries);
+        sleep(1);
+        if (cli_connect(ctx) != CLI_OK) {
+            e = STC_ECONNECT;
+            continue;
+        }
+        if (!(stc_server_info(ctx->conn)->caps & STC_CAP_UPLOAD_RESUME))
+            fprintf(stderr, "seamtex upload: the server does not resume uploads; starting over\n");
+        o.flags |= STC_UPLOAD_RESUME;
+        cli_progress_init(&pr, "upload", 1);
+        e = stc_upload_file(ctx->conn, file, name, &o, &res);
+    }
     cli_progress_end(&pr);
     if (e)
         return cli_fail(ctx, file, e);
+    if (res.resumed_from)
+        fprintf(stderr, "seamtex upload: resumed at byte %llu (the whole file's CRC32C was "
+                "checked at commit)\n", (unsigned long long)res.resumed_from);
     char b[32];
     printf("uploaded %s as %s: %s, %u faces, %u x %s, %s in memory (crc32c %08x)\n", file,
            res.name, cli_kind_name(res.kind), res.nfaces, res.nchan, cli_dtype_name(res.dtype),

@@ -112,7 +112,8 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     snprintf(bg.options, sizeof bg.options, "%s", o && o->options ? o->options : "");
     bg.total_size = len;
     bg.crc32c = crc;
-    bg.flags = o && (o->flags & STC_UPLOAD_REPLACE) ? STP_UF_REPLACE : 0;
+    bg.flags = (o && (o->flags & STC_UPLOAD_REPLACE) ? STP_UF_REPLACE : 0) |
+               (o && (o->flags & STC_UPLOAD_RESUME) ? STP_UF_RESUME : 0);
     if ((rc = start_req(c, STP_OP_UPLOAD_BEGIN, &id)) != 0 ||
         (rc = xfer_encoded(c, stp_enc_upload_begin(&c->out, id, (uint32_t)c->timeout_ms, &bg))) != 0 ||
         (rc = roundtrip(c, id, &f)) != 0)
@@ -208,6 +209,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
         out->nfaces = dn.nfaces;
         out->memory = dn.memory;
         out->crc32c = crc;
+        out->resumed_from = br.received;
     }
     return 0;
 

@@ -208,9 +208,14 @@ int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
 /* Uploads. progress(user, sent, total) is called after each acknowledged chunk; returning
  * non-zero aborts the upload (UPLOAD_ABORT is sent) and the call returns STC_ECANCELED.
  * On any failure after UPLOAD_BEGIN the library sends UPLOAD_ABORT when the connection is
- * still usable, so the server never keeps a half-made set. */
+ * still usable, so the server never keeps a half-made set. When the connection breaks
+ * instead, a server with STC_CAP_UPLOAD_RESUME keeps the partial upload for a while
+ * (seamtexd: upload-keep, default 600 s): calling again on a new connection with
+ * STC_UPLOAD_RESUME and the same file, name, hint and options continues from the bytes the
+ * server has (result.resumed_from); when it has nothing to resume, the upload starts at 0.
+ * The whole file's CRC32C is checked at commit either way. */
 typedef int (*stc_progress_fn)(void *user, uint64_t done, uint64_t total);
-enum { STC_UPLOAD_REPLACE = 1 };
+enum { STC_UPLOAD_REPLACE = 1, STC_UPLOAD_RESUME = 2 };
 typedef struct stc_upload_opts {
     const char     *hint;             /* "ptx", "png", ...; NULL = from the file extension */
     const char     *options;          /* "texture=<set> cube=latlong:512"; NULL = none */
@@ -225,6 +230,7 @@ typedef struct stc_upload_result {
     uint32_t nfaces;
     uint64_t memory;
     uint32_t crc32c;                  /* of what was sent */
+    uint64_t resumed_from;            /* bytes the server already had (STC_UPLOAD_RESUME) */
 } stc_upload_result;
 int stc_upload_file(stc_conn *c, const char *path, const char *set, const stc_upload_opts *o,
                     stc_upload_result *out);

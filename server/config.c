@@ -59,7 +59,11 @@ static const opt OPTS[] = {
     {"max-memory", T_SIZE, O(max_memory), 0, 1, "BYTES",
      "all connection buffers together; a request that would pass it gets BUSY (default 1G)"},
     {"max-sets", T_U32, O(max_sets), 0, 1, "N", "sets held at once (default 10000)"},
-    {"max-uploads", T_U32, O(max_uploads), 0, 1, "N", "unfinished uploads at once (default 64)"},
+    {"max-uploads", T_U32, O(max_uploads), 0, 1, "N",
+     "unfinished uploads at once, kept ones included (default 64)"},
+    {"upload-keep", T_U32, O(upload_keep), 0, 1, "SECONDS",
+     "keep an unfinished upload this long after its connection drops, for UPLOAD_BEGIN with\n"
+     "RESUME; 0 = drop it at once (default 600)"},
     {"max-jobs", T_U32, O(max_jobs), 0, 1, "N", "queued or running compress jobs (default 16)"},
     {"max-set-bytes", T_SIZE, O(max_set_bytes), 0, 1, "BYTES",
      "texel memory of one imported set (default 8G)"},
@@ -75,6 +79,7 @@ void sts_config_defaults(sts_config *c)
     memset(c, 0, sizeof *c);
     snprintf(c->listen, sizeof c->listen, "127.0.0.1:%d", STS_DEFAULT_PORT);
     c->max_conns = 10000;
+    c->upload_keep = 600;
     c->idle_timeout = 300;
     c->max_frame = 64u << 20;
     c->max_upload = 1u << 30;

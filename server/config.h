@@ -38,7 +38,8 @@ typedef struct sts_config {
     uint64_t conn_out_cap;      /* pending reply bytes per connection before reading pauses */
     uint64_t max_memory;        /* all connection buffers together (bytes) */
     uint32_t max_sets;          /* names in the registry */
-    uint32_t max_uploads;       /* unfinished uploads at once */
+    uint32_t max_uploads;       /* unfinished uploads at once (kept ones included) */
+    uint32_t upload_keep;       /* seconds an unfinished upload outlives its connection */
     uint32_t max_jobs;          /* queued + running COMPRESS jobs */
     uint64_t max_set_bytes;     /* texel arena of one imported set */
     int      default_set;       /* load the built-in set as "default" */

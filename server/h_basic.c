@@ -50,6 +50,8 @@ int sts_h_hello(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     r.version = STP_VERSION;
     r.caps = STP_CAP_PIPELINE | STP_CAP_SAMPLE_DIR | STP_CAP_COMPRESS | STP_CAP_FETCH |
              STP_CAP_PTEX_FILTERS;
+    if (STS_LIVE(c->srv, upload_keep))
+        r.caps |= STP_CAP_UPLOAD_RESUME;
     if (!sts_token_allows(c->srv, 0))
         r.caps |= STP_CAP_AUTH;
     uint64_t mf = STS_LIVE(c->srv, max_frame);
@@ -482,6 +484,8 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     U("uploads_begun", L(uploads_begun));
     U("uploads_committed", L(uploads_committed));
     U("uploads_failed", L(uploads_failed));
+    U("uploads_resumed", L(uploads_resumed));
+    U("uploads_expired", L(uploads_expired));
     U("upload_bytes", L(upload_bytes));
     U("deletes", L(deletes));
     U("jobs_started", L(jobs_started));

@@ -5,8 +5,12 @@
  * Does not own: the on-disk commit protocol (store/datadir.c), the registry (store/registry.c),
  * the file readers (store/import.c, ptex_read.c, dds.c).
  *
- * An upload belongs to the connection that began it; it is dropped when that connection
- * closes (the server does not offer UPLOAD_RESUME). Chunks must come in order. COMMIT checks
+ * An upload belongs to the connection that began it. When that connection closes, the upload
+ * is kept for upload-keep seconds (an "orphan": no connection, its temp file and running
+ * CRC32C intact) and UPLOAD_BEGIN with RESUME and the same name, size, CRC32C, hint and
+ * options from any connection takes it over and learns how many bytes the server has;
+ * orphans older than that are dropped by sts_uploads_sweep (called once a second by the I/O
+ * threads); with upload-keep 0 the upload is dropped at once. Chunks must come in order. COMMIT checks
  * size and CRC32C, imports the file (the set is validated before anything is published),
  * commits it to the data dir (fsync + rename, see datadir.h) and only then publishes it in
  * the registry and replies OK. Without a data dir the set lives in memory only.
@@ -30,6 +34,7 @@ struct sts_upload {
     uint64_t    total, received;
     uint32_t    crc_want, crc;
     uint32_t    flags;
+    int64_t     orphan_ms;   /* when its connection closed; 0 while a connection holds it */
     int         fd;
     char        path[4096];
     sts_upload *next;
@@ -56,13 +61,14 @@ void sts_uploads_free(sts_server *srv)
     srv->uploads.n = 0;
 }
 
-void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id)
+/* Unlinks the uploads `doomed` picks; the caller frees them outside the lock. */
+static sts_upload *unlink_uploads(sts_server *srv, int (*doomed)(sts_upload *, void *), void *arg)
 {
     sts_upload *drop = NULL;
     pthread_mutex_lock(&srv->uploads.mu);
     for (sts_upload **pp = &srv->uploads.list; *pp;) {
         sts_upload *u = *pp;
-        if (u->conn_id == conn_id) {
+        if (doomed(u, arg)) {
             *pp = u->next;
             u->next = drop;
             drop = u;
@@ -72,20 +78,94 @@ void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id)
         }
     }
     pthread_mutex_unlock(&srv->uploads.mu);
-    while (drop) {
-        sts_upload *n = drop->next;
-        upload_free(drop);
-        drop = n;
+    return drop;
+}
+
+static void free_uploads(sts_upload *u)
+{
+    while (u) {
+        sts_upload *n = u->next;
+        upload_free(u);
+        u = n;
     }
 }
 
-/* Finds the caller's upload; with take=1 also removes it from the table. */
+typedef struct orphan_arg {
+    uint64_t conn_id;
+    int64_t  now, keep_ms;
+} orphan_arg;
+
+/* A closing connection's uploads become orphans (kept) or are dropped (upload-keep 0). */
+static int held_by_conn(sts_upload *u, void *arg)
+{
+    orphan_arg *a = arg;
+    if (u->conn_id != a->conn_id || u->orphan_ms)
+        return 0;
+    if (a->keep_ms <= 0)
+        return 1;
+    u->orphan_ms = a->now;
+    return 0;
+}
+
+static int orphan_expired(sts_upload *u, void *arg)
+{
+    orphan_arg *a = arg;
+    return u->orphan_ms && (a->keep_ms <= 0 || a->now - u->orphan_ms >= a->keep_ms);
+}
+
+void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id)
+{
+    orphan_arg a = {conn_id, sts_now_ms(), (int64_t)STS_LIVE(srv, upload_keep) * 1000};
+    free_uploads(unlink_uploads(srv, held_by_conn, &a));
+}
+
+void sts_uploads_sweep(sts_server *srv, int64_t now_ms)
+{
+    orphan_arg a = {0, now_ms, (int64_t)STS_LIVE(srv, upload_keep) * 1000};
+    sts_upload *gone = unlink_uploads(srv, orphan_expired, &a);
+    for (sts_upload *u = gone; u; u = u->next) {
+        STS_STAT_ADD(srv, uploads_expired, 1);
+        sts_logf(&srv->log, STS_INFO, "unfinished upload of '%s' (%llu of %llu bytes) dropped "
+                 "after upload-keep", u->name, (unsigned long long)u->received,
+                 (unsigned long long)u->total);
+    }
+    free_uploads(gone);
+}
+
+/* Finds an orphan that UPLOAD_BEGIN with RESUME may take over and gives it to conn_id.
+ * Returns it, NULL when none matches; *held is set when a match is still held by a live
+ * connection. */
+static sts_upload *adopt_upload(sts_server *srv, const stp_upload_begin *rq, uint64_t conn_id,
+                                int *held)
+{
+    sts_upload *found = NULL;
+    *held = 0;
+    pthread_mutex_lock(&srv->uploads.mu);
+    for (sts_upload *u = srv->uploads.list; u; u = u->next) {
+        if (strcmp(u->name, rq->name) || u->total != rq->total_size || u->crc_want != rq->crc32c ||
+            strcmp(u->fmt, rq->hint) || strcmp(u->options, rq->options))
+            continue;
+        if (!u->orphan_ms) {
+            *held = 1;
+            continue;
+        }
+        u->orphan_ms = 0;
+        u->conn_id = conn_id;
+        u->flags = rq->flags & ~(uint32_t)STP_UF_RESUME;
+        found = u;
+        break;
+    }
+    pthread_mutex_unlock(&srv->uploads.mu);
+    return found;
+}
+
+/* Finds the caller's upload (never an orphan); with take=1 also removes it from the table. */
 static sts_upload *find_upload(sts_server *srv, uint64_t id, uint64_t conn_id, int take)
 {
     pthread_mutex_lock(&srv->uploads.mu);
     sts_upload *found = NULL;
     for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next) {
-        if ((*pp)->id == id && (*pp)->conn_id == conn_id) {
+        if ((*pp)->id == id && (*pp)->conn_id == conn_id && !(*pp)->orphan_ms) {
             found = *pp;
             if (take) {
                 *pp = found->next;
@@ -268,10 +348,6 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         sts_reply_st(out, h, ST_EPERM, e.msg);
         return 0;
     }
-    if (rq.flags & STP_UF_RESUME) {
-        sts_reply_error(out, h, STP_S_UNSUPPORTED, "this server does not resume uploads");
-        return 0;
-    }
     if (rq.hint[0] && st_format_check(rq.hint, &e) != 0) {
         sts_reply_st(out, h, ST_EINVAL, e.msg);
         return 0;
@@ -295,6 +371,24 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
             return 0;
         }
     }
+    if (rq.flags & STP_UF_RESUME) {
+        int held = 0;
+        sts_upload *old = adopt_upload(srv, &rq, c->conn->id, &held);
+        if (old) {
+            STS_STAT_ADD(srv, uploads_resumed, 1);
+            sts_logf(&srv->log, STS_INFO, "upload of '%s' resumed at %llu of %llu bytes", old->name,
+                     (unsigned long long)old->received, (unsigned long long)old->total);
+            stp_upload_begin_reply r = {old->id, old->received, STP_DEFAULT_MAX_CHUNK};
+            stp_enc_upload_begin_reply(out, h->reqid, &r);
+            return 0;
+        }
+        if (held) {
+            sts_reply_error(out, h, STP_S_BUSY,
+                            "that upload is held by another connection (retry when it closes)");
+            return 0;
+        }
+        /* nothing to resume: a fresh upload, received 0 */
+    }
     sts_upload *u = calloc(1, sizeof *u);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
@@ -306,7 +400,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     snprintf(u->options, sizeof u->options, "%s", rq.options);
     u->total = rq.total_size;
     u->crc_want = rq.crc32c;
-    u->flags = rq.flags;
+    u->flags = rq.flags & ~(uint32_t)STP_UF_RESUME;
     u->conn_id = c->conn->id;
     int rc;
     if (srv->dd) {
@@ -326,6 +420,19 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         return 0;
     }
     pthread_mutex_lock(&srv->uploads.mu);
+    sts_upload *evicted = NULL;
+    if (srv->uploads.n >= STS_LIVE(srv, max_uploads)) {
+        /* full: a live upload goes before the oldest one kept for resume */
+        sts_upload **oldest = NULL;
+        for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next)
+            if ((*pp)->orphan_ms && (!oldest || (*pp)->orphan_ms < (*oldest)->orphan_ms))
+                oldest = pp;
+        if (oldest) {
+            evicted = *oldest;
+            *oldest = evicted->next;
+            srv->uploads.n--;
+        }
+    }
     if (srv->uploads.n >= STS_LIVE(srv, max_uploads)) {
         pthread_mutex_unlock(&srv->uploads.mu);
         upload_free(u);
@@ -337,6 +444,12 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     srv->uploads.list = u;
     srv->uploads.n++;
     pthread_mutex_unlock(&srv->uploads.mu);
+    if (evicted) {
+        STS_STAT_ADD(srv, uploads_expired, 1);
+        sts_logf(&srv->log, STS_INFO, "kept upload of '%s' dropped for a new one (max-uploads)",
+                 evicted->name);
+        upload_free(evicted);
+    }
     STS_STAT_ADD(srv, uploads_begun, 1);
     stp_upload_begin_reply r = {u->id, 0, STP_DEFAULT_MAX_CHUNK};
     stp_enc_upload_begin_reply(out, h->reqid, &r);
@@ -530,12 +643,24 @@ int sts_h_upload_status(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    sts_upload *u = find_upload(c->srv, id, c->conn->id, 0);
-    if (!u) {
-        sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
+    /* the caller's own upload, or an orphan (kept for resume): copied under the lock, since
+     * the sweep may drop an orphan at any time */
+    sts_server *srv = c->srv;
+    stp_upload_progress p = {0, 0};
+    int found = 0;
+    pthread_mutex_lock(&srv->uploads.mu);
+    for (sts_upload *u = srv->uploads.list; u; u = u->next)
+        if (u->id == id && (u->orphan_ms || u->conn_id == c->conn->id)) {
+            p.received = u->received;
+            p.total = u->total;
+            found = 1;
+            break;
+        }
+    pthread_mutex_unlock(&srv->uploads.mu);
+    if (!found) {
+        sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection or kept for resume");
         return 0;
     }
-    stp_upload_progress p = {u->received, u->total};
     stp_enc_upload_progress(out, h->opcode, h->reqid, &p);
     return 0;
 }

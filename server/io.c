@@ -519,6 +519,7 @@ static void take_completions(sts_io *io)
 static void idle_scan(sts_io *io, int64_t now)
 {
     uint32_t idle = STS_LIVE(io->srv, idle_timeout);
+    sts_uploads_sweep(io->srv, now);
     sts_conn *c = io->conns;
     while (c) {
         sts_conn *next = c->next;

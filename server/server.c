@@ -288,6 +288,7 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh)
     SET_LIVE(max_memory);
     SET_LIVE(max_sets);
     SET_LIVE(max_uploads);
+    SET_LIVE(upload_keep);
     SET_LIVE(max_jobs);
     SET_LIVE(max_set_bytes);
     SET_LIVE(log_level);

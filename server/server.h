@@ -239,8 +239,11 @@ int sts_jobs_start(sts_server *srv);
 void sts_jobs_stop(sts_server *srv);
 /* Drops the fetch handles a connection opened (when it closes). */
 void sts_fetch_drop_conn(sts_server *srv, uint64_t conn_id);
-/* Drops the unfinished uploads a connection holds (when it closes). */
+/* A closing connection's unfinished uploads are kept for upload-keep seconds (resume), or
+ * dropped when it is 0. */
 void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id);
+/* Drops kept uploads older than upload-keep (the I/O threads call it once a second). */
+void sts_uploads_sweep(sts_server *srv, int64_t now_ms);
 
 /* ---- h_upload.c: uploads and the data dir ---------------------------------------------------- */
 
@@ -271,6 +274,7 @@ typedef struct sts_stats {
     uint64_t backpressure_pauses, worker_tasks, inline_tasks;
     uint64_t queries, query_errors;
     uint64_t uploads_begun, uploads_committed, uploads_failed, upload_bytes, deletes;
+    uint64_t uploads_resumed, uploads_expired;
     uint64_t jobs_started, jobs_done, jobs_failed, jobs_canceled, fetches;
     uint64_t by_op[256];
 } sts_stats;

@@ -290,6 +290,11 @@ static void upload_ls_sample_delete_round_trip(void **state)
     assert_int_equal(CLI("upload", ptx, "cli-cube"), 1);
     assert_int_equal(CLI("delete", "cli-cube"), 0);
     assert_int_equal(CLI("info", "cli-cube"), 1);
+    /* --resume with nothing kept on the server: a whole upload, no "resumed" line */
+    assert_int_equal(CLI("upload", ptx, "cli-cube", "--resume", "--retries", "0"), 0);
+    assert_null(strstr(ERR, "resumed at"));
+    assert_int_equal(CLI("delete", "cli-cube"), 0);
+    assert_int_equal(CLI("upload", ptx, "cli-cube", "--retries", "many"), 2);
 }
 
 static void sample_dir_answers_on_a_cube_map_and_refuses_other_sets(void **state)

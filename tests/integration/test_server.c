@@ -682,6 +682,165 @@ static void upload_with_wrong_crc_is_corrupt(void **state)
     close(fd);
 }
 
+static uint64_t stat_of(const st_daemon *d, const char *key)
+{
+    stc_conn *c = conn_to(d, NULL);
+    if (!c)
+        return UINT64_MAX;
+    const stc_stat *st;
+    size_t n;
+    uint64_t v = UINT64_MAX;
+    if (stc_stats(c, &st, &n) == 0 && stc_stat_find(st, n, key))
+        v = stc_stat_find(st, n, key)->u;
+    stc_close(c);
+    return v;
+}
+
+/* Begins an upload of `len` bytes on a raw socket and sends its first `part` bytes; returns
+ * the socket (the caller closes it to drop the connection) and the upload id. */
+static int raw_partial_upload(const st_daemon *d, const char *name, const uint8_t *data,
+                              size_t len, size_t part, uint64_t *id)
+{
+    int fd = st_daemon_connect(d);
+    assert_true(fd >= 0);
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_upload_begin ub;
+    memset(&ub, 0, sizeof ub);
+    snprintf(ub.name, sizeof ub.name, "%s", name);
+    snprintf(ub.hint, sizeof ub.hint, "ptx");
+    ub.total_size = len;
+    ub.crc32c = stp_crc32c(0, data, len);
+    assert_int_equal(stp_enc_upload_begin(&b, 1, 0, &ub), 0);
+    assert_int_equal(send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
+    rawreply r;
+    assert_int_equal(read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.status, 0);
+    *id = stp_rd64(r.body);
+    assert_int_equal(stp_rd64(r.body + 8), 0);
+    for (size_t off = 0, k = 2; off < part; k++) {
+        size_t n = part - off < 65536 ? part - off : 65536;
+        stp_buf_clear(&b);
+        stp_upload_chunk ch = {*id, off, (uint32_t)n, data + off};
+        stp_enc_upload_chunk(&b, (uint32_t)k, 0, &ch);
+        assert_int_equal(send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
+        assert_int_equal(read_reply(fd, &r, 5000), 0);
+        assert_int_equal(r.status, 0);
+        off += n;
+        assert_int_equal(stp_rd64(r.body), off);
+    }
+    stp_buf_free(&b);
+    return fd;
+}
+
+/* Upload with RESUME, retrying while the server has not yet seen the old connection close. */
+static int upload_resume(stc_conn *c, const void *data, size_t len, const char *name,
+                         stc_upload_result *ur)
+{
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    uo.flags = STC_UPLOAD_RESUME;
+    int rc = STC_EBUSY;
+    for (int i = 0; i < 100 && rc == STC_EBUSY; i++) {
+        rc = stc_upload_buffer(c, data, len, name, &uo, ur);
+        if (rc == STC_EBUSY)
+            usleep(20000);
+    }
+    return rc;
+}
+
+/* A dropped connection leaves its upload kept; UPLOAD_BEGIN with RESUME on a new connection
+ * continues from the bytes the server has, and the set is whole (INFO matches, CRC checked). */
+static void dropped_upload_resumes_on_a_new_connection(void **state)
+{
+    (void)state;
+    size_t len;
+    uint8_t *ptx = make_ptx(&len, 3);
+    assert_non_null(ptx);
+    assert_true(len > 3 * 65536);
+    uint64_t id;
+    size_t part = 2 * 65536 + 1000;
+    int fd = raw_partial_upload(&D1, "resumed", ptx, len, part, &id);
+    uint64_t before = stat_of(&D1, "upload_bytes");
+    close(fd);
+    stc_conn *c = conn_to(&D1, NULL);
+    assert_non_null(c);
+    assert_true(stc_server_info(c)->caps & STC_CAP_UPLOAD_RESUME);
+    stc_upload_result ur;
+    assert_int_equal(upload_resume(c, ptx, len, "resumed", &ur), 0);
+    assert_int_equal(ur.resumed_from, part);
+    assert_int_equal(stat_of(&D1, "upload_bytes") - before, len - part); /* only the rest sent */
+    assert_true(stat_of(&D1, "uploads_resumed") >= 1);
+    stc_info inf;
+    assert_int_equal(stc_info_get(c, "resumed", 0, 0, &inf), 0);
+    assert_int_equal(inf.nfaces, 384);
+    /* a different file under another name: nothing to resume, a fresh upload */
+    fd = raw_partial_upload(&D1, "resumed2", ptx, len, 65536, &id);
+    close(fd);
+    /* other content, so another CRC32C: the kept upload is not taken; the fresh upload of the
+     * damaged file fails to import or not, either way without resuming */
+    uint64_t resumed = stat_of(&D1, "uploads_resumed");
+    ptx[len / 2] ^= 0x40;
+    int rc = upload_resume(c, ptx, len, "resumed2", &ur);
+    if (rc == 0)
+        assert_int_equal(ur.resumed_from, 0);
+    assert_int_equal(stat_of(&D1, "uploads_resumed"), resumed);
+    ptx[len / 2] ^= 0x40;
+    if (rc == 0) {
+        assert_int_equal(stc_delete(c, "resumed2"), 0);
+    }
+    assert_int_equal(upload_resume(c, ptx, len, "resumed2", &ur), 0);
+    assert_int_equal(ur.resumed_from, 65536);
+    stc_close(c);
+    free(ptx);
+}
+
+/* Kept uploads go after upload-keep seconds; with upload-keep 0 nothing is kept and the
+ * server does not offer RESUME. */
+static void kept_uploads_expire_and_can_be_turned_off(void **state)
+{
+    (void)state;
+    size_t len;
+    uint8_t *ptx = make_ptx(&len, 4);
+    assert_non_null(ptx);
+    st_daemon d;
+    const char *extra[] = {"--upload-keep", "1", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    uint64_t id;
+    int fd = raw_partial_upload(&d, "late", ptx, len, 65536, &id);
+    close(fd);
+    int64_t t0 = now_ms();
+    while (stat_of(&d, "uploads_expired") == 0 && now_ms() - t0 < 5000)
+        usleep(100000);
+    assert_int_equal(stat_of(&d, "uploads_expired"), 1);
+    assert_true(now_ms() - t0 >= 900);
+    stc_conn *c = conn_to(&d, NULL);
+    assert_non_null(c);
+    stc_upload_result ur;
+    assert_int_equal(upload_resume(c, ptx, len, "late", &ur), 0);
+    assert_int_equal(ur.resumed_from, 0);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+
+    const char *off[] = {"--upload-keep", "0", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, off), 0);
+    fd = raw_partial_upload(&d, "gone", ptx, len, 65536, &id);
+    close(fd);
+    c = conn_to(&d, NULL);
+    assert_non_null(c);
+    assert_false(stc_server_info(c)->caps & STC_CAP_UPLOAD_RESUME);
+    assert_int_equal(upload_resume(c, ptx, len, "gone", &ur), 0);
+    assert_int_equal(ur.resumed_from, 0);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+    free(ptx);
+}
+
 static void pipelined_requests_come_back_in_order(void **state)
 {
     (void)state;
@@ -948,19 +1107,6 @@ static void upload_and_frame_caps_hold(void **state)
     st_daemon_cleanup(&d);
 }
 
-static uint64_t stat_of(const st_daemon *d, const char *key)
-{
-    stc_conn *c = conn_to(d, NULL);
-    if (!c)
-        return UINT64_MAX;
-    const stc_stat *st;
-    size_t n;
-    uint64_t v = UINT64_MAX;
-    if (stc_stats(c, &st, &n) == 0 && stc_stat_find(st, n, key))
-        v = stc_stat_find(st, n, key)->u;
-    stc_close(c);
-    return v;
-}
 
 /* A client that pipelines without reading: the server stops reading it once its unsent
  * replies pass conn-out-cap, holds bounded memory, and answers everything once the client
@@ -1372,6 +1518,8 @@ int main(void)
         cmocka_unit_test(upload_info_fetch_delete_round_trip),
         cmocka_unit_test(compress_job_fetch_dds_and_cancel),
         cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
+        cmocka_unit_test(dropped_upload_resumes_on_a_new_connection),
+        cmocka_unit_test(kept_uploads_expire_and_can_be_turned_off),
         cmocka_unit_test(concurrent_uploads_of_one_name_one_wins),
         cmocka_unit_test(pipelined_requests_come_back_in_order),
         cmocka_unit_test(malformed_frames_get_their_status),
