@@ -355,130 +355,6 @@ static void requantise(const solver *S, uint32_t b, const double e0[3], const do
     put_block(blk, c0, c1, sel);
 }
 
-/* Seam energy of point p (exact decoder, every block as it is now). */
-static double point_energy(const solver *S, size_t p)
-{
-    const tapref *r = &S->taps[8 * p];
-    double v[3] = {0, 0, 0};
-    for (int j = 0; j < 8; j++) {
-        const uint8_t *px = r[j].blk < 0 ? S->target + r[j].tex * 4
-                                         : S->dec + ((size_t)r[j].blk * 16 + r[j].pos) * 3;
-        for (int c = 0; c < 3; c++)
-            v[c] += r[j].w * px[c];
-    }
-    return S->sys->pts[p].len * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-}
-
-static double texel_data(const solver *S, uint32_t b, int i)
-{
-    double d = S->d[16 * b + i];
-    if (d == 0)
-        return 0;
-    const uint8_t *px = S->dec + ((size_t)b * 16 + i) * 3;
-    const uint8_t *o = S->orig + S->sb[b].tex[i] * 4;
-    double e = 0;
-    for (int c = 0; c < 3; c++) {
-        double dd = (double)px[c] - o[c];
-        e += dd * dd;
-    }
-    return d * e;
-}
-
-/* Energy that block b's bits can change: its texels' data term plus the seam term of every
- * point that taps it (exact decoder, other blocks as they are). With texel >= 0, only what
- * texel `texel` of the block changes: its data term and the points that tap it. */
-static double local_energy(const solver *S, uint32_t b, int texel)
-{
-    double ec = 0, es = 0;
-    for (int i = 0; i < 16; i++)
-        if (texel < 0 || i == texel)
-            ec += texel_data(S, b, i);
-    for (uint32_t k = S->bp_off[b]; k < S->bp_off[b + 1]; k++) {
-        size_t p = S->bp[k];
-        if (texel >= 0) {
-            const tapref *r = &S->taps[8 * p];
-            int hit = 0;
-            for (int j = 0; j < 8 && !hit; j++)
-                hit = r[j].blk == (int32_t)b && r[j].pos == texel;
-            if (!hit)
-                continue;
-        }
-        es += point_energy(S, p);
-    }
-    return ec + S->alpha * es;
-}
-
-
-/* Discrete descent on block b: every selector of every texel, then +-1 on each of the six
- * 565 components (keeping the block's mode), accepting what lowers local_energy. Returns 1
- * when something changed. */
-static int local_search(const solver *S, uint32_t b)
-{
-    uint8_t *blk = blk_ptr(S, b);
-    uint8_t *dc = S->dec + (size_t)b * 48;
-    int changed = 0;
-    uint16_t c0 = rd16(blk), c1 = rd16(blk + 2);
-    int four = c0 > c1;
-    int nsel = four ? 4 : 3;
-    if (!four && c0 == c1)
-        nsel = 1; /* a flat block: only selector 0 means anything */
-    uint8_t pal[16];
-    st_bc1_palette(c0, c1, ST_BC1_DEC_EXACT, pal);
-    for (int i = 0; i < 16 && nsel > 1; i++) {
-        if (S->d[16 * b + i] == 0)
-            continue;
-        uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
-                       (uint32_t)blk[7] << 24;
-        uint32_t keep = sel;
-        unsigned s0 = sel >> (2 * i) & 3u, sk = s0;
-        double cur = local_energy(S, b, i);
-        for (unsigned j = 0; j < (unsigned)nsel; j++) {
-            if (j == s0)
-                continue;
-            memcpy(dc + 3 * i, pal + 4 * j, 3); /* only texel i changes */
-            double en = local_energy(S, b, i);
-            if (en < cur - 1e-9) {
-                cur = en;
-                keep = (sel & ~(3u << (2 * i))) | j << (2 * i);
-                sk = j;
-                changed = 1;
-            }
-        }
-        memcpy(dc + 3 * i, pal + 4 * sk, 3);
-        put_block(blk, c0, c1, keep);
-    }
-    static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
-    double cur = local_energy(S, b, -1);
-    for (int ep = 0; ep < 2; ep++)
-        for (int k = 0; k < 3; k++)
-            for (int dlt = -1; dlt <= 1; dlt += 2) {
-                uint16_t cc[2] = {rd16(blk), rd16(blk + 2)};
-                uint32_t sel = (uint32_t)blk[4] | (uint32_t)blk[5] << 8 |
-                               (uint32_t)blk[6] << 16 | (uint32_t)blk[7] << 24;
-                int q = (cc[ep] >> sh[k]) & mx[k];
-                if (q + dlt < 0 || q + dlt > mx[k])
-                    continue;
-                uint16_t n0 = cc[0], n1 = cc[1];
-                uint16_t *t = ep ? &n1 : &n0;
-                *t = (uint16_t)((*t & ~(mx[k] << sh[k])) | ((q + dlt) << sh[k]));
-                if (four ? n0 <= n1 : n0 > n1)
-                    continue; /* would change the mode */
-                uint8_t saved[48];
-                memcpy(saved, dc, 48);
-                put_block(blk, n0, n1, sel);
-                refresh(S, b);
-                double en = local_energy(S, b, -1);
-                if (en < cur - 1e-9) {
-                    cur = en;
-                    changed = 1;
-                } else {
-                    put_block(blk, cc[0], cc[1], sel);
-                    memcpy(dc, saved, 48);
-                }
-            }
-    return changed;
-}
-
 static int has_transparent(const uint8_t *blk)
 {
     if (rd16(blk) > rd16(blk + 2))
@@ -488,6 +364,336 @@ static int has_transparent(const uint8_t *blk)
     for (int i = 0; i < 16; i++)
         if ((sel >> (2 * i) & 3) == 3)
             return 1;
+    return 0;
+}
+
+/* ---- block-coordinate descent -------------------------------------------------------------
+ * With every other block fixed, E is a quadratic in block b's 16 decoded texels, the same
+ * matrix for the three channels: E = sum_c (x_c' H x_c - 2 g_c' x_c) + const. A sweep visits
+ * every block, builds (H, g), and tries endpoint/selector candidates - the block as it is,
+ * and the HQ encoding of the block's continuous optimum x* = H^-1 g weighted by diag(H) - each
+ * polished by (endpoints solved for the selectors, every floor/ceil rounding per channel,
+ * selectors re-chosen texel by texel on the quadratic), and keeps the lowest. E falls at every
+ * accepted move, so sweeps never raise it. */
+typedef struct bquad {
+    double H[16][16];
+    double g[3][16];
+} bquad;
+
+static void block_quad(const solver *S, uint32_t b, bquad *q)
+{
+    memset(q, 0, sizeof *q);
+    for (int i = 0; i < 16; i++) {
+        double d = S->d[16 * b + i];
+        q->H[i][i] = d;
+        if (d > 0)
+            for (int c = 0; c < 3; c++)
+                q->g[c][i] = d * S->orig[S->sb[b].tex[i] * 4 + c];
+    }
+    for (uint32_t k = S->bp_off[b]; k < S->bp_off[b + 1]; k++) {
+        size_t p = S->bp[k];
+        const tapref *r = &S->taps[8 * p];
+        double a[16], cc[3] = {0, 0, 0};
+        int idx[8], na = 0;
+        for (int j = 0; j < 8; j++) {
+            if (r[j].blk == (int32_t)b) {
+                int pos = r[j].pos, seen = 0;
+                for (int m = 0; m < na && !seen; m++)
+                    seen = idx[m] == pos;
+                if (!seen) {
+                    idx[na++] = pos;
+                    a[pos] = 0;
+                }
+                a[pos] += r[j].w;
+            } else {
+                for (int c = 0; c < 3; c++)
+                    cc[c] += r[j].w * tap_value(S, &r[j], (unsigned)c);
+            }
+        }
+        double al = S->alpha * S->sys->pts[p].len;
+        for (int m = 0; m < na; m++) {
+            int i = idx[m];
+            for (int n = 0; n < na; n++)
+                q->H[i][idx[n]] += al * a[i] * a[idx[n]];
+            for (int c = 0; c < 3; c++)
+                q->g[c][i] -= al * cc[c] * a[i];
+        }
+    }
+    for (int i = 0; i < 16; i++)
+        if (q->H[i][i] <= 0)
+            q->H[i][i] = 1e-6; /* padding: no term; stays put */
+}
+
+/* sum_c x_c' H x_c - 2 g_c' x_c of decoded texels x (16 x 3 bytes). */
+static double quad_value(const bquad *q, const uint8_t *x)
+{
+    double s = 0;
+    for (int c = 0; c < 3; c++)
+        for (int i = 0; i < 16; i++) {
+            double hx = 0;
+            for (int j = 0; j < 16; j++)
+                hx += q->H[i][j] * x[3 * j + c];
+            s += x[3 * i + c] * (hx - 2 * q->g[c][i]);
+        }
+    return s;
+}
+
+/* x* = H^-1 g (Cholesky), clamped to 0..255, as RGBA8. */
+static void quad_optimum(const bquad *q, const uint8_t *cur, uint8_t out[64])
+{
+    double L[16][16];
+    int ok = 1;
+    for (int i = 0; i < 16 && ok; i++)
+        for (int j = 0; j <= i; j++) {
+            double s = q->H[i][j];
+            for (int k = 0; k < j; k++)
+                s -= L[i][k] * L[j][k];
+            if (i == j) {
+                if (!(s > 1e-12)) {
+                    ok = 0;
+                    break;
+                }
+                L[i][i] = sqrt(s);
+            } else {
+                L[i][j] = s / L[j][j];
+            }
+        }
+    for (int c = 0; c < 3; c++) {
+        double y[16];
+        for (int i = 0; i < 16; i++) {
+            if (!ok) {
+                y[i] = cur[3 * i + c];
+                continue;
+            }
+            double s = q->g[c][i];
+            for (int k = 0; k < i; k++)
+                s -= L[i][k] * y[k];
+            y[i] = s / L[i][i];
+        }
+        if (ok)
+            for (int i = 15; i >= 0; i--) {
+                double s = y[i];
+                for (int k = i + 1; k < 16; k++)
+                    s -= L[k][i] * y[k];
+                y[i] = s / L[i][i];
+            }
+        for (int i = 0; i < 16; i++) {
+            double v = y[i] < 0 ? 0 : y[i] > 255 ? 255 : y[i];
+            out[4 * i + c] = (uint8_t)(v + 0.5);
+        }
+    }
+    for (int i = 0; i < 16; i++)
+        out[4 * i + 3] = 255;
+}
+
+static void decode3(const uint8_t blk[8], uint8_t x[48])
+{
+    uint8_t px[64];
+    st_bc1_decode_block(blk, ST_BC1_DEC_EXACT, px);
+    for (int i = 0; i < 16; i++)
+        memcpy(x + 3 * i, px + 4 * i, 3);
+}
+
+static uint32_t rd_sel(const uint8_t *blk)
+{
+    return (uint32_t)blk[4] | (uint32_t)blk[5] << 8 | (uint32_t)blk[6] << 16 |
+           (uint32_t)blk[7] << 24;
+}
+
+/* Channel k of a 565 value expanded to 8 bits. */
+static int expand_q(int q, int k) { return k == 1 ? (q << 2) | (q >> 4) : (q << 3) | (q >> 2); }
+
+/* Endpoints for the block's selectors: the 2x2 least-squares solve of the quadratic per
+ * channel, then the best of the four floor/ceil roundings of each channel (channels are
+ * independent, the exact decoder included); the mode is kept (endpoints swapped with the
+ * selectors remapped when the rounding flips their order; a 4-colour block whose endpoints
+ * meet becomes flat). */
+static void refit_endpoints(const bquad *q, uint8_t blk[8])
+{
+    uint16_t c0 = rd16(blk), c1 = rd16(blk + 2);
+    int four = c0 > c1;
+    uint32_t sel = rd_sel(blk);
+    if (!four && c0 == c1)
+        return;
+    static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
+    int ti[16];
+    double t[16];
+    for (int i = 0; i < 16; i++) {
+        ti[i] = (int)(sel >> (2 * i) & 3u);
+        t[i] = four ? (double[4]){0, 1, 1.0 / 3, 2.0 / 3}[ti[i]] : (double[4]){0, 1, 0.5, 0}[ti[i]];
+    }
+    /* M = T' H T, T rows (1 - t_i, t_i) */
+    double m00 = 0, m01 = 0, m11 = 0;
+    for (int i = 0; i < 16; i++)
+        for (int j = 0; j < 16; j++) {
+            double h = q->H[i][j];
+            m00 += (1 - t[i]) * h * (1 - t[j]);
+            m01 += (1 - t[i]) * h * t[j];
+            m11 += t[i] * h * t[j];
+        }
+    double det = m00 * m11 - m01 * m01;
+    if (!(det > 1e-9 * (m00 * m11 + 1e-30)))
+        return;
+    int nq[2] = {0, 0};
+    for (int k = 0; k < 3; k++) {
+        double r0 = 0, r1 = 0;
+        for (int i = 0; i < 16; i++) {
+            r0 += (1 - t[i]) * q->g[k][i];
+            r1 += t[i] * q->g[k][i];
+        }
+        double e0 = (m11 * r0 - m01 * r1) / det, e1 = (m00 * r1 - m01 * r0) / det;
+        double s = mx[k] / 255.0;
+        int f0 = (int)floor(e0 * s), f1 = (int)floor(e1 * s);
+        double bestv = 1e300;
+        int b0 = (c0 >> sh[k]) & mx[k], b1 = (c1 >> sh[k]) & mx[k];
+        for (int a = 0; a < 2; a++)
+            for (int bb = 0; bb < 2; bb++) {
+                int q0 = clampi(f0 + a, 0, mx[k]), q1 = clampi(f1 + bb, 0, mx[k]);
+                int v0 = expand_q(q0, k), v1 = expand_q(q1, k);
+                int pal[4] = {v0, v1, four ? (2 * v0 + v1) / 3 : (v0 + v1) / 2,
+                              four ? (v0 + 2 * v1) / 3 : 0};
+                double x[16], val = 0;
+                for (int i = 0; i < 16; i++)
+                    x[i] = pal[ti[i]];
+                for (int i = 0; i < 16; i++) {
+                    double hx = 0;
+                    for (int j = 0; j < 16; j++)
+                        hx += q->H[i][j] * x[j];
+                    val += x[i] * (hx - 2 * q->g[k][i]);
+                }
+                if (val < bestv) {
+                    bestv = val;
+                    b0 = q0;
+                    b1 = q1;
+                }
+            }
+        nq[0] |= b0 << sh[k];
+        nq[1] |= b1 << sh[k];
+    }
+    uint16_t n0 = (uint16_t)nq[0], n1 = (uint16_t)nq[1];
+    if (four && n0 == n1) {
+        uint32_t ns = 0; /* all entries equal: selector 3 must not appear in 3-colour mode */
+        for (int i = 0; i < 16; i++)
+            ns |= (uint32_t)(ti[i] == 3 ? 2 : ti[i]) << (2 * i);
+        put_block(blk, n0, n1, ns);
+        return;
+    }
+    if (four ? n0 < n1 : n0 > n1) {
+        uint32_t ns = 0;
+        for (int i = 0; i < 16; i++) {
+            unsigned v = (unsigned)ti[i];
+            v = four ? v ^ 1u : v < 2 ? v ^ 1u : v;
+            ns |= v << (2 * i);
+        }
+        put_block(blk, n1, n0, ns);
+        return;
+    }
+    put_block(blk, n0, n1, sel);
+}
+
+/* Selectors re-chosen texel by texel (two passes) on the quadratic, endpoints fixed;
+ * never selector 3 in 3-colour mode. */
+static void reselect(const bquad *q, uint8_t blk[8], const float *dw)
+{
+    uint16_t c0 = rd16(blk), c1 = rd16(blk + 2);
+    int four = c0 > c1;
+    int nsel = four ? 4 : (c0 == c1 ? 1 : 3);
+    if (nsel == 1)
+        return;
+    uint8_t pal[16], x[48];
+    st_bc1_palette(c0, c1, ST_BC1_DEC_EXACT, pal);
+    uint32_t sel = rd_sel(blk);
+    decode3(blk, x);
+    double gr[3][16]; /* (H x - g) per channel */
+    for (int c = 0; c < 3; c++)
+        for (int i = 0; i < 16; i++) {
+            double s = -q->g[c][i];
+            for (int j = 0; j < 16; j++)
+                s += q->H[i][j] * x[3 * j + c];
+            gr[c][i] = s;
+        }
+    for (int pass = 0; pass < 2; pass++) {
+        int moved = 0;
+        for (int i = 0; i < 16; i++) {
+            if (dw[i] == 0)
+                continue;
+            unsigned s0 = sel >> (2 * i) & 3u, bs = s0;
+            double bestd = 0;
+            for (unsigned j = 0; j < (unsigned)nsel; j++) {
+                if (j == s0)
+                    continue;
+                double dq = 0;
+                for (int c = 0; c < 3; c++) {
+                    double dl = (double)pal[4 * j + c] - x[3 * i + c];
+                    dq += 2 * dl * gr[c][i] + q->H[i][i] * dl * dl;
+                }
+                if (dq < bestd - 1e-9) {
+                    bestd = dq;
+                    bs = j;
+                }
+            }
+            if (bs == s0)
+                continue;
+            for (int c = 0; c < 3; c++) {
+                double dl = (double)pal[4 * bs + c] - x[3 * i + c];
+                for (int j = 0; j < 16; j++)
+                    gr[c][j] += q->H[j][i] * dl;
+                x[3 * i + c] = pal[4 * bs + c];
+            }
+            sel = (sel & ~(3u << (2 * i))) | bs << (2 * i);
+            moved = 1;
+        }
+        if (!moved)
+            break;
+    }
+    put_block(blk, c0, c1, sel);
+}
+
+/* Polishes candidate blk in place (refit, reselect, twice) and returns its quadratic value. */
+static double polish(const bquad *q, uint8_t blk[8], const float *dw)
+{
+    uint8_t x[48];
+    for (int r = 0; r < 2; r++) {
+        refit_endpoints(q, blk);
+        reselect(q, blk, dw);
+    }
+    decode3(blk, x);
+    return quad_value(q, x);
+}
+
+/* One block-coordinate step on block b; returns 1 when the block changed (E fell). */
+static int bcd_block(const solver *S, uint32_t b)
+{
+    bquad q;
+    block_quad(S, b, &q);
+    uint8_t *blk = blk_ptr(S, b);
+    const uint8_t *cur = S->dec + (size_t)b * 48;
+    const float *dw = S->d + 16 * b;
+    double e_cur = quad_value(&q, cur);
+    uint8_t best[8], cand[8], xs[64];
+    memcpy(best, blk, 8);
+    double e_best = e_cur;
+    memcpy(cand, blk, 8);
+    double v = polish(&q, cand, dw);
+    if (v < e_best - 1e-6) {
+        e_best = v;
+        memcpy(best, cand, 8);
+    }
+    quad_optimum(&q, cur, xs);
+    float w[16];
+    for (int i = 0; i < 16; i++)
+        w[i] = dw[i] == 0 ? 0.0f : (float)q.H[i][i];
+    st_bc1_encode_block_w(xs, w, ST_BC1_HQ, cand);
+    v = polish(&q, cand, dw);
+    if (v < e_best - 1e-6) {
+        e_best = v;
+        memcpy(best, cand, 8);
+    }
+    if (e_best < e_cur - 1e-6) {
+        memcpy(blk, best, 8);
+        refresh(S, b);
+        return 1;
+    }
     return 0;
 }
 
@@ -680,7 +886,7 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
                     rc = st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
                     goto out;
                 }
-                any |= local_search(&S, b);
+                any |= bcd_block(&S, b);
                 if (progress && (b & 1023) == 1023)
                     progress(progress_arg, ((double)it + (pass + (double)b / nb) / 2.0) / iterations);
             }
