@@ -111,13 +111,18 @@ int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv)
     stc_upload_result res;
     int e = stc_upload_file(ctx->conn, file, name, &o, &res);
     /* a dropped connection: the server keeps what it received; reconnect and resume */
-    for (long attempt = 1; attempt <= retries && (e == STC_EIO || e == STC_ECLOSED ||
-                                                  e == STC_ECONNECT); attempt++) {
+    /* BUSY while resuming: the server still holds the old connection's upload or is
+     * committing it; a moment later it is kept (resumable) or done (COMMIT repeats its reply) */
+    for (long attempt = 1;
+         attempt <= retries && (e == STC_EIO || e == STC_ECLOSED || e == STC_ECONNECT ||
+                                (e == STC_EBUSY && (o.flags & STC_UPLOAD_RESUME)));
+         attempt++) {
         cli_progress_end(&pr);
-        fprintf(stderr, "seamtex upload: %s (%s); reconnecting to resume (%ld of %ld)\n",
-                stc_strerror(e), stc_errmsg(ctx->conn), attempt, retries);
+        fprintf(stderr, "seamtex upload: %s (%s); %s (%ld of %ld)\n", stc_strerror(e),
+                stc_errmsg(ctx->conn), e == STC_EBUSY ? "retrying" : "reconnecting to resume",
+                attempt, retries);
         sleep(1);
-        if (cli_connect(ctx) != CLI_OK) {
+        if (e != STC_EBUSY && cli_connect(ctx) != CLI_OK) {
             e = STC_ECONNECT;
             continue;
         }

@@ -26,15 +26,27 @@
 #include "import.h"
 #include "ptex.h"
 
+/* An upload's life: HELD by a connection -> (COMMIT) COMMITTING -> DONE, or -> KEPT when its
+ * connection closes (upload-keep > 0) -> HELD again by the connection that resumes it, or
+ * dropped after upload-keep. DONE keeps the commit's summary for upload-keep seconds so that
+ * a client whose connection broke while COMMIT ran learns that it succeeded (RESUME, then
+ * COMMIT again, answers the same summary) instead of uploading again. */
+enum { UP_HELD, UP_COMMITTING, UP_KEPT, UP_DONE };
+#define MAX_DONE 16   /* DONE records kept at most (the oldest goes first) */
+
 struct sts_upload {
     uint64_t    id, conn_id;
     char        name[ST_NAME_MAX + 1];
-    char        fmt[STP_MAX_HINT + 1];
+    char        hint[STP_MAX_HINT + 1];      /* as the client sent it (matched on RESUME) */
+    char        fmt[STP_MAX_HINT + 1];       /* the format the file is imported as */
     char        options[STP_MAX_OPTIONS + 1];
     uint64_t    total, received;
     uint32_t    crc_want, crc;
     uint32_t    flags;
-    int64_t     orphan_ms;   /* when its connection closed; 0 while a connection holds it */
+    int         state;
+    int64_t     since_ms;    /* KEPT: when its connection closed; DONE: when committed */
+    uint64_t    gen;         /* DONE: registry generation of the set it made */
+    stp_upload_done done;    /* DONE: the COMMIT reply */
     int         fd;
     char        path[4096];
     sts_upload *next;
@@ -61,7 +73,8 @@ void sts_uploads_free(sts_server *srv)
     srv->uploads.n = 0;
 }
 
-/* Unlinks the uploads `doomed` picks; the caller frees them outside the lock. */
+/* Unlinks the records `doomed` picks (called under the lock, in list order, newest first);
+ * the caller frees them outside the lock. uploads.n counts the records that are not DONE. */
 static sts_upload *unlink_uploads(sts_server *srv, int (*doomed)(sts_upload *, void *), void *arg)
 {
     sts_upload *drop = NULL;
@@ -70,9 +83,10 @@ static sts_upload *unlink_uploads(sts_server *srv, int (*doomed)(sts_upload *, v
         sts_upload *u = *pp;
         if (doomed(u, arg)) {
             *pp = u->next;
+            if (u->state != UP_DONE)
+                srv->uploads.n--;
             u->next = drop;
             drop = u;
-            srv->uploads.n--;
         } else {
             pp = &u->next;
         }
@@ -90,40 +104,48 @@ static void free_uploads(sts_upload *u)
     }
 }
 
-typedef struct orphan_arg {
+typedef struct sweep_arg {
     uint64_t conn_id;
     int64_t  now, keep_ms;
-} orphan_arg;
+    int      ndone;
+} sweep_arg;
 
-/* A closing connection's uploads become orphans (kept) or are dropped (upload-keep 0). */
+/* A closing connection's held uploads become KEPT, or are dropped when upload-keep is 0. An
+ * upload in COMMITTING finishes on its worker whatever happens to the connection. */
 static int held_by_conn(sts_upload *u, void *arg)
 {
-    orphan_arg *a = arg;
-    if (u->conn_id != a->conn_id || u->orphan_ms)
+    sweep_arg *a = arg;
+    if (u->conn_id != a->conn_id || u->state != UP_HELD)
         return 0;
     if (a->keep_ms <= 0)
         return 1;
-    u->orphan_ms = a->now;
+    u->state = UP_KEPT;
+    u->since_ms = a->now;
     return 0;
 }
 
-static int orphan_expired(sts_upload *u, void *arg)
+static int expired(sts_upload *u, void *arg)
 {
-    orphan_arg *a = arg;
-    return u->orphan_ms && (a->keep_ms <= 0 || a->now - u->orphan_ms >= a->keep_ms);
+    sweep_arg *a = arg;
+    if (u->state == UP_DONE && ++a->ndone > MAX_DONE)
+        return 1;
+    return (u->state == UP_KEPT || u->state == UP_DONE) &&
+           (a->keep_ms <= 0 || a->now - u->since_ms >= a->keep_ms);
 }
 
 void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id)
 {
-    orphan_arg a = {conn_id, sts_now_ms(), (int64_t)STS_LIVE(srv, upload_keep) * 1000};
+    sweep_arg a = {conn_id, sts_now_ms(), (int64_t)STS_LIVE(srv, upload_keep) * 1000, 0};
     free_uploads(unlink_uploads(srv, held_by_conn, &a));
 }
 
 void sts_uploads_sweep(sts_server *srv, int64_t now_ms)
 {
-    orphan_arg a = {0, now_ms, (int64_t)STS_LIVE(srv, upload_keep) * 1000};
-    sts_upload *gone = unlink_uploads(srv, orphan_expired, &a);
+    sweep_arg a = {0, now_ms, (int64_t)STS_LIVE(srv, upload_keep) * 1000, 0};
+    sts_upload *gone = unlink_uploads(srv, expired, &a);
     for (sts_upload *u = gone; u; u = u->next) {
+        if (u->state != UP_KEPT)
+            continue;
         STS_STAT_ADD(srv, uploads_expired, 1);
         sts_logf(&srv->log, STS_INFO, "unfinished upload of '%s' (%llu of %llu bytes) dropped "
                  "after upload-keep", u->name, (unsigned long long)u->received,
@@ -132,50 +154,103 @@ void sts_uploads_sweep(sts_server *srv, int64_t now_ms)
     free_uploads(gone);
 }
 
-/* Finds an orphan that UPLOAD_BEGIN with RESUME may take over and gives it to conn_id.
- * Returns it, NULL when none matches; *held is set when a match is still held by a live
- * connection. */
-static sts_upload *adopt_upload(sts_server *srv, const stp_upload_begin *rq, uint64_t conn_id,
-                                int *held)
+/* UPLOAD_BEGIN with RESUME: finds the record of the same name, size, CRC32C, hint and options
+ * and gives it to conn_id: a KEPT upload becomes HELD again; a DONE one is lent so that COMMIT
+ * can repeat its reply. Copies what the reply needs into *id / *received; returns 1 when
+ * found, 0 when none matches, -1 when a match is HELD by another live connection or still
+ * COMMITTING (the caller answers BUSY). */
+static int adopt_upload(sts_server *srv, const stp_upload_begin *rq, uint64_t conn_id,
+                        uint64_t *id, uint64_t *received)
 {
-    sts_upload *found = NULL;
-    *held = 0;
+    int found = 0;
     pthread_mutex_lock(&srv->uploads.mu);
     for (sts_upload *u = srv->uploads.list; u; u = u->next) {
         if (strcmp(u->name, rq->name) || u->total != rq->total_size || u->crc_want != rq->crc32c ||
-            strcmp(u->fmt, rq->hint) || strcmp(u->options, rq->options))
+            strcmp(u->hint, rq->hint) || strcmp(u->options, rq->options))
             continue;
-        if (!u->orphan_ms) {
-            *held = 1;
+        if (u->state == UP_HELD || u->state == UP_COMMITTING) {
+            found = -1;
             continue;
         }
-        u->orphan_ms = 0;
+        if (u->state == UP_DONE) {  /* only while its set is still the one it made */
+            st_setref *ref = NULL;
+            uint64_t gen = st_registry_get(srv->reg, u->name, &ref, NULL) == 0 ? ref->gen : 0;
+            st_setref_release(ref);
+            if (gen != u->gen)
+                continue;
+        }
+        if (u->state == UP_KEPT) {
+            u->state = UP_HELD;
+            u->flags = rq->flags & ~(uint32_t)STP_UF_RESUME;
+        }
         u->conn_id = conn_id;
-        u->flags = rq->flags & ~(uint32_t)STP_UF_RESUME;
-        found = u;
+        *id = u->id;
+        *received = u->received;
+        found = 1;
         break;
     }
     pthread_mutex_unlock(&srv->uploads.mu);
     return found;
 }
 
-/* Finds the caller's upload (never an orphan); with take=1 also removes it from the table. */
+/* Finds the caller's HELD upload. take 0: leaves it; take 1: removes it from the table
+ * (ABORT); take 2: marks it COMMITTING (COMMIT; finish_commit ends that). A DONE record the
+ * caller took over with RESUME is returned by take 2 as it is (its COMMIT reply is repeated). */
 static sts_upload *find_upload(sts_server *srv, uint64_t id, uint64_t conn_id, int take)
 {
     pthread_mutex_lock(&srv->uploads.mu);
     sts_upload *found = NULL;
     for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next) {
-        if ((*pp)->id == id && (*pp)->conn_id == conn_id && !(*pp)->orphan_ms) {
-            found = *pp;
-            if (take) {
-                *pp = found->next;
+        sts_upload *u = *pp;
+        if (u->id != id || u->conn_id != conn_id)
+            continue;
+        if (u->state == UP_DONE && take == 2) {
+            found = u;
+        } else if (u->state == UP_HELD) {
+            found = u;
+            if (take == 1) {
+                *pp = u->next;
                 srv->uploads.n--;
+            } else if (take == 2) {
+                u->state = UP_COMMITTING;
             }
-            break;
         }
+        break;
     }
     pthread_mutex_unlock(&srv->uploads.mu);
     return found;
+}
+
+/* Ends a COMMITTING upload: dropped when it failed; DONE with its reply when it made a set. */
+static void finish_commit(sts_server *srv, sts_upload *u, const stp_upload_done *done)
+{
+    pthread_mutex_lock(&srv->uploads.mu);
+    int keep = done && STS_LIVE(srv, upload_keep) > 0;
+    if (keep) {
+        st_setref *ref = NULL;
+        if (st_registry_get(srv->reg, u->name, &ref, NULL) == 0) {
+            u->gen = ref->gen;
+            st_setref_release(ref);
+        }
+        u->done = *done;
+        u->state = UP_DONE;
+        u->since_ms = sts_now_ms();
+        u->conn_id = 0;
+        srv->uploads.n--;
+        if (u->path[0])
+            unlink(u->path);  /* without a data dir the file is not needed once imported */
+        u->path[0] = 0;
+    } else {
+        for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next)
+            if (*pp == u) {
+                *pp = u->next;
+                srv->uploads.n--;
+                break;
+            }
+    }
+    pthread_mutex_unlock(&srv->uploads.mu);
+    if (!keep)
+        upload_free(u);
 }
 
 /* ---- importing --------------------------------------------------------------------------- */
@@ -363,6 +438,25 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         sts_reply_error(out, h, STP_S_TOO_LARGE, msg);
         return 0;
     }
+    if (rq.flags & STP_UF_RESUME) {
+        uint64_t id = 0, received = 0;
+        int found = adopt_upload(srv, &rq, c->conn->id, &id, &received);
+        if (found > 0) {
+            STS_STAT_ADD(srv, uploads_resumed, 1);
+            sts_logf(&srv->log, STS_INFO, "upload of '%s' resumed at %llu of %llu bytes%s", rq.name,
+                     (unsigned long long)received, (unsigned long long)rq.total_size,
+                     received == rq.total_size ? " (complete: COMMIT repeats or finishes it)" : "");
+            stp_upload_begin_reply r = {id, received, STP_DEFAULT_MAX_CHUNK};
+            stp_enc_upload_begin_reply(out, h->reqid, &r);
+            return 0;
+        }
+        if (found < 0) {
+            sts_reply_error(out, h, STP_S_BUSY, "that upload is held by another connection or "
+                            "being committed (retry shortly)");
+            return 0;
+        }
+        /* nothing to resume: a fresh upload, received 0 */
+    }
     if (!(rq.flags & STP_UF_REPLACE)) {
         st_setref *ref = NULL;
         if (st_registry_get(srv->reg, rq.name, &ref, NULL) == 0) {
@@ -371,24 +465,6 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
             return 0;
         }
     }
-    if (rq.flags & STP_UF_RESUME) {
-        int held = 0;
-        sts_upload *old = adopt_upload(srv, &rq, c->conn->id, &held);
-        if (old) {
-            STS_STAT_ADD(srv, uploads_resumed, 1);
-            sts_logf(&srv->log, STS_INFO, "upload of '%s' resumed at %llu of %llu bytes", old->name,
-                     (unsigned long long)old->received, (unsigned long long)old->total);
-            stp_upload_begin_reply r = {old->id, old->received, STP_DEFAULT_MAX_CHUNK};
-            stp_enc_upload_begin_reply(out, h->reqid, &r);
-            return 0;
-        }
-        if (held) {
-            sts_reply_error(out, h, STP_S_BUSY,
-                            "that upload is held by another connection (retry when it closes)");
-            return 0;
-        }
-        /* nothing to resume: a fresh upload, received 0 */
-    }
     sts_upload *u = calloc(1, sizeof *u);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
@@ -396,6 +472,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     }
     u->fd = -1;
     snprintf(u->name, sizeof u->name, "%.64s", rq.name);
+    snprintf(u->hint, sizeof u->hint, "%s", rq.hint);
     snprintf(u->fmt, sizeof u->fmt, "%s", rq.hint);
     snprintf(u->options, sizeof u->options, "%s", rq.options);
     u->total = rq.total_size;
@@ -425,7 +502,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         /* full: a live upload goes before the oldest one kept for resume */
         sts_upload **oldest = NULL;
         for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next)
-            if ((*pp)->orphan_ms && (!oldest || (*pp)->orphan_ms < (*oldest)->orphan_ms))
+            if ((*pp)->state == UP_KEPT && (!oldest || (*pp)->since_ms < (*oldest)->since_ms))
                 oldest = pp;
         if (oldest) {
             evicted = *oldest;
@@ -509,9 +586,14 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    sts_upload *u = find_upload(srv, id, c->conn->id, 1);
+    sts_upload *u = find_upload(srv, id, c->conn->id, 2);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
+        return 0;
+    }
+    if (u->state == UP_DONE) {  /* committed before, its reply lost: the same reply again */
+        stp_upload_done again = u->done;
+        stp_enc_upload_done(out, h->reqid, &again);
         return 0;
     }
     st_error e;
@@ -610,12 +692,12 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     sts_logf(&srv->log, STS_INFO, "set '%s' %s from a %llu-byte .%s upload (%u faces, %llu bytes "
              "in memory)", done.name, pa.replaced ? "replaced" : "created",
              (unsigned long long)u->total, u->fmt, done.nfaces, (unsigned long long)done.memory);
-    upload_free(u);
+    finish_commit(srv, u, &done);
     stp_enc_upload_done(out, h->reqid, &done);
     return 0;
 fail:
     STS_STAT_ADD(srv, uploads_failed, 1);
-    upload_free(u);
+    finish_commit(srv, u, NULL);
     return 0;
 }
 
@@ -650,7 +732,7 @@ int sts_h_upload_status(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     int found = 0;
     pthread_mutex_lock(&srv->uploads.mu);
     for (sts_upload *u = srv->uploads.list; u; u = u->next)
-        if (u->id == id && (u->orphan_ms || u->conn_id == c->conn->id)) {
+        if (u->id == id && (u->state == UP_KEPT || (u->state != UP_DONE && u->conn_id == c->conn->id))) {
             p.received = u->received;
             p.total = u->total;
             found = 1;

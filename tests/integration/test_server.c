@@ -792,6 +792,18 @@ static void dropped_upload_resumes_on_a_new_connection(void **state)
     }
     assert_int_equal(upload_resume(c, ptx, len, "resumed2", &ur), 0);
     assert_int_equal(ur.resumed_from, 65536);
+    /* the connection broke while COMMIT ran (its reply lost): RESUME finds the upload done,
+     * COMMIT repeats the reply, and no byte is sent again */
+    before = stat_of(&D1, "upload_bytes");
+    assert_int_equal(upload_resume(c, ptx, len, "resumed2", &ur), 0);
+    assert_int_equal(ur.resumed_from, len);
+    assert_string_equal(ur.name, "resumed2");
+    assert_int_equal(ur.nfaces, 384);
+    assert_int_equal(stat_of(&D1, "upload_bytes"), before);
+    /* once the set is deleted that record no longer counts: a fresh upload */
+    assert_int_equal(stc_delete(c, "resumed2"), 0);
+    assert_int_equal(upload_resume(c, ptx, len, "resumed2", &ur), 0);
+    assert_int_equal(ur.resumed_from, 0);
     stc_close(c);
     free(ptx);
 }
