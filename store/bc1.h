@@ -100,9 +100,9 @@ typedef struct st_bc1_opts {
     int      level;         /* ST_BC1_FAST, ST_BC1_HQ or ST_BC1_BEST (default HQ) */
     int      seam_mode;     /* st_bc1_seam_mode (default ST_BC1_SEAM_AWARE) */
     float    alpha;         /* seam weight of E = Ec + alpha*Es (default 2) */
-    float    seam_boost;    /* the seam-aware BC1 stage uses alpha * seam_boost (default 2):
-                               with BC1's few degrees of freedom, the optimum at alpha itself
-                               leaves 1.2-1.9x the masked seam RMS (measured, docs/bc1.md) */
+    float    seam_boost;    /* the seam-aware BC1 stage uses alpha * seam_boost (default
+                               1.25, the point of the measured seam RMS / PSNR trade-off
+                               curve that meets the most report targets, docs/bc1.md) */
     float    step;          /* seam sample spacing in texels (default 0.5) */
     int      iterations;    /* seam-aware solve / quantise / re-select rounds (default 3) */
     int      threads;       /* encoder threads, 0 = one per core */

@@ -29,7 +29,7 @@ void st_bc1_opts_default(st_bc1_opts *o)
     o->level = ST_BC1_HQ;
     o->seam_mode = ST_BC1_SEAM_AWARE;
     o->alpha = 2.0f;
-    o->seam_boost = 2.0f;
+    o->seam_boost = 1.25f;
     o->step = 0.5f;
     o->iterations = 3;
     o->threads = 0;
@@ -334,7 +334,7 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     report(progress, progress_arg, 0.85);
 
     if (opts.seam_mode == ST_BC1_SEAM_AWARE) {
-        float boost = opts.seam_boost > 0 ? opts.seam_boost : 2.0f;
+        float boost = opts.seam_boost > 0 ? opts.seam_boost : 1.25f;
         seam_prog sp = {progress, progress_arg};
         rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha * boost, 0, opts.iterations,
                                on_seam_progress, &sp, cancel, NULL, e);

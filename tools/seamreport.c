@@ -16,9 +16,10 @@
  * OUT (default build/report/<name>_closeup.png).
  *
  * Usage: seamtex-seamreport [--data DIR] [--out DIR] [--level fast|hq|best] [--step S] [--alpha A]
- *                           [--boost B] [--only NAME] [--json PATH]
+ *                           [--boost B] [--only NAME] [--json PATH] [--big]
  * (alpha: masking seam weight; the seam-aware BC1 stage uses alpha * boost, as
- * st_bc1_compress_set does with its defaults 2 and 2.)
+ * st_bc1_compress_set does with its defaults 2 and 1.25.) --big instead times the whole
+ * st_bc1_compress_set of a 4096^2 atlas (the milk truck texture upscaled 2x, its mesh).
  */
 #include "atlas.h"
 #include "bc1.h"
@@ -31,6 +32,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <time.h>
 
@@ -409,6 +411,103 @@ out:
     return rc;
 }
 
+static double wall(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+static double cpu_process(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+/* --big: the milk truck texture upscaled 2x (bilinear) to 4096^2 with its mesh, through
+ * st_bc1_compress_set with the defaults on 2 threads: wall and CPU seconds of the read +
+ * upscale + compress, and of the compress alone; peak RSS. */
+static int run_big(const char *data, int level, float boost)
+{
+    char p1[1024], p2[1024];
+    st_error e = {0};
+    double w0 = wall(), c0 = cpu_process();
+    path_join(p1, sizeof p1, data, "meshes/cesiummilktruck/CesiumMilkTruck.obj");
+    path_join(p2, sizeof p2, data, "meshes/cesiummilktruck/CesiumMilkTruck.png");
+    st_mesh *m = NULL;
+    st_image img;
+    if (st_obj_read_file(p1, NULL, &m, &e) || st_image_read(p2, NULL, &img, &e)) {
+        fprintf(stderr, "seamreport --big: %s\n", e.msg);
+        st_mesh_free(m);
+        return 1;
+    }
+    if (img.dtype != ST_DT_U8) {
+        fprintf(stderr, "seamreport --big: the truck texture is not 8-bit\n");
+        st_image_free(&img);
+        st_mesh_free(m);
+        return 1;
+    }
+    uint32_t W = img.w * 2, H = img.h * 2, n = img.nchan;
+    uint8_t *up = malloc((size_t)W * H * n);
+    if (!up) {
+        st_image_free(&img);
+        st_mesh_free(m);
+        return 1;
+    }
+    const uint8_t *src = img.data;
+    for (uint32_t y = 0; y < H; y++)
+        for (uint32_t x = 0; x < W; x++) {
+            double sx = (x + 0.5) / 2 - 0.5, sy = (y + 0.5) / 2 - 0.5;
+            int x0 = (int)floor(sx), y0 = (int)floor(sy);
+            double ax = sx - x0, ay = sy - y0;
+            int x1 = x0 + 1 >= (int)img.w ? (int)img.w - 1 : x0 + 1;
+            int y1 = y0 + 1 >= (int)img.h ? (int)img.h - 1 : y0 + 1;
+            x0 = x0 < 0 ? 0 : x0;
+            y0 = y0 < 0 ? 0 : y0;
+            for (uint32_t c = 0; c < n; c++) {
+                double v = (1 - ay) * ((1 - ax) * src[((size_t)y0 * img.w + x0) * n + c] +
+                                       ax * src[((size_t)y0 * img.w + x1) * n + c]) +
+                           ay * ((1 - ax) * src[((size_t)y1 * img.w + x0) * n + c] +
+                                 ax * src[((size_t)y1 * img.w + x1) * n + c]);
+                up[((size_t)y * W + x) * n + c] = (uint8_t)(v + 0.5);
+            }
+        }
+    free(img.data);
+    img.data = up;
+    img.w = W;
+    img.h = H;
+    st_set *s = NULL, *out = NULL;
+    int rc = st_atlas_from_image(&img, m, 0, &s, &e);
+    st_image_free(&img);
+    if (rc) {
+        fprintf(stderr, "seamreport --big: %s\n", e.msg);
+        return 1;
+    }
+    st_atlas *at = s->ext;
+    snprintf(at->texture_name, sizeof at->texture_name, "%s", "CesiumMilkTruck.png");
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    o.level = level;
+    o.seam_boost = boost;
+    o.threads = 2;
+    double w1 = wall(), c1 = cpu_process();
+    rc = st_bc1_compress_set(s, &o, NULL, NULL, NULL, &out, &e);
+    double w2 = wall(), c2 = cpu_process();
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    if (rc)
+        fprintf(stderr, "seamreport --big: %s\n", e.msg);
+    else
+        printf("4096^2 atlas (milk truck upscaled 2x, its mesh), st_bc1_compress_set, 2 threads: "
+               "compress %.2f s wall / %.2f CPU-s; with reading and upscaling %.2f s wall / %.2f "
+               "CPU-s; peak RSS %ld MB\n",
+               w2 - w1, c2 - c1, w2 - w0, c2 - c0, ru.ru_maxrss / 1024);
+    st_set_free(out);
+    st_set_free(s);
+    return rc ? 1 : 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *data = getenv("SEAMTEX_DATA");
@@ -416,7 +515,8 @@ int main(int argc, char **argv)
         data = "../shared/data";
     const char *outdir = "build/report", *only = NULL, *json = NULL;
     int level = ST_BC1_HQ;
-    float step = 0.5f, alpha = 2.0f, boost = 2.0f;
+    float step = 0.5f, alpha = 2.0f, boost = 1.25f;
+    int big = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--data") && i + 1 < argc)
             data = argv[++i];
@@ -438,12 +538,16 @@ int main(int argc, char **argv)
             only = argv[++i];
         else if (!strcmp(argv[i], "--json") && i + 1 < argc)
             json = argv[++i];
+        else if (!strcmp(argv[i], "--big"))
+            big = 1;
         else {
             fprintf(stderr, "usage: %s [--data DIR] [--out DIR] [--level fast|hq|best] [--step S] "
-                            "[--alpha A] [--boost B] [--only NAME] [--json PATH]\n", argv[0]);
+                            "[--alpha A] [--boost B] [--only NAME] [--json PATH] [--big]\n", argv[0]);
             return 2;
         }
     }
+    if (big)
+        return run_big(data, level, boost);
     mkdir(outdir, 0755);
     printf("seam report: BC1 level %s, seam samples every %.2f texel, alpha %.2f (masking) and "
            "%.2f (seam-aware BC1 stage), exact decoder\n",
