@@ -64,6 +64,7 @@ static inline float hsum(__m128 v)
 typedef struct blk {
     float r[16], g[16], b[16], w[16];
     int   n;              /* texels of weight 1 */
+    int   unit;           /* every weight is 1 (opaque, unweighted) */
 } blk;
 
 typedef struct cand {
@@ -609,12 +610,12 @@ static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
     }
 }
 
-#ifdef __SSE2__
-/* The neighbourhood search changes one channel of one endpoint at a time, so the squared
- * distance of texel i to palette entry j changes only in that channel's term. For the
- * current pair, other[k][j][i] = 4 * (distance without channel k) + j; a candidate that
- * differs in channel k only then costs one subtraction, multiplication, addition and
- * minimum per entry: key = other + (2 x_k - 2 p_jk)^2, exactly the key of select_raw. */
+/* The neighbourhood search moves one channel of one endpoint by +-1, so the squared distance
+ * of texel i to palette entry j changes only in that channel's term. For the current pair,
+ * other[k][j][i] = 4 * (distance without channel k); a move in channel k then costs one
+ * subtraction, multiplication, addition and minimum per entry and texel:
+ * 4 * distance = other + (2 x_k - 2 p_jk)^2. Every value is an integer below 2^21 (exact in
+ * float), so the minimum is the exact palette distance the selection would find. */
 typedef struct nbase {
     float other[3][4][16];
 } nbase;
@@ -624,9 +625,9 @@ static void nbase_fill(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
     float pal[3][4];
     palette_f(c0, c1, c0 > c1, pal);
     for (int j = 0; j < 4; j++) {
+#ifdef __SSE2__
         __m128 pr = _mm_set1_ps(pal[0][j]), pg = _mm_set1_ps(pal[1][j]),
-               pb = _mm_set1_ps(pal[2][j]), fj = _mm_set1_ps((float)j),
-               four = _mm_set1_ps(4.0f);
+               pb = _mm_set1_ps(pal[2][j]), four = _mm_set1_ps(4.0f);
         for (int g = 0; g < 16; g += 4) {
             __m128 dr = _mm_sub_ps(_mm_loadu_ps(B->r + g), pr);
             __m128 dg = _mm_sub_ps(_mm_loadu_ps(B->g + g), pg);
@@ -634,156 +635,185 @@ static void nbase_fill(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
             dr = _mm_mul_ps(dr, dr);
             dg = _mm_mul_ps(dg, dg);
             db = _mm_mul_ps(db, db);
-            _mm_storeu_ps(N->other[0][j] + g, _mm_add_ps(_mm_mul_ps(_mm_add_ps(dg, db), four), fj));
-            _mm_storeu_ps(N->other[1][j] + g, _mm_add_ps(_mm_mul_ps(_mm_add_ps(dr, db), four), fj));
-            _mm_storeu_ps(N->other[2][j] + g, _mm_add_ps(_mm_mul_ps(_mm_add_ps(dr, dg), four), fj));
+            _mm_storeu_ps(N->other[0][j] + g, _mm_mul_ps(_mm_add_ps(dg, db), four));
+            _mm_storeu_ps(N->other[1][j] + g, _mm_mul_ps(_mm_add_ps(dr, db), four));
+            _mm_storeu_ps(N->other[2][j] + g, _mm_mul_ps(_mm_add_ps(dr, dg), four));
         }
+#else
+        for (int i = 0; i < 16; i++) {
+            float dr = B->r[i] - pal[0][j], dg = B->g[i] - pal[1][j], db = B->b[i] - pal[2][j];
+            N->other[0][j][i] = 4.0f * (dg * dg + db * db);
+            N->other[1][j][i] = 4.0f * (dr * dr + db * db);
+            N->other[2][j][i] = 4.0f * (dr * dr + dg * dg);
+        }
+#endif
     }
 }
 
-/* select_raw for a pair whose palette differs from the base's only in channel k, where it is
- * pk[0..3]; same keys, same selectors, same error. */
-static float select_chan(const blk *B, const nbase *N, int k, const float pk[4], uint8_t *sel,
-                         float limit)
+/* The errors of four pairs whose palettes differ from the base's only in channel k, where
+ * they are pk[m][0..3]. Sums in the order of select_sse (lane l: texels l, 4+l, 8+l, 12+l). */
+static void moves_eval(const blk *B, const nbase *N, int k, const float pk[4][4], float err[4])
 {
     const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
-    __m128 p2[4];
-    for (int j = 0; j < 4; j++)
-        p2[j] = _mm_set1_ps(2.0f * pk[j]);
-    const __m128i three = _mm_set1_epi32(3);
-    const __m128 quarter = _mm_set1_ps(0.25f), two = _mm_set1_ps(2.0f);
-    __m128 acc = _mm_setzero_ps();
+#ifdef __SSE2__
+    const __m128 two = _mm_set1_ps(2.0f);
+    __m128 acc[4];
+    for (int m = 0; m < 4; m++)
+        acc[m] = _mm_setzero_ps();
     for (int g = 0; g < 16; g += 4) {
-        __m128 x2 = _mm_mul_ps(_mm_loadu_ps(x + g), two);
-        __m128 t = _mm_sub_ps(x2, p2[0]);
-        __m128 key = _mm_add_ps(_mm_loadu_ps(N->other[k][0] + g), _mm_mul_ps(t, t));
-        for (int j = 1; j < 4; j++) {
-            t = _mm_sub_ps(x2, p2[j]);
-            key = _mm_min_ps(key, _mm_add_ps(_mm_loadu_ps(N->other[k][j] + g), _mm_mul_ps(t, t)));
+        __m128 x2 = _mm_mul_ps(_mm_loadu_ps(x + g), two), w = _mm_loadu_ps(B->w + g);
+        __m128 o0 = _mm_loadu_ps(N->other[k][0] + g), o1 = _mm_loadu_ps(N->other[k][1] + g),
+               o2 = _mm_loadu_ps(N->other[k][2] + g), o3 = _mm_loadu_ps(N->other[k][3] + g);
+        for (int m = 0; m < 4; m++) {
+            __m128 t0 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][0]));
+            __m128 t1 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][1]));
+            __m128 t2 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][2]));
+            __m128 t3 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][3]));
+            __m128 key = _mm_min_ps(_mm_add_ps(o0, _mm_mul_ps(t0, t0)),
+                                    _mm_add_ps(o1, _mm_mul_ps(t1, t1)));
+            key = _mm_min_ps(key, _mm_min_ps(_mm_add_ps(o2, _mm_mul_ps(t2, t2)),
+                                             _mm_add_ps(o3, _mm_mul_ps(t3, t3))));
+            acc[m] = _mm_add_ps(acc[m], _mm_mul_ps(key, w));
         }
-        __m128i s = _mm_and_si128(_mm_cvtps_epi32(key), three);
-        __m128 dist = _mm_mul_ps(_mm_sub_ps(key, _mm_cvtepi32_ps(s)), quarter);
-        acc = _mm_add_ps(acc, _mm_mul_ps(dist, _mm_loadu_ps(B->w + g)));
-        __m128i s16 = _mm_packs_epi32(s, s);
-        __m128i s8 = _mm_packus_epi16(s16, s16);
-        uint32_t packed = (uint32_t)_mm_cvtsi128_si32(s8);
-        memcpy(sel + g, &packed, 4);
-        if (g < 12 && hsum(acc) >= limit)
-            return hsum(acc);
     }
-    return hsum(acc);
-}
+    for (int m = 0; m < 4; m++)
+        err[m] = hsum(acc[m]) * 0.25f;
+#else
+    for (int m = 0; m < 4; m++) {
+        float e = 0;
+        for (int i = 0; i < 16; i++) {
+            float best = 3e30f;
+            for (int j = 0; j < 4; j++) {
+                float t = 2.0f * x[i] - 2.0f * pk[m][j];
+                float v = N->other[k][j][i] + t * t;
+                best = v < best ? v : best;
+            }
+            e += best * B->w[i];
+        }
+        err[m] = e * 0.25f;
+    }
 #endif
+}
 
 #if ST_BC1_AVX2
-__attribute__((target("avx2"))) static float select_chan_avx2(const blk *B, const nbase *N,
-                                                               int k, const float pk[4],
-                                                               uint8_t *sel, float limit)
+/* moves_eval eight texels at a time: the same keys and the same sums. */
+__attribute__((target("avx2"))) static void moves_eval_avx2(const blk *B, const nbase *N, int k,
+                                                             const float pk[4][4], float err[4])
 {
     const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
-    __m256 p2[4];
-    for (int j = 0; j < 4; j++)
-        p2[j] = _mm256_set1_ps(2.0f * pk[j]);
-    const __m256i three = _mm256_set1_epi32(3);
-    const __m256 quarter = _mm256_set1_ps(0.25f), two = _mm256_set1_ps(2.0f);
-    __m256 part[2];
+    const __m256 two = _mm256_set1_ps(2.0f);
+    __m256 part[4][2];
     for (int h = 0; h < 2; h++) {
         int g = 8 * h;
-        __m256 x2 = _mm256_mul_ps(_mm256_loadu_ps(x + g), two);
-        __m256 t = _mm256_sub_ps(x2, p2[0]);
-        __m256 key = _mm256_add_ps(_mm256_loadu_ps(N->other[k][0] + g), _mm256_mul_ps(t, t));
-        for (int j = 1; j < 4; j++) {
-            t = _mm256_sub_ps(x2, p2[j]);
-            key = _mm256_min_ps(key, _mm256_add_ps(_mm256_loadu_ps(N->other[k][j] + g),
-                                                   _mm256_mul_ps(t, t)));
-        }
-        __m256i s = _mm256_and_si256(_mm256_cvtps_epi32(key), three);
-        __m256 dist = _mm256_mul_ps(_mm256_sub_ps(key, _mm256_cvtepi32_ps(s)), quarter);
-        part[h] = _mm256_mul_ps(dist, _mm256_loadu_ps(B->w + g));
-        store_sel8_avx2(s, sel + g);
-        if (h == 0) {
-            float e = hsum(_mm_add_ps(_mm256_castps256_ps128(part[0]),
-                                      _mm256_extractf128_ps(part[0], 1)));
-            if (e >= limit)
-                return e;
+        __m256 x2 = _mm256_mul_ps(_mm256_loadu_ps(x + g), two), w = _mm256_loadu_ps(B->w + g);
+        __m256 o0 = _mm256_loadu_ps(N->other[k][0] + g), o1 = _mm256_loadu_ps(N->other[k][1] + g),
+               o2 = _mm256_loadu_ps(N->other[k][2] + g), o3 = _mm256_loadu_ps(N->other[k][3] + g);
+        for (int m = 0; m < 4; m++) {
+            __m256 t0 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][0]));
+            __m256 t1 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][1]));
+            __m256 t2 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][2]));
+            __m256 t3 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][3]));
+            __m256 key = _mm256_min_ps(_mm256_add_ps(o0, _mm256_mul_ps(t0, t0)),
+                                       _mm256_add_ps(o1, _mm256_mul_ps(t1, t1)));
+            key = _mm256_min_ps(key, _mm256_min_ps(_mm256_add_ps(o2, _mm256_mul_ps(t2, t2)),
+                                                   _mm256_add_ps(o3, _mm256_mul_ps(t3, t3))));
+            part[m][h] = _mm256_mul_ps(key, w);
         }
     }
-    return sum16_avx2(part[0], part[1]);
+    for (int m = 0; m < 4; m++)
+        err[m] = sum16_avx2(part[m][0], part[m][1]) * 0.25f;
 }
 #endif
 
-/* Greedy +-1 search over the six 565 components of the best pair, in its own mode. */
-static void neighbourhood(const blk *B, cand *best, int four, int passes)
+static inline int expand565(int q, int bits)
+{
+    return bits == 5 ? (q << 3) | (q >> 2) : (q << 2) | (q >> 4);
+}
+
+/* Steepest-descent +-1 search over the six 565 components of the best pair, in its own mode:
+ * each round measures all twelve moves against the current pair, takes the best one if it
+ * lowers the error, and stops when none does (at most `rounds` rounds). The errors of
+ * moves_eval are those select_eval returns (the same exact distances times the same weights,
+ * scaled by 4 and back), so only the final pair is selected again. */
+static void neighbourhood(const blk *B, cand *best, int four, int rounds)
 {
     static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
-#ifdef __SSE2__
-    nbase N;
-    uint16_t nb0 = best->c0, nb1 = best->c1;
-    nbase_fill(B, nb0, nb1, &N);
 #if ST_BC1_AVX2
     const int avx2 = __builtin_cpu_supports("avx2");
 #endif
-#endif
-    for (int pass = 0; pass < passes; pass++) {
-        int improved = 0;
-        for (int e = 0; e < 2; e++)
-            for (int k = 0; k < 3; k++)
-                for (int d = -1; d <= 1; d += 2) {
-                    uint16_t c[2] = {best->c0, best->c1};
-                    int q = (c[e] >> sh[k]) & mx[k];
-                    if (q + d < 0 || q + d > mx[k])
-                        continue;
-                    c[e] = (uint16_t)((c[e] & ~(mx[k] << sh[k])) | ((q + d) << sh[k]));
-                    if (four ? c[0] == c[1] : 0)
-                        continue;
-                    uint16_t a = c[0], b = c[1];
-                    /* keep the mode: 4-colour needs a > b after ordering, 3 needs <= */
-                    if (four) {
-                        if (a < b) { uint16_t t = a; a = b; b = t; }
-                    } else if (a > b) {
-                        uint16_t t = a; a = b; b = t;
-                    }
-                    uint8_t sel[16];
-                    float err;
-#ifdef __SSE2__
-                    if (a == c[0]) { /* not reordered: only channel k of the palette moved */
-                        if (best->c0 != nb0 || best->c1 != nb1) {
-                            nb0 = best->c0;
-                            nb1 = best->c1;
-                            nbase_fill(B, nb0, nb1, &N);
-                        }
-                        int bits = k == 1 ? 6 : 5;
-                        int qa = (a >> sh[k]) & mx[k], qb = (b >> sh[k]) & mx[k];
-                        int ea = bits == 5 ? (qa << 3) | (qa >> 2) : (qa << 2) | (qa >> 4);
-                        int eb = bits == 5 ? (qb << 3) | (qb >> 2) : (qb << 2) | (qb >> 4);
-                        float pk[4] = {(float)ea, (float)eb,
-                                       (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2),
-                                       four ? (float)((ea + 2 * eb) / 3) : 2000.0f};
+    uint16_t c0 = best->c0, c1 = best->c1;
+    float err = best->err;
+    int moved = 0;
+    for (int r = 0; r < rounds; r++) {
+        nbase N;
+        nbase_fill(B, c0, c1, &N);
+        float lim = err;
+        int win = -1;
+        for (int k = 0; k < 3; k++) {
+            int bits = k == 1 ? 6 : 5, q0 = (c0 >> sh[k]) & mx[k], q1 = (c1 >> sh[k]) & mx[k];
+            /* moves m: 0: q0 - 1, 1: q0 + 1, 2: q1 - 1, 3: q1 + 1 (clamped; out of range ones
+             * are skipped below) */
+            int qa[4] = {q0 - 1, q0 + 1, q0, q0}, qb[4] = {q1, q1, q1 - 1, q1 + 1};
+            float pk[4][4], e[4];
+            for (int m = 0; m < 4; m++) {
+                int ea = expand565(clampi(qa[m], 0, mx[k]), bits);
+                int eb = expand565(clampi(qb[m], 0, mx[k]), bits);
+                /* the palette as a set does not depend on the order of the pair */
+                pk[m][0] = (float)ea;
+                pk[m][1] = (float)eb;
+                pk[m][2] = (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2);
+                pk[m][3] = four ? (float)((ea + 2 * eb) / 3) : 2000.0f;
+            }
 #if ST_BC1_AVX2
-                        if (avx2)
-                            err = select_chan_avx2(B, &N, k, pk, sel, best->err);
-                        else
+            if (avx2)
+                moves_eval_avx2(B, &N, k, pk, e);
+            else
 #endif
-                            err = select_chan(B, &N, k, pk, sel, best->err);
-                    } else {
-                        err = select_eval(B, a, b, sel, best->err);
-                    }
-#else
-                    err = select_eval(B, a, b, sel, best->err);
-#endif
-                    if (err < best->err) {
-                        best->c0 = a;
-                        best->c1 = b;
-                        best->err = err;
-                        memcpy(best->sel, sel, sizeof sel);
-                        improved = 1;
-                    }
-                }
-        if (!improved)
+                moves_eval(B, &N, k, pk, e);
+            /* a 4-colour move must not make the pair equal (that decodes in 3-colour mode) */
+            int rest_equal = ((c0 ^ c1) & ~(mx[k] << sh[k])) == 0;
+            for (int m = 0; m < 4; m++) {
+                int q = m < 2 ? qa[m] : qb[m];
+                if (q < 0 || q > mx[k] || !(e[m] < lim) ||
+                    (four && rest_equal && qa[m] == qb[m]))
+                    continue;
+                lim = e[m];
+                win = 4 * k + m;
+            }
+        }
+        if (win < 0)
             break;
+        int k = win >> 2, m = win & 3, e = m >> 1;
+        uint16_t c[2] = {c0, c1};
+        int q = ((c[e] >> sh[k]) & mx[k]) + (m & 1 ? 1 : -1);
+        c[e] = (uint16_t)((c[e] & ~(mx[k] << sh[k])) | (q << sh[k]));
+        c0 = four ? (c[0] > c[1] ? c[0] : c[1]) : (c[0] < c[1] ? c[0] : c[1]);
+        c1 = four ? (c[0] > c[1] ? c[1] : c[0]) : (c[0] < c[1] ? c[1] : c[0]);
+        err = lim;
+        moved = 1;
+    }
+    if (moved) {
+        best->c0 = c0;
+        best->c1 = c1;
+        best->err = select_eval(B, c0, c1, best->sel, 3e30f);
     }
 }
 
+#ifndef HQ_NEIGH
+#define HQ_NEIGH 4
+#endif
+#ifndef HQ_NEIGH3
+#define HQ_NEIGH3 2
+#endif
+#ifndef HQ_R3
+#define HQ_R3 3
+#endif
+#ifndef HQ_N3
+#define HQ_N3 1.3f
+#endif
+#ifndef HQ_CLUSTER
+#define HQ_CLUSTER 4
+#endif
 /* What a level does (see the method at the top). */
 typedef struct profile {
     float inset;        /* of the initial axis endpoints */
@@ -807,10 +837,10 @@ static const profile PROFILES[3] = {
     /* ST_BC1_FAST: round, projected selectors, least squares, round, projected selectors */
     {.inset = 1.0f / 16, .rounds = 2, .inset2 = -1, .proj = 1, .proj_final = 1},
     /* ST_BC1_HQ: cluster splits within +-4, one neighbourhood pass */
-    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = 1, .rounds3 = 3, .neigh3 = 1,
-     .r3ratio = 3, .n3ratio = 1.3f, .inset2 = -1, .cluster = 4},
+    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = HQ_NEIGH, .rounds3 = 3, .neigh3 = HQ_NEIGH3,
+     .r3ratio = HQ_R3, .n3ratio = HQ_N3, .inset2 = -1, .cluster = HQ_CLUSTER},
     /* ST_BC1_BEST: every split */
-    {.inset = 1.0f / 16, .rounds = 4, .neigh = 2, .rounds3 = 3, .neigh3 = 1, .r3ratio = 1e30f,
+    {.inset = 1.0f / 16, .rounds = 4, .neigh = 8, .rounds3 = 3, .neigh3 = 4, .r3ratio = 1e30f,
      .n3ratio = 1e30f, .inset2 = 0.125f, .cluster = 16},
 };
 
@@ -923,6 +953,146 @@ __attribute__((target("avx2"))) static void rank16_avx2(const float proj[16], in
 }
 #endif
 
+#ifdef __SSE2__
+/* The split scan for blocks of 16 texels of weight 1: the determinant of every split comes
+ * from the generated table (bc1_tables.h, 1/Dint, -1 for splits that do not count), so a score
+ * is |P_i0 + P_i1 + P_i2|^2 * invd: no division. i2 runs in chunks of eight from
+ * max(i1, lo[2]) (the last chunk ends at hi[2], overlapping the one before: a split seen again
+ * has the same score and is not taken again). Each lane of each of two accumulators (even and
+ * odd i1, two independent dependency chains) sees its splits in increasing index order and
+ * keeps the first of the best scores; the merge takes the best score and on a tie the lowest
+ * index, so the result does not depend on how the splits are spread over lanes. */
+typedef struct split_acc {
+    __m128 v[2];
+    __m128i i[2];
+} split_acc;
+
+static inline void split_row_sse(const float *pr, const float *pg, const float *pb, int i0,
+                                 int i1, const int hi[3], int first, int last, __m128 *bestv,
+                                 __m128i *bidx)
+{
+    const __m128i lane = _mm_set_epi32(3, 2, 1, 0), four = _mm_set1_epi32(4);
+    __m128 Xr = _mm_set1_ps(pr[i0] + pr[i1]), Xg = _mm_set1_ps(pg[i0] + pg[i1]),
+           Xb = _mm_set1_ps(pb[i0] + pb[i1]);
+    const float *row = st_bc1_split_invd[i0][i1];
+    for (int c = first;; c += 8) {
+        int s = c < last ? c : last;
+        __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + s), lane);
+        for (int h = 0; h < 8; h += 4) {
+            __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(pr + s + h));
+            __m128 num = _mm_mul_ps(X, X);
+            X = _mm_add_ps(Xg, _mm_loadu_ps(pg + s + h));
+            num = _mm_add_ps(num, _mm_mul_ps(X, X));
+            X = _mm_add_ps(Xb, _mm_loadu_ps(pb + s + h));
+            num = _mm_add_ps(num, _mm_mul_ps(X, X));
+            __m128 g = _mm_mul_ps(num, _mm_loadu_ps(row + s + h));
+            __m128 m = _mm_cmpgt_ps(g, *bestv);
+            *bestv = _mm_or_ps(_mm_and_ps(m, g), _mm_andnot_ps(m, *bestv));
+            __m128i mi = _mm_castps_si128(m);
+            *bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, *bidx));
+            idx = _mm_add_epi32(idx, four);
+        }
+        if (s + 7 >= hi[2])
+            break;
+    }
+}
+
+/* Lane by lane the better of (a, ai) and (b, bi): higher score, on a tie the lower index
+ * (index -1: nothing found). */
+static inline void split_pick_sse(__m128 *a, __m128i *ai, __m128 b, __m128i bi)
+{
+    __m128 take = _mm_or_ps(_mm_cmpgt_ps(b, *a),
+                            _mm_and_ps(_mm_cmpeq_ps(b, *a),
+                                       _mm_castsi128_ps(_mm_and_si128(
+                                           _mm_cmplt_epi32(bi, *ai),
+                                           _mm_cmpgt_epi32(bi, _mm_set1_epi32(-1))))));
+    *a = _mm_or_ps(_mm_and_ps(take, b), _mm_andnot_ps(take, *a));
+    __m128i t = _mm_castps_si128(take);
+    *ai = _mm_or_si128(_mm_and_si128(t, bi), _mm_andnot_si128(t, *ai));
+}
+
+static void split_scan_tab_sse(const float *pr, const float *pg, const float *pb, const int lo[3],
+                               const int hi[3], __m128 *best4, __m128i *idx4)
+{
+    __m128 v0 = _mm_setzero_ps(), v1 = v0;
+    __m128i x0 = _mm_set1_epi32(-1), x1 = x0;
+    int last = hi[2] - 7 < 0 ? 0 : hi[2] - 7;
+    for (int i0 = lo[0]; i0 <= hi[0]; i0++) {
+        int i1 = i0 > lo[1] ? i0 : lo[1], end = hi[1] < hi[2] ? hi[1] : hi[2];
+        for (; i1 + 1 <= end; i1 += 2) {
+            split_row_sse(pr, pg, pb, i0, i1, hi, i1 > lo[2] ? i1 : lo[2], last, &v0, &x0);
+            split_row_sse(pr, pg, pb, i0, i1 + 1, hi, i1 + 1 > lo[2] ? i1 + 1 : lo[2], last,
+                          &v1, &x1);
+        }
+        if (i1 <= end)
+            split_row_sse(pr, pg, pb, i0, i1, hi, i1 > lo[2] ? i1 : lo[2], last, &v0, &x0);
+    }
+    split_pick_sse(&v0, &x0, v1, x1);
+    *best4 = v0;
+    *idx4 = x0;
+}
+#endif
+
+#if ST_BC1_AVX2
+/* split_row_sse eight i2 at a time (the same scores, the same rule per lane). */
+__attribute__((target("avx2"), always_inline)) static inline void
+split_row_avx2(const float *pr, const float *pg, const float *pb, int i0, int i1,
+               const int hi[3], int first, int last, __m256 *bestv, __m256 *bidx)
+{
+    const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
+    __m256 Xr = _mm256_set1_ps(pr[i0] + pr[i1]), Xg = _mm256_set1_ps(pg[i0] + pg[i1]),
+           Xb = _mm256_set1_ps(pb[i0] + pb[i1]);
+    const float *row = st_bc1_split_invd[i0][i1];
+    for (int c = first;; c += 8) {
+        int s = c < last ? c : last;
+        __m256 X = _mm256_add_ps(Xr, _mm256_loadu_ps(pr + s));
+        __m256 num = _mm256_mul_ps(X, X);
+        X = _mm256_add_ps(Xg, _mm256_loadu_ps(pg + s));
+        num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+        X = _mm256_add_ps(Xb, _mm256_loadu_ps(pb + s));
+        num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+        __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(row + s));
+        __m256 idx = _mm256_castsi256_ps(
+            _mm256_add_epi32(_mm256_set1_epi32(i0 * 289 + i1 * 17 + s), lane));
+        __m256 m = _mm256_cmp_ps(g, *bestv, _CMP_GT_OQ);
+        *bestv = _mm256_blendv_ps(*bestv, g, m);
+        *bidx = _mm256_blendv_ps(*bidx, idx, m);
+        if (s + 7 >= hi[2])
+            break;
+    }
+}
+
+__attribute__((target("avx2"))) static void
+split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, const int lo[3],
+                    const int hi[3], __m128 *best4, __m128i *idx4)
+{
+    __m256 v0 = _mm256_setzero_ps(), v1 = v0;
+    __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
+    int last = hi[2] - 7 < 0 ? 0 : hi[2] - 7;
+    for (int i0 = lo[0]; i0 <= hi[0]; i0++) {
+        int i1 = i0 > lo[1] ? i0 : lo[1], end = hi[1] < hi[2] ? hi[1] : hi[2];
+        for (; i1 + 1 <= end; i1 += 2) {
+            split_row_avx2(pr, pg, pb, i0, i1, hi, i1 > lo[2] ? i1 : lo[2], last, &v0, &x0);
+            split_row_avx2(pr, pg, pb, i0, i1 + 1, hi, i1 + 1 > lo[2] ? i1 + 1 : lo[2], last,
+                           &v1, &x1);
+        }
+        if (i1 <= end)
+            split_row_avx2(pr, pg, pb, i0, i1, hi, i1 > lo[2] ? i1 : lo[2], last, &v0, &x0);
+    }
+    /* the four 128-bit halves by the merge rule: the two accumulators, then upper into lower */
+    __m128 a = _mm256_castps256_ps128(v0);
+    __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
+    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
+                   _mm_castps_si128(_mm256_extractf128_ps(x0, 1)));
+    split_pick_sse(&a, &ai, _mm256_castps256_ps128(v1),
+                   _mm_castps_si128(_mm256_castps256_ps128(x1)));
+    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v1, 1),
+                   _mm_castps_si128(_mm256_extractf128_ps(x1, 1)));
+    *best4 = a;
+    *idx4 = ai;
+}
+#endif
+
 /* Cluster fit (4-colour): the texels sorted along the axis, every ordered split into four
  * runs (c0, 2/3 c0 + 1/3 c1, 1/3 c0 + 2/3 c1, c1), the least-squares endpoints of each split
  * from prefix sums, the split of least continuous error wins. */
@@ -980,6 +1150,35 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
     }
     float best = -1e30f;
     int b0 = -1, b1 = -1, b2 = -1;
+#ifdef __SSE2__
+    if (B->unit) {
+        __m128 bv;
+        __m128i bix;
+#if ST_BC1_AVX2
+        if (__builtin_cpu_supports("avx2"))
+            split_scan_tab_avx2(pr, pg, pb, lo, hi, &bv, &bix);
+        else
+#endif
+            split_scan_tab_sse(pr, pg, pb, lo, hi, &bv, &bix);
+        float gs[4];
+        int32_t is[4];
+        _mm_storeu_ps(gs, bv);
+        _mm_storeu_si128((__m128i *)is, bix);
+        int bi = -1;
+        float bg = 0;
+        for (int l = 0; l < 4; l++)
+            if (is[l] >= 0 && (gs[l] > bg || (gs[l] == bg && (bi < 0 || is[l] < bi)))) {
+                bg = gs[l];
+                bi = is[l];
+            }
+        if (bi >= 0) {
+            b0 = bi / 289;
+            b1 = bi / 17 % 17;
+            b2 = bi % 17;
+        }
+        goto solve;
+    }
+#endif
 #ifdef __SSE2__
     /* four consecutive i2 at once; each lane keeps its best score and split index, and the
      * lanes are merged so that the first best split in the scalar loop's order wins */
@@ -1094,6 +1293,9 @@ merge:
                 }
             }
         }
+#endif
+#ifdef __SSE2__
+solve:;
 #endif
     int found = b0 >= 0;
     if (found) {
@@ -1302,9 +1504,18 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             if (best.c0 == best.c1) /* a flat result says nothing about the splits */
                 sp[0] = 4, sp[1] = 8, sp[2] = 12;
             int lo[3], hi[3];
-            for (int k = 0; k < 3; k++) {
+            for (int k = 0; k < 2; k++) {
                 lo[k] = sp[k] - P->cluster < 0 ? 0 : sp[k] - P->cluster;
                 hi[k] = sp[k] + P->cluster > 16 ? 16 : sp[k] + P->cluster;
+            }
+            /* i2: a window of 2 * cluster (at least 8, at most 17) from sp - cluster, slid
+             * inside 0..16: one chunk of eight for the table scan at cluster 4 */
+            int size = 2 * P->cluster < 8 ? 8 : 2 * P->cluster > 17 ? 17 : 2 * P->cluster;
+            lo[2] = sp[2] - P->cluster < 0 ? 0 : sp[2] - P->cluster;
+            hi[2] = lo[2] + size - 1;
+            if (hi[2] > 16) {
+                hi[2] = 16;
+                lo[2] = 17 - size;
             }
             if (cluster_fit(B, &A, lo, hi, e0, e1))
                 rounds4(B, P, &A, e0, e1, &best);
@@ -1460,6 +1671,7 @@ void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int l
         B.w[t] = (transparent >> t & 1) ? 0.0f : (w > 0 && w < 1e6f ? w : w >= 1e6f ? 1e6f : 0.0f);
     }
 encode:;
+    B.unit = !transparent && !weight;
     cand c;
     const profile *P = &PROFILES[level == ST_BC1_FAST ? 0 : level == ST_BC1_BEST ? 2 : 1];
     encode_colours(&B, P, transparent == 0, &c);
