@@ -104,6 +104,32 @@ step "seamtex-bench --op sample --batch 4096 --conns 2 --pipeline 2 --duration 2
 timeout 60 "$BENCH" -p "$PORT" --op sample --batch 4096 --conns 2 --pipeline 2 --duration 2 \
     --warmup 0.5 || fail "seamtex-bench sample"
 
+# ---- real assets ------------------------------------------------------------------------------
+# From the shared data folder (skipped when it is not there): a Ptex file
+# sampled with a Ptex filter, a textured mesh (atlas) sampled by UV, the atlas re-encoded
+# to seam-aware BC1 on the server, sampled from its blocks and exported as DDS.
+DATA=${SEAMTEX_DATA:-$ROOT/../shared/data}
+TEAPOT=$DATA/ptx/wdas-ptex-samples/teapot/teapot.ptx
+DUCK=$DATA/meshes/duck
+if [ -f "$TEAPOT" ] && [ -f "$DUCK/Duck.obj" ] && [ -f "$DUCK/DuckCM.png" ]; then
+    run upload "$TEAPOT" teapot
+    run sample teapot 12 0.5 0.5 --filter ptex-gaussian --dudx 0.2 --dvdy 0.2
+    run upload "$DUCK/DuckCM.png" duck-tex
+    run upload "$DUCK/Duck.obj" duck --texture duck-tex
+    run info duck
+    run sample duck 0 0.31 0.62 --filter trilinear --dudx 0.004 --dvdy 0.004
+    run compress duck duck-bc1
+    run sample duck-bc1 0 0.31 0.62 --filter trilinear --dudx 0.004 --dvdy 0.004
+    run fetch duck-bc1 "$TMP/duck-bc1.dds" --format dds
+    [ -s "$TMP/duck-bc1.dds" ] || fail "the fetched DDS is empty"
+    head -c 4 "$TMP/duck-bc1.dds" | grep -q '^DDS ' || fail "the fetched file is not a DDS"
+    echo "fetched $(stat -c %s "$TMP/duck-bc1.dds") bytes of DDS (BC1 with mips)"
+    run ls
+else
+    echo
+    echo "run-main: $DATA has no teapot.ptx / duck mesh: skipping the real-asset steps"
+fi
+
 step "seamtex stats   (a few of the counters)"
 stats=$(timeout 60 "$CLI" -p "$PORT" stats) || fail "seamtex stats"
 grep -E '^(uptime_ms|conns_accepted|requests|replies_error|queries|bytes_in|bytes_out|sets|set_memory) ' \
