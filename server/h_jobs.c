@@ -18,6 +18,7 @@
 #include "ptex.h"
 #include "server.h"
 #include "bc1.h"
+#include "bc1_measure.h"
 
 #define KEEP_FINISHED 256
 #define MAX_FETCHES   256
@@ -145,12 +146,27 @@ static void run_job(sts_server *srv, sts_job *j)
     o.threads = 1;
     st_set *bc1 = NULL;
     rc = st_bc1_compress_set(j->src->set, &o, progress_cb, j, &j->cancel, &bc1, &e);
+    /* the job's report: quality against the source, measured as the seam report does */
+    st_bc1_quality q;
+    st_error me;
+    st_error_clear(&me);
+    int measured = rc == 0 && st_bc1_measure(j->src->set, bc1, o.step, &q, &me) == 0;
+    if (rc == 0 && !measured)
+        sts_logf(&srv->log, STS_WARN, "job %llu: no quality report: %s", (unsigned long long)j->id,
+                 me.msg);
     if (rc == 0)
         rc = store_result(srv, j, bc1, &e);
     pthread_mutex_lock(&srv->jobs.mu);
     j->result = (uint16_t)stp_status_from_st(rc);
     j->state = rc == 0 ? STP_JOB_DONE : rc == ST_ECANCELED ? STP_JOB_CANCELED : STP_JOB_FAILED;
-    if (rc == 0)
+    if (rc == 0 && measured && q.nseams)
+        snprintf(j->msg, sizeof j->msg, "created set '%s': PSNR %.2f dB inside charts; seam RMS "
+                 "%.2f -> %.2f (per channel, 0..255, %u seams)", j->target, q.psnr,
+                 q.seam_rms_src, q.seam_rms_bc1, q.nseams);
+    else if (rc == 0 && measured)
+        snprintf(j->msg, sizeof j->msg, "created set '%s': PSNR %.2f dB (no seams)", j->target,
+                 q.psnr);
+    else if (rc == 0)
         snprintf(j->msg, sizeof j->msg, "created set '%s'", j->target);
     else
         snprintf(j->msg, sizeof j->msg, "%s", e.msg[0] ? e.msg : st_strerror(rc));

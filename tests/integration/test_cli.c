@@ -334,6 +334,7 @@ static void compress_reports_sizes_and_fetch_writes_a_ptex_file(void **state)
     assert_int_equal(CLI("compress", "default", "cli-bc1", "--level", "0"), 0);
     assert_non_null(strstr(OUT, "compressed default -> cli-bc1"));
     assert_non_null(strstr(OUT, ":1)"));                 /* the compression ratio */
+    assert_non_null(strstr(OUT, "seam RMS"));            /* the quality report */
     assert_non_null(strstr(ERR, "compress: 100%"));
     assert_int_equal(CLI("info", "cli-bc1"), 0);
     assert_non_null(strstr(OUT, "kind:              bc1"));

@@ -525,6 +525,14 @@ static void compress_job_fetch_dds_and_cancel(void **state)
         fprintf(stderr, "job: %s %s\n", stc_strerror(rc), js.message);
     assert_int_equal(rc, 0);
     assert_int_equal(js.state, STC_JOB_DONE);
+    /* the job's report: quality against the source, seams before -> after */
+    print_message("# job: %s\n", js.message);
+    assert_non_null(strstr(js.message, "PSNR"));
+    double rms_src = 0, rms_bc1 = 0;
+    const char *r = strstr(js.message, "seam RMS ");
+    assert_non_null(r);
+    assert_int_equal(sscanf(r, "seam RMS %lf -> %lf", &rms_src, &rms_bc1), 2);
+    assert_true(rms_bc1 < rms_src);
     stc_info info;
     assert_int_equal(stc_info_get(c, "default-bc1", 0, 0, &info), 0);
     assert_int_equal(info.kind, ST_KIND_BC1);
