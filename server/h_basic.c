@@ -329,7 +329,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
         return 0;
     const st_set *s = ref->set;
     uint32_t n = rq->count;
-    if (h->opcode == STP_OP_SAMPLE_DIR && s->info.kind != ST_KIND_CUBE) {
+    if (h->opcode == STP_OP_SAMPLE_DIR && !st_cube_is_cube(s)) {
         st_setref_release(ref);
         sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
         return 0;
@@ -397,9 +397,11 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     }
     if (rc < 0) {
         st_setref_release(ref);
-        sts_reply_st(out, h, rc, rc == ST_EUNSUPPORTED
-                                     ? "this filter does not apply to this kind of set"
-                                     : "invalid sampling options");
+        sts_reply_st(out, h, rc, rc != ST_EUNSUPPORTED ? "invalid sampling options"
+                                 : s->info.kind == ST_KIND_BC1
+                                     ? "the Ptex filters need an uncompressed per-face set; BC1 "
+                                       "sets sample with point, bilinear, trilinear and aniso"
+                                     : "the Ptex filters need a per-face set");
         return 0;
     }
     STS_STAT_ADD(c->srv, queries, n);

@@ -10,6 +10,8 @@
  */
 #include "cube.h"
 
+#include "bc1.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -176,13 +178,23 @@ void st_cube_queries(const st_set *cube, unsigned lookup, const st_cube_query *q
     }
 }
 
+int st_cube_is_cube(const st_set *s)
+{
+    if (!s || s->info.nfaces != 6)
+        return 0;
+    if (s->info.kind == ST_KIND_CUBE)
+        return 1;
+    const st_bc1_ext *x = s->info.kind == ST_KIND_BC1 ? s->ext : NULL;
+    return x && x->src_kind == ST_KIND_CUBE;
+}
+
 #define CHUNK 128
 
 int st_cube_sample_dir(const st_set *cube, const st_sample_opts *o, unsigned lookup,
                        const st_cube_query *q, size_t n, float *out, float *coverage,
                        uint8_t *status)
 {
-    if (!cube || cube->info.kind != ST_KIND_CUBE || cube->info.nfaces != 6 || !out || !o)
+    if (!cube || !st_cube_is_cube(cube) || !out || !o)
         return ST_EINVAL;
     if (lookup > ST_CUBE_LOOKUP_FIXUP)
         return ST_EINVAL;

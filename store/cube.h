@@ -82,14 +82,19 @@ typedef struct st_cube_query {
 } st_cube_query;
 
 /* Maps every query to (face, u, v, footprint) and samples with st_sample_batch in chunks
- * (no allocation). Arguments and results as st_sample_batch: out n * nchan floats, coverage
- * and status (out required, the other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE.
- * Returns the number of queries not ST_Q_OK, or a negative ST_E* code (nothing written).
- * lookup is an st_cube_lookup. Traverse mode gives seamless filtering across edges and
- * corners; Clamp shows the seams; Discard renormalises inside the face. */
+ * (no allocation). cube: any set st_cube_is_cube accepts, BC1 cubes included. Arguments and
+ * results as st_sample_batch: out n * nchan floats, coverage and status (out required, the
+ * other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE. Returns the
+ * number of queries not ST_Q_OK, or a negative ST_E* code (nothing written). lookup is an
+ * st_cube_lookup. Traverse mode gives seamless filtering across edges and corners; Clamp
+ * shows the seams; Discard renormalises inside the face. */
 int st_cube_sample_dir(const st_set *cube, const st_sample_opts *o, unsigned lookup,
                        const st_cube_query *q, size_t n, float *out, float *coverage,
                        uint8_t *status);
+
+/* 1 when s can be sampled by direction: a cube set, or a BC1 set encoded from one (same
+ * faces, frames and adjacency; bc1.h). */
+int st_cube_is_cube(const st_set *s);
 
 /* Converts direction queries to face queries (what st_cube_sample_dir does before sampling);
  * status gets ST_Q_NONFINITE for a bad direction (its query is face 0, centre). */

@@ -13,6 +13,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "bc1.h"
 #include "cube.h"
 #include "import.h"
 #include "ptex.h"
@@ -645,6 +646,74 @@ static void ptex_environment_cube_maps_each_face_by_direction(void **state)
     }
 }
 
+/* A BC1 set made from a cube map is sampled by direction like the cube (same frames and
+ * adjacency): the values equal those of its decoded set, in every mode; a BC1 set made from
+ * anything else is not a cube. */
+static void bc1_cube_is_sampled_by_direction(void **state)
+{
+    (void)state;
+    st_set *w = load("env/WavyLinesCube.exr", 0, 0);
+    if (!w)
+        skip();
+    st_bc1_opts bo;
+    st_bc1_opts_default(&bo);
+    bo.level = ST_BC1_FAST;
+    bo.threads = 1;
+    st_set *b = NULL, *d = NULL;
+    st_error e;
+    assert_int_equal(st_bc1_compress_set(w, &bo, NULL, NULL, NULL, &b, &e), ST_OK);
+    assert_int_equal(b->info.kind, ST_KIND_BC1);
+    assert_true(st_cube_is_cube(b));
+    assert_int_equal(st_bc1_decode_set(b, ST_BC1_DEC_EXACT, &d, &e), ST_OK);
+    assert_int_equal(d->info.kind, ST_KIND_CUBE);
+    enum { N = 500 };
+    st_cube_query q[N];
+    uint32_t rng = 7;
+    for (int i = 0; i < N; i++) {
+        memset(&q[i], 0, sizeof q[i]);
+        for (int k = 0; k < 3; k++) {
+            rng = rng * 1664525u + 1013904223u;
+            q[i].dir[k] = (float)(rng >> 8) / (float)(1u << 24) * 2.0f - 1.0f;
+        }
+        q[i].cone = 0.02f * (float)(i % 4);
+    }
+    q[0].dir[0] = q[0].dir[1] = q[0].dir[2] = 0; /* a bad direction keeps its status */
+    for (unsigned mode = 0; mode <= ST_MODE_CLAMP; mode++) {
+        st_sample_opts o;
+        memset(&o, 0, sizeof o);
+        o.mode = (uint8_t)mode;
+        o.filter = ST_FILTER_TRILINEAR;
+        float ob[N * 4], od[N * 4];
+        uint8_t sb[N], sd[N];
+        int rb = st_cube_sample_dir(b, &o, ST_CUBE_LOOKUP_PLAIN, q, N, ob, NULL, sb);
+        int rd = st_cube_sample_dir(d, &o, ST_CUBE_LOOKUP_PLAIN, q, N, od, NULL, sd);
+        assert_int_equal(rb, 1);
+        assert_int_equal(rd, 1);
+        assert_int_equal(sb[0], ST_Q_NONFINITE);
+        assert_memory_equal(sb, sd, N);
+        assert_int_equal(b->info.nchan, d->info.nchan);
+        assert_memory_equal(ob + 4, od + 4, (N - 1) * b->info.nchan * sizeof(float));
+    }
+    st_set_free(d);
+    st_set_free(b);
+    st_set_free(w);
+    /* a BC1 atlas is not a cube */
+    char path[1024];
+    st_set *img = NULL;
+    if (!st_test_data_path(path, sizeof path, "images/bc1-set/kodim23.png") &&
+        st_import_file(path, NULL, &img, &e) == ST_OK) {
+        assert_int_equal(st_bc1_compress_set(img, &bo, NULL, NULL, NULL, &b, &e), ST_OK);
+        assert_false(st_cube_is_cube(b));
+        st_sample_opts o;
+        memset(&o, 0, sizeof o);
+        float v[4];
+        assert_int_equal(st_cube_sample_dir(b, &o, ST_CUBE_LOOKUP_PLAIN, q + 1, 1, v, NULL, NULL),
+                         ST_EINVAL);
+        st_set_free(b);
+        st_set_free(img);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -660,6 +729,7 @@ int main(void)
         cmocka_unit_test(cross_images_are_continuous_across_their_internal_edges),
         cmocka_unit_test(six_face_humus_cube_imports_in_the_gl_convention),
         cmocka_unit_test(ptex_environment_cube_maps_each_face_by_direction),
+        cmocka_unit_test(bc1_cube_is_sampled_by_direction),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
