@@ -103,6 +103,9 @@ typedef struct st_bc1_opts {
     float    seam_boost;    /* the seam-aware BC1 stage uses alpha * seam_boost (default
                                1.25, the point of the measured seam RMS / PSNR trade-off
                                curve that meets the most report targets, docs/bc1.md) */
+    float    seam_rms_goal; /* while the seam-aware result's seam RMS is above this times
+                               the masked texture's, its seam weight is raised 1.2x (at
+                               most 8 times; default 1.1, 0 = keep alpha * seam_boost) */
     float    step;          /* seam sample spacing in texels (default 0.5) */
     int      iterations;    /* seam-aware solve / quantise / re-select rounds (default 3) */
     int      threads;       /* encoder threads, 0 = one per core */

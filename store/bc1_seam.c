@@ -697,10 +697,97 @@ static int bcd_block(const solver *S, uint32_t b)
     return 0;
 }
 
+/* Seam RMS per channel of the current state (exact decode), as st_seam_rms_rgba8. */
+static double state_rms(const solver *S)
+{
+    double es = 0;
+    for (size_t p = 0; p < S->sys->npts; p++) {
+        const tapref *r = &S->taps[8 * p];
+        for (unsigned c = 0; c < 3; c++) {
+            double v = 0;
+            for (int k = 0; k < 8; k++)
+                v += r[k].w * tap_value(S, &r[k], c);
+            es += S->sys->pts[p].len * v * v;
+        }
+    }
+    return S->sys->total_len > 0 ? sqrt(es / (3 * S->sys->total_len)) : 0;
+}
+
+static void put_all(const solver *S, const uint8_t *src)
+{
+    for (uint32_t b = 0; b < S->nb; b++) {
+        memcpy(blk_ptr(S, b), src + 8 * b, 8);
+        refresh(S, b);
+    }
+}
+
+/* Scratch and callbacks of the rounds. */
+typedef struct work {
+    double *z, *wk;
+    uint8_t *fixed, *saved;
+    const volatile int *cancel;
+    void (*progress)(void *arg, double fraction);
+    void *progress_arg;
+    double p0, pw;        /* this round's share of the progress range */
+} work;
+
+/* One round at S->alpha: the bounded endpoint solve with the selectors fixed, rounding, then
+ * two block-coordinate sweeps; when the exact E ends below *best, the state is saved. */
+static int run_round(const solver *S, work *W, double *best, st_error *e)
+{
+    uint32_t nb = S->nb;
+    double *z = W->z;
+    for (uint32_t b = 0; b < nb; b++) {
+        block_weights(blk_ptr(S, b), S->t + 16 * b);
+        double en[2][3];
+        block_endpoints(blk_ptr(S, b), en);
+        for (int c = 0; c < 3; c++) {
+            z[(size_t)c * 2 * nb + 2 * b] = en[0][c];
+            z[(size_t)c * 2 * nb + 2 * b + 1] = en[1][c];
+        }
+    }
+    for (unsigned c = 0; c < 3; c++) {
+        int rc = solve_channel(S, c, z + (size_t)c * 2 * nb, W->wk, W->fixed, W->cancel, e);
+        if (rc)
+            return rc;
+    }
+    for (uint32_t b = 0; b < nb; b++) {
+        double e0[3], e1[3];
+        for (int c = 0; c < 3; c++) {
+            e0[c] = z[(size_t)c * 2 * nb + 2 * b];
+            e1[c] = z[(size_t)c * 2 * nb + 2 * b + 1];
+        }
+        requantise(S, b, e0, e1);
+        refresh(S, b);
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        int any = 0;
+        for (uint32_t b = 0; b < nb; b++) {
+            if (W->cancel && *W->cancel)
+                return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
+            any |= bcd_block(S, b);
+            if (W->progress && (b & 1023) == 1023)
+                W->progress(W->progress_arg, W->p0 + W->pw * (pass + (double)b / nb) / 2.0);
+        }
+        if (!any)
+            break;
+    }
+    double en = exact_energy(S);
+    if (W->progress)
+        W->progress(W->progress_arg, W->p0 + W->pw);
+    if (en < *best) {
+        *best = en;
+        for (uint32_t b = 0; b < nb; b++)
+            memcpy(W->saved + 8 * b, blk_ptr(S, b), 8);
+    }
+    return ST_OK;
+}
+
 int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *target,
                       uint8_t *const *blocks, float alpha, float outside_weight, int iterations,
-                      void (*progress)(void *arg, double fraction), void *progress_arg,
-                      const volatile int *cancel, st_bc1_seam_stats *stats, st_error *e)
+                      double rms_goal, void (*progress)(void *arg, double fraction),
+                      void *progress_arg, const volatile int *cancel, st_bc1_seam_stats *stats,
+                      st_error *e)
 {
     if (stats)
         memset(stats, 0, sizeof *stats);
@@ -718,7 +805,7 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
                 NULL, NULL, NULL};
     int rc = ST_OK;
     uint64_t *keys = malloc((sys->nvars ? sys->nvars : 1) * sizeof *keys);
-    uint8_t *saved = NULL, *fixed = NULL;
+    uint8_t *saved = NULL, *fixed = NULL, *start = NULL, *back = NULL;
     double *z = NULL, *wk = NULL;
     if (!keys)
         return st_fail(e, ST_ENOMEM, "out of memory for seam blocks");
@@ -748,10 +835,12 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
     S.d = malloc((size_t)(nb ? nb : 1) * 16 * sizeof *S.d);
     S.taps = malloc((sys->npts * 8) * sizeof *S.taps);
     saved = malloc((size_t)(nb ? nb : 1) * 8);
+    start = malloc((size_t)(nb ? nb : 1) * 8);
+    back = malloc((size_t)(nb ? nb : 1) * 8);
     fixed = malloc((size_t)(nb ? nb : 1) * 2);
     z = malloc((size_t)(nb ? nb : 1) * 2 * 3 * sizeof *z);
     wk = malloc((size_t)(nb ? nb : 1) * 15 * sizeof *wk); /* 6 vectors of 2nb + 3nb */
-    if (!S.sb || !S.t || !S.d || !S.taps || !saved || !fixed || !z || !wk) {
+    if (!S.sb || !S.t || !S.d || !S.taps || !saved || !start || !back || !fixed || !z || !wk) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for %u seam blocks", nb);
         goto out;
     }
@@ -850,64 +939,85 @@ int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t
         refresh(&S, b);
     double best = exact_energy(&S);
     if (stats) {
-        stats->e_before = best;
         stats->nblocks = nb;
+        stats->alpha = alpha;
     }
     for (uint32_t b = 0; b < nb; b++)
         memcpy(saved + 8 * b, blk_ptr(&S, b), 8);
+    memcpy(start, saved, (size_t)nb * 8);
+    work W = {z, wk, fixed, saved, cancel, progress, progress_arg, 0, 0};
     for (int it = 0; it < iterations; it++) {
-        for (uint32_t b = 0; b < nb; b++) {
-            block_weights(blk_ptr(&S, b), S.t + 16 * b);
-            double en[2][3];
-            block_endpoints(blk_ptr(&S, b), en);
-            for (int c = 0; c < 3; c++) {
-                z[(size_t)c * 2 * nb + 2 * b] = en[0][c];
-                z[(size_t)c * 2 * nb + 2 * b + 1] = en[1][c];
-            }
-        }
-        for (unsigned c = 0; c < 3; c++) {
-            rc = solve_channel(&S, c, z + (size_t)c * 2 * nb, wk, fixed, cancel, e);
-            if (rc)
-                goto out;
-        }
-        for (uint32_t b = 0; b < nb; b++) {
-            double e0[3], e1[3];
-            for (int c = 0; c < 3; c++) {
-                e0[c] = z[(size_t)c * 2 * nb + 2 * b];
-                e1[c] = z[(size_t)c * 2 * nb + 2 * b + 1];
-            }
-            requantise(&S, b, e0, e1);
-            refresh(&S, b);
-        }
-        for (int pass = 0; pass < 2; pass++) {
-            int any = 0;
-            for (uint32_t b = 0; b < nb; b++) {
-                if (cancel && *cancel) {
-                    rc = st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
-                    goto out;
-                }
-                any |= bcd_block(&S, b);
-                if (progress && (b & 1023) == 1023)
-                    progress(progress_arg, ((double)it + (pass + (double)b / nb) / 2.0) / iterations);
-            }
-            if (!any)
-                break;
-        }
-        double en = exact_energy(&S);
-        if (progress)
-            progress(progress_arg, (double)(it + 1) / iterations);
+        W.p0 = (rms_goal > 0 ? 0.7 : 1.0) * it / iterations;
+        W.pw = (rms_goal > 0 ? 0.7 : 1.0) / iterations;
+        if ((rc = run_round(&S, &W, &best, e)))
+            goto out;
         if (stats)
-            stats->iterations = it + 1;
-        if (en < best) {
-            best = en;
-            for (uint32_t b = 0; b < nb; b++)
-                memcpy(saved + 8 * b, blk_ptr(&S, b), 8);
+            stats->iterations++;
+    }
+    put_all(&S, saved);
+    /* while the seams are above the goal: alpha x SEAM_RAISE and one more round from the
+     * best state so far, at most SEAM_RAISES times, stopping when two raises in a row
+     * lowered the seam RMS by less than 2% each (the 8-bit floor; one alone may precede a
+     * drop where many seam blocks snap together). When a raise overshoots the goal, one
+     * round halfway back (alpha / sqrt(SEAM_RAISE)) from there is kept if its seams still
+     * meet the goal: it gives back data error for the seam slack. */
+    const float SEAM_RAISE = 1.2f;
+    enum { SEAM_RAISES = 8 };
+    double rms = rms_goal > 0 ? state_rms(&S) : 0, last_rms = rms;
+    int stalls = 0, raised = 0;
+    for (int level = 1; rms_goal > 0 && rms > rms_goal && level <= SEAM_RAISES; level++) {
+        S.alpha *= SEAM_RAISE;
+        best = exact_energy(&S);
+        W.p0 = 0.7 + 0.3 * (level - 1) / (SEAM_RAISES + 1);
+        W.pw = 0.3 / (SEAM_RAISES + 1);
+        if ((rc = run_round(&S, &W, &best, e)))
+            goto out;
+        if (stats)
+            stats->iterations++;
+        put_all(&S, saved);
+        raised = 1;
+        rms = state_rms(&S);
+        stalls = rms > 0.98 * last_rms ? stalls + 1 : 0;
+        last_rms = rms;
+        if (stalls >= 2)
+            break;
+    }
+    if (raised && rms < 0.95 * rms_goal) {
+        float keep_alpha = S.alpha;
+        double keep_best = best;
+        memcpy(back, saved, (size_t)nb * 8);
+        S.alpha = (float)(S.alpha / sqrt(SEAM_RAISE));
+        best = exact_energy(&S);
+        W.p0 = 0.7 + 0.3 * SEAM_RAISES / (SEAM_RAISES + 1);
+        W.pw = 0.3 / (SEAM_RAISES + 1);
+        if ((rc = run_round(&S, &W, &best, e)))
+            goto out;
+        if (stats)
+            stats->iterations++;
+        put_all(&S, saved);
+        if (state_rms(&S) > rms_goal) {
+            S.alpha = keep_alpha;
+            best = keep_best;
+            memcpy(saved, back, (size_t)nb * 8);
+            put_all(&S, saved);
         }
     }
-    for (uint32_t b = 0; b < nb; b++)
-        memcpy(blk_ptr(&S, b), saved + 8 * b, 8);
     if (stats)
+        stats->alpha = S.alpha;
+    /* never worse than the start, at the alpha finally used */
+    put_all(&S, start);
+    double e0 = exact_energy(&S);
+    if (e0 <= best) {
+        best = e0;
+        memcpy(saved, start, (size_t)nb * 8);
+    }
+    put_all(&S, saved);
+    if (stats) {
+        stats->e_before = e0;
         stats->e_after = best;
+    }
+    if (progress)
+        progress(progress_arg, 1.0);
 out:
     free(keys);
     free(S.sb);
@@ -918,6 +1028,8 @@ out:
     free(S.bp);
     free(S.dec);
     free(saved);
+    free(start);
+    free(back);
     free(fixed);
     free(z);
     free(wk);

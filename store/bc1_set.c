@@ -30,6 +30,7 @@ void st_bc1_opts_default(st_bc1_opts *o)
     o->seam_mode = ST_BC1_SEAM_AWARE;
     o->alpha = 2.0f;
     o->seam_boost = 1.25f;
+    o->seam_rms_goal = 1.1f;
     o->step = 0.5f;
     o->iterations = 3;
     o->threads = 0;
@@ -133,8 +134,10 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
         return st_fail(e, ST_EINVAL, "set is already BC1");
     if (opts.seam_mode < ST_BC1_SEAM_NONE || opts.seam_mode > ST_BC1_SEAM_AWARE)
         return st_fail(e, ST_EINVAL, "seam mode %d unknown", opts.seam_mode);
-    if (!(opts.alpha >= 0) || opts.alpha > 1e6 || !(opts.seam_boost >= 0) || opts.seam_boost > 1e3)
-        return st_fail(e, ST_EINVAL, "seam weight alpha must be in 0..1e6, seam_boost in 0..1e3");
+    if (!(opts.alpha >= 0) || opts.alpha > 1e6 || !(opts.seam_boost >= 0) || opts.seam_boost > 1e3 ||
+        !(opts.seam_rms_goal >= 0) || opts.seam_rms_goal > 1e3)
+        return st_fail(e, ST_EINVAL, "seam weight alpha must be in 0..1e6, seam_boost and "
+                                     "seam_rms_goal in 0..1e3");
     report(progress, progress_arg, 0);
 
     int rc;
@@ -336,7 +339,8 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     if (opts.seam_mode == ST_BC1_SEAM_AWARE) {
         float boost = opts.seam_boost > 0 ? opts.seam_boost : 1.25f;
         seam_prog sp = {progress, progress_arg};
-        rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha * boost, 0, opts.iterations,
+        double goal = opts.seam_rms_goal > 0 ? opts.seam_rms_goal * st_seam_rms_rgba8(sys, work) : 0;
+        rc = st_bc1_seam_solve(sys, orig, work, blk0, opts.alpha * boost, 0, opts.iterations, goal,
                                on_seam_progress, &sp, cancel, NULL, e);
         if (rc)
             goto out;

@@ -107,27 +107,37 @@ double st_seam_rms_rgba8(const st_seam_sys *sys, const uint8_t *rgba);
 double st_seam_psnr_inside(const st_seam_sys *sys, const uint8_t *a, const uint8_t *b);
 
 /* ---- seam-aware BC1 (bc1_seam.c) ----------------------------------------------------------
- * With the selectors of every block touched by a seam tap fixed, solves their endpoints in
- * one bounded least-squares problem on the same energy measured on decoded texels (Ec
- * against `orig`, Es over the seam points), rounds them to RGB565, then searches every
- * block's selectors and +-1 endpoint steps for lower exact energy, and repeats `iterations`
- * times; the
- * state of lowest exact energy (exact truncating decoder) is kept, so the result is never
- * worse than the input blocks. blocks[f] holds face f's level-0 blocks (ceil(fw/4) x
- * ceil(fh/4), row-major) or NULL for a face that is not block-coded (a constant face: its
- * texel is taken from `target`). Blocks using selector 3 in 3-colour mode (transparent
- * texels) are left alone. orig / target: global RGBA8 (st_seam_gather_rgba8 layout).
- * stats (may be NULL) gets the energy before and after and the number of blocks solved.
- * progress (may be NULL) is called from the calling thread with 0..1 as rounds complete. */
+ * The blocks touched by a seam tap are the variables of E = Ec + alpha Es measured on their
+ * exactly decoded texels (Ec against `orig`, Es over the seam points). Each round: with the
+ * selectors fixed, one bounded least-squares solve of all their endpoints together, rounded
+ * to RGB565; then block-coordinate descent (two sweeps): with the other blocks fixed a
+ * block's share of E is a quadratic in its 16 texels; candidates (the block as it is, the HQ
+ * encoding of that quadratic's optimum) are polished (endpoints solved for the selectors and
+ * rounded floor/ceil per channel to the best, selectors re-chosen) and the lowest is kept
+ * when it lowers E. `iterations` rounds (<= 0: 3). rms_goal > 0: while the result's seam
+ * RMS (per channel, as st_seam_rms_rgba8) is above rms_goal, alpha is raised 1.2x and one
+ * more round runs from there, at most 8 times, stopping early when two raises in a row
+ * lowered the RMS by less than 2% each (st_bc1_compress_set passes 1.1 x the masked texture's RMS: BC1 should
+ * not add much to the seams masking left). The state of lowest
+ * exact energy at the alpha finally used is kept, never worse than the input blocks.
+ * blocks[f] holds face f's level-0 blocks (ceil(fw/4) x ceil(fh/4), row-major) or NULL for
+ * a face that is not block-coded (a constant face: its texel is taken from `target`).
+ * Blocks using selector 3 in 3-colour mode (transparent texels) are left alone; opaque
+ * blocks never get selector 3 in 3-colour mode. orig / target: global RGBA8
+ * (st_seam_gather_rgba8 layout). stats (may be NULL) gets the energy before and after (at
+ * the final alpha), that alpha and the number of blocks solved. progress (may be NULL) is
+ * called from the calling thread with 0..1. */
 typedef struct st_bc1_seam_stats {
     double   e_before, e_after;  /* E = Ec + alpha Es over the touched blocks, 0..255 scale */
+    float    alpha;              /* the seam weight finally used */
     uint32_t nblocks;            /* blocks whose endpoints were variables */
     int      iterations;         /* rounds run */
 } st_bc1_seam_stats;
 
 int st_bc1_seam_solve(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *target,
                       uint8_t *const *blocks, float alpha, float outside_weight, int iterations,
-                      void (*progress)(void *arg, double fraction), void *progress_arg,
-                      const volatile int *cancel, st_bc1_seam_stats *stats, st_error *e);
+                      double rms_goal, void (*progress)(void *arg, double fraction),
+                      void *progress_arg, const volatile int *cancel, st_bc1_seam_stats *stats,
+                      st_error *e);
 
 #endif

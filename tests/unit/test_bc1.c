@@ -7,6 +7,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <math.h>
 #include <string.h>
 #include <unistd.h>
 #include <cmocka.h>
@@ -417,6 +418,31 @@ static void compressing_honours_cancel(void **state)
     volatile int cancel = 1;
     assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, &cancel, &b, &e), ST_ECANCELED);
     assert_null(b);
+    st_set_free(s);
+}
+
+/* Seam options outside their range are refused before any work. */
+static void seam_options_out_of_range_are_refused(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(4, 0), *b = NULL;
+    st_error e;
+    st_bc1_opts o;
+    st_bc1_opts_default(&o);
+    assert_true(o.seam_boost > 0 && o.seam_rms_goal > 0);
+    o.seam_rms_goal = -1;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_EINVAL);
+    assert_null(b);
+    o.seam_rms_goal = NAN;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_EINVAL);
+    st_bc1_opts_default(&o);
+    o.seam_boost = 1e9f;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_EINVAL);
+    /* goal 0 keeps alpha * seam_boost and still works */
+    st_bc1_opts_default(&o);
+    o.seam_rms_goal = 0;
+    assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_OK);
+    st_set_free(b);
     st_set_free(s);
 }
 
@@ -1097,6 +1123,7 @@ int main(void)
         cmocka_unit_test(compressing_a_set_keeps_faces_and_costs_an_eighth),
         cmocka_unit_test(bc1_sets_sample_like_their_decoded_sets),
         cmocka_unit_test(compressing_honours_cancel),
+        cmocka_unit_test(seam_options_out_of_range_are_refused),
         cmocka_unit_test(compressing_rgba_with_holes_gives_punchthrough),
         cmocka_unit_test(dds_round_trips_per_face_sets_with_adjacency),
         cmocka_unit_test(dds_writes_a_single_face_as_a_legacy_dxt1_texture),
