@@ -1,19 +1,14 @@
-/* server/h_upload.c - uploads, DELETE, and loading the data dir at start.
+/* server/h_upload.c - the upload handlers, DELETE, and loading the data dir at start.
  *
- * Owns: the table of unfinished uploads (id -> temp file, running CRC32C), the upload
- * handlers, import of a source file by format (sts_import_path), the data-dir load callback.
- * Does not own: the on-disk commit protocol (store/datadir.c), the registry (store/registry.c),
- * the file readers (store/import.c, ptex_read.c, dds.c).
+ * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format
+ * (sts_import_path), publishing a committed set, the data-dir load callback. Does not own:
+ * the table of uploads and their life (uploads.c), the on-disk commit protocol
+ * (store/datadir.c), the registry (store/registry.c), the file readers (store/import.c).
  *
- * An upload belongs to the connection that began it. When that connection closes, the upload
- * is kept for upload-keep seconds (an "orphan": no connection, its temp file and running
- * CRC32C intact) and UPLOAD_BEGIN with RESUME and the same name, size, CRC32C, hint and
- * options from any connection takes it over and learns how many bytes the server has;
- * orphans older than that are dropped by sts_uploads_sweep (called once a second by the I/O
- * threads); with upload-keep 0 the upload is dropped at once. Chunks must come in order. COMMIT checks
- * size and CRC32C, imports the file (the set is validated before anything is published),
- * commits it to the data dir (fsync + rename, see datadir.h) and only then publishes it in
- * the registry and replies OK. Without a data dir the set lives in memory only.
+ * Chunks must come in order. COMMIT checks size and CRC32C, imports the file (the set is
+ * validated before anything is published), commits it to the data dir (fsync + rename, see
+ * datadir.h) and only then publishes it in the registry and replies OK. Without a data dir
+ * the set lives in memory only. UPLOAD_BEGIN with RESUME takes over a kept upload (uploads.h).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -23,235 +18,9 @@
 #include <unistd.h>
 
 #include "server.h"
+#include "uploads.h"
 #include "import.h"
 #include "ptex.h"
-
-/* An upload's life: HELD by a connection -> (COMMIT) COMMITTING -> DONE, or -> KEPT when its
- * connection closes (upload-keep > 0) -> HELD again by the connection that resumes it, or
- * dropped after upload-keep. DONE keeps the commit's summary for upload-keep seconds so that
- * a client whose connection broke while COMMIT ran learns that it succeeded (RESUME, then
- * COMMIT again, answers the same summary) instead of uploading again. */
-enum { UP_HELD, UP_COMMITTING, UP_KEPT, UP_DONE };
-#define MAX_DONE 16   /* DONE records kept at most (the oldest goes first) */
-
-struct sts_upload {
-    uint64_t    id, conn_id;
-    char        name[ST_NAME_MAX + 1];
-    char        hint[STP_MAX_HINT + 1];      /* as the client sent it (matched on RESUME) */
-    char        fmt[STP_MAX_HINT + 1];       /* the format the file is imported as */
-    char        options[STP_MAX_OPTIONS + 1];
-    uint64_t    total, received;
-    uint32_t    crc_want, crc;
-    uint32_t    flags;
-    int         state;
-    int64_t     since_ms;    /* KEPT: when its connection closed; DONE: when committed */
-    uint64_t    gen;         /* DONE: registry generation of the set it made */
-    stp_upload_done done;    /* DONE: the COMMIT reply */
-    int         fd;
-    char        path[4096];
-    sts_upload *next;
-};
-
-static void upload_free(sts_upload *u)
-{
-    if (u->fd >= 0)
-        close(u->fd);
-    if (u->path[0])
-        unlink(u->path);
-    free(u);
-}
-
-void sts_uploads_free(sts_server *srv)
-{
-    sts_upload *u = srv->uploads.list;
-    while (u) {
-        sts_upload *n = u->next;
-        upload_free(u);
-        u = n;
-    }
-    srv->uploads.list = NULL;
-    srv->uploads.n = 0;
-}
-
-/* Unlinks the records `doomed` picks (called under the lock, in list order, newest first);
- * the caller frees them outside the lock. uploads.n counts the records that are not DONE. */
-static sts_upload *unlink_uploads(sts_server *srv, int (*doomed)(sts_upload *, void *), void *arg)
-{
-    sts_upload *drop = NULL;
-    pthread_mutex_lock(&srv->uploads.mu);
-    for (sts_upload **pp = &srv->uploads.list; *pp;) {
-        sts_upload *u = *pp;
-        if (doomed(u, arg)) {
-            *pp = u->next;
-            if (u->state != UP_DONE)
-                srv->uploads.n--;
-            u->next = drop;
-            drop = u;
-        } else {
-            pp = &u->next;
-        }
-    }
-    pthread_mutex_unlock(&srv->uploads.mu);
-    return drop;
-}
-
-static void free_uploads(sts_upload *u)
-{
-    while (u) {
-        sts_upload *n = u->next;
-        upload_free(u);
-        u = n;
-    }
-}
-
-typedef struct sweep_arg {
-    uint64_t conn_id;
-    int64_t  now, keep_ms;
-    int      ndone;
-} sweep_arg;
-
-/* A closing connection's held uploads become KEPT, or are dropped when upload-keep is 0. An
- * upload in COMMITTING finishes on its worker whatever happens to the connection. */
-static int held_by_conn(sts_upload *u, void *arg)
-{
-    sweep_arg *a = arg;
-    if (u->conn_id != a->conn_id || u->state != UP_HELD)
-        return 0;
-    if (a->keep_ms <= 0)
-        return 1;
-    u->state = UP_KEPT;
-    u->since_ms = a->now;
-    return 0;
-}
-
-static int expired(sts_upload *u, void *arg)
-{
-    sweep_arg *a = arg;
-    if (u->state == UP_DONE && ++a->ndone > MAX_DONE)
-        return 1;
-    return (u->state == UP_KEPT || u->state == UP_DONE) &&
-           (a->keep_ms <= 0 || a->now - u->since_ms >= a->keep_ms);
-}
-
-void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id)
-{
-    sweep_arg a = {conn_id, sts_now_ms(), (int64_t)STS_LIVE(srv, upload_keep) * 1000, 0};
-    free_uploads(unlink_uploads(srv, held_by_conn, &a));
-}
-
-void sts_uploads_sweep(sts_server *srv, int64_t now_ms)
-{
-    sweep_arg a = {0, now_ms, (int64_t)STS_LIVE(srv, upload_keep) * 1000, 0};
-    sts_upload *gone = unlink_uploads(srv, expired, &a);
-    for (sts_upload *u = gone; u; u = u->next) {
-        if (u->state != UP_KEPT)
-            continue;
-        STS_STAT_ADD(srv, uploads_expired, 1);
-        sts_logf(&srv->log, STS_INFO, "unfinished upload of '%s' (%llu of %llu bytes) dropped "
-                 "after upload-keep", u->name, (unsigned long long)u->received,
-                 (unsigned long long)u->total);
-    }
-    free_uploads(gone);
-}
-
-/* UPLOAD_BEGIN with RESUME: finds the record of the same name, size, CRC32C, hint and options
- * and gives it to conn_id: a KEPT upload becomes HELD again; a DONE one is lent so that COMMIT
- * can repeat its reply. Copies what the reply needs into *id / *received; returns 1 when
- * found, 0 when none matches, -1 when a match is HELD by another live connection or still
- * COMMITTING (the caller answers BUSY). */
-static int adopt_upload(sts_server *srv, const stp_upload_begin *rq, uint64_t conn_id,
-                        uint64_t *id, uint64_t *received)
-{
-    int found = 0;
-    pthread_mutex_lock(&srv->uploads.mu);
-    for (sts_upload *u = srv->uploads.list; u; u = u->next) {
-        if (strcmp(u->name, rq->name) || u->total != rq->total_size || u->crc_want != rq->crc32c ||
-            strcmp(u->hint, rq->hint) || strcmp(u->options, rq->options))
-            continue;
-        if (u->state == UP_HELD || u->state == UP_COMMITTING) {
-            found = -1;
-            continue;
-        }
-        if (u->state == UP_DONE) {  /* only while its set is still the one it made */
-            st_setref *ref = NULL;
-            uint64_t gen = st_registry_get(srv->reg, u->name, &ref, NULL) == 0 ? ref->gen : 0;
-            st_setref_release(ref);
-            if (gen != u->gen)
-                continue;
-        }
-        if (u->state == UP_KEPT) {
-            u->state = UP_HELD;
-            u->flags = rq->flags & ~(uint32_t)STP_UF_RESUME;
-        }
-        u->conn_id = conn_id;
-        *id = u->id;
-        *received = u->received;
-        found = 1;
-        break;
-    }
-    pthread_mutex_unlock(&srv->uploads.mu);
-    return found;
-}
-
-/* Finds the caller's HELD upload. take 0: leaves it; take 1: removes it from the table
- * (ABORT); take 2: marks it COMMITTING (COMMIT; finish_commit ends that). A DONE record the
- * caller took over with RESUME is returned by take 2 as it is (its COMMIT reply is repeated). */
-static sts_upload *find_upload(sts_server *srv, uint64_t id, uint64_t conn_id, int take)
-{
-    pthread_mutex_lock(&srv->uploads.mu);
-    sts_upload *found = NULL;
-    for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next) {
-        sts_upload *u = *pp;
-        if (u->id != id || u->conn_id != conn_id)
-            continue;
-        if (u->state == UP_DONE && take == 2) {
-            found = u;
-        } else if (u->state == UP_HELD) {
-            found = u;
-            if (take == 1) {
-                *pp = u->next;
-                srv->uploads.n--;
-            } else if (take == 2) {
-                u->state = UP_COMMITTING;
-            }
-        }
-        break;
-    }
-    pthread_mutex_unlock(&srv->uploads.mu);
-    return found;
-}
-
-/* Ends a COMMITTING upload: dropped when it failed; DONE with its reply when it made a set. */
-static void finish_commit(sts_server *srv, sts_upload *u, const stp_upload_done *done)
-{
-    pthread_mutex_lock(&srv->uploads.mu);
-    int keep = done && STS_LIVE(srv, upload_keep) > 0;
-    if (keep) {
-        st_setref *ref = NULL;
-        if (st_registry_get(srv->reg, u->name, &ref, NULL) == 0) {
-            u->gen = ref->gen;
-            st_setref_release(ref);
-        }
-        u->done = *done;
-        u->state = UP_DONE;
-        u->since_ms = sts_now_ms();
-        u->conn_id = 0;
-        srv->uploads.n--;
-        if (u->path[0])
-            unlink(u->path);  /* without a data dir the file is not needed once imported */
-        u->path[0] = 0;
-    } else {
-        for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next)
-            if (*pp == u) {
-                *pp = u->next;
-                srv->uploads.n--;
-                break;
-            }
-    }
-    pthread_mutex_unlock(&srv->uploads.mu);
-    if (!keep)
-        upload_free(u);
-}
 
 /* ---- importing --------------------------------------------------------------------------- */
 
@@ -440,7 +209,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     }
     if (rq.flags & STP_UF_RESUME) {
         uint64_t id = 0, received = 0;
-        int found = adopt_upload(srv, &rq, c->conn->id, &id, &received);
+        int found = sts_uploads_adopt(srv, &rq, c->conn->id, &id, &received);
         if (found > 0) {
             STS_STAT_ADD(srv, uploads_resumed, 1);
             sts_logf(&srv->log, STS_INFO, "upload of '%s' resumed at %llu of %llu bytes%s", rq.name,
@@ -492,40 +261,14 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     }
     if (rc) {
         u->path[0] = 0;
-        upload_free(u);
+        sts_upload_free(u);
         sts_reply_st(out, h, rc, e.msg);
         return 0;
     }
-    pthread_mutex_lock(&srv->uploads.mu);
-    sts_upload *evicted = NULL;
-    if (srv->uploads.n >= STS_LIVE(srv, max_uploads)) {
-        /* full: a live upload goes before the oldest one kept for resume */
-        sts_upload **oldest = NULL;
-        for (sts_upload **pp = &srv->uploads.list; *pp; pp = &(*pp)->next)
-            if ((*pp)->state == UP_KEPT && (!oldest || (*pp)->since_ms < (*oldest)->since_ms))
-                oldest = pp;
-        if (oldest) {
-            evicted = *oldest;
-            *oldest = evicted->next;
-            srv->uploads.n--;
-        }
-    }
-    if (srv->uploads.n >= STS_LIVE(srv, max_uploads)) {
-        pthread_mutex_unlock(&srv->uploads.mu);
-        upload_free(u);
+    if (sts_uploads_insert(srv, u) != 0) {
+        sts_upload_free(u);
         sts_reply_error(out, h, STP_S_BUSY, "too many uploads in progress (max-uploads)");
         return 0;
-    }
-    u->id = ++srv->uploads.next_id;
-    u->next = srv->uploads.list;
-    srv->uploads.list = u;
-    srv->uploads.n++;
-    pthread_mutex_unlock(&srv->uploads.mu);
-    if (evicted) {
-        STS_STAT_ADD(srv, uploads_expired, 1);
-        sts_logf(&srv->log, STS_INFO, "kept upload of '%s' dropped for a new one (max-uploads)",
-                 evicted->name);
-        upload_free(evicted);
     }
     STS_STAT_ADD(srv, uploads_begun, 1);
     stp_upload_begin_reply r = {u->id, 0, STP_DEFAULT_MAX_CHUNK};
@@ -541,7 +284,7 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     if (st)
         return sts_reply_bad(out, h, st, why);
     /* only this connection uses the upload, and its requests run one at a time */
-    sts_upload *u = find_upload(c->srv, rq.upload_id, c->conn->id, 0);
+    sts_upload *u = sts_uploads_find(c->srv, rq.upload_id, c->conn->id, 0);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
         return 0;
@@ -586,12 +329,12 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    sts_upload *u = find_upload(srv, id, c->conn->id, 2);
+    sts_upload *u = sts_uploads_find(srv, id, c->conn->id, 2);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
         return 0;
     }
-    if (u->state == UP_DONE) {  /* committed before, its reply lost: the same reply again */
+    if (u->state == STS_UP_DONE) {  /* committed before, its reply lost: the same reply again */
         stp_upload_done again = u->done;
         stp_enc_upload_done(out, h->reqid, &again);
         return 0;
@@ -692,12 +435,12 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     sts_logf(&srv->log, STS_INFO, "set '%s' %s from a %llu-byte .%s upload (%u faces, %llu bytes "
              "in memory)", done.name, pa.replaced ? "replaced" : "created",
              (unsigned long long)u->total, u->fmt, done.nfaces, (unsigned long long)done.memory);
-    finish_commit(srv, u, &done);
+    sts_uploads_finish_commit(srv, u, &done);
     stp_enc_upload_done(out, h->reqid, &done);
     return 0;
 fail:
     STS_STAT_ADD(srv, uploads_failed, 1);
-    finish_commit(srv, u, NULL);
+    sts_uploads_finish_commit(srv, u, NULL);
     return 0;
 }
 
@@ -708,12 +451,12 @@ int sts_h_upload_abort(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    sts_upload *u = find_upload(c->srv, id, c->conn->id, 1);
+    sts_upload *u = sts_uploads_find(c->srv, id, c->conn->id, 1);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
         return 0;
     }
-    upload_free(u);
+    sts_upload_free(u);
     stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
     return 0;
 }
@@ -725,20 +468,10 @@ int sts_h_upload_status(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    /* the caller's own upload, or an orphan (kept for resume): copied under the lock, since
-     * the sweep may drop an orphan at any time */
-    sts_server *srv = c->srv;
+    /* the caller's own upload, or one kept for resume (copied under the table's lock: the
+     * sweep may drop a kept upload at any time) */
     stp_upload_progress p = {0, 0};
-    int found = 0;
-    pthread_mutex_lock(&srv->uploads.mu);
-    for (sts_upload *u = srv->uploads.list; u; u = u->next)
-        if (u->id == id && (u->state == UP_KEPT || (u->state != UP_DONE && u->conn_id == c->conn->id))) {
-            p.received = u->received;
-            p.total = u->total;
-            found = 1;
-            break;
-        }
-    pthread_mutex_unlock(&srv->uploads.mu);
+    int found = sts_uploads_progress(c->srv, id, c->conn->id, &p);
     if (!found) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection or kept for resume");
         return 0;

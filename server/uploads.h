@@ -1,0 +1,72 @@
+/* server/uploads.h - the table of uploads and their life (private to the server).
+ *
+ * Owns: struct sts_upload and its states; finding, adopting (RESUME), keeping, sweeping and
+ * dropping uploads. Does not own: the handlers that fill an upload (h_upload.c), the data dir.
+ *
+ * Locking: srv->uploads.mu guards the list, the states and uploads.n (the records that are
+ * not DONE). A HELD upload is used without the lock by the one connection that holds it (its
+ * requests run one at a time); a COMMITTING one by the worker running its COMMIT; KEPT and
+ * DONE records are touched only under the lock, since the sweep may drop them at any time.
+ *
+ * Ownership: records are allocated by the UPLOAD_BEGIN handler and owned by the table once
+ * inserted; sts_upload_free closes the temp file and removes it.
+ */
+#ifndef STS_UPLOADS_H
+#define STS_UPLOADS_H
+
+#include "server.h"
+
+/* An upload's life: HELD by a connection -> (COMMIT) COMMITTING -> DONE, or -> KEPT when its
+ * connection closes (upload-keep > 0) -> HELD again by the connection that resumes it, or
+ * dropped after upload-keep. DONE keeps the commit's summary for upload-keep seconds so that
+ * a client whose connection broke while COMMIT ran learns that it succeeded (RESUME, then
+ * COMMIT again, answers the same summary) instead of uploading again. */
+enum { STS_UP_HELD, STS_UP_COMMITTING, STS_UP_KEPT, STS_UP_DONE };
+#define MAX_DONE 16   /* DONE records kept at most (the oldest goes first) */
+
+struct sts_upload {
+    uint64_t    id, conn_id;
+    char        name[ST_NAME_MAX + 1];
+    char        hint[STP_MAX_HINT + 1];      /* as the client sent it (matched on RESUME) */
+    char        fmt[STP_MAX_HINT + 1];       /* the format the file is imported as */
+    char        options[STP_MAX_OPTIONS + 1];
+    uint64_t    total, received;
+    uint32_t    crc_want, crc;
+    uint32_t    flags;
+    int         state;
+    int64_t     since_ms;    /* KEPT: when its connection closed; DONE: when committed */
+    uint64_t    gen;         /* DONE: registry generation of the set it made */
+    stp_upload_done done;    /* DONE: the COMMIT reply */
+    int         fd;
+    char        path[4096];
+    sts_upload *next;
+};
+
+/* Closes the temp file, removes it (path non-empty) and frees the record. */
+void sts_upload_free(sts_upload *u);
+
+/* Adds a new HELD record and gives it an id. When the table is full the oldest KEPT upload
+ * is dropped to make room; returns -1 (nothing added) when it is full of live uploads. */
+int sts_uploads_insert(sts_server *srv, sts_upload *u);
+
+/* UPLOAD_BEGIN with RESUME: finds the record of the same name, size, CRC32C, hint and options
+ * and gives it to conn_id: a KEPT upload becomes HELD again; a DONE one is lent so that COMMIT
+ * can repeat its reply (only while its set is still the one it made). Copies what the reply
+ * needs into *id / *received; returns 1 when found, 0 when none matches, -1 when a match is
+ * HELD by another live connection or still COMMITTING (the caller answers BUSY). */
+int sts_uploads_adopt(sts_server *srv, const stp_upload_begin *rq, uint64_t conn_id,
+                      uint64_t *id, uint64_t *received);
+
+/* Finds the caller's HELD upload. take 0: leaves it; take 1: removes it from the table
+ * (ABORT); take 2: marks it COMMITTING (COMMIT; sts_uploads_finish_commit ends that). A DONE
+ * record the caller took over with RESUME is returned by take 2 as it is. */
+sts_upload *sts_uploads_find(sts_server *srv, uint64_t id, uint64_t conn_id, int take);
+
+/* Ends a COMMITTING upload: dropped when it failed (done NULL); DONE with its reply when it
+ * made a set and upload-keep > 0. */
+void sts_uploads_finish_commit(sts_server *srv, sts_upload *u, const stp_upload_done *done);
+
+/* UPLOAD_STATUS: the progress of the caller's own upload or of a KEPT one; 1 when found. */
+int sts_uploads_progress(sts_server *srv, uint64_t id, uint64_t conn_id, stp_upload_progress *p);
+
+#endif
