@@ -193,7 +193,9 @@ int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv)
 static const char *const COMPRESS_USAGE =
 "usage: seamtex compress SET TARGET [--level 0..9] [--naive] [--replace] [--no-wait]\n"
 "BC1-compresses SET into a new set TARGET on the server, seam-aware by default (--naive\n"
-"encodes every block alone), shows the job's progress and a report.\n";
+"encodes every block alone), shows the job's progress and a report.\n"
+"  --level N          0..9: seamtexd uses its fast encoder for 0-4, high quality for 5-7\n"
+"                     (default 5), best for 8-9\n";
 
 static uint64_t now_ns(void)
 {

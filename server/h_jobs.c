@@ -141,7 +141,8 @@ static void run_job(sts_server *srv, sts_job *j)
     int rc;
     st_bc1_opts o;
     st_bc1_opts_default(&o);
-    o.level = j->level >= 5 ? ST_BC1_HQ : ST_BC1_FAST;
+    /* wire levels 0..9: 0-4 FAST, 5-7 HQ (the CLI's default 5), 8-9 BEST (PROTOCOL.md 4.9) */
+    o.level = j->level >= 8 ? ST_BC1_BEST : j->level >= 5 ? ST_BC1_HQ : ST_BC1_FAST;
     o.seam_mode = (j->flags & STP_CF_SEAM_AWARE) ? ST_BC1_SEAM_AWARE : ST_BC1_SEAM_NONE;
     o.threads = 1;
     st_set *bc1 = NULL;
