@@ -106,6 +106,34 @@ static inline uint16_t round565(float r, float g, float b)
 /* Exact palette as floats: pal[k][j] (channel-major); four = 4-colour mode. */
 static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4])
 {
+#ifdef __SSE2__
+    /* the same values four lanes (r, g, b, -) at a time: bit replication by shifts (the
+     * 6-bit green lane blended in), the thirds by the product with the float nearest 1/3
+     * truncated (exact for every pair of 8-bit values, checked exhaustively), then a
+     * transpose to the channel-major layout */
+    __m128i q0 = _mm_set_epi32(0, c0 & 31, (c0 >> 5) & 63, c0 >> 11);
+    __m128i q1 = _mm_set_epi32(0, c1 & 31, (c1 >> 5) & 63, c1 >> 11);
+    const __m128i g6 = _mm_set_epi32(0, 0, -1, 0);
+    __m128i x0 = _mm_or_si128(
+        _mm_andnot_si128(g6, _mm_or_si128(_mm_slli_epi32(q0, 3), _mm_srli_epi32(q0, 2))),
+        _mm_and_si128(g6, _mm_or_si128(_mm_slli_epi32(q0, 2), _mm_srli_epi32(q0, 4))));
+    __m128i x1 = _mm_or_si128(
+        _mm_andnot_si128(g6, _mm_or_si128(_mm_slli_epi32(q1, 3), _mm_srli_epi32(q1, 2))),
+        _mm_and_si128(g6, _mm_or_si128(_mm_slli_epi32(q1, 2), _mm_srli_epi32(q1, 4))));
+    __m128 fa = _mm_cvtepi32_ps(x0), fb = _mm_cvtepi32_ps(x1), f2, f3;
+    if (four) {
+        const __m128 third = _mm_set1_ps(1.0f / 3.0f);
+        f2 = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_add_ps(_mm_add_ps(fa, fa), fb), third)));
+        f3 = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_add_ps(_mm_add_ps(fb, fb), fa), third)));
+    } else {
+        f2 = _mm_cvtepi32_ps(_mm_srai_epi32(_mm_add_epi32(x0, x1), 1));
+        f3 = _mm_set1_ps(2000.0f); /* never chosen: far from 0..255 */
+    }
+    _MM_TRANSPOSE4_PS(fa, fb, f2, f3);
+    _mm_storeu_ps(pal[0], fa);
+    _mm_storeu_ps(pal[1], fb);
+    _mm_storeu_ps(pal[2], f2);
+#else
     uint8_t e0[3], e1[3];
     st_bc1_565_to_rgb8(c0, e0);
     st_bc1_565_to_rgb8(c1, e1);
@@ -121,6 +149,7 @@ static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4]
             pal[k][3] = 2000.0f; /* never chosen: far from 0..255 */
         }
     }
+#endif
 }
 
 /* Picks selectors for (c0, c1) in the mode implied by their order and returns the squared
@@ -440,6 +469,7 @@ static void refine_exact(const blk *B, const uint8_t *sel, int four, const float
  * of the range moved inwards at both ends. */
 typedef struct axis {
     float m[3], v[3], len2, lo, hi;
+    float var;            /* weighted sum of squared distances to the mean (trace of C) */
     float tot[4];         /* sums of w, w r, w g, w b */
 } axis;
 
@@ -595,6 +625,7 @@ static void axis_compute(const blk *B, axis *A)
         A->v[k] = v[k];
     }
     A->len2 = len2;
+    A->var = tr;
     A->lo = lo;
     A->hi = hi;
 }
@@ -610,6 +641,21 @@ static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
     }
 }
 
+#ifndef NB_PRUNE
+#define NB_PRUNE 0
+#endif
+#ifndef EASY
+#define EASY 0
+#endif
+#ifndef EASY2
+#define EASY2 0
+#endif
+#ifndef RAD0
+#define RAD0 4
+#endif
+#ifndef RAD1
+#define RAD1 4
+#endif
 /* The neighbourhood search moves one channel of one endpoint by +-1, so the squared distance
  * of texel i to palette entry j changes only in that channel's term. For the current pair,
  * other[k][j][i] = 4 * (distance without channel k); a move in channel k then costs one
@@ -650,41 +696,110 @@ static void nbase_fill(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
     }
 }
 
+#if ST_BC1_AVX2
+/* nbase_fill eight texels at a time (the same values). */
+__attribute__((target("avx2"))) static void nbase_fill_avx2(const blk *B, uint16_t c0,
+                                                             uint16_t c1, nbase *N)
+{
+    float pal[3][4];
+    palette_f(c0, c1, c0 > c1, pal);
+    const __m256 four = _mm256_set1_ps(4.0f);
+    for (int h = 0; h < 16; h += 8) {
+        __m256 r = _mm256_loadu_ps(B->r + h), g = _mm256_loadu_ps(B->g + h),
+               b = _mm256_loadu_ps(B->b + h);
+        for (int j = 0; j < 4; j++) {
+            __m256 dr = _mm256_sub_ps(r, _mm256_set1_ps(pal[0][j]));
+            __m256 dg = _mm256_sub_ps(g, _mm256_set1_ps(pal[1][j]));
+            __m256 db = _mm256_sub_ps(b, _mm256_set1_ps(pal[2][j]));
+            dr = _mm256_mul_ps(dr, dr);
+            dg = _mm256_mul_ps(dg, dg);
+            db = _mm256_mul_ps(db, db);
+            _mm256_storeu_ps(N->other[0][j] + h, _mm256_mul_ps(_mm256_add_ps(dg, db), four));
+            _mm256_storeu_ps(N->other[1][j] + h, _mm256_mul_ps(_mm256_add_ps(dr, db), four));
+            _mm256_storeu_ps(N->other[2][j] + h, _mm256_mul_ps(_mm256_add_ps(dr, dg), four));
+        }
+    }
+}
+#endif
+
 /* The errors of four pairs whose palettes differ from the base's only in channel k, where
- * they are pk[m][0..3]. Sums in the order of select_sse (lane l: texels l, 4+l, 8+l, 12+l). */
-static void moves_eval(const blk *B, const nbase *N, int k, const float pk[4][4], float err[4])
+ * move m has the entries p2[j][m] / 2 (column layout: p2[j] holds entry j of the four moves,
+ * doubled). Moves 0 and 1 change endpoint 0 only (entry 1 is the same for both), moves 2 and
+ * 3 endpoint 1 only (entry 0 the same): those terms are computed once. Sums in the order of
+ * select_sse (lane l: texels l, 4+l, 8+l, 12+l, then (l0 + l2) + (l1 + l3)), the four moves
+ * reduced together by a transpose. `three`: 3-colour palettes, whose entry 3 is never chosen
+ * and is left out; `unit`: every weight is 1 (the multiplication is left out). The bodies are
+ * inlined with constant m, three and unit. */
+#ifdef __SSE2__
+__attribute__((always_inline)) static inline __m128
+move_key_sse(__m128 x2, __m128 o0, __m128 o1, __m128 o2, __m128 o3, __m128 keep0, __m128 keep1,
+             const float p2[4][4], int m, int three)
+{
+    __m128 tm = _mm_sub_ps(x2, _mm_set1_ps(m < 2 ? p2[0][m] : p2[1][m]));
+    __m128 own = _mm_add_ps(m < 2 ? o0 : o1, _mm_mul_ps(tm, tm));
+    __m128 t2 = _mm_sub_ps(x2, _mm_set1_ps(p2[2][m]));
+    __m128 key = _mm_min_ps(m < 2 ? _mm_min_ps(own, keep1) : _mm_min_ps(keep0, own),
+                            _mm_add_ps(o2, _mm_mul_ps(t2, t2)));
+    if (!three) {
+        __m128 t3 = _mm_sub_ps(x2, _mm_set1_ps(p2[3][m]));
+        key = _mm_min_ps(key, _mm_add_ps(o3, _mm_mul_ps(t3, t3)));
+    }
+    return key;
+}
+
+__attribute__((always_inline)) static inline void
+moves_body_sse(const blk *B, const nbase *N, int k, const float p2[4][4], int three, int unit,
+               float err[4])
 {
     const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
-#ifdef __SSE2__
     const __m128 two = _mm_set1_ps(2.0f);
-    __m128 acc[4];
-    for (int m = 0; m < 4; m++)
-        acc[m] = _mm_setzero_ps();
+    __m128 a0 = _mm_setzero_ps(), a1 = a0, a2 = a0, a3 = a0;
     for (int g = 0; g < 16; g += 4) {
         __m128 x2 = _mm_mul_ps(_mm_loadu_ps(x + g), two), w = _mm_loadu_ps(B->w + g);
         __m128 o0 = _mm_loadu_ps(N->other[k][0] + g), o1 = _mm_loadu_ps(N->other[k][1] + g),
                o2 = _mm_loadu_ps(N->other[k][2] + g), o3 = _mm_loadu_ps(N->other[k][3] + g);
-        for (int m = 0; m < 4; m++) {
-            __m128 t0 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][0]));
-            __m128 t1 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][1]));
-            __m128 t2 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][2]));
-            __m128 t3 = _mm_sub_ps(x2, _mm_set1_ps(2.0f * pk[m][3]));
-            __m128 key = _mm_min_ps(_mm_add_ps(o0, _mm_mul_ps(t0, t0)),
-                                    _mm_add_ps(o1, _mm_mul_ps(t1, t1)));
-            key = _mm_min_ps(key, _mm_min_ps(_mm_add_ps(o2, _mm_mul_ps(t2, t2)),
-                                             _mm_add_ps(o3, _mm_mul_ps(t3, t3))));
-            acc[m] = _mm_add_ps(acc[m], _mm_mul_ps(key, w));
-        }
+        __m128 t = _mm_sub_ps(x2, _mm_set1_ps(p2[1][0]));
+        __m128 keep1 = _mm_add_ps(o1, _mm_mul_ps(t, t)); /* entry 1 of moves 0, 1 */
+        t = _mm_sub_ps(x2, _mm_set1_ps(p2[0][2]));
+        __m128 keep0 = _mm_add_ps(o0, _mm_mul_ps(t, t)); /* entry 0 of moves 2, 3 */
+        __m128 k0 = move_key_sse(x2, o0, o1, o2, o3, keep0, keep1, p2, 0, three);
+        __m128 k1 = move_key_sse(x2, o0, o1, o2, o3, keep0, keep1, p2, 1, three);
+        __m128 k2 = move_key_sse(x2, o0, o1, o2, o3, keep0, keep1, p2, 2, three);
+        __m128 k3 = move_key_sse(x2, o0, o1, o2, o3, keep0, keep1, p2, 3, three);
+        a0 = _mm_add_ps(a0, unit ? k0 : _mm_mul_ps(k0, w));
+        a1 = _mm_add_ps(a1, unit ? k1 : _mm_mul_ps(k1, w));
+        a2 = _mm_add_ps(a2, unit ? k2 : _mm_mul_ps(k2, w));
+        a3 = _mm_add_ps(a3, unit ? k3 : _mm_mul_ps(k3, w));
     }
-    for (int m = 0; m < 4; m++)
-        err[m] = hsum(acc[m]) * 0.25f;
+    _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
+    __m128 e = _mm_add_ps(_mm_add_ps(a0, a2), _mm_add_ps(a1, a3));
+    _mm_storeu_ps(err, _mm_mul_ps(e, _mm_set1_ps(0.25f)));
+}
+#endif
+
+static void moves_eval(const blk *B, const nbase *N, int k, const float p2[4][4], int three,
+                       float err[4])
+{
+#ifdef __SSE2__
+    if (three) {
+        if (B->unit)
+            moves_body_sse(B, N, k, p2, 1, 1, err);
+        else
+            moves_body_sse(B, N, k, p2, 1, 0, err);
+    } else {
+        if (B->unit)
+            moves_body_sse(B, N, k, p2, 0, 1, err);
+        else
+            moves_body_sse(B, N, k, p2, 0, 0, err);
+    }
 #else
+    const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
     for (int m = 0; m < 4; m++) {
         float e = 0;
         for (int i = 0; i < 16; i++) {
             float best = 3e30f;
-            for (int j = 0; j < 4; j++) {
-                float t = 2.0f * x[i] - 2.0f * pk[m][j];
+            for (int j = 0; j < 4 - three; j++) {
+                float t = x[i] * 2.0f - p2[j][m];
                 float v = N->other[k][j][i] + t * t;
                 best = v < best ? v : best;
             }
@@ -697,37 +812,134 @@ static void moves_eval(const blk *B, const nbase *N, int k, const float pk[4][4]
 
 #if ST_BC1_AVX2
 /* moves_eval eight texels at a time: the same keys and the same sums. */
-__attribute__((target("avx2"))) static void moves_eval_avx2(const blk *B, const nbase *N, int k,
-                                                             const float pk[4][4], float err[4])
+__attribute__((target("avx2"), always_inline)) static inline __m256
+move_key_avx2(__m256 x2, __m256 o0, __m256 o1, __m256 o2, __m256 o3, __m256 keep0, __m256 keep1,
+              const float p2[4][4], int m, int three)
+{
+    __m256 tm = _mm256_sub_ps(x2, _mm256_broadcast_ss(m < 2 ? &p2[0][m] : &p2[1][m]));
+    __m256 own = _mm256_add_ps(m < 2 ? o0 : o1, _mm256_mul_ps(tm, tm));
+    __m256 t2 = _mm256_sub_ps(x2, _mm256_broadcast_ss(&p2[2][m]));
+    __m256 key = _mm256_min_ps(m < 2 ? _mm256_min_ps(own, keep1) : _mm256_min_ps(keep0, own),
+                               _mm256_add_ps(o2, _mm256_mul_ps(t2, t2)));
+    if (!three) {
+        __m256 t3 = _mm256_sub_ps(x2, _mm256_broadcast_ss(&p2[3][m]));
+        key = _mm256_min_ps(key, _mm256_add_ps(o3, _mm256_mul_ps(t3, t3)));
+    }
+    return key;
+}
+
+__attribute__((target("avx2"), always_inline)) static inline __m128
+moves_half_avx2(__m256 a)
+{
+    return _mm_add_ps(_mm256_castps256_ps128(a), _mm256_extractf128_ps(a, 1));
+}
+
+__attribute__((target("avx2"), always_inline)) static inline void
+moves_body_avx2(const blk *B, const nbase *N, int k, const float p2[4][4], int three, int unit,
+                float err[4])
 {
     const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
     const __m256 two = _mm256_set1_ps(2.0f);
-    __m256 part[4][2];
+    __m128 s[4];
     for (int h = 0; h < 2; h++) {
         int g = 8 * h;
         __m256 x2 = _mm256_mul_ps(_mm256_loadu_ps(x + g), two), w = _mm256_loadu_ps(B->w + g);
         __m256 o0 = _mm256_loadu_ps(N->other[k][0] + g), o1 = _mm256_loadu_ps(N->other[k][1] + g),
                o2 = _mm256_loadu_ps(N->other[k][2] + g), o3 = _mm256_loadu_ps(N->other[k][3] + g);
-        for (int m = 0; m < 4; m++) {
-            __m256 t0 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][0]));
-            __m256 t1 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][1]));
-            __m256 t2 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][2]));
-            __m256 t3 = _mm256_sub_ps(x2, _mm256_set1_ps(2.0f * pk[m][3]));
-            __m256 key = _mm256_min_ps(_mm256_add_ps(o0, _mm256_mul_ps(t0, t0)),
-                                       _mm256_add_ps(o1, _mm256_mul_ps(t1, t1)));
-            key = _mm256_min_ps(key, _mm256_min_ps(_mm256_add_ps(o2, _mm256_mul_ps(t2, t2)),
-                                                   _mm256_add_ps(o3, _mm256_mul_ps(t3, t3))));
-            part[m][h] = _mm256_mul_ps(key, w);
+        __m256 t = _mm256_sub_ps(x2, _mm256_broadcast_ss(&p2[1][0]));
+        __m256 keep1 = _mm256_add_ps(o1, _mm256_mul_ps(t, t));
+        t = _mm256_sub_ps(x2, _mm256_broadcast_ss(&p2[0][2]));
+        __m256 keep0 = _mm256_add_ps(o0, _mm256_mul_ps(t, t));
+        __m256 k0 = move_key_avx2(x2, o0, o1, o2, o3, keep0, keep1, p2, 0, three);
+        __m256 k1 = move_key_avx2(x2, o0, o1, o2, o3, keep0, keep1, p2, 1, three);
+        __m256 k2 = move_key_avx2(x2, o0, o1, o2, o3, keep0, keep1, p2, 2, three);
+        __m256 k3 = move_key_avx2(x2, o0, o1, o2, o3, keep0, keep1, p2, 3, three);
+        if (!unit) {
+            k0 = _mm256_mul_ps(k0, w);
+            k1 = _mm256_mul_ps(k1, w);
+            k2 = _mm256_mul_ps(k2, w);
+            k3 = _mm256_mul_ps(k3, w);
+        }
+        /* lane l of a half: texels g + l and g + 4 + l, added to the first half's in the
+         * order of select_sse: ((t_l + t_4+l) + t_8+l) + t_12+l */
+        if (h == 0) {
+            s[0] = moves_half_avx2(k0);
+            s[1] = moves_half_avx2(k1);
+            s[2] = moves_half_avx2(k2);
+            s[3] = moves_half_avx2(k3);
+        } else {
+            s[0] = _mm_add_ps(_mm_add_ps(s[0], _mm256_castps256_ps128(k0)), _mm256_extractf128_ps(k0, 1));
+            s[1] = _mm_add_ps(_mm_add_ps(s[1], _mm256_castps256_ps128(k1)), _mm256_extractf128_ps(k1, 1));
+            s[2] = _mm_add_ps(_mm_add_ps(s[2], _mm256_castps256_ps128(k2)), _mm256_extractf128_ps(k2, 1));
+            s[3] = _mm_add_ps(_mm_add_ps(s[3], _mm256_castps256_ps128(k3)), _mm256_extractf128_ps(k3, 1));
         }
     }
-    for (int m = 0; m < 4; m++)
-        err[m] = sum16_avx2(part[m][0], part[m][1]) * 0.25f;
+    _MM_TRANSPOSE4_PS(s[0], s[1], s[2], s[3]);
+    __m128 e = _mm_add_ps(_mm_add_ps(s[0], s[2]), _mm_add_ps(s[1], s[3]));
+    _mm_storeu_ps(err, _mm_mul_ps(e, _mm_set1_ps(0.25f)));
+}
+
+__attribute__((target("avx2"))) static void moves_eval_avx2(const blk *B, const nbase *N, int k,
+                                                             const float p2[4][4], int three,
+                                                             float err[4])
+{
+    if (three) {
+        if (B->unit)
+            moves_body_avx2(B, N, k, p2, 1, 1, err);
+        else
+            moves_body_avx2(B, N, k, p2, 1, 0, err);
+    } else {
+        if (B->unit)
+            moves_body_avx2(B, N, k, p2, 0, 1, err);
+        else
+            moves_body_avx2(B, N, k, p2, 0, 0, err);
+    }
 }
 #endif
 
-static inline int expand565(int q, int bits)
+/* The doubled palettes of channel k for the four moves m (0: q0 - 1, 1: q0 + 1, 2: q1 - 1,
+ * 3: q1 + 1; out-of-range values give garbage that the caller ignores), column layout. */
+static void moves_palette(int q0, int q1, int bits, int four, float p2[4][4])
 {
-    return bits == 5 ? (q << 3) | (q >> 2) : (q << 2) | (q >> 4);
+#ifdef __SSE2__
+    __m128i qa = _mm_add_epi32(_mm_set1_epi32(q0), _mm_set_epi32(0, 0, 1, -1));
+    __m128i qb = _mm_add_epi32(_mm_set1_epi32(q1), _mm_set_epi32(1, -1, 0, 0));
+    __m128i ea, eb;
+    if (bits == 5) {
+        ea = _mm_or_si128(_mm_slli_epi32(qa, 3), _mm_srai_epi32(qa, 2));
+        eb = _mm_or_si128(_mm_slli_epi32(qb, 3), _mm_srai_epi32(qb, 2));
+    } else {
+        ea = _mm_or_si128(_mm_slli_epi32(qa, 2), _mm_srai_epi32(qa, 4));
+        eb = _mm_or_si128(_mm_slli_epi32(qb, 2), _mm_srai_epi32(qb, 4));
+    }
+    __m128 fa = _mm_cvtepi32_ps(ea), fb = _mm_cvtepi32_ps(eb), two = _mm_set1_ps(2.0f);
+    __m128 f2, f3;
+    if (four) {
+        /* (2a + b) / 3 truncated: the product by the float nearest 1/3 (slightly above) stays
+         * within 1e-5 of the quotient for these small integers, so truncation is exact */
+        const __m128 third = _mm_set1_ps(1.0f / 3.0f);
+        f2 = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_add_ps(_mm_add_ps(fa, fa), fb), third)));
+        f3 = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_add_ps(_mm_add_ps(fb, fb), fa), third)));
+    } else {
+        f2 = _mm_cvtepi32_ps(_mm_srai_epi32(_mm_add_epi32(ea, eb), 1));
+        f3 = _mm_set1_ps(1000.0f);
+    }
+    _mm_storeu_ps(p2[0], _mm_mul_ps(fa, two));
+    _mm_storeu_ps(p2[1], _mm_mul_ps(fb, two));
+    _mm_storeu_ps(p2[2], _mm_mul_ps(f2, two));
+    _mm_storeu_ps(p2[3], _mm_mul_ps(f3, two));
+#else
+    int qa[4] = {q0 - 1, q0 + 1, q0, q0}, qb[4] = {q1, q1, q1 - 1, q1 + 1};
+    for (int m = 0; m < 4; m++) {
+        int a = qa[m] < 0 ? 0 : qa[m], b = qb[m] < 0 ? 0 : qb[m];
+        int ea = bits == 5 ? (a << 3) | (a >> 2) : (a << 2) | (a >> 4);
+        int eb = bits == 5 ? (b << 3) | (b >> 2) : (b << 2) | (b >> 4);
+        p2[0][m] = 2.0f * (float)ea;
+        p2[1][m] = 2.0f * (float)eb;
+        p2[2][m] = 2.0f * (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2);
+        p2[3][m] = four ? 2.0f * (float)((ea + 2 * eb) / 3) : 2000.0f;
+    }
+#endif
 }
 
 /* Steepest-descent +-1 search over the six 565 components of the best pair, in its own mode:
@@ -743,46 +955,48 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
 #endif
     uint16_t c0 = best->c0, c1 = best->c1;
     float err = best->err;
-    int moved = 0;
+    int moved = 0, alive = 7;
     for (int r = 0; r < rounds; r++) {
         nbase N;
-        nbase_fill(B, c0, c1, &N);
+#if ST_BC1_AVX2
+        if (avx2)
+            nbase_fill_avx2(B, c0, c1, &N);
+        else
+#endif
+            nbase_fill(B, c0, c1, &N);
         float lim = err;
-        int win = -1;
+        int win = -1, live = 0;
         for (int k = 0; k < 3; k++) {
-            int bits = k == 1 ? 6 : 5, q0 = (c0 >> sh[k]) & mx[k], q1 = (c1 >> sh[k]) & mx[k];
-            /* moves m: 0: q0 - 1, 1: q0 + 1, 2: q1 - 1, 3: q1 + 1 (clamped; out of range ones
-             * are skipped below) */
-            int qa[4] = {q0 - 1, q0 + 1, q0, q0}, qb[4] = {q1, q1, q1 - 1, q1 + 1};
-            float pk[4][4], e[4];
-            for (int m = 0; m < 4; m++) {
-                int ea = expand565(clampi(qa[m], 0, mx[k]), bits);
-                int eb = expand565(clampi(qb[m], 0, mx[k]), bits);
-                /* the palette as a set does not depend on the order of the pair */
-                pk[m][0] = (float)ea;
-                pk[m][1] = (float)eb;
-                pk[m][2] = (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2);
-                pk[m][3] = four ? (float)((ea + 2 * eb) / 3) : 2000.0f;
-            }
+            if (NB_PRUNE && r > 0 && !(alive >> k & 1))
+                continue;
+            int q0 = (c0 >> sh[k]) & mx[k], q1 = (c1 >> sh[k]) & mx[k];
+            float p2[4][4], e[4];
+            moves_palette(q0, q1, k == 1 ? 6 : 5, four, p2);
 #if ST_BC1_AVX2
             if (avx2)
-                moves_eval_avx2(B, &N, k, pk, e);
+                moves_eval_avx2(B, &N, k, p2, !four, e);
             else
 #endif
-                moves_eval(B, &N, k, pk, e);
-            /* a 4-colour move must not make the pair equal (that decodes in 3-colour mode) */
-            int rest_equal = ((c0 ^ c1) & ~(mx[k] << sh[k])) == 0;
+                moves_eval(B, &N, k, p2, !four, e);
+            /* moves out of range, and 4-colour moves that make the pair equal (it would
+             * decode in 3-colour mode), do not count */
+            int rest_equal = four && ((c0 ^ c1) & ~(mx[k] << sh[k])) == 0;
+            int ok[4] = {q0 > 0 && !(rest_equal && q0 - 1 == q1),
+                         q0 < mx[k] && !(rest_equal && q0 + 1 == q1),
+                         q1 > 0 && !(rest_equal && q1 - 1 == q0),
+                         q1 < mx[k] && !(rest_equal && q1 + 1 == q0)};
             for (int m = 0; m < 4; m++) {
-                int q = m < 2 ? qa[m] : qb[m];
-                if (q < 0 || q > mx[k] || !(e[m] < lim) ||
-                    (four && rest_equal && qa[m] == qb[m]))
-                    continue;
-                lim = e[m];
-                win = 4 * k + m;
+                if (ok[m] && e[m] < err)
+                    live |= 1 << k;
+                if (ok[m] && e[m] < lim) {
+                    lim = e[m];
+                    win = 4 * k + m;
+                }
             }
         }
         if (win < 0)
             break;
+        alive = live;
         int k = win >> 2, m = win & 3, e = m >> 1;
         uint16_t c[2] = {c0, c1};
         int q = ((c[e] >> sh[k]) & mx[k]) + (m & 1 ? 1 : -1);
@@ -811,6 +1025,12 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
 #ifndef HQ_N3
 #define HQ_N3 1.3f
 #endif
+#ifndef HQ_ROUNDS3
+#define HQ_ROUNDS3 3
+#endif
+#ifndef HQ_FIT3
+#define HQ_FIT3 1
+#endif
 #ifndef HQ_CLUSTER
 #define HQ_CLUSTER 4
 #endif
@@ -831,14 +1051,16 @@ typedef struct profile {
     int   proj;         /* FAST: least-squares rounds on projected selectors (0 = the exact
                            rounds above) */
     int   proj_final;   /* FAST: the last selection by projection too (no palette distance) */
+    int   fit3;         /* blocks of weight 1: the 3-colour trial starts from the 3-colour
+                           cluster fit and runs this many rounds (0: from the axis) */
 } profile;
 
 static const profile PROFILES[3] = {
     /* ST_BC1_FAST: round, projected selectors, least squares, round, projected selectors */
     {.inset = 1.0f / 16, .rounds = 2, .inset2 = -1, .proj = 1, .proj_final = 1},
     /* ST_BC1_HQ: cluster splits within +-4, one neighbourhood pass */
-    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = HQ_NEIGH, .rounds3 = 3, .neigh3 = HQ_NEIGH3,
-     .r3ratio = HQ_R3, .n3ratio = HQ_N3, .inset2 = -1, .cluster = HQ_CLUSTER},
+    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = HQ_NEIGH, .rounds3 = HQ_ROUNDS3, .neigh3 = HQ_NEIGH3,
+     .r3ratio = HQ_R3, .n3ratio = HQ_N3, .inset2 = -1, .cluster = HQ_CLUSTER, .fit3 = HQ_FIT3},
     /* ST_BC1_BEST: every split */
     {.inset = 1.0f / 16, .rounds = 4, .neigh = 8, .rounds3 = 3, .neigh3 = 4, .r3ratio = 1e30f,
      .n3ratio = 1e30f, .inset2 = 0.125f, .cluster = 16},
@@ -972,18 +1194,19 @@ static inline void split_row_sse(const float *pr, const float *pg, const float *
                                  __m128i *bidx)
 {
     const __m128i lane = _mm_set_epi32(3, 2, 1, 0), four = _mm_set1_epi32(4);
-    __m128 Xr = _mm_set1_ps(pr[i0] + pr[i1]), Xg = _mm_set1_ps(pg[i0] + pg[i1]),
-           Xb = _mm_set1_ps(pb[i0] + pb[i1]);
+    __m128 Ar = _mm_set1_ps(pr[i0]), Ag = _mm_set1_ps(pg[i0]), Ab = _mm_set1_ps(pb[i0]);
+    __m128 Br = _mm_set1_ps(pr[i1]), Bg = _mm_set1_ps(pg[i1]), Bb = _mm_set1_ps(pb[i1]);
     const float *row = st_bc1_split_invd[i0][i1];
     for (int c = first;; c += 8) {
         int s = c < last ? c : last;
         __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 289 + i1 * 17 + s), lane);
         for (int h = 0; h < 8; h += 4) {
-            __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(pr + s + h));
+            /* X = (P_i0 + P_i2) + P_i1 */
+            __m128 X = _mm_add_ps(_mm_add_ps(Ar, _mm_loadu_ps(pr + s + h)), Br);
             __m128 num = _mm_mul_ps(X, X);
-            X = _mm_add_ps(Xg, _mm_loadu_ps(pg + s + h));
+            X = _mm_add_ps(_mm_add_ps(Ag, _mm_loadu_ps(pg + s + h)), Bg);
             num = _mm_add_ps(num, _mm_mul_ps(X, X));
-            X = _mm_add_ps(Xb, _mm_loadu_ps(pb + s + h));
+            X = _mm_add_ps(_mm_add_ps(Ab, _mm_loadu_ps(pb + s + h)), Bb);
             num = _mm_add_ps(num, _mm_mul_ps(X, X));
             __m128 g = _mm_mul_ps(num, _mm_loadu_ps(row + s + h));
             __m128 m = _mm_cmpgt_ps(g, *bestv);
@@ -1040,16 +1263,16 @@ split_row_avx2(const float *pr, const float *pg, const float *pb, int i0, int i1
                const int hi[3], int first, int last, __m256 *bestv, __m256 *bidx)
 {
     const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
-    __m256 Xr = _mm256_set1_ps(pr[i0] + pr[i1]), Xg = _mm256_set1_ps(pg[i0] + pg[i1]),
-           Xb = _mm256_set1_ps(pb[i0] + pb[i1]);
+    __m256 Ar = _mm256_set1_ps(pr[i0]), Ag = _mm256_set1_ps(pg[i0]), Ab = _mm256_set1_ps(pb[i0]);
+    __m256 Br = _mm256_set1_ps(pr[i1]), Bg = _mm256_set1_ps(pg[i1]), Bb = _mm256_set1_ps(pb[i1]);
     const float *row = st_bc1_split_invd[i0][i1];
     for (int c = first;; c += 8) {
         int s = c < last ? c : last;
-        __m256 X = _mm256_add_ps(Xr, _mm256_loadu_ps(pr + s));
+        __m256 X = _mm256_add_ps(_mm256_add_ps(Ar, _mm256_loadu_ps(pr + s)), Br);
         __m256 num = _mm256_mul_ps(X, X);
-        X = _mm256_add_ps(Xg, _mm256_loadu_ps(pg + s));
+        X = _mm256_add_ps(_mm256_add_ps(Ag, _mm256_loadu_ps(pg + s)), Bg);
         num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
-        X = _mm256_add_ps(Xb, _mm256_loadu_ps(pb + s));
+        X = _mm256_add_ps(_mm256_add_ps(Ab, _mm256_loadu_ps(pb + s)), Bb);
         num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
         __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(row + s));
         __m256 idx = _mm256_castsi256_ps(
@@ -1069,6 +1292,45 @@ split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, const int
     __m256 v0 = _mm256_setzero_ps(), v1 = v0;
     __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
     int last = hi[2] - 7 < 0 ? 0 : hi[2] - 7;
+    if (last == lo[2]) {
+        /* one chunk of eight i2 at lo[2] for every (i0, i1) (the HQ window): the chunk's
+         * prefix sums are loaded once; the same scores and order as the general loop */
+        const int s = lo[2];
+        const __m256 Pr = _mm256_loadu_ps(pr + s), Pg = _mm256_loadu_ps(pg + s),
+                     Pb = _mm256_loadu_ps(pb + s);
+        const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0),
+                      step = _mm256_set1_epi32(17);
+        for (int i0 = lo[0]; i0 <= hi[0]; i0++) {
+            int i1 = i0 > lo[1] ? i0 : lo[1], end = hi[1] < hi[2] ? hi[1] : hi[2];
+            __m256i idx = _mm256_add_epi32(_mm256_set1_epi32(i0 * 289 + i1 * 17 + s), lane);
+            /* X = (P_i0 + P_i2) + P_i1: the chunk part of the sum once per i0 */
+            const __m256 Qr = _mm256_add_ps(_mm256_set1_ps(pr[i0]), Pr),
+                         Qg = _mm256_add_ps(_mm256_set1_ps(pg[i0]), Pg),
+                         Qb = _mm256_add_ps(_mm256_set1_ps(pb[i0]), Pb);
+            const float *row = st_bc1_split_invd[i0][0] + s;
+            for (; i1 <= end; i1++) {
+                __m256 X = _mm256_add_ps(Qr, _mm256_broadcast_ss(pr + i1));
+                __m256 num = _mm256_mul_ps(X, X);
+                X = _mm256_add_ps(Qg, _mm256_broadcast_ss(pg + i1));
+                num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+                X = _mm256_add_ps(Qb, _mm256_broadcast_ss(pb + i1));
+                num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+                __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(row + 17 * i1));
+                /* any spread of the splits over the two accumulators gives the same result */
+                if (i1 & 1) {
+                    __m256 m = _mm256_cmp_ps(g, v1, _CMP_GT_OQ);
+                    v1 = _mm256_blendv_ps(v1, g, m);
+                    x1 = _mm256_blendv_ps(x1, _mm256_castsi256_ps(idx), m);
+                } else {
+                    __m256 m = _mm256_cmp_ps(g, v0, _CMP_GT_OQ);
+                    v0 = _mm256_blendv_ps(v0, g, m);
+                    x0 = _mm256_blendv_ps(x0, _mm256_castsi256_ps(idx), m);
+                }
+                idx = _mm256_add_epi32(idx, step);
+            }
+        }
+        goto fold;
+    }
     for (int i0 = lo[0]; i0 <= hi[0]; i0++) {
         int i1 = i0 > lo[1] ? i0 : lo[1], end = hi[1] < hi[2] ? hi[1] : hi[2];
         for (; i1 + 1 <= end; i1 += 2) {
@@ -1079,6 +1341,7 @@ split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, const int
         if (i1 <= end)
             split_row_avx2(pr, pg, pb, i0, i1, hi, i1 > lo[2] ? i1 : lo[2], last, &v0, &x0);
     }
+fold:;
     /* the four 128-bit halves by the merge rule: the two accumulators, then upper into lower */
     __m128 a = _mm256_castps256_ps128(v0);
     __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
@@ -1096,8 +1359,15 @@ split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, const int
 /* Cluster fit (4-colour): the texels sorted along the axis, every ordered split into four
  * runs (c0, 2/3 c0 + 1/3 c1, 1/3 c0 + 2/3 c1, c1), the least-squares endpoints of each split
  * from prefix sums, the split of least continuous error wins. */
-static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int hi[3], float e0[3],
-                       float e1[3])
+/* The block's texels ranked along the axis (descending projection) and the prefix sums of
+ * weight and weighted colour in that order, the colours taken relative to their mean (the fits
+ * are translation invariant, the sums stay small and P_16 = 0); padded to 24: the vector
+ * loops read up to 7 past 16. */
+typedef struct sorted {
+    float pw[24], pr[24], pg[24], pb[24];
+} sorted;
+
+static void sort_prefix(const blk *B, const axis *A, sorted *S)
 {
     float proj[16];
     int ord[16];
@@ -1129,10 +1399,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         ord[j + 1] = k;
     }
 #endif
-    /* prefix sums of weight and weighted colour, the colours taken relative to their mean
-     * (the fit is translation invariant, the sums stay small and P_16 = 0); padded: the
-     * vector loops read up to 7 past 16 */
-    float pw[24], pr[24], pg[24], pb[24];
+    float *pw = S->pw, *pr = S->pr, *pg = S->pg, *pb = S->pb;
     pw[0] = pr[0] = pg[0] = pb[0] = 0;
     for (int i = 0; i < 16; i++) {
         int k = ord[i];
@@ -1148,6 +1415,16 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         pg[i] = pg[16];
         pb[i] = pb[16];
     }
+}
+
+#ifdef __SSE2__
+static int split_merge(__m128 bv, __m128i bix);
+#endif
+
+static int cluster_fit(const blk *B, const axis *A, const sorted *S, const int lo[3],
+                       const int hi[3], float e0[3], float e1[3])
+{
+    const float *pw = S->pw, *pr = S->pr, *pg = S->pg, *pb = S->pb;
     float best = -1e30f;
     int b0 = -1, b1 = -1, b2 = -1;
 #ifdef __SSE2__
@@ -1160,17 +1437,7 @@ static int cluster_fit(const blk *B, const axis *A, const int lo[3], const int h
         else
 #endif
             split_scan_tab_sse(pr, pg, pb, lo, hi, &bv, &bix);
-        float gs[4];
-        int32_t is[4];
-        _mm_storeu_ps(gs, bv);
-        _mm_storeu_si128((__m128i *)is, bix);
-        int bi = -1;
-        float bg = 0;
-        for (int l = 0; l < 4; l++)
-            if (is[l] >= 0 && (gs[l] > bg || (gs[l] == bg && (bi < 0 || is[l] < bi)))) {
-                bg = gs[l];
-                bi = is[l];
-            }
+        int bi = split_merge(bv, bix);
         if (bi >= 0) {
             b0 = bi / 289;
             b1 = bi / 17 % 17;
@@ -1319,6 +1586,150 @@ solve:;
     }
     return found;
 }
+
+/* 3-colour cluster fit (blocks of 16 texels of weight 1): the ranked texels split at
+ * i0 <= i1 into the runs c0, (c0 + c1) / 2 and c1. With X = (P_i0 + P_i1) / 2 (Y = -X) the
+ * least-squares score is W |X|^2 / D, so |P_i0 + P_i1|^2 / Dint is compared, 1 / Dint from
+ * the generated table (-1 where the split does not count). Every one of the 153 splits is
+ * tried: i1 in chunks of eight from i0 (a lane past 16 reads the table's -1 padding). Two
+ * accumulators (even and odd i0); per lane the first of the best scores, merged by best score
+ * and lowest index as in the 4-colour scan. */
+#ifdef __SSE2__
+static inline void split3_row_sse(const float *pr, const float *pg, const float *pb, int i0,
+                                  __m128 *bestv, __m128i *bidx)
+{
+    const __m128i lane = _mm_set_epi32(3, 2, 1, 0);
+    __m128 Xr = _mm_set1_ps(pr[i0]), Xg = _mm_set1_ps(pg[i0]), Xb = _mm_set1_ps(pb[i0]);
+    for (int c = i0; c <= 16; c += 4) {
+        __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(pr + c));
+        __m128 num = _mm_mul_ps(X, X);
+        X = _mm_add_ps(Xg, _mm_loadu_ps(pg + c));
+        num = _mm_add_ps(num, _mm_mul_ps(X, X));
+        X = _mm_add_ps(Xb, _mm_loadu_ps(pb + c));
+        num = _mm_add_ps(num, _mm_mul_ps(X, X));
+        __m128 g = _mm_mul_ps(num, _mm_loadu_ps(st_bc1_split3_invd[i0] + c));
+        __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 17 + c), lane);
+        __m128 m = _mm_cmpgt_ps(g, *bestv);
+        *bestv = _mm_or_ps(_mm_and_ps(m, g), _mm_andnot_ps(m, *bestv));
+        __m128i mi = _mm_castps_si128(m);
+        *bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, *bidx));
+    }
+}
+
+static void split3_scan_sse(const float *pr, const float *pg, const float *pb, __m128 *best4,
+                            __m128i *idx4)
+{
+    __m128 v0 = _mm_setzero_ps(), v1 = v0;
+    __m128i x0 = _mm_set1_epi32(-1), x1 = x0;
+    for (int i0 = 0; i0 < 16; i0 += 2) {
+        split3_row_sse(pr, pg, pb, i0, &v0, &x0);
+        split3_row_sse(pr, pg, pb, i0 + 1, &v1, &x1);
+    }
+    split3_row_sse(pr, pg, pb, 16, &v0, &x0);
+    split_pick_sse(&v0, &x0, v1, x1);
+    *best4 = v0;
+    *idx4 = x0;
+}
+#endif
+
+#if ST_BC1_AVX2
+__attribute__((target("avx2"), always_inline)) static inline void
+split3_row_avx2(const float *pr, const float *pg, const float *pb, int i0, __m256 *bestv,
+                __m256 *bidx)
+{
+    const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
+    __m256 Xr = _mm256_set1_ps(pr[i0]), Xg = _mm256_set1_ps(pg[i0]), Xb = _mm256_set1_ps(pb[i0]);
+    for (int c = i0; c <= 16; c += 8) {
+        __m256 X = _mm256_add_ps(Xr, _mm256_loadu_ps(pr + c));
+        __m256 num = _mm256_mul_ps(X, X);
+        X = _mm256_add_ps(Xg, _mm256_loadu_ps(pg + c));
+        num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+        X = _mm256_add_ps(Xb, _mm256_loadu_ps(pb + c));
+        num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+        __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(st_bc1_split3_invd[i0] + c));
+        __m256 idx = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_set1_epi32(i0 * 17 + c), lane));
+        __m256 m = _mm256_cmp_ps(g, *bestv, _CMP_GT_OQ);
+        *bestv = _mm256_blendv_ps(*bestv, g, m);
+        *bidx = _mm256_blendv_ps(*bidx, idx, m);
+    }
+}
+
+__attribute__((target("avx2"))) static void split3_scan_avx2(const float *pr, const float *pg,
+                                                              const float *pb, __m128 *best4,
+                                                              __m128i *idx4)
+{
+    __m256 v0 = _mm256_setzero_ps(), v1 = v0;
+    __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
+    for (int i0 = 0; i0 < 16; i0 += 2) {
+        split3_row_avx2(pr, pg, pb, i0, &v0, &x0);
+        split3_row_avx2(pr, pg, pb, i0 + 1, &v1, &x1);
+    }
+    split3_row_avx2(pr, pg, pb, 16, &v0, &x0);
+    __m128 a = _mm256_castps256_ps128(v0);
+    __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
+    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
+                   _mm_castps_si128(_mm256_extractf128_ps(x0, 1)));
+    split_pick_sse(&a, &ai, _mm256_castps256_ps128(v1),
+                   _mm_castps_si128(_mm256_castps256_ps128(x1)));
+    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v1, 1),
+                   _mm_castps_si128(_mm256_extractf128_ps(x1, 1)));
+    *best4 = a;
+    *idx4 = ai;
+}
+#endif
+
+#ifdef __SSE2__
+/* The best lane of a scan's four (best score, lowest index on a tie); -1 when none. */
+static int split_merge(__m128 bv, __m128i bix)
+{
+    float gs[4];
+    int32_t is[4];
+    _mm_storeu_ps(gs, bv);
+    _mm_storeu_si128((__m128i *)is, bix);
+    int bi = -1;
+    float bg = 0;
+    for (int l = 0; l < 4; l++)
+        if (is[l] >= 0 && (gs[l] > bg || (gs[l] == bg && (bi < 0 || is[l] < bi)))) {
+            bg = gs[l];
+            bi = is[l];
+        }
+    return bi;
+}
+
+/* 3-colour endpoints (e0 for selector 0, e1 for selector 1) of the best split; 0 if none. */
+static int cluster_fit3(const axis *A, const sorted *S, float e0[3], float e1[3], float *cont)
+{
+    __m128 bv;
+    __m128i bix;
+#if ST_BC1_AVX2
+    if (__builtin_cpu_supports("avx2"))
+        split3_scan_avx2(S->pr, S->pg, S->pb, &bv, &bix);
+    else
+#endif
+        split3_scan_sse(S->pr, S->pg, S->pb, &bv, &bix);
+    int bi = split_merge(bv, bix);
+    if (bi < 0)
+        return 0;
+    int i0 = bi / 17, i1 = bi % 17;
+    {
+        /* the continuous least-squares error of the split: var - 64 |P_i0 + P_i1|^2 / Dint */
+        float xr = S->pr[i0] + S->pr[i1], xg = S->pg[i0] + S->pg[i1], xb = S->pb[i0] + S->pb[i1];
+        *cont = A->var - 64.0f * (xr * xr + xg * xg + xb * xb) * st_bc1_split3_invd[i0][i1];
+    }
+    float n0 = S->pw[i0], n1 = S->pw[i1] - S->pw[i0], n2 = S->pw[16] - S->pw[i1];
+    float AA = n0 + 0.25f * n1, BB = 0.25f * n1, CC = n2 + 0.25f * n1;
+    float inv = 1.0f / (AA * CC - BB * BB);
+    const float *ps[3] = {S->pr, S->pg, S->pb};
+    for (int k = 0; k < 3; k++) {
+        const float *q = ps[k];
+        float X = q[i0] + 0.5f * (q[i1] - q[i0]), Y = 0.5f * (q[i1] - q[i0]) + (q[16] - q[i1]);
+        float a = (CC * X - BB * Y) * inv + A->m[k], b = (AA * Y - BB * X) * inv + A->m[k];
+        e0[k] = a < 0 ? 0 : a > 255 ? 255 : a;
+        e1[k] = b < 0 ? 0 : b > 255 ? 255 : b;
+    }
+    return 1;
+}
+#endif
 
 /* Rounds of round -> select -> least squares from (e0, e1), 4-colour. */
 static void rounds4(const blk *B, const profile *P, const axis *A, float e0[3], float e1[3],
@@ -1479,6 +1890,8 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
     best.err = 3e30f;
     float e0[3], e1[3];
     axis A;
+    sorted S;
+    int have_sorted = 0;
     axis_compute(B, &A);
     if (four_ok && P->proj) {
         encode_fast4(B, P, &A, &best);
@@ -1491,6 +1904,10 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         else
             axis_endpoints(&A, P->inset, e0, e1);
         rounds4(B, P, &A, e0, e1, &best);
+        if (P->seed && best.err <= EASY) {
+            *out = best;
+            return;
+        }
         if (P->inset2 >= 0 && best.err > 0) {
             axis_endpoints(&A, P->inset2, e0, e1);
             rounds4(B, P, &A, e0, e1, &best);
@@ -1505,8 +1922,9 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 sp[0] = 4, sp[1] = 8, sp[2] = 12;
             int lo[3], hi[3];
             for (int k = 0; k < 2; k++) {
-                lo[k] = sp[k] - P->cluster < 0 ? 0 : sp[k] - P->cluster;
-                hi[k] = sp[k] + P->cluster > 16 ? 16 : sp[k] + P->cluster;
+                int rad = P->cluster == 4 ? (k == 0 ? RAD0 : RAD1) : P->cluster;
+                lo[k] = sp[k] - rad < 0 ? 0 : sp[k] - rad;
+                hi[k] = sp[k] + rad > 16 ? 16 : sp[k] + rad;
             }
             /* i2: a window of 2 * cluster (at least 8, at most 17) from sp - cluster, slid
              * inside 0..16: one chunk of eight for the table scan at cluster 4 */
@@ -1517,8 +1935,14 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 hi[2] = 16;
                 lo[2] = 17 - size;
             }
-            if (cluster_fit(B, &A, lo, hi, e0, e1))
+            sort_prefix(B, &A, &S);
+            have_sorted = 1;
+            if (cluster_fit(B, &A, &S, lo, hi, e0, e1))
                 rounds4(B, P, &A, e0, e1, &best);
+        }
+        if (P->seed && best.err <= EASY2) {
+            *out = best;
+            return;
         }
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
@@ -1527,8 +1951,21 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         cand b3;
         b3.err = 3e30f;
         float f0[3], f1[3];
-        axis_endpoints(&A, 0.0f, f0, f1);
         int rounds = P->rounds3 ? P->rounds3 : 3;
+#ifdef __SSE2__
+        if (B->unit && P->fit3) {
+            /* the 3-colour cluster fit along the same ranking, then as below */
+            if (!have_sorted)
+                sort_prefix(B, &A, &S);
+            float cont = 0;
+            rounds = P->fit3;
+            if (!cluster_fit3(&A, &S, f0, f1, &cont))
+                axis_endpoints(&A, 0.0f, f0, f1);
+            else if (four_ok && (FORCE3 || !(cont < best.err)))
+                rounds = 0; /* even the unquantised 3-colour fit is not better */
+        } else
+#endif
+            axis_endpoints(&A, 0.0f, f0, f1);
         for (int it = 0; it < rounds; it++) {
             uint16_t a = round565(f0[0], f0[1], f0[2]), b = round565(f1[0], f1[1], f1[2]);
             float before = b3.err;
@@ -1537,7 +1974,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 break;
             if (it == 0 && four_ok && b3.err > best.err * P->r3ratio)
                 break; /* hopeless from the start */
-            if (!ls_endpoints(B, b3.sel, 0, A.tot, f0, f1))
+            if (it + 1 == rounds || !ls_endpoints(B, b3.sel, 0, A.tot, f0, f1))
                 break;
             if (P->radius) {
                 uint16_t a2, b2;
@@ -1546,7 +1983,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             }
         }
         /* the search moves the error by a few per cent: a trial far behind is not refined */
-        if (P->neigh3 && !(b3.err > best.err * P->n3ratio))
+        if (P->neigh3 && b3.err < 1e30f && !(b3.err > best.err * P->n3ratio))
             neighbourhood(B, &b3, 0, P->neigh3);
         if (b3.err < best.err)
             best = b3;
