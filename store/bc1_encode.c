@@ -1961,7 +1961,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             rounds = P->fit3;
             if (!cluster_fit3(&A, &S, f0, f1, &cont))
                 axis_endpoints(&A, 0.0f, f0, f1);
-            else if (four_ok && (FORCE3 || !(cont < best.err)))
+            else if (four_ok && !(cont < best.err))
                 rounds = 0; /* even the unquantised 3-colour fit is not better */
         } else
 #endif
