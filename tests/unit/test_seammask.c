@@ -18,6 +18,10 @@
 #include "seammask.h"
 #include "../common/testdata.h"
 
+static void assert_no_transparent_selector(const uint8_t *blk, size_t nblocks);
+static double total_energy(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *x,
+                           double alpha);
+
 /* Two 16x16 RGB faces sharing face 0's right edge and face 1's left edge. */
 static st_set *two_faces(uint8_t a, uint8_t b)
 {
@@ -159,22 +163,35 @@ static void seam_aware_bc1_never_raises_the_energy(void **state)
     assert_int_equal(st_seam_gather_rgba8(s, sys, &m, &e), ST_OK);
     assert_int_equal(st_seam_mask_rgba8(sys, 2.0f, 0, m, NULL, &e), ST_OK);
     uint8_t *blocks[2], dec[512 * 4];
-    for (int f = 0; f < 2; f++) {
+    for (int f = 0; f < 2; f++)
         blocks[f] = malloc(16 * 8);
-        assert_int_equal(st_bc1_encode_image(m + 256 * 4 * f, 16, 16, 64, ST_BC1_HQ, 1, blocks[f], &e),
-                         ST_OK);
+    /* at alpha 2 and at alpha 20: E (measured here over every texel) never rises; where the
+     * seams weigh more they end well below plain BC1's (at alpha 2 the solver may trade a
+     * little seam for data error: only E is promised) */
+    const float alphas[2] = {2.0f, 20.0f};
+    for (int k = 0; k < 2; k++) {
+        for (int f = 0; f < 2; f++) {
+            assert_int_equal(st_bc1_encode_image(m + 256 * 4 * f, 16, 16, 64, ST_BC1_HQ, 1,
+                                                 blocks[f], &e), ST_OK);
+            st_bc1_decode_image(blocks[f], 16, 16, ST_BC1_DEC_EXACT, dec + 256 * 4 * f);
+        }
+        double plain = st_seam_rms_rgba8(sys, dec);
+        double e_plain = total_energy(sys, orig, dec, alphas[k]);
+        st_bc1_seam_stats st;
+        assert_int_equal(st_bc1_seam_solve(sys, orig, m, blocks, alphas[k], 0, 3, 0, NULL, NULL,
+                                           NULL, &st, &e), ST_OK);
+        assert_true(st.nblocks == 8); /* 4 edge blocks per face */
+        assert_true(st.e_after <= st.e_before);
+        for (int f = 0; f < 2; f++)
+            st_bc1_decode_image(blocks[f], 16, 16, ST_BC1_DEC_EXACT, dec + 256 * 4 * f);
+        double aware = st_seam_rms_rgba8(sys, dec);
+        double e_aware = total_energy(sys, orig, dec, alphas[k]);
+        print_message("two faces, alpha %.0f: seam RMS plain %.2f, seam-aware %.2f; E %.0f -> %.0f\n",
+                      alphas[k], plain, aware, e_plain, e_aware);
+        assert_true(e_aware <= e_plain + 1e-6 * e_plain);
+        if (k == 1)
+            assert_true(aware < 0.8 * plain);
     }
-    for (int f = 0; f < 2; f++)
-        st_bc1_decode_image(blocks[f], 16, 16, ST_BC1_DEC_EXACT, dec + 256 * 4 * f);
-    double plain = st_seam_rms_rgba8(sys, dec);
-    st_bc1_seam_stats st;
-    assert_int_equal(st_bc1_seam_solve(sys, orig, m, blocks, 2.0f, 0, 3, 0, NULL, NULL, NULL, &st, &e), ST_OK);
-    assert_true(st.nblocks == 8);        /* 4 edge blocks per face */
-    assert_true(st.e_after <= st.e_before);
-    for (int f = 0; f < 2; f++)
-        st_bc1_decode_image(blocks[f], 16, 16, ST_BC1_DEC_EXACT, dec + 256 * 4 * f);
-    double aware = st_seam_rms_rgba8(sys, dec);
-    assert_true(aware <= plain + 1e-9);
     for (int f = 0; f < 2; f++)
         free(blocks[f]);
     free(orig);
@@ -290,7 +307,10 @@ static void duck_seams_drop_with_masking_and_seam_aware_bc1(void **state)
     assert_int_equal(st_bc1_encode_image(mk, 512, 512, 2048, ST_BC1_HQ, 0, blk[0], &e), ST_OK);
     st_bc1_decode_image(blk[0], 512, 512, ST_BC1_DEC_EXACT, dec);
     double plain = st_seam_rms_rgba8(sys, dec);
-    assert_int_equal(st_bc1_seam_solve(sys, orig, mk, blk, 2.0f, 0, 3, 0, NULL, NULL, NULL, NULL, &e), ST_OK);
+    st_bc1_seam_stats st;
+    assert_int_equal(st_bc1_seam_solve(sys, orig, mk, blk, 2.0f, 0, 3, 0, NULL, NULL, NULL, &st, &e), ST_OK);
+    assert_true(st.e_after < st.e_before);
+    assert_no_transparent_selector(blk[0], 128 * 128);
     st_bc1_decode_image(blk[0], 512, 512, ST_BC1_DEC_EXACT, dec);
     double aware = st_seam_rms_rgba8(sys, dec);
     print_message("duck seam RMS: original %.2f, masked %.2f, plain BC1 %.2f, seam-aware %.2f\n",
