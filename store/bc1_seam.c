@@ -9,8 +9,12 @@
  * in the endpoints; it is minimised per channel by Jacobi-preconditioned conjugate gradients
  * with the bounds 0..255 enforced by fixing the variables that leave the range and solving
  * again (the published tool clamped after the solve, which throws much of the gain away),
- * then rounded (not truncated) to 5/6 bits. The energy of every state is measured exactly
- * (truncating decoder) and the best state is kept.
+ * then rounded (not truncated) to 5/6 bits. Then block-coordinate descent: with the other
+ * blocks fixed, a block's share of E is a quadratic in its 16 decoded texels (bquad), so
+ * candidate encodings of one block are compared exactly and cheaply; the block-level moves
+ * change selectors and endpoints together, which the global solve cannot. The energy of
+ * every state is measured exactly (truncating decoder) and the best state is kept. The seam
+ * weight may be raised towards a seam RMS goal (st_bc1_seam_solve).
  */
 #include "bc1.h"
 #include "bc1_texel.h"
