@@ -17,16 +17,23 @@
  *      selector by the exact palette distance -> least squares for those selectors; a cluster
  *      fit (texels ranked along the axis, ordered splits into the four palette runs, the
  *      least-squares score of each split from prefix sums of centred colours; HQ tries the
- *      splits within +-4 of those the best selectors imply, BEST all 969), a greedy +-1
- *      search over the six 565 components of the best pair (a candidate moves one channel, so
- *      only that channel's distance term is recomputed), then a 3-colour trial (c0 <= c1,
- *      selectors 0..2, weights 0, 1/2, 1; HQ drops it early when far behind), kept when its
- *      exact error is lower. Opaque input never gets selector 3 in 3-colour mode, which would
- *      be transparent black.
+ *      splits within +-2 of those the best selectors imply for the first two split points
+ *      and eight values of the third, BEST all 969); a steepest-descent search over the six
+ *      565 components of the best pair (each round measures all twelve +-1 moves from one
+ *      table of per-channel distances and takes the best; HQ at most 4 rounds); then a
+ *      3-colour trial (c0 <= c1, selectors 0..2, weights 0, 1/2, 1) that starts from the
+ *      3-colour cluster fit over all 153 splits of the same ranking, is dropped when even
+ *      that fit's unquantised error is not below the 4-colour error, and gets up to 2 rounds
+ *      of the search (HQ: only when within 10% of the 4-colour error); kept when its exact
+ *      error is lower. Opaque input never gets selector 3 in 3-colour mode, which would be
+ *      transparent black. Blocks of 16 texels of weight 1 (opaque, unweighted: the common
+ *      case) score the splits with the generated 1/determinant tables of bc1_tables.h (no
+ *      division); weighted blocks compute the determinants.
  *   5. a block of one colour uses the generated optimal tables (bc1_tables.h).
  * SSE2 throughout (x86-64 baseline; plain C elsewhere); on CPUs with AVX2 (checked at run
  * time) the hot loops run eight texels / splits at a time with the same arithmetic lane by
- * lane, so the output is byte-identical either way.
+ * lane (and the same order of every sum), so the output is byte-identical either way
+ * (tests/unit/test_bc1_simd.c compiles this file a second time with AVX2 off and compares).
  * Texels with alpha < 128 force 3-colour mode with selector 3 on them.
  */
 #include "bc1.h"
@@ -152,6 +159,24 @@ static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4]
 #endif
 }
 
+#ifdef __SSE2__
+/* The selection constants of a pair, per entry j: kv[0..2][j] = -8 times the entry's r, g, b
+ * and kv[3][j] = 4 |p_j|^2 + j (integers: exact in any order of operations). */
+static inline void palette_keys(uint16_t c0, uint16_t c1, float kv[4][4])
+{
+    float pal[3][4];
+    palette_f(c0, c1, c0 > c1, pal);
+    __m128 R = _mm_loadu_ps(pal[0]), G = _mm_loadu_ps(pal[1]), Bv = _mm_loadu_ps(pal[2]);
+    const __m128 m8 = _mm_set1_ps(-8.0f);
+    _mm_storeu_ps(kv[0], _mm_mul_ps(R, m8));
+    _mm_storeu_ps(kv[1], _mm_mul_ps(G, m8));
+    _mm_storeu_ps(kv[2], _mm_mul_ps(Bv, m8));
+    __m128 n = _mm_add_ps(_mm_add_ps(_mm_mul_ps(R, R), _mm_mul_ps(G, G)), _mm_mul_ps(Bv, Bv));
+    _mm_storeu_ps(kv[3], _mm_add_ps(_mm_mul_ps(n, _mm_set1_ps(4.0f)),
+                                    _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f)));
+}
+#endif
+
 /* Picks selectors for (c0, c1) in the mode implied by their order and returns the squared
  * error. The caller guarantees c0 > c1 for 4-colour and c0 <= c1 for 3-colour. `limit`: the
  * caller only keeps a result below it, so the evaluation may stop as soon as the running
@@ -159,18 +184,17 @@ static inline void palette_f(uint16_t c0, uint16_t c1, int four, float pal[3][4]
 #ifdef __SSE2__
 static float select_sse(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
 {
-    float pal[3][4];
-    palette_f(c0, c1, c0 > c1, pal);
     /* |x - p|^2 = |x|^2 + (|p|^2 - 2 x.p): the minimum of the bracket picks the entry.
      * key = 4 * bracket + selector as a float (integers, |key| < 2^21: exact) gives both,
      * ties going to the lower selector; the unused 3-colour entry is never the minimum. */
+    float kv[4][4];
+    palette_keys(c0, c1, kv);
     __m128 pr[4], pg[4], pb[4], pk[4];
     for (int j = 0; j < 4; j++) {
-        pr[j] = _mm_set1_ps(-8.0f * pal[0][j]);
-        pg[j] = _mm_set1_ps(-8.0f * pal[1][j]);
-        pb[j] = _mm_set1_ps(-8.0f * pal[2][j]);
-        pk[j] = _mm_set1_ps(4.0f * (pal[0][j] * pal[0][j] + pal[1][j] * pal[1][j] +
-                                    pal[2][j] * pal[2][j]) + (float)j);
+        pr[j] = _mm_set1_ps(kv[0][j]);
+        pg[j] = _mm_set1_ps(kv[1][j]);
+        pb[j] = _mm_set1_ps(kv[2][j]);
+        pk[j] = _mm_set1_ps(kv[3][j]);
     }
     const __m128i three = _mm_set1_epi32(3);
     const __m128 quarter = _mm_set1_ps(0.25f);
@@ -250,15 +274,14 @@ __attribute__((target("avx2"))) static float select_avx2(const blk *B, uint16_t 
                                                           uint16_t c1, uint8_t *sel,
                                                           float limit)
 {
-    float pal[3][4];
-    palette_f(c0, c1, c0 > c1, pal);
+    float kv[4][4];
+    palette_keys(c0, c1, kv);
     __m256 pr[4], pg[4], pb[4], pk[4];
     for (int j = 0; j < 4; j++) {
-        pr[j] = _mm256_set1_ps(-8.0f * pal[0][j]);
-        pg[j] = _mm256_set1_ps(-8.0f * pal[1][j]);
-        pb[j] = _mm256_set1_ps(-8.0f * pal[2][j]);
-        pk[j] = _mm256_set1_ps(4.0f * (pal[0][j] * pal[0][j] + pal[1][j] * pal[1][j] +
-                                       pal[2][j] * pal[2][j]) + (float)j);
+        pr[j] = _mm256_broadcast_ss(&kv[0][j]);
+        pg[j] = _mm256_broadcast_ss(&kv[1][j]);
+        pb[j] = _mm256_broadcast_ss(&kv[2][j]);
+        pk[j] = _mm256_broadcast_ss(&kv[3][j]);
     }
     const __m256i three = _mm256_set1_epi32(3);
     const __m256 quarter = _mm256_set1_ps(0.25f);
@@ -280,14 +303,8 @@ __attribute__((target("avx2"))) static float select_avx2(const blk *B, uint16_t 
                                   _mm256_mul_ps(b, b));
         part[h] = _mm256_mul_ps(_mm256_add_ps(x2, bracket), _mm256_loadu_ps(B->w + g));
         store_sel8_avx2(s, sel + g);
-        if (h == 0) {
-            __m128 t = _mm_add_ps(_mm256_castps256_ps128(part[0]),
-                                  _mm256_extractf128_ps(part[0], 1));
-            float e = hsum(t);
-            if (e >= limit)
-                return e;
-        }
     }
+    (void)limit; /* no early exit: the horizontal sum costs more than it saves here */
     return sum16_avx2(part[0], part[1]);
 }
 #endif
@@ -641,21 +658,6 @@ static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
     }
 }
 
-#ifndef NB_PRUNE
-#define NB_PRUNE 0
-#endif
-#ifndef EASY
-#define EASY 0
-#endif
-#ifndef EASY2
-#define EASY2 0
-#endif
-#ifndef RAD0
-#define RAD0 4
-#endif
-#ifndef RAD1
-#define RAD1 4
-#endif
 /* The neighbourhood search moves one channel of one endpoint by +-1, so the squared distance
  * of texel i to palette entry j changes only in that channel's term. For the current pair,
  * other[k][j][i] = 4 * (distance without channel k); a move in channel k then costs one
@@ -955,7 +957,7 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
 #endif
     uint16_t c0 = best->c0, c1 = best->c1;
     float err = best->err;
-    int moved = 0, alive = 7;
+    int moved = 0;
     for (int r = 0; r < rounds; r++) {
         nbase N;
 #if ST_BC1_AVX2
@@ -965,10 +967,8 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
 #endif
             nbase_fill(B, c0, c1, &N);
         float lim = err;
-        int win = -1, live = 0;
+        int win = -1;
         for (int k = 0; k < 3; k++) {
-            if (NB_PRUNE && r > 0 && !(alive >> k & 1))
-                continue;
             int q0 = (c0 >> sh[k]) & mx[k], q1 = (c1 >> sh[k]) & mx[k];
             float p2[4][4], e[4];
             moves_palette(q0, q1, k == 1 ? 6 : 5, four, p2);
@@ -978,6 +978,11 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
             else
 #endif
                 moves_eval(B, &N, k, p2, !four, e);
+            /* most channels have no move below the limit: one comparison of the four */
+#ifdef __SSE2__
+            if (!_mm_movemask_ps(_mm_cmplt_ps(_mm_loadu_ps(e), _mm_set1_ps(lim))))
+                continue;
+#endif
             /* moves out of range, and 4-colour moves that make the pair equal (it would
              * decode in 3-colour mode), do not count */
             int rest_equal = four && ((c0 ^ c1) & ~(mx[k] << sh[k])) == 0;
@@ -985,18 +990,14 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
                          q0 < mx[k] && !(rest_equal && q0 + 1 == q1),
                          q1 > 0 && !(rest_equal && q1 - 1 == q0),
                          q1 < mx[k] && !(rest_equal && q1 + 1 == q0)};
-            for (int m = 0; m < 4; m++) {
-                if (ok[m] && e[m] < err)
-                    live |= 1 << k;
+            for (int m = 0; m < 4; m++)
                 if (ok[m] && e[m] < lim) {
                     lim = e[m];
                     win = 4 * k + m;
                 }
-            }
         }
         if (win < 0)
             break;
-        alive = live;
         int k = win >> 2, m = win & 3, e = m >> 1;
         uint16_t c[2] = {c0, c1};
         int q = ((c[e] >> sh[k]) & mx[k]) + (m & 1 ? 1 : -1);
@@ -1013,27 +1014,6 @@ static void neighbourhood(const blk *B, cand *best, int four, int rounds)
     }
 }
 
-#ifndef HQ_NEIGH
-#define HQ_NEIGH 4
-#endif
-#ifndef HQ_NEIGH3
-#define HQ_NEIGH3 2
-#endif
-#ifndef HQ_R3
-#define HQ_R3 3
-#endif
-#ifndef HQ_N3
-#define HQ_N3 1.3f
-#endif
-#ifndef HQ_ROUNDS3
-#define HQ_ROUNDS3 3
-#endif
-#ifndef HQ_FIT3
-#define HQ_FIT3 1
-#endif
-#ifndef HQ_CLUSTER
-#define HQ_CLUSTER 4
-#endif
 /* What a level does (see the method at the top). */
 typedef struct profile {
     float inset;        /* of the initial axis endpoints */
@@ -1059,11 +1039,11 @@ static const profile PROFILES[3] = {
     /* ST_BC1_FAST: round, projected selectors, least squares, round, projected selectors */
     {.inset = 1.0f / 16, .rounds = 2, .inset2 = -1, .proj = 1, .proj_final = 1},
     /* ST_BC1_HQ: cluster splits within +-4, one neighbourhood pass */
-    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = HQ_NEIGH, .rounds3 = HQ_ROUNDS3, .neigh3 = HQ_NEIGH3,
-     .r3ratio = HQ_R3, .n3ratio = HQ_N3, .inset2 = -1, .cluster = HQ_CLUSTER, .fit3 = HQ_FIT3},
+    {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = 4, .rounds3 = 3, .neigh3 = 2,
+     .r3ratio = 3, .n3ratio = 1.1f, .inset2 = -1, .cluster = 2, .fit3 = 1},
     /* ST_BC1_BEST: every split */
     {.inset = 1.0f / 16, .rounds = 4, .neigh = 8, .rounds3 = 3, .neigh3 = 4, .r3ratio = 1e30f,
-     .n3ratio = 1e30f, .inset2 = 0.125f, .cluster = 16},
+     .n3ratio = 1e30f, .inset2 = 0.125f, .cluster = 16, .fit3 = 2},
 };
 
 /* Encodes the block's opaque colours; four_ok = 0 forces 3-colour mode. */
@@ -1308,26 +1288,30 @@ split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, const int
                          Qg = _mm256_add_ps(_mm256_set1_ps(pg[i0]), Pg),
                          Qb = _mm256_add_ps(_mm256_set1_ps(pb[i0]), Pb);
             const float *row = st_bc1_split_invd[i0][0] + s;
-            for (; i1 <= end; i1++) {
-                __m256 X = _mm256_add_ps(Qr, _mm256_broadcast_ss(pr + i1));
-                __m256 num = _mm256_mul_ps(X, X);
-                X = _mm256_add_ps(Qg, _mm256_broadcast_ss(pg + i1));
-                num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
-                X = _mm256_add_ps(Qb, _mm256_broadcast_ss(pb + i1));
-                num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
-                __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(row + 17 * i1));
-                /* any spread of the splits over the two accumulators gives the same result */
-                if (i1 & 1) {
-                    __m256 m = _mm256_cmp_ps(g, v1, _CMP_GT_OQ);
-                    v1 = _mm256_blendv_ps(v1, g, m);
-                    x1 = _mm256_blendv_ps(x1, _mm256_castsi256_ps(idx), m);
-                } else {
-                    __m256 m = _mm256_cmp_ps(g, v0, _CMP_GT_OQ);
-                    v0 = _mm256_blendv_ps(v0, g, m);
-                    x0 = _mm256_blendv_ps(x0, _mm256_castsi256_ps(idx), m);
-                }
-                idx = _mm256_add_epi32(idx, step);
+            /* two rows per step, one per accumulator (any spread of the splits over the
+             * accumulators gives the same result) */
+#define ST_SPLIT_ROW(I1, V, XI, IDX)                                                       \
+    do {                                                                                   \
+        __m256 X_ = _mm256_add_ps(Qr, _mm256_broadcast_ss(pr + (I1)));                     \
+        __m256 n_ = _mm256_mul_ps(X_, X_);                                                 \
+        X_ = _mm256_add_ps(Qg, _mm256_broadcast_ss(pg + (I1)));                            \
+        n_ = _mm256_add_ps(n_, _mm256_mul_ps(X_, X_));                                     \
+        X_ = _mm256_add_ps(Qb, _mm256_broadcast_ss(pb + (I1)));                            \
+        n_ = _mm256_add_ps(n_, _mm256_mul_ps(X_, X_));                                     \
+        __m256 g_ = _mm256_mul_ps(n_, _mm256_loadu_ps(row + 17 * (I1)));                   \
+        __m256 m_ = _mm256_cmp_ps(g_, V, _CMP_GT_OQ);                                      \
+        V = _mm256_blendv_ps(V, g_, m_);                                                   \
+        XI = _mm256_blendv_ps(XI, _mm256_castsi256_ps(IDX), m_);                           \
+    } while (0)
+            for (; i1 + 1 <= end; i1 += 2) {
+                __m256i idx1 = _mm256_add_epi32(idx, step);
+                ST_SPLIT_ROW(i1, v0, x0, idx);
+                ST_SPLIT_ROW(i1 + 1, v1, x1, idx1);
+                idx = _mm256_add_epi32(idx1, step);
             }
+            if (i1 <= end)
+                ST_SPLIT_ROW(i1, v0, x0, idx);
+#undef ST_SPLIT_ROW
         }
         goto fold;
     }
@@ -1371,12 +1355,31 @@ static void sort_prefix(const blk *B, const axis *A, sorted *S)
 {
     float proj[16];
     int ord[16];
-    for (int i = 0; i < 16; i++) {
-        proj[i] = (B->r[i] - A->m[0]) * A->v[0] + (B->g[i] - A->m[1]) * A->v[1] +
-                  (B->b[i] - A->m[2]) * A->v[2];
-        ord[i] = i;
-    }
 #ifdef __SSE2__
+    /* centred colours (the weighted ones for weighted blocks) and the projections, four
+     * texels at a time; the same operations as the scalar loop below */
+    float cr[16], cg[16], cb[16];
+    {
+        const __m128 mr = _mm_set1_ps(A->m[0]), mg = _mm_set1_ps(A->m[1]),
+                     mb = _mm_set1_ps(A->m[2]), vr = _mm_set1_ps(A->v[0]),
+                     vg = _mm_set1_ps(A->v[1]), vb = _mm_set1_ps(A->v[2]);
+        for (int g = 0; g < 16; g += 4) {
+            __m128 r = _mm_sub_ps(_mm_loadu_ps(B->r + g), mr),
+                   gg = _mm_sub_ps(_mm_loadu_ps(B->g + g), mg),
+                   b = _mm_sub_ps(_mm_loadu_ps(B->b + g), mb);
+            _mm_storeu_ps(proj + g, _mm_add_ps(_mm_add_ps(_mm_mul_ps(r, vr), _mm_mul_ps(gg, vg)),
+                                               _mm_mul_ps(b, vb)));
+            if (!B->unit) {
+                __m128 w = _mm_loadu_ps(B->w + g);
+                r = _mm_mul_ps(r, w);
+                gg = _mm_mul_ps(gg, w);
+                b = _mm_mul_ps(b, w);
+            }
+            _mm_storeu_ps(cr + g, r);
+            _mm_storeu_ps(cg + g, gg);
+            _mm_storeu_ps(cb + g, b);
+        }
+    }
     {
         int32_t rank[16];
 #if ST_BC1_AVX2
@@ -1388,7 +1391,21 @@ static void sort_prefix(const blk *B, const axis *A, sorted *S)
         for (int i = 0; i < 16; i++)
             ord[rank[i]] = i;
     }
+    float *pw = S->pw, *pr = S->pr, *pg = S->pg, *pb = S->pb;
+    pw[0] = pr[0] = pg[0] = pb[0] = 0;
+    for (int i = 0; i < 16; i++) {
+        int k = ord[i];
+        pw[i + 1] = pw[i] + B->w[k];
+        pr[i + 1] = pr[i] + cr[k];
+        pg[i + 1] = pg[i] + cg[k];
+        pb[i + 1] = pb[i] + cb[k];
+    }
 #else
+    for (int i = 0; i < 16; i++) {
+        proj[i] = (B->r[i] - A->m[0]) * A->v[0] + (B->g[i] - A->m[1]) * A->v[1] +
+                  (B->b[i] - A->m[2]) * A->v[2];
+        ord[i] = i;
+    }
     for (int i = 1; i < 16; i++) { /* insertion sort, descending */
         int k = ord[i];
         int j = i - 1;
@@ -1398,7 +1415,6 @@ static void sort_prefix(const blk *B, const axis *A, sorted *S)
         }
         ord[j + 1] = k;
     }
-#endif
     float *pw = S->pw, *pr = S->pr, *pg = S->pg, *pb = S->pb;
     pw[0] = pr[0] = pg[0] = pb[0] = 0;
     for (int i = 0; i < 16; i++) {
@@ -1409,6 +1425,7 @@ static void sort_prefix(const blk *B, const axis *A, sorted *S)
         pg[i + 1] = pg[i] + w * (B->g[k] - A->m[1]);
         pb[i + 1] = pb[i] + w * (B->b[k] - A->m[2]);
     }
+#endif
     for (int i = 17; i < 24; i++) {
         pw[i] = pw[16];
         pr[i] = pr[16];
@@ -1590,42 +1607,46 @@ solve:;
 /* 3-colour cluster fit (blocks of 16 texels of weight 1): the ranked texels split at
  * i0 <= i1 into the runs c0, (c0 + c1) / 2 and c1. With X = (P_i0 + P_i1) / 2 (Y = -X) the
  * least-squares score is W |X|^2 / D, so |P_i0 + P_i1|^2 / Dint is compared, 1 / Dint from
- * the generated table (-1 where the split does not count). Every one of the 153 splits is
- * tried: i1 in chunks of eight from i0 (a lane past 16 reads the table's -1 padding). Two
- * accumulators (even and odd i0); per lane the first of the best scores, merged by best score
- * and lowest index as in the 4-colour scan. */
+ * the generated table (-1 where the split does not count, also past 16). The window: rows
+ * i0 in w[0]..w[1], each with chunks of eight i1 from max(i0, w[2]) while the chunk starts at
+ * or below w[3] (both paths evaluate the same eight lanes per chunk). Two accumulators (even
+ * and odd rows); per lane the first of the best scores, merged by best score and lowest
+ * index as in the 4-colour scan. */
 #ifdef __SSE2__
 static inline void split3_row_sse(const float *pr, const float *pg, const float *pb, int i0,
-                                  __m128 *bestv, __m128i *bidx)
+                                  int first, int last, __m128 *bestv, __m128i *bidx)
 {
     const __m128i lane = _mm_set_epi32(3, 2, 1, 0);
     __m128 Xr = _mm_set1_ps(pr[i0]), Xg = _mm_set1_ps(pg[i0]), Xb = _mm_set1_ps(pb[i0]);
-    for (int c = i0; c <= 16; c += 4) {
-        __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(pr + c));
-        __m128 num = _mm_mul_ps(X, X);
-        X = _mm_add_ps(Xg, _mm_loadu_ps(pg + c));
-        num = _mm_add_ps(num, _mm_mul_ps(X, X));
-        X = _mm_add_ps(Xb, _mm_loadu_ps(pb + c));
-        num = _mm_add_ps(num, _mm_mul_ps(X, X));
-        __m128 g = _mm_mul_ps(num, _mm_loadu_ps(st_bc1_split3_invd[i0] + c));
-        __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 17 + c), lane);
-        __m128 m = _mm_cmpgt_ps(g, *bestv);
-        *bestv = _mm_or_ps(_mm_and_ps(m, g), _mm_andnot_ps(m, *bestv));
-        __m128i mi = _mm_castps_si128(m);
-        *bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, *bidx));
-    }
+    for (int c = first; c <= last; c += 8)
+        for (int h = c; h < c + 8; h += 4) {
+            __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(pr + h));
+            __m128 num = _mm_mul_ps(X, X);
+            X = _mm_add_ps(Xg, _mm_loadu_ps(pg + h));
+            num = _mm_add_ps(num, _mm_mul_ps(X, X));
+            X = _mm_add_ps(Xb, _mm_loadu_ps(pb + h));
+            num = _mm_add_ps(num, _mm_mul_ps(X, X));
+            __m128 g = _mm_mul_ps(num, _mm_loadu_ps(st_bc1_split3_invd[i0] + h));
+            __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 17 + h), lane);
+            __m128 m = _mm_cmpgt_ps(g, *bestv);
+            *bestv = _mm_or_ps(_mm_and_ps(m, g), _mm_andnot_ps(m, *bestv));
+            __m128i mi = _mm_castps_si128(m);
+            *bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, *bidx));
+        }
 }
 
-static void split3_scan_sse(const float *pr, const float *pg, const float *pb, __m128 *best4,
-                            __m128i *idx4)
+static void split3_scan_sse(const float *pr, const float *pg, const float *pb, const int w[4],
+                            __m128 *best4, __m128i *idx4)
 {
     __m128 v0 = _mm_setzero_ps(), v1 = v0;
     __m128i x0 = _mm_set1_epi32(-1), x1 = x0;
-    for (int i0 = 0; i0 < 16; i0 += 2) {
-        split3_row_sse(pr, pg, pb, i0, &v0, &x0);
-        split3_row_sse(pr, pg, pb, i0 + 1, &v1, &x1);
+    int i0 = w[0];
+    for (; i0 + 1 <= w[1]; i0 += 2) {
+        split3_row_sse(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
+        split3_row_sse(pr, pg, pb, i0 + 1, i0 + 1 > w[2] ? i0 + 1 : w[2], w[3], &v1, &x1);
     }
-    split3_row_sse(pr, pg, pb, 16, &v0, &x0);
+    if (i0 <= w[1])
+        split3_row_sse(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
     split_pick_sse(&v0, &x0, v1, x1);
     *best4 = v0;
     *idx4 = x0;
@@ -1634,12 +1655,12 @@ static void split3_scan_sse(const float *pr, const float *pg, const float *pb, _
 
 #if ST_BC1_AVX2
 __attribute__((target("avx2"), always_inline)) static inline void
-split3_row_avx2(const float *pr, const float *pg, const float *pb, int i0, __m256 *bestv,
-                __m256 *bidx)
+split3_row_avx2(const float *pr, const float *pg, const float *pb, int i0, int first, int last,
+                __m256 *bestv, __m256 *bidx)
 {
     const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
     __m256 Xr = _mm256_set1_ps(pr[i0]), Xg = _mm256_set1_ps(pg[i0]), Xb = _mm256_set1_ps(pb[i0]);
-    for (int c = i0; c <= 16; c += 8) {
+    for (int c = first; c <= last; c += 8) {
         __m256 X = _mm256_add_ps(Xr, _mm256_loadu_ps(pr + c));
         __m256 num = _mm256_mul_ps(X, X);
         X = _mm256_add_ps(Xg, _mm256_loadu_ps(pg + c));
@@ -1655,16 +1676,18 @@ split3_row_avx2(const float *pr, const float *pg, const float *pb, int i0, __m25
 }
 
 __attribute__((target("avx2"))) static void split3_scan_avx2(const float *pr, const float *pg,
-                                                              const float *pb, __m128 *best4,
-                                                              __m128i *idx4)
+                                                              const float *pb, const int w[4],
+                                                              __m128 *best4, __m128i *idx4)
 {
     __m256 v0 = _mm256_setzero_ps(), v1 = v0;
     __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
-    for (int i0 = 0; i0 < 16; i0 += 2) {
-        split3_row_avx2(pr, pg, pb, i0, &v0, &x0);
-        split3_row_avx2(pr, pg, pb, i0 + 1, &v1, &x1);
+    int i0 = w[0];
+    for (; i0 + 1 <= w[1]; i0 += 2) {
+        split3_row_avx2(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
+        split3_row_avx2(pr, pg, pb, i0 + 1, i0 + 1 > w[2] ? i0 + 1 : w[2], w[3], &v1, &x1);
     }
-    split3_row_avx2(pr, pg, pb, 16, &v0, &x0);
+    if (i0 <= w[1])
+        split3_row_avx2(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
     __m128 a = _mm256_castps256_ps128(v0);
     __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
     split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
@@ -1697,16 +1720,17 @@ static int split_merge(__m128 bv, __m128i bix)
 }
 
 /* 3-colour endpoints (e0 for selector 0, e1 for selector 1) of the best split; 0 if none. */
-static int cluster_fit3(const axis *A, const sorted *S, float e0[3], float e1[3], float *cont)
+static int cluster_fit3(const axis *A, const sorted *S, const int w[4], float e0[3], float e1[3],
+                        float *cont)
 {
     __m128 bv;
     __m128i bix;
 #if ST_BC1_AVX2
     if (__builtin_cpu_supports("avx2"))
-        split3_scan_avx2(S->pr, S->pg, S->pb, &bv, &bix);
+        split3_scan_avx2(S->pr, S->pg, S->pb, w, &bv, &bix);
     else
 #endif
-        split3_scan_sse(S->pr, S->pg, S->pb, &bv, &bix);
+        split3_scan_sse(S->pr, S->pg, S->pb, w, &bv, &bix);
     int bi = split_merge(bv, bix);
     if (bi < 0)
         return 0;
@@ -1904,10 +1928,6 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         else
             axis_endpoints(&A, P->inset, e0, e1);
         rounds4(B, P, &A, e0, e1, &best);
-        if (P->seed && best.err <= EASY) {
-            *out = best;
-            return;
-        }
         if (P->inset2 >= 0 && best.err > 0) {
             axis_endpoints(&A, P->inset2, e0, e1);
             rounds4(B, P, &A, e0, e1, &best);
@@ -1922,9 +1942,8 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 sp[0] = 4, sp[1] = 8, sp[2] = 12;
             int lo[3], hi[3];
             for (int k = 0; k < 2; k++) {
-                int rad = P->cluster == 4 ? (k == 0 ? RAD0 : RAD1) : P->cluster;
-                lo[k] = sp[k] - rad < 0 ? 0 : sp[k] - rad;
-                hi[k] = sp[k] + rad > 16 ? 16 : sp[k] + rad;
+                lo[k] = sp[k] - P->cluster < 0 ? 0 : sp[k] - P->cluster;
+                hi[k] = sp[k] + P->cluster > 16 ? 16 : sp[k] + P->cluster;
             }
             /* i2: a window of 2 * cluster (at least 8, at most 17) from sp - cluster, slid
              * inside 0..16: one chunk of eight for the table scan at cluster 4 */
@@ -1939,10 +1958,6 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
             have_sorted = 1;
             if (cluster_fit(B, &A, &S, lo, hi, e0, e1))
                 rounds4(B, P, &A, e0, e1, &best);
-        }
-        if (P->seed && best.err <= EASY2) {
-            *out = best;
-            return;
         }
         if (P->neigh && best.c0 != best.c1)
             neighbourhood(B, &best, 1, P->neigh);
@@ -1959,7 +1974,8 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 sort_prefix(B, &A, &S);
             float cont = 0;
             rounds = P->fit3;
-            if (!cluster_fit3(&A, &S, f0, f1, &cont))
+            const int w3[4] = {0, 16, 0, 16}; /* every split */
+            if (!cluster_fit3(&A, &S, w3, f0, f1, &cont))
                 axis_endpoints(&A, 0.0f, f0, f1);
             else if (four_ok && !(cont < best.err))
                 rounds = 0; /* even the unquantised 3-colour fit is not better */
