@@ -1607,46 +1607,50 @@ solve:;
 /* 3-colour cluster fit (blocks of 16 texels of weight 1): the ranked texels split at
  * i0 <= i1 into the runs c0, (c0 + c1) / 2 and c1. With X = (P_i0 + P_i1) / 2 (Y = -X) the
  * least-squares score is W |X|^2 / D, so |P_i0 + P_i1|^2 / Dint is compared, 1 / Dint from
- * the generated table (-1 where the split does not count, also past 16). The window: rows
- * i0 in w[0]..w[1], each with chunks of eight i1 from max(i0, w[2]) while the chunk starts at
- * or below w[3] (both paths evaluate the same eight lanes per chunk). Two accumulators (even
- * and odd rows); per lane the first of the best scores, merged by best score and lowest
- * index as in the 4-colour scan. */
+ * the generated table (-1 where the split does not count: i1 < i0, singular). Every split is
+ * tried with two fixed chunks of eight i1, 1..8 and 9..16 (the split (0, 0) is singular):
+ * rows i0 = 0..8 take both, rows 9..16 the second; the chunks' prefix sums are loaded once.
+ * Two accumulators; per lane the first of the best scores, merged by best score and lowest
+ * index as in the 4-colour scan, so both paths pick the same split. */
 #ifdef __SSE2__
-static inline void split3_row_sse(const float *pr, const float *pg, const float *pb, int i0,
-                                  int first, int last, __m128 *bestv, __m128i *bidx)
+static inline void split3_chunk_sse(__m128 Xr, __m128 Xg, __m128 Xb, const __m128 P[3][2],
+                                    const float *row, int base, __m128 *bestv, __m128i *bidx)
 {
-    const __m128i lane = _mm_set_epi32(3, 2, 1, 0);
-    __m128 Xr = _mm_set1_ps(pr[i0]), Xg = _mm_set1_ps(pg[i0]), Xb = _mm_set1_ps(pb[i0]);
-    for (int c = first; c <= last; c += 8)
-        for (int h = c; h < c + 8; h += 4) {
-            __m128 X = _mm_add_ps(Xr, _mm_loadu_ps(pr + h));
-            __m128 num = _mm_mul_ps(X, X);
-            X = _mm_add_ps(Xg, _mm_loadu_ps(pg + h));
-            num = _mm_add_ps(num, _mm_mul_ps(X, X));
-            X = _mm_add_ps(Xb, _mm_loadu_ps(pb + h));
-            num = _mm_add_ps(num, _mm_mul_ps(X, X));
-            __m128 g = _mm_mul_ps(num, _mm_loadu_ps(st_bc1_split3_invd[i0] + h));
-            __m128i idx = _mm_add_epi32(_mm_set1_epi32(i0 * 17 + h), lane);
-            __m128 m = _mm_cmpgt_ps(g, *bestv);
-            *bestv = _mm_or_ps(_mm_and_ps(m, g), _mm_andnot_ps(m, *bestv));
-            __m128i mi = _mm_castps_si128(m);
-            *bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, *bidx));
-        }
+    for (int h = 0; h < 2; h++) {
+        __m128 X = _mm_add_ps(Xr, P[0][h]);
+        __m128 num = _mm_mul_ps(X, X);
+        X = _mm_add_ps(Xg, P[1][h]);
+        num = _mm_add_ps(num, _mm_mul_ps(X, X));
+        X = _mm_add_ps(Xb, P[2][h]);
+        num = _mm_add_ps(num, _mm_mul_ps(X, X));
+        __m128 g = _mm_mul_ps(num, _mm_loadu_ps(row + 4 * h));
+        __m128i idx = _mm_add_epi32(_mm_set1_epi32(base + 4 * h), _mm_set_epi32(3, 2, 1, 0));
+        __m128 m = _mm_cmpgt_ps(g, *bestv);
+        *bestv = _mm_or_ps(_mm_and_ps(m, g), _mm_andnot_ps(m, *bestv));
+        __m128i mi = _mm_castps_si128(m);
+        *bidx = _mm_or_si128(_mm_and_si128(mi, idx), _mm_andnot_si128(mi, *bidx));
+    }
 }
 
-static void split3_scan_sse(const float *pr, const float *pg, const float *pb, const int w[4],
-                            __m128 *best4, __m128i *idx4)
+static void split3_scan_sse(const float *pr, const float *pg, const float *pb, __m128 *best4,
+                            __m128i *idx4)
 {
     __m128 v0 = _mm_setzero_ps(), v1 = v0;
     __m128i x0 = _mm_set1_epi32(-1), x1 = x0;
-    int i0 = w[0];
-    for (; i0 + 1 <= w[1]; i0 += 2) {
-        split3_row_sse(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
-        split3_row_sse(pr, pg, pb, i0 + 1, i0 + 1 > w[2] ? i0 + 1 : w[2], w[3], &v1, &x1);
+    __m128 lo[3][2], hi[3][2]; /* P[1..8], P[9..16] */
+    const float *ps[3] = {pr, pg, pb};
+    for (int k = 0; k < 3; k++)
+        for (int h = 0; h < 2; h++) {
+            lo[k][h] = _mm_loadu_ps(ps[k] + 1 + 4 * h);
+            hi[k][h] = _mm_loadu_ps(ps[k] + 9 + 4 * h);
+        }
+    for (int i0 = 0; i0 <= 16; i0++) {
+        __m128 Xr = _mm_set1_ps(pr[i0]), Xg = _mm_set1_ps(pg[i0]), Xb = _mm_set1_ps(pb[i0]);
+        const float *row = st_bc1_split3_invd[i0];
+        if (i0 <= 8)
+            split3_chunk_sse(Xr, Xg, Xb, lo, row + 1, i0 * 17 + 1, &v0, &x0);
+        split3_chunk_sse(Xr, Xg, Xb, hi, row + 9, i0 * 17 + 9, &v1, &x1);
     }
-    if (i0 <= w[1])
-        split3_row_sse(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
     split_pick_sse(&v0, &x0, v1, x1);
     *best4 = v0;
     *idx4 = x0;
@@ -1655,39 +1659,40 @@ static void split3_scan_sse(const float *pr, const float *pg, const float *pb, c
 
 #if ST_BC1_AVX2
 __attribute__((target("avx2"), always_inline)) static inline void
-split3_row_avx2(const float *pr, const float *pg, const float *pb, int i0, int first, int last,
-                __m256 *bestv, __m256 *bidx)
+split3_chunk_avx2(__m256 Xr, __m256 Xg, __m256 Xb, __m256 Pr, __m256 Pg, __m256 Pb,
+                  const float *row, int base, __m256 *bestv, __m256 *bidx)
 {
-    const __m256i lane = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0);
-    __m256 Xr = _mm256_set1_ps(pr[i0]), Xg = _mm256_set1_ps(pg[i0]), Xb = _mm256_set1_ps(pb[i0]);
-    for (int c = first; c <= last; c += 8) {
-        __m256 X = _mm256_add_ps(Xr, _mm256_loadu_ps(pr + c));
-        __m256 num = _mm256_mul_ps(X, X);
-        X = _mm256_add_ps(Xg, _mm256_loadu_ps(pg + c));
-        num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
-        X = _mm256_add_ps(Xb, _mm256_loadu_ps(pb + c));
-        num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
-        __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(st_bc1_split3_invd[i0] + c));
-        __m256 idx = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_set1_epi32(i0 * 17 + c), lane));
-        __m256 m = _mm256_cmp_ps(g, *bestv, _CMP_GT_OQ);
-        *bestv = _mm256_blendv_ps(*bestv, g, m);
-        *bidx = _mm256_blendv_ps(*bidx, idx, m);
-    }
+    __m256 X = _mm256_add_ps(Xr, Pr);
+    __m256 num = _mm256_mul_ps(X, X);
+    X = _mm256_add_ps(Xg, Pg);
+    num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+    X = _mm256_add_ps(Xb, Pb);
+    num = _mm256_add_ps(num, _mm256_mul_ps(X, X));
+    __m256 g = _mm256_mul_ps(num, _mm256_loadu_ps(row));
+    __m256 idx = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_set1_epi32(base),
+                                                      _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0)));
+    __m256 m = _mm256_cmp_ps(g, *bestv, _CMP_GT_OQ);
+    *bestv = _mm256_blendv_ps(*bestv, g, m);
+    *bidx = _mm256_blendv_ps(*bidx, idx, m);
 }
 
 __attribute__((target("avx2"))) static void split3_scan_avx2(const float *pr, const float *pg,
-                                                              const float *pb, const int w[4],
-                                                              __m128 *best4, __m128i *idx4)
+                                                              const float *pb, __m128 *best4,
+                                                              __m128i *idx4)
 {
     __m256 v0 = _mm256_setzero_ps(), v1 = v0;
     __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
-    int i0 = w[0];
-    for (; i0 + 1 <= w[1]; i0 += 2) {
-        split3_row_avx2(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
-        split3_row_avx2(pr, pg, pb, i0 + 1, i0 + 1 > w[2] ? i0 + 1 : w[2], w[3], &v1, &x1);
+    const __m256 Lr = _mm256_loadu_ps(pr + 1), Lg = _mm256_loadu_ps(pg + 1),
+                 Lb = _mm256_loadu_ps(pb + 1), Hr = _mm256_loadu_ps(pr + 9),
+                 Hg = _mm256_loadu_ps(pg + 9), Hb = _mm256_loadu_ps(pb + 9);
+    for (int i0 = 0; i0 <= 16; i0++) {
+        __m256 Xr = _mm256_set1_ps(pr[i0]), Xg = _mm256_set1_ps(pg[i0]),
+               Xb = _mm256_set1_ps(pb[i0]);
+        const float *row = st_bc1_split3_invd[i0];
+        if (i0 <= 8)
+            split3_chunk_avx2(Xr, Xg, Xb, Lr, Lg, Lb, row + 1, i0 * 17 + 1, &v0, &x0);
+        split3_chunk_avx2(Xr, Xg, Xb, Hr, Hg, Hb, row + 9, i0 * 17 + 9, &v1, &x1);
     }
-    if (i0 <= w[1])
-        split3_row_avx2(pr, pg, pb, i0, i0 > w[2] ? i0 : w[2], w[3], &v0, &x0);
     __m128 a = _mm256_castps256_ps128(v0);
     __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
     split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
@@ -1720,17 +1725,16 @@ static int split_merge(__m128 bv, __m128i bix)
 }
 
 /* 3-colour endpoints (e0 for selector 0, e1 for selector 1) of the best split; 0 if none. */
-static int cluster_fit3(const axis *A, const sorted *S, const int w[4], float e0[3], float e1[3],
-                        float *cont)
+static int cluster_fit3(const axis *A, const sorted *S, float e0[3], float e1[3], float *cont)
 {
     __m128 bv;
     __m128i bix;
 #if ST_BC1_AVX2
     if (__builtin_cpu_supports("avx2"))
-        split3_scan_avx2(S->pr, S->pg, S->pb, w, &bv, &bix);
+        split3_scan_avx2(S->pr, S->pg, S->pb, &bv, &bix);
     else
 #endif
-        split3_scan_sse(S->pr, S->pg, S->pb, w, &bv, &bix);
+        split3_scan_sse(S->pr, S->pg, S->pb, &bv, &bix);
     int bi = split_merge(bv, bix);
     if (bi < 0)
         return 0;
@@ -1974,8 +1978,7 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
                 sort_prefix(B, &A, &S);
             float cont = 0;
             rounds = P->fit3;
-            const int w3[4] = {0, 16, 0, 16}; /* every split */
-            if (!cluster_fit3(&A, &S, w3, f0, f1, &cont))
+            if (!cluster_fit3(&A, &S, f0, f1, &cont))
                 axis_endpoints(&A, 0.0f, f0, f1);
             else if (four_ok && !(cont < best.err))
                 rounds = 0; /* even the unquantised 3-colour fit is not better */
