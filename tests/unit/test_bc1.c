@@ -15,7 +15,9 @@
 #include "bc1.h"
 #include "bc1_texel.h"
 #include "defaultset.h"
+#include "image.h"
 #include "sample.h"
+#include "../common/testdata.h"
 
 static uint32_t rng_state = 12345;
 static uint32_t rnd(void)
@@ -235,6 +237,116 @@ static void weighted_texels_get_the_precision(void **state)
     st_bc1_encode_block_w(px, z, ST_BC1_FAST, b);
     st_bc1_decode_block(b, ST_BC1_DEC_EXACT, o);
     assert_true(block_sse(px, o) < 16 * 3 * 100);
+}
+
+/* A 256x256 RGBA8 crop of a benchmark image (NULL with a printed reason when the data is
+ * missing). */
+static uint8_t *bench_crop(const char *rel, uint32_t *w, uint32_t *h)
+{
+    char path[1024];
+    if (st_test_data_path(path, sizeof path, rel) != 0)
+        return NULL;
+    st_image im;
+    st_error e;
+    if (st_image_read(path, NULL, &im, &e) != 0 || im.dtype != ST_DT_U8)
+        return NULL;
+    *w = im.w < 256 ? im.w : 256;
+    *h = im.h < 256 ? im.h : 256;
+    uint8_t *rgba = malloc((size_t)*w * *h * 4);
+    for (uint32_t y = 0; rgba && y < *h; y++)
+        for (uint32_t x = 0; x < *w; x++) {
+            const uint8_t *p = (const uint8_t *)im.data + ((size_t)y * im.w + x) * im.nchan;
+            uint8_t *q = rgba + ((size_t)y * *w + x) * 4;
+            q[0] = p[0];
+            q[1] = im.nchan >= 3 ? p[1] : p[0];
+            q[2] = im.nchan >= 3 ? p[2] : p[0];
+            q[3] = 255;
+        }
+    st_image_free(&im);
+    return rgba;
+}
+
+static void block_of(const uint8_t *img, uint32_t w, uint32_t bx, uint32_t by, uint8_t px[64])
+{
+    for (int y = 0; y < 4; y++)
+        memcpy(px + 16 * y, img + ((size_t)(by * 4 + y) * w + bx * 4) * 4, 16);
+}
+
+/* HQ starts from FAST's endpoints with exact selectors and only ever keeps a lower error, so
+ * no opaque block may come out worse than FAST's: checked on every block of a photo crop and
+ * on random blocks. */
+static void hq_is_never_worse_than_fast_on_any_block(void **state)
+{
+    (void)state;
+    uint32_t w, h;
+    uint8_t *img = bench_crop("images/bc1-set/kodim23.png", &w, &h);
+    if (!img) {
+        skip();
+        return;
+    }
+    int n = 0, worse = 0;
+    double sf = 0, sh = 0;
+    for (uint32_t by = 0; by < h / 4; by++)
+        for (uint32_t bx = 0; bx < w / 4 + 750; bx++) {
+            uint8_t px[64], bf[8], bh[8], of[64], oh[64];
+            if (bx < w / 4)
+                block_of(img, w, bx, by, px);
+            else
+                gradient_block(px, (int)(bx % 3) * 12); /* 750 random ones per row of blocks */
+            st_bc1_encode_block(px, ST_BC1_FAST, bf);
+            st_bc1_encode_block(px, ST_BC1_HQ, bh);
+            st_bc1_decode_block(bf, ST_BC1_DEC_EXACT, of);
+            st_bc1_decode_block(bh, ST_BC1_DEC_EXACT, oh);
+            double ef = block_sse(px, of), eh = block_sse(px, oh);
+            if (bx < w / 4) { /* the photo's blocks */
+                sf += ef;
+                sh += eh;
+            }
+            worse += eh > ef;
+            n++;
+        }
+    free(img);
+    print_message("# %d blocks: HQ worse than FAST on %d; photo SSE FAST %.0f HQ %.0f\n", n,
+                  worse, sf, sh);
+    assert_int_equal(worse, 0);
+    assert_true(sh < sf * 0.95); /* and clearly better on the photo */
+}
+
+/* The 3-colour trial of HQ and BEST is used on opaque photo blocks (c0 <= c1) and never puts
+ * the transparent selector 3 in them; the block decodes opaque. */
+static void hq_uses_three_colour_blocks_without_the_transparent_selector(void **state)
+{
+    (void)state;
+    uint32_t w, h;
+    uint8_t *img = bench_crop("images/bc1-set/kodim03.png", &w, &h);
+    if (!img) {
+        skip();
+        return;
+    }
+    for (int level = ST_BC1_HQ; level <= ST_BC1_BEST; level++) {
+        int three = 0;
+        for (uint32_t by = 0; by < h / 4; by++)
+            for (uint32_t bx = 0; bx < w / 4; bx++) {
+                uint8_t px[64], b[8], o[64];
+                block_of(img, w, bx, by, px);
+                st_bc1_encode_block(px, level, b);
+                uint16_t c0 = (uint16_t)(b[0] | b[1] << 8), c1 = (uint16_t)(b[2] | b[3] << 8);
+                uint32_t sel = (uint32_t)b[4] | (uint32_t)b[5] << 8 | (uint32_t)b[6] << 16 |
+                               (uint32_t)b[7] << 24;
+                if (c0 <= c1) {
+                    three++;
+                    for (int t = 0; t < 16; t++)
+                        assert_int_not_equal((sel >> (2 * t)) & 3u, 3u);
+                }
+                st_bc1_decode_block(b, ST_BC1_DEC_EXACT, o);
+                for (int t = 0; t < 16; t++)
+                    assert_int_equal(o[4 * t + 3], 255);
+            }
+        print_message("# level %d: %d of %u blocks in 3-colour mode\n", level, three,
+                      (w / 4) * (h / 4));
+        assert_true(three > 0);
+    }
+    free(img);
 }
 
 static void encoding_is_deterministic(void **state)
@@ -1118,6 +1230,8 @@ int main(void)
         cmocka_unit_test(one_bit_alpha_uses_the_transparent_selector),
         cmocka_unit_test(higher_levels_are_better_overall),
         cmocka_unit_test(weighted_texels_get_the_precision),
+        cmocka_unit_test(hq_is_never_worse_than_fast_on_any_block),
+        cmocka_unit_test(hq_uses_three_colour_blocks_without_the_transparent_selector),
         cmocka_unit_test(encoding_is_deterministic),
         cmocka_unit_test(images_of_any_size_round_trip),
         cmocka_unit_test(compressing_a_set_keeps_faces_and_costs_an_eighth),
