@@ -1939,8 +1939,20 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
         if (P->cluster && best.err > 0) {
             /* splits within +-cluster of the ones the best selectors imply */
             int cnt[4] = {0, 0, 0, 0};
-            for (int i = 0; i < 16; i++)
-                cnt[best.sel[i]] += B->w[i] > 0;
+#ifdef __SSE2__
+            if (B->unit) {
+                /* bytes equal to j are 0xFF: their sum / 255 counts them (no chain of
+                 * increments through memory) */
+                __m128i sv = _mm_loadu_si128((const __m128i *)best.sel);
+                for (int j = 0; j < 4; j++) {
+                    __m128i sad = _mm_sad_epu8(_mm_cmpeq_epi8(sv, _mm_set1_epi8((char)j)),
+                                               _mm_setzero_si128());
+                    cnt[j] = (_mm_cvtsi128_si32(sad) + _mm_extract_epi16(sad, 4)) / 255;
+                }
+            } else
+#endif
+                for (int i = 0; i < 16; i++)
+                    cnt[best.sel[i]] += B->w[i] > 0;
             int sp[3] = {cnt[0], cnt[0] + cnt[2], cnt[0] + cnt[2] + cnt[3]};
             if (best.c0 == best.c1) /* a flat result says nothing about the splits */
                 sp[0] = 4, sp[1] = 8, sp[2] = 12;
