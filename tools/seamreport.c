@@ -354,21 +354,28 @@ static int run_set(const dataset *d, const char *data, const char *outdir, int l
     res->ok = 1;
     /* close-up of the worst point of plain BC1 (masked) */
     if (sys->npts && outdir) {
-        /* the point at the 90th percentile of plain BC1 (masked)'s residual: a bad but
-         * typical spot (the very worst is usually a colour edge the artist put on the seam) */
+        /* the point at the 90th percentile of plain BC1 (masked)'s residual among the points
+         * where it is visible at all (> 1 step of 255: on a flat background most points
+         * have none, and the picture would show nothing): a bad but typical spot (the very
+         * worst is usually a colour edge the artist put on the seam) */
         double *res = malloc(sys->npts * sizeof *res);
         size_t *idx = malloc(sys->npts * sizeof *idx);
         size_t worst = 0;
         if (res && idx) {
-            for (size_t k = 0; k < sys->npts; k++)
+            size_t visible = 0;
+            for (size_t k = 0; k < sys->npts; k++) {
                 res[k] = point_resid(sys, k, buf[V_BC1M]);
+                visible += res[k] > 1.0;
+            }
+            if (visible == 0)
+                visible = sys->npts;
             double lo = 0, hi = 1e9; /* bisection on the value: no sort needed */
             for (int it = 0; it < 60; it++) {
                 double mid = 0.5 * (lo + hi);
                 size_t above = 0;
                 for (size_t k = 0; k < sys->npts; k++)
                     above += res[k] > mid;
-                if (above > sys->npts / 10)
+                if (above > visible / 10)
                     lo = mid;
                 else
                     hi = mid;
