@@ -1441,6 +1441,7 @@ static int split_merge(__m128 bv, __m128i bix);
 static int cluster_fit(const blk *B, const axis *A, const sorted *S, const int lo[3],
                        const int hi[3], float e0[3], float e1[3])
 {
+    (void)B; /* the weights are in S; B says whether they are all 1 (SSE2 paths) */
     const float *pw = S->pw, *pr = S->pr, *pg = S->pg, *pb = S->pb;
     float best = -1e30f;
     int b0 = -1, b1 = -1, b2 = -1;
@@ -1919,7 +1920,10 @@ static void encode_colours(const blk *B, const profile *P, int four_ok, cand *ou
     float e0[3], e1[3];
     axis A;
     sorted S;
-    int have_sorted = 0;
+    int have_sorted = 0; /* S is filled (the 3-colour fit reuses the 4-colour ranking) */
+#ifndef __SSE2__
+    (void)have_sorted;
+#endif
     axis_compute(B, &A);
     if (four_ok && P->proj) {
         encode_fast4(B, P, &A, &best);
