@@ -1019,9 +1019,9 @@ typedef struct profile {
     float inset;        /* of the initial axis endpoints */
     int   seed;         /* projected least-squares rounds before the exact ones (HQ) */
     int   rounds;       /* round -> select -> least squares rounds, 4-colour */
-    int   neigh;        /* passes of the +-1 neighbourhood search, 4-colour */
+    int   neigh;        /* rounds of the steepest-descent +-1 search, 4-colour */
     int   rounds3;      /* 3-colour trial rounds for opaque blocks (0 = no trial) */
-    int   neigh3;       /* neighbourhood passes of the 3-colour trial */
+    int   neigh3;       /* search rounds of the 3-colour trial */
     float r3ratio;      /* the trial's rounds go on only when its first error is within this
                            factor of the 4-colour error */
     float n3ratio;      /* ... and its neighbourhood search only when within this */
@@ -1038,7 +1038,7 @@ typedef struct profile {
 static const profile PROFILES[3] = {
     /* ST_BC1_FAST: round, projected selectors, least squares, round, projected selectors */
     {.inset = 1.0f / 16, .rounds = 2, .inset2 = -1, .proj = 1, .proj_final = 1},
-    /* ST_BC1_HQ: cluster splits within +-4, one neighbourhood pass */
+    /* ST_BC1_HQ: cluster splits within +-2, up to 4 + 2 search rounds, 3-colour fit start */
     {.inset = 1.0f / 16, .seed = 1, .rounds = 1, .neigh = 4, .rounds3 = 3, .neigh3 = 2,
      .r3ratio = 3, .n3ratio = 1.1f, .inset2 = -1, .cluster = 2, .fit3 = 1},
     /* ST_BC1_BEST: every split */
