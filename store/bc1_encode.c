@@ -660,10 +660,10 @@ static void axis_endpoints(const axis *A, float inset, float e0[3], float e1[3])
 
 /* The neighbourhood search moves one channel of one endpoint by +-1, so the squared distance
  * of texel i to palette entry j changes only in that channel's term. For the current pair,
- * other[k][j][i] = 4 * (distance without channel k); a move in channel k then costs one
+ * other[k][j][i] = the distance without channel k; a move in channel k then costs one
  * subtraction, multiplication, addition and minimum per entry and texel:
- * 4 * distance = other + (2 x_k - 2 p_jk)^2. Every value is an integer below 2^21 (exact in
- * float), so the minimum is the exact palette distance the selection would find. */
+ * distance = other + (x_k - p_jk)^2. Every value is an integer below 2^18 (exact in float),
+ * so the minimum is the exact palette distance the selection would find. */
 typedef struct nbase {
     float other[3][4][16];
 } nbase;
@@ -675,7 +675,7 @@ static void nbase_fill(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
     for (int j = 0; j < 4; j++) {
 #ifdef __SSE2__
         __m128 pr = _mm_set1_ps(pal[0][j]), pg = _mm_set1_ps(pal[1][j]),
-               pb = _mm_set1_ps(pal[2][j]), four = _mm_set1_ps(4.0f);
+               pb = _mm_set1_ps(pal[2][j]);
         for (int g = 0; g < 16; g += 4) {
             __m128 dr = _mm_sub_ps(_mm_loadu_ps(B->r + g), pr);
             __m128 dg = _mm_sub_ps(_mm_loadu_ps(B->g + g), pg);
@@ -683,16 +683,16 @@ static void nbase_fill(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
             dr = _mm_mul_ps(dr, dr);
             dg = _mm_mul_ps(dg, dg);
             db = _mm_mul_ps(db, db);
-            _mm_storeu_ps(N->other[0][j] + g, _mm_mul_ps(_mm_add_ps(dg, db), four));
-            _mm_storeu_ps(N->other[1][j] + g, _mm_mul_ps(_mm_add_ps(dr, db), four));
-            _mm_storeu_ps(N->other[2][j] + g, _mm_mul_ps(_mm_add_ps(dr, dg), four));
+            _mm_storeu_ps(N->other[0][j] + g, _mm_add_ps(dg, db));
+            _mm_storeu_ps(N->other[1][j] + g, _mm_add_ps(dr, db));
+            _mm_storeu_ps(N->other[2][j] + g, _mm_add_ps(dr, dg));
         }
 #else
         for (int i = 0; i < 16; i++) {
             float dr = B->r[i] - pal[0][j], dg = B->g[i] - pal[1][j], db = B->b[i] - pal[2][j];
-            N->other[0][j][i] = 4.0f * (dg * dg + db * db);
-            N->other[1][j][i] = 4.0f * (dr * dr + db * db);
-            N->other[2][j][i] = 4.0f * (dr * dr + dg * dg);
+            N->other[0][j][i] = dg * dg + db * db;
+            N->other[1][j][i] = dr * dr + db * db;
+            N->other[2][j][i] = dr * dr + dg * dg;
         }
 #endif
     }
@@ -705,7 +705,6 @@ __attribute__((target("avx2"))) static void nbase_fill_avx2(const blk *B, uint16
 {
     float pal[3][4];
     palette_f(c0, c1, c0 > c1, pal);
-    const __m256 four = _mm256_set1_ps(4.0f);
     for (int h = 0; h < 16; h += 8) {
         __m256 r = _mm256_loadu_ps(B->r + h), g = _mm256_loadu_ps(B->g + h),
                b = _mm256_loadu_ps(B->b + h);
@@ -716,17 +715,17 @@ __attribute__((target("avx2"))) static void nbase_fill_avx2(const blk *B, uint16
             dr = _mm256_mul_ps(dr, dr);
             dg = _mm256_mul_ps(dg, dg);
             db = _mm256_mul_ps(db, db);
-            _mm256_storeu_ps(N->other[0][j] + h, _mm256_mul_ps(_mm256_add_ps(dg, db), four));
-            _mm256_storeu_ps(N->other[1][j] + h, _mm256_mul_ps(_mm256_add_ps(dr, db), four));
-            _mm256_storeu_ps(N->other[2][j] + h, _mm256_mul_ps(_mm256_add_ps(dr, dg), four));
+            _mm256_storeu_ps(N->other[0][j] + h, _mm256_add_ps(dg, db));
+            _mm256_storeu_ps(N->other[1][j] + h, _mm256_add_ps(dr, db));
+            _mm256_storeu_ps(N->other[2][j] + h, _mm256_add_ps(dr, dg));
         }
     }
 }
 #endif
 
 /* The errors of four pairs whose palettes differ from the base's only in channel k, where
- * move m has the entries p2[j][m] / 2 (column layout: p2[j] holds entry j of the four moves,
- * doubled). Moves 0 and 1 change endpoint 0 only (entry 1 is the same for both), moves 2 and
+ * move m has the entries p2[j][m] (column layout: p2[j] holds entry j of the four moves).
+ * Moves 0 and 1 change endpoint 0 only (entry 1 is the same for both), moves 2 and
  * 3 endpoint 1 only (entry 0 the same): those terms are computed once. Sums in the order of
  * select_sse (lane l: texels l, 4+l, 8+l, 12+l, then (l0 + l2) + (l1 + l3)), the four moves
  * reduced together by a transpose. `three`: 3-colour palettes, whose entry 3 is never chosen
@@ -754,10 +753,9 @@ moves_body_sse(const blk *B, const nbase *N, int k, const float p2[4][4], int th
                float err[4])
 {
     const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
-    const __m128 two = _mm_set1_ps(2.0f);
     __m128 a0 = _mm_setzero_ps(), a1 = a0, a2 = a0, a3 = a0;
     for (int g = 0; g < 16; g += 4) {
-        __m128 x2 = _mm_mul_ps(_mm_loadu_ps(x + g), two), w = _mm_loadu_ps(B->w + g);
+        __m128 x2 = _mm_loadu_ps(x + g), w = _mm_loadu_ps(B->w + g);
         __m128 o0 = _mm_loadu_ps(N->other[k][0] + g), o1 = _mm_loadu_ps(N->other[k][1] + g),
                o2 = _mm_loadu_ps(N->other[k][2] + g), o3 = _mm_loadu_ps(N->other[k][3] + g);
         __m128 t = _mm_sub_ps(x2, _mm_set1_ps(p2[1][0]));
@@ -774,8 +772,7 @@ moves_body_sse(const blk *B, const nbase *N, int k, const float p2[4][4], int th
         a3 = _mm_add_ps(a3, unit ? k3 : _mm_mul_ps(k3, w));
     }
     _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
-    __m128 e = _mm_add_ps(_mm_add_ps(a0, a2), _mm_add_ps(a1, a3));
-    _mm_storeu_ps(err, _mm_mul_ps(e, _mm_set1_ps(0.25f)));
+    _mm_storeu_ps(err, _mm_add_ps(_mm_add_ps(a0, a2), _mm_add_ps(a1, a3)));
 }
 #endif
 
@@ -801,13 +798,13 @@ static void moves_eval(const blk *B, const nbase *N, int k, const float p2[4][4]
         for (int i = 0; i < 16; i++) {
             float best = 3e30f;
             for (int j = 0; j < 4 - three; j++) {
-                float t = x[i] * 2.0f - p2[j][m];
+                float t = x[i] - p2[j][m];
                 float v = N->other[k][j][i] + t * t;
                 best = v < best ? v : best;
             }
             e += best * B->w[i];
         }
-        err[m] = e * 0.25f;
+        err[m] = e;
     }
 #endif
 }
@@ -841,11 +838,10 @@ moves_body_avx2(const blk *B, const nbase *N, int k, const float p2[4][4], int t
                 float err[4])
 {
     const float *x = k == 0 ? B->r : k == 1 ? B->g : B->b;
-    const __m256 two = _mm256_set1_ps(2.0f);
     __m128 s[4];
     for (int h = 0; h < 2; h++) {
         int g = 8 * h;
-        __m256 x2 = _mm256_mul_ps(_mm256_loadu_ps(x + g), two), w = _mm256_loadu_ps(B->w + g);
+        __m256 x2 = _mm256_loadu_ps(x + g), w = _mm256_loadu_ps(B->w + g);
         __m256 o0 = _mm256_loadu_ps(N->other[k][0] + g), o1 = _mm256_loadu_ps(N->other[k][1] + g),
                o2 = _mm256_loadu_ps(N->other[k][2] + g), o3 = _mm256_loadu_ps(N->other[k][3] + g);
         __m256 t = _mm256_sub_ps(x2, _mm256_broadcast_ss(&p2[1][0]));
@@ -877,8 +873,7 @@ moves_body_avx2(const blk *B, const nbase *N, int k, const float p2[4][4], int t
         }
     }
     _MM_TRANSPOSE4_PS(s[0], s[1], s[2], s[3]);
-    __m128 e = _mm_add_ps(_mm_add_ps(s[0], s[2]), _mm_add_ps(s[1], s[3]));
-    _mm_storeu_ps(err, _mm_mul_ps(e, _mm_set1_ps(0.25f)));
+    _mm_storeu_ps(err, _mm_add_ps(_mm_add_ps(s[0], s[2]), _mm_add_ps(s[1], s[3])));
 }
 
 __attribute__((target("avx2"))) static void moves_eval_avx2(const blk *B, const nbase *N, int k,
@@ -899,7 +894,7 @@ __attribute__((target("avx2"))) static void moves_eval_avx2(const blk *B, const 
 }
 #endif
 
-/* The doubled palettes of channel k for the four moves m (0: q0 - 1, 1: q0 + 1, 2: q1 - 1,
+/* The palettes of channel k for the four moves m (0: q0 - 1, 1: q0 + 1, 2: q1 - 1,
  * 3: q1 + 1; out-of-range values give garbage that the caller ignores), column layout. */
 static void moves_palette(int q0, int q1, int bits, int four, float p2[4][4])
 {
@@ -914,7 +909,7 @@ static void moves_palette(int q0, int q1, int bits, int four, float p2[4][4])
         ea = _mm_or_si128(_mm_slli_epi32(qa, 2), _mm_srai_epi32(qa, 4));
         eb = _mm_or_si128(_mm_slli_epi32(qb, 2), _mm_srai_epi32(qb, 4));
     }
-    __m128 fa = _mm_cvtepi32_ps(ea), fb = _mm_cvtepi32_ps(eb), two = _mm_set1_ps(2.0f);
+    __m128 fa = _mm_cvtepi32_ps(ea), fb = _mm_cvtepi32_ps(eb);
     __m128 f2, f3;
     if (four) {
         /* (2a + b) / 3 truncated: the product by the float nearest 1/3 (slightly above) stays
@@ -924,22 +919,22 @@ static void moves_palette(int q0, int q1, int bits, int four, float p2[4][4])
         f3 = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_add_ps(_mm_add_ps(fb, fb), fa), third)));
     } else {
         f2 = _mm_cvtepi32_ps(_mm_srai_epi32(_mm_add_epi32(ea, eb), 1));
-        f3 = _mm_set1_ps(1000.0f);
+        f3 = _mm_set1_ps(2000.0f); /* not evaluated in 3-colour mode */
     }
-    _mm_storeu_ps(p2[0], _mm_mul_ps(fa, two));
-    _mm_storeu_ps(p2[1], _mm_mul_ps(fb, two));
-    _mm_storeu_ps(p2[2], _mm_mul_ps(f2, two));
-    _mm_storeu_ps(p2[3], _mm_mul_ps(f3, two));
+    _mm_storeu_ps(p2[0], fa);
+    _mm_storeu_ps(p2[1], fb);
+    _mm_storeu_ps(p2[2], f2);
+    _mm_storeu_ps(p2[3], f3);
 #else
     int qa[4] = {q0 - 1, q0 + 1, q0, q0}, qb[4] = {q1, q1, q1 - 1, q1 + 1};
     for (int m = 0; m < 4; m++) {
         int a = qa[m] < 0 ? 0 : qa[m], b = qb[m] < 0 ? 0 : qb[m];
         int ea = bits == 5 ? (a << 3) | (a >> 2) : (a << 2) | (a >> 4);
         int eb = bits == 5 ? (b << 3) | (b >> 2) : (b << 2) | (b >> 4);
-        p2[0][m] = 2.0f * (float)ea;
-        p2[1][m] = 2.0f * (float)eb;
-        p2[2][m] = 2.0f * (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2);
-        p2[3][m] = four ? 2.0f * (float)((ea + 2 * eb) / 3) : 2000.0f;
+        p2[0][m] = (float)ea;
+        p2[1][m] = (float)eb;
+        p2[2][m] = (float)(four ? (2 * ea + eb) / 3 : (ea + eb) / 2);
+        p2[3][m] = four ? (float)((ea + 2 * eb) / 3) : 2000.0f;
     }
 #endif
 }
@@ -948,7 +943,7 @@ static void moves_palette(int q0, int q1, int bits, int four, float p2[4][4])
  * each round measures all twelve moves against the current pair, takes the best one if it
  * lowers the error, and stops when none does (at most `rounds` rounds). The errors of
  * moves_eval are those select_eval returns (the same exact distances times the same weights,
- * scaled by 4 and back), so only the final pair is selected again. */
+ * summed in the same order), so only the final pair is selected again. */
 static void neighbourhood(const blk *B, cand *best, int four, int rounds)
 {
     static const int sh[3] = {11, 5, 0}, mx[3] = {31, 63, 31};
@@ -1708,21 +1703,25 @@ __attribute__((target("avx2"))) static void split3_scan_avx2(const float *pr, co
 #endif
 
 #ifdef __SSE2__
-/* The best lane of a scan's four (best score, lowest index on a tie); -1 when none. */
+/* The best lane of a scan's four (best score, lowest index on a tie); -1 when none. Without
+ * branches: the maximum score (lanes that found nothing hold 0 and index -1, found ones a
+ * score > 0), then the least index among the lanes that hold it. */
 static int split_merge(__m128 bv, __m128i bix)
 {
-    float gs[4];
-    int32_t is[4];
-    _mm_storeu_ps(gs, bv);
-    _mm_storeu_si128((__m128i *)is, bix);
-    int bi = -1;
-    float bg = 0;
-    for (int l = 0; l < 4; l++)
-        if (is[l] >= 0 && (gs[l] > bg || (gs[l] == bg && (bi < 0 || is[l] < bi)))) {
-            bg = gs[l];
-            bi = is[l];
-        }
-    return bi;
+    __m128 m = _mm_max_ps(bv, _mm_shuffle_ps(bv, bv, _MM_SHUFFLE(2, 3, 0, 1)));
+    m = _mm_max_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+    __m128i take = _mm_and_si128(_mm_castps_si128(_mm_cmpeq_ps(bv, m)),
+                                 _mm_cmpgt_epi32(bix, _mm_set1_epi32(-1)));
+    const __m128i big = _mm_set1_epi32(0x7fffffff);
+    __m128i c = _mm_or_si128(_mm_and_si128(take, bix), _mm_andnot_si128(take, big));
+    __m128i d = _mm_shuffle_epi32(c, _MM_SHUFFLE(2, 3, 0, 1));
+    __m128i lt = _mm_cmplt_epi32(d, c);
+    c = _mm_or_si128(_mm_and_si128(lt, d), _mm_andnot_si128(lt, c));
+    d = _mm_shuffle_epi32(c, _MM_SHUFFLE(1, 0, 3, 2));
+    lt = _mm_cmplt_epi32(d, c);
+    c = _mm_or_si128(_mm_and_si128(lt, d), _mm_andnot_si128(lt, c));
+    int bi = _mm_cvtsi128_si32(c);
+    return bi == 0x7fffffff ? -1 : bi;
 }
 
 /* 3-colour endpoints (e0 for selector 0, e1 for selector 1) of the best split; 0 if none. */
