@@ -198,6 +198,7 @@ static float select_sse(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, fl
     }
     const __m128i three = _mm_set1_epi32(3);
     const __m128 quarter = _mm_set1_ps(0.25f);
+    __m128i sg[4];
     __m128 acc = _mm_setzero_ps();
     for (int g = 0; g < 16; g += 4) {
         __m128 r = _mm_loadu_ps(B->r + g), gg = _mm_loadu_ps(B->g + g), b = _mm_loadu_ps(B->b + g);
@@ -215,13 +216,13 @@ static float select_sse(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, fl
         __m128 bracket = _mm_mul_ps(_mm_sub_ps(key, _mm_cvtepi32_ps(s)), quarter);
         __m128 x2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(r, r), _mm_mul_ps(gg, gg)), _mm_mul_ps(b, b));
         acc = _mm_add_ps(acc, _mm_mul_ps(_mm_add_ps(x2, bracket), _mm_loadu_ps(B->w + g)));
-        __m128i s16 = _mm_packs_epi32(s, s);
-        __m128i s8 = _mm_packus_epi16(s16, s16);
-        uint32_t packed = (uint32_t)_mm_cvtsi128_si32(s8);
-        memcpy(sel + g, &packed, 4);
+        sg[g >> 2] = s;
         if (g < 12 && hsum(acc) >= limit)
             return hsum(acc);
     }
+    /* the sixteen selectors in one store (a later 16-byte load of them is then forwarded) */
+    _mm_storeu_si128((__m128i *)sel, _mm_packus_epi16(_mm_packs_epi32(sg[0], sg[1]),
+                                                      _mm_packs_epi32(sg[2], sg[3])));
     return hsum(acc);
 }
 #else
@@ -262,12 +263,6 @@ __attribute__((target("avx2"))) static inline float sum16_avx2(__m256 a, __m256 
     return hsum(t);
 }
 
-__attribute__((target("avx2"))) static inline void store_sel8_avx2(__m256i s, uint8_t *sel)
-{
-    __m128i s16 = _mm_packs_epi32(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
-    _mm_storel_epi64((__m128i *)sel, _mm_packus_epi16(s16, s16));
-}
-
 /* select_sse eight texels at a time (AVX2 CPUs, chosen at run time): the same keys, so the
  * same selectors and error. */
 __attribute__((target("avx2"))) static float select_avx2(const blk *B, uint16_t c0,
@@ -286,6 +281,7 @@ __attribute__((target("avx2"))) static float select_avx2(const blk *B, uint16_t 
     const __m256i three = _mm256_set1_epi32(3);
     const __m256 quarter = _mm256_set1_ps(0.25f);
     __m256 part[2];
+    __m128i sv[2];
     for (int h = 0; h < 2; h++) {
         int g = 8 * h;
         __m256 r = _mm256_loadu_ps(B->r + g), gg = _mm256_loadu_ps(B->g + g),
@@ -302,8 +298,10 @@ __attribute__((target("avx2"))) static float select_avx2(const blk *B, uint16_t 
         __m256 x2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r, r), _mm256_mul_ps(gg, gg)),
                                   _mm256_mul_ps(b, b));
         part[h] = _mm256_mul_ps(_mm256_add_ps(x2, bracket), _mm256_loadu_ps(B->w + g));
-        store_sel8_avx2(s, sel + g);
+        sv[h] = _mm_packs_epi32(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
     }
+    /* the sixteen selectors in one store (a later 16-byte load of them is then forwarded) */
+    _mm_storeu_si128((__m128i *)sel, _mm_packus_epi16(sv[0], sv[1]));
     (void)limit; /* no early exit: the horizontal sum costs more than it saves here */
     return sum16_avx2(part[0], part[1]);
 }
@@ -1099,26 +1097,31 @@ cluster_scan_avx2(const float *q3r, const float *q3g, const float *q3b, const fl
 #endif
 
 #ifdef __SSE2__
-/* Stable descending order without branches: rank(i) = #{j: p_j > p_i} +
- * #{j < i: p_j == p_i}, four texels i at a time. */
+/* Descending order without branches. Keys: the projection's bits made monotone as signed
+ * integers, the low 4 bits replaced by 15 - i (projections closer than 2^-19 relative count
+ * as equal and keep texel order), so the keys are distinct and rank(i) = #{j: key_j > key_i}:
+ * one comparison per pair. */
+static inline __m128i rank_keys_sse(__m128 p, __m128i lanes15)
+{
+    __m128i b = _mm_castps_si128(p);
+    b = _mm_xor_si128(b, _mm_and_si128(_mm_srai_epi32(b, 31), _mm_set1_epi32(0x7fffffff)));
+    return _mm_or_si128(_mm_and_si128(b, _mm_set1_epi32(~15)), lanes15);
+}
+
 static void rank16_sse(const float proj[16], int32_t rank[16])
 {
-    __m128 P[4];
-    __m128i I[4], R[4];
+    __m128i K[4], R[4];
+    int32_t key[16];
     for (int g = 0; g < 4; g++) {
-        P[g] = _mm_loadu_ps(proj + 4 * g);
-        I[g] = _mm_set_epi32(4 * g + 3, 4 * g + 2, 4 * g + 1, 4 * g);
+        K[g] = rank_keys_sse(_mm_loadu_ps(proj + 4 * g),
+                             _mm_set_epi32(12 - 4 * g, 13 - 4 * g, 14 - 4 * g, 15 - 4 * g));
+        _mm_storeu_si128((__m128i *)(key + 4 * g), K[g]);
         R[g] = _mm_setzero_si128();
     }
     for (int j = 0; j < 16; j++) {
-        __m128 pj = _mm_set1_ps(proj[j]);
-        __m128i jj = _mm_set1_epi32(j);
-        for (int g = 0; g < 4; g++) {
-            __m128i gt = _mm_castps_si128(_mm_cmpgt_ps(pj, P[g]));
-            __m128i eq = _mm_and_si128(_mm_castps_si128(_mm_cmpeq_ps(pj, P[g])),
-                                       _mm_cmplt_epi32(jj, I[g]));
-            R[g] = _mm_sub_epi32(R[g], _mm_or_si128(gt, eq));
-        }
+        __m128i kj = _mm_set1_epi32(key[j]);
+        for (int g = 0; g < 4; g++)
+            R[g] = _mm_sub_epi32(R[g], _mm_cmpgt_epi32(kj, K[g]));
     }
     for (int g = 0; g < 4; g++)
         _mm_storeu_si128((__m128i *)(rank + 4 * g), R[g]);
@@ -1126,24 +1129,22 @@ static void rank16_sse(const float proj[16], int32_t rank[16])
 #endif
 
 #if ST_BC1_AVX2
-/* rank16_sse eight texels at a time (the same comparisons, the same ranks). */
+/* rank16_sse eight texels at a time (the same keys, the same ranks). */
 __attribute__((target("avx2"))) static void rank16_avx2(const float proj[16], int32_t rank[16])
 {
-    __m256 P0 = _mm256_loadu_ps(proj), P1 = _mm256_loadu_ps(proj + 8);
-    __m256i I0 = _mm256_set_epi32(7, 6, 5, 4, 3, 2, 1, 0),
-            I1 = _mm256_set_epi32(15, 14, 13, 12, 11, 10, 9, 8);
+    int32_t key[16];
+    for (int g = 0; g < 4; g++)
+        _mm_storeu_si128((__m128i *)(key + 4 * g),
+                         rank_keys_sse(_mm_loadu_ps(proj + 4 * g),
+                                       _mm_set_epi32(12 - 4 * g, 13 - 4 * g, 14 - 4 * g,
+                                                     15 - 4 * g)));
+    __m256i K0 = _mm256_loadu_si256((const __m256i *)key),
+            K1 = _mm256_loadu_si256((const __m256i *)(key + 8));
     __m256i R0 = _mm256_setzero_si256(), R1 = _mm256_setzero_si256();
     for (int j = 0; j < 16; j++) {
-        __m256 pj = _mm256_set1_ps(proj[j]);
-        __m256i jj = _mm256_set1_epi32(j);
-        __m256i gt0 = _mm256_castps_si256(_mm256_cmp_ps(pj, P0, _CMP_GT_OQ));
-        __m256i eq0 = _mm256_and_si256(_mm256_castps_si256(_mm256_cmp_ps(pj, P0, _CMP_EQ_OQ)),
-                                       _mm256_cmpgt_epi32(I0, jj));
-        __m256i gt1 = _mm256_castps_si256(_mm256_cmp_ps(pj, P1, _CMP_GT_OQ));
-        __m256i eq1 = _mm256_and_si256(_mm256_castps_si256(_mm256_cmp_ps(pj, P1, _CMP_EQ_OQ)),
-                                       _mm256_cmpgt_epi32(I1, jj));
-        R0 = _mm256_sub_epi32(R0, _mm256_or_si256(gt0, eq0));
-        R1 = _mm256_sub_epi32(R1, _mm256_or_si256(gt1, eq1));
+        __m256i kj = _mm256_set1_epi32(key[j]);
+        R0 = _mm256_sub_epi32(R0, _mm256_cmpgt_epi32(kj, K0));
+        R1 = _mm256_sub_epi32(R1, _mm256_cmpgt_epi32(kj, K1));
     }
     _mm256_storeu_si256((__m256i *)rank, R0);
     _mm256_storeu_si256((__m256i *)(rank + 8), R1);
