@@ -57,6 +57,13 @@
 #include <string.h>
 #include <unistd.h>
 
+/* GCC at -O2 does not unroll the short fixed loops over palette entries, texel groups and
+ * split rows; unrolled they run ~5% faster (measured, docs/bc1.md). Clang unrolls them on its
+ * own. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("unroll-loops")
+#endif
+
 #ifdef __SSE2__
 static inline float hsum(__m128 v)
 {
