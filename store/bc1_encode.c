@@ -578,7 +578,13 @@ static void axis_compute(const blk *B, axis *A)
     float tr = c[0] + c[3] + c[5];
     float v[3] = {0, 0, 0};
     if (tr > 1e-12f) {
-        float it = 1.0f / tr;
+        /* a power of two near 1 / trace instead of a division on every block's critical
+         * path: the exponent of tr negated (the eigenvalues then lie in 0..2) */
+        uint32_t tb;
+        memcpy(&tb, &tr, 4);
+        uint32_t ib = (uint32_t)(254u - (tb >> 23)) << 23;
+        float it;
+        memcpy(&it, &ib, 4);
         float q[6];
         for (int k = 0; k < 6; k++)
             q[k] = c[k] * it;
@@ -1590,7 +1596,13 @@ solve:;
         int i0 = b0, i1 = b1, i2 = b2;
         float n0 = pw[i0], n1 = pw[i1] - pw[i0], n2 = pw[i2] - pw[i1], n3 = pw[16] - pw[i2];
         float AA = n0 + n1 * (4.0f / 9) + n2 * (1.0f / 9), BB = (n1 + n2) * (2.0f / 9);
-        float CC = n3 + n2 * (4.0f / 9) + n1 * (1.0f / 9), inv = 1.0f / (AA * CC - BB * BB);
+        float CC = n3 + n2 * (4.0f / 9) + n1 * (1.0f / 9), inv;
+#ifdef __SSE2__
+        if (B->unit) /* D = Dint / 81: the table has 1 / Dint (no division on this path) */
+            inv = 81.0f * st_bc1_split_invd[i0][i1][i2];
+        else
+#endif
+            inv = 1.0f / (AA * CC - BB * BB);
         const float *ps[3] = {pr, pg, pb};
         for (int k = 0; k < 3; k++) {
             const float *q = ps[k];
@@ -1754,7 +1766,7 @@ static int cluster_fit3(const axis *A, const sorted *S, float e0[3], float e1[3]
     }
     float n0 = S->pw[i0], n1 = S->pw[i1] - S->pw[i0], n2 = S->pw[16] - S->pw[i1];
     float AA = n0 + 0.25f * n1, BB = 0.25f * n1, CC = n2 + 0.25f * n1;
-    float inv = 1.0f / (AA * CC - BB * BB);
+    float inv = 16.0f * st_bc1_split3_invd[i0][i1]; /* D = Dint / 16 */
     const float *ps[3] = {S->pr, S->pg, S->pb};
     for (int k = 0; k < 3; k++) {
         const float *q = ps[k];
@@ -2069,13 +2081,23 @@ static void encode_single(const uint8_t rgb[3], uint32_t transparent, uint8_t ou
         write_block(c0, c1, 0, out); /* equal: 3-colour mode, selector 0 is the colour */
 }
 
+static void encode_block(const uint8_t rgba[64], const float weight[16], int level,
+                         uint8_t out[8]);
+
 void st_bc1_encode_block(const uint8_t rgba[64], int level, uint8_t out[8])
 {
-    st_bc1_encode_block_w(rgba, NULL, level, out);
+    encode_block(rgba, NULL, level, out);
 }
 
 void st_bc1_encode_block_w(const uint8_t rgba[64], const float weight[16], int level,
                            uint8_t out[8])
+{
+    encode_block(rgba, weight, level, out);
+}
+
+/* The block encoder behind both entry points (static: the image loop calls it directly). */
+static void encode_block(const uint8_t rgba[64], const float weight[16], int level,
+                         uint8_t out[8])
 {
     uint32_t px[16];
     memcpy(px, rgba, 64);
@@ -2216,9 +2238,9 @@ static void *img_worker(void *arg)
                     /* padding repeats the edge texel: it does not count twice */
                     wt[t] = x < j->w && y < j->h ? j->weights[(size_t)y * j->w + x] : 0.0f;
                 }
-                st_bc1_encode_block_w(tmp, wt, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
+                encode_block(tmp, wt, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
             } else {
-                st_bc1_encode_block(tmp, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
+                encode_block(tmp, NULL, j->level, j->blocks + ((size_t)by * bw + bx) * 8);
             }
         }
     return NULL;
