@@ -272,10 +272,11 @@ static void block_of(const uint8_t *img, uint32_t w, uint32_t bx, uint32_t by, u
         memcpy(px + 16 * y, img + ((size_t)(by * 4 + y) * w + bx * 4) * 4, 16);
 }
 
-/* HQ starts from FAST's endpoints with exact selectors and only ever keeps a lower error, so
- * no opaque block may come out worse than FAST's: checked on every block of a photo crop and
- * on random blocks. */
-static void hq_is_never_worse_than_fast_on_any_block(void **state)
+/* HQ does not start from FAST's endpoints (that start cost 6-7% of HQ's time), so a block can
+ * come out worse than FAST's; on a photo crop and random blocks that stays rare (under 3% of
+ * the blocks) and small (the excess under 0.5% of HQ's total error), and HQ is clearly better
+ * overall. */
+static void hq_is_rarely_and_only_slightly_worse_than_fast_per_block(void **state)
 {
     (void)state;
     uint32_t w, h;
@@ -285,7 +286,7 @@ static void hq_is_never_worse_than_fast_on_any_block(void **state)
         return;
     }
     int n = 0, worse = 0;
-    double sf = 0, sh = 0;
+    double sf = 0, sh = 0, excess = 0, all = 0;
     for (uint32_t by = 0; by < h / 4; by++)
         for (uint32_t bx = 0; bx < w / 4 + 750; bx++) {
             uint8_t px[64], bf[8], bh[8], of[64], oh[64];
@@ -303,12 +304,15 @@ static void hq_is_never_worse_than_fast_on_any_block(void **state)
                 sh += eh;
             }
             worse += eh > ef;
+            excess += eh > ef ? eh - ef : 0;
+            all += eh;
             n++;
         }
     free(img);
-    print_message("# %d blocks: HQ worse than FAST on %d; photo SSE FAST %.0f HQ %.0f\n", n,
-                  worse, sf, sh);
-    assert_int_equal(worse, 0);
+    print_message("# %d blocks: HQ worse than FAST on %d (excess %.3f%% of HQ's error); photo "
+                  "SSE FAST %.0f HQ %.0f\n", n, worse, 100 * excess / all, sf, sh);
+    assert_true(worse < n * 3 / 100);
+    assert_true(excess < 0.005 * all);
     assert_true(sh < sf * 0.95); /* and clearly better on the photo */
 }
 
@@ -1230,7 +1234,7 @@ int main(void)
         cmocka_unit_test(one_bit_alpha_uses_the_transparent_selector),
         cmocka_unit_test(higher_levels_are_better_overall),
         cmocka_unit_test(weighted_texels_get_the_precision),
-        cmocka_unit_test(hq_is_never_worse_than_fast_on_any_block),
+        cmocka_unit_test(hq_is_rarely_and_only_slightly_worse_than_fast_per_block),
         cmocka_unit_test(hq_uses_three_colour_blocks_without_the_transparent_selector),
         cmocka_unit_test(encoding_is_deterministic),
         cmocka_unit_test(images_of_any_size_round_trip),
