@@ -127,10 +127,26 @@ static void refresh(const solver *S, uint32_t b)
     }
 }
 
+/* Es of the current state: sum over the points of len * squared residual, RGB. */
+static double seam_sum(const solver *S)
+{
+    double es = 0;
+    for (size_t p = 0; p < S->sys->npts; p++) {
+        const tapref *r = &S->taps[8 * p];
+        for (unsigned c = 0; c < 3; c++) {
+            double v = 0;
+            for (int k = 0; k < 8; k++)
+                v += r[k].w * tap_value(S, &r[k], c);
+            es += S->sys->pts[p].len * v * v;
+        }
+    }
+    return es;
+}
+
 /* Exact E over the touched blocks and all points. */
 static double exact_energy(const solver *S)
 {
-    double ec = 0, es = 0;
+    double ec = 0;
     for (uint32_t b = 0; b < S->nb; b++) {
         for (int i = 0; i < 16; i++) {
             if (S->d[16 * b + i] == 0)
@@ -143,16 +159,7 @@ static double exact_energy(const solver *S)
             }
         }
     }
-    for (size_t p = 0; p < S->sys->npts; p++) {
-        const tapref *r = &S->taps[8 * p];
-        for (unsigned c = 0; c < 3; c++) {
-            double v = 0;
-            for (int k = 0; k < 8; k++)
-                v += r[k].w * tap_value(S, &r[k], c);
-            es += S->sys->pts[p].len * v * v;
-        }
-    }
-    return ec + S->alpha * es;
+    return ec + S->alpha * seam_sum(S);
 }
 
 /* y = H z over 2*nb unknowns (channel independent); fixed entries give 0. h holds each
@@ -704,16 +711,7 @@ static int bcd_block(const solver *S, uint32_t b)
 /* Seam RMS per channel of the current state (exact decode), as st_seam_rms_rgba8. */
 static double state_rms(const solver *S)
 {
-    double es = 0;
-    for (size_t p = 0; p < S->sys->npts; p++) {
-        const tapref *r = &S->taps[8 * p];
-        for (unsigned c = 0; c < 3; c++) {
-            double v = 0;
-            for (int k = 0; k < 8; k++)
-                v += r[k].w * tap_value(S, &r[k], c);
-            es += S->sys->pts[p].len * v * v;
-        }
-    }
+    double es = seam_sum(S);
     return S->sys->total_len > 0 ? sqrt(es / (3 * S->sys->total_len)) : 0;
 }
 
