@@ -329,14 +329,15 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
+    stp_upload_done again;
+    if (sts_uploads_done_reply(srv, id, c->conn->id, &again)) {
+        /* committed before and its reply lost (taken over with RESUME): the same reply */
+        stp_enc_upload_done(out, h->reqid, &again);
+        return 0;
+    }
     sts_upload *u = sts_uploads_find(srv, id, c->conn->id, 2);
     if (!u) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
-        return 0;
-    }
-    if (u->state == STS_UP_DONE) {  /* committed before, its reply lost: the same reply again */
-        stp_upload_done again = u->done;
-        stp_enc_upload_done(out, h->reqid, &again);
         return 0;
     }
     st_error e;

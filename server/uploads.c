@@ -154,9 +154,7 @@ sts_upload *sts_uploads_find(sts_server *srv, uint64_t id, uint64_t conn_id, int
         sts_upload *u = *pp;
         if (u->id != id || u->conn_id != conn_id)
             continue;
-        if (u->state == STS_UP_DONE && take == 2) {
-            found = u;
-        } else if (u->state == STS_UP_HELD) {
+        if (u->state == STS_UP_HELD) {
             found = u;
             if (take == 1) {
                 *pp = u->next;
@@ -203,6 +201,20 @@ void sts_uploads_finish_commit(sts_server *srv, sts_upload *u, const stp_upload_
         sts_upload_free(u);
 }
 
+
+int sts_uploads_done_reply(sts_server *srv, uint64_t id, uint64_t conn_id, stp_upload_done *out)
+{
+    int found = 0;
+    pthread_mutex_lock(&srv->uploads.mu);
+    for (sts_upload *u = srv->uploads.list; u; u = u->next)
+        if (u->id == id && u->conn_id == conn_id && u->state == STS_UP_DONE) {
+            *out = u->done;
+            found = 1;
+            break;
+        }
+    pthread_mutex_unlock(&srv->uploads.mu);
+    return found;
+}
 
 int sts_uploads_insert(sts_server *srv, sts_upload *u)
 {

@@ -58,9 +58,12 @@ int sts_uploads_adopt(sts_server *srv, const stp_upload_begin *rq, uint64_t conn
                       uint64_t *id, uint64_t *received);
 
 /* Finds the caller's HELD upload. take 0: leaves it; take 1: removes it from the table
- * (ABORT); take 2: marks it COMMITTING (COMMIT; sts_uploads_finish_commit ends that). A DONE
- * record the caller took over with RESUME is returned by take 2 as it is. */
+ * (ABORT); take 2: marks it COMMITTING (COMMIT; sts_uploads_finish_commit ends that). */
 sts_upload *sts_uploads_find(sts_server *srv, uint64_t id, uint64_t conn_id, int take);
+
+/* COMMIT of a DONE record the caller took over with RESUME: copies its original reply into
+ * *out under the lock (the sweep may drop the record right after); 1 when there is one. */
+int sts_uploads_done_reply(sts_server *srv, uint64_t id, uint64_t conn_id, stp_upload_done *out);
 
 /* Ends a COMMITTING upload: dropped when it failed (done NULL); DONE with its reply when it
  * made a set and upload-keep > 0. */
