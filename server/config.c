@@ -65,6 +65,9 @@ static const opt OPTS[] = {
      "keep an unfinished upload this long after its connection drops, for UPLOAD_BEGIN with\n"
      "RESUME; 0 = drop it at once (default 600)"},
     {"max-jobs", T_U32, O(max_jobs), 0, 1, "N", "queued or running compress jobs (default 16)"},
+    {"job-threads", T_U32, O(job_threads), 0, 1, "N",
+     "threads one compress job encodes with; 0 = one per core (default 1: jobs leave the\n"
+     "other cores to the requests)"},
     {"max-set-bytes", T_SIZE, O(max_set_bytes), 0, 1, "BYTES",
      "texel memory of one imported set (default 8G)"},
     {"default-set", T_BOOL, O(default_set), 0, 0, "yes|no",
@@ -94,6 +97,7 @@ void sts_config_defaults(sts_config *c)
     c->max_sets = 10000;
     c->max_uploads = 64;
     c->max_jobs = 16;
+    c->job_threads = 1;
     c->max_set_bytes = (uint64_t)8 << 30;
     c->default_set = 1;
     c->log_level = STS_INFO;

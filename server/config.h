@@ -41,6 +41,7 @@ typedef struct sts_config {
     uint32_t max_uploads;       /* unfinished uploads at once (kept ones included) */
     uint32_t upload_keep;       /* seconds an unfinished upload outlives its connection */
     uint32_t max_jobs;          /* queued + running COMPRESS jobs */
+    uint32_t job_threads;       /* encoder threads of one job, 0 = one per core */
     uint64_t max_set_bytes;     /* texel arena of one imported set */
     int      default_set;       /* load the built-in set as "default" */
     int      log_level;         /* sts_level */

@@ -144,7 +144,7 @@ static void run_job(sts_server *srv, sts_job *j)
     /* wire levels 0..9: 0-4 FAST, 5-7 HQ (the CLI's default 5), 8-9 BEST (PROTOCOL.md 4.9) */
     o.level = j->level >= 8 ? ST_BC1_BEST : j->level >= 5 ? ST_BC1_HQ : ST_BC1_FAST;
     o.seam_mode = (j->flags & STP_CF_SEAM_AWARE) ? ST_BC1_SEAM_AWARE : ST_BC1_SEAM_NONE;
-    o.threads = 1;
+    o.threads = (int)(STS_LIVE(srv, job_threads) > 64 ? 64 : STS_LIVE(srv, job_threads));
     st_set *bc1 = NULL;
     rc = st_bc1_compress_set(j->src->set, &o, progress_cb, j, &j->cancel, &bc1, &e);
     /* the job's report: quality against the source, measured as the seam report does */

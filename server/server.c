@@ -290,6 +290,7 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh)
     SET_LIVE(max_uploads);
     SET_LIVE(upload_keep);
     SET_LIVE(max_jobs);
+    SET_LIVE(job_threads);
     SET_LIVE(max_set_bytes);
     SET_LIVE(log_level);
     sts_log_set_level(&srv->log, fresh->log_level);

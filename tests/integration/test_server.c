@@ -585,6 +585,65 @@ static void compress_job_fetch_dds_and_cancel(void **state)
     stc_close(c);
 }
 
+/* Reads a whole file (malloc'ed) or NULL. */
+static uint8_t *file_bytes(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    rewind(f);
+    uint8_t *b = n > 0 ? malloc((size_t)n) : NULL;
+    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
+        free(b);
+        b = NULL;
+    }
+    fclose(f);
+    *len = b ? (size_t)n : 0;
+    return b;
+}
+
+/* Compresses "default" on daemon d into a .dds file (fetched) at out. */
+static void compress_default_to(const st_daemon *d, const char *target, const char *out)
+{
+    stc_conn *c = conn_to(d, NULL);
+    assert_non_null(c);
+    uint64_t job = 0;
+    stc_job js;
+    assert_int_equal(stc_compress(c, "default", target, 5, STC_COMPRESS_SEAM_AWARE, &job), 0);
+    assert_int_equal(stc_job_wait(c, job, 60000, &js), 0);
+    assert_int_equal(js.state, STC_JOB_DONE);
+    assert_int_equal(stc_fetch_file(c, target, STC_FETCH_DDS, out, NULL, NULL), 0);
+    assert_int_equal(stc_delete(c, target), 0);
+    stc_close(c);
+}
+
+/* --job-threads spreads a job's encoding over threads; the blocks do not depend on it. */
+static void job_threads_give_the_same_blocks(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--job-threads", "0", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    char a[700], b[700];
+    snprintf(a, sizeof a, "%s/threads-all.dds", d.dir);
+    snprintf(b, sizeof b, "%s/threads-one.dds", d.dir);
+    compress_default_to(&d, "jt-all", a);
+    compress_default_to(&D1, "jt-one", b);
+    size_t la, lb;
+    uint8_t *fa = file_bytes(a, &la), *fb = file_bytes(b, &lb);
+    assert_non_null(fa);
+    assert_non_null(fb);
+    assert_int_equal(la, lb);
+    assert_memory_equal(fa, fb, la);
+    free(fa);
+    free(fb);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 typedef struct racer {
     const void *ptx;
     size_t len;
@@ -1537,6 +1596,7 @@ int main(void)
         cmocka_unit_test(split_batches_match_the_sampler_in_every_form),
         cmocka_unit_test(upload_info_fetch_delete_round_trip),
         cmocka_unit_test(compress_job_fetch_dds_and_cancel),
+        cmocka_unit_test(job_threads_give_the_same_blocks),
         cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
         cmocka_unit_test(dropped_upload_resumes_on_a_new_connection),
         cmocka_unit_test(kept_uploads_expire_and_can_be_turned_off),
