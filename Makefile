@@ -10,9 +10,15 @@
 # Dependencies are Debian packages; `make deps` (a prerequisite of test, bench and run) installs
 # whatever is missing through deploy/install-deps.sh.
 #
-# Layout of the build: every store/*.c and store/*.cpp goes into libseamtex_store.a, protocol/*.c
-# into libseamtex_proto.a; client/, server/ and tests/ describe their own targets in the
-# module.mk beside their sources.
+# Layout of the build: the dependency rules between folders are written down in
+# store/README.md and ARCHITECTURE.md and enforced here: every object is compiled with the
+# include paths of its own folder and of the folders it may depend on, and nothing else, so an
+# include across a forbidden edge fails to compile.
+#
+#   util/            libseamtex_util.a   libc only
+#   protocol/        libseamtex_proto.a  libc only
+#   store/<part>/    libst_<part>.a      util + the store parts listed in STORE_DEPS_<part>
+#   client/, server/, tests/, tools/     describe their own targets in their module.mk
 
 CC       ?= gcc
 CXX      ?= g++
@@ -36,24 +42,59 @@ PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 
 WARN     := -Wall -Wextra -Werror
-CPPFLAGS += -D_GNU_SOURCE -Istore -Iprotocol -Iclient -MMD -MP
+CPPFLAGS += -D_GNU_SOURCE -MMD -MP
 CFLAGS   := -std=c11 $(OPT) -g $(WARN) -fPIC -pthread $(SANFLAGS) $(EXTRA_CFLAGS)
 CXXFLAGS := -std=c++17 $(OPT) -g $(WARN) -fPIC -pthread $(SANFLAGS) $(PKG_CFLAGS) $(EXTRA_CFLAGS)
 LDFLAGS  += -pthread $(SANFLAGS)
 LDLIBS   := $(PKG_LIBS) -ldraco -lz -lm -lstdc++ -lpthread
 
-# ---- libraries --------------------------------------------------------------------------
-STORE_C   := $(sort $(wildcard store/*.c))
-STORE_CXX := $(sort $(wildcard store/*.cpp))
-STORE_OBJ := $(STORE_C:%.c=$(B)/%.o) $(STORE_CXX:%.cpp=$(B)/%.o)
+# ---- util/ and protocol/: libc only ---------------------------------------------------------
+UTIL_OBJ  := $(patsubst %.c,$(B)/%.o,$(sort $(wildcard util/*.c)))
 PROTO_OBJ := $(patsubst %.c,$(B)/%.o,$(sort $(wildcard protocol/*.c)))
-
-LIB_STORE := $(B)/libseamtex_store.a
+LIB_UTIL  := $(B)/libseamtex_util.a
 LIB_PROTO := $(B)/libseamtex_proto.a
+INC_util     := -Iutil
+INC_protocol := -Iprotocol -Istore/core   # TEMP: until protocol/ has its own error list
+$(B)/util/%.o:     MODINC := $(INC_util)
+$(B)/protocol/%.o: MODINC := $(INC_protocol)
 
-all: $(LIB_STORE) $(LIB_PROTO)
+# ---- store/: one archive per part; the allowed edges, lowest part first ---------------------
+# A part may include its own headers, util/'s and those of the parts named here (the list is
+# closed under dependency: a part lists its dependencies' dependencies too).
+STORE_PARTS      := core mesh sample ptex kinds bc1 import service
+STORE_DEPS_core    :=
+STORE_DEPS_mesh    := core
+STORE_DEPS_sample  := core
+STORE_DEPS_ptex    := core sample
+STORE_DEPS_kinds   := core mesh sample
+STORE_DEPS_bc1     := core mesh sample kinds
+STORE_DEPS_import  := core mesh sample ptex kinds bc1
+STORE_DEPS_service := core mesh sample ptex kinds bc1 import
 
-$(LIB_STORE): $(STORE_OBJ)
+store_inc = -Istore/$(1) $(foreach d,$(STORE_DEPS_$(1)),-Istore/$(d)) $(INC_util)
+store_src = $(sort $(wildcard store/$(1)/*.c store/$(1)/*.cpp))
+store_obj = $(patsubst %.cpp,$(B)/%.o,$(patsubst %.c,$(B)/%.o,$(call store_src,$(1))))
+
+define STORE_PART
+INC_store_$(1) := $$(call store_inc,$(1))
+$(B)/store/$(1)/%.o: MODINC := $$(INC_store_$(1))
+LIB_STORE_$(1) := $(B)/libst_$(1).a
+$$(LIB_STORE_$(1)): $$(call store_obj,$(1))
+	@mkdir -p $$(@D)
+	rm -f $$@ && ar rcs $$@ $$^
+endef
+$(foreach p,$(STORE_PARTS),$(eval $(call STORE_PART,$(p))))
+
+STORE_C   := $(foreach p,$(STORE_PARTS),$(wildcard store/$(p)/*.c))
+STORE_CXX := $(foreach p,$(STORE_PARTS),$(wildcard store/$(p)/*.cpp))
+# every store part (highest first, the link order) and util: what links "the whole store"
+LIB_STORE := $(foreach p,service import bc1 kinds ptex sample mesh core,$(LIB_STORE_$(p))) $(LIB_UTIL)
+# the include paths of the whole store (for the daemon, tests, tools)
+INC_STORE := $(foreach p,$(STORE_PARTS),-Istore/$(p)) $(INC_util)
+
+all: $(LIB_STORE) $(LIB_PROTO) $(LIB_UTIL)
+
+$(LIB_UTIL): $(UTIL_OBJ)
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 
@@ -63,11 +104,11 @@ $(LIB_PROTO): $(PROTO_OBJ)
 
 $(B)/%.o: %.c
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
+	$(CC) $(CPPFLAGS) $(MODINC) $(CFLAGS) -c $< -o $@
 
 $(B)/%.o: %.cpp
 	@mkdir -p $(@D)
-	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
+	$(CXX) $(CPPFLAGS) $(MODINC) $(CXXFLAGS) -c $< -o $@
 
 # ---- modules ------------------------------------------------------------------------------
 # Each module.mk appends to ALL_BINS, TEST_BINS, BENCH_BINS, INSTALL_BINS and defines its rules.
@@ -113,9 +154,16 @@ install: all
 	@if [ -f client/seamtex.pc.in ]; then \
 		sed -e 's|@PREFIX@|$(PREFIX)|g' client/seamtex.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/seamtex.pc; fi
 
+# Every store part's headers compile on their own with only the include paths the rules above
+# give that part (no header leans on what an including file happened to include first).
+check-layout:
+	@$(foreach p,$(STORE_PARTS),$(foreach h,$(wildcard store/$(p)/*.h),\
+		echo '#include "$(notdir $(h))"' | $(CC) -std=c11 -D_GNU_SOURCE $(PKG_CFLAGS) -fsyntax-only \
+		$(INC_store_$(p)) -x c - || exit 1;)) echo "check-layout: every store header compiles alone"
+
 clean:
 	rm -rf build build-san
 
-.PHONY: all deps test bench run asan install clean tests-build bench-build
+.PHONY: all deps test bench run asan install clean tests-build bench-build check-layout
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

@@ -26,6 +26,7 @@
 
 #include "proto.h"
 #include "sample.h"
+#include "fdio.h"
 
 #define POOL_SAMPLE 16          /* distinct SAMPLE frames per thread */
 
@@ -65,49 +66,18 @@ static int is_loopback(const struct sockaddr *sa)
     return 0;
 }
 
-/* Blocking: writes all of buf. */
-static int write_all(int fd, const uint8_t *p, size_t n)
-{
-    while (n > 0) {
-        ssize_t w = write(fd, p, n);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0)
-            return -1;
-        p += w;
-        n -= (size_t)w;
-    }
-    return 0;
-}
-
-static int read_all(int fd, uint8_t *p, size_t n)
-{
-    while (n > 0) {
-        ssize_t r = read(fd, p, n);
-        if (r < 0 && errno == EINTR)
-            continue;
-        if (r == 0)
-            errno = 0;                      /* closed, not timed out */
-        if (r <= 0)
-            return -1;
-        p += r;
-        n -= (size_t)r;
-    }
-    return 0;
-}
-
 /* Blocking request/reply on a fresh socket: sends b's frame, reads one reply frame into
  * *body (malloc'd, caller frees). Returns 0, or -1 with msg. */
 static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *msg, size_t ml)
 {
     *body = NULL;
-    if (write_all(fd, stp_buf_head(b), stp_buf_avail(b)) < 0) {
+    if (stu_write_all(fd, stp_buf_head(b), stp_buf_avail(b)) < 0) {
         snprintf(msg, ml, "write: %s", strerror(errno));
         return -1;
     }
     uint8_t hdr[STP_HEADER_SIZE];
     int reason = 0;
-    if (read_all(fd, hdr, sizeof hdr) < 0) {
+    if (stu_read_all(fd, hdr, sizeof hdr) < 0) {
         snprintf(msg, ml, errno == EAGAIN || errno == EWOULDBLOCK ? "no reply within the timeout"
                                                                    : "the server closed the connection");
         return -1;
@@ -117,7 +87,7 @@ static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *ms
         return -1;
     }
     *body = malloc(h->body_len ? h->body_len : 1);
-    if (!*body || read_all(fd, *body, h->body_len) < 0) {
+    if (!*body || stu_read_all(fd, *body, h->body_len) < 0) {
         free(*body);
         *body = NULL;
         snprintf(msg, ml, "reply body cut short");

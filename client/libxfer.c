@@ -6,6 +6,7 @@
  * upload is not one round trip per chunk; the window never exceeds the server's max_inflight.
  */
 #include "libseamtex_int.h"
+#include "fdio.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -273,20 +274,6 @@ int stc_upload_file(stc_conn *c, const char *path, const char *set, const stc_up
 
 /* ---- fetch -------------------------------------------------------------------------------------- */
 
-static int write_all(int fd, const uint8_t *p, size_t n)
-{
-    while (n) {
-        ssize_t w = write(fd, p, n);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0)
-            return -1;
-        p += w;
-        n -= (size_t)w;
-    }
-    return 0;
-}
-
 int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *path,
                    stc_progress_fn progress, void *user)
 {
@@ -357,7 +344,7 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
                             (unsigned long long)got);
             goto fail;
         }
-        if (write_all(fd, fd_.data, fd_.len) != 0) {
+        if (stu_write_all(fd, fd_.data, fd_.len) != 0) {
             rc = stc__fail(c, STC_EFILE, "%s: write: %s", part, strerror(errno));
             goto fail;
         }

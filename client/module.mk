@@ -1,11 +1,17 @@
 # client/module.mk - libseamtex (the client library), the CLI `seamtex`, the load tester
 # `seamtex-bench`. Included by the top Makefile.
 
+# client/ sees protocol/ and util/ only; seamtex-bench's in-process baseline (bench_inproc.c)
+# also sees the store's sample and core parts, on purpose.
+$(B)/client/%.o: MODINC := -Iclient -Iprotocol $(INC_util) -Istore/core -Istore/sample  # TEMP: until protocol/ names modes
+$(B)/client/bench_inproc.o: MODINC := -Iclient -Iprotocol $(INC_util) $(INC_STORE)
+
 # ---- libseamtex (owner: client library) ----
-# libseamtex.a bundles the protocol objects so that an installed client needs only -lseamtex.
+# libseamtex.a bundles the protocol and util objects so that an installed client needs only
+# -lseamtex.
 CLIENT_LIB_SRC := $(sort $(wildcard client/lib*.c))
 LIB_CLIENT     := $(B)/libseamtex.a
-$(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o) $(PROTO_OBJ)
+$(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o) $(PROTO_OBJ) $(UTIL_OBJ)
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 ALL_BINS     += $(LIB_CLIENT)

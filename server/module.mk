@@ -1,12 +1,13 @@
 # server/module.mk - the daemon seamtexd. Included by the top Makefile.
 #
-# $(B)/seamtexd is linked from every server/*.c with libseamtex_proto.a, libseamtex_store.a
-# and the common LDLIBS.
+# $(B)/seamtexd is linked from every server/*.c with libseamtex_proto.a, every store part's
+# archive, libseamtex_util.a and the common LDLIBS.
 
 SERVER_SRC := $(sort $(wildcard server/*.c))
 SERVER_OBJ := $(SERVER_SRC:%.c=$(B)/%.o)
 
-$(SERVER_OBJ): CPPFLAGS += -Iserver
+# The daemon sees every store part, protocol/ and util/ (it is the top of the graph).
+$(B)/server/%.o: MODINC := -Iserver -Iprotocol $(INC_STORE)
 
 $(B)/seamtexd: $(SERVER_OBJ) $(LIB_PROTO) $(LIB_STORE)
 	@mkdir -p $(@D)

@@ -7,6 +7,10 @@
 #   tests/fuzz/fuzz_*.c         libFuzzer targets built with clang; tests/run.sh runs each
 #                               for a bounded time (FUZZ_SECONDS, default 20)
 
+# Tests see everything (they test every layer directly).
+INC_TESTS := -Itests/common -Iclient -Iserver -Iprotocol $(INC_STORE)
+$(B)/tests/%.o: MODINC := $(INC_TESTS)
+
 TESTUTIL_OBJ := $(patsubst %.c,$(B)/%.o,$(sort $(wildcard tests/common/*.c)))
 LIB_TESTUTIL := $(B)/libtestutil.a
 $(LIB_TESTUTIL): $(TESTUTIL_OBJ)
@@ -37,21 +41,25 @@ FUZZ_SRC  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BINS := $(patsubst tests/fuzz/%.c,$(FZ)/%,$(FUZZ_SRC))
 FUZZ_FLAGS := -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer
 FUZZ_LIB_OBJ := $(STORE_C:%.c=$(FZ)/obj/%.o) $(STORE_CXX:%.cpp=$(FZ)/obj/%.o) \
-                $(PROTO_OBJ:$(B)/%.o=$(FZ)/obj/%.o)
+                $(PROTO_OBJ:$(B)/%.o=$(FZ)/obj/%.o) $(UTIL_OBJ:$(B)/%.o=$(FZ)/obj/%.o)
+
+$(FZ)/obj/util/%.o:     MODINC := $(INC_util)
+$(FZ)/obj/protocol/%.o: MODINC := $(INC_protocol)
+$(foreach p,$(STORE_PARTS),$(eval $(FZ)/obj/store/$(p)/%.o: MODINC := $(INC_store_$(p))))
 
 $(FZ)/obj/%.o: %.c
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(CPPFLAGS) -std=c11 $(WARN) $(FUZZ_FLAGS) -c $< -o $@
+	$(FUZZ_CC) $(CPPFLAGS) $(MODINC) -std=c11 $(WARN) $(FUZZ_FLAGS) -c $< -o $@
 
 $(FZ)/obj/%.o: %.cpp
 	@mkdir -p $(@D)
-	$(FUZZ_CXX) $(CPPFLAGS) -std=c++17 $(WARN) -Wno-unused-parameter $(PKG_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@
+	$(FUZZ_CXX) $(CPPFLAGS) $(MODINC) -std=c++17 $(WARN) -Wno-unused-parameter $(PKG_CFLAGS) $(FUZZ_FLAGS) -c $< -o $@
 
 $(FZ)/libfuzz.a: $(FUZZ_LIB_OBJ)
 	rm -f $@ && ar rcs $@ $^
 
 $(FZ)/fuzz_%: tests/fuzz/fuzz_%.c $(FZ)/libfuzz.a
-	$(FUZZ_CC) $(CPPFLAGS) -std=c11 $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined \
+	$(FUZZ_CC) $(CPPFLAGS) $(INC_TESTS) -std=c11 $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined \
 		-fno-omit-frame-pointer -o $@ $< $(FZ)/libfuzz.a $(LDLIBS)
 
 ifeq ($(SAN),1)

@@ -28,6 +28,8 @@
 #include "mesh.h"
 #include "ptex.h"
 #include "seammask.h"
+#include "image_io.h"
+#include "mesh_io.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -263,7 +265,7 @@ static int run_set(const dataset *d, const char *data, const char *outdir, int l
         st_image_free(&img);
         if (rc)
             return rc;
-        st_atlas *at = s->ext;
+        st_atlas *at = st_set_ext_get(s, ST_EXT_ATLAS);
         const char *b = strrchr(d->tex, '/');
         snprintf(at->texture_name, sizeof at->texture_name, "%s", b ? b + 1 : d->tex);
     } else {
@@ -497,7 +499,7 @@ static int run_big(const char *data, int level, float boost, float goal)
         fprintf(stderr, "seamreport --big: %s\n", e.msg);
         return 1;
     }
-    st_atlas *at = s->ext;
+    st_atlas *at = st_set_ext_get(s, ST_EXT_ATLAS);
     snprintf(at->texture_name, sizeof at->texture_name, "%s", "CesiumMilkTruck.png");
     st_bc1_opts o;
     st_bc1_opts_default(&o);

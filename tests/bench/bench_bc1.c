@@ -12,6 +12,7 @@
  */
 #include "bc1.h"
 #include "image.h"
+#include "image_io.h"
 
 #include <stdio.h>
 #include <stdlib.h>

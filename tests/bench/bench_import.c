@@ -18,6 +18,8 @@
 #include "image.h"
 #include "import.h"
 #include "mesh.h"
+#include "image_io.h"
+#include "mesh_io.h"
 
 static double now(clockid_t c)
 {

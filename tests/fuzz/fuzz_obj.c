@@ -5,6 +5,7 @@
 #include <stdint.h>
 
 #include "mesh.h"
+#include "mesh_io.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -18,6 +18,7 @@
 #include "image.h"
 #include "sample.h"
 #include "../common/testdata.h"
+#include "image_io.h"
 
 static uint32_t rng_state = 12345;
 static uint32_t rnd(void)
@@ -467,7 +468,7 @@ static void compressing_a_set_keeps_faces_and_costs_an_eighth(void **state)
     assert_false(pg.decreasing);
     assert_true(pg.calls >= 2);
     assert_true(pg.last == 1.0);
-    const st_bc1_ext *x = b->ext;
+    const st_bc1_ext *x = st_set_ext_get(b, ST_EXT_BC1);
     assert_int_equal(x->src_kind, ST_KIND_PERFACE);
     /* without seam masking it decodes back close to the source */
     st_set_free(b);
@@ -571,7 +572,7 @@ static void compressing_rgba_with_holes_gives_punchthrough(void **state)
     st_bc1_opts_default(&o);
     o.seam_mode = ST_BC1_SEAM_NONE;
     assert_int_equal(st_bc1_compress_set(s, &o, NULL, NULL, NULL, &b, &e), ST_OK);
-    const st_bc1_ext *x = b->ext;
+    const st_bc1_ext *x = st_set_ext_get(b, ST_EXT_BC1);
     assert_int_equal(x->punchthrough, 1);
     uint8_t px[4];
     /* texel 0 of face 0 had alpha 0, texel 1 alpha 255 */
@@ -644,7 +645,7 @@ static void dds_writes_a_single_face_as_a_legacy_dxt1_texture(void **state)
     assert_int_equal(r->faces[0].h, 12);
     assert_int_equal(r->faces[0].nlevels, 5);
     assert_memory_equal(r->texels, b->texels, b->texel_bytes);
-    const st_bc1_ext *x = r->ext;
+    const st_bc1_ext *x = st_set_ext_get(r, ST_EXT_BC1);
     assert_int_equal(x->src_kind, ST_KIND_ATLAS);
     st_set_free(r);
     st_set_free(b);
@@ -683,7 +684,7 @@ static void dds_writes_cube_sets_as_cube_maps(void **state)
     uint32_t caps2 = (uint32_t)buf[112] | (uint32_t)buf[113] << 8;
     assert_int_equal(caps2 & 0xFE00u, 0xFE00u);
     assert_int_equal(st_dds_read_mem(buf, len, 0, &r, &e), ST_OK);
-    const st_bc1_ext *x = r->ext;
+    const st_bc1_ext *x = st_set_ext_get(r, ST_EXT_BC1);
     assert_int_equal(x->src_kind, ST_KIND_CUBE);
     assert_int_equal(r->info.nfaces, 6);
     for (int f = 0; f < 6; f++)
@@ -839,7 +840,7 @@ static void assert_same_bc1_set(const st_set *a, const st_set *b)
     }
     assert_int_equal(a->texel_bytes, b->texel_bytes);
     assert_memory_equal(a->texels, b->texels, a->texel_bytes);
-    const st_bc1_ext *x = a->ext, *y = b->ext;
+    const st_bc1_ext *x = st_set_ext_get(a, ST_EXT_BC1), *y = st_set_ext_get(b, ST_EXT_BC1);
     assert_non_null(x);
     assert_non_null(y);
     assert_int_equal(x->src_kind, y->src_kind);
@@ -1039,7 +1040,7 @@ static void every_kind_of_bc1_set_survives_dds(void **state)
     st_set_free(s);
     s = ring_set(7, mixed, 1u << 0, 0, 1);
     b = compress_or_fail(s, ST_BC1_HQ, ST_BC1_SEAM_NONE);
-    assert_int_equal(((const st_bc1_ext *)b->ext)->punchthrough, 1);
+    assert_int_equal(((const st_bc1_ext *)st_set_ext_get(b, ST_EXT_BC1))->punchthrough, 1);
     assert_dds_round_trip(b, "per-face mixed, face 0 constant, alpha");
     st_set_free(b);
     st_set_free(s);

@@ -35,6 +35,7 @@ int sse2only_encode_image_w(const uint8_t *rgba, const float *weights, uint32_t 
 #define st_bc1_encode_image_w sse2only_encode_image_w
 #define __builtin_cpu_supports(feature) 0
 #include "bc1_encode.c"
+#include "image_io.h"
 #undef __builtin_cpu_supports
 #undef st_bc1_encode_block
 #undef st_bc1_encode_block_w

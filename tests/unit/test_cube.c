@@ -18,6 +18,8 @@
 #include "import.h"
 #include "ptex.h"
 #include "../common/testdata.h"
+#include "image_io.h"
+#include "cube_io.h"
 
 static char tmpdir[256];
 

@@ -23,6 +23,8 @@
 #include "import.h"
 #include "mesh.h"
 #include "../common/testdata.h"
+#include "image_io.h"
+#include "mesh_io.h"
 
 static char tmpdir[256];
 

@@ -17,6 +17,8 @@
 #include "ptex.h"
 #include "seammask.h"
 #include "../common/testdata.h"
+#include "image_io.h"
+#include "mesh_io.h"
 
 static void assert_no_transparent_selector(const uint8_t *blk, size_t nblocks);
 static double total_energy(const st_seam_sys *sys, const uint8_t *orig, const uint8_t *x,

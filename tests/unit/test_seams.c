@@ -15,6 +15,7 @@
 #include "import.h"
 #include "mesh.h"
 #include "../common/testdata.h"
+#include "mesh_io.h"
 
 static st_mesh *obj_str(const char *text)
 {

@@ -1,0 +1,390 @@
+/* store/core/set.c - creation, validation, mip reduction and metadata of texture sets.
+ *
+ * Everything sized from outside (face count, face sizes, channel count) is checked with
+ * overflow-safe arithmetic against caps before the single texel arena is allocated. The
+ * adjacency walk that finds valences and diagonal faces is bounded (ST_WALK_MAX steps), so a
+ * hostile adjacency table cannot loop.
+ */
+#include "set.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define ST_WALK_MAX 64
+
+static int is_pow2(uint32_t x) { return x && !(x & (x - 1)); }
+
+static unsigned floor_log2(uint32_t x)
+{
+    unsigned l = 0;
+    while (x >>= 1)
+        l++;
+    return l;
+}
+
+/* A level holds w*h texels, or for a BC1 set ceil(w/4)*ceil(h/4) blocks of 8 bytes. */
+static size_t level_units(const st_set_info *info, const st_face *F, unsigned l)
+{
+    size_t w = st_level_w(F, l), h = st_level_h(F, l);
+    if (info->kind == ST_KIND_BC1)
+        return ((w + 3) / 4) * ((h + 3) / 4);
+    return w * h;
+}
+static size_t level_unit_size(const st_set_info *info, size_t tsize)
+{
+    return info->kind == ST_KIND_BC1 ? 8 : tsize;
+}
+
+int st_set_check_adjacency(const st_set *s, st_error *e)
+{
+    uint32_t n = s->info.nfaces;
+    for (uint32_t f = 0; f < n; f++) {
+        const st_face *F = &s->faces[f];
+        for (int ed = 0; ed < 4; ed++) {
+            int32_t g = F->adjface[ed];
+            if (g < 0)
+                continue;
+            if ((uint32_t)g >= n)
+                return st_fail(e, ST_EADJ, "face %u edge %d: neighbour %d out of range (%u faces)",
+                               f, ed, g, n);
+            unsigned ge = F->adjedge[ed];
+            if (ge > 3)
+                return st_fail(e, ST_EADJ, "face %u edge %d: neighbour edge id %u not in 0..3",
+                               f, ed, ge);
+            const st_face *G = &s->faces[g];
+            int fsub = (F->flags & ST_FACE_SUBFACE) != 0, gsub = (G->flags & ST_FACE_SUBFACE) != 0;
+            if (fsub != gsub)
+                continue; /* Ptex: a main face edge names one of the two subfaces along it */
+            if (G->adjface[ge] != (int32_t)f || G->adjedge[ge] != ed)
+                return st_fail(e, ST_EADJ,
+                               "face %u edge %d -> face %d edge %u, but face %d edge %u -> "
+                               "face %d edge %u (adjacency not symmetric)",
+                               f, ed, g, ge, g, ge, G->adjface[ge], G->adjedge[ge]);
+        }
+    }
+    return ST_OK;
+}
+
+/* Walks around the vertex at corner c of face f (Ptex order: cross edge c, then the edge
+ * after the one we arrived on). Fills valence and, for a regular interior vertex, the
+ * diagonal face and its corner. */
+static void corner_walk(st_set *s, uint32_t f, unsigned c)
+{
+    st_face *F = &s->faces[f];
+    int32_t af = (int32_t)f;
+    unsigned ae = c;
+    int32_t diag = -1;
+    unsigned diag_corner = 0;
+    unsigned count = 1;
+    int boundary = 0;
+    for (int i = 0; i < ST_WALK_MAX; i++) {
+        const st_face *A = &s->faces[af];
+        int32_t nf = A->adjface[ae];
+        if (nf < 0) {
+            boundary = 1;
+            break;
+        }
+        unsigned ne = A->adjedge[ae];
+        af = nf;
+        ae = (ne + 1) & 3; /* the vertex is corner (ne+1) of the new face, where edge ne+1 starts */
+        if (af == (int32_t)f && ae == c)
+            break;
+        count++;
+        if (count == 3) {
+            diag = af;
+            diag_corner = ae;
+        }
+    }
+    if (boundary) {
+        /* count the faces on the other side too, walking the other way */
+        int32_t bf = (int32_t)f;
+        unsigned be = (c + 3) & 3; /* edge ending at the vertex */
+        for (int i = 0; i < ST_WALK_MAX; i++) {
+            const st_face *B = &s->faces[bf];
+            int32_t nf = B->adjface[be];
+            if (nf < 0)
+                break;
+            unsigned ne = B->adjedge[be];
+            bf = nf;
+            be = (ne + 3) & 3;
+            count++;
+        }
+        F->valence[c] = (uint8_t)((count > 127 ? 127 : count) | ST_VALENCE_BOUNDARY);
+        F->cornerface[c] = -1;
+        F->cornercorner[c] = 0;
+        return;
+    }
+    F->valence[c] = (uint8_t)(count > 127 ? 127 : count);
+    if (count == 4 && !(F->flags & ST_FACE_SUBFACE)) {
+        F->cornerface[c] = diag;
+        F->cornercorner[c] = (uint8_t)diag_corner;
+    } else {
+        F->cornerface[c] = -1;
+        F->cornercorner[c] = 0;
+    }
+}
+
+int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                  st_set **out, st_error *e)
+{
+    *out = NULL;
+    if (!max_bytes)
+        max_bytes = ST_DEFAULT_MAX_BYTES;
+    if (info->nchan < 1 || info->nchan > ST_MAX_CHANNELS)
+        return st_fail(e, ST_EINVAL, "channel count %u not in 1..%u", info->nchan, ST_MAX_CHANNELS);
+    size_t csize = st_dtype_size(info->dtype);
+    if (!csize)
+        return st_fail(e, ST_EINVAL, "data type %u unknown", info->dtype);
+    if (info->nfaces < 1 || info->nfaces > ST_MAX_FACES)
+        return st_fail(e, ST_ETOOBIG, "face count %u not in 1..%u", info->nfaces, ST_MAX_FACES);
+    if (info->alpha_chan >= (int)info->nchan)
+        return st_fail(e, ST_EINVAL, "alpha channel %d but only %u channels", info->alpha_chan,
+                       info->nchan);
+    size_t tsize = csize * info->nchan;
+    if (info->kind == ST_KIND_BC1 && (info->dtype != ST_DT_U8 || info->nchan != 4))
+        return st_fail(e, ST_EINVAL, "a BC1 set decodes to 4 channels of u8");
+
+    st_set *s = calloc(1, sizeof *s);
+    if (!s)
+        return st_fail(e, ST_ENOMEM, "out of memory for the set header");
+    s->info = *info;
+    s->faces = calloc(info->nfaces, sizeof *s->faces);
+    if (!s->faces) {
+        free(s);
+        return st_fail(e, ST_ENOMEM, "out of memory for %u faces", info->nfaces);
+    }
+
+    /* sizes and level counts, with the arena size summed overflow-safe */
+    size_t nlev_total = 0, bytes = 0;
+    int rc = ST_OK;
+    for (uint32_t f = 0; f < info->nfaces; f++) {
+        const st_face_desc *d = &fd[f];
+        st_face *F = &s->faces[f];
+        if (d->w < 1 || d->h < 1 || d->w > ST_MAX_DIM || d->h > ST_MAX_DIM) {
+            rc = st_fail(e, ST_ETOOBIG, "face %u: size %ux%u not in 1..%u", f, d->w, d->h,
+                         ST_MAX_DIM);
+            goto fail;
+        }
+        if (info->kind != ST_KIND_ATLAS && info->kind != ST_KIND_BC1 &&
+            (!is_pow2(d->w) || !is_pow2(d->h))) {
+            rc = st_fail(e, ST_EINVAL, "face %u: size %ux%u is not a power of two", f, d->w, d->h);
+            goto fail;
+        }
+        F->w = d->w;
+        F->h = d->h;
+        F->ulog2 = (uint8_t)floor_log2(d->w);
+        F->vlog2 = (uint8_t)floor_log2(d->h);
+        F->nlevels = (uint8_t)(floor_log2(d->w > d->h ? d->w : d->h) + 1);
+        F->flags = d->flags & (ST_FACE_CONSTANT | ST_FACE_SUBFACE);
+        F->lvl = (uint32_t)nlev_total;
+        nlev_total += F->nlevels;
+        for (int ed = 0; ed < 4; ed++) {
+            int32_t g = d->adjface[ed];
+            if (g >= 0 && (d->adjedge[ed] < 0 || d->adjedge[ed] > 3)) {
+                rc = st_fail(e, ST_EADJ, "face %u edge %d: neighbour edge id %d not in 0..3", f,
+                             ed, d->adjedge[ed]);
+                goto fail;
+            }
+            F->adjface[ed] = g < 0 ? -1 : g;
+            F->adjedge[ed] = g < 0 ? 0 : (uint8_t)d->adjedge[ed];
+        }
+        size_t fb = 0;
+        if (F->flags & ST_FACE_CONSTANT) {
+            fb = tsize;
+        } else {
+            for (unsigned l = 0; l < F->nlevels; l++) {
+                size_t lb;
+                if (st_mul_size(level_units(info, F, l), level_unit_size(info, tsize), &lb) ||
+                    st_add_size(fb, lb, &fb)) {
+                    rc = st_fail(e, ST_ETOOBIG, "face %u: size overflows", f);
+                    goto fail;
+                }
+            }
+        }
+        if (st_add_size(bytes, fb, &bytes) || bytes > max_bytes) {
+            rc = st_fail(e, ST_ETOOBIG, "set needs more than %zu bytes of texels (at face %u)",
+                         max_bytes, f);
+            goto fail;
+        }
+    }
+    if ((rc = st_set_check_adjacency(s, e)) != ST_OK)
+        goto fail;
+
+    s->level_off = malloc(nlev_total * sizeof *s->level_off);
+    /* 64-byte aligned arena, rounded up so that a 16-byte load at the very end stays inside */
+    size_t alloc = (bytes + 64 + 63) & ~(size_t)63;
+    s->texels = aligned_alloc(64, alloc);
+    if (!s->level_off || !s->texels) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of texels", bytes);
+        goto fail;
+    }
+    memset(s->texels, 0, alloc);
+    s->texel_bytes = bytes;
+    size_t off = 0;
+    for (uint32_t f = 0; f < info->nfaces; f++) {
+        st_face *F = &s->faces[f];
+        for (unsigned l = 0; l < F->nlevels; l++) {
+            s->level_off[F->lvl + l] = off;
+            if (!(F->flags & ST_FACE_CONSTANT))
+                off += level_units(info, F, l) * level_unit_size(info, tsize);
+        }
+        if (F->flags & ST_FACE_CONSTANT)
+            off += tsize;
+    }
+    for (uint32_t f = 0; f < info->nfaces; f++)
+        for (unsigned c = 0; c < 4; c++)
+            corner_walk(s, f, c);
+    *out = s;
+    return ST_OK;
+fail:
+    st_set_free(s);
+    return rc;
+}
+
+void st_set_free(st_set *s)
+{
+    if (!s)
+        return;
+    st_set_ext_attach(s, NULL);
+    for (uint32_t i = 0; i < s->nmeta; i++) {
+        free(s->meta[i].key);
+        free(s->meta[i].data);
+    }
+    free(s->meta);
+    free(s->texels);
+    free(s->level_off);
+    free(s->faces);
+    free(s);
+}
+
+static void reduce_level(const st_set *s, uint32_t f, unsigned l)
+{
+    const st_face *F = &s->faces[f];
+    unsigned nc = s->info.nchan, dt = s->info.dtype;
+    size_t ts = st_texel_size(s);
+    uint32_t sw = st_level_w(F, l - 1), sh = st_level_h(F, l - 1);
+    uint32_t dw = st_level_w(F, l), dh = st_level_h(F, l);
+    const uint8_t *src = st_face_level(s, f, l - 1);
+    uint8_t *dst = st_face_level(s, f, l);
+    uint32_t xs = sw > 1 ? 2 : 1, ys = sh > 1 ? 2 : 1; /* per axis: stop at 1 */
+    float norm = 1.0f / (float)(xs * ys);
+    for (uint32_t y = 0; y < dh; y++) {
+        for (uint32_t x = 0; x < dw; x++) {
+            float acc[ST_MAX_CHANNELS] = {0};
+            for (uint32_t j = 0; j < ys; j++)
+                for (uint32_t i = 0; i < xs; i++) {
+                    const uint8_t *p = src + ((size_t)(y * ys + j) * sw + (x * xs + i)) * ts;
+                    for (unsigned c = 0; c < nc; c++)
+                        acc[c] += st_channel_get(dt, p, c);
+                }
+            uint8_t *q = dst + ((size_t)y * dw + x) * ts;
+            for (unsigned c = 0; c < nc; c++)
+                st_channel_put(dt, q, c, acc[c] * norm);
+        }
+    }
+}
+
+void st_set_build_mips(st_set *s, uint32_t f)
+{
+    if (s->info.kind == ST_KIND_BC1)
+        return; /* BC1 levels are encoded from reduced uncompressed levels, see bc1.h */
+    uint32_t lo = f == UINT32_MAX ? 0 : f, hi = f == UINT32_MAX ? s->info.nfaces : f + 1;
+    for (uint32_t i = lo; i < hi && i < s->info.nfaces; i++) {
+        if (s->faces[i].flags & ST_FACE_CONSTANT)
+            continue;
+        for (unsigned l = 1; l < s->faces[i].nlevels; l++)
+            reduce_level(s, i, l);
+    }
+}
+
+int st_face_is_uniform(const st_set *s, uint32_t f)
+{
+    const st_face *F = &s->faces[f];
+    if (F->flags & ST_FACE_CONSTANT)
+        return 1;
+    if (s->info.kind == ST_KIND_BC1)
+        return 0;
+    size_t ts = st_texel_size(s), n = (size_t)F->w * F->h;
+    const uint8_t *p = st_face_level(s, f, 0);
+    for (size_t i = 1; i < n; i++)
+        if (memcmp(p, p + i * ts, ts))
+            return 0;
+    return 1;
+}
+
+static size_t meta_type_size(unsigned type)
+{
+    static const size_t sz[] = {1, 1, 2, 4, 4, 8};
+    return type < 6 ? sz[type] : 0;
+}
+
+int st_set_meta_add(st_set *s, const char *key, unsigned type, const void *data, uint32_t count,
+                    st_error *e)
+{
+    size_t es = meta_type_size(type), bytes;
+    if (!es)
+        return st_fail(e, ST_EINVAL, "metadata '%s': type %u unknown", key, type);
+    if (st_mul_size(es, count, &bytes) || bytes > ((size_t)1 << 30))
+        return st_fail(e, ST_ETOOBIG, "metadata '%s': %u elements is too many", key, count);
+    void *copy = malloc(bytes ? bytes : 1);
+    if (!copy)
+        return st_fail(e, ST_ENOMEM, "out of memory for metadata");
+    if (bytes)
+        memcpy(copy, data, bytes);
+    for (uint32_t i = 0; i < s->nmeta; i++) {
+        if (!strcmp(s->meta[i].key, key)) { /* a key holds one value: the last one set */
+            free(s->meta[i].data);
+            s->meta[i].data = copy;
+            s->meta[i].type = (uint8_t)type;
+            s->meta[i].count = count;
+            return ST_OK;
+        }
+    }
+    st_meta_entry *m = realloc(s->meta, (s->nmeta + 1) * sizeof *m);
+    if (!m) {
+        free(copy);
+        return st_fail(e, ST_ENOMEM, "out of memory for metadata");
+    }
+    s->meta = m;
+    st_meta_entry *ent = &m[s->nmeta];
+    ent->key = strdup(key);
+    if (!ent->key) {
+        free(copy);
+        return st_fail(e, ST_ENOMEM, "out of memory for metadata");
+    }
+    ent->data = copy;
+    ent->type = (uint8_t)type;
+    ent->count = count;
+    s->nmeta++;
+    return ST_OK;
+}
+
+const st_meta_entry *st_set_meta_find(const st_set *s, const char *key)
+{
+    for (uint32_t i = 0; i < s->nmeta; i++)
+        if (!strcmp(s->meta[i].key, key))
+            return &s->meta[i];
+    return NULL;
+}
+
+size_t st_set_memory(const st_set *s)
+{
+    size_t m = sizeof *s + (size_t)s->info.nfaces * sizeof(st_face) + s->texel_bytes;
+    for (uint32_t f = 0; f < s->info.nfaces; f++)
+        m += s->faces[f].nlevels * sizeof(uint64_t);
+    for (uint32_t i = 0; i < s->nmeta; i++)
+        m += strlen(s->meta[i].key) + 1 + meta_type_size(s->meta[i].type) * s->meta[i].count;
+    if (s->ext.data && s->ext.memory)
+        m += s->ext.memory(s->ext.data);
+    return m;
+}
+
+void st_set_ext_attach(st_set *s, const st_set_ext *x)
+{
+    if (s->ext.data && s->ext.free)
+        s->ext.free(s->ext.data);
+    memset(&s->ext, 0, sizeof s->ext);
+    if (x)
+        s->ext = *x;
+}

@@ -1,0 +1,263 @@
+/* store/import/exr.c - OpenEXR reader on OpenEXR's C API (openexr.h, 3.1).
+ *
+ * Owns: st_exr_read, st_exr_is_magic. Reads part 0, level 0 (scanline or tiled, any level
+ * mode), channels R,G,B,A by name (of the default layer, else of the first layer with a
+ * "<layer>.R"; else Y; else up to 4 channels in file order), half kept as half, float and
+ * uint as float. Does not own: other image formats (image_oiio.cpp).
+ *
+ * Why planes: OpenEXR 3.1.5's default unpacker mis-orders 4-channel half data decoded to
+ * interleaved float (fixed upstream in 3.3). Each selected channel is therefore decoded into
+ * its own plane with its own type, and interleaved here afterwards.
+ *
+ * Caps: the data window is checked against max_dim and max_bytes before any allocation; the
+ * library's own limits catch absurd tile sizes and chunk tables.
+ */
+#include "exr.h"
+
+#include <OpenEXR/openexr.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "set.h"
+
+int st_exr_is_magic(const void *buf, size_t len)
+{
+    static const unsigned char m[4] = {0x76, 0x2f, 0x31, 0x01};
+    return len >= 4 && !memcmp(buf, m, 4);
+}
+
+static void quiet_handler(exr_const_context_t c, exr_result_t code, const char *msg)
+{
+    (void)c;
+    (void)code;
+    (void)msg;
+}
+
+typedef struct exr_job {
+    int32_t  x0, y0, w, h;        /* data window */
+    int      nsel;
+    int      chan_idx[4];         /* index in the channel list */
+    unsigned out_dt;              /* ST_DT_HALF or ST_DT_F32 */
+    size_t   cs;                  /* bytes per channel value */
+    uint8_t *planes[4];           /* w*h values each */
+} exr_job;
+
+/* Decodes one chunk into the planes. */
+static int decode_chunk(exr_context_t ctx, const exr_chunk_info_t *ci, int32_t px, int32_t py,
+                        exr_decode_pipeline_t *dec, int *inited, exr_job *j)
+{
+    exr_result_t r;
+    if (!*inited) {
+        r = exr_decoding_initialize(ctx, 0, ci, dec);
+        if (r != EXR_ERR_SUCCESS)
+            return r;
+        *inited = 1;
+    } else {
+        r = exr_decoding_update(ctx, 0, ci, dec);
+        if (r != EXR_ERR_SUCCESS)
+            return r;
+    }
+    if (px < 0 || py < 0 || ci->width < 0 || ci->height < 0 || px + ci->width > j->w ||
+        py + ci->height > j->h)
+        return EXR_ERR_CORRUPT_CHUNK;
+    for (int c = 0; c < dec->channel_count; c++) {
+        exr_coding_channel_info_t *ch = &dec->channels[c];
+        ch->decode_to_ptr = NULL;
+        for (int k = 0; k < j->nsel; k++) {
+            if (j->chan_idx[k] != c)
+                continue;
+            if (ch->x_samples != 1 || ch->y_samples != 1)
+                return EXR_ERR_FEATURE_NOT_IMPLEMENTED;
+            ch->user_data_type = j->out_dt == ST_DT_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
+            ch->user_bytes_per_element = (int16_t)j->cs;
+            ch->user_pixel_stride = (int32_t)j->cs;
+            ch->user_line_stride = (int32_t)(j->cs * (size_t)j->w);
+            ch->decode_to_ptr = j->planes[k] + ((size_t)py * j->w + px) * j->cs;
+        }
+    }
+    r = exr_decoding_choose_default_routines(ctx, 0, dec);
+    if (r != EXR_ERR_SUCCESS)
+        return r;
+    return exr_decoding_run(ctx, 0, dec);
+}
+
+static int read_part(exr_context_t ctx, const char *path, exr_job *j, st_error *e)
+{
+    exr_storage_t st;
+    if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS)
+        return st_fail(e, ST_EFORMAT, "%s: no storage type", path);
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int inited = 0, r = EXR_ERR_SUCCESS;
+    if (st == EXR_STORAGE_SCANLINE) {
+        int32_t spc = 0;
+        if (exr_get_scanlines_per_chunk(ctx, 0, &spc) != EXR_ERR_SUCCESS || spc < 1)
+            return st_fail(e, ST_EFORMAT, "%s: bad scanlines per chunk", path);
+        for (int64_t y = j->y0; y < (int64_t)j->y0 + j->h && r == EXR_ERR_SUCCESS; y += spc) {
+            exr_chunk_info_t ci;
+            r = exr_read_scanline_chunk_info(ctx, 0, (int)y, &ci);
+            if (r == EXR_ERR_SUCCESS)
+                r = decode_chunk(ctx, &ci, 0, ci.start_y - j->y0, &dec, &inited, j);
+        }
+    } else if (st == EXR_STORAGE_TILED) {
+        int32_t tw = 0, th = 0;
+        if (exr_get_tile_sizes(ctx, 0, 0, 0, &tw, &th) != EXR_ERR_SUCCESS || tw < 1 || th < 1)
+            return st_fail(e, ST_EFORMAT, "%s: bad tile size", path);
+        int32_t ntx = (int32_t)(((int64_t)j->w + tw - 1) / tw);
+        int32_t nty = (int32_t)(((int64_t)j->h + th - 1) / th);
+        for (int32_t ty = 0; ty < nty && r == EXR_ERR_SUCCESS; ty++)
+            for (int32_t tx = 0; tx < ntx && r == EXR_ERR_SUCCESS; tx++) {
+                exr_chunk_info_t ci;
+                r = exr_read_tile_chunk_info(ctx, 0, tx, ty, 0, 0, &ci);
+                if (r == EXR_ERR_SUCCESS)
+                    r = decode_chunk(ctx, &ci, tx * tw, ty * th, &dec, &inited, j);
+            }
+    } else {
+        return st_fail(e, ST_EUNSUPPORTED, "%s: deep EXR data is not an image seamtex reads", path);
+    }
+    if (inited)
+        exr_decoding_destroy(ctx, &dec);
+    if (r != EXR_ERR_SUCCESS)
+        return st_fail(e, r == EXR_ERR_FEATURE_NOT_IMPLEMENTED ? ST_EUNSUPPORTED : ST_EFORMAT,
+                       "%s: decoding failed: %s", path, exr_get_error_code_as_string(r));
+    return ST_OK;
+}
+
+int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
+{
+    memset(out, 0, sizeof *out);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet_handler;
+    exr_context_t ctx = NULL;
+    exr_result_t r = exr_start_read(&ctx, path, &init);
+    if (r != EXR_ERR_SUCCESS) {
+        exr_finish(&ctx);
+        return st_fail(e, r == EXR_ERR_FILE_ACCESS ? ST_ENOTFOUND : ST_EFORMAT,
+                       "%s: not a readable OpenEXR file: %s", path, exr_get_error_code_as_string(r));
+    }
+    int rc = ST_OK;
+    exr_job j;
+    memset(&j, 0, sizeof j);
+    exr_attr_box2i_t dw;
+    const exr_attr_chlist_t *chl = NULL;
+    if (exr_get_data_window(ctx, 0, &dw) != EXR_ERR_SUCCESS ||
+        exr_get_channels(ctx, 0, &chl) != EXR_ERR_SUCCESS || !chl || chl->num_channels < 1) {
+        rc = st_fail(e, ST_EFORMAT, "%s: no data window or channels", path);
+        goto done;
+    }
+    int64_t w = (int64_t)dw.max.x - dw.min.x + 1, h = (int64_t)dw.max.y - dw.min.y + 1;
+    uint32_t maxdim = caps && caps->max_dim ? caps->max_dim : ST_MAX_DIM;
+    if (w < 1 || h < 1) {
+        rc = st_fail(e, ST_EFORMAT, "%s: empty data window", path);
+        goto done;
+    }
+    if (w > maxdim || h > maxdim) {
+        rc = st_fail(e, ST_ETOOBIG, "%s: %lldx%lld is over the %u per-axis cap", path,
+                     (long long)w, (long long)h, maxdim);
+        goto done;
+    }
+    j.x0 = dw.min.x;
+    j.y0 = dw.min.y;
+    j.w = (int32_t)w;
+    j.h = (int32_t)h;
+    /* channel selection by name (the list is sorted alphabetically): R,G,B,A of the default
+     * layer, else of the first layer that has a ".R" (e.g. "diffuse.R"), else Y */
+    static const char *rgba[4] = {"R", "G", "B", "A"};
+    char layer[64] = "";
+    int alpha = -1;
+    for (int pass = 0; pass < 2 && j.nsel == 0; pass++) {
+        if (pass == 1) {
+            for (int c = 0; c < chl->num_channels && !layer[0]; c++) {
+                const char *nm = chl->entries[c].name.str;
+                size_t l = strlen(nm);
+                if (l >= 3 && l - 2 < sizeof layer && !strcmp(nm + l - 2, ".R")) {
+                    memcpy(layer, nm, l - 1); /* keeps the dot */
+                    layer[l - 1] = 0;
+                }
+            }
+            if (!layer[0])
+                break;
+        }
+        for (int k = 0; k < 4; k++)
+            for (int c = 0; c < chl->num_channels; c++) {
+                const char *nm = chl->entries[c].name.str;
+                size_t ll = strlen(layer);
+                if (!strncmp(nm, layer, ll) && !strcmp(nm + ll, rgba[k])) {
+                    if (k == 3)
+                        alpha = j.nsel;
+                    j.chan_idx[j.nsel++] = c;
+                }
+            }
+    }
+    if (j.nsel == 0) {
+        int y = -1;
+        for (int c = 0; c < chl->num_channels; c++) {
+            const char *nm = chl->entries[c].name.str;
+            size_t l = strlen(nm);
+            if (y < 0 && (!strcmp(nm, "Y") || (l >= 2 && !strcmp(nm + l - 2, ".Y"))))
+                y = c;
+        }
+        j.chan_idx[j.nsel++] = y >= 0 ? y : 0;
+        if (y < 0 && chl->num_channels > 1) {
+            /* no RGB(A)/Y names: take up to 4 channels in file order */
+            j.nsel = 0;
+            for (int c = 0; c < chl->num_channels && j.nsel < 4; c++)
+                j.chan_idx[j.nsel++] = c;
+        }
+    } else if (j.nsel == 1 && alpha == 0) {
+        alpha = -1; /* alpha alone: a single channel */
+    }
+    int allhalf = 1;
+    for (int k = 0; k < j.nsel; k++)
+        if (chl->entries[j.chan_idx[k]].pixel_type != EXR_PIXEL_HALF)
+            allhalf = 0;
+    j.out_dt = allhalf ? ST_DT_HALF : ST_DT_F32;
+    j.cs = st_dtype_size(j.out_dt);
+    size_t plane = st_image_bytes((uint32_t)w, (uint32_t)h, 1, j.out_dt, caps);
+    size_t total = st_image_bytes((uint32_t)w, (uint32_t)h, (unsigned)j.nsel, j.out_dt, caps);
+    if (!plane || !total || total > (caps && caps->max_bytes ? caps->max_bytes : (size_t)1 << 31) / 2) {
+        rc = st_fail(e, ST_ETOOBIG, "%s: %lldx%lld x %d channels is over the byte cap", path,
+                     (long long)w, (long long)h, j.nsel);
+        goto done;
+    }
+    for (int k = 0; k < j.nsel; k++) {
+        j.planes[k] = calloc(1, plane);
+        if (!j.planes[k]) {
+            rc = st_fail(e, ST_ENOMEM, "%s: out of memory for %zu bytes", path, plane);
+            goto done;
+        }
+    }
+    if ((rc = read_part(ctx, path, &j, e)) != ST_OK)
+        goto done;
+    uint8_t *data = malloc(total);
+    if (!data) {
+        rc = st_fail(e, ST_ENOMEM, "%s: out of memory for %zu bytes", path, total);
+        goto done;
+    }
+    size_t npx = (size_t)w * (size_t)h;
+    for (size_t p = 0; p < npx; p++)
+        for (int k = 0; k < j.nsel; k++)
+            memcpy(data + (p * j.nsel + k) * j.cs, j.planes[k] + p * j.cs, j.cs);
+    out->w = (uint32_t)w;
+    out->h = (uint32_t)h;
+    out->nchan = (uint8_t)j.nsel;
+    out->dtype = (uint8_t)j.out_dt;
+    out->colorspace = ST_CS_LINEAR;
+    out->alpha_chan = (int8_t)alpha;
+    out->data = data;
+    const exr_attribute_t *env = NULL;
+    if (exr_get_attribute_by_name(ctx, 0, "envmap", &env) == EXR_ERR_SUCCESS && env &&
+        env->type == EXR_ATTR_ENVMAP)
+        out->envmap = env->uc == EXR_ENVMAP_CUBE ? ST_ENVMAP_CUBE : ST_ENVMAP_LATLONG;
+    int32_t lx = 1, ly = 1;
+    exr_storage_t st;
+    if (exr_get_storage(ctx, 0, &st) == EXR_ERR_SUCCESS && st == EXR_STORAGE_TILED &&
+        exr_get_tile_levels(ctx, 0, &lx, &ly) == EXR_ERR_SUCCESS)
+        out->nlevels_file = (uint8_t)(lx > 0 && lx < 64 ? lx : 1);
+    else
+        out->nlevels_file = 1;
+done:
+    for (int k = 0; k < 4; k++)
+        free(j.planes[k]);
+    exr_finish(&ctx);
+    return rc;
+}

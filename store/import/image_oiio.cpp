@@ -1,0 +1,298 @@
+/* store/import/image_oiio.cpp - the thin C++ shim between seamtex and OpenImageIO 2.4.
+ *
+ * Owns: st_image_read (any format OIIO reads), st_image_write, st_image_read_any (EXR by
+ * magic goes to exr.c), st_image_free, st_image_bytes. Does not own: EXR decoding (exr.c),
+ * texture sets (import.c). Nothing here is on a hot path: one call per file.
+ *
+ * Every size from the file header (width, height, channels, format) is checked against the
+ * caps with overflow-safe arithmetic before the texel buffer is allocated. No C++ exception
+ * escapes into C: every entry point catches everything.
+ */
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <string>
+#include <vector>
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#include <OpenImageIO/imageio.h>
+#pragma GCC diagnostic pop
+
+extern "C" {
+#include "exr.h"
+#include "image.h"
+#include "set.h"
+#include "image_io.h"
+}
+
+namespace {
+
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+uint32_t cap_dim(const st_image_caps *c) { return c && c->max_dim ? c->max_dim : ST_MAX_DIM; }
+size_t cap_bytes(const st_image_caps *c) { return c && c->max_bytes ? c->max_bytes : ((size_t)2 << 30); }
+
+/* OIIO format -> the st_dtype kept in memory. */
+unsigned pick_dtype(TypeDesc t)
+{
+    switch (t.basetype) {
+    case TypeDesc::UINT8: case TypeDesc::INT8: return ST_DT_U8;
+    case TypeDesc::UINT16: case TypeDesc::INT16: return ST_DT_U16;
+    case TypeDesc::HALF: return ST_DT_HALF;
+    default: return ST_DT_F32;
+    }
+}
+TypeDesc oiio_type(unsigned dtype)
+{
+    switch (dtype) {
+    case ST_DT_U8: return TypeDesc::UINT8;
+    case ST_DT_U16: return TypeDesc::UINT16;
+    case ST_DT_HALF: return TypeDesc::HALF;
+    default: return TypeDesc::FLOAT;
+    }
+}
+
+int find_chan(const ImageSpec &sp, const char *name)
+{
+    for (int i = 0; i < sp.nchannels && i < (int)sp.channelnames.size(); i++)
+        if (sp.channelnames[i] == name)
+            return i;
+    return -1;
+}
+
+const char *ext_of(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    return dot && (!slash || dot > slash) ? dot + 1 : "";
+}
+
+/* A PNG's chunk list must reach IEND inside the file. Checked before OIIO sees the file:
+ * OIIO 2.4's PNG read callback builds a std::string and libpng then longjmps over it when the
+ * file ends early, which leaks on every truncated upload. Returns 0 when fine or not a PNG. */
+int png_truncated(FILE *f)
+{
+    unsigned char h[8];
+    if (fread(h, 1, 8, f) != 8 || memcmp(h, "\x89PNG\r\n\x1a\n", 8))
+        return 0;
+    if (fseek(f, 0, SEEK_END))
+        return 1;
+    long size = ftell(f);
+    long pos = 8;
+    for (int n = 0; n < (1 << 24); n++) {
+        if (pos + 8 > size || fseek(f, pos, SEEK_SET) || fread(h, 1, 8, f) != 8)
+            return 1;
+        uint32_t len = (uint32_t)h[0] << 24 | (uint32_t)h[1] << 16 | (uint32_t)h[2] << 8 | h[3];
+        if (len > 0x7fffffffu || pos + 12 + (long)len > size)
+            return 1;
+        if (!memcmp(h + 4, "IEND", 4))
+            return 0;
+        pos += 12 + (long)len;
+    }
+    return 1;
+}
+
+int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return st_fail(e, ST_ENOTFOUND, "%s: cannot open", path);
+    int trunc = png_truncated(f);
+    fclose(f);
+    if (trunc)
+        return st_fail(e, ST_EFORMAT, "%s: truncated PNG (its chunks do not reach IEND)", path);
+    /* keep alpha unassociated, as stored: texels are data, not pre-composited colour */
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = ImageInput::open(path, &config);
+    if (!in) {
+        std::string msg = OIIO::geterror();
+        return st_fail(e, ST_EFORMAT, "%s: not an image OpenImageIO reads (%.160s)", path,
+                       msg.c_str());
+    }
+    const ImageSpec &sp = in->spec();
+    if (sp.width <= 0 || sp.height <= 0 || sp.nchannels <= 0 || sp.depth > 1)
+        return st_fail(e, ST_EFORMAT, "%s: bad size %dx%dx%d with %d channels", path, sp.width,
+                       sp.height, sp.depth, sp.nchannels);
+    if ((uint32_t)sp.width > cap_dim(caps) || (uint32_t)sp.height > cap_dim(caps))
+        return st_fail(e, ST_ETOOBIG, "%s: %dx%d is over the %u per-axis cap", path, sp.width,
+                       sp.height, cap_dim(caps));
+    /* channels: R,G,B,A by name when there are more than 4, else the first ones */
+    int sel[4], nsel = 0;
+    int alpha = -1;
+    if (sp.nchannels > 4) {
+        const char *names[4] = {"R", "G", "B", "A"};
+        for (int i = 0; i < 4; i++) {
+            int c = find_chan(sp, names[i]);
+            if (c >= 0) {
+                if (i == 3)
+                    alpha = nsel;
+                sel[nsel++] = c;
+            }
+        }
+        if (nsel == 0)
+            for (int i = 0; i < 4; i++)
+                sel[nsel++] = i;
+    } else {
+        for (int i = 0; i < sp.nchannels; i++)
+            sel[nsel++] = i;
+        alpha = sp.alpha_channel >= 0 && sp.alpha_channel < 4 ? sp.alpha_channel : -1;
+        if (alpha < 0 && (nsel == 4 || nsel == 2))
+            alpha = nsel - 1;
+    }
+    unsigned dt = pick_dtype(sp.format);
+    size_t bytes = st_image_bytes((uint32_t)sp.width, (uint32_t)sp.height, (unsigned)nsel, dt, caps);
+    size_t full = st_image_bytes((uint32_t)sp.width, (uint32_t)sp.height, (unsigned)sp.nchannels,
+                                 dt, caps);
+    if (!bytes || !full)
+        return st_fail(e, ST_ETOOBIG, "%s: %dx%d x %d channels is over the %zu byte cap", path,
+                       sp.width, sp.height, sp.nchannels, cap_bytes(caps));
+    void *data = malloc(bytes);
+    if (!data)
+        return st_fail(e, ST_ENOMEM, "%s: out of memory for %zu bytes", path, bytes);
+    bool contiguous = true;
+    for (int i = 0; i < nsel; i++)
+        if (sel[i] != sel[0] + i)
+            contiguous = false;
+    bool ok;
+    if (contiguous) {
+        ok = in->read_image(0, 0, sel[0], sel[0] + nsel, oiio_type(dt), data);
+    } else {
+        void *tmp = malloc(full);
+        if (!tmp) {
+            free(data);
+            return st_fail(e, ST_ENOMEM, "%s: out of memory for %zu bytes", path, full);
+        }
+        ok = in->read_image(0, 0, 0, sp.nchannels, oiio_type(dt), tmp);
+        if (ok) {
+            size_t cs = st_dtype_size(dt), npx = (size_t)sp.width * sp.height;
+            for (size_t p = 0; p < npx; p++)
+                for (int c = 0; c < nsel; c++)
+                    memcpy((uint8_t *)data + (p * nsel + c) * cs,
+                           (uint8_t *)tmp + (p * sp.nchannels + sel[c]) * cs, cs);
+        }
+        free(tmp);
+    }
+    if (!ok) {
+        std::string msg = in->geterror();
+        free(data);
+        return st_fail(e, ST_EFORMAT, "%s: read failed (truncated or corrupt?): %.160s", path,
+                       msg.c_str());
+    }
+    memset(out, 0, sizeof *out);
+    out->w = (uint32_t)sp.width;
+    out->h = (uint32_t)sp.height;
+    out->nchan = (uint8_t)nsel;
+    out->dtype = (uint8_t)dt;
+    out->alpha_chan = (int8_t)alpha;
+    out->data = data;
+    std::string cs = sp.get_string_attribute("oiio:ColorSpace");
+    std::string fmt = in->format_name();
+    if (dt == ST_DT_HALF || dt == ST_DT_F32 || fmt == "hdr" || fmt == "openexr")
+        out->colorspace = ST_CS_LINEAR;
+    else if (cs == "Linear" || cs == "linear")
+        out->colorspace = ST_CS_LINEAR;
+    else
+        out->colorspace = ST_CS_SRGB;
+    std::string tf = sp.get_string_attribute("textureformat");
+    out->envmap = tf == "CubeFace Environment" ? ST_ENVMAP_CUBE
+                  : tf == "LatLong Environment" ? ST_ENVMAP_LATLONG : ST_ENVMAP_NONE;
+    int nmip = 1;
+    while (nmip < 64 && in->seek_subimage(0, nmip))
+        nmip++;
+    out->nlevels_file = (uint8_t)nmip;
+    in->close();
+    (void)in->geterror(); /* seek_subimage past the last level leaves a message: drop it */
+    return ST_OK;
+}
+
+int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
+               const void *data, st_error *e)
+{
+    if (!w || !h || w > ST_MAX_DIM || h > ST_MAX_DIM || nchan < 1 || nchan > 4 ||
+        !st_dtype_size(dtype))
+        return st_fail(e, ST_EINVAL, "%s: cannot write %ux%u x %u channels of type %u", path, w,
+                       h, nchan, dtype);
+    std::string ext = ext_of(path);
+    for (auto &ch : ext)
+        ch = (char)tolower((unsigned char)ch);
+    if (ext == "dds")
+        return st_fail(e, ST_EUNSUPPORTED, "%s: OpenImageIO cannot write DDS (use bc1.h)", path);
+    auto outp = ImageOutput::create(path);
+    if (!outp) {
+        std::string msg = OIIO::geterror(); /* also clears OIIO's pending per-thread message */
+        return st_fail(e, ST_EUNSUPPORTED, "%s: no writer for this extension (%.120s)", path,
+                       msg.c_str());
+    }
+    TypeDesc ft = oiio_type(dtype);
+    if ((ext == "png" || ext == "jpg" || ext == "jpeg") && (dtype == ST_DT_HALF || dtype == ST_DT_F32))
+        ft = ext == "png" ? TypeDesc::UINT16 : TypeDesc::UINT8;
+    if ((ext == "jpg" || ext == "jpeg") && dtype == ST_DT_U16)
+        ft = TypeDesc::UINT8;
+    ImageSpec spec((int)w, (int)h, (int)nchan, ft);
+    if (nchan == 4 || nchan == 2)
+        spec.alpha_channel = (int)nchan - 1;
+    spec.attribute("oiio:UnassociatedAlpha", 1); /* write texels as given */
+    if (!outp->open(path, spec)) {
+        std::string msg = outp->geterror();
+        return st_fail(e, ST_EIO, "%s: cannot open for writing: %.160s", path, msg.c_str());
+    }
+    bool ok = outp->write_image(oiio_type(dtype), data);
+    ok = outp->close() && ok;
+    if (!ok) {
+        std::string msg = outp->geterror();
+        return st_fail(e, ST_EIO, "%s: write failed: %.160s", path, msg.c_str());
+    }
+    return ST_OK;
+}
+
+} // namespace
+
+extern "C" int st_image_read(const char *path, const st_image_caps *caps, st_image *out,
+                             st_error *e)
+{
+    try {
+        return read_impl(path, caps, out, e);
+    } catch (const std::bad_alloc &) {
+        return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
+    } catch (...) {
+        return st_fail(e, ST_EFORMAT, "%s: OpenImageIO raised an exception", path);
+    }
+}
+
+extern "C" int st_image_read_any(const char *path, const st_image_caps *caps, st_image *out,
+                                 st_error *e)
+{
+    unsigned char head[4] = {0, 0, 0, 0};
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return st_fail(e, ST_ENOTFOUND, "%s: cannot open", path);
+    size_t n = fread(head, 1, 4, f);
+    fclose(f);
+    if (st_exr_is_magic(head, n)) {
+        int rc = st_exr_read(path, caps, out, e);
+        if (rc != ST_EUNSUPPORTED)
+            return rc;
+        /* a compression the OpenEXR 3.1 C API does not decode (DWAA/DWAB): OIIO's reader */
+    }
+    return st_image_read(path, caps, out, e);
+}
+
+extern "C" int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned nchan,
+                              unsigned dtype, const void *data, st_error *e)
+{
+    try {
+        return write_impl(path, w, h, nchan, dtype, data, e);
+    } catch (const std::bad_alloc &) {
+        return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
+    } catch (...) {
+        return st_fail(e, ST_EIO, "%s: OpenImageIO raised an exception", path);
+    }
+}

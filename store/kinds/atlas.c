@@ -1,0 +1,295 @@
+/* store/kinds/atlas.c - atlas sets: an image as face 0 of an ST_KIND_ATLAS set, its mesh and chart
+ * mask in set->ext, and sampling by (u, v) in texture space.
+ *
+ * Owns: st_atlas_from_image, st_atlas_attach_mesh, st_atlas_get, st_atlas_free,
+ * st_atlas_sample. Does not own: the filters (sample.c), seam finding (seams.c).
+ *
+ * The chart mask is rasterised once per mesh (texel centres inside a UV triangle, clipped to
+ * the image, then dilated by one texel so bilinear taps at chart borders stay in), costing
+ * w*h bytes. Chart-relative Discard is done here for point and bilinear filters at level 0
+ * (the mask exists for level 0 only); other filters fall back to the sampler's face Discard.
+ */
+#include "atlas.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void st_atlas_free(void *p)
+{
+    st_atlas *a = p;
+    if (!a)
+        return;
+    st_mesh_free(a->mesh);
+    free(a->chart_mask);
+    free(a);
+}
+
+const st_atlas *st_atlas_get(const st_set *s)
+{
+    if (!s || s->info.kind != ST_KIND_ATLAS)
+        return NULL;
+    return st_set_ext_get(s, ST_EXT_ATLAS);
+}
+
+static size_t atlas_memory(const void *p)
+{
+    const st_atlas *a = p;
+    return sizeof *a + st_mesh_memory(a->mesh) + (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0);
+}
+
+void st_atlas_ext(st_atlas *a, st_set_ext *x)
+{
+    *x = (st_set_ext){.kind = ST_EXT_ATLAS, .data = a, .free = st_atlas_free,
+                      .memory = atlas_memory};
+}
+
+static void raster_tri(uint8_t *mask, uint32_t w, uint32_t h, const float *a, const float *b,
+                       const float *c)
+{
+    /* texel space: x = u*w, y = v*h; texel (i, j) centre at (i+.5, j+.5) */
+    double ax = a[0] * (double)w, ay = a[1] * (double)h, bx = b[0] * (double)w, by = b[1] * (double)h;
+    double cx = c[0] * (double)w, cy = c[1] * (double)h;
+    double area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+    if (area == 0 || !isfinite(area))
+        return;
+    double minx = fmin(ax, fmin(bx, cx)), maxx = fmax(ax, fmax(bx, cx));
+    double miny = fmin(ay, fmin(by, cy)), maxy = fmax(ay, fmax(by, cy));
+    long i0 = (long)floor(minx), i1 = (long)ceil(maxx), j0 = (long)floor(miny), j1 = (long)ceil(maxy);
+    if (i0 < 0) i0 = 0;
+    if (j0 < 0) j0 = 0;
+    if (i1 > (long)w - 1) i1 = (long)w - 1;
+    if (j1 > (long)h - 1) j1 = (long)h - 1;
+    double sgn = area > 0 ? 1 : -1;
+    for (long j = j0; j <= j1; j++)
+        for (long i = i0; i <= i1; i++) {
+            double px = i + 0.5, py = j + 0.5;
+            double w0 = ((bx - px) * (cy - py) - (by - py) * (cx - px)) * sgn;
+            double w1 = ((cx - px) * (ay - py) - (cy - py) * (ax - px)) * sgn;
+            double w2 = ((ax - px) * (by - py) - (ay - py) * (bx - px)) * sgn;
+            if (w0 >= 0 && w1 >= 0 && w2 >= 0)
+                mask[(size_t)j * w + (size_t)i] = 1;
+        }
+}
+
+static int build_mask(st_atlas *a, const st_mesh *m, uint32_t w, uint32_t h, st_error *e)
+{
+    size_t n = (size_t)w * h;
+    uint8_t *mask = calloc(n ? n : 1, 1);
+    uint8_t *dil = calloc(n ? n : 1, 1);
+    if (!mask || !dil) {
+        free(mask);
+        free(dil);
+        return st_fail(e, ST_ENOMEM, "out of memory for a %ux%u chart mask", w, h);
+    }
+    for (uint32_t t = 0; t < m->ntri; t++) {
+        const uint32_t *u = &m->tri_uv[(size_t)t * 3];
+        if (u[0] == ST_MESH_NO_UV || u[1] == ST_MESH_NO_UV || u[2] == ST_MESH_NO_UV)
+            continue;
+        raster_tri(mask, w, h, &m->uv[(size_t)u[0] * 2], &m->uv[(size_t)u[1] * 2],
+                   &m->uv[(size_t)u[2] * 2]);
+    }
+    for (uint32_t j = 0; j < h; j++)
+        for (uint32_t i = 0; i < w; i++) {
+            uint8_t v = 0;
+            for (int dj = -1; dj <= 1 && !v; dj++)
+                for (int di = -1; di <= 1 && !v; di++) {
+                    long x = (long)i + di, y = (long)j + dj;
+                    if (x >= 0 && y >= 0 && x < (long)w && y < (long)h)
+                        v = mask[(size_t)y * w + (size_t)x];
+                }
+            dil[(size_t)j * w + i] = v;
+        }
+    free(mask);
+    free(a->chart_mask);
+    a->chart_mask = dil;
+    a->mask_w = w;
+    a->mask_h = h;
+    return ST_OK;
+}
+
+int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
+{
+    if (!s || s->info.kind != ST_KIND_ATLAS) {
+        st_mesh_free(mesh);
+        return st_fail(e, ST_EINVAL, "not an atlas set");
+    }
+    st_atlas *a = (st_atlas *)st_atlas_get(s);
+    if (!a) {
+        st_set_ext_attach(s, NULL);
+        a = calloc(1, sizeof *a);
+        if (!a) {
+            st_mesh_free(mesh);
+            return st_fail(e, ST_ENOMEM, "out of memory for the atlas");
+        }
+        st_set_ext x;
+        st_atlas_ext(a, &x);
+        st_set_ext_attach(s, &x);
+    }
+    st_mesh_free(a->mesh);
+    a->mesh = NULL;
+    free(a->chart_mask);
+    a->chart_mask = NULL;
+    if (!mesh)
+        return ST_OK;
+    int rc = st_mesh_find_seams(mesh, e);
+    if (rc == ST_OK)
+        rc = build_mask(a, mesh, s->faces[0].w, s->faces[0].h, e);
+    if (rc) {
+        st_mesh_free(mesh);
+        return rc;
+    }
+    a->mesh = mesh;
+    return ST_OK;
+}
+
+int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st_set **out,
+                        st_error *e)
+{
+    *out = NULL;
+    if (!img || !img->data || img->nchan < 1 || img->nchan > 4 || !st_dtype_size(img->dtype)) {
+        st_mesh_free(mesh);
+        return st_fail(e, ST_EINVAL, "no image to make an atlas of");
+    }
+    st_set_info info;
+    memset(&info, 0, sizeof info);
+    info.nfaces = 1;
+    info.nchan = img->nchan;
+    info.dtype = img->dtype;
+    info.alpha_chan = img->alpha_chan;
+    info.kind = ST_KIND_ATLAS;
+    info.colorspace = img->colorspace;
+    st_face_desc fd;
+    memset(&fd, 0, sizeof fd);
+    fd.w = img->w;
+    fd.h = img->h;
+    for (int k = 0; k < 4; k++)
+        fd.adjface[k] = -1;
+    int rc = st_set_create(&info, &fd, max_bytes, out, e);
+    if (rc) {
+        st_mesh_free(mesh);
+        return rc;
+    }
+    st_set *s = *out;
+    memcpy(st_face_level(s, 0, 0), img->data, (size_t)img->w * img->h * st_texel_size(s));
+    st_set_build_mips(s, 0);
+    st_atlas *a = calloc(1, sizeof *a);
+    if (!a) {
+        st_set_free(s);
+        *out = NULL;
+        st_mesh_free(mesh);
+        return st_fail(e, ST_ENOMEM, "out of memory for the atlas");
+    }
+    st_set_ext x;
+    st_atlas_ext(a, &x);
+    st_set_ext_attach(s, &x);
+    if (mesh && (rc = st_atlas_attach_mesh(s, mesh, e)) != ST_OK) {
+        st_set_free(s);
+        *out = NULL;
+        return rc;
+    }
+    return ST_OK;
+}
+
+static int mask_at(const st_atlas *a, long x, long y)
+{
+    if (x < 0 || y < 0 || x >= (long)a->mask_w || y >= (long)a->mask_h)
+        return 0;
+    return a->chart_mask[(size_t)y * a->mask_w + (size_t)x];
+}
+
+/* Chart-relative Discard for one query, point or bilinear at level 0. */
+static void chart_sample(const st_set *s, const st_atlas *a, const st_sample_opts *o,
+                         const st_query *q, float *out, float *cov, uint8_t *st)
+{
+    const st_face *F = &s->faces[0];
+    unsigned nc = s->info.nchan, dt = s->info.dtype;
+    size_t ts = st_texel_size(s);
+    const uint8_t *p = st_face_level(s, 0, 0);
+    float acc[4] = {0, 0, 0, 0}, wsum = 0;
+    if (o->filter == ST_FILTER_POINT) {
+        long x = (long)floorf(q->u * (float)F->w), y = (long)floorf(q->v * (float)F->h);
+        if (x >= 0 && y >= 0 && x < (long)F->w && y < (long)F->h && mask_at(a, x, y)) {
+            for (unsigned c = 0; c < nc; c++)
+                acc[c] = st_channel_get(dt, p + ((size_t)y * F->w + (size_t)x) * ts, c);
+            wsum = 1;
+        }
+    } else {
+        float fx = q->u * (float)F->w - 0.5f, fy = q->v * (float)F->h - 0.5f;
+        long x0 = (long)floorf(fx), y0 = (long)floorf(fy);
+        float ax = fx - (float)x0, ay = fy - (float)y0;
+        for (int j = 0; j < 2; j++)
+            for (int i = 0; i < 2; i++) {
+                long x = x0 + i, y = y0 + j;
+                float w = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
+                if (w <= 0 || x < 0 || y < 0 || x >= (long)F->w || y >= (long)F->h || !mask_at(a, x, y))
+                    continue;
+                for (unsigned c = 0; c < nc; c++)
+                    acc[c] += w * st_channel_get(dt, p + ((size_t)y * F->w + (size_t)x) * ts, c);
+                wsum += w;
+            }
+    }
+    if (wsum > 0) {
+        for (unsigned c = 0; c < nc; c++)
+            out[c] = acc[c] / wsum;
+        *cov = wsum;
+        *st = ST_Q_OK;
+    } else {
+        for (unsigned c = 0; c < nc; c++)
+            out[c] = NAN;
+        *cov = 0;
+        *st = ST_Q_ZERO_COVERAGE;
+    }
+}
+
+int st_atlas_sample(const st_set *s, const st_sample_opts *o, unsigned flags, const st_query *q,
+                    size_t n, float *out, float *coverage, uint8_t *status)
+{
+    if (!s || s->info.kind != ST_KIND_ATLAS || !o || !out)
+        return ST_EINVAL;
+    st_sample_opts oo = *o;
+    if (oo.mode == ST_MODE_TRAVERSE)
+        oo.mode = ST_MODE_CLAMP; /* an atlas face has no neighbours */
+    const st_atlas *a = st_atlas_get(s);
+    int chart = (flags & ST_ATLAS_CHART_DISCARD) && oo.mode == ST_MODE_DISCARD && a &&
+                a->chart_mask && (oo.filter == ST_FILTER_POINT || oo.filter == ST_FILTER_BILINEAR);
+    enum { B = 128 };
+    st_query fq[B];
+    uint8_t st[B];
+    float cv[B];
+    int bad = 0;
+    unsigned nc = s->info.nchan;
+    for (size_t i0 = 0; i0 < n; i0 += B) {
+        size_t m = n - i0 < B ? n - i0 : B;
+        for (size_t k = 0; k < m; k++) {
+            fq[k] = q[i0 + k];
+            fq[k].face = 0;
+        }
+        if (chart) {
+            for (size_t k = 0; k < m; k++) {
+                const st_query *x = &fq[k];
+                if (!isfinite(x->u) || !isfinite(x->v)) {
+                    st[k] = ST_Q_NONFINITE;
+                    cv[k] = 0;
+                    for (unsigned c = 0; c < nc; c++)
+                        out[(i0 + k) * nc + c] = NAN;
+                    continue;
+                }
+                chart_sample(s, a, &oo, x, out + (i0 + k) * nc, &cv[k], &st[k]);
+            }
+        } else {
+            int r = st_sample_batch(s, &oo, fq, m, out + i0 * nc, cv, st);
+            if (r < 0)
+                return r;
+        }
+        for (size_t k = 0; k < m; k++) {
+            if (st[k] != ST_Q_OK)
+                bad++;
+            if (status)
+                status[i0 + k] = st[k];
+            if (coverage)
+                coverage[i0 + k] = cv[k];
+        }
+    }
+    return bad;
+}

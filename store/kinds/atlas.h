@@ -1,0 +1,62 @@
+/* store/kinds/atlas.h - atlas sets: one texture (face 0, any w x h, with its mip chain) plus the mesh
+ * that maps onto it, with the mesh's UV seams.
+ *
+ * Owns: st_atlas (the set's ext for ST_KIND_ATLAS), building an atlas set from an image and a
+ * mesh, sampling by (u, v) in texture space, the chart mask (which texels some triangle
+ * covers). Does not own: image decoding (image.h), mesh reading and seams (mesh.h), the
+ * filters (sample.h).
+ *
+ * Texture space: u right, v down from the image's top row (mesh.h says how file UVs are
+ * flipped into it). Sampling an atlas uses st_sample_batch on face 0; Clamp addressing is
+ * what an atlas means (Traverse has no neighbour to go to and behaves as Clamp); Discard is
+ * relative to the face rectangle, and st_atlas_sample with ST_ATLAS_CHART_DISCARD also
+ * discards taps on texels outside every chart (the chart mask), renormalising.
+ *
+ * Ownership: the atlas owns its mesh (freed by st_atlas_free, which is the set's ext_free).
+ */
+#ifndef ST_ATLAS_H
+#define ST_ATLAS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "err.h"
+#include "image.h"
+#include "mesh.h"
+#include "sample.h"
+#include "set.h"
+
+typedef struct st_atlas {
+    st_mesh  *mesh;        /* may be NULL: a plain image set */
+    uint8_t  *chart_mask;  /* w*h bytes of level 0, 1 where a UV'd triangle covers the texel
+                              centre (conservatively dilated by one texel), NULL when no mesh */
+    uint32_t  mask_w, mask_h;
+    char      texture_name[256]; /* file the texture came from (information) */
+} st_atlas;
+
+/* Makes an ST_KIND_ATLAS set of the image (copied; level 0 = the image, mips by box
+ * reduction). mesh (may be NULL) is taken over by the set (also on failure it is freed);
+ * when not NULL its seams are found and a chart mask rasterised. */
+int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st_set **out,
+                        st_error *e);
+
+/* Attaches a mesh to an existing atlas set (replacing an old one); takes it over. */
+int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e);
+
+/* The atlas of a set, NULL when the set is not an atlas or has no ext. */
+const st_atlas *st_atlas_get(const st_set *s);
+
+void st_atlas_free(void *atlas);
+/* Fills x with the ST_EXT_ATLAS extension record of a (the set will own and free a). */
+void st_atlas_ext(st_atlas *a, st_set_ext *x);
+
+enum { ST_ATLAS_CHART_DISCARD = 0x100 };   /* extra bit in st_atlas_sample's flags */
+
+/* Samples n (u, v) queries of texture space with footprint (face field ignored, set to 0).
+ * mode / filter from o; Traverse is sampled as Clamp. With flags & ST_ATLAS_CHART_DISCARD
+ * in Discard mode, taps outside the chart mask are dropped too (point / bilinear filters;
+ * others fall back to face Discard). Results as st_sample_batch. */
+int st_atlas_sample(const st_set *s, const st_sample_opts *o, unsigned flags,
+                    const st_query *q, size_t n, float *out, float *coverage, uint8_t *status);
+
+#endif

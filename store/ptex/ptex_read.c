@@ -1,0 +1,796 @@
+/* store/ptex/ptex_read.c - reads a Ptex file (layout in ptex_format.h) into a texture set.
+ *
+ * Owns: parsing and validation of .ptx bytes, block decoding (constant, zipped, diff-zipped,
+ * tiled), edits and metadata. Does not own: the set layout (set.c), the table of on-demand
+ * reductions that Ptex's filter reads (ptexres.c, attached here).
+ *
+ * Hostile input: the whole file is in memory; every section is located with overflow-checked
+ * arithmetic and must lie inside the buffer; every count is capped before it sizes an
+ * allocation (ST_MAX_FACES, ST_MAX_DIM, 16 levels, and a zip stream cannot inflate to more
+ * than PTX_MAX_ZIP_RATIO times its size, so a declared size larger than that is refused before
+ * allocating); every zlib stream must inflate to exactly its declared size. Errors name the
+ * section, face, level or byte offset.
+ */
+#include "ptex.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+
+#include "ptex_format.h"
+#include "ptexres.h"
+#include "fileio.h"
+
+#define PTX_MAX_LEVELS 16u
+
+typedef struct rd {
+    const uint8_t *buf;
+    size_t len;
+    size_t max_bytes;
+    unsigned dt, nc;
+    size_t csize, psize;        /* bytes per channel, per pixel */
+    st_error *e;
+    z_stream z;
+    int z_ready;
+} rd;
+
+/* [off, off+n) inside the buffer? */
+static int in_file(const rd *r, uint64_t off, uint64_t n)
+{
+    return off <= r->len && n <= r->len - off;
+}
+
+static int zip_bound_ok(uint64_t zipsize, uint64_t memsize)
+{
+    return memsize <= zipsize * PTX_MAX_ZIP_RATIO + 64;
+}
+
+/* Inflates exactly outlen bytes from [off, off+zlen). */
+static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
+                         const char *what)
+{
+    if (!in_file(r, off, zlen))
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu (%llu bytes) overruns "
+                       "the file (%zu bytes)", what, (unsigned long long)off,
+                       (unsigned long long)zlen, r->len);
+    if (!zip_bound_ok(zlen, outlen))
+        return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to the declared "
+                       "%zu bytes", what, (unsigned long long)zlen, outlen);
+    if (!r->z_ready) {
+        memset(&r->z, 0, sizeof r->z);
+        if (inflateInit(&r->z) != Z_OK)
+            return st_fail(r->e, ST_ENOMEM, "zlib inflateInit failed");
+        r->z_ready = 1;
+    } else {
+        inflateReset(&r->z);
+    }
+    uint64_t left = zlen;
+    const uint8_t *p = r->buf + off;
+    r->z.next_out = out;
+    r->z.avail_out = (uInt)outlen;
+    if (outlen > UINT32_MAX)
+        return st_fail(r->e, ST_ETOOBIG, "%s: block of %zu bytes is too large", what, outlen);
+    int zr;
+    do {
+        uInt chunk = left > (1u << 30) ? (1u << 30) : (uInt)left;
+        r->z.next_in = (Bytef *)(uintptr_t)p;
+        r->z.avail_in = chunk;
+        zr = inflate(&r->z, Z_NO_FLUSH);
+        size_t used = chunk - r->z.avail_in;
+        p += used;
+        left -= used;
+        if (zr == Z_STREAM_END)
+            break;
+        if (zr == Z_BUF_ERROR && r->z.avail_out == 0)
+            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to more "
+                           "than the declared %zu bytes", what, (unsigned long long)off, outlen);
+        if (zr != Z_OK && zr != Z_BUF_ERROR)
+            return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
+                           (unsigned long long)off, r->z.msg ? r->z.msg : "error");
+        if (zr == Z_BUF_ERROR || (used == 0 && r->z.avail_out > 0 && left == 0))
+            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
+                           "(inflated %lu of %zu bytes)", what, (unsigned long long)off,
+                           r->z.total_out, outlen);
+    } while (1);
+    if (r->z.total_out != outlen)
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %lu bytes, "
+                       "declared %zu", what, (unsigned long long)off, r->z.total_out, outlen);
+    return ST_OK;
+}
+
+/* Planar (channel after channel, rows of u) -> interleaved rows of stride dst_stride bytes. */
+static void interleave(const rd *r, const uint8_t *src, uint32_t w, uint32_t h, uint8_t *dst,
+                       size_t dst_stride)
+{
+    size_t cs = r->csize, ps = r->psize;
+    for (unsigned c = 0; c < r->nc; c++)
+        for (uint32_t y = 0; y < h; y++) {
+            const uint8_t *s = src + (((size_t)c * h + y) * w) * cs;
+            uint8_t *d = dst + y * dst_stride + c * cs;
+            if (cs == 1) {
+                for (uint32_t x = 0; x < w; x++)
+                    d[x * ps] = s[x];
+            } else if (cs == 2) {
+                for (uint32_t x = 0; x < w; x++)
+                    memcpy(d + x * ps, s + 2 * (size_t)x, 2);
+            } else {
+                for (uint32_t x = 0; x < w; x++)
+                    memcpy(d + x * ps, s + 4 * (size_t)x, 4);
+            }
+        }
+}
+
+static void decode_difference(const rd *r, uint8_t *p, size_t bytes)
+{
+    if (r->dt == ST_DT_U8) {
+        uint8_t prev = 0;
+        for (size_t i = 0; i < bytes; i++)
+            prev = p[i] = (uint8_t)(p[i] + prev);
+    } else if (r->dt == ST_DT_U16) {
+        uint16_t prev = 0;
+        for (size_t i = 0; i + 1 < bytes; i += 2) {
+            uint16_t v = ptx_rd16(p + i);
+            prev = (uint16_t)(v + prev);
+            ptx_wr16(p + i, prev);
+        }
+    }
+}
+
+static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
+                      size_t stride)
+{
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++)
+            memcpy(dst + y * stride + x * r->psize, px, r->psize);
+}
+
+/* One non-tiled block of encoding enc at [off, off+size) holding a w x h rectangle, written
+ * interleaved into dst (row stride bytes). */
+static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32_t w, uint32_t h,
+                        uint8_t *dst, size_t stride, const char *what)
+{
+    if (!in_file(r, off, size))
+        return st_fail(r->e, ST_EFORMAT, "%s: block at offset %llu (%llu bytes) overruns the "
+                       "file", what, (unsigned long long)off, (unsigned long long)size);
+    if (enc == PTX_ENC_CONSTANT) {
+        if (size < r->psize)
+            return st_fail(r->e, ST_EFORMAT, "%s: constant block of %llu bytes, a pixel is %zu",
+                           what, (unsigned long long)size, r->psize);
+        fill_rect(r, r->buf + off, w, h, dst, stride);
+        return ST_OK;
+    }
+    if (enc == PTX_ENC_DIFFZIPPED && r->dt != ST_DT_U8 && r->dt != ST_DT_U16)
+        return st_fail(r->e, ST_EFORMAT, "%s: diff-zipped block for a float data type", what);
+    size_t bytes = (size_t)w * h * r->psize;
+    if (!zip_bound_ok(size, bytes))
+        return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to %zu", what,
+                       (unsigned long long)size, bytes);
+    uint8_t *tmp = malloc(bytes ? bytes : 1);
+    if (!tmp)
+        return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu bytes", what, bytes);
+    int rc = inflate_exact(r, off, size, tmp, bytes, what);
+    if (rc == ST_OK) {
+        if (enc == PTX_ENC_DIFFZIPPED)
+            decode_difference(r, tmp, bytes); /* one run over all planes */
+        interleave(r, tmp, w, h, dst, stride);
+    }
+    free(tmp);
+    return rc;
+}
+
+/* Face data header at [off, off+size) for a face of resolution (ulog2, vlog2); may be tiled. */
+static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned ulog2,
+                       unsigned vlog2, uint8_t *dst, const char *what)
+{
+    unsigned enc = fdh >> 30;
+    uint64_t size = fdh & 0x3fffffffu;
+    uint32_t w = 1u << ulog2, h = 1u << vlog2;
+    size_t stride = (size_t)w * r->psize;
+    if (off > end || size > end - off)
+        return st_fail(r->e, ST_EFORMAT, "%s: block at offset %llu (%llu bytes) overruns its "
+                       "level (ends at %llu)", what, (unsigned long long)off,
+                       (unsigned long long)size, (unsigned long long)end);
+    if (enc != PTX_ENC_TILED)
+        return decode_block(r, enc, off, size, w, h, dst, stride, what);
+    if (size < 6 || !in_file(r, off, size))
+        return st_fail(r->e, ST_EFORMAT, "%s: tiled block at offset %llu is too short", what,
+                       (unsigned long long)off);
+    int tu = (int8_t)r->buf[off], tv = (int8_t)r->buf[off + 1];
+    uint32_t thsize = ptx_rd32(r->buf + off + 2);
+    if (tu < 0 || tv < 0 || (unsigned)tu > ulog2 || (unsigned)tv > vlog2)
+        return st_fail(r->e, ST_EFORMAT, "%s: tile resolution %dx%d (log2) does not fit the face "
+                       "%ux%u (log2)", what, tu, tv, ulog2, vlog2);
+    uint32_t ntu = 1u << (ulog2 - (unsigned)tu), ntv = 1u << (vlog2 - (unsigned)tv);
+    size_t ntiles = (size_t)ntu * ntv;
+    if (thsize > size - 6)
+        return st_fail(r->e, ST_EFORMAT, "%s: tile header of %u bytes overruns the block", what,
+                       thsize);
+    if (!zip_bound_ok(thsize, ntiles * 4))
+        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes cannot hold %zu tile headers",
+                       what, thsize, ntiles);
+    uint8_t *th = malloc(ntiles * 4);
+    if (!th)
+        return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu tile headers", what, ntiles);
+    int rc = inflate_exact(r, off + 6, thsize, th, ntiles * 4, what);
+    uint64_t pos = off + 6 + thsize, bend = off + size;
+    uint32_t tw = 1u << tu, tht = 1u << tv;
+    for (size_t i = 0; rc == ST_OK && i < ntiles; i++) {
+        uint32_t tf = ptx_rd32(th + 4 * i);
+        unsigned tenc = tf >> 30;
+        uint64_t tsize = tf & 0x3fffffffu;
+        if (tenc == PTX_ENC_TILED) {
+            rc = st_fail(r->e, ST_EFORMAT, "%s: tile %zu is itself tiled", what, i);
+            break;
+        }
+        if (tsize > bend - pos) {
+            rc = st_fail(r->e, ST_EFORMAT, "%s: tile %zu (%llu bytes at offset %llu) overruns "
+                         "the tiled block", what, i, (unsigned long long)tsize,
+                         (unsigned long long)pos);
+            break;
+        }
+        size_t tx = i % ntu, ty = i / ntu;
+        uint8_t *d = dst + ty * tht * stride + tx * tw * r->psize;
+        rc = decode_block(r, tenc, pos, tsize, tw, tht, d, stride, what);
+        pos += tsize;
+    }
+    free(th);
+    return rc;
+}
+
+/* Reads a level header: nfaces FaceDataHeaders and the offsets of their blocks. */
+static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize, uint32_t nf,
+                             uint32_t *fdh, uint64_t *offs, unsigned level)
+{
+    char what[64];
+    snprintf(what, sizeof what, "level %u header", level);
+    if (hsize > lsize)
+        return st_fail(r->e, ST_EFORMAT, "%s: %u bytes, larger than the level (%llu)", what,
+                       hsize, (unsigned long long)lsize);
+    if (!zip_bound_ok(hsize, (uint64_t)nf * 4))
+        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes cannot hold %u face headers",
+                       what, hsize, nf);
+    uint8_t *tmp = malloc((size_t)nf * 4 + 1);
+    if (!tmp)
+        return st_fail(r->e, ST_ENOMEM, "%s: out of memory", what);
+    int rc = inflate_exact(r, pos, hsize, tmp, (size_t)nf * 4, what);
+    if (rc == ST_OK) {
+        uint64_t o = pos + hsize, end = pos + lsize;
+        for (uint32_t i = 0; i < nf; i++) {
+            fdh[i] = ptx_rd32(tmp + 4 * i);
+            offs[i] = o;
+            o += fdh[i] & 0x3fffffffu;
+            if (o > end) {
+                rc = st_fail(r->e, ST_EFORMAT, "level %u: the blocks of its first %u faces "
+                             "(%llu bytes) overrun the level (%llu bytes)", level, i + 1,
+                             (unsigned long long)(o - pos), (unsigned long long)lsize);
+                break;
+            }
+        }
+    }
+    free(tmp);
+    return rc;
+}
+
+/* Parses metadata records (small or large-header form) from mem. */
+typedef struct meta_ctx {
+    st_set *s;
+    uint64_t lmd_pos, lmd_end;   /* large metadata blocks */
+} meta_ctx;
+
+static size_t meta_tsize(unsigned t)
+{
+    static const size_t sz[] = {1, 1, 2, 4, 4, 8};
+    return t < 6 ? sz[t] : 0;
+}
+
+static int meta_put(rd *r, st_set *s, const char *key, unsigned type, const uint8_t *data,
+                    uint32_t dsize)
+{
+    size_t ts = meta_tsize(type);
+    if (!ts)
+        return st_fail(r->e, ST_EFORMAT, "metadata '%s': type %u unknown", key, type);
+    if (dsize % ts)
+        return st_fail(r->e, ST_EFORMAT, "metadata '%s': %u bytes is not a whole number of "
+                       "%zu-byte values", key, dsize, ts);
+    uint8_t *copy = NULL;
+    if (type == 0 && (dsize == 0 || data[dsize - 1] != 0)) {
+        /* a string without its NUL: keep it, terminated */
+        copy = malloc((size_t)dsize + 1);
+        if (!copy)
+            return st_fail(r->e, ST_ENOMEM, "out of memory for metadata");
+        if (dsize)
+            memcpy(copy, data, dsize);
+        copy[dsize] = 0;
+        data = copy;
+        dsize++;
+    }
+    /* a later record with the same key (metadata edits) replaces the earlier one */
+    for (uint32_t i = 0; i < s->nmeta; i++)
+        if (!strcmp(s->meta[i].key, key)) {
+            void *nd = malloc(dsize ? dsize : 1);
+            if (!nd) {
+                free(copy);
+                return st_fail(r->e, ST_ENOMEM, "out of memory for metadata");
+            }
+            if (dsize)
+                memcpy(nd, data, dsize);
+            free(s->meta[i].data);
+            s->meta[i].data = nd;
+            s->meta[i].type = (uint8_t)type;
+            s->meta[i].count = (uint32_t)(dsize / ts);
+            free(copy);
+            return ST_OK;
+        }
+    int rc = st_set_meta_add(s, key, type, data, (uint32_t)(dsize / ts), r->e);
+    free(copy);
+    return rc;
+}
+
+static int parse_meta(rd *r, meta_ctx *m, const uint8_t *p, size_t n, int large)
+{
+    size_t i = 0;
+    while (i < n) {
+        unsigned ks = p[i++];
+        if (ks == 0 || ks > n - i)
+            return st_fail(r->e, ST_EFORMAT, "metadata: key of %u bytes overruns the block", ks);
+        char key[256];
+        memcpy(key, p + i, ks);
+        key[ks - 1] = 0;
+        i += ks;
+        size_t need = 1 + 4 + (large ? 4 : 0);
+        if (need > n - i)
+            return st_fail(r->e, ST_EFORMAT, "metadata '%s': record truncated", key);
+        unsigned type = p[i];
+        uint32_t dsize = ptx_rd32(p + i + 1);
+        i += 5;
+        if (!large) {
+            if (dsize > n - i)
+                return st_fail(r->e, ST_EFORMAT, "metadata '%s': %u bytes of data overrun the "
+                               "block", key, dsize);
+            int rc = meta_put(r, m->s, key, type, p + i, dsize);
+            if (rc)
+                return rc;
+            i += dsize;
+        } else {
+            uint32_t zs = ptx_rd32(p + i);
+            i += 4;
+            if (zs > m->lmd_end - m->lmd_pos)
+                return st_fail(r->e, ST_EFORMAT, "large metadata '%s': %u zipped bytes overrun "
+                               "the large metadata section", key, zs);
+            if (!zip_bound_ok(zs, dsize) || dsize > (1u << 30))
+                return st_fail(r->e, ST_EFORMAT, "large metadata '%s': %u zipped bytes cannot "
+                               "hold %u bytes", key, zs, dsize);
+            uint8_t *d = malloc(dsize ? dsize : 1);
+            if (!d)
+                return st_fail(r->e, ST_ENOMEM, "out of memory for metadata '%s'", key);
+            int rc = inflate_exact(r, m->lmd_pos, zs, d, dsize, "large metadata");
+            if (rc == ST_OK)
+                rc = meta_put(r, m->s, key, type, d, dsize);
+            free(d);
+            if (rc)
+                return rc;
+            m->lmd_pos += zs;
+        }
+    }
+    return ST_OK;
+}
+
+static int read_meta_block(rd *r, meta_ctx *m, uint64_t pos, uint32_t zs, uint32_t ms, int large)
+{
+    if (!ms)
+        return ST_OK;
+    if (!in_file(r, pos, zs) || !zip_bound_ok(zs, ms))
+        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes at offset %llu cannot hold %u "
+                       "bytes inside the file", large ? "large metadata header" : "metadata", zs,
+                       (unsigned long long)pos, ms);
+    uint8_t *tmp = malloc(ms);
+    if (!tmp)
+        return st_fail(r->e, ST_ENOMEM, "out of memory for metadata");
+    int rc = inflate_exact(r, pos, zs, tmp, ms, large ? "large metadata header" : "metadata");
+    if (rc == ST_OK)
+        rc = parse_meta(r, m, tmp, ms, large);
+    free(tmp);
+    return rc;
+}
+
+typedef struct face_edit {
+    uint32_t faceid;
+    uint32_t fdh;
+    uint64_t pos;
+} face_edit;
+
+typedef struct meta_edit {
+    uint64_t pos;
+    uint32_t zs, ms;
+} meta_edit;
+
+static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nfaces)
+{
+    if (fi->ulog2 < 0 || fi->vlog2 < 0 || fi->ulog2 > (int)ST_MAX_LOG2 || fi->vlog2 > (int)ST_MAX_LOG2)
+        return st_fail(r->e, ST_EFORMAT, "face %u: resolution 2^%d x 2^%d not in 1..%u", f,
+                       fi->ulog2, fi->vlog2, ST_MAX_DIM);
+    for (int ed = 0; ed < 4; ed++)
+        if (fi->adjfaces[ed] < -1 || (fi->adjfaces[ed] >= 0 && (uint32_t)fi->adjfaces[ed] >= nfaces))
+            return st_fail(r->e, ST_EADJ, "face %u edge %d: neighbour %d out of range (%u faces)",
+                           f, ed, fi->adjfaces[ed], nfaces);
+    return ST_OK;
+}
+
+int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
+{
+    *out = NULL;
+    if (!max_bytes)
+        max_bytes = ST_DEFAULT_MAX_BYTES;
+    rd R = {.buf = buf, .len = len, .max_bytes = max_bytes, .e = e};
+    rd *r = &R;
+    const uint8_t *b = buf;
+    int rc = ST_OK;
+    st_set *s = NULL;
+    ptx_faceinfo *fi = NULL;
+    uint8_t *constdata = NULL, *ptxflags = NULL, *nstored = NULL;
+    uint32_t *fdh = NULL;
+    uint64_t *offs = NULL;
+    uint32_t *faceids_r = NULL;
+    face_edit *fedits = NULL;
+    meta_edit *medits = NULL;
+    size_t nfedits = 0, nmedits = 0;
+    st_face_desc *fd = NULL;
+
+    if (len < PTX_HEADER_SIZE)
+        return st_fail(e, ST_EFORMAT, "file of %zu bytes is shorter than the Ptex header (64)", len);
+    if (ptx_rd32(b) != PTX_MAGIC)
+        return st_fail(e, ST_EFORMAT, "not a Ptex file (magic is not \"Ptex\")");
+    uint32_t version = ptx_rd32(b + 4);
+    if (version != 1)
+        return st_fail(e, ST_EUNSUPPORTED, "Ptex file version %u (only version 1 exists)", version);
+    uint32_t meshtype = ptx_rd32(b + 8), dtype = ptx_rd32(b + 12);
+    int32_t alpha = (int32_t)ptx_rd32(b + 16);
+    uint32_t nchan = ptx_rd16(b + 20), nlevels = ptx_rd16(b + 22), nfaces = ptx_rd32(b + 24);
+    uint32_t exthsize = ptx_rd32(b + 28), fisize = ptx_rd32(b + 32), cdsize = ptx_rd32(b + 36);
+    uint32_t lisize = ptx_rd32(b + 40);
+    uint64_t ldsize = ptx_rd64(b + 48);
+    uint32_t mdzip = ptx_rd32(b + 56), mdmem = ptx_rd32(b + 60);
+    if (meshtype == 0)
+        return st_fail(e, ST_EUNSUPPORTED, "triangle-mesh Ptex files are not supported "
+                       "(seamtex handles quad meshes, with subfaces of non-quad faces)");
+    if (meshtype != 1)
+        return st_fail(e, ST_EFORMAT, "mesh type %u is neither triangle (0) nor quad (1)", meshtype);
+    if (dtype > 3)
+        return st_fail(e, ST_EFORMAT, "data type %u not in 0..3", dtype);
+    if (nchan < 1)
+        return st_fail(e, ST_EFORMAT, "channel count is 0");
+    if (nchan > ST_MAX_CHANNELS)
+        return st_fail(e, ST_EUNSUPPORTED, "%u channels; a set holds at most %u", nchan,
+                       ST_MAX_CHANNELS);
+    if (nfaces < 1 || nfaces > ST_MAX_FACES)
+        return st_fail(e, ST_ETOOBIG, "face count %u not in 1..%u", nfaces, ST_MAX_FACES);
+    if (nlevels < 1 || nlevels > PTX_MAX_LEVELS)
+        return st_fail(e, ST_EFORMAT, "level count %u not in 1..%u", nlevels, PTX_MAX_LEVELS);
+    if (lisize < nlevels * PTX_LEVELINFO_SIZE)
+        return st_fail(e, ST_EFORMAT, "level info of %u bytes is too small for %u levels",
+                       lisize, nlevels);
+    r->dt = dtype;
+    r->nc = nchan;
+    r->csize = st_dtype_size(dtype);
+    r->psize = r->csize * nchan;
+
+    /* extended header: missing fields are 0 */
+    uint8_t ext[PTX_EXTHEADER_SIZE] = {0};
+    if (!in_file(r, PTX_HEADER_SIZE, exthsize))
+        return st_fail(e, ST_EFORMAT, "extended header of %u bytes overruns the file", exthsize);
+    memcpy(ext, b + PTX_HEADER_SIZE, exthsize < PTX_EXTHEADER_SIZE ? exthsize : PTX_EXTHEADER_SIZE);
+    unsigned bu = ptx_rd16(ext), bv = ptx_rd16(ext + 4);
+    uint32_t lmdzip = ptx_rd32(ext + 8), lmdmem = ptx_rd32(ext + 12);
+    uint64_t lmddata = ptx_rd64(ext + 16), editsize = ptx_rd64(ext + 24), editpos = ptx_rd64(ext + 32);
+    if (bu > 2 || bv > 2)
+        return st_fail(e, ST_EFORMAT, "border modes %u/%u not in 0..2", bu, bv);
+
+    /* section offsets; everything must lie inside the file */
+    uint64_t pos = PTX_HEADER_SIZE + (uint64_t)exthsize;
+    uint64_t fipos = pos;    pos += fisize;
+    uint64_t cdpos = pos;    pos += cdsize;
+    uint64_t lipos = pos;    pos += lisize;
+    uint64_t ldpos = pos;
+    if (ldsize > len || pos > len - ldsize)
+        return st_fail(e, ST_EFORMAT, "sections up to the level data (%llu + %llu bytes) overrun "
+                       "the file (%zu bytes)", (unsigned long long)pos, (unsigned long long)ldsize, len);
+    pos += ldsize;
+    uint64_t mdpos = pos;    pos += mdzip;
+    pos += 8;                /* compatibility barrier */
+    uint64_t lmdhpos = pos;  pos += lmdzip;
+    uint64_t lmdpos = pos;
+    if (lmdmem && (pos > len || lmddata > len - pos))
+        return st_fail(e, ST_EFORMAT, "large metadata (%llu bytes at offset %llu) overruns the "
+                       "file", (unsigned long long)lmddata, (unsigned long long)pos);
+    if (lmddata > len)
+        lmddata = len; /* unused when lmdmem is 0; keeps the sums below from wrapping */
+    pos += lmddata;
+
+    /* face info */
+    size_t fibytes = (size_t)nfaces * PTX_FACEINFO_SIZE;
+    if (!zip_bound_ok(fisize, fibytes))
+        return st_fail(e, ST_EFORMAT, "face info: %u zipped bytes cannot hold %u faces", fisize,
+                       nfaces);
+    uint8_t *fiz = malloc(fibytes);
+    fi = malloc((size_t)nfaces * sizeof *fi);
+    if (!fiz || !fi) {
+        free(fiz);
+        rc = st_fail(e, ST_ENOMEM, "out of memory for %u faces", nfaces);
+        goto done;
+    }
+    rc = inflate_exact(r, fipos, fisize, fiz, fibytes, "face info");
+    for (uint32_t f = 0; rc == ST_OK && f < nfaces; f++) {
+        ptx_faceinfo_decode(fiz + (size_t)f * PTX_FACEINFO_SIZE, &fi[f]);
+        rc = check_faceinfo(r, &fi[f], f, nfaces);
+    }
+    free(fiz);
+    if (rc)
+        goto done;
+
+    /* constant data */
+    size_t cdbytes = (size_t)nfaces * r->psize;
+    if (!zip_bound_ok(cdsize, cdbytes)) {
+        rc = st_fail(e, ST_EFORMAT, "constant data: %u zipped bytes cannot hold %zu", cdsize,
+                     cdbytes);
+        goto done;
+    }
+    constdata = malloc(cdbytes);
+    if (!constdata) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for constant data");
+        goto done;
+    }
+    if ((rc = inflate_exact(r, cdpos, cdsize, constdata, cdbytes, "constant data")))
+        goto done;
+
+    /* edit records */
+    {
+        uint64_t ep = editpos > pos ? editpos : pos, eend;
+        if (editpos > 0)
+            eend = editpos + editsize < editpos ? UINT64_MAX : editpos + editsize;
+        else
+            eend = UINT64_MAX;
+        if (eend > len)
+            eend = len;
+        while (ep < eend && eend - ep >= 5) {
+            unsigned et = b[ep];
+            uint32_t esz = ptx_rd32(b + ep + 1);
+            if (!esz)
+                break;
+            uint64_t body = ep + 5;
+            if (esz > len - body) {
+                rc = st_fail(e, ST_EFORMAT, "edit record at offset %llu (%u bytes) overruns the "
+                             "file", (unsigned long long)ep, esz);
+                goto done;
+            }
+            if (et == PTX_EDIT_FACEDATA) {
+                if (esz < PTX_EDIT_FACE_SIZE + r->psize) {
+                    rc = st_fail(e, ST_EFORMAT, "face edit at offset %llu is too short",
+                                 (unsigned long long)ep);
+                    goto done;
+                }
+                uint32_t faceid = ptx_rd32(b + body);
+                if (faceid >= nfaces) {
+                    rc = st_fail(e, ST_EFORMAT, "face edit at offset %llu names face %u of %u",
+                                 (unsigned long long)ep, faceid, nfaces);
+                    goto done;
+                }
+                ptx_faceinfo nfi;
+                ptx_faceinfo_decode(b + body + 4, &nfi);
+                if ((rc = check_faceinfo(r, &nfi, faceid, nfaces)))
+                    goto done;
+                nfi.flags |= PTX_FLAG_HASEDITS;
+                fi[faceid] = nfi;
+                memcpy(constdata + (size_t)faceid * r->psize, b + body + PTX_EDIT_FACE_SIZE, r->psize);
+                if (!(nfi.flags & PTX_FLAG_CONSTANT)) {
+                    face_edit *ne = realloc(fedits, (nfedits + 1) * sizeof *ne);
+                    if (!ne) {
+                        rc = st_fail(e, ST_ENOMEM, "out of memory for edits");
+                        goto done;
+                    }
+                    fedits = ne;
+                    fedits[nfedits].faceid = faceid;
+                    fedits[nfedits].fdh = ptx_rd32(b + body + 24);
+                    fedits[nfedits].pos = body + PTX_EDIT_FACE_SIZE + r->psize;
+                    if ((fedits[nfedits].fdh & 0x3fffffffu) > esz - PTX_EDIT_FACE_SIZE - r->psize) {
+                        rc = st_fail(e, ST_EFORMAT, "face edit at offset %llu: block overruns "
+                                     "the record", (unsigned long long)ep);
+                        goto done;
+                    }
+                    nfedits++;
+                }
+            } else if (et == PTX_EDIT_METADATA) {
+                if (esz < PTX_EDIT_META_SIZE) {
+                    rc = st_fail(e, ST_EFORMAT, "metadata edit at offset %llu is too short",
+                                 (unsigned long long)ep);
+                    goto done;
+                }
+                meta_edit *nm = realloc(medits, (nmedits + 1) * sizeof *nm);
+                if (!nm) {
+                    rc = st_fail(e, ST_ENOMEM, "out of memory for edits");
+                    goto done;
+                }
+                medits = nm;
+                medits[nmedits].zs = ptx_rd32(b + body);
+                medits[nmedits].ms = ptx_rd32(b + body + 4);
+                medits[nmedits].pos = body + 8;
+                if (medits[nmedits].zs > esz - 8) {
+                    rc = st_fail(e, ST_EFORMAT, "metadata edit at offset %llu overruns its record",
+                                 (unsigned long long)ep);
+                    goto done;
+                }
+                nmedits++;
+            } /* unknown record types are skipped, as Ptex does */
+            ep = body + esz;
+        }
+    }
+
+    /* the set */
+    fd = calloc(nfaces, sizeof *fd);
+    ptxflags = malloc(nfaces);
+    nstored = malloc(nfaces);
+    if (!fd || !ptxflags || !nstored) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for %u faces", nfaces);
+        goto done;
+    }
+    for (uint32_t f = 0; f < nfaces; f++) {
+        fd[f].w = 1u << fi[f].ulog2;
+        fd[f].h = 1u << fi[f].vlog2;
+        fd[f].flags = (uint8_t)((fi[f].flags & PTX_FLAG_CONSTANT ? ST_FACE_CONSTANT : 0) |
+                                (fi[f].flags & PTX_FLAG_SUBFACE ? ST_FACE_SUBFACE : 0));
+        for (int ed = 0; ed < 4; ed++) {
+            fd[f].adjface[ed] = fi[f].adjfaces[ed];
+            fd[f].adjedge[ed] = (int8_t)((fi[f].adjedges >> (2 * ed)) & 3);
+        }
+        ptxflags[f] = fi[f].flags;
+        nstored[f] = 1;
+    }
+    st_set_info info = {
+        .nfaces = nfaces, .nchan = (uint8_t)nchan, .dtype = (uint8_t)dtype,
+        .alpha_chan = (int8_t)(alpha >= 0 && alpha < (int32_t)nchan ? alpha : -1),
+        .kind = ST_KIND_PERFACE, .colorspace = ST_CS_LINEAR, .premultiplied = 0,
+        .border_u = (uint8_t)bu, .border_v = (uint8_t)bv, .meshtype = 0,
+    };
+    if ((rc = st_set_create(&info, fd, max_bytes, &s, e)))
+        goto done;
+
+    /* constant faces and 1x1 faces: the constant data */
+    for (uint32_t f = 0; f < nfaces; f++)
+        if ((s->faces[f].flags & ST_FACE_CONSTANT) || (fi[f].ulog2 == 0 && fi[f].vlog2 == 0))
+            memcpy(st_face_level(s, f, 0), constdata + (size_t)f * r->psize, r->psize);
+
+    /* levels */
+    fdh = malloc((size_t)nfaces * sizeof *fdh);
+    offs = malloc((size_t)nfaces * sizeof *offs);
+    faceids_r = malloc((size_t)nfaces * sizeof *faceids_r);
+    if (!fdh || !offs || !faceids_r) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for level headers");
+        goto done;
+    }
+    {
+        /* rfaceid order: stable sort by min(ulog2, vlog2) descending, constant faces count 1
+         * (counting sort keeps it stable) */
+        uint32_t cnt[ST_MAX_LOG2 + 2] = {0};
+        for (uint32_t f = 0; f < nfaces; f++) {
+            unsigned m = fi[f].flags & PTX_FLAG_CONSTANT ? 1u :
+                         (unsigned)(fi[f].ulog2 < fi[f].vlog2 ? fi[f].ulog2 : fi[f].vlog2);
+            cnt[m]++;
+        }
+        uint32_t start[ST_MAX_LOG2 + 2], acc = 0;
+        for (int m = ST_MAX_LOG2 + 1; m >= 0; m--) {
+            start[m] = acc;
+            acc += cnt[m];
+        }
+        for (uint32_t f = 0; f < nfaces; f++) {
+            unsigned m = fi[f].flags & PTX_FLAG_CONSTANT ? 1u :
+                         (unsigned)(fi[f].ulog2 < fi[f].vlog2 ? fi[f].ulog2 : fi[f].vlog2);
+            faceids_r[start[m]++] = f;
+        }
+    }
+    uint64_t lpos = ldpos, lend_all = ldpos + ldsize;
+    for (unsigned l = 0; l < nlevels; l++) {
+        const uint8_t *li = b + lipos + (size_t)l * PTX_LEVELINFO_SIZE;
+        uint64_t lsize = ptx_rd64(li);
+        uint32_t hsize = ptx_rd32(li + 8), nf = ptx_rd32(li + 12);
+        if (lsize > lend_all - lpos) {
+            rc = st_fail(e, ST_EFORMAT, "level %u: %llu bytes overrun the level data", l,
+                         (unsigned long long)lsize);
+            goto done;
+        }
+        if (nf > nfaces || (l == 0 && nf != nfaces)) {
+            rc = st_fail(e, ST_EFORMAT, "level %u holds %u faces of %u", l, nf, nfaces);
+            goto done;
+        }
+        if ((rc = read_level_header(r, lpos, lsize, hsize, nf, fdh, offs, l)))
+            goto done;
+        if (l == 0)
+            for (size_t i = 0; i < nfedits; i++) {
+                fdh[fedits[i].faceid] = fedits[i].fdh;
+                offs[fedits[i].faceid] = fedits[i].pos;
+            }
+        for (uint32_t i = 0; i < nf; i++) {
+            uint32_t f = l == 0 ? i : faceids_r[i];
+            const st_face *F = &s->faces[f];
+            if (F->flags & ST_FACE_CONSTANT)
+                continue;
+            if (l == 0 && fi[f].ulog2 == 0 && fi[f].vlog2 == 0)
+                continue; /* Ptex serves a 1x1 face from the constant data */
+            if (l > 0 && (fi[f].flags & PTX_FLAG_HASEDITS))
+                continue; /* stored reductions of an edited face are stale */
+            if (l > 0 && (l > F->ulog2 || l > F->vlog2)) {
+                rc = st_fail(e, ST_EFORMAT, "level %u lists face %u whose resolution 2^%u x 2^%u "
+                             "has no such reduction", l, f, F->ulog2, F->vlog2);
+                goto done;
+            }
+            if (l > 0 && nstored[f] != l)
+                continue; /* a gap: the level before was missing for this face */
+            char what[64];
+            snprintf(what, sizeof what, "level %u face %u", l, f);
+            int edited = 0;
+            for (size_t k = 0; l == 0 && k < nfedits; k++)
+                edited |= fedits[k].faceid == f;
+            uint64_t end = edited ? len : lpos + lsize;
+            if ((rc = decode_face(r, fdh[i], offs[i], end, F->ulog2 - l, F->vlog2 - l,
+                                  st_face_level(s, f, l), what)))
+                goto done;
+            if (l > 0)
+                nstored[f] = (uint8_t)(l + 1);
+        }
+        lpos += lsize;
+    }
+
+    /* metadata: small, large, then edits in file order */
+    {
+        meta_ctx m = {.s = s, .lmd_pos = lmdpos, .lmd_end = lmdpos + lmddata};
+        if (mdmem && (rc = read_meta_block(r, &m, mdpos, mdzip, mdmem, 0)))
+            goto done;
+        if (lmdmem && (rc = read_meta_block(r, &m, lmdhpos, lmdzip, lmdmem, 1)))
+            goto done;
+        for (size_t i = 0; i < nmedits; i++)
+            if ((rc = read_meta_block(r, &m, medits[i].pos, medits[i].zs, medits[i].ms, 0)))
+                goto done;
+    }
+
+    /* every other resolution, as Ptex serves it; also fills the set's unstored levels */
+    if ((rc = st_ptexres_attach(s, constdata, ptxflags, nstored, max_bytes, e)))
+        goto done;
+
+done:
+    if (r->z_ready)
+        inflateEnd(&r->z);
+    free(fi);
+    free(constdata);
+    free(ptxflags);
+    free(nstored);
+    free(fdh);
+    free(offs);
+    free(faceids_r);
+    free(fedits);
+    free(medits);
+    free(fd);
+    if (rc) {
+        st_set_free(s);
+        return rc;
+    }
+    *out = s;
+    return ST_OK;
+}
+
+int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
+{
+    *out = NULL;
+    void *buf;
+    size_t len;
+    int rc = st_file_read(path, (size_t)4 << 30, &buf, &len, e);
+    if (rc)
+        return rc;
+    rc = st_ptex_read_mem(buf, len, max_bytes, out, e);
+    if (rc && e) {
+        char tmp[ST_ERRMSG_LEN];
+        snprintf(tmp, sizeof tmp, "%s", e->msg);
+        st_fail(e, rc, "%s: %s", path, tmp);
+    }
+    free(buf);
+    return rc;
+}

@@ -1,0 +1,589 @@
+/* store/ptex/ptexfilter.c - Ptex's filter family on seamtex sets (see ptexfilter.h): footprint,
+ * kernel, and where its pieces land.
+ *
+ * Traverse follows Ptex's PtexSeparableFilter (v2.4) step for step: the kernel is split at
+ * each face edge it overhangs; a piece crosses into the neighbour (rotated into its frame,
+ * reduced to its resolution, adjusted between subfaces and main faces), the corner piece goes
+ * to the diagonal face of a regular vertex, is made symmetric and shared among the faces of a
+ * vertex of valence > 4, or is dropped (and its weight removed) at valence 3 and at
+ * boundaries; at a boundary edge the overhang is folded back (clamp, periodic) or dropped
+ * (black). The sum is divided by the kernel's weight. Discard drops every overhanging piece
+ * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
+ *
+ * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
+ * has; st_ptexfilter_prepare builds it for any per-face set.
+ */
+#include "ptexfilter.h"
+
+#include <math.h>
+#include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
+#include "ptex_format.h"
+#include "ptexfilter_kernel.h"
+#include "ptexres.h"
+
+#define PF_MAX_DEPTH 8   /* subface re-splits; Ptex needs 2, a bad adjacency table might loop */
+
+typedef float v4f __attribute__((vector_size(16)));
+
+enum { PF_U8, PF_F32, PF_OTHER };
+
+/* One texel as 4 float lanes (raw values: u8 0..255, u16 0..65535). The u8 and float loads
+ * read 4 channels even for fewer: the set arena and the table arena end with slack, and the
+ * extra lanes are never stored. */
+static inline v4f load_u8(const uint8_t *p)
+{
+#ifdef __SSE2__
+    uint32_t x;
+    memcpy(&x, p, 4);
+    __m128i z = _mm_setzero_si128();
+    __m128i v = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128((int)x), z), z);
+    return (v4f)_mm_cvtepi32_ps(v);
+#else
+    return (v4f){(float)p[0], (float)p[1], (float)p[2], (float)p[3]};
+#endif
+}
+static inline v4f load_f32(const uint8_t *p)
+{
+    v4f v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+typedef struct pf {
+    const st_set *s;
+    const st_ptexres *t;
+    unsigned nc, dt;
+    int mode;                /* st_mode */
+    int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
+    int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
+    int avx2;                /* the CPU runs ptexfilter_simd.c's loop */
+    float weight;
+    v4f acc;                 /* the weighted sum, raw units */
+} pf;
+
+static float one_value(unsigned dt)
+{
+    return dt == ST_DT_U8 ? 255.0f : dt == ST_DT_U16 ? 65535.0f : 1.0f;
+}
+
+static inline float texel_raw(unsigned dt, const uint8_t *p, unsigned c)
+{
+    switch (dt) {
+    case ST_DT_U8: return (float)p[c];
+    case ST_DT_U16: { uint16_t x; memcpy(&x, p + 2 * c, 2); return (float)x; }
+    case ST_DT_HALF: { uint16_t x; memcpy(&x, p + 2 * c, 2); return st_half_to_float(x); }
+    default: { float x; memcpy(&x, p + 4 * c, 4); return x; }
+    }
+}
+
+static inline v4f load_any(unsigned dt, unsigned nc, const uint8_t *p)
+{
+    v4f v = {0, 0, 0, 0};
+    for (unsigned ch = 0; ch < nc; ch++)
+        v[ch] = texel_raw(dt, p, ch);
+    return v;
+}
+
+static inline int is_subface(const pf *c, int f)
+{
+    return (c->s->faces[f].flags & ST_FACE_SUBFACE) != 0;
+}
+
+/* Kernel applied to the data of face f at the kernel's resolution (reduced first when the
+ * face is smaller). */
+static void apply(pf *c, pk *k, int f)
+{
+    if (k->uw <= 0 || k->vw <= 0)
+        return;
+    const st_face *F = &c->s->faces[f];
+    while (k->ulog2 > F->ulog2)
+        pk_downres_u(k);
+    while (k->vlog2 > F->vlog2)
+        pk_downres_v(k);
+    if (k->ulog2 < 0 || k->vlog2 < 0)
+        return;
+    const uint8_t *d = st_ptexres_data(c->t, c->s, (uint32_t)f, (unsigned)k->ulog2,
+                                       (unsigned)k->vlog2);
+    unsigned nc = c->nc, dt = c->dt;
+    const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
+    if (F->flags & ST_FACE_CONSTANT) {
+        float w = pk_weight(k);
+        c->acc += load_any(dt, nc, d) * w;
+        return;
+    }
+    int resu = 1 << k->ulog2;
+    /* the window must lie inside the face (it does for Ptex's kernels; guard bad input) */
+    if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
+        return;
+    size_t ts = st_dtype_size(dt) * nc;
+    const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
+    size_t rowb = (size_t)resu * ts;
+    v4f acc = c->acc;
+    switch (c->kind) {
+    case PF_U8:
+        if (nc < 3) {
+            /* 1 or 2 channels: a row of the window is uw * nc contiguous bytes; dot it with the
+             * weights repeated per channel, 4 bytes at a time (lane l holds channel l % nc). The
+             * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
+            int ne = k->uw * (int)nc, nv = (ne + 3) / 4;
+            v4f wv[(PK_MAX * 4 + 3) / 4];
+            float *we = (float *)wv;
+            if (nc == 1) {
+                for (int i = 0; i < k->uw; i++)
+                    we[i] = ku[i];
+            } else {
+                for (int i = 0; i < k->uw; i++)
+                    we[2 * i] = we[2 * i + 1] = ku[i];
+            }
+            for (int i = ne; i < nv * 4; i++)
+                we[i] = 0.0f;
+            for (int j = 0; j < k->vw; j++) {
+                const uint8_t *p = base + j * rowb;
+                v4f rs = load_u8(p) * wv[0];
+                for (int b = 1; b < nv; b++)
+                    rs += load_u8(p + 4 * b) * wv[b];
+                v4f row = nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
+                                  : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
+                acc += row * kv[j];
+            }
+            break;
+        }
+        if (nc == 4 && c->avx2) {
+            float a4[4];
+            memcpy(a4, &acc, sizeof a4);
+            pf_rows_u8x4_avx2(base, rowb, ku, k->uw, kv, k->vw, a4);
+            memcpy(&acc, a4, sizeof a4);
+            break;
+        }
+        for (int j = 0; j < k->vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_u8(p) * ku[0];
+            for (int i = 1; i < k->uw; i++)
+                row += load_u8(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    case PF_F32:
+        for (int j = 0; j < k->vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_f32(p) * ku[0];
+            for (int i = 1; i < k->uw; i++)
+                row += load_f32(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    default:
+        for (int j = 0; j < k->vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_any(dt, nc, p) * ku[0];
+            for (int i = 1; i < k->uw; i++)
+                row += load_any(dt, nc, p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    }
+    c->acc = acc;
+}
+
+static void split_apply(pf *c, pk *k, int f, int depth);
+
+static void apply_across_edge(pf *c, pk *k, int f, int eid, int depth)
+{
+    const st_face *F = &c->s->faces[f];
+    int af = F->adjface[eid], ae = F->adjedge[eid];
+    int rot = eid - ae + 2;
+    int fsub = is_subface(c, f), asub = is_subface(c, af);
+    if (fsub != asub) {
+        if (asub) {
+            int primary = pk_main_to_subface(k, eid);
+            if (!primary) {
+                int neid = (ae + 3) % 4;
+                const st_face *A = &c->s->faces[af];
+                int naf = A->adjface[neid], nae = A->adjedge[neid];
+                if (naf < 0)
+                    return;
+                af = naf;
+                ae = nae;
+                rot += neid - ae + 2;
+            }
+        } else {
+            int primary = c->s->faces[af].adjface[ae] == f;
+            pk_subface_to_main(k, eid - primary);
+        }
+    }
+    pk_rotate(k, rot);
+    if (is_subface(c, af))
+        split_apply(c, k, af, depth + 1);
+    else
+        apply(c, k, af);
+}
+
+static void apply_to_corner_face(pf *c, pk *k, int f, int eid, int cf, int ceid, int depth)
+{
+    int fsub = is_subface(c, f), csub = is_subface(c, cf);
+    if (fsub != csub) {
+        if (csub)
+            pk_main_to_subface(k, eid + 3);
+        else
+            pk_subface_to_main(k, eid + 3);
+    }
+    pk_rotate(k, eid - ceid + 2);
+    if (csub)
+        split_apply(c, k, cf, depth + 1);
+    else
+        apply(c, k, cf);
+}
+
+static void apply_to_corner(pf *c, pk *k, int f, int eid, int depth)
+{
+    enum { MAXV = 10 };
+    int af = f, ae = eid;
+    int prev_sub = is_subface(c, f);
+    int cface[MAXV], cedge[MAXV];
+    int ncorners = 0;
+    for (int i = 0; i < MAXV; i++) {
+        int prevf = af;
+        const st_face *A = &c->s->faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || (af == f && ae == eid)) {
+            ncorners = i - 2;
+            break;
+        }
+        cface[i] = af;
+        cedge[i] = ae;
+        int sub = is_subface(c, af);
+        if (prev_sub && !sub && c->s->faces[af].adjface[(ae + 3) % 4] == prevf) {
+            int primary = i == 1;
+            pk_subface_to_main(k, eid + primary * 2);
+            pk_rotate(k, eid - ae + 3 - primary);
+            split_apply(c, k, af, depth + 1);
+            return;
+        }
+        prev_sub = sub;
+    }
+    if (ncorners == 1) {
+        apply_to_corner_face(c, k, f, eid, cface[1], cedge[1], depth);
+    } else if (ncorners > 1) {
+        pk_rotate(k, eid + 2);
+        float w0 = pk_weight(k);
+        float nw = pk_make_symmetric(k, w0);
+        for (int i = 1; i <= ncorners; i++) {
+            pk kc;
+            pk_set(&kc, k);
+            apply_to_corner_face(c, &kc, f, 2, cface[i], cedge[i], depth);
+        }
+        c->weight += nw * (float)ncorners - w0;
+    } else {
+        c->weight -= pk_weight(k);
+    }
+}
+
+static void split_apply(pf *c, pk *k, int f, int depth)
+{
+    const st_face *F = &c->s->faces[f];
+    int resu = 1 << k->ulog2, resv = 1 << k->vlog2;
+    int sr = k->u + k->uw > resu, sl = k->u < 0;
+    int st = k->v + k->vw > resv, sb = k->v < 0;
+    int bu = c->bu == 1, bv = c->bv == 1;
+    if (c->mode != ST_MODE_TRAVERSE || depth > PF_MAX_DEPTH) {
+        int drop = c->mode == ST_MODE_DISCARD;
+        if (sr) pk_merge_r(k, drop || bu);
+        if (sl) pk_merge_l(k, drop || bu);
+        if (st) pk_merge_t(k, drop || bv);
+        if (sb) pk_merge_b(k, drop || bv);
+        if (drop)
+            c->weight = pk_weight(k);
+        apply(c, k, f);
+        return;
+    }
+    if (sr || sl || st || sb) {
+        pk ka, kc;
+        if (sr) {
+            if (F->adjface[1] >= 0) {
+                pk_split_r(k, &ka);
+                if (st) {
+                    if (F->adjface[2] >= 0) {
+                        pk_split_t(&ka, &kc);
+                        apply_to_corner(c, &kc, f, 2, depth);
+                    } else
+                        pk_merge_t(&ka, bv);
+                }
+                if (sb) {
+                    if (F->adjface[0] >= 0) {
+                        pk_split_b(&ka, &kc);
+                        apply_to_corner(c, &kc, f, 1, depth);
+                    } else
+                        pk_merge_b(&ka, bv);
+                }
+                apply_across_edge(c, &ka, f, 1, depth);
+            } else
+                pk_merge_r(k, bu);
+        }
+        if (sl) {
+            if (F->adjface[3] >= 0) {
+                pk_split_l(k, &ka);
+                if (st) {
+                    if (F->adjface[2] >= 0) {
+                        pk_split_t(&ka, &kc);
+                        apply_to_corner(c, &kc, f, 3, depth);
+                    } else
+                        pk_merge_t(&ka, bv);
+                }
+                if (sb) {
+                    if (F->adjface[0] >= 0) {
+                        pk_split_b(&ka, &kc);
+                        apply_to_corner(c, &kc, f, 0, depth);
+                    } else
+                        pk_merge_b(&ka, bv);
+                }
+                apply_across_edge(c, &ka, f, 3, depth);
+            } else
+                pk_merge_l(k, bu);
+        }
+        if (st) {
+            if (F->adjface[2] >= 0) {
+                pk_split_t(k, &ka);
+                apply_across_edge(c, &ka, f, 2, depth);
+            } else
+                pk_merge_t(k, bv);
+        }
+        if (sb) {
+            if (F->adjface[0] >= 0) {
+                pk_split_b(k, &ka);
+                apply_across_edge(c, &ka, f, 0, depth);
+            } else
+                pk_merge_b(k, bv);
+        }
+    }
+    apply(c, k, f);
+}
+
+/* Ptex's point filter: the level-0 texel under (u, v), clamped into the face. */
+static void eval_point(pf *c, uint32_t f, float u, float v, float *out)
+{
+    const st_face *F = &c->s->faces[f];
+    const uint8_t *d;
+    int ui = 0, vi = 0;
+    if (F->flags & ST_FACE_CONSTANT) {
+        d = st_face_level(c->s, f, 0);
+    } else {
+        int resu = (int)F->w, resv = (int)F->h;
+        float fu = u * (float)resu, fv = v * (float)resv;
+        ui = fu >= (float)resu ? resu - 1 : fu <= 0 ? 0 : (int)fu;
+        vi = fv >= (float)resv ? resv - 1 : fv <= 0 ? 0 : (int)fv;
+        d = st_ptexres_data(c->t, c->s, f, F->ulog2, F->vlog2) +
+            ((size_t)vi * (size_t)resu + (size_t)ui) * st_dtype_size(c->dt) * c->nc;
+    }
+    float inv = 1.0f / one_value(c->dt);
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = c->dt == ST_DT_F32 || c->dt == ST_DT_HALF ? texel_raw(c->dt, d, ch)
+                                                           : texel_raw(c->dt, d, ch) * inv;
+}
+
+static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                float *out, float *cov)
+{
+    uint32_t f = q->face;
+    const st_face *F = &c->s->faces[f];
+    float u = q->u, v = q->v;
+    *cov = 1.0f;
+    if (pp->ftype == ST_FILTER_PTEX_POINT) {
+        eval_point(c, f, u, v, out);
+        return ST_Q_OK;
+    }
+    if (c->t->ptxflags[f] & PTX_FLAG_NBCONSTANT) {
+        const uint8_t *d = st_ptexres_data(c->t, c->s, f, 0, 0);
+        for (unsigned ch = 0; ch < c->nc; ch++)
+            out[ch] = st_channel_get(c->dt, d, ch);
+        return ST_Q_OK;
+    }
+    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+    int black = 0;
+    switch (c->bu) {
+    case 0: u = u < 0.0f ? 0.0f : u > 1.0f ? 1.0f : u; break;
+    case 2: u = u - floorf(u); break;
+    default: if (u <= -1.0f || u >= 2.0f) black = 1; break;
+    }
+    switch (c->bv) {
+    case 0: v = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; break;
+    case 2: v = v - floorf(v); break;
+    default: if (v <= -1.0f || v >= 2.0f) black = 1; break;
+    }
+    if (black) {
+        for (unsigned ch = 0; ch < c->nc; ch++)
+            out[ch] = 0.0f;
+        return ST_Q_OK;
+    }
+    float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
+    if (pp->ftype == ST_FILTER_PTEX_BILINEAR && !(F->flags & ST_FACE_SUBFACE) &&
+        c->kind != PF_OTHER && !(F->flags & ST_FACE_CONSTANT)) {
+        /* the common case without building a kernel: Ptex's bilinear inside the face */
+        float bu = uw * width + blur, bv = vw * width + blur;
+        bu = bu < 1.0f ? bu : 1.0f;
+        bv = bv < 1.0f ? bv : 1.0f;
+        float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
+        bu = bu > lu ? bu : lu;
+        bv = bv > lv ? bv : lv;
+        int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
+        float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
+        float uf = (float)(int)upix, vf = (float)(int)vpix;
+        uf = uf > upix ? uf - 1.0f : uf;
+        vf = vf > vpix ? vf - 1.0f : vf;
+        int ui = (int)uf, vi = (int)vf;
+        float fu = upix - uf, fv = vpix - vf;
+        if (ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
+            fv > 0.0f) {
+            const uint8_t *d = st_ptexres_data(c->t, c->s, f, (unsigned)ru, (unsigned)rv);
+            size_t ts = st_dtype_size(c->dt) * c->nc, rowb = ts << ru;
+            const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
+            float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
+            v4f r0, r1;
+            if (c->kind == PF_U8) {
+                r0 = load_u8(p) * ku0 + load_u8(p + ts) * fu;
+                r1 = load_u8(p + rowb) * ku0 + load_u8(p + rowb + ts) * fu;
+            } else {
+                r0 = load_f32(p) * ku0 + load_f32(p + ts) * fu;
+                r1 = load_f32(p + rowb) * ku0 + load_f32(p + rowb + ts) * fu;
+            }
+            v4f acc = r0 * kv0 + r1 * fv;
+            float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = acc[ch] * scale;
+            return ST_Q_OK;
+        }
+    }
+    pk k;
+    if (F->flags & ST_FACE_SUBFACE) {
+        uw = uw * width + blur * 2.0f;
+        vw = vw * width + blur * 2.0f;
+        pk_build(pp, &k, u * .5f, v * .5f, uw * .5f, vw * .5f, F->ulog2 + 1, F->vlog2 + 1);
+        if (k.ulog2 == 0)
+            pk_upres_u(&k);
+        if (k.vlog2 == 0)
+            pk_upres_v(&k);
+        k.ulog2--;
+        k.vlog2--;
+    } else {
+        uw = uw * width + blur;
+        vw = vw * width + blur;
+        pk_build(pp, &k, u, v, uw, vw, F->ulog2, F->vlog2);
+    }
+    pk_strip_zeros(&k);
+    c->acc = (v4f){0, 0, 0, 0};
+    if (k.uw <= 0 || k.vw <= 0) {
+        for (unsigned ch = 0; ch < c->nc; ch++)
+            out[ch] = 0.0f;
+        *cov = 0.0f;
+        return ST_Q_OK;
+    }
+    float total = pk_weight(&k);
+    c->weight = total;
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2))
+        apply(c, &k, (int)f); /* the kernel lies inside the face: every mode agrees */
+    else
+        split_apply(c, &k, (int)f, 0);
+    if (c->mode == ST_MODE_DISCARD) {
+        /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
+         * negative keeps more than its total, reported as 1 */
+        *cov = total != 0.0f ? c->weight / total : 0.0f;
+        if (*cov > 1.0f)
+            *cov = 1.0f;
+        if (!(c->weight > 0.0f) || *cov <= 0.0f) {
+            *cov = 0.0f;
+            if (o->zero_rule == ST_ZERO_CLAMP) {
+                /* fold everything into the face instead */
+                st_sample_opts o2 = *o;
+                o2.mode = ST_MODE_CLAMP;
+                pf c2 = *c;
+                c2.mode = ST_MODE_CLAMP;
+                float dummy;
+                st_query q2 = *q;
+                q2.u = q->u < 0 ? 0 : q->u > 1 ? 1 : q->u;
+                q2.v = q->v < 0 ? 0 : q->v > 1 ? 1 : q->v;
+                eval(&c2, pp, &o2, &q2, out, &dummy);
+                return ST_Q_OK;
+            }
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = NAN;
+            return ST_Q_ZERO_COVERAGE;
+        }
+    }
+    float scale = 1.0f / (c->weight * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = c->acc[ch] * scale;
+    return ST_Q_OK;
+}
+
+int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                        float *out, float *coverage, uint8_t *status)
+{
+    if (!s || !o || (!q && n) || (!out && n))
+        return ST_EINVAL;
+    if (o->filter < ST_FILTER_PTEX_POINT || o->filter > ST_FILTER_PTEX_MITCHELL)
+        return ST_EINVAL;
+    if (o->mode > ST_MODE_CLAMP)
+        return ST_EINVAL;
+    if (s->info.kind != ST_KIND_PERFACE)
+        return ST_EUNSUPPORTED;
+    const st_ptexres *t = st_ptexres_get(s);
+    if (!t)
+        return ST_EUNSUPPORTED;
+    if (!(o->sharpness >= 0.0f && o->sharpness <= 1.0f) || !(o->width >= 0.0f) ||
+        !(o->blur >= 0.0f) || o->width > ST_MAX_DERIV || o->blur > ST_MAX_DERIV)
+        return ST_EINVAL;
+    pk_params pp;
+    pk_params_init(&pp, o->filter, o->sharpness);
+    pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
+            .bu = s->info.border_u, .bv = s->info.border_v};
+    c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
+    c.avx2 = c.kind == PF_U8 && c.nc == 4 && pf_have_avx2();
+    int bad = 0;
+    unsigned nc = c.nc;
+    for (size_t i = 0; i < n; i++) {
+        const st_query *qi = &q[i];
+        float *oi = out + i * nc, cov = 1.0f;
+        int st = ST_Q_OK;
+        if (qi->face >= s->info.nfaces)
+            st = ST_Q_BAD_FACE;
+        else if (!(fabsf(qi->u) <= ST_MAX_COORD && fabsf(qi->v) <= ST_MAX_COORD &&
+                   fabsf(qi->dudx) <= ST_MAX_DERIV && fabsf(qi->dvdx) <= ST_MAX_DERIV &&
+                   fabsf(qi->dudy) <= ST_MAX_DERIV && fabsf(qi->dvdy) <= ST_MAX_DERIV))
+            /* one test for the common case; NaN fails it too */
+            st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
+                 isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)
+                     ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
+        if (st == ST_Q_OK)
+            st = eval(&c, &pp, o, qi, oi, &cov);
+        else {
+            for (unsigned ch = 0; ch < nc; ch++)
+                oi[ch] = NAN;
+            cov = 0.0f;
+        }
+        if (coverage)
+            coverage[i] = cov;
+        if (status)
+            status[i] = (uint8_t)st;
+        bad += st != ST_Q_OK;
+    }
+    return bad;
+}
+
+int st_ptexfilter_prepare(st_set *s, st_error *e)
+{
+    if (st_ptexres_get(s))
+        return ST_OK;
+    if (s->info.kind != ST_KIND_PERFACE)
+        return st_fail(e, ST_EUNSUPPORTED, "Ptex filters need a per-face set");
+    return st_ptexres_attach(s, NULL, NULL, NULL, 0, e);
+}
+
+size_t st_ptexfilter_memory(const st_set *s)
+{
+    const st_ptexres *t = st_ptexres_get(s);
+    return t ? t->bytes : 0;
+}

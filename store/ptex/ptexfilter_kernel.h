@@ -1,0 +1,102 @@
+/* store/ptex/ptexfilter_kernel.h - separable kernels of Ptex's filter family (private to
+ * ptexfilter*.c).
+ *
+ * A kernel is a window [u, u+uw) x [v, v+vw) of texels at resolution 2^ulog2 x 2^vlog2 with
+ * one weight per column (ku) and per row (kv); the filter is sum ku[i] kv[j] texel(u+i, v+j).
+ * The operations mirror Ptex's PtexSeparableKernel (v2.4): splitting off the part that hangs
+ * over an edge, folding it back (merge), rotating it into a neighbour's frame, changing its
+ * resolution by 2 (down/up) and making it symmetric for corners of valence > 4.
+ *
+ * Owns: the kernel value type and its operations; building a kernel for each filter type.
+ * Does not own: where kernels are applied (ptexfilter.c).
+ */
+#ifndef ST_PTEXFILTER_KERNEL_H
+#define ST_PTEXFILTER_KERNEL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#define PK_MAX 24   /* weights per axis; Ptex needs at most 10, doubled once by upres */
+
+typedef struct pk {
+    int ulog2, vlog2;            /* resolution the kernel is built for */
+    int u, v;                    /* first texel */
+    int uw, vw;                  /* window size */
+    int ku0, kv0;                /* first weight in kub / kvb */
+    int rot;                     /* quarter turns applied so far */
+    float kub[PK_MAX], kvb[PK_MAX];
+} pk;
+
+static inline float *pk_ku(pk *k) { return k->kub + k->ku0; }
+static inline float *pk_kv(pk *k) { return k->kvb + k->kv0; }
+
+/* 1 / 2^power, and Ptex's resolution for a width: ceil(log2(1/w)) read from the exponent. */
+static inline float pk_recip_pow2(int power)
+{
+    uint32_t i = (uint32_t)(127 - power) << 23;
+    float f;
+    memcpy(&f, &i, 4);
+    return f;
+}
+static inline int pk_res_from_width(float w)
+{
+    uint32_t i;
+    memcpy(&i, &w, 4);
+    return 127 - (int)((i >> 23) & 0xff);
+}
+
+/* Filter-specific kernel construction (Ptex's buildKernel); ftype is st_filter. */
+typedef struct pk_params {
+    unsigned ftype;
+    float coeffs[7];             /* bicubic coefficients for the sharpness */
+} pk_params;
+
+void pk_params_init(pk_params *p, unsigned ftype, float sharpness);
+void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, int fulog2,
+              int fvlog2);
+
+/* Kernel operations (Ptex semantics). */
+void  pk_set(pk *dst, const pk *src);           /* copy with weights packed at index 0 */
+static inline float pk_accumulate(const float *p, int n)
+{
+    float r = 0;
+    for (int i = 0; i < n; i++)
+        r += p[i];
+    return r;
+}
+static inline float pk_weight(const pk *k)
+{
+    return pk_accumulate(k->kub + k->ku0, k->uw) * pk_accumulate(k->kvb + k->kv0, k->vw);
+}
+static inline void pk_strip_zeros(pk *k)
+{
+    while (k->uw > 0 && k->kub[k->ku0] == 0) { k->ku0++; k->u++; k->uw--; }
+    while (k->uw > 0 && k->kub[k->ku0 + k->uw - 1] == 0) k->uw--;
+    while (k->vw > 0 && k->kvb[k->kv0] == 0) { k->kv0++; k->v++; k->vw--; }
+    while (k->vw > 0 && k->kvb[k->kv0 + k->vw - 1] == 0) k->vw--;
+}
+void  pk_merge_l(pk *k, int black);
+void  pk_merge_r(pk *k, int black);
+void  pk_merge_b(pk *k, int black);
+void  pk_merge_t(pk *k, int black);
+void  pk_split_l(pk *k, pk *out);
+void  pk_split_r(pk *k, pk *out);
+void  pk_split_b(pk *k, pk *out);
+void  pk_split_t(pk *k, pk *out);
+void  pk_rotate(pk *k, int rot);
+int   pk_main_to_subface(pk *k, int eid);       /* returns 1 when the primary subface */
+void  pk_subface_to_main(pk *k, int eid);
+void  pk_downres_u(pk *k);
+void  pk_downres_v(pk *k);
+void  pk_upres_u(pk *k);
+void  pk_upres_v(pk *k);
+float pk_make_symmetric(pk *k, float initial_weight);
+
+/* ptexfilter_simd.c: AVX2 + FMA rows of a 4-channel u8 window (pf_have_avx2() says whether
+ * the CPU has it); acc[4] += sum_j kv[j] sum_i ku[i] texel(i, j). */
+int  pf_have_avx2(void);
+void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
+                       const float *kv, int vw, float acc[4]);
+
+#endif

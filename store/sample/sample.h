@@ -1,0 +1,101 @@
+/* store/sample/sample.h - filtered sampling of texture sets: Discard, Traverse and Clamp modes with
+ * GPU-style filters (point, bilinear, trilinear, anisotropic) and, from ptexfilter.c, the Ptex
+ * filter family. The exact footprint, level and corner rules are written in docs/sampler.md.
+ *
+ * A query names a face and a point (u, v) in that face's [0,1]^2 with the footprint vectors
+ * (du/dx, dv/dx) and (du/dy, dv/dy), in face uv units. A batch shares one st_sample_opts.
+ * Output per query: nchan floats and the coverage (the sum of the filter weights that fell on
+ * texels that were used: Toth's denominator; 1 in Clamp mode and for interior queries).
+ *
+ * Threading: st_sample_batch reads the set only; any number of threads may call it at once
+ * on the same set. No allocation, no globals; output goes to caller-owned buffers.
+ */
+#ifndef ST_SAMPLE_H
+#define ST_SAMPLE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "set.h"
+
+typedef enum st_mode {
+    ST_MODE_DISCARD  = 0,  /* Toth 2013: taps outside the face get zero weight, renormalise */
+    ST_MODE_TRAVERSE = 1,  /* Ptex / McDonald 2013: taps outside are read from the neighbour */
+    ST_MODE_CLAMP    = 2   /* clamp-to-edge per face: the baseline that shows seams */
+} st_mode;
+
+typedef enum st_filter {
+    ST_FILTER_POINT       = 0,  /* nearest texel of the nearest level */
+    ST_FILTER_BILINEAR    = 1,  /* bilinear in the nearest level */
+    ST_FILTER_TRILINEAR   = 2,  /* bilinear in two levels, lerped */
+    ST_FILTER_ANISO       = 3,  /* up to max_aniso trilinear probes along the major axis */
+    /* Ptex's filter family (ptexfilter.c), Ptex's own footprint and kernel rules */
+    ST_FILTER_PTEX_POINT      = 8,
+    ST_FILTER_PTEX_BILINEAR   = 9,
+    ST_FILTER_PTEX_BOX        = 10,
+    ST_FILTER_PTEX_GAUSSIAN   = 11,
+    ST_FILTER_PTEX_BICUBIC    = 12,  /* sharpness from opts (0 = B-spline, 1 = Catmull-Rom) */
+    ST_FILTER_PTEX_BSPLINE    = 13,
+    ST_FILTER_PTEX_CATMULLROM = 14,
+    ST_FILTER_PTEX_MITCHELL   = 15
+} st_filter;
+
+typedef enum st_zero_rule {
+    ST_ZERO_NAN   = 0,  /* every tap discarded: coverage 0, channels NaN, status ZERO_COVERAGE */
+    ST_ZERO_CLAMP = 1   /* every tap discarded: clamp the centre into the face, bilinear lookup
+                           at the footprint's level (Toth's CLAMP_IF_ZERO_COVERAGE); coverage 0 */
+} st_zero_rule;
+
+typedef struct st_query {
+    uint32_t face;
+    float u, v;
+    float dudx, dvdx, dudy, dvdy;
+} st_query;
+
+typedef struct st_sample_opts {
+    uint8_t mode;        /* st_mode */
+    uint8_t filter;      /* st_filter */
+    uint8_t zero_rule;   /* st_zero_rule */
+    uint8_t max_aniso;   /* 1..16 probes for ST_FILTER_ANISO; 0 means 16 */
+    float   sharpness;   /* Ptex bicubic sharpness, 0..1 */
+    float   width;       /* Ptex filter width multiplier; 0 means 1 */
+    float   blur;        /* Ptex blur; 0 = none */
+} st_sample_opts;
+
+/* Per-query status. */
+enum st_qstatus {
+    ST_Q_OK            = 0,
+    ST_Q_BAD_FACE      = 1,  /* face index out of range */
+    ST_Q_NONFINITE     = 2,  /* NaN or infinite coordinate or derivative */
+    ST_Q_BAD_FOOTPRINT = 3,  /* a derivative beyond ST_MAX_DERIV, or |u|,|v| beyond ST_MAX_COORD */
+    ST_Q_ZERO_COVERAGE = 4   /* Discard with ST_ZERO_NAN and every tap outside the face */
+};
+
+#define ST_MAX_COORD 1.0e4f  /* |u|, |v| above this are refused, not sampled */
+#define ST_MAX_DERIV 1.0e4f  /* footprint components above this are refused */
+
+/* Samples n queries. out receives n * nchan floats (NaN for a query whose status is not OK),
+ * coverage n floats and status n bytes (either may be NULL). Returns the number of queries
+ * whose status is not ST_Q_OK, or a negative ST_E* code for invalid options (nothing written).
+ * A Ptex-family filter on a set of another kind than per-face is ST_EUNSUPPORTED. */
+int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                    float *out, float *coverage, uint8_t *status);
+
+/* The point (u, v) of face f (on or beyond edge `edge`) in the uv of the neighbour across that
+ * edge, through the edge rotation (the mapping Traverse uses; docs/sampler.md).
+ * Returns 0 and fills g, gu, gv, or -1 when the edge is a boundary or f/edge is out of range. */
+int st_uv_across_edge(const st_set *s, uint32_t f, unsigned edge, float u, float v,
+                      uint32_t *g, float *gu, float *gv);
+/* The same across corner `corner` into the diagonal face of a regular (valence 4, interior)
+ * vertex; -1 at irregular or boundary vertices. */
+int st_uv_across_corner(const st_set *s, uint32_t f, unsigned corner, float u, float v,
+                        uint32_t *g, float *gu, float *gv);
+
+/* Names for the protocol, CLI and reports ("discard", "bilinear", ...); NULL when unknown. */
+const char *st_mode_name(unsigned mode);
+const char *st_filter_name(unsigned filter);
+/* Parses a name back; returns -1 when unknown. */
+int st_mode_parse(const char *name);
+int st_filter_parse(const char *name);
+
+#endif

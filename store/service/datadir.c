@@ -1,0 +1,596 @@
+/* store/service/datadir.c - the durable data directory (layout and commit protocol in datadir.h).
+ *
+ * Owns: every file operation under the data dir. Does not own: parsing source files (the
+ * caller's load/publish callbacks import them), the registry.
+ * Load: one commit costs two fsyncs of data (part file, manifest) and two of directories;
+ * commits serialise on d->mu.
+ */
+#include "datadir.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <ftw.h>
+#include <inttypes.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include "registry.h"
+#include "fdio.h"
+
+#define PATHCAP 4096
+
+struct st_datadir {
+    pthread_mutex_t mu;
+    char            root[PATHCAP - 200];
+    uint64_t        counter;  /* atomic; makes ids unique inside this process */
+};
+
+const char *st_datadir_path(const st_datadir *d) { return d->root; }
+
+/* ---- small helpers ------------------------------------------------------------------------ */
+
+/* snprintf into a PATHCAP buffer. The root is at most PATHCAP - 200 bytes and names are at
+ * most 64, so paths fit; vsnprintf truncates safely if they ever do not. */
+static void pathf(char *out, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void pathf(char *out, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(out, PATHCAP, fmt, ap);
+    va_end(ap);
+}
+
+/* fsyncs a file (dir 0) or a folder (dir 1) through util/fdio.h's rules. */
+static int fsync_path(const char *path, int dir, st_error *e)
+{
+    int rc;
+    if (dir) {
+        rc = stu_fsync_dir(path);
+    } else {
+        int fd = open(path, O_RDONLY | O_CLOEXEC);
+        if (fd < 0)
+            return st_fail(e, ST_EIO, "open %s for fsync: %s", path, strerror(errno));
+        rc = fsync(fd);
+        int err = errno;
+        close(fd);
+        errno = err;
+    }
+    if (rc != 0)
+        return st_fail(e, ST_EIO, "fsync %s: %s", path, strerror(errno));
+    return 0;
+}
+
+static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb; (void)ftw;
+    if (flag == FTW_DP)
+        rmdir(p);
+    else
+        unlink(p);
+    return 0;  /* keep going: best effort */
+}
+
+static void rm_rf(const char *path)
+{
+    nftw(path, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+}
+
+static int mkdir_p1(const char *path, st_error *e)
+{
+    if (mkdir(path, 0700) == 0 || errno == EEXIST) {
+        struct stat st;
+        if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+            return 0;
+        return st_fail(e, ST_EIO, "%s exists and is not a directory", path);
+    }
+    return st_fail(e, ST_EIO, "mkdir %s: %s", path, strerror(errno));
+}
+
+/* Empties a directory (keeps the directory itself). */
+static void empty_dir(const char *dir)
+{
+    DIR *dp = opendir(dir);
+    if (!dp)
+        return;
+    struct dirent *de;
+    char p[PATHCAP];
+    while ((de = readdir(dp))) {
+        if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
+            continue;
+        pathf(p, "%s/%s", dir, de->d_name);
+        rm_rf(p);
+    }
+    closedir(dp);
+}
+
+static void new_id(st_datadir *d, char *out, size_t cap)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    uint64_t c = __atomic_add_fetch(&d->counter, 1, __ATOMIC_RELAXED);
+    snprintf(out, cap, "%" PRIx64 "-%x-%" PRIx64,
+             (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec, (unsigned)getpid(), c);
+}
+
+int st_format_check(const char *fmt, st_error *e)
+{
+    size_t n = fmt ? strlen(fmt) : 0;
+    if (n == 0 || n > 8)
+        return st_fail(e, ST_EINVAL, "source format must be 1..8 characters");
+    for (size_t i = 0; i < n; i++) {
+        char c = fmt[i];
+        if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9')))
+            return st_fail(e, ST_EINVAL, "source format '%.8s': only a-z and 0-9", fmt);
+    }
+    return 0;
+}
+
+int st_file_crc(const char *path, uint64_t *bytes, uint32_t *crc, st_error *e)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return st_fail(e, ST_EIO, "open %s: %s", path, strerror(errno));
+    static const size_t BUF = 1 << 16;
+    unsigned char *buf = malloc(BUF);
+    if (!buf) {
+        close(fd);
+        return st_fail(e, ST_ENOMEM, "crc buffer");
+    }
+    uLong c = crc32(0L, Z_NULL, 0);
+    uint64_t total = 0;
+    for (;;) {
+        ssize_t r = read(fd, buf, BUF);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r < 0) {
+            int err = errno;
+            free(buf);
+            close(fd);
+            return st_fail(e, ST_EIO, "read %s: %s", path, strerror(err));
+        }
+        if (r == 0)
+            break;
+        c = crc32(c, buf, (uInt)r);
+        total += (uint64_t)r;
+    }
+    free(buf);
+    close(fd);
+    *bytes = total;
+    *crc = (uint32_t)c;
+    return 0;
+}
+
+/* ---- manifest ------------------------------------------------------------------------------ */
+
+int st_manifest_read(const char *path, st_manifest *m, st_error *e)
+{
+    memset(m, 0, sizeof *m);
+    FILE *f = fopen(path, "re");
+    if (!f)
+        return st_fail(e, errno == ENOENT ? ST_ENOTFOUND : ST_EIO, "open %s: %s", path,
+                       strerror(errno));
+    char line[1200];
+    int step = 0, rc = 0;
+    while (!rc && fgets(line, sizeof line, f)) {
+        size_t n = strlen(line);
+        if (n == 0 || line[n - 1] != '\n') {
+            rc = st_fail(e, ST_EFORMAT, "%s: line %d is truncated or too long", path, step + 1);
+            break;
+        }
+        line[n - 1] = 0;
+        char *v = strchr(line, ' ');
+        if (v)
+            *v++ = 0;
+        static const char *const keys[] = {"seamtex-set", "name", "source", "format",
+                                           "bytes", "crc32", "options", "end"};
+        if (step >= 8 || strcmp(line, keys[step]) != 0 || (step < 6 && !v) || (step == 7 && v)) {
+            rc = st_fail(e, ST_EFORMAT, "%s: line %d: expected '%s'", path, step + 1,
+                         step < 8 ? keys[step] : "(nothing)");
+            break;
+        }
+        char *end = NULL;
+        switch (step) {
+        case 0:
+            if (strcmp(v, "1") != 0)
+                rc = st_fail(e, ST_EUNSUPPORTED, "%s: manifest version %s", path, v);
+            break;
+        case 1:
+            rc = st_name_check(v, strlen(v), e);
+            if (!rc)
+                snprintf(m->name, sizeof m->name, "%s", v);
+            break;
+        case 2:
+            if (strlen(v) >= sizeof m->source || strchr(v, '/') || v[0] == '.' || !v[0])
+                rc = st_fail(e, ST_EFORMAT, "%s: bad source file name", path);
+            else
+                snprintf(m->source, sizeof m->source, "%s", v);
+            break;
+        case 3:
+            rc = st_format_check(v, e);
+            if (!rc)
+                snprintf(m->format, sizeof m->format, "%s", v);
+            break;
+        case 4:
+            errno = 0;
+            m->bytes = strtoull(v, &end, 10);
+            if (errno || !end || *end || v[0] == '-')
+                rc = st_fail(e, ST_EFORMAT, "%s: bad bytes '%s'", path, v);
+            break;
+        case 5: {
+            unsigned long x = strtoul(v, &end, 16);
+            if (!end || *end || strlen(v) != 8)
+                rc = st_fail(e, ST_EFORMAT, "%s: bad crc32 '%s'", path, v);
+            m->crc = (uint32_t)x;
+            break;
+        }
+        case 6:
+            if (v && strlen(v) >= sizeof m->options)
+                rc = st_fail(e, ST_EFORMAT, "%s: options too long", path);
+            else
+                snprintf(m->options, sizeof m->options, "%s", v ? v : "");
+            break;
+        default:
+            break;
+        }
+        step++;
+    }
+    fclose(f);
+    if (!rc && step != 8)
+        rc = st_fail(e, ST_EFORMAT, "%s: manifest ends after %d lines", path, step);
+    return rc;
+}
+
+/* Writes the manifest to tmp_path and fsyncs it. */
+static int manifest_write(const char *tmp_path, const st_manifest *m, st_error *e)
+{
+    char text[1600];
+    int n = snprintf(text, sizeof text,
+                     "seamtex-set 1\nname %s\nsource %s\nformat %s\nbytes %" PRIu64
+                     "\ncrc32 %08x\noptions%s%s\nend\n",
+                     m->name, m->source, m->format, m->bytes, (unsigned)m->crc,
+                     m->options[0] ? " " : "", m->options);
+    int fd = open(tmp_path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0)
+        return st_fail(e, ST_EIO, "create %s: %s", tmp_path, strerror(errno));
+    if (stu_write_all(fd, text, (size_t)n) != 0 || fsync(fd) != 0) {
+        int err = errno;
+        close(fd);
+        unlink(tmp_path);
+        return st_fail(e, ST_EIO, "write %s: %s", tmp_path, strerror(err));
+    }
+    close(fd);
+    return 0;
+}
+
+/* ---- open / close -------------------------------------------------------------------------- */
+
+int st_datadir_open(const char *path, st_datadir **out, st_error *e)
+{
+    *out = NULL;
+    if (!path || !*path)
+        return st_fail(e, ST_EINVAL, "no data dir given");
+    st_datadir *d = calloc(1, sizeof *d);
+    if (!d)
+        return st_fail(e, ST_ENOMEM, "datadir");
+    if (strlen(path) >= sizeof d->root) {
+        free(d);
+        return st_fail(e, ST_EINVAL, "data dir path is too long");
+    }
+    snprintf(d->root, sizeof d->root, "%s", path);
+    size_t n = strlen(d->root);
+    while (n > 1 && d->root[n - 1] == '/')
+        d->root[--n] = 0;
+    pthread_mutex_init(&d->mu, NULL);
+    char p[PATHCAP];
+    int rc = mkdir_p1(d->root, e);
+    static const char *const subs[] = {"sets", "tmp", "trash", "broken"};
+    for (int i = 0; !rc && i < 4; i++) {
+        pathf(p, "%s/%s", d->root, subs[i]);
+        rc = mkdir_p1(p, e);
+    }
+    if (rc) {
+        st_datadir_close(d);
+        return rc;
+    }
+    pathf(p, "%s/tmp", d->root);
+    empty_dir(p);
+    pathf(p, "%s/trash", d->root);
+    empty_dir(p);
+    fsync_path(d->root, 1, NULL);
+    *out = d;
+    return 0;
+}
+
+void st_datadir_close(st_datadir *d)
+{
+    if (!d)
+        return;
+    pthread_mutex_destroy(&d->mu);
+    free(d);
+}
+
+int st_datadir_tmpfile(st_datadir *d, char *path, size_t cap, int *fd, st_error *e)
+{
+    char id[64];
+    new_id(d, id, sizeof id);
+    int n = snprintf(path, cap, "%s/tmp/%s.part", d->root, id);
+    if (n < 0 || (size_t)n >= cap)
+        return st_fail(e, ST_EINVAL, "temp path buffer too small");
+    *fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (*fd < 0)
+        return st_fail(e, ST_EIO, "create %s: %s", path, strerror(errno));
+    return 0;
+}
+
+void st_datadir_discard(const char *tmp_path)
+{
+    if (tmp_path && *tmp_path)
+        unlink(tmp_path);
+}
+
+/* ---- commit / delete ------------------------------------------------------------------------ */
+
+int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                      const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
+                      st_error *e)
+{
+    int rc = st_name_check(name, name ? strlen(name) : 0, e);
+    if (!rc)
+        rc = st_format_check(fmt, e);
+    if (!rc && options) {
+        if (strlen(options) >= sizeof ((st_manifest *)0)->options)
+            rc = st_fail(e, ST_EINVAL, "import options are too long");
+        for (const char *p = options; !rc && *p; p++)
+            if ((unsigned char)*p < 0x20 || (unsigned char)*p > 0x7e)
+                rc = st_fail(e, ST_EINVAL, "import options must be printable ASCII");
+    }
+    uint64_t got_bytes = 0;
+    uint32_t got_crc = 0;
+    if (!rc)
+        rc = st_file_crc(tmp_path, &got_bytes, &got_crc, e);
+    if (!rc && got_bytes != bytes)
+        rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
+                     got_bytes, bytes);
+    if (!rc)
+        rc = fsync_path(tmp_path, 0, e);
+    if (rc) {
+        st_datadir_discard(tmp_path);
+        return rc;
+    }
+
+    st_manifest m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.name, sizeof m.name, "%s", name);
+    snprintf(m.format, sizeof m.format, "%s", fmt);
+    m.bytes = bytes;
+    m.crc = got_crc;
+    snprintf(m.options, sizeof m.options, "%s", options ? options : "");
+    char id[64];
+    new_id(d, id, sizeof id);
+    snprintf(m.source, sizeof m.source, "source-%s.%s", id, fmt);
+
+    char setdir[PATHCAP], src[PATHCAP], man[PATHCAP], mantmp[PATHCAP], sets[PATHCAP];
+    pathf(sets, "%s/sets", d->root);
+    pathf(setdir, "%s/%s", sets, name);
+    pathf(src, "%s/%s", setdir, m.source);
+    pathf(man, "%s/manifest", setdir);
+    pathf(mantmp, "%s/tmp/%s.manifest", d->root, id);
+
+    pthread_mutex_lock(&d->mu);
+    st_manifest old;
+    int had_old = st_manifest_read(man, &old, NULL) == 0;
+    int newdir = 0;
+    if (mkdir(setdir, 0700) == 0)
+        newdir = 1;
+    else if (errno != EEXIST)
+        rc = st_fail(e, ST_EIO, "mkdir %s: %s", setdir, strerror(errno));
+    if (!rc && rename(tmp_path, src) != 0)
+        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp_path, src, strerror(errno));
+    if (!rc)
+        rc = manifest_write(mantmp, &m, e);
+    if (!rc && rename(mantmp, man) != 0)   /* the commit point */
+        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", mantmp, man, strerror(errno));
+    if (rc) {
+        unlink(src);
+        unlink(mantmp);
+        st_datadir_discard(tmp_path);
+        if (newdir)
+            rmdir(setdir);
+        pthread_mutex_unlock(&d->mu);
+        return rc;
+    }
+    rc = fsync_path(setdir, 1, e);
+    if (!rc)
+        rc = fsync_path(sets, 1, e);
+    if (!rc && had_old && strcmp(old.source, m.source) != 0) {
+        char oldsrc[PATHCAP];
+        pathf(oldsrc, "%s/%s", setdir, old.source);
+        unlink(oldsrc);
+    }
+    if (!rc && publish)
+        rc = publish(arg, &m, src);
+    pthread_mutex_unlock(&d->mu);
+    return rc;
+}
+
+int st_datadir_delete(st_datadir *d, const char *name,
+                      int (*unpublish)(void *arg, const char *name), void *arg, st_error *e)
+{
+    int rc = st_name_check(name, name ? strlen(name) : 0, e);
+    if (rc)
+        return rc;
+    char setdir[PATHCAP], dst[PATHCAP], sets[PATHCAP], trash[PATHCAP], id[64];
+    new_id(d, id, sizeof id);
+    pathf(sets, "%s/sets", d->root);
+    pathf(trash, "%s/trash", d->root);
+    pathf(setdir, "%s/%s", sets, name);
+    pathf(dst, "%s/%s.%s", trash, name, id);
+    pthread_mutex_lock(&d->mu);
+    if (rename(setdir, dst) != 0) {
+        int err = errno;
+        pthread_mutex_unlock(&d->mu);
+        if (err == ENOENT)
+            return st_fail(e, ST_ENOTFOUND, "no set named '%s' on disk", name);
+        return st_fail(e, ST_EIO, "rename %s -> %s: %s", setdir, dst, strerror(err));
+    }
+    rc = fsync_path(sets, 1, e);
+    if (!rc && unpublish)
+        rc = unpublish(arg, name);
+    pthread_mutex_unlock(&d->mu);
+    rm_rf(dst);
+    return rc;
+}
+
+/* ---- load ----------------------------------------------------------------------------------- */
+
+static int cmp_str(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static void move_broken(st_datadir *d, const char *name, const char *setdir)
+{
+    char dst[PATHCAP], id[64];
+    new_id(d, id, sizeof id);
+    pathf(dst, "%s/broken/%s.%s", d->root, name, id);
+    if (rename(setdir, dst) != 0)
+        rm_rf(setdir);  /* cannot move it: still never load it half-way */
+}
+
+/* Checks and loads one set directory: 1 loaded, 0 removed or moved to broken/, ST_EBUSY
+ * when the loader asked to be called again later. Caller holds d->mu. */
+static int load_one(st_datadir *d, const char *sets, const char *name, st_publish_fn load,
+                    void *arg, void (*report)(void *arg, const char *name, const char *why),
+                    int final)
+{
+    struct dirent *de;
+    char setdir[PATHCAP], man[PATHCAP], src[PATHCAP];
+    pathf(setdir, "%s/%s", sets, name);
+    pathf(man, "%s/manifest", setdir);
+    st_error err;
+    st_error_clear(&err);
+    if (st_name_check(name, strlen(name), &err) != 0) {
+        if (report)
+            report(arg, name, err.msg);
+        move_broken(d, "badname", setdir);
+        return 0;
+    }
+    st_manifest m;
+    int rc = st_manifest_read(man, &m, &err);
+    if (rc == ST_ENOTFOUND) {
+        /* a new set whose commit never reached its manifest: never acknowledged */
+        if (report)
+            report(arg, name, "no manifest (interrupted upload): removed");
+        rm_rf(setdir);
+        return 0;
+    }
+    if (!rc && strcmp(m.name, name) != 0)
+        rc = st_fail(&err, ST_EFORMAT, "manifest names '%s'", m.name);
+    /* remove files the manifest does not name (an interrupted replace) */
+    if (!rc) {
+        DIR *sd = opendir(setdir);
+        while (sd && (de = readdir(sd))) {
+            if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..") ||
+                !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source))
+                continue;
+            pathf(src, "%s/%s", setdir, de->d_name);
+            rm_rf(src);
+        }
+        if (sd)
+            closedir(sd);
+        pathf(src, "%s/%s", setdir, m.source);
+        uint64_t bytes;
+        uint32_t crc;
+        rc = st_file_crc(src, &bytes, &crc, &err);
+        if (!rc && (bytes != m.bytes || crc != m.crc))
+            rc = st_fail(&err, ST_ECORRUPT,
+                         "source has %" PRIu64 " bytes crc %08x, manifest says %" PRIu64
+                         " bytes crc %08x", bytes, crc, m.bytes, m.crc);
+    }
+    if (!rc && load) {
+        rc = load(arg, &m, src);
+        if (rc == ST_EBUSY && !final)
+            return ST_EBUSY;
+        if (rc && !err.msg[0])
+            snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
+    }
+    if (rc) {
+        if (report) {
+            char why[ST_ERRMSG_LEN + 40];
+            snprintf(why, sizeof why, "%s: moved to broken/", err.msg[0] ? err.msg : "load failed");
+            report(arg, name, why);
+        }
+        move_broken(d, name, setdir);
+        return 0;
+    }
+    return 1;
+}
+
+int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
+                    void (*report)(void *arg, const char *name, const char *why), st_error *e)
+{
+    char sets[PATHCAP];
+    pathf(sets, "%s/sets", d->root);
+    DIR *dp = opendir(sets);
+    if (!dp)
+        return st_fail(e, ST_EIO, "open %s: %s", sets, strerror(errno));
+    char **names = NULL;
+    size_t n = 0, cap = 0;
+    struct dirent *de;
+    while ((de = readdir(dp))) {
+        if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
+            continue;
+        if (n == cap) {
+            cap = cap ? cap * 2 : 32;
+            char **nn = realloc(names, cap * sizeof *nn);
+            if (!nn)
+                break;
+            names = nn;
+        }
+        names[n] = strdup(de->d_name);
+        if (names[n])
+            n++;
+    }
+    closedir(dp);
+    if (n)
+        qsort(names, n, sizeof *names, cmp_str);
+
+    int loaded = 0;
+    pthread_mutex_lock(&d->mu);
+    /* pass after pass: sets whose loader said "later" (ST_EBUSY) are retried while the
+     * previous pass loaded something; in the last pass "later" counts as a failure */
+    size_t left = n;
+    for (int final = 0; left > 0;) {
+        size_t progress = 0, deferred = 0;
+        for (size_t i = 0; i < n; i++) {
+            if (!names[i])
+                continue;
+            int r = load_one(d, sets, names[i], load, arg, report, final);
+            if (r == ST_EBUSY) {
+                deferred++;
+                continue;
+            }
+            if (r == 1) {
+                loaded++;
+                progress++;
+            }
+            free(names[i]);
+            names[i] = NULL;
+        }
+        left = deferred;
+        if (!progress)
+            final = 1;
+    }
+    pthread_mutex_unlock(&d->mu);
+    free(names);
+    fsync_path(sets, 1, NULL);
+    return loaded;
+}

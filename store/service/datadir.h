@@ -1,0 +1,105 @@
+/* store/service/datadir.h - the daemon's durable data directory.
+ *
+ * Owns: the on-disk layout, the crash-safe commit of an uploaded source file as a named set,
+ * deletion, and the startup scan that finds every committed set and cleans up what a crash
+ * left half-written. Does not own: importing or validating a source (import.c / ptex_read.c:
+ * the caller imports the file before committing it and again at load), the registry, sockets.
+ *
+ * Layout (docs/daemon.md, "Data dir"):
+ *   <dir>/sets/<name>/manifest              what the set is (text, see below)
+ *   <dir>/sets/<name>/source-<id>.<ext>     the uploaded bytes, exactly as received
+ *   <dir>/tmp/                              uploads in progress, manifest temp files; emptied at open
+ *   <dir>/trash/                            deleted sets on their way out; emptied at open
+ *   <dir>/broken/                           sets that failed their checksum or import at load,
+ *                                           moved aside (never silently dropped)
+ *
+ * Commit protocol (every acknowledged upload is on disk before the reply):
+ *   1. the upload is written to tmp/<id>.part and fsynced;
+ *   2. mkdir sets/<name> (when new), rename the part to sets/<name>/source-<id>.<ext>;
+ *   3. write tmp/<id>.manifest, fsync, rename it over sets/<name>/manifest (the atomic
+ *      commit point: before it the old set, or none, is what a restart sees; after it the new);
+ *   4. fsync sets/<name>/ and sets/ (the renames are durable), then remove the old source.
+ * At open: tmp/ and trash/ are emptied; a set directory without a manifest is a new set whose
+ * upload was never acknowledged and is removed; files a manifest does not name are leftovers
+ * of an interrupted replace and are removed; a source whose size or CRC-32 differs from its
+ * manifest is moved to broken/.
+ *
+ * Manifest (text, one "key value" per line, in this order):
+ *   seamtex-set 1 | name <name> | source <file> | format <ext> | bytes <n> | crc32 <8 hex> |
+ *   options <import options, may be empty> | end
+ *
+ * Threading: commit and delete serialise on a mutex inside the datadir (the fsyncs dominate);
+ * the publish callback of st_datadir_commit runs under it, so the registry sees commits in the
+ * same order as the disk. Any thread may call any function.
+ */
+#ifndef ST_DATADIR_H
+#define ST_DATADIR_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "err.h"
+
+typedef struct st_datadir st_datadir;
+
+typedef struct st_manifest {
+    char     name[65];
+    char     source[96];     /* file name inside the set directory */
+    char     format[16];     /* the extension the importer keys on: "ptx", "png", ... */
+    uint64_t bytes;
+    uint32_t crc;
+    char     options[1024];  /* import options given at upload ("key=value ..."), may be "" */
+} st_manifest;
+
+/* Opens (creating when absent) the data dir at path and cleans tmp/ and trash/. */
+int st_datadir_open(const char *path, st_datadir **out, st_error *e);
+
+/* Closes; NULL is accepted. */
+void st_datadir_close(st_datadir *d);
+
+const char *st_datadir_path(const st_datadir *d);
+
+/* Creates a new empty upload file tmp/<id>.part (O_EXCL, mode 0600). Writes its path (up to
+ * cap bytes) and returns an fd open for writing in *fd; the caller writes, then commits or
+ * calls st_datadir_discard. */
+int st_datadir_tmpfile(st_datadir *d, char *path, size_t cap, int *fd, st_error *e);
+
+/* Removes an upload file that will not be committed (NULL / "" accepted). */
+void st_datadir_discard(const char *tmp_path);
+
+/* Checks an extension for use as a source format: 1..8 bytes of [a-z0-9]. */
+int st_format_check(const char *fmt, st_error *e);
+
+/* Called under the commit mutex once the set is durable; its return value is returned by
+ * st_datadir_commit (the set is on disk either way). */
+typedef int (*st_publish_fn)(void *arg, const st_manifest *m, const char *source_path);
+
+/* Commits tmp_path (a file from st_datadir_tmpfile, complete) as set `name` with source
+ * format fmt: verifies its size against bytes (the caller checked the upload's own checksum),
+ * computes the CRC-32 the manifest records, fsyncs, renames, writes the manifest as above. Calls publish (may be NULL) under the mutex. On failure before the
+ * commit point the previous set of that name is untouched and tmp_path is removed. */
+int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                      const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
+                      st_error *e);
+
+/* Deletes set `name` durably (rename to trash/, fsync sets/, then remove). ST_ENOTFOUND when
+ * the set has no directory. unpublish (may be NULL) runs under the mutex after the rename. */
+int st_datadir_delete(st_datadir *d, const char *name,
+                      int (*unpublish)(void *arg, const char *name), void *arg, st_error *e);
+
+/* Scans sets/ as described above and calls load(arg, manifest, source_path) for each set in
+ * name order. A load callback that returns ST_EBUSY ("needs another set first", e.g. a mesh
+ * paired with a texture set) is called again after the others, until no progress is made. A
+ * set that fails the checks or whose load callback returns another code < 0 is moved to
+ * broken/<name>.<time> and reported through report (may be NULL) with the reason. Returns
+ * the number of sets loaded, or a negative code when sets/ cannot be read. */
+int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
+                    void (*report)(void *arg, const char *name, const char *why), st_error *e);
+
+/* Reads and checks one manifest file. */
+int st_manifest_read(const char *path, st_manifest *m, st_error *e);
+
+/* CRC-32 (zlib's polynomial) of a whole file; *bytes gets its size. */
+int st_file_crc(const char *path, uint64_t *bytes, uint32_t *crc, st_error *e);
+
+#endif

@@ -1,0 +1,124 @@
+/* util/fdio.c - blocking file-descriptor helpers (see fdio.h). */
+#include "fdio.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+int stu_write_all(int fd, const void *buf, size_t n)
+{
+    const uint8_t *p = buf;
+    while (n) {
+        ssize_t w = write(fd, p, n);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w < 0)
+            return -1;
+        if (w == 0) {
+            errno = EIO;
+            return -1;
+        }
+        p += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
+int stu_read_all(int fd, void *buf, size_t n)
+{
+    uint8_t *p = buf;
+    while (n) {
+        ssize_t r = read(fd, p, n);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r < 0)
+            return -1;
+        if (r == 0) {
+            errno = EIO;
+            return -1;
+        }
+        p += r;
+        n -= (size_t)r;
+    }
+    return 0;
+}
+
+int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
+{
+    *out = NULL;
+    *len = 0;
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return -1;
+    struct stat st;
+    if (fstat(fd, &st) != 0)
+        goto fail;
+    if (!S_ISREG(st.st_mode)) {
+        errno = S_ISDIR(st.st_mode) ? EISDIR : EINVAL;
+        goto fail;
+    }
+    if (st.st_size < 0 || (uint64_t)st.st_size > (uint64_t)cap ||
+        (uint64_t)st.st_size >= (uint64_t)SIZE_MAX) {
+        errno = EFBIG;
+        goto fail;
+    }
+    size_t n = (size_t)st.st_size;
+    uint8_t *b = malloc(n + 1);
+    if (!b) {
+        errno = ENOMEM;
+        goto fail;
+    }
+    if (stu_read_all(fd, b, n) != 0) {
+        int err = errno;
+        free(b);
+        errno = err;
+        goto fail;
+    }
+    b[n] = 0;
+    close(fd);
+    *out = b;
+    *len = n;
+    return 0;
+fail: {
+    int err = errno;
+    close(fd);
+    errno = err;
+    return -1;
+}
+}
+
+int stu_fsync_dir(const char *dir)
+{
+    int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        return -1;
+    int rc = fsync(fd);
+    int err = errno;
+    close(fd);
+    errno = err;
+    return rc;
+}
+
+int stu_fsync_parent(const char *path)
+{
+    char dir[4096];
+    size_t n = strlen(path);
+    if (n >= sizeof dir) {
+        errno = ENAMETOOLONG;
+        return -1;
+    }
+    memcpy(dir, path, n + 1);
+    char *slash = strrchr(dir, '/');
+    if (!slash)
+        return stu_fsync_dir(".");
+    if (slash == dir)
+        slash[1] = 0;
+    else
+        *slash = 0;
+    return stu_fsync_dir(dir);
+}
