@@ -15,6 +15,7 @@
 #include "exr.h"
 
 #include <OpenEXR/openexr.h>
+#include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -122,6 +123,49 @@ static int read_part(exr_context_t ctx, const char *path, exr_job *j, st_error *
     return ST_OK;
 }
 
+/* Every chunk of every level of a tiled part must lie inside the file: only level 0 is
+ * decoded, but a file cut inside its smaller levels is still a truncated file and is refused
+ * (a scanline part has one level, all of whose chunks read_part decodes). */
+static int tiled_chunks_inside(exr_context_t ctx, const char *path, st_error *e)
+{
+    exr_storage_t st;
+    if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS || st != EXR_STORAGE_TILED)
+        return ST_OK;
+    struct stat sb;
+    if (stat(path, &sb) != 0)
+        return st_fail(e, ST_EIO, "%s: cannot stat", path);
+    uint32_t xs, ys;
+    exr_tile_level_mode_t lm;
+    exr_tile_round_mode_t rm;
+    int32_t lx = 1, ly = 1;
+    if (exr_get_tile_descriptor(ctx, 0, &xs, &ys, &lm, &rm) != EXR_ERR_SUCCESS ||
+        exr_get_tile_levels(ctx, 0, &lx, &ly) != EXR_ERR_SUCCESS || lx < 1 || ly < 1 ||
+        lx > 64 || ly > 64)
+        return st_fail(e, ST_EFORMAT, "%s: bad tile description", path);
+    for (int32_t vy = 0; vy < ly; vy++)
+        for (int32_t vx = 0; vx < lx; vx++) {
+            if (lm != EXR_TILE_RIPMAP_LEVELS && vx != vy)
+                continue;
+            int32_t lw, lh, tw, th;
+            if (exr_get_level_sizes(ctx, 0, vx, vy, &lw, &lh) != EXR_ERR_SUCCESS ||
+                exr_get_tile_sizes(ctx, 0, vx, vy, &tw, &th) != EXR_ERR_SUCCESS || tw < 1 ||
+                th < 1 || lw < 1 || lh < 1)
+                return st_fail(e, ST_EFORMAT, "%s: bad level %d,%d", path, vx, vy);
+            int32_t ntx = (lw + tw - 1) / tw, nty = (lh + th - 1) / th;
+            for (int32_t ty = 0; ty < nty; ty++)
+                for (int32_t tx = 0; tx < ntx; tx++) {
+                    exr_chunk_info_t ci;
+                    if (exr_read_tile_chunk_info(ctx, 0, tx, ty, vx, vy, &ci) != EXR_ERR_SUCCESS ||
+                        ci.data_offset > (uint64_t)sb.st_size ||
+                        ci.packed_size > (uint64_t)sb.st_size - ci.data_offset)
+                        return st_fail(e, ST_EFORMAT,
+                                       "%s: truncated or corrupt: tile %d,%d of level %d,%d is "
+                                       "not inside the file", path, tx, ty, vx, vy);
+                }
+        }
+    return ST_OK;
+}
+
 int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
 {
     memset(out, 0, sizeof *out);
@@ -189,6 +233,22 @@ int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_e
             }
     }
     if (j.nsel == 0) {
+        /* Luminance/chroma images (OpenEXR's RgbaOutputFile with WRITE_YC: Y plus RY, BY,
+         * the chroma usually subsampled 2x2) need OpenEXR's chroma reconstruction filter and
+         * its Y/RY/BY -> RGB matrix; taking Y alone would silently turn a colour image grey,
+         * so such a file is refused with a clear reason (a Y-only file is grey and is read). */
+        for (int c = 0; c < chl->num_channels; c++) {
+            const char *nm = chl->entries[c].name.str;
+            size_t l = strlen(nm);
+            if (!strcmp(nm, "RY") || !strcmp(nm, "BY") ||
+                (l >= 3 && (!strcmp(nm + l - 3, ".RY") || !strcmp(nm + l - 3, ".BY")))) {
+                /* EFORMAT, not EUNSUPPORTED: that one sends the file on to OIIO's reader */
+                rc = st_fail(e, ST_EFORMAT,
+                             "%s: a luminance/chroma (Y, RY, BY) OpenEXR image is not "
+                             "supported; write it as R, G, B channels", path);
+                goto done;
+            }
+        }
         int y = -1;
         for (int c = 0; c < chl->num_channels; c++) {
             const char *nm = chl->entries[c].name.str;
@@ -226,7 +286,8 @@ int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_e
             goto done;
         }
     }
-    if ((rc = read_part(ctx, path, &j, e)) != ST_OK)
+    if ((rc = read_part(ctx, path, &j, e)) != ST_OK ||
+        (rc = tiled_chunks_inside(ctx, path, e)) != ST_OK)
         goto done;
     uint8_t *data = malloc(total);
     if (!data) {

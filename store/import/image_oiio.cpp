@@ -180,11 +180,16 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
         }
         free(tmp);
     }
-    if (!ok) {
-        std::string msg = in->geterror();
+    /* A reader that hits truncated or corrupt data may still return true: libjpeg, for one,
+     * fills the missing part with grey and OIIO keeps "Premature end of JPEG file" in the
+     * input's error state (has_error() stays false). Any message left by the read refuses
+     * the file: a texture that is partly made up is a silent wrong answer. */
+    std::string msg = in->geterror();
+    if (!ok || !msg.empty()) {
         free(data);
-        return st_fail(e, ST_EFORMAT, "%s: read failed (truncated or corrupt?): %.160s", path,
-                       msg.c_str());
+        return st_fail(e, ST_EFORMAT, "%s: %s: %.160s", path,
+                       ok ? "truncated or corrupt (the reader reported it)" : "read failed",
+                       msg.empty() ? "no reason given" : msg.c_str());
     }
     memset(out, 0, sizeof *out);
     out->w = (uint32_t)sp.width;

@@ -100,6 +100,29 @@ static void every_shared_ptx_loads_or_is_refused_for_a_stated_reason(void **stat
     }
 }
 
+/* Memory accounting sees every byte a Ptex set holds: the resolution table the Ptex filters
+ * read (often larger than the texels) is counted by st_set_memory, which the registry, the
+ * daemon's caps, `ls`, `info` and STATS all use. */
+static void set_memory_counts_the_ptex_resolution_table(void **state)
+{
+    (void)state;
+    char path[1024];
+    if (st_test_data_path(path, sizeof path, "ptex-ref/cube8_k6_u8.ptx"))
+        skip();
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_ptex_read_file(path, 0, &s, &e), ST_OK);
+    const st_ptexres *t = st_ptexres_get(s);
+    assert_non_null(t);
+    assert_true(t->bytes > t->arena_bytes);
+    size_t faces = (size_t)s->info.nfaces * sizeof(st_face);
+    /* the table's pointers alone are 8 bytes per (face, ulog2', vlog2') entry */
+    assert_true(st_set_memory(s) >= sizeof *s + faces + s->texel_bytes + t->bytes);
+    print_message("cube8_k6_u8: %zu texel bytes, %zu table bytes, st_set_memory %zu\n",
+                  s->texel_bytes, t->bytes, st_set_memory(s));
+    st_set_free(s);
+}
+
 static void mixed_resolutions_are_read_per_face(void **state)
 {
     (void)state;
@@ -513,6 +536,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_shared_ptx_loads_or_is_refused_for_a_stated_reason),
         cmocka_unit_test(mixed_resolutions_are_read_per_face),
+        cmocka_unit_test(set_memory_counts_the_ptex_resolution_table),
         cmocka_unit_test(adjacency_matches_the_obj_beside_each_file),
         cmocka_unit_test(nonquad_file_of_2009_is_plain_quads),
         cmocka_unit_test(metadata_is_kept_and_listed),
