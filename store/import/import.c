@@ -1,6 +1,6 @@
 /* store/import/import.c - the import dispatcher: detects a file's format and turns it into a set.
  *
- * Owns: st_import_opts_init, st_import_detect, st_import_file, st_import_format_name.
+ * Owns: st_import_opts_init, st_import_opts_parse (the upload options grammar), st_import_detect, st_import_file, st_import_format_name.
  * Does not own: the readers (ptex_read.c, exr.c, image_oiio.cpp, obj.c, draco.cpp), cube
  * conversions (cube_convert.c), atlas building (atlas.c). The rules are in import.h.
  *
@@ -79,6 +79,104 @@ static int looks_like_obj(const unsigned char *h, size_t len)
         return 0;
     }
     return 0;
+}
+
+static const struct { const char *name; uint8_t v; } CUBE_KINDS[] = {
+    {"none", ST_IMPORT_CUBE_NONE},       {"auto", ST_IMPORT_CUBE_AUTO},
+    {"strip_v", ST_IMPORT_CUBE_STRIP_V}, {"strip_h", ST_IMPORT_CUBE_STRIP_H},
+    {"cross_h", ST_IMPORT_CUBE_CROSS_H}, {"cross_v", ST_IMPORT_CUBE_CROSS_V},
+    {"latlong", ST_IMPORT_CUBE_LATLONG}, {"ptex", ST_IMPORT_CUBE_PTEX}};
+
+/* A decimal power of two 1..ST_MAX_DIM: digits only, no sign, no leading zero. */
+static int parse_face_size(const char *p, size_t n, uint32_t *out)
+{
+    if (n == 0 || n > 5 || p[0] == '0')
+        return -1;
+    uint32_t v = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (p[i] < '0' || p[i] > '9')
+            return -1;
+        v = v * 10 + (uint32_t)(p[i] - '0');
+    }
+    if (v > ST_MAX_DIM || (v & (v - 1)))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+int st_import_opts_parse(const char *text, st_import_opts *o, char *texture, size_t cap,
+                         st_error *e)
+{
+    st_import_opts r = *o;
+    int seen_cube = 0, seen_cs = 0, seen_tex = 0;
+    if (cap)
+        texture[0] = 0;
+    const char *p = text ? text : "";
+    if (*p == ' ')
+        return st_fail(e, ST_EINVAL, "options: a leading space");
+    while (*p) {
+        const char *end = strchr(p, ' ');
+        size_t n = end ? (size_t)(end - p) : strlen(p);
+        if (n == 0)
+            return st_fail(e, ST_EINVAL, "options: two spaces in a row");
+        if (end && !end[1])
+            return st_fail(e, ST_EINVAL, "options: a trailing space");
+        const char *eq = memchr(p, '=', n);
+        if (!eq)
+            return st_fail(e, ST_EINVAL, "option '%.*s' is not key=value", (int)(n > 64 ? 64 : n), p);
+        size_t kl = (size_t)(eq - p), vl = n - kl - 1;
+        const char *v = eq + 1;
+        if (kl == 4 && !memcmp(p, "cube", 4)) {
+            if (seen_cube++)
+                return st_fail(e, ST_EINVAL, "option cube given twice");
+            const char *colon = memchr(v, ':', vl);
+            size_t knl = colon ? (size_t)(colon - v) : vl;
+            int found = -1;
+            for (size_t i = 0; i < sizeof CUBE_KINDS / sizeof CUBE_KINDS[0]; i++)
+                if (strlen(CUBE_KINDS[i].name) == knl && !memcmp(CUBE_KINDS[i].name, v, knl))
+                    found = CUBE_KINDS[i].v;
+            if (found < 0)
+                return st_fail(e, ST_EINVAL, "cube=%.*s: not one of none auto strip_v strip_h "
+                               "cross_h cross_v latlong ptex", (int)(knl > 32 ? 32 : knl), v);
+            r.cube = (uint8_t)found;
+            r.face_size = 0;
+            if (colon) {
+                if (found != ST_IMPORT_CUBE_LATLONG)
+                    return st_fail(e, ST_EINVAL, "cube=%.*s: only latlong takes a face size",
+                                   (int)(vl > 40 ? 40 : vl), v);
+                if (parse_face_size(colon + 1, vl - knl - 1, &r.face_size))
+                    return st_fail(e, ST_EINVAL, "cube=%.*s: the face size must be a power of "
+                                   "two from 1 to %u", (int)(vl > 40 ? 40 : vl), v, ST_MAX_DIM);
+            }
+        } else if (kl == 10 && !memcmp(p, "colorspace", 10)) {
+            if (seen_cs++)
+                return st_fail(e, ST_EINVAL, "option colorspace given twice");
+            if (vl == 4 && !memcmp(v, "auto", 4))
+                r.colorspace = ST_IMPORT_CS_AUTO;
+            else if (vl == 4 && !memcmp(v, "srgb", 4))
+                r.colorspace = ST_IMPORT_CS_SRGB;
+            else if (vl == 6 && !memcmp(v, "linear", 6))
+                r.colorspace = ST_IMPORT_CS_LINEAR;
+            else
+                return st_fail(e, ST_EINVAL, "colorspace=%.*s: not one of auto srgb linear",
+                               (int)(vl > 32 ? 32 : vl), v);
+        } else if (kl == 7 && !memcmp(p, "texture", 7)) {
+            if (seen_tex++)
+                return st_fail(e, ST_EINVAL, "option texture given twice");
+            if (vl == 0 || vl > 255 || vl >= cap)
+                return st_fail(e, ST_EINVAL, "texture=: a set name of 1 to 255 bytes");
+            memcpy(texture, v, vl);
+            texture[vl] = 0;
+        } else {
+            return st_fail(e, ST_EINVAL, "unknown option '%.*s' (texture, cube, colorspace)",
+                           (int)(kl > 32 ? 32 : kl), p);
+        }
+        p += n;
+        if (*p == ' ')
+            p++;
+    }
+    *o = r;
+    return ST_OK;
 }
 
 int st_import_detect(const void *head, size_t len, const char *name)

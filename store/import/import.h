@@ -76,6 +76,20 @@ typedef struct st_import_opts {
 /* Fills o with defaults (everything auto / zero). */
 void st_import_opts_init(st_import_opts *o);
 
+/* The upload options string (PROTOCOL.md, "Upload options"), parsed strictly:
+ *   options   = "" | option *(" " option)          one space between options, none around
+ *   option    = "cube=" kind [":" size] | "colorspace=" ("auto" | "srgb" | "linear")
+ *             | "texture=" name
+ *   kind      = "none" | "auto" | "strip_v" | "strip_h" | "cross_h" | "cross_v" | "latlong"
+ *             | "ptex"
+ *   size      = a power of two 1..32768 in decimal, no sign or leading zero (latlong only)
+ * Each key at most once. Fills o->cube, o->face_size, o->colorspace; copies the texture set's
+ * name (1..255 bytes, checked by the caller against the set-name rule) into texture (cap
+ * bytes, "" when absent). ST_EINVAL with a message naming the option at fault; o is changed
+ * only on success. */
+int st_import_opts_parse(const char *text, st_import_opts *o, char *texture, size_t cap,
+                         st_error *e);
+
 /* Detects the format of a buffer (first bytes) and, as a fallback, the file name's extension.
  * Returns an st_import_format, ST_FMT_AUTO when unknown. */
 int st_import_detect(const void *head, size_t len, const char *name);

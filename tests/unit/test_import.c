@@ -670,6 +670,34 @@ static void exr_luminance_chroma_images_are_refused_not_made_grey(void **state)
     st_image_free(&img);
 }
 
+static void upload_options_are_parsed_strictly(void **state)
+{
+    (void)state;
+    st_import_opts o;
+    char tex[256];
+    st_error e;
+    st_import_opts_init(&o);
+    assert_int_equal(st_import_opts_parse("", &o, tex, sizeof tex, &e), ST_OK);
+    assert_int_equal(st_import_opts_parse("cube=latlong:512 colorspace=linear texture=duck-tex",
+                                          &o, tex, sizeof tex, &e), ST_OK);
+    assert_int_equal(o.cube, ST_IMPORT_CUBE_LATLONG);
+    assert_int_equal(o.face_size, 512);
+    assert_int_equal(o.colorspace, ST_IMPORT_CS_LINEAR);
+    assert_string_equal(tex, "duck-tex");
+    const char *bad[] = {"cube=latlong:abc", "cube=latlong:", "cube=latlong:300", "cube=latlong:0",
+                         "cube=latlong:+64", "cube=latlong:064", "cube=latlong:65536",
+                         "cube=cross_h:64", "cube=sphere", "colorspace=rgb", "colorspace=",
+                         "texture=", "zzz=1", "cube", " cube=auto", "cube=auto ",
+                         "cube=auto  colorspace=srgb", "cube=auto cube=none"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        st_import_opts before = o;
+        st_error_clear(&e);
+        assert_int_equal(st_import_opts_parse(bad[i], &o, tex, sizeof tex, &e), ST_EINVAL);
+        assert_true(strlen(e.msg) > 0);
+        assert_memory_equal(&before, &o, sizeof o); /* unchanged on failure */
+    }
+}
+
 static void ptex_env_cube_is_recognised_by_its_layout_not_its_name(void **state)
 {
     (void)state;
@@ -784,6 +812,7 @@ int main(void)
         cmocka_unit_test(exr_luminance_chroma_images_are_refused_not_made_grey),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
+        cmocka_unit_test(upload_options_are_parsed_strictly),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
