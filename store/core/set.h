@@ -102,6 +102,10 @@ typedef struct st_set_info {
     uint8_t  meshtype;           /* 0 quad, 1 triangle (Ptex MeshType) */
 } st_set_info;
 
+/* Metadata key (string "srgb") that records an sRGB set in files without a colour space of
+ * their own (Ptex): written by exporters, honoured by the importer. */
+#define ST_META_COLORSPACE "seamtex:colorspace"
+
 /* Metadata entry, Ptex-typed: 0 string, 1 int8, 2 int16, 3 int32, 4 float, 5 double. */
 typedef struct st_meta_entry {
     char    *key;

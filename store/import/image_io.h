@@ -28,4 +28,8 @@ int st_image_read_any(const char *path, const st_image_caps *caps, st_image *out
 int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
                    const void *data, st_error *e);
 
+/* As st_image_write, for a whole st_image: also records its colour space (sRGB or linear)
+ * and its envmap kind (an EXR cube strip gets envmap=cube, so it reads back as a cube). */
+int st_image_write_img(const char *path, const st_image *img, st_error *e);
+
 #endif

@@ -219,7 +219,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
 }
 
 int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
-               const void *data, st_error *e)
+               const void *data, int envmap, int colorspace, st_error *e)
 {
     if (!w || !h || w > ST_MAX_DIM || h > ST_MAX_DIM || nchan < 1 || nchan > 4 ||
         !st_dtype_size(dtype))
@@ -242,6 +242,14 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
     if ((ext == "jpg" || ext == "jpeg") && dtype == ST_DT_U16)
         ft = TypeDesc::UINT8;
     ImageSpec spec((int)w, (int)h, (int)nchan, ft);
+    if (envmap == ST_ENVMAP_CUBE)       /* OpenEXR's writer turns it into envmap=cube */
+        spec.attribute("textureformat", "CubeFace Environment");
+    else if (envmap == ST_ENVMAP_LATLONG)
+        spec.attribute("textureformat", "LatLong Environment");
+    if (colorspace == ST_CS_LINEAR)
+        spec.attribute("oiio:ColorSpace", "Linear");
+    else if (colorspace == ST_CS_SRGB)
+        spec.attribute("oiio:ColorSpace", "sRGB");
     if (nchan == 4 || nchan == 2)
         spec.alpha_channel = (int)nchan - 1;
     spec.attribute("oiio:UnassociatedAlpha", 1); /* write texels as given */
@@ -294,7 +302,19 @@ extern "C" int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned
                               unsigned dtype, const void *data, st_error *e)
 {
     try {
-        return write_impl(path, w, h, nchan, dtype, data, e);
+        return write_impl(path, w, h, nchan, dtype, data, ST_ENVMAP_NONE, -1, e);
+    } catch (const std::bad_alloc &) {
+        return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
+    } catch (...) {
+        return st_fail(e, ST_EIO, "%s: OpenImageIO raised an exception", path);
+    }
+}
+
+extern "C" int st_image_write_img(const char *path, const st_image *img, st_error *e)
+{
+    try {
+        return write_impl(path, img->w, img->h, img->nchan, img->dtype, img->data, img->envmap,
+                          img->colorspace, e);
     } catch (const std::bad_alloc &) {
         return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
     } catch (...) {

@@ -255,13 +255,6 @@ static int import_six(const char *pattern, const st_import_opts *o, st_image_cap
     return rc;
 }
 
-/* Ptex's environment-cube layout (faces px nx py ny pz nz, frames of the wdas envcube
- * sample's envcube.obj): neighbour face:edge across edges 0..3 of each face. */
-static const int8_t ENVCUBE_ADJ[6][4][2] = {
-    {{3, 1}, {5, 3}, {2, 1}, {4, 1}}, {{3, 3}, {4, 3}, {2, 3}, {5, 1}},
-    {{4, 2}, {0, 2}, {5, 2}, {1, 2}}, {{5, 0}, {0, 0}, {4, 0}, {1, 0}},
-    {{3, 2}, {0, 3}, {2, 0}, {1, 1}}, {{3, 0}, {1, 3}, {2, 2}, {0, 1}}};
-
 static int is_env_ptex(const st_set *s, const char *path, const st_import_opts *o)
 {
     if (s->info.nfaces != 6)
@@ -270,12 +263,7 @@ static int is_env_ptex(const st_set *s, const char *path, const st_import_opts *
         return 1;
     /* a .ptx with exactly the env-cube adjacency is one (a textured 6-quad cube model has its
      * own face order, e.g. ptex-ref/cube1_k6_u8.ptx) */
-    for (int f = 0; f < 6; f++)
-        for (int k = 0; k < 4; k++)
-            if (s->faces[f].adjface[k] != ENVCUBE_ADJ[f][k][0] ||
-                s->faces[f].adjedge[k] != ENVCUBE_ADJ[f][k][1])
-                return 0;
-    return 1;
+    return st_cube_is_ptex_env_layout(s);
 }
 
 static int image_to_set(st_image *img, const st_import_opts *o, st_set **out, st_error *e)
@@ -422,8 +410,14 @@ int st_import_file(const char *path, const st_import_opts *opts, st_set **out, s
         rc = st_ptex_read_file(path, opts->max_bytes, &p, e);
         if (rc)
             return rc;
+        /* Ptex has no colour space: a set seamtex wrote as sRGB says so in its metadata */
+        const st_meta_entry *cs = st_set_meta_find(p, ST_META_COLORSPACE);
+        if (cs && cs->type == 0 && cs->count == 5 && !memcmp(cs->data, "srgb", 5))
+            p->info.colorspace = ST_CS_SRGB;
         if (is_env_ptex(p, path, opts)) {
             rc = st_cube_from_ptex_env(p, opts->max_bytes, out, e);
+            if (rc == ST_OK)
+                (*out)->info.colorspace = p->info.colorspace;
             st_set_free(p);
         } else {
             *out = p;

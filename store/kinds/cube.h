@@ -141,6 +141,14 @@ int st_cube_from_faces(const st_image faces[6], st_cube_faces_conv conv, size_t 
  * remapped by direction to seamtex's frames). */
 int st_cube_from_ptex_env(const st_set *ptex, size_t max_bytes, st_set **out, st_error *e);
 
+/* 1 when s has 6 faces whose adjacency is exactly Ptex's environment-cube layout. */
+int st_cube_is_ptex_env_layout(const st_set *s);
+
+/* The inverse of st_cube_from_ptex_env: a 6-face per-face set in Ptex's env-cube layout and
+ * frames, whose level-0 texels are the cube's own (exact copies), mips by box reduction,
+ * metadata copied. Written with st_ptex_write_*, it imports back as the same cube. */
+int st_cube_to_ptex_env(const st_set *cube, size_t max_bytes, st_set **out, st_error *e);
+
 /* ---- Castano edge fixup ---------------------------------------------------------------- */
 
 /* Bakes a new cube set whose level L texel x maps to s = 2x/(n_L - 1) - 1 (Castano's map_2,

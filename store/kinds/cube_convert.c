@@ -3,7 +3,7 @@
  * one image.
  *
  * Owns: st_cube_from_image, st_cube_guess_layout, st_cube_from_faces, st_cube_from_ptex_env,
- * st_cube_bake_fixup, st_cube_to_image. Does not own: face frames and lookup (cube.c), files
+ * st_cube_bake_fixup, st_cube_to_image, st_cube_to_ptex_env (and the Ptex env-cube layout). Does not own: face frames and lookup (cube.c), files
  * (import/: cube_write.c writes the image st_cube_to_image lays out).
  *
  * Strips and crosses are exact texel copies (a face is placed with a rotation of 0 or 180
@@ -298,6 +298,85 @@ int st_cube_from_ptex_env(const st_set *px, size_t max_bytes, st_set **out, st_e
             }
     }
     st_set_build_mips(s, UINT32_MAX);
+    return ST_OK;
+}
+
+/* Ptex's environment-cube layout (faces px nx py ny pz nz, frames of the wdas envcube
+ * sample's envcube.obj): neighbour face:edge across edges 0..3 of each face. */
+static const int8_t ENVCUBE_ADJ[6][4][2] = {
+    {{3, 1}, {5, 3}, {2, 1}, {4, 1}}, {{3, 3}, {4, 3}, {2, 3}, {5, 1}},
+    {{4, 2}, {0, 2}, {5, 2}, {1, 2}}, {{5, 0}, {0, 0}, {4, 0}, {1, 0}},
+    {{3, 2}, {0, 3}, {2, 0}, {1, 1}}, {{3, 0}, {1, 3}, {2, 2}, {0, 1}}};
+
+int st_cube_is_ptex_env_layout(const st_set *s)
+{
+    if (!s || s->info.nfaces != 6)
+        return 0;
+    for (int f = 0; f < 6; f++)
+        for (int k = 0; k < 4; k++)
+            if (s->faces[f].adjface[k] != ENVCUBE_ADJ[f][k][0] ||
+                s->faces[f].adjedge[k] != ENVCUBE_ADJ[f][k][1])
+                return 0;
+    return 1;
+}
+
+int st_cube_to_ptex_env(const st_set *cube, size_t max_bytes, st_set **out, st_error *e)
+{
+    *out = NULL;
+    if (!cube || cube->info.kind != ST_KIND_CUBE || cube->info.nfaces != 6)
+        return st_fail(e, ST_EINVAL, "not a cube set");
+    uint32_t n = cube->faces[0].w;
+    st_set_info info = cube->info;
+    info.kind = ST_KIND_PERFACE;
+    info.meshtype = 0;
+    st_face_desc fd[6];
+    memset(fd, 0, sizeof fd);
+    for (unsigned f = 0; f < 6; f++) {
+        fd[f].w = fd[f].h = n;
+        for (unsigned k = 0; k < 4; k++) {
+            fd[f].adjface[k] = ENVCUBE_ADJ[f][k][0];
+            fd[f].adjedge[k] = ENVCUBE_ADJ[f][k][1];
+        }
+    }
+    int rc = st_set_create(&info, fd, max_bytes, out, e);
+    if (rc)
+        return rc;
+    st_set *s = *out;
+    size_t ts = st_texel_size(s);
+    float smp[4];
+    /* the inverse of st_cube_from_ptex_env's mapping: Ptex face f and cube face f share the
+     * major axis and differ by a rotation / flip, so texel centres land on texel centres and
+     * the bilinear lookup copies texels exactly */
+    for (unsigned f = 0; f < 6; f++) {
+        uint8_t *dst = st_face_level(s, f, 0);
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t i = 0; i < n; i++) {
+                float pu = 2.0f * ((float)i + 0.5f) / (float)n - 1.0f;
+                float pv = 2.0f * ((float)j + 0.5f) / (float)n - 1.0f;
+                float d[3], u, v;
+                for (int a = 0; a < 3; a++)
+                    d[a] = PN[f][a] + pu * PS[f][a] + pv * PT[f][a];
+                int cf = st_cube_dir_to_face(d, &u, &v);
+                face_bilinear(cube, cf < 0 ? f : (unsigned)cf, u, v, smp);
+                for (unsigned c = 0; c < s->info.nchan; c++)
+                    st_channel_put(s->info.dtype, dst + ((size_t)j * n + i) * ts, c, smp[c]);
+            }
+    }
+    st_set_build_mips(s, UINT32_MAX);
+    if (cube->info.colorspace == ST_CS_SRGB &&
+        (rc = st_set_meta_add(s, ST_META_COLORSPACE, 0, "srgb", 5, e)) != ST_OK) {
+        st_set_free(s);
+        *out = NULL;
+        return rc;
+    }
+    for (uint32_t i = 0; i < cube->nmeta; i++) {
+        const st_meta_entry *m = &cube->meta[i];
+        if ((rc = st_set_meta_add(s, m->key, m->type, m->data, m->count, e)) != ST_OK) {
+            st_set_free(s);
+            *out = NULL;
+            return rc;
+        }
+    }
     return ST_OK;
 }
 
