@@ -263,6 +263,40 @@ static void face_bilinear(const st_set *s, unsigned f, float u, float v, float *
     }
 }
 
+/* Fills level 0 of dst's 6 faces (n x n) from src by direction, then its mips: from a Ptex
+ * env cube to a cube (to_ptex 0: the same major axis gives the Ptex face with the same index)
+ * or back (to_ptex 1). Ptex face f and cube face f differ by a rotation / flip, so at equal
+ * sizes texel centres land on texel centres and the bilinear lookup copies texels exactly. */
+static void remap_env(const st_set *src, st_set *dst, uint32_t n, int to_ptex)
+{
+    size_t ts = st_texel_size(dst);
+    float smp[4];
+    for (unsigned f = 0; f < 6; f++) {
+        uint8_t *out = st_face_level(dst, f, 0);
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t i = 0; i < n; i++) {
+                float fu = ((float)i + 0.5f) / (float)n, fv = ((float)j + 0.5f) / (float)n;
+                float d[3], u, v;
+                unsigned sf = f;
+                if (to_ptex) {
+                    for (int a = 0; a < 3; a++)
+                        d[a] = PN[f][a] + (2.0f * fu - 1.0f) * PS[f][a] + (2.0f * fv - 1.0f) * PT[f][a];
+                    int cf = st_cube_dir_to_face(d, &u, &v);
+                    sf = cf < 0 ? f : (unsigned)cf;
+                } else {
+                    st_cube_face_dir(f, fu, fv, d);
+                    float dn = dot3(d, PN[f]);
+                    u = 0.5f * (dot3(d, PS[f]) / dn + 1.0f);
+                    v = 0.5f * (dot3(d, PT[f]) / dn + 1.0f);
+                }
+                face_bilinear(src, sf, u, v, smp);
+                for (unsigned c = 0; c < dst->info.nchan; c++)
+                    st_channel_put(dst->info.dtype, out + ((size_t)j * n + i) * ts, c, smp[c]);
+            }
+    }
+    st_set_build_mips(dst, UINT32_MAX);
+}
+
 int st_cube_from_ptex_env(const st_set *px, size_t max_bytes, st_set **out, st_error *e)
 {
     *out = NULL;
@@ -280,24 +314,7 @@ int st_cube_from_ptex_env(const st_set *px, size_t max_bytes, st_set **out, st_e
     int rc = st_cube_create(&info, n, max_bytes, out, e);
     if (rc)
         return rc;
-    st_set *s = *out;
-    size_t ts = st_texel_size(s);
-    float smp[4];
-    for (unsigned f = 0; f < 6; f++) {
-        uint8_t *dst = st_face_level(s, f, 0);
-        for (uint32_t j = 0; j < n; j++)
-            for (uint32_t i = 0; i < n; i++) {
-                float d[3];
-                st_cube_face_dir(f, ((float)i + 0.5f) / (float)n, ((float)j + 0.5f) / (float)n, d);
-                /* the same major axis gives the Ptex face with the same index */
-                float dn = dot3(d, PN[f]);
-                float u = 0.5f * (dot3(d, PS[f]) / dn + 1.0f), v = 0.5f * (dot3(d, PT[f]) / dn + 1.0f);
-                face_bilinear(px, f, u, v, smp);
-                for (unsigned c = 0; c < s->info.nchan; c++)
-                    st_channel_put(s->info.dtype, dst + ((size_t)j * n + i) * ts, c, smp[c]);
-            }
-    }
-    st_set_build_mips(s, UINT32_MAX);
+    remap_env(px, *out, n, 0);
     return ST_OK;
 }
 
@@ -342,27 +359,7 @@ int st_cube_to_ptex_env(const st_set *cube, size_t max_bytes, st_set **out, st_e
     if (rc)
         return rc;
     st_set *s = *out;
-    size_t ts = st_texel_size(s);
-    float smp[4];
-    /* the inverse of st_cube_from_ptex_env's mapping: Ptex face f and cube face f share the
-     * major axis and differ by a rotation / flip, so texel centres land on texel centres and
-     * the bilinear lookup copies texels exactly */
-    for (unsigned f = 0; f < 6; f++) {
-        uint8_t *dst = st_face_level(s, f, 0);
-        for (uint32_t j = 0; j < n; j++)
-            for (uint32_t i = 0; i < n; i++) {
-                float pu = 2.0f * ((float)i + 0.5f) / (float)n - 1.0f;
-                float pv = 2.0f * ((float)j + 0.5f) / (float)n - 1.0f;
-                float d[3], u, v;
-                for (int a = 0; a < 3; a++)
-                    d[a] = PN[f][a] + pu * PS[f][a] + pv * PT[f][a];
-                int cf = st_cube_dir_to_face(d, &u, &v);
-                face_bilinear(cube, cf < 0 ? f : (unsigned)cf, u, v, smp);
-                for (unsigned c = 0; c < s->info.nchan; c++)
-                    st_channel_put(s->info.dtype, dst + ((size_t)j * n + i) * ts, c, smp[c]);
-            }
-    }
-    st_set_build_mips(s, UINT32_MAX);
+    remap_env(cube, s, n, 1);
     if (cube->info.colorspace == ST_CS_SRGB &&
         (rc = st_set_meta_add(s, ST_META_COLORSPACE, 0, "srgb", 5, e)) != ST_OK) {
         st_set_free(s);
