@@ -42,21 +42,30 @@ extern "C" {
 
 #define STC_SERVER_BASE 100
 
+/* The local codes, written once: X(NAME, value) gives STC_<NAME> below and its name in
+ * stc_strerror ("EINVAL"). */
+#define STC_LOCAL_ERRORS(X)                                                               \
+    X(EINVAL,    -1)   /* a bad argument (NULL, a name that is not valid, n too big) */    \
+    X(ENOMEM,    -2)                                                                     \
+    X(ECONNECT,  -3)   /* name resolution or connect() failed */                         \
+    X(EIO,       -4)   /* send/recv failed (sticky) */                                   \
+    X(ECLOSED,   -5)   /* the server closed the connection (sticky) */                   \
+    X(EPROTO,    -6)   /* the server broke the protocol (sticky) */                      \
+    X(ETIMEDOUT, -7)   /* a connect or request timeout (not sticky) */                   \
+    X(EFILE,     -8)   /* a local file could not be read or written */                   \
+    X(ECHECKSUM, -9)   /* downloaded data did not match its checksum */                  \
+    X(ESTATE,    -10)  /* a call that is not allowed now (e.g. a blocking call while     \
+                          pipelined replies are unread, get_reply with nothing pending) */ \
+    X(ECANCELED, -11)  /* an upload/fetch progress callback asked to stop */
+
 enum stc_err {
     STC_OK        = 0,
-    STC_EINVAL    = -1,   /* a bad argument (NULL, a name that is not valid, n too big) */
-    STC_ENOMEM    = -2,
-    STC_ECONNECT  = -3,   /* name resolution or connect() failed */
-    STC_EIO       = -4,   /* send/recv failed (sticky) */
-    STC_ECLOSED   = -5,   /* the server closed the connection (sticky) */
-    STC_EPROTO    = -6,   /* the server broke the protocol (sticky) */
-    STC_ETIMEDOUT = -7,   /* a connect or request timeout (not sticky) */
-    STC_EFILE     = -8,   /* a local file could not be read or written */
-    STC_ECHECKSUM = -9,   /* downloaded data did not match its checksum */
-    STC_ESTATE    = -10,  /* a call that is not allowed now (e.g. a blocking call while
-                             pipelined replies are unread, get_reply with nothing pending) */
-    STC_ECANCELED = -11,  /* an upload/fetch progress callback asked to stop */
-    /* server statuses (protocol/proto.h enum stp_status), negated and offset */
+#define STC_X_(NAME, value) STC_##NAME = value,
+    STC_LOCAL_ERRORS(STC_X_)
+#undef STC_X_
+    /* server statuses (protocol/proto.h enum stp_status), negated and offset; written out
+     * here so that this header stands alone, checked against protocol/proto_lists.h
+     * STP_STATUSES at compile time (client/libconn.c) */
     STC_EBADREQUEST    = -(STC_SERVER_BASE + 1),
     STC_EUNKNOWNOP     = -(STC_SERVER_BASE + 2),
     STC_EBADVERSION    = -(STC_SERVER_BASE + 3),
