@@ -153,7 +153,8 @@ int stc_ping(stc_conn *c);
 
 typedef struct stc_set_entry {
     const char *name;
-    unsigned    kind, nchan, dtype;   /* store/set.h st_kind, channel count, st_dtype */
+    unsigned    kind, nchan, dtype;   /* set kind (0 perface, 1 cube, 2 atlas, 3 bc1), channel
+                                         count, texel type (0 u8, 1 u16, 2 half, 3 f32) */
     uint32_t    nfaces;
     uint64_t    memory;
 } stc_set_entry;
@@ -180,8 +181,9 @@ typedef struct stc_info {
 int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t face_count,
                  stc_info *out);
 
-/* Sampling. mode / filter / zero_rule use store/sample.h's numbering: mode 0 discard,
- * 1 traverse, 2 clamp; filter 0 point, 1 bilinear, 2 trilinear, 3 aniso, 8..15 Ptex family. */
+/* Sampling. mode / filter / zero_rule use the protocol's numbering (PROTOCOL.md 4.4,
+ * protocol/proto_lists.h): mode 0 discard, 1 traverse, 2 clamp; filter 0 point, 1 bilinear,
+ * 2 trilinear, 3 aniso, 8..15 Ptex family; zero_rule 0 nan, 1 clamp. */
 enum { STC_OUT_F32 = 0, STC_OUT_UNORM8 = 1, STC_OUT_UNORM16 = 2 };
 enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2 };
 typedef struct stc_sample_opts {
@@ -191,7 +193,7 @@ typedef struct stc_sample_opts {
     unsigned footprint;               /* direction sampling: 0 derivatives, 1 cone */
     float    sharpness, width, blur;
 } stc_sample_opts;
-typedef struct stc_query {            /* same meaning as store/sample.h st_query */
+typedef struct stc_query {            /* PROTOCOL.md 4.4: face, point and footprint */
     uint32_t face;
     float u, v, dudx, dvdx, dudy, dvdy;
 } stc_query;
@@ -205,7 +207,9 @@ typedef struct stc_sample_result {
     const void    *values;            /* count*nchan of float / uint8_t / uint16_t (outfmt),
                                          native byte order, owned by c */
     const float   *coverage;          /* count, or NULL when not asked for */
-    const uint8_t *status;            /* count st_qstatus bytes, or NULL when not asked for */
+    const uint8_t *status;            /* count per-query status bytes (PROTOCOL.md 4.6: 0 OK,
+                                         1 BAD_FACE, 2 NONFINITE, 3 BAD_FOOTPRINT,
+                                         4 ZERO_COVERAGE), or NULL when not asked for */
 } stc_sample_result;
 /* A batch over the server's max_batch is split into pipelined parts and reassembled, so n is
  * not limited by the server (only by memory). */

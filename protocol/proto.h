@@ -1,11 +1,14 @@
 /* protocol/proto.h - the seamtex wire protocol, compiled into the daemon and the client alike.
  *
- * Owns: the frame header, opcodes, statuses, capability bits, every body layout (as typed
- * structs with encode/decode functions), the pure incremental header parser, CRC32C, and the
- * little-endian byte helpers. PROTOCOL.md is the normative description; this header and
- * proto.c implement exactly that document.
+ * Owns: the frame header, the enums of opcodes, statuses and value lists (generated from
+ * proto_lists.h, where each list is written once) with their name functions, capability bits,
+ * every body layout (as typed structs with encode/decode functions), the pure incremental
+ * header parser, CRC32C, and the little-endian byte helpers. PROTOCOL.md is the normative
+ * description; this header and proto.c implement exactly that document.
  * Does not own: sockets, timeouts, dispatch (server/), connection state (client/), sampling
- * (store/). Nothing here does I/O; the parser never allocates.
+ * and store error codes (store/; nothing in protocol/ includes a header from outside it), the
+ * set-name rule (stp_name.h, included here). Nothing here does I/O; the parser never
+ * allocates; the only allocation is the growth of an stp_buf (realloc).
  *
  * Byte order: every multi-byte field is little-endian and is read and written byte by byte
  * (no struct is ever cast onto the wire). Floats are IEEE-754 binary32 bit patterns; NaN and
@@ -413,7 +416,7 @@ void stp_info_face(const stp_info_reply *r, uint32_t i, stp_face_rec *out);  /* 
 /* -- SAMPLE / SAMPLE_DIR -- */
 enum stp_sample_flags {
     STP_SF_COVERAGE = 1,   /* reply carries one f32 coverage per query */
-    STP_SF_STATUS   = 2    /* reply carries one u8 status (st_qstatus) per query */
+    STP_SF_STATUS   = 2    /* reply carries one u8 status (stp_qstatus) per query */
 };
 enum stp_footprint {
     STP_FP_DERIV = 0,      /* ddx, ddy are the direction's screen derivatives */
@@ -430,8 +433,9 @@ typedef struct stp_dir_query {
     float dir[3], ddx[3], ddy[3];
 } stp_dir_query;
 
-/* Common sampling parameters; mode, filter and zero_rule numbers are store/sample.h's
- * st_mode, st_filter (including the Ptex family 8..15) and st_zero_rule. */
+/* Common sampling parameters; mode, filter and zero_rule are stp_mode, stp_filter (including
+ * the Ptex family 8..15) and stp_zero_rule, whose numbers are the sampler's (checked by the
+ * daemon at compile time). */
 typedef struct stp_sample_params {
     char     name[STP_MAX_NAME + 1];
     uint8_t  mode, filter, zero_rule, max_aniso;

@@ -7,8 +7,8 @@
  * <data-dir>/sets/<name>.
  * Users: the daemon's request decoders (protocol/bodies.c: a bad name is INVALID), the
  * registry and data dir (store/registry.c st_name_check), libseamtex (refuses to send a bad
- * name). Header-only and libc-free so that store/ can apply the same rule without linking
- * protocol/.
+ * name). Header-only and needing only <stddef.h>, so that store/ can apply the same rule
+ * without linking protocol/.
  * Does not own: what a name refers to (the registry), limits on how many names there are.
  */
 #ifndef STP_NAME_H
