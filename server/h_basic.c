@@ -214,24 +214,26 @@ int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
  * handed to the sampler and back as they are, and set kinds and texel types are sent as the
  * store has them: each wire value must be the store's value of the same name (store/sample.h,
  * store/set.h). */
-#define SAME_MODE(NAME, str, v)   _Static_assert((int)STP_MODE_##NAME == (int)ST_MODE_##NAME, "mode " str);
-#define SAME_FILTER(NAME, str, v) _Static_assert((int)STP_FILTER_##NAME == (int)ST_FILTER_##NAME, "filter " str);
-#define SAME_ZERO(NAME, str, v)   _Static_assert((int)STP_ZERO_##NAME == (int)ST_ZERO_##NAME, "zero rule " str);
-#define SAME_QSTATUS(NAME, v)     _Static_assert((int)STP_Q_##NAME == (int)ST_Q_##NAME, "query status " #NAME);
-#define SAME_KIND(NAME, str, v)   _Static_assert((int)STP_KIND_##NAME == (int)ST_KIND_##NAME, "kind " str);
-#define SAME_DTYPE(NAME, str, v)  _Static_assert((int)STP_DT_##NAME == (int)ST_DT_##NAME, "dtype " str);
-STP_KINDS(SAME_KIND)
-STP_DTYPES(SAME_DTYPE)
-#undef SAME_KIND
-#undef SAME_DTYPE
+#define SAME(a, b, what) _Static_assert((int)(a) == (int)(b), what);
+#define SAME_MODE(NAME, str, v)   SAME(STP_MODE_##NAME, ST_MODE_##NAME, "mode " str)
+#define SAME_FILTER(NAME, str, v) SAME(STP_FILTER_##NAME, ST_FILTER_##NAME, "filter " str)
+#define SAME_ZERO(NAME, str, v)   SAME(STP_ZERO_##NAME, ST_ZERO_##NAME, "zero rule " str)
+#define SAME_QSTATUS(NAME, v)     SAME(STP_Q_##NAME, ST_Q_##NAME, "query status " #NAME)
+#define SAME_KIND(NAME, str, v)   SAME(STP_KIND_##NAME, ST_KIND_##NAME, "kind " str)
+#define SAME_DTYPE(NAME, str, v)  SAME(STP_DT_##NAME, ST_DT_##NAME, "dtype " str)
 STP_MODES(SAME_MODE)
 STP_FILTERS(SAME_FILTER)
 STP_ZERO_RULES(SAME_ZERO)
 STP_QSTATUSES(SAME_QSTATUS)
+STP_KINDS(SAME_KIND)
+STP_DTYPES(SAME_DTYPE)
 #undef SAME_MODE
 #undef SAME_FILTER
 #undef SAME_ZERO
 #undef SAME_QSTATUS
+#undef SAME_KIND
+#undef SAME_DTYPE
+#undef SAME
 
 /* Request parameters -> sampler options; -1 for a mode, filter or zero rule the protocol does
  * not define (the sampler then never sees it). */
@@ -245,7 +247,8 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     o->sharpness = p->sharpness;
     o->width = p->width;
     o->blur = p->blur;
-    if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) || !stp_zero_rule_name(p->zero_rule) ||
+    if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) ||
+        !stp_zero_rule_name(p->zero_rule) ||
         p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
         return -1;
     return 0;
