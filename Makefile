@@ -18,6 +18,7 @@
 #   util/            libseamtex_util.a   libc only
 #   protocol/        libseamtex_proto.a  libc only
 #   store/<part>/    libst_<part>.a      util + the store parts listed in STORE_DEPS_<part>
+#                                        (+ STORE_EXT_<part>: service/ takes protocol/stp_name.h)
 #   client/, server/, tests/, tools/     describe their own targets in their module.mk
 
 CC       ?= gcc
@@ -54,7 +55,7 @@ PROTO_OBJ := $(patsubst %.c,$(B)/%.o,$(sort $(wildcard protocol/*.c)))
 LIB_UTIL  := $(B)/libseamtex_util.a
 LIB_PROTO := $(B)/libseamtex_proto.a
 INC_util     := -Iutil
-INC_protocol := -Iprotocol -Istore/core   # TEMP: until protocol/ has its own error list
+INC_protocol := -Iprotocol
 $(B)/util/%.o:     MODINC := $(INC_util)
 $(B)/protocol/%.o: MODINC := $(INC_protocol)
 
@@ -70,8 +71,11 @@ STORE_DEPS_kinds   := core mesh sample
 STORE_DEPS_bc1     := core mesh sample kinds
 STORE_DEPS_import  := core mesh sample ptex kinds bc1
 STORE_DEPS_service := core mesh sample ptex kinds bc1 import
+# outside the store: every part may use util/; service/ also takes the set-name rule from
+# protocol/stp_name.h (header only: the registry and the wire apply one rule)
+STORE_EXT_service  := $(INC_protocol)
 
-store_inc = -Istore/$(1) $(foreach d,$(STORE_DEPS_$(1)),-Istore/$(d)) $(INC_util)
+store_inc = -Istore/$(1) $(foreach d,$(STORE_DEPS_$(1)),-Istore/$(d)) $(INC_util) $(STORE_EXT_$(1))
 store_src = $(sort $(wildcard store/$(1)/*.c store/$(1)/*.cpp))
 store_obj = $(patsubst %.cpp,$(B)/%.o,$(patsubst %.c,$(B)/%.o,$(call store_src,$(1))))
 
@@ -90,7 +94,7 @@ STORE_CXX := $(foreach p,$(STORE_PARTS),$(wildcard store/$(p)/*.cpp))
 # every store part (highest first, the link order) and util: what links "the whole store"
 LIB_STORE := $(foreach p,service import bc1 kinds ptex sample mesh core,$(LIB_STORE_$(p))) $(LIB_UTIL)
 # the include paths of the whole store (for the daemon, tests, tools)
-INC_STORE := $(foreach p,$(STORE_PARTS),-Istore/$(p)) $(INC_util)
+INC_STORE := $(foreach p,$(STORE_PARTS),-Istore/$(p)) $(INC_util) $(INC_protocol)
 
 all: $(LIB_STORE) $(LIB_PROTO) $(LIB_UTIL)
 

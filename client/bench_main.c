@@ -20,7 +20,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
-#include "sample.h"
+#include "proto.h"
 
 static const double PCTS[] = { 50, 90, 99, 99.9, 99.99 };
 #define NPCTS (sizeof PCTS / sizeof PCTS[0])
@@ -144,10 +144,10 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
     if (bench_op_samples(cfg->op)) {
         fprintf(f, "  \"set\": \"%s\",\n  \"batch\": %u,\n  \"modes\": [", cfg->set, cfg->batch);
         for (unsigned i = 0; i < cfg->nmodes; i++)
-            fprintf(f, "%s\"%s\"", i ? ", " : "", st_mode_name(cfg->modes[i]));
+            fprintf(f, "%s\"%s\"", i ? ", " : "", stp_mode_name(cfg->modes[i]));
         fprintf(f, "],\n  \"filters\": [");
         for (unsigned i = 0; i < cfg->nfilters; i++)
-            fprintf(f, "%s\"%s\"", i ? ", " : "", st_filter_name(cfg->filters[i]));
+            fprintf(f, "%s\"%s\"", i ? ", " : "", stp_filter_name(cfg->filters[i]));
         fprintf(f, "],\n  \"queries_per_s\": %.1f,\n", secs > 0 ? r->queries / secs : 0.0);
         if (inproc_qps > 0)
             fprintf(f, "  \"inproc_queries_per_s\": %.1f,\n", inproc_qps);
@@ -256,9 +256,9 @@ int main(int argc, char **argv)
         { "quiet", no_argument, 0, 'q' },          { "help", no_argument, 0, O_HELP },
         { 0, 0, 0, 0 }
     };
-    cfg.modes[0] = ST_MODE_TRAVERSE;
+    cfg.modes[0] = STP_MODE_TRAVERSE;
     cfg.nmodes = 1;
-    cfg.filters[0] = ST_FILTER_BILINEAR;
+    cfg.filters[0] = STP_FILTER_BILINEAR;
     cfg.nfilters = 1;
     int ch;
     unsigned long long u;
@@ -292,8 +292,8 @@ int main(int argc, char **argv)
         case O_SEED: bad = parse_uint(optarg, 0, UINT64_MAX, &u); cfg.seed = u; break;
         case 's': cfg.set = optarg; break;
         case 'b': bad = parse_uint(optarg, 1, BENCH_MAX_BATCH, &u); cfg.batch = (unsigned)u; break;
-        case 'm': bad = parse_list(optarg, st_mode_parse, cfg.modes, &cfg.nmodes); break;
-        case 'f': bad = parse_list(optarg, st_filter_parse, cfg.filters, &cfg.nfilters); break;
+        case 'm': bad = parse_list(optarg, stp_mode_parse, cfg.modes, &cfg.nmodes); break;
+        case 'f': bad = parse_list(optarg, stp_filter_parse, cfg.filters, &cfg.nfilters); break;
         case O_FOOTPRINT:
             bad = parse_double(optarg, 0, 100, &d);
             cfg.footprint = (float)d;

@@ -202,7 +202,7 @@ int bench_wire_set_info(bench_cfg *cfg, int fd, char *msg, size_t ml)
             snprintf(msg, ml, "INFO reply malformed (%s)", why);
         } else if (r.nfaces == 0) {
             snprintf(msg, ml, "set '%s' has no faces", cfg->set);
-        } else if (cfg->op == BENCH_OP_SAMPLE_DIR && r.kind != 1 /* ST_KIND_CUBE */) {
+        } else if (cfg->op == BENCH_OP_SAMPLE_DIR && r.kind != STP_KIND_CUBE) {
             snprintf(msg, ml, "set '%s' is not a cube map: -o sample-dir needs one", cfg->set);
         } else {
             cfg->nfaces = r.nfaces;

@@ -3,8 +3,10 @@
  * "x y z [ddx(3) ddy(3)]"), answered as text (one line per query: values, coverage, status)
  * or as raw binary values on stdout.
  *
- * Owns: the query file parser and the output formats. Does not own: sampling (the server)
- * or framing (libseamtex); batches larger than the server's max_batch are split here.
+ * Owns: the query file parser and the output formats. Does not own: sampling (the server),
+ * framing (libseamtex), the names of modes, filters, formats and query statuses (the
+ * protocol's lists, protocol/proto_lists.h); batches larger than the server's max_batch are
+ * split by libseamtex.
  */
 #include "cli.h"
 
@@ -13,7 +15,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "sample.h"
+#include "proto.h"
 
 #define MAX_FILE_QUERIES (16u << 20)    /* 16 M queries (448 MiB of queries) at most */
 
@@ -35,13 +37,6 @@ static const char *const SAMPLE_USAGE =
 "  --max-aniso N  --sharpness S  --width W  --blur B\n"
 "  --binary           write the values raw (little-endian, count x channels) to stdout\n"
 "  --format f32|unorm8|unorm16   value format on the wire and in --binary output (f32)\n";
-
-static const char *qstatus_name(unsigned s)
-{
-    static const char *const n[] = { "OK", "BAD_FACE", "NONFINITE", "BAD_FOOTPRINT",
-                                      "ZERO_COVERAGE" };
-    return s < 5 ? n[s] : "?";
-}
 
 /* Parses one line into q; returns 1 for a query, 0 for a blank/comment line, -1 bad. */
 static int parse_line(char *line, stc_query *q)
@@ -157,21 +152,6 @@ static int read_lines(const char *path, int dir, void **out, size_t *count)
     return CLI_OK;
 }
 
-static int parse_filter(const char *s)
-{
-    int v = st_filter_parse(s);
-    if (v >= 0)
-        return v;
-    /* also accept ptex-bilinear for ptex_bilinear and the like */
-    char buf[32];
-    size_t n = strlen(s);
-    if (n >= sizeof buf)
-        return -1;
-    for (size_t i = 0; i <= n; i++)
-        buf[i] = s[i] == '-' ? '_' : s[i] == '_' ? '-' : s[i];
-    return st_filter_parse(buf);
-}
-
 /* One text line per query: the query, the values, the coverage and the status. */
 static void print_text(const void *queries, int dir, const stc_sample_result *r)
 {
@@ -195,7 +175,7 @@ static void print_text(const void *queries, int dir, const stc_sample_result *r)
         if (r->coverage)
             printf("  coverage %.4g", r->coverage[i]);
         if (r->status)
-            printf("  %s", qstatus_name(r->status[i]));
+            printf("  %s", stp_qstatus_name(r->status[i]));
         printf("\n");
     }
 }
@@ -204,8 +184,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
 {
     stc_sample_opts o;
     memset(&o, 0, sizeof o);
-    o.mode = ST_MODE_TRAVERSE;
-    o.filter = ST_FILTER_BILINEAR;
+    o.mode = STP_MODE_TRAVERSE;
+    o.filter = STP_FILTER_BILINEAR;
     const char *pos[4];
     int npos = 0, binary = 0, dir = 0;
     const char *qfile = NULL, *set = NULL;
@@ -256,23 +236,24 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         } else if (!strcmp(a, "--queries")) {
             qfile = v;
         } else if (!strcmp(a, "--mode")) {
-            int m = st_mode_parse(v);
+            int m = stp_mode_parse(v);
             bad = m < 0;
             o.mode = (unsigned)m;
         } else if (!strcmp(a, "--filter")) {
-            int f = parse_filter(v);
+            int f = stp_filter_parse(v);
             bad = f < 0;
             o.filter = (unsigned)f;
         } else if (!strcmp(a, "--zero-rule")) {
-            bad = strcmp(v, "nan") && strcmp(v, "clamp");
-            o.zero_rule = !strcmp(v, "clamp") ? ST_ZERO_CLAMP : ST_ZERO_NAN;
+            int z = stp_zero_rule_parse(v);
+            bad = z < 0;
+            o.zero_rule = bad ? 0 : (unsigned)z;
         } else if (!strcmp(a, "--max-aniso")) {
             bad = cli_parse_u32(v, &u) || u > 16;
             o.max_aniso = u;
         } else if (!strcmp(a, "--format")) {
-            o.outfmt = !strcmp(v, "f32") ? STC_OUT_F32 : !strcmp(v, "unorm8") ? STC_OUT_UNORM8
-                     : !strcmp(v, "unorm16") ? STC_OUT_UNORM16 : 99;
-            bad = o.outfmt == 99;
+            int f = stp_outfmt_parse(v);
+            bad = f < 0;
+            o.outfmt = bad ? 0 : (unsigned)f;
         } else {
             fprintf(stderr, "seamtex sample: unknown option %s (see --help)\n", a);
             return CLI_USAGE;

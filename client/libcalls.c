@@ -76,7 +76,7 @@ static int bad_reply(stc_conn *c, const char *why)
 
 static int check_name(stc_conn *c, const char *name)
 {
-    if (!stp_name_valid(name))
+    if (!stp_name_valid_cstr(name))
         return stc__fail(c, STC_EINVAL, "'%s' is not a valid set name (1..255 of A-Z a-z 0-9 . _ -, "
                          "not starting with '.')", name ? name : "(null)");
     return 0;

@@ -56,21 +56,49 @@ int stc__break(stc_conn *c, int code, const char *fmt, ...)
     return code;
 }
 
+/* seamtex.h spells the protocol's numbers out so that it needs no other header; each must be
+ * the protocol's own (proto_lists.h, proto.h), so that adding or renumbering one there fails
+ * to compile here until seamtex.h agrees. */
+#define SAME_STATUS(NAME, value, client)                                                   \
+    _Static_assert(STC_##client == (value ? -(STC_SERVER_BASE + value) : 0),               \
+                   "STC_" #client " is not -(STC_SERVER_BASE + STP_S_" #NAME ")");
+STP_STATUSES(SAME_STATUS)
+#undef SAME_STATUS
+_Static_assert(STC_ECANCELED > -STC_SERVER_BASE, "local codes stay above the server's");
+#define SAME(a, b) _Static_assert((int)(a) == (int)(b), #a " != " #b);
+SAME(STC_CAP_PIPELINE, STP_CAP_PIPELINE)
+SAME(STC_CAP_OUT_OF_ORDER, STP_CAP_OUT_OF_ORDER)
+SAME(STC_CAP_SAMPLE_DIR, STP_CAP_SAMPLE_DIR)
+SAME(STC_CAP_UPLOAD_RESUME, STP_CAP_UPLOAD_RESUME)
+SAME(STC_CAP_COMPRESS, STP_CAP_COMPRESS)
+SAME(STC_CAP_FETCH, STP_CAP_FETCH)
+SAME(STC_CAP_PTEX_FILTERS, STP_CAP_PTEX_FILTERS)
+SAME(STC_CAP_AUTH, STP_CAP_AUTH)
+SAME(STC_OUT_F32, STP_OUT_F32)
+SAME(STC_OUT_UNORM8, STP_OUT_UNORM8)
+SAME(STC_OUT_UNORM16, STP_OUT_UNORM16)
+SAME(STC_WANT_COVERAGE, STP_SF_COVERAGE)
+SAME(STC_WANT_STATUS, STP_SF_STATUS)
+SAME(STC_UPLOAD_REPLACE, STP_UF_REPLACE)
+SAME(STC_UPLOAD_RESUME, STP_UF_RESUME)
+SAME(STC_COMPRESS_SEAM_AWARE, STP_CF_SEAM_AWARE)
+SAME(STC_COMPRESS_REPLACE, STP_CF_REPLACE)
+SAME(STC_JOB_QUEUED, STP_JOB_QUEUED)
+SAME(STC_JOB_RUNNING, STP_JOB_RUNNING)
+SAME(STC_JOB_DONE, STP_JOB_DONE)
+SAME(STC_JOB_FAILED, STP_JOB_FAILED)
+SAME(STC_JOB_CANCELED, STP_JOB_CANCELED)
+SAME(STC_FETCH_PTX, STP_FETCH_PTX)
+SAME(STC_FETCH_DDS, STP_FETCH_DDS)
+#undef SAME
+
 const char *stc_strerror(int code)
 {
     switch (code) {
-    case STC_OK:        return "OK";
-    case STC_EINVAL:    return "EINVAL";
-    case STC_ENOMEM:    return "ENOMEM";
-    case STC_ECONNECT:  return "ECONNECT";
-    case STC_EIO:       return "EIO";
-    case STC_ECLOSED:   return "ECLOSED";
-    case STC_EPROTO:    return "EPROTO";
-    case STC_ETIMEDOUT: return "ETIMEDOUT";
-    case STC_EFILE:     return "EFILE";
-    case STC_ECHECKSUM: return "ECHECKSUM";
-    case STC_ESTATE:    return "ESTATE";
-    case STC_ECANCELED: return "ECANCELED";
+    case STC_OK: return "OK";
+#define X(NAME, value) case value: return #NAME;
+    STC_LOCAL_ERRORS(X)
+#undef X
     default:
         if (stc_is_server_error(code))
             return stp_status_name((unsigned)stc_server_status(code));

@@ -99,7 +99,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     int rc, inflight = 0, win = window_size(c);
     uint64_t sent, acked;
 
-    if (!stp_name_valid(set))
+    if (!stp_name_valid_cstr(set))
         return stc__fail(c, STC_EINVAL, "'%s' is not a valid set name", set ? set : "(null)");
     if (o && o->options && strlen(o->options) > STP_MAX_OPTIONS)
         return stc__fail(c, STC_EINVAL, "options longer than %d bytes", STP_MAX_OPTIONS);
@@ -291,7 +291,7 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
         return rc;
     if (!win)
         win = window_size(c);
-    if (!stp_name_valid(set) || !path || format > STC_FETCH_DDS)
+    if (!stp_name_valid_cstr(set) || !path || format > STC_FETCH_DDS)
         return stc__fail(c, STC_EINVAL, "bad set name, path or format");
     if ((size_t)snprintf(part, sizeof part, "%s.part", path) >= sizeof part)
         return stc__fail(c, STC_EINVAL, "path too long");

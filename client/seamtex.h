@@ -42,21 +42,30 @@ extern "C" {
 
 #define STC_SERVER_BASE 100
 
+/* The local codes, written once: X(NAME, value) gives STC_<NAME> below and its name in
+ * stc_strerror ("EINVAL"). */
+#define STC_LOCAL_ERRORS(X)                                                               \
+    X(EINVAL,    -1)   /* a bad argument (NULL, a name that is not valid, n too big) */    \
+    X(ENOMEM,    -2)                                                                     \
+    X(ECONNECT,  -3)   /* name resolution or connect() failed */                         \
+    X(EIO,       -4)   /* send/recv failed (sticky) */                                   \
+    X(ECLOSED,   -5)   /* the server closed the connection (sticky) */                   \
+    X(EPROTO,    -6)   /* the server broke the protocol (sticky) */                      \
+    X(ETIMEDOUT, -7)   /* a connect or request timeout (not sticky) */                   \
+    X(EFILE,     -8)   /* a local file could not be read or written */                   \
+    X(ECHECKSUM, -9)   /* downloaded data did not match its checksum */                  \
+    X(ESTATE,    -10)  /* a call that is not allowed now (e.g. a blocking call while     \
+                          pipelined replies are unread, get_reply with nothing pending) */ \
+    X(ECANCELED, -11)  /* an upload/fetch progress callback asked to stop */
+
 enum stc_err {
     STC_OK        = 0,
-    STC_EINVAL    = -1,   /* a bad argument (NULL, a name that is not valid, n too big) */
-    STC_ENOMEM    = -2,
-    STC_ECONNECT  = -3,   /* name resolution or connect() failed */
-    STC_EIO       = -4,   /* send/recv failed (sticky) */
-    STC_ECLOSED   = -5,   /* the server closed the connection (sticky) */
-    STC_EPROTO    = -6,   /* the server broke the protocol (sticky) */
-    STC_ETIMEDOUT = -7,   /* a connect or request timeout (not sticky) */
-    STC_EFILE     = -8,   /* a local file could not be read or written */
-    STC_ECHECKSUM = -9,   /* downloaded data did not match its checksum */
-    STC_ESTATE    = -10,  /* a call that is not allowed now (e.g. a blocking call while
-                             pipelined replies are unread, get_reply with nothing pending) */
-    STC_ECANCELED = -11,  /* an upload/fetch progress callback asked to stop */
-    /* server statuses (protocol/proto.h enum stp_status), negated and offset */
+#define STC_X_(NAME, value) STC_##NAME = value,
+    STC_LOCAL_ERRORS(STC_X_)
+#undef STC_X_
+    /* server statuses (protocol/proto.h enum stp_status), negated and offset; written out
+     * here so that this header stands alone, checked against protocol/proto_lists.h
+     * STP_STATUSES at compile time (client/libconn.c) */
     STC_EBADREQUEST    = -(STC_SERVER_BASE + 1),
     STC_EUNKNOWNOP     = -(STC_SERVER_BASE + 2),
     STC_EBADVERSION    = -(STC_SERVER_BASE + 3),
@@ -144,7 +153,8 @@ int stc_ping(stc_conn *c);
 
 typedef struct stc_set_entry {
     const char *name;
-    unsigned    kind, nchan, dtype;   /* store/set.h st_kind, channel count, st_dtype */
+    unsigned    kind, nchan, dtype;   /* set kind (0 perface, 1 cube, 2 atlas, 3 bc1), channel
+                                         count, texel type (0 u8, 1 u16, 2 half, 3 f32) */
     uint32_t    nfaces;
     uint64_t    memory;
 } stc_set_entry;
@@ -171,8 +181,9 @@ typedef struct stc_info {
 int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t face_count,
                  stc_info *out);
 
-/* Sampling. mode / filter / zero_rule use store/sample.h's numbering: mode 0 discard,
- * 1 traverse, 2 clamp; filter 0 point, 1 bilinear, 2 trilinear, 3 aniso, 8..15 Ptex family. */
+/* Sampling. mode / filter / zero_rule use the protocol's numbering (PROTOCOL.md 4.4,
+ * protocol/proto_lists.h): mode 0 discard, 1 traverse, 2 clamp; filter 0 point, 1 bilinear,
+ * 2 trilinear, 3 aniso, 8..15 Ptex family; zero_rule 0 nan, 1 clamp. */
 enum { STC_OUT_F32 = 0, STC_OUT_UNORM8 = 1, STC_OUT_UNORM16 = 2 };
 enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2 };
 typedef struct stc_sample_opts {
@@ -182,7 +193,7 @@ typedef struct stc_sample_opts {
     unsigned footprint;               /* direction sampling: 0 derivatives, 1 cone */
     float    sharpness, width, blur;
 } stc_sample_opts;
-typedef struct stc_query {            /* same meaning as store/sample.h st_query */
+typedef struct stc_query {            /* PROTOCOL.md 4.4: face, point and footprint */
     uint32_t face;
     float u, v, dudx, dvdx, dudy, dvdy;
 } stc_query;
@@ -196,7 +207,9 @@ typedef struct stc_sample_result {
     const void    *values;            /* count*nchan of float / uint8_t / uint16_t (outfmt),
                                          native byte order, owned by c */
     const float   *coverage;          /* count, or NULL when not asked for */
-    const uint8_t *status;            /* count st_qstatus bytes, or NULL when not asked for */
+    const uint8_t *status;            /* count per-query status bytes (PROTOCOL.md 4.6: 0 OK,
+                                         1 BAD_FACE, 2 NONFINITE, 3 BAD_FOOTPRINT,
+                                         4 ZERO_COVERAGE), or NULL when not asked for */
 } stc_sample_result;
 /* A batch over the server's max_batch is split into pipelined parts and reassembled, so n is
  * not limited by the server (only by memory). */

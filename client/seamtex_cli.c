@@ -19,6 +19,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "proto.h"
+
 #define DEFAULT_PORT 7450
 
 static const char *const USAGE =
@@ -77,14 +79,14 @@ int cli_parse_float(const char *s, float *out)
 
 const char *cli_kind_name(unsigned kind)
 {
-    static const char *const k[] = { "perface", "cube", "atlas", "bc1" };
-    return kind < 4 ? k[kind] : "?";
+    const char *n = stp_kind_name(kind);
+    return n ? n : "?";
 }
 
 const char *cli_dtype_name(unsigned dtype)
 {
-    static const char *const d[] = { "u8", "u16", "half", "f32" };
-    return dtype < 4 ? d[dtype] : "?";
+    const char *n = stp_dtype_name(dtype);
+    return n ? n : "?";
 }
 
 const char *cli_bytes(uint64_t n, char *buf, size_t cap)

@@ -1,17 +1,16 @@
 /* protocol/bodies.c - encoders and decoders of every body layout in PROTOCOL.md section 4.
  *
- * Owns: the byte layout of request and reply bodies. Does not own: the header (proto.c), what a
- * value means to the store (the server checks names against its sets, modes against the
- * sampler), I/O.
+ * Owns: the byte layout of request and reply bodies, and the checks a body can have without
+ * knowing the server's state: every set name in a request is held to the rule of stp_name.h
+ * (INVALID), output formats and flag bits to their lists. Does not own: the header
+ * (proto.c), what a value means to the store (the server looks names up in its sets and
+ * checks modes and filters against the sampler's), I/O.
  *
  * Decoders never read past `len`: every field goes through an stp_rd cursor, every count is
  * checked against the bytes left before it is used (multiplications overflow-checked), and
  * leftover bytes are refused. They point into the body for bulk arrays (zero copy).
  */
 #include "proto.h"
-
-
-#include "err.h"
 
 /* Ends a decode: the cursor must have stayed in bounds and used every byte. */
 static int finish(const stp_rd *r, const char **why, const char *what)
@@ -34,6 +33,38 @@ static int fail(const char **why, const char *what, int status)
     if (why)
         *why = what;
     return status;
+}
+
+/* Reads a str16 set name (request decoders). A body that is cut short, or a NUL byte in the
+ * string, sets r->bad (the decoder answers BAD_REQUEST, as for every str16); any other name
+ * that breaks the rule of stp_name.h (longer than 255 bytes included) is not a malformed
+ * body: *problem gets the stp_name_problem, name is left "", and the decoder answers INVALID
+ * once the rest of the body has been found well-formed (name_fail). */
+static void get_name(stp_rd *r, char name[STP_MAX_NAME + 1], int *problem)
+{
+    uint16_t n = stp_get_u16(r);
+    const uint8_t *p = stp_rd_take(r, n);
+    name[0] = 0;
+    *problem = STP_NAME_OK;
+    if (!p)
+        return;
+    if (memchr(p, 0, n)) {
+        r->bad = 1;
+        return;
+    }
+    *problem = stp_name_check(p, n, NULL);
+    if (*problem == STP_NAME_OK) {
+        memcpy(name, p, n);
+        name[n] = 0;
+    }
+}
+
+static const char *const SET_NAME_WHY[] = STP_NAME_TEXTS("set");
+static const char *const TARGET_NAME_WHY[] = STP_NAME_TEXTS("target");
+
+static int name_fail(const char **why, const char *const texts[], int problem)
+{
+    return fail(why, texts[problem], STP_S_INVALID);
 }
 
 /* ---- HELLO ---------------------------------------------------------------------------------- */
@@ -203,11 +234,13 @@ int stp_enc_info_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const stp_
 int stp_dec_info_req(const uint8_t *body, size_t len, stp_info_req *r, const char **why)
 {
     stp_rd rd;
+    int np;
     stp_rd_init(&rd, body, len);
-    stp_get_str(&rd, r->name, sizeof r->name);
+    get_name(&rd, r->name, &np);
     r->face_first = stp_get_u32(&rd);
     r->face_count = stp_get_u32(&rd);
-    return finish(&rd, why, "INFO: truncated body or bad name");
+    int s = finish(&rd, why, "INFO: truncated body");
+    return s ? s : np ? name_fail(why, SET_NAME_WHY, np) : 0;
 }
 
 int stp_enc_info_reply(stp_buf *b, uint32_t reqid, const stp_info_reply *r)
@@ -332,7 +365,7 @@ int stp_enc_sample_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const st
     size_t bytes;
     put_params(b, &r->p, 0);
     stp_put_u32(b, r->count);
-    if (st_mul_size(r->count, STP_QUERY_SIZE, &bytes) != 0)
+    if (__builtin_mul_overflow(r->count, STP_QUERY_SIZE, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
@@ -358,7 +391,7 @@ int stp_enc_sample_dir_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms,
     size_t bytes;
     put_params(b, &r->p, 1);
     stp_put_u32(b, r->count);
-    if (st_mul_size(r->count, STP_DIR_QUERY_SIZE, &bytes) != 0)
+    if (__builtin_mul_overflow(r->count, STP_DIR_QUERY_SIZE, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
@@ -382,9 +415,10 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
     stp_rd rd;
     size_t qsize = dir ? STP_DIR_QUERY_SIZE : STP_QUERY_SIZE;
     stp_sample_params *p = &r->p;
+    int np;
 
     stp_rd_init(&rd, body, len);
-    stp_get_str(&rd, p->name, sizeof p->name);
+    get_name(&rd, p->name, &np);
     p->mode = stp_get_u8(&rd);
     p->filter = stp_get_u8(&rd);
     p->zero_rule = stp_get_u8(&rd);
@@ -401,7 +435,7 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
     r->dqueries = NULL;
     r->raw = NULL;
     if (rd.bad)
-        return fail(why, "SAMPLE: truncated parameters or bad set name", STP_S_BAD_REQUEST);
+        return fail(why, "SAMPLE: truncated parameters", STP_S_BAD_REQUEST);
     if (!dir)
         p->footprint = 0;
     /* The lying-length check: count must account for every remaining byte exactly. */
@@ -409,6 +443,8 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
         return fail(why, "SAMPLE: count does not match the body length", STP_S_BAD_REQUEST);
     if (r->count > max_batch)
         return fail(why, "SAMPLE: count over the server's max_batch", STP_S_TOO_LARGE);
+    if (np)
+        return name_fail(why, SET_NAME_WHY, np);
     if (stp_outfmt_size(p->outfmt) == 0)
         return fail(why, "SAMPLE: unknown output format", STP_S_INVALID);
     if (p->max_aniso > 16)
@@ -478,7 +514,7 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
     stp_put_u8(b, 0);
     stp_put_u32(b, r->nbad);
     nval = (size_t)r->count * r->nchan;
-    if (st_mul_size(nval, esz, &bytes) != 0)
+    if (__builtin_mul_overflow(nval, esz, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
@@ -675,9 +711,11 @@ int stp_dec_name_req(const uint8_t *body, size_t len, char name[STP_MAX_NAME + 1
                      const char **why)
 {
     stp_rd rd;
+    int np;
     stp_rd_init(&rd, body, len);
-    stp_get_str(&rd, name, STP_MAX_NAME + 1);
-    return finish(&rd, why, "truncated body or bad name");
+    get_name(&rd, name, &np);
+    int s = finish(&rd, why, "truncated body");
+    return s ? s : np ? name_fail(why, SET_NAME_WHY, np) : 0;
 }
 
 int stp_enc_id_req(stp_buf *b, uint8_t opcode, uint32_t reqid, uint32_t timeout_ms, uint64_t id)
@@ -725,16 +763,19 @@ int stp_enc_upload_begin(stp_buf *b, uint32_t reqid, uint32_t timeout_ms,
 int stp_dec_upload_begin(const uint8_t *body, size_t len, stp_upload_begin *r, const char **why)
 {
     stp_rd rd;
+    int np;
     stp_rd_init(&rd, body, len);
-    stp_get_str(&rd, r->name, sizeof r->name);
+    get_name(&rd, r->name, &np);
     stp_get_str(&rd, r->hint, sizeof r->hint);
     r->total_size = stp_get_u64(&rd);
     r->crc32c = stp_get_u32(&rd);
     r->flags = stp_get_u32(&rd);
     stp_get_str(&rd, r->options, sizeof r->options);
-    int s = finish(&rd, why, "UPLOAD_BEGIN: truncated body or bad name / hint / options");
+    int s = finish(&rd, why, "UPLOAD_BEGIN: truncated body or bad hint / options");
     if (s)
         return s;
+    if (np)
+        return name_fail(why, SET_NAME_WHY, np);
     if (r->flags & ~(uint32_t)(STP_UF_REPLACE | STP_UF_RESUME))
         return fail(why, "UPLOAD_BEGIN: unknown flag bits", STP_S_INVALID);
     return 0;
@@ -854,14 +895,19 @@ int stp_enc_compress_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms,
 int stp_dec_compress_req(const uint8_t *body, size_t len, stp_compress_req *r, const char **why)
 {
     stp_rd rd;
+    int np, tp;
     stp_rd_init(&rd, body, len);
-    stp_get_str(&rd, r->name, sizeof r->name);
-    stp_get_str(&rd, r->target, sizeof r->target);
+    get_name(&rd, r->name, &np);
+    get_name(&rd, r->target, &tp);
     r->level = stp_get_u8(&rd);
     r->flags = stp_get_u8(&rd);
-    int s = finish(&rd, why, "COMPRESS: truncated body or bad name");
+    int s = finish(&rd, why, "COMPRESS: truncated body");
     if (s)
         return s;
+    if (np)
+        return name_fail(why, SET_NAME_WHY, np);
+    if (tp)
+        return name_fail(why, TARGET_NAME_WHY, tp);
     if (r->level > 9)
         return fail(why, "COMPRESS: level over 9", STP_S_INVALID);
     if (r->flags & ~(STP_CF_SEAM_AWARE | STP_CF_REPLACE))
@@ -910,10 +956,13 @@ int stp_enc_fetch_open(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const st
 int stp_dec_fetch_open(const uint8_t *body, size_t len, stp_fetch_open *r, const char **why)
 {
     stp_rd rd;
+    int np;
     stp_rd_init(&rd, body, len);
-    stp_get_str(&rd, r->name, sizeof r->name);
+    get_name(&rd, r->name, &np);
     r->format = stp_get_u8(&rd);
-    int s = finish(&rd, why, "FETCH_OPEN: truncated body or bad name");
+    int s = finish(&rd, why, "FETCH_OPEN: truncated body");
+    if (s == 0 && np)
+        return name_fail(why, SET_NAME_WHY, np);
     if (s == 0 && r->format > STP_FETCH_DDS)
         return fail(why, "FETCH_OPEN: unknown format", STP_S_INVALID);
     return s;

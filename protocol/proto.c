@@ -1,17 +1,17 @@
-/* protocol/proto.c - frame header parsing and writing, the growable output buffer, status and
- * opcode names, the store-code mapping.
+/* protocol/proto.c - frame header parsing and writing, the growable output buffer, the names
+ * of opcodes, statuses and value lists.
  *
  * Owns: stp_parse_header (pure: no I/O, no allocation, no state kept between calls), stp_buf
- * and the stp_put_* writers, frame begin/end, error frames. Does not own: body layouts
- * (bodies.c), CRC32C (crc32c.c), sockets (never).
+ * and the stp_put_* writers (the one place protocol/ allocates: an stp_buf grows with
+ * realloc), frame begin/end, error frames, the name <-> value functions generated from
+ * proto_lists.h. Does not own: body layouts (bodies.c), CRC32C (crc32c.c), the set-name rule
+ * (stp_name.h), store error codes (the daemon maps them), sockets (never).
  */
 #include "proto.h"
 
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
-
-#include "err.h"
 
 /* ---- header ---------------------------------------------------------------------------------- */
 
@@ -93,97 +93,108 @@ const char *stp_reason_name(int reason)
     }
 }
 
-/* ---- names ------------------------------------------------------------------------------------- */
+/* ---- names: every function below is generated from a list in proto_lists.h -------------- */
 
 const char *stp_opcode_name(unsigned op)
 {
     switch (op) {
-    case STP_OP_HELLO:         return "HELLO";
-    case STP_OP_PING:          return "PING";
-    case STP_OP_LIST:          return "LIST";
-    case STP_OP_INFO:          return "INFO";
-    case STP_OP_SAMPLE:        return "SAMPLE";
-    case STP_OP_SAMPLE_DIR:    return "SAMPLE_DIR";
-    case STP_OP_STATS:         return "STATS";
-    case STP_OP_UPLOAD_BEGIN:  return "UPLOAD_BEGIN";
-    case STP_OP_UPLOAD_CHUNK:  return "UPLOAD_CHUNK";
-    case STP_OP_UPLOAD_COMMIT: return "UPLOAD_COMMIT";
-    case STP_OP_UPLOAD_ABORT:  return "UPLOAD_ABORT";
-    case STP_OP_UPLOAD_STATUS: return "UPLOAD_STATUS";
-    case STP_OP_DELETE:        return "DELETE";
-    case STP_OP_COMPRESS:      return "COMPRESS";
-    case STP_OP_JOB_STATUS:    return "JOB_STATUS";
-    case STP_OP_JOB_CANCEL:    return "JOB_CANCEL";
-    case STP_OP_FETCH_OPEN:    return "FETCH_OPEN";
-    case STP_OP_FETCH_READ:    return "FETCH_READ";
-    case STP_OP_FETCH_CLOSE:   return "FETCH_CLOSE";
-    default:                   return NULL;
+#define X(NAME, lower, code, mut) case code: return #NAME;
+    STP_OPCODES(X)
+#undef X
+    default: return NULL;
     }
 }
 
 int stp_opcode_mutating(unsigned op)
 {
     switch (op) {
-    case STP_OP_UPLOAD_BEGIN: case STP_OP_UPLOAD_CHUNK: case STP_OP_UPLOAD_COMMIT:
-    case STP_OP_UPLOAD_ABORT: case STP_OP_DELETE: case STP_OP_COMPRESS: case STP_OP_JOB_CANCEL:
-        return 1;
-    default:
-        return 0;
+#define X(NAME, lower, code, mut) case code: return mut;
+    STP_OPCODES(X)
+#undef X
+    default: return 0;
     }
 }
 
 const char *stp_status_name(unsigned status)
 {
     static const char *const names[STP_S_COUNT_] = {
-        "OK", "BAD_REQUEST", "UNKNOWN_OPCODE", "BAD_VERSION", "TOO_LARGE", "NOT_FOUND",
-        "EXISTS", "UNSUPPORTED", "PERM", "BUSY", "TIMEOUT", "INTERNAL", "CORRUPT", "INVALID",
-        "FORMAT", "NOMEM", "IO", "CANCELED", "ADJ", "NOUV", "SHUTDOWN"
+#define X(NAME, value, client) [value] = #NAME,
+        STP_STATUSES(X)
+#undef X
     };
     return status < STP_S_COUNT_ ? names[status] : "?";
 }
 
-int stp_status_from_st(int st_code)
+const char *stp_qstatus_name(unsigned qstatus)
 {
-    switch (st_code) {
-    case ST_OK:           return STP_S_OK;
-    case ST_EINVAL:       return STP_S_INVALID;
-    case ST_ENOMEM:       return STP_S_NOMEM;
-    case ST_EIO:          return STP_S_IO;
-    case ST_EFORMAT:      return STP_S_FORMAT;
-    case ST_ETOOBIG:      return STP_S_TOO_LARGE;
-    case ST_EADJ:         return STP_S_ADJ;
-    case ST_ENOTFOUND:    return STP_S_NOT_FOUND;
-    case ST_EUNSUPPORTED: return STP_S_UNSUPPORTED;
-    case ST_EEXIST:       return STP_S_EXISTS;
-    case ST_ECORRUPT:     return STP_S_CORRUPT;
-    case ST_ENOUV:        return STP_S_NOUV;
-    case ST_ECANCELED:    return STP_S_CANCELED;
-    case ST_EBUSY:        return STP_S_BUSY;
-    case ST_EPERM:        return STP_S_PERM;
-    case ST_ETIMEDOUT:    return STP_S_TIMEOUT;
-    default:              return STP_S_INTERNAL;
+    switch (qstatus) {
+#define X(NAME, value) case value: return #NAME;
+    STP_QSTATUSES(X)
+#undef X
+    default: return "?";
     }
 }
 
-int stp_name_valid(const char *name)
+/* name <-> value for the lists whose entries are X(NAME, "name", value, ...). */
+typedef struct named { const char *name; unsigned value; } named;
+
+static const char *name_of(const named *t, size_t n, unsigned v)
 {
+    for (size_t i = 0; i < n; i++)
+        if (t[i].value == v)
+            return t[i].name;
+    return NULL;
+}
+
+static int parse_of(const named *t, size_t n, const char *name)
+{
+    for (size_t i = 0; name && i < n; i++)
+        if (!strcmp(t[i].name, name))
+            return (int)t[i].value;
+    return -1;
+}
+
+#define ROW(NAME, str, value, ...) {str, value},
+static const named MODES[] = { STP_MODES(ROW) };
+static const named FILTERS[] = { STP_FILTERS(ROW) };
+static const named ZERO_RULES[] = { STP_ZERO_RULES(ROW) };
+static const named OUTFMTS[] = { STP_OUTFMTS(ROW) };
+static const named KINDS[] = { STP_KINDS(ROW) };
+static const named DTYPES[] = { STP_DTYPES(ROW) };
+#undef ROW
+#define N_(t) (sizeof t / sizeof t[0])
+
+const char *stp_mode_name(unsigned mode)       { return name_of(MODES, N_(MODES), mode); }
+int stp_mode_parse(const char *name)           { return parse_of(MODES, N_(MODES), name); }
+const char *stp_filter_name(unsigned filter)   { return name_of(FILTERS, N_(FILTERS), filter); }
+const char *stp_zero_rule_name(unsigned rule)  { return name_of(ZERO_RULES, N_(ZERO_RULES), rule); }
+int stp_zero_rule_parse(const char *name)      { return parse_of(ZERO_RULES, N_(ZERO_RULES), name); }
+const char *stp_outfmt_name(unsigned fmt)      { return name_of(OUTFMTS, N_(OUTFMTS), fmt); }
+int stp_outfmt_parse(const char *name)         { return parse_of(OUTFMTS, N_(OUTFMTS), name); }
+const char *stp_kind_name(unsigned kind)       { return name_of(KINDS, N_(KINDS), kind); }
+const char *stp_dtype_name(unsigned dtype)     { return name_of(DTYPES, N_(DTYPES), dtype); }
+
+int stp_filter_parse(const char *name)
+{
+    int v = parse_of(FILTERS, N_(FILTERS), name);
+    char buf[32];
     size_t n;
-    if (!name || !name[0] || name[0] == '.')
-        return 0;
-    for (n = 0; name[n]; n++) {
-        unsigned char ch = (unsigned char)name[n];
-        if (n >= STP_MAX_NAME)
-            return 0;
-        if (!((ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
-              ch == '.' || ch == '_' || ch == '-'))
-            return 0;
-    }
-    return 1;
+    if (v >= 0 || !name || (n = strlen(name)) >= sizeof buf)
+        return v;
+    /* also "ptex_bilinear" for "ptex-bilinear" */
+    for (size_t i = 0; i <= n; i++)
+        buf[i] = name[i] == '_' ? '-' : name[i];
+    return parse_of(FILTERS, N_(FILTERS), buf);
 }
 
 size_t stp_outfmt_size(unsigned fmt)
 {
-    return fmt == STP_OUT_F32 ? 4 : fmt == STP_OUT_UNORM8 ? 1 : fmt == STP_OUT_UNORM16 ? 2 : 0;
+    switch (fmt) {
+#define X(NAME, str, value, size) case value: return size;
+    STP_OUTFMTS(X)
+#undef X
+    default: return 0;
+    }
 }
 
 /* ---- output buffer ----------------------------------------------------------------------------- */
@@ -226,7 +237,7 @@ int stp_buf_reserve(stp_buf *b, size_t extra)
         if (extra <= b->cap - b->len)
             return 0;
     }
-    if (st_add_size(b->len, extra, &need) != 0) {
+    if (__builtin_add_overflow(b->len, extra, &need)) {
         b->err = STP_S_NOMEM;
         return -1;
     }

@@ -1,11 +1,14 @@
 /* protocol/proto.h - the seamtex wire protocol, compiled into the daemon and the client alike.
  *
- * Owns: the frame header, opcodes, statuses, capability bits, every body layout (as typed
- * structs with encode/decode functions), the pure incremental header parser, CRC32C, and the
- * little-endian byte helpers. PROTOCOL.md is the normative description; this header and
- * proto.c implement exactly that document.
+ * Owns: the frame header, the enums of opcodes, statuses and value lists (generated from
+ * proto_lists.h, where each list is written once) with their name functions, capability bits,
+ * every body layout (as typed structs with encode/decode functions), the pure incremental
+ * header parser, CRC32C, and the little-endian byte helpers. PROTOCOL.md is the normative
+ * description; this header and proto.c implement exactly that document.
  * Does not own: sockets, timeouts, dispatch (server/), connection state (client/), sampling
- * (store/). Nothing here does I/O; the parser never allocates.
+ * and store error codes (store/; nothing in protocol/ includes a header from outside it), the
+ * set-name rule (stp_name.h, included here). Nothing here does I/O; the parser never
+ * allocates; the only allocation is the growth of an stp_buf (realloc).
  *
  * Byte order: every multi-byte field is little-endian and is read and written byte by byte
  * (no struct is ever cast onto the wire). Floats are IEEE-754 binary32 bit patterns; NaN and
@@ -42,6 +45,9 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "proto_lists.h"
+#include "stp_name.h"
+
 /* ---- frame header ------------------------------------------------------------------------ */
 
 #define STP_MAGIC          0x31585453u   /* "STX1" as bytes on the wire */
@@ -52,7 +58,6 @@
 #define STP_DEFAULT_MAX_BODY   (64u << 20)  /* 64 MiB: a receiver's default body cap */
 #define STP_DEFAULT_MAX_BATCH  (1u << 20)   /* queries per SAMPLE / SAMPLE_DIR request */
 #define STP_DEFAULT_MAX_CHUNK  (4u << 20)   /* UPLOAD_CHUNK / FETCH_READ payload */
-#define STP_MAX_NAME       255   /* set names, bytes (see stp_name_valid) */
 #define STP_MAX_TOKEN      255
 #define STP_MAX_HINT       15    /* upload format hint ("ptx", "png", "exr", "obj", "drc") */
 #define STP_MAX_OPTIONS    1023  /* upload options string */
@@ -98,26 +103,12 @@ const char *stp_reason_name(int reason);
 
 /* ---- opcodes ------------------------------------------------------------------------------ */
 
+/* STP_OP_HELLO = 0x01, ... from STP_OPCODES (proto_lists.h). */
 enum stp_opcode {
-    STP_OP_HELLO         = 0x01,
-    STP_OP_PING          = 0x02,
-    STP_OP_LIST          = 0x03,
-    STP_OP_INFO          = 0x04,
-    STP_OP_SAMPLE        = 0x05,
-    STP_OP_SAMPLE_DIR    = 0x06,
-    STP_OP_STATS         = 0x07,
-    STP_OP_UPLOAD_BEGIN  = 0x10,
-    STP_OP_UPLOAD_CHUNK  = 0x11,
-    STP_OP_UPLOAD_COMMIT = 0x12,
-    STP_OP_UPLOAD_ABORT  = 0x13,
-    STP_OP_UPLOAD_STATUS = 0x14,
-    STP_OP_DELETE        = 0x15,
-    STP_OP_COMPRESS      = 0x20,
-    STP_OP_JOB_STATUS    = 0x21,
-    STP_OP_JOB_CANCEL    = 0x22,
-    STP_OP_FETCH_OPEN    = 0x23,
-    STP_OP_FETCH_READ    = 0x24,
-    STP_OP_FETCH_CLOSE   = 0x25
+#define STP_X_(NAME, lower, code, mut) STP_OP_##NAME = code,
+    STP_OPCODES(STP_X_)
+#undef STP_X_
+    STP_OP_MAX_ = 0xff    /* opcodes are one byte: tables indexed by opcode have 256 rows */
 };
 
 /* "HELLO", ...; NULL for an opcode this version does not define. */
@@ -128,35 +119,78 @@ int stp_opcode_mutating(unsigned op);
 
 /* ---- statuses ----------------------------------------------------------------------------- */
 
+/* STP_S_OK = 0, STP_S_BAD_REQUEST = 1, ... from STP_STATUSES (proto_lists.h); PROTOCOL.md
+ * section 3 says what each means. STP_S_COUNT_ is one past the last. */
 enum stp_status {
-    STP_S_OK             = 0,
-    STP_S_BAD_REQUEST    = 1,   /* malformed body: truncated, lying count, trailing bytes */
-    STP_S_UNKNOWN_OPCODE = 2,
-    STP_S_BAD_VERSION    = 3,
-    STP_S_TOO_LARGE      = 4,   /* body over the cap, batch over max_batch, set over a cap */
-    STP_S_NOT_FOUND      = 5,   /* no such set, upload, job or fetch */
-    STP_S_EXISTS         = 6,
-    STP_S_UNSUPPORTED    = 7,
-    STP_S_PERM           = 8,   /* token missing or wrong, or a name that is not allowed */
-    STP_S_BUSY           = 9,   /* too many connections / jobs / uploads */
-    STP_S_TIMEOUT        = 10,  /* the request's deadline passed */
-    STP_S_INTERNAL       = 11,
-    STP_S_CORRUPT        = 12,  /* checksum mismatch */
-    STP_S_INVALID        = 13,  /* well-formed, but a field's value is not valid (mode...) */
-    STP_S_FORMAT         = 14,  /* an uploaded file is malformed */
-    STP_S_NOMEM          = 15,
-    STP_S_IO             = 16,  /* the server's disk failed */
-    STP_S_CANCELED       = 17,
-    STP_S_ADJ            = 18,  /* uploaded data has broken adjacency */
-    STP_S_NOUV           = 19,  /* uploaded mesh has no texture coordinates */
-    STP_S_SHUTDOWN       = 20,  /* the server is stopping */
-    STP_S_COUNT_         = 21
+#define STP_X_(NAME, value, client) STP_S_##NAME = value,
+    STP_STATUSES(STP_X_)
+#undef STP_X_
+    STP_S_COUNT_
 };
 
 /* "OK", "BAD_REQUEST", ...; "?" for an unknown status. */
 const char *stp_status_name(unsigned status);
-/* Maps a store code (store/err.h ST_E*, 0 or negative) to a status. */
-int stp_status_from_st(int st_code);
+
+/* ---- value lists: per-query statuses, modes, filters, zero rules, formats, kinds, types ----
+ * Wire values from proto_lists.h. Each list has a name function (NULL for a value the list
+ * does not have, except stp_qstatus_name: "?") and a parse function (-1 for an unknown name). */
+
+enum stp_qstatus {
+#define STP_X_(NAME, value) STP_Q_##NAME = value,
+    STP_QSTATUSES(STP_X_)
+#undef STP_X_
+};
+enum stp_mode {
+#define STP_X_(NAME, str, value) STP_MODE_##NAME = value,
+    STP_MODES(STP_X_)
+#undef STP_X_
+};
+enum stp_filter {
+#define STP_X_(NAME, str, value) STP_FILTER_##NAME = value,
+    STP_FILTERS(STP_X_)
+#undef STP_X_
+};
+enum stp_zero_rule {
+#define STP_X_(NAME, str, value) STP_ZERO_##NAME = value,
+    STP_ZERO_RULES(STP_X_)
+#undef STP_X_
+};
+enum stp_outfmt {
+#define STP_X_(NAME, str, value, size) STP_OUT_##NAME = value,
+    STP_OUTFMTS(STP_X_)
+#undef STP_X_
+};
+enum stp_kind {
+#define STP_X_(NAME, str, value) STP_KIND_##NAME = value,
+    STP_KINDS(STP_X_)
+#undef STP_X_
+};
+enum stp_dtype {
+#define STP_X_(NAME, str, value) STP_DT_##NAME = value,
+    STP_DTYPES(STP_X_)
+#undef STP_X_
+};
+
+const char *stp_qstatus_name(unsigned qstatus);     /* "OK", "BAD_FACE", ...; "?" */
+const char *stp_mode_name(unsigned mode);           /* "discard", "traverse", "clamp" */
+int stp_mode_parse(const char *name);
+/* "point", ..., "ptex-point", ...; parse also takes '_' for '-' ("ptex_bilinear"). */
+const char *stp_filter_name(unsigned filter);
+int stp_filter_parse(const char *name);
+const char *stp_zero_rule_name(unsigned rule);      /* "nan", "clamp" */
+int stp_zero_rule_parse(const char *name);
+const char *stp_outfmt_name(unsigned fmt);          /* "f32", "unorm8", "unorm16" */
+int stp_outfmt_parse(const char *name);
+/* Bytes per value of an stp_outfmt (4, 1, 2); 0 for an unknown format. */
+size_t stp_outfmt_size(unsigned fmt);
+const char *stp_kind_name(unsigned kind);           /* "perface", "cube", "atlas", "bc1" */
+const char *stp_dtype_name(unsigned dtype);         /* "u8", "u16", "half", "f32" */
+
+/* ---- set names -----------------------------------------------------------------------------
+ * The one rule for set names (PROTOCOL.md 1): 1..STP_MAX_NAME bytes, each in
+ * [A-Za-z0-9._-], the first not '.'. So a name is always a plain file name: never "", "."
+ * or "..", never hidden, no '/', no NUL, ASCII only. stp_name.h holds the implementation
+ * (header-only, so that store/registry.c applies the same rule without linking protocol/). */
 
 /* ---- capabilities (HELLO) ------------------------------------------------------------------- */
 
@@ -319,10 +353,6 @@ int stp_dec_hello_req(const uint8_t *body, size_t len, stp_hello_req *r, const c
 int stp_enc_hello_reply(stp_buf *b, uint32_t reqid, const stp_hello_reply *r);
 int stp_dec_hello_reply(const uint8_t *body, size_t len, stp_hello_reply *r, const char **why);
 
-/* -- names: INFO's set, DELETE, ... -- */
-/* A set name: 1..STP_MAX_NAME bytes of [A-Za-z0-9._-], not starting with '.'. */
-int stp_name_valid(const char *name);
-
 /* -- LIST -- request: u32 first, u32 max (0 = as many as fit); reply: entries */
 typedef struct stp_list_req {
     uint32_t first, max;
@@ -384,10 +414,9 @@ int stp_dec_info_reply(const uint8_t *body, size_t len, stp_info_reply *r, const
 void stp_info_face(const stp_info_reply *r, uint32_t i, stp_face_rec *out);  /* i < nrec */
 
 /* -- SAMPLE / SAMPLE_DIR -- */
-enum stp_outfmt { STP_OUT_F32 = 0, STP_OUT_UNORM8 = 1, STP_OUT_UNORM16 = 2 };
 enum stp_sample_flags {
     STP_SF_COVERAGE = 1,   /* reply carries one f32 coverage per query */
-    STP_SF_STATUS   = 2    /* reply carries one u8 status (st_qstatus) per query */
+    STP_SF_STATUS   = 2    /* reply carries one u8 status (stp_qstatus) per query */
 };
 enum stp_footprint {
     STP_FP_DERIV = 0,      /* ddx, ddy are the direction's screen derivatives */
@@ -404,8 +433,9 @@ typedef struct stp_dir_query {
     float dir[3], ddx[3], ddy[3];
 } stp_dir_query;
 
-/* Common sampling parameters; mode, filter and zero_rule numbers are store/sample.h's
- * st_mode, st_filter (including the Ptex family 8..15) and st_zero_rule. */
+/* Common sampling parameters; mode, filter and zero_rule are stp_mode, stp_filter (including
+ * the Ptex family 8..15) and stp_zero_rule, whose numbers are the sampler's (checked by the
+ * daemon at compile time). */
 typedef struct stp_sample_params {
     char     name[STP_MAX_NAME + 1];
     uint8_t  mode, filter, zero_rule, max_aniso;
@@ -435,9 +465,6 @@ typedef struct stp_sample_reply {
     const uint8_t *raw_coverage;          /* decode: count * 4 bytes, LE f32, or NULL */
     const uint8_t *raw_status;            /* decode: count bytes, or NULL (points into body) */
 } stp_sample_reply;
-
-/* Bytes per value of an stp_outfmt (4, 1, 2); 0 for an unknown format. */
-size_t stp_outfmt_size(unsigned fmt);
 
 int stp_enc_sample_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const stp_sample_req *r);
 int stp_dec_sample_req(const uint8_t *body, size_t len, uint32_t max_batch, stp_sample_req *r,

@@ -1,15 +1,18 @@
 /* server/dispatch.c - the request table and the decision made for every parsed frame.
  *
- * Owns: the table {opcode, name, max body, flags, handler}; unknown opcodes, a REPLY flag in a
- * request and the token rule (mutating requests need the HELLO token when the server has
- * one) answered here, before any handler runs; inline vs worker. Does not own: parsing
- * frames (io.c + protocol/), what handlers do.
+ * Owns: the table {opcode, name, max body, flags, handler}, an array indexed by opcode and
+ * generated from STP_OPCODES (protocol/proto_lists.h) with this file's body caps and run
+ * flags; unknown opcodes, a REPLY flag in a request and the token rule (mutating requests
+ * need the HELLO token when the server has one) answered here, before any handler runs;
+ * inline vs worker; the one mapping from store codes (ST_E*) to wire statuses.
+ * Does not own: parsing frames (io.c + protocol/), what handlers do.
  *
  * Inline on the I/O thread: everything cheap (HELLO, PING, LIST, INFO, STATS, job and upload
- * status, FETCH reads, SAMPLE batches up to heavy-batch queries). On a worker: upload chunks
+ * status, upload begin and abort, COMPRESS (it only checks names and queues a job for the
+ * job thread: the encoding runs there, never on an I/O thread), JOB_CANCEL, FETCH reads and
+ * closes, SAMPLE batches up to heavy-batch queries). On a worker (STS_H_HEAVY): upload chunks
  * (disk writes), commits (import + fsync), deletes (fsync), FETCH_OPEN (serialises a set),
- * COMPRESS (queues a job; cheap, but needs the registry and job table only) and SAMPLE
- * batches over heavy-batch.
+ * and SAMPLE / SAMPLE_DIR batches over heavy-batch (STS_H_SIZED).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,37 +20,110 @@
 
 #include "server.h"
 
-static const sts_handler TABLE[] = {
-    {STP_OP_HELLO, "HELLO", 4096, 0, sts_h_hello},
-    {STP_OP_PING, "PING", 0, 0, sts_h_ping},
-    {STP_OP_LIST, "LIST", 64, 0, sts_h_list},
-    {STP_OP_INFO, "INFO", 512, 0, sts_h_info},
-    {STP_OP_SAMPLE, "SAMPLE", 0, STS_H_SIZED, sts_h_sample},
-    {STP_OP_SAMPLE_DIR, "SAMPLE_DIR", 0, STS_H_SIZED, sts_h_sample_dir},
-    {STP_OP_STATS, "STATS", 64, 0, sts_h_stats},
-    {STP_OP_UPLOAD_BEGIN, "UPLOAD_BEGIN", 2048, STS_H_MUTATING, sts_h_upload_begin},
-    {STP_OP_UPLOAD_CHUNK, "UPLOAD_CHUNK", STP_DEFAULT_MAX_CHUNK + 64,
-     STS_H_MUTATING | STS_H_HEAVY, sts_h_upload_chunk},
-    {STP_OP_UPLOAD_COMMIT, "UPLOAD_COMMIT", 64, STS_H_MUTATING | STS_H_HEAVY,
-     sts_h_upload_commit},
-    {STP_OP_UPLOAD_ABORT, "UPLOAD_ABORT", 64, STS_H_MUTATING, sts_h_upload_abort},
-    {STP_OP_UPLOAD_STATUS, "UPLOAD_STATUS", 64, 0, sts_h_upload_status},
-    {STP_OP_DELETE, "DELETE", 512, STS_H_MUTATING | STS_H_HEAVY, sts_h_delete},
-    {STP_OP_COMPRESS, "COMPRESS", 1024, STS_H_MUTATING, sts_h_compress},
-    {STP_OP_JOB_STATUS, "JOB_STATUS", 64, 0, sts_h_job_status},
-    {STP_OP_JOB_CANCEL, "JOB_CANCEL", 64, STS_H_MUTATING, sts_h_job_cancel},
-    {STP_OP_FETCH_OPEN, "FETCH_OPEN", 512, STS_H_HEAVY, sts_h_fetch_open},
-    {STP_OP_FETCH_READ, "FETCH_READ", 64, 0, sts_h_fetch_read},
-    {STP_OP_FETCH_CLOSE, "FETCH_CLOSE", 64, 0, sts_h_fetch_close},
+/* Body caps per opcode, bytes (io.c refuses a longer body with TOO_LARGE before reading it);
+ * 0 = only the server's max-frame. Each request's largest legal body fits: e.g. INFO is
+ * 2 + 255 + 8 bytes, COMPRESS 2 + 255 + 2 + 255 + 2, UPLOAD_BEGIN 1315 at most. */
+enum {
+    STS_CAP_HELLO         = 4096,
+    STS_CAP_PING          = 0,
+    STS_CAP_LIST          = 64,
+    STS_CAP_INFO          = 512,
+    STS_CAP_SAMPLE        = 0,
+    STS_CAP_SAMPLE_DIR    = 0,
+    STS_CAP_STATS         = 64,
+    STS_CAP_UPLOAD_BEGIN  = 2048,
+    STS_CAP_UPLOAD_CHUNK  = STP_DEFAULT_MAX_CHUNK + 64,
+    STS_CAP_UPLOAD_COMMIT = 64,
+    STS_CAP_UPLOAD_ABORT  = 64,
+    STS_CAP_UPLOAD_STATUS = 64,
+    STS_CAP_DELETE        = 512,
+    STS_CAP_COMPRESS      = 1024,
+    STS_CAP_JOB_STATUS    = 64,
+    STS_CAP_JOB_CANCEL    = 64,
+    STS_CAP_FETCH_OPEN    = 512,
+    STS_CAP_FETCH_READ    = 64,
+    STS_CAP_FETCH_CLOSE   = 64
 };
-#define NTABLE (sizeof TABLE / sizeof TABLE[0])
+
+/* Where each opcode runs (sts_hflags without STS_H_MUTATING, which comes from the protocol's
+ * list): 0 inline, STS_H_HEAVY a worker, STS_H_SIZED a worker when the batch is large. */
+enum {
+    STS_RUN_HELLO         = 0,
+    STS_RUN_PING          = 0,
+    STS_RUN_LIST          = 0,
+    STS_RUN_INFO          = 0,
+    STS_RUN_SAMPLE        = STS_H_SIZED,
+    STS_RUN_SAMPLE_DIR    = STS_H_SIZED,
+    STS_RUN_STATS         = 0,
+    STS_RUN_UPLOAD_BEGIN  = 0,
+    STS_RUN_UPLOAD_CHUNK  = STS_H_HEAVY,
+    STS_RUN_UPLOAD_COMMIT = STS_H_HEAVY,
+    STS_RUN_UPLOAD_ABORT  = 0,
+    STS_RUN_UPLOAD_STATUS = 0,
+    STS_RUN_DELETE        = STS_H_HEAVY,
+    STS_RUN_COMPRESS      = 0,
+    STS_RUN_JOB_STATUS    = 0,
+    STS_RUN_JOB_CANCEL    = 0,
+    STS_RUN_FETCH_OPEN    = STS_H_HEAVY,
+    STS_RUN_FETCH_READ    = 0,
+    STS_RUN_FETCH_CLOSE   = 0
+};
+
+/* One row per opcode of STP_OPCODES, at its opcode; the other rows are zero (fn NULL =
+ * unknown opcode). A new opcode in the list fails to compile here until it has a cap, a run
+ * flag and a handler sts_h_<lower>. */
+static const sts_handler TABLE[STP_OP_MAX_ + 1] = {
+#define ROW(NAME, lower, code, mut)                                                        \
+    [code] = {code, #NAME, STS_CAP_##NAME, (mut ? STS_H_MUTATING : 0u) | STS_RUN_##NAME,     \
+              sts_h_##lower},
+    STP_OPCODES(ROW)
+#undef ROW
+};
 
 const sts_handler *sts_handler_find(unsigned op)
 {
-    for (size_t i = 0; i < NTABLE; i++)
-        if (TABLE[i].op == op)
-            return &TABLE[i];
-    return NULL;
+    return op < sizeof TABLE / sizeof TABLE[0] && TABLE[op].fn ? &TABLE[op] : NULL;
+}
+
+/* ---- store codes -> wire statuses ---------------------------------------------------------
+ * The one table (PROTOCOL.md section 3 prints it): X(store code, status). Every ST_E* code of
+ * store/err.h must be here exactly once: a duplicate is a duplicate case label, and the count
+ * must equal the number of codes, so a code added to err.h without a row fails to compile. */
+#define STS_ST_STATUSES(X)                                                                  \
+    X(ST_OK, OK)                                                                            \
+    X(ST_EINVAL, INVALID)                                                                   \
+    X(ST_ENOMEM, NOMEM)                                                                     \
+    X(ST_EIO, IO)                                                                           \
+    X(ST_EFORMAT, FORMAT)                                                                   \
+    X(ST_ETOOBIG, TOO_LARGE)                                                                \
+    X(ST_EADJ, ADJ)                                                                         \
+    X(ST_ENOTFOUND, NOT_FOUND)                                                              \
+    X(ST_EUNSUPPORTED, UNSUPPORTED)                                                         \
+    X(ST_EEXIST, EXISTS)                                                                    \
+    X(ST_ECORRUPT, CORRUPT)                                                                 \
+    X(ST_ENOUV, NOUV)                                                                       \
+    X(ST_ECANCELED, CANCELED)                                                               \
+    X(ST_EBUSY, BUSY)                                                                       \
+    X(ST_EPERM, PERM)                                                                       \
+    X(ST_ETIMEDOUT, TIMEOUT)
+
+#define COUNT_ROW(code, status) +1
+#define RANGE_ROW(code, status) \
+    _Static_assert(code <= 0 && code >= ST_ECODE_MIN, #code " is not a store code");
+_Static_assert(0 STS_ST_STATUSES(COUNT_ROW) == 1 - ST_ECODE_MIN,
+               "every store code from ST_OK down to ST_ECODE_MIN needs a status");
+STS_ST_STATUSES(RANGE_ROW)
+#undef COUNT_ROW
+#undef RANGE_ROW
+
+int sts_status_from_st(int st_code)
+{
+    switch (st_code) {
+#define ROW(code, status) case code: return STP_S_##status;
+    STS_ST_STATUSES(ROW)
+#undef ROW
+    default: return STP_S_INTERNAL;
+    }
 }
 
 void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *msg)
@@ -66,7 +142,7 @@ int sts_reply_bad(stp_buf *out, const stp_header *h, int status, const char *why
 
 void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *msg)
 {
-    sts_reply_error(out, h, stp_status_from_st(st_code), msg && *msg ? msg : st_strerror(st_code));
+    sts_reply_error(out, h, sts_status_from_st(st_code), msg && *msg ? msg : st_strerror(st_code));
 }
 
 int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t *body)

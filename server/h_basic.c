@@ -13,15 +13,13 @@
 #include "cube.h"
 #include "server.h"
 
-/* Looks a set up by a wire name; replies NOT_FOUND / PERM itself and returns NULL. */
+/* Looks a set up by a name the decoder has already held to the name rule (protocol/stp_name.h:
+ * a bad name was answered INVALID before the handler ran); replies NOT_FOUND itself and
+ * returns NULL. */
 static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp_buf *out)
 {
     st_error e;
     st_error_clear(&e);
-    if (st_name_check(name, strlen(name), &e) != 0) {
-        sts_reply_st(out, h, ST_EPERM, e.msg);
-        return NULL;
-    }
     st_setref *ref = NULL;
     if (st_registry_get(c->srv->reg, name, &ref, &e) != 0) {
         sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
@@ -212,6 +210,33 @@ int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
      offsetof(st_query, u) == 4 && offsetof(st_query, dudx) == 12 &&                         \
      offsetof(st_query, dvdy) == 24)
 
+/* The wire's modes, filters, zero rules and per-query statuses (protocol/proto_lists.h) are
+ * handed to the sampler and back as they are, and set kinds and texel types are sent as the
+ * store has them: each wire value must be the store's value of the same name (store/sample.h,
+ * store/set.h). */
+#define SAME(a, b, what) _Static_assert((int)(a) == (int)(b), what);
+#define SAME_MODE(NAME, str, v)   SAME(STP_MODE_##NAME, ST_MODE_##NAME, "mode " str)
+#define SAME_FILTER(NAME, str, v) SAME(STP_FILTER_##NAME, ST_FILTER_##NAME, "filter " str)
+#define SAME_ZERO(NAME, str, v)   SAME(STP_ZERO_##NAME, ST_ZERO_##NAME, "zero rule " str)
+#define SAME_QSTATUS(NAME, v)     SAME(STP_Q_##NAME, ST_Q_##NAME, "query status " #NAME)
+#define SAME_KIND(NAME, str, v)   SAME(STP_KIND_##NAME, ST_KIND_##NAME, "kind " str)
+#define SAME_DTYPE(NAME, str, v)  SAME(STP_DT_##NAME, ST_DT_##NAME, "dtype " str)
+STP_MODES(SAME_MODE)
+STP_FILTERS(SAME_FILTER)
+STP_ZERO_RULES(SAME_ZERO)
+STP_QSTATUSES(SAME_QSTATUS)
+STP_KINDS(SAME_KIND)
+STP_DTYPES(SAME_DTYPE)
+#undef SAME_MODE
+#undef SAME_FILTER
+#undef SAME_ZERO
+#undef SAME_QSTATUS
+#undef SAME_KIND
+#undef SAME_DTYPE
+#undef SAME
+
+/* Request parameters -> sampler options; -1 for a mode, filter or zero rule the protocol does
+ * not define (the sampler then never sees it). */
 static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
 {
     memset(o, 0, sizeof *o);
@@ -222,7 +247,8 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     o->sharpness = p->sharpness;
     o->width = p->width;
     o->blur = p->blur;
-    if (!st_mode_name(p->mode) || !st_filter_name(p->filter) || p->zero_rule > 1 ||
+    if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) ||
+        !stp_zero_rule_name(p->zero_rule) ||
         p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
         return -1;
     return 0;

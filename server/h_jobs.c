@@ -158,7 +158,7 @@ static void run_job(sts_server *srv, sts_job *j)
     if (rc == 0)
         rc = store_result(srv, j, bc1, &e);
     pthread_mutex_lock(&srv->jobs.mu);
-    j->result = (uint16_t)stp_status_from_st(rc);
+    j->result = (uint16_t)sts_status_from_st(rc);
     j->state = rc == 0 ? STP_JOB_DONE : rc == ST_ECANCELED ? STP_JOB_CANCELED : STP_JOB_FAILED;
     if (rc == 0 && measured && q.nseams)
         snprintf(j->msg, sizeof j->msg, "created set '%s': PSNR %.2f dB inside charts; seam RMS "
@@ -276,12 +276,8 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     int st = stp_dec_compress_req(body, h->body_len, &rq, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    st_error e;
+    st_error e;   /* both names follow the name rule: stp_dec_compress_req checked them */
     st_error_clear(&e);
-    if (st_name_check(rq.name, strlen(rq.name), &e) || st_name_check(rq.target, strlen(rq.target), &e)) {
-        sts_reply_st(out, h, ST_EPERM, e.msg);
-        return 0;
-    }
     if (rq.level > 9)
         return sts_reply_bad(out, h, STP_S_INVALID, "level must be 0..9");
     st_setref *src = NULL;
@@ -305,7 +301,7 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
         return 0;
     }
     j->src = src;
-    snprintf(j->target, sizeof j->target, "%.64s", rq.target);
+    snprintf(j->target, sizeof j->target, "%s", rq.target);
     j->level = rq.level;
     j->flags = rq.flags;
     j->state = STP_JOB_QUEUED;
@@ -434,7 +430,7 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     st_error e;
     st_error_clear(&e);
     st_setref *ref = NULL;
-    if (st_name_check(rq.name, strlen(rq.name), &e) || st_registry_get(srv->reg, rq.name, &ref, &e)) {
+    if (st_registry_get(srv->reg, rq.name, &ref, &e)) {   /* the decoder checked the name */
         sts_reply_st(out, h, e.code ? e.code : ST_ENOTFOUND, e.msg);
         return 0;
     }

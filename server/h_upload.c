@@ -186,12 +186,8 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     int st = stp_dec_upload_begin(body, h->body_len, &rq, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    st_error e;
+    st_error e;   /* rq.name follows the name rule: stp_dec_upload_begin checked it */
     st_error_clear(&e);
-    if (st_name_check(rq.name, strlen(rq.name), &e) != 0) {
-        sts_reply_st(out, h, ST_EPERM, e.msg);
-        return 0;
-    }
     if (rq.hint[0] && st_format_check(rq.hint, &e) != 0) {
         sts_reply_st(out, h, ST_EINVAL, e.msg);
         return 0;
@@ -240,7 +236,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         return 0;
     }
     u->fd = -1;
-    snprintf(u->name, sizeof u->name, "%.64s", rq.name);
+    snprintf(u->name, sizeof u->name, "%s", rq.name);
     snprintf(u->hint, sizeof u->hint, "%s", rq.hint);
     snprintf(u->fmt, sizeof u->fmt, "%s", rq.hint);
     snprintf(u->options, sizeof u->options, "%s", rq.options);
@@ -496,12 +492,8 @@ int sts_h_delete(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
     int st = stp_dec_name_req(body, h->body_len, name, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    st_error e;
+    st_error e;   /* name follows the name rule: stp_dec_name_req checked it */
     st_error_clear(&e);
-    if (st_name_check(name, strlen(name), &e) != 0) {
-        sts_reply_st(out, h, ST_EPERM, e.msg);
-        return 0;
-    }
     int rc = ST_ENOTFOUND;
     if (srv->dd)
         rc = st_datadir_delete(srv->dd, name, unpublish_cb, srv, &e);

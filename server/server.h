@@ -131,7 +131,7 @@ typedef struct sts_handler {
     sts_handler_fn fn;
 } sts_handler;
 
-/* The entry for an opcode, NULL when unknown. */
+/* The entry for an opcode, NULL when unknown (one array lookup). */
 const sts_handler *sts_handler_find(unsigned op);
 
 /* Decides and runs one parsed request: error replies for unknown opcodes and missing tokens,
@@ -145,6 +145,8 @@ void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *
  * handler can `return sts_reply_bad(...)`. */
 int sts_reply_bad(stp_buf *out, const stp_header *h, int status, const char *why);
 void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *msg);
+/* The wire status of a store code (0 or ST_E*); INTERNAL for an unknown code. */
+int sts_status_from_st(int st_code);
 
 /* ---- h_basic.c, h_upload.c, h_jobs.c: the handlers (see the table in dispatch.c) ---------- */
 int sts_h_hello(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);

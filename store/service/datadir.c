@@ -29,7 +29,7 @@
 
 struct st_datadir {
     pthread_mutex_t mu;
-    char            root[PATHCAP - 200];
+    char            root[PATHCAP - 512];   /* leaves room for sets/<255-byte name>/<file> */
     uint64_t        counter;  /* atomic; makes ids unique inside this process */
 };
 
@@ -37,8 +37,9 @@ const char *st_datadir_path(const st_datadir *d) { return d->root; }
 
 /* ---- small helpers ------------------------------------------------------------------------ */
 
-/* snprintf into a PATHCAP buffer. The root is at most PATHCAP - 200 bytes and names are at
- * most 64, so paths fit; vsnprintf truncates safely if they ever do not. */
+/* snprintf into a PATHCAP buffer. The root is at most PATHCAP - 512 bytes, a set name at most
+ * 255 and the files inside a set directory under 100, so paths fit; vsnprintf truncates
+ * safely if they ever do not. */
 static void pathf(char *out, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void pathf(char *out, const char *fmt, ...)
 {
@@ -118,6 +119,14 @@ static void new_id(st_datadir *d, char *out, size_t cap)
     uint64_t c = __atomic_add_fetch(&d->counter, 1, __ATOMIC_RELAXED);
     snprintf(out, cap, "%" PRIx64 "-%x-%" PRIx64,
              (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec, (unsigned)getpid(), c);
+}
+
+/* "<dir>/<name>.<id>" for trash/ and broken/, the name cut so that the last component fits
+ * NAME_MAX (255 bytes): a 255-byte set name plus its id would not. */
+static void aside_path(char *out, const char *dir, const char *name, const char *id)
+{
+    size_t keep = 255 - 1 - strlen(id);
+    pathf(out, "%s/%.*s.%s", dir, (int)keep, name, id);
 }
 
 int st_format_check(const char *fmt, st_error *e)
@@ -432,7 +441,7 @@ int st_datadir_delete(st_datadir *d, const char *name,
     pathf(sets, "%s/sets", d->root);
     pathf(trash, "%s/trash", d->root);
     pathf(setdir, "%s/%s", sets, name);
-    pathf(dst, "%s/%s.%s", trash, name, id);
+    aside_path(dst, trash, name, id);
     pthread_mutex_lock(&d->mu);
     if (rename(setdir, dst) != 0) {
         int err = errno;
@@ -458,9 +467,10 @@ static int cmp_str(const void *a, const void *b)
 
 static void move_broken(st_datadir *d, const char *name, const char *setdir)
 {
-    char dst[PATHCAP], id[64];
+    char dst[PATHCAP], broken[PATHCAP], id[64];
     new_id(d, id, sizeof id);
-    pathf(dst, "%s/broken/%s.%s", d->root, name, id);
+    pathf(broken, "%s/broken", d->root);
+    aside_path(dst, broken, name, id);
     if (rename(setdir, dst) != 0)
         rm_rf(setdir);  /* cannot move it: still never load it half-way */
 }

@@ -9,9 +9,12 @@
  *   <dir>/sets/<name>/manifest              what the set is (text, see below)
  *   <dir>/sets/<name>/source-<id>.<ext>     the uploaded bytes, exactly as received
  *   <dir>/tmp/                              uploads in progress, manifest temp files; emptied at open
- *   <dir>/trash/                            deleted sets on their way out; emptied at open
- *   <dir>/broken/                           sets that failed their checksum or import at load,
+ *   <dir>/trash/<name>.<id>                 deleted sets on their way out; emptied at open
+ *   <dir>/broken/<name>.<id>                sets that failed their checksum or import at load,
  *                                           moved aside (never silently dropped)
+ * In trash/ and broken/ the name is cut so that "<name>.<id>" fits NAME_MAX (255 bytes).
+ * A set name (1..255 bytes, protocol/stp_name.h) is a plain file name, so sets/<name> is one
+ * directory entry of at most NAME_MAX bytes; the root may be up to PATHCAP - 512 bytes.
  *
  * Commit protocol (every acknowledged upload is on disk before the reply):
  *   1. the upload is written to tmp/<id>.part and fsynced;
@@ -39,11 +42,12 @@
 #include <stdint.h>
 
 #include "err.h"
+#include "stp_name.h"
 
 typedef struct st_datadir st_datadir;
 
 typedef struct st_manifest {
-    char     name[65];
+    char     name[STP_MAX_NAME + 1];
     char     source[96];     /* file name inside the set directory */
     char     format[16];     /* the extension the importer keys on: "ptx", "png", ... */
     uint64_t bytes;

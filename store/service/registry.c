@@ -20,22 +20,16 @@ struct st_registry {
 
 int st_name_check(const char *name, size_t len, st_error *e)
 {
-    if (!name || len == 0)
-        return st_fail(e, ST_EPERM, "set name is empty");
-    if (len > ST_NAME_MAX)
-        return st_fail(e, ST_EPERM, "set name is %zu bytes, the limit is %d", len, ST_NAME_MAX);
-    if (name[0] == '.')
-        return st_fail(e, ST_EPERM, "set name must not start with '.'");
-    for (size_t i = 0; i < len; i++) {
-        unsigned char c = (unsigned char)name[i];
-        int ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                 c == '.' || c == '_' || c == '-';
-        if (!ok)
-            return st_fail(e, ST_EPERM,
-                           "set name has byte 0x%02x at offset %zu; allowed: A-Z a-z 0-9 . _ -",
-                           c, i);
-    }
-    return 0;
+    size_t at = 0;
+    int problem = stp_name_check(name, len, &at);
+    if (problem == STP_NAME_OK)
+        return 0;
+    if (problem == STP_NAME_TOO_LONG)
+        return st_fail(e, ST_EINVAL, "set name is %zu bytes, the limit is %d", len, ST_NAME_MAX);
+    if (problem == STP_NAME_BAD_BYTE)
+        return st_fail(e, ST_EINVAL, "set name has byte 0x%02x at offset %zu; allowed: A-Z a-z "
+                       "0-9 . _ -", (unsigned char)name[at], at);
+    return st_fail(e, ST_EINVAL, "%s", stp_name_problem_text(problem));
 }
 
 st_registry *st_registry_create(void)
@@ -171,7 +165,7 @@ int st_registry_get(st_registry *r, const char *name, st_setref **out, st_error 
     }
     pthread_mutex_unlock(&r->mu);
     if (!*out)
-        return st_fail(e, ST_ENOTFOUND, "no set named '%.64s'", name);
+        return st_fail(e, ST_ENOTFOUND, "no set named '%.200s'", name);
     return 0;
 }
 
@@ -187,7 +181,7 @@ int st_registry_remove(st_registry *r, const char *name, st_error *e)
     }
     pthread_mutex_unlock(&r->mu);
     if (!old)
-        return st_fail(e, ST_ENOTFOUND, "no set named '%.64s'", name);
+        return st_fail(e, ST_ENOTFOUND, "no set named '%.200s'", name);
     st_setref_release(old);
     return 0;
 }

@@ -1,8 +1,9 @@
 /* store/service/registry.h - the named-set registry: the sets a daemon serves, by name.
  *
- * Owns: the name -> set table, reference counting of published sets, set-name validation
- * (the ONE place that decides what a valid name is). Does not own: files (datadir.c), sockets,
- * importing (import.c), sampling (sample.c).
+ * Owns: the name -> set table, reference counting of published sets, applying the set-name
+ * rule to every name it publishes (st_name_check). Does not own: the rule itself (one
+ * implementation, protocol/stp_name.h: header-only and libc-only, so the store links nothing
+ * of protocol/), files (datadir.c), sockets, importing (import.c), sampling (sample.c).
  *
  * Threading: every function is thread-safe. A reader takes a reference with
  * st_registry_get and samples the set for as long as it holds it; an upload may meanwhile
@@ -21,11 +22,13 @@
 
 #include "err.h"
 #include "set.h"
+#include "stp_name.h"
 
-#define ST_NAME_MAX 64  /* bytes, not counting the NUL */
+#define ST_NAME_MAX STP_MAX_NAME  /* 255 bytes, not counting the NUL */
 
-/* Returns 0 when name is a valid set name: 1..64 bytes of [A-Za-z0-9._-], not starting with
- * '.' (so never "." or ".." and never a hidden file), else ST_EPERM with a message saying why. */
+/* Returns 0 when the len bytes at name are a valid set name (stp_name.h: 1..255 bytes of
+ * [A-Za-z0-9._-], not starting with '.', so never "." or ".." and never a hidden file), else
+ * ST_EINVAL with a message saying why. */
 int st_name_check(const char *name, size_t len, st_error *e);
 
 /* What a reader gets: the set, its name and identity. Immutable while referenced. */

@@ -13,6 +13,7 @@
 
 #include "err.h"
 #include "proto.h"
+#include "registry.h"
 #include "sample.h"
 #include "seamtex.h"
 
@@ -816,9 +817,9 @@ static void strings_with_nul_or_over_the_cap_are_refused(void **state)
     stp_wr16(body, 3);
     memcpy(body + 2, "a\0b", 3);
     assert_int_equal(stp_dec_name_req(body, 5, name, NULL), STP_S_BAD_REQUEST);
-    stp_wr16(body, 256);                    /* one over STP_MAX_NAME */
-    memset(body + 2, 'a', 256);
-    assert_int_equal(stp_dec_name_req(body, 258, name, NULL), STP_S_BAD_REQUEST);
+    stp_wr16(body, 256);                    /* one over STP_MAX_NAME: a well-formed body */
+    memset(body + 2, 'a', 256);             /* with a name the rule refuses */
+    assert_int_equal(stp_dec_name_req(body, 258, name, NULL), STP_S_INVALID);
     stp_wr16(body, 255);
     assert_int_equal(stp_dec_name_req(body, 257, name, NULL), 0);
     assert_int_equal(strlen(name), 255);
@@ -950,43 +951,229 @@ static void crc32c_matches_check_value_and_both_paths_agree(void **state)
     free(d);
 }
 
-static void names_and_status_mapping(void **state)
+static void status_and_opcode_names_come_from_the_lists(void **state)
 {
     (void)state;
-    assert_true(stp_name_valid("a"));
-    assert_true(stp_name_valid("Tex_01.ptx-v2"));
-    assert_false(stp_name_valid(""));
-    assert_false(stp_name_valid(".hidden"));
-    assert_false(stp_name_valid("../etc"));
-    assert_false(stp_name_valid("a/b"));
-    assert_false(stp_name_valid("sp ace"));
-    char longname[300];
-    memset(longname, 'a', 256);
-    longname[256] = 0;
-    assert_false(stp_name_valid(longname));
-    longname[255] = 0;
-    assert_true(stp_name_valid(longname));
-
-    assert_int_equal(stp_status_from_st(ST_OK), STP_S_OK);
-    assert_int_equal(stp_status_from_st(ST_ENOTFOUND), STP_S_NOT_FOUND);
-    assert_int_equal(stp_status_from_st(ST_ECORRUPT), STP_S_CORRUPT);
-    assert_int_equal(stp_status_from_st(ST_EPERM), STP_S_PERM);
-    assert_int_equal(stp_status_from_st(ST_ETOOBIG), STP_S_TOO_LARGE);
-    assert_int_equal(stp_status_from_st(-99), STP_S_INTERNAL);
-    for (int code = ST_ECODE_MIN; code <= 0; code++)
-        assert_int_not_equal(stp_status_from_st(code), STP_S_INTERNAL);
     for (unsigned s = 0; s < STP_S_COUNT_; s++)
         assert_string_not_equal(stp_status_name(s), "?");
     assert_string_equal(stp_status_name(STP_S_COUNT_), "?");
+    assert_string_equal(stp_status_name(STP_S_INVALID), "INVALID");
+    assert_string_equal(stp_status_name(STP_S_UNKNOWN_OPCODE), "UNKNOWN_OPCODE");
     /* the client's enum is the server status, negated and offset */
     assert_int_equal(STC_ENOTFOUND, -(STC_SERVER_BASE + STP_S_NOT_FOUND));
     assert_int_equal(STC_ETOOLARGE, -(STC_SERVER_BASE + STP_S_TOO_LARGE));
     assert_int_equal(STC_EPERM, -(STC_SERVER_BASE + STP_S_PERM));
+    assert_int_equal(STC_ESHUTDOWN, -(STC_SERVER_BASE + STP_S_SHUTDOWN));
     assert_int_equal(stc_server_status(STC_ECORRUPT), STP_S_CORRUPT);
     assert_string_equal(stc_strerror(STC_ENOTFOUND), "NOT_FOUND");
     assert_string_equal(stc_strerror(STC_ETIMEDOUT), "ETIMEDOUT");
-    assert_true(stp_opcode_mutating(STP_OP_DELETE));
-    assert_false(stp_opcode_mutating(STP_OP_SAMPLE));
+    assert_string_equal(stc_strerror(STC_ECANCELED), "ECANCELED");
+    assert_string_equal(stc_strerror(STC_OK), "OK");
+    assert_string_equal(stc_strerror(-50), "E?");
+    /* opcodes: names, mutating flags as PROTOCOL.md section 4 lists them */
+    static const struct { unsigned op; const char *name; int mut; } ops[] = {
+        {0x01, "HELLO", 0}, {0x02, "PING", 0}, {0x03, "LIST", 0}, {0x04, "INFO", 0},
+        {0x05, "SAMPLE", 0}, {0x06, "SAMPLE_DIR", 0}, {0x07, "STATS", 0},
+        {0x10, "UPLOAD_BEGIN", 1}, {0x11, "UPLOAD_CHUNK", 1}, {0x12, "UPLOAD_COMMIT", 1},
+        {0x13, "UPLOAD_ABORT", 1}, {0x14, "UPLOAD_STATUS", 0}, {0x15, "DELETE", 1},
+        {0x20, "COMPRESS", 1}, {0x21, "JOB_STATUS", 0}, {0x22, "JOB_CANCEL", 1},
+        {0x23, "FETCH_OPEN", 0}, {0x24, "FETCH_READ", 0}, {0x25, "FETCH_CLOSE", 0},
+    };
+    unsigned named = 0;
+    for (unsigned op = 0; op < 256; op++)
+        named += stp_opcode_name(op) != NULL;
+    assert_int_equal(named, sizeof ops / sizeof ops[0]);
+    for (size_t i = 0; i < sizeof ops / sizeof ops[0]; i++) {
+        assert_string_equal(stp_opcode_name(ops[i].op), ops[i].name);
+        assert_int_equal(stp_opcode_mutating(ops[i].op), ops[i].mut);
+    }
+    assert_null(stp_opcode_name(0x08));
+    assert_false(stp_opcode_mutating(0x99));
+}
+
+/* The protocol's value lists round-trip, and agree with the store's names and numbers (the
+ * wire values ARE the store's; the daemon checks the numbers at compile time too). */
+static void value_lists_round_trip_and_match_the_store(void **state)
+{
+    (void)state;
+    unsigned nmodes = 0, nfilters = 0;
+    for (unsigned v = 0; v < 256; v++) {
+        const char *m = stp_mode_name(v), *f = stp_filter_name(v);
+        if (m) {
+            nmodes++;
+            assert_int_equal(stp_mode_parse(m), (int)v);
+            assert_string_equal(m, st_mode_name(v));
+        } else {
+            assert_null(st_mode_name(v));
+        }
+        if (f) {
+            nfilters++;
+            assert_int_equal(stp_filter_parse(f), (int)v);
+            assert_string_equal(f, st_filter_name(v));
+        } else {
+            assert_null(st_filter_name(v));
+        }
+    }
+    assert_int_equal(nmodes, 3);
+    assert_int_equal(nfilters, 12);
+    assert_int_equal(stp_mode_parse("traverse"), ST_MODE_TRAVERSE);
+    assert_int_equal(stp_filter_parse("ptex-mitchell"), ST_FILTER_PTEX_MITCHELL);
+    assert_int_equal(stp_filter_parse("ptex_bilinear"), ST_FILTER_PTEX_BILINEAR);
+    assert_int_equal(stp_filter_parse("nope"), -1);
+    assert_int_equal(stp_filter_parse(NULL), -1);
+    assert_int_equal(stp_mode_parse(NULL), -1);
+    assert_int_equal(stp_zero_rule_parse("clamp"), ST_ZERO_CLAMP);
+    assert_int_equal(stp_zero_rule_parse("nan"), ST_ZERO_NAN);
+    assert_int_equal(stp_zero_rule_parse("x"), -1);
+    assert_int_equal(stp_outfmt_parse("unorm16"), STP_OUT_UNORM16);
+    assert_string_equal(stp_outfmt_name(STP_OUT_UNORM8), "unorm8");
+    assert_int_equal(stp_outfmt_size(STP_OUT_F32), 4);
+    assert_int_equal(stp_outfmt_size(STP_OUT_UNORM16), 2);
+    assert_int_equal(stp_outfmt_size(3), 0);
+    assert_string_equal(stp_qstatus_name(ST_Q_ZERO_COVERAGE), "ZERO_COVERAGE");
+    assert_string_equal(stp_qstatus_name(ST_Q_OK), "OK");
+    assert_string_equal(stp_qstatus_name(5), "?");
+    assert_string_equal(stp_kind_name(ST_KIND_ATLAS), "atlas");
+    assert_string_equal(stp_dtype_name(ST_DT_HALF), "half");
+    assert_null(stp_kind_name(4));
+}
+
+/* The one set-name rule: 1..255 bytes of [A-Za-z0-9._-], the first not '.'. */
+static void set_names_follow_one_rule(void **state)
+{
+    (void)state;
+    static const struct { const char *name; int problem; } rows[] = {
+        {"a", STP_NAME_OK}, {"Tex_01.ptx-v2", STP_NAME_OK}, {"x..y", STP_NAME_OK},
+        {"a.", STP_NAME_OK}, {"-", STP_NAME_OK}, {"_", STP_NAME_OK},
+        {"", STP_NAME_EMPTY}, {".", STP_NAME_DOT}, {"..", STP_NAME_DOT},
+        {".hidden", STP_NAME_DOT}, {"../etc", STP_NAME_DOT}, {"a/b", STP_NAME_BAD_BYTE},
+        {"/abs", STP_NAME_BAD_BYTE}, {"sp ace", STP_NAME_BAD_BYTE}, {"a\\b", STP_NAME_BAD_BYTE},
+        {"caf\xc3\xa9", STP_NAME_BAD_BYTE}, {"\x80", STP_NAME_BAD_BYTE},
+        {"tab\t", STP_NAME_BAD_BYTE}, {"a:b", STP_NAME_BAD_BYTE},
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        const char *n = rows[i].name;
+        assert_int_equal(stp_name_check(n, strlen(n), NULL), rows[i].problem);
+        assert_int_equal(stp_name_valid(n, strlen(n)), rows[i].problem == STP_NAME_OK);
+        assert_int_equal(stp_name_valid_cstr(n), rows[i].problem == STP_NAME_OK);
+        assert_true(stp_name_problem_text(rows[i].problem)[0] || rows[i].problem == 0);
+    }
+    size_t at = 99;
+    assert_int_equal(stp_name_check("ab/c", 4, &at), STP_NAME_BAD_BYTE);
+    assert_int_equal(at, 2);
+    /* a NUL inside the length is a bad byte, not the end of the name */
+    assert_int_equal(stp_name_check("a\0b", 3, &at), STP_NAME_BAD_BYTE);
+    assert_int_equal(at, 1);
+    assert_false(stp_name_valid(NULL, 0));
+    assert_false(stp_name_valid_cstr(NULL));
+    /* 255 bytes is the longest name, 256 is one too many */
+    char longname[300];
+    memset(longname, 'a', sizeof longname);
+    assert_true(stp_name_valid(longname, 255));
+    assert_int_equal(stp_name_check(longname, 256, NULL), STP_NAME_TOO_LONG);
+    longname[255] = 0;
+    assert_true(stp_name_valid_cstr(longname));
+    longname[255] = 'a';
+    longname[256] = 0;
+    assert_false(stp_name_valid_cstr(longname));
+    /* the registry applies the same rule and says INVALID (ST_EINVAL) */
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_name_check("a/b", 3, &e), ST_EINVAL);
+    assert_non_null(strstr(e.msg, "0x2f"));
+    longname[255] = 0;
+    assert_int_equal(st_name_check(longname, 255, NULL), 0);
+}
+
+/* Request decoders hold every set name to the rule: a malformed name is INVALID (the body is
+ * well-formed), a body cut short is still BAD_REQUEST. */
+static void request_decoders_refuse_bad_names_as_invalid(void **state)
+{
+    (void)state;
+    static const char *const bad[] = {"", "../x", "a/b", ".hidden", "/abs", "\x80\x81",
+                                      "caf\xc3\xa9"};
+    static const size_t badlen[] = {0, 4, 3, 7, 4, 2, 5};
+    char big[300];
+    memset(big, 'n', sizeof big);
+    for (int k = 0; k < 9; k++) {
+        const char *n = k < 7 ? bad[k] : big;
+        size_t nl = k < 7 ? badlen[k] : k == 7 ? 256 : 255;
+        int want = k == 8 ? 0 : STP_S_INVALID;
+        uint8_t body[1200];
+        size_t bl;
+        const char *why = NULL;
+        /* name body (DELETE) */
+        body[0] = (uint8_t)nl; body[1] = (uint8_t)(nl >> 8);
+        memcpy(body + 2, n, nl);
+        bl = 2 + nl;
+        char name[STP_MAX_NAME + 1];
+        assert_int_equal(stp_dec_name_req(body, bl, name, &why), want);
+        if (want)
+            assert_non_null(strstr(why, "set name"));
+        else
+            assert_int_equal(strlen(name), 255);
+        /* INFO */
+        memset(body + bl, 0, 8);
+        stp_info_req ir;
+        assert_int_equal(stp_dec_info_req(body, bl + 8, &ir, &why), want);
+        /* FETCH_OPEN */
+        body[bl] = 0;
+        stp_fetch_open fo;
+        assert_int_equal(stp_dec_fetch_open(body, bl + 1, &fo, &why), want);
+        /* COMPRESS: a bad source, then a bad target */
+        stp_compress_req cr;
+        uint8_t cb[600];
+        cb[0] = (uint8_t)nl; cb[1] = (uint8_t)(nl >> 8);
+        memcpy(cb + 2, n, nl);
+        size_t cl = 2 + nl;
+        cb[cl++] = 1; cb[cl++] = 0; cb[cl++] = 't';
+        cb[cl++] = 0; cb[cl++] = 0;
+        assert_int_equal(stp_dec_compress_req(cb, cl, &cr, &why), want);
+        cb[0] = 1; cb[1] = 0; cb[2] = 's';
+        cl = 3;
+        cb[cl++] = (uint8_t)nl; cb[cl++] = (uint8_t)(nl >> 8);
+        memcpy(cb + cl, n, nl);
+        cl += nl;
+        cb[cl++] = 0; cb[cl++] = 0;
+        assert_int_equal(stp_dec_compress_req(cb, cl, &cr, &why), want);
+        if (want)
+            assert_non_null(strstr(why, "target name"));
+        /* UPLOAD_BEGIN */
+        stp_buf b;
+        stp_buf_init(&b);
+        stp_upload_begin ub;
+        memset(&ub, 0, sizeof ub);
+        strcpy(ub.name, "ok");
+        assert_int_equal(stp_enc_upload_begin(&b, 1, 0, &ub), 0);
+        /* swap the name "ok" (bytes 24+2..) for n */
+        uint8_t ubody[1400];
+        size_t ulen = stp_buf_avail(&b) - STP_HEADER_SIZE - 4;
+        ubody[0] = (uint8_t)nl; ubody[1] = (uint8_t)(nl >> 8);
+        memcpy(ubody + 2, n, nl);
+        memcpy(ubody + 2 + nl, stp_buf_head(&b) + STP_HEADER_SIZE + 4, ulen);
+        stp_upload_begin ubd;
+        assert_int_equal(stp_dec_upload_begin(ubody, 2 + nl + ulen, &ubd, &why), want);
+        /* SAMPLE with no queries */
+        stp_buf_clear(&b);
+        stp_sample_req sr;
+        memset(&sr, 0, sizeof sr);
+        strcpy(sr.p.name, "ok");
+        assert_int_equal(stp_enc_sample_req(&b, 1, 0, &sr), 0);
+        size_t slen = stp_buf_avail(&b) - STP_HEADER_SIZE - 4;
+        memcpy(ubody + 2 + nl, stp_buf_head(&b) + STP_HEADER_SIZE + 4, slen);
+        stp_sample_req srd;
+        assert_int_equal(stp_dec_sample_req(ubody, 2 + nl + slen, 16, &srd, &why), want);
+        assert_int_equal(stp_dec_sample_dir_req(ubody, 2 + nl + slen, 16, &srd, &why), want);
+        stp_buf_free(&b);
+    }
+    /* a body cut inside the name is malformed, not an invalid name; so is a NUL byte in it,
+     * as in every str16 (PROTOCOL.md 1) */
+    uint8_t cut[4] = {9, 0, 'a', 'b'};
+    char name[STP_MAX_NAME + 1];
+    const char *why = NULL;
+    assert_int_equal(stp_dec_name_req(cut, sizeof cut, name, &why), STP_S_BAD_REQUEST);
+    uint8_t nul[5] = {3, 0, 'a', 0, 'b'};
+    assert_int_equal(stp_dec_name_req(nul, sizeof nul, name, &why), STP_S_BAD_REQUEST);
 }
 
 int main(void)
@@ -1015,7 +1202,10 @@ int main(void)
         cmocka_unit_test(sample_example_matches_protocol_md),
         cmocka_unit_test(frames_survive_buffer_compaction),
         cmocka_unit_test(crc32c_matches_check_value_and_both_paths_agree),
-        cmocka_unit_test(names_and_status_mapping),
+        cmocka_unit_test(status_and_opcode_names_come_from_the_lists),
+        cmocka_unit_test(value_lists_round_trip_and_match_the_store),
+        cmocka_unit_test(set_names_follow_one_rule),
+        cmocka_unit_test(request_decoders_refuse_bad_names_as_invalid),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -50,7 +50,7 @@ static void set_names_follow_one_rule(void **state)
         {"", 0}, {".", 0}, {"..", 0}, {".hidden", 0}, {"a/b", 0}, {"../etc", 0},
         {"a b", 0}, {"a\\b", 0}, {"caf\xc3\xa9", 0}, {"tab\t", 0},
         {"0123456789012345678901234567890123456789012345678901234567890123", 1},   /* 64 */
-        {"01234567890123456789012345678901234567890123456789012345678901234", 0},  /* 65 */
+        {"01234567890123456789012345678901234567890123456789012345678901234", 1},  /* 65 */
     };
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
         st_error e;
@@ -60,12 +60,17 @@ static void set_names_follow_one_rule(void **state)
             fprintf(stderr, "name '%s': rc %d (%s)\n", rows[i].name, rc, e.msg);
         assert_int_equal(rc == 0, rows[i].ok);
         if (!rows[i].ok) {
-            assert_int_equal(rc, ST_EPERM);
+            assert_int_equal(rc, ST_EINVAL);   /* the wire answers INVALID */
             assert_true(e.msg[0] != 0);
         }
     }
     /* an embedded NUL is refused too (length says 3) */
-    assert_int_equal(st_name_check("a\0b", 3, NULL), ST_EPERM);
+    assert_int_equal(st_name_check("a\0b", 3, NULL), ST_EINVAL);
+    /* the limit is 255 bytes (protocol/stp_name.h), as on the wire and in the data dir */
+    char big[257];
+    memset(big, 'b', sizeof big);
+    assert_int_equal(st_name_check(big, 255, NULL), 0);
+    assert_int_equal(st_name_check(big, 256, NULL), ST_EINVAL);
 }
 
 static void readers_keep_a_replaced_set_alive(void **state)
@@ -94,7 +99,7 @@ static void readers_keep_a_replaced_set_alive(void **state)
     assert_int_equal(st_registry_get(r, "s", &a, &e), ST_ENOTFOUND);
     assert_non_null(strstr(e.msg, "'s'"));
     /* bad names and the set cap */
-    assert_int_equal(st_registry_put(r, "../x", tiny_set(2), NULL, 0, NULL, NULL), ST_EPERM);
+    assert_int_equal(st_registry_put(r, "../x", tiny_set(2), NULL, 0, NULL, NULL), ST_EINVAL);
     assert_int_equal(st_registry_put(r, "one", tiny_set(2), NULL, 2, NULL, NULL), 0);
     assert_int_equal(st_registry_put(r, "two", tiny_set(2), NULL, 2, NULL, NULL), 0);
     assert_int_equal(st_registry_put(r, "three", tiny_set(2), NULL, 2, NULL, NULL), ST_EBUSY);
@@ -188,7 +193,7 @@ static int count_entries(const char *dir)
 }
 
 typedef struct loaded {
-    char names[16][65];
+    char names[16][ST_NAME_MAX + 1];
     char formats[16][16];
     int n, reports, busy_first;
 } loaded;
@@ -252,7 +257,7 @@ static void datadir_commits_replaces_deletes_and_reloads(void **state)
     int fd;
     assert_int_equal(st_datadir_tmpfile(d, p, sizeof p, &fd, NULL), 0);
     close(fd);
-    assert_int_equal(st_datadir_commit(d, "../evil", p, "ptx", "", 0, NULL, NULL, &e), ST_EPERM);
+    assert_int_equal(st_datadir_commit(d, "../evil", p, "ptx", "", 0, NULL, NULL, &e), ST_EINVAL);
     assert_int_equal(st_datadir_tmpfile(d, p, sizeof p, &fd, NULL), 0);
     assert_int_equal(write(fd, "abc", 3), 3);
     close(fd);
@@ -322,6 +327,45 @@ static void datadir_commits_replaces_deletes_and_reloads(void **state)
     nftw(root, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
 }
 
+/* A name of the longest legal length (255 bytes, NAME_MAX of the file system) is one
+ * directory entry: it commits, reloads, is set aside to broken/ and deleted through trash/,
+ * whose entries "<name>.<id>" would be too long if the name were not cut there. */
+static void datadir_takes_255_byte_names(void **state)
+{
+    (void)state;
+    char root[] = "/tmp/st-datadir-XXXXXX";
+    assert_non_null(mkdtemp(root));
+    char a[ST_NAME_MAX + 1], b[ST_NAME_MAX + 1];
+    memset(a, 'a', ST_NAME_MAX);
+    a[ST_NAME_MAX] = 0;
+    memcpy(b, a, sizeof b);
+    b[0] = 'b';
+    st_datadir *d = NULL;
+    st_error e;
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    assert_int_equal(commit_text(d, a, "long one", "ptx"), 0);
+    assert_int_equal(commit_text(d, a, "replaced", "ptx"), 0);
+    assert_int_equal(commit_text(d, b, "bad-import", "ptx"), 0);
+    st_datadir_close(d);
+
+    loaded l;
+    memset(&l, 0, sizeof l);
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    assert_int_equal(st_datadir_load(d, load_cb, &l, report_cb, &e), 1);
+    assert_string_equal(l.names[0], a);
+    assert_int_equal(l.reports, 1);            /* b failed its import: set aside, not lost */
+    char p[8192];
+    snprintf(p, sizeof p, "%s/broken", root);
+    assert_int_equal(count_entries(p), 1);
+    assert_int_equal(st_datadir_delete(d, a, NULL, NULL, &e), 0);
+    snprintf(p, sizeof p, "%s/sets", root);
+    assert_int_equal(count_entries(p), 0);
+    snprintf(p, sizeof p, "%s/trash", root);
+    assert_int_equal(count_entries(p), 0);
+    st_datadir_close(d);
+    nftw(root, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -329,6 +373,7 @@ int main(void)
         cmocka_unit_test(readers_keep_a_replaced_set_alive),
         cmocka_unit_test(concurrent_readers_survive_replace_and_delete),
         cmocka_unit_test(datadir_commits_replaces_deletes_and_reloads),
+        cmocka_unit_test(datadir_takes_255_byte_names),
     };
     return cmocka_run_group_tests_name("registry", tests, NULL, NULL);
 }
