@@ -48,6 +48,12 @@ int st_daemon_signal(st_daemon *d, int sig);
 /* Stops the daemon if running and removes the temp dir. */
 void st_daemon_cleanup(st_daemon *d);
 
+/* init + start in one call (for group setups); 0 or -1. */
+int st_daemon_up(st_daemon *d, const char *const *extra);
+
+/* stop (waiting up to timeout_ms) + cleanup; 0 when the daemon exited with status 0. */
+int st_daemon_down(st_daemon *d, int timeout_ms);
+
 /* Connects a blocking TCP socket to the daemon; fd or -1. */
 int st_daemon_connect(const st_daemon *d);
 

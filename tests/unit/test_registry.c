@@ -130,7 +130,7 @@ static void *reader(void *arg)
             assert_int_equal(v, (uint8_t)w);
             assert_int_equal(s->texels[(size_t)w * w - 1], (uint8_t)w);
             st_setref_release(ref);
-            x->reads++;
+            __atomic_fetch_add(&x->reads, 1, __ATOMIC_RELAXED);
         }
     }
     return NULL;
@@ -143,7 +143,10 @@ static void concurrent_readers_survive_replace_and_delete(void **state)
     pthread_t th[3];
     for (int i = 0; i < 3; i++)
         pthread_create(&th[i], NULL, reader, &x);
-    for (int k = 0; k < 3000; k++) {
+    /* 3000 replacements at least, and on until the readers have read (a loaded machine may
+     * not schedule them before the writer is done) */
+    for (int k = 0; k < 3000 || (__atomic_load_n(&x.reads, __ATOMIC_RELAXED) < 100 &&
+                                 k < 3000000); k++) {
         uint32_t w = 1u << (1 + k % 6);  /* 2..64 */
         st_set *s = tiny_set(w);
         memset(s->texels, (int)w, s->texel_bytes);
