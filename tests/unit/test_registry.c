@@ -19,6 +19,7 @@
 
 #include "datadir.h"
 #include "registry.h"
+#include "../common/testdata.h"
 
 static st_set *tiny_set(uint32_t w)
 {
@@ -163,11 +164,6 @@ static void concurrent_readers_survive_replace_and_delete(void **state)
 
 /* ---- data dir ------------------------------------------------------------------------------- */
 
-static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb; (void)ftw;
-    return flag == FTW_DP ? rmdir(p) : unlink(p);
-}
 
 static void write_file(const char *path, const char *text)
 {
@@ -322,7 +318,7 @@ static void datadir_commits_replaces_deletes_and_reloads(void **state)
     assert_int_equal(st_datadir_load(d, load_cb, &l, report_cb, &e), 1);
     assert_string_equal(l.names[0], "beta");
     st_datadir_close(d);
-    nftw(root, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+    st_test_rmtree(root);
 }
 
 int main(void)
