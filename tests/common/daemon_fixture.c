@@ -295,6 +295,21 @@ int st_daemon_down(st_daemon *d, int timeout_ms)
     return rc == 0 ? 0 : -1;
 }
 
+st_daemon ST_GROUP;
+const char *const *st_group_args;
+
+int st_group_setup(void **state)
+{
+    (void)state;
+    return st_daemon_up(&ST_GROUP, st_group_args);
+}
+
+int st_group_teardown(void **state)
+{
+    (void)state;
+    return st_daemon_down(&ST_GROUP, 15000);
+}
+
 int st_daemon_data_path(char *out, size_t cap, const char *rel)
 {
     const char *root = getenv("SEAMTEX_DATA");

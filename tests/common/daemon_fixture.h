@@ -60,6 +60,14 @@ int st_daemon_connect(const st_daemon *d);
 /* Prints the last lines of the daemon's log to stderr (for failure messages). */
 void st_daemon_dump_log(const st_daemon *d, int lines);
 
+/* One daemon shared by a cmocka group: st_group_setup starts ST_GROUP with the arguments in
+ * st_group_args (NULL-terminated; NULL for none), st_group_teardown stops it and fails the
+ * group unless it exited 0. Pass them to cmocka_run_group_tests. */
+extern st_daemon ST_GROUP;
+extern const char *const *st_group_args;
+int st_group_setup(void **state);
+int st_group_teardown(void **state);
+
 /* Writes the path of a file in the shared data folder (SEAMTEX_DATA, default ../shared/data)
  * into out; returns 0 when it exists, -1 otherwise. */
 int st_daemon_data_path(char *out, size_t cap, const char *rel);

@@ -6,35 +6,20 @@
  * frames are written byte by byte (tests/common/wire.h). Nothing here needs SEAMTEX_DATA.
  */
 #include <math.h>
-#include <poll.h>
-#include <pthread.h>
 #include <setjmp.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
-#include <sys/resource.h>
-#include <sys/socket.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
 
 #include "../common/daemon_client.h"
-#include "../common/daemon_fixture.h"
-#include "../common/ptx_fixture.h"
-#include "../common/testdata.h"
 #include "../common/wait.h"
 #include "../common/wire.h"
-#include "defaultset.h"
 #include "proto.h"
-#include "ptex.h"
 #include "sample.h"
-#include "seamtex.h"
 
 /* ---- helpers --------------------------------------------------------------------------------- */
 
@@ -59,22 +44,8 @@ static int wait_bytes_in(stc_conn *sc, uint64_t base, uint64_t more)
     return st_wait_until(read_enough, &b, 10000);
 }
 
-/* ---- one daemon with defaults (--heavy-batch 2048) shared by the group ------------------------ */
-
-static st_daemon D1;
-
-static int setup_default(void **state)
-{
-    (void)state;
-    const char *extra[] = {"--heavy-batch", "2048", NULL};
-    return st_daemon_up(&D1, extra);
-}
-
-static int teardown_default(void **state)
-{
-    (void)state;
-    return st_daemon_down(&D1, 15000);
-}
+/* the group's daemon: defaults, --heavy-batch 2048 (set in main) */
+#define D1 ST_GROUP
 
 /* ---- tests ---------------------------------------------------------------------------------- */
 
@@ -204,5 +175,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(malformed_frames_get_their_status),
     };
-    return cmocka_run_group_tests_name("server_frames", tests, setup_default, teardown_default);
+    static const char *const args[] = {"--heavy-batch", "2048", NULL};
+    st_group_args = args;
+    return cmocka_run_group_tests_name("server_frames", tests, st_group_setup,
+                                       st_group_teardown);
 }

@@ -6,36 +6,22 @@
  * Daemons on 127.0.0.1 port 0 (tests/common/daemon_fixture.h); what a test waits for it reads
  * from STATS (tests/common/daemon_client.h). Nothing here needs SEAMTEX_DATA.
  */
-#include <math.h>
 #include <poll.h>
-#include <pthread.h>
 #include <setjmp.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
-#include <stdint.h>
-#include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
 
 #include "../common/daemon_client.h"
-#include "../common/daemon_fixture.h"
 #include "../common/ptx_fixture.h"
-#include "../common/testdata.h"
 #include "../common/wait.h"
 #include "../common/wire.h"
-#include "defaultset.h"
 #include "proto.h"
-#include "ptex.h"
-#include "sample.h"
-#include "seamtex.h"
 
 /* ---- tests ---------------------------------------------------------------------------------- */
 

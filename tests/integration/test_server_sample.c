@@ -6,52 +6,21 @@
  * nothing here needs SEAMTEX_DATA.
  */
 #include <math.h>
-#include <poll.h>
-#include <pthread.h>
 #include <setjmp.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
-#include <stdint.h>
-#include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
-#include <sys/resource.h>
-#include <sys/socket.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
 
 #include "../common/daemon_client.h"
-#include "../common/daemon_fixture.h"
-#include "../common/ptx_fixture.h"
-#include "../common/testdata.h"
-#include "../common/wait.h"
-#include "../common/wire.h"
 #include "defaultset.h"
 #include "proto.h"
-#include "ptex.h"
 #include "sample.h"
-#include "seamtex.h"
 
-/* ---- one daemon with defaults (--heavy-batch 2048) shared by the group ------------------------ */
-
-static st_daemon D1;
-
-static int setup_default(void **state)
-{
-    (void)state;
-    const char *extra[] = {"--heavy-batch", "2048", NULL};
-    return st_daemon_up(&D1, extra);
-}
-
-static int teardown_default(void **state)
-{
-    (void)state;
-    return st_daemon_down(&D1, 15000);
-}
+/* the group's daemon: defaults, --heavy-batch 2048 (set in main) */
+#define D1 ST_GROUP
 
 /* ---- tests ---------------------------------------------------------------------------------- */
 
@@ -316,5 +285,8 @@ int main(void)
         cmocka_unit_test(split_batches_match_the_sampler_in_every_form),
         cmocka_unit_test(pipelined_requests_come_back_in_order),
     };
-    return cmocka_run_group_tests_name("server_sample", tests, setup_default, teardown_default);
+    static const char *const args[] = {"--heavy-batch", "2048", NULL};
+    st_group_args = args;
+    return cmocka_run_group_tests_name("server_sample", tests, st_group_setup,
+                                       st_group_teardown);
 }

@@ -6,53 +6,25 @@
  * settings (tests/common/daemon_fixture.h), on 127.0.0.1 port 0 with temp data dirs. Upload
  * data is made in-process (tests/common/ptx_fixture.h): nothing here needs SEAMTEX_DATA.
  */
-#include <math.h>
-#include <poll.h>
 #include <pthread.h>
 #include <setjmp.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
-#include <sys/resource.h>
-#include <sys/socket.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
 
 #include "../common/daemon_client.h"
-#include "../common/daemon_fixture.h"
 #include "../common/ptx_fixture.h"
-#include "../common/testdata.h"
 #include "../common/wait.h"
 #include "../common/wire.h"
-#include "defaultset.h"
 #include "proto.h"
 #include "ptex.h"
-#include "sample.h"
-#include "seamtex.h"
 
-/* ---- one daemon with defaults (--heavy-batch 2048) shared by the group ------------------------ */
-
-static st_daemon D1;
-
-static int setup_default(void **state)
-{
-    (void)state;
-    const char *extra[] = {"--heavy-batch", "2048", NULL};
-    return st_daemon_up(&D1, extra);
-}
-
-static int teardown_default(void **state)
-{
-    (void)state;
-    return st_daemon_down(&D1, 15000);
-}
+/* the group's daemon: defaults, --heavy-batch 2048 (set in main) */
+#define D1 ST_GROUP
 
 /* ---- helpers --------------------------------------------------------------------------------- */
 
@@ -397,5 +369,8 @@ int main(void)
         cmocka_unit_test(kept_uploads_expire_and_can_be_turned_off),
         cmocka_unit_test(concurrent_uploads_of_one_name_one_wins),
     };
-    return cmocka_run_group_tests_name("server_upload", tests, setup_default, teardown_default);
+    static const char *const args[] = {"--heavy-batch", "2048", NULL};
+    st_group_args = args;
+    return cmocka_run_group_tests_name("server_upload", tests, st_group_setup,
+                                       st_group_teardown);
 }
