@@ -1,7 +1,11 @@
 # seamtex - one non-recursive Makefile for the whole tree.
 #
 #   make            libraries, daemon, client, tools
-#   make test       unit + integration tests, bounded fuzz runs; ends with "N passed, N failed"
+#   make test       unit + integration tests and a bounded fuzz slice, in parallel (tests/run.sh);
+#                   ends with "N passed, N failed"
+#   make fuzz       a real fuzz campaign: every target FUZZ_SECONDS (600), corpora kept in
+#                   build/fuzz-corpus/
+#   make soak       the long SIGKILL durability soak: SEAMTEX_SOAK_SECONDS (600) of rounds
 #   make bench      every benchmark; figures printed and written to build/bench/*.json
 #   make run        the main job: daemon on loopback, default data set, a query, a short load test
 #   make asan       the tests again under AddressSanitizer + UBSan (build-san/)
@@ -138,6 +142,18 @@ test: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
 	@B=$(B) bash tests/run.sh
 
+# FUZZ_SECONDS per target (default 600); FUZZ_CORPUS_DIR keeps the corpora between campaigns.
+fuzz: deps
+	@$(MAKE) --no-print-directory -j$(NPROC) fuzz-build
+	@B=$(B) MODE=fuzz FUZZ_SECONDS=$${FUZZ_SECONDS:-600} TEST_JOBS=$${TEST_JOBS:-$(NPROC)} \
+		FUZZ_CORPUS_DIR=$${FUZZ_CORPUS_DIR:-$(CURDIR)/$(B)/fuzz-corpus} bash tests/run.sh
+
+# SEAMTEX_SOAK_SECONDS of SIGKILL rounds (default 600), at least SEAMTEX_SOAK_ROUNDS (default 4).
+soak: deps
+	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
+	@B=$(B) MODE=soak SEAMTEX_SOAK_SECONDS=$${SEAMTEX_SOAK_SECONDS:-600} \
+		TEST_TIMEOUT=$${TEST_TIMEOUT:-$$(( $${SEAMTEX_SOAK_SECONDS:-600} + 600 ))} bash tests/run.sh
+
 bench: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all bench-build
 	@B=$(B) bash tests/bench/run.sh
@@ -168,6 +184,7 @@ check-layout:
 clean:
 	rm -rf build build-san
 
-.PHONY: all deps test bench run asan install clean tests-build bench-build check-layout
+.PHONY: all deps test fuzz soak bench run asan install clean tests-build fuzz-build bench-build \
+	check-layout
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

@@ -1,11 +1,17 @@
 # tests/module.mk - test, benchmark and fuzz targets (included by the top Makefile).
 #
 #   tests/unit/test_*.c         one cmocka binary each, linked with every library
-#   tests/integration/test_*.c  the same, but they start seamtexd on loopback
-#   tests/common/*.c            helpers shared by tests and benchmarks (libtestutil.a)
+#   tests/integration/test_*.c  the same, but they start seamtexd on loopback (any new
+#                               test_*.c is built and run without listing it anywhere)
+#   tests/common/*.c            helpers shared by tests and benchmarks (libtestutil.a): the
+#                               daemon fixture, libseamtex and STATS helpers, raw frames,
+#                               wait-until, in-memory .ptx files, shared-data paths
 #   tests/bench/bench_*.c       benchmarks; tests/bench/run.sh runs them (make bench)
-#   tests/fuzz/fuzz_*.c         libFuzzer targets built with clang; tests/run.sh runs each
-#                               for a bounded time (FUZZ_SECONDS, default 20)
+#   tests/fuzz/fuzz_*.c         libFuzzer targets built with clang
+#
+# tests/run.sh runs them all in parallel: make test (every binary, each fuzz target for
+# FUZZ_SECONDS, default 8), make fuzz (fuzz targets only, 600 s each, corpora kept in
+# $(B)/fuzz-corpus/), make soak (test_durability for SEAMTEX_SOAK_SECONDS, default 600).
 
 # Tests see everything (they test every layer directly).
 INC_TESTS := -Itests/common -Iclient -Iserver -Iprotocol $(INC_STORE)
@@ -67,6 +73,7 @@ tests-build: $(TEST_BINS) $(ALL_BINS)
 else
 tests-build: $(TEST_BINS) $(ALL_BINS) $(FUZZ_BINS)
 endif
+fuzz-build: $(FUZZ_BINS)
 bench-build: $(BENCH_BINS) $(ALL_BINS)
 
 .SECONDARY:

@@ -1,10 +1,28 @@
 #!/usr/bin/env bash
-# tests/run.sh - runs every test binary and every fuzz target (bounded), then prints one
-# closing line "N passed, N failed". Called by `make test`; B names the build dir.
+# tests/run.sh - runs every test binary and every fuzz target (a bounded slice) in parallel,
+# then prints one line per binary and the closing line "N passed, N failed" (", N skipped"
+# follows when tests were skipped). Called by `make test` (and by `make fuzz` / `make soak`
+# with MODE=fuzz / MODE=soak); B names the build dir.
+#
+# Jobs: every $B/tests/unit/test_* and $B/tests/integration/test_* binary (new files are picked
+# up by themselves) plus every $B/fuzz/fuzz_* target, run by a pool of TEST_JOBS workers
+# (default nproc + 2: the integration tests mostly wait on sockets and daemons). Longest jobs
+# start first: the order comes from the durations of the last run ($B/test-logs/durations),
+# with fixed guesses for jobs never run. Each job writes its own log in $B/test-logs/; the
+# summary is printed in a fixed order (integration, unit, fuzz) once all are done. Ports are 0
+# and every daemon and scratch dir is a fresh mkdtemp, so jobs do not collide.
 #
 # Each cmocka binary reports in TAP; a binary that dies (signal, timeout) without reporting
-# every test counts as one more failure. Fuzz targets run FUZZ_SECONDS each on a fresh corpus
-# seeded from tests/fuzz/seeds/<target>/ when that folder exists.
+# every test counts as one more failure.
+#
+# Fuzz targets run FUZZ_SECONDS each (default 8 in make test) on a corpus seeded from
+# tests/fuzz/seeds/<target>/: a fresh temp copy, thrown away after, except with
+# FUZZ_CORPUS_DIR set (make fuzz: $B/fuzz-corpus/<target>/, kept from one campaign to the next).
+#
+# Environment: ONLY=substr (run only the jobs whose name contains it; "fuzz" matches every fuzz
+# target), TEST_TIMEOUT (seconds per binary, default 900), TEST_JOBS, FUZZ_SECONDS,
+# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak (fuzz: fuzz targets only; soak: test_durability only,
+# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through).
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -12,25 +30,136 @@ cd "$ROOT"
 export SEAMTEX_DATA=${SEAMTEX_DATA:-$ROOT/../shared/data}
 export SEAMTEX_BUILD=$ROOT/$B
 export CMOCKA_MESSAGE_OUTPUT=TAP
-FUZZ_SECONDS=${FUZZ_SECONDS:-20}
+MODE=${MODE:-test}
+FUZZ_SECONDS=${FUZZ_SECONDS:-8}
 TEST_TIMEOUT=${TEST_TIMEOUT:-900}
 ONLY=${ONLY:-}
+NPROC=$(nproc 2>/dev/null || echo 2)
+TEST_JOBS=${TEST_JOBS:-$((NPROC + 2))}
+FUZZ_CORPUS_DIR=${FUZZ_CORPUS_DIR:-}
 
 [ -d "$SEAMTEX_DATA" ] || echo "note: SEAMTEX_DATA=$SEAMTEX_DATA is missing: tests on shared data will be skipped" >&2
 
-pass=0 fail=0 skip=0
-failed_names=()
 log_dir=$B/test-logs
 mkdir -p "$log_dir"
+durations=$log_dir/durations
 
-for t in $(ls "$B"/tests/unit/test_* "$B"/tests/integration/test_* 2>/dev/null | grep -v '\.[od]$'); do
+# ---- the job list --------------------------------------------------------------------------
+jobs=()      # "kind path" in summary order
+if [ "$MODE" != fuzz ]; then
+    for t in $(ls "$B"/tests/integration/test_* "$B"/tests/unit/test_* 2>/dev/null | grep -v '\.[od]$'); do
+        name=$(basename "$t")
+        # a binary whose source is gone (renamed or split) is a leftover of an old build
+        src=tests/$(basename "$(dirname "$t")")/$name.c
+        [ -f "$src" ] || { echo "note: $t has no $src: not run (stale build)" >&2; continue; }
+        [ "$MODE" = soak ] && [ "$name" != test_durability ] && continue
+        [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && continue
+        jobs+=("test $t")
+    done
+fi
+if [ "$MODE" != soak ]; then
+    for f in $(ls "$B"/fuzz/fuzz_* 2>/dev/null | grep -v '\.[oad]$'); do
+        name=$(basename "$f")
+        [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && [[ "fuzz" != *$ONLY* ]] && continue
+        jobs+=("fuzz $f")
+    done
+fi
+
+# expected seconds of a job: the last run's, else a guess
+guess() {
+    local kind=$1 name=$2 secs=""
+    [ -f "$durations" ] && secs=$(awk -v n="$name" '$1 == n {s = $2} END {print s}' "$durations")
+    if [ -z "$secs" ]; then
+        case "$kind/$name" in
+            fuzz/*) secs=$FUZZ_SECONDS ;;
+            test/test_server*|test/test_durability|test/test_client|test/test_cli) secs=30 ;;
+            *) secs=5 ;;
+        esac
+    fi
+    [ "$kind" = fuzz ] && secs=$FUZZ_SECONDS
+    echo "$secs"
+}
+
+order=()     # the same jobs, longest first
+while read -r _ kind path; do
+    order+=("$kind $path")
+done < <(for j in "${jobs[@]}"; do
+             set -- $j
+             printf '%s %s %s\n' "$(guess "$1" "$(basename "$2")")" "$1" "$2"
+         done | sort -k1,1gr -s)
+
+# ---- one job -------------------------------------------------------------------------------
+# Writes $log_dir/<name>.log (the binary's output) and $log_dir/<name>.result ("rc secs").
+run_test() {
+    local t=$1 name log start rc secs
     name=$(basename "$t")
-    [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && continue
     log=$log_dir/$name.log
     start=$(date +%s.%N)
     timeout -k 10 "$TEST_TIMEOUT" "$t" >"$log" 2>&1
     rc=$?
     secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
+    echo "$rc $secs" >"$log_dir/$name.result"
+}
+
+run_fuzz() {
+    local f=$1 name log corpus rc start secs
+    name=$(basename "$f")
+    log=$log_dir/$name.log
+    if [ -n "$FUZZ_CORPUS_DIR" ]; then
+        corpus=$FUZZ_CORPUS_DIR/$name
+        mkdir -p "$corpus"
+    else
+        corpus=$(mktemp -d "${TMPDIR:-/tmp}/seamtex-fuzz-$name-XXXXXX")
+    fi
+    [ -d "tests/fuzz/seeds/$name" ] && cp -r "tests/fuzz/seeds/$name/." "$corpus/"
+    start=$(date +%s.%N)
+    timeout -k 10 $((FUZZ_SECONDS + 60)) "$f" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 \
+        -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
+    rc=$?
+    secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
+    [ -z "$FUZZ_CORPUS_DIR" ] && rm -rf "$corpus"
+    echo "$rc $secs" >"$log_dir/$name.result"
+}
+
+# ---- the pool --------------------------------------------------------------------------------
+t_all=$(date +%s.%N)
+running=0
+for j in "${order[@]}"; do
+    set -- $j
+    rm -f "$log_dir/$(basename "$2").result"
+    if [ "$running" -ge "$TEST_JOBS" ]; then
+        wait -n
+        running=$((running - 1))
+    fi
+    if [ "$1" = fuzz ]; then run_fuzz "$2" & else run_test "$2" & fi
+    running=$((running + 1))
+done
+wait
+
+# ---- the summary, in a fixed order -----------------------------------------------------------
+pass=0 fail=0 skip=0
+failed_names=()
+new_durations=$(mktemp)
+[ -f "$durations" ] && cp "$durations" "$new_durations"
+for j in "${jobs[@]}"; do
+    set -- $j
+    kind=$1 name=$(basename "$2")
+    log=$log_dir/$name.log
+    rc=1 secs=0
+    [ -f "$log_dir/$name.result" ] && read -r rc secs <"$log_dir/$name.result"
+    { grep -v "^$name " "$new_durations"; echo "$name $secs"; } >"$new_durations.tmp"
+    mv "$new_durations.tmp" "$new_durations"
+    if [ "$kind" = fuzz ]; then
+        runs=$(grep -oE 'Done [0-9]+ runs' "$log" 2>/dev/null | grep -oE '[0-9]+' | tail -1)
+        if [ "$rc" -eq 0 ]; then
+            pass=$((pass + 1)); printf '%-40s fuzzed %ss, %s runs, no crash\n' "$name" "$FUZZ_SECONDS" "${runs:-?}"
+        else
+            fail=$((fail + 1)); failed_names+=("$name")
+            printf '%-40s FAILED (exit %d), see %s\n' "$name" "$rc" "$log"
+            grep -E 'ERROR|SUMMARY' "$log" | head -5 | sed 's/^/    /'
+        fi
+        continue
+    fi
     p=$(grep -cE '^ok [0-9]+' "$log")
     s_ok=$(grep -cE '^ok [0-9]+ .*# SKIP' "$log")
     # cmocka 1.1 reports a skip() as "not ok N # SKIP": a skip, not a failure
@@ -38,8 +167,9 @@ for t in $(ls "$B"/tests/unit/test_* "$B"/tests/integration/test_* 2>/dev/null |
     f=$(grep -E '^not ok [0-9]+' "$log" | grep -vc '# SKIP')
     p=$((p - s_ok))
     if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
-    planned=$(grep -oE '^1\.\.[0-9]+' "$log" | head -1 | cut -d. -f3)
-    if [ -n "$planned" ] && [ $((p + s + f)) -lt "$planned" ] && [ "$f" -eq 0 ]; then f=1; fi
+    # a binary runs one or more groups: each prints its own plan "1..N"
+    planned=$(grep -oE '^1\.\.[0-9]+' "$log" | cut -d. -f3 | awk '{n += $1} END {print n + 0}')
+    if [ "$planned" -gt 0 ] && [ $((p + s + f)) -lt "$planned" ] && [ "$f" -eq 0 ]; then f=1; fi
     pass=$((pass + p)); fail=$((fail + f)); skip=$((skip + s))
     printf '%-40s %4d passed %3d failed %3d skipped  %6ss\n' "$name" "$p" "$f" "$s" "$secs"
     if [ "$f" -ne 0 ]; then
@@ -48,28 +178,10 @@ for t in $(ls "$B"/tests/unit/test_* "$B"/tests/integration/test_* 2>/dev/null |
         [ "$rc" -ne 0 ] && echo "    (exit status $rc; full log in $log)"
     fi
 done
+mv "$new_durations" "$durations"
 
-if [ -z "$ONLY" ] || [[ "fuzz" == *$ONLY* ]]; then
-for f in $(ls "$B"/fuzz/fuzz_* 2>/dev/null | grep -v '\.[oad]$'); do
-    name=$(basename "$f")
-    corpus=$(mktemp -d)
-    [ -d "tests/fuzz/seeds/$name" ] && cp -r "tests/fuzz/seeds/$name/." "$corpus/"
-    log=$log_dir/$name.log
-    timeout -k 10 $((FUZZ_SECONDS + 60)) "$f" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 \
-        -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
-    rc=$?
-    runs=$(grep -oE 'Done [0-9]+ runs' "$log" | grep -oE '[0-9]+' | tail -1)
-    rm -rf "$corpus"
-    if [ "$rc" -eq 0 ]; then
-        pass=$((pass + 1)); printf '%-40s fuzzed %ss, %s runs, no crash\n' "$name" "$FUZZ_SECONDS" "${runs:-?}"
-    else
-        fail=$((fail + 1)); failed_names+=("$name")
-        printf '%-40s FAILED (exit %d), see %s\n' "$name" "$rc" "$log"
-        grep -E 'ERROR|SUMMARY' "$log" | head -5 | sed 's/^/    /'
-    fi
-done
-fi
-
+wall=$(awk -v a="$t_all" -v b="$(date +%s.%N)" 'BEGIN{printf "%.0f", b-a}')
+echo "${#jobs[@]} jobs, $TEST_JOBS at a time, ${wall}s"
 [ ${#failed_names[@]} -gt 0 ] && echo "failed: ${failed_names[*]}"
 if [ "$skip" -gt 0 ]; then
     echo "$pass passed, $fail failed, $skip skipped"

@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include "../common/daemon_fixture.h"
+#include "../common/wire.h"
 #include "proto.h"
 #include "seamtex.h"
 
@@ -53,16 +54,6 @@ typedef struct echo {
     pthread_t th;
 } echo;
 
-static void send_all(int fd, const uint8_t *p, size_t n)
-{
-    while (n) {
-        ssize_t w = send(fd, p, n, MSG_NOSIGNAL);
-        if (w <= 0)
-            return;
-        p += w;
-        n -= (size_t)w;
-    }
-}
 
 static void *echo_main(void *arg)
 {
@@ -110,7 +101,7 @@ static void *echo_main(void *arg)
             }
             stp_buf_consume(&in, STP_HEADER_SIZE + h.body_len);
         }
-        send_all(fd, stp_buf_head(&out), stp_buf_avail(&out));
+        (void)st_wire_send_all(fd, stp_buf_head(&out), stp_buf_avail(&out));
         stp_buf_clear(&out);
     }
     if (fd >= 0)

@@ -14,6 +14,7 @@
 
 #include "ptex.h"
 #include "ptexfilter.h"
+#include "../common/testdata.h"
 
 static double now(void)
 {
@@ -32,24 +33,6 @@ static double median(double *v, int n)
 {
     qsort(v, (size_t)n, sizeof *v, cmpd);
     return v[n / 2];
-}
-
-static uint8_t *slurp(const char *path, size_t *len)
-{
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return NULL;
-    fseek(fp, 0, SEEK_END);
-    long n = ftell(fp);
-    rewind(fp);
-    uint8_t *b = malloc((size_t)n);
-    if (b && fread(b, 1, (size_t)n, fp) != (size_t)n) {
-        free(b);
-        b = NULL;
-    }
-    fclose(fp);
-    *len = (size_t)n;
-    return b;
 }
 
 static const char *files[] = {
@@ -81,7 +64,7 @@ int main(int argc, char **argv)
         char path[1024];
         snprintf(path, sizeof path, "%s/%s", dd, files[i]);
         size_t len;
-        uint8_t *b = slurp(path, &len);
+        uint8_t *b = st_test_read_file(path, &len);
         if (!b) {
             printf("%-22s missing (SEAMTEX_DATA=%s)\n", files[i], dd);
             continue;

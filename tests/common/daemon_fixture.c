@@ -4,7 +4,6 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
-#include <ftw.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <signal.h>
@@ -17,6 +16,9 @@
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "testdata.h"
+#include "wait.h"
 
 extern char **environ;
 
@@ -52,19 +54,6 @@ static void track(pid_t pid, int add)
             return;
         }
     }
-}
-
-static long long now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
-
-static void sleep_ms(int ms)
-{
-    struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
 }
 
 int st_daemon_init(st_daemon *d)
@@ -123,6 +112,44 @@ void st_daemon_dump_log(const st_daemon *d, int lines)
     fprintf(stderr, "----\n");
 }
 
+/* Waiting for a start: the daemon exited (status kept), or its port file names a port that
+ * accepts a connection. */
+typedef struct start_cond {
+    st_daemon *d;
+    pid_t pid;
+    const char *portfile;
+    int exited;
+} start_cond;
+
+static int started(void *arg)
+{
+    start_cond *sc = arg;
+    st_daemon *d = sc->d;
+    int status;
+    if (waitpid(sc->pid, &status, WNOHANG) == sc->pid) {
+        track(sc->pid, 0);
+        d->pid = 0;
+        d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+        sc->exited = 1;
+        return 1;
+    }
+    FILE *f = fopen(sc->portfile, "r");
+    if (f) {
+        int port = 0;
+        if (fscanf(f, "%d", &port) == 1 && port > 0)
+            d->port = port;
+        fclose(f);
+    }
+    if (d->port > 0) {
+        int fd = st_daemon_connect(d);
+        if (fd >= 0) {
+            close(fd);
+            return 1;
+        }
+    }
+    return 0;
+}
+
 int st_daemon_start(st_daemon *d, const char *const *extra)
 {
     if (d->pid > 0)
@@ -166,33 +193,15 @@ int st_daemon_start(st_daemon *d, const char *const *extra)
     d->pid = pid;
     track(pid, 1);
     d->port = 0;
-    long long deadline = now_ms() + 30000;
-    while (now_ms() < deadline) {
-        int status;
-        if (waitpid(pid, &status, WNOHANG) == pid) {
-            track(pid, 0);
-            d->pid = 0;
-            d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    start_cond sc = {d, pid, portfile, 0};
+    if (st_wait_until(started, &sc, 30000) == 0) {
+        if (sc.exited) {
             fprintf(stderr, "daemon_fixture: seamtexd exited at start (status %d)\n",
                     d->exit_status);
             st_daemon_dump_log(d, 20);
             return -1;
         }
-        FILE *f = fopen(portfile, "r");
-        if (f) {
-            int port = 0;
-            if (fscanf(f, "%d", &port) == 1 && port > 0)
-                d->port = port;
-            fclose(f);
-        }
-        if (d->port > 0) {
-            int fd = st_daemon_connect(d);
-            if (fd >= 0) {
-                close(fd);
-                return 0;
-            }
-        }
-        sleep_ms(10);
+        return 0;
     }
     fprintf(stderr, "daemon_fixture: seamtexd did not answer within 30 s\n");
     st_daemon_dump_log(d, 20);
@@ -200,27 +209,40 @@ int st_daemon_start(st_daemon *d, const char *const *extra)
     return -1;
 }
 
+/* Waiting for the daemon to exit: 1 once reaped (or lost: waitpid failed). */
+typedef struct reap_cond {
+    st_daemon *d;
+    int lost;
+} reap_cond;
+
+static int reaped(void *arg)
+{
+    reap_cond *rc = arg;
+    st_daemon *d = rc->d;
+    int status;
+    pid_t r = waitpid(d->pid, &status, WNOHANG);
+    if (r == d->pid) {
+        track(d->pid, 0);
+        d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+        d->pid = 0;
+        return 1;
+    }
+    if (r < 0 && errno != EINTR) {
+        track(d->pid, 0);
+        d->pid = 0;
+        rc->lost = 1;
+        return 1;
+    }
+    return 0;
+}
+
+/* The exit status, -1 when it was lost, -2 when the daemon still runs after timeout_ms. */
 static int reap(st_daemon *d, int timeout_ms)
 {
-    long long deadline = now_ms() + timeout_ms;
-    for (;;) {
-        int status;
-        pid_t r = waitpid(d->pid, &status, WNOHANG);
-        if (r == d->pid) {
-            track(d->pid, 0);
-            d->exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-            d->pid = 0;
-            return d->exit_status;
-        }
-        if (r < 0 && errno != EINTR) {
-            track(d->pid, 0);
-            d->pid = 0;
-            return -1;
-        }
-        if (now_ms() >= deadline)
-            return -2;
-        sleep_ms(5);
-    }
+    reap_cond rc = {d, 0};
+    if (st_wait_until(reaped, &rc, timeout_ms) != 0)
+        return -2;
+    return rc.lost ? -1 : d->exit_status;
 }
 
 int st_daemon_stop(st_daemon *d, int timeout_ms)
@@ -252,23 +274,40 @@ int st_daemon_signal(st_daemon *d, int sig)
     return d->pid > 0 ? kill(d->pid, sig) : -1;
 }
 
-static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb; (void)ftw;
-    if (flag == FTW_DP)
-        rmdir(p);
-    else
-        unlink(p);
-    return 0;
-}
-
 void st_daemon_cleanup(st_daemon *d)
 {
     if (d->pid > 0)
         st_daemon_stop(d, 10000);
     if (d->dir[0] && !getenv("SEAMTEX_KEEP_TMP"))
-        nftw(d->dir, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+        st_test_rmtree(d->dir);
     d->dir[0] = 0;
+}
+
+int st_daemon_up(st_daemon *d, const char *const *extra)
+{
+    return st_daemon_init(d) == 0 && st_daemon_start(d, extra) == 0 ? 0 : -1;
+}
+
+int st_daemon_down(st_daemon *d, int timeout_ms)
+{
+    int rc = st_daemon_stop(d, timeout_ms);
+    st_daemon_cleanup(d);
+    return rc == 0 ? 0 : -1;
+}
+
+st_daemon ST_GROUP;
+const char *const *st_group_args;
+
+int st_group_setup(void **state)
+{
+    (void)state;
+    return st_daemon_up(&ST_GROUP, st_group_args);
+}
+
+int st_group_teardown(void **state)
+{
+    (void)state;
+    return st_daemon_down(&ST_GROUP, 15000);
 }
 
 int st_daemon_data_path(char *out, size_t cap, const char *rel)

@@ -48,11 +48,25 @@ int st_daemon_signal(st_daemon *d, int sig);
 /* Stops the daemon if running and removes the temp dir. */
 void st_daemon_cleanup(st_daemon *d);
 
+/* init + start in one call (for group setups); 0 or -1. */
+int st_daemon_up(st_daemon *d, const char *const *extra);
+
+/* stop (waiting up to timeout_ms) + cleanup; 0 when the daemon exited with status 0. */
+int st_daemon_down(st_daemon *d, int timeout_ms);
+
 /* Connects a blocking TCP socket to the daemon; fd or -1. */
 int st_daemon_connect(const st_daemon *d);
 
 /* Prints the last lines of the daemon's log to stderr (for failure messages). */
 void st_daemon_dump_log(const st_daemon *d, int lines);
+
+/* One daemon shared by a cmocka group: st_group_setup starts ST_GROUP with the arguments in
+ * st_group_args (NULL-terminated; NULL for none), st_group_teardown stops it and fails the
+ * group unless it exited 0. Pass them to cmocka_run_group_tests. */
+extern st_daemon ST_GROUP;
+extern const char *const *st_group_args;
+int st_group_setup(void **state);
+int st_group_teardown(void **state);
 
 /* Writes the path of a file in the shared data folder (SEAMTEX_DATA, default ../shared/data)
  * into out; returns 0 when it exists, -1 otherwise. */

@@ -16,7 +16,11 @@ int st_test_data_path(char *buf, size_t cap, const char *rel);
 /* Creates a fresh scratch directory /tmp/seamtex_<tag>_XXXXXX into buf; 0 or -1. */
 int st_test_mkdtemp(char *buf, size_t cap, const char *tag);
 
-/* Removes a directory tree made by st_test_mkdtemp; 0 or -1. */
+/* Removes a directory tree (made by st_test_mkdtemp, mkdtemp or a daemon); 0 or -1. */
 int st_test_rmtree(const char *dir);
+
+/* Reads a whole file into a malloc'ed buffer with a NUL byte after its *len bytes (so text
+ * files can be used as strings). NULL when it cannot be read. */
+void *st_test_read_file(const char *path, size_t *len);
 
 #endif

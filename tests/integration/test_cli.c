@@ -398,18 +398,34 @@ static void bench_closed_loop_answers_every_request(void **state)
     assert_non_null(strstr(js, "\"corrected_us\": {\"p50\": "));
 }
 
-static void bench_open_loop_holds_the_target_rate(void **state)
+/* The open loop issues its schedule - rate x (warmup + duration) requests, 2000/s x 1.2 s =
+ * 2400, each either sent or reported unsent - answers every one it sent, and measures latency
+ * from the intended send time (corrected >= service). How close the achieved rate comes to the
+ * target is a benchmark's figure (make bench), not asserted here. */
+static void bench_open_loop_sends_its_schedule_and_corrects_latency(void **state)
 {
     (void)state;
     char jf[400], js[8192];
     snprintf(jf, sizeof jf, "%s/open.json", D.dir);
     assert_int_equal(BENCH("-c", "8", "-r", "2000", "-d", "1", "-w", "0.2", "-j", jf), 0);
     slurp(jf, js, sizeof js, NULL);
-    double got = json_num(js, "achieved_rate");
-    assert_true(got > 1800 && got < 2200);
+    assert_non_null(strstr(js, "\"loop\": \"open\""));
+    assert_true(json_num(js, "target_rate") == 2000);
+    double sent = json_num(js, "sent"), unsent = json_num(js, "unsent");
+    double measured = json_num(js, "measured");
+    assert_true(sent + unsent == 2400);
+    assert_true(json_num(js, "completed") == sent);
+    /* 2000 of them are due in the measured second; the ones sent are all measured */
+    assert_true(measured <= 2000 && measured + unsent >= 2000);
     assert_true(json_num(js, "errors") == 0);
     assert_true(json_num(js, "timeouts") == 0);
-    assert_non_null(strstr(js, "\"loop\": \"open\""));
+    const char *cor = strstr(js, "\"corrected_us\": {");
+    const char *svc = strstr(js, "\"service_us\": {");
+    assert_non_null(cor);
+    assert_non_null(svc);
+    assert_true(json_num(cor, "p50") >= json_num(svc, "p50"));
+    assert_true(json_num(cor, "max") >= json_num(svc, "max"));
+    assert_true(json_num(svc, "p50") >= 0);
 }
 
 static void bench_sample_batches_are_answered(void **state)
@@ -456,7 +472,7 @@ int main(void)
         cmocka_unit_test(commands_piped_on_stdin_share_one_connection),
         cmocka_unit_test(stats_prints_counters),
         cmocka_unit_test(bench_closed_loop_answers_every_request),
-        cmocka_unit_test(bench_open_loop_holds_the_target_rate),
+        cmocka_unit_test(bench_open_loop_sends_its_schedule_and_corrects_latency),
         cmocka_unit_test(bench_sample_batches_are_answered),
         cmocka_unit_test(bench_refuses_a_non_loopback_host),
     };

@@ -30,6 +30,8 @@
 #include <cmocka.h>
 
 #include "../common/daemon_fixture.h"
+#include "../common/wait.h"
+#include "../common/wire.h"
 #include "proto.h"
 #include "seamtex.h"
 
@@ -62,22 +64,18 @@ typedef struct mock {
     int nheld;
 } mock;
 
+/* The mock sends whole frames; a failed send shows as the client's error. */
 static void send_all(int fd, const void *p, size_t n)
 {
-    const uint8_t *b = p;
-    while (n) {
-        ssize_t w = send(fd, b, n, MSG_NOSIGNAL);
-        if (w <= 0)
-            return;
-        b += w;
-        n -= (size_t)w;
-    }
+    (void)st_wire_send_all(fd, p, n);
 }
 
-static void sleep_ms(int ms)
+/* Waiting for the test to end the mock's deafness (stop or resume). */
+static int deaf_over(void *arg)
 {
-    struct timespec ts = { ms / 1000, (long)(ms % 1000) * 1000000L };
-    nanosleep(&ts, NULL);
+    mock *m = arg;
+    return __atomic_load_n(&m->stop, __ATOMIC_ACQUIRE) ||
+           __atomic_load_n(&m->resume, __ATOMIC_ACQUIRE);
 }
 
 /* Answers one request; returns -1 to close the connection. */
@@ -102,17 +100,17 @@ static int mock_handle(mock *m, int fd, const stp_header *h, const uint8_t *body
             send_all(fd, stp_buf_head(&o), stp_buf_avail(&o));
             stp_buf_free(&o);
             /* deaf until the test says so (at most 10 s) */
-            for (int t = 0; t < 200 && !__atomic_load_n(&m->stop, __ATOMIC_ACQUIRE) &&
-                            !__atomic_load_n(&m->resume, __ATOMIC_ACQUIRE); t++)
-                sleep_ms(50);
+            st_wait_until(deaf_over, m, 10000);
             return 0;
         }
         break;
     }
     case STP_OP_PING:
         m->pings++;
+        /* a sleep on purpose: the late reply (after the client's 100 ms timeout) is what
+         * the M_DELAY_PING1 tests are about */
         if (m->mode == M_DELAY_PING1 && m->pings == 1)
-            sleep_ms(400);
+            st_sleep_ms(400);
         if (m->mode == M_GARBAGE_PING) {
             send_all(fd, "HTTP/1.1 400 Bad Request\r\n\r\n", 28);
             return 0;

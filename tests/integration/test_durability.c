@@ -3,7 +3,7 @@
  *
  * Each round: three client threads upload sets as fast as they can (new names, plus one name
  * that is replaced over and over with REPLACE), the daemon is killed with SIGKILL at a random
- * moment, restarted on the same data dir, and checked:
+ * moment after the round's first acknowledged upload, restarted on the same data dir, and checked:
  *   - every set whose upload was acknowledged (in this or any earlier round) is listed;
  *   - nothing is listed that was neither acknowledged nor in flight at the kill;
  *   - the sets of this round (and an in-flight one that did land) hold what was uploaded: one
@@ -12,8 +12,12 @@
  *     the variants differ in; the replaced name holds either its last acknowledged content
  *     or the one in flight, never a mix;
  *   - tmp/ of the data dir is empty after the restart.
- * Rounds run until 20 are done or about 45 s have passed. Upload data is made in-process
- * (the built-in set written as .ptx with face 0 painted in 4 variants).
+ * make test runs a slice of SEAMTEX_SOAK_ROUNDS rounds (default 4); make soak runs the long
+ * version: at least SEAMTEX_SOAK_ROUNDS rounds and until SEAMTEX_SOAK_SECONDS have passed. Sets
+ * that have survived KEEP_ROUNDS later kills are deleted (and forgotten) so that a long soak
+ * holds a bounded number of sets; a run of up to KEEP_ROUNDS + 1 rounds deletes nothing.
+ * Upload data is made in-process (the built-in set written as .ptx with face 0 painted in 4
+ * variants).
  */
 #include <pthread.h>
 #include <setjmp.h>
@@ -31,6 +35,7 @@
 #include <cmocka.h>
 
 #include "../common/daemon_fixture.h"
+#include "../common/wait.h"
 #include "defaultset.h"
 #include "ptex.h"
 #include "seamtex.h"
@@ -38,8 +43,8 @@
 #define NVAR     4
 #define NTHREADS 3
 #define MAXNAMES 4096
-#define ROUNDS   20
-#define BUDGET_MS 45000
+#define DEFAULT_ROUNDS 4
+#define KEEP_ROUNDS    16
 
 typedef struct variant {
     void   *ptx;
@@ -70,11 +75,34 @@ typedef struct worker {
     int   uploads;
 } worker;
 
-static int64_t now_ms(void)
+/* Waiting until one upload of the round has been acknowledged. */
+static int one_acked(void *arg)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+    const worker *w = arg;
+    int n = 0;
+    for (int t = 0; t < NTHREADS; t++)
+        n += __atomic_load_n(&w[t].uploads, __ATOMIC_ACQUIRE);
+    return n > 0;
+}
+
+static long env_long(const char *name, long dflt)
+{
+    const char *v = getenv(name);
+    return v && *v ? strtol(v, NULL, 10) : dflt;
+}
+
+/* Deletes the acknowledged sets of rounds before `round` - KEEP_ROUNDS and forgets them. */
+static void prune_old_rounds(stc_conn *c, int round)
+{
+    size_t k = 0;
+    for (size_t a = 0; a < NACK; a++) {
+        if (ACK[a].round < round - KEEP_ROUNDS) {
+            assert_int_equal(stc_delete(c, ACK[a].name), 0);
+            continue;
+        }
+        ACK[k++] = ACK[a];
+    }
+    NACK = k;
 }
 
 static int make_variants(void)
@@ -144,7 +172,7 @@ static void *upload_loop(void *arg)
         int rc = stc_upload_buffer(c, V[var].ptx, V[var].len, name, &uo, &ur);
         if (rc != 0)
             break;  /* the daemon is gone: this one stays "in flight" */
-        w->uploads++;
+        __atomic_fetch_add(&w->uploads, 1, __ATOMIC_RELEASE);
         if (replace) {
             pthread_mutex_lock(&ACK_MU);
             replace_acked = var;
@@ -253,9 +281,11 @@ static void acknowledged_uploads_survive_sigkill(void **state)
     const char *extra[] = {"--no-default-set", "--workers", "2", "--log-level", "warn", NULL};
     assert_int_equal(st_daemon_start(&d, extra), 0);
     srand((unsigned)time(NULL));
-    int64_t t0 = now_ms();
+    int64_t t0 = st_now_ms();
+    long want_rounds = env_long("SEAMTEX_SOAK_ROUNDS", DEFAULT_ROUNDS);
+    long want_ms = env_long("SEAMTEX_SOAK_SECONDS", 0) * 1000;
     int rounds = 0, total_uploads = 0, landed_inflight = 0, fetched = 0, sampled = 0;
-    for (int round = 0; round < ROUNDS && now_ms() - t0 < BUDGET_MS; round++) {
+    for (int round = 0; round < want_rounds || st_now_ms() - t0 < want_ms; round++) {
         worker w[NTHREADS];
         pthread_t th[NTHREADS];
         for (int t = 0; t < NTHREADS; t++) {
@@ -265,8 +295,11 @@ static void acknowledged_uploads_survive_sigkill(void **state)
             w[t].t = t;
             assert_int_equal(pthread_create(&th[t], NULL, upload_loop, &w[t]), 0);
         }
-        struct timespec ts = {0, (long)(80 + rand() % 400) * 1000000L};
-        nanosleep(&ts, NULL);
+        /* once the round has an acknowledged upload (so every round checks one), a sleep on
+         * purpose: the kill lands at a random moment of the uploads still going (in a chunk,
+         * a commit, an fsync, a rename), which is what this test is about */
+        assert_int_equal(st_wait_until(one_acked, w, 30000), 0);
+        st_sleep_ms(rand() % 400);
         st_daemon_kill(&d);
         for (int t = 0; t < NTHREADS; t++) {
             pthread_join(th[t], NULL);
@@ -361,13 +394,14 @@ static void acknowledged_uploads_survive_sigkill(void **state)
             pthread_mutex_unlock(&ACK_MU);
         }
         free(listed);
+        prune_old_rounds(c, round);
         stc_close(c);
     }
     print_message("# %d SIGKILL rounds in %.1f s: %d acknowledged uploads, %zu sets listed, "
                   "%d fetched and %d sampled against the upload, %d unacknowledged uploads had "
-                  "landed whole\n", rounds, (double)(now_ms() - t0) / 1000.0, total_uploads,
+                  "landed whole\n", rounds, (double)(st_now_ms() - t0) / 1000.0, total_uploads,
                   NACK, fetched, sampled, landed_inflight);
-    assert_true(rounds >= 5);
+    assert_true(rounds >= want_rounds);
     assert_true(total_uploads >= rounds);  /* the test did upload between kills */
     assert_int_equal(st_daemon_stop(&d, 10000), 0);
     st_daemon_cleanup(&d);

@@ -19,6 +19,7 @@
 
 #include "datadir.h"
 #include "registry.h"
+#include "../common/testdata.h"
 
 static st_set *tiny_set(uint32_t w)
 {
@@ -135,7 +136,7 @@ static void *reader(void *arg)
             assert_int_equal(v, (uint8_t)w);
             assert_int_equal(s->texels[(size_t)w * w - 1], (uint8_t)w);
             st_setref_release(ref);
-            x->reads++;
+            __atomic_fetch_add(&x->reads, 1, __ATOMIC_RELAXED);
         }
     }
     return NULL;
@@ -148,7 +149,10 @@ static void concurrent_readers_survive_replace_and_delete(void **state)
     pthread_t th[3];
     for (int i = 0; i < 3; i++)
         pthread_create(&th[i], NULL, reader, &x);
-    for (int k = 0; k < 3000; k++) {
+    /* 3000 replacements at least, and on until the readers have read (a loaded machine may
+     * not schedule them before the writer is done) */
+    for (int k = 0; k < 3000 || (__atomic_load_n(&x.reads, __ATOMIC_RELAXED) < 100 &&
+                                 k < 3000000); k++) {
         uint32_t w = 1u << (1 + k % 6);  /* 2..64 */
         st_set *s = tiny_set(w);
         memset(s->texels, (int)w, s->texel_bytes);
@@ -165,11 +169,6 @@ static void concurrent_readers_survive_replace_and_delete(void **state)
 
 /* ---- data dir ------------------------------------------------------------------------------- */
 
-static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb; (void)ftw;
-    return flag == FTW_DP ? rmdir(p) : unlink(p);
-}
 
 static void write_file(const char *path, const char *text)
 {
@@ -324,7 +323,7 @@ static void datadir_commits_replaces_deletes_and_reloads(void **state)
     assert_int_equal(st_datadir_load(d, load_cb, &l, report_cb, &e), 1);
     assert_string_equal(l.names[0], "beta");
     st_datadir_close(d);
-    nftw(root, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+    st_test_rmtree(root);
 }
 
 /* A name of the longest legal length (255 bytes, NAME_MAX of the file system) is one
@@ -363,7 +362,7 @@ static void datadir_takes_255_byte_names(void **state)
     snprintf(p, sizeof p, "%s/trash", root);
     assert_int_equal(count_entries(p), 0);
     st_datadir_close(d);
-    nftw(root, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
+    st_test_rmtree(root);
 }
 
 int main(void)

@@ -1,0 +1,21 @@
+/* tests/common/ptx_fixture.h - .ptx files made in memory, to upload in server tests without
+ * the shared data.
+ *
+ * Owns: the built-in default set written as .ptx (optionally with face 0 repainted, so that
+ * uploads of different content differ), and a small uniform set (four 32x32 RGBA8 faces
+ * without neighbours: every face one size, so its BC1 form fits a DDS file). Does not own:
+ * the writer (store/ptex.h) or the default set (store/defaultset.h).
+ */
+#ifndef ST_PTX_FIXTURE_H
+#define ST_PTX_FIXTURE_H
+
+#include <stddef.h>
+
+/* The default set as a .ptx in memory (malloc'ed; *len its size), with face 0 painted from
+ * `tint` when tint >= 0. NULL on failure (the reason on stderr). */
+void *st_fixture_default_ptx(size_t *len, int tint);
+
+/* Four 32x32 RGBA8 faces without neighbours as a .ptx in memory (malloc'ed), or NULL. */
+void *st_fixture_uniform_ptx(size_t *len);
+
+#endif

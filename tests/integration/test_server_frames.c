@@ -1,0 +1,182 @@
+/* tests/integration/test_server_frames.c - seamtexd on the raw wire: the malformed-frame
+ * table (bad magic and version, unknown opcode, lying lengths, truncated headers, bodies over
+ * the caps, NaN queries), each on its own connection, and the server still serving after.
+ *
+ * One daemon with defaults for the group (tests/common/daemon_fixture.h) on 127.0.0.1 port 0;
+ * frames are written byte by byte (tests/common/wire.h). Nothing here needs SEAMTEX_DATA.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../common/daemon_client.h"
+#include "../common/wait.h"
+#include "../common/wire.h"
+#include "proto.h"
+#include "sample.h"
+
+/* ---- helpers --------------------------------------------------------------------------------- */
+
+/* Waiting for the daemon to have read `more` bytes from other connections since bytes_in was
+ * `base` (read through sc): every STATS request on sc adds its own 24-byte frame. */
+typedef struct bytes_cond {
+    stc_conn *sc;
+    uint64_t base, more, asked;
+} bytes_cond;
+
+static int read_enough(void *arg)
+{
+    bytes_cond *b = arg;
+    uint64_t v = st_conn_stat(b->sc, "bytes_in");
+    b->asked++;
+    return v != UINT64_MAX && v >= b->base + b->asked * ST_WIRE_HEADER + b->more;
+}
+
+static int wait_bytes_in(stc_conn *sc, uint64_t base, uint64_t more)
+{
+    bytes_cond b = {sc, base, more, 0};
+    return st_wait_until(read_enough, &b, 10000);
+}
+
+/* the group's daemon: defaults, --heavy-batch 2048 (set in main) */
+#define D1 ST_GROUP
+
+/* ---- tests ---------------------------------------------------------------------------------- */
+
+/* The malformed-frame table: each row is sent on its own connection, followed by a PING; the
+ * expected status comes back (or the connection is closed, for a bad magic) and a separate
+ * connection is served normally afterwards. */
+static void malformed_frames_get_their_status(void **state)
+{
+    (void)state;
+    float good[7] = {0, 0.5f, 0.5f, 0, 0, 0, 0};
+    float nanq[14] = {0, NAN, 0.5f, 0, 0, 0, 0, 1, 0.25f, 0.25f, 0, 0, 0, 0};
+    struct row {
+        const char *what;
+        int kind;          /* 0 frame with body, 1 bad magic, 2 truncated header, 3 huge */
+        unsigned version, op, flags;
+        int body;          /* 0 none, 1 lying sample count, 2 zero batch, 3 NaN queries,
+                              4 trailing byte, 5 one good query */
+        int status;        /* expected; -1 = connection closed */
+        uint32_t nbad;     /* SAMPLE rows: expected nbad */
+    } rows[] = {
+        {"bad magic", 1, 1, STP_OP_PING, 0, 0, -1, 0},
+        {"bad version", 0, 7, STP_OP_PING, 0, 0, STP_S_BAD_VERSION, 0},
+        {"unknown opcode", 0, 1, 0x5e, 0, 0, STP_S_UNKNOWN_OPCODE, 0},
+        {"reply flag in a request", 0, 1, STP_OP_PING, STP_F_REPLY, 0, STP_S_BAD_REQUEST, 0},
+        {"truncated header then more", 2, 1, STP_OP_PING, 0, 0, STP_S_OK, 0},
+        {"body over max-frame", 3, 1, STP_OP_PING, 0, 0, STP_S_TOO_LARGE, 0},
+        {"INFO body over its cap", 3, 1, STP_OP_INFO, 0, 0, STP_S_TOO_LARGE, 0},
+        {"lying count in SAMPLE", 0, 1, STP_OP_SAMPLE, 0, 1, STP_S_BAD_REQUEST, 0},
+        {"zero-length batch", 0, 1, STP_OP_SAMPLE, 0, 2, STP_S_OK, 0},
+        {"NaN query", 0, 1, STP_OP_SAMPLE, 0, 3, STP_S_OK, 1},
+        {"trailing byte in SAMPLE", 0, 1, STP_OP_SAMPLE, 0, 4, STP_S_BAD_REQUEST, 0},
+        {"one good query", 0, 1, STP_OP_SAMPLE, 0, 5, STP_S_OK, 0},
+        {"empty STATS body with bytes", 0, 1, STP_OP_STATS, 0, 5, STP_S_BAD_REQUEST, 0},
+    };
+    uint8_t *frame = malloc((1 << 16) + 64), body[4096];
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        const struct row *w = &rows[i];
+        int fd = st_daemon_connect(&D1);
+        assert_true(fd >= 0);
+        size_t bl = 0;
+        uint32_t claimed;
+        switch (w->body) {
+        case 1: bl = st_wire_sample_body(body, "default", 3, good, 1); break;
+        case 2: bl = st_wire_sample_body(body, "default", 0, good, 0); break;
+        case 3: bl = st_wire_sample_body(body, "default", 2, nanq, 2); break;
+        case 4: bl = st_wire_sample_body(body, "default", 1, good, 1); body[bl++] = 0; break;
+        case 5: bl = st_wire_sample_body(body, "default", 1, good, 1); break;
+        default: bl = 0; break;
+        }
+        claimed = (uint32_t)bl;
+        size_t fl;
+        if (w->kind == 1) {
+            fl = st_wire_frame(frame, "STY1", 1, w->op, 0, 100 + (uint32_t)i, NULL, 0, 0);
+            assert_int_equal(st_wire_send_all(fd, frame, fl), 0);
+        } else if (w->kind == 2) {
+            fl = st_wire_frame(frame, "STX1", 1, w->op, 0, 100 + (uint32_t)i, "xy", 2, 2);
+            /* the server must have read the first 10 bytes on their own before the rest goes */
+            stc_conn *sc = st_daemon_client(&D1, NULL);
+            assert_non_null(sc);
+            uint64_t in0 = st_conn_stat(sc, "bytes_in");
+            assert_int_equal(st_wire_send_all(fd, frame, 10), 0);
+            assert_int_equal(wait_bytes_in(sc, in0, 10), 0);
+            stc_close(sc);
+            assert_int_equal(st_wire_send_all(fd, frame + 10, fl - 10), 0);
+        } else if (w->kind == 3) {
+            /* claims a huge body and sends 64 KiB of it: the server must skip, not store */
+            uint32_t huge = w->op == STP_OP_PING ? (100u << 20) : 65536;
+            fl = st_wire_frame(frame, "STX1", 1, w->op, 0, 100 + (uint32_t)i, NULL, 0, huge);
+            memset(frame + fl, 0xAB, 65536);
+            assert_int_equal(st_wire_send_all(fd, frame, fl + 65536), 0);
+            if (w->op == STP_OP_PING) {
+                /* the rest of the 100 MiB would be skipped too; close instead of sending it */
+            }
+        } else {
+            fl = st_wire_frame(frame, "STX1", w->version, w->op, w->flags, 100 + (uint32_t)i, body,
+                           (uint32_t)bl, claimed);
+            assert_int_equal(st_wire_send_all(fd, frame, fl), 0);
+        }
+        st_wire_reply r;
+        if (w->status < 0) {
+            assert_true(st_wire_peer_closed(fd, 5000));
+        } else {
+            int rc = st_wire_read_reply(fd, &r, 5000);
+            if (rc != 0)
+                fprintf(stderr, "row '%s': no reply\n", w->what);
+            assert_int_equal(rc, 0);
+            if ((int)r.status != w->status)
+                fprintf(stderr, "row '%s': status %u, want %d (%.*s)\n", w->what, r.status,
+                        w->status, (int)r.len, (const char *)r.body);
+            assert_int_equal(r.status, w->status);
+            assert_int_equal(r.reqid, 100 + (uint32_t)i);
+            assert_true(r.flags & STP_F_REPLY);
+            if (w->op == STP_OP_SAMPLE && w->status == STP_S_OK) {
+                assert_int_equal(stp_rd32(r.body + 8), w->nbad);
+                if (w->body == 3) {  /* the NaN query: status NONFINITE, the other OK */
+                    uint32_t cnt = stp_rd32(r.body);
+                    assert_int_equal(cnt, 2);
+                    const uint8_t *stat = r.body + 12 + 2 * 4 * 4;
+                    assert_int_equal(stat[0], ST_Q_NONFINITE);
+                    assert_int_equal(stat[1], ST_Q_OK);
+                }
+            }
+            /* the same connection still serves (except after a skipped 100 MiB body) */
+            if (!(w->kind == 3 && w->op == STP_OP_PING)) {
+                if (w->kind == 3) {
+                    /* INFO claimed 64 KiB, all of it sent: it was skipped */
+                }
+                fl = st_wire_frame(frame, "STX1", 1, STP_OP_PING, 0, 999, "ok", 2, 2);
+                assert_int_equal(st_wire_send_all(fd, frame, fl), 0);
+                assert_int_equal(st_wire_read_reply(fd, &r, 5000), 0);
+                assert_int_equal(r.reqid, 999);
+                assert_int_equal(r.status, 0);
+            }
+        }
+        close(fd);
+        /* another connection is served */
+        stc_conn *c = st_daemon_client(&D1, NULL);
+        assert_non_null(c);
+        assert_int_equal(stc_ping(c), 0);
+        stc_close(c);
+    }
+    free(frame);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(malformed_frames_get_their_status),
+    };
+    static const char *const args[] = {"--heavy-batch", "2048", NULL};
+    st_group_args = args;
+    return cmocka_run_group_tests_name("server_frames", tests, st_group_setup,
+                                       st_group_teardown);
+}

@@ -1,0 +1,266 @@
+/* tests/integration/test_server_limits.c - seamtexd's limits, each with a daemon of its
+ * own: --max-conns refuses with BUSY, --idle-timeout closes idle connections, --max-upload and
+ * --max-frame hold, --conn-out-cap pauses reading a client that does not read its replies,
+ * and thousands of idle connections are held and served.
+ *
+ * Daemons on 127.0.0.1 port 0 (tests/common/daemon_fixture.h); what a test waits for it reads
+ * from STATS (tests/common/daemon_client.h). Nothing here needs SEAMTEX_DATA.
+ */
+#include <poll.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../common/daemon_client.h"
+#include "../common/ptx_fixture.h"
+#include "../common/wait.h"
+#include "../common/wire.h"
+#include "proto.h"
+
+/* ---- tests ---------------------------------------------------------------------------------- */
+
+static void max_conns_rejects_with_busy(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--max-conns", "3", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    /* the fixture's readiness probe used one connection: wait until the daemon has closed
+     * it (c[0] is then the only one) */
+    stc_conn *c[3];
+    c[0] = st_daemon_client(&d, NULL);
+    assert_non_null(c[0]);
+    assert_int_equal(st_wait_stat(&d, c[0], "conns_current", ST_STAT_EQ, 1, 10000), 0);
+    for (int i = 1; i < 3; i++) {
+        c[i] = st_daemon_client(&d, NULL);
+        assert_non_null(c[i]);
+    }
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    st_wire_reply r;
+    assert_int_equal(st_wire_read_reply(fd, &r, 5000), 0);
+    assert_int_equal(r.status, STP_S_BUSY);
+    assert_true(st_wire_peer_closed(fd, 5000));
+    close(fd);
+    stc_close(c[0]);
+    assert_int_equal(st_wait_stat(&d, c[1], "conns_current", ST_STAT_EQ, 2, 10000), 0);
+    stc_conn *again = st_daemon_client(&d, NULL);
+    assert_non_null(again);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(again, &st, &n), 0);
+    assert_true(stc_stat_find(st, n, "conns_rejected")->u >= 1);
+    stc_close(again);
+    stc_close(c[1]);
+    stc_close(c[2]);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+static void idle_connections_are_closed(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--idle-timeout", "1", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    int64_t t0 = st_now_ms();
+    assert_true(st_wire_peer_closed(fd, 5000));
+    int64_t dt = st_now_ms() - t0;
+    assert_true(dt >= 900 && dt < 4000);
+    close(fd);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    assert_true(stc_stat_find(st, n, "conns_idle_closed")->u >= 1);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+static void upload_and_frame_caps_hold(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--max-upload", "100K", "--max-frame", "64K", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    assert_int_equal(stc_server_info(c)->max_body, 65536);
+    size_t len;
+    void *ptx = st_fixture_default_ptx(&len, 1);
+    assert_non_null(ptx);
+    assert_true(len > 100 * 1024);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "big", &uo, &ur), STC_ETOOLARGE);
+    free(ptx);
+    /* a SAMPLE batch over 64 KiB is split by the client: it still works */
+    enum { N = 4000 };
+    stc_query *q = calloc(N, sizeof *q);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)i % 384;
+        q[i].u = q[i].v = 0.5f;
+    }
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    stc_sample_result r;
+    int rc = stc_sample(c, "default", &o, q, N, &r);
+    assert_true(rc == 0 || rc == STC_ETOOLARGE);
+    free(q);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+/* A client that pipelines without reading: the server stops reading it once its unsent
+ * replies pass conn-out-cap, holds bounded memory, and answers everything once the client
+ * reads. */
+static void unread_replies_pause_reading(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--conn-out-cap", "256K", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    int small = 64 * 1024;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    enum { PAY = 1000, MAXF = 200000 };
+    uint8_t frame[24 + PAY];
+    memset(frame + 24, 0x5C, PAY);
+    uint32_t sent = 0;
+    size_t partial = 0;  /* bytes of frame `sent` already out */
+    /* send without reading until the server reports a pause (it must: nothing is read) */
+    uint64_t pauses = 0;
+    int64_t end0 = st_now_ms() + 20000, next_check = 0;
+    while (sent < MAXF && st_now_ms() < end0) {
+        st_wire_frame(frame, "STX1", 1, STP_OP_PING, 0, sent + 1, NULL, 0, PAY);
+        ssize_t w = send(fd, frame + partial, sizeof frame - partial, MSG_DONTWAIT | MSG_NOSIGNAL);
+        if (w > 0) {
+            partial += (size_t)w;
+            if (partial == sizeof frame) {
+                partial = 0;
+                sent++;
+            }
+            continue;
+        }
+        if (st_now_ms() >= next_check) {
+            pauses = st_daemon_stat(&d, "backpressure_pauses");
+            if (pauses >= 1 && pauses != UINT64_MAX)
+                break;
+            next_check = st_now_ms() + 50;
+        }
+        /* the socket is full: wait (5 ms at most) until it takes bytes again */
+        struct pollfd wp = {fd, POLLOUT, 0};
+        poll(&wp, 1, 5);
+    }
+    assert_true(sent < MAXF);
+    assert_true(pauses >= 1 && pauses != UINT64_MAX);
+    uint64_t mem = st_daemon_stat(&d, "buffer_memory");
+    assert_true(mem < (8u << 20));
+    /* now read everything, finishing the partial frame as the server reads again */
+    uint32_t total = sent + (partial ? 1 : 0), got = 0;
+    static uint8_t rbuf[1 << 16];
+    size_t have = 0;
+    int64_t end = st_now_ms() + 30000;
+    while (got < total && st_now_ms() < end) {
+        struct pollfd p = {fd, (short)(POLLIN | (partial ? POLLOUT : 0)), 0};
+        if (poll(&p, 1, 1000) <= 0)
+            continue;
+        if (partial && (p.revents & POLLOUT)) {
+            ssize_t w = send(fd, frame + partial, sizeof frame - partial, MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (w > 0) {
+                partial += (size_t)w;
+                if (partial == sizeof frame)
+                    partial = 0;
+            }
+        }
+        if (p.revents & POLLIN) {
+            ssize_t r = recv(fd, rbuf + have, sizeof rbuf - have, 0);
+            assert_true(r > 0);
+            have += (size_t)r;
+            size_t off = 0;
+            while (have - off >= 24 && have - off >= 24 + (size_t)stp_rd32(rbuf + off + 16)) {
+                assert_int_equal(stp_rd32(rbuf + off + 8), got + 1);  /* in order */
+                assert_int_equal(stp_rd16(rbuf + off + 12), 0);
+                assert_int_equal(stp_rd32(rbuf + off + 16), PAY);
+                off += 24 + PAY;
+                got++;
+            }
+            memmove(rbuf, rbuf + off, have - off);
+            have -= off;
+        }
+    }
+    assert_int_equal(got, total);
+    close(fd);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+/* 2000 connections that each sent one PING are all answered and held open at once. What they
+ * cost in memory is measured by the benchmark (tests/bench/net_idle.sh), not asserted here. */
+static void thousands_of_idle_connections_are_held_and_served(void **state)
+{
+    (void)state;
+    struct rlimit rl;
+    getrlimit(RLIMIT_NOFILE, &rl);
+    enum { N = 2000 };
+    if (rl.rlim_max != RLIM_INFINITY && rl.rlim_max < N + 64) {
+        skip();
+    }
+    rl.rlim_cur = rl.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &rl);
+    st_daemon d;
+    const char *extra[] = {"--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    static int fds[N];
+    uint8_t frame[64];
+    size_t fl = st_wire_frame(frame, "STX1", 1, STP_OP_PING, 0, 1, "x", 1, 1);
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+        assert_int_equal(st_wire_send_all(fds[i], frame, fl), 0);
+    }
+    for (int i = 0; i < N; i++) {
+        st_wire_reply r;
+        assert_int_equal(st_wire_read_reply(fds[i], &r, 5000), 0);
+    }
+    /* every one is still open: N, plus the connection that reads STATS (once the daemon has
+     * closed the fixture's readiness probe) */
+    assert_int_equal(st_wait_stat(&d, NULL, "conns_current", ST_STAT_EQ, N + 1, 10000), 0);
+    for (int i = 0; i < N; i++)
+        close(fds[i]);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(max_conns_rejects_with_busy),
+        cmocka_unit_test(idle_connections_are_closed),
+        cmocka_unit_test(upload_and_frame_caps_hold),
+        cmocka_unit_test(unread_replies_pause_reading),
+        cmocka_unit_test(thousands_of_idle_connections_are_held_and_served),
+    };
+    return cmocka_run_group_tests_name("server_limits", tests, NULL, NULL);
+}
