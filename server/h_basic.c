@@ -11,7 +11,12 @@
 #include <string.h>
 
 #include "cube.h"
+#include "dispatch.h"
+#include "h_basic.h"
+#include "io.h"
+#include "opstats.h"
 #include "server.h"
+#include "workers.h"
 
 /* Looks a set up by a wire name; replies NOT_FOUND / PERM itself and returns NULL. */
 static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp_buf *out)
@@ -455,8 +460,12 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
         return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
     sts_server *srv = c->srv;
-    enum { cap = 128 };
-    stp_stat s[cap];
+    size_t cap = 128 + sts_opstats_max_keys();
+    stp_stat *s = malloc(cap * sizeof *s);
+    if (!s) {
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
     size_t n = 0;
     U("uptime_ms", (uint64_t)(sts_now_ms() - srv->started_ms));
     U("conns_current", __atomic_load_n(&srv->nconns, __ATOMIC_RELAXED));
@@ -517,10 +526,12 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
                 *p = (char)(*p - 'A' + 'a');
         U(key, v);
     }
+    n += sts_opstats_report(&srv->opstats, s + n, cap - n);
     stp_stats_reply r;
     memset(&r, 0, sizeof r);
     r.count = (uint32_t)n;
     r.stats = s;
     stp_enc_stats_reply(out, h->reqid, &r);
+    free(s);
     return 0;
 }
