@@ -35,6 +35,8 @@ typedef struct sts_ctx {
  * closed after the reply. */
 typedef int (*sts_handler_fn)(sts_ctx *c, const stp_header *h, const uint8_t *body,
                               stp_buf *out);
+/* Declares a handler: STS_HANDLER(sts_h_ping); in the h_*.h headers. */
+#define STS_HANDLER(fn) int fn(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
 
 typedef struct sts_handler {
     uint8_t        op;

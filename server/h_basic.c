@@ -2,7 +2,8 @@
  * SAMPLE, SAMPLE_DIR.
  *
  * Owns: decoding their bodies (through protocol/), reading the registry, sampling into the
- * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c).
+ * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c),
+ * the per-opcode counters STATS reports (opstats.c).
  * Every handler appends exactly one frame to `out`.
  */
 #include <stdio.h>

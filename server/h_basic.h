@@ -10,12 +10,12 @@
 
 #include "dispatch.h"
 
-int sts_h_hello(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_ping(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_list(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_info(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_sample(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_sample_dir(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_stats(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
+STS_HANDLER(sts_h_hello);
+STS_HANDLER(sts_h_ping);
+STS_HANDLER(sts_h_list);
+STS_HANDLER(sts_h_info);
+STS_HANDLER(sts_h_sample);
+STS_HANDLER(sts_h_sample_dir);
+STS_HANDLER(sts_h_stats);
 
 #endif

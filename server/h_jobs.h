@@ -20,11 +20,11 @@ void sts_jobs_stop(sts_server *srv);
 /* Drops the fetch handles a connection opened (its I/O thread calls it when it closes). */
 void sts_fetch_drop_conn(sts_server *srv, uint64_t conn_id);
 
-int sts_h_compress(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_job_status(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_job_cancel(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_fetch_open(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_fetch_read(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_fetch_close(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
+STS_HANDLER(sts_h_compress);
+STS_HANDLER(sts_h_job_status);
+STS_HANDLER(sts_h_job_cancel);
+STS_HANDLER(sts_h_fetch_open);
+STS_HANDLER(sts_h_fetch_read);
+STS_HANDLER(sts_h_fetch_close);
 
 #endif

@@ -10,12 +10,12 @@
 #include "dispatch.h"
 #include "registry.h"
 
-int sts_h_upload_begin(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_upload_chunk(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_upload_commit(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_upload_abort(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_upload_status(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
-int sts_h_delete(sts_ctx *, const stp_header *, const uint8_t *, stp_buf *);
+STS_HANDLER(sts_h_upload_begin);
+STS_HANDLER(sts_h_upload_chunk);
+STS_HANDLER(sts_h_upload_commit);
+STS_HANDLER(sts_h_upload_abort);
+STS_HANDLER(sts_h_upload_status);
+STS_HANDLER(sts_h_delete);
 
 /* Imports one file into a new set, with the upload's options ("texture=<set>", "cube=...",
  * "colorspace=..."); the reader is chosen by the content's magic (fmt is the extension the
