@@ -140,7 +140,8 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
             STS_STAT_ADD(srv, replies_error, 1);
     }
 replied:
-    sts_opstats_record(&srv->opstats, h->opcode, t0, conn->out.data + before,
+    sts_opstats_record(&srv->opstats, h->opcode, t0,
+                       conn->out.len > before ? conn->out.data + before : NULL,
                        conn->out.len - before);
     return r;
 }

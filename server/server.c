@@ -1,8 +1,9 @@
 /* server/server.c - the sts_server: creation (registry, data dir, default set, listening
  * socket), thread start, graceful stop, config reload, token and memory accounting.
  *
- * Owns: the server's lifetime. Does not own: signals (main.c), connections (io.c), requests
- * (dispatch.c and the handlers).
+ * Owns: the server's lifetime. Does not own: signals (main.c), loading the data dir's sets
+ * (startup.c), connections (io.c), requests (dispatch.c and the handlers), the tables the
+ * server embeds (handles.c, workers.c, opstats.c).
  */
 #include <errno.h>
 #include <fcntl.h>
