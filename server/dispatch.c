@@ -80,7 +80,7 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
 {
     sts_server *srv = io->srv;
     int64_t t0 = sts_opstats_now_us();   /* request parsed: its latency starts here */
-    size_t before = conn->out.len;
+    size_t before = stp_buf_avail(&conn->out);   /* not len: appending may compact */
     int r = 0;
     STS_STAT_ADD(srv, requests, 1);
     STS_STAT_ADD(srv, by_op[h->opcode], 1);
@@ -133,15 +133,15 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
     STS_STAT_ADD(srv, inline_tasks, 1);
     sts_ctx ctx = {srv, conn, &io->scratch, t0 / 1000};
     r = hd->fn(&ctx, h, body, &conn->out) ? 2 : 0;
-    if (conn->out.len > before && conn->out.len - before >= STP_HEADER_SIZE) {
-        /* count error replies: status is at offset 12 of the frame just written */
-        const uint8_t *f = conn->out.data + before;
+    size_t added = stp_buf_avail(&conn->out) - before;
+    if (added >= STP_HEADER_SIZE) {
+        /* count error replies: status is at offset 12 of the frame just written, which ends
+         * the buffer (appending may have moved the pending bytes to the front) */
+        const uint8_t *f = conn->out.data + conn->out.len - added;
         if (stp_rd16(f + 12) != STP_S_OK)
             STS_STAT_ADD(srv, replies_error, 1);
     }
 replied:
-    sts_opstats_record(&srv->opstats, h->opcode, t0,
-                       conn->out.len > before ? conn->out.data + before : NULL,
-                       conn->out.len - before);
+    sts_opstats_record(&srv->opstats, h->opcode, t0, &conn->out, before);
     return r;
 }

@@ -29,12 +29,15 @@ static unsigned bucket_of(int64_t us)
     return b < STS_LAT_BUCKETS ? b : STS_LAT_BUCKETS - 1;
 }
 
-void sts_opstats_record(sts_opstats *s, unsigned opcode, int64_t start_us,
-                        const uint8_t *reply, size_t len)
+void sts_opstats_record(sts_opstats *s, unsigned opcode, int64_t start_us, const stp_buf *out,
+                        size_t avail_before)
 {
     sts_opstat *o = &s->op[opcode & 0xFF];
     __atomic_add_fetch(&o->lat[bucket_of(sts_opstats_now_us() - start_us)], 1, __ATOMIC_RELAXED);
-    if (len >= STP_HEADER_SIZE && stp_rd16(reply + 12) != STP_S_OK)  /* status at offset 12 */
+    size_t avail = stp_buf_avail(out);
+    size_t added = avail > avail_before ? avail - avail_before : 0;
+    if (added >= STP_HEADER_SIZE &&                 /* status at offset 12 of the frame */
+        stp_rd16(out->data + out->len - added + 12) != STP_S_OK)
         __atomic_add_fetch(&o->errors, 1, __ATOMIC_RELAXED);
 }
 

@@ -36,10 +36,12 @@ typedef struct sts_opstats {
 /* Monotonic microseconds (the "request parsed" stamp). */
 int64_t sts_opstats_now_us(void);
 
-/* Counts one reply of `opcode` for a request parsed at start_us: `reply` is the frame just
- * appended (len bytes, may be 0 when none was); its status decides whether it is an error. */
-void sts_opstats_record(sts_opstats *s, unsigned opcode, int64_t start_us,
-                        const uint8_t *reply, size_t len);
+/* Counts one reply of `opcode` for a request parsed at start_us. The reply is the frame that
+ * ends `out`, which held avail_before unsent bytes before it was appended (stp_buf_avail;
+ * not a position: appending may move the pending bytes); its status decides whether it is
+ * an error. Nothing appended: counted, not as an error. */
+void sts_opstats_record(sts_opstats *s, unsigned opcode, int64_t start_us, const stp_buf *out,
+                        size_t avail_before);
 
 /* The most STATS entries sts_opstats_report writes. */
 size_t sts_opstats_max_keys(void);

@@ -5,12 +5,14 @@
  * starts its own daemon (tests/common/daemon_fixture.h) on 127.0.0.1 port 0. Nothing here
  * needs SEAMTEX_DATA.
  */
+#include <errno.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <poll.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -155,6 +157,114 @@ static void ping_and_bad_info_counts_are_exact(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* Many pipelined PINGs with a payload (echoed back) and bad INFOs in between, read slowly
+ * through a small receive buffer: the server's output buffer is partly sent and compacted
+ * while replies are appended, and each reply is still found and counted right. */
+static void counts_stay_exact_when_replies_back_up(void **state)
+{
+    (void)state;
+    enum { TOTAL = 20000, EVERY = 10, PAY = 1000 };
+    const char *extra[] = {"--conn-out-cap", "256K", NULL};
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    int small = 32 * 1024;
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    stp_buf b;
+    stp_buf_init(&b);
+    uint8_t pay[PAY];
+    memset(pay, 0x5C, sizeof pay);
+    unsigned nbad = 0;
+    for (unsigned i = 0; i < TOTAL; i++) {
+        if (i % EVERY == EVERY - 1) {
+            stp_enc_empty(&b, STP_OP_INFO, 0, i, 0);
+            nbad++;
+        } else {
+            size_t at = stp_frame_begin(&b, STP_OP_PING, 0, i, 0, 0);
+            stp_put_bytes(&b, pay, sizeof pay);
+            stp_frame_end(&b, at);
+        }
+    }
+    assert_int_equal(b.err, 0);
+    const uint8_t *out = stp_buf_head(&b);
+    size_t left = stp_buf_avail(&b), have = 0;
+    static uint8_t in[1 << 16];
+    unsigned got = 0, got_bad = 0;
+    /* write without reading until the server stops reading us (past conn-out-cap), ask
+     * another connection for STATS meanwhile, then read everything, writing the rest as the
+     * server takes it: its output is sent in pieces while more replies are appended */
+    int stalled = 0;
+    while (left && !stalled) {
+        struct pollfd p = {fd, POLLOUT, 0};
+        stalled = poll(&p, 1, 300) == 0;
+        ssize_t w = stalled ? 0 : send(fd, out, left, MSG_NOSIGNAL | MSG_DONTWAIT);
+        assert_true(w >= 0 || errno == EAGAIN);   /* the daemon must not drop us */
+        if (w > 0) {
+            out += w;
+            left -= (size_t)w;
+        }
+    }
+    assert_true(stalled);   /* 20 MB of replies: more than conn-out-cap + socket buffers */
+    stc_conn *mid = conn_to(&d);
+    assert_non_null(mid);
+    const stc_stat *mst = NULL;
+    size_t mn = 0;
+    assert_int_equal(stc_stats(mid, &mst, &mn), 0);
+    stc_close(mid);
+    while (got < TOTAL) {
+        struct pollfd p = {fd, POLLOUT, 0};
+        if (left && poll(&p, 1, 10) > 0 && (p.revents & POLLOUT)) {
+            ssize_t w = send(fd, out, left < 8192 ? left : 8192, MSG_NOSIGNAL | MSG_DONTWAIT);
+            assert_true(w >= 0 || errno == EAGAIN);
+            if (w > 0) {
+                out += w;
+                left -= (size_t)w;
+            }
+            continue;
+        }
+        p.events = POLLIN;
+        assert_true(poll(&p, 1, 20000) > 0);
+        ssize_t r = recv(fd, in + have, sizeof in - have, 0);
+        assert_true(r > 0);
+        have += (size_t)r;
+        for (;;) {   /* every complete reply in `in` */
+            stp_header h;
+            int reason = 0;
+            if (have < STP_HEADER_SIZE ||
+                stp_parse_header(in, have, 1 << 20, &h, &reason) != STP_OK ||
+                have < STP_HEADER_SIZE + (size_t)h.body_len)
+                break;
+            assert_int_equal(h.reqid, got);
+            assert_int_equal(h.status != STP_S_OK, got % EVERY == EVERY - 1);
+            got_bad += h.status != STP_S_OK;
+            got++;
+            size_t fl = STP_HEADER_SIZE + (size_t)h.body_len;
+            memmove(in, in + fl, have - fl);
+            have -= fl;
+        }
+    }
+    stp_buf_free(&b);
+    close(fd);
+    assert_int_equal(got_bad, nbad);
+    stc_conn *c = conn_to(&d);
+    assert_non_null(c);
+    const stc_stat *st = NULL;
+    size_t n = 0;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    assert_int_equal(stat_u(st, n, "op_ping_requests"), TOTAL - nbad);
+    assert_int_equal(stat_u(st, n, "op_ping_errors"), 0);
+    assert_int_equal(stat_u(st, n, "op_info_requests"), nbad);
+    assert_int_equal(stat_u(st, n, "op_info_errors"), nbad);
+    assert_int_equal(stat_u(st, n, "replies_error"), nbad);
+    int nb = 0;
+    assert_int_equal(hist_sum(st, n, "ping", &nb), TOTAL - nbad);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* DELETE runs on a worker: its replies are counted on the worker's completion path. */
 static void worker_requests_are_counted_too(void **state)
 {
@@ -185,6 +295,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(ping_and_bad_info_counts_are_exact),
         cmocka_unit_test(worker_requests_are_counted_too),
+        cmocka_unit_test(counts_stay_exact_when_replies_back_up),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
