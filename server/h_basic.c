@@ -2,7 +2,8 @@
  * SAMPLE, SAMPLE_DIR.
  *
  * Owns: decoding their bodies (through protocol/), reading the registry, sampling into the
- * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c).
+ * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c),
+ * the per-opcode counters STATS reports (opstats.c).
  * Every handler appends exactly one frame to `out`.
  */
 #include <stdio.h>
@@ -11,7 +12,12 @@
 #include <string.h>
 
 #include "cube.h"
+#include "dispatch.h"
+#include "h_basic.h"
+#include "io.h"
+#include "opstats.h"
 #include "server.h"
+#include "workers.h"
 
 /* Looks a set up by a name the decoder has already held to the name rule (protocol/stp_name.h:
  * a bad name was answered INVALID before the handler ran); replies NOT_FOUND itself and
@@ -481,8 +487,12 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
         return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
     sts_server *srv = c->srv;
-    enum { cap = 128 };
-    stp_stat s[cap];
+    size_t cap = 128 + sts_opstats_max_keys();
+    stp_stat *s = malloc(cap * sizeof *s);
+    if (!s) {
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
     size_t n = 0;
     U("uptime_ms", (uint64_t)(sts_now_ms() - srv->started_ms));
     U("conns_current", __atomic_load_n(&srv->nconns, __ATOMIC_RELAXED));
@@ -543,10 +553,12 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
                 *p = (char)(*p - 'A' + 'a');
         U(key, v);
     }
+    n += sts_opstats_report(&srv->opstats, s + n, cap - n);
     stp_stats_reply r;
     memset(&r, 0, sizeof r);
     r.count = (uint32_t)n;
     r.stats = s;
     stp_enc_stats_reply(out, h->reqid, &r);
+    free(s);
     return 0;
 }

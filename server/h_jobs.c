@@ -1,9 +1,10 @@
 /* server/h_jobs.c - COMPRESS jobs (BC1 re-encoding on the job thread) and FETCH handles.
  *
- * Owns: the job table (queued, running and recently finished jobs), the job thread, progress
- * and cancel plumbing into st_bc1_compress_set, persisting a finished BC1 set as a DDS file in
- * the data dir; the per-connection fetch handles (a set serialised once to .ptx or .dds in
- * memory, read in chunks). Does not own: the BC1 encoder, the writers (store/).
+ * Owns: the jobs (queued, running and recently finished) in their handle table, the job
+ * thread, progress and cancel plumbing into st_bc1_compress_set, persisting a finished BC1
+ * set as a DDS file in the data dir; the per-connection fetch handles in srv->fetches (a set
+ * serialised once to .ptx or .dds in memory, read in chunks). Does not own: the handle table
+ * itself (handles.c: ids, owner, capacity, lock), the BC1 encoder, the writers (store/).
  *
  * Jobs run one at a time on their own thread (the encoder may use threads of its own), so a
  * long compression never occupies the workers that answer requests. Finished jobs stay
@@ -15,17 +16,31 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "ptex.h"
-#include "server.h"
 #include "bc1.h"
 #include "bc1_measure.h"
+#include "dispatch.h"
+#include "h_jobs.h"
+#include "handles.h"
+#include "io.h"
+#include "ptex.h"
+#include "server.h"
 
 #define KEEP_FINISHED 256
 #define MAX_FETCHES   256
 
-struct sts_job {
-    uint64_t    id;
-    int         state;         /* stp_job_state, under jobs.mu */
+/* Jobs are in jobs->table with owner 0 (any connection may ask about or cancel a job) and
+ * count against max-jobs while queued or running. */
+typedef struct sts_jobs {
+    sts_handles    table;      /* its mutex guards the jobs' states and `stop` */
+    pthread_cond_t cv;         /* the job thread waits here for queued jobs */
+    int            stop;
+    pthread_t      thread;
+    int            started;
+} sts_jobs;
+
+typedef struct sts_job {
+    sts_handle  hd;            /* first: id, owner 0, live while queued or running */
+    int         state;         /* stp_job_state, under jobs->table.mu */
     uint32_t    progress_bits; /* float bits, atomic */
     uint16_t    result;
     char        msg[STP_MAX_MSG + 1];
@@ -33,15 +48,24 @@ struct sts_job {
     st_setref  *src;
     char        target[ST_NAME_MAX + 1];
     uint8_t     level, flags;
-    sts_job    *next;
-};
+} sts_job;
 
-struct sts_fetch {
-    uint64_t   id, conn_id;
+/* Fetches are in srv->fetches, owned by the connection that opened them. */
+typedef struct sts_fetch {
+    sts_handle hd;             /* first: id, owner connection */
     uint8_t   *data;
     size_t     len;
-    sts_fetch *next;
-};
+} sts_fetch;
+
+#define JOB(h)   ((sts_job *)(h))     /* sts_handle is the first member of both */
+#define FETCH(h) ((sts_fetch *)(h))
+
+static int every(sts_handle *h, void *arg)
+{
+    (void)h;
+    (void)arg;
+    return 1;
+}
 
 /* ---- the job thread ---------------------------------------------------------------------- */
 
@@ -129,7 +153,7 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
             return rc;
         }
         sts_logf(&srv->log, STS_WARN, "job %llu: '%s' has no DDS form (%s); kept in memory only",
-                 (unsigned long long)j->id, j->target, e->msg);
+                 (unsigned long long)j->hd.id, j->target, e->msg);
     }
     return st_registry_put(srv->reg, j->target, bc1, NULL, STS_LIVE(srv, max_sets), NULL, e);
 }
@@ -153,11 +177,11 @@ static void run_job(sts_server *srv, sts_job *j)
     st_error_clear(&me);
     int measured = rc == 0 && st_bc1_measure(j->src->set, bc1, o.step, &q, &me) == 0;
     if (rc == 0 && !measured)
-        sts_logf(&srv->log, STS_WARN, "job %llu: no quality report: %s", (unsigned long long)j->id,
+        sts_logf(&srv->log, STS_WARN, "job %llu: no quality report: %s", (unsigned long long)j->hd.id,
                  me.msg);
     if (rc == 0)
         rc = store_result(srv, j, bc1, &e);
-    pthread_mutex_lock(&srv->jobs.mu);
+    sts_handles_lock(&srv->jobs->table);
     j->result = (uint16_t)sts_status_from_st(rc);
     j->state = rc == 0 ? STP_JOB_DONE : rc == ST_ECANCELED ? STP_JOB_CANCELED : STP_JOB_FAILED;
     if (rc == 0 && measured && q.nseams)
@@ -171,8 +195,8 @@ static void run_job(sts_server *srv, sts_job *j)
         snprintf(j->msg, sizeof j->msg, "created set '%s'", j->target);
     else
         snprintf(j->msg, sizeof j->msg, "%s", e.msg[0] ? e.msg : st_strerror(rc));
-    srv->jobs.active--;
-    pthread_mutex_unlock(&srv->jobs.mu);
+    sts_handles_retire_locked(&srv->jobs->table, &j->hd);
+    sts_handles_unlock(&srv->jobs->table);
     if (rc == 0)
         STS_STAT_ADD(srv, jobs_done, 1);
     else if (rc == ST_ECANCELED)
@@ -180,7 +204,7 @@ static void run_job(sts_server *srv, sts_job *j)
     else
         STS_STAT_ADD(srv, jobs_failed, 1);
     sts_logf(&srv->log, rc ? STS_WARN : STS_INFO, "job %llu (compress '%s' -> '%s'): %s",
-             (unsigned long long)j->id, j->src->name, j->target, j->msg);
+             (unsigned long long)j->hd.id, j->src->name, j->target, j->msg);
     st_setref_release(j->src);
     j->src = NULL;
 }
@@ -188,52 +212,55 @@ static void run_job(sts_server *srv, sts_job *j)
 static void *job_main(void *arg)
 {
     sts_server *srv = arg;
-    sts_jobs *J = &srv->jobs;
-    pthread_mutex_lock(&J->mu);
+    sts_jobs *J = srv->jobs;
+    sts_handles_lock(&J->table);
     for (;;) {
         sts_job *next = NULL;
-        for (sts_job *j = J->list; j; j = j->next)  /* newest first: take the oldest queued */
-            if (j->state == STP_JOB_QUEUED)
-                next = j;
+        for (sts_handle *h = J->table.list; h; h = h->next)  /* newest first: the oldest queued */
+            if (JOB(h)->state == STP_JOB_QUEUED)
+                next = JOB(h);
         if (!next) {
             if (J->stop)
                 break;
-            pthread_cond_wait(&J->cv, &J->mu);
+            pthread_cond_wait(&J->cv, &J->table.mu);
             continue;
         }
         if (next->cancel) {
             next->state = STP_JOB_CANCELED;
             next->result = STP_S_CANCELED;
             snprintf(next->msg, sizeof next->msg, "canceled before it started");
-            J->active--;
+            sts_handles_retire_locked(&J->table, &next->hd);
             st_setref_release(next->src);
             next->src = NULL;
             STS_STAT_ADD(srv, jobs_canceled, 1);
             continue;
         }
         next->state = STP_JOB_RUNNING;
-        pthread_mutex_unlock(&J->mu);
+        sts_handles_unlock(&J->table);
         run_job(srv, next);
-        pthread_mutex_lock(&J->mu);
+        sts_handles_lock(&J->table);
         /* prune finished jobs past KEEP_FINISHED */
         unsigned finished = 0;
-        for (sts_job **pp = &J->list; *pp;) {
-            sts_job *j = *pp;
-            if (j->state >= STP_JOB_DONE && ++finished > KEEP_FINISHED) {
-                *pp = j->next;
-                free(j);
-            } else {
-                pp = &j->next;
+        for (sts_handle *h = J->table.list, *n; h; h = n) {
+            n = h->next;
+            if (JOB(h)->state >= STP_JOB_DONE && ++finished > KEEP_FINISHED) {
+                sts_handles_unlink_locked(&J->table, h);
+                free(h);
             }
         }
     }
-    pthread_mutex_unlock(&J->mu);
+    sts_handles_unlock(&J->table);
     return NULL;
 }
 
 int sts_jobs_start(sts_server *srv)
 {
-    sts_jobs *J = &srv->jobs;
+    sts_jobs *J = calloc(1, sizeof *J);
+    if (!J)
+        return -1;
+    sts_handles_init(&J->table);
+    pthread_cond_init(&J->cv, NULL);
+    srv->jobs = J;
     if (pthread_create(&J->thread, NULL, job_main, srv) != 0)
         return -1;
     J->started = 1;
@@ -242,27 +269,30 @@ int sts_jobs_start(sts_server *srv)
 
 void sts_jobs_stop(sts_server *srv)
 {
-    sts_jobs *J = &srv->jobs;
-    pthread_mutex_lock(&J->mu);
-    J->stop = 1;
-    for (sts_job *j = J->list; j; j = j->next)
-        j->cancel = 1;  /* a stopping server does not wait for long compressions */
-    pthread_cond_broadcast(&J->cv);
-    pthread_mutex_unlock(&J->mu);
-    if (J->started)
-        pthread_join(J->thread, NULL);
-    J->started = 0;
-    while (J->list) {
-        sts_job *j = J->list;
-        J->list = j->next;
-        st_setref_release(j->src);
-        free(j);
+    sts_jobs *J = srv->jobs;
+    if (J) {
+        sts_handles_lock(&J->table);
+        J->stop = 1;
+        for (sts_handle *h = J->table.list; h; h = h->next)
+            JOB(h)->cancel = 1;  /* a stopping server does not wait for long compressions */
+        pthread_cond_broadcast(&J->cv);
+        sts_handles_unlock(&J->table);
+        if (J->started)
+            pthread_join(J->thread, NULL);
+        for (sts_handle *h = sts_handles_unlink_if(&J->table, every, NULL), *n; h; h = n) {
+            n = h->next;
+            st_setref_release(JOB(h)->src);
+            free(h);
+        }
+        sts_handles_destroy(&J->table);
+        pthread_cond_destroy(&J->cv);
+        free(J);
+        srv->jobs = NULL;
     }
-    while (J->fetches) {
-        sts_fetch *f = J->fetches;
-        J->fetches = f->next;
-        free(f->data);
-        free(f);
+    for (sts_handle *h = sts_handles_unlink_if(&srv->fetches, every, NULL), *n; h; h = n) {
+        n = h->next;
+        free(FETCH(h)->data);
+        free(h);
     }
 }
 
@@ -305,22 +335,21 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     j->level = rq.level;
     j->flags = rq.flags;
     j->state = STP_JOB_QUEUED;
-    pthread_mutex_lock(&srv->jobs.mu);
-    if (srv->jobs.active >= STS_LIVE(srv, max_jobs)) {
-        pthread_mutex_unlock(&srv->jobs.mu);
+    sts_jobs *J = srv->jobs;
+    sts_handles_lock(&J->table);
+    int full = sts_handles_add_locked(&J->table, &j->hd, STS_LIVE(srv, max_jobs)) != 0;
+    uint64_t id = j->hd.id;   /* the job thread may finish and prune it once unlocked */
+    if (!full)
+        pthread_cond_signal(&J->cv);
+    sts_handles_unlock(&J->table);
+    if (full) {
         st_setref_release(src);
         free(j);
         sts_reply_error(out, h, STP_S_BUSY, "too many compress jobs (max-jobs)");
         return 0;
     }
-    j->id = ++srv->jobs.next_id;
-    j->next = srv->jobs.list;
-    srv->jobs.list = j;
-    srv->jobs.active++;
-    pthread_cond_signal(&srv->jobs.cv);
-    pthread_mutex_unlock(&srv->jobs.mu);
     STS_STAT_ADD(srv, jobs_started, 1);
-    stp_enc_id_reply(out, h->opcode, h->reqid, j->id);
+    stp_enc_id_reply(out, h->opcode, h->reqid, id);
     return 0;
 }
 
@@ -335,15 +364,13 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
         return sts_reply_bad(out, h, st, why);
     stp_job_status r;
     memset(&r, 0, sizeof r);
-    int found = 0;
-    pthread_mutex_lock(&srv->jobs.mu);
-    for (sts_job *j = srv->jobs.list; j; j = j->next) {
-        if (j->id != id)
-            continue;
-        found = 1;
+    sts_handles_lock(&srv->jobs->table);
+    sts_job *j = JOB(sts_handles_find_locked(&srv->jobs->table, id, STS_ANY_OWNER));
+    int found = j != NULL;
+    if (j) {
         if (cancel && j->state <= STP_JOB_RUNNING)
             j->cancel = 1;
-        r.job_id = j->id;
+        r.job_id = j->hd.id;
         r.state = (uint8_t)j->state;
         uint32_t bits = __atomic_load_n(&j->progress_bits, __ATOMIC_RELAXED);
         memcpy(&r.progress, &bits, 4);
@@ -354,9 +381,8 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
                  j->state == STP_JOB_QUEUED ? (j->cancel ? "cancel requested" : "queued")
                  : j->state == STP_JOB_RUNNING ? (j->cancel ? "cancel requested" : "running")
                  : j->msg);
-        break;
     }
-    pthread_mutex_unlock(&srv->jobs.mu);
+    sts_handles_unlock(&srv->jobs->table);
     if (!found) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such job");
         return 0;
@@ -377,46 +403,28 @@ int sts_h_job_cancel(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
 
 /* ---- FETCH ------------------------------------------------------------------------------------ */
 
+static int owned_by(sts_handle *h, void *arg)
+{
+    return h->owner == *(const uint64_t *)arg;
+}
+
 void sts_fetch_drop_conn(sts_server *srv, uint64_t conn_id)
 {
-    sts_fetch *drop = NULL;
-    pthread_mutex_lock(&srv->jobs.mu);
-    for (sts_fetch **pp = &srv->jobs.fetches; *pp;) {
-        sts_fetch *f = *pp;
-        if (f->conn_id == conn_id) {
-            *pp = f->next;
-            f->next = drop;
-            drop = f;
-            srv->jobs.nfetches--;
-        } else {
-            pp = &f->next;
-        }
-    }
-    pthread_mutex_unlock(&srv->jobs.mu);
-    while (drop) {
-        sts_fetch *n = drop->next;
-        free(drop->data);
-        free(drop);
-        drop = n;
+    for (sts_handle *h = sts_handles_unlink_if(&srv->fetches, owned_by, &conn_id), *n; h; h = n) {
+        n = h->next;
+        free(FETCH(h)->data);
+        free(h);
     }
 }
 
 static sts_fetch *find_fetch(sts_server *srv, uint64_t id, uint64_t conn_id, int take)
 {
-    sts_fetch *found = NULL;
-    pthread_mutex_lock(&srv->jobs.mu);
-    for (sts_fetch **pp = &srv->jobs.fetches; *pp; pp = &(*pp)->next) {
-        if ((*pp)->id == id && (*pp)->conn_id == conn_id) {
-            found = *pp;
-            if (take) {
-                *pp = found->next;
-                srv->jobs.nfetches--;
-            }
-            break;
-        }
-    }
-    pthread_mutex_unlock(&srv->jobs.mu);
-    return found;
+    sts_handles_lock(&srv->fetches);
+    sts_handle *f = sts_handles_find_locked(&srv->fetches, id, conn_id);
+    if (f && take)
+        sts_handles_unlink_locked(&srv->fetches, f);
+    sts_handles_unlock(&srv->fetches);
+    return FETCH(f);
 }
 
 int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
@@ -464,22 +472,18 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     }
     f->data = data;
     f->len = len;
-    f->conn_id = c->conn->id;
-    pthread_mutex_lock(&srv->jobs.mu);
-    if (srv->jobs.nfetches >= MAX_FETCHES) {
-        pthread_mutex_unlock(&srv->jobs.mu);
+    f->hd.owner = c->conn->id;
+    sts_handles_lock(&srv->fetches);
+    int full = sts_handles_add_locked(&srv->fetches, &f->hd, MAX_FETCHES) != 0;
+    sts_handles_unlock(&srv->fetches);
+    if (full) {
         free(data);
         free(f);
         sts_reply_error(out, h, STP_S_BUSY, "too many open fetches");
         return 0;
     }
-    f->id = ++srv->jobs.next_fetch;
-    f->next = srv->jobs.fetches;
-    srv->jobs.fetches = f;
-    srv->jobs.nfetches++;
-    pthread_mutex_unlock(&srv->jobs.mu);
     STS_STAT_ADD(srv, fetches, 1);
-    stp_fetch_open_reply r = {f->id, len, stp_crc32c(0, data, len), STP_DEFAULT_MAX_CHUNK};
+    stp_fetch_open_reply r = {f->hd.id, len, stp_crc32c(0, data, len), STP_DEFAULT_MAX_CHUNK};
     stp_enc_fetch_open_reply(out, h->reqid, &r);
     return 0;
 }

@@ -1,9 +1,10 @@
-/* server/h_upload.c - the upload handlers, DELETE, and loading the data dir at start.
+/* server/h_upload.c - the upload handlers and DELETE.
  *
- * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format
- * (sts_import_path), publishing a committed set, the data-dir load callback. Does not own:
- * the table of uploads and their life (uploads.c), the on-disk commit protocol
- * (store/datadir.c), the registry (store/registry.c), the file readers (store/import.c).
+ * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format and options
+ * (sts_import_path, also used by the start-up load), publishing a committed set. Does not
+ * own: the table of uploads and their life (uploads.c), loading the data dir at start
+ * (startup.c), the on-disk commit protocol (store/datadir.c), the registry
+ * (store/registry.c), the file readers (store/import.c).
  *
  * Chunks must come in order. COMMIT checks size and CRC32C, imports the file (the set is
  * validated before anything is published), commits it to the data dir (fsync + rename, see
@@ -17,10 +18,13 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "dispatch.h"
+#include "h_upload.h"
+#include "import.h"
+#include "io.h"
+#include "ptex.h"
 #include "server.h"
 #include "uploads.h"
-#include "import.h"
-#include "ptex.h"
 
 /* ---- importing --------------------------------------------------------------------------- */
 
@@ -123,59 +127,6 @@ static int publish_cb(void *arg, const st_manifest *m, const char *source_path)
                            &pa->replaced, pa->e);
 }
 
-typedef struct load_arg {
-    sts_server *srv;
-    int         failed;
-} load_arg;
-
-static int load_cb(void *arg, const st_manifest *m, const char *source_path)
-{
-    load_arg *la = arg;
-    st_error e;
-    st_error_clear(&e);
-    st_set *set = NULL;
-    int rc = sts_import_path(la->srv, source_path, m->format, m->options, &set, &e);
-    if (rc == ST_EBUSY)
-        return rc;
-    if (rc) {
-        sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s' (%s) does not import: %s",
-                 m->name, source_path, e.msg);
-        return rc;
-    }
-    st_set_source src = {m->bytes, m->crc, m->format};
-    rc = st_registry_put(la->srv->reg, m->name, set, &src, 0, NULL, &e);
-    if (rc)
-        sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s': %s", m->name, e.msg);
-    else
-        sts_logf(&la->srv->log, STS_DEBUG, "data dir: loaded '%s' (%s, %llu bytes)", m->name,
-                 m->format, (unsigned long long)m->bytes);
-    return rc;
-}
-
-static void report_cb(void *arg, const char *name, const char *why)
-{
-    load_arg *la = arg;
-    la->failed++;
-    sts_logf(&la->srv->log, STS_WARN, "data dir: set '%s': %s", name, why);
-}
-
-int sts_load_datadir(sts_server *srv)
-{
-    if (!srv->dd)
-        return 0;
-    load_arg la = {srv, 0};
-    st_error e;
-    st_error_clear(&e);
-    int n = st_datadir_load(srv->dd, load_cb, &la, report_cb, &e);
-    if (n < 0) {
-        sts_logf(&srv->log, STS_ERROR, "data dir %s: %s", st_datadir_path(srv->dd), e.msg);
-        return n;
-    }
-    sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets loaded, %d set aside or cleaned",
-             st_datadir_path(srv->dd), n, la.failed);
-    return n;
-}
-
 /* ---- handlers -------------------------------------------------------------------------------- */
 
 int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
@@ -243,7 +194,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     u->total = rq.total_size;
     u->crc_want = rq.crc32c;
     u->flags = rq.flags & ~(uint32_t)STP_UF_RESUME;
-    u->conn_id = c->conn->id;
+    u->hd.owner = c->conn->id;
     int rc;
     if (srv->dd) {
         rc = st_datadir_tmpfile(srv->dd, u->path, sizeof u->path, &u->fd, &e);
@@ -267,7 +218,7 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         return 0;
     }
     STS_STAT_ADD(srv, uploads_begun, 1);
-    stp_upload_begin_reply r = {u->id, 0, STP_DEFAULT_MAX_CHUNK};
+    stp_upload_begin_reply r = {u->hd.id, 0, STP_DEFAULT_MAX_CHUNK};
     stp_enc_upload_begin_reply(out, h->reqid, &r);
     return 0;
 }

@@ -26,7 +26,12 @@
 #include <unistd.h>
 
 #include "cube.h"
+#include "dispatch.h"
+#include "h_jobs.h"
+#include "io.h"
 #include "server.h"
+#include "uploads.h"
+#include "workers.h"
 
 #define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
 #define KEEP_SMALL (64u << 10)   /* buffers up to this are released as soon as idle */

@@ -1,8 +1,9 @@
 /* server/server.c - the sts_server: creation (registry, data dir, default set, listening
  * socket), thread start, graceful stop, config reload, token and memory accounting.
  *
- * Owns: the server's lifetime. Does not own: signals (main.c), connections (io.c), requests
- * (dispatch.c and the handlers).
+ * Owns: the server's lifetime. Does not own: signals (main.c), loading the data dir's sets
+ * (startup.c), connections (io.c), requests (dispatch.c and the handlers), the tables the
+ * server embeds (handles.c, workers.c, opstats.c).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -17,8 +18,13 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "server.h"
 #include "defaultset.h"
+#include "h_jobs.h"
+#include "io.h"
+#include "server.h"
+#include "startup.h"
+#include "uploads.h"
+#include "workers.h"
 
 int64_t sts_now_ms(void)
 {
@@ -123,9 +129,8 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     sts_log_set_level(&srv->log, cfg->log_level);
     pthread_mutex_init(&srv->cfg_mu, NULL);
     pthread_mutex_init(&srv->commit_mu, NULL);
-    pthread_mutex_init(&srv->uploads.mu, NULL);
-    pthread_mutex_init(&srv->jobs.mu, NULL);
-    pthread_cond_init(&srv->jobs.cv, NULL);
+    sts_handles_init(&srv->uploads);
+    sts_handles_init(&srv->fetches);
     raise_nofile(srv);
     srv->reg = st_registry_create();
     if (!srv->reg) {
@@ -264,6 +269,7 @@ void sts_server_free(sts_server *srv)
     if (srv->listen_fd >= 0)
         close(srv->listen_fd);
     sts_uploads_free(srv);
+    sts_handles_destroy(&srv->fetches);   /* emptied by sts_jobs_stop */
     st_registry_free(srv->reg);
     st_datadir_close(srv->dd);
     if (srv->cfg.port_file[0])
