@@ -1,5 +1,5 @@
 /* store/bc1/seammask.h - seams as sample points, and least-squares seam masking (after Sylvan
- * 2015 and the seam-aware DXT1 poster, see /work/shared/papers/).
+ * 2015 and the seam-aware DXT1 poster, in the shared papers folder beside the repository, ../shared/papers/).
  *
  * Owns: turning the seams of a set into sample-point pairs (st_seam_sys), the energy
  * E = Ec + alpha * Es and its minimisation over texels (masking), seam RMS measurement.
