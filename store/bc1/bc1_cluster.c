@@ -183,7 +183,7 @@ static int split_merge(__m128 bv, __m128i bix);
 #endif
 
 int st_bc1e_cluster_fit(const blk *B, const axis *A, const sorted *S, const int lo[3],
-                       const int hi[3], float e0[3], float e1[3])
+                        const int hi[3], float e0[3], float e1[3])
 {
     (void)B; /* the weights are in S; B says whether they are all 1 (SSE2 paths) */
     const float *pw = S->pw, *pr = S->pr, *pg = S->pg, *pb = S->pb;

@@ -35,9 +35,8 @@ __attribute__((target("avx2"))) static inline float sum16_avx2(__m256 a, __m256 
 
 /* select_sse eight texels at a time (AVX2 CPUs, chosen at run time): the same keys, so the
  * same selectors and error. */
-__attribute__((target("avx2"))) float st_bc1e_select_avx2(const blk *B, uint16_t c0,
-                                                          uint16_t c1, uint8_t *sel,
-                                                          float limit)
+__attribute__((target("avx2"))) float
+st_bc1e_select_avx2(const blk *B, uint16_t c0, uint16_t c1, uint8_t *sel, float limit)
 {
     float kv[4][4];
     palette_keys(c0, c1, kv);
@@ -77,8 +76,8 @@ __attribute__((target("avx2"))) float st_bc1e_select_avx2(const blk *B, uint16_t
 }
 
 /* nbase_fill eight texels at a time (the same values). */
-__attribute__((target("avx2"))) void st_bc1e_nbase_fill_avx2(const blk *B, uint16_t c0,
-                                                             uint16_t c1, nbase *N)
+__attribute__((target("avx2"))) void
+st_bc1e_nbase_fill_avx2(const blk *B, uint16_t c0, uint16_t c1, nbase *N)
 {
     float pal[3][4];
     palette_f(c0, c1, c0 > c1, pal);
@@ -165,9 +164,9 @@ moves_body_avx2(const blk *B, const nbase *N, int k, const float p2[4][4], int t
     _mm_storeu_ps(err, _mm_add_ps(_mm_add_ps(s[0], s[2]), _mm_add_ps(s[1], s[3])));
 }
 
-__attribute__((target("avx2"))) void st_bc1e_moves_eval_avx2(const blk *B, const nbase *N, int k,
-                                                             const float p2[4][4], int three,
-                                                             float err[4])
+__attribute__((target("avx2"))) void
+st_bc1e_moves_eval_avx2(const blk *B, const nbase *N, int k, const float p2[4][4], int three,
+                        float err[4])
 {
     if (three) {
         if (B->unit)
@@ -187,9 +186,9 @@ __attribute__((target("avx2"))) void st_bc1e_moves_eval_avx2(const blk *B, const
  * the same split. Leaves its best four lanes (scores and split indices) folded into the
  * 128-bit form the SSE2 loop ends with. */
 __attribute__((target("avx2"))) void
-st_bc1e_cluster_scan_avx2(const float *q3r, const float *q3g, const float *q3b, const float *w9,
-                  const float *w29, float wsum, const int lo[3], const int hi[3], __m128 *best4,
-                  __m128i *idx4)
+st_bc1e_cluster_scan_avx2(const float *q3r, const float *q3g, const float *q3b,
+                          const float *w9, const float *w29, float wsum, const int lo[3],
+                          const int hi[3], __m128 *best4, __m128i *idx4)
 {
     const __m256 eps = _mm256_set1_ps(1e-5f), ninf = _mm256_set1_ps(-3e30f),
                  one = _mm256_set1_ps(1.0f), Wv = _mm256_set1_ps(wsum);
@@ -237,7 +236,8 @@ st_bc1e_cluster_scan_avx2(const float *q3r, const float *q3g, const float *q3b, 
 }
 
 /* rank16_sse eight texels at a time (the same keys, the same ranks). */
-__attribute__((target("avx2"))) void st_bc1e_rank16_avx2(const float proj[16], int32_t rank[16])
+__attribute__((target("avx2"))) void
+st_bc1e_rank16_avx2(const float proj[16], int32_t rank[16])
 {
     int32_t key[16];
     for (int g = 0; g < 4; g++)
@@ -255,6 +255,24 @@ __attribute__((target("avx2"))) void st_bc1e_rank16_avx2(const float proj[16], i
     }
     _mm256_storeu_si256((__m256i *)rank, R0);
     _mm256_storeu_si256((__m256i *)(rank + 8), R1);
+}
+
+/* The best of two accumulators of eight lanes (scores v, split indices x) as the four lanes
+ * the SSE2 scans end with: the 128-bit halves by the merge rule (split_pick_sse), the two
+ * accumulators, then upper into lower. */
+__attribute__((target("avx2"), always_inline)) static inline void
+fold_acc_avx2(__m256 v0, __m256 x0, __m256 v1, __m256 x1, __m128 *best4, __m128i *idx4)
+{
+    __m128 a = _mm256_castps256_ps128(v0);
+    __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
+    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
+                   _mm_castps_si128(_mm256_extractf128_ps(x0, 1)));
+    split_pick_sse(&a, &ai, _mm256_castps256_ps128(v1),
+                   _mm_castps_si128(_mm256_castps256_ps128(x1)));
+    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v1, 1),
+                   _mm_castps_si128(_mm256_extractf128_ps(x1, 1)));
+    *best4 = a;
+    *idx4 = ai;
 }
 
 /* split_row_sse eight i2 at a time (the same scores, the same rule per lane). */
@@ -287,7 +305,7 @@ split_row_avx2(const float *pr, const float *pg, const float *pb, int i0, int i1
 
 __attribute__((target("avx2"))) void
 st_bc1e_split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, const int lo[3],
-                    const int hi[3], __m128 *best4, __m128i *idx4)
+                            const int hi[3], __m128 *best4, __m128i *idx4)
 {
     __m256 v0 = _mm256_setzero_ps(), v1 = v0;
     __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
@@ -345,18 +363,8 @@ st_bc1e_split_scan_tab_avx2(const float *pr, const float *pg, const float *pb, c
         if (i1 <= end)
             split_row_avx2(pr, pg, pb, i0, i1, hi, i1 > lo[2] ? i1 : lo[2], last, &v0, &x0);
     }
-fold:;
-    /* the four 128-bit halves by the merge rule: the two accumulators, then upper into lower */
-    __m128 a = _mm256_castps256_ps128(v0);
-    __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
-    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
-                   _mm_castps_si128(_mm256_extractf128_ps(x0, 1)));
-    split_pick_sse(&a, &ai, _mm256_castps256_ps128(v1),
-                   _mm_castps_si128(_mm256_castps256_ps128(x1)));
-    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v1, 1),
-                   _mm_castps_si128(_mm256_extractf128_ps(x1, 1)));
-    *best4 = a;
-    *idx4 = ai;
+fold:
+    fold_acc_avx2(v0, x0, v1, x1, best4, idx4);
 }
 
 __attribute__((target("avx2"), always_inline)) static inline void
@@ -377,9 +385,9 @@ split3_chunk_avx2(__m256 Xr, __m256 Xg, __m256 Xb, __m256 Pr, __m256 Pg, __m256 
     *bidx = _mm256_blendv_ps(*bidx, idx, m);
 }
 
-__attribute__((target("avx2"))) void st_bc1e_split3_scan_avx2(const float *pr, const float *pg,
-                                                              const float *pb, __m128 *best4,
-                                                              __m128i *idx4)
+__attribute__((target("avx2"))) void
+st_bc1e_split3_scan_avx2(const float *pr, const float *pg, const float *pb, __m128 *best4,
+                         __m128i *idx4)
 {
     __m256 v0 = _mm256_setzero_ps(), v1 = v0;
     __m256 x0 = _mm256_castsi256_ps(_mm256_set1_epi32(-1)), x1 = x0;
@@ -394,16 +402,7 @@ __attribute__((target("avx2"))) void st_bc1e_split3_scan_avx2(const float *pr, c
             split3_chunk_avx2(Xr, Xg, Xb, Lr, Lg, Lb, row + 1, i0 * 17 + 1, &v0, &x0);
         split3_chunk_avx2(Xr, Xg, Xb, Hr, Hg, Hb, row + 9, i0 * 17 + 9, &v1, &x1);
     }
-    __m128 a = _mm256_castps256_ps128(v0);
-    __m128i ai = _mm_castps_si128(_mm256_castps256_ps128(x0));
-    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v0, 1),
-                   _mm_castps_si128(_mm256_extractf128_ps(x0, 1)));
-    split_pick_sse(&a, &ai, _mm256_castps256_ps128(v1),
-                   _mm_castps_si128(_mm256_castps256_ps128(x1)));
-    split_pick_sse(&a, &ai, _mm256_extractf128_ps(v1, 1),
-                   _mm_castps_si128(_mm256_extractf128_ps(x1, 1)));
-    *best4 = a;
-    *idx4 = ai;
+    fold_acc_avx2(v0, x0, v1, x1, best4, idx4);
 }
 #else
 

@@ -60,7 +60,7 @@ static int ls_t(const blk *B, const float tv[16], const float tot[4], float e0[3
 /* Least-squares endpoints for the selectors `sel` (4-colour weights when four, else
  * 3-colour). Returns 0 when the system is singular (all texels on one weight). */
 int st_bc1e_ls_endpoints(const blk *B, const uint8_t *sel, int four, const float tot[4],
-                        float e0[3], float e1[3])
+                         float e0[3], float e1[3])
 {
     /* weight of endpoint 1 per selector */
     static const float t4[4] = {0.0f, 1.0f, 1.0f / 3.0f, 2.0f / 3.0f}, t3[4] = {0.0f, 1.0f, 0.5f, 0.0f};
@@ -76,7 +76,7 @@ int st_bc1e_ls_endpoints(const blk *B, const uint8_t *sel, int four, const float
  * channel, tries every (q0, q1) within +-radius of the least-squares values e0, e1 (8-bit
  * scale) and keeps the best; returns the pair as 565 (unordered: the caller orders it). */
 void st_bc1e_refine_exact(const blk *B, const uint8_t *sel, int four, const float e0[3],
-                         const float e1[3], int radius, uint16_t *c0, uint16_t *c1)
+                          const float e1[3], int radius, uint16_t *c0, uint16_t *c1)
 {
     float cnt[4] = {0, 0, 0, 0}, s1[3][4];
     memset(s1, 0, sizeof s1);
@@ -306,7 +306,7 @@ void st_bc1e_axis_endpoints(const axis *A, float inset, float e0[3], float e1[3]
 
 /* Rounds of round -> select -> least squares from (e0, e1), 4-colour. */
 void st_bc1e_rounds4(const blk *B, const profile *P, const axis *A, float e0[3], float e1[3],
-                    cand *best)
+                     cand *best)
 {
     uint16_t pa = 0, pb = 0;
     for (int it = 0; it < P->rounds; it++) {
@@ -418,7 +418,7 @@ static void proj_select(const blk *B, uint16_t c0, uint16_t c1, uint8_t sel[16])
  * selection of the result. */
 /* Rounds of (round, projected selectors, least squares) from the inset axis endpoints. */
 void st_bc1e_proj_rounds(const blk *B, const axis *A, float inset, int rounds, float e0[3],
-                        float e1[3])
+                         float e1[3])
 {
     st_bc1e_axis_endpoints(A, inset, e0, e1);
     for (int it = 0; it < rounds; it++) {
@@ -435,16 +435,7 @@ void st_bc1e_proj_rounds(const blk *B, const axis *A, float inset, int rounds, f
 void st_bc1e_encode_fast4(const blk *B, const profile *P, const axis *A, cand *best)
 {
     float e0[3], e1[3];
-    st_bc1e_axis_endpoints(A, P->inset, e0, e1);
-    for (int it = 0; it < P->proj; it++) {
-        uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
-        if (a == b)
-            break;
-        float tv[16];
-        proj_weights(B, a, b, tv);
-        if (!ls_t(B, tv, A->tot, e0, e1))
-            break;
-    }
+    st_bc1e_proj_rounds(B, A, P->inset, P->proj, e0, e1);
     uint16_t a = round565(e0[0], e0[1], e0[2]), b = round565(e1[0], e1[1], e1[2]);
     if (P->proj_final && a != b) {
         best->c0 = a > b ? a : b;
