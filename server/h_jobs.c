@@ -126,12 +126,15 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
             rc = st_datadir_tmpfile(srv->dd, path, sizeof path, &fd, e);
             if (rc == 0) {
                 size_t done = 0;
+                int werr = 0;
                 while (done < len) {
                     ssize_t w = write(fd, buf + done, len - done);
                     if (w < 0 && errno == EINTR)
                         continue;
-                    if (w <= 0)
+                    if (w <= 0) {
+                        werr = w < 0 ? errno : EIO;
                         break;
+                    }
                     done += (size_t)w;
                 }
                 close(fd);
@@ -139,7 +142,7 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
                 if (done != len) {
                     st_datadir_discard(path);
                     st_set_free(bc1);
-                    return st_fail(e, ST_EIO, "writing the DDS file failed");
+                    return st_fail(e, ST_EIO, "writing the DDS file failed: %s", strerror(werr));
                 }
                 pub_arg pa = {srv, bc1, e};
                 rc = st_datadir_commit(srv->dd, j->target, path, "dds", "", len, pub_cb, &pa, e);

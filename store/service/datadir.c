@@ -393,9 +393,21 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     pathf(man, "%s/manifest", setdir);
     pathf(mantmp, "%s/tmp/%s.manifest", d->root, id);
 
+    char prev[PATHCAP];   /* a hard link to the old manifest, to roll back to */
+    pathf(prev, "%s/tmp/%s.prev", d->root, id);
+
     pthread_mutex_lock(&d->mu);
     st_manifest old;
-    int had_old = st_manifest_read(man, &old, NULL) == 0;
+    st_error oe;
+    int orc = st_manifest_read(man, &old, &oe);
+    int had_old = orc == 0;                 /* a valid manifest: its source goes at the end */
+    int had_file = orc != ST_ENOTFOUND;     /* a manifest file, to put back on a rollback */
+    if (orc && orc != ST_ENOTFOUND && orc != ST_EFORMAT && orc != ST_EUNSUPPORTED) {
+        /* cannot tell whether a set is there (EIO, ENOMEM): touch nothing */
+        st_datadir_discard(tmp_path);
+        pthread_mutex_unlock(&d->mu);
+        return st_fail(e, orc, "%s", oe.msg);
+    }
     int newdir = 0;
     if (mkdir(setdir, 0700) == 0)
         newdir = 1;
@@ -405,11 +417,14 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
         rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp_path, src, strerror(errno));
     if (!rc)
         rc = manifest_write(mantmp, &m, e);
+    if (!rc && had_file && link(man, prev) != 0)
+        rc = st_fail(e, ST_EIO, "link %s -> %s: %s", man, prev, strerror(errno));
     if (!rc && rename(mantmp, man) != 0)   /* the commit point */
         rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", mantmp, man, strerror(errno));
     if (rc) {
         unlink(src);
         unlink(mantmp);
+        unlink(prev);
         st_datadir_discard(tmp_path);
         if (newdir)
             rmdir(setdir);
@@ -419,13 +434,31 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     rc = fsync_path(setdir, 1, e);
     if (!rc)
         rc = fsync_path(sets, 1, e);
-    if (!rc && had_old && strcmp(old.source, m.source) != 0) {
+    if (!rc && publish)
+        rc = publish(arg, &m, src);
+    if (rc) {
+        /* Failed after the commit point (an fsync, or publish): the caller answers an error,
+         * so the set must not appear at the next start either. Put the old manifest back (or
+         * remove the new set), so disk, registry and reply agree. A crash before this lands
+         * leaves the new set, which is then an upload in flight, not a lost one. */
+        if ((had_file ? rename(prev, man) : unlink(man)) != 0 && e)
+            snprintf(e->msg + strlen(e->msg), sizeof e->msg - strlen(e->msg),
+                     " (and rolling back failed: %s)", strerror(errno));
+        unlink(src);
+        unlink(prev);
+        if (newdir)
+            rmdir(setdir);
+        stu_fsync_dir(setdir);
+        stu_fsync_dir(sets);
+        pthread_mutex_unlock(&d->mu);
+        return rc;
+    }
+    unlink(prev);
+    if (had_old && strcmp(old.source, m.source) != 0) {
         char oldsrc[PATHCAP];
         pathf(oldsrc, "%s/%s", setdir, old.source);
         unlink(oldsrc);
     }
-    if (!rc && publish)
-        rc = publish(arg, &m, src);
     pthread_mutex_unlock(&d->mu);
     return rc;
 }
@@ -471,15 +504,18 @@ static void move_broken(st_datadir *d, const char *name, const char *setdir)
     new_id(d, id, sizeof id);
     pathf(broken, "%s/broken", d->root);
     aside_path(dst, broken, name, id);
-    if (rename(setdir, dst) != 0)
-        rm_rf(setdir);  /* cannot move it: still never load it half-way */
+    rename(setdir, dst);  /* when it cannot be moved it stays, unloaded, for the next start */
 }
+
+/* An error that says nothing about the set itself (memory, a failing disk call): the set is
+ * left where it is and the load stops, rather than setting an acknowledged set aside. */
+static int transient(int rc) { return rc == ST_ENOMEM || rc == ST_EIO; }
 
 /* Checks and loads one set directory: 1 loaded, 0 removed or moved to broken/, ST_EBUSY
  * when the loader asked to be called again later. Caller holds d->mu. */
 static int load_one(st_datadir *d, const char *sets, const char *name, st_publish_fn load,
                     void *arg, void (*report)(void *arg, const char *name, const char *why),
-                    int final)
+                    int final, st_error *e)
 {
     struct dirent *de;
     char setdir[PATHCAP], man[PATHCAP], src[PATHCAP];
@@ -532,6 +568,9 @@ static int load_one(st_datadir *d, const char *sets, const char *name, st_publis
         if (rc && !err.msg[0])
             snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
     }
+    if (rc && transient(rc))
+        return st_fail(e, rc, "set '%s' left in place, not loaded: %s", name,
+                       err.msg[0] ? err.msg : st_strerror(rc));
     if (rc) {
         if (report) {
             char why[ST_ERRMSG_LEN + 40];
@@ -562,12 +601,13 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
             cap = cap ? cap * 2 : 32;
             char **nn = realloc(names, cap * sizeof *nn);
             if (!nn)
-                break;
+                goto oom;
             names = nn;
         }
         names[n] = strdup(de->d_name);
-        if (names[n])
-            n++;
+        if (!names[n])
+            goto oom;
+        n++;
     }
     closedir(dp);
     if (n)
@@ -583,10 +623,17 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
         for (size_t i = 0; i < n; i++) {
             if (!names[i])
                 continue;
-            int r = load_one(d, sets, names[i], load, arg, report, final);
+            int r = load_one(d, sets, names[i], load, arg, report, final, e);
             if (r == ST_EBUSY) {
                 deferred++;
                 continue;
+            }
+            if (r < 0) {
+                pthread_mutex_unlock(&d->mu);
+                for (size_t k = 0; k < n; k++)
+                    free(names[k]);
+                free(names);
+                return r;
             }
             if (r == 1) {
                 loaded++;
@@ -603,4 +650,11 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
     free(names);
     fsync_path(sets, 1, NULL);
     return loaded;
+oom:
+    /* a set missing from the list would be a set missing after the start: fail instead */
+    closedir(dp);
+    for (size_t k = 0; k < n; k++)
+        free(names[k]);
+    free(names);
+    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
 }

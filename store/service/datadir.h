@@ -22,6 +22,9 @@
  *   3. write tmp/<id>.manifest, fsync, rename it over sets/<name>/manifest (the atomic
  *      commit point: before it the old set, or none, is what a restart sees; after it the new);
  *   4. fsync sets/<name>/ and sets/ (the renames are durable), then remove the old source.
+ * A failure after the commit point (an fsync in step 4, or the publish callback) rolls back:
+ *   the old manifest (hard-linked to tmp/<id>.prev before the rename) is put back, or the new
+ *   set removed, so a set whose commit returned an error does not appear at the next start.
  * At open: tmp/ and trash/ are emptied; a set directory without a manifest is a new set whose
  * upload was never acknowledged and is removed; files a manifest does not name are leftovers
  * of an interrupted replace and are removed; a source whose size or CRC-32 differs from its
@@ -74,14 +77,15 @@ void st_datadir_discard(const char *tmp_path);
 /* Checks an extension for use as a source format: 1..8 bytes of [a-z0-9]. */
 int st_format_check(const char *fmt, st_error *e);
 
-/* Called under the commit mutex once the set is durable; its return value is returned by
- * st_datadir_commit (the set is on disk either way). */
+/* Called under the commit mutex once the set is durable; a non-zero return is returned by
+ * st_datadir_commit and rolls the commit back. */
 typedef int (*st_publish_fn)(void *arg, const st_manifest *m, const char *source_path);
 
 /* Commits tmp_path (a file from st_datadir_tmpfile, complete) as set `name` with source
  * format fmt: verifies its size against bytes (the caller checked the upload's own checksum),
- * computes the CRC-32 the manifest records, fsyncs, renames, writes the manifest as above. Calls publish (may be NULL) under the mutex. On failure before the
- * commit point the previous set of that name is untouched and tmp_path is removed. */
+ * computes the CRC-32 the manifest records, fsyncs, renames, writes the manifest as above. Calls publish (may be NULL) under the mutex. On any failure
+ * (publish's included) the previous set of that name, or none, is what stays on disk, and
+ * tmp_path is removed. */
 int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
                       const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
                       st_error *e);
@@ -95,8 +99,9 @@ int st_datadir_delete(st_datadir *d, const char *name,
  * name order. A load callback that returns ST_EBUSY ("needs another set first", e.g. a mesh
  * paired with a texture set) is called again after the others, until no progress is made. A
  * set that fails the checks or whose load callback returns another code < 0 is moved to
- * broken/<name>.<time> and reported through report (may be NULL) with the reason. Returns
- * the number of sets loaded, or a negative code when sets/ cannot be read. */
+ * broken/<name>.<time> and reported through report (may be NULL) with the reason; ST_ENOMEM or
+ * ST_EIO (from the checks or the callback) says nothing about the set: it is left in place and
+ * the load stops with that code. Returns the number of sets loaded, or a negative code. */
 int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
                     void (*report)(void *arg, const char *name, const char *why), st_error *e);
 
