@@ -450,7 +450,7 @@ void sts_config_help(void *file)
         "\n"
         "Security: binds 127.0.0.1 unless told otherwise. With a token, UPLOAD_*, DELETE,\n"
         "COMPRESS and JOB_CANCEL need it (HELLO carries it); reads stay open. Set names are\n"
-        "1..64 characters of A-Z a-z 0-9 . _ - not starting with '.'.\n"
+        "1..255 bytes of A-Z a-z 0-9 . _ - not starting with '.'.\n"
         "\n"
         "Examples:\n"
         "  seamtexd --data-dir /var/lib/seamtex\n"
