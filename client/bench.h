@@ -39,7 +39,7 @@ typedef enum bench_op {
  * request id: a reply belongs to the oldest request outstanding on its connection. */
 typedef enum bench_proto {
     BENCH_PROTO_SEAMTEX   = 0,
-    BENCH_PROTO_MEMCACHED = 1,  /* text protocol: "mn\r\n" -> "MN\r\n" (1.6+), else "version" */
+    BENCH_PROTO_MEMCACHED = 1,  /* text protocol: "version\r\n" -> "VERSION x\r\n" */
     BENCH_PROTO_REDIS     = 2   /* RESP: "*1\r\n$4\r\nPING\r\n" -> "+PONG\r\n" */
 } bench_proto;
 

@@ -42,7 +42,7 @@ static void usage(FILE *f)
 "  -o, --op OP            ping | sample | sample-dir (cube maps: -s a cube set) (ping)\n"
 "      --proto P          seamtex | memcached | redis (seamtex): load another server with its\n"
 "                         cheapest no-op, the same way as a seamtexd PING, for comparison:\n"
-"                         memcached (1.6+) meta no-op \"mn\", Redis PING; -o ping only\n"
+"                         memcached \"version\", Redis PING; -o ping only\n"
 "  -c, --conns N          connections in all (1)\n"
 "  -T, --threads N        client threads; over the network they share the connections, each\n"
 "                         thread driving conns/threads of them in its own epoll loop, so N is\n"

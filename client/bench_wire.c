@@ -7,10 +7,12 @@
  * header parser (stp_parse_header); nothing here re-implements them.
  *
  * The peers (--proto memcached | redis) exist only to put seamtexd's PING beside other
- * servers' cheapest request under the same load generator: memcached's meta no-op "mn\r\n"
- * (answered "MN\r\n", memcached 1.6 and later) and Redis's PING in RESP
+ * servers' cheapest request under the same load generator: memcached's text-protocol
+ * "version\r\n" (answered "VERSION 1.6.18\r\n") and Redis's PING in RESP
  * ("*1\r\n$4\r\nPING\r\n", answered "+PONG\r\n"). Their replies are one line each and
- * come back in request order.
+ * come back in request order. Not memcached's meta no-op "mn": it is meant to end a batch of
+ * quiet requests and memcached flushes its output after each one, so pipelined mn measured
+ * about 3x below "version" (115-135k against 315-370k req/s at 50 x 16 in flight, load 7).
  *
  * The event loop copies a pool frame into a connection's output and patches the request id
  * (header offset 8), so frames are built once, not per request.
@@ -164,11 +166,12 @@ static int peer_line(int fd, char *line, size_t cap, char *msg, size_t ml)
     }
 }
 
-/* Checks that the port speaks the peer's protocol: memcached "version" must say 1.6 or later
- * (mn exists from 1.6), Redis PING must get +PONG. 0, or -1 with msg. */
+/* Checks that the port speaks the peer's protocol: memcached "version" must get "VERSION x",
+ * Redis PING must get +PONG. 0, or -1 with msg. */
 static int peer_hello(const bench_cfg *cfg, int fd, char *msg, size_t ml)
 {
-    const char *req = cfg->proto == BENCH_PROTO_MEMCACHED ? "version\r\n" : "*1\r\n$4\r\nPING\r\n";
+    const char *req = cfg->proto == BENCH_PROTO_MEMCACHED ? "version\r\n"
+                                                          : "*1\r\n$4\r\nPING\r\n";
     char line[256];
     if (stu_write_all(fd, req, strlen(req)) < 0) {
         snprintf(msg, ml, "write: %s", strerror(errno));
@@ -182,17 +185,10 @@ static int peer_hello(const bench_cfg *cfg, int fd, char *msg, size_t ml)
         snprintf(msg, ml, "redis PING answered '%.100s'", line);
         return -1;
     }
-    unsigned major = 0, minor = 0;
-    if (sscanf(line, "VERSION %u.%u", &major, &minor) != 2) {
-        snprintf(msg, ml, "memcached 'version' answered '%.100s'", line);
-        return -1;
-    }
-    if (major < 1 || (major == 1 && minor < 6)) {
-        snprintf(msg, ml, "memcached %u.%u has no meta no-op (mn): 1.6 or later needed",
-                 major, minor);
-        return -1;
-    }
-    return 0;
+    if (strncmp(line, "VERSION ", 8) == 0)
+        return 0;
+    snprintf(msg, ml, "memcached 'version' answered '%.100s'", line);
+    return -1;
 }
 
 int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t ml)
@@ -346,8 +342,8 @@ bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_
     }
     stp_buf_init(&w->buf);
     if (cfg->proto != BENCH_PROTO_SEAMTEX) {
-        static const char mn[] = "mn\r\n", ping[] = "*1\r\n$4\r\nPING\r\n";
-        const char *req = cfg->proto == BENCH_PROTO_MEMCACHED ? mn : ping;
+        static const char version[] = "version\r\n", ping[] = "*1\r\n$4\r\nPING\r\n";
+        const char *req = cfg->proto == BENCH_PROTO_MEMCACHED ? version : ping;
         w->n = 1;
         stp_put_bytes(&w->buf, req, strlen(req));
         if (w->buf.err)
@@ -414,7 +410,7 @@ size_t bench_wire_next(bench_wire *w, const uint8_t **frame, uint32_t *nq)
     return w->off[i + 1] - w->off[i];
 }
 
-/* A peer's reply: one line. memcached: "MN" is the answer; ERROR, CLIENT_ERROR and
+/* A peer's reply: one line. memcached: "VERSION ..." is the answer; ERROR, CLIENT_ERROR and
  * SERVER_ERROR lines are complete replies that count as errors. Redis: "+PONG" is the answer,
  * an error line ("-...") counts as an error. Anything else is a protocol violation. */
 static long peer_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok)
@@ -428,7 +424,7 @@ static long peer_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok)
         return -1;
     const char *l = (const char *)buf;
     if (proto == BENCH_PROTO_MEMCACHED) {
-        *ok = n == 4 && memcmp(l, "MN\r\n", 4) == 0;
+        *ok = n > 10 && memcmp(l, "VERSION ", 8) == 0;
         if (*ok || !strncmp(l, "ERROR", 5) || !strncmp(l, "CLIENT_ERROR", 12) ||
             !strncmp(l, "SERVER_ERROR", 12))
             return (long)n;
