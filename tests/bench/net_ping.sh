@@ -52,22 +52,6 @@ run() {
     awk -v a="$c0" -v b="$c1" -v n="$(net_json "$f" completed)" \
         'BEGIN{printf "%.2f\n", (n > 0 ? (b - a) * 1e6 / n : 0)}' >"$NET_TMP/$s.$name.$r.cpu"
 }
-# med SERVER NAME KEY [SUB]: median over the repetitions
-med() {
-    local vals=() f
-    for f in "$NET_TMP/$1.$2".*.json; do
-        [ -s "$f" ] || continue
-        vals+=("$(net_json "$f" "$3" "${4:-}")")
-    done
-    [ ${#vals[@]} -gt 0 ] && net_median "${vals[@]}" || echo 0
-}
-# cpu SERVER NAME: median server CPU us per request
-cpu() {
-    local vals=() c
-    for c in "$NET_TMP/$1.$2".*.cpu; do [ -s "$c" ] && vals+=("$(cat "$c")"); done
-    [ ${#vals[@]} -gt 0 ] && net_median "${vals[@]}" || echo 0
-}
-
 RATES=(10000 50000 100000)
 points=(pingpong)
 declare -A ARGS=([pingpong]="-c 1 -P 1" [closed]="-c 50 -T $THREADS -P 16")
@@ -88,6 +72,36 @@ done
 net_stop || echo "net_ping: seamtexd did not exit 0" >&2
 for p in $PEERS; do net_peer_stop "$p"; done
 load1=$(net_load)
+
+# Medians over the repetitions, computed once: M["SERVER POINT KEY"] for every number of the
+# runs' JSON (nested ones as KEY.SUB, e.g. corrected_us.p99) and "cpu" from the .cpu files.
+declare -A M=()
+while read -r key val; do M[$key]=$val; done < <(
+    for f in "$NET_TMP"/*.*.*.json "$NET_TMP"/*.*.*.cpu; do [ -s "$f" ] && echo "$f"; done |
+    xargs -r awk '
+        { n = split(FILENAME, p, "/"); split(p[n], id, "."); pre = id[1] " " id[2] " " }
+        FILENAME ~ /\.cpu$/ { print pre "cpu", $1; next }
+        /^ *"[a-z_0-9]+": [-0-9.e+]+,?$/ {
+            k = $1; gsub(/[":]/, "", k); v = $2; sub(/,$/, "", v); print pre k, v }
+        /^ *"[a-z_0-9]+": \{/ {
+            k = $1; gsub(/[":]/, "", k); line = $0; sub(/^[^{]*\{/, "", line)
+            m = split(line, kv, ", ")
+            for (i = 1; i <= m; i++) {
+                split(kv[i], e, ": "); sk = e[1]; gsub(/[" {}]/, "", sk); sv = e[2]; gsub(/[ },]/, "", sv)
+                print pre k "." sk, sv
+            }
+        }' |
+    sort -k1,1 -k2,2 -k3,3 -k4,4g |
+    awk '{ g = $1 " " $2 " " $3 }
+         g != last && NR > 1 { out() }
+         { v[++n] = $4; last = g }
+         END { if (n) out() }
+         function out() { printf "%s\t%s\n", last, (n % 2) ? v[(n + 1) / 2] : (v[n / 2] + v[n / 2 + 1]) / 2; n = 0 }' |
+    sed 's/ /_/; s/ /_/; s/\t/ /')
+# med SERVER POINT KEY [SUB]: median over the repetitions (0 when there was no run)
+med() { local key="$1_$2_$3${4:+.$4}"; echo "${M[$key]:-0}"; }
+# cpu SERVER POINT: median server CPU us per request
+cpu() { med "$1" "$2" cpu; }
 
 k() { awk -v x="$1" 'BEGIN{printf "%.1fk", x / 1000}'; }
 title() {
