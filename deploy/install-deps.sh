@@ -4,7 +4,10 @@
 # only when something is missing.
 set -euo pipefail
 
+# memcached and redis-server are for `make bench` only: tests/bench/net_ping.sh starts its own
+# of each on a free loopback port (no persistence) to measure them beside seamtexd.
 PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
+      memcached redis-server
       libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev)
 
 missing=()
