@@ -29,7 +29,10 @@
 
 /* Body caps per opcode, bytes (io.c refuses a longer body with TOO_LARGE before reading it);
  * 0 = only the server's max-frame. Each request's largest legal body fits: e.g. INFO is
- * 2 + 255 + 8 bytes, COMPRESS 2 + 255 + 2 + 255 + 2, UPLOAD_BEGIN 1315 at most. */
+ * 2 + 255 + 8 bytes, COMPRESS 2 + 255 + 2 + 255 + 2, UPLOAD_BEGIN 1315 at most. UPLOAD_CHUNK's
+ * is its 20-byte head + max_chunk, so a chunk over max_chunk is TOO_LARGE (and skipped) like
+ * any body over a cap, never a second status. PROTOCOL.md 2.2 prints this table;
+ * tests/unit/test_protodoc.c checks that it does, row by row. */
 enum {
     STS_CAP_HELLO         = 4096,
     STS_CAP_PING          = 0,
@@ -39,7 +42,7 @@ enum {
     STS_CAP_SAMPLE_DIR    = 0,
     STS_CAP_STATS         = 64,
     STS_CAP_UPLOAD_BEGIN  = 2048,
-    STS_CAP_UPLOAD_CHUNK  = STP_DEFAULT_MAX_CHUNK + 64,
+    STS_CAP_UPLOAD_CHUNK  = STP_DEFAULT_MAX_CHUNK + 20,   /* exactly a max_chunk chunk */
     STS_CAP_UPLOAD_COMMIT = 64,
     STS_CAP_UPLOAD_ABORT  = 64,
     STS_CAP_UPLOAD_STATUS = 64,

@@ -242,7 +242,10 @@ STP_DTYPES(SAME_DTYPE)
 #undef SAME
 
 /* Request parameters -> sampler options; -1 for a mode, filter or zero rule the protocol does
- * not define (the sampler then never sees it). */
+ * not define (the sampler then never sees it), or for a sharpness, width or blur out of its
+ * range (PROTOCOL.md 4.4: sharpness 0..1, width and blur 0..1e4, NaN never), whatever the
+ * filter: only the Ptex filters use them, but a value no filter could take is refused for
+ * every filter, so a client's bad value does not wait for a filter change to surface. */
 static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
 {
     memset(o, 0, sizeof *o);
@@ -256,6 +259,11 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) ||
         !stp_zero_rule_name(p->zero_rule) ||
         p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
+        return -1;
+    /* written so that NaN fails every test */
+    if (!(p->sharpness >= 0.0f && p->sharpness <= 1.0f) ||
+        !(p->width >= 0.0f && p->width <= ST_MAX_DERIV) ||
+        !(p->blur >= 0.0f && p->blur <= ST_MAX_DERIV))
         return -1;
     return 0;
 }
@@ -355,7 +363,9 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
 {
     st_sample_opts o;
     if (fill_opts(&rq->p, &o) != 0)
-        return sts_reply_bad(out, h, STP_S_INVALID, "unknown mode, filter, zero_rule or outfmt, or max_aniso > 16");
+        return sts_reply_bad(out, h, STP_S_INVALID,
+                             "unknown mode, filter, zero_rule or outfmt, max_aniso over 16, or "
+                             "sharpness (0..1), width or blur (0..1e4) out of range");
     st_setref *ref = get_set(c, h, rq->p.name, out);
     if (!ref)
         return 0;

@@ -508,8 +508,10 @@ int sts_h_fetch_read(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
         sts_reply_error(out, h, STP_S_INVALID, "offset is past the end of the file");
         return 0;
     }
+    /* max_len 0 = as much as one reply holds (max_chunk), as LIST's max 0: so a reply with
+     * len 0 always means the end of the file (PROTOCOL.md 4.10) */
     size_t n = f->len - rq.offset;
-    if (n > rq.max_len)
+    if (rq.max_len && n > rq.max_len)
         n = rq.max_len;
     if (n > STP_DEFAULT_MAX_CHUNK)
         n = STP_DEFAULT_MAX_CHUNK;

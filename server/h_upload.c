@@ -243,8 +243,13 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         sts_reply_error(out, h, STP_S_INVALID, msg);
         return 0;
     }
-    if (rq.len > STP_DEFAULT_MAX_CHUNK || rq.len > u->total - u->received) {
-        sts_reply_error(out, h, STP_S_INVALID, "chunk passes the announced size or max_chunk");
+    if (rq.len > STP_DEFAULT_MAX_CHUNK) {
+        /* not reached through io.c (the body cap is max_chunk + 20): the same status */
+        sts_reply_error(out, h, STP_S_TOO_LARGE, "chunk is over max_chunk");
+        return 0;
+    }
+    if (rq.len > u->total - u->received) {
+        sts_reply_error(out, h, STP_S_INVALID, "chunk passes the announced total_size");
         return 0;
     }
     size_t done = 0;
