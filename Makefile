@@ -140,6 +140,7 @@ deps:
 
 test: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
+	@$(MAKE) --no-print-directory check-layout
 	@B=$(B) bash tests/run.sh
 
 # FUZZ_SECONDS per target (default 600); FUZZ_CORPUS_DIR keeps the corpora between campaigns.
