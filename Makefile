@@ -181,6 +181,9 @@ check-layout:
 	@$(foreach p,$(STORE_PARTS),$(foreach h,$(wildcard store/$(p)/*.h),\
 		echo '#include "$(notdir $(h))"' | $(CC) -std=c11 -D_GNU_SOURCE $(PKG_CFLAGS) -fsyntax-only \
 		$(INC_store_$(p)) -x c - || exit 1;)) echo "check-layout: every store header compiles alone"
+	@! grep -rn '#include "\(\.\./\|/\)' store protocol util client server \
+		|| { echo "check-layout: an include by relative or absolute path bypasses the rules"; exit 1; }
+	@echo "check-layout: no include by path in store/ protocol/ util/ client/ server/"
 
 clean:
 	rm -rf build build-san
