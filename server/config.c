@@ -67,7 +67,7 @@ static const opt OPTS[] = {
      "BUSY (default 1G)"},
     {"conn-fetch-cap", T_SIZE, O(conn_fetch_cap), 0, 1, "BYTES",
      "bytes of open fetches per connection; past it FETCH_OPEN gets BUSY, a file larger\n"
-     "than it TOO_LARGE (default 256M)"},
+     "than it TOO_LARGE (default 1G)"},
     {"max-sets", T_U32, O(max_sets), 0, 1, "N", "sets held at once (default 10000)"},
     {"max-uploads", T_U32, O(max_uploads), 0, 1, "N",
      "unfinished uploads at once, kept ones included (default 64)"},
@@ -96,7 +96,7 @@ void sts_config_defaults(sts_config *c)
     c->idle_timeout = 300;
     c->request_timeout = 5;
     c->request_min_rate = 128u << 10;
-    c->conn_fetch_cap = 256u << 20;
+    c->conn_fetch_cap = 1u << 30;
     c->max_frame = 64u << 20;
     c->max_upload = 1u << 30;
     c->deadline_ms = 10000;

@@ -478,15 +478,16 @@ static uint64_t conn_fetch_bytes(sts_server *srv, uint64_t conn_id)
 /* Refuses a FETCH_OPEN for memory: TOO_LARGE when the file alone can never fit (over
  * conn-fetch-cap or max-memory), BUSY when it would fit once other fetches are closed. */
 static void fetch_refuse_mem(sts_ctx *c, const stp_header *h, stp_buf *out, const char *name,
-                             uint64_t bytes, uint64_t held)
+                             uint64_t bytes, uint64_t held, int estimate)
 {
+    const char *what = estimate ? "needs up to" : "serialised is";
     sts_server *srv = c->srv;
     uint64_t cap = STS_LIVE(srv, conn_fetch_cap), max = STS_LIVE(srv, max_memory);
     char msg[400];
     int status;
     if (bytes > cap || bytes > max) {
         status = STP_S_TOO_LARGE;
-        snprintf(msg, sizeof msg, "set '%s' serialised is %llu bytes, over %s %llu", name,
+        snprintf(msg, sizeof msg, "set '%s' %s %llu bytes, over %s %llu", name, what,
                  (unsigned long long)bytes, bytes > cap ? "conn-fetch-cap" : "max-memory",
                  (unsigned long long)(bytes > cap ? cap : max));
     } else if (held + bytes > cap) {
@@ -524,7 +525,7 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     uint64_t held = conn_fetch_bytes(srv, c->conn->id);
     uint64_t reserved = st_set_memory(ref->set);
     if (held + reserved > cap || fetch_mem_take(srv, reserved) != 0) {
-        fetch_refuse_mem(c, h, out, rq.name, reserved, held);
+        fetch_refuse_mem(c, h, out, rq.name, reserved, held, 1);
         st_setref_release(ref);
         return 0;
     }
@@ -544,7 +545,7 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     if (len > reserved && (held + len > cap || fetch_mem_take(srv, len - reserved) != 0)) {
         fetch_mem_give(srv, reserved);
         free(data);
-        fetch_refuse_mem(c, h, out, rq.name, len, held);
+        fetch_refuse_mem(c, h, out, rq.name, len, held, 0);
         return 0;
     }
     if (len < reserved)
