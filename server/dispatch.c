@@ -221,6 +221,9 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         char msg[128];
         snprintf(msg, sizeof msg, "%s needs the server's token (send it in HELLO)", hd->name);
         sts_reply_error(&conn->out, h, STP_S_PERM, msg);
+        if (h->opcode >= STP_OP_UPLOAD_BEGIN && h->opcode <= STP_OP_UPLOAD_COMMIT)
+            sts_logf(&srv->log, STS_WARN, "upload from %s refused at %s (PERM): no token",
+                     conn->peer, hd->name);
         goto replied;
     }
     int heavy = (hd->flags & STS_H_HEAVY) != 0;
