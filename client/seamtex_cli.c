@@ -33,7 +33,7 @@ static const char *const USAGE =
 "  upload FILE NAME [opts]      upload a file as set NAME (progress bar on stderr)\n"
 "  delete SET                   remove a set\n"
 "  stats                        the server's counters\n"
-"  fetch SET FILE [--format ptx|dds]   download a set as a file\n"
+"  fetch SET FILE [--format F]   download a set as a file (format from FILE's extension)\n"
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
 "\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"

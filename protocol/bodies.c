@@ -968,7 +968,7 @@ int stp_dec_fetch_open(const uint8_t *body, size_t len, stp_fetch_open *r, const
     int s = finish(&rd, why, "FETCH_OPEN: truncated body");
     if (s == 0 && np)
         return name_fail(why, SET_NAME_WHY, np);
-    if (s == 0 && r->format > STP_FETCH_DDS)
+    if (s == 0 && !stp_fetch_format_name(r->format))
         return fail(why, "FETCH_OPEN: unknown format", STP_S_INVALID);
     return s;
 }

@@ -39,6 +39,12 @@ static const opt OPTS[] = {
      "connections at once; the next one gets a BUSY reply and is closed (default 10000)"},
     {"idle-timeout", T_U32, O(idle_timeout), 0, 1, "SECONDS",
      "close a connection silent this long; 0 = never (default 300)"},
+    {"request-timeout", T_U32, O(request_timeout), 0, 1, "SECONDS",
+     "a request frame must arrive whole within SECONDS of its first byte, plus its body's\n"
+     "size at request-min-rate; else the connection is closed; 0 = no deadline (default 5)"},
+    {"request-min-rate", T_SIZE, O(request_min_rate), 0, 1, "BYTES",
+     "the slowest rate, per second, a request body may arrive at (default 128K: a 4 MiB\n"
+     "chunk may take request-timeout + 32 s)"},
     {"max-frame", T_SIZE, O(max_frame), 0, 1, "BYTES",
      "largest request body; larger ones get TOO_LARGE and are skipped (default 64M)"},
     {"max-upload", T_SIZE, O(max_upload), 0, 1, "BYTES",
@@ -57,7 +63,11 @@ static const opt OPTS[] = {
     {"conn-out-cap", T_SIZE, O(conn_out_cap), 0, 1, "BYTES",
      "unsent reply bytes per connection before the server stops reading it (default 4M)"},
     {"max-memory", T_SIZE, O(max_memory), 0, 1, "BYTES",
-     "all connection buffers together; a request that would pass it gets BUSY (default 1G)"},
+     "all connection buffers and open fetches together; a request that would pass it gets\n"
+     "BUSY (default 1G)"},
+    {"conn-fetch-cap", T_SIZE, O(conn_fetch_cap), 0, 1, "BYTES",
+     "bytes of open fetches per connection; past it FETCH_OPEN gets BUSY, a file larger\n"
+     "than it TOO_LARGE (default 1G)"},
     {"max-sets", T_U32, O(max_sets), 0, 1, "N", "sets held at once (default 10000)"},
     {"max-uploads", T_U32, O(max_uploads), 0, 1, "N",
      "unfinished uploads at once, kept ones included (default 64)"},
@@ -84,6 +94,9 @@ void sts_config_defaults(sts_config *c)
     c->max_conns = 10000;
     c->upload_keep = 600;
     c->idle_timeout = 300;
+    c->request_timeout = 5;
+    c->request_min_rate = 128u << 10;
+    c->conn_fetch_cap = 1u << 30;
     c->max_frame = 64u << 20;
     c->max_upload = 1u << 30;
     c->deadline_ms = 10000;
@@ -380,6 +393,10 @@ int sts_config_check(const sts_config *c, char *err, size_t errcap)
     }
     if (c->conn_out_cap < 65536) {
         snprintf(err, errcap, "conn-out-cap must be at least 64K");
+        return -1;
+    }
+    if (c->request_min_rate < 1024) {
+        snprintf(err, errcap, "request-min-rate must be at least 1K");
         return -1;
     }
     return 0;

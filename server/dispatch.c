@@ -136,9 +136,49 @@ int sts_status_from_st(int st_code)
     }
 }
 
+/* A server path starts with '/' (the daemon makes every folder it writes to absolute at
+ * start: server.c) at the start of the text or after one of these, and is followed by a
+ * byte that is not a space (a lone "/" in prose is not a path). */
+static int path_starts(const char *msg, const char *p)
+{
+    if (p[0] != '/' || p[1] == 0 || p[1] == ' ')
+        return 0;
+    return p == msg || strchr(" '\"(<[=,:", p[-1]) != NULL;
+}
+
+/* A path ends at a space, a quote, a closing bracket, a comma or semicolon, or ": ". */
+static const char *path_end(const char *p)
+{
+    while (*p && !strchr(" '\")]>,;", *p) && !(p[0] == ':' && (p[1] == ' ' || !p[1])))
+        p++;
+    return p;
+}
+
+size_t sts_scrub_paths(const char *msg, char *out, size_t cap)
+{
+    static const char HIDDEN[] = "(server file)";
+    size_t n = 0;
+    if (!cap)
+        return 0;
+    for (const char *p = msg ? msg : ""; *p && n + 1 < cap;) {
+        if (path_starts(msg, p)) {
+            p = path_end(p);
+            for (const char *q = HIDDEN; *q && n + 1 < cap; q++)
+                out[n++] = *q;
+        } else {
+            out[n++] = *p++;
+        }
+    }
+    out[n] = 0;
+    return n;
+}
+
 void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *msg)
 {
-    stp_enc_error(out, h->opcode, h->reqid, (uint16_t)status, msg ? msg : "");
+    /* the one place every error text leaves the server: no server path gets through */
+    char clean[STP_MAX_MSG + 1];
+    sts_scrub_paths(msg, clean, sizeof clean);
+    stp_enc_error(out, h->opcode, h->reqid, (uint16_t)status, clean);
 }
 
 int sts_reply_bad(stp_buf *out, const stp_header *h, int status, const char *why)
@@ -184,6 +224,9 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         char msg[128];
         snprintf(msg, sizeof msg, "%s needs the server's token (send it in HELLO)", hd->name);
         sts_reply_error(&conn->out, h, STP_S_PERM, msg);
+        if (h->opcode >= STP_OP_UPLOAD_BEGIN && h->opcode <= STP_OP_UPLOAD_COMMIT)
+            sts_logf(&srv->log, STS_WARN, "upload from %s refused at %s (PERM): no token",
+                     conn->peer, hd->name);
         goto replied;
     }
     int heavy = (hd->flags & STS_H_HEAVY) != 0;

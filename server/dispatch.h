@@ -56,7 +56,14 @@ const sts_handler *sts_handler_find(unsigned op);
  * the connection is busy), 2 (reply appended; close the connection after it). */
 int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t *body);
 
-/* Appends an error reply; a store error code gives its status. */
+/* Copies msg into out (cap bytes, NUL-terminated, truncated when needed) with every server
+ * path in it (a token starting with '/': the daemon's folders are absolute) replaced by
+ * "(server file)". Every error reply and job message goes through it, so no handler can tell
+ * a client where the daemon keeps its files (the log keeps the paths). Returns the length. */
+size_t sts_scrub_paths(const char *msg, char *out, size_t cap);
+
+/* Appends an error reply (its text through sts_scrub_paths); a store error code gives its
+ * status. */
 void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *msg);
 /* An error reply "<OPCODE>: <why>" ("malformed body" when why is NULL); returns 0 so that a
  * handler can `return sts_reply_bad(...)`. */

@@ -541,6 +541,10 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     U("jobs_failed", L(jobs_failed));
     U("jobs_canceled", L(jobs_canceled));
     U("fetches", L(fetches));
+    U("fetches_refused", L(fetches_refused));
+    U("fetch_memory", __atomic_load_n(&srv->fetch_mem, __ATOMIC_RELAXED));
+    U("conns_request_timeout", L(conns_request_timeout));
+    U("conns_evicted", L(conns_evicted));
     U("buffer_memory", __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED));
     U("sets", st_registry_count(srv->reg));
     U("set_memory", st_registry_memory(srv->reg));

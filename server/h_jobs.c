@@ -18,6 +18,7 @@
 
 #include "bc1.h"
 #include "bc1_measure.h"
+#include "export.h"
 #include "dispatch.h"
 #include "h_jobs.h"
 #include "handles.h"
@@ -197,7 +198,7 @@ static void run_job(sts_server *srv, sts_job *j)
     else if (rc == 0)
         snprintf(j->msg, sizeof j->msg, "created set '%s'", j->target);
     else
-        snprintf(j->msg, sizeof j->msg, "%s", e.msg[0] ? e.msg : st_strerror(rc));
+        sts_scrub_paths(e.msg[0] ? e.msg : st_strerror(rc), j->msg, sizeof j->msg);
     sts_handles_retire_locked(&srv->jobs->table, &j->hd);
     sts_handles_unlock(&srv->jobs->table);
     if (rc == 0)
@@ -406,6 +407,40 @@ int sts_h_job_cancel(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
 
 /* ---- FETCH ------------------------------------------------------------------------------------ */
 
+/* The FETCH formats are the store's export formats, number for number (proto_lists.h). */
+#define SAME_FETCH(NAME, str, v) \
+    _Static_assert((int)STP_FETCH_##NAME == (int)ST_EXPORT_##NAME, "fetch format " str);
+STP_FETCH_FORMATS(SAME_FETCH)
+#undef SAME_FETCH
+
+/* Open fetches hold their serialised file in memory: it counts against max-memory together
+ * with the connection buffers (srv->mem_used + srv->fetch_mem) and, per connection, against
+ * conn-fetch-cap. Reserves n bytes; 0, or -1 when they do not fit. */
+static int fetch_mem_take(sts_server *srv, uint64_t n)
+{
+    uint64_t max = STS_LIVE(srv, max_memory);
+    uint64_t cur = __atomic_load_n(&srv->fetch_mem, __ATOMIC_RELAXED);
+    do {
+        uint64_t bufs = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED);
+        if (bufs + cur + n > max)
+            return -1;
+    } while (!__atomic_compare_exchange_n(&srv->fetch_mem, &cur, cur + n, 1, __ATOMIC_RELAXED,
+                                          __ATOMIC_RELAXED));
+    return 0;
+}
+
+static void fetch_mem_give(sts_server *srv, uint64_t n)
+{
+    __atomic_sub_fetch(&srv->fetch_mem, n, __ATOMIC_RELAXED);
+}
+
+static void fetch_free(sts_server *srv, sts_fetch *f)
+{
+    fetch_mem_give(srv, f->len);
+    free(f->data);
+    free(f);
+}
+
 static int owned_by(sts_handle *h, void *arg)
 {
     return h->owner == *(const uint64_t *)arg;
@@ -415,8 +450,7 @@ void sts_fetch_drop_conn(sts_server *srv, uint64_t conn_id)
 {
     for (sts_handle *h = sts_handles_unlink_if(&srv->fetches, owned_by, &conn_id), *n; h; h = n) {
         n = h->next;
-        free(FETCH(h)->data);
-        free(h);
+        fetch_free(srv, FETCH(h));
     }
 }
 
@@ -428,6 +462,49 @@ static sts_fetch *find_fetch(sts_server *srv, uint64_t id, uint64_t conn_id, int
         sts_handles_unlink_locked(&srv->fetches, f);
     sts_handles_unlock(&srv->fetches);
     return FETCH(f);
+}
+
+/* Bytes of the fetches this connection holds open. Only the connection itself opens or
+ * closes its fetches and it runs one request at a time, so the sum cannot change under a
+ * FETCH_OPEN of the same connection. */
+static uint64_t conn_fetch_bytes(sts_server *srv, uint64_t conn_id)
+{
+    uint64_t sum = 0;
+    sts_handles_lock(&srv->fetches);
+    for (sts_handle *h = srv->fetches.list; h; h = h->next)
+        if (h->owner == conn_id)
+            sum += FETCH(h)->len;
+    sts_handles_unlock(&srv->fetches);
+    return sum;
+}
+
+/* Refuses a FETCH_OPEN for memory: TOO_LARGE when the file alone can never fit (over
+ * conn-fetch-cap or max-memory), BUSY when it would fit once other fetches are closed. */
+static void fetch_refuse_mem(sts_ctx *c, const stp_header *h, stp_buf *out, const char *name,
+                             uint64_t bytes, uint64_t held, int estimate)
+{
+    const char *what = estimate ? "needs up to" : "serialised is";
+    sts_server *srv = c->srv;
+    uint64_t cap = STS_LIVE(srv, conn_fetch_cap), max = STS_LIVE(srv, max_memory);
+    char msg[400];
+    int status;
+    if (bytes > cap || bytes > max) {
+        status = STP_S_TOO_LARGE;
+        snprintf(msg, sizeof msg, "set '%s' %s %llu bytes, over %s %llu", name, what,
+                 (unsigned long long)bytes, bytes > cap ? "conn-fetch-cap" : "max-memory",
+                 (unsigned long long)(bytes > cap ? cap : max));
+    } else if (held + bytes > cap) {
+        status = STP_S_BUSY;
+        snprintf(msg, sizeof msg, "set '%s' (%llu bytes) with this connection's open fetches "
+                 "(%llu bytes) passes conn-fetch-cap %llu: close a fetch first", name,
+                 (unsigned long long)bytes, (unsigned long long)held, (unsigned long long)cap);
+    } else {
+        status = STP_S_BUSY;
+        snprintf(msg, sizeof msg, "set '%s' (%llu bytes): server memory is at max-memory; "
+                 "retry", name, (unsigned long long)bytes);
+    }
+    STS_STAT_ADD(srv, fetches_refused, 1);
+    sts_reply_error(out, h, status, msg);
 }
 
 int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
@@ -445,30 +522,40 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
         sts_reply_st(out, h, e.code ? e.code : ST_ENOTFOUND, e.msg);
         return 0;
     }
-    uint8_t *data = NULL;
-    size_t len = 0;
-    int rc;
-    if (rq.format == STP_FETCH_PTX) {
-        void *buf = NULL;
-        rc = ref->set->info.kind == ST_KIND_PERFACE
-                 ? st_ptex_write_mem(ref->set, &buf, &len, &e)
-                 : st_fail(&e, ST_EUNSUPPORTED, "only per-face sets are fetched as .ptx (try dds)");
-        data = buf;
-    } else if (rq.format == STP_FETCH_DDS) {
-        rc = ref->set->info.kind == ST_KIND_BC1
-                 ? st_dds_write_mem(ref->set, &data, &len, &e)
-                 : st_fail(&e, ST_EUNSUPPORTED, "only BC1 sets are fetched as .dds (COMPRESS first)");
-    } else {
-        rc = st_fail(&e, ST_EINVAL, "format must be 0 (ptx) or 1 (dds)");
-    }
-    st_setref_release(ref);
-    if (rc) {
-        free(data);
-        sts_reply_st(out, h, rc, e.msg);
+    /* room first, for an estimate (the set's memory: a file holds no more than its set,
+     * except meshes as text, settled below), so that serialising itself stays in the caps */
+    uint64_t cap = STS_LIVE(srv, conn_fetch_cap);
+    uint64_t held = conn_fetch_bytes(srv, c->conn->id);
+    uint64_t reserved = st_set_memory(ref->set);
+    if (held + reserved > cap || fetch_mem_take(srv, reserved) != 0) {
+        fetch_refuse_mem(c, h, out, rq.name, reserved, held, 1);
+        st_setref_release(ref);
         return 0;
     }
+    void *data = NULL;
+    size_t len = 0;
+    int rc = st_export_mem(ref->set, rq.format, srv->tmpdir, &data, &len, &e);
+    st_setref_release(ref);
+    if (rc) {
+        fetch_mem_give(srv, reserved);
+        free(data);
+        char msg[sizeof e.msg + STP_MAX_NAME + 16];
+        snprintf(msg, sizeof msg, "set '%s': %s", rq.name, e.msg[0] ? e.msg : st_strerror(rc));
+        sts_reply_st(out, h, rc, msg);
+        return 0;
+    }
+    /* hold exactly the file's size from now on */
+    if (len > reserved && (held + len > cap || fetch_mem_take(srv, len - reserved) != 0)) {
+        fetch_mem_give(srv, reserved);
+        free(data);
+        fetch_refuse_mem(c, h, out, rq.name, len, held, 0);
+        return 0;
+    }
+    if (len < reserved)
+        fetch_mem_give(srv, reserved - len);
     sts_fetch *f = calloc(1, sizeof *f);
     if (!f) {
+        fetch_mem_give(srv, len);
         free(data);
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
         return 0;
@@ -480,9 +567,9 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     int full = sts_handles_add_locked(&srv->fetches, &f->hd, MAX_FETCHES) != 0;
     sts_handles_unlock(&srv->fetches);
     if (full) {
-        free(data);
-        free(f);
-        sts_reply_error(out, h, STP_S_BUSY, "too many open fetches");
+        fetch_free(srv, f);
+        STS_STAT_ADD(srv, fetches_refused, 1);
+        sts_reply_error(out, h, STP_S_BUSY, "too many open fetches (256 on the server)");
         return 0;
     }
     STS_STAT_ADD(srv, fetches, 1);
@@ -532,8 +619,7 @@ int sts_h_fetch_close(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such fetch on this connection");
         return 0;
     }
-    free(f->data);
-    free(f);
+    fetch_free(c->srv, f);
     stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
     return 0;
 }

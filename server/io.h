@@ -37,6 +37,9 @@ struct sts_conn {
     sts_inbuf in;            /* allocated lazily on the first read */
     stp_buf   out;           /* replies not yet written; allocated lazily */
     int64_t   last_ms;       /* last traffic, monotonic ms */
+    int64_t   req_start_ms;  /* when the first byte of the frame still incomplete in `in` (or
+                                being skipped) arrived; 0 = no partial frame (request deadline) */
+    char      peer[48];      /* "address:port" of the client, for the log */
     uint64_t  skip;          /* body bytes of a refused frame still to discard */
     uint64_t  mem;           /* bytes of in+out capacity counted in srv->mem_used */
     uint32_t  authed;        /* token generation HELLO authenticated for (0 = none) */
@@ -73,6 +76,10 @@ struct sts_io {
     sts_conn       *conns;         /* list of live connections */
     uint32_t        nconns;
     sts_scratch     scratch;
+    int64_t         oldest_partial_ms; /* atomic: published by each idle scan, the first-byte
+                                          time of this thread's oldest half-sent frame at least
+                                          a second old (0 = none): eviction candidates */
+    uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
 };
 
 void *sts_io_main(void *arg);

@@ -63,7 +63,8 @@ typedef struct sts_stats {
     uint64_t queries, query_errors;
     uint64_t uploads_begun, uploads_committed, uploads_failed, upload_bytes, deletes;
     uint64_t uploads_resumed, uploads_expired;
-    uint64_t jobs_started, jobs_done, jobs_failed, jobs_canceled, fetches;
+    uint64_t jobs_started, jobs_done, jobs_failed, jobs_canceled, fetches, fetches_refused;
+    uint64_t conns_request_timeout, conns_evicted;
     uint64_t by_op[256];
 } sts_stats;
 
@@ -90,9 +91,14 @@ struct sts_server {
     uint64_t        next_conn_id; /* atomic */
     uint32_t        nconns;       /* atomic: live connections */
     uint64_t        mem_used;     /* atomic: bytes in connection buffers */
+    uint64_t        fetch_mem;    /* atomic: bytes of open fetches (h_jobs.c); max-memory
+                                     bounds mem_used + fetch_mem */
     int             stopping;     /* atomic: 1 drain, 2 force-close what is left */
     uint32_t        token_gen;    /* bumped when the token changes (under cfg_mu) */
     int64_t         started_ms;
+    char            tmpdir[1600]; /* absolute: the data dir's tmp/, else $TMPDIR or /tmp; where
+                                     uploads without a data dir and FETCH's image writers put
+                                     their temp files (server paths never reach a reply) */
 };
 
 /* ---- server.c ------------------------------------------------------------------------------- */
@@ -117,7 +123,8 @@ uint32_t sts_token_check(sts_server *srv, const char *token);
 int sts_token_allows(sts_server *srv, uint32_t authed);
 
 /* Memory accounting for connection buffers (io.c keeps srv->mem_used equal to the capacity
- * of every buffer): 0 when n more bytes fit under max-memory. */
+ * of every buffer) and open fetches (srv->fetch_mem): 0 when n more bytes fit under
+ * max-memory. */
 int sts_mem_take(sts_server *srv, uint64_t n);
 
 #endif

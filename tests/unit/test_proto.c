@@ -835,6 +835,26 @@ static void job_and_fetch_bodies_round_trip(void **state)
     assert_int_equal(stp_dec_fetch_open(f.body, f.h.body_len, &fo2, NULL), 0);
     assert_true(fo2.format == STP_FETCH_DDS && strcmp(fo2.name, "set9") == 0);
     prefixes_refused(f.body, f.h.body_len, w_fetch_open, &fo2);
+    /* every format of the list decodes; the next number is INVALID; names are extensions */
+    for (unsigned fmt = 0; fmt <= STP_FETCH_OBJ + 1; fmt++) {
+        const char *why = NULL;
+        stp_fetch_open fx = { "set9", (uint8_t)fmt };
+        stp_buf_clear(&f.b);
+        assert_int_equal(stp_enc_fetch_open(&f.b, 4, 0, &fx), 0);
+        frame_parse(&f, STP_OP_FETCH_OPEN, 4, 0);
+        int st = stp_dec_fetch_open(f.body, f.h.body_len, &fo2, &why);
+        assert_int_equal(st, fmt <= STP_FETCH_OBJ ? 0 : STP_S_INVALID);
+        if (fmt <= STP_FETCH_OBJ)
+            assert_int_equal(stp_fetch_format_parse(stp_fetch_format_name(fmt)), (int)fmt);
+    }
+    assert_int_equal(STP_FETCH_PTX, 0);
+    assert_int_equal(STP_FETCH_DDS, 1);
+    assert_int_equal(stp_fetch_format_parse("EXR"), STP_FETCH_EXR);
+    assert_int_equal(stp_fetch_format_parse("png"), STP_FETCH_PNG);
+    assert_int_equal(stp_fetch_format_parse("obj"), STP_FETCH_OBJ);
+    assert_int_equal(stp_fetch_format_parse("tga"), -1);
+    assert_int_equal(stp_fetch_format_parse(""), -1);
+    assert_null(stp_fetch_format_name(5));
 
     stp_fetch_open_reply fr = { 5, 123456, 0xdeadbeef, 4096 }, fr2;
     stp_buf_clear(&f.b);
