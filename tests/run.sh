@@ -18,6 +18,8 @@
 # Fuzz targets run FUZZ_SECONDS each (default 8 in make test) on a corpus seeded from
 # tests/fuzz/seeds/<target>/: a fresh temp copy, thrown away after, except with
 # FUZZ_CORPUS_DIR set (make fuzz: $B/fuzz-corpus/<target>/, kept from one campaign to the next).
+# tests/fuzz/<target>.flags, when present, holds extra libFuzzer flags for that target (one
+# line, e.g. "-max_len=4096" for the slow OpenImageIO target).
 #
 # Environment: ONLY=substr (run only the jobs whose name contains it; "fuzz" matches every fuzz
 # target), TEST_TIMEOUT (seconds per binary, default 900), TEST_JOBS, FUZZ_SECONDS,
@@ -112,9 +114,12 @@ run_fuzz() {
         corpus=$(mktemp -d "${TMPDIR:-/tmp}/seamtex-fuzz-$name-XXXXXX")
     fi
     [ -d "tests/fuzz/seeds/$name" ] && cp -r "tests/fuzz/seeds/$name/." "$corpus/"
+    # tests/fuzz/<target>.flags: extra libFuzzer flags of one target (e.g. -max_len)
+    local extra=()
+    [ -f "tests/fuzz/$name.flags" ] && read -r -a extra <"tests/fuzz/$name.flags"
     start=$(date +%s.%N)
     timeout -k 10 $((FUZZ_SECONDS + 60)) "$f" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 \
-        -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
+        "${extra[@]}" -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
     rc=$?
     secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
     [ -z "$FUZZ_CORPUS_DIR" ] && rm -rf "$corpus"
