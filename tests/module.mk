@@ -74,12 +74,14 @@ $(FZ)/fuzz_%: $(FZ)/obj/tests/fuzz/fuzz_%.o $(FZ)/libfuzz.a
 	$(FUZZ_CXX) -g -O1 -fsanitize=fuzzer,address,undefined -fno-omit-frame-pointer -o $@ $< \
 		$(FZ)/libfuzz.a $(LDLIBS)
 
-ifeq ($(SAN),1)
+# sanitizer builds (SAN=1, SAN=tsan) leave out the fuzz targets: they have their own tree
+ifneq ($(SAN),0)
 tests-build: $(TEST_BINS) $(ALL_BINS)
 else
 tests-build: $(TEST_BINS) $(ALL_BINS) $(FUZZ_BINS)
 endif
 fuzz-build: $(FUZZ_BINS)
+tsan-build: $(filter $(B)/tests/integration/%,$(TEST_BINS)) $(ALL_BINS)
 bench-build: $(BENCH_BINS) $(ALL_BINS)
 
 .SECONDARY:

@@ -23,8 +23,9 @@
 #
 # Environment: ONLY=substr (run only the jobs whose name contains it; "fuzz" matches every fuzz
 # target), TEST_TIMEOUT (seconds per binary, default 900), TEST_JOBS, FUZZ_SECONDS,
-# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak (fuzz: fuzz targets only; soak: test_durability only,
-# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through).
+# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak|tsan (fuzz: fuzz targets only; soak: test_durability only,
+# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through; tsan: the integration tests,
+# TSAN_OPTIONS set to tests/tsan.supp and per-process report files, any report fails).
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -55,11 +56,12 @@ if [ "$MODE" != fuzz ]; then
         src=tests/$(basename "$(dirname "$t")")/$name.c
         [ -f "$src" ] || { echo "note: $t has no $src: not run (stale build)" >&2; continue; }
         [ "$MODE" = soak ] && [ "$name" != test_durability ] && continue
+        [ "$MODE" = tsan ] && [ "$(basename "$(dirname "$t")")" != integration ] && continue
         [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && continue
         jobs+=("test $t")
     done
 fi
-if [ "$MODE" != soak ]; then
+if [ "$MODE" != soak ] && [ "$MODE" != tsan ]; then
     for f in $(ls "$B"/fuzz/fuzz_* 2>/dev/null | grep -v '\.[oad]$'); do
         name=$(basename "$f")
         [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && [[ "fuzz" != *$ONLY* ]] && continue
@@ -126,6 +128,13 @@ run_fuzz() {
     echo "$rc $secs" >"$log_dir/$name.result"
 }
 
+# ---- ThreadSanitizer (make tsan): every process (tests, seamtexd, the CLI) writes its reports
+# to $log_dir/tsan.<pid>; any report is a failure, listed after the summary
+if [ "$MODE" = tsan ]; then
+    rm -f "$log_dir"/tsan.*
+    export TSAN_OPTIONS="suppressions=$ROOT/tests/tsan.supp halt_on_error=0 second_deadlock_stack=1 log_path=$ROOT/$log_dir/tsan ${TSAN_OPTIONS:-}"
+fi
+
 # ---- the pool --------------------------------------------------------------------------------
 t_all=$(date +%s.%N)
 running=0
@@ -184,6 +193,17 @@ for j in "${jobs[@]}"; do
     fi
 done
 mv "$new_durations" "$durations"
+
+if [ "$MODE" = tsan ]; then
+    reports=$(cat "$log_dir"/tsan.* 2>/dev/null | grep -c '^WARNING: ThreadSanitizer')
+    if [ "$reports" -gt 0 ]; then
+        fail=$((fail + reports)); failed_names+=("tsan")
+        echo "ThreadSanitizer: $reports report(s) in $log_dir/tsan.*:"
+        grep -h -A3 '^WARNING: ThreadSanitizer' "$log_dir"/tsan.* | grep -E 'WARNING|#0' | head -40 | sed 's/^/    /'
+    else
+        echo "ThreadSanitizer: no reports (suppressions: tests/tsan.supp)"
+    fi
+fi
 
 wall=$(awk -v a="$t_all" -v b="$(date +%s.%N)" 'BEGIN{printf "%.0f", b-a}')
 echo "${#jobs[@]} jobs, $TEST_JOBS at a time, ${wall}s"
