@@ -7,12 +7,15 @@
  * Seeds: tests/fuzz/seeds/fuzz_draco/ (small .drc files, edgebreaker and sequential). */
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "mesh.h"
 #include "mesh_io.h"
 
-#define CHECK(c) do { if (!(c)) __builtin_trap(); } while (0)
+/* an invariant: on failure, names it and stops (libFuzzer keeps the input) */
+#define CHECK(c) do { if (!(c)) { fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, \
+                                          __LINE__, #c); __builtin_trap(); } } while (0)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
