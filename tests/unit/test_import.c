@@ -520,6 +520,25 @@ static void exr_from_memory_matches_exr_from_the_file(void **state)
     assert_null(b.data);
 }
 
+/* A failed image read leaves the caller's st_image empty, whatever it held (found by
+ * fuzz_image: OIIO's error paths returned with the struct untouched). */
+static void failed_image_reads_leave_the_image_empty(void **state)
+{
+    (void)state;
+    char path[512];
+    tmp_path(path, sizeof path, "not_an_image.png");
+    write_file(path, "\x89PNG\r\n\x1a\n garbage", 17);
+    st_image img;
+    st_error e;
+    memset(&img, 0xa5, sizeof img);
+    assert_int_not_equal(st_image_read(path, NULL, &img, &e), ST_OK);
+    assert_null(img.data);
+    memset(&img, 0xa5, sizeof img);
+    assert_int_not_equal(st_image_read_any(path, NULL, &img, &e), ST_OK);
+    assert_null(img.data);
+    st_image_free(&img);
+}
+
 static void obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line(void **state)
 {
     (void)state;
@@ -851,6 +870,7 @@ int main(void)
         cmocka_unit_test(draco_duck_pairs_with_its_texture),
         cmocka_unit_test(draco_header_declaring_too_many_faces_is_refused_before_decoding),
         cmocka_unit_test(exr_from_memory_matches_exr_from_the_file),
+        cmocka_unit_test(failed_image_reads_leave_the_image_empty),
         cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
         cmocka_unit_test(obj_over_the_caps_is_refused),
         cmocka_unit_test(huge_png_dimensions_are_refused_before_allocation),
