@@ -246,7 +246,9 @@ void sts_jobs_stop(sts_server *srv)
     pthread_mutex_lock(&J->mu);
     J->stop = 1;
     for (sts_job *j = J->list; j; j = j->next)
-        j->cancel = 1;  /* a stopping server does not wait for long compressions */
+        /* a stopping server does not wait for long compressions; atomic: the encoder threads
+         * read it without the lock */
+        __atomic_store_n(&j->cancel, 1, __ATOMIC_RELAXED);
     pthread_cond_broadcast(&J->cv);
     pthread_mutex_unlock(&J->mu);
     if (J->started)
@@ -342,7 +344,7 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
             continue;
         found = 1;
         if (cancel && j->state <= STP_JOB_RUNNING)
-            j->cancel = 1;
+            __atomic_store_n(&j->cancel, 1, __ATOMIC_RELAXED);  /* read by the encoder */
         r.job_id = j->id;
         r.state = (uint8_t)j->state;
         uint32_t bits = __atomic_load_n(&j->progress_bits, __ATOMIC_RELAXED);
