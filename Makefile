@@ -9,6 +9,8 @@
 #   make bench      every benchmark; figures printed and written to build/bench/*.json
 #   make run        the main job: daemon on loopback, default data set, a query, a short load test
 #   make asan       the tests again under AddressSanitizer + UBSan (build-san/)
+#   make tsan       the daemon and client tests (tests/integration/) under ThreadSanitizer, the
+#                   daemon and CLI built with it too (build-tsan/); suppressions in tests/tsan.supp
 #   make install    PREFIX=/usr/local DESTDIR=
 #
 # Dependencies are Debian packages; `make deps` (a prerequisite of test, bench and run) installs
@@ -35,6 +37,10 @@ NPROC    := $(shell nproc 2>/dev/null || echo 2)
 ifeq ($(SAN),1)
 B        := build-san
 SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+OPT      := -O1
+else ifeq ($(SAN),tsan)
+B        := build-tsan
+SANFLAGS := -fsanitize=thread -fno-omit-frame-pointer
 OPT      := -O1
 else
 B        := build
@@ -166,6 +172,13 @@ run: deps
 asan:
 	@$(MAKE) --no-print-directory SAN=1 test
 
+# Every test that starts seamtexd (tests/integration/: server, client, CLI, durability) with the
+# tests, the daemon and the CLI built with -fsanitize=thread; every process's reports go to
+# build-tsan/test-logs/tsan.<pid> and any report fails the run (tests/run.sh, MODE=tsan).
+tsan: deps
+	@$(MAKE) --no-print-directory SAN=tsan -j$(NPROC) all tsan-build
+	@B=build-tsan MODE=tsan bash tests/run.sh
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/seamtex \
 		$(DESTDIR)$(PREFIX)/lib/pkgconfig
@@ -186,9 +199,10 @@ check-layout:
 	@echo "check-layout: no include by path in store/ protocol/ util/ client/ server/"
 
 clean:
-	rm -rf build build-san
+	rm -rf build build-san build-tsan
 
-.PHONY: all deps test fuzz soak bench run asan install clean tests-build fuzz-build bench-build \
+.PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
+	tsan-build \
 	check-layout
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

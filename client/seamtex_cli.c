@@ -49,34 +49,6 @@ int cli_is_help(const char *a)
     return !strcmp(a, "--help") || !strcmp(a, "-?");
 }
 
-int cli_parse_u32(const char *s, uint32_t *out)
-{
-    char *end;
-    errno = 0;
-    if (!s || *s == '-' || *s == '\0')
-        return -1;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || *end || v > UINT32_MAX)
-        return -1;
-    *out = (uint32_t)v;
-    return 0;
-}
-
-int cli_parse_float(const char *s, float *out)
-{
-    char *end;
-    errno = 0;
-    if (!s || *s == '\0')
-        return -1;
-    double v = strtod(s, &end);
-    if (errno == ERANGE && fabs(v) > 1.0)
-        return -1;
-    if (*end)
-        return -1;
-    *out = (float)v;
-    return 0;
-}
-
 const char *cli_kind_name(unsigned kind)
 {
     const char *n = stp_kind_name(kind);

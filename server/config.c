@@ -230,17 +230,32 @@ static char *trim(char *s)
     return s;
 }
 
-int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errcap)
+/* The longest line of a config file, its newline included. */
+#define LINE_MAX_BYTES 2048
+/* The largest config file read (a few hundred bytes are usual). */
+#define FILE_MAX_BYTES (1u << 20)
+
+int sts_config_read_mem(sts_config *c, const char *buf, size_t len, const char *name, char *err,
+                        size_t errcap)
 {
-    FILE *f = fopen(path, "re");
-    if (!f) {
-        snprintf(err, errcap, "config %s: %s", path, strerror(errno));
-        return -1;
-    }
-    char line[2048];
+    char line[LINE_MAX_BYTES];
     int ln = 0;
-    while (fgets(line, sizeof line, f)) {
+    size_t pos = 0;
+    while (pos < len) {
         ln++;
+        const char *nl = memchr(buf + pos, '\n', len - pos);
+        size_t n = nl ? (size_t)(nl - (buf + pos)) : len - pos;
+        if (n >= sizeof line) {
+            snprintf(err, errcap, "%s:%d: line longer than %d bytes", name, ln, LINE_MAX_BYTES - 1);
+            return -1;
+        }
+        if (memchr(buf + pos, '\0', n)) {
+            snprintf(err, errcap, "%s:%d: a NUL byte (not a text file)", name, ln);
+            return -1;
+        }
+        memcpy(line, buf + pos, n);
+        line[n] = 0;
+        pos += n + (nl != NULL);
         char *hash = strchr(line, '#');
         if (hash)
             *hash = 0;
@@ -249,28 +264,52 @@ int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errc
             continue;
         char *eq = strchr(s, '=');
         if (!eq) {
-            snprintf(err, errcap, "%s:%d: expected 'key = value'", path, ln);
-            fclose(f);
+            snprintf(err, errcap, "%s:%d: expected 'key = value'", name, ln);
             return -1;
         }
         *eq = 0;
         char *key = trim(s), *val = trim(eq + 1);
         const opt *o = find_opt(key, strlen(key));
         if (!o || o->type == T_NOT) {
-            snprintf(err, errcap, "%s:%d: unknown key '%s' (see seamtexd --help)", path, ln, key);
-            fclose(f);
+            snprintf(err, errcap, "%s:%d: unknown key '%.64s' (see seamtexd --help)", name, ln, key);
             return -1;
         }
         char e2[256];
         if (set_opt(c, o, val, e2, sizeof e2)) {
-            snprintf(err, errcap, "%s:%d: %s", path, ln, e2);
-            fclose(f);
+            snprintf(err, errcap, "%s:%d: %s", name, ln, e2);
             return -1;
         }
     }
-    fclose(f);
-    snprintf(c->config_file, sizeof c->config_file, "%s", path);
     return 0;
+}
+
+int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errcap)
+{
+    FILE *f = fopen(path, "re");
+    if (!f) {
+        snprintf(err, errcap, "config %s: %s", path, strerror(errno));
+        return -1;
+    }
+    char *buf = malloc(FILE_MAX_BYTES + 1);
+    if (!buf) {
+        fclose(f);
+        snprintf(err, errcap, "config %s: out of memory", path);
+        return -1;
+    }
+    size_t len = fread(buf, 1, FILE_MAX_BYTES + 1, f);
+    int bad = ferror(f);
+    fclose(f);
+    int rc = -1;
+    if (bad)
+        snprintf(err, errcap, "config %s: read error", path);
+    else if (len > FILE_MAX_BYTES)
+        snprintf(err, errcap, "config %s: larger than %u bytes", path, FILE_MAX_BYTES);
+    else
+        rc = sts_config_read_mem(c, buf, len, path, err, errcap);
+    free(buf);
+    if (rc == 0)
+        snprintf(c->config_file, sizeof c->config_file, "%s", path);
+    return rc;
 }
 
 int sts_config_load_token(sts_config *c, char *err, size_t errcap)

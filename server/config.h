@@ -63,6 +63,12 @@ int sts_config_from_args(sts_config *c, int argc, char **argv, char *err, size_t
  * file and line. */
 int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errcap);
 
+/* The parser of sts_config_read_file on len bytes in memory (name is used in messages; the
+ * file reader adds the 1 MiB file cap and sets config_file). A line over 2047 bytes or a NUL
+ * byte is an error. */
+int sts_config_read_mem(sts_config *c, const char *buf, size_t len, const char *name, char *err,
+                        size_t errcap);
+
 /* Reads token_file into token when set. 0 or -1. */
 int sts_config_load_token(sts_config *c, char *err, size_t errcap);
 

@@ -278,7 +278,9 @@ void sts_jobs_stop(sts_server *srv)
         sts_handles_lock(&J->table);
         J->stop = 1;
         for (sts_handle *h = J->table.list; h; h = h->next)
-            JOB(h)->cancel = 1;  /* a stopping server does not wait for long compressions */
+            /* a stopping server does not wait for long compressions; atomic: the encoder
+             * threads read it without the lock */
+            __atomic_store_n(&JOB(h)->cancel, 1, __ATOMIC_RELAXED);
         pthread_cond_broadcast(&J->cv);
         sts_handles_unlock(&J->table);
         if (J->started)
@@ -373,7 +375,7 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     int found = j != NULL;
     if (j) {
         if (cancel && j->state <= STP_JOB_RUNNING)
-            j->cancel = 1;
+            __atomic_store_n(&j->cancel, 1, __ATOMIC_RELAXED);  /* read by the encoder */
         r.job_id = j->hd.id;
         r.state = (uint8_t)j->state;
         uint32_t bits = __atomic_load_n(&j->progress_bits, __ATOMIC_RELAXED);

@@ -18,11 +18,14 @@
 # Fuzz targets run FUZZ_SECONDS each (default 8 in make test) on a corpus seeded from
 # tests/fuzz/seeds/<target>/: a fresh temp copy, thrown away after, except with
 # FUZZ_CORPUS_DIR set (make fuzz: $B/fuzz-corpus/<target>/, kept from one campaign to the next).
+# tests/fuzz/<target>.flags, when present, holds extra libFuzzer flags for that target (one
+# line, e.g. "-max_len=4096" for the slow OpenImageIO target).
 #
 # Environment: ONLY=substr (run only the jobs whose name contains it; "fuzz" matches every fuzz
 # target), TEST_TIMEOUT (seconds per binary, default 900), TEST_JOBS, FUZZ_SECONDS,
-# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak (fuzz: fuzz targets only; soak: test_durability only,
-# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through).
+# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak|tsan (fuzz: fuzz targets only; soak: test_durability only,
+# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through; tsan: the integration tests,
+# TSAN_OPTIONS set to tests/tsan.supp and per-process report files, any report fails).
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -53,11 +56,12 @@ if [ "$MODE" != fuzz ]; then
         src=tests/$(basename "$(dirname "$t")")/$name.c
         [ -f "$src" ] || { echo "note: $t has no $src: not run (stale build)" >&2; continue; }
         [ "$MODE" = soak ] && [ "$name" != test_durability ] && continue
+        [ "$MODE" = tsan ] && [ "$(basename "$(dirname "$t")")" != integration ] && continue
         [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && continue
         jobs+=("test $t")
     done
 fi
-if [ "$MODE" != soak ]; then
+if [ "$MODE" != soak ] && [ "$MODE" != tsan ]; then
     for f in $(ls "$B"/fuzz/fuzz_* 2>/dev/null | grep -v '\.[oad]$'); do
         name=$(basename "$f")
         [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && [[ "fuzz" != *$ONLY* ]] && continue
@@ -112,14 +116,24 @@ run_fuzz() {
         corpus=$(mktemp -d "${TMPDIR:-/tmp}/seamtex-fuzz-$name-XXXXXX")
     fi
     [ -d "tests/fuzz/seeds/$name" ] && cp -r "tests/fuzz/seeds/$name/." "$corpus/"
+    # tests/fuzz/<target>.flags: extra libFuzzer flags of one target (e.g. -max_len)
+    local extra=()
+    [ -f "tests/fuzz/$name.flags" ] && read -r -a extra <"tests/fuzz/$name.flags"
     start=$(date +%s.%N)
     timeout -k 10 $((FUZZ_SECONDS + 60)) "$f" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 \
-        -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
+        "${extra[@]}" -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
     rc=$?
     secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
     [ -z "$FUZZ_CORPUS_DIR" ] && rm -rf "$corpus"
     echo "$rc $secs" >"$log_dir/$name.result"
 }
+
+# ---- ThreadSanitizer (make tsan): every process (tests, seamtexd, the CLI) writes its reports
+# to $log_dir/tsan.<pid>; any report is a failure, listed after the summary
+if [ "$MODE" = tsan ]; then
+    rm -f "$log_dir"/tsan.*
+    export TSAN_OPTIONS="suppressions=$ROOT/tests/tsan.supp halt_on_error=0 second_deadlock_stack=1 log_path=$ROOT/$log_dir/tsan ${TSAN_OPTIONS:-}"
+fi
 
 # ---- the pool --------------------------------------------------------------------------------
 t_all=$(date +%s.%N)
@@ -179,6 +193,17 @@ for j in "${jobs[@]}"; do
     fi
 done
 mv "$new_durations" "$durations"
+
+if [ "$MODE" = tsan ]; then
+    reports=$(cat "$log_dir"/tsan.* 2>/dev/null | grep -c '^WARNING: ThreadSanitizer')
+    if [ "$reports" -gt 0 ]; then
+        fail=$((fail + reports)); failed_names+=("tsan")
+        echo "ThreadSanitizer: $reports report(s) in $log_dir/tsan.*:"
+        grep -h -A3 '^WARNING: ThreadSanitizer' "$log_dir"/tsan.* | grep -E 'WARNING|#0' | head -40 | sed 's/^/    /'
+    else
+        echo "ThreadSanitizer: no reports (suppressions: tests/tsan.supp)"
+    fi
+fi
 
 wall=$(awk -v a="$t_all" -v b="$(date +%s.%N)" 'BEGIN{printf "%.0f", b-a}')
 echo "${#jobs[@]} jobs, $TEST_JOBS at a time, ${wall}s"

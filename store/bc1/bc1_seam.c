@@ -729,7 +729,7 @@ static int run_round(const solver *S, work *W, double *best, st_error *e)
     for (int pass = 0; pass < 2; pass++) {
         int any = 0;
         for (uint32_t b = 0; b < nb; b++) {
-            if (W->cancel && *W->cancel)
+            if (W->cancel && __atomic_load_n(W->cancel, __ATOMIC_RELAXED))
                 return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
             any |= bcd_block(S, b);
             if (W->progress && (b & 1023) == 1023)

@@ -42,7 +42,7 @@ static int solve_free(const st_cg *P, const uint8_t *fixed, double *x, double *w
             rr += r[i] * r[i];
         if (rr <= tol)
             break;
-        if (P->cancel && *P->cancel)
+        if (P->cancel && __atomic_load_n(P->cancel, __ATOMIC_RELAXED))
             return 1;
         product(P, fixed, p, q);
         double pq = 0;

@@ -251,7 +251,7 @@ static void mock_serve(mock *m, int fd)
         close(fd);
         return;
     }
-    while (!m->stop) {
+    while (!__atomic_load_n(&m->stop, __ATOMIC_ACQUIRE)) {
         struct pollfd p = { fd, POLLIN, 0 };
         if (poll(&p, 1, 100) <= 0)
             continue;
@@ -281,7 +281,7 @@ out:
 static void *mock_main(void *arg)
 {
     mock *m = arg;
-    while (!m->stop) {
+    while (!__atomic_load_n(&m->stop, __ATOMIC_ACQUIRE)) {
         struct pollfd p = { m->lfd, POLLIN, 0 };
         if (poll(&p, 1, 50) <= 0)
             continue;
