@@ -34,7 +34,26 @@ typedef struct rd {
     st_error *e;
     z_stream z;
     int z_ready;
+    uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
+    size_t scratch_cap;
 } rd;
+
+/* The reader's scratch of at least n bytes: grown, never shrunk, freed at the end. A planar
+ * block is at most a tile or a face (the Ptex writer tiles faces over 64 KiB), so it stays
+ * in the cache between the inflate and the interleave. */
+static uint8_t *scratch(rd *r, size_t n)
+{
+    if (n > r->scratch_cap) {
+        size_t cap = n < ((size_t)64 << 10) ? (size_t)64 << 10 : n;
+        uint8_t *p = malloc(cap);
+        if (!p)
+            return NULL;
+        free(r->scratch);
+        r->scratch = p;
+        r->scratch_cap = cap;
+    }
+    return r->scratch;
+}
 
 /* [off, off+n) inside the buffer? */
 static int in_file(const rd *r, uint64_t off, uint64_t n)
@@ -74,10 +93,13 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
         return st_fail(r->e, ST_ETOOBIG, "%s: block of %zu bytes is too large", what, outlen);
     int zr;
     do {
+        /* the last (usually the only) piece of input with Z_FINISH: zlib then inflates
+         * straight into out without keeping its 32 KiB sliding window (no extra copy) */
         uInt chunk = left > (1u << 30) ? (1u << 30) : (uInt)left;
+        int last = chunk == left;
         r->z.next_in = (Bytef *)(uintptr_t)p;
         r->z.avail_in = chunk;
-        zr = inflate(&r->z, Z_NO_FLUSH);
+        zr = inflate(&r->z, last ? Z_FINISH : Z_NO_FLUSH);
         size_t used = chunk - r->z.avail_in;
         p += used;
         left -= used;
@@ -89,7 +111,7 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
         if (zr != Z_OK && zr != Z_BUF_ERROR)
             return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
                            (unsigned long long)off, r->z.msg ? r->z.msg : "error");
-        if (zr == Z_BUF_ERROR || (used == 0 && r->z.avail_out > 0 && left == 0))
+        if (last || (zr == Z_BUF_ERROR && used == 0))
             return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
                            "(inflated %lu of %zu bytes)", what, (unsigned long long)off,
                            r->z.total_out, outlen);
@@ -100,28 +122,49 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     return ST_OK;
 }
 
-/* Planar (channel after channel, rows of u) -> interleaved rows of stride dst_stride bytes. */
-static void interleave(const rd *r, const uint8_t *src, uint32_t w, uint32_t h, uint8_t *dst,
-                       size_t dst_stride)
-{
-    size_t cs = r->csize, ps = r->psize;
-    for (unsigned c = 0; c < r->nc; c++)
-        for (uint32_t y = 0; y < h; y++) {
-            const uint8_t *s = src + (((size_t)c * h + y) * w) * cs;
-            uint8_t *d = dst + y * dst_stride + c * cs;
-            if (cs == 1) {
-                for (uint32_t x = 0; x < w; x++)
-                    d[x * ps] = s[x];
-            } else if (cs == 2) {
-                for (uint32_t x = 0; x < w; x++)
-                    memcpy(d + x * ps, s + 2 * (size_t)x, 2);
-            } else {
-                for (uint32_t x = 0; x < w; x++)
-                    memcpy(d + x * ps, s + 4 * (size_t)x, 4);
-            }
-        }
-}
+/* Planar (channel after channel, rows of u) -> interleaved rows of stride dst_stride bytes,
+ * undoing the difference coding on the way when diff is set (one running sum over the whole
+ * planar block, continuing from one plane to the next, as the writer made it). One pass:
+ * each plane is read once and scattered into its channel. */
+#define PLANAR_TO_ROWS(T, NC)                                                                 \
+    do {                                                                                      \
+        const T *sp = (const T *)(const void *)src;                                           \
+        T prev = 0;                                                                           \
+        for (unsigned c = 0; c < (NC); c++)                                                   \
+            for (uint32_t y = 0; y < h; y++, sp += w) {                                       \
+                T *d = (T *)(void *)(dst + y * dst_stride) + c;                               \
+                if (diff)                                                                     \
+                    for (uint32_t x = 0; x < w; x++)                                          \
+                        d[(size_t)x * (NC)] = prev = (T)(prev + sp[x]);                       \
+                else                                                                          \
+                    for (uint32_t x = 0; x < w; x++)                                          \
+                        d[(size_t)x * (NC)] = sp[x];                                          \
+            }                                                                                 \
+    } while (0)
 
+static void planar_to_rows(const rd *r, const uint8_t *src, uint32_t w, uint32_t h, uint8_t *dst,
+                           size_t dst_stride, int diff)
+{
+    /* the set's arena and the scratch are aligned (64 bytes, malloc), and every row of a
+     * level starts at a multiple of the texel size, so typed access is aligned */
+    switch (r->csize * 8 + r->nc) {
+    case 8 + 1: PLANAR_TO_ROWS(uint8_t, 1); break;
+    case 8 + 2: PLANAR_TO_ROWS(uint8_t, 2); break;
+    case 8 + 3: PLANAR_TO_ROWS(uint8_t, 3); break;
+    case 8 + 4: PLANAR_TO_ROWS(uint8_t, 4); break;
+    case 16 + 1: PLANAR_TO_ROWS(uint16_t, 1); break;
+    case 16 + 2: PLANAR_TO_ROWS(uint16_t, 2); break;
+    case 16 + 3: PLANAR_TO_ROWS(uint16_t, 3); break;
+    case 16 + 4: PLANAR_TO_ROWS(uint16_t, 4); break;
+    case 32 + 1: PLANAR_TO_ROWS(float, 1); break; /* float: never diff-coded */
+    case 32 + 2: PLANAR_TO_ROWS(float, 2); break;
+    case 32 + 3: PLANAR_TO_ROWS(float, 3); break;
+    default:     PLANAR_TO_ROWS(float, 4); break;
+    }
+}
+#undef PLANAR_TO_ROWS
+
+/* The difference coding undone in place over a contiguous block (u8/u16). */
 static void decode_difference(const rd *r, uint8_t *p, size_t bytes)
 {
     if (r->dt == ST_DT_U8) {
@@ -129,25 +172,25 @@ static void decode_difference(const rd *r, uint8_t *p, size_t bytes)
         for (size_t i = 0; i < bytes; i++)
             prev = p[i] = (uint8_t)(p[i] + prev);
     } else if (r->dt == ST_DT_U16) {
-        uint16_t prev = 0;
-        for (size_t i = 0; i + 1 < bytes; i += 2) {
-            uint16_t v = ptx_rd16(p + i);
-            prev = (uint16_t)(v + prev);
-            ptx_wr16(p + i, prev);
-        }
+        uint16_t prev = 0, *q = (uint16_t *)(void *)p;
+        for (size_t i = 0; i < bytes / 2; i++)
+            prev = q[i] = (uint16_t)(q[i] + prev);
     }
 }
 
 static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
                       size_t stride)
 {
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++)
-            memcpy(dst + y * stride + x * r->psize, px, r->psize);
+    for (uint32_t x = 0; x < w; x++)
+        memcpy(dst + x * r->psize, px, r->psize);
+    for (uint32_t y = 1; y < h; y++)
+        memcpy(dst + y * stride, dst, (size_t)w * r->psize);
 }
 
 /* One non-tiled block of encoding enc at [off, off+size) holding a w x h rectangle, written
- * interleaved into dst (row stride bytes). */
+ * interleaved into dst (row stride bytes). A one-channel block that fills its rows is
+ * inflated straight into dst (planar is interleaved then) and difference-decoded there; any
+ * other block inflates into the reader's scratch and is interleaved from it in one pass. */
 static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32_t w, uint32_t h,
                         uint8_t *dst, size_t stride, const char *what)
 {
@@ -167,16 +210,17 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
     if (!zip_bound_ok(size, bytes))
         return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to %zu", what,
                        (unsigned long long)size, bytes);
-    uint8_t *tmp = malloc(bytes ? bytes : 1);
+    int diff = enc == PTX_ENC_DIFFZIPPED, rc;
+    if (r->nc == 1 && stride == (size_t)w * r->psize) {
+        if ((rc = inflate_exact(r, off, size, dst, bytes, what)) == ST_OK && diff)
+            decode_difference(r, dst, bytes);
+        return rc;
+    }
+    uint8_t *tmp = scratch(r, bytes);
     if (!tmp)
         return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu bytes", what, bytes);
-    int rc = inflate_exact(r, off, size, tmp, bytes, what);
-    if (rc == ST_OK) {
-        if (enc == PTX_ENC_DIFFZIPPED)
-            decode_difference(r, tmp, bytes); /* one run over all planes */
-        interleave(r, tmp, w, h, dst, stride);
-    }
-    free(tmp);
+    if ((rc = inflate_exact(r, off, size, tmp, bytes, what)) == ST_OK)
+        planar_to_rows(r, tmp, w, h, dst, stride, diff);
     return rc;
 }
 
@@ -759,6 +803,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
 done:
     if (r->z_ready)
         inflateEnd(&r->z);
+    free(r->scratch);
     free(fi);
     free(constdata);
     free(ptxflags);
