@@ -21,6 +21,7 @@
 
 #include "ptex_adler.h"
 #include "ptex_format.h"
+#include "ptex_unpack.h"
 #include "ptexres.h"
 #include "fileio.h"
 
@@ -144,62 +145,6 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     return ST_OK;
 }
 
-/* Planar (channel after channel, rows of u) -> interleaved rows of stride dst_stride bytes,
- * undoing the difference coding on the way when diff is set (one running sum over the whole
- * planar block, continuing from one plane to the next, as the writer made it). One pass:
- * each plane is read once and scattered into its channel. */
-#define PLANAR_TO_ROWS(T, NC)                                                                 \
-    do {                                                                                      \
-        const T *sp = (const T *)(const void *)src;                                           \
-        T prev = 0;                                                                           \
-        for (unsigned c = 0; c < (NC); c++)                                                   \
-            for (uint32_t y = 0; y < h; y++, sp += w) {                                       \
-                T *d = (T *)(void *)(dst + y * dst_stride) + c;                               \
-                if (diff)                                                                     \
-                    for (uint32_t x = 0; x < w; x++)                                          \
-                        d[(size_t)x * (NC)] = prev = (T)(prev + sp[x]);                       \
-                else                                                                          \
-                    for (uint32_t x = 0; x < w; x++)                                          \
-                        d[(size_t)x * (NC)] = sp[x];                                          \
-            }                                                                                 \
-    } while (0)
-
-static void planar_to_rows(const rd *r, const uint8_t *src, uint32_t w, uint32_t h, uint8_t *dst,
-                           size_t dst_stride, int diff)
-{
-    /* the set's arena and the scratch are aligned (64 bytes, malloc), and every row of a
-     * level starts at a multiple of the texel size, so typed access is aligned */
-    switch (r->csize * 8 + r->nc) {
-    case 8 + 1: PLANAR_TO_ROWS(uint8_t, 1); break;
-    case 8 + 2: PLANAR_TO_ROWS(uint8_t, 2); break;
-    case 8 + 3: PLANAR_TO_ROWS(uint8_t, 3); break;
-    case 8 + 4: PLANAR_TO_ROWS(uint8_t, 4); break;
-    case 16 + 1: PLANAR_TO_ROWS(uint16_t, 1); break;
-    case 16 + 2: PLANAR_TO_ROWS(uint16_t, 2); break;
-    case 16 + 3: PLANAR_TO_ROWS(uint16_t, 3); break;
-    case 16 + 4: PLANAR_TO_ROWS(uint16_t, 4); break;
-    case 32 + 1: PLANAR_TO_ROWS(float, 1); break; /* float: never diff-coded */
-    case 32 + 2: PLANAR_TO_ROWS(float, 2); break;
-    case 32 + 3: PLANAR_TO_ROWS(float, 3); break;
-    default:     PLANAR_TO_ROWS(float, 4); break;
-    }
-}
-#undef PLANAR_TO_ROWS
-
-/* The difference coding undone in place over a contiguous block (u8/u16). */
-static void decode_difference(const rd *r, uint8_t *p, size_t bytes)
-{
-    if (r->dt == ST_DT_U8) {
-        uint8_t prev = 0;
-        for (size_t i = 0; i < bytes; i++)
-            prev = p[i] = (uint8_t)(p[i] + prev);
-    } else if (r->dt == ST_DT_U16) {
-        uint16_t prev = 0, *q = (uint16_t *)(void *)p;
-        for (size_t i = 0; i < bytes / 2; i++)
-            prev = q[i] = (uint16_t)(q[i] + prev);
-    }
-}
-
 static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
                       size_t stride)
 {
@@ -235,14 +180,17 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
     int diff = enc == PTX_ENC_DIFFZIPPED, rc;
     if (r->nc == 1 && stride == (size_t)w * r->psize) {
         if ((rc = inflate_exact(r, off, size, dst, bytes, what)) == ST_OK && diff)
-            decode_difference(r, dst, bytes);
+            st_ptx_undiff(r->csize, dst, bytes);
         return rc;
     }
     uint8_t *tmp = scratch(r, bytes);
     if (!tmp)
         return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu bytes", what, bytes);
-    if ((rc = inflate_exact(r, off, size, tmp, bytes, what)) == ST_OK)
-        planar_to_rows(r, tmp, w, h, dst, stride, diff);
+    if ((rc = inflate_exact(r, off, size, tmp, bytes, what)) == ST_OK) {
+        if (diff)
+            st_ptx_undiff(r->csize, tmp, bytes); /* one run over all planes */
+        st_ptx_planar_to_rows(r->csize, r->nc, tmp, w, h, dst, stride);
+    }
     return rc;
 }
 
