@@ -144,8 +144,8 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
     }
 }
 
-int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
-                  st_set **out, st_error *e)
+static int set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                      int zero, st_set **out, st_error *e)
 {
     *out = NULL;
     if (!max_bytes)
@@ -238,7 +238,10 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
         rc = st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of texels", bytes);
         goto fail;
     }
-    memset(s->texels, 0, alloc);
+    if (zero)
+        memset(s->texels, 0, alloc);
+    else
+        memset(s->texels + bytes, 0, alloc - bytes); /* the slack past the last texel */
     s->texel_bytes = bytes;
     size_t off = 0;
     for (uint32_t f = 0; f < info->nfaces; f++) {
@@ -259,6 +262,18 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
 fail:
     st_set_free(s);
     return rc;
+}
+
+int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                  st_set **out, st_error *e)
+{
+    return set_create(info, fd, max_bytes, 1, out, e);
+}
+
+int st_set_create_unzeroed(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                           st_set **out, st_error *e)
+{
+    return set_create(info, fd, max_bytes, 0, out, e);
 }
 
 void st_set_free(st_set *s)

@@ -666,7 +666,11 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         .kind = ST_KIND_PERFACE, .colorspace = ST_CS_LINEAR, .premultiplied = 0,
         .border_u = (uint8_t)bu, .border_v = (uint8_t)bv, .meshtype = 0,
     };
-    if ((rc = st_set_create(&info, fd, max_bytes, &s, e)))
+    /* every byte of every level is written below: constant and 1x1 faces from the constant
+     * data, level 0 of the others and their stored reductions decoded (a block must fill its
+     * face exactly, tiles cover it), every other level made by st_ptexres_attach; any
+     * failure frees the set unread */
+    if ((rc = st_set_create_unzeroed(&info, fd, max_bytes, &s, e)))
         goto done;
 
     /* constant faces and 1x1 faces: the constant data */
