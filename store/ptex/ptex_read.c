@@ -743,15 +743,21 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             }
             if (l > 0 && nstored[f] != l)
                 continue; /* a gap: the level before was missing for this face */
-            char what[64];
-            snprintf(what, sizeof what, "level %u face %u", l, f);
             int edited = 0;
             for (size_t k = 0; l == 0 && k < nfedits; k++)
                 edited |= fedits[k].faceid == f;
             uint64_t end = edited ? len : lpos + lsize;
+            /* the message names "level L face F", formatted only on failure (a printf per
+             * face was a few percent of importing a file of small faces) */
             if ((rc = decode_face(r, fdh[i], offs[i], end, F->ulog2 - l, F->vlog2 - l,
-                                  st_face_level(s, f, l), what)))
+                                  st_face_level(s, f, l), ""))) {
+                if (e) {
+                    char tmp[ST_ERRMSG_LEN];
+                    snprintf(tmp, sizeof tmp, "%s", e->msg);
+                    st_fail(e, rc, "level %u face %u%s", l, f, tmp);
+                }
                 goto done;
+            }
             if (l > 0)
                 nstored[f] = (uint8_t)(l + 1);
         }
