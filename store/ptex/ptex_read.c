@@ -1,15 +1,24 @@
 /* store/ptex/ptex_read.c - reads a Ptex file (layout in ptex_format.h) into a texture set.
  *
  * Owns: parsing and validation of .ptx bytes, block decoding (constant, zipped, diff-zipped,
- * tiled), edits and metadata. Does not own: the set layout (set.c), the table of on-demand
- * reductions that Ptex's filter reads (ptexres.c, attached here).
+ * tiled), edits and metadata. Does not own: the set layout (set.c), the inner unpacking loops
+ * (ptex_unpack.c, ptex_adler.c), the Ptex rules for the levels a file does not store and the
+ * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
+ * built later by the first Ptex-filter call).
+ *
+ * One pass, no extra copies: the set is created with its arena unzeroed, every block of every
+ * level is inflated once - a one-channel block straight into its place in the arena, any other
+ * into one reused scratch that stays in the cache - and unpacked into the arena; the levels the
+ * file does not store are then made from the level before each. Everything the import writes
+ * is written once.
  *
  * Hostile input: the whole file is in memory; every section is located with overflow-checked
  * arithmetic and must lie inside the buffer; every count is capped before it sizes an
  * allocation (ST_MAX_FACES, ST_MAX_DIM, 16 levels, and a zip stream cannot inflate to more
  * than PTX_MAX_ZIP_RATIO times its size, so a declared size larger than that is refused before
- * allocating); every zlib stream must inflate to exactly its declared size. Errors name the
- * section, face, level or byte offset.
+ * allocating); every zlib stream must inflate to exactly its declared size, with a valid zlib
+ * header and Adler-32; every byte of the unzeroed arena is written before the set is returned
+ * (a failure frees it unread). Errors name the section, face, level or byte offset.
  */
 #include "ptex.h"
 

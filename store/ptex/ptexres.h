@@ -22,8 +22,8 @@
  * own levels (set.c), filtering (ptexfilter*.c).
  *
  * Cost: before the first Ptex-filter call, two bytes per face. After it: one pointer per
- * (face, ulog2', vlog2') pair plus the texels of the pairs that are not set levels (about 1.7x
- * level 0 for square faces); st_set_memory counts it once built.
+ * (face, ulog2', vlog2') pair plus the texels of the pairs that are not set levels (about 2.7x
+ * level 0); st_set_memory counts it once built.
  */
 #ifndef ST_PTEXRES_H
 #define ST_PTEXRES_H
