@@ -11,7 +11,8 @@
  * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
- * has; st_ptexfilter_prepare builds it for any per-face set.
+ * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
+ * the table (once, thread-safe), later calls only read it.
  */
 #include "ptexfilter.h"
 
@@ -530,9 +531,12 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
         return ST_EINVAL;
     if (s->info.kind != ST_KIND_PERFACE)
         return ST_EUNSUPPORTED;
-    const st_ptexres *t = st_ptexres_get(s);
-    if (!t)
+    if (!st_ptexres_get(s))
         return ST_EUNSUPPORTED;
+    st_error be;
+    const st_ptexres *t = st_ptexres_table(s, &be); /* built on the first call */
+    if (!t)
+        return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
     if (!(o->sharpness >= 0.0f && o->sharpness <= 1.0f) || !(o->width >= 0.0f) ||
         !(o->blur >= 0.0f) || o->width > ST_MAX_DERIV || o->blur > ST_MAX_DERIV)
         return ST_EINVAL;
@@ -585,5 +589,5 @@ int st_ptexfilter_prepare(st_set *s, st_error *e)
 size_t st_ptexfilter_memory(const st_set *s)
 {
     const st_ptexres *t = st_ptexres_get(s);
-    return t ? t->bytes : 0;
+    return t && s->ext.memory ? s->ext.memory(t) : 0;
 }

@@ -1,14 +1,25 @@
-/* store/ptex/ptexres.c - builds the table of every (ulog2', vlog2') resolution of every face, with
- * the Ptex reader's rules for the ones it makes on demand (see ptexres.h).
+/* store/ptex/ptexres.c - the Ptex reader's rules for the resolutions it makes on demand (see
+ * ptexres.h): filling a set's unstored levels with them at import, and the lazily built table
+ * of every (ulog2', vlog2') resolution of every face.
  *
- * Work: one pass decides, per face and resolution, where the data comes from (a set level, the
- * constant value, or a 2:1 reduction of a larger resolution) and sums the bytes; one
- * allocation; one pass from large to small resolutions fills the arena. Sizes were already
- * checked when the set was created; the arena is checked against max_bytes.
+ * Levels (st_ptexres_fill_levels, at import): a set level L that the file did not store is
+ * (U-L, V-L) while both axes still halve, which Ptex makes as a v reduction of a u reduction
+ * of level L-1 (or u of v: the order alternates with the parity of U-L), and past the smaller
+ * axis a single 2:1 reduction of level L-1 along the larger one; 1x1 is the constant value.
+ * So filling a level reads only the level before it (plus one scratch of half its size).
+ *
+ * Table (st_ptexres_table, first Ptex-filter call): one pass decides, per face and
+ * resolution, where the data comes from (a set level - which now holds exactly what Ptex
+ * serves for it - or a 2:1 reduction of a larger resolution) and sums the bytes; one
+ * allocation; one pass from large to small resolutions fills the arena. Built once under
+ * the record's mutex; readers test `built` with acquire ordering, so a thread that sees 1
+ * sees every pointer and texel. Sizes were already checked when the set was created; the
+ * arena is checked against max_bytes.
  */
 #include "ptexres.h"
 #include "ptexfilter.h"
 
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
@@ -32,9 +43,14 @@ static uint8_t *arena_alloc(size_t bytes)
     return p;
 }
 
+/* The record (two bytes per face) always; the table once it is built. */
 static size_t ptexres_memory(const void *p)
 {
-    return ((const st_ptexres *)p)->bytes;
+    const st_ptexres *t = p;
+    size_t m = sizeof *t + (size_t)t->nfaces * 2;
+    if (atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
+        m += t->bytes;
+    return m;
 }
 
 static void ptexres_free(void *p)
@@ -42,9 +58,11 @@ static void ptexres_free(void *p)
     st_ptexres *t = p;
     if (!t)
         return;
+    pthread_mutex_destroy(&t->lock);
     free(t->base);
     free(t->px);
     free(t->ptxflags);
+    free(t->nstored);
     free(t->arena);
     free(t);
 }
@@ -182,7 +200,8 @@ static void average_px(unsigned dt, unsigned nc, const uint8_t *src, size_t n, u
 }
 
 /* Where the data of (ru, rv) comes from: >= 0 a set level, -1 the constant value, -2 reduce
- * in u from (ru+1, rv), -3 reduce in v from (ru, rv+1). */
+ * in u from (ru+1, rv), -3 reduce in v from (ru, rv+1). The Ptex reader's rule: a stored
+ * square reduction, else a 2:1 step along the axis reduced more (alternating on squares). */
 static int source_of(unsigned U, unsigned V, unsigned ru, unsigned rv, unsigned nstored,
                      int hasedits)
 {
@@ -197,65 +216,168 @@ static int source_of(unsigned U, unsigned V, unsigned ru, unsigned rv, unsigned 
     return blendu ? -2 : -3;
 }
 
-int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
-                      const uint8_t *nstored, size_t max_bytes, st_error *e)
+/* The set level that holds (ru, rv) of a face of U x V (log2) once its levels are filled, or
+ * -1: level L is (max(U-L, 0), max(V-L, 0)). The (0,0) entry is the last level. */
+static int level_of(unsigned U, unsigned V, unsigned ru, unsigned rv)
+{
+    unsigned redu = U - ru, redv = V - rv;
+    if (redu == redv)
+        return (int)redu;
+    if (rv == 0 && redu > redv)
+        return (int)redu; /* past the v axis: (U-L, 0), L > V */
+    if (ru == 0 && redv > redu)
+        return (int)redv;
+    return -1;
+}
+
+int st_ptexres_fill_levels(st_set *s, uint32_t f, unsigned nstored, const uint8_t *constpx,
+                           st_error *e)
+{
+    const st_face *F = &s->faces[f];
+    if (F->flags & ST_FACE_CONSTANT || F->nlevels <= 1)
+        return ST_OK;
+    unsigned dt = s->info.dtype, nc = s->info.nchan, U = F->ulog2, V = F->vlog2;
+    size_t ts = st_texel_size(s);
+    if (nstored < 1)
+        nstored = 1;
+    /* scratch for the u- or v-reduced intermediate of a square step: half of level L-1 */
+    uint8_t small[4096], *tmp = small;
+    size_t need = 0;
+    for (unsigned l = nstored; l < F->nlevels && l <= U && l <= V; l++) {
+        need = ((size_t)1 << (U - l + V - l + 1)) * ts;
+        break; /* the first unstored square step is the largest */
+    }
+    if (need > sizeof small && !(tmp = malloc(need)))
+        return st_fail(e, ST_ENOMEM, "face %u: out of memory for %zu bytes of scratch", f, need);
+    for (unsigned l = 1; l < F->nlevels; l++) {
+        unsigned ru = U > l ? U - l : 0, rv = V > l ? V - l : 0;
+        uint8_t *d = st_face_level(s, f, l);
+        const uint8_t *p = st_face_level(s, f, l - 1);
+        if (ru == 0 && rv == 0) {
+            if (constpx)
+                memcpy(d, constpx, ts);
+            else
+                average_px(dt, nc, st_face_level(s, f, 0), (size_t)F->w * F->h, d);
+        } else if (l <= U && l <= V) {
+            if (l < nstored)
+                continue; /* stored square reduction */
+            /* (ru, rv) from (ru+1, rv+1): source_of's alternation, two 2:1 steps */
+            if (ru & 1) {
+                reduce_axis(dt, nc, p, 1u << (ru + 1), 1u << (rv + 1), tmp, 0);
+                reduce_axis(dt, nc, tmp, 1u << (ru + 1), 1u << rv, d, 1);
+            } else {
+                reduce_axis(dt, nc, p, 1u << (ru + 1), 1u << (rv + 1), tmp, 1);
+                reduce_axis(dt, nc, tmp, 1u << ru, 1u << (rv + 1), d, 0);
+            }
+        } else if (U > V) {
+            reduce_axis(dt, nc, p, 1u << (ru + 1), 1u, d, 1); /* (ru+1, 0) -> (ru, 0) */
+        } else {
+            reduce_axis(dt, nc, p, 1u, 1u << (rv + 1), d, 0); /* (0, rv+1) -> (0, rv) */
+        }
+    }
+    if (tmp != small)
+        free(tmp);
+    return ST_OK;
+}
+
+int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+                           size_t max_bytes, st_error *e)
 {
     if (s->ext.kind != ST_EXT_NONE)
         return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
-    if (!max_bytes)
-        max_bytes = ST_DEFAULT_MAX_BYTES;
     uint32_t n = s->info.nfaces;
-    unsigned dt = s->info.dtype, nc = s->info.nchan;
-    size_t ts = st_texel_size(s);
     st_ptexres *t = calloc(1, sizeof *t);
     if (!t)
         return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
     t->magic = ST_PTEXRES_MAGIC;
     t->nfaces = n;
-    t->base = malloc((size_t)n * sizeof *t->base);
-    t->ptxflags = calloc(n, 1);
-    if (!t->base || !t->ptxflags)
+    t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
+    t->ptxflags = malloc(n);
+    t->nstored = malloc(n);
+    if (!t->ptxflags || !t->nstored || pthread_mutex_init(&t->lock, NULL)) {
+        free(t->ptxflags);
+        free(t->nstored);
+        free(t);
+        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
+    }
+    atomic_init(&t->built, 0);
+    for (uint32_t f = 0; f < n; f++) {
+        const st_face *F = &s->faces[f];
+        t->ptxflags[f] = ptxflags ? ptxflags[f] : (uint8_t)((F->flags & ST_FACE_CONSTANT ?
+                            PTX_FLAG_CONSTANT : 0) | (F->flags & ST_FACE_SUBFACE ? PTX_FLAG_SUBFACE : 0));
+        t->nstored[f] = nstored ? nstored[f] : (uint8_t)((F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u);
+    }
+    /* the Ptex filter family registers itself with the sampler through the extension */
+    st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
+                                       .memory = ptexres_memory,
+                                       .filter = st_ptexfilter_batch});
+    return ST_OK;
+}
+
+int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+                      const uint8_t *nstored, size_t max_bytes, st_error *e)
+{
+    if (s->ext.kind != ST_EXT_NONE)
+        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
+    size_t ts = st_texel_size(s);
+    for (uint32_t f = 0; f < s->info.nfaces; f++) {
+        const st_face *F = &s->faces[f];
+        unsigned ns = nstored ? nstored[f] : (F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u;
+        if (ptxflags && (ptxflags[f] & PTX_FLAG_HASEDITS))
+            ns = 1; /* an edited face's stored reductions are stale */
+        int rc = st_ptexres_fill_levels(s, f, ns, constpx ? constpx + (size_t)f * ts : NULL, e);
+        if (rc)
+            return rc;
+    }
+    return st_ptexres_attach_lazy(s, ptxflags, nstored, max_bytes, e);
+}
+
+/* Builds px and the arena of t for s (t->lock held). */
+static int build_table(st_ptexres *t, const st_set *s, st_error *e)
+{
+    uint32_t n = s->info.nfaces;
+    unsigned dt = s->info.dtype, nc = s->info.nchan;
+    size_t ts = st_texel_size(s), max_bytes = t->max_bytes;
+    uint64_t *base = malloc((size_t)n * sizeof *base);
+    const uint8_t **pxs = NULL;
+    uint8_t *arena = NULL;
+    if (!base)
         goto nomem;
     size_t nent = 0, bytes = 0;
     for (uint32_t f = 0; f < n; f++) {
         const st_face *F = &s->faces[f];
-        t->base[f] = nent;
-        t->ptxflags[f] = ptxflags ? ptxflags[f] : (uint8_t)((F->flags & ST_FACE_CONSTANT ?
-                            PTX_FLAG_CONSTANT : 0) | (F->flags & ST_FACE_SUBFACE ? PTX_FLAG_SUBFACE : 0));
+        base[f] = nent;
         if (F->flags & ST_FACE_CONSTANT) {
             nent++;
             continue;
         }
         unsigned U = F->ulog2, V = F->vlog2;
-        unsigned ns = nstored ? nstored[f] : (U < V ? U : V) + 1u;
-        int he = (t->ptxflags[f] & PTX_FLAG_HASEDITS) != 0;
         nent += (size_t)(U + 1) * (V + 1);
         for (unsigned ru = 0; ru <= U; ru++)
             for (unsigned rv = 0; rv <= V; rv++)
-                if (source_of(U, V, ru, rv, ns, he) < 0) {
+                if (level_of(U, V, ru, rv) < 0) {
                     bytes += ((size_t)1 << (ru + rv)) * ts;
                     if (bytes > max_bytes) {
-                        ptexres_free(t);
+                        free(base);
                         return st_fail(e, ST_ETOOBIG, "Ptex resolution table needs more than "
                                        "%zu bytes (at face %u)", max_bytes, f);
                     }
                 }
     }
-    t->px = malloc(nent * sizeof *t->px);
-    t->arena = arena_alloc(bytes);
-    t->arena_bytes = bytes;
-    if (!t->px || !t->arena)
+    pxs = malloc(nent * sizeof *pxs);
+    arena = arena_alloc(bytes);
+    if (!pxs || !arena)
         goto nomem;
     size_t off = 0;
     for (uint32_t f = 0; f < n; f++) {
         const st_face *F = &s->faces[f];
-        const uint8_t **px = t->px + t->base[f];
+        const uint8_t **px = pxs + base[f];
         if (F->flags & ST_FACE_CONSTANT) {
             px[0] = st_face_level(s, f, 0);
             continue;
         }
         unsigned U = F->ulog2, V = F->vlog2;
-        unsigned ns = nstored ? nstored[f] : (U < V ? U : V) + 1u;
+        unsigned ns = t->nstored[f];
         int he = (t->ptxflags[f] & PTX_FLAG_HASEDITS) != 0;
         /* from the largest resolution sum down, so that sources exist */
         for (int sum = (int)(U + V); sum >= 0; sum--) {
@@ -264,45 +386,53 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
                 if (rvi < 0 || rvi > (int)V)
                     continue;
                 unsigned rv = (unsigned)rvi;
-                int src = source_of(U, V, ru, rv, ns, he);
                 size_t idx = (size_t)ru * (V + 1) + rv;
-                if (src >= 0) {
-                    px[idx] = st_face_level(s, f, (unsigned)src);
+                int lvl = level_of(U, V, ru, rv);
+                if (lvl >= 0) { /* the set level holds what Ptex serves here */
+                    px[idx] = st_face_level(s, f, (unsigned)lvl);
                     continue;
                 }
-                uint8_t *d = t->arena + off;
+                int src = source_of(U, V, ru, rv, ns, he); /* -2 or -3 off the level chain */
+                uint8_t *d = arena + off;
                 off += ((size_t)1 << (ru + rv)) * ts;
                 px[idx] = d;
-                if (src == -1) {
-                    if (constpx)
-                        memcpy(d, constpx + (size_t)f * ts, ts);
-                    else
-                        average_px(dt, nc, st_face_level(s, f, 0), (size_t)F->w * F->h, d);
-                } else if (src == -2) {
+                if (src == -2)
                     reduce_axis(dt, nc, px[(size_t)(ru + 1) * (V + 1) + rv], 1u << (ru + 1),
                                 1u << rv, d, 1);
-                } else {
+                else
                     reduce_axis(dt, nc, px[idx + 1], 1u << ru, 1u << (rv + 1), d, 0);
-                }
             }
         }
-        /* the set's levels that Ptex does not store: the values Ptex serves for them */
-        for (unsigned l = 1; l < F->nlevels; l++) {
-            unsigned ru = U > l ? U - l : 0, rv = V > l ? V - l : 0;
-            const uint8_t *p = px[(size_t)ru * (V + 1) + rv];
-            uint8_t *q = st_face_level(s, f, l);
-            if (p != q)
-                memcpy(q, p, ((size_t)1 << (ru + rv)) * ts);
-        }
     }
-    t->bytes = sizeof *t + (size_t)t->nfaces * (sizeof *t->base + 1) + nent * sizeof *t->px +
-               t->arena_bytes;
-    /* the Ptex filter family registers itself with the sampler through the extension */
-    st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
-                                       .memory = ptexres_memory,
-                                       .filter = st_ptexfilter_batch});
+    t->base = base;
+    t->px = pxs;
+    t->arena = arena;
+    t->arena_bytes = bytes;
+    t->bytes = (size_t)n * sizeof *base + nent * sizeof *pxs + bytes;
     return ST_OK;
 nomem:
-    ptexres_free(t);
+    free(base);
+    free(pxs);
+    free(arena);
     return st_fail(e, ST_ENOMEM, "out of memory for the Ptex resolution table");
+}
+
+const st_ptexres *st_ptexres_table(const st_set *s, st_error *e)
+{
+    st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
+    if (!t || t->magic != ST_PTEXRES_MAGIC) {
+        st_fail(e, ST_EUNSUPPORTED, "set has no Ptex resolution table");
+        return NULL;
+    }
+    if (atomic_load_explicit(&t->built, memory_order_acquire))
+        return t;
+    pthread_mutex_lock(&t->lock);
+    int rc = ST_OK;
+    if (!atomic_load_explicit(&t->built, memory_order_relaxed)) {
+        rc = build_table(t, s, e);
+        if (rc == ST_OK)
+            atomic_store_explicit(&t->built, 1, memory_order_release);
+    }
+    pthread_mutex_unlock(&t->lock);
+    return rc == ST_OK ? t : NULL;
 }
