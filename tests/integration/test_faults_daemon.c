@@ -283,11 +283,13 @@ static void restart_check(tally *t, int all)
 
 /* the operations: 0 upload a new name, 1 upload replacing "kept", 2 compress, 3 fetch */
 static int ROUND;
+static char JOBMSG[1024];     /* a failed COMPRESS job's message */
 static int op_run(int op, int *variant, char *name, size_t cap)
 {
     ROUND++;
     if (op == 0 || op == 1) {
-        *variant = op == 0 ? 0 : ROUND & 1;
+        /* a replace always sends the other variant, so a failed one must show the old bytes */
+        *variant = op == 0 ? 0 : 1 - ACK[find_ack("kept")].variant;
         snprintf(name, cap, op == 0 ? "up-%d" : "kept", ROUND);
         stc_upload_opts o = {.hint = "ptx", .flags = op == 1 ? STC_UPLOAD_REPLACE : 0};
         stc_upload_result r;
@@ -298,12 +300,13 @@ static int op_run(int op, int *variant, char *name, size_t cap)
         snprintf(name, cap, "bc-%d", ROUND);
         uint64_t job = 0;
         int rc = stc_compress(C, "uni", name, 0, 0, &job);
+        snprintf(JOBMSG, sizeof JOBMSG, "%s", rc ? stc_errmsg(C) : "");
         if (rc)
             return rc;
         stc_job j;
+        memset(&j, 0, sizeof j);
         rc = stc_job_wait(C, job, 60000, &j);
-        if (rc && stc_is_server_error(rc))   /* the job's message, for the checks below */
-            snprintf(name + strlen(name) + 1, cap - strlen(name) - 1, "%s", j.message);
+        snprintf(JOBMSG, sizeof JOBMSG, "%s", j.message);
         return rc;
     }
     name[0] = 0;
@@ -348,14 +351,13 @@ static void run_op(int op, const char *label)
         for (int h = 0; h < nh; h++) {
             unsigned long cnt0 = 0;
             for (unsigned long n = 0;; n++) {
-                char name[1200] = "";
+                char name[64] = "";
                 int variant = 0;
                 arm(KINDS[k], n, hows[h]);
                 int rc = op_run(op, &variant, name, sizeof name);
                 int fired;
                 unsigned long cnt = disarm(&fired);
-                const char *msg = op == 2 && rc && stc_is_server_error(rc)
-                                      ? name + strlen(name) + 1 : stc_errmsg(C);
+                const char *msg = op == 2 && stc_is_server_error(rc) ? JOBMSG : stc_errmsg(C);
                 if (n == 0) {
                     cnt0 = cnt;
                     if (cnt > t.counted[k])
