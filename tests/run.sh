@@ -77,6 +77,7 @@ guess() {
         case "$kind/$name" in
             fuzz/*) secs=$FUZZ_SECONDS ;;
             test/test_server*|test/test_durability|test/test_client|test/test_cli) secs=30 ;;
+            test/test_faults_daemon) secs=60 ;;
             *) secs=5 ;;
         esac
     fi

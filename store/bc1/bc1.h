@@ -141,8 +141,9 @@ int st_bc1_decode_set(const st_set *bc1, st_bc1_decoder dec, st_set **out, st_er
  * faces differ in size as a plain DXT1 texture of face 0 followed by seamtex's face table and
  * the other faces (other readers show face 0). A constant face is written as uniform blocks.
  * A seamtex set record after the image data (dds.c) keeps constant faces exact, the colour
- * space, border modes, alpha channel, st_bc1_ext and the metadata, so that every set
- * st_bc1_compress_set makes reads back identical. Reading accepts DXT1 (legacy header) and
+ * space, border modes, alpha channel, st_bc1_ext and the metadata (except the importer's
+ * "seamtex:source_format", so that a .dds written, imported and written again is the same
+ * bytes), so that every set st_bc1_compress_set makes reads back identical. Reading accepts DXT1 (legacy header) and
  * DX10 BC1 (71, 72), 2D, arrays and cubes; sizes from the file are checked against the file
  * length and the caps before anything is allocated; max_bytes caps the arena
  * (0 = ST_DEFAULT_MAX_BYTES). st_dds_write_file writes path.tmp, fsyncs it and renames it. */
