@@ -253,7 +253,8 @@ typedef struct job {
     int          rc;              /* stc code, or 0 */
     int          bad_col;         /* a column index with a bad value, or -1 */
     Py_ssize_t   bad_at;
-    double       bad_val;
+    double       bad_val;         /* the bad float */
+    long long    bad_face;        /* or the bad face id */
     int          oom;
     void        *vals;            /* malloc'd results (NULL when written to out) */
     float       *cov;
@@ -304,13 +305,13 @@ static PyObject *finish(st_py_client *self, job *j, size_t n, PyObject *out_obj,
     PyObject *r = NULL;
     (void)ncols;
     if (j->bad_col >= 0) {
-        if (isnan(j->bad_val) || isinf(j->bad_val))
+        if (j->bad_col > 0 || strcmp(cols[0].name, "face") != 0)
             PyErr_Format(PyExc_ValueError, "%s[%zd] is %s: queries must be finite (or pass "
                          "nonfinite='status' to get the server's per-query NONFINITE status)",
                          cols[j->bad_col].name, j->bad_at, isnan(j->bad_val) ? "NaN" : "infinite");
         else
-            PyErr_Format(PyExc_ValueError, "%s[%zd] = %.17g is not a face id 0..2^32-1",
-                         cols[j->bad_col].name, j->bad_at, j->bad_val);
+            PyErr_Format(PyExc_ValueError, "%s[%zd] = %lld is not a face id 0..2^32-1",
+                         cols[j->bad_col].name, j->bad_at, j->bad_face);
     } else if (j->rc) {
         st_py_client_fail(self, j->rc);
     } else if (j->oom) {
@@ -423,7 +424,7 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
             long long f = col_i(&cols[0], i);
             float fv[6];
             if (f < 0 || f > (long long)UINT32_MAX) {
-                j.bad_col = 0, j.bad_at = i, j.bad_val = (double)f;
+                j.bad_col = 0, j.bad_at = i, j.bad_face = f;
                 break;
             }
             q[i].face = (uint32_t)f;
