@@ -11,6 +11,7 @@
 #include "pyseamtex.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <time.h>
@@ -41,6 +42,18 @@ int st_py_client_enter(st_py_client *self)
 void st_py_client_leave(st_py_client *self)
 {
     PyThread_release_lock(self->lock);
+}
+
+void *st_py_client_scratch(st_py_client *self, size_t bytes)
+{
+    if (bytes > self->scratch_cap) {
+        void *p = realloc(self->scratch, bytes);
+        if (!p)
+            return NULL;
+        self->scratch = p;
+        self->scratch_cap = bytes;
+    }
+    return self->scratch;
 }
 
 PyObject *st_py_client_fail(st_py_client *self, int rc)
@@ -172,6 +185,7 @@ static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
 static void client_dealloc(st_py_client *self)
 {
     stc_close(self->conn);
+    free(self->scratch);
     if (self->lock)
         PyThread_free_lock(self->lock);
     Py_TYPE(self)->tp_free((PyObject *)self);
@@ -188,6 +202,9 @@ static PyObject *client_close(st_py_client *self, PyObject *unused)
     }
     stc_conn *c = self->conn;
     self->conn = NULL;
+    free(self->scratch);
+    self->scratch = NULL;
+    self->scratch_cap = 0;
     Py_BEGIN_ALLOW_THREADS
     stc_close(c);
     Py_END_ALLOW_THREADS

@@ -416,7 +416,7 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
     memset(&j, 0, sizeof j);
     j.bad_col = -1;
     Py_BEGIN_ALLOW_THREADS
-    stc_query *q = malloc(n ? (size_t)n * sizeof *q : sizeof *q);
+    stc_query *q = st_py_client_scratch(self, (n ? (size_t)n : 1) * sizeof *q);
     if (!q) {
         j.oom = 1;
     } else {
@@ -444,7 +444,6 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
             if (!j.rc)
                 take_result(&j, &res, (size_t)n, have_out ? &out : NULL);
         }
-        free(q);
     }
     Py_END_ALLOW_THREADS
     r = finish(self, &j, (size_t)n, have_out ? s.out : NULL, have_out ? &out : NULL, cols, 7);
@@ -505,7 +504,7 @@ PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
     memset(&j, 0, sizeof j);
     j.bad_col = -1;
     Py_BEGIN_ALLOW_THREADS
-    stc_dir_query *q = calloc(n ? (size_t)n : 1, sizeof *q);
+    stc_dir_query *q = st_py_client_scratch(self, (n ? (size_t)n : 1) * sizeof *q);
     if (!q) {
         j.oom = 1;
     } else {
@@ -530,7 +529,6 @@ PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
             if (!j.rc)
                 take_result(&j, &res, (size_t)n, have_out ? &out : NULL);
         }
-        free(q);
     }
     Py_END_ALLOW_THREADS
     r = finish(self, &j, (size_t)n, have_out ? s.out : NULL, have_out ? &out : NULL, cols, 4);

@@ -36,7 +36,14 @@ typedef struct st_py_client {
     int                numpy;     /* -1 auto, 0 never, 1 always: arrays returned by sample */
     char               host[256];
     unsigned           port;
+    void              *scratch;   /* query records of the last sample call (grow-only, reused:
+                                     no fresh pages to fault in for each big batch); under lock */
+    size_t             scratch_cap;
 } st_py_client;
+
+/* The client's scratch block of at least bytes (lock held; GIL not needed); NULL when out of
+ * memory. */
+void *st_py_client_scratch(st_py_client *self, size_t bytes);
 
 extern PyTypeObject st_py_client_type;
 
