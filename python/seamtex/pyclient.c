@@ -44,6 +44,13 @@ void st_py_client_leave(st_py_client *self)
     PyThread_release_lock(self->lock);
 }
 
+double st_py_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
 void *st_py_client_scratch(st_py_client *self, size_t bytes)
 {
     if (bytes > self->scratch_cap) {
@@ -719,7 +726,19 @@ static int client_set_timeout(st_py_client *self, PyObject *v, void *closure)
     return 0;
 }
 
+static PyObject *client_get_times(st_py_client *self, void *closure)
+{
+    (void)closure;
+    return Py_BuildValue("{s:d,s:d,s:d}", "pack", self->times[0], "call", self->times[1],
+                         "copy", self->times[2]);
+}
+
 static PyGetSetDef client_getset[] = {
+    {"last_sample_times", (getter)client_get_times, NULL,
+     "Where the last sample / sample_dir call spent its time, in seconds: 'pack' (reading\n"
+     "the arrays into query records), 'call' (libseamtex's stc_sample: encoding, the\n"
+     "network, the server, decoding), 'copy' (copying the result into the returned arrays).",
+     NULL},
     {"closed", (getter)client_get_closed, NULL, "True once close() was called.", NULL},
     {"server", (getter)client_get_server, NULL,
      "What the server told in HELLO: version, caps, max_body, max_batch, max_chunk,\n"

@@ -416,6 +416,7 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
     memset(&j, 0, sizeof j);
     j.bad_col = -1;
     Py_BEGIN_ALLOW_THREADS
+    double t0 = st_py_now(), t1 = t0, t2 = t0;
     stc_query *q = st_py_client_scratch(self, (n ? (size_t)n : 1) * sizeof *q);
     if (!q) {
         j.oom = 1;
@@ -440,11 +441,14 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
         }
         if (j.bad_col < 0) {
             stc_sample_result res;
+            t1 = st_py_now();
             j.rc = stc_sample(self->conn, name, &so, q, (size_t)n, &res);
+            t2 = st_py_now();
             if (!j.rc)
                 take_result(&j, &res, (size_t)n, have_out ? &out : NULL);
         }
     }
+    self->times[0] = t1 - t0, self->times[1] = t2 - t1, self->times[2] = st_py_now() - t2;
     Py_END_ALLOW_THREADS
     r = finish(self, &j, (size_t)n, have_out ? s.out : NULL, have_out ? &out : NULL, cols, 7);
     st_py_client_leave(self);
@@ -504,6 +508,7 @@ PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
     memset(&j, 0, sizeof j);
     j.bad_col = -1;
     Py_BEGIN_ALLOW_THREADS
+    double t0 = st_py_now(), t1 = t0, t2 = t0;
     stc_dir_query *q = st_py_client_scratch(self, (n ? (size_t)n : 1) * sizeof *q);
     if (!q) {
         j.oom = 1;
@@ -525,11 +530,14 @@ PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
         }
         if (j.bad_col < 0) {
             stc_sample_result res;
+            t1 = st_py_now();
             j.rc = stc_sample_dir(self->conn, name, &so, q, (size_t)n, &res);
+            t2 = st_py_now();
             if (!j.rc)
                 take_result(&j, &res, (size_t)n, have_out ? &out : NULL);
         }
     }
+    self->times[0] = t1 - t0, self->times[1] = t2 - t1, self->times[2] = st_py_now() - t2;
     Py_END_ALLOW_THREADS
     r = finish(self, &j, (size_t)n, have_out ? s.out : NULL, have_out ? &out : NULL, cols, 4);
     st_py_client_leave(self);

@@ -39,7 +39,11 @@ typedef struct st_py_client {
     void              *scratch;   /* query records of the last sample call (grow-only, reused:
                                      no fresh pages to fault in for each big batch); under lock */
     size_t             scratch_cap;
+    double             times[3];  /* the last sample call: packing, stc_sample, copying out (s) */
 } st_py_client;
+
+/* CLOCK_MONOTONIC in seconds. */
+double st_py_now(void);
 
 /* The client's scratch block of at least bytes (lock held; GIL not needed); NULL when out of
  * memory. */

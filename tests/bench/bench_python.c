@@ -8,9 +8,9 @@
  * on the default set (face, u, v; no footprint) as raw arrays, and starts
  * `$PYTHON3 tests/bench/py_sample.py PORT DIR` (default /usr/bin/python3), which loads them
  * into numpy arrays and times Client.sample() of all n each time it is told "go". Both sides
- * make two untimed warm-up calls, then the runs alternate C, Python, C, Python ... (--reps
- * each, default 7), so a change of the machine's load touches both alike; the figures are
- * the medians. Both ask for values, coverage and status (the Python call always does); the C
+ * make two untimed warm-up calls, then the runs alternate C, Python, Python, C, C, Python
+ * ... (--reps each, default 7), so a change of the machine's load touches both alike and
+ * neither always runs right after the other; the figures are the medians. Both ask for values, coverage and status (the Python call always does); the C
  * side leaves the result where libseamtex put it (owned by the connection), the Python side
  * packs its three arrays into stc_query records first and copies the result out into fresh
  * arrays: that is the overhead measured. Without a Python module (no python3-dev) it says so
@@ -135,10 +135,12 @@ int main(int argc, char **argv)
     /* wall and client CPU seconds of each run, C and Python */
     double *tc = calloc((size_t)reps, sizeof *tc), *tp = calloc((size_t)reps, sizeof *tp);
     double *cc = calloc((size_t)reps, sizeof *cc), *cp = calloc((size_t)reps, sizeof *cp);
+    /* the Python side's time outside stc_sample (packing, copying out, the interpreter) */
+    double *po = calloc((size_t)reps, sizeof *po), pcall;
     double load0 = loadavg();
     int err = 0;
     stc_conn *c = stc_connect(d.host, (unsigned)d.port, 5000, &err);
-    if (!c || !tc || !tp || !cc || !cp) {
+    if (!c || !tc || !tp || !cc || !cp || !po) {
         fprintf(stderr, "bench_python: connect failed (%s)\n", stc_strerror(err));
         goto out;
     }
@@ -190,32 +192,41 @@ int main(int argc, char **argv)
             goto out;
         }
     printf("bench_python: %zu-query SAMPLE round trips (bilinear traverse, default set), "
-           "C then Python, %d times each; load %.1f\n", n, reps, load0);
+           "C and Python alternating, %d times each; load %.1f\n", n, reps, load0);
     for (int r = 0; r < reps; r++) {
-        double t0 = now(), c0 = cpu();
-        if ((err = stc_sample(c, "default", &o, q, n, &res)) != 0 || res.count != n) {
-            fprintf(stderr, "bench_python: sample: %s %s\n", stc_strerror(err), stc_errmsg(c));
-            goto out;
+        /* A B, then B A: neither side always runs right after the other */
+        for (int side = 0; side < 2; side++) {
+            if ((side == 0) == (r % 2 == 0)) {
+                double t0 = now(), c0 = cpu();
+                if ((err = stc_sample(c, "default", &o, q, n, &res)) != 0 || res.count != n) {
+                    fprintf(stderr, "bench_python: sample: %s %s\n", stc_strerror(err),
+                            stc_errmsg(c));
+                    goto out;
+                }
+                tc[r] = now() - t0;
+                cc[r] = cpu() - c0;
+            } else {
+                fputs("go\n", to);
+                fflush(to);
+                if (!fgets(line, sizeof line, from) ||
+                    sscanf(line, "%lf %lf %lf %lf", &tp[r], &cp[r], &pcall, &po[r]) != 4) {
+                    fprintf(stderr, "bench_python: the Python side stopped\n");
+                    goto out;
+                }
+            }
         }
-        tc[r] = now() - t0;
-        cc[r] = cpu() - c0;
-        fputs("go\n", to);
-        fflush(to);
-        if (!fgets(line, sizeof line, from) || sscanf(line, "%lf %lf", &tp[r], &cp[r]) != 2) {
-            fprintf(stderr, "bench_python: the Python side stopped\n");
-            goto out;
-        }
-        printf("  run %d: C %.3f s (%.2f M queries/s, client CPU %.0f ms)   Python %.3f s "
-               "(%.2f M queries/s, client CPU %.0f ms)\n", r + 1, tc[r], n / tc[r] / 1e6,
-               cc[r] * 1e3, tp[r], n / tp[r] / 1e6, cp[r] * 1e3);
+        printf("  run %d (%s first): C %.3f s (%.2f M queries/s, client CPU %.0f ms)   "
+               "Python %.3f s (%.2f M queries/s, client CPU %.0f ms, outside stc_sample "
+               "%.0f ms)\n", r + 1, r % 2 ? "Python" : "C", tc[r], n / tc[r] / 1e6,
+               cc[r] * 1e3, tp[r], n / tp[r] / 1e6, cp[r] * 1e3, po[r] * 1e3);
         fflush(stdout);
     }
     double mc = median(tc, reps), mp = median(tp, reps), load1 = loadavg();
-    double mcc = median(cc, reps), mcp = median(cp, reps);
+    double mcc = median(cc, reps), mcp = median(cp, reps), mpo = median(po, reps);
     printf("median: C %.3f s = %.2f M queries/s; Python %.3f s = %.2f M queries/s; "
            "Python/C throughput %.1f %%; client CPU per call C %.0f ms, Python %.0f ms; "
-           "load %.1f -> %.1f\n", mc, n / mc / 1e6, mp, n / mp / 1e6, 100.0 * mc / mp,
-           mcc * 1e3, mcp * 1e3, load0, load1);
+           "Python outside stc_sample %.0f ms; load %.1f -> %.1f\n", mc, n / mc / 1e6, mp,
+           n / mp / 1e6, 100.0 * mc / mp, mcc * 1e3, mcp * 1e3, mpo * 1e3, load0, load1);
     if (json) {
         FILE *js = fopen(json, "w");
         if (js) {
@@ -223,9 +234,9 @@ int main(int argc, char **argv)
                         "  \"c_median_s\": %.6f,\n  \"python_median_s\": %.6f,\n"
                         "  \"c_queries_per_s\": %.0f,\n  \"python_queries_per_s\": %.0f,\n"
                         "  \"python_over_c\": %.4f,\n  \"c_client_cpu_s\": %.6f,\n"
-                        "  \"python_client_cpu_s\": %.6f,\n  \"load_before\": %.2f,\n"
-                        "  \"load_after\": %.2f\n}\n",
-                    n, reps, mc, mp, n / mc, n / mp, mc / mp, mcc, mcp, load0, load1);
+                        "  \"python_client_cpu_s\": %.6f,\n  \"python_outside_stc_s\": %.6f,\n"
+                        "  \"load_before\": %.2f,\n  \"load_after\": %.2f\n}\n",
+                    n, reps, mc, mp, n / mc, n / mp, mc / mp, mcc, mcp, mpo, load0, load1);
             fclose(js);
         }
     }
@@ -239,6 +250,6 @@ out:
         waitpid(child, NULL, 0);
     stc_close(c);
     st_daemon_down(&d, 20000);
-    free(q), free(face), free(u), free(v), free(tc), free(tp), free(cc), free(cp);
+    free(q), free(face), free(u), free(v), free(tc), free(tp), free(cc), free(cp), free(po);
     return rc;
 }

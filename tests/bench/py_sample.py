@@ -3,7 +3,8 @@ bench_python.c, which starts it and the daemon): reads the queries bench_python 
 QDIR (face.u32, u.f32, v.f32: raw native arrays), connects to seamtexd on 127.0.0.1:PORT,
 makes two untimed warm-up calls, then for each line "go" on stdin times one
 Client.sample() of all the queries (wall and process CPU seconds) (bilinear, Traverse; values, coverage and status into
-numpy arrays, or seamtex.Array without numpy) and prints the wall and CPU seconds it took. Imports the
+numpy arrays, or seamtex.Array without numpy) and prints the wall and CPU seconds it took, the
+seconds spent inside libseamtex's stc_sample and the rest (packing, copying out, Python). Imports the
 module from $SEAMTEX_BUILD/python (default build/python).
 """
 import os
@@ -45,7 +46,8 @@ def main():
             t0, c0 = time.perf_counter(), time.process_time()
             vals, cov, st = c.sample("default", face, u, v)
             dt, dc = time.perf_counter() - t0, time.process_time() - c0
-            print("%.6f %.6f" % (dt, dc), flush=True)
+            t = c.last_sample_times
+            print("%.6f %.6f %.6f %.6f" % (dt, dc, t["call"], dt - t["call"]), flush=True)
 
 
 if __name__ == "__main__":
