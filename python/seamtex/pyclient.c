@@ -26,12 +26,20 @@ int st_py_client_enter(st_py_client *self)
         PyErr_SetString(st_py_closed_error(), "the Client is not initialised");
         return -1;
     }
+    unsigned long me = PyThread_get_thread_ident();
     if (!PyThread_acquire_lock(self->lock, NOWAIT_LOCK)) {
+        if (self->owner == me) {  /* only this thread can have stored its own ident */
+            st_py_raise(STC_ESTATE, "this Client is in a call on this thread already (a "
+                        "progress callback cannot use its own Client)");
+            return -1;
+        }
         Py_BEGIN_ALLOW_THREADS
         PyThread_acquire_lock(self->lock, WAIT_LOCK);
         Py_END_ALLOW_THREADS
     }
+    self->owner = me;
     if (!self->conn) {
+        self->owner = 0;
         PyThread_release_lock(self->lock);
         PyErr_SetString(st_py_closed_error(), "the Client is closed");
         return -1;
@@ -41,6 +49,7 @@ int st_py_client_enter(st_py_client *self)
 
 void st_py_client_leave(st_py_client *self)
 {
+    self->owner = 0;
     PyThread_release_lock(self->lock);
 }
 

@@ -156,11 +156,7 @@ fail:
 
 PyObject *st_py_raise(int code, const char *msg)
 {
-    PyObject *cls = NULL;
-    if (code < 0 && -code < N_SLOTS)
-        cls = g_class[-code];
-    if (!cls)
-        cls = g_error;
+    PyObject *cls = st_py_raise_class(code);
     if (!msg || !*msg)
         msg = stc_strerror(code);
     PyObject *e = PyObject_CallFunction(cls, "s", msg);
@@ -180,6 +176,12 @@ PyObject *st_py_raise(int code, const char *msg)
         PyErr_SetObject((PyObject *)Py_TYPE(e), e);
     Py_DECREF(e);
     return NULL;
+}
+
+PyObject *st_py_raise_class(int code)
+{
+    PyObject *cls = code < 0 && -code < N_SLOTS ? g_class[-code] : NULL;
+    return cls ? cls : g_error;
 }
 
 PyObject *st_py_closed_error(void)

@@ -269,6 +269,10 @@ static const char *const OUT_FORMAT[] = {"f", "B", "H"};   /* by stp_outfmt */
 static void take_result(job *j, const stc_sample_result *r, size_t n, Py_buffer *out)
 {
     size_t esz = stp_outfmt_size(r->outfmt), vbytes = n * r->nchan * esz;
+    if (r->count != n || esz == 0) {  /* stc_sample promises n results; never trust blindly */
+        j->rc = STC_EPROTO;
+        return;
+    }
     j->nchan = r->nchan;
     j->outfmt = r->outfmt;
     if (out) {

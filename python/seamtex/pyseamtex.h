@@ -32,6 +32,7 @@ typedef struct st_py_client {
     PyObject_HEAD
     stc_conn          *conn;      /* NULL once closed */
     PyThread_type_lock lock;      /* held by the thread using conn */
+    unsigned long      owner;     /* that thread's ident while it holds the lock, else 0 */
     double             timeout;   /* seconds per request; <= 0 = none */
     int                numpy;     /* -1 auto, 0 never, 1 always: arrays returned by sample */
     char               host[256];
@@ -52,7 +53,8 @@ void *st_py_client_scratch(st_py_client *self, size_t bytes);
 extern PyTypeObject st_py_client_type;
 
 /* Takes the client's lock (GIL released while waiting); raises (and returns -1) when the
- * client is closed. */
+ * client is closed, or when the calling thread holds it already (a progress callback calling
+ * its own Client would otherwise wait for itself forever). */
 int st_py_client_enter(st_py_client *self);
 void st_py_client_leave(st_py_client *self);
 /* Raises the exception for rc (an stc_err code) with the connection's message; call with the
@@ -84,6 +86,8 @@ int st_py_errors_init(PyObject *m);
 /* Raises the exception class of code with message msg (stc_strerror(code) when empty);
  * returns NULL. */
 PyObject *st_py_raise(int code, const char *msg);
+/* The exception class of an stc_err code (seamtex.Error when it has none of its own). */
+PyObject *st_py_raise_class(int code);
 /* The class for "the client is closed". */
 PyObject *st_py_closed_error(void);
 

@@ -351,6 +351,17 @@ def test_upload_progress_exception_aborts(client, data):
     client.ping()
 
 
+def test_progress_callback_cannot_reenter_its_client(client, data):
+    def cb(done, total):
+        client.ping()
+
+    with pytest.raises(seamtex.StateError, match="progress callback"):
+        client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-reenter", progress=cb,
+                      chunk=65536)
+    client.ping()
+    assert "py-reenter" not in [s["name"] for s in client.ls()]
+
+
 def test_upload_options_and_errors(client, data, tmp_path):
     with pytest.raises(seamtex.Invalid):
         client.upload(data / "images" / "brick.png", "py-brick", colour="red")
