@@ -6,6 +6,8 @@
 #   make fuzz       a real fuzz campaign: every target FUZZ_SECONDS (600), corpora kept in
 #                   build/fuzz-corpus/
 #   make soak       the long SIGKILL durability soak: SEAMTEX_SOAK_SECONDS (600) of rounds
+#   make python     the Python module seamtex into build/python/ (also part of make all when
+#                   python3-dev is installed; docs/python.md)
 #   make bench      every benchmark; figures printed and written to build/bench/*.json
 #   make run        the main job: daemon on loopback, default data set, a query, a short load test
 #   make asan       the tests again under AddressSanitizer + UBSan (build-san/)
@@ -136,6 +138,7 @@ INSTALL_HDRS :=
 -include server/module.mk
 -include client/module.mk
 -include tools/module.mk
+-include python/module.mk
 include tests/module.mk
 
 all: $(ALL_BINS)
@@ -202,7 +205,6 @@ clean:
 	rm -rf build build-san build-tsan
 
 .PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
-	tsan-build \
-	check-layout
+	tsan-build check-layout python
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

@@ -15,6 +15,12 @@
 # Each cmocka binary reports in TAP; a binary that dies (signal, timeout) without reporting
 # every test counts as one more failure.
 #
+# The Python module's tests (python/tests, pytest under Debian's /usr/bin/python3, importing
+# the module from $B/python) are one more job, "pytest_python", when `make python` built it:
+# its "N passed" / "N failed" / "N error" / "N skipped" counts go into the totals, and an exit
+# status other than 0 with no failure counted (no tests collected = 5, interrupted, crashed)
+# counts as one failure. PYTHON3 overrides the interpreter.
+#
 # Fuzz targets run FUZZ_SECONDS each (default 8 in make test) on a corpus seeded from
 # tests/fuzz/seeds/<target>/: a fresh temp copy, thrown away after, except with
 # FUZZ_CORPUS_DIR set (make fuzz: $B/fuzz-corpus/<target>/, kept from one campaign to the next).
@@ -61,6 +67,14 @@ if [ "$MODE" != fuzz ]; then
         jobs+=("test $t")
     done
 fi
+PYTHON3=${PYTHON3:-/usr/bin/python3}
+if [ "$MODE" = test ] && { [ -z "$ONLY" ] || [[ pytest_python == *$ONLY* ]]; }; then
+    if [ -f "$B/python/seamtex/__init__.py" ]; then
+        jobs+=("pytest python/tests")
+    else
+        echo "note: $B/python/seamtex is not built (no python3-dev?): the Python tests are not run" >&2
+    fi
+fi
 if [ "$MODE" != soak ] && [ "$MODE" != tsan ]; then
     for f in $(ls "$B"/fuzz/fuzz_* 2>/dev/null | grep -v '\.[oad]$'); do
         name=$(basename "$f")
@@ -69,6 +83,9 @@ if [ "$MODE" != soak ] && [ "$MODE" != tsan ]; then
     done
 fi
 
+# the name of a job (its log is $log_dir/<name>.log)
+job_name() { if [ "$1" = pytest ]; then echo pytest_python; else basename "$2"; fi; }
+
 # expected seconds of a job: the last run's, else a guess
 guess() {
     local kind=$1 name=$2 secs=""
@@ -76,7 +93,7 @@ guess() {
     if [ -z "$secs" ]; then
         case "$kind/$name" in
             fuzz/*) secs=$FUZZ_SECONDS ;;
-            test/test_server*|test/test_durability|test/test_client|test/test_cli) secs=30 ;;
+            test/test_server*|test/test_durability|test/test_client|test/test_cli|pytest/*) secs=30 ;;
             test/test_faults_daemon) secs=60 ;;
             *) secs=5 ;;
         esac
@@ -90,7 +107,7 @@ while read -r _ kind path; do
     order+=("$kind $path")
 done < <(for j in "${jobs[@]}"; do
              set -- $j
-             printf '%s %s %s\n' "$(guess "$1" "$(basename "$2")")" "$1" "$2"
+             printf '%s %s %s\n' "$(guess "$1" "$(job_name "$1" "$2")")" "$1" "$2"
          done | sort -k1,1gr -s)
 
 # ---- one job -------------------------------------------------------------------------------
@@ -101,6 +118,18 @@ run_test() {
     log=$log_dir/$name.log
     start=$(date +%s.%N)
     timeout -k 10 "$TEST_TIMEOUT" "$t" >"$log" 2>&1
+    rc=$?
+    secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
+    echo "$rc $secs" >"$log_dir/$name.result"
+}
+
+run_pytest() {
+    local name=pytest_python log start rc secs
+    log=$log_dir/$name.log
+    start=$(date +%s.%N)
+    # no .pytest_cache or __pycache__ written into the tree
+    PYTHONDONTWRITEBYTECODE=1 timeout -k 10 "$TEST_TIMEOUT" "$PYTHON3" -m pytest -q \
+        -p no:cacheprovider "$1" >"$log" 2>&1
     rc=$?
     secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
     echo "$rc $secs" >"$log_dir/$name.result"
@@ -141,12 +170,16 @@ t_all=$(date +%s.%N)
 running=0
 for j in "${order[@]}"; do
     set -- $j
-    rm -f "$log_dir/$(basename "$2").result"
+    rm -f "$log_dir/$(job_name "$1" "$2").result"
     if [ "$running" -ge "$TEST_JOBS" ]; then
         wait -n
         running=$((running - 1))
     fi
-    if [ "$1" = fuzz ]; then run_fuzz "$2" & else run_test "$2" & fi
+    case $1 in
+        fuzz) run_fuzz "$2" & ;;
+        pytest) run_pytest "$2" & ;;
+        *) run_test "$2" & ;;
+    esac
     running=$((running + 1))
 done
 wait
@@ -158,7 +191,7 @@ new_durations=$(mktemp)
 [ -f "$durations" ] && cp "$durations" "$new_durations"
 for j in "${jobs[@]}"; do
     set -- $j
-    kind=$1 name=$(basename "$2")
+    kind=$1 name=$(job_name "$1" "$2")
     log=$log_dir/$name.log
     rc=1 secs=0
     [ -f "$log_dir/$name.result" ] && read -r rc secs <"$log_dir/$name.result"
@@ -172,6 +205,22 @@ for j in "${jobs[@]}"; do
             fail=$((fail + 1)); failed_names+=("$name")
             printf '%-40s FAILED (exit %d), see %s\n' "$name" "$rc" "$log"
             grep -E 'ERROR|SUMMARY' "$log" | head -5 | sed 's/^/    /'
+        fi
+        continue
+    fi
+    if [ "$kind" = pytest ]; then
+        # pytest -q closes with e.g. "2 failed, 31 passed, 1 skipped, 1 error in 20.1s"
+        last=$(grep -E '(passed|failed|error|skipped|no tests ran)' "$log" | tail -1)
+        count() { echo "$last" | grep -oE "[0-9]+ $1" | grep -oE '^[0-9]+' | head -1; }
+        p=$(count passed); f=$(count failed); e=$(count 'errors?'); s=$(count skipped)
+        p=${p:-0} f=$(( ${f:-0} + ${e:-0} )) s=${s:-0}
+        if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
+        pass=$((pass + p)); fail=$((fail + f)); skip=$((skip + s))
+        printf '%-40s %4d passed %3d failed %3d skipped  %6ss\n' "$name" "$p" "$f" "$s" "$secs"
+        if [ "$f" -ne 0 ]; then
+            failed_names+=("$name")
+            grep -E '^(FAILED|ERROR)|Error' "$log" | head -20 | sed 's/^/    /'
+            echo "    (exit status $rc; full log in $log)"
         fi
         continue
     fi
