@@ -180,7 +180,7 @@ asan:
 # build-tsan/test-logs/tsan.<pid> and any report fails the run (tests/run.sh, MODE=tsan).
 tsan: deps
 	@$(MAKE) --no-print-directory SAN=tsan -j$(NPROC) all tsan-build
-	@B=build-tsan MODE=tsan bash tests/run.sh
+	@B=build-tsan MODE=tsan SEAMTEX_START_MS=$${SEAMTEX_START_MS:-180000} bash tests/run.sh
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/seamtex \

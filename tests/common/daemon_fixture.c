@@ -194,7 +194,11 @@ int st_daemon_start(st_daemon *d, const char *const *extra)
     track(pid, 1);
     d->port = 0;
     start_cond sc = {d, pid, portfile, 0};
-    if (st_wait_until(started, &sc, 30000) == 0) {
+    /* SEAMTEX_START_MS: how long a start may take (default 30 s; make tsan sets more, since a
+     * ThreadSanitizer daemon on a loaded machine starts far slower) */
+    const char *sm = getenv("SEAMTEX_START_MS");
+    int start_ms = sm && atoi(sm) > 0 ? atoi(sm) : 30000;
+    if (st_wait_until(started, &sc, start_ms) == 0) {
         if (sc.exited) {
             fprintf(stderr, "daemon_fixture: seamtexd exited at start (status %d)\n",
                     d->exit_status);
