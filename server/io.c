@@ -532,12 +532,14 @@ static void peer_name(const struct sockaddr_storage *sa, char *out, size_t cap)
         const struct sockaddr_in *in = (const struct sockaddr_in *)sa;
         inet_ntop(AF_INET, &in->sin_addr, a, sizeof a);
         port = ntohs(in->sin_port);
-        snprintf(out, cap, "%s:%u", a, port);
+        if (snprintf(out, cap, "%.46s:%u", a, port) < 0 && cap)
+            out[0] = 0;
     } else if (sa->ss_family == AF_INET6) {
         const struct sockaddr_in6 *in6 = (const struct sockaddr_in6 *)sa;
         inet_ntop(AF_INET6, &in6->sin6_addr, a, sizeof a);
         port = ntohs(in6->sin6_port);
-        snprintf(out, cap, "[%s]:%u", a, port);
+        if (snprintf(out, cap, "[%.46s]:%u", a, port) < 0 && cap)
+            out[0] = 0;
     } else {
         snprintf(out, cap, "(unknown peer)");
     }

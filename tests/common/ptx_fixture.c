@@ -32,7 +32,7 @@ void *st_fixture_default_ptx(size_t *len, int tint)
     return buf;
 }
 
-void *st_fixture_uniform_ptx(size_t *len)
+st_set *st_fixture_rgba8_faces(uint32_t n)
 {
     st_set_info info;
     memset(&info, 0, sizeof info);
@@ -43,14 +43,23 @@ void *st_fixture_uniform_ptx(size_t *len)
     st_face_desc fd[4];
     memset(fd, 0, sizeof fd);
     for (int f = 0; f < 4; f++) {
-        fd[f].w = fd[f].h = 32;
-        for (int e = 0; e < 4; e++)
-            fd[f].adjface[e] = -1;
+        fd[f].w = fd[f].h = n;
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
     }
     st_set *s = NULL;
     st_error e;
-    if (st_set_create(&info, fd, 0, &s, &e) != 0)
+    st_error_clear(&e);
+    return st_set_create(&info, fd, 0, &s, &e) == 0 ? s : NULL;
+}
+
+void *st_fixture_uniform_ptx(size_t *len)
+{
+    st_set *s = st_fixture_rgba8_faces(32);
+    if (!s)
         return NULL;
+    st_error e;
+    st_error_clear(&e);
     for (size_t i = 0; i < s->texel_bytes; i++)
         s->texels[i] = (uint8_t)(i * 13 + (i >> 7));
     st_set_build_mips(s, UINT32_MAX);

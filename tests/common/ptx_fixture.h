@@ -10,6 +10,9 @@
 #define ST_PTX_FIXTURE_H
 
 #include <stddef.h>
+#include <stdint.h>
+
+#include "set.h"
 
 /* The default set as a .ptx in memory (malloc'ed; *len its size), with face 0 painted from
  * `tint` when tint >= 0. NULL on failure (the reason on stderr). */
@@ -17,5 +20,9 @@ void *st_fixture_default_ptx(size_t *len, int tint);
 
 /* Four 32x32 RGBA8 faces without neighbours as a .ptx in memory (malloc'ed), or NULL. */
 void *st_fixture_uniform_ptx(size_t *len);
+
+/* An empty (zeroed) set of four n x n RGBA8 faces with no neighbours, for tests to fill;
+ * NULL on failure. The caller frees it with st_set_free. */
+st_set *st_fixture_rgba8_faces(uint32_t n);
 
 #endif

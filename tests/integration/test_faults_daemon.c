@@ -35,6 +35,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "../common/ptx_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/daemon_fixture.h"
 #include "fdio.h"
@@ -70,24 +71,11 @@ static double now_s(void)
 /* A small per-face set as .ptx (four 16x16 RGBA8 faces, no neighbours), texels from seed. */
 static void *make_ptx(unsigned seed, size_t *len)
 {
-    st_set_info info;
-    memset(&info, 0, sizeof info);
-    info.nfaces = 4;
-    info.nchan = 4;
-    info.dtype = ST_DT_U8;
-    info.alpha_chan = 3;
-    st_face_desc fd[4];
-    memset(fd, 0, sizeof fd);
-    for (int f = 0; f < 4; f++) {
-        fd[f].w = fd[f].h = 16;
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
-    }
-    st_set *s = NULL;
+    st_set *s = st_fixture_rgba8_faces(16);
+    if (!s)
+        return NULL;
     st_error e;
     st_error_clear(&e);
-    if (st_set_create(&info, fd, 0, &s, &e) != 0)
-        return NULL;
     for (size_t i = 0; i < s->texel_bytes; i++)
         s->texels[i] = (uint8_t)(i * (13 + 2 * seed) + (i >> 6) + seed);
     st_set_build_mips(s, UINT32_MAX);

@@ -29,6 +29,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "../common/ptx_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/daemon_fixture.h"
 #include "fdio.h"
@@ -113,24 +114,11 @@ static int mount_small(void)
 /* ~1.3 MiB .ptx of random texels (zip cannot shrink them): four 256x256 RGBA8 faces. */
 static void *make_big(unsigned seed, size_t *len)
 {
-    st_set_info info;
-    memset(&info, 0, sizeof info);
-    info.nfaces = 4;
-    info.nchan = 4;
-    info.dtype = ST_DT_U8;
-    info.alpha_chan = 3;
-    st_face_desc fd[4];
-    memset(fd, 0, sizeof fd);
-    for (int f = 0; f < 4; f++) {
-        fd[f].w = fd[f].h = 256;
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
-    }
-    st_set *s = NULL;
+    st_set *s = st_fixture_rgba8_faces(256);
+    if (!s)
+        return NULL;
     st_error e;
     st_error_clear(&e);
-    if (st_set_create(&info, fd, 0, &s, &e) != 0)
-        return NULL;
     uint64_t x = 0x9E3779B97F4A7C15ull * (seed + 1);
     for (size_t i = 0; i < s->texel_bytes; i++) {
         x ^= x << 13;
