@@ -10,6 +10,8 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #define ST_WALK_MAX 64
 
@@ -252,9 +254,14 @@ void st_set_free(st_set *s)
         free(s->meta[i].data);
     }
     free(s->meta);
-    free(s->texels);
-    free(s->level_off);
-    free(s->faces);
+    if (s->map) {
+        munmap(s->map, s->map_len);
+        close(s->map_fd);
+    } else {
+        free(s->texels);
+        free(s->level_off);
+        free(s->faces);
+    }
     free(s);
 }
 

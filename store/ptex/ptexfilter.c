@@ -575,8 +575,8 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)
 {
-    if (st_ptexres_get(s))
-        return ST_OK;
+    if (st_ptexres_ensure(s))
+        return ST_OK;  /* built, or a native set's lazy table built now */
     if (s->info.kind != ST_KIND_PERFACE)
         return st_fail(e, ST_EUNSUPPORTED, "Ptex filters need a per-face set");
     return st_ptexres_attach(s, NULL, NULL, NULL, 0, e);

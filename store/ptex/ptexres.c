@@ -34,7 +34,23 @@ static uint8_t *arena_alloc(size_t bytes)
 
 static size_t ptexres_memory(const void *p)
 {
-    return ((const st_ptexres *)p)->bytes;
+    const st_ptexres *t = p;
+    return __atomic_load_n(&t->built, __ATOMIC_ACQUIRE) ? t->bytes : sizeof *t;
+}
+
+/* Frees what a build made (the header stays). */
+static void ptexres_clear(st_ptexres *t)
+{
+    free(t->base);
+    free(t->px);
+    free(t->ptxflags);
+    free(t->nstored);
+    free(t->arena);
+    t->base = NULL;
+    t->px = NULL;
+    t->ptxflags = t->nstored = t->arena = NULL;
+    t->arena_bytes = 0;
+    t->bytes = 0;
 }
 
 static void ptexres_free(void *p)
@@ -42,17 +58,28 @@ static void ptexres_free(void *p)
     st_ptexres *t = p;
     if (!t)
         return;
-    free(t->base);
-    free(t->px);
-    free(t->ptxflags);
-    free(t->arena);
+    ptexres_clear(t);
+    if (t->lazy)
+        pthread_rwlock_destroy(&t->rw);
     free(t);
+}
+
+static st_ptexres *ptexres_of(const st_set *s)
+{
+    st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
+    return t && t->magic == ST_PTEXRES_MAGIC ? t : NULL;
 }
 
 const st_ptexres *st_ptexres_get(const st_set *s)
 {
-    const st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
-    return t && t->magic == ST_PTEXRES_MAGIC ? t : NULL;
+    st_ptexres *t = ptexres_of(s);
+    return t && __atomic_load_n(&t->built, __ATOMIC_ACQUIRE) ? t : NULL;
+}
+
+size_t st_ptexres_built_bytes(const st_set *s)
+{
+    const st_ptexres *t = st_ptexres_get(s);
+    return t ? t->bytes - sizeof *t : 0;
 }
 
 /* Ptex's 2:1 reductions of interleaved texels: integers halve with truncation, half and float
@@ -197,24 +224,21 @@ static int source_of(unsigned U, unsigned V, unsigned ru, unsigned rv, unsigned 
     return blendu ? -2 : -3;
 }
 
-int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
-                      const uint8_t *nstored, size_t max_bytes, st_error *e)
+/* Fills t (base, px, ptxflags, nstored, arena, bytes) for s. rewrite: overwrite the set's
+ * levels that Ptex does not store with the values Ptex serves (a heap set being imported);
+ * 0 for a set that already holds them (a mapped native set: never written). On failure t is
+ * left cleared. */
+static int ptexres_build(st_ptexres *t, const st_set *s, const uint8_t *constpx,
+                         const uint8_t *ptxflags, const uint8_t *nstored, size_t max_bytes,
+                         int rewrite, st_error *e)
 {
-    if (s->ext.kind != ST_EXT_NONE)
-        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
-    if (!max_bytes)
-        max_bytes = ST_DEFAULT_MAX_BYTES;
     uint32_t n = s->info.nfaces;
     unsigned dt = s->info.dtype, nc = s->info.nchan;
     size_t ts = st_texel_size(s);
-    st_ptexres *t = calloc(1, sizeof *t);
-    if (!t)
-        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
-    t->magic = ST_PTEXRES_MAGIC;
-    t->nfaces = n;
     t->base = malloc((size_t)n * sizeof *t->base);
     t->ptxflags = calloc(n, 1);
-    if (!t->base || !t->ptxflags)
+    t->nstored = calloc(n, 1);
+    if (!t->base || !t->ptxflags || !t->nstored)
         goto nomem;
     size_t nent = 0, bytes = 0;
     for (uint32_t f = 0; f < n; f++) {
@@ -228,6 +252,7 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
         }
         unsigned U = F->ulog2, V = F->vlog2;
         unsigned ns = nstored ? nstored[f] : (U < V ? U : V) + 1u;
+        t->nstored[f] = (uint8_t)ns;
         int he = (t->ptxflags[f] & PTX_FLAG_HASEDITS) != 0;
         nent += (size_t)(U + 1) * (V + 1);
         for (unsigned ru = 0; ru <= U; ru++)
@@ -235,7 +260,7 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
                 if (source_of(U, V, ru, rv, ns, he) < 0) {
                     bytes += ((size_t)1 << (ru + rv)) * ts;
                     if (bytes > max_bytes) {
-                        ptexres_free(t);
+                        ptexres_clear(t);
                         return st_fail(e, ST_ETOOBIG, "Ptex resolution table needs more than "
                                        "%zu bytes (at face %u)", max_bytes, f);
                     }
@@ -255,7 +280,7 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
             continue;
         }
         unsigned U = F->ulog2, V = F->vlog2;
-        unsigned ns = nstored ? nstored[f] : (U < V ? U : V) + 1u;
+        unsigned ns = t->nstored[f];
         int he = (t->ptxflags[f] & PTX_FLAG_HASEDITS) != 0;
         /* from the largest resolution sum down, so that sources exist */
         for (int sum = (int)(U + V); sum >= 0; sum--) {
@@ -286,8 +311,9 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
                 }
             }
         }
-        /* the set's levels that Ptex does not store: the values Ptex serves for them */
-        for (unsigned l = 1; l < F->nlevels; l++) {
+        /* the set's levels that Ptex does not store: the values Ptex serves for them (a
+         * mapped set already holds them: its file was written after this rewrite) */
+        for (unsigned l = 1; rewrite && l < F->nlevels; l++) {
             unsigned ru = U > l ? U - l : 0, rv = V > l ? V - l : 0;
             const uint8_t *p = px[(size_t)ru * (V + 1) + rv];
             uint8_t *q = st_face_level(s, f, l);
@@ -295,14 +321,131 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
                 memcpy(q, p, ((size_t)1 << (ru + rv)) * ts);
         }
     }
-    t->bytes = sizeof *t + (size_t)t->nfaces * (sizeof *t->base + 1) + nent * sizeof *t->px +
+    t->bytes = sizeof *t + (size_t)t->nfaces * (sizeof *t->base + 2) + nent * sizeof *t->px +
                t->arena_bytes;
+    return ST_OK;
+nomem:
+    ptexres_clear(t);
+    return st_fail(e, ST_ENOMEM, "out of memory for the Ptex resolution table");
+}
+
+int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+                      const uint8_t *nstored, size_t max_bytes, st_error *e)
+{
+    if (s->ext.kind != ST_EXT_NONE)
+        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
+    if (s->map)
+        return st_fail(e, ST_EINVAL, "a mapped set takes a lazy Ptex table");
+    st_ptexres *t = calloc(1, sizeof *t);
+    if (!t)
+        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
+    t->magic = ST_PTEXRES_MAGIC;
+    t->nfaces = s->info.nfaces;
+    int rc = ptexres_build(t, s, constpx, ptxflags, nstored,
+                           max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES, 1, e);
+    if (rc) {
+        free(t);
+        return rc;
+    }
+    t->built = 1;
+    t->nbuilds = 1;
     /* the Ptex filter family registers itself with the sampler through the extension */
     st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
                                        .memory = ptexres_memory,
                                        .filter = st_ptexfilter_batch});
     return ST_OK;
-nomem:
-    ptexres_free(t);
-    return st_fail(e, ST_ENOMEM, "out of memory for the Ptex resolution table");
+}
+
+/* ---- lazy tables (native sets) ------------------------------------------------------------- */
+
+/* Builds t under the exclusive lock when it is not built. Caller holds nothing. */
+static int lazy_build(st_ptexres *t, const st_set *s)
+{
+    if (__atomic_load_n(&t->built, __ATOMIC_ACQUIRE))
+        return ST_OK;
+    pthread_rwlock_wrlock(&t->rw);
+    int rc = ST_OK;
+    if (!t->built) {
+        st_error e;
+        st_error_clear(&e);
+        rc = ptexres_build(t, s, t->in_const, t->in_flags, t->in_nstored, t->max_bytes, 0, &e);
+        if (!rc) {
+            __atomic_store_n(&t->built, 1, __ATOMIC_RELEASE);
+            __atomic_add_fetch(&t->nbuilds, 1, __ATOMIC_RELAXED);
+        }
+    }
+    pthread_rwlock_unlock(&t->rw);
+    return rc;
+}
+
+/* The filter entry of a lazy table: build on first use, then filter under the shared lock
+ * (a drop waits for no filter: it only tries the exclusive lock). */
+static int lazy_filter(const st_set *s, const struct st_sample_opts *o, const struct st_query *q,
+                       size_t n, float *out, float *coverage, uint8_t *status)
+{
+    st_ptexres *t = ptexres_of(s);
+    if (!t)
+        return ST_EUNSUPPORTED;
+    for (;;) {
+        int rc = lazy_build(t, s);
+        if (rc)
+            return rc;
+        pthread_rwlock_rdlock(&t->rw);
+        if (__atomic_load_n(&t->built, __ATOMIC_ACQUIRE))
+            break;
+        pthread_rwlock_unlock(&t->rw);  /* dropped in between: build again */
+    }
+    int rc = st_ptexfilter_batch(s, o, q, n, out, coverage, status);
+    pthread_rwlock_unlock(&t->rw);
+    return rc;
+}
+
+int st_ptexres_attach_lazy(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+                           const uint8_t *nstored, size_t max_bytes, st_error *e)
+{
+    if (s->ext.kind != ST_EXT_NONE)
+        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
+    if (!constpx || !ptxflags || !nstored)
+        return st_fail(e, ST_EINVAL, "a lazy Ptex table needs its per-face inputs");
+    st_ptexres *t = calloc(1, sizeof *t);
+    if (!t)
+        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
+    t->magic = ST_PTEXRES_MAGIC;
+    t->nfaces = s->info.nfaces;
+    t->lazy = 1;
+    t->in_const = constpx;
+    t->in_flags = ptxflags;
+    t->in_nstored = nstored;
+    t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
+    pthread_rwlock_init(&t->rw, NULL);
+    st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
+                                       .memory = ptexres_memory, .filter = lazy_filter});
+    return ST_OK;
+}
+
+const st_ptexres *st_ptexres_ensure(const st_set *s)
+{
+    st_ptexres *t = ptexres_of(s);
+    if (!t)
+        return NULL;
+    if (t->lazy && lazy_build(t, s) != ST_OK)
+        return NULL;
+    return st_ptexres_get(s);
+}
+
+size_t st_ptexres_drop(const st_set *s)
+{
+    st_ptexres *t = ptexres_of(s);
+    if (!t || !t->lazy || !__atomic_load_n(&t->built, __ATOMIC_ACQUIRE))
+        return 0;
+    if (pthread_rwlock_trywrlock(&t->rw) != 0)
+        return 0;  /* a filter is reading it: it is not cold */
+    size_t freed = 0;
+    if (t->built) {
+        freed = t->bytes - sizeof *t;
+        __atomic_store_n(&t->built, 0, __ATOMIC_RELEASE);
+        ptexres_clear(t);
+    }
+    pthread_rwlock_unlock(&t->rw);
+    return freed;
 }

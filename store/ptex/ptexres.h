@@ -12,11 +12,14 @@
  * own levels (set.c), filtering (ptexfilter*.c).
  *
  * Cost: one pointer per (face, ulog2', vlog2') pair plus the texels of the pairs that are not
- * set levels: about 2.7x the size of level 0 on top of the set's own 4/3.
+ * set levels: about 2.7x the size of level 0 on top of the set's own 4/3. A set opened from a
+ * native file gets a lazy table instead: nothing until a Ptex filter samples it, dropped
+ * again under a memory budget (st_ptexres_drop), counted by st_set_memory only while built.
  */
 #ifndef ST_PTEXRES_H
 #define ST_PTEXRES_H
 
+#include <pthread.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -32,9 +35,21 @@ typedef struct st_ptexres {
     const uint8_t **px;           /* res (ru, rv) of face f: px[base[f] + ru * (vlog2+1) + rv];
                                      a constant face has one entry (its texel) */
     uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*) */
+    uint8_t        *nstored;      /* per face: set levels holding stored reductions (>= 1) */
     uint8_t        *arena;        /* texels of the entries that are not set levels */
     size_t          arena_bytes;
     size_t          bytes;        /* everything the table holds, counted by st_set_memory */
+    /* A lazy table (st_ptexres_attach_lazy, native sets) is built on the first Ptex filter
+     * call from the per-face inputs below (they live as long as the set: in its mapping) and
+     * may be dropped again (st_ptexres_drop) and rebuilt on demand. Filters hold rw shared
+     * while they read the table; build and drop hold it exclusive. Eager tables: built = 1
+     * from the start, never dropped, no locking. */
+    int             lazy;
+    int             built;        /* atomic */
+    const uint8_t  *in_const, *in_flags, *in_nstored;
+    size_t          max_bytes;
+    pthread_rwlock_t rw;
+    uint64_t        nbuilds;      /* atomic: builds so far (1 for an eager table) */
 } st_ptexres;
 
 /* Builds the table for s and attaches it as the set's ST_EXT_PTEXRES extension, with the
@@ -47,8 +62,28 @@ typedef struct st_ptexres {
 int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
                       const uint8_t *nstored, size_t max_bytes, st_error *e);
 
-/* The table of s, or NULL when s has none. */
+/* Attaches a lazy table to s (ST_EXT_PTEXRES, s must have no extension yet): nothing is
+ * built until a Ptex filter first samples s (or st_ptexres_ensure is called); the inputs are
+ * as for st_ptexres_attach but all three are required and must outlive s (a native set's
+ * mapping). The set's levels are NOT rewritten: s must already hold the values Ptex serves
+ * for the levels it does not store (a native file is written from a set whose levels were
+ * rewritten by st_ptexres_attach), so a read-only mapped set is never written. */
+int st_ptexres_attach_lazy(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+                           const uint8_t *nstored, size_t max_bytes, st_error *e);
+
+/* The table of s when it is built, or NULL when s has none (or a lazy one not built yet). */
 const st_ptexres *st_ptexres_get(const st_set *s);
+
+/* Builds a lazy table now if needed; returns the table or NULL (no table, or the build
+ * failed: out of memory / over max_bytes). */
+const st_ptexres *st_ptexres_ensure(const st_set *s);
+
+/* Frees a lazy table's built data when no filter is using it (it is rebuilt on the next Ptex
+ * filter call); returns the bytes freed (0: nothing built, an eager table, or busy). */
+size_t st_ptexres_drop(const st_set *s);
+
+/* Bytes a built table holds beyond its small header (0 when not built or no table). */
+size_t st_ptexres_built_bytes(const st_set *s);
 
 /* Data of face f at resolution (ru, rv), 0 <= ru <= ulog2, 0 <= rv <= vlog2. */
 static inline const uint8_t *st_ptexres_data(const st_ptexres *t, const st_set *s, uint32_t f,
