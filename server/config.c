@@ -70,6 +70,13 @@ static const opt OPTS[] = {
      "other cores to the requests)"},
     {"max-set-bytes", T_SIZE, O(max_set_bytes), 0, 1, "BYTES",
      "texel memory of one imported set (default 8G)"},
+    {"memory-budget", T_SIZE, O(memory_budget), 0, 1, "BYTES",
+     "texture memory kept resident (mapped native files as mincore sees them, plus built\n"
+     "Ptex tables); the least recently sampled sets are released past it and fault back in\n"
+     "when sampled; 0 = unlimited (default 0)"},
+    {"verify-native", T_BOOL, O(verify_native), 0, 0, "yes|no",
+     "at start also check the texel section CRC of every native file (reads every byte;\n"
+     "default no: headers, tables and small sections are always checked)"},
     {"default-set", T_BOOL, O(default_set), 0, 0, "yes|no",
      "load the built-in set as \"default\" at start (default yes)"},
     {"no-default-set", T_NOT, O(default_set), 0, 0, NULL, "same as --default-set no"},

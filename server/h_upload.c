@@ -20,6 +20,7 @@
 #include "server.h"
 #include "uploads.h"
 #include "import.h"
+#include "native.h"
 #include "ptex.h"
 
 /* ---- importing --------------------------------------------------------------------------- */
@@ -128,27 +129,28 @@ typedef struct load_arg {
     int         failed;
 } load_arg;
 
-static int load_cb(void *arg, const st_manifest *m, const char *source_path)
+static int import_cb(void *arg, const st_manifest *m, const char *source_path, st_set **out,
+                     st_error *e)
 {
     load_arg *la = arg;
-    st_error e;
-    st_error_clear(&e);
-    st_set *set = NULL;
-    int rc = sts_import_path(la->srv, source_path, m->format, m->options, &set, &e);
-    if (rc == ST_EBUSY)
-        return rc;
-    if (rc) {
+    int rc = sts_import_path(la->srv, source_path, m->format, m->options, out, e);
+    if (rc && rc != ST_EBUSY)
         sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s' (%s) does not import: %s",
-                 m->name, source_path, e.msg);
-        return rc;
-    }
+                 m->name, source_path, e->msg);
+    return rc;
+}
+
+static int load_publish_cb(void *arg, const st_manifest *m, st_set *set, st_error *e)
+{
+    load_arg *la = arg;
     st_set_source src = {m->bytes, m->crc, m->format};
-    rc = st_registry_put(la->srv->reg, m->name, set, &src, 0, NULL, &e);
+    int mapped = set && set->map;
+    int rc = st_registry_put(la->srv->reg, m->name, set, &src, 0, NULL, e);
     if (rc)
-        sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s': %s", m->name, e.msg);
+        sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s': %s", m->name, e->msg);
     else
-        sts_logf(&la->srv->log, STS_DEBUG, "data dir: loaded '%s' (%s, %llu bytes)", m->name,
-                 m->format, (unsigned long long)m->bytes);
+        sts_logf(&la->srv->log, STS_DEBUG, "data dir: loaded '%s' (%s, %llu bytes, %s)", m->name,
+                 m->format, (unsigned long long)m->bytes, mapped ? "native file" : "in memory");
     return rc;
 }
 
@@ -159,6 +161,15 @@ static void report_cb(void *arg, const char *name, const char *why)
     sts_logf(&la->srv->log, STS_WARN, "data dir: set '%s': %s", name, why);
 }
 
+static void note_cb(void *arg, const char *name, const char *what)
+{
+    load_arg *la = arg;
+    if (name[0])
+        sts_logf(&la->srv->log, STS_INFO, "data dir: set '%s': %s", name, what);
+    else
+        sts_logf(&la->srv->log, STS_INFO, "data dir: %s", what);
+}
+
 int sts_load_datadir(sts_server *srv)
 {
     if (!srv->dd)
@@ -166,13 +177,21 @@ int sts_load_datadir(sts_server *srv)
     load_arg la = {srv, 0};
     st_error e;
     st_error_clear(&e);
-    int n = st_datadir_load(srv->dd, load_cb, &la, report_cb, &e);
+    int built = 0;
+    int64_t t0 = sts_now_ms();
+    st_datadir_loader L = {.arg = &la, .import = import_cb, .publish = load_publish_cb,
+                           .report = report_cb, .note = note_cb,
+                           .native_flags = srv->cfg.verify_native ? ST_NATIVE_VERIFY : 0,
+                           .built = &built};
+    int n = st_datadir_load_sets(srv->dd, &L, &e);
     if (n < 0) {
         sts_logf(&srv->log, STS_ERROR, "data dir %s: %s", st_datadir_path(srv->dd), e.msg);
         return n;
     }
-    sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets loaded, %d set aside or cleaned",
-             st_datadir_path(srv->dd), n, la.failed);
+    sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets loaded (%d mapped from native files, "
+             "%d native files built), %d set aside or cleaned, %lld ms",
+             st_datadir_path(srv->dd), n, n - built, built, la.failed,
+             (long long)(sts_now_ms() - t0));
     return n;
 }
 
@@ -411,8 +430,9 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     done.memory = st_set_memory(set);
     publish_arg pa = {srv, set, 0, &e};
     if (srv->dd) {
-        rc = st_datadir_commit(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
-                               publish_cb, &pa, &e);
+        /* writes the native file too; pa.set becomes the mapped set before publish_cb */
+        rc = st_datadir_commit_set(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
+                                   &pa.set, publish_cb, &pa, &e);
         u->path[0] = 0;  /* the data dir owns (or removed) the file now */
         st_set_free(pa.set);  /* not published when the commit failed early */
     } else {

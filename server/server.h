@@ -30,6 +30,7 @@
 #include <pthread.h>
 #include <stdint.h>
 
+#include "budget.h"
 #include "config.h"
 #include "datadir.h"
 #include "ev.h"
@@ -299,6 +300,7 @@ struct sts_server {
     sts_pool        pool;
     sts_jobs        jobs;
     sts_uploads     uploads;
+    sts_budget      budget;       /* budget.c: --memory-budget */
     uint64_t        next_conn_id; /* atomic */
     uint32_t        nconns;       /* atomic: live connections */
     uint64_t        mem_used;     /* atomic: bytes in connection buffers */

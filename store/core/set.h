@@ -162,6 +162,7 @@ typedef struct st_set {
     size_t         map_len;      /* bytes mapped */
     int            map_fd;       /* the file, kept open for posix_fadvise (valid when map) */
     uint64_t       last_use_ms;  /* atomic: last sample (monotonic ms), for the memory budget */
+    uint32_t       cold;         /* atomic: 1 once the budget released it, until sampled */
 } st_set;
 
 /* Bytes per channel of a dtype (1, 2, 2, 4); 0 for an invalid dtype. */
