@@ -74,6 +74,9 @@ static const opt OPTS[] = {
      "texture memory kept resident (mapped native files as mincore sees them, plus built\n"
      "Ptex tables); the least recently sampled sets are released past it and fault back in\n"
      "when sampled; 0 = unlimited (default 0)"},
+    {"native", T_BOOL, O(native), 0, 0, "yes|no",
+     "keep a native file (mapped, no import at start) beside every set's source (default yes;\n"
+     "no: every start re-imports every source, as before native files)"},
     {"verify-native", T_BOOL, O(verify_native), 0, 0, "yes|no",
      "at start also check the texel section CRC of every native file (reads every byte;\n"
      "default no: headers, tables and small sections are always checked)"},
@@ -107,6 +110,7 @@ void sts_config_defaults(sts_config *c)
     c->job_threads = 1;
     c->max_set_bytes = (uint64_t)8 << 30;
     c->default_set = 1;
+    c->native = 1;
     c->log_level = STS_INFO;
 }
 

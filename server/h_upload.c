@@ -182,16 +182,21 @@ int sts_load_datadir(sts_server *srv)
     st_datadir_loader L = {.arg = &la, .import = import_cb, .publish = load_publish_cb,
                            .report = report_cb, .note = note_cb,
                            .native_flags = srv->cfg.verify_native ? ST_NATIVE_VERIFY : 0,
-                           .built = &built};
+                           .no_native = !srv->cfg.native, .built = &built};
     int n = st_datadir_load_sets(srv->dd, &L, &e);
     if (n < 0) {
         sts_logf(&srv->log, STS_ERROR, "data dir %s: %s", st_datadir_path(srv->dd), e.msg);
         return n;
     }
-    sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets loaded (%d mapped from native files, "
-             "%d native files built), %d set aside or cleaned, %lld ms",
-             st_datadir_path(srv->dd), n, n - built, built, la.failed,
-             (long long)(sts_now_ms() - t0));
+    if (srv->cfg.native)
+        sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets loaded (%d mapped from native files, "
+                 "%d native files built), %d set aside or cleaned, %lld ms",
+                 st_datadir_path(srv->dd), n, n - built, built, la.failed,
+                 (long long)(sts_now_ms() - t0));
+    else
+        sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets imported (--native no), %d set aside "
+                 "or cleaned, %lld ms", st_datadir_path(srv->dd), n, la.failed,
+                 (long long)(sts_now_ms() - t0));
     return n;
 }
 
@@ -432,7 +437,7 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     if (srv->dd) {
         /* writes the native file too; pa.set becomes the mapped set before publish_cb */
         rc = st_datadir_commit_set(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
-                                   &pa.set, publish_cb, &pa, &e);
+                                   srv->cfg.native ? &pa.set : NULL, publish_cb, &pa, &e);
         u->path[0] = 0;  /* the data dir owns (or removed) the file now */
         st_set_free(pa.set);  /* not published when the commit failed early */
     } else {

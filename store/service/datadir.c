@@ -758,7 +758,8 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         st_native_source ns;
         st_error ne;
         st_error_clear(&ne);
-        int nrc = st_native_open(nat, L->native_flags, &ns, &set, &ne);
+        int nrc = L->no_native ? ST_ENOTFOUND
+                               : st_native_open(nat, L->native_flags, &ns, &set, &ne);
         if (!nrc && (ns.bytes != m.bytes || ns.crc != m.crc || strcmp(ns.name, m.source) != 0)) {
             nrc = ST_EFORMAT;
             snprintf(ne.msg, sizeof ne.msg, "it was built from %s (%llu bytes, crc %08x), the "
@@ -778,7 +779,7 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
     }
     int imported = 0;
     if (!rc && native_why) {
-        if (native_why != ST_ENOTFOUND) {
+        if (native_why != ST_ENOTFOUND && !L->no_native) {
             say(L, name, "native file refused (%s): moved to broken/, rebuilding it from the "
                 "source", why);
             native_aside(d, name, nat);
@@ -803,7 +804,9 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         if (!rc) {
             imported = 1;
             char ntmp[PATHCAP];
-            native_tmp(d, set, &m, ntmp);
+            ntmp[0] = 0;
+            if (!L->no_native)
+                native_tmp(d, set, &m, ntmp);
             st_set *mapped = NULL;
             if (ntmp[0] && rename(ntmp, nat) == 0 && fsync_path(setdir, 1, NULL) == 0 &&
                 st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {
@@ -813,7 +816,7 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
                 say(L, name, "native file %s from the %s source (%lld ms)",
                     native_why == ST_ENOTFOUND ? "built" : "rebuilt", m.format,
                     (long long)(now_ms() - t0));
-            } else {
+            } else if (!L->no_native) {
                 if (ntmp[0])
                     unlink(ntmp);
                 say(L, name, "native file could not be written: served from memory");

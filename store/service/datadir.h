@@ -133,6 +133,7 @@ typedef struct st_datadir_loader {
     /* information: a native file built / rebuilt / refused, progress ("" name) (may be NULL) */
     void (*note)(void *arg, const char *name, const char *what);
     unsigned native_flags;   /* st_native_open flags (ST_NATIVE_VERIFY: texel CRCs too) */
+    int      no_native;      /* 1: ignore native files, import every source (as before them) */
     int     *built;          /* may be NULL: gets the number of native files written */
 } st_datadir_loader;
 
