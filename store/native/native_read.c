@@ -486,6 +486,9 @@ int st_native_open_fd(int fd, unsigned flags, st_native_source *src, st_set **ou
         close(fd);
         return st_fail(e, errno == ENOMEM ? ST_ENOMEM : ST_EIO, "mmap: %s", strerror(errno));
     }
+    /* sampling reads a few pages of a set at random: without this a fault reads ahead whole
+     * megabytes, and a released set (the memory budget) comes back whole at its next sample */
+    madvise(map, (size_t)fsize, MADV_RANDOM);
     st_set *s = calloc(1, sizeof *s);
     if (!s) {
         munmap(map, (size_t)fsize);

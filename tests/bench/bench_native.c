@@ -308,6 +308,7 @@ static stc_conn *daemon_connect(daemon_t *d, double timeout_s)
     double t0 = now_s();
     while (now_s() - t0 < timeout_s) {
         FILE *f = fopen(d->portfile, "r");
+        /* the port file is written when the daemon serves */
         if (f) {
             int port = 0;
             if (fscanf(f, "%d", &port) == 1 && port > 0) {
@@ -394,6 +395,15 @@ static int timed_start(const char *dir, const char *const *extra, const libset *
            r->first_sample_s, r->all_listed_s);
     stc_close(c);
     daemon_stop(&d);
+    /* the daemon's own account of the start */
+    FILE *lf = fopen(d.logfile, "r");
+    char line[1024], last[1024] = "";
+    while (lf && fgets(line, sizeof line, lf))
+        if (strstr(line, "sets loaded") || strstr(line, "sets imported"))
+            snprintf(last, sizeof last, "%s", line);
+    if (lf)
+        fclose(lf);
+    printf("    daemon: %s", last[0] ? last : "(no load line)\n");
     return 0;
 }
 
