@@ -78,8 +78,8 @@ static const opt OPTS[] = {
      "keep a native file (mapped, no import at start) beside every set's source (default yes;\n"
      "no: every start re-imports every source, as before native files)"},
     {"verify-native", T_BOOL, O(verify_native), 0, 0, "yes|no",
-     "at start also check the texel section CRC of every native file (reads every byte;\n"
-     "default no: headers, tables and small sections are always checked)"},
+     "at start also check every native file's texel CRC and every source's CRC-32 (reads\n"
+     "every byte; default no: headers, tables, small sections and source sizes are checked)"},
     {"default-set", T_BOOL, O(default_set), 0, 0, "yes|no",
      "load the built-in set as \"default\" at start (default yes)"},
     {"no-default-set", T_NOT, O(default_set), 0, 0, NULL, "same as --default-set no"},

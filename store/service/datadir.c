@@ -748,6 +748,15 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         else if ((uint64_t)sst.st_size != m.bytes)
             rc = st_fail(&err, ST_ECORRUPT, "source has %llu bytes, manifest says %llu",
                          (unsigned long long)sst.st_size, (unsigned long long)m.bytes);
+        else if (L->native_flags & ST_NATIVE_VERIFY) {
+            /* full verification: the source's bytes too, as before native files */
+            uint64_t bytes;
+            uint32_t crc;
+            rc = st_file_crc(src, &bytes, &crc, &err);
+            if (!rc && (bytes != m.bytes || crc != m.crc))
+                rc = st_fail(&err, ST_ECORRUPT, "source has %" PRIu64 " bytes crc %08x, manifest "
+                             "says %" PRIu64 " bytes crc %08x", bytes, crc, m.bytes, m.crc);
+        }
     }
     /* the fast path: the native file, tied to this very source, mapped and checked */
     int native_why = 0;

@@ -140,7 +140,8 @@ typedef struct st_datadir_loader {
 /* The start-up scan with native files: cleans up as st_datadir_load, then per set maps
  * sets/<name>/set.native when it is there, passes its checks (native.h) and names the
  * manifest's source (size, CRC, file name); the source's size is checked, its bytes are not
- * read. Otherwise (no native file: a data dir written before native files, i.e. the upgrade;
+ * read (with ST_NATIVE_VERIFY in native_flags they are: CRC-32 against the manifest, and every
+ * native texel CRC). Otherwise (no native file: a data dir written before native files, i.e. the upgrade;
  * or a refused one, which is moved to broken/<name>.<id>.native and reported) the source is
  * checked whole (CRC) and imported, its native file written (tmp, fsync, rename, fsync) and
  * the set served from it. A set whose source is bad or does not import is moved to broken/.
