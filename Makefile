@@ -6,9 +6,13 @@
 #   make fuzz       a real fuzz campaign: every target FUZZ_SECONDS (600), corpora kept in
 #                   build/fuzz-corpus/
 #   make soak       the long SIGKILL durability soak: SEAMTEX_SOAK_SECONDS (600) of rounds
+#   make python     the Python module seamtex into build/python/ (also part of make all when
+#                   python3-dev is installed; docs/python.md)
 #   make bench      every benchmark; figures printed and written to build/bench/*.json
 #   make run        the main job: daemon on loopback, default data set, a query, a short load test
 #   make asan       the tests again under AddressSanitizer + UBSan (build-san/)
+#   make tsan       the daemon and client tests (tests/integration/) under ThreadSanitizer, the
+#                   daemon and CLI built with it too (build-tsan/); suppressions in tests/tsan.supp
 #   make install    PREFIX=/usr/local DESTDIR=
 #
 # Dependencies are Debian packages; `make deps` (a prerequisite of test, bench and run) installs
@@ -35,6 +39,10 @@ NPROC    := $(shell nproc 2>/dev/null || echo 2)
 ifeq ($(SAN),1)
 B        := build-san
 SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+OPT      := -O1
+else ifeq ($(SAN),tsan)
+B        := build-tsan
+SANFLAGS := -fsanitize=thread -fno-omit-frame-pointer
 OPT      := -O1
 else
 B        := build
@@ -131,6 +139,7 @@ INSTALL_HDRS :=
 -include server/module.mk
 -include client/module.mk
 -include tools/module.mk
+-include python/module.mk
 include tests/module.mk
 
 all: $(ALL_BINS)
@@ -141,6 +150,7 @@ deps:
 
 test: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
+	@$(MAKE) --no-print-directory check-layout
 	@B=$(B) bash tests/run.sh
 
 # FUZZ_SECONDS per target (default 600); FUZZ_CORPUS_DIR keeps the corpora between campaigns.
@@ -166,6 +176,13 @@ run: deps
 asan:
 	@$(MAKE) --no-print-directory SAN=1 test
 
+# Every test that starts seamtexd (tests/integration/: server, client, CLI, durability) with the
+# tests, the daemon and the CLI built with -fsanitize=thread; every process's reports go to
+# build-tsan/test-logs/tsan.<pid> and any report fails the run (tests/run.sh, MODE=tsan).
+tsan: deps
+	@$(MAKE) --no-print-directory SAN=tsan -j$(NPROC) all tsan-build
+	@B=build-tsan MODE=tsan bash tests/run.sh
+
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/seamtex \
 		$(DESTDIR)$(PREFIX)/lib/pkgconfig
@@ -181,11 +198,14 @@ check-layout:
 	@$(foreach p,$(STORE_PARTS),$(foreach h,$(wildcard store/$(p)/*.h),\
 		echo '#include "$(notdir $(h))"' | $(CC) -std=c11 -D_GNU_SOURCE $(PKG_CFLAGS) -fsyntax-only \
 		$(INC_store_$(p)) -x c - || exit 1;)) echo "check-layout: every store header compiles alone"
+	@! grep -rn '#include "\(\.\./\|/\)' store protocol util client server \
+		|| { echo "check-layout: an include by relative or absolute path bypasses the rules"; exit 1; }
+	@echo "check-layout: no include by path in store/ protocol/ util/ client/ server/"
 
 clean:
-	rm -rf build build-san
+	rm -rf build build-san build-tsan
 
-.PHONY: all deps test fuzz soak bench run asan install clean tests-build fuzz-build bench-build \
-	check-layout
+.PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
+	tsan-build check-layout python
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

@@ -3,7 +3,8 @@
  * Owns: the run configuration, per-thread state and results shared by
  *   bench_main.c    arguments, threads, report and JSON
  *   bench_loop.c    one epoll loop per thread driving several connections (open/closed loop)
- *   bench_wire.c    request frames and reply parsing, through protocol/'s encoders and parser
+ *   bench_wire.c    request frames and reply parsing, through protocol/'s encoders and parser;
+ *                   for --proto memcached / redis, those servers' cheapest no-op instead
  *   bench_inproc.c  the in-process sampler baseline (st_sample_batch on the same queries)
  *   bench_sched.c   arrival schedules;  hist.c  latency histograms
  * Does not own: the protocol (protocol/), the client library (libseamtex).
@@ -32,6 +33,21 @@ typedef enum bench_op {
     BENCH_OP_SAMPLE_DIR = 2    /* cube-map direction queries (a cube set) */
 } bench_op;
 
+/* Which server the network loops talk to. The peers (memcached, Redis) are loaded with their
+ * cheapest no-op request, so that PING figures can be compared side by side with the same
+ * connections, pipelining, schedules and histograms. Peers answer in order and carry no
+ * request id: a reply belongs to the oldest request outstanding on its connection. */
+typedef enum bench_proto {
+    BENCH_PROTO_SEAMTEX   = 0,
+    BENCH_PROTO_MEMCACHED = 1,  /* text protocol: "version\r\n" -> "VERSION x\r\n" */
+    BENCH_PROTO_REDIS     = 2   /* RESP: "*1\r\n$4\r\nPING\r\n" -> "+PONG\r\n" */
+} bench_proto;
+
+static inline const char *bench_proto_name(unsigned p)
+{
+    return p == BENCH_PROTO_MEMCACHED ? "memcached" : p == BENCH_PROTO_REDIS ? "redis" : "seamtex";
+}
+
 static inline const char *bench_op_name(unsigned op)
 {
     return op == BENCH_OP_SAMPLE ? "sample" : op == BENCH_OP_SAMPLE_DIR ? "sample-dir" : "ping";
@@ -48,6 +64,7 @@ typedef struct bench_cfg {
     const char *set;           /* set name for SAMPLE */
     const char *json_path;     /* NULL = no JSON */
     uint8_t     op;            /* bench_op */
+    uint8_t     proto;         /* bench_proto; a peer allows only BENCH_OP_PING */
     uint8_t     open_loop;     /* 1: --rate given */
     uint8_t     arrival;       /* stc_arrival */
     uint8_t     quiet;
@@ -58,8 +75,9 @@ typedef struct bench_cfg {
     unsigned    spin_us;       /* open loop: poll instead of sleeping this close to a due time */
     uint64_t    max_requests;  /* 0 = no cap */
     uint64_t    seed;
-    unsigned    conns;
-    unsigned    threads;
+    unsigned    conns;         /* network: connections in all */
+    unsigned    threads;       /* network: threads sharing the connections (at most conns);
+                                * --inproc: sampling threads */
     unsigned    pipeline;      /* closed loop: outstanding per connection; open loop: cap */
     unsigned    batch;         /* SAMPLE: queries per request */
     unsigned    nmodes, nfilters;
@@ -119,8 +137,10 @@ static inline uint64_t bench_now_ns(void)
 int bench_loop_run(bench_thread *th);
 
 /* ---- bench_wire.c ---- */
-/* Connects one blocking socket to cfg->host:port (loopback only, checked), does whatever
- * handshake the protocol needs (token), and returns the fd, or -1 with msg set. */
+/* Connects one socket to cfg->host:port (loopback only, checked), does whatever handshake the
+ * protocol needs (seamtex: HELLO with the token; memcached: "version"; Redis: PING, which
+ * also checks that the port is the server asked for), and returns the fd, non-blocking, or
+ * -1 with msg set. */
 int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t msglen);
 /* Asks the server for the set's face count and channels (SAMPLE); 0 or -1 with msg. */
 int bench_wire_set_info(bench_cfg *cfg, int fd, char *msg, size_t msglen);
@@ -130,11 +150,12 @@ void bench_wire_free(bench_wire *w);
 /* Next request frame: *frame points into the pool (valid until the next call on w), returns
  * its length and the number of queries it carries (*nq, 0 for PING). */
 size_t bench_wire_next(bench_wire *w, const uint8_t **frame, uint32_t *nq);
-/* Looks at the front of buf: returns the length of one complete reply frame and sets *ok
- * (1 = status OK) and *reqid, 0 when more bytes are needed, or -1 when the bytes are not a
- * valid reply. */
-long bench_wire_reply(const uint8_t *buf, size_t len, int *ok, uint32_t *reqid);
-/* Byte offset of the request id in a frame (the loop patches it per request). */
+/* Looks at the front of buf: returns the length of one complete reply and sets *ok (1 = the
+ * expected answer) and *reqid, 0 when more bytes are needed, or -1 when the bytes are not a
+ * valid reply. For the peers *reqid is 0: their replies come in request order. */
+long bench_wire_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok, uint32_t *reqid);
+/* Byte offset of the request id in a seamtex frame (the loop patches it per request; peers'
+ * requests have none). */
 #define BENCH_REQID_OFFSET 8
 
 /* ---- bench_inproc.c ---- */

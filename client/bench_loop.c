@@ -11,7 +11,8 @@
  * waiting on that schedule sees, coordinated omission corrected), service = t_reply - t_send.
  * Replies are matched by request id (the server may answer out of order when it offers
  * OUT_OF_ORDER): request ids on a connection are consecutive and request r lives in slot
- * r % cap, so at most cap requests are outstanding and a lookup is one array access.
+ * r % cap, so at most cap requests are outstanding and a lookup is one array access. The
+ * peers (--proto memcached / redis) answer in order: their reply takes the oldest id.
  *
  * A request is recorded when its intended time lies in [t_measure, t_end). No request is
  * issued from t_end on; outstanding ones get until t_end + min(timeout, 2 s), and whatever is
@@ -112,7 +113,8 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
     memcpy(c->out + c->out_len, frame, len);
     uint32_t rid = c->next_rid++;
     uint32_t slot = rid % c->cap;
-    stp_wr32(c->out + c->out_len + BENCH_REQID_OFFSET, rid);
+    if (th->cfg->proto == BENCH_PROTO_SEAMTEX)
+        stp_wr32(c->out + c->out_len + BENCH_REQID_OFFSET, rid);
     c->out_len += len;
     c->rid[slot] = rid;
     c->t_int[slot] = t_int;
@@ -173,11 +175,14 @@ static int conn_read(bench_thread *th, bconn *c)
         for (;;) {
             int ok = 0;
             uint32_t rid = 0;
-            long flen = bench_wire_reply(c->in + off, c->in_len - off, &ok, &rid);
+            long flen = bench_wire_reply(th->cfg->proto, c->in + off, c->in_len - off, &ok,
+                                         &rid);
             if (flen < 0)
                 return -1;
             if (flen == 0)
                 break;
+            if (th->cfg->proto != BENCH_PROTO_SEAMTEX)
+                rid = c->oldest;            /* peers answer in order */
             uint32_t slot = rid % c->cap;
             if (rid == 0 || c->rid[slot] != rid || rid - c->oldest >= c->stamp_from - c->oldest)
                 return -1;                  /* a reply to no request that was sent */

@@ -5,6 +5,10 @@
  * threads' histograms, printing percentiles, writing JSON. Does not own: the event loop
  * (bench_loop.c), frames (bench_wire.c), the in-process baseline (bench_inproc.c).
  *
+ * What the counts mean: over the network, -c is the number of connections, -T the number of
+ * threads they are shared by (at most one per connection), -P the requests outstanding per
+ * connection; with --inproc there are no connections and -T is the number of sampling threads.
+ *
  * Always bounded: it stops after --duration seconds (plus warm-up and at most 2 s of drain)
  * or --requests requests, whichever comes first, and only talks to loopback addresses.
  */
@@ -36,10 +40,17 @@ static void usage(FILE *f)
 "  -p, --port PORT        server port (7450)\n"
 "  -t, --token TOKEN      access token, if the server wants one\n"
 "  -o, --op OP            ping | sample | sample-dir (cube maps: -s a cube set) (ping)\n"
-"  -c, --conns N          connections (1)\n"
-"  -T, --threads N        threads, each owning conns/threads connections (1)\n"
-"  -P, --pipeline N       closed loop: requests outstanding per connection (1);\n"
-"                         open loop: cap on outstanding per connection (1024)\n"
+"      --proto P          seamtex | memcached | redis (seamtex): load another server with its\n"
+"                         cheapest no-op, the same way as a seamtexd PING, for comparison:\n"
+"                         memcached \"version\", Redis PING; -o ping only\n"
+"  -c, --conns N          connections in all (1)\n"
+"  -T, --threads N        client threads; over the network they share the connections, each\n"
+"                         thread driving conns/threads of them in its own epoll loop, so N is\n"
+"                         at most -c (more is cut to -c, with a note); --inproc: the\n"
+"                         number of sampling threads, each calling st_sample_batch (1)\n"
+"  -P, --pipeline N       closed loop: requests outstanding on each connection (1), so\n"
+"                         c x P in flight in all; open loop: cap on outstanding per\n"
+"                         connection (1024)\n"
 "  -r, --rate R           open loop at R requests/s over all connections\n"
 "      --arrival KIND     uniform | poisson (uniform)\n"
 "  -d, --duration S       measured seconds (5)\n"
@@ -133,7 +144,8 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
         fprintf(stderr, "seamtex-bench: %s: %s\n", cfg->json_path, strerror(errno));
         return -1;
     }
-    fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n");
+    fprintf(f, "{\n  \"tool\": \"seamtex-bench\",\n  \"proto\": \"%s\",\n",
+            bench_proto_name(cfg->proto));
     fprintf(f, "  \"op\": \"%s\",\n  \"loop\": \"%s\",\n", bench_op_name(cfg->op),
             cfg->open_loop ? "open" : "closed");
     if (cfg->open_loop)
@@ -236,7 +248,8 @@ int main(int argc, char **argv)
         .footprint = 0.001f, .hold_s = 10, .spin_us = 100,
     };
     int inproc = 0;
-    enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP };
+    enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
+           O_PROTO };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -254,6 +267,7 @@ int main(int argc, char **argv)
         { "inproc", no_argument, 0, O_INPROC },    { "idle", required_argument, 0, O_IDLE },
         { "hold", required_argument, 0, O_HOLD },  { "json", required_argument, 0, 'j' },
         { "quiet", no_argument, 0, 'q' },          { "help", no_argument, 0, O_HELP },
+        { "proto", required_argument, 0, O_PROTO },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -273,6 +287,12 @@ int main(int argc, char **argv)
             if (!strcmp(optarg, "ping")) cfg.op = BENCH_OP_PING;
             else if (!strcmp(optarg, "sample")) cfg.op = BENCH_OP_SAMPLE;
             else if (!strcmp(optarg, "sample-dir")) cfg.op = BENCH_OP_SAMPLE_DIR;
+            else bad = 1;
+            break;
+        case O_PROTO:
+            if (!strcmp(optarg, "seamtex")) cfg.proto = BENCH_PROTO_SEAMTEX;
+            else if (!strcmp(optarg, "memcached")) cfg.proto = BENCH_PROTO_MEMCACHED;
+            else if (!strcmp(optarg, "redis")) cfg.proto = BENCH_PROTO_REDIS;
             else bad = 1;
             break;
         case 'c': bad = parse_uint(optarg, 1, BENCH_MAX_CONNS, &u); cfg.conns = (unsigned)u; break;
@@ -317,8 +337,17 @@ int main(int argc, char **argv)
         usage(stderr);
         return 2;
     }
-    if (cfg.threads > cfg.conns)
+    if (cfg.proto != BENCH_PROTO_SEAMTEX && (inproc || cfg.op != BENCH_OP_PING)) {
+        fprintf(stderr, "seamtex-bench: --proto %s loads only its no-op: -o ping, no --inproc\n",
+                bench_proto_name(cfg.proto));
+        return 2;
+    }
+    /* over the network a thread drives whole connections; --inproc has none and keeps -T */
+    if (!inproc && !cfg.idle && cfg.threads > cfg.conns) {
+        fprintf(stderr, "seamtex-bench: note: -T %u cut to %u, one thread per connection at "
+                "most (-c %u)\n", cfg.threads, cfg.conns, cfg.conns);
         cfg.threads = cfg.conns;
+    }
     if (cfg.pipeline == 0)
         cfg.pipeline = cfg.open_loop ? 1024 : 1;
     signal(SIGPIPE, SIG_IGN);
@@ -419,9 +448,9 @@ int main(int argc, char **argv)
         }
     }
     if (!cfg.quiet)
-        printf("seamtex-bench: %s, %s loop, %u conns, %u threads, pipeline %u%s, %.1f s "
-               "(+%.1f s warm-up)\n",
-               bench_op_name(cfg.op), cfg.open_loop ? "open" : "closed",
+        printf("seamtex-bench: %s%s%s, %s loop, %u conns, %u threads, pipeline %u%s, %.1f s "
+               "(+%.1f s warm-up)\n", cfg.proto ? bench_proto_name(cfg.proto) : "",
+               cfg.proto ? " " : "", bench_op_name(cfg.op), cfg.open_loop ? "open" : "closed",
                cfg.conns, cfg.threads, cfg.pipeline,
                bench_op_samples(cfg.op) ? ", batches" : "", cfg.duration_s, cfg.warmup_s);
     unsigned started = 0;

@@ -34,9 +34,16 @@ typedef struct cli_ctx {
 int cli_connect(cli_ctx *ctx);
 /* Prints "seamtex: <what>: <error>" for a failed library call and returns the exit code. */
 int cli_fail(cli_ctx *ctx, const char *what, int code);
-/* Parses numbers; 0 or -1. */
+/* Parses numbers (cli_parse.c); 0 or -1. A float must be within float's range
+ * ("nan" and "inf" are accepted: the server answers them with the NONFINITE status). */
 int cli_parse_u32(const char *s, uint32_t *out);
 int cli_parse_float(const char *s, float *out);
+/* One line of a query file (cli_parse.c), changed in place: "face u v [dudx dvdx dudy dvdy]"
+ * or, for cli_dir_query_line, "x y z [ddx0 ddx1 ddx2 ddy0 ddy1 ddy2]"; fields split by
+ * spaces, tabs or commas, '#' starts a comment. 1 = a query in *q, 0 = a blank or comment
+ * line, -1 = a bad line (q unspecified). */
+int cli_query_line(char *line, stc_query *q);
+int cli_dir_query_line(char *line, stc_dir_query *q);
 /* 1 when argv[i] is --help or -?. */
 int cli_is_help(const char *a);
 

@@ -38,58 +38,6 @@ static const char *const SAMPLE_USAGE =
 "  --binary           write the values raw (little-endian, count x channels) to stdout\n"
 "  --format f32|unorm8|unorm16   value format on the wire and in --binary output (f32)\n";
 
-/* Parses one line into q; returns 1 for a query, 0 for a blank/comment line, -1 bad. */
-static int parse_line(char *line, stc_query *q)
-{
-    char *hash = strchr(line, '#');
-    if (hash)
-        *hash = '\0';
-    char *tok[8];
-    int n = 0;
-    for (char *save = NULL, *t = strtok_r(line, " \t\r\n,", &save); t;
-         t = strtok_r(NULL, " \t\r\n,", &save)) {
-        if (n == 8)
-            return -1;
-        tok[n++] = t;
-    }
-    if (n == 0)
-        return 0;
-    if (n != 3 && n != 7)
-        return -1;
-    memset(q, 0, sizeof *q);
-    float *f[6] = { &q->u, &q->v, &q->dudx, &q->dvdx, &q->dudy, &q->dvdy };
-    if (cli_parse_u32(tok[0], &q->face))
-        return -1;
-    for (int i = 1; i < n; i++)
-        if (cli_parse_float(tok[i], f[i - 1]))
-            return -1;
-    return 1;
-}
-
-/* Direction line "x y z [ddx0 ddx1 ddx2 ddy0 ddy1 ddy2]": 1 query, 0 blank, -1 bad. */
-static int parse_dir_line(char *line, stc_dir_query *q)
-{
-    char *hash = strchr(line, '#');
-    if (hash)
-        *hash = '\0';
-    float v[9] = { 0 };
-    int n = 0;
-    for (char *save = NULL, *t = strtok_r(line, " \t\r\n,", &save); t;
-         t = strtok_r(NULL, " \t\r\n,", &save)) {
-        if (n == 9 || cli_parse_float(t, &v[n]))
-            return -1;
-        n++;
-    }
-    if (n == 0)
-        return 0;
-    if (n != 3 && n != 9)
-        return -1;
-    memcpy(q->dir, v, sizeof q->dir);
-    memcpy(q->ddx, v + 3, sizeof q->ddx);
-    memcpy(q->ddy, v + 6, sizeof q->ddy);
-    return 1;
-}
-
 /* Reads a query file of either kind into *out (elements of `size` bytes). */
 static int read_lines(const char *path, int dir, void **out, size_t *count)
 {
@@ -107,7 +55,7 @@ static int read_lines(const char *path, int dir, void **out, size_t *count)
     while (getline(&line, &lcap, f) > 0) {
         lineno++;
         union { stc_query f; stc_dir_query d; } one;
-        int r = dir ? parse_dir_line(line, &one.d) : parse_line(line, &one.f);
+        int r = dir ? cli_dir_query_line(line, &one.d) : cli_query_line(line, &one.f);
         if (r < 0) {
             fprintf(stderr, "seamtex sample: %s:%zu: expected '%s'\n", path, lineno,
                     dir ? "x y z [ddx0 ddx1 ddx2 ddy0 ddy1 ddy2]"

@@ -146,25 +146,30 @@ int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv)
 }
 
 static const char *const FETCH_USAGE =
-"usage: seamtex fetch SET FILE [--format ptx|dds]\n"
-"Downloads a set as a file (Ptex, or DDS for a BC1 set), checked against the server's\n"
-"CRC32C; written to FILE.part and renamed when complete.\n";
+"usage: seamtex fetch SET FILE [--format ptx|dds|exr|png|obj]\n"
+"Downloads a set as a file, checked against the server's CRC32C; written to FILE.part and\n"
+"renamed when complete. The format comes from FILE's extension (another extension: ptx)\n"
+"unless --format says:\n"
+"  ptx  per-face sets; cube sets as a Ptex environment cube\n"
+"  exr  cube sets of half or float texels (an EXR cube); atlas images of half or float\n"
+"  png  atlas images of u8 or u16 texels\n"
+"  obj  an atlas set's mesh (upload it back with --texture <the image set>)\n"
+"  dds  BC1 sets\n";
 
 int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv)
 {
     const char *set = NULL, *file = NULL;
-    unsigned fmt = STC_FETCH_PTX;
+    unsigned fmt = STC_FETCH_AUTO;
     for (int i = 1; i < argc; i++) {
         if (cli_is_help(argv[i]))
             return usage_out(FETCH_USAGE, 1);
         if (!strcmp(argv[i], "--format") && i + 1 < argc) {
-            const char *v = argv[++i];
-            if (!strcmp(v, "ptx"))
-                fmt = STC_FETCH_PTX;
-            else if (!strcmp(v, "dds"))
-                fmt = STC_FETCH_DDS;
-            else
+            char probe[16];
+            snprintf(probe, sizeof probe, "x.%.8s", argv[++i]);
+            int f = strlen(argv[i]) <= 8 ? stc_fetch_format_for_path(probe) : -1;
+            if (f < 0)
                 return usage_out(FETCH_USAGE, 0);
+            fmt = (unsigned)f;
         } else if (argv[i][0] == '-') {
             return usage_out(FETCH_USAGE, 0);
         } else if (!set) {

@@ -274,6 +274,14 @@ int stc_upload_file(stc_conn *c, const char *path, const char *set, const stc_up
 
 /* ---- fetch -------------------------------------------------------------------------------------- */
 
+int stc_fetch_format_for_path(const char *path)
+{
+    const char *dot = path ? strrchr(path, '.') : NULL, *slash = path ? strrchr(path, '/') : NULL;
+    if (!dot || (slash && dot < slash))
+        return -1;
+    return stp_fetch_format_parse(dot + 1);
+}
+
 int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *path,
                    stc_progress_fn progress, void *user)
 {
@@ -291,7 +299,11 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
         return rc;
     if (!win)
         win = window_size(c);
-    if (!stp_name_valid_cstr(set) || !path || format > STC_FETCH_DDS)
+    if (path && format == STC_FETCH_AUTO) {
+        int f = stc_fetch_format_for_path(path);
+        format = f < 0 ? STC_FETCH_PTX : (unsigned)f;   /* no known extension: Ptex */
+    }
+    if (!stp_name_valid_cstr(set) || !path || !stp_fetch_format_name(format))
         return stc__fail(c, STC_EINVAL, "bad set name, path or format");
     if ((size_t)snprintf(part, sizeof part, "%s.part", path) >= sizeof part)
         return stc__fail(c, STC_EINVAL, "path too long");

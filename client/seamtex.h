@@ -281,9 +281,19 @@ int stc_job_cancel(stc_conn *c, uint64_t job_id, stc_job *out);   /* out may be 
  * forever). Returns 0 when DONE, the job's result code when FAILED. */
 int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out);
 
-enum { STC_FETCH_PTX = 0, STC_FETCH_DDS = 1 };
+/* FETCH formats (PROTOCOL.md 4.10: which fits which set kind). STC_FETCH_AUTO picks the
+ * format from the path's extension (.ptx .dds .exr .png .obj, any case), as an upload picks
+ * its hint; any other extension fetches .ptx. */
+enum {
+    STC_FETCH_PTX = 0, STC_FETCH_DDS = 1, STC_FETCH_EXR = 2, STC_FETCH_PNG = 3,
+    STC_FETCH_OBJ = 4,
+    STC_FETCH_AUTO = 255
+};
+/* The format for a file name's extension, -1 when it names none. */
+int stc_fetch_format_for_path(const char *path);
 /* Downloads a set as a file (written to path + ".part", checked against the server's
- * CRC32C, then renamed onto path). */
+ * CRC32C, then renamed onto path). A format that does not fit the set is EUNSUPPORTED, the
+ * server's message naming the formats that do. */
 int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *path,
                    stc_progress_fn progress, void *user);
 

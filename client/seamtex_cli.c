@@ -33,7 +33,7 @@ static const char *const USAGE =
 "  upload FILE NAME [opts]      upload a file as set NAME (progress bar on stderr)\n"
 "  delete SET                   remove a set\n"
 "  stats                        the server's counters\n"
-"  fetch SET FILE [--format ptx|dds]   download a set as a file\n"
+"  fetch SET FILE [--format F]   download a set as a file (format from FILE's extension)\n"
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
 "\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
@@ -47,34 +47,6 @@ static const char *const USAGE =
 int cli_is_help(const char *a)
 {
     return !strcmp(a, "--help") || !strcmp(a, "-?");
-}
-
-int cli_parse_u32(const char *s, uint32_t *out)
-{
-    char *end;
-    errno = 0;
-    if (!s || *s == '-' || *s == '\0')
-        return -1;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || *end || v > UINT32_MAX)
-        return -1;
-    *out = (uint32_t)v;
-    return 0;
-}
-
-int cli_parse_float(const char *s, float *out)
-{
-    char *end;
-    errno = 0;
-    if (!s || *s == '\0')
-        return -1;
-    double v = strtod(s, &end);
-    if (errno == ERANGE && fabs(v) > 1.0)
-        return -1;
-    if (*end)
-        return -1;
-    *out = (float)v;
-    return 0;
 }
 
 const char *cli_kind_name(unsigned kind)

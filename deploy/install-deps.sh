@@ -4,8 +4,14 @@
 # only when something is missing.
 set -euo pipefail
 
+# memcached and redis-server are for `make bench` only: tests/bench/net_ping.sh starts its own
+# of each on a free loopback port (no persistence) to measure them beside seamtexd.
+# python3-dev builds the Python module (make python), python3-setuptools installs it with pip;
+# python3-pytest and python3-numpy are for its tests only (the module itself needs neither).
 PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
-      libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev)
+      memcached redis-server
+      libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev
+      python3-dev python3-setuptools python3-pytest python3-numpy)
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -491,12 +491,17 @@ void stp_sample_dir_query(const stp_sample_req *r, uint32_t i, stp_dir_query *q)
     }
 }
 
-/* round(clamp(v, 0, 1) * max); NaN gives 0 (every comparison with NaN is false). Written as
- * selects so that the compiler turns the loop into min/max instructions. */
-static inline uint32_t to_unorm(float v, float max)
+/* The unorm rule of PROTOCOL.md 4.6, computed exactly: the integer nearest to
+ * clamp(v, 0, 1) * max, ties (only v = 0.5 has one) rounded up; NaN gives 0. In binary64 the
+ * product of a binary32 value (24 significant bits) and 255 or 65535 (8 or 16 bits) is exact,
+ * and adding 0.5 to a value below 2^17 is exact too, so truncating x gives the exact result
+ * (in binary32 the product would round first: 0.54705882f * 255 is 139.4999..., which
+ * rounds to 139.5 in binary32 and would give 140). Written as selects so that the compiler
+ * turns the loop into min/max instructions. */
+static inline uint32_t to_unorm(float v, double max)
 {
-    float x = v * max + 0.5f;
-    x = x > 0.0f ? x : 0.0f;
+    double x = (double)v * max + 0.5;
+    x = x > 0.0 ? x : 0.0;
     x = x < max ? x : max;
     return (uint32_t)x;
 }
@@ -525,11 +530,11 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
             break;
         case STP_OUT_UNORM8:
             for (size_t i = 0; i < nval; i++)
-                p[i] = (uint8_t)to_unorm(r->values[i], 255.0f);
+                p[i] = (uint8_t)to_unorm(r->values[i], 255.0);
             break;
         default:
             for (size_t i = 0; i < nval; i++)
-                stp_wr16(p + 2 * i, (uint16_t)to_unorm(r->values[i], 65535.0f));
+                stp_wr16(p + 2 * i, (uint16_t)to_unorm(r->values[i], 65535.0));
             break;
         }
         b->len += bytes;
@@ -963,7 +968,7 @@ int stp_dec_fetch_open(const uint8_t *body, size_t len, stp_fetch_open *r, const
     int s = finish(&rd, why, "FETCH_OPEN: truncated body");
     if (s == 0 && np)
         return name_fail(why, SET_NAME_WHY, np);
-    if (s == 0 && r->format > STP_FETCH_DDS)
+    if (s == 0 && !stp_fetch_format_name(r->format))
         return fail(why, "FETCH_OPEN: unknown format", STP_S_INVALID);
     return s;
 }

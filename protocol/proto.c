@@ -159,6 +159,7 @@ static const named MODES[] = { STP_MODES(ROW) };
 static const named FILTERS[] = { STP_FILTERS(ROW) };
 static const named ZERO_RULES[] = { STP_ZERO_RULES(ROW) };
 static const named OUTFMTS[] = { STP_OUTFMTS(ROW) };
+static const named FETCH_FORMATS[] = { STP_FETCH_FORMATS(ROW) };
 static const named KINDS[] = { STP_KINDS(ROW) };
 static const named DTYPES[] = { STP_DTYPES(ROW) };
 #undef ROW
@@ -171,6 +172,22 @@ const char *stp_zero_rule_name(unsigned rule)  { return name_of(ZERO_RULES, N_(Z
 int stp_zero_rule_parse(const char *name)      { return parse_of(ZERO_RULES, N_(ZERO_RULES), name); }
 const char *stp_outfmt_name(unsigned fmt)      { return name_of(OUTFMTS, N_(OUTFMTS), fmt); }
 int stp_outfmt_parse(const char *name)         { return parse_of(OUTFMTS, N_(OUTFMTS), name); }
+const char *stp_fetch_format_name(unsigned fmt)
+{
+    return name_of(FETCH_FORMATS, N_(FETCH_FORMATS), fmt);
+}
+
+int stp_fetch_format_parse(const char *name)
+{
+    char low[8];
+    size_t n = name ? strlen(name) : 0;
+    if (n == 0 || n >= sizeof low)
+        return -1;
+    for (size_t i = 0; i <= n; i++)
+        low[i] = name[i] >= 'A' && name[i] <= 'Z' ? (char)(name[i] - 'A' + 'a') : name[i];
+    return parse_of(FETCH_FORMATS, N_(FETCH_FORMATS), low);
+}
+
 const char *stp_kind_name(unsigned kind)       { return name_of(KINDS, N_(KINDS), kind); }
 const char *stp_dtype_name(unsigned dtype)     { return name_of(DTYPES, N_(DTYPES), dtype); }
 

@@ -160,6 +160,11 @@ enum stp_outfmt {
     STP_OUTFMTS(STP_X_)
 #undef STP_X_
 };
+enum stp_fetch_format {
+#define STP_X_(NAME, str, value) STP_FETCH_##NAME = value,
+    STP_FETCH_FORMATS(STP_X_)
+#undef STP_X_
+};
 enum stp_kind {
 #define STP_X_(NAME, str, value) STP_KIND_##NAME = value,
     STP_KINDS(STP_X_)
@@ -183,6 +188,10 @@ const char *stp_outfmt_name(unsigned fmt);          /* "f32", "unorm8", "unorm16
 int stp_outfmt_parse(const char *name);
 /* Bytes per value of an stp_outfmt (4, 1, 2); 0 for an unknown format. */
 size_t stp_outfmt_size(unsigned fmt);
+/* FETCH formats: "ptx", "dds", "exr", "png", "obj" (also their file extensions); NULL when
+ * unknown. parse takes a name or an extension, any case; -1 when unknown. */
+const char *stp_fetch_format_name(unsigned fmt);
+int stp_fetch_format_parse(const char *name);
 const char *stp_kind_name(unsigned kind);           /* "perface", "cube", "atlas", "bc1" */
 const char *stp_dtype_name(unsigned dtype);         /* "u8", "u16", "half", "f32" */
 
@@ -592,7 +601,6 @@ int stp_enc_job_status(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_job
 int stp_dec_job_status(const uint8_t *body, size_t len, stp_job_status *r, const char **why);
 
 /* -- FETCH (download a set as a file) -- */
-enum stp_fetch_format { STP_FETCH_PTX = 0, STP_FETCH_DDS = 1 };
 typedef struct stp_fetch_open {
     char    name[STP_MAX_NAME + 1];
     uint8_t format;                       /* stp_fetch_format */

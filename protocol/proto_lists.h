@@ -2,7 +2,7 @@
  *
  * Owns: the opcodes (with their "mutating" flag), the reply statuses (with the name the client
  * library gives each as an error code), the per-query statuses, the sampling modes, filters,
- * zero-coverage rules and output formats, the set kinds and texel types, as X-macros. Every
+ * zero-coverage rules and output formats, the FETCH file formats, the set kinds and texel types, as X-macros. Every
  * other place derives from these lists: the enums and name <-> value functions of proto.h,
  * the daemon's dispatch table and store-code checks (server/), the client library's error
  * codes (checked against STP_STATUSES in client/libconn.c), the CLI's names.
@@ -106,6 +106,17 @@
     X(F32,     "f32",     0, 4)                          \
     X(UNORM8,  "unorm8",  1, 1)                          \
     X(UNORM16, "unorm16", 2, 2)
+
+/* File formats of FETCH_OPEN: X(NAME, "name", value); the name is also the file extension
+ * (the client picks the format from it). Same numbers as store/import/export.h
+ * st_export_format (ST_EXPORT_<NAME>; checked in server/h_jobs.c). Which format fits which set
+ * kind is the store's table (export.h, PROTOCOL.md 4.10). */
+#define STP_FETCH_FORMATS(X)                             \
+    X(PTX, "ptx", 0)                                     \
+    X(DDS, "dds", 1)                                     \
+    X(EXR, "exr", 2)                                     \
+    X(PNG, "png", 3)                                     \
+    X(OBJ, "obj", 4)
 
 /* Set kinds (LIST, INFO, UPLOAD_COMMIT): X(NAME, "name", value); store/set.h st_kind. */
 #define STP_KINDS(X)                                     \

@@ -39,6 +39,12 @@ static const opt OPTS[] = {
      "connections at once; the next one gets a BUSY reply and is closed (default 10000)"},
     {"idle-timeout", T_U32, O(idle_timeout), 0, 1, "SECONDS",
      "close a connection silent this long; 0 = never (default 300)"},
+    {"request-timeout", T_U32, O(request_timeout), 0, 1, "SECONDS",
+     "a request frame must arrive whole within SECONDS of its first byte, plus its body's\n"
+     "size at request-min-rate; else the connection is closed; 0 = no deadline (default 5)"},
+    {"request-min-rate", T_SIZE, O(request_min_rate), 0, 1, "BYTES",
+     "the slowest rate, per second, a request body may arrive at (default 128K: a 4 MiB\n"
+     "chunk may take request-timeout + 32 s)"},
     {"max-frame", T_SIZE, O(max_frame), 0, 1, "BYTES",
      "largest request body; larger ones get TOO_LARGE and are skipped (default 64M)"},
     {"max-upload", T_SIZE, O(max_upload), 0, 1, "BYTES",
@@ -57,7 +63,11 @@ static const opt OPTS[] = {
     {"conn-out-cap", T_SIZE, O(conn_out_cap), 0, 1, "BYTES",
      "unsent reply bytes per connection before the server stops reading it (default 4M)"},
     {"max-memory", T_SIZE, O(max_memory), 0, 1, "BYTES",
-     "all connection buffers together; a request that would pass it gets BUSY (default 1G)"},
+     "all connection buffers and open fetches together; a request that would pass it gets\n"
+     "BUSY (default 1G)"},
+    {"conn-fetch-cap", T_SIZE, O(conn_fetch_cap), 0, 1, "BYTES",
+     "bytes of open fetches per connection; past it FETCH_OPEN gets BUSY, a file larger\n"
+     "than it TOO_LARGE (default 1G)"},
     {"max-sets", T_U32, O(max_sets), 0, 1, "N", "sets held at once (default 10000)"},
     {"max-uploads", T_U32, O(max_uploads), 0, 1, "N",
      "unfinished uploads at once, kept ones included (default 64)"},
@@ -94,6 +104,9 @@ void sts_config_defaults(sts_config *c)
     c->max_conns = 10000;
     c->upload_keep = 600;
     c->idle_timeout = 300;
+    c->request_timeout = 5;
+    c->request_min_rate = 128u << 10;
+    c->conn_fetch_cap = 1u << 30;
     c->max_frame = 64u << 20;
     c->max_upload = 1u << 30;
     c->deadline_ms = 10000;
@@ -228,17 +241,32 @@ static char *trim(char *s)
     return s;
 }
 
-int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errcap)
+/* The longest line of a config file, its newline included. */
+#define LINE_MAX_BYTES 2048
+/* The largest config file read (a few hundred bytes are usual). */
+#define FILE_MAX_BYTES (1u << 20)
+
+int sts_config_read_mem(sts_config *c, const char *buf, size_t len, const char *name, char *err,
+                        size_t errcap)
 {
-    FILE *f = fopen(path, "re");
-    if (!f) {
-        snprintf(err, errcap, "config %s: %s", path, strerror(errno));
-        return -1;
-    }
-    char line[2048];
+    char line[LINE_MAX_BYTES];
     int ln = 0;
-    while (fgets(line, sizeof line, f)) {
+    size_t pos = 0;
+    while (pos < len) {
         ln++;
+        const char *nl = memchr(buf + pos, '\n', len - pos);
+        size_t n = nl ? (size_t)(nl - (buf + pos)) : len - pos;
+        if (n >= sizeof line) {
+            snprintf(err, errcap, "%s:%d: line longer than %d bytes", name, ln, LINE_MAX_BYTES - 1);
+            return -1;
+        }
+        if (memchr(buf + pos, '\0', n)) {
+            snprintf(err, errcap, "%s:%d: a NUL byte (not a text file)", name, ln);
+            return -1;
+        }
+        memcpy(line, buf + pos, n);
+        line[n] = 0;
+        pos += n + (nl != NULL);
         char *hash = strchr(line, '#');
         if (hash)
             *hash = 0;
@@ -247,28 +275,52 @@ int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errc
             continue;
         char *eq = strchr(s, '=');
         if (!eq) {
-            snprintf(err, errcap, "%s:%d: expected 'key = value'", path, ln);
-            fclose(f);
+            snprintf(err, errcap, "%s:%d: expected 'key = value'", name, ln);
             return -1;
         }
         *eq = 0;
         char *key = trim(s), *val = trim(eq + 1);
         const opt *o = find_opt(key, strlen(key));
         if (!o || o->type == T_NOT) {
-            snprintf(err, errcap, "%s:%d: unknown key '%s' (see seamtexd --help)", path, ln, key);
-            fclose(f);
+            snprintf(err, errcap, "%s:%d: unknown key '%.64s' (see seamtexd --help)", name, ln, key);
             return -1;
         }
         char e2[256];
         if (set_opt(c, o, val, e2, sizeof e2)) {
-            snprintf(err, errcap, "%s:%d: %s", path, ln, e2);
-            fclose(f);
+            snprintf(err, errcap, "%s:%d: %s", name, ln, e2);
             return -1;
         }
     }
-    fclose(f);
-    snprintf(c->config_file, sizeof c->config_file, "%s", path);
     return 0;
+}
+
+int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errcap)
+{
+    FILE *f = fopen(path, "re");
+    if (!f) {
+        snprintf(err, errcap, "config %s: %s", path, strerror(errno));
+        return -1;
+    }
+    char *buf = malloc(FILE_MAX_BYTES + 1);
+    if (!buf) {
+        fclose(f);
+        snprintf(err, errcap, "config %s: out of memory", path);
+        return -1;
+    }
+    size_t len = fread(buf, 1, FILE_MAX_BYTES + 1, f);
+    int bad = ferror(f);
+    fclose(f);
+    int rc = -1;
+    if (bad)
+        snprintf(err, errcap, "config %s: read error", path);
+    else if (len > FILE_MAX_BYTES)
+        snprintf(err, errcap, "config %s: larger than %u bytes", path, FILE_MAX_BYTES);
+    else
+        rc = sts_config_read_mem(c, buf, len, path, err, errcap);
+    free(buf);
+    if (rc == 0)
+        snprintf(c->config_file, sizeof c->config_file, "%s", path);
+    return rc;
 }
 
 int sts_config_load_token(sts_config *c, char *err, size_t errcap)
@@ -393,6 +445,10 @@ int sts_config_check(const sts_config *c, char *err, size_t errcap)
         snprintf(err, errcap, "conn-out-cap must be at least 64K");
         return -1;
     }
+    if (c->request_min_rate < 1024) {
+        snprintf(err, errcap, "request-min-rate must be at least 1K");
+        return -1;
+    }
     return 0;
 }
 
@@ -461,7 +517,7 @@ void sts_config_help(void *file)
         "\n"
         "Security: binds 127.0.0.1 unless told otherwise. With a token, UPLOAD_*, DELETE,\n"
         "COMPRESS and JOB_CANCEL need it (HELLO carries it); reads stay open. Set names are\n"
-        "1..64 characters of A-Z a-z 0-9 . _ - not starting with '.'.\n"
+        "1..255 bytes of A-Z a-z 0-9 . _ - not starting with '.'.\n"
         "\n"
         "Examples:\n"
         "  seamtexd --data-dir /var/lib/seamtex\n"

@@ -26,6 +26,9 @@ typedef struct sts_config {
     char     config_file[1024]; /* where the settings came from, "" = none */
     uint32_t max_conns;         /* connections at once; more are refused with BUSY */
     uint32_t idle_timeout;      /* seconds without traffic before a connection is closed; 0 = never */
+    uint32_t request_timeout;   /* seconds a request frame may take from its first byte to its
+                                   last (plus its body at request_min_rate); 0 = no deadline */
+    uint64_t request_min_rate;  /* bytes/s a request body must at least arrive at */
     uint64_t max_frame;         /* largest request body accepted (bytes) */
     uint64_t max_upload;        /* largest uploaded file (bytes) */
     uint32_t deadline_ms;       /* server-side deadline per request (0 = none) */
@@ -36,7 +39,8 @@ typedef struct sts_config {
     uint32_t split_batch;       /* SAMPLE batches of this many queries or more are split with
                                    idle workers (0 = never) */
     uint64_t conn_out_cap;      /* pending reply bytes per connection before reading pauses */
-    uint64_t max_memory;        /* all connection buffers together (bytes) */
+    uint64_t max_memory;        /* all connection buffers and open fetches together (bytes) */
+    uint64_t conn_fetch_cap;    /* bytes of open fetches per connection */
     uint32_t max_sets;          /* names in the registry */
     uint32_t max_uploads;       /* unfinished uploads at once (kept ones included) */
     uint32_t upload_keep;       /* seconds an unfinished upload outlives its connection */
@@ -62,6 +66,12 @@ int sts_config_from_args(sts_config *c, int argc, char **argv, char *err, size_t
 /* Reads a config file into c (keys override what c holds). 0 or -1 with a message naming the
  * file and line. */
 int sts_config_read_file(sts_config *c, const char *path, char *err, size_t errcap);
+
+/* The parser of sts_config_read_file on len bytes in memory (name is used in messages; the
+ * file reader adds the 1 MiB file cap and sets config_file). A line over 2047 bytes or a NUL
+ * byte is an error. */
+int sts_config_read_mem(sts_config *c, const char *buf, size_t len, const char *name, char *err,
+                        size_t errcap);
 
 /* Reads token_file into token when set. 0 or -1. */
 int sts_config_load_token(sts_config *c, char *err, size_t errcap);

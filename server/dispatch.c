@@ -18,11 +18,21 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dispatch.h"
+#include "h_basic.h"
+#include "h_jobs.h"
+#include "h_upload.h"
+#include "io.h"
+#include "opstats.h"
 #include "server.h"
+#include "workers.h"
 
 /* Body caps per opcode, bytes (io.c refuses a longer body with TOO_LARGE before reading it);
  * 0 = only the server's max-frame. Each request's largest legal body fits: e.g. INFO is
- * 2 + 255 + 8 bytes, COMPRESS 2 + 255 + 2 + 255 + 2, UPLOAD_BEGIN 1315 at most. */
+ * 2 + 255 + 8 bytes, COMPRESS 2 + 255 + 2 + 255 + 2, UPLOAD_BEGIN 1315 at most. UPLOAD_CHUNK's
+ * is its 20-byte head + max_chunk, so a chunk over max_chunk is TOO_LARGE (and skipped) like
+ * any body over a cap, never a second status. PROTOCOL.md 2.2 prints this table;
+ * tests/unit/test_protodoc.c checks that it does, row by row. */
 enum {
     STS_CAP_HELLO         = 4096,
     STS_CAP_PING          = 0,
@@ -32,7 +42,7 @@ enum {
     STS_CAP_SAMPLE_DIR    = 0,
     STS_CAP_STATS         = 64,
     STS_CAP_UPLOAD_BEGIN  = 2048,
-    STS_CAP_UPLOAD_CHUNK  = STP_DEFAULT_MAX_CHUNK + 64,
+    STS_CAP_UPLOAD_CHUNK  = STP_DEFAULT_MAX_CHUNK + 20,   /* exactly a max_chunk chunk */
     STS_CAP_UPLOAD_COMMIT = 64,
     STS_CAP_UPLOAD_ABORT  = 64,
     STS_CAP_UPLOAD_STATUS = 64,
@@ -126,9 +136,49 @@ int sts_status_from_st(int st_code)
     }
 }
 
+/* A server path starts with '/' (the daemon makes every folder it writes to absolute at
+ * start: server.c) at the start of the text or after one of these, and is followed by a
+ * byte that is not a space (a lone "/" in prose is not a path). */
+static int path_starts(const char *msg, const char *p)
+{
+    if (p[0] != '/' || p[1] == 0 || p[1] == ' ')
+        return 0;
+    return p == msg || strchr(" '\"(<[=,:", p[-1]) != NULL;
+}
+
+/* A path ends at a space, a quote, a closing bracket, a comma or semicolon, or ": ". */
+static const char *path_end(const char *p)
+{
+    while (*p && !strchr(" '\")]>,;", *p) && !(p[0] == ':' && (p[1] == ' ' || !p[1])))
+        p++;
+    return p;
+}
+
+size_t sts_scrub_paths(const char *msg, char *out, size_t cap)
+{
+    static const char HIDDEN[] = "(server file)";
+    size_t n = 0;
+    if (!cap)
+        return 0;
+    for (const char *p = msg ? msg : ""; *p && n + 1 < cap;) {
+        if (path_starts(msg, p)) {
+            p = path_end(p);
+            for (const char *q = HIDDEN; *q && n + 1 < cap; q++)
+                out[n++] = *q;
+        } else {
+            out[n++] = *p++;
+        }
+    }
+    out[n] = 0;
+    return n;
+}
+
 void sts_reply_error(stp_buf *out, const stp_header *h, int status, const char *msg)
 {
-    stp_enc_error(out, h->opcode, h->reqid, (uint16_t)status, msg ? msg : "");
+    /* the one place every error text leaves the server: no server path gets through */
+    char clean[STP_MAX_MSG + 1];
+    sts_scrub_paths(msg, clean, sizeof clean);
+    stp_enc_error(out, h->opcode, h->reqid, (uint16_t)status, clean);
 }
 
 int sts_reply_bad(stp_buf *out, const stp_header *h, int status, const char *why)
@@ -148,13 +198,16 @@ void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *ms
 int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t *body)
 {
     sts_server *srv = io->srv;
+    int64_t t0 = sts_opstats_now_us();   /* request parsed: its latency starts here */
+    size_t before = stp_buf_avail(&conn->out);   /* not len: appending may compact */
+    int r = 0;
     STS_STAT_ADD(srv, requests, 1);
     STS_STAT_ADD(srv, by_op[h->opcode], 1);
     if (h->flags & STP_F_REPLY) {
         STS_STAT_ADD(srv, bad_requests, 1);
         STS_STAT_ADD(srv, replies_error, 1);
         sts_reply_error(&conn->out, h, STP_S_BAD_REQUEST, "REPLY flag set in a request");
-        return 0;
+        goto replied;
     }
     const sts_handler *hd = sts_handler_find(h->opcode);
     if (!hd) {
@@ -163,7 +216,7 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         char msg[64];
         snprintf(msg, sizeof msg, "unknown opcode 0x%02x", h->opcode);
         sts_reply_error(&conn->out, h, STP_S_UNKNOWN_OPCODE, msg);
-        return 0;
+        goto replied;
     }
     if ((hd->flags & STS_H_MUTATING) && !sts_token_allows(srv, conn->authed)) {
         STS_STAT_ADD(srv, perm_denied, 1);
@@ -171,7 +224,10 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         char msg[128];
         snprintf(msg, sizeof msg, "%s needs the server's token (send it in HELLO)", hd->name);
         sts_reply_error(&conn->out, h, STP_S_PERM, msg);
-        return 0;
+        if (h->opcode >= STP_OP_UPLOAD_BEGIN && h->opcode <= STP_OP_UPLOAD_COMMIT)
+            sts_logf(&srv->log, STS_WARN, "upload from %s refused at %s (PERM): no token",
+                     conn->peer, hd->name);
+        goto replied;
     }
     int heavy = (hd->flags & STS_H_HEAVY) != 0;
     if (hd->flags & STS_H_SIZED) {
@@ -182,13 +238,14 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         sts_task *t = calloc(1, sizeof *t);
         if (!t) {
             sts_reply_error(&conn->out, h, STP_S_NOMEM, "out of memory");
-            return 0;
+            goto replied;
         }
         t->conn = conn;
         t->hd = hd;
         t->h = *h;
         t->body = body;
-        t->start_ms = sts_now_ms();
+        t->start_ms = t0 / 1000;
+        t->start_us = t0;    /* the worker records its reply (workers.c) */
         stp_buf_init(&t->out);
         conn->busy = 1;
         STS_STAT_ADD(srv, worker_tasks, 1);
@@ -196,14 +253,17 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         return 1;
     }
     STS_STAT_ADD(srv, inline_tasks, 1);
-    sts_ctx ctx = {srv, conn, &io->scratch, sts_now_ms()};
-    size_t before = conn->out.len;
-    int r = hd->fn(&ctx, h, body, &conn->out);
-    if (conn->out.len > before && conn->out.len - before >= STP_HEADER_SIZE) {
-        /* count error replies: status is at offset 12 of the frame just written */
-        const uint8_t *f = conn->out.data + before;
+    sts_ctx ctx = {srv, conn, &io->scratch, t0 / 1000};
+    r = hd->fn(&ctx, h, body, &conn->out) ? 2 : 0;
+    size_t added = stp_buf_avail(&conn->out) - before;
+    if (added >= STP_HEADER_SIZE) {
+        /* count error replies: status is at offset 12 of the frame just written, which ends
+         * the buffer (appending may have moved the pending bytes to the front) */
+        const uint8_t *f = conn->out.data + conn->out.len - added;
         if (stp_rd16(f + 12) != STP_S_OK)
             STS_STAT_ADD(srv, replies_error, 1);
     }
-    return r ? 2 : 0;
+replied:
+    sts_opstats_record(&srv->opstats, h->opcode, t0, &conn->out, before);
+    return r;
 }

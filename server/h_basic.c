@@ -2,7 +2,8 @@
  * SAMPLE, SAMPLE_DIR.
  *
  * Owns: decoding their bodies (through protocol/), reading the registry, sampling into the
- * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c).
+ * thread's scratch, encoding replies. Does not own: uploads, jobs (h_upload.c, h_jobs.c),
+ * the per-opcode counters STATS reports (opstats.c).
  * Every handler appends exactly one frame to `out`.
  */
 #include <stdio.h>
@@ -11,7 +12,12 @@
 #include <string.h>
 
 #include "cube.h"
+#include "dispatch.h"
+#include "h_basic.h"
+#include "io.h"
+#include "opstats.h"
 #include "server.h"
+#include "workers.h"
 
 /* Looks a set up by a name the decoder has already held to the name rule (protocol/stp_name.h:
  * a bad name was answered INVALID before the handler ran); replies NOT_FOUND itself and
@@ -236,7 +242,10 @@ STP_DTYPES(SAME_DTYPE)
 #undef SAME
 
 /* Request parameters -> sampler options; -1 for a mode, filter or zero rule the protocol does
- * not define (the sampler then never sees it). */
+ * not define (the sampler then never sees it), or for a sharpness, width or blur out of its
+ * range (PROTOCOL.md 4.4: sharpness 0..1, width and blur 0..1e4, NaN never), whatever the
+ * filter: only the Ptex filters use them, but a value no filter could take is refused for
+ * every filter, so a client's bad value does not wait for a filter change to surface. */
 static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
 {
     memset(o, 0, sizeof *o);
@@ -250,6 +259,11 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) ||
         !stp_zero_rule_name(p->zero_rule) ||
         p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
+        return -1;
+    /* written so that NaN fails every test */
+    if (!(p->sharpness >= 0.0f && p->sharpness <= 1.0f) ||
+        !(p->width >= 0.0f && p->width <= ST_MAX_DERIV) ||
+        !(p->blur >= 0.0f && p->blur <= ST_MAX_DERIV))
         return -1;
     return 0;
 }
@@ -349,7 +363,9 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
 {
     st_sample_opts o;
     if (fill_opts(&rq->p, &o) != 0)
-        return sts_reply_bad(out, h, STP_S_INVALID, "unknown mode, filter, zero_rule or outfmt, or max_aniso > 16");
+        return sts_reply_bad(out, h, STP_S_INVALID,
+                             "unknown mode, filter, zero_rule or outfmt, max_aniso over 16, or "
+                             "sharpness (0..1), width or blur (0..1e4) out of range");
     st_setref *ref = get_set(c, h, rq->p.name, out);
     if (!ref)
         return 0;
@@ -485,8 +501,12 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
         return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
     sts_server *srv = c->srv;
-    enum { cap = 192 };
-    stp_stat s[cap];
+    size_t cap = 192 + sts_opstats_max_keys(); /* with the budget's keys (budget.c) */
+    stp_stat *s = malloc(cap * sizeof *s);
+    if (!s) {
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
     size_t n = 0;
     U("uptime_ms", (uint64_t)(sts_now_ms() - srv->started_ms));
     U("conns_current", __atomic_load_n(&srv->nconns, __ATOMIC_RELAXED));
@@ -525,6 +545,10 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     U("jobs_failed", L(jobs_failed));
     U("jobs_canceled", L(jobs_canceled));
     U("fetches", L(fetches));
+    U("fetches_refused", L(fetches_refused));
+    U("fetch_memory", __atomic_load_n(&srv->fetch_mem, __ATOMIC_RELAXED));
+    U("conns_request_timeout", L(conns_request_timeout));
+    U("conns_evicted", L(conns_evicted));
     U("buffer_memory", __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED));
     U("sets", st_registry_count(srv->reg));
     U("set_memory", st_registry_memory(srv->reg));
@@ -548,10 +572,12 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
                 *p = (char)(*p - 'A' + 'a');
         U(key, v);
     }
+    n += sts_opstats_report(&srv->opstats, s + n, cap - n);
     stp_stats_reply r;
     memset(&r, 0, sizeof r);
     r.count = (uint32_t)n;
     r.stats = s;
     stp_enc_stats_reply(out, h->reqid, &r);
+    free(s);
     return 0;
 }

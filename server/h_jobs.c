@@ -1,9 +1,10 @@
 /* server/h_jobs.c - COMPRESS jobs (BC1 re-encoding on the job thread) and FETCH handles.
  *
- * Owns: the job table (queued, running and recently finished jobs), the job thread, progress
- * and cancel plumbing into st_bc1_compress_set, persisting a finished BC1 set as a DDS file in
- * the data dir; the per-connection fetch handles (a set serialised once to .ptx or .dds in
- * memory, read in chunks). Does not own: the BC1 encoder, the writers (store/).
+ * Owns: the jobs (queued, running and recently finished) in their handle table, the job
+ * thread, progress and cancel plumbing into st_bc1_compress_set, persisting a finished BC1
+ * set as a DDS file in the data dir; the per-connection fetch handles in srv->fetches (a set
+ * serialised once to .ptx or .dds in memory, read in chunks). Does not own: the handle table
+ * itself (handles.c: ids, owner, capacity, lock), the BC1 encoder, the writers (store/).
  *
  * Jobs run one at a time on their own thread (the encoder may use threads of its own), so a
  * long compression never occupies the workers that answer requests. Finished jobs stay
@@ -15,17 +16,32 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "ptex.h"
-#include "server.h"
 #include "bc1.h"
 #include "bc1_measure.h"
+#include "export.h"
+#include "dispatch.h"
+#include "h_jobs.h"
+#include "handles.h"
+#include "io.h"
+#include "ptex.h"
+#include "server.h"
 
 #define KEEP_FINISHED 256
 #define MAX_FETCHES   256
 
-struct sts_job {
-    uint64_t    id;
-    int         state;         /* stp_job_state, under jobs.mu */
+/* Jobs are in jobs->table with owner 0 (any connection may ask about or cancel a job) and
+ * count against max-jobs while queued or running. */
+typedef struct sts_jobs {
+    sts_handles    table;      /* its mutex guards the jobs' states and `stop` */
+    pthread_cond_t cv;         /* the job thread waits here for queued jobs */
+    int            stop;
+    pthread_t      thread;
+    int            started;
+} sts_jobs;
+
+typedef struct sts_job {
+    sts_handle  hd;            /* first: id, owner 0, live while queued or running */
+    int         state;         /* stp_job_state, under jobs->table.mu */
     uint32_t    progress_bits; /* float bits, atomic */
     uint16_t    result;
     char        msg[STP_MAX_MSG + 1];
@@ -33,15 +49,24 @@ struct sts_job {
     st_setref  *src;
     char        target[ST_NAME_MAX + 1];
     uint8_t     level, flags;
-    sts_job    *next;
-};
+} sts_job;
 
-struct sts_fetch {
-    uint64_t   id, conn_id;
+/* Fetches are in srv->fetches, owned by the connection that opened them. */
+typedef struct sts_fetch {
+    sts_handle hd;             /* first: id, owner connection */
     uint8_t   *data;
     size_t     len;
-    sts_fetch *next;
-};
+} sts_fetch;
+
+#define JOB(h)   ((sts_job *)(h))     /* sts_handle is the first member of both */
+#define FETCH(h) ((sts_fetch *)(h))
+
+static int every(sts_handle *h, void *arg)
+{
+    (void)h;
+    (void)arg;
+    return 1;
+}
 
 /* ---- the job thread ---------------------------------------------------------------------- */
 
@@ -102,12 +127,15 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
             rc = st_datadir_tmpfile(srv->dd, path, sizeof path, &fd, e);
             if (rc == 0) {
                 size_t done = 0;
+                int werr = 0;
                 while (done < len) {
                     ssize_t w = write(fd, buf + done, len - done);
                     if (w < 0 && errno == EINTR)
                         continue;
-                    if (w <= 0)
+                    if (w <= 0) {
+                        werr = w < 0 ? errno : EIO;
                         break;
+                    }
                     done += (size_t)w;
                 }
                 close(fd);
@@ -115,7 +143,7 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
                 if (done != len) {
                     st_datadir_discard(path);
                     st_set_free(bc1);
-                    return st_fail(e, ST_EIO, "writing the DDS file failed");
+                    return st_fail(e, ST_EIO, "writing the DDS file failed: %s", strerror(werr));
                 }
                 pub_arg pa = {srv, bc1, e};
                 rc = st_datadir_commit_set(srv->dd, j->target, path, "dds", "", len,
@@ -130,7 +158,7 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
             return rc;
         }
         sts_logf(&srv->log, STS_WARN, "job %llu: '%s' has no DDS form (%s); kept in memory only",
-                 (unsigned long long)j->id, j->target, e->msg);
+                 (unsigned long long)j->hd.id, j->target, e->msg);
     }
     return st_registry_put(srv->reg, j->target, bc1, NULL, STS_LIVE(srv, max_sets), NULL, e);
 }
@@ -154,11 +182,11 @@ static void run_job(sts_server *srv, sts_job *j)
     st_error_clear(&me);
     int measured = rc == 0 && st_bc1_measure(j->src->set, bc1, o.step, &q, &me) == 0;
     if (rc == 0 && !measured)
-        sts_logf(&srv->log, STS_WARN, "job %llu: no quality report: %s", (unsigned long long)j->id,
+        sts_logf(&srv->log, STS_WARN, "job %llu: no quality report: %s", (unsigned long long)j->hd.id,
                  me.msg);
     if (rc == 0)
         rc = store_result(srv, j, bc1, &e);
-    pthread_mutex_lock(&srv->jobs.mu);
+    sts_handles_lock(&srv->jobs->table);
     j->result = (uint16_t)sts_status_from_st(rc);
     j->state = rc == 0 ? STP_JOB_DONE : rc == ST_ECANCELED ? STP_JOB_CANCELED : STP_JOB_FAILED;
     if (rc == 0 && measured && q.nseams)
@@ -171,9 +199,9 @@ static void run_job(sts_server *srv, sts_job *j)
     else if (rc == 0)
         snprintf(j->msg, sizeof j->msg, "created set '%s'", j->target);
     else
-        snprintf(j->msg, sizeof j->msg, "%s", e.msg[0] ? e.msg : st_strerror(rc));
-    srv->jobs.active--;
-    pthread_mutex_unlock(&srv->jobs.mu);
+        sts_scrub_paths(e.msg[0] ? e.msg : st_strerror(rc), j->msg, sizeof j->msg);
+    sts_handles_retire_locked(&srv->jobs->table, &j->hd);
+    sts_handles_unlock(&srv->jobs->table);
     if (rc == 0)
         STS_STAT_ADD(srv, jobs_done, 1);
     else if (rc == ST_ECANCELED)
@@ -181,7 +209,7 @@ static void run_job(sts_server *srv, sts_job *j)
     else
         STS_STAT_ADD(srv, jobs_failed, 1);
     sts_logf(&srv->log, rc ? STS_WARN : STS_INFO, "job %llu (compress '%s' -> '%s'): %s",
-             (unsigned long long)j->id, j->src->name, j->target, j->msg);
+             (unsigned long long)j->hd.id, j->src->name, j->target, j->msg);
     st_setref_release(j->src);
     j->src = NULL;
 }
@@ -189,52 +217,55 @@ static void run_job(sts_server *srv, sts_job *j)
 static void *job_main(void *arg)
 {
     sts_server *srv = arg;
-    sts_jobs *J = &srv->jobs;
-    pthread_mutex_lock(&J->mu);
+    sts_jobs *J = srv->jobs;
+    sts_handles_lock(&J->table);
     for (;;) {
         sts_job *next = NULL;
-        for (sts_job *j = J->list; j; j = j->next)  /* newest first: take the oldest queued */
-            if (j->state == STP_JOB_QUEUED)
-                next = j;
+        for (sts_handle *h = J->table.list; h; h = h->next)  /* newest first: the oldest queued */
+            if (JOB(h)->state == STP_JOB_QUEUED)
+                next = JOB(h);
         if (!next) {
             if (J->stop)
                 break;
-            pthread_cond_wait(&J->cv, &J->mu);
+            pthread_cond_wait(&J->cv, &J->table.mu);
             continue;
         }
         if (next->cancel) {
             next->state = STP_JOB_CANCELED;
             next->result = STP_S_CANCELED;
             snprintf(next->msg, sizeof next->msg, "canceled before it started");
-            J->active--;
+            sts_handles_retire_locked(&J->table, &next->hd);
             st_setref_release(next->src);
             next->src = NULL;
             STS_STAT_ADD(srv, jobs_canceled, 1);
             continue;
         }
         next->state = STP_JOB_RUNNING;
-        pthread_mutex_unlock(&J->mu);
+        sts_handles_unlock(&J->table);
         run_job(srv, next);
-        pthread_mutex_lock(&J->mu);
+        sts_handles_lock(&J->table);
         /* prune finished jobs past KEEP_FINISHED */
         unsigned finished = 0;
-        for (sts_job **pp = &J->list; *pp;) {
-            sts_job *j = *pp;
-            if (j->state >= STP_JOB_DONE && ++finished > KEEP_FINISHED) {
-                *pp = j->next;
-                free(j);
-            } else {
-                pp = &j->next;
+        for (sts_handle *h = J->table.list, *n; h; h = n) {
+            n = h->next;
+            if (JOB(h)->state >= STP_JOB_DONE && ++finished > KEEP_FINISHED) {
+                sts_handles_unlink_locked(&J->table, h);
+                free(h);
             }
         }
     }
-    pthread_mutex_unlock(&J->mu);
+    sts_handles_unlock(&J->table);
     return NULL;
 }
 
 int sts_jobs_start(sts_server *srv)
 {
-    sts_jobs *J = &srv->jobs;
+    sts_jobs *J = calloc(1, sizeof *J);
+    if (!J)
+        return -1;
+    sts_handles_init(&J->table);
+    pthread_cond_init(&J->cv, NULL);
+    srv->jobs = J;
     if (pthread_create(&J->thread, NULL, job_main, srv) != 0)
         return -1;
     J->started = 1;
@@ -243,27 +274,32 @@ int sts_jobs_start(sts_server *srv)
 
 void sts_jobs_stop(sts_server *srv)
 {
-    sts_jobs *J = &srv->jobs;
-    pthread_mutex_lock(&J->mu);
-    J->stop = 1;
-    for (sts_job *j = J->list; j; j = j->next)
-        j->cancel = 1;  /* a stopping server does not wait for long compressions */
-    pthread_cond_broadcast(&J->cv);
-    pthread_mutex_unlock(&J->mu);
-    if (J->started)
-        pthread_join(J->thread, NULL);
-    J->started = 0;
-    while (J->list) {
-        sts_job *j = J->list;
-        J->list = j->next;
-        st_setref_release(j->src);
-        free(j);
+    sts_jobs *J = srv->jobs;
+    if (J) {
+        sts_handles_lock(&J->table);
+        J->stop = 1;
+        for (sts_handle *h = J->table.list; h; h = h->next)
+            /* a stopping server does not wait for long compressions; atomic: the encoder
+             * threads read it without the lock */
+            __atomic_store_n(&JOB(h)->cancel, 1, __ATOMIC_RELAXED);
+        pthread_cond_broadcast(&J->cv);
+        sts_handles_unlock(&J->table);
+        if (J->started)
+            pthread_join(J->thread, NULL);
+        for (sts_handle *h = sts_handles_unlink_if(&J->table, every, NULL), *n; h; h = n) {
+            n = h->next;
+            st_setref_release(JOB(h)->src);
+            free(h);
+        }
+        sts_handles_destroy(&J->table);
+        pthread_cond_destroy(&J->cv);
+        free(J);
+        srv->jobs = NULL;
     }
-    while (J->fetches) {
-        sts_fetch *f = J->fetches;
-        J->fetches = f->next;
-        free(f->data);
-        free(f);
+    for (sts_handle *h = sts_handles_unlink_if(&srv->fetches, every, NULL), *n; h; h = n) {
+        n = h->next;
+        free(FETCH(h)->data);
+        free(h);
     }
 }
 
@@ -306,22 +342,21 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     j->level = rq.level;
     j->flags = rq.flags;
     j->state = STP_JOB_QUEUED;
-    pthread_mutex_lock(&srv->jobs.mu);
-    if (srv->jobs.active >= STS_LIVE(srv, max_jobs)) {
-        pthread_mutex_unlock(&srv->jobs.mu);
+    sts_jobs *J = srv->jobs;
+    sts_handles_lock(&J->table);
+    int full = sts_handles_add_locked(&J->table, &j->hd, STS_LIVE(srv, max_jobs)) != 0;
+    uint64_t id = j->hd.id;   /* the job thread may finish and prune it once unlocked */
+    if (!full)
+        pthread_cond_signal(&J->cv);
+    sts_handles_unlock(&J->table);
+    if (full) {
         st_setref_release(src);
         free(j);
         sts_reply_error(out, h, STP_S_BUSY, "too many compress jobs (max-jobs)");
         return 0;
     }
-    j->id = ++srv->jobs.next_id;
-    j->next = srv->jobs.list;
-    srv->jobs.list = j;
-    srv->jobs.active++;
-    pthread_cond_signal(&srv->jobs.cv);
-    pthread_mutex_unlock(&srv->jobs.mu);
     STS_STAT_ADD(srv, jobs_started, 1);
-    stp_enc_id_reply(out, h->opcode, h->reqid, j->id);
+    stp_enc_id_reply(out, h->opcode, h->reqid, id);
     return 0;
 }
 
@@ -336,15 +371,13 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
         return sts_reply_bad(out, h, st, why);
     stp_job_status r;
     memset(&r, 0, sizeof r);
-    int found = 0;
-    pthread_mutex_lock(&srv->jobs.mu);
-    for (sts_job *j = srv->jobs.list; j; j = j->next) {
-        if (j->id != id)
-            continue;
-        found = 1;
+    sts_handles_lock(&srv->jobs->table);
+    sts_job *j = JOB(sts_handles_find_locked(&srv->jobs->table, id, STS_ANY_OWNER));
+    int found = j != NULL;
+    if (j) {
         if (cancel && j->state <= STP_JOB_RUNNING)
-            j->cancel = 1;
-        r.job_id = j->id;
+            __atomic_store_n(&j->cancel, 1, __ATOMIC_RELAXED);  /* read by the encoder */
+        r.job_id = j->hd.id;
         r.state = (uint8_t)j->state;
         uint32_t bits = __atomic_load_n(&j->progress_bits, __ATOMIC_RELAXED);
         memcpy(&r.progress, &bits, 4);
@@ -355,9 +388,8 @@ static int job_reply(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
                  j->state == STP_JOB_QUEUED ? (j->cancel ? "cancel requested" : "queued")
                  : j->state == STP_JOB_RUNNING ? (j->cancel ? "cancel requested" : "running")
                  : j->msg);
-        break;
     }
-    pthread_mutex_unlock(&srv->jobs.mu);
+    sts_handles_unlock(&srv->jobs->table);
     if (!found) {
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such job");
         return 0;
@@ -378,46 +410,104 @@ int sts_h_job_cancel(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
 
 /* ---- FETCH ------------------------------------------------------------------------------------ */
 
+/* The FETCH formats are the store's export formats, number for number (proto_lists.h). */
+#define SAME_FETCH(NAME, str, v) \
+    _Static_assert((int)STP_FETCH_##NAME == (int)ST_EXPORT_##NAME, "fetch format " str);
+STP_FETCH_FORMATS(SAME_FETCH)
+#undef SAME_FETCH
+
+/* Open fetches hold their serialised file in memory: it counts against max-memory together
+ * with the connection buffers (srv->mem_used + srv->fetch_mem) and, per connection, against
+ * conn-fetch-cap. Reserves n bytes; 0, or -1 when they do not fit. */
+static int fetch_mem_take(sts_server *srv, uint64_t n)
+{
+    uint64_t max = STS_LIVE(srv, max_memory);
+    uint64_t cur = __atomic_load_n(&srv->fetch_mem, __ATOMIC_RELAXED);
+    do {
+        uint64_t bufs = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED);
+        if (bufs + cur + n > max)
+            return -1;
+    } while (!__atomic_compare_exchange_n(&srv->fetch_mem, &cur, cur + n, 1, __ATOMIC_RELAXED,
+                                          __ATOMIC_RELAXED));
+    return 0;
+}
+
+static void fetch_mem_give(sts_server *srv, uint64_t n)
+{
+    __atomic_sub_fetch(&srv->fetch_mem, n, __ATOMIC_RELAXED);
+}
+
+static void fetch_free(sts_server *srv, sts_fetch *f)
+{
+    fetch_mem_give(srv, f->len);
+    free(f->data);
+    free(f);
+}
+
+static int owned_by(sts_handle *h, void *arg)
+{
+    return h->owner == *(const uint64_t *)arg;
+}
+
 void sts_fetch_drop_conn(sts_server *srv, uint64_t conn_id)
 {
-    sts_fetch *drop = NULL;
-    pthread_mutex_lock(&srv->jobs.mu);
-    for (sts_fetch **pp = &srv->jobs.fetches; *pp;) {
-        sts_fetch *f = *pp;
-        if (f->conn_id == conn_id) {
-            *pp = f->next;
-            f->next = drop;
-            drop = f;
-            srv->jobs.nfetches--;
-        } else {
-            pp = &f->next;
-        }
-    }
-    pthread_mutex_unlock(&srv->jobs.mu);
-    while (drop) {
-        sts_fetch *n = drop->next;
-        free(drop->data);
-        free(drop);
-        drop = n;
+    for (sts_handle *h = sts_handles_unlink_if(&srv->fetches, owned_by, &conn_id), *n; h; h = n) {
+        n = h->next;
+        fetch_free(srv, FETCH(h));
     }
 }
 
 static sts_fetch *find_fetch(sts_server *srv, uint64_t id, uint64_t conn_id, int take)
 {
-    sts_fetch *found = NULL;
-    pthread_mutex_lock(&srv->jobs.mu);
-    for (sts_fetch **pp = &srv->jobs.fetches; *pp; pp = &(*pp)->next) {
-        if ((*pp)->id == id && (*pp)->conn_id == conn_id) {
-            found = *pp;
-            if (take) {
-                *pp = found->next;
-                srv->jobs.nfetches--;
-            }
-            break;
-        }
+    sts_handles_lock(&srv->fetches);
+    sts_handle *f = sts_handles_find_locked(&srv->fetches, id, conn_id);
+    if (f && take)
+        sts_handles_unlink_locked(&srv->fetches, f);
+    sts_handles_unlock(&srv->fetches);
+    return FETCH(f);
+}
+
+/* Bytes of the fetches this connection holds open. Only the connection itself opens or
+ * closes its fetches and it runs one request at a time, so the sum cannot change under a
+ * FETCH_OPEN of the same connection. */
+static uint64_t conn_fetch_bytes(sts_server *srv, uint64_t conn_id)
+{
+    uint64_t sum = 0;
+    sts_handles_lock(&srv->fetches);
+    for (sts_handle *h = srv->fetches.list; h; h = h->next)
+        if (h->owner == conn_id)
+            sum += FETCH(h)->len;
+    sts_handles_unlock(&srv->fetches);
+    return sum;
+}
+
+/* Refuses a FETCH_OPEN for memory: TOO_LARGE when the file alone can never fit (over
+ * conn-fetch-cap or max-memory), BUSY when it would fit once other fetches are closed. */
+static void fetch_refuse_mem(sts_ctx *c, const stp_header *h, stp_buf *out, const char *name,
+                             uint64_t bytes, uint64_t held, int estimate)
+{
+    const char *what = estimate ? "needs up to" : "serialised is";
+    sts_server *srv = c->srv;
+    uint64_t cap = STS_LIVE(srv, conn_fetch_cap), max = STS_LIVE(srv, max_memory);
+    char msg[400];
+    int status;
+    if (bytes > cap || bytes > max) {
+        status = STP_S_TOO_LARGE;
+        snprintf(msg, sizeof msg, "set '%s' %s %llu bytes, over %s %llu", name, what,
+                 (unsigned long long)bytes, bytes > cap ? "conn-fetch-cap" : "max-memory",
+                 (unsigned long long)(bytes > cap ? cap : max));
+    } else if (held + bytes > cap) {
+        status = STP_S_BUSY;
+        snprintf(msg, sizeof msg, "set '%s' (%llu bytes) with this connection's open fetches "
+                 "(%llu bytes) passes conn-fetch-cap %llu: close a fetch first", name,
+                 (unsigned long long)bytes, (unsigned long long)held, (unsigned long long)cap);
+    } else {
+        status = STP_S_BUSY;
+        snprintf(msg, sizeof msg, "set '%s' (%llu bytes): server memory is at max-memory; "
+                 "retry", name, (unsigned long long)bytes);
     }
-    pthread_mutex_unlock(&srv->jobs.mu);
-    return found;
+    STS_STAT_ADD(srv, fetches_refused, 1);
+    sts_reply_error(out, h, status, msg);
 }
 
 int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
@@ -435,52 +525,58 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
         sts_reply_st(out, h, e.code ? e.code : ST_ENOTFOUND, e.msg);
         return 0;
     }
-    uint8_t *data = NULL;
-    size_t len = 0;
-    int rc;
-    if (rq.format == STP_FETCH_PTX) {
-        void *buf = NULL;
-        rc = ref->set->info.kind == ST_KIND_PERFACE
-                 ? st_ptex_write_mem(ref->set, &buf, &len, &e)
-                 : st_fail(&e, ST_EUNSUPPORTED, "only per-face sets are fetched as .ptx (try dds)");
-        data = buf;
-    } else if (rq.format == STP_FETCH_DDS) {
-        rc = ref->set->info.kind == ST_KIND_BC1
-                 ? st_dds_write_mem(ref->set, &data, &len, &e)
-                 : st_fail(&e, ST_EUNSUPPORTED, "only BC1 sets are fetched as .dds (COMPRESS first)");
-    } else {
-        rc = st_fail(&e, ST_EINVAL, "format must be 0 (ptx) or 1 (dds)");
-    }
-    st_setref_release(ref);
-    if (rc) {
-        free(data);
-        sts_reply_st(out, h, rc, e.msg);
+    /* room first, for an estimate (the set's memory: a file holds no more than its set,
+     * except meshes as text, settled below), so that serialising itself stays in the caps */
+    uint64_t cap = STS_LIVE(srv, conn_fetch_cap);
+    uint64_t held = conn_fetch_bytes(srv, c->conn->id);
+    uint64_t reserved = st_set_memory(ref->set);
+    if (held + reserved > cap || fetch_mem_take(srv, reserved) != 0) {
+        fetch_refuse_mem(c, h, out, rq.name, reserved, held, 1);
+        st_setref_release(ref);
         return 0;
     }
+    void *data = NULL;
+    size_t len = 0;
+    int rc = st_export_mem(ref->set, rq.format, srv->tmpdir, &data, &len, &e);
+    st_setref_release(ref);
+    if (rc) {
+        fetch_mem_give(srv, reserved);
+        free(data);
+        char msg[sizeof e.msg + STP_MAX_NAME + 16];
+        snprintf(msg, sizeof msg, "set '%s': %s", rq.name, e.msg[0] ? e.msg : st_strerror(rc));
+        sts_reply_st(out, h, rc, msg);
+        return 0;
+    }
+    /* hold exactly the file's size from now on */
+    if (len > reserved && (held + len > cap || fetch_mem_take(srv, len - reserved) != 0)) {
+        fetch_mem_give(srv, reserved);
+        free(data);
+        fetch_refuse_mem(c, h, out, rq.name, len, held, 0);
+        return 0;
+    }
+    if (len < reserved)
+        fetch_mem_give(srv, reserved - len);
     sts_fetch *f = calloc(1, sizeof *f);
     if (!f) {
+        fetch_mem_give(srv, len);
         free(data);
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
         return 0;
     }
     f->data = data;
     f->len = len;
-    f->conn_id = c->conn->id;
-    pthread_mutex_lock(&srv->jobs.mu);
-    if (srv->jobs.nfetches >= MAX_FETCHES) {
-        pthread_mutex_unlock(&srv->jobs.mu);
-        free(data);
-        free(f);
-        sts_reply_error(out, h, STP_S_BUSY, "too many open fetches");
+    f->hd.owner = c->conn->id;
+    sts_handles_lock(&srv->fetches);
+    int full = sts_handles_add_locked(&srv->fetches, &f->hd, MAX_FETCHES) != 0;
+    sts_handles_unlock(&srv->fetches);
+    if (full) {
+        fetch_free(srv, f);
+        STS_STAT_ADD(srv, fetches_refused, 1);
+        sts_reply_error(out, h, STP_S_BUSY, "too many open fetches (256 on the server)");
         return 0;
     }
-    f->id = ++srv->jobs.next_fetch;
-    f->next = srv->jobs.fetches;
-    srv->jobs.fetches = f;
-    srv->jobs.nfetches++;
-    pthread_mutex_unlock(&srv->jobs.mu);
     STS_STAT_ADD(srv, fetches, 1);
-    stp_fetch_open_reply r = {f->id, len, stp_crc32c(0, data, len), STP_DEFAULT_MAX_CHUNK};
+    stp_fetch_open_reply r = {f->hd.id, len, stp_crc32c(0, data, len), STP_DEFAULT_MAX_CHUNK};
     stp_enc_fetch_open_reply(out, h->reqid, &r);
     return 0;
 }
@@ -502,8 +598,10 @@ int sts_h_fetch_read(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
         sts_reply_error(out, h, STP_S_INVALID, "offset is past the end of the file");
         return 0;
     }
+    /* max_len 0 = as much as one reply holds (max_chunk), as LIST's max 0: so a reply with
+     * len 0 always means the end of the file (PROTOCOL.md 4.10) */
     size_t n = f->len - rq.offset;
-    if (n > rq.max_len)
+    if (rq.max_len && n > rq.max_len)
         n = rq.max_len;
     if (n > STP_DEFAULT_MAX_CHUNK)
         n = STP_DEFAULT_MAX_CHUNK;
@@ -524,8 +622,7 @@ int sts_h_fetch_close(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_
         sts_reply_error(out, h, STP_S_NOT_FOUND, "no such fetch on this connection");
         return 0;
     }
-    free(f->data);
-    free(f);
+    fetch_free(c->srv, f);
     stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
     return 0;
 }

@@ -1,9 +1,10 @@
-/* server/h_upload.c - the upload handlers, DELETE, and loading the data dir at start.
+/* server/h_upload.c - the upload handlers and DELETE.
  *
- * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format
- * (sts_import_path), publishing a committed set, the data-dir load callback. Does not own:
- * the table of uploads and their life (uploads.c), the on-disk commit protocol
- * (store/datadir.c), the registry (store/registry.c), the file readers (store/import.c).
+ * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format and options
+ * (sts_import_path, also used by the start-up load), publishing a committed set. Does not
+ * own: the table of uploads and their life (uploads.c), loading the data dir at start
+ * (startup.c), the on-disk commit protocol (store/datadir.c), the registry
+ * (store/registry.c), the file readers (store/import.c).
  *
  * Chunks must come in order. COMMIT checks size and CRC32C, imports the file (the set is
  * validated before anything is published), commits it to the data dir (fsync + rename, see
@@ -17,11 +18,14 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "server.h"
-#include "uploads.h"
+#include "dispatch.h"
+#include "h_upload.h"
 #include "import.h"
-#include "native.h"
+#include "io.h"
 #include "ptex.h"
+#include "server.h"
+#include "stp_name.h"
+#include "uploads.h"
 
 /* ---- importing --------------------------------------------------------------------------- */
 
@@ -40,66 +44,56 @@ static const char *sniff_ext(const uint8_t *p, size_t n)
     return "obj";  /* text without magic: the only text format the importer reads */
 }
 
+/* The upload options through the store's one grammar (st_import_opts_parse, import.h), the
+ * texture name held to the set-name rule (protocol/stp_name.h). Used at UPLOAD_BEGIN (so a bad
+ * option is refused before any chunk is sent), at COMMIT and at start-up: one grammar.
+ * ST_EINVAL with the parser's message. */
+static int parse_options(const char *options, st_import_opts *o, char *texture, size_t cap,
+                         st_error *e)
+{
+    int rc = st_import_opts_parse(options, o, texture, cap, e);
+    if (rc == 0 && texture[0]) {
+        int pr = stp_name_check(texture, strlen(texture), NULL);
+        if (pr != STP_NAME_OK)
+            rc = st_fail(e, ST_EINVAL, "texture=%.64s: %s", texture, stp_name_problem_text(pr));
+    }
+    return rc;
+}
+
+/* A format hint must be a source format the data dir can record (st_format_check) that the
+ * importer knows by its extension (st_import_detect: the store's one list). */
+static int hint_check(const char *hint, st_error *e)
+{
+    st_error ignore;
+    char probe[STP_MAX_HINT + 3];
+    snprintf(probe, sizeof probe, "x.%s", hint);
+    if (st_format_check(hint, &ignore) != 0 || st_import_detect("", 0, probe) == ST_FMT_AUTO)
+        return st_fail(e, ST_EINVAL, "format hint '%.15s' is not a format the server imports "
+                       "(ptx penv exr png jpg jpeg tif tiff hdr tga bmp obj drc dds ...; empty: "
+                       "detect)", hint);
+    return 0;
+}
+
 int sts_import_path(sts_server *srv, const char *path, const char *fmt, const char *options,
                     st_set **out, st_error *e)
 {
-    size_t max_bytes = (size_t)STS_LIVE(srv, max_set_bytes);
     *out = NULL;
     (void)fmt; /* the importer goes by the content's magic (the extension came from it) */
     st_import_opts o;
     st_import_opts_init(&o);
-    o.max_bytes = max_bytes;
+    o.max_bytes = (size_t)STS_LIVE(srv, max_set_bytes);
+    char texture[STP_MAX_NAME + 1];
+    int rc = parse_options(options, &o, texture, sizeof texture, e);
+    if (rc)
+        return rc;
     st_setref *tex = NULL;
-    char opts[STP_MAX_OPTIONS + 1];
-    snprintf(opts, sizeof opts, "%s", options ? options : "");
-    for (char *save = NULL, *tok = strtok_r(opts, " ", &save); tok; tok = strtok_r(NULL, " ", &save)) {
-        char *eq = strchr(tok, '=');
-        if (!eq) {
-            st_setref_release(tex);
-            return st_fail(e, ST_EINVAL, "option '%s' is not key=value", tok);
-        }
-        *eq = 0;
-        const char *k = tok, *v = eq + 1;
-        if (!strcmp(k, "texture")) {
-            st_setref_release(tex);
-            tex = NULL;
-            if (st_registry_get(srv->reg, v, &tex, NULL) != 0)
-                return st_fail(e, ST_EBUSY, "texture set '%.64s' is not loaded (upload it first)", v);
-            o.texture = tex->set;
-        } else if (!strcmp(k, "cube")) {
-            char kind[32];
-            unsigned size = 0;
-            snprintf(kind, sizeof kind, "%s", v);
-            char *colon = strchr(kind, ':');
-            if (colon) {
-                *colon = 0;
-                size = (unsigned)strtoul(colon + 1, NULL, 10);
-            }
-            static const struct { const char *n; int v; } kinds[] = {
-                {"none", ST_IMPORT_CUBE_NONE}, {"auto", ST_IMPORT_CUBE_AUTO},
-                {"strip_v", ST_IMPORT_CUBE_STRIP_V}, {"strip_h", ST_IMPORT_CUBE_STRIP_H},
-                {"cross_h", ST_IMPORT_CUBE_CROSS_H}, {"cross_v", ST_IMPORT_CUBE_CROSS_V},
-                {"latlong", ST_IMPORT_CUBE_LATLONG}, {"ptex", ST_IMPORT_CUBE_PTEX}};
-            int found = -1;
-            for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
-                if (!strcmp(kinds[i].n, kind))
-                    found = kinds[i].v;
-            if (found < 0) {
-                st_setref_release(tex);
-                return st_fail(e, ST_EINVAL, "cube=%s: not one of none auto strip_v strip_h "
-                               "cross_h cross_v latlong ptex", kind);
-            }
-            o.cube = (uint8_t)found;
-            o.face_size = size;
-        } else if (!strcmp(k, "colorspace")) {
-            o.colorspace = !strcmp(v, "srgb") ? ST_IMPORT_CS_SRGB
-                         : !strcmp(v, "linear") ? ST_IMPORT_CS_LINEAR : ST_IMPORT_CS_AUTO;
-        } else {
-            st_setref_release(tex);
-            return st_fail(e, ST_EINVAL, "unknown option '%s' (texture, cube, colorspace)", k);
-        }
+    if (texture[0]) {
+        if (st_registry_get(srv->reg, texture, &tex, NULL) != 0)
+            return st_fail(e, ST_EBUSY, "texture set '%.64s' is not loaded (upload it first)",
+                           texture);
+        o.texture = tex->set;
     }
-    int rc = st_import_file(path, &o, out, e);
+    rc = st_import_file(path, &o, out, e);
     st_setref_release(tex);
     return rc;
 }
@@ -124,83 +118,31 @@ static int publish_cb(void *arg, const st_manifest *m, const char *source_path)
                            &pa->replaced, pa->e);
 }
 
-typedef struct load_arg {
-    sts_server *srv;
-    int         failed;
-} load_arg;
-
-static int import_cb(void *arg, const st_manifest *m, const char *source_path, st_set **out,
-                     st_error *e)
-{
-    load_arg *la = arg;
-    int rc = sts_import_path(la->srv, source_path, m->format, m->options, out, e);
-    if (rc && rc != ST_EBUSY)
-        sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s' (%s) does not import: %s",
-                 m->name, source_path, e->msg);
-    return rc;
-}
-
-static int load_publish_cb(void *arg, const st_manifest *m, st_set *set, st_error *e)
-{
-    load_arg *la = arg;
-    st_set_source src = {m->bytes, m->crc, m->format};
-    int mapped = set && set->map;
-    int rc = st_registry_put(la->srv->reg, m->name, set, &src, 0, NULL, e);
-    if (rc)
-        sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s': %s", m->name, e->msg);
-    else
-        sts_logf(&la->srv->log, STS_DEBUG, "data dir: loaded '%s' (%s, %llu bytes, %s)", m->name,
-                 m->format, (unsigned long long)m->bytes, mapped ? "native file" : "in memory");
-    return rc;
-}
-
-static void report_cb(void *arg, const char *name, const char *why)
-{
-    load_arg *la = arg;
-    la->failed++;
-    sts_logf(&la->srv->log, STS_WARN, "data dir: set '%s': %s", name, why);
-}
-
-static void note_cb(void *arg, const char *name, const char *what)
-{
-    load_arg *la = arg;
-    if (name[0])
-        sts_logf(&la->srv->log, STS_INFO, "data dir: set '%s': %s", name, what);
-    else
-        sts_logf(&la->srv->log, STS_INFO, "data dir: %s", what);
-}
-
-int sts_load_datadir(sts_server *srv)
-{
-    if (!srv->dd)
-        return 0;
-    load_arg la = {srv, 0};
-    st_error e;
-    st_error_clear(&e);
-    int built = 0;
-    int64_t t0 = sts_now_ms();
-    st_datadir_loader L = {.arg = &la, .import = import_cb, .publish = load_publish_cb,
-                           .report = report_cb, .note = note_cb,
-                           .native_flags = srv->cfg.verify_native ? ST_NATIVE_VERIFY : 0,
-                           .no_native = !srv->cfg.native, .built = &built};
-    int n = st_datadir_load_sets(srv->dd, &L, &e);
-    if (n < 0) {
-        sts_logf(&srv->log, STS_ERROR, "data dir %s: %s", st_datadir_path(srv->dd), e.msg);
-        return n;
-    }
-    if (srv->cfg.native)
-        sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets loaded (%d mapped from native files, "
-                 "%d native files built), %d set aside or cleaned, %lld ms",
-                 st_datadir_path(srv->dd), n, n - built, built, la.failed,
-                 (long long)(sts_now_ms() - t0));
-    else
-        sts_logf(&srv->log, STS_INFO, "data dir %s: %d sets imported (--native no), %d set aside "
-                 "or cleaned, %lld ms", st_datadir_path(srv->dd), n, la.failed,
-                 (long long)(sts_now_ms() - t0));
-    return n;
-}
-
 /* ---- handlers -------------------------------------------------------------------------------- */
+
+/* Refuses an upload request: the reply (its text through sts_reply_error, which keeps server
+ * paths out) and a log line at WARN, the default level shows it, with the peer, the stage and
+ * the reason (the log may name server paths: `logwhy`, NULL = the reply's text). */
+static void refuse(sts_ctx *c, const stp_header *h, stp_buf *out, const char *name, int status,
+                   const char *why, const char *logwhy)
+{
+    const char *op = stp_opcode_name(h->opcode);
+    sts_reply_error(out, h, status, why);
+    sts_logf(&c->srv->log, STS_WARN, "upload%s%.255s%s from %s refused at %s (%s): %s",
+             name && *name ? " of '" : "", name ? name : "", name && *name ? "'" : "",
+             c->conn->peer, op ? op : "?", stp_status_name(status) ? stp_status_name(status) : "?",
+             logwhy ? logwhy : why);
+}
+
+/* The same with a decoder's reason, as sts_reply_bad words it ("<OPCODE>: <why>"). */
+static int refuse_bad(sts_ctx *c, const stp_header *h, stp_buf *out, int status, const char *why)
+{
+    const char *op = stp_opcode_name(h->opcode);
+    char msg[200];
+    snprintf(msg, sizeof msg, "%s: %s", op ? op : "request", why ? why : "malformed body");
+    refuse(c, h, out, NULL, status, msg, NULL);
+    return 0;
+}
 
 int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
 {
@@ -209,22 +151,34 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     const char *why = NULL;
     int st = stp_dec_upload_begin(body, h->body_len, &rq, &why);
     if (st)
-        return sts_reply_bad(out, h, st, why);
+        return refuse_bad(c, h, out, st, why);
     st_error e;   /* rq.name follows the name rule: stp_dec_upload_begin checked it */
     st_error_clear(&e);
-    if (rq.hint[0] && st_format_check(rq.hint, &e) != 0) {
-        sts_reply_st(out, h, ST_EINVAL, e.msg);
+    if (rq.hint[0] && hint_check(rq.hint, &e) != 0) {
+        refuse(c, h, out, rq.name, STP_S_INVALID, e.msg, NULL);
         return 0;
     }
     for (const char *p = rq.options; *p; p++)
-        if ((unsigned char)*p < 0x20 || (unsigned char)*p > 0x7e)
-            return sts_reply_bad(out, h, STP_S_INVALID, "options must be printable ASCII");
+        if ((unsigned char)*p < 0x20 || (unsigned char)*p > 0x7e) {
+            refuse(c, h, out, rq.name, STP_S_INVALID, "options must be printable ASCII", NULL);
+            return 0;
+        }
+    {
+        /* the options are checked now, with the grammar COMMIT uses, before any chunk */
+        st_import_opts o;
+        char texture[STP_MAX_NAME + 1];
+        st_import_opts_init(&o);
+        if (parse_options(rq.options, &o, texture, sizeof texture, &e) != 0) {
+            refuse(c, h, out, rq.name, STP_S_INVALID, e.msg, NULL);
+            return 0;
+        }
+    }
     uint64_t max_up = STS_LIVE(srv, max_upload);
     if (rq.total_size > max_up) {
         char msg[128];
         snprintf(msg, sizeof msg, "upload of %llu bytes is over max-upload %llu",
                  (unsigned long long)rq.total_size, (unsigned long long)max_up);
-        sts_reply_error(out, h, STP_S_TOO_LARGE, msg);
+        refuse(c, h, out, rq.name, STP_S_TOO_LARGE, msg, NULL);
         return 0;
     }
     if (rq.flags & STP_UF_RESUME) {
@@ -240,8 +194,8 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
             return 0;
         }
         if (found < 0) {
-            sts_reply_error(out, h, STP_S_BUSY, "that upload is held by another connection or "
-                            "being committed (retry shortly)");
+            refuse(c, h, out, rq.name, STP_S_BUSY, "that upload is held by another connection "
+                   "or being committed (retry shortly)", NULL);
             return 0;
         }
         /* nothing to resume: a fresh upload, received 0 */
@@ -250,13 +204,14 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         st_setref *ref = NULL;
         if (st_registry_get(srv->reg, rq.name, &ref, NULL) == 0) {
             st_setref_release(ref);
-            sts_reply_error(out, h, STP_S_EXISTS, "a set of that name exists (use REPLACE)");
+            refuse(c, h, out, rq.name, STP_S_EXISTS, "a set of that name exists (use REPLACE)",
+                   NULL);
             return 0;
         }
     }
     sts_upload *u = calloc(1, sizeof *u);
     if (!u) {
-        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        refuse(c, h, out, rq.name, STP_S_NOMEM, "out of memory", NULL);
         return 0;
     }
     u->fd = -1;
@@ -267,31 +222,29 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     u->total = rq.total_size;
     u->crc_want = rq.crc32c;
     u->flags = rq.flags & ~(uint32_t)STP_UF_RESUME;
-    u->conn_id = c->conn->id;
+    u->hd.owner = c->conn->id;
     int rc;
     if (srv->dd) {
         rc = st_datadir_tmpfile(srv->dd, u->path, sizeof u->path, &u->fd, &e);
     } else {
-        const char *tmp = getenv("TMPDIR");
-        snprintf(u->path, sizeof u->path, "%s/seamtexd-upload-XXXXXX", tmp && *tmp ? tmp : "/tmp");
+        snprintf(u->path, sizeof u->path, "%s/seamtexd-upload-XXXXXX", srv->tmpdir);
         u->fd = mkostemp(u->path, O_CLOEXEC);
-        rc = u->fd < 0 ? st_fail(&e, ST_EIO, "temp file: %s", strerror(errno)) : 0;
-        if (rc)
-            u->path[0] = 0;
+        rc = u->fd < 0 ? st_fail(&e, ST_EIO, "temp file %s: %s", u->path, strerror(errno)) : 0;
     }
     if (rc) {
         u->path[0] = 0;
         sts_upload_free(u);
-        sts_reply_st(out, h, rc, e.msg);
+        refuse(c, h, out, rq.name, sts_status_from_st(rc), e.msg, NULL);
         return 0;
     }
     if (sts_uploads_insert(srv, u) != 0) {
         sts_upload_free(u);
-        sts_reply_error(out, h, STP_S_BUSY, "too many uploads in progress (max-uploads)");
+        refuse(c, h, out, rq.name, STP_S_BUSY, "too many uploads in progress (max-uploads)",
+               NULL);
         return 0;
     }
     STS_STAT_ADD(srv, uploads_begun, 1);
-    stp_upload_begin_reply r = {u->id, 0, STP_DEFAULT_MAX_CHUNK};
+    stp_upload_begin_reply r = {u->hd.id, 0, STP_DEFAULT_MAX_CHUNK};
     stp_enc_upload_begin_reply(out, h->reqid, &r);
     return 0;
 }
@@ -302,22 +255,27 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     const char *why = NULL;
     int st = stp_dec_upload_chunk(body, h->body_len, &rq, &why);
     if (st)
-        return sts_reply_bad(out, h, st, why);
+        return refuse_bad(c, h, out, st, why);
     /* only this connection uses the upload, and its requests run one at a time */
     sts_upload *u = sts_uploads_find(c->srv, rq.upload_id, c->conn->id, 0);
     if (!u) {
-        sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
+        refuse(c, h, out, NULL, STP_S_NOT_FOUND, "no such upload on this connection", NULL);
         return 0;
     }
     if (rq.offset != u->received) {
         char msg[128];
         snprintf(msg, sizeof msg, "chunk offset %llu, the server has %llu bytes",
                  (unsigned long long)rq.offset, (unsigned long long)u->received);
-        sts_reply_error(out, h, STP_S_INVALID, msg);
+        refuse(c, h, out, u->name, STP_S_INVALID, msg, NULL);
         return 0;
     }
-    if (rq.len > STP_DEFAULT_MAX_CHUNK || rq.len > u->total - u->received) {
-        sts_reply_error(out, h, STP_S_INVALID, "chunk passes the announced size or max_chunk");
+    if (rq.len > STP_DEFAULT_MAX_CHUNK) {
+        /* not reached through io.c (the body cap is max_chunk + 20): the same status */
+        refuse(c, h, out, u->name, STP_S_TOO_LARGE, "chunk is over max_chunk", NULL);
+        return 0;
+    }
+    if (rq.len > u->total - u->received) {
+        refuse(c, h, out, u->name, STP_S_INVALID, "chunk passes the announced total_size", NULL);
         return 0;
     }
     size_t done = 0;
@@ -326,9 +284,10 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         if (w < 0 && errno == EINTR)
             continue;
         if (w <= 0) {
-            char msg[128];
+            char msg[128], logmsg[sizeof u->path + 128];
             snprintf(msg, sizeof msg, "write: %s", strerror(errno));
-            sts_reply_error(out, h, STP_S_IO, msg);
+            snprintf(logmsg, sizeof logmsg, "write %s: %s", u->path, strerror(errno));
+            refuse(c, h, out, u->name, STP_S_IO, msg, logmsg);
             return 0;
         }
         done += (size_t)w;
@@ -341,6 +300,31 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
     return 0;
 }
 
+/* A store message about the upload's temp file, for the reply: every mention of the file
+ * becomes "upload '<name>'", and a message that does not mention it starts with that, so the
+ * reply names the set and the reason (sts_reply_error then hides any other server path). */
+static void name_for_path(const char *msg, const char *path, const char *name, char *out,
+                          size_t cap)
+{
+    size_t n = 0, pl = strlen(path);
+    char who[ST_NAME_MAX + 16];
+    snprintf(who, sizeof who, "upload '%s'", name);
+    if (!pl || !strstr(msg, path))
+        n = (size_t)snprintf(out, cap, "%s: ", who);
+    for (const char *p = msg; *p && n + 1 < cap;) {
+        if (pl && !strncmp(p, path, pl)) {
+            for (const char *q = who; *q && n + 1 < cap; q++)
+                out[n++] = *q;
+            p += pl;
+            while (*p && *p != ':' && *p != ' ' && *p != '\'')
+                p++;   /* the extension the commit gave the file */
+        } else {
+            out[n++] = *p++;
+        }
+    }
+    out[n] = 0;
+}
+
 int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
 {
     sts_server *srv = c->srv;
@@ -348,7 +332,7 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     const char *why = NULL;
     int st = stp_dec_id_req(body, h->body_len, &id, &why);
     if (st)
-        return sts_reply_bad(out, h, st, why);
+        return refuse_bad(c, h, out, st, why);
     stp_upload_done again;
     if (sts_uploads_done_reply(srv, id, c->conn->id, &again)) {
         /* committed before and its reply lost (taken over with RESUME): the same reply */
@@ -357,22 +341,22 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     }
     sts_upload *u = sts_uploads_find(srv, id, c->conn->id, 2);
     if (!u) {
-        sts_reply_error(out, h, STP_S_NOT_FOUND, "no such upload on this connection");
+        refuse(c, h, out, NULL, STP_S_NOT_FOUND, "no such upload on this connection", NULL);
         return 0;
     }
     st_error e;
     st_error_clear(&e);
-    char msg[400];
+    char msg[sizeof e.msg + ST_NAME_MAX + 64];
     if (u->received != u->total) {
         snprintf(msg, sizeof msg, "upload has %llu of %llu bytes", (unsigned long long)u->received,
                  (unsigned long long)u->total);
-        sts_reply_error(out, h, STP_S_INVALID, msg);
+        refuse(c, h, out, u->name, STP_S_INVALID, msg, NULL);
         goto fail;
     }
     if (u->crc != u->crc_want) {
         snprintf(msg, sizeof msg, "CRC32C of the upload is %08x, %08x was announced", u->crc,
                  u->crc_want);
-        sts_reply_error(out, h, STP_S_CORRUPT, msg);
+        refuse(c, h, out, u->name, STP_S_CORRUPT, msg, NULL);
         goto fail;
     }
     close(u->fd);
@@ -386,6 +370,8 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
             close(fd);
         snprintf(u->fmt, sizeof u->fmt, "%s", sniff_ext(head, n > 0 ? (size_t)n : 0));
     }
+    char tmp_path[sizeof u->path];   /* the name the store's messages use for the file */
+    snprintf(tmp_path, sizeof tmp_path, "%s", u->path);
     {
         char named[sizeof u->path];
         size_t pl = strlen(u->path), fl = strlen(u->fmt);
@@ -402,7 +388,8 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     if (rc) {
         if (rc == ST_EBUSY)
             rc = ST_ENOTFOUND;  /* a texture= set that is not there */
-        sts_reply_st(out, h, rc, e.msg);
+        name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+        refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
         goto fail;
     }
     /* two uploads of one new name must not both succeed: check and commit under one lock */
@@ -414,14 +401,15 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         if (exists && !(u->flags & STP_UF_REPLACE)) {
             pthread_mutex_unlock(&srv->commit_mu);
             st_set_free(set);
-            sts_reply_error(out, h, STP_S_EXISTS, "a set of that name exists (use REPLACE)");
+            refuse(c, h, out, u->name, STP_S_EXISTS, "a set of that name exists (use REPLACE)",
+                   NULL);
             goto fail;
         }
         /* refuse before the disk commit, so a set is never on disk but not served */
         if (!exists && st_registry_count(srv->reg) >= STS_LIVE(srv, max_sets)) {
             pthread_mutex_unlock(&srv->commit_mu);
             st_set_free(set);
-            sts_reply_error(out, h, STP_S_BUSY, "the server holds max-sets sets");
+            refuse(c, h, out, u->name, STP_S_BUSY, "the server holds max-sets sets", NULL);
             goto fail;
         }
     }
@@ -450,7 +438,8 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     }
     pthread_mutex_unlock(&srv->commit_mu);
     if (rc) {
-        sts_reply_st(out, h, rc, e.msg);
+        name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+        refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
         goto fail;
     }
     STS_STAT_ADD(srv, uploads_committed, 1);

@@ -14,6 +14,7 @@
  * and released as soon as everything is parsed and answered, so an idle connection holds
  * only its struct (~200 bytes) plus the kernel's socket.
  */
+#include <arpa/inet.h>
 #include <errno.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -26,7 +27,12 @@
 #include <unistd.h>
 
 #include "cube.h"
+#include "dispatch.h"
+#include "h_jobs.h"
+#include "io.h"
 #include "server.h"
+#include "uploads.h"
+#include "workers.h"
 
 #define READ_MIN   (16u << 10)   /* free input space guaranteed before a read */
 #define KEEP_SMALL (64u << 10)   /* buffers up to this are released as soon as idle */
@@ -250,6 +256,35 @@ static void refuse(sts_conn *c, const stp_header *h, int status, const char *msg
     STS_STAT_ADD(c->io->srv, replies_error, 1);
 }
 
+/* ---- request deadline ----------------------------------------------------------------------
+ * A request frame must arrive whole within request-timeout seconds of its first byte, plus
+ * its body's size at request-min-rate (a 4 MiB chunk at the default 128 KiB/s: +32 s). A
+ * connection holding a half-sent frame past that is closed (conns_request_timeout), whatever
+ * it trickles: bytes that arrive do not reset this clock (they do reset the idle clock). While
+ * the server does not read the connection (a request on a worker, or backpressure: its unsent
+ * replies over conn-out-cap) the clock is stopped, and it starts again from the next read. */
+
+/* Keeps c->req_start_ms: set when an incomplete frame (or the body of a refused one being
+ * skipped) is left in the input, 0 when there is none or the server is not reading. */
+static void note_partial(sts_conn *c)
+{
+    int partial = c->in.len > c->in.start || c->skip;
+    if (!partial || c->busy || stp_buf_avail(&c->out) > STS_LIVE(c->io->srv, conn_out_cap))
+        c->req_start_ms = 0;
+    else if (!c->req_start_ms)
+        c->req_start_ms = sts_now_ms();
+}
+
+/* Milliseconds the frame in progress may take in all. */
+static int64_t request_allowance_ms(sts_server *srv, const sts_conn *c)
+{
+    uint64_t body = c->skip;
+    if (!body && c->in.len - c->in.start >= STP_HEADER_SIZE)
+        body = stp_rd32(c->in.data + c->in.start + 16);
+    uint64_t rate = STS_LIVE(srv, request_min_rate);
+    return (int64_t)STS_LIVE(srv, request_timeout) * 1000 + (int64_t)(body * 1000 / (rate ? rate : 1));
+}
+
 /* Parses and answers every complete frame in the input (see the file comment). */
 static void conn_process(sts_conn *c)
 {
@@ -264,6 +299,7 @@ static void conn_process(sts_conn *c)
             c->skip -= n;
             if (c->skip)
                 break;
+            c->req_start_ms = 0;   /* the refused frame is over */
             continue;
         }
         if (avail == 0)
@@ -327,6 +363,7 @@ static void conn_process(sts_conn *c)
             break;
         }
         c->last_ms = sts_now_ms();
+        c->req_start_ms = 0;   /* the frame is whole: its deadline is met */
         int d = sts_dispatch(c->io, c, &h, head + STP_HEADER_SIZE);
         if (d == 1)
             break;  /* on a worker: the frame stays in the buffer until the reply is back */
@@ -336,6 +373,7 @@ static void conn_process(sts_conn *c)
         if (stp_buf_avail(&c->out) >= FLUSH_AT)
             try_send(c);
     }
+    note_partial(c);
 }
 
 static void conn_readable(sts_conn *c)
@@ -382,6 +420,90 @@ static void conn_readable(sts_conn *c)
         set_interest(c);
 }
 
+/* ---- eviction ------------------------------------------------------------------------------
+ * When max-conns is reached, a new connection is not refused while a connection holds a
+ * half-sent frame that began at least EVICT_AGE_MS ago: the one whose frame began first (the
+ * slowest sender) is closed with a BUSY frame (conns_evicted) and the new one takes its slot.
+ * Each I/O thread publishes its oldest candidate once a second (idle_scan); the accepting
+ * thread evicts its own candidate at once, or asks the thread that owns an older one (claiming
+ * the published value, so one candidate serves one newcomer). Only when no connection is half-
+ * sent is the newcomer refused with BUSY. */
+#define EVICT_AGE_MS 1000
+
+/* The connection of this thread whose partial frame began first, at least EVICT_AGE_MS ago. */
+static sts_conn *oldest_partial(sts_io *io, int64_t now)
+{
+    sts_conn *best = NULL;
+    for (sts_conn *c = io->conns; c; c = c->next)
+        if (!c->busy && !c->dead && c->req_start_ms && now - c->req_start_ms >= EVICT_AGE_MS &&
+            (!best || c->req_start_ms < best->req_start_ms))
+            best = c;
+    return best;
+}
+
+/* Closes c with a frame (opcode HELLO, reqid 0) that says why. */
+static void close_with(sts_conn *c, int status, const char *msg)
+{
+    stp_header h;
+    memset(&h, 0, sizeof h);
+    h.opcode = STP_OP_HELLO;
+    sts_reply_error(&c->out, &h, status, msg);
+    try_send(c);
+    conn_close(c);
+}
+
+static void evict(sts_conn *c, int64_t now)
+{
+    sts_server *srv = c->io->srv;
+    STS_STAT_ADD(srv, conns_evicted, 1);
+    sts_logf(&srv->log, STS_INFO, "connection from %s evicted for a new one (max-conns): a "
+             "request frame incomplete for %lld ms", c->peer, (long long)(now - c->req_start_ms));
+    close_with(c, STP_S_BUSY, "evicted: a request frame incomplete for over a second while the "
+               "server is at max-conns");
+}
+
+/* Frees a slot for a newcomer on `io`; 1 when one is (being) freed. */
+static int evict_for(sts_io *io)
+{
+    sts_server *srv = io->srv;
+    int64_t now = sts_now_ms();
+    sts_conn *own = oldest_partial(io, now);
+    sts_io *other = NULL;
+    int64_t other_t = 0;
+    for (uint32_t i = 0; i < srv->nio; i++) {
+        sts_io *k = &srv->io[i];
+        int64_t t = k == io ? 0 : __atomic_load_n(&k->oldest_partial_ms, __ATOMIC_RELAXED);
+        if (t && (!other_t || t < other_t)) {
+            other = k;
+            other_t = t;
+        }
+    }
+    if (own && (!other || own->req_start_ms <= other_t)) {
+        evict(own, now);
+        return 1;
+    }
+    if (other && __atomic_compare_exchange_n(&other->oldest_partial_ms, &other_t, 0, 0,
+                                             __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
+        __atomic_add_fetch(&other->evict_req, 1, __ATOMIC_RELAXED);
+        sts_io_wake(other);
+        return 1;
+    }
+    return 0;
+}
+
+/* Evictions other threads asked of this one (their newcomers are admitted already). */
+static void take_evictions(sts_io *io)
+{
+    uint32_t n = __atomic_exchange_n(&io->evict_req, 0, __ATOMIC_RELAXED);
+    int64_t now = sts_now_ms();
+    while (n--) {
+        sts_conn *c = oldest_partial(io, now);
+        if (!c)
+            break;   /* it finished its frame meanwhile: the table is one over for a while */
+        evict(c, now);
+    }
+}
+
 /* ---- accept ---------------------------------------------------------------------------------- */
 
 static void reject(sts_server *srv, int fd, int status, const char *msg)
@@ -401,11 +523,34 @@ static void reject(sts_server *srv, int fd, int status, const char *msg)
     STS_STAT_ADD(srv, conns_rejected, 1);
 }
 
+/* "1.2.3.4:5678" or "[::1]:5678". */
+static void peer_name(const struct sockaddr_storage *sa, char *out, size_t cap)
+{
+    char a[INET6_ADDRSTRLEN] = "?";
+    unsigned port = 0;
+    if (sa->ss_family == AF_INET) {
+        const struct sockaddr_in *in = (const struct sockaddr_in *)sa;
+        inet_ntop(AF_INET, &in->sin_addr, a, sizeof a);
+        port = ntohs(in->sin_port);
+        snprintf(out, cap, "%s:%u", a, port);
+    } else if (sa->ss_family == AF_INET6) {
+        const struct sockaddr_in6 *in6 = (const struct sockaddr_in6 *)sa;
+        inet_ntop(AF_INET6, &in6->sin6_addr, a, sizeof a);
+        port = ntohs(in6->sin6_port);
+        snprintf(out, cap, "[%s]:%u", a, port);
+    } else {
+        snprintf(out, cap, "(unknown peer)");
+    }
+}
+
 static void do_accept(sts_io *io)
 {
     sts_server *srv = io->srv;
     for (int i = 0; i < 64; i++) {
-        int fd = accept4(srv->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        struct sockaddr_storage sa;
+        socklen_t salen = sizeof sa;
+        int fd = accept4(srv->listen_fd, (struct sockaddr *)&sa, &salen,
+                         SOCK_NONBLOCK | SOCK_CLOEXEC);
         if (fd < 0) {
             if (errno == EMFILE || errno == ENFILE)
                 sts_logf(&srv->log, STS_WARN, "accept: %s (raise the fd limit or max-conns)",
@@ -417,7 +562,7 @@ static void do_accept(sts_io *io)
             continue;
         }
         uint32_t n = __atomic_add_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
-        if (n > STS_LIVE(srv, max_conns)) {
+        if (n > STS_LIVE(srv, max_conns) && !evict_for(io)) {
             __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
             reject(srv, fd, STP_S_BUSY, "too many connections (max-conns)");
             continue;
@@ -434,6 +579,7 @@ static void do_accept(sts_io *io)
         c->io = io;
         c->id = __atomic_add_fetch(&srv->next_conn_id, 1, __ATOMIC_RELAXED);
         c->last_ms = sts_now_ms();
+        peer_name(&sa, c->peer, sizeof c->peer);
         stp_buf_init(&c->out);
         c->ev_mask = STS_EV_READ;
         if (sts_ev_add(io->ev, fd, STS_EV_READ, c) != 0) {
@@ -514,23 +660,40 @@ static void take_completions(sts_io *io)
 
 /* ---- the loop ------------------------------------------------------------------------------ */
 
-/* Once a second: close connections silent for idle-timeout, release the buffers of those
- * quiet for a second. */
+/* Once a second: close connections whose request frame is past its deadline or that were
+ * silent for idle-timeout, release the buffers of those quiet for a second, publish the
+ * oldest half-sent frame (eviction). */
 static void idle_scan(sts_io *io, int64_t now)
 {
-    uint32_t idle = STS_LIVE(io->srv, idle_timeout);
-    sts_uploads_sweep(io->srv, now);
+    sts_server *srv = io->srv;
+    uint32_t idle = STS_LIVE(srv, idle_timeout);
+    int deadline = STS_LIVE(srv, request_timeout) != 0;
+    int64_t oldest = 0;
+    sts_uploads_sweep(srv, now);
     sts_conn *c = io->conns;
     while (c) {
         sts_conn *next = c->next;
-        if (!c->busy && idle && now - c->last_ms > (int64_t)idle * 1000) {
+        if (deadline && !c->busy && !c->dead && c->req_start_ms &&
+            now - c->req_start_ms > request_allowance_ms(srv, c)) {
+            STS_STAT_ADD(srv, conns_request_timeout, 1);
+            sts_logf(&srv->log, STS_INFO, "connection from %s closed: a request frame "
+                     "incomplete %lld ms after its first byte (request-timeout)", c->peer,
+                     (long long)(now - c->req_start_ms));
+            close_with(c, STP_S_TIMEOUT, "a request frame did not arrive whole within "
+                       "request-timeout: connection closed");
+        } else if (!c->busy && idle && now - c->last_ms > (int64_t)idle * 1000) {
             STS_STAT_ADD(io->srv, conns_idle_closed, 1);
             conn_close(c);
-        } else if (now - c->last_ms >= 1000 && (c->in.data || c->out.data)) {
-            release_idle_buffers(c);
+        } else {
+            if (now - c->last_ms >= 1000 && (c->in.data || c->out.data))
+                release_idle_buffers(c);
+            if (!c->busy && c->req_start_ms && now - c->req_start_ms >= EVICT_AGE_MS &&
+                (!oldest || c->req_start_ms < oldest))
+                oldest = c->req_start_ms;
         }
         c = next;
     }
+    __atomic_store_n(&io->oldest_partial_ms, oldest, __ATOMIC_RELAXED);
 }
 
 /* 1 when the connection is quiet: no request on a worker, no reply unsent, no partial frame
@@ -620,6 +783,8 @@ void *sts_io_main(void *arg)
                     conn_close(c);  /* freed when the worker's reply comes back */
             }
         }
+        if (__atomic_load_n(&io->evict_req, __ATOMIC_RELAXED))
+            take_evictions(io);
         int64_t now = sts_now_ms();
         if (now - last_scan >= 1000) {
             idle_scan(io, now);

@@ -13,5 +13,12 @@ $(B)/seamtexd: $(SERVER_OBJ) $(LIB_PROTO) $(LIB_STORE)
 	@mkdir -p $(@D)
 	$(CC) $(LDFLAGS) -o $@ $(SERVER_OBJ) $(LIB_PROTO) $(LIB_STORE) $(LDLIBS)
 
+# The daemon's objects without main(), for tests that check its tables (tests/unit/
+# test_protodoc.c: PROTOCOL.md's caps table against sts_handler_find).
+LIB_SERVER := $(B)/libseamtexd.a
+$(LIB_SERVER): $(filter-out $(B)/server/main.o,$(SERVER_OBJ))
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
 ALL_BINS     += $(B)/seamtexd
 INSTALL_BINS += $(B)/seamtexd

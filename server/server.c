@@ -1,8 +1,9 @@
 /* server/server.c - the sts_server: creation (registry, data dir, default set, listening
  * socket), thread start, graceful stop, config reload, token and memory accounting.
  *
- * Owns: the server's lifetime. Does not own: signals (main.c), connections (io.c), requests
- * (dispatch.c and the handlers).
+ * Owns: the server's lifetime. Does not own: signals (main.c), loading the data dir's sets
+ * (startup.c), connections (io.c), requests (dispatch.c and the handlers), the tables the
+ * server embeds (handles.c, workers.c, opstats.c).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -17,8 +18,13 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "server.h"
 #include "defaultset.h"
+#include "h_jobs.h"
+#include "io.h"
+#include "server.h"
+#include "startup.h"
+#include "uploads.h"
+#include "workers.h"
 
 int64_t sts_now_ms(void)
 {
@@ -29,7 +35,8 @@ int64_t sts_now_ms(void)
 
 int sts_mem_take(sts_server *srv, uint64_t n)
 {
-    uint64_t used = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED);
+    uint64_t used = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED) +
+                    __atomic_load_n(&srv->fetch_mem, __ATOMIC_RELAXED);
     return used + n > STS_LIVE(srv, max_memory) ? -1 : 0;
 }
 
@@ -113,6 +120,16 @@ static int open_listener(sts_server *srv)
     return 0;
 }
 
+/* path made absolute against the working folder (not resolved: it may not exist yet). */
+static void absolute(const char *path, char *out, size_t cap)
+{
+    char cwd[512];
+    if (path[0] == '/' || !getcwd(cwd, sizeof cwd))
+        snprintf(out, cap, "%s", path);
+    else
+        snprintf(out, cap, "%s/%s", cwd, path);
+}
+
 int sts_server_init(sts_server *srv, const sts_config *cfg)
 {
     memset(srv, 0, sizeof *srv);
@@ -123,9 +140,8 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     sts_log_set_level(&srv->log, cfg->log_level);
     pthread_mutex_init(&srv->cfg_mu, NULL);
     pthread_mutex_init(&srv->commit_mu, NULL);
-    pthread_mutex_init(&srv->uploads.mu, NULL);
-    pthread_mutex_init(&srv->jobs.mu, NULL);
-    pthread_cond_init(&srv->jobs.cv, NULL);
+    sts_handles_init(&srv->uploads);
+    sts_handles_init(&srv->fetches);
     raise_nofile(srv);
     srv->reg = st_registry_create();
     if (!srv->reg) {
@@ -134,8 +150,18 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     }
     st_error e;
     st_error_clear(&e);
+    /* every folder the daemon writes to is absolute, so a path in a store message always
+     * starts with '/' and sts_scrub_paths keeps it out of replies */
+    char absdir[sizeof cfg->data_dir + 512];
     if (cfg->data_dir[0]) {
-        if (st_datadir_open(cfg->data_dir, &srv->dd, &e) != 0) {
+        absolute(cfg->data_dir, absdir, sizeof absdir);
+        snprintf(srv->tmpdir, sizeof srv->tmpdir, "%s/tmp", absdir);
+    } else {
+        const char *t = getenv("TMPDIR");
+        absolute(t && *t ? t : "/tmp", srv->tmpdir, sizeof srv->tmpdir);
+    }
+    if (cfg->data_dir[0]) {
+        if (st_datadir_open(absdir, &srv->dd, &e) != 0) {
             sts_logf(&srv->log, STS_ERROR, "data dir: %s", e.msg);
             return -1;
         }
@@ -272,6 +298,7 @@ void sts_server_free(sts_server *srv)
     if (srv->listen_fd >= 0)
         close(srv->listen_fd);
     sts_uploads_free(srv);
+    sts_handles_destroy(&srv->fetches);   /* emptied by sts_jobs_stop */
     st_registry_free(srv->reg);
     st_datadir_close(srv->dd);
     if (srv->cfg.port_file[0])
@@ -286,6 +313,9 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh)
     int n = sts_config_diff(&srv->cfg, fresh, diff, sizeof diff);
     SET_LIVE(max_conns);
     SET_LIVE(idle_timeout);
+    SET_LIVE(request_timeout);
+    SET_LIVE(request_min_rate);
+    SET_LIVE(conn_fetch_cap);
     SET_LIVE(max_frame);
     SET_LIVE(max_upload);
     SET_LIVE(deadline_ms);

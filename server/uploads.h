@@ -1,10 +1,12 @@
 /* server/uploads.h - the table of uploads and their life (private to the server).
  *
  * Owns: struct sts_upload and its states; finding, adopting (RESUME), keeping, sweeping and
- * dropping uploads. Does not own: the handlers that fill an upload (h_upload.c), the data dir.
+ * dropping uploads, on srv->uploads (a handle table, handles.h: ids, owner, the live count).
+ * Does not own: the handlers that fill an upload (h_upload.c), the data dir, the generic
+ * table (handles.c).
  *
- * Locking: srv->uploads.mu guards the list, the states and uploads.n (the records that are
- * not DONE). A HELD upload is used without the lock by the one connection that holds it (its
+ * Locking: srv->uploads.mu guards the list, the states and the live count (the records that
+ * are not DONE count against max-uploads). A HELD upload is used without the lock by the one connection that holds it (its
  * requests run one at a time); a COMMITTING one by the worker running its COMMIT; KEPT and
  * DONE records are touched only under the lock, since the sweep may drop them at any time.
  *
@@ -15,6 +17,9 @@
 #define STS_UPLOADS_H
 
 #include "server.h"
+#include "handles.h"
+
+typedef struct sts_upload sts_upload;
 
 /* An upload's life: HELD by a connection -> (COMMIT) COMMITTING -> DONE, or -> KEPT when its
  * connection closes (upload-keep > 0) -> HELD again by the connection that resumes it, or
@@ -25,7 +30,7 @@ enum { STS_UP_HELD, STS_UP_COMMITTING, STS_UP_KEPT, STS_UP_DONE };
 #define MAX_DONE 16   /* DONE records kept at most (the oldest goes first) */
 
 struct sts_upload {
-    uint64_t    id, conn_id;
+    sts_handle  hd;          /* first: id, owner connection (conn id; 0 once DONE), live */
     char        name[ST_NAME_MAX + 1];
     char        hint[STP_MAX_HINT + 1];      /* as the client sent it (matched on RESUME) */
     char        fmt[STP_MAX_HINT + 1];       /* the format the file is imported as */
@@ -39,11 +44,18 @@ struct sts_upload {
     stp_upload_done done;    /* DONE: the COMMIT reply */
     int         fd;
     char        path[4096];
-    sts_upload *next;
 };
 
 /* Closes the temp file, removes it (path non-empty) and frees the record. */
 void sts_upload_free(sts_upload *u);
+/* Frees every record (server teardown, no other thread left) and the table's mutex. */
+void sts_uploads_free(sts_server *srv);
+
+/* A closing connection's unfinished uploads are kept for upload-keep seconds (resume), or
+ * dropped when it is 0. Called by its I/O thread. */
+void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id);
+/* Drops kept and DONE uploads older than upload-keep (the I/O threads call it once a second). */
+void sts_uploads_sweep(sts_server *srv, int64_t now_ms);
 
 /* Adds a new HELD record and gives it an id. When the table is full the oldest KEPT upload
  * is dropped to make room; returns -1 (nothing added) when it is full of live uploads. */

@@ -14,7 +14,11 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "dispatch.h"
+#include "io.h"
+#include "opstats.h"
 #include "server.h"
+#include "workers.h"
 
 struct sts_par {
     sts_part_fn fn;
@@ -216,6 +220,7 @@ static void *worker_main(void *arg)
                 stp_rd16(stp_buf_head(&t->out) + 12) != STP_S_OK)
                 STS_STAT_ADD(srv, replies_error, 1);
         }
+        sts_opstats_record(&srv->opstats, t->h.opcode, t->start_us, &t->out, 0);
         sts_io_complete(t->conn->io, t);
     }
     sts_scratch_free(&scratch);

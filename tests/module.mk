@@ -17,7 +17,9 @@
 INC_TESTS := -Itests/common -Iclient -Iserver -Iprotocol $(INC_STORE)
 $(B)/tests/%.o: MODINC := $(INC_TESTS)
 
-TESTUTIL_OBJ := $(patsubst %.c,$(B)/%.o,$(sort $(wildcard tests/common/*.c)))
+# faultpreload.c is an LD_PRELOAD object (it defines write, open, ...): never in the archive
+TESTUTIL_OBJ := $(filter-out $(B)/tests/common/faultpreload.o,\
+                $(patsubst %.c,$(B)/%.o,$(sort $(wildcard tests/common/*.c))))
 LIB_TESTUTIL := $(B)/libtestutil.a
 $(LIB_TESTUTIL): $(TESTUTIL_OBJ)
 	@mkdir -p $(@D)
@@ -34,6 +36,17 @@ BENCH_BINS += $(patsubst tests/bench/%.c,$(B)/bench/%,$(BENCH_SRC))
 $(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
 	@mkdir -p $(@D)
 	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) -lcmocka $(LDLIBS)
+
+# Fault injection (tests/common/faultinject.h): test_faults_* binaries get every wrapped call
+# redirected to the shim; the daemon tests preload libfaultpreload.so into seamtexd.
+FI_WRAP := $(foreach f,malloc calloc realloc strdup aligned_alloc open openat fopen write \
+             pwrite fsync fdatasync rename renameat link mkdir,-Wl,--wrap=$(f))
+$(B)/tests/unit/test_faults_%: LDFLAGS += $(FI_WRAP)
+FAULT_PRELOAD := $(B)/tests/libfaultpreload.so
+$(FAULT_PRELOAD): tests/common/faultpreload.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -std=c11 -O2 -g $(WARN) -fPIC -shared -o $@ $< -ldl -lpthread
+TEST_BINS += $(FAULT_PRELOAD)
 
 $(B)/bench/%: $(B)/tests/bench/%.o $(ST_LINK)
 	@mkdir -p $(@D)
@@ -64,16 +77,24 @@ $(FZ)/obj/%.o: %.cpp
 $(FZ)/libfuzz.a: $(FUZZ_LIB_OBJ)
 	rm -f $@ && ar rcs $@ $^
 
-$(FZ)/fuzz_%: tests/fuzz/fuzz_%.c $(FZ)/libfuzz.a
-	$(FUZZ_CC) $(CPPFLAGS) $(INC_TESTS) -std=c11 $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined \
-		-fno-omit-frame-pointer -o $@ $< $(FZ)/libfuzz.a $(LDLIBS)
+# a target's own file sees what the tests see; the link goes through clang++ so that UBSan's
+# C++ runtime (the vptr checks of the C++ shims: draco.cpp, image_oiio.cpp) is linked in
+$(FZ)/obj/tests/fuzz/%.o: tests/fuzz/%.c
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS) $(INC_TESTS) -std=c11 $(WARN) $(FUZZ_FLAGS) -c $< -o $@
 
-ifeq ($(SAN),1)
+$(FZ)/fuzz_%: $(FZ)/obj/tests/fuzz/fuzz_%.o $(FZ)/libfuzz.a
+	$(FUZZ_CXX) -g -O1 -fsanitize=fuzzer,address,undefined -fno-omit-frame-pointer -o $@ $< \
+		$(FZ)/libfuzz.a $(LDLIBS)
+
+# sanitizer builds (SAN=1, SAN=tsan) leave out the fuzz targets: they have their own tree
+ifneq ($(SAN),0)
 tests-build: $(TEST_BINS) $(ALL_BINS)
 else
 tests-build: $(TEST_BINS) $(ALL_BINS) $(FUZZ_BINS)
 endif
 fuzz-build: $(FUZZ_BINS)
+tsan-build: $(filter $(B)/tests/integration/%,$(TEST_BINS)) $(ALL_BINS)
 bench-build: $(BENCH_BINS) $(ALL_BINS)
 
 .SECONDARY:

@@ -15,14 +15,23 @@
 # Each cmocka binary reports in TAP; a binary that dies (signal, timeout) without reporting
 # every test counts as one more failure.
 #
+# The Python module's tests (python/tests, pytest under Debian's /usr/bin/python3, importing
+# the module from $B/python) are one more job, "pytest_python", when `make python` built it:
+# its "N passed" / "N failed" / "N error" / "N skipped" counts go into the totals, and an exit
+# status other than 0 with no failure counted (no tests collected = 5, interrupted, crashed)
+# counts as one failure. PYTHON3 overrides the interpreter.
+#
 # Fuzz targets run FUZZ_SECONDS each (default 8 in make test) on a corpus seeded from
 # tests/fuzz/seeds/<target>/: a fresh temp copy, thrown away after, except with
 # FUZZ_CORPUS_DIR set (make fuzz: $B/fuzz-corpus/<target>/, kept from one campaign to the next).
+# tests/fuzz/<target>.flags, when present, holds extra libFuzzer flags for that target (one
+# line, e.g. "-max_len=4096" for the slow OpenImageIO target).
 #
 # Environment: ONLY=substr (run only the jobs whose name contains it; "fuzz" matches every fuzz
 # target), TEST_TIMEOUT (seconds per binary, default 900), TEST_JOBS, FUZZ_SECONDS,
-# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak (fuzz: fuzz targets only; soak: test_durability only,
-# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through).
+# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak|tsan (fuzz: fuzz targets only; soak: test_durability only,
+# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through; tsan: the integration tests,
+# TSAN_OPTIONS set to tests/tsan.supp and per-process report files, any report fails).
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -53,17 +62,29 @@ if [ "$MODE" != fuzz ]; then
         src=tests/$(basename "$(dirname "$t")")/$name.c
         [ -f "$src" ] || { echo "note: $t has no $src: not run (stale build)" >&2; continue; }
         [ "$MODE" = soak ] && [ "$name" != test_durability ] && continue
+        [ "$MODE" = tsan ] && [ "$(basename "$(dirname "$t")")" != integration ] && continue
         [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && continue
         jobs+=("test $t")
     done
 fi
-if [ "$MODE" != soak ]; then
+PYTHON3=${PYTHON3:-/usr/bin/python3}
+if [ "$MODE" = test ] && { [ -z "$ONLY" ] || [[ pytest_python == *$ONLY* ]]; }; then
+    if [ -f "$B/python/seamtex/__init__.py" ]; then
+        jobs+=("pytest python/tests")
+    else
+        echo "note: $B/python/seamtex is not built (no python3-dev?): the Python tests are not run" >&2
+    fi
+fi
+if [ "$MODE" != soak ] && [ "$MODE" != tsan ]; then
     for f in $(ls "$B"/fuzz/fuzz_* 2>/dev/null | grep -v '\.[oad]$'); do
         name=$(basename "$f")
         [ -n "$ONLY" ] && [[ "$name" != *$ONLY* ]] && [[ "fuzz" != *$ONLY* ]] && continue
         jobs+=("fuzz $f")
     done
 fi
+
+# the name of a job (its log is $log_dir/<name>.log)
+job_name() { if [ "$1" = pytest ]; then echo pytest_python; else basename "$2"; fi; }
 
 # expected seconds of a job: the last run's, else a guess
 guess() {
@@ -72,7 +93,8 @@ guess() {
     if [ -z "$secs" ]; then
         case "$kind/$name" in
             fuzz/*) secs=$FUZZ_SECONDS ;;
-            test/test_server*|test/test_durability|test/test_client|test/test_cli) secs=30 ;;
+            test/test_server*|test/test_durability|test/test_client|test/test_cli|pytest/*) secs=30 ;;
+            test/test_faults_daemon) secs=60 ;;
             *) secs=5 ;;
         esac
     fi
@@ -85,7 +107,7 @@ while read -r _ kind path; do
     order+=("$kind $path")
 done < <(for j in "${jobs[@]}"; do
              set -- $j
-             printf '%s %s %s\n' "$(guess "$1" "$(basename "$2")")" "$1" "$2"
+             printf '%s %s %s\n' "$(guess "$1" "$(job_name "$1" "$2")")" "$1" "$2"
          done | sort -k1,1gr -s)
 
 # ---- one job -------------------------------------------------------------------------------
@@ -96,6 +118,18 @@ run_test() {
     log=$log_dir/$name.log
     start=$(date +%s.%N)
     timeout -k 10 "$TEST_TIMEOUT" "$t" >"$log" 2>&1
+    rc=$?
+    secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
+    echo "$rc $secs" >"$log_dir/$name.result"
+}
+
+run_pytest() {
+    local name=pytest_python log start rc secs
+    log=$log_dir/$name.log
+    start=$(date +%s.%N)
+    # no .pytest_cache or __pycache__ written into the tree
+    PYTHONDONTWRITEBYTECODE=1 timeout -k 10 "$TEST_TIMEOUT" "$PYTHON3" -m pytest -q \
+        -p no:cacheprovider "$1" >"$log" 2>&1
     rc=$?
     secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
     echo "$rc $secs" >"$log_dir/$name.result"
@@ -112,26 +146,40 @@ run_fuzz() {
         corpus=$(mktemp -d "${TMPDIR:-/tmp}/seamtex-fuzz-$name-XXXXXX")
     fi
     [ -d "tests/fuzz/seeds/$name" ] && cp -r "tests/fuzz/seeds/$name/." "$corpus/"
+    # tests/fuzz/<target>.flags: extra libFuzzer flags of one target (e.g. -max_len)
+    local extra=()
+    [ -f "tests/fuzz/$name.flags" ] && read -r -a extra <"tests/fuzz/$name.flags"
     start=$(date +%s.%N)
     timeout -k 10 $((FUZZ_SECONDS + 60)) "$f" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 \
-        -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
+        "${extra[@]}" -artifact_prefix="$log_dir/$name-" "$corpus" >"$log" 2>&1
     rc=$?
     secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}')
     [ -z "$FUZZ_CORPUS_DIR" ] && rm -rf "$corpus"
     echo "$rc $secs" >"$log_dir/$name.result"
 }
 
+# ---- ThreadSanitizer (make tsan): every process (tests, seamtexd, the CLI) writes its reports
+# to $log_dir/tsan.<pid>; any report is a failure, listed after the summary
+if [ "$MODE" = tsan ]; then
+    rm -f "$log_dir"/tsan.*
+    export TSAN_OPTIONS="suppressions=$ROOT/tests/tsan.supp halt_on_error=0 second_deadlock_stack=1 log_path=$ROOT/$log_dir/tsan ${TSAN_OPTIONS:-}"
+fi
+
 # ---- the pool --------------------------------------------------------------------------------
 t_all=$(date +%s.%N)
 running=0
 for j in "${order[@]}"; do
     set -- $j
-    rm -f "$log_dir/$(basename "$2").result"
+    rm -f "$log_dir/$(job_name "$1" "$2").result"
     if [ "$running" -ge "$TEST_JOBS" ]; then
         wait -n
         running=$((running - 1))
     fi
-    if [ "$1" = fuzz ]; then run_fuzz "$2" & else run_test "$2" & fi
+    case $1 in
+        fuzz) run_fuzz "$2" & ;;
+        pytest) run_pytest "$2" & ;;
+        *) run_test "$2" & ;;
+    esac
     running=$((running + 1))
 done
 wait
@@ -143,7 +191,7 @@ new_durations=$(mktemp)
 [ -f "$durations" ] && cp "$durations" "$new_durations"
 for j in "${jobs[@]}"; do
     set -- $j
-    kind=$1 name=$(basename "$2")
+    kind=$1 name=$(job_name "$1" "$2")
     log=$log_dir/$name.log
     rc=1 secs=0
     [ -f "$log_dir/$name.result" ] && read -r rc secs <"$log_dir/$name.result"
@@ -157,6 +205,22 @@ for j in "${jobs[@]}"; do
             fail=$((fail + 1)); failed_names+=("$name")
             printf '%-40s FAILED (exit %d), see %s\n' "$name" "$rc" "$log"
             grep -E 'ERROR|SUMMARY' "$log" | head -5 | sed 's/^/    /'
+        fi
+        continue
+    fi
+    if [ "$kind" = pytest ]; then
+        # pytest -q closes with e.g. "2 failed, 31 passed, 1 skipped, 1 error in 20.1s"
+        last=$(grep -E '(passed|failed|error|skipped|no tests ran)' "$log" | tail -1)
+        count() { echo "$last" | grep -oE "[0-9]+ $1" | grep -oE '^[0-9]+' | head -1; }
+        p=$(count passed); f=$(count failed); e=$(count 'errors?'); s=$(count skipped)
+        p=${p:-0} f=$(( ${f:-0} + ${e:-0} )) s=${s:-0}
+        if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
+        pass=$((pass + p)); fail=$((fail + f)); skip=$((skip + s))
+        printf '%-40s %4d passed %3d failed %3d skipped  %6ss\n' "$name" "$p" "$f" "$s" "$secs"
+        if [ "$f" -ne 0 ]; then
+            failed_names+=("$name")
+            grep -E '^(FAILED|ERROR)|Error' "$log" | head -20 | sed 's/^/    /'
+            echo "    (exit status $rc; full log in $log)"
         fi
         continue
     fi
@@ -179,6 +243,17 @@ for j in "${jobs[@]}"; do
     fi
 done
 mv "$new_durations" "$durations"
+
+if [ "$MODE" = tsan ]; then
+    reports=$(cat "$log_dir"/tsan.* 2>/dev/null | grep -c '^WARNING: ThreadSanitizer')
+    if [ "$reports" -gt 0 ]; then
+        fail=$((fail + reports)); failed_names+=("tsan")
+        echo "ThreadSanitizer: $reports report(s) in $log_dir/tsan.*:"
+        grep -h -A3 '^WARNING: ThreadSanitizer' "$log_dir"/tsan.* | grep -E 'WARNING|#0' | head -40 | sed 's/^/    /'
+    else
+        echo "ThreadSanitizer: no reports (suppressions: tests/tsan.supp)"
+    fi
+fi
 
 wall=$(awk -v a="$t_all" -v b="$(date +%s.%N)" 'BEGIN{printf "%.0f", b-a}')
 echo "${#jobs[@]} jobs, $TEST_JOBS at a time, ${wall}s"

@@ -90,7 +90,8 @@ int main(void)
            " * Optimal single-colour BC1 endpoints: [v] = {q0, q1} with (2*e(q0)+e(q1))/3 (exact,\n"
            " * truncating) closest to v; the cluster fit's 1/determinant of every split of 16\n"
            " * texels of weight 1 into four (4-colour) and three (3-colour) runs (-1: not a valid\n"
-           " * split). Included by bc1_encode.c only. */\n"
+           " * split). Included by the block encoder only (bc1_encode.c, bc1_cluster.c,\n"
+           " * bc1_encode_avx2.c). */\n"
            "#ifndef ST_BC1_TABLES_H\n#define ST_BC1_TABLES_H\n\n#include <stdint.h>\n\n");
     table(5, "st_bc1_single5");
     printf("\n");

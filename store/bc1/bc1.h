@@ -1,5 +1,6 @@
 /* store/bc1/bc1.h - BC1 (DXT1) encoding and decoding, BC1-resident sets, seam-aware compression
- * and DDS import/export (bc1_encode.c, bc1_decode.c, bc1_set.c, bc1_seam.c, dds.c).
+ * and DDS import/export (bc1_encode.c with bc1_fit.c, bc1_cluster.c, bc1_select.c and
+ * bc1_encode_avx2.c; bc1_decode.c, bc1_set.c, bc1_seam.c, dds.c).
  *
  * Owns: the block encoder (three levels), the block decoders (exact, and the vendor variants
  * as an option), turning any stored set into an ST_KIND_BC1 set (with least-squares seam
@@ -44,7 +45,7 @@ typedef enum st_bc1_decoder {
     ST_BC1_DEC_NVIDIA = 3   /* interpolation on the 5/6-bit values, NVIDIA's rounding */
 } st_bc1_decoder;
 
-/* ---- block level (bc1_encode.c, bc1_decode.c) ------------------------------------------ */
+/* ---- block level (bc1_encode.c and its stages, bc1_decode.c) ---------------------------- */
 
 /* Encodes one 4x4 block of RGBA8 texels into out[8]. level: ST_BC1_FAST, ST_BC1_HQ or
  * ST_BC1_BEST (any other value is treated as HQ). */
@@ -140,8 +141,9 @@ int st_bc1_decode_set(const st_set *bc1, st_bc1_decoder dec, st_set **out, st_er
  * faces differ in size as a plain DXT1 texture of face 0 followed by seamtex's face table and
  * the other faces (other readers show face 0). A constant face is written as uniform blocks.
  * A seamtex set record after the image data (dds.c) keeps constant faces exact, the colour
- * space, border modes, alpha channel, st_bc1_ext and the metadata, so that every set
- * st_bc1_compress_set makes reads back identical. Reading accepts DXT1 (legacy header) and
+ * space, border modes, alpha channel, st_bc1_ext and the metadata (except the importer's
+ * "seamtex:source_format", so that a .dds written, imported and written again is the same
+ * bytes), so that every set st_bc1_compress_set makes reads back identical. Reading accepts DXT1 (legacy header) and
  * DX10 BC1 (71, 72), 2D, arrays and cubes; sizes from the file are checked against the file
  * length and the caps before anything is allocated; max_bytes caps the arena
  * (0 = ST_DEFAULT_MAX_BYTES). st_dds_write_file writes path.tmp, fsyncs it and renames it. */

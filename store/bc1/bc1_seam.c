@@ -1,7 +1,8 @@
 /* store/bc1/bc1_seam.c - the seam-aware BC1 endpoint solve (declared in seammask.h).
  *
  * Owns: st_bc1_seam_solve. Does not own: seam sample points and masking (seammask.c), the
- * block encoder (bc1_encode.c), sets (bc1_set.c).
+ * CG iteration (cg.c: this file gives it the endpoint system), the block encoder
+ * (bc1_encode.c), sets (bc1_set.c).
  *
  * Unknowns: the two endpoints (8-bit scale, per channel) of every block that a seam tap
  * touches. With the selectors fixed, a decoded texel is (1 - t) E0 + t E1 with t in
@@ -18,6 +19,7 @@
  */
 #include "bc1.h"
 #include "bc1_texel.h"
+#include "cg.h"
 #include "seammask.h"
 
 #include <math.h>
@@ -162,10 +164,9 @@ static double exact_energy(const solver *S)
     return ec + S->alpha * seam_sum(S);
 }
 
-/* y = H z over 2*nb unknowns (channel independent); fixed entries give 0. h holds each
- * block's data-term 2x2 matrix (a00, a01, a11), computed once per solve. */
-static void matvec(const solver *S, const double *h, const double *z, double *y,
-                   const uint8_t *fixed)
+/* y = H z over 2*nb unknowns (channel independent). h holds each block's data-term 2x2
+ * matrix (a00, a01, a11), computed once per solve. */
+static void matvec(const solver *S, const double *h, const double *z, double *y)
 {
     for (uint32_t b = 0; b < S->nb; b++) {
         y[2 * b] = h[3 * b] * z[2 * b] + h[3 * b + 1] * z[2 * b + 1];
@@ -189,10 +190,18 @@ static void matvec(const solver *S, const double *h, const double *z, double *y,
             y[2 * r[k].blk + 1] += r[k].w * t * v;
         }
     }
-    if (fixed)
-        for (uint32_t i = 0; i < 2 * S->nb; i++)
-            if (fixed[i])
-                y[i] = 0;
+}
+
+/* matvec as the solver's callback (cg.h) */
+typedef struct hmat {
+    const solver *S;
+    const double *h;
+} hmat;
+
+static void hmat_apply(void *ctx, const double *z, double *y)
+{
+    const hmat *m = ctx;
+    matvec(m->S, m->h, z, y);
 }
 
 /* Solves channel c for z (warm start given), bounded to 0..255. */
@@ -200,8 +209,8 @@ static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uin
                          const volatile int *cancel, st_error *e)
 {
     uint32_t n = 2 * S->nb;
-    double *rhs = wk, *r = wk + n, *zz = wk + 2 * n, *p = wk + 3 * n, *q = wk + 4 * n,
-           *minv = wk + 5 * n, *h = wk + 6 * n;
+    /* wk: rhs, the solver's four vectors (r, z, p, q), minv, then h (3 per block) */
+    double *rhs = wk, *r = wk + n, *minv = wk + 5 * n, *h = wk + 6 * n;
     for (uint32_t b = 0; b < S->nb; b++) {
         double a00 = 0, a01 = 0, a11 = 0;
         for (int i = 0; i < 16; i++) {
@@ -254,59 +263,14 @@ static int solve_channel(const solver *S, unsigned c, double *z, double *wk, uin
         }
     }
     for (uint32_t i = 0; i < n; i++)
-        minv[i] = minv[i] > 1e-9 ? 1.0 / minv[i] : 0.0;
-    memset(fixed, 0, n);
-    for (int round = 0; round < 4; round++) {
-        /* tiny ridge: an endpoint no texel uses (all weight on the other) stays put */
-        matvec(S, h, z, q, round ? fixed : NULL);
-        double rz = 0, bn = 0;
-        for (uint32_t i = 0; i < n; i++) {
-            double bi = fixed[i] ? 0 : rhs[i];
-            r[i] = fixed[i] ? 0 : bi - q[i];
-            bn += bi * bi;
-            zz[i] = minv[i] * r[i];
-            p[i] = zz[i];
-            rz += r[i] * zz[i];
-        }
-        /* endpoints are rounded to 5/6 bits afterwards: 1e-8 of the right-hand side is
-         * far below a quantisation step */
-        double tol = 1e-8 * (bn > 1 ? bn : 1);
-        for (int it = 0; it < 200; it++) {
-            double rr = 0;
-            for (uint32_t i = 0; i < n; i++)
-                rr += r[i] * r[i];
-            if (rr <= tol)
-                break;
-            if (cancel && *cancel)
-                return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
-            matvec(S, h, p, q, fixed);
-            double pq = 0;
-            for (uint32_t i = 0; i < n; i++)
-                pq += p[i] * q[i];
-            if (!(pq > 0))
-                break;
-            double a = rz / pq, rz2 = 0;
-            for (uint32_t i = 0; i < n; i++) {
-                z[i] += a * p[i];
-                r[i] -= a * q[i];
-                zz[i] = minv[i] * r[i];
-                rz2 += r[i] * zz[i];
-            }
-            double beta = rz2 / rz;
-            rz = rz2;
-            for (uint32_t i = 0; i < n; i++)
-                p[i] = zz[i] + beta * p[i];
-        }
-        int changed = 0;
-        for (uint32_t i = 0; i < n; i++)
-            if (z[i] < 0 || z[i] > 255) {
-                z[i] = z[i] < 0 ? 0 : 255;
-                changed |= !fixed[i];
-                fixed[i] = 1;
-            }
-        if (!changed)
-            break;
-    }
+        minv[i] = minv[i] > 1e-9 ? 1.0 / minv[i] : 0.0; /* an endpoint no texel uses stays put */
+    /* bounded to 0..255 by fixing what leaves the range (cg.h); endpoints are rounded to
+     * 5/6 bits afterwards: 1e-8 of the right-hand side is far below a quantisation step */
+    hmat m = {S, h};
+    st_cg P = {.n = n, .matvec = hmat_apply, .ctx = &m, .minv = minv, .b = rhs, .lo = 0,
+               .hi = 255, .rounds = 4, .tol = 1e-8, .maxit = 200, .cancel = cancel};
+    if (st_cg_solve(&P, z, fixed, r))
+        return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
     return ST_OK;
 }
 
@@ -765,7 +729,7 @@ static int run_round(const solver *S, work *W, double *best, st_error *e)
     for (int pass = 0; pass < 2; pass++) {
         int any = 0;
         for (uint32_t b = 0; b < nb; b++) {
-            if (W->cancel && *W->cancel)
+            if (W->cancel && __atomic_load_n(W->cancel, __ATOMIC_RELAXED))
                 return st_fail(e, ST_ECANCELED, "seam-aware BC1 solve cancelled");
             any |= bcd_block(S, b);
             if (W->progress && (b & 1023) == 1023)

@@ -73,7 +73,7 @@ static void *worker(void *arg)
 {
     pool *P = arg;
     for (;;) {
-        if (atomic_load(&P->stop) || (P->cancel && *P->cancel))
+        if (atomic_load(&P->stop) || (P->cancel && __atomic_load_n(P->cancel, __ATOMIC_RELAXED)))
             break;
         size_t i = atomic_fetch_add(&P->next, 1);
         if (i >= P->nitems)

@@ -2,7 +2,8 @@
  * Optimal single-colour BC1 endpoints: [v] = {q0, q1} with (2*e(q0)+e(q1))/3 (exact,
  * truncating) closest to v; the cluster fit's 1/determinant of every split of 16
  * texels of weight 1 into four (4-colour) and three (3-colour) runs (-1: not a valid
- * split). Included by bc1_encode.c only. */
+ * split). Included by the block encoder only (bc1_encode.c, bc1_cluster.c,
+ * bc1_encode_avx2.c). */
 #ifndef ST_BC1_TABLES_H
 #define ST_BC1_TABLES_H
 

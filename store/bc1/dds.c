@@ -46,6 +46,12 @@
  *   40          nconst x (u32 face id, strictly ascending; u8 rgba[4])
  *   ...         nmeta x (u8 keysize with the NUL, 2..255 | key | u8 type 0..5 | u32 count |
  *               count elements of the type's size), set order (repeats kept)
+ *               except "seamtex:source_format": the importer sets it on every set it makes
+ *               (import.c) to say how the set in memory was made; a .dds written here is a
+ *               new source, which the importer would tag "dds" when it reads it back, so
+ *               writing it would make a restarted daemon's .dds of a COMPRESS result differ
+ *               from the one served before the restart (tests/unit/test_dds_reload.c). The
+ *               Ptex writer leaves it out for the same reason (ptex_write.c).
  * Files without the record (older seamtex files, other tools) read as before: no constant
  * faces, alpha from the blocks, linear unless DX10 says sRGB, no metadata.
  */
@@ -173,6 +179,11 @@ static size_t meta_tsize(unsigned t)
     return t < 6 ? sz[t] : 0;
 }
 
+/* The importer's provenance entry (import.c), never written: see the top of this file. */
+#define META_NOT_WRITTEN "seamtex:source_format"
+
+static int meta_written(const st_meta_entry *m) { return strcmp(m->key, META_NOT_WRITTEN) != 0; }
+
 /* ---- the set record: writing -------------------------------------------------------------- */
 
 static int set_record_size(const st_set *s, size_t *out, st_error *e)
@@ -183,6 +194,8 @@ static int set_record_size(const st_set *s, size_t *out, st_error *e)
             n += SET_CONST;
     for (uint32_t i = 0; i < s->nmeta; i++) {
         const st_meta_entry *m = &s->meta[i];
+        if (!meta_written(m))
+            continue;
         size_t ks = strlen(m->key) + 1, ts = meta_tsize(m->type), db;
         if (ks < 2 || ks > 255 || !ts)
             return st_fail(e, ST_EINVAL, "metadata '%.40s': key of 1..254 bytes and type 0..5 "
@@ -224,9 +237,12 @@ static void put_set_record(const st_set *s, uint8_t *p, size_t size)
             nconst++;
         }
     put32(p + 32, nconst);
-    put32(p + 36, s->nmeta);
+    uint32_t nmeta = 0;
     for (uint32_t i = 0; i < s->nmeta; i++) {
         const st_meta_entry *m = &s->meta[i];
+        if (!meta_written(m))
+            continue;
+        nmeta++;
         size_t ks = strlen(m->key) + 1, db = meta_tsize(m->type) * m->count;
         *q++ = (uint8_t)ks;
         memcpy(q, m->key, ks);
@@ -238,6 +254,7 @@ static void put_set_record(const st_set *s, uint8_t *p, size_t size)
             memcpy(q, m->data, db);
         q += db;
     }
+    put32(p + 36, nmeta);
 }
 
 /* Whether a one-face set needs the adjacency trailer (a per-face face with neighbours). */

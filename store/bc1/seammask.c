@@ -1,8 +1,9 @@
 /* store/bc1/seammask.c - seam sample points of a set and least-squares seam masking
  * (seammask.h has the definitions, the energy and the conventions).
  *
- * Owns: st_seam_sys (building, freeing), the masking solve (conjugate gradients on the
- * touched texels, bounded by clamping-and-fixing), seam RMS and chart PSNR. Does not own:
+ * Owns: st_seam_sys (building, freeing), the masking system on the touched texels (its
+ * product, diagonal and right-hand side; solved by the bounded CG of cg.h), seam RMS and
+ * chart PSNR. Does not own: the CG iteration (cg.c, shared with bc1_seam.c),
  * seam detection on meshes (seams.c), BC1 (bc1_seam.c builds its own system on endpoints
  * from the same points).
  *
@@ -11,6 +12,7 @@
  * points and ~400k variables; ~100 iterations per channel.
  */
 #include "seammask.h"
+#include "cg.h"
 
 #include "atlas.h"
 #include "mesh.h"
@@ -526,9 +528,9 @@ int st_seam_gather_rgba8(const st_set *s, const st_seam_sys *sys, uint8_t **out,
 
 /* ---- solving --------------------------------------------------------------------------- */
 
-/* y = D x + alpha S^T L S x on the variables; fixed variables give 0 rows (projected). */
-static void matvec(const st_seam_sys *sys, const float *d, float alpha, const uint8_t *fixed,
-                   const double *x, double *y)
+/* y = D x + alpha S^T L S x on the variables. */
+static void matvec(const st_seam_sys *sys, const float *d, float alpha, const double *x,
+                   double *y)
 {
     for (uint32_t i = 0; i < sys->nvars; i++)
         y[i] = d[i] * x[i];
@@ -543,19 +545,25 @@ static void matvec(const st_seam_sys *sys, const float *d, float alpha, const ui
             y[p->vb[j]] -= p->wb[j] * r;
         }
     }
-    if (fixed)
-        for (uint32_t i = 0; i < sys->nvars; i++)
-            if (fixed[i])
-                y[i] = 0;
 }
 
-/* Projected, Jacobi-preconditioned CG for (D + alpha S^T L S) x = D x0 over the free
- * variables, x warm-started by the caller (fixed entries keep their value). */
-static int cg(const st_seam_sys *sys, const float *d, float alpha, const uint8_t *fixed,
-              const double *x0, double *x, double *wk, const volatile int *cancel, st_error *e)
+/* matvec as the solver's callback (cg.h) */
+typedef struct mask_mat {
+    const st_seam_sys *sys;
+    const float *d;
+    float alpha;
+} mask_mat;
+
+static void mask_mat_apply(void *ctx, const double *x, double *y)
+{
+    const mask_mat *m = ctx;
+    matvec(m->sys, m->d, m->alpha, x, y);
+}
+
+/* The Jacobi preconditioner of D + alpha S^T L S: 1 / its diagonal. */
+static void mask_minv(const st_seam_sys *sys, const float *d, float alpha, double *minv)
 {
     uint32_t n = sys->nvars;
-    double *r = wk, *z = wk + n, *p = wk + 2 * n, *q = wk + 3 * n, *minv = wk + 4 * n;
     for (uint32_t i = 0; i < n; i++)
         minv[i] = d[i];
     for (size_t k = 0; k < sys->npts; k++) {
@@ -567,45 +575,6 @@ static int cg(const st_seam_sys *sys, const float *d, float alpha, const uint8_t
     }
     for (uint32_t i = 0; i < n; i++)
         minv[i] = minv[i] > 0 ? 1.0 / minv[i] : 0.0;
-    matvec(sys, d, alpha, fixed, x, q);
-    double bnorm = 0, rz = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        double b = (fixed && fixed[i]) ? 0 : d[i] * x0[i];
-        r[i] = b - q[i];
-        bnorm += b * b;
-        z[i] = minv[i] * r[i];
-        p[i] = z[i];
-        rz += r[i] * z[i];
-    }
-    double tol = 1e-10 * (bnorm > 1 ? bnorm : 1);
-    int maxit = 500;
-    for (int it = 0; it < maxit; it++) {
-        double rr = 0;
-        for (uint32_t i = 0; i < n; i++)
-            rr += r[i] * r[i];
-        if (rr <= tol)
-            break;
-        if (cancel && *cancel)
-            return st_fail(e, ST_ECANCELED, "seam masking cancelled");
-        matvec(sys, d, alpha, fixed, p, q);
-        double pq = 0;
-        for (uint32_t i = 0; i < n; i++)
-            pq += p[i] * q[i];
-        if (!(pq > 0))
-            break;
-        double a = rz / pq, rz2 = 0;
-        for (uint32_t i = 0; i < n; i++) {
-            x[i] += a * p[i];
-            r[i] -= a * q[i];
-            z[i] = minv[i] * r[i];
-            rz2 += r[i] * z[i];
-        }
-        double beta = rz2 / rz;
-        rz = rz2;
-        for (uint32_t i = 0; i < n; i++)
-            p[i] = z[i] + beta * p[i];
-    }
-    return ST_OK;
 }
 
 /* Masks channel values over the variables: get(c, i) reads variable i of channel c,
@@ -643,35 +612,30 @@ static int mask_io(const st_seam_sys *sys, float alpha, float outside_weight, un
         return ST_OK;
     float *d = malloc(n * sizeof *d);
     uint8_t *fixed = calloc(n, 1);
-    double *x0 = malloc(n * sizeof *x0), *x = malloc(n * sizeof *x),
+    double *rhs = malloc(n * sizeof *rhs), *x = malloc(n * sizeof *x),
            *wk = malloc(5 * (size_t)n * sizeof *wk);
     int rc = ST_OK;
-    if (!d || !fixed || !x0 || !x || !wk) {
+    if (!d || !fixed || !rhs || !x || !wk) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for %u seam variables", n);
         goto out;
     }
     for (uint32_t i = 0; i < n; i++)
         d[i] = sys->inside[sys->vars[i]] ? 1.0f : outside_weight;
+    /* (D + alpha S^T L S) x = D x0, bounded to 0..255 (cg.h), warm-started at the texels x0;
+     * the preconditioner does not depend on the channel */
+    double *minv = wk + 4 * (size_t)n;
+    mask_minv(sys, d, alpha, minv);
+    mask_mat m = {sys, d, alpha};
+    st_cg P = {.n = n, .matvec = mask_mat_apply, .ctx = &m, .minv = minv, .b = rhs, .lo = 0,
+               .hi = 255, .rounds = 4, .tol = 1e-10, .maxit = 500, .cancel = cancel};
     for (unsigned c = 0; c < nchan; c++) {
-        memset(fixed, 0, n);
-        for (uint32_t i = 0; i < n; i++)
-            x0[i] = x[i] = io_get(sys, io, c, i);
-        /* bounded: solve, fix what left 0..255 at the bound, solve the rest again */
-        for (int round = 0; round < 4; round++) {
-            rc = cg(sys, d, alpha, round ? fixed : NULL, x0, x, wk, cancel, e);
-            if (rc)
-                goto out;
-            int changed = 0;
-            for (uint32_t i = 0; i < n; i++) {
-                if (x[i] < 0 || x[i] > 255) {
-                    x[i] = x[i] < 0 ? 0 : 255;
-                    if (!fixed[i])
-                        changed = 1;
-                    fixed[i] = 1;
-                }
-            }
-            if (!changed)
-                break;
+        for (uint32_t i = 0; i < n; i++) {
+            x[i] = io_get(sys, io, c, i);
+            rhs[i] = d[i] * x[i]; /* D x0 */
+        }
+        if (st_cg_solve(&P, x, fixed, wk)) {
+            rc = st_fail(e, ST_ECANCELED, "seam masking cancelled");
+            goto out;
         }
         for (uint32_t i = 0; i < n; i++)
             io_put(sys, io, c, i, x[i]);
@@ -679,7 +643,7 @@ static int mask_io(const st_seam_sys *sys, float alpha, float outside_weight, un
 out:
     free(d);
     free(fixed);
-    free(x0);
+    free(rhs);
     free(x);
     free(wk);
     return rc;

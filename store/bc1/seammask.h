@@ -1,5 +1,5 @@
 /* store/bc1/seammask.h - seams as sample points, and least-squares seam masking (after Sylvan
- * 2015 and the seam-aware DXT1 poster, see /work/shared/papers/).
+ * 2015 and the seam-aware DXT1 poster, in the shared papers folder beside the repository, ../shared/papers/).
  *
  * Owns: turning the seams of a set into sample-point pairs (st_seam_sys), the energy
  * E = Ec + alpha * Es and its minimisation over texels (masking), seam RMS measurement.
@@ -87,8 +87,8 @@ int st_seam_gather_rgba8(const st_set *s, const st_seam_sys *sys, uint8_t **out,
 
 /* Masking: minimises E over the touched texels of the RGB channels of `rgba` (global RGBA8,
  * modified in place: the solution is rounded to 8 bits). The solve respects 0..255: it runs
- * conjugate gradients (Jacobi-preconditioned, warm-started at the original texels), fixes
- * the variables that left the range at the bound, and solves again. alpha <= 0 means 2,
+ * conjugate gradients (Jacobi-preconditioned, warm-started at the original texels; cg.h),
+ * fixes the variables that left the range at the bound, and solves again. alpha <= 0 means 2,
  * outside_weight <= 0 means 0.01. cancel may be NULL. */
 int st_seam_mask_rgba8(const st_seam_sys *sys, float alpha, float outside_weight,
                        uint8_t *rgba, const volatile int *cancel, st_error *e);

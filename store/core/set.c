@@ -17,6 +17,24 @@
 
 static int is_pow2(uint32_t x) { return x && !(x & (x - 1)); }
 
+/* The texel arena: 64-byte aligned, and from 4 MiB on 2 MiB aligned and marked for
+ * transparent huge pages. Every importer writes its whole arena right away; with 4 KiB pages
+ * the page faults of a large Ptex import cost about as much CPU as its decoding. alloc is a
+ * multiple of 64. */
+static uint8_t *arena_alloc(size_t alloc)
+{
+    const size_t huge = (size_t)2 << 20;
+    if (alloc < 2 * huge)
+        return aligned_alloc(64, alloc);
+    size_t rounded = (alloc + huge - 1) & ~(huge - 1);
+    uint8_t *p = aligned_alloc(huge, rounded);
+#ifdef MADV_HUGEPAGE
+    if (p)
+        madvise(p, rounded, MADV_HUGEPAGE); /* advice only: failure changes nothing */
+#endif
+    return p;
+}
+
 static unsigned floor_log2(uint32_t x)
 {
     unsigned l = 0;
@@ -127,8 +145,8 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
     }
 }
 
-int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
-                  st_set **out, st_error *e)
+static int set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                      int zero, st_set **out, st_error *e)
 {
     *out = NULL;
     if (!max_bytes)
@@ -216,12 +234,15 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
     s->level_off = malloc(nlev_total * sizeof *s->level_off);
     /* 64-byte aligned arena, rounded up so that a 16-byte load at the very end stays inside */
     size_t alloc = (bytes + 64 + 63) & ~(size_t)63;
-    s->texels = aligned_alloc(64, alloc);
+    s->texels = arena_alloc(alloc);
     if (!s->level_off || !s->texels) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of texels", bytes);
         goto fail;
     }
-    memset(s->texels, 0, alloc);
+    if (zero)
+        memset(s->texels, 0, alloc);
+    else
+        memset(s->texels + bytes, 0, alloc - bytes); /* the slack past the last texel */
     s->texel_bytes = bytes;
     size_t off = 0;
     for (uint32_t f = 0; f < info->nfaces; f++) {
@@ -242,6 +263,18 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
 fail:
     st_set_free(s);
     return rc;
+}
+
+int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                  st_set **out, st_error *e)
+{
+    return set_create(info, fd, max_bytes, 1, out, e);
+}
+
+int st_set_create_unzeroed(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
+                           st_set **out, st_error *e)
+{
+    return set_create(info, fd, max_bytes, 0, out, e);
 }
 
 void st_set_free(st_set *s)

@@ -229,6 +229,13 @@ static inline void st_channel_put(unsigned dtype, void *p, unsigned c, float v)
 int st_set_create(const st_set_info *info, const st_face_desc *faces, size_t max_bytes,
                   st_set **out, st_error *e);
 
+/* The same, but the texels are left as the allocator returned them (the slack after the last
+ * one is zeroed): for a reader that writes every byte of every level itself before the set
+ * is used or freed (the Ptex reader), so that the arena is written once instead of zeroed
+ * first. A reader that fails half way frees the set unread. */
+int st_set_create_unzeroed(const st_set_info *info, const st_face_desc *faces, size_t max_bytes,
+                           st_set **out, st_error *e);
+
 /* Frees the set and everything it owns (unmaps a mapped set); NULL is accepted. */
 void st_set_free(st_set *s);
 

@@ -11,6 +11,11 @@
  * nuv = 0 and every corner ST_MESH_NO_UV (the importer then refuses with ST_ENOUV).
  * Counts are checked against the caps before the st_mesh is allocated; NaN or infinite
  * values are refused. No exception leaves this file.
+ *
+ * Before Draco decodes, the counts its connectivity header declares (faces, vertices, points)
+ * are read here and checked against the caps: Draco sizes its corner table from them before
+ * reading any face, so a 200-byte file declaring 2^28 faces made it allocate gigabytes (found
+ * by tests/fuzz/fuzz_draco.c; the reproducer is in tests/fuzz/seeds/fuzz_draco/).
  */
 #include <cmath>
 #include <cstdio>
@@ -24,6 +29,9 @@
 #pragma GCC diagnostic ignored "-Wunused-parameter"
 #pragma GCC diagnostic ignored "-Wsign-compare"
 #include <draco/compression/decode.h>
+#include <draco/compression/point_cloud/point_cloud_decoder.h>
+#include <draco/core/varint_decoding.h>
+#include <draco/metadata/metadata_decoder.h>
 #pragma GCC diagnostic pop
 
 extern "C" {
@@ -33,6 +41,62 @@ extern "C" {
 }
 
 namespace {
+
+bool u32_at(draco::DecoderBuffer *b, bool varint, uint32_t *v)
+{
+    return varint ? draco::DecodeVarint(v, b) : b->Decode(v);
+}
+
+/* The counts a mesh's connectivity header declares, read the way Draco's own decoders read
+ * them (point_cloud_decoder.cc, mesh_sequential_decoder.cc, mesh_edgebreaker_decoder*.cc), and
+ * checked against the caps. A header it cannot read is left to Draco (which refuses it). */
+int check_declared_counts(const void *buf, size_t len, uint32_t max_tris, uint32_t max_verts,
+                          st_error *e)
+{
+    draco::DecoderBuffer b;
+    b.Init(static_cast<const char *>(buf), len);
+    draco::DracoHeader h;
+    if (!draco::PointCloudDecoder::DecodeHeader(&b, &h).ok() ||
+        h.encoder_type != draco::TRIANGULAR_MESH)
+        return ST_OK;
+    uint16_t ver = DRACO_BITSTREAM_VERSION(h.version_major, h.version_minor);
+    b.set_bitstream_version(ver);
+    if (ver >= DRACO_BITSTREAM_VERSION(1, 3) && (h.flags & METADATA_FLAG_MASK)) {
+        draco::GeometryMetadata md;
+        draco::MetadataDecoder mdd;
+        if (!mdd.DecodeGeometryMetadata(&b, &md))
+            return ST_OK;
+    }
+    uint64_t faces = 0, verts = 0, max_v = 0;
+    if (h.encoder_method == draco::MESH_SEQUENTIAL_ENCODING) {
+        uint32_t nf, np;
+        bool v = ver >= DRACO_BITSTREAM_VERSION(2, 2);
+        if (!u32_at(&b, v, &nf) || !u32_at(&b, v, &np))
+            return ST_OK;
+        faces = nf;
+        verts = np;   /* points: the corners' distinct attribute combinations, plus any unused */
+        max_v = (uint64_t)max_tris * 3 + max_verts;
+    } else if (h.encoder_method == draco::MESH_EDGEBREAKER_ENCODING) {
+        uint8_t traversal, nattr;
+        uint32_t new_verts, nv, nf, nsym, nsplit;
+        bool v = ver >= DRACO_BITSTREAM_VERSION(2, 0);
+        if (!b.Decode(&traversal) ||
+            (ver < DRACO_BITSTREAM_VERSION(2, 2) && !b.Decode(&new_verts)) ||
+            !u32_at(&b, v, &nv) || !u32_at(&b, v, &nf) || !b.Decode(&nattr) ||
+            !u32_at(&b, v, &nsym) || !u32_at(&b, v, &nsplit))
+            return ST_OK;
+        faces = nf;
+        verts = (uint64_t)nv + nsplit;   /* every vertex is a corner of some face */
+        max_v = faces * 3 + 3;
+    } else {
+        return ST_OK;
+    }
+    if (faces > max_tris || verts > max_v)
+        return st_fail(e, ST_ETOOBIG, "Draco header declares %llu faces and %llu vertices: over "
+                       "the cap of %u triangles", (unsigned long long)faces,
+                       (unsigned long long)verts, max_tris);
+    return ST_OK;
+}
 
 int read_impl(const void *buf, size_t len, const st_mesh_caps *caps, st_mesh **out, st_error *e)
 {
@@ -47,6 +111,9 @@ int read_impl(const void *buf, size_t len, const st_mesh_caps *caps, st_mesh **o
         return st_fail(e, ST_EFORMAT, "Draco header: %.200s", type.status().error_msg());
     if (type.value() != draco::TRIANGULAR_MESH)
         return st_fail(e, ST_EUNSUPPORTED, "the Draco file holds a point cloud, not a mesh");
+    int rc = check_declared_counts(buf, len, max_tris, max_verts, e);
+    if (rc)
+        return rc;
     draco::Decoder dec;
     auto res = dec.DecodeMeshFromBuffer(&db);
     if (!res.ok())
@@ -63,7 +130,7 @@ int read_impl(const void *buf, size_t len, const st_mesh_caps *caps, st_mesh **o
         return st_fail(e, ST_ETOOBIG, "Draco mesh of %zu faces, %zu positions, %zu uvs is over the caps",
                        nf, np, nt);
     st_mesh *m = nullptr;
-    int rc = st_mesh_alloc((uint32_t)np, (uint32_t)nt, (uint32_t)nf, &m, e);
+    rc = st_mesh_alloc((uint32_t)np, (uint32_t)nt, (uint32_t)nf, &m, e);
     if (rc)
         return rc;
     for (size_t i = 0; i < np; i++) {

@@ -15,6 +15,7 @@
 #include "exr.h"
 
 #include <OpenEXR/openexr.h>
+#include <stdint.h>
 #include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
@@ -126,14 +127,11 @@ static int read_part(exr_context_t ctx, const char *path, exr_job *j, st_error *
 /* Every chunk of every level of a tiled part must lie inside the file: only level 0 is
  * decoded, but a file cut inside its smaller levels is still a truncated file and is refused
  * (a scanline part has one level, all of whose chunks read_part decodes). */
-static int tiled_chunks_inside(exr_context_t ctx, const char *path, st_error *e)
+static int tiled_chunks_inside(exr_context_t ctx, const char *path, uint64_t fsize, st_error *e)
 {
     exr_storage_t st;
     if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS || st != EXR_STORAGE_TILED)
         return ST_OK;
-    struct stat sb;
-    if (stat(path, &sb) != 0)
-        return st_fail(e, ST_EIO, "%s: cannot stat", path);
     uint32_t xs, ys;
     exr_tile_level_mode_t lm;
     exr_tile_round_mode_t rm;
@@ -156,8 +154,7 @@ static int tiled_chunks_inside(exr_context_t ctx, const char *path, st_error *e)
                 for (int32_t tx = 0; tx < ntx; tx++) {
                     exr_chunk_info_t ci;
                     if (exr_read_tile_chunk_info(ctx, 0, tx, ty, vx, vy, &ci) != EXR_ERR_SUCCESS ||
-                        ci.data_offset > (uint64_t)sb.st_size ||
-                        ci.packed_size > (uint64_t)sb.st_size - ci.data_offset)
+                        ci.data_offset > fsize || ci.packed_size > fsize - ci.data_offset)
                         return st_fail(e, ST_EFORMAT,
                                        "%s: truncated or corrupt: tile %d,%d of level %d,%d is "
                                        "not inside the file", path, tx, ty, vx, vy);
@@ -166,13 +163,15 @@ static int tiled_chunks_inside(exr_context_t ctx, const char *path, st_error *e)
     return ST_OK;
 }
 
-int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
+/* Reads part 0 of the file opened with init (the library's own file I/O, or a memory
+ * stream); path names it in messages; fsize is its size in bytes. */
+static int read_with(const char *path, exr_context_initializer_t *init, uint64_t fsize,
+                     const st_image_caps *caps, st_image *out, st_error *e)
 {
     memset(out, 0, sizeof *out);
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = quiet_handler;
+    init->error_handler_fn = quiet_handler;
     exr_context_t ctx = NULL;
-    exr_result_t r = exr_start_read(&ctx, path, &init);
+    exr_result_t r = exr_start_read(&ctx, path, init);
     if (r != EXR_ERR_SUCCESS) {
         exr_finish(&ctx);
         return st_fail(e, r == EXR_ERR_FILE_ACCESS ? ST_ENOTFOUND : ST_EFORMAT,
@@ -287,7 +286,7 @@ int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_e
         }
     }
     if ((rc = read_part(ctx, path, &j, e)) != ST_OK ||
-        (rc = tiled_chunks_inside(ctx, path, e)) != ST_OK)
+        (rc = tiled_chunks_inside(ctx, path, fsize, e)) != ST_OK)
         goto done;
     uint8_t *data = malloc(total);
     if (!data) {
@@ -321,4 +320,51 @@ done:
         free(j.planes[k]);
     exr_finish(&ctx);
     return rc;
+}
+
+int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
+{
+    struct stat sb;
+    if (stat(path, &sb) != 0) {
+        memset(out, 0, sizeof *out);
+        return st_fail(e, ST_ENOTFOUND, "%s: not a readable OpenEXR file: cannot stat", path);
+    }
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    return read_with(path, &init, (uint64_t)sb.st_size, caps, out, e);
+}
+
+/* A memory stream for the OpenEXR C API: pread semantics on a caller-owned buffer. */
+typedef struct mem_stream {
+    const uint8_t *buf;
+    size_t         len;
+} mem_stream;
+
+static int64_t mem_read(exr_const_context_t ctx, void *user, void *dst, uint64_t sz,
+                        uint64_t off, exr_stream_error_func_ptr_t err)
+{
+    (void)ctx;
+    (void)err;
+    const mem_stream *m = user;
+    if (off >= m->len)
+        return 0;
+    uint64_t n = m->len - off < sz ? m->len - off : sz;
+    memcpy(dst, m->buf + off, (size_t)n);
+    return (int64_t)n;
+}
+
+static int64_t mem_size(exr_const_context_t ctx, void *user)
+{
+    (void)ctx;
+    return (int64_t)((const mem_stream *)user)->len;
+}
+
+int st_exr_read_mem(const void *buf, size_t len, const char *name, const st_image_caps *caps,
+                    st_image *out, st_error *e)
+{
+    mem_stream m = {buf, len};
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.user_data = &m;
+    init.read_fn = mem_read;
+    init.size_fn = mem_size;
+    return read_with(name ? name : "(memory)", &init, (uint64_t)len, caps, out, e);
 }

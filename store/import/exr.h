@@ -21,6 +21,12 @@
 
 int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_error *e);
 
+/* The same reader on a caller-owned buffer of len bytes (an OpenEXR memory stream: the C API's
+ * custom read and size functions); name is used in messages only (NULL = "(memory)"). Same
+ * results as st_exr_read on a file holding those bytes. */
+int st_exr_read_mem(const void *buf, size_t len, const char *name, const st_image_caps *caps,
+                    st_image *out, st_error *e);
+
 /* 1 when the first 4 bytes are the OpenEXR magic 76 2f 31 01. */
 int st_exr_is_magic(const void *buf, size_t len);
 

@@ -5,7 +5,7 @@
  * (core/image.h), texture sets (import.h turns images into sets).
  *
  * Ownership: a read fills a caller-owned st_image whose data the caller frees with
- * st_image_free (core/image.h).
+ * st_image_free (core/image.h); a read that fails leaves it empty (data NULL).
  */
 #ifndef ST_IMAGE_IO_H
 #define ST_IMAGE_IO_H

@@ -271,6 +271,9 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
 extern "C" int st_image_read(const char *path, const st_image_caps *caps, st_image *out,
                              st_error *e)
 {
+    /* an error leaves *out empty (no data), as st_exr_read does: st_image_free on it is safe
+     * (fuzz_image found the error paths left the caller's struct as it was) */
+    memset(out, 0, sizeof *out);
     try {
         return read_impl(path, caps, out, e);
     } catch (const std::bad_alloc &) {
@@ -284,6 +287,7 @@ extern "C" int st_image_read_any(const char *path, const st_image_caps *caps, st
                                  st_error *e)
 {
     unsigned char head[4] = {0, 0, 0, 0};
+    memset(out, 0, sizeof *out);
     FILE *f = fopen(path, "rb");
     if (!f)
         return st_fail(e, ST_ENOTFOUND, "%s: cannot open", path);

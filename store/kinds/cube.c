@@ -27,8 +27,9 @@ static const int8_t ADJE[6][4] = {{1, 3, 1, 1}, {3, 3, 3, 1}, {0, 0, 0, 0},
 
 static int is_pow2(uint32_t x) { return x && !(x & (x - 1)); }
 
-int st_cube_create(const st_set_info *info, uint32_t n, size_t max_bytes, st_set **out,
-                   st_error *e)
+int st_cube_six_faces(const st_set_info *info, uint32_t n, unsigned kind,
+                      const int32_t adjf[6][4], const int8_t adje[6][4], size_t max_bytes,
+                      st_set **out, st_error *e)
 {
     *out = NULL;
     if (!is_pow2(n) || n > ST_MAX_DIM)
@@ -36,18 +37,24 @@ int st_cube_create(const st_set_info *info, uint32_t n, size_t max_bytes, st_set
                        ST_MAX_DIM);
     st_set_info in = *info;
     in.nfaces = 6;
-    in.kind = ST_KIND_CUBE;
+    in.kind = (uint8_t)kind;
     in.meshtype = 0;
     st_face_desc fd[6];
     memset(fd, 0, sizeof fd);
     for (int f = 0; f < 6; f++) {
         fd[f].w = fd[f].h = n;
         for (int k = 0; k < 4; k++) {
-            fd[f].adjface[k] = ADJF[f][k];
-            fd[f].adjedge[k] = ADJE[f][k];
+            fd[f].adjface[k] = adjf[f][k];
+            fd[f].adjedge[k] = adje[f][k];
         }
     }
     return st_set_create(&in, fd, max_bytes, out, e);
+}
+
+int st_cube_create(const st_set_info *info, uint32_t n, size_t max_bytes, st_set **out,
+                   st_error *e)
+{
+    return st_cube_six_faces(info, n, ST_KIND_CUBE, ADJF, ADJE, max_bytes, out, e);
 }
 
 void st_cube_face_dir(unsigned face, float u, float v, float dir[3])

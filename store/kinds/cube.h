@@ -54,6 +54,13 @@ enum { ST_CUBE_PX = 0, ST_CUBE_NX = 1, ST_CUBE_PY = 2, ST_CUBE_NY = 3, ST_CUBE_P
 int st_cube_create(const st_set_info *info, uint32_t n, size_t max_bytes, st_set **out,
                    st_error *e);
 
+/* Creates an empty 6-face set of n x n faces (n a power of two) of the given kind with the
+ * given adjacency (neighbour face and edge across edge k of face f): the cube layout above,
+ * or Ptex's environment-cube layout (st_cube_to_ptex_env). */
+int st_cube_six_faces(const st_set_info *info, uint32_t n, unsigned kind,
+                      const int32_t adjf[6][4], const int8_t adje[6][4], size_t max_bytes,
+                      st_set **out, st_error *e);
+
 /* Direction of face f at (u, v) (not normalised; the major component is +-1). */
 void st_cube_face_dir(unsigned face, float u, float v, float dir[3]);
 

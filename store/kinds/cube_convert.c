@@ -319,11 +319,11 @@ int st_cube_from_ptex_env(const st_set *px, size_t max_bytes, st_set **out, st_e
 }
 
 /* Ptex's environment-cube layout (faces px nx py ny pz nz, frames of the wdas envcube
- * sample's envcube.obj): neighbour face:edge across edges 0..3 of each face. */
-static const int8_t ENVCUBE_ADJ[6][4][2] = {
-    {{3, 1}, {5, 3}, {2, 1}, {4, 1}}, {{3, 3}, {4, 3}, {2, 3}, {5, 1}},
-    {{4, 2}, {0, 2}, {5, 2}, {1, 2}}, {{5, 0}, {0, 0}, {4, 0}, {1, 0}},
-    {{3, 2}, {0, 3}, {2, 0}, {1, 1}}, {{3, 0}, {1, 3}, {2, 2}, {0, 1}}};
+ * sample's envcube.obj): neighbour face and edge across edges 0..3 of each face. */
+static const int32_t ENV_ADJF[6][4] = {{3, 5, 2, 4}, {3, 4, 2, 5}, {4, 0, 5, 1},
+                                       {5, 0, 4, 1}, {3, 0, 2, 1}, {3, 1, 2, 0}};
+static const int8_t ENV_ADJE[6][4] = {{1, 3, 1, 1}, {3, 3, 3, 1}, {2, 2, 2, 2},
+                                      {0, 0, 0, 0}, {2, 3, 0, 1}, {0, 3, 2, 1}};
 
 int st_cube_is_ptex_env_layout(const st_set *s)
 {
@@ -331,8 +331,8 @@ int st_cube_is_ptex_env_layout(const st_set *s)
         return 0;
     for (int f = 0; f < 6; f++)
         for (int k = 0; k < 4; k++)
-            if (s->faces[f].adjface[k] != ENVCUBE_ADJ[f][k][0] ||
-                s->faces[f].adjedge[k] != ENVCUBE_ADJ[f][k][1])
+            if (s->faces[f].adjface[k] != ENV_ADJF[f][k] ||
+                s->faces[f].adjedge[k] != ENV_ADJE[f][k])
                 return 0;
     return 1;
 }
@@ -343,19 +343,8 @@ int st_cube_to_ptex_env(const st_set *cube, size_t max_bytes, st_set **out, st_e
     if (!cube || cube->info.kind != ST_KIND_CUBE || cube->info.nfaces != 6)
         return st_fail(e, ST_EINVAL, "not a cube set");
     uint32_t n = cube->faces[0].w;
-    st_set_info info = cube->info;
-    info.kind = ST_KIND_PERFACE;
-    info.meshtype = 0;
-    st_face_desc fd[6];
-    memset(fd, 0, sizeof fd);
-    for (unsigned f = 0; f < 6; f++) {
-        fd[f].w = fd[f].h = n;
-        for (unsigned k = 0; k < 4; k++) {
-            fd[f].adjface[k] = ENVCUBE_ADJ[f][k][0];
-            fd[f].adjedge[k] = ENVCUBE_ADJ[f][k][1];
-        }
-    }
-    int rc = st_set_create(&info, fd, max_bytes, out, e);
+    int rc = st_cube_six_faces(&cube->info, n, ST_KIND_PERFACE, ENV_ADJF, ENV_ADJE, max_bytes,
+                               out, e);
     if (rc)
         return rc;
     st_set *s = *out;

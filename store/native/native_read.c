@@ -307,8 +307,9 @@ static int check_ext(st_set *s, unsigned kind, const uint8_t *p, size_t n, st_er
         uint32_t nf = s->info.nfaces;
         if (s->info.kind != ST_KIND_PERFACE || n != (size_t)nf * (2 + st_texel_size(s)))
             return st_fail(e, ST_EFORMAT, "native Ptex record: wrong size or set kind");
-        /* inputs read in place from the mapping: they live as long as the set */
-        return st_ptexres_attach_lazy(s, p + 2 * (size_t)nf, p, p + nf, 0, e);
+        /* flags and stored-level counts (copied); the constant values that follow are the
+         * faces' last levels, which the table reads: the levels are never written */
+        return st_ptexres_attach_lazy(s, p, p + nf, 0, e);
     }
     default:
         return st_fail(e, ST_EFORMAT, "native extension kind %u unknown", kind);

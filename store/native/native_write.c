@@ -163,15 +163,17 @@ static void put_atlas(nbuf *b, const st_atlas *a)
 /* The Ptex inputs of the resolution table: flags, stored levels, constant value per face. */
 static int put_ptex(nbuf *b, const st_set *s, st_error *e)
 {
-    const st_ptexres *t = st_ptexres_ensure(s);
+    const st_ptexres *t = st_ptexres_get(s); /* the record: the table need not be built */
     if (!t || !t->ptxflags || !t->nstored)
         return st_fail(e, ST_EINVAL, "Ptex resolution table not available to write");
     uint32_t n = s->info.nfaces;
     size_t ts = st_texel_size(s);
     nb_put(b, t->ptxflags, n);
     nb_put(b, t->nstored, n);
+    /* the constant value: each face's last level holds it (st_ptexres_fill_levels); kept in
+     * the file for format version 1, the reader takes it from the level */
     for (uint32_t f = 0; f < n; f++)
-        nb_put(b, st_ptexres_data(t, s, f, 0, 0), ts);
+        nb_put(b, st_face_level(s, f, s->faces[f].nlevels - 1u), ts);
     return ST_OK;
 }
 

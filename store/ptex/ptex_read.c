@@ -1,15 +1,24 @@
 /* store/ptex/ptex_read.c - reads a Ptex file (layout in ptex_format.h) into a texture set.
  *
  * Owns: parsing and validation of .ptx bytes, block decoding (constant, zipped, diff-zipped,
- * tiled), edits and metadata. Does not own: the set layout (set.c), the table of on-demand
- * reductions that Ptex's filter reads (ptexres.c, attached here).
+ * tiled), edits and metadata. Does not own: the set layout (set.c), the inner unpacking loops
+ * (ptex_unpack.c, ptex_adler.c), the Ptex rules for the levels a file does not store and the
+ * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
+ * built later by the first Ptex-filter call).
+ *
+ * One pass, no extra copies: the set is created with its arena unzeroed, every block of every
+ * level is inflated once - a one-channel block straight into its place in the arena, any other
+ * into one reused scratch that stays in the cache - and unpacked into the arena; the levels the
+ * file does not store are then made from the level before each. Everything the import writes
+ * is written once.
  *
  * Hostile input: the whole file is in memory; every section is located with overflow-checked
  * arithmetic and must lie inside the buffer; every count is capped before it sizes an
  * allocation (ST_MAX_FACES, ST_MAX_DIM, 16 levels, and a zip stream cannot inflate to more
  * than PTX_MAX_ZIP_RATIO times its size, so a declared size larger than that is refused before
- * allocating); every zlib stream must inflate to exactly its declared size. Errors name the
- * section, face, level or byte offset.
+ * allocating); every zlib stream must inflate to exactly its declared size, with a valid zlib
+ * header and Adler-32; every byte of the unzeroed arena is written before the set is returned
+ * (a failure frees it unread). Errors name the section, face, level or byte offset.
  */
 #include "ptex.h"
 
@@ -19,7 +28,9 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "ptex_adler.h"
 #include "ptex_format.h"
+#include "ptex_unpack.h"
 #include "ptexres.h"
 #include "fileio.h"
 
@@ -34,7 +45,26 @@ typedef struct rd {
     st_error *e;
     z_stream z;
     int z_ready;
+    uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
+    size_t scratch_cap;
 } rd;
+
+/* The reader's scratch of at least n bytes: grown, never shrunk, freed at the end. A planar
+ * block is at most a tile or a face (the Ptex writer tiles faces over 64 KiB), so it stays
+ * in the cache between the inflate and the interleave. */
+static uint8_t *scratch(rd *r, size_t n)
+{
+    if (n > r->scratch_cap) {
+        size_t cap = n < ((size_t)64 << 10) ? (size_t)64 << 10 : n;
+        uint8_t *p = malloc(cap);
+        if (!p)
+            return NULL;
+        free(r->scratch);
+        r->scratch = p;
+        r->scratch_cap = cap;
+    }
+    return r->scratch;
+}
 
 /* [off, off+n) inside the buffer? */
 static int in_file(const rd *r, uint64_t off, uint64_t n)
@@ -47,7 +77,10 @@ static int zip_bound_ok(uint64_t zipsize, uint64_t memsize)
     return memsize <= zipsize * PTX_MAX_ZIP_RATIO + 64;
 }
 
-/* Inflates exactly outlen bytes from [off, off+zlen). */
+/* Inflates exactly outlen bytes from the zlib stream at [off, off+zlen). The 2-byte zlib
+ * header is checked here and the deflate data inflated raw; the stream's Adler-32 trailer is
+ * then checked with st_ptx_adler32 on the output (zlib's own check, byte at a time, was a
+ * quarter of an import). Accepts and refuses exactly the streams zlib's inflate would. */
 static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
                          const char *what)
 {
@@ -58,26 +91,40 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (!zip_bound_ok(zlen, outlen))
         return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to the declared "
                        "%zu bytes", what, (unsigned long long)zlen, outlen);
+    if (outlen > UINT32_MAX)
+        return st_fail(r->e, ST_ETOOBIG, "%s: block of %zu bytes is too large", what, outlen);
+    if (zlen < 2)
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
+                       "(inflated 0 of %zu bytes)", what, (unsigned long long)off, outlen);
+    const uint8_t *p = r->buf + off;
+    unsigned cmf = p[0], flg = p[1];
+    if ((cmf & 15) != 8 || (cmf >> 4) > 7 || (cmf * 256 + flg) % 31)
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (incorrect "
+                       "header)", what, (unsigned long long)off);
+    if (flg & 0x20)
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (needs a preset "
+                       "dictionary)", what, (unsigned long long)off);
     if (!r->z_ready) {
         memset(&r->z, 0, sizeof r->z);
-        if (inflateInit(&r->z) != Z_OK)
+        if (inflateInit2(&r->z, -15) != Z_OK) /* raw deflate: header and check done here */
             return st_fail(r->e, ST_ENOMEM, "zlib inflateInit failed");
         r->z_ready = 1;
     } else {
         inflateReset(&r->z);
     }
-    uint64_t left = zlen;
-    const uint8_t *p = r->buf + off;
+    uint64_t left = zlen - 2;
+    p += 2;
     r->z.next_out = out;
     r->z.avail_out = (uInt)outlen;
-    if (outlen > UINT32_MAX)
-        return st_fail(r->e, ST_ETOOBIG, "%s: block of %zu bytes is too large", what, outlen);
     int zr;
     do {
+        /* the last (usually the only) piece of input with Z_FINISH: zlib then inflates
+         * straight into out without keeping its 32 KiB sliding window (no extra copy) */
         uInt chunk = left > (1u << 30) ? (1u << 30) : (uInt)left;
+        int last = chunk == left;
         r->z.next_in = (Bytef *)(uintptr_t)p;
         r->z.avail_in = chunk;
-        zr = inflate(&r->z, Z_NO_FLUSH);
+        zr = inflate(&r->z, last ? Z_FINISH : Z_NO_FLUSH);
         size_t used = chunk - r->z.avail_in;
         p += used;
         left -= used;
@@ -89,7 +136,7 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
         if (zr != Z_OK && zr != Z_BUF_ERROR)
             return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
                            (unsigned long long)off, r->z.msg ? r->z.msg : "error");
-        if (zr == Z_BUF_ERROR || (used == 0 && r->z.avail_out > 0 && left == 0))
+        if (last || (zr == Z_BUF_ERROR && used == 0))
             return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
                            "(inflated %lu of %zu bytes)", what, (unsigned long long)off,
                            r->z.total_out, outlen);
@@ -97,57 +144,29 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (r->z.total_out != outlen)
         return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %lu bytes, "
                        "declared %zu", what, (unsigned long long)off, r->z.total_out, outlen);
+    if (left < 4)
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated (no "
+                       "check value)", what, (unsigned long long)off);
+    uint32_t want = (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+    if (st_ptx_adler32(1, out, outlen) != want)
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (incorrect data "
+                       "check)", what, (unsigned long long)off);
     return ST_OK;
-}
-
-/* Planar (channel after channel, rows of u) -> interleaved rows of stride dst_stride bytes. */
-static void interleave(const rd *r, const uint8_t *src, uint32_t w, uint32_t h, uint8_t *dst,
-                       size_t dst_stride)
-{
-    size_t cs = r->csize, ps = r->psize;
-    for (unsigned c = 0; c < r->nc; c++)
-        for (uint32_t y = 0; y < h; y++) {
-            const uint8_t *s = src + (((size_t)c * h + y) * w) * cs;
-            uint8_t *d = dst + y * dst_stride + c * cs;
-            if (cs == 1) {
-                for (uint32_t x = 0; x < w; x++)
-                    d[x * ps] = s[x];
-            } else if (cs == 2) {
-                for (uint32_t x = 0; x < w; x++)
-                    memcpy(d + x * ps, s + 2 * (size_t)x, 2);
-            } else {
-                for (uint32_t x = 0; x < w; x++)
-                    memcpy(d + x * ps, s + 4 * (size_t)x, 4);
-            }
-        }
-}
-
-static void decode_difference(const rd *r, uint8_t *p, size_t bytes)
-{
-    if (r->dt == ST_DT_U8) {
-        uint8_t prev = 0;
-        for (size_t i = 0; i < bytes; i++)
-            prev = p[i] = (uint8_t)(p[i] + prev);
-    } else if (r->dt == ST_DT_U16) {
-        uint16_t prev = 0;
-        for (size_t i = 0; i + 1 < bytes; i += 2) {
-            uint16_t v = ptx_rd16(p + i);
-            prev = (uint16_t)(v + prev);
-            ptx_wr16(p + i, prev);
-        }
-    }
 }
 
 static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
                       size_t stride)
 {
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++)
-            memcpy(dst + y * stride + x * r->psize, px, r->psize);
+    for (uint32_t x = 0; x < w; x++)
+        memcpy(dst + x * r->psize, px, r->psize);
+    for (uint32_t y = 1; y < h; y++)
+        memcpy(dst + y * stride, dst, (size_t)w * r->psize);
 }
 
 /* One non-tiled block of encoding enc at [off, off+size) holding a w x h rectangle, written
- * interleaved into dst (row stride bytes). */
+ * interleaved into dst (row stride bytes). A one-channel block that fills its rows is
+ * inflated straight into dst (planar is interleaved then) and difference-decoded there; any
+ * other block inflates into the reader's scratch and is interleaved from it in one pass. */
 static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32_t w, uint32_t h,
                         uint8_t *dst, size_t stride, const char *what)
 {
@@ -167,16 +186,20 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
     if (!zip_bound_ok(size, bytes))
         return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to %zu", what,
                        (unsigned long long)size, bytes);
-    uint8_t *tmp = malloc(bytes ? bytes : 1);
+    int diff = enc == PTX_ENC_DIFFZIPPED, rc;
+    if (r->nc == 1 && stride == (size_t)w * r->psize) {
+        if ((rc = inflate_exact(r, off, size, dst, bytes, what)) == ST_OK && diff)
+            st_ptx_undiff(r->csize, dst, bytes);
+        return rc;
+    }
+    uint8_t *tmp = scratch(r, bytes);
     if (!tmp)
         return st_fail(r->e, ST_ENOMEM, "%s: out of memory for %zu bytes", what, bytes);
-    int rc = inflate_exact(r, off, size, tmp, bytes, what);
-    if (rc == ST_OK) {
-        if (enc == PTX_ENC_DIFFZIPPED)
-            decode_difference(r, tmp, bytes); /* one run over all planes */
-        interleave(r, tmp, w, h, dst, stride);
+    if ((rc = inflate_exact(r, off, size, tmp, bytes, what)) == ST_OK) {
+        if (diff)
+            st_ptx_undiff(r->csize, tmp, bytes); /* one run over all planes */
+        st_ptx_planar_to_rows(r->csize, r->nc, tmp, w, h, dst, stride);
     }
-    free(tmp);
     return rc;
 }
 
@@ -652,7 +675,11 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         .kind = ST_KIND_PERFACE, .colorspace = ST_CS_LINEAR, .premultiplied = 0,
         .border_u = (uint8_t)bu, .border_v = (uint8_t)bv, .meshtype = 0,
     };
-    if ((rc = st_set_create(&info, fd, max_bytes, &s, e)))
+    /* every byte of every level is written below: constant and 1x1 faces from the constant
+     * data, level 0 of the others and their stored reductions decoded (a block must fill its
+     * face exactly, tiles cover it), every other level made by st_ptexres_attach; any
+     * failure frees the set unread */
+    if ((rc = st_set_create_unzeroed(&info, fd, max_bytes, &s, e)))
         goto done;
 
     /* constant faces and 1x1 faces: the constant data */
@@ -725,15 +752,21 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             }
             if (l > 0 && nstored[f] != l)
                 continue; /* a gap: the level before was missing for this face */
-            char what[64];
-            snprintf(what, sizeof what, "level %u face %u", l, f);
             int edited = 0;
             for (size_t k = 0; l == 0 && k < nfedits; k++)
                 edited |= fedits[k].faceid == f;
             uint64_t end = edited ? len : lpos + lsize;
+            /* the message names "level L face F", formatted only on failure (a printf per
+             * face was a few percent of importing a file of small faces) */
             if ((rc = decode_face(r, fdh[i], offs[i], end, F->ulog2 - l, F->vlog2 - l,
-                                  st_face_level(s, f, l), what)))
+                                  st_face_level(s, f, l), ""))) {
+                if (e) {
+                    char tmp[ST_ERRMSG_LEN];
+                    snprintf(tmp, sizeof tmp, "%s", e->msg);
+                    st_fail(e, rc, "level %u face %u%s", l, f, tmp);
+                }
                 goto done;
+            }
             if (l > 0)
                 nstored[f] = (uint8_t)(l + 1);
         }
@@ -759,6 +792,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
 done:
     if (r->z_ready)
         inflateEnd(&r->z);
+    free(r->scratch);
     free(fi);
     free(constdata);
     free(ptxflags);

@@ -11,7 +11,8 @@
  * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
- * has; st_ptexfilter_prepare builds it for any per-face set.
+ * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
+ * the table (once, thread-safe), later calls only read it.
  */
 #include "ptexfilter.h"
 
@@ -530,12 +531,16 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
         return ST_EINVAL;
     if (s->info.kind != ST_KIND_PERFACE)
         return ST_EUNSUPPORTED;
-    const st_ptexres *t = st_ptexres_get(s);
-    if (!t)
+    if (!st_ptexres_get(s))
         return ST_EUNSUPPORTED;
     if (!(o->sharpness >= 0.0f && o->sharpness <= 1.0f) || !(o->width >= 0.0f) ||
         !(o->blur >= 0.0f) || o->width > ST_MAX_DERIV || o->blur > ST_MAX_DERIV)
         return ST_EINVAL;
+    st_error be;
+    /* built on the first call; pinned so that a budget drop leaves it alone during the batch */
+    const st_ptexres *t = st_ptexres_pin(s, &be);
+    if (!t)
+        return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
     pk_params pp;
     pk_params_init(&pp, o->filter, o->sharpness);
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
@@ -570,13 +575,14 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
             status[i] = (uint8_t)st;
         bad += st != ST_Q_OK;
     }
+    st_ptexres_unpin(t);
     return bad;
 }
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)
 {
-    if (st_ptexres_ensure(s))
-        return ST_OK;  /* built, or a native set's lazy table built now */
+    if (st_ptexres_get(s))
+        return ST_OK; /* built by the first Ptex filter call */
     if (s->info.kind != ST_KIND_PERFACE)
         return st_fail(e, ST_EUNSUPPORTED, "Ptex filters need a per-face set");
     return st_ptexres_attach(s, NULL, NULL, NULL, 0, e);
@@ -585,5 +591,5 @@ int st_ptexfilter_prepare(st_set *s, st_error *e)
 size_t st_ptexfilter_memory(const st_set *s)
 {
     const st_ptexres *t = st_ptexres_get(s);
-    return t ? t->bytes : 0;
+    return t && s->ext.memory ? s->ext.memory(t) : 0;
 }

@@ -1,14 +1,25 @@
-/* store/ptex/ptexres.c - builds the table of every (ulog2', vlog2') resolution of every face, with
- * the Ptex reader's rules for the ones it makes on demand (see ptexres.h).
+/* store/ptex/ptexres.c - the Ptex reader's rules for the resolutions it makes on demand (see
+ * ptexres.h): filling a set's unstored levels with them at import, and the lazily built table
+ * of every (ulog2', vlog2') resolution of every face.
  *
- * Work: one pass decides, per face and resolution, where the data comes from (a set level, the
- * constant value, or a 2:1 reduction of a larger resolution) and sums the bytes; one
- * allocation; one pass from large to small resolutions fills the arena. Sizes were already
- * checked when the set was created; the arena is checked against max_bytes.
+ * Levels (st_ptexres_fill_levels, at import): a set level L that the file did not store is
+ * (U-L, V-L) while both axes still halve, which Ptex makes as a v reduction of a u reduction
+ * of level L-1 (or u of v: the order alternates with the parity of U-L), and past the smaller
+ * axis a single 2:1 reduction of level L-1 along the larger one; 1x1 is the constant value.
+ * So filling a level reads only the level before it (plus one scratch of half its size).
+ *
+ * Table (st_ptexres_table, first Ptex-filter call): one pass decides, per face and
+ * resolution, where the data comes from (a set level - which now holds exactly what Ptex
+ * serves for it - or a 2:1 reduction of a larger resolution) and sums the bytes; one
+ * allocation; one pass from large to small resolutions fills the arena. Built once under
+ * the record's mutex; readers test `built` with acquire ordering, so a thread that sees 1
+ * sees every pointer and texel. Sizes were already checked when the set was created; the
+ * arena is checked against max_bytes.
  */
 #include "ptexres.h"
 #include "ptexfilter.h"
 
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
@@ -32,25 +43,14 @@ static uint8_t *arena_alloc(size_t bytes)
     return p;
 }
 
+/* The record (two bytes per face) always; the table once it is built. */
 static size_t ptexres_memory(const void *p)
 {
     const st_ptexres *t = p;
-    return __atomic_load_n(&t->built, __ATOMIC_ACQUIRE) ? t->bytes : sizeof *t;
-}
-
-/* Frees what a build made (the header stays). */
-static void ptexres_clear(st_ptexres *t)
-{
-    free(t->base);
-    free(t->px);
-    free(t->ptxflags);
-    free(t->nstored);
-    free(t->arena);
-    t->base = NULL;
-    t->px = NULL;
-    t->ptxflags = t->nstored = t->arena = NULL;
-    t->arena_bytes = 0;
-    t->bytes = 0;
+    size_t m = sizeof *t + (size_t)t->nfaces * 2;
+    if (atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
+        m += t->bytes;
+    return m;
 }
 
 static void ptexres_free(void *p)
@@ -58,28 +58,20 @@ static void ptexres_free(void *p)
     st_ptexres *t = p;
     if (!t)
         return;
-    ptexres_clear(t);
-    if (t->lazy)
-        pthread_rwlock_destroy(&t->rw);
+    pthread_mutex_destroy(&t->lock);
+    pthread_rwlock_destroy(&t->pin);
+    free(t->base);
+    free(t->px);
+    free(t->ptxflags);
+    free(t->nstored);
+    free(t->arena);
     free(t);
-}
-
-static st_ptexres *ptexres_of(const st_set *s)
-{
-    st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
-    return t && t->magic == ST_PTEXRES_MAGIC ? t : NULL;
 }
 
 const st_ptexres *st_ptexres_get(const st_set *s)
 {
-    st_ptexres *t = ptexres_of(s);
-    return t && __atomic_load_n(&t->built, __ATOMIC_ACQUIRE) ? t : NULL;
-}
-
-size_t st_ptexres_built_bytes(const st_set *s)
-{
-    const st_ptexres *t = st_ptexres_get(s);
-    return t ? t->bytes - sizeof *t : 0;
+    const st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
+    return t && t->magic == ST_PTEXRES_MAGIC ? t : NULL;
 }
 
 /* Ptex's 2:1 reductions of interleaved texels: integers halve with truncation, half and float
@@ -209,7 +201,8 @@ static void average_px(unsigned dt, unsigned nc, const uint8_t *src, size_t n, u
 }
 
 /* Where the data of (ru, rv) comes from: >= 0 a set level, -1 the constant value, -2 reduce
- * in u from (ru+1, rv), -3 reduce in v from (ru, rv+1). */
+ * in u from (ru+1, rv), -3 reduce in v from (ru, rv+1). The Ptex reader's rule: a stored
+ * square reduction, else a 2:1 step along the axis reduced more (alternating on squares). */
 static int source_of(unsigned U, unsigned V, unsigned ru, unsigned rv, unsigned nstored,
                      int hasedits)
 {
@@ -224,57 +217,167 @@ static int source_of(unsigned U, unsigned V, unsigned ru, unsigned rv, unsigned 
     return blendu ? -2 : -3;
 }
 
-/* Fills t (base, px, ptxflags, nstored, arena, bytes) for s. rewrite: overwrite the set's
- * levels that Ptex does not store with the values Ptex serves (a heap set being imported);
- * 0 for a set that already holds them (a mapped native set: never written). On failure t is
- * left cleared. */
-static int ptexres_build(st_ptexres *t, const st_set *s, const uint8_t *constpx,
-                         const uint8_t *ptxflags, const uint8_t *nstored, size_t max_bytes,
-                         int rewrite, st_error *e)
+/* The set level that holds (ru, rv) of a face of U x V (log2) once its levels are filled, or
+ * -1: level L is (max(U-L, 0), max(V-L, 0)). The (0,0) entry is the last level. */
+static int level_of(unsigned U, unsigned V, unsigned ru, unsigned rv)
+{
+    unsigned redu = U - ru, redv = V - rv;
+    if (redu == redv)
+        return (int)redu;
+    if (rv == 0 && redu > redv)
+        return (int)redu; /* past the v axis: (U-L, 0), L > V */
+    if (ru == 0 && redv > redu)
+        return (int)redv;
+    return -1;
+}
+
+int st_ptexres_fill_levels(st_set *s, uint32_t f, unsigned nstored, const uint8_t *constpx,
+                           st_error *e)
+{
+    const st_face *F = &s->faces[f];
+    if (F->flags & ST_FACE_CONSTANT || F->nlevels <= 1)
+        return ST_OK;
+    unsigned dt = s->info.dtype, nc = s->info.nchan, U = F->ulog2, V = F->vlog2;
+    size_t ts = st_texel_size(s);
+    if (nstored < 1)
+        nstored = 1;
+    /* scratch for the u- or v-reduced intermediate of a square step: half of level L-1 */
+    uint8_t small[4096], *tmp = small;
+    size_t need = 0;
+    for (unsigned l = nstored; l < F->nlevels && l <= U && l <= V; l++) {
+        need = ((size_t)1 << (U - l + V - l + 1)) * ts;
+        break; /* the first unstored square step is the largest */
+    }
+    if (need > sizeof small && !(tmp = malloc(need)))
+        return st_fail(e, ST_ENOMEM, "face %u: out of memory for %zu bytes of scratch", f, need);
+    for (unsigned l = 1; l < F->nlevels; l++) {
+        unsigned ru = U > l ? U - l : 0, rv = V > l ? V - l : 0;
+        uint8_t *d = st_face_level(s, f, l);
+        const uint8_t *p = st_face_level(s, f, l - 1);
+        if (ru == 0 && rv == 0) {
+            if (constpx)
+                memcpy(d, constpx, ts);
+            else
+                average_px(dt, nc, st_face_level(s, f, 0), (size_t)F->w * F->h, d);
+        } else if (l <= U && l <= V) {
+            if (l < nstored)
+                continue; /* stored square reduction */
+            /* (ru, rv) from (ru+1, rv+1): source_of's alternation, two 2:1 steps */
+            if (ru & 1) {
+                reduce_axis(dt, nc, p, 1u << (ru + 1), 1u << (rv + 1), tmp, 0);
+                reduce_axis(dt, nc, tmp, 1u << (ru + 1), 1u << rv, d, 1);
+            } else {
+                reduce_axis(dt, nc, p, 1u << (ru + 1), 1u << (rv + 1), tmp, 1);
+                reduce_axis(dt, nc, tmp, 1u << ru, 1u << (rv + 1), d, 0);
+            }
+        } else if (U > V) {
+            reduce_axis(dt, nc, p, 1u << (ru + 1), 1u, d, 1); /* (ru+1, 0) -> (ru, 0) */
+        } else {
+            reduce_axis(dt, nc, p, 1u, 1u << (rv + 1), d, 0); /* (0, rv+1) -> (0, rv) */
+        }
+    }
+    if (tmp != small)
+        free(tmp);
+    return ST_OK;
+}
+
+int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+                           size_t max_bytes, st_error *e)
+{
+    if (s->ext.kind != ST_EXT_NONE)
+        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
+    uint32_t n = s->info.nfaces;
+    st_ptexres *t = calloc(1, sizeof *t);
+    if (!t)
+        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
+    t->magic = ST_PTEXRES_MAGIC;
+    t->nfaces = n;
+    t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
+    t->ptxflags = malloc(n);
+    t->nstored = malloc(n);
+    int mx = !t->ptxflags || !t->nstored ? -1 : pthread_mutex_init(&t->lock, NULL);
+    if (mx == 0 && pthread_rwlock_init(&t->pin, NULL)) {
+        pthread_mutex_destroy(&t->lock);
+        mx = -1;
+    }
+    if (mx) {
+        free(t->ptxflags);
+        free(t->nstored);
+        free(t);
+        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
+    }
+    atomic_init(&t->built, 0);
+    for (uint32_t f = 0; f < n; f++) {
+        const st_face *F = &s->faces[f];
+        t->ptxflags[f] = ptxflags ? ptxflags[f] : (uint8_t)((F->flags & ST_FACE_CONSTANT ?
+                            PTX_FLAG_CONSTANT : 0) | (F->flags & ST_FACE_SUBFACE ? PTX_FLAG_SUBFACE : 0));
+        t->nstored[f] = nstored ? nstored[f] : (uint8_t)((F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u);
+    }
+    /* the Ptex filter family registers itself with the sampler through the extension */
+    st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
+                                       .memory = ptexres_memory,
+                                       .filter = st_ptexfilter_batch});
+    return ST_OK;
+}
+
+int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+                      const uint8_t *nstored, size_t max_bytes, st_error *e)
+{
+    if (s->ext.kind != ST_EXT_NONE)
+        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
+    size_t ts = st_texel_size(s);
+    for (uint32_t f = 0; f < s->info.nfaces; f++) {
+        const st_face *F = &s->faces[f];
+        unsigned ns = nstored ? nstored[f] : (F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u;
+        if (ptxflags && (ptxflags[f] & PTX_FLAG_HASEDITS))
+            ns = 1; /* an edited face's stored reductions are stale */
+        int rc = st_ptexres_fill_levels(s, f, ns, constpx ? constpx + (size_t)f * ts : NULL, e);
+        if (rc)
+            return rc;
+    }
+    return st_ptexres_attach_lazy(s, ptxflags, nstored, max_bytes, e);
+}
+
+/* Builds px and the arena of t for s (t->lock held). */
+static int build_table(st_ptexres *t, const st_set *s, st_error *e)
 {
     uint32_t n = s->info.nfaces;
     unsigned dt = s->info.dtype, nc = s->info.nchan;
-    size_t ts = st_texel_size(s);
-    t->base = malloc((size_t)n * sizeof *t->base);
-    t->ptxflags = calloc(n, 1);
-    t->nstored = calloc(n, 1);
-    if (!t->base || !t->ptxflags || !t->nstored)
+    size_t ts = st_texel_size(s), max_bytes = t->max_bytes;
+    uint64_t *base = malloc((size_t)n * sizeof *base);
+    const uint8_t **pxs = NULL;
+    uint8_t *arena = NULL;
+    if (!base)
         goto nomem;
     size_t nent = 0, bytes = 0;
     for (uint32_t f = 0; f < n; f++) {
         const st_face *F = &s->faces[f];
-        t->base[f] = nent;
-        t->ptxflags[f] = ptxflags ? ptxflags[f] : (uint8_t)((F->flags & ST_FACE_CONSTANT ?
-                            PTX_FLAG_CONSTANT : 0) | (F->flags & ST_FACE_SUBFACE ? PTX_FLAG_SUBFACE : 0));
+        base[f] = nent;
         if (F->flags & ST_FACE_CONSTANT) {
             nent++;
             continue;
         }
         unsigned U = F->ulog2, V = F->vlog2;
-        unsigned ns = nstored ? nstored[f] : (U < V ? U : V) + 1u;
-        t->nstored[f] = (uint8_t)ns;
-        int he = (t->ptxflags[f] & PTX_FLAG_HASEDITS) != 0;
         nent += (size_t)(U + 1) * (V + 1);
         for (unsigned ru = 0; ru <= U; ru++)
             for (unsigned rv = 0; rv <= V; rv++)
-                if (source_of(U, V, ru, rv, ns, he) < 0) {
+                if (level_of(U, V, ru, rv) < 0) {
                     bytes += ((size_t)1 << (ru + rv)) * ts;
                     if (bytes > max_bytes) {
-                        ptexres_clear(t);
+                        free(base);
                         return st_fail(e, ST_ETOOBIG, "Ptex resolution table needs more than "
                                        "%zu bytes (at face %u)", max_bytes, f);
                     }
                 }
     }
-    t->px = malloc(nent * sizeof *t->px);
-    t->arena = arena_alloc(bytes);
-    t->arena_bytes = bytes;
-    if (!t->px || !t->arena)
+    pxs = malloc(nent * sizeof *pxs);
+    arena = arena_alloc(bytes);
+    if (!pxs || !arena)
         goto nomem;
     size_t off = 0;
     for (uint32_t f = 0; f < n; f++) {
         const st_face *F = &s->faces[f];
-        const uint8_t **px = t->px + t->base[f];
+        const uint8_t **px = pxs + base[f];
         if (F->flags & ST_FACE_CONSTANT) {
             px[0] = st_face_level(s, f, 0);
             continue;
@@ -289,163 +392,110 @@ static int ptexres_build(st_ptexres *t, const st_set *s, const uint8_t *constpx,
                 if (rvi < 0 || rvi > (int)V)
                     continue;
                 unsigned rv = (unsigned)rvi;
-                int src = source_of(U, V, ru, rv, ns, he);
                 size_t idx = (size_t)ru * (V + 1) + rv;
-                if (src >= 0) {
-                    px[idx] = st_face_level(s, f, (unsigned)src);
+                int lvl = level_of(U, V, ru, rv);
+                if (lvl >= 0) { /* the set level holds what Ptex serves here */
+                    px[idx] = st_face_level(s, f, (unsigned)lvl);
                     continue;
                 }
-                uint8_t *d = t->arena + off;
+                int src = source_of(U, V, ru, rv, ns, he); /* -2 or -3 off the level chain */
+                uint8_t *d = arena + off;
                 off += ((size_t)1 << (ru + rv)) * ts;
                 px[idx] = d;
-                if (src == -1) {
-                    if (constpx)
-                        memcpy(d, constpx + (size_t)f * ts, ts);
-                    else
-                        average_px(dt, nc, st_face_level(s, f, 0), (size_t)F->w * F->h, d);
-                } else if (src == -2) {
+                if (src == -2)
                     reduce_axis(dt, nc, px[(size_t)(ru + 1) * (V + 1) + rv], 1u << (ru + 1),
                                 1u << rv, d, 1);
-                } else {
+                else
                     reduce_axis(dt, nc, px[idx + 1], 1u << ru, 1u << (rv + 1), d, 0);
-                }
             }
         }
-        /* the set's levels that Ptex does not store: the values Ptex serves for them (a
-         * mapped set already holds them: its file was written after this rewrite) */
-        for (unsigned l = 1; rewrite && l < F->nlevels; l++) {
-            unsigned ru = U > l ? U - l : 0, rv = V > l ? V - l : 0;
-            const uint8_t *p = px[(size_t)ru * (V + 1) + rv];
-            uint8_t *q = st_face_level(s, f, l);
-            if (p != q)
-                memcpy(q, p, ((size_t)1 << (ru + rv)) * ts);
-        }
     }
-    t->bytes = sizeof *t + (size_t)t->nfaces * (sizeof *t->base + 2) + nent * sizeof *t->px +
-               t->arena_bytes;
+    t->base = base;
+    t->px = pxs;
+    t->arena = arena;
+    t->arena_bytes = bytes;
+    t->bytes = (size_t)n * sizeof *base + nent * sizeof *pxs + bytes;
     return ST_OK;
 nomem:
-    ptexres_clear(t);
+    free(base);
+    free(pxs);
+    free(arena);
     return st_fail(e, ST_ENOMEM, "out of memory for the Ptex resolution table");
 }
 
-int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
-                      const uint8_t *nstored, size_t max_bytes, st_error *e)
+const st_ptexres *st_ptexres_table(const st_set *s, st_error *e)
 {
-    if (s->ext.kind != ST_EXT_NONE)
-        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
-    if (s->map)
-        return st_fail(e, ST_EINVAL, "a mapped set takes a lazy Ptex table");
-    st_ptexres *t = calloc(1, sizeof *t);
-    if (!t)
-        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
-    t->magic = ST_PTEXRES_MAGIC;
-    t->nfaces = s->info.nfaces;
-    int rc = ptexres_build(t, s, constpx, ptxflags, nstored,
-                           max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES, 1, e);
-    if (rc) {
-        free(t);
-        return rc;
+    st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
+    if (!t || t->magic != ST_PTEXRES_MAGIC) {
+        st_fail(e, ST_EUNSUPPORTED, "set has no Ptex resolution table");
+        return NULL;
     }
-    t->built = 1;
-    t->nbuilds = 1;
-    /* the Ptex filter family registers itself with the sampler through the extension */
-    st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
-                                       .memory = ptexres_memory,
-                                       .filter = st_ptexfilter_batch});
-    return ST_OK;
-}
-
-/* ---- lazy tables (native sets) ------------------------------------------------------------- */
-
-/* Builds t under the exclusive lock when it is not built. Caller holds nothing. */
-static int lazy_build(st_ptexres *t, const st_set *s)
-{
-    if (__atomic_load_n(&t->built, __ATOMIC_ACQUIRE))
-        return ST_OK;
-    pthread_rwlock_wrlock(&t->rw);
+    if (atomic_load_explicit(&t->built, memory_order_acquire))
+        return t;
+    pthread_mutex_lock(&t->lock);
     int rc = ST_OK;
-    if (!t->built) {
-        st_error e;
-        st_error_clear(&e);
-        rc = ptexres_build(t, s, t->in_const, t->in_flags, t->in_nstored, t->max_bytes, 0, &e);
-        if (!rc) {
-            __atomic_store_n(&t->built, 1, __ATOMIC_RELEASE);
-            __atomic_add_fetch(&t->nbuilds, 1, __ATOMIC_RELAXED);
-        }
+    if (!atomic_load_explicit(&t->built, memory_order_relaxed)) {
+        rc = build_table(t, s, e);
+        if (rc == ST_OK)
+            atomic_store_explicit(&t->built, 1, memory_order_release);
     }
-    pthread_rwlock_unlock(&t->rw);
-    return rc;
+    pthread_mutex_unlock(&t->lock);
+    return rc == ST_OK ? t : NULL;
 }
 
-/* The filter entry of a lazy table: build on first use, then filter under the shared lock
- * (a drop waits for no filter: it only tries the exclusive lock). */
-static int lazy_filter(const st_set *s, const struct st_sample_opts *o, const struct st_query *q,
-                       size_t n, float *out, float *coverage, uint8_t *status)
+const st_ptexres *st_ptexres_pin(const st_set *s, st_error *e)
 {
-    st_ptexres *t = ptexres_of(s);
-    if (!t)
-        return ST_EUNSUPPORTED;
+    st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
+    if (!t || t->magic != ST_PTEXRES_MAGIC) {
+        st_fail(e, ST_EUNSUPPORTED, "set has no Ptex resolution table");
+        return NULL;
+    }
     for (;;) {
-        int rc = lazy_build(t, s);
-        if (rc)
-            return rc;
-        pthread_rwlock_rdlock(&t->rw);
-        if (__atomic_load_n(&t->built, __ATOMIC_ACQUIRE))
-            break;
-        pthread_rwlock_unlock(&t->rw);  /* dropped in between: build again */
+        pthread_rwlock_rdlock(&t->pin);
+        if (atomic_load_explicit(&t->built, memory_order_acquire))
+            return t; /* a drop needs the exclusive lock: the table stays until unpinned */
+        pthread_rwlock_unlock(&t->pin);
+        if (!st_ptexres_table(s, e)) /* (re)build under the mutex, then pin again */
+            return NULL;
     }
-    int rc = st_ptexfilter_batch(s, o, q, n, out, coverage, status);
-    pthread_rwlock_unlock(&t->rw);
-    return rc;
 }
 
-int st_ptexres_attach_lazy(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
-                           const uint8_t *nstored, size_t max_bytes, st_error *e)
+void st_ptexres_unpin(const st_ptexres *t)
 {
-    if (s->ext.kind != ST_EXT_NONE)
-        return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
-    if (!constpx || !ptxflags || !nstored)
-        return st_fail(e, ST_EINVAL, "a lazy Ptex table needs its per-face inputs");
-    st_ptexres *t = calloc(1, sizeof *t);
-    if (!t)
-        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
-    t->magic = ST_PTEXRES_MAGIC;
-    t->nfaces = s->info.nfaces;
-    t->lazy = 1;
-    t->in_const = constpx;
-    t->in_flags = ptxflags;
-    t->in_nstored = nstored;
-    t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
-    pthread_rwlock_init(&t->rw, NULL);
-    st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
-                                       .memory = ptexres_memory, .filter = lazy_filter});
-    return ST_OK;
-}
-
-const st_ptexres *st_ptexres_ensure(const st_set *s)
-{
-    st_ptexres *t = ptexres_of(s);
-    if (!t)
-        return NULL;
-    if (t->lazy && lazy_build(t, s) != ST_OK)
-        return NULL;
-    return st_ptexres_get(s);
+    if (t)
+        pthread_rwlock_unlock(&((st_ptexres *)(uintptr_t)t)->pin);
 }
 
 size_t st_ptexres_drop(const st_set *s)
 {
-    st_ptexres *t = ptexres_of(s);
-    if (!t || !t->lazy || !__atomic_load_n(&t->built, __ATOMIC_ACQUIRE))
+    st_ptexres *t = (st_ptexres *)(uintptr_t)st_ptexres_get(s);
+    if (!t || !atomic_load_explicit(&t->built, memory_order_acquire))
         return 0;
-    if (pthread_rwlock_trywrlock(&t->rw) != 0)
-        return 0;  /* a filter is reading it: it is not cold */
+    if (pthread_rwlock_trywrlock(&t->pin) != 0)
+        return 0; /* a filter is reading it: it is not cold */
     size_t freed = 0;
-    if (t->built) {
-        freed = t->bytes - sizeof *t;
-        __atomic_store_n(&t->built, 0, __ATOMIC_RELEASE);
-        ptexres_clear(t);
+    pthread_mutex_lock(&t->lock); /* no build in progress either */
+    if (atomic_load_explicit(&t->built, memory_order_relaxed)) {
+        atomic_store_explicit(&t->built, 0, memory_order_release);
+        freed = t->bytes;
+        free(t->base);
+        free(t->px);
+        free(t->arena);
+        t->base = NULL;
+        t->px = NULL;
+        t->arena = NULL;
+        t->arena_bytes = 0;
+        t->bytes = 0;
     }
-    pthread_rwlock_unlock(&t->rw);
+    pthread_mutex_unlock(&t->lock);
+    pthread_rwlock_unlock(&t->pin);
     return freed;
+}
+
+size_t st_ptexres_built_bytes(const st_set *s)
+{
+    const st_ptexres *t = st_ptexres_get(s);
+    if (!t || !atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
+        return 0;
+    return t->bytes;
 }

@@ -5,21 +5,34 @@
  * Ptex reader makes them on demand from the stored reductions: a stored level when the
  * reduction is the same on both axes, the face's constant value for 1x1, and otherwise a
  * 2:1 reduction in u or v (alternating for square steps) of the next larger resolution, with
- * integer halving that truncates. This table holds all of them, built once when a set is
- * loaded, so that the filter reads plain memory and matches Ptex bit for bit.
+ * integer halving that truncates. This table points at all of them, so that the filter reads
+ * plain memory and matches Ptex bit for bit.
+ *
+ * Two steps, so that an import pays only for the first:
+ *   1. the set's own levels hold the values Ptex serves for them (st_ptexres_fill_levels: the
+ *      levels a file did not store are made by the rules above, at import; a native set file
+ *      keeps them as they are);
+ *   2. the table of every (ru, rv) is built lazily, on the first Ptex-filter call on the set
+ *      (st_ptexres_table, once, under a mutex; any number of threads may sample at once).
+ *      Pairs that are set levels point into the set; the others get texels in one arena.
+ * st_ptexres_attach_lazy hangs the (unbuilt) table on a set whose levels are already filled;
+ * st_ptexres_attach does both steps' set-up for a set whose levels are not filled yet.
  *
  * Owns: the table (a set extension, set->ext, freed with the set). Does not own: the set's
  * own levels (set.c), filtering (ptexfilter*.c).
  *
- * Cost: one pointer per (face, ulog2', vlog2') pair plus the texels of the pairs that are not
- * set levels: about 2.7x the size of level 0 on top of the set's own 4/3. A set opened from a
- * native file gets a lazy table instead: nothing until a Ptex filter samples it, dropped
- * again under a memory budget (st_ptexres_drop), counted by st_set_memory only while built.
+ * Cost: before the first Ptex-filter call, two bytes per face. After it: one pointer per
+ * (face, ulog2', vlog2') pair plus the texels of the pairs that are not set levels (about 2.7x
+ * level 0); st_set_memory counts it once built. A built table may be dropped again under a
+ * memory budget (st_ptexres_drop, server/budget.c) and is rebuilt by the next Ptex filter
+ * call: the filter reads the table pinned (st_ptexres_pin, a shared lock), the drop only
+ * tries the exclusive lock and gives up when a filter holds it.
  */
 #ifndef ST_PTEXRES_H
 #define ST_PTEXRES_H
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -31,61 +44,68 @@
 typedef struct st_ptexres {
     uint32_t        magic;        /* ST_PTEXRES_MAGIC */
     uint32_t        nfaces;
+    uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*) */
+    uint8_t        *nstored;      /* per face: set levels that hold stored reductions (>= 1) */
+    size_t          max_bytes;    /* cap on the arena */
+    /* built by st_ptexres_table; read only once `built` is 1 (acquire) */
+    atomic_int      built;
+    pthread_mutex_t lock;         /* serialises the build (and the drop) */
+    pthread_rwlock_t pin;         /* shared: a reader of the built table; exclusive: a drop */
     uint64_t       *base;         /* per face: index of its (0,0) entry in px */
     const uint8_t **px;           /* res (ru, rv) of face f: px[base[f] + ru * (vlog2+1) + rv];
                                      a constant face has one entry (its texel) */
-    uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*) */
-    uint8_t        *nstored;      /* per face: set levels holding stored reductions (>= 1) */
     uint8_t        *arena;        /* texels of the entries that are not set levels */
     size_t          arena_bytes;
     size_t          bytes;        /* everything the table holds, counted by st_set_memory */
-    /* A lazy table (st_ptexres_attach_lazy, native sets) is built on the first Ptex filter
-     * call from the per-face inputs below (they live as long as the set: in its mapping) and
-     * may be dropped again (st_ptexres_drop) and rebuilt on demand. Filters hold rw shared
-     * while they read the table; build and drop hold it exclusive. Eager tables: built = 1
-     * from the start, never dropped, no locking. */
-    int             lazy;
-    int             built;        /* atomic */
-    const uint8_t  *in_const, *in_flags, *in_nstored;
-    size_t          max_bytes;
-    pthread_rwlock_t rw;
-    uint64_t        nbuilds;      /* atomic: builds so far (1 for an eager table) */
 } st_ptexres;
 
-/* Builds the table for s and attaches it as the set's ST_EXT_PTEXRES extension, with the
- * Ptex filter family as its filter (s must have no extension yet). For face f:
- * constpx (may be NULL) gives its Ptex constant value (nfaces pixels; NULL = the face's
- * average computed as Ptex does), ptxflags (may be NULL) its Ptex flags, nstored (may be
- * NULL = every square level) the number of set levels that hold stored reductions (level 0
- * included; 1 = none). The set's levels that are not stored are then overwritten with the
- * values Ptex would serve for them, so that the set and the table agree. */
+/* Overwrites face f's levels [nstored, nlevels) with the values Ptex serves for them (every
+ * level when nstored is 1; the 1x1 level always gets the constant value): constpx (one texel;
+ * NULL = the average of level 0 computed as Ptex does) for 1x1, else one or two 2:1
+ * reductions of the level before. nstored counts level 0 (1 = no stored reductions); a face
+ * whose Ptex flags say it has edits must pass 1. Constant faces are left alone. ST_ENOMEM
+ * only for faces over 4 KiB of level-1 texels when a scratch row cannot be allocated. */
+int st_ptexres_fill_levels(st_set *s, uint32_t f, unsigned nstored, const uint8_t *constpx,
+                           st_error *e);
+
+/* Attaches the table, unbuilt, as the set's ST_EXT_PTEXRES extension with the Ptex filter
+ * family as its filter (s must have no extension yet). The set's levels must already hold
+ * the values Ptex serves (st_ptexres_fill_levels, or a native set file that kept them).
+ * ptxflags (may be NULL = from the face flags) and nstored (may be NULL = every square level)
+ * are copied. max_bytes (0 = ST_DEFAULT_MAX_BYTES) caps the arena built later. Costs two
+ * bytes per face until a Ptex filter first runs. */
+int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+                           size_t max_bytes, st_error *e);
+
+/* For a set whose levels past level 0 are not Ptex's yet: fills them (st_ptexres_fill_levels
+ * with constpx + f * texel size, or NULL) and attaches the table lazily. Arguments as above. */
 int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
                       const uint8_t *nstored, size_t max_bytes, st_error *e);
 
-/* Attaches a lazy table to s (ST_EXT_PTEXRES, s must have no extension yet): nothing is
- * built until a Ptex filter first samples s (or st_ptexres_ensure is called); the inputs are
- * as for st_ptexres_attach but all three are required and must outlive s (a native set's
- * mapping). The set's levels are NOT rewritten: s must already hold the values Ptex serves
- * for the levels it does not store (a native file is written from a set whose levels were
- * rewritten by st_ptexres_attach), so a read-only mapped set is never written. */
-int st_ptexres_attach_lazy(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
-                           const uint8_t *nstored, size_t max_bytes, st_error *e);
+/* The built table of s: builds it on the first call (thread-safe; later calls are one atomic
+ * load). NULL when s has no table (e NULL-safe) or the build failed (ST_ENOMEM or over
+ * max_bytes, in e; a later call tries again). */
+const st_ptexres *st_ptexres_table(const st_set *s, st_error *e);
 
-/* The table of s when it is built, or NULL when s has none (or a lazy one not built yet). */
+/* The table record of s (built or not: test t->built, or call st_ptexres_table), or NULL
+ * when s has none. */
 const st_ptexres *st_ptexres_get(const st_set *s);
 
-/* Builds a lazy table now if needed; returns the table or NULL (no table, or the build
- * failed: out of memory / over max_bytes). */
-const st_ptexres *st_ptexres_ensure(const st_set *s);
+/* The built table of s, pinned: like st_ptexres_table, but st_ptexres_drop cannot free it
+ * until st_ptexres_unpin(t). NULL (nothing pinned) as for st_ptexres_table. The Ptex filter
+ * reads through this; other callers of st_ptexres_table must not race with a drop. */
+const st_ptexres *st_ptexres_pin(const st_set *s, st_error *e);
+void st_ptexres_unpin(const st_ptexres *t);
 
-/* Frees a lazy table's built data when no filter is using it (it is rebuilt on the next Ptex
- * filter call); returns the bytes freed (0: nothing built, an eager table, or busy). */
+/* Frees the built data of the table of s when no reader has it pinned (it is rebuilt on the
+ * next Ptex filter call); returns the bytes freed (0: no table, not built, or pinned). */
 size_t st_ptexres_drop(const st_set *s);
 
-/* Bytes a built table holds beyond its small header (0 when not built or no table). */
+/* Bytes the built table of s holds beyond its record (0: no table or not built). */
 size_t st_ptexres_built_bytes(const st_set *s);
 
-/* Data of face f at resolution (ru, rv), 0 <= ru <= ulog2, 0 <= rv <= vlog2. */
+/* Data of face f at resolution (ru, rv), 0 <= ru <= ulog2, 0 <= rv <= vlog2, of a built
+ * table (st_ptexres_table). */
 static inline const uint8_t *st_ptexres_data(const st_ptexres *t, const st_set *s, uint32_t f,
                                              unsigned ru, unsigned rv)
 {

@@ -377,6 +377,17 @@ static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, c
     }
 }
 
+/* Rolls sets/<name>/set.native back to what it was before a commit touched it: the old file
+ * (hard-linked to prevnat) when there was one, else none. */
+static void restore_native(int touched, int had_nat, const char *prevnat, const char *nat)
+{
+    if (!touched)
+        return;
+    if (!had_nat || rename(prevnat, nat) != 0)
+        unlink(nat); /* no old file, or it cannot be put back: rebuilt from the source at start */
+    unlink(prevnat);
+}
+
 int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
                           const char *options, uint64_t bytes, st_set **set,
                           st_publish_fn publish, void *arg, st_error *e)
@@ -429,9 +440,26 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
     if (set && *set)
         native_tmp(d, *set, &m, ntmp);
 
+    char prev[PATHCAP];   /* a hard link to the old manifest, to roll back to */
+    pathf(prev, "%s/tmp/%s.prev", d->root, id);
+    char prevnat[PATHCAP]; /* a hard link to the old native file, likewise */
+    pathf(prevnat, "%s/tmp/%s.prevnative", d->root, id);
+    int nat_touched = 0, had_nat = 0;
+
     pthread_mutex_lock(&d->mu);
     st_manifest old;
-    int had_old = st_manifest_read(man, &old, NULL) == 0;
+    st_error oe;
+    int orc = st_manifest_read(man, &old, &oe);
+    int had_old = orc == 0;                 /* a valid manifest: its source goes at the end */
+    int had_file = orc != ST_ENOTFOUND;     /* a manifest file, to put back on a rollback */
+    if (orc && orc != ST_ENOTFOUND && orc != ST_EFORMAT && orc != ST_EUNSUPPORTED) {
+        /* cannot tell whether a set is there (EIO, ENOMEM): touch nothing */
+        st_datadir_discard(tmp_path);
+        if (ntmp[0])
+            unlink(ntmp);
+        pthread_mutex_unlock(&d->mu);
+        return st_fail(e, orc, "%s", oe.msg);
+    }
     int newdir = 0;
     if (mkdir(setdir, 0700) == 0)
         newdir = 1;
@@ -439,6 +467,12 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
         rc = st_fail(e, ST_EIO, "mkdir %s: %s", setdir, strerror(errno));
     if (!rc && rename(tmp_path, src) != 0)
         rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp_path, src, strerror(errno));
+    /* the old set's native file, hard-linked to tmp/<id>.prevnative so that a rollback can put
+     * it back (a crash leaves the link in tmp/, emptied at open) */
+    if (!rc) {
+        nat_touched = 1;
+        had_nat = link(nat, prevnat) == 0;
+    }
     /* before the commit point: a crash here leaves the old manifest beside a native file that
      * names the new source, which the next start refuses and rebuilds from the old source */
     if (!rc && ntmp[0] && rename(ntmp, nat) != 0) {
@@ -449,16 +483,17 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
         unlink(nat);  /* never leave an older set's native file beside the new manifest */
     if (!rc)
         rc = manifest_write(mantmp, &m, e);
+    if (!rc && had_file && link(man, prev) != 0)
+        rc = st_fail(e, ST_EIO, "link %s -> %s: %s", man, prev, strerror(errno));
     if (!rc && rename(mantmp, man) != 0)   /* the commit point */
         rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", mantmp, man, strerror(errno));
     if (rc) {
         unlink(src);
         unlink(mantmp);
-        if (ntmp[0]) {
-            unlink(ntmp);
-            if (had_old)
-                unlink(nat);  /* names a source that is not committed: rebuilt at start */
-        }
+        unlink(prev);
+        if (ntmp[0])
+            unlink(ntmp);  /* not renamed yet (or already gone) */
+        restore_native(nat_touched, had_nat, prevnat, nat);
         st_datadir_discard(tmp_path);
         if (newdir) {
             unlink(nat);
@@ -470,13 +505,9 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
     rc = fsync_path(setdir, 1, e);
     if (!rc)
         rc = fsync_path(sets, 1, e);
-    if (!rc && had_old && strcmp(old.source, m.source) != 0) {
-        char oldsrc[PATHCAP];
-        pathf(oldsrc, "%s/%s", setdir, old.source);
-        unlink(oldsrc);
-    }
-    /* serve the set from its native file from now on: the heap copy goes */
-    if (!rc && ntmp[0]) {
+    /* serve the set from its native file from now on: the heap copy goes (on a rollback
+     * below the caller frees the mapped set; the mapping outlives the file's name) */
+    if (!rc && ntmp[0] && set && *set) {
         st_set *mapped = NULL;
         if (st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {
             st_set_free(*set);
@@ -485,6 +516,31 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
     }
     if (!rc && publish)
         rc = publish(arg, &m, src);
+    if (rc) {
+        /* Failed after the commit point (an fsync, or publish): the caller answers an error,
+         * so the set must not appear at the next start either. Put the old manifest back (or
+         * remove the new set), so disk, registry and reply agree. A crash before this lands
+         * leaves the new set, which is then an upload in flight, not a lost one. */
+        if ((had_file ? rename(prev, man) : unlink(man)) != 0 && e)
+            snprintf(e->msg + strlen(e->msg), sizeof e->msg - strlen(e->msg),
+                     " (and rolling back failed: %s)", strerror(errno));
+        unlink(src);
+        unlink(prev);
+        restore_native(nat_touched, had_nat, prevnat, nat); /* the old one back, or none */
+        if (newdir)
+            rmdir(setdir);
+        stu_fsync_dir(setdir);
+        stu_fsync_dir(sets);
+        pthread_mutex_unlock(&d->mu);
+        return rc;
+    }
+    unlink(prev);
+    unlink(prevnat);
+    if (had_old && strcmp(old.source, m.source) != 0) {
+        char oldsrc[PATHCAP];
+        pathf(oldsrc, "%s/%s", setdir, old.source);
+        unlink(oldsrc);
+    }
     pthread_mutex_unlock(&d->mu);
     return rc;
 }
@@ -530,15 +586,18 @@ static void move_broken(st_datadir *d, const char *name, const char *setdir)
     new_id(d, id, sizeof id);
     pathf(broken, "%s/broken", d->root);
     aside_path(dst, broken, name, id);
-    if (rename(setdir, dst) != 0)
-        rm_rf(setdir);  /* cannot move it: still never load it half-way */
+    rename(setdir, dst);  /* when it cannot be moved it stays, unloaded, for the next start */
 }
+
+/* An error that says nothing about the set itself (memory, a failing disk call): the set is
+ * left where it is and the load stops, rather than setting an acknowledged set aside. */
+static int transient(int rc) { return rc == ST_ENOMEM || rc == ST_EIO; }
 
 /* Checks and loads one set directory: 1 loaded, 0 removed or moved to broken/, ST_EBUSY
  * when the loader asked to be called again later. Caller holds d->mu. */
 static int load_one(st_datadir *d, const char *sets, const char *name, st_publish_fn load,
                     void *arg, void (*report)(void *arg, const char *name, const char *why),
-                    int final)
+                    int final, st_error *e)
 {
     struct dirent *de;
     char setdir[PATHCAP], man[PATHCAP], src[PATHCAP];
@@ -592,6 +651,9 @@ static int load_one(st_datadir *d, const char *sets, const char *name, st_publis
         if (rc && !err.msg[0])
             snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
     }
+    if (rc && transient(rc))
+        return st_fail(e, rc, "set '%s' left in place, not loaded: %s", name,
+                       err.msg[0] ? err.msg : st_strerror(rc));
     if (rc) {
         if (report) {
             char why[ST_ERRMSG_LEN + 40];
@@ -622,12 +684,13 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
             cap = cap ? cap * 2 : 32;
             char **nn = realloc(names, cap * sizeof *nn);
             if (!nn)
-                break;
+                goto oom;
             names = nn;
         }
         names[n] = strdup(de->d_name);
-        if (names[n])
-            n++;
+        if (!names[n])
+            goto oom;
+        n++;
     }
     closedir(dp);
     if (n)
@@ -643,10 +706,17 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
         for (size_t i = 0; i < n; i++) {
             if (!names[i])
                 continue;
-            int r = load_one(d, sets, names[i], load, arg, report, final);
+            int r = load_one(d, sets, names[i], load, arg, report, final, e);
             if (r == ST_EBUSY) {
                 deferred++;
                 continue;
+            }
+            if (r < 0) {
+                pthread_mutex_unlock(&d->mu);
+                for (size_t k = 0; k < n; k++)
+                    free(names[k]);
+                free(names);
+                return r;
             }
             if (r == 1) {
                 loaded++;
@@ -663,6 +733,13 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
     free(names);
     fsync_path(sets, 1, NULL);
     return loaded;
+oom:
+    /* a set missing from the list would be a set missing after the start: fail instead */
+    closedir(dp);
+    for (size_t k = 0; k < n; k++)
+        free(names[k]);
+    free(names);
+    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
 }
 
 /* ---- load with native files ------------------------------------------------------------------ */
@@ -700,10 +777,11 @@ static void native_aside(st_datadir *d, const char *name, const char *nat)
         unlink(nat);
 }
 
-/* One set dir: 1 published, 0 removed or moved to broken/, ST_EBUSY "later". Caller holds
- * d->mu. *built counts native files written. */
+/* One set dir: 1 published, 0 removed or moved to broken/, ST_EBUSY "later", another negative
+ * code (in e) when an error that says nothing about the set stops the load (transient():
+ * the set is left in place). Caller holds d->mu. *built counts native files written. */
 static int load_one_native(st_datadir *d, const char *sets, const char *name,
-                           const st_datadir_loader *L, int final, int *built)
+                           const st_datadir_loader *L, int final, int *built, st_error *e)
 {
     struct dirent *de;
     char setdir[PATHCAP], man[PATHCAP], src[PATHCAP], nat[PATHCAP];
@@ -834,6 +912,9 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         }
     }
     (void)imported;
+    if (rc && transient(rc))
+        return st_fail(e, rc, "set '%s' left in place, not loaded: %s", name,
+                       err.msg[0] ? err.msg : st_strerror(rc));
     if (rc) {
         if (L->report) {
             char w[ST_ERRMSG_LEN + 40];
@@ -863,12 +944,13 @@ int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
             cap = cap ? cap * 2 : 32;
             char **nn = realloc(names, cap * sizeof *nn);
             if (!nn)
-                break;
+                goto oom;
             names = nn;
         }
         names[n] = strdup(de->d_name);
-        if (names[n])
-            n++;
+        if (!names[n])
+            goto oom;
+        n++;
     }
     closedir(dp);
     if (n)
@@ -883,10 +965,17 @@ int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
         for (size_t i = 0; i < n; i++) {
             if (!names[i])
                 continue;
-            int r = load_one_native(d, sets, names[i], L, final, &built);
+            int r = load_one_native(d, sets, names[i], L, final, &built, e);
             if (r == ST_EBUSY) {
                 deferred++;
                 continue;
+            }
+            if (r < 0) {
+                pthread_mutex_unlock(&d->mu);
+                for (size_t k = 0; k < n; k++)
+                    free(names[k]);
+                free(names);
+                return r;
             }
             if (r == 1) {
                 loaded++;
@@ -913,5 +1002,11 @@ int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
     fsync_path(sets, 1, NULL);
     if (L->built)
         *L->built = built;
-    return loaded;
+    return loaded;oom:
+    /* a set missing from the list would be a set missing after the start: fail instead */
+    closedir(dp);
+    for (size_t k = 0; k < n; k++)
+        free(names[k]);
+    free(names);
+    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
 }

@@ -30,6 +30,11 @@
  * records the source's name, size and CRC, so a crash between that rename and the commit
  * point leaves a native file that names a source the manifest does not: refused at start and
  * rebuilt from the committed source (nothing acknowledged is lost).
+ * A failure after the commit point (an fsync in step 4, or the publish callback) rolls back:
+ *   the old manifest (hard-linked to tmp/<id>.prev before the rename) is put back, or the new
+ *   set removed, so a set whose commit returned an error does not appear at the next start;
+ *   the native file likewise (the old one, hard-linked to tmp/<id>.prevnative, put back, or
+ *   the new one removed).
  * At open: tmp/ and trash/ are emptied; a set directory without a manifest is a new set whose
  * upload was never acknowledged and is removed; files a manifest does not name are leftovers
  * of an interrupted replace and are removed; a source whose size or CRC-32 differs from its
@@ -86,14 +91,15 @@ void st_datadir_discard(const char *tmp_path);
 /* Checks an extension for use as a source format: 1..8 bytes of [a-z0-9]. */
 int st_format_check(const char *fmt, st_error *e);
 
-/* Called under the commit mutex once the set is durable; its return value is returned by
- * st_datadir_commit (the set is on disk either way). */
+/* Called under the commit mutex once the set is durable; a non-zero return is returned by
+ * st_datadir_commit and rolls the commit back. */
 typedef int (*st_publish_fn)(void *arg, const st_manifest *m, const char *source_path);
 
 /* Commits tmp_path (a file from st_datadir_tmpfile, complete) as set `name` with source
  * format fmt: verifies its size against bytes (the caller checked the upload's own checksum),
- * computes the CRC-32 the manifest records, fsyncs, renames, writes the manifest as above. Calls publish (may be NULL) under the mutex. On failure before the
- * commit point the previous set of that name is untouched and tmp_path is removed. */
+ * computes the CRC-32 the manifest records, fsyncs, renames, writes the manifest as above. Calls publish (may be NULL) under the mutex. On any failure
+ * (publish's included) the previous set of that name, or none, is what stays on disk, and
+ * tmp_path is removed. */
 int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
                       const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
                       st_error *e);
@@ -115,8 +121,9 @@ int st_datadir_delete(st_datadir *d, const char *name,
  * name order. A load callback that returns ST_EBUSY ("needs another set first", e.g. a mesh
  * paired with a texture set) is called again after the others, until no progress is made. A
  * set that fails the checks or whose load callback returns another code < 0 is moved to
- * broken/<name>.<time> and reported through report (may be NULL) with the reason. Returns
- * the number of sets loaded, or a negative code when sets/ cannot be read. */
+ * broken/<name>.<time> and reported through report (may be NULL) with the reason; ST_ENOMEM or
+ * ST_EIO (from the checks or the callback) says nothing about the set: it is left in place and
+ * the load stops with that code. Returns the number of sets loaded, or a negative code. */
 int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
                     void (*report)(void *arg, const char *name, const char *why), st_error *e);
 
@@ -145,7 +152,9 @@ typedef struct st_datadir_loader {
  * or a refused one, which is moved to broken/<name>.<id>.native and reported) the source is
  * checked whole (CRC) and imported, its native file written (tmp, fsync, rename, fsync) and
  * the set served from it. A set whose source is bad or does not import is moved to broken/.
- * Returns the number of sets published, or a negative code when sets/ cannot be read. */
+ * Returns the number of sets published, or a negative code when sets/ cannot be read or a
+ * set fails for a reason that says nothing about it (ST_ENOMEM, ST_EIO: the set is left in
+ * place, not moved to broken/, and the load stops, as st_datadir_load). */
 int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e);
 
 /* Reads and checks one manifest file. */

@@ -349,6 +349,20 @@ static void compress_reports_sizes_and_fetch_writes_a_ptex_file(void **state)
     fclose(f);
     assert_memory_equal(magic, "Ptex", 4);
     assert_int_equal(CLI("fetch", "no-such-set", path), 1);
+    /* the format comes from the extension: a per-face set is not a .png (the server names
+     * what fits); --format overrides the extension */
+    char png[400];
+    snprintf(png, sizeof png, "%s/default.png", D.dir);
+    assert_int_equal(CLI("fetch", "default", png), 1);
+    assert_non_null(strstr(ERR, "it can be as: ptx"));
+    assert_int_equal(access(png, F_OK), -1);
+    assert_int_equal(CLI("fetch", "default", png, "--format", "ptx"), 0);
+    f = fopen(png, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(magic, 1, 4, f), 4);
+    fclose(f);
+    assert_memory_equal(magic, "Ptex", 4);
+    assert_int_equal(CLI("fetch", "default", png, "--format", "tga"), 2);
 }
 
 static void commands_piped_on_stdin_share_one_connection(void **state)

@@ -251,7 +251,7 @@ static void mock_serve(mock *m, int fd)
         close(fd);
         return;
     }
-    while (!m->stop) {
+    while (!__atomic_load_n(&m->stop, __ATOMIC_ACQUIRE)) {
         struct pollfd p = { fd, POLLIN, 0 };
         if (poll(&p, 1, 100) <= 0)
             continue;
@@ -281,7 +281,7 @@ out:
 static void *mock_main(void *arg)
 {
     mock *m = arg;
-    while (!m->stop) {
+    while (!__atomic_load_n(&m->stop, __ATOMIC_ACQUIRE)) {
         struct pollfd p = { m->lfd, POLLIN, 0 };
         if (poll(&p, 1, 50) <= 0)
             continue;
@@ -1010,7 +1010,7 @@ static void real_daemon_transfers_and_pipelines(void **state)
         stc_job j;
         assert_int_equal(stc_compress(c, "cube_text", "cube_bc1", 1, STC_COMPRESS_SEAM_AWARE,
                                       &job), 0);
-        rc = stc_job_wait(c, job, 60000, &j);
+        rc = stc_job_wait(c, job, 300000, &j) /* a hang guard, not a speed check */;
         if (rc)
             fail_msg("job: %s: %s", stc_strerror(rc), stc_errmsg(c));
         assert_int_equal(j.state, STC_JOB_DONE);

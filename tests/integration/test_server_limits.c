@@ -215,6 +215,85 @@ static void unread_replies_pause_reading(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* Clients that trickle a request one byte a second do not hold the server: with every slot
+ * taken by them, a new client is served at once (the oldest half-sent connection is evicted
+ * for it), and every trickler is closed once its frame is past request-timeout. */
+static void trickling_clients_do_not_hold_every_slot(void **state)
+{
+    (void)state;
+    enum { N = 50 };
+    st_daemon d;
+    const char *extra[] = {"--max-conns", "50", "--idle-timeout", "3", "--request-timeout", "4",
+                           "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    /* the readiness probe is gone once a fresh connection sees itself alone */
+    assert_int_equal(st_wait_stat(&d, NULL, "conns_current", ST_STAT_EQ, 1, 10000), 0);
+    uint8_t ping[64];
+    size_t fl = st_wire_frame(ping, "STX1", 1, STP_OP_PING, 0, 1, "hello", 5, 5);
+    static int fds[N];
+    int64_t t0 = st_now_ms();
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+    }
+    /* one byte a second each: the 29-byte PING would take 29 s */
+    size_t sent = 0;
+    int64_t next = st_now_ms();
+    int served = 0;
+    stc_conn *good = NULL;
+    while (st_now_ms() - t0 < 12000) {
+        if (st_now_ms() >= next && sent < fl) {
+            for (int i = 0; i < N; i++)
+                if (fds[i] >= 0 && send(fds[i], ping + sent, 1, MSG_NOSIGNAL | MSG_DONTWAIT) != 1) {
+                    close(fds[i]);
+                    fds[i] = -1;
+                }
+            sent++;
+            next += 1000;
+            if (good)   /* a well-behaved client is not idle either (idle-timeout 3) */
+                assert_int_equal(stc_ping(good), 0);
+        }
+        /* after 2.5 s every slot is held by a trickler whose frame is over a second old: a
+         * well-behaved client still gets in, well within the request deadline */
+        if (!good && st_now_ms() - t0 >= 2500) {
+            int64_t a = st_now_ms();
+            good = st_daemon_client(&d, NULL);
+            assert_non_null(good);
+            assert_int_equal(stc_ping(good), 0);
+            assert_true(st_now_ms() - a < 2000);
+            served = 1;
+        }
+        st_sleep_ms(20);   /* the trickle rate is what is under test */
+        int open = 0;
+        for (int i = 0; i < N; i++)
+            if (fds[i] >= 0 && st_wire_peer_closed(fds[i], 0)) {
+                close(fds[i]);
+                fds[i] = -1;
+            } else if (fds[i] >= 0) {
+                open++;
+            }
+        if (served && open == 0)
+            break;
+    }
+    int64_t took = st_now_ms() - t0;
+    int left = 0;
+    for (int i = 0; i < N; i++)
+        if (fds[i] >= 0) {
+            left++;
+            close(fds[i]);
+        }
+    assert_true(served);
+    assert_int_equal(left, 0);   /* every trickler closed ... */
+    assert_true(took < 4000 + 2500);   /* ... by the request deadline (+ the 1 s scan) */
+    assert_true(st_conn_stat(good, "conns_evicted") >= 1);
+    assert_true(st_conn_stat(good, "conns_request_timeout") >= N - 5);
+    assert_int_equal(stc_ping(good), 0);   /* the good client was never touched */
+    stc_close(good);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* 2000 connections that each sent one PING are all answered and held open at once. What they
  * cost in memory is measured by the benchmark (tests/bench/net_idle.sh), not asserted here. */
 static void thousands_of_idle_connections_are_held_and_served(void **state)
@@ -260,6 +339,7 @@ int main(void)
         cmocka_unit_test(idle_connections_are_closed),
         cmocka_unit_test(upload_and_frame_caps_hold),
         cmocka_unit_test(unread_replies_pause_reading),
+        cmocka_unit_test(trickling_clients_do_not_hold_every_slot),
         cmocka_unit_test(thousands_of_idle_connections_are_held_and_served),
     };
     return cmocka_run_group_tests_name("server_limits", tests, NULL, NULL);

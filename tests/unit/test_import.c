@@ -22,6 +22,7 @@
 #include "image.h"
 #include "import.h"
 #include "mesh.h"
+#include "mesh_io.h"
 #include "../common/testdata.h"
 #include "image_io.h"
 #include "mesh_io.h"
@@ -466,6 +467,78 @@ static void draco_duck_pairs_with_its_texture(void **state)
     st_set_free(s);
 }
 
+/* A 22-byte Draco edgebreaker header that declares 2^28 faces: refused from the header, before
+ * Draco sizes its corner table from it (it allocated gigabytes; found by fuzz_draco). */
+static void draco_header_declaring_too_many_faces_is_refused_before_decoding(void **state)
+{
+    (void)state;
+    static const uint8_t drc[] = {'D', 'R', 'A', 'C', 'O', 2, 2, 1 /* mesh */, 1 /* edgebreaker */,
+                                  0, 0, /* flags */ 0 /* traversal */, 3 /* vertices */,
+                                  0x80, 0x80, 0x80, 0x80, 0x01 /* 2^28 faces */, 0 /* attr data */,
+                                  0 /* symbols */, 0 /* split symbols */, 0};
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_draco_read_mem(drc, sizeof drc, NULL, &m, &e), ST_ETOOBIG);
+    assert_null(m);
+    assert_non_null(strstr(e.msg, "268435456 faces"));
+    /* under small caps, a modest declared count is refused too */
+    st_mesh_caps caps = {1000, 1000, 1u << 20};
+    static const uint8_t small[] = {'D', 'R', 'A', 'C', 'O', 2, 2, 1, 0 /* sequential */, 0, 0,
+                                    0xd1, 0x0f /* 2001 faces */, 3 /* points */, 0};
+    assert_int_equal(st_draco_read_mem(small, sizeof small, &caps, &m, &e), ST_ETOOBIG);
+}
+
+/* st_exr_read_mem (an OpenEXR memory stream) reads what st_exr_read reads from the file. */
+static void exr_from_memory_matches_exr_from_the_file(void **state)
+{
+    (void)state;
+    char path[512];
+    tmp_path(path, sizeof path, "mem.exr");
+    enum { W = 9, H = 5 };
+    static float px[W * H * 3];
+    for (int i = 0; i < W * H * 3; i++)
+        px[i] = (float)i / 7.0f;
+    st_error e;
+    assert_int_equal(st_image_write(path, W, H, 3, ST_DT_F32, px, &e), ST_OK);
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    static uint8_t buf[1 << 16];
+    size_t len = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    st_image a, b;
+    assert_int_equal(st_exr_read(path, NULL, &a, &e), ST_OK);
+    assert_int_equal(st_exr_read_mem(buf, len, "mem.exr", NULL, &b, &e), ST_OK);
+    assert_int_equal(a.w, b.w);
+    assert_int_equal(a.h, b.h);
+    assert_int_equal(a.nchan, b.nchan);
+    assert_int_equal(a.dtype, b.dtype);
+    assert_memory_equal(a.data, b.data, (size_t)W * H * 3 * sizeof(float));
+    st_image_free(&a);
+    st_image_free(&b);
+    /* cut short: refused, as the file is */
+    assert_int_equal(st_exr_read_mem(buf, len / 2, "cut.exr", NULL, &b, &e), ST_EFORMAT);
+    assert_null(b.data);
+}
+
+/* A failed image read leaves the caller's st_image empty, whatever it held (found by
+ * fuzz_image: OIIO's error paths returned with the struct untouched). */
+static void failed_image_reads_leave_the_image_empty(void **state)
+{
+    (void)state;
+    char path[512];
+    tmp_path(path, sizeof path, "not_an_image.png");
+    write_file(path, "\x89PNG\r\n\x1a\n garbage", 17);
+    st_image img;
+    st_error e;
+    memset(&img, 0xa5, sizeof img);
+    assert_int_not_equal(st_image_read(path, NULL, &img, &e), ST_OK);
+    assert_null(img.data);
+    memset(&img, 0xa5, sizeof img);
+    assert_int_not_equal(st_image_read_any(path, NULL, &img, &e), ST_OK);
+    assert_null(img.data);
+    st_image_free(&img);
+}
+
 static void obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line(void **state)
 {
     (void)state;
@@ -795,6 +868,9 @@ int main(void)
         cmocka_unit_test(mtl_paths_outside_the_mesh_folder_are_not_followed),
         cmocka_unit_test(obj_with_backslash_texture_path_imports_as_an_atlas),
         cmocka_unit_test(draco_duck_pairs_with_its_texture),
+        cmocka_unit_test(draco_header_declaring_too_many_faces_is_refused_before_decoding),
+        cmocka_unit_test(exr_from_memory_matches_exr_from_the_file),
+        cmocka_unit_test(failed_image_reads_leave_the_image_empty),
         cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
         cmocka_unit_test(obj_over_the_caps_is_refused),
         cmocka_unit_test(huge_png_dimensions_are_refused_before_allocation),

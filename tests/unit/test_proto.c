@@ -635,6 +635,76 @@ static void sample_reply_converts_formats(void **state)
     }
 }
 
+/* The exact unorm value of a float in [2^-20, 1]: floor(v * max + 1/2) in integers. v is
+ * m * 2^-k with a 24-bit m and k <= 44, so 2 * m * max + 2^k < 2^63. */
+static uint32_t unorm_ref(float v, uint32_t max)
+{
+    int e;
+    float fr = frexpf(v, &e);                       /* v = fr * 2^e, fr in [0.5, 1) */
+    uint64_t m = (uint64_t)ldexpf(fr, 24);          /* v = m * 2^(e - 24) */
+    int k = 24 - e;                                 /* v = m / 2^k */
+    assert_true(k >= 0 && k <= 44);
+    return (uint32_t)((2 * m * max + ((uint64_t)1 << k)) >> (k + 1));
+}
+
+static uint32_t unorm_wire(float v, unsigned fmt)
+{
+    frame f;
+    uint8_t st = 0;
+    stp_sample_reply rp = { 1, 1, (uint8_t)fmt, 0, 0, &v, NULL, &st, NULL, NULL, NULL }, rp2;
+    stp_buf_init(&f.b);
+    assert_int_equal(stp_enc_sample_reply(&f.b, STP_OP_SAMPLE, 1, &rp), 0);
+    frame_parse(&f, STP_OP_SAMPLE, 1, 1);
+    assert_int_equal(stp_dec_sample_reply(f.body, f.h.body_len, &rp2, NULL), 0);
+    uint16_t u = 0;
+    assert_int_equal(stp_sample_values_u16(&rp2, &u), 0);
+    stp_buf_free(&f.b);
+    return u;
+}
+
+/* PROTOCOL.md 4.6: unorm = the integer nearest to clamp(v, 0, 1) * max, computed exactly,
+ * ties up, NaN 0. Checked at the floats on both sides of every rounding boundary
+ * (k + 1/2) / max of both formats, and at the special values. */
+static void unorm_conversion_is_exact_at_every_boundary(void **state)
+{
+    (void)state;
+    /* the value: binary32 arithmetic would give 140 */
+    assert_int_equal(unorm_wire(0.54705882f, STP_OUT_UNORM8), 139);
+    assert_int_equal(unorm_ref(0.54705882f, 255), 139);
+    assert_int_equal(unorm_wire(0.5f, STP_OUT_UNORM8), 128);       /* the one tie: up */
+    assert_int_equal(unorm_wire(0.5f, STP_OUT_UNORM16), 32768);
+    const float special[] = {0.0f, -0.0f, -1.0f, 1.0f, 1.5f, INFINITY, -INFINITY, NAN,
+                             1e-30f, 0x1p-149f, 0.99999994f};
+    const uint32_t want8[] = {0, 0, 0, 255, 255, 255, 0, 0, 0, 0, 255};
+    const uint32_t want16[] = {0, 0, 0, 65535, 65535, 65535, 0, 0, 0, 0, 65535};
+    for (size_t i = 0; i < sizeof special / sizeof special[0]; i++) {
+        assert_int_equal(unorm_wire(special[i], STP_OUT_UNORM8), want8[i]);
+        assert_int_equal(unorm_wire(special[i], STP_OUT_UNORM16), want16[i]);
+    }
+    unsigned checked = 0;
+    for (unsigned fmt = STP_OUT_UNORM8; fmt <= STP_OUT_UNORM16; fmt++) {
+        uint32_t max = fmt == STP_OUT_UNORM8 ? 255 : 65535;
+        /* 16-bit: every 7th boundary (and the ends) keeps the test under a second */
+        uint32_t step = fmt == STP_OUT_UNORM8 ? 1 : 7;
+        for (uint32_t k = 0; k < max; k += (k + step < max - 1 ? step : 1)) {
+            float b = (float)(((double)k + 0.5) / max);
+            float lo = nextafterf(b, 0.0f), hi = nextafterf(b, 2.0f);
+            const float around[] = {nextafterf(lo, 0.0f), lo, b, hi, nextafterf(hi, 2.0f)};
+            for (int j = 0; j < 5; j++) {
+                float v = around[j];
+                if (v < 0x1p-20f || v > 1.0f)
+                    continue;
+                uint32_t want = unorm_ref(v, max);
+                if (unorm_wire(v, fmt) != want)
+                    fail_msg("unorm%u of %.9g (0x%08x): %u, exact %u", fmt == 1 ? 8 : 16,
+                             (double)v, stp_f2u(v), unorm_wire(v, fmt), want);
+                checked++;
+            }
+        }
+    }
+    assert_true(checked > 40000);
+}
+
 static void stats_round_trip(void **state)
 {
     (void)state;
@@ -765,6 +835,26 @@ static void job_and_fetch_bodies_round_trip(void **state)
     assert_int_equal(stp_dec_fetch_open(f.body, f.h.body_len, &fo2, NULL), 0);
     assert_true(fo2.format == STP_FETCH_DDS && strcmp(fo2.name, "set9") == 0);
     prefixes_refused(f.body, f.h.body_len, w_fetch_open, &fo2);
+    /* every format of the list decodes; the next number is INVALID; names are extensions */
+    for (unsigned fmt = 0; fmt <= STP_FETCH_OBJ + 1; fmt++) {
+        const char *why = NULL;
+        stp_fetch_open fx = { "set9", (uint8_t)fmt };
+        stp_buf_clear(&f.b);
+        assert_int_equal(stp_enc_fetch_open(&f.b, 4, 0, &fx), 0);
+        frame_parse(&f, STP_OP_FETCH_OPEN, 4, 0);
+        int st = stp_dec_fetch_open(f.body, f.h.body_len, &fo2, &why);
+        assert_int_equal(st, fmt <= STP_FETCH_OBJ ? 0 : STP_S_INVALID);
+        if (fmt <= STP_FETCH_OBJ)
+            assert_int_equal(stp_fetch_format_parse(stp_fetch_format_name(fmt)), (int)fmt);
+    }
+    assert_int_equal(STP_FETCH_PTX, 0);
+    assert_int_equal(STP_FETCH_DDS, 1);
+    assert_int_equal(stp_fetch_format_parse("EXR"), STP_FETCH_EXR);
+    assert_int_equal(stp_fetch_format_parse("png"), STP_FETCH_PNG);
+    assert_int_equal(stp_fetch_format_parse("obj"), STP_FETCH_OBJ);
+    assert_int_equal(stp_fetch_format_parse("tga"), -1);
+    assert_int_equal(stp_fetch_format_parse(""), -1);
+    assert_null(stp_fetch_format_name(5));
 
     stp_fetch_open_reply fr = { 5, 123456, 0xdeadbeef, 4096 }, fr2;
     stp_buf_clear(&f.b);
@@ -1205,6 +1295,7 @@ int main(void)
         cmocka_unit_test(status_and_opcode_names_come_from_the_lists),
         cmocka_unit_test(value_lists_round_trip_and_match_the_store),
         cmocka_unit_test(set_names_follow_one_rule),
+        cmocka_unit_test(unorm_conversion_is_exact_at_every_boundary),
         cmocka_unit_test(request_decoders_refuse_bad_names_as_invalid),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

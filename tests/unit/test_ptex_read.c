@@ -8,14 +8,18 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
 
 #include "ptex.h"
+#include "ptex_adler.h"
 #include "ptex_format.h"
 #include "ptexres.h"
+#include "sample.h"
 #include "../common/testdata.h"
 
 /* 1 when the shared file is there (test_ptex_read reads it as a condition). */
@@ -100,10 +104,11 @@ static void every_shared_ptx_loads_or_is_refused_for_a_stated_reason(void **stat
     }
 }
 
-/* Memory accounting sees every byte a Ptex set holds: the resolution table the Ptex filters
- * read (often larger than the texels) is counted by st_set_memory, which the registry, the
- * daemon's caps, `ls`, `info` and STATS all use. */
-static void set_memory_counts_the_ptex_resolution_table(void **state)
+/* Memory accounting sees every byte a Ptex set holds: the import no longer builds the
+ * resolution table the Ptex filters read (often larger than the texels) - it costs two bytes
+ * per face until the first Ptex-filter call builds it - and once built st_set_memory, which
+ * the registry, the daemon's caps, `ls`, `info` and STATS all use, counts all of it. */
+static void set_memory_counts_the_ptex_resolution_table_once_built(void **state)
 {
     (void)state;
     char path[1024];
@@ -112,15 +117,124 @@ static void set_memory_counts_the_ptex_resolution_table(void **state)
     st_set *s = NULL;
     st_error e;
     assert_int_equal(st_ptex_read_file(path, 0, &s, &e), ST_OK);
-    const st_ptexres *t = st_ptexres_get(s);
-    assert_non_null(t);
-    assert_true(t->bytes > t->arena_bytes);
+    const st_ptexres *rec = st_ptexres_get(s);
+    assert_non_null(rec);
+    assert_int_equal(atomic_load(&((st_ptexres *)(uintptr_t)rec)->built), 0);
     size_t faces = (size_t)s->info.nfaces * sizeof(st_face);
+    size_t before = st_set_memory(s);
+    assert_true(before >= sizeof *s + faces + s->texel_bytes);
+    /* texels, faces, level offsets, two bytes per face of the unbuilt table, some metadata */
+    assert_true(before <= sizeof *s + faces + s->texel_bytes + 65536 +
+                           (size_t)s->info.nfaces * (ST_MAX_LEVELS * sizeof(uint64_t) + 2));
+    const st_ptexres *t = st_ptexres_table(s, &e);
+    assert_ptr_equal(t, rec);
+    assert_true(t->bytes > t->arena_bytes);
     /* the table's pointers alone are 8 bytes per (face, ulog2', vlog2') entry */
-    assert_true(st_set_memory(s) >= sizeof *s + faces + s->texel_bytes + t->bytes);
-    print_message("cube8_k6_u8: %zu texel bytes, %zu table bytes, st_set_memory %zu\n",
-                  s->texel_bytes, t->bytes, st_set_memory(s));
+    assert_true(st_set_memory(s) >= before + t->bytes);
+    assert_ptr_equal(st_ptexres_table(s, &e), t); /* built once */
+    print_message("cube8_k6_u8: %zu texel bytes, st_set_memory %zu after import, %zu table "
+                  "bytes once a Ptex filter ran\n", s->texel_bytes, before, t->bytes);
     st_set_free(s);
+}
+
+/* The table is built by whichever Ptex-filter call comes first, while other threads sample
+ * the same published set: every thread gets the results of a set whose table was built
+ * before sharing, bit for bit. */
+typedef struct lazy_job {
+    const st_set *s;
+    const st_query *q;
+    size_t n;
+    float *out;
+    int rc;
+} lazy_job;
+
+static void *lazy_sampler(void *p)
+{
+    lazy_job *j = p;
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_GAUSSIAN};
+    j->rc = st_sample_batch(j->s, &o, j->q, j->n, j->out, NULL, NULL);
+    return NULL;
+}
+
+static void the_table_is_built_once_under_concurrent_first_use(void **state)
+{
+    (void)state;
+    char path[1024];
+    NEED_DATA(path, "ptx/wdas-ptex-samples/teapot/teapot.ptx");
+    enum { N = 2000, T = 6 };
+    static st_query q[N];
+    static float ref[N * 4], out[T][N * 4];
+    st_set *a = NULL, *b = NULL;
+    st_error e;
+    assert_int_equal(st_ptex_read_file(path, 0, &a, &e), ST_OK);
+    assert_int_equal(st_ptex_read_file(path, 0, &b, &e), ST_OK);
+    uint32_t x = 11;
+    for (int k = 0; k < N; k++) {
+        x = x * 1664525u + 1013904223u;
+        q[k].face = (x >> 8) % a->info.nfaces;
+        x = x * 1664525u + 1013904223u;
+        q[k].u = (float)(x >> 8) / 16777216.0f;
+        x = x * 1664525u + 1013904223u;
+        q[k].v = (float)(x >> 8) / 16777216.0f;
+        q[k].dudx = q[k].dvdy = 1.0f / (float)(1u << (k % 9));
+        q[k].dvdx = q[k].dudy = 0;
+    }
+    assert_non_null(st_ptexres_table(a, &e)); /* reference: built before sharing */
+    lazy_job r = {.s = a, .q = q, .n = N, .out = ref};
+    lazy_sampler(&r);
+    assert_int_equal(r.rc, 0);
+    pthread_t th[T];
+    lazy_job j[T];
+    for (int i = 0; i < T; i++) {
+        j[i] = (lazy_job){.s = b, .q = q, .n = N, .out = out[i]};
+        assert_int_equal(pthread_create(&th[i], NULL, lazy_sampler, &j[i]), 0);
+    }
+    for (int i = 0; i < T; i++) {
+        pthread_join(th[i], NULL);
+        assert_int_equal(j[i].rc, 0);
+        assert_memory_equal(out[i], ref, sizeof(float) * N * a->info.nchan);
+    }
+    assert_int_equal(st_set_memory(a), st_set_memory(b));
+    st_set_free(a);
+    st_set_free(b);
+}
+
+/* The import leaves every level as Ptex serves it (the GPU-style filters read the levels
+ * before any Ptex filter ran), so building the table later writes no level - a set mapped
+ * read-only can be given a table - and the table points into the set for every resolution
+ * that is a set level instead of copying it. */
+static void building_the_table_writes_no_level_and_reuses_set_levels(void **state)
+{
+    (void)state;
+    static const char *rels[] = {"ptx/wdas-ptex-samples/teapot/teapot.ptx",
+                                 "ptex-ref/cube8_k7varrot_f32.ptx",
+                                 "ptx/wdas-ptex-2009/nonquad/test/pPlane1.ptx"};
+    for (size_t i = 0; i < sizeof rels / sizeof rels[0]; i++) {
+        char path[1024];
+        if (st_test_data_path(path, sizeof path, rels[i]))
+            continue;
+        st_set *s = NULL;
+        st_error e;
+        assert_int_equal(st_ptex_read_file(path, 0, &s, &e), ST_OK);
+        /* a copy of the levels as the import left them */
+        uint8_t *copy = malloc(s->texel_bytes);
+        assert_non_null(copy);
+        memcpy(copy, s->texels, s->texel_bytes);
+        const st_ptexres *t = st_ptexres_table(s, &e);
+        assert_non_null(t);
+        assert_memory_equal(copy, s->texels, s->texel_bytes); /* the build writes no level */
+        for (uint32_t f = 0; f < s->info.nfaces; f++) {
+            const st_face *F = &s->faces[f];
+            if (F->flags & ST_FACE_CONSTANT)
+                continue;
+            for (unsigned l = 0; l < F->nlevels; l++) {
+                unsigned ru = F->ulog2 > l ? F->ulog2 - l : 0, rv = F->vlog2 > l ? F->vlog2 - l : 0;
+                assert_ptr_equal(st_ptexres_data(t, s, f, ru, rv), st_face_level(s, f, l));
+            }
+        }
+        free(copy);
+        st_set_free(s);
+    }
 }
 
 static void mixed_resolutions_are_read_per_face(void **state)
@@ -444,6 +558,11 @@ static void bad_zlib_streams_and_overruns_are_refused(void **state)
     memcpy(c, b, len);
     for (int i = 2; i < 12; i++) c[fipos + i] ^= 0x5a;
     expect_refused(c, len, ST_EFORMAT, "face info");
+    /* the zlib wrapper is checked as zlib checks it: header, method, check value */
+    memcpy(c, b, len); c[fipos] ^= 0x01;
+    expect_refused(c, len, ST_EFORMAT, "face info: bad zlib stream");
+    memcpy(c, b, len); c[fipos + ptx_rd32(b + 32) - 1] ^= 0x01; /* last byte of the Adler-32 */
+    expect_refused(c, len, ST_EFORMAT, "incorrect data check");
     /* level info: level 0 larger than the level data */
     size_t lipos = fipos + ptx_rd32(b + 32) + ptx_rd32(b + 36);
     memcpy(c, b, len); ptx_wr64(c + lipos, (uint64_t)len * 4);
@@ -460,6 +579,37 @@ static void bad_zlib_streams_and_overruns_are_refused(void **state)
     }
     free(c);
     free(b);
+}
+
+/* The reader's Adler-32 (the check of every zlib stream, ptex_adler.h) gives zlib's value for
+ * every length, start value and byte pattern, including the worst case for overflow (0xff
+ * bytes) and runs longer than one vector round. */
+static void adler32_matches_zlib(void **state)
+{
+    (void)state;
+    enum { MAX = 70000 };
+    uint8_t *buf = malloc(MAX);
+    assert_non_null(buf);
+    uint32_t x = 5;
+    for (int pattern = 0; pattern < 3; pattern++) {
+        for (size_t i = 0; i < MAX; i++) {
+            x = x * 1664525u + 1013904223u;
+            buf[i] = pattern == 0 ? (uint8_t)(x >> 24) : pattern == 1 ? 0xff : (uint8_t)i;
+        }
+        for (size_t n = 0; n < MAX; n = n < 40 ? n + 1 : n * 3 / 2 + 7) {
+            for (size_t skew = 0; skew < 3; skew++) {
+                if (n + skew > MAX)
+                    break;
+                /* a new stream, the largest a and b, an arbitrary one */
+                uint32_t start = skew == 0 ? 1u : skew == 1 ? (65520u << 16 | 65520u)
+                                                            : (12345u << 16 | 54321u);
+                uint32_t want = (uint32_t)adler32(start, buf + skew, (uInt)n);
+                assert_int_equal(st_ptx_adler32(start, buf + skew, n), want);
+            }
+        }
+        assert_int_equal(st_ptx_adler32(1, buf, MAX), (uint32_t)adler32(1, buf, MAX));
+    }
+    free(buf);
 }
 
 static void inconsistent_adjacency_is_refused(void **state)
@@ -536,13 +686,16 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_shared_ptx_loads_or_is_refused_for_a_stated_reason),
         cmocka_unit_test(mixed_resolutions_are_read_per_face),
-        cmocka_unit_test(set_memory_counts_the_ptex_resolution_table),
+        cmocka_unit_test(set_memory_counts_the_ptex_resolution_table_once_built),
+        cmocka_unit_test(the_table_is_built_once_under_concurrent_first_use),
+        cmocka_unit_test(building_the_table_writes_no_level_and_reuses_set_levels),
         cmocka_unit_test(adjacency_matches_the_obj_beside_each_file),
         cmocka_unit_test(nonquad_file_of_2009_is_plain_quads),
         cmocka_unit_test(metadata_is_kept_and_listed),
         cmocka_unit_test(border_modes_go_into_the_set_info),
         cmocka_unit_test(header_fields_are_checked_before_allocating),
         cmocka_unit_test(bad_zlib_streams_and_overruns_are_refused),
+        cmocka_unit_test(adler32_matches_zlib),
         cmocka_unit_test(inconsistent_adjacency_is_refused),
         cmocka_unit_test(random_corruption_never_crashes),
     };

@@ -4,6 +4,7 @@
  */
 #include <dirent.h>
 #include <pthread.h>
+#include <sched.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -159,6 +160,8 @@ static void concurrent_readers_survive_replace_and_delete(void **state)
         st_registry_put(x.r, "hot", s, NULL, 0, NULL, NULL);
         if (k % 7 == 0)
             st_registry_remove(x.r, "hot", NULL);
+        if (k >= 3000)
+            sched_yield(); /* past the minimum: let starved readers have the lock and the CPU */
     }
     __atomic_store_n(&x.stop, 1, __ATOMIC_RELAXED);
     for (int i = 0; i < 3; i++)

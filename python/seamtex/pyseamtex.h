@@ -1,0 +1,94 @@
+/* python/seamtex/pyseamtex.h - internals shared by the files of the CPython extension
+ * seamtex._seamtex (not installed, not a public API).
+ *
+ * Owns: the Client object's layout and its locking rule, the Array type (a small
+ * buffer-exporting array so that the module needs no numpy), the exception classes derived
+ * from the protocol's status list, the column readers that turn buffer-protocol arguments
+ * into query fields.
+ * Does not own: the protocol or the network (libseamtex, client/seamtex.h): every call goes
+ * through stc_*.
+ *
+ * Files: _seamtex.c (module init, constants), pyclient.c (Client: connect, ls, info, upload,
+ * jobs, fetch, stats, ...), pysample.c (sample, sample_dir), pyarray.c (Array), pyerrors.c
+ * (exceptions).
+ *
+ * GIL: every stc_* call that may wait on the network runs between Py_BEGIN_ALLOW_THREADS and
+ * Py_END_ALLOW_THREADS. A Client holds one connection, used by one thread at a time (the
+ * library's rule): st_py_client_enter takes the Client's lock (waiting for it with the GIL
+ * released), st_py_client_leave gives it back.
+ */
+#ifndef ST_PYSEAMTEX_H
+#define ST_PYSEAMTEX_H
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <pythread.h>
+
+#include "seamtex.h"
+
+/* ---- Client (pyclient.c) --------------------------------------------------------------------- */
+
+typedef struct st_py_client {
+    PyObject_HEAD
+    stc_conn          *conn;      /* NULL once closed */
+    PyThread_type_lock lock;      /* held by the thread using conn */
+    unsigned long      owner;     /* that thread's ident while it holds the lock, else 0 */
+    double             timeout;   /* seconds per request; <= 0 = none */
+    int                numpy;     /* -1 auto, 0 never, 1 always: arrays returned by sample */
+    char               host[256];
+    unsigned           port;
+    void              *scratch;   /* query records of the last sample call (grow-only, reused:
+                                     no fresh pages to fault in for each big batch); under lock */
+    size_t             scratch_cap;
+    double             times[3];  /* the last sample call: packing, stc_sample, copying out (s) */
+} st_py_client;
+
+/* CLOCK_MONOTONIC in seconds. */
+double st_py_now(void);
+
+/* The client's scratch block of at least bytes (lock held; GIL not needed); NULL when out of
+ * memory. */
+void *st_py_client_scratch(st_py_client *self, size_t bytes);
+
+extern PyTypeObject st_py_client_type;
+
+/* Takes the client's lock (GIL released while waiting); raises (and returns -1) when the
+ * client is closed, or when the calling thread holds it already (a progress callback calling
+ * its own Client would otherwise wait for itself forever). */
+int st_py_client_enter(st_py_client *self);
+void st_py_client_leave(st_py_client *self);
+/* Raises the exception for rc (an stc_err code) with the connection's message; call with the
+ * lock held (the message belongs to the connection). Returns NULL. */
+PyObject *st_py_client_fail(st_py_client *self, int rc);
+
+/* ---- sampling (pysample.c) -------------------------------------------------------------------- */
+
+PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw);
+PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw);
+extern const char st_py_sample_doc[];
+extern const char st_py_sample_dir_doc[];
+
+/* ---- Array (pyarray.c) ------------------------------------------------------------------------- */
+
+extern PyTypeObject st_py_array_type;
+/* A new Array that takes ownership of data (malloc'd; freed with free()): ndim 1 or 2,
+ * format "f" / "B" / "H" / "I", C-contiguous. On failure frees data and returns NULL. */
+PyObject *st_py_array_wrap(void *data, const char *format, Py_ssize_t itemsize, int ndim,
+                           Py_ssize_t n0, Py_ssize_t n1);
+/* obj as a numpy array when the client asks for numpy (or "auto" and numpy imports), else
+ * obj itself. Steals obj's reference. */
+PyObject *st_py_array_out(st_py_client *self, PyObject *obj);
+
+/* ---- exceptions (pyerrors.c) ------------------------------------------------------------------ */
+
+/* Creates seamtex.Error and its subclasses in module m. 0 or -1. */
+int st_py_errors_init(PyObject *m);
+/* Raises the exception class of code with message msg (stc_strerror(code) when empty);
+ * returns NULL. */
+PyObject *st_py_raise(int code, const char *msg);
+/* The exception class of an stc_err code (seamtex.Error when it has none of its own). */
+PyObject *st_py_raise_class(int code);
+/* The class for "the client is closed". */
+PyObject *st_py_closed_error(void);
+
+#endif

@@ -1,0 +1,103 @@
+"""python/tests/conftest.py - fixtures of the Python module's tests: a real seamtexd on
+loopback, like tests/common/daemon_fixture.h does for the C tests.
+
+The daemon is $SEAMTEX_BUILD/seamtexd (default: build/ of this tree), started on 127.0.0.1
+port 0 with --port-file and a fresh temp data dir, stopped with SIGTERM at the end (a
+non-zero exit fails the session). The module is imported from $SEAMTEX_BUILD/python
+(`make python` puts it there) unless SEAMTEX_PY_INSTALLED=1 (test an installed copy).
+Shared assets come from $SEAMTEX_DATA (default ../shared/data); tests that need them are
+skipped without it.
+"""
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+BUILD = Path(os.environ.get("SEAMTEX_BUILD", ROOT / "build"))
+DATA = Path(os.environ.get("SEAMTEX_DATA", ROOT.parent / "shared" / "data"))
+if os.environ.get("SEAMTEX_PY_INSTALLED") != "1":
+    sys.path.insert(0, str(BUILD / "python"))
+
+import seamtex  # noqa: E402
+
+
+class Daemon:
+    """One seamtexd process on 127.0.0.1:<free port>."""
+
+    def __init__(self, *extra):
+        self.dir = Path(tempfile.mkdtemp(prefix="seamtex-py-"))
+        self.log = self.dir / "daemon.log"
+        exe = BUILD / "seamtexd"
+        if not exe.exists():
+            pytest.exit("%s is missing: run make first" % exe, returncode=1)
+        port_file = self.dir / "port"
+        with open(self.log, "wb") as log:
+            self.proc = subprocess.Popen(
+                [str(exe), "--listen", "127.0.0.1:0", "--data-dir", str(self.dir / "data"),
+                 "--port-file", str(port_file), "--log-level", "warn", *extra],
+                stdout=log, stderr=log)
+        self.host = "127.0.0.1"
+        self.port = 0
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError("seamtexd exited at start:\n" + self.log.read_text())
+            if port_file.exists() and port_file.read_text().strip():
+                self.port = int(port_file.read_text().strip())
+                try:
+                    seamtex.Client(self.host, self.port, timeout=5).close()
+                    return
+                except seamtex.Error:
+                    pass
+            time.sleep(0.05)
+        self.proc.kill()
+        raise RuntimeError("seamtexd did not become ready in 60 s")
+
+    def client(self, **kw):
+        return seamtex.Client(self.host, self.port, **kw)
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        rc = self.proc.returncode
+        shutil.rmtree(self.dir, ignore_errors=True)
+        return rc
+
+
+@pytest.fixture(scope="session")
+def daemon():
+    d = Daemon()
+    yield d
+    rc = d.stop()
+    assert rc == 0, "seamtexd exited with status %s" % rc
+
+
+@pytest.fixture
+def client(daemon):
+    with daemon.client() as c:
+        yield c
+
+
+@pytest.fixture(scope="session")
+def data():
+    if not DATA.is_dir():
+        pytest.skip("SEAMTEX_DATA=%s is missing" % DATA)
+    return DATA
+
+
+@pytest.fixture(scope="session")
+def build():
+    return BUILD

@@ -1,0 +1,470 @@
+"""python/tests/test_seamtex.py - the Python module against a live seamtexd (conftest.py).
+
+Every call of Client, sample values equal to the C client's (the CLI `seamtex sample
+--queries FILE --binary`, which is libseamtex), arrays through the buffer protocol with and
+without numpy, bad arguments raising clear exceptions, server statuses as exceptions, the
+GIL released while a long sample runs. Run: /usr/bin/python3 -m pytest -q python/tests
+"""
+
+import array
+import os
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import seamtex
+
+RNG = np.random.default_rng(7)
+
+
+def queries(n, nfaces=384, deriv=0.0):
+    face = RNG.integers(0, nfaces, n, dtype=np.uint32)
+    u = RNG.random(n, dtype=np.float32)
+    v = RNG.random(n, dtype=np.float32)
+    d = np.full(n, deriv, np.float32)
+    return face, u, v, d
+
+
+# ---- connecting ----------------------------------------------------------------------------
+
+def test_connect_ping_and_server_info(client):
+    assert client.ping() > 0
+    s = client.server
+    assert s["version"] >= 1 and s["max_batch"] > 0 and s["name"].startswith("seamtexd")
+    assert "127.0.0.1" in repr(client)
+
+
+def test_context_manager_closes(daemon):
+    with daemon.client() as c:
+        assert not c.closed
+    assert c.closed
+    with pytest.raises(seamtex.ClosedError):
+        c.ping()
+    c.close()  # again: no-op
+
+
+def test_connect_refused_raises_connect_failed(daemon):
+    # a port nothing listens on: the daemon's own port + 1 is as good a guess as any, so
+    # find a closed one by binding and closing
+    import socket
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    with pytest.raises(seamtex.ConnectFailed) as e:
+        seamtex.Client("127.0.0.1", port, timeout=2)
+    assert isinstance(e.value, ConnectionError)
+    assert e.value.status == "ECONNECT"
+
+
+def test_timeout_attribute(client):
+    assert client.timeout == 10.0
+    client.timeout = 2.5
+    assert client.timeout == 2.5
+    client.timeout = None
+    assert client.timeout is None
+    with pytest.raises(ValueError):
+        client.timeout = -1
+
+
+# ---- ls, info, stats -------------------------------------------------------------------------
+
+def test_ls_lists_default(client):
+    sets = {s["name"]: s for s in client.ls()}
+    d = sets["default"]
+    assert d["kind"] == "perface" and d["nchan"] == 4 and d["dtype"] == "u8"
+    assert d["nfaces"] == 384 and d["memory"] > 0
+
+
+def test_info_with_faces(client):
+    i = client.info("default", faces=(2, 3))
+    assert i["nfaces"] == 384 and i["nchan"] == 4 and i["kind"] == "perface"
+    assert [f["id"] for f in i["faces"]] == [2, 3, 4]
+    f = i["faces"][0]
+    assert f["w"] > 0 and f["h"] > 0 and len(f["adjface"]) == 4 and len(f["adjedge"]) == 4
+    assert client.info("default")["faces"] == []
+
+
+def test_info_unknown_set_raises_not_found(client):
+    with pytest.raises(seamtex.NotFound) as e:
+        client.info("no-such-set")
+    assert e.value.status == "NOT_FOUND"
+    assert e.value.code == -105
+    assert "no-such-set" in str(e.value)
+    assert isinstance(e.value, seamtex.Error)
+    assert seamtex.errors["NOT_FOUND"] is seamtex.NotFound
+
+
+def test_bad_set_name_raises_invalid_argument(client):
+    with pytest.raises(seamtex.InvalidArgument):
+        client.info("../etc")
+
+
+def test_stats_is_a_dict_of_numbers(client):
+    client.ping()
+    st = client.stats()
+    assert st["uptime_ms"] >= 0
+    assert all(isinstance(v, (int, float)) for v in st.values())
+
+
+def test_exception_classes_follow_the_status_list():
+    for name in ("NotFound", "Invalid", "Busy", "TooLarge", "Exists", "Perm", "Unsupported",
+                 "Shutdown", "BadRequest"):
+        assert issubclass(getattr(seamtex, name), seamtex.Error)
+    assert issubclass(seamtex.TimedOut, TimeoutError)
+    assert set(seamtex.errors) >= {"NOT_FOUND", "TOO_LARGE", "BUSY", "ETIMEDOUT", "EIO"}
+
+
+# ---- sample -----------------------------------------------------------------------------------
+
+def test_sample_matches_readme_values(client):
+    v, cov, st = client.sample("default", np.array([12], np.uint32), np.array([0.98]),
+                               np.array([0.5]), 0.05, 0.0, 0.0, 0.05, filter="trilinear")
+    assert v.shape == (1, 4) and v.dtype == np.float32
+    assert np.allclose(v[0], [0.544351, 0.508689, 0.6864, 1], atol=1e-6)
+    assert cov[0] == 1 and st[0] == seamtex.Q_OK
+    v, cov, st = client.sample("default", 12, 0.98, 0.5, 0.05, 0, 0, 0.05,
+                               filter="trilinear", mode="discard")
+    assert np.allclose(v[0], [0.539437, 0.505377, 0.676914, 1], atol=1e-6)
+    assert abs(cov[0] - 0.7115) < 1e-4
+
+
+def run_cli(build, daemon, args, stdin=None):
+    r = subprocess.run([str(build / "seamtex"), "-p", str(daemon.port), *args],
+                       capture_output=True, input=stdin)
+    assert r.returncode == 0, r.stderr.decode()
+    return r.stdout
+
+
+@pytest.mark.parametrize("mode,filt", [("traverse", "bilinear"), ("discard", "trilinear"),
+                                       ("clamp", "point"), ("traverse", "ptex-gaussian")])
+def test_sample_values_equal_the_c_clients(client, daemon, build, tmp_path, mode, filt):
+    n = 2000
+    face, u, v, _ = queries(n)
+    d = RNG.random((4, n), dtype=np.float32) * 0.02
+    qf = tmp_path / "q.txt"
+    with open(qf, "w") as f:
+        for i in range(n):
+            f.write("%d %.9g %.9g %.9g %.9g %.9g %.9g\n" % (
+                face[i], u[i], v[i], d[0, i], d[1, i], d[2, i], d[3, i]))
+    out = run_cli(build, daemon, ["sample", "default", "--queries", str(qf), "--binary",
+                                  "--mode", mode, "--filter", filt])
+    ref = np.frombuffer(out, np.float32).reshape(n, 4)
+    vals, cov, st = client.sample("default", face, u, v, d[0], d[1], d[2], d[3], mode=mode,
+                                  filter=filt)
+    assert np.array_equal(vals, ref)
+    assert (st == 0).all()
+
+
+def test_sample_unorm_formats_equal_the_c_clients(client, daemon, build, tmp_path):
+    n = 500
+    face, u, v, _ = queries(n)
+    qf = tmp_path / "q.txt"
+    qf.write_text("".join("%d %.9g %.9g\n" % (face[i], u[i], v[i]) for i in range(n)))
+    for fmt, dt in (("unorm8", np.uint8), ("unorm16", np.uint16)):
+        out = run_cli(build, daemon, ["sample", "default", "--queries", str(qf), "--binary",
+                                      "--format", fmt])
+        vals, _, _ = client.sample("default", face, u, v, format=fmt)
+        assert vals.dtype == dt
+        assert np.array_equal(vals, np.frombuffer(out, dt).reshape(n, 4))
+
+
+def test_sample_accepts_dtypes_and_strides(client):
+    face, u, v, _ = queries(100)
+    ref, _, _ = client.sample("default", face, u, v)
+    for f in (face.astype(np.int64), face.astype(np.int32), face.astype(np.uint16)):
+        got, _, _ = client.sample("default", f, u.astype(np.float64), v.astype(np.float64))
+        assert np.array_equal(got, ref)
+    # strided views and array.array / memoryview inputs
+    big = np.zeros((100, 3), np.float32)
+    big[:, 1] = u
+    got, _, _ = client.sample("default", array.array("I", face.tolist()), big[:, 1],
+                              memoryview(v))
+    assert np.array_equal(got, ref)
+
+
+def test_sample_into_out(client):
+    face, u, v, _ = queries(64)
+    out = np.empty((64, 4), np.float32)
+    vals, cov, st = client.sample("default", face, u, v, out=out)
+    assert vals is out
+    ref, _, _ = client.sample("default", face, u, v)
+    assert np.array_equal(out, ref)
+    with pytest.raises(ValueError, match="out holds"):
+        client.sample("default", face, u, v, out=np.empty((63, 4), np.float32))
+    with pytest.raises(TypeError, match="format"):
+        client.sample("default", face, u, v, out=np.empty((64, 4), np.float64))
+
+
+def test_sample_without_numpy_returns_buffer_arrays(daemon):
+    with daemon.client(numpy=False) as c:
+        vals, cov, st = c.sample("default", array.array("I", [12, 13]),
+                                 array.array("f", [0.98, 0.5]), array.array("d", [0.5, 0.5]))
+        assert isinstance(vals, seamtex.Array)
+        assert vals.shape == (2, 4) and vals.format == "f" and len(vals) == 2
+        m = memoryview(vals)
+        assert m.shape == (2, 4) and m.format == "f"
+        assert st.tolist() == [0, 0] and cov.shape == (2,)
+    with daemon.client() as c:
+        ref, _, _ = c.sample("default", np.array([12, 13]), np.array([0.98, 0.5]),
+                             np.array([0.5, 0.5]))
+    assert np.array_equal(np.asarray(vals), ref)
+
+
+def test_per_query_statuses(client):
+    vals, cov, st = client.sample("default", np.array([0, 99999], np.uint32),
+                                  np.array([0.5, 0.5]), np.array([0.5, 0.5]))
+    assert st.tolist() == [seamtex.Q_OK, seamtex.Q_BAD_FACE]
+    assert seamtex.QSTATUS[st[1]] == "BAD_FACE"
+
+
+def test_nan_raises_unless_nonfinite_status(client):
+    u = np.array([0.5, np.nan], np.float32)
+    v = np.array([0.5, 0.5], np.float32)
+    with pytest.raises(ValueError, match=r"u\[1\] is NaN"):
+        client.sample("default", np.array([0, 1], np.uint32), u, v)
+    with pytest.raises(ValueError, match=r"dvdy\[0\] is infinite"):
+        client.sample("default", 0, 0.5, 0.5, dvdy=np.array([np.inf, 0.0]))
+    _, _, st = client.sample("default", np.array([0, 1], np.uint32), u, v, nonfinite="status")
+    assert st.tolist() == [seamtex.Q_OK, seamtex.Q_NONFINITE]
+
+
+def test_bad_arguments_raise_clear_errors(client):
+    face, u, v, _ = queries(10)
+    with pytest.raises(TypeError, match="u must hold float32 or float64"):
+        client.sample("default", face, u.astype(np.int32), v)
+    with pytest.raises(TypeError, match="face must hold integers"):
+        client.sample("default", face.astype(np.float32), u, v)
+    with pytest.raises(ValueError, match="v has 9 queries but face has 10"):
+        client.sample("default", face, u, v[:9])
+    with pytest.raises(ValueError, match=r"face\[0\] = -1 is not a face id"):
+        client.sample("default", np.array([-1], np.int32), 0.5, 0.5)
+    with pytest.raises(ValueError, match="unknown mode 'wrap'.*traverse"):
+        client.sample("default", face, u, v, mode="wrap")
+    with pytest.raises(ValueError, match="unknown filter 'cubic'.*bilinear"):
+        client.sample("default", face, u, v, filter="cubic")
+    with pytest.raises(ValueError, match="unknown format"):
+        client.sample("default", face, u, v, format="f16")
+    with pytest.raises(TypeError, match="buffer protocol"):
+        client.sample("default", face, "abc", v)
+    with pytest.raises(ValueError, match="one-dimensional"):
+        client.sample("default", face, u.reshape(2, 5), v)
+    with pytest.raises(TypeError, match="byte order"):
+        client.sample("default", face, u.astype(">f4"), v)
+    with pytest.raises(seamtex.NotFound):
+        client.sample("default-missing", face, u, v)
+    client.ping()  # still usable after each
+
+
+def test_large_batch_is_split_by_the_library(daemon):
+    # more than the server's max_batch when the daemon is told so
+    d = type(daemon)("--max-batch", "1000")
+    try:
+        with d.client() as c:
+            face, u, v, _ = queries(4500)
+            vals, cov, st = c.sample("default", face, u, v)
+            with daemon.client() as ref_c:
+                ref, _, _ = ref_c.sample("default", face, u, v)
+            assert np.array_equal(vals, ref)
+    finally:
+        assert d.stop() == 0
+
+
+def test_sample_releases_the_gil(daemon):
+    n = 1_000_000
+    face, u, v, d = queries(n, deriv=0.01)
+    ticks = [0]
+    stop = threading.Event()
+
+    def spin():
+        while not stop.is_set():
+            ticks[0] += 1
+            time.sleep(0.001)
+
+    with daemon.client(timeout=120) as c:
+        t = threading.Thread(target=spin)
+        t.start()
+        try:
+            t0 = time.monotonic()
+            before = ticks[0]
+            c.sample("default", face, u, v, d, 0, 0, d, filter="trilinear")
+            during = ticks[0] - before
+            secs = time.monotonic() - t0
+        finally:
+            stop.set()
+            t.join()
+    # with the GIL held for the whole call the other thread would not tick at all; one tick
+    # per ms asked, so a tenth of that is a loose floor on a loaded machine
+    assert during >= max(3, secs * 1000 * 0.1), (during, secs)
+
+
+def test_sample_dir_on_a_cube(client, data):
+    client.upload(data / "env" / "OrientationLatLong.exr", "py-env", cube="latlong:64",
+                  replace=True)
+    dirs = np.array([[1, 0.2, 0.1], [0, 0, -1], [0.3, -1, 0.2]], np.float32)
+    v1, cov, st = client.sample_dir("py-env", dirs, cone=0.01, filter="trilinear")
+    assert v1.shape[0] == 3 and (st == 0).all()
+    v2, _, _ = client.sample_dir("py-env", dirs.astype(np.float64).ravel(),
+                                 cone=np.full(3, 0.01), filter="trilinear")
+    assert np.array_equal(v1, v2)
+    v3, _, _ = client.sample_dir("py-env", dirs, ddx=np.zeros((3, 3)), ddy=np.zeros((3, 3)))
+    assert v3.shape == v1.shape
+    with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
+        client.sample_dir("py-env", np.zeros((3, 2), np.float32))
+    with pytest.raises(ValueError, match="either cone or ddx"):
+        client.sample_dir("py-env", dirs, ddx=dirs, cone=0.1)
+    client.delete("py-env")
+
+
+# ---- upload, delete, compress, fetch --------------------------------------------------------------
+
+def test_upload_with_progress_then_delete(client, data):
+    seen = []
+    r = client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-cube8",
+                      progress=lambda done, total: seen.append((done, total)), chunk=65536)
+    assert r["name"] == "py-cube8" and r["kind"] == "perface" and r["nfaces"] > 0
+    assert seen and seen[-1][0] == seen[-1][1] == os.path.getsize(
+        data / "ptex-ref" / "cube8_k6_u8.ptx")
+    assert "py-cube8" in [s["name"] for s in client.ls()]
+    with pytest.raises(seamtex.Exists):
+        client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-cube8")
+    client.upload(str(data / "ptex-ref" / "cube8_k6_u8.ptx"), "py-cube8", replace=True)
+    client.delete("py-cube8")
+    with pytest.raises(seamtex.NotFound):
+        client.delete("py-cube8")
+
+
+def test_upload_progress_exception_aborts(client, data):
+    class Stop(Exception):
+        pass
+
+    def cb(done, total):
+        raise Stop()
+
+    with pytest.raises(Stop):
+        client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-aborted", progress=cb,
+                      chunk=65536)
+    assert "py-aborted" not in [s["name"] for s in client.ls()]
+    client.ping()
+
+
+def test_progress_callback_cannot_reenter_its_client(client, data):
+    def cb(done, total):
+        client.ping()
+
+    with pytest.raises(seamtex.StateError, match="progress callback"):
+        client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-reenter", progress=cb,
+                      chunk=65536)
+    client.ping()
+    assert "py-reenter" not in [s["name"] for s in client.ls()]
+
+
+def test_upload_options_and_errors(client, data, tmp_path):
+    with pytest.raises(seamtex.Invalid):
+        client.upload(data / "images" / "brick.png", "py-brick", colour="red")
+    with pytest.raises(ValueError, match="blank"):
+        client.upload(data / "images" / "brick.png", "py-brick", cube="latlong 64")
+    with pytest.raises(seamtex.FileError):
+        client.upload(tmp_path / "missing.png", "py-missing")
+    r = client.upload(data / "images" / "brick.png", "py-brick", colorspace="srgb")
+    assert r["kind"] == "atlas"
+    client.delete("py-brick")
+
+
+def test_compress_job_and_fetch(client, data, tmp_path):
+    duck = data / "meshes" / "duck"
+    client.upload(duck / "DuckCM.png", "py-duck-tex", replace=True)
+    client.upload(duck / "Duck.obj", "py-duck", texture="py-duck-tex", replace=True)
+    job = client.compress("py-duck", "py-duck-bc1", level=1, replace=True)
+    assert isinstance(job, seamtex.Job) and job.id > 0
+    assert job.status()["state"] in ("queued", "running", "done")
+    done = job.wait(timeout=300)
+    assert done["state"] == "done" and done["progress"] == 1.0
+    assert [s["kind"] for s in client.ls() if s["name"] == "py-duck-bc1"] == ["bc1"]
+    v, _, st = client.sample("py-duck-bc1", 0, 0.31, 0.62, 0.004, 0, 0, 0.004,
+                             filter="trilinear")
+    assert st[0] == 0 and 0 <= v[0, 0] <= 1
+    # fetch: format from the extension, given by name, or passed through as a number
+    p = tmp_path / "duck.dds"
+    got = []
+    client.fetch("py-duck-bc1", p, progress=lambda d, t: got.append(d))
+    assert p.read_bytes()[:4] == b"DDS " and got
+    client.fetch("py-duck-bc1", tmp_path / "duck.bin", format="dds")
+    client.fetch("default", tmp_path / "default.ptx")
+    assert (tmp_path / "default.ptx").read_bytes()[:4] == b"Ptex"
+    client.fetch("default", tmp_path / "default2", format=0)
+    assert (tmp_path / "default2").read_bytes() == (tmp_path / "default.ptx").read_bytes()
+    with pytest.raises(ValueError, match="unknown fetch format"):
+        client.fetch("default", tmp_path / "x.xyz")
+    with pytest.raises(seamtex.NotFound):
+        client.compress("py-none", "py-none-bc1").wait()
+    for s in ("py-duck-bc1", "py-duck", "py-duck-tex"):
+        client.delete(s)
+
+
+def test_job_cancel_and_timeout(client, data):
+    client.upload(data / "images" / "StillLife.jpg", "py-still", replace=True)
+    job = client.compress("py-still", "py-still-bc1", level=9, replace=True)
+    try:
+        job.wait(timeout=0.001)
+    except seamtex.TimedOut:
+        pass
+    st = job.cancel()
+    assert st["state"] in ("canceled", "done", "running", "queued")
+    try:
+        job.wait(timeout=120)
+    except seamtex.Canceled:
+        pass
+    assert job.status()["state"] in ("canceled", "done")
+    for s in ("py-still-bc1", "py-still"):
+        try:
+            client.delete(s)
+        except seamtex.NotFound:
+            pass
+
+
+def test_token_is_needed_for_mutations(data):
+    from conftest import Daemon
+    d = Daemon("--token", "s3cret")
+    try:
+        with d.client() as c:
+            assert c.server["authenticated"] is False
+            with pytest.raises(seamtex.Perm):
+                c.upload(data / "images" / "brick.png", "py-brick")
+        with d.client(token="s3cret") as c:
+            assert c.server["authenticated"] is True
+            c.upload(data / "images" / "brick.png", "py-brick")
+            c.delete("py-brick")
+    finally:
+        assert d.stop() == 0
+
+
+def test_threads_share_a_client_safely(client):
+    face, u, v, _ = queries(1000)
+    ref, _, _ = client.sample("default", face, u, v)
+    errs = []
+
+    def work():
+        try:
+            for _ in range(5):
+                got, _, _ = client.sample("default", face, u, v)
+                assert np.array_equal(got, ref)
+        except Exception as e:  # pragma: no cover - reported below
+            errs.append(e)
+
+    ts = [threading.Thread(target=work) for _ in range(4)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()
+    assert not errs
+
+
+def test_name_lists_come_from_the_protocol():
+    assert seamtex.MODES == ("discard", "traverse", "clamp")
+    assert "ptex-mitchell" in seamtex.FILTERS and "bilinear" in seamtex.FILTERS
+    assert seamtex.FORMATS == ("f32", "unorm8", "unorm16")
+    assert seamtex.QSTATUS[seamtex.Q_NONFINITE] == "NONFINITE"

@@ -1,0 +1,28 @@
+/* server/h_upload.h - the upload and delete handlers and the import of one file (h_upload.c).
+ *
+ * Owns: the UPLOAD_* and DELETE entries of the dispatch table (sts_handler_fn, dispatch.h:
+ * one reply frame appended to the caller's `out`), and sts_import_path. Does not own: the
+ * upload records (uploads.h), the start-up load (startup.h).
+ */
+#ifndef STS_H_UPLOAD_H
+#define STS_H_UPLOAD_H
+
+#include "dispatch.h"
+#include "registry.h"
+
+STS_HANDLER(sts_h_upload_begin);
+STS_HANDLER(sts_h_upload_chunk);
+STS_HANDLER(sts_h_upload_commit);
+STS_HANDLER(sts_h_upload_abort);
+STS_HANDLER(sts_h_upload_status);
+STS_HANDLER(sts_h_delete);
+
+/* Imports one file into a new set, with the upload's options ("texture=<set>", "cube=...",
+ * "colorspace=..."); the reader is chosen by the content's magic (fmt is the extension the
+ * file was given from it). On success *out is a set the caller owns (st_set_free, or hand
+ * it to the registry); ST_EBUSY when a texture= set is not loaded. Used by UPLOAD_COMMIT and
+ * by the start-up load (startup.c). */
+int sts_import_path(sts_server *srv, const char *path, const char *fmt, const char *options,
+                    st_set **out, st_error *e);
+
+#endif

@@ -1,0 +1,92 @@
+/* server/io.h - the I/O threads and their connections (io.c).
+ *
+ * Owns: struct sts_conn (a connection's fd and buffers: only its I/O thread touches them),
+ * struct sts_io (one event loop, its connection list and completion list), the per-thread
+ * sampling scratch. Does not own: what a request means (dispatch.h), the worker queue
+ * (workers.h), the poller (ev.h).
+ *
+ * Ownership: connections are allocated at accept and freed by their I/O thread once closed
+ * and not busy; a worker only reads conn->id, conn->authed and conn->io while it holds a
+ * task. Scratch arrays belong to their thread and are freed with sts_scratch_free.
+ */
+#ifndef STS_IO_H
+#define STS_IO_H
+
+#include <pthread.h>
+#include <stdint.h>
+
+#include "ev.h"
+#include "proto.h"
+#include "sample.h"
+
+typedef struct sts_server sts_server;
+typedef struct sts_io sts_io;
+typedef struct sts_conn sts_conn;
+typedef struct sts_task sts_task;
+
+/* A connection's input: bytes [start, len) are unparsed; compacted before it grows. */
+typedef struct sts_inbuf {
+    uint8_t *data;
+    size_t   start, len, cap;
+} sts_inbuf;
+
+struct sts_conn {
+    int       fd;
+    sts_io   *io;
+    uint64_t  id;
+    sts_inbuf in;            /* allocated lazily on the first read */
+    stp_buf   out;           /* replies not yet written; allocated lazily */
+    int64_t   last_ms;       /* last traffic, monotonic ms */
+    int64_t   req_start_ms;  /* when the first byte of the frame still incomplete in `in` (or
+                                being skipped) arrived; 0 = no partial frame (request deadline) */
+    char      peer[48];      /* "address:port" of the client, for the log */
+    uint64_t  skip;          /* body bytes of a refused frame still to discard */
+    uint64_t  mem;           /* bytes of in+out capacity counted in srv->mem_used */
+    uint32_t  authed;        /* token generation HELLO authenticated for (0 = none) */
+    uint8_t   busy;          /* a request is out on a worker */
+    uint8_t   close_after;   /* close once `out` is flushed (bad magic, refused connection) */
+    uint8_t   dead;          /* peer gone or error: free as soon as not busy */
+    uint8_t   paused;        /* not reading (backpressure or busy) */
+    unsigned  ev_mask;       /* events registered with the poller */
+    sts_conn *prev, *next;   /* the I/O thread's list (idle scan, drain) */
+};
+
+/* Scratch memory for sampling, one per thread (I/O or worker); grows, never shrinks, so a
+ * batch allocates nothing once the thread has seen one as large. */
+typedef struct sts_scratch {
+    st_query *q;
+    float    *out, *cov;
+    uint8_t  *status;
+    size_t    cap;           /* queries the arrays hold */
+    struct st_cube_query *cq;
+    size_t    cqcap;         /* direction queries cq holds (SAMPLE_DIR only) */
+} sts_scratch;
+/* Room for n queries (and n direction queries when dir). 0 or -1. */
+int sts_scratch_reserve(sts_scratch *s, size_t n, int dir);
+void sts_scratch_free(sts_scratch *s);
+
+struct sts_io {
+    sts_server     *srv;
+    int             index;
+    pthread_t       thread;
+    sts_ev         *ev;
+    int             wakefd;        /* eventfd: completions or stop */
+    pthread_mutex_t mu;            /* guards done */
+    sts_task       *done;          /* finished tasks to hand back */
+    sts_conn       *conns;         /* list of live connections */
+    uint32_t        nconns;
+    sts_scratch     scratch;
+    int64_t         oldest_partial_ms; /* atomic: published by each idle scan, the first-byte
+                                          time of this thread's oldest half-sent frame at least
+                                          a second old (0 = none): eviction candidates */
+    uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
+};
+
+void *sts_io_main(void *arg);
+/* Called by a worker: queue a finished task for its connection's I/O thread, which moves
+ * the task's reply into the connection's output and frees the task. */
+void sts_io_complete(sts_io *io, sts_task *t);
+/* Wakes an I/O thread (stop, reload). */
+void sts_io_wake(sts_io *io);
+
+#endif

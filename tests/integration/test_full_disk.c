@@ -1,0 +1,334 @@
+/* tests/integration/test_full_disk.c - seamtexd on a full disk: its data dir is a 4 MiB tmpfs
+ * (mount(2), as root; else an 8 MiB ext4 loop file; else the test is skipped, saying why).
+ *
+ * Sets of ~1.3 MiB of incompressible texels are uploaded until one is refused: the refusal is
+ * status IO with a message that says "No space left on device" (PROTOCOL.md, docs/daemon.md),
+ * the connection stays usable, the refused set is not listed and leaves no temp file behind.
+ * A COMPRESS whose result does not fit fails the same way (the job's result). Reads keep
+ * working on the full disk (LIST, FETCH_OPEN of every stored set byte for byte, SAMPLE, PING).
+ * DELETE frees the space: the refused upload then succeeds. A restart on the same data dir
+ * shows exactly the acknowledged sets, whole. The tmpfs is unmounted in the group teardown and,
+ * should the test die on an assertion, by an atexit handler.
+ */
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <setjmp.h>
+#include <spawn.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mount.h>
+#include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "../common/daemon_client.h"
+#include "../common/daemon_fixture.h"
+#include "fdio.h"
+#include "ptex.h"
+#include "set.h"
+
+extern char **environ;
+
+#define NBIG 8
+
+static st_daemon D;
+static stc_conn *C;
+static int MOUNTED;
+static char HOW[64] = "";          /* "tmpfs 4m" or "ext4 loop 8m" */
+static char SKIP_WHY[300] = "";
+static void *BIG[NBIG];
+static size_t BIGLEN[NBIG];
+static int STORED[NBIG];           /* 1 when big-<i> was acknowledged and not deleted */
+
+static void unmount_now(void)
+{
+    if (MOUNTED) {
+        if (umount2(D.datadir, MNT_DETACH) != 0)
+            fprintf(stderr, "umount %s: %s\n", D.datadir, strerror(errno));
+        MOUNTED = 0;
+    }
+}
+
+static void at_exit(void)
+{
+    if (D.pid)
+        st_daemon_kill(&D);
+    unmount_now();
+}
+
+static int run(const char *const *argv)
+{
+    pid_t pid;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    int rc = posix_spawnp(&pid, argv[0], &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc)
+        return -1;
+    int st;
+    if (waitpid(pid, &st, 0) != pid)
+        return -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* Mounts a small file system on D.datadir; 0, or -1 with SKIP_WHY set. */
+static int mount_small(void)
+{
+    if (mkdir(D.datadir, 0700) != 0 && errno != EEXIST)
+        return -1;
+    if (mount("none", D.datadir, "tmpfs", 0, "size=4m,mode=0700") == 0) {
+        snprintf(HOW, sizeof HOW, "tmpfs 4 MiB");
+        return MOUNTED = 1, 0;
+    }
+    int merr = errno;
+    char img[400];
+    snprintf(img, sizeof img, "%s/disk.img", D.dir);
+    int fd = open(img, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (fd >= 0 && ftruncate(fd, 8 << 20) == 0) {
+        close(fd);
+        const char *mkfs[] = {"mkfs.ext4", "-q", "-F", img, NULL};
+        const char *mnt[] = {"mount", "-o", "loop", img, D.datadir, NULL};
+        if (run(mkfs) == 0 && run(mnt) == 0) {
+            snprintf(HOW, sizeof HOW, "ext4 loop file 8 MiB");
+            return MOUNTED = 1, 0;
+        }
+    } else if (fd >= 0) {
+        close(fd);
+    }
+    snprintf(SKIP_WHY, sizeof SKIP_WHY, "cannot mount a small file system (tmpfs: %s; an ext4 "
+             "loop file did not work either): needs root or CAP_SYS_ADMIN", strerror(merr));
+    return -1;
+}
+
+/* ~1.3 MiB .ptx of random texels (zip cannot shrink them): four 256x256 RGBA8 faces. */
+static void *make_big(unsigned seed, size_t *len)
+{
+    st_set_info info;
+    memset(&info, 0, sizeof info);
+    info.nfaces = 4;
+    info.nchan = 4;
+    info.dtype = ST_DT_U8;
+    info.alpha_chan = 3;
+    st_face_desc fd[4];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 4; f++) {
+        fd[f].w = fd[f].h = 256;
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
+    }
+    st_set *s = NULL;
+    st_error e;
+    st_error_clear(&e);
+    if (st_set_create(&info, fd, 0, &s, &e) != 0)
+        return NULL;
+    uint64_t x = 0x9E3779B97F4A7C15ull * (seed + 1);
+    for (size_t i = 0; i < s->texel_bytes; i++) {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        s->texels[i] = (uint8_t)(x >> 24);
+    }
+    st_set_build_mips(s, UINT32_MAX);
+    void *buf = NULL;
+    if (st_ptex_write_mem(s, &buf, len, &e) != 0)
+        buf = NULL;
+    st_set_free(s);
+    return buf;
+}
+
+static int upload(int i)
+{
+    char name[32];
+    snprintf(name, sizeof name, "big-%d", i);
+    stc_upload_opts o = {.hint = "ptx"};
+    stc_upload_result r;
+    int rc = stc_upload_buffer(C, BIG[i], BIGLEN[i], name, &o, &r);
+    if (rc == 0)
+        STORED[i] = 1;
+    return rc;
+}
+
+static int fetch_same(int i)
+{
+    char name[32], path[400];
+    snprintf(name, sizeof name, "big-%d", i);
+    snprintf(path, sizeof path, "%s/fetched.ptx", D.dir);     /* not on the small disk */
+    int rc = stc_fetch_file(C, name, STC_FETCH_PTX, path, NULL, NULL);
+    if (rc) {
+        fprintf(stderr, "fetch %s: %s (%s)\n", name, stc_strerror(rc), stc_errmsg(C));
+        return 0;
+    }
+    void *got = NULL;
+    size_t n = 0;
+    int same = stu_read_file(path, 1u << 30, &got, &n) == 0 && n == BIGLEN[i] &&
+               !memcmp(got, BIG[i], n);
+    free(got);
+    unlink(path);
+    return same;
+}
+
+static int tmp_entries(void)
+{
+    char path[400];
+    snprintf(path, sizeof path, "%s/tmp", D.datadir);
+    DIR *d = opendir(path);
+    if (!d)
+        return 0;
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)))
+        if (strcmp(de->d_name, ".") && strcmp(de->d_name, ".."))
+            n++;
+    closedir(d);
+    return n;
+}
+
+/* Everything stored is listed and fetched back whole; nothing else is listed; still serving. */
+static void check_reads(void)
+{
+    assert_int_equal(stc_ping(C), 0);
+    stc_sample_opts o = {.mode = 1, .filter = 1, .outfmt = STC_OUT_F32};
+    stc_query q = {0, 0.5f, 0.5f, 0, 0, 0, 0};
+    stc_sample_result r;
+    assert_int_equal(stc_sample(C, "default", &o, &q, 1, &r), 0);
+    const stc_set_entry *sets;
+    size_t n;
+    assert_int_equal(stc_list(C, &sets, &n), 0);
+    int listed = 0;
+    for (size_t k = 0; k < n; k++) {
+        int i;
+        if (sscanf(sets[k].name, "big-%d", &i) == 1) {
+            assert_true(i >= 0 && i < NBIG && STORED[i]);
+            listed++;
+        } else if (strcmp(sets[k].name, "default") && strcmp(sets[k].name, "small") &&
+                   strcmp(sets[k].name, "small-bc")) {
+            fprintf(stderr, "unexpected set '%s'\n", sets[k].name);
+            fail();
+        }
+    }
+    int stored = 0;
+    for (int i = 0; i < NBIG; i++)
+        if (STORED[i]) {
+            stored++;
+            assert_true(fetch_same(i));
+        }
+    assert_int_equal(listed, stored);
+}
+
+static unsigned long free_kib(void)
+{
+    struct statvfs v;
+    return statvfs(D.datadir, &v) == 0 ? (unsigned long)(v.f_bavail * v.f_frsize / 1024) : 0;
+}
+
+static void test_full_disk(void **state)
+{
+    (void)state;
+    if (SKIP_WHY[0]) {
+        printf("# SKIP %s\n", SKIP_WHY);
+        skip();
+    }
+    /* big sets until the disk refuses one */
+    int refused = -1, rc = 0;
+    for (int i = 0; i < NBIG; i++) {
+        rc = upload(i);
+        if (rc) {
+            refused = i;
+            break;
+        }
+    }
+    if (refused < 0)
+        fail_msg("%d uploads of %zu bytes fit on a %s data dir", NBIG, BIGLEN[0], HOW);
+    assert_true(refused >= 1);
+    const char *msg = stc_errmsg(C);
+    printf("# full disk (%s): upload %d of %zu bytes refused: %s \"%s\" (%lu KiB free)\n", HOW,
+           refused + 1, BIGLEN[refused], stc_strerror(rc), msg, free_kib());
+    assert_int_equal(rc, STC_ESERVERIO);
+    assert_non_null(strcasestr(msg, "no space left on device"));
+    assert_int_equal(tmp_entries(), 0);       /* the refused upload left nothing behind */
+    /* reads keep working on the full disk; the connection is fine */
+    check_reads();
+    /* a COMPRESS whose .dds does not fit fails the same way */
+    uint64_t job = 0;
+    stc_job j;
+    memset(&j, 0, sizeof j);
+    assert_int_equal(stc_compress(C, "big-0", "big-bc", 0, 0, &job), 0);
+    rc = stc_job_wait(C, job, 120000, &j);
+    printf("# full disk: compress result refused: %s \"%s\"\n", stc_strerror(rc), j.message);
+    if (rc == 0) {
+        /* it fit after all (a BC1 set is 1/8 of the texels): not a refusal; clean up */
+        assert_int_equal(stc_delete(C, "big-bc"), 0);
+    } else {
+        assert_int_equal(rc, STC_ESERVERIO);
+        assert_non_null(strcasestr(j.message, "no space left on device"));
+    }
+    assert_int_equal(tmp_entries(), 0);
+    check_reads();
+    /* DELETE frees the space: the refused upload now fits */
+    assert_int_equal(stc_delete(C, "big-0"), 0);
+    STORED[0] = 0;
+    rc = upload(refused);
+    if (rc)
+        fprintf(stderr, "upload after DELETE: %s (%s), %lu KiB free\n", stc_strerror(rc),
+                stc_errmsg(C), free_kib());
+    assert_int_equal(rc, 0);
+    printf("# full disk: after DELETE of one set the refused upload succeeds (%lu KiB free)\n",
+           free_kib());
+    check_reads();
+    /* a restart shows exactly the acknowledged sets, whole */
+    stc_close(C);
+    C = NULL;
+    assert_int_equal(st_daemon_stop(&D, 20000), 0);
+    assert_int_equal(st_daemon_start(&D, NULL), 0);
+    C = st_daemon_client(&D, NULL);
+    assert_non_null(C);
+    check_reads();
+}
+
+static int group_setup(void **state)
+{
+    (void)state;
+    if (st_daemon_init(&D) != 0)
+        return -1;
+    atexit(at_exit);
+    if (mount_small() != 0)
+        return 0;                                /* the test skips, saying why */
+    for (int i = 0; i < NBIG; i++)
+        if (!(BIG[i] = make_big((unsigned)i, &BIGLEN[i])))
+            return -1;
+    if (st_daemon_start(&D, NULL) != 0)
+        return -1;
+    C = st_daemon_client(&D, NULL);
+    return C ? 0 : -1;
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    if (C)
+        stc_close(C);
+    int st = D.pid ? st_daemon_stop(&D, 20000) : 0;
+    unmount_now();
+    st_daemon_cleanup(&D);
+    for (int i = 0; i < NBIG; i++)
+        free(BIG[i]);
+    return st == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_full_disk),
+    };
+    return cmocka_run_group_tests_name("full_disk", tests, group_setup, group_teardown);
+}

@@ -1,0 +1,390 @@
+/* tests/integration/test_protocol_rules.c - the rules PROTOCOL.md states for the corners an
+ * outside client hit (issue 11), on the raw wire: which status wins when a SAMPLE count both
+ * lies and exceeds max_batch, the ranges of sharpness / width / blur, SAMPLE flag bits 2-7,
+ * the values of queries that fail (BAD_FACE, NONFINITE, BAD_FOOTPRINT), HELLO with
+ * min > max and a second HELLO, a chunk over max_chunk, another connection's upload id,
+ * FETCH_READ with max_len 0.
+ *
+ * One daemon for the group (tests/common/daemon_fixture.h), --max-batch 4, on 127.0.0.1 port
+ * 0, with its built-in set "default" (per-face, 384 faces, 4 channels u8). Frames are built
+ * with protocol/'s encoders and read back here. Nothing here needs SEAMTEX_DATA.
+ */
+#include <math.h>
+#include <poll.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../common/daemon_client.h"
+#include "../common/wire.h"
+#include "proto.h"
+#include "sample.h"
+
+#define D1 ST_GROUP
+#define MAX_BATCH 4
+
+/* ---- helpers --------------------------------------------------------------------------------- */
+
+static int read_full(int fd, uint8_t *p, size_t n)
+{
+    size_t got = 0;
+    while (got < n) {
+        struct pollfd pf = {fd, POLLIN, 0};
+        if (poll(&pf, 1, 10000) <= 0)
+            return -1;
+        ssize_t r = recv(fd, p + got, n - got, 0);
+        if (r <= 0)
+            return -1;
+        got += (size_t)r;
+    }
+    return 0;
+}
+
+typedef struct reply {
+    stp_header h;
+    uint8_t   *body;   /* malloc'ed, h.body_len bytes (+1 for a NUL after messages) */
+} reply;
+
+/* Reads one reply frame of any size. */
+static void read_reply(int fd, reply *r)
+{
+    uint8_t hdr[STP_HEADER_SIZE];
+    assert_int_equal(read_full(fd, hdr, sizeof hdr), 0);
+    int reason = 0;
+    assert_int_equal(stp_parse_header(hdr, sizeof hdr, UINT32_MAX, &r->h, &reason), STP_OK);
+    assert_true(r->h.flags & STP_F_REPLY);
+    r->body = malloc((size_t)r->h.body_len + 1);
+    assert_non_null(r->body);
+    assert_int_equal(read_full(fd, r->body, r->h.body_len), 0);
+    r->body[r->h.body_len] = 0;
+}
+
+/* Sends what b holds, frees it, reads the reply; checks its reqid and status. */
+static void roundtrip(int fd, stp_buf *b, uint32_t reqid, int status, reply *r)
+{
+    assert_int_equal(b->err, 0);
+    assert_int_equal(st_wire_send_all(fd, stp_buf_head(b), stp_buf_avail(b)), 0);
+    stp_buf_free(b);
+    stp_buf_init(b);
+    read_reply(fd, r);
+    assert_int_equal(r->h.reqid, reqid);
+    if ((int)r->h.status != status)
+        fail_msg("reqid %u: status %u, want %d (%s)", reqid, r->h.status, status,
+                 r->h.status ? (const char *)r->body : "");
+}
+
+static void expect(int fd, stp_buf *b, uint32_t reqid, int status)
+{
+    reply r;
+    roundtrip(fd, b, reqid, status, &r);
+    free(r.body);
+}
+
+static stp_sample_req sample_req(const stp_query *q, uint32_t n)
+{
+    stp_sample_req rq;
+    memset(&rq, 0, sizeof rq);
+    snprintf(rq.p.name, sizeof rq.p.name, "default");
+    rq.p.mode = STP_MODE_TRAVERSE;
+    rq.p.filter = STP_FILTER_BILINEAR;
+    rq.p.outfmt = STP_OUT_F32;
+    rq.p.flags = STP_SF_COVERAGE | STP_SF_STATUS;
+    rq.count = n;
+    rq.queries = q;
+    return rq;
+}
+
+static const stp_query GOOD = {3, 0.5f, 0.25f, 0, 0, 0, 0};
+
+/* ---- tests ---------------------------------------------------------------------------------- */
+
+/* PROTOCOL.md 4.4: the length check comes first: a count that lies is BAD_REQUEST even when
+ * it is also over max_batch; an honest count over max_batch is TOO_LARGE. */
+static void lying_count_over_max_batch_is_bad_request(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    stp_query q[MAX_BATCH + 1];
+    for (int i = 0; i <= MAX_BATCH; i++)
+        q[i] = GOOD;
+    stp_buf b;
+    stp_buf_init(&b);
+    /* honest, over max_batch */
+    stp_sample_req rq = sample_req(q, MAX_BATCH + 1);
+    assert_int_equal(stp_enc_sample_req(&b, 1, 0, &rq), 0);
+    expect(fd, &b, 1, STP_S_TOO_LARGE);
+    /* count MAX_BATCH + 100 claimed, MAX_BATCH + 1 queries sent: lies and is over */
+    assert_int_equal(stp_enc_sample_req(&b, 2, 0, &rq), 0);
+    size_t cnt_at = STP_HEADER_SIZE + 2 + strlen("default") + 20;
+    stp_wr32(b.data + b.start + cnt_at, MAX_BATCH + 100);
+    expect(fd, &b, 2, STP_S_BAD_REQUEST);
+    /* at max_batch: served */
+    rq.count = MAX_BATCH;
+    assert_int_equal(stp_enc_sample_req(&b, 3, 0, &rq), 0);
+    expect(fd, &b, 3, STP_S_OK);
+    stp_buf_free(&b);
+    close(fd);
+}
+
+/* PROTOCOL.md 4.4: sharpness 0..1, width 0..1e4, blur 0..1e4, NaN never; INVALID otherwise,
+ * whatever the filter. */
+static void sharpness_width_blur_ranges(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    struct { unsigned filter; float s, w, b; int status; } rows[] = {
+        {STP_FILTER_BILINEAR, 0, 0, 0, STP_S_OK},
+        {STP_FILTER_BILINEAR, 1, 1e4f, 1e4f, STP_S_OK},
+        {STP_FILTER_BILINEAR, -0.0f, 0.5f, 0.25f, STP_S_OK},
+        {STP_FILTER_BILINEAR, NAN, 0, 0, STP_S_INVALID},
+        {STP_FILTER_BILINEAR, 1.0001f, 0, 0, STP_S_INVALID},
+        {STP_FILTER_BILINEAR, -0.5f, 0, 0, STP_S_INVALID},
+        {STP_FILTER_POINT, 0, -1, 0, STP_S_INVALID},
+        {STP_FILTER_TRILINEAR, 0, NAN, 0, STP_S_INVALID},
+        {STP_FILTER_ANISO, 0, 2e4f, 0, STP_S_INVALID},
+        {STP_FILTER_BILINEAR, 0, 0, INFINITY, STP_S_INVALID},
+        {STP_FILTER_BILINEAR, 0, 0, -1e-3f, STP_S_INVALID},
+        {STP_FILTER_PTEX_BICUBIC, 0.5f, 2, 0.01f, STP_S_OK},
+        {STP_FILTER_PTEX_BICUBIC, 1.5f, 0, 0, STP_S_INVALID},
+        {STP_FILTER_PTEX_GAUSSIAN, 0, 0, NAN, STP_S_INVALID},
+    };
+    stp_buf b;
+    stp_buf_init(&b);
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        stp_sample_req rq = sample_req(&GOOD, 1);
+        rq.p.filter = (uint8_t)rows[i].filter;
+        rq.p.sharpness = rows[i].s;
+        rq.p.width = rows[i].w;
+        rq.p.blur = rows[i].b;
+        assert_int_equal(stp_enc_sample_req(&b, 10 + (uint32_t)i, 0, &rq), 0);
+        expect(fd, &b, 10 + (uint32_t)i, rows[i].status);
+    }
+    stp_buf_free(&b);
+    close(fd);
+}
+
+/* PROTOCOL.md 4.4: flag bits 2-7 are reserved: INVALID when set (libseamtex never sets them). */
+static void sample_flag_bits_2_to_7_are_invalid(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    stp_buf b;
+    stp_buf_init(&b);
+    for (unsigned bit = 2; bit < 8; bit++) {
+        stp_sample_req rq = sample_req(&GOOD, 1);
+        rq.p.flags = (uint8_t)(STP_SF_STATUS | 1u << bit);
+        assert_int_equal(stp_enc_sample_req(&b, bit, 0, &rq), 0);
+        expect(fd, &b, bit, STP_S_INVALID);
+    }
+    stp_buf_free(&b);
+    close(fd);
+}
+
+/* PROTOCOL.md 4.6: a query whose status is not OK has NaN channels in f32 (0 in unorm) and
+ * coverage 0; the reply is OK and nbad counts it. */
+static void failed_queries_get_nan_and_zero_coverage(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    stp_query q[4] = {
+        GOOD,
+        {999999, 0.5f, 0.5f, 0, 0, 0, 0},       /* BAD_FACE */
+        {3, NAN, 0.5f, 0, 0, 0, 0},             /* NONFINITE */
+        {3, 0.5f, 0.5f, 2e4f, 0, 0, 0},         /* BAD_FOOTPRINT */
+    };
+    const uint8_t want[4] = {STP_Q_OK, STP_Q_BAD_FACE, STP_Q_NONFINITE, STP_Q_BAD_FOOTPRINT};
+    stp_buf b;
+    stp_buf_init(&b);
+    for (unsigned fmt = 0; fmt < 3; fmt++) {
+        for (unsigned filter = STP_FILTER_BILINEAR; filter <= STP_FILTER_PTEX_BILINEAR; filter += 8) {
+            stp_sample_req rq = sample_req(q, 4);
+            rq.p.outfmt = (uint8_t)fmt;
+            rq.p.filter = (uint8_t)filter;
+            assert_int_equal(stp_enc_sample_req(&b, 40 + fmt, 0, &rq), 0);
+            reply r;
+            roundtrip(fd, &b, 40 + fmt, STP_S_OK, &r);
+            stp_sample_reply rp;
+            assert_int_equal(stp_dec_sample_reply(r.body, r.h.body_len, &rp, NULL), 0);
+            assert_int_equal(rp.count, 4);
+            assert_int_equal(rp.nbad, 3);
+            assert_memory_equal(rp.raw_status, want, 4);
+            float cov[4];
+            stp_sample_coverage(&rp, cov);
+            assert_true(cov[0] == 1.0f);
+            size_t esz = stp_outfmt_size(fmt);
+            for (unsigned i = 1; i < 4; i++) {
+                assert_true(cov[i] == 0.0f);
+                for (unsigned ch = 0; ch < rp.nchan; ch++) {
+                    const uint8_t *v = rp.raw_values + (i * rp.nchan + ch) * esz;
+                    if (fmt == STP_OUT_F32)
+                        assert_true(isnan(stp_u2f(stp_rd32(v))));
+                    else
+                        assert_int_equal(esz == 1 ? v[0] : stp_rd16(v), 0);
+                }
+            }
+            free(r.body);
+        }
+    }
+    stp_buf_free(&b);
+    close(fd);
+}
+
+/* PROTOCOL.md 4.1: min_version > max_version is INVALID, a range without 1 BAD_VERSION, and a
+ * second HELLO on a connection is answered as the first. */
+static void hello_version_ranges_and_a_second_hello(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    stp_buf b;
+    stp_buf_init(&b);
+    struct { uint8_t lo, hi; int status; } rows[] = {
+        {2, 1, STP_S_INVALID}, {1, 0, STP_S_INVALID}, {2, 3, STP_S_BAD_VERSION},
+        {0, 0, STP_S_BAD_VERSION}, {1, 1, STP_S_OK}, {0, 9, STP_S_OK}, {1, 1, STP_S_OK},
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        stp_hello_req h;
+        memset(&h, 0, sizeof h);
+        h.min_version = rows[i].lo;
+        h.max_version = rows[i].hi;
+        assert_int_equal(stp_enc_hello_req(&b, 60 + (uint32_t)i, 0, &h), 0);
+        reply r;
+        roundtrip(fd, &b, 60 + (uint32_t)i, rows[i].status, &r);
+        if (rows[i].status == STP_S_OK) {
+            stp_hello_reply hr;
+            assert_int_equal(stp_dec_hello_reply(r.body, r.h.body_len, &hr, NULL), 0);
+            assert_int_equal(hr.version, 1);
+            assert_int_equal(hr.max_batch, MAX_BATCH);
+            assert_int_equal(hr.max_chunk, STP_DEFAULT_MAX_CHUNK);
+        }
+        free(r.body);
+    }
+    stp_buf_free(&b);
+    close(fd);
+}
+
+/* PROTOCOL.md 4.8: a chunk over max_chunk is TOO_LARGE (its body skipped, the upload and the
+ * connection unchanged); another connection's upload id is NOT_FOUND. */
+static void chunk_over_max_chunk_and_foreign_upload_ids(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1), fd2 = st_daemon_connect(&D1);
+    assert_true(fd >= 0 && fd2 >= 0);
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_upload_begin ub;
+    memset(&ub, 0, sizeof ub);
+    snprintf(ub.name, sizeof ub.name, "protorules-up");
+    ub.total_size = 2u * STP_DEFAULT_MAX_CHUNK;
+    assert_int_equal(stp_enc_upload_begin(&b, 1, 0, &ub), 0);
+    reply r;
+    roundtrip(fd, &b, 1, STP_S_OK, &r);
+    stp_upload_begin_reply br;
+    assert_int_equal(stp_dec_upload_begin_reply(r.body, r.h.body_len, &br, NULL), 0);
+    free(r.body);
+    assert_int_equal(br.max_chunk, STP_DEFAULT_MAX_CHUNK);
+
+    uint8_t *data = calloc(1, STP_DEFAULT_MAX_CHUNK + 1);
+    assert_non_null(data);
+    stp_upload_chunk ch = {br.upload_id, 0, STP_DEFAULT_MAX_CHUNK + 1, data};
+    assert_int_equal(stp_enc_upload_chunk(&b, 2, 0, &ch), 0);
+    expect(fd, &b, 2, STP_S_TOO_LARGE);
+    assert_int_equal(stp_enc_id_req(&b, STP_OP_UPLOAD_STATUS, 3, 0, br.upload_id), 0);
+    roundtrip(fd, &b, 3, STP_S_OK, &r);
+    stp_upload_progress pg;
+    assert_int_equal(stp_dec_upload_progress(r.body, r.h.body_len, &pg, NULL), 0);
+    free(r.body);
+    assert_int_equal(pg.received, 0);
+    /* exactly max_chunk is taken */
+    ch.len = STP_DEFAULT_MAX_CHUNK;
+    assert_int_equal(stp_enc_upload_chunk(&b, 4, 0, &ch), 0);
+    expect(fd, &b, 4, STP_S_OK);
+
+    /* the other connection cannot use the id */
+    ch.offset = STP_DEFAULT_MAX_CHUNK;
+    ch.len = 16;
+    assert_int_equal(stp_enc_upload_chunk(&b, 5, 0, &ch), 0);
+    expect(fd2, &b, 5, STP_S_NOT_FOUND);
+    assert_int_equal(stp_enc_id_req(&b, STP_OP_UPLOAD_STATUS, 6, 0, br.upload_id), 0);
+    expect(fd2, &b, 6, STP_S_NOT_FOUND);
+    assert_int_equal(stp_enc_id_req(&b, STP_OP_UPLOAD_COMMIT, 7, 0, br.upload_id), 0);
+    expect(fd2, &b, 7, STP_S_NOT_FOUND);
+    assert_int_equal(stp_enc_id_req(&b, STP_OP_UPLOAD_ABORT, 8, 0, br.upload_id), 0);
+    expect(fd2, &b, 8, STP_S_NOT_FOUND);
+    /* its owner still can */
+    assert_int_equal(stp_enc_id_req(&b, STP_OP_UPLOAD_ABORT, 9, 0, br.upload_id), 0);
+    expect(fd, &b, 9, STP_S_OK);
+    free(data);
+    stp_buf_free(&b);
+    close(fd);
+    close(fd2);
+}
+
+/* PROTOCOL.md 4.10: max_len 0 reads as much as one reply holds (max_chunk); len 0 only at the
+ * end of the file; an offset past it is INVALID. */
+static void fetch_read_max_len_zero_reads_a_chunk(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_fetch_open fo;
+    memset(&fo, 0, sizeof fo);
+    snprintf(fo.name, sizeof fo.name, "default");
+    fo.format = STP_FETCH_PTX;
+    assert_int_equal(stp_enc_fetch_open(&b, 1, 0, &fo), 0);
+    reply r;
+    roundtrip(fd, &b, 1, STP_S_OK, &r);
+    stp_fetch_open_reply orp;
+    assert_int_equal(stp_dec_fetch_open_reply(r.body, r.h.body_len, &orp, NULL), 0);
+    free(r.body);
+    assert_true(orp.total_size > 0);
+    uint64_t want = orp.total_size < orp.max_chunk ? orp.total_size : orp.max_chunk;
+    stp_fetch_read rd = {orp.fetch_id, 0, 0};
+    assert_int_equal(stp_enc_fetch_read(&b, 2, 0, &rd), 0);
+    roundtrip(fd, &b, 2, STP_S_OK, &r);
+    stp_fetch_data d;
+    assert_int_equal(stp_dec_fetch_data(r.body, r.h.body_len, &d, NULL), 0);
+    assert_int_equal(d.offset, 0);
+    assert_int_equal(d.len, want);
+    free(r.body);
+    rd.offset = orp.total_size;
+    assert_int_equal(stp_enc_fetch_read(&b, 3, 0, &rd), 0);
+    roundtrip(fd, &b, 3, STP_S_OK, &r);
+    assert_int_equal(stp_dec_fetch_data(r.body, r.h.body_len, &d, NULL), 0);
+    assert_int_equal(d.len, 0);
+    free(r.body);
+    rd.offset = orp.total_size + 1;
+    assert_int_equal(stp_enc_fetch_read(&b, 4, 0, &rd), 0);
+    expect(fd, &b, 4, STP_S_INVALID);
+    stp_buf_free(&b);
+    close(fd);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(lying_count_over_max_batch_is_bad_request),
+        cmocka_unit_test(sharpness_width_blur_ranges),
+        cmocka_unit_test(sample_flag_bits_2_to_7_are_invalid),
+        cmocka_unit_test(failed_queries_get_nan_and_zero_coverage),
+        cmocka_unit_test(hello_version_ranges_and_a_second_hello),
+        cmocka_unit_test(chunk_over_max_chunk_and_foreign_upload_ids),
+        cmocka_unit_test(fetch_read_max_len_zero_reads_a_chunk),
+    };
+    static const char *const args[] = {"--max-batch", "4", NULL};
+    st_group_args = args;
+    return cmocka_run_group_tests_name("protocol_rules", tests, st_group_setup,
+                                       st_group_teardown);
+}
