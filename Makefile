@@ -74,7 +74,7 @@ $(B)/protocol/%.o: MODINC := $(INC_protocol)
 # ---- store/: one archive per part; the allowed edges, lowest part first ---------------------
 # A part may include its own headers, util/'s and those of the parts named here (the list is
 # closed under dependency: a part lists its dependencies' dependencies too).
-STORE_PARTS      := core mesh sample ptex kinds bc1 import service
+STORE_PARTS      := core mesh sample ptex kinds bc1 import native service
 STORE_DEPS_core    :=
 STORE_DEPS_mesh    := core
 STORE_DEPS_sample  := core
@@ -82,7 +82,8 @@ STORE_DEPS_ptex    := core sample
 STORE_DEPS_kinds   := core mesh sample
 STORE_DEPS_bc1     := core mesh sample kinds
 STORE_DEPS_import  := core mesh sample ptex kinds bc1
-STORE_DEPS_service := core mesh sample ptex kinds bc1 import
+STORE_DEPS_native  := core mesh sample ptex kinds
+STORE_DEPS_service := core mesh sample ptex kinds bc1 import native
 # outside the store: every part may use util/; service/ also takes the set-name rule from
 # protocol/stp_name.h (header only: the registry and the wire apply one rule)
 STORE_EXT_service  := $(INC_protocol)
@@ -104,7 +105,7 @@ $(foreach p,$(STORE_PARTS),$(eval $(call STORE_PART,$(p))))
 STORE_C   := $(foreach p,$(STORE_PARTS),$(wildcard store/$(p)/*.c))
 STORE_CXX := $(foreach p,$(STORE_PARTS),$(wildcard store/$(p)/*.cpp))
 # every store part (highest first, the link order) and util: what links "the whole store"
-LIB_STORE := $(foreach p,service import bc1 kinds ptex sample mesh core,$(LIB_STORE_$(p))) $(LIB_UTIL)
+LIB_STORE := $(foreach p,service native import bc1 kinds ptex sample mesh core,$(LIB_STORE_$(p))) $(LIB_UTIL)
 # the include paths of the whole store (for the daemon, tests, tools)
 INC_STORE := $(foreach p,$(STORE_PARTS),-Istore/$(p)) $(INC_util) $(INC_protocol)
 

@@ -80,6 +80,16 @@ static const opt OPTS[] = {
      "other cores to the requests)"},
     {"max-set-bytes", T_SIZE, O(max_set_bytes), 0, 1, "BYTES",
      "texel memory of one imported set (default 8G)"},
+    {"memory-budget", T_SIZE, O(memory_budget), 0, 1, "BYTES",
+     "texture memory kept resident (mapped native files as mincore sees them, plus built\n"
+     "Ptex tables); the least recently sampled sets are released past it and fault back in\n"
+     "when sampled; 0 = unlimited (default 0)"},
+    {"native", T_BOOL, O(native), 0, 0, "yes|no",
+     "keep a native file (mapped, no import at start) beside every set's source (default yes;\n"
+     "no: every start re-imports every source, as before native files)"},
+    {"verify-native", T_BOOL, O(verify_native), 0, 0, "yes|no",
+     "at start also check every native file's texel CRC and every source's CRC-32 (reads\n"
+     "every byte; default no: headers, tables, small sections and source sizes are checked)"},
     {"default-set", T_BOOL, O(default_set), 0, 0, "yes|no",
      "load the built-in set as \"default\" at start (default yes)"},
     {"no-default-set", T_NOT, O(default_set), 0, 0, NULL, "same as --default-set no"},
@@ -113,6 +123,7 @@ void sts_config_defaults(sts_config *c)
     c->job_threads = 1;
     c->max_set_bytes = (uint64_t)8 << 30;
     c->default_set = 1;
+    c->native = 1;
     c->log_level = STS_INFO;
 }
 

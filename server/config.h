@@ -47,6 +47,10 @@ typedef struct sts_config {
     uint32_t max_jobs;          /* queued + running COMPRESS jobs */
     uint32_t job_threads;       /* encoder threads of one job, 0 = one per core */
     uint64_t max_set_bytes;     /* texel arena of one imported set */
+    uint64_t memory_budget;     /* resident texture bytes before cold sets are released
+                                   (0 = unlimited) */
+    int      native;            /* write and map native files (default 1) */
+    int      verify_native;     /* check native files' texel CRCs at start */
     int      default_set;       /* load the built-in set as "default" */
     int      log_level;         /* sts_level */
 } sts_config;

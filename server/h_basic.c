@@ -371,6 +371,8 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
         return 0;
     const st_set *s = ref->set;
     uint32_t n = rq->count;
+    int cold = sts_budget_touch(c->srv, ref->set);  /* a released set faults back in */
+    int64_t t0 = cold ? sts_budget_clock_us() : 0;
     if (h->opcode == STP_OP_SAMPLE_DIR && !st_cube_is_cube(s)) {
         st_setref_release(ref);
         sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
@@ -431,6 +433,8 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
         replied = sample_into_reply(c, h, rq, n, fn, &a, out, &rc);
     if (!replied && rc >= 0)
         rc = run_batch(c, n, fn, &a);
+    if (cold)
+        sts_budget_cold_done(c->srv, t0, n);
     if (replied && rc >= 0) {
         STS_STAT_ADD(c->srv, queries, n);
         STS_STAT_ADD(c->srv, query_errors, (uint64_t)rc);
@@ -497,7 +501,7 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
         return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
     sts_server *srv = c->srv;
-    size_t cap = 128 + sts_opstats_max_keys();
+    size_t cap = 192 + sts_opstats_max_keys(); /* with the budget's keys (budget.c) */
     stp_stat *s = malloc(cap * sizeof *s);
     if (!s) {
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
@@ -553,6 +557,7 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
     U("split_batches", __atomic_load_n(&srv->pool.split_batches, __ATOMIC_RELAXED));
     U("parts_helped", __atomic_load_n(&srv->pool.parts_helped, __ATOMIC_RELAXED));
+    n += sts_budget_stats(srv, s + n, cap - n);
     U("max_conns", STS_LIVE(srv, max_conns));
     U("max_frame", STS_LIVE(srv, max_frame));
     for (unsigned op = 0; op < 256; op++) {

@@ -146,7 +146,8 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
                     return st_fail(e, ST_EIO, "writing the DDS file failed: %s", strerror(werr));
                 }
                 pub_arg pa = {srv, bc1, e};
-                rc = st_datadir_commit(srv->dd, j->target, path, "dds", "", len, pub_cb, &pa, e);
+                rc = st_datadir_commit_set(srv->dd, j->target, path, "dds", "", len,
+                                           srv->cfg.native ? &pa.set : NULL, pub_cb, &pa, e);
                 st_set_free(pa.set);
                 return rc;
             }

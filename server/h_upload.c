@@ -423,8 +423,9 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     done.memory = st_set_memory(set);
     publish_arg pa = {srv, set, 0, &e};
     if (srv->dd) {
-        rc = st_datadir_commit(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
-                               publish_cb, &pa, &e);
+        /* writes the native file too; pa.set becomes the mapped set before publish_cb */
+        rc = st_datadir_commit_set(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
+                                   srv->cfg.native ? &pa.set : NULL, publish_cb, &pa, &e);
         u->path[0] = 0;  /* the data dir owns (or removed) the file now */
         st_set_free(pa.set);  /* not published when the commit failed early */
     } else {

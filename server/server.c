@@ -225,6 +225,13 @@ int sts_server_start(sts_server *srv)
         sts_logf(&srv->log, STS_ERROR, "cannot start the job thread");
         return -1;
     }
+    if (sts_budget_start(srv) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "cannot start the memory budget thread");
+        return -1;
+    }
+    if (srv->cfg.memory_budget)
+        sts_logf(&srv->log, STS_INFO, "memory budget %llu bytes: cold sets are released past it",
+                 (unsigned long long)srv->cfg.memory_budget);
     for (uint32_t i = 0; i < srv->nio; i++) {
         sts_io *io = &srv->io[i];
         io->srv = srv;
@@ -269,6 +276,7 @@ void sts_server_stop(sts_server *srv, int grace_ms)
     }
     sts_pool_stop(&srv->pool);
     sts_jobs_stop(srv);
+    sts_budget_stop(srv);
     sts_logf(&srv->log, STS_INFO, "stopped: %llu connections, %llu requests (%llu errors), "
              "%llu queries served", (unsigned long long)srv->stats.conns_accepted,
              (unsigned long long)srv->stats.requests, (unsigned long long)srv->stats.replies_error,
@@ -317,6 +325,7 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh)
     SET_LIVE(conn_out_cap);
     SET_LIVE(max_memory);
     SET_LIVE(max_sets);
+    SET_LIVE(memory_budget);
     SET_LIVE(max_uploads);
     SET_LIVE(upload_keep);
     SET_LIVE(max_jobs);

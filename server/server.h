@@ -40,6 +40,7 @@
 #include <pthread.h>
 #include <stdint.h>
 
+#include "budget.h"
 #include "config.h"
 #include "datadir.h"
 #include "handles.h"
@@ -88,6 +89,7 @@ struct sts_server {
     sts_jobs       *jobs;         /* COMPRESS jobs and the job thread (h_jobs.c), from start */
     sts_handles     uploads;      /* upload records (uploads.c) */
     sts_handles     fetches;      /* FETCH handles (h_jobs.c) */
+    sts_budget      budget;       /* budget.c: --memory-budget */
     uint64_t        next_conn_id; /* atomic */
     uint32_t        nconns;       /* atomic: live connections */
     uint64_t        mem_used;     /* atomic: bytes in connection buffers */

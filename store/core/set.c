@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <unistd.h>
 
 #define ST_WALK_MAX 64
 
@@ -286,9 +287,14 @@ void st_set_free(st_set *s)
         free(s->meta[i].data);
     }
     free(s->meta);
-    free(s->texels);
-    free(s->level_off);
-    free(s->faces);
+    if (s->map) {
+        munmap(s->map, s->map_len);
+        close(s->map_fd);
+    } else {
+        free(s->texels);
+        free(s->level_off);
+        free(s->faces);
+    }
     free(s);
 }
 

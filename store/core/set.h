@@ -154,6 +154,15 @@ typedef struct st_set {
     st_meta_entry *meta;         /* nmeta entries, owned */
     uint32_t       nmeta;
     st_set_ext     ext;          /* kind-specific data owned by the set, tagged */
+    /* A set opened from a native file (store/native/native.h) samples straight from a
+     * read-only shared mapping of it: faces, level_off and texels then point INTO map and
+     * are never written nor freed; st_set_free munmaps map and closes map_fd. NULL map: the
+     * three arrays are heap allocations owned by the set. */
+    void          *map;          /* start of the mapping, NULL for a heap set */
+    size_t         map_len;      /* bytes mapped */
+    int            map_fd;       /* the file, kept open for posix_fadvise (valid when map) */
+    uint64_t       last_use_ms;  /* atomic: last sample (monotonic ms), for the memory budget */
+    uint32_t       cold;         /* atomic: 1 once the budget released it, until sampled */
 } st_set;
 
 /* Bytes per channel of a dtype (1, 2, 2, 4); 0 for an invalid dtype. */
@@ -227,7 +236,7 @@ int st_set_create(const st_set_info *info, const st_face_desc *faces, size_t max
 int st_set_create_unzeroed(const st_set_info *info, const st_face_desc *faces, size_t max_bytes,
                            st_set **out, st_error *e);
 
-/* Frees the set and everything it owns; NULL is accepted. */
+/* Frees the set and everything it owns (unmaps a mapped set); NULL is accepted. */
 void st_set_free(st_set *s);
 
 /* Fills levels 1.. of face f (or of every face when f == UINT32_MAX) by 2x2 box reduction of

@@ -533,13 +533,14 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
         return ST_EUNSUPPORTED;
     if (!st_ptexres_get(s))
         return ST_EUNSUPPORTED;
-    st_error be;
-    const st_ptexres *t = st_ptexres_table(s, &be); /* built on the first call */
-    if (!t)
-        return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
     if (!(o->sharpness >= 0.0f && o->sharpness <= 1.0f) || !(o->width >= 0.0f) ||
         !(o->blur >= 0.0f) || o->width > ST_MAX_DERIV || o->blur > ST_MAX_DERIV)
         return ST_EINVAL;
+    st_error be;
+    /* built on the first call; pinned so that a budget drop leaves it alone during the batch */
+    const st_ptexres *t = st_ptexres_pin(s, &be);
+    if (!t)
+        return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
     pk_params pp;
     pk_params_init(&pp, o->filter, o->sharpness);
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
@@ -574,13 +575,14 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
             status[i] = (uint8_t)st;
         bad += st != ST_Q_OK;
     }
+    st_ptexres_unpin(t);
     return bad;
 }
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)
 {
     if (st_ptexres_get(s))
-        return ST_OK;
+        return ST_OK; /* built by the first Ptex filter call */
     if (s->info.kind != ST_KIND_PERFACE)
         return st_fail(e, ST_EUNSUPPORTED, "Ptex filters need a per-face set");
     return st_ptexres_attach(s, NULL, NULL, NULL, 0, e);

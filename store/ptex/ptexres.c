@@ -59,6 +59,7 @@ static void ptexres_free(void *p)
     if (!t)
         return;
     pthread_mutex_destroy(&t->lock);
+    pthread_rwlock_destroy(&t->pin);
     free(t->base);
     free(t->px);
     free(t->ptxflags);
@@ -294,7 +295,12 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
     t->ptxflags = malloc(n);
     t->nstored = malloc(n);
-    if (!t->ptxflags || !t->nstored || pthread_mutex_init(&t->lock, NULL)) {
+    int mx = !t->ptxflags || !t->nstored ? -1 : pthread_mutex_init(&t->lock, NULL);
+    if (mx == 0 && pthread_rwlock_init(&t->pin, NULL)) {
+        pthread_mutex_destroy(&t->lock);
+        mx = -1;
+    }
+    if (mx) {
         free(t->ptxflags);
         free(t->nstored);
         free(t);
@@ -435,4 +441,61 @@ const st_ptexres *st_ptexres_table(const st_set *s, st_error *e)
     }
     pthread_mutex_unlock(&t->lock);
     return rc == ST_OK ? t : NULL;
+}
+
+const st_ptexres *st_ptexres_pin(const st_set *s, st_error *e)
+{
+    st_ptexres *t = st_set_ext_get(s, ST_EXT_PTEXRES);
+    if (!t || t->magic != ST_PTEXRES_MAGIC) {
+        st_fail(e, ST_EUNSUPPORTED, "set has no Ptex resolution table");
+        return NULL;
+    }
+    for (;;) {
+        pthread_rwlock_rdlock(&t->pin);
+        if (atomic_load_explicit(&t->built, memory_order_acquire))
+            return t; /* a drop needs the exclusive lock: the table stays until unpinned */
+        pthread_rwlock_unlock(&t->pin);
+        if (!st_ptexres_table(s, e)) /* (re)build under the mutex, then pin again */
+            return NULL;
+    }
+}
+
+void st_ptexres_unpin(const st_ptexres *t)
+{
+    if (t)
+        pthread_rwlock_unlock(&((st_ptexres *)(uintptr_t)t)->pin);
+}
+
+size_t st_ptexres_drop(const st_set *s)
+{
+    st_ptexres *t = (st_ptexres *)(uintptr_t)st_ptexres_get(s);
+    if (!t || !atomic_load_explicit(&t->built, memory_order_acquire))
+        return 0;
+    if (pthread_rwlock_trywrlock(&t->pin) != 0)
+        return 0; /* a filter is reading it: it is not cold */
+    size_t freed = 0;
+    pthread_mutex_lock(&t->lock); /* no build in progress either */
+    if (atomic_load_explicit(&t->built, memory_order_relaxed)) {
+        atomic_store_explicit(&t->built, 0, memory_order_release);
+        freed = t->bytes;
+        free(t->base);
+        free(t->px);
+        free(t->arena);
+        t->base = NULL;
+        t->px = NULL;
+        t->arena = NULL;
+        t->arena_bytes = 0;
+        t->bytes = 0;
+    }
+    pthread_mutex_unlock(&t->lock);
+    pthread_rwlock_unlock(&t->pin);
+    return freed;
+}
+
+size_t st_ptexres_built_bytes(const st_set *s)
+{
+    const st_ptexres *t = st_ptexres_get(s);
+    if (!t || !atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
+        return 0;
+    return t->bytes;
 }

@@ -23,7 +23,10 @@
  *
  * Cost: before the first Ptex-filter call, two bytes per face. After it: one pointer per
  * (face, ulog2', vlog2') pair plus the texels of the pairs that are not set levels (about 2.7x
- * level 0); st_set_memory counts it once built.
+ * level 0); st_set_memory counts it once built. A built table may be dropped again under a
+ * memory budget (st_ptexres_drop, server/budget.c) and is rebuilt by the next Ptex filter
+ * call: the filter reads the table pinned (st_ptexres_pin, a shared lock), the drop only
+ * tries the exclusive lock and gives up when a filter holds it.
  */
 #ifndef ST_PTEXRES_H
 #define ST_PTEXRES_H
@@ -46,7 +49,8 @@ typedef struct st_ptexres {
     size_t          max_bytes;    /* cap on the arena */
     /* built by st_ptexres_table; read only once `built` is 1 (acquire) */
     atomic_int      built;
-    pthread_mutex_t lock;         /* serialises the build */
+    pthread_mutex_t lock;         /* serialises the build (and the drop) */
+    pthread_rwlock_t pin;         /* shared: a reader of the built table; exclusive: a drop */
     uint64_t       *base;         /* per face: index of its (0,0) entry in px */
     const uint8_t **px;           /* res (ru, rv) of face f: px[base[f] + ru * (vlog2+1) + rv];
                                      a constant face has one entry (its texel) */
@@ -86,6 +90,19 @@ const st_ptexres *st_ptexres_table(const st_set *s, st_error *e);
 /* The table record of s (built or not: test t->built, or call st_ptexres_table), or NULL
  * when s has none. */
 const st_ptexres *st_ptexres_get(const st_set *s);
+
+/* The built table of s, pinned: like st_ptexres_table, but st_ptexres_drop cannot free it
+ * until st_ptexres_unpin(t). NULL (nothing pinned) as for st_ptexres_table. The Ptex filter
+ * reads through this; other callers of st_ptexres_table must not race with a drop. */
+const st_ptexres *st_ptexres_pin(const st_set *s, st_error *e);
+void st_ptexres_unpin(const st_ptexres *t);
+
+/* Frees the built data of the table of s when no reader has it pinned (it is rebuilt on the
+ * next Ptex filter call); returns the bytes freed (0: no table, not built, or pinned). */
+size_t st_ptexres_drop(const st_set *s);
+
+/* Bytes the built table of s holds beyond its record (0: no table or not built). */
+size_t st_ptexres_built_bytes(const st_set *s);
 
 /* Data of face f at resolution (ru, rv), 0 <= ru <= ulog2, 0 <= rv <= vlog2, of a built
  * table (st_ptexres_table). */

@@ -24,6 +24,7 @@
 
 #include "registry.h"
 #include "fdio.h"
+#include "native.h"
 
 #define PATHCAP 4096
 
@@ -351,6 +352,46 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
                       const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
                       st_error *e)
 {
+    return st_datadir_commit_set(d, name, tmp_path, fmt, options, bytes, NULL, publish, arg, e);
+}
+
+/* Writes set as tmp/<id>.native for source m (fsynced); "" in path when it fails (the set is
+ * then committed without one and gets it at the next start). */
+static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path)
+{
+    char id[64];
+    new_id(d, id, sizeof id);
+    pathf(path, "%s/tmp/%s.native", d->root, id);
+    st_native_source src;
+    memset(&src, 0, sizeof src);
+    src.bytes = m->bytes;
+    src.crc = m->crc;
+    snprintf(src.name, sizeof src.name, "%s", m->source);
+    int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    int ok = fd >= 0 && st_native_write_fd(fd, set, &src, NULL) == 0 && fsync(fd) == 0;
+    if (fd >= 0)
+        close(fd);
+    if (!ok) {
+        unlink(path);
+        path[0] = 0;
+    }
+}
+
+/* Rolls sets/<name>/set.native back to what it was before a commit touched it: the old file
+ * (hard-linked to prevnat) when there was one, else none. */
+static void restore_native(int touched, int had_nat, const char *prevnat, const char *nat)
+{
+    if (!touched)
+        return;
+    if (!had_nat || rename(prevnat, nat) != 0)
+        unlink(nat); /* no old file, or it cannot be put back: rebuilt from the source at start */
+    unlink(prevnat);
+}
+
+int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                          const char *options, uint64_t bytes, st_set **set,
+                          st_publish_fn publish, void *arg, st_error *e)
+{
     int rc = st_name_check(name, name ? strlen(name) : 0, e);
     if (!rc)
         rc = st_format_check(fmt, e);
@@ -387,14 +428,23 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     snprintf(m.source, sizeof m.source, "source-%s.%s", id, fmt);
 
     char setdir[PATHCAP], src[PATHCAP], man[PATHCAP], mantmp[PATHCAP], sets[PATHCAP];
+    char ntmp[PATHCAP], nat[PATHCAP];
     pathf(sets, "%s/sets", d->root);
     pathf(setdir, "%s/%s", sets, name);
     pathf(src, "%s/%s", setdir, m.source);
     pathf(man, "%s/manifest", setdir);
     pathf(mantmp, "%s/tmp/%s.manifest", d->root, id);
+    pathf(nat, "%s/" ST_DATADIR_NATIVE, setdir);
+    /* the native file is written (and fsynced) before the lock: it is the long part */
+    ntmp[0] = 0;
+    if (set && *set)
+        native_tmp(d, *set, &m, ntmp);
 
     char prev[PATHCAP];   /* a hard link to the old manifest, to roll back to */
     pathf(prev, "%s/tmp/%s.prev", d->root, id);
+    char prevnat[PATHCAP]; /* a hard link to the old native file, likewise */
+    pathf(prevnat, "%s/tmp/%s.prevnative", d->root, id);
+    int nat_touched = 0, had_nat = 0;
 
     pthread_mutex_lock(&d->mu);
     st_manifest old;
@@ -405,6 +455,8 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     if (orc && orc != ST_ENOTFOUND && orc != ST_EFORMAT && orc != ST_EUNSUPPORTED) {
         /* cannot tell whether a set is there (EIO, ENOMEM): touch nothing */
         st_datadir_discard(tmp_path);
+        if (ntmp[0])
+            unlink(ntmp);
         pthread_mutex_unlock(&d->mu);
         return st_fail(e, orc, "%s", oe.msg);
     }
@@ -415,6 +467,20 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
         rc = st_fail(e, ST_EIO, "mkdir %s: %s", setdir, strerror(errno));
     if (!rc && rename(tmp_path, src) != 0)
         rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp_path, src, strerror(errno));
+    /* the old set's native file, hard-linked to tmp/<id>.prevnative so that a rollback can put
+     * it back (a crash leaves the link in tmp/, emptied at open) */
+    if (!rc) {
+        nat_touched = 1;
+        had_nat = link(nat, prevnat) == 0;
+    }
+    /* before the commit point: a crash here leaves the old manifest beside a native file that
+     * names the new source, which the next start refuses and rebuilds from the old source */
+    if (!rc && ntmp[0] && rename(ntmp, nat) != 0) {
+        unlink(ntmp);
+        ntmp[0] = 0;
+    }
+    if (!rc && !ntmp[0])
+        unlink(nat);  /* never leave an older set's native file beside the new manifest */
     if (!rc)
         rc = manifest_write(mantmp, &m, e);
     if (!rc && had_file && link(man, prev) != 0)
@@ -425,15 +491,29 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
         unlink(src);
         unlink(mantmp);
         unlink(prev);
+        if (ntmp[0])
+            unlink(ntmp);  /* not renamed yet (or already gone) */
+        restore_native(nat_touched, had_nat, prevnat, nat);
         st_datadir_discard(tmp_path);
-        if (newdir)
+        if (newdir) {
+            unlink(nat);
             rmdir(setdir);
+        }
         pthread_mutex_unlock(&d->mu);
         return rc;
     }
     rc = fsync_path(setdir, 1, e);
     if (!rc)
         rc = fsync_path(sets, 1, e);
+    /* serve the set from its native file from now on: the heap copy goes (on a rollback
+     * below the caller frees the mapped set; the mapping outlives the file's name) */
+    if (!rc && ntmp[0] && set && *set) {
+        st_set *mapped = NULL;
+        if (st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {
+            st_set_free(*set);
+            *set = mapped;
+        }
+    }
     if (!rc && publish)
         rc = publish(arg, &m, src);
     if (rc) {
@@ -446,6 +526,7 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
                      " (and rolling back failed: %s)", strerror(errno));
         unlink(src);
         unlink(prev);
+        restore_native(nat_touched, had_nat, prevnat, nat); /* the old one back, or none */
         if (newdir)
             rmdir(setdir);
         stu_fsync_dir(setdir);
@@ -454,6 +535,7 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
         return rc;
     }
     unlink(prev);
+    unlink(prevnat);
     if (had_old && strcmp(old.source, m.source) != 0) {
         char oldsrc[PATHCAP];
         pathf(oldsrc, "%s/%s", setdir, old.source);
@@ -545,7 +627,8 @@ static int load_one(st_datadir *d, const char *sets, const char *name, st_publis
         DIR *sd = opendir(setdir);
         while (sd && (de = readdir(sd))) {
             if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..") ||
-                !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source))
+                !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source) ||
+                !strcmp(de->d_name, ST_DATADIR_NATIVE))
                 continue;
             pathf(src, "%s/%s", setdir, de->d_name);
             rm_rf(src);
@@ -651,6 +734,275 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
     fsync_path(sets, 1, NULL);
     return loaded;
 oom:
+    /* a set missing from the list would be a set missing after the start: fail instead */
+    closedir(dp);
+    for (size_t k = 0; k < n; k++)
+        free(names[k]);
+    free(names);
+    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
+}
+
+/* ---- load with native files ------------------------------------------------------------------ */
+
+static int64_t now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+static void say(const st_datadir_loader *L, const char *name, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void say(const st_datadir_loader *L, const char *name, const char *fmt, ...)
+{
+    if (!L->note)
+        return;
+    char msg[ST_ERRMSG_LEN + 200];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    L->note(L->arg, name, msg);
+}
+
+/* Moves a refused native file to broken/<name>.<id>.native (never silently dropped). */
+static void native_aside(st_datadir *d, const char *name, const char *nat)
+{
+    char dst[PATHCAP], broken[PATHCAP], id[64];
+    new_id(d, id, sizeof id);
+    pathf(broken, "%s/broken", d->root);
+    size_t keep = 255 - 8 - strlen(id);
+    pathf(dst, "%s/%.*s.%s.native", broken, (int)keep, name, id);
+    if (rename(nat, dst) != 0)
+        unlink(nat);
+}
+
+/* One set dir: 1 published, 0 removed or moved to broken/, ST_EBUSY "later", another negative
+ * code (in e) when an error that says nothing about the set stops the load (transient():
+ * the set is left in place). Caller holds d->mu. *built counts native files written. */
+static int load_one_native(st_datadir *d, const char *sets, const char *name,
+                           const st_datadir_loader *L, int final, int *built, st_error *e)
+{
+    struct dirent *de;
+    char setdir[PATHCAP], man[PATHCAP], src[PATHCAP], nat[PATHCAP];
+    pathf(setdir, "%s/%s", sets, name);
+    pathf(man, "%s/manifest", setdir);
+    pathf(nat, "%s/" ST_DATADIR_NATIVE, setdir);
+    st_error err;
+    st_error_clear(&err);
+    if (st_name_check(name, strlen(name), &err) != 0) {
+        if (L->report)
+            L->report(L->arg, name, err.msg);
+        move_broken(d, "badname", setdir);
+        return 0;
+    }
+    st_manifest m;
+    int rc = st_manifest_read(man, &m, &err);
+    if (rc == ST_ENOTFOUND) {
+        if (L->report)
+            L->report(L->arg, name, "no manifest (interrupted upload): removed");
+        rm_rf(setdir);
+        return 0;
+    }
+    if (!rc && strcmp(m.name, name) != 0)
+        rc = st_fail(&err, ST_EFORMAT, "manifest names '%s'", m.name);
+    struct stat sst;
+    if (!rc) {
+        /* files the manifest does not name (an interrupted replace) go; the native file stays */
+        DIR *sd = opendir(setdir);
+        while (sd && (de = readdir(sd))) {
+            if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..") ||
+                !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source) ||
+                !strcmp(de->d_name, ST_DATADIR_NATIVE))
+                continue;
+            pathf(src, "%s/%s", setdir, de->d_name);
+            rm_rf(src);
+        }
+        if (sd)
+            closedir(sd);
+        pathf(src, "%s/%s", setdir, m.source);
+        if (stat(src, &sst) != 0)
+            rc = st_fail(&err, ST_EIO, "source %s: %s", m.source, strerror(errno));
+        else if ((uint64_t)sst.st_size != m.bytes)
+            rc = st_fail(&err, ST_ECORRUPT, "source has %llu bytes, manifest says %llu",
+                         (unsigned long long)sst.st_size, (unsigned long long)m.bytes);
+        else if (L->native_flags & ST_NATIVE_VERIFY) {
+            /* full verification: the source's bytes too, as before native files */
+            uint64_t bytes;
+            uint32_t crc;
+            rc = st_file_crc(src, &bytes, &crc, &err);
+            if (!rc && (bytes != m.bytes || crc != m.crc))
+                rc = st_fail(&err, ST_ECORRUPT, "source has %" PRIu64 " bytes crc %08x, manifest "
+                             "says %" PRIu64 " bytes crc %08x", bytes, crc, m.bytes, m.crc);
+        }
+    }
+    /* the fast path: the native file, tied to this very source, mapped and checked */
+    int native_why = 0;
+    char why[ST_ERRMSG_LEN];
+    why[0] = 0;
+    if (!rc) {
+        st_set *set = NULL;
+        st_native_source ns;
+        st_error ne;
+        st_error_clear(&ne);
+        int nrc = L->no_native ? ST_ENOTFOUND
+                               : st_native_open(nat, L->native_flags, &ns, &set, &ne);
+        if (!nrc && (ns.bytes != m.bytes || ns.crc != m.crc || strcmp(ns.name, m.source) != 0)) {
+            nrc = ST_EFORMAT;
+            snprintf(ne.msg, sizeof ne.msg, "it was built from %s (%llu bytes, crc %08x), the "
+                     "manifest names %s", ns.name, (unsigned long long)ns.bytes, ns.crc, m.source);
+            st_set_free(set);
+            set = NULL;
+        }
+        if (!nrc) {
+            int prc = L->publish(L->arg, &m, set, &err);
+            if (prc == 0)
+                return 1;
+            rc = prc;  /* the registry refused it: as a failed load */
+        } else {
+            native_why = nrc;
+            snprintf(why, sizeof why, "%s", ne.msg);
+        }
+    }
+    int imported = 0;
+    if (!rc && native_why) {
+        if (native_why != ST_ENOTFOUND && !L->no_native) {
+            say(L, name, "native file refused (%s): moved to broken/, rebuilding it from the "
+                "source", why);
+            native_aside(d, name, nat);
+        }
+        /* the source is read whole now: it must be the bytes the manifest recorded */
+        uint64_t bytes;
+        uint32_t crc;
+        rc = st_file_crc(src, &bytes, &crc, &err);
+        if (!rc && (bytes != m.bytes || crc != m.crc))
+            rc = st_fail(&err, ST_ECORRUPT,
+                         "source has %" PRIu64 " bytes crc %08x, manifest says %" PRIu64
+                         " bytes crc %08x", bytes, crc, m.bytes, m.crc);
+        st_set *set = NULL;
+        int64_t t0 = now_ms();
+        if (!rc) {
+            rc = L->import(L->arg, &m, src, &set, &err);
+            if (rc == ST_EBUSY && !final)
+                return ST_EBUSY;
+            if (rc && !err.msg[0])
+                snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
+        }
+        if (!rc) {
+            imported = 1;
+            char ntmp[PATHCAP];
+            ntmp[0] = 0;
+            if (!L->no_native)
+                native_tmp(d, set, &m, ntmp);
+            st_set *mapped = NULL;
+            if (ntmp[0] && rename(ntmp, nat) == 0 && fsync_path(setdir, 1, NULL) == 0 &&
+                st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {
+                st_set_free(set);
+                set = mapped;
+                (*built)++;
+                say(L, name, "native file %s from the %s source (%lld ms)",
+                    native_why == ST_ENOTFOUND ? "built" : "rebuilt", m.format,
+                    (long long)(now_ms() - t0));
+            } else if (!L->no_native) {
+                if (ntmp[0])
+                    unlink(ntmp);
+                say(L, name, "native file could not be written: served from memory");
+            }
+            rc = L->publish(L->arg, &m, set, &err);
+        }
+    }
+    (void)imported;
+    if (rc && transient(rc))
+        return st_fail(e, rc, "set '%s' left in place, not loaded: %s", name,
+                       err.msg[0] ? err.msg : st_strerror(rc));
+    if (rc) {
+        if (L->report) {
+            char w[ST_ERRMSG_LEN + 40];
+            snprintf(w, sizeof w, "%s: moved to broken/", err.msg[0] ? err.msg : "load failed");
+            L->report(L->arg, name, w);
+        }
+        move_broken(d, name, setdir);
+        return 0;
+    }
+    return 1;
+}
+
+int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
+{
+    char sets[PATHCAP];
+    pathf(sets, "%s/sets", d->root);
+    DIR *dp = opendir(sets);
+    if (!dp)
+        return st_fail(e, ST_EIO, "open %s: %s", sets, strerror(errno));
+    char **names = NULL;
+    size_t n = 0, cap = 0;
+    struct dirent *de;
+    while ((de = readdir(dp))) {
+        if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
+            continue;
+        if (n == cap) {
+            cap = cap ? cap * 2 : 32;
+            char **nn = realloc(names, cap * sizeof *nn);
+            if (!nn)
+                goto oom;
+            names = nn;
+        }
+        names[n] = strdup(de->d_name);
+        if (!names[n])
+            goto oom;
+        n++;
+    }
+    closedir(dp);
+    if (n)
+        qsort(names, n, sizeof *names, cmp_str);
+
+    int loaded = 0, built = 0;
+    int64_t t0 = now_ms(), last = t0;
+    pthread_mutex_lock(&d->mu);
+    size_t left = n, done = 0;
+    for (int final = 0; left > 0;) {
+        size_t progress = 0, deferred = 0;
+        for (size_t i = 0; i < n; i++) {
+            if (!names[i])
+                continue;
+            int r = load_one_native(d, sets, names[i], L, final, &built, e);
+            if (r == ST_EBUSY) {
+                deferred++;
+                continue;
+            }
+            if (r < 0) {
+                pthread_mutex_unlock(&d->mu);
+                for (size_t k = 0; k < n; k++)
+                    free(names[k]);
+                free(names);
+                return r;
+            }
+            if (r == 1) {
+                loaded++;
+                progress++;
+            }
+            done++;
+            free(names[i]);
+            names[i] = NULL;
+            int64_t t = now_ms();
+            if (L->note && t - last >= 2000) {  /* progress of a long start (an upgrade) */
+                last = t;
+                char msg[160];
+                snprintf(msg, sizeof msg, "%zu of %zu sets done, %d native files built, %lld s",
+                         done, n, built, (long long)((t - t0) / 1000));
+                L->note(L->arg, "", msg);
+            }
+        }
+        left = deferred;
+        if (!progress)
+            final = 1;
+    }
+    pthread_mutex_unlock(&d->mu);
+    free(names);
+    fsync_path(sets, 1, NULL);
+    if (L->built)
+        *L->built = built;
+    return loaded;oom:
     /* a set missing from the list would be a set missing after the start: fail instead */
     closedir(dp);
     for (size_t k = 0; k < n; k++)

@@ -8,6 +8,9 @@
  * Layout (docs/daemon.md, "Data dir"):
  *   <dir>/sets/<name>/manifest              what the set is (text, see below)
  *   <dir>/sets/<name>/source-<id>.<ext>     the uploaded bytes, exactly as received
+ *   <dir>/sets/<name>/set.native            the set as the sampler reads it (native.h), built
+ *                                           from that source; mapped at start (optional: a
+ *                                           set without one is imported and gets one)
  *   <dir>/tmp/                              uploads in progress, manifest temp files; emptied at open
  *   <dir>/trash/<name>.<id>                 deleted sets on their way out; emptied at open
  *   <dir>/broken/<name>.<id>                sets that failed their checksum or import at load,
@@ -22,9 +25,16 @@
  *   3. write tmp/<id>.manifest, fsync, rename it over sets/<name>/manifest (the atomic
  *      commit point: before it the old set, or none, is what a restart sees; after it the new);
  *   4. fsync sets/<name>/ and sets/ (the renames are durable), then remove the old source.
+ * With a set (st_datadir_commit_set) its native file is written to tmp/<id>.native and
+ * fsynced before step 2 and renamed to sets/<name>/set.native between steps 2 and 3; the file
+ * records the source's name, size and CRC, so a crash between that rename and the commit
+ * point leaves a native file that names a source the manifest does not: refused at start and
+ * rebuilt from the committed source (nothing acknowledged is lost).
  * A failure after the commit point (an fsync in step 4, or the publish callback) rolls back:
  *   the old manifest (hard-linked to tmp/<id>.prev before the rename) is put back, or the new
- *   set removed, so a set whose commit returned an error does not appear at the next start.
+ *   set removed, so a set whose commit returned an error does not appear at the next start;
+ *   the native file likewise (the old one, hard-linked to tmp/<id>.prevnative, put back, or
+ *   the new one removed).
  * At open: tmp/ and trash/ are emptied; a set directory without a manifest is a new set whose
  * upload was never acknowledged and is removed; files a manifest does not name are leftovers
  * of an interrupted replace and are removed; a source whose size or CRC-32 differs from its
@@ -45,7 +55,11 @@
 #include <stdint.h>
 
 #include "err.h"
+#include "set.h"
 #include "stp_name.h"
+
+/* The native file of a set (store/native/native.h), beside its source and manifest. */
+#define ST_DATADIR_NATIVE "set.native"
 
 typedef struct st_datadir st_datadir;
 
@@ -90,6 +104,14 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
                       const char *options, uint64_t bytes, st_publish_fn publish, void *arg,
                       st_error *e);
 
+/* As st_datadir_commit, and when set and *set are not NULL also writes the set's native file
+ * (see the protocol above); once committed, *set is replaced by the set opened from that file
+ * (mmap; the heap set is freed) before publish runs, so the registry serves the mapping. When
+ * the native file cannot be written the commit goes on without it (rebuilt at next start). */
+int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                          const char *options, uint64_t bytes, st_set **set,
+                          st_publish_fn publish, void *arg, st_error *e);
+
 /* Deletes set `name` durably (rename to trash/, fsync sets/, then remove). ST_ENOTFOUND when
  * the set has no directory. unpublish (may be NULL) runs under the mutex after the rename. */
 int st_datadir_delete(st_datadir *d, const char *name,
@@ -104,6 +126,36 @@ int st_datadir_delete(st_datadir *d, const char *name,
  * the load stops with that code. Returns the number of sets loaded, or a negative code. */
 int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
                     void (*report)(void *arg, const char *name, const char *why), st_error *e);
+
+/* How st_datadir_load_sets turns set dirs into published sets. */
+typedef struct st_datadir_loader {
+    void *arg;
+    /* imports a source into a new heap set (*out); ST_EBUSY: call again after the others */
+    int (*import)(void *arg, const st_manifest *m, const char *source_path, st_set **out,
+                  st_error *e);
+    /* publishes set (ownership passes, also on failure) */
+    int (*publish)(void *arg, const st_manifest *m, st_set *set, st_error *e);
+    /* a set moved to broken/ or cleaned away, and why (may be NULL) */
+    void (*report)(void *arg, const char *name, const char *why);
+    /* information: a native file built / rebuilt / refused, progress ("" name) (may be NULL) */
+    void (*note)(void *arg, const char *name, const char *what);
+    unsigned native_flags;   /* st_native_open flags (ST_NATIVE_VERIFY: texel CRCs too) */
+    int      no_native;      /* 1: ignore native files, import every source (as before them) */
+    int     *built;          /* may be NULL: gets the number of native files written */
+} st_datadir_loader;
+
+/* The start-up scan with native files: cleans up as st_datadir_load, then per set maps
+ * sets/<name>/set.native when it is there, passes its checks (native.h) and names the
+ * manifest's source (size, CRC, file name); the source's size is checked, its bytes are not
+ * read (with ST_NATIVE_VERIFY in native_flags they are: CRC-32 against the manifest, and every
+ * native texel CRC). Otherwise (no native file: a data dir written before native files, i.e. the upgrade;
+ * or a refused one, which is moved to broken/<name>.<id>.native and reported) the source is
+ * checked whole (CRC) and imported, its native file written (tmp, fsync, rename, fsync) and
+ * the set served from it. A set whose source is bad or does not import is moved to broken/.
+ * Returns the number of sets published, or a negative code when sets/ cannot be read or a
+ * set fails for a reason that says nothing about it (ST_ENOMEM, ST_EIO: the set is left in
+ * place, not moved to broken/, and the load stops, as st_datadir_load). */
+int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e);
 
 /* Reads and checks one manifest file. */
 int st_manifest_read(const char *path, st_manifest *m, st_error *e);

@@ -185,7 +185,16 @@ static void restart_loads_sets_and_cleans_leftovers(void **state)
     fseek(f, 100, SEEK_SET);
     fputc(0x5A, f);
     fclose(f);
+    /* with its native file the set is served from it: a start reads no source bytes (only
+     * sizes), docs/daemon.md; full verification reads them and sets the set aside */
     assert_int_equal(st_daemon_start(&d, extra), 0);
+    c = st_daemon_client(&d, NULL);
+    assert_int_equal(stc_list(c, &sets, &n), 0);
+    assert_int_equal(n, 1);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    const char *verify[] = {"--no-default-set", "--verify-native", "yes", NULL};
+    assert_int_equal(st_daemon_start(&d, verify), 0);
     c = st_daemon_client(&d, NULL);
     assert_int_equal(stc_list(c, &sets, &n), 0);
     assert_int_equal(n, 0);

@@ -546,6 +546,54 @@ static void test_datadir_commit_publish_fails(void **state)
     free(a);
 }
 
+/* The same with a set (st_datadir_commit_set): its native file is renamed in before the commit
+ * point, so a rollback must put the old set.native back (same file) or remove the new one. */
+static void nat_commit(const char *root, const char *name, int variant, int fails, int want)
+{
+    commit_arg a;
+    memset(&a, 0, sizeof a);
+    snprintf(a.root, sizeof a.root, "%s", root);
+    a.runs = variant;
+    commit_prep(&a);
+    snprintf(a.name, sizeof a.name, "%s", name);
+    a.publish_fails = fails;
+    st_error e;
+    st_error_clear(&e);
+    st_set *set = NULL;
+    assert_int_equal(st_ptex_read_mem(PTX[a.variant], PTXLEN[a.variant], 0, &set, &e), 0);
+    int rc = st_datadir_commit_set(a.d, a.name, a.tmp, "ptx", "", PTXLEN[a.variant], &set,
+                                   publish_cb, &a, &e);
+    assert_int_equal(rc, want);
+    st_set_free(set);
+    st_datadir_close(a.d);
+}
+
+static void test_datadir_commit_set_rollback(void **state)
+{
+    (void)state;
+    char root[512], nat[1024], dir[1024];
+    snprintf(root, sizeof root, "%s/dd-native-rollback", TMPDIR_);
+    snprintf(nat, sizeof nat, "%s/sets/kept/" ST_DATADIR_NATIVE, root);
+    nat_commit(root, "kept", 0, 0, 0);
+    struct stat a, b;
+    assert_int_equal(stat(nat, &a), 0);
+    nat_commit(root, "kept", 1, 1, ST_ENOMEM);   /* replace, publish fails: old file back */
+    assert_int_equal(stat(nat, &b), 0);
+    assert_true(a.st_ino == b.st_ino && a.st_size == b.st_size);
+    nat_commit(root, "fresh", 0, 1, ST_ENOMEM);  /* new, publish fails: nothing left */
+    snprintf(dir, sizeof dir, "%s/sets/fresh", root);
+    assert_int_equal(access(dir, F_OK), -1);
+    snprintf(dir, sizeof dir, "%s/tmp", root);
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    struct dirent *de;
+    int left = 0;
+    while ((de = readdir(d)))
+        left += de->d_name[0] != '.';
+    closedir(d);
+    assert_int_equal(left, 0);                   /* no .prev / .prevnative / .native left */
+}
+
 typedef struct open_arg {
     char root[512];
 } open_arg;
@@ -654,6 +702,7 @@ int main(void)
         cmocka_unit_test(test_export_ptx_and_dds),
         cmocka_unit_test(test_datadir_commit),
         cmocka_unit_test(test_datadir_commit_publish_fails),
+        cmocka_unit_test(test_datadir_commit_set_rollback),
         cmocka_unit_test(test_datadir_open_and_recovery),
     };
     return cmocka_run_group_tests_name("faults_store", tests, group_setup, group_teardown);

@@ -1,0 +1,246 @@
+/* server/budget.c - the memory budget: the texture memory seamtexd keeps resident while any
+ * amount is stored (--memory-budget, docs/daemon.md "Memory budget").
+ *
+ * Owns: the budget thread, the cold/hot state of sets (st_set.last_use_ms, st_set.cold), the
+ * STATS figures of stored and resident bytes, releases, major faults and the latency of first
+ * samples to a cold set. Does not own: the mapping and its release (store/native/native.h),
+ * the lazy Ptex tables (store/ptex/ptexres.h), the registry.
+ *
+ * Resident texture memory = the pages of every mapped native file that mincore(2) reports in
+ * memory + every built lazy Ptex table + every heap set (sets that have no native file: the
+ * built-in default set, or a set whose native file could not be written; they cannot be
+ * released and are counted as they are). Every BUDGET_TICK_MS (or at once when a sample wakes
+ * a released set) the thread measures it; past the budget it releases the least recently
+ * sampled mapped sets (madvise DONTNEED on the mapping, posix_fadvise DONTNEED on the file,
+ * and the Ptex table dropped) until resident is under 90% of the budget. A released set stays
+ * published: the next sample faults in only the pages it touches (from the page cache or the
+ * disk). A budget below one set's size still serves it: it is released every tick and faults
+ * back in. The cost of a tick is one registry snapshot and mincore over the mappings.
+ */
+#include "budget.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+
+#include "native.h"
+#include "ptexres.h"
+#include "server.h"
+
+#define BUDGET_TICK_MS 50
+
+static const uint32_t hist_us[STS_COLD_HIST] = {50, 100, 200, 500, 1000, 2000, 5000, 10000,
+                                                 20000, 50000, 100000, UINT32_MAX};
+
+static long majflt_now(void)
+{
+    struct rusage ru;
+    return getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_majflt : 0;
+}
+
+static int64_t now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
+}
+
+/* Bytes of s in memory now: mapped pages + built Ptex table, or the whole heap set. */
+static uint64_t set_resident(const st_set *s)
+{
+    if (!s->map)
+        return st_set_memory(s);
+    return st_native_resident(s) + st_ptexres_built_bytes(s);
+}
+
+typedef struct cand {
+    st_setref *ref;
+    uint64_t   res, last;
+} cand;
+
+static int cmp_last(const void *a, const void *b)
+{
+    const cand *x = a, *y = b;
+    return x->last < y->last ? -1 : x->last > y->last;
+}
+
+/* Takes a snapshot of every set (the caller releases the refs and frees the array). */
+static size_t snapshot(sts_server *srv, st_setref ***out)
+{
+    size_t cap = st_registry_count(srv->reg) + 16;
+    st_setref **refs = malloc(cap * sizeof *refs);
+    *out = refs;
+    return refs ? st_registry_snapshot(srv->reg, refs, cap) : 0;
+}
+
+void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
+{
+    st_setref **refs;
+    size_t n = snapshot(srv, &refs);
+    uint64_t st = 0, res = 0;
+    for (size_t i = 0; i < n; i++) {
+        st += st_set_memory(refs[i]->set);
+        res += set_resident(refs[i]->set);
+        st_setref_release(refs[i]);
+    }
+    free(refs);
+    *stored = st;
+    *resident = res;
+}
+
+/* One pass: measure, and release the coldest sets while over the budget. */
+static void enforce(sts_server *srv, uint64_t budget)
+{
+    sts_budget *b = &srv->budget;
+    st_setref **refs;
+    size_t n = snapshot(srv, &refs);
+    cand *c = malloc((n ? n : 1) * sizeof *c);
+    uint64_t total = 0;
+    size_t nc = 0;
+    for (size_t i = 0; i < n; i++) {
+        const st_set *s = refs[i]->set;
+        uint64_t r = set_resident(s);
+        total += r;
+        if (c && s->map)
+            c[nc++] = (cand){refs[i], r, __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED)};
+    }
+    __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
+    if (budget && total > budget && c) {
+        uint64_t goal = budget - budget / 10;
+        qsort(c, nc, sizeof *c, cmp_last);
+        for (size_t i = 0; i < nc && total > goal; i++) {
+            if (!c[i].res)
+                continue;
+            st_set *s = c[i].ref->set;
+            size_t freed = st_native_release(s) + st_ptexres_drop(s);
+            __atomic_store_n(&s->cold, 1, __ATOMIC_RELAXED);
+            total -= freed < total ? freed : total;
+            __atomic_add_fetch(&b->releases, 1, __ATOMIC_RELAXED);
+            __atomic_add_fetch(&b->released_bytes, freed, __ATOMIC_RELAXED);
+        }
+        __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
+    }
+    for (size_t i = 0; i < n; i++)
+        st_setref_release(refs[i]);
+    free(refs);
+    free(c);
+}
+
+static void *budget_main(void *arg)
+{
+    sts_server *srv = arg;
+    sts_budget *b = &srv->budget;
+    pthread_mutex_lock(&b->mu);
+    while (!b->stop) {
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_nsec += BUDGET_TICK_MS * 1000000L;
+        if (ts.tv_nsec >= 1000000000L) {
+            ts.tv_sec++;
+            ts.tv_nsec -= 1000000000L;
+        }
+        if (!b->kick)
+            pthread_cond_timedwait(&b->cv, &b->mu, &ts);
+        b->kick = 0;
+        if (b->stop)
+            break;
+        uint64_t budget = STS_LIVE(srv, memory_budget);
+        if (!budget)
+            continue;
+        pthread_mutex_unlock(&b->mu);
+        enforce(srv, budget);
+        pthread_mutex_lock(&b->mu);
+    }
+    pthread_mutex_unlock(&b->mu);
+    return NULL;
+}
+
+int sts_budget_start(sts_server *srv)
+{
+    sts_budget *b = &srv->budget;
+    pthread_mutex_init(&b->mu, NULL);
+    pthread_cond_init(&b->cv, NULL);
+    b->majflt0 = majflt_now();
+    b->stop = 0;
+    if (pthread_create(&b->thread, NULL, budget_main, srv) != 0)
+        return -1;
+    b->started = 1;
+    return 0;
+}
+
+void sts_budget_stop(sts_server *srv)
+{
+    sts_budget *b = &srv->budget;
+    if (!b->started)
+        return;
+    pthread_mutex_lock(&b->mu);
+    b->stop = 1;
+    pthread_cond_signal(&b->cv);
+    pthread_mutex_unlock(&b->mu);
+    pthread_join(b->thread, NULL);
+    b->started = 0;
+}
+
+int sts_budget_touch(sts_server *srv, st_set *s)
+{
+    uint64_t now = (uint64_t)sts_now_ms();
+    if (__atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) != now)
+        __atomic_store_n(&s->last_use_ms, now, __ATOMIC_RELAXED);
+    if (!__atomic_load_n(&s->cold, __ATOMIC_RELAXED) || !__atomic_exchange_n(&s->cold, 0,
+                                                                            __ATOMIC_RELAXED))
+        return 0;
+    /* a released set wakes: let the budget thread look at once */
+    sts_budget *b = &srv->budget;
+    if (b->started && STS_LIVE(srv, memory_budget)) {
+        pthread_mutex_lock(&b->mu);
+        b->kick = 1;
+        pthread_cond_signal(&b->cv);
+        pthread_mutex_unlock(&b->mu);
+    }
+    return 1;
+}
+
+int64_t sts_budget_clock_us(void) { return now_us(); }
+
+void sts_budget_cold_done(sts_server *srv, int64_t t0_us, uint32_t nqueries)
+{
+    sts_budget *b = &srv->budget;
+    int64_t us = now_us() - t0_us;
+    unsigned k = 0;
+    while (k + 1 < STS_COLD_HIST && (uint64_t)us > hist_us[k])
+        k++;
+    __atomic_add_fetch(&b->cold_hist[k], 1, __ATOMIC_RELAXED);
+    __atomic_add_fetch(&b->cold_batches, 1, __ATOMIC_RELAXED);
+    __atomic_add_fetch(&b->cold_queries, nqueries, __ATOMIC_RELAXED);
+}
+
+size_t sts_budget_stats(sts_server *srv, stp_stat *s, size_t cap)
+{
+    sts_budget *b = &srv->budget;
+    size_t n = 0;
+    uint64_t stored, resident;
+    sts_budget_measure(srv, &stored, &resident);
+#define PUT(k, val) do { if (n < cap) { snprintf(s[n].key, sizeof s[n].key, "%s", k); \
+    s[n].type = STP_STAT_U64; s[n].v.u = (val); n++; } } while (0)
+    PUT("memory_budget", STS_LIVE(srv, memory_budget));
+    PUT("stored_bytes", stored);
+    PUT("resident_bytes", resident);
+    PUT("budget_releases", __atomic_load_n(&b->releases, __ATOMIC_RELAXED));
+    PUT("budget_released_bytes", __atomic_load_n(&b->released_bytes, __ATOMIC_RELAXED));
+    long mf = majflt_now() - b->majflt0;
+    PUT("major_faults", (uint64_t)(mf > 0 ? mf : 0));
+    PUT("cold_batches", __atomic_load_n(&b->cold_batches, __ATOMIC_RELAXED));
+    PUT("cold_queries", __atomic_load_n(&b->cold_queries, __ATOMIC_RELAXED));
+    for (unsigned k = 0; k < STS_COLD_HIST; k++) {
+        char key[48];
+        if (hist_us[k] == UINT32_MAX)
+            snprintf(key, sizeof key, "cold_first_us_inf");
+        else
+            snprintf(key, sizeof key, "cold_first_us_le_%u", hist_us[k]);
+        PUT(key, __atomic_load_n(&b->cold_hist[k], __ATOMIC_RELAXED));
+    }
+#undef PUT
+    return n;
+}

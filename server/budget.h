@@ -1,0 +1,43 @@
+/* server/budget.h - the memory budget (budget.c): resident texture memory bounded by releasing
+ * the least recently sampled sets, and its STATS figures. */
+#ifndef STS_BUDGET_H
+#define STS_BUDGET_H
+
+#include <pthread.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "proto.h"
+#include "set.h"
+
+#define STS_COLD_HIST 12   /* first-sample latency buckets (budget.c: <= 50 us .. > 100 ms) */
+
+typedef struct sts_budget {
+    pthread_t       thread;
+    pthread_mutex_t mu;
+    pthread_cond_t  cv;
+    int             started, stop, kick;
+    long            majflt0;         /* ru_majflt at start */
+    uint64_t        resident;        /* atomic: last measured by the thread */
+    uint64_t        releases;        /* atomic: sets released */
+    uint64_t        released_bytes;  /* atomic: resident bytes those releases let go */
+    uint64_t        cold_batches;    /* atomic: SAMPLE batches that woke a released set */
+    uint64_t        cold_queries;    /* atomic: the queries of those batches */
+    uint64_t        cold_hist[STS_COLD_HIST];  /* atomic: their sampling latency */
+} sts_budget;
+
+struct sts_server;
+
+int sts_budget_start(struct sts_server *srv);
+void sts_budget_stop(struct sts_server *srv);
+/* A sample to s: marks it hot now; returns 1 when it had been released (a cold set). */
+int sts_budget_touch(struct sts_server *srv, st_set *s);
+int64_t sts_budget_clock_us(void);
+/* A cold set's first batch, sampled since t0_us. */
+void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueries);
+/* Stored and resident texture bytes of every set now (STATS). */
+void sts_budget_measure(struct sts_server *srv, uint64_t *stored, uint64_t *resident);
+/* Appends the budget's STATS entries; returns how many. */
+size_t sts_budget_stats(struct sts_server *srv, stp_stat *s, size_t cap);
+
+#endif
