@@ -260,7 +260,7 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
             nitems += (bh + ROWS_PER_ITEM - 1) / ROWS_PER_ITEM;
             total_texels += (uint64_t)st_level_w(F, l) * st_level_h(F, l);
         }
-        if (cancel && *cancel) {
+        if (cancel && __atomic_load_n(cancel, __ATOMIC_RELAXED)) {
             rc = st_fail(e, ST_ECANCELED, "compression cancelled");
             goto out;
         }
@@ -324,7 +324,7 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     }
     /* the calling thread works and reports */
     for (;;) {
-        if (cancel && *cancel)
+        if (cancel && __atomic_load_n(cancel, __ATOMIC_RELAXED))
             break;
         size_t i = atomic_fetch_add(&P.next, 1);
         if (i >= P.nitems)
@@ -336,7 +336,7 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
     atomic_store(&P.stop, 1);
     for (int t = 0; t < started; t++)
         pthread_join(tid[t], NULL);
-    if (cancel && *cancel) {
+    if (cancel && __atomic_load_n(cancel, __ATOMIC_RELAXED)) {
         rc = st_fail(e, ST_ECANCELED, "compression cancelled");
         goto out;
     }
