@@ -199,7 +199,7 @@ static void *worker_main(void *arg)
         p->head = t->next;
         if (!p->head)
             p->tail = NULL;
-        p->queued--;
+        __atomic_fetch_sub(&p->queued, 1, __ATOMIC_RELAXED); /* STATS reads it unlocked */
         pthread_mutex_unlock(&p->mu);
 
         int64_t now = sts_now_ms();
@@ -261,7 +261,7 @@ void sts_pool_submit(sts_pool *p, sts_task *t)
     else
         p->head = t;
     p->tail = t;
-    p->queued++;
+    __atomic_fetch_add(&p->queued, 1, __ATOMIC_RELAXED);
     pthread_cond_signal(&p->cv);
     pthread_mutex_unlock(&p->mu);
 }

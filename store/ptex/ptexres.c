@@ -49,7 +49,7 @@ static size_t ptexres_memory(const void *p)
     const st_ptexres *t = p;
     size_t m = sizeof *t + (size_t)t->nfaces * 2;
     if (atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
-        m += t->bytes;
+        m += __atomic_load_n(&t->bytes, __ATOMIC_RELAXED); /* a drop may zero it meanwhile */
     return m;
 }
 
@@ -414,7 +414,8 @@ static int build_table(st_ptexres *t, const st_set *s, st_error *e)
     t->px = pxs;
     t->arena = arena;
     t->arena_bytes = bytes;
-    t->bytes = (size_t)n * sizeof *base + nent * sizeof *pxs + bytes;
+    __atomic_store_n(&t->bytes, (size_t)n * sizeof *base + nent * sizeof *pxs + bytes,
+                     __ATOMIC_RELAXED);
     return ST_OK;
 nomem:
     free(base);
@@ -477,7 +478,7 @@ size_t st_ptexres_drop(const st_set *s)
     pthread_mutex_lock(&t->lock); /* no build in progress either */
     if (atomic_load_explicit(&t->built, memory_order_relaxed)) {
         atomic_store_explicit(&t->built, 0, memory_order_release);
-        freed = t->bytes;
+        freed = __atomic_load_n(&t->bytes, __ATOMIC_RELAXED);
         free(t->base);
         free(t->px);
         free(t->arena);
@@ -485,7 +486,7 @@ size_t st_ptexres_drop(const st_set *s)
         t->px = NULL;
         t->arena = NULL;
         t->arena_bytes = 0;
-        t->bytes = 0;
+        __atomic_store_n(&t->bytes, 0, __ATOMIC_RELAXED);
     }
     pthread_mutex_unlock(&t->lock);
     pthread_rwlock_unlock(&t->pin);
@@ -497,5 +498,5 @@ size_t st_ptexres_built_bytes(const st_set *s)
     const st_ptexres *t = st_ptexres_get(s);
     if (!t || !atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
         return 0;
-    return t->bytes;
+    return __atomic_load_n(&t->bytes, __ATOMIC_RELAXED);
 }
