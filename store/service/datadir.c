@@ -666,11 +666,12 @@ static int load_one(st_datadir *d, const char *sets, const char *name, st_publis
     return 1;
 }
 
-int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
-                    void (*report)(void *arg, const char *name, const char *why), st_error *e)
+/* The names in sets/, sorted (*names malloc'ed, each name too; the caller frees them). A
+ * set missing from the list would be a set missing after the start: out of memory fails. */
+static int list_sets(const char *sets, char ***out, size_t *count, st_error *e)
 {
-    char sets[PATHCAP];
-    pathf(sets, "%s/sets", d->root);
+    *out = NULL;
+    *count = 0;
     DIR *dp = opendir(sets);
     if (!dp)
         return st_fail(e, ST_EIO, "open %s: %s", sets, strerror(errno));
@@ -695,6 +696,28 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
     closedir(dp);
     if (n)
         qsort(names, n, sizeof *names, cmp_str);
+    *out = names;
+    *count = n;
+    return 0;
+oom:
+    /* a set missing from the list would be a set missing after the start: fail instead */
+    closedir(dp);
+    for (size_t k = 0; k < n; k++)
+        free(names[k]);
+    free(names);
+    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
+}
+
+int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
+                    void (*report)(void *arg, const char *name, const char *why), st_error *e)
+{
+    char sets[PATHCAP];
+    pathf(sets, "%s/sets", d->root);
+    char **names = NULL;
+    size_t n = 0;
+    int lrc = list_sets(sets, &names, &n, e);
+    if (lrc)
+        return lrc;
 
     int loaded = 0;
     pthread_mutex_lock(&d->mu);
@@ -733,13 +756,6 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
     free(names);
     fsync_path(sets, 1, NULL);
     return loaded;
-oom:
-    /* a set missing from the list would be a set missing after the start: fail instead */
-    closedir(dp);
-    for (size_t k = 0; k < n; k++)
-        free(names[k]);
-    free(names);
-    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
 }
 
 /* ---- load with native files ------------------------------------------------------------------ */
@@ -931,30 +947,11 @@ int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
 {
     char sets[PATHCAP];
     pathf(sets, "%s/sets", d->root);
-    DIR *dp = opendir(sets);
-    if (!dp)
-        return st_fail(e, ST_EIO, "open %s: %s", sets, strerror(errno));
     char **names = NULL;
-    size_t n = 0, cap = 0;
-    struct dirent *de;
-    while ((de = readdir(dp))) {
-        if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
-            continue;
-        if (n == cap) {
-            cap = cap ? cap * 2 : 32;
-            char **nn = realloc(names, cap * sizeof *nn);
-            if (!nn)
-                goto oom;
-            names = nn;
-        }
-        names[n] = strdup(de->d_name);
-        if (!names[n])
-            goto oom;
-        n++;
-    }
-    closedir(dp);
-    if (n)
-        qsort(names, n, sizeof *names, cmp_str);
+    size_t n = 0;
+    int lrc = list_sets(sets, &names, &n, e);
+    if (lrc)
+        return lrc;
 
     int loaded = 0, built = 0;
     int64_t t0 = now_ms(), last = t0;
@@ -1002,11 +999,5 @@ int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
     fsync_path(sets, 1, NULL);
     if (L->built)
         *L->built = built;
-    return loaded;oom:
-    /* a set missing from the list would be a set missing after the start: fail instead */
-    closedir(dp);
-    for (size_t k = 0; k < n; k++)
-        free(names[k]);
-    free(names);
-    return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
+    return loaded;
 }
