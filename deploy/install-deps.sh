@@ -8,10 +8,17 @@ set -euo pipefail
 # of each on a free loopback port (no persistence) to measure them beside seamtexd.
 # python3-dev builds the Python module (make python), python3-setuptools installs it with pip;
 # python3-pytest and python3-numpy are for its tests only (the module itself needs neither).
+# libcurl4-openssl-dev and libjson-c-dev: the daemon's and client's etcd v3 JSON gateway client
+# (cluster mode); etcd-server / etcd-client: the tests start their own etcd on loopback.
+# prometheus gives promtool (tests check /metrics with it); mandoc lints the man pages;
+# openimageio-tools gives maketx (the out-of-core benchmark's TextureSystem comparison);
+# lintian checks the .deb that `make deb` builds.
 PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
       memcached redis-server
       libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev
-      python3-dev python3-setuptools python3-pytest python3-numpy)
+      python3-dev python3-setuptools python3-pytest python3-numpy
+      libcurl4-openssl-dev libjson-c-dev etcd-server etcd-client
+      prometheus mandoc openimageio-tools lintian)
 
 missing=()
 for p in "${PKGS[@]}"; do
