@@ -381,175 +381,203 @@ static int out_get(PyObject *out_obj, unsigned outfmt, Py_buffer *out)
 #define SAMPLE_KW "mode", "filter", "format", "zero_rule", "max_aniso", "sharpness", "width", \
                   "blur", "nonfinite", "out"
 
-PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
-{
-    static char *kwlist[] = {"name", "face", "u", "v", "dudx", "dvdx", "dudy", "dvdy",
-                             SAMPLE_KW, NULL};
-    const char *name;
-    PyObject *o[7] = {NULL, NULL, NULL, NULL, NULL, NULL, NULL};
-    sopts s = {"traverse", "bilinear", "f32", "nan", "raise", 0, 0, 0, 0, NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sOOO|OOOO$ssssIfffsO:sample", kwlist, &name,
-                                     &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &s.mode,
-                                     &s.filter, &s.format, &s.zero_rule, &s.max_aniso,
-                                     &s.sharpness, &s.width, &s.blur, &s.nonfinite, &s.out))
-        return NULL;
+/* ---- one call, shared by sample and sample_dir ------------------------------------------------ */
+
+/* What a call holds between argument parsing and the reply: its columns, the query count, the
+ * caller's out buffer. pack fills the n queries of the call's type (with the GIL released,
+ * so it reads only the columns) and records the first bad value in j; send makes the
+ * request. */
+typedef struct call {
+    st_py_client   *self;
+    const char     *name;
+    sopts           s;
     stc_sample_opts so;
-    int pass_nf;
-    if (opts_to_stc(&s, &so, &pass_nf) < 0)
-        return NULL;
-    static const char *const names[7] = {"face", "u", "v", "dudx", "dvdx", "dudy", "dvdy"};
-    col cols[7];
-    int ncols = 0;
-    PyObject *r = NULL;
-    Py_buffer out;
-    int have_out = 0;
-    for (; ncols < 7; ncols++)
-        if (col_get(o[ncols], names[ncols], ncols == 0, 1, &cols[ncols]) < 0)
-            goto done;
-    Py_ssize_t n = cols_len(cols, 7);
-    if (n < 0)
-        goto done;
-    if (s.out && s.out != Py_None) {
-        if (out_get(s.out, so.outfmt, &out) < 0)
-            goto done;
-        have_out = 1;
+    int             pass_nf;
+    col             cols[7];
+    int             ncols;        /* columns obtained (to release) */
+    Py_ssize_t      n;
+    Py_buffer       out;
+    int             have_out;
+    size_t          qsize;        /* bytes per query */
+    void          (*pack)(const struct call *c, void *q, job *j);
+    int           (*send)(const struct call *c, const void *q, stc_sample_result *res);
+} call;
+
+/* Takes the columns o[0..ncols) (named names[], is_int / ncomp each), checks their lengths
+ * and takes the out buffer. On failure the exception is set and call_end releases what was
+ * taken. */
+static int call_begin(call *c, PyObject *const *o, const char *const *names, int ncols,
+                      const int *is_int, const int *ncomp)
+{
+    for (; c->ncols < ncols; c->ncols++)
+        if (col_get(o[c->ncols], names[c->ncols], is_int[c->ncols], ncomp[c->ncols],
+                    &c->cols[c->ncols]) < 0)
+            return -1;
+    c->n = cols_len(c->cols, ncols);
+    if (c->n < 0)
+        return -1;
+    if (c->s.out && c->s.out != Py_None) {
+        if (out_get(c->s.out, c->so.outfmt, &c->out) < 0)
+            return -1;
+        c->have_out = 1;
     }
+    return 0;
+}
+
+/* Packs, sends and reads the reply with the GIL released; returns the result tuple. */
+static PyObject *call_run(call *c)
+{
+    st_py_client *self = c->self;
     if (st_py_client_enter(self) < 0)
-        goto done;
+        return NULL;
     job j;
     memset(&j, 0, sizeof j);
     j.bad_col = -1;
+    size_t n = (size_t)c->n;
     Py_BEGIN_ALLOW_THREADS
     double t0 = st_py_now(), t1 = t0, t2 = t0;
-    stc_query *q = st_py_client_scratch(self, (n ? (size_t)n : 1) * sizeof *q);
+    void *q = st_py_client_scratch(self, (n ? n : 1) * c->qsize);
     if (!q) {
         j.oom = 1;
     } else {
-        for (Py_ssize_t i = 0; i < n && j.bad_col < 0; i++) {
-            long long f = col_i(&cols[0], i);
-            float fv[6];
-            if (f < 0 || f > (long long)UINT32_MAX) {
-                j.bad_col = 0, j.bad_at = i, j.bad_face = f;
-                break;
-            }
-            q[i].face = (uint32_t)f;
-            for (int k = 0; k < 6; k++) {
-                fv[k] = (float)col_f(&cols[k + 1], i, 0);
-                if (!pass_nf && !isfinite(fv[k])) {
-                    j.bad_col = k + 1, j.bad_at = i, j.bad_val = fv[k];
-                    break;
-                }
-            }
-            q[i].u = fv[0], q[i].v = fv[1], q[i].dudx = fv[2], q[i].dvdx = fv[3];
-            q[i].dudy = fv[4], q[i].dvdy = fv[5];
-        }
+        c->pack(c, q, &j);
         if (j.bad_col < 0) {
             stc_sample_result res;
             t1 = st_py_now();
-            j.rc = stc_sample(self->conn, name, &so, q, (size_t)n, &res);
+            j.rc = c->send(c, q, &res);
             t2 = st_py_now();
             if (!j.rc)
-                take_result(&j, &res, (size_t)n, have_out ? &out : NULL);
+                take_result(&j, &res, n, c->have_out ? &c->out : NULL);
         }
     }
     self->times[0] = t1 - t0, self->times[1] = t2 - t1, self->times[2] = st_py_now() - t2;
     Py_END_ALLOW_THREADS
-    r = finish(self, &j, (size_t)n, have_out ? s.out : NULL, have_out ? &out : NULL, cols, 7);
+    PyObject *r = finish(self, &j, n, c->have_out ? c->s.out : NULL,
+                         c->have_out ? &c->out : NULL, c->cols, c->ncols);
     st_py_client_leave(self);
-done:
-    if (have_out)
-        PyBuffer_Release(&out);
-    for (int i = 0; i < ncols; i++)
-        col_release(&cols[i]);
     return r;
+}
+
+static void call_end(call *c)
+{
+    if (c->have_out)
+        PyBuffer_Release(&c->out);
+    for (int i = 0; i < c->ncols; i++)
+        col_release(&c->cols[i]);
+}
+
+/* ---- sample --------------------------------------------------------------------------------------- */
+
+static void pack_uv(const call *c, void *qv, job *j)
+{
+    stc_query *q = qv;
+    for (Py_ssize_t i = 0; i < c->n && j->bad_col < 0; i++) {
+        long long f = col_i(&c->cols[0], i);
+        float fv[6];
+        if (f < 0 || f > (long long)UINT32_MAX) {
+            j->bad_col = 0, j->bad_at = i, j->bad_face = f;
+            break;
+        }
+        q[i].face = (uint32_t)f;
+        for (int k = 0; k < 6; k++) {
+            fv[k] = (float)col_f(&c->cols[k + 1], i, 0);
+            if (!c->pass_nf && !isfinite(fv[k])) {
+                j->bad_col = k + 1, j->bad_at = i, j->bad_val = fv[k];
+                break;
+            }
+        }
+        q[i].u = fv[0], q[i].v = fv[1], q[i].dudx = fv[2], q[i].dvdx = fv[3];
+        q[i].dudy = fv[4], q[i].dvdy = fv[5];
+    }
+}
+
+static int send_uv(const call *c, const void *q, stc_sample_result *res)
+{
+    return stc_sample(c->self->conn, c->name, &c->so, q, (size_t)c->n, res);
+}
+
+#define SOPTS_DEFAULT {"traverse", "bilinear", "f32", "nan", "raise", 0, 0, 0, 0, NULL}
+
+PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
+{
+    static char *kwlist[] = {"name", "face", "u", "v", "dudx", "dvdx", "dudy", "dvdy",
+                             SAMPLE_KW, NULL};
+    static const char *const names[7] = {"face", "u", "v", "dudx", "dvdx", "dudy", "dvdy"};
+    static const int is_int[7] = {1, 0, 0, 0, 0, 0, 0}, ncomp[7] = {1, 1, 1, 1, 1, 1, 1};
+    PyObject *o[7] = {NULL, NULL, NULL, NULL, NULL, NULL, NULL};
+    call c = {.self = self, .s = SOPTS_DEFAULT, .qsize = sizeof(stc_query),
+              .pack = pack_uv, .send = send_uv};
+    sopts *s = &c.s;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sOOO|OOOO$ssssIfffsO:sample", kwlist, &c.name,
+                                     &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &s->mode,
+                                     &s->filter, &s->format, &s->zero_rule, &s->max_aniso,
+                                     &s->sharpness, &s->width, &s->blur, &s->nonfinite, &s->out))
+        return NULL;
+    if (opts_to_stc(s, &c.so, &c.pass_nf) < 0)
+        return NULL;
+    PyObject *r = call_begin(&c, o, names, 7, is_int, ncomp) < 0 ? NULL : call_run(&c);
+    call_end(&c);
+    return r;
+}
+
+/* ---- sample_dir ----------------------------------------------------------------------------------- */
+
+static void pack_dir(const call *c, void *qv, job *j)
+{
+    stc_dir_query *q = qv;
+    int cone = c->so.footprint;
+    for (Py_ssize_t i = 0; i < c->n && j->bad_col < 0; i++) {
+        for (int k = 0; k < 9 && j->bad_col < 0; k++) {
+            int ci = k / 3;
+            float v = (float)col_f(&c->cols[ci], i, k % 3);
+            if (!c->pass_nf && !isfinite(v))
+                j->bad_col = ci, j->bad_at = i, j->bad_val = v;
+            (ci == 0 ? q[i].dir : ci == 1 ? q[i].ddx : q[i].ddy)[k % 3] = v;
+        }
+        if (cone) {
+            float v = (float)col_f(&c->cols[3], i, 0);
+            if (!c->pass_nf && !isfinite(v) && j->bad_col < 0)
+                j->bad_col = 3, j->bad_at = i, j->bad_val = v;
+            q[i].ddx[0] = v;
+        }
+    }
+}
+
+static int send_dir(const call *c, const void *q, stc_sample_result *res)
+{
+    return stc_sample_dir(c->self->conn, c->name, &c->so, q, (size_t)c->n, res);
 }
 
 PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
 {
     static char *kwlist[] = {"name", "dirs", "ddx", "ddy", "cone", SAMPLE_KW, NULL};
-    const char *name;
+    static const char *const names[4] = {"dirs", "ddx", "ddy", "cone"};
+    static const int is_int[4] = {0, 0, 0, 0}, ncomp[4] = {3, 3, 3, 1};
     PyObject *o[4] = {NULL, NULL, NULL, NULL};
-    sopts s = {"traverse", "bilinear", "f32", "nan", "raise", 0, 0, 0, 0, NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|OOO$ssssIfffsO:sample_dir", kwlist, &name,
-                                     &o[0], &o[1], &o[2], &o[3], &s.mode, &s.filter, &s.format,
-                                     &s.zero_rule, &s.max_aniso, &s.sharpness, &s.width,
-                                     &s.blur, &s.nonfinite, &s.out))
+    call c = {.self = self, .s = SOPTS_DEFAULT, .qsize = sizeof(stc_dir_query),
+              .pack = pack_dir, .send = send_dir};
+    sopts *s = &c.s;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|OOO$ssssIfffsO:sample_dir", kwlist, &c.name,
+                                     &o[0], &o[1], &o[2], &o[3], &s->mode, &s->filter,
+                                     &s->format, &s->zero_rule, &s->max_aniso, &s->sharpness,
+                                     &s->width, &s->blur, &s->nonfinite, &s->out))
         return NULL;
-    stc_sample_opts so;
-    int pass_nf;
-    if (opts_to_stc(&s, &so, &pass_nf) < 0)
+    if (opts_to_stc(s, &c.so, &c.pass_nf) < 0)
         return NULL;
     int cone = o[3] && o[3] != Py_None;
     if (cone && ((o[1] && o[1] != Py_None) || (o[2] && o[2] != Py_None))) {
         PyErr_SetString(PyExc_ValueError, "give either cone or ddx / ddy, not both");
         return NULL;
     }
-    so.footprint = cone ? 1 : 0;
-    static const char *const names[4] = {"dirs", "ddx", "ddy", "cone"};
-    col cols[4];
-    int ncols = 0;
+    c.so.footprint = cone ? 1 : 0;
     PyObject *r = NULL;
-    Py_buffer out;
-    int have_out = 0;
-    for (; ncols < 4; ncols++)
-        if (col_get(o[ncols], names[ncols], 0, ncols == 3 ? 1 : 3, &cols[ncols]) < 0)
-            goto done;
-    if (cols[0].kind == COL_NONE) {
-        PyErr_SetString(PyExc_TypeError, "dirs is required");
-        goto done;
+    if (call_begin(&c, o, names, 4, is_int, ncomp) == 0) {
+        if (c.cols[0].kind == COL_NONE)
+            PyErr_SetString(PyExc_TypeError, "dirs is required");
+        else
+            r = call_run(&c);
     }
-    Py_ssize_t n = cols_len(cols, 4);
-    if (n < 0)
-        goto done;
-    if (s.out && s.out != Py_None) {
-        if (out_get(s.out, so.outfmt, &out) < 0)
-            goto done;
-        have_out = 1;
-    }
-    if (st_py_client_enter(self) < 0)
-        goto done;
-    job j;
-    memset(&j, 0, sizeof j);
-    j.bad_col = -1;
-    Py_BEGIN_ALLOW_THREADS
-    double t0 = st_py_now(), t1 = t0, t2 = t0;
-    stc_dir_query *q = st_py_client_scratch(self, (n ? (size_t)n : 1) * sizeof *q);
-    if (!q) {
-        j.oom = 1;
-    } else {
-        for (Py_ssize_t i = 0; i < n && j.bad_col < 0; i++) {
-            for (int k = 0; k < 9 && j.bad_col < 0; k++) {
-                int c = k / 3;
-                float v = (float)col_f(&cols[c], i, k % 3);
-                if (!pass_nf && !isfinite(v))
-                    j.bad_col = c, j.bad_at = i, j.bad_val = v;
-                (c == 0 ? q[i].dir : c == 1 ? q[i].ddx : q[i].ddy)[k % 3] = v;
-            }
-            if (cone) {
-                float v = (float)col_f(&cols[3], i, 0);
-                if (!pass_nf && !isfinite(v) && j.bad_col < 0)
-                    j.bad_col = 3, j.bad_at = i, j.bad_val = v;
-                q[i].ddx[0] = v;
-            }
-        }
-        if (j.bad_col < 0) {
-            stc_sample_result res;
-            t1 = st_py_now();
-            j.rc = stc_sample_dir(self->conn, name, &so, q, (size_t)n, &res);
-            t2 = st_py_now();
-            if (!j.rc)
-                take_result(&j, &res, (size_t)n, have_out ? &out : NULL);
-        }
-    }
-    self->times[0] = t1 - t0, self->times[1] = t2 - t1, self->times[2] = st_py_now() - t2;
-    Py_END_ALLOW_THREADS
-    r = finish(self, &j, (size_t)n, have_out ? s.out : NULL, have_out ? &out : NULL, cols, 4);
-    st_py_client_leave(self);
-done:
-    if (have_out)
-        PyBuffer_Release(&out);
-    for (int i = 0; i < ncols; i++)
-        col_release(&cols[i]);
+    call_end(&c);
     return r;
 }
 
