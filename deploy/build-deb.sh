@@ -36,7 +36,7 @@ make --no-print-directory -s install DESTDIR="$root" PREFIX=/usr LIBDIR=/usr/lib
 
 # ---- what Debian asks of the files ----------------------------------------------------------
 strip --strip-unneeded --remove-section=.comment --remove-section=.note "$root"/usr/bin/*
-strip --strip-debug "$root"/usr/lib/"$MULTIARCH"/*.a
+strip --strip-debug --remove-section=.comment "$root"/usr/lib/"$MULTIARCH"/*.a
 find "$root/usr/share/man" -type f -exec gzip -9n {} +
 doc=$root/usr/share/doc/$PKG
 gzip -9n "$doc/README.md"
@@ -122,8 +122,12 @@ if [ "$1" = purge ]; then
 fi
 exit 0
 POSTRM
+# md5sums of every file but the conffiles (dpkg keeps their sums itself)
+(cd "$root" && find . -path ./DEBIAN -prune -o -type f -printf '%P\n' | sort \
+    | grep -vxF -f <(sed 's|^/||' DEBIAN/conffiles) | tr '\n' '\0' | xargs -0 md5sum) \
+    > "$root/DEBIAN/md5sums"
 chmod 755 "$root/DEBIAN/postinst" "$root/DEBIAN/postrm"
-chmod 644 "$root/DEBIAN/control" "$root/DEBIAN/conffiles"
+chmod 644 "$root/DEBIAN/control" "$root/DEBIAN/conffiles" "$root/DEBIAN/md5sums"
 
 mkdir -p "$OUT"
 deb=$OUT/${PKG}_${VERSION}_${ARCH}.deb
