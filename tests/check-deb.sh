@@ -3,7 +3,7 @@
 # check-deb, run by make test):
 #   1. deploy/build-deb.sh builds it into a scratch dir;
 #   2. `dpkg-deb --contents` lists every expected file (programs, library, header, pkg-config
-#      file, the four man pages, unit, config as a conffile, copyright) and the control file
+#      file, the five man pages, unit, config as a conffile, copyright) and the control file
 #      has Depends, conffiles, postinst and postrm;
 #   3. lintian: no error or warning left (the tags kept are overridden with reasons in
 #      deploy/lintian-overrides);
@@ -33,7 +33,8 @@ for f in /usr/bin/seamtexd /usr/bin/seamtex /usr/bin/seamtex-bench \
          "/usr/lib/$multi/libseamtex.a" "/usr/lib/$multi/pkgconfig/seamtex.pc" \
          /usr/include/seamtex/seamtex.h \
          /usr/share/man/man1/seamtex.1.gz /usr/share/man/man1/seamtex-bench.1.gz \
-         /usr/share/man/man3/libseamtex.3.gz /usr/share/man/man8/seamtexd.8.gz \
+         /usr/share/man/man3/libseamtex.3.gz /usr/share/man/man3/seamtex-python.3.gz \
+         /usr/share/man/man8/seamtexd.8.gz \
          /lib/systemd/system/seamtexd.service /etc/seamtex/seamtexd.conf \
          /usr/share/doc/seamtex/copyright /usr/share/doc/seamtex/changelog.gz \
          /usr/share/doc/seamtex/examples/seamtexd.conf.example; do

@@ -19,6 +19,8 @@ without its page (or documented without existing) fails here:
   seamtex-bench.1  every long option of `seamtex-bench --help` appears
   libseamtex.3     every stc_ function declared in client/seamtex.h has its .Fn line, and
                    every .Fn stc_x line of the page names a declared function
+  seamtex-python.3 every public name of python/seamtex/__init__.pyi appears: module
+                   constants, classes (the exceptions too), methods, attributes, properties
 "Appears" is checked on the page as mandoc renders it, as a whole word. Python's standard
 library only; one process per program run (process start-up is slow on a loaded machine).
 """
@@ -57,13 +59,29 @@ def gather(build):
         h["cmd"][c] = run([os.path.join(build, "seamtex"), c, "--help"])
     with open(os.path.join(ROOT, "client", "seamtex.h")) as f:
         h["decl"] = set(re.findall(r"\b(stc_[a-z0-9_]+)\s*\(", f.read()))
+    h["py"] = pyi_names(os.path.join(ROOT, "python", "seamtex", "__init__.pyi"))
     return h
+
+
+def pyi_names(path):
+    """The public names of the stubs: module-level names and classes, and the methods,
+    attributes and properties of each class (dunders and _private names left out, except
+    __version__)."""
+    names = set()
+    with open(path) as f:
+        for line in f:
+            m = (re.match(r"^class ([A-Za-z]\w*)", line) or re.match(r"^([A-Za-z]\w*|__version__)\s*:", line)
+                 or re.match(r"^    def ([A-Za-z]\w*)", line) or re.match(r"^    ([A-Za-z]\w*)\s*:", line))
+            if m:
+                names.add(m.group(1))
+    return names
 
 
 def content(man, h):
     errs = []
     src = {p: open(os.path.join(man, p)).read()
-           for p in ("seamtexd.8", "seamtex.1", "seamtex-bench.1", "libseamtex.3")}
+           for p in ("seamtexd.8", "seamtex.1", "seamtex-bench.1", "libseamtex.3",
+                     "seamtex-python.3")}
     # seamtexd.8
     text = render(os.path.join(man, "seamtexd.8"))
     for f in sorted(set(LONG.findall(h["seamtexd"]))):
@@ -99,6 +117,13 @@ def content(man, h):
         errs.append(f"libseamtex.3 does not document {fn}")
     for fn in sorted(documented - h["decl"]):
         errs.append(f"libseamtex.3 documents {fn}, which client/seamtex.h does not declare")
+    # seamtex-python.3
+    text = render(os.path.join(man, "seamtex-python.3"))
+    if not h["py"]:
+        errs.append("no public name found in python/seamtex/__init__.pyi")
+    for name in sorted(h["py"]):
+        if not has_word(text, name):
+            errs.append(f"seamtex-python.3 does not document {name} (python/seamtex/__init__.pyi has it)")
     return errs
 
 
@@ -116,6 +141,8 @@ MUTATIONS = [
     ("seamtex.1", r"^.*retries.*\n", ""),
     ("seamtex-bench.1", r"^.*spin-us.*\n", ""),
     ("libseamtex.3", r"^.*stc_job_wait.*\n", ""),
+    ("seamtex-python.3", r"^.*sample_dir.*\n", ""),
+    ("seamtex-python.3", r"ChecksumMismatch", "Checksum"),
 ]
 
 
@@ -164,7 +191,7 @@ def main(argv):
     if lint_out or errs:
         return 1
     print(f"check-man: {len(pages)} pages lint-clean (mandoc -Tlint -Wwarning) and true to "
-          "--help and client/seamtex.h")
+          "--help, client/seamtex.h and python/seamtex/__init__.pyi")
     return self_test(h)
 
 
