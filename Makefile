@@ -13,7 +13,11 @@
 #   make asan       the tests again under AddressSanitizer + UBSan (build-san/)
 #   make tsan       the daemon and client tests (tests/integration/) under ThreadSanitizer, the
 #                   daemon and CLI built with it too (build-tsan/); suppressions in tests/tsan.supp
-#   make install    PREFIX=/usr/local DESTDIR=
+#   make install    PREFIX=/usr/local DESTDIR= (LIBDIR, MANDIR, ...): programs, libseamtex.a, the header, seamtex.pc, man
+#                   pages (man/), the systemd unit, an example config (SYSCONFDIR, UNITDIR below)
+#   make deb        build/seamtex_<version>_<arch>.deb from make install (deploy/build-deb.sh)
+#   make check-man  the man pages lint-clean and true to --help and client/seamtex.h (in make test)
+#   make check-deb  builds the .deb, lists it, lintian, extracts it and runs it (in make test)
 #
 # Dependencies are Debian packages; `make deps` (a prerequisite of test, bench and run) installs
 # whatever is missing through deploy/install-deps.sh.
@@ -33,6 +37,12 @@ CC       ?= gcc
 CXX      ?= g++
 PREFIX   ?= /usr/local
 DESTDIR  ?=
+# PREFIX=/usr (a package) puts the config under /etc and the unit where Debian keeps units
+SYSCONFDIR ?= $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
+UNITDIR    ?= $(if $(filter /usr,$(PREFIX)),/lib/systemd/system,$(PREFIX)/lib/systemd/system)
+LIBDIR     ?= $(PREFIX)/lib
+MANDIR     ?= $(PREFIX)/share/man
+DOCDIR     ?= $(PREFIX)/share/doc/seamtex
 SAN      ?= 0
 NPROC    := $(shell nproc 2>/dev/null || echo 2)
 
@@ -150,8 +160,9 @@ deps:
 
 test: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
-	@$(MAKE) --no-print-directory check-layout
-	@B=$(B) bash tests/run.sh
+	@$(MAKE) --no-print-directory check-layout check-man
+	@B=$(B) bash tests/run.sh; rc=$$?; $(if $(filter 0,$(SAN)),$(MAKE) --no-print-directory \
+		check-deb || rc=1;) exit $$rc
 
 # FUZZ_SECONDS per target (default 600); FUZZ_CORPUS_DIR keeps the corpora between campaigns.
 fuzz: deps
@@ -183,14 +194,48 @@ tsan: deps
 	@$(MAKE) --no-print-directory SAN=tsan -j$(NPROC) all tsan-build
 	@B=build-tsan MODE=tsan SEAMTEX_START_MS=$${SEAMTEX_START_MS:-180000} bash tests/run.sh
 
+# The unit and the example config name /usr/local/bin and /etc/seamtex; both follow PREFIX and
+# SYSCONFDIR here. The config is installed only where none exists (an edited one is kept).
+MAN_PAGES := $(sort $(wildcard man/*.[1-8]))
 install: all
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib $(DESTDIR)$(PREFIX)/include/seamtex \
-		$(DESTDIR)$(PREFIX)/lib/pkgconfig
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(LIBDIR) $(DESTDIR)$(PREFIX)/include/seamtex \
+		$(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DOCDIR)/examples \
+		$(DESTDIR)$(SYSCONFDIR)/seamtex \
+		$(sort $(foreach m,$(MAN_PAGES),$(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(m)))))
 	$(if $(INSTALL_BINS),install -m 755 $(INSTALL_BINS) $(DESTDIR)$(PREFIX)/bin/)
-	$(if $(INSTALL_LIBS),install -m 644 $(INSTALL_LIBS) $(DESTDIR)$(PREFIX)/lib/)
+	$(if $(INSTALL_LIBS),install -m 644 $(INSTALL_LIBS) $(DESTDIR)$(LIBDIR)/)
 	$(if $(INSTALL_HDRS),install -m 644 $(INSTALL_HDRS) $(DESTDIR)$(PREFIX)/include/seamtex/)
 	@if [ -f client/seamtex.pc.in ]; then \
-		sed -e 's|@PREFIX@|$(PREFIX)|g' client/seamtex.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/seamtex.pc; fi
+		sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' client/seamtex.pc.in \
+		> $(DESTDIR)$(LIBDIR)/pkgconfig/seamtex.pc; fi
+	$(foreach m,$(MAN_PAGES),install -m 644 $(m) $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(m)))/ &&) true
+	sed -e 's|/usr/local/bin/|$(PREFIX)/bin/|g' -e 's|/usr/local/share/doc/seamtex|$(DOCDIR)|g' \
+		-e 's|/etc/seamtex|$(SYSCONFDIR)/seamtex|g' deploy/seamtexd.service \
+		> $(DESTDIR)$(UNITDIR)/seamtexd.service && chmod 644 $(DESTDIR)$(UNITDIR)/seamtexd.service
+	sed -e 's|/etc/seamtex|$(SYSCONFDIR)/seamtex|g' deploy/seamtexd.conf.example \
+		> $(DESTDIR)$(DOCDIR)/examples/seamtexd.conf.example
+	chmod 644 $(DESTDIR)$(DOCDIR)/examples/seamtexd.conf.example
+	install -m 644 README.md $(DESTDIR)$(DOCDIR)/README.md
+	[ -e $(DESTDIR)$(SYSCONFDIR)/seamtex/seamtexd.conf ] || install -m 644 \
+		$(DESTDIR)$(DOCDIR)/examples/seamtexd.conf.example $(DESTDIR)$(SYSCONFDIR)/seamtex/seamtexd.conf
+
+# A Debian package from `make install DESTDIR=<staging> PREFIX=/usr` (deploy/build-deb.sh):
+# $(B)/seamtex_<version>_<arch>.deb.
+deb: all
+	@B=$(B) bash deploy/build-deb.sh
+
+# The man pages: mandoc -Tlint -Wwarning clean, every flag / command / option / stc_ function
+# of the programs and client/seamtex.h documented, and a self-test that the check catches a
+# page with one taken out (tests/check_man.py).
+check-man: all
+	@python3 tests/check_man.py man $(B)
+
+# The package: built, its file list checked, lintian (overrides with reasons in
+# deploy/lintian-overrides), extracted into a scratch root where its programs run
+# (tests/check-deb.sh; never installed into this system). Packages the normal build, so
+# make test runs it only when SAN=0 (make asan would otherwise build build/ as well).
+check-deb: all
+	@B=$(B) bash tests/check-deb.sh
 
 # Every store part's headers compile on their own with only the include paths the rules above
 # give that part (no header leans on what an including file happened to include first).
@@ -206,6 +251,6 @@ clean:
 	rm -rf build build-san build-tsan
 
 .PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
-	tsan-build check-layout python
+	tsan-build check-layout python deb check-man check-deb
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

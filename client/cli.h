@@ -11,6 +11,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "cli_json.h"
 #include "seamtex.h"
 
 /* Exit codes. */
@@ -46,6 +47,9 @@ int cli_query_line(char *line, stc_query *q);
 int cli_dir_query_line(char *line, stc_dir_query *q);
 /* 1 when argv[i] is --help or -?. */
 int cli_is_help(const char *a);
+/* cli_json_end, then the exit code: CLI_OK, or CLI_SERVER (with a message) when writing the
+ * document failed. Every --json output ends through it. */
+int cli_json_finish(cli_json *j);
 
 /* Names of the store's enums for printing. */
 const char *cli_kind_name(unsigned kind);

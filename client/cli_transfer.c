@@ -196,11 +196,46 @@ int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv)
 }
 
 static const char *const COMPRESS_USAGE =
-"usage: seamtex compress SET TARGET [--level 0..9] [--naive] [--replace] [--no-wait]\n"
+"usage: seamtex compress SET TARGET [--level 0..9] [--naive] [--replace] [--no-wait] [--json]\n"
 "BC1-compresses SET into a new set TARGET on the server, seam-aware by default (--naive\n"
 "encodes every block alone), shows the job's progress and a report.\n"
 "  --level N          0..9: seamtexd uses its fast encoder for 0-4, high quality for 5-7\n"
-"                     (default 5), best for 8-9\n";
+"                     (default 5), best for 8-9\n"
+"  --replace          replace TARGET if it exists\n"
+"  --no-wait          print the job id and return at once\n"
+"  --json             the report (or the job id) as one JSON document on stdout\n";
+
+/* The compress report as JSON: the job, its state, and for a finished job the sizes. */
+static int compress_json(const char *set, const char *target, unsigned level, unsigned flags,
+                         uint64_t job, const stc_job *st, double secs, uint32_t nfaces,
+                         uint64_t before, uint64_t after)
+{
+    static const char *const STATES[] = { "queued", "running", "done", "failed", "canceled" };
+    cli_json j;
+    cli_json_begin(&j, stdout);
+    cli_json_object(&j, NULL);
+    cli_json_u64(&j, "job", job);
+    cli_json_str(&j, "source", set);
+    cli_json_str(&j, "target", target);
+    cli_json_u64(&j, "level", level);
+    cli_json_bool(&j, "seam_aware", flags & STC_COMPRESS_SEAM_AWARE);
+    cli_json_bool(&j, "replace", flags & STC_COMPRESS_REPLACE);
+    if (st) {
+        cli_json_str(&j, "state", st->state < 5 ? STATES[st->state] : "?");
+        cli_json_str(&j, "result", stc_strerror(st->result));
+        cli_json_str(&j, "message", st->message);
+        cli_json_double(&j, "seconds", secs);
+        if (st->state == STC_JOB_DONE) {
+            cli_json_u64(&j, "faces", nfaces);
+            cli_json_u64(&j, "texel_bytes_before", before);
+            cli_json_u64(&j, "texel_bytes_after", after);
+            if (after > 0)
+                cli_json_double(&j, "ratio", (double)before / (double)after);
+        }
+    }
+    cli_json_close(&j);
+    return cli_json_finish(&j);
+}
 
 static uint64_t now_ns(void)
 {
@@ -214,11 +249,15 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
     const char *set = NULL, *target = NULL;
     uint32_t level = 5;
     unsigned flags = STC_COMPRESS_SEAM_AWARE;
-    int wait = 1;
+    int wait = 1, json = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (cli_is_help(a))
             return usage_out(COMPRESS_USAGE, 1);
+        if (!strcmp(a, "--json")) {
+            json = 1;
+            continue;
+        }
         if (!strcmp(a, "--level") && i + 1 < argc) {
             if (cli_parse_u32(argv[++i], &level) || level > 9)
                 return usage_out(COMPRESS_USAGE, 0);
@@ -248,6 +287,8 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
     if (e)
         return cli_fail(ctx, "compress", e);
     if (!wait) {
+        if (json)
+            return compress_json(set, target, level, flags, job, NULL, 0, 0, 0, 0);
         printf("job %llu started\n", (unsigned long long)job);
         return CLI_OK;
     }
@@ -272,6 +313,8 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
         fprintf(stderr, "seamtex compress: job %llu %s: %s%s%s\n", (unsigned long long)job,
                 st.state == STC_JOB_CANCELED ? "was cancelled" : "failed",
                 stc_strerror(st.result), st.message[0] ? ": " : "", st.message);
+        if (json)
+            compress_json(set, target, level, flags, job, &st, secs, 0, 0, 0);
         return CLI_SERVER;
     }
     /* the report: sizes before and after */
@@ -284,6 +327,8 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
     }
     if (stc_info_get(ctx->conn, target, 0, 0, &b) == 0)
         after = b.texel_bytes;
+    if (json)
+        return compress_json(set, target, level, flags, job, &st, secs, nfaces, before, after);
     char s1[32], s2[32];
     printf("compressed %s -> %s (%s, level %u) in %.2f s: %u faces, texels %s -> %s",
            set, target, flags & STC_COMPRESS_SEAM_AWARE ? "seam-aware" : "naive", level, secs,

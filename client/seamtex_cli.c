@@ -27,19 +27,20 @@ static const char *const USAGE =
 "usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] COMMAND [ARGS]\n"
 "\n"
 "  ping                         round trip to the server, prints the time it took\n"
-"  ls                           the sets the server holds\n"
-"  info SET [--faces A:N]       facts about a set (and per-face records A..A+N-1)\n"
+"  ls [--json]                  the sets the server holds\n"
+"  info SET [--faces A:N] [--json]  facts about a set (and per-face records A..A+N-1)\n"
 "  sample SET FACE U V [opts]   sample one point, or --queries FILE; text or --binary\n"
 "  upload FILE NAME [opts]      upload a file as set NAME (progress bar on stderr)\n"
 "  delete SET                   remove a set\n"
-"  stats                        the server's counters\n"
+"  stats [--json]               the server's counters\n"
 "  fetch SET FILE [--format F]   download a set as a file (format from FILE's extension)\n"
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
 "\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
-"$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command.\n"
+"$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command. --json (ls, info, stats,\n"
+"compress) prints one JSON document instead of text (keys: seamtex(1), docs/client.md).\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
 
 /* ---- shared helpers (cli.h) --------------------------------------------------------------- */
@@ -47,6 +48,33 @@ static const char *const USAGE =
 int cli_is_help(const char *a)
 {
     return !strcmp(a, "--help") || !strcmp(a, "-?");
+}
+
+int cli_json_finish(cli_json *j)
+{
+    if (cli_json_end(j) != 0) {
+        fprintf(stderr, "seamtex: writing the JSON output failed\n");
+        return CLI_SERVER;
+    }
+    return CLI_OK;
+}
+
+/* The options of a command that takes none but --json: 1 with --json, 0 without, -1 after
+ * printing the usage (to stdout for --help: *rc = CLI_OK, else stderr and CLI_USAGE). */
+static int json_only_args(int argc, char **argv, const char *usage, int *rc)
+{
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json")) {
+            json = 1;
+            continue;
+        }
+        int help = cli_is_help(argv[i]);
+        fputs(usage, help ? stdout : stderr);
+        *rc = help ? CLI_OK : CLI_USAGE;
+        return -1;
+    }
+    return json;
 }
 
 const char *cli_kind_name(unsigned kind)
@@ -191,12 +219,12 @@ static int cmd_ping(cli_ctx *ctx, int argc, char **argv)
 
 static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
 {
-    if (argc > 1) {
-        fprintf(argc == 2 && cli_is_help(argv[1]) ? stdout : stderr,
-                "usage: seamtex ls\nLists the sets: name, kind, channels, type, faces, memory.\n");
-        return argc == 2 && cli_is_help(argv[1]) ? CLI_OK : CLI_USAGE;
-    }
-    int rc = cli_connect(ctx);
+    int rc = CLI_OK;
+    int json = json_only_args(argc, argv, "usage: seamtex ls [--json]\nLists the sets: name, "
+                              "kind, channels, type, faces, memory.\n", &rc);
+    if (json < 0)
+        return rc;
+    rc = cli_connect(ctx);
     if (rc)
         return rc;
     const stc_set_entry *s;
@@ -204,6 +232,26 @@ static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
     int e = stc_list(ctx->conn, &s, &n);
     if (e)
         return cli_fail(ctx, "ls", e);
+    if (json) {
+        cli_json j;
+        cli_json_begin(&j, stdout);
+        cli_json_object(&j, NULL);
+        cli_json_u64(&j, "count", n);
+        cli_json_array(&j, "sets");
+        for (size_t i = 0; i < n; i++) {
+            cli_json_object(&j, NULL);
+            cli_json_str(&j, "name", s[i].name);
+            cli_json_str(&j, "kind", cli_kind_name(s[i].kind));
+            cli_json_u64(&j, "channels", s[i].nchan);
+            cli_json_str(&j, "type", cli_dtype_name(s[i].dtype));
+            cli_json_u64(&j, "faces", s[i].nfaces);
+            cli_json_u64(&j, "memory_bytes", s[i].memory);
+            cli_json_close(&j);
+        }
+        cli_json_close(&j);
+        cli_json_close(&j);
+        return cli_json_finish(&j);
+    }
     printf("%-32s %-8s %4s %-5s %9s %12s\n", "NAME", "KIND", "CHAN", "TYPE", "FACES", "MEMORY");
     for (size_t i = 0; i < n; i++) {
         char b[32];
@@ -214,16 +262,74 @@ static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
     return CLI_OK;
 }
 
+/* `seamtex info --json`: the same facts as the text, sizes in bytes. */
+static int info_json(const char *set, const stc_info *in)
+{
+    cli_json j;
+    cli_json_begin(&j, stdout);
+    cli_json_object(&j, NULL);
+    cli_json_str(&j, "name", set);
+    cli_json_str(&j, "kind", cli_kind_name(in->kind));
+    cli_json_u64(&j, "faces", in->nfaces);
+    cli_json_u64(&j, "constant_faces", in->nconstant);
+    cli_json_u64(&j, "subfaces", in->nsubfaces);
+    cli_json_u64(&j, "channels", in->nchan);
+    cli_json_str(&j, "type", cli_dtype_name(in->dtype));
+    cli_json_i64(&j, "alpha_channel", in->alpha_chan);
+    cli_json_str(&j, "colorspace", in->colorspace ? "srgb" : "linear");
+    cli_json_bool(&j, "premultiplied", in->premultiplied);
+    cli_json_u64(&j, "min_width", in->min_w);
+    cli_json_u64(&j, "min_height", in->min_h);
+    cli_json_u64(&j, "max_width", in->max_w);
+    cli_json_u64(&j, "max_height", in->max_h);
+    cli_json_u64(&j, "memory_bytes", in->memory);
+    cli_json_u64(&j, "texel_bytes", in->texel_bytes);
+    cli_json_u64(&j, "boundary_edges", in->boundary_edges);
+    cli_json_u64(&j, "irregular_corners", in->irregular_corners);
+    cli_json_u64(&j, "max_valence", in->max_valence);
+    cli_json_u64(&j, "border_u", in->border_u);
+    cli_json_u64(&j, "border_v", in->border_v);
+    cli_json_str(&j, "mesh", in->meshtype ? "triangle" : "quad");
+    cli_json_u64(&j, "metadata_entries", in->nmeta);
+    if (in->nrec) {
+        cli_json_array(&j, "face_records");
+        for (uint32_t i = 0; i < in->nrec; i++) {
+            const stc_face *f = &in->faces[i];
+            cli_json_object(&j, NULL);
+            cli_json_u64(&j, "face", (uint64_t)in->face_first + i);
+            cli_json_u64(&j, "width", f->w);
+            cli_json_u64(&j, "height", f->h);
+            cli_json_u64(&j, "levels", f->nlevels);
+            cli_json_bool(&j, "constant", f->flags & 1);
+            cli_json_array(&j, "adjacent");          /* edges 0..3: face (-1 none), edge */
+            for (int k = 0; k < 4; k++) {
+                cli_json_object(&j, NULL);
+                cli_json_i64(&j, "face", f->adjface[k]);
+                cli_json_u64(&j, "edge", f->adjface[k] < 0 ? 0u : f->adjedge[k]);
+                cli_json_close(&j);
+            }
+            cli_json_close(&j);
+            cli_json_close(&j);
+        }
+        cli_json_close(&j);
+    }
+    cli_json_close(&j);
+    return cli_json_finish(&j);
+}
+
 static int cmd_info(cli_ctx *ctx, int argc, char **argv)
 {
     const char *set = NULL;
     uint32_t first = 0, count = 0;
+    int json = 0;
     for (int i = 1; i < argc; i++) {
         if (cli_is_help(argv[i])) {
-            printf("usage: seamtex info SET [--faces FIRST:COUNT]\n"
+            printf("usage: seamtex info SET [--faces FIRST:COUNT] [--json]\n"
                    "Facts about a set; --faces also prints per-face records (size, levels,\n"
                    "neighbours across edges 0..3 as face/edge, -1 on a boundary).\n");
             return CLI_OK;
+        } else if (!strcmp(argv[i], "--json")) {
+            json = 1;
         } else if (!strcmp(argv[i], "--faces") && i + 1 < argc) {
             char *colon = strchr(argv[++i], ':');
             if (!colon) {
@@ -244,7 +350,7 @@ static int cmd_info(cli_ctx *ctx, int argc, char **argv)
         }
     }
     if (!set) {
-        fprintf(stderr, "usage: seamtex info SET [--faces FIRST:COUNT]\n");
+        fprintf(stderr, "usage: seamtex info SET [--faces FIRST:COUNT] [--json]\n");
         return CLI_USAGE;
     }
     int rc = cli_connect(ctx);
@@ -254,6 +360,8 @@ static int cmd_info(cli_ctx *ctx, int argc, char **argv)
     int e = stc_info_get(ctx->conn, set, first, count, &in);
     if (e)
         return cli_fail(ctx, set, e);
+    if (json)
+        return info_json(set, &in);
     char b1[32], b2[32];
     printf("name:              %s\n", set);
     printf("kind:              %s\n", cli_kind_name(in.kind));
@@ -284,12 +392,12 @@ static int cmd_info(cli_ctx *ctx, int argc, char **argv)
 
 static int cmd_stats(cli_ctx *ctx, int argc, char **argv)
 {
-    if (argc > 1) {
-        fprintf(argc == 2 && cli_is_help(argv[1]) ? stdout : stderr,
-                "usage: seamtex stats\nThe server's counters, one 'key value' per line.\n");
-        return argc == 2 && cli_is_help(argv[1]) ? CLI_OK : CLI_USAGE;
-    }
-    int rc = cli_connect(ctx);
+    int rc = CLI_OK;
+    int json = json_only_args(argc, argv, "usage: seamtex stats [--json]\nThe server's "
+                              "counters, one 'key value' per line (--json: one object).\n", &rc);
+    if (json < 0)
+        return rc;
+    rc = cli_connect(ctx);
     if (rc)
         return rc;
     const stc_stat *s;
@@ -297,6 +405,19 @@ static int cmd_stats(cli_ctx *ctx, int argc, char **argv)
     int e = stc_stats(ctx->conn, &s, &n);
     if (e)
         return cli_fail(ctx, "stats", e);
+    if (json) {
+        cli_json j;
+        cli_json_begin(&j, stdout);
+        cli_json_object(&j, NULL);
+        for (size_t i = 0; i < n; i++) {
+            if (s[i].is_float)
+                cli_json_double(&j, s[i].key, s[i].f);
+            else
+                cli_json_u64(&j, s[i].key, s[i].u);
+        }
+        cli_json_close(&j);
+        return cli_json_finish(&j);
+    }
     for (size_t i = 0; i < n; i++) {
         if (s[i].is_float)
             printf("%-32s %.6g\n", s[i].key, s[i].f);

@@ -98,3 +98,6 @@ tsan-build: $(filter $(B)/tests/integration/%,$(TEST_BINS)) $(ALL_BINS)
 bench-build: $(BENCH_BINS) $(ALL_BINS)
 
 .SECONDARY:
+
+# The CLI's --json output is parsed with json-c (Debian libjson-c-dev) by its tests.
+$(B)/tests/unit/test_cli_json_writer $(B)/tests/integration/test_cli: LDLIBS += -ljson-c

@@ -1,6 +1,7 @@
 /* tests/integration/test_cli.c - the command-line programs against a real daemon: `seamtex`
- * (every command, its output and exit codes 0 / 1 / 2 / 3) and `seamtex-bench` (closed and
- * open loop, JSON, loopback-only refusal).
+ * (every command, its output and exit codes 0 / 1 / 2 / 3; `--json` of ls, info, stats and
+ * compress parsed with json-c and compared with the text output and libseamtex's answers)
+ * and `seamtex-bench` (closed and open loop, JSON, loopback-only refusal).
  *
  * One seamtexd (tests/common/daemon_fixture.h) serves the whole group; each program runs as a
  * child through posix_spawn (this binary links OpenImageIO: no bare fork) with stdout and
@@ -23,7 +24,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <json-c/json.h>
+
 #include "../common/daemon_fixture.h"
+#include "seamtex.h"
 
 extern char **environ;
 
@@ -467,6 +471,289 @@ static void bench_refuses_a_non_loopback_host(void **state)
     assert_int_equal(BENCH("--rate", "-5"), 2);
 }
 
+/* ---- --json ------------------------------------------------------------------------------ */
+
+/* OUT parsed strictly as one JSON document (UTF-8 validated, nothing after it but a newline). */
+static json_object *out_json(void)
+{
+    json_tokener *tok = json_tokener_new();
+    assert_non_null(tok);
+    json_tokener_set_flags(tok, JSON_TOKENER_STRICT | JSON_TOKENER_VALIDATE_UTF8);
+    json_object *o = json_tokener_parse_ex(tok, OUT, (int)OUTLEN);
+    assert_int_equal(json_tokener_get_error(tok), json_tokener_success);
+    size_t end = json_tokener_get_parse_end(tok);
+    assert_true(end <= OUTLEN && strspn(OUT + end, "\n") == OUTLEN - end);  /* then only "\n" */
+    assert_true(OUTLEN > 0 && OUT[OUTLEN - 1] == '\n');
+    json_tokener_free(tok);
+    assert_non_null(o);
+    return o;
+}
+
+static json_object *jget(json_object *o, const char *key)
+{
+    json_object *v = NULL;
+    if (!json_object_object_get_ex(o, key, &v))
+        fail_msg("no key '%s' in the JSON output", key);
+    return v;
+}
+#define JU(o, k) json_object_get_uint64(jget((o), (k)))
+#define JI(o, k) json_object_get_int64(jget((o), (k)))
+#define JS(o, k) json_object_get_string(jget((o), (k)))
+#define JB(o, k) json_object_get_boolean(jget((o), (k)))
+
+static stc_conn *lib_conn(void)
+{
+    int err = 0;
+    stc_conn *c = stc_connect("127.0.0.1", (unsigned)D.port, 10000, &err);
+    assert_non_null(c);
+    return c;
+}
+
+static void ls_json_lists_what_the_library_lists(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("ls", "--json"), 0);
+    json_object *o = out_json();
+    stc_conn *c = lib_conn();
+    const stc_set_entry *s;
+    size_t n;
+    assert_int_equal(stc_list(c, &s, &n), 0);
+    assert_int_equal(JU(o, "count"), n);
+    json_object *sets = jget(o, "sets");
+    assert_int_equal(json_object_array_length(sets), n);
+    for (size_t i = 0; i < n; i++) {
+        json_object *e = json_object_array_get_idx(sets, i);
+        assert_string_equal(JS(e, "name"), s[i].name);
+        assert_int_equal(JU(e, "channels"), s[i].nchan);
+        assert_int_equal(JU(e, "faces"), s[i].nfaces);
+        assert_true(JU(e, "memory_bytes") == s[i].memory);
+    }
+    stc_close(c);
+    json_object_put(o);
+    /* the text output names the same kinds and types */
+    assert_int_equal(CLI("ls"), 0);
+    assert_non_null(strstr(OUT, "default"));
+    assert_non_null(strstr(OUT, " perface "));
+    assert_non_null(strstr(OUT, " u8 "));
+    assert_int_equal(CLI("ls", "--json"), 0);
+    o = out_json();
+    json_object *d = json_object_array_get_idx(jget(o, "sets"), 0);
+    assert_string_equal(JS(d, "kind"), "perface");
+    assert_string_equal(JS(d, "type"), "u8");
+    json_object_put(o);
+}
+
+static void info_json_matches_the_text_and_the_library(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("info", "default", "--faces", "2:3", "--json"), 0);
+    json_object *o = out_json();
+    stc_conn *c = lib_conn();
+    stc_info in;
+    assert_int_equal(stc_info_get(c, "default", 2, 3, &in), 0);
+    assert_string_equal(JS(o, "name"), "default");
+    assert_string_equal(JS(o, "kind"), "perface");
+    assert_string_equal(JS(o, "type"), "u8");
+    assert_string_equal(JS(o, "colorspace"), in.colorspace ? "srgb" : "linear");
+    assert_string_equal(JS(o, "mesh"), "quad");
+    assert_int_equal(JU(o, "faces"), in.nfaces);
+    assert_int_equal(JU(o, "constant_faces"), in.nconstant);
+    assert_int_equal(JU(o, "subfaces"), in.nsubfaces);
+    assert_int_equal(JU(o, "channels"), in.nchan);
+    assert_int_equal(JI(o, "alpha_channel"), in.alpha_chan);
+    assert_int_equal(JB(o, "premultiplied"), in.premultiplied);
+    assert_int_equal(JU(o, "min_width"), in.min_w);
+    assert_int_equal(JU(o, "min_height"), in.min_h);
+    assert_int_equal(JU(o, "max_width"), in.max_w);
+    assert_int_equal(JU(o, "max_height"), in.max_h);
+    assert_true(JU(o, "memory_bytes") == in.memory);
+    assert_true(JU(o, "texel_bytes") == in.texel_bytes);
+    assert_int_equal(JU(o, "boundary_edges"), in.boundary_edges);
+    assert_int_equal(JU(o, "irregular_corners"), in.irregular_corners);
+    assert_int_equal(JU(o, "max_valence"), in.max_valence);
+    assert_int_equal(JU(o, "border_u"), in.border_u);
+    assert_int_equal(JU(o, "border_v"), in.border_v);
+    assert_int_equal(JU(o, "metadata_entries"), in.nmeta);
+    json_object *recs = jget(o, "face_records");
+    assert_int_equal(json_object_array_length(recs), 3);
+    for (uint32_t i = 0; i < 3; i++) {
+        json_object *r = json_object_array_get_idx(recs, i);
+        assert_int_equal(JU(r, "face"), 2 + i);
+        assert_int_equal(JU(r, "width"), in.faces[i].w);
+        assert_int_equal(JU(r, "height"), in.faces[i].h);
+        assert_int_equal(JU(r, "levels"), in.faces[i].nlevels);
+        assert_int_equal(JB(r, "constant"), in.faces[i].flags & 1);
+        json_object *adj = jget(r, "adjacent");
+        assert_int_equal(json_object_array_length(adj), 4);
+        for (int k = 0; k < 4; k++) {
+            json_object *a = json_object_array_get_idx(adj, (size_t)k);
+            assert_int_equal(JI(a, "face"), in.faces[i].adjface[k]);
+            assert_int_equal(JU(a, "edge"), in.faces[i].adjface[k] < 0 ? 0 : in.faces[i].adjedge[k]);
+        }
+    }
+    stc_close(c);
+    /* the text says the same */
+    char line[128];
+    unsigned nfaces = (unsigned)JU(o, "faces");
+    json_object_put(o);
+    assert_int_equal(CLI("info", "default"), 0);
+    snprintf(line, sizeof line, "faces:             %u (", nfaces);
+    assert_non_null(strstr(OUT, line));
+    /* without --faces there is no face_records key */
+    assert_int_equal(CLI("info", "default", "--json"), 0);
+    o = out_json();
+    assert_false(json_object_object_get_ex(o, "face_records", NULL));
+    json_object_put(o);
+}
+
+/* `stats --json` between two stc_stats calls: it has every key of the first and only keys of
+ * the second (keys only appear: a latency bucket is listed once it is not empty); a value that
+ * did not move between the two calls equals them exactly, one that moved lies between them;
+ * the text output, taken after, has every key of the JSON. */
+static void stats_json_has_every_counter_with_its_value(void **state)
+{
+    (void)state;
+    stc_conn *c = lib_conn();
+    const stc_stat *s;
+    size_t n;
+    assert_int_equal(stc_stats(c, &s, &n), 0);
+    stc_stat *before = malloc(n * sizeof *before);
+    char (*keys)[64] = malloc(n * sizeof *keys);
+    assert_non_null(before);
+    assert_non_null(keys);
+    size_t nb = n;
+    for (size_t i = 0; i < n; i++) {
+        before[i] = s[i];
+        snprintf(keys[i], sizeof keys[i], "%s", s[i].key);
+        before[i].key = keys[i];
+    }
+    assert_int_equal(CLI("stats", "--json"), 0);
+    json_object *o = out_json();
+    assert_int_equal(stc_stats(c, &s, &n), 0);
+    size_t nj = (size_t)json_object_object_length(o);
+    assert_true(nj >= nb && nj <= n);
+    json_object_object_foreach(o, jk, jv) {
+        (void)jv;
+        if (!stc_stat_find(s, n, jk))
+            fail_msg("stats --json has '%s', which stc_stats after it has not", jk);
+    }
+    for (size_t i = 0; i < nb; i++) {
+        const stc_stat *a = &before[i];
+        json_object *v = jget(o, a->key);
+        if (a->is_float)
+            assert_true(json_object_is_type(v, json_type_double) ||
+                        json_object_is_type(v, json_type_int) || json_object_is_type(v, json_type_null));
+        else
+            assert_true(json_object_is_type(v, json_type_int));
+    }
+    /* settings are exact; counters that only grow lie between the two library calls */
+    static const char *const fixed[] = { "max_conns", "max_frame", "io_threads", "workers", "sets" };
+    static const char *const growing[] = { "requests", "conns_accepted", "bytes_in", "bytes_out",
+                                           "req_stats", "uptime_ms" };
+    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++) {
+        const stc_stat *a = stc_stat_find(before, nb, fixed[i]), *b = stc_stat_find(s, n, fixed[i]);
+        assert_non_null(a);
+        assert_non_null(b);
+        assert_true(a->u == b->u);
+        assert_true(JU(o, fixed[i]) == a->u);
+    }
+    for (size_t i = 0; i < sizeof growing / sizeof growing[0]; i++) {
+        const stc_stat *a = stc_stat_find(before, nb, growing[i]), *b = stc_stat_find(s, n, growing[i]);
+        assert_non_null(a);
+        assert_non_null(b);
+        uint64_t x = JU(o, growing[i]);
+        if (!(x >= a->u && x <= b->u))
+            fail_msg("%s: %llu in the JSON, %llu before and %llu after", growing[i],
+                     (unsigned long long)x, (unsigned long long)a->u, (unsigned long long)b->u);
+    }
+    assert_true(JU(o, "max_conns") == stc_stat_find(s, n, "max_conns")->u);
+    stc_close(c);
+    /* the text output has every key of the JSON, one per line */
+    assert_int_equal(CLI("stats"), 0);
+    size_t lines = 0;
+    for (const char *p = OUT; (p = strchr(p, '\n')); p++)
+        lines++;
+    assert_true(lines >= nj);
+    json_object_object_foreach(o, key, val) {
+        (void)val;
+        char k[80];
+        snprintf(k, sizeof k, "\n%s ", key);
+        if (strncmp(OUT, k + 1, strlen(k + 1)) != 0 && !strstr(OUT, k))
+            fail_msg("'%s' of stats --json is not a line of the text output", key);
+    }
+    json_object_put(o);
+    free(before);
+    free(keys);
+}
+
+static void compress_json_reports_the_job_and_sizes(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("compress", "default", "cli-json-bc1", "--level", "0", "--json"), 0);
+    json_object *o = out_json();
+    assert_true(JU(o, "job") > 0);
+    assert_string_equal(JS(o, "source"), "default");
+    assert_string_equal(JS(o, "target"), "cli-json-bc1");
+    assert_int_equal(JU(o, "level"), 0);
+    assert_true(JB(o, "seam_aware"));
+    assert_false(JB(o, "replace"));
+    assert_string_equal(JS(o, "state"), "done");
+    assert_string_equal(JS(o, "result"), "OK");
+    assert_non_null(strstr(JS(o, "message"), "seam RMS"));
+    assert_true(json_object_get_double(jget(o, "seconds")) >= 0);
+    stc_conn *c = lib_conn();
+    stc_info a, b;
+    assert_int_equal(stc_info_get(c, "default", 0, 0, &a), 0);
+    assert_int_equal(stc_info_get(c, "cli-json-bc1", 0, 0, &b), 0);
+    assert_int_equal(JU(o, "faces"), a.nfaces);
+    assert_true(JU(o, "texel_bytes_before") == a.texel_bytes);
+    assert_true(JU(o, "texel_bytes_after") == b.texel_bytes);
+    assert_true(json_object_get_double(jget(o, "ratio")) ==
+                (double)a.texel_bytes / (double)b.texel_bytes);
+    stc_job job;
+    assert_int_equal(stc_job_status(c, JU(o, "job"), &job), 0);
+    assert_string_equal(JS(o, "message"), job.message);
+    json_object_put(o);
+    /* --no-wait: the job's id, which the library can wait on */
+    assert_int_equal(CLI("-t", "x", "compress", "default", "cli-json-bc1", "--level", "0",
+                         "--replace", "--no-wait", "--json"), 0);
+    o = out_json();
+    assert_true(JB(o, "replace"));
+    assert_false(json_object_object_get_ex(o, "state", NULL));
+    assert_int_equal(stc_job_wait(c, JU(o, "job"), 600000, &job), 0);
+    json_object_put(o);
+    assert_int_equal(stc_delete(c, "cli-json-bc1"), 0);
+    stc_close(c);
+}
+
+/* --json leaves the exit codes as they are and writes nothing to stdout on an error. */
+static void json_keeps_the_exit_codes(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("info", "no-such-set", "--json"), 1);
+    assert_int_equal(OUTLEN, 0);
+    assert_non_null(strstr(ERR, "NOT_FOUND"));
+    assert_int_equal(CLI("compress", "no-such-set", "x", "--json"), 1);
+    assert_int_equal(OUTLEN, 0);
+    assert_int_equal(CLI("ls", "--json", "extra"), 2);
+    assert_int_equal(OUTLEN, 0);
+    assert_int_equal(CLI("stats", "--jsn"), 2);
+    assert_int_equal(CLI("ls", "--help"), 0);
+    assert_non_null(strstr(OUT, "--json"));
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(fd >= 0);
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+    socklen_t al = sizeof a;
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    char port[16];
+    snprintf(port, sizeof port, "%u", ntohs(a.sin_port));
+    close(fd);
+    assert_int_equal(runv(bin("seamtex"), NULL,
+                          (const char *const[]){ "-p", port, "stats", "--json", NULL }), 3);
+    assert_int_equal(OUTLEN, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -489,6 +776,11 @@ int main(void)
         cmocka_unit_test(bench_open_loop_sends_its_schedule_and_corrects_latency),
         cmocka_unit_test(bench_sample_batches_are_answered),
         cmocka_unit_test(bench_refuses_a_non_loopback_host),
+        cmocka_unit_test(ls_json_lists_what_the_library_lists),
+        cmocka_unit_test(info_json_matches_the_text_and_the_library),
+        cmocka_unit_test(stats_json_has_every_counter_with_its_value),
+        cmocka_unit_test(compress_json_reports_the_job_and_sizes),
+        cmocka_unit_test(json_keeps_the_exit_codes),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
