@@ -151,6 +151,7 @@ deps:
 test: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
 	@$(MAKE) --no-print-directory check-layout
+	@$(MAKE) --no-print-directory check-deploy
 	@B=$(B) bash tests/run.sh
 
 # FUZZ_SECONDS per target (default 600); FUZZ_CORPUS_DIR keeps the corpora between campaigns.
@@ -192,6 +193,11 @@ install: all
 	@if [ -f client/seamtex.pc.in ]; then \
 		sed -e 's|@PREFIX@|$(PREFIX)|g' client/seamtex.pc.in > $(DESTDIR)$(PREFIX)/lib/pkgconfig/seamtex.pc; fi
 
+# deploy/: the Kubernetes manifests parse and every seamtexd flag deploy/ uses is one that
+# `seamtexd --help` lists (deploy/check-deploy.py says which flags may still be missing).
+check-deploy: $(B)/seamtexd $(B)/seamtex
+	@python3 deploy/check-deploy.py $(B)/seamtexd $(B)/seamtex
+
 # Every store part's headers compile on their own with only the include paths the rules above
 # give that part (no header leans on what an including file happened to include first).
 check-layout:
@@ -206,6 +212,6 @@ clean:
 	rm -rf build build-san build-tsan
 
 .PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
-	tsan-build check-layout python
+	tsan-build check-layout check-deploy python
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

@@ -98,3 +98,8 @@ tsan-build: $(filter $(B)/tests/integration/%,$(TEST_BINS)) $(ALL_BINS)
 bench-build: $(BENCH_BINS) $(ALL_BINS)
 
 .SECONDARY:
+
+# json-c (Debian libjson-c-dev) for the tests that parse seamtexd's JSON log lines
+# (tests/common/json_line.c)
+JSON_TESTS := $(B)/tests/unit/test_json_log $(B)/tests/integration/test_log_json
+$(JSON_TESTS): LDLIBS += $(shell pkg-config --libs json-c 2>/dev/null || echo -ljson-c)
