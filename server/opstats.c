@@ -130,12 +130,12 @@ size_t sts_opstats_report(const sts_opstats *s, stp_stat *out, size_t cap)
         put(out, cap, &n, key, errors);
         if (!total)
             continue;
-        snprintf(key, sizeof key, "op_%s_sum_us", lower);
-        put(out, cap, &n, key, sum_us);
         snprintf(key, sizeof key, "op_%s_p50_us", lower);
         put(out, cap, &n, key, quantile_us(lat, total, 0.50));
         snprintf(key, sizeof key, "op_%s_p99_us", lower);
         put(out, cap, &n, key, quantile_us(lat, total, 0.99));
+        snprintf(key, sizeof key, "op_%s_sum_us", lower);
+        put(out, cap, &n, key, sum_us);
         for (unsigned b = 0; b < STS_LAT_BUCKETS; b++) {
             if (!lat[b])
                 continue;
