@@ -11,13 +11,15 @@ Checks:
     the systemd unit's ExecStart, the keys of seamtexd.conf.example) is listed by
     `seamtexd --help`;
   - every probe and HEALTHCHECK runs `seamtex ... ping` with options `seamtex --help` lists;
-  - the prometheus.io/port annotation is the port of --metrics-listen and a containerPort.
+  - the prometheus.io/port annotation is the port of --metrics-listen and a containerPort;
+  - when kubectl is installed, `kubectl kustomize deploy/k8s` renders (offline, no cluster).
 Exit status 0 when all hold, 1 with one line per problem otherwise.
 """
 import glob
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 
@@ -119,6 +121,12 @@ def main():
                             continue
                         check_ping(f"{rel} {probe}", (pr.get("exec") or {}).get("command"),
                                    cli_flags, cli_help)
+    kubectl = shutil.which("kubectl")
+    if kubectl:
+        r = subprocess.run([kubectl, "kustomize", os.path.join(ROOT, "deploy/k8s")],
+                           capture_output=True, text=True, timeout=120)
+        if r.returncode != 0:
+            problem(f"kubectl kustomize deploy/k8s failed: {r.stderr.strip()[:300]}")
     for want in (("StatefulSet", "etcd"), ("StatefulSet", "seamtexd"),
                  ("PodDisruptionBudget", "seamtexd")):
         if want not in names:
