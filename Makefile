@@ -160,7 +160,7 @@ deps:
 
 test: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
-	@$(MAKE) --no-print-directory check-layout check-man
+	@$(MAKE) --no-print-directory check-layout check-man check-deploy
 	@B=$(B) bash tests/run.sh; rc=$$?; $(if $(filter 0,$(SAN)),$(MAKE) --no-print-directory \
 		check-deb || rc=1;) exit $$rc
 
@@ -237,6 +237,11 @@ check-man: all
 check-deb: all
 	@B=$(B) bash tests/check-deb.sh
 
+# deploy/: the Kubernetes manifests parse and every seamtexd flag deploy/ uses is one that
+# `seamtexd --help` lists (deploy/check-deploy.py says which flags may still be missing).
+check-deploy: $(B)/seamtexd $(B)/seamtex
+	@python3 deploy/check-deploy.py $(B)/seamtexd $(B)/seamtex
+
 # Every store part's headers compile on their own with only the include paths the rules above
 # give that part (no header leans on what an including file happened to include first).
 check-layout:
@@ -251,6 +256,6 @@ clean:
 	rm -rf build build-san build-tsan
 
 .PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
-	tsan-build check-layout python deb check-man check-deb
+	tsan-build check-layout check-deploy python deb check-man check-deb
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

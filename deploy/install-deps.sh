@@ -12,13 +12,14 @@ set -euo pipefail
 # (cluster mode); etcd-server / etcd-client: the tests start their own etcd on loopback.
 # prometheus gives promtool (tests check /metrics with it); mandoc lints the man pages;
 # openimageio-tools gives maketx (the out-of-core benchmark's TextureSystem comparison);
-# lintian checks the .deb that `make deb` builds.
+# lintian checks the .deb that `make deb` builds. python3-yaml: make check-deploy parses the
+# Kubernetes manifests in deploy/k8s/.
 PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
       memcached redis-server
       libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev
       python3-dev python3-setuptools python3-pytest python3-numpy
       libcurl4-openssl-dev libjson-c-dev etcd-server etcd-client
-      prometheus mandoc openimageio-tools lintian)
+      prometheus mandoc openimageio-tools lintian python3-yaml)
 
 missing=()
 for p in "${PKGS[@]}"; do

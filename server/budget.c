@@ -212,8 +212,20 @@ void sts_budget_cold_done(sts_server *srv, int64_t t0_us, uint32_t nqueries)
     while (k + 1 < STS_COLD_HIST && (uint64_t)us > hist_us[k])
         k++;
     __atomic_add_fetch(&b->cold_hist[k], 1, __ATOMIC_RELAXED);
+    __atomic_add_fetch(&b->cold_sum_us, (uint64_t)(us > 0 ? us : 0), __ATOMIC_RELAXED);
     __atomic_add_fetch(&b->cold_batches, 1, __ATOMIC_RELAXED);
     __atomic_add_fetch(&b->cold_queries, nqueries, __ATOMIC_RELAXED);
+}
+
+void sts_budget_hist(sts_server *srv, uint64_t counts[STS_COLD_HIST],
+                     uint32_t bound_us[STS_COLD_HIST], uint64_t *sum_us)
+{
+    sts_budget *b = &srv->budget;
+    *sum_us = __atomic_load_n(&b->cold_sum_us, __ATOMIC_RELAXED);
+    for (unsigned k = 0; k < STS_COLD_HIST; k++) {
+        counts[k] = __atomic_load_n(&b->cold_hist[k], __ATOMIC_RELAXED);
+        bound_us[k] = hist_us[k];
+    }
 }
 
 size_t sts_budget_stats(sts_server *srv, stp_stat *s, size_t cap)
@@ -233,14 +245,18 @@ size_t sts_budget_stats(sts_server *srv, stp_stat *s, size_t cap)
     PUT("major_faults", (uint64_t)(mf > 0 ? mf : 0));
     PUT("cold_batches", __atomic_load_n(&b->cold_batches, __ATOMIC_RELAXED));
     PUT("cold_queries", __atomic_load_n(&b->cold_queries, __ATOMIC_RELAXED));
+    uint64_t counts[STS_COLD_HIST], sum_us;
+    uint32_t bound_us[STS_COLD_HIST];
+    sts_budget_hist(srv, counts, bound_us, &sum_us);
     for (unsigned k = 0; k < STS_COLD_HIST; k++) {
         char key[48];
-        if (hist_us[k] == UINT32_MAX)
+        if (bound_us[k] == UINT32_MAX)
             snprintf(key, sizeof key, "cold_first_us_inf");
         else
-            snprintf(key, sizeof key, "cold_first_us_le_%u", hist_us[k]);
-        PUT(key, __atomic_load_n(&b->cold_hist[k], __ATOMIC_RELAXED));
+            snprintf(key, sizeof key, "cold_first_us_le_%u", bound_us[k]);
+        PUT(key, counts[k]);
     }
+    PUT("cold_first_us_sum", sum_us);
 #undef PUT
     return n;
 }

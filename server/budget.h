@@ -24,6 +24,7 @@ typedef struct sts_budget {
     uint64_t        cold_batches;    /* atomic: SAMPLE batches that woke a released set */
     uint64_t        cold_queries;    /* atomic: the queries of those batches */
     uint64_t        cold_hist[STS_COLD_HIST];  /* atomic: their sampling latency */
+    uint64_t        cold_sum_us;     /* atomic: those latencies added up */
 } sts_budget;
 
 struct sts_server;
@@ -37,6 +38,11 @@ int64_t sts_budget_clock_us(void);
 void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueries);
 /* Stored and resident texture bytes of every set now (STATS). */
 void sts_budget_measure(struct sts_server *srv, uint64_t *stored, uint64_t *resident);
+/* The first-sample histogram now: counts[k] batches took at most bound_us[k] microseconds
+ * and more than bound_us[k - 1] (the last bound is UINT32_MAX: no bound); *sum_us their sum.
+ * STATS and /metrics both read it through here. */
+void sts_budget_hist(struct sts_server *srv, uint64_t counts[STS_COLD_HIST],
+                     uint32_t bound_us[STS_COLD_HIST], uint64_t *sum_us);
 /* Appends the budget's STATS entries; returns how many. */
 size_t sts_budget_stats(struct sts_server *srv, stp_stat *s, size_t cap);
 

@@ -9,7 +9,7 @@
 
 #include "log.h"
 
-enum { T_STR, T_U32, T_SIZE, T_BOOL, T_LEVEL, T_NOT };
+enum { T_STR, T_U32, T_SIZE, T_BOOL, T_LEVEL, T_NOT, T_LOGFMT };
 
 typedef struct opt {
     const char *name;      /* flag without "--", config key */
@@ -94,6 +94,12 @@ static const opt OPTS[] = {
      "load the built-in set as \"default\" at start (default yes)"},
     {"no-default-set", T_NOT, O(default_set), 0, 0, NULL, "same as --default-set no"},
     {"log-level", T_LEVEL, O(log_level), 0, 1, "LEVEL", "error, warn, info or debug (default info)"},
+    {"log-format", T_LOGFMT, O(log_format), 0, 0, "text|json",
+     "text lines, or one JSON object per line with time, level, message and the line's\n"
+     "fields (default text)"},
+    {"metrics-listen", T_STR, O(metrics_listen), S(metrics_listen), 0, "HOST:PORT",
+     "serve GET /metrics (Prometheus text format) on HOST:PORT; a bare PORT means\n"
+     "127.0.0.1:PORT (default: off)"},
 };
 #define NOPTS (sizeof OPTS / sizeof OPTS[0])
 
@@ -218,6 +224,15 @@ static int set_opt(sts_config *c, const opt *o, const char *val, char *err, size
     case T_NOT:
         *(int *)(void *)base = 0;
         return 0;
+    case T_LOGFMT: {
+        int l = sts_log_format_parse(val);
+        if (l < 0) {
+            snprintf(err, errcap, "%s: '%s' is not text or json", o->name, val);
+            return -1;
+        }
+        *(int *)(void *)base = l;
+        return 0;
+    }
     case T_LEVEL: {
         int l = sts_level_parse(val);
         if (l < 0) {
@@ -370,7 +385,7 @@ int sts_config_from_args(sts_config *c, int argc, char **argv, char *err, size_t
             return 1;
         }
         if (!strcmp(a, "--version")) {
-            printf("seamtexd 0.1 (protocol version 1)\n");
+            printf("seamtexd " STS_VERSION " (protocol version 1)\n");
             return 1;
         }
         if (!strcmp(a, "--config") || !strcmp(a, "-c")) {
@@ -445,11 +460,27 @@ int sts_config_check(const sts_config *c, char *err, size_t errcap)
         snprintf(err, errcap, "conn-out-cap must be at least 64K");
         return -1;
     }
+    if (c->metrics_listen[0] && sts_metrics_addr(c->metrics_listen, host, sizeof host, &port)) {
+        snprintf(err, errcap, "metrics-listen: '%s' is not HOST:PORT or PORT", c->metrics_listen);
+        return -1;
+    }
     if (c->request_min_rate < 1024) {
         snprintf(err, errcap, "request-min-rate must be at least 1K");
         return -1;
     }
     return 0;
+}
+
+int sts_metrics_addr(const char *s, char *host, size_t hostcap, int *port)
+{
+    if (*s && strspn(s, "0123456789") == strlen(s)) {   /* a bare port: loopback */
+        char full[32];
+        if (strlen(s) > 5)
+            return -1;
+        snprintf(full, sizeof full, "127.0.0.1:%s", s);
+        return sts_parse_listen(full, host, hostcap, port);
+    }
+    return sts_parse_listen(s, host, hostcap, port);
 }
 
 int sts_parse_listen(const char *s, char *host, size_t hostcap, int *port)
@@ -538,6 +569,9 @@ static void fmt_val(const sts_config *c, const opt *o, char *out, size_t cap)
         snprintf(out, cap, "%s", *(const int *)(const void *)base ? "yes" : "no");
         break;
     case T_LEVEL: snprintf(out, cap, "%s", sts_level_name(*(const int *)(const void *)base)); break;
+    case T_LOGFMT:
+        snprintf(out, cap, "%s", sts_log_format_name(*(const int *)(const void *)base));
+        break;
     }
 }
 

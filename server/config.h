@@ -16,6 +16,7 @@
 
 #define STS_DEFAULT_PORT 7450
 #define STS_TOKEN_MAX 255
+#define STS_VERSION "0.1"   /* --version, the build-info metric */
 
 typedef struct sts_config {
     char     listen[128];       /* host:port; default 127.0.0.1:7450 */
@@ -53,6 +54,8 @@ typedef struct sts_config {
     int      verify_native;     /* check native files' texel CRCs at start */
     int      default_set;       /* load the built-in set as "default" */
     int      log_level;         /* sts_level */
+    int      log_format;        /* sts_log_format: text or json (restart only) */
+    char     metrics_listen[128]; /* HOST:PORT or PORT (127.0.0.1) for GET /metrics; "" = off */
 } sts_config;
 
 /* Fills the defaults. */
@@ -88,5 +91,7 @@ int sts_config_diff(const sts_config *a, const sts_config *b, char *out, size_t 
 
 /* Splits "host:port" ("[v6]:port" too). 0 or -1. */
 int sts_parse_listen(const char *s, char *host, size_t hostcap, int *port);
+/* --metrics-listen: "HOST:PORT" as sts_parse_listen, or a bare "PORT" meaning 127.0.0.1. */
+int sts_metrics_addr(const char *s, char *host, size_t hostcap, int *port);
 
 #endif

@@ -357,6 +357,15 @@ static int sample_into_reply(sts_ctx *c, const stp_header *h, const stp_sample_r
     return 0;
 }
 
+/* Counts the queries of an answered batch: in all, by mode and filter, and the bad ones. */
+static void count_queries(sts_server *srv, const stp_sample_params *p, uint32_t n, uint64_t bad)
+{
+    STS_STAT_ADD(srv, queries, n);
+    STS_STAT_ADD(srv, query_errors, bad);
+    if (p->mode < STS_QMODES && p->filter < STS_QFILTERS)
+        STS_STAT_ADD(srv, queries_by[p->mode][p->filter], n);
+}
+
 /* Samples and replies; shared by SAMPLE and SAMPLE_DIR (h->opcode tells which). */
 static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
                          stp_buf *out)
@@ -436,8 +445,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     if (cold)
         sts_budget_cold_done(c->srv, t0, n);
     if (replied && rc >= 0) {
-        STS_STAT_ADD(c->srv, queries, n);
-        STS_STAT_ADD(c->srv, query_errors, (uint64_t)rc);
+        count_queries(c->srv, &rq->p, n, (uint64_t)rc);
         st_setref_release(ref);
         return 0;
     }
@@ -450,8 +458,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
                                      : "the Ptex filters need a per-face set");
         return 0;
     }
-    STS_STAT_ADD(c->srv, queries, n);
-    STS_STAT_ADD(c->srv, query_errors, (uint64_t)rc);
+    count_queries(c->srv, &rq->p, n, (uint64_t)rc);
     stp_sample_reply r;
     memset(&r, 0, sizeof r);
     r.count = n;
@@ -495,18 +502,14 @@ int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     s[n].type = STP_STAT_U64; s[n].v.u = (val); n++; } } while (0)
 #define L(f) __atomic_load_n(&srv->stats.f, __ATOMIC_RELAXED)
 
-int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+size_t sts_stats_max_keys(void)
 {
-    const char *why = NULL;
-    if (h->body_len && stp_dec_empty(body, h->body_len, &why))
-        return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
-    sts_server *srv = c->srv;
-    size_t cap = 192 + sts_opstats_max_keys(); /* with the budget's keys (budget.c) */
-    stp_stat *s = malloc(cap * sizeof *s);
-    if (!s) {
-        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
-        return 0;
-    }
+    /* with the budget's keys (budget.c) and the query counts by mode and filter */
+    return 192 + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
+}
+
+size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
+{
     size_t n = 0;
     U("uptime_ms", (uint64_t)(sts_now_ms() - srv->started_ms));
     U("conns_current", __atomic_load_n(&srv->nconns, __ATOMIC_RELAXED));
@@ -560,6 +563,17 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     n += sts_budget_stats(srv, s + n, cap - n);
     U("max_conns", STS_LIVE(srv, max_conns));
     U("max_frame", STS_LIVE(srv, max_frame));
+    U("metrics_port", (uint64_t)srv->metrics.port);
+    U("metrics_scrapes", __atomic_load_n(&srv->metrics.scrapes, __ATOMIC_RELAXED));
+    U("metrics_refused", __atomic_load_n(&srv->metrics.refused, __ATOMIC_RELAXED));
+    for (unsigned m = 0; m < STS_QMODES; m++)
+        for (unsigned f = 0; f < STS_QFILTERS; f++) {
+            uint64_t v = __atomic_load_n(&srv->stats.queries_by[m][f], __ATOMIC_RELAXED);
+            char key[STP_MAX_STAT_KEY + 1];
+            if (!v || sts_queries_key(m, f, key, sizeof key) != 0)
+                continue;
+            U(key, v);
+        }
     for (unsigned op = 0; op < 256; op++) {
         uint64_t v = __atomic_load_n(&srv->stats.by_op[op], __ATOMIC_RELAXED);
         const char *name = stp_opcode_name(op);
@@ -573,6 +587,33 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
         U(key, v);
     }
     n += sts_opstats_report(&srv->opstats, s + n, cap - n);
+    return n;
+}
+
+int sts_queries_key(unsigned mode, unsigned filter, char *key, size_t cap)
+{
+    const char *m = stp_mode_name(mode), *f = stp_filter_name(filter);
+    if (!m || !f)
+        return -1;
+    snprintf(key, cap, "queries_%s_%s", m, f);
+    for (char *p = key; *p; p++)
+        if (*p == '-')
+            *p = '_';
+    return 0;
+}
+
+int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    const char *why = NULL;
+    if (h->body_len && stp_dec_empty(body, h->body_len, &why))
+        return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
+    size_t cap = sts_stats_max_keys();
+    stp_stat *s = malloc(cap * sizeof *s);
+    if (!s) {
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
+    size_t n = sts_stats_collect(c->srv, s, cap);
     stp_stats_reply r;
     memset(&r, 0, sizeof r);
     r.count = (uint32_t)n;

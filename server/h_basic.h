@@ -18,4 +18,13 @@ STS_HANDLER(sts_h_sample);
 STS_HANDLER(sts_h_sample_dir);
 STS_HANDLER(sts_h_stats);
 
+/* The STATS entries, in the order STATS sends them (PROTOCOL.md 4.7): fills at most cap
+ * entries of s and returns how many. What STATS encodes and /metrics renders (metrics_text.c),
+ * so the two always show the same counters. Any thread. */
+size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap);
+/* The most entries sts_stats_collect writes. */
+size_t sts_stats_max_keys(void);
+/* "queries_<mode>_<filter>" ('-' as '_') for wire values mode, filter; -1 for unnamed ones. */
+int sts_queries_key(unsigned mode, unsigned filter, char *key, size_t cap);
+
 #endif

@@ -127,11 +127,15 @@ static void refuse(sts_ctx *c, const stp_header *h, stp_buf *out, const char *na
                    const char *why, const char *logwhy)
 {
     const char *op = stp_opcode_name(h->opcode);
+    const char *sname = stp_status_name(status);
     sts_reply_error(out, h, status, why);
-    sts_logf(&c->srv->log, STS_WARN, "upload%s%.255s%s from %s refused at %s (%s): %s",
-             name && *name ? " of '" : "", name ? name : "", name && *name ? "'" : "",
-             c->conn->peer, op ? op : "?", stp_status_name(status) ? stp_status_name(status) : "?",
-             logwhy ? logwhy : why);
+    sts_logkv(&c->srv->log, STS_WARN,
+              STS_FIELDS(STS_FS("event", "upload_refused"), STS_FS("set", name),
+                         STS_FS("peer", c->conn->peer), STS_FS("stage", op),
+                         STS_FS("status", sname), STS_FS("reason", logwhy ? logwhy : why)),
+              "upload%s%.255s%s from %s refused at %s (%s): %s",
+              name && *name ? " of '" : "", name ? name : "", name && *name ? "'" : "",
+              c->conn->peer, op ? op : "?", sname ? sname : "?", logwhy ? logwhy : why);
 }
 
 /* The same with a decoder's reason, as sts_reply_bad words it ("<OPCODE>: <why>"). */
@@ -186,9 +190,14 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         int found = sts_uploads_adopt(srv, &rq, c->conn->id, &id, &received);
         if (found > 0) {
             STS_STAT_ADD(srv, uploads_resumed, 1);
-            sts_logf(&srv->log, STS_INFO, "upload of '%s' resumed at %llu of %llu bytes%s", rq.name,
-                     (unsigned long long)received, (unsigned long long)rq.total_size,
-                     received == rq.total_size ? " (complete: COMMIT repeats or finishes it)" : "");
+            sts_logkv(&srv->log, STS_INFO,
+                      STS_FIELDS(STS_FS("event", "upload_resumed"), STS_FS("set", rq.name),
+                                 STS_FS("peer", c->conn->peer), STS_FI("received", received),
+                                 STS_FI("total", rq.total_size)),
+                      "upload of '%s' resumed at %llu of %llu bytes%s", rq.name,
+                      (unsigned long long)received, (unsigned long long)rq.total_size,
+                      received == rq.total_size ? " (complete: COMMIT repeats or finishes it)"
+                                                : "");
             stp_upload_begin_reply r = {id, received, STP_DEFAULT_MAX_CHUNK};
             stp_enc_upload_begin_reply(out, h->reqid, &r);
             return 0;
@@ -443,9 +452,14 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         goto fail;
     }
     STS_STAT_ADD(srv, uploads_committed, 1);
-    sts_logf(&srv->log, STS_INFO, "set '%s' %s from a %llu-byte .%s upload (%u faces, %llu bytes "
-             "in memory)", done.name, pa.replaced ? "replaced" : "created",
-             (unsigned long long)u->total, u->fmt, done.nfaces, (unsigned long long)done.memory);
+    sts_logkv(&srv->log, STS_INFO,
+              STS_FIELDS(STS_FS("event", pa.replaced ? "set_replaced" : "set_created"),
+                         STS_FS("set", done.name), STS_FS("peer", c->conn->peer),
+                         STS_FS("format", u->fmt), STS_FI("bytes", u->total),
+                         STS_FI("faces", done.nfaces), STS_FI("memory", done.memory)),
+              "set '%s' %s from a %llu-byte .%s upload (%u faces, %llu bytes in memory)",
+              done.name, pa.replaced ? "replaced" : "created", (unsigned long long)u->total,
+              u->fmt, done.nfaces, (unsigned long long)done.memory);
     sts_uploads_finish_commit(srv, u, &done);
     stp_enc_upload_done(out, h->reqid, &done);
     return 0;
@@ -518,7 +532,10 @@ int sts_h_delete(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
         return 0;
     }
     STS_STAT_ADD(srv, deletes, 1);
-    sts_logf(&srv->log, STS_INFO, "set '%s' deleted", name);
+    sts_logkv(&srv->log, STS_INFO,
+              STS_FIELDS(STS_FS("event", "set_deleted"), STS_FS("set", name),
+                         STS_FS("peer", c->conn->peer)),
+              "set '%s' deleted", name);
     stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
     return 0;
 }

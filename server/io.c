@@ -456,8 +456,11 @@ static void evict(sts_conn *c, int64_t now)
 {
     sts_server *srv = c->io->srv;
     STS_STAT_ADD(srv, conns_evicted, 1);
-    sts_logf(&srv->log, STS_INFO, "connection from %s evicted for a new one (max-conns): a "
-             "request frame incomplete for %lld ms", c->peer, (long long)(now - c->req_start_ms));
+    sts_logkv(&srv->log, STS_INFO,
+              STS_FIELDS(STS_FS("event", "conn_evicted"), STS_FS("peer", c->peer),
+                         STS_FI("incomplete_ms", now - c->req_start_ms)),
+              "connection from %s evicted for a new one (max-conns): a request frame incomplete "
+              "for %lld ms", c->peer, (long long)(now - c->req_start_ms));
     close_with(c, STP_S_BUSY, "evicted: a request frame incomplete for over a second while the "
                "server is at max-conns");
 }
@@ -678,9 +681,11 @@ static void idle_scan(sts_io *io, int64_t now)
         if (deadline && !c->busy && !c->dead && c->req_start_ms &&
             now - c->req_start_ms > request_allowance_ms(srv, c)) {
             STS_STAT_ADD(srv, conns_request_timeout, 1);
-            sts_logf(&srv->log, STS_INFO, "connection from %s closed: a request frame "
-                     "incomplete %lld ms after its first byte (request-timeout)", c->peer,
-                     (long long)(now - c->req_start_ms));
+            sts_logkv(&srv->log, STS_INFO,
+                      STS_FIELDS(STS_FS("event", "conn_request_timeout"), STS_FS("peer", c->peer),
+                                 STS_FI("incomplete_ms", now - c->req_start_ms)),
+                      "connection from %s closed: a request frame incomplete %lld ms after its "
+                      "first byte (request-timeout)", c->peer, (long long)(now - c->req_start_ms));
             close_with(c, STP_S_TIMEOUT, "a request frame did not arrive whole within "
                        "request-timeout: connection closed");
         } else if (!c->busy && idle && now - c->last_ms > (int64_t)idle * 1000) {

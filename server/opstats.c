@@ -33,7 +33,9 @@ void sts_opstats_record(sts_opstats *s, unsigned opcode, int64_t start_us, const
                         size_t avail_before)
 {
     sts_opstat *o = &s->op[opcode & 0xFF];
-    __atomic_add_fetch(&o->lat[bucket_of(sts_opstats_now_us() - start_us)], 1, __ATOMIC_RELAXED);
+    int64_t us = sts_opstats_now_us() - start_us;
+    __atomic_add_fetch(&o->lat[bucket_of(us)], 1, __ATOMIC_RELAXED);
+    __atomic_add_fetch(&o->sum_us, (uint64_t)(us > 0 ? us : 0), __ATOMIC_RELAXED);
     size_t avail = stp_buf_avail(out);
     size_t added = avail > avail_before ? avail - avail_before : 0;
     if (added >= STP_HEADER_SIZE &&                 /* status at offset 12 of the frame */
@@ -50,6 +52,27 @@ static uint64_t bucket_lo(unsigned b)
 static uint64_t bucket_hi(unsigned b)
 {
     return (uint64_t)1 << b;
+}
+
+uint64_t sts_opstats_bucket_hi_us(unsigned b)
+{
+    return bucket_hi(b);
+}
+
+uint64_t sts_opstats_read(const sts_opstats *s, unsigned opcode, uint64_t *lat,
+                          uint64_t *errors, uint64_t *sum_us)
+{
+    const sts_opstat *o = &s->op[opcode & 0xFF];
+    uint64_t total = 0;
+    /* errors first: record adds an error after its bucket, so reading the buckets last shows
+     * no more errors than requests (on x86, whose stores are seen in order) */
+    *errors = __atomic_load_n(&o->errors, __ATOMIC_RELAXED);
+    *sum_us = __atomic_load_n(&o->sum_us, __ATOMIC_RELAXED);
+    for (unsigned b = 0; b < STS_LAT_BUCKETS; b++) {
+        lat[b] = __atomic_load_n(&o->lat[b], __ATOMIC_RELAXED);
+        total += lat[b];
+    }
+    return total;
 }
 
 /* The upper bound of the bucket holding the request of rank ceil(q * n) (1-based). */
@@ -74,7 +97,7 @@ size_t sts_opstats_max_keys(void)
     size_t named = 0;
     for (unsigned op = 0; op < 256; op++)
         named += stp_opcode_name(op) != NULL;
-    return named * (4 + STS_LAT_BUCKETS);
+    return named * (5 + STS_LAT_BUCKETS);
 }
 
 static void put(stp_stat *out, size_t cap, size_t *n, const char *key, uint64_t v)
@@ -99,21 +122,20 @@ size_t sts_opstats_report(const sts_opstats *s, stp_stat *out, size_t cap)
         for (char *p = lower; *p; p++)
             if (*p >= 'A' && *p <= 'Z')
                 *p = (char)(*p - 'A' + 'a');
-        uint64_t lat[STS_LAT_BUCKETS], total = 0;
-        for (unsigned b = 0; b < STS_LAT_BUCKETS; b++) {
-            lat[b] = __atomic_load_n(&s->op[op].lat[b], __ATOMIC_RELAXED);
-            total += lat[b];
-        }
+        uint64_t lat[STS_LAT_BUCKETS], errors, sum_us;
+        uint64_t total = sts_opstats_read(s, op, lat, &errors, &sum_us);
         snprintf(key, sizeof key, "op_%s_requests", lower);
         put(out, cap, &n, key, total);
         snprintf(key, sizeof key, "op_%s_errors", lower);
-        put(out, cap, &n, key, __atomic_load_n(&s->op[op].errors, __ATOMIC_RELAXED));
+        put(out, cap, &n, key, errors);
         if (!total)
             continue;
         snprintf(key, sizeof key, "op_%s_p50_us", lower);
         put(out, cap, &n, key, quantile_us(lat, total, 0.50));
         snprintf(key, sizeof key, "op_%s_p99_us", lower);
         put(out, cap, &n, key, quantile_us(lat, total, 0.99));
+        snprintf(key, sizeof key, "op_%s_sum_us", lower);
+        put(out, cap, &n, key, sum_us);
         for (unsigned b = 0; b < STS_LAT_BUCKETS; b++) {
             if (!lat[b])
                 continue;

@@ -78,11 +78,9 @@ static void raise_nofile(sts_server *srv)
                  srv->cfg.max_conns);
 }
 
-static int open_listener(sts_server *srv)
+int sts_tcp_listen(sts_server *srv, const char *what, const char *host, int port, int backlog,
+                   int *bound)
 {
-    char host[128];
-    int port;
-    sts_parse_listen(srv->cfg.listen, host, sizeof host, &port);
     struct addrinfo hints, *res = NULL;
     memset(&hints, 0, sizeof hints);
     hints.ai_family = AF_UNSPEC;
@@ -92,7 +90,7 @@ static int open_listener(sts_server *srv)
     snprintf(ps, sizeof ps, "%d", port);
     int rc = getaddrinfo(host, ps, &hints, &res);
     if (rc != 0) {
-        sts_logf(&srv->log, STS_ERROR, "listen %s: %s", srv->cfg.listen, gai_strerror(rc));
+        sts_logf(&srv->log, STS_ERROR, "%s %s:%d: %s", what, host, port, gai_strerror(rc));
         return -1;
     }
     int fd = -1;
@@ -102,9 +100,9 @@ static int open_listener(sts_server *srv)
             continue;
         int one = 1;
         setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-        if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, 4096) == 0)
+        if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, backlog) == 0)
             break;
-        sts_logf(&srv->log, STS_ERROR, "listen %s: %s", srv->cfg.listen, strerror(errno));
+        sts_logf(&srv->log, STS_ERROR, "%s %s:%d: %s", what, host, port, strerror(errno));
         close(fd);
         fd = -1;
     }
@@ -114,10 +112,18 @@ static int open_listener(sts_server *srv)
     struct sockaddr_storage ss;
     socklen_t sl = sizeof ss;
     getsockname(fd, (struct sockaddr *)&ss, &sl);
-    srv->port = ss.ss_family == AF_INET6 ? ntohs(((struct sockaddr_in6 *)&ss)->sin6_port)
-                                         : ntohs(((struct sockaddr_in *)&ss)->sin_port);
-    srv->listen_fd = fd;
-    return 0;
+    *bound = ss.ss_family == AF_INET6 ? ntohs(((struct sockaddr_in6 *)&ss)->sin6_port)
+                                      : ntohs(((struct sockaddr_in *)&ss)->sin_port);
+    return fd;
+}
+
+static int open_listener(sts_server *srv)
+{
+    char host[128];
+    int port;
+    sts_parse_listen(srv->cfg.listen, host, sizeof host, &port);
+    srv->listen_fd = sts_tcp_listen(srv, "listen", host, port, 4096, &srv->port);
+    return srv->listen_fd < 0 ? -1 : 0;
 }
 
 /* path made absolute against the working folder (not resolved: it may not exist yet). */
@@ -138,6 +144,8 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     srv->token_gen = 1;
     srv->started_ms = sts_now_ms();
     sts_log_set_level(&srv->log, cfg->log_level);
+    srv->log.format = cfg->log_format;
+    srv->metrics.fd = srv->metrics.wakefd = -1;
     pthread_mutex_init(&srv->cfg_mu, NULL);
     pthread_mutex_init(&srv->commit_mu, NULL);
     sts_handles_init(&srv->uploads);
@@ -186,7 +194,7 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
                 sts_logf(&srv->log, STS_WARN, "built-in set 'default' not loaded: %s", e.msg);
         }
     }
-    if (open_listener(srv) != 0)
+    if (open_listener(srv) != 0 || sts_metrics_open(srv) != 0)
         return -1;
     return 0;
 }
@@ -245,17 +253,24 @@ int sts_server_start(sts_server *srv)
             return -1;
         }
     }
-    if (write_port_file(srv) != 0)
+    if (sts_metrics_start(srv) != 0 || write_port_file(srv) != 0)
         return -1;
-    sts_logf(&srv->log, STS_INFO, "seamtexd serving on %s (port %d): %u I/O threads, %u workers, "
-             "%zu sets, token %s", srv->cfg.listen, srv->port, srv->nio, srv->cfg.workers,
-             st_registry_count(srv->reg), srv->cfg.token[0] ? "required for changes" : "off");
+    sts_logkv(&srv->log, STS_INFO,
+              STS_FIELDS(STS_FS("event", "serving"), STS_FS("listen", srv->cfg.listen),
+                         STS_FI("port", srv->port), STS_FI("io_threads", srv->nio),
+                         STS_FI("workers", srv->cfg.workers),
+                         STS_FI("sets", st_registry_count(srv->reg)),
+                         STS_FI("metrics_port", srv->metrics.port)),
+              "seamtexd serving on %s (port %d): %u I/O threads, %u workers, %zu sets, token %s",
+              srv->cfg.listen, srv->port, srv->nio, srv->cfg.workers,
+              st_registry_count(srv->reg), srv->cfg.token[0] ? "required for changes" : "off");
     return 0;
 }
 
 void sts_server_stop(sts_server *srv, int grace_ms)
 {
     __atomic_store_n(&srv->stopping, 1, __ATOMIC_RELEASE);
+    sts_metrics_stop(srv);
     for (uint32_t i = 0; i < srv->nio; i++)
         sts_io_wake(&srv->io[i]);
     /* wait for the I/O threads to drain; past the grace period close what is left */
@@ -277,10 +292,16 @@ void sts_server_stop(sts_server *srv, int grace_ms)
     sts_pool_stop(&srv->pool);
     sts_jobs_stop(srv);
     sts_budget_stop(srv);
-    sts_logf(&srv->log, STS_INFO, "stopped: %llu connections, %llu requests (%llu errors), "
-             "%llu queries served", (unsigned long long)srv->stats.conns_accepted,
-             (unsigned long long)srv->stats.requests, (unsigned long long)srv->stats.replies_error,
-             (unsigned long long)srv->stats.queries);
+    sts_logkv(&srv->log, STS_INFO,
+              STS_FIELDS(STS_FS("event", "stopped"), STS_FI("connections", srv->stats.conns_accepted),
+                         STS_FI("requests", srv->stats.requests),
+                         STS_FI("errors", srv->stats.replies_error),
+                         STS_FI("queries", srv->stats.queries)),
+              "stopped: %llu connections, %llu requests (%llu errors), %llu queries served",
+              (unsigned long long)srv->stats.conns_accepted,
+              (unsigned long long)srv->stats.requests,
+              (unsigned long long)srv->stats.replies_error,
+              (unsigned long long)srv->stats.queries);
 }
 
 void sts_server_free(sts_server *srv)
@@ -297,6 +318,7 @@ void sts_server_free(sts_server *srv)
     srv->io = NULL;
     if (srv->listen_fd >= 0)
         close(srv->listen_fd);
+    sts_metrics_close(srv);
     sts_uploads_free(srv);
     sts_handles_destroy(&srv->fetches);   /* emptied by sts_jobs_stop */
     st_registry_free(srv->reg);

@@ -11,6 +11,8 @@
  *                           inline vs worker, error replies
  *   workers.c  workers.h    worker threads for heavy requests, split SAMPLE batches
  *   opstats.c  opstats.h    per-opcode request, error and latency counters (STATS)
+ *   metrics_http.c metrics.h  the --metrics-listen thread: GET /metrics over plain HTTP/1.x
+ *   metrics_text.c metrics.h  the Prometheus text rendering of the STATS counters
  *   handles.c  handles.h    one table of handles (ids, owner, capacity, lock): uploads,
  *                           fetches and jobs
  *   uploads.c  uploads.h    the upload records and their life (kept, resumed, done, swept)
@@ -45,6 +47,7 @@
 #include "datadir.h"
 #include "handles.h"
 #include "log.h"
+#include "metrics.h"
 #include "opstats.h"
 #include "proto.h"
 #include "registry.h"
@@ -54,7 +57,12 @@ typedef struct sts_server sts_server;
 typedef struct sts_io sts_io;
 typedef struct sts_jobs sts_jobs;
 
-/* Counters, updated with relaxed atomics, reported by STATS and at exit. */
+/* Wire values of modes and filters are below these (protocol/proto_lists.h). */
+#define STS_QMODES   4
+#define STS_QFILTERS 16
+
+/* Counters, updated with relaxed atomics, reported by STATS (h_basic.c), /metrics
+ * (metrics_text.c, from the same counters) and at exit. */
 typedef struct sts_stats {
     uint64_t conns_accepted, conns_rejected, conns_closed, conns_idle_closed;
     uint64_t requests, replies_error, bytes_in, bytes_out, reads, writes;
@@ -67,6 +75,7 @@ typedef struct sts_stats {
     uint64_t jobs_started, jobs_done, jobs_failed, jobs_canceled, fetches, fetches_refused;
     uint64_t conns_request_timeout, conns_evicted;
     uint64_t by_op[256];
+    uint64_t queries_by[STS_QMODES][STS_QFILTERS];  /* queries by wire mode and filter value */
 } sts_stats;
 
 #define STS_STAT_ADD(srv, field, n) __atomic_add_fetch(&(srv)->stats.field, (n), __ATOMIC_RELAXED)
@@ -90,6 +99,7 @@ struct sts_server {
     sts_handles     uploads;      /* upload records (uploads.c) */
     sts_handles     fetches;      /* FETCH handles (h_jobs.c) */
     sts_budget      budget;       /* budget.c: --memory-budget */
+    sts_metrics     metrics;      /* metrics_http.c: --metrics-listen */
     uint64_t        next_conn_id; /* atomic */
     uint32_t        nconns;       /* atomic: live connections */
     uint64_t        mem_used;     /* atomic: bytes in connection buffers */
@@ -123,6 +133,11 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh);
 uint32_t sts_token_check(sts_server *srv, const char *token);
 /* May a connection authenticated for generation `authed` mutate? */
 int sts_token_allows(sts_server *srv, uint32_t authed);
+
+/* A listening TCP socket (non-blocking, close-on-exec, SO_REUSEADDR) on host:port; *bound gets
+ * the port bound (port 0 picks one). The fd, or -1 with the error logged under `what`. */
+int sts_tcp_listen(sts_server *srv, const char *what, const char *host, int port, int backlog,
+                   int *bound);
 
 /* Memory accounting for connection buffers (io.c keeps srv->mem_used equal to the capacity
  * of every buffer) and open fetches (srv->fetch_mem): 0 when n more bytes fit under

@@ -101,3 +101,7 @@ bench-build: $(BENCH_BINS) $(ALL_BINS)
 
 # The CLI's --json output is parsed with json-c (Debian libjson-c-dev) by its tests.
 $(B)/tests/unit/test_cli_json_writer $(B)/tests/integration/test_cli: LDLIBS += -ljson-c
+# json-c (Debian libjson-c-dev) for the tests that parse seamtexd's JSON log lines
+# (tests/common/json_line.c)
+JSON_TESTS := $(B)/tests/unit/test_json_log $(B)/tests/integration/test_log_json
+$(JSON_TESTS): LDLIBS += $(shell pkg-config --libs json-c 2>/dev/null || echo -ljson-c)
