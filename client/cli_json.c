@@ -1,70 +1,33 @@
 /* client/cli_json.c - the CLI's JSON writer (see cli_json.h). */
 #include "cli_json.h"
 
+#include "json_str.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* Length of the valid UTF-8 sequence at s (1..4), 0 when the bytes there are not one
- * (a stray continuation byte, a truncated sequence, an overlong form, a surrogate, or a
- * code point above U+10FFFF). */
-static int utf8_len(const unsigned char *s)
+/* The quoted, escaped literal of str, through util/'s one JSON string escaper (invalid UTF-8
+ * becomes U+FFFD, control characters are escaped). */
+static void put_string(FILE *f, const char *str)
 {
-    unsigned c = s[0];
-    int n;
-    unsigned cp, min;
-    if (c < 0x80)
-        return 1;
-    if (c >= 0xC2 && c <= 0xDF) { n = 2; cp = c & 0x1F; min = 0x80; }
-    else if (c >= 0xE0 && c <= 0xEF) { n = 3; cp = c & 0x0F; min = 0x800; }
-    else if (c >= 0xF0 && c <= 0xF4) { n = 4; cp = c & 0x07; min = 0x10000; }
-    else return 0;
-    for (int i = 1; i < n; i++) {
-        if ((s[i] & 0xC0) != 0x80)       /* also stops at the NUL terminator */
-            return 0;
-        cp = (cp << 6) | (s[i] & 0x3F);
+    size_t len = strlen(str);
+    char stackbuf[512];
+    size_t need = stu_json_str(stackbuf, sizeof stackbuf, str, len);
+    if (need < sizeof stackbuf) {
+        fwrite(stackbuf, 1, need, f);
+        return;
     }
-    if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))
-        return 0;
-    return n;
+    char *buf = malloc(need + 1);
+    if (!buf) {                       /* out of memory: a valid, empty literal */
+        fputs("\"\"", f);
+        return;
+    }
+    stu_json_str(buf, need + 1, str, len);
+    fwrite(buf, 1, need, f);
+    free(buf);
 }
 
-void cli_json_write_string(FILE *f, const char *str)
-{
-    const unsigned char *s = (const unsigned char *)str;
-    while (*s) {
-        unsigned c = *s;
-        if (c == '"' || c == '\\') {
-            fputc('\\', f);
-            fputc((int)c, f);
-            s++;
-        } else if (c < 0x20) {
-            switch (c) {
-            case '\n': fputs("\\n", f); break;
-            case '\r': fputs("\\r", f); break;
-            case '\t': fputs("\\t", f); break;
-            case '\b': fputs("\\b", f); break;
-            case '\f': fputs("\\f", f); break;
-            default: fprintf(f, "\\u%04x", c); break;
-            }
-            s++;
-        } else if (c < 0x80) {
-            fputc((int)c, f);
-            s++;
-        } else {
-            int n = utf8_len(s);
-            if (n) {
-                fwrite(s, 1, (size_t)n, f);
-                s += n;
-            } else {
-                fputs("\\ufffd", f);      /* not UTF-8: the replacement character */
-                s++;
-            }
-        }
-    }
-}
-
-/* The comma, indentation and key before a value at the current level. */
 static void lead(cli_json *j, const char *key)
 {
     if (j->depth > 0) {
@@ -79,9 +42,8 @@ static void lead(cli_json *j, const char *key)
         j->bad = 1;                       /* a second top-level value: not one document */
     }
     if (key) {
-        fputc('"', j->f);
-        cli_json_write_string(j->f, key);
-        fputs("\": ", j->f);
+        put_string(j->f, key);
+        fputs(": ", j->f);
     }
 }
 
@@ -129,9 +91,7 @@ void cli_json_str(cli_json *j, const char *key, const char *v)
         fputs("null", j->f);
         return;
     }
-    fputc('"', j->f);
-    cli_json_write_string(j->f, v);
-    fputc('"', j->f);
+    put_string(j->f, v);
 }
 
 void cli_json_u64(cli_json *j, const char *key, uint64_t v)

@@ -40,7 +40,4 @@ void cli_json_double(cli_json *j, const char *key, double v);
 void cli_json_bool(cli_json *j, const char *key, int v);
 int  cli_json_end(cli_json *j);
 
-/* The escaped form of s (without quotes) written to f; exposed for the unit test. */
-void cli_json_write_string(FILE *f, const char *s);
-
 #endif
