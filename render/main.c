@@ -25,7 +25,7 @@ static void usage(FILE *f)
 "\n"
 "Texture and sampling:\n"
 "  --host H            daemon address (default 127.0.0.1)\n"
-"  --port P            daemon port (needed unless --inproc)\n"
+"  -p, --port P        daemon port (needed unless --inproc)\n"
 "  --set NAME          the set to sample (default: render-<texture base name>)\n"
 "  --texture FILE      the texture: a .ptx (Ptex mesh) or an image; default MESH.ptx beside\n"
 "                      the mesh, else the OBJ itself is uploaded as an atlas set (map_Kd)\n"
@@ -123,8 +123,10 @@ static int parse_args(int argc, char **argv, app_cfg *c)
                                .azim0_deg = 30 },
                     .repeat = 1, .out = ".", .ref_ss = 8, .closeup_size = 40, .bc1_level = 5 };
     int o;
-    while ((o = getopt_long(argc, argv, "h", LONGOPTS, NULL)) != -1) {
+    while ((o = getopt_long(argc, argv, "hp:", LONGOPTS, NULL)) != -1) {
         const char *a = optarg;
+        if (o == 'p')
+            o = OPT_PORT;
         int bad = 0;
         switch (o) {
         case OPT_HOST: c->host = a; break;
@@ -257,7 +259,7 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
                    rt_now_ms() - t0, (unsigned long long)st.queries, path);
         return 0;
     }
-    double tr[1000], ts[1000], tt[1000], tin[1000];
+    double tr[1000], ts[1000], tt[1000], tin[1000], tsh[1000];
     rs_stats st = { 0 };
     for (unsigned r = 0; r < c->repeat; r++) {
         rf_times tm;
@@ -267,6 +269,7 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         tr[r] = tm.raster_ms;
         ts[r] = tm.sample_ms;
         tt[r] = tm.total_ms;
+        tsh[r] = tm.shade_ms;
         st = one;
         tin[r] = 0;
         if (j->timing) {
@@ -297,7 +300,7 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
             printf(" = in-process sampling %.1f + network and protocol %.1f", mi, ms - mi);
         }
         printf(", resolve %.1f)%s; %zu fragments, %llu helper lanes, %llu queries, %llu bytes "
-               "out, %llu in -> %s\n", mt - mr - ms, c->repeat > 1 ? " median" : "", j->t.nfrag,
+               "out, %llu in -> %s\n", median(tsh, c->repeat), c->repeat > 1 ? " median" : "", j->t.nfrag,
                (unsigned long long)j->t.helper_lanes, (unsigned long long)st.queries,
                (unsigned long long)st.bytes_out, (unsigned long long)st.bytes_in, path);
     }
