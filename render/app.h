@@ -40,17 +40,20 @@ typedef struct app_cfg {
     int         quiet;
 } app_cfg;
 
-/* The mesh's texture and the kind of mesh it is: a .ptx beside the OBJ (Ptex mesh) or the
- * OBJ itself (atlas mesh, its map_Kd). path is a caller's buffer of cap bytes. */
-int app_texture_for(const app_cfg *c, const char *mesh, char *path, size_t cap, int *kind);
+/* The file that becomes the mesh's set and the kind of mesh: --texture or a .ptx beside the
+ * OBJ (Ptex mesh); otherwise the OBJ itself (atlas mesh) with *image = --texture, an image.
+ * path is a caller's buffer of cap bytes. -1 with a message when neither is there. */
+int app_texture_for(const app_cfg *c, const char *mesh, char *path, size_t cap, int *kind,
+                    const char **image, char *msg, size_t ml);
 /* The set name for a texture file: "render-" + its base name without extension, cleaned to
  * the set-name alphabet. */
 void app_set_name(const char *path, const char *prefix, char *name, size_t cap);
 /* Connects to the daemon (once per process; *conn NULL first). */
 int app_connect(const app_cfg *c, stc_conn **conn, char *msg, size_t ml);
-/* Uploads path as set name (REPLACE), unless c->no_upload. */
-int app_upload(const app_cfg *c, stc_conn *conn, const char *path, const char *name, char *msg,
-               size_t ml);
+/* Uploads path as set name (REPLACE), unless c->no_upload; with an image (atlas mesh), the
+ * image first as name + "-tex", then the OBJ with the option texture=<that set>. */
+int app_upload(const app_cfg *c, stc_conn *conn, const char *path, const char *image,
+               const char *name, char *msg, size_t ml);
 
 int study_run(const app_cfg *c);
 

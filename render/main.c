@@ -312,8 +312,9 @@ static int frame_main(const app_cfg *c)
     char msg[1024], tex[1024], set[256];
     const char *mesh = c->meshes[0];
     int kind, rc = 1;
-    if (app_texture_for(c, mesh, tex, sizeof tex, &kind) != 0) {
-        fprintf(stderr, "seamtex-render: %s: the mesh must be an .obj file\n", mesh);
+    const char *image;
+    if (app_texture_for(c, mesh, tex, sizeof tex, &kind, &image, msg, sizeof msg) != 0) {
+        fprintf(stderr, "seamtex-render: %s\n", msg);
         return 1;
     }
     frame_job j = { .c = c };
@@ -327,17 +328,17 @@ static int frame_main(const app_cfg *c)
         goto fail;
     j.m = m;
     if (c->inproc) {
-        j.s = rs_inproc_new(tex, msg, sizeof msg);
+        j.s = rs_inproc_new(tex, image, msg, sizeof msg);
     } else {
         if (c->set)
             snprintf(set, sizeof set, "%s", c->set);
         else
             app_set_name(tex, "render-", set, sizeof set);
         if (app_connect(c, &conn, msg, sizeof msg) != 0 ||
-            app_upload(c, conn, tex, set, msg, sizeof msg) != 0)
+            app_upload(c, conn, tex, image, set, msg, sizeof msg) != 0)
             goto fail;
         j.s = rs_net_new(conn, set, c->batch, c->inflight, msg, sizeof msg);
-        if (j.s && c->breakdown && !(j.timing = rs_inproc_new(tex, msg, sizeof msg)))
+        if (j.s && c->breakdown && !(j.timing = rs_inproc_new(tex, image, msg, sizeof msg)))
             goto fail;
     }
     if (!j.s)

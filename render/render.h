@@ -97,8 +97,9 @@ void rs_expand_rgba(const float *in, unsigned nchan, size_t n, float *out);
  * `inflight` SAMPLE requests outstanding. The set must exist on the daemon. */
 rs_sampler *rs_net_new(stc_conn *c, const char *set, unsigned batch, unsigned inflight,
                        char *msg, size_t ml);
-/* In-process (sampler_inproc.c): imports the texture file as the daemon would. */
-rs_sampler *rs_inproc_new(const char *texture_path, char *msg, size_t ml);
+/* In-process (sampler_inproc.c): imports the texture file as the daemon would; for an atlas
+ * mesh, texture_path is the OBJ and image its texture image (else NULL). */
+rs_sampler *rs_inproc_new(const char *texture_path, const char *image, char *msg, size_t ml);
 
 /* ---- rasteriser (raster.c) ---------------------------------------------------------------- */
 

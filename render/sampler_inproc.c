@@ -61,7 +61,7 @@ static void inproc_free(rs_sampler *s)
     free(p);
 }
 
-rs_sampler *rs_inproc_new(const char *texture_path, char *msg, size_t ml)
+rs_sampler *rs_inproc_new(const char *texture_path, const char *image, char *msg, size_t ml)
 {
     inproc *p = calloc(1, sizeof *p);
     if (!p) {
@@ -70,7 +70,10 @@ rs_sampler *rs_inproc_new(const char *texture_path, char *msg, size_t ml)
     }
     st_error e;
     st_error_clear(&e);
-    if (st_import_file(texture_path, NULL, &p->set, &e) != 0) {
+    st_import_opts io;
+    st_import_opts_init(&io);
+    io.texture_path = image;
+    if (st_import_file(texture_path, &io, &p->set, &e) != 0) {
         snprintf(msg, ml, "%s: %s", texture_path, e.msg);
         free(p);
         return NULL;

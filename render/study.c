@@ -332,10 +332,9 @@ static int study_mesh(study *S, unsigned mi, mesh_res *R, FILE *frames_csv, char
     const char *mesh = c->meshes[mi];
     char tex[1024], set[256];
     int kind, rc = -1;
-    if (app_texture_for(c, mesh, tex, sizeof tex, &kind) != 0) {
-        snprintf(msg, ml, "%s: the mesh must be an .obj file", mesh);
+    const char *image;
+    if (app_texture_for(c, mesh, tex, sizeof tex, &kind, &image, msg, ml) != 0)
         return -1;
-    }
     app_set_name(mesh, "", R->name, sizeof R->name);
     app_set_name(tex, "toth-", set, sizeof set);
     rm_mesh *m = rm_load_obj(mesh, kind, msg, ml);
@@ -344,12 +343,12 @@ static int study_mesh(study *S, unsigned mi, mesh_res *R, FILE *frames_csv, char
     rr_target t[NRATES] = { { 0 } };
     if (!m)
         return -1;
-    if (!(inp = rs_inproc_new(tex, msg, ml)))
+    if (!(inp = rs_inproc_new(tex, image, msg, ml)))
         goto out;
     if (c->inproc) {
         net = inp;
     } else if (app_connect(c, &S->conn, msg, ml) != 0 ||
-               app_upload(c, S->conn, tex, set, msg, ml) != 0 ||
+               app_upload(c, S->conn, tex, image, set, msg, ml) != 0 ||
                !(net = rs_net_new(S->conn, set, c->batch, c->inflight, msg, ml))) {
         goto out;
     }

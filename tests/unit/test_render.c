@@ -146,7 +146,7 @@ static void test_fullscreen_constant_face(void **state)
         t[0] = 200, t[1] = 100, t[2] = 50, t[3] = 255;
     }
     st_set_build_mips(set, 0);
-    rs_sampler *s = rs_inproc_new(write_ptx(set, "const"), msg, sizeof msg);
+    rs_sampler *s = rs_inproc_new(write_ptx(set, "const"), NULL, msg, sizeof msg);
     assert_non_null(s);
     rc_camera cam = front_camera();
     for (unsigned msaa = 1; msaa <= 8; msaa *= 2)
@@ -379,7 +379,7 @@ static void test_traverse_cube_seams_smooth(void **state)
                                    cube.mesh.nquads, msg, sizeof msg);
         assert_non_null(m);
         snprintf(name, sizeof name, "cube%zu", ci);
-        rs_sampler *s = rs_inproc_new(write_ptx(cube.set, name), msg, sizeof msg);
+        rs_sampler *s = rs_inproc_new(write_ptx(cube.set, name), NULL, msg, sizeof msg);
         assert_non_null(s);
         rc_orbit orbit = { .frames = 8, .elev_deg = 30, .dist = 0.9, .fov_deg = 40 };
         for (unsigned f = 0; f < 8; f += 3) {
