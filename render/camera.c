@@ -6,7 +6,6 @@
 #include "render.h"
 
 #include <math.h>
-#include <time.h>
 
 static void normalize(double v[3])
 {
@@ -74,11 +73,4 @@ int rr_project(const rc_camera *cam, unsigned width, unsigned height, const floa
     *y = (0.5 - ndy * 0.5) * height;
     *iw = 1.0 / vz;
     return 1;
-}
-
-double rt_now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }

@@ -14,7 +14,6 @@
 #include "render.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,16 +35,6 @@ unsigned rr_pattern(unsigned msaa, const int8_t **xy)
     }
 }
 
-static void say(char *msg, size_t ml, const char *fmt, ...)
-{
-    if (!msg || !ml)
-        return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, ml, fmt, ap);
-    va_end(ap);
-}
-
 int rr_target_init(rr_target *t, unsigned width, unsigned height, unsigned msaa, char *msg,
                    size_t ml)
 {
@@ -53,12 +42,12 @@ int rr_target_init(rr_target *t, unsigned width, unsigned height, unsigned msaa,
     memset(t, 0, sizeof *t);
     unsigned ns = rr_pattern(msaa, &pat);
     if (!ns) {
-        say(msg, ml, "MSAA rate %u: 1, 2, 4 or 8", msaa);
+        rt_say(msg, ml, "MSAA rate %u: 1, 2, 4 or 8", msaa);
         return -1;
     }
     if (width == 0 || height == 0 || width > 16384 || height > 16384 ||
         (uint64_t)width * height * ns > (1ull << 28)) {
-        say(msg, ml, "image %ux%u at %ux: 1..16384 per axis and at most 2^28 samples", width,
+        rt_say(msg, ml, "image %ux%u at %ux: 1..16384 per axis and at most 2^28 samples", width,
             height, msaa);
         return -1;
     }
@@ -71,7 +60,7 @@ int rr_target_init(rr_target *t, unsigned width, unsigned height, unsigned msaa,
     t->owner = malloc(n * sizeof *t->owner);
     if (!t->depth || !t->owner) {
         rr_target_free(t);
-        say(msg, ml, "out of memory for a %ux%u x%u target", width, height, msaa);
+        rt_say(msg, ml, "out of memory for a %ux%u x%u target", width, height, msaa);
         return -1;
     }
     return 0;
@@ -341,7 +330,7 @@ int rr_rasterise(rr_target *t, const rm_mesh *m, const rc_camera *cam, char *msg
             depth_pass(t, &s, i, pat);
     for (uint32_t i = 0; i < m->ntris; i++)
         if (setup(t, m, cam, i, &s) && frag_pass(t, &s, i, m->face[i], cam, pat) != 0) {
-            say(msg, ml, "out of memory for %zu fragments", t->nfrag);
+            rt_say(msg, ml, "out of memory for %zu fragments", t->nfrag);
             return -1;
         }
     return 0;

@@ -191,7 +191,9 @@ void ri_paste(float *canvas, unsigned w, unsigned h, const float *tile, unsigned
 /* The linear-RGB 2-norm of the difference of pixel i of a and b. */
 double ri_pixel_dist(const float *a, const float *b, size_t i);
 
-/* ---- time --------------------------------------------------------------------------------- */
+/* ---- common.c ----------------------------------------------------------------------------- */
 double rt_now_ms(void);
+/* Formats into msg (ml bytes; NULL / 0 accepted). */
+void rt_say(char *msg, size_t ml, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
 #endif

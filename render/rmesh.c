@@ -10,23 +10,12 @@
 
 #include <errno.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define RM_MAX_ITEMS (1u << 24)
 #define RM_MAX_CORNERS 64
-
-static void say(char *msg, size_t ml, const char *fmt, ...)
-{
-    if (!msg || !ml)
-        return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, ml, fmt, ap);
-    va_end(ap);
-}
 
 typedef struct fbuf {
     float   *p;
@@ -37,30 +26,32 @@ typedef struct ubuf {
     uint32_t  n, cap;
 } ubuf;
 
+/* Makes room for one more element of elem bytes in *p (n used, *cap allocated). */
+static int room(void **p, uint32_t n, uint32_t *cap, size_t elem)
+{
+    if (n < *cap)
+        return 0;
+    uint32_t nc = *cap ? *cap * 2 : 1024;
+    void *np = realloc(*p, (size_t)nc * elem);
+    if (!np)
+        return -1;
+    *p = np;
+    *cap = nc;
+    return 0;
+}
+
 static int fpush(fbuf *b, float v)
 {
-    if (b->n == b->cap) {
-        uint32_t nc = b->cap ? b->cap * 2 : 1024;
-        float *np = realloc(b->p, (size_t)nc * sizeof *np);
-        if (!np)
-            return -1;
-        b->p = np;
-        b->cap = nc;
-    }
+    if (room((void **)&b->p, b->n, &b->cap, sizeof *b->p) != 0)
+        return -1;
     b->p[b->n++] = v;
     return 0;
 }
 
 static int upush(ubuf *b, uint32_t v)
 {
-    if (b->n == b->cap) {
-        uint32_t nc = b->cap ? b->cap * 2 : 1024;
-        uint32_t *np = realloc(b->p, (size_t)nc * sizeof *np);
-        if (!np)
-            return -1;
-        b->p = np;
-        b->cap = nc;
-    }
+    if (room((void **)&b->p, b->n, &b->cap, sizeof *b->p) != 0)
+        return -1;
     b->p[b->n++] = v;
     return 0;
 }
@@ -149,17 +140,17 @@ rm_mesh *rm_from_quads(const float *pos, uint32_t nverts, const uint32_t *quads,
 {
     if (!pos || !quads || nverts == 0 || nquads == 0 || nverts > RM_MAX_ITEMS ||
         nquads > RM_MAX_ITEMS) {
-        say(msg, ml, "a quad mesh needs 1..%u vertices and quads", RM_MAX_ITEMS);
+        rt_say(msg, ml, "a quad mesh needs 1..%u vertices and quads", RM_MAX_ITEMS);
         return NULL;
     }
     for (size_t i = 0; i < (size_t)nquads * 4; i++)
         if (quads[i] >= nverts) {
-            say(msg, ml, "quad %zu: vertex %u out of range (%u vertices)", i / 4, quads[i], nverts);
+            rt_say(msg, ml, "quad %zu: vertex %u out of range (%u vertices)", i / 4, quads[i], nverts);
             return NULL;
         }
     rm_mesh *m = alloc_mesh(nverts, 2 * nquads);
     if (!m) {
-        say(msg, ml, "out of memory for %u quads", nquads);
+        rt_say(msg, ml, "out of memory for %u quads", nquads);
         return NULL;
     }
     memcpy(m->pos, pos, (size_t)nverts * 3 * sizeof *pos);
@@ -241,7 +232,7 @@ static int parse_face(obj_data *d, const char *s, unsigned line, char *msg, size
         }
         long v = obj_index(vi, d->v.n / 3);
         if (v < 0) {
-            say(msg, ml, "line %u: vertex index %ld out of range (%u vertices so far)", line, vi,
+            rt_say(msg, ml, "line %u: vertex index %ld out of range (%u vertices so far)", line, vi,
                 d->v.n / 3);
             return -1;
         }
@@ -249,31 +240,31 @@ static int parse_face(obj_data *d, const char *s, unsigned line, char *msg, size
         if (vti != 0) {
             t = obj_index(vti, d->vt.n / 2);
             if (t < 0) {
-                say(msg, ml, "line %u: texture index %ld out of range", line, vti);
+                rt_say(msg, ml, "line %u: texture index %ld out of range", line, vti);
                 return -1;
             }
         }
         if (++nc > RM_MAX_CORNERS) {
-            say(msg, ml, "line %u: a face with more than %d corners", line, RM_MAX_CORNERS);
+            rt_say(msg, ml, "line %u: a face with more than %d corners", line, RM_MAX_CORNERS);
             return -1;
         }
         if (upush(&d->fv, (uint32_t)v) != 0 || upush(&d->fvt, t < 0 ? UINT32_MAX : (uint32_t)t))
             goto oom;
         if (d->fv.n > RM_MAX_ITEMS) {
-            say(msg, ml, "line %u: more than %u face corners", line, RM_MAX_ITEMS);
+            rt_say(msg, ml, "line %u: more than %u face corners", line, RM_MAX_ITEMS);
             return -1;
         }
     }
     if (nc < 3) {
-        say(msg, ml, "line %u: a face with %u corners", line, nc);
+        rt_say(msg, ml, "line %u: a face with %u corners", line, nc);
         return -1;
     }
     return 0;
 bad:
-    say(msg, ml, "line %u: a face corner that is not a number", line);
+    rt_say(msg, ml, "line %u: a face corner that is not a number", line);
     return -1;
 oom:
-    say(msg, ml, "out of memory at line %u", line);
+    rt_say(msg, ml, "out of memory at line %u", line);
     return -1;
 }
 
@@ -285,7 +276,7 @@ static int obj_read(FILE *f, obj_data *d, char *msg, size_t ml)
         line++;
         size_t len = strlen(buf);
         if (len == sizeof buf - 1 && buf[len - 1] != '\n') {
-            say(msg, ml, "line %u: longer than %zu bytes", line, sizeof buf - 2);
+            rt_say(msg, ml, "line %u: longer than %zu bytes", line, sizeof buf - 2);
             return -1;
         }
         const char *s = buf;
@@ -294,11 +285,11 @@ static int obj_read(FILE *f, obj_data *d, char *msg, size_t ml)
         float x[3];
         if (s[0] == 'v' && (s[1] == ' ' || s[1] == '\t')) {
             if (parse_floats(s + 2, 3, x) != 0) {
-                say(msg, ml, "line %u: a vertex needs three finite numbers", line);
+                rt_say(msg, ml, "line %u: a vertex needs three finite numbers", line);
                 return -1;
             }
             if (d->v.n / 3 >= RM_MAX_ITEMS) {
-                say(msg, ml, "line %u: more than %u vertices", line, RM_MAX_ITEMS);
+                rt_say(msg, ml, "line %u: more than %u vertices", line, RM_MAX_ITEMS);
                 return -1;
             }
             for (int k = 0; k < 3; k++)
@@ -306,11 +297,11 @@ static int obj_read(FILE *f, obj_data *d, char *msg, size_t ml)
                     goto oom;
         } else if (s[0] == 'v' && s[1] == 't' && (s[2] == ' ' || s[2] == '\t')) {
             if (parse_floats(s + 3, 2, x) != 0) {
-                say(msg, ml, "line %u: a texture coordinate needs two finite numbers", line);
+                rt_say(msg, ml, "line %u: a texture coordinate needs two finite numbers", line);
                 return -1;
             }
             if (d->vt.n / 2 >= RM_MAX_ITEMS) {
-                say(msg, ml, "line %u: more than %u texture coordinates", line, RM_MAX_ITEMS);
+                rt_say(msg, ml, "line %u: more than %u texture coordinates", line, RM_MAX_ITEMS);
                 return -1;
             }
             if (fpush(&d->vt, x[0]) != 0 || fpush(&d->vt, x[1]) != 0)
@@ -321,12 +312,12 @@ static int obj_read(FILE *f, obj_data *d, char *msg, size_t ml)
         }
     }
     if (ferror(f)) {
-        say(msg, ml, "read error: %s", strerror(errno));
+        rt_say(msg, ml, "read error: %s", strerror(errno));
         return -1;
     }
     return 0;
 oom:
-    say(msg, ml, "out of memory at line %u", line);
+    rt_say(msg, ml, "out of memory at line %u", line);
     return -1;
 }
 
@@ -334,7 +325,7 @@ rm_mesh *rm_load_obj(const char *path, int kind, char *msg, size_t ml)
 {
     FILE *f = fopen(path, "r");
     if (!f) {
-        say(msg, ml, "%s: %s", path, strerror(errno));
+        rt_say(msg, ml, "%s: %s", path, strerror(errno));
         return NULL;
     }
     obj_data d;
@@ -345,32 +336,32 @@ rm_mesh *rm_load_obj(const char *path, int kind, char *msg, size_t ml)
     rm_mesh *m = NULL;
     uint32_t nf = d.fstart.n;
     if (rc != 0) {
-        say(msg, ml, "%s: %s", path, m2);
+        rt_say(msg, ml, "%s: %s", path, m2);
         goto out;
     }
     if (nf == 0 || d.v.n == 0) {
-        say(msg, ml, "%s: no faces", path);
+        rt_say(msg, ml, "%s: no faces", path);
         goto out;
     }
     if (kind == RM_PTEX) {
         for (uint32_t i = 0; i < nf; i++) {
             uint32_t n = (i + 1 < nf ? d.fstart.p[i + 1] : d.fv.n) - d.fstart.p[i];
             if (n != 4) {
-                say(msg, ml, "%s: face %u has %u corners: a Ptex mesh drawn by seamtex-render "
+                rt_say(msg, ml, "%s: face %u has %u corners: a Ptex mesh drawn by seamtex-render "
                     "must be all quads (its faces are the texture's faces)", path, i, n);
                 goto out;
             }
         }
         m = rm_from_quads(d.v.p, d.v.n / 3, d.fv.p, nf, m2, sizeof m2);
         if (!m)
-            say(msg, ml, "%s: %s", path, m2);
+            rt_say(msg, ml, "%s: %s", path, m2);
         goto out;
     }
     /* atlas: fan triangles, uv from vt (v flipped into the set's texture space) */
     uint64_t ntris = (uint64_t)d.fv.n - 2ull * nf;
     m = alloc_mesh(d.v.n / 3, (uint32_t)ntris);
     if (!m) {
-        say(msg, ml, "%s: out of memory", path);
+        rt_say(msg, ml, "%s: out of memory", path);
         goto out;
     }
     memcpy(m->pos, d.v.p, (size_t)d.v.n * sizeof *d.v.p);
@@ -380,7 +371,7 @@ rm_mesh *rm_load_obj(const char *path, int kind, char *msg, size_t ml)
         uint32_t n = (i + 1 < nf ? d.fstart.p[i + 1] : d.fv.n) - first;
         for (uint32_t k = 0; k < n; k++)
             if (d.fvt.p[first + k] == UINT32_MAX) {
-                say(msg, ml, "%s: face %u has a corner without a texture coordinate (an atlas "
+                rt_say(msg, ml, "%s: face %u has a corner without a texture coordinate (an atlas "
                     "mesh needs vt on every corner)", path, i);
                 rm_free(m);
                 m = NULL;
