@@ -163,6 +163,34 @@ static long seam_pixel(const float *a, const float *b, const rr_target *t, int r
     return best;
 }
 
+/* Mean colour step between 4-neighbour pixels whose first samples lie on different faces of m
+ * (both covered): how visible the seams are. */
+static double seam_step(const rr_target *t, const rm_mesh *m, const float *rgb)
+{
+    double sum = 0;
+    size_t n = 0;
+    for (unsigned y = 0; y + 1 < t->height; y++)
+        for (unsigned x = 0; x + 1 < t->width; x++) {
+            size_t p = (size_t)y * t->width + x, nb[2] = { p + 1, p + t->width };
+            uint32_t a = t->owner[p * t->nsamp];
+            if (a == UINT32_MAX)
+                continue;
+            for (int k = 0; k < 2; k++) {
+                uint32_t b = t->owner[nb[k] * t->nsamp];
+                if (b != UINT32_MAX && m->face[a] != m->face[b]) {
+                    double d = 0;
+                    for (int c = 0; c < 3; c++) {
+                        double e = (double)rgb[3 * p + c] - rgb[3 * nb[k] + c];
+                        d += e * e;
+                    }
+                    sum += sqrt(d);
+                    n++;
+                }
+            }
+        }
+    return n ? sum / n : 0;
+}
+
 /* Crops cw x cw around (cx, cy) of a w x h image, zoomed, into the montage cell (col, row). */
 static void cell(float *canvas, unsigned cw_canvas, unsigned ch_canvas, const float *img,
                  unsigned w, unsigned h, long cx, long cy, unsigned cw, unsigned zoom,
@@ -269,12 +297,14 @@ static int closeups(study *S, const rm_mesh *m, rs_sampler *net, const char *tex
         unsigned W2 = 2 * w, H2 = 2 * h, z2 = zoom;
         rc_camera cam2;
         rc_orbit_camera(&c->orbit, m, c->frame, W2, H2, &cam2);
-        float *big = malloc((size_t)W2 * H2 * 3 * sizeof *big);
+        size_t n2 = (size_t)W2 * H2 * 3;
+        float *big = malloc(n2 * sizeof *big), *src = malloc(n2 * sizeof *src);
         float *cv2 = NULL;
         unsigned c2w, c2h;
         rr_target t = { 0 };
-        if (!big || !(cv2 = canvas_new(3, 1, side, &c2w, &c2h))) {
+        if (!big || !src || !(cv2 = canvas_new(3, 2, side, &c2w, &c2h))) {
             free(big);
+            free(src);
             goto oom;
         }
         const char *sets[3] = { set, names[0], names[1] };
@@ -283,12 +313,37 @@ static int closeups(study *S, const rm_mesh *m, rs_sampler *net, const char *tex
         for (int k = 0; k < 3 && !bad; k++) {
             rs_sampler *s = k ? rs_net_new(S->conn, sets[k], c->batch, c->inflight, msg, ml)
                               : net;
-            if (!s || shot(S, m, &cam2, W2, H2, 4, M_TRAVERSE, s, &t, big, NULL, NULL, msg, ml)) {
+            /* Clamp: what a GPU without Traverse shows; seam masking is for it */
+            if (!s || shot(S, m, &cam2, W2, H2, 4, M_CLAMP, s, &t, big, NULL, NULL, msg, ml)) {
                 bad = 1;
             } else {
+                double st = seam_step(&t, m, big);
+                fprintf(rep, "%s: mean colour step between neighbouring pixels on different "
+                        "faces %.5f\n", k ? sets[k] : "source", st);
                 cell(cv2, c2w, c2h, big, W2, H2, 2 * cx, 2 * cy, cw, z2, (unsigned)k, 0, tile);
                 snprintf(path, sizeof path, "%s/bc1_%s.png", c->toth, LABEL[k]);
                 bad = ri_write_png(path, tile, side, side, msg, ml) != 0;
+                if (k == 0) {
+                    memcpy(src, big, n2 * sizeof *src);
+                } else {
+                    /* second row: the error against the source, 8x */
+                    double sum = 0, mx = 0;
+                    size_t np = 0;
+                    for (size_t i = 0; i < n2 / 3; i++) {
+                        double d = ri_pixel_dist(big, src, i);
+                        if (t.owner[i * t.nsamp] != UINT32_MAX) {
+                            sum += d;
+                            np++;
+                            mx = d > mx ? d : mx;
+                        }
+                        for (int ch = 0; ch < 3; ch++)
+                            big[3 * i + ch] = 8 * fabsf(big[3 * i + ch] - src[3 * i + ch]);
+                    }
+                    cell(cv2, c2w, c2h, big, W2, H2, 2 * cx, 2 * cy, cw, z2, (unsigned)k, 1,
+                         tile);
+                    fprintf(rep, "BC1 %s vs source over the frame's %zu covered pixels: mean "
+                            "deviation %.5f, max %.5f\n", LABEL[k], np, np ? sum / np : 0, mx);
+                }
             }
             if (s && s != net)
                 rs_free(s);
@@ -296,12 +351,14 @@ static int closeups(study *S, const rm_mesh *m, rs_sampler *net, const char *tex
         if (!bad) {
             snprintf(path, sizeof path, "%s/bc1_seam.png", c->toth);
             bad = ri_write_png(path, cv2, c2w, c2h, msg, ml) != 0;
-            fprintf(rep, "bc1_seam.png: the seam at (%ld, %ld) of a %ux%u Traverse 4x frame, "
-                    "magnified %ux: source, BC1 plain, BC1 with seam masking\n", 2 * cx, 2 * cy,
+            fprintf(rep, "bc1_seam.png: the seam at (%ld, %ld) of a %ux%u frame, "
+                    "Clamp 4x, magnified %ux: source, BC1 plain, BC1 with seam masking; second row: "
+                    "their difference from the source, 8x\n", 2 * cx, 2 * cy,
                     W2, H2, z2);
         }
         rr_target_free(&t);
         free(big);
+        free(src);
         free(cv2);
         if (bad)
             goto out;
