@@ -260,6 +260,7 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         return 0;
     }
     double tr[1000], ts[1000], tt[1000], tin[1000], tsh[1000];
+    size_t edge = 0;
     rs_stats st = { 0 };
     for (unsigned r = 0; r < c->repeat; r++) {
         rf_times tm;
@@ -273,17 +274,27 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         st = one;
         tin[r] = 0;
         if (j->timing) {
-            float *tmp = malloc((j->t.nfrag ? j->t.nfrag : 1) * 4 * sizeof *tmp);
+            size_t nq = j->t.nfrag ? j->t.nfrag : 1;
+            float *tmp = malloc(nq * 4 * sizeof *tmp), *cov = malloc(nq * sizeof *cov);
             stc_sample_opts so = { .mode = mode, .filter = c->filter, .zero_rule = 1,
                                    .max_aniso = c->max_aniso };
             rs_stats ign = { 0 };
             double t0 = rt_now_ms();
-            int rc = tmp ? j->timing->sample(j->timing, &so, j->t.queries, j->t.nfrag, tmp, NULL,
-                                             &ign, msg, ml) : -1;
+            int rc = tmp && cov ? j->timing->sample(j->timing, &so, j->t.queries, j->t.nfrag,
+                                                    tmp, cov, &ign, msg, ml) : -1;
             tin[r] = rt_now_ms() - t0;
+            /* how many footprints reach outside their face (Discard's coverage below 1): the
+             * queries for which Traverse does its extra work */
+            edge = 0;
+            for (size_t i = 0; rc == 0 && mode == 0 && i < j->t.nfrag; i++)
+                edge += cov[i] < 1;
             free(tmp);
-            if (rc != 0)
+            free(cov);
+            if (rc != 0) {
+                if (!tmp || !cov)
+                    snprintf(msg, ml, "out of memory");
                 return -1;
+            }
         }
     }
     snprintf(path, sizeof path, "%s/%s_%s_%ux_f%03u.png", c->out, j->base, MODE_NAMES[mode],
@@ -299,8 +310,13 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
             double mi = median(tin, c->repeat);
             printf(" = in-process sampling %.1f + network and protocol %.1f", mi, ms - mi);
         }
-        printf(", resolve %.1f)%s; %zu fragments, %llu helper lanes, %llu queries, %llu bytes "
-               "out, %llu in -> %s\n", median(tsh, c->repeat), c->repeat > 1 ? " median" : "", j->t.nfrag,
+        if (j->timing && mode == 0)
+            printf(", resolve %.1f); %zu footprints leave their face", median(tsh, c->repeat),
+                   edge);
+        else
+            printf(", resolve %.1f)", median(tsh, c->repeat));
+        printf("%s; %zu fragments, %llu helper lanes, %llu queries, %llu bytes "
+               "out, %llu in -> %s\n", c->repeat > 1 ? " median" : "", j->t.nfrag,
                (unsigned long long)j->t.helper_lanes, (unsigned long long)st.queries,
                (unsigned long long)st.bytes_out, (unsigned long long)st.bytes_in, path);
     }
