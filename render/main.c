@@ -360,7 +360,8 @@ static int frame_main(const app_cfg *c)
     if (!j.s)
         goto fail;
     if (j.s->nfaces < m->nfaces) {
-        snprintf(msg, sizeof msg, "%.300s has %u faces but the texture %.300s only %u", mesh, m->nfaces,
+        snprintf(msg, sizeof msg, "%.300s has %u faces but the texture %.300s only %u", mesh,
+                 m->nfaces,
                  tex, j.s->nfaces);
         goto fail;
     }
@@ -388,9 +389,10 @@ static int frame_main(const app_cfg *c)
                 q.quiet = 1;
                 frame_job jq = j;
                 jq.c = &q;
-                if (render_one(&jq, f, (unsigned)mode, rgb, msg, sizeof msg) != 0)
+                int bad = render_one(&jq, f, (unsigned)mode, rgb, msg, sizeof msg);
+                j.t = jq.t;   /* the target's buffers may have grown: one owner */
+                if (bad)
                     goto fail;
-                j.t = jq.t;
                 ri_paste(strip, c->width * c->strip, c->height, rgb, c->width, c->height,
                          k * c->width, 0);
             }

@@ -145,7 +145,8 @@ rm_mesh *rm_from_quads(const float *pos, uint32_t nverts, const uint32_t *quads,
     }
     for (size_t i = 0; i < (size_t)nquads * 4; i++)
         if (quads[i] >= nverts) {
-            rt_say(msg, ml, "quad %zu: vertex %u out of range (%u vertices)", i / 4, quads[i], nverts);
+            rt_say(msg, ml, "quad %zu: vertex %u out of range (%u vertices)", i / 4, quads[i],
+                   nverts);
             return NULL;
         }
     rm_mesh *m = alloc_mesh(nverts, 2 * nquads);

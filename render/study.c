@@ -352,7 +352,8 @@ static int closeups(study *S, const rm_mesh *m, rs_sampler *net, const char *tex
             snprintf(path, sizeof path, "%s/bc1_seam.png", c->toth);
             bad = ri_write_png(path, cv2, c2w, c2h, msg, ml) != 0;
             fprintf(rep, "bc1_seam.png: the seam at (%ld, %ld) of a %ux%u frame, "
-                    "Clamp 4x, magnified %ux: source, BC1 plain, BC1 with seam masking; second row: "
+                    "Clamp 4x, magnified %ux: source, BC1 plain, BC1 with seam masking; "
+                    "second row: "
                     "their difference from the source, 8x\n", 2 * cx, 2 * cy,
                     W2, H2, z2);
         }
@@ -544,7 +545,8 @@ static int write_table1(const app_cfg *c, mesh_res *R, unsigned n, char *msg, si
             fprintf(f, "%s,traverse/discard,%u,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", R[i].name,
                     RATES[ri], med[1][ri][V_RASTER] / med[0][ri][V_RASTER],
                     med[1][ri][V_INPROC] / med[0][ri][V_INPROC],
-                    med[1][ri][V_NET] / med[0][ri][V_NET], med[1][ri][V_FRAME] / med[0][ri][V_FRAME],
+                    med[1][ri][V_NET] / med[0][ri][V_NET],
+                    med[1][ri][V_FRAME] / med[0][ri][V_FRAME],
                     med[1][ri][V_QUERIES] / med[0][ri][V_QUERIES],
                     med[1][ri][V_BYTES] / med[0][ri][V_BYTES]);
         for (unsigned k = 0; k < sizeof ORDERV / sizeof *ORDERV; k++) {
