@@ -310,13 +310,11 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
             double mi = median(tin, c->repeat);
             printf(" = in-process sampling %.1f + network and protocol %.1f", mi, ms - mi);
         }
+        printf(", resolve %.1f)%s", median(tsh, c->repeat), c->repeat > 1 ? " median" : "");
         if (j->timing && mode == 0)
-            printf(", resolve %.1f); %zu footprints leave their face", median(tsh, c->repeat),
-                   edge);
-        else
-            printf(", resolve %.1f)", median(tsh, c->repeat));
-        printf("%s; %zu fragments, %llu helper lanes, %llu queries, %llu bytes "
-               "out, %llu in -> %s\n", c->repeat > 1 ? " median" : "", j->t.nfrag,
+            printf("; %zu footprints leave their face", edge);
+        printf("; %zu fragments, %llu helper lanes, %llu queries, %llu bytes "
+               "out, %llu in -> %s\n", j->t.nfrag,
                (unsigned long long)j->t.helper_lanes, (unsigned long long)st.queries,
                (unsigned long long)st.bytes_out, (unsigned long long)st.bytes_in, path);
     }
