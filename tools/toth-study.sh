@@ -12,7 +12,10 @@
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-[ $# -ge 1 ] || { echo "usage: tools/toth-study.sh OUT [seamtex-render options] [MESH.obj ...]" >&2; exit 2; }
+if [ $# -lt 1 ]; then
+    echo "usage: tools/toth-study.sh OUT [seamtex-render options] [MESH.obj ...]" >&2
+    exit 2
+fi
 OUT=$1
 shift
 DATA=${SEAMTEX_DATA:-$ROOT/../shared/data}
@@ -21,19 +24,28 @@ DAEMON=$ROOT/$B/seamtexd
 for exe in "$RENDER" "$DAEMON"; do
     [ -x "$exe" ] || { echo "toth-study: $exe is missing (run make first)" >&2; exit 1; }
 done
-command -v gnuplot >/dev/null || { echo "toth-study: gnuplot is missing (deploy/install-deps.sh installs gnuplot-nox)" >&2; exit 1; }
+if ! command -v gnuplot >/dev/null; then
+    echo "toth-study: gnuplot is missing (deploy/install-deps.sh installs gnuplot-nox)" >&2
+    exit 1
+fi
 args=()
 meshes=()
 while [ $# -gt 0 ]; do
     case "$1" in
         *.obj) meshes+=("$1") ;;
-        --*) args+=("$1"); case "$1" in --inproc|--no-upload|--quiet|--all-frames|--breakdown) ;; *) shift; args+=("${1:-}") ;; esac ;;
+        --*)                        # a flag, with its value unless it takes none
+            args+=("$1")
+            case "$1" in
+                --inproc|--no-upload|--quiet|--all-frames|--breakdown) ;;
+                *) shift; args+=("${1:-}") ;;
+            esac ;;
         *) echo "toth-study: unexpected argument '$1'" >&2; exit 2 ;;
     esac
     shift
 done
 if [ ${#meshes[@]} -eq 0 ]; then
-    meshes=("$DATA/ptx/wdas-ptex-samples/teapot/teapot.obj" "$DATA/ptx/wdas-ptex-samples/holeycube/holeycube.obj")
+    meshes=("$DATA/ptx/wdas-ptex-samples/teapot/teapot.obj"
+            "$DATA/ptx/wdas-ptex-samples/holeycube/holeycube.obj")
 fi
 for m in "${meshes[@]}"; do
     [ -f "$m" ] || { echo "toth-study: $m is missing (SEAMTEX_DATA=$DATA)" >&2; exit 1; }
@@ -56,13 +68,21 @@ mkdir -p "$TMP/data" "$OUT"
 PID=$!
 for _ in $(seq 1 600); do                     # up to 60 s on a loaded machine
     [ -s "$TMP/port" ] && break
-    kill -0 "$PID" 2>/dev/null || { echo "toth-study: seamtexd exited at start:" >&2; tail -5 "$TMP/daemon.log" >&2; exit 1; }
+    if ! kill -0 "$PID" 2>/dev/null; then
+        echo "toth-study: seamtexd exited at start:" >&2
+        tail -5 "$TMP/daemon.log" >&2
+        exit 1
+    fi
     sleep 0.1
 done
 [ -s "$TMP/port" ] || { echo "toth-study: seamtexd did not start within 60 s" >&2; exit 1; }
 PORT=$(cat "$TMP/port")
 echo "toth-study: seamtexd on 127.0.0.1:$PORT; load $(cut -d' ' -f1-3 /proc/loadavg); $(date -u +%FT%TZ)"
-"$RENDER" --toth "$OUT" --port "$PORT" "${args[@]}" "${meshes[@]}" || { echo "toth-study: seamtex-render failed" >&2; tail -5 "$TMP/daemon.log" >&2; exit 1; }
+if ! "$RENDER" --toth "$OUT" --port "$PORT" "${args[@]}" "${meshes[@]}"; then
+    echo "toth-study: seamtex-render failed" >&2
+    tail -5 "$TMP/daemon.log" >&2
+    exit 1
+fi
 echo "toth-study: load after the run $(cut -d' ' -f1-3 /proc/loadavg)"
 
 # Figure 5: columns of fig5_<name>.csv are x, then traverse_vs_discard_{1,2,4,8}x,
