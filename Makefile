@@ -150,6 +150,7 @@ INSTALL_HDRS :=
 -include client/module.mk
 -include tools/module.mk
 -include python/module.mk
+-include render/module.mk
 include tests/module.mk
 
 all: $(ALL_BINS)

@@ -14,12 +14,13 @@ set -euo pipefail
 # openimageio-tools gives maketx (the out-of-core benchmark's TextureSystem comparison);
 # lintian checks the .deb that `make deb` builds. python3-yaml: make check-deploy parses the
 # Kubernetes manifests in deploy/k8s/.
+# gnuplot-nox draws the Toth study's Figure 5 from its CSVs (tools/toth-study.sh).
 PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
       memcached redis-server
       libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev
       python3-dev python3-setuptools python3-pytest python3-numpy
       libcurl4-openssl-dev libjson-c-dev etcd-server etcd-client
-      prometheus mandoc openimageio-tools lintian python3-yaml)
+      prometheus mandoc openimageio-tools lintian python3-yaml gnuplot-nox)
 
 missing=()
 for p in "${PKGS[@]}"; do

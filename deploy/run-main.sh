@@ -14,7 +14,7 @@ cd "$ROOT"
 DAEMON=$B/seamtexd
 CLI=$B/seamtex
 BENCH=$B/seamtex-bench
-for exe in "$DAEMON" "$CLI" "$BENCH"; do
+for exe in "$DAEMON" "$CLI" "$BENCH" "$B/seamtex-render"; do
     [ -x "$exe" ] || { echo "run-main: $exe is missing (run make first)" >&2; exit 1; }
 done
 
@@ -125,6 +125,13 @@ if [ -f "$TEAPOT" ] && [ -f "$DUCK/Duck.obj" ] && [ -f "$DUCK/DuckCM.png" ]; the
     head -c 4 "$TMP/duck-bc1.dds" | grep -q '^DDS ' || fail "the fetched file is not a DDS"
     echo "fetched $(stat -c %s "$TMP/duck-bc1.dds") bytes of DDS (BC1 with mips)"
     run ls
+    # the renderer: one teapot frame in each mode, sampled through this daemon
+    RENDER_OUT=$ROOT/$B/render-run
+    step "seamtex-render teapot.obj --size 640x360 --msaa 4 --mode all --out $RENDER_OUT"
+    timeout 120 "$B/seamtex-render" --port "$PORT" --size 640x360 --msaa 4 --mode all \
+        --out "$RENDER_OUT" "$DATA/ptx/wdas-ptex-samples/teapot/teapot.obj" \
+        || fail "seamtex-render"
+    echo "the frames (Discard, Traverse, Clamp) are in $RENDER_OUT/"
 else
     echo
     echo "run-main: $DATA has no teapot.ptx / duck mesh: skipping the real-asset steps"

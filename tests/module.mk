@@ -14,7 +14,7 @@
 # $(B)/fuzz-corpus/), make soak (test_durability for SEAMTEX_SOAK_SECONDS, default 600).
 
 # Tests see everything (they test every layer directly).
-INC_TESTS := -Itests/common -Iclient -Iserver -Iprotocol $(INC_STORE)
+INC_TESTS := -Itests/common -Iclient -Iserver -Iprotocol -Irender $(INC_STORE)
 $(B)/tests/%.o: MODINC := $(INC_TESTS)
 
 # faultpreload.c is an LD_PRELOAD object (it defines write, open, ...): never in the archive
@@ -26,7 +26,7 @@ $(LIB_TESTUTIL): $(TESTUTIL_OBJ)
 	rm -f $@ && ar rcs $@ $^
 
 # LIB_CLIENT and LIB_SERVER come from client/module.mk and server/module.mk when they exist.
-ST_LINK := $(LIB_TESTUTIL) $(LIB_CLIENT) $(LIB_SERVER) $(LIB_PROTO) $(LIB_STORE)
+ST_LINK := $(LIB_TESTUTIL) $(LIB_RENDER) $(LIB_CLIENT) $(LIB_SERVER) $(LIB_PROTO) $(LIB_STORE)
 
 TEST_SRC  := $(sort $(wildcard tests/unit/test_*.c tests/integration/test_*.c))
 TEST_BINS += $(patsubst tests/%.c,$(B)/tests/%,$(TEST_SRC))
