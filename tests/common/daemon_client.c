@@ -10,7 +10,7 @@ stc_conn *st_daemon_client(const st_daemon *d, const char *token)
 {
     stc_opts o;
     memset(&o, 0, sizeof o);
-    o.request_timeout_ms = 20000;
+    o.request_timeout_ms = 60000;
     o.token = token;
     int err = 0;
     char msg[256] = "";

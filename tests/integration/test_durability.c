@@ -148,7 +148,7 @@ static void *upload_loop(void *arg)
     worker *w = arg;
     stc_opts o;
     memset(&o, 0, sizeof o);
-    o.request_timeout_ms = 20000;
+    o.request_timeout_ms = 60000;
     int err;
     stc_conn *c = stc_connect_opts(w->d->host, (unsigned)w->d->port, &o, &err, NULL, 0);
     if (!c)
@@ -315,7 +315,7 @@ static void acknowledged_uploads_survive_sigkill(void **state)
 
         stc_opts o;
         memset(&o, 0, sizeof o);
-        o.request_timeout_ms = 20000;
+        o.request_timeout_ms = 60000;
         int err;
         stc_conn *c = stc_connect_opts(d.host, (unsigned)d.port, &o, &err, NULL, 0);
         assert_non_null(c);

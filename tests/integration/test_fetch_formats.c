@@ -196,7 +196,7 @@ static int open_fetch(int fd, uint32_t reqid, const char *set, uint64_t *id)
     assert_int_equal(st_wire_send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
     stp_buf_free(&b);
     st_wire_reply r;
-    assert_int_equal(st_wire_read_reply(fd, &r, 30000), 0);
+    assert_int_equal(st_wire_read_reply(fd, &r, 90000), 0);
     assert_int_equal(r.reqid, reqid);
     if (r.status == 0)
         *id = stp_rd64(r.body);
@@ -211,7 +211,7 @@ static void close_fetch(int fd, uint32_t reqid, uint64_t id)
     assert_int_equal(st_wire_send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
     stp_buf_free(&b);
     st_wire_reply r;
-    assert_int_equal(st_wire_read_reply(fd, &r, 30000), 0);
+    assert_int_equal(st_wire_read_reply(fd, &r, 90000), 0);
     assert_int_equal(r.status, 0);
 }
 
