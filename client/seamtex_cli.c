@@ -39,7 +39,8 @@ static const char *const USAGE =
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
-"$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command.\n"
+"$SEAMTEX_TOKEN; HOST unix:/path connects to a daemon's Unix socket (PORT unused).\n"
+"`seamtex COMMAND --help` describes a command.\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
 
 /* ---- shared helpers (cli.h) --------------------------------------------------------------- */

@@ -18,7 +18,7 @@
 #define STS_TOKEN_MAX 255
 
 typedef struct sts_config {
-    char     listen[128];       /* host:port; default 127.0.0.1:7450 */
+    char     listen[128];       /* host:port or unix:PATH; default 127.0.0.1:7450 */
     char     data_dir[1024];    /* "" = no persistence (sets live in memory only) */
     char     token[STS_TOKEN_MAX + 1];  /* "" = no token */
     char     token_file[1024];  /* read at start and on SIGHUP; overrides token */
@@ -53,6 +53,7 @@ typedef struct sts_config {
     int      verify_native;     /* check native files' texel CRCs at start */
     int      default_set;       /* load the built-in set as "default" */
     int      log_level;         /* sts_level */
+    char     unix_mode[8];      /* octal file mode of a unix:PATH socket; default "0600" */
 } sts_config;
 
 /* Fills the defaults. */

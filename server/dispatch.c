@@ -230,10 +230,8 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         goto replied;
     }
     int heavy = (hd->flags & STS_H_HEAVY) != 0;
-    if (hd->flags & STS_H_SIZED) {
-        uint64_t per = h->opcode == STP_OP_SAMPLE ? STP_QUERY_SIZE : STP_DIR_QUERY_SIZE;
-        heavy = h->body_len > (uint64_t)STS_LIVE(srv, heavy_batch) * per;
-    }
+    if (hd->flags & STS_H_SIZED)   /* by the count: compact queries are as much work */
+        heavy = stp_sample_peek_count(body, h->body_len) > STS_LIVE(srv, heavy_batch);
     if (heavy) {
         sts_task *t = calloc(1, sizeof *t);
         if (!t) {

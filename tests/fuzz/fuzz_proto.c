@@ -53,7 +53,7 @@ static void all_decoders(const uint8_t *b, size_t n)
             stp_query q;
             stp_dir_query dq;
             CHECK(u.sq.count <= (1u << 20));
-            CHECK((uint64_t)u.sq.count * (dir ? STP_DIR_QUERY_SIZE : STP_QUERY_SIZE) <= n);
+            CHECK((uint64_t)u.sq.count * (dir ? STP_DIR_QUERY_SIZE : stp_query_size(u.sq.p.flags)) <= n);
             for (uint32_t i = 0; i < u.sq.count; i++) {
                 if (dir)
                     stp_sample_dir_query(&u.sq, i, &dq);
