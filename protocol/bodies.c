@@ -502,34 +502,6 @@ void stp_sample_query(const stp_sample_req *r, uint32_t i, stp_query *q)
     stp_sample_queries(r, i, 1, q);
 }
 
-void stp_sample_queries(const stp_sample_req *r, uint32_t first, uint32_t n, stp_query *out)
-{
-    unsigned fl = r->p.flags;
-    size_t qs = stp_query_size(fl);
-    const uint8_t *p = r->raw + (size_t)first * qs;
-    int face16 = (fl & STP_SF_FACE16) != 0;
-    for (uint32_t i = 0; i < n; i++, p += qs) {
-        stp_query *q = &out[i];
-        const uint8_t *f = p + (face16 ? 2 : 4);
-        q->face = face16 ? stp_rd16(p) : stp_rd32(p);
-        if (fl & STP_SF_UV16) {
-            q->u = stp_unit16_to_f32(stp_rd16(f));
-            q->v = stp_unit16_to_f32(stp_rd16(f + 2));
-            q->dudx = stp_f16_to_f32(stp_rd16(f + 4));
-            q->dvdx = stp_f16_to_f32(stp_rd16(f + 6));
-            q->dudy = stp_f16_to_f32(stp_rd16(f + 8));
-            q->dvdy = stp_f16_to_f32(stp_rd16(f + 10));
-        } else {
-            q->u = stp_u2f(stp_rd32(f));
-            q->v = stp_u2f(stp_rd32(f + 4));
-            q->dudx = stp_u2f(stp_rd32(f + 8));
-            q->dvdx = stp_u2f(stp_rd32(f + 12));
-            q->dudy = stp_u2f(stp_rd32(f + 16));
-            q->dvdy = stp_u2f(stp_rd32(f + 20));
-        }
-    }
-}
-
 void stp_sample_dir_query(const stp_sample_req *r, uint32_t i, stp_dir_query *q)
 {
     const uint8_t *p = r->raw + (size_t)i * STP_DIR_QUERY_SIZE;
@@ -582,8 +554,7 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
                 p[i] = (uint8_t)to_unorm(r->values[i], 255.0);
             break;
         case STP_OUT_F16:
-            for (size_t i = 0; i < nval; i++)
-                stp_wr16(p + 2 * i, stp_f32_to_f16(r->values[i]));
+            stp_f16_encode(r->values, nval, p);
             break;
         default:
             for (size_t i = 0; i < nval; i++)

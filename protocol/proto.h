@@ -504,6 +504,7 @@ void stp_sample_queries(const stp_sample_req *r, uint32_t first, uint32_t n, stp
 /* The compact forms of PROTOCOL.md 4.4.1, encode and decode, exact: */
 uint16_t stp_f32_to_f16(float f);       /* binary16, round to nearest even; NaN -> 0x7E00|sign */
 float    stp_f16_to_f32(uint16_t h);    /* exact widening (NaN payload kept) */
+void     stp_f16_encode(const float *v, size_t n, uint8_t *out);  /* n values, LE binary16 */
 uint16_t stp_f32_to_unit16(float u);    /* nearest integer to u x 65536, ties to even, clamped
                                            to 0..65535; NaN -> 0 */
 static inline float stp_unit16_to_f32(uint16_t q) { return (float)q * (1.0f / 65536.0f); }
