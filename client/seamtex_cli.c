@@ -20,6 +20,7 @@
 #include <unistd.h>
 
 #include "proto.h"
+#include "unixaddr.h"
 
 #define DEFAULT_PORT 7450
 
@@ -146,8 +147,12 @@ int cli_connect(cli_ctx *ctx)
     int err = 0;
     ctx->conn = stc_connect_opts(ctx->host, ctx->port, &o, &err, msg, sizeof msg);
     if (!ctx->conn) {
-        fprintf(stderr, "%s: cannot connect to %s:%u: %s%s%s\n", ctx->prog, ctx->host,
-                ctx->port, stc_strerror(err), msg[0] ? ": " : "", msg);
+        if (stu_is_unix_addr(ctx->host))   /* msg names the path already */
+            fprintf(stderr, "%s: cannot connect: %s%s%s\n", ctx->prog, stc_strerror(err),
+                    msg[0] ? ": " : "", msg);
+        else
+            fprintf(stderr, "%s: cannot connect to %s:%u: %s%s%s\n", ctx->prog, ctx->host,
+                    ctx->port, stc_strerror(err), msg[0] ? ": " : "", msg);
         return CLI_CONNECT;
     }
     return CLI_OK;
