@@ -84,6 +84,8 @@ typedef struct bench_cfg {
     uint8_t     modes[BENCH_MAX_MIX];    /* st_mode values, one picked at random per request */
     uint8_t     filters[BENCH_MAX_MIX];  /* st_filter values */
     float       footprint;     /* SAMPLE: |du/dx| = |dv/dy| of every query (0 = point-like) */
+    uint8_t     compact;       /* SAMPLE: --compact: UV16 queries, FACE16 too under 65536 faces */
+    uint8_t     outfmt;        /* SAMPLE, SAMPLE_DIR: stp_outfmt of the replies (--outfmt) */
     uint32_t    nfaces;        /* SAMPLE: faces of the set (asked with INFO at start) */
     uint8_t     nchan;         /* SAMPLE: channels of the set */
     uint8_t     kind;          /* SAMPLE: st_kind of the set */

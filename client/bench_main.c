@@ -36,7 +36,8 @@ static void usage(FILE *f)
 "Load tester for seamtexd (loopback only). Closed loop by default (capacity); --rate gives\n"
 "an open loop (latency at a fixed rate, measured from each request's intended send time).\n"
 "\n"
-"  -h, --host HOST        server address, loopback only (127.0.0.1)\n"
+"  -h, --host HOST        server address, loopback only (127.0.0.1), or unix:/path (a\n"
+"                         daemon's Unix socket; -p unused)\n"
 "  -p, --port PORT        server port (7450)\n"
 "  -t, --token TOKEN      access token, if the server wants one\n"
 "  -o, --op OP            ping | sample | sample-dir (cube maps: -s a cube set) (ping)\n"
@@ -65,6 +66,9 @@ static void usage(FILE *f)
 "  -m, --mode LIST        comma list of discard,traverse,clamp picked at random (traverse)\n"
 "  -f, --filter LIST      comma list of filters picked at random (bilinear)\n"
 "      --footprint F      |du/dx| = |dv/dy| of every query (0.001); sample-dir: cone angle\n"
+"      --compact          SAMPLE with compact queries (PROTOCOL.md 4.4.1): u, v as u16,\n"
+"                         derivatives as f16, faces as u16 when the set has <= 65536\n"
+"      --outfmt FMT       reply values: f32 | f16 | unorm8 | unorm16 (f32)\n"
 "      --inproc           no server: st_sample_batch on the default set, same queries\n"
 "      --idle N           open N connections, PING each once, hold them --hold seconds\n"
 "      --hold S           (10)\n"
@@ -160,7 +164,9 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
         fprintf(f, "],\n  \"filters\": [");
         for (unsigned i = 0; i < cfg->nfilters; i++)
             fprintf(f, "%s\"%s\"", i ? ", " : "", stp_filter_name(cfg->filters[i]));
-        fprintf(f, "],\n  \"queries_per_s\": %.1f,\n", secs > 0 ? r->queries / secs : 0.0);
+        fprintf(f, "],\n  \"queries\": \"%s\",\n  \"outfmt\": \"%s\",\n",
+                cfg->compact ? "compact" : "f32", stp_outfmt_name(cfg->outfmt));
+        fprintf(f, "  \"queries_per_s\": %.1f,\n", secs > 0 ? r->queries / secs : 0.0);
         if (inproc_qps > 0)
             fprintf(f, "  \"inproc_queries_per_s\": %.1f,\n", inproc_qps);
     }
@@ -249,7 +255,7 @@ int main(int argc, char **argv)
     };
     int inproc = 0;
     enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
-           O_PROTO };
+           O_PROTO, O_COMPACT, O_OUTFMT };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -268,6 +274,7 @@ int main(int argc, char **argv)
         { "hold", required_argument, 0, O_HOLD },  { "json", required_argument, 0, 'j' },
         { "quiet", no_argument, 0, 'q' },          { "help", no_argument, 0, O_HELP },
         { "proto", required_argument, 0, O_PROTO },
+        { "compact", no_argument, 0, O_COMPACT },  { "outfmt", required_argument, 0, O_OUTFMT },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -319,6 +326,13 @@ int main(int argc, char **argv)
             cfg.footprint = (float)d;
             break;
         case O_INPROC: inproc = 1; break;
+        case O_COMPACT: cfg.compact = 1; break;
+        case O_OUTFMT: {
+            int f = stp_outfmt_parse(optarg);
+            bad = f < 0;
+            cfg.outfmt = bad ? 0 : (uint8_t)f;
+            break;
+        }
         case O_IDLE: bad = parse_uint(optarg, 1, BENCH_MAX_CONNS, &u); cfg.idle = (unsigned)u; break;
         case O_HOLD: bad = parse_double(optarg, 0, 3600, &cfg.hold_s); break;
         case 'j': cfg.json_path = optarg; break;

@@ -35,6 +35,7 @@
 #include "proto.h"
 #include "sample.h"
 #include "fdio.h"
+#include "unixaddr.h"
 
 #define POOL_SAMPLE 16          /* distinct SAMPLE frames per thread */
 
@@ -191,15 +192,43 @@ static int peer_hello(const bench_cfg *cfg, int fd, char *msg, size_t ml)
     return -1;
 }
 
+/* A connected socket to a "unix:/path" address (same host by construction), or -1. */
+static int connect_unix(const bench_cfg *cfg, char *msg, size_t ml)
+{
+    struct sockaddr_un sa;
+    socklen_t len;
+    if (stu_unix_addr(cfg->host, &sa, &len) != 0) {
+        snprintf(msg, ml, "%s: %s", cfg->host, strerror(errno));
+        return -1;
+    }
+    int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) {
+        snprintf(msg, ml, "socket: %s", strerror(errno));
+        return -1;
+    }
+    if (connect(fd, (struct sockaddr *)&sa, len) != 0) {
+        snprintf(msg, ml, "connect %s: %s", cfg->host, strerror(errno));
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
 int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t ml)
 {
+    int fd = -1;
+    if (stu_is_unix_addr(cfg->host)) {
+        fd = connect_unix(cfg, msg, ml);
+        if (fd < 0)
+            return -1;
+        goto connected;
+    }
     struct addrinfo hints = { .ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM }, *ai = NULL;
     int g = getaddrinfo(cfg->host, cfg->port, &hints, &ai);
     if (g != 0) {
         snprintf(msg, ml, "%s:%s: %s", cfg->host, cfg->port, gai_strerror(g));
         return -1;
     }
-    int fd = -1;
     for (struct addrinfo *a = ai; a; a = a->ai_next) {
         if (!is_loopback(a->ai_addr)) {
             snprintf(msg, ml, "%s is not a loopback address: seamtex-bench only loads "
@@ -222,6 +251,7 @@ int bench_wire_connect(const bench_cfg *cfg, char *msg, size_t ml)
         return -1;
     int one = 1;
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+connected:;
     /* the blocking set-up exchanges (HELLO, INFO) give up after the request timeout */
     struct timeval tv = { .tv_sec = (time_t)cfg->timeout_s,
                           .tv_usec = (suseconds_t)((cfg->timeout_s - (double)(time_t)cfg->timeout_s) * 1e6) };
@@ -313,7 +343,7 @@ static bench_wire *dir_pool(bench_wire *w, const bench_cfg *cfg, uint64_t *rng, 
         snprintf(r.p.name, sizeof r.p.name, "%s", cfg->set);
         r.p.mode = cfg->modes[stc_rng_next(rng) % cfg->nmodes];
         r.p.filter = cfg->filters[stc_rng_next(rng) % cfg->nfilters];
-        r.p.outfmt = STP_OUT_F32;
+        r.p.outfmt = cfg->outfmt;
         r.p.footprint = cfg->footprint > 0 ? STP_FP_CONE : STP_FP_DERIV;
         r.count = cfg->batch;
         r.dqueries = q;
@@ -372,7 +402,9 @@ bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_
         snprintf(r.p.name, sizeof r.p.name, "%s", cfg->set);
         r.p.mode = cfg->modes[stc_rng_next(&rng) % cfg->nmodes];
         r.p.filter = cfg->filters[stc_rng_next(&rng) % cfg->nfilters];
-        r.p.outfmt = STP_OUT_F32;
+        r.p.outfmt = cfg->outfmt;
+        if (cfg->compact)
+            r.p.flags = STP_SF_UV16 | (cfg->nfaces <= 65536 ? STP_SF_FACE16 : 0);
         r.count = cfg->batch;
         /* st_query and stp_query have the same fields in the same order */
         _Static_assert(sizeof(st_query) == sizeof(stp_query), "query layouts differ");

@@ -36,7 +36,10 @@ static const char *const SAMPLE_USAGE =
 "  --zero-rule nan|clamp  a query whose taps all fall outside (discard) (nan)\n"
 "  --max-aniso N  --sharpness S  --width W  --blur B\n"
 "  --binary           write the values raw (little-endian, count x channels) to stdout\n"
-"  --format f32|unorm8|unorm16   value format on the wire and in --binary output (f32)\n";
+"  --format f32|unorm8|unorm16|f16   value format on the wire and in --binary output\n"
+"                     (f32; f16 travels as binary16 and is written as f32)\n"
+"  --compact          send the queries compact (PROTOCOL.md 4.4.1): u, v rounded to\n"
+"                     multiples of 2^-16, derivatives to binary16\n";
 
 /* Reads a query file of either kind into *out (elements of `size` bytes). */
 static int read_lines(const char *path, int dir, void **out, size_t *count)
@@ -168,6 +171,10 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             dir = 1;
             continue;
         }
+        if (!strcmp(a, "--compact")) {
+            o.want |= STC_WANT_UV16;
+            continue;
+        }
         if (i + 1 >= argc) {
             fprintf(stderr, "seamtex sample: %s needs a value\n", a);
             return CLI_USAGE;
@@ -266,7 +273,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         }
         nbad += r.nbad;
         if (binary) {
-            size_t vs = r.outfmt == STC_OUT_F32 ? 4 : r.outfmt == STC_OUT_UNORM16 ? 2 : 1;
+            size_t vs = r.outfmt == STC_OUT_F32 || r.outfmt == STC_OUT_F16 ? 4
+                        : r.outfmt == STC_OUT_UNORM16 ? 2 : 1;
             size_t bytes = (size_t)r.count * r.nchan * vs;
             if (fwrite(r.values, 1, bytes, stdout) != bytes) {
                 fprintf(stderr, "seamtex sample: writing the output failed\n");

@@ -407,7 +407,7 @@ static int sample_decode_at(stc_conn *c, const uint8_t *body, size_t len, size_t
         memset(res, 0, sizeof *res);
         res->nchan = rp.nchan;
         res->outfmt = rp.outfmt;
-        esz = stp_outfmt_size(rp.outfmt);
+        esz = rp.outfmt == STP_OUT_F16 ? sizeof(float) : stp_outfmt_size(rp.outfmt);
         if (stc__grow(&c->vals, &c->vals_cap, total * rp.nchan * esz) != 0 ||
             stc__grow((void **)&c->cov, &c->cov_cap, total * sizeof(float)) != 0 ||
             stc__grow((void **)&c->qst, &c->qst_cap, total) != 0)
@@ -421,10 +421,10 @@ static int sample_decode_at(stc_conn *c, const uint8_t *body, size_t len, size_t
     }
     if (at + rp.count > total)
         return bad_reply(c, "SAMPLE reply carries more queries than were asked");
-    esz = stp_outfmt_size(rp.outfmt);
+    esz = rp.outfmt == STP_OUT_F16 ? sizeof(float) : stp_outfmt_size(rp.outfmt);
     nval = (size_t)rp.count * rp.nchan;
     uint8_t *dst = (uint8_t *)c->vals + at * rp.nchan * esz;
-    if (rp.outfmt == STP_OUT_F32)
+    if (rp.outfmt == STP_OUT_F32 || rp.outfmt == STP_OUT_F16)
         stp_sample_values_f32(&rp, (float *)(void *)dst);
     else if (rp.outfmt == STP_OUT_UNORM8)
         memcpy(dst, rp.raw_values, nval);

@@ -10,6 +10,7 @@
  * a server that is blocked writing replies the client is not reading.
  */
 #include "libseamtex_int.h"
+#include "unixaddr.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -579,7 +580,8 @@ static int connect_one(const struct addrinfo *ai, int64_t deadline, char *err, s
         }
     }
     int one = 1;
-    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    if (ai->ai_family != AF_UNIX)
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     return fd;
 }
 
@@ -659,6 +661,25 @@ stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, i
         if (errmsg && errmsg_len) snprintf(errmsg, errmsg_len, __VA_ARGS__); \
         return NULL; } while (0)
 
+    if (stu_is_unix_addr(host)) {
+        struct sockaddr_un sa;
+        socklen_t salen;
+        struct addrinfo uai;
+        if (stu_unix_addr(host, &sa, &salen) != 0)
+            CONNECT_FAIL(STC_EINVAL, "%s: %s", host, errno == ENAMETOOLONG
+                         ? "path too long for a Unix socket" : "unix: needs a path");
+        ctmo = o && o->connect_timeout_ms ? o->connect_timeout_ms : STC_DEFAULT_CONNECT_MS;
+        deadline = stc__deadline(ctmo);
+        memset(&uai, 0, sizeof uai);
+        uai.ai_family = AF_UNIX;
+        uai.ai_socktype = SOCK_STREAM;
+        uai.ai_addr = (struct sockaddr *)&sa;
+        uai.ai_addrlen = salen;
+        fd = connect_one(&uai, deadline, why, sizeof why);
+        if (fd < 0)
+            CONNECT_FAIL(fd == -2 ? STC_ETIMEDOUT : STC_ECONNECT, "%s: %s", host, why);
+        goto connected;
+    }
     if (!host || !host[0] || port == 0 || port > 65535)
         CONNECT_FAIL(STC_EINVAL, "bad host or port");
     ctmo = o && o->connect_timeout_ms ? o->connect_timeout_ms : STC_DEFAULT_CONNECT_MS;
@@ -684,6 +705,7 @@ stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, i
     if (fd < 0)
         CONNECT_FAIL(timed_out ? STC_ETIMEDOUT : STC_ECONNECT, "%s:%u: %s", host, port, why);
 
+connected:
     c = calloc(1, sizeof *c);
     if (!c) {
         close(fd);
@@ -702,7 +724,14 @@ stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, i
             if (err)
                 *err = rc;
             if (errmsg && errmsg_len)
-                snprintf(errmsg, errmsg_len, "%s:%u: HELLO: %s", host, port, c->msg);
+            {
+                char where[160];
+                if (stu_is_unix_addr(host))
+                    snprintf(where, sizeof where, "%.150s", host);
+                else
+                    snprintf(where, sizeof where, "%.140s:%u", host, port);
+                snprintf(errmsg, errmsg_len, "%s: HELLO: %s", where, c->msg);
+            }
             stc_close(c);
             return NULL;
         }

@@ -108,8 +108,8 @@ typedef struct stc_opts {
     uint32_t    max_body;             /* cap on reply bodies the client accepts; 0 = 256 MiB */
 } stc_opts;
 
-/* Connects (TCP; host is a name or address, IPv4 or IPv6), then sends HELLO unless
- * opts->no_hello. opts may be NULL (defaults). On failure returns NULL, stores the code in
+/* Connects (TCP; host is a name or address, IPv4 or IPv6; or a Unix socket: host
+ * "unix:/path", port ignored), then sends HELLO unless opts->no_hello. opts may be NULL (defaults). On failure returns NULL, stores the code in
  * *err and a message in errmsg (errmsg_len bytes, may be NULL / 0). */
 stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *opts, int *err,
                            char *errmsg, size_t errmsg_len);
@@ -184,8 +184,14 @@ int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t fac
 /* Sampling. mode / filter / zero_rule use the protocol's numbering (PROTOCOL.md 4.4,
  * protocol/proto_lists.h): mode 0 discard, 1 traverse, 2 clamp; filter 0 point, 1 bilinear,
  * 2 trilinear, 3 aniso, 8..15 Ptex family; zero_rule 0 nan, 1 clamp. */
-enum { STC_OUT_F32 = 0, STC_OUT_UNORM8 = 1, STC_OUT_UNORM16 = 2 };
-enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2 };
+enum { STC_OUT_F32 = 0, STC_OUT_UNORM8 = 1, STC_OUT_UNORM16 = 2,
+       STC_OUT_F16 = 3 };             /* f16: half the bytes on the wire; delivered as float */
+/* COVERAGE, STATUS: ask for them in the result. UV16, FACE16 (stc_sample only; servers whose
+ * HELLO offers STP_CAP_COMPACT, bit 8): send the queries compact, PROTOCOL.md 4.4.1: u, v
+ * rounded to multiples of 2^-16 in [0, 1 - 2^-16], derivatives to binary16; faces as u16
+ * (face & 0xFFFF: only for sets of at most 65536 faces). The server samples the rounded
+ * queries, exactly as if they had been sent as f32. */
+enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2, STC_WANT_UV16 = 4, STC_WANT_FACE16 = 8 };
 typedef struct stc_sample_opts {
     unsigned mode, filter, zero_rule, max_aniso;
     unsigned outfmt;                  /* STC_OUT_* */
@@ -204,8 +210,8 @@ typedef struct stc_sample_result {
     uint32_t count;
     unsigned nchan, outfmt;
     uint32_t nbad;                    /* queries whose status is not OK */
-    const void    *values;            /* count*nchan of float / uint8_t / uint16_t (outfmt),
-                                         native byte order, owned by c */
+    const void    *values;            /* count*nchan of float (F32, F16) / uint8_t /
+                                         uint16_t (outfmt), native byte order, owned by c */
     const float   *coverage;          /* count, or NULL when not asked for */
     const uint8_t *status;            /* count per-query status bytes (PROTOCOL.md 4.6: 0 OK,
                                          1 BAD_FACE, 2 NONFINITE, 3 BAD_FOOTPRINT,

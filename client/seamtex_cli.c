@@ -20,6 +20,7 @@
 #include <unistd.h>
 
 #include "proto.h"
+#include "unixaddr.h"
 
 #define DEFAULT_PORT 7450
 
@@ -39,7 +40,8 @@ static const char *const USAGE =
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
-"$SEAMTEX_TOKEN. `seamtex COMMAND --help` describes a command. --json (ls, info, stats,\n"
+"$SEAMTEX_TOKEN; HOST unix:/path connects to a daemon's Unix socket (PORT unused).\n"
+"`seamtex COMMAND --help` describes a command. --json (ls, info, stats,\n"
 "compress) prints one JSON document instead of text (keys: seamtex(1), docs/client.md).\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
 
@@ -173,8 +175,12 @@ int cli_connect(cli_ctx *ctx)
     int err = 0;
     ctx->conn = stc_connect_opts(ctx->host, ctx->port, &o, &err, msg, sizeof msg);
     if (!ctx->conn) {
-        fprintf(stderr, "%s: cannot connect to %s:%u: %s%s%s\n", ctx->prog, ctx->host,
-                ctx->port, stc_strerror(err), msg[0] ? ": " : "", msg);
+        if (stu_is_unix_addr(ctx->host))   /* msg names the path already */
+            fprintf(stderr, "%s: cannot connect: %s%s%s\n", ctx->prog, stc_strerror(err),
+                    msg[0] ? ": " : "", msg);
+        else
+            fprintf(stderr, "%s: cannot connect to %s:%u: %s%s%s\n", ctx->prog, ctx->host,
+                    ctx->port, stc_strerror(err), msg[0] ? ": " : "", msg);
         return CLI_CONNECT;
     }
     return CLI_OK;

@@ -362,22 +362,36 @@ static void put_params(stp_buf *b, const stp_sample_params *p, int dir)
 int stp_enc_sample_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const stp_sample_req *r)
 {
     size_t at = stp_frame_begin(b, STP_OP_SAMPLE, 0, reqid, 0, timeout_ms);
-    size_t bytes;
+    size_t bytes, qs = stp_query_size(r->p.flags);
+    int face16 = (r->p.flags & STP_SF_FACE16) != 0, uv16 = (r->p.flags & STP_SF_UV16) != 0;
     put_params(b, &r->p, 0);
     stp_put_u32(b, r->count);
-    if (__builtin_mul_overflow(r->count, STP_QUERY_SIZE, &bytes))
+    if (__builtin_mul_overflow(r->count, qs, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
         uint8_t *p = b->data + b->len;
-        for (uint32_t i = 0; i < r->count; i++, p += STP_QUERY_SIZE) {
+        for (uint32_t i = 0; i < r->count; i++, p += qs) {
             const stp_query *q = &r->queries[i];
-            stp_wr32(p, q->face);
-            stp_wr32(p + 4, stp_f2u(q->u));
-            stp_wr32(p + 8, stp_f2u(q->v));
-            stp_wr32(p + 12, stp_f2u(q->dudx));
-            stp_wr32(p + 16, stp_f2u(q->dvdx));
-            stp_wr32(p + 20, stp_f2u(q->dudy));
-            stp_wr32(p + 24, stp_f2u(q->dvdy));
+            uint8_t *f = p + (face16 ? 2 : 4);
+            if (face16)
+                stp_wr16(p, (uint16_t)q->face);
+            else
+                stp_wr32(p, q->face);
+            if (uv16) {
+                stp_wr16(f, stp_f32_to_unit16(q->u));
+                stp_wr16(f + 2, stp_f32_to_unit16(q->v));
+                stp_wr16(f + 4, stp_f32_to_f16(q->dudx));
+                stp_wr16(f + 6, stp_f32_to_f16(q->dvdx));
+                stp_wr16(f + 8, stp_f32_to_f16(q->dudy));
+                stp_wr16(f + 10, stp_f32_to_f16(q->dvdy));
+            } else {
+                stp_wr32(f, stp_f2u(q->u));
+                stp_wr32(f + 4, stp_f2u(q->v));
+                stp_wr32(f + 8, stp_f2u(q->dudx));
+                stp_wr32(f + 12, stp_f2u(q->dvdx));
+                stp_wr32(f + 16, stp_f2u(q->dudy));
+                stp_wr32(f + 20, stp_f2u(q->dvdy));
+            }
         }
         b->len += bytes;
     }
@@ -413,7 +427,7 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
                              stp_sample_req *r, const char **why)
 {
     stp_rd rd;
-    size_t qsize = dir ? STP_DIR_QUERY_SIZE : STP_QUERY_SIZE;
+    size_t qsize;
     stp_sample_params *p = &r->p;
     int np;
 
@@ -438,6 +452,9 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
         return fail(why, "SAMPLE: truncated parameters", STP_S_BAD_REQUEST);
     if (!dir)
         p->footprint = 0;
+    /* the query layout follows the flags (SAMPLE_DIR has one layout: compact flags there are
+     * INVALID below, once the length is found right for 36-byte queries) */
+    qsize = dir ? STP_DIR_QUERY_SIZE : stp_query_size(p->flags);
     /* The lying-length check: count must account for every remaining byte exactly. */
     if ((uint64_t)r->count * qsize != stp_rd_left(&rd))
         return fail(why, "SAMPLE: count does not match the body length", STP_S_BAD_REQUEST);
@@ -449,8 +466,11 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
         return fail(why, "SAMPLE: unknown output format", STP_S_INVALID);
     if (p->max_aniso > 16)
         return fail(why, "SAMPLE: max_aniso over 16", STP_S_INVALID);
-    if (p->flags & ~(STP_SF_COVERAGE | STP_SF_STATUS))
+    if (p->flags & ~(STP_SF_REPLY_MASK | STP_SF_COMPACT_MASK))
         return fail(why, "SAMPLE: unknown flag bits", STP_S_INVALID);
+    if (dir && (p->flags & STP_SF_COMPACT_MASK))
+        return fail(why, "SAMPLE_DIR: the compact query flags (UV16, FACE16) are for SAMPLE only",
+                    STP_S_INVALID);
     if (dir && p->footprint > STP_FP_CONE)
         return fail(why, "SAMPLE_DIR: unknown footprint kind", STP_S_INVALID);
     r->raw = rd.p + rd.off;
@@ -469,16 +489,17 @@ int stp_dec_sample_dir_req(const uint8_t *body, size_t len, uint32_t max_batch,
     return dec_sample_common(body, len, max_batch, 1, r, why);
 }
 
+uint32_t stp_sample_peek_count(const uint8_t *body, size_t len)
+{
+    if (len < 2)
+        return 0;
+    size_t at = 2 + (size_t)stp_rd16(body) + 20;
+    return len >= at + 4 ? stp_rd32(body + at) : 0;
+}
+
 void stp_sample_query(const stp_sample_req *r, uint32_t i, stp_query *q)
 {
-    const uint8_t *p = r->raw + (size_t)i * STP_QUERY_SIZE;
-    q->face = stp_rd32(p);
-    q->u = stp_u2f(stp_rd32(p + 4));
-    q->v = stp_u2f(stp_rd32(p + 8));
-    q->dudx = stp_u2f(stp_rd32(p + 12));
-    q->dvdx = stp_u2f(stp_rd32(p + 16));
-    q->dudy = stp_u2f(stp_rd32(p + 20));
-    q->dvdy = stp_u2f(stp_rd32(p + 24));
+    stp_sample_queries(r, i, 1, q);
 }
 
 void stp_sample_dir_query(const stp_sample_req *r, uint32_t i, stp_dir_query *q)
@@ -515,7 +536,7 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
     stp_put_u32(b, r->count);
     stp_put_u8(b, r->nchan);
     stp_put_u8(b, r->outfmt);
-    stp_put_u8(b, r->flags & (STP_SF_COVERAGE | STP_SF_STATUS));
+    stp_put_u8(b, r->flags & STP_SF_REPLY_MASK);
     stp_put_u8(b, 0);
     stp_put_u32(b, r->nbad);
     nval = (size_t)r->count * r->nchan;
@@ -531,6 +552,9 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
         case STP_OUT_UNORM8:
             for (size_t i = 0; i < nval; i++)
                 p[i] = (uint8_t)to_unorm(r->values[i], 255.0);
+            break;
+        case STP_OUT_F16:
+            stp_f16_encode(r->values, nval, p);
             break;
         default:
             for (size_t i = 0; i < nval; i++)
@@ -601,6 +625,10 @@ void stp_sample_values_f32(const stp_sample_reply *r, float *out)
     case STP_OUT_UNORM8:
         for (size_t i = 0; i < n; i++)
             out[i] = p[i] * (1.0f / 255.0f);
+        break;
+    case STP_OUT_F16:
+        for (size_t i = 0; i < n; i++)
+            out[i] = stp_f16_to_f32(stp_rd16(p + 2 * i));
         break;
     default:
         for (size_t i = 0; i < n; i++)

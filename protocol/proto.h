@@ -211,7 +211,8 @@ enum stp_caps {
     STP_CAP_COMPRESS      = 1u << 4,
     STP_CAP_FETCH         = 1u << 5,
     STP_CAP_PTEX_FILTERS  = 1u << 6,
-    STP_CAP_AUTH          = 1u << 7   /* the server has a token (mutations need it) */
+    STP_CAP_AUTH          = 1u << 7,  /* the server has a token (mutations need it) */
+    STP_CAP_COMPACT       = 1u << 8   /* SAMPLE flags UV16 / FACE16 and outfmt f16 (4.4) */
 };
 
 /* ---- byte helpers --------------------------------------------------------------------------- */
@@ -425,13 +426,22 @@ void stp_info_face(const stp_info_reply *r, uint32_t i, stp_face_rec *out);  /* 
 /* -- SAMPLE / SAMPLE_DIR -- */
 enum stp_sample_flags {
     STP_SF_COVERAGE = 1,   /* reply carries one f32 coverage per query */
-    STP_SF_STATUS   = 2    /* reply carries one u8 status (stp_qstatus) per query */
+    STP_SF_STATUS   = 2,   /* reply carries one u8 status (stp_qstatus) per query */
+    STP_SF_UV16     = 4,   /* SAMPLE request: u, v as u16 x 2^-16, derivatives as binary16 */
+    STP_SF_FACE16   = 8    /* SAMPLE request: face as u16 */
 };
+#define STP_SF_REPLY_MASK   (STP_SF_COVERAGE | STP_SF_STATUS)   /* what a reply echoes */
+#define STP_SF_COMPACT_MASK (STP_SF_UV16 | STP_SF_FACE16)       /* query layout (SAMPLE) */
 enum stp_footprint {
     STP_FP_DERIV = 0,      /* ddx, ddy are the direction's screen derivatives */
     STP_FP_CONE  = 1       /* ddx[0] is the full cone angle in radians; the rest must be 0 */
 };
 #define STP_QUERY_SIZE     28   /* u32 face, f32 u, v, dudx, dvdx, dudy, dvdy */
+/* Bytes of one SAMPLE query with these request flags: 28, 26 (FACE16), 16 (UV16), 14 (both). */
+static inline size_t stp_query_size(unsigned flags)
+{
+    return (size_t)((flags & STP_SF_FACE16) ? 2 : 4) + ((flags & STP_SF_UV16) ? 12 : 24);
+}
 #define STP_DIR_QUERY_SIZE 36   /* f32 dir[3], ddx[3], ddy[3] */
 
 typedef struct stp_query {
@@ -482,14 +492,32 @@ int stp_enc_sample_dir_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms,
                            const stp_sample_req *r);
 int stp_dec_sample_dir_req(const uint8_t *body, size_t len, uint32_t max_batch,
                            stp_sample_req *r, const char **why);
-/* Query i (< count) of a decoded request. NaN and infinite values are passed through. */
+/* The count field of a SAMPLE / SAMPLE_DIR body without decoding it (0 when the body is too
+ * short to hold one): how big a batch is, for scheduling, before the decoder checks it. */
+uint32_t stp_sample_peek_count(const uint8_t *body, size_t len);
+/* Query i (< count) of a decoded request, whatever its layout (flags UV16 / FACE16: the
+ * compact values widened exactly, PROTOCOL.md 4.4.1). NaN and infinite values are passed
+ * through. */
 void stp_sample_query(const stp_sample_req *r, uint32_t i, stp_query *q);
+/* Queries [first, first + n) of a decoded SAMPLE request, as stp_sample_query. */
+void stp_sample_queries(const stp_sample_req *r, uint32_t first, uint32_t n, stp_query *out);
+/* The compact forms of PROTOCOL.md 4.4.1, encode and decode, exact: */
+uint16_t stp_f32_to_f16(float f);       /* binary16, round to nearest even; NaN -> 0x7E00|sign */
+float    stp_f16_to_f32(uint16_t h);    /* exact widening (NaN payload kept) */
+void     stp_f16_encode(const float *v, size_t n, uint8_t *out);  /* n values, LE binary16 */
+uint16_t stp_f32_to_unit16(float u);    /* nearest integer to u x 65536, ties to even, clamped
+                                           to 0..65535; NaN -> 0 */
+static inline float stp_unit16_to_f32(uint16_t q) { return (float)q * (1.0f / 65536.0f); }
+/* The query a compact encoding delivers for q (what the server samples): q rounded through
+ * the layout of `flags` and widened again; face & 0xFFFF with FACE16. */
+void stp_query_round(const stp_query *q, unsigned flags, stp_query *out);
 void stp_sample_dir_query(const stp_sample_req *r, uint32_t i, stp_dir_query *q);
 /* The same reply layout serves SAMPLE and SAMPLE_DIR (pass the opcode). */
 int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_sample_reply *r);
 int stp_dec_sample_reply(const uint8_t *body, size_t len, stp_sample_reply *r, const char **why);
-/* Converts the values of a decoded reply: to floats (unorm / max) or to the raw unsigned
- * integers (for unorm formats; f32 replies refuse with -1). out holds count * nchan. */
+/* Converts the values of a decoded reply: to floats (unorm / max, f16 widened exactly) or
+ * to the raw unsigned integers (for unorm formats; f32 and f16 replies refuse with -1). out
+ * holds count * nchan. */
 void stp_sample_values_f32(const stp_sample_reply *r, float *out);
 int  stp_sample_values_u16(const stp_sample_reply *r, uint16_t *out);
 void stp_sample_coverage(const stp_sample_reply *r, float *out);   /* needs raw_coverage */

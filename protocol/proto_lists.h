@@ -105,7 +105,8 @@
 #define STP_OUTFMTS(X)                                   \
     X(F32,     "f32",     0, 4)                          \
     X(UNORM8,  "unorm8",  1, 1)                          \
-    X(UNORM16, "unorm16", 2, 2)
+    X(UNORM16, "unorm16", 2, 2)                          \
+    X(F16,     "f16",     3, 2)
 
 /* File formats of FETCH_OPEN: X(NAME, "name", value); the name is also the file extension
  * (the client picks the format from it). Same numbers as store/import/export.h

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "log.h"
+#include "unixaddr.h"
 
 enum { T_STR, T_U32, T_SIZE, T_BOOL, T_LEVEL, T_NOT, T_LOGFMT };
 
@@ -24,8 +25,9 @@ typedef struct opt {
 #define O(f) offsetof(sts_config, f)
 #define S(f) sizeof(((sts_config *)0)->f)
 static const opt OPTS[] = {
-    {"listen", T_STR, O(listen), S(listen), 0, "HOST:PORT",
-     "address to serve on (default 127.0.0.1:7450; port 0 picks a free port)"},
+    {"listen", T_STR, O(listen), S(listen), 0, "HOST:PORT|unix:PATH",
+     "address to serve on (default 127.0.0.1:7450; port 0 picks a free port); unix:PATH\n"
+     "serves same-host clients on a Unix socket, its file mode from unix-mode"},
     {"data-dir", T_STR, O(data_dir), S(data_dir), 0, "DIR",
      "durable set store; every acknowledged upload is on disk there (default: none,\n"
      "sets live in memory only and vanish at exit)"},
@@ -93,6 +95,8 @@ static const opt OPTS[] = {
     {"default-set", T_BOOL, O(default_set), 0, 0, "yes|no",
      "load the built-in set as \"default\" at start (default yes)"},
     {"no-default-set", T_NOT, O(default_set), 0, 0, NULL, "same as --default-set no"},
+    {"unix-mode", T_STR, O(unix_mode), S(unix_mode), 0, "OCTAL",
+     "file mode of a unix:PATH socket: who may connect (default 0600: the daemon's user)"},
     {"log-level", T_LEVEL, O(log_level), 0, 1, "LEVEL", "error, warn, info or debug (default info)"},
     {"log-format", T_LOGFMT, O(log_format), 0, 0, "text|json",
      "text lines, or one JSON object per line with time, level, message and the line's\n"
@@ -117,6 +121,7 @@ void sts_config_defaults(sts_config *c)
     c->max_upload = 1u << 30;
     c->deadline_ms = 10000;
     c->io_threads = 2;
+    snprintf(c->unix_mode, sizeof c->unix_mode, "0600");
     c->workers = 2;
     c->max_batch = 1u << 20;
     c->heavy_batch = 16384;
@@ -432,8 +437,22 @@ int sts_config_check(const sts_config *c, char *err, size_t errcap)
 {
     char host[128];
     int port;
-    if (sts_parse_listen(c->listen, host, sizeof host, &port)) {
+    if (stu_is_unix_addr(c->listen)) {
+        struct sockaddr_un sa;
+        socklen_t len;
+        if (stu_unix_addr(c->listen, &sa, &len) != 0) {
+            snprintf(err, errcap, "listen: '%s': %s", c->listen, errno == ENAMETOOLONG
+                     ? "the path is over 107 bytes" : "unix: needs a path");
+            return -1;
+        }
+    } else if (sts_parse_listen(c->listen, host, sizeof host, &port)) {
         snprintf(err, errcap, "listen: '%s' is not HOST:PORT", c->listen);
+        return -1;
+    }
+    char *end;
+    unsigned long mode = strtoul(c->unix_mode, &end, 8);
+    if (!c->unix_mode[0] || *end || mode > 0777) {
+        snprintf(err, errcap, "unix-mode must be an octal file mode, 0..0777");
         return -1;
     }
     if (c->io_threads < 1 || c->io_threads > 64) {

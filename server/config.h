@@ -19,7 +19,7 @@
 #define STS_VERSION "0.1"   /* --version, the build-info metric */
 
 typedef struct sts_config {
-    char     listen[128];       /* host:port; default 127.0.0.1:7450 */
+    char     listen[128];       /* host:port or unix:PATH; default 127.0.0.1:7450 */
     char     data_dir[1024];    /* "" = no persistence (sets live in memory only) */
     char     token[STS_TOKEN_MAX + 1];  /* "" = no token */
     char     token_file[1024];  /* read at start and on SIGHUP; overrides token */
@@ -56,6 +56,7 @@ typedef struct sts_config {
     int      log_level;         /* sts_level */
     int      log_format;        /* sts_log_format: text or json (restart only) */
     char     metrics_listen[128]; /* HOST:PORT or PORT (127.0.0.1) for GET /metrics; "" = off */
+    char     unix_mode[8];      /* octal file mode of a unix:PATH socket; default "0600" */
 } sts_config;
 
 /* Fills the defaults. */

@@ -53,7 +53,7 @@ int sts_h_hello(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     memset(&r, 0, sizeof r);
     r.version = STP_VERSION;
     r.caps = STP_CAP_PIPELINE | STP_CAP_SAMPLE_DIR | STP_CAP_COMPRESS | STP_CAP_FETCH |
-             STP_CAP_PTEX_FILTERS;
+             STP_CAP_PTEX_FILTERS | STP_CAP_COMPACT;
     if (STS_LIVE(c->srv, upload_keep))
         r.caps |= STP_CAP_UPLOAD_RESUME;
     if (!sts_token_allows(c->srv, 0))
@@ -280,12 +280,39 @@ typedef struct part_arg {
     float                *out, *cov;
     uint8_t              *status;
     unsigned              nchan;
+    const stp_sample_req *rq;   /* compact SAMPLE: the request, widened into wq by parts */
+    st_query             *wq;
 } part_arg;
 
 static int part_sample(void *arg, size_t first, size_t count)
 {
     const part_arg *a = arg;
     return st_sample_batch(a->s, a->o, a->q + first, count, a->out + first * a->nchan,
+                           a->cov ? a->cov + first : NULL, a->status + first);
+}
+
+/* Compact queries: widens the part's queries (protocol/compact.c) into its slice of the
+ * scratch array, then samples them. */
+static int part_sample_compact(void *arg, size_t first, size_t count)
+{
+    const part_arg *a = arg;
+    stp_query tmp[64];
+    for (size_t i = 0; i < count;) {
+        uint32_t k = count - i < 64 ? (uint32_t)(count - i) : 64;
+        stp_sample_queries(a->rq, (uint32_t)(first + i), k, tmp);
+        for (uint32_t j = 0; j < k; j++) {
+            st_query *d = &a->wq[first + i + j];
+            d->face = tmp[j].face;
+            d->u = tmp[j].u;
+            d->v = tmp[j].v;
+            d->dudx = tmp[j].dudx;
+            d->dvdx = tmp[j].dvdx;
+            d->dudy = tmp[j].dudy;
+            d->dvdy = tmp[j].dvdy;
+        }
+        i += k;
+    }
+    return st_sample_batch(a->s, a->o, a->wq + first, count, a->out + first * a->nchan,
                            a->cov ? a->cov + first : NULL, a->status + first);
 }
 
@@ -326,7 +353,7 @@ static int sample_into_reply(sts_ctx *c, const stp_header *h, const stp_sample_r
     stp_put_u32(out, n);
     stp_put_u8(out, (uint8_t)a->nchan);
     stp_put_u8(out, rq->p.outfmt);
-    stp_put_u8(out, rq->p.flags & (STP_SF_COVERAGE | STP_SF_STATUS));
+    stp_put_u8(out, rq->p.flags & STP_SF_REPLY_MASK);
     stp_put_u8(out, 0);
     size_t nbad_at = out->len - out->start;   /* head-relative: survives compaction */
     stp_put_u32(out, 0);
@@ -394,9 +421,15 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     }
     sts_scratch *sc = c->scratch;
     float *cov = (rq->p.flags & STP_SF_COVERAGE) ? sc->cov : NULL;
-    part_arg a = {s, &o, sc->q, sc->cq, sc->out, cov, sc->status, s->info.nchan};
+    part_arg a = {s, &o, sc->q, sc->cq, sc->out, cov, sc->status, s->info.nchan, NULL, NULL};
     sts_part_fn fn;
-    if (h->opcode == STP_OP_SAMPLE && WIRE_IS_ST_QUERY) {
+    if (h->opcode == STP_OP_SAMPLE && (rq->p.flags & STP_SF_COMPACT_MASK)) {
+        /* compact queries (PROTOCOL.md 4.4.1): widened in each part, on the thread that
+         * samples it, so a split batch decodes in parallel too */
+        a.rq = rq;
+        a.wq = sc->q;
+        fn = part_sample_compact;
+    } else if (h->opcode == STP_OP_SAMPLE && WIRE_IS_ST_QUERY) {
         /* the wire query (u32 face, 6 x f32, little-endian, packed) is st_query's layout on
          * a little-endian host: sampled where it lies in the input buffer when aligned, else
          * after one copy */
@@ -464,7 +497,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     r.count = n;
     r.nchan = s->info.nchan;
     r.outfmt = rq->p.outfmt;
-    r.flags = rq->p.flags & (STP_SF_COVERAGE | STP_SF_STATUS);
+    r.flags = rq->p.flags & STP_SF_REPLY_MASK;
     r.nbad = (uint32_t)rc;
     r.values = sc->out;
     r.coverage = cov;
@@ -502,10 +535,11 @@ int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     s[n].type = STP_STAT_U64; s[n].v.u = (val); n++; } } while (0)
 #define L(f) __atomic_load_n(&srv->stats.f, __ATOMIC_RELAXED)
 
-size_t sts_stats_max_keys(void)
+size_t sts_stats_max_keys(const sts_server *srv)
 {
-    /* with the budget's keys (budget.c) and the query counts by mode and filter */
-    return 192 + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
+    /* with the budget's keys (budget.c), the query counts by mode and filter and two per I/O
+     * thread */
+    return 192 + 2 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
 }
 
 size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
@@ -556,6 +590,13 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
     U("sets", st_registry_count(srv->reg));
     U("set_memory", st_registry_memory(srv->reg));
     U("io_threads", srv->nio);
+    for (uint32_t i = 0; i < srv->nio; i++) {   /* how the acceptor spread connections (io.c) */
+        char key[32];
+        snprintf(key, sizeof key, "io%u_conns", i);
+        U(key, __atomic_load_n(&srv->io[i].nconns, __ATOMIC_RELAXED));
+        snprintf(key, sizeof key, "io%u_accepted", i);
+        U(key, __atomic_load_n(&srv->io[i].accepted, __ATOMIC_RELAXED));
+    }
     U("workers", srv->pool.nthreads);
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
     U("split_batches", __atomic_load_n(&srv->pool.split_batches, __ATOMIC_RELAXED));
@@ -607,7 +648,7 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     const char *why = NULL;
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
         return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
-    size_t cap = sts_stats_max_keys();
+    size_t cap = sts_stats_max_keys(c->srv);
     stp_stat *s = malloc(cap * sizeof *s);
     if (!s) {
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");

@@ -23,7 +23,7 @@ STS_HANDLER(sts_h_stats);
  * so the two always show the same counters. Any thread. */
 size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap);
 /* The most entries sts_stats_collect writes. */
-size_t sts_stats_max_keys(void);
+size_t sts_stats_max_keys(const sts_server *srv);
 /* "queries_<mode>_<filter>" ('-' as '_') for wire values mode, filter; -1 for unnamed ones. */
 int sts_queries_key(unsigned mode, unsigned filter, char *key, size_t cap);
 

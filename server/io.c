@@ -543,8 +543,67 @@ static void peer_name(const struct sockaddr_storage *sa, char *out, size_t cap)
         port = ntohs(in6->sin6_port);
         if (snprintf(out, cap, "[%.46s]:%u", a, port) < 0 && cap)
             out[0] = 0;
+    } else if (sa->ss_family == AF_UNIX) {
+        snprintf(out, cap, "(unix socket)");
     } else {
         snprintf(out, cap, "(unknown peer)");
+    }
+}
+
+/* The I/O thread a new connection goes to: the one with the fewest connections, this one
+ * on a tie (no hand-off). The listening socket wakes one poller per connection
+ * (EPOLLEXCLUSIVE) but not in turn: clients that connect one after another are often all
+ * accepted by the same thread, so the acceptor balances instead of the kernel. */
+static sts_io *pick_io(sts_io *self)
+{
+    sts_server *srv = self->srv;
+    sts_io *best = self;
+    uint32_t least = __atomic_load_n(&self->nconns, __ATOMIC_RELAXED);
+    for (uint32_t i = 0; i < srv->nio; i++) {
+        uint32_t n = __atomic_load_n(&srv->io[i].nconns, __ATOMIC_RELAXED);
+        if (n < least) {
+            least = n;
+            best = &srv->io[i];
+        }
+    }
+    return best;
+}
+
+/* Puts a connection assigned to this thread (c->io, counted in io->nconns already) in its
+ * poller and list; on failure it is answered INTERNAL and closed. */
+static void conn_attach(sts_conn *c)
+{
+    sts_io *io = c->io;
+    sts_server *srv = io->srv;
+    if (sts_ev_add(io->ev, c->fd, STS_EV_READ, c) != 0) {
+        int fd = c->fd;
+        stp_buf_free(&c->out);
+        free(c);
+        __atomic_sub_fetch(&io->nconns, 1, __ATOMIC_RELAXED);
+        __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
+        reject(srv, fd, STP_S_INTERNAL, "poller");
+        return;
+    }
+    c->prev = NULL;
+    c->next = io->conns;
+    if (io->conns)
+        io->conns->prev = c;
+    io->conns = c;
+    __atomic_add_fetch(&io->accepted, 1, __ATOMIC_RELAXED);
+    STS_STAT_ADD(srv, conns_accepted, 1);
+}
+
+/* Connections other I/O threads accepted for this one. */
+static void take_adopted(sts_io *io)
+{
+    pthread_mutex_lock(&io->mu);
+    sts_conn *list = io->adopt;
+    io->adopt = NULL;
+    pthread_mutex_unlock(&io->mu);
+    while (list) {
+        sts_conn *c = list;
+        list = c->next;
+        conn_attach(c);
     }
 }
 
@@ -579,26 +638,26 @@ static void do_accept(sts_io *io)
             continue;
         }
         int one = 1;
-        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        if (sa.ss_family != AF_UNIX)
+            setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         c->fd = fd;
-        c->io = io;
         c->id = __atomic_add_fetch(&srv->next_conn_id, 1, __ATOMIC_RELAXED);
         c->last_ms = sts_now_ms();
         peer_name(&sa, c->peer, sizeof c->peer);
         stp_buf_init(&c->out);
         c->ev_mask = STS_EV_READ;
-        if (sts_ev_add(io->ev, fd, STS_EV_READ, c) != 0) {
-            __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
-            free(c);
-            reject(srv, fd, STP_S_INTERNAL, "poller");
-            continue;
+        sts_io *to = pick_io(io);
+        c->io = to;
+        __atomic_add_fetch(&to->nconns, 1, __ATOMIC_RELAXED);
+        if (to == io) {
+            conn_attach(c);
+        } else {
+            pthread_mutex_lock(&to->mu);
+            c->next = to->adopt;
+            to->adopt = c;
+            pthread_mutex_unlock(&to->mu);
+            sts_io_wake(to);
         }
-        c->next = io->conns;
-        if (io->conns)
-            io->conns->prev = c;
-        io->conns = c;
-        __atomic_add_fetch(&io->nconns, 1, __ATOMIC_RELAXED);
-        STS_STAT_ADD(srv, conns_accepted, 1);
     }
 }
 
@@ -625,6 +684,7 @@ static void take_completions(sts_io *io)
     uint64_t v;
     ssize_t r = read(io->wakefd, &v, sizeof v);
     (void)r;
+    take_adopted(io);
     pthread_mutex_lock(&io->mu);
     sts_task *list = io->done;
     io->done = NULL;

@@ -5,8 +5,10 @@
  * sampling scratch. Does not own: what a request means (dispatch.h), the worker queue
  * (workers.h), the poller (ev.h).
  *
- * Ownership: connections are allocated at accept and freed by their I/O thread once closed
- * and not busy; a worker only reads conn->id, conn->authed and conn->io while it holds a
+ * Ownership: connections are allocated at accept by whichever I/O thread the listening
+ * socket woke, which assigns each to the thread with the fewest connections (itself or
+ * another: then the struct travels through that thread's adopt list, and from then on only
+ * the owner touches it); they are freed by their I/O thread once closed and not busy; a worker only reads conn->id, conn->authed and conn->io while it holds a
  * task. Scratch arrays belong to their thread and are freed with sts_scratch_free.
  */
 #ifndef STS_IO_H
@@ -71,10 +73,13 @@ struct sts_io {
     pthread_t       thread;
     sts_ev         *ev;
     int             wakefd;        /* eventfd: completions or stop */
-    pthread_mutex_t mu;            /* guards done */
+    pthread_mutex_t mu;            /* guards done and adopt */
     sts_task       *done;          /* finished tasks to hand back */
+    sts_conn       *adopt;         /* connections another thread accepted for this one */
     sts_conn       *conns;         /* list of live connections */
-    uint32_t        nconns;
+    uint32_t        nconns;        /* atomic: live connections, adopt list included (the
+                                      acceptor picks the thread with the fewest) */
+    uint64_t        accepted;      /* atomic: connections assigned to this thread (STATS) */
     sts_scratch     scratch;
     int64_t         oldest_partial_ms; /* atomic: published by each idle scan, the first-byte
                                           time of this thread's oldest half-sent frame at least

@@ -336,7 +336,7 @@ static void render_cold(stp_buf *out, sts_server *srv)
 
 int sts_metrics_render(sts_server *srv, stp_buf *out)
 {
-    size_t cap = sts_stats_max_keys();
+    size_t cap = sts_stats_max_keys(srv);
     stp_stat *s = malloc(cap * sizeof *s);
     if (!s)
         return -1;

@@ -22,6 +22,7 @@
 #include "h_jobs.h"
 #include "io.h"
 #include "server.h"
+#include "unixaddr.h"
 #include "startup.h"
 #include "uploads.h"
 #include "workers.h"
@@ -119,6 +120,12 @@ int sts_tcp_listen(sts_server *srv, const char *what, const char *host, int port
 
 static int open_listener(sts_server *srv)
 {
+    if (stu_is_unix_addr(srv->cfg.listen)) {
+        unsigned mode = (unsigned)strtoul(srv->cfg.unix_mode, NULL, 8);  /* checked by config */
+        srv->listen_fd = sts_unix_listen(&srv->ulisten, srv->cfg.listen, mode, &srv->log);
+        srv->port = 0;
+        return srv->listen_fd >= 0 ? 0 : -1;
+    }
     char host[128];
     int port;
     sts_parse_listen(srv->cfg.listen, host, sizeof host, &port);
@@ -319,6 +326,7 @@ void sts_server_free(sts_server *srv)
     if (srv->listen_fd >= 0)
         close(srv->listen_fd);
     sts_metrics_close(srv);
+    sts_unix_unlink(&srv->ulisten);
     sts_uploads_free(srv);
     sts_handles_destroy(&srv->fetches);   /* emptied by sts_jobs_stop */
     st_registry_free(srv->reg);

@@ -46,6 +46,7 @@
 #include "config.h"
 #include "datadir.h"
 #include "handles.h"
+#include "listen_unix.h"
 #include "log.h"
 #include "metrics.h"
 #include "opstats.h"
@@ -91,7 +92,8 @@ struct sts_server {
     st_registry    *reg;
     st_datadir     *dd;           /* NULL without --data-dir */
     int             listen_fd;
-    int             port;         /* bound port */
+    int             port;         /* bound port (0 on a Unix socket) */
+    sts_unix_listener ulisten;    /* --listen unix:PATH (listen_unix.h) */
     sts_io         *io;           /* cfg.io_threads of them (io.h) */
     uint32_t        nio;
     sts_pool        pool;         /* workers.h */

@@ -10,7 +10,7 @@ _Ints = Union[int, Buffer]               # an int (broadcast) or a 1-D integer b
 _Floats = Union[float, Buffer]           # a number (broadcast) or a 1-D float32/float64 buffer
 _Progress = Callable[[int, int], Any]    # progress(done_bytes, total_bytes)
 _Mode = Literal["discard", "traverse", "clamp"]
-_Format = Literal["f32", "unorm8", "unorm16"]
+_Format = Literal["f32", "unorm8", "unorm16", "f16"]   # f16: binary16 on the wire, float here
 # values, coverage, status: numpy arrays when numpy is used, else Array
 _SampleResult = Tuple[Any, Any, Any]
 

@@ -251,6 +251,9 @@ static PyObject *client_exit_ctx(st_py_client *self, PyObject *args)
 
 static PyObject *client_repr(st_py_client *self)
 {
+    if (strncmp(self->host, "unix:", 5) == 0)   /* a Unix socket: no port */
+        return PyUnicode_FromFormat("<seamtex.Client %s%s>", self->host,
+                                    self->conn ? "" : " closed");
     return PyUnicode_FromFormat("<seamtex.Client %s:%u%s>", self->host, self->port,
                                 self->conn ? "" : " closed");
 }

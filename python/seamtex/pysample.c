@@ -263,12 +263,24 @@ typedef struct job {
     int          out_mismatch;    /* out's size does not fit n * nchan */
 } job;
 
-static const char *const OUT_FORMAT[] = {"f", "B", "H"};   /* by stp_outfmt */
+/* The item format of the values by stp_outfmt: libseamtex delivers f16 replies widened to
+ * float (seamtex.h), so f16 values are "f" here, 4 bytes each. */
+static const char *const OUT_FORMAT[] = {"f", "B", "H", "f"};
+#define COUNT_OUTFMT_(NAME, str, v, size) +1
+_Static_assert(sizeof OUT_FORMAT / sizeof OUT_FORMAT[0] == 0 STP_OUTFMTS(COUNT_OUTFMT_),
+               "an item format for every output format");
+#undef COUNT_OUTFMT_
+
+/* Bytes of one value as the library delivers it. */
+static size_t value_size(unsigned outfmt)
+{
+    return outfmt == STP_OUT_F16 ? sizeof(float) : stp_outfmt_size(outfmt);
+}
 
 /* Copies the connection-owned result into fresh arrays or into out. GIL released. */
 static void take_result(job *j, const stc_sample_result *r, size_t n, Py_buffer *out)
 {
-    size_t esz = stp_outfmt_size(r->outfmt), vbytes = n * r->nchan * esz;
+    size_t esz = value_size(r->outfmt), vbytes = n * r->nchan * esz;
     if (r->count != n || esz == 0) {  /* stc_sample promises n results; never trust blindly */
         j->rc = STC_EPROTO;
         return;
@@ -323,7 +335,7 @@ static PyObject *finish(st_py_client *self, job *j, size_t n, PyObject *out_obj,
     } else if (j->out_mismatch) {
         PyErr_Format(PyExc_ValueError, "out holds %zd bytes but %zu queries of %u channels of "
                      "format '%s' need %zu", out->len, n, j->nchan, OUT_FORMAT[j->outfmt],
-                     n * j->nchan * stp_outfmt_size(j->outfmt));
+                     n * j->nchan * value_size(j->outfmt));
     } else {
         PyObject *v, *c, *s;
         if (out_obj) {
@@ -331,7 +343,7 @@ static PyObject *finish(st_py_client *self, job *j, size_t n, PyObject *out_obj,
             v = out_obj;
         } else {
             v = st_py_array_wrap(j->vals, OUT_FORMAT[j->outfmt],
-                                 (Py_ssize_t)stp_outfmt_size(j->outfmt), 2, (Py_ssize_t)n,
+                                 (Py_ssize_t)value_size(j->outfmt), 2, (Py_ssize_t)n,
                                  j->nchan);
             j->vals = NULL;
         }

@@ -247,7 +247,7 @@ def test_bad_arguments_raise_clear_errors(client):
     with pytest.raises(ValueError, match="unknown filter 'cubic'.*bilinear"):
         client.sample("default", face, u, v, filter="cubic")
     with pytest.raises(ValueError, match="unknown format"):
-        client.sample("default", face, u, v, format="f16")
+        client.sample("default", face, u, v, format="f64")
     with pytest.raises(TypeError, match="buffer protocol"):
         client.sample("default", face, "abc", v)
     with pytest.raises(ValueError, match="one-dimensional"):
@@ -466,5 +466,41 @@ def test_threads_share_a_client_safely(client):
 def test_name_lists_come_from_the_protocol():
     assert seamtex.MODES == ("discard", "traverse", "clamp")
     assert "ptex-mitchell" in seamtex.FILTERS and "bilinear" in seamtex.FILTERS
-    assert seamtex.FORMATS == ("f32", "unorm8", "unorm16")
+    assert seamtex.FORMATS == ("f32", "unorm8", "unorm16", "f16")
     assert seamtex.QSTATUS[seamtex.Q_NONFINITE] == "NONFINITE"
+
+
+def test_f16_replies_arrive_as_floats(client):
+    face = np.array([0, 1, 2], np.uint32)
+    u, v = np.array([0.25, 0.5, 0.75]), np.array([0.5, 0.5, 0.5])
+    v32, _, _ = client.sample("default", face, u, v)
+    v16, _, _ = client.sample("default", face, u, v, format="f16")
+    assert memoryview(v16).format == "f"
+    a, b = memoryview(v32).cast("B").cast("f"), memoryview(v16).cast("B").cast("f")
+    assert len(a) == len(b) == 12
+    for x, y in zip(a, b):
+        assert abs(x - y) <= abs(x) / 1024 + 1e-7   # binary16: 11 significant bits
+
+
+def test_unix_socket_address(tmp_path):
+    """Client("unix:/path") talks to a daemon on --listen unix:/path."""
+    from pathlib import Path
+    build = Path(os.environ.get("SEAMTEX_BUILD", Path(__file__).resolve().parents[2] / "build"))
+    sock = tmp_path / "s.sock"
+    port_file = tmp_path / "port"
+    proc = subprocess.Popen([str(build / "seamtexd"), "--listen", "unix:%s" % sock,
+                             "--port-file", str(port_file), "--log-level", "warn"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while not (port_file.exists() and port_file.read_text().strip()):
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        with seamtex.Client("unix:%s" % sock) as c:
+            assert c.ping() > 0
+            assert "unix:" in repr(c) and ":7450" not in repr(c)
+            assert [s["name"] for s in c.ls()] == ["default"]
+    finally:
+        proc.terminate()
+        assert proc.wait(30) == 0
+    assert not sock.exists()

@@ -3,7 +3,9 @@
  * decoder (requests and replies), including the iterators and converters that run on a
  * decoded body. Checks that need no oracle: no crash, no read outside the input (ASan), the
  * parser's answer does not change when more bytes arrive (a prefix may only say NEED_MORE or
- * the same BAD), and a decoded count always fits the body it came from.
+ * the same BAD), a decoded count always fits the body it came from (in each SAMPLE query
+ * layout, PROTOCOL.md 4.4.1) and agrees with stp_sample_peek_count, and a decoded compact
+ * query is a fixed point of its rounding.
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -53,12 +55,22 @@ static void all_decoders(const uint8_t *b, size_t n)
             stp_query q;
             stp_dir_query dq;
             CHECK(u.sq.count <= (1u << 20));
-            CHECK((uint64_t)u.sq.count * (dir ? STP_DIR_QUERY_SIZE : STP_QUERY_SIZE) <= n);
+            CHECK((uint64_t)u.sq.count * (dir ? STP_DIR_QUERY_SIZE : stp_query_size(u.sq.p.flags)) <= n);
+            CHECK(stp_sample_peek_count(b, n) == u.sq.count);
             for (uint32_t i = 0; i < u.sq.count; i++) {
-                if (dir)
+                if (dir) {
                     stp_sample_dir_query(&u.sq, i, &dq);
-                else
+                } else {
+                    /* a decoded compact query is already rounded: rounding it through its
+                     * own layout again changes nothing (NaN payloads aside) */
+                    stp_query r;
                     stp_sample_query(&u.sq, i, &q);
+                    stp_query_round(&q, u.sq.p.flags, &r);
+                    CHECK(r.face == q.face);
+                    const float *a = &q.u, *c = &r.u;
+                    for (int k = 0; k < 6; k++)
+                        CHECK(a[k] != a[k] ? c[k] != c[k] : memcmp(&a[k], &c[k], 4) == 0);
+                }
             }
         }
     }

@@ -172,18 +172,30 @@ static void sharpness_width_blur_ranges(void **state)
 }
 
 /* PROTOCOL.md 4.4: flag bits 2-7 are reserved: INVALID when set (libseamtex never sets them). */
-static void sample_flag_bits_2_to_7_are_invalid(void **state)
+static void sample_flag_bits_4_to_7_are_invalid(void **state)
 {
     (void)state;
     int fd = st_daemon_connect(&D1);
     assert_true(fd >= 0);
     stp_buf b;
     stp_buf_init(&b);
-    for (unsigned bit = 2; bit < 8; bit++) {
+    for (unsigned bit = 4; bit < 8; bit++) {
         stp_sample_req rq = sample_req(&GOOD, 1);
         rq.p.flags = (uint8_t)(STP_SF_STATUS | 1u << bit);
         assert_int_equal(stp_enc_sample_req(&b, bit, 0, &rq), 0);
         expect(fd, &b, bit, STP_S_INVALID);
+    }
+    /* bits 2-3 choose the query layout (4.4.1): an f32-sized body with one of them set has
+     * the wrong length, BAD_REQUEST; encoded in their layout they are OK */
+    for (unsigned bit = 2; bit < 4; bit++) {
+        stp_sample_req rq = sample_req(&GOOD, 1);
+        assert_int_equal(stp_enc_sample_req(&b, 10 + bit, 0, &rq), 0);
+        size_t flags_at = STP_HEADER_SIZE + 2 + strlen(rq.p.name) + 5;
+        b.data[b.start + flags_at] |= (uint8_t)(1u << bit);
+        expect(fd, &b, 10 + bit, STP_S_BAD_REQUEST);
+        rq.p.flags |= (uint8_t)(1u << bit);
+        assert_int_equal(stp_enc_sample_req(&b, 20 + bit, 0, &rq), 0);
+        expect(fd, &b, 20 + bit, STP_S_OK);
     }
     stp_buf_free(&b);
     close(fd);
@@ -377,7 +389,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(lying_count_over_max_batch_is_bad_request),
         cmocka_unit_test(sharpness_width_blur_ranges),
-        cmocka_unit_test(sample_flag_bits_2_to_7_are_invalid),
+        cmocka_unit_test(sample_flag_bits_4_to_7_are_invalid),
         cmocka_unit_test(failed_queries_get_nan_and_zero_coverage),
         cmocka_unit_test(hello_version_ranges_and_a_second_hello),
         cmocka_unit_test(chunk_over_max_chunk_and_foreign_upload_ids),

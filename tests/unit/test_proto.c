@@ -521,9 +521,11 @@ static void sample_request_refuses_bad_values(void **state)
     uint8_t *body = b.data + STP_HEADER_SIZE;
     size_t len = b.len - STP_HEADER_SIZE, p0 = 2 + 3;
     struct { size_t off; uint8_t v; int want; } rows[] = {
-        { 4, 3, STP_S_INVALID },     /* outfmt 3 */
+        { 4, 4, STP_S_INVALID },     /* outfmt 4 */
+        { 4, 3, 0 },                 /* outfmt 3, f16 */
         { 3, 17, STP_S_INVALID },    /* max_aniso 17 */
-        { 5, 4, STP_S_INVALID },     /* unknown flag bit */
+        { 5, 16, STP_S_INVALID },    /* unknown flag bit (bit 4) */
+        { 5, 4 | 8, 0 },             /* UV16 | FACE16: no query, so the length still fits */
         { 3, 16, 0 },
         { 3, 0, 0 },
     };
@@ -1119,7 +1121,8 @@ static void value_lists_round_trip_and_match_the_store(void **state)
     assert_string_equal(stp_outfmt_name(STP_OUT_UNORM8), "unorm8");
     assert_int_equal(stp_outfmt_size(STP_OUT_F32), 4);
     assert_int_equal(stp_outfmt_size(STP_OUT_UNORM16), 2);
-    assert_int_equal(stp_outfmt_size(3), 0);
+    assert_int_equal(stp_outfmt_size(STP_OUT_F16), 2);
+    assert_int_equal(stp_outfmt_size(4), 0);
     assert_string_equal(stp_qstatus_name(ST_Q_ZERO_COVERAGE), "ZERO_COVERAGE");
     assert_string_equal(stp_qstatus_name(ST_Q_OK), "OK");
     assert_string_equal(stp_qstatus_name(5), "?");

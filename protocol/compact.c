@@ -1,0 +1,145 @@
+/* protocol/compact.c - the compact SAMPLE forms of PROTOCOL.md 4.4.1: binary16 (half) values
+ * and u16 fixed-point (u, v), both directions, exact and without the F16C instructions (so
+ * every host gives the same bits).
+ *
+ * Owns: stp_f32_to_f16, stp_f16_to_f32 (and stp_f16_encode for replies), stp_f32_to_unit16,
+ * stp_query_round, and stp_sample_queries (every SAMPLE query layout widened to stp_query, in
+ * this file so that the conversions inline into its loops). Does not own the frame layouts
+ * around the queries (bodies.c).
+ */
+#include "proto.h"
+
+static inline uint16_t f32_to_f16(float f)
+{
+    uint32_t x = stp_f2u(f);
+    uint16_t sign = (uint16_t)((x >> 16) & 0x8000u);
+    uint32_t ax = x & 0x7FFFFFFFu;
+    /* the common cases first, without branches on the rounding: a normal result (adding
+     * 0xFFF plus the kept bit's parity rounds to nearest, ties to even; a carry into the
+     * exponent is right), and zero */
+    if (ax - 0x38800000u < 0x477FF000u - 0x38800000u)
+        return (uint16_t)(sign | (((ax + 0x0FFFu + ((ax >> 13) & 1u)) >> 13) - (112u << 10)));
+    if (ax == 0)
+        return sign;
+    if (ax > 0x7F800000u)                 /* NaN: the quiet NaN, sign kept */
+        return (uint16_t)(sign | 0x7E00u);
+    if (ax >= 0x477FF000u)                /* >= 65520 (halfway past 65504, odd: rounds up), inf */
+        return (uint16_t)(sign | 0x7C00u);
+    if (ax >= 0x38800000u) {              /* >= 2^-14: a normal half */
+        uint32_t h = (ax >> 13) - (112u << 10);
+        uint32_t rem = ax & 0x1FFFu;
+        if (rem > 0x1000u || (rem == 0x1000u && (h & 1u)))
+            h++;                          /* a carry into the exponent is still right */
+        return (uint16_t)(sign | h);
+    }
+    if (ax <= 0x33000000u)                /* <= 2^-25 (the tie with 0 goes to even: 0) */
+        return sign;
+    /* a subnormal half: value / 2^-24 = m x 2^(e - 126), e in 102..112 */
+    uint32_t e = ax >> 23, m = (ax & 0x7FFFFFu) | 0x800000u;
+    uint32_t shift = 126u - e;            /* 14..24 */
+    uint32_t h = m >> shift, rem = m & ((1u << shift) - 1u), half = 1u << (shift - 1u);
+    if (rem > half || (rem == half && (h & 1u)))
+        h++;                              /* may become 0x400, the smallest normal: right */
+    return (uint16_t)(sign | h);
+}
+
+static inline float f16_to_f32(uint16_t h)
+{
+    uint32_t sign = (uint32_t)(h & 0x8000u) << 16;
+    uint32_t em = h & 0x7FFFu;
+    if (em - 0x0400u < 0x7C00u - 0x0400u)   /* normal: rebias the exponent */
+        return stp_u2f(sign | ((em << 13) + (112u << 23)));
+    uint32_t e = (h >> 10) & 0x1Fu, m = h & 0x3FFu;
+    if (e == 0) {                         /* zero or subnormal: m x 2^-24, exact in binary32 */
+        float v = (float)m * 0x1p-24f;
+        return sign ? -v : v;
+    }
+    if (e == 31)                          /* inf, NaN (payload kept) */
+        return stp_u2f(sign | 0x7F800000u | (m << 13));
+    return stp_u2f(sign | ((e + 112u) << 23) | (m << 13));
+}
+
+uint16_t stp_f32_to_unit16(float u)
+{
+    if (!(u > 0.0f))                      /* NaN, negatives, 0 */
+        return 0;
+    if (u >= 65535.0f / 65536.0f)
+        return 65535;
+    /* u x 2^16 is exact, and so is its fraction: round to nearest, ties to even, by hand
+     * (whatever rounding mode the caller's thread has set) */
+    float x = u * 65536.0f;
+    uint32_t i = (uint32_t)x;
+    float frac = x - (float)i;
+    if (frac > 0.5f || (frac == 0.5f && (i & 1u)))
+        i++;
+    return (uint16_t)i;
+}
+
+uint16_t stp_f32_to_f16(float f)
+{
+    return f32_to_f16(f);
+}
+
+float stp_f16_to_f32(uint16_t h)
+{
+    return f16_to_f32(h);
+}
+
+void stp_f16_encode(const float *v, size_t n, uint8_t *out)
+{
+    for (size_t i = 0; i < n; i++)
+        stp_wr16(out + 2 * i, f32_to_f16(v[i]));
+}
+
+/* One layout per loop, so that no flag is tested per query (the daemon widens every compact
+ * query through here). */
+#define QUERY_LOOP(FACE_BYTES, RD_FACE, UV16)                                                 \
+    for (uint32_t i = 0; i < n; i++, p += qs) {                                               \
+        stp_query *q = &out[i];                                                               \
+        const uint8_t *f = p + FACE_BYTES;                                                    \
+        q->face = RD_FACE(p);                                                                 \
+        if (UV16) {                                                                           \
+            q->u = stp_unit16_to_f32(stp_rd16(f));                                            \
+            q->v = stp_unit16_to_f32(stp_rd16(f + 2));                                        \
+            q->dudx = f16_to_f32(stp_rd16(f + 4));                                        \
+            q->dvdx = f16_to_f32(stp_rd16(f + 6));                                        \
+            q->dudy = f16_to_f32(stp_rd16(f + 8));                                        \
+            q->dvdy = f16_to_f32(stp_rd16(f + 10));                                       \
+        } else {                                                                              \
+            q->u = stp_u2f(stp_rd32(f));                                                      \
+            q->v = stp_u2f(stp_rd32(f + 4));                                                  \
+            q->dudx = stp_u2f(stp_rd32(f + 8));                                               \
+            q->dvdx = stp_u2f(stp_rd32(f + 12));                                              \
+            q->dudy = stp_u2f(stp_rd32(f + 16));                                              \
+            q->dvdy = stp_u2f(stp_rd32(f + 20));                                              \
+        }                                                                                     \
+    }
+
+void stp_sample_queries(const stp_sample_req *r, uint32_t first, uint32_t n, stp_query *out)
+{
+    unsigned fl = r->p.flags;
+    size_t qs = stp_query_size(fl);
+    const uint8_t *p = r->raw + (size_t)first * qs;
+    switch (fl & STP_SF_COMPACT_MASK) {
+    case STP_SF_UV16 | STP_SF_FACE16: QUERY_LOOP(2, stp_rd16, 1) break;
+    case STP_SF_UV16:                 QUERY_LOOP(4, stp_rd32, 1) break;
+    case STP_SF_FACE16:               QUERY_LOOP(2, stp_rd16, 0) break;
+    default:                          QUERY_LOOP(4, stp_rd32, 0) break;
+    }
+}
+#undef QUERY_LOOP
+
+void stp_query_round(const stp_query *q, unsigned flags, stp_query *out)
+{
+    *out = *q;
+    if (flags & STP_SF_FACE16)
+        out->face = q->face & 0xFFFFu;
+    if (flags & STP_SF_UV16) {
+        out->u = stp_unit16_to_f32(stp_f32_to_unit16(q->u));
+        out->v = stp_unit16_to_f32(stp_f32_to_unit16(q->v));
+        out->dudx = stp_f16_to_f32(stp_f32_to_f16(q->dudx));
+        out->dvdx = stp_f16_to_f32(stp_f32_to_f16(q->dvdx));
+        out->dudy = stp_f16_to_f32(stp_f32_to_f16(q->dudy));
+        out->dvdy = stp_f16_to_f32(stp_f32_to_f16(q->dvdy));
+    }
+}

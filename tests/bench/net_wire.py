@@ -1,0 +1,214 @@
+#!/usr/bin/env python3
+"""tests/bench/net_wire.py OUT.json - SAMPLE over the wire against the in-process sampler
+(issue: "sampling over the wire at in-process speed"), run by net_wire.sh (make bench).
+
+Per batch size (NET_BATCHES, default 256,1024,4096,16384) and encoding (f32: 28-byte queries
+and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.md 4.4.1):
+  - in-process st_sample_batch with 1 and 2 threads (seamtex-bench --inproc -T 1 / -T 2);
+  - seamtexd over TCP loopback and over a Unix socket, with 1 and 2 connections (-P 2 each);
+  - ratios to the in-process figure at the same total thread count (1 connection vs 1 thread,
+    2 connections vs 2 threads), and the daemon's CPU per query: utime + stime from
+    /proc/<pid>/stat over the queries it served, against the in-process CPU per query;
+and PING: closed-loop capacity (8 connections x pipeline 16) and open-loop p50/p99 at 20k
+req/s (8 connections).
+
+A/B: with NET_WIRE_BASE=/path/to/an/older/seamtexd the same runs are made against that
+binary too (TCP only, f32 and, when it offers HELLO cap COMPACT, nothing else), alternating
+A B A B inside each repetition, so before/after figures come from one window of the machine's
+load. Every figure is the median of NET_REPS repetitions (default 3) of NET_SECS seconds
+(default 2) after a 0.5 s warm-up; the machine's load average is recorded before and after.
+The client runs on the same cores as the daemon: throughput ratios on a loaded 2-core
+machine say less than the CPU-per-query ratio, which does not depend on how much CPU the
+machine leaves us.
+"""
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), '..', '..'))
+B = os.path.join(ROOT, os.environ.get('B', 'build'))
+DAEMON = os.path.join(B, 'seamtexd')
+BENCH = os.path.join(B, 'seamtex-bench')
+BASE = os.environ.get('NET_WIRE_BASE', '')
+REPS = int(os.environ.get('NET_REPS', '3'))
+SECS = os.environ.get('NET_SECS', '2')
+BATCHES = [int(x) for x in os.environ.get('NET_BATCHES', '256,1024,4096,16384').split(',')]
+ENCODINGS = {'f32': [], 'compact': ['--compact', '--outfmt', 'f16']}
+TCK = os.sysconf('SC_CLK_TCK')
+
+
+def load():
+    return float(open('/proc/loadavg').read().split()[0])
+
+
+def cpu_s(pid):
+    f = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
+    return (int(f[11]) + int(f[12])) / TCK
+
+
+class Daemon:
+    def __init__(self, exe, unix):
+        self.dir = tempfile.mkdtemp(prefix='seamtex-netwire.')
+        listen = f'unix:{self.dir}/s.sock' if unix else '127.0.0.1:0'
+        port = os.path.join(self.dir, 'port')
+        self.p = subprocess.Popen([exe, '--listen', listen, '--data-dir', self.dir + '/data',
+                                   '--port-file', port, '--log-level', 'warn'],
+                                  stderr=open(self.dir + '/log', 'w'))
+        for _ in range(600):
+            if self.p.poll() is not None:
+                sys.exit(f'net_wire: {exe} died at start: ' + open(self.dir + '/log').read()[-500:])
+            if os.path.exists(port) and os.path.getsize(port) > 0:
+                break
+            time.sleep(0.05)
+        self.addr = ['-h', listen] if unix else ['-p', open(port).read().strip()]
+        # readiness: one PING
+        bench(self.addr + ['-n', '1', '-d', '1', '-w', '0'])
+
+    def stop(self):
+        self.p.terminate()
+        self.p.wait(timeout=30)
+        subprocess.run(['rm', '-rf', self.dir])
+
+
+def bench(args):
+    with tempfile.NamedTemporaryFile(suffix='.json') as j:
+        r = subprocess.run([BENCH] + args + ['-q', '-j', j.name], capture_output=True,
+                           text=True, timeout=300)
+        try:
+            return json.load(open(j.name))
+        except (ValueError, OSError):
+            print('net_wire: run failed:', ' '.join(args), r.stderr[-300:], file=sys.stderr)
+            return None
+
+
+raw = {}
+
+
+def add(key, val):
+    raw.setdefault(key, []).append(val)
+
+
+def sample_run(d, name, batch, enc, conns):
+    c0 = cpu_s(d.p.pid)
+    j = bench(d.addr + ['-o', 'sample', '-b', str(batch), '-m', 'traverse', '-f', 'bilinear',
+                        '-c', str(conns), '-T', str(conns), '-P', '2', '-d', SECS, '-w', '0.5']
+              + ENCODINGS[enc])
+    c1 = cpu_s(d.p.pid)
+    if not j:
+        return
+    served = j.get('completed', 0) * batch
+    add((batch, enc, name, conns, 'qps'), j.get('queries_per_s', 0))
+    if served:
+        add((batch, enc, name, conns, 'ns_cpu'), (c1 - c0) * 1e9 / served)
+    if j.get('errors'):
+        print(f'net_wire: {name} {enc} batch {batch}: {j["errors"]} error replies',
+              file=sys.stderr)
+
+
+def ping_runs(d, name):
+    j = bench(d.addr + ['-o', 'ping', '-c', '8', '-T', '1', '-P', '16', '-d', SECS, '-w', '0.5'])
+    if j:
+        add(('ping', name, 'capacity'), j.get('achieved_rate', 0))
+    j = bench(d.addr + ['-o', 'ping', '-c', '8', '-T', '1', '-r', '20000', '-d', SECS, '-w', '0.5'])
+    if j:
+        c = j.get('corrected_us', {})
+        add(('ping', name, 'p50_us'), c.get('p50', 0))
+        add(('ping', name, 'p99_us'), c.get('p99', 0))
+
+
+def main():
+    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(B, 'bench', 'net_wire.json')
+    for exe in (DAEMON, BENCH):
+        if not os.access(exe, os.X_OK):
+            sys.exit(f'net_wire: {exe} is missing (make first)')
+    load0 = load()
+    variants = [('tcp', DAEMON, False), ('unix', DAEMON, True)]
+    if BASE:
+        variants.insert(0, ('base-tcp', BASE, False))
+    for rep in range(REPS):
+        for batch in BATCHES:
+            for t in (1, 2):
+                j = bench(['--inproc', '-T', str(t), '-b', str(batch), '-m', 'traverse', '-f',
+                           'bilinear', '-d', SECS, '-w', '0.5'])
+                if j:
+                    add((batch, 'inproc', t, 'qps'), j.get('queries_per_s', 0))
+                    q = j.get('queries_per_cpu_s', 0)
+                    add((batch, 'inproc', t, 'ns_cpu'), 1e9 / q if q else 0)
+        for name, exe, unix in variants:
+            d = Daemon(exe, unix)
+            try:
+                for batch in BATCHES:
+                    for enc in ENCODINGS:
+                        if enc != 'f32' and name.startswith('base'):
+                            continue
+                        for conns in (1, 2):
+                            sample_run(d, name, batch, enc, conns)
+                if name != 'unix':
+                    ping_runs(d, name)
+            finally:
+                d.stop()
+        print(f'net_wire: repetition {rep + 1}/{REPS} done, load {load()}', file=sys.stderr,
+              flush=True)
+    load1 = load()
+    med = {k: statistics.median(v) for k, v in raw.items()}
+
+    rows = []
+    print(f'\nnet_wire: SAMPLE bilinear traverse on the default set, -P 2 per connection, '
+          f'{os.cpu_count()} cores, load {load0} -> {load1}, medians of {REPS}')
+    print(f"{'batch':>6} {'enc':<8} {'run':<10} {'conns':>5} {'Mq/s':>8} {'x inproc':>9} "
+          f"{'ns CPU/q':>9} {'x inproc':>9}")
+    for batch in BATCHES:
+        for t in (1, 2):
+            q = med.get((batch, 'inproc', t, 'qps'), 0)
+            ns = med.get((batch, 'inproc', t, 'ns_cpu'), 0)
+            print(f"{batch:>6} {'-':<8} {'inproc':<10} {t:>5} {q / 1e6:8.2f} {'':>9} {ns:9.1f}")
+            rows.append(dict(batch=batch, encoding='-', run='inproc', threads=t,
+                             queries_per_s=q, ns_cpu_per_query=ns))
+        for enc in ENCODINGS:
+            for name, _, _ in variants:
+                for conns in (1, 2):
+                    k = (batch, enc, name, conns)
+                    if (*k, 'qps') not in med:
+                        continue
+                    q = med[(*k, 'qps')]
+                    ns = med.get((*k, 'ns_cpu'), 0)
+                    iq = med.get((batch, 'inproc', conns, 'qps'), 0)
+                    ins = med.get((batch, 'inproc', 1, 'ns_cpu'), 0)
+                    rq = q / iq if iq else 0
+                    rc = ns / ins if ins else 0
+                    print(f"{batch:>6} {enc:<8} {name:<10} {conns:>5} {q / 1e6:8.2f} {rq:9.2f} "
+                          f"{ns:9.1f} {rc:9.2f}")
+                    rows.append(dict(batch=batch, encoding=enc, run=name, conns=conns,
+                                     queries_per_s=q, ratio_vs_inproc_same_threads=rq,
+                                     ns_daemon_cpu_per_query=ns,
+                                     cpu_ratio_vs_inproc=rc))
+    ping = {}
+    for name, _, _ in variants:
+        if name == 'unix':
+            continue
+        ping[name] = {m: med.get(('ping', name, m), 0) for m in ('capacity', 'p50_us', 'p99_us')}
+        print(f"PING {name:<9} capacity {ping[name]['capacity']:.0f} req/s (8 x P16); "
+              f"open loop 20k req/s: p50 {ping[name]['p50_us']:.0f} us, "
+              f"p99 {ping[name]['p99_us']:.0f} us")
+    doc = {'benchmark': 'net_wire', 'machine': {'cores': os.cpu_count(), 'loadavg_before': load0,
+                                                'loadavg_after': load1},
+           'reps': REPS, 'seconds': float(SECS), 'mode': 'traverse', 'filter': 'bilinear',
+           'pipeline': 2, 'base_daemon': BASE or None,
+           'encodings': {'f32': '28-byte queries, f32 replies',
+                         'compact': '14-byte queries (UV16 | FACE16), f16 replies'},
+           'targets': {'ratio_at_4096_and_up': 0.8, 'ratio_at_256': 0.5,
+                       'cpu_ratio_at_4096_and_up': 1.2, 'unix_ratio': 0.9},
+           'rows': rows, 'ping': ping,
+           'raw': [{'key': [str(x) for x in k], 'values': v} for k, v in raw.items()]}
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    with open(out, 'w') as f:
+        json.dump(doc, f, indent=1)
+    print(f'net_wire: wrote {out}')
+
+
+if __name__ == '__main__':
+    main()

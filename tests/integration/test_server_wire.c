@@ -1,0 +1,456 @@
+/* tests/integration/test_server_wire.c - how SAMPLE travels: connections spread over the I/O
+ * threads (STATS io<i>_conns), compact queries and f16 replies (PROTOCOL.md 4.4.1) that sample
+ * bit for bit like the f32 form of the rounded query, and the Unix socket listener (file mode
+ * as access control, refused by the kernel for a user without permission; a stale socket
+ * replaced; a live one or a non-socket file left alone; the file removed at exit).
+ *
+ * The first tests share one daemon with defaults (2 I/O threads, --heavy-batch 2048 so that
+ * large batches run on a worker and split); the Unix-socket tests start their own.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "../common/daemon_client.h"
+#include "../common/wait.h"
+#include "proto.h"
+
+extern char **environ;
+
+#define D1 ST_GROUP
+
+/* ---- connections over I/O threads ------------------------------------------------------------ */
+
+static void connections_land_on_different_io_threads(void **state)
+{
+    (void)state;
+    stc_conn *c[4];
+    c[0] = st_daemon_client(&D1, NULL);
+    assert_non_null(c[0]);
+    /* earlier connections (the fixture's probe) are gone once conns_current is 1 */
+    assert_int_equal(st_wait_stat(&D1, c[0], "conns_current", ST_STAT_EQ, 1, 10000), 0);
+    c[1] = st_daemon_client(&D1, NULL);
+    assert_non_null(c[1]);
+    assert_int_equal(st_wait_stat(&D1, c[0], "conns_current", ST_STAT_EQ, 2, 10000), 0);
+    assert_int_equal(st_conn_stat(c[0], "io_threads"), 2);
+    assert_int_equal(st_conn_stat(c[0], "io0_conns"), 1);
+    assert_int_equal(st_conn_stat(c[0], "io1_conns"), 1);
+    c[2] = st_daemon_client(&D1, NULL);
+    c[3] = st_daemon_client(&D1, NULL);
+    assert_non_null(c[2]);
+    assert_non_null(c[3]);
+    assert_int_equal(st_wait_stat(&D1, c[0], "conns_current", ST_STAT_EQ, 4, 10000), 0);
+    assert_int_equal(st_conn_stat(c[0], "io0_conns"), 2);
+    assert_int_equal(st_conn_stat(c[0], "io1_conns"), 2);
+    assert_true(st_conn_stat(c[0], "io0_accepted") >= 2);
+    assert_true(st_conn_stat(c[0], "io1_accepted") >= 2);
+    /* every connection works wherever it landed */
+    for (int i = 0; i < 4; i++)
+        assert_int_equal(stc_ping(c[i]), 0);
+    for (int i = 0; i < 4; i++)
+        stc_close(c[i]);
+}
+
+/* ---- compact queries and f16 replies ----------------------------------------------------------- */
+
+static uint32_t rng_next(uint32_t *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return *s >> 8;
+}
+
+/* n queries over the default set's 384 faces: uniform (u, v), some on the edges, footprints
+ * from none to large, a few NaN derivatives and bad faces */
+static stc_query *make_queries(size_t n, uint32_t seed)
+{
+    stc_query *q = calloc(n, sizeof *q);
+    for (size_t i = 0; i < n; i++) {
+        q[i].face = rng_next(&seed) % 390;
+        q[i].u = (float)(rng_next(&seed) % 1000001) / 1e6f;
+        q[i].v = (float)(rng_next(&seed) % 1000001) / 1e6f;
+        float fp = (float)pow(10.0, -(double)(rng_next(&seed) % 5) - 0.3);
+        q[i].dudx = fp;
+        q[i].dvdy = fp * 0.7f;
+        q[i].dvdx = (i % 3) ? 0.0f : fp * 0.3f;
+        q[i].dudy = (i % 97) ? 0.0f : NAN;
+    }
+    return q;
+}
+
+typedef struct result_copy {
+    uint32_t count, nbad;
+    unsigned nchan, outfmt;
+    float   *values, *coverage;
+    uint8_t *status;
+} result_copy;
+
+static void copy_result(const stc_sample_result *r, result_copy *o)
+{
+    o->count = r->count;
+    o->nbad = r->nbad;
+    o->nchan = r->nchan;
+    o->outfmt = r->outfmt;
+    size_t nv = (size_t)r->count * r->nchan;
+    o->values = malloc((nv ? nv : 1) * sizeof(float));
+    o->coverage = malloc((r->count ? r->count : 1) * sizeof(float));
+    o->status = malloc(r->count ? r->count : 1);
+    memcpy(o->values, r->values, nv * sizeof(float));
+    assert_non_null(r->coverage);
+    assert_non_null(r->status);
+    memcpy(o->coverage, r->coverage, r->count * sizeof(float));
+    memcpy(o->status, r->status, r->count);
+}
+
+static void free_result(result_copy *o)
+{
+    free(o->values);
+    free(o->coverage);
+    free(o->status);
+}
+
+static void compact_queries_sample_like_f32_of_the_rounded_query(void **state)
+{
+    (void)state;
+    stc_conn *c = st_daemon_client(&D1, NULL);
+    assert_non_null(c);
+    assert_true(stc_server_info(c)->caps & STP_CAP_COMPACT);
+    static const unsigned modes[] = {STP_MODE_DISCARD, STP_MODE_TRAVERSE, STP_MODE_CLAMP};
+    static const unsigned filters[] = {STP_FILTER_POINT, STP_FILTER_BILINEAR,
+                                       STP_FILTER_TRILINEAR, STP_FILTER_ANISO,
+                                       STP_FILTER_PTEX_BILINEAR};
+    static const size_t sizes[] = {1, 300, 5000};   /* inline; on a worker and split */
+    static const unsigned layouts[] = {STP_SF_UV16 | STP_SF_FACE16, STP_SF_UV16, STP_SF_FACE16};
+    size_t checked = 0, bad = 0;
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+        size_t n = sizes[si];
+        stc_query *q = make_queries(n, 17u + (uint32_t)n);
+        stc_query *rounded = calloc(n, sizeof *rounded);
+        for (size_t li = 0; li < sizeof layouts / sizeof layouts[0]; li++) {
+            unsigned lay = layouts[li];
+            for (size_t i = 0; i < n; i++) {
+                _Static_assert(sizeof(stc_query) == sizeof(stp_query), "query layouts");
+                stp_query in, out;
+                memcpy(&in, &q[i], sizeof in);
+                stp_query_round(&in, lay, &out);
+                memcpy(&rounded[i], &out, sizeof out);
+            }
+            for (size_t mi = 0; mi < 3; mi++)
+                for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++) {
+                    stc_sample_opts o;
+                    memset(&o, 0, sizeof o);
+                    o.mode = modes[mi];
+                    o.filter = filters[fi];
+                    o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+                    stc_sample_result r;
+                    result_copy ref, got;
+                    assert_int_equal(stc_sample(c, "default", &o, rounded, n, &r), 0);
+                    copy_result(&r, &ref);
+                    o.want |= lay;
+                    assert_int_equal(stc_sample(c, "default", &o, q, n, &r), 0);
+                    copy_result(&r, &got);
+                    assert_int_equal(got.count, n);
+                    assert_int_equal(got.nbad, ref.nbad);
+                    assert_memory_equal(got.values, ref.values, n * ref.nchan * sizeof(float));
+                    assert_memory_equal(got.coverage, ref.coverage, n * sizeof(float));
+                    assert_memory_equal(got.status, ref.status, n);
+                    free_result(&got);
+                    /* f16 replies: the f32 values rounded to binary16 (NaN stays NaN) */
+                    o.outfmt = STC_OUT_F16;
+                    assert_int_equal(stc_sample(c, "default", &o, q, n, &r), 0);
+                    assert_int_equal(r.outfmt, STC_OUT_F16);
+                    const float *hv = r.values;
+                    for (size_t k = 0; k < n * ref.nchan; k++) {
+                        float want = stp_f16_to_f32(stp_f32_to_f16(ref.values[k]));
+                        if (isnan(want))
+                            assert_true(isnan(hv[k]));
+                        else
+                            assert_memory_equal(&hv[k], &want, sizeof want);
+                    }
+                    checked += n;
+                    bad += ref.nbad;
+                    free_result(&ref);
+                }
+        }
+        free(rounded);
+        free(q);
+    }
+    assert_true(bad > 0 && bad < checked);   /* the bad faces and NaNs were in there */
+    stc_close(c);
+}
+
+static void compact_flags_on_sample_dir_are_invalid(void **state)
+{
+    (void)state;
+    stc_conn *c = st_daemon_client(&D1, NULL);
+    assert_non_null(c);
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.filter = STP_FILTER_BILINEAR;
+    o.want = STC_WANT_UV16;
+    stc_dir_query d;
+    memset(&d, 0, sizeof d);
+    d.dir[0] = 1;
+    stc_sample_result r;
+    assert_int_equal(stc_sample_dir(c, "default", &o, &d, 1, &r), STC_EINVALID);
+    assert_non_null(strstr(stc_errmsg(c), "SAMPLE only"));
+    assert_int_equal(stc_ping(c), 0);        /* the connection is fine */
+    stc_close(c);
+}
+
+/* ---- the Unix socket listener ------------------------------------------------------------------ */
+
+static const char *build_dir(void)
+{
+    const char *b = getenv("SEAMTEX_BUILD");
+    return b && *b ? b : "build";
+}
+
+/* Runs argv with stderr to errpath; returns the exit status (128 + signal), -1 when it could
+ * not start. */
+static int run(const char *const *argv, const char *errpath, pid_t *bg)
+{
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, errpath, O_WRONLY | O_CREAT | O_APPEND, 0644);
+    pid_t pid;
+    int rc = posix_spawnp(&pid, argv[0], &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0)
+        return -1;
+    if (bg) {
+        *bg = pid;
+        return 0;
+    }
+    int st;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR)
+        ;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+typedef struct unix_daemon {
+    st_daemon d;            /* for its temp dir and log */
+    char      sock[300], addr[310], port[300];
+    pid_t     pid;
+} unix_daemon;
+
+static int port_written(void *arg)
+{
+    unix_daemon *u = arg;
+    struct stat st;
+    int status;
+    if (waitpid(u->pid, &status, WNOHANG) == u->pid) {
+        u->pid = -(WIFEXITED(status) ? WEXITSTATUS(status) : 128);
+        return 1;
+    }
+    return stat(u->port, &st) == 0 && st.st_size > 0;
+}
+
+/* Starts seamtexd on unix:<dir>/s.sock with --unix-mode mode. Returns 0 once it serves, or
+ * the daemon's exit status when it refused to start (> 0). */
+static int unix_start(unix_daemon *u, const char *mode)
+{
+    char exe[512];
+    snprintf(exe, sizeof exe, "%s/seamtexd", build_dir());
+    unlink(u->port);
+    const char *argv[] = {exe, "--listen", u->addr, "--unix-mode", mode, "--port-file", u->port,
+                          "--data-dir", u->d.datadir, NULL};
+    if (run(argv, u->d.log, &u->pid) != 0)
+        return -1;
+    if (st_wait_until(port_written, u, 30000) != 0)
+        return -1;
+    return u->pid < 0 ? -u->pid : 0;
+}
+
+static int unix_stop(unix_daemon *u)
+{
+    if (u->pid <= 0)
+        return -1;
+    kill(u->pid, SIGTERM);
+    int st;
+    while (waitpid(u->pid, &st, 0) < 0 && errno == EINTR)
+        ;
+    u->pid = 0;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+static int unix_setup(void **state)
+{
+    unix_daemon *u = calloc(1, sizeof *u);
+    if (!u || st_daemon_init(&u->d) != 0)
+        return -1;
+    chmod(u->d.dir, 0755);   /* so that only the socket's own mode decides who gets in */
+    snprintf(u->sock, sizeof u->sock, "%.250s/s.sock", u->d.dir);
+    snprintf(u->addr, sizeof u->addr, "unix:%s", u->sock);
+    snprintf(u->port, sizeof u->port, "%.250s/port", u->d.dir);
+    *state = u;
+    return 0;
+}
+
+static int unix_teardown(void **state)
+{
+    unix_daemon *u = *state;
+    if (u->pid > 0) {
+        kill(u->pid, SIGKILL);
+        waitpid(u->pid, NULL, 0);
+    }
+    st_daemon_cleanup(&u->d);
+    free(u);
+    return 0;
+}
+
+static int log_has(const unix_daemon *u, const char *text)
+{
+    FILE *f = fopen(u->d.log, "r");
+    char line[1024];
+    int found = 0;
+    while (f && fgets(line, sizeof line, f))
+        found |= strstr(line, text) != NULL;
+    if (f)
+        fclose(f);
+    return found;
+}
+
+static void unix_socket_serves_with_its_mode_and_is_removed_at_exit(void **state)
+{
+    unix_daemon *u = *state;
+    assert_int_equal(unix_start(u, "0660"), 0);
+    struct stat st;
+    assert_int_equal(lstat(u->sock, &st), 0);
+    assert_true(S_ISSOCK(st.st_mode));
+    assert_int_equal(st.st_mode & 0777, 0660);
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    int err = 0;
+    char msg[256];
+    stc_conn *c = stc_connect_opts(u->addr, 0, &o, &err, msg, sizeof msg);
+    assert_non_null(c);
+    assert_int_equal(stc_ping(c), 0);
+    stc_query q = {3, 0.25f, 0.75f, 0.01f, 0, 0, 0.01f};
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.filter = STP_FILTER_BILINEAR;
+    stc_sample_result r;
+    assert_int_equal(stc_sample(c, "default", &so, &q, 1, &r), 0);
+    assert_int_equal(r.count, 1);
+    assert_int_equal(r.nbad, 0);
+    stc_close(c);
+    assert_int_equal(unix_stop(u), 0);
+    assert_int_equal(lstat(u->sock, &st), -1);   /* removed at exit */
+    assert_int_equal(errno, ENOENT);
+}
+
+static void unix_socket_mode_is_the_access_control(void **state)
+{
+    unix_daemon *u = *state;
+    char errpath[290], cli[512];
+    snprintf(errpath, sizeof errpath, "%.250s/cli.err", u->d.dir);
+    snprintf(cli, sizeof cli, "%s/seamtex", build_dir());
+    if (geteuid() != 0) {
+        /* not root: the owner itself has no write permission on a 0000 socket */
+        assert_int_equal(unix_start(u, "0000"), 0);
+        int err = 0;
+        char msg[256];
+        stc_conn *c = stc_connect_opts(u->addr, 0, NULL, &err, msg, sizeof msg);
+        assert_null(c);
+        assert_int_equal(err, STC_ECONNECT);
+        assert_non_null(strstr(msg, strerror(EACCES)));
+        assert_int_equal(unix_stop(u), 0);
+        return;
+    }
+    /* root passes every permission check: the client runs as nobody (setpriv) instead */
+    const char *probe[] = {"setpriv", "--help", NULL};
+    if (run(probe, errpath, NULL) != 0)
+        skip();
+    char abs_cli[600];
+    if (!realpath(cli, abs_cli))
+        skip();
+    const char *as_nobody[] = {"setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+                               abs_cli, "-h", u->addr, "ping", NULL};
+    assert_int_equal(unix_start(u, "0600"), 0);
+    unlink(errpath);
+    assert_int_equal(run(as_nobody, errpath, NULL), 3);   /* 3: connection failed */
+    unix_daemon probe_err = *u;
+    snprintf(probe_err.d.log, sizeof probe_err.d.log, "%s", errpath);
+    assert_true(log_has(&probe_err, strerror(EACCES)));
+    assert_int_equal(unix_stop(u), 0);
+    /* the same user gets in once the mode lets others write */
+    assert_int_equal(unix_start(u, "0666"), 0);
+    assert_int_equal(run(as_nobody, errpath, NULL), 0);
+    assert_int_equal(unix_stop(u), 0);
+}
+
+static void unix_stale_socket_is_replaced_live_one_and_files_are_not(void **state)
+{
+    unix_daemon *u = *state;
+    /* a socket file nobody listens on: what a killed daemon leaves */
+    int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sun_family = AF_UNIX;
+    assert_true(strlen(u->sock) < sizeof sa.sun_path);
+    memcpy(sa.sun_path, u->sock, strlen(u->sock) + 1);
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    close(fd);
+    assert_int_equal(unix_start(u, "0600"), 0);
+    assert_true(log_has(u, "removed a stale socket"));
+    /* a second daemon on the same path refuses: the first is alive */
+    unix_daemon second = *u;
+    assert_true(unix_start(&second, "0600") > 0);
+    assert_true(log_has(u, "another server is listening"));
+    stc_conn *c = stc_connect_opts(u->addr, 0, NULL, NULL, NULL, 0);
+    assert_non_null(c);                       /* the first still serves */
+    assert_int_equal(stc_ping(c), 0);
+    stc_close(c);
+    assert_int_equal(unix_stop(u), 0);
+    /* a regular file at the path is not ours to remove */
+    FILE *f = fopen(u->sock, "w");
+    assert_non_null(f);
+    fputs("keep me\n", f);
+    fclose(f);
+    assert_true(unix_start(u, "0600") > 0);
+    assert_true(log_has(u, "exists and is not a socket"));
+    struct stat st;
+    assert_int_equal(lstat(u->sock, &st), 0);
+    assert_true(S_ISREG(st.st_mode));
+    unlink(u->sock);
+}
+
+int main(void)
+{
+    const struct CMUnitTest group[] = {
+        cmocka_unit_test(connections_land_on_different_io_threads),
+        cmocka_unit_test(compact_queries_sample_like_f32_of_the_rounded_query),
+        cmocka_unit_test(compact_flags_on_sample_dir_are_invalid),
+    };
+    const struct CMUnitTest unix_tests[] = {
+        cmocka_unit_test_setup_teardown(unix_socket_serves_with_its_mode_and_is_removed_at_exit,
+                                        unix_setup, unix_teardown),
+        cmocka_unit_test_setup_teardown(unix_socket_mode_is_the_access_control, unix_setup,
+                                        unix_teardown),
+        cmocka_unit_test_setup_teardown(unix_stale_socket_is_replaced_live_one_and_files_are_not,
+                                        unix_setup, unix_teardown),
+    };
+    static const char *const args[] = {"--heavy-batch", "2048", NULL};
+    st_group_args = args;
+    int rc = cmocka_run_group_tests_name("server_wire", group, st_group_setup,
+                                         st_group_teardown);
+    rc |= cmocka_run_group_tests_name("server_wire_unix", unix_tests, NULL, NULL);
+    return rc;
+}
