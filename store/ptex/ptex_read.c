@@ -6,6 +6,10 @@
  * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
  * built later by the first Ptex-filter call).
  *
+ * Triangle meshes (mesh type 0) are read the same way: square faces (checked), three edges
+ * (the fourth adjacency entry and the subface flag are ignored, as Ptex does), blocks in Ptex's
+ * packed triangle layout (core/trilevel.h); their unstored levels get the triangle reduction.
+ *
  * One pass, no extra copies: the set is created with its arena unzeroed, every block of every
  * level is inflated once - a one-channel block straight into its place in the arena, any other
  * into one reused scratch that stays in the cache - and unpacked into the arena; the levels the

@@ -56,7 +56,7 @@ typedef struct ti {
 
 typedef struct tc {
     const st_set *s;
-    unsigned nc, dt, mode;
+    unsigned nc, dt;
     float acc[ST_MAX_CHANNELS];
     float weight;          /* weight applied */
     unsigned pieces;
@@ -412,7 +412,7 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     tk k;
     build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
                  o->blur, F->ulog2);
-    tc c = {.s = s, .nc = nc, .dt = dt, .mode = o->mode};
+    tc c = {.s = s, .nc = nc, .dt = dt};
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
     } else if (o->mode == ST_MODE_DISCARD) {
