@@ -439,6 +439,20 @@ static void triangle_sets_are_checked_and_bc1_refuses_them(void **state)
     info.meshtype = 2;
     assert_int_equal(st_set_create(&info, fd, 0, &s, &e), ST_EINVAL);
     assert_null(s);
+    /* a .ptx whose header says triangle but whose face is not square is refused */
+    info.meshtype = ST_MESH_QUAD;
+    fd[0].h = 4;
+    assert_int_equal(st_set_create(&info, fd, 0, &s, &e), 0);
+    void *buf;
+    size_t len;
+    assert_int_equal(st_ptex_write_mem(s, &buf, &len, &e), 0);
+    st_set_free(s);
+    ((uint8_t *)buf)[8] = 0; /* Ptex mesh type triangle */
+    s = NULL;
+    assert_int_equal(st_ptex_read_mem(buf, len, 0, &s, &e), ST_EFORMAT);
+    assert_non_null(strstr(e.msg, "square"));
+    assert_null(s);
+    free(buf);
     s = two_triangles(8, ST_DT_U8, 1);
     st_set *out = NULL;
     assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &out, &e), ST_EUNSUPPORTED);
