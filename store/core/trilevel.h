@@ -44,6 +44,23 @@ static inline void st_tri_texel(uint32_t R, float u, float v, uint32_t *x, uint3
     }
 }
 
+/* The barycentric coordinates p = (u, v, w) of a point of a triangle face, on or beyond its
+ * edge e (0..2), in the frame of the neighbour whose edge ae (0..2) it is: the neighbour is
+ * unfolded across the shared edge (parallelogram completion). Edge e is where coordinate
+ * (e + 1) % 3 is 0 and runs from the corner where coordinate (e + 2) % 3 is 1 to the one where
+ * coordinate e is 1; the neighbour runs along it the other way. So the neighbour's coordinate
+ * (ae + 1) % 3 is minus ours (e + 1) % 3 (the distance past the edge), its coordinate ae is 1 -
+ * ours e and its (ae + 2) % 3 is 1 - ours (e + 2) % 3: new coordinate i reads old (i + s) % 3,
+ * s = (e - ae) mod 3, and decreases with it (so bounds map lo <-> hi). */
+static inline void st_tri_across_edge(unsigned e, unsigned ae, const float p[3], float np[3])
+{
+    unsigned s = (e + 3 - ae) % 3, cz = (ae + 1) % 3;
+    for (unsigned i = 0; i < 3; i++) {
+        unsigned o = (i + s) % 3;
+        np[i] = i == cz ? -p[o] : 1.0f - p[o];
+    }
+}
+
 /* Reduces the R x R triangle level src (R >= 2, a power of two) into the R/2 x R/2 level dst:
  * each small triangle of the coarser level is the mean of the four it splits into (three of
  * the same orientation at its corners and the opposite one in the middle). Texel (i, j) of dst

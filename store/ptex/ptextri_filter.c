@@ -112,34 +112,22 @@ static void build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw
     k->C = C;
 }
 
-/* Carries a piece across edge e of its face into the neighbour whose edge ae it is. Edge e is
- * where coordinate (e + 1) % 3 is 0 and runs from the corner where coordinate (e + 2) % 3 is 1
- * to the one where coordinate e is 1; the neighbour runs along it the other way. So the
- * neighbour's coordinate (ae + 1) % 3 is minus ours (e + 1) % 3, its coordinate ae is 1 - ours
- * e and its (ae + 2) % 3 is 1 - ours (e + 2) % 3: new coordinate i reads old (i + s) % 3 with
- * s = e - ae (mod 3), a rotation of the roles, so the ellipse only rotates. */
+/* Carries a piece across edge e of its face into the neighbour whose edge ae it is
+ * (st_tri_across_edge: the unfolding across the shared edge). The map renames (u, v, w)
+ * cyclically by s = e - ae (mod 3), so the ellipse only rotates; every coordinate decreases
+ * with the one it reads, so lower bounds come from upper ones and back. */
 static void reorient(tk *k, unsigned e, unsigned ae)
 {
-    float p[3] = {k->u, k->v, 1.0f - k->u - k->v};
-    unsigned s = (e + 3 - ae) % 3, cz = (ae + 1) % 3;
-    float np[3], nlo[3], nhi[3];
-    for (unsigned i = 0; i < 3; i++) {
-        unsigned o = (i + s) % 3;
-        if (i == cz) {
-            np[i] = -p[o];
-            nlo[i] = -k->hi[o];
-            nhi[i] = -k->lo[o];
-        } else {
-            np[i] = 1.0f - p[o];
-            nlo[i] = 1.0f - k->hi[o];
-            nhi[i] = 1.0f - k->lo[o];
-        }
-    }
+    float p[3] = {k->u, k->v, 1.0f - k->u - k->v}, np[3], nlo[3], nhi[3];
+    st_tri_across_edge(e, ae, p, np);
+    st_tri_across_edge(e, ae, k->hi, nlo);
+    st_tri_across_edge(e, ae, k->lo, nhi);
     k->u = np[0];
     k->v = np[1];
     memcpy(k->lo, nlo, sizeof nlo);
     memcpy(k->hi, nhi, sizeof nhi);
     float A = k->A, B = k->B, C = k->C;
+    unsigned s = (e + 3 - ae) % 3;
     if (s == 2) {        /* u' = w, v' = u */
         k->A = C;
         k->B = 2.0f * C - B;

@@ -84,7 +84,8 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
                     float *out, float *coverage, uint8_t *status);
 
 /* The point (u, v) of face f (on or beyond edge `edge`) in the uv of the neighbour across that
- * edge, through the edge rotation (the mapping Traverse uses; docs/sampler.md).
+ * edge, through the edge rotation (the mapping Traverse uses; docs/sampler.md); on a
+ * triangle-mesh set the barycentric unfolding across the edge (core/trilevel.h).
  * Returns 0 and fills g, gu, gv, or -1 when the edge is a boundary or f/edge is out of range. */
 int st_uv_across_edge(const st_set *s, uint32_t f, unsigned edge, float u, float v,
                       uint32_t *g, float *gu, float *gv);

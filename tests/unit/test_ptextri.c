@@ -416,6 +416,44 @@ static void gpu_point_uses_the_footprint_level_and_the_rest_is_refused(void **st
     st_set_free(s);
 }
 
+static void a_point_across_an_edge_lands_on_the_neighbours_side(void **state)
+{
+    (void)state;
+    st_set *s = two_triangles(8, ST_DT_U8, 0);
+    uint32_t g;
+    float gu, gv;
+    /* on the shared edge u + v = 1: face 1 is face 0 turned half a turn */
+    assert_int_equal(st_uv_across_edge(s, 0, 1, 0.3f, 0.7f, &g, &gu, &gv), 0);
+    assert_int_equal(g, 1);
+    assert_float_equal(gu, 0.7f, 1e-6f);
+    assert_float_equal(gv, 0.3f, 1e-6f);
+    /* 0.1 past the edge: 0.1 inside the neighbour, and back again */
+    assert_int_equal(st_uv_across_edge(s, 0, 1, 0.4f, 0.7f, &g, &gu, &gv), 0);
+    assert_float_equal(1.0f - gu - gv, 0.1f, 1e-6f);
+    float bu, bv;
+    assert_int_equal(st_uv_across_edge(s, 1, 1, gu, gv, &g, &bu, &bv), 0);
+    assert_int_equal(g, 0);
+    assert_float_equal(bu, 0.4f, 1e-6f);
+    assert_float_equal(bv, 0.7f, 1e-6f);
+    /* boundary edges and the missing fourth edge have no neighbour */
+    assert_int_equal(st_uv_across_edge(s, 0, 0, 0.5f, 0.0f, &g, &gu, &gv), -1);
+    assert_int_equal(st_uv_across_edge(s, 0, 3, 0.0f, 0.5f, &g, &gu, &gv), -1);
+    assert_int_equal(st_uv_across_corner(s, 0, 1, 1.0f, 0.0f, &g, &gu, &gv), -1);
+    /* every rotation of the edge-id pair maps the edge onto itself, end for end */
+    float p[3], q[3];
+    for (unsigned e = 0; e < 3; e++)
+        for (unsigned ae = 0; ae < 3; ae++) {
+            /* the start corner of edge e (coordinate (e+2)%3 is 1) is the end of edge ae
+             * (coordinate ae is 1) */
+            memset(p, 0, sizeof p);
+            p[(e + 2) % 3] = 1.0f;
+            st_tri_across_edge(e, ae, p, q);
+            assert_float_equal(q[ae], 1.0f, 0.0f);
+            assert_float_equal(q[(ae + 1) % 3], 0.0f, 0.0f);
+        }
+    st_set_free(s);
+}
+
 static void triangle_sets_are_checked_and_bc1_refuses_them(void **state)
 {
     (void)state;
@@ -472,6 +510,7 @@ int main(void)
         cmocka_unit_test(a_constant_texture_stays_constant_in_every_mode),
         cmocka_unit_test(discard_renormalises_at_boundaries_and_modes_agree_inside),
         cmocka_unit_test(gpu_point_uses_the_footprint_level_and_the_rest_is_refused),
+        cmocka_unit_test(a_point_across_an_edge_lands_on_the_neighbours_side),
         cmocka_unit_test(triangle_sets_are_checked_and_bc1_refuses_them),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
