@@ -162,14 +162,16 @@ int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
         if (fc->h > r.max_h) r.max_h = fc->h;
         if (fc->flags & ST_FACE_CONSTANT) r.nconstant++;
         if (fc->flags & ST_FACE_SUBFACE) r.nsubfaces++;
-        for (int e = 0; e < 4; e++) {
+        /* a triangle has three edges and corners; its regular interior vertex has valence 6 */
+        int tri = s->info.meshtype == ST_MESH_TRIANGLE;
+        for (int e = 0; e < (tri ? 3 : 4); e++) {
             if (fc->adjface[e] < 0)
                 r.boundary_edges++;
             unsigned v = fc->valence[e];
             unsigned val = v & ~ST_VALENCE_BOUNDARY;
             if (val > r.max_valence)
                 r.max_valence = val;
-            if (!(v & ST_VALENCE_BOUNDARY) && val != 4)
+            if (!(v & ST_VALENCE_BOUNDARY) && val != (tri ? 6u : 4u))
                 r.irregular_corners++;
         }
     }
@@ -485,6 +487,10 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     if (rc < 0) {
         st_setref_release(ref);
         sts_reply_st(out, h, rc, rc != ST_EUNSUPPORTED ? "invalid sampling options"
+                                 : s->info.meshtype == ST_MESH_TRIANGLE
+                                     ? "a triangle-mesh set samples with point (0) and the "
+                                       "Ptex filters (8-15); bilinear, trilinear and aniso "
+                                       "are not defined on triangle faces"
                                  : s->info.kind == ST_KIND_BC1
                                      ? "the Ptex filters need an uncompressed per-face set; BC1 "
                                        "sets sample with point, bilinear, trilinear and aniso"

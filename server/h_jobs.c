@@ -322,6 +322,11 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
         sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
         return 0;
     }
+    if (src->set->info.meshtype == ST_MESH_TRIANGLE) { /* refused up front, not as a job */
+        st_setref_release(src);
+        sts_reply_st(out, h, ST_EUNSUPPORTED, ST_BC1_TRIANGLE_REFUSAL);
+        return 0;
+    }
     if (!(rq.flags & STP_CF_REPLACE)) {
         st_setref *t = NULL;
         if (st_registry_get(srv->reg, rq.target, &t, NULL) == 0) {

@@ -123,7 +123,12 @@ typedef void (*st_bc1_progress_fn)(void *arg, double fraction);
  * shared face edge (through the adjacency). o NULL = defaults; progress may be NULL; cancel
  * may be NULL and is read often: when it becomes non-zero the call returns ST_ECANCELED
  * promptly and frees what it made. On success *out is a new set the caller owns
- * (st_set_free). */
+ * (st_set_free). A triangle-mesh set (st_meshtype) is refused with ST_EUNSUPPORTED and
+ * ST_BC1_TRIANGLE_REFUSAL (docs/bc1.md says why). */
+#define ST_BC1_TRIANGLE_REFUSAL                                                                \
+    "BC1 compression of a triangle-mesh set is not supported (a 4x4 block of its packed "     \
+    "triangle layout mixes upright and mirrored inverted triangles of distant parts of the "   \
+    "face, and seam masking follows quad edges)"
 int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress_fn progress,
                         void *progress_arg, const volatile int *cancel, st_set **out,
                         st_error *e);

@@ -139,6 +139,8 @@ int st_bc1_compress_set(const st_set *src, const st_bc1_opts *o, st_bc1_progress
         st_bc1_opts_default(&opts);
     if (src->info.kind == ST_KIND_BC1)
         return st_fail(e, ST_EINVAL, "set is already BC1");
+    if (src->info.meshtype == ST_MESH_TRIANGLE)
+        return st_fail(e, ST_EUNSUPPORTED, "%s", ST_BC1_TRIANGLE_REFUSAL);
     if (opts.seam_mode < ST_BC1_SEAM_NONE || opts.seam_mode > ST_BC1_SEAM_AWARE)
         return st_fail(e, ST_EINVAL, "seam mode %d unknown", opts.seam_mode);
     if (!(opts.alpha >= 0) || opts.alpha > 1e6 || !(opts.seam_boost >= 0) || opts.seam_boost > 1e3 ||

@@ -6,6 +6,7 @@
  * hostile adjacency table cannot loop.
  */
 #include "set.h"
+#include "trilevel.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -59,8 +60,17 @@ static size_t level_unit_size(const st_set_info *info, size_t tsize)
 int st_set_check_adjacency(const st_set *s, st_error *e)
 {
     uint32_t n = s->info.nfaces;
+    int tri = s->info.meshtype == ST_MESH_TRIANGLE;
+    if (s->info.meshtype > ST_MESH_TRIANGLE)
+        return st_fail(e, ST_EINVAL, "mesh type %u is neither quad (0) nor triangle (1)",
+                       s->info.meshtype);
+    if (tri && s->info.kind != ST_KIND_PERFACE)
+        return st_fail(e, ST_EINVAL, "only a per-face set can be a triangle mesh");
     for (uint32_t f = 0; f < n; f++) {
         const st_face *F = &s->faces[f];
+        if (tri && (F->w != F->h || (F->flags & ST_FACE_SUBFACE) || F->adjface[3] != -1))
+            return st_fail(e, ST_EADJ, "face %u: a triangle face is square (%ux%u), no subface, "
+                           "with three edges (edge 3 must be -1)", f, F->w, F->h);
         for (int ed = 0; ed < 4; ed++) {
             int32_t g = F->adjface[ed];
             if (g < 0)
@@ -69,9 +79,9 @@ int st_set_check_adjacency(const st_set *s, st_error *e)
                 return st_fail(e, ST_EADJ, "face %u edge %d: neighbour %d out of range (%u faces)",
                                f, ed, g, n);
             unsigned ge = F->adjedge[ed];
-            if (ge > 3)
-                return st_fail(e, ST_EADJ, "face %u edge %d: neighbour edge id %u not in 0..3",
-                               f, ed, ge);
+            if (ge > (tri ? 2u : 3u))
+                return st_fail(e, ST_EADJ, "face %u edge %d: neighbour edge id %u not in 0..%u",
+                               f, ed, ge, tri ? 2u : 3u);
             const st_face *G = &s->faces[g];
             int fsub = (F->flags & ST_FACE_SUBFACE) != 0, gsub = (G->flags & ST_FACE_SUBFACE) != 0;
             if (fsub != gsub)
@@ -91,6 +101,8 @@ int st_set_check_adjacency(const st_set *s, st_error *e)
  * diagonal face and its corner. */
 static void corner_walk(st_set *s, uint32_t f, unsigned c)
 {
+    /* a triangle has three edges: the next edge is (e + 1) % 3, the one before (e + 2) % 3 */
+    unsigned ne_n = s->info.meshtype == ST_MESH_TRIANGLE ? 3u : 4u;
     st_face *F = &s->faces[f];
     int32_t af = (int32_t)f;
     unsigned ae = c;
@@ -107,7 +119,8 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
         }
         unsigned ne = A->adjedge[ae];
         af = nf;
-        ae = (ne + 1) & 3; /* the vertex is corner (ne+1) of the new face, where edge ne+1 starts */
+        ae = (ne + 1) % ne_n; /* the vertex is corner (ne+1) of the new face, where edge ne+1
+                                 starts */
         if (af == (int32_t)f && ae == c)
             break;
         count++;
@@ -119,7 +132,7 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
     if (boundary) {
         /* count the faces on the other side too, walking the other way */
         int32_t bf = (int32_t)f;
-        unsigned be = (c + 3) & 3; /* edge ending at the vertex */
+        unsigned be = (c + ne_n - 1) % ne_n; /* edge ending at the vertex */
         for (int i = 0; i < ST_WALK_MAX; i++) {
             const st_face *B = &s->faces[bf];
             int32_t nf = B->adjface[be];
@@ -127,7 +140,7 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
                 break;
             unsigned ne = B->adjedge[be];
             bf = nf;
-            be = (ne + 3) & 3;
+            be = (ne + ne_n - 1) % ne_n;
             count++;
         }
         F->valence[c] = (uint8_t)((count > 127 ? 127 : count) | ST_VALENCE_BOUNDARY);
@@ -136,7 +149,7 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
         return;
     }
     F->valence[c] = (uint8_t)(count > 127 ? 127 : count);
-    if (count == 4 && !(F->flags & ST_FACE_SUBFACE)) {
+    if (count == 4 && ne_n == 4 && !(F->flags & ST_FACE_SUBFACE)) {
         F->cornerface[c] = diag;
         F->cornercorner[c] = (uint8_t)diag_corner;
     } else {
@@ -255,9 +268,15 @@ static int set_create(const st_set_info *info, const st_face_desc *fd, size_t ma
         if (F->flags & ST_FACE_CONSTANT)
             off += tsize;
     }
-    for (uint32_t f = 0; f < info->nfaces; f++)
-        for (unsigned c = 0; c < 4; c++)
+    for (uint32_t f = 0; f < info->nfaces; f++) {
+        for (unsigned c = 0; c < (info->meshtype == ST_MESH_TRIANGLE ? 3u : 4u); c++)
             corner_walk(s, f, c);
+        if (info->meshtype == ST_MESH_TRIANGLE) { /* no fourth corner */
+            s->faces[f].valence[3] = 0;
+            s->faces[f].cornerface[3] = -1;
+            s->faces[f].cornercorner[3] = 0;
+        }
+    }
     *out = s;
     return ST_OK;
 fail:
@@ -333,8 +352,13 @@ void st_set_build_mips(st_set *s, uint32_t f)
     for (uint32_t i = lo; i < hi && i < s->info.nfaces; i++) {
         if (s->faces[i].flags & ST_FACE_CONSTANT)
             continue;
-        for (unsigned l = 1; l < s->faces[i].nlevels; l++)
-            reduce_level(s, i, l);
+        for (unsigned l = 1; l < s->faces[i].nlevels; l++) {
+            if (s->info.meshtype == ST_MESH_TRIANGLE) /* square faces, Ptex's triangle rule */
+                st_tri_reduce(s->info.dtype, s->info.nchan, st_face_level(s, i, l - 1),
+                              st_level_w(&s->faces[i], l - 1), st_face_level(s, i, l));
+            else
+                reduce_level(s, i, l);
+        }
     }
 }
 

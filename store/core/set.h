@@ -99,8 +99,15 @@ typedef struct st_set_info {
     uint8_t  colorspace;         /* st_colorspace */
     uint8_t  premultiplied;      /* colour channels are premultiplied by alpha */
     uint8_t  border_u, border_v; /* Ptex border modes: 0 clamp, 1 black, 2 periodic */
-    uint8_t  meshtype;           /* 0 quad, 1 triangle (Ptex MeshType) */
+    uint8_t  meshtype;           /* st_meshtype: 0 quad, 1 triangle (NOT Ptex's numbering,
+                                    where 0 is triangle) */
 } st_set_info;
+
+/* Mesh type of a per-face set. A triangle face (Ptex meshtype triangle) is square (w == h),
+ * never a subface, has three edges - 0 (v = 0), 1 (u + v = 1), 2 (u = 0), corner c where edge
+ * c starts: 0 (0,0), 1 (1,0), 2 (0,1) - so adjface[3] is -1 and adjedge[] is 0..2; each
+ * level holds Ptex's packed triangle layout (docs/ptex.md, "Triangle meshes"). */
+typedef enum st_meshtype { ST_MESH_QUAD = 0, ST_MESH_TRIANGLE = 1 } st_meshtype;
 
 /* Metadata key (string "srgb") that records an sRGB set in files without a colour space of
  * their own (Ptex): written by exporters, honoured by the importer. */

@@ -4,14 +4,16 @@
  * ptex_format.h. Does not own: the set layout (set.h), filtering (ptexfilter.h, sample.h).
  *
  * Reading: Ptex file version 1 (any minor version, with or without the extended header),
- * quad meshes including subfaces of non-quad faces, u8/u16/half/float, 1..4 channels
- * (files with more channels are refused: the set holds at most ST_MAX_CHANNELS), constant,
- * zipped, diff-zipped and tiled face data, stored reductions, small and large metadata, edit
- * records. Triangle meshes are refused (ST_EUNSUPPORTED) with a message saying so.
+ * quad meshes including subfaces of non-quad faces, and triangle meshes (info.meshtype
+ * ST_MESH_TRIANGLE: square faces, three edges, Ptex's packed triangle layout, core/trilevel.h),
+ * u8/u16/half/float, 1..4 channels (files with more channels are refused: the set holds at
+ * most ST_MAX_CHANNELS), constant, zipped, diff-zipped and tiled face data, stored reductions,
+ * small and large metadata, edit records.
  * The file's stored reductions replace the set's box reductions where the file has them
  * (level L of the set = Ptex reduction level L, both axes halved); the levels Ptex does not
- * store (past min(ulog2, vlog2) for a non-square face) are filled the way the Ptex reader
- * fills them on demand. Metadata becomes set->meta (Ptex types kept).
+ * store (past min(ulog2, vlog2) for a non-square face; below the stored reductions of a
+ * triangle face) are filled the way the Ptex reader fills them on demand. Metadata becomes
+ * set->meta (Ptex types kept).
  *
  * Hostile input: every header field is checked against the buffer length and the set caps
  * before anything is allocated; zlib streams must inflate to exactly the declared size. The

@@ -47,7 +47,10 @@
  *        1    1 vlog2 (s8)
  *        2    1 adjedges: 2 bits per edge, edge e at bits 2e..2e+1
  *        3    1 flags: 1 constant, 2 has edits, 4 neighbourhood constant, 8 subface
- *        4   16 adjfaces[4] (s32, -1 = none), edges bottom, right, top, left
+ *        4   16 adjfaces[4] (s32, -1 = none), edges bottom, right, top, left; a triangle
+ *                 face has three edges, 0 (v = 0), 1 (u + v = 1), 2 (u = 0): adjfaces[3] is
+ *                 -1, adjedges uses bits 0..5, the face is square (ulog2 == vlog2) and its
+ *                 blocks hold the packed triangle layout of core/trilevel.h
  *
  * ConstData: nfaces pixels (pixel = nchannels * datasize, channels interleaved), the face's
  *   value when constant, else its average (Ptex serves it for the 1x1 resolution).
@@ -98,6 +101,8 @@
 #define PTX_EDIT_META_SIZE   8u
 #define PTX_TILE_SIZE        65536 /* target uncompressed tile size of the Ptex writer */
 #define PTX_META_THRESHOLD   1024  /* larger metadata go to large-metadata blocks */
+#define PTX_MESH_TRIANGLE    0u    /* header mesh type (seamtex's st_meshtype numbers differ) */
+#define PTX_MESH_QUAD        1u
 #define PTX_MAX_ZIP_RATIO    1032u
 #define PTX_MAX_LEVELS_W     17    /* level info entries the writer may emit (ulog2 <= 15, +1) */ /* deflate cannot expand more than this (+ a constant) */
 

@@ -6,6 +6,10 @@
  * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
  * built later by the first Ptex-filter call).
  *
+ * Triangle meshes (mesh type 0) are read the same way: square faces (checked), three edges
+ * (the fourth adjacency entry and the subface flag are ignored, as Ptex does), blocks in Ptex's
+ * packed triangle layout (core/trilevel.h); their unstored levels get the triangle reduction.
+ *
  * One pass, no extra copies: the set is created with its arena unzeroed, every block of every
  * level is inflated once - a one-channel block straight into its place in the arena, any other
  * into one reused scratch that stays in the cache - and unpacked into the arena; the levels the
@@ -41,6 +45,7 @@ typedef struct rd {
     size_t len;
     size_t max_bytes;
     unsigned dt, nc;
+    int tri;                    /* a triangle mesh: square faces, three edges */
     size_t csize, psize;        /* bytes per channel, per pixel */
     st_error *e;
     z_stream z;
@@ -434,7 +439,10 @@ static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nf
     if (fi->ulog2 < 0 || fi->vlog2 < 0 || fi->ulog2 > (int)ST_MAX_LOG2 || fi->vlog2 > (int)ST_MAX_LOG2)
         return st_fail(r->e, ST_EFORMAT, "face %u: resolution 2^%d x 2^%d not in 1..%u", f,
                        fi->ulog2, fi->vlog2, ST_MAX_DIM);
-    for (int ed = 0; ed < 4; ed++)
+    if (r->tri && fi->ulog2 != fi->vlog2)
+        return st_fail(r->e, ST_EFORMAT, "triangle face %u: resolution 2^%d x 2^%d (a triangle "
+                       "face is square)", f, fi->ulog2, fi->vlog2);
+    for (int ed = 0; ed < (r->tri ? 3 : 4); ed++) /* a triangle's fourth entry is unused */
         if (fi->adjfaces[ed] < -1 || (fi->adjfaces[ed] >= 0 && (uint32_t)fi->adjfaces[ed] >= nfaces))
             return st_fail(r->e, ST_EADJ, "face %u edge %d: neighbour %d out of range (%u faces)",
                            f, ed, fi->adjfaces[ed], nfaces);
@@ -475,10 +483,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
     uint32_t lisize = ptx_rd32(b + 40);
     uint64_t ldsize = ptx_rd64(b + 48);
     uint32_t mdzip = ptx_rd32(b + 56), mdmem = ptx_rd32(b + 60);
-    if (meshtype == 0)
-        return st_fail(e, ST_EUNSUPPORTED, "triangle-mesh Ptex files are not supported "
-                       "(seamtex handles quad meshes, with subfaces of non-quad faces)");
-    if (meshtype != 1)
+    if (meshtype > 1)
         return st_fail(e, ST_EFORMAT, "mesh type %u is neither triangle (0) nor quad (1)", meshtype);
     if (dtype > 3)
         return st_fail(e, ST_EFORMAT, "data type %u not in 0..3", dtype);
@@ -494,6 +499,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
     if (lisize < nlevels * PTX_LEVELINFO_SIZE)
         return st_fail(e, ST_EFORMAT, "level info of %u bytes is too small for %u levels",
                        lisize, nlevels);
+    r->tri = meshtype == PTX_MESH_TRIANGLE;
     r->dt = dtype;
     r->nc = nchan;
     r->csize = st_dtype_size(dtype);
@@ -661,10 +667,15 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         fd[f].w = 1u << fi[f].ulog2;
         fd[f].h = 1u << fi[f].vlog2;
         fd[f].flags = (uint8_t)((fi[f].flags & PTX_FLAG_CONSTANT ? ST_FACE_CONSTANT : 0) |
-                                (fi[f].flags & PTX_FLAG_SUBFACE ? ST_FACE_SUBFACE : 0));
+                                (fi[f].flags & PTX_FLAG_SUBFACE && !r->tri ? ST_FACE_SUBFACE : 0));
         for (int ed = 0; ed < 4; ed++) {
             fd[f].adjface[ed] = fi[f].adjfaces[ed];
             fd[f].adjedge[ed] = (int8_t)((fi[f].adjedges >> (2 * ed)) & 3);
+        }
+        if (r->tri) { /* Ptex ignores a triangle's fourth edge and subface flag */
+            fd[f].adjface[3] = -1;
+            fd[f].adjedge[3] = 0;
+            fi[f].flags &= (uint8_t)~PTX_FLAG_SUBFACE;
         }
         ptxflags[f] = fi[f].flags;
         nstored[f] = 1;
@@ -673,7 +684,8 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         .nfaces = nfaces, .nchan = (uint8_t)nchan, .dtype = (uint8_t)dtype,
         .alpha_chan = (int8_t)(alpha >= 0 && alpha < (int32_t)nchan ? alpha : -1),
         .kind = ST_KIND_PERFACE, .colorspace = ST_CS_LINEAR, .premultiplied = 0,
-        .border_u = (uint8_t)bu, .border_v = (uint8_t)bv, .meshtype = 0,
+        .border_u = (uint8_t)bu, .border_v = (uint8_t)bv,
+        .meshtype = (uint8_t)(r->tri ? ST_MESH_TRIANGLE : ST_MESH_QUAD),
     };
     /* every byte of every level is written below: constant and 1x1 faces from the constant
      * data, level 0 of the others and their stored reductions decoded (a block must fill its

@@ -12,7 +12,10 @@
  * block and entries over 1 KiB as large metadata. All levels of square faces are stored, so
  * reading the file gives the set back bit for bit; for non-square faces the levels past the
  * square reductions are re-derived by the reader with Ptex's rule (they round-trip exactly for
- * every set that the reader produced).
+ * every set that the reader produced). A triangle-mesh set (st_meshtype) is written with mesh
+ * type triangle: three edges per face (adjfaces[3] = -1, adjedges in bits 0..5), no subface
+ * flags; its square faces' levels already hold the packed triangle layout and Ptex's triangle
+ * reductions (core/trilevel.h), so every level is stored and comes back bit for bit.
  *
  * Metadata the writer leaves out or merges, so that write(read(write(s))) == write(s) and a
  * daemon's upload/fetch loop gives the same bytes every round:
@@ -216,7 +219,8 @@ static int nb_constant(const st_set *s, uint32_t f, size_t ps)
 {
     const st_face *F = &s->faces[f];
     const uint8_t *val = st_face_level(s, f, 0);
-    for (int e = 0; e < 4; e++) {
+    int ne = s->info.meshtype == ST_MESH_TRIANGLE ? 3 : 4; /* edges (and corners) per face */
+    for (int e = 0; e < ne; e++) {
         int prev_sub = (F->flags & ST_FACE_SUBFACE) != 0;
         int32_t prevf = (int32_t)f, af = F->adjface[e];
         int ae = F->adjedge[e], count = 0;
@@ -229,7 +233,7 @@ static int nb_constant(const st_set *s, uint32_t f, size_t ps)
                 break;
             prev_sub = sub;
             prevf = af;
-            ae = (ae + 1) % 4;
+            ae = (ae + 1) % ne;
             af = A->adjface[ae];
             ae = A->adjedge[ae];
         }
@@ -463,7 +467,7 @@ int st_ptex_write_mem(const st_set *s, void **bufp, size_t *lenp, st_error *e)
     uint8_t *h = out.p;
     ptx_wr32(h, PTX_MAGIC);
     ptx_wr32(h + 4, 1);
-    ptx_wr32(h + 8, 1);
+    ptx_wr32(h + 8, s->info.meshtype == ST_MESH_TRIANGLE ? PTX_MESH_TRIANGLE : PTX_MESH_QUAD);
     ptx_wr32(h + 12, s->info.dtype);
     ptx_wr32(h + 16, (uint32_t)(int32_t)s->info.alpha_chan);
     ptx_wr16(h + 20, s->info.nchan);

@@ -25,6 +25,7 @@
 #include "ptex_format.h"
 #include "ptexfilter_kernel.h"
 #include "ptexres.h"
+#include "ptextri.h"
 
 #define PF_MAX_DEPTH 8   /* subface re-splits; Ptex needs 2, a bad adjacency table might loop */
 
@@ -536,6 +537,8 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     if (!(o->sharpness >= 0.0f && o->sharpness <= 1.0f) || !(o->width >= 0.0f) ||
         !(o->blur >= 0.0f) || o->width > ST_MAX_DERIV || o->blur > ST_MAX_DERIV)
         return ST_EINVAL;
+    if (s->info.meshtype == ST_MESH_TRIANGLE) /* Ptex's point and triangle filters */
+        return st_ptextri_batch(s, o, q, n, out, coverage, status);
     st_error be;
     /* built on the first call; pinned so that a budget drop leaves it alone during the batch */
     const st_ptexres *t = st_ptexres_pin(s, &be);

@@ -7,6 +7,9 @@
  * of level L-1 (or u of v: the order alternates with the parity of U-L), and past the smaller
  * axis a single 2:1 reduction of level L-1 along the larger one; 1x1 is the constant value.
  * So filling a level reads only the level before it (plus one scratch of half its size).
+ * A triangle set's faces are square and every level is the triangle reduction of the one
+ * before (trilevel.h), as Ptex's reader makes them; its table is never built (the triangle
+ * filter, ptextri_filter.c, reads only square resolutions: the set's levels).
  *
  * Table (st_ptexres_table, first Ptex-filter call): one pass decides, per face and
  * resolution, where the data comes from (a set level - which now holds exactly what Ptex
@@ -25,6 +28,7 @@
 #include <sys/mman.h>
 
 #include "ptex_format.h"
+#include "trilevel.h"
 
 /* The arena: large ones 2 MiB aligned and marked for transparent huge pages (the table is
  * written once, right away; 4 KiB page faults were a third of the load time). */
@@ -241,6 +245,20 @@ int st_ptexres_fill_levels(st_set *s, uint32_t f, unsigned nstored, const uint8_
     size_t ts = st_texel_size(s);
     if (nstored < 1)
         nstored = 1;
+    if (s->info.meshtype == ST_MESH_TRIANGLE) { /* square faces: Ptex's triangle reduction */
+        for (unsigned l = nstored; l < F->nlevels; l++) {
+            uint8_t *d = st_face_level(s, f, l);
+            if (l == F->ulog2) {
+                if (constpx)
+                    memcpy(d, constpx, ts);
+                else
+                    average_px(dt, nc, st_face_level(s, f, 0), (size_t)F->w * F->h, d);
+            } else {
+                st_tri_reduce(dt, nc, st_face_level(s, f, l - 1), st_level_w(F, l - 1), d);
+            }
+        }
+        return ST_OK;
+    }
     /* scratch for the u- or v-reduced intermediate of a square step: half of level L-1 */
     uint8_t small[4096], *tmp = small;
     size_t need = 0;

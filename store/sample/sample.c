@@ -160,11 +160,6 @@ ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t
 
 /* ---- level selection (docs/sampler.md) --------------------------------------- */
 
-static inline float lod_of_rho2(float rho2)
-{
-    return rho2 > 0.0f ? 0.5f * log2f(rho2) : -INFINITY;
-}
-
 ST_AI void probe_trilinear(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
                            unsigned nl, float lod, float u, float v, float pw, st_acc *a, int DT,
                            unsigned nch)
@@ -184,22 +179,6 @@ ST_AI void probe_trilinear(const st_set *s, unsigned mode, const st_fp *fp, uint
 
 /* ---- one query ---------------------------------------------------------------------------- */
 
-static int check_query(const st_set *s, const st_query *q)
-{
-    if (q->face >= s->info.nfaces)
-        return ST_Q_BAD_FACE;
-    /* x - x is NaN exactly when x is NaN or infinite */
-    float z = (q->u - q->u) + (q->v - q->v) + (q->dudx - q->dudx) + (q->dvdx - q->dvdx) +
-              (q->dudy - q->dudy) + (q->dvdy - q->dvdy);
-    if (z != z)
-        return ST_Q_NONFINITE;
-    if (fabsf(q->u) > ST_MAX_COORD || fabsf(q->v) > ST_MAX_COORD ||
-        fabsf(q->dudx) > ST_MAX_DERIV || fabsf(q->dvdx) > ST_MAX_DERIV ||
-        fabsf(q->dudy) > ST_MAX_DERIV || fabsf(q->dvdy) > ST_MAX_DERIV)
-        return ST_Q_BAD_FOOTPRINT;
-    return ST_Q_OK;
-}
-
 static void write_nan(float *out, unsigned nch)
 {
     for (unsigned c = 0; c < nch; c++)
@@ -210,7 +189,7 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
                      float *out, float *cov, int DT, unsigned NCH)
 {
     unsigned nch = NCH ? NCH : s->info.nchan;
-    int bad = check_query(s, q);
+    int bad = st_check_query(s, q);
     if (bad) {
         write_nan(out, nch);
         *cov = 0.0f;
@@ -233,14 +212,14 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
     case ST_FILTER_POINT:
     case ST_FILTER_BILINEAR:
         if (rho2 > 2.0f) /* lod > 0.5: a minified footprint, not level 0 */
-            level = st_nearest_level(lod = lod_of_rho2(rho2), nl);
+            level = st_nearest_level(lod = st_lod_of_rho2(rho2), nl);
         if (o->filter == ST_FILTER_POINT)
             probe_point(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch);
         else
             probe_bilinear(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch);
         break;
     case ST_FILTER_TRILINEAR:
-        lod = lod_of_rho2(rho2);
+        lod = st_lod_of_rho2(rho2);
         fp.lodadj = lod < 0.0f ? lod : 0.0f;
         probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
         break;
@@ -360,6 +339,8 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
     }
     if (o->filter > ST_FILTER_ANISO)
         return ST_EINVAL;
+    if (s->info.meshtype == ST_MESH_TRIANGLE) /* sample_tri.c: point only */
+        return st_sample_tri_batch(s, o, q, n, out, coverage, status);
     if (s->info.nchan < 1 || s->info.nchan > ST_MAX_CHANNELS || !st_dtype_size(s->info.dtype))
         return ST_EINVAL;
     if (n > (size_t)INT32_MAX)

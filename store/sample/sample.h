@@ -77,12 +77,15 @@ enum st_qstatus {
 /* Samples n queries. out receives n * nchan floats (NaN for a query whose status is not OK),
  * coverage n floats and status n bytes (either may be NULL). Returns the number of queries
  * whose status is not ST_Q_OK, or a negative ST_E* code for invalid options (nothing written).
- * A Ptex-family filter on a set of another kind than per-face is ST_EUNSUPPORTED. */
+ * A Ptex-family filter on a set of another kind than per-face is ST_EUNSUPPORTED. On a
+ * triangle-mesh set (info.meshtype ST_MESH_TRIANGLE) bilinear, trilinear and aniso are
+ * ST_EUNSUPPORTED; point reads the small triangle holding (u, v) (sample_tri.c). */
 int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                     float *out, float *coverage, uint8_t *status);
 
 /* The point (u, v) of face f (on or beyond edge `edge`) in the uv of the neighbour across that
- * edge, through the edge rotation (the mapping Traverse uses; docs/sampler.md).
+ * edge, through the edge rotation (the mapping Traverse uses; docs/sampler.md); on a
+ * triangle-mesh set the barycentric unfolding across the edge (core/trilevel.h).
  * Returns 0 and fills g, gu, gv, or -1 when the edge is a boundary or f/edge is out of range. */
 int st_uv_across_edge(const st_set *s, uint32_t f, unsigned edge, float u, float v,
                       uint32_t *g, float *gu, float *gv);

@@ -5,6 +5,7 @@
 #ifndef ST_SAMPLE_INTERNAL_H
 #define ST_SAMPLE_INTERNAL_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -90,5 +91,35 @@ static inline unsigned st_nearest_level(float lod, unsigned nl)
  * weight pw; never leaves the face. */
 void st_lookup_clamped(const st_set *s, uint32_t f, unsigned level, float u, float v,
                        int point, float pw, st_acc *a);
+
+/* GL's level of detail of a footprint whose longer axis is sqrt(rho2) texels of level 0. */
+ST_AI float st_lod_of_rho2(float rho2)
+{
+    return rho2 > 0.0f ? 0.5f * log2f(rho2) : -INFINITY;
+}
+
+/* The status of a query before it is sampled (st_qstatus): face in range, finite, inside the
+ * coordinate and footprint caps. */
+ST_AI int st_check_query(const st_set *s, const st_query *q)
+{
+    if (q->face >= s->info.nfaces)
+        return ST_Q_BAD_FACE;
+    /* x - x is NaN exactly when x is NaN or infinite */
+    float z = (q->u - q->u) + (q->v - q->v) + (q->dudx - q->dudx) + (q->dvdx - q->dvdx) +
+              (q->dudy - q->dudy) + (q->dvdy - q->dvdy);
+    if (z != z)
+        return ST_Q_NONFINITE;
+    if (fabsf(q->u) > ST_MAX_COORD || fabsf(q->v) > ST_MAX_COORD ||
+        fabsf(q->dudx) > ST_MAX_DERIV || fabsf(q->dvdx) > ST_MAX_DERIV ||
+        fabsf(q->dudy) > ST_MAX_DERIV || fabsf(q->dvdy) > ST_MAX_DERIV)
+        return ST_Q_BAD_FOOTPRINT;
+    return ST_Q_OK;
+}
+
+
+/* The GPU-style filters on a triangle-mesh set (sample_tri.c); same contract as
+ * st_sample_batch for filters 0..3 (options already checked). */
+int st_sample_tri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                        float *out, float *coverage, uint8_t *status);
 
 #endif

@@ -14,6 +14,7 @@
  * Every rule here is written out in docs/sampler.md.
  */
 #include "sample_internal.h"
+#include "trilevel.h"
 
 #include <math.h>
 
@@ -160,6 +161,14 @@ int st_uv_across_edge(const st_set *s, uint32_t f, unsigned edge, float u, float
     const st_face *F = &s->faces[f];
     if (F->adjface[edge] < 0)
         return -1;
+    if (s->info.meshtype == ST_MESH_TRIANGLE) { /* barycentric unfolding, trilevel.h */
+        float p[3] = {u, v, 1.0f - u - v}, np[3];
+        st_tri_across_edge(edge, F->adjedge[edge], p, np);
+        *gu = np[0];
+        *gv = np[1];
+        *g = (uint32_t)F->adjface[edge];
+        return 0;
+    }
     float es, ed;
     edge_frame(edge, u, v, &es, &ed);
     edge_frame_inv(F->adjedge[edge], 1.0f - es, -ed, gu, gv);

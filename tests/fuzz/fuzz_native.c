@@ -6,7 +6,8 @@
  * the input's first byte is odd the target first rewrites the header CRC and the CRC of every
  * section that lies inside the file, letting mutations reach the structural checks (section
  * bounds, the face table against the layout, metadata, extension records). Seeds in
- * seeds/fuzz_native/ (a per-face set with its Ptex record, an atlas with a mesh, a BC1 set). */
+ * seeds/fuzz_native/ (a per-face set with its Ptex record, an atlas with a mesh, a BC1 set, a
+ * triangle-mesh set). */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

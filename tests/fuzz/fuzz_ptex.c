@@ -1,7 +1,8 @@
 /* tests/fuzz/fuzz_ptex.c - libFuzzer target for the Ptex reader (st_ptex_read_mem). A file
  * that loads is also sampled with every Ptex filter in Traverse mode (hostile adjacency must
  * not crash the traversal) and written back and re-read (the writer must accept what the
- * reader built). Seeds in tests/fuzz/seeds/fuzz_ptex/ were written by st_ptex_write_mem. */
+ * reader built). Seeds in tests/fuzz/seeds/fuzz_ptex/ were written by st_ptex_write_mem
+ * (quad and triangle meshes; a triangle file takes the triangle filter path). */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>

@@ -59,11 +59,11 @@ static const expect files[] = {
     {"ptx/wdas-ptex-2009/nonquad/test/pPlane1.ptx", 0, 66, 3, ST_DT_U8, 64, 64},
     {"ptx/wdas-ptex-2009/tri/quad.ptx", 0, 1, 3, ST_DT_U8, 8, 8},
     {"ptx/wdas-ptex-2009/tri/uv.ptx", 0, 1, 3, ST_DT_U8, 512, 512},
-    {"ptx/wdas-ptex-2009/tri/tri.ptx", ST_EUNSUPPORTED, 0, 0, 0, 0, 0},
+    {"ptx/wdas-ptex-2009/tri/tri.ptx", 0, 9, 3, ST_DT_F32, 32, 32},         /* triangles */
     {"ptx/wdas-ptex-samples/envcube/envcube.ptx", 0, 6, 3, ST_DT_U16, 0, 0},
     {"ptx/wdas-ptex-samples/holeycube/holeycube.ptx", 0, 72, 1, ST_DT_U16, 0, 0},
     {"ptx/wdas-ptex-samples/teapot/teapot.ptx", 0, 448, 1, ST_DT_U8, 0, 0},
-    {"ptx/wdas-ptex-samples/triangle/triangle.ptx", ST_EUNSUPPORTED, 0, 0, 0, 0, 0},
+    {"ptx/wdas-ptex-samples/triangle/triangle.ptx", 0, 9, 3, ST_DT_F32, 4, 4}, /* triangles */
 };
 
 static void every_shared_ptx_loads_or_is_refused_for_a_stated_reason(void **state)
@@ -514,8 +514,11 @@ static void header_fields_are_checked_before_allocating(void **state)
     expect_refused(c, len, ST_EFORMAT, "magic");
     memcpy(c, b, len); ptx_wr32(c + 4, 2);
     expect_refused(c, len, ST_EUNSUPPORTED, "version");
+    memcpy(c, b, len); ptx_wr32(c + 8, 2);
+    expect_refused(c, len, ST_EFORMAT, "mesh type");
+    /* read as a triangle mesh, the quads' edge id 3 is out of a triangle's 0..2 */
     memcpy(c, b, len); ptx_wr32(c + 8, 0);
-    expect_refused(c, len, ST_EUNSUPPORTED, "triangle");
+    expect_refused(c, len, ST_EADJ, "0..2");
     memcpy(c, b, len); ptx_wr32(c + 12, 7);
     expect_refused(c, len, ST_EFORMAT, "data type");
     memcpy(c, b, len); ptx_wr16(c + 20, 9);

@@ -1,0 +1,32 @@
+/* store/ptex/ptextri.h - Ptex's filters on triangle-mesh sets (Ptex meshtype triangle):
+ * PtexPointFilterTri and PtexTriangleFilter of the Ptex library (v2.4), in Traverse, Discard
+ * and Clamp.
+ *
+ * Ptex filters a triangle mesh with two filters only: `point` (the small triangle holding
+ * (u, v), core/trilevel.h) and the triangle filter, which every other filter name maps to
+ * (bilinear, box, gaussian, bicubic, bspline, catmullrom, mitchell all give its value): a
+ * Gaussian over the footprint ellipse in the face's barycentric domain, eccentricity clamped
+ * to 15, at least a texel wide, at the resolution of the ellipse's minor axis, split at the
+ * face's edges (docs/ptex.md, "Triangle meshes").
+ *
+ * Owns: the triangle kernel and its pieces. Does not own: option checks shared with the quad
+ * filters (st_ptexfilter_batch checks them and hands triangle sets here), the texel layout
+ * and the point rule (core/trilevel.h), the set's levels (the reader fills them).
+ *
+ * Threading: reads the set only; no allocation, no globals.
+ */
+#ifndef ST_PTEXTRI_H
+#define ST_PTEXTRI_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sample.h"
+
+/* Same contract as st_ptexfilter_batch for a per-face set whose info.meshtype is
+ * ST_MESH_TRIANGLE; o has been checked (filter in the Ptex family, mode, sharpness, width,
+ * blur). Returns the number of queries whose status is not ST_Q_OK. */
+int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                     float *out, float *coverage, uint8_t *status);
+
+#endif

@@ -1,0 +1,468 @@
+/* store/ptex/ptextri_filter.c - Ptex's point and triangle filters on triangle-mesh sets (see
+ * ptextri.h; the maths is in docs/ptex.md, "Triangle meshes").
+ *
+ * The triangle filter works in the face's barycentric coordinates (u, v, w = 1 - u - v). The
+ * footprint (du/dx, dv/dx), (du/dy, dv/dy) becomes an ellipse A du^2 + B du dv + C dv^2 <= 1
+ * (converted to the equilateral domain to clamp its eccentricity to 15 and make it at least
+ * half a texel across, then back); its minor axis picks the resolution; the kernel is the
+ * ellipse scaled by 3.5, a Gaussian exp(-Q * 3.5^2 / 2) inside it, bounded by u, v, w
+ * intervals. Traverse splits the kernel at each edge it overhangs (u < 0: edge 2, v < 0: edge
+ * 0, w < 0: edge 1, in that order) and carries the piece into the neighbour's frame (the
+ * unfolding that maps the shared edge onto itself), recursively; at a boundary edge the
+ * overhang is dropped and the result renormalised, as Ptex does. The taps of a face are its
+ * small triangles: the upright ones (texel (x, y), centroid (x + 1/3, y + 1/3)) and the
+ * inverted ones (stored mirrored, visited as upright ones of the face flipped across its
+ * diagonal), each swept row by row with Q updated by finite differences, in float, in the
+ * order Ptex uses, so the result matches the library's to float rounding.
+ *
+ * Discard: no piece crosses an edge; the result is divided by the weight kept; coverage =
+ * kept / the weight of the whole kernel (over the triangle lattice extended past the face).
+ * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
+ * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
+ */
+#include "ptextri.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "ptex_format.h"
+#include "ptexfilter_kernel.h"
+#include "ptexres.h"
+#include "trilevel.h"
+
+#define PT_MAX_DEPTH  24   /* edge crossings in a row; a closed mesh needs a few */
+#define PT_MAX_PIECES 256  /* pieces per query; bounds the work a hostile adjacency can cause */
+
+static const float PT_WIDTH = 3.5f;  /* kernel extent in filter widths (Ptex's) */
+
+/* The kernel in normalised barycentric coordinates. */
+typedef struct tk {
+    int res;               /* log2 of the resolution asked for */
+    float u, v;            /* centre; w = 1 - u - v */
+    float lo[3], hi[3];    /* bounds of u, v, w */
+    float A, B, C;         /* ellipse: A du^2 + B du dv + C dv^2 < 1 */
+} tk;
+
+/* One sweep over the upright (or, flipped, the inverted) small triangles, in texel units. */
+typedef struct ti {
+    int R;                 /* texels per row */
+    float u, v;            /* centre, texel units, relative to the tap centroids */
+    int lo[3], hi[3];      /* index bounds of u, v, w */
+    float A, B, C;         /* ellipse over texel units */
+    float wscale;          /* 1 / R^2: the area of a tap */
+    int valid;
+    int odd;               /* the flipped sweep: taps are the inverted triangles */
+} ti;
+
+typedef struct tc {
+    const st_set *s;
+    unsigned nc, dt;
+    float acc[ST_MAX_CHANNELS];
+    float weight;          /* weight applied */
+    unsigned pieces;
+} tc;
+
+static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
+static inline float fminf_(float a, float b) { return a < b ? a : b; }
+
+static void build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2,
+                         float width, float blur, unsigned face_log2)
+{
+    const float sqrt3 = 1.7320508075688772f;
+    /* the footprint's ellipse in (u, v) */
+    float sAC = 0.25f * width * width, sB = -2.0f * sAC;
+    float A = (vw1 * vw1 + vw2 * vw2) * sAC;
+    float B = (uw1 * vw1 + uw2 * vw2) * sB;
+    float C = (uw1 * uw1 + uw2 * uw2) * sAC;
+    /* to the equilateral (cartesian) domain */
+    float Ac = 0.75f * A;
+    float Bc = (sqrt3 / 2) * (B - A);
+    float Cc = 0.25f * A - 0.5f * B + C;
+    /* blur that clamps the eccentricity to 15, keeps it a texel wide, or is asked for */
+    const float ecc = 15.0f, ratio = (ecc * ecc + 1.0f) / (ecc * ecc - 1.0f);
+    float X = sqrtf((Ac - Cc) * (Ac - Cc) + Bc * Bc);
+    float b_e = 0.5f * (ratio * X - (Ac + Cc));
+    float half_texel = 0.5f / (float)(1u << face_log2);
+    float b_t = half_texel * half_texel;
+    float b_b = 0.25f * blur * blur;
+    float b = fmaxf_(b_b, fmaxf_(b_e, b_t));
+    Ac += b;
+    Cc += b;
+    /* minor radius -> resolution */
+    float m = sqrtf(2.0f * (Ac * Cc - 0.25f * Bc * Bc) / (Ac + Cc + X));
+    int r = pk_res_from_width(2.0f * m);
+    k->res = r > 0 ? r : 0;
+    /* back to the triangle domain, scaled to the kernel's extent */
+    A = (float)(4 / 3.0) * Ac;
+    B = (2 / sqrt3) * Bc + A;
+    C = -0.25f * A + 0.5f * B + Cc;
+    float sc = PT_WIDTH * PT_WIDTH;
+    A *= sc;
+    B *= sc;
+    C *= sc;
+    float uw = fminf_(sqrtf(C), 1.0f), vw = fminf_(sqrtf(A), 1.0f);
+    float ww = fminf_(sqrtf(A - B + C), 1.0f);
+    float w = 1.0f - u - v;
+    k->u = u;
+    k->v = v;
+    k->lo[0] = u - uw; k->lo[1] = v - vw; k->lo[2] = w - ww;
+    k->hi[0] = u + uw; k->hi[1] = v + vw; k->hi[2] = w + ww;
+    k->A = A;
+    k->B = B;
+    k->C = C;
+}
+
+/* Carries a piece across edge e of its face into the neighbour whose edge ae it is
+ * (st_tri_across_edge: the unfolding across the shared edge). The map renames (u, v, w)
+ * cyclically by s = e - ae (mod 3), so the ellipse only rotates; every coordinate decreases
+ * with the one it reads, so lower bounds come from upper ones and back. */
+static void reorient(tk *k, unsigned e, unsigned ae)
+{
+    float p[3] = {k->u, k->v, 1.0f - k->u - k->v}, np[3], nlo[3], nhi[3];
+    st_tri_across_edge(e, ae, p, np);
+    st_tri_across_edge(e, ae, k->hi, nlo);
+    st_tri_across_edge(e, ae, k->lo, nhi);
+    k->u = np[0];
+    k->v = np[1];
+    memcpy(k->lo, nlo, sizeof nlo);
+    memcpy(k->hi, nhi, sizeof nhi);
+    float A = k->A, B = k->B, C = k->C;
+    unsigned s = (e + 3 - ae) % 3;
+    if (s == 2) {        /* u' = w, v' = u */
+        k->A = C;
+        k->B = 2.0f * C - B;
+        k->C = A + C - B;
+    } else if (s == 1) { /* u' = v, v' = w */
+        k->A = A + C - B;
+        k->B = 2.0f * A - B;
+        k->C = A;
+    }
+}
+
+/* The kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
+ * two lower bounds leave. */
+static void clamp_extent(tk *k)
+{
+    for (int i = 0; i < 3; i++)
+        k->lo[i] = fmaxf_(k->lo[i], 0.0f);
+    k->hi[0] = fminf_(k->hi[0], 1.0f - (k->lo[1] + k->lo[2]));
+    k->hi[1] = fminf_(k->hi[1], 1.0f - (k->lo[2] + k->lo[0]));
+    k->hi[2] = fminf_(k->hi[2], 1.0f - (k->lo[0] + k->lo[1]));
+}
+
+/* The two sweeps of kernel k at resolution 2^k->res: upright taps, and inverted ones seen
+ * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). */
+static void iterators(const tk *k, ti *ev, ti *od)
+{
+    int R = 1 << k->res;
+    float fR = (float)R, third = (float)(1 / 3.0);
+    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
+    float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
+    ev->R = od->R = R;
+    ev->wscale = od->wscale = 1.0f / (fR * fR);
+    ev->odd = 0;
+    od->odd = 1;
+    ev->u = k->u * fR - third;
+    ev->v = k->v * fR - third;
+    for (int i = 0; i < 3; i++) {
+        ev->lo[i] = (int)ceilf(k->lo[i] * fR - third);
+        ev->hi[i] = (int)ceilf(k->hi[i] * fR - third);
+    }
+    ev->A = Ak;
+    ev->B = Bk;
+    ev->C = Ck;
+    ev->valid = ev->hi[0] > ev->lo[0] && ev->hi[1] > ev->lo[1] && ev->hi[2] > ev->lo[2];
+    od->u = (1.0f - k->v) * fR - third;
+    od->v = (1.0f - k->u) * fR - third;
+    od->lo[0] = (int)ceilf((1.0f - k->hi[1]) * fR - third);
+    od->lo[1] = (int)ceilf((1.0f - k->hi[0]) * fR - third);
+    od->lo[2] = (int)ceilf((-k->hi[2]) * fR - third);
+    od->hi[0] = (int)ceilf((1.0f - k->lo[1]) * fR - third);
+    od->hi[1] = (int)ceilf((1.0f - k->lo[0]) * fR - third);
+    od->hi[2] = (int)ceilf((-k->lo[2]) * fR - third);
+    od->A = Ck;
+    od->B = Bk;
+    od->C = Ak;
+    od->valid = od->hi[0] > od->lo[0] && od->hi[1] > od->lo[1] && od->hi[2] > od->lo[2];
+}
+
+static inline void accum(tc *c, const uint8_t *px, float w)
+{
+    for (unsigned ch = 0; ch < c->nc; ch++) {
+        float x;
+        switch (c->dt) {
+        case ST_DT_U8:   x = (float)px[ch]; break;
+        case ST_DT_U16:  x = (float)((const uint16_t *)(const void *)px)[ch]; break;
+        case ST_DT_HALF: x = st_half_to_float(((const uint16_t *)(const void *)px)[ch]); break;
+        default:         x = ((const float *)(const void *)px)[ch]; break;
+        }
+        c->acc[ch] += x * w;
+    }
+}
+
+/* Clamp mode: the texel (x, y) of an R x R level a tap at stored position (x, y) reads (a tap
+ * outside the face: the texel under the face point nearest its centroid). */
+static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
+{
+    int inside = odd ? x <= R - 1 && y <= R - 1 && x + y >= R
+                     : x >= 0 && y >= 0 && x + y <= R - 1;
+    if (inside) {
+        *tx = x;
+        *ty = y;
+        return;
+    }
+    /* centroid in texel units: upright (x + 1/3, y + 1/3); an inverted one is cell
+     * (R-1-y, R-1-x), centroid + 2/3 */
+    float cu = odd ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)x + 1.0f / 3.0f;
+    float cv = odd ? (float)(R - 1 - x) + 2.0f / 3.0f : (float)y + 1.0f / 3.0f;
+    float fR = (float)R;
+    cu = cu < 0.0f ? 0.0f : cu;
+    cv = cv < 0.0f ? 0.0f : cv;
+    if (cu + cv > fR) {
+        float t = 0.5f * (cu + cv - fR);
+        cu -= t;
+        cv -= t;
+        if (cu < 0.0f) { cv = fR; cu = 0.0f; }
+        if (cv < 0.0f) { cu = fR; cv = 0.0f; }
+    }
+    uint32_t ux, uy;
+    st_tri_texel((uint32_t)R, cu / fR, cv / fR, &ux, &uy);
+    *tx = (int)ux;
+    *ty = (int)uy;
+}
+
+enum { SW_READ, SW_WEIGHT, SW_FOLD };
+
+/* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
+ * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
+ * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
+ * SW_WEIGHT only sums; SW_FOLD reads the folded texel of each tap. Returns the weight. */
+static float sweep(tc *c, const ti *it, const uint8_t *data, int constant, int how)
+{
+    size_t ts = st_texel_size(c->s);
+    float wsum = 0.0f, DDQ = 2.0f * it->A;
+    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+    for (int y = it->lo[1]; y < it->hi[1]; y++) {
+        int xw = it->R - y;
+        int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
+        int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
+        float U = (float)x1 - it->u, V = (float)y - it->v;
+        float DQ = it->A * (2.0f * U + 1.0f) + it->B * V;
+        float Q = it->A * U * U + (it->B * U + it->C * V) * V;
+        /* a read stays inside the level whatever the float bounds did */
+        int rd_ok = how != SW_READ || constant || (y >= 0 && y < it->R);
+        for (int x = x1; x < x2; x++) {
+            if (Q < 1.0f) {
+                float w = expf(gs * Q) * it->wscale;
+                wsum += w;
+                if (how == SW_READ && !constant && rd_ok && x >= 0 && x < it->R)
+                    accum(c, data + ((size_t)y * (size_t)it->R + (size_t)x) * ts, w);
+                else if (how == SW_FOLD) {
+                    int tx, ty;
+                    if (constant) {
+                        tx = ty = 0;
+                    } else {
+                        fold_tap(it->R, it->odd, x, y, &tx, &ty);
+                    }
+                    accum(c, data + ((size_t)ty * (size_t)it->R + (size_t)tx) * ts, w);
+                }
+            }
+            Q += DQ;
+            DQ += DDQ;
+        }
+    }
+    if (how == SW_READ && constant)
+        accum(c, data, wsum);
+    return wsum;
+}
+
+/* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
+ * triangle. */
+static void apply_face(tc *c, tk *k, uint32_t f)
+{
+    const st_face *F = &c->s->faces[f];
+    if (k->res > (int)F->ulog2)
+        k->res = F->ulog2;
+    clamp_extent(k);
+    ti ev, od;
+    iterators(k, &ev, &od);
+    if (!ev.valid && !od.valid)
+        return;
+    unsigned level = F->ulog2 - (unsigned)k->res;
+    int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
+    const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
+    if (ev.valid)
+        c->weight += sweep(c, &ev, data, constant, SW_READ);
+    if (od.valid)
+        c->weight += sweep(c, &od, data, constant, SW_READ);
+}
+
+/* Traverse: splits k at each edge it overhangs into a neighbour (u, then v, then w) and
+ * applies every piece where it lands. */
+static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
+{
+    static const unsigned edge_of[3] = {2, 0, 1}; /* coordinate u, v, w is 0 on edge 2, 0, 1 */
+    const st_face *F = &c->s->faces[f];
+    for (unsigned i = 0; i < 3; i++) {
+        unsigned e = edge_of[i];
+        if (!(k->lo[i] < 0.0f) || F->adjface[e] < 0)
+            continue;
+        if (depth >= PT_MAX_DEPTH || c->pieces >= PT_MAX_PIECES)
+            continue; /* dropped: the piece stays and is clamped into this face */
+        tk ka = *k;
+        k->lo[i] = 0.0f;
+        ka.hi[i] = 0.0f;
+        c->pieces++;
+        reorient(&ka, e, F->adjedge[e]);
+        split_apply(c, &ka, (uint32_t)F->adjface[e], depth + 1);
+    }
+    apply_face(c, k, f);
+}
+
+/* The weight of the whole kernel k on face f's lattice at its clamped resolution, extended
+ * past the face (Discard's denominator); k is not changed. */
+static float whole_weight(tc *c, const tk *k0, uint32_t f)
+{
+    tk k = *k0;
+    const st_face *F = &c->s->faces[f];
+    if (k.res > (int)F->ulog2)
+        k.res = F->ulog2;
+    ti ev, od;
+    iterators(&k, &ev, &od);
+    float w = 0.0f;
+    if (ev.valid)
+        w += sweep(c, &ev, NULL, 0, SW_WEIGHT);
+    if (od.valid)
+        w += sweep(c, &od, NULL, 0, SW_WEIGHT);
+    return w;
+}
+
+/* Clamp: every tap of the whole kernel, folded into the face. */
+static void apply_folded(tc *c, const tk *k0, uint32_t f)
+{
+    tk k = *k0;
+    const st_face *F = &c->s->faces[f];
+    if (k.res > (int)F->ulog2)
+        k.res = F->ulog2;
+    ti ev, od;
+    iterators(&k, &ev, &od);
+    int constant = (F->flags & ST_FACE_CONSTANT) || k.res == 0;
+    const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
+                                                     : F->ulog2 - (unsigned)k.res);
+    if (ev.valid)
+        c->weight += sweep(c, &ev, data, constant, SW_FOLD);
+    if (od.valid)
+        c->weight += sweep(c, &od, data, constant, SW_FOLD);
+}
+
+static float one_value(unsigned dt)
+{
+    return dt == ST_DT_U8 ? 255.0f : dt == ST_DT_U16 ? 65535.0f : 1.0f;
+}
+
+/* PtexPointFilterTri: the level-0 small triangle holding (u, v). */
+static void point(const st_set *s, uint32_t f, float u, float v, float *out)
+{
+    const st_face *F = &s->faces[f];
+    const uint8_t *p = st_face_level(s, f, 0);
+    if (!(F->flags & ST_FACE_CONSTANT)) {
+        uint32_t x, y;
+        st_tri_texel(F->w, u, v, &x, &y);
+        p += ((size_t)y * F->w + x) * st_texel_size(s);
+    }
+    for (unsigned ch = 0; ch < s->info.nchan; ch++)
+        out[ch] = st_channel_get(s->info.dtype, p, ch);
+}
+
+/* One triangle-filter query; returns its st_qstatus. */
+static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *o,
+                    const st_query *q, float *out, float *cov)
+{
+    uint32_t f = q->face;
+    const st_face *F = &s->faces[f];
+    unsigned nc = s->info.nchan, dt = s->info.dtype;
+    *cov = 1.0f;
+    if (o->filter == ST_FILTER_PTEX_POINT) {
+        point(s, f, q->u, q->v, out);
+        return ST_Q_OK;
+    }
+    if (o->mode == ST_MODE_TRAVERSE && t && t->ptxflags &&
+        (t->ptxflags[f] & PTX_FLAG_NBCONSTANT)) {
+        /* Ptex: a face whose neighbourhood is constant returns its value */
+        const uint8_t *p = st_face_level(s, f, (F->flags & ST_FACE_CONSTANT) ? 0
+                                                                             : F->nlevels - 1u);
+        for (unsigned ch = 0; ch < nc; ch++)
+            out[ch] = st_channel_get(dt, p, ch);
+        return ST_Q_OK;
+    }
+    float u = q->u < 0.0f ? 0.0f : q->u > 1.0f ? 1.0f : q->u;
+    float v = q->v < 0.0f ? 0.0f : q->v > 1.0f ? 1.0f : q->v;
+    tk k;
+    build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
+                 o->blur, F->ulog2);
+    tc c = {.s = s, .nc = nc, .dt = dt};
+    if (o->mode == ST_MODE_TRAVERSE) {
+        split_apply(&c, &k, f, 0);
+    } else if (o->mode == ST_MODE_DISCARD) {
+        float whole = whole_weight(&c, &k, f);
+        apply_face(&c, &k, f);
+        *cov = whole > 0.0f && c.weight < whole ? c.weight / whole : 1.0f;
+    } else {
+        apply_folded(&c, &k, f);
+    }
+    if (!(c.weight > 0.0f)) {
+        /* nothing of the kernel fell on a texel (a point far past a boundary edge) */
+        *cov = 0.0f;
+        if (o->zero_rule == ST_ZERO_CLAMP) {
+            float cu = u, cv = v;
+            if (cu + cv > 1.0f) {
+                float d = 0.5f * (cu + cv - 1.0f);
+                cu -= d;
+                cv -= d;
+            }
+            point(s, f, cu < 0.0f ? 0.0f : cu, cv < 0.0f ? 0.0f : cv, out);
+            return ST_Q_OK;
+        }
+        for (unsigned ch = 0; ch < nc; ch++)
+            out[ch] = NAN;
+        return ST_Q_ZERO_COVERAGE;
+    }
+    float scale = 1.0f / (c.weight * one_value(dt));
+    for (unsigned ch = 0; ch < nc; ch++)
+        out[ch] = c.acc[ch] * scale;
+    return ST_Q_OK;
+}
+
+int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                     float *out, float *coverage, uint8_t *status)
+{
+    const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
+    unsigned nc = s->info.nchan;
+    int bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        const st_query *qi = &q[i];
+        float *oi = out + i * nc, cov = 0.0f;
+        int st = ST_Q_OK;
+        if (qi->face >= s->info.nfaces)
+            st = ST_Q_BAD_FACE;
+        else if (!(isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
+                   isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)))
+            st = ST_Q_NONFINITE;
+        else if (!(fabsf(qi->u) <= ST_MAX_COORD && fabsf(qi->v) <= ST_MAX_COORD &&
+                   fabsf(qi->dudx) <= ST_MAX_DERIV && fabsf(qi->dvdx) <= ST_MAX_DERIV &&
+                   fabsf(qi->dudy) <= ST_MAX_DERIV && fabsf(qi->dvdy) <= ST_MAX_DERIV))
+            st = ST_Q_BAD_FOOTPRINT;
+        if (st == ST_Q_OK) {
+            st = tri_eval(s, t, o, qi, oi, &cov);
+        } else {
+            for (unsigned ch = 0; ch < nc; ch++)
+                oi[ch] = NAN;
+        }
+        if (coverage)
+            coverage[i] = cov;
+        if (status)
+            status[i] = (uint8_t)st;
+        bad += st != ST_Q_OK;
+    }
+    return bad;
+}
