@@ -53,6 +53,14 @@ typedef struct sts_config {
     int      verify_native;     /* check native files' texel CRCs at start */
     int      default_set;       /* load the built-in set as "default" */
     int      log_level;         /* sts_level */
+    /* cluster (docs/cluster.md; none of it is reloadable) */
+    char     cluster[1024];     /* etcd://HOST:PORT[,HOST:PORT...]/PREFIX, "" = no cluster */
+    char     node_id[65];       /* this node's id in the cluster */
+    char     advertise[256];    /* HOST:PORT other nodes and clients dial */
+    uint32_t replicas;          /* copies of each set (R) */
+    uint32_t write_quorum;      /* owners durable before an upload is acknowledged (W); 0 = R */
+    uint32_t lease_ttl;         /* seconds the membership lease outlives a dead node */
+    uint32_t repair_interval;   /* seconds between repair passes */
 } sts_config;
 
 /* Fills the defaults. */

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "cube.h"
+#include "cluster_node.h"
 #include "dispatch.h"
 #include "h_basic.h"
 #include "io.h"
@@ -28,7 +29,7 @@ static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp
     st_error_clear(&e);
     st_setref *ref = NULL;
     if (st_registry_get(c->srv->reg, name, &ref, &e) != 0) {
-        sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
+        sts_reply_not_here(c->srv, out, h, name, e.msg);
         return NULL;
     }
     return ref;
@@ -501,7 +502,7 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     if (h->body_len && stp_dec_empty(body, h->body_len, &why))
         return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
     sts_server *srv = c->srv;
-    size_t cap = 192 + sts_opstats_max_keys(); /* with the budget's keys (budget.c) */
+    size_t cap = 224 + sts_opstats_max_keys(); /* with the budget's keys (budget.c) */
     stp_stat *s = malloc(cap * sizeof *s);
     if (!s) {
         sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
@@ -573,6 +574,8 @@ int sts_h_stats(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
         U(key, v);
     }
     n += sts_opstats_report(&srv->opstats, s + n, cap - n);
+    if (srv->cluster)
+        n += sts_cluster_stats(srv->cluster, s + n, cap - n);
     stp_stats_reply r;
     memset(&r, 0, sizeof r);
     r.count = (uint32_t)n;

@@ -18,6 +18,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cluster_node.h"
 #include "defaultset.h"
 #include "h_jobs.h"
 #include "io.h"
@@ -188,6 +189,8 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     }
     if (open_listener(srv) != 0)
         return -1;
+    if (cfg->cluster[0] && sts_cluster_init(srv) != 0)
+        return -1;
     return 0;
 }
 
@@ -245,6 +248,10 @@ int sts_server_start(sts_server *srv)
             return -1;
         }
     }
+    if (srv->cluster && sts_cluster_start(srv) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "cannot start the cluster threads");
+        return -1;
+    }
     if (write_port_file(srv) != 0)
         return -1;
     sts_logf(&srv->log, STS_INFO, "seamtexd serving on %s (port %d): %u I/O threads, %u workers, "
@@ -274,6 +281,7 @@ void sts_server_stop(sts_server *srv, int grace_ms)
         sts_io_wake(&srv->io[i]);
         pthread_join(srv->io[i].thread, NULL);
     }
+    sts_cluster_stop(srv);   /* before the workers: a push may be running on one */
     sts_pool_stop(&srv->pool);
     sts_jobs_stop(srv);
     sts_budget_stop(srv);
@@ -297,6 +305,7 @@ void sts_server_free(sts_server *srv)
     srv->io = NULL;
     if (srv->listen_fd >= 0)
         close(srv->listen_fd);
+    sts_cluster_free(srv);
     sts_uploads_free(srv);
     sts_handles_destroy(&srv->fetches);   /* emptied by sts_jobs_stop */
     st_registry_free(srv->reg);
