@@ -17,7 +17,7 @@ $(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o) $(PROTO_OBJ) $(UTIL_OBJ)
 	rm -f $@ && ar rcs $@ $^
 ALL_BINS     += $(LIB_CLIENT)
 INSTALL_LIBS += $(LIB_CLIENT)
-INSTALL_HDRS += client/seamtex.h
+INSTALL_HDRS += client/seamtex.h client/seamtex_cluster.h
 
 # ---- seamtex CLI and seamtex-bench (owner: CLI / load tester) ----
 # Neither program is a library: their objects stay out of libseamtex.a (which takes lib*.c).
