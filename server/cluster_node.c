@@ -236,6 +236,7 @@ static void poll_members(sts_cluster *cl)
     pthread_mutex_unlock(&cl->mu);
     free(m);
     if (changed) {
+        __atomic_store_n(&cl->changed_ms, sts_now_ms(), __ATOMIC_RELAXED);
         STS_CL_ADD(cl, membership_changes, 1);
         char list[1024];
         size_t at = 0;
@@ -404,6 +405,7 @@ void sts_cluster_free(sts_server *srv)
     scl_etcd_close(cl->etcd_r);
     free(cl->members);
     free(cl->cat);
+    free(cl->orphans);
     pthread_mutex_destroy(&cl->mu);
     pthread_mutex_destroy(&cl->etcd_mu);
     pthread_mutex_destroy(&cl->wake_mu);

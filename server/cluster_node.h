@@ -77,6 +77,10 @@ typedef struct sts_cluster {
     pthread_cond_t  wake;
     pthread_t       member_thread, repair_thread;
     int             threads;           /* how many were started */
+    int64_t         changed_ms;        /* atomic: when the membership last changed (monotonic) */
+    /* repair thread only: pending claims seen without their origin node, and since when */
+    struct sts_cl_orphan { char name[STP_MAX_NAME + 1]; int64_t mod_rev, since_ms; } *orphans;
+    size_t          norphans;
     sts_cl_counters n;                 /* atomics */
 } sts_cluster;
 

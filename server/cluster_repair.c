@@ -98,6 +98,24 @@ static void drop_local(sts_cluster *cl, const char *name, const char *why)
     }
 }
 
+/* 1 when the pending claim (name, mod_rev) has been seen without its origin node for longer
+ * than twice the lease TTL (a node re-registering after an etcd outage is not gone) */
+static int orphan_long_enough(sts_cluster *cl, const char *name, int64_t mod_rev,
+                              struct sts_cl_orphan *next, size_t *nnext)
+{
+    int64_t now = sts_now_ms(), since = now;
+    for (size_t i = 0; i < cl->norphans; i++)
+        if (!strcmp(cl->orphans[i].name, name) && cl->orphans[i].mod_rev == mod_rev)
+            since = cl->orphans[i].since_ms;
+    if (next) {
+        snprintf(next[*nnext].name, sizeof next[0].name, "%s", name);
+        next[*nnext].mod_rev = mod_rev;
+        next[*nnext].since_ms = since;
+        (*nnext)++;
+    }
+    return now - since > 2000 * (int64_t)cl->srv->cfg.lease_ttl;
+}
+
 static void pass(sts_cluster *cl)
 {
     sts_server *srv = cl->srv;
@@ -190,13 +208,19 @@ static void pass(sts_cluster *cl)
         st_setref_release(refs[i]);
     free(refs);
 
-    /* placement */
+    /* placement; copies are dropped only once the membership has been stable for a lease TTL
+     * (after an etcd outage every node re-registers, and a partial view must not move sets) */
+    int64_t stable_ms = sts_now_ms() - __atomic_load_n(&cl->changed_ms, __ATOMIC_RELAXED);
+    int may_drop = stable_ms >= 1000 * (int64_t)srv->cfg.lease_ttl;
+    struct sts_cl_orphan *next = calloc(nc ? nc : 1, sizeof *next);
+    size_t nnext = 0;
     size_t *order = calloc(nm ? nm : 1, sizeof *order);
     uint64_t under = 0;
     for (size_t i = 0; order && mine && i < nc; i++) {
         sts_cl_entry *e = &cat[i];
         if (e->state != SCL_SET_OK) {
-            if (!is_member(m, nm, rows[i].rec.origin)) {
+            if (!is_member(m, nm, rows[i].rec.origin) &&
+                orphan_long_enough(cl, e->name, rows[i].mod_rev, next, &nnext)) {
                 /* a claim whose node is gone: abandoned */
                 char key[SCL_KEY_MAX];
                 scl_key_set(key, cl->prefix, e->name);
@@ -237,7 +261,7 @@ static void pass(sts_cluster *cl)
                 owner |= !strcmp(m[order[r]].id, cl->self);
                 confirmed &= holds(e, m[order[r]].id);
             }
-            if (!owner && confirmed && R > 0) {
+            if (!owner && confirmed && R > 0 && may_drop) {
                 /* every owner is live and has confirmed a current copy: this one is extra */
                 copy_key(cl, e->name, 0, 0);
                 drop_local(cl, e->name, "extra: every owner holds a current copy");
@@ -248,6 +272,9 @@ static void pass(sts_cluster *cl)
             under++;
     }
     __atomic_store_n(&cl->n.under_replicated, under, __ATOMIC_RELAXED);
+    free(cl->orphans);
+    cl->orphans = next;
+    cl->norphans = next ? nnext : 0;
     free(order);
     free(mine);
     free(rows);

@@ -109,14 +109,37 @@ static int converged(void *arg)
     return !bad;
 }
 
-static void wait_converged(const char *what)
+/* converged, and node *arg holds some sets (the join moved sets to it) */
+static int converged_with(void *arg)
 {
-    if (st_wait_until(converged, NULL, CONVERGE_MS) != 0) {
+    const st_daemon *d = arg;
+    return converged(NULL) && st_daemon_stat(d, "sets") > 0;
+}
+
+static void wait_converged_with(const char *what, int (*cond)(void *), void *arg)
+{
+    if (st_wait_until(cond, arg, CONVERGE_MS) != 0) {
         for (int i = 0; i < NNODES; i++)
             if (live[i])
                 st_daemon_dump_log(&NODE[i], 30);
         fail_msg("the cluster did not converge after: %s", what);
     }
+}
+
+static void wait_converged(const char *what) { wait_converged_with(what, converged, NULL); }
+
+/* every live node sees every live node (after an etcd outage the nodes register again) */
+static int members_settled(void *arg)
+{
+    (void)arg;
+    uint64_t want = 0;
+    for (int i = 0; i < NNODES; i++)
+        want += live[i];
+    for (int i = 0; i < NNODES; i++)
+        if (live[i] && (st_daemon_stat(&NODE[i], "cluster_members") != want ||
+                        st_daemon_stat(&NODE[i], "cluster_etcd_ok") != 1))
+            return 0;
+    return converged(NULL);
 }
 
 /* ---- the reader loop ------------------------------------------------------------------------- */
@@ -260,9 +283,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
 
     /* a 4th node joins: sets move to it */
     start_node(3);
-    wait_converged("n3 joined");
-    uint64_t held = st_daemon_stat(&NODE[3], "sets");
-    assert_true(held > 0);
+    wait_converged_with("n3 joined", converged_with, &NODE[3]);
     reader_check(&rd, "the join");
 
     /* while n2 is down: one set deleted, one replaced; n2 returns with stale copies */
@@ -292,7 +313,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     st_sleep_ms(7500);
     reader_check(&rd, "the etcd outage");
     st_etcd_pause(&ETCD, 0);
-    wait_converged("etcd came back");
+    wait_converged_with("etcd came back", members_settled, NULL);
     int rc = -1;
     for (int k = 0; k < 100 && rc != 0; k++) {   /* the nodes notice etcd is back */
         rc = stc_cluster_upload_file(cl, files[3], "s29", &uo, NULL);
