@@ -9,7 +9,10 @@
  * Lease TTL 2 s and a repair pass every second keep it bounded; the waits are deadlines (60 s)
  * against a hang, never speed checks. etcd is a declared dependency: without it the test fails.
  */
+#include <fcntl.h>
 #include <pthread.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -215,6 +218,41 @@ static void *race_main(void *arg)
     return NULL;
 }
 
+/* ---- the CLI ------------------------------------------------------------------------------------ */
+
+extern char **environ;
+
+/* runs `seamtex --cluster seeds args...` (posix_spawn: no fork in a process linking OIIO);
+ * its stdout into out; returns the exit status */
+static int run_cli(const char *seeds, const char *const *args, char *out, size_t cap)
+{
+    char prog[512], outf[400];
+    const char *b = getenv("SEAMTEX_BUILD");
+    snprintf(prog, sizeof prog, "%s/seamtex", b && *b ? b : "build");
+    snprintf(outf, sizeof outf, "%s/cli.out", NODE[0].dir);
+    const char *argv[16] = {prog, "--cluster", seeds};
+    int ac = 3;
+    for (int i = 0; args[i] && ac < 15; i++)
+        argv[ac++] = args[i];
+    argv[ac] = NULL;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, outf, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    int rc = posix_spawn(&pid, prog, &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    assert_int_equal(rc, 0);
+    int st;
+    while (waitpid(pid, &st, 0) < 0)
+        ;
+    FILE *f = fopen(outf, "rb");
+    size_t n = f ? fread(out, 1, cap - 1, f) : 0;
+    out[n] = 0;
+    if (f)
+        fclose(f);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+}
+
 /* ---- the test ------------------------------------------------------------------------------- */
 
 static void cluster_survives_kills_joins_and_etcd_outage(void **state)
@@ -329,6 +367,15 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     assert_true(rd.reads > 0);
     reader_check(&rd, "the whole test");
     print_message("reader: %llu reads, 0 failed\n", (unsigned long long)rd.reads);
+
+    /* the CLI: every node up, 29 sets (s05 deleted), none under-replicated */
+    char out[8192];
+    assert_int_equal(run_cli(seeds, (const char *const[]){"cluster", "--json", NULL}, out,
+                             sizeof out), 0);
+    if (!strstr(out, "\"sets\":29,\"under_replicated\":[]}") || strstr(out, "\"up\":false"))
+        fail_msg("seamtex cluster --json: %s", out);
+    assert_int_equal(run_cli(seeds, (const char *const[]){"info", "s07", NULL}, out, sizeof out), 0);
+    assert_non_null(strstr(out, "s07"));
 
     /* two clients race different contents under one name through two nodes */
     racer ra = {0, &NODE[0], files[0], -1}, rb = {0, &NODE[1], files[1], -1};
