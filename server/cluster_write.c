@@ -13,23 +13,39 @@
 
 #define PUSH_TIMEOUT_MS 30000
 
+/* The manifest of this node's copy of name and the path of its stored source; 0 or -1. */
+static int local_source(sts_server *srv, const char *name, st_manifest *m, char *spath,
+                        size_t cap, st_error *e)
+{
+    char mpath[4096];
+    snprintf(mpath, sizeof mpath, "%s/sets/%s/manifest", st_datadir_path(srv->dd), name);
+    st_error_clear(e);
+    if (st_manifest_read(mpath, m, e) != 0)
+        return -1;
+    snprintf(spath, cap, "%s/sets/%s/%s", st_datadir_path(srv->dd), name, m->source);
+    return 0;
+}
+
+/* The token this node sends to the others (they share it). */
+static void node_token(sts_server *srv, char out[STS_TOKEN_MAX + 1])
+{
+    pthread_mutex_lock(&srv->cfg_mu);
+    snprintf(out, STS_TOKEN_MAX + 1, "%s", srv->cfg.token);
+    pthread_mutex_unlock(&srv->cfg_mu);
+}
+
 int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap)
 {
     sts_server *srv = cl->srv;
-    char mpath[4096], spath[4096];
-    snprintf(mpath, sizeof mpath, "%s/sets/%s/manifest", st_datadir_path(srv->dd), name);
+    char spath[4096];
     st_manifest m;
     st_error e;
-    st_error_clear(&e);
-    if (st_manifest_read(mpath, &m, &e) != 0) {
+    if (local_source(srv, name, &m, spath, sizeof spath, &e) != 0) {
         snprintf(msg, cap, "no local copy of '%s' to push: %s", name, e.msg);
         return -1;
     }
-    snprintf(spath, sizeof spath, "%s/sets/%s/%s", st_datadir_path(srv->dd), name, m.source);
     char token[STS_TOKEN_MAX + 1];
-    pthread_mutex_lock(&srv->cfg_mu);
-    snprintf(token, sizeof token, "%s", srv->cfg.token);
-    pthread_mutex_unlock(&srv->cfg_mu);
+    node_token(srv, token);
     uint32_t crc = 0;
     int rc = scl_peer_push(addr, token, spath, name, m.format, m.options, PUSH_TIMEOUT_MS, &crc,
                            msg, cap);
@@ -243,16 +259,13 @@ int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int
                              size_t cap)
 {
     sts_server *srv = cl->srv;
-    char mpath[4096], spath[4096];
-    snprintf(mpath, sizeof mpath, "%s/sets/%s/manifest", st_datadir_path(srv->dd), name);
+    char spath[4096];
     st_manifest m;
     st_error e;
-    st_error_clear(&e);
-    if (st_manifest_read(mpath, &m, &e) != 0) {
+    if (local_source(srv, name, &m, spath, sizeof spath, &e) != 0) {
         snprintf(msg, cap, "set '%s' is not in the data dir: the cluster cannot copy it", name);
         return STP_S_UNSUPPORTED;
     }
-    snprintf(spath, sizeof spath, "%s/sets/%s/%s", st_datadir_path(srv->dd), name, m.source);
     uint32_t c32c = 0;
     FILE *f = fopen(spath, "rbe");
     if (!f) {
@@ -325,9 +338,7 @@ int sts_cluster_delete(sts_cluster *cl, const char *name,
             for (size_t j = 0; j < n; j++)
                 if (!strcmp(m[j].id, id)) {
                     char pm[512], token[STS_TOKEN_MAX + 1];
-                    pthread_mutex_lock(&cl->srv->cfg_mu);
-                    snprintf(token, sizeof token, "%s", cl->srv->cfg.token);
-                    pthread_mutex_unlock(&cl->srv->cfg_mu);
+                    node_token(cl->srv, token);
                     if (scl_peer_delete(m[j].addr, token, name, 5000, pm, sizeof pm) != 0)
                         sts_logf(&cl->srv->log, STS_WARN, "cluster: %s", pm);
                 }
