@@ -190,7 +190,7 @@ static void run_job(sts_server *srv, sts_job *j)
         rc = store_result(srv, j, bc1, &e);
     /* in a cluster the result is claimed and copied to its owners like an upload */
     int wst = 0;
-    char cmsg[512] = "";
+    char cmsg[sizeof e.msg] = "";
     if (rc == 0 && srv->cluster)
         wst = sts_cluster_record_local(srv->cluster, j->target, (j->flags & STP_CF_REPLACE) != 0,
                                        STP_KIND_BC1, sts_delete_local, cmsg, sizeof cmsg);
