@@ -325,12 +325,12 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     reader_check(&rd, "the join");
 
     /* while n2 is down: one set deleted, one replaced; n2 returns with stale copies */
-    set_tint[5] = -1;
+    __atomic_store_n(&set_tint[5], -1, __ATOMIC_RELAXED);   /* the reader skips it */
     assert_int_equal(stc_cluster_delete(cl, "s05"), 0);
     stc_upload_opts uo;
     memset(&uo, 0, sizeof uo);
     uo.flags = STC_UPLOAD_REPLACE;
-    set_tint[6] = 2;
+    __atomic_store_n(&set_tint[6], 2, __ATOMIC_RELAXED);
     if (stc_cluster_upload_file(cl, files[2], "s06", &uo, NULL) != 0)
         fail_msg("replace s06: %s", stc_cluster_errmsg(cl));
     start_node(2);
@@ -359,7 +359,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
             st_sleep_ms(200);
     }
     assert_int_equal(rc, 0);
-    set_tint[29] = 3;
+    __atomic_store_n(&set_tint[29], 3, __ATOMIC_RELAXED);
     wait_converged("an upload after the outage");
     reader_check(&rd, "after the outage");
     __atomic_store_n(&rd.stop, 1, __ATOMIC_RELAXED);
