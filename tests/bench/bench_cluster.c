@@ -307,8 +307,12 @@ static int bench_failover(stc_cluster *cl, int kills)
             if (!strcmp(addr, nodes[idx[0]].addr))
                 victim = i;
         }
-        if (victim < 0 || stc_cluster_sample(cl, name, &SOPTS, q, 1, &r) != 0)
-            break;   /* the connection to the victim is open and used */
+        int src = victim < 0 ? -1 : stc_cluster_sample(cl, name, &SOPTS, q, 1, &r);
+        if (src != 0) {   /* the connection to the victim is open and used */
+            fprintf(stderr, "failover: kill %d: victim %d, read before the kill: %s (%s)\n", k,
+                    victim, stc_strerror(src), stc_cluster_errmsg(cl));
+            break;
+        }
         double t0 = now_s();
         st_daemon_kill(&NODE[victim]);   /* SIGKILL, then waitpid: the process is gone */
         double t1 = now_s();
@@ -318,8 +322,23 @@ static int bench_failover(stc_cluster *cl, int kills)
         t[fo_n++] = (now_s() - t0) * 1e3;
         restart_node(victim);
         g_live[victim] = 1;
-        if (st_wait_until(settled, NULL, 120000) != 0)
+        if (st_wait_until(settled, NULL, 120000) != 0) {
+            fprintf(stderr, "failover: the cluster did not settle after kill %d\n", k);
             break;
+        }
+        /* the restarted node has a new port: wait until the nodes' views (and so the client's)
+         * carry it (it re-registers before its old lease expires: the count never drops) */
+        for (int tries = 0; tries < 200; tries++) {
+            stc_cluster_refresh(cl);
+            int n = (int)stc_cluster_nodes(cl, &nodes), found = 0;
+            char addr[64];
+            snprintf(addr, sizeof addr, "127.0.0.1:%d", NODE[victim].port);
+            for (int i = 0; i < n; i++)
+                found |= !strcmp(nodes[i].addr, addr);
+            if (found)
+                break;
+            st_sleep_ms(50);
+        }
     }
     if (fo_n) {
         fo_p50 = pct(t, fo_n, 0.5);
