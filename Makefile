@@ -31,6 +31,8 @@
 #   protocol/        libseamtex_proto.a  libc only
 #   store/<part>/    libst_<part>.a      util + the store parts listed in STORE_DEPS_<part>
 #                                        (+ STORE_EXT_<part>: service/ takes protocol/stp_name.h)
+#   cluster/         libseamtex_cluster.a protocol + libseamtex's installed header + libcurl,
+#                                        json-c (cluster/module.mk)
 #   client/, server/, tests/, tools/     describe their own targets in their module.mk
 
 CC       ?= gcc
@@ -146,8 +148,9 @@ INSTALL_BINS :=
 INSTALL_LIBS :=
 INSTALL_HDRS :=
 -include protocol/module.mk
--include server/module.mk
+-include cluster/module.mk
 -include client/module.mk
+-include server/module.mk
 -include tools/module.mk
 -include python/module.mk
 -include render/module.mk

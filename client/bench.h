@@ -138,6 +138,13 @@ static inline uint64_t bench_now_ns(void)
  * th->err set when the thread could not run at all. */
 int bench_loop_run(bench_thread *th);
 
+/* ---- bench_cluster.c ---- */
+typedef struct bench_target { char host[256]; char port[8]; } bench_target;
+/* --cluster SEEDS: the nodes to load (the owners of cfg->set for SAMPLE, every node for PING),
+ * up to max; returns how many, or -1 with msg. */
+int bench_cluster_targets(const bench_cfg *cfg, const char *seeds, bench_target *out,
+                          unsigned max, char *msg, size_t ml);
+
 /* ---- bench_wire.c ---- */
 /* Connects one socket to cfg->host:port (loopback only, checked), does whatever handshake the
  * protocol needs (seamtex: HELLO with the token; memcached: "version"; Redis: PING, which

@@ -62,6 +62,8 @@ static void usage(FILE *f)
 "                         timed sleep wakes ~60 us late here (100; 0 = always sleep)\n"
 "      --seed N           seed of the arrivals and queries (1)\n"
 "  -s, --set NAME         set to sample (default)\n"
+"      --cluster SEEDS    HOST:PORT,... of a seamtex cluster: connections are spread round\n"
+"                         robin over the set's owners (sample) or every node (ping)\n"
 "  -b, --batch N          queries per SAMPLE request (4096)\n"
 "  -m, --mode LIST        comma list of discard,traverse,clamp picked at random (traverse)\n"
 "  -f, --filter LIST      comma list of filters picked at random (bilinear)\n"
@@ -254,8 +256,9 @@ int main(int argc, char **argv)
         .footprint = 0.001f, .hold_s = 10, .spin_us = 100,
     };
     int inproc = 0;
+    const char *cluster_seeds = NULL;
     enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
-           O_PROTO, O_COMPACT, O_OUTFMT };
+           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -275,6 +278,7 @@ int main(int argc, char **argv)
         { "quiet", no_argument, 0, 'q' },          { "help", no_argument, 0, O_HELP },
         { "proto", required_argument, 0, O_PROTO },
         { "compact", no_argument, 0, O_COMPACT },  { "outfmt", required_argument, 0, O_OUTFMT },
+        { "cluster", required_argument, 0, O_CLUSTER },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -288,6 +292,7 @@ int main(int argc, char **argv)
         int bad = 0;
         switch (ch) {
         case 'h': cfg.host = optarg; break;
+        case O_CLUSTER: cluster_seeds = optarg; break;
         case 'p': cfg.port = optarg; bad = parse_uint(optarg, 1, 65535, &u); break;
         case 't': cfg.token = optarg; break;
         case 'o':
@@ -419,8 +424,29 @@ int main(int argc, char **argv)
         rc = 1;
         goto done;
     }
+    bench_target targets[64];
+    int ntargets = 0;
+    if (cluster_seeds) {
+        ntargets = bench_cluster_targets(&cfg, cluster_seeds, targets, 64, msg, sizeof msg);
+        if (ntargets < 0) {
+            fprintf(stderr, "seamtex-bench: --cluster: %s\n", msg);
+            rc = 3;
+            goto done;
+        }
+        if (!cfg.quiet) {
+            printf("cluster: %d node(s):", ntargets);
+            for (int k = 0; k < ntargets; k++)
+                printf(" %s:%s", targets[k].host, targets[k].port);
+            printf("\n");
+        }
+    }
     for (; nfds < cfg.conns; nfds++) {
-        fds[nfds] = bench_wire_connect(&cfg, msg, sizeof msg);
+        bench_cfg one = cfg;   /* --cluster: connection k goes to target k mod n */
+        if (ntargets > 0) {
+            one.host = targets[nfds % (unsigned)ntargets].host;
+            one.port = targets[nfds % (unsigned)ntargets].port;
+        }
+        fds[nfds] = bench_wire_connect(&one, msg, sizeof msg);
         if (fds[nfds] < 0) {
             fprintf(stderr, "seamtex-bench: connection %u: %s\n", nfds, msg);
             rc = 3;

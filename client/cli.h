@@ -29,6 +29,10 @@ typedef struct cli_ctx {
     int         timeout_ms;
     const char *prog;          /* "seamtex" */
     stc_conn   *conn;          /* opened by cli_connect */
+    const char *cluster_seeds; /* --cluster HOST:PORT,...: set commands go to an owner */
+    const char *route_set;     /* the set the command names (routing under --cluster) */
+    struct stc_cluster *cluster;   /* opened by the first routed command (cli_cluster.c) */
+    int         conn_borrowed; /* conn belongs to cluster */
 } cli_ctx;
 
 /* Opens ctx->conn; on failure prints why and returns CLI_CONNECT. */
@@ -75,5 +79,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv);
+int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv);
+/* --cluster: points ctx->conn at the first reachable node of set's ranking (cli_cluster.c). */
+int cli_connect_routed(cli_ctx *ctx, const char *set);
 
 #endif

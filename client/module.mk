@@ -17,7 +17,7 @@ $(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o) $(PROTO_OBJ) $(UTIL_OBJ)
 	rm -f $@ && ar rcs $@ $^
 ALL_BINS     += $(LIB_CLIENT)
 INSTALL_LIBS += $(LIB_CLIENT)
-INSTALL_HDRS += client/seamtex.h
+INSTALL_HDRS += client/seamtex.h client/seamtex_cluster.h
 
 # ---- seamtex CLI and seamtex-bench (owner: CLI / load tester) ----
 # Neither program is a library: their objects stay out of libseamtex.a (which takes lib*.c).
@@ -31,9 +31,9 @@ $(B)/seamtex: $(CLI_SRC:%.c=$(B)/%.o) $(LIB_CLIENT)
 	@mkdir -p $(@D)
 	$(CC) $(LDFLAGS) -o $@ $(filter %.o,$^) $(LIB_CLIENT) -lm -lpthread
 
-$(B)/seamtex-bench: $(BENCH_SRC_CLIENT:%.c=$(B)/%.o) $(LIB_PROTO) $(LIB_STORE)
+$(B)/seamtex-bench: $(BENCH_SRC_CLIENT:%.c=$(B)/%.o) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -Wl,--as-needed -o $@ $(filter %.o,$^) $(LIB_PROTO) $(LIB_STORE) $(LDLIBS)
+	$(CC) $(LDFLAGS) -Wl,--as-needed -o $@ $(filter %.o,$^) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE) $(LDLIBS)
 
 ALL_BINS     += $(B)/seamtex-bench
 INSTALL_BINS += $(B)/seamtex-bench

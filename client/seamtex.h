@@ -85,7 +85,10 @@ enum stc_err {
     STC_ESERVERCANCELED= -(STC_SERVER_BASE + 17),
     STC_EADJ           = -(STC_SERVER_BASE + 18),
     STC_ENOUV          = -(STC_SERVER_BASE + 19),
-    STC_ESHUTDOWN      = -(STC_SERVER_BASE + 20)
+    STC_ESHUTDOWN      = -(STC_SERVER_BASE + 20),
+    STC_EMOVED         = -(STC_SERVER_BASE + 21),   /* cluster: ask the node in the message */
+    STC_EUNAVAILABLE   = -(STC_SERVER_BASE + 22)    /* cluster: etcd unreachable or write
+                                                       quorum not reached; retry later */
 };
 
 /* 1 when code is a server status (the connection is fine); its stp_status number. */
@@ -234,7 +237,8 @@ int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
  * server has (result.resumed_from); when it has nothing to resume, the upload starts at 0.
  * The whole file's CRC32C is checked at commit either way. */
 typedef int (*stc_progress_fn)(void *user, uint64_t done, uint64_t total);
-enum { STC_UPLOAD_REPLACE = 1, STC_UPLOAD_RESUME = 2 };
+enum { STC_UPLOAD_REPLACE = 1, STC_UPLOAD_RESUME = 2,
+       STC_UPLOAD_REPLICA = 4   /* node-to-node copy in a cluster (seamtexd uses it) */ };
 typedef struct stc_upload_opts {
     const char     *hint;             /* "ptx", "png", ...; NULL = from the file extension */
     const char     *options;          /* "texture=<set> cube=latlong:512"; NULL = none */

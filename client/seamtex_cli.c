@@ -21,11 +21,14 @@
 
 #include "proto.h"
 #include "unixaddr.h"
+#include "seamtex_cluster.h"
+#include "stp_cluster.h"
 
 #define DEFAULT_PORT 7450
 
 static const char *const USAGE =
-"usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] COMMAND [ARGS]\n"
+"usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] [--cluster HOST:PORT,...]\n"
+"               COMMAND [ARGS]\n"
 "\n"
 "  ping                         round trip to the server, prints the time it took\n"
 "  ls [--json]                  the sets the server holds\n"
@@ -36,7 +39,10 @@ static const char *const USAGE =
 "  stats [--json]               the server's counters\n"
 "  fetch SET FILE [--format F]   download a set as a file (format from FILE's extension)\n"
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
+"  cluster [--json]             the cluster's nodes, sets per node, under-replicated sets\n"
 "\n"
+"--cluster HOST:PORT,... (seed nodes of a cluster): each command that names a set goes to\n"
+"that set's first reachable owner (docs/cluster.md); `cluster` asks the seeds.\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
@@ -160,6 +166,12 @@ void cli_progress_end(cli_progress *p)
 
 int cli_connect(cli_ctx *ctx)
 {
+    if (ctx->cluster_seeds && ctx->route_set) {   /* --cluster: the set's owner */
+        if (ctx->conn && !ctx->conn_borrowed)
+            stc_close(ctx->conn);
+        ctx->conn = NULL;
+        return cli_connect_routed(ctx, ctx->route_set);
+    }
     if (ctx->conn) {                        /* interactive mode keeps one connection */
         if (stc_error(ctx->conn) == 0)
             return CLI_OK;
@@ -463,10 +475,20 @@ static const cli_cmd CMDS[] = {
     { "info", cmd_info },          { "sample", cli_cmd_sample },
     { "upload", cli_cmd_upload },  { "delete", cmd_delete },  { "rm", cmd_delete },
     { "stats", cmd_stats },        { "fetch", cli_cmd_fetch }, { "compress", cli_cmd_compress },
+    { "cluster", cli_cmd_cluster },
 };
 
 static int dispatch(cli_ctx *ctx, int argc, char **argv)
 {
+    /* under --cluster a command that names a set is sent to that set's owner: the set is the
+     * first word after the command (upload: the second) that is not an option */
+    ctx->route_set = NULL;
+    int want = !strcmp(argv[0], "upload") ? 2 : 1, seen = 0;
+    if (strcmp(argv[0], "cluster") && strcmp(argv[0], "stats") && strcmp(argv[0], "ping") &&
+        strcmp(argv[0], "ls") && strcmp(argv[0], "list"))
+        for (int k = 1; k < argc && !ctx->route_set; k++)
+            if (argv[k][0] != '-' && ++seen == want)
+                ctx->route_set = argv[k];
     for (size_t k = 0; k < sizeof CMDS / sizeof CMDS[0]; k++)
         if (!strcmp(argv[0], CMDS[k].name))
             return CMDS[k].fn(ctx, argc, argv);
@@ -590,6 +612,8 @@ int main(int argc, char **argv)
             ctx.port = u;
         } else if (!strcmp(a, "-t") || !strcmp(a, "--token")) {
             ctx.token = v;
+        } else if (!strcmp(a, "--cluster")) {
+            ctx.cluster_seeds = v;
         } else if (!strcmp(a, "--timeout")) {
             if (cli_parse_u32(v, &u) || u > 86400000) {
                 fprintf(stderr, "seamtex: bad timeout '%s'\n", v);
@@ -601,8 +625,26 @@ int main(int argc, char **argv)
             return CLI_USAGE;
         }
     }
+    static char seed_host[256];   /* --cluster: commands without a set go to the first seed */
+    unsigned seed_port = 0;
+    if (ctx.cluster_seeds) {
+        char first[300];
+        snprintf(first, sizeof first, "%s", ctx.cluster_seeds);
+        char *comma = strchr(first, ',');
+        if (comma)
+            *comma = 0;
+        if (stp_split_addr(first, seed_host, sizeof seed_host, &seed_port) != 0) {
+            fprintf(stderr, "seamtex: --cluster wants HOST:PORT[,HOST:PORT...], not '%s'\n",
+                    ctx.cluster_seeds);
+            return CLI_USAGE;
+        }
+        ctx.host = seed_host;
+        ctx.port = seed_port;
+    }
     int rc = i >= argc ? repl(&ctx) : dispatch(&ctx, argc - i, argv + i);
-    stc_close(ctx.conn);
+    if (!ctx.conn_borrowed)
+        stc_close(ctx.conn);
+    stc_cluster_close(ctx.cluster);
     if (fflush(stdout) != 0 && rc == CLI_OK) {
         fprintf(stderr, "seamtex: writing the output failed\n");
         rc = CLI_SERVER;

@@ -809,7 +809,7 @@ int stp_dec_upload_begin(const uint8_t *body, size_t len, stp_upload_begin *r, c
         return s;
     if (np)
         return name_fail(why, SET_NAME_WHY, np);
-    if (r->flags & ~(uint32_t)(STP_UF_REPLACE | STP_UF_RESUME))
+    if (r->flags & ~(uint32_t)(STP_UF_REPLACE | STP_UF_RESUME | STP_UF_REPLICA))
         return fail(why, "UPLOAD_BEGIN: unknown flag bits", STP_S_INVALID);
     return 0;
 }

@@ -551,7 +551,9 @@ int stp_dec_id_req(const uint8_t *body, size_t len, uint64_t *id, const char **w
 /* -- UPLOAD -- */
 enum stp_upload_flags {
     STP_UF_REPLACE = 1,   /* replace an existing set of that name on commit */
-    STP_UF_RESUME  = 2    /* reattach to an unfinished upload of the same name, size and crc */
+    STP_UF_RESUME  = 2,   /* reattach to an unfinished upload of the same name, size and crc */
+    STP_UF_REPLICA = 4    /* node-to-node copy inside a cluster (docs/cluster.md): REPLACE
+                             implied, no catalogue claim, no further copies */
 };
 typedef struct stp_upload_begin {
     char     name[STP_MAX_NAME + 1];      /* the set to create */

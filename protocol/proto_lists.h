@@ -37,7 +37,8 @@
     X(JOB_CANCEL,    job_cancel,    0x22, 1)             \
     X(FETCH_OPEN,    fetch_open,    0x23, 0)             \
     X(FETCH_READ,    fetch_read,    0x24, 0)             \
-    X(FETCH_CLOSE,   fetch_close,   0x25, 0)
+    X(FETCH_CLOSE,   fetch_close,   0x25, 0)             \
+    X(CLUSTER,       cluster,       0x30, 0)
 
 /* Reply statuses: X(NAME, value, client_error). Values are dense from 0. client_error is the
  * suffix of the client library's code for it (STC_<client_error> in client/seamtex.h, equal
@@ -63,7 +64,9 @@
     X(CANCELED,       17, ESERVERCANCELED)               \
     X(ADJ,            18, EADJ)                          \
     X(NOUV,           19, ENOUV)                         \
-    X(SHUTDOWN,       20, ESHUTDOWN)
+    X(SHUTDOWN,       20, ESHUTDOWN)                     \
+    X(MOVED,          21, EMOVED)                        \
+    X(UNAVAILABLE,    22, EUNAVAILABLE)
 
 /* Per-query statuses of a SAMPLE reply (u8 each): X(NAME, value). Same numbers as
  * store/sample.h enum st_qstatus (ST_Q_<NAME>; checked in server/h_basic.c). */

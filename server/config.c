@@ -104,6 +104,20 @@ static const opt OPTS[] = {
     {"metrics-listen", T_STR, O(metrics_listen), S(metrics_listen), 0, "HOST:PORT",
      "serve GET /metrics (Prometheus text format) on HOST:PORT; a bare PORT means\n"
      "127.0.0.1:PORT (default: off)"},
+    {"cluster", T_STR, O(cluster), S(cluster), 0, "etcd://HOST:PORT[,HOST:PORT...]/PREFIX",
+     "join the cluster kept in etcd under PREFIX (docs/cluster.md); needs --data-dir,\n"
+     "--node-id and --advertise (default: no cluster)"},
+    {"node-id", T_STR, O(node_id), S(node_id), 0, "ID",
+     "this node's id in the cluster: 1..64 bytes of [A-Za-z0-9._-], stable across restarts"},
+    {"advertise", T_STR, O(advertise), S(advertise), 0, "HOST:PORT",
+     "the address other nodes and clients reach this node at"},
+    {"replicas", T_U32, O(replicas), 0, 0, "R", "copies of each set in the cluster (default 2)"},
+    {"write-quorum", T_U32, O(write_quorum), 0, 0, "W",
+     "owners that must hold an upload durably before it is acknowledged, 1..R (default R)"},
+    {"lease-ttl", T_U32, O(lease_ttl), 0, 0, "SECONDS",
+     "the membership lease: a node that stops renewing it leaves after SECONDS (default 5)"},
+    {"repair-interval", T_U32, O(repair_interval), 0, 0, "SECONDS",
+     "seconds between repair passes (also run on every membership change; default 5)"},
 };
 #define NOPTS (sizeof OPTS / sizeof OPTS[0])
 
@@ -136,6 +150,9 @@ void sts_config_defaults(sts_config *c)
     c->default_set = 1;
     c->native = 1;
     c->log_level = STS_INFO;
+    c->replicas = 2;
+    c->lease_ttl = 5;
+    c->repair_interval = 5;
 }
 
 static const opt *find_opt(const char *name, size_t len)
@@ -486,6 +503,20 @@ int sts_config_check(const sts_config *c, char *err, size_t errcap)
     if (c->request_min_rate < 1024) {
         snprintf(err, errcap, "request-min-rate must be at least 1K");
         return -1;
+    }
+    if (c->cluster[0]) {
+        if (!c->data_dir[0] || !c->node_id[0] || !c->advertise[0]) {
+            snprintf(err, errcap, "cluster needs --data-dir, --node-id and --advertise");
+            return -1;
+        }
+        if (c->replicas < 1 || c->replicas > 16 || c->write_quorum > c->replicas) {
+            snprintf(err, errcap, "replicas must be 1..16 and write-quorum 1..replicas");
+            return -1;
+        }
+        if (c->lease_ttl < 1 || c->lease_ttl > 3600 || c->repair_interval < 1) {
+            snprintf(err, errcap, "lease-ttl must be 1..3600 and repair-interval at least 1");
+            return -1;
+        }
     }
     return 0;
 }

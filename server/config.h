@@ -57,6 +57,14 @@ typedef struct sts_config {
     int      log_format;        /* sts_log_format: text or json (restart only) */
     char     metrics_listen[128]; /* HOST:PORT or PORT (127.0.0.1) for GET /metrics; "" = off */
     char     unix_mode[8];      /* octal file mode of a unix:PATH socket; default "0600" */
+    /* cluster (docs/cluster.md; none of it is reloadable) */
+    char     cluster[1024];     /* etcd://HOST:PORT[,HOST:PORT...]/PREFIX, "" = no cluster */
+    char     node_id[65];       /* this node's id in the cluster */
+    char     advertise[256];    /* HOST:PORT other nodes and clients dial */
+    uint32_t replicas;          /* copies of each set (R) */
+    uint32_t write_quorum;      /* owners durable before an upload is acknowledged (W); 0 = R */
+    uint32_t lease_ttl;         /* seconds the membership lease outlives a dead node */
+    uint32_t repair_interval;   /* seconds between repair passes */
 } sts_config;
 
 /* Fills the defaults. */

@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "dispatch.h"
+#include "cluster_node.h"
 #include "h_basic.h"
 #include "h_jobs.h"
 #include "h_upload.h"
@@ -52,7 +53,8 @@ enum {
     STS_CAP_JOB_CANCEL    = 64,
     STS_CAP_FETCH_OPEN    = 512,
     STS_CAP_FETCH_READ    = 64,
-    STS_CAP_FETCH_CLOSE   = 64
+    STS_CAP_FETCH_CLOSE   = 64,
+    STS_CAP_CLUSTER       = 64
 };
 
 /* Where each opcode runs (sts_hflags without STS_H_MUTATING, which comes from the protocol's
@@ -76,7 +78,8 @@ enum {
     STS_RUN_JOB_CANCEL    = 0,
     STS_RUN_FETCH_OPEN    = STS_H_HEAVY,
     STS_RUN_FETCH_READ    = 0,
-    STS_RUN_FETCH_CLOSE   = 0
+    STS_RUN_FETCH_CLOSE   = 0,
+    STS_RUN_CLUSTER       = 0
 };
 
 /* One row per opcode of STP_OPCODES, at its opcode; the other rows are zero (fn NULL =

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "cube.h"
+#include "cluster_node.h"
 #include "dispatch.h"
 #include "h_basic.h"
 #include "io.h"
@@ -28,7 +29,7 @@ static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp
     st_error_clear(&e);
     st_setref *ref = NULL;
     if (st_registry_get(c->srv->reg, name, &ref, &e) != 0) {
-        sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
+        sts_reply_not_here(c->srv, out, h, name, e.msg);
         return NULL;
     }
     return ref;
@@ -543,9 +544,9 @@ int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
 
 size_t sts_stats_max_keys(const sts_server *srv)
 {
-    /* with the budget's keys (budget.c), the query counts by mode and filter and two per I/O
-     * thread */
-    return 192 + 2 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
+    /* with the budget's keys (budget.c), the cluster's (cluster_node.c), the query counts
+     * by mode and filter and two per I/O thread */
+    return 224 + 2 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
 }
 
 size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
@@ -634,6 +635,8 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
         U(key, v);
     }
     n += sts_opstats_report(&srv->opstats, s + n, cap - n);
+    if (srv->cluster)
+        n += sts_cluster_stats(srv->cluster, s + n, cap - n);
     return n;
 }
 

@@ -20,7 +20,9 @@
 #include "bc1_measure.h"
 #include "export.h"
 #include "dispatch.h"
+#include "cluster_node.h"
 #include "h_jobs.h"
+#include "h_upload.h"
 #include "handles.h"
 #include "io.h"
 #include "ptex.h"
@@ -186,8 +188,18 @@ static void run_job(sts_server *srv, sts_job *j)
                  me.msg);
     if (rc == 0)
         rc = store_result(srv, j, bc1, &e);
+    /* in a cluster the result is claimed and copied to its owners like an upload */
+    int wst = 0;
+    char cmsg[sizeof e.msg] = "";
+    if (rc == 0 && srv->cluster)
+        wst = sts_cluster_record_local(srv->cluster, j->target, (j->flags & STP_CF_REPLACE) != 0,
+                                       STP_KIND_BC1, sts_delete_local, cmsg, sizeof cmsg);
+    if (wst) {
+        rc = ST_EIO;   /* for the counters below; the job's result is the wire status */
+        snprintf(e.msg, sizeof e.msg, "%s", cmsg);
+    }
     sts_handles_lock(&srv->jobs->table);
-    j->result = (uint16_t)sts_status_from_st(rc);
+    j->result = (uint16_t)(wst ? wst : sts_status_from_st(rc));
     j->state = rc == 0 ? STP_JOB_DONE : rc == ST_ECANCELED ? STP_JOB_CANCELED : STP_JOB_FAILED;
     if (rc == 0 && measured && q.nseams)
         snprintf(j->msg, sizeof j->msg, "created set '%s': PSNR %.2f dB inside charts; seam RMS "
@@ -317,9 +329,15 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
     st_error_clear(&e);
     if (rq.level > 9)
         return sts_reply_bad(out, h, STP_S_INVALID, "level must be 0..9");
+    if (srv->cluster && !sts_cluster_etcd_ok(srv->cluster)) {
+        STS_CL_ADD(srv->cluster, refused_unavailable, 1);
+        sts_reply_error(out, h, STP_S_UNAVAILABLE, "cluster coordinator (etcd) unreachable: "
+                        "compress refused, retry later");
+        return 0;
+    }
     st_setref *src = NULL;
     if (st_registry_get(srv->reg, rq.name, &src, &e) != 0) {
-        sts_reply_st(out, h, ST_ENOTFOUND, e.msg);
+        sts_reply_not_here(srv, out, h, rq.name, e.msg);
         return 0;
     }
     if (src->set->info.meshtype == ST_MESH_TRIANGLE) { /* refused up front, not as a job */
@@ -527,7 +545,7 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     st_error_clear(&e);
     st_setref *ref = NULL;
     if (st_registry_get(srv->reg, rq.name, &ref, &e)) {   /* the decoder checked the name */
-        sts_reply_st(out, h, e.code ? e.code : ST_ENOTFOUND, e.msg);
+        sts_reply_not_here(srv, out, h, rq.name, e.msg);
         return 0;
     }
     /* room first, for an estimate (the set's memory: a file holds no more than its set,

@@ -18,6 +18,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "cluster_node.h"
 #include "dispatch.h"
 #include "h_upload.h"
 #include "import.h"
@@ -177,6 +178,19 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
             return 0;
         }
     }
+    if ((rq.flags & STP_UF_REPLICA) && !srv->cluster) {
+        refuse(c, h, out, rq.name, STP_S_INVALID, "REPLICA uploads are for cluster nodes; this "
+               "server is not in a cluster", NULL);
+        return 0;
+    }
+    if (srv->cluster && !(rq.flags & STP_UF_REPLICA) && !sts_cluster_etcd_ok(srv->cluster)) {
+        STS_CL_ADD(srv->cluster, refused_unavailable, 1);
+        refuse(c, h, out, rq.name, STP_S_UNAVAILABLE, "cluster coordinator (etcd) unreachable: "
+               "upload refused, retry later", NULL);
+        return 0;
+    }
+    if (rq.flags & STP_UF_REPLICA)
+        rq.flags |= STP_UF_REPLACE;   /* a copy replaces whatever this node holds */
     uint64_t max_up = STS_LIVE(srv, max_upload);
     if (rq.total_size > max_up) {
         char msg[128];
@@ -209,7 +223,8 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         }
         /* nothing to resume: a fresh upload, received 0 */
     }
-    if (!(rq.flags & STP_UF_REPLACE)) {
+    if (!(rq.flags & STP_UF_REPLACE) && !srv->cluster) {
+        /* (in a cluster the catalogue decides at COMMIT: this node may hold no copy) */
         st_setref *ref = NULL;
         if (st_registry_get(srv->reg, rq.name, &ref, NULL) == 0) {
             st_setref_release(ref);
@@ -401,13 +416,30 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
         goto fail;
     }
+    /* in a cluster: claim the name in the catalogue first (docs/cluster.md "Writes") */
+    sts_cl_claim claim;
+    int clustered = srv->cluster && !(u->flags & STP_UF_REPLICA);
+    if (clustered) {
+        uint64_t fbytes = 0;
+        uint32_t fcrc = 0;
+        int cst = st_file_crc(u->path, &fbytes, &fcrc, &e) == 0
+                      ? sts_cluster_claim(srv->cluster, u->name, u->crc, fcrc, u->total, u->fmt,
+                                          u->options, (u->flags & STP_UF_REPLACE) != 0, &claim,
+                                          msg, sizeof msg)
+                      : STP_S_IO;
+        if (cst) {
+            st_set_free(set);
+            refuse(c, h, out, u->name, cst, cst == STP_S_IO ? "cannot read the upload" : msg, NULL);
+            goto fail;
+        }
+    }
     /* two uploads of one new name must not both succeed: check and commit under one lock */
     pthread_mutex_lock(&srv->commit_mu);
     {
         st_setref *ref = NULL;
         int exists = st_registry_get(srv->reg, u->name, &ref, NULL) == 0;
         st_setref_release(ref);
-        if (exists && !(u->flags & STP_UF_REPLACE)) {
+        if (exists && !(u->flags & STP_UF_REPLACE) && !clustered) {
             pthread_mutex_unlock(&srv->commit_mu);
             st_set_free(set);
             refuse(c, h, out, u->name, STP_S_EXISTS, "a set of that name exists (use REPLACE)",
@@ -417,6 +449,8 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         /* refuse before the disk commit, so a set is never on disk but not served */
         if (!exists && st_registry_count(srv->reg) >= STS_LIVE(srv, max_sets)) {
             pthread_mutex_unlock(&srv->commit_mu);
+            if (clustered)
+                sts_cluster_unclaim(srv->cluster, &claim);
             st_set_free(set);
             refuse(c, h, out, u->name, STP_S_BUSY, "the server holds max-sets sets", NULL);
             goto fail;
@@ -447,9 +481,21 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     }
     pthread_mutex_unlock(&srv->commit_mu);
     if (rc) {
+        if (clustered)
+            sts_cluster_unclaim(srv->cluster, &claim);
         name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
         refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
         goto fail;
+    }
+    if (clustered) {
+        /* acknowledged only once W owners hold it durably and the catalogue says so */
+        int cst = sts_cluster_replicate(srv->cluster, &claim, done.kind, msg, sizeof msg);
+        if (cst) {
+            refuse(c, h, out, u->name, cst, msg, NULL);
+            goto fail;
+        }
+    } else if (srv->cluster) {
+        STS_CL_ADD(srv->cluster, copies_received, 1);
     }
     STS_STAT_ADD(srv, uploads_committed, 1);
     sts_logkv(&srv->log, STS_INFO,
@@ -512,6 +558,23 @@ static int unpublish_cb(void *arg, const char *name)
     return 0;
 }
 
+static int delete_local(sts_server *srv, const char *name, st_error *e)
+{
+    int rc = ST_ENOTFOUND;
+    if (srv->dd)
+        rc = st_datadir_delete(srv->dd, name, unpublish_cb, srv, e);
+    if (rc == ST_ENOTFOUND)  /* not on disk (in-memory set, or the built-in one) */
+        rc = st_registry_remove(srv->reg, name, e);
+    return rc;
+}
+
+int sts_delete_local(sts_server *srv, const char *name)
+{
+    st_error e;
+    st_error_clear(&e);
+    return delete_local(srv, name, &e);
+}
+
 int sts_h_delete(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
 {
     sts_server *srv = c->srv;
@@ -522,11 +585,20 @@ int sts_h_delete(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
         return sts_reply_bad(out, h, st, why);
     st_error e;   /* name follows the name rule: stp_dec_name_req checked it */
     st_error_clear(&e);
-    int rc = ST_ENOTFOUND;
-    if (srv->dd)
-        rc = st_datadir_delete(srv->dd, name, unpublish_cb, srv, &e);
-    if (rc == ST_ENOTFOUND)  /* not on disk (in-memory set, or the built-in one) */
-        rc = st_registry_remove(srv->reg, name, &e);
+    if (srv->cluster) {
+        /* recorded in the catalogue before any copy is removed (cluster_write.c) */
+        char msg[512];
+        int cst = sts_cluster_delete(srv->cluster, name, sts_delete_local, msg, sizeof msg);
+        if (cst) {
+            sts_reply_error(out, h, cst, msg);
+            return 0;
+        }
+        STS_STAT_ADD(srv, deletes, 1);
+        sts_logf(&srv->log, STS_INFO, "set '%s' deleted from the cluster", name);
+        stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
+        return 0;
+    }
+    int rc = delete_local(srv, name, &e);
     if (rc) {
         sts_reply_st(out, h, rc, e.msg);
         return 0;

@@ -25,4 +25,8 @@ STS_HANDLER(sts_h_delete);
 int sts_import_path(sts_server *srv, const char *path, const char *fmt, const char *options,
                     st_set **out, st_error *e);
 
+/* Removes set `name` from this node: durably from the data dir (when it is there), then from
+ * the registry. 0, ST_ENOTFOUND, or another store code. DELETE and the cluster's repair. */
+int sts_delete_local(sts_server *srv, const char *name);
+
 #endif

@@ -7,11 +7,14 @@ SERVER_SRC := $(sort $(wildcard server/*.c))
 SERVER_OBJ := $(SERVER_SRC:%.c=$(B)/%.o)
 
 # The daemon sees every store part, protocol/ and util/ (it is the top of the graph).
-$(B)/server/%.o: MODINC := -Iserver -Iprotocol $(INC_STORE)
+# cluster/ too (cluster/module.mk), and with it libseamtex (node-to-node copies) and libcurl,
+# json-c.
+$(B)/server/%.o: MODINC := -Iserver -Iprotocol $(INC_STORE) -Icluster
+SERVER_LINK := $(LIB_CLUSTER) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE)
 
-$(B)/seamtexd: $(SERVER_OBJ) $(LIB_PROTO) $(LIB_STORE)
+$(B)/seamtexd: $(SERVER_OBJ) $(SERVER_LINK)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -o $@ $(SERVER_OBJ) $(LIB_PROTO) $(LIB_STORE) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $(SERVER_OBJ) $(SERVER_LINK) $(LDLIBS) $(CLUSTER_PKG_LIBS)
 
 # The daemon's objects without main(), for tests that check its tables (tests/unit/
 # test_protodoc.c: PROTOCOL.md's caps table against sts_handler_find).

@@ -18,6 +18,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cluster_node.h"
 #include "defaultset.h"
 #include "h_jobs.h"
 #include "io.h"
@@ -203,6 +204,8 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     }
     if (open_listener(srv) != 0 || sts_metrics_open(srv) != 0)
         return -1;
+    if (cfg->cluster[0] && sts_cluster_init(srv) != 0)
+        return -1;
     return 0;
 }
 
@@ -260,6 +263,10 @@ int sts_server_start(sts_server *srv)
             return -1;
         }
     }
+    if (srv->cluster && sts_cluster_start(srv) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "cannot start the cluster threads");
+        return -1;
+    }
     if (sts_metrics_start(srv) != 0 || write_port_file(srv) != 0)
         return -1;
     sts_logkv(&srv->log, STS_INFO,
@@ -296,6 +303,7 @@ void sts_server_stop(sts_server *srv, int grace_ms)
         sts_io_wake(&srv->io[i]);
         pthread_join(srv->io[i].thread, NULL);
     }
+    sts_cluster_stop(srv);   /* before the workers: a push may be running on one */
     sts_pool_stop(&srv->pool);
     sts_jobs_stop(srv);
     sts_budget_stop(srv);
@@ -327,6 +335,7 @@ void sts_server_free(sts_server *srv)
         close(srv->listen_fd);
     sts_metrics_close(srv);
     sts_unix_unlink(&srv->ulisten);
+    sts_cluster_free(srv);
     sts_uploads_free(srv);
     sts_handles_destroy(&srv->fetches);   /* emptied by sts_jobs_stop */
     st_registry_free(srv->reg);

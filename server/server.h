@@ -20,6 +20,7 @@
  *   h_upload.c h_upload.h   handlers: UPLOAD_* DELETE; import of a file by format
  *   h_jobs.c   h_jobs.h     handlers: COMPRESS JOB_* FETCH_*; the job thread
  *   config.c   config.h     settings = flags = config keys; log.c log.h: the log
+ *   cluster_*.c cluster_node.h  membership, catalogue, copies (--cluster; docs/cluster.md)
  *   store/                  sets, registry, data dir, sampler, importers, BC1
  *
  * Threads: main (signals), io_threads I/O threads (each with its own poller; the listening
@@ -57,6 +58,7 @@
 typedef struct sts_server sts_server;
 typedef struct sts_io sts_io;
 typedef struct sts_jobs sts_jobs;
+typedef struct sts_cluster sts_cluster;
 
 /* Wire values of modes and filters are below these (protocol/proto_lists.h). */
 #define STS_QMODES   4
@@ -102,6 +104,7 @@ struct sts_server {
     sts_handles     fetches;      /* FETCH handles (h_jobs.c) */
     sts_budget      budget;       /* budget.c: --memory-budget */
     sts_metrics     metrics;      /* metrics_http.c: --metrics-listen */
+    sts_cluster    *cluster;      /* cluster_node.h: NULL without --cluster */
     uint64_t        next_conn_id; /* atomic */
     uint32_t        nconns;       /* atomic: live connections */
     uint64_t        mem_used;     /* atomic: bytes in connection buffers */

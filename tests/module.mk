@@ -26,7 +26,7 @@ $(LIB_TESTUTIL): $(TESTUTIL_OBJ)
 	rm -f $@ && ar rcs $@ $^
 
 # LIB_CLIENT and LIB_SERVER come from client/module.mk and server/module.mk when they exist.
-ST_LINK := $(LIB_TESTUTIL) $(LIB_RENDER) $(LIB_CLIENT) $(LIB_SERVER) $(LIB_PROTO) $(LIB_STORE)
+ST_LINK := $(LIB_TESTUTIL) $(LIB_RENDER) $(LIB_SERVER) $(LIB_CLUSTER) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE)
 
 TEST_SRC  := $(sort $(wildcard tests/unit/test_*.c tests/integration/test_*.c))
 TEST_BINS += $(patsubst tests/%.c,$(B)/tests/%,$(TEST_SRC))
@@ -35,7 +35,7 @@ BENCH_BINS += $(patsubst tests/bench/%.c,$(B)/bench/%,$(BENCH_SRC))
 
 $(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) -lcmocka $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) -lcmocka $(LDLIBS) $(CLUSTER_PKG_LIBS)
 
 # Fault injection (tests/common/faultinject.h): test_faults_* binaries get every wrapped call
 # redirected to the shim; the daemon tests preload libfaultpreload.so into seamtexd.
@@ -50,7 +50,7 @@ TEST_BINS += $(FAULT_PRELOAD)
 
 $(B)/bench/%: $(B)/tests/bench/%.o $(ST_LINK)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) $(LDLIBS) $(CLUSTER_PKG_LIBS)
 
 # ---- fuzz targets: clang + libFuzzer + ASan, their own object tree -------------------------
 FUZZ_CC   ?= clang

@@ -1,6 +1,6 @@
 /* tests/fuzz/fuzz_proto.c - libFuzzer target for the wire protocol: arbitrary bytes go through
  * the incremental header parser as a stream of frames, and every body goes through every
- * decoder (requests and replies), including the iterators and converters that run on a
+ * decoder (requests and replies, the CLUSTER reply of protocol/stp_cluster.h too), including the iterators and converters that run on a
  * decoded body. Checks that need no oracle: no crash, no read outside the input (ASan), the
  * parser's answer does not change when more bytes arrive (a prefix may only say NEED_MORE or
  * the same BAD), a decoded count always fits the body it came from (in each SAMPLE query
@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "proto.h"
+#include "stp_cluster.h"
 
 #define CHECK(c) do { if (!(c)) __builtin_trap(); } while (0)
 
@@ -25,7 +26,7 @@ static void all_decoders(const uint8_t *b, size_t n)
         stp_stats_reply st; stp_upload_begin ub; stp_upload_begin_reply ubr;
         stp_upload_chunk uc; stp_upload_progress up; stp_upload_done ud;
         stp_compress_req cq; stp_job_status js; stp_fetch_open fo; stp_fetch_open_reply fr;
-        stp_fetch_read rd; stp_fetch_data fd;
+        stp_fetch_read rd; stp_fetch_data fd; stp_cluster_reply cl;
     } u;
     char name[STP_MAX_NAME + 1], msg[64];
     uint64_t id;
@@ -109,6 +110,16 @@ static void all_decoders(const uint8_t *b, size_t n)
     (void)stp_dec_fetch_read(b, n, &u.rd, &why);
     if (stp_dec_fetch_data(b, n, &u.fd, &why) == 0)
         CHECK((size_t)u.fd.len + 12 == n);
+    if (stp_dec_cluster_reply(b, n, &u.cl, &why) == 0) {
+        /* every entry the decoder accepted is walked again, inside the body */
+        size_t pos = 0, k = 0;
+        stp_cluster_node e;
+        while (stp_cluster_next(&u.cl, &pos, &e)) {
+            CHECK(e.id + e.id_len <= (const char *)b + n && e.addr + e.addr_len <= (const char *)b + n);
+            k++;
+        }
+        CHECK(k == u.cl.count);
+    }
     (void)stp_dec_name_req(b, n, name, &why);
     (void)stp_dec_id_req(b, n, &id, &why);
     stp_dec_error(b, n, msg, sizeof msg);

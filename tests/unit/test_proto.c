@@ -1070,6 +1070,7 @@ static void status_and_opcode_names_come_from_the_lists(void **state)
         {0x13, "UPLOAD_ABORT", 1}, {0x14, "UPLOAD_STATUS", 0}, {0x15, "DELETE", 1},
         {0x20, "COMPRESS", 1}, {0x21, "JOB_STATUS", 0}, {0x22, "JOB_CANCEL", 1},
         {0x23, "FETCH_OPEN", 0}, {0x24, "FETCH_READ", 0}, {0x25, "FETCH_CLOSE", 0},
+        {0x30, "CLUSTER", 0},
     };
     unsigned named = 0;
     for (unsigned op = 0; op < 256; op++)

@@ -1,0 +1,177 @@
+/* client/cli_cluster.c - the CLI's cluster side: `seamtex cluster` (nodes, sets per node,
+ * under-replicated sets; text or --json) and routing of set commands under --cluster (the
+ * connection goes to the set's first reachable owner, stc_cluster's ranking).
+ * Does not own: the routing rules (client/libcluster.c), the other commands.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "seamtex_cluster.h"
+
+static stc_cluster *open_cluster(cli_ctx *ctx)
+{
+    if (ctx->cluster)
+        return ctx->cluster;
+    char seeds[300];
+    if (ctx->cluster_seeds)
+        snprintf(seeds, sizeof seeds, "%s", ctx->cluster_seeds);
+    else
+        snprintf(seeds, sizeof seeds, "%s:%u", ctx->host, ctx->port);
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    o.token = ctx->token;
+    o.client_name = "seamtex-cli";
+    o.request_timeout_ms = ctx->timeout_ms;
+    int err = 0;
+    char msg[512] = "";
+    ctx->cluster = stc_cluster_open(seeds, &o, &err, msg, sizeof msg);
+    if (!ctx->cluster)
+        fprintf(stderr, "%s: cluster %s: %s: %s\n", ctx->prog, seeds, stc_strerror(err), msg);
+    return ctx->cluster;
+}
+
+int cli_connect_routed(cli_ctx *ctx, const char *set)
+{
+    stc_cluster *cl = open_cluster(ctx);
+    if (!cl)
+        return CLI_CONNECT;
+    size_t order[256];
+    size_t n = stc_cluster_rank(cl, set, order, 256);
+    for (size_t r = 0; r < n; r++) {
+        int err = 0;
+        stc_conn *c = stc_cluster_conn(cl, order[r], &err);
+        if (c) {
+            ctx->conn = c;
+            ctx->conn_borrowed = 1;   /* owned by the cluster handle */
+            return CLI_OK;
+        }
+    }
+    fprintf(stderr, "%s: no node of the cluster answers: %s\n", ctx->prog, stc_cluster_errmsg(cl));
+    return CLI_CONNECT;
+}
+
+static void json_str(const char *s)
+{
+    putchar('"');
+    for (; *s; s++) {
+        if (*s == '"' || *s == '\\')
+            printf("\\%c", *s);
+        else if ((unsigned char)*s < 0x20)
+            printf("\\u%04x", *s);
+        else
+            putchar(*s);
+    }
+    putchar('"');
+}
+
+typedef struct holding {
+    char name[256];
+    int  holders;
+} holding;
+
+static int cmp_holding(const void *a, const void *b)
+{
+    return strcmp(((const holding *)a)->name, ((const holding *)b)->name);
+}
+
+int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv)
+{
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (cli_is_help(argv[i])) {
+            printf("usage: seamtex [--cluster HOST:PORT,...] cluster [--json]\n"
+                   "  the cluster's nodes (from CLUSTER), the sets each holds (LIST), and the sets\n"
+                   "  with fewer copies than the cluster's replicas\n");
+            return CLI_OK;
+        }
+        if (!strcmp(argv[i], "--json")) {
+            json = 1;
+        } else {
+            fprintf(stderr, "seamtex cluster: unexpected '%s'\n", argv[i]);
+            return CLI_USAGE;
+        }
+    }
+    stc_cluster *cl = open_cluster(ctx);
+    if (!cl)
+        return CLI_CONNECT;
+    const stc_cluster_node *nodes;
+    size_t nn = stc_cluster_nodes(cl, &nodes);
+    unsigned R = stc_cluster_replicas(cl);
+    holding *hs = NULL;
+    size_t nh = 0, caph = 0;
+    int *nsets = calloc(nn ? nn : 1, sizeof *nsets), *up = calloc(nn ? nn : 1, sizeof *up);
+    if (!nsets || !up) {
+        free(nsets);
+        free(up);
+        return CLI_SERVER;
+    }
+    if (json)
+        printf("{\"replicas\":%u,\"nodes\":[", R);
+    else
+        printf("%-16s %-24s %6s  %s\n", "NODE", "ADDRESS", "SETS", "STATE");
+    for (size_t i = 0; i < nn; i++) {
+        int err = 0;
+        stc_conn *c = stc_cluster_conn(cl, i, &err);
+        const stc_set_entry *sets = NULL;
+        size_t n = 0;
+        up[i] = c && stc_list(c, &sets, &n) == 0;
+        for (size_t k = 0; up[i] && k < n; k++) {
+            size_t j = 0;
+            while (j < nh && strcmp(hs[j].name, sets[k].name))
+                j++;
+            if (j == nh) {
+                if (nh == caph) {
+                    caph = caph ? caph * 2 : 64;
+                    holding *g = realloc(hs, caph * sizeof *hs);
+                    if (!g)
+                        break;
+                    hs = g;
+                }
+                snprintf(hs[nh].name, sizeof hs[nh].name, "%s", sets[k].name);
+                hs[nh++].holders = 0;
+            }
+            hs[j].holders++;
+        }
+        nsets[i] = up[i] ? (int)n : -1;
+        if (json) {
+            printf("%s{\"id\":", i ? "," : "");
+            json_str(nodes[i].id);
+            printf(",\"addr\":");
+            json_str(nodes[i].addr);
+            printf(",\"up\":%s,\"sets\":%d}", up[i] ? "true" : "false", nsets[i]);
+        } else {
+            printf("%-16s %-24s %6d  %s\n", nodes[i].id, nodes[i].addr, nsets[i],
+                   up[i] ? "up" : "unreachable");
+        }
+    }
+    size_t want = R < nn ? R : nn;
+    if (nh)
+        qsort(hs, nh, sizeof *hs, cmp_holding);
+    if (json) {
+        printf("],\"sets\":%zu,\"under_replicated\":[", nh);
+    } else {
+        printf("%zu set(s), replicas %u\n", nh, R);
+    }
+    size_t under = 0;
+    for (size_t j = 0; j < nh; j++)
+        if ((size_t)hs[j].holders < want) {
+            if (json) {
+                printf("%s{\"name\":", under ? "," : "");
+                json_str(hs[j].name);
+                printf(",\"copies\":%d}", hs[j].holders);
+            } else {
+                printf("under-replicated: %s (%d of %zu copies)\n", hs[j].name, hs[j].holders, want);
+            }
+            under++;
+        }
+    if (json)
+        printf("]}\n");
+    else if (!under)
+        printf("no under-replicated sets\n");
+    free(hs);
+    free(nsets);
+    free(up);
+    return CLI_OK;
+}

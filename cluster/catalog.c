@@ -1,0 +1,139 @@
+/* cluster/catalog.c - key names and JSON records of the cluster's etcd keys (catalog.h). */
+#include <json.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "catalog.h"
+
+void scl_key_node(char *out, const char *prefix, const char *id)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/nodes/%s", prefix, id);
+}
+
+void scl_key_set(char *out, const char *prefix, const char *name)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/sets/%s", prefix, name);
+}
+
+void scl_key_copies(char *out, const char *prefix, const char *name, const char *id)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/copies/%s/%s", prefix, name, id);
+}
+
+void scl_key_all_copies(char *out, const char *prefix)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/copies/", prefix);
+}
+
+int scl_node_format(char *out, size_t cap, const char *addr)
+{
+    json_object *o = json_object_new_object();
+    json_object_object_add(o, "addr", json_object_new_string(addr));
+    int n = snprintf(out, cap, "%s", json_object_to_json_string_ext(o, JSON_C_TO_STRING_PLAIN));
+    json_object_put(o);
+    return n < 0 || (size_t)n >= cap ? -1 : 0;
+}
+
+int scl_node_parse(const char *json, char *addr, size_t cap)
+{
+    json_object *o = json_tokener_parse(json), *a = NULL;
+    int rc = -1;
+    if (o && json_object_object_get_ex(o, "addr", &a) && json_object_is_type(a, json_type_string)) {
+        const char *s = json_object_get_string(a);
+        size_t n = strlen(s);
+        if (n > 0 && n < cap && n <= STP_MAX_NODE_ADDR && strchr(s, ':')) {
+            memcpy(addr, s, n + 1);
+            rc = 0;
+        }
+    }
+    json_object_put(o);
+    return rc;
+}
+
+int scl_setrec_format(char *out, size_t cap, const scl_setrec *r)
+{
+    json_object *o = json_object_new_object();
+    json_object_object_add(o, "crc32c", json_object_new_int64(r->crc32c));
+    json_object_object_add(o, "crc32", json_object_new_int64(r->crc32));
+    json_object_object_add(o, "size", json_object_new_int64((int64_t)r->size));
+    json_object_object_add(o, "fmt", json_object_new_string(r->fmt));
+    json_object_object_add(o, "options", json_object_new_string(r->options));
+    json_object_object_add(o, "version", json_object_new_int64(r->version));
+    json_object_object_add(o, "state", json_object_new_string(r->state == SCL_SET_OK ? "ok" : "pending"));
+    json_object_object_add(o, "origin", json_object_new_string(r->origin));
+    json_object_object_add(o, "kind", json_object_new_int(r->kind));
+    int n = snprintf(out, cap, "%s", json_object_to_json_string_ext(o, JSON_C_TO_STRING_PLAIN));
+    json_object_put(o);
+    return n < 0 || (size_t)n >= cap ? -1 : 0;
+}
+
+static int get_i64(json_object *o, const char *k, int64_t lo, int64_t hi, int64_t *v)
+{
+    json_object *x;
+    if (!json_object_object_get_ex(o, k, &x) || !json_object_is_type(x, json_type_int))
+        return -1;
+    *v = json_object_get_int64(x);
+    return *v < lo || *v > hi ? -1 : 0;
+}
+
+static int get_str(json_object *o, const char *k, char *out, size_t cap)
+{
+    json_object *x;
+    if (!json_object_object_get_ex(o, k, &x) || !json_object_is_type(x, json_type_string))
+        return -1;
+    const char *s = json_object_get_string(x);
+    size_t n = strlen(s);
+    if (n >= cap)
+        return -1;
+    memcpy(out, s, n + 1);
+    return 0;
+}
+
+int scl_setrec_parse(const char *json, scl_setrec *r)
+{
+    memset(r, 0, sizeof *r);
+    json_object *o = json_tokener_parse(json);
+    if (!o)
+        return -1;
+    int64_t c32c, c32, size, ver, kind;
+    char state[16];
+    int bad = get_i64(o, "crc32c", 0, UINT32_MAX, &c32c) || get_i64(o, "crc32", 0, UINT32_MAX, &c32) ||
+              get_i64(o, "size", 0, INT64_MAX, &size) || get_i64(o, "version", 1, INT64_MAX, &ver) ||
+              get_i64(o, "kind", -1, 255, &kind) || get_str(o, "fmt", r->fmt, sizeof r->fmt) ||
+              get_str(o, "options", r->options, sizeof r->options) ||
+              get_str(o, "origin", r->origin, sizeof r->origin) ||
+              get_str(o, "state", state, sizeof state);
+    json_object_put(o);
+    if (bad)
+        return -1;
+    if (!strcmp(state, "ok"))
+        r->state = SCL_SET_OK;
+    else if (!strcmp(state, "pending"))
+        r->state = SCL_SET_PENDING;
+    else
+        return -1;
+    r->crc32c = (uint32_t)c32c;
+    r->crc32 = (uint32_t)c32;
+    r->size = (uint64_t)size;
+    r->version = ver;
+    r->kind = (int)kind;
+    return 0;
+}
+
+void scl_copy_format(char out[9], uint32_t crc32)
+{
+    snprintf(out, 9, "%08x", crc32);
+}
+
+int scl_copy_parse(const char *val, uint32_t *crc32)
+{
+    if (strlen(val) != 8)
+        return -1;
+    char *end;
+    unsigned long v = strtoul(val, &end, 16);
+    if (*end)
+        return -1;
+    *crc32 = (uint32_t)v;
+    return 0;
+}

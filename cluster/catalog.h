@@ -1,0 +1,50 @@
+/* cluster/catalog.h - the records seamtexd keeps in etcd (docs/cluster.md "Keys").
+ *
+ * Owns: the key names under the prefix (nodes/, sets/, copies/), the JSON of a node record and
+ * of a set record, and their parsing (every field checked). Does not own: when records are
+ * written (server/cluster_node.c), the HTTP (etcd.h).
+ */
+#ifndef SCL_CATALOG_H
+#define SCL_CATALOG_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "stp_cluster.h"
+
+#define SCL_KEY_MAX 640   /* prefix (< 256) + "/copies/" + name (<= 255) + "/" + id (<= 64) */
+
+/* "<prefix>/nodes/", "<prefix>/nodes/<id>", "<prefix>/sets/", "<prefix>/sets/<name>",
+ * "<prefix>/copies/<name>/", "<prefix>/copies/<name>/<id>" (id or name "" = the folder). */
+void scl_key_node(char *out, const char *prefix, const char *id);
+void scl_key_set(char *out, const char *prefix, const char *name);
+void scl_key_copies(char *out, const char *prefix, const char *name, const char *id);
+/* "<prefix>/copies/" */
+void scl_key_all_copies(char *out, const char *prefix);
+
+/* The node record {"addr":"HOST:PORT"}. */
+int scl_node_format(char *out, size_t cap, const char *addr);
+int scl_node_parse(const char *json, char *addr, size_t cap);
+
+enum { SCL_SET_PENDING = 0, SCL_SET_OK = 1 };
+typedef struct scl_setrec {
+    uint32_t crc32c;                  /* of the uploaded file (wire checksum) */
+    uint32_t crc32;                   /* of the same file as the data dir's manifest has it */
+    uint64_t size;
+    char     fmt[16];
+    char     options[1024];
+    int64_t  version;                 /* 1 at creation, +1 per replace */
+    int      state;                   /* SCL_SET_* */
+    char     origin[STP_MAX_NODE_ID + 1];
+    int      kind;                    /* set kind once "ok", -1 while pending */
+} scl_setrec;
+/* JSON of a record; -1 when it does not fit cap. */
+int scl_setrec_format(char *out, size_t cap, const scl_setrec *r);
+/* 0, or -1 when the JSON is not a set record. */
+int scl_setrec_parse(const char *json, scl_setrec *r);
+
+/* A copy record's value: the CRC-32 as 8 hex digits. */
+void scl_copy_format(char out[9], uint32_t crc32);
+int scl_copy_parse(const char *val, uint32_t *crc32);
+
+#endif

@@ -1,0 +1,459 @@
+/* cluster/etcd.c - etcd v3 JSON gateway client (etcd.h).
+ *
+ * Owns: the HTTP exchange (one curl easy handle per scl_etcd, reused: keep-alive), base64,
+ * building request JSON and reading replies with json-c. Does not own: key meanings.
+ * Every int64 in etcd's JSON is a string ("revision":"12"); absent fields mean 0 / false.
+ */
+#include <curl/curl.h>
+#include <json.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "etcd.h"
+
+struct scl_etcd {
+    CURL *curl;
+    char  endpoints[SCL_MAX_ENDPOINTS][128];
+    int   nend, cur;            /* cur: the endpoint that answered last */
+    int   timeout_ms;
+    char  prefix[256];
+    char  msg[256];
+    char *resp; size_t resp_len, resp_cap;
+};
+
+/* ---- URL --------------------------------------------------------------------------------- */
+
+static int parse_url(const char *url, char ends[][128], int *nend, char *prefix, size_t pcap,
+                     char *err, size_t cap)
+{
+    const char *p = url;
+    if (strncmp(p, "etcd://", 7) != 0) {
+        snprintf(err, cap, "cluster URL must start with etcd:// (etcd://HOST:PORT[,HOST:PORT]/PREFIX)");
+        return -1;
+    }
+    p += 7;
+    const char *slash = strchr(p, '/');
+    if (!slash || slash == p) {
+        snprintf(err, cap, "cluster URL needs HOST:PORT and a /PREFIX");
+        return -1;
+    }
+    int n = 0;
+    while (p < slash) {
+        const char *comma = memchr(p, ',', (size_t)(slash - p));
+        const char *end = comma ? comma : slash;
+        size_t len = (size_t)(end - p);
+        if (len == 0 || len >= 128 || !memchr(p, ':', len) || n == SCL_MAX_ENDPOINTS) {
+            snprintf(err, cap, "cluster URL: bad endpoint list (at most %d HOST:PORT, comma-separated)",
+                     SCL_MAX_ENDPOINTS);
+            return -1;
+        }
+        if (ends) {
+            memcpy(ends[n], p, len);
+            ends[n][len] = 0;
+        }
+        n++;
+        p = comma ? comma + 1 : end;
+    }
+    size_t pl = strlen(slash);
+    if (pl < 2 || pl >= pcap || slash[pl - 1] == '/') {
+        snprintf(err, cap, "cluster URL: the /PREFIX must be 1..%zu bytes and not end in '/'", pcap - 2);
+        return -1;
+    }
+    for (const char *q = slash; *q; q++)
+        if ((unsigned char)*q <= 0x20 || (unsigned char)*q >= 0x7f) {
+            snprintf(err, cap, "cluster URL: the prefix must be printable ASCII without spaces");
+            return -1;
+        }
+    memcpy(prefix, slash, pl + 1);
+    if (nend)
+        *nend = n;
+    return 0;
+}
+
+int scl_etcd_url_check(const char *url, char *prefix, size_t prefix_cap, char *err, size_t cap)
+{
+    return parse_url(url, NULL, NULL, prefix, prefix_cap, err, cap);
+}
+
+void scl_etcd_global_init(void) { curl_global_init(CURL_GLOBAL_DEFAULT); }
+
+static size_t on_data(char *p, size_t sz, size_t n, void *arg)
+{
+    scl_etcd *e = arg;
+    size_t len = sz * n;
+    if (e->resp_len + len + 1 > e->resp_cap) {
+        size_t cap = (e->resp_len + len + 1) * 2;
+        if (cap > (256u << 20))
+            return 0;   /* refuse a reply over 256 MiB: the transfer fails */
+        char *q = realloc(e->resp, cap);
+        if (!q)
+            return 0;
+        e->resp = q;
+        e->resp_cap = cap;
+    }
+    memcpy(e->resp + e->resp_len, p, len);
+    e->resp_len += len;
+    e->resp[e->resp_len] = 0;
+    return len;
+}
+
+scl_etcd *scl_etcd_open(const char *url, int timeout_ms, char *err, size_t cap)
+{
+    scl_etcd *e = calloc(1, sizeof *e);
+    if (!e) {
+        snprintf(err, cap, "out of memory");
+        return NULL;
+    }
+    if (parse_url(url, e->endpoints, &e->nend, e->prefix, sizeof e->prefix, err, cap) != 0) {
+        free(e);
+        return NULL;
+    }
+    e->timeout_ms = timeout_ms > 0 ? timeout_ms : 2000;
+    e->curl = curl_easy_init();
+    if (!e->curl) {
+        snprintf(err, cap, "curl_easy_init failed");
+        free(e);
+        return NULL;
+    }
+    return e;
+}
+
+void scl_etcd_close(scl_etcd *e)
+{
+    if (!e)
+        return;
+    curl_easy_cleanup(e->curl);
+    free(e->resp);
+    free(e);
+}
+
+const char *scl_etcd_prefix(const scl_etcd *e) { return e->prefix; }
+const char *scl_etcd_errmsg(const scl_etcd *e) { return e->msg; }
+
+/* ---- base64 (RFC 4648, with padding) ---------------------------------------------------------- */
+
+static const char B64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+static char *b64_enc(const char *s, size_t n)
+{
+    char *out = malloc((n + 2) / 3 * 4 + 1), *o = out;
+    if (!out)
+        return NULL;
+    const unsigned char *p = (const unsigned char *)s;
+    size_t i = 0;
+    for (; i + 2 < n; i += 3) {
+        uint32_t v = (uint32_t)p[i] << 16 | (uint32_t)p[i + 1] << 8 | p[i + 2];
+        *o++ = B64[v >> 18]; *o++ = B64[(v >> 12) & 63]; *o++ = B64[(v >> 6) & 63]; *o++ = B64[v & 63];
+    }
+    if (i < n) {
+        uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0);
+        *o++ = B64[v >> 18];
+        *o++ = B64[(v >> 12) & 63];
+        *o++ = i + 1 < n ? B64[(v >> 6) & 63] : '=';
+        *o++ = '=';
+    }
+    *o = 0;
+    return out;
+}
+
+static int b64_val(int c)
+{
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+}
+
+/* NULL on bad input; *len gets the decoded size; the result is NUL-terminated */
+static char *b64_dec(const char *s, size_t *len)
+{
+    size_t n = strlen(s);
+    if (n % 4)
+        return NULL;
+    char *out = malloc(n / 4 * 3 + 1);
+    if (!out)
+        return NULL;
+    size_t o = 0;
+    for (size_t i = 0; i < n; i += 4) {
+        int a = b64_val(s[i]), b = b64_val(s[i + 1]);
+        int c = s[i + 2] == '=' ? 0 : b64_val(s[i + 2]);
+        int d = s[i + 3] == '=' ? 0 : b64_val(s[i + 3]);
+        int pad = (s[i + 2] == '=') + (s[i + 3] == '=');
+        if (a < 0 || b < 0 || c < 0 || d < 0 || (pad && i + 4 != n) ||
+            (s[i + 2] == '=' && s[i + 3] != '=')) {
+            free(out);
+            return NULL;
+        }
+        uint32_t v = (uint32_t)a << 18 | (uint32_t)b << 12 | (uint32_t)c << 6 | (uint32_t)d;
+        out[o++] = (char)(v >> 16);
+        if (pad < 2) out[o++] = (char)(v >> 8);
+        if (pad < 1) out[o++] = (char)v;
+    }
+    out[o] = 0;
+    *len = o;
+    return out;
+}
+
+/* ---- HTTP ------------------------------------------------------------------------------------ */
+
+/* POSTs body to path on the current endpoint, then the others; parses the reply into *out. */
+static int post(scl_etcd *e, const char *path, json_object *body, json_object **out)
+{
+    *out = NULL;
+    const char *js = json_object_to_json_string_ext(body, JSON_C_TO_STRING_PLAIN);
+    struct curl_slist *hdr = curl_slist_append(NULL, "Content-Type: application/json");
+    int rc = SCL_EUNREACHABLE;
+    for (int t = 0; t < e->nend; t++) {
+        int k = (e->cur + t) % e->nend;
+        char url[256];
+        snprintf(url, sizeof url, "http://%s%s", e->endpoints[k], path);
+        e->resp_len = 0;
+        if (e->resp)
+            e->resp[0] = 0;
+        curl_easy_reset(e->curl);
+        curl_easy_setopt(e->curl, CURLOPT_URL, url);
+        curl_easy_setopt(e->curl, CURLOPT_POSTFIELDS, js);
+        curl_easy_setopt(e->curl, CURLOPT_HTTPHEADER, hdr);
+        curl_easy_setopt(e->curl, CURLOPT_WRITEFUNCTION, on_data);
+        curl_easy_setopt(e->curl, CURLOPT_WRITEDATA, e);
+        curl_easy_setopt(e->curl, CURLOPT_TIMEOUT_MS, (long)e->timeout_ms);
+        curl_easy_setopt(e->curl, CURLOPT_CONNECTTIMEOUT_MS, (long)e->timeout_ms);
+        curl_easy_setopt(e->curl, CURLOPT_NOSIGNAL, 1L);
+        CURLcode cc = curl_easy_perform(e->curl);
+        if (cc != CURLE_OK) {
+            snprintf(e->msg, sizeof e->msg, "etcd %s: %s", e->endpoints[k], curl_easy_strerror(cc));
+            continue;
+        }
+        long code = 0;
+        curl_easy_getinfo(e->curl, CURLINFO_RESPONSE_CODE, &code);
+        json_object *j = e->resp ? json_tokener_parse(e->resp) : NULL;
+        if (code != 200 || !j) {
+            snprintf(e->msg, sizeof e->msg, "etcd %s%s: HTTP %ld: %.120s", e->endpoints[k], path,
+                     code, e->resp ? e->resp : "");
+            json_object_put(j);
+            /* a 5xx (no leader) is as good as unreachable: try the next endpoint */
+            if (code >= 500 || code == 0)
+                continue;
+            rc = SCL_EBADREPLY;
+            break;
+        }
+        e->cur = k;
+        *out = j;
+        rc = SCL_OK;
+        break;
+    }
+    curl_slist_free_all(hdr);
+    return rc;
+}
+
+static int64_t j_i64(json_object *o, const char *key)
+{
+    json_object *v;
+    if (!o || !json_object_object_get_ex(o, key, &v))
+        return 0;
+    if (json_object_is_type(v, json_type_string))
+        return strtoll(json_object_get_string(v), NULL, 10);
+    return json_object_get_int64(v);
+}
+
+static void add_b64(json_object *o, const char *field, const char *s, size_t n)
+{
+    char *b = b64_enc(s, n);
+    json_object_object_add(o, field, json_object_new_string(b ? b : ""));
+    free(b);
+}
+
+/* the end of the range of keys starting with key: key with its last byte + 1 */
+static void add_prefix_end(json_object *o, const char *key)
+{
+    size_t n = strlen(key);
+    char *end = malloc(n + 1);
+    if (!end)
+        return;
+    memcpy(end, key, n + 1);
+    if (n)
+        end[n - 1] = (char)(end[n - 1] + 1);
+    add_b64(o, "range_end", end, n);
+    free(end);
+}
+
+void scl_kvs_free(scl_kvs *k)
+{
+    if (!k)
+        return;
+    for (size_t i = 0; i < k->n; i++) {
+        free(k->v[i].key);
+        free(k->v[i].val);
+    }
+    free(k->v);
+    memset(k, 0, sizeof *k);
+}
+
+static int read_kvs(scl_etcd *e, json_object *r, scl_kvs *out)
+{
+    json_object *hdr = NULL, *kvs = NULL;
+    memset(out, 0, sizeof *out);
+    if (json_object_object_get_ex(r, "header", &hdr))
+        out->revision = j_i64(hdr, "revision");
+    if (!json_object_object_get_ex(r, "kvs", &kvs))
+        return SCL_OK;
+    if (!json_object_is_type(kvs, json_type_array)) {
+        snprintf(e->msg, sizeof e->msg, "etcd range: kvs is not an array");
+        return SCL_EBADREPLY;
+    }
+    size_t n = json_object_array_length(kvs);
+    out->v = calloc(n ? n : 1, sizeof *out->v);
+    if (!out->v)
+        return SCL_ENOMEM;
+    for (size_t i = 0; i < n; i++) {
+        json_object *kv = json_object_array_get_idx(kvs, i), *k = NULL, *v = NULL;
+        scl_kv *d = &out->v[out->n];
+        json_object_object_get_ex(kv, "key", &k);
+        json_object_object_get_ex(kv, "value", &v);
+        d->key = b64_dec(k ? json_object_get_string(k) : "", &d->key_len);
+        d->val = b64_dec(v ? json_object_get_string(v) : "", &d->val_len);
+        if (!d->key || !d->val) {
+            free(d->key);
+            free(d->val);
+            scl_kvs_free(out);
+            snprintf(e->msg, sizeof e->msg, "etcd range: bad base64");
+            return SCL_EBADREPLY;
+        }
+        d->create_rev = j_i64(kv, "create_revision");
+        d->mod_rev = j_i64(kv, "mod_revision");
+        d->version = j_i64(kv, "version");
+        d->lease = j_i64(kv, "lease");
+        out->n++;
+    }
+    return SCL_OK;
+}
+
+int scl_etcd_range(scl_etcd *e, const char *key, int prefix, scl_kvs *out)
+{
+    memset(out, 0, sizeof *out);
+    json_object *rq = json_object_new_object(), *r = NULL;
+    add_b64(rq, "key", key, strlen(key));
+    if (prefix)
+        add_prefix_end(rq, key);
+    int rc = post(e, "/v3/kv/range", rq, &r);
+    json_object_put(rq);
+    if (rc == SCL_OK)
+        rc = read_kvs(e, r, out);
+    json_object_put(r);
+    return rc;
+}
+
+static json_object *put_req(const char *key, const char *val, int64_t lease)
+{
+    json_object *rq = json_object_new_object();
+    add_b64(rq, "key", key, strlen(key));
+    add_b64(rq, "value", val, strlen(val));
+    if (lease)
+        json_object_object_add(rq, "lease", json_object_new_int64(lease));
+    return rq;
+}
+
+static json_object *del_req(const char *key, int prefix)
+{
+    json_object *rq = json_object_new_object();
+    add_b64(rq, "key", key, strlen(key));
+    if (prefix)
+        add_prefix_end(rq, key);
+    return rq;
+}
+
+int scl_etcd_put(scl_etcd *e, const char *key, const char *val, int64_t lease)
+{
+    json_object *rq = put_req(key, val, lease), *r = NULL;
+    int rc = post(e, "/v3/kv/put", rq, &r);
+    json_object_put(rq);
+    json_object_put(r);
+    return rc;
+}
+
+int scl_etcd_delete(scl_etcd *e, const char *key, int prefix)
+{
+    json_object *rq = del_req(key, prefix), *r = NULL;
+    int rc = post(e, "/v3/kv/deleterange", rq, &r);
+    json_object_put(rq);
+    json_object_put(r);
+    return rc;
+}
+
+int scl_etcd_grant(scl_etcd *e, int64_t ttl_s, int64_t *lease)
+{
+    json_object *rq = json_object_new_object(), *r = NULL;
+    json_object_object_add(rq, "TTL", json_object_new_int64(ttl_s));
+    int rc = post(e, "/v3/lease/grant", rq, &r);
+    json_object_put(rq);
+    if (rc == SCL_OK) {
+        *lease = j_i64(r, "ID");
+        if (*lease == 0) {
+            snprintf(e->msg, sizeof e->msg, "etcd lease grant: no ID in the reply");
+            rc = SCL_EBADREPLY;
+        }
+    }
+    json_object_put(r);
+    return rc;
+}
+
+int scl_etcd_keepalive(scl_etcd *e, int64_t lease, int64_t *ttl)
+{
+    /* the gateway streams: one request message in, one {"result": {...}} out */
+    json_object *rq = json_object_new_object(), *r = NULL, *res = NULL;
+    json_object_object_add(rq, "ID", json_object_new_int64(lease));
+    int rc = post(e, "/v3/lease/keepalive", rq, &r);
+    json_object_put(rq);
+    *ttl = 0;
+    if (rc == SCL_OK) {
+        if (json_object_object_get_ex(r, "result", &res))
+            *ttl = j_i64(res, "TTL");
+        else {
+            snprintf(e->msg, sizeof e->msg, "etcd keepalive: no result in the reply");
+            rc = SCL_EBADREPLY;
+        }
+    }
+    json_object_put(r);
+    return rc;
+}
+
+int scl_etcd_txn(scl_etcd *e, const scl_cmp *cmp, size_t ncmp, const scl_op *ops, size_t nops,
+                 int *succeeded, int64_t *revision)
+{
+    json_object *rq = json_object_new_object(), *r = NULL;
+    json_object *ca = json_object_new_array(), *sa = json_object_new_array();
+    for (size_t i = 0; i < ncmp; i++) {
+        json_object *c = json_object_new_object();
+        add_b64(c, "key", cmp[i].key, strlen(cmp[i].key));
+        json_object_object_add(c, "result", json_object_new_string("EQUAL"));
+        int create = cmp[i].target == SCL_CMP_CREATE;
+        json_object_object_add(c, "target", json_object_new_string(create ? "CREATE" : "MOD"));
+        json_object_object_add(c, create ? "create_revision" : "mod_revision",
+                               json_object_new_int64(cmp[i].rev));
+        json_object_array_add(ca, c);
+    }
+    for (size_t i = 0; i < nops; i++) {
+        json_object *o = json_object_new_object();
+        if (ops[i].type == SCL_OP_PUT)
+            json_object_object_add(o, "request_put", put_req(ops[i].key, ops[i].val, ops[i].lease));
+        else
+            json_object_object_add(o, "request_delete_range",
+                                   del_req(ops[i].key, ops[i].type == SCL_OP_DEL_PREFIX));
+        json_object_array_add(sa, o);
+    }
+    json_object_object_add(rq, "compare", ca);
+    json_object_object_add(rq, "success", sa);
+    int rc = post(e, "/v3/kv/txn", rq, &r);
+    json_object_put(rq);
+    if (rc == SCL_OK) {
+        json_object *v = NULL, *hdr = NULL;
+        *succeeded = json_object_object_get_ex(r, "succeeded", &v) && json_object_get_boolean(v);
+        if (revision)
+            *revision = json_object_object_get_ex(r, "header", &hdr) ? j_i64(hdr, "revision") : 0;
+    }
+    json_object_put(r);
+    return rc;
+}

@@ -1,0 +1,67 @@
+/* cluster/peer.c - node-to-node copies and deletes (peer.h), built on libseamtex. */
+#include <stdio.h>
+#include <string.h>
+
+#include "peer.h"
+#include "seamtex.h"
+#include "stp_cluster.h"
+
+static stc_conn *dial(const char *addr, const char *token, int timeout_ms, int *rc, char *msg,
+                      size_t cap)
+{
+    char host[256];
+    unsigned port;
+    if (stp_split_addr(addr, host, sizeof host, &port) != 0) {
+        snprintf(msg, cap, "bad node address '%.200s'", addr);
+        *rc = STC_EINVAL;
+        return NULL;
+    }
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    o.connect_timeout_ms = timeout_ms;
+    o.request_timeout_ms = timeout_ms;
+    o.token = token && *token ? token : NULL;
+    o.client_name = "seamtexd-peer";
+    char em[256] = "";
+    stc_conn *c = stc_connect_opts(host, port, &o, rc, em, sizeof em);
+    if (!c)
+        snprintf(msg, cap, "connect %s: %s", addr, em);
+    return c;
+}
+
+int scl_peer_push(const char *addr, const char *token, const char *path, const char *name,
+                  const char *hint, const char *options, int timeout_ms, uint32_t *crc32c,
+                  char *msg, size_t cap)
+{
+    int rc = 0;
+    stc_conn *c = dial(addr, token, timeout_ms, &rc, msg, cap);
+    if (!c)
+        return rc;
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = hint && *hint ? hint : NULL;
+    uo.options = options && *options ? options : NULL;
+    uo.flags = STC_UPLOAD_REPLACE | STC_UPLOAD_REPLICA;
+    stc_upload_result res;
+    rc = stc_upload_file(c, path, name, &uo, &res);
+    if (rc)
+        snprintf(msg, cap, "push of '%s' to %s: %s", name, addr, stc_errmsg(c));
+    else if (crc32c)
+        *crc32c = res.crc32c;
+    stc_close(c);
+    return rc;
+}
+
+int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
+                    char *msg, size_t cap)
+{
+    int rc = 0;
+    stc_conn *c = dial(addr, token, timeout_ms, &rc, msg, cap);
+    if (!c)
+        return rc;
+    rc = stc_delete(c, name);
+    if (rc && rc != STC_ENOTFOUND)
+        snprintf(msg, cap, "delete of '%s' on %s: %s", name, addr, stc_errmsg(c));
+    stc_close(c);
+    return rc == STC_ENOTFOUND ? 0 : rc;
+}

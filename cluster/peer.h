@@ -1,0 +1,21 @@
+/* cluster/peer.h - node-to-node requests over the seamtex wire protocol (libseamtex).
+ *
+ * Owns: pushing a stored source file to another node as a REPLICA upload (its CRC-32C is
+ * computed from the file and checked by the receiver at commit: end to end), forwarding a
+ * DELETE. Does not own: choosing the target (cluster_node.c), the protocol (protocol/).
+ * Blocking; each call opens and closes its own connection. Returns 0 or an STC_E* code, with
+ * a message in msg.
+ */
+#ifndef SCL_PEER_H
+#define SCL_PEER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+int scl_peer_push(const char *addr, const char *token, const char *path, const char *name,
+                  const char *hint, const char *options, int timeout_ms, uint32_t *crc32c,
+                  char *msg, size_t cap);
+int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
+                    char *msg, size_t cap);
+
+#endif

@@ -1,0 +1,490 @@
+/* server/cluster_node.c - the node's place in the cluster: start / stop, the membership
+ * thread, the view shared with handlers, CLUSTER, MOVED and the STATS keys
+ * (cluster_node.h; design: docs/cluster.md).
+ *
+ * Owns: the lease (granted, kept alive every TTL/3, re-granted when etcd forgot it), the
+ * node's key, the membership view (polled every min(TTL/3, 500 ms)), the etcd-reachable
+ * flag. Does not own: repair (cluster_repair.c), the write path (cluster_write.c), the HTTP
+ * (cluster/etcd.c).
+ */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "cluster_node.h"
+#include "dispatch.h"
+#include "server.h"
+
+int sts_cluster_etcd_ok(sts_cluster *cl)
+{
+    return __atomic_load_n(&cl->etcd_ok, __ATOMIC_RELAXED);
+}
+
+void sts_cluster_note_etcd(sts_cluster *cl, int rc)
+{
+    int ok = rc != SCL_EUNREACHABLE;
+    int was = __atomic_exchange_n(&cl->etcd_ok, ok, __ATOMIC_RELAXED);
+    if (!ok)
+        STS_CL_ADD(cl, etcd_errors, 1);
+    if (was != ok)
+        sts_logf(&cl->srv->log, ok ? STS_INFO : STS_WARN, "cluster: etcd %s", ok
+                 ? "reachable again: uploads, deletes and compress jobs accepted"
+                 : "unreachable: serving with the last membership; uploads, deletes and "
+                   "compress jobs refused (UNAVAILABLE)");
+}
+
+size_t sts_cluster_rank(const sts_cl_member *m, size_t n, const char *name, size_t *order, size_t k)
+{
+    const char *ids[256];
+    if (n > 256)
+        n = 256;
+    for (size_t i = 0; i < n; i++)
+        ids[i] = m[i].id;
+    return stp_hrw_rank(ids, n, name, order, k);
+}
+
+size_t sts_cluster_members(sts_cluster *cl, sts_cl_member **members, uint64_t *epoch)
+{
+    pthread_mutex_lock(&cl->mu);
+    size_t n = cl->nmembers;
+    *members = malloc((n ? n : 1) * sizeof **members);
+    if (*members && n)
+        memcpy(*members, cl->members, n * sizeof **members);
+    if (!*members)
+        n = 0;
+    if (epoch)
+        *epoch = cl->epoch;
+    pthread_mutex_unlock(&cl->mu);
+    return n;
+}
+
+void sts_cluster_set_catalogue(sts_cluster *cl, sts_cl_entry *cat, size_t n)
+{
+    pthread_mutex_lock(&cl->mu);
+    sts_cl_entry *old = cl->cat;
+    cl->cat = cat;
+    cl->ncat = n;
+    pthread_mutex_unlock(&cl->mu);
+    free(old);
+}
+
+static int cmp_entry(const void *a, const void *b)
+{
+    return strcmp(((const sts_cl_entry *)a)->name, ((const sts_cl_entry *)b)->name);
+}
+
+void sts_cluster_note_set(sts_cluster *cl, const char *name, uint32_t crc32,
+                          const char (*holders)[STP_MAX_NODE_ID + 1], int nholders)
+{
+    pthread_mutex_lock(&cl->mu);
+    size_t i = 0;
+    while (i < cl->ncat && strcmp(cl->cat[i].name, name) < 0)
+        i++;
+    int found = i < cl->ncat && !strcmp(cl->cat[i].name, name);
+    if (!holders) {
+        if (found) {
+            memmove(cl->cat + i, cl->cat + i + 1, (cl->ncat - i - 1) * sizeof *cl->cat);
+            cl->ncat--;
+        }
+    } else {
+        if (!found) {
+            sts_cl_entry *g = realloc(cl->cat, (cl->ncat + 1) * sizeof *g);
+            if (!g) {
+                pthread_mutex_unlock(&cl->mu);
+                return;   /* the next repair pass reads it from etcd */
+            }
+            cl->cat = g;
+            memmove(cl->cat + i + 1, cl->cat + i, (cl->ncat - i) * sizeof *cl->cat);
+            cl->ncat++;
+        }
+        sts_cl_entry *e = &cl->cat[i];
+        memset(e, 0, sizeof *e);
+        snprintf(e->name, sizeof e->name, "%s", name);
+        e->crc32 = crc32;
+        e->state = SCL_SET_OK;
+        for (int h = 0; h < nholders && h < STS_CL_MAX_HOLDERS; h++)
+            snprintf(e->holders[e->nholders++], sizeof e->holders[0], "%s", holders[h]);
+    }
+    pthread_mutex_unlock(&cl->mu);
+}
+
+int sts_cluster_moved(sts_cluster *cl, const char *name, char *addr, size_t cap)
+{
+    int moved = 0;
+    pthread_mutex_lock(&cl->mu);
+    size_t order[16];
+    size_t no = sts_cluster_rank(cl->members, cl->nmembers, name, order, cl->nmembers < 16 ? cl->nmembers : 16);
+    sts_cl_entry key;
+    snprintf(key.name, sizeof key.name, "%s", name);
+    const sts_cl_entry *e = cl->cat ? bsearch(&key, cl->cat, cl->ncat, sizeof *cl->cat, cmp_entry) : NULL;
+    if (e && e->state == SCL_SET_OK) {
+        /* a live node with a current copy, in ranking order (owners first) */
+        for (size_t r = 0; r < no && !moved; r++) {
+            const sts_cl_member *m = &cl->members[order[r]];
+            if (!strcmp(m->id, cl->self))
+                continue;
+            for (int h = 0; h < e->nholders; h++)
+                if (!strcmp(e->holders[h], m->id)) {
+                    snprintf(addr, cap, "%s", m->addr);
+                    moved = 1;
+                    break;
+                }
+        }
+    }
+    if (!moved) {
+        /* not known here (or no live holder seen yet): an owner answers NOT_FOUND, any other
+         * node sends the client to the first owner, so redirects never loop */
+        size_t R = cl->replicas < no ? cl->replicas : no;
+        int self_owner = 0;
+        for (size_t r = 0; r < R; r++)
+            self_owner |= !strcmp(cl->members[order[r]].id, cl->self);
+        if (!self_owner && R > 0) {
+            snprintf(addr, cap, "%s", cl->members[order[0]].addr);
+            moved = 1;
+        }
+    }
+    pthread_mutex_unlock(&cl->mu);
+    if (moved)
+        STS_CL_ADD(cl, moved, 1);
+    return moved;
+}
+
+void sts_reply_not_here(sts_server *srv, stp_buf *out, const stp_header *h, const char *name,
+                        const char *msg)
+{
+    char addr[STP_MAX_NODE_ADDR + 1];
+    if (srv->cluster && sts_cluster_moved(srv->cluster, name, addr, sizeof addr))
+        sts_reply_error(out, h, STP_S_MOVED, addr);
+    else
+        sts_reply_st(out, h, ST_ENOTFOUND, msg);
+}
+
+void sts_cluster_kick(sts_cluster *cl)
+{
+    pthread_mutex_lock(&cl->wake_mu);
+    cl->kick = 1;
+    pthread_cond_broadcast(&cl->wake);
+    pthread_mutex_unlock(&cl->wake_mu);
+}
+
+/* ---- membership thread -------------------------------------------------------------------- */
+
+static int register_node(sts_cluster *cl)
+{
+    char key[SCL_KEY_MAX], val[512];
+    int64_t lease = 0;
+    int rc = scl_etcd_grant(cl->etcd_m, cl->srv->cfg.lease_ttl, &lease);
+    if (rc == SCL_OK) {
+        scl_key_node(key, cl->prefix, cl->self);
+        scl_node_format(val, sizeof val, cl->addr);
+        rc = scl_etcd_put(cl->etcd_m, key, val, lease);
+    }
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK) {
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: cannot register node '%s': %s", cl->self,
+                 scl_etcd_errmsg(cl->etcd_m));
+        return -1;
+    }
+    cl->lease = lease;
+    STS_CL_ADD(cl, lease_grants, 1);
+    sts_logf(&cl->srv->log, STS_INFO, "cluster: node '%s' registered at %s (lease %llds)",
+             cl->self, cl->addr, (long long)cl->srv->cfg.lease_ttl);
+    return 0;
+}
+
+static int cmp_member(const void *a, const void *b)
+{
+    return strcmp(((const sts_cl_member *)a)->id, ((const sts_cl_member *)b)->id);
+}
+
+/* reads nodes/ into the view; kicks repair when the membership changed */
+static void poll_members(sts_cluster *cl)
+{
+    char key[SCL_KEY_MAX];
+    scl_key_node(key, cl->prefix, "");
+    scl_kvs kvs;
+    int rc = scl_etcd_range(cl->etcd_m, key, 1, &kvs);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return;
+    size_t plen = strlen(key);
+    sts_cl_member *m = calloc(kvs.n ? kvs.n : 1, sizeof *m);
+    size_t n = 0;
+    for (size_t i = 0; m && i < kvs.n; i++) {
+        const char *id = kvs.v[i].key + plen;
+        if (kvs.v[i].key_len <= plen || stp_node_id_check(id, strlen(id)) != 0 ||
+            scl_node_parse(kvs.v[i].val, m[n].addr, sizeof m[n].addr) != 0)
+            continue;
+        snprintf(m[n].id, sizeof m[n].id, "%s", id);
+        n++;
+    }
+    scl_kvs_free(&kvs);
+    if (!m)
+        return;
+    qsort(m, n, sizeof *m, cmp_member);
+    pthread_mutex_lock(&cl->mu);
+    int changed = n != cl->nmembers || (n && memcmp(m, cl->members, n * sizeof *m) != 0);
+    if (changed) {
+        free(cl->members);
+        cl->members = m;
+        cl->nmembers = n;
+        cl->epoch++;
+        m = NULL;
+    }
+    pthread_mutex_unlock(&cl->mu);
+    free(m);
+    if (changed) {
+        __atomic_store_n(&cl->changed_ms, sts_now_ms(), __ATOMIC_RELAXED);
+        STS_CL_ADD(cl, membership_changes, 1);
+        char list[1024];
+        size_t at = 0;
+        list[0] = 0;
+        pthread_mutex_lock(&cl->mu);
+        for (size_t i = 0; i < cl->nmembers && at + 80 < sizeof list; i++)
+            at += (size_t)snprintf(list + at, sizeof list - at, "%s%s", i ? " " : "", cl->members[i].id);
+        pthread_mutex_unlock(&cl->mu);
+        sts_logf(&cl->srv->log, STS_INFO, "cluster: membership now %zu node(s): %s", n, list);
+        sts_cluster_kick(cl);
+    }
+}
+
+/* sleeps ms or until stop; returns 1 when stopping */
+static int nap(sts_cluster *cl, int ms, int want_kick)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    ts.tv_sec += ms / 1000;
+    ts.tv_nsec += (long)(ms % 1000) * 1000000L;
+    if (ts.tv_nsec >= 1000000000L) {
+        ts.tv_sec++;
+        ts.tv_nsec -= 1000000000L;
+    }
+    pthread_mutex_lock(&cl->wake_mu);
+    while (!cl->stop && !(want_kick && cl->kick))
+        if (pthread_cond_timedwait(&cl->wake, &cl->wake_mu, &ts) == ETIMEDOUT)
+            break;
+    int stop = cl->stop;
+    if (want_kick)
+        cl->kick = 0;
+    pthread_mutex_unlock(&cl->wake_mu);
+    return stop;
+}
+
+int sts_cluster_nap(sts_cluster *cl, int ms) { return nap(cl, ms, 1); }
+
+static void *member_main(void *arg)
+{
+    sts_cluster *cl = arg;
+    int ttl_ms = (int)cl->srv->cfg.lease_ttl * 1000;
+    int poll_ms = ttl_ms / 3 < 500 ? ttl_ms / 3 : 500;
+    int64_t next_keep = sts_now_ms() + ttl_ms / 3;
+    do {
+        if (!cl->lease) {
+            register_node(cl);
+            next_keep = sts_now_ms() + ttl_ms / 3;
+        } else if (sts_now_ms() >= next_keep) {
+            int64_t ttl = 0;
+            int rc = scl_etcd_keepalive(cl->etcd_m, cl->lease, &ttl);
+            sts_cluster_note_etcd(cl, rc);
+            if (rc == SCL_OK && ttl > 0) {
+                STS_CL_ADD(cl, lease_renewals, 1);
+                next_keep = sts_now_ms() + ttl_ms / 3;
+            } else if (rc == SCL_OK) {
+                sts_logf(&cl->srv->log, STS_WARN, "cluster: lease of node '%s' expired; "
+                         "registering again", cl->self);
+                cl->lease = 0;
+                continue;
+            }
+        }
+        poll_members(cl);
+    } while (!nap(cl, poll_ms, 0));
+    return NULL;
+}
+
+/* ---- life --------------------------------------------------------------------------------- */
+
+int sts_cluster_init(sts_server *srv)
+{
+    sts_cluster *cl = calloc(1, sizeof *cl);
+    if (!cl)
+        return -1;
+    cl->srv = srv;
+    cl->etcd_ok = 1;   /* until a call says otherwise */
+    char err[256];
+    if (scl_etcd_url_check(srv->cfg.cluster, cl->prefix, sizeof cl->prefix, err, sizeof err) != 0 ||
+        stp_node_id_check(srv->cfg.node_id, strlen(srv->cfg.node_id)) != 0) {
+        sts_logf(&srv->log, STS_ERROR, "cluster: %s", stp_node_id_check(srv->cfg.node_id,
+                 strlen(srv->cfg.node_id)) ? "node-id must be 1..64 bytes of [A-Za-z0-9._-]" : err);
+        free(cl);
+        return -1;
+    }
+    snprintf(cl->self, sizeof cl->self, "%s", srv->cfg.node_id);
+    cl->replicas = srv->cfg.replicas;
+    cl->quorum = srv->cfg.write_quorum ? srv->cfg.write_quorum : srv->cfg.replicas;
+    pthread_mutex_init(&cl->mu, NULL);
+    pthread_mutex_init(&cl->etcd_mu, NULL);
+    pthread_mutex_init(&cl->wake_mu, NULL);
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_cond_init(&cl->wake, &ca);
+    pthread_condattr_destroy(&ca);
+    scl_etcd_global_init();
+    cl->etcd_w = scl_etcd_open(srv->cfg.cluster, 2000, err, sizeof err);
+    cl->etcd_m = scl_etcd_open(srv->cfg.cluster, 2000, err, sizeof err);
+    cl->etcd_r = scl_etcd_open(srv->cfg.cluster, 2000, err, sizeof err);
+    srv->cluster = cl;
+    if (!cl->etcd_w || !cl->etcd_m || !cl->etcd_r) {
+        sts_logf(&srv->log, STS_ERROR, "cluster: %s", err);
+        return -1;
+    }
+    return 0;
+}
+
+int sts_cluster_start(sts_server *srv)
+{
+    sts_cluster *cl = srv->cluster;
+    char host[256];
+    unsigned port;
+    if (stp_split_addr(srv->cfg.advertise, host, sizeof host, &port) != 0) {
+        /* port 0: the port this server bound (tests listen on port 0) */
+        size_t n = strlen(srv->cfg.advertise);
+        if (n < 3 || strcmp(srv->cfg.advertise + n - 2, ":0") != 0) {
+            sts_logf(&srv->log, STS_ERROR, "cluster: --advertise '%s' is not HOST:PORT",
+                     srv->cfg.advertise);
+            return -1;
+        }
+        snprintf(cl->addr, sizeof cl->addr, "%.*s:%d", (int)(n - 2), srv->cfg.advertise, srv->port);
+    } else {
+        snprintf(cl->addr, sizeof cl->addr, "%s", srv->cfg.advertise);
+    }
+    if (register_node(cl) == 0)
+        poll_members(cl);
+    if (pthread_create(&cl->member_thread, NULL, member_main, cl) != 0)
+        return -1;
+    cl->threads = 1;
+    if (pthread_create(&cl->repair_thread, NULL, sts_cluster_repair_main, cl) != 0)
+        return -1;
+    cl->threads = 2;
+    sts_logf(&srv->log, STS_INFO, "cluster: prefix %s, node '%s' at %s, replicas %u, write "
+             "quorum %u, lease %us, repair every %us", cl->prefix, cl->self, cl->addr,
+             cl->replicas, cl->quorum, srv->cfg.lease_ttl, srv->cfg.repair_interval);
+    return 0;
+}
+
+void sts_cluster_stop(sts_server *srv)
+{
+    sts_cluster *cl = srv->cluster;
+    if (!cl)
+        return;
+    pthread_mutex_lock(&cl->wake_mu);
+    cl->stop = 1;
+    pthread_cond_broadcast(&cl->wake);
+    pthread_mutex_unlock(&cl->wake_mu);
+    if (cl->threads >= 1)
+        pthread_join(cl->member_thread, NULL);
+    if (cl->threads >= 2)
+        pthread_join(cl->repair_thread, NULL);
+    cl->threads = 0;
+    if (cl->lease) {   /* a graceful leave: the others need not wait for the lease */
+        char key[SCL_KEY_MAX];
+        scl_key_node(key, cl->prefix, cl->self);
+        scl_etcd_delete(cl->etcd_m, key, 0);
+        sts_logf(&srv->log, STS_INFO, "cluster: node '%s' left", cl->self);
+    }
+}
+
+void sts_cluster_free(sts_server *srv)
+{
+    sts_cluster *cl = srv->cluster;
+    if (!cl)
+        return;
+    scl_etcd_close(cl->etcd_w);
+    scl_etcd_close(cl->etcd_m);
+    scl_etcd_close(cl->etcd_r);
+    free(cl->members);
+    free(cl->cat);
+    free(cl->orphans);
+    pthread_mutex_destroy(&cl->mu);
+    pthread_mutex_destroy(&cl->etcd_mu);
+    pthread_mutex_destroy(&cl->wake_mu);
+    pthread_cond_destroy(&cl->wake);
+    free(cl);
+    srv->cluster = NULL;
+}
+
+/* ---- CLUSTER and STATS --------------------------------------------------------------------- */
+
+int sts_h_cluster(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    const char *why = NULL;
+    if (h->body_len && stp_dec_empty(body, h->body_len, &why))
+        return sts_reply_bad(out, h, STP_S_BAD_REQUEST, why);
+    sts_cluster *cl = c->srv->cluster;
+    if (!cl) {
+        sts_reply_error(out, h, STP_S_UNSUPPORTED, "this server is not in a cluster");
+        return 0;
+    }
+    sts_cl_member *m = NULL;
+    uint64_t epoch = 0;
+    size_t n = sts_cluster_members(cl, &m, &epoch);
+    stp_cluster_node *nodes = calloc(n ? n : 1, sizeof *nodes);
+    if (!nodes) {
+        free(m);
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory");
+        return 0;
+    }
+    for (size_t i = 0; i < n; i++) {
+        nodes[i].id = m[i].id;
+        nodes[i].id_len = (uint16_t)strlen(m[i].id);
+        nodes[i].addr = m[i].addr;
+        nodes[i].addr_len = (uint16_t)strlen(m[i].addr);
+    }
+    stp_cluster_reply r;
+    memset(&r, 0, sizeof r);
+    r.epoch = epoch;
+    r.replicas = (uint8_t)cl->replicas;
+    r.write_quorum = (uint8_t)cl->quorum;
+    r.flags = sts_cluster_etcd_ok(cl) ? STP_CLF_ETCD_OK : 0;
+    snprintf(r.self_id, sizeof r.self_id, "%s", cl->self);
+    r.count = (uint32_t)n;
+    r.nodes = nodes;
+    stp_enc_cluster_reply(out, h->reqid, &r);
+    free(nodes);
+    free(m);
+    return 0;
+}
+
+size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
+{
+    size_t n = 0;
+#define K(k, val) do { if (n < cap) { snprintf(s[n].key, sizeof s[n].key, "cluster_%s", k); \
+    s[n].type = STP_STAT_U64; s[n].v.u = (val); n++; } } while (0)
+#define C(f) __atomic_load_n(&cl->n.f, __ATOMIC_RELAXED)
+    pthread_mutex_lock(&cl->mu);
+    uint64_t members = cl->nmembers, epoch = cl->epoch, cat = cl->ncat;
+    pthread_mutex_unlock(&cl->mu);
+    K("members", members);
+    K("epoch", epoch);
+    K("catalogue_sets", cat);
+    K("etcd_ok", (uint64_t)sts_cluster_etcd_ok(cl));
+    K("etcd_errors", C(etcd_errors));
+    K("lease_grants", C(lease_grants));
+    K("lease_renewals", C(lease_renewals));
+    K("membership_changes", C(membership_changes));
+    K("repair_passes", C(repair_passes));
+    K("copies_pushed", C(copies_pushed));
+    K("copies_received", C(copies_received));
+    K("copies_dropped", C(copies_dropped));
+    K("push_failures", C(push_failures));
+    K("push_bytes", C(push_bytes));
+    K("moved", C(moved));
+    K("refused_unavailable", C(refused_unavailable));
+    K("under_replicated", C(under_replicated));
+    K("claims", C(claims));
+    K("claims_lost", C(claims_lost));
+#undef K
+#undef C
+    return n;
+}

@@ -1,0 +1,162 @@
+/* server/cluster_node.h - seamtexd as a member of a cluster (docs/cluster.md).
+ *
+ *   cluster_node.c    the sts_cluster: start / stop, the membership thread (lease, keepalive,
+ *                     polling nodes/), the view handlers read (membership, catalogue
+ *                     snapshot), CLUSTER, MOVED, STATS keys
+ *   cluster_repair.c  the repair thread: a pass over the catalogue (push, drop, forget)
+ *   cluster_write.c   the write path run by a COMMIT, DELETE or COMPRESS job on its own thread:
+ *                     claim, local commit (the caller's), pushes, finalize / take back
+ *
+ * Shared state and its locks (no lock is held across I/O):
+ *   cl->mu       guards the view: members[] (sorted by id), epoch, cat[] (catalogue snapshot
+ *                of the last repair pass, sorted by name). Writers: the membership thread
+ *                (members, epoch), the repair thread and the write path (cat). Readers:
+ *                handlers (CLUSTER, MOVED), the write path (owners), the repair thread.
+ *   cl->etcd_mu  guards cl->etcd_w, the etcd handle of the write path (workers, job thread);
+ *                the membership and repair threads have their own handles.
+ *   etcd_ok, the counters: atomics.
+ * Without --cluster srv->cluster is NULL and none of this runs.
+ */
+#ifndef STS_CLUSTER_NODE_H
+#define STS_CLUSTER_NODE_H
+
+#include <pthread.h>
+#include <stdint.h>
+
+#include "catalog.h"
+#include "dispatch.h"
+#include "etcd.h"
+#include "proto.h"
+#include "stp_cluster.h"
+
+typedef struct sts_server sts_server;
+
+#define STS_CL_MAX_HOLDERS 16
+
+typedef struct sts_cl_member {
+    char id[STP_MAX_NODE_ID + 1];
+    char addr[STP_MAX_NODE_ADDR + 1];
+} sts_cl_member;
+
+typedef struct sts_cl_entry {            /* one set of the catalogue snapshot */
+    char     name[STP_MAX_NAME + 1];
+    uint32_t crc32;
+    int      state;                      /* SCL_SET_* */
+    int      nholders;                   /* nodes with a current copy (copies/ keys) */
+    char     holders[STS_CL_MAX_HOLDERS][STP_MAX_NODE_ID + 1];
+} sts_cl_entry;
+
+typedef struct sts_cl_counters {
+    uint64_t etcd_errors, lease_grants, lease_renewals, membership_changes, repair_passes;
+    uint64_t copies_pushed, copies_received, copies_dropped, push_failures, push_bytes;
+    uint64_t moved, refused_unavailable, under_replicated, claims, claims_lost;
+} sts_cl_counters;
+
+typedef struct sts_cluster {
+    sts_server     *srv;
+    char            prefix[256];
+    char            self[STP_MAX_NODE_ID + 1];
+    char            addr[STP_MAX_NODE_ADDR + 1];   /* advertised, port filled in at start */
+    unsigned        replicas, quorum;
+
+    pthread_mutex_t mu;                /* the view, see above */
+    sts_cl_member  *members;  size_t nmembers;
+    uint64_t        epoch;
+    sts_cl_entry   *cat;      size_t ncat;
+
+    pthread_mutex_t etcd_mu;
+    scl_etcd       *etcd_w;            /* write path */
+    scl_etcd       *etcd_m;            /* membership thread */
+    scl_etcd       *etcd_r;            /* repair thread */
+    int64_t         lease;             /* membership thread only */
+
+    int             etcd_ok;           /* atomic: the last etcd call of any thread succeeded */
+    int             stop;              /* under wake_mu */
+    int             kick;              /* under wake_mu: run a repair pass now */
+    pthread_mutex_t wake_mu;
+    pthread_cond_t  wake;
+    pthread_t       member_thread, repair_thread;
+    int             threads;           /* how many were started */
+    int64_t         changed_ms;        /* atomic: when the membership last changed (monotonic) */
+    /* repair thread only: pending claims seen without their origin node, and since when */
+    struct sts_cl_orphan { char name[STP_MAX_NAME + 1]; int64_t mod_rev, since_ms; } *orphans;
+    size_t          norphans;
+    sts_cl_counters n;                 /* atomics */
+} sts_cluster;
+
+#define STS_CL_ADD(cl, f, v) __atomic_add_fetch(&(cl)->n.f, (v), __ATOMIC_RELAXED)
+
+/* ---- cluster_node.c ---- */
+/* Opens the etcd handles (srv->cluster set); 0 or -1 (logged). Called by sts_server_init. */
+int  sts_cluster_init(sts_server *srv);
+/* Registers the node (one try; the membership thread retries) and starts both threads. */
+int  sts_cluster_start(sts_server *srv);
+/* Stops the threads and removes the node's key (a graceful leave). */
+void sts_cluster_stop(sts_server *srv);
+void sts_cluster_free(sts_server *srv);
+int  sts_cluster_etcd_ok(sts_cluster *cl);
+/* Marks etcd reachable or not after a call (rc from etcd.h). */
+void sts_cluster_note_etcd(sts_cluster *cl, int rc);
+/* Copies of the membership: ids[] point into *members (the caller frees *members). */
+size_t sts_cluster_members(sts_cluster *cl, sts_cl_member **members, uint64_t *epoch);
+/* For a set this node does not hold: 1 and the address of a node to ask (MOVED), 0 when the
+ * request is NOT_FOUND here. */
+int  sts_cluster_moved(sts_cluster *cl, const char *name, char *addr, size_t cap);
+/* Adds or replaces (holders != NULL) or removes (holders NULL) one entry of the snapshot. */
+void sts_cluster_note_set(sts_cluster *cl, const char *name, uint32_t crc32,
+                          const char (*holders)[STP_MAX_NODE_ID + 1], int nholders);
+/* Replaces the catalogue snapshot (takes ownership of cat). */
+void sts_cluster_set_catalogue(sts_cluster *cl, sts_cl_entry *cat, size_t n);
+/* CLUSTER: the membership as this node sees it (PROTOCOL.md 4.11); UNSUPPORTED without
+ * --cluster. */
+STS_HANDLER(sts_h_cluster);
+/* The reply for a set this node does not hold: MOVED with a node's address when the cluster
+ * knows where it is (docs/cluster.md), else NOT_FOUND with msg. Works without a cluster. */
+void sts_reply_not_here(sts_server *srv, stp_buf *out, const stp_header *h, const char *name,
+                        const char *msg);
+/* Sleeps up to ms, or until a kick or stop; 1 when stopping (the repair thread). */
+int  sts_cluster_nap(sts_cluster *cl, int ms);
+/* Wakes the repair thread for a pass now. */
+void sts_cluster_kick(sts_cluster *cl);
+/* STATS keys; returns how many were written (at most cap). */
+size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap);
+/* Ranks the members for name: owners first. order[] gets up to k member indices. */
+size_t sts_cluster_rank(const sts_cl_member *m, size_t n, const char *name, size_t *order, size_t k);
+
+/* ---- cluster_repair.c ---- */
+void *sts_cluster_repair_main(void *arg);
+
+/* ---- cluster_write.c ---- */
+typedef struct sts_cl_claim {
+    char       name[STP_MAX_NAME + 1];
+    scl_setrec rec;                   /* what was claimed */
+    int64_t    mod_rev;               /* the claim's revision */
+    int        had_prev;              /* a REPLACE: prev is what to put back */
+    scl_setrec prev;
+    int        repeat;                /* the same content was recorded already ("ok") */
+} sts_cl_claim;
+/* Step 2 of the write path. Returns a wire status (0, EXISTS, UNAVAILABLE, ...), msg set. */
+int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32_t crc32,
+                      uint64_t size, const char *fmt, const char *options, int replace,
+                      sts_cl_claim *c, char *msg, size_t cap);
+/* Takes a claim back (the local commit failed or the quorum was not reached). */
+void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c);
+/* Steps 4-5: pushes the committed local copy to the other owners, then finalizes. kind: the
+ * set's kind. Returns 0 or a wire status (UNAVAILABLE short of the quorum), msg set. */
+int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg, size_t cap);
+/* DELETE in a cluster: records the delete, removes the local copy (through the caller's
+ * function), forwards to the other holders. Returns a wire status. */
+int sts_cluster_delete(sts_cluster *cl, const char *name,
+                       int (*local_delete)(sts_server *srv, const char *name), char *msg,
+                       size_t cap);
+/* A set this node has just published (a COMPRESS result): claimed, pushed to the owners and
+ * finalized as an upload is; when the claim loses, the local copy is removed through
+ * local_delete. Returns a wire status. */
+int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int kind,
+                             int (*local_delete)(sts_server *srv, const char *name), char *msg,
+                             size_t cap);
+/* Pushes the local copy of name to the node at addr (the repair thread and the write path):
+ * 0, or non-zero with msg set. */
+int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap);
+
+#endif

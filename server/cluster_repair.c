@@ -1,0 +1,293 @@
+/* server/cluster_repair.c - the repair thread (docs/cluster.md "Repair and rebalance").
+ *
+ * Owns: one pass over the catalogue, run on every membership change and every
+ * --repair-interval seconds: the copies/ keys of this node's copies kept true, stale and
+ * forgotten copies dropped, copies pushed to owners that lack one (by the first live holder in
+ * the ranking only, so one node pushes each set), extra copies dropped once every owner has
+ * confirmed its own, abandoned claims removed; then the catalogue snapshot the handlers use
+ * (MOVED) is replaced. Does not own: the membership (cluster_node.c), the write path.
+ * Nothing happens while etcd is unreachable.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "cluster_node.h"
+#include "h_upload.h"
+#include "server.h"
+
+static int64_t wall_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+typedef struct rec_row {
+    scl_setrec rec;
+    int64_t    mod_rev;
+    int        valid;
+} rec_row;
+
+static sts_cl_entry *find_entry(sts_cl_entry *cat, size_t n, const char *name)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        int c = strcmp(cat[mid].name, name);
+        if (!c)
+            return &cat[mid];
+        if (c < 0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return NULL;
+}
+
+static int holds(const sts_cl_entry *e, const char *id)
+{
+    for (int h = 0; h < e->nholders; h++)
+        if (!strcmp(e->holders[h], id))
+            return 1;
+    return 0;
+}
+
+static void add_holder(sts_cl_entry *e, const char *id)
+{
+    if (!holds(e, id) && e->nholders < STS_CL_MAX_HOLDERS)
+        snprintf(e->holders[e->nholders++], sizeof e->holders[0], "%s", id);
+}
+
+static void remove_holder(sts_cl_entry *e, const char *id)
+{
+    for (int h = 0; h < e->nholders; h++)
+        if (!strcmp(e->holders[h], id)) {
+            memmove(e->holders[h], e->holders[h + 1], (size_t)(e->nholders - h - 1) * sizeof e->holders[0]);
+            e->nholders--;
+            return;
+        }
+}
+
+static int is_member(const sts_cl_member *m, size_t n, const char *id)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!strcmp(m[i].id, id))
+            return 1;
+    return 0;
+}
+
+static void copy_key(sts_cluster *cl, const char *name, uint32_t crc, int put)
+{
+    char key[SCL_KEY_MAX], val[9];
+    scl_key_copies(key, cl->prefix, name, cl->self);
+    scl_copy_format(val, crc);
+    int rc = put ? scl_etcd_put(cl->etcd_r, key, val, 0) : scl_etcd_delete(cl->etcd_r, key, 0);
+    sts_cluster_note_etcd(cl, rc);
+}
+
+static void drop_local(sts_cluster *cl, const char *name, const char *why)
+{
+    int rc = sts_delete_local(cl->srv, name);
+    if (rc == 0 || rc == ST_ENOTFOUND) {
+        STS_CL_ADD(cl, copies_dropped, 1);
+        sts_logf(&cl->srv->log, STS_INFO, "cluster: copy of '%s' dropped (%s)", name, why);
+    } else {
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: copy of '%s' could not be dropped", name);
+    }
+}
+
+/* 1 when the pending claim (name, mod_rev) has been seen without its origin node for longer
+ * than twice the lease TTL (a node re-registering after an etcd outage is not gone) */
+static int orphan_long_enough(sts_cluster *cl, const char *name, int64_t mod_rev,
+                              struct sts_cl_orphan *next, size_t *nnext)
+{
+    int64_t now = sts_now_ms(), since = now;
+    for (size_t i = 0; i < cl->norphans; i++)
+        if (!strcmp(cl->orphans[i].name, name) && cl->orphans[i].mod_rev == mod_rev)
+            since = cl->orphans[i].since_ms;
+    if (next) {
+        snprintf(next[*nnext].name, sizeof next[0].name, "%s", name);
+        next[*nnext].mod_rev = mod_rev;
+        next[*nnext].since_ms = since;
+        (*nnext)++;
+    }
+    return now - since > 2000 * (int64_t)cl->srv->cfg.lease_ttl;
+}
+
+static void pass(sts_cluster *cl)
+{
+    sts_server *srv = cl->srv;
+    int64_t t0 = wall_ms();
+    char skey[SCL_KEY_MAX], ckey[SCL_KEY_MAX];
+    scl_key_set(skey, cl->prefix, "");
+    scl_key_all_copies(ckey, cl->prefix);
+    scl_kvs sets, copies;
+    int rc = scl_etcd_range(cl->etcd_r, skey, 1, &sets);
+    if (rc == SCL_OK) {
+        rc = scl_etcd_range(cl->etcd_r, ckey, 1, &copies);
+        if (rc != SCL_OK)
+            scl_kvs_free(&sets);
+    }
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return;
+    STS_CL_ADD(cl, repair_passes, 1);
+    sts_cl_member *m = NULL;
+    size_t nm = sts_cluster_members(cl, &m, NULL);
+    size_t splen = strlen(skey), cplen = strlen(ckey);
+
+    /* the catalogue: sets/ comes sorted by key, i.e. by name */
+    sts_cl_entry *cat = calloc(sets.n ? sets.n : 1, sizeof *cat);
+    rec_row *rows = calloc(sets.n ? sets.n : 1, sizeof *rows);
+    size_t nc = 0;
+    for (size_t i = 0; cat && rows && i < sets.n; i++) {
+        const char *name = sets.v[i].key + splen;
+        if (sets.v[i].key_len <= splen || strlen(name) > STP_MAX_NAME ||
+            scl_setrec_parse(sets.v[i].val, &rows[nc].rec) != 0)
+            continue;
+        snprintf(cat[nc].name, sizeof cat[nc].name, "%s", name);
+        cat[nc].crc32 = rows[nc].rec.crc32;
+        cat[nc].state = rows[nc].rec.state;
+        rows[nc].mod_rev = sets.v[i].mod_rev;
+        rows[nc].valid = 1;
+        nc++;
+    }
+    /* copies/<name>/<id>: live holders with the current CRC; own keys remembered */
+    for (size_t i = 0; cat && i < copies.n; i++) {
+        char *k = copies.v[i].key + cplen, *slash = strrchr(k, '/');
+        uint32_t crc;
+        if (copies.v[i].key_len <= cplen || !slash || scl_copy_parse(copies.v[i].val, &crc) != 0)
+            continue;
+        *slash = 0;
+        sts_cl_entry *e = find_entry(cat, nc, k);
+        if (e && e->crc32 == crc && is_member(m, nm, slash + 1))
+            add_holder(e, slash + 1);
+    }
+    scl_kvs_free(&sets);
+    scl_kvs_free(&copies);
+    if (!cat || !rows) {
+        free(cat);
+        free(rows);
+        free(m);
+        return;
+    }
+
+    /* this node's copies */
+    size_t cap = st_registry_count(srv->reg) + 16;
+    st_setref **refs = calloc(cap, sizeof *refs);
+    size_t nr = refs ? st_registry_snapshot(srv->reg, refs, cap) : 0;
+    char *mine = calloc(nc ? nc : 1, 1);   /* 1: a current local copy */
+    for (size_t i = 0; mine && i < nr; i++) {
+        st_setref *r = refs[i];
+        if (!r->source_bytes)
+            continue;   /* not from the data dir (the built-in set): not the cluster's */
+        sts_cl_entry *e = find_entry(cat, nc, r->name);
+        int settled = r->created_ms < t0 - 2000;   /* published before the catalogue was read */
+        if (!e) {
+            if (settled)
+                drop_local(cl, r->name, "the cluster does not record it: deleted");
+        } else if (e->state != SCL_SET_OK) {
+            continue;
+        } else if (r->source_crc != e->crc32) {
+            if (settled) {
+                drop_local(cl, r->name, "stale: the cluster records other contents");
+                copy_key(cl, r->name, 0, 0);
+                remove_holder(e, cl->self);
+            }
+        } else {
+            mine[e - cat] = 1;
+            if (!holds(e, cl->self)) {
+                copy_key(cl, r->name, e->crc32, 1);
+                add_holder(e, cl->self);
+            }
+        }
+    }
+    for (size_t i = 0; i < nr; i++)
+        st_setref_release(refs[i]);
+    free(refs);
+
+    /* placement; copies are dropped only once the membership has been stable for a lease TTL
+     * (after an etcd outage every node re-registers, and a partial view must not move sets) */
+    int64_t stable_ms = sts_now_ms() - __atomic_load_n(&cl->changed_ms, __ATOMIC_RELAXED);
+    int may_drop = stable_ms >= 1000 * (int64_t)srv->cfg.lease_ttl;
+    struct sts_cl_orphan *next = calloc(nc ? nc : 1, sizeof *next);
+    size_t nnext = 0;
+    size_t *order = calloc(nm ? nm : 1, sizeof *order);
+    uint64_t under = 0;
+    for (size_t i = 0; order && mine && i < nc; i++) {
+        sts_cl_entry *e = &cat[i];
+        if (e->state != SCL_SET_OK) {
+            if (!is_member(m, nm, rows[i].rec.origin) &&
+                orphan_long_enough(cl, e->name, rows[i].mod_rev, next, &nnext)) {
+                /* a claim whose node is gone: abandoned */
+                char key[SCL_KEY_MAX];
+                scl_key_set(key, cl->prefix, e->name);
+                scl_cmp cmp = {key, SCL_CMP_MOD, rows[i].mod_rev};
+                scl_op op = {SCL_OP_DEL, key, NULL, 0};
+                int ok = 0;
+                sts_cluster_note_etcd(cl, scl_etcd_txn(cl->etcd_r, &cmp, 1, &op, 1, &ok, NULL));
+                if (ok)
+                    sts_logf(&srv->log, STS_INFO, "cluster: abandoned claim of '%s' by '%s' removed",
+                             e->name, rows[i].rec.origin);
+            }
+            continue;
+        }
+        size_t nrank = sts_cluster_rank(m, nm, e->name, order, nm);
+        size_t R = cl->replicas < nrank ? cl->replicas : nrank;
+        if (mine[i]) {
+            const char *pusher = NULL;
+            for (size_t r = 0; r < nrank && !pusher; r++)
+                if (holds(e, m[order[r]].id))
+                    pusher = m[order[r]].id;
+            if (pusher && !strcmp(pusher, cl->self)) {
+                for (size_t r = 0; r < R; r++) {
+                    const sts_cl_member *o = &m[order[r]];
+                    if (holds(e, o->id))
+                        continue;
+                    char msg[512];
+                    if (sts_cluster_push(cl, e->name, o->addr, msg, sizeof msg) == 0) {
+                        char key[SCL_KEY_MAX], val[9];
+                        scl_key_copies(key, cl->prefix, e->name, o->id);
+                        scl_copy_format(val, e->crc32);
+                        sts_cluster_note_etcd(cl, scl_etcd_put(cl->etcd_r, key, val, 0));
+                        add_holder(e, o->id);
+                    }
+                }
+            }
+            int owner = 0, confirmed = 1;
+            for (size_t r = 0; r < R; r++) {
+                owner |= !strcmp(m[order[r]].id, cl->self);
+                confirmed &= holds(e, m[order[r]].id);
+            }
+            if (!owner && confirmed && R > 0 && may_drop) {
+                /* every owner is live and has confirmed a current copy: this one is extra */
+                copy_key(cl, e->name, 0, 0);
+                drop_local(cl, e->name, "extra: every owner holds a current copy");
+                remove_holder(e, cl->self);
+            }
+        }
+        if ((size_t)e->nholders < R)
+            under++;
+    }
+    __atomic_store_n(&cl->n.under_replicated, under, __ATOMIC_RELAXED);
+    free(cl->orphans);
+    cl->orphans = next;
+    cl->norphans = next ? nnext : 0;
+    free(order);
+    free(mine);
+    free(rows);
+    free(m);
+    sts_cluster_set_catalogue(cl, cat, nc);
+}
+
+void *sts_cluster_repair_main(void *arg)
+{
+    sts_cluster *cl = arg;
+    int ms = (int)cl->srv->cfg.repair_interval * 1000;
+    while (!sts_cluster_nap(cl, ms))
+        if (sts_cluster_etcd_ok(cl))
+            pass(cl);
+    return NULL;
+}

@@ -1,0 +1,360 @@
+/* server/cluster_write.c - the cluster's write path (docs/cluster.md "Writes"): the claim in
+ * etcd, pushes of the committed copy to the other owners, the finalizing transaction, taking
+ * a claim back, DELETE. Runs on the thread of the request (a worker for COMMIT and DELETE),
+ * never on an I/O thread; etcd calls go through cl->etcd_w under cl->etcd_mu.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cluster_node.h"
+#include "peer.h"
+#include "server.h"
+
+#define PUSH_TIMEOUT_MS 30000
+
+/* The manifest of this node's copy of name and the path of its stored source; 0 or -1. */
+static int local_source(sts_server *srv, const char *name, st_manifest *m, char *spath,
+                        size_t cap, st_error *e)
+{
+    char mpath[4096];
+    snprintf(mpath, sizeof mpath, "%s/sets/%s/manifest", st_datadir_path(srv->dd), name);
+    st_error_clear(e);
+    if (st_manifest_read(mpath, m, e) != 0)
+        return -1;
+    snprintf(spath, cap, "%s/sets/%s/%s", st_datadir_path(srv->dd), name, m->source);
+    return 0;
+}
+
+/* The token this node sends to the others (they share it). */
+static void node_token(sts_server *srv, char out[STS_TOKEN_MAX + 1])
+{
+    pthread_mutex_lock(&srv->cfg_mu);
+    snprintf(out, STS_TOKEN_MAX + 1, "%s", srv->cfg.token);
+    pthread_mutex_unlock(&srv->cfg_mu);
+}
+
+int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap)
+{
+    sts_server *srv = cl->srv;
+    char spath[4096];
+    st_manifest m;
+    st_error e;
+    if (local_source(srv, name, &m, spath, sizeof spath, &e) != 0) {
+        snprintf(msg, cap, "no local copy of '%s' to push: %s", name, e.msg);
+        return -1;
+    }
+    char token[STS_TOKEN_MAX + 1];
+    node_token(srv, token);
+    uint32_t crc = 0;
+    int rc = scl_peer_push(addr, token, spath, name, m.format, m.options, PUSH_TIMEOUT_MS, &crc,
+                           msg, cap);
+    if (rc == 0) {
+        STS_CL_ADD(cl, copies_pushed, 1);
+        STS_CL_ADD(cl, push_bytes, m.bytes);
+        sts_logf(&srv->log, STS_INFO, "cluster: copy of '%s' (%llu bytes) pushed to %s", name,
+                 (unsigned long long)m.bytes, addr);
+    } else {
+        STS_CL_ADD(cl, push_failures, 1);
+        sts_logf(&srv->log, STS_WARN, "cluster: %s", msg);
+    }
+    return rc;
+}
+
+/* reads sets/<name>; 1 found (rec, mod), 0 absent, < 0 an etcd error (noted) */
+static int read_rec(sts_cluster *cl, const char *key, scl_setrec *rec, int64_t *mod)
+{
+    scl_kvs kvs;
+    int rc = scl_etcd_range(cl->etcd_w, key, 0, &kvs);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return rc;
+    int found = 0;
+    if (kvs.n == 1 && scl_setrec_parse(kvs.v[0].val, rec) == 0) {
+        *mod = kvs.v[0].mod_rev;
+        found = 1;
+    } else if (kvs.n == 1) {
+        *mod = kvs.v[0].mod_rev;
+        found = 2;   /* a record that is not ours: treated as taken */
+    }
+    scl_kvs_free(&kvs);
+    return found;
+}
+
+static int unavailable(sts_cluster *cl, char *msg, size_t cap, const char *what)
+{
+    STS_CL_ADD(cl, refused_unavailable, 1);
+    snprintf(msg, cap, "cluster coordinator (etcd) unreachable: %s refused, retry later", what);
+    return STP_S_UNAVAILABLE;
+}
+
+int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32_t crc32,
+                      uint64_t size, const char *fmt, const char *options, int replace,
+                      sts_cl_claim *c, char *msg, size_t cap)
+{
+    memset(c, 0, sizeof *c);
+    snprintf(c->name, sizeof c->name, "%s", name);
+    scl_setrec *r = &c->rec;
+    r->crc32c = crc32c;
+    r->crc32 = crc32;
+    r->size = size;
+    snprintf(r->fmt, sizeof r->fmt, "%s", fmt);
+    snprintf(r->options, sizeof r->options, "%s", options);
+    r->version = 1;
+    r->state = SCL_SET_PENDING;
+    snprintf(r->origin, sizeof r->origin, "%s", cl->self);
+    r->kind = -1;
+    char key[SCL_KEY_MAX], val[2048];
+    scl_key_set(key, cl->prefix, name);
+    int status = 0;
+    pthread_mutex_lock(&cl->etcd_mu);
+    for (int attempt = 0; attempt < 2; attempt++) {
+        scl_setrec cur;
+        int64_t mod = 0;
+        int found = read_rec(cl, key, &cur, &mod);
+        if (found < 0) {
+            status = unavailable(cl, msg, cap, "upload");
+            break;
+        }
+        scl_cmp cmp = {key, SCL_CMP_CREATE, 0};
+        if (found) {
+            int same = found == 1 && cur.crc32c == crc32c && cur.size == size;
+            if (same && cur.state == SCL_SET_OK) {
+                /* the same contents are recorded: a repeat (a retried upload); make sure the
+                 * owners hold it and answer OK */
+                c->rec = cur;
+                c->mod_rev = mod;
+                c->repeat = 1;
+                status = 0;
+                break;
+            }
+            if (same || !replace) {
+                STS_CL_ADD(cl, claims_lost, 1);
+                snprintf(msg, cap, same ? "set '%s' is being uploaded through another node (retry)"
+                                        : "set '%s' exists in the cluster with other contents "
+                                          "(use REPLACE)", name);
+                status = same ? STP_S_BUSY : STP_S_EXISTS;
+                break;
+            }
+            c->had_prev = found == 1;
+            if (found == 1)
+                c->prev = cur;
+            r->version = found == 1 ? cur.version + 1 : 1;
+            cmp.target = SCL_CMP_MOD;
+            cmp.rev = mod;
+        }
+        scl_setrec_format(val, sizeof val, r);
+        scl_op op = {SCL_OP_PUT, key, val, 0};
+        int ok = 0;
+        int64_t rev = 0;
+        int rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, &op, 1, &ok, &rev);
+        sts_cluster_note_etcd(cl, rc);
+        if (rc != SCL_OK) {
+            status = rc == SCL_EUNREACHABLE ? unavailable(cl, msg, cap, "upload") : STP_S_INTERNAL;
+            if (rc != SCL_EUNREACHABLE)
+                snprintf(msg, cap, "cluster: %s", scl_etcd_errmsg(cl->etcd_w));
+            break;
+        }
+        if (ok) {
+            c->mod_rev = rev;
+            STS_CL_ADD(cl, claims, 1);
+            status = 0;
+            break;
+        }
+        /* another claim came between the read and the transaction: read again */
+        status = STP_S_EXISTS;
+        snprintf(msg, cap, "set '%s' was claimed by another upload meanwhile", name);
+    }
+    pthread_mutex_unlock(&cl->etcd_mu);
+    return status;
+}
+
+void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c)
+{
+    if (c->repeat)
+        return;
+    char key[SCL_KEY_MAX], val[2048];
+    scl_key_set(key, cl->prefix, c->name);
+    scl_cmp cmp = {key, SCL_CMP_MOD, c->mod_rev};
+    scl_op op = {SCL_OP_DEL, key, NULL, 0};
+    if (c->had_prev) {
+        scl_setrec_format(val, sizeof val, &c->prev);
+        op.type = SCL_OP_PUT;
+        op.val = val;
+    }
+    int ok = 0;
+    pthread_mutex_lock(&cl->etcd_mu);
+    int rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, &op, 1, &ok, NULL);
+    pthread_mutex_unlock(&cl->etcd_mu);
+    sts_cluster_note_etcd(cl, rc);
+    sts_logf(&cl->srv->log, STS_INFO, "cluster: claim of '%s' taken back%s", c->name,
+             rc == SCL_OK && ok ? "" : " (not possible now: repair abandons it)");
+}
+
+int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg, size_t cap)
+{
+    sts_cl_member *m = NULL;
+    size_t n = sts_cluster_members(cl, &m, NULL);
+    size_t order[16];
+    size_t R = sts_cluster_rank(m, n, c->name, order, cl->replicas < 16 ? cl->replicas : 16);
+    char acked[16][STP_MAX_NODE_ID + 1];
+    int nack = 0, self_owner = 0;
+    char why[512] = "";
+    for (size_t i = 0; i < R; i++) {
+        const sts_cl_member *o = &m[order[i]];
+        if (!strcmp(o->id, cl->self)) {
+            self_owner = 1;
+            snprintf(acked[nack++], sizeof acked[0], "%s", o->id);
+            continue;
+        }
+        char pm[512];
+        if (sts_cluster_push(cl, c->name, o->addr, pm, sizeof pm) == 0)
+            snprintf(acked[nack++], sizeof acked[0], "%s", o->id);
+        else
+            snprintf(why, sizeof why, "%s", pm);
+    }
+    free(m);
+    size_t need = cl->quorum < R ? cl->quorum : R;
+    if ((size_t)nack < need || R == 0) {
+        sts_cluster_unclaim(cl, c);
+        snprintf(msg, cap, "write quorum not reached: %d of %zu owners hold '%s'%s%s", nack, need,
+                 c->name, why[0] ? ": " : "", why);
+        return STP_S_UNAVAILABLE;
+    }
+    /* finalize: the record "ok" with its kind, and a copies/ key per holder (this node's own
+     * copy too when it is not an owner: repair drops it once the owners confirmed theirs) */
+    if (!self_owner)
+        snprintf(acked[nack++], sizeof acked[0], "%s", cl->self);
+    char key[SCL_KEY_MAX], val[2048], ckeys[17][SCL_KEY_MAX], cval[9];
+    scl_key_set(key, cl->prefix, c->name);
+    c->rec.state = SCL_SET_OK;
+    c->rec.kind = kind;
+    scl_setrec_format(val, sizeof val, &c->rec);
+    scl_copy_format(cval, c->rec.crc32);
+    scl_op ops[18];
+    size_t nops = 0;
+    ops[nops++] = (scl_op){SCL_OP_PUT, key, val, 0};
+    for (int i = 0; i < nack; i++) {
+        scl_key_copies(ckeys[i], cl->prefix, c->name, acked[i]);
+        ops[nops++] = (scl_op){SCL_OP_PUT, ckeys[i], cval, 0};
+    }
+    scl_cmp cmp = {key, SCL_CMP_MOD, c->mod_rev};
+    int ok = 0;
+    pthread_mutex_lock(&cl->etcd_mu);
+    int rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, ops, nops, &ok, NULL);
+    pthread_mutex_unlock(&cl->etcd_mu);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return unavailable(cl, msg, cap, "upload (its copies are made; retry to confirm)");
+    if (!ok) {
+        snprintf(msg, cap, "set '%s' was replaced or deleted while this upload was copied", c->name);
+        return STP_S_EXISTS;
+    }
+    sts_cluster_note_set(cl, c->name, c->rec.crc32, (const char (*)[STP_MAX_NODE_ID + 1])acked, nack);
+    return 0;
+}
+
+int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int kind,
+                             int (*local_delete)(sts_server *srv, const char *name), char *msg,
+                             size_t cap)
+{
+    sts_server *srv = cl->srv;
+    char spath[4096];
+    st_manifest m;
+    st_error e;
+    if (local_source(srv, name, &m, spath, sizeof spath, &e) != 0) {
+        snprintf(msg, cap, "set '%s' is not in the data dir: the cluster cannot copy it", name);
+        return STP_S_UNSUPPORTED;
+    }
+    uint32_t c32c = 0;
+    FILE *f = fopen(spath, "rbe");
+    if (!f) {
+        snprintf(msg, cap, "cannot read the stored '%s'", name);
+        return STP_S_IO;
+    }
+    uint8_t buf[65536];
+    size_t k;
+    while ((k = fread(buf, 1, sizeof buf, f)) > 0)
+        c32c = stp_crc32c(c32c, buf, k);
+    fclose(f);
+    sts_cl_claim c;
+    int st = sts_cluster_claim(cl, name, c32c, m.crc, m.bytes, m.format, m.options, replace, &c,
+                               msg, cap);
+    if (st) {
+        if (st != STP_S_UNAVAILABLE)
+            local_delete(srv, name);   /* the cluster has other contents under this name */
+        return st;
+    }
+    return sts_cluster_replicate(cl, &c, kind, msg, cap);
+}
+
+int sts_cluster_delete(sts_cluster *cl, const char *name,
+                       int (*local_delete)(sts_server *srv, const char *name), char *msg,
+                       size_t cap)
+{
+    char key[SCL_KEY_MAX], ckey[SCL_KEY_MAX];
+    scl_key_set(key, cl->prefix, name);
+    scl_key_copies(ckey, cl->prefix, name, "");
+    scl_setrec rec;
+    int64_t mod = 0;
+    scl_kvs copies;
+    memset(&copies, 0, sizeof copies);
+    pthread_mutex_lock(&cl->etcd_mu);
+    int found = read_rec(cl, key, &rec, &mod);
+    int rc = found < 0 ? found : SCL_OK;
+    if (found > 0) {
+        rc = scl_etcd_range(cl->etcd_w, ckey, 1, &copies);
+        if (rc == SCL_OK) {
+            /* recorded first: the record and every copies/ key in one transaction */
+            scl_cmp cmp = {key, SCL_CMP_MOD, mod};
+            scl_op ops[2] = {{SCL_OP_DEL, key, NULL, 0}, {SCL_OP_DEL_PREFIX, ckey, NULL, 0}};
+            int ok = 0;
+            rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, ops, 2, &ok, NULL);
+            if (rc == SCL_OK && !ok) {
+                pthread_mutex_unlock(&cl->etcd_mu);
+                scl_kvs_free(&copies);
+                snprintf(msg, cap, "set '%s' changed while being deleted (retry)", name);
+                return STP_S_BUSY;
+            }
+        }
+    }
+    pthread_mutex_unlock(&cl->etcd_mu);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK) {
+        scl_kvs_free(&copies);
+        return unavailable(cl, msg, cap, "delete");
+    }
+    sts_cluster_note_set(cl, name, 0, NULL, 0);
+    int lrc = local_delete(cl->srv, name);
+    if (found > 0) {
+        /* forward to the other holders (best effort: repair drops what is left) */
+        sts_cl_member *m = NULL;
+        size_t n = sts_cluster_members(cl, &m, NULL);
+        size_t plen = strlen(ckey);
+        for (size_t i = 0; i < copies.n; i++) {
+            const char *id = copies.v[i].key + plen;
+            if (copies.v[i].key_len <= plen || !strcmp(id, cl->self))
+                continue;
+            for (size_t j = 0; j < n; j++)
+                if (!strcmp(m[j].id, id)) {
+                    char pm[512], token[STS_TOKEN_MAX + 1];
+                    node_token(cl->srv, token);
+                    if (scl_peer_delete(m[j].addr, token, name, 5000, pm, sizeof pm) != 0)
+                        sts_logf(&cl->srv->log, STS_WARN, "cluster: %s", pm);
+                }
+        }
+        free(m);
+        scl_kvs_free(&copies);
+        return 0;
+    }
+    scl_kvs_free(&copies);
+    if (lrc == ST_ENOTFOUND) {
+        snprintf(msg, cap, "no set %s", name);
+        return STP_S_NOT_FOUND;
+    }
+    if (lrc) {
+        snprintf(msg, cap, "delete of '%s' failed on this node", name);
+        return sts_status_from_st(lrc);
+    }
+    return 0;
+}

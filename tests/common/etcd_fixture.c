@@ -1,0 +1,117 @@
+/* tests/common/etcd_fixture.c - a real etcd on loopback (etcd_fixture.h). */
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "etcd_fixture.h"
+#include "wait.h"
+
+extern char **environ;
+
+static int free_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    int port = -1;
+    if (fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof a) == 0 &&
+        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
+        port = ntohs(a.sin_port);
+    if (fd >= 0)
+        close(fd);
+    return port;
+}
+
+static int answers(void *arg)
+{
+    st_etcd *e = arg;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    a.sin_port = htons((uint16_t)e->client_port);
+    int ok = fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof a) == 0;
+    if (fd >= 0)
+        close(fd);
+    return ok;
+}
+
+int st_etcd_start(st_etcd *e, const char *prefix)
+{
+    memset(e, 0, sizeof *e);
+    const char *bin = getenv("SEAMTEX_ETCD");
+    if (!bin || !*bin)
+        bin = "/usr/bin/etcd";
+    if (access(bin, X_OK) != 0) {
+        fprintf(stderr, "etcd not found at %s (install etcd-server: deploy/install-deps.sh)\n", bin);
+        return -1;
+    }
+    const char *tmp = getenv("TMPDIR");
+    snprintf(e->dir, sizeof e->dir, "%s/seamtex-etcd-XXXXXX", tmp && *tmp ? tmp : "/tmp");
+    if (!mkdtemp(e->dir))
+        return -1;
+    e->client_port = free_port();
+    e->peer_port = free_port();
+    char data[300], cu[64], pu[64], ic[96], logp[300];
+    snprintf(data, sizeof data, "%s/data", e->dir);
+    snprintf(cu, sizeof cu, "http://127.0.0.1:%d", e->client_port);
+    snprintf(pu, sizeof pu, "http://127.0.0.1:%d", e->peer_port);
+    snprintf(ic, sizeof ic, "default=%s", pu);
+    snprintf(logp, sizeof logp, "%s/etcd.log", e->dir);
+    const char *argv[] = {bin, "--data-dir", data, "--listen-client-urls", cu,
+                          "--advertise-client-urls", cu, "--listen-peer-urls", pu,
+                          "--initial-advertise-peer-urls", pu, "--initial-cluster", ic, NULL};
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, logp, O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_addopen(&fa, 2, logp, O_WRONLY | O_CREAT | O_APPEND, 0644);
+    int rc = posix_spawn(&e->pid, bin, &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) {
+        fprintf(stderr, "etcd: %s\n", strerror(rc));
+        e->pid = 0;
+        return -1;
+    }
+    snprintf(e->url, sizeof e->url, "etcd://127.0.0.1:%d%s", e->client_port, prefix);
+    if (st_wait_until(answers, e, 30000) != 0) {
+        fprintf(stderr, "etcd did not answer on port %d (log %s)\n", e->client_port, logp);
+        return -1;
+    }
+    st_sleep_ms(500);   /* a leader first */
+    return 0;
+}
+
+void st_etcd_pause(st_etcd *e, int paused)
+{
+    if (e->pid > 0)
+        kill(e->pid, paused ? SIGSTOP : SIGCONT);
+}
+
+void st_etcd_stop(st_etcd *e)
+{
+    if (e->pid > 0) {
+        kill(e->pid, SIGCONT);
+        kill(e->pid, SIGKILL);
+        waitpid(e->pid, NULL, 0);
+        e->pid = 0;
+    }
+    if (e->dir[0]) {
+        char cmd[400];
+        snprintf(cmd, sizeof cmd, "rm -rf '%s'", e->dir);
+        if (system(cmd) != 0)
+            fprintf(stderr, "could not remove %s\n", e->dir);
+        e->dir[0] = 0;
+    }
+}

@@ -1,0 +1,26 @@
+/* tests/common/etcd_fixture.h - a real etcd for cluster tests and benchmarks.
+ *
+ * Owns: starting /usr/bin/etcd (or $SEAMTEX_ETCD) on loopback on two free ports with its data
+ * in a mkdtemp dir, waiting until it answers, stopping, pausing (SIGSTOP / SIGCONT: "etcd
+ * unreachable") and removing it. etcd is a declared dependency (deploy/install-deps.sh): a
+ * missing binary fails the start, it is never a skip.
+ */
+#ifndef ST_ETCD_FIXTURE_H
+#define ST_ETCD_FIXTURE_H
+
+#include <sys/types.h>
+
+typedef struct st_etcd {
+    pid_t pid;
+    int   client_port, peer_port;
+    char  dir[256];
+    char  url[320];        /* etcd://127.0.0.1:<port>/<prefix> for seamtexd --cluster */
+} st_etcd;
+
+/* 0, or -1 with the reason on stderr. prefix: the cluster's key prefix ("/t"). */
+int  st_etcd_start(st_etcd *e, const char *prefix);
+void st_etcd_pause(st_etcd *e, int paused);
+/* Kills etcd and removes its dir. */
+void st_etcd_stop(st_etcd *e);
+
+#endif
