@@ -12,9 +12,10 @@
  * released and are counted as they are). Every BUDGET_TICK_MS (or at once when a sample wakes
  * a released set) the thread measures it; past the budget it releases the least recently
  * sampled mapped sets (madvise DONTNEED on the mapping, posix_fadvise DONTNEED on the file,
- * and the Ptex table dropped) until resident is under 90% of the budget. A released set stays
- * published: the next sample faults in only the pages it touches (from the page cache or the
- * disk). A budget below one set's size still serves it: it is released every tick and faults
+ * and the Ptex table dropped) from 95% of the budget until resident is under 90% of it
+ * (sts_budget_plan: the 5% above the high mark absorbs the pages faulted in between ticks).
+ * A released set stays published: the next sample faults in only the pages it touches (from
+ * the page cache or the disk). A budget below one set's size still serves it: it is released every tick and faults
  * back in. The cost of a tick is one registry snapshot and mincore over the mappings.
  */
 #include "budget.h"
@@ -90,7 +91,13 @@ void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
     *resident = res;
 }
 
-/* One pass: measure, and release the coldest sets while over the budget. */
+int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal)
+{
+    *goal = budget - budget / 10;
+    return budget && total > budget - budget / 20;
+}
+
+/* One pass: measure, and release the coldest sets while over the budget's high mark. */
 static void enforce(sts_server *srv, uint64_t budget)
 {
     sts_budget *b = &srv->budget;
@@ -107,8 +114,8 @@ static void enforce(sts_server *srv, uint64_t budget)
             c[nc++] = (cand){refs[i], r, __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED)};
     }
     __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
-    if (budget && total > budget && c) {
-        uint64_t goal = budget - budget / 10;
+    uint64_t goal;
+    if (sts_budget_plan(total, budget, &goal) && c) {
         qsort(c, nc, sizeof *c, cmp_last);
         for (size_t i = 0; i < nc && total > goal; i++) {
             if (!c[i].res)

@@ -35,6 +35,11 @@ int sts_budget_touch(struct sts_server *srv, st_set *s);
 int64_t sts_budget_clock_us(void);
 /* A cold set's first batch, sampled since t0_us. */
 void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueries);
+/* The release rule of one budget pass, with `total` resident bytes under `budget`: returns 1
+ * when the pass must release sets - resident past the high mark, 95% of the budget, so that
+ * what samples fault in before the next tick (50 ms) stays under the budget - and sets *goal to
+ * the low mark it releases down to (90%). A budget of 0 (unlimited) never releases. */
+int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal);
 /* Stored and resident texture bytes of every set now (STATS). */
 void sts_budget_measure(struct sts_server *srv, uint64_t *stored, uint64_t *resident);
 /* Appends the budget's STATS entries; returns how many. */

@@ -13,7 +13,8 @@
  * The .tx files: each source set's level-0 faces are packed into one image (shelf packing,
  * faces at their own resolution side by side, no gutter; a constant face as an 8 x 8 cell),
  * written with OIIO in the set's channel count and type, and converted by `maketx --oiio`
- * (64 x 64 tiles, zip, box-filtered MIP levels); made once per source and kept in txcache.
+ * (64 x 64 tiles, zip unless SEAMTEX_BENCH_TX_COMPRESSION names another, box-filtered MIP
+ * levels); made once per source and kept in txcache.
  * A query (face f, u, v, footprint d) becomes s = (x0 + u w) / W, t = (y0 + v h) / H with
  * dsdx = d w / W, dtdy = d h / H for f's cell (x0, y0, w, h) in the W x H image: the same
  * texels, the same footprint in texels. What each side computes: seamtex bilinear in the
@@ -69,7 +70,7 @@ static int cmp_face_h(const void *a, const void *b)
 }
 
 /* The layout of source si's faces in its image, and (unless cached) the .tx file. */
-static int build_tx(const char *cache, int si, tx_layout *L)
+static int build_tx(const char *cache, const char *comp, int si, tx_layout *L)
 {
     char p[1024], err[512] = "";
     memset(L, 0, sizeof *L);
@@ -130,8 +131,8 @@ static int build_tx(const char *cache, int si, tx_layout *L)
     L->nchan = s->info.nchan;
     const char *base = strrchr(nl_sources[si].rel, '/');
     base = base ? base + 1 : nl_sources[si].rel;
-    snprintf(L->path, sizeof L->path, "%s/src%d-%.*s.tx", cache, si,
-             (int)(strcspn(base, ".")), base);
+    snprintf(L->path, sizeof L->path, "%s/src%d-%.*s-%s.tx", cache, si,
+             (int)(strcspn(base, ".")), base, comp);
     if (access(L->path, R_OK) == 0) {
         st_set_free(s);
         L->ok = 1;
@@ -163,8 +164,8 @@ static int build_tx(const char *cache, int si, tx_layout *L)
         return -1;
     }
     char cmd[2600];
-    snprintf(cmd, sizeof cmd, "nice -n 5 maketx --oiio --threads 1 -o '%s.part.tx' '%s' >/dev/null && "
-             "mv '%s.part.tx' '%s'", L->path, in, L->path, L->path);
+    snprintf(cmd, sizeof cmd, "nice -n 5 maketx --oiio --compression '%s' --threads 1 -o '%s.part.tx' "
+             "'%s' >/dev/null && mv '%s.part.tx' '%s'", comp, L->path, in, L->path, L->path);
     double t0 = nl_now_s();
     rc = system(cmd);
     unlink(in);
@@ -417,6 +418,13 @@ int ooc_compare(const ooc_cfg *c, ooc_res *r)
     r->sets = c->nsets;
     r->rounds = c->rounds < 1 ? 1 : c->rounds > OOC_MAX_ROUNDS ? OOC_MAX_ROUNDS : c->rounds;
     r->threads = c->threads < 1 ? 1 : c->threads > MAXT ? MAXT : c->threads;
+    snprintf(r->tx_compression, sizeof r->tx_compression, "%s",
+             c->tx_compression && *c->tx_compression ? c->tx_compression : "zip");
+    if (strspn(r->tx_compression, "abcdefghijklmnopqrstuvwxyz0123456789:") !=
+        strlen(r->tx_compression)) {
+        fprintf(stderr, "ooc: bad .tx compression name\n");
+        return -1;
+    }
     ooc_cfg cc = *c;
     cc.threads = r->threads;
     int rc = -1;
@@ -426,7 +434,8 @@ int ooc_compare(const ooc_cfg *c, ooc_res *r)
     mkdir(c->txcache, 0700);
     mkdir(c->txdir, 0700);
     for (size_t i = 0; i < nl_nsources && i < 16; i++)
-        if (nl_sources[i].texel_bytes && build_tx(c->txcache, (int)i, &lay[i]) != 0)
+        if (nl_sources[i].texel_bytes && build_tx(c->txcache, r->tx_compression, (int)i,
+                                                  &lay[i]) != 0)
             goto out_lay;
     char **txpath = calloc((size_t)c->nsets, sizeof *txpath);
     if (!txpath)
@@ -466,9 +475,9 @@ int ooc_compare(const ooc_cfg *c, ooc_res *r)
     r->budget_mb = (double)budget / 1048576.0;
     if (sts_budget_start(&srv) != 0)
         goto out_srv;
-    printf("ooc: %d sets, %.0f MB stored, budget %.0f MB; OIIO: %.0f MB of .tx files; "
+    printf("ooc: %d sets, %.0f MB stored, budget %.0f MB; OIIO: %.0f MB of .tx files (%s); "
            "%d threads per side, %d rounds of %.1f s\n", c->nsets, r->stored_mb, r->budget_mb,
-           r->tx_disk_mb, r->threads, r->rounds, c->secs / r->rounds);
+           r->tx_disk_mb, r->tx_compression, r->threads, r->rounds, c->secs / r->rounds);
 
     /* the daemon */
     nl_daemon d;
@@ -590,9 +599,9 @@ out_lay:
 void ooc_json(FILE *f, const ooc_res *r)
 {
     fprintf(f, "{\"sets\": %d, \"stored_mb\": %.1f, \"budget_mb\": %.1f, \"tx_disk_mb\": %.1f, "
-            "\"rounds\": %d, \"threads\": %d, \"ratio_daemon_oiio\": %.3f, "
+            "\"tx_compression\": \"%s\", \"rounds\": %d, \"threads\": %d, \"ratio_daemon_oiio\": %.3f, "
             "\"ratio_inproc_oiio\": %.3f", r->sets, r->stored_mb, r->budget_mb, r->tx_disk_mb,
-            r->rounds, r->threads, r->ratio_daemon_oiio, r->ratio_inproc_oiio);
+            r->tx_compression, r->rounds, r->threads, r->ratio_daemon_oiio, r->ratio_inproc_oiio);
     for (int s = 0; s < OOC_NSIDES; s++) {
         const ooc_side *o = &r->side[s];
         if (!o->name)

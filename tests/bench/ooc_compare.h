@@ -26,6 +26,7 @@ typedef struct ooc_cfg {
     int           rounds;    /* 1..OOC_MAX_ROUNDS */
     int           threads;   /* client threads / sampling threads per side */
     uint64_t      budget;    /* bytes; 0 = a quarter of the stored bytes */
+    const char   *tx_compression;  /* maketx --compression (zip, none, ...); NULL = zip */
 } ooc_cfg;
 
 typedef struct ooc_side {
@@ -45,6 +46,7 @@ typedef struct ooc_side {
 typedef struct ooc_res {
     int      sets;
     double   stored_mb, budget_mb, tx_disk_mb;
+    char     tx_compression[16];
     int      rounds, threads;
     ooc_side side[OOC_NSIDES];
     double   ratio_daemon_oiio, ratio_inproc_oiio;   /* medians of per-round throughput ratios */
