@@ -2,8 +2,10 @@
  *
  * Three sides serve one library under the same memory budget, with the same query stream and
  * the same number of threads, alternating round by round (A B C, C B A, ...):
- *   daemon  seamtexd --memory-budget B: each thread has its own connection and sends SAMPLE
- *           batches (traverse, bilinear, f32 out) and waits for the reply.
+ *   daemon  seamtexd --memory-budget B on its own copy of the native files (the two seamtex
+ *           sides must not share a page cache: each one's mincore figure would count the
+ *           other's pages): each thread has its own connection and sends SAMPLE batches
+ *           (traverse, bilinear, f32 out) and waits for the reply.
  *   inproc  seamtex in this process: the daemon's own registry, data-dir load and budget
  *           thread (sts_server_init, sts_budget_start; no sockets are used), each batch as
  *           the SAMPLE handler runs it (registry get, budget touch, st_sample_batch).
@@ -479,13 +481,22 @@ int ooc_compare(const ooc_cfg *c, ooc_res *r)
            "%d threads per side, %d rounds of %.1f s\n", c->nsets, r->stored_mb, r->budget_mb,
            r->tx_disk_mb, r->tx_compression, r->threads, r->rounds, c->secs / r->rounds);
 
-    /* the daemon */
+    /* the daemon, on its own copy of the native files: two processes mapping the same files
+     * share their page cache, and each one's mincore figure would count the other's pages,
+     * which it cannot release */
     nl_daemon d;
-    char bs[32];
+    char bs[32], ddir[1100];
     snprintf(bs, sizeof bs, "%llu", (unsigned long long)budget);
-    const char *const extra[] = {"--memory-budget", bs, NULL};
-    if (nl_daemon_start(&d, c->dir, extra) != 0)
+    snprintf(ddir, sizeof ddir, "%s.d", c->dir);
+    double tc = nl_now_s();
+    if (nl_link_subset(c->dir, c->sets, c->nsets, 0, ddir, 1) != c->nsets) {
+        fprintf(stderr, "ooc: cannot copy the library to %s\n", ddir);
         goto out_budget;
+    }
+    printf("ooc: the daemon's copy of the native files in %.1f s\n", nl_now_s() - tc);
+    const char *const extra[] = {"--memory-budget", bs, NULL};
+    if (nl_daemon_start(&d, ddir, extra) != 0)
+        goto out_ddir;
     stc_conn *mon = nl_daemon_connect(&d, 3600);
     if (!mon) {
         fprintf(stderr, "ooc: seamtexd did not start (log %s)\n", d.logfile);
@@ -582,6 +593,12 @@ out_oiio:
     stc_close(mon);
 out_daemon:
     nl_daemon_stop(&d);
+out_ddir: {
+        char cmd[3500];
+        snprintf(cmd, sizeof cmd, "rm -rf '%s' '%s.port' '%s.log'", ddir, ddir, ddir);
+        if (system(cmd) != 0)
+            fprintf(stderr, "ooc: could not remove %s\n", ddir);
+    }
 out_budget:
     sts_budget_stop(&srv);
 out_srv:
