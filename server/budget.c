@@ -12,10 +12,15 @@
  * released and are counted as they are). Every BUDGET_TICK_MS (or at once when a sample wakes
  * a released set) the thread measures it; past the budget it releases the least recently
  * sampled mapped sets (madvise DONTNEED on the mapping, posix_fadvise DONTNEED on the file,
- * and the Ptex table dropped) until resident is under 90% of the budget. A released set stays
- * published: the next sample faults in only the pages it touches (from the page cache or the
- * disk). A budget below one set's size still serves it: it is released every tick and faults
- * back in. The cost of a tick is one registry snapshot and mincore over the mappings.
+ * and the Ptex table dropped) from 95% of the budget until resident is under 90% of it
+ * (sts_budget_plan: the 5% above the high mark absorbs the pages faulted in between ticks).
+ * A released set stays published: the next sample faults in only the pages it touches (from
+ * the page cache or the disk). A budget below one set's size still serves it: it is released every tick and faults
+ * back in. The cost of a tick is one registry snapshot and mincore over the mappings of the
+ * sets sampled since their last measure (sts_budget_set_resident); every BUDGET_FULL_MS a
+ * pass measures every mapping, which catches pages the kernel reclaimed or another reader
+ * faulted in. (mincore over every mapping at every tick cost 53 ms of CPU per pass at 8 GB
+ * stored: more than one core at a 50 ms tick.)
  */
 #include "budget.h"
 
@@ -30,6 +35,7 @@
 #include "server.h"
 
 #define BUDGET_TICK_MS 50
+#define BUDGET_FULL_MS 5000   /* a mincore pass over every mapping (else only sampled sets) */
 
 static const uint32_t hist_us[STS_COLD_HIST] = {50, 100, 200, 500, 1000, 2000, 5000, 10000,
                                                  20000, 50000, 100000, UINT32_MAX};
@@ -47,12 +53,19 @@ static int64_t now_us(void)
     return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
-/* Bytes of s in memory now: mapped pages + built Ptex table, or the whole heap set. */
-static uint64_t set_resident(const st_set *s)
+uint64_t sts_budget_set_resident(st_set *s, uint64_t now_ms, int full)
 {
     if (!s->map)
         return st_set_memory(s);
-    return st_native_resident(s) + st_ptexres_built_bytes(s);
+    uint64_t at = __atomic_load_n(&s->res_ms, __ATOMIC_RELAXED);
+    uint64_t res = __atomic_load_n(&s->res_bytes, __ATOMIC_RELAXED);
+    if (full || !at || __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) >= at) {
+        res = st_native_resident(s);
+        __atomic_store_n(&s->res_bytes, res, __ATOMIC_RELAXED);
+        /* a sample stamped in this same ms counts as "since" (>=): measured again next tick */
+        __atomic_store_n(&s->res_ms, now_ms ? now_ms : 1, __ATOMIC_RELAXED);
+    }
+    return res + st_ptexres_built_bytes(s);
 }
 
 typedef struct cand {
@@ -79,10 +92,10 @@ void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
 {
     st_setref **refs;
     size_t n = snapshot(srv, &refs);
-    uint64_t st = 0, res = 0;
+    uint64_t st = 0, res = 0, now = (uint64_t)sts_now_ms();
     for (size_t i = 0; i < n; i++) {
         st += st_set_memory(refs[i]->set);
-        res += set_resident(refs[i]->set);
+        res += sts_budget_set_resident(refs[i]->set, now, 0);
         st_setref_release(refs[i]);
     }
     free(refs);
@@ -90,25 +103,34 @@ void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
     *resident = res;
 }
 
-/* One pass: measure, and release the coldest sets while over the budget. */
+int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal)
+{
+    *goal = budget - budget / 10;
+    return budget && total > budget - budget / 20;
+}
+
+/* One pass: measure, and release the coldest sets while over the budget's high mark. */
 static void enforce(sts_server *srv, uint64_t budget)
 {
     sts_budget *b = &srv->budget;
     st_setref **refs;
     size_t n = snapshot(srv, &refs);
     cand *c = malloc((n ? n : 1) * sizeof *c);
-    uint64_t total = 0;
+    uint64_t total = 0, now = (uint64_t)sts_now_ms();
+    int full = now - b->full_ms >= BUDGET_FULL_MS;
+    if (full)
+        b->full_ms = now;
     size_t nc = 0;
     for (size_t i = 0; i < n; i++) {
-        const st_set *s = refs[i]->set;
-        uint64_t r = set_resident(s);
+        st_set *s = refs[i]->set;
+        uint64_t r = sts_budget_set_resident(s, now, full);
         total += r;
         if (c && s->map)
             c[nc++] = (cand){refs[i], r, __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED)};
     }
     __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
-    if (budget && total > budget && c) {
-        uint64_t goal = budget - budget / 10;
+    uint64_t goal;
+    if (sts_budget_plan(total, budget, &goal) && c) {
         qsort(c, nc, sizeof *c, cmp_last);
         for (size_t i = 0; i < nc && total > goal; i++) {
             if (!c[i].res)
@@ -116,6 +138,7 @@ static void enforce(sts_server *srv, uint64_t budget)
             st_set *s = c[i].ref->set;
             size_t freed = st_native_release(s) + st_ptexres_drop(s);
             __atomic_store_n(&s->cold, 1, __ATOMIC_RELAXED);
+            __atomic_store_n(&s->res_ms, 0, __ATOMIC_RELAXED);   /* measure it again */
             total -= freed < total ? freed : total;
             __atomic_add_fetch(&b->releases, 1, __ATOMIC_RELAXED);
             __atomic_add_fetch(&b->released_bytes, freed, __ATOMIC_RELAXED);

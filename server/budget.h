@@ -18,6 +18,7 @@ typedef struct sts_budget {
     pthread_cond_t  cv;
     int             started, stop, kick;
     long            majflt0;         /* ru_majflt at start */
+    uint64_t        full_ms;         /* budget thread only: its last full mincore pass */
     uint64_t        resident;        /* atomic: last measured by the thread */
     uint64_t        releases;        /* atomic: sets released */
     uint64_t        released_bytes;  /* atomic: resident bytes those releases let go */
@@ -36,6 +37,17 @@ int sts_budget_touch(struct sts_server *srv, st_set *s);
 int64_t sts_budget_clock_us(void);
 /* A cold set's first batch, sampled since t0_us. */
 void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueries);
+/* The release rule of one budget pass, with `total` resident bytes under `budget`: returns 1
+ * when the pass must release sets - resident past the high mark, 95% of the budget, so that
+ * what samples fault in before the next tick (50 ms) stays under the budget - and sets *goal to
+ * the low mark it releases down to (90%). A budget of 0 (unlimited) never releases. */
+int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal);
+/* Resident bytes of s as the budget counts them (mapped pages + built Ptex table, or the whole
+ * heap set). The mincore figure of a mapping is taken again only when `full` or when s was
+ * sampled (last_use_ms) since the last one; otherwise the last figure is reused: pages of a
+ * set nobody samples can only leave, so it stays an upper bound until the next full pass.
+ * now_ms is the monotonic clock in ms (sts_now_ms). */
+uint64_t sts_budget_set_resident(st_set *s, uint64_t now_ms, int full);
 /* Stored and resident texture bytes of every set now (STATS). */
 void sts_budget_measure(struct sts_server *srv, uint64_t *stored, uint64_t *resident);
 /* The first-sample histogram now: counts[k] batches took at most bound_us[k] microseconds

@@ -48,6 +48,13 @@ $(FAULT_PRELOAD): tests/common/faultpreload.c
 	$(CC) $(CPPFLAGS) -std=c11 -O2 -g $(WARN) -fPIC -shared -o $@ $< -ldl -lpthread
 TEST_BINS += $(FAULT_PRELOAD)
 
+# bench_native's parts: the generated library, the out-of-core comparison and its OpenImageIO
+# TextureSystem shim (C++ with extern "C"; bench-only, seamtex itself never links it)
+BENCH_NATIVE_OBJ := $(patsubst %,$(B)/tests/bench/%.o,native_lib ooc_compare oiio_texsys)
+$(B)/bench/bench_native: $(B)/tests/bench/bench_native.o $(BENCH_NATIVE_OBJ) $(ST_LINK)
+	@mkdir -p $(@D)
+	$(CC) $(LDFLAGS) -o $@ $< $(BENCH_NATIVE_OBJ) $(ST_LINK) $(LDLIBS)
+
 $(B)/bench/%: $(B)/tests/bench/%.o $(ST_LINK)
 	@mkdir -p $(@D)
 	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) $(LDLIBS) $(CLUSTER_PKG_LIBS)
