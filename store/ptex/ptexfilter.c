@@ -61,7 +61,7 @@ typedef struct pf {
     int mode;                /* st_mode */
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
-    int avx2;                /* the CPU runs ptexfilter_simd.c's loop */
+    int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
 } pf;
@@ -124,6 +124,10 @@ static void apply(pf *c, pk *k, int f)
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
     v4f acc = c->acc;
+    if (c->avx2) {
+        c->acc = pf_apply_avx2(base, rowb, k, dt, nc, acc);
+        return;
+    }
     switch (c->kind) {
     case PF_U8:
         if (nc < 3) {
@@ -151,13 +155,6 @@ static void apply(pf *c, pk *k, int f)
                                   : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
                 acc += row * kv[j];
             }
-            break;
-        }
-        if (nc == 4 && c->avx2) {
-            float a4[4];
-            memcpy(a4, &acc, sizeof a4);
-            pf_rows_u8x4_avx2(base, rowb, ku, k->uw, kv, k->vw, a4);
-            memcpy(&acc, a4, sizeof a4);
             break;
         }
         for (int j = 0; j < k->vw; j++) {
@@ -546,7 +543,7 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
-    c.avx2 = c.kind == PF_U8 && c.nc == 4 && pf_have_avx2();
+    c.avx2 = pf_have_avx2();
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n; i++) {

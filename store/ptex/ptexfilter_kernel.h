@@ -93,10 +93,14 @@ void  pk_upres_u(pk *k);
 void  pk_upres_v(pk *k);
 float pk_make_symmetric(pk *k, float initial_weight);
 
-/* ptexfilter_simd.c: AVX2 + FMA rows of a 4-channel u8 window (pf_have_avx2() says whether
- * the CPU has it); acc[4] += sum_j kv[j] sum_i ku[i] texel(i, j). */
-int  pf_have_avx2(void);
-void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                       const float *kv, int vw, float acc[4]);
+/* ptexfilter_simd.c: AVX2 + FMA + F16C (pf_have_avx2() says whether the CPU has them):
+ * returns acc + sum_j kv[j] sum_i ku[i] texel(i, j) (lanes 0..nc-1; the others unspecified)
+ * over k's window whose first texel is at base, rows rowb bytes apart, texels of type dt
+ * (st_dtype) with nc (1..4) channels. Reads up to 31 bytes past the window's last row (the
+ * arenas' 64 bytes of slack cover it). */
+typedef float pf_v4 __attribute__((vector_size(16)));
+int   pf_have_avx2(void);
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc);
 
 #endif

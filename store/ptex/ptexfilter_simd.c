@@ -1,9 +1,20 @@
-/* store/ptex/ptexfilter_simd.c - the AVX2 + FMA inner loop of the Ptex filters for 4-channel u8
- * data (two texels per instruction), chosen at run time when the CPU has it. Platform code
- * lives here so that ptexfilter.c stays portable; elsewhere pf_have_avx2() is 0.
+/* store/ptex/ptexfilter_simd.c - the AVX2 + FMA + F16C inner loop of the Ptex filters:
+ * a separable kernel applied to a window of texels of any type (u8, u16, half, float) and 1..4
+ * channels, chosen at run time when the CPU has it. Platform code lives here so that
+ * ptexfilter.c stays portable; elsewhere pf_have_avx2() is 0 and ptexfilter.c's own loops
+ * run.
  *
- * Owns: nothing but this loop. Its sums run in a different order than the portable loop, so
- * results differ from it (and from Ptex) by float rounding only.
+ * How: a row of the window is uw * nc contiguous values whatever nc is, so each row is
+ * converted to float 8 values at a time (one widening load and convert per 8 values, never a
+ * per-texel switch) and accumulated down the columns with the row's weight (one FMA per 8
+ * values per row); the column sums are dotted with the column weights once at the end. The
+ * loads of a row's last 8 values may run up to 31 bytes past the window, so past the face's
+ * data at the end of an arena: every arena a filter reads (the set's, the resolution table's,
+ * a native file's texel section) is followed by at least 64 readable bytes. The lanes past the
+ * window are cleared after conversion, so a NaN or Inf beside the window never leaks in.
+ *
+ * Owns: nothing but this loop. Its sums run in a different order than the portable loop (and
+ * Ptex: columns first, then rows), so results differ from them by float rounding only.
  */
 #include "ptexfilter_kernel.h"
 
@@ -15,34 +26,138 @@
 int pf_have_avx2(void)
 {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+           __builtin_cpu_supports("f16c");
 }
 
-__attribute__((target("avx2,fma")))
-void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                       const float *kv, int vw, float acc[4])
+#define PF_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline
+
+/* 8 values of type dt (0 u8, 1 u16, 2 half, 3 float: st_dtype) from p, as floats. */
+PF_TARGET __m256 load8(const uint8_t *p, unsigned dt)
 {
-    __m128 a = _mm_loadu_ps(acc);
+    switch (dt) {
+    case 0:
+        return _mm256_cvtepi32_ps(
+            _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+    case 1:
+        return _mm256_cvtepi32_ps(
+            _mm256_cvtepu16_epi32(_mm_loadu_si128((const __m128i *)(const void *)p)));
+    case 2:
+        return _mm256_cvtph_ps(_mm_loadu_si128((const __m128i *)(const void *)p));
+    default:
+        return _mm256_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* The whole window for type DT and NV vectors per row (both constants where inlined, so
+ * the column sums stay in registers): col[b] += kv[j] * row j, then the dot with the column
+ * weights, folded into acc by channel. */
+PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned nc,
+                        const float *ku, int uw, const float *kv, int vw, int NV, __m128 acc)
+{
+    enum { MAXV = (PK_MAX * 4 + 7) / 8 };
+    size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
+    int ne = uw * (int)nc;
+    int nt = ne - 8 * (NV - 1); /* values in the last vector, 1..8 */
+    static const int32_t ones[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
+    __m256 tail = _mm256_loadu_ps((const float *)(const void *)(ones + 8 - nt));
+    __m256 col[MAXV];
+    for (int b = 0; b < NV; b++)
+        col[b] = _mm256_setzero_ps();
     for (int j = 0; j < vw; j++) {
         const uint8_t *p = base + (size_t)j * rowb;
-        __m256 rs = _mm256_setzero_ps();
-        int i = 0;
-        for (; i + 1 < uw; i += 2) {
-            __m128i b = _mm_loadl_epi64((const __m128i *)(const void *)(p + 4 * i));
-            __m256 t = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(b));
-            __m256 w = _mm256_set_m128(_mm_set1_ps(ku[i + 1]), _mm_set1_ps(ku[i]));
-            rs = _mm256_fmadd_ps(t, w, rs);
-        }
-        __m128 row = _mm_add_ps(_mm256_castps256_ps128(rs), _mm256_extractf128_ps(rs, 1));
-        if (i < uw) {
-            int x;
-            __builtin_memcpy(&x, p + 4 * i, 4);
-            __m128 t = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
-            row = _mm_fmadd_ps(t, _mm_set1_ps(ku[i]), row);
-        }
-        a = _mm_fmadd_ps(row, _mm_set1_ps(kv[j]), a);
+        __m256 w = _mm256_set1_ps(kv[j]);
+        for (int b = 0; b + 1 < NV; b++)
+            col[b] = _mm256_fmadd_ps(load8(p + (size_t)b * vb, DT), w, col[b]);
+        __m256 last = _mm256_and_ps(load8(p + (size_t)(NV - 1) * vb, DT), tail);
+        col[NV - 1] = _mm256_fmadd_ps(last, w, col[NV - 1]);
     }
-    _mm_storeu_ps(acc, a);
+    /* the column weights, one per value, made in registers from scalar loads (the weights
+     * were just stored, some one by one: a vector load of them would stall on store
+     * forwarding): vector b holds ku[e / nc] for e = 8b .. 8b+7, zero past the window */
+#define KU(t) ((t) < uw ? ku[t] : 0.0f)
+    if (nc == 3) {
+        /* lanes of vector b hold channels (8b + l) % 3: fold the products by b % 3 */
+        static const int32_t perm3[3][8] = {{0, 0, 0, 1, 1, 1, 2, 2},
+                                            {0, 1, 1, 1, 2, 2, 2, 3},
+                                            {0, 0, 1, 1, 1, 2, 2, 2}};
+        __m256 g[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+        for (int b = 0; b < NV; b++) {
+            int t0 = 8 * b / 3;
+            __m128 k = _mm_setr_ps(ku[t0], KU(t0 + 1), KU(t0 + 2), KU(t0 + 3));
+            __m256 wb = _mm256_permutevar8x32_ps(
+                _mm256_castps128_ps256(k),
+                _mm256_loadu_si256((const __m256i *)(const void *)perm3[b % 3]));
+            g[b % 3] = _mm256_fmadd_ps(col[b], wb, g[b % 3]);
+        }
+        /* g[0] lanes: channels 0 1 2 0 1 2 0 1; g[1]: 2 0 1 2 0 1 2 0; g[2]: 1 2 0 1 2 0 1 2 */
+        _Alignas(32) float cs[24];
+        _mm256_store_ps(cs, g[0]);
+        _mm256_store_ps(cs + 8, g[1]);
+        _mm256_store_ps(cs + 16, g[2]);
+        __m128 r = _mm_setzero_ps();
+        for (int e = 0; e < 24; e += 3)
+            r = _mm_add_ps(r, _mm_setr_ps(cs[e], cs[e + 1], cs[e + 2], 0.0f));
+        return _mm_add_ps(acc, r);
+    }
+    __m256 s;
+    if (nc == 4) {
+        s = _mm256_mul_ps(col[0], _mm256_set_m128(_mm_set1_ps(KU(1)), _mm_set1_ps(ku[0])));
+        for (int b = 1; b < NV; b++)
+            s = _mm256_fmadd_ps(col[b], _mm256_set_m128(_mm_set1_ps(KU(2 * b + 1)),
+                                                        _mm_set1_ps(ku[2 * b])), s);
+    } else if (nc == 2) {
+        s = _mm256_setzero_ps();
+        for (int b = 0; b < NV; b++) {
+            int t = 4 * b;
+            __m128 k = _mm_setr_ps(ku[t], KU(t + 1), KU(t + 2), KU(t + 3));
+            __m256 wb = _mm256_set_m128(_mm_unpackhi_ps(k, k), _mm_unpacklo_ps(k, k));
+            s = _mm256_fmadd_ps(col[b], wb, s);
+        }
+    } else {
+        s = _mm256_setzero_ps();
+        for (int b = 0; b < NV; b++) {
+            int t = 8 * b;
+            __m256 wb = _mm256_setr_ps(ku[t], KU(t + 1), KU(t + 2), KU(t + 3), KU(t + 4),
+                                       KU(t + 5), KU(t + 6), KU(t + 7));
+            s = _mm256_fmadd_ps(col[b], wb, s);
+        }
+    }
+#undef KU
+    __m128 q = _mm_add_ps(_mm256_castps256_ps128(s), _mm256_extractf128_ps(s, 1)); /* lane % 4 */
+    if (nc == 4)
+        return _mm_add_ps(acc, q);
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q)); /* lanes 0, 1: lane % 2 */
+    if (nc == 2)
+        return _mm_add_ps(acc, _mm_movelh_ps(h, _mm_setzero_ps()));
+    return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+
+#define PF_NV_CASES(DT)                                                                     \
+    switch (nv) {                                                                          \
+    case 1: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 1, acc);                    \
+    case 2: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 2, acc);                    \
+    case 3: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 3, acc);                    \
+    case 4: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 4, acc);                    \
+    case 5: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 5, acc);                    \
+    default: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, nv, acc);                  \
+    }
+
+__attribute__((target("avx2,fma,f16c")))
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc4)
+{
+    const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
+    int uw = k->uw, vw = k->vw, nv = (uw * (int)nc + 7) / 8;
+    __m128 acc = (__m128)acc4;
+    if (nv <= 0 || vw <= 0)
+        return acc4;
+    switch (dt) {
+    case 0: PF_NV_CASES(0)
+    case 1: PF_NV_CASES(1)
+    case 2: PF_NV_CASES(2)
+    default: PF_NV_CASES(3)
+    }
 }
 
 #else
@@ -52,10 +167,11 @@ int pf_have_avx2(void)
     return 0;
 }
 
-void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                       const float *kv, int vw, float acc[4])
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc)
 {
-    (void)base; (void)rowb; (void)ku; (void)uw; (void)kv; (void)vw; (void)acc;
+    (void)base; (void)rowb; (void)k; (void)dt; (void)nc;
+    return acc;
 }
 
 #endif
