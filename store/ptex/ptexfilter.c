@@ -429,9 +429,7 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         bv = bv > lv ? bv : lv;
         int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
         float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
-        float uf = (float)(int)upix, vf = (float)(int)vpix;
-        uf = uf > upix ? uf - 1.0f : uf;
-        vf = vf > vpix ? vf - 1.0f : vf;
+        float uf = pk_floor(upix), vf = pk_floor(vpix);
         int ui = (int)uf, vi = (int)vf;
         float fu = upix - uf, fv = vpix - vf;
         if (ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&

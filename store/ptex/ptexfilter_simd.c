@@ -20,6 +20,8 @@
 
 #include <stddef.h>
 
+#include "sample.h"
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 
@@ -76,30 +78,6 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
      * were just stored, some one by one: a vector load of them would stall on store
      * forwarding): vector b holds ku[e / nc] for e = 8b .. 8b+7, zero past the window */
 #define KU(t) ((t) < uw ? ku[t] : 0.0f)
-    if (nc == 3) {
-        /* lanes of vector b hold channels (8b + l) % 3: fold the products by b % 3 */
-        static const int32_t perm3[3][8] = {{0, 0, 0, 1, 1, 1, 2, 2},
-                                            {0, 1, 1, 1, 2, 2, 2, 3},
-                                            {0, 0, 1, 1, 1, 2, 2, 2}};
-        __m256 g[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
-        for (int b = 0; b < NV; b++) {
-            int t0 = 8 * b / 3;
-            __m128 k = _mm_setr_ps(ku[t0], KU(t0 + 1), KU(t0 + 2), KU(t0 + 3));
-            __m256 wb = _mm256_permutevar8x32_ps(
-                _mm256_castps128_ps256(k),
-                _mm256_loadu_si256((const __m256i *)(const void *)perm3[b % 3]));
-            g[b % 3] = _mm256_fmadd_ps(col[b], wb, g[b % 3]);
-        }
-        /* g[0] lanes: channels 0 1 2 0 1 2 0 1; g[1]: 2 0 1 2 0 1 2 0; g[2]: 1 2 0 1 2 0 1 2 */
-        _Alignas(32) float cs[24];
-        _mm256_store_ps(cs, g[0]);
-        _mm256_store_ps(cs + 8, g[1]);
-        _mm256_store_ps(cs + 16, g[2]);
-        __m128 r = _mm_setzero_ps();
-        for (int e = 0; e < 24; e += 3)
-            r = _mm_add_ps(r, _mm_setr_ps(cs[e], cs[e + 1], cs[e + 2], 0.0f));
-        return _mm_add_ps(acc, r);
-    }
     __m256 s;
     if (nc == 4) {
         s = _mm256_mul_ps(col[0], _mm256_set_m128(_mm_set1_ps(KU(1)), _mm_set1_ps(ku[0])));
@@ -133,6 +111,41 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
     return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
 }
 
+/* One 3-channel texel as 4 lanes (the 4th is the next value or slack: finite or not, it
+ * stays in lane 3, which no caller reads). */
+PF_TARGET __m128 load4(const uint8_t *p, unsigned DT)
+{
+    switch (DT) {
+    case 0: {
+        int x;
+        __builtin_memcpy(&x, p, 4);
+        return _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
+    }
+    case 1:
+        return _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+    case 2:
+        return _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
+    default:
+        return _mm_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* 3 channels: the texels do not tile 8 lanes, so each texel is a 4-lane vector, weighted
+ * along the row, then the row weighted into acc (Ptex's order). */
+PF_TARGET __m128 window3(const uint8_t *base, size_t rowb, unsigned DT, const float *ku, int uw,
+                         const float *kv, int vw, __m128 acc)
+{
+    size_t ts = (size_t)3 << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    for (int j = 0; j < vw; j++) {
+        const uint8_t *p = base + (size_t)j * rowb;
+        __m128 row = _mm_mul_ps(load4(p, DT), _mm_set1_ps(ku[0]));
+        for (int i = 1; i < uw; i++)
+            row = _mm_fmadd_ps(load4(p + (size_t)i * ts, DT), _mm_set1_ps(ku[i]), row);
+        acc = _mm_fmadd_ps(row, _mm_set1_ps(kv[j]), acc);
+    }
+    return acc;
+}
+
 #define PF_NV_CASES(DT)                                                                     \
     switch (nv) {                                                                          \
     case 1: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 1, acc);                    \
@@ -152,12 +165,70 @@ pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, 
     __m128 acc = (__m128)acc4;
     if (nv <= 0 || vw <= 0)
         return acc4;
+    if (nc == 3) {
+        switch (dt) {
+        case 0: return (pf_v4)window3(base, rowb, 0, ku, uw, kv, vw, acc);
+        case 1: return (pf_v4)window3(base, rowb, 1, ku, uw, kv, vw, acc);
+        case 2: return (pf_v4)window3(base, rowb, 2, ku, uw, kv, vw, acc);
+        default: return (pf_v4)window3(base, rowb, 3, ku, uw, kv, vw, acc);
+        }
+    }
     switch (dt) {
     case 0: PF_NV_CASES(0)
     case 1: PF_NV_CASES(1)
     case 2: PF_NV_CASES(2)
     default: PF_NV_CASES(3)
     }
+}
+
+/* The width-4 kernel function at 8 points: the same operations in the same order as
+ * ptexfilter_kernel.c's kernel_eval (no fused multiply-adds), so the weights are bit for bit
+ * the portable ones. */
+PF_TARGET __m256 kernel8(const pk_params *p, __m256 x)
+{
+    const float *c = p->coeffs;
+    if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
+        __m256 y = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f)),
+                                 _mm256_set1_ps(1.44269504f));
+        y = _mm256_max_ps(y, _mm256_set1_ps(-126.0f));
+        __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_set1_ps(0.5f)));
+        __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
+        __m256 q = _mm256_set1_ps(0.000154035304f);
+        q = _mm256_add_ps(_mm256_set1_ps(0.00133335581f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.00961812911f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.0555041087f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.240226507f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.693147181f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(f, q));
+        __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
+        return _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
+    }
+    __m256 a = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), x);
+    __m256 inner = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(c[0]), a),
+                                               _mm256_set1_ps(c[1])), a);
+    inner = _mm256_add_ps(_mm256_mul_ps(inner, a), _mm256_set1_ps(c[2]));
+    __m256 outer = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(c[3]), a), _mm256_set1_ps(c[4]));
+    outer = _mm256_add_ps(_mm256_mul_ps(outer, a), _mm256_set1_ps(c[5]));
+    outer = _mm256_add_ps(_mm256_mul_ps(outer, a), _mm256_set1_ps(c[6]));
+    __m256 m1 = _mm256_cmp_ps(a, _mm256_set1_ps(1.0f), _CMP_LT_OQ);
+    __m256 m2 = _mm256_cmp_ps(a, _mm256_set1_ps(2.0f), _CMP_LT_OQ);
+    return _mm256_or_ps(_mm256_and_ps(inner, m1), _mm256_andnot_ps(m1, _mm256_and_ps(outer, m2)));
+}
+
+__attribute__((target("avx2,fma,f16c")))
+void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                          float x1v, float sv, float *wv, int nv)
+{
+    const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 i1 = _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15);
+    __m256 su8 = _mm256_set1_ps(su), sv8 = _mm256_set1_ps(sv);
+    __m256 xu = _mm256_set1_ps(x1u), xv = _mm256_set1_ps(x1v);
+    _mm256_storeu_ps(wu, kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i0, su8))));
+    _mm256_storeu_ps(wv, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i0, sv8))));
+    if (nu > 8)
+        _mm256_storeu_ps(wu + 8, kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i1, su8))));
+    if (nv > 8)
+        _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
 }
 
 #else
@@ -172,6 +243,13 @@ pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, 
 {
     (void)base; (void)rowb; (void)k; (void)dt; (void)nc;
     return acc;
+}
+
+void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                          float x1v, float sv, float *wv, int nv)
+{
+    pk_kernel_eval(p, x1u, su, wu, nu);
+    pk_kernel_eval(p, x1v, sv, wv, nv);
 }
 
 #endif
