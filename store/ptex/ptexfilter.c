@@ -32,9 +32,9 @@ typedef float v4f __attribute__((vector_size(16)));
 
 enum { PF_U8, PF_F32, PF_OTHER };
 
-/* One texel as 4 float lanes (raw values: u8 0..255, u16 0..65535). The u8 and float loads
- * read 4 channels even for fewer: the set arena and the table arena end with slack, and the
- * extra lanes are never stored. */
+/* One texel as 4 float lanes (raw values: u8 0..255, u16 0..65535). The u8, u16 and float
+ * loads read 4 channels even for fewer: the set arena and the table arena end with slack, and
+ * the extra lanes are never stored. */
 static inline v4f load_u8(const uint8_t *p)
 {
 #ifdef __SSE2__
@@ -52,6 +52,17 @@ static inline v4f load_f32(const uint8_t *p)
     v4f v;
     memcpy(&v, p, sizeof v);
     return v;
+}
+static inline v4f load_u16(const uint8_t *p)
+{
+#ifdef __SSE2__
+    __m128i v = _mm_loadl_epi64((const __m128i *)(const void *)p);
+    return (v4f)_mm_cvtepi32_ps(_mm_unpacklo_epi16(v, _mm_setzero_si128()));
+#else
+    uint16_t x[4];
+    memcpy(x, p, sizeof x);
+    return (v4f){(float)x[0], (float)x[1], (float)x[2], (float)x[3]};
+#endif
 }
 
 typedef struct pf {
@@ -418,8 +429,8 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         return ST_Q_OK;
     }
     float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
-    if (pp->ftype == ST_FILTER_PTEX_BILINEAR && !(F->flags & ST_FACE_SUBFACE) &&
-        c->kind != PF_OTHER && !(F->flags & ST_FACE_CONSTANT)) {
+    if (pp->ftype == ST_FILTER_PTEX_BILINEAR &&
+        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))) {
         /* the common case without building a kernel: Ptex's bilinear inside the face */
         float bu = uw * width + blur, bv = vw * width + blur;
         bu = bu < 1.0f ? bu : 1.0f;
@@ -439,12 +450,24 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
             const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
             float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
             v4f r0, r1;
-            if (c->kind == PF_U8) {
+            switch (c->dt) {
+            case ST_DT_U8:
                 r0 = load_u8(p) * ku0 + load_u8(p + ts) * fu;
                 r1 = load_u8(p + rowb) * ku0 + load_u8(p + rowb + ts) * fu;
-            } else {
+                break;
+            case ST_DT_U16:
+                r0 = load_u16(p) * ku0 + load_u16(p + ts) * fu;
+                r1 = load_u16(p + rowb) * ku0 + load_u16(p + rowb + ts) * fu;
+                break;
+            case ST_DT_F32:
                 r0 = load_f32(p) * ku0 + load_f32(p + ts) * fu;
                 r1 = load_f32(p + rowb) * ku0 + load_f32(p + rowb + ts) * fu;
+                break;
+            default:
+                r0 = load_any(c->dt, c->nc, p) * ku0 + load_any(c->dt, c->nc, p + ts) * fu;
+                r1 = load_any(c->dt, c->nc, p + rowb) * ku0 +
+                     load_any(c->dt, c->nc, p + rowb + ts) * fu;
+                break;
             }
             v4f acc = r0 * kv0 + r1 * fv;
             float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(c->dt));
