@@ -1,20 +1,29 @@
-/* store/ptex/ptexfilter_simd.c - the AVX2 + FMA + F16C inner loop of the Ptex filters:
- * a separable kernel applied to a window of texels of any type (u8, u16, half, float) and 1..4
- * channels, chosen at run time when the CPU has it. Platform code lives here so that
- * ptexfilter.c stays portable; elsewhere pf_have_avx2() is 0 and ptexfilter.c's own loops
- * run.
+/* store/ptex/ptexfilter_simd.c - the AVX2 + FMA + F16C inner loops of the Ptex filters,
+ * chosen at run time when the CPU has them (pf_have_avx2); elsewhere ptexfilter.c's and
+ * ptexfilter_kernel.c's portable loops run. Platform code lives here so that those stay
+ * portable.
  *
- * How: a row of the window is uw * nc contiguous values whatever nc is, so each row is
- * converted to float 8 values at a time (one widening load and convert per 8 values, never a
- * per-texel switch) and accumulated down the columns with the row's weight (one FMA per 8
- * values per row); the column sums are dotted with the column weights once at the end. The
- * loads of a row's last 8 values may run up to 31 bytes past the window, so past the face's
- * data at the end of an arena: every arena a filter reads (the set's, the resolution table's,
- * a native file's texel section) is followed by at least 64 readable bytes. The lanes past the
- * window are cleared after conversion, so a NaN or Inf beside the window never leaks in.
+ * The window loop (pf_apply_avx2): a separable kernel applied to a window of texels of any
+ * type (u8, u16, half, float) and 1..4 channels, specialised per type and per row length, so
+ * no per-texel switch and each value converted once. With 1, 2 or 4 channels a row of the
+ * window is uw * nc contiguous values that tile 8 lanes: each row is converted 8 values at a
+ * time and accumulated down the columns with the row's weight (one FMA per 8 values per row);
+ * the column sums are dotted with the column weights (built in registers from scalar loads:
+ * a vector load of weights just stored one by one stalls on store forwarding) once at the
+ * end. The loads of a row's last 8 values may run up to 31 bytes past the window, so past the
+ * face's data at the end of an arena: every arena a filter reads (the set's, the resolution
+ * table's, a native file's texel section) is followed by at least 64 readable bytes. The
+ * lanes past the window are cleared after conversion, so a NaN or Inf beside the window never
+ * leaks in. With 3 channels each texel is one 4-lane vector, weighted along the row and the
+ * row into the sum (Ptex's order; lane 3 holds whatever follows and is never read).
  *
- * Owns: nothing but this loop. Its sums run in a different order than the portable loop (and
- * Ptex: columns first, then rows), so results differ from them by float rounding only.
+ * The kernel (pf_kernel_eval2_avx2): the gaussian or bicubic-family weights of both axes, 8
+ * at a time, with the portable code's operations in its order (no fused multiply-adds), so
+ * the weights are bit for bit the portable ones.
+ *
+ * Owns: nothing but these loops. The window sums run in a different order than the portable
+ * loop (and than Ptex for 1, 2 and 4 channels: columns first), so results differ from them by
+ * float rounding only.
  */
 #include "ptexfilter_kernel.h"
 
