@@ -33,7 +33,7 @@
  * lines, grouped the same way, gives the ratio to Ptex directly.
  *
  * Usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]
- *                   [--files SUBSTR[,SUBSTR..]] [--filters point,bilinear,..]
+ *                   [--files SUBSTR[,SUBSTR..]]   (=NAME: that file only) [--filters point,bilinear,..]
  *                   [--fp 0.25,4,16] [--order random|coherent|both]
  *                   [--modes traverse[,discard][,clamp]] [--min-ms MS] [--reps-sample N]
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
@@ -164,7 +164,7 @@ static int wanted(const opts *op, const char *name)
     char buf[512];
     snprintf(buf, sizeof buf, "%s", op->files);
     for (char *t = strtok(buf, ","); t; t = strtok(NULL, ","))
-        if (strstr(name, t))
+        if (t[0] == '=' ? !strcmp(name, t + 1) : strstr(name, t) != NULL)
             return 1;
     return 0;
 }
