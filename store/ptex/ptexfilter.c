@@ -559,12 +559,13 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     const st_ptexres *t = st_ptexres_pin(s, &be);
     if (!t)
         return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
+    int avx2 = pf_have_avx2();
     pk_params pp;
-    pk_params_init(&pp, o->filter, o->sharpness);
+    pk_params_init(&pp, o->filter, o->sharpness, avx2);
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
-    c.avx2 = pf_have_avx2();
+    c.avx2 = avx2;
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n; i++) {

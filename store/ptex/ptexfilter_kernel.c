@@ -344,10 +344,10 @@ float pk_make_symmetric(pk *k, float initial_weight)
 #define recip_pow2 pk_recip_pow2
 #define res_from_width pk_res_from_width
 
-void pk_params_init(pk_params *p, unsigned ftype, float sharpness)
+void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2)
 {
     p->ftype = ftype;
-    p->avx2 = pf_have_avx2();
+    p->avx2 = avx2;
     float sh = sharpness;
     if (ftype == ST_FILTER_PTEX_BSPLINE)
         sh = 0.f;

@@ -67,7 +67,8 @@ typedef struct pk_params {
     float coeffs[7];             /* bicubic coefficients for the sharpness */
 } pk_params;
 
-void pk_params_init(pk_params *p, unsigned ftype, float sharpness);
+/* avx2: pf_have_avx2(), asked once by the caller (per batch) */
+void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2);
 void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, int fulog2,
               int fvlog2);
 /* The kernel function of a width-4 filter (gaussian, bicubic family) at x1 + i * step,

@@ -38,10 +38,16 @@
 int pf_have_avx2(void)
 {
     __builtin_cpu_init();
-    /* F16C from CPUID leaf 1 (ECX bit 29): clang's __builtin_cpu_supports has no "f16c" */
+    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
+        return 0;
+#ifdef __clang__
+    /* clang's __builtin_cpu_supports has no "f16c": CPUID leaf 1, ECX bit 29 (slow in a VM,
+     * where CPUID traps: callers ask once per batch) */
     unsigned a, b, c, d;
-    int f16c = __get_cpuid(1, &a, &b, &c, &d) && (c >> 29 & 1);
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && f16c;
+    return __get_cpuid(1, &a, &b, &c, &d) && (c >> 29 & 1);
+#else
+    return __builtin_cpu_supports("f16c"); /* reads what libgcc found at start-up */
+#endif
 }
 
 #define PF_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline

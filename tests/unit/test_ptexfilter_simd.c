@@ -40,7 +40,7 @@ static void kernel_weights_are_the_portable_ones_bit_for_bit(void **state)
     for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++)
         for (int sharp = 0; sharp < 3; sharp++) {
             pk_params p;
-            pk_params_init(&p, filters[fi], 0.5f * (float)sharp);
+            pk_params_init(&p, filters[fi], 0.5f * (float)sharp, 1);
             for (int r = 0; r < 400; r++) {
                 int nu = 1 + r % (PK_MAX / 2), nv = 1 + (r / 7) % (PK_MAX / 2);
                 /* offsets and steps as the kernel builder makes them (x1 in [-2.5, 0],
