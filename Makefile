@@ -62,7 +62,7 @@ SANFLAGS :=
 OPT      := -O2
 endif
 
-PKGS      := OpenImageIO OpenEXR zlib
+PKGS      := OpenImageIO OpenEXR zlib libdeflate
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 

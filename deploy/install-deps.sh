@@ -15,12 +15,14 @@ set -euo pipefail
 # lintian checks the .deb that `make deb` builds. python3-yaml: make check-deploy parses the
 # Kubernetes manifests in deploy/k8s/.
 # gnuplot-nox draws the Toth study's Figure 5 from its CSVs (tools/toth-study.sh).
+# libdeflate-dev: the .ptx reader's inflate (whole-buffer, about twice zlib's speed).
 PKGS=(build-essential clang pkg-config zlib1g-dev libcmocka-dev
       memcached redis-server
       libopenimageio-dev libopenexr-dev libimath-dev libdraco-dev
       python3-dev python3-setuptools python3-pytest python3-numpy
       libcurl4-openssl-dev libjson-c-dev etcd-server etcd-client
-      prometheus mandoc openimageio-tools lintian python3-yaml gnuplot-nox)
+      prometheus mandoc openimageio-tools lintian python3-yaml gnuplot-nox
+      libdeflate-dev)
 
 missing=()
 for p in "${PKGS[@]}"; do

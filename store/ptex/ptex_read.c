@@ -30,7 +30,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include "ptex_adler.h"
 #include "ptex_format.h"
@@ -48,8 +48,7 @@ typedef struct rd {
     int tri;                    /* a triangle mesh: square faces, three edges */
     size_t csize, psize;        /* bytes per channel, per pixel */
     st_error *e;
-    z_stream z;
-    int z_ready;
+    struct libdeflate_decompressor *dd; /* made on the first stream, reused */
     uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
     size_t scratch_cap;
 } rd;
@@ -83,9 +82,11 @@ static int zip_bound_ok(uint64_t zipsize, uint64_t memsize)
 }
 
 /* Inflates exactly outlen bytes from the zlib stream at [off, off+zlen). The 2-byte zlib
- * header is checked here and the deflate data inflated raw; the stream's Adler-32 trailer is
- * then checked with st_ptx_adler32 on the output (zlib's own check, byte at a time, was a
- * quarter of an import). Accepts and refuses exactly the streams zlib's inflate would. */
+ * header is checked here, the deflate data inflated raw in one call by libdeflate (about
+ * twice as fast as zlib's inflate, which was most of an import), and the stream's Adler-32
+ * trailer then checked with st_ptx_adler32 on the output. Like zlib, refuses a bad header,
+ * a preset dictionary, malformed or truncated deflate data, a stream that inflates to more or
+ * fewer bytes than declared, and a wrong check value. */
 static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
                          const char *what)
 {
@@ -109,46 +110,24 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (flg & 0x20)
         return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (needs a preset "
                        "dictionary)", what, (unsigned long long)off);
-    if (!r->z_ready) {
-        memset(&r->z, 0, sizeof r->z);
-        if (inflateInit2(&r->z, -15) != Z_OK) /* raw deflate: header and check done here */
-            return st_fail(r->e, ST_ENOMEM, "zlib inflateInit failed");
-        r->z_ready = 1;
-    } else {
-        inflateReset(&r->z);
-    }
-    uint64_t left = zlen - 2;
-    p += 2;
-    r->z.next_out = out;
-    r->z.avail_out = (uInt)outlen;
-    int zr;
-    do {
-        /* the last (usually the only) piece of input with Z_FINISH: zlib then inflates
-         * straight into out without keeping its 32 KiB sliding window (no extra copy) */
-        uInt chunk = left > (1u << 30) ? (1u << 30) : (uInt)left;
-        int last = chunk == left;
-        r->z.next_in = (Bytef *)(uintptr_t)p;
-        r->z.avail_in = chunk;
-        zr = inflate(&r->z, last ? Z_FINISH : Z_NO_FLUSH);
-        size_t used = chunk - r->z.avail_in;
-        p += used;
-        left -= used;
-        if (zr == Z_STREAM_END)
-            break;
-        if (zr == Z_BUF_ERROR && r->z.avail_out == 0)
-            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to more "
-                           "than the declared %zu bytes", what, (unsigned long long)off, outlen);
-        if (zr != Z_OK && zr != Z_BUF_ERROR)
-            return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
-                           (unsigned long long)off, r->z.msg ? r->z.msg : "error");
-        if (last || (zr == Z_BUF_ERROR && used == 0))
-            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
-                           "(inflated %lu of %zu bytes)", what, (unsigned long long)off,
-                           r->z.total_out, outlen);
-    } while (1);
-    if (r->z.total_out != outlen)
-        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %lu bytes, "
-                       "declared %zu", what, (unsigned long long)off, r->z.total_out, outlen);
+    if (!r->dd && !(r->dd = libdeflate_alloc_decompressor()))
+        return st_fail(r->e, ST_ENOMEM, "out of memory for the inflater");
+    /* one call over the whole stream, straight into out (libdeflate: whole-buffer, no
+     * sliding window copy, about twice zlib's speed); the trailer follows what it used */
+    size_t used = 0, got = 0;
+    enum libdeflate_result lr = libdeflate_deflate_decompress_ex(r->dd, p + 2, zlen - 2, out,
+                                                                 outlen, &used, &got);
+    if (lr == LIBDEFLATE_INSUFFICIENT_SPACE)
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to more "
+                       "than the declared %zu bytes", what, (unsigned long long)off, outlen);
+    if (lr != LIBDEFLATE_SUCCESS)
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (invalid or "
+                       "truncated deflate data)", what, (unsigned long long)off);
+    if (got != outlen)
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %zu bytes, "
+                       "declared %zu", what, (unsigned long long)off, got, outlen);
+    uint64_t left = zlen - 2 - used;
+    p += 2 + used;
     if (left < 4)
         return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated (no "
                        "check value)", what, (unsigned long long)off);
@@ -802,8 +781,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         goto done;
 
 done:
-    if (r->z_ready)
-        inflateEnd(&r->z);
+    libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     free(fi);
     free(constdata);

@@ -33,9 +33,9 @@ typedef float v4f __attribute__((vector_size(16)));
 
 enum { PF_U8, PF_F32, PF_OTHER };
 
-/* One texel as 4 float lanes (raw values: u8 0..255, u16 0..65535). The u8 and float loads
- * read 4 channels even for fewer: the set arena and the table arena end with slack, and the
- * extra lanes are never stored. */
+/* One texel as 4 float lanes (raw values: u8 0..255, u16 0..65535). The u8, u16 and float
+ * loads read 4 channels even for fewer: the set arena and the table arena end with slack, and
+ * the extra lanes are never stored. */
 static inline v4f load_u8(const uint8_t *p)
 {
 #ifdef __SSE2__
@@ -54,6 +54,17 @@ static inline v4f load_f32(const uint8_t *p)
     memcpy(&v, p, sizeof v);
     return v;
 }
+static inline v4f load_u16(const uint8_t *p)
+{
+#ifdef __SSE2__
+    __m128i v = _mm_loadl_epi64((const __m128i *)(const void *)p);
+    return (v4f)_mm_cvtepi32_ps(_mm_unpacklo_epi16(v, _mm_setzero_si128()));
+#else
+    uint16_t x[4];
+    memcpy(x, p, sizeof x);
+    return (v4f){(float)x[0], (float)x[1], (float)x[2], (float)x[3]};
+#endif
+}
 
 typedef struct pf {
     const st_set *s;
@@ -62,7 +73,7 @@ typedef struct pf {
     int mode;                /* st_mode */
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
-    int avx2;                /* the CPU runs ptexfilter_simd.c's loop */
+    int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
 } pf;
@@ -125,6 +136,10 @@ static void apply(pf *c, pk *k, int f)
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
     v4f acc = c->acc;
+    if (c->avx2) {
+        c->acc = pf_apply_avx2(base, rowb, k, dt, nc, acc);
+        return;
+    }
     switch (c->kind) {
     case PF_U8:
         if (nc < 3) {
@@ -152,13 +167,6 @@ static void apply(pf *c, pk *k, int f)
                                   : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
                 acc += row * kv[j];
             }
-            break;
-        }
-        if (nc == 4 && c->avx2) {
-            float a4[4];
-            memcpy(a4, &acc, sizeof a4);
-            pf_rows_u8x4_avx2(base, rowb, ku, k->uw, kv, k->vw, a4);
-            memcpy(&acc, a4, sizeof a4);
             break;
         }
         for (int j = 0; j < k->vw; j++) {
@@ -422,8 +430,8 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         return ST_Q_OK;
     }
     float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
-    if (pp->ftype == ST_FILTER_PTEX_BILINEAR && !(F->flags & ST_FACE_SUBFACE) &&
-        c->kind != PF_OTHER && !(F->flags & ST_FACE_CONSTANT)) {
+    if (pp->ftype == ST_FILTER_PTEX_BILINEAR &&
+        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))) {
         /* the common case without building a kernel: Ptex's bilinear inside the face */
         float bu = uw * width + blur, bv = vw * width + blur;
         bu = bu < 1.0f ? bu : 1.0f;
@@ -433,9 +441,7 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         bv = bv > lv ? bv : lv;
         int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
         float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
-        float uf = (float)(int)upix, vf = (float)(int)vpix;
-        uf = uf > upix ? uf - 1.0f : uf;
-        vf = vf > vpix ? vf - 1.0f : vf;
+        float uf = pk_floor(upix), vf = pk_floor(vpix);
         int ui = (int)uf, vi = (int)vf;
         float fu = upix - uf, fv = vpix - vf;
         if (ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
@@ -445,12 +451,24 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
             const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
             float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
             v4f r0, r1;
-            if (c->kind == PF_U8) {
+            switch (c->dt) {
+            case ST_DT_U8:
                 r0 = load_u8(p) * ku0 + load_u8(p + ts) * fu;
                 r1 = load_u8(p + rowb) * ku0 + load_u8(p + rowb + ts) * fu;
-            } else {
+                break;
+            case ST_DT_U16:
+                r0 = load_u16(p) * ku0 + load_u16(p + ts) * fu;
+                r1 = load_u16(p + rowb) * ku0 + load_u16(p + rowb + ts) * fu;
+                break;
+            case ST_DT_F32:
                 r0 = load_f32(p) * ku0 + load_f32(p + ts) * fu;
                 r1 = load_f32(p + rowb) * ku0 + load_f32(p + rowb + ts) * fu;
+                break;
+            default:
+                r0 = load_any(c->dt, c->nc, p) * ku0 + load_any(c->dt, c->nc, p + ts) * fu;
+                r1 = load_any(c->dt, c->nc, p + rowb) * ku0 +
+                     load_any(c->dt, c->nc, p + rowb + ts) * fu;
+                break;
             }
             v4f acc = r0 * kv0 + r1 * fv;
             float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(c->dt));
@@ -544,12 +562,13 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     const st_ptexres *t = st_ptexres_pin(s, &be);
     if (!t)
         return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
+    int avx2 = pf_have_avx2();
     pk_params pp;
-    pk_params_init(&pp, o->filter, o->sharpness);
+    pk_params_init(&pp, o->filter, o->sharpness, avx2);
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
-    c.avx2 = c.kind == PF_U8 && c.nc == 4 && pf_have_avx2();
+    c.avx2 = avx2;
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n; i++) {

@@ -9,17 +9,8 @@
 
 #include "sample.h"
 
-/* floor and ceil without a libm call (|x| < 2^31 here: coordinates are clamped before) */
-static inline float ffloor(float x)
-{
-    float t = (float)(int)x;
-    return t > x ? t - 1.0f : t;
-}
-static inline float fceil(float x)
-{
-    float t = (float)(int)x;
-    return t < x ? t + 1.0f : t;
-}
+#define ffloor pk_floor
+#define fceil pk_ceil
 
 /* ---- kernel operations ------------------------------------------------------------------ */
 
@@ -353,9 +344,10 @@ float pk_make_symmetric(pk *k, float initial_weight)
 #define recip_pow2 pk_recip_pow2
 #define res_from_width pk_res_from_width
 
-void pk_params_init(pk_params *p, unsigned ftype, float sharpness)
+void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2)
 {
     p->ftype = ftype;
+    p->avx2 = avx2;
     float sh = sharpness;
     if (ftype == ST_FILTER_PTEX_BSPLINE)
         sh = 0.f;
@@ -427,9 +419,11 @@ static float hermite_blur(float x)
     return x < 1.0f ? (2.0f * x - 3.0f) * x * x + 1.0f : 0.0f;
 }
 
-/* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off. */
-static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *w, float u,
-                        float uw, int fres)
+/* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off. Returns 1 when the
+ * weights are kernel_eval(p, *x1o, *stepo, w, *kw), left to the caller (so that both axes can
+ * be evaluated at once); 0 when they are written already. */
+static int width4_axis(int *kres, int *ku, int *kw, float *w, float u,
+                       float uw, int fres, float *x1o, float *stepo)
 {
     float lo = recip_pow2(fres);
     if (!(uw >= lo))
@@ -445,11 +439,11 @@ static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *
             u2 = (u2 + 1) & ~1;
             *ku = u1;
             *kw = u2 - u1;
-            float x1 = (float)u1 - upix;
             if (*kw > PK_MAX / 2)
                 *kw = PK_MAX / 2;
-            kernel_eval(p, x1, 1.0f, w, *kw);
-            return;
+            *x1o = (float)u1 - upix;
+            *stepo = 1.0f;
+            return 1;
         } else if (uw < 1) {
             *kres = 1;
             float upix = u * 2.0f - 0.5f;
@@ -462,7 +456,7 @@ static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *
                 w[i] = hermite_blur(xa * s);
                 w[i + 1] = hermite_blur(xb * s);
             }
-            return;
+            return 0;
         } else {
             *kres = 0;
             float upix = u - .5f;
@@ -471,7 +465,7 @@ static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *
             *ku = (int)ui;
             w[0] = hermite_blur(upix - ui);
             w[1] = 1 - w[0];
-            return;
+            return 0;
         }
     }
     float upix = u * (float)resu - 0.5f;
@@ -482,8 +476,9 @@ static void width4_axis(const pk_params *p, int *kres, int *ku, int *kw, float *
     *kw = u2 - u1;
     if (*kw > PK_MAX / 2)
         *kw = PK_MAX / 2; /* cannot happen: uwpix < 2 gives at most 9 */
-    float x1 = ((float)u1 - upix) / uwpix, step = 1.0f / uwpix;
-    kernel_eval(p, x1, step, w, *kw);
+    *x1o = ((float)u1 - upix) / uwpix;
+    *stepo = 1.0f / uwpix;
+    return 1;
 }
 
 static void box_weights(float *k, int size, float f1, float f2)
@@ -543,6 +538,20 @@ void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, i
         box_weights(k->kvb, k->vw, 1.0f - (v1 - v1f), 1.0f - (v2c - v2));
         return;
     }
-    width4_axis(p, &k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2);
-    width4_axis(p, &k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2);
+    float x1u = 0, su = 0, x1v = 0, sv = 0;
+    int eu = width4_axis(&k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2, &x1u, &su);
+    int ev = width4_axis(&k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2, &x1v, &sv);
+    if (eu && ev && p->avx2) {
+        pf_kernel_eval2_avx2(p, x1u, su, k->kub, k->uw, x1v, sv, k->kvb, k->vw);
+        return;
+    }
+    if (eu)
+        kernel_eval(p, x1u, su, k->kub, k->uw);
+    if (ev)
+        kernel_eval(p, x1v, sv, k->kvb, k->vw);
+}
+
+void pk_kernel_eval(const pk_params *p, float x1, float step, float *w, int n)
+{
+    kernel_eval(p, x1, step, w, n);
 }

@@ -31,6 +31,20 @@ typedef struct pk {
 static inline float *pk_ku(pk *k) { return k->kub + k->ku0; }
 static inline float *pk_kv(pk *k) { return k->kvb + k->kv0; }
 
+/* floor and ceil without a libm call and without a branch (random coordinates made the
+ * branch of a compare-and-adjust mispredict half the time); |x| < 2^31 here: coordinates are
+ * clamped before. */
+static inline float pk_floor(float x)
+{
+    float t = (float)(int)x;
+    return t - (float)(t > x);
+}
+static inline float pk_ceil(float x)
+{
+    float t = (float)(int)x;
+    return t + (float)(t < x);
+}
+
 /* 1 / 2^power, and Ptex's resolution for a width: ceil(log2(1/w)) read from the exponent. */
 static inline float pk_recip_pow2(int power)
 {
@@ -49,12 +63,17 @@ static inline int pk_res_from_width(float w)
 /* Filter-specific kernel construction (Ptex's buildKernel); ftype is st_filter. */
 typedef struct pk_params {
     unsigned ftype;
+    int avx2;                    /* pf_have_avx2(): kernels evaluated by ptexfilter_simd.c */
     float coeffs[7];             /* bicubic coefficients for the sharpness */
 } pk_params;
 
-void pk_params_init(pk_params *p, unsigned ftype, float sharpness);
+/* avx2: pf_have_avx2(), asked once by the caller (per batch) */
+void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2);
 void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, int fulog2,
               int fvlog2);
+/* The kernel function of a width-4 filter (gaussian, bicubic family) at x1 + i * step,
+ * i < n, into w (room for n rounded up to 4): the portable evaluation. */
+void pk_kernel_eval(const pk_params *p, float x1, float step, float *w, int n);
 
 /* Kernel operations (Ptex semantics). */
 void  pk_set(pk *dst, const pk *src);           /* copy with weights packed at index 0 */
@@ -93,10 +112,18 @@ void  pk_upres_u(pk *k);
 void  pk_upres_v(pk *k);
 float pk_make_symmetric(pk *k, float initial_weight);
 
-/* ptexfilter_simd.c: AVX2 + FMA rows of a 4-channel u8 window (pf_have_avx2() says whether
- * the CPU has it); acc[4] += sum_j kv[j] sum_i ku[i] texel(i, j). */
-int  pf_have_avx2(void);
-void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                       const float *kv, int vw, float acc[4]);
+/* ptexfilter_simd.c: AVX2 + FMA + F16C (pf_have_avx2() says whether the CPU has them):
+ * returns acc + sum_j kv[j] sum_i ku[i] texel(i, j) (lanes 0..nc-1; the others unspecified)
+ * over k's window whose first texel is at base, rows rowb bytes apart, texels of type dt
+ * (st_dtype) with nc (1..4) channels. Reads up to 31 bytes past the window's last row (the
+ * arenas' 64 bytes of slack cover it). */
+typedef float pf_v4 __attribute__((vector_size(16)));
+int   pf_have_avx2(void);
+/* Both axes of a width-4 kernel at once, bit for bit pk_kernel_eval(p, x1u, su, wu, nu) and
+ * pk_kernel_eval(p, x1v, sv, wv, nv) (nu, nv <= PK_MAX / 2; writes 8 or 16 weights each). */
+void  pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                           float x1v, float sv, float *wv, int nv);
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc);
 
 #endif

@@ -1,48 +1,252 @@
-/* store/ptex/ptexfilter_simd.c - the AVX2 + FMA inner loop of the Ptex filters for 4-channel u8
- * data (two texels per instruction), chosen at run time when the CPU has it. Platform code
- * lives here so that ptexfilter.c stays portable; elsewhere pf_have_avx2() is 0.
+/* store/ptex/ptexfilter_simd.c - the AVX2 + FMA + F16C inner loops of the Ptex filters,
+ * chosen at run time when the CPU has them (pf_have_avx2); elsewhere ptexfilter.c's and
+ * ptexfilter_kernel.c's portable loops run. Platform code lives here so that those stay
+ * portable.
  *
- * Owns: nothing but this loop. Its sums run in a different order than the portable loop, so
- * results differ from it (and from Ptex) by float rounding only.
+ * The window loop (pf_apply_avx2): a separable kernel applied to a window of texels of any
+ * type (u8, u16, half, float) and 1..4 channels, specialised per type and per row length, so
+ * no per-texel switch and each value converted once. With 1, 2 or 4 channels a row of the
+ * window is uw * nc contiguous values that tile 8 lanes: each row is converted 8 values at a
+ * time and accumulated down the columns with the row's weight (one FMA per 8 values per row);
+ * the column sums are dotted with the column weights (built in registers from scalar loads:
+ * a vector load of weights just stored one by one stalls on store forwarding) once at the
+ * end. The loads of a row's last 8 values may run up to 31 bytes past the window, so past the
+ * face's data at the end of an arena: every arena a filter reads (the set's, the resolution
+ * table's, a native file's texel section) is followed by at least 64 readable bytes. The
+ * lanes past the window are cleared after conversion, so a NaN or Inf beside the window never
+ * leaks in. With 3 channels each texel is one 4-lane vector, weighted along the row and the
+ * row into the sum (Ptex's order; lane 3 holds whatever follows and is never read).
+ *
+ * The kernel (pf_kernel_eval2_avx2): the gaussian or bicubic-family weights of both axes, 8
+ * at a time, with the portable code's operations in its order (no fused multiply-adds), so
+ * the weights are bit for bit the portable ones.
+ *
+ * Owns: nothing but these loops. The window sums run in a different order than the portable
+ * loop (and than Ptex for 1, 2 and 4 channels: columns first), so results differ from them by
+ * float rounding only.
  */
 #include "ptexfilter_kernel.h"
 
 #include <stddef.h>
 
+#include "sample.h"
+
 #if defined(__x86_64__) && defined(__GNUC__)
+#include <cpuid.h>
 #include <immintrin.h>
 
 int pf_have_avx2(void)
 {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
+        return 0;
+#ifdef __clang__
+    /* clang's __builtin_cpu_supports has no "f16c": CPUID leaf 1, ECX bit 29 (slow in a VM,
+     * where CPUID traps: callers ask once per batch) */
+    unsigned a, b, c, d;
+    return __get_cpuid(1, &a, &b, &c, &d) && (c >> 29 & 1);
+#else
+    return __builtin_cpu_supports("f16c"); /* reads what libgcc found at start-up */
+#endif
 }
 
-__attribute__((target("avx2,fma")))
-void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                       const float *kv, int vw, float acc[4])
+#define PF_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline
+
+/* 8 values of type dt (0 u8, 1 u16, 2 half, 3 float: st_dtype) from p, as floats. */
+PF_TARGET __m256 load8(const uint8_t *p, unsigned dt)
 {
-    __m128 a = _mm_loadu_ps(acc);
+    switch (dt) {
+    case 0:
+        return _mm256_cvtepi32_ps(
+            _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+    case 1:
+        return _mm256_cvtepi32_ps(
+            _mm256_cvtepu16_epi32(_mm_loadu_si128((const __m128i *)(const void *)p)));
+    case 2:
+        return _mm256_cvtph_ps(_mm_loadu_si128((const __m128i *)(const void *)p));
+    default:
+        return _mm256_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* The whole window for type DT and NV vectors per row (both constants where inlined, so
+ * the column sums stay in registers): col[b] += kv[j] * row j, then the dot with the column
+ * weights, folded into acc by channel. */
+PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned nc,
+                        const float *ku, int uw, const float *kv, int vw, int NV, __m128 acc)
+{
+    enum { MAXV = (PK_MAX * 4 + 7) / 8 };
+    size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
+    int ne = uw * (int)nc;
+    int nt = ne - 8 * (NV - 1); /* values in the last vector, 1..8 */
+    static const int32_t ones[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
+    __m256 tail = _mm256_loadu_ps((const float *)(const void *)(ones + 8 - nt));
+    __m256 col[MAXV];
+    for (int b = 0; b < NV; b++)
+        col[b] = _mm256_setzero_ps();
     for (int j = 0; j < vw; j++) {
         const uint8_t *p = base + (size_t)j * rowb;
-        __m256 rs = _mm256_setzero_ps();
-        int i = 0;
-        for (; i + 1 < uw; i += 2) {
-            __m128i b = _mm_loadl_epi64((const __m128i *)(const void *)(p + 4 * i));
-            __m256 t = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(b));
-            __m256 w = _mm256_set_m128(_mm_set1_ps(ku[i + 1]), _mm_set1_ps(ku[i]));
-            rs = _mm256_fmadd_ps(t, w, rs);
-        }
-        __m128 row = _mm_add_ps(_mm256_castps256_ps128(rs), _mm256_extractf128_ps(rs, 1));
-        if (i < uw) {
-            int x;
-            __builtin_memcpy(&x, p + 4 * i, 4);
-            __m128 t = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
-            row = _mm_fmadd_ps(t, _mm_set1_ps(ku[i]), row);
-        }
-        a = _mm_fmadd_ps(row, _mm_set1_ps(kv[j]), a);
+        __m256 w = _mm256_set1_ps(kv[j]);
+        for (int b = 0; b + 1 < NV; b++)
+            col[b] = _mm256_fmadd_ps(load8(p + (size_t)b * vb, DT), w, col[b]);
+        __m256 last = _mm256_and_ps(load8(p + (size_t)(NV - 1) * vb, DT), tail);
+        col[NV - 1] = _mm256_fmadd_ps(last, w, col[NV - 1]);
     }
-    _mm_storeu_ps(acc, a);
+    /* the column weights, one per value, made in registers from scalar loads (the weights
+     * were just stored, some one by one: a vector load of them would stall on store
+     * forwarding): vector b holds ku[e / nc] for e = 8b .. 8b+7, zero past the window */
+#define KU(t) ((t) < uw ? ku[t] : 0.0f)
+    __m256 s;
+    if (nc == 4) {
+        s = _mm256_mul_ps(col[0], _mm256_set_m128(_mm_set1_ps(KU(1)), _mm_set1_ps(ku[0])));
+        for (int b = 1; b < NV; b++)
+            s = _mm256_fmadd_ps(col[b], _mm256_set_m128(_mm_set1_ps(KU(2 * b + 1)),
+                                                        _mm_set1_ps(ku[2 * b])), s);
+    } else if (nc == 2) {
+        s = _mm256_setzero_ps();
+        for (int b = 0; b < NV; b++) {
+            int t = 4 * b;
+            __m128 k = _mm_setr_ps(ku[t], KU(t + 1), KU(t + 2), KU(t + 3));
+            __m256 wb = _mm256_set_m128(_mm_unpackhi_ps(k, k), _mm_unpacklo_ps(k, k));
+            s = _mm256_fmadd_ps(col[b], wb, s);
+        }
+    } else {
+        s = _mm256_setzero_ps();
+        for (int b = 0; b < NV; b++) {
+            int t = 8 * b;
+            __m256 wb = _mm256_setr_ps(ku[t], KU(t + 1), KU(t + 2), KU(t + 3), KU(t + 4),
+                                       KU(t + 5), KU(t + 6), KU(t + 7));
+            s = _mm256_fmadd_ps(col[b], wb, s);
+        }
+    }
+#undef KU
+    __m128 q = _mm_add_ps(_mm256_castps256_ps128(s), _mm256_extractf128_ps(s, 1)); /* lane % 4 */
+    if (nc == 4)
+        return _mm_add_ps(acc, q);
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q)); /* lanes 0, 1: lane % 2 */
+    if (nc == 2)
+        return _mm_add_ps(acc, _mm_movelh_ps(h, _mm_setzero_ps()));
+    return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+
+/* One 3-channel texel as 4 lanes (the 4th is the next value or slack: finite or not, it
+ * stays in lane 3, which no caller reads). */
+PF_TARGET __m128 load4(const uint8_t *p, unsigned DT)
+{
+    switch (DT) {
+    case 0: {
+        int x;
+        __builtin_memcpy(&x, p, 4);
+        return _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
+    }
+    case 1:
+        return _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+    case 2:
+        return _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
+    default:
+        return _mm_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* 3 channels: the texels do not tile 8 lanes, so each texel is a 4-lane vector, weighted
+ * along the row, then the row weighted into acc (Ptex's order). */
+PF_TARGET __m128 window3(const uint8_t *base, size_t rowb, unsigned DT, const float *ku, int uw,
+                         const float *kv, int vw, __m128 acc)
+{
+    size_t ts = (size_t)3 << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    for (int j = 0; j < vw; j++) {
+        const uint8_t *p = base + (size_t)j * rowb;
+        __m128 row = _mm_mul_ps(load4(p, DT), _mm_set1_ps(ku[0]));
+        for (int i = 1; i < uw; i++)
+            row = _mm_fmadd_ps(load4(p + (size_t)i * ts, DT), _mm_set1_ps(ku[i]), row);
+        acc = _mm_fmadd_ps(row, _mm_set1_ps(kv[j]), acc);
+    }
+    return acc;
+}
+
+#define PF_NV_CASES(DT)                                                                     \
+    switch (nv) {                                                                          \
+    case 1: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 1, acc);                    \
+    case 2: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 2, acc);                    \
+    case 3: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 3, acc);                    \
+    case 4: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 4, acc);                    \
+    case 5: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 5, acc);                    \
+    default: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, nv, acc);                  \
+    }
+
+__attribute__((target("avx2,fma,f16c")))
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc4)
+{
+    const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
+    int uw = k->uw, vw = k->vw, nv = (uw * (int)nc + 7) / 8;
+    __m128 acc = (__m128)acc4;
+    if (nv <= 0 || vw <= 0)
+        return acc4;
+    if (nc == 3) {
+        switch (dt) {
+        case 0: return (pf_v4)window3(base, rowb, 0, ku, uw, kv, vw, acc);
+        case 1: return (pf_v4)window3(base, rowb, 1, ku, uw, kv, vw, acc);
+        case 2: return (pf_v4)window3(base, rowb, 2, ku, uw, kv, vw, acc);
+        default: return (pf_v4)window3(base, rowb, 3, ku, uw, kv, vw, acc);
+        }
+    }
+    switch (dt) {
+    case 0: PF_NV_CASES(0)
+    case 1: PF_NV_CASES(1)
+    case 2: PF_NV_CASES(2)
+    default: PF_NV_CASES(3)
+    }
+}
+
+/* The width-4 kernel function at 8 points: the same operations in the same order as
+ * ptexfilter_kernel.c's kernel_eval (no fused multiply-adds), so the weights are bit for bit
+ * the portable ones. */
+PF_TARGET __m256 kernel8(const pk_params *p, __m256 x)
+{
+    const float *c = p->coeffs;
+    if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
+        __m256 y = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f)),
+                                 _mm256_set1_ps(1.44269504f));
+        y = _mm256_max_ps(y, _mm256_set1_ps(-126.0f));
+        __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_set1_ps(0.5f)));
+        __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
+        __m256 q = _mm256_set1_ps(0.000154035304f);
+        q = _mm256_add_ps(_mm256_set1_ps(0.00133335581f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.00961812911f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.0555041087f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.240226507f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.693147181f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(f, q));
+        __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
+        return _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
+    }
+    __m256 a = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), x);
+    __m256 inner = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(c[0]), a),
+                                               _mm256_set1_ps(c[1])), a);
+    inner = _mm256_add_ps(_mm256_mul_ps(inner, a), _mm256_set1_ps(c[2]));
+    __m256 outer = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(c[3]), a), _mm256_set1_ps(c[4]));
+    outer = _mm256_add_ps(_mm256_mul_ps(outer, a), _mm256_set1_ps(c[5]));
+    outer = _mm256_add_ps(_mm256_mul_ps(outer, a), _mm256_set1_ps(c[6]));
+    __m256 m1 = _mm256_cmp_ps(a, _mm256_set1_ps(1.0f), _CMP_LT_OQ);
+    __m256 m2 = _mm256_cmp_ps(a, _mm256_set1_ps(2.0f), _CMP_LT_OQ);
+    return _mm256_or_ps(_mm256_and_ps(inner, m1), _mm256_andnot_ps(m1, _mm256_and_ps(outer, m2)));
+}
+
+__attribute__((target("avx2,fma,f16c")))
+void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                          float x1v, float sv, float *wv, int nv)
+{
+    const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 i1 = _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15);
+    __m256 su8 = _mm256_set1_ps(su), sv8 = _mm256_set1_ps(sv);
+    __m256 xu = _mm256_set1_ps(x1u), xv = _mm256_set1_ps(x1v);
+    _mm256_storeu_ps(wu, kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i0, su8))));
+    _mm256_storeu_ps(wv, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i0, sv8))));
+    if (nu > 8)
+        _mm256_storeu_ps(wu + 8, kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i1, su8))));
+    if (nv > 8)
+        _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
 }
 
 #else
@@ -52,10 +256,18 @@ int pf_have_avx2(void)
     return 0;
 }
 
-void pf_rows_u8x4_avx2(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                       const float *kv, int vw, float acc[4])
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc)
 {
-    (void)base; (void)rowb; (void)ku; (void)uw; (void)kv; (void)vw; (void)acc;
+    (void)base; (void)rowb; (void)k; (void)dt; (void)nc;
+    return acc;
+}
+
+void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                          float x1v, float sv, float *wv, int nv)
+{
+    pk_kernel_eval(p, x1u, su, wu, nu);
+    pk_kernel_eval(p, x1v, sv, wv, nv);
 }
 
 #endif

@@ -1,27 +1,44 @@
-/* tests/bench/bench_ptex.c - Ptex file import and Ptex-filter sampling throughput on real
- * files (SEAMTEX_DATA).
+/* tests/bench/bench_ptex.c - Ptex file import and Ptex-filter sampling throughput on every
+ * shared .ptx file (SEAMTEX_DATA: every *.ptx under ptex-ref/ and ptx/, found by walking the
+ * folders, so a file added there is covered).
  *
- * Import: every shared quad-mesh .ptx (ptex-ref/ and ptx/), each imported --reps times (default
- * 9) with st_ptex_read_file - the whole import, file read included, file in the page cache -
- * in a new process each time (this binary again with --import-one: a fresh heap, so the
- * arena's pages are faulted in, as on a daemon's first load and as Ptex's figures were taken)
- * and again in this process (warm heap: the allocator reuses freed pages). Medians of wall and CPU time; MB/s of file and faces/s
- * from the fresh CPU time (the 2-core machine is shared, so wall time mostly measures the
- * other jobs); the bytes the set holds per level-0 texel right after import (st_set_memory);
- * "table cpu": the first Ptex-filter call on the set, which builds the Ptex resolution table
- * (ptexres.h; built lazily since the import stopped building it). The Ptex library's own open + level-0 decode of every face (Ptex 2.4.3, fresh
- * process each, measured outside the project since Ptex is not in Debian and must not be
- * copied in; same kind of machine, not this run) took 54 ms for cube8_k7varrot_f32, 20 ms for
- * holeycube and 59 ms for the 2009 text cube.
+ * Import: each file imported --reps times (default 9) with st_ptex_read_file - the whole
+ * import, file read included, file in the page cache - in a new process each time (this
+ * binary again with --import-one: a fresh heap, so the arena's pages are faulted in, as on a
+ * daemon's first load and as Ptex's figures were taken) and again in this process (warm
+ * heap). Medians of wall and CPU time; MB/s and faces/s from the fresh CPU time (the 2-core
+ * machine is shared, so wall time mostly measures the other jobs); bytes per level-0 texel
+ * right after import; "table cpu": the first Ptex-filter call, which builds the resolution
+ * table (ptexres.h). A file the importer refuses (a triangle mesh before it was supported)
+ * is listed with the reason and left out of the sampling tables.
  *
- * Sampling: one thread, batches of 4096 random queries (uniform face, uv in [0,1], footprints
- * of 1/512 .. 1/2 of a face, like the reference queries), median of 5 runs, per Ptex filter in
- * Traverse mode, for the first three files (one untimed batch first builds the table). The
- * Ptex library reached about 16 M bilinear and 8 M gaussian queries/s at best on a small cube
- * on this machine. Sampling times are the thread's CPU time (the machine is shared).
+ * Sampling: one thread, thread CPU time, batches of 4096 queries, each cell the median of
+ * --reps-sample runs (default 3) of at least --min-ms (default 15) ms each. Per file, Ptex
+ * filter, footprint (--fp, default 0.25,4,16 level-0 texels of the face queried: dudx =
+ * fp / width, dvdy = fp / height, isotropic, axis-aligned) and query order (--order,
+ * default both): "random" = uniform face and uv; "coherent" = the faces in turn, on each a
+ * 16 x 16 raster of queries one footprint apart (steps capped at 1/16 of the face), like the
+ * pixels of a render. Mode Traverse; --modes traverse,discard,clamp adds the others. One
+ * untimed batch first builds the table. Tables in the shape of issue 17: file x filter,
+ * M queries/s, one table per (mode, order, footprint).
  *
- * Usage: bench_ptex [--json PATH] [--reps N] [--import-only]
- * To compare two builds, run their binaries alternately (A B A B) with --import-only. */
+ * Query file (--queries FILE --ptx FILE): lines `faceid u v uw1 vw1 uw2 vw2 filter` as in
+ * SEAMTEX_DATA/ptex-ref/ref_*.txt (anything after the filter name, such as "-> values", is
+ * read as the expected values); times exactly those queries in Traverse (or --modes' first
+ * mode): per filter, its lines in file order as one batch, repeated for at least --min-ms,
+ * median of --reps-sample; prints M queries/s per filter and overall, and when the lines
+ * carry values the share within the reference tolerance (1e-4, half an 8-bit step for u8).
+ * --dump OUT writes every line's outputs (%.9g) in file order, to diff two builds or
+ * another implementation. An outside Ptex harness that calls PtexFilter::eval on the same
+ * lines, grouped the same way, gives the ratio to Ptex directly.
+ *
+ * Usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]
+ *                   [--files SUBSTR[,SUBSTR..]]   (=NAME: that file only) [--filters point,bilinear,..]
+ *                   [--fp 0.25,4,16] [--order random|coherent|both]
+ *                   [--modes traverse[,discard][,clamp]] [--min-ms MS] [--reps-sample N]
+ *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
+ * To compare two builds, run their binaries alternately (A B A B) and take the medians. */
+#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -34,6 +51,11 @@
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "../common/testdata.h"
+
+#define MAXFILES 64
+#define NFILT 8
+#define MAXFP 8
+enum { NQ = 4096, TILE = 16 };
 
 static double clock_s(clockid_t c)
 {
@@ -55,28 +77,99 @@ static double median(double *v, int n)
     return v[n / 2];
 }
 
-/* the sampling table uses the first three */
-static const char *files[] = {
-    "ptex-ref/cube1_k6_u8.ptx",
-    "ptex-ref/cube8_k7varrot_f32.ptx",
-    "ptx/wdas-ptex-samples/teapot/teapot.ptx",
-    "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
-    "ptx/wdas-ptex-2009/cube/text/cube.ptx",
-    "ptex-ref/cube8_k6_u8.ptx",
-    "ptex-ref/cube8_k6_u8_rot.ptx",
-    "ptx/wdas-ptex-samples/envcube/envcube.ptx",
-    "ptx/wdas-ptex-2009/dispplane/rand/pPlane1.ptx",
-    "ptx/wdas-ptex-2009/dispplane/rand_lo/pPlane1.ptx",
-    "ptx/wdas-ptex-2009/dispplane/wave_lo/pPlane1.ptx",
-    "ptx/wdas-ptex-2009/nonquad/test/pPlane1.ptx",
-    "ptx/wdas-ptex-2009/nonquad/evblur/pPlane1.ptx",
-    "ptx/wdas-ptex-2009/tri/uv.ptx",
-    "ptx/wdas-ptex-2009/tri/quad.ptx",
-    "ptx/wdas-ptex-2009/bordermodes/clamp.ptx",
-};
-#define NFILES (sizeof files / sizeof files[0])
-static const char *fnames[8] = {"point", "bilinear", "box", "gaussian", "bicubic", "bspline",
-                                "catmullrom", "mitchell"};
+static const char *fnames[NFILT] = {"point", "bilinear", "box", "gaussian", "bicubic",
+                                    "bspline", "catmullrom", "mitchell"};
+static const char *mnames[3] = {"discard", "traverse", "clamp"}; /* st_mode order */
+static const char *dtnames[4] = {"u8", "u16", "half", "f32"};     /* st_dtype order */
+
+static int filter_index(const char *n)
+{
+    for (int i = 0; i < NFILT; i++)
+        if (!strcmp(n, fnames[i]))
+            return i;
+    return -1;
+}
+
+typedef struct opts {
+    const char *json, *files, *queries, *ptx, *dump;
+    int reps, reps_sample, import_only, sample_only, order_mask, mode_mask;
+    unsigned filter_mask;
+    double min_s;
+    int nfp;
+    float fp[MAXFP];
+} opts;
+
+/* ---- the shared files ------------------------------------------------------------------- */
+
+typedef struct ptxfile {
+    char rel[512];               /* path under the data folder */
+    char name[64];               /* short unique name */
+} ptxfile;
+
+static int cmp_rel(const void *a, const void *b)
+{
+    return strcmp(((const ptxfile *)a)->rel, ((const ptxfile *)b)->rel);
+}
+
+/* Every *.ptx under dd/sub, recursively, appended to fl. */
+static void walk(const char *dd, const char *sub, ptxfile *fl, int *n)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", dd, sub);
+    DIR *d = opendir(path);
+    if (!d)
+        return;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (de->d_name[0] == '.')
+            continue;
+        char rel[512];
+        if (snprintf(rel, sizeof rel, "%s/%s", sub, de->d_name) >= (int)sizeof rel)
+            continue;
+        snprintf(path, sizeof path, "%s/%s", dd, rel);
+        struct stat sb;
+        if (stat(path, &sb))
+            continue;
+        size_t l = strlen(de->d_name);
+        if (S_ISDIR(sb.st_mode))
+            walk(dd, rel, fl, n);
+        else if (l > 4 && !strcmp(de->d_name + l - 4, ".ptx") && *n < MAXFILES)
+            snprintf(fl[(*n)++].rel, sizeof fl[0].rel, "%s", rel);
+    }
+    closedir(d);
+}
+
+/* The file name without .ptx; folder/name when another file has the same name. */
+static void name_files(ptxfile *fl, int n)
+{
+    for (int i = 0; i < n; i++) {
+        const char *base = strrchr(fl[i].rel, '/') + 1;
+        int dup = 0;
+        for (int j = 0; j < n; j++)
+            dup |= j != i && !strcmp(base, strrchr(fl[j].rel, '/') + 1);
+        const char *p = base;
+        if (dup) {
+            p = base - 1;
+            while (p > fl[i].rel && p[-1] != '/')
+                p--;
+        }
+        snprintf(fl[i].name, sizeof fl[i].name, "%.*s", (int)(strlen(p) - 4), p);
+    }
+}
+
+static int wanted(const opts *op, const char *name)
+{
+    if (!op->files)
+        return 1;
+    char buf[512];
+    snprintf(buf, sizeof buf, "%s", op->files);
+    for (char *t = strtok(buf, ","); t; t = strtok(NULL, ","))
+        if (t[0] == '=' ? !strcmp(name, t + 1) : strstr(name, t) != NULL)
+            return 1;
+    return 0;
+}
+
+/* ---- import ----------------------------------------------------------------------------- */
 
 /* --import-one PATH: one import in this (new) process; prints wall and CPU seconds. */
 static int import_one(const char *path)
@@ -95,9 +188,8 @@ static int import_one(const char *path)
     return 0;
 }
 
-/* One import in a new process (this binary run again with --import-one): a fresh heap, so
- * the arena's pages are faulted in, as on a daemon's first load and as Ptex's figures were
- * taken ("fresh process each"). Process start-up is not timed. Wall and CPU seconds. */
+/* One import in a new process (this binary run again with --import-one). Process start-up
+ * is not timed. Wall and CPU seconds. */
 static int import_fresh(const char *path, double *wall, double *cpu)
 {
     int fd[2];
@@ -124,166 +216,480 @@ static int import_fresh(const char *path, double *wall, double *cpu)
     return 0;
 }
 
-/* A short unique name: the file name, or folder/file for the many pPlane1.ptx. */
-static void short_name(const char *rel, char *buf, size_t cap)
+/* Imports one file reps times (fresh and warm) and prints its row; returns the last set
+ * (NULL when the importer refuses the file: printed with the reason). */
+static st_set *import_row(const opts *op, const char *path, const char *name, FILE *js,
+                          int *jfirst)
 {
-    const char *base = strrchr(rel, '/') + 1;
-    if (strcmp(base, "pPlane1.ptx")) {
-        snprintf(buf, cap, "%s", base);
-        return;
+    struct stat sb;
+    if (stat(path, &sb))
+        return NULL;
+    double fwall[99], fcpu[99], wcpu[99];
+    st_set *s = NULL;
+    st_error e;
+    for (int r = 0; r < op->reps; r++) {
+        double c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
+        if (st_ptex_read_file(path, 0, &s, &e)) {
+            printf("%-22s refused: %s\n", name, e.msg);
+            return NULL;
+        }
+        wcpu[r] = clock_s(CLOCK_PROCESS_CPUTIME_ID) - c0;
+        if (r + 1 < op->reps)
+            st_set_free(s);
+        if (!op->sample_only && import_fresh(path, &fwall[r], &fcpu[r])) {
+            printf("%s: import in a child process failed\n", name);
+            st_set_free(s);
+            return NULL;
+        }
     }
-    const char *p = base - 1;
-    while (p > rel && p[-1] != '/')
-        p--;
-    snprintf(buf, cap, "%.*s/%s", (int)(base - p - 1), p, base);
+    if (op->sample_only)
+        return s;
+    double fw = median(fwall, op->reps), fc = median(fcpu, op->reps);
+    double wc = median(wcpu, op->reps);
+    double mb = (double)sb.st_size / 1e6, texels = 0;
+    for (uint32_t f = 0; f < s->info.nfaces; f++)
+        texels += s->faces[f].flags & ST_FACE_CONSTANT ? 1.0
+                                                       : (double)s->faces[f].w * s->faces[f].h;
+    double bpt = (double)st_set_memory(s) / texels;
+    /* the first Ptex-filter call builds the resolution table */
+    st_query q0 = {.face = 0, .u = 0.5f, .v = 0.5f, .dudx = 0.01f, .dvdy = 0.01f};
+    st_sample_opts o0 = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
+    float out0[4];
+    double t0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
+    st_ptexfilter_batch(s, &o0, &q0, 1, out0, NULL, NULL);
+    double tb = clock_s(CLOCK_PROCESS_CPUTIME_ID) - t0;
+    char ty[16];
+    snprintf(ty, sizeof ty, "%sx%u", dtnames[s->info.dtype & 3], s->info.nchan);
+    printf("%-22s %-6s %6.2f %6u %9.2f %9.2f %9.2f %8.1f %10.0f %8.2f %9.2f\n", name, ty, mb,
+           s->info.nfaces, fw * 1e3, fc * 1e3, wc * 1e3, mb / fc, s->info.nfaces / fc, bpt,
+           tb * 1e3);
+    if (js) {
+        fprintf(js, "%s{\"file\":\"%s\",\"type\":\"%s\",\"mb\":%.4f,\"faces\":%u,"
+                "\"fresh_wall_ms\":%.3f,\"fresh_cpu_ms\":%.3f,\"warm_cpu_ms\":%.3f,"
+                "\"mb_per_s\":%.2f,\"faces_per_s\":%.0f,\"bytes_per_texel\":%.3f,"
+                "\"table_cpu_ms\":%.3f}",
+                *jfirst ? "" : ",", name, ty, mb, s->info.nfaces, fw * 1e3, fc * 1e3, wc * 1e3,
+                mb / fc, s->info.nfaces / fc, bpt, tb * 1e3);
+        *jfirst = 0;
+    }
+    return s;
+}
+
+/* ---- sampling --------------------------------------------------------------------------- */
+
+static uint32_t rnd(uint32_t *x)
+{
+    *x = *x * 1664525u + 1013904223u;
+    return *x >> 8;
+}
+static float rndf(uint32_t *x) { return (float)rnd(x) / 16777216.0f; }
+
+/* NQ queries of footprint fp level-0 texels, random (coherent = 0) or face by face in 16 x 16
+ * rasters one footprint apart (coherent = 1). */
+static void make_queries(const st_set *s, float fp, int coherent, st_query *q)
+{
+    uint32_t x = 42, nf = s->info.nfaces, f = 0;
+    for (int k = 0; k < NQ;) {
+        if (!coherent) {
+            f = rnd(&x) % nf;
+            const st_face *F = &s->faces[f];
+            q[k] = (st_query){.face = f, .u = rndf(&x), .v = rndf(&x),
+                              .dudx = fp / (float)F->w, .dvdy = fp / (float)F->h};
+            k++;
+            continue;
+        }
+        const st_face *F = &s->faces[f];
+        float du = fp / (float)F->w, dv = fp / (float)F->h;
+        float su = du < 1.0f / TILE ? du : 1.0f / TILE, sv = dv < 1.0f / TILE ? dv : 1.0f / TILE;
+        float u0 = rndf(&x) * (1.0f - TILE * su), v0 = rndf(&x) * (1.0f - TILE * sv);
+        for (int j = 0; j < TILE && k < NQ; j++)
+            for (int i = 0; i < TILE && k < NQ; i++, k++)
+                q[k] = (st_query){.face = f, .u = u0 + ((float)i + 0.5f) * su,
+                                  .v = v0 + ((float)j + 0.5f) * sv, .dudx = du, .dvdy = dv};
+        f = (f + 1) % nf;
+    }
+}
+
+/* M queries/s of n queries q with filter flt and mode m: median of reps runs of whole
+ * batches lasting at least min_s each. */
+static double time_batch(const opts *op, const st_set *s, int flt, int mode, const st_query *q,
+                         size_t n, float *out)
+{
+    st_sample_opts o = {.mode = (uint8_t)mode, .filter = (uint8_t)(ST_FILTER_PTEX_POINT + flt)};
+    double t[99];
+    long iters = 1;
+    /* find a batch count that lasts min_s (the first, untimed call builds the table) */
+    st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+    for (;;) {
+        double t0 = now();
+        for (long k = 0; k < iters; k++)
+            st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+        double d = now() - t0;
+        if (d >= op->min_s || iters > (1L << 30)) {
+            t[0] = d;
+            break;
+        }
+        iters = d <= 0 ? iters * 8 : (long)((double)iters * op->min_s * 1.2 / d) + 1;
+    }
+    for (int r = 1; r < op->reps_sample; r++) {
+        double t0 = now();
+        for (long k = 0; k < iters; k++)
+            st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+        t[r] = now() - t0;
+    }
+    return (double)n * (double)iters / median(t, op->reps_sample) / 1e6;
+}
+
+static void sample_tables(const opts *op, ptxfile *fl, st_set **sets, int nfl, FILE *js)
+{
+    static st_query q[NQ];
+    static float out[NQ * 4];
+    int first = 1;
+    for (int m = 0; m < 3; m++) {
+        if (!(op->mode_mask >> m & 1))
+            continue;
+        for (int ord = 0; ord < 2; ord++) {
+            if (!(op->order_mask >> ord & 1))
+                continue;
+            for (int fi = 0; fi < op->nfp; fi++) {
+                printf("\nM queries/s, %s, %s order, footprint %g texels\n%-22s %-6s",
+                       mnames[m], ord ? "coherent" : "random", (double)op->fp[fi], "file",
+                       "type");
+                for (int f = 0; f < NFILT; f++)
+                    if (op->filter_mask >> f & 1)
+                        printf(" %10s", fnames[f]);
+                printf("\n");
+                for (int i = 0; i < nfl; i++) {
+                    st_set *s = sets[i];
+                    if (!s)
+                        continue;
+                    char ty[16];
+                    snprintf(ty, sizeof ty, "%sx%u", dtnames[s->info.dtype & 3], s->info.nchan);
+                    printf("%-22s %-6s", fl[i].name, ty);
+                    fflush(stdout);
+                    make_queries(s, op->fp[fi], ord, q);
+                    for (int f = 0; f < NFILT; f++) {
+                        if (!(op->filter_mask >> f & 1))
+                            continue;
+                        double mq = time_batch(op, s, f, m, q, NQ, out);
+                        printf(" %10.2f", mq);
+                        fflush(stdout);
+                        if (js) {
+                            fprintf(js, "%s{\"file\":\"%s\",\"type\":\"%s\",\"filter\":\"%s\","
+                                    "\"mode\":\"%s\",\"order\":\"%s\",\"footprint\":%g,"
+                                    "\"mqps\":%.4f}",
+                                    first ? "" : ",", fl[i].name, ty, fnames[f], mnames[m],
+                                    ord ? "coherent" : "random", (double)op->fp[fi], mq);
+                            first = 0;
+                        }
+                    }
+                    printf("\n");
+                }
+            }
+        }
+    }
+}
+
+/* ---- query file ------------------------------------------------------------------------- */
+
+typedef struct refline {
+    st_query q;
+    int filter, nref;            /* filter index; expected values given (0..4) */
+    float ref[4];
+} refline;
+
+static int run_query_file(const opts *op, const char *dd)
+{
+    (void)dd;
+    FILE *fp = fopen(op->queries, "r");
+    if (!fp) {
+        fprintf(stderr, "%s: cannot open\n", op->queries);
+        return 1;
+    }
+    size_t cap = 1024, n = 0;
+    refline *L = malloc(cap * sizeof *L);
+    char line[1024];
+    int lineno = 0;
+    while (L && fgets(line, sizeof line, fp)) {
+        lineno++;
+        char fn[32];
+        refline r = {0};
+        int c = sscanf(line, "%u %f %f %f %f %f %f %31s -> %f %f %f %f", &r.q.face, &r.q.u,
+                       &r.q.v, &r.q.dudx, &r.q.dvdx, &r.q.dudy, &r.q.dvdy, fn, &r.ref[0],
+                       &r.ref[1], &r.ref[2], &r.ref[3]);
+        if (c <= 0 || line[0] == '#')
+            continue;
+        if (c < 8 || (r.filter = filter_index(fn)) < 0) {
+            fprintf(stderr, "%s:%d: expected `faceid u v uw1 vw1 uw2 vw2 filter`\n",
+                    op->queries, lineno);
+            fclose(fp);
+            free(L);
+            return 1;
+        }
+        r.nref = c - 8;
+        if (n == cap) {
+            refline *nl = realloc(L, 2 * cap * sizeof *L);
+            if (!nl)
+                break;
+            L = nl;
+            cap *= 2;
+        }
+        L[n++] = r;
+    }
+    fclose(fp);
+    if (!L) {
+        fprintf(stderr, "out of memory\n");
+        return 1;
+    }
+    st_set *s = NULL;
+    st_error e;
+    if (st_ptex_read_file(op->ptx, 0, &s, &e)) {
+        fprintf(stderr, "%s: %s\n", op->ptx, e.msg);
+        free(L);
+        return 1;
+    }
+    unsigned nc = s->info.nchan;
+    for (size_t i = 0; i < n; i++)
+        if (L[i].q.face >= s->info.nfaces) {
+            fprintf(stderr, "%s: query %zu names face %u of %u\n", op->queries, i + 1,
+                    L[i].q.face, s->info.nfaces);
+            st_set_free(s);
+            free(L);
+            return 1;
+        }
+    int mode = op->mode_mask & 2 ? ST_MODE_TRAVERSE : op->mode_mask & 1 ? ST_MODE_DISCARD
+                                                                        : ST_MODE_CLAMP;
+    st_query *q = malloc((n ? n : 1) * sizeof *q);
+    float *out = malloc((n ? n : 1) * 4 * sizeof *out), *res = calloc((n ? n : 1) * 4, sizeof *res);
+    size_t *idx = malloc((n ? n : 1) * sizeof *idx);
+    if (!q || !out || !res || !idx) {
+        fprintf(stderr, "out of memory\n");
+        return 1;
+    }
+    float tol = s->info.dtype == ST_DT_U8 ? 0.5f / 255.0f : 1e-4f;
+    printf("%s on %s, %s, %zu queries; per filter its lines in file order as one batch, "
+           "median of %d runs of >= %.0f ms (thread CPU time)\n",
+           op->queries, op->ptx, mnames[mode], n, op->reps_sample, op->min_s * 1e3);
+    printf("%-10s %8s %12s %10s %10s\n", "filter", "queries", "M queries/s", "ns/query",
+           "match%");
+    FILE *js = op->json ? fopen(op->json, "w") : NULL;
+    if (js)
+        fprintf(js, "{\"bench\":\"ptex_queries\",\"queries\":\"%s\",\"ptx\":\"%s\","
+                "\"mode\":\"%s\",\"filters\":[", op->queries, op->ptx, mnames[mode]);
+    double total_s = 0;
+    size_t total_n = 0;
+    int jfirst = 1;
+    for (int f = 0; f < NFILT; f++) {
+        size_t m = 0;
+        for (size_t i = 0; i < n; i++)
+            if (L[i].filter == f) {
+                idx[m] = i;
+                q[m++] = L[i].q;
+            }
+        if (!m)
+            continue;
+        double mq = time_batch(op, s, f, mode, q, m, out);
+        size_t ok = 0, withref = 0;
+        for (size_t k = 0; k < m; k++) {
+            const refline *r = &L[idx[k]];
+            memcpy(res + idx[k] * 4, out + k * nc, nc * sizeof *out);
+            if (!r->nref)
+                continue;
+            withref++;
+            int good = 1;
+            for (int c = 0; c < r->nref && c < (int)nc; c++)
+                good &= fabsf(out[k * nc + (unsigned)c] - r->ref[c]) <= tol;
+            ok += (size_t)good;
+        }
+        total_s += (double)m / (mq * 1e6);
+        total_n += m;
+        char match[16] = "-";
+        if (withref)
+            snprintf(match, sizeof match, "%.2f", 100.0 * (double)ok / (double)withref);
+        printf("%-10s %8zu %12.2f %10.1f %10s\n", fnames[f], m, mq, 1e3 / mq, match);
+        if (js) {
+            fprintf(js, "%s{\"filter\":\"%s\",\"queries\":%zu,\"mqps\":%.4f,\"matched\":%zu,"
+                    "\"with_reference\":%zu}", jfirst ? "" : ",", fnames[f], m, mq, ok, withref);
+            jfirst = 0;
+        }
+    }
+    double all = total_n ? (double)total_n / total_s / 1e6 : 0;
+    printf("%-10s %8zu %12.2f %10.1f\n", "all", total_n, all, total_n ? 1e3 / all : 0.0);
+    if (js) {
+        fprintf(js, "],\"all_mqps\":%.4f}\n", all);
+        fclose(js);
+    }
+    int rc = 0;
+    if (op->dump) {
+        FILE *d = fopen(op->dump, "w");
+        if (!d) {
+            fprintf(stderr, "%s: cannot write\n", op->dump);
+            rc = 1;
+        } else {
+            for (size_t i = 0; i < n; i++) {
+                for (unsigned c = 0; c < nc; c++)
+                    fprintf(d, "%s%.9g", c ? " " : "", (double)res[i * 4 + c]);
+                fprintf(d, "\n");
+            }
+            rc = fclose(d) ? 1 : 0;
+        }
+    }
+    free(q);
+    free(out);
+    free(res);
+    free(idx);
+    free(L);
+    st_set_free(s);
+    return rc;
+}
+
+/* ---- main ------------------------------------------------------------------------------- */
+
+static int parse_list(const char *arg, const char *const *names, int nnames)
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", arg);
+    int mask = 0;
+    for (char *t = strtok(buf, ","); t; t = strtok(NULL, ",")) {
+        int k = 0;
+        while (k < nnames && strcmp(t, names[k]))
+            k++;
+        if (k == nnames)
+            return -1;
+        mask |= 1 << k;
+    }
+    return mask;
+}
+
+static int usage(void)
+{
+    fprintf(stderr, "usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]"
+            " [--files S,..] [--filters F,..] [--fp X,..] [--order random|coherent|both]"
+            " [--modes M,..] [--min-ms MS] [--reps-sample N]\n"
+            "       bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH]\n");
+    return 2;
 }
 
 int main(int argc, char **argv)
 {
-    const char *json = NULL;
-    int reps = 9, import_only = 0;
     if (argc == 3 && !strcmp(argv[1], "--import-one"))
         return import_one(argv[2]);
+    opts op = {.reps = 9, .reps_sample = 3, .order_mask = 3, .mode_mask = 1 << ST_MODE_TRAVERSE,
+               .filter_mask = (1u << NFILT) - 1, .min_s = 0.015, .nfp = 3,
+               .fp = {0.25f, 4.0f, 16.0f}};
+    static const char *orders[3] = {"random", "coherent", "both"};
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json") && i + 1 < argc)
-            json = argv[++i];
-        else if (!strcmp(argv[i], "--reps") && i + 1 < argc)
-            reps = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--import-only"))
-            import_only = 1;
-    }
-    if (reps < 1 || reps > 99)
-        reps = 9;
-    const char *dd = getenv("SEAMTEX_DATA");
-    if (!dd || !*dd)
-        dd = "../shared/data";
-    FILE *js = json ? fopen(json, "w") : NULL;
-    if (js)
-        fprintf(js, "{\"bench\":\"ptex\",\"reps\":%d,\"import\":[", reps);
-    printf("import (st_ptex_read_file, file in the page cache), median of %d; \"fresh\": one "
-           "import per new process (cold heap),\n\"warm\": repeated in this process; MB/s "
-           "and faces/s from fresh CPU time (the machine is shared)\n", reps);
-    printf("%-22s %6s %6s %9s %9s %9s %8s %10s %8s %9s\n", "file", "MB", "faces", "fresh ms",
-           "fresh cpu", "warm cpu", "MB/s", "faces/s", "B/texel", "table cpu");
-    st_set *sets[NFILES] = {0};
-    int jfirst = 1;
-    for (size_t i = 0; i < NFILES; i++) {
-        char path[1024], name[64];
-        snprintf(path, sizeof path, "%s/%s", dd, files[i]);
-        short_name(files[i], name, sizeof name);
-        struct stat sb;
-        if (stat(path, &sb)) {
-            printf("%-22s missing (SEAMTEX_DATA=%s)\n", name, dd);
-            continue;
-        }
-        double fwall[99], fcpu[99], wcpu[99];
-        st_set *s = NULL;
-        for (int r = 0; r < reps; r++) {
-            if (import_fresh(path, &fwall[r], &fcpu[r])) {
-                printf("%s: import in a child process failed\n", name);
-                return 1;
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--import-only"))
+            op.import_only = 1;
+        else if (!strcmp(a, "--sample-only"))
+            op.sample_only = 1;
+        else if (!v)
+            return usage();
+        else if (!strcmp(a, "--json"))
+            op.json = v, i++;
+        else if (!strcmp(a, "--reps"))
+            op.reps = atoi(v), i++;
+        else if (!strcmp(a, "--reps-sample"))
+            op.reps_sample = atoi(v), i++;
+        else if (!strcmp(a, "--min-ms"))
+            op.min_s = atof(v) / 1e3, i++;
+        else if (!strcmp(a, "--files"))
+            op.files = v, i++;
+        else if (!strcmp(a, "--queries"))
+            op.queries = v, i++;
+        else if (!strcmp(a, "--ptx"))
+            op.ptx = v, i++;
+        else if (!strcmp(a, "--dump"))
+            op.dump = v, i++;
+        else if (!strcmp(a, "--filters")) {
+            int m = parse_list(v, fnames, NFILT);
+            if (m <= 0)
+                return usage();
+            op.filter_mask = (unsigned)m, i++;
+        } else if (!strcmp(a, "--modes")) {
+            op.mode_mask = parse_list(v, mnames, 3), i++;
+            if (op.mode_mask <= 0)
+                return usage();
+        } else if (!strcmp(a, "--order")) {
+            int m = parse_list(v, orders, 3);
+            if (m <= 0)
+                return usage();
+            op.order_mask = m & 4 ? 3 : m, i++;
+        } else if (!strcmp(a, "--fp")) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v);
+            op.nfp = 0;
+            for (char *t = strtok(buf, ","); t && op.nfp < MAXFP; t = strtok(NULL, ",")) {
+                float x = strtof(t, NULL);
+                if (!(x > 0 && x < 1e6f))
+                    return usage();
+                op.fp[op.nfp++] = x;
             }
-            st_error e;
-            double c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
-            if (st_ptex_read_file(path, 0, &s, &e)) {
-                printf("%s: %s\n", name, e.msg);
-                return 1;
-            }
-            wcpu[r] = clock_s(CLOCK_PROCESS_CPUTIME_ID) - c0;
-            if (r + 1 < reps)
-                st_set_free(s);
-        }
-        double fw = median(fwall, reps), fc = median(fcpu, reps), wc = median(wcpu, reps);
-        double mb = (double)sb.st_size / 1e6, texels = 0;
-        for (uint32_t f = 0; f < s->info.nfaces; f++)
-            texels += s->faces[f].flags & ST_FACE_CONSTANT ? 1.0 : (double)s->faces[f].w * s->faces[f].h;
-        double bpt = (double)st_set_memory(s) / texels;
-        /* the first Ptex-filter call: builds the resolution table when the import did not */
-        st_query q0 = {.face = 0, .u = 0.5f, .v = 0.5f, .dudx = 0.01f, .dvdy = 0.01f};
-        st_sample_opts o0 = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
-        float out0[4];
-        double t0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
-        st_ptexfilter_batch(s, &o0, &q0, 1, out0, NULL, NULL);
-        double tb = clock_s(CLOCK_PROCESS_CPUTIME_ID) - t0;
-        printf("%-22s %6.2f %6u %9.2f %9.2f %9.2f %8.1f %10.0f %8.2f %9.2f\n", name, mb,
-               s->info.nfaces, fw * 1e3, fc * 1e3, wc * 1e3, mb / fc, s->info.nfaces / fc, bpt,
-               tb * 1e3);
-        if (js) {
-            fprintf(js, "%s{\"file\":\"%s\",\"mb\":%.4f,\"faces\":%u,\"fresh_wall_ms\":%.3f,"
-                    "\"fresh_cpu_ms\":%.3f,\"warm_cpu_ms\":%.3f,\"mb_per_s\":%.2f,"
-                    "\"faces_per_s\":%.0f,\"bytes_per_texel\":%.3f,\"table_cpu_ms\":%.3f}",
-                    jfirst ? "" : ",", name, mb, s->info.nfaces, fw * 1e3, fc * 1e3, wc * 1e3,
-                    mb / fc, s->info.nfaces / fc, bpt, tb * 1e3);
-            jfirst = 0;
-        }
-        if (i < 3 && !import_only)
-            sets[i] = s;
-        else
-            st_set_free(s);
+            if (!op.nfp)
+                return usage();
+            i++;
+        } else
+            return usage();
     }
-    if (import_only) {
-        if (js) {
-            fprintf(js, "]}\n");
-            fclose(js);
-        }
+    if (op.reps < 1 || op.reps > 99)
+        op.reps = 9;
+    if (op.reps_sample < 1 || op.reps_sample > 99)
+        op.reps_sample = 3;
+    if (!(op.min_s > 0 && op.min_s < 60))
+        op.min_s = 0.015;
+    const char *dd = st_test_data_dir();
+    if (op.queries || op.ptx) {
+        if (!op.queries || !op.ptx)
+            return usage();
+        return run_query_file(&op, dd);
+    }
+    static ptxfile fl[MAXFILES];
+    int nfl = 0;
+    walk(dd, "ptex-ref", fl, &nfl);
+    walk(dd, "ptx", fl, &nfl);
+    if (!nfl) {
+        printf("no .ptx files under %s (SEAMTEX_DATA)\n", dd);
         return 0;
+    }
+    qsort(fl, (size_t)nfl, sizeof fl[0], cmp_rel);
+    name_files(fl, nfl);
+    FILE *js = op.json ? fopen(op.json, "w") : NULL;
+    if (js)
+        fprintf(js, "{\"bench\":\"ptex\",\"reps\":%d,\"import\":[", op.reps);
+    if (!op.sample_only) {
+        printf("import (st_ptex_read_file, file in the page cache), median of %d; \"fresh\": "
+               "one import per new process (cold heap),\n\"warm\": repeated in this process; "
+               "MB/s and faces/s from fresh CPU time (the machine is shared)\n", op.reps);
+        printf("%-22s %-6s %6s %6s %9s %9s %9s %8s %10s %8s %9s\n", "file", "type", "MB",
+               "faces", "fresh ms", "fresh cpu", "warm cpu", "MB/s", "faces/s", "B/texel",
+               "table cpu");
+    }
+    static st_set *sets[MAXFILES];
+    int jfirst = 1;
+    if (op.sample_only)
+        op.reps = 1;
+    for (int i = 0; i < nfl; i++) {
+        if (!wanted(&op, fl[i].name))
+            continue;
+        char path[1024];
+        if (snprintf(path, sizeof path, "%s/%s", dd, fl[i].rel) >= (int)sizeof path)
+            continue;
+        sets[i] = import_row(&op, path, fl[i].name, js, &jfirst);
+        if (op.import_only) {
+            st_set_free(sets[i]);
+            sets[i] = NULL;
+        }
     }
     if (js)
         fprintf(js, "],\"sample\":[");
-    enum { N = 4096 };
-    static st_query q[N];
-    static float out[N * 4], cov[N];
-    static uint8_t st[N];
-    printf("\n%-22s", "Mqueries/s (Traverse)");
-    for (int f = 0; f < 8; f++)
-        printf(" %10s", fnames[f]);
-    printf("\n");
-    int first = 1;
-    for (size_t i = 0; i < 3; i++) {
-        st_set *s = sets[i];
-        if (!s)
-            continue;
-        uint32_t x = 42;
-        for (int k = 0; k < N; k++) {
-            x = x * 1664525u + 1013904223u;
-            q[k].face = (x >> 8) % s->info.nfaces;
-            x = x * 1664525u + 1013904223u;
-            q[k].u = (float)(x >> 8) / 16777216.0f;
-            x = x * 1664525u + 1013904223u;
-            q[k].v = (float)(x >> 8) / 16777216.0f;
-            x = x * 1664525u + 1013904223u;
-            float w = powf(2.0f, -1.0f - 8.0f * (float)(x >> 8) / 16777216.0f);
-            q[k].dudx = w;
-            q[k].dvdx = 0;
-            q[k].dudy = 0;
-            q[k].dvdy = w * 0.8f;
-        }
-        const char *base = strrchr(files[i], '/') + 1;
-        printf("%-22s", base);
-        for (int f = 0; f < 8; f++) {
-            st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = (uint8_t)(ST_FILTER_PTEX_POINT + f)};
-            double t[5];
-            int batches = 40;
-            for (int r = 0; r < 5; r++) {
-                double t0 = now();
-                for (int k = 0; k < batches; k++)
-                    st_ptexfilter_batch(s, &o, q, N, out, cov, st);
-                t[r] = now() - t0;
-            }
-            double qps = (double)N * batches / median(t, 5) / 1e6;
-            printf(" %10.2f", qps);
-            if (js)
-                fprintf(js, "%s{\"file\":\"%s\",\"filter\":\"%s\",\"mqps\":%.3f}", first ? "" : ",",
-                        base, fnames[f], qps);
-            first = 0;
-        }
-        printf("\n");
-    }
+    if (!op.import_only)
+        sample_tables(&op, fl, sets, nfl, js);
     if (js) {
         fprintf(js, "]}\n");
         fclose(js);
     }
-    for (size_t i = 0; i < NFILES; i++)
+    for (int i = 0; i < nfl; i++)
         st_set_free(sets[i]);
     return 0;
 }

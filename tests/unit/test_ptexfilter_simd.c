@@ -1,0 +1,152 @@
+/* tests/unit/test_ptexfilter_simd.c - the Ptex filters' AVX2 loops (ptexfilter_simd.c) against
+ * their definitions: the width-4 kernel weights are bit for bit the portable evaluation for
+ * every filter, offset, step and tap count; the window loop gives sum_j kv[j] sum_i ku[i]
+ * texel(i, j) to float rounding for every texel type, channel count 1..4 and window shape,
+ * and a NaN or Inf just past the window (its loads overrun it) never reaches the result.
+ * Skipped on a CPU without AVX2 + FMA + F16C (the portable loops run there). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "half.h"
+#include "ptexfilter_kernel.h"
+#include "sample.h"
+#include "set.h"
+
+static uint32_t rng = 7;
+static float rndf(void) /* [0, 1) */
+{
+    rng = rng * 1664525u + 1013904223u;
+    return (float)(rng >> 8) / 16777216.0f;
+}
+
+static void kernel_weights_are_the_portable_ones_bit_for_bit(void **state)
+{
+    (void)state;
+    if (!pf_have_avx2()) {
+        print_message("no AVX2 + FMA + F16C: skipped\n");
+        skip();
+    }
+    static const unsigned filters[] = {ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
+                                       ST_FILTER_PTEX_BSPLINE, ST_FILTER_PTEX_CATMULLROM,
+                                       ST_FILTER_PTEX_MITCHELL};
+    int cases = 0;
+    for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++)
+        for (int sharp = 0; sharp < 3; sharp++) {
+            pk_params p;
+            pk_params_init(&p, filters[fi], 0.5f * (float)sharp, 1);
+            for (int r = 0; r < 400; r++) {
+                int nu = 1 + r % (PK_MAX / 2), nv = 1 + (r / 7) % (PK_MAX / 2);
+                /* offsets and steps as the kernel builder makes them (x1 in [-2.5, 0],
+                 * step 1 / uwpix with uwpix in [1, 2), or 1), plus far tails */
+                float x1u = -2.5f * rndf(), su = r % 5 ? 1.0f / (1.0f + rndf()) : 1.0f;
+                float x1v = r % 11 ? -2.5f * rndf() : -40.0f * rndf(), sv = 1.0f / (1.0f + rndf());
+                float wu[PK_MAX], wv[PK_MAX], ru[PK_MAX], rv[PK_MAX];
+                pk_kernel_eval(&p, x1u, su, ru, nu);
+                pk_kernel_eval(&p, x1v, sv, rv, nv);
+                pf_kernel_eval2_avx2(&p, x1u, su, wu, nu, x1v, sv, wv, nv);
+                assert_memory_equal(wu, ru, sizeof(float) * (size_t)nu);
+                assert_memory_equal(wv, rv, sizeof(float) * (size_t)nv);
+                cases++;
+            }
+        }
+    print_message("%d kernels, both axes identical\n", cases);
+}
+
+static void put(unsigned dt, uint8_t *p, float x)
+{
+    switch (dt) {
+    case ST_DT_U8: *p = (uint8_t)x; break;
+    case ST_DT_U16: { uint16_t v = (uint16_t)x; memcpy(p, &v, 2); break; }
+    case ST_DT_HALF: { uint16_t v = st_float_to_half(x); memcpy(p, &v, 2); break; }
+    default: memcpy(p, &x, 4); break;
+    }
+}
+
+static double get(unsigned dt, const uint8_t *p)
+{
+    switch (dt) {
+    case ST_DT_U8: return *p;
+    case ST_DT_U16: { uint16_t v; memcpy(&v, p, 2); return v; }
+    case ST_DT_HALF: { uint16_t v; memcpy(&v, p, 2); return st_half_to_float(v); }
+    default: { float v; memcpy(&v, p, 4); return v; }
+    }
+}
+
+static void window_sums_match_the_definition_for_every_type_and_channel_count(void **state)
+{
+    (void)state;
+    if (!pf_have_avx2()) {
+        print_message("no AVX2 + FMA + F16C: skipped\n");
+        skip();
+    }
+    enum { RES = 32, SLACK = 64 };
+    static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
+    int cases = 0;
+    for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
+        for (unsigned nc = 1; nc <= 4; nc++) {
+            size_t es = st_dtype_size(dt), ts = es * nc, rowb = RES * ts;
+            uint8_t *face = malloc(RES * rowb + SLACK);
+            assert_non_null(face);
+            for (int r = 0; r < 300; r++) {
+                for (size_t i = 0; i < RES * RES * nc; i++)
+                    put(dt, face + i * es, floorf(rndf() * maxv[dt]));
+                memset(face + RES * rowb, 0, SLACK);
+                pk k;
+                memset(&k, 0, sizeof k);
+                k.uw = 1 + r % (PK_MAX / 2);
+                k.vw = 1 + (r / 3) % 10;
+                k.ku0 = r % 3;
+                k.kv0 = (r / 5) % 3;
+                /* the window ends at the face's last column and row now and then, so its
+                 * loads run into the arena's slack */
+                int u0 = r % 4 == 0 ? RES - k.uw : (int)(rndf() * (float)(RES - k.uw));
+                int v0 = r % 6 == 0 ? RES - k.vw : (int)(rndf() * (float)(RES - k.vw));
+                for (int i = 0; i < k.uw; i++)
+                    k.kub[k.ku0 + i] = rndf() * 2.0f - 0.5f;
+                for (int j = 0; j < k.vw; j++)
+                    k.kvb[k.kv0 + j] = rndf() * 2.0f - 0.5f;
+                /* a NaN (half, float) or the largest value past the window's right edge */
+                if (u0 + k.uw < RES)
+                    for (int j = 0; j < k.vw; j++)
+                        for (unsigned ch = 0; ch < nc; ch++)
+                            put(dt, face + (size_t)(v0 + j) * rowb + (size_t)(u0 + k.uw) * ts +
+                                ch * es, dt >= ST_DT_HALF ? NAN : maxv[dt]);
+                const uint8_t *base = face + (size_t)v0 * rowb + (size_t)u0 * ts;
+                double want[4] = {0, 0, 0, 0}, mag[4] = {0, 0, 0, 0};
+                for (int j = 0; j < k.vw; j++)
+                    for (int i = 0; i < k.uw; i++)
+                        for (unsigned ch = 0; ch < nc; ch++) {
+                            double t = get(dt, base + (size_t)j * rowb + (size_t)i * ts + ch * es);
+                            double w = (double)k.kub[k.ku0 + i] * k.kvb[k.kv0 + j];
+                            want[ch] += w * t;
+                            mag[ch] += fabs(w * t);
+                        }
+                pf_v4 acc = {1, 2, 3, 4};
+                pf_v4 got = pf_apply_avx2(base, rowb, &k, dt, nc, acc);
+                for (unsigned ch = 0; ch < nc; ch++) {
+                    double d = fabs((double)got[ch] - (want[ch] + acc[ch]));
+                    assert_true(isfinite(got[ch]));
+                    assert_true(d <= 1e-5 * (mag[ch] + 1.0));
+                }
+                cases++;
+            }
+            free(face);
+        }
+    print_message("%d windows within rounding of the definition\n", cases);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(kernel_weights_are_the_portable_ones_bit_for_bit),
+        cmocka_unit_test(window_sums_match_the_definition_for_every_type_and_channel_count),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
