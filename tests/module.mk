@@ -53,7 +53,7 @@ TEST_BINS += $(FAULT_PRELOAD)
 BENCH_NATIVE_OBJ := $(patsubst %,$(B)/tests/bench/%.o,native_lib ooc_compare oiio_texsys)
 $(B)/bench/bench_native: $(B)/tests/bench/bench_native.o $(BENCH_NATIVE_OBJ) $(ST_LINK)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -o $@ $< $(BENCH_NATIVE_OBJ) $(ST_LINK) $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@ $< $(BENCH_NATIVE_OBJ) $(ST_LINK) $(LDLIBS) $(CLUSTER_PKG_LIBS)
 
 $(B)/bench/%: $(B)/tests/bench/%.o $(ST_LINK)
 	@mkdir -p $(@D)
