@@ -17,6 +17,7 @@ without its page (or documented without existing) fails here:
   seamtex.1        every command of `seamtex --help` has its item (.It Cm x); every long option
                    of `seamtex --help` and of each `seamtex COMMAND --help` appears
   seamtex-bench.1  every long option of `seamtex-bench --help` appears
+  seamtex-render.1 every long option of `seamtex-render --help` appears
   libseamtex.3     every stc_ function declared in client/seamtex.h or client/seamtex_cluster.h
                    has its .Fn line, and every .Fn stc_x line of the page names a declared
                    function
@@ -56,7 +57,8 @@ def gather(build):
     """The help texts of the programs and the header's functions, read once."""
     h = {"seamtexd": run([os.path.join(build, "seamtexd"), "--help"]),
          "seamtex": run([os.path.join(build, "seamtex"), "--help"]),
-         "bench": run([os.path.join(build, "seamtex-bench"), "--help"]), "cmd": {}}
+         "bench": run([os.path.join(build, "seamtex-bench"), "--help"]),
+         "render": run([os.path.join(build, "seamtex-render"), "--help"]), "cmd": {}}
     for c in sorted(set(re.findall(r"^  ([a-z]+)(?: |$)", h["seamtex"], re.M))):
         h["cmd"][c] = run([os.path.join(build, "seamtex"), c, "--help"])
     h["decl"] = set()
@@ -113,6 +115,11 @@ def content(man, h):
     for f in sorted(set(LONG.findall(h["bench"]))):
         if not has_word(text, f):
             errs.append(f"seamtex-bench.1 does not document {f}")
+    # seamtex-render.1
+    text = render(os.path.join(man, "seamtex-render.1"))
+    for f in sorted(set(LONG.findall(h["render"]))):
+        if not has_word(text, f):
+            errs.append(f"seamtex-render.1 does not document {f}")
     # libseamtex.3
     if not h["decl"]:
         errs.append("no stc_ function found in client/seamtex.h or client/seamtex_cluster.h")
@@ -144,6 +151,7 @@ MUTATIONS = [
     ("seamtex.1", r"^\.It Cm compress.*\n", ""),
     ("seamtex.1", r"^.*retries.*\n", ""),
     ("seamtex-bench.1", r"^.*spin-us.*\n", ""),
+    ("seamtex-render.1", r"^.*breakdown.*\n", ""),
     ("libseamtex.3", r"^.*stc_job_wait.*\n", ""),
     ("libseamtex.3", r"^.*stc_cluster_rank.*\n", ""),
     ("seamtex-python.3", r"^.*sample_dir.*\n", ""),
