@@ -1,7 +1,8 @@
 /* client/cli_cluster.c - the CLI's cluster side: `seamtex cluster` (nodes, sets per node,
  * under-replicated sets; text or --json) and routing of set commands under --cluster (the
  * connection goes to the set's first reachable owner, stc_cluster's ranking).
- * Does not own: the routing rules (client/libcluster.c), the other commands.
+ * Does not own: the routing rules (client/libcluster.c), the JSON writer (cli_json.c), the
+ * other commands.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -52,20 +53,6 @@ int cli_connect_routed(cli_ctx *ctx, const char *set)
     return CLI_CONNECT;
 }
 
-static void json_str(const char *s)
-{
-    putchar('"');
-    for (; *s; s++) {
-        if (*s == '"' || *s == '\\')
-            printf("\\%c", *s);
-        else if ((unsigned char)*s < 0x20)
-            printf("\\u%04x", *s);
-        else
-            putchar(*s);
-    }
-    putchar('"');
-}
-
 typedef struct holding {
     char name[256];
     int  holders;
@@ -107,9 +94,13 @@ int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv)
         free(up);
         return CLI_SERVER;
     }
-    if (json)
-        printf("{\"replicas\":%u,\"nodes\":[", R);
-    else
+    cli_json out;
+    cli_json_begin(&out, stdout);   /* writes nothing: used only with --json */
+    if (json) {
+        cli_json_object(&out, NULL);
+        cli_json_u64(&out, "replicas", R);
+        cli_json_array(&out, "nodes");
+    } else
         printf("%-16s %-24s %6s  %s\n", "NODE", "ADDRESS", "SETS", "STATE");
     for (size_t i = 0; i < nn; i++) {
         int err = 0;
@@ -136,11 +127,12 @@ int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv)
         }
         nsets[i] = up[i] ? (int)n : -1;
         if (json) {
-            printf("%s{\"id\":", i ? "," : "");
-            json_str(nodes[i].id);
-            printf(",\"addr\":");
-            json_str(nodes[i].addr);
-            printf(",\"up\":%s,\"sets\":%d}", up[i] ? "true" : "false", nsets[i]);
+            cli_json_object(&out, NULL);
+            cli_json_str(&out, "id", nodes[i].id);
+            cli_json_str(&out, "addr", nodes[i].addr);
+            cli_json_bool(&out, "up", up[i]);
+            cli_json_i64(&out, "sets", nsets[i]);
+            cli_json_close(&out);
         } else {
             printf("%-16s %-24s %6d  %s\n", nodes[i].id, nodes[i].addr, nsets[i],
                    up[i] ? "up" : "unreachable");
@@ -150,7 +142,9 @@ int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv)
     if (nh)
         qsort(hs, nh, sizeof *hs, cmp_holding);
     if (json) {
-        printf("],\"sets\":%zu,\"under_replicated\":[", nh);
+        cli_json_close(&out);
+        cli_json_u64(&out, "sets", nh);
+        cli_json_array(&out, "under_replicated");
     } else {
         printf("%zu set(s), replicas %u\n", nh, R);
     }
@@ -158,20 +152,25 @@ int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv)
     for (size_t j = 0; j < nh; j++)
         if ((size_t)hs[j].holders < want) {
             if (json) {
-                printf("%s{\"name\":", under ? "," : "");
-                json_str(hs[j].name);
-                printf(",\"copies\":%d}", hs[j].holders);
+                cli_json_object(&out, NULL);
+                cli_json_str(&out, "name", hs[j].name);
+                cli_json_i64(&out, "copies", hs[j].holders);
+                cli_json_close(&out);
             } else {
                 printf("under-replicated: %s (%d of %zu copies)\n", hs[j].name, hs[j].holders, want);
             }
             under++;
         }
-    if (json)
-        printf("]}\n");
-    else if (!under)
+    int rc = CLI_OK;
+    if (json) {
+        cli_json_close(&out);
+        cli_json_close(&out);
+        rc = cli_json_finish(&out);
+    } else if (!under) {
         printf("no under-replicated sets\n");
+    }
     free(hs);
     free(nsets);
     free(up);
-    return CLI_OK;
+    return rc;
 }

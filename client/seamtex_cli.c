@@ -48,7 +48,7 @@ static const char *const USAGE =
 "HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
 "$SEAMTEX_TOKEN; HOST unix:/path connects to a daemon's Unix socket (PORT unused).\n"
 "`seamtex COMMAND --help` describes a command. --json (ls, info, stats,\n"
-"compress) prints one JSON document instead of text (keys: seamtex(1), docs/client.md).\n"
+"compress, cluster) prints one JSON document instead of text (keys: seamtex(1), docs/client.md).\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";
 
 /* ---- shared helpers (cli.h) --------------------------------------------------------------- */

@@ -25,11 +25,6 @@ import sys
 
 import yaml
 
-# The cluster flags (issue 13) are implemented on another branch, merged after this one: until
-# then seamtexd --help does not list them and they are the only flags allowed to be missing.
-# Remove this set once the cluster branch is in (the lead tightens it after merging).
-PENDING_CLUSTER_FLAGS = {"cluster", "node-id", "advertise", "replicas", "write-quorum"}
-
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 problems = []
 
@@ -162,8 +157,6 @@ def main():
 
     for where, fl in used:
         if fl in daemon_flags or fl == "config":
-            continue
-        if fl in PENDING_CLUSTER_FLAGS:
             continue
         problem(f"{where}: seamtexd --{fl} is not in `seamtexd --help`")
 

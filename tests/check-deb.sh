@@ -29,10 +29,11 @@ echo "check-deb: built $(basename "$deb") ($(stat -c %s "$deb") bytes)"
 # ---- 2. contents and control
 multi=$(dpkg-architecture -qDEB_HOST_MULTIARCH 2>/dev/null || gcc -print-multiarch)
 list=$(dpkg-deb --contents "$deb" | awk '{print $NF}' | sed 's|^\./|/|')
-for f in /usr/bin/seamtexd /usr/bin/seamtex /usr/bin/seamtex-bench \
+for f in /usr/bin/seamtexd /usr/bin/seamtex /usr/bin/seamtex-bench /usr/bin/seamtex-render \
          "/usr/lib/$multi/libseamtex.a" "/usr/lib/$multi/pkgconfig/seamtex.pc" \
-         /usr/include/seamtex/seamtex.h \
+         /usr/include/seamtex/seamtex.h /usr/include/seamtex/seamtex_cluster.h \
          /usr/share/man/man1/seamtex.1.gz /usr/share/man/man1/seamtex-bench.1.gz \
+         /usr/share/man/man1/seamtex-render.1.gz \
          /usr/share/man/man3/libseamtex.3.gz /usr/share/man/man3/seamtex-python.3.gz \
          /usr/share/man/man8/seamtexd.8.gz \
          /lib/systemd/system/seamtexd.service /etc/seamtex/seamtexd.conf \

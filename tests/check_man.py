@@ -17,8 +17,10 @@ without its page (or documented without existing) fails here:
   seamtex.1        every command of `seamtex --help` has its item (.It Cm x); every long option
                    of `seamtex --help` and of each `seamtex COMMAND --help` appears
   seamtex-bench.1  every long option of `seamtex-bench --help` appears
-  libseamtex.3     every stc_ function declared in client/seamtex.h has its .Fn line, and
-                   every .Fn stc_x line of the page names a declared function
+  seamtex-render.1 every long option of `seamtex-render --help` appears
+  libseamtex.3     every stc_ function declared in client/seamtex.h or client/seamtex_cluster.h
+                   has its .Fn line, and every .Fn stc_x line of the page names a declared
+                   function
   seamtex-python.3 every public name of python/seamtex/__init__.pyi appears: module
                    constants, classes (the exceptions too), methods, attributes, properties
 "Appears" is checked on the page as mandoc renders it, as a whole word. Python's standard
@@ -33,6 +35,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LONG = re.compile(r"--[a-z][a-z0-9-]*")
+HEADERS = ("seamtex.h", "seamtex_cluster.h")   # the public headers libseamtex.3 documents
 
 
 def run(argv):
@@ -54,11 +57,14 @@ def gather(build):
     """The help texts of the programs and the header's functions, read once."""
     h = {"seamtexd": run([os.path.join(build, "seamtexd"), "--help"]),
          "seamtex": run([os.path.join(build, "seamtex"), "--help"]),
-         "bench": run([os.path.join(build, "seamtex-bench"), "--help"]), "cmd": {}}
+         "bench": run([os.path.join(build, "seamtex-bench"), "--help"]),
+         "render": run([os.path.join(build, "seamtex-render"), "--help"]), "cmd": {}}
     for c in sorted(set(re.findall(r"^  ([a-z]+)(?: |$)", h["seamtex"], re.M))):
         h["cmd"][c] = run([os.path.join(build, "seamtex"), c, "--help"])
-    with open(os.path.join(ROOT, "client", "seamtex.h")) as f:
-        h["decl"] = set(re.findall(r"\b(stc_[a-z0-9_]+)\s*\(", f.read()))
+    h["decl"] = set()
+    for hdr in HEADERS:
+        with open(os.path.join(ROOT, "client", hdr)) as f:
+            h["decl"] |= set(re.findall(r"\b(stc_[a-z0-9_]+)\s*\(", f.read()))
     h["py"] = pyi_names(os.path.join(ROOT, "python", "seamtex", "__init__.pyi"))
     return h
 
@@ -109,14 +115,19 @@ def content(man, h):
     for f in sorted(set(LONG.findall(h["bench"]))):
         if not has_word(text, f):
             errs.append(f"seamtex-bench.1 does not document {f}")
+    # seamtex-render.1
+    text = render(os.path.join(man, "seamtex-render.1"))
+    for f in sorted(set(LONG.findall(h["render"]))):
+        if not has_word(text, f):
+            errs.append(f"seamtex-render.1 does not document {f}")
     # libseamtex.3
     if not h["decl"]:
-        errs.append("no stc_ function found in client/seamtex.h")
+        errs.append("no stc_ function found in client/seamtex.h or client/seamtex_cluster.h")
     documented = set(re.findall(r"^\.Fn (stc_[a-z0-9_]+)(?: |$)", src["libseamtex.3"], re.M))
     for fn in sorted(h["decl"] - documented):
         errs.append(f"libseamtex.3 does not document {fn}")
     for fn in sorted(documented - h["decl"]):
-        errs.append(f"libseamtex.3 documents {fn}, which client/seamtex.h does not declare")
+        errs.append(f"libseamtex.3 documents {fn}, which no public header declares")
     # seamtex-python.3
     text = render(os.path.join(man, "seamtex-python.3"))
     if not h["py"]:
@@ -140,7 +151,9 @@ MUTATIONS = [
     ("seamtex.1", r"^\.It Cm compress.*\n", ""),
     ("seamtex.1", r"^.*retries.*\n", ""),
     ("seamtex-bench.1", r"^.*spin-us.*\n", ""),
+    ("seamtex-render.1", r"^.*breakdown.*\n", ""),
     ("libseamtex.3", r"^.*stc_job_wait.*\n", ""),
+    ("libseamtex.3", r"^.*stc_cluster_rank.*\n", ""),
     ("seamtex-python.3", r"^.*sample_dir.*\n", ""),
     ("seamtex-python.3", r"ChecksumMismatch", "Checksum"),
 ]
@@ -191,7 +204,7 @@ def main(argv):
     if lint_out or errs:
         return 1
     print(f"check-man: {len(pages)} pages lint-clean (mandoc -Tlint -Wwarning) and true to "
-          "--help, client/seamtex.h and python/seamtex/__init__.pyi")
+          "--help, client/seamtex.h, client/seamtex_cluster.h and python/seamtex/__init__.pyi")
     return self_test(h)
 
 

@@ -372,7 +372,9 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     char out[8192];
     assert_int_equal(run_cli(seeds, (const char *const[]){"cluster", "--json", NULL}, out,
                              sizeof out), 0);
-    if (!strstr(out, "\"sets\":29,\"under_replicated\":[]}") || strstr(out, "\"up\":false"))
+    /* (the CLI's one JSON writer, client/cli_json.c: two-space indents, "key": value) */
+    if (!strstr(out, "\n  \"sets\": 29,\n  \"under_replicated\": []\n}") ||
+        !strstr(out, "\"up\": true") || strstr(out, "\"up\": false"))
         fail_msg("seamtex cluster --json: %s", out);
     assert_int_equal(run_cli(seeds, (const char *const[]){"info", "s07", NULL}, out, sizeof out), 0);
     assert_non_null(strstr(out, "s07"));
