@@ -50,6 +50,7 @@
 
 #include "ptex.h"
 #include "ptexfilter.h"
+#include "../common/ptexref.h"
 #include "../common/testdata.h"
 
 #define MAXFILES 64
@@ -77,18 +78,9 @@ static double median(double *v, int n)
     return v[n / 2];
 }
 
-static const char *fnames[NFILT] = {"point", "bilinear", "box", "gaussian", "bicubic",
-                                    "bspline", "catmullrom", "mitchell"};
+#define fnames st_ptexref_filters   /* NFILT of them, in ST_FILTER_PTEX_POINT.. order */
 static const char *mnames[3] = {"discard", "traverse", "clamp"}; /* st_mode order */
 static const char *dtnames[4] = {"u8", "u16", "half", "f32"};     /* st_dtype order */
-
-static int filter_index(const char *n)
-{
-    for (int i = 0; i < NFILT; i++)
-        if (!strcmp(n, fnames[i]))
-            return i;
-    return -1;
-}
 
 typedef struct opts {
     const char *json, *files, *queries, *ptx, *dump;
@@ -412,21 +404,19 @@ static int run_query_file(const opts *op, const char *dd)
     int lineno = 0;
     while (L && fgets(line, sizeof line, fp)) {
         lineno++;
-        char fn[32];
-        refline r = {0};
-        int c = sscanf(line, "%u %f %f %f %f %f %f %31s -> %f %f %f %f", &r.q.face, &r.q.u,
-                       &r.q.v, &r.q.dudx, &r.q.dvdx, &r.q.dudy, &r.q.dvdy, fn, &r.ref[0],
-                       &r.ref[1], &r.ref[2], &r.ref[3]);
-        if (c <= 0 || line[0] == '#')
+        st_refline pl;
+        int pr = st_refline_parse(line, &pl);
+        if (pr == 0)
             continue;
-        if (c < 8 || (r.filter = filter_index(fn)) < 0) {
+        if (pr < 0) {
             fprintf(stderr, "%s:%d: expected `faceid u v uw1 vw1 uw2 vw2 filter`\n",
                     op->queries, lineno);
             fclose(fp);
             free(L);
             return 1;
         }
-        r.nref = c - 8;
+        refline r = {{pl.face, pl.u, pl.v, pl.dudx, pl.dvdx, pl.dudy, pl.dvdy}, pl.filter, pl.nref,
+                     {pl.ref[0], pl.ref[1], pl.ref[2], pl.ref[3]}};
         if (n == cap) {
             refline *nl = realloc(L, 2 * cap * sizeof *L);
             if (!nl)

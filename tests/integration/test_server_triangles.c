@@ -19,6 +19,7 @@
 
 #include <cmocka.h>
 
+#include "../common/ptexref.h"
 #include "../common/daemon_client.h"
 #include "../common/testdata.h"
 #include "ptex.h"
@@ -26,8 +27,6 @@
 
 #define D ST_GROUP
 
-static const char *const PTEX_NAMES[8] = {"point", "bilinear", "box", "gaussian", "bicubic",
-                                          "bspline", "catmullrom", "mitchell"};
 
 static void upload(stc_conn *c, const char *path, const char *name)
 {
@@ -77,19 +76,15 @@ static void triangle_sets_upload_sample_fetch_and_refuse_compress(void **state)
     char line[512];
     int lines = 0;
     while (lines < 100 && fgets(line, sizeof line, fp)) {
-        stc_query q;
-        char fn[32];
-        float want[3];
-        if (sscanf(line, "%u %f %f %f %f %f %f %31s -> %f %f %f", &q.face, &q.u, &q.v, &q.dudx,
-                   &q.dvdx, &q.dudy, &q.dvdy, fn, &want[0], &want[1], &want[2]) != 11)
+        st_refline L;
+        if (st_refline_parse(line, &L) != 1 || L.nref < 3)
             continue;
+        stc_query q = {L.face, L.u, L.v, L.dudx, L.dvdx, L.dudy, L.dvdy};
+        const float *want = L.ref;
         stc_sample_opts o;
         memset(&o, 0, sizeof o);
         o.mode = 1;
-        for (unsigned k = 0; k < 8; k++)
-            if (!strcmp(fn, PTEX_NAMES[k]))
-                o.filter = 8 + k;
-        assert_true(o.filter >= 8);
+        o.filter = (uint8_t)(8 + L.filter);     /* the wire's Ptex filters are 8..15 */
         stc_sample_result r;
         int rc = stc_sample(c, "tri", &o, &q, 1, &r);
         if (rc)

@@ -24,18 +24,10 @@
 #include "ptexfilter.h"
 #include "sample.h"
 #include "trilevel.h"
+#include "../common/ptexref.h"
 #include "../common/testdata.h"
 
-static const char *fnames[8] = {"point", "bilinear", "box", "gaussian", "bicubic", "bspline",
-                                "catmullrom", "mitchell"};
-
-static int filter_of(const char *n)
-{
-    for (int i = 0; i < 8; i++)
-        if (!strcmp(n, fnames[i]))
-            return ST_FILTER_PTEX_POINT + i;
-    return -1;
-}
+#define fnames st_ptexref_filters
 
 static const char *const tri_files[2][2] = {
     {"ptx/wdas-ptex-2009/tri/tri.ptx", "ptex-ref/ref_tri.txt"},
@@ -75,16 +67,15 @@ static void triangle_filters_match_the_ptex_library(void **state)
         float maxd[8] = {0};
         char line[512];
         while (fgets(line, sizeof line, fp)) {
-            st_query q;
-            char fn[32];
-            float ref[4] = {0};
-            int n = sscanf(line, "%u %f %f %f %f %f %f %31s -> %f %f %f %f", &q.face, &q.u, &q.v,
-                           &q.dudx, &q.dvdx, &q.dudy, &q.dvdy, fn, &ref[0], &ref[1], &ref[2],
-                           &ref[3]);
-            if (n < 9)
+            st_refline L;
+            int pr = st_refline_parse(line, &L);
+            assert_true(pr >= 0);
+            if (pr == 0 || L.nref < 1)
                 continue;
-            int flt = filter_of(fn);
-            assert_true(flt >= 0);
+            st_query q = {L.face, L.u, L.v, L.dudx, L.dvdx, L.dudy, L.dvdy};
+            const float *ref = L.ref;
+            int n = 8 + L.nref;
+            int flt = ST_FILTER_PTEX_POINT + L.filter;
             st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = (uint8_t)flt};
             float out[4];
             uint8_t st;
