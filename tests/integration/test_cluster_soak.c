@@ -67,7 +67,7 @@ typedef struct soak {
     signed char acked[MAXSETS];     /* atomic per entry: 1 when the upload was acknowledged */
     /* counters (each written by one thread, read after the join) */
     uint64_t uploads, upload_failures, reads, read_failures, wrong_reads;
-    char     first_read_failure[512], first_upload_failure[512];
+    char     first_read_failure[512], first_upload_failure[512], first_wrong_read[128];
 } soak;
 
 static soak S;
@@ -167,10 +167,12 @@ static void *reader_main(void *arg)
         int rc = st_cluster_red_at(cl, name, &red);
         s->reads++;
         if (rc != 0 || red != S.red[k % NTINT]) {
-            if (!s->read_failures && !s->wrong_reads)
+            if (rc && !s->read_failures)
                 snprintf(s->first_read_failure, sizeof s->first_read_failure, "%s: %s (%s)",
-                         name, rc ? stc_strerror(rc) : "other contents",
-                         rc ? stc_cluster_errmsg(cl) : "");
+                         name, stc_strerror(rc), stc_cluster_errmsg(cl));
+            if (!rc && !s->wrong_reads)
+                snprintf(s->first_wrong_read, sizeof s->first_wrong_read,
+                         "%s: red %g, uploaded %g", name, (double)red, (double)S.red[k % NTINT]);
             if (rc)
                 s->read_failures++;
             else
@@ -385,16 +387,16 @@ static void cluster_soak_kills_and_restarts(void **state)
     static verdict v;
     check_all(s, &v);
     print_message("cluster soak: %ld rounds in %.1f s (convergence %.1f s): %llu uploads tried, "
-                  "%llu acknowledged, %llu failed (first: %s); %llu reads, %llu failed, %llu "
-                  "other contents (first: %s); at the end: %d lost, %d under R copies, %d wrong "
+                  "%llu acknowledged, %llu failed (first: %s); %llu reads, %llu failed (first: %s), "
+                  "%llu other contents (first: %s); at the end: %d lost, %d under R copies, %d wrong "
                   "copies, %d unknown sets, %d owner misses; refused uploads left on fewer than "
                   "R nodes: %d%s\n",
                   rounds, (double)(st_now_ms() - t0) / 1000, (double)(st_now_ms() - t_conv) / 1000,
                   (unsigned long long)s->uploads, (unsigned long long)acked,
                   (unsigned long long)s->upload_failures, s->first_upload_failure,
                   (unsigned long long)s->reads, (unsigned long long)s->read_failures,
-                  (unsigned long long)s->wrong_reads, s->first_read_failure, v.lost, v.short_sets,
-                  v.wrong, v.strangers, v.owner_misses, v.leftovers, v.leftover_names);
+                  s->first_read_failure, (unsigned long long)s->wrong_reads, s->first_wrong_read,
+                  v.lost, v.short_sets, v.wrong, v.strangers, v.owner_misses, v.leftovers, v.leftover_names);
     if (!ok) {
         for (int i = 0; i < NNODES; i++)
             st_daemon_dump_log(&s->node[i], 30);
@@ -405,7 +407,7 @@ static void cluster_soak_kills_and_restarts(void **state)
     if (s->wrong_reads)
         fail_msg("%llu reads of %llu gave other contents; first: %s",
                  (unsigned long long)s->wrong_reads, (unsigned long long)s->reads,
-                 s->first_read_failure);
+                 s->first_wrong_read);
 
     for (int i = 0; i < NNODES; i++)
         st_daemon_down(&s->node[i], 10000);
