@@ -5,7 +5,8 @@
 #                   ends with "N passed, N failed"
 #   make fuzz       a real fuzz campaign: every target FUZZ_SECONDS (600), corpora kept in
 #                   build/fuzz-corpus/
-#   make soak       the long SIGKILL durability soak: SEAMTEX_SOAK_SECONDS (600) of rounds
+#   make soak       the long SIGKILL soaks: SEAMTEX_SOAK_SECONDS (600) of durability rounds
+#                   and 20 cluster kill/restart rounds (SEAMTEX_SOAK_ROUNDS)
 #   make python     the Python module seamtex into build/python/ (also part of make all when
 #                   python3-dev is installed; docs/python.md)
 #   make bench      every benchmark; figures printed and written to build/bench/*.json
@@ -174,7 +175,8 @@ fuzz: deps
 	@B=$(B) MODE=fuzz FUZZ_SECONDS=$${FUZZ_SECONDS:-600} TEST_JOBS=$${TEST_JOBS:-$(NPROC)} \
 		FUZZ_CORPUS_DIR=$${FUZZ_CORPUS_DIR:-$(CURDIR)/$(B)/fuzz-corpus} bash tests/run.sh
 
-# SEAMTEX_SOAK_SECONDS of SIGKILL rounds (default 600), at least SEAMTEX_SOAK_ROUNDS (default 4).
+# SEAMTEX_SOAK_SECONDS of SIGKILL rounds (default 600), at least SEAMTEX_SOAK_ROUNDS (default 4);
+# the cluster soak: SEAMTEX_SOAK_ROUNDS rounds, 20 by default (tests/run.sh MODE=soak).
 soak: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all tests-build
 	@B=$(B) MODE=soak SEAMTEX_SOAK_SECONDS=$${SEAMTEX_SOAK_SECONDS:-600} \

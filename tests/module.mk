@@ -11,7 +11,8 @@
 #
 # tests/run.sh runs them all in parallel: make test (every binary, each fuzz target for
 # FUZZ_SECONDS, default 8), make fuzz (fuzz targets only, 600 s each, corpora kept in
-# $(B)/fuzz-corpus/), make soak (test_durability for SEAMTEX_SOAK_SECONDS, default 600).
+# $(B)/fuzz-corpus/), make soak (test_durability for SEAMTEX_SOAK_SECONDS, default 600, and
+# test_cluster_soak for 20 kill/restart rounds).
 
 # Tests see everything (they test every layer directly).
 INC_TESTS := -Itests/common -Iclient -Iserver -Iprotocol -Irender $(INC_STORE)

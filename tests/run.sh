@@ -29,8 +29,8 @@
 #
 # Environment: ONLY=substr (run only the jobs whose name contains it; "fuzz" matches every fuzz
 # target), TEST_TIMEOUT (seconds per binary, default 900), TEST_JOBS, FUZZ_SECONDS,
-# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak|tsan (fuzz: fuzz targets only; soak: test_durability only,
-# with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through; tsan: the integration tests,
+# FUZZ_CORPUS_DIR, MODE=test|fuzz|soak|tsan (fuzz: fuzz targets only; soak: test_durability and
+# test_cluster_soak only, with SEAMTEX_SOAK_ROUNDS / SEAMTEX_SOAK_SECONDS passed through; tsan: the integration tests,
 # TSAN_OPTIONS set to tests/tsan.supp and per-process report files, any report fails).
 set -u
 B=${B:-build}
@@ -61,7 +61,7 @@ if [ "$MODE" != fuzz ]; then
         # a binary whose source is gone (renamed or split) is a leftover of an old build
         src=tests/$(basename "$(dirname "$t")")/$name.c
         [ -f "$src" ] || { echo "note: $t has no $src: not run (stale build)" >&2; continue; }
-        [ "$MODE" = soak ] && [ "$name" != test_durability ] && continue
+        [ "$MODE" = soak ] && [ "$name" != test_durability ] && [ "$name" != test_cluster_soak ] && continue
         [ "$MODE" = tsan ] && [ "$(basename "$(dirname "$t")")" != integration ] && continue
         # the fault-injection daemon tests interpose libc through LD_PRELOAD, which does not
         # mix with ThreadSanitizer's own interceptors: they run in make test and make asan
@@ -98,6 +98,7 @@ guess() {
             fuzz/*) secs=$FUZZ_SECONDS ;;
             test/test_server*|test/test_durability|test/test_client|test/test_cli|pytest/*) secs=30 ;;
             test/test_faults_daemon) secs=60 ;;
+            test/test_cluster*) secs=40 ;;
             *) secs=5 ;;
         esac
     fi

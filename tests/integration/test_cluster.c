@@ -23,9 +23,9 @@
 
 #include <cmocka.h>
 
+#include "../common/cluster_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/etcd_fixture.h"
-#include "../common/ptx_fixture.h"
 #include "../common/wait.h"
 #include "seamtex_cluster.h"
 
@@ -41,31 +41,11 @@ static int set_tint[NSETS];     /* the contents each set should have; -1 deleted
 
 static void start_node(int i)
 {
-    char id[8];
-    snprintf(id, sizeof id, "n%d", i);
-    const char *args[] = {"--cluster", ETCD.url, "--node-id", id, "--advertise", "127.0.0.1:0",
-                          "--replicas", "2", "--lease-ttl", "2", "--repair-interval", "1",
-                          "--no-default-set", NULL};
-    assert_int_equal(st_daemon_start(&NODE[i], args), 0);
+    assert_int_equal(st_cluster_node_start(&NODE[i], ETCD.url, i, 2, 0), 0);
     live[i] = 1;
 }
 
 static void setname(char *out, int k) { snprintf(out, 16, "s%02d", k); }
-
-/* the red channel at the middle of face 0 tells a tint apart */
-static int value_on(stc_conn *c, const char *set, float *red)
-{
-    stc_sample_opts o;
-    memset(&o, 0, sizeof o);
-    o.mode = 1;
-    o.filter = 0;
-    stc_query q = {0, 0.5f, 0.5f, 0, 0, 0, 0};
-    stc_sample_result r;
-    int rc = stc_sample(c, set, &o, &q, 1, &r);
-    if (rc == 0)
-        *red = ((const float *)r.values)[0];
-    return rc;
-}
 
 static float tint_red[4];
 
@@ -98,7 +78,7 @@ static int converged(void *arg)
                 break;
             }
             float red;
-            if (value_on(c, names[k], &red) != 0 || red != tint_red[set_tint[s]]) {
+            if (st_red_at(c, names[k], &red) != 0 || red != tint_red[set_tint[s]]) {
                 bad = 1;
                 break;
             }
@@ -261,17 +241,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     assert_int_equal(st_etcd_start(&ETCD, "/t"), 0);
     for (int i = 0; i < NNODES; i++)
         assert_int_equal(st_daemon_init(&NODE[i]), 0);
-    for (int t = 0; t < 4; t++) {
-        size_t len = 0;
-        void *p = st_fixture_default_ptx(&len, t * 60);
-        assert_non_null(p);
-        snprintf(files[t], sizeof files[t], "%s/tint%d.ptx", NODE[0].dir, t);
-        FILE *f = fopen(files[t], "wb");
-        assert_non_null(f);
-        assert_int_equal(fwrite(p, 1, len, f), len);
-        fclose(f);
-        free(p);
-    }
+    assert_int_equal(st_cluster_tint_files(NODE[0].dir, 4, 60, files), 0);
     for (int i = 0; i < 3; i++)
         start_node(i);
 
@@ -295,15 +265,8 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     }
     assert_int_equal(stc_cluster_refresh(cl), 0);
     assert_int_equal(stc_cluster_nodes(cl, &nodes), 3);
-    for (int t = 0; t < 4; t++) {
-        if (stc_cluster_upload_file(cl, files[t], "probe", NULL, NULL) != 0)
-            fail_msg("probe upload: %s", stc_cluster_errmsg(cl));
-        stc_sample_result r;
-        assert_int_equal(stc_cluster_sample(cl, "probe", &(stc_sample_opts){.mode = 1},
-                                            &(stc_query){0, 0.5f, 0.5f, 0, 0, 0, 0}, 1, &r), 0);
-        tint_red[t] = ((const float *)r.values)[0];
-        assert_int_equal(stc_cluster_delete(cl, "probe"), 0);
-    }
+    if (st_cluster_tint_reds(cl, 4, files, tint_red) != 0)
+        fail_msg("probe uploads: %s", stc_cluster_errmsg(cl));
     assert_true(tint_red[0] != tint_red[1] && tint_red[2] != tint_red[3]);
     wait_converged("30 uploads");
 
@@ -397,7 +360,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
         stc_conn *c = st_daemon_client(&NODE[i], NULL);
         assert_non_null(c);
         float red = 0;
-        if (value_on(c, "race", &red) == 0) {
+        if (st_red_at(c, "race", &red) == 0) {
             assert_true(red == want);
             holders++;
         }

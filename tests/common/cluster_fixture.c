@@ -1,0 +1,89 @@
+/* tests/common/cluster_fixture.c - see cluster_fixture.h. */
+#include "cluster_fixture.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ptx_fixture.h"
+
+int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned R, unsigned W)
+{
+    char id[16], r[12], w[12];
+    snprintf(id, sizeof id, "n%d", idx);
+    snprintf(r, sizeof r, "%u", R);
+    snprintf(w, sizeof w, "%u", W ? W : R);
+    const char *args[] = {"--cluster", etcd_url, "--node-id", id, "--advertise", "127.0.0.1:0",
+                          "--replicas", r, "--write-quorum", w, "--lease-ttl", "2",
+                          "--repair-interval", "1", "--no-default-set", NULL};
+    return st_daemon_start(d, args);
+}
+
+int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300])
+{
+    for (int t = 0; t < n; t++) {
+        size_t len = 0;
+        void *p = st_fixture_default_ptx(&len, t * step);
+        if (!p)
+            return -1;
+        snprintf(files[t], 300, "%s/tint%d.ptx", dir, t);
+        FILE *f = fopen(files[t], "wb");
+        size_t put = f ? fwrite(p, 1, len, f) : 0;
+        int bad = !f || put != len;
+        if (f && fclose(f) != 0)
+            bad = 1;
+        free(p);
+        if (bad) {
+            fprintf(stderr, "cannot write %s\n", files[t]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static void center_query(stc_sample_opts *o, stc_query *q)
+{
+    memset(o, 0, sizeof *o);
+    o->mode = 1;
+    memset(q, 0, sizeof *q);
+    q->u = 0.5f;
+    q->v = 0.5f;
+}
+
+int st_red_at(stc_conn *c, const char *set, float *red)
+{
+    stc_sample_opts o;
+    stc_query q;
+    stc_sample_result r;
+    center_query(&o, &q);
+    int rc = stc_sample(c, set, &o, &q, 1, &r);
+    if (rc == 0)
+        *red = ((const float *)r.values)[0];
+    return rc;
+}
+
+int st_cluster_red_at(stc_cluster *cl, const char *set, float *red)
+{
+    stc_sample_opts o;
+    stc_query q;
+    stc_sample_result r;
+    center_query(&o, &q);
+    int rc = stc_cluster_sample(cl, set, &o, &q, 1, &r);
+    if (rc == 0)
+        *red = ((const float *)r.values)[0];
+    return rc;
+}
+
+int st_cluster_tint_reds(stc_cluster *cl, int n, char (*files)[300], float *red)
+{
+    for (int t = 0; t < n; t++) {
+        int rc = stc_cluster_upload_file(cl, files[t], "probe", NULL, NULL);
+        if (!rc)
+            rc = st_cluster_red_at(cl, "probe", &red[t]);
+        if (!rc)
+            rc = stc_cluster_delete(cl, "probe");
+        if (rc)
+            return rc;
+    }
+    return 0;
+}

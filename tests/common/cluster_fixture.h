@@ -1,0 +1,33 @@
+/* tests/common/cluster_fixture.h - the pieces of a loopback seamtex cluster shared by the
+ * cluster tests (test_cluster, test_cluster_soak).
+ *
+ * Owns: starting node i of a cluster (seamtexd --cluster <etcd> --node-id n<i>, 2 s leases, a
+ * repair pass every second, no default set) with a chosen R and W; .ptx files of distinct
+ * contents ("tints": face 0 repainted) to upload; reading the red channel at the middle of
+ * face 0, which tells a tint apart. Does not own: etcd (etcd_fixture.h), the daemon process
+ * (daemon_fixture.h), what a test checks.
+ */
+#ifndef ST_CLUSTER_FIXTURE_H
+#define ST_CLUSTER_FIXTURE_H
+
+#include "daemon_fixture.h"
+#include "seamtex_cluster.h"
+
+/* Starts d as node "n<idx>" of the cluster at etcd_url with replicas R and write quorum W
+ * (0: W = R). 0 or -1. Call again after a kill to restart it with the same data dir and id. */
+int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned R, unsigned W);
+
+/* Writes n tint files <dir>/tint<t>.ptx (tint t * step) and their paths into files[t]
+ * (each cap bytes). 0 or -1. */
+int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300]);
+
+/* Uploads each tint file through cl under the name "probe", reads its red value into red[t]
+ * and deletes it again. 0, or the first failing call's status. */
+int st_cluster_tint_reds(stc_cluster *cl, int n, char (*files)[300], float *red);
+
+/* The red channel at the middle of face 0 of set through c into *red; 0 or the status. */
+int st_red_at(stc_conn *c, const char *set, float *red);
+/* The same through the cluster client. */
+int st_cluster_red_at(stc_cluster *cl, const char *set, float *red);
+
+#endif
