@@ -26,8 +26,8 @@
  *
  * Rounds: SEAMTEX_SOAK_ROUNDS when set, else 20 under make soak (SEAMTEX_SOAK_SECONDS is set
  * there), else 2 (a run by hand; make test does not run it: tests/run.sh). SEAMTEX_SOAK_SEED
- * replays a run (the seed is printed). The sleeps are the random kill moments and down times under test; every other wait is a
- * deadline against a hang, never a speed check.
+ * replays a run (the seed is printed). The sleeps are the random kill moments and down times
+ * under test; every other wait is a deadline against a hang, never a speed check.
  */
 #include <pthread.h>
 #include <setjmp.h>
