@@ -401,9 +401,12 @@ static void scrapes_under_load_are_monotonic_and_match_stats(void **state)
     }
     free(prev.s);
 
-    /* STATS, then a scrape: nothing but the scrape itself happens in between */
+    /* STATS, then a scrape: nothing but the scrape itself happens in between. The load
+     * threads' connections close asynchronously in the daemon: first wait until this client's
+     * is the only one left. */
     stc_conn *c = st_daemon_client(&d, NULL);
     assert_non_null(c);
+    assert_int_equal(st_wait_stat(&d, c, "conns_current", ST_STAT_EQ, 1, 60000), 0);
     const stc_stat *st;
     size_t n;
     assert_int_equal(stc_stats(c, &st, &n), 0);
