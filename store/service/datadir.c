@@ -593,79 +593,6 @@ static void move_broken(st_datadir *d, const char *name, const char *setdir)
  * left where it is and the load stops, rather than setting an acknowledged set aside. */
 static int transient(int rc) { return rc == ST_ENOMEM || rc == ST_EIO; }
 
-/* Checks and loads one set directory: 1 loaded, 0 removed or moved to broken/, ST_EBUSY
- * when the loader asked to be called again later. Caller holds d->mu. */
-static int load_one(st_datadir *d, const char *sets, const char *name, st_publish_fn load,
-                    void *arg, void (*report)(void *arg, const char *name, const char *why),
-                    int final, st_error *e)
-{
-    struct dirent *de;
-    char setdir[PATHCAP], man[PATHCAP], src[PATHCAP];
-    pathf(setdir, "%s/%s", sets, name);
-    pathf(man, "%s/manifest", setdir);
-    st_error err;
-    st_error_clear(&err);
-    if (st_name_check(name, strlen(name), &err) != 0) {
-        if (report)
-            report(arg, name, err.msg);
-        move_broken(d, "badname", setdir);
-        return 0;
-    }
-    st_manifest m;
-    int rc = st_manifest_read(man, &m, &err);
-    if (rc == ST_ENOTFOUND) {
-        /* a new set whose commit never reached its manifest: never acknowledged */
-        if (report)
-            report(arg, name, "no manifest (interrupted upload): removed");
-        rm_rf(setdir);
-        return 0;
-    }
-    if (!rc && strcmp(m.name, name) != 0)
-        rc = st_fail(&err, ST_EFORMAT, "manifest names '%s'", m.name);
-    /* remove files the manifest does not name (an interrupted replace) */
-    if (!rc) {
-        DIR *sd = opendir(setdir);
-        while (sd && (de = readdir(sd))) {
-            if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, "..") ||
-                !strcmp(de->d_name, "manifest") || !strcmp(de->d_name, m.source) ||
-                !strcmp(de->d_name, ST_DATADIR_NATIVE))
-                continue;
-            pathf(src, "%s/%s", setdir, de->d_name);
-            rm_rf(src);
-        }
-        if (sd)
-            closedir(sd);
-        pathf(src, "%s/%s", setdir, m.source);
-        uint64_t bytes;
-        uint32_t crc;
-        rc = st_file_crc(src, &bytes, &crc, &err);
-        if (!rc && (bytes != m.bytes || crc != m.crc))
-            rc = st_fail(&err, ST_ECORRUPT,
-                         "source has %" PRIu64 " bytes crc %08x, manifest says %" PRIu64
-                         " bytes crc %08x", bytes, crc, m.bytes, m.crc);
-    }
-    if (!rc && load) {
-        rc = load(arg, &m, src);
-        if (rc == ST_EBUSY && !final)
-            return ST_EBUSY;
-        if (rc && !err.msg[0])
-            snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
-    }
-    if (rc && transient(rc))
-        return st_fail(e, rc, "set '%s' left in place, not loaded: %s", name,
-                       err.msg[0] ? err.msg : st_strerror(rc));
-    if (rc) {
-        if (report) {
-            char why[ST_ERRMSG_LEN + 40];
-            snprintf(why, sizeof why, "%s: moved to broken/", err.msg[0] ? err.msg : "load failed");
-            report(arg, name, why);
-        }
-        move_broken(d, name, setdir);
-        return 0;
-    }
-    return 1;
-}
-
 /* The names in sets/, sorted (*names malloc'ed, each name too; the caller frees them). A
  * set missing from the list would be a set missing after the start: out of memory fails. */
 static int list_sets(const char *sets, char ***out, size_t *count, st_error *e)
@@ -706,56 +633,6 @@ oom:
         free(names[k]);
     free(names);
     return st_fail(e, ST_ENOMEM, "listing %s: out of memory", sets);
-}
-
-int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
-                    void (*report)(void *arg, const char *name, const char *why), st_error *e)
-{
-    char sets[PATHCAP];
-    pathf(sets, "%s/sets", d->root);
-    char **names = NULL;
-    size_t n = 0;
-    int lrc = list_sets(sets, &names, &n, e);
-    if (lrc)
-        return lrc;
-
-    int loaded = 0;
-    pthread_mutex_lock(&d->mu);
-    /* pass after pass: sets whose loader said "later" (ST_EBUSY) are retried while the
-     * previous pass loaded something; in the last pass "later" counts as a failure */
-    size_t left = n;
-    for (int final = 0; left > 0;) {
-        size_t progress = 0, deferred = 0;
-        for (size_t i = 0; i < n; i++) {
-            if (!names[i])
-                continue;
-            int r = load_one(d, sets, names[i], load, arg, report, final, e);
-            if (r == ST_EBUSY) {
-                deferred++;
-                continue;
-            }
-            if (r < 0) {
-                pthread_mutex_unlock(&d->mu);
-                for (size_t k = 0; k < n; k++)
-                    free(names[k]);
-                free(names);
-                return r;
-            }
-            if (r == 1) {
-                loaded++;
-                progress++;
-            }
-            free(names[i]);
-            names[i] = NULL;
-        }
-        left = deferred;
-        if (!progress)
-            final = 1;
-    }
-    pthread_mutex_unlock(&d->mu);
-    free(names);
-    fsync_path(sets, 1, NULL);
-    return loaded;
 }
 
 /* ---- load with native files ------------------------------------------------------------------ */
@@ -880,7 +757,6 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
             snprintf(why, sizeof why, "%s", ne.msg);
         }
     }
-    int imported = 0;
     if (!rc && native_why) {
         if (native_why != ST_ENOTFOUND && !L->no_native) {
             say(L, name, "native file refused (%s): moved to broken/, rebuilding it from the "
@@ -905,7 +781,6 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
                 snprintf(err.msg, sizeof err.msg, "import failed (%s)", st_strerror(rc));
         }
         if (!rc) {
-            imported = 1;
             char ntmp[PATHCAP];
             ntmp[0] = 0;
             if (!L->no_native)
@@ -927,7 +802,6 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
             rc = L->publish(L->arg, &m, set, &err);
         }
     }
-    (void)imported;
     if (rc && transient(rc))
         return st_fail(e, rc, "set '%s' left in place, not loaded: %s", name,
                        err.msg[0] ? err.msg : st_strerror(rc));
@@ -1000,4 +874,46 @@ int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e)
     if (L->built)
         *L->built = built;
     return loaded;
+}
+
+/* ---- load through a one-step callback ------------------------------------------------------ */
+
+/* st_datadir_load is st_datadir_load_sets without native files: the caller's callback imports
+ * and publishes in one step, so the import hands on no set and publishing is a no-op. */
+typedef struct {
+    st_publish_fn load;
+    void         *arg;
+    void        (*report)(void *arg, const char *name, const char *why);
+} load_adapter;
+
+static int adapter_import(void *arg, const st_manifest *m, const char *source_path,
+                          st_set **out, st_error *e)
+{
+    (void)e;
+    const load_adapter *a = arg;
+    *out = NULL;
+    return a->load ? a->load(a->arg, m, source_path) : 0;
+}
+
+static int adapter_publish(void *arg, const st_manifest *m, st_set *set, st_error *e)
+{
+    (void)arg; (void)m; (void)set; (void)e;
+    return 0;
+}
+
+static void adapter_report(void *arg, const char *name, const char *why)
+{
+    const load_adapter *a = arg;
+    a->report(a->arg, name, why);
+}
+
+int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
+                    void (*report)(void *arg, const char *name, const char *why), st_error *e)
+{
+    load_adapter a = { load, arg, report };
+    st_datadir_loader L = {
+        .arg = &a, .import = adapter_import, .publish = adapter_publish,
+        .report = report ? adapter_report : NULL, .no_native = 1,
+    };
+    return st_datadir_load_sets(d, &L, e);
 }

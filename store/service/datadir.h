@@ -123,7 +123,8 @@ int st_datadir_delete(st_datadir *d, const char *name,
  * set that fails the checks or whose load callback returns another code < 0 is moved to
  * broken/<name>.<time> and reported through report (may be NULL) with the reason; ST_ENOMEM or
  * ST_EIO (from the checks or the callback) says nothing about the set: it is left in place and
- * the load stops with that code. Returns the number of sets loaded, or a negative code. */
+ * the load stops with that code. Returns the number of sets loaded, or a negative code.
+ * It is st_datadir_load_sets with no_native set (one scan loop serves both). */
 int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
                     void (*report)(void *arg, const char *name, const char *why), st_error *e);
 

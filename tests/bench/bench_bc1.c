@@ -13,6 +13,7 @@
 #include "bc1.h"
 #include "image.h"
 #include "image_io.h"
+#include "../common/benchstat.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -31,25 +32,12 @@ static const char *EXTRA[] = {"images/StillLife.jpg", "images/astronaut.png", "i
                               "meshes/spider/drkwood2.jpg"};
 #define NEXTRA 9
 
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
-
 /* single-core figures are per CPU-second of this thread: the machine is shared */
 static double cpu_now(void)
 {
     struct timespec t;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
     return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
-}
-
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
 }
 
 static uint8_t *to_rgba8(const st_image *im)
@@ -90,7 +78,7 @@ static void run_level(int level, const char *const *names, uint8_t *const *img, 
             st_bc1_encode_image(img[i], W[i], H[i], (size_t)W[i] * 4, level, 1, blk, NULL);
             t[r] = cpu_now() - t0;
         }
-        qsort(t, (size_t)reps, sizeof *t, cmp_d);
+        qsort(t, (size_t)reps, sizeof *t, st_bench_cmp_double);
         double med = t[reps / 2];
         st_bc1_decode_image(blk, W[i], H[i], ST_BC1_DEC_EXACT, dec);
         double p = st_bc1_psnr_rgb(img[i], dec, np);
@@ -218,9 +206,9 @@ int main(int argc, char **argv)
            "%-6s %8s %10s\n", "level", "threads", "MPix/s");
     for (int level = ST_BC1_FAST; level <= ST_BC1_HQ; level++)
         for (int th = 1; th >= 0; th--) {
-            double t0 = now();
+            double t0 = st_bench_now();
             st_bc1_encode_image(big, BW, BH, (size_t)BW * 4, level, th, blk, NULL);
-            double dt = now() - t0;
+            double dt = st_bench_now() - t0;
             printf("%-6s %8s %10.1f\n", level ? "hq" : "fast", th ? "1" : "all",
                    (double)BW * BH / dt / 1e6);
             if (jf)

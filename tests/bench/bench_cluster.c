@@ -38,32 +38,7 @@
 #include "../common/etcd_fixture.h"
 #include "../common/ptx_fixture.h"
 #include "../common/wait.h"
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double pct(double *v, int n, double p)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_d);
-    int k = (int)ceil(p * n) - 1;
-    return v[k < 0 ? 0 : k >= n ? n - 1 : k];
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_d);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+#include "../common/benchstat.h"
 
 #define MAXN 3
 static st_etcd ETCD;
@@ -181,19 +156,19 @@ static int bench_routing(stc_cluster *cl)
     double a[7], b[7];
     stc_sample_result r;
     for (int round = 0; round < 7; round++) {
-        double t0 = now_s();
+        double t0 = st_bench_now();
         for (int k = 0; k < 1000; k++)
             if (stc_sample(direct, "b00", &SOPTS, q, 64, &r) != 0)
                 return -1;
-        a[round] = (now_s() - t0) / 1000 * 1e6;
-        t0 = now_s();
+        a[round] = (st_bench_now() - t0) / 1000 * 1e6;
+        t0 = st_bench_now();
         for (int k = 0; k < 1000; k++)
             if (stc_cluster_sample(cl, "b00", &SOPTS, q, 64, &r) != 0)
                 return -1;
-        b[round] = (now_s() - t0) / 1000 * 1e6;
+        b[round] = (st_bench_now() - t0) / 1000 * 1e6;
     }
-    routing_direct_us = median(a, 7);
-    routing_cluster_us = median(b, 7);
+    routing_direct_us = st_bench_median(a, 7);
+    routing_cluster_us = st_bench_median(b, 7);
     printf("routing: direct %.1f us/request, cluster client %.1f us/request, ratio %.3f "
            "(medians of 7 alternating rounds of 1000 SAMPLE x 64)\n", routing_direct_us,
            routing_cluster_us, routing_cluster_us / routing_direct_us);
@@ -216,7 +191,7 @@ static void *tput_main(void *p)
     stc_conn *c = st_daemon_client(&NODE[a->node], NULL);
     stc_query *q = make_queries(4096);
     stc_sample_result r;
-    while (c && now_s() < a->t_end)
+    while (c && st_bench_now() < a->t_end)
         if (stc_sample(c, "b00", &SOPTS, q, 4096, &r) == 0)
             a->queries += 4096;
     stc_close(c);
@@ -255,7 +230,7 @@ static int bench_throughput(double secs)
                 c0[i] = cpu_s(NODE[i].pid);
                 q0[i] = st_daemon_stat(&NODE[i], "queries");
             }
-            double t0 = now_s();
+            double t0 = st_bench_now();
             for (int k = 0; k < 4; k++) {
                 args[k] = (tput_arg){k % nn, t0 + secs, 0};
                 pthread_create(&th[k], NULL, tput_main, &args[k]);
@@ -265,7 +240,7 @@ static int bench_throughput(double secs)
                 pthread_join(th[k], NULL);
                 total += args[k].queries;
             }
-            double el = now_s() - t0, cpu = 0;
+            double el = st_bench_now() - t0, cpu = 0;
             uint64_t served = 0;
             for (int i = 0; i < nn; i++) {
                 cpu += cpu_s(NODE[i].pid) - c0[i];
@@ -275,8 +250,8 @@ static int bench_throughput(double secs)
             cpq[nn][round] = served ? cpu / (double)served * 1e6 : 0;
         }
     for (int nn = 1; nn <= MAXN; nn++) {
-        tput_qps[nn] = median(qps[nn], 2);
-        tput_cpu_us[nn] = median(cpq[nn], 2);
+        tput_qps[nn] = st_bench_median(qps[nn], 2);
+        tput_cpu_us[nn] = st_bench_median(cpq[nn], 2);
         printf("throughput: %d node(s): %.0f queries/s aggregate, %.3f us of daemon CPU per "
                "query\n", nn, tput_qps[nn], tput_cpu_us[nn]);
     }
@@ -313,13 +288,13 @@ static int bench_failover(stc_cluster *cl, int kills)
                     victim, stc_strerror(src), stc_cluster_errmsg(cl));
             break;
         }
-        double t0 = now_s();
+        double t0 = st_bench_now();
         st_daemon_kill(&NODE[victim]);   /* SIGKILL, then waitpid: the process is gone */
-        double t1 = now_s();
-        while (stc_cluster_sample(cl, name, &SOPTS, q, 1, &r) != 0 && now_s() - t0 < 30)
+        double t1 = st_bench_now();
+        while (stc_cluster_sample(cl, name, &SOPTS, q, 1, &r) != 0 && st_bench_now() - t0 < 30)
             ;
-        ta[fo_n] = (now_s() - t1) * 1e3;
-        t[fo_n++] = (now_s() - t0) * 1e3;
+        ta[fo_n] = (st_bench_now() - t1) * 1e3;
+        t[fo_n++] = (st_bench_now() - t0) * 1e3;
         restart_node(victim);
         g_live[victim] = 1;
         if (st_wait_until(settled, NULL, 120000) != 0) {
@@ -341,10 +316,10 @@ static int bench_failover(stc_cluster *cl, int kills)
         }
     }
     if (fo_n) {
-        fo_p50 = pct(t, fo_n, 0.5);
-        fo_p99 = pct(t, fo_n, 0.99);
-        fo_after_p50 = pct(ta, fo_n, 0.5);
-        fo_after_p99 = pct(ta, fo_n, 0.99);
+        fo_p50 = st_bench_pct(t, fo_n, 0.5);
+        fo_p99 = st_bench_pct(t, fo_n, 0.99);
+        fo_after_p50 = st_bench_pct(ta, fo_n, 0.5);
+        fo_after_p99 = st_bench_pct(ta, fo_n, 0.99);
         printf("failover: kill -9 of the first owner -> first successful read: p50 %.2f ms, "
                "p99 %.2f ms over %d kills (of which after the process was reaped: p50 %.2f ms, "
                "p99 %.2f ms)\n", fo_p50, fo_p99, fo_n, fo_after_p50, fo_after_p99);
@@ -369,10 +344,10 @@ static int bench_rereplicate(void)
     /* from the membership change (the lease expires) to every set back at 2 copies */
     while (st_daemon_stat(&NODE[0], "cluster_members") != 2)
         st_sleep_ms(5);
-    double t0 = now_s();
+    double t0 = st_bench_now();
     if (st_wait_until(settled, NULL, 120000) != 0)
         return -1;
-    rr_secs = now_s() - t0;
+    rr_secs = st_bench_now() - t0;
     uint64_t b1 = 0;
     for (int i = 0; i < 2; i++)
         b1 += st_daemon_stat(&NODE[i], "cluster_push_bytes");

@@ -18,6 +18,7 @@
 
 #include "cube.h"
 #include "import.h"
+#include "../common/benchstat.h"
 
 #define NQ (1u << 16)
 #define BATCH 4096
@@ -27,12 +28,6 @@ static double cpu_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
 }
 
 static st_set *synthetic_cube(void)
@@ -145,7 +140,7 @@ int main(int argc, char **argv)
             } while (t < secs);
             rate[r] = (double)done / t;
         }
-        qsort(rate, (size_t)reps, sizeof(double), cmp_double);
+        qsort(rate, (size_t)reps, sizeof(double), st_bench_cmp_double);
         double m = rate[reps / 2];
         printf("%-36s %14.2f %10.1f\n", C[c].name, m / 1e6, 1e9 / m);
         if (js)

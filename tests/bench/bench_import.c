@@ -20,19 +20,7 @@
 #include "mesh.h"
 #include "image_io.h"
 #include "mesh_io.h"
-
-static double now(clockid_t c)
-{
-    struct timespec ts;
-    clock_gettime(c, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
+#include "../common/benchstat.h"
 
 typedef enum { K_IMAGE, K_EXR, K_OBJ, K_DRACO, K_IMPORT, K_LATLONG } kind;
 
@@ -155,18 +143,19 @@ int main(int argc, char **argv)
         double wall[50], cpu[50], mpix = 0, ktri = 0;
         int ok = 1;
         for (int r = 0; r < reps && ok; r++) {
-            double w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_PROCESS_CPUTIME_ID);
+            double w0 = st_bench_clock(CLOCK_MONOTONIC);
+            double c0 = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID);
             if (run_job(j, path, j->tex ? tex : NULL, &mpix, &ktri))
                 ok = 0;
-            wall[r] = (now(CLOCK_MONOTONIC) - w0) * 1e3;
-            cpu[r] = (now(CLOCK_PROCESS_CPUTIME_ID) - c0) * 1e3;
+            wall[r] = (st_bench_clock(CLOCK_MONOTONIC) - w0) * 1e3;
+            cpu[r] = (st_bench_clock(CLOCK_PROCESS_CPUTIME_ID) - c0) * 1e3;
         }
         if (!ok) {
             printf("%-38s failed\n", j->name);
             continue;
         }
-        qsort(wall, (size_t)reps, sizeof(double), cmp_double);
-        qsort(cpu, (size_t)reps, sizeof(double), cmp_double);
+        qsort(wall, (size_t)reps, sizeof(double), st_bench_cmp_double);
+        qsort(cpu, (size_t)reps, sizeof(double), st_bench_cmp_double);
         double wm = wall[reps / 2], cm = cpu[reps / 2];
         char per_mp[32] = "-", per_kt[32] = "-";
         if (mpix > 0)

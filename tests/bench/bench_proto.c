@@ -27,25 +27,7 @@
 #include "seamtex.h"
 
 #include "crc32c.h"
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_d);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+#include "../common/benchstat.h"
 
 /* ---- echo server ------------------------------------------------------------------------- */
 
@@ -138,7 +120,7 @@ static void echo_stop(echo *e)
 static int note_progress(void *user, uint64_t done, uint64_t total)
 {
     if (done == total)
-        *(double *)user = now_s();
+        *(double *)user = st_bench_now();
     return 0;
 }
 
@@ -171,17 +153,17 @@ int main(int argc, char **argv)
         cbuf[i] = (uint8_t)(i * 2654435761u >> 13);
     volatile uint32_t sink = 0;
     for (int r = 0; r < reps; r++) {
-        double t0 = now_s();
+        double t0 = st_bench_now();
         sink ^= stp_crc32c(0, cbuf, clen);
-        t[r] = clen / (now_s() - t0) / 1e9;
+        t[r] = clen / (st_bench_now() - t0) / 1e9;
     }
-    double crc_hw = median(t, reps);
+    double crc_hw = st_bench_median(t, reps);
     for (int r = 0; r < reps; r++) {
-        double t0 = now_s();
+        double t0 = st_bench_now();
         sink ^= stu_crc32c_sw(0, cbuf, clen / 4);
-        t[r] = clen / 4 / (now_s() - t0) / 1e9;
+        t[r] = clen / 4 / (st_bench_now() - t0) / 1e9;
     }
-    double crc_sw = median(t, reps);
+    double crc_sw = st_bench_median(t, reps);
     free(cbuf);
 
     /* SAMPLE request encode / decode, 4096 queries per frame, 64 frames per timing */
@@ -200,18 +182,18 @@ int main(int argc, char **argv)
     stp_buf b;
     stp_buf_init(&b);
     for (int r = 0; r < reps; r++) {
-        double t0 = now_s();
+        double t0 = st_bench_now();
         for (int k = 0; k < 64; k++) {
             stp_buf_clear(&b);
             stp_enc_sample_req(&b, (uint32_t)k, 0, &rq);
         }
-        t[r] = 64.0 * NQ / (now_s() - t0) / 1e6;
+        t[r] = 64.0 * NQ / (st_bench_now() - t0) / 1e6;
     }
-    double enc_req = median(t, reps);
+    double enc_req = st_bench_median(t, reps);
     stp_sample_req d;
     stp_query g;
     for (int r = 0; r < reps; r++) {
-        double t0 = now_s();
+        double t0 = st_bench_now();
         for (int k = 0; k < 64; k++) {
             stp_dec_sample_req(b.data + STP_HEADER_SIZE, b.len - STP_HEADER_SIZE, NQ, &d, NULL);
             for (uint32_t i = 0; i < d.count; i++) {
@@ -219,9 +201,9 @@ int main(int argc, char **argv)
                 sink ^= g.face;
             }
         }
-        t[r] = 64.0 * NQ / (now_s() - t0) / 1e6;
+        t[r] = 64.0 * NQ / (st_bench_now() - t0) / 1e6;
     }
-    double dec_req = median(t, reps);
+    double dec_req = st_bench_median(t, reps);
 
     /* SAMPLE reply, RGBA, with coverage and status */
     float *vals = malloc(NQ * 4 * sizeof *vals), *cov = malloc(NQ * sizeof *cov);
@@ -236,27 +218,27 @@ int main(int argc, char **argv)
         stp_sample_reply rp = { NQ, 4, (uint8_t)fmt, STP_SF_COVERAGE | STP_SF_STATUS, 0, vals,
                                 cov, st, NULL, NULL, NULL };
         for (int r = 0; r < reps; r++) {
-            double t0 = now_s();
+            double t0 = st_bench_now();
             for (int k = 0; k < 64; k++) {
                 stp_buf_clear(&b);
                 stp_enc_sample_reply(&b, STP_OP_SAMPLE, (uint32_t)k, &rp);
             }
-            t[r] = 64.0 * NQ / (now_s() - t0) / 1e6;
+            t[r] = 64.0 * NQ / (st_bench_now() - t0) / 1e6;
         }
-        enc_rep[fmt] = median(t, reps);
+        enc_rep[fmt] = st_bench_median(t, reps);
         if (fmt == 0) {
             stp_sample_reply dr;
             for (int r = 0; r < reps; r++) {
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 for (int k = 0; k < 64; k++) {
                     stp_dec_sample_reply(b.data + STP_HEADER_SIZE, b.len - STP_HEADER_SIZE, &dr,
                                          NULL);
                     stp_sample_values_f32(&dr, outv);
                     stp_sample_coverage(&dr, cov);
                 }
-                t[r] = 64.0 * NQ / (now_s() - t0) / 1e6;
+                t[r] = 64.0 * NQ / (st_bench_now() - t0) / 1e6;
             }
-            dec_rep = median(t, reps);
+            dec_rep = st_bench_median(t, reps);
         }
     }
 
@@ -273,17 +255,17 @@ int main(int argc, char **argv)
             for (int i = 0; i < 200; i++)
                 stc_ping(c);
             for (int i = 0; i < n; i++) {
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 stc_ping(c);
-                lat[i] = (now_s() - t0) * 1e6;
+                lat[i] = (st_bench_now() - t0) * 1e6;
             }
-            rtt_us = median(lat, n);
+            rtt_us = st_bench_median(lat, n);
             free(lat);
             for (int r = 0; r < reps; r++) {
                 int total = 20000, window = 64, sent = 0, got = 0;
                 uint32_t id;
                 stc_reply rep;
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 while (got < total) {
                     while (sent < total && sent - got < window) {
                         stc_append_ping(c, "0123456789abcdef", 16, &id);
@@ -293,9 +275,9 @@ int main(int argc, char **argv)
                         break;
                     got++;
                 }
-                t[r] = got / (now_s() - t0) / 1e3;
+                t[r] = got / (st_bench_now() - t0) / 1e3;
             }
-            pipe_kps = median(t, reps);
+            pipe_kps = st_bench_median(t, reps);
             stc_close(c);
         }
         echo_stop(&e);
@@ -324,31 +306,31 @@ int main(int argc, char **argv)
             uo.progress = note_progress;
             uo.user = &acked;
             for (int r = 0; r < reps; r++) {
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 if (stc_upload_file(c, ptx, "bench_cube", &uo, &ur) != 0)
                     break;
-                double t1 = now_s();
+                double t1 = st_bench_now();
                 t[r] = mb / (t1 - t0);
                 t2[r] = mb / (acked - t0);
                 t3[r] = (t1 - acked) * 1e3;
             }
-            up_mbps = median(t, reps);
-            chunks_mbps = median(t2, reps);
-            commit_ms = median(t3, reps);
+            up_mbps = st_bench_median(t, reps);
+            chunks_mbps = st_bench_median(t2, reps);
+            commit_ms = st_bench_median(t3, reps);
             free(t2);
             free(t3);
             char out[600];
             snprintf(out, sizeof out, "%s/fetched.ptx", dm.dir);
             for (int r = 0; r < reps; r++) {
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 if (stc_fetch_file(c, "bench_cube", STC_FETCH_PTX, out, NULL, NULL) != 0)
                     break;
                 fp = fopen(out, "rb");
                 fseek(fp, 0, SEEK_END);
-                t[r] = ftell(fp) / 1e6 / (now_s() - t0);
+                t[r] = ftell(fp) / 1e6 / (st_bench_now() - t0);
                 fclose(fp);
             }
-            fetch_mbps = median(t, reps);
+            fetch_mbps = st_bench_median(t, reps);
             unlink(out);
             stc_query *sq = malloc(NQ * sizeof *sq);
             for (int i = 0; i < NQ; i++) {
@@ -364,17 +346,17 @@ int main(int argc, char **argv)
             int n = 500;
             double *lat = malloc((size_t)n * sizeof *lat);
             for (int i = 0; i < n; i++) {
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 stc_sample(c, "bench_cube", &so, sq + (i % NQ), 1, &res);
-                lat[i] = (now_s() - t0) * 1e6;
+                lat[i] = (st_bench_now() - t0) * 1e6;
             }
-            srtt_us = median(lat, n);
+            srtt_us = st_bench_median(lat, n);
             free(lat);
             for (int r = 0; r < reps; r++) {
                 int total = 64, window = 4, sent = 0, got = 0;
                 uint32_t id;
                 stc_reply rep;
-                double t0 = now_s();
+                double t0 = st_bench_now();
                 while (got < total) {
                     while (sent < total && sent - got < window) {
                         stc_append_sample(c, "bench_cube", &so, sq, NQ, &id);
@@ -384,9 +366,9 @@ int main(int argc, char **argv)
                         break;
                     got++;
                 }
-                t[r] = (double)got * NQ / (now_s() - t0) / 1e6;
+                t[r] = (double)got * NQ / (st_bench_now() - t0) / 1e6;
             }
-            spipe_mqps = median(t, reps);
+            spipe_mqps = st_bench_median(t, reps);
             free(sq);
             stc_close(c);
         }

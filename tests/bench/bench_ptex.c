@@ -52,31 +52,15 @@
 #include "ptexfilter.h"
 #include "../common/ptexref.h"
 #include "../common/testdata.h"
+#include "../common/benchstat.h"
 
 #define MAXFILES 64
 #define NFILT 8
 #define MAXFP 8
 enum { NQ = 4096, TILE = 16 };
 
-static double clock_s(clockid_t c)
-{
-    struct timespec t;
-    clock_gettime(c, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-static double now(void) { return clock_s(CLOCK_THREAD_CPUTIME_ID); } /* the machine is shared */
-
-static int cmpd(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmpd);
-    return v[n / 2];
-}
+/* thread CPU time: the machine is shared */
+static double now(void) { return st_bench_clock(CLOCK_THREAD_CPUTIME_ID); }
 
 #define fnames st_ptexref_filters   /* NFILT of them, in ST_FILTER_PTEX_POINT.. order */
 static const char *mnames[3] = {"discard", "traverse", "clamp"}; /* st_mode order */
@@ -168,9 +152,11 @@ static int import_one(const char *path)
 {
     st_set *s = NULL;
     st_error e;
-    double w0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
+    double w0 = st_bench_clock(CLOCK_MONOTONIC);
+    double c0 = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID);
     int rc = st_ptex_read_file(path, 0, &s, &e);
-    double w = clock_s(CLOCK_MONOTONIC) - w0, c = clock_s(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    double w = st_bench_clock(CLOCK_MONOTONIC) - w0;
+    double c = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID) - c0;
     if (rc) {
         fprintf(stderr, "%s: %s\n", path, e.msg);
         return 1;
@@ -220,12 +206,12 @@ static st_set *import_row(const opts *op, const char *path, const char *name, FI
     st_set *s = NULL;
     st_error e;
     for (int r = 0; r < op->reps; r++) {
-        double c0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
+        double c0 = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID);
         if (st_ptex_read_file(path, 0, &s, &e)) {
             printf("%-22s refused: %s\n", name, e.msg);
             return NULL;
         }
-        wcpu[r] = clock_s(CLOCK_PROCESS_CPUTIME_ID) - c0;
+        wcpu[r] = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID) - c0;
         if (r + 1 < op->reps)
             st_set_free(s);
         if (!op->sample_only && import_fresh(path, &fwall[r], &fcpu[r])) {
@@ -236,8 +222,8 @@ static st_set *import_row(const opts *op, const char *path, const char *name, FI
     }
     if (op->sample_only)
         return s;
-    double fw = median(fwall, op->reps), fc = median(fcpu, op->reps);
-    double wc = median(wcpu, op->reps);
+    double fw = st_bench_median(fwall, op->reps), fc = st_bench_median(fcpu, op->reps);
+    double wc = st_bench_median(wcpu, op->reps);
     double mb = (double)sb.st_size / 1e6, texels = 0;
     for (uint32_t f = 0; f < s->info.nfaces; f++)
         texels += s->faces[f].flags & ST_FACE_CONSTANT ? 1.0
@@ -247,9 +233,9 @@ static st_set *import_row(const opts *op, const char *path, const char *name, FI
     st_query q0 = {.face = 0, .u = 0.5f, .v = 0.5f, .dudx = 0.01f, .dvdy = 0.01f};
     st_sample_opts o0 = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
     float out0[4];
-    double t0 = clock_s(CLOCK_PROCESS_CPUTIME_ID);
+    double t0 = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID);
     st_ptexfilter_batch(s, &o0, &q0, 1, out0, NULL, NULL);
-    double tb = clock_s(CLOCK_PROCESS_CPUTIME_ID) - t0;
+    double tb = st_bench_clock(CLOCK_PROCESS_CPUTIME_ID) - t0;
     char ty[16];
     snprintf(ty, sizeof ty, "%sx%u", dtnames[s->info.dtype & 3], s->info.nchan);
     printf("%-22s %-6s %6.2f %6u %9.2f %9.2f %9.2f %8.1f %10.0f %8.2f %9.2f\n", name, ty, mb,
@@ -329,7 +315,7 @@ static double time_batch(const opts *op, const st_set *s, int flt, int mode, con
             st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
         t[r] = now() - t0;
     }
-    return (double)n * (double)iters / median(t, op->reps_sample) / 1e6;
+    return (double)n * (double)iters / st_bench_median(t, op->reps_sample) / 1e6;
 }
 
 static void sample_tables(const opts *op, ptxfile *fl, st_set **sets, int nfl, FILE *js)

@@ -26,33 +26,15 @@
 
 #include "daemon_fixture.h"
 #include "seamtex.h"
+#include "../common/benchstat.h"
 
 extern char **environ;
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static double cpu(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
 }
 
 static double loadavg(void)
@@ -197,13 +179,13 @@ int main(int argc, char **argv)
         /* A B, then B A: neither side always runs right after the other */
         for (int side = 0; side < 2; side++) {
             if ((side == 0) == (r % 2 == 0)) {
-                double t0 = now(), c0 = cpu();
+                double t0 = st_bench_now(), c0 = cpu();
                 if ((err = stc_sample(c, "default", &o, q, n, &res)) != 0 || res.count != n) {
                     fprintf(stderr, "bench_python: sample: %s %s\n", stc_strerror(err),
                             stc_errmsg(c));
                     goto out;
                 }
-                tc[r] = now() - t0;
+                tc[r] = st_bench_now() - t0;
                 cc[r] = cpu() - c0;
             } else {
                 fputs("go\n", to);
@@ -221,8 +203,9 @@ int main(int argc, char **argv)
                cc[r] * 1e3, tp[r], n / tp[r] / 1e6, cp[r] * 1e3, po[r] * 1e3);
         fflush(stdout);
     }
-    double mc = median(tc, reps), mp = median(tp, reps), load1 = loadavg();
-    double mcc = median(cc, reps), mcp = median(cp, reps), mpo = median(po, reps);
+    double mc = st_bench_median(tc, reps), mp = st_bench_median(tp, reps), load1 = loadavg();
+    double mcc = st_bench_median(cc, reps), mcp = st_bench_median(cp, reps);
+    double mpo = st_bench_median(po, reps);
     printf("median: C %.3f s = %.2f M queries/s; Python %.3f s = %.2f M queries/s; "
            "Python/C throughput %.1f %%; client CPU per call C %.0f ms, Python %.0f ms; "
            "Python outside stc_sample %.0f ms; load %.1f -> %.1f\n", mc, n / mc / 1e6, mp,

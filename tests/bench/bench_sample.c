@@ -19,16 +19,10 @@
 #include "../common/cube_fixture.h"
 #include "quadmesh.h"
 #include "sample.h"
+#include "../common/benchstat.h"
 
 #define NQ (1u << 19)
 #define BATCH 4096
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 /* Rates use the thread's CPU time: the machine is shared, and time spent descheduled is not
  * the sampler's cost. */
@@ -37,12 +31,6 @@ static double cpu_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
 }
 
 /* cheap deterministic texture for the big set: smooth ramps plus hashed noise */
@@ -140,12 +128,6 @@ static double run_one(const st_set *s, const st_query *q, unsigned mode, unsigne
     return (double)done / t / 1e6;
 }
 
-static double median(double *r, int n)
-{
-    qsort(r, (size_t)n, sizeof r[0], cmp_double);
-    return n % 2 ? r[n / 2] : 0.5 * (r[n / 2 - 1] + r[n / 2]);
-}
-
 /* Plain C bilinear over one 2048^2 RGBA8 array, clamp to edge: the floor of what any
  * per-query sampler can reach on this machine. */
 static double run_plain(int coherent, int reps, double secs)
@@ -204,7 +186,7 @@ static double run_plain(int coherent, int reps, double secs)
     free(img);
     free(uv);
     free(out);
-    return median(r, reps);
+    return st_bench_median(r, reps);
 }
 
 int main(int argc, char **argv)
@@ -265,7 +247,7 @@ int main(int argc, char **argv)
         if (si == 1 && no_big)
             break;
         st_quadmesh mesh;
-        double t0 = now();
+        double t0 = st_bench_now();
         st_set *s = build_set(sets[si].n, sets[si].lg, &mesh);
         if (!s) {
             fprintf(stderr, "could not build set %s\n", sets[si].name);
@@ -273,7 +255,7 @@ int main(int argc, char **argv)
         }
         setmb[si] = (double)st_set_memory(s) / 1e6;
         printf("\nset %-5s: %u faces of %ux%u, %.1f MB (built in %.1fs)\n", sets[si].name,
-               s->info.nfaces, s->faces[0].w, s->faces[0].h, setmb[si], now() - t0);
+               s->info.nfaces, s->faces[0].w, s->faces[0].h, setmb[si], st_bench_now() - t0);
         for (int ord = 0; ord < 2; ord++) {
             make_queries(s, ord, c.q);
             printf("  %-8s %-9s %9s %9s %9s %9s\n", ord ? "coherent" : "random", "",
@@ -289,10 +271,10 @@ int main(int argc, char **argv)
                     rr[rep] = r[0][rep] / r[1][rep];
                 }
                 for (unsigned m = 0; m < 3; m++)
-                    res[si][ord][m][f] = median(r[m], reps); /* sorts r[m] */
+                    res[si][ord][m][f] = st_bench_median(r[m], reps); /* sorts r[m] */
                 for (unsigned m = 0; m < 3; m++)
                     best[si][ord][m][f] = r[m][reps - 1];
-                ratio[f] = rat[si][ord][f] = median(rr, reps);
+                ratio[f] = rat[si][ord][f] = st_bench_median(rr, reps);
             }
             for (unsigned m = 0; m < 3; m++) {
                 printf("  %-8s %-9s", "", mname[m]);

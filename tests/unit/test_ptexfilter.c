@@ -23,8 +23,6 @@
 #include "../common/ptexref.h"
 #include "../common/testdata.h"
 
-#define fnames st_ptexref_filters
-
 typedef struct refcase {
     const char *ptx, *ref;
 } refcase;
@@ -46,54 +44,19 @@ static void traverse_matches_the_ptex_library_on_every_reference_file(void **sta
         print_message("SEAMTEX_DATA (%s) has no ptex-ref: skipped\n", st_test_data_dir());
         skip();
     }
-    print_message("%-28s %-10s %7s %8s %10s\n", "file", "filter", "queries", "match%", "max|diff|");
+    st_reftally_header();
     for (size_t r = 0; r < sizeof refs / sizeof refs[0]; r++) {
         snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), refs[r].ptx);
         st_set *s;
         st_error e = {0};
         assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
         snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), refs[r].ref);
-        FILE *fp = fopen(path, "r");
-        assert_non_null(fp);
-        float tol = s->info.dtype == ST_DT_U8 ? 0.5f / 255.0f : 1e-4f;
-        int total[8] = {0}, ok[8] = {0};
-        float maxd[8] = {0};
-        char line[512];
-        while (fgets(line, sizeof line, fp)) {
-            st_refline L;
-            int pr = st_refline_parse(line, &L);
-            assert_true(pr >= 0);
-            if (pr == 0 || L.nref < 1)
-                continue;
-            st_query q = {L.face, L.u, L.v, L.dudx, L.dvdx, L.dudy, L.dvdy};
-            const float *ref = L.ref;
-            int n = 8 + L.nref;
-            int flt = ST_FILTER_PTEX_POINT + L.filter;
-            st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = (uint8_t)flt};
-            float out[4];
-            uint8_t st;
-            /* through the sampler's public entry point */
-            assert_int_equal(st_sample_batch(s, &o, &q, 1, out, NULL, &st), 0);
-            int good = 1;
-            int fi = flt - ST_FILTER_PTEX_POINT;
-            for (int c = 0; c < n - 8 && c < s->info.nchan; c++) {
-                float d = fabsf(out[c] - ref[c]);
-                if (!(d <= tol))
-                    good = 0;
-                if (d > maxd[fi])
-                    maxd[fi] = d;
-            }
-            total[fi]++;
-            ok[fi] += good;
-        }
-        fclose(fp);
-        const char *base = strrchr(refs[r].ptx, '/') + 1;
-        for (int fi = 0; fi < 8; fi++) {
-            assert_true(total[fi] > 0);
-            print_message("%-28s %-10s %7d %8.2f %10.2g\n", base, fnames[fi], total[fi],
-                          100.0 * ok[fi] / total[fi], (double)maxd[fi]);
-            assert_true(ok[fi] * 1000 >= total[fi] * 999);
-        }
+        st_reftally t;
+        /* through the sampler's public entry point */
+        assert_int_equal(st_reftally_run(s, path, 0, &t), 0);
+        for (int fi = 0; fi < 8; fi++)
+            assert_true(t.total[fi] > 0);
+        assert_int_equal(st_reftally_print(&t, strrchr(refs[r].ptx, '/') + 1), 0);
         st_set_free(s);
     }
 }

@@ -27,8 +27,6 @@
 #include "../common/ptexref.h"
 #include "../common/testdata.h"
 
-#define fnames st_ptexref_filters
-
 static const char *const tri_files[2][2] = {
     {"ptx/wdas-ptex-2009/tri/tri.ptx", "ptex-ref/ref_tri.txt"},
     {"ptx/wdas-ptex-samples/triangle/triangle.ptx", "ptex-ref/ref_triangle.txt"},
@@ -54,62 +52,20 @@ static void triangle_filters_match_the_ptex_library(void **state)
     char path[1024];
     if (st_test_data_path(path, sizeof path, tri_files[0][1]))
         skip();
-    print_message("%-14s %-10s %7s %8s %10s\n", "file", "filter", "queries", "match%", "max|diff|");
+    st_reftally_header();
     for (int r = 0; r < 2; r++) {
         st_set *s = read_rel(tri_files[r][0]);
         assert_non_null(s);
         assert_int_equal(s->info.meshtype, ST_MESH_TRIANGLE);
         assert_int_equal(st_test_data_path(path, sizeof path, tri_files[r][1]), 0);
-        FILE *fp = fopen(path, "r");
-        assert_non_null(fp);
-        float tol = s->info.dtype == ST_DT_U8 ? 0.5f / 255.0f : 1e-4f;
-        int total[8] = {0}, ok[8] = {0}, crossing = 0;
-        float maxd[8] = {0};
-        char line[512];
-        while (fgets(line, sizeof line, fp)) {
-            st_refline L;
-            int pr = st_refline_parse(line, &L);
-            assert_true(pr >= 0);
-            if (pr == 0 || L.nref < 1)
-                continue;
-            st_query q = {L.face, L.u, L.v, L.dudx, L.dvdx, L.dudy, L.dvdy};
-            const float *ref = L.ref;
-            int n = 8 + L.nref;
-            int flt = ST_FILTER_PTEX_POINT + L.filter;
-            st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = (uint8_t)flt};
-            float out[4];
-            uint8_t st;
-            assert_int_equal(st_sample_batch(s, &o, &q, 1, out, NULL, &st), 0);
-            int good = 1, fi = flt - ST_FILTER_PTEX_POINT;
-            for (int c = 0; c < n - 8 && c < s->info.nchan; c++) {
-                float d = fabsf(out[c] - ref[c]);
-                if (!(d <= tol))
-                    good = 0;
-                if (d > maxd[fi])
-                    maxd[fi] = d;
-            }
-            if (!good && getenv("PTEXTRI_VERBOSE"))
-                print_message("miss: %s", line);
-            /* the lines whose kernel reaches past an edge into a neighbour (Discard, which
-             * stays in the face, answers otherwise): they exercise the splitting */
-            o.mode = ST_MODE_DISCARD;
-            float din[4];
-            assert_true(st_sample_batch(s, &o, &q, 1, din, NULL, NULL) >= 0);
-            crossing += fabsf(din[0] - out[0]) > 1e-6f;
-            total[fi]++;
-            ok[fi] += good;
-        }
-        fclose(fp);
+        st_reftally t;
+        assert_int_equal(st_reftally_run(s, path, getenv("PTEXTRI_VERBOSE") != NULL, &t), 0);
         const char *base = strrchr(tri_files[r][0], '/') + 1;
-        print_message("%s: %d of the lines read a neighbour across an edge\n", base, crossing);
-        assert_true(crossing >= 50);
-        for (int fi = 0; fi < 8; fi++) {
-            if (!total[fi])
-                continue;
-            print_message("%-14s %-10s %7d %8.2f %10.2g\n", base, fnames[fi], total[fi],
-                          100.0 * ok[fi] / total[fi], (double)maxd[fi]);
-            assert_true(ok[fi] * 1000 >= total[fi] * 999);
-        }
+        /* the lines whose kernel reaches past an edge into a neighbour (Discard, which stays
+         * in the face, answers otherwise): they exercise the splitting */
+        print_message("%s: %d of the lines read a neighbour across an edge\n", base, t.crossing);
+        assert_true(t.crossing >= 50);
+        assert_int_equal(st_reftally_print(&t, base), 0);
         st_set_free(s);
     }
 }
