@@ -250,6 +250,10 @@ int sts_server_start(sts_server *srv)
     if (srv->cfg.memory_budget)
         sts_logf(&srv->log, STS_INFO, "memory budget %llu bytes: cold sets are released past it",
                  (unsigned long long)srv->cfg.memory_budget);
+    /* Every I/O thread's state exists before the first thread starts: thread 0 accepts and
+     * hands connections to the others (its mutex, its adopt list, its eventfd), which may
+     * not have started yet (ThreadSanitizer saw thread 0 lock io[1].mu while main was still
+     * initialising it, and write to io[1].wakefd, then 0: stdin). */
     for (uint32_t i = 0; i < srv->nio; i++) {
         sts_io *io = &srv->io[i];
         io->srv = srv;
@@ -257,7 +261,14 @@ int sts_server_start(sts_server *srv)
         io->ev = sts_ev_create();
         io->wakefd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
         pthread_mutex_init(&io->mu, NULL);
-        if (!io->ev || io->wakefd < 0 || pthread_create(&io->thread, NULL, sts_io_main, io) != 0) {
+        if (!io->ev || io->wakefd < 0) {
+            sts_logf(&srv->log, STS_ERROR, "cannot set up I/O thread %u", i);
+            srv->nio = 0;   /* no thread to stop (the process exits) */
+            return -1;
+        }
+    }
+    for (uint32_t i = 0; i < srv->nio; i++) {
+        if (pthread_create(&srv->io[i].thread, NULL, sts_io_main, &srv->io[i]) != 0) {
             sts_logf(&srv->log, STS_ERROR, "cannot start I/O thread %u", i);
             srv->nio = i;
             return -1;
