@@ -5,33 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "libcluster_int.h"
 #include "libseamtex_int.h"
 #include "seamtex_cluster.h"
 #include "stp_cluster.h"
-
-#define MAX_NODES 256
-#define DOWN_MS   1000   /* a node that failed is tried last for this long */
-
-typedef struct cl_node {
-    char      id[STP_MAX_NODE_ID + 1];
-    char      addr[STP_MAX_NODE_ADDR + 1];
-    stc_conn *conn;
-    int64_t   down_until;
-} cl_node;
-
-struct stc_cluster {
-    stc_opts  opts;
-    char      token[STP_MAX_TOKEN + 1];
-    char      name[64];
-    cl_node   nodes[MAX_NODES];
-    size_t    n;
-    unsigned  replicas;
-    stc_cluster_node pub[MAX_NODES];
-    const char *ids[MAX_NODES];
-    int64_t   last_refresh;
-    stc_cluster_counters cnt;
-    char      msg[1024];
-};
 
 const char *stc_cluster_errmsg(const stc_cluster *cl) { return cl ? cl->msg : ""; }
 
@@ -152,6 +129,8 @@ static int ask_cluster(stc_cluster *cl, stc_conn *c)
 
 int stc_cluster_refresh(stc_cluster *cl)
 {
+    if (stc__cluster_pipe_pending(cl))   /* node indices are in use (libcluster_pipe.c) */
+        return STC_ESTATE;
     int rc = STC_ECONNECT;
     for (size_t i = 0; i < cl->n; i++) {
         int err = 0;
@@ -222,6 +201,7 @@ void stc_cluster_close(stc_cluster *cl)
         return;
     for (size_t i = 0; i < cl->n; i++)
         stc_close(cl->nodes[i].conn);
+    stc__cluster_pipe_free(cl->pipe);
     free(cl);
 }
 
@@ -245,6 +225,11 @@ size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t ma
 int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
                      stc_conn **used)
 {
+    if (stc__cluster_pipe_pending(cl)) {
+        snprintf(cl->msg, sizeof cl->msg, "pipelined requests are outstanding: read their "
+                 "replies with stc_cluster_get_reply before a blocking call");
+        return STC_ESTATE;
+    }
     cl->cnt.calls++;
     size_t order[MAX_NODES];
     size_t no = stc_cluster_rank(cl, set, order, cl->n);
@@ -356,4 +341,11 @@ static int do_delete(stc_conn *c, void *p) { return stc_delete(c, (const char *)
 int stc_cluster_delete(stc_cluster *cl, const char *set)
 {
     return stc_cluster_call(cl, set, do_delete, (void *)set, NULL);
+}
+
+/* ---- for libcluster_pipe.c (libcluster_int.h) ---- */
+int stc__cluster_conn_error(int rc) { return is_conn_error(rc); }
+int stc__cluster_add_node(stc_cluster *cl, const char *id, const char *addr)
+{
+    return add_node(cl, id, addr);
 }
