@@ -30,4 +30,10 @@ int st_red_at(stc_conn *c, const char *set, float *red);
 /* The same through the cluster client. */
 int st_cluster_red_at(stc_cluster *cl, const char *set, float *red);
 
+/* Runs `$SEAMTEX_BUILD/seamtex --cluster where args...` (posix_spawn: no fork in a process
+ * linking OIIO; args NULL-terminated, at most 12), its stdout into out (cap bytes, through a
+ * file in dir); returns the exit status (128 when killed), or -1 when it could not start. */
+int st_cluster_cli(const char *dir, const char *where, const char *const *args, char *out,
+                   size_t cap);
+
 #endif
