@@ -183,48 +183,65 @@ static int send_on(stc_cluster *cl, stc__cl_pipe *p, size_t si, size_t i, stc_co
     return 0;
 }
 
+/* One try of request si on node i: 0 sent, 1 go on with the next node (the node failed;
+ * *rc its error), -1 stop (*rc: a refusal no other node would change). */
+static int try_node(stc_cluster *cl, stc__cl_pipe *p, size_t si, size_t i, int *rc)
+{
+    set_tried(&p->rq[si], i);
+    cl_node *d = &cl->nodes[i];
+    if (d->conn && stc_error(d->conn) && p->on[i].n)
+        node_fail(cl, p, i);              /* broken under requests in flight: they move too */
+    int err = 0;
+    stc_conn *c = stc_cluster_conn(cl, i, &err);
+    if (!c) {
+        *rc = err;
+        cl->cnt.failovers++;
+        p->want_refresh = 1;
+        return 1;
+    }
+    *rc = send_on(cl, p, si, i, c);
+    if (*rc == 0)
+        return 0;
+    snprintf(cl->msg, sizeof cl->msg, "node %s: %s", d->id,
+             *rc == STC_ENOMEM && !stc_errmsg(c)[0] ? "out of memory" : stc_errmsg(c));
+    if (!stc__cluster_conn_error(*rc))
+        return -1;
+    node_fail(cl, p, i);
+    return 1;
+}
+
 /* Sends request si to the first node it has not tried: its MOVED address, then its set's
  * ranking with nodes marked down last. 0 when it is in flight; else the error (a connection
- * error when no node took it, or the refusal of a bad argument), message in cl->msg. */
+ * error when no node took it, or the refusal of a bad argument), message in cl->msg. The
+ * common case (the first owner, up) costs one score per node, not a full ranking. */
 static int route(stc_cluster *cl, stc__cl_pipe *p, size_t si)
 {
-    size_t order[MAX_NODES], tries[MAX_NODES + 1], nt = 0;
     cl_rq *r = &p->rq[si];
-    if (r->prefer >= 0 && !tried(r, (size_t)r->prefer))
-        tries[nt++] = (size_t)r->prefer;
-    r->prefer = -1;
-    size_t no = stc_cluster_rank(cl, r->set, order, cl->n);
+    int rc = STC_ECONNECT, t;
     int64_t now = stc__now_ms();
-    for (int pass = 0; pass < 2; pass++)
-        for (size_t k = 0; k < no; k++)
-            if ((cl->nodes[order[k]].down_until > now) == pass && !tried(r, order[k]))
-                tries[nt++] = order[k];
-    int rc = STC_ECONNECT;
-    if (!nt)
-        snprintf(cl->msg, sizeof cl->msg, "set '%s': every node of the view was tried", r->set);
-    for (size_t t = 0; t < nt; t++) {
-        size_t i = tries[t];
-        set_tried(&p->rq[si], i);
-        cl_node *d = &cl->nodes[i];
-        if (d->conn && stc_error(d->conn) && p->on[i].n)
-            node_fail(cl, p, i);          /* broken under requests in flight: they move too */
-        int err = 0;
-        stc_conn *c = stc_cluster_conn(cl, i, &err);
-        if (!c) {
-            rc = err;
-            cl->cnt.failovers++;
-            p->want_refresh = 1;
-            continue;
-        }
-        rc = send_on(cl, p, si, i, c);
-        if (rc == 0)
-            return 0;
-        snprintf(cl->msg, sizeof cl->msg, "node %s: %s", d->id,
-                 rc == STC_ENOMEM && !stc_errmsg(c)[0] ? "out of memory" : stc_errmsg(c));
-        if (!stc__cluster_conn_error(rc))
-            return rc;                    /* refused as such: no other node would take it */
-        node_fail(cl, p, i);
+    size_t first;
+    if (r->prefer >= 0 && !tried(r, (size_t)r->prefer)) {
+        if ((t = try_node(cl, p, si, (size_t)r->prefer, &rc)) <= 0)
+            return t ? rc : 0;
+    } else if (r->prefer < 0 && stc_cluster_rank(cl, r->set, &first, 1) == 1 &&
+               !tried(r, first) && cl->nodes[first].down_until <= now) {
+        if ((t = try_node(cl, p, si, first, &rc)) <= 0)
+            return t ? rc : 0;
     }
+    p->rq[si].prefer = -1;
+    size_t order[MAX_NODES], no = stc_cluster_rank(cl, p->rq[si].set, order, cl->n), left = 0;
+    for (int pass = 0; pass < 2; pass++)
+        for (size_t k = 0; k < no; k++) {
+            size_t i = order[k];
+            if ((cl->nodes[i].down_until > now) != pass || tried(&p->rq[si], i))
+                continue;
+            left++;
+            if ((t = try_node(cl, p, si, i, &rc)) <= 0)
+                return t ? rc : 0;
+        }
+    if (!left && rc == STC_ECONNECT)
+        snprintf(cl->msg, sizeof cl->msg, "set '%s': every node of the view was tried",
+                 p->rq[si].set);
     return rc;
 }
 
