@@ -85,14 +85,15 @@ static int open_handle(lib_ctx *x, const bench_cfg *cfg, char *msg, size_t ml)
             return -1;
         rc = stc_cluster_info(x->cl, x->sets[0], 0, 0, &info);
         if (rc)
-            snprintf(msg, ml, "info %s: %s", x->sets[0], stc_cluster_errmsg(x->cl));
+            snprintf(msg, ml, "info %s: %s %s", x->sets[0], stc_strerror(rc),
+                     stc_cluster_errmsg(x->cl));
     } else {
         x->c = stc_connect_opts(cfg->host, (unsigned)atoi(cfg->port), &o, &err, msg, ml);
         if (!x->c)
             return -1;
         rc = stc_info_get(x->c, x->sets[0], 0, 0, &info);
         if (rc)
-            snprintf(msg, ml, "info %s: %s", x->sets[0], stc_errmsg(x->c));
+            snprintf(msg, ml, "info %s: %s %s", x->sets[0], stc_strerror(rc), stc_errmsg(x->c));
     }
     if (rc)
         return -1;
