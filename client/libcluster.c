@@ -1,5 +1,6 @@
 /* client/libcluster.c - the cluster client (seamtex_cluster.h): membership from CLUSTER,
- * routing by the shared HRW ranking, failover, MOVED.
+ * routing by the shared HRW ranking, failover, MOVED, for blocking calls. The handle is in
+ * libcluster_int.h; pipelined calls are libcluster_pipe.c.
  */
 #include <stdio.h>
 #include <stdlib.h>

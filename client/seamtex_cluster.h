@@ -5,7 +5,10 @@
  * each call to the set's owners by rendezvous hashing (protocol/stp_cluster.h: the same
  * ranking the nodes compute), failover to the next node in the ranking on a connection error
  * or timeout, following MOVED and refreshing the view, one connection per node (opened when
- * first needed). Does not own: the wire protocol, single-node calls (seamtex.h).
+ * first needed); blocking routed calls (libcluster.c) and pipelined ones, several requests in
+ * flight on several nodes at once (libcluster_pipe.c). Opening from an etcd URL is in
+ * seamtex_etcd.h (libseamtex_etcd). Does not own: the wire protocol, single-node calls
+ * (seamtex.h).
  *
  * THREADING: an stc_cluster is used by one thread at a time (it owns its connections).
  * OWNERSHIP: stc_cluster_open returns a handle freed with stc_cluster_close (NULL accepted).

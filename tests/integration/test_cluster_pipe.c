@@ -5,6 +5,8 @@
  *     24 deep through one stc_cluster go to all three nodes; one node is killed with SIGKILL
  *     after 300 replies: every request gets exactly one reply, each OK and equal (bitwise) to
  *     what a blocking read of the same queries gave before, and requests were failed over;
+ *     then (a client with a 1 s request timeout) another node is stopped with SIGSTOP after 50
+ *     replies: its requests time out and move to the other owner, again all correct;
  *   - a client whose view is {n0, n1} while n2 returns, n3 joins and sets move: requests sent
  *     to a node that dropped its copy come back MOVED and are re-routed: every reply correct;
  *   - stc_cluster_open_etcd on the cluster's etcd URL sees the live nodes and serves a
@@ -14,6 +16,7 @@
  */
 #include <pthread.h>
 #include <setjmp.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -113,19 +116,21 @@ static void wait_settled(int members, const char *what)
         fail_msg("the cluster did not settle: %s", what);
 }
 
-static stc_cluster *open_seeds(int a, int b)
+static stc_cluster *open_seeds_tmo(int a, int b, int request_timeout_ms)
 {
     char seeds[128], msg[256];
     snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", NODE[a].port, NODE[b].port);
     int err = 0;
     stc_opts o;
     memset(&o, 0, sizeof o);
-    o.request_timeout_ms = 5000;
+    o.request_timeout_ms = request_timeout_ms;
     stc_cluster *cl = stc_cluster_open(seeds, &o, &err, msg, sizeof msg);
     if (!cl)
         fail_msg("stc_cluster_open %s: %s", seeds, msg);
     return cl;
 }
+
+static stc_cluster *open_seeds(int a, int b) { return open_seeds_tmo(a, b, 5000); }
 
 /* the index in NODE[] of the node at addr, -1 when none */
 static int node_of(const char *addr)
@@ -145,8 +150,9 @@ typedef struct stream_result {
 } stream_result;
 
 /* total requests pipelined `window` deep over the NSETS sets (every 10th an INFO); after
- * kill_after replies NODE[victim] is killed (victim < 0: none). Checks every reply. */
-static void stream(stc_cluster *cl, int total, int window, int kill_after, int victim,
+ * kill_after replies NODE[victim] gets sig (SIGKILL: killed and reaped; victim < 0: none).
+ * Checks every reply. */
+static void stream(stc_cluster *cl, int total, int window, int kill_after, int victim, int sig,
                    stream_result *sr)
 {
     memset(sr, 0, sizeof *sr);
@@ -204,9 +210,11 @@ static void stream(stc_cluster *cl, int total, int window, int kill_after, int v
                 fail_msg("request %d (%s, variant %d): other values than a blocking read", k,
                          name, k % NVAR);
         }
-        if (recv == kill_after && victim >= 0) {
+        if (recv == kill_after && victim >= 0 && sig == SIGKILL) {
             st_daemon_kill(&NODE[victim]);
             live[victim] = 0;
+        } else if (recv == kill_after && victim >= 0) {
+            st_daemon_signal(&NODE[victim], sig);
         }
     }
     for (int k = 0; k < total; k++)
@@ -267,12 +275,23 @@ static void pipelined_reads_survive_kill_moved_and_open_from_etcd(void **state)
     assert_int_equal(stc_cluster_sample(cl, "p00", &SO, Q[0], NQ, &blocked), STC_ESTATE);
     assert_int_equal(stc_cluster_refresh(cl), STC_ESTATE);
     assert_int_equal(stc_cluster_discard_pending(cl), 1);
-    stream(cl, 1500, 24, 300, 2, &sr);
+    stream(cl, 1500, 24, 300, 2, SIGKILL, &sr);
     printf("kill: replies from n0 %d, n1 %d, n2 %d; failovers %llu\n", sr.from[0], sr.from[1],
            sr.from[2], (unsigned long long)sr.cnt.failovers);
     assert_true(sr.from[0] > 0 && sr.from[1] > 0 && sr.from[2] > 0);
     assert_true(sr.cnt.failovers > 0);
     wait_settled(2, "the kill of n2");
+
+    /* 1b. a node that stops answering (SIGSTOP): no reply within the request timeout (1 s),
+     * so its requests move to the other owner */
+    stc_cluster *tc = open_seeds_tmo(0, 1, 1000);
+    stream(tc, 300, 16, 50, 1, SIGSTOP, &sr);
+    st_daemon_signal(&NODE[1], SIGCONT);
+    printf("stop: replies from n0 %d, n1 %d; failovers %llu\n", sr.from[0], sr.from[1],
+           (unsigned long long)sr.cnt.failovers);
+    assert_true(sr.cnt.failovers > 0);
+    stc_cluster_close(tc);
+    wait_settled(2, "n1 stopped and continued");
 
     /* 2. MOVED: a client that sees {n0, n1} while n3 joins and sets move to it */
     stc_cluster *stale = open_seeds(0, 1);
@@ -294,7 +313,7 @@ static void pipelined_reads_survive_kill_moved_and_open_from_etcd(void **state)
     }
     wait_settled(4, "n2 returned and n3 joined");
     assert_int_equal(stc_cluster_nodes(stale, &nodes), 2);
-    stream(stale, 400, 16, -1, -1, &sr);
+    stream(stale, 400, 16, -1, -1, 0, &sr);
     printf("moved: %d sets left their first owner in the stale view; MOVED followed %llu\n",
            moved_sets, (unsigned long long)sr.cnt.moved);
     assert_true(sr.cnt.moved > 0);
@@ -308,7 +327,7 @@ static void pipelined_reads_survive_kill_moved_and_open_from_etcd(void **state)
         fail_msg("stc_cluster_open_etcd %s: %s", ETCD.url, msg);
     assert_int_equal(stc_cluster_nodes(ec, &nodes), 4);
     assert_int_equal(stc_cluster_replicas(ec), 2);
-    stream(ec, 200, 8, -1, -1, &sr);
+    stream(ec, 200, 8, -1, -1, 0, &sr);
     stc_cluster_close(ec);
     assert_null(stc_cluster_open_url("http://127.0.0.1:1/pp", NULL, &err, msg, sizeof msg));
     assert_int_equal(err, STC_EINVAL);     /* not etcd://: taken as seeds, not an address */
