@@ -62,9 +62,6 @@ static const opt OPTS[] = {
     {"split-batch", T_U32, O(split_batch), 0, 1, "N",
      "SAMPLE batches of N queries or more are sampled in parts by the thread that has them and "
      "idle workers together; 0 = never (default 2048)"},
-    {"io-spin-us", T_U32, O(io_spin_us), 0, 1, "US",
-     "after serving a connection an I/O thread polls up to US microseconds for the next\n"
-     "request before it sleeps; 0 = sleep at once (default 0)"},
     {"conn-out-cap", T_SIZE, O(conn_out_cap), 0, 1, "BYTES",
      "unsent reply bytes per connection before the server stops reading it (default 4M)"},
     {"max-memory", T_SIZE, O(max_memory), 0, 1, "BYTES",

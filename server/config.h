@@ -39,7 +39,6 @@ typedef struct sts_config {
     uint32_t heavy_batch;       /* SAMPLE batches above this go to a worker */
     uint32_t split_batch;       /* SAMPLE batches of this many queries or more are split with
                                    idle workers (0 = never) */
-    uint32_t io_spin_us;        /* I/O threads poll this long before sleeping (0 = never) */
     uint64_t conn_out_cap;      /* pending reply bytes per connection before reading pauses */
     uint64_t max_memory;        /* all connection buffers and open fetches together (bytes) */
     uint64_t conn_fetch_cap;    /* bytes of open fetches per connection */

@@ -30,7 +30,6 @@
 #include "dispatch.h"
 #include "h_jobs.h"
 #include "io.h"
-#include "opstats.h"
 #include "server.h"
 #include "unixaddr.h"
 #include "uploads.h"
@@ -729,34 +728,6 @@ static void take_completions(sts_io *io)
 
 /* ---- the loop ------------------------------------------------------------------------------ */
 
-/* Waits for events. After a pass that served a connection, with io-spin-us set, it first
- * polls without sleeping for up to that long: a closed-loop client's next request often
- * arrives within tens of microseconds, and catching it awake saves the sleep, the wake-up
- * and the cold caches after it. A spin that finds nothing makes the next ones rarer (it is
- * skipped for 1, 2, 4 .. 64 passes), so an idle or slow peer costs almost no spinning. */
-static int wait_events(sts_io *io, sts_ev_event *evs, int max, int timeout_ms, int served)
-{
-    uint32_t spin = STS_LIVE(io->srv, io_spin_us);
-    if (spin && served && timeout_ms != 0) {
-        if (io->spin_skip) {
-            io->spin_skip--;
-        } else {
-            int64_t t0 = sts_opstats_now_us();
-            do {
-                int n = sts_ev_wait(io->ev, evs, max, 0);
-                if (n > 0) {
-                    io->spin_backoff = 0;
-                    return n;
-                }
-            } while (sts_opstats_now_us() - t0 < (int64_t)spin);
-            io->spin_backoff = io->spin_backoff ? (io->spin_backoff < 64 ? io->spin_backoff * 2
-                                                                         : 64) : 1;
-            io->spin_skip = io->spin_backoff;
-        }
-    }
-    return sts_ev_wait(io->ev, evs, max, timeout_ms);
-}
-
 /* Once a second: close connections whose request frame is past its deadline or that were
  * silent for idle-timeout, release the buffers of those quiet for a second, publish the
  * oldest half-sent frame (eviction). */
@@ -841,7 +812,6 @@ void *sts_io_main(void *arg)
                  io->index, strerror(errno));
     sts_ev_add(io->ev, io->wakefd, STS_EV_READ, io);
     int64_t last_scan = sts_now_ms();
-    int served = 0;   /* the last pass handled a connection's events */
     for (;;) {
         int stopping = __atomic_load_n(&srv->stopping, __ATOMIC_ACQUIRE);
         if (stopping) {
@@ -852,8 +822,7 @@ void *sts_io_main(void *arg)
             if (drain_step(io, stopping >= 2) == 0)
                 break;
         }
-        int n = wait_events(io, evs, 256, stopping ? 20 : 1000, served);
-        served = 0;
+        int n = sts_ev_wait(io->ev, evs, 256, stopping ? 20 : 1000);
         for (int i = 0; i < n; i++) {
             void *p = evs[i].ptr;
             if (p == srv) {
@@ -864,7 +833,6 @@ void *sts_io_main(void *arg)
                 sts_conn *c = p;
                 if (c->dead)
                     continue;
-                served = 1;
                 if (evs[i].events & STS_EV_WRITE) {
                     if (conn_flush(c) != 0)
                         continue;

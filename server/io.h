@@ -85,8 +85,6 @@ struct sts_io {
                                           time of this thread's oldest half-sent frame at least
                                           a second old (0 = none): eviction candidates */
     uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
-    uint32_t        spin_backoff;  /* io-spin-us: passes to skip after the next failed spin */
-    uint32_t        spin_skip;     /* passes still to sleep at once (wait_events) */
 };
 
 void *sts_io_main(void *arg);

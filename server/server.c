@@ -361,7 +361,6 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh)
     SET_LIVE(max_batch);
     SET_LIVE(heavy_batch);
     SET_LIVE(split_batch);
-    SET_LIVE(io_spin_us);
     SET_LIVE(conn_out_cap);
     SET_LIVE(max_memory);
     SET_LIVE(max_sets);
