@@ -584,6 +584,8 @@ static int connect_one(const struct addrinfo *ai, int64_t deadline, char *err, s
     int one = 1;
     if (ai->ai_family != AF_UNIX)
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    else
+        stu_unix_sndbuf(fd);   /* a big request in one write (unixaddr.h) */
     return fd;
 }
 
