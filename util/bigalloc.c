@@ -6,30 +6,31 @@
 #include <stdlib.h>
 #include <sys/mman.h>
 
-void *stu_big_alloc(size_t n, size_t huge_from, size_t *cap)
+#define HUGE_PAGE ((size_t)2 << 20)
+#define TEMP_HUGE_FROM ((size_t)256 << 10)
+
+void *stu_big_alloc(size_t n, int use)
 {
-    size_t r;
-    void *p;
-    if (n >= huge_from && n <= SIZE_MAX - STU_HUGE_PAGE) {
-        r = (n + STU_HUGE_PAGE - 1) & ~(STU_HUGE_PAGE - 1);
-        p = aligned_alloc(STU_HUGE_PAGE, r);
-#ifdef MADV_HUGEPAGE
-        if (p)
-            madvise(p, r, MADV_HUGEPAGE); /* advice only: failure changes nothing */
-#endif
-    } else {
-        if (n > SIZE_MAX - 63) {
-            errno = ENOMEM;
-            return NULL;
-        }
-        r = n ? (n + 63) & ~(size_t)63 : 64;
-        p = aligned_alloc(64, r);
+    if (n > SIZE_MAX / 2) {
+        errno = ENOMEM;
+        return NULL;
     }
+    size_t r = n ? (n + 63) & ~(size_t)63 : 64, up = (n + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
+    size_t huge = 0; /* bytes from the start marked for huge pages */
+    if (use == STU_BIG_TEMP ? n >= TEMP_HUGE_FROM : n >= HUGE_PAGE) {
+        if (use == STU_BIG_TEMP || up - n <= n / 2)
+            r = huge = up;
+        else
+            huge = n & ~(HUGE_PAGE - 1);
+    }
+    void *p = aligned_alloc(huge ? HUGE_PAGE : 64, r);
     if (!p) {
         errno = ENOMEM;
         return NULL;
     }
-    if (cap)
-        *cap = r;
+#ifdef MADV_HUGEPAGE
+    if (huge)
+        madvise(p, huge, MADV_HUGEPAGE); /* advice only: failure changes nothing */
+#endif
     return p;
 }

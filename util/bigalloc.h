@@ -2,24 +2,29 @@
  * allocated (a set's texel arena, a whole file read into memory), libc only.
  *
  * Why: every 4 KiB page touched for the first time costs a page fault, and on a virtual
- * machine with shadow or nested paging far more (measured on the project's machines: writing
- * 4 MiB of fresh 4 KiB pages took 13-27 ms of CPU, of fresh 2 MiB transparent huge pages
- * 0.5-0.8 ms). A buffer of at least huge_from bytes is therefore 2 MiB aligned, rounded up to
- * whole 2 MiB pages and marked MADV_HUGEPAGE (advice: without transparent huge pages it is
- * an ordinary buffer). The rounding is the caller's trade: up to 2 MiB - 1 of unused memory
- * per buffer, so a long-lived buffer asks from a larger size than a short-lived one.
+ * machine with shadow or nested paging far more. Measured on the project's 2-core VM
+ * (2026-12-02, load 10-15): writing 4 MiB of fresh 4 KiB pages took 13-27 ms of CPU, of
+ * fresh 2 MiB transparent huge pages 0.5-0.8 ms; reading a 2 MiB file into a fresh buffer
+ * 13-24 ms, into a huge-page buffer 1-1.9 ms. So large buffers are 2 MiB aligned and marked
+ * MADV_HUGEPAGE (advice only: without transparent huge pages they are ordinary buffers).
  *
- * Ownership: the caller frees the buffer with free(). Smaller buffers are 64-byte aligned.
- * *cap (when not NULL) receives the usable size, at least n. NULL with errno ENOMEM when the
- * memory cannot be had (n of 0 gives a 64-byte buffer).
+ * A huge page is allocated whole, so rounding a buffer up to whole huge pages costs memory:
+ * - STU_BIG_KEEP (a buffer that lives long, like a set's arena): from 2 MiB on; rounded up to
+ *   whole huge pages when that adds at most half of n (n >= 4 MiB always, as the arena was
+ *   before), else only the whole 2 MiB pages inside n are huge and the tail has 4 KiB pages.
+ * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
+ * Smaller buffers are 64-byte aligned, sized up to a multiple of 64.
+ *
+ * Ownership: the caller frees the buffer with free(). NULL with errno ENOMEM when the memory
+ * cannot be had (n of 0 gives a 64-byte buffer).
  */
 #ifndef STU_BIGALLOC_H
 #define STU_BIGALLOC_H
 
 #include <stddef.h>
 
-#define STU_HUGE_PAGE ((size_t)2 << 20)
+enum { STU_BIG_KEEP = 0, STU_BIG_TEMP = 1 };
 
-void *stu_big_alloc(size_t n, size_t huge_from, size_t *cap);
+void *stu_big_alloc(size_t n, int use);
 
 #endif

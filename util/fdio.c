@@ -50,10 +50,6 @@ int stu_read_all(int fd, void *buf, size_t n)
     return 0;
 }
 
-/* A file read whole is written once and freed soon: from this size on its buffer is on huge
- * pages (bigalloc.h), where a 2 MiB file costs about a millisecond less per MiB to read. */
-#define STU_READ_HUGE_FROM ((size_t)256 << 10)
-
 int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
 {
     *out = NULL;
@@ -74,7 +70,7 @@ int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
         goto fail;
     }
     size_t n = (size_t)st.st_size;
-    uint8_t *b = stu_big_alloc(n + 1, STU_READ_HUGE_FROM, NULL);
+    uint8_t *b = stu_big_alloc(n + 1, STU_BIG_TEMP);
     if (!b) {
         errno = ENOMEM;
         goto fail;

@@ -19,14 +19,13 @@
 
 static int is_pow2(uint32_t x) { return x && !(x & (x - 1)); }
 
-/* The texel arena: 64-byte aligned, and from ARENA_HUGE_FROM on on transparent huge pages
- * (util/bigalloc.h). Every importer writes its whole arena right away; with 4 KiB pages
- * the page faults of a large Ptex import cost about as much CPU as its decoding. alloc is a
- * multiple of 64. */
-#define ARENA_HUGE_FROM ((size_t)2 << 20)
+/* The texel arena: 64-byte aligned, and from 2 MiB on on transparent huge pages
+ * (util/bigalloc.h, a long-lived buffer). Every importer writes its whole arena right away;
+ * with 4 KiB pages the page faults of a large Ptex import cost more CPU than its decoding.
+ * alloc is a multiple of 64. */
 static uint8_t *arena_alloc(size_t alloc)
 {
-    return stu_big_alloc(alloc, ARENA_HUGE_FROM, NULL);
+    return stu_big_alloc(alloc, STU_BIG_KEEP);
 }
 
 static unsigned floor_log2(uint32_t x)
