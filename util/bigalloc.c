@@ -17,13 +17,14 @@ void *stu_big_alloc(size_t n, int use)
     }
     size_t r = n ? (n + 63) & ~(size_t)63 : 64, up = (n + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
     size_t huge = 0; /* bytes from the start marked for huge pages */
-    if (use == STU_BIG_TEMP ? n >= TEMP_HUGE_FROM : n >= HUGE_PAGE) {
-        if (use == STU_BIG_TEMP || up - n <= n / 2)
-            r = huge = up;
-        else
-            huge = n & ~(HUGE_PAGE - 1);
-    }
-    void *p = aligned_alloc(huge ? HUGE_PAGE : 64, r);
+    if (use == STU_BIG_TEMP ? n >= TEMP_HUGE_FROM : n && up - n <= n / 2)
+        r = huge = up;
+    else if (use == STU_BIG_KEEP)
+        huge = n & ~(HUGE_PAGE - 1);
+    /* a small temporary buffer from malloc: glibc serves it from its heap, where freeing it
+     * is not an munmap (which cost about as much as reading a 130 KiB file) */
+    void *p = huge ? aligned_alloc(HUGE_PAGE, r) : use == STU_BIG_TEMP ? malloc(r)
+                                                                       : aligned_alloc(64, r);
     if (!p) {
         errno = ENOMEM;
         return NULL;

@@ -9,9 +9,10 @@
  * MADV_HUGEPAGE (advice only: without transparent huge pages they are ordinary buffers).
  *
  * A huge page is allocated whole, so rounding a buffer up to whole huge pages costs memory:
- * - STU_BIG_KEEP (a buffer that lives long, like a set's arena): from 2 MiB on; rounded up to
- *   whole huge pages when that adds at most half of n (n >= 4 MiB always, as the arena was
- *   before), else only the whole 2 MiB pages inside n are huge and the tail has 4 KiB pages.
+ * - STU_BIG_KEEP (a buffer that lives long, like a set's arena): rounded up to whole huge
+ *   pages when that adds at most half of n (so from 4/3 MiB on, and always from 4 MiB on, as
+ *   the arena was before); otherwise only the whole 2 MiB pages inside n are huge and the
+ *   tail has 4 KiB pages.
  * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
  * Smaller buffers are 64-byte aligned, sized up to a multiple of 64.
  *
