@@ -29,6 +29,7 @@ struct stc_cluster {
     stc_cluster_node pub[MAX_NODES];
     const char *ids[MAX_NODES];
     int64_t   last_refresh;
+    int       refresh_due;   /* a call saw a failover or MOVED: refresh at the start of the next */
     stc_cluster_counters cnt;
     char      msg[1024];
 };
@@ -246,8 +247,19 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
                      stc_conn **used)
 {
     cl->cnt.calls++;
+    /* the refresh a previous call asked for runs now, not at the end of that call: it may
+     * close the connection whose reply that call's results point into */
+    if (cl->refresh_due && stc__now_ms() - cl->last_refresh > 500) {
+        cl->refresh_due = 0;
+        stc_cluster_refresh(cl);
+    }
     size_t order[MAX_NODES];
     size_t no = stc_cluster_rank(cl, set, order, cl->n);
+    /* the owners: NOT_FOUND from one of them is final only when every owner says so (an
+     * owner that has just joined or restarted may not hold the set yet) */
+    char owner[MAX_NODES] = {0};
+    for (size_t r = 0; r < no && r < cl->replicas; r++)
+        owner[order[r]] = 1;
     /* nodes marked down go last */
     size_t tries[MAX_NODES], nt = 0;
     int64_t now = stc__now_ms();
@@ -255,7 +267,7 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
         for (size_t r = 0; r < no; r++)
             if ((cl->nodes[order[r]].down_until > now) == pass)
                 tries[nt++] = order[r];
-    int rc = STC_ECONNECT, hops = 0, refresh = 0;
+    int rc = STC_ECONNECT, hops = 0, refresh = 0, notfound = 0;
     char tried[MAX_NODES] = {0};
     for (size_t t = 0; t < nt;) {
         size_t i = tries[t];
@@ -291,6 +303,20 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
             t++;
             continue;
         }
+        if (rc == STC_ENOTFOUND) {
+            size_t u = t + 1;
+            while (u < nt && (tried[tries[u]] || !owner[tries[u]]))
+                u++;
+            if (u < nt) {
+                /* another owner may hold it: ask it, and answer NOT_FOUND if it fails too */
+                snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
+                notfound = 1;
+                cl->cnt.failovers++;
+                t = u;
+                continue;
+            }
+            break;
+        }
         if (is_conn_error(rc)) {
             snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
             stc_close(cl->nodes[i].conn);
@@ -303,8 +329,10 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
         }
         break;
     }
-    if (refresh && stc__now_ms() - cl->last_refresh > 500)
-        stc_cluster_refresh(cl);   /* for the next call; this one has its answer */
+    if (refresh)
+        cl->refresh_due = 1;   /* for the next call; this one has its answer */
+    if (notfound && is_conn_error(rc))
+        rc = STC_ENOTFOUND;    /* an owner's answer, the others could not be asked */
     return rc;
 }
 
