@@ -6,7 +6,8 @@
  *    be refreshed at the end of such a call, which closed the connection the results were in:
  *    the cluster soak read other contents through that);
  *  - NOT_FOUND from the first owner is not final: the client asks the next owner, and answers
- *    NOT_FOUND only when every owner says so.
+ *    NOT_FOUND only when every owner says so; when an owner cannot be reached, it asks the
+ *    rest of the ranking too.
  *
  * The scripted node is a thread in this test speaking the wire protocol: HELLO is answered
  * UNKNOWN_OPCODE (version 1 defaults), CLUSTER with the membership the test sets, SAMPLE with
@@ -172,18 +173,22 @@ static void scripted_stop(scripted *s)
     pthread_mutex_destroy(&s->mu);
 }
 
-/* the membership the scripted node reports: "a" (itself) and, when other_addr is set, "d" */
-static void script_members(scripted *s, unsigned replicas, const char *other_addr)
+/* the membership the scripted node reports: "a" (itself), then "d" at d_addr and "b" at
+ * b_addr for those that are not NULL */
+static void script_members(scripted *s, unsigned replicas, const char *d_addr,
+                           const char *b_addr)
 {
     pthread_mutex_lock(&s->mu);
     snprintf(s->ids[0], sizeof s->ids[0], "a");
     snprintf(s->addrs[0], sizeof s->addrs[0], "127.0.0.1:%d", s->port);
     s->nnodes = 1;
-    if (other_addr) {
-        snprintf(s->ids[1], sizeof s->ids[1], "d");
-        snprintf(s->addrs[1], sizeof s->addrs[1], "%s", other_addr);
-        s->nnodes = 2;
-    }
+    const char *ids[2] = {"d", "b"}, *addrs[2] = {d_addr, b_addr};
+    for (int i = 0; i < 2; i++)
+        if (addrs[i]) {
+            snprintf(s->ids[s->nnodes], sizeof s->ids[0], "%s", ids[i]);
+            snprintf(s->addrs[s->nnodes], sizeof s->addrs[0], "%s", addrs[i]);
+            s->nnodes++;
+        }
     s->replicas = replicas;
     pthread_mutex_unlock(&s->mu);
 }
@@ -254,7 +259,7 @@ static void results_survive_the_refresh_after_a_moved(void **state)
     (void)state;
     scripted s;
     assert_int_equal(scripted_start(&s), 0);
-    script_members(&s, 1, NULL);            /* the view never lists the daemon */
+    script_members(&s, 1, NULL, NULL);      /* the view never lists the daemon */
     script_sample(&s, STP_S_MOVED, daddr);  /* ... but "a" sends every SAMPLE to it */
     stc_cluster *cl = open_at(&s);
     /* the client refreshes its view at most every 500 ms: past that, the call below asks for
@@ -280,6 +285,19 @@ static void results_survive_the_refresh_after_a_moved(void **state)
     scripted_stop(&s);
 }
 
+/* the daemon holds the tint under name too */
+static void upload_to_daemon(const char *name)
+{
+    char files[1][300];
+    assert_int_equal(st_cluster_tint_files(D.dir, 1, 40, files), 0);
+    int err = 0;
+    char msg[256];
+    stc_conn *c = stc_connect_opts("127.0.0.1", (unsigned)D.port, NULL, &err, msg, sizeof msg);
+    assert_non_null(c);
+    assert_int_equal(stc_upload_file(c, files[0], name, NULL, NULL), 0);
+    stc_close(c);
+}
+
 /* a set name whose first owner among {"a", "d"} is "a" */
 static void name_owned_first_by_a(char *out, size_t cap)
 {
@@ -298,19 +316,12 @@ static void not_found_from_one_owner_asks_the_next(void **state)
     (void)state;
     scripted s;
     assert_int_equal(scripted_start(&s), 0);
-    script_members(&s, 2, daddr);           /* owners "a" (scripted) and "d" (the daemon) */
+    script_members(&s, 2, daddr, NULL);     /* owners "a" (scripted) and "d" (the daemon) */
     script_sample(&s, STP_S_NOT_FOUND, "no such set here yet");
     char name[32];
     name_owned_first_by_a(name, sizeof name);
     /* the daemon holds it under that name too */
-    char files[1][300];
-    assert_int_equal(st_cluster_tint_files(D.dir, 1, 40, files), 0);
-    int err = 0;
-    char msg[256];
-    stc_conn *c = stc_connect_opts("127.0.0.1", (unsigned)D.port, NULL, &err, msg, sizeof msg);
-    assert_non_null(c);
-    assert_int_equal(stc_upload_file(c, files[0], name, NULL, NULL), 0);
-    stc_close(c);
+    upload_to_daemon(name);
 
     stc_cluster *cl = open_at(&s);
     stc_sample_opts o;
@@ -343,9 +354,52 @@ static void not_found_from_one_owner_asks_the_next(void **state)
     scripted_stop(&s);
 }
 
+/* "a" (NOT_FOUND) and "b" (unreachable) own the set, "d" (not an owner) holds it: as after a
+ * membership change whose new owners have not received their copies yet */
+static void not_found_with_an_owner_unreachable_asks_the_rest(void **state)
+{
+    (void)state;
+    scripted s;
+    assert_int_equal(scripted_start(&s), 0);
+    /* an address nothing listens on: a port bound and closed again */
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t al = sizeof a;
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    close(fd);
+    char baddr[32];
+    snprintf(baddr, sizeof baddr, "127.0.0.1:%d", ntohs(a.sin_port));
+    script_members(&s, 2, daddr, baddr);
+    script_sample(&s, STP_S_NOT_FOUND, "no such set here yet");
+    char name[32];
+    const char *ids[3] = {"a", "d", "b"};
+    for (int k = 0;; k++) {
+        snprintf(name, sizeof name, "moved%d", k);
+        size_t order[3];
+        stp_hrw_rank(ids, 3, name, order, 3);
+        if (order[0] == 0 && order[1] == 2)
+            break;                          /* owners a then b; d last */
+    }
+    upload_to_daemon(name);
+    stc_cluster *cl = open_at(&s);
+    stc_sample_opts o;
+    stc_query q;
+    stc_sample_result r;
+    center(&o, &q);
+    assert_int_equal(stc_cluster_sample(cl, name, &o, &q, 1, &r), 0);
+    assert_true(((const float *)r.values)[0] == tint_red);
+    stc_cluster_close(cl);
+    scripted_stop(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(not_found_with_an_owner_unreachable_asks_the_rest),
         cmocka_unit_test(results_survive_the_refresh_after_a_moved),
         cmocka_unit_test(not_found_from_one_owner_asks_the_next),
     };
