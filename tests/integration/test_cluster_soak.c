@@ -20,7 +20,7 @@
  * soak once found: test_cluster_routing) is told apart from other contents served by a node.
  *
  * Rounds: SEAMTEX_SOAK_ROUNDS when set, else 20 under make soak (SEAMTEX_SOAK_SECONDS is set
- * there), else 2 (a run by hand; make test does not run it: tests/run.sh). SEAMTEX_SOAK_SEED
+ * there), else 3 (make test's bounded slice, and a run by hand). SEAMTEX_SOAK_SEED
  * replays a run (the seed is printed). The sleeps are the random kill moments and down times
  * under test; every other wait is a deadline against a hang, never a speed check.
  */
@@ -354,7 +354,7 @@ static void cluster_soak_kills_and_restarts(void **state)
 {
     (void)state;
     soak *s = &S;
-    long rounds = env_long("SEAMTEX_SOAK_ROUNDS", getenv("SEAMTEX_SOAK_SECONDS") ? 20 : 2);
+    long rounds = env_long("SEAMTEX_SOAK_ROUNDS", getenv("SEAMTEX_SOAK_SECONDS") ? 20 : 3);
     unsigned seed = (unsigned)env_long("SEAMTEX_SOAK_SEED", (long)time(NULL));
     print_message("cluster soak: %ld rounds, seed %u (SEAMTEX_SOAK_SEED replays)\n", rounds,
                   seed);
