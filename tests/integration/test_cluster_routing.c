@@ -243,13 +243,12 @@ static stc_cluster *open_at(const scripted *s)
     return cl;
 }
 
-static void center(stc_sample_opts *o, stc_query *q)
+/* a routed read of name gives the tint */
+static void assert_red(stc_cluster *cl, const char *name)
 {
-    memset(o, 0, sizeof *o);
-    o->mode = 1;
-    memset(q, 0, sizeof *q);
-    q->u = 0.5f;
-    q->v = 0.5f;
+    float red = -1;
+    assert_int_equal(st_cluster_red_at(cl, name, &red), 0);
+    assert_true(red == tint_red);
 }
 
 /* ---- the tests ------------------------------------------------------------------------------ */
@@ -265,20 +264,16 @@ static void results_survive_the_refresh_after_a_moved(void **state)
     /* the client refreshes its view at most every 500 ms: past that, the call below asks for
      * a refresh (it followed a MOVED), and the refresh drops the daemon from the view */
     st_sleep_ms(600);
-    stc_sample_opts o;
-    stc_query q;
-    stc_sample_result r;
-    center(&o, &q);
-    assert_int_equal(stc_cluster_sample(cl, "tint", &o, &q, 1, &r), 0);
-    assert_int_equal(r.count, 1);
-    float got = ((const float *)r.values)[0];  /* valid until the next call on cl */
+    float got = -1;   /* read from the call's results after it returned */
+    assert_int_equal(st_cluster_red_at(cl, "tint", &got), 0);
     assert_true(got == tint_red);
     stc_cluster_counters n;
     stc_cluster_get_counters(cl, &n);
     assert_int_equal(n.moved, 1);
     /* the next call runs the refresh: the view is the scripted one again */
-    assert_int_equal(stc_cluster_sample(cl, "tint", &o, &q, 1, &r), 0);
-    assert_true(((const float *)r.values)[0] == tint_red);
+    got = -1;
+    assert_int_equal(st_cluster_red_at(cl, "tint", &got), 0);
+    assert_true(got == tint_red);
     stc_cluster_get_counters(cl, &n);
     assert_true(n.refreshes >= 2);
     stc_cluster_close(cl);
@@ -324,12 +319,7 @@ static void not_found_from_one_owner_asks_the_next(void **state)
     upload_to_daemon(name);
 
     stc_cluster *cl = open_at(&s);
-    stc_sample_opts o;
-    stc_query q;
-    stc_sample_result r;
-    center(&o, &q);
-    assert_int_equal(stc_cluster_sample(cl, name, &o, &q, 1, &r), 0);
-    assert_true(((const float *)r.values)[0] == tint_red);
+    assert_red(cl, name);
     pthread_mutex_lock(&s.mu);
     int asked = s.samples;
     pthread_mutex_unlock(&s.mu);
@@ -345,7 +335,8 @@ static void not_found_from_one_owner_asks_the_next(void **state)
         if (order[0] == 0)
             break;
     }
-    assert_int_equal(stc_cluster_sample(cl, other, &o, &q, 1, &r), STC_ENOTFOUND);
+    float red = -1;
+    assert_int_equal(st_cluster_red_at(cl, other, &red), STC_ENOTFOUND);
     pthread_mutex_lock(&s.mu);
     asked = s.samples;
     pthread_mutex_unlock(&s.mu);
@@ -386,16 +377,10 @@ static void not_found_with_an_owner_unreachable_asks_the_rest(void **state)
     }
     upload_to_daemon(name);
     stc_cluster *cl = open_at(&s);
-    stc_sample_opts o;
-    stc_query q;
-    stc_sample_result r;
-    center(&o, &q);
-    assert_int_equal(stc_cluster_sample(cl, name, &o, &q, 1, &r), 0);
-    assert_true(((const float *)r.values)[0] == tint_red);
+    assert_red(cl, name);
     /* at once again: "b" failed a moment ago, so it is tried last (a, d, b); after a's
      * NOT_FOUND the client must still come back to d once b fails */
-    assert_int_equal(stc_cluster_sample(cl, name, &o, &q, 1, &r), 0);
-    assert_true(((const float *)r.values)[0] == tint_red);
+    assert_red(cl, name);
     stc_cluster_close(cl);
     scripted_stop(&s);
 }

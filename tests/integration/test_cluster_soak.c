@@ -153,11 +153,7 @@ static int do_red(stc_conn *c, void *p)
     red_arg *a = p;
     stc_sample_opts o;
     stc_query q;
-    memset(&o, 0, sizeof o);
-    o.mode = 1;
-    memset(&q, 0, sizeof q);
-    q.u = 0.5f;
-    q.v = 0.5f;
+    st_red_query(&o, &q);
     int rc = stc_sample(c, a->set, &o, &q, 1, &a->res);
     if (rc == 0)
         a->inside = ((const float *)a->res.values)[0];
