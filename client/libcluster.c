@@ -223,17 +223,35 @@ size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t ma
     return stp_hrw_rank(cl->ids, cl->n, set, idx, max);
 }
 
-int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
-                     stc_conn **used)
+/* After NOT_FOUND: the position in tries[] of the next node to ask, nt when none is left. The
+ * owners not asked yet first; then, when an owner could not be reached (unreached), any node
+ * not asked yet. */
+static size_t next_after_not_found(const size_t *tries, size_t nt, const char *tried,
+                                   const char *owner, int unreached)
 {
-    if (stc__cluster_pipe_pending(cl)) {
-        snprintf(cl->msg, sizeof cl->msg, "pipelined requests are outstanding: read their "
-                 "replies with stc_cluster_get_reply before a blocking call");
-        return STC_ESTATE;
-    }
-    cl->cnt.calls++;
+    size_t u = 0;
+    while (u < nt && (tried[tries[u]] || !owner[tries[u]]))
+        u++;
+    if (u == nt && unreached)
+        for (u = 0; u < nt && tried[tries[u]]; u++)
+            ;
+    return u;
+}
+
+/* One pass of a routed call over the current view. *refresh: the view looked stale (a node
+ * failed or sent MOVED); *retry: the call failed in a way a fresher view may cure. */
+static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
+                 stc_conn **used, int *refresh_out, int *retry)
+{
     size_t order[MAX_NODES];
     size_t no = stc_cluster_rank(cl, set, order, cl->n);
+    /* the owners: NOT_FOUND from one of them is final only when every owner says so (an
+     * owner that has just joined or restarted may not hold the set yet); when an owner could
+     * not be reached, the rest of the ranking is asked too (a node that owned the set before
+     * the membership changed may hold it still) */
+    char owner[MAX_NODES] = {0};
+    for (size_t r = 0; r < no && r < cl->replicas; r++)
+        owner[order[r]] = 1;
     /* nodes marked down go last */
     size_t tries[MAX_NODES], nt = 0;
     int64_t now = stc__now_ms();
@@ -241,7 +259,7 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
         for (size_t r = 0; r < no; r++)
             if ((cl->nodes[order[r]].down_until > now) == pass)
                 tries[nt++] = order[r];
-    int rc = STC_ECONNECT, hops = 0, refresh = 0;
+    int rc = STC_ECONNECT, hops = 0, refresh = 0, notfound = 0, unreached = 0;
     char tried[MAX_NODES] = {0};
     for (size_t t = 0; t < nt;) {
         size_t i = tries[t];
@@ -256,7 +274,8 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
             rc = err;
             cl->cnt.failovers++;
             refresh = 1;
-            t++;
+            unreached |= owner[i];
+            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         rc = fn(c, arg);
@@ -274,8 +293,20 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
                 tries[t] = (size_t)j;   /* try it next, then go on with the ranking */
                 continue;
             }
-            t++;
+            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
+        }
+        if (rc == STC_ENOTFOUND) {
+            size_t u = next_after_not_found(tries, nt, tried, owner, unreached);
+            if (u < nt) {
+                /* another owner may hold it: ask it, and answer NOT_FOUND if it fails too */
+                snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
+                notfound = 1;
+                cl->cnt.failovers++;
+                t = u;
+                continue;
+            }
+            break;
         }
         if (is_conn_error(rc)) {
             snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
@@ -284,13 +315,45 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
             cl->nodes[i].down_until = stc__now_ms() + DOWN_MS;
             cl->cnt.failovers++;
             refresh = 1;
-            t++;
+            unreached |= owner[i];
+            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         break;
     }
-    if (refresh && stc__now_ms() - cl->last_refresh > 500)
-        stc_cluster_refresh(cl);   /* for the next call; this one has its answer */
+    if (notfound && is_conn_error(rc))
+        rc = STC_ENOTFOUND;    /* an owner's answer, the others could not be asked */
+    *refresh_out = refresh;
+    *retry = is_conn_error(rc) || rc == STC_EMOVED || (rc == STC_ENOTFOUND && unreached);
+    return rc;
+}
+
+int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
+                     stc_conn **used)
+{
+    if (stc__cluster_pipe_pending(cl)) {
+        snprintf(cl->msg, sizeof cl->msg, "pipelined requests are outstanding: read their "
+                 "replies with stc_cluster_get_reply before a blocking call");
+        return STC_ESTATE;
+    }
+    cl->cnt.calls++;
+    /* the refresh a previous call asked for runs now, not at the end of that call: it may
+     * close the connection whose reply that call's results point into */
+    if (cl->refresh_due && stc__now_ms() - cl->last_refresh > 500) {
+        cl->refresh_due = 0;
+        stc_cluster_refresh(cl);
+    }
+    int refresh = 0, retry = 0;
+    int rc = route(cl, set, fn, arg, used, &refresh, &retry);
+    if (retry && refresh && stc_cluster_refresh(cl) == 0) {
+        /* failed on a stale view (a node restarted elsewhere, one that holds the set is not
+         * in it yet): once more on a fresh one; no result of this call exists to clobber */
+        if (used)
+            *used = NULL;
+        rc = route(cl, set, fn, arg, used, &refresh, &retry);
+    }
+    if (refresh)
+        cl->refresh_due = 1;   /* for the next call; this one has its answer */
     return rc;
 }
 

@@ -36,6 +36,7 @@ struct stc_cluster {
     stc_cluster_node pub[MAX_NODES];
     const char *ids[MAX_NODES];
     int64_t   last_refresh;
+    int       refresh_due;   /* a call saw a failover or MOVED: refresh at the start of the next */
     stc_cluster_counters cnt;
     char      msg[1024];
     stc__cl_pipe *pipe;

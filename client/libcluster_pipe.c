@@ -30,6 +30,7 @@ typedef struct cl_rq {
     uint32_t id;                  /* the caller's request id; 0 = free slot */
     uint8_t  op;                  /* STP_OP_SAMPLE, STP_OP_SAMPLE_DIR, STP_OP_INFO */
     uint8_t  hops;                /* MOVED replies followed */
+    uint8_t  unreached;           /* a node of its ranking failed while it was routed */
     int      node;                /* node it is in flight on, -1 = none */
     int      prefer;              /* node to try first (a MOVED address), -1 = none */
     uint32_t wire_id;             /* its request id on that node's connection */
@@ -159,6 +160,7 @@ static void node_fail(stc_cluster *cl, stc__cl_pipe *p, size_t i)
     for (size_t k = 0; k < p->on[i].n; k++) {
         size_t si = p->on[i].v[k];
         p->rq[si].node = -1;
+        p->rq[si].unreached = 1;
         ivec_push(&p->todo, si);
         cl->cnt.failovers++;
     }
@@ -195,6 +197,7 @@ static int try_node(stc_cluster *cl, stc__cl_pipe *p, size_t si, size_t i, int *
     stc_conn *c = stc_cluster_conn(cl, i, &err);
     if (!c) {
         *rc = err;
+        p->rq[si].unreached = 1;
         cl->cnt.failovers++;
         p->want_refresh = 1;
         return 1;
@@ -206,6 +209,7 @@ static int try_node(stc_cluster *cl, stc__cl_pipe *p, size_t si, size_t i, int *
              *rc == STC_ENOMEM && !stc_errmsg(c)[0] ? "out of memory" : stc_errmsg(c));
     if (!stc__cluster_conn_error(*rc))
         return -1;
+    p->rq[si].unreached = 1;
     node_fail(cl, p, i);
     return 1;
 }
@@ -304,6 +308,7 @@ static int append(stc_cluster *cl, uint8_t op, const char *set, const stc_sample
     r->err = 0;
     r->emsg[0] = 0;
     memset(r->tried, 0, sizeof r->tried);
+    r->unreached = 0;
     memcpy(r->set, set, strlen(set) + 1);
     if (o)
         r->o = *o;
@@ -420,6 +425,22 @@ static void hand_out(stc__cl_pipe *p, size_t si, size_t node, stc_conn *c, const
     slot_free(p, si);   /* its set name stays readable until the next call on cl */
 }
 
+/* After NOT_FOUND for request r: the node to ask next, -1 when none is left. The owners (the
+ * first R of the ranking) not asked yet; then, when a node failed while r was routed, any node
+ * of the ranking not asked yet. */
+static int next_after_not_found(stc_cluster *cl, const cl_rq *r)
+{
+    size_t order[MAX_NODES], no = stc_cluster_rank(cl, r->set, order, cl->n);
+    for (size_t k = 0; k < no && k < cl->replicas; k++)
+        if (!tried(r, order[k]))
+            return (int)order[k];
+    if (r->unreached)
+        for (size_t k = 0; k < no; k++)
+            if (!tried(r, order[k]))
+                return (int)order[k];
+    return -1;
+}
+
 /* Reads one reply of node i, waiting up to timeout_ms (0: only what has arrived). 1 when a
  * reply was handed out in *out; 0 when none (nothing yet, a MOVED sent on, or the node failed
  * and its requests moved). */
@@ -452,6 +473,17 @@ static int take(stc_cluster *cl, stc__cl_pipe *p, size_t i, int timeout_ms, stc_
         p->want_refresh = 1;
         r->hops++;
         r->prefer = j;
+        ivec_push(&p->todo, si);
+        drain_todo(cl, p);
+        return 0;
+    }
+    int j;
+    if (rep.status == STC_ENOTFOUND && (j = next_after_not_found(cl, r)) >= 0) {
+        /* the blocking calls' rule (docs/cluster.md): NOT_FOUND from one owner is final only
+         * when every owner said so, and when an owner could not be reached the rest of the
+         * ranking is asked too */
+        r->prefer = j;
+        cl->cnt.failovers++;
         ivec_push(&p->todo, si);
         drain_todo(cl, p);
         return 0;

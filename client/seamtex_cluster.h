@@ -53,7 +53,11 @@ size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t ma
 stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err);
 
 /* Runs fn(conn, arg) on the set's first owner, then on the next node in the ranking while fn
- * fails with a connection error or a timeout, following MOVED replies (refreshing the view).
+ * fails with a connection error or a timeout, following MOVED replies; NOT_FOUND from an owner
+ * sends it on to the owners not asked yet (and, when an owner could not be reached, to the
+ * rest of the ranking): NOT_FOUND is returned only when no node asked holds the set. A call
+ * that fails on what may be a stale view refreshes it and routes once more; otherwise the
+ * view is refreshed at the start of the next call, so results stay valid until then.
  * *used (may be NULL) gets the connection that answered. Returns fn's last result. */
 typedef int (*stc_cluster_fn)(stc_conn *c, void *arg);
 int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,

@@ -46,7 +46,8 @@ static int read_members(const char *url, int timeout_ms, char *seeds, size_t cap
     seeds[0] = 0;
     for (size_t i = 0; i < kvs.n; i++) {
         char addr[STP_MAX_NODE_ADDR + 1];
-        if (scl_node_parse(kvs.v[i].val, addr, sizeof addr) != 0)
+        uint64_t inc;
+        if (scl_node_parse(kvs.v[i].val, addr, sizeof addr, &inc) != 0)
             continue;                     /* not a node record: not a seed */
         size_t al = strlen(addr);
         if (len + al + 2 > cap)

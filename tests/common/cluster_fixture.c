@@ -44,7 +44,7 @@ int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300])
     return 0;
 }
 
-static void center_query(stc_sample_opts *o, stc_query *q)
+void st_red_query(stc_sample_opts *o, stc_query *q)
 {
     memset(o, 0, sizeof *o);
     o->mode = 1;
@@ -58,7 +58,7 @@ int st_red_at(stc_conn *c, const char *set, float *red)
     stc_sample_opts o;
     stc_query q;
     stc_sample_result r;
-    center_query(&o, &q);
+    st_red_query(&o, &q);
     int rc = stc_sample(c, set, &o, &q, 1, &r);
     if (rc == 0)
         *red = ((const float *)r.values)[0];
@@ -70,7 +70,7 @@ int st_cluster_red_at(stc_cluster *cl, const char *set, float *red)
     stc_sample_opts o;
     stc_query q;
     stc_sample_result r;
-    center_query(&o, &q);
+    st_red_query(&o, &q);
     int rc = stc_cluster_sample(cl, set, &o, &q, 1, &r);
     if (rc == 0)
         *red = ((const float *)r.values)[0];

@@ -25,6 +25,8 @@ int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300]);
  * and deletes it again. 0, or the first failing call's status. */
 int st_cluster_tint_reds(stc_cluster *cl, int n, char (*files)[300], float *red);
 
+/* The SAMPLE the red helpers send: one bilinear query at the middle of face 0. */
+void st_red_query(stc_sample_opts *o, stc_query *q);
 /* The red channel at the middle of face 0 of set through c into *red; 0 or the status. */
 int st_red_at(stc_conn *c, const char *set, float *red);
 /* The same through the cluster client. */
