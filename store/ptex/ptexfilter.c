@@ -74,6 +74,7 @@ typedef struct pf {
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
     int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
+    pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
 } pf;
@@ -477,6 +478,10 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
             return ST_Q_OK;
         }
     }
+    if (c->fast && !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
+        c->fast(pp, c->t->px + c->t->base[f], F->ulog2, F->vlog2, u, v, uw * width + blur,
+                vw * width + blur, out))
+        return ST_Q_OK; /* the kernel lies inside the face: every mode agrees */
     pk k;
     if (F->flags & ST_FACE_SUBFACE) {
         uw = uw * width + blur * 2.0f;
@@ -569,6 +574,7 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
     c.avx2 = avx2;
+    c.fast = pf_fast_select(c.dt, c.nc, o->filter);
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n; i++) {

@@ -79,8 +79,8 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
     size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
     int ne = uw * (int)nc;
     int nt = ne - 8 * (NV - 1); /* values in the last vector, 1..8 */
-    static const int32_t ones[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
-    __m256 tail = _mm256_loadu_ps((const float *)(const void *)(ones + 8 - nt));
+    __m256 tail = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+        _mm256_set1_epi32(nt), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))); /* lanes < nt */
     __m256 col[MAXV];
     for (int b = 0; b < NV; b++)
         col[b] = _mm256_setzero_ps();
@@ -249,6 +249,171 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
         _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
 }
 
+
+/* ---- the fused path of a kernel inside one face (pf_fast_select) ------------------------ */
+
+/* One axis of Ptex's box filter, pk_build's arithmetic in its order; zeros stripped.
+ * *res the resolution, *k0 the first texel, *kw the taps (0: empty), w the weights. */
+PF_TARGET void box_axis(float u, float uw, int fres, int *res, int *k0, int *kw, float *w)
+{
+    uw = uw < 1.0f ? uw : 1.0f;
+    float lo = pk_recip_pow2(fres);
+    uw = uw > lo ? uw : lo;
+    *res = (uint8_t)pk_res_from_width(uw);
+    float r = (float)(1 << *res);
+    u *= r;
+    uw *= r;
+    float u1 = u - 0.5f * uw, u2 = u + 0.5f * uw;
+    float u1f = pk_floor(u1), u2c = pk_ceil(u2);
+    int a = (int)u1f, n = (int)u2c - a;
+    n = n < 1 ? 1 : n > 3 ? 3 : n;
+    float f1 = 1.0f - (u1 - u1f), f2 = 1.0f - (u2c - u2);
+    if (n == 1) {
+        w[0] = f1 + f2 - 1.0f;
+    } else {
+        w[0] = f1;
+        w[1] = 1.0f;
+        w[n - 1] = f2;
+    }
+    int b = 0;
+    while (n > 0 && w[b] == 0) { b++; a++; n--; }
+    while (n > 0 && w[b + n - 1] == 0) n--;
+    *k0 = a;
+    *kw = n;
+    if (b)
+        for (int i = 0; i < n; i++)
+            w[i] = w[i + b];
+}
+
+/* One axis of a width-4 kernel whose width is under 1/4 (width4_axis's first case):
+ * resolution, first texel, taps, offset and step of the kernel's arguments. 0 when the
+ * width is 1/4 or more or the kernel has more than 8 taps. */
+PF_TARGET int w4_axis(float u, float uw, int fres, int *res, int *k0, int *kw, float *x1,
+                      float *step)
+{
+    float lo = pk_recip_pow2(fres);
+    if (!(uw >= lo))
+        uw = lo;
+    if (uw >= .25f)
+        return 0;
+    int r = pk_res_from_width(uw);
+    *res = r;
+    float resu = (float)(1 << (r < 0 ? 0 : r > 30 ? 30 : r));
+    float upix = u * resu - 0.5f;
+    float uwpix = uw * resu;
+    float dupix = 2.0f * uwpix;
+    int u1 = (int)pk_ceil(upix - dupix), u2 = (int)pk_ceil(upix + dupix);
+    *k0 = u1;
+    *kw = u2 - u1;
+    *x1 = ((float)u1 - upix) / uwpix;
+    *step = 1.0f / uwpix;
+    return *kw <= 8;
+}
+
+/* The first and last nonzero of the n weights in w (n <= 8): strips the zeros as
+ * pk_strip_zeros does, moving the rest to w[0]; 0 when every weight is 0. */
+PF_TARGET int strip8(__m256 w, int n, float *out, int *k0, int *kw)
+{
+    unsigned m = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+    m &= (1u << n) - 1u;
+    if (!m)
+        return 0;
+    int a = __builtin_ctz(m), b = 31 - __builtin_clz(m);
+    __m256i idx = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                                   _mm256_set1_epi32(a));
+    _mm256_storeu_ps(out, _mm256_permutevar8x32_ps(w, idx));
+    *k0 += a;
+    *kw = b - a + 1;
+    return 1;
+}
+
+PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
+                        float u, float v, float uw, float vw, float *out, unsigned DT,
+                        unsigned NC)
+{
+    float ku[8], kv[8];
+    int ru, rv, u0, v0, nu, nv;
+    if (p->ftype == ST_FILTER_PTEX_BOX) {
+        box_axis(u, uw, fulog2, &ru, &u0, &nu, ku);
+        box_axis(v, vw, fvlog2, &rv, &v0, &nv, kv);
+        if (nu <= 0 || nv <= 0)
+            return 0;
+    } else {
+        float x1u, su, x1v, sv;
+        if (!w4_axis(u, uw, fulog2, &ru, &u0, &nu, &x1u, &su) ||
+            !w4_axis(v, vw, fvlog2, &rv, &v0, &nv, &x1v, &sv))
+            return 0;
+        const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+        __m256 wu = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1u),
+                                             _mm256_mul_ps(i0, _mm256_set1_ps(su))));
+        __m256 wv = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1v),
+                                             _mm256_mul_ps(i0, _mm256_set1_ps(sv))));
+        if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
+            return 0;
+    }
+    int resu = 1 << ru;
+    if (u0 < 0 || v0 < 0 || u0 + nu > resu || v0 + nv > (1 << rv))
+        return 0;
+    /* pk_weight: each axis summed in order */
+    float su = 0, sv = 0;
+    for (int i = 0; i < nu; i++)
+        su += ku[i];
+    for (int j = 0; j < nv; j++)
+        sv += kv[j];
+    float total = su * sv;
+    if (!(total > 0.0f))
+        return 0;
+    size_t ts = (size_t)NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    const uint8_t *d = px[(unsigned)ru * ((unsigned)fvlog2 + 1u) + (unsigned)rv];
+    const uint8_t *base = d + ((size_t)v0 * (size_t)resu + (size_t)u0) * ts;
+    size_t rowb = (size_t)resu * ts;
+    __m128 acc = _mm_setzero_ps();
+    if (NC == 3) {
+        acc = window3(base, rowb, DT, ku, nu, kv, nv, acc);
+    } else {
+        switch ((nu * (int)NC + 7) / 8) {
+        case 1: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 1, acc); break;
+        case 2: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 2, acc); break;
+        case 3: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 3, acc); break;
+        default: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 4, acc); break;
+        }
+    }
+    float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    float scale = 1.0f / (total * one);
+    float r[4];
+    _mm_storeu_ps(r, acc);
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = r[ch] * scale;
+    return 1;
+}
+
+#define PF_FAST(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"))) static int pf_fast_##DT##_##NC(                \
+        const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
+        float uw, float vw, float *out)                                                     \
+    {                                                                                       \
+        return fast_body(p, px, fu, fv, u, v, uw, vw, out, DT, NC);                         \
+    }
+#define PF_FAST_NC(DT) PF_FAST(DT, 1) PF_FAST(DT, 2) PF_FAST(DT, 3) PF_FAST(DT, 4)
+PF_FAST_NC(0)
+PF_FAST_NC(1)
+PF_FAST_NC(2)
+PF_FAST_NC(3)
+
+pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
+{
+    static const pf_fast_fn fns[4][4] = {
+        {pf_fast_0_1, pf_fast_0_2, pf_fast_0_3, pf_fast_0_4},
+        {pf_fast_1_1, pf_fast_1_2, pf_fast_1_3, pf_fast_1_4},
+        {pf_fast_2_1, pf_fast_2_2, pf_fast_2_3, pf_fast_2_4},
+        {pf_fast_3_1, pf_fast_3_2, pf_fast_3_3, pf_fast_3_4},
+    };
+    if (ftype < ST_FILTER_PTEX_BOX || ftype > ST_FILTER_PTEX_MITCHELL || dt > 3 || nc < 1 ||
+        nc > 4 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 #else
 
 int pf_have_avx2(void)
@@ -268,6 +433,12 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 {
     pk_kernel_eval(p, x1u, su, wu, nu);
     pk_kernel_eval(p, x1v, sv, wv, nv);
+}
+
+pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
+{
+    (void)dt; (void)nc; (void)ftype;
+    return NULL;
 }
 
 #endif
