@@ -252,37 +252,60 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 
 /* ---- the fused path of a kernel inside one face (pf_fast_select) ------------------------ */
 
-/* One axis of Ptex's box filter, pk_build's arithmetic in its order; zeros stripped.
- * *res the resolution, *k0 the first texel, *kw the taps (0: empty), w the weights. */
-PF_TARGET void box_axis(float u, float uw, int fres, int *res, int *k0, int *kw, float *w)
+/* Both axes of Ptex's box filter at once (lane 0 u, lane 1 v), pk_build's arithmetic in its
+ * order: the resolution, first texel, taps (1..3) and weights of each axis, and each axis'
+ * weights summed in order (pk_weight's factors). 0 when a weight at an end is 0 (the
+ * general path strips it). */
+PF_TARGET int box_axes(float u, float v, float uw, float vw, int fulog2, int fvlog2, int *res,
+                       int *k0, int *kw, float *ku, float *kv, float *sum)
 {
-    uw = uw < 1.0f ? uw : 1.0f;
-    float lo = pk_recip_pow2(fres);
-    uw = uw > lo ? uw : lo;
-    *res = (uint8_t)pk_res_from_width(uw);
-    float r = (float)(1 << *res);
-    u *= r;
-    uw *= r;
-    float u1 = u - 0.5f * uw, u2 = u + 0.5f * uw;
-    float u1f = pk_floor(u1), u2c = pk_ceil(u2);
-    int a = (int)u1f, n = (int)u2c - a;
-    n = n < 1 ? 1 : n > 3 ? 3 : n;
-    float f1 = 1.0f - (u1 - u1f), f2 = 1.0f - (u2c - u2);
-    if (n == 1) {
-        w[0] = f1 + f2 - 1.0f;
-    } else {
-        w[0] = f1;
-        w[1] = 1.0f;
-        w[n - 1] = f2;
+    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 1.0f, 1.0f);
+    const __m128 one = _mm_set1_ps(1.0f), half = _mm_set1_ps(0.5f);
+    const __m128i e127 = _mm_set1_epi32(127);
+    w = _mm_min_ps(w, one);                                   /* uw < 1 ? uw : 1 */
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
+        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
+    w = _mm_max_ps(w, lo);                                    /* uw > lu ? uw : lu */
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23)); /* 2^res */
+    x = _mm_mul_ps(x, rf);
+    w = _mm_mul_ps(w, rf);
+    __m128 hw = _mm_mul_ps(half, w);
+    __m128 x1 = _mm_sub_ps(x, hw), x2 = _mm_add_ps(x, hw);
+    __m128 x1f = _mm_floor_ps(x1), x2c = _mm_ceil_ps(x2);
+    __m128i a = _mm_cvttps_epi32(x1f);
+    __m128i n = _mm_sub_epi32(_mm_cvttps_epi32(x2c), a);
+    n = _mm_min_epi32(_mm_max_epi32(n, _mm_set1_epi32(1)), _mm_set1_epi32(3));
+    __m128 f1 = _mm_sub_ps(one, _mm_sub_ps(x1, x1f)), f2 = _mm_sub_ps(one, _mm_sub_ps(x2c, x2));
+    float F1[4], F2[4];
+    int A[4], N[4], R[4];
+    _mm_storeu_ps(F1, f1);
+    _mm_storeu_ps(F2, f2);
+    _mm_storeu_si128((__m128i *)(void *)A, a);
+    _mm_storeu_si128((__m128i *)(void *)N, n);
+    _mm_storeu_si128((__m128i *)(void *)R, r);
+    float *k[2] = {ku, kv};
+    for (int ax = 0; ax < 2; ax++) {
+        float *kk = k[ax];
+        res[ax] = R[ax];
+        k0[ax] = A[ax];
+        kw[ax] = N[ax];
+        if (N[ax] == 1) {
+            kk[0] = F1[ax] + F2[ax] - 1.0f;
+            if (kk[0] == 0)
+                return 0;
+            sum[ax] = kk[0];
+        } else {
+            if (F1[ax] == 0 || F2[ax] == 0)
+                return 0;
+            kk[0] = F1[ax];
+            kk[1] = 1.0f;
+            kk[N[ax] - 1] = F2[ax];
+            sum[ax] = N[ax] == 2 ? F1[ax] + F2[ax] : (F1[ax] + 1.0f) + F2[ax];
+        }
     }
-    int b = 0;
-    while (n > 0 && w[b] == 0) { b++; a++; n--; }
-    while (n > 0 && w[b + n - 1] == 0) n--;
-    *k0 = a;
-    *kw = n;
-    if (b)
-        for (int i = 0; i < n; i++)
-            w[i] = w[i + b];
+    return 1;
 }
 
 /* One axis of a width-4 kernel whose width is under 1/4 (width4_axis's first case):
@@ -331,13 +354,18 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
                         float u, float v, float uw, float vw, float *out, unsigned DT,
                         unsigned NC)
 {
-    float ku[8], kv[8];
+    float ku[32], kv[8]; /* ku: window() may name up to 4 vectors of lanes (it reads < nu) */
     int ru, rv, u0, v0, nu, nv;
+    float total;
     if (p->ftype == ST_FILTER_PTEX_BOX) {
-        box_axis(u, uw, fulog2, &ru, &u0, &nu, ku);
-        box_axis(v, vw, fvlog2, &rv, &v0, &nv, kv);
-        if (nu <= 0 || nv <= 0)
+        int res[2], k0[2], kw[2];
+        float sum[2];
+        if (!box_axes(u, v, uw, vw, fulog2, fvlog2, res, k0, kw, ku, kv, sum))
             return 0;
+        ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
+        if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
+            return 0;
+        total = sum[0] * sum[1];
     } else {
         float x1u, su, x1v, sv;
         if (!w4_axis(u, uw, fulog2, &ru, &u0, &nu, &x1u, &su) ||
@@ -350,19 +378,19 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
                                              _mm256_mul_ps(i0, _mm256_set1_ps(sv))));
         if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
             return 0;
+        if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
+            return 0;
+        /* pk_weight: each axis summed in order */
+        float s0 = 0, s1 = 0;
+        for (int i = 0; i < nu; i++)
+            s0 += ku[i];
+        for (int j = 0; j < nv; j++)
+            s1 += kv[j];
+        total = s0 * s1;
     }
-    int resu = 1 << ru;
-    if (u0 < 0 || v0 < 0 || u0 + nu > resu || v0 + nv > (1 << rv))
-        return 0;
-    /* pk_weight: each axis summed in order */
-    float su = 0, sv = 0;
-    for (int i = 0; i < nu; i++)
-        su += ku[i];
-    for (int j = 0; j < nv; j++)
-        sv += kv[j];
-    float total = su * sv;
     if (!(total > 0.0f))
         return 0;
+    int resu = 1 << ru;
     size_t ts = (size_t)NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
     const uint8_t *d = px[(unsigned)ru * ((unsigned)fvlog2 + 1u) + (unsigned)rv];
     const uint8_t *base = d + ((size_t)v0 * (size_t)resu + (size_t)u0) * ts;
