@@ -739,8 +739,8 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     pf_query_fn qfn = query_fn(&c, o->filter);
     int bad = 0;
     unsigned nc = c.nc;
-    _Static_assert(ST_MAX_COORD == ST_MAX_DERIV, "one bound for the six values");
-    const v4f lim = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_COORD, ST_MAX_COORD};
+    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
+    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
         float *oi = out + i * nc, cov;
@@ -749,7 +749,7 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
          * (NaN fails it too) */
         v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
         memcpy(&a, &qi->u, sizeof a);
-        v4i ok = (v4f_abs(a) <= lim) & (v4f_abs(b) <= lim);
+        v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
 #ifdef __SSE2__
         int all = _mm_movemask_ps((__m128)ok) == 15;
 #else
