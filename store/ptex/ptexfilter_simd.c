@@ -308,29 +308,49 @@ PF_TARGET int box_axes(float u, float v, float uw, float vw, int fulog2, int fvl
     return 1;
 }
 
-/* One axis of a width-4 kernel whose width is under 1/4 (width4_axis's first case):
- * resolution, first texel, taps, offset and step of the kernel's arguments. 0 when the
- * width is 1/4 or more or the kernel has more than 8 taps. */
-PF_TARGET int w4_axis(float u, float uw, int fres, int *res, int *k0, int *kw, float *x1,
-                      float *step)
+/* Both axes of a width-4 kernel (lane 0 u, lane 1 v) whose widths are under 1/4
+ * (width4_axis's first case), its arithmetic in its order: resolution, first texel, taps,
+ * offset and step of the kernel's arguments. 0 when a width is 1/4 or more or an axis has
+ * more than 8 taps. */
+PF_TARGET int w4_axes(float u, float v, float uw, float vw, int fulog2, int fvlog2, int *res,
+                      int *k0, int *kw, float *x1, float *step)
 {
-    float lo = pk_recip_pow2(fres);
-    if (!(uw >= lo))
-        uw = lo;
-    if (uw >= .25f)
+    const __m128i e127 = _mm_set1_epi32(127);
+    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 0.0f, 0.0f);
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
+        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
+    w = _mm_max_ps(w, lo);                                    /* !(uw >= lo) -> lo */
+    if (_mm_movemask_ps(_mm_cmpge_ps(w, _mm_set1_ps(.25f))) & 3)
         return 0;
-    int r = pk_res_from_width(uw);
-    *res = r;
-    float resu = (float)(1 << (r < 0 ? 0 : r > 30 ? 30 : r));
-    float upix = u * resu - 0.5f;
-    float uwpix = uw * resu;
-    float dupix = 2.0f * uwpix;
-    int u1 = (int)pk_ceil(upix - dupix), u2 = (int)pk_ceil(upix + dupix);
-    *k0 = u1;
-    *kw = u2 - u1;
-    *x1 = ((float)u1 - upix) / uwpix;
-    *step = 1.0f / uwpix;
-    return *kw <= 8;
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    /* 2^res (res is 3..30 here: widths under 1/4, at least 2^-ulog2) */
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23));
+    __m128 upix = _mm_sub_ps(_mm_mul_ps(x, rf), _mm_set1_ps(0.5f));
+    __m128 uwpix = _mm_mul_ps(w, rf);
+    __m128 dupix = _mm_mul_ps(_mm_set1_ps(2.0f), uwpix);
+    __m128i u1 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_sub_ps(upix, dupix)));
+    __m128i u2 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_add_ps(upix, dupix)));
+    __m128i n = _mm_sub_epi32(u2, u1);
+    if (_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(n, _mm_set1_epi32(8)))) & 3)
+        return 0;
+    __m128 x1v = _mm_div_ps(_mm_sub_ps(_mm_cvtepi32_ps(u1), upix), uwpix);
+    __m128 sv = _mm_div_ps(_mm_set1_ps(1.0f), uwpix);
+    int R[4], A[4], N[4];
+    float X[4], S[4];
+    _mm_storeu_si128((__m128i *)(void *)R, r);
+    _mm_storeu_si128((__m128i *)(void *)A, u1);
+    _mm_storeu_si128((__m128i *)(void *)N, n);
+    _mm_storeu_ps(X, x1v);
+    _mm_storeu_ps(S, sv);
+    for (int ax = 0; ax < 2; ax++) {
+        res[ax] = R[ax];
+        k0[ax] = A[ax];
+        kw[ax] = N[ax];
+        x1[ax] = X[ax];
+        step[ax] = S[ax];
+    }
+    return 1;
 }
 
 /* The first and last nonzero of the n weights in w (n <= 8): strips the zeros as
@@ -367,15 +387,25 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
             return 0;
         total = sum[0] * sum[1];
     } else {
-        float x1u, su, x1v, sv;
-        if (!w4_axis(u, uw, fulog2, &ru, &u0, &nu, &x1u, &su) ||
-            !w4_axis(v, vw, fvlog2, &rv, &v0, &nv, &x1v, &sv))
+        int res[2], k0[2], kw[2];
+        float x1[2], st[2];
+        if (!w4_axes(u, v, uw, vw, fulog2, fvlog2, res, k0, kw, x1, st))
             return 0;
+        ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
         const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
-        __m256 wu = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1u),
-                                             _mm256_mul_ps(i0, _mm256_set1_ps(su))));
-        __m256 wv = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1v),
-                                             _mm256_mul_ps(i0, _mm256_set1_ps(sv))));
+        __m256 wu, wv;
+        if (nu <= 4 && nv <= 4) { /* both axes in one evaluation: u in lanes 0-3, v in 4-7 */
+            const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
+            __m256 x0 = _mm256_setr_m128(_mm_set1_ps(x1[0]), _mm_set1_ps(x1[1]));
+            __m256 s8 = _mm256_setr_m128(_mm_set1_ps(st[0]), _mm_set1_ps(st[1]));
+            wu = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
+            wv = _mm256_permute2f128_ps(wu, wu, 0x11); /* lanes 4-7 to 0-3 */
+        } else {
+            wu = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[0]),
+                                          _mm256_mul_ps(i0, _mm256_set1_ps(st[0]))));
+            wv = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[1]),
+                                          _mm256_mul_ps(i0, _mm256_set1_ps(st[1]))));
+        }
         if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
             return 0;
         if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
