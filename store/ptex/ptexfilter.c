@@ -10,6 +10,12 @@
  * (black). The sum is divided by the kernel's weight. Discard drops every overhanging piece
  * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
  *
+ * Per batch (texel type, channel count, filter and options are the same for every query) one
+ * query function is chosen: point and bilinear inside a face specialised per texel type and
+ * channel count, box and width-4 kernels inside a face through the fused path of
+ * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
+ * eval, the general path. Both ways do the same arithmetic in the same order.
+ *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
  * the table (once, thread-safe), later calls only read it.
@@ -407,6 +413,52 @@ static void eval_point(pf *c, uint32_t f, float u, float v, float *out)
                                                            : texel_raw(c->dt, d, ch) * inv;
 }
 
+__attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsigned DT, unsigned NC)
+{
+    switch (DT) {
+    case ST_DT_U8: return load_u8(p);
+    case ST_DT_U16: return load_u16(p);
+    case ST_DT_F32: return load_f32(p);
+    default: return load_any(ST_DT_HALF, NC, p);
+    }
+}
+
+/* Ptex's bilinear on face f (neither a subface nor constant) without building a kernel, for
+ * type DT with NC channels (constants where inlined; eval passes the batch's): uw, vw are
+ * |du/dx| + |du/dy| and |dv/dx| + |dv/dy|. Writes out and returns 1 when the 2x2 texels lie
+ * inside the face with both fractions > 0; else 0 (the kernel path then runs). */
+__attribute__((always_inline)) static inline int bilinear_inface(const pf *c, const st_face *F,
+                                                                 uint32_t f, float u, float v,
+                                                                 float uw, float vw, float *out,
+                                                                 unsigned DT, unsigned NC)
+{
+    float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
+    bu = bu < 1.0f ? bu : 1.0f;
+    bv = bv < 1.0f ? bv : 1.0f;
+    float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
+    bu = bu > lu ? bu : lu;
+    bv = bv > lv ? bv : lv;
+    int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
+    float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
+    float uf = pk_floor(upix), vf = pk_floor(vpix);
+    int ui = (int)uf, vi = (int)vf;
+    float fu = upix - uf, fv = vpix - vf;
+    if (!(ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
+          fv > 0.0f))
+        return 0;
+    const uint8_t *d = c->t->px[c->t->base[f] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
+    size_t ts = st_dtype_size(DT) * NC, rowb = ts << ru;
+    const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
+    float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
+    v4f r0 = load_dt(p, DT, NC) * ku0 + load_dt(p + ts, DT, NC) * fu;
+    v4f r1 = load_dt(p + rowb, DT, NC) * ku0 + load_dt(p + rowb + ts, DT, NC) * fu;
+    v4f acc = r0 * kv0 + r1 * fv;
+    float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(DT));
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = acc[ch] * scale;
+    return 1;
+}
+
 static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                 float *out, float *cov)
 {
@@ -443,52 +495,9 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     }
     float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
     if (pp->ftype == ST_FILTER_PTEX_BILINEAR &&
-        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))) {
-        /* the common case without building a kernel: Ptex's bilinear inside the face */
-        float bu = uw * width + blur, bv = vw * width + blur;
-        bu = bu < 1.0f ? bu : 1.0f;
-        bv = bv < 1.0f ? bv : 1.0f;
-        float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
-        bu = bu > lu ? bu : lu;
-        bv = bv > lv ? bv : lv;
-        int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
-        float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
-        float uf = pk_floor(upix), vf = pk_floor(vpix);
-        int ui = (int)uf, vi = (int)vf;
-        float fu = upix - uf, fv = vpix - vf;
-        if (ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
-            fv > 0.0f) {
-            const uint8_t *d = st_ptexres_data(c->t, c->s, f, (unsigned)ru, (unsigned)rv);
-            size_t ts = st_dtype_size(c->dt) * c->nc, rowb = ts << ru;
-            const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
-            float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
-            v4f r0, r1;
-            switch (c->dt) {
-            case ST_DT_U8:
-                r0 = load_u8(p) * ku0 + load_u8(p + ts) * fu;
-                r1 = load_u8(p + rowb) * ku0 + load_u8(p + rowb + ts) * fu;
-                break;
-            case ST_DT_U16:
-                r0 = load_u16(p) * ku0 + load_u16(p + ts) * fu;
-                r1 = load_u16(p + rowb) * ku0 + load_u16(p + rowb + ts) * fu;
-                break;
-            case ST_DT_F32:
-                r0 = load_f32(p) * ku0 + load_f32(p + ts) * fu;
-                r1 = load_f32(p + rowb) * ku0 + load_f32(p + rowb + ts) * fu;
-                break;
-            default:
-                r0 = load_any(c->dt, c->nc, p) * ku0 + load_any(c->dt, c->nc, p + ts) * fu;
-                r1 = load_any(c->dt, c->nc, p + rowb) * ku0 +
-                     load_any(c->dt, c->nc, p + rowb + ts) * fu;
-                break;
-            }
-            v4f acc = r0 * kv0 + r1 * fv;
-            float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(c->dt));
-            for (unsigned ch = 0; ch < c->nc; ch++)
-                out[ch] = acc[ch] * scale;
-            return ST_Q_OK;
-        }
-    }
+        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
+        bilinear_inface(c, F, f, u, v, uw, vw, out, c->dt, c->nc))
+        return ST_Q_OK; /* the common case without building a kernel */
     pk k;
     if (F->flags & ST_FACE_SUBFACE) {
         uw = uw * width + blur * 2.0f;
@@ -559,16 +568,6 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
 typedef int (*pf_query_fn)(pf *c, const pk_params *pp, const st_sample_opts *o,
                            const st_query *q, float *out, float *cov);
 
-__attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsigned DT, unsigned NC)
-{
-    switch (DT) {
-    case ST_DT_U8: return load_u8(p);
-    case ST_DT_U16: return load_u16(p);
-    case ST_DT_F32: return load_f32(p);
-    default: return load_any(ST_DT_HALF, NC, p);
-    }
-}
-
 /* Ptex's point filter (eval_point) for type DT, NC channels. */
 __attribute__((always_inline)) static inline int point_q(pf *c, const st_query *q, float *out, float *cov, unsigned DT,
                           unsigned NC)
@@ -613,39 +612,17 @@ static inline const st_face *plain_face(const pf *c, const st_query *q)
     return F;
 }
 
-/* Ptex's bilinear filter for type DT, NC channels: eval's no-kernel path inside the face. */
-__attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_params *pp, const st_sample_opts *o,
-                             const st_query *q, float *out, float *cov, unsigned DT,
-                             unsigned NC)
+/* Ptex's bilinear filter for type DT, NC channels: the no-kernel path inside the face. */
+__attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_params *pp,
+                                                            const st_sample_opts *o,
+                                                            const st_query *q, float *out,
+                                                            float *cov, unsigned DT,
+                                                            unsigned NC)
 {
     const st_face *F = plain_face(c, q);
-    if (!F)
+    if (!F || !bilinear_inface(c, F, q->face, q->u, q->v, fabsf(q->dudx) + fabsf(q->dudy),
+                               fabsf(q->dvdx) + fabsf(q->dvdy), out, DT, NC))
         return eval(c, pp, o, q, out, cov);
-    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
-    float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
-    bu = bu < 1.0f ? bu : 1.0f;
-    bv = bv < 1.0f ? bv : 1.0f;
-    float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
-    bu = bu > lu ? bu : lu;
-    bv = bv > lv ? bv : lv;
-    int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
-    float upix = q->u * (float)(1 << ru) - 0.5f, vpix = q->v * (float)(1 << rv) - 0.5f;
-    float uf = pk_floor(upix), vf = pk_floor(vpix);
-    int ui = (int)uf, vi = (int)vf;
-    float fu = upix - uf, fv = vpix - vf;
-    if (!(ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
-          fv > 0.0f))
-        return eval(c, pp, o, q, out, cov);
-    const uint8_t *d = c->t->px[c->t->base[q->face] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
-    size_t ts = st_dtype_size(DT) * NC, rowb = ts << ru;
-    const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
-    float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
-    v4f r0 = load_dt(p, DT, NC) * ku0 + load_dt(p + ts, DT, NC) * fu;
-    v4f r1 = load_dt(p + rowb, DT, NC) * ku0 + load_dt(p + rowb + ts, DT, NC) * fu;
-    v4f acc = r0 * kv0 + r1 * fv;
-    float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(DT));
-    for (unsigned ch = 0; ch < NC; ch++)
-        out[ch] = acc[ch] * scale;
     *cov = 1.0f;
     return ST_Q_OK;
 }

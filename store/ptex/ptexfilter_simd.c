@@ -21,6 +21,15 @@
  * at a time, with the portable code's operations in its order (no fused multiply-adds), so
  * the weights are bit for bit the portable ones.
  *
+ * The fused path of a kernel inside one face (pf_fast_select: one function per texel type and
+ * channel count, chosen once per batch): box and width-4 kernels built for both axes at once
+ * in one SSE vector (lane 0 u, lane 1 v) with pk_build's operations in its order, the
+ * width-4 weights of both axes in one 8-lane evaluation when each has at most 4 taps, zeros
+ * stripped with a mask, and the same window loop; no pk is built and nothing crosses a
+ * function boundary per query. It declines (returns 0) whatever it does not take, and the
+ * general path then runs: results are bit for bit those of the general path
+ * (test_ptexfilter_simd).
+ *
  * Owns: nothing but these loops. The window sums run in a different order than the portable
  * loop (and than Ptex for 1, 2 and 4 channels: columns first), so results differ from them by
  * float rounding only.
