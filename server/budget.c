@@ -6,21 +6,31 @@
  * samples to a cold set. Does not own: the mapping and its release (store/native/native.h),
  * the lazy Ptex tables (store/ptex/ptexres.h), the registry.
  *
- * Resident texture memory = the pages of every mapped native file that mincore(2) reports in
- * memory + every built lazy Ptex table + every heap set (sets that have no native file: the
- * built-in default set, or a set whose native file could not be written; they cannot be
- * released and are counted as they are). Every BUDGET_TICK_MS (or at once when a sample wakes
- * a released set) the thread measures it; past the budget it releases the least recently
- * sampled mapped sets (madvise DONTNEED on the mapping, posix_fadvise DONTNEED on the file,
- * and the Ptex table dropped) from 95% of the budget until resident is under 90% of it
- * (sts_budget_plan: the 5% above the high mark absorbs the pages faulted in between ticks).
- * A released set stays published: the next sample faults in only the pages it touches (from
- * the page cache or the disk). A budget below one set's size still serves it: it is released every tick and faults
- * back in. The cost of a tick is one registry snapshot and mincore over the mappings of the
- * sets sampled since their last measure (sts_budget_set_resident); every BUDGET_FULL_MS a
- * pass measures every mapping, which catches pages the kernel reclaimed or another reader
- * faulted in. (mincore over every mapping at every tick cost 53 ms of CPU per pass at 8 GB
- * stored: more than one core at a 50 ms tick.)
+ * Resident texture memory = the pages of every mapped native file present in this process's
+ * page tables (/proc/self/pagemap; where it cannot be read, the file's pages in the page cache
+ * by mincore: store/native/native.h, st_native_meter) + every built lazy Ptex table + every
+ * heap set (sets that have no native file: the built-in default set, or a set whose native
+ * file could not be written; they cannot be released and are counted as they are). Every
+ * BUDGET_TICK_MS (or at once when a sample wakes a released set) the thread measures it; past
+ * the budget it releases the least recently sampled mapped sets, whole (st_native_release:
+ * MADV_COLD + MADV_DONTNEED on the mapping, the file stays in the page cache; and the Ptex
+ * table dropped), from 95% of the budget until resident is under 90% of it (sts_budget_plan:
+ * the 5% above the high mark absorbs the pages faulted in between ticks). A released set stays
+ * published: the next sample faults in only the pages it touches, from the page cache while
+ * the kernel keeps them there (the kernel, not the budget, decides when the page cache lets a
+ * file go; released pages are the first it takes). A budget below one set's size still serves
+ * it: it is released every tick and faults back in. The cost of a tick is one registry snapshot
+ * and a pagemap read over the mappings of the sets sampled since their last measure
+ * (sts_budget_set_resident); every BUDGET_FULL_MS a pass measures every mapping, which catches
+ * pages the kernel reclaimed or a reader other than SAMPLE faulted in. (mincore over every
+ * mapping at every tick cost 53 ms of CPU per pass at 8 GB stored: more than one core at a
+ * 50 ms tick.)
+ *
+ * Before 2026-12-02 a release also dropped the file from the page cache (posix_fadvise
+ * DONTNEED), because mincore - the count then - counts the page cache: every fault after a
+ * release read the disk (~430 us a page on this VM against ~1.7 us from the page cache), and
+ * pages still dirty from writing the file could not be dropped at all, so the count stayed up
+ * and the pass released more sets, hot ones included (docs/native.md "Measured").
  */
 #include "budget.h"
 
@@ -53,14 +63,15 @@ static int64_t now_us(void)
     return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
-uint64_t sts_budget_set_resident(st_set *s, uint64_t now_ms, int full)
+uint64_t sts_budget_set_resident(st_set *s, const st_native_meter *m, uint64_t now_ms,
+                                 int full)
 {
     if (!s->map)
         return st_set_memory(s);
     uint64_t at = __atomic_load_n(&s->res_ms, __ATOMIC_RELAXED);
     uint64_t res = __atomic_load_n(&s->res_bytes, __ATOMIC_RELAXED);
     if (full || !at || __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) >= at) {
-        res = st_native_resident(s);
+        res = st_native_resident(s, m);
         __atomic_store_n(&s->res_bytes, res, __ATOMIC_RELAXED);
         /* a sample stamped in this same ms counts as "since" (>=): measured again next tick */
         __atomic_store_n(&s->res_ms, now_ms ? now_ms : 1, __ATOMIC_RELAXED);
@@ -93,11 +104,14 @@ void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
     st_setref **refs;
     size_t n = snapshot(srv, &refs);
     uint64_t st = 0, res = 0, now = (uint64_t)sts_now_ms();
+    st_native_meter m;
+    st_native_meter_open(&m);
     for (size_t i = 0; i < n; i++) {
         st += st_set_memory(refs[i]->set);
-        res += sts_budget_set_resident(refs[i]->set, now, 0);
+        res += sts_budget_set_resident(refs[i]->set, &m, now, 0);
         st_setref_release(refs[i]);
     }
+    st_native_meter_close(&m);
     free(refs);
     *stored = st;
     *resident = res;
@@ -109,8 +123,7 @@ int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal)
     return budget && total > budget - budget / 20;
 }
 
-/* One pass: measure, and release the coldest sets while over the budget's high mark. */
-static void enforce(sts_server *srv, uint64_t budget)
+void sts_budget_pass(sts_server *srv, uint64_t budget)
 {
     sts_budget *b = &srv->budget;
     st_setref **refs;
@@ -121,9 +134,11 @@ static void enforce(sts_server *srv, uint64_t budget)
     if (full)
         b->full_ms = now;
     size_t nc = 0;
+    st_native_meter m;
+    st_native_meter_open(&m);
     for (size_t i = 0; i < n; i++) {
         st_set *s = refs[i]->set;
-        uint64_t r = sts_budget_set_resident(s, now, full);
+        uint64_t r = sts_budget_set_resident(s, &m, now, full);
         total += r;
         if (c && s->map)
             c[nc++] = (cand){refs[i], r, __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED)};
@@ -136,7 +151,7 @@ static void enforce(sts_server *srv, uint64_t budget)
             if (!c[i].res)
                 continue;
             st_set *s = c[i].ref->set;
-            size_t freed = st_native_release(s) + st_ptexres_drop(s);
+            size_t freed = st_native_release(s, &m) + st_ptexres_drop(s);
             __atomic_store_n(&s->cold, 1, __ATOMIC_RELAXED);
             __atomic_store_n(&s->res_ms, 0, __ATOMIC_RELAXED);   /* measure it again */
             total -= freed < total ? freed : total;
@@ -145,6 +160,7 @@ static void enforce(sts_server *srv, uint64_t budget)
         }
         __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
     }
+    st_native_meter_close(&m);
     for (size_t i = 0; i < n; i++)
         st_setref_release(refs[i]);
     free(refs);
@@ -173,7 +189,7 @@ static void *budget_main(void *arg)
         if (!budget)
             continue;
         pthread_mutex_unlock(&b->mu);
-        enforce(srv, budget);
+        sts_budget_pass(srv, budget);
         pthread_mutex_lock(&b->mu);
     }
     pthread_mutex_unlock(&b->mu);
@@ -187,6 +203,12 @@ int sts_budget_start(sts_server *srv)
     pthread_cond_init(&b->cv, NULL);
     b->majflt0 = majflt_now();
     b->stop = 0;
+    st_native_meter m;
+    if (st_native_meter_open(&m) == ST_NATIVE_COUNT_CACHED)
+        sts_logf(&srv->log, STS_WARN, "/proc/self/pagemap cannot be read: the memory budget "
+                 "counts the native files' pages in the page cache (mincore) and a release "
+                 "drops them from it, so a released set's next samples read the disk");
+    st_native_meter_close(&m);
     if (pthread_create(&b->thread, NULL, budget_main, srv) != 0)
         return -1;
     b->started = 1;

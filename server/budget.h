@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "native.h"
 #include "proto.h"
 #include "set.h"
 
@@ -42,12 +43,18 @@ void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueri
  * what samples fault in before the next tick (50 ms) stays under the budget - and sets *goal to
  * the low mark it releases down to (90%). A budget of 0 (unlimited) never releases. */
 int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal);
-/* Resident bytes of s as the budget counts them (mapped pages + built Ptex table, or the whole
- * heap set). The mincore figure of a mapping is taken again only when `full` or when s was
- * sampled (last_use_ms) since the last one; otherwise the last figure is reused: pages of a
- * set nobody samples can only leave, so it stays an upper bound until the next full pass.
- * now_ms is the monotonic clock in ms (sts_now_ms). */
-uint64_t sts_budget_set_resident(st_set *s, uint64_t now_ms, int full);
+/* Resident bytes of s as the budget counts them (its mapped pages as the meter counts them,
+ * native.h, + built Ptex table; or the whole heap set). The figure of a mapping is taken again
+ * only when `full` or when s was sampled (last_use_ms) since the last one; otherwise the last
+ * figure is reused: pages of a set nobody samples can only leave, so it stays an upper bound
+ * until the next full pass. now_ms is the monotonic clock in ms (sts_now_ms). */
+uint64_t sts_budget_set_resident(st_set *s, const st_native_meter *m, uint64_t now_ms,
+                                 int full);
+/* One budget pass (the budget thread runs one every tick; tests call it directly): measures
+ * resident (sts_budget_set_resident; a full pass every 5 s) and, when sts_budget_plan says
+ * so, releases the least recently sampled mapped sets, whole, until under the low mark,
+ * marking each cold. Updates the resident figure and the release counters. */
+void sts_budget_pass(struct sts_server *srv, uint64_t budget);
 /* Stored and resident texture bytes of every set now (STATS). */
 void sts_budget_measure(struct sts_server *srv, uint64_t *stored, uint64_t *resident);
 /* The first-sample histogram now: counts[k] batches took at most bound_us[k] microseconds
