@@ -19,7 +19,14 @@ typedef struct sts_budget {
     pthread_cond_t  cv;
     int             started, stop, kick;
     long            majflt0;         /* ru_majflt at start */
-    uint64_t        full_ms;         /* budget thread only: its last full mincore pass */
+    uint64_t        full_ms;         /* budget thread only: its last pass over every mapping */
+    uint64_t        pass_ms;         /* budget thread only: its last pass */
+    int             statm_fd;        /* /proc/self/statm, -1 when closed (started only) */
+    int             base_ok;         /* budget thread only: base_pages and other_bytes are set */
+    int64_t         base_pages;      /* budget thread only: statm's file pages that are not the
+                                      * sets' (executable, libraries) at the last pass */
+    uint64_t        other_bytes;     /* budget thread only: heap sets + Ptex tables then */
+    uint64_t        last_sample_ms;  /* atomic: the last sts_budget_touch (monotonic ms) */
     uint64_t        resident;        /* atomic: last measured by the thread */
     uint64_t        releases;        /* atomic: sets released */
     uint64_t        released_bytes;  /* atomic: resident bytes those releases let go */
