@@ -47,7 +47,7 @@
 #include "server.h"
 
 #define BUDGET_TICK_MS 50
-#define BUDGET_POLL_MS 2      /* while sets are sampled: the /proc/self/statm look (below) */
+#define BUDGET_LOOK_MS 2      /* sts_budget_touch looks at the statm estimate this often */
 #define BUDGET_FULL_MS 5000   /* a pass that measures every mapping (else only sampled sets) */
 
 static const uint32_t hist_us[STS_COLD_HIST] = {50, 100, 200, 500, 1000, 2000, 5000, 10000,
@@ -243,10 +243,9 @@ void sts_budget_pass(sts_server *srv, uint64_t budget)
     free(c);
 }
 
-/* Every BUDGET_TICK_MS a pass; while samples come in, one every BUDGET_POLL_MS (a read of
- * /proc/self/statm while resident is under the high mark). A fault back from the page cache
- * takes microseconds: at 100k-300k queries/s a pass only every 50 ms let resident reach three
- * to four times a 129 MB budget between two passes (docs/native.md "Measured"). */
+/* A pass every BUDGET_TICK_MS (and at once when a sample wakes a released set). Samples look
+ * at the statm estimate themselves (sts_budget_touch), which does not wait for this thread to
+ * be scheduled. */
 static void *budget_main(void *arg)
 {
     sts_server *srv = arg;
@@ -254,13 +253,9 @@ static void *budget_main(void *arg)
     pthread_setname_np(pthread_self(), "st-budget");
     pthread_mutex_lock(&b->mu);
     while (!b->stop) {
-        uint64_t budget = STS_LIVE(srv, memory_budget), now = (uint64_t)sts_now_ms();
-        int poll = budget && __atomic_load_n(&b->base_ok, __ATOMIC_RELAXED) &&
-                   now - __atomic_load_n(&b->last_sample_ms, __ATOMIC_RELAXED) < BUDGET_TICK_MS;
-        long wait_ms = poll ? BUDGET_POLL_MS : BUDGET_TICK_MS;
         struct timespec ts;
         clock_gettime(CLOCK_REALTIME, &ts);
-        ts.tv_nsec += wait_ms * 1000000L;
+        ts.tv_nsec += BUDGET_TICK_MS * 1000000L;
         if (ts.tv_nsec >= 1000000000L) {
             ts.tv_sec++;
             ts.tv_nsec -= 1000000000L;
@@ -270,11 +265,13 @@ static void *budget_main(void *arg)
         b->kick = 0;
         if (b->stop)
             break;
-        budget = STS_LIVE(srv, memory_budget);
+        uint64_t budget = STS_LIVE(srv, memory_budget);
         if (!budget)
             continue;
         pthread_mutex_unlock(&b->mu);
+        pthread_mutex_lock(&b->pass_mu);
         sts_budget_pass(srv, budget);
+        pthread_mutex_unlock(&b->pass_mu);
         pthread_mutex_lock(&b->mu);
     }
     pthread_mutex_unlock(&b->mu);
@@ -285,6 +282,7 @@ int sts_budget_start(sts_server *srv)
 {
     sts_budget *b = &srv->budget;
     pthread_mutex_init(&b->mu, NULL);
+    pthread_mutex_init(&b->pass_mu, NULL);
     pthread_cond_init(&b->cv, NULL);
     b->majflt0 = majflt_now();
     b->stop = 0;
@@ -323,13 +321,33 @@ void sts_budget_stop(sts_server *srv)
     b->statm_fd = -1;
 }
 
+/* At most every BUDGET_LOOK_MS (one sampling thread wins the stamp): the statm estimate, and a
+ * pass on this thread when it is past the high mark and no other pass is running. A fault back
+ * from the page cache takes microseconds, and at 100k-300k queries/s resident grew to three or
+ * four times a 129 MB budget between passes of the budget thread, which at load 15-30 waited
+ * 2-10 ms for a core at every wake-up (docs/native.md "Measured"). */
+static void look(sts_server *srv, uint64_t now)
+{
+    sts_budget *b = &srv->budget;
+    uint64_t budget, last = __atomic_load_n(&b->look_ms, __ATOMIC_RELAXED), goal;
+    if (!b->started || !(budget = STS_LIVE(srv, memory_budget)) || now - last < BUDGET_LOOK_MS ||
+        !__atomic_compare_exchange_n(&b->look_ms, &last, now, 0, __ATOMIC_RELAXED,
+                                     __ATOMIC_RELAXED))
+        return;
+    int ok;
+    uint64_t est = estimate(b, &ok);
+    if (ok && sts_budget_plan(est, budget, &goal) && pthread_mutex_trylock(&b->pass_mu) == 0) {
+        sts_budget_pass(srv, budget);
+        pthread_mutex_unlock(&b->pass_mu);
+    }
+}
+
 int sts_budget_touch(sts_server *srv, st_set *s)
 {
     uint64_t now = (uint64_t)sts_now_ms();
     if (__atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) != now)
         __atomic_store_n(&s->last_use_ms, now, __ATOMIC_RELAXED);
-    if (__atomic_load_n(&srv->budget.last_sample_ms, __ATOMIC_RELAXED) != now)
-        __atomic_store_n(&srv->budget.last_sample_ms, now, __ATOMIC_RELAXED);
+    look(srv, now);
     if (!__atomic_load_n(&s->cold, __ATOMIC_RELAXED) || !__atomic_exchange_n(&s->cold, 0,
                                                                             __ATOMIC_RELAXED))
         return 0;
