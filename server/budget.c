@@ -10,21 +10,22 @@
  * page tables (/proc/self/pagemap; where it cannot be read, the file's pages in the page cache
  * by mincore: store/native/native.h, st_native_meter) + every built lazy Ptex table + every
  * heap set (sets that have no native file: the built-in default set, or a set whose native
- * file could not be written; they cannot be released and are counted as they are). Every
- * BUDGET_TICK_MS (or at once when a sample wakes a released set) the thread measures it; past
- * the budget it releases the least recently sampled mapped sets, whole (st_native_release:
- * MADV_COLD + MADV_DONTNEED on the mapping, the file stays in the page cache; and the Ptex
- * table dropped), from 95% of the budget until resident is under 90% of it (sts_budget_plan:
- * the 5% above the high mark absorbs the pages faulted in between ticks). A released set stays
- * published: the next sample faults in only the pages it touches, from the page cache while
- * the kernel keeps them there (the kernel, not the budget, decides when the page cache lets a
- * file go; released pages are the first it takes). A budget below one set's size still serves
- * it: it is released every tick and faults back in. The cost of a tick is one registry snapshot
- * and a pagemap read over the mappings of the sets sampled since their last measure
- * (sts_budget_set_resident); every BUDGET_FULL_MS a pass measures every mapping, which catches
- * pages the kernel reclaimed or a reader other than SAMPLE faulted in. (mincore over every
- * mapping at every tick cost 53 ms of CPU per pass at 8 GB stored: more than one core at a
- * 50 ms tick.)
+ * file could not be written; they cannot be released and are counted as they are). A pass
+ * (sts_budget_pass) runs every BUDGET_TICK_MS on the budget thread, at once when a sample wakes
+ * a released set, and on a sampling thread when its look (every BUDGET_LOOK_MS, look()) finds
+ * the estimate past the high mark. Every BUDGET_FULL_MS a pass measures every mapping
+ * (pagemap) and keeps the base: /proc/self/statm's file pages that are not the sets'; between
+ * full passes resident is estimated from statm (one read, whatever the number of sets), and the
+ * sets are looked at only past the high mark (95% of the budget). Then the least recently
+ * sampled mapped sets are released, whole (st_native_release: MADV_COLD + MADV_DONTNEED on the
+ * mapping, the file stays in the page cache; and the Ptex table dropped), until resident is
+ * under 90% of the budget (sts_budget_plan). A released set stays published: the next sample
+ * faults in only the pages it touches, from the page cache while the kernel keeps them there
+ * (the kernel, not the budget, decides when the page cache lets a file go; released pages are
+ * the first it takes). A budget below one set's size still serves it: it is released at every
+ * pass and faults back in. Without statm every pass measures the sets sampled since their last
+ * measure (sts_budget_set_resident). (mincore over every mapping at every tick cost 53 ms of
+ * CPU per pass at 8 GB stored: more than one core at a 50 ms tick.)
  *
  * Before 2026-12-02 a release also dropped the file from the page cache (posix_fadvise
  * DONTNEED), because mincore - the count then - counts the page cache: every fault after a
@@ -34,10 +35,10 @@
  */
 #include "budget.h"
 
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <fcntl.h>
 #include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
