@@ -31,7 +31,7 @@
  * DONTNEED), because mincore - the count then - counts the page cache: every fault after a
  * release read the disk (~430 us a page on this VM against ~1.7 us from the page cache), and
  * pages still dirty from writing the file could not be dropped at all, so the count stayed up
- * and the pass released more sets, hot ones included (docs/native.md "Measured").
+ * and a pass went on releasing more recently sampled sets (docs/native.md "Measured").
  */
 #include "budget.h"
 
@@ -140,8 +140,9 @@ void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
     size_t n = snapshot(srv, &refs);
     int est = 0;
     uint64_t st = 0, res = estimate(&srv->budget, &est), now = (uint64_t)sts_now_ms();
-    st_native_meter m;
-    st_native_meter_open(&m);
+    st_native_meter m = {-1};
+    if (!est)
+        st_native_meter_open(&m);
     for (size_t i = 0; i < n; i++) {
         st += st_set_memory(refs[i]->set);
         if (!est)
