@@ -188,8 +188,12 @@ void sts_budget_pass(sts_server *srv, uint64_t budget)
         st_set *s = refs[i]->set;
         uint64_t r;
         if (est) {
-            /* released and not sampled since: nothing of it to release */
-            r = !__atomic_load_n(&s->cold, __ATOMIC_RELAXED);
+            /* released, or measured empty, and not sampled since: nothing of it to release
+             * (a set never sampled is not worth a pagemap read and a cold mark) */
+            uint64_t at = __atomic_load_n(&s->res_ms, __ATOMIC_RELAXED);
+            r = !__atomic_load_n(&s->cold, __ATOMIC_RELAXED) &&
+                !(at && !__atomic_load_n(&s->res_bytes, __ATOMIC_RELAXED) &&
+                  __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) < at);
         } else {
             r = sts_budget_set_resident(s, &m, now, full);
             total += r;
