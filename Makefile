@@ -212,9 +212,9 @@ install: all
 	$(if $(INSTALL_BINS),install -m 755 $(INSTALL_BINS) $(DESTDIR)$(PREFIX)/bin/)
 	$(if $(INSTALL_LIBS),install -m 644 $(INSTALL_LIBS) $(DESTDIR)$(LIBDIR)/)
 	$(if $(INSTALL_HDRS),install -m 644 $(INSTALL_HDRS) $(DESTDIR)$(PREFIX)/include/seamtex/)
-	@if [ -f client/seamtex.pc.in ]; then \
-		sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' client/seamtex.pc.in \
-		> $(DESTDIR)$(LIBDIR)/pkgconfig/seamtex.pc; fi
+	@for pc in client/*.pc.in; do [ -f "$$pc" ] || continue; \
+		sed -e 's|@PREFIX@|$(PREFIX)|g' -e 's|@LIBDIR@|$(LIBDIR)|g' "$$pc" \
+		> $(DESTDIR)$(LIBDIR)/pkgconfig/$$(basename "$$pc" .in); done
 	$(foreach m,$(MAN_PAGES),install -m 644 $(m) $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(m)))/ &&) true
 	sed -e 's|/usr/local/bin/|$(PREFIX)/bin/|g' -e 's|/usr/local/share/doc/seamtex|$(DOCDIR)|g' \
 		-e 's|/etc/seamtex|$(SYSCONFDIR)/seamtex|g' deploy/seamtexd.service \

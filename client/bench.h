@@ -7,6 +7,7 @@
  *                   for --proto memcached / redis, those servers' cheapest no-op instead
  *   bench_inproc.c  the in-process sampler baseline (st_sample_batch on the same queries)
  *   bench_sched.c   arrival schedules;  hist.c  latency histograms
+ *   bench_cluster.c --cluster / --lib: the load through libseamtex (stc_cluster, stc_conn)
  * Does not own: the protocol (protocol/), the client library (libseamtex).
  *
  * Clock: CLOCK_MONOTONIC nanoseconds everywhere (bench_now_ns).
@@ -91,6 +92,9 @@ typedef struct bench_cfg {
     uint8_t     kind;          /* SAMPLE: st_kind of the set */
     unsigned    idle;          /* --idle N: open N connections, ping each once, hold */
     double      hold_s;        /* how long --idle holds them */
+    const char *cluster;       /* --cluster SEEDS or etcd:// URL (bench_cluster.c), NULL = no */
+    uint8_t     lib;           /* --lib: the same loop on a direct stc_conn (bench_cluster.c) */
+    uint8_t     blocking;      /* --blocking: --cluster one stc_cluster_sample at a time */
 } bench_cfg;
 
 /* What one thread measured; merged by bench_main.c. */
@@ -108,6 +112,7 @@ typedef struct bench_result {
     uint64_t queries;          /* SAMPLE: queries answered in the measured window */
     uint64_t bytes_out, bytes_in;
     uint64_t t_last;           /* time of the last measured reply (ns) */
+    uint64_t failovers, moved; /* --cluster: stc_cluster_counters of the handle */
 } bench_result;
 
 typedef struct bench_wire bench_wire;   /* per-thread request pool, bench_wire.c */
@@ -139,11 +144,9 @@ static inline uint64_t bench_now_ns(void)
 int bench_loop_run(bench_thread *th);
 
 /* ---- bench_cluster.c ---- */
-typedef struct bench_target { char host[256]; char port[8]; } bench_target;
-/* --cluster SEEDS: the nodes to load (the owners of cfg->set for SAMPLE, every node for PING),
- * up to max; returns how many, or -1 with msg. */
-int bench_cluster_targets(const bench_cfg *cfg, const char *seeds, bench_target *out,
-                          unsigned max, char *msg, size_t ml);
+/* --cluster / --lib: one thread's handle (opened here), closed loop until t_end; 0, or -1 with
+ * th->err set. */
+int bench_lib_run(bench_thread *th);
 
 /* ---- bench_wire.c ---- */
 /* Connects one socket to cfg->host:port (loopback only, checked), does whatever handshake the

@@ -62,8 +62,13 @@ static void usage(FILE *f)
 "                         timed sleep wakes ~60 us late here (100; 0 = always sleep)\n"
 "      --seed N           seed of the arrivals and queries (1)\n"
 "  -s, --set NAME         set to sample (default)\n"
-"      --cluster SEEDS    HOST:PORT,... of a seamtex cluster: connections are spread round\n"
-"                         robin over the set's owners (sample) or every node (ping)\n"
+"      --cluster SEEDS    HOST:PORT,... or etcd://HOST:PORT/PREFIX of a seamtex cluster:\n"
+"                         -o sample through libseamtex's stc_cluster, -P requests pipelined\n"
+"                         per handle (routed to each set's owner, several nodes at once),\n"
+"                         one handle and thread per connection (-c); -s a,b,c cycles sets\n"
+"      --blocking         with --cluster: one stc_cluster_sample at a time (no pipelining)\n"
+"      --lib              -o sample through libseamtex on a direct connection to -h/-p with\n"
+"                         the same loop as --cluster (the baseline of its routing overhead)\n"
 "  -b, --batch N          queries per SAMPLE request (4096)\n"
 "  -m, --mode LIST        comma list of discard,traverse,clamp picked at random (traverse)\n"
 "  -f, --filter LIST      comma list of filters picked at random (bilinear)\n"
@@ -185,6 +190,10 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
             (unsigned long long)r->unsent);
     fprintf(f, "  \"bytes_out\": %llu,\n  \"bytes_in\": %llu,\n",
             (unsigned long long)r->bytes_out, (unsigned long long)r->bytes_in);
+    if (cfg->cluster || cfg->lib)
+        fprintf(f, "  \"client\": \"%s\",\n  \"failovers\": %llu,\n  \"moved\": %llu,\n",
+                cfg->lib ? "lib" : cfg->blocking ? "cluster-blocking" : "cluster-pipelined",
+                (unsigned long long)r->failovers, (unsigned long long)r->moved);
     json_hist(f, "corrected", &r->corrected);
     fprintf(f, ",\n");
     json_hist(f, "service", &r->service);
@@ -208,7 +217,10 @@ static void print_hist(const char *name, const stc_hist *h)
 static void *thread_main(void *arg)
 {
     bench_thread *th = arg;
-    bench_loop_run(th);
+    if (th->cfg->cluster || th->cfg->lib)
+        bench_lib_run(th);
+    else
+        bench_loop_run(th);
     return NULL;
 }
 
@@ -256,9 +268,8 @@ int main(int argc, char **argv)
         .footprint = 0.001f, .hold_s = 10, .spin_us = 100,
     };
     int inproc = 0;
-    const char *cluster_seeds = NULL;
     enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
-           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER };
+           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -279,6 +290,7 @@ int main(int argc, char **argv)
         { "proto", required_argument, 0, O_PROTO },
         { "compact", no_argument, 0, O_COMPACT },  { "outfmt", required_argument, 0, O_OUTFMT },
         { "cluster", required_argument, 0, O_CLUSTER },
+        { "blocking", no_argument, 0, O_BLOCKING }, { "lib", no_argument, 0, O_LIB },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -292,7 +304,9 @@ int main(int argc, char **argv)
         int bad = 0;
         switch (ch) {
         case 'h': cfg.host = optarg; break;
-        case O_CLUSTER: cluster_seeds = optarg; break;
+        case O_CLUSTER: cfg.cluster = optarg; break;
+        case O_BLOCKING: cfg.blocking = 1; break;
+        case O_LIB: cfg.lib = 1; break;
         case 'p': cfg.port = optarg; bad = parse_uint(optarg, 1, 65535, &u); break;
         case 't': cfg.token = optarg; break;
         case 'o':
@@ -361,6 +375,21 @@ int main(int argc, char **argv)
                 bench_proto_name(cfg.proto));
         return 2;
     }
+    int libmode = cfg.cluster || cfg.lib;   /* bench_cluster.c: one handle per thread */
+    if (libmode && (cfg.op != BENCH_OP_SAMPLE || cfg.open_loop || inproc || cfg.idle ||
+                    cfg.proto != BENCH_PROTO_SEAMTEX || (cfg.cluster && cfg.lib) ||
+                    cfg.conns > BENCH_MAX_THREADS)) {
+        fprintf(stderr, "seamtex-bench: --cluster / --lib load -o sample in a closed loop, one "
+                "thread per connection (-c at most %d), not with --lib and --cluster both\n",
+                BENCH_MAX_THREADS);
+        return 2;
+    }
+    if (cfg.blocking && !cfg.cluster) {
+        fprintf(stderr, "seamtex-bench: --blocking goes with --cluster\n");
+        return 2;
+    }
+    if (libmode)
+        cfg.threads = cfg.conns;
     /* over the network a thread drives whole connections; --inproc has none and keeps -T */
     if (!inproc && !cfg.idle && cfg.threads > cfg.conns) {
         fprintf(stderr, "seamtex-bench: note: -T %u cut to %u, one thread per connection at "
@@ -424,36 +453,16 @@ int main(int argc, char **argv)
         rc = 1;
         goto done;
     }
-    bench_target targets[64];
-    int ntargets = 0;
-    if (cluster_seeds) {
-        ntargets = bench_cluster_targets(&cfg, cluster_seeds, targets, 64, msg, sizeof msg);
-        if (ntargets < 0) {
-            fprintf(stderr, "seamtex-bench: --cluster: %s\n", msg);
-            rc = 3;
-            goto done;
-        }
-        if (!cfg.quiet) {
-            printf("cluster: %d node(s):", ntargets);
-            for (int k = 0; k < ntargets; k++)
-                printf(" %s:%s", targets[k].host, targets[k].port);
-            printf("\n");
-        }
-    }
-    for (; nfds < cfg.conns; nfds++) {
-        bench_cfg one = cfg;   /* --cluster: connection k goes to target k mod n */
-        if (ntargets > 0) {
-            one.host = targets[nfds % (unsigned)ntargets].host;
-            one.port = targets[nfds % (unsigned)ntargets].port;
-        }
-        fds[nfds] = bench_wire_connect(&one, msg, sizeof msg);
+    for (; !libmode && nfds < cfg.conns; nfds++) {
+        fds[nfds] = bench_wire_connect(&cfg, msg, sizeof msg);
         if (fds[nfds] < 0) {
             fprintf(stderr, "seamtex-bench: connection %u: %s\n", nfds, msg);
             rc = 3;
             goto done;
         }
     }
-    if (bench_op_samples(cfg.op) && bench_wire_set_info(&cfg, fds[0], msg, sizeof msg) < 0) {
+    if (!libmode && bench_op_samples(cfg.op) &&
+        bench_wire_set_info(&cfg, fds[0], msg, sizeof msg) < 0) {
         fprintf(stderr, "seamtex-bench: %s\n", msg);
         rc = 1;
         goto done;
@@ -480,8 +489,8 @@ int main(int argc, char **argv)
         th->res = &res[t];
         stc_hist_reset(&th->res->corrected);
         stc_hist_reset(&th->res->service);
-        th->wire = bench_wire_new(&cfg, cfg.seed * 7919u + t, msg, sizeof msg);
-        if (!th->wire) {
+        th->wire = libmode ? NULL : bench_wire_new(&cfg, cfg.seed * 7919u + t, msg, sizeof msg);
+        if (!libmode && !th->wire) {
             fprintf(stderr, "seamtex-bench: %s\n", msg);
             rc = 1;
             goto done;
@@ -493,6 +502,9 @@ int main(int argc, char **argv)
                cfg.proto ? " " : "", bench_op_name(cfg.op), cfg.open_loop ? "open" : "closed",
                cfg.conns, cfg.threads, cfg.pipeline,
                bench_op_samples(cfg.op) ? ", batches" : "", cfg.duration_s, cfg.warmup_s);
+    if (!cfg.quiet && (cfg.cluster || cfg.lib))
+        printf("  through libseamtex: %s\n", cfg.lib ? "direct stc_conn, pipelined"
+               : cfg.blocking ? "stc_cluster, blocking" : "stc_cluster, pipelined");
     unsigned started = 0;
     for (; started < cfg.threads; started++)
         if (pthread_create(&tids[started], NULL, thread_main, &ths[started]) != 0) {
@@ -525,6 +537,8 @@ int main(int argc, char **argv)
         all->queries += r->queries;
         all->bytes_out += r->bytes_out;
         all->bytes_in += r->bytes_in;
+        all->failovers += r->failovers;
+        all->moved += r->moved;
     }
 
     /* the measured window; with a request cap the run may end before t_end */

@@ -211,6 +211,7 @@ static int connect_unix(const bench_cfg *cfg, char *msg, size_t ml)
         close(fd);
         return -1;
     }
+    stu_unix_sndbuf(fd);   /* a big request in one write (unixaddr.h) */
     return fd;
 }
 

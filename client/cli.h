@@ -29,7 +29,8 @@ typedef struct cli_ctx {
     int         timeout_ms;
     const char *prog;          /* "seamtex" */
     stc_conn   *conn;          /* opened by cli_connect */
-    const char *cluster_seeds; /* --cluster HOST:PORT,...: set commands go to an owner */
+    const char *cluster_seeds; /* --cluster HOST:PORT,... or etcd:// URL: set commands go to
+                                  an owner */
     const char *route_set;     /* the set the command names (routing under --cluster) */
     struct stc_cluster *cluster;   /* opened by the first routed command (cli_cluster.c) */
     int         conn_borrowed; /* conn belongs to cluster */
@@ -82,5 +83,8 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv);
 /* --cluster: points ctx->conn at the first reachable node of set's ranking (cli_cluster.c). */
 int cli_connect_routed(cli_ctx *ctx, const char *set);
+/* --cluster: the seed list (HOST:PORT,...) into out, or for an etcd:// URL the address of the
+ * first node of the cluster opened from it (cli_cluster.c). CLI_OK or CLI_CONNECT (printed). */
+int cli_cluster_first_seed(cli_ctx *ctx, char *out, size_t cap);
 
 #endif

@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "seamtex_cluster.h"
+#include "seamtex_etcd.h"
 
 static stc_cluster *open_cluster(cli_ctx *ctx)
 {
@@ -27,10 +28,24 @@ static stc_cluster *open_cluster(cli_ctx *ctx)
     o.request_timeout_ms = ctx->timeout_ms;
     int err = 0;
     char msg[512] = "";
-    ctx->cluster = stc_cluster_open(seeds, &o, &err, msg, sizeof msg);
+    ctx->cluster = stc_cluster_open_url(seeds, &o, &err, msg, sizeof msg);
     if (!ctx->cluster)
         fprintf(stderr, "%s: cluster %s: %s: %s\n", ctx->prog, seeds, stc_strerror(err), msg);
     return ctx->cluster;
+}
+
+int cli_cluster_first_seed(cli_ctx *ctx, char *out, size_t cap)
+{
+    if (strncmp(ctx->cluster_seeds, "etcd://", 7)) {
+        snprintf(out, cap, "%s", ctx->cluster_seeds);
+        return CLI_OK;
+    }
+    stc_cluster *cl = open_cluster(ctx);
+    const stc_cluster_node *nodes;
+    if (!cl || stc_cluster_nodes(cl, &nodes) == 0)
+        return CLI_CONNECT;
+    snprintf(out, cap, "%s", nodes[0].addr);
+    return CLI_OK;
 }
 
 int cli_connect_routed(cli_ctx *ctx, const char *set)

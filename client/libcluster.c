@@ -1,37 +1,15 @@
 /* client/libcluster.c - the cluster client (seamtex_cluster.h): membership from CLUSTER,
- * routing by the shared HRW ranking, failover, MOVED.
+ * routing by the shared HRW ranking, failover, MOVED, for blocking calls. The handle is in
+ * libcluster_int.h; pipelined calls are libcluster_pipe.c.
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "libcluster_int.h"
 #include "libseamtex_int.h"
 #include "seamtex_cluster.h"
 #include "stp_cluster.h"
-
-#define MAX_NODES 256
-#define DOWN_MS   1000   /* a node that failed is tried last for this long */
-
-typedef struct cl_node {
-    char      id[STP_MAX_NODE_ID + 1];
-    char      addr[STP_MAX_NODE_ADDR + 1];
-    stc_conn *conn;
-    int64_t   down_until;
-} cl_node;
-
-struct stc_cluster {
-    stc_opts  opts;
-    char      token[STP_MAX_TOKEN + 1];
-    char      name[64];
-    cl_node   nodes[MAX_NODES];
-    size_t    n;
-    unsigned  replicas;
-    stc_cluster_node pub[MAX_NODES];
-    const char *ids[MAX_NODES];
-    int64_t   last_refresh;
-    stc_cluster_counters cnt;
-    char      msg[1024];
-};
 
 const char *stc_cluster_errmsg(const stc_cluster *cl) { return cl ? cl->msg : ""; }
 
@@ -152,6 +130,8 @@ static int ask_cluster(stc_cluster *cl, stc_conn *c)
 
 int stc_cluster_refresh(stc_cluster *cl)
 {
+    if (stc__cluster_pipe_pending(cl))   /* node indices are in use (libcluster_pipe.c) */
+        return STC_ESTATE;
     int rc = STC_ECONNECT;
     for (size_t i = 0; i < cl->n; i++) {
         int err = 0;
@@ -222,6 +202,7 @@ void stc_cluster_close(stc_cluster *cl)
         return;
     for (size_t i = 0; i < cl->n; i++)
         stc_close(cl->nodes[i].conn);
+    stc__cluster_pipe_free(cl->pipe);
     free(cl);
 }
 
@@ -242,12 +223,35 @@ size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t ma
     return stp_hrw_rank(cl->ids, cl->n, set, idx, max);
 }
 
-int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
-                     stc_conn **used)
+/* After NOT_FOUND: the position in tries[] of the next node to ask, nt when none is left. The
+ * owners not asked yet first; then, when an owner could not be reached (unreached), any node
+ * not asked yet. */
+static size_t next_after_not_found(const size_t *tries, size_t nt, const char *tried,
+                                   const char *owner, int unreached)
 {
-    cl->cnt.calls++;
+    size_t u = 0;
+    while (u < nt && (tried[tries[u]] || !owner[tries[u]]))
+        u++;
+    if (u == nt && unreached)
+        for (u = 0; u < nt && tried[tries[u]]; u++)
+            ;
+    return u;
+}
+
+/* One pass of a routed call over the current view. *refresh: the view looked stale (a node
+ * failed or sent MOVED); *retry: the call failed in a way a fresher view may cure. */
+static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
+                 stc_conn **used, int *refresh_out, int *retry)
+{
     size_t order[MAX_NODES];
     size_t no = stc_cluster_rank(cl, set, order, cl->n);
+    /* the owners: NOT_FOUND from one of them is final only when every owner says so (an
+     * owner that has just joined or restarted may not hold the set yet); when an owner could
+     * not be reached, the rest of the ranking is asked too (a node that owned the set before
+     * the membership changed may hold it still) */
+    char owner[MAX_NODES] = {0};
+    for (size_t r = 0; r < no && r < cl->replicas; r++)
+        owner[order[r]] = 1;
     /* nodes marked down go last */
     size_t tries[MAX_NODES], nt = 0;
     int64_t now = stc__now_ms();
@@ -255,7 +259,7 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
         for (size_t r = 0; r < no; r++)
             if ((cl->nodes[order[r]].down_until > now) == pass)
                 tries[nt++] = order[r];
-    int rc = STC_ECONNECT, hops = 0, refresh = 0;
+    int rc = STC_ECONNECT, hops = 0, refresh = 0, notfound = 0, unreached = 0;
     char tried[MAX_NODES] = {0};
     for (size_t t = 0; t < nt;) {
         size_t i = tries[t];
@@ -270,7 +274,8 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
             rc = err;
             cl->cnt.failovers++;
             refresh = 1;
-            t++;
+            unreached |= owner[i];
+            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         rc = fn(c, arg);
@@ -288,8 +293,20 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
                 tries[t] = (size_t)j;   /* try it next, then go on with the ranking */
                 continue;
             }
-            t++;
+            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
+        }
+        if (rc == STC_ENOTFOUND) {
+            size_t u = next_after_not_found(tries, nt, tried, owner, unreached);
+            if (u < nt) {
+                /* another owner may hold it: ask it, and answer NOT_FOUND if it fails too */
+                snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
+                notfound = 1;
+                cl->cnt.failovers++;
+                t = u;
+                continue;
+            }
+            break;
         }
         if (is_conn_error(rc)) {
             snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
@@ -298,13 +315,45 @@ int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *
             cl->nodes[i].down_until = stc__now_ms() + DOWN_MS;
             cl->cnt.failovers++;
             refresh = 1;
-            t++;
+            unreached |= owner[i];
+            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         break;
     }
-    if (refresh && stc__now_ms() - cl->last_refresh > 500)
-        stc_cluster_refresh(cl);   /* for the next call; this one has its answer */
+    if (notfound && is_conn_error(rc))
+        rc = STC_ENOTFOUND;    /* an owner's answer, the others could not be asked */
+    *refresh_out = refresh;
+    *retry = is_conn_error(rc) || rc == STC_EMOVED || (rc == STC_ENOTFOUND && unreached);
+    return rc;
+}
+
+int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
+                     stc_conn **used)
+{
+    if (stc__cluster_pipe_pending(cl)) {
+        snprintf(cl->msg, sizeof cl->msg, "pipelined requests are outstanding: read their "
+                 "replies with stc_cluster_get_reply before a blocking call");
+        return STC_ESTATE;
+    }
+    cl->cnt.calls++;
+    /* the refresh a previous call asked for runs now, not at the end of that call: it may
+     * close the connection whose reply that call's results point into */
+    if (cl->refresh_due && stc__now_ms() - cl->last_refresh > 500) {
+        cl->refresh_due = 0;
+        stc_cluster_refresh(cl);
+    }
+    int refresh = 0, retry = 0;
+    int rc = route(cl, set, fn, arg, used, &refresh, &retry);
+    if (retry && refresh && stc_cluster_refresh(cl) == 0) {
+        /* failed on a stale view (a node restarted elsewhere, one that holds the set is not
+         * in it yet): once more on a fresh one; no result of this call exists to clobber */
+        if (used)
+            *used = NULL;
+        rc = route(cl, set, fn, arg, used, &refresh, &retry);
+    }
+    if (refresh)
+        cl->refresh_due = 1;   /* for the next call; this one has its answer */
     return rc;
 }
 
@@ -356,4 +405,11 @@ static int do_delete(stc_conn *c, void *p) { return stc_delete(c, (const char *)
 int stc_cluster_delete(stc_cluster *cl, const char *set)
 {
     return stc_cluster_call(cl, set, do_delete, (void *)set, NULL);
+}
+
+/* ---- for libcluster_pipe.c (libcluster_int.h) ---- */
+int stc__cluster_conn_error(int rc) { return is_conn_error(rc); }
+int stc__cluster_add_node(stc_cluster *cl, const char *id, const char *addr)
+{
+    return add_node(cl, id, addr);
 }

@@ -514,8 +514,10 @@ int stc_get_reply(stc_conn *c, int timeout_ms, stc_reply *r)
         return stc__fail(c, STC_ESTATE, "no pipelined request is outstanding");
     int64_t dl = timeout_ms > 0 ? stc__deadline(timeout_ms)
                  : timeout_ms == 0 ? stc__now_ms() : stc__deadline(c->timeout_ms);
+    /* a flush that times out (the server is not reading yet) still lets a reply that is
+     * already there be returned: the server may be waiting for us to read it */
     rc = stc__flush(c, dl);
-    if (rc)
+    if (rc && rc != STC_ETIMEDOUT)
         return rc;
     rc = stc__wait(c, 0, 1, dl, &f);
     if (rc && !(rc == STC_ENOMEM && f.oversized))
@@ -582,6 +584,8 @@ static int connect_one(const struct addrinfo *ai, int64_t deadline, char *err, s
     int one = 1;
     if (ai->ai_family != AF_UNIX)
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    else
+        stu_unix_sndbuf(fd);   /* a big request in one write (unixaddr.h) */
     return fd;
 }
 

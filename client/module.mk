@@ -17,23 +17,24 @@ $(LIB_CLIENT): $(CLIENT_LIB_SRC:%.c=$(B)/%.o) $(PROTO_OBJ) $(UTIL_OBJ)
 	rm -f $@ && ar rcs $@ $^
 ALL_BINS     += $(LIB_CLIENT)
 INSTALL_LIBS += $(LIB_CLIENT)
-INSTALL_HDRS += client/seamtex.h client/seamtex_cluster.h
+INSTALL_HDRS += client/seamtex.h client/seamtex_cluster.h client/seamtex_etcd.h
 
 # ---- seamtex CLI and seamtex-bench (owner: CLI / load tester) ----
 # Neither program is a library: their objects stay out of libseamtex.a (which takes lib*.c).
-# The CLI is a client like any other: it links libseamtex (which holds the protocol objects)
-# and libc/libm only, never the store; --as-needed keeps the image libraries that LDLIBS names
-# out of seamtex-bench when its in-process baseline does not need them.
+# The CLI is a client like any other: it links libseamtex (which holds the protocol objects),
+# libseamtex_etcd with libcurl and json-c (--cluster etcd://...) and libc/libm, never the
+# store; --as-needed keeps the image libraries that LDLIBS names out of seamtex-bench when its
+# in-process baseline does not need them.
 CLI_SRC   := $(sort $(wildcard client/seamtex_cli.c client/cli_*.c))
 BENCH_SRC_CLIENT := $(sort $(wildcard client/bench*.c)) client/hist.c
 
-$(B)/seamtex: $(CLI_SRC:%.c=$(B)/%.o) $(LIB_CLIENT)
+$(B)/seamtex: $(CLI_SRC:%.c=$(B)/%.o) $(LIB_ETCD) $(LIB_CLIENT)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -o $@ $(filter %.o,$^) $(LIB_CLIENT) -lm -lpthread
+	$(CC) $(LDFLAGS) -o $@ $(filter %.o,$^) $(LIB_ETCD) $(LIB_CLIENT) -lm -lpthread $(CLUSTER_PKG_LIBS)
 
-$(B)/seamtex-bench: $(BENCH_SRC_CLIENT:%.c=$(B)/%.o) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE)
+$(B)/seamtex-bench: $(BENCH_SRC_CLIENT:%.c=$(B)/%.o) $(LIB_ETCD) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS) -Wl,--as-needed -o $@ $(filter %.o,$^) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE) $(LDLIBS)
+	$(CC) $(LDFLAGS) -Wl,--as-needed -o $@ $(filter %.o,$^) $(LIB_ETCD) $(LIB_CLIENT) $(LIB_PROTO) $(LIB_STORE) $(LDLIBS) $(CLUSTER_PKG_LIBS)
 
 ALL_BINS     += $(B)/seamtex-bench
 INSTALL_BINS += $(B)/seamtex-bench

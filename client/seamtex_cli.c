@@ -27,7 +27,7 @@
 #define DEFAULT_PORT 7450
 
 static const char *const USAGE =
-"usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] [--cluster HOST:PORT,...]\n"
+"usage: seamtex [-h HOST] [-p PORT] [-t TOKEN] [--timeout MS] [--cluster HOST:PORT,...|URL]\n"
 "               COMMAND [ARGS]\n"
 "\n"
 "  ping                         round trip to the server, prints the time it took\n"
@@ -41,7 +41,8 @@ static const char *const USAGE =
 "  compress SET TARGET [opts]   BC1-compress a set into TARGET (progress, report)\n"
 "  cluster [--json]             the cluster's nodes, sets per node, under-replicated sets\n"
 "\n"
-"--cluster HOST:PORT,... (seed nodes of a cluster): each command that names a set goes to\n"
+"--cluster HOST:PORT,... (seed nodes of a cluster) or etcd://HOST:PORT[,...]/PREFIX (the\n"
+"cluster's etcd: its registered nodes are the seeds): each command that names a set goes to\n"
 "that set's first reachable owner (docs/cluster.md); `cluster` asks the seeds.\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
@@ -629,7 +630,8 @@ int main(int argc, char **argv)
     unsigned seed_port = 0;
     if (ctx.cluster_seeds) {
         char first[300];
-        snprintf(first, sizeof first, "%s", ctx.cluster_seeds);
+        if (cli_cluster_first_seed(&ctx, first, sizeof first) != CLI_OK)
+            return CLI_CONNECT;
         char *comma = strchr(first, ',');
         if (comma)
             *comma = 0;

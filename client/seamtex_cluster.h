@@ -5,7 +5,10 @@
  * each call to the set's owners by rendezvous hashing (protocol/stp_cluster.h: the same
  * ranking the nodes compute), failover to the next node in the ranking on a connection error
  * or timeout, following MOVED and refreshing the view, one connection per node (opened when
- * first needed). Does not own: the wire protocol, single-node calls (seamtex.h).
+ * first needed); blocking routed calls (libcluster.c) and pipelined ones, several requests in
+ * flight on several nodes at once (libcluster_pipe.c). Opening from an etcd URL is in
+ * seamtex_etcd.h (libseamtex_etcd). Does not own: the wire protocol, single-node calls
+ * (seamtex.h).
  *
  * THREADING: an stc_cluster is used by one thread at a time (it owns its connections).
  * OWNERSHIP: stc_cluster_open returns a handle freed with stc_cluster_close (NULL accepted).
@@ -50,7 +53,11 @@ size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t ma
 stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err);
 
 /* Runs fn(conn, arg) on the set's first owner, then on the next node in the ranking while fn
- * fails with a connection error or a timeout, following MOVED replies (refreshing the view).
+ * fails with a connection error or a timeout, following MOVED replies; NOT_FOUND from an owner
+ * sends it on to the owners not asked yet (and, when an owner could not be reached, to the
+ * rest of the ranking): NOT_FOUND is returned only when no node asked holds the set. A call
+ * that fails on what may be a stale view refreshes it and routes once more; otherwise the
+ * view is refreshed at the start of the next call, so results stay valid until then.
  * *used (may be NULL) gets the connection that answered. Returns fn's last result. */
 typedef int (*stc_cluster_fn)(stc_conn *c, void *arg);
 int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
@@ -64,6 +71,62 @@ int stc_cluster_info(stc_cluster *cl, const char *set, uint32_t face_first, uint
 int stc_cluster_upload_file(stc_cluster *cl, const char *path, const char *set,
                             const stc_upload_opts *o, stc_upload_result *out);
 int stc_cluster_delete(stc_cluster *cl, const char *set);
+
+/* ---- pipelined routed calls (client/libcluster_pipe.c) --------------------------------------
+ * The cluster form of seamtex.h's append / get_reply API, for the calls that name a set:
+ * SAMPLE, SAMPLE_DIR and INFO. Each append is routed at once (first owner, nodes marked down
+ * last, as stc_cluster_call) and queued on that node's one connection; requests for sets owned
+ * by different nodes go out concurrently, and any number may be in flight per node (the
+ * caller keeps its window, e.g. -P of seamtex-bench). The arguments are copied (the caller's
+ * buffers are free again when the append returns), so that a request can be sent again:
+ *   - a connection error on a node, or no reply to its oldest request within the request
+ *     timeout, closes that node's connection and sends every request in flight on it to the
+ *     next node of its set's ranking (stc_cluster_counters.failovers counts them);
+ *   - a MOVED reply sends the request to the address it names (up to 4 hops).
+ * The membership is refreshed (when a failure or MOVED asked for it) only while nothing is in
+ * flight; stc_cluster_refresh and the blocking stc_cluster_* calls return STC_ESTATE while
+ * pipelined requests are outstanding.
+ * ORDER: replies are handed out as they are read: one node's in the order it answers, across
+ * nodes whichever is read first (busy nodes are looked at round robin, so none is starved);
+ * not in the order of the appends. Match them by reqid. A request that was sent again answers
+ * when its new node does; a request that no node could take comes back as a reply with conn
+ * NULL and status the last connection error (every request appended gets exactly one reply).
+ * ERRORS: an append returns an error with nothing appended (a bad argument, or no node
+ * reachable); stc_cluster_get_reply returns STC_ESTATE with nothing outstanding, STC_ETIMEDOUT
+ * when no reply came within timeout_ms (as stc_get_reply: 0 = only what has arrived, < 0 = the
+ * request timeout); requests stay outstanding. */
+int stc_cluster_append_sample(stc_cluster *cl, const char *set, const stc_sample_opts *o,
+                              const stc_query *q, size_t n, uint32_t *reqid);
+int stc_cluster_append_sample_dir(stc_cluster *cl, const char *set, const stc_sample_opts *o,
+                                  const stc_dir_query *q, size_t n, uint32_t *reqid);
+int stc_cluster_append_info(stc_cluster *cl, const char *set, uint32_t *reqid);
+/* Sends what is queued on every node (per-request timeout; a node that fails has its requests
+ * sent elsewhere). 0, or STC_ESTATE with nothing outstanding. */
+int stc_cluster_flush(stc_cluster *cl);
+
+typedef struct stc_cluster_reply {
+    uint32_t       reqid;     /* as the append returned it */
+    unsigned       opcode;
+    int            status;    /* 0, a server status, or (conn NULL) the last connection error */
+    const char    *errmsg;    /* "" when status == 0 */
+    const char    *set;       /* the set the request named */
+    size_t         node;      /* index of the node that answered (stc_cluster_nodes); SIZE_MAX
+                                 when none did */
+    stc_conn      *conn;      /* that node's connection, NULL when none answered */
+    stc_reply      reply;     /* the reply as stc_get_reply gave it on conn */
+} stc_cluster_reply;
+/* The next reply (flushing first). Everything r points to is owned by cl and valid until the
+ * next call on cl. */
+int stc_cluster_get_reply(stc_cluster *cl, int timeout_ms, stc_cluster_reply *r);
+/* Decoders for a reply of stc_cluster_get_reply (results owned by r->conn, valid as r is);
+ * they return r->status when it is not 0. */
+int stc_cluster_reply_sample(const stc_cluster_reply *r, stc_sample_result *res);
+int stc_cluster_reply_info(const stc_cluster_reply *r, stc_info *out);
+/* Requests appended and not yet handed out. */
+size_t stc_cluster_pending(const stc_cluster *cl);
+/* Gives up on every outstanding pipelined request (late replies are dropped); returns how
+ * many. */
+size_t stc_cluster_discard_pending(stc_cluster *cl);
 
 typedef struct stc_cluster_counters {
     uint64_t calls, failovers, moved, refreshes;

@@ -26,20 +26,46 @@ void scl_key_all_copies(char *out, const char *prefix)
     snprintf(out, SCL_KEY_MAX, "%s/copies/", prefix);
 }
 
-int scl_node_format(char *out, size_t cap, const char *addr)
+/* the incarnation as 16 hex digits (a JSON number cannot hold 64 bits exactly) */
+static void add_inc(json_object *o, uint64_t inc)
+{
+    char hex[17];
+    snprintf(hex, sizeof hex, "%016llx", (unsigned long long)inc);
+    json_object_object_add(o, "inc", json_object_new_string(hex));
+}
+
+/* "inc" of o into *inc: 0 when absent (a record of an older node), -1 when malformed */
+static int get_inc(json_object *o, uint64_t *inc)
+{
+    json_object *x;
+    *inc = 0;
+    if (!json_object_object_get_ex(o, "inc", &x))
+        return 0;
+    if (!json_object_is_type(x, json_type_string))
+        return -1;
+    const char *s = json_object_get_string(x);
+    if (strlen(s) != 16 || strspn(s, "0123456789abcdef") != 16)
+        return -1;
+    *inc = strtoull(s, NULL, 16);
+    return 0;
+}
+
+int scl_node_format(char *out, size_t cap, const char *addr, uint64_t inc)
 {
     json_object *o = json_object_new_object();
     json_object_object_add(o, "addr", json_object_new_string(addr));
+    add_inc(o, inc);
     int n = snprintf(out, cap, "%s", json_object_to_json_string_ext(o, JSON_C_TO_STRING_PLAIN));
     json_object_put(o);
     return n < 0 || (size_t)n >= cap ? -1 : 0;
 }
 
-int scl_node_parse(const char *json, char *addr, size_t cap)
+int scl_node_parse(const char *json, char *addr, size_t cap, uint64_t *inc)
 {
     json_object *o = json_tokener_parse(json), *a = NULL;
     int rc = -1;
-    if (o && json_object_object_get_ex(o, "addr", &a) && json_object_is_type(a, json_type_string)) {
+    if (o && json_object_object_get_ex(o, "addr", &a) && json_object_is_type(a, json_type_string) &&
+        get_inc(o, inc) == 0) {
         const char *s = json_object_get_string(a);
         size_t n = strlen(s);
         if (n > 0 && n < cap && n <= STP_MAX_NODE_ADDR && strchr(s, ':')) {
@@ -62,6 +88,7 @@ int scl_setrec_format(char *out, size_t cap, const scl_setrec *r)
     json_object_object_add(o, "version", json_object_new_int64(r->version));
     json_object_object_add(o, "state", json_object_new_string(r->state == SCL_SET_OK ? "ok" : "pending"));
     json_object_object_add(o, "origin", json_object_new_string(r->origin));
+    add_inc(o, r->inc);
     json_object_object_add(o, "kind", json_object_new_int(r->kind));
     int n = snprintf(out, cap, "%s", json_object_to_json_string_ext(o, JSON_C_TO_STRING_PLAIN));
     json_object_put(o);
@@ -103,7 +130,7 @@ int scl_setrec_parse(const char *json, scl_setrec *r)
               get_i64(o, "kind", -1, 255, &kind) || get_str(o, "fmt", r->fmt, sizeof r->fmt) ||
               get_str(o, "options", r->options, sizeof r->options) ||
               get_str(o, "origin", r->origin, sizeof r->origin) ||
-              get_str(o, "state", state, sizeof state);
+              get_str(o, "state", state, sizeof state) || get_inc(o, &r->inc);
     json_object_put(o);
     if (bad)
         return -1;

@@ -22,9 +22,11 @@ void scl_key_copies(char *out, const char *prefix, const char *name, const char 
 /* "<prefix>/copies/" */
 void scl_key_all_copies(char *out, const char *prefix);
 
-/* The node record {"addr":"HOST:PORT"}. */
-int scl_node_format(char *out, size_t cap, const char *addr);
-int scl_node_parse(const char *json, char *addr, size_t cap);
+/* The node record {"addr":"HOST:PORT","inc":"<16 hex digits>"}: inc is the incarnation of the
+ * process that registered (a random id drawn at each start); a record without one parses as 0
+ * (unknown). */
+int scl_node_format(char *out, size_t cap, const char *addr, uint64_t inc);
+int scl_node_parse(const char *json, char *addr, size_t cap, uint64_t *inc);
 
 enum { SCL_SET_PENDING = 0, SCL_SET_OK = 1 };
 typedef struct scl_setrec {
@@ -37,6 +39,7 @@ typedef struct scl_setrec {
     int      state;                   /* SCL_SET_* */
     char     origin[STP_MAX_NODE_ID + 1];
     int      kind;                    /* set kind once "ok", -1 while pending */
+    uint64_t inc;                     /* origin's incarnation when it claimed ("inc"; 0 unknown) */
 } scl_setrec;
 /* JSON of a record; -1 when it does not fit cap. */
 int scl_setrec_format(char *out, size_t cap, const scl_setrec *r);

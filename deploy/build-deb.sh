@@ -87,7 +87,8 @@ Description: texture service with seam-free sampling of Ptex, cube and atlas tex
  .
  This package contains the daemon seamtexd with its systemd unit, the
  command-line client seamtex, the load tester seamtex-bench, the client
- library libseamtex (static) with its header and pkg-config file, and the
+ library libseamtex (static) with its header and pkg-config file,
+ libseamtex_etcd (static: open a cluster from its etcd URL), and the
  manual pages.
 CTRL
 echo /etc/seamtex/seamtexd.conf > "$root/DEBIAN/conffiles"

@@ -6,36 +6,50 @@
  * samples to a cold set. Does not own: the mapping and its release (store/native/native.h),
  * the lazy Ptex tables (store/ptex/ptexres.h), the registry.
  *
- * Resident texture memory = the pages of every mapped native file that mincore(2) reports in
- * memory + every built lazy Ptex table + every heap set (sets that have no native file: the
- * built-in default set, or a set whose native file could not be written; they cannot be
- * released and are counted as they are). Every BUDGET_TICK_MS (or at once when a sample wakes
- * a released set) the thread measures it; past the budget it releases the least recently
- * sampled mapped sets (madvise DONTNEED on the mapping, posix_fadvise DONTNEED on the file,
- * and the Ptex table dropped) from 95% of the budget until resident is under 90% of it
- * (sts_budget_plan: the 5% above the high mark absorbs the pages faulted in between ticks).
- * A released set stays published: the next sample faults in only the pages it touches (from
- * the page cache or the disk). A budget below one set's size still serves it: it is released every tick and faults
- * back in. The cost of a tick is one registry snapshot and mincore over the mappings of the
- * sets sampled since their last measure (sts_budget_set_resident); every BUDGET_FULL_MS a
- * pass measures every mapping, which catches pages the kernel reclaimed or another reader
- * faulted in. (mincore over every mapping at every tick cost 53 ms of CPU per pass at 8 GB
- * stored: more than one core at a 50 ms tick.)
+ * Resident texture memory = the pages of every mapped native file present in this process's
+ * page tables (/proc/self/pagemap; where it cannot be read, the file's pages in the page cache
+ * by mincore: store/native/native.h, st_native_meter) + every built lazy Ptex table + every
+ * heap set (sets that have no native file: the built-in default set, or a set whose native
+ * file could not be written; they cannot be released and are counted as they are). A pass
+ * (sts_budget_pass) runs every BUDGET_TICK_MS on the budget thread, at once when a sample wakes
+ * a released set, and on a sampling thread when its look (every BUDGET_LOOK_MS, look()) finds
+ * the estimate past the high mark. Every BUDGET_FULL_MS a pass measures every mapping
+ * (pagemap) and keeps the base: /proc/self/statm's file pages that are not the sets'; between
+ * full passes resident is estimated from statm (one read, whatever the number of sets), and the
+ * sets are looked at only past the high mark (95% of the budget). Then the least recently
+ * sampled mapped sets are released, whole (st_native_release: MADV_COLD + MADV_DONTNEED on the
+ * mapping, the file stays in the page cache; and the Ptex table dropped), until resident is
+ * under 90% of the budget (sts_budget_plan). A released set stays published: the next sample
+ * faults in only the pages it touches, from the page cache while the kernel keeps them there
+ * (the kernel, not the budget, decides when the page cache lets a file go; released pages are
+ * the first it takes). A budget below one set's size still serves it: it is released at every
+ * pass and faults back in. Without statm every pass measures the sets sampled since their last
+ * measure (sts_budget_set_resident). (mincore over every mapping at every tick cost 53 ms of
+ * CPU per pass at 8 GB stored: more than one core at a 50 ms tick.)
+ *
+ * Before 2026-12-02 a release also dropped the file from the page cache (posix_fadvise
+ * DONTNEED), because mincore - the count then - counts the page cache: every fault after a
+ * release read the disk (~430 us a page on this VM against ~1.7 us from the page cache), and
+ * pages still dirty from writing the file could not be dropped at all, so the count stayed up
+ * and a pass went on releasing more recently sampled sets (docs/native.md "Measured").
  */
 #include "budget.h"
 
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "native.h"
 #include "ptexres.h"
 #include "server.h"
 
 #define BUDGET_TICK_MS 50
-#define BUDGET_FULL_MS 5000   /* a mincore pass over every mapping (else only sampled sets) */
+#define BUDGET_LOOK_MS 2      /* sts_budget_touch looks at the statm estimate this often */
+#define BUDGET_FULL_MS 5000   /* a pass that measures every mapping (else only sampled sets) */
 
 static const uint32_t hist_us[STS_COLD_HIST] = {50, 100, 200, 500, 1000, 2000, 5000, 10000,
                                                  20000, 50000, 100000, UINT32_MAX};
@@ -46,6 +60,20 @@ static long majflt_now(void)
     return getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_majflt : 0;
 }
 
+/* Pages of files mapped in this process now (RssFile + RssShmem: statm's third field, which
+ * the kernel keeps as a counter, so one read costs the same at any mapping size); -1 when it
+ * cannot be read. */
+static int64_t file_pages_now(int fd)
+{
+    char buf[160];
+    ssize_t n = fd >= 0 ? pread(fd, buf, sizeof buf - 1, 0) : -1;
+    if (n <= 0)
+        return -1;
+    buf[n] = 0;
+    unsigned long long size, res, shared;
+    return sscanf(buf, "%llu %llu %llu", &size, &res, &shared) == 3 ? (int64_t)shared : -1;
+}
+
 static int64_t now_us(void)
 {
     struct timespec ts;
@@ -53,14 +81,15 @@ static int64_t now_us(void)
     return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
-uint64_t sts_budget_set_resident(st_set *s, uint64_t now_ms, int full)
+uint64_t sts_budget_set_resident(st_set *s, const st_native_meter *m, uint64_t now_ms,
+                                 int full)
 {
     if (!s->map)
         return st_set_memory(s);
     uint64_t at = __atomic_load_n(&s->res_ms, __ATOMIC_RELAXED);
     uint64_t res = __atomic_load_n(&s->res_bytes, __ATOMIC_RELAXED);
     if (full || !at || __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) >= at) {
-        res = st_native_resident(s);
+        res = st_native_resident(s, m);
         __atomic_store_n(&s->res_bytes, res, __ATOMIC_RELAXED);
         /* a sample stamped in this same ms counts as "since" (>=): measured again next tick */
         __atomic_store_n(&s->res_ms, now_ms ? now_ms : 1, __ATOMIC_RELAXED);
@@ -88,16 +117,39 @@ static size_t snapshot(sts_server *srv, st_setref ***out)
     return refs ? st_registry_snapshot(srv->reg, refs, cap) : 0;
 }
 
+/* Resident now from statm: the process's mapped file pages less the base (what is not a set),
+ * plus the heap sets and Ptex tables of the last measured pass; *ok = 0 when it cannot be
+ * made (the budget thread not started, no measured pass yet, statm unreadable). */
+static uint64_t estimate(sts_budget *b, int *ok)
+{
+    *ok = 0;
+    if (!b->started || !__atomic_load_n(&b->base_ok, __ATOMIC_ACQUIRE))
+        return 0;
+    int64_t fp = file_pages_now(b->statm_fd);
+    if (fp < 0)
+        return 0;
+    *ok = 1;
+    int64_t pages = fp - __atomic_load_n(&b->base_pages, __ATOMIC_RELAXED);
+    return (pages > 0 ? (uint64_t)pages * (uint64_t)sysconf(_SC_PAGESIZE) : 0) +
+           __atomic_load_n(&b->other_bytes, __ATOMIC_RELAXED);
+}
+
 void sts_budget_measure(sts_server *srv, uint64_t *stored, uint64_t *resident)
 {
     st_setref **refs;
     size_t n = snapshot(srv, &refs);
-    uint64_t st = 0, res = 0, now = (uint64_t)sts_now_ms();
+    int est = 0;
+    uint64_t st = 0, res = estimate(&srv->budget, &est), now = (uint64_t)sts_now_ms();
+    st_native_meter m = {-1};
+    if (!est)
+        st_native_meter_open(&m);
     for (size_t i = 0; i < n; i++) {
         st += st_set_memory(refs[i]->set);
-        res += sts_budget_set_resident(refs[i]->set, now, 0);
+        if (!est)
+            res += sts_budget_set_resident(refs[i]->set, &m, now, 0);
         st_setref_release(refs[i]);
     }
+    st_native_meter_close(&m);
     free(refs);
     *stored = st;
     *resident = res;
@@ -109,35 +161,63 @@ int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal)
     return budget && total > budget - budget / 20;
 }
 
-/* One pass: measure, and release the coldest sets while over the budget's high mark. */
-static void enforce(sts_server *srv, uint64_t budget)
+void sts_budget_pass(sts_server *srv, uint64_t budget)
 {
     sts_budget *b = &srv->budget;
-    st_setref **refs;
-    size_t n = snapshot(srv, &refs);
-    cand *c = malloc((n ? n : 1) * sizeof *c);
-    uint64_t total = 0, now = (uint64_t)sts_now_ms();
+    uint64_t now = (uint64_t)sts_now_ms(), goal;
+    b->pass_ms = now;
     int full = now - b->full_ms >= BUDGET_FULL_MS;
     if (full)
         b->full_ms = now;
+    /* between full passes, resident is the statm estimate: one read, whatever the number of
+     * sets; the sets are looked at only when it is past the high mark */
+    int est = 0;
+    uint64_t total = full ? 0 : estimate(b, &est);
+    if (est && !sts_budget_plan(total, budget, &goal)) {
+        __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
+        return;
+    }
+    st_setref **refs;
+    size_t n = snapshot(srv, &refs);
+    cand *c = malloc((n ? n : 1) * sizeof *c);
+    uint64_t mapped = 0, other_freed = 0;
     size_t nc = 0;
+    st_native_meter m;
+    st_native_meter_open(&m);
     for (size_t i = 0; i < n; i++) {
         st_set *s = refs[i]->set;
-        uint64_t r = sts_budget_set_resident(s, now, full);
-        total += r;
+        uint64_t r;
+        if (est) {
+            /* released, or measured empty, and not sampled since: nothing of it to release
+             * (a set never sampled is not worth a pagemap read and a cold mark) */
+            uint64_t at = __atomic_load_n(&s->res_ms, __ATOMIC_RELAXED);
+            r = !__atomic_load_n(&s->cold, __ATOMIC_RELAXED) &&
+                !(at && !__atomic_load_n(&s->res_bytes, __ATOMIC_RELAXED) &&
+                  __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) < at);
+        } else {
+            r = sts_budget_set_resident(s, &m, now, full);
+            total += r;
+            if (s->map) {
+                uint64_t t = st_ptexres_built_bytes(s);
+                mapped += r > t ? r - t : 0;
+            }
+        }
         if (c && s->map)
             c[nc++] = (cand){refs[i], r, __atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED)};
     }
     __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
-    uint64_t goal;
     if (sts_budget_plan(total, budget, &goal) && c) {
         qsort(c, nc, sizeof *c, cmp_last);
         for (size_t i = 0; i < nc && total > goal; i++) {
             if (!c[i].res)
                 continue;
             st_set *s = c[i].ref->set;
-            size_t freed = st_native_release(s) + st_ptexres_drop(s);
+            size_t unmapped = st_native_release(s, &m);
+            size_t freed = unmapped + st_ptexres_drop(s);
+            mapped -= unmapped < mapped ? unmapped : mapped;
+            other_freed += freed - unmapped;
             __atomic_store_n(&s->cold, 1, __ATOMIC_RELAXED);
+            __atomic_store_n(&s->res_bytes, 0, __ATOMIC_RELAXED);
             __atomic_store_n(&s->res_ms, 0, __ATOMIC_RELAXED);   /* measure it again */
             total -= freed < total ? freed : total;
             __atomic_add_fetch(&b->releases, 1, __ATOMIC_RELAXED);
@@ -145,16 +225,38 @@ static void enforce(sts_server *srv, uint64_t budget)
         }
         __atomic_store_n(&b->resident, total, __ATOMIC_RELAXED);
     }
+    int64_t fp = b->started ? file_pages_now(b->statm_fd) : -1;
+    if (est) {
+        /* the releases left statm by themselves; the Ptex tables dropped leave the rest */
+        uint64_t o = __atomic_load_n(&b->other_bytes, __ATOMIC_RELAXED);
+        __atomic_store_n(&b->other_bytes, o > other_freed ? o - other_freed : 0,
+                         __ATOMIC_RELAXED);
+    } else if (fp >= 0 && st_native_meter_count(&m) == ST_NATIVE_COUNT_MAPPED) {
+        /* what statm counts besides the sets (the executable, the libraries); the figures of
+         * sets not sampled since their last measure are upper bounds, so the estimate errs
+         * high until the next full pass */
+        __atomic_store_n(&b->base_pages,
+                         fp - (int64_t)(mapped / (uint64_t)sysconf(_SC_PAGESIZE)),
+                         __ATOMIC_RELAXED);
+        __atomic_store_n(&b->other_bytes, total > mapped ? total - mapped : 0,
+                         __ATOMIC_RELAXED);
+        __atomic_store_n(&b->base_ok, 1, __ATOMIC_RELEASE);
+    }
+    st_native_meter_close(&m);
     for (size_t i = 0; i < n; i++)
         st_setref_release(refs[i]);
     free(refs);
     free(c);
 }
 
+/* A pass every BUDGET_TICK_MS (and at once when a sample wakes a released set). Samples look
+ * at the statm estimate themselves (sts_budget_touch), which does not wait for this thread to
+ * be scheduled. */
 static void *budget_main(void *arg)
 {
     sts_server *srv = arg;
     sts_budget *b = &srv->budget;
+    pthread_setname_np(pthread_self(), "st-budget");
     pthread_mutex_lock(&b->mu);
     while (!b->stop) {
         struct timespec ts;
@@ -173,7 +275,9 @@ static void *budget_main(void *arg)
         if (!budget)
             continue;
         pthread_mutex_unlock(&b->mu);
-        enforce(srv, budget);
+        pthread_mutex_lock(&b->pass_mu);
+        sts_budget_pass(srv, budget);
+        pthread_mutex_unlock(&b->pass_mu);
         pthread_mutex_lock(&b->mu);
     }
     pthread_mutex_unlock(&b->mu);
@@ -184,12 +288,26 @@ int sts_budget_start(sts_server *srv)
 {
     sts_budget *b = &srv->budget;
     pthread_mutex_init(&b->mu, NULL);
+    pthread_mutex_init(&b->pass_mu, NULL);
     pthread_cond_init(&b->cv, NULL);
     b->majflt0 = majflt_now();
     b->stop = 0;
-    if (pthread_create(&b->thread, NULL, budget_main, srv) != 0)
+    st_native_meter m;
+    if (st_native_meter_open(&m) == ST_NATIVE_COUNT_CACHED)
+        sts_logf(&srv->log, STS_WARN, "/proc/self/pagemap cannot be read: the memory budget "
+                 "counts the native files' pages in the page cache (mincore) and a release "
+                 "drops them from it, so a released set's next samples read the disk");
+    st_native_meter_close(&m);
+    b->statm_fd = open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
+    b->base_ok = 0;
+    b->started = 1;   /* before the thread: its passes read statm_fd only when started */
+    if (pthread_create(&b->thread, NULL, budget_main, srv) != 0) {
+        b->started = 0;
+        if (b->statm_fd >= 0)
+            close(b->statm_fd);
+        b->statm_fd = -1;
         return -1;
-    b->started = 1;
+    }
     return 0;
 }
 
@@ -204,6 +322,30 @@ void sts_budget_stop(sts_server *srv)
     pthread_mutex_unlock(&b->mu);
     pthread_join(b->thread, NULL);
     b->started = 0;
+    if (b->statm_fd >= 0)
+        close(b->statm_fd);
+    b->statm_fd = -1;
+}
+
+/* At most every BUDGET_LOOK_MS (one sampling thread wins the stamp): the statm estimate, and a
+ * pass on this thread when it is past the high mark and no other pass is running. A fault back
+ * from the page cache takes microseconds, and at 100k-300k queries/s resident grew to three or
+ * four times a 129 MB budget between passes of the budget thread, which at load 15-30 waited
+ * 2-10 ms for a core at every wake-up (docs/native.md "Measured"). */
+static void look(sts_server *srv, uint64_t now)
+{
+    sts_budget *b = &srv->budget;
+    uint64_t budget, last = __atomic_load_n(&b->look_ms, __ATOMIC_RELAXED), goal;
+    if (!b->started || !(budget = STS_LIVE(srv, memory_budget)) || now - last < BUDGET_LOOK_MS ||
+        !__atomic_compare_exchange_n(&b->look_ms, &last, now, 0, __ATOMIC_RELAXED,
+                                     __ATOMIC_RELAXED))
+        return;
+    int ok;
+    uint64_t est = estimate(b, &ok);
+    if (ok && sts_budget_plan(est, budget, &goal) && pthread_mutex_trylock(&b->pass_mu) == 0) {
+        sts_budget_pass(srv, budget);
+        pthread_mutex_unlock(&b->pass_mu);
+    }
 }
 
 int sts_budget_touch(sts_server *srv, st_set *s)
@@ -211,6 +353,7 @@ int sts_budget_touch(sts_server *srv, st_set *s)
     uint64_t now = (uint64_t)sts_now_ms();
     if (__atomic_load_n(&s->last_use_ms, __ATOMIC_RELAXED) != now)
         __atomic_store_n(&s->last_use_ms, now, __ATOMIC_RELAXED);
+    look(srv, now);
     if (!__atomic_load_n(&s->cold, __ATOMIC_RELAXED) || !__atomic_exchange_n(&s->cold, 0,
                                                                             __ATOMIC_RELAXED))
         return 0;

@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "cluster_node.h"
 #include "dispatch.h"
@@ -178,7 +179,7 @@ static int register_node(sts_cluster *cl)
     int rc = scl_etcd_grant(cl->etcd_m, cl->srv->cfg.lease_ttl, &lease);
     if (rc == SCL_OK) {
         scl_key_node(key, cl->prefix, cl->self);
-        scl_node_format(val, sizeof val, cl->addr);
+        scl_node_format(val, sizeof val, cl->addr, cl->inc);
         rc = scl_etcd_put(cl->etcd_m, key, val, lease);
     }
     sts_cluster_note_etcd(cl, rc);
@@ -215,7 +216,7 @@ static void poll_members(sts_cluster *cl)
     for (size_t i = 0; m && i < kvs.n; i++) {
         const char *id = kvs.v[i].key + plen;
         if (kvs.v[i].key_len <= plen || stp_node_id_check(id, strlen(id)) != 0 ||
-            scl_node_parse(kvs.v[i].val, m[n].addr, sizeof m[n].addr) != 0)
+            scl_node_parse(kvs.v[i].val, m[n].addr, sizeof m[n].addr, &m[n].inc) != 0)
             continue;
         snprintf(m[n].id, sizeof m[n].id, "%s", id);
         n++;
@@ -305,6 +306,24 @@ static void *member_main(void *arg)
 
 /* ---- life --------------------------------------------------------------------------------- */
 
+/* A random 64-bit id for this process (never 0): the claims it makes carry it, so that the
+ * other nodes can tell a claim of a process that is gone when the node restarted meanwhile
+ * (docs/cluster.md "Repair"). */
+static uint64_t new_incarnation(void)
+{
+    uint64_t v = 0;
+    FILE *f = fopen("/dev/urandom", "rbe");
+    if (!f || fread(&v, sizeof v, 1, f) != 1) {
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        v = ((uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec) ^
+            ((uint64_t)getpid() << 40);
+    }
+    if (f)
+        fclose(f);
+    return v ? v : 1;
+}
+
 int sts_cluster_init(sts_server *srv)
 {
     sts_cluster *cl = calloc(1, sizeof *cl);
@@ -321,6 +340,7 @@ int sts_cluster_init(sts_server *srv)
         return -1;
     }
     snprintf(cl->self, sizeof cl->self, "%s", srv->cfg.node_id);
+    cl->inc = new_incarnation();
     cl->replicas = srv->cfg.replicas;
     cl->quorum = srv->cfg.write_quorum ? srv->cfg.write_quorum : srv->cfg.replicas;
     pthread_mutex_init(&cl->mu, NULL);

@@ -34,8 +34,9 @@ typedef struct sts_server sts_server;
 #define STS_CL_MAX_HOLDERS 16
 
 typedef struct sts_cl_member {
-    char id[STP_MAX_NODE_ID + 1];
-    char addr[STP_MAX_NODE_ADDR + 1];
+    char     id[STP_MAX_NODE_ID + 1];
+    char     addr[STP_MAX_NODE_ADDR + 1];
+    uint64_t inc;                        /* its incarnation (0: a node that does not say) */
 } sts_cl_member;
 
 typedef struct sts_cl_entry {            /* one set of the catalogue snapshot */
@@ -58,6 +59,7 @@ typedef struct sts_cluster {
     char            self[STP_MAX_NODE_ID + 1];
     char            addr[STP_MAX_NODE_ADDR + 1];   /* advertised, port filled in at start */
     unsigned        replicas, quorum;
+    uint64_t        inc;               /* this process's incarnation: random, drawn at init */
 
     pthread_mutex_t mu;                /* the view, see above */
     sts_cl_member  *members;  size_t nmembers;
@@ -78,7 +80,8 @@ typedef struct sts_cluster {
     pthread_t       member_thread, repair_thread;
     int             threads;           /* how many were started */
     int64_t         changed_ms;        /* atomic: when the membership last changed (monotonic) */
-    /* repair thread only: pending claims seen without their origin node, and since when */
+    /* repair thread only: pending claims seen without their origin (not a member, or a member
+     * of another incarnation than the one that claimed), and since when */
     struct sts_cl_orphan { char name[STP_MAX_NAME + 1]; int64_t mod_rev, since_ms; } *orphans;
     size_t          norphans;
     sts_cl_counters n;                 /* atomics */

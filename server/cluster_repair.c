@@ -78,6 +78,16 @@ static int is_member(const sts_cl_member *m, size_t n, const char *id)
     return 0;
 }
 
+/* 1 when the process that made a claim (origin id, incarnation inc) is still the live member
+ * of that id; a claim or member without an incarnation (0) is judged by the id alone */
+static int origin_live(const sts_cl_member *m, size_t n, const char *id, uint64_t inc)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!strcmp(m[i].id, id))
+            return !inc || !m[i].inc || m[i].inc == inc;
+    return 0;
+}
+
 static void copy_key(sts_cluster *cl, const char *name, uint32_t crc, int put)
 {
     char key[SCL_KEY_MAX], val[9];
@@ -174,6 +184,15 @@ static void pass(sts_cluster *cl)
         return;
     }
 
+    /* a node that has just started has no snapshot yet: it gets this one now, before the
+     * pushes of its first pass, so that it answers MOVED for the sets it lacks (not NOT_FOUND) */
+    int first = __atomic_load_n(&cl->n.repair_passes, __ATOMIC_RELAXED) == 1;   /* this one */
+    sts_cl_entry *early = first ? malloc((nc ? nc : 1) * sizeof *early) : NULL;
+    if (early) {
+        memcpy(early, cat, nc * sizeof *early);
+        sts_cluster_set_catalogue(cl, early, nc);
+    }
+
     /* this node's copies */
     size_t cap = st_registry_count(srv->reg) + 16;
     st_setref **refs = calloc(cap, sizeof *refs);
@@ -219,9 +238,10 @@ static void pass(sts_cluster *cl)
     for (size_t i = 0; order && mine && i < nc; i++) {
         sts_cl_entry *e = &cat[i];
         if (e->state != SCL_SET_OK) {
-            if (!is_member(m, nm, rows[i].rec.origin) &&
+            if (!origin_live(m, nm, rows[i].rec.origin, rows[i].rec.inc) &&
                 orphan_long_enough(cl, e->name, rows[i].mod_rev, next, &nnext)) {
-                /* a claim whose node is gone: abandoned */
+                /* a claim whose node is gone, or was restarted since (its write path died
+                 * with the process that claimed): abandoned */
                 char key[SCL_KEY_MAX];
                 scl_key_set(key, cl->prefix, e->name);
                 scl_cmp cmp = {key, SCL_CMP_MOD, rows[i].mod_rev};

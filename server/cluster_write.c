@@ -103,6 +103,7 @@ int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32
     r->version = 1;
     r->state = SCL_SET_PENDING;
     snprintf(r->origin, sizeof r->origin, "%s", cl->self);
+    r->inc = cl->inc;
     r->kind = -1;
     char key[SCL_KEY_MAX], val[2048];
     scl_key_set(key, cl->prefix, name);

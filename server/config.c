@@ -83,9 +83,9 @@ static const opt OPTS[] = {
     {"max-set-bytes", T_SIZE, O(max_set_bytes), 0, 1, "BYTES",
      "texel memory of one imported set (default 8G)"},
     {"memory-budget", T_SIZE, O(memory_budget), 0, 1, "BYTES",
-     "texture memory kept resident (mapped native files as mincore sees them, plus built\n"
+     "texture memory kept resident (pages of native files mapped in seamtexd, plus built\n"
      "Ptex tables); the least recently sampled sets are released past it and fault back in\n"
-     "when sampled; 0 = unlimited (default 0)"},
+     "(from the page cache) when sampled; 0 = unlimited (default 0)"},
     {"native", T_BOOL, O(native), 0, 0, "yes|no",
      "keep a native file (mapped, no import at start) beside every set's source (default yes;\n"
      "no: every start re-imports every source, as before native files)"},

@@ -31,6 +31,7 @@
 #include "h_jobs.h"
 #include "io.h"
 #include "server.h"
+#include "unixaddr.h"
 #include "uploads.h"
 #include "workers.h"
 
@@ -640,6 +641,8 @@ static void do_accept(sts_io *io)
         int one = 1;
         if (sa.ss_family != AF_UNIX)
             setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        else
+            stu_unix_sndbuf(fd);  /* a big reply in one write (unixaddr.h) */
         c->fd = fd;
         c->id = __atomic_add_fetch(&srv->next_conn_id, 1, __ATOMIC_RELAXED);
         c->last_ms = sts_now_ms();

@@ -32,6 +32,8 @@ list=$(dpkg-deb --contents "$deb" | awk '{print $NF}' | sed 's|^\./|/|')
 for f in /usr/bin/seamtexd /usr/bin/seamtex /usr/bin/seamtex-bench /usr/bin/seamtex-render \
          "/usr/lib/$multi/libseamtex.a" "/usr/lib/$multi/pkgconfig/seamtex.pc" \
          /usr/include/seamtex/seamtex.h /usr/include/seamtex/seamtex_cluster.h \
+         "/usr/lib/$multi/libseamtex_etcd.a" "/usr/lib/$multi/pkgconfig/seamtex-etcd.pc" \
+         /usr/include/seamtex/seamtex_etcd.h \
          /usr/share/man/man1/seamtex.1.gz /usr/share/man/man1/seamtex-bench.1.gz \
          /usr/share/man/man1/seamtex-render.1.gz \
          /usr/share/man/man3/libseamtex.3.gz /usr/share/man/man3/seamtex-python.3.gz \

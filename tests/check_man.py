@@ -18,7 +18,8 @@ without its page (or documented without existing) fails here:
                    of `seamtex --help` and of each `seamtex COMMAND --help` appears
   seamtex-bench.1  every long option of `seamtex-bench --help` appears
   seamtex-render.1 every long option of `seamtex-render --help` appears
-  libseamtex.3     every stc_ function declared in client/seamtex.h or client/seamtex_cluster.h
+  libseamtex.3     every stc_ function declared in client/seamtex.h, client/seamtex_cluster.h or
+                   client/seamtex_etcd.h
                    has its .Fn line, and every .Fn stc_x line of the page names a declared
                    function
   seamtex-python.3 every public name of python/seamtex/__init__.pyi appears: module
@@ -35,7 +36,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LONG = re.compile(r"--[a-z][a-z0-9-]*")
-HEADERS = ("seamtex.h", "seamtex_cluster.h")   # the public headers libseamtex.3 documents
+HEADERS = ("seamtex.h", "seamtex_cluster.h", "seamtex_etcd.h")   # what libseamtex.3 documents
 
 
 def run(argv):
@@ -204,7 +205,7 @@ def main(argv):
     if lint_out or errs:
         return 1
     print(f"check-man: {len(pages)} pages lint-clean (mandoc -Tlint -Wwarning) and true to "
-          "--help, client/seamtex.h, client/seamtex_cluster.h and python/seamtex/__init__.pyi")
+          "--help, client/seamtex.h, client/seamtex_cluster.h, client/seamtex_etcd.h and python/seamtex/__init__.pyi")
     return self_test(h)
 
 

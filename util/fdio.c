@@ -1,6 +1,8 @@
 /* util/fdio.c - blocking file-descriptor helpers (see fdio.h). */
 #include "fdio.h"
 
+#include "bigalloc.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <stdint.h>
@@ -68,7 +70,7 @@ int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
         goto fail;
     }
     size_t n = (size_t)st.st_size;
-    uint8_t *b = malloc(n + 1);
+    uint8_t *b = stu_big_alloc(n + 1, STU_BIG_TEMP);
     if (!b) {
         errno = ENOMEM;
         goto fail;

@@ -9,8 +9,9 @@
  * read that makes no progress (write returning 0, read hitting end of file early) fails with
  * errno EIO.
  *
- * Ownership: stu_read_file returns a malloc'ed buffer the caller frees (with one extra zero
- * byte after the data, so text parsers may rely on a terminator).
+ * Ownership: stu_read_file returns a buffer the caller frees with free() (with one extra zero
+ * byte after the data, so text parsers may rely on a terminator). Files of 256 KiB and more
+ * are read into huge pages (bigalloc.h, STU_BIG_TEMP: meant to be parsed and freed soon).
  */
 #ifndef STU_FDIO_H
 #define STU_FDIO_H

@@ -28,3 +28,9 @@ int stu_unix_addr(const char *s, struct sockaddr_un *sa, socklen_t *len)
     *len = (socklen_t)(offsetof(struct sockaddr_un, sun_path) + n + 1);
     return 0;
 }
+
+void stu_unix_sndbuf(int fd)
+{
+    int n = STU_UNIX_SNDBUF;
+    (void)setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &n, sizeof n);
+}

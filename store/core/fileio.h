@@ -3,7 +3,7 @@
  * (ptex, dds, obj, draco). The data dir (service/datadir.c) has its own commit protocol on top
  * of the same steps (util/fdio.h).
  *
- * Ownership: st_file_read returns a malloc'ed buffer (plus one zero byte after the data) that
+ * Ownership: st_file_read returns a buffer to free with free() (plus one zero byte after the data) that
  * the caller frees.
  */
 #ifndef ST_FILEIO_H

@@ -7,6 +7,7 @@
  */
 #include "set.h"
 #include "trilevel.h"
+#include "bigalloc.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -18,22 +19,13 @@
 
 static int is_pow2(uint32_t x) { return x && !(x & (x - 1)); }
 
-/* The texel arena: 64-byte aligned, and from 4 MiB on 2 MiB aligned and marked for
- * transparent huge pages. Every importer writes its whole arena right away; with 4 KiB pages
- * the page faults of a large Ptex import cost about as much CPU as its decoding. alloc is a
- * multiple of 64. */
+/* The texel arena: 64-byte aligned, and from 2 MiB on on transparent huge pages
+ * (util/bigalloc.h, a long-lived buffer). Every importer writes its whole arena right away;
+ * with 4 KiB pages the page faults of a large Ptex import cost more CPU than its decoding.
+ * alloc is a multiple of 64. */
 static uint8_t *arena_alloc(size_t alloc)
 {
-    const size_t huge = (size_t)2 << 20;
-    if (alloc < 2 * huge)
-        return aligned_alloc(64, alloc);
-    size_t rounded = (alloc + huge - 1) & ~(huge - 1);
-    uint8_t *p = aligned_alloc(huge, rounded);
-#ifdef MADV_HUGEPAGE
-    if (p)
-        madvise(p, rounded, MADV_HUGEPAGE); /* advice only: failure changes nothing */
-#endif
-    return p;
+    return stu_big_alloc(alloc, STU_BIG_KEEP);
 }
 
 static unsigned floor_log2(uint32_t x)

@@ -170,7 +170,7 @@ typedef struct st_set {
     int            map_fd;       /* the file, kept open for posix_fadvise (valid when map) */
     uint64_t       last_use_ms;  /* atomic: last sample (monotonic ms), for the memory budget */
     uint32_t       cold;         /* atomic: 1 once the budget released it, until sampled */
-    uint64_t       res_bytes;    /* atomic: the budget's last mincore figure of the mapping */
+    uint64_t       res_bytes;    /* atomic: the budget's last resident figure of the mapping */
     uint64_t       res_ms;       /* atomic: when it was taken (monotonic ms), 0 = never */
 } st_set;
 

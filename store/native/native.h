@@ -145,12 +145,37 @@ int st_native_open(const char *path, unsigned flags, st_native_source *src, st_s
 int st_native_open_fd(int fd, unsigned flags, st_native_source *src, st_set **out,
                       st_error *e);
 
-/* Bytes of the set's mapping resident in memory as mincore(2) sees them (0 for a heap set). */
-size_t st_native_resident(const st_set *s);
+/* Residency: what the memory budget counts of a mapping and how it lets go of it
+ * (native_resident.c). A meter says which count is used:
+ *   ST_NATIVE_COUNT_MAPPED (pagemap_fd >= 0, /proc/self/pagemap open): the mapping's pages
+ *     present in THIS process's page tables - what the process holds (its RssFile share). A
+ *     release unmaps them (madvise MADV_COLD, which puts them at the cold end of the kernel's
+ *     reclaim lists, then MADV_DONTNEED) and leaves the file in the page cache: the next sample
+ *     faults back what it touches from memory (a minor fault) while the page cache holds it.
+ *     Another process mapping the same file counts only its own pages.
+ *   ST_NATIVE_COUNT_CACHED (pagemap_fd < 0: /proc/self/pagemap cannot be read): the file's
+ *     pages in the page cache, as mincore(2) reports them for a file the caller owns or may
+ *     write (for any other file the kernel reports only the caller's mapped pages). A release
+ *     also drops them from the page cache (posix_fadvise DONTNEED) - without that the count
+ *     would not go down - so the next sample reads them from the disk.
+ * The meter holds one file descriptor; its owner closes it (st_native_meter_close). */
+typedef enum { ST_NATIVE_COUNT_MAPPED = 0, ST_NATIVE_COUNT_CACHED = 1 } st_native_count;
 
-/* Releases a mapped set's pages (madvise MADV_DONTNEED on the mapping, then
- * posix_fadvise DONTNEED on its file so the page cache lets them go too); the next sample
- * faults in only the pages it touches. Returns the bytes that were resident. */
-size_t st_native_release(const st_set *s);
+typedef struct st_native_meter {
+    int pagemap_fd;   /* /proc/self/pagemap, or -1: count the page cache (mincore) */
+} st_native_meter;
+
+/* Opens /proc/self/pagemap; returns the count the meter gives (CACHED when it cannot). */
+st_native_count st_native_meter_open(st_native_meter *m);
+void st_native_meter_close(st_native_meter *m);
+st_native_count st_native_meter_count(const st_native_meter *m);
+
+/* Bytes of the set's mapping resident as the meter counts them (0 for a heap set). A pagemap
+ * read that fails counts that part with mincore (an upper bound: mapped pages are cached). */
+size_t st_native_resident(const st_set *s, const st_native_meter *m);
+
+/* Releases a mapped set's pages as the meter's count says (above); the next sample faults in
+ * only the pages it touches, with the same bytes. Returns the bytes that were resident. */
+size_t st_native_release(const st_set *s, const st_native_meter *m);
 
 #endif

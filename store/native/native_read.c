@@ -1,7 +1,7 @@
 /* store/native/native_read.c - opens a native file as a set sampled from a read-only mapping
  * (format table and the checks made in native.h).
  *
- * Owns: st_native_open, st_native_open_fd, st_native_resident, st_native_release. Order: the
+ * Owns: st_native_open and st_native_open_fd (residency and release: native_resident.c). Order: the
  * header page is read with pread and checked (its CRC, magic, version, sizes, the section
  * table: page-aligned, inside the file, no overlap, the sizes the header implies) before the
  * file is mapped; then the small sections' CRCs, the face table and level offsets against the
@@ -543,33 +543,4 @@ int st_native_open(const char *path, unsigned flags, st_native_source *src, st_s
         return st_fail(e, errno == ENOENT ? ST_ENOTFOUND : ST_EIO, "open %s: %s", path,
                        strerror(errno));
     return st_native_open_fd(fd, flags, src, out, e);
-}
-
-/* ---- residency ---------------------------------------------------------------------------- */
-
-size_t st_native_resident(const st_set *s)
-{
-    if (!s || !s->map)
-        return 0;
-    size_t pg = (size_t)sysconf(_SC_PAGESIZE), npages = (s->map_len + pg - 1) / pg;
-    unsigned char vec[4096];
-    size_t res = 0;
-    for (size_t i = 0; i < npages; i += sizeof vec) {
-        size_t k = npages - i < sizeof vec ? npages - i : sizeof vec;
-        if (mincore((uint8_t *)s->map + i * pg, k * pg, vec) != 0)
-            return res;
-        for (size_t j = 0; j < k; j++)
-            res += vec[j] & 1;
-    }
-    return res * pg;
-}
-
-size_t st_native_release(const st_set *s)
-{
-    if (!s || !s->map)
-        return 0;
-    size_t was = st_native_resident(s);
-    madvise(s->map, s->map_len, MADV_DONTNEED);
-    posix_fadvise(s->map_fd, 0, (off_t)s->map_len, POSIX_FADV_DONTNEED);
-    return was;
 }

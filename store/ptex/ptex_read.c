@@ -2,7 +2,7 @@
  *
  * Owns: parsing and validation of .ptx bytes, block decoding (constant, zipped, diff-zipped,
  * tiled), edits and metadata. Does not own: the set layout (set.c), the inner unpacking loops
- * (ptex_unpack.c, ptex_adler.c), the Ptex rules for the levels a file does not store and the
+ * (ptex_unpack.c), the Ptex rules for the levels a file does not store and the
  * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
  * built later by the first Ptex-filter call).
  *
@@ -32,7 +32,6 @@
 #include <string.h>
 #include <libdeflate.h>
 
-#include "ptex_adler.h"
 #include "ptex_format.h"
 #include "ptex_unpack.h"
 #include "ptexres.h"
@@ -81,12 +80,31 @@ static int zip_bound_ok(uint64_t zipsize, uint64_t memsize)
     return memsize <= zipsize * PTX_MAX_ZIP_RATIO + 64;
 }
 
-/* Inflates exactly outlen bytes from the zlib stream at [off, off+zlen). The 2-byte zlib
- * header is checked here, the deflate data inflated raw in one call by libdeflate (about
- * twice as fast as zlib's inflate, which was most of an import), and the stream's Adler-32
- * trailer then checked with st_ptx_adler32 on the output. Like zlib, refuses a bad header,
- * a preset dictionary, malformed or truncated deflate data, a stream that inflates to more or
- * fewer bytes than declared, and a wrong check value. */
+/* Why a zlib stream at p (zlen bytes) that libdeflate refused as bad data is bad, for the
+ * message: the deflate data itself, a missing check value, or a check value that does not
+ * match. Runs only on the failure path (inflates again, raw). */
+static const char *zlib_bad_reason(rd *r, const uint8_t *p, uint64_t zlen, void *out,
+                                   size_t outlen)
+{
+    size_t used = 0, got = 0;
+    if (libdeflate_deflate_decompress_ex(r->dd, p + 2, zlen - 2, out, outlen, &used,
+                                         &got) != LIBDEFLATE_SUCCESS)
+        return "invalid or truncated deflate data";
+    if (zlen - 2 - used < 4)
+        return "truncated: no check value";
+    const uint8_t *t = p + 2 + used;
+    uint32_t want = (uint32_t)t[0] << 24 | (uint32_t)t[1] << 16 | (uint32_t)t[2] << 8 | t[3];
+    if (libdeflate_adler32(1, out, got) != want)
+        return "incorrect data check";
+    return "invalid or truncated deflate data";
+}
+
+/* Inflates exactly outlen bytes from the zlib stream at [off, off+zlen), in one call by
+ * libdeflate straight into out (whole-buffer, no window copy; it checks the stream's Adler-32
+ * with its own vectorised Adler-32). The 2-byte zlib header is checked here first, for a
+ * clear message. Like zlib, refuses a bad header, a preset dictionary, malformed or truncated
+ * deflate data, a missing or wrong check value, and a stream that inflates to more or fewer
+ * bytes than declared. */
 static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
                          const char *what)
 {
@@ -112,29 +130,17 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
                        "dictionary)", what, (unsigned long long)off);
     if (!r->dd && !(r->dd = libdeflate_alloc_decompressor()))
         return st_fail(r->e, ST_ENOMEM, "out of memory for the inflater");
-    /* one call over the whole stream, straight into out (libdeflate: whole-buffer, no
-     * sliding window copy, about twice zlib's speed); the trailer follows what it used */
-    size_t used = 0, got = 0;
-    enum libdeflate_result lr = libdeflate_deflate_decompress_ex(r->dd, p + 2, zlen - 2, out,
-                                                                 outlen, &used, &got);
+    size_t got = 0;
+    enum libdeflate_result lr = libdeflate_zlib_decompress(r->dd, p, zlen, out, outlen, &got);
     if (lr == LIBDEFLATE_INSUFFICIENT_SPACE)
         return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to more "
                        "than the declared %zu bytes", what, (unsigned long long)off, outlen);
     if (lr != LIBDEFLATE_SUCCESS)
-        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (invalid or "
-                       "truncated deflate data)", what, (unsigned long long)off);
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
+                       (unsigned long long)off, zlib_bad_reason(r, p, zlen, out, outlen));
     if (got != outlen)
         return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %zu bytes, "
                        "declared %zu", what, (unsigned long long)off, got, outlen);
-    uint64_t left = zlen - 2 - used;
-    p += 2 + used;
-    if (left < 4)
-        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated (no "
-                       "check value)", what, (unsigned long long)off);
-    uint32_t want = (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-    if (st_ptx_adler32(1, out, outlen) != want)
-        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (incorrect data "
-                       "check)", what, (unsigned long long)off);
     return ST_OK;
 }
 

@@ -10,6 +10,12 @@
  * (black). The sum is divided by the kernel's weight. Discard drops every overhanging piece
  * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
  *
+ * Per batch (texel type, channel count, filter and options are the same for every query) one
+ * query function is chosen: point and bilinear inside a face specialised per texel type and
+ * channel count, box and width-4 kernels inside a face through the fused path of
+ * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
+ * eval, the general path. Both ways do the same arithmetic in the same order.
+ *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
  * the table (once, thread-safe), later calls only read it.
@@ -30,6 +36,16 @@
 #define PF_MAX_DEPTH 8   /* subface re-splits; Ptex needs 2, a bad adjacency table might loop */
 
 typedef float v4f __attribute__((vector_size(16)));
+typedef int32_t v4i __attribute__((vector_size(16)));
+
+static inline v4f v4f_abs(v4f x)
+{
+    v4i b;
+    memcpy(&b, &x, sizeof b);
+    b &= 0x7fffffff;
+    memcpy(&x, &b, sizeof x);
+    return x;
+}
 
 enum { PF_U8, PF_F32, PF_OTHER };
 
@@ -74,6 +90,8 @@ typedef struct pf {
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
     int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
+    pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
+    float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
 } pf;
@@ -395,6 +413,52 @@ static void eval_point(pf *c, uint32_t f, float u, float v, float *out)
                                                            : texel_raw(c->dt, d, ch) * inv;
 }
 
+__attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsigned DT, unsigned NC)
+{
+    switch (DT) {
+    case ST_DT_U8: return load_u8(p);
+    case ST_DT_U16: return load_u16(p);
+    case ST_DT_F32: return load_f32(p);
+    default: return load_any(ST_DT_HALF, NC, p);
+    }
+}
+
+/* Ptex's bilinear on face f (neither a subface nor constant) without building a kernel, for
+ * type DT with NC channels (constants where inlined; eval passes the batch's): uw, vw are
+ * |du/dx| + |du/dy| and |dv/dx| + |dv/dy|. Writes out and returns 1 when the 2x2 texels lie
+ * inside the face with both fractions > 0; else 0 (the kernel path then runs). */
+__attribute__((always_inline)) static inline int bilinear_inface(const pf *c, const st_face *F,
+                                                                 uint32_t f, float u, float v,
+                                                                 float uw, float vw, float *out,
+                                                                 unsigned DT, unsigned NC)
+{
+    float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
+    bu = bu < 1.0f ? bu : 1.0f;
+    bv = bv < 1.0f ? bv : 1.0f;
+    float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
+    bu = bu > lu ? bu : lu;
+    bv = bv > lv ? bv : lv;
+    int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
+    float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
+    float uf = pk_floor(upix), vf = pk_floor(vpix);
+    int ui = (int)uf, vi = (int)vf;
+    float fu = upix - uf, fv = vpix - vf;
+    if (!(ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
+          fv > 0.0f))
+        return 0;
+    const uint8_t *d = c->t->px[c->t->base[f] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
+    size_t ts = st_dtype_size(DT) * NC, rowb = ts << ru;
+    const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
+    float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
+    v4f r0 = load_dt(p, DT, NC) * ku0 + load_dt(p + ts, DT, NC) * fu;
+    v4f r1 = load_dt(p + rowb, DT, NC) * ku0 + load_dt(p + rowb + ts, DT, NC) * fu;
+    v4f acc = r0 * kv0 + r1 * fv;
+    float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(DT));
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = acc[ch] * scale;
+    return 1;
+}
+
 static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                 float *out, float *cov)
 {
@@ -431,52 +495,9 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     }
     float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
     if (pp->ftype == ST_FILTER_PTEX_BILINEAR &&
-        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))) {
-        /* the common case without building a kernel: Ptex's bilinear inside the face */
-        float bu = uw * width + blur, bv = vw * width + blur;
-        bu = bu < 1.0f ? bu : 1.0f;
-        bv = bv < 1.0f ? bv : 1.0f;
-        float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
-        bu = bu > lu ? bu : lu;
-        bv = bv > lv ? bv : lv;
-        int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
-        float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
-        float uf = pk_floor(upix), vf = pk_floor(vpix);
-        int ui = (int)uf, vi = (int)vf;
-        float fu = upix - uf, fv = vpix - vf;
-        if (ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
-            fv > 0.0f) {
-            const uint8_t *d = st_ptexres_data(c->t, c->s, f, (unsigned)ru, (unsigned)rv);
-            size_t ts = st_dtype_size(c->dt) * c->nc, rowb = ts << ru;
-            const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
-            float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
-            v4f r0, r1;
-            switch (c->dt) {
-            case ST_DT_U8:
-                r0 = load_u8(p) * ku0 + load_u8(p + ts) * fu;
-                r1 = load_u8(p + rowb) * ku0 + load_u8(p + rowb + ts) * fu;
-                break;
-            case ST_DT_U16:
-                r0 = load_u16(p) * ku0 + load_u16(p + ts) * fu;
-                r1 = load_u16(p + rowb) * ku0 + load_u16(p + rowb + ts) * fu;
-                break;
-            case ST_DT_F32:
-                r0 = load_f32(p) * ku0 + load_f32(p + ts) * fu;
-                r1 = load_f32(p + rowb) * ku0 + load_f32(p + rowb + ts) * fu;
-                break;
-            default:
-                r0 = load_any(c->dt, c->nc, p) * ku0 + load_any(c->dt, c->nc, p + ts) * fu;
-                r1 = load_any(c->dt, c->nc, p + rowb) * ku0 +
-                     load_any(c->dt, c->nc, p + rowb + ts) * fu;
-                break;
-            }
-            v4f acc = r0 * kv0 + r1 * fv;
-            float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(c->dt));
-            for (unsigned ch = 0; ch < c->nc; ch++)
-                out[ch] = acc[ch] * scale;
-            return ST_Q_OK;
-        }
-    }
+        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
+        bilinear_inface(c, F, f, u, v, uw, vw, out, c->dt, c->nc))
+        return ST_Q_OK; /* the common case without building a kernel */
     pk k;
     if (F->flags & ST_FACE_SUBFACE) {
         uw = uw * width + blur * 2.0f;
@@ -539,6 +560,126 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     return ST_Q_OK;
 }
 
+/* ---- one query, specialised per texel type and channel count ----------------------------
+ * The batch picks one of these per call (texel type, channel count and filter are the same
+ * for every query of a batch): the common cases with the type's loads and no per-texel
+ * switch, everything else through eval (same arithmetic in the same order, so the results
+ * are the same bit for bit whichever way a query goes). */
+typedef int (*pf_query_fn)(pf *c, const pk_params *pp, const st_sample_opts *o,
+                           const st_query *q, float *out, float *cov);
+
+/* Ptex's point filter (eval_point) for type DT, NC channels. */
+__attribute__((always_inline)) static inline int point_q(pf *c, const st_query *q, float *out, float *cov, unsigned DT,
+                          unsigned NC)
+{
+    uint32_t f = q->face;
+    const st_face *F = &c->s->faces[f];
+    const uint8_t *d;
+    *cov = 1.0f;
+    if (F->flags & ST_FACE_CONSTANT) {
+        d = st_face_level(c->s, f, 0);
+    } else {
+        int resu = (int)F->w, resv = (int)F->h;
+        float fu = q->u * (float)resu, fv = q->v * (float)resv;
+        int ui = fu >= (float)resu ? resu - 1 : fu <= 0 ? 0 : (int)fu;
+        int vi = fv >= (float)resv ? resv - 1 : fv <= 0 ? 0 : (int)fv;
+        d = c->t->px[c->t->base[f] + (size_t)F->ulog2 * (F->vlog2 + 1u) + F->vlog2] +
+            ((size_t)vi * (size_t)resu + (size_t)ui) * (st_dtype_size(DT) * NC);
+    }
+    v4f x = load_dt(d, DT, NC);
+    if (DT == ST_DT_F32 || DT == ST_DT_HALF) {
+        for (unsigned ch = 0; ch < NC; ch++)
+            out[ch] = x[ch];
+    } else {
+        float inv = 1.0f / one_value(DT);
+        for (unsigned ch = 0; ch < NC; ch++)
+            out[ch] = x[ch] * inv;
+    }
+    return ST_Q_OK;
+}
+
+/* The query's face when the filter may take a shortcut on it: no constant neighbourhood,
+ * neither constant nor a subface, (u, v) in [0, 1) (which every border mode leaves as it
+ * is); else NULL (eval's general path). */
+static inline const st_face *plain_face(const pf *c, const st_query *q)
+{
+    uint32_t f = q->face;
+    const st_face *F = &c->s->faces[f];
+    if ((c->t->ptxflags[f] & PTX_FLAG_NBCONSTANT) ||
+        (F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) ||
+        !(q->u >= 0.0f && q->u < 1.0f && q->v >= 0.0f && q->v < 1.0f))
+        return NULL;
+    return F;
+}
+
+/* Ptex's bilinear filter for type DT, NC channels: the no-kernel path inside the face. */
+__attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_params *pp,
+                                                            const st_sample_opts *o,
+                                                            const st_query *q, float *out,
+                                                            float *cov, unsigned DT,
+                                                            unsigned NC)
+{
+    const st_face *F = plain_face(c, q);
+    if (!F || !bilinear_inface(c, F, q->face, q->u, q->v, fabsf(q->dudx) + fabsf(q->dudy),
+                               fabsf(q->dvdx) + fabsf(q->dvdy), out, DT, NC))
+        return eval(c, pp, o, q, out, cov);
+    *cov = 1.0f;
+    return ST_Q_OK;
+}
+
+/* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
+ * the face (every mode agrees there), else eval. */
+static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                    float *out, float *cov)
+{
+    const st_face *F = plain_face(c, q);
+    if (F) {
+        float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+        if (c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
+                    uw * c->width + c->blur, vw * c->width + c->blur, out)) {
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    }
+    return eval(c, pp, o, q, out, cov);
+}
+
+#define PF_QFN(DT, NC)                                                                      \
+    static int point_##DT##_##NC(pf *c, const pk_params *pp, const st_sample_opts *o,      \
+                                 const st_query *q, float *out, float *cov)                \
+    {                                                                                       \
+        (void)pp; (void)o;                                                                  \
+        return point_q(c, q, out, cov, DT, NC);                                             \
+    }                                                                                       \
+    static int bilinear_##DT##_##NC(pf *c, const pk_params *pp, const st_sample_opts *o,   \
+                                    const st_query *q, float *out, float *cov)             \
+    {                                                                                       \
+        return bilinear_q(c, pp, o, q, out, cov, DT, NC);                                   \
+    }
+#define PF_QFN_NC(DT) PF_QFN(DT, 1) PF_QFN(DT, 2) PF_QFN(DT, 3) PF_QFN(DT, 4)
+PF_QFN_NC(0)
+PF_QFN_NC(1)
+PF_QFN_NC(2)
+PF_QFN_NC(3)
+
+/* The query function of a batch (c->fast set already). */
+static pf_query_fn query_fn(const pf *c, unsigned filter)
+{
+#define PF_ROW(F, DT) {F##_##DT##_1, F##_##DT##_2, F##_##DT##_3, F##_##DT##_4}
+    static const pf_query_fn point[4][4] = {PF_ROW(point, 0), PF_ROW(point, 1),
+                                            PF_ROW(point, 2), PF_ROW(point, 3)};
+    static const pf_query_fn bilinear[4][4] = {PF_ROW(bilinear, 0), PF_ROW(bilinear, 1),
+                                               PF_ROW(bilinear, 2), PF_ROW(bilinear, 3)};
+#undef PF_ROW
+    if (c->dt > 3 || c->nc < 1 || c->nc > 4)
+        return eval;
+    if (filter == ST_FILTER_PTEX_POINT)
+        return point[c->dt][c->nc - 1];
+    if (filter == ST_FILTER_PTEX_BILINEAR)
+        return bilinear[c->dt][c->nc - 1];
+    return c->fast ? kernel_q : eval;
+}
+
 int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                         float *out, float *coverage, uint8_t *status)
 {
@@ -569,24 +710,37 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
     c.avx2 = avx2;
+    c.fast = pf_fast_select(c.dt, c.nc, o->filter);
+    c.width = o->width > 0 ? o->width : 1.0f;
+    c.blur = o->blur > 0 ? o->blur : 0.0f;
+    pf_query_fn qfn = query_fn(&c, o->filter);
     int bad = 0;
     unsigned nc = c.nc;
+    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
+    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
-        float *oi = out + i * nc, cov = 1.0f;
-        int st = ST_Q_OK;
-        if (qi->face >= s->info.nfaces)
-            st = ST_Q_BAD_FACE;
-        else if (!(fabsf(qi->u) <= ST_MAX_COORD && fabsf(qi->v) <= ST_MAX_COORD &&
-                   fabsf(qi->dudx) <= ST_MAX_DERIV && fabsf(qi->dvdx) <= ST_MAX_DERIV &&
-                   fabsf(qi->dudy) <= ST_MAX_DERIV && fabsf(qi->dvdy) <= ST_MAX_DERIV))
-            /* one test for the common case; NaN fails it too */
-            st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
-                 isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)
-                     ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
-        if (st == ST_Q_OK)
-            st = eval(&c, &pp, o, qi, oi, &cov);
-        else {
+        float *oi = out + i * nc, cov;
+        int st;
+        /* one test for the common case: |u|, |v| and the four derivatives within the bound
+         * (NaN fails it too) */
+        v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
+        memcpy(&a, &qi->u, sizeof a);
+        v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
+#ifdef __SSE2__
+        int all = _mm_movemask_ps((__m128)ok) == 15;
+#else
+        int all = ok[0] && ok[1] && ok[2] && ok[3];
+#endif
+        if (__builtin_expect(qi->face < s->info.nfaces && all, 1)) {
+            st = qfn(&c, &pp, o, qi, oi, &cov);
+        } else {
+            if (qi->face >= s->info.nfaces)
+                st = ST_Q_BAD_FACE;
+            else
+                st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
+                     isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)
+                         ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
             for (unsigned ch = 0; ch < nc; ch++)
                 oi[ch] = NAN;
             cov = 0.0f;

@@ -14,12 +14,12 @@
 
 /* ---- kernel operations ------------------------------------------------------------------ */
 
+/* dst's window (u, v, uw, vw) with the weights ku, kv moved to index 0. Element loops, not
+ * memcpy: a few weights each, and a libc call per array cost more than the copy. Copying
+ * forward to index 0 is safe even when ku or kv lie in dst's own buffers (src == dst). */
 static void pk_set_part(pk *dst, const pk *src, int u, int v, int uw, int vw, const float *ku,
                         const float *kv)
 {
-    float tu[PK_MAX], tv[PK_MAX];
-    memcpy(tu, ku, sizeof(float) * (size_t)uw);
-    memcpy(tv, kv, sizeof(float) * (size_t)vw);
     dst->ulog2 = src->ulog2;
     dst->vlog2 = src->vlog2;
     dst->u = u;
@@ -28,15 +28,18 @@ static void pk_set_part(pk *dst, const pk *src, int u, int v, int uw, int vw, co
     dst->vw = vw;
     dst->ku0 = dst->kv0 = 0;
     dst->rot = 0;
-    memcpy(dst->kub, tu, sizeof(float) * (size_t)uw);
-    memcpy(dst->kvb, tv, sizeof(float) * (size_t)vw);
+    for (int i = 0; i < uw; i++)
+        dst->kub[i] = ku[i];
+    for (int i = 0; i < vw; i++)
+        dst->kvb[i] = kv[i];
 }
 
 void pk_set(pk *dst, const pk *src)
 {
-    pk tmp = *src;
-    pk_set_part(dst, &tmp, tmp.u, tmp.v, tmp.uw, tmp.vw, tmp.kub + tmp.ku0, tmp.kvb + tmp.kv0);
-    dst->rot = tmp.rot;
+    int rot = src->rot;
+    pk_set_part(dst, src, src->u, src->v, src->uw, src->vw, src->kub + src->ku0,
+                src->kvb + src->kv0);
+    dst->rot = rot;
 }
 
 #define accumulate pk_accumulate

@@ -21,6 +21,15 @@
  * at a time, with the portable code's operations in its order (no fused multiply-adds), so
  * the weights are bit for bit the portable ones.
  *
+ * The fused path of a kernel inside one face (pf_fast_select: one function per texel type and
+ * channel count, chosen once per batch): box and width-4 kernels built for both axes at once
+ * in one SSE vector (lane 0 u, lane 1 v) with pk_build's operations in its order, the
+ * width-4 weights of both axes in one 8-lane evaluation when each has at most 4 taps, zeros
+ * stripped with a mask, and the same window loop; no pk is built and nothing crosses a
+ * function boundary per query. It declines (returns 0) whatever it does not take, and the
+ * general path then runs: results are bit for bit those of the general path
+ * (test_ptexfilter_simd).
+ *
  * Owns: nothing but these loops. The window sums run in a different order than the portable
  * loop (and than Ptex for 1, 2 and 4 channels: columns first), so results differ from them by
  * float rounding only.
@@ -79,8 +88,8 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
     size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
     int ne = uw * (int)nc;
     int nt = ne - 8 * (NV - 1); /* values in the last vector, 1..8 */
-    static const int32_t ones[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
-    __m256 tail = _mm256_loadu_ps((const float *)(const void *)(ones + 8 - nt));
+    __m256 tail = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+        _mm256_set1_epi32(nt), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))); /* lanes < nt */
     __m256 col[MAXV];
     for (int b = 0; b < NV; b++)
         col[b] = _mm256_setzero_ps();
@@ -249,6 +258,229 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
         _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
 }
 
+
+/* ---- the fused path of a kernel inside one face (pf_fast_select) ------------------------ */
+
+/* Both axes of Ptex's box filter at once (lane 0 u, lane 1 v), pk_build's arithmetic in its
+ * order: the resolution, first texel, taps (1..3) and weights of each axis, and each axis'
+ * weights summed in order (pk_weight's factors). 0 when a weight at an end is 0 (the
+ * general path strips it). */
+PF_TARGET int box_axes(float u, float v, float uw, float vw, int fulog2, int fvlog2, int *res,
+                       int *k0, int *kw, float *ku, float *kv, float *sum)
+{
+    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 1.0f, 1.0f);
+    const __m128 one = _mm_set1_ps(1.0f), half = _mm_set1_ps(0.5f);
+    const __m128i e127 = _mm_set1_epi32(127);
+    w = _mm_min_ps(w, one);                                   /* uw < 1 ? uw : 1 */
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
+        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
+    w = _mm_max_ps(w, lo);                                    /* uw > lu ? uw : lu */
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23)); /* 2^res */
+    x = _mm_mul_ps(x, rf);
+    w = _mm_mul_ps(w, rf);
+    __m128 hw = _mm_mul_ps(half, w);
+    __m128 x1 = _mm_sub_ps(x, hw), x2 = _mm_add_ps(x, hw);
+    __m128 x1f = _mm_floor_ps(x1), x2c = _mm_ceil_ps(x2);
+    __m128i a = _mm_cvttps_epi32(x1f);
+    __m128i n = _mm_sub_epi32(_mm_cvttps_epi32(x2c), a);
+    n = _mm_min_epi32(_mm_max_epi32(n, _mm_set1_epi32(1)), _mm_set1_epi32(3));
+    __m128 f1 = _mm_sub_ps(one, _mm_sub_ps(x1, x1f)), f2 = _mm_sub_ps(one, _mm_sub_ps(x2c, x2));
+    float F1[4], F2[4];
+    int A[4], N[4], R[4];
+    _mm_storeu_ps(F1, f1);
+    _mm_storeu_ps(F2, f2);
+    _mm_storeu_si128((__m128i *)(void *)A, a);
+    _mm_storeu_si128((__m128i *)(void *)N, n);
+    _mm_storeu_si128((__m128i *)(void *)R, r);
+    float *k[2] = {ku, kv};
+    for (int ax = 0; ax < 2; ax++) {
+        float *kk = k[ax];
+        res[ax] = R[ax];
+        k0[ax] = A[ax];
+        kw[ax] = N[ax];
+        if (N[ax] == 1) {
+            kk[0] = F1[ax] + F2[ax] - 1.0f;
+            if (kk[0] == 0)
+                return 0;
+            sum[ax] = kk[0];
+        } else {
+            if (F1[ax] == 0 || F2[ax] == 0)
+                return 0;
+            kk[0] = F1[ax];
+            kk[1] = 1.0f;
+            kk[N[ax] - 1] = F2[ax];
+            sum[ax] = N[ax] == 2 ? F1[ax] + F2[ax] : (F1[ax] + 1.0f) + F2[ax];
+        }
+    }
+    return 1;
+}
+
+/* Both axes of a width-4 kernel (lane 0 u, lane 1 v) whose widths are under 1/4
+ * (width4_axis's first case), its arithmetic in its order: resolution, first texel, taps,
+ * offset and step of the kernel's arguments. 0 when a width is 1/4 or more or an axis has
+ * more than 8 taps. */
+PF_TARGET int w4_axes(float u, float v, float uw, float vw, int fulog2, int fvlog2, int *res,
+                      int *k0, int *kw, float *x1, float *step)
+{
+    const __m128i e127 = _mm_set1_epi32(127);
+    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 0.0f, 0.0f);
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
+        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
+    w = _mm_max_ps(w, lo);                                    /* !(uw >= lo) -> lo */
+    if (_mm_movemask_ps(_mm_cmpge_ps(w, _mm_set1_ps(.25f))) & 3)
+        return 0;
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    /* 2^res (res is 3..30 here: widths under 1/4, at least 2^-ulog2) */
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23));
+    __m128 upix = _mm_sub_ps(_mm_mul_ps(x, rf), _mm_set1_ps(0.5f));
+    __m128 uwpix = _mm_mul_ps(w, rf);
+    __m128 dupix = _mm_mul_ps(_mm_set1_ps(2.0f), uwpix);
+    __m128i u1 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_sub_ps(upix, dupix)));
+    __m128i u2 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_add_ps(upix, dupix)));
+    __m128i n = _mm_sub_epi32(u2, u1);
+    if (_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(n, _mm_set1_epi32(8)))) & 3)
+        return 0;
+    __m128 x1v = _mm_div_ps(_mm_sub_ps(_mm_cvtepi32_ps(u1), upix), uwpix);
+    __m128 sv = _mm_div_ps(_mm_set1_ps(1.0f), uwpix);
+    int R[4], A[4], N[4];
+    float X[4], S[4];
+    _mm_storeu_si128((__m128i *)(void *)R, r);
+    _mm_storeu_si128((__m128i *)(void *)A, u1);
+    _mm_storeu_si128((__m128i *)(void *)N, n);
+    _mm_storeu_ps(X, x1v);
+    _mm_storeu_ps(S, sv);
+    for (int ax = 0; ax < 2; ax++) {
+        res[ax] = R[ax];
+        k0[ax] = A[ax];
+        kw[ax] = N[ax];
+        x1[ax] = X[ax];
+        step[ax] = S[ax];
+    }
+    return 1;
+}
+
+/* The first and last nonzero of the n weights in w (n <= 8): strips the zeros as
+ * pk_strip_zeros does, moving the rest to w[0]; 0 when every weight is 0. */
+PF_TARGET int strip8(__m256 w, int n, float *out, int *k0, int *kw)
+{
+    unsigned m = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+    m &= (1u << n) - 1u;
+    if (!m)
+        return 0;
+    int a = __builtin_ctz(m), b = 31 - __builtin_clz(m);
+    __m256i idx = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                                   _mm256_set1_epi32(a));
+    _mm256_storeu_ps(out, _mm256_permutevar8x32_ps(w, idx));
+    *k0 += a;
+    *kw = b - a + 1;
+    return 1;
+}
+
+PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
+                        float u, float v, float uw, float vw, float *out, unsigned DT,
+                        unsigned NC)
+{
+    float ku[32], kv[8]; /* ku: window() may name up to 4 vectors of lanes (it reads < nu) */
+    int ru, rv, u0, v0, nu, nv;
+    float total;
+    if (p->ftype == ST_FILTER_PTEX_BOX) {
+        int res[2], k0[2], kw[2];
+        float sum[2];
+        if (!box_axes(u, v, uw, vw, fulog2, fvlog2, res, k0, kw, ku, kv, sum))
+            return 0;
+        ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
+        if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
+            return 0;
+        total = sum[0] * sum[1];
+    } else {
+        int res[2], k0[2], kw[2];
+        float x1[2], st[2];
+        if (!w4_axes(u, v, uw, vw, fulog2, fvlog2, res, k0, kw, x1, st))
+            return 0;
+        ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
+        const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+        __m256 wu, wv;
+        if (nu <= 4 && nv <= 4) { /* both axes in one evaluation: u in lanes 0-3, v in 4-7 */
+            const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
+            __m256 x0 = _mm256_setr_m128(_mm_set1_ps(x1[0]), _mm_set1_ps(x1[1]));
+            __m256 s8 = _mm256_setr_m128(_mm_set1_ps(st[0]), _mm_set1_ps(st[1]));
+            wu = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
+            wv = _mm256_permute2f128_ps(wu, wu, 0x11); /* lanes 4-7 to 0-3 */
+        } else {
+            wu = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[0]),
+                                          _mm256_mul_ps(i0, _mm256_set1_ps(st[0]))));
+            wv = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[1]),
+                                          _mm256_mul_ps(i0, _mm256_set1_ps(st[1]))));
+        }
+        if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
+            return 0;
+        if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
+            return 0;
+        /* pk_weight: each axis summed in order */
+        float s0 = 0, s1 = 0;
+        for (int i = 0; i < nu; i++)
+            s0 += ku[i];
+        for (int j = 0; j < nv; j++)
+            s1 += kv[j];
+        total = s0 * s1;
+    }
+    if (!(total > 0.0f))
+        return 0;
+    int resu = 1 << ru;
+    size_t ts = (size_t)NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    const uint8_t *d = px[(unsigned)ru * ((unsigned)fvlog2 + 1u) + (unsigned)rv];
+    const uint8_t *base = d + ((size_t)v0 * (size_t)resu + (size_t)u0) * ts;
+    size_t rowb = (size_t)resu * ts;
+    __m128 acc = _mm_setzero_ps();
+    if (NC == 3) {
+        acc = window3(base, rowb, DT, ku, nu, kv, nv, acc);
+    } else {
+        switch ((nu * (int)NC + 7) / 8) {
+        case 1: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 1, acc); break;
+        case 2: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 2, acc); break;
+        case 3: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 3, acc); break;
+        default: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 4, acc); break;
+        }
+    }
+    float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    float scale = 1.0f / (total * one);
+    float r[4];
+    _mm_storeu_ps(r, acc);
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = r[ch] * scale;
+    return 1;
+}
+
+#define PF_FAST(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"))) static int pf_fast_##DT##_##NC(                \
+        const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
+        float uw, float vw, float *out)                                                     \
+    {                                                                                       \
+        return fast_body(p, px, fu, fv, u, v, uw, vw, out, DT, NC);                         \
+    }
+#define PF_FAST_NC(DT) PF_FAST(DT, 1) PF_FAST(DT, 2) PF_FAST(DT, 3) PF_FAST(DT, 4)
+PF_FAST_NC(0)
+PF_FAST_NC(1)
+PF_FAST_NC(2)
+PF_FAST_NC(3)
+
+pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
+{
+    static const pf_fast_fn fns[4][4] = {
+        {pf_fast_0_1, pf_fast_0_2, pf_fast_0_3, pf_fast_0_4},
+        {pf_fast_1_1, pf_fast_1_2, pf_fast_1_3, pf_fast_1_4},
+        {pf_fast_2_1, pf_fast_2_2, pf_fast_2_3, pf_fast_2_4},
+        {pf_fast_3_1, pf_fast_3_2, pf_fast_3_3, pf_fast_3_4},
+    };
+    if (ftype < ST_FILTER_PTEX_BOX || ftype > ST_FILTER_PTEX_MITCHELL || dt > 3 || nc < 1 ||
+        nc > 4 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 #else
 
 int pf_have_avx2(void)
@@ -268,6 +500,12 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 {
     pk_kernel_eval(p, x1u, su, wu, nu);
     pk_kernel_eval(p, x1v, sv, wv, nv);
+}
+
+pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
+{
+    (void)dt; (void)nc; (void)ftype;
+    return NULL;
 }
 
 #endif

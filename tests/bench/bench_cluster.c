@@ -1,11 +1,19 @@
 /* tests/bench/bench_cluster.c - the cluster (docs/cluster.md) on this machine, against a real
  * etcd on loopback.
  *
- * Usage: bench_cluster [--json PATH] [--kills N] [--secs S]
+ * Usage: bench_cluster [--json PATH] [--kills N] [--secs S] [--routing-only]
  *   routing:    SAMPLE of one set (64 bilinear queries per request) through a direct
  *               connection to the set's first owner (A) vs through stc_cluster (B), same
  *               requests, alternating A B A B, 7 rounds of 1000 requests a side; medians of the
- *               per-request time and their ratio B/A.
+ *               per-request time and their ratio B/A. Then the same pipelined PIPE_DEPTH deep:
+ *               stc_append_sample / stc_get_reply on the direct connection (A) vs
+ *               stc_cluster_append_sample / stc_cluster_get_reply (B), 7 rounds of 2000.
+ *   client throughput: a cluster grown from 1 to 2 to 3 nodes (R=3: every node holds every
+ *               set), 12 sets; 2 client threads, each with its own stc_cluster, sample the sets
+ *               in turn (1024 bilinear queries per request) for --secs / 2 seconds with the
+ *               blocking client (A: one stc_cluster_sample at a time, as before pipelining) and
+ *               pipelined (B: PIPE_DEPTH outstanding per handle, each request to its set's
+ *               first owner), A B A B A B at each size; aggregate queries/s (medians), B/A.
  *   failover:   3 nodes, R=2; a client samples a set through stc_cluster; its first owner is
  *               killed with SIGKILL; the time from the kill to the first successful read of that
  *               set, over --kills kills (default 10; the node is restarted and the cluster
@@ -150,28 +158,107 @@ static int bench_routing(stc_cluster *cl)
     char host[64];
     int port = 0;
     sscanf(nodes[idx[0]].addr, "%63[^:]:%d", host, &port);
-    direct = stc_connect(host, (unsigned)port, 5000, &err);
+    stc_opts o;   /* the options stc_cluster gives its connections (5 s request timeout) */
+    memset(&o, 0, sizeof o);
+    o.request_timeout_ms = 5000;
+    direct = stc_connect_opts(host, (unsigned)port, &o, &err, NULL, 0);
     if (!direct)
         return -1;
     double a[7], b[7];
     stc_sample_result r;
-    for (int round = 0; round < 7; round++) {
+    for (int round = 0; round < 14; round++) {   /* A B, then B A: neither always goes first */
+        int cluster_side = (round % 2) ^ ((round / 2) % 2);
         double t0 = st_bench_now();
         for (int k = 0; k < 1000; k++)
-            if (stc_sample(direct, "b00", &SOPTS, q, 64, &r) != 0)
+            if ((cluster_side ? stc_cluster_sample(cl, "b00", &SOPTS, q, 64, &r)
+                              : stc_sample(direct, "b00", &SOPTS, q, 64, &r)) != 0)
                 return -1;
-        a[round] = (st_bench_now() - t0) / 1000 * 1e6;
-        t0 = st_bench_now();
-        for (int k = 0; k < 1000; k++)
-            if (stc_cluster_sample(cl, "b00", &SOPTS, q, 64, &r) != 0)
-                return -1;
-        b[round] = (st_bench_now() - t0) / 1000 * 1e6;
+        (cluster_side ? b : a)[round / 2] = (st_bench_now() - t0) / 1000 * 1e6;
     }
     routing_direct_us = st_bench_median(a, 7);
     routing_cluster_us = st_bench_median(b, 7);
     printf("routing: direct %.1f us/request, cluster client %.1f us/request, ratio %.3f "
-           "(medians of 7 alternating rounds of 1000 SAMPLE x 64)\n", routing_direct_us,
+           "(medians of 7 alternating rounds of 1000 SAMPLE x 64, same connection options)\n",
+           routing_direct_us,
            routing_cluster_us, routing_cluster_us / routing_direct_us);
+    stc_close(direct);
+    free(q);
+    return 0;
+}
+
+static double pipe_direct_us, pipe_cluster_us;
+#define PIPE_DEPTH 8
+
+/* n requests PIPE_DEPTH deep on a direct connection (cl NULL) or through cl; us per request */
+static double pipe_round(stc_conn *direct, stc_cluster *cl, const char *const *sets,
+                         int nsets, const stc_query *q, size_t nq, int n)
+{
+    double t0 = st_bench_now();
+    int sent = 0, got = 0;
+    while (got < n) {
+        while (sent < n && sent - got < PIPE_DEPTH) {
+            uint32_t id;
+            const char *set = sets[sent % nsets];
+            int rc = cl ? stc_cluster_append_sample(cl, set, &SOPTS, q, nq, &id)
+                        : stc_append_sample(direct, set, &SOPTS, q, nq, &id);
+            if (rc) {
+                fprintf(stderr, "append: %s\n", cl ? stc_cluster_errmsg(cl) : stc_errmsg(direct));
+                return -1;
+            }
+            sent++;
+        }
+        int rc, st;
+        if (cl) {
+            stc_cluster_reply r;
+            rc = stc_cluster_get_reply(cl, -1, &r);
+            st = r.status;
+        } else {
+            stc_reply r;
+            rc = stc_get_reply(direct, -1, &r);
+            st = r.status;
+        }
+        if (rc || st) {
+            fprintf(stderr, "get_reply: %s %s\n", stc_strerror(rc ? rc : st),
+                    cl ? stc_cluster_errmsg(cl) : stc_errmsg(direct));
+            return -1;
+        }
+        got++;
+    }
+    return (st_bench_now() - t0) / n * 1e6;
+}
+
+static int bench_routing_pipelined(stc_cluster *cl)
+{
+    stc_query *q = make_queries(64);
+    size_t idx[1];
+    stc_cluster_rank(cl, "b00", idx, 1);
+    const stc_cluster_node *nodes;
+    stc_cluster_nodes(cl, &nodes);
+    char host[64];
+    int port = 0, err;
+    sscanf(nodes[idx[0]].addr, "%63[^:]:%d", host, &port);
+    stc_opts o;   /* the options stc_cluster gives its connections (5 s request timeout) */
+    memset(&o, 0, sizeof o);
+    o.request_timeout_ms = 5000;
+    stc_conn *direct = stc_connect_opts(host, (unsigned)port, &o, &err, NULL, 0);
+    if (!direct)
+        return -1;
+    const char *set[] = {"b00"};
+    double a[7], b[7];
+    for (int round = 0; round < 7; round++) {   /* A B, then B A: neither always goes first */
+        if (round % 2 == 0)
+            a[round] = pipe_round(direct, NULL, set, 1, q, 64, 2000);
+        b[round] = pipe_round(NULL, cl, set, 1, q, 64, 2000);
+        if (round % 2 == 1)
+            a[round] = pipe_round(direct, NULL, set, 1, q, 64, 2000);
+        if (a[round] < 0 || b[round] < 0)
+            return -1;
+    }
+    pipe_direct_us = st_bench_median(a, 7);
+    pipe_cluster_us = st_bench_median(b, 7);
+    printf("routing, pipelined %d deep: direct %.2f us/request, cluster client %.2f us/request, "
+           "ratio %.3f (medians of 7 alternating rounds of 2000 SAMPLE x 64)\n", PIPE_DEPTH,
+           pipe_direct_us, pipe_cluster_us, pipe_cluster_us / pipe_direct_us);
     stc_close(direct);
     free(q);
     return 0;
@@ -256,6 +343,133 @@ static int bench_throughput(double secs)
                "query\n", nn, tput_qps[nn], tput_cpu_us[nn]);
     }
     return 0;
+}
+
+/* ---- client throughput: blocking vs pipelined stc_cluster, 1 / 2 / 3 nodes ------------------ */
+
+#define CT_SETS 12
+#define CT_THREADS 2
+#define CT_BATCH 1024
+static const char *CT_NAMES[CT_SETS] = {"c00", "c01", "c02", "c03", "c04", "c05",
+                                        "c06", "c07", "c08", "c09", "c10", "c11"};
+
+typedef struct ct_arg {
+    stc_cluster *cl;
+    int pipelined;
+    double t_end;
+    uint64_t queries;
+    int failed;
+} ct_arg;
+
+static void *ct_main(void *p)
+{
+    ct_arg *a = p;
+    stc_query *q = make_queries(CT_BATCH);
+    stc_sample_result r;
+    int sent = 0, out = 0;
+    while (q && !a->failed) {
+        int issuing = st_bench_now() < a->t_end;
+        if (!a->pipelined) {
+            if (!issuing)
+                break;
+            if (stc_cluster_sample(a->cl, CT_NAMES[sent++ % CT_SETS], &SOPTS, q, CT_BATCH, &r))
+                a->failed = 1;
+            else
+                a->queries += CT_BATCH;
+            continue;
+        }
+        while (issuing && out < PIPE_DEPTH) {
+            uint32_t id;
+            if (stc_cluster_append_sample(a->cl, CT_NAMES[sent++ % CT_SETS], &SOPTS, q, CT_BATCH,
+                                          &id)) {
+                a->failed = 1;
+                break;
+            }
+            out++;
+        }
+        if (!out)
+            break;
+        stc_cluster_reply rep;
+        if (stc_cluster_get_reply(a->cl, -1, &rep) || rep.status)
+            a->failed = 1;
+        else
+            a->queries += CT_BATCH;
+        out--;
+    }
+    free(q);
+    return NULL;
+}
+
+static double ct_qps[MAXN + 1][2], ct_ratio[MAXN + 1];
+static int ct_bad;
+static int bench_client_throughput(double secs)
+{
+    if (st_etcd_start(&ETCD, "/bt") != 0)
+        return -1;
+    for (int i = 0; i < MAXN; i++)
+        g_live[i] = 0;   /* the nodes start one by one below */
+    for (int nn = 1; nn <= MAXN; nn++) {
+        char id[16];
+        snprintf(id, sizeof id, "n%d", nn - 1);
+        const char *args[] = {"--cluster", ETCD.url, "--node-id", id, "--advertise",
+                              "127.0.0.1:0", "--replicas", "3", "--lease-ttl", "2",
+                              "--repair-interval", "1", "--no-default-set", NULL};
+        if (st_daemon_init(&NODE[nn - 1]) != 0 || st_daemon_start(&NODE[nn - 1], args) != 0)
+            return -1;
+        g_live[nn - 1] = 1;
+        if (nn == 1) {
+            snprintf(SEEDS, sizeof SEEDS, "127.0.0.1:%d", NODE[0].port);
+            int err;
+            char msg[256];
+            stc_cluster *up = stc_cluster_open(SEEDS, NULL, &err, msg, sizeof msg);
+            if (!up || upload_sets(up, CT_SETS, "c") != 0)
+                return -1;
+            stc_cluster_close(up);
+        }
+        g_nsets = CT_SETS;
+        g_R = nn;
+        if (st_wait_until(settled, NULL, 120000) != 0)
+            return -1;
+        double qa[3], qb[3];
+        for (int round = 0; round < 6; round++) {
+            int pip = round % 2;
+            ct_arg args2[CT_THREADS];
+            pthread_t th[CT_THREADS];
+            double t0 = st_bench_now();
+            for (int k = 0; k < CT_THREADS; k++) {
+                int err;
+                char msg[256];
+                args2[k] = (ct_arg){stc_cluster_open(SEEDS, NULL, &err, msg, sizeof msg), pip,
+                                    0, 0, 0};
+                if (!args2[k].cl)
+                    return -1;
+            }
+            t0 = st_bench_now();
+            for (int k = 0; k < CT_THREADS; k++) {
+                args2[k].t_end = t0 + secs / 2;
+                pthread_create(&th[k], NULL, ct_main, &args2[k]);
+            }
+            uint64_t total = 0;
+            for (int k = 0; k < CT_THREADS; k++) {
+                pthread_join(th[k], NULL);
+                total += args2[k].queries;
+                ct_bad += args2[k].failed;
+                stc_cluster_close(args2[k].cl);
+            }
+            (pip ? qb : qa)[round / 2] = (double)total / (st_bench_now() - t0);
+        }
+        ct_qps[nn][0] = st_bench_median(qa, 3);
+        ct_qps[nn][1] = st_bench_median(qb, 3);
+        ct_ratio[nn] = ct_qps[nn][1] / ct_qps[nn][0];
+        printf("client throughput, %d node(s): blocking stc_cluster %.0f queries/s, pipelined "
+               "(%d deep) %.0f queries/s, ratio %.2f (%d threads x %d queries per request, "
+               "medians of 3 alternating rounds)\n", nn, ct_qps[nn][0], PIPE_DEPTH, ct_qps[nn][1],
+               ct_ratio[nn], CT_THREADS, CT_BATCH);
+    }
+    stop_cluster();
+    if (ct_bad)
+        fprintf(stderr, "client throughput: %d client threads saw a failed request\n", ct_bad);
+    return ct_bad ? -1 : 0;
 }
 
 /* ---- failover ------------------------------------------------------------------------------- */
@@ -361,7 +575,7 @@ static int bench_rereplicate(void)
 int main(int argc, char **argv)
 {
     const char *json = NULL;
-    int kills = 10;
+    int kills = 10, routing_only = 0;
     double secs = 3;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json") && i + 1 < argc)
@@ -370,8 +584,11 @@ int main(int argc, char **argv)
             kills = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--secs") && i + 1 < argc)
             secs = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--routing-only"))
+            routing_only = 1;
         else {
-            fprintf(stderr, "usage: %s [--json PATH] [--kills N] [--secs S]\n", argv[0]);
+            fprintf(stderr, "usage: %s [--json PATH] [--kills N] [--secs S] [--routing-only]\n",
+                    argv[0]);
             return 2;
         }
     }
@@ -404,11 +621,21 @@ int main(int argc, char **argv)
     g_nsets = 1;
     g_R = 3;
     rc = rc || st_wait_until(settled, NULL, 60000) != 0 || bench_routing(cl) != 0 ||
-         bench_throughput(secs) != 0;
+         bench_routing_pipelined(cl) != 0 || (!routing_only && bench_throughput(secs) != 0);
     stc_cluster_close(cl);
     stop_cluster();
     if (rc) {
         fprintf(stderr, "bench_cluster: the R=3 part failed\n");
+        return 1;
+    }
+
+    if (routing_only) {
+        unlink(FILE_PTX);
+        return 0;
+    }
+    /* blocking vs pipelined cluster client over 1, 2, 3 nodes */
+    if (bench_client_throughput(secs) != 0) {
+        fprintf(stderr, "bench_cluster: the client throughput part failed\n");
         return 1;
     }
 
@@ -441,6 +668,16 @@ int main(int argc, char **argv)
         for (int nn = 1; nn <= MAXN; nn++)
             fprintf(o, "%s{\"nodes\":%d,\"queries_per_s\":%.0f,\"cpu_us_per_query\":%.4f}",
                     nn > 1 ? "," : "", nn, tput_qps[nn], tput_cpu_us[nn]);
+        fprintf(o, "],\"routing_pipelined\":{\"depth\":%d,\"direct_us\":%.3f,"
+                "\"cluster_us\":%.3f,\"ratio\":%.4f,\"batch\":64,\"rounds\":7},"
+                "\"client_throughput\":[", PIPE_DEPTH, pipe_direct_us, pipe_cluster_us,
+                pipe_cluster_us / pipe_direct_us);
+        for (int nn = 1; nn <= MAXN; nn++)
+            fprintf(o, "%s{\"nodes\":%d,\"blocking_queries_per_s\":%.0f,"
+                    "\"pipelined_queries_per_s\":%.0f,\"ratio\":%.3f,\"threads\":%d,"
+                    "\"batch\":%d,\"depth\":%d,\"sets\":%d}", nn > 1 ? "," : "", nn,
+                    ct_qps[nn][0], ct_qps[nn][1], ct_ratio[nn], CT_THREADS, CT_BATCH, PIPE_DEPTH,
+                    CT_SETS);
         fprintf(o, "]}\n");
         fclose(o);
     }

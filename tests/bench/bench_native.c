@@ -334,7 +334,7 @@ int main(int argc, char **argv)
                 snprintf(sub, sizeof sub, "%s.ooc", dir);
                 snprintf(txdir, sizeof txdir, "%s.tx", dir);
                 snprintf(txcache, sizeof txcache, "%s/tx-cache", scratch);
-                int n = nl_link_subset(dir, sets, nsets, ooc_mb, sub, 0);
+                int n = nl_link_subset(dir, sets, nsets, ooc_mb, sub);
                 ooc_cfg oc = {sub, txcache, txdir, sets, n, secs, rounds, threads,
                               (uint64_t)(budget_mb * 1048576.0),
                               getenv("SEAMTEX_BENCH_TX_COMPRESSION")};

@@ -36,6 +36,8 @@
  *                   [--files SUBSTR[,SUBSTR..]]   (=NAME: that file only) [--filters point,bilinear,..]
  *                   [--fp 0.25,4,16] [--order random|coherent|both]
  *                   [--modes traverse[,discard][,clamp]] [--min-ms MS] [--reps-sample N]
+ *                   [--batches N]   (exactly N timed batches per cell, one run: a fixed
+ *                                    amount of work, for instruction counts under callgrind)
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
  * To compare two builds, run their binaries alternately (A B A B) and take the medians. */
 #include <dirent.h>
@@ -69,6 +71,7 @@ static const char *dtnames[4] = {"u8", "u16", "half", "f32"};     /* st_dtype or
 typedef struct opts {
     const char *json, *files, *queries, *ptx, *dump;
     int reps, reps_sample, import_only, sample_only, order_mask, mode_mask;
+    long batches;                /* --batches: exactly this many timed batches, one run */
     unsigned filter_mask;
     double min_s;
     int nfp;
@@ -298,6 +301,13 @@ static double time_batch(const opts *op, const st_set *s, int flt, int mode, con
     long iters = 1;
     /* find a batch count that lasts min_s (the first, untimed call builds the table) */
     st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+    if (op->batches > 0) { /* a fixed amount of work, for instruction counts (callgrind) */
+        double t0 = now();
+        for (long k = 0; k < op->batches; k++)
+            st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+        double d = now() - t0;
+        return (double)n * (double)op->batches / (d > 0 ? d : 1e-9) / 1e6;
+    }
     for (;;) {
         double t0 = now();
         for (long k = 0; k < iters; k++)
@@ -541,7 +551,7 @@ static int usage(void)
 {
     fprintf(stderr, "usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]"
             " [--files S,..] [--filters F,..] [--fp X,..] [--order random|coherent|both]"
-            " [--modes M,..] [--min-ms MS] [--reps-sample N]\n"
+            " [--modes M,..] [--min-ms MS] [--reps-sample N] [--batches N]\n"
             "       bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH]\n");
     return 2;
 }
@@ -566,6 +576,8 @@ int main(int argc, char **argv)
             op.json = v, i++;
         else if (!strcmp(a, "--reps"))
             op.reps = atoi(v), i++;
+        else if (!strcmp(a, "--batches"))
+            op.batches = atol(v), i++;
         else if (!strcmp(a, "--reps-sample"))
             op.reps_sample = atoi(v), i++;
         else if (!strcmp(a, "--min-ms"))

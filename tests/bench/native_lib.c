@@ -154,8 +154,7 @@ int nl_make_library(const char *dir, double mb, nl_set **out)
     return n;
 }
 
-int nl_link_subset(const char *dir, const nl_set *sets, int n, double mb, const char *sub,
-                   int copy_native)
+int nl_link_subset(const char *dir, const nl_set *sets, int n, double mb, const char *sub)
 {
     char p[1200], q[1200];
     snprintf(p, sizeof p, "%s/sets", sub);
@@ -177,9 +176,7 @@ int nl_link_subset(const char *dir, const nl_set *sets, int n, double mb, const 
             snprintf(p, sizeof p, "%s/sets/%s/%s", dir, sets[k].name, de->d_name);
             snprintf(q, sizeof q, "%s/sets/%s/%s", sub, sets[k].name, de->d_name);
             struct stat st;
-            int copy = copy_native && !strcmp(de->d_name, "set.native");
-            if (stat(p, &st) == 0 && S_ISREG(st.st_mode) &&
-                (copy ? nl_copy_file(p, q) : link(p, q)) != 0) {
+            if (stat(p, &st) == 0 && S_ISREG(st.st_mode) && link(p, q) != 0) {
                 closedir(d);
                 return -1;
             }

@@ -47,11 +47,9 @@ int nl_copy_file(const char *from, const char *to);
 int nl_make_library(const char *dir, double mb, nl_set **out);
 
 /* A data dir at sub holding hard links to the first sets of the library at dir whose texels
- * add up to at least mb MB (all when mb <= 0 or past the end); with copy_native, the native
- * files are copies (their own inodes and page cache) and the rest hard links. Returns how
- * many, -1 on error. */
-int nl_link_subset(const char *dir, const nl_set *sets, int n, double mb, const char *sub,
-                   int copy_native);
+ * add up to at least mb MB (all when mb <= 0 or past the end). Returns how many, -1 on
+ * error. */
+int nl_link_subset(const char *dir, const nl_set *sets, int n, double mb, const char *sub);
 
 typedef struct nl_daemon {
     pid_t pid;

@@ -12,10 +12,11 @@ and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.
 and PING: closed-loop capacity (8 connections x pipeline 16) and open-loop p50/p99 at 20k
 req/s (8 connections).
 
-A/B: with NET_WIRE_BASE=/path/to/an/older/seamtexd the same runs are made against that
-binary too (TCP only, f32 and, when it offers HELLO cap COMPACT, nothing else), alternating
-A B A B inside each repetition, so before/after figures come from one window of the machine's
-load. Every figure is the median of NET_REPS repetitions (default 3) of NET_SECS seconds
+A/B: with NET_WIRE_BASE=/path/to/an/older/seamtexd the same runs (TCP and Unix, both
+encodings) are made against that binary too, driven by NET_WIRE_BASE_BENCH (an older
+seamtex-bench; default: this one), and with NET_WIRE_ALT_ARGS="--flag value ..." against this
+daemon started with those flags; the variants alternate A B A B inside each repetition, so
+before/after figures come from one window of the machine's load. Every figure is the median of NET_REPS repetitions (default 3) of NET_SECS seconds
 (default 2) after a 0.5 s warm-up; the machine's load average is recorded before and after.
 The client runs on the same cores as the daemon: throughput ratios on a loaded 2-core
 machine say less than the CPU-per-query ratio, which does not depend on how much CPU the
@@ -34,6 +35,8 @@ B = os.path.join(ROOT, os.environ.get('B', 'build'))
 DAEMON = os.path.join(B, 'seamtexd')
 BENCH = os.path.join(B, 'seamtex-bench')
 BASE = os.environ.get('NET_WIRE_BASE', '')
+BASE_BENCH = os.environ.get('NET_WIRE_BASE_BENCH', '')
+ALT_ARGS = os.environ.get('NET_WIRE_ALT_ARGS', '').split()
 REPS = int(os.environ.get('NET_REPS', '3'))
 SECS = os.environ.get('NET_SECS', '2')
 BATCHES = [int(x) for x in os.environ.get('NET_BATCHES', '256,1024,4096,16384').split(',')]
@@ -51,12 +54,13 @@ def cpu_s(pid):
 
 
 class Daemon:
-    def __init__(self, exe, unix):
+    def __init__(self, exe, unix, args=(), bench_exe=BENCH):
+        self.bench = bench_exe
         self.dir = tempfile.mkdtemp(prefix='seamtex-netwire.')
         listen = f'unix:{self.dir}/s.sock' if unix else '127.0.0.1:0'
         port = os.path.join(self.dir, 'port')
         self.p = subprocess.Popen([exe, '--listen', listen, '--data-dir', self.dir + '/data',
-                                   '--port-file', port, '--log-level', 'warn'],
+                                   '--port-file', port, '--log-level', 'warn'] + list(args),
                                   stderr=open(self.dir + '/log', 'w'))
         for _ in range(600):
             if self.p.poll() is not None:
@@ -66,7 +70,7 @@ class Daemon:
             time.sleep(0.05)
         self.addr = ['-h', listen] if unix else ['-p', open(port).read().strip()]
         # readiness: one PING
-        bench(self.addr + ['-n', '1', '-d', '1', '-w', '0'])
+        bench(self.addr + ['-n', '1', '-d', '1', '-w', '0'], self.bench)
 
     def stop(self):
         self.p.terminate()
@@ -74,9 +78,9 @@ class Daemon:
         subprocess.run(['rm', '-rf', self.dir])
 
 
-def bench(args):
+def bench(args, exe=BENCH):
     with tempfile.NamedTemporaryFile(suffix='.json') as j:
-        r = subprocess.run([BENCH] + args + ['-q', '-j', j.name], capture_output=True,
+        r = subprocess.run([exe] + args + ['-q', '-j', j.name], capture_output=True,
                            text=True, timeout=300)
         try:
             return json.load(open(j.name))
@@ -96,7 +100,7 @@ def sample_run(d, name, batch, enc, conns):
     c0 = cpu_s(d.p.pid)
     j = bench(d.addr + ['-o', 'sample', '-b', str(batch), '-m', 'traverse', '-f', 'bilinear',
                         '-c', str(conns), '-T', str(conns), '-P', '2', '-d', SECS, '-w', '0.5']
-              + ENCODINGS[enc])
+              + ENCODINGS[enc], d.bench)
     c1 = cpu_s(d.p.pid)
     if not j:
         return
@@ -110,10 +114,12 @@ def sample_run(d, name, batch, enc, conns):
 
 
 def ping_runs(d, name):
-    j = bench(d.addr + ['-o', 'ping', '-c', '8', '-T', '1', '-P', '16', '-d', SECS, '-w', '0.5'])
+    j = bench(d.addr + ['-o', 'ping', '-c', '8', '-T', '1', '-P', '16', '-d', SECS, '-w', '0.5'],
+              d.bench)
     if j:
         add(('ping', name, 'capacity'), j.get('achieved_rate', 0))
-    j = bench(d.addr + ['-o', 'ping', '-c', '8', '-T', '1', '-r', '20000', '-d', SECS, '-w', '0.5'])
+    j = bench(d.addr + ['-o', 'ping', '-c', '8', '-T', '1', '-r', '20000', '-d', SECS, '-w', '0.5'],
+              d.bench)
     if j:
         c = j.get('corrected_us', {})
         add(('ping', name, 'p50_us'), c.get('p50', 0))
@@ -126,9 +132,14 @@ def main():
         if not os.access(exe, os.X_OK):
             sys.exit(f'net_wire: {exe} is missing (make first)')
     load0 = load()
-    variants = [('tcp', DAEMON, False), ('unix', DAEMON, True)]
+    # (name, daemon, unix socket, daemon flags, load tester)
+    variants = [('tcp', DAEMON, False, [], BENCH), ('unix', DAEMON, True, [], BENCH)]
     if BASE:
-        variants.insert(0, ('base-tcp', BASE, False))
+        bb = BASE_BENCH or BENCH
+        variants[:0] = [('base-tcp', BASE, False, [], bb), ('base-unix', BASE, True, [], bb)]
+    if ALT_ARGS:
+        variants += [('alt-tcp', DAEMON, False, ALT_ARGS, BENCH),
+                     ('alt-unix', DAEMON, True, ALT_ARGS, BENCH)]
     for rep in range(REPS):
         for batch in BATCHES:
             for t in (1, 2):
@@ -138,16 +149,14 @@ def main():
                     add((batch, 'inproc', t, 'qps'), j.get('queries_per_s', 0))
                     q = j.get('queries_per_cpu_s', 0)
                     add((batch, 'inproc', t, 'ns_cpu'), 1e9 / q if q else 0)
-        for name, exe, unix in variants:
-            d = Daemon(exe, unix)
+        for name, exe, unix, args, bexe in variants:
+            d = Daemon(exe, unix, args, bexe)
             try:
                 for batch in BATCHES:
                     for enc in ENCODINGS:
-                        if enc != 'f32' and name.startswith('base'):
-                            continue
                         for conns in (1, 2):
                             sample_run(d, name, batch, enc, conns)
-                if name != 'unix':
+                if not unix:
                     ping_runs(d, name)
             finally:
                 d.stop()
@@ -169,7 +178,7 @@ def main():
             rows.append(dict(batch=batch, encoding='-', run='inproc', threads=t,
                              queries_per_s=q, ns_cpu_per_query=ns))
         for enc in ENCODINGS:
-            for name, _, _ in variants:
+            for name, *_ in variants:
                 for conns in (1, 2):
                     k = (batch, enc, name, conns)
                     if (*k, 'qps') not in med:
@@ -187,8 +196,8 @@ def main():
                                      ns_daemon_cpu_per_query=ns,
                                      cpu_ratio_vs_inproc=rc))
     ping = {}
-    for name, _, _ in variants:
-        if name == 'unix':
+    for name, _, unix, _, _ in variants:
+        if unix:
             continue
         ping[name] = {m: med.get(('ping', name, m), 0) for m in ('capacity', 'p50_us', 'p99_us')}
         print(f"PING {name:<9} capacity {ping[name]['capacity']:.0f} req/s (8 x P16); "
@@ -197,7 +206,8 @@ def main():
     doc = {'benchmark': 'net_wire', 'machine': {'cores': os.cpu_count(), 'loadavg_before': load0,
                                                 'loadavg_after': load1},
            'reps': REPS, 'seconds': float(SECS), 'mode': 'traverse', 'filter': 'bilinear',
-           'pipeline': 2, 'base_daemon': BASE or None,
+           'pipeline': 2, 'base_daemon': BASE or None, 'base_bench': BASE_BENCH or None,
+           'alt_args': ALT_ARGS or None,
            'encodings': {'f32': '28-byte queries, f32 replies',
                          'compact': '14-byte queries (UV16 | FACE16), f16 replies'},
            'targets': {'ratio_at_4096_and_up': 0.8, 'ratio_at_256': 0.5,

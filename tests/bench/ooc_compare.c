@@ -2,10 +2,11 @@
  *
  * Three sides serve one library under the same memory budget, with the same query stream and
  * the same number of threads, alternating round by round (A B C, C B A, ...):
- *   daemon  seamtexd --memory-budget B on its own copy of the native files (the two seamtex
- *           sides must not share a page cache: each one's mincore figure would count the
- *           other's pages): each thread has its own connection and sends SAMPLE batches
- *           (traverse, bilinear, f32 out) and waits for the reply.
+ *   daemon  seamtexd --memory-budget B on its own data dir (hard links to the same native
+ *           files: each seamtex side counts only the pages mapped in its own process, so they
+ *           may share the page cache, as OIIO's side shares it with its .tx files): each
+ *           thread has its own connection and sends SAMPLE batches (traverse, bilinear, f32
+ *           out) and waits for the reply.
  *   inproc  seamtex in this process: the daemon's own registry, data-dir load and budget
  *           thread (sts_server_init, sts_budget_start; no sockets are used), each batch as
  *           the SAMPLE handler runs it (registry get, budget touch, st_sample_batch).
@@ -481,19 +482,18 @@ int ooc_compare(const ooc_cfg *c, ooc_res *r)
            "%d threads per side, %d rounds of %.1f s\n", c->nsets, r->stored_mb, r->budget_mb,
            r->tx_disk_mb, r->tx_compression, r->threads, r->rounds, c->secs / r->rounds);
 
-    /* the daemon, on its own copy of the native files: two processes mapping the same files
-     * share their page cache, and each one's mincore figure would count the other's pages,
-     * which it cannot release */
+    /* the daemon, on its own data dir of hard links to the same files (its budget counts the
+     * pages mapped in its process, not the page cache both sides share) */
     nl_daemon d;
     char bs[32], ddir[1100];
     snprintf(bs, sizeof bs, "%llu", (unsigned long long)budget);
     snprintf(ddir, sizeof ddir, "%s.d", c->dir);
     double tc = nl_now_s();
-    if (nl_link_subset(c->dir, c->sets, c->nsets, 0, ddir, 1) != c->nsets) {
-        fprintf(stderr, "ooc: cannot copy the library to %s\n", ddir);
+    if (nl_link_subset(c->dir, c->sets, c->nsets, 0, ddir) != c->nsets) {
+        fprintf(stderr, "ooc: cannot link the library to %s\n", ddir);
         goto out_budget;
     }
-    printf("ooc: the daemon's copy of the native files in %.1f s\n", nl_now_s() - tc);
+    printf("ooc: the daemon's data dir linked in %.1f s\n", nl_now_s() - tc);
     const char *const extra[] = {"--memory-budget", bs, NULL};
     if (nl_daemon_start(&d, ddir, extra) != 0)
         goto out_ddir;

@@ -1,9 +1,12 @@
 /* tests/common/cluster_fixture.c - see cluster_fixture.h. */
 #include "cluster_fixture.h"
 
+#include <fcntl.h>
+#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 
 #include "ptx_fixture.h"
 
@@ -41,7 +44,7 @@ int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300])
     return 0;
 }
 
-static void center_query(stc_sample_opts *o, stc_query *q)
+void st_red_query(stc_sample_opts *o, stc_query *q)
 {
     memset(o, 0, sizeof *o);
     o->mode = 1;
@@ -55,7 +58,7 @@ int st_red_at(stc_conn *c, const char *set, float *red)
     stc_sample_opts o;
     stc_query q;
     stc_sample_result r;
-    center_query(&o, &q);
+    st_red_query(&o, &q);
     int rc = stc_sample(c, set, &o, &q, 1, &r);
     if (rc == 0)
         *red = ((const float *)r.values)[0];
@@ -67,7 +70,7 @@ int st_cluster_red_at(stc_cluster *cl, const char *set, float *red)
     stc_sample_opts o;
     stc_query q;
     stc_sample_result r;
-    center_query(&o, &q);
+    st_red_query(&o, &q);
     int rc = stc_cluster_sample(cl, set, &o, &q, 1, &r);
     if (rc == 0)
         *red = ((const float *)r.values)[0];
@@ -86,4 +89,37 @@ int st_cluster_tint_reds(stc_cluster *cl, int n, char (*files)[300], float *red)
             return rc;
     }
     return 0;
+}
+
+extern char **environ;
+
+int st_cluster_cli(const char *dir, const char *where, const char *const *args, char *out,
+                   size_t cap)
+{
+    char prog[512], outf[400];
+    const char *b = getenv("SEAMTEX_BUILD");
+    snprintf(prog, sizeof prog, "%s/seamtex", b && *b ? b : "build");
+    snprintf(outf, sizeof outf, "%s/cli.out", dir);
+    const char *argv[16] = {prog, "--cluster", where};
+    int ac = 3;
+    for (int i = 0; args[i] && ac < 15; i++)
+        argv[ac++] = args[i];
+    argv[ac] = NULL;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, outf, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    int rc = posix_spawn(&pid, prog, &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0)
+        return -1;
+    int st;
+    while (waitpid(pid, &st, 0) < 0)
+        ;
+    FILE *f = fopen(outf, "rb");
+    size_t n = f ? fread(out, 1, cap - 1, f) : 0;
+    out[n] = 0;
+    if (f)
+        fclose(f);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
 }

@@ -25,9 +25,17 @@ int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300]);
  * and deletes it again. 0, or the first failing call's status. */
 int st_cluster_tint_reds(stc_cluster *cl, int n, char (*files)[300], float *red);
 
+/* The SAMPLE the red helpers send: one bilinear query at the middle of face 0. */
+void st_red_query(stc_sample_opts *o, stc_query *q);
 /* The red channel at the middle of face 0 of set through c into *red; 0 or the status. */
 int st_red_at(stc_conn *c, const char *set, float *red);
 /* The same through the cluster client. */
 int st_cluster_red_at(stc_cluster *cl, const char *set, float *red);
+
+/* Runs `$SEAMTEX_BUILD/seamtex --cluster where args...` (posix_spawn: no fork in a process
+ * linking OIIO; args NULL-terminated, at most 12), its stdout into out (cap bytes, through a
+ * file in dir); returns the exit status (128 when killed), or -1 when it could not start. */
+int st_cluster_cli(const char *dir, const char *where, const char *const *args, char *out,
+                   size_t cap);
 
 #endif

@@ -9,10 +9,7 @@
  * Lease TTL 2 s and a repair pass every second keep it bounded; the waits are deadlines (60 s)
  * against a hang, never speed checks. etcd is a declared dependency: without it the test fails.
  */
-#include <fcntl.h>
 #include <pthread.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -200,37 +197,12 @@ static void *race_main(void *arg)
 
 /* ---- the CLI ------------------------------------------------------------------------------------ */
 
-extern char **environ;
-
-/* runs `seamtex --cluster seeds args...` (posix_spawn: no fork in a process linking OIIO);
- * its stdout into out; returns the exit status */
+/* runs `seamtex --cluster seeds args...`; its stdout into out; returns the exit status */
 static int run_cli(const char *seeds, const char *const *args, char *out, size_t cap)
 {
-    char prog[512], outf[400];
-    const char *b = getenv("SEAMTEX_BUILD");
-    snprintf(prog, sizeof prog, "%s/seamtex", b && *b ? b : "build");
-    snprintf(outf, sizeof outf, "%s/cli.out", NODE[0].dir);
-    const char *argv[16] = {prog, "--cluster", seeds};
-    int ac = 3;
-    for (int i = 0; args[i] && ac < 15; i++)
-        argv[ac++] = args[i];
-    argv[ac] = NULL;
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, outf, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    pid_t pid;
-    int rc = posix_spawn(&pid, prog, &fa, NULL, (char *const *)argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    assert_int_equal(rc, 0);
-    int st;
-    while (waitpid(pid, &st, 0) < 0)
-        ;
-    FILE *f = fopen(outf, "rb");
-    size_t n = f ? fread(out, 1, cap - 1, f) : 0;
-    out[n] = 0;
-    if (f)
-        fclose(f);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+    int rc = st_cluster_cli(NODE[0].dir, seeds, args, out, cap);
+    assert_true(rc >= 0);
+    return rc;
 }
 
 /* ---- the test ------------------------------------------------------------------------------- */

@@ -2,7 +2,8 @@
  * threads (STATS io<i>_conns), compact queries and f16 replies (PROTOCOL.md 4.4.1) that sample
  * bit for bit like the f32 form of the rounded query, and the Unix socket listener (file mode
  * as access control, refused by the kernel for a user without permission; a stale socket
- * replaced; a live one or a non-socket file left alone; the file removed at exit).
+ * replaced; a live one or a non-socket file left alone; the file removed at exit; a 256 KiB
+ * reply leaves in one write).
  *
  * The first tests share one daemon with defaults (2 I/O threads, --heavy-batch 2048 so that
  * large batches run on a worker and split); the Unix-socket tests start their own.
@@ -356,6 +357,58 @@ static void unix_socket_serves_with_its_mode_and_is_removed_at_exit(void **state
     assert_int_equal(errno, ENOENT);
 }
 
+/* The kernel's net.core.wmem_max, or 0 when it cannot be read. */
+static long wmem_max(void)
+{
+    FILE *f = fopen("/proc/sys/net/core/wmem_max", "r");
+    long v = 0;
+    if (f) {
+        if (fscanf(f, "%ld", &v) != 1)
+            v = 0;
+        fclose(f);
+    }
+    return v;
+}
+
+/* A Unix stream socket's in-flight bytes are bounded by the sender's send buffer (208 KiB by
+ * default): the daemon asks for more (unixaddr.h), so a 16384-query reply (256 KiB of RGBA
+ * f32) leaves in one send instead of two or more with waits for EPOLLOUT between them.
+ * Counted in STATS writes: the STATS reply after the first snapshot, then the SAMPLE reply. */
+static void unix_big_reply_leaves_in_one_write(void **state)
+{
+    unix_daemon *u = *state;
+    enum { N = 16384 };
+    /* the buffer the kernel grants is twice the request, capped at wmem_max (doubled) */
+    if (2 * wmem_max() < 2L * N * 4 * 4)
+        skip();
+    assert_int_equal(unix_start(u, "0600"), 0);
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    int err = 0;
+    char msg[256];
+    stc_conn *c = stc_connect_opts(u->addr, 0, &o, &err, msg, sizeof msg);
+    assert_non_null(c);
+    stc_query *q = calloc(N, sizeof *q);
+    assert_non_null(q);
+    for (unsigned i = 0; i < N; i++)
+        q[i] = (stc_query){i % 6, (float)(i % 128) / 128.0f, (float)(i / 128) / 128.0f, 0.001f,
+                           0, 0, 0.001f};
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.filter = STP_FILTER_BILINEAR;
+    stc_sample_result r;
+    assert_int_equal(stc_sample(c, "default", &so, q, N, &r), 0);   /* buffers grown */
+    uint64_t w0 = st_conn_stat(c, "writes");
+    assert_int_equal(stc_sample(c, "default", &so, q, N, &r), 0);
+    assert_int_equal(r.count, N);
+    assert_int_equal(r.nchan, 4);
+    uint64_t w1 = st_conn_stat(c, "writes");
+    assert_int_equal(w1 - w0, 2);
+    free(q);
+    stc_close(c);
+    assert_int_equal(unix_stop(u), 0);
+}
+
 static void unix_socket_mode_is_the_access_control(void **state)
 {
     unix_daemon *u = *state;
@@ -443,6 +496,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(unix_socket_serves_with_its_mode_and_is_removed_at_exit,
                                         unix_setup, unix_teardown),
         cmocka_unit_test_setup_teardown(unix_socket_mode_is_the_access_control, unix_setup,
+                                        unix_teardown),
+        cmocka_unit_test_setup_teardown(unix_big_reply_leaves_in_one_write, unix_setup,
                                         unix_teardown),
         cmocka_unit_test_setup_teardown(unix_stale_socket_is_replaced_live_one_and_files_are_not,
                                         unix_setup, unix_teardown),

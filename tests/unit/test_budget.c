@@ -3,8 +3,13 @@
  *     so that pages faulted in between two ticks stay under the budget; an unlimited budget
  *     never releases;
  *   - the resident measure (sts_budget_set_resident): a mapped set's pages are counted again
- *     (mincore) only when it was sampled since its last measure or in a full pass; otherwise
- *     its last figure stands (a tick must not cost a mincore pass over every mapping).
+ *     (st_native_resident) only when it was sampled since its last measure or in a full pass;
+ *     otherwise its last figure stands (a tick must not cost a pass over every mapping);
+ *   - a pass (sts_budget_pass) releases the least recently sampled mapped sets, whole, down to
+ *     the low mark and no further: the recently sampled ones keep their pages, the released
+ *     ones count 0 and read back the same bytes; a heap set is counted and never released;
+ *   - between full passes a pass takes resident from /proc/self/statm, so pages mapped since
+ *     the last pass count even for sets no sample stamped.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -16,6 +21,7 @@
 #include <string.h>
 
 #include "budget.h"
+#include "registry.h"
 #include "native.h"
 #include "server.h"
 #include "../common/ptx_fixture.h"
@@ -74,33 +80,177 @@ static void test_resident_measured_again_only_for_sampled_sets(void **st)
     for (size_t i = 0; i < m->texel_bytes; i += 4096)
         sum += m->texels[i];
     uint64_t t = (uint64_t)sts_now_ms();
-    uint64_t full = sts_budget_set_resident(m, t, 1);
+    st_native_meter mt;   /* the mapped count; the page-cache count where pagemap is closed */
+    st_native_meter_open(&mt);
+    uint64_t full = sts_budget_set_resident(m, &mt, t, 1);
     assert_true(full >= m->texel_bytes);
-    st_native_release(m);
-    uint64_t after = st_native_resident(m);
-    if (after >= full) {   /* a file system whose page cache ignores POSIX_FADV_DONTNEED */
+    st_native_release(m, &mt);
+    uint64_t after = st_native_resident(m, &mt);
+    if (after >= full) {   /* page-cache count: a file system ignoring POSIX_FADV_DONTNEED */
+        st_native_meter_close(&mt);
         st_set_free(m);
         st_set_free(h);
         st_test_rmtree(dir);
         skip();
     }
     /* not sampled since the last measure: the last figure stands */
-    assert_int_equal(sts_budget_set_resident(m, t + 1, 0), full);
+    assert_int_equal(sts_budget_set_resident(m, &mt, t + 1, 0), full);
     /* a sample stamps the set (sts_budget_touch): the next measure counts its pages again */
     static sts_server srv;   /* no budget thread: touch only stamps a set that is not cold */
     assert_int_equal(sts_budget_touch(&srv, m), 0);
     uint64_t stamp = m->last_use_ms;
     assert_true(stamp >= t);
-    uint64_t fresh = sts_budget_set_resident(m, stamp + 10, 0);
+    uint64_t fresh = sts_budget_set_resident(m, &mt, stamp + 10, 0);
     assert_true(fresh < full);
-    assert_int_equal(fresh, st_native_resident(m));
+    assert_int_equal(fresh, st_native_resident(m, &mt));
     /* pages faulted in without a sample are caught by the next full pass */
     for (size_t i = 0; i < m->texel_bytes; i += 4096)
         sum += m->texels[i];
     uint64_t t2 = stamp + 20;
-    assert_int_equal(sts_budget_set_resident(m, t2, 0), fresh);
-    assert_true(sts_budget_set_resident(m, t2, 1) >= m->texel_bytes);
+    assert_int_equal(sts_budget_set_resident(m, &mt, t2, 0), fresh);
+    assert_true(sts_budget_set_resident(m, &mt, t2, 1) >= m->texel_bytes);
+    st_native_meter_close(&mt);
     st_set_free(m);
+    st_set_free(h);
+    assert_int_equal(st_test_rmtree(dir), 0);
+}
+
+/* Four mapped sets of R bytes sampled in order (set 0 longest ago) and one heap set H, under a
+ * budget whose low mark leaves room for H and two and a half mapped sets: one pass releases
+ * sets 0 and 1 - the two least recently sampled - and nothing else. */
+static void test_pass_releases_the_least_recently_sampled_sets_whole(void **st)
+{
+    (void)st;
+    st_native_meter mt;
+    if (st_native_meter_open(&mt) != ST_NATIVE_COUNT_MAPPED) {
+        printf("# /proc/self/pagemap cannot be read here: skipped\n");
+        skip();
+    }
+    char dir[512], path[4][700];
+    assert_int_equal(st_test_mkdtemp(dir, sizeof dir, "budgetpass"), 0);
+    static sts_server srv;
+    memset(&srv, 0, sizeof srv);
+    srv.reg = st_registry_create();
+    assert_non_null(srv.reg);
+    st_set *h = st_fixture_rgba8_faces(128);
+    assert_non_null(h);
+    for (size_t i = 0; i < h->texel_bytes; i++)
+        h->texels[i] = (uint8_t)(i * 7 + i / 4096);
+    st_error e;
+    st_set *m[4];
+    for (int k = 0; k < 4; k++) {
+        snprintf(path[k], sizeof path[k], "%s/s%d.native", dir, k);
+        assert_int_equal(st_native_write(path[k], h, NULL, &e), 0);
+        assert_int_equal(st_native_open(path[k], 0, NULL, &m[k], &e), 0);
+        char name[16];
+        snprintf(name, sizeof name, "s%d", k);
+        assert_int_equal(st_registry_put(srv.reg, name, m[k], NULL, 0, NULL, &e), 0);
+    }
+    st_set *heap = st_fixture_rgba8_faces(64);
+    assert_non_null(heap);
+    uint64_t H = st_set_memory(heap);
+    assert_int_equal(st_registry_put(srv.reg, "heap", heap, NULL, 0, NULL, &e), 0);
+    uint64_t now = (uint64_t)sts_now_ms();
+    volatile uint8_t sum = 0;
+    for (int k = 0; k < 4; k++) {
+        for (size_t i = 0; i < m[k]->map_len; i += 4096)
+            sum += ((const uint8_t *)m[k]->map)[i];
+        m[k]->last_use_ms = now - 40 + (uint64_t)k * 10;   /* set 3 sampled last */
+    }
+    uint64_t R = m[0]->map_len;
+    for (int k = 0; k < 4; k++)
+        assert_int_equal(st_native_resident(m[k], &mt), R);
+    /* low mark (90%) = H + 2.5 R: releasing set 0 leaves H + 3 R, set 1 then H + 2 R */
+    uint64_t budget = (H + 5 * R / 2) * 10 / 9 + 1, goal;
+    assert_int_equal(sts_budget_plan(H + 4 * R, budget, &goal), 1);
+    sts_budget_pass(&srv, budget);
+    assert_int_equal(srv.budget.releases, 2);
+    assert_int_equal(srv.budget.released_bytes, 2 * R);
+    assert_int_equal(srv.budget.resident, H + 2 * R);
+    for (int k = 0; k < 4; k++) {
+        assert_int_equal(m[k]->cold, k < 2);
+        assert_int_equal(st_native_resident(m[k], &mt), k < 2 ? 0 : R);
+    }
+    /* a second pass has nothing to do: the count went down by what was released */
+    sts_budget_pass(&srv, budget);
+    assert_int_equal(srv.budget.releases, 2);
+    /* the released sets read back the bytes that were written; a sample stamps them first
+     * (sts_budget_touch: cold until then), so the next measure counts their pages again */
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(sts_budget_touch(&srv, m[k]), 1);
+        assert_int_equal(m[k]->cold, 0);
+        assert_memory_equal(m[k]->texels, h->texels, h->texel_bytes);
+    }
+    uint64_t stored, resident;
+    sts_budget_measure(&srv, &stored, &resident);
+    assert_true(resident >= H + 2 * R + 2 * h->texel_bytes);
+    assert_true(resident <= H + 4 * R);
+    (void)sum;
+    st_native_meter_close(&mt);
+    st_registry_free(srv.reg);
+    st_set_free(h);
+    assert_int_equal(st_test_rmtree(dir), 0);
+}
+
+/* With the budget thread started, a pass between full passes takes resident from statm (the
+ * process's mapped file pages): pages mapped since the last pass count at once, even for sets
+ * no sample stamped (the per-set measure would not look at those until the next full pass). */
+static void test_pass_between_full_passes_counts_what_statm_sees(void **st)
+{
+    (void)st;
+    st_native_meter mt;
+    if (st_native_meter_open(&mt) != ST_NATIVE_COUNT_MAPPED) {
+        printf("# /proc/self/pagemap cannot be read here: skipped\n");
+        skip();
+    }
+    char dir[512], path[700];
+    assert_int_equal(st_test_mkdtemp(dir, sizeof dir, "budgetstatm"), 0);
+    static sts_server srv;
+    memset(&srv, 0, sizeof srv);
+    srv.reg = st_registry_create();
+    assert_non_null(srv.reg);
+    st_set *h = st_fixture_rgba8_faces(512);   /* 5.3 MB a set: statm's counters are exact to
+                                                * a few dozen pages */
+    assert_non_null(h);
+    st_error e;
+    st_set *m[4];
+    for (int k = 0; k < 4; k++) {
+        snprintf(path, sizeof path, "%s/s%d.native", dir, k);
+        assert_int_equal(st_native_write(path, h, NULL, &e), 0);
+        assert_int_equal(st_native_open(path, 0, NULL, &m[k], &e), 0);
+        char name[16];
+        snprintf(name, sizeof name, "s%d", k);
+        assert_int_equal(st_registry_put(srv.reg, name, m[k], NULL, 0, NULL, &e), 0);
+    }
+    uint64_t R = m[0]->map_len, budget = (5 * R / 2) * 10 / 9 + 1;
+    assert_int_equal(sts_budget_start(&srv), 0);   /* memory_budget 0: the thread idles */
+    uint64_t now = (uint64_t)sts_now_ms();
+    for (int k = 0; k < 4; k++)
+        m[k]->last_use_ms = now - 4000 + (uint64_t)k * 10;   /* set 3 sampled last */
+    sts_budget_pass(&srv, budget);   /* the first is a full pass: it measures every set */
+    assert_int_equal(srv.budget.releases, 0);
+    /* every page read without a sample: no stamp after the last measure */
+    volatile uint8_t sum = 0;
+    for (int k = 0; k < 4; k++)
+        for (size_t i = 0; i < m[k]->map_len; i += 4096)
+            sum += ((const uint8_t *)m[k]->map)[i];
+    (void)sum;
+    uint64_t stored, resident;
+    sts_budget_measure(&srv, &stored, &resident);   /* STATS: the same estimate */
+    assert_true(resident > 3 * R + R / 2);
+    assert_true(resident < 4 * R + R / 2);
+    sts_budget_pass(&srv, budget);
+    assert_int_equal(srv.budget.releases, 2);
+    for (int k = 0; k < 4; k++) {
+        assert_int_equal(m[k]->cold, k < 2);
+        assert_int_equal(st_native_resident(m[k], &mt), k < 2 ? 0 : R);
+    }
+    sts_budget_measure(&srv, &stored, &resident);
+    assert_true(resident > 3 * R / 2);
+    assert_true(resident < 5 * R / 2);
+    sts_budget_stop(&srv);
+    st_native_meter_close(&mt);
+    st_registry_free(srv.reg);
     st_set_free(h);
     assert_int_equal(st_test_rmtree(dir), 0);
 }
@@ -112,6 +262,8 @@ int main(void)
         cmocka_unit_test(test_goal_is_under_the_high_mark),
         cmocka_unit_test(test_unlimited_budget_never_releases),
         cmocka_unit_test(test_resident_measured_again_only_for_sampled_sets),
+        cmocka_unit_test(test_pass_releases_the_least_recently_sampled_sets_whole),
+        cmocka_unit_test(test_pass_between_full_passes_counts_what_statm_sees),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

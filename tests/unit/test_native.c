@@ -164,9 +164,15 @@ static void check_kind(const st_set *s, const char *tag, size_t nq)
         same_sampling(s, m, nq / 4);
         assert_true(st_ptexres_built_bytes(m) > 0);
     }
-    /* released pages fault back in with the same values */
-    st_native_release(m);
+    /* released pages fault back in with the same values: from the page cache (the mapped
+     * count's release) and from the disk (the page-cache count's) */
+    st_native_meter mt, cache = {-1};
+    st_native_meter_open(&mt);
+    st_native_release(m, &mt);
     same_sampling(s, m, nq / 4);
+    st_native_release(m, &cache);
+    same_sampling(s, m, nq / 4);
+    st_native_meter_close(&mt);
     st_set_free(m);
 }
 

@@ -16,7 +16,6 @@
 #include <zlib.h>
 
 #include "ptex.h"
-#include "ptex_adler.h"
 #include "ptex_format.h"
 #include "ptexres.h"
 #include "sample.h"
@@ -584,37 +583,6 @@ static void bad_zlib_streams_and_overruns_are_refused(void **state)
     free(b);
 }
 
-/* The reader's Adler-32 (the check of every zlib stream, ptex_adler.h) gives zlib's value for
- * every length, start value and byte pattern, including the worst case for overflow (0xff
- * bytes) and runs longer than one vector round. */
-static void adler32_matches_zlib(void **state)
-{
-    (void)state;
-    enum { MAX = 70000 };
-    uint8_t *buf = malloc(MAX);
-    assert_non_null(buf);
-    uint32_t x = 5;
-    for (int pattern = 0; pattern < 3; pattern++) {
-        for (size_t i = 0; i < MAX; i++) {
-            x = x * 1664525u + 1013904223u;
-            buf[i] = pattern == 0 ? (uint8_t)(x >> 24) : pattern == 1 ? 0xff : (uint8_t)i;
-        }
-        for (size_t n = 0; n < MAX; n = n < 40 ? n + 1 : n * 3 / 2 + 7) {
-            for (size_t skew = 0; skew < 3; skew++) {
-                if (n + skew > MAX)
-                    break;
-                /* a new stream, the largest a and b, an arbitrary one */
-                uint32_t start = skew == 0 ? 1u : skew == 1 ? (65520u << 16 | 65520u)
-                                                            : (12345u << 16 | 54321u);
-                uint32_t want = (uint32_t)adler32(start, buf + skew, (uInt)n);
-                assert_int_equal(st_ptx_adler32(start, buf + skew, n), want);
-            }
-        }
-        assert_int_equal(st_ptx_adler32(1, buf, MAX), (uint32_t)adler32(1, buf, MAX));
-    }
-    free(buf);
-}
-
 static void inconsistent_adjacency_is_refused(void **state)
 {
     (void)state;
@@ -698,7 +666,6 @@ int main(void)
         cmocka_unit_test(border_modes_go_into_the_set_info),
         cmocka_unit_test(header_fields_are_checked_before_allocating),
         cmocka_unit_test(bad_zlib_streams_and_overruns_are_refused),
-        cmocka_unit_test(adler32_matches_zlib),
         cmocka_unit_test(inconsistent_adjacency_is_refused),
         cmocka_unit_test(random_corruption_never_crashes),
     };

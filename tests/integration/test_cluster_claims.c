@@ -1,0 +1,174 @@
+/* tests/integration/test_cluster_claims.c - a pending claim whose origin node was killed
+ * between its claim (and local commit) and the write quorum, and restarted at once, is
+ * abandoned (docs/cluster.md "Repair"): the name is free again and the refused upload's copy
+ * goes. Claims carry the origin's incarnation; the restarted node is a member again, but of
+ * another incarnation.
+ *
+ * Deterministic: 2 nodes with R=2 and W=2 on a real etcd; n1 is stopped (SIGSTOP) so that
+ * n0's push of the upload to n1 waits; n0 is killed once the upload is committed on it (LIST
+ * shows it), n1 continued, n0 restarted with its data dir. Leases of 5 s keep n1 a member
+ * while it is stopped and n0 one across its restart. Waits are deadlines against a hang.
+ */
+#include <pthread.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../common/cluster_fixture.h"
+#include "../common/daemon_client.h"
+#include "../common/etcd_fixture.h"
+#include "../common/wait.h"
+#include "seamtex_cluster.h"
+
+#define DEADLINE_MS 60000
+#define LEASE "5"    /* s: n1 stays a member while stopped until n0 has claimed, on a slow machine */
+
+static st_etcd ETCD;
+static st_daemon N[2];
+static char files[2][300];
+static float red[2];
+
+/* node i of the cluster, R = W = 2, with LEASE (cluster_fixture.h's nodes have 2 s) */
+static int start_node(int i)
+{
+    const char *id = i ? "n1" : "n0";
+    const char *args[] = {"--cluster", ETCD.url, "--node-id", id, "--advertise", "127.0.0.1:0",
+                          "--replicas", "2", "--write-quorum", "2", "--lease-ttl", LEASE,
+                          "--repair-interval", "1", "--no-default-set", NULL};
+    return st_daemon_start(&N[i], args);
+}
+
+static int both_members(void *arg)
+{
+    (void)arg;
+    for (int i = 0; i < 2; i++)
+        if (st_daemon_stat(&N[i], "cluster_members") != 2 ||
+            st_daemon_stat(&N[i], "cluster_etcd_ok") != 1)
+            return 0;
+    return 1;
+}
+
+static stc_cluster *open_both(void)
+{
+    char seeds[64], msg[256];
+    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
+    int err = 0;
+    return stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+}
+
+/* 1 when node i lists name */
+static int lists(int i, const char *name)
+{
+    stc_conn *c = st_daemon_client(&N[i], NULL);
+    const stc_set_entry *sets;
+    size_t n;
+    int found = 0;
+    if (c && stc_list(c, &sets, &n) == 0)
+        for (size_t k = 0; k < n; k++)
+            found |= !strcmp(sets[k].name, name);
+    stc_close(c);
+    return found;
+}
+
+static int n0_lists_stuck(void *arg) { (void)arg; return lists(0, "stuck"); }
+
+static int upload_rc = -1;
+
+static void *upload_main(void *arg)
+{
+    (void)arg;
+    stc_conn *c = st_daemon_client(&N[0], NULL);
+    if (c)
+        upload_rc = stc_upload_file(c, files[0], "stuck", NULL, NULL);   /* n0 dies under it */
+    stc_close(c);
+    return NULL;
+}
+
+/* the other contents are accepted under the name (each try is EXISTS while the claim holds) */
+static int name_free(void *arg)
+{
+    (void)arg;
+    stc_cluster *cl = open_both();
+    int rc = cl ? stc_cluster_upload_file(cl, files[1], "stuck", NULL, NULL) : -1;
+    stc_cluster_close(cl);
+    return rc == 0;
+}
+
+/* both nodes serve "stuck" with the second contents */
+static int both_serve_second(void *arg)
+{
+    (void)arg;
+    for (int i = 0; i < 2; i++) {
+        stc_conn *c = st_daemon_client(&N[i], NULL);
+        float r = -1;
+        int rc = c ? st_red_at(c, "stuck", &r) : -1;
+        stc_close(c);
+        if (rc || r != red[1])
+            return 0;
+    }
+    return 1;
+}
+
+static void claim_of_a_restarted_origin_is_abandoned(void **state)
+{
+    (void)state;
+    assert_int_equal(st_etcd_start(&ETCD, "/claims"), 0);
+    for (int i = 0; i < 2; i++)
+        assert_int_equal(st_daemon_init(&N[i]), 0);
+    assert_int_equal(st_cluster_tint_files(N[0].dir, 2, 40, files), 0);
+    for (int i = 0; i < 2; i++)
+        assert_int_equal(start_node(i), 0);
+    if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
+        fail_msg("the nodes never saw each other");
+    stc_cluster *cl = open_both();
+    assert_non_null(cl);
+    assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
+    stc_cluster_close(cl);
+    assert_true(red[0] != red[1]);
+
+    /* n0 claims and commits "stuck", then waits on its push to the stopped n1 */
+    assert_int_equal(st_daemon_signal(&N[1], SIGSTOP), 0);
+    pthread_t up;
+    assert_int_equal(pthread_create(&up, NULL, upload_main, NULL), 0);
+    int committed = st_wait_until(n0_lists_stuck, NULL, DEADLINE_MS) == 0;
+    st_daemon_kill(&N[0]);
+    st_daemon_signal(&N[1], SIGCONT);
+    pthread_join(up, NULL);
+    if (!committed)
+        fail_msg("n0 never committed the upload");
+    if (upload_rc == 0)
+        fail_msg("the upload was acknowledged: n1 left (its lease ran out) before n0 claimed");
+    /* back at once with its data dir: a member again before its lease ran out */
+    assert_int_equal(start_node(0), 0);
+    if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
+        fail_msg("the nodes did not see each other again");
+
+    if (st_wait_until(name_free, NULL, DEADLINE_MS) != 0) {
+        st_daemon_dump_log(&N[0], 20);
+        fail_msg("the claim of the killed upload still holds the name");
+    }
+    if (st_wait_until(both_serve_second, NULL, DEADLINE_MS) != 0)
+        fail_msg("the second contents are not on both nodes");
+    for (int i = 0; i < 2; i++)
+        st_daemon_down(&N[i], 10000);
+    st_etcd_stop(&ETCD);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(claim_of_a_restarted_origin_is_abandoned),
+    };
+    int rc = cmocka_run_group_tests(tests, NULL, NULL);
+    st_etcd_stop(&ETCD);
+    for (int i = 0; i < 2; i++)
+        st_daemon_cleanup(&N[i]);
+    return rc;
+}

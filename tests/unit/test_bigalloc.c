@@ -1,0 +1,123 @@
+/* tests/unit/test_bigalloc.c - large buffers (util/bigalloc.h): alignment, the rounding rule
+ * for long-lived and temporary buffers (seen through the kernel's MADV_HUGEPAGE flag on the
+ * mapping, VmFlags "hg" in /proc/self/smaps), sizes that cannot be had. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bigalloc.h"
+
+#define MIB ((size_t)1 << 20)
+
+/* 1 when the mapping holding address a is marked MADV_HUGEPAGE, 0 when not, -1 when smaps
+ * cannot tell (no /proc, or a kernel without transparent huge pages). */
+static int marked_huge(const void *a)
+{
+    FILE *t = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
+    if (!t)
+        return -1;
+    fclose(t);
+    FILE *f = fopen("/proc/self/smaps", "r");
+    if (!f)
+        return -1;
+    char line[512];
+    int in = 0, r = -1;
+    uintptr_t x = (uintptr_t)a;
+    while (fgets(line, sizeof line, f)) {
+        unsigned long lo, hi;
+        if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2) { /* a mapping's first line */
+            in = x >= lo && x < hi;
+            continue;
+        }
+        if (in && !strncmp(line, "VmFlags:", 8)) {
+            r = strstr(line, " hg") != NULL;
+            break;
+        }
+    }
+    fclose(f);
+    return r;
+}
+
+static void small_buffers_are_64_byte_aligned_and_writable(void **state)
+{
+    (void)state;
+    size_t sizes[] = {0, 1, 63, 64, 100, 4096, 300000};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++) {
+        uint8_t *p = stu_big_alloc(sizes[i], STU_BIG_KEEP);
+        assert_non_null(p);
+        assert_int_equal((uintptr_t)p % 64, 0);
+        memset(p, 0xab, sizes[i] ? sizes[i] : 1);
+        free(p);
+        p = stu_big_alloc(sizes[i], STU_BIG_TEMP);
+        assert_non_null(p);
+        memset(p, 0xab, sizes[i] ? sizes[i] : 1);
+        free(p);
+    }
+}
+
+static void large_buffers_follow_the_rounding_rule(void **state)
+{
+    (void)state;
+    /* 3 MiB kept: rounding to 4 MiB adds a third, so the whole buffer is on huge pages */
+    uint8_t *p = stu_big_alloc(3 * MIB, STU_BIG_KEEP);
+    assert_non_null(p);
+    assert_int_equal((uintptr_t)p % (2 * MIB), 0);
+    memset(p, 1, 3 * MIB);
+    int h = marked_huge(p);
+    if (h < 0) {
+        free(p);
+        skip();
+    }
+    assert_int_equal(h, 1);
+    assert_int_equal(marked_huge(p + 3 * MIB - 1), 1);
+    free(p);
+    /* 2 MiB + 64 kept: rounding would nearly double it, so only the first 2 MiB are huge */
+    p = stu_big_alloc(2 * MIB + 64, STU_BIG_KEEP);
+    assert_non_null(p);
+    assert_int_equal((uintptr_t)p % (2 * MIB), 0);
+    memset(p, 1, 2 * MIB + 64);
+    assert_int_equal(marked_huge(p), 1);
+    assert_int_equal(marked_huge(p + 2 * MIB), 0);
+    free(p);
+    /* 1 MiB kept: not huge (rounding would double it); 1 MiB temporary: huge */
+    p = stu_big_alloc(MIB, STU_BIG_KEEP);
+    assert_non_null(p);
+    memset(p, 1, MIB);
+    assert_int_equal(marked_huge(p), 0);
+    free(p);
+    p = stu_big_alloc(MIB, STU_BIG_TEMP);
+    assert_non_null(p);
+    assert_int_equal((uintptr_t)p % (2 * MIB), 0);
+    memset(p, 1, MIB);
+    assert_int_equal(marked_huge(p), 1);
+    free(p);
+}
+
+static void impossible_sizes_fail_with_enomem(void **state)
+{
+    (void)state;
+    size_t sizes[] = {SIZE_MAX, SIZE_MAX - 63, SIZE_MAX / 2 + 1, (size_t)1 << 62};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++)
+        for (int use = STU_BIG_KEEP; use <= STU_BIG_TEMP; use++) {
+            errno = 0;
+            assert_null(stu_big_alloc(sizes[i], use));
+            assert_int_equal(errno, ENOMEM);
+        }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(small_buffers_are_64_byte_aligned_and_writable),
+        cmocka_unit_test(large_buffers_follow_the_rounding_rule),
+        cmocka_unit_test(impossible_sizes_fail_with_enomem),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,31 @@
+/* util/bigalloc.h - allocation of large buffers that are written right after they are
+ * allocated (a set's texel arena, a whole file read into memory), libc only.
+ *
+ * Why: every 4 KiB page touched for the first time costs a page fault, and on a virtual
+ * machine with shadow or nested paging far more. Measured on the project's 2-core VM
+ * (2026-12-02, load 10-15): writing 4 MiB of fresh 4 KiB pages took 13-27 ms of CPU, of
+ * fresh 2 MiB transparent huge pages 0.5-0.8 ms; reading a 2 MiB file into a fresh buffer
+ * 13-24 ms, into a huge-page buffer 1-1.9 ms. So large buffers are 2 MiB aligned and marked
+ * MADV_HUGEPAGE (advice only: without transparent huge pages they are ordinary buffers).
+ *
+ * A huge page is allocated whole, so rounding a buffer up to whole huge pages costs memory:
+ * - STU_BIG_KEEP (a buffer that lives long, like a set's arena): rounded up to whole huge
+ *   pages when that adds at most half of n (so from 4/3 MiB on, and always from 4 MiB on, as
+ *   the arena was before); otherwise only the whole 2 MiB pages inside n are huge and the
+ *   tail has 4 KiB pages.
+ * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
+ * Smaller buffers are 64-byte aligned, sized up to a multiple of 64.
+ *
+ * Ownership: the caller frees the buffer with free(). NULL with errno ENOMEM when the memory
+ * cannot be had (n of 0 gives a 64-byte buffer).
+ */
+#ifndef STU_BIGALLOC_H
+#define STU_BIGALLOC_H
+
+#include <stddef.h>
+
+enum { STU_BIG_KEEP = 0, STU_BIG_TEMP = 1 };
+
+void *stu_big_alloc(size_t n, int use);
+
+#endif
