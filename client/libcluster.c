@@ -223,11 +223,9 @@ size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t ma
     return stp_hrw_rank(cl->ids, cl->n, set, idx, max);
 }
 
-/* After NOT_FOUND: the position in tries[] of the next node to ask, nt when none is left. The
- * owners not asked yet first; then, when an owner could not be reached (unreached), any node
- * not asked yet. */
-static size_t next_after_not_found(const size_t *tries, size_t nt, const char *tried,
-                                   const char *owner, int unreached)
+/* The NOT_FOUND rule, shared with the pipelined calls (libcluster_int.h). */
+size_t stc__cluster_next_after_not_found(const size_t *tries, size_t nt, const char *tried,
+                                         const char *owner, int unreached)
 {
     size_t u = 0;
     while (u < nt && (tried[tries[u]] || !owner[tries[u]]))
@@ -275,7 +273,7 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
             cl->cnt.failovers++;
             refresh = 1;
             unreached |= owner[i];
-            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
+            t = notfound ? stc__cluster_next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         rc = fn(c, arg);
@@ -293,11 +291,11 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
                 tries[t] = (size_t)j;   /* try it next, then go on with the ranking */
                 continue;
             }
-            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
+            t = notfound ? stc__cluster_next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         if (rc == STC_ENOTFOUND) {
-            size_t u = next_after_not_found(tries, nt, tried, owner, unreached);
+            size_t u = stc__cluster_next_after_not_found(tries, nt, tried, owner, unreached);
             if (u < nt) {
                 /* another owner may hold it: ask it, and answer NOT_FOUND if it fails too */
                 snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
@@ -316,7 +314,7 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
             cl->cnt.failovers++;
             refresh = 1;
             unreached |= owner[i];
-            t = notfound ? next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
+            t = notfound ? stc__cluster_next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
         break;

@@ -47,6 +47,13 @@ int stc__cluster_conn_error(int rc);
 /* libcluster.c: adds a node by address (id may be the address); its index, or -1 when full. */
 int stc__cluster_add_node(stc_cluster *cl, const char *id, const char *addr);
 
+/* libcluster.c: the NOT_FOUND rule of every routed call (docs/cluster.md): after NOT_FOUND, the
+ * position in tries[] (nt nodes, in the order they are tried) of the next node to ask: the
+ * owners (owner[i] != 0) not tried yet (tried[i] != 0), then, when a node could not be reached
+ * (unreached), any node not tried yet; nt when none is left. */
+size_t stc__cluster_next_after_not_found(const size_t *tries, size_t nt, const char *tried,
+                                         const char *owner, int unreached);
+
 /* libcluster_pipe.c: pipelined requests outstanding (0 when the pipe was never used). */
 size_t stc__cluster_pipe_pending(const stc_cluster *cl);
 /* libcluster_pipe.c: frees the pipe (NULL accepted); the connections are cl's. */

@@ -425,20 +425,18 @@ static void hand_out(stc__cl_pipe *p, size_t si, size_t node, stc_conn *c, const
     slot_free(p, si);   /* its set name stays readable until the next call on cl */
 }
 
-/* After NOT_FOUND for request r: the node to ask next, -1 when none is left. The owners (the
- * first R of the ranking) not asked yet; then, when a node failed while r was routed, any node
- * of the ranking not asked yet. */
+/* After NOT_FOUND for request r: the node to ask next by the blocking calls' rule
+ * (stc__cluster_next_after_not_found, over r's ranking), -1 when none is left. */
 static int next_after_not_found(stc_cluster *cl, const cl_rq *r)
 {
     size_t order[MAX_NODES], no = stc_cluster_rank(cl, r->set, order, cl->n);
-    for (size_t k = 0; k < no && k < cl->replicas; k++)
-        if (!tried(r, order[k]))
-            return (int)order[k];
-    if (r->unreached)
-        for (size_t k = 0; k < no; k++)
-            if (!tried(r, order[k]))
-                return (int)order[k];
-    return -1;
+    char was_tried[MAX_NODES] = {0}, owner[MAX_NODES] = {0};
+    for (size_t k = 0; k < no; k++) {
+        was_tried[order[k]] = (char)tried(r, order[k]);
+        owner[order[k]] = k < cl->replicas;
+    }
+    size_t u = stc__cluster_next_after_not_found(order, no, was_tried, owner, r->unreached);
+    return u < no ? (int)order[u] : -1;
 }
 
 /* Reads one reply of node i, waiting up to timeout_ms (0: only what has arrived). 1 when a
