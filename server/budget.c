@@ -74,13 +74,6 @@ static int64_t file_pages_now(int fd)
     return sscanf(buf, "%llu %llu %llu", &size, &res, &shared) == 3 ? (int64_t)shared : -1;
 }
 
-static int64_t now_us(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
-}
-
 uint64_t sts_budget_set_resident(st_set *s, const st_native_meter *m, uint64_t now_ms,
                                  int full)
 {
@@ -368,12 +361,11 @@ int sts_budget_touch(sts_server *srv, st_set *s)
     return 1;
 }
 
-int64_t sts_budget_clock_us(void) { return now_us(); }
 
 void sts_budget_cold_done(sts_server *srv, int64_t t0_us, uint32_t nqueries)
 {
     sts_budget *b = &srv->budget;
-    int64_t us = now_us() - t0_us;
+    int64_t us = sts_now_us() - t0_us;
     unsigned k = 0;
     while (k + 1 < STS_COLD_HIST && (uint64_t)us > hist_us[k])
         k++;

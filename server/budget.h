@@ -45,8 +45,7 @@ void sts_budget_stop(struct sts_server *srv);
  * every 2 ms one sampling thread also looks at the resident estimate (one read of
  * /proc/self/statm) and runs a pass itself when it is past the high mark (budget.c, look). */
 int sts_budget_touch(struct sts_server *srv, st_set *s);
-int64_t sts_budget_clock_us(void);
-/* A cold set's first batch, sampled since t0_us. */
+/* A cold set's first batch, sampled since t0_us (sts_now_us). */
 void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueries);
 /* The release rule of one budget pass, with `total` resident bytes under `budget`: returns 1
  * when the pass must release sets - resident past the high mark, 95% of the budget, so that

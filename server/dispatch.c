@@ -201,7 +201,7 @@ void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *ms
 int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t *body)
 {
     sts_server *srv = io->srv;
-    int64_t t0 = sts_opstats_now_us();   /* request parsed: its latency starts here */
+    int64_t t0 = sts_now_us();   /* request parsed: its latency starts here */
     size_t before = stp_buf_avail(&conn->out);   /* not len: appending may compact */
     int r = 0;
     STS_STAT_ADD(srv, requests, 1);

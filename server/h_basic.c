@@ -411,7 +411,7 @@ static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *
     const st_set *s = ref->set;
     uint32_t n = rq->count;
     int cold = sts_budget_touch(c->srv, ref->set);  /* a released set faults back in */
-    int64_t t0 = cold ? sts_budget_clock_us() : 0;
+    int64_t t0 = cold ? sts_now_us() : 0;
     if (h->opcode == STP_OP_SAMPLE_DIR && !st_cube_is_cube(s)) {
         st_setref_release(ref);
         sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");

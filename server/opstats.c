@@ -13,13 +13,8 @@
 #include <time.h>
 
 #include "opstats.h"
+#include "server.h"
 
-int64_t sts_opstats_now_us(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
-}
 
 static unsigned bucket_of(int64_t us)
 {
@@ -33,7 +28,7 @@ void sts_opstats_record(sts_opstats *s, unsigned opcode, int64_t start_us, const
                         size_t avail_before)
 {
     sts_opstat *o = &s->op[opcode & 0xFF];
-    int64_t us = sts_opstats_now_us() - start_us;
+    int64_t us = sts_now_us() - start_us;
     __atomic_add_fetch(&o->lat[bucket_of(us)], 1, __ATOMIC_RELAXED);
     __atomic_add_fetch(&o->sum_us, (uint64_t)(us > 0 ? us : 0), __ATOMIC_RELAXED);
     size_t avail = stp_buf_avail(out);

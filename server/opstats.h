@@ -34,10 +34,7 @@ typedef struct sts_opstats {
     sts_opstat op[256];              /* by opcode (only named opcodes are reported) */
 } sts_opstats;
 
-/* Monotonic microseconds (the "request parsed" stamp). */
-int64_t sts_opstats_now_us(void);
-
-/* Counts one reply of `opcode` for a request parsed at start_us. The reply is the frame that
+/* Counts one reply of `opcode` for a request parsed at start_us (sts_now_us). The reply is the frame that
  * ends `out`, which held avail_before unsent bytes before it was appended (stp_buf_avail;
  * not a position: appending may move the pending bytes); its status decides whether it is
  * an error. Nothing appended: counted, not as an error. */

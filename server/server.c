@@ -35,6 +35,13 @@ int64_t sts_now_ms(void)
     return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
 }
 
+int64_t sts_now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
+}
+
 int sts_mem_take(sts_server *srv, uint64_t n)
 {
     uint64_t used = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED) +

@@ -121,6 +121,7 @@ struct sts_server {
 /* ---- server.c ------------------------------------------------------------------------------- */
 
 int64_t sts_now_ms(void);         /* monotonic */
+int64_t sts_now_us(void);         /* monotonic, microseconds */
 
 /* Creates the server from a checked config: registry, data dir (loads it: startup.c),
  * default set, listening socket. Threads are not started yet. 0 or -1 (logged). */

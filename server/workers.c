@@ -34,13 +34,6 @@ struct sts_par {
 /* How long a split batch's caller spins for its helpers' last parts before sleeping. */
 #define SPIN_US 200
 
-static int64_t now_us(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
-}
-
 static inline void cpu_relax(void)
 {
 #if defined(__x86_64__) || defined(__i386__)
@@ -133,7 +126,7 @@ int sts_pool_parallel(sts_pool *p, size_t n, size_t grain, sts_part_fn fn, void 
     int64_t t0 = 0;
     for (unsigned spin = 0; __atomic_load_n(&j.helpers, __ATOMIC_ACQUIRE) != 0; spin++) {
         if ((spin & 63) == 0) {
-            int64_t t = now_us();
+            int64_t t = sts_now_us();
             if (spin == 0)
                 t0 = t;
             else if (t - t0 > SPIN_US)

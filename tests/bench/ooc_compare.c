@@ -253,7 +253,7 @@ static void *worker_main(void *arg)
                 bad = 1;
             } else {
                 int cold = sts_budget_touch(R->srv, ref->set);
-                int64_t c0 = cold ? sts_budget_clock_us() : 0;
+                int64_t c0 = cold ? sts_now_us() : 0;
                 bad = st_sample_batch(ref->set, &so, q, NL_BATCH, out, NULL, stt) != 0;
                 if (cold)
                     sts_budget_cold_done(R->srv, c0, NL_BATCH);
