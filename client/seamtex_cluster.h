@@ -83,6 +83,8 @@ int stc_cluster_delete(stc_cluster *cl, const char *set);
  *     timeout, closes that node's connection and sends every request in flight on it to the
  *     next node of its set's ranking (stc_cluster_counters.failovers counts them);
  *   - a MOVED reply sends the request to the address it names (up to 4 hops).
+ *   - NOT_FOUND follows stc_cluster_call's rule: the next owner not asked, and the rest of
+ *     the ranking when a node failed on the way; only then is NOT_FOUND handed out.
  * The membership is refreshed (when a failure or MOVED asked for it) only while nothing is in
  * flight; stc_cluster_refresh and the blocking stc_cluster_* calls return STC_ESTATE while
  * pipelined requests are outstanding.
