@@ -5,9 +5,9 @@
  *    call followed a MOVED to a node that the refreshed view no longer lists (the view used to
  *    be refreshed at the end of such a call, which closed the connection the results were in:
  *    the cluster soak read other contents through that);
- *  - NOT_FOUND from the first owner is not final: the client asks the next owner, and answers
- *    NOT_FOUND only when every owner says so; when an owner cannot be reached, it asks the
- *    rest of the ranking too.
+ *  - NOT_FOUND from the first owner is not final (blocking and pipelined calls): the client
+ *    asks the next owner, and answers NOT_FOUND only when every owner says so; when an owner
+ *    cannot be reached, it asks the rest of the ranking too.
  *
  * The scripted node is a thread in this test speaking the wire protocol: HELLO is answered
  * UNKNOWN_OPCODE (version 1 defaults), CLUSTER with the membership the test sets, SAMPLE with
@@ -306,6 +306,25 @@ static void name_owned_first_by_a(char *out, size_t cap)
     }
 }
 
+/* the same read pipelined (stc_cluster_append_sample / get_reply): its status, and the red
+ * value when OK */
+static int pipelined_red(stc_cluster *cl, const char *name, float *red)
+{
+    stc_sample_opts o;
+    stc_query q;
+    st_red_query(&o, &q);
+    uint32_t id = 0;
+    assert_int_equal(stc_cluster_append_sample(cl, name, &o, &q, 1, &id), 0);
+    stc_cluster_reply r;
+    assert_int_equal(stc_cluster_get_reply(cl, -1, &r), 0);
+    assert_int_equal(r.reqid, id);
+    stc_sample_result res;
+    int rc = stc_cluster_reply_sample(&r, &res);
+    if (rc == 0)
+        *red = ((const float *)res.values)[0];
+    return rc;
+}
+
 static void not_found_from_one_owner_asks_the_next(void **state)
 {
     (void)state;
@@ -341,6 +360,16 @@ static void not_found_from_one_owner_asks_the_next(void **state)
     asked = s.samples;
     pthread_mutex_unlock(&s.mu);
     assert_int_equal(asked, 2);
+
+    /* the pipelined calls follow the same rule: a's NOT_FOUND sends the request on to d */
+    red = -1;
+    assert_int_equal(pipelined_red(cl, name, &red), 0);
+    assert_true(red == tint_red);
+    assert_int_equal(pipelined_red(cl, other, &red), STC_ENOTFOUND);
+    pthread_mutex_lock(&s.mu);
+    asked = s.samples;
+    pthread_mutex_unlock(&s.mu);
+    assert_int_equal(asked, 4);             /* "a" was asked first both times */
     stc_cluster_close(cl);
     scripted_stop(&s);
 }
