@@ -91,6 +91,8 @@ typedef struct pf {
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
     int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
+    pf_small_fn small;       /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
+    size_t ts;               /* bytes per texel */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
@@ -427,10 +429,17 @@ __attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsig
  * type DT with NC channels (constants where inlined; eval passes the batch's): uw, vw are
  * |du/dx| + |du/dy| and |dv/dx| + |dv/dy|. Writes out and returns 1 when the 2x2 texels lie
  * inside the face with both fractions > 0; else 0 (the kernel path then runs). */
-__attribute__((always_inline)) static inline int bilinear_inface(const pf *c, const st_face *F,
-                                                                 uint32_t f, float u, float v,
-                                                                 float uw, float vw, float *out,
-                                                                 unsigned DT, unsigned NC)
+/* Ptex's bilinear kernel (pk_build's arithmetic in its order): resolution (ru, rv), first
+ * texel (ui, vi) and fractions (fu, fv) of the 2 x 2 texels; weights 1 - fu, fu and 1 - fv,
+ * fv. */
+typedef struct pf_bil {
+    int ru, rv, ui, vi;
+    float fu, fv;
+} pf_bil;
+
+__attribute__((always_inline)) static inline pf_bil bilinear_kernel(const pf *c,
+                                                                    const st_face *F, float u,
+                                                                    float v, float uw, float vw)
 {
     float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
     bu = bu < 1.0f ? bu : 1.0f;
@@ -438,14 +447,30 @@ __attribute__((always_inline)) static inline int bilinear_inface(const pf *c, co
     float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
     bu = bu > lu ? bu : lu;
     bv = bv > lv ? bv : lv;
-    int ru = pk_res_from_width(bu), rv = pk_res_from_width(bv);
-    float upix = u * (float)(1 << ru) - 0.5f, vpix = v * (float)(1 << rv) - 0.5f;
+    pf_bil b;
+    b.ru = pk_res_from_width(bu), b.rv = pk_res_from_width(bv);
+    float upix = u * (float)(1 << b.ru) - 0.5f, vpix = v * (float)(1 << b.rv) - 0.5f;
     float uf = pk_floor(upix), vf = pk_floor(vpix);
-    int ui = (int)uf, vi = (int)vf;
-    float fu = upix - uf, fv = vpix - vf;
-    if (!(ui >= 0 && vi >= 0 && ui + 1 < (1 << ru) && vi + 1 < (1 << rv) && fu > 0.0f &&
-          fv > 0.0f))
-        return 0;
+    b.ui = (int)uf, b.vi = (int)vf;
+    b.fu = upix - uf, b.fv = vpix - vf;
+    return b;
+}
+
+/* The 2 x 2 texels lie inside the face with both fractions > 0 (then no kernel is needed). */
+static inline int bilinear_fits(const pf_bil *b)
+{
+    return b->ui >= 0 && b->vi >= 0 && b->ui + 1 < (1 << b->ru) && b->vi + 1 < (1 << b->rv) &&
+           b->fu > 0.0f && b->fv > 0.0f;
+}
+
+/* Writes Ptex's bilinear of the 2 x 2 texels of b inside face f (bilinear_fits(b)). */
+__attribute__((always_inline)) static inline void bilinear_write(const pf *c, const st_face *F,
+                                                                 uint32_t f, const pf_bil *b,
+                                                                 float *out, unsigned DT,
+                                                                 unsigned NC)
+{
+    int ru = b->ru, rv = b->rv, ui = b->ui, vi = b->vi;
+    float fu = b->fu, fv = b->fv;
     const uint8_t *d = c->t->px[c->t->base[f] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
     size_t ts = st_dtype_size(DT) * NC, rowb = ts << ru;
     const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
@@ -456,6 +481,169 @@ __attribute__((always_inline)) static inline int bilinear_inface(const pf *c, co
     float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(DT));
     for (unsigned ch = 0; ch < NC; ch++)
         out[ch] = acc[ch] * scale;
+}
+
+__attribute__((always_inline)) static inline int bilinear_inface(const pf *c, const st_face *F,
+                                                                 uint32_t f, float u, float v,
+                                                                 float uw, float vw, float *out,
+                                                                 unsigned DT, unsigned NC)
+{
+    pf_bil b = bilinear_kernel(c, F, u, v, uw, vw);
+    if (!bilinear_fits(&b))
+        return 0;
+    bilinear_write(c, F, f, &b, out, DT, NC);
+    return 1;
+}
+
+/* ---- a bilinear kernel that overhangs its face (c->small set) ----------------------------
+ * split_apply and apply for kernels of at most 2 x 2 texels: the same pk operations in the
+ * same order, the same weights, the pieces summed by c->small (bit for bit pf_apply_avx2 on
+ * such windows) in the same order; what is left out is the general path's overhead (eval's
+ * prologue, pk_build, the window loop's dispatch). Anything rarer - a corner, a subface
+ * neighbour, a constant face - goes to the general functions, so the results are those of
+ * eval bit for bit (test_ptexfilter_simd checks it on every shared file). */
+
+/* apply() for a window of at most 2 x 2 texels. */
+static void apply_small(pf *c, pk *k, int f)
+{
+    const st_face *F = &c->s->faces[f];
+    if ((F->flags & ST_FACE_CONSTANT) || k->uw > 2 || k->vw > 2) {
+        apply(c, k, f);
+        return;
+    }
+    if (k->uw <= 0 || k->vw <= 0)
+        return;
+    while (k->ulog2 > F->ulog2)
+        pk_downres_u(k);
+    while (k->vlog2 > F->vlog2)
+        pk_downres_v(k);
+    int resu = 1 << k->ulog2;
+    if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
+        return;
+    const uint8_t *d = c->t->px[c->t->base[f] + (size_t)k->ulog2 * (F->vlog2 + 1u) +
+                                (size_t)k->vlog2];
+    size_t rowb = (size_t)resu * c->ts;
+    const uint8_t *base = d + ((size_t)k->v * (size_t)resu + (size_t)k->u) * c->ts;
+    c->acc = c->small(base, rowb, k->kub + k->ku0, k->uw, k->kvb + k->kv0, k->vw, c->acc);
+}
+
+/* apply_across_edge when neither face is a subface (else the general one). */
+static void across_small(pf *c, pk *k, int f, int eid)
+{
+    const st_face *F = &c->s->faces[f];
+    int af = F->adjface[eid];
+    if (is_subface(c, af)) {
+        apply_across_edge(c, k, f, eid, 0);
+        return;
+    }
+    pk_rotate(k, eid - F->adjedge[eid] + 2);
+    apply_small(c, k, af);
+}
+
+/* split_apply at depth 0 on face f (not a subface) for a kernel of at most 2 x 2 texels. */
+static void split_apply_small(pf *c, pk *k, int f)
+{
+    const st_face *F = &c->s->faces[f];
+    int resu = 1 << k->ulog2, resv = 1 << k->vlog2;
+    int sr = k->u + k->uw > resu, sl = k->u < 0;
+    int st = k->v + k->vw > resv, sb = k->v < 0;
+    int bu = c->bu == 1, bv = c->bv == 1;
+    if (c->mode != ST_MODE_TRAVERSE) {
+        int drop = c->mode == ST_MODE_DISCARD;
+        if (sr) pk_merge_r(k, drop || bu);
+        if (sl) pk_merge_l(k, drop || bu);
+        if (st) pk_merge_t(k, drop || bv);
+        if (sb) pk_merge_b(k, drop || bv);
+        if (drop)
+            c->weight = pk_weight(k);
+        apply_small(c, k, f);
+        return;
+    }
+    pk ka, kc;
+    if (sr) {
+        if (F->adjface[1] >= 0) {
+            pk_split_r(k, &ka);
+            if (st) {
+                if (F->adjface[2] >= 0) {
+                    pk_split_t(&ka, &kc);
+                    apply_to_corner(c, &kc, f, 2, 0);
+                } else
+                    pk_merge_t(&ka, bv);
+            }
+            if (sb) {
+                if (F->adjface[0] >= 0) {
+                    pk_split_b(&ka, &kc);
+                    apply_to_corner(c, &kc, f, 1, 0);
+                } else
+                    pk_merge_b(&ka, bv);
+            }
+            across_small(c, &ka, f, 1);
+        } else
+            pk_merge_r(k, bu);
+    }
+    if (sl) {
+        if (F->adjface[3] >= 0) {
+            pk_split_l(k, &ka);
+            if (st) {
+                if (F->adjface[2] >= 0) {
+                    pk_split_t(&ka, &kc);
+                    apply_to_corner(c, &kc, f, 3, 0);
+                } else
+                    pk_merge_t(&ka, bv);
+            }
+            if (sb) {
+                if (F->adjface[0] >= 0) {
+                    pk_split_b(&ka, &kc);
+                    apply_to_corner(c, &kc, f, 0, 0);
+                } else
+                    pk_merge_b(&ka, bv);
+            }
+            across_small(c, &ka, f, 3);
+        } else
+            pk_merge_l(k, bu);
+    }
+    if (st) {
+        if (F->adjface[2] >= 0) {
+            pk_split_t(k, &ka);
+            across_small(c, &ka, f, 2);
+        } else
+            pk_merge_t(k, bv);
+    }
+    if (sb) {
+        if (F->adjface[0] >= 0) {
+            pk_split_b(k, &ka);
+            across_small(c, &ka, f, 0);
+        } else
+            pk_merge_b(k, bv);
+    }
+    apply_small(c, k, f);
+}
+
+/* eval's kernel path for the bilinear kernel b on face f (plain_face, both fractions > 0,
+ * the 2 x 2 texels overhanging the face) in every mode. Returns 0 (nothing written) when
+ * Discard keeps no weight: eval then runs (its zero-coverage rule). */
+static int bilinear_edge(pf *c, const pf_bil *b, uint32_t f, float *out, float *cov)
+{
+    pk k;
+    k.ulog2 = b->ru, k.vlog2 = b->rv, k.u = b->ui, k.v = b->vi, k.uw = k.vw = 2;
+    k.ku0 = k.kv0 = k.rot = 0;
+    k.kub[0] = 1.0f - b->fu, k.kub[1] = b->fu;
+    k.kvb[0] = 1.0f - b->fv, k.kvb[1] = b->fv;
+    c->acc = (v4f){0, 0, 0, 0};
+    float total = pk_weight(&k);
+    c->weight = total;
+    split_apply_small(c, &k, (int)f);
+    *cov = 1.0f;
+    if (c->mode == ST_MODE_DISCARD) {
+        *cov = total != 0.0f ? c->weight / total : 0.0f;
+        if (*cov > 1.0f)
+            *cov = 1.0f;
+        if (!(c->weight > 0.0f) || *cov <= 0.0f)
+            return 0;
+    }
+    float scale = 1.0f / (c->weight * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = c->acc[ch] * scale;
     return 1;
 }
 
@@ -612,7 +800,8 @@ static inline const st_face *plain_face(const pf *c, const st_query *q)
     return F;
 }
 
-/* Ptex's bilinear filter for type DT, NC channels: the no-kernel path inside the face. */
+/* Ptex's bilinear filter for type DT, NC channels: the no-kernel path inside the face, the
+ * 2 x 2 kernel's own path when it overhangs (c->small), else eval. */
 __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_params *pp,
                                                             const st_sample_opts *o,
                                                             const st_query *q, float *out,
@@ -620,11 +809,18 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
                                                             unsigned NC)
 {
     const st_face *F = plain_face(c, q);
-    if (!F || !bilinear_inface(c, F, q->face, q->u, q->v, fabsf(q->dudx) + fabsf(q->dudy),
-                               fabsf(q->dvdx) + fabsf(q->dvdy), out, DT, NC))
-        return eval(c, pp, o, q, out, cov);
-    *cov = 1.0f;
-    return ST_Q_OK;
+    if (F) {
+        pf_bil b = bilinear_kernel(c, F, q->u, q->v, fabsf(q->dudx) + fabsf(q->dudy),
+                                   fabsf(q->dvdx) + fabsf(q->dvdy));
+        if (bilinear_fits(&b)) {
+            bilinear_write(c, F, q->face, &b, out, DT, NC);
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+        if (c->small && b.fu > 0.0f && b.fv > 0.0f && bilinear_edge(c, &b, q->face, out, cov))
+            return ST_Q_OK;
+    }
+    return eval(c, pp, o, q, out, cov);
 }
 
 /* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
@@ -680,8 +876,9 @@ static pf_query_fn query_fn(const pf *c, unsigned filter)
     return c->fast ? kernel_q : eval;
 }
 
-int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                        float *out, float *coverage, uint8_t *status)
+/* The batch; general: every query through eval (pf_batch_general). */
+static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                 float *out, float *coverage, uint8_t *status, int general)
 {
     if (!s || !o || (!q && n) || (!out && n))
         return ST_EINVAL;
@@ -710,10 +907,12 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
     c.avx2 = avx2;
-    c.fast = pf_fast_select(c.dt, c.nc, o->filter);
+    c.fast = general ? NULL : pf_fast_select(c.dt, c.nc, o->filter);
+    c.small = general ? NULL : pf_small_select(c.dt, c.nc);
+    c.ts = st_dtype_size(c.dt) * c.nc;
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;
-    pf_query_fn qfn = query_fn(&c, o->filter);
+    pf_query_fn qfn = general ? eval : query_fn(&c, o->filter);
     int bad = 0;
     unsigned nc = c.nc;
     const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
@@ -753,6 +952,18 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     }
     st_ptexres_unpin(t);
     return bad;
+}
+
+int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                        float *out, float *coverage, uint8_t *status)
+{
+    return batch(s, o, q, n, out, coverage, status, 0);
+}
+
+int pf_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                     float *out, float *coverage, uint8_t *status)
+{
+    return batch(s, o, q, n, out, coverage, status, 1);
 }
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)

@@ -17,6 +17,8 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "sample.h"
+
 #define PK_MAX 24   /* weights per axis; Ptex needs at most 10, doubled once by upres */
 
 typedef struct pk {
@@ -141,5 +143,19 @@ typedef int (*pf_fast_fn)(const pk_params *p, const uint8_t *const *px, int fulo
 /* The fused path for texels of type dt with nc channels and filter ftype, or NULL (no AVX2,
  * or a filter without one). */
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype);
+
+/* A window of uw x vw texels with uw, vw in 1..2 (ptexfilter_simd.c, AVX2): bit for bit what
+ * pf_apply_avx2 gives for a kernel with that window and weights ku, kv, without its
+ * dispatch (the pieces of a bilinear kernel split at face edges). pf_small_select gives the
+ * function for texels of type dt with nc channels, or NULL without AVX2. */
+typedef pf_v4 (*pf_small_fn)(const uint8_t *base, size_t rowb, const float *ku, int uw,
+                             const float *kv, int vw, pf_v4 acc);
+pf_small_fn pf_small_select(unsigned dt, unsigned nc);
+
+/* ptexfilter.c, for tests: st_ptexfilter_batch with every query through the general path
+ * (eval: no per-type query function, no fused or small-window path), to check that those
+ * give its results bit for bit. */
+int pf_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                     float *out, float *coverage, uint8_t *status);
 
 #endif

@@ -30,6 +30,10 @@
  * general path then runs: results are bit for bit those of the general path
  * (test_ptexfilter_simd).
  *
+ * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
+ * at face edges): the same window loop with the shape as constants, one function per texel
+ * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
+ *
  * Owns: nothing but these loops. The window sums run in a different order than the portable
  * loop (and than Ptex for 1, 2 and 4 channels: columns first), so results differ from them by
  * float rounding only.
@@ -467,6 +471,52 @@ PF_FAST_NC(1)
 PF_FAST_NC(2)
 PF_FAST_NC(3)
 
+/* ---- windows of at most 2 x 2 texels (pf_small_select) ---------------------------------- */
+
+/* window() / window3() with NV = 1 (uw * nc <= 8) and the window's shape as constants: the
+ * same operations as pf_apply_avx2 on such a window, without its dispatch. */
+PF_TARGET pf_v4 small_body(const uint8_t *base, size_t rowb, const float *ku, int uw,
+                           const float *kv, int vw, pf_v4 acc4, unsigned DT, unsigned NC)
+{
+    __m128 acc = (__m128)acc4;
+#define PF_SMALL(UW, VW)                                                                    \
+    (NC == 3 ? window3(base, rowb, DT, ku, UW, kv, VW, acc)                                 \
+             : window(base, rowb, DT, NC, ku, UW, kv, VW, 1, acc))
+    switch ((uw - 1) * 2 + (vw - 1)) {
+    case 0: return (pf_v4)PF_SMALL(1, 1);
+    case 1: return (pf_v4)PF_SMALL(1, 2);
+    case 2: return (pf_v4)PF_SMALL(2, 1);
+    default: return (pf_v4)PF_SMALL(2, 2);
+    }
+#undef PF_SMALL
+}
+
+#define PF_SMALLFN(DT, NC)                                                                  \
+    __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_small_##DT##_##NC(             \
+        const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw, \
+        pf_v4 acc)                                                                          \
+    {                                                                                       \
+        return small_body(base, rowb, ku, uw, kv, vw, acc, DT, NC);                         \
+    }
+#define PF_SMALLFN_NC(DT) PF_SMALLFN(DT, 1) PF_SMALLFN(DT, 2) PF_SMALLFN(DT, 3) PF_SMALLFN(DT, 4)
+PF_SMALLFN_NC(0)
+PF_SMALLFN_NC(1)
+PF_SMALLFN_NC(2)
+PF_SMALLFN_NC(3)
+
+pf_small_fn pf_small_select(unsigned dt, unsigned nc)
+{
+    static const pf_small_fn fns[4][4] = {
+        {pf_small_0_1, pf_small_0_2, pf_small_0_3, pf_small_0_4},
+        {pf_small_1_1, pf_small_1_2, pf_small_1_3, pf_small_1_4},
+        {pf_small_2_1, pf_small_2_2, pf_small_2_3, pf_small_2_4},
+        {pf_small_3_1, pf_small_3_2, pf_small_3_3, pf_small_3_4},
+    };
+    if (dt > 3 || nc < 1 || nc > 4 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 {
     static const pf_fast_fn fns[4][4] = {
@@ -505,6 +555,12 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 {
     (void)dt; (void)nc; (void)ftype;
+    return NULL;
+}
+
+pf_small_fn pf_small_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
     return NULL;
 }
 
