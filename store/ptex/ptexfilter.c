@@ -504,7 +504,7 @@ __attribute__((always_inline)) static inline int bilinear_inface(const pf *c, co
  * eval bit for bit (test_ptexfilter_simd checks it on every shared file). */
 
 /* apply() for a window of at most 2 x 2 texels. */
-static void apply_small(pf *c, pk *k, int f)
+__attribute__((always_inline)) static inline void apply_small(pf *c, pk *k, int f)
 {
     const st_face *F = &c->s->faces[f];
     if ((F->flags & ST_FACE_CONSTANT) || k->uw > 2 || k->vw > 2) {
@@ -540,6 +540,30 @@ static void across_small(pf *c, pk *k, int f, int eid)
     apply_small(c, k, af);
 }
 
+/* apply_to_corner when no face around the vertex is a subface and the vertex is regular
+ * (valence 4: one diagonal face); else the general one. */
+static void corner_small(pf *c, pk *k, int f, int eid)
+{
+    int af = f, ae = eid, cf = -1, ce = 0;
+    for (int i = 0; i < 4; i++) {
+        const st_face *A = &c->s->faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || is_subface(c, af) || (af == f && ae == eid) != (i == 3))
+            break;
+        if (i == 1) {
+            cf = af;
+            ce = ae;
+        }
+        if (i == 3) { /* back at (f, eid) after 4 steps: ncorners == 1 */
+            pk_rotate(k, eid - ce + 2);
+            apply_small(c, k, cf);
+            return;
+        }
+    }
+    apply_to_corner(c, k, f, eid, 0);
+}
+
 /* split_apply at depth 0 on face f (not a subface) for a kernel of at most 2 x 2 texels. */
 static void split_apply_small(pf *c, pk *k, int f)
 {
@@ -566,14 +590,14 @@ static void split_apply_small(pf *c, pk *k, int f)
             if (st) {
                 if (F->adjface[2] >= 0) {
                     pk_split_t(&ka, &kc);
-                    apply_to_corner(c, &kc, f, 2, 0);
+                    corner_small(c, &kc, f, 2);
                 } else
                     pk_merge_t(&ka, bv);
             }
             if (sb) {
                 if (F->adjface[0] >= 0) {
                     pk_split_b(&ka, &kc);
-                    apply_to_corner(c, &kc, f, 1, 0);
+                    corner_small(c, &kc, f, 1);
                 } else
                     pk_merge_b(&ka, bv);
             }
@@ -587,14 +611,14 @@ static void split_apply_small(pf *c, pk *k, int f)
             if (st) {
                 if (F->adjface[2] >= 0) {
                     pk_split_t(&ka, &kc);
-                    apply_to_corner(c, &kc, f, 3, 0);
+                    corner_small(c, &kc, f, 3);
                 } else
                     pk_merge_t(&ka, bv);
             }
             if (sb) {
                 if (F->adjface[0] >= 0) {
                     pk_split_b(&ka, &kc);
-                    apply_to_corner(c, &kc, f, 0, 0);
+                    corner_small(c, &kc, f, 0);
                 } else
                     pk_merge_b(&ka, bv);
             }
