@@ -457,7 +457,7 @@ __attribute__((always_inline)) static inline pf_bil bilinear_kernel(const pf *c,
 }
 
 /* The 2 x 2 texels lie inside the face with both fractions > 0 (then no kernel is needed). */
-static inline int bilinear_fits(const pf_bil *b)
+__attribute__((always_inline)) static inline int bilinear_fits(const pf_bil *b)
 {
     return b->ui >= 0 && b->vi >= 0 && b->ui + 1 < (1 << b->ru) && b->vi + 1 < (1 << b->rv) &&
            b->fu > 0.0f && b->fv > 0.0f;

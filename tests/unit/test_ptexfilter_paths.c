@@ -24,7 +24,7 @@
 #include "sample.h"
 #include "../common/testdata.h"
 
-enum { NQ = 3000, MAXF = 64 };
+enum { NQ = 2000, MAXF = 64 };
 
 static uint32_t rng = 11;
 static float rndf(void) /* [0, 1) */
