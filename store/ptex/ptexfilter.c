@@ -93,6 +93,7 @@ typedef struct pf {
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
     pf_small_fn small;       /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
     size_t ts;               /* bytes per texel */
+    pf_bilinear_half_fn bhalf; /* the in-face bilinear of half texels (F16C), or NULL */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
@@ -475,9 +476,14 @@ __attribute__((always_inline)) static inline void bilinear_write(const pf *c, co
     size_t ts = st_dtype_size(DT) * NC, rowb = ts << ru;
     const uint8_t *p = d + (size_t)vi * rowb + (size_t)ui * ts;
     float ku0 = 1.0f - fu, kv0 = 1.0f - fv;
-    v4f r0 = load_dt(p, DT, NC) * ku0 + load_dt(p + ts, DT, NC) * fu;
-    v4f r1 = load_dt(p + rowb, DT, NC) * ku0 + load_dt(p + rowb + ts, DT, NC) * fu;
-    v4f acc = r0 * kv0 + r1 * fv;
+    v4f acc;
+    if (DT == ST_DT_HALF && c->bhalf) {
+        acc = c->bhalf(p, ts, rowb, ku0, fu, kv0, fv);
+    } else {
+        v4f r0 = load_dt(p, DT, NC) * ku0 + load_dt(p + ts, DT, NC) * fu;
+        v4f r1 = load_dt(p + rowb, DT, NC) * ku0 + load_dt(p + rowb + ts, DT, NC) * fu;
+        acc = r0 * kv0 + r1 * fv;
+    }
     float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(DT));
     for (unsigned ch = 0; ch < NC; ch++)
         out[ch] = acc[ch] * scale;
@@ -934,6 +940,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.fast = general ? NULL : pf_fast_select(c.dt, c.nc, o->filter);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
     c.ts = st_dtype_size(c.dt) * c.nc;
+    c.bhalf = pf_bilinear_half_select(); /* in eval's in-face bilinear too */
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;
     pf_query_fn qfn = general ? eval : query_fn(&c, o->filter);

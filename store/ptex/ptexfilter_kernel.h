@@ -152,6 +152,14 @@ typedef pf_v4 (*pf_small_fn)(const uint8_t *base, size_t rowb, const float *ku, 
                              const float *kv, int vw, pf_v4 acc);
 pf_small_fn pf_small_select(unsigned dt, unsigned nc);
 
+/* The bilinear of 2 x 2 texels of 4 half values each (p the first, ts bytes per texel, rows
+ * rowb apart; reads 8 bytes per texel, so up to 2 past a 3-channel one): lanes 0..3 of
+ * (t00 ku0 + t01 fu) kv0 + (t10 ku0 + t11 fu) fv, with ptexfilter.c's operations in its
+ * order (F16C loads). NULL without AVX2 + F16C. */
+typedef pf_v4 (*pf_bilinear_half_fn)(const uint8_t *p, size_t ts, size_t rowb, float ku0,
+                                     float fu, float kv0, float fv);
+pf_bilinear_half_fn pf_bilinear_half_select(void);
+
 /* ptexfilter.c, for tests: st_ptexfilter_batch with every query through the general path
  * (eval: no per-type query function, no fused or small-window path), to check that those
  * give its results bit for bit. */

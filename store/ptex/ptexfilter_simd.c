@@ -34,6 +34,10 @@
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
  *
+ * The in-face bilinear of half texels (pf_bilinear_half_select): F16C conversions, then the
+ * portable bilinear's multiplies and adds in its order (no fused multiply-adds), so the
+ * results are the portable loop's for every finite value.
+ *
  * Owns: nothing but these loops. The window sums run in a different order than the portable
  * loop (and than Ptex for 1, 2 and 4 channels: columns first), so results differ from them by
  * float rounding only.
@@ -517,6 +521,24 @@ pf_small_fn pf_small_select(unsigned dt, unsigned nc)
     return fns[dt][nc - 1];
 }
 
+/* Bilinear of 2 x 2 half texels (4 values each, F16C): the same operations in the same
+ * order as ptexfilter.c's portable bilinear, (t00 k0 + t01 fu) kv0 + (t10 k0 + t11 fu) fv. */
+__attribute__((target("avx2,fma,f16c")))
+static pf_v4 bilinear_half(const uint8_t *p, size_t ts, size_t rowb, float ku0, float fu,
+                           float kv0, float fv)
+{
+    __m128 a = _mm_set1_ps(ku0), b = _mm_set1_ps(fu);
+    __m128 r0 = _mm_add_ps(_mm_mul_ps(load4(p, 2), a), _mm_mul_ps(load4(p + ts, 2), b));
+    __m128 r1 = _mm_add_ps(_mm_mul_ps(load4(p + rowb, 2), a),
+                           _mm_mul_ps(load4(p + rowb + ts, 2), b));
+    return (pf_v4)_mm_add_ps(_mm_mul_ps(r0, _mm_set1_ps(kv0)), _mm_mul_ps(r1, _mm_set1_ps(fv)));
+}
+
+pf_bilinear_half_fn pf_bilinear_half_select(void)
+{
+    return pf_have_avx2() ? bilinear_half : NULL;
+}
+
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 {
     static const pf_fast_fn fns[4][4] = {
@@ -561,6 +583,11 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 pf_small_fn pf_small_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_bilinear_half_fn pf_bilinear_half_select(void)
+{
     return NULL;
 }
 
