@@ -649,13 +649,16 @@ static void split_apply_small(pf *c, pk *k, int f)
     apply_small(c, k, f);
 }
 
-/* eval's kernel path for the bilinear kernel b on face f (plain_face, both fractions > 0,
- * the 2 x 2 texels overhanging the face) in every mode. Returns 0 (nothing written) when
- * Discard keeps no weight: eval then runs (its zero-coverage rule). */
+/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode: the
+ * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
+ * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
+ * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
 static int bilinear_edge(pf *c, const pf_bil *b, uint32_t f, float *out, float *cov)
 {
     pk k;
-    k.ulog2 = b->ru, k.vlog2 = b->rv, k.u = b->ui, k.v = b->vi, k.uw = k.vw = 2;
+    k.ulog2 = b->ru, k.vlog2 = b->rv, k.u = b->ui, k.v = b->vi;
+    k.uw = b->fu != 0.0f ? 2 : 1;
+    k.vw = b->fv != 0.0f ? 2 : 1;
     k.ku0 = k.kv0 = k.rot = 0;
     k.kub[0] = 1.0f - b->fu, k.kub[1] = b->fu;
     k.kvb[0] = 1.0f - b->fv, k.kvb[1] = b->fv;
@@ -847,7 +850,7 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
             *cov = 1.0f;
             return ST_Q_OK;
         }
-        if (c->small && b.fu > 0.0f && b.fv > 0.0f && bilinear_edge(c, &b, q->face, out, cov))
+        if (c->small && bilinear_edge(c, &b, q->face, out, cov))
             return ST_Q_OK;
     }
     return eval(c, pp, o, q, out, cov);

@@ -3,7 +3,7 @@
  * box and width-4 kernels, the small-window loop) give the general path's outputs bit for bit:
  * on every shared .ptx file (SEAMTEX_DATA ptex-ref/ and ptx/, walked, so a new file is
  * covered), every filter, Traverse, Discard and Clamp, many random queries - a third of them
- * near a face edge or corner - at footprints from a quarter texel to 32 texels, isotropic and
+ * near a face edge or corner, some on texel centres - at footprints from a quarter texel to 32 texels, isotropic and
  * not, with default and non-default width and blur. Outputs, coverage and status are compared
  * as bytes (pf_batch_general runs every query through eval). */
 #include <setjmp.h>
@@ -80,6 +80,14 @@ static void make_queries(const st_set *s, st_query *q)
         float fu = fps[(int)(rndf() * 8) & 7], fv = i % 4 == 1 ? fps[(int)(rndf() * 8) & 7] : fu;
         q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = fu / (float)F->w,
                           .dvdy = fv / (float)F->h};
+        if (i % 5 == 2) { /* on a texel centre at 16 x 16: bilinear fractions of 0 */
+            q[i].u = ((float)(int)(rndf() * 16.0f) + 0.5f) / 16.0f;
+            q[i].dudx = 1.0f / 16.0f;
+            if (i % 2) {
+                q[i].v = ((float)(int)(rndf() * 16.0f) + 0.5f) / 16.0f;
+                q[i].dvdy = 1.0f / 16.0f;
+            }
+        }
         if (i % 7 == 3) { /* cross terms */
             q[i].dudy = 0.5f * q[i].dudx;
             q[i].dvdx = -0.25f * q[i].dvdy;
