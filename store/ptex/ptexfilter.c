@@ -442,18 +442,44 @@ __attribute__((always_inline)) static inline pf_bil bilinear_kernel(const pf *c,
                                                                     const st_face *F, float u,
                                                                     float v, float uw, float vw)
 {
+    pf_bil b;
+#ifdef __SSE2__
+    /* both axes at once (lane 0 u, lane 1 v), the scalar code's operations lane by lane */
+    const __m128 one = _mm_set1_ps(1.0f);
+    const __m128i e127 = _mm_set1_epi32(127);
+    __m128 w = _mm_setr_ps(uw, vw, 0.0f, 0.0f);
+    w = _mm_add_ps(_mm_mul_ps(w, _mm_set1_ps(c->width)), _mm_set1_ps(c->blur));
+    w = _mm_min_ps(w, one);                                     /* bu < 1 ? bu : 1 */
+    __m128i lg = _mm_setr_epi32(F->ulog2, F->vlog2, 0, 0);
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(_mm_sub_epi32(e127, lg), 23));
+    w = _mm_max_ps(w, lo);                                      /* bu > lu ? bu : lu */
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23)); /* 2^res */
+    __m128 pix = _mm_sub_ps(_mm_mul_ps(_mm_setr_ps(u, v, 0.0f, 0.0f), rf), _mm_set1_ps(0.5f));
+    __m128 t = _mm_cvtepi32_ps(_mm_cvttps_epi32(pix));          /* pk_floor */
+    __m128 fl = _mm_sub_ps(t, _mm_and_ps(_mm_cmpgt_ps(t, pix), one));
+    __m128i fi = _mm_cvttps_epi32(fl);
+    __m128 fr = _mm_sub_ps(pix, fl);
+    b.ru = _mm_cvtsi128_si32(r);
+    b.rv = _mm_cvtsi128_si32(_mm_shuffle_epi32(r, 1));
+    b.ui = _mm_cvtsi128_si32(fi);
+    b.vi = _mm_cvtsi128_si32(_mm_shuffle_epi32(fi, 1));
+    b.fu = _mm_cvtss_f32(fr);
+    b.fv = _mm_cvtss_f32(_mm_shuffle_ps(fr, fr, 1));
+#else
     float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
     bu = bu < 1.0f ? bu : 1.0f;
     bv = bv < 1.0f ? bv : 1.0f;
     float lu = pk_recip_pow2(F->ulog2), lv = pk_recip_pow2(F->vlog2);
     bu = bu > lu ? bu : lu;
     bv = bv > lv ? bv : lv;
-    pf_bil b;
     b.ru = pk_res_from_width(bu), b.rv = pk_res_from_width(bv);
     float upix = u * (float)(1 << b.ru) - 0.5f, vpix = v * (float)(1 << b.rv) - 0.5f;
     float uf = pk_floor(upix), vf = pk_floor(vpix);
     b.ui = (int)uf, b.vi = (int)vf;
     b.fu = upix - uf, b.fv = vpix - vf;
+#endif
     return b;
 }
 
