@@ -679,15 +679,15 @@ static void split_apply_small(pf *c, pk *k, int f)
  * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
  * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
  * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
-static int bilinear_edge(pf *c, const pf_bil *b, uint32_t f, float *out, float *cov)
+static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
 {
     pk k;
-    k.ulog2 = b->ru, k.vlog2 = b->rv, k.u = b->ui, k.v = b->vi;
-    k.uw = b->fu != 0.0f ? 2 : 1;
-    k.vw = b->fv != 0.0f ? 2 : 1;
+    k.ulog2 = b.ru, k.vlog2 = b.rv, k.u = b.ui, k.v = b.vi;
+    k.uw = b.fu != 0.0f ? 2 : 1;
+    k.vw = b.fv != 0.0f ? 2 : 1;
     k.ku0 = k.kv0 = k.rot = 0;
-    k.kub[0] = 1.0f - b->fu, k.kub[1] = b->fu;
-    k.kvb[0] = 1.0f - b->fv, k.kvb[1] = b->fv;
+    k.kub[0] = 1.0f - b.fu, k.kub[1] = b.fu;
+    k.kvb[0] = 1.0f - b.fv, k.kvb[1] = b.fv;
     c->acc = (v4f){0, 0, 0, 0};
     float total = pk_weight(&k);
     c->weight = total;
@@ -876,7 +876,7 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
             *cov = 1.0f;
             return ST_Q_OK;
         }
-        if (c->small && bilinear_edge(c, &b, q->face, out, cov))
+        if (c->small && bilinear_edge(c, b, q->face, out, cov))
             return ST_Q_OK;
     }
     return eval(c, pp, o, q, out, cov);
