@@ -164,6 +164,7 @@ static uint8_t *map_region(int fd, uint64_t size, int *status, char *msg, size_t
         snprintf(msg, ml, "SHM_ATTACH: cannot map the memfd: %s", strerror(errno));
         return NULL;
     }
+    *status = 0;
     return p;
 }
 
