@@ -689,6 +689,10 @@ static inline int stp_shm_range_ok(uint64_t size, uint64_t off, uint64_t len)
 {
     return off <= size && len <= size - off;
 }
+/* Writes the count queries of r (r->queries for SAMPLE in the layout of r->p.flags,
+ * r->dqueries for SAMPLE_DIR) to out, stp_sample_query_bytes of them: what the frame encoders
+ * put in a body, for a client that puts them into its region instead. */
+void stp_put_queries(uint8_t opcode, const stp_sample_req *r, uint8_t *out);
 /* Bytes of the queries of a request: count x (28, 26, 16 or 14 by the flags; 36 for
  * SAMPLE_DIR). */
 uint64_t stp_sample_query_bytes(uint8_t opcode, uint8_t flags, uint32_t count);
