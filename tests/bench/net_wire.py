@@ -44,6 +44,10 @@ REPS = int(os.environ.get('NET_REPS', '3'))
 SECS = os.environ.get('NET_SECS', '2')
 BATCHES = [int(x) for x in os.environ.get('NET_BATCHES', '256,1024,4096,16384').split(',')]
 ENCODINGS = {'f32': [], 'compact': ['--compact', '--outfmt', 'f16']}
+# NET_ENCODINGS=f32 / NET_VARIANTS=unix narrow a run (e.g. to A/B unix against unix+shm only)
+ENCODINGS = {k: v for k, v in ENCODINGS.items()
+             if k in os.environ.get('NET_ENCODINGS', 'f32,compact').split(',')}
+VARIANTS = os.environ.get('NET_VARIANTS', 'tcp,unix').split(',')
 SHM = os.environ.get('NET_WIRE_SHM', '1') != '0'    # the unix+shm column (0: leave it out)
 TCK = os.sysconf('SC_CLK_TCK')
 
@@ -137,7 +141,8 @@ def main():
             sys.exit(f'net_wire: {exe} is missing (make first)')
     load0 = load()
     # (name, daemon, unix socket, daemon flags, load tester)
-    variants = [('tcp', DAEMON, False, [], BENCH), ('unix', DAEMON, True, [], BENCH)]
+    variants = [v for v in [('tcp', DAEMON, False, [], BENCH), ('unix', DAEMON, True, [], BENCH)]
+                if v[0] in VARIANTS]
     if BASE:
         bb = BASE_BENCH or BENCH
         variants[:0] = [('base-tcp', BASE, False, [], bb), ('base-unix', BASE, True, [], bb)]
@@ -186,7 +191,7 @@ def main():
                              queries_per_s=q, ns_cpu_per_query=ns))
         for enc in ENCODINGS:
             names = [v[0] for v in variants]
-            if SHM:
+            if SHM and 'unix' in names:
                 names.insert(names.index('unix') + 1, 'unix+shm')
             for name in names:
                 for conns in (1, 2):
