@@ -608,6 +608,7 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
     U("split_batches", __atomic_load_n(&srv->pool.split_batches, __ATOMIC_RELAXED));
     U("parts_helped", __atomic_load_n(&srv->pool.parts_helped, __ATOMIC_RELAXED));
+    U("helpers_yielded", __atomic_load_n(&srv->pool.helpers_yielded, __ATOMIC_RELAXED));
     n += sts_budget_stats(srv, s + n, cap - n);
     U("max_conns", STS_LIVE(srv, max_conns));
     U("max_frame", STS_LIVE(srv, max_frame));

@@ -43,19 +43,27 @@ static inline void cpu_relax(void)
 #endif
 }
 
-/* The first open split batch that still has parts to take (under the pool mutex). */
+/* The first open split batch that still has parts to take, while a CPU is not sampling (under
+ * the pool mutex; a woken worker that finds every CPU busy goes back to sleep). */
 static sts_par *open_par(sts_pool *p)
 {
+    if (!p->par || __atomic_load_n(&p->sampling, __ATOMIC_RELAXED) >= p->ncpu)
+        return NULL;
     for (sts_par *j = p->par; j; j = j->next_open)
         if (__atomic_load_n(&j->next, __ATOMIC_RELAXED) < j->nparts)
             return j;
     return NULL;
 }
 
-/* Takes parts until none is left; returns how many it took. */
-static size_t par_run(sts_par *j)
+/* Takes parts until none is left; returns how many it took. A helper (`ncpu` nonzero) also
+ * stops before a part when more threads than `ncpu` are sampling (another connection's batch
+ * started on an I/O thread after it was woken): the caller takes the rest, so two busy
+ * connections on two cores do not run three samplers for longer than one part. */
+static size_t par_run(sts_par *j, const sts_pool *p, uint32_t ncpu)
 {
     for (size_t taken = 0;; taken++) {
+        if (ncpu && __atomic_load_n(&p->sampling, __ATOMIC_RELAXED) > ncpu)
+            return taken;
         size_t i = __atomic_fetch_add(&j->next, 1, __ATOMIC_RELAXED);
         if (i >= j->nparts)
             return taken;
@@ -110,7 +118,7 @@ int sts_pool_parallel(sts_pool *p, size_t n, size_t grain, sts_part_fn fn, void 
         return r;
     }
     __atomic_add_fetch(&p->split_batches, 1, __ATOMIC_RELAXED);
-    par_run(&j);
+    par_run(&j, p, 0);
 
     /* close the batch to new helpers, then wait for the parts helpers have begun (at most one
      * part each: spin briefly, it is tens of microseconds, then sleep) */
@@ -174,9 +182,11 @@ static void *worker_main(void *arg)
             __atomic_add_fetch(&j->helpers, 1, __ATOMIC_RELAXED);
             pthread_mutex_unlock(&p->mu);
             __atomic_add_fetch(&p->sampling, 1, __ATOMIC_RELAXED);
-            size_t done = par_run(j);
+            size_t done = par_run(j, p, p->ncpu);
             __atomic_sub_fetch(&p->sampling, 1, __ATOMIC_RELAXED);
             __atomic_add_fetch(&p->parts_helped, done, __ATOMIC_RELAXED);
+            if (__atomic_load_n(&j->next, __ATOMIC_RELAXED) < j->nparts)
+                __atomic_add_fetch(&p->helpers_yielded, 1, __ATOMIC_RELAXED);
             pthread_mutex_lock(&p->mu);
             /* release: the parts' output is visible to the caller once it reads 0 */
             if (__atomic_sub_fetch(&j->helpers, 1, __ATOMIC_RELEASE) == 0)

@@ -53,6 +53,8 @@ typedef struct sts_pool {
     sts_par        *par;          /* open split batches (helpers take the first with parts left) */
     uint64_t        split_batches;/* atomic: batches a helper was woken for (STATS) */
     uint64_t        parts_helped; /* atomic: parts workers sampled for others (STATS) */
+    uint64_t        helpers_yielded; /* atomic: helpers that left a batch with parts still to
+                                     take because more threads than CPUs were sampling (STATS) */
     int             stop;
     pthread_t      *threads;
     uint32_t        nthreads;
