@@ -334,8 +334,12 @@ static int run_batch(sts_ctx *c, size_t n, sts_part_fn fn, part_arg *a)
     uint32_t split = STS_LIVE(c->srv, split_batch);
     if (n == 0)
         return 0;
-    if (split && n >= split)
-        return sts_pool_parallel(&c->srv->pool, n, PART_GRAIN, fn, a);
+    if (split && n >= split) {
+        /* on an I/O thread (its own scratch) the pool tracks it as that thread's batches */
+        const sts_io *io = c->conn ? c->conn->io : NULL;
+        int slot = io && c->scratch == &io->scratch ? io->index : -1;
+        return sts_pool_parallel(&c->srv->pool, slot, n, PART_GRAIN, fn, a);
+    }
     return fn(a, 0, n);
 }
 

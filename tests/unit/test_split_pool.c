@@ -3,6 +3,9 @@
  *   - every part of a split batch runs exactly once and the results add up;
  *   - helpers are woken only onto CPUs that are not sampling already: with another thread
  *     sampling on a 2-CPU pool, a batch is one call on its caller, no helper woken;
+ *   - nor onto a CPU another I/O thread keeps: one inside a batch, or out of one for less than
+ *     a millisecond (its next pipelined batch is a send and a read away); an I/O thread's own
+ *     last batch, or another's long ago, does not count;
  *   - a helper that is sampling parts when another batch starts (more samplers than CPUs)
  *     leaves after the part it has, the caller takes the rest (STATS helpers_yielded), and
  *     the worker does not come back to the batch while every CPU is sampling.
@@ -124,7 +127,7 @@ static void every_part_runs_once_and_the_results_add_up(void **st)
         memset(&l, 0, sizeof l);
         l.pool = &p;
         l.caller = pthread_self();
-        assert_int_equal(sts_pool_parallel(&p, NPARTS, 1, part, &l), NPARTS);
+        assert_int_equal(sts_pool_parallel(&p, -1, NPARTS, 1, part, &l), NPARTS);
         for (int i = 0; i < NPARTS; i++)
             assert_int_equal(l.ran[i], 1);
         assert_int_equal(__atomic_load_n(&p.sampling, __ATOMIC_ACQUIRE), 0);
@@ -147,7 +150,7 @@ static void no_helper_when_every_cpu_is_sampling(void **st)
     memset(&l, 0, sizeof l);
     l.pool = &p;
     l.caller = pthread_self();
-    assert_int_equal(sts_pool_parallel(&p, NPARTS, 1, part, &l), NPARTS);
+    assert_int_equal(sts_pool_parallel(&p, -1, NPARTS, 1, part, &l), NPARTS);
     assert_int_equal(l.calls, 1);
     assert_int_equal(l.whole, NPARTS);
     assert_int_equal(p.split_batches, 0);
@@ -155,6 +158,45 @@ static void no_helper_when_every_cpu_is_sampling(void **st)
     assert_int_equal(__atomic_load_n(&p.sampling, __ATOMIC_ACQUIRE), 1);
     __atomic_store_n(&p.sampling, 0, __ATOMIC_RELEASE);
     sts_pool_stop(&p);
+}
+
+/* One batch from I/O thread `slot` (another, slot 0, in the state given); returns whether a
+ * helper was woken for it. */
+static int woken_with_slot0(int slot, int64_t slot0)
+{
+    sts_pool p;
+    start(&p);
+    p.slot_state[0] = slot0;
+    p.nslots = 2;
+    part_log l;
+    memset(&l, 0, sizeof l);
+    l.pool = &p;
+    l.caller = pthread_self();
+    assert_int_equal(sts_pool_parallel(&p, slot, NPARTS, 1, part, &l), NPARTS);
+    for (int i = 0; i < NPARTS; i++)
+        assert_true(l.calls == 1 || l.ran[i] == 1);
+    int woken = p.split_batches == 1;
+    assert_int_equal(woken ? NPARTS : 1, l.calls);   /* unsplit: one call, the whole batch */
+    /* the caller's own slot now says when its batch ended */
+    assert_true(p.slot_state[slot] > 0);
+    sts_pool_stop(&p);
+    return woken;
+}
+
+static void no_helper_while_another_io_thread_samples_or_just_did(void **st)
+{
+    (void)st;
+    int64_t now = sts_now_us();
+    /* slot 0 inside a batch */
+    assert_false(woken_with_slot0(1, -1));
+    /* slot 0 ended a batch "just now" (a time ahead of the clock: within the millisecond
+     * however late this thread runs) */
+    assert_false(woken_with_slot0(1, now + 10 * 1000000));
+    /* slot 0 ended one 10 s ago, or never: its CPU is free */
+    assert_true(woken_with_slot0(1, now - 10 * 1000000));
+    assert_true(woken_with_slot0(1, 0));
+    /* the caller's own last batch does not keep a CPU from helping it */
+    assert_true(woken_with_slot0(0, now + 10 * 1000000));
 }
 
 static void a_helper_leaves_when_another_batch_starts(void **st)
@@ -167,7 +209,7 @@ static void a_helper_leaves_when_another_batch_starts(void **st)
     l.pool = &p;
     l.caller = pthread_self();
     l.stage = 1;
-    assert_int_equal(sts_pool_parallel(&p, NPARTS, 1, part, &l), NPARTS);
+    assert_int_equal(sts_pool_parallel(&p, -1, NPARTS, 1, part, &l), NPARTS);
     int helped = 0;
     for (int i = 0; i < NPARTS; i++) {
         assert_int_equal(l.ran[i], 1);
@@ -188,6 +230,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_part_runs_once_and_the_results_add_up),
         cmocka_unit_test(no_helper_when_every_cpu_is_sampling),
+        cmocka_unit_test(no_helper_while_another_io_thread_samples_or_just_did),
         cmocka_unit_test(a_helper_leaves_when_another_batch_starts),
     };
     return cmocka_run_group_tests_name("split_pool", tests, NULL, NULL);
