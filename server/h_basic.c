@@ -337,8 +337,12 @@ static int run_batch(sts_ctx *c, size_t n, sts_part_fn fn, part_arg *a)
     uint32_t split = STS_LIVE(c->srv, split_batch);
     if (n == 0)
         return 0;
-    if (split && n >= split)
-        return sts_pool_parallel(&c->srv->pool, n, PART_GRAIN, fn, a);
+    if (split && n >= split) {
+        /* on an I/O thread (its own scratch) the pool tracks it as that thread's batches */
+        const sts_io *io = c->conn ? c->conn->io : NULL;
+        int slot = io && c->scratch == &io->scratch ? io->index : -1;
+        return sts_pool_parallel(&c->srv->pool, slot, n, PART_GRAIN, fn, a);
+    }
     return fn(a, 0, n);
 }
 
@@ -615,6 +619,7 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
     U("split_batches", __atomic_load_n(&srv->pool.split_batches, __ATOMIC_RELAXED));
     U("parts_helped", __atomic_load_n(&srv->pool.parts_helped, __ATOMIC_RELAXED));
+    U("helpers_yielded", __atomic_load_n(&srv->pool.helpers_yielded, __ATOMIC_RELAXED));
     n += sts_budget_stats(srv, s + n, cap - n);
     n += sts_shm_stats(srv, s + n, cap - n);
     U("max_conns", STS_LIVE(srv, max_conns));

@@ -128,6 +128,8 @@ static const mrow ROWS[] = {
      "SAMPLE batches sampled in parts with idle workers."},
     {"parts_helped", "seamtex_split_parts_helped_total", M_COUNTER, "", 0,
      "Parts of split batches sampled by a worker."},
+    {"helpers_yielded", "seamtex_split_helpers_yielded_total", M_COUNTER, "", 0,
+     "Workers that left a split batch with parts left because every CPU was sampling."},
     {"memory_budget", "seamtex_memory_budget_bytes", M_GAUGE, "", 0,
      "The memory-budget setting (0 = unlimited)."},
     {"stored_bytes", "seamtex_stored_bytes", M_GAUGE, "", 0,

@@ -32,7 +32,7 @@
  * comes back through the I/O thread's completion list + eventfd. Replies therefore leave in
  * request order on every connection (the server does not offer STP_CAP_OUT_OF_ORDER).
  * A SAMPLE batch of split-batch queries or more is sampled in parts by the thread that has it
- * and idle workers together (sts_pool_parallel), only onto CPUs not already sampling.
+ * and idle workers together (sts_pool_parallel), only onto CPUs no other sampler keeps.
  *
  * No globals: everything hangs off the sts_server passed by pointer (main.c keeps it in a
  * function-local static because of its size; signals are taken synchronously, no flag).
