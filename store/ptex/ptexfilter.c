@@ -86,11 +86,12 @@ typedef struct pf {
     const st_set *s;
     const st_ptexres *t;
     unsigned nc, dt;
+    size_t ts;               /* bytes per texel */
     int mode;                /* st_mode */
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
-    int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
+    pf_window_fn win;        /* the window loop for the batch's type and channels, or NULL */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
@@ -137,11 +138,11 @@ static void apply(pf *c, pk *k, int f)
         pk_downres_v(k);
     if (k->ulog2 < 0 || k->vlog2 < 0)
         return;
-    const uint8_t *d = st_ptexres_data(c->t, c->s, (uint32_t)f, (unsigned)k->ulog2,
-                                       (unsigned)k->vlog2);
+    const uint8_t *const *px = c->t->px + c->t->base[f];
     unsigned nc = c->nc, dt = c->dt;
     const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
     if (F->flags & ST_FACE_CONSTANT) {
+        const uint8_t *d = px[0];
         float w = pk_weight(k);
         c->acc += load_any(dt, nc, d) * w;
         return;
@@ -150,12 +151,13 @@ static void apply(pf *c, pk *k, int f)
     /* the window must lie inside the face (it does for Ptex's kernels; guard bad input) */
     if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
         return;
-    size_t ts = st_dtype_size(dt) * nc;
+    const uint8_t *d = px[(unsigned)k->ulog2 * (F->vlog2 + 1u) + (unsigned)k->vlog2];
+    size_t ts = c->ts;
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
     v4f acc = c->acc;
-    if (c->avx2) {
-        c->acc = pf_apply_avx2(base, rowb, k, dt, nc, acc);
+    if (c->win) {
+        c->acc = c->win(base, rowb, ku, k->uw, kv, k->vw, acc);
         return;
     }
     switch (c->kind) {
@@ -459,6 +461,9 @@ __attribute__((always_inline)) static inline int bilinear_inface(const pf *c, co
     return 1;
 }
 
+static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                       pk *k, float *out, float *cov);
+
 static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                 float *out, float *cov)
 {
@@ -522,12 +527,24 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         *cov = 0.0f;
         return ST_Q_OK;
     }
-    float total = pk_weight(&k);
+    return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
+/* The rest of eval once the query's kernel k is built with its zeros stripped (uw, vw >= 1):
+ * applied to the face or split across its edges, divided by the weight. */
+static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                       pk *k, float *out, float *cov)
+{
+    int f = (int)q->face;
+    *cov = 1.0f;
+    c->acc = (v4f){0, 0, 0, 0};
+    float total = pk_weight(k);
     c->weight = total;
-    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2))
-        apply(c, &k, (int)f); /* the kernel lies inside the face: every mode agrees */
+    if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
+        k->v + k->vw <= (1 << k->vlog2))
+        apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
     else
-        split_apply(c, &k, (int)f, 0);
+        split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
          * negative keeps more than its total, reported as 1 */
@@ -635,11 +652,15 @@ static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const s
     const st_face *F = plain_face(c, q);
     if (F) {
         float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
-        if (c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
-                    uw * c->width + c->blur, vw * c->width + c->blur, out)) {
+        pk k;
+        int r = c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
+                        uw * c->width + c->blur, vw * c->width + c->blur, out, &k);
+        if (r == 1) {
             *cov = 1.0f;
             return ST_Q_OK;
         }
+        if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+            return eval_kernel(c, pp, o, q, &k, out, cov);
     }
     return eval(c, pp, o, q, out, cov);
 }
@@ -709,8 +730,9 @@ int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
-    c.avx2 = avx2;
     c.fast = pf_fast_select(c.dt, c.nc, o->filter);
+    c.win = pf_window_select(c.dt, c.nc);
+    c.ts = st_dtype_size(c.dt) * c.nc;
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;
     pf_query_fn qfn = query_fn(&c, o->filter);
