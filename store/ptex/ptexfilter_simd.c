@@ -78,6 +78,57 @@ PF_TARGET __m256 load8(const uint8_t *p, unsigned dt)
     }
 }
 
+/* 4 values of type dt from p, as floats (reads exactly 4 values). */
+PF_TARGET __m128 load4v(const uint8_t *p, unsigned dt)
+{
+    switch (dt) {
+    case 0: {
+        int x;
+        __builtin_memcpy(&x, p, 4);
+        return _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
+    }
+    case 1:
+        return _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+    case 2:
+        return _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
+    default:
+        return _mm_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* window() for a row of at most 4 values (uw * nc <= 4: the small windows of edge pieces and
+ * small faces) in 4 lanes: the same operations on the same lanes in the same order (the
+ * upper 4 lanes of window() hold +0 there, which the fold adds as "+ 0"), so bit for bit
+ * window()'s result. */
+PF_TARGET __m128 window4(const uint8_t *base, size_t rowb, unsigned DT, unsigned nc,
+                         const float *ku, int uw, const float *kv, int vw, __m128 acc)
+{
+    int nt = uw * (int)nc;
+    __m128 tail = _mm_castsi128_ps(_mm_cmpgt_epi32(_mm_set1_epi32(nt), _mm_setr_epi32(0, 1, 2, 3)));
+    __m128 col = _mm_setzero_ps();
+    for (int j = 0; j < vw; j++)
+        col = _mm_fmadd_ps(_mm_and_ps(load4v(base + (size_t)j * rowb, DT), tail),
+                           _mm_set1_ps(kv[j]), col);
+    const __m128 z = _mm_setzero_ps();
+    __m128 q;
+    if (nc == 4) {
+        q = _mm_add_ps(_mm_mul_ps(col, _mm_set1_ps(ku[0])), z);
+        return _mm_add_ps(acc, q);
+    }
+    if (nc == 2) {
+        __m128 k = _mm_setr_ps(ku[0], uw > 1 ? ku[1] : 0.0f, 0.0f, 0.0f);
+        q = _mm_add_ps(_mm_fmadd_ps(col, _mm_unpacklo_ps(k, k), z), z);
+    } else {
+        __m128 k = _mm_setr_ps(ku[0], uw > 1 ? ku[1] : 0.0f, uw > 2 ? ku[2] : 0.0f,
+                               uw > 3 ? ku[3] : 0.0f);
+        q = _mm_add_ps(_mm_fmadd_ps(col, k, z), z);
+    }
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+    if (nc == 2)
+        return _mm_add_ps(acc, _mm_movelh_ps(h, z));
+    return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+
 /* The whole window for type DT and NV vectors per row (both constants where inlined, so
  * the column sums stay in registers): col[b] += kv[j] * row j, then the dot with the column
  * weights, folded into acc by channel. */
@@ -85,6 +136,8 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
                         const float *ku, int uw, const float *kv, int vw, int NV, __m128 acc)
 {
     enum { MAXV = (PK_MAX * 4 + 7) / 8 };
+    if (NV == 1 && uw * (int)nc <= 4)
+        return window4(base, rowb, DT, nc, ku, uw, kv, vw, acc);
     size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
     int ne = uw * (int)nc;
     int nt = ne - 8 * (NV - 1); /* values in the last vector, 1..8 */
