@@ -125,6 +125,73 @@ static inline int is_subface(const pf *c, int f)
     return (c->s->faces[f].flags & ST_FACE_SUBFACE) != 0;
 }
 
+/* The window loop without AVX2 (the portable loops; pf_window_select gives NULL): returns
+ * c->acc + the window's weighted sum. Kept out of apply so that its frame stays small. */
+__attribute__((noinline)) static v4f apply_portable(const pf *c, const uint8_t *base, size_t rowb,
+                                                   size_t ts, const float *ku, int uw,
+                                                   const float *kv, int vw)
+{
+    unsigned nc = c->nc, dt = c->dt;
+    v4f acc = c->acc;
+    switch (c->kind) {
+    case PF_U8:
+        if (nc < 3) {
+            /* 1 or 2 channels: a row of the window is uw * nc contiguous bytes; dot it with the
+             * weights repeated per channel, 4 bytes at a time (lane l holds channel l % nc). The
+             * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
+            int ne = uw * (int)nc, nv = (ne + 3) / 4;
+            v4f wv[(PK_MAX * 4 + 3) / 4];
+            float *we = (float *)wv;
+            if (nc == 1) {
+                for (int i = 0; i < uw; i++)
+                    we[i] = ku[i];
+            } else {
+                for (int i = 0; i < uw; i++)
+                    we[2 * i] = we[2 * i + 1] = ku[i];
+            }
+            for (int i = ne; i < nv * 4; i++)
+                we[i] = 0.0f;
+            for (int j = 0; j < vw; j++) {
+                const uint8_t *p = base + j * rowb;
+                v4f rs = load_u8(p) * wv[0];
+                for (int b = 1; b < nv; b++)
+                    rs += load_u8(p + 4 * b) * wv[b];
+                v4f row = nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
+                                  : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
+                acc += row * kv[j];
+            }
+            break;
+        }
+        for (int j = 0; j < vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_u8(p) * ku[0];
+            for (int i = 1; i < uw; i++)
+                row += load_u8(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    case PF_F32:
+        for (int j = 0; j < vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_f32(p) * ku[0];
+            for (int i = 1; i < uw; i++)
+                row += load_f32(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    default:
+        for (int j = 0; j < vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_any(dt, nc, p) * ku[0];
+            for (int i = 1; i < uw; i++)
+                row += load_any(dt, nc, p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    }
+    return acc;
+}
+
 /* Kernel applied to the data of face f at the kernel's resolution (reduced first when the
  * face is smaller). */
 static void apply(pf *c, pk *k, int f)
@@ -155,68 +222,10 @@ static void apply(pf *c, pk *k, int f)
     size_t ts = c->ts;
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
-    v4f acc = c->acc;
-    if (c->win) {
-        c->acc = c->win(base, rowb, ku, k->uw, kv, k->vw, acc);
-        return;
-    }
-    switch (c->kind) {
-    case PF_U8:
-        if (nc < 3) {
-            /* 1 or 2 channels: a row of the window is uw * nc contiguous bytes; dot it with the
-             * weights repeated per channel, 4 bytes at a time (lane l holds channel l % nc). The
-             * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
-            int ne = k->uw * (int)nc, nv = (ne + 3) / 4;
-            v4f wv[(PK_MAX * 4 + 3) / 4];
-            float *we = (float *)wv;
-            if (nc == 1) {
-                for (int i = 0; i < k->uw; i++)
-                    we[i] = ku[i];
-            } else {
-                for (int i = 0; i < k->uw; i++)
-                    we[2 * i] = we[2 * i + 1] = ku[i];
-            }
-            for (int i = ne; i < nv * 4; i++)
-                we[i] = 0.0f;
-            for (int j = 0; j < k->vw; j++) {
-                const uint8_t *p = base + j * rowb;
-                v4f rs = load_u8(p) * wv[0];
-                for (int b = 1; b < nv; b++)
-                    rs += load_u8(p + 4 * b) * wv[b];
-                v4f row = nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
-                                  : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
-                acc += row * kv[j];
-            }
-            break;
-        }
-        for (int j = 0; j < k->vw; j++) {
-            const uint8_t *p = base + j * rowb;
-            v4f row = load_u8(p) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                row += load_u8(p + (size_t)i * ts) * ku[i];
-            acc += row * kv[j];
-        }
-        break;
-    case PF_F32:
-        for (int j = 0; j < k->vw; j++) {
-            const uint8_t *p = base + j * rowb;
-            v4f row = load_f32(p) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                row += load_f32(p + (size_t)i * ts) * ku[i];
-            acc += row * kv[j];
-        }
-        break;
-    default:
-        for (int j = 0; j < k->vw; j++) {
-            const uint8_t *p = base + j * rowb;
-            v4f row = load_any(dt, nc, p) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                row += load_any(dt, nc, p + (size_t)i * ts) * ku[i];
-            acc += row * kv[j];
-        }
-        break;
-    }
-    c->acc = acc;
+    if (c->win)
+        c->acc = c->win(base, rowb, ku, k->uw, kv, k->vw, c->acc);
+    else
+        c->acc = apply_portable(c, base, rowb, ts, ku, k->uw, kv, k->vw);
 }
 
 static void split_apply(pf *c, pk *k, int f, int depth);
