@@ -78,10 +78,12 @@ PF_TARGET __m256 load8(const uint8_t *p, unsigned dt)
     }
 }
 
-/* 4 values of type dt from p, as floats (reads exactly 4 values). */
-PF_TARGET __m128 load4v(const uint8_t *p, unsigned dt)
+/* 4 values of type DT from p as floats: one 3-channel texel (the 4th lane is the next value
+ * or slack: finite or not, it stays in lane 3, which no caller reads), or the at most 4
+ * values of a short window row (window4 masks the lanes past the row). */
+PF_TARGET __m128 load4(const uint8_t *p, unsigned DT)
 {
-    switch (dt) {
+    switch (DT) {
     case 0: {
         int x;
         __builtin_memcpy(&x, p, 4);
@@ -107,7 +109,7 @@ PF_TARGET __m128 window4(const uint8_t *base, size_t rowb, unsigned DT, unsigned
     __m128 tail = _mm_castsi128_ps(_mm_cmpgt_epi32(_mm_set1_epi32(nt), _mm_setr_epi32(0, 1, 2, 3)));
     __m128 col = _mm_setzero_ps();
     for (int j = 0; j < vw; j++)
-        col = _mm_fmadd_ps(_mm_and_ps(load4v(base + (size_t)j * rowb, DT), tail),
+        col = _mm_fmadd_ps(_mm_and_ps(load4(base + (size_t)j * rowb, DT), tail),
                            _mm_set1_ps(kv[j]), col);
     const __m128 z = _mm_setzero_ps();
     __m128 q;
@@ -189,25 +191,6 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
     if (nc == 2)
         return _mm_add_ps(acc, _mm_movelh_ps(h, _mm_setzero_ps()));
     return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
-}
-
-/* One 3-channel texel as 4 lanes (the 4th is the next value or slack: finite or not, it
- * stays in lane 3, which no caller reads). */
-PF_TARGET __m128 load4(const uint8_t *p, unsigned DT)
-{
-    switch (DT) {
-    case 0: {
-        int x;
-        __builtin_memcpy(&x, p, 4);
-        return _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
-    }
-    case 1:
-        return _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
-    case 2:
-        return _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
-    default:
-        return _mm_loadu_ps((const float *)(const void *)p);
-    }
 }
 
 /* 3 channels: the texels do not tile 8 lanes, so each texel is a 4-lane vector, weighted
