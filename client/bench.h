@@ -95,6 +95,7 @@ typedef struct bench_cfg {
     const char *cluster;       /* --cluster SEEDS or etcd:// URL (bench_cluster.c), NULL = no */
     uint8_t     lib;           /* --lib: the same loop on a direct stc_conn (bench_cluster.c) */
     uint8_t     blocking;      /* --blocking: --cluster one stc_cluster_sample at a time */
+    uint8_t     shm;           /* --shm: SAMPLE through a shared-memory region per connection */
 } bench_cfg;
 
 /* What one thread measured; merged by bench_main.c. */
@@ -126,6 +127,8 @@ typedef struct bench_thread {
     uint64_t    t_measure;     /* start + warm-up */
     uint64_t    t_end;         /* t_measure + duration: no request is issued from then */
     int        *fds;           /* connected sockets, conn_count of them, owned by the caller */
+    uint8_t   **shm;           /* --shm: each connection's region (pipeline slots), or NULL */
+    size_t      shm_slot;      /* --shm: bytes of one slot */
     bench_wire *wire;
     bench_result *res;         /* caller-owned, zeroed, histograms reset */
     char        err[256];      /* first fatal error of the thread */
@@ -166,6 +169,19 @@ size_t bench_wire_next(bench_wire *w, const uint8_t **frame, uint32_t *nq);
  * expected answer) and *reqid, 0 when more bytes are needed, or -1 when the bytes are not a
  * valid reply. For the peers *reqid is 0: their replies come in request order. */
 long bench_wire_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok, uint32_t *reqid);
+/* --shm (PROTOCOL.md 4.12): bytes of one request's slot (its queries, then its reply in the
+ * same place: the larger of the two, for 4 channels, page-rounded); the region of a connection
+ * is pipeline slots. */
+size_t bench_wire_shm_slot(const bench_cfg *cfg);
+/* Creates a sealed memfd of pipeline slots, attaches it to fd (SHM_ATTACH) and maps it at
+ * *map (*size bytes; the caller munmaps). 0, or -1 with msg. */
+int bench_wire_shm_attach(const bench_cfg *cfg, int fd, uint8_t **map, size_t *size,
+                          char *msg, size_t msglen);
+/* Turns a pool frame into its shared-memory form: copies its queries into region at slot_off
+ * and writes the small frame (flag SHM, the offsets) to out (at least the frame's length up
+ * to its queries + 24 bytes); returns that frame's length. */
+size_t bench_wire_shm_frame(const uint8_t *frame, size_t len, uint8_t *region,
+                            uint64_t slot_off, uint64_t slot_size, uint8_t *out);
 /* Byte offset of the request id in a seamtex frame (the loop patches it per request; peers'
  * requests have none). */
 #define BENCH_REQID_OFFSET 8

@@ -52,6 +52,7 @@ typedef struct bconn {
     uint32_t  oldest;           /* no request older than this is outstanding */
     uint32_t  count;            /* outstanding (queued or sent) */
     uint32_t  cap;
+    uint8_t  *shm;              /* --shm: the connection's region (cap slots), else NULL */
     stc_sched sched;
 } bconn;
 
@@ -110,9 +111,13 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
         c->out_off = c->out_len = 0;
     if (grow(&c->out, &c->out_cap, c->out_len + len) < 0)
         return -1;
-    memcpy(c->out + c->out_len, frame, len);
     uint32_t rid = c->next_rid++;
     uint32_t slot = rid % c->cap;
+    if (c->shm)   /* --shm: the queries go into the slot's room, a small frame on the socket */
+        len = bench_wire_shm_frame(frame, len, c->shm, (uint64_t)slot * th->shm_slot,
+                                   th->shm_slot, c->out + c->out_len);
+    else
+        memcpy(c->out + c->out_len, frame, len);
     if (th->cfg->proto == BENCH_PROTO_SEAMTEX)
         stp_wr32(c->out + c->out_len + BENCH_REQID_OFFSET, rid);
     c->out_len += len;
@@ -255,6 +260,7 @@ int bench_loop_run(bench_thread *th)
         bconn *c = &cs[i];
         c->fd = th->fds[i];
         c->cap = cap;
+        c->shm = th->shm ? th->shm[i] : NULL;
         c->t_int = malloc(cap * sizeof *c->t_int);
         c->t_send = malloc(cap * sizeof *c->t_send);
         c->nq = malloc(cap * sizeof *c->nq);

@@ -21,10 +21,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include "proto.h"
+#include "unixaddr.h"
 
 static const double PCTS[] = { 50, 90, 99, 99.9, 99.99 };
 #define NPCTS (sizeof PCTS / sizeof PCTS[0])
@@ -76,6 +78,9 @@ static void usage(FILE *f)
 "      --compact          SAMPLE with compact queries (PROTOCOL.md 4.4.1): u, v as u16,\n"
 "                         derivatives as f16, faces as u16 when the set has <= 65536\n"
 "      --outfmt FMT       reply values: f32 | f16 | unorm8 | unorm16 (f32)\n"
+"      --shm              SAMPLE on a unix: address through a shared-memory region per\n"
+"                         connection (PROTOCOL.md 4.12): each request's queries are copied\n"
+"                         into its slot, the reply is written there, frames stay small"
 "      --inproc           no server: st_sample_batch on the default set, same queries\n"
 "      --idle N           open N connections, PING each once, hold them --hold seconds\n"
 "      --hold S           (10)\n"
@@ -171,8 +176,9 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
         fprintf(f, "],\n  \"filters\": [");
         for (unsigned i = 0; i < cfg->nfilters; i++)
             fprintf(f, "%s\"%s\"", i ? ", " : "", stp_filter_name(cfg->filters[i]));
-        fprintf(f, "],\n  \"queries\": \"%s\",\n  \"outfmt\": \"%s\",\n",
-                cfg->compact ? "compact" : "f32", stp_outfmt_name(cfg->outfmt));
+        fprintf(f, "],\n  \"queries\": \"%s\",\n  \"outfmt\": \"%s\",\n  \"shm\": %s,\n",
+                cfg->compact ? "compact" : "f32", stp_outfmt_name(cfg->outfmt),
+                cfg->shm ? "true" : "false");
         fprintf(f, "  \"queries_per_s\": %.1f,\n", secs > 0 ? r->queries / secs : 0.0);
         if (inproc_qps > 0)
             fprintf(f, "  \"inproc_queries_per_s\": %.1f,\n", inproc_qps);
@@ -269,7 +275,7 @@ int main(int argc, char **argv)
     };
     int inproc = 0;
     enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
-           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB };
+           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB, O_SHM };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -291,6 +297,7 @@ int main(int argc, char **argv)
         { "compact", no_argument, 0, O_COMPACT },  { "outfmt", required_argument, 0, O_OUTFMT },
         { "cluster", required_argument, 0, O_CLUSTER },
         { "blocking", no_argument, 0, O_BLOCKING }, { "lib", no_argument, 0, O_LIB },
+        { "shm", no_argument, 0, O_SHM },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -346,6 +353,7 @@ int main(int argc, char **argv)
             break;
         case O_INPROC: inproc = 1; break;
         case O_COMPACT: cfg.compact = 1; break;
+        case O_SHM: cfg.shm = 1; break;
         case O_OUTFMT: {
             int f = stp_outfmt_parse(optarg);
             bad = f < 0;
@@ -382,6 +390,15 @@ int main(int argc, char **argv)
         fprintf(stderr, "seamtex-bench: --cluster / --lib load -o sample in a closed loop, one "
                 "thread per connection (-c at most %d), not with --lib and --cluster both\n",
                 BENCH_MAX_THREADS);
+        return 2;
+    }
+    if (cfg.shm && (cfg.op != BENCH_OP_SAMPLE && cfg.op != BENCH_OP_SAMPLE_DIR)) {
+        fprintf(stderr, "seamtex-bench: --shm samples (-o sample or sample-dir)\n");
+        return 2;
+    }
+    if (cfg.shm && (libmode || inproc || !cfg.host || !stu_is_unix_addr(cfg.host))) {
+        fprintf(stderr, "seamtex-bench: --shm needs a unix: address (-h unix:PATH), not --lib, "
+                "--cluster or --inproc\n");
         return 2;
     }
     if (cfg.blocking && !cfg.cluster) {
@@ -443,6 +460,8 @@ int main(int argc, char **argv)
     /* connect everything first, so the measurement does not include connection setup */
     char msg[256];
     int *fds = malloc(cfg.conns * sizeof *fds);
+    uint8_t **shm = cfg.shm ? calloc(cfg.conns, sizeof *shm) : NULL;
+    size_t shm_size = 0;
     bench_thread *ths = calloc(cfg.threads, sizeof *ths);
     bench_result *res = calloc(cfg.threads + 1, sizeof *res);
     pthread_t *tids = calloc(cfg.threads, sizeof *tids);
@@ -467,6 +486,14 @@ int main(int argc, char **argv)
         rc = 1;
         goto done;
     }
+    for (unsigned i = 0; cfg.shm && i < nfds; i++) {
+        if (!shm || bench_wire_shm_attach(&cfg, fds[i], &shm[i], &shm_size, msg,
+                                          sizeof msg) < 0) {
+            fprintf(stderr, "seamtex-bench: connection %u: %s\n", i, shm ? msg : "out of memory");
+            rc = 1;
+            goto done;
+        }
+    }
 
     uint64_t t0 = bench_now_ns() + 20000000ull;    /* 20 ms for the threads to start */
     uint64_t t_measure = t0 + (uint64_t)(cfg.warmup_s * 1e9);
@@ -480,6 +507,8 @@ int main(int argc, char **argv)
         th->conn_count = cfg.conns / cfg.threads + (t < cfg.conns % cfg.threads);
         first += th->conn_count;
         th->fds = fds + th->conn_first;
+        th->shm = shm ? shm + th->conn_first : NULL;
+        th->shm_slot = cfg.shm ? bench_wire_shm_slot(&cfg) : 0;
         if (cfg.max_requests)
             th->max_requests = cfg.max_requests / cfg.threads +
                                (t < cfg.max_requests % cfg.threads);
@@ -590,6 +619,10 @@ done:
         close_all(fds, nfds);
     for (unsigned t = 0; ths && t < cfg.threads; t++)
         bench_wire_free(ths[t].wire);
+    for (unsigned i = 0; shm && i < cfg.conns; i++)
+        if (shm[i])
+            munmap(shm[i], shm_size);
+    free(shm);
     free(fds);
     free(ths);
     free(res);

@@ -30,11 +30,13 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/time.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include "proto.h"
 #include "sample.h"
 #include "fdio.h"
+#include "shmfd.h"
 #include "unixaddr.h"
 
 #define POOL_SAMPLE 16          /* distinct SAMPLE frames per thread */
@@ -75,12 +77,20 @@ static int is_loopback(const struct sockaddr *sa)
     return 0;
 }
 
-/* Blocking request/reply on a fresh socket: sends b's frame, reads one reply frame into
- * *body (malloc'd, caller frees). Returns 0, or -1 with msg. */
-static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *msg, size_t ml)
+/* Blocking request/reply on a fresh socket: sends b's frame (with descriptor passfd as
+ * SCM_RIGHTS when >= 0), reads one reply frame into *body (malloc'd, caller frees). Returns 0,
+ * or -1 with msg. */
+static int roundtrip_fd(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *msg,
+                        size_t ml, int passfd)
 {
     *body = NULL;
-    if (stu_write_all(fd, stp_buf_head(b), stp_buf_avail(b)) < 0) {
+    ssize_t first = 0;
+    if (passfd >= 0 && (first = stu_send_with_fd(fd, stp_buf_head(b), stp_buf_avail(b),
+                                                 passfd)) < 0) {
+        snprintf(msg, ml, "sendmsg: %s", strerror(errno));
+        return -1;
+    }
+    if (stu_write_all(fd, stp_buf_head(b) + first, stp_buf_avail(b) - (size_t)first) < 0) {
         snprintf(msg, ml, "write: %s", strerror(errno));
         return -1;
     }
@@ -103,6 +113,11 @@ static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *ms
         return -1;
     }
     return 0;
+}
+
+static int roundtrip(int fd, stp_buf *b, stp_header *h, uint8_t **body, char *msg, size_t ml)
+{
+    return roundtrip_fd(fd, b, h, body, msg, ml, -1);
 }
 
 static void status_msg(const stp_header *h, const uint8_t *body, const char *what, char *msg,
@@ -486,4 +501,76 @@ long bench_wire_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok, u
     *ok = h.status == STP_S_OK;
     *reqid = h.reqid;
     return (long)total;
+}
+
+/* ---- --shm: a shared-memory region per connection (PROTOCOL.md 4.12) ----------------------- */
+
+size_t bench_wire_shm_slot(const bench_cfg *cfg)
+{
+    uint8_t op = cfg->op == BENCH_OP_SAMPLE_DIR ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE;
+    uint8_t flags = cfg->compact ? STP_SF_UV16 | STP_SF_FACE16 : 0;
+    uint64_t q = stp_sample_query_bytes(op, flags, cfg->batch);
+    uint64_t r = stp_sample_reply_bytes(cfg->batch, 4, cfg->outfmt, 0);
+    uint64_t s = q > r ? q : r;
+    return (size_t)((s + 4095) & ~(uint64_t)4095);   /* slots on page boundaries */
+}
+
+int bench_wire_shm_attach(const bench_cfg *cfg, int fd, uint8_t **map, size_t *size,
+                          char *msg, size_t ml)
+{
+    *map = NULL;
+    *size = bench_wire_shm_slot(cfg) * (cfg->pipeline ? cfg->pipeline : 1);
+    int mfd = -1;
+    void *p = NULL;
+    if (stu_memfd_sealed("seamtex-bench", *size, &mfd, &p) != 0) {
+        snprintf(msg, ml, "memfd of %zu bytes: %s", *size, strerror(errno));
+        return -1;
+    }
+    int fl = fcntl(fd, F_GETFL);
+    if (fl < 0 || fcntl(fd, F_SETFL, fl & ~O_NONBLOCK) < 0) {
+        snprintf(msg, ml, "fcntl: %s", strerror(errno));
+        close(mfd);
+        munmap(p, *size);
+        return -1;
+    }
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_header h;
+    uint8_t *body = NULL;
+    int rc = -1;
+    if (stp_enc_id_req(&b, STP_OP_SHM_ATTACH, 3, 0, (uint64_t)*size) != 0)
+        snprintf(msg, ml, "cannot encode SHM_ATTACH");
+    else if (roundtrip_fd(fd, &b, &h, &body, msg, ml, mfd) == 0) {
+        if (h.status != STP_S_OK)
+            status_msg(&h, body, "SHM_ATTACH", msg, ml);
+        else
+            rc = 0;
+    }
+    free(body);
+    stp_buf_free(&b);
+    close(mfd);
+    if (rc == 0 && fcntl(fd, F_SETFL, fl | O_NONBLOCK) < 0) {
+        snprintf(msg, ml, "fcntl: %s", strerror(errno));
+        rc = -1;
+    }
+    if (rc != 0)
+        munmap(p, *size);
+    else
+        *map = p;
+    return rc;
+}
+
+size_t bench_wire_shm_frame(const uint8_t *frame, size_t len, uint8_t *region,
+                            uint64_t slot_off, uint64_t slot_size, uint8_t *out)
+{
+    /* the pool's frame: header, name, 24 bytes of parameters and count, then the queries */
+    size_t fixed = STP_HEADER_SIZE + 2 + (size_t)stp_rd16(frame + STP_HEADER_SIZE) + 24;
+    memcpy(region + slot_off, frame + fixed, len - fixed);
+    memcpy(out, frame, fixed);
+    out[fixed - 24 + 5] |= STP_SF_SHM;          /* the flags byte of the parameters */
+    stp_wr64(out + fixed, slot_off);            /* query_off */
+    stp_wr64(out + fixed + 8, slot_off);        /* reply_off: the reply overwrites the queries */
+    stp_wr64(out + fixed + 16, slot_size);      /* reply_cap */
+    stp_wr32(out + 16, (uint32_t)(fixed + STP_SHM_REF_SIZE - STP_HEADER_SIZE));
+    return fixed + STP_SHM_REF_SIZE;
 }

@@ -380,15 +380,22 @@ static int enc_sample(stc_conn *c, uint32_t id, int dir, const char *set,
         if (n)
             memcpy(c->qs, q, n * sizeof *c->qs);
         rq.queries = c->qs;
-        return encoded(c, stp_enc_sample_req(&c->out, id, tmo(c), &rq));
+    } else {
+        if (stc__grow((void **)&c->dqs, &c->dqs_cap, n * sizeof *c->dqs) != 0) {
+            stc__pend_drop_last(c);
+            return stc__fail(c, STC_ENOMEM, "out of memory");
+        }
+        if (n)
+            memcpy(c->dqs, q, n * sizeof *c->dqs);
+        rq.dqueries = c->dqs;
     }
-    if (stc__grow((void **)&c->dqs, &c->dqs_cap, n * sizeof *c->dqs) != 0) {
+    /* with a region attached (libshm.c) the queries go there and the frame stays small */
+    if ((rc = stc__shm_place(c, dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, &rq)) < 0) {
         stc__pend_drop_last(c);
-        return stc__fail(c, STC_ENOMEM, "out of memory");
+        return rc;
     }
-    if (n)
-        memcpy(c->dqs, q, n * sizeof *c->dqs);
-    rq.dqueries = c->dqs;
+    if (!dir)
+        return encoded(c, stp_enc_sample_req(&c->out, id, tmo(c), &rq));
     return encoded(c, stp_enc_sample_dir_req(&c->out, id, tmo(c), &rq));
 }
 

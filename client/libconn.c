@@ -75,6 +75,8 @@ SAME(STC_CAP_COMPRESS, STP_CAP_COMPRESS)
 SAME(STC_CAP_FETCH, STP_CAP_FETCH)
 SAME(STC_CAP_PTEX_FILTERS, STP_CAP_PTEX_FILTERS)
 SAME(STC_CAP_AUTH, STP_CAP_AUTH)
+SAME(STC_CAP_COMPACT, STP_CAP_COMPACT)
+SAME(STC_CAP_SHM, STP_CAP_SHM)
 SAME(STC_OUT_F32, STP_OUT_F32)
 SAME(STC_OUT_UNORM8, STP_OUT_UNORM8)
 SAME(STC_OUT_UNORM16, STP_OUT_UNORM16)
@@ -246,6 +248,7 @@ int stc__pend_add(stc_conn *c, uint32_t reqid, uint8_t opcode, int pipelined)
     c->pend[c->pn].opcode = opcode;
     c->pend[c->pn].abandoned = 0;
     c->pend[c->pn].pipelined = (uint8_t)(pipelined != 0);
+    c->pend[c->pn].shm = 0;
     c->pn++;
     if (pipelined)
         c->npipelined++;
@@ -275,6 +278,7 @@ static void pend_remove(stc_conn *c, size_t i)
 void stc__pend_drop_last(stc_conn *c)
 {
     if (c->pn > c->phead) {
+        stc__shm_unplace(c, &c->pend[c->pn - 1]);
         if (c->pend[c->pn - 1].pipelined)
             c->npipelined--;
         c->pn--;
@@ -469,10 +473,14 @@ int stc__wait(stc_conn *c, uint32_t reqid, int reqid_any, int64_t deadline, stc_
             if (!c->pend[i].abandoned && !reqid_any)
                 return stc__break(c, STC_EPROTO, "reply out of order (request id %u)",
                                   (unsigned)f->h.reqid);
+            if ((rc = stc__shm_reply(c, &c->pend[i], f, 1)) != 0)
+                return rc;
             pend_remove(c, i);
             stp_buf_consume(&c->in, flen);
             continue;
         }
+        if (!f->oversized && (rc = stc__shm_reply(c, &c->pend[i], f, 0)) != 0)
+            return rc;
         pend_remove(c, i);
         c->hold = flen;
         if (f->oversized)
@@ -771,5 +779,6 @@ void stc_close(stc_conn *c)
     free(c->faces);
     free(c->qs);
     free(c->dqs);
+    stc__shm_free(c);
     free(c);
 }

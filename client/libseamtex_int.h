@@ -15,6 +15,10 @@ typedef struct stc_pend {
     uint8_t  opcode;
     uint8_t  abandoned;   /* timed out: the reply is read and dropped when it comes */
     uint8_t  pipelined;   /* appended through stc_append_* (counts in stc_pending) */
+    uint8_t  shm;         /* a shared-memory SAMPLE: holds [shm_off, +shm_len) of the region */
+    uint64_t shm_at;      /* where its span starts in the ring (released in reply order) */
+    uint64_t shm_span;    /* bytes the span takes from the ring (a wrap's waste included) */
+    uint64_t shm_off, shm_len;   /* its queries, then its reply room */
 } stc_pend;
 
 struct stc_conn {
@@ -48,6 +52,13 @@ struct stc_conn {
     stc_face *faces; size_t faces_cap;
     stp_query *qs;   size_t qs_cap;     /* scratch: queries converted for the encoder */
     stp_dir_query *dqs; size_t dqs_cap;
+
+    /* shared-memory region (libshm.c; PROTOCOL.md 4.12), NULL = none: a ring of spans, one
+     * per shared-memory SAMPLE in flight, released in reply order */
+    uint8_t *shm;
+    size_t   shm_size;
+    uint64_t shm_head, shm_tail, shm_used;
+    uint64_t shm_n, sock_n;       /* SAMPLE requests sent each way (stc_shm_counts) */
 };
 
 /* A frame as received: header plus a body that lives in c->in until the next call. */
@@ -85,6 +96,17 @@ int stc__wait(stc_conn *c, uint32_t reqid, int reqid_any, int64_t deadline, stc_
 int stc__status_error(stc_conn *c, const stc_frame *f);
 /* Maps an stp encode result to a client code. */
 int stc__enc_error(stc_conn *c, int st);
+/* libshm.c: takes room for a SAMPLE of n queries in the region and writes its queries there
+ * (r->p.flags gets STP_SF_SHM, r->shm the offsets, the last pending request the span); 1 when
+ * done, 0 when it goes over the socket (no region, no room), or an error code. */
+int stc__shm_place(stc_conn *c, uint8_t opcode, stp_sample_req *r);
+/* libshm.c: gives the span of the most recent pending request back (its frame failed). */
+void stc__shm_unplace(stc_conn *c, stc_pend *p);
+/* libshm.c: a reply to pending request p arrived (dropped when `drop`): releases its span
+ * and, for an OK reply, points f at the 4.6 body in the region. 0 or a sticky error. */
+int stc__shm_reply(stc_conn *c, const stc_pend *p, stc_frame *f, int drop);
+void stc__shm_free(stc_conn *c);
+
 /* Grow helpers for result storage; 0 or STC_ENOMEM. */
 int stc__grow(void **p, size_t *cap, size_t need);
 

@@ -136,7 +136,9 @@ enum {
     STC_CAP_COMPRESS      = 1u << 4,
     STC_CAP_FETCH         = 1u << 5,
     STC_CAP_PTEX_FILTERS  = 1u << 6,
-    STC_CAP_AUTH          = 1u << 7    /* the server has a token: mutations need it */
+    STC_CAP_AUTH          = 1u << 7,   /* the server has a token: mutations need it */
+    STC_CAP_COMPACT       = 1u << 8,   /* compact SAMPLE queries, f16 replies */
+    STC_CAP_SHM           = 1u << 9    /* shared-memory sampling (stc_shm_attach) */
 };
 typedef struct stc_server {
     unsigned version;                 /* protocol version in use */
@@ -147,6 +149,21 @@ typedef struct stc_server {
 } stc_server;
 /* What HELLO told (protocol defaults when no_hello). Owned by c. */
 const stc_server *stc_server_info(const stc_conn *c);
+
+/* Shared-memory sampling (PROTOCOL.md 4.12) on a connection to "unix:/path" whose server
+ * offers STC_CAP_SHM: creates a memfd of `bytes` (0 = 64 MiB) sealed against shrinking and
+ * growing, maps it and attaches it to c (SHM_ATTACH, the descriptor passed over the socket).
+ * From then on stc_sample, stc_sample_dir, stc_append_sample and stc_append_sample_dir write
+ * each request's queries into the region and the server writes the reply there; only small
+ * frames cross the socket. Results are bit for bit those of the socket path. A request whose
+ * queries or reply (counted with 4 channels) do not fit in the free part of the region goes
+ * over the socket as before. Returns 0; STC_EINVAL on a TCP connection; STC_EUNSUPPORTED when
+ * the server does not offer it; STC_ESTATE when a region is attached already or pipelined
+ * replies are unread; a server error (TOO_LARGE: over its shm-max) or STC_ENOMEM otherwise.
+ * The region belongs to c and is unmapped by stc_close. */
+int stc_shm_attach(stc_conn *c, size_t bytes);
+/* Requests sent through the region and over the socket since the connection opened. */
+void stc_shm_counts(const stc_conn *c, uint64_t *via_shm, uint64_t *via_socket);
 
 /* ---- blocking calls -------------------------------------------------------------------------
  * Each sends one request and waits for its reply (per-request timeout). They return

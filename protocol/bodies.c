@@ -359,40 +359,68 @@ static void put_params(stp_buf *b, const stp_sample_params *p, int dir)
     stp_put_f32(b, p->blur);
 }
 
+/* With STP_SF_SHM the queries are in the shared region: the body ends with where (4.12). */
+static void put_shm_ref(stp_buf *b, const stp_shm_ref *s)
+{
+    stp_put_u64(b, s->query_off);
+    stp_put_u64(b, s->reply_off);
+    stp_put_u64(b, s->reply_cap);
+}
+
+void stp_put_queries(uint8_t opcode, const stp_sample_req *r, uint8_t *out)
+{
+    uint8_t *p = out;
+    if (opcode == STP_OP_SAMPLE_DIR) {
+        for (uint32_t i = 0; i < r->count; i++) {
+            const stp_dir_query *q = &r->dqueries[i];
+            for (int k = 0; k < 3; k++) {
+                stp_wr32(p + 4 * k, stp_f2u(q->dir[k]));
+                stp_wr32(p + 12 + 4 * k, stp_f2u(q->ddx[k]));
+                stp_wr32(p + 24 + 4 * k, stp_f2u(q->ddy[k]));
+            }
+            p += STP_DIR_QUERY_SIZE;
+        }
+        return;
+    }
+    size_t qs = stp_query_size(r->p.flags);
+    int face16 = (r->p.flags & STP_SF_FACE16) != 0, uv16 = (r->p.flags & STP_SF_UV16) != 0;
+    for (uint32_t i = 0; i < r->count; i++, p += qs) {
+        const stp_query *q = &r->queries[i];
+        uint8_t *f = p + (face16 ? 2 : 4);
+        if (face16)
+            stp_wr16(p, (uint16_t)q->face);
+        else
+            stp_wr32(p, q->face);
+        if (uv16) {
+            stp_wr16(f, stp_f32_to_unit16(q->u));
+            stp_wr16(f + 2, stp_f32_to_unit16(q->v));
+            stp_wr16(f + 4, stp_f32_to_f16(q->dudx));
+            stp_wr16(f + 6, stp_f32_to_f16(q->dvdx));
+            stp_wr16(f + 8, stp_f32_to_f16(q->dudy));
+            stp_wr16(f + 10, stp_f32_to_f16(q->dvdy));
+        } else {
+            stp_wr32(f, stp_f2u(q->u));
+            stp_wr32(f + 4, stp_f2u(q->v));
+            stp_wr32(f + 8, stp_f2u(q->dudx));
+            stp_wr32(f + 12, stp_f2u(q->dvdx));
+            stp_wr32(f + 16, stp_f2u(q->dudy));
+            stp_wr32(f + 20, stp_f2u(q->dvdy));
+        }
+    }
+}
+
 int stp_enc_sample_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const stp_sample_req *r)
 {
     size_t at = stp_frame_begin(b, STP_OP_SAMPLE, 0, reqid, 0, timeout_ms);
     size_t bytes, qs = stp_query_size(r->p.flags);
-    int face16 = (r->p.flags & STP_SF_FACE16) != 0, uv16 = (r->p.flags & STP_SF_UV16) != 0;
     put_params(b, &r->p, 0);
     stp_put_u32(b, r->count);
-    if (__builtin_mul_overflow(r->count, qs, &bytes))
+    if (r->p.flags & STP_SF_SHM)
+        put_shm_ref(b, &r->shm);
+    else if (__builtin_mul_overflow(r->count, qs, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
-        uint8_t *p = b->data + b->len;
-        for (uint32_t i = 0; i < r->count; i++, p += qs) {
-            const stp_query *q = &r->queries[i];
-            uint8_t *f = p + (face16 ? 2 : 4);
-            if (face16)
-                stp_wr16(p, (uint16_t)q->face);
-            else
-                stp_wr32(p, q->face);
-            if (uv16) {
-                stp_wr16(f, stp_f32_to_unit16(q->u));
-                stp_wr16(f + 2, stp_f32_to_unit16(q->v));
-                stp_wr16(f + 4, stp_f32_to_f16(q->dudx));
-                stp_wr16(f + 6, stp_f32_to_f16(q->dvdx));
-                stp_wr16(f + 8, stp_f32_to_f16(q->dudy));
-                stp_wr16(f + 10, stp_f32_to_f16(q->dvdy));
-            } else {
-                stp_wr32(f, stp_f2u(q->u));
-                stp_wr32(f + 4, stp_f2u(q->v));
-                stp_wr32(f + 8, stp_f2u(q->dudx));
-                stp_wr32(f + 12, stp_f2u(q->dvdx));
-                stp_wr32(f + 16, stp_f2u(q->dudy));
-                stp_wr32(f + 20, stp_f2u(q->dvdy));
-            }
-        }
+        stp_put_queries(STP_OP_SAMPLE, r, b->data + b->len);
         b->len += bytes;
     }
     return stp_frame_end(b, at);
@@ -405,19 +433,12 @@ int stp_enc_sample_dir_req(stp_buf *b, uint32_t reqid, uint32_t timeout_ms,
     size_t bytes;
     put_params(b, &r->p, 1);
     stp_put_u32(b, r->count);
-    if (__builtin_mul_overflow(r->count, STP_DIR_QUERY_SIZE, &bytes))
+    if (r->p.flags & STP_SF_SHM)
+        put_shm_ref(b, &r->shm);
+    else if (__builtin_mul_overflow(r->count, STP_DIR_QUERY_SIZE, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
-        uint8_t *p = b->data + b->len;
-        for (uint32_t i = 0; i < r->count; i++) {
-            const stp_dir_query *q = &r->dqueries[i];
-            for (int k = 0; k < 3; k++) {
-                stp_wr32(p + 4 * k, stp_f2u(q->dir[k]));
-                stp_wr32(p + 12 + 4 * k, stp_f2u(q->ddx[k]));
-                stp_wr32(p + 24 + 4 * k, stp_f2u(q->ddy[k]));
-            }
-            p += STP_DIR_QUERY_SIZE;
-        }
+        stp_put_queries(STP_OP_SAMPLE_DIR, r, b->data + b->len);
         b->len += bytes;
     }
     return stp_frame_end(b, at);
@@ -455,8 +476,18 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
     /* the query layout follows the flags (SAMPLE_DIR has one layout: compact flags there are
      * INVALID below, once the length is found right for 36-byte queries) */
     qsize = dir ? STP_DIR_QUERY_SIZE : stp_query_size(p->flags);
+    memset(&r->shm, 0, sizeof r->shm);
+    if (p->flags & STP_SF_SHM) {
+        /* the queries are in the shared region (4.12): exactly the three offsets follow */
+        if (stp_rd_left(&rd) != STP_SHM_REF_SIZE)
+            return fail(why, "SAMPLE: a shared-memory request ends with 24 bytes of offsets",
+                        STP_S_BAD_REQUEST);
+        r->shm.query_off = stp_get_u64(&rd);
+        r->shm.reply_off = stp_get_u64(&rd);
+        r->shm.reply_cap = stp_get_u64(&rd);
+    }
     /* The lying-length check: count must account for every remaining byte exactly. */
-    if ((uint64_t)r->count * qsize != stp_rd_left(&rd))
+    else if ((uint64_t)r->count * qsize != stp_rd_left(&rd))
         return fail(why, "SAMPLE: count does not match the body length", STP_S_BAD_REQUEST);
     if (r->count > max_batch)
         return fail(why, "SAMPLE: count over the server's max_batch", STP_S_TOO_LARGE);
@@ -466,14 +497,14 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
         return fail(why, "SAMPLE: unknown output format", STP_S_INVALID);
     if (p->max_aniso > 16)
         return fail(why, "SAMPLE: max_aniso over 16", STP_S_INVALID);
-    if (p->flags & ~(STP_SF_REPLY_MASK | STP_SF_COMPACT_MASK))
+    if (p->flags & ~(STP_SF_REPLY_MASK | STP_SF_COMPACT_MASK | STP_SF_SHM))
         return fail(why, "SAMPLE: unknown flag bits", STP_S_INVALID);
     if (dir && (p->flags & STP_SF_COMPACT_MASK))
         return fail(why, "SAMPLE_DIR: the compact query flags (UV16, FACE16) are for SAMPLE only",
                     STP_S_INVALID);
     if (dir && p->footprint > STP_FP_CONE)
         return fail(why, "SAMPLE_DIR: unknown footprint kind", STP_S_INVALID);
-    r->raw = rd.p + rd.off;
+    r->raw = (p->flags & STP_SF_SHM) ? NULL : rd.p + rd.off;
     return 0;
 }
 

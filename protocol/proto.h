@@ -212,7 +212,8 @@ enum stp_caps {
     STP_CAP_FETCH         = 1u << 5,
     STP_CAP_PTEX_FILTERS  = 1u << 6,
     STP_CAP_AUTH          = 1u << 7,  /* the server has a token (mutations need it) */
-    STP_CAP_COMPACT       = 1u << 8   /* SAMPLE flags UV16 / FACE16 and outfmt f16 (4.4) */
+    STP_CAP_COMPACT       = 1u << 8,  /* SAMPLE flags UV16 / FACE16 and outfmt f16 (4.4) */
+    STP_CAP_SHM           = 1u << 9   /* Unix connections: SHM_ATTACH and SAMPLE flag SHM (4.12) */
 };
 
 /* ---- byte helpers --------------------------------------------------------------------------- */
@@ -428,7 +429,9 @@ enum stp_sample_flags {
     STP_SF_COVERAGE = 1,   /* reply carries one f32 coverage per query */
     STP_SF_STATUS   = 2,   /* reply carries one u8 status (stp_qstatus) per query */
     STP_SF_UV16     = 4,   /* SAMPLE request: u, v as u16 x 2^-16, derivatives as binary16 */
-    STP_SF_FACE16   = 8    /* SAMPLE request: face as u16 */
+    STP_SF_FACE16   = 8,   /* SAMPLE request: face as u16 */
+    STP_SF_SHM      = 16   /* SAMPLE / SAMPLE_DIR request: queries and reply in the
+                              connection's shared region (PROTOCOL.md 4.12; stp_shm_ref) */
 };
 #define STP_SF_REPLY_MASK   (STP_SF_COVERAGE | STP_SF_STATUS)   /* what a reply echoes */
 #define STP_SF_COMPACT_MASK (STP_SF_UV16 | STP_SF_FACE16)       /* query layout (SAMPLE) */
@@ -463,9 +466,17 @@ typedef struct stp_sample_params {
     uint8_t  footprint;                   /* SAMPLE_DIR only: stp_footprint */
     float    sharpness, width, blur;
 } stp_sample_params;
+/* Where a shared-memory request's queries are and where its reply goes (flag STP_SF_SHM),
+ * byte offsets into the connection's region (PROTOCOL.md 4.12). */
+typedef struct stp_shm_ref {
+    uint64_t query_off;                   /* count * query size bytes of queries */
+    uint64_t reply_off, reply_cap;        /* room for the 4.6 reply body */
+} stp_shm_ref;
+#define STP_SHM_REF_SIZE 24
 typedef struct stp_sample_req {
     stp_sample_params p;
     uint32_t count;
+    stp_shm_ref shm;                      /* with STP_SF_SHM: instead of queries in the body */
     const stp_query *queries;             /* encode: count queries (SAMPLE) */
     const stp_dir_query *dqueries;        /* encode: count queries (SAMPLE_DIR) */
     const uint8_t *raw;                   /* decode: the packed queries, use stp_sample_query
@@ -659,6 +670,35 @@ int stp_enc_fetch_read(stp_buf *b, uint32_t reqid, uint32_t timeout_ms, const st
 int stp_dec_fetch_read(const uint8_t *body, size_t len, stp_fetch_read *r, const char **why);
 int stp_enc_fetch_data(stp_buf *b, uint32_t reqid, const stp_fetch_data *r);
 int stp_dec_fetch_data(const uint8_t *body, size_t len, stp_fetch_data *r, const char **why);
+
+/* -- shared-memory sampling (PROTOCOL.md 4.12; protocol/shm.c) --
+ * SHM_ATTACH request: u64 region size (stp_enc_id_req / stp_dec_id_req), the memfd passed as
+ * SCM_RIGHTS ancillary data with the frame's first byte; OK reply: u64 region size
+ * (stp_enc_id_reply). A SAMPLE / SAMPLE_DIR request with STP_SF_SHM carries an stp_shm_ref
+ * instead of its queries (stp_enc_sample_req / _dir_req write it, the decoders fill r->shm
+ * and leave r->raw NULL); its OK reply is an stp_shm_reply. */
+typedef struct stp_shm_reply {
+    uint64_t offset;                      /* where the 4.6 reply body starts in the region */
+    uint64_t length;                      /* its bytes */
+} stp_shm_reply;
+#define STP_SHM_REPLY_SIZE 16
+int stp_enc_shm_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_shm_reply *r);
+int stp_dec_shm_reply(const uint8_t *body, size_t len, stp_shm_reply *r, const char **why);
+/* 1 when [off, off + len) lies inside a region of `size` bytes (no overflow possible). */
+static inline int stp_shm_range_ok(uint64_t size, uint64_t off, uint64_t len)
+{
+    return off <= size && len <= size - off;
+}
+/* Writes the count queries of r (r->queries for SAMPLE in the layout of r->p.flags,
+ * r->dqueries for SAMPLE_DIR) to out, stp_sample_query_bytes of them: what the frame encoders
+ * put in a body, for a client that puts them into its region instead. */
+void stp_put_queries(uint8_t opcode, const stp_sample_req *r, uint8_t *out);
+/* Bytes of the queries of a request: count x (28, 26, 16 or 14 by the flags; 36 for
+ * SAMPLE_DIR). */
+uint64_t stp_sample_query_bytes(uint8_t opcode, uint8_t flags, uint32_t count);
+/* Bytes of the 4.6 reply body for count queries of nchan channels (nchan 4 = the most any
+ * set has) in outfmt, with the reply flags of `flags`; 0 for an unknown outfmt. */
+uint64_t stp_sample_reply_bytes(uint32_t count, unsigned nchan, uint8_t outfmt, uint8_t flags);
 
 /* ---- CRC32C (Castagnoli, reflected, init and final xor 0xFFFFFFFF) ----------------------------
  * Incremental: crc = stp_crc32c(0, a, n); crc = stp_crc32c(crc, b, m). crc32c("123456789") is

@@ -38,7 +38,8 @@
     X(FETCH_OPEN,    fetch_open,    0x23, 0)             \
     X(FETCH_READ,    fetch_read,    0x24, 0)             \
     X(FETCH_CLOSE,   fetch_close,   0x25, 0)             \
-    X(CLUSTER,       cluster,       0x30, 0)
+    X(CLUSTER,       cluster,       0x30, 0)             \
+    X(SHM_ATTACH,    shm_attach,    0x08, 0)
 
 /* Reply statuses: X(NAME, value, client_error). Values are dense from 0. client_error is the
  * suffix of the client library's code for it (STC_<client_error> in client/seamtex.h, equal

@@ -97,6 +97,9 @@ static const opt OPTS[] = {
     {"no-default-set", T_NOT, O(default_set), 0, 0, NULL, "same as --default-set no"},
     {"unix-mode", T_STR, O(unix_mode), S(unix_mode), 0, "OCTAL",
      "file mode of a unix:PATH socket: who may connect (default 0600: the daemon's user)"},
+    {"shm-max", T_SIZE, O(shm_max), 0, 1, "BYTES",
+     "largest shared-memory region a client on a Unix socket may attach for sampling\n"
+     "(SHM_ATTACH, PROTOCOL.md 4.12); 0 = off (default 256M)"},
     {"log-level", T_LEVEL, O(log_level), 0, 1, "LEVEL", "error, warn, info or debug (default info)"},
     {"log-format", T_LOGFMT, O(log_format), 0, 0, "text|json",
      "text lines, or one JSON object per line with time, level, message and the line's\n"
@@ -140,6 +143,7 @@ void sts_config_defaults(sts_config *c)
     c->max_batch = 1u << 20;
     c->heavy_batch = 16384;
     c->split_batch = 2048;
+    c->shm_max = 256u << 20;
     c->conn_out_cap = 4u << 20;
     c->max_memory = 1u << 30;
     c->max_sets = 10000;

@@ -57,6 +57,8 @@ typedef struct sts_config {
     int      log_format;        /* sts_log_format: text or json (restart only) */
     char     metrics_listen[128]; /* HOST:PORT or PORT (127.0.0.1) for GET /metrics; "" = off */
     char     unix_mode[8];      /* octal file mode of a unix:PATH socket; default "0600" */
+    uint64_t shm_max;           /* largest shared-memory region a Unix client may attach
+                                   (bytes; 0 = shared memory off; shm.c) */
     /* cluster (docs/cluster.md; none of it is reloadable) */
     char     cluster[1024];     /* etcd://HOST:PORT[,HOST:PORT...]/PREFIX, "" = no cluster */
     char     node_id[65];       /* this node's id in the cluster */

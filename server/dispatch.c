@@ -26,6 +26,7 @@
 #include "io.h"
 #include "opstats.h"
 #include "server.h"
+#include "shm.h"
 #include "workers.h"
 
 /* Body caps per opcode, bytes (io.c refuses a longer body with TOO_LARGE before reading it);
@@ -54,7 +55,8 @@ enum {
     STS_CAP_FETCH_OPEN    = 512,
     STS_CAP_FETCH_READ    = 64,
     STS_CAP_FETCH_CLOSE   = 64,
-    STS_CAP_CLUSTER       = 64
+    STS_CAP_CLUSTER       = 64,
+    STS_CAP_SHM_ATTACH    = 64
 };
 
 /* Where each opcode runs (sts_hflags without STS_H_MUTATING, which comes from the protocol's
@@ -79,7 +81,8 @@ enum {
     STS_RUN_FETCH_OPEN    = STS_H_HEAVY,
     STS_RUN_FETCH_READ    = 0,
     STS_RUN_FETCH_CLOSE   = 0,
-    STS_RUN_CLUSTER       = 0
+    STS_RUN_CLUSTER       = 0,
+    STS_RUN_SHM_ATTACH    = 0
 };
 
 /* One row per opcode of STP_OPCODES, at its opcode; the other rows are zero (fn NULL =

@@ -18,6 +18,7 @@
 #include "io.h"
 #include "opstats.h"
 #include "server.h"
+#include "shm.h"
 #include "workers.h"
 
 /* Looks a set up by a name the decoder has already held to the name rule (protocol/stp_name.h:
@@ -59,6 +60,8 @@ int sts_h_hello(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
         r.caps |= STP_CAP_UPLOAD_RESUME;
     if (!sts_token_allows(c->srv, 0))
         r.caps |= STP_CAP_AUTH;
+    if (c->conn->unix_sock && STS_LIVE(c->srv, shm_max))
+        r.caps |= STP_CAP_SHM;       /* shm.c: offered on Unix connections only */
     uint64_t mf = STS_LIVE(c->srv, max_frame);
     r.max_body = mf > 0xFFFFFFFFu ? 0xFFFFFFFFu : (uint32_t)mf;
     r.max_batch = STS_LIVE(c->srv, max_batch);
@@ -334,8 +337,12 @@ static int run_batch(sts_ctx *c, size_t n, sts_part_fn fn, part_arg *a)
     uint32_t split = STS_LIVE(c->srv, split_batch);
     if (n == 0)
         return 0;
-    if (split && n >= split)
-        return sts_pool_parallel(&c->srv->pool, n, PART_GRAIN, fn, a);
+    if (split && n >= split) {
+        /* on an I/O thread (its own scratch) the pool tracks it as that thread's batches */
+        const sts_io *io = c->conn ? c->conn->io : NULL;
+        int slot = io && c->scratch == &io->scratch ? io->index : -1;
+        return sts_pool_parallel(&c->srv->pool, slot, n, PART_GRAIN, fn, a);
+    }
     return fn(a, 0, n);
 }
 
@@ -396,9 +403,9 @@ static void count_queries(sts_server *srv, const stp_sample_params *p, uint32_t 
         STS_STAT_ADD(srv, queries_by[p->mode][p->filter], n);
 }
 
-/* Samples and replies; shared by SAMPLE and SAMPLE_DIR (h->opcode tells which). */
-static int sample_common(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
-                         stp_buf *out)
+/* Samples and replies; shared by SAMPLE and SAMPLE_DIR (h->opcode tells which), and by their
+ * shared-memory form (shm.c, with the queries already copied into private memory). */
+int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out)
 {
     st_sample_opts o;
     if (fill_opts(&rq->p, &o) != 0)
@@ -523,7 +530,9 @@ int sts_h_sample(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
     int st = stp_dec_sample_req(body, h->body_len, STS_LIVE(c->srv, max_batch), &rq, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    return sample_common(c, h, &rq, out);
+    if (rq.p.flags & STP_SF_SHM)
+        return sts_shm_sample(c, h, &rq, out);
+    return sts_sample_run(c, h, &rq, out);
 }
 
 int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
@@ -533,7 +542,9 @@ int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     int st = stp_dec_sample_dir_req(body, h->body_len, STS_LIVE(c->srv, max_batch), &rq, &why);
     if (st)
         return sts_reply_bad(out, h, st, why);
-    return sample_common(c, h, &rq, out);
+    if (rq.p.flags & STP_SF_SHM)
+        return sts_shm_sample(c, h, &rq, out);
+    return sts_sample_run(c, h, &rq, out);
 }
 
 /* ---- STATS ------------------------------------------------------------------------------------ */
@@ -546,7 +557,7 @@ size_t sts_stats_max_keys(const sts_server *srv)
 {
     /* with the budget's keys (budget.c), the cluster's (cluster_node.c), the query counts
      * by mode and filter and two per I/O thread */
-    return 224 + 2 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
+    return 224 + STS_SHM_STAT_KEYS + 2 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
 }
 
 size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
@@ -608,7 +619,9 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));
     U("split_batches", __atomic_load_n(&srv->pool.split_batches, __ATOMIC_RELAXED));
     U("parts_helped", __atomic_load_n(&srv->pool.parts_helped, __ATOMIC_RELAXED));
+    U("helpers_yielded", __atomic_load_n(&srv->pool.helpers_yielded, __ATOMIC_RELAXED));
     n += sts_budget_stats(srv, s + n, cap - n);
+    n += sts_shm_stats(srv, s + n, cap - n);
     U("max_conns", STS_LIVE(srv, max_conns));
     U("max_frame", STS_LIVE(srv, max_frame));
     U("metrics_port", (uint64_t)srv->metrics.port);

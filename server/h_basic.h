@@ -18,6 +18,11 @@ STS_HANDLER(sts_h_sample);
 STS_HANDLER(sts_h_sample_dir);
 STS_HANDLER(sts_h_stats);
 
+/* Samples a decoded SAMPLE / SAMPLE_DIR request (h->opcode tells which) whose queries are at
+ * rq->raw and appends the reply (or an error) to out. Returns 0. Used by sts_h_sample and by
+ * the shared-memory form (shm.c). */
+int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out);
+
 /* The STATS entries, in the order STATS sends them (PROTOCOL.md 4.7): fills at most cap
  * entries of s and returns how many. What STATS encodes and /metrics renders (metrics_text.c),
  * so the two always show the same counters. Any thread. */

@@ -31,6 +31,7 @@
 #include "h_jobs.h"
 #include "io.h"
 #include "server.h"
+#include "shm.h"
 #include "unixaddr.h"
 #include "uploads.h"
 #include "workers.h"
@@ -77,6 +78,7 @@ void sts_scratch_free(sts_scratch *s)
     free(s->cov);
     free(s->status);
     free(s->cq);
+    sts_shm_scratch_free(s->shm);
     memset(s, 0, sizeof *s);
 }
 
@@ -185,6 +187,7 @@ static void conn_free(sts_conn *c)
     account(c);
     sts_fetch_drop_conn(srv, c->id);
     sts_upload_drop_conn(srv, c->id);
+    sts_shm_conn_free(srv, c);
     __atomic_sub_fetch(&srv->nconns, 1, __ATOMIC_RELAXED);
     STS_STAT_ADD(srv, conns_closed, 1);
     free(c);
@@ -397,7 +400,8 @@ static void conn_readable(sts_conn *c)
     }
     ssize_t r;
     do {
-        r = recv(c->fd, c->in.data + c->in.len, c->in.cap - c->in.len, MSG_DONTWAIT);
+        r = c->unix_sock ? sts_shm_recv(srv, c, c->in.data + c->in.len, c->in.cap - c->in.len)
+                         : recv(c->fd, c->in.data + c->in.len, c->in.cap - c->in.len, MSG_DONTWAIT);
     } while (r < 0 && errno == EINTR);
     if (r == 0 && stp_buf_avail(&c->out)) {
         c->close_after = 1;  /* the peer half-closed: still send what it asked for */
@@ -643,6 +647,7 @@ static void do_accept(sts_io *io)
             setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         else
             stu_unix_sndbuf(fd);  /* a big reply in one write (unixaddr.h) */
+        c->unix_sock = sa.ss_family == AF_UNIX;
         c->fd = fd;
         c->id = __atomic_add_fetch(&srv->next_conn_id, 1, __ATOMIC_RELAXED);
         c->last_ms = sts_now_ms();

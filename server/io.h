@@ -50,6 +50,8 @@ struct sts_conn {
     uint8_t   dead;          /* peer gone or error: free as soon as not busy */
     uint8_t   paused;        /* not reading (backpressure or busy) */
     unsigned  ev_mask;       /* events registered with the poller */
+    uint8_t   unix_sock;     /* a Unix-domain connection: may pass descriptors (shm.h) */
+    struct sts_shm_conn *shm;  /* shm.c: descriptors held and the mapped region; NULL = none */
     sts_conn *prev, *next;   /* the I/O thread's list (idle scan, drain) */
 };
 
@@ -62,6 +64,7 @@ typedef struct sts_scratch {
     size_t    cap;           /* queries the arrays hold */
     struct st_cube_query *cq;
     size_t    cqcap;         /* direction queries cq holds (SAMPLE_DIR only) */
+    struct sts_shm_scratch *shm;  /* shm.c: private copies of shared-memory requests */
 } sts_scratch;
 /* Room for n queries (and n direction queries when dir). 0 or -1. */
 int sts_scratch_reserve(sts_scratch *s, size_t n, int dir);

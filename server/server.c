@@ -379,6 +379,7 @@ void sts_server_reload(sts_server *srv, const sts_config *fresh)
     SET_LIVE(max_batch);
     SET_LIVE(heavy_batch);
     SET_LIVE(split_batch);
+    SET_LIVE(shm_max);
     SET_LIVE(conn_out_cap);
     SET_LIVE(max_memory);
     SET_LIVE(max_sets);

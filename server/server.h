@@ -32,7 +32,7 @@
  * comes back through the I/O thread's completion list + eventfd. Replies therefore leave in
  * request order on every connection (the server does not offer STP_CAP_OUT_OF_ORDER).
  * A SAMPLE batch of split-batch queries or more is sampled in parts by the thread that has it
- * and idle workers together (sts_pool_parallel), only onto CPUs not already sampling.
+ * and idle workers together (sts_pool_parallel), only onto CPUs no other sampler keeps.
  *
  * No globals: everything hangs off the sts_server passed by pointer (main.c keeps it in a
  * function-local static because of its size; signals are taken synchronously, no flag).
@@ -77,6 +77,8 @@ typedef struct sts_stats {
     uint64_t uploads_resumed, uploads_expired;
     uint64_t jobs_started, jobs_done, jobs_failed, jobs_canceled, fetches, fetches_refused;
     uint64_t conns_request_timeout, conns_evicted;
+    uint64_t shm_attached, shm_refused, shm_maps, shm_bytes;   /* shm.c; maps, bytes: now */
+    uint64_t shm_requests, shm_too_small, shm_fds_dropped;
     uint64_t by_op[256];
     uint64_t queries_by[STS_QMODES][STS_QFILTERS];  /* queries by wire mode and filter value */
 } sts_stats;

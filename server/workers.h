@@ -40,6 +40,9 @@ typedef int (*sts_part_fn)(void *arg, size_t first, size_t count);
 
 typedef struct sts_par sts_par;   /* a split batch open for helpers (workers.c) */
 
+/* Split-batch callers that are tracked (one per I/O thread: io-threads is at most 64). */
+#define STS_POOL_SLOTS 64
+
 typedef struct sts_pool {
     pthread_mutex_t mu;
     pthread_cond_t  cv;           /* workers wait here for tasks or open split batches */
@@ -51,8 +54,13 @@ typedef struct sts_pool {
     uint32_t        sampling;     /* atomic: threads inside a split-able batch (callers and
                                      helpers); helpers are woken only while this < ncpu */
     sts_par        *par;          /* open split batches (helpers take the first with parts left) */
+    int64_t         slot_state[STS_POOL_SLOTS]; /* atomic, per I/O thread: -1 while it samples a
+                                     split-able batch, else when its last one ended (us), 0 never */
+    uint32_t        nslots;       /* atomic: slots used (highest + 1) */
     uint64_t        split_batches;/* atomic: batches a helper was woken for (STATS) */
     uint64_t        parts_helped; /* atomic: parts workers sampled for others (STATS) */
+    uint64_t        helpers_yielded; /* atomic: helpers that left a batch with parts still to
+                                     take because more threads than CPUs were sampling (STATS) */
     int             stop;
     pthread_t      *threads;
     uint32_t        nthreads;
@@ -65,11 +73,13 @@ void sts_pool_submit(sts_pool *p, sts_task *t);
 void sts_pool_stop(sts_pool *p);
 /* Runs fn over [0, n) in parts of `grain` items: the calling thread takes parts itself and
  * idle workers (only those already idle, and only as many as there are CPUs not already
- * sampling a batch) take the others as they wake,
+ * sampling a batch, nor kept by another I/O thread that ended a batch less than 1 ms ago
+ * and is likely to start the next: `slot` is the caller's I/O thread index, -1 on a worker)
+ * take the others as they wake,
  * so the call never waits for a worker to start, only for parts a worker has already begun.
  * With no idle worker, or n <= grain, it is one call fn(arg, 0, n) on the caller. Returns the
  * sum of the parts' results, or the first negative one. Any thread may call it (I/O threads,
  * a worker running a heavy request); fn must be safe to run concurrently on disjoint parts. */
-int sts_pool_parallel(sts_pool *p, size_t n, size_t grain, sts_part_fn fn, void *arg);
+int sts_pool_parallel(sts_pool *p, int slot, size_t n, size_t grain, sts_part_fn fn, void *arg);
 
 #endif

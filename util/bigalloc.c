@@ -8,6 +8,23 @@
 
 #define HUGE_PAGE ((size_t)2 << 20)
 #define TEMP_HUGE_FROM ((size_t)256 << 10)
+#define KEEP_HUGE_FROM (HUGE_PAGE / 3) /* 2/3 MiB: the rounding adds at most twice n */
+
+/* The bytes to allocate for n: a multiple of 64, or of the huge page when the buffer goes on
+ * huge pages (*huge 1). n <= SIZE_MAX / 2. */
+static size_t plan(size_t n, int use, int *huge)
+{
+    *huge = n >= (use == STU_BIG_TEMP ? TEMP_HUGE_FROM : KEEP_HUGE_FROM);
+    if (*huge)
+        return (n + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
+    return n ? (n + 63) & ~(size_t)63 : 64;
+}
+
+size_t stu_big_footprint(size_t n, int use)
+{
+    int huge;
+    return n > SIZE_MAX / 2 ? n : plan(n, use, &huge);
+}
 
 void *stu_big_alloc(size_t n, int use)
 {
@@ -15,12 +32,8 @@ void *stu_big_alloc(size_t n, int use)
         errno = ENOMEM;
         return NULL;
     }
-    size_t r = n ? (n + 63) & ~(size_t)63 : 64, up = (n + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
-    size_t huge = 0; /* bytes from the start marked for huge pages */
-    if (use == STU_BIG_TEMP ? n >= TEMP_HUGE_FROM : n && up - n <= n / 2)
-        r = huge = up;
-    else if (use == STU_BIG_KEEP)
-        huge = n & ~(HUGE_PAGE - 1);
+    int huge;
+    size_t r = plan(n, use, &huge);
     /* a small temporary buffer from malloc: glibc serves it from its heap, where freeing it
      * is not an munmap (which cost about as much as reading a 130 KiB file) */
     void *p = huge ? aligned_alloc(HUGE_PAGE, r) : use == STU_BIG_TEMP ? malloc(r)
@@ -31,7 +44,7 @@ void *stu_big_alloc(size_t n, int use)
     }
 #ifdef MADV_HUGEPAGE
     if (huge)
-        madvise(p, huge, MADV_HUGEPAGE); /* advice only: failure changes nothing */
+        madvise(p, r, MADV_HUGEPAGE); /* advice only: failure changes nothing */
 #endif
     return p;
 }

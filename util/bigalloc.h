@@ -8,12 +8,17 @@
  * 13-24 ms, into a huge-page buffer 1-1.9 ms. So large buffers are 2 MiB aligned and marked
  * MADV_HUGEPAGE (advice only: without transparent huge pages they are ordinary buffers).
  *
+ * Measured again (2026-12-02 04:50-05:00, load 10-14): a fresh 4 KiB page cost 20-25 us
+ * (1 MiB of them 5-7 ms), one fresh 2 MiB huge page 0.3-0.5 ms with its zeroing; so a huge
+ * page is cheaper in CPU from about 64-100 KiB of 4 KiB pages on.
+ *
  * A huge page is allocated whole, so rounding a buffer up to whole huge pages costs memory:
  * - STU_BIG_KEEP (a buffer that lives long, like a set's arena): rounded up to whole huge
- *   pages when that adds at most half of n (so from 4/3 MiB on, and always from 4 MiB on, as
- *   the arena was before); otherwise only the whole 2 MiB pages inside n are huge and the
- *   tail has 4 KiB pages.
+ *   pages from 2/3 MiB on (the rounding adds at most twice n, and less than 2 MiB); a set
+ *   of 0.7-1.3 MiB was the import's slowest case: 170-330 fresh 4 KiB pages, 4-7 ms of
+ *   faults, more than its decoding (before: from 4/3 MiB on).
  * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
+ * stu_big_footprint says how many bytes a buffer of n really holds (for memory accounting).
  * Smaller buffers are 64-byte aligned, sized up to a multiple of 64.
  *
  * Ownership: the caller frees the buffer with free(). NULL with errno ENOMEM when the memory
@@ -27,5 +32,9 @@
 enum { STU_BIG_KEEP = 0, STU_BIG_TEMP = 1 };
 
 void *stu_big_alloc(size_t n, int use);
+
+/* Bytes that stu_big_alloc(n, use) reserves: n rounded up to 64 bytes, or to whole huge
+ * pages when it is put on them (an upper bound of what becomes resident). */
+size_t stu_big_footprint(size_t n, int use);
 
 #endif

@@ -19,10 +19,17 @@
 
 static int is_pow2(uint32_t x) { return x && !(x & (x - 1)); }
 
-/* The texel arena: 64-byte aligned, and from 2 MiB on on transparent huge pages
- * (util/bigalloc.h, a long-lived buffer). Every importer writes its whole arena right away;
- * with 4 KiB pages the page faults of a large Ptex import cost more CPU than its decoding.
- * alloc is a multiple of 64. */
+/* The arena's size for bytes of texels: 64-byte aligned, rounded up so that a 16-byte load
+ * at the very end stays inside. */
+static size_t arena_size(size_t bytes)
+{
+    return (bytes + 64 + 63) & ~(size_t)63;
+}
+
+/* The texel arena: 64-byte aligned, and from 2/3 MiB on on transparent huge pages
+ * (util/bigalloc.h, a long-lived buffer; st_set_memory counts its whole huge pages). Every
+ * importer writes its whole arena right away; with 4 KiB pages the page faults of a large
+ * Ptex import cost more CPU than its decoding. alloc is a multiple of 64. */
 static uint8_t *arena_alloc(size_t alloc)
 {
     return stu_big_alloc(alloc, STU_BIG_KEEP);
@@ -237,8 +244,7 @@ static int set_create(const st_set_info *info, const st_face_desc *fd, size_t ma
         goto fail;
 
     s->level_off = malloc(nlev_total * sizeof *s->level_off);
-    /* 64-byte aligned arena, rounded up so that a 16-byte load at the very end stays inside */
-    size_t alloc = (bytes + 64 + 63) & ~(size_t)63;
+    size_t alloc = arena_size(bytes);
     s->texels = arena_alloc(alloc);
     if (!s->level_off || !s->texels) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of texels", bytes);
@@ -426,7 +432,10 @@ const st_meta_entry *st_set_meta_find(const st_set *s, const char *key)
 
 size_t st_set_memory(const st_set *s)
 {
-    size_t m = sizeof *s + (size_t)s->info.nfaces * sizeof(st_face) + s->texel_bytes;
+    /* an arena of its own: what it really holds (huge pages are allocated whole) */
+    size_t tb = s->map ? s->texel_bytes
+                       : stu_big_footprint(arena_size(s->texel_bytes), STU_BIG_KEEP);
+    size_t m = sizeof *s + (size_t)s->info.nfaces * sizeof(st_face) + tb;
     for (uint32_t f = 0; f < s->info.nfaces; f++)
         m += s->faces[f].nlevels * sizeof(uint64_t);
     for (uint32_t i = 0; i < s->nmeta; i++)

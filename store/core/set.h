@@ -265,8 +265,9 @@ int st_set_meta_add(st_set *s, const char *key, unsigned type, const void *data,
 /* Finds an entry by key, NULL when absent. */
 const st_meta_entry *st_set_meta_find(const st_set *s, const char *key);
 
-/* Bytes the set holds in memory (face table, offsets, texels, metadata and its extension,
- * as the extension's memory callback counts it). */
+/* Bytes the set holds in memory (face table, offsets, texels - an arena of its own as
+ * allocated, whole huge pages included (util/bigalloc.h) - metadata and its extension, as
+ * the extension's memory callback counts it). */
 size_t st_set_memory(const st_set *s);
 
 /* The set's extension data when it is of kind k, else NULL. */

@@ -86,13 +86,13 @@ typedef struct pf {
     const st_set *s;
     const st_ptexres *t;
     unsigned nc, dt;
+    size_t ts;               /* bytes per texel */
     int mode;                /* st_mode */
     int bu, bv;              /* border modes: 0 clamp, 1 black, 2 periodic */
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
-    int avx2;                /* the CPU runs ptexfilter_simd.c's loop (any type) */
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
+    pf_window_fn win;        /* the window loop for the batch's type and channels, or NULL */
     pf_small_fn small;       /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
-    size_t ts;               /* bytes per texel */
     pf_bilinear_half_fn bhalf; /* the in-face bilinear of half texels (F16C), or NULL */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
@@ -127,6 +127,73 @@ static inline int is_subface(const pf *c, int f)
     return (c->s->faces[f].flags & ST_FACE_SUBFACE) != 0;
 }
 
+/* The window loop without AVX2 (the portable loops; pf_window_select gives NULL): returns
+ * c->acc + the window's weighted sum. Kept out of apply so that its frame stays small. */
+__attribute__((noinline)) static v4f apply_portable(const pf *c, const uint8_t *base, size_t rowb,
+                                                   size_t ts, const float *ku, int uw,
+                                                   const float *kv, int vw)
+{
+    unsigned nc = c->nc, dt = c->dt;
+    v4f acc = c->acc;
+    switch (c->kind) {
+    case PF_U8:
+        if (nc < 3) {
+            /* 1 or 2 channels: a row of the window is uw * nc contiguous bytes; dot it with the
+             * weights repeated per channel, 4 bytes at a time (lane l holds channel l % nc). The
+             * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
+            int ne = uw * (int)nc, nv = (ne + 3) / 4;
+            v4f wv[(PK_MAX * 4 + 3) / 4];
+            float *we = (float *)wv;
+            if (nc == 1) {
+                for (int i = 0; i < uw; i++)
+                    we[i] = ku[i];
+            } else {
+                for (int i = 0; i < uw; i++)
+                    we[2 * i] = we[2 * i + 1] = ku[i];
+            }
+            for (int i = ne; i < nv * 4; i++)
+                we[i] = 0.0f;
+            for (int j = 0; j < vw; j++) {
+                const uint8_t *p = base + j * rowb;
+                v4f rs = load_u8(p) * wv[0];
+                for (int b = 1; b < nv; b++)
+                    rs += load_u8(p + 4 * b) * wv[b];
+                v4f row = nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
+                                  : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
+                acc += row * kv[j];
+            }
+            break;
+        }
+        for (int j = 0; j < vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_u8(p) * ku[0];
+            for (int i = 1; i < uw; i++)
+                row += load_u8(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    case PF_F32:
+        for (int j = 0; j < vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_f32(p) * ku[0];
+            for (int i = 1; i < uw; i++)
+                row += load_f32(p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    default:
+        for (int j = 0; j < vw; j++) {
+            const uint8_t *p = base + j * rowb;
+            v4f row = load_any(dt, nc, p) * ku[0];
+            for (int i = 1; i < uw; i++)
+                row += load_any(dt, nc, p + (size_t)i * ts) * ku[i];
+            acc += row * kv[j];
+        }
+        break;
+    }
+    return acc;
+}
+
 /* Kernel applied to the data of face f at the kernel's resolution (reduced first when the
  * face is smaller). */
 static void apply(pf *c, pk *k, int f)
@@ -140,11 +207,11 @@ static void apply(pf *c, pk *k, int f)
         pk_downres_v(k);
     if (k->ulog2 < 0 || k->vlog2 < 0)
         return;
-    const uint8_t *d = st_ptexres_data(c->t, c->s, (uint32_t)f, (unsigned)k->ulog2,
-                                       (unsigned)k->vlog2);
+    const uint8_t *const *px = c->t->px + c->t->base[f];
     unsigned nc = c->nc, dt = c->dt;
     const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
     if (F->flags & ST_FACE_CONSTANT) {
+        const uint8_t *d = px[0];
         float w = pk_weight(k);
         c->acc += load_any(dt, nc, d) * w;
         return;
@@ -153,71 +220,14 @@ static void apply(pf *c, pk *k, int f)
     /* the window must lie inside the face (it does for Ptex's kernels; guard bad input) */
     if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
         return;
-    size_t ts = st_dtype_size(dt) * nc;
+    const uint8_t *d = px[(unsigned)k->ulog2 * (F->vlog2 + 1u) + (unsigned)k->vlog2];
+    size_t ts = c->ts;
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
-    v4f acc = c->acc;
-    if (c->avx2) {
-        c->acc = pf_apply_avx2(base, rowb, k, dt, nc, acc);
-        return;
-    }
-    switch (c->kind) {
-    case PF_U8:
-        if (nc < 3) {
-            /* 1 or 2 channels: a row of the window is uw * nc contiguous bytes; dot it with the
-             * weights repeated per channel, 4 bytes at a time (lane l holds channel l % nc). The
-             * last load may read up to 3 bytes past the row (weight 0; arenas end with slack). */
-            int ne = k->uw * (int)nc, nv = (ne + 3) / 4;
-            v4f wv[(PK_MAX * 4 + 3) / 4];
-            float *we = (float *)wv;
-            if (nc == 1) {
-                for (int i = 0; i < k->uw; i++)
-                    we[i] = ku[i];
-            } else {
-                for (int i = 0; i < k->uw; i++)
-                    we[2 * i] = we[2 * i + 1] = ku[i];
-            }
-            for (int i = ne; i < nv * 4; i++)
-                we[i] = 0.0f;
-            for (int j = 0; j < k->vw; j++) {
-                const uint8_t *p = base + j * rowb;
-                v4f rs = load_u8(p) * wv[0];
-                for (int b = 1; b < nv; b++)
-                    rs += load_u8(p + 4 * b) * wv[b];
-                v4f row = nc == 2 ? (v4f){rs[0] + rs[2], rs[1] + rs[3], 0, 0}
-                                  : (v4f){(rs[0] + rs[1]) + (rs[2] + rs[3]), 0, 0, 0};
-                acc += row * kv[j];
-            }
-            break;
-        }
-        for (int j = 0; j < k->vw; j++) {
-            const uint8_t *p = base + j * rowb;
-            v4f row = load_u8(p) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                row += load_u8(p + (size_t)i * ts) * ku[i];
-            acc += row * kv[j];
-        }
-        break;
-    case PF_F32:
-        for (int j = 0; j < k->vw; j++) {
-            const uint8_t *p = base + j * rowb;
-            v4f row = load_f32(p) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                row += load_f32(p + (size_t)i * ts) * ku[i];
-            acc += row * kv[j];
-        }
-        break;
-    default:
-        for (int j = 0; j < k->vw; j++) {
-            const uint8_t *p = base + j * rowb;
-            v4f row = load_any(dt, nc, p) * ku[0];
-            for (int i = 1; i < k->uw; i++)
-                row += load_any(dt, nc, p + (size_t)i * ts) * ku[i];
-            acc += row * kv[j];
-        }
-        break;
-    }
-    c->acc = acc;
+    if (c->win)
+        c->acc = c->win(base, rowb, ku, k->uw, kv, k->vw, c->acc);
+    else
+        c->acc = apply_portable(c, base, rowb, ts, ku, k->uw, kv, k->vw);
 }
 
 static void split_apply(pf *c, pk *k, int f, int depth);
@@ -706,6 +716,9 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     return 1;
 }
 
+static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                       pk *k, float *out, float *cov);
+
 static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                 float *out, float *cov)
 {
@@ -769,12 +782,24 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         *cov = 0.0f;
         return ST_Q_OK;
     }
-    float total = pk_weight(&k);
+    return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
+/* The rest of eval once the query's kernel k is built with its zeros stripped (uw, vw >= 1):
+ * applied to the face or split across its edges, divided by the weight. */
+static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                       pk *k, float *out, float *cov)
+{
+    int f = (int)q->face;
+    *cov = 1.0f;
+    c->acc = (v4f){0, 0, 0, 0};
+    float total = pk_weight(k);
     c->weight = total;
-    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2))
-        apply(c, &k, (int)f); /* the kernel lies inside the face: every mode agrees */
+    if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
+        k->v + k->vw <= (1 << k->vlog2))
+        apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
     else
-        split_apply(c, &k, (int)f, 0);
+        split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
          * negative keeps more than its total, reported as 1 */
@@ -890,11 +915,15 @@ static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const s
     const st_face *F = plain_face(c, q);
     if (F) {
         float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
-        if (c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
-                    uw * c->width + c->blur, vw * c->width + c->blur, out)) {
+        pk k;
+        int r = c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
+                        uw * c->width + c->blur, vw * c->width + c->blur, out, &k);
+        if (r == 1) {
             *cov = 1.0f;
             return ST_Q_OK;
         }
+        if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+            return eval_kernel(c, pp, o, q, &k, out, cov);
     }
     return eval(c, pp, o, q, out, cov);
 }
@@ -965,8 +994,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
-    c.avx2 = avx2;
     c.fast = general ? NULL : pf_fast_select(c.dt, c.nc, o->filter);
+    c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
     c.ts = st_dtype_size(c.dt) * c.nc;
     c.bhalf = pf_bilinear_half_select(); /* in eval's in-face bilinear too */

@@ -454,11 +454,19 @@ static int width4_axis(int *kres, int *ku, int *kw, float *w, float u,
             *kw = 4;
             float x1 = (float)*ku - upix;
             float s = 1.0f / (uw * 1.5f + .5f);
-            for (int i = 0; i < *kw; i += 2) {
-                float xa = x1 + (float)i, xb = xa + 1.0f;
-                w[i] = hermite_blur(xa * s);
-                w[i + 1] = hermite_blur(xb * s);
-            }
+            /* hermite_blur of (x1 + i) * s, i = 0, 2, and of ((x1 + i) + 1) * s, 4 lanes, the
+             * same operations in the same order */
+            v4f xa = x1 + (v4f){0.0f, 0.0f, 2.0f, 2.0f};
+            v4f x = (xa + (v4f){0.0f, 1.0f, 0.0f, 1.0f}) * s;
+            v4i xb;
+            memcpy(&xb, &x, sizeof x);
+            xb &= 0x7fffffff;
+            memcpy(&x, &xb, sizeof x);
+            v4f h = (2.0f * x - 3.0f) * x * x + 1.0f;
+            v4i hb, lt = x < 1.0f;
+            memcpy(&hb, &h, sizeof h);
+            hb &= lt;
+            memcpy(w, &hb, sizeof hb);
             return 0;
         } else {
             *kres = 0;

@@ -127,6 +127,11 @@ void  pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, i
                            float x1v, float sv, float *wv, int nv);
 pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
                     pf_v4 acc);
+/* The same window loop with the weights given directly (uw, vw >= 1), for texels of one type
+ * and channel count: chosen once per batch by pf_window_select(dt, nc) (NULL without AVX2). */
+typedef pf_v4 (*pf_window_fn)(const uint8_t *base, size_t rowb, const float *ku, int uw,
+                              const float *kv, int vw, pf_v4 acc);
+pf_window_fn pf_window_select(unsigned dt, unsigned nc);
 
 /* The fused path of a query whose kernel lies inside one face (ptexfilter_simd.c, AVX2):
  * the box and width-4 (gaussian, bicubic family) filters, kernel built, zeros stripped,
@@ -135,11 +140,13 @@ pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, 
  * resolution table (st_ptexres px + base[f]: (ru, rv) at px[ru * (fvlog2 + 1) + rv]) of a
  * face that is neither constant nor a subface; u, v wrapped or clamped into the face and
  * uw, vw the widths with width and blur applied, as pk_build takes them. Writes nc values
- * to out and returns 1; returns 0 (nothing written) when the kernel overhangs the face,
- * is empty, has a weight <= 0, or is one the fused path does not take (width-4 widths of
- * 1/4 or more, more than 8 taps): the caller then runs the general path. */
+ * to out and returns 1. Returns 2 when the kernel overhangs the face and kout is not NULL:
+ * *kout is then the kernel pk_build + pk_strip_zeros make (weights at index 0, not empty),
+ * for the general path to split. Returns 0 (nothing written) when the kernel overhangs the
+ * face (kout NULL), is empty, has a weight <= 0, or is one the fused path does not take
+ * (width-4 widths of 1/4 or more, more than 8 taps): the caller then runs the general path. */
 typedef int (*pf_fast_fn)(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
-                          float u, float v, float uw, float vw, float *out);
+                          float u, float v, float uw, float vw, float *out, pk *kout);
 /* The fused path for texels of type dt with nc channels and filter ftype, or NULL (no AVX2,
  * or a filter without one). */
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype);

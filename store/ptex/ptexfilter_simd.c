@@ -86,6 +86,59 @@ PF_TARGET __m256 load8(const uint8_t *p, unsigned dt)
     }
 }
 
+/* 4 values of type DT from p as floats: one 3-channel texel (the 4th lane is the next value
+ * or slack: finite or not, it stays in lane 3, which no caller reads), or the at most 4
+ * values of a short window row (window4 masks the lanes past the row). */
+PF_TARGET __m128 load4(const uint8_t *p, unsigned DT)
+{
+    switch (DT) {
+    case 0: {
+        int x;
+        __builtin_memcpy(&x, p, 4);
+        return _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
+    }
+    case 1:
+        return _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+    case 2:
+        return _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
+    default:
+        return _mm_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* window() for a row of at most 4 values (uw * nc <= 4: the small windows of edge pieces and
+ * small faces) in 4 lanes: the same operations on the same lanes in the same order (the
+ * upper 4 lanes of window() hold +0 there, which the fold adds as "+ 0"), so bit for bit
+ * window()'s result. */
+PF_TARGET __m128 window4(const uint8_t *base, size_t rowb, unsigned DT, unsigned nc,
+                         const float *ku, int uw, const float *kv, int vw, __m128 acc)
+{
+    int nt = uw * (int)nc;
+    __m128 tail = _mm_castsi128_ps(_mm_cmpgt_epi32(_mm_set1_epi32(nt), _mm_setr_epi32(0, 1, 2, 3)));
+    __m128 col = _mm_setzero_ps();
+    for (int j = 0; j < vw; j++)
+        col = _mm_fmadd_ps(_mm_and_ps(load4(base + (size_t)j * rowb, DT), tail),
+                           _mm_set1_ps(kv[j]), col);
+    const __m128 z = _mm_setzero_ps();
+    __m128 q;
+    if (nc == 4) {
+        q = _mm_add_ps(_mm_mul_ps(col, _mm_set1_ps(ku[0])), z);
+        return _mm_add_ps(acc, q);
+    }
+    if (nc == 2) {
+        __m128 k = _mm_setr_ps(ku[0], uw > 1 ? ku[1] : 0.0f, 0.0f, 0.0f);
+        q = _mm_add_ps(_mm_fmadd_ps(col, _mm_unpacklo_ps(k, k), z), z);
+    } else {
+        __m128 k = _mm_setr_ps(ku[0], uw > 1 ? ku[1] : 0.0f, uw > 2 ? ku[2] : 0.0f,
+                               uw > 3 ? ku[3] : 0.0f);
+        q = _mm_add_ps(_mm_fmadd_ps(col, k, z), z);
+    }
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+    if (nc == 2)
+        return _mm_add_ps(acc, _mm_movelh_ps(h, z));
+    return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+
 /* The whole window for type DT and NV vectors per row (both constants where inlined, so
  * the column sums stay in registers): col[b] += kv[j] * row j, then the dot with the column
  * weights, folded into acc by channel. */
@@ -93,6 +146,8 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
                         const float *ku, int uw, const float *kv, int vw, int NV, __m128 acc)
 {
     enum { MAXV = (PK_MAX * 4 + 7) / 8 };
+    if (NV == 1 && uw * (int)nc <= 4)
+        return window4(base, rowb, DT, nc, ku, uw, kv, vw, acc);
     size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
     int ne = uw * (int)nc;
     int nt = ne - 8 * (NV - 1); /* values in the last vector, 1..8 */
@@ -146,25 +201,6 @@ PF_TARGET __m128 window(const uint8_t *base, size_t rowb, unsigned DT, unsigned 
     return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
 }
 
-/* One 3-channel texel as 4 lanes (the 4th is the next value or slack: finite or not, it
- * stays in lane 3, which no caller reads). */
-PF_TARGET __m128 load4(const uint8_t *p, unsigned DT)
-{
-    switch (DT) {
-    case 0: {
-        int x;
-        __builtin_memcpy(&x, p, 4);
-        return _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(x)));
-    }
-    case 1:
-        return _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
-    case 2:
-        return _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
-    default:
-        return _mm_loadu_ps((const float *)(const void *)p);
-    }
-}
-
 /* 3 channels: the texels do not tile 8 lanes, so each texel is a 4-lane vector, weighted
  * along the row, then the row weighted into acc (Ptex's order). */
 PF_TARGET __m128 window3(const uint8_t *base, size_t rowb, unsigned DT, const float *ku, int uw,
@@ -181,39 +217,59 @@ PF_TARGET __m128 window3(const uint8_t *base, size_t rowb, unsigned DT, const fl
     return acc;
 }
 
-#define PF_NV_CASES(DT)                                                                     \
-    switch (nv) {                                                                          \
-    case 1: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 1, acc);                    \
-    case 2: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 2, acc);                    \
-    case 3: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 3, acc);                    \
-    case 4: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 4, acc);                    \
-    case 5: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, 5, acc);                    \
-    default: return (pf_v4)window(base, rowb, DT, nc, ku, uw, kv, vw, nv, acc);                  \
-    }
-
-__attribute__((target("avx2,fma,f16c")))
-pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
-                    pf_v4 acc4)
+/* The window loop for texels of type DT with NC channels (both constants): NC == 3 one
+ * texel a vector, else the row length's number of 8-value vectors (1..5 unrolled). */
+PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
+                           const float *ku, int uw, const float *kv, int vw, __m128 acc)
 {
-    const float *ku = k->kub + k->ku0, *kv = k->kvb + k->kv0;
-    int uw = k->uw, vw = k->vw, nv = (uw * (int)nc + 7) / 8;
-    __m128 acc = (__m128)acc4;
-    if (nv <= 0 || vw <= 0)
-        return acc4;
-    if (nc == 3) {
-        switch (dt) {
-        case 0: return (pf_v4)window3(base, rowb, 0, ku, uw, kv, vw, acc);
-        case 1: return (pf_v4)window3(base, rowb, 1, ku, uw, kv, vw, acc);
-        case 2: return (pf_v4)window3(base, rowb, 2, ku, uw, kv, vw, acc);
-        default: return (pf_v4)window3(base, rowb, 3, ku, uw, kv, vw, acc);
-        }
+    if (NC == 3)
+        return window3(base, rowb, DT, ku, uw, kv, vw, acc);
+    int nv = (uw * (int)NC + 7) / 8;
+    if (nv < 1)
+        return acc;
+    switch (nv) {
+    case 1: return window(base, rowb, DT, NC, ku, uw, kv, vw, 1, acc);
+    case 2: return window(base, rowb, DT, NC, ku, uw, kv, vw, 2, acc);
+    case 3: return window(base, rowb, DT, NC, ku, uw, kv, vw, 3, acc);
+    case 4: return window(base, rowb, DT, NC, ku, uw, kv, vw, 4, acc);
+    case 5: return window(base, rowb, DT, NC, ku, uw, kv, vw, 5, acc);
+    default: return window(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);
     }
-    switch (dt) {
-    case 0: PF_NV_CASES(0)
-    case 1: PF_NV_CASES(1)
-    case 2: PF_NV_CASES(2)
-    default: PF_NV_CASES(3)
+}
+
+#define PF_WIN(DT, NC)                                                                      \
+    __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_win_##DT##_##NC(               \
+        const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
+        pf_v4 acc)                                                                          \
+    {                                                                                       \
+        return (pf_v4)window_dt(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);           \
     }
+#define PF_WIN_NC(DT) PF_WIN(DT, 1) PF_WIN(DT, 2) PF_WIN(DT, 3) PF_WIN(DT, 4)
+PF_WIN_NC(0)
+PF_WIN_NC(1)
+PF_WIN_NC(2)
+PF_WIN_NC(3)
+
+pf_window_fn pf_window_select(unsigned dt, unsigned nc)
+{
+    static const pf_window_fn fns[4][4] = {
+        {pf_win_0_1, pf_win_0_2, pf_win_0_3, pf_win_0_4},
+        {pf_win_1_1, pf_win_1_2, pf_win_1_3, pf_win_1_4},
+        {pf_win_2_1, pf_win_2_2, pf_win_2_3, pf_win_2_4},
+        {pf_win_3_1, pf_win_3_2, pf_win_3_3, pf_win_3_4},
+    };
+    if (dt > 3 || nc < 1 || nc > 4 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
+pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
+                    pf_v4 acc)
+{
+    pf_window_fn w = pf_window_select(dt, nc);
+    if (!w || k->uw <= 0 || k->vw <= 0)
+        return acc;
+    return w(base, rowb, k->kub + k->ku0, k->uw, k->kvb + k->kv0, k->vw, acc);
 }
 
 /* The width-4 kernel function at 8 points: the same operations in the same order as
@@ -387,9 +443,29 @@ PF_TARGET int strip8(__m256 w, int n, float *out, int *k0, int *kw)
     return 1;
 }
 
+/* The kernel the fused path built, handed to the general path (weights at index 0). */
+PF_TARGET int hand_over(pk *k, int ru, int rv, int u0, int v0, const float *ku, int nu,
+                        const float *kv, int nv)
+{
+    if (!k)
+        return 0;
+    k->ulog2 = ru;
+    k->vlog2 = rv;
+    k->u = u0;
+    k->v = v0;
+    k->uw = nu;
+    k->vw = nv;
+    k->ku0 = k->kv0 = k->rot = 0;
+    for (int i = 0; i < nu; i++)
+        k->kub[i] = ku[i];
+    for (int i = 0; i < nv; i++)
+        k->kvb[i] = kv[i];
+    return 2;
+}
+
 PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
-                        float u, float v, float uw, float vw, float *out, unsigned DT,
-                        unsigned NC)
+                        float u, float v, float uw, float vw, float *out, pk *kout,
+                        unsigned DT, unsigned NC)
 {
     float ku[32], kv[8]; /* ku: window() may name up to 4 vectors of lanes (it reads < nu) */
     int ru, rv, u0, v0, nu, nv;
@@ -401,7 +477,7 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
             return 0;
         ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
         if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
-            return 0;
+            return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv);
         total = sum[0] * sum[1];
     } else {
         int res[2], k0[2], kw[2];
@@ -426,7 +502,7 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
         if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
             return 0;
         if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
-            return 0;
+            return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv);
         /* pk_weight: each axis summed in order */
         float s0 = 0, s1 = 0;
         for (int i = 0; i < nu; i++)
@@ -465,9 +541,9 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
 #define PF_FAST(DT, NC)                                                                     \
     __attribute__((target("avx2,fma,f16c"))) static int pf_fast_##DT##_##NC(                \
         const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
-        float uw, float vw, float *out)                                                     \
+        float uw, float vw, float *out, pk *kout)                                           \
     {                                                                                       \
-        return fast_body(p, px, fu, fv, u, v, uw, vw, out, DT, NC);                         \
+        return fast_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC);                   \
     }
 #define PF_FAST_NC(DT) PF_FAST(DT, 1) PF_FAST(DT, 2) PF_FAST(DT, 3) PF_FAST(DT, 4)
 PF_FAST_NC(0)
@@ -577,6 +653,12 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 {
     (void)dt; (void)nc; (void)ftype;
+    return NULL;
+}
+
+pf_window_fn pf_window_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
     return NULL;
 }
 

@@ -5,7 +5,10 @@
 Per batch size (NET_BATCHES, default 256,1024,4096,16384) and encoding (f32: 28-byte queries
 and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.md 4.4.1):
   - in-process st_sample_batch with 1 and 2 threads (seamtex-bench --inproc -T 1 / -T 2);
-  - seamtexd over TCP loopback and over a Unix socket, with 1 and 2 connections (-P 2 each);
+  - seamtexd over TCP loopback and over a Unix socket, with 1 and 2 connections (-P 2 each),
+    and over the Unix socket with shared memory ("unix+shm": seamtex-bench --shm, PROTOCOL.md
+    4.12: the queries and replies in a sealed memfd, small frames on the socket), run in the
+    same daemon right after the plain Unix run of each batch, encoding and connection count;
   - ratios to the in-process figure at the same total thread count (1 connection vs 1 thread,
     2 connections vs 2 threads), and the daemon's CPU per query: utime + stime from
     /proc/<pid>/stat over the queries it served, against the in-process CPU per query;
@@ -41,6 +44,11 @@ REPS = int(os.environ.get('NET_REPS', '3'))
 SECS = os.environ.get('NET_SECS', '2')
 BATCHES = [int(x) for x in os.environ.get('NET_BATCHES', '256,1024,4096,16384').split(',')]
 ENCODINGS = {'f32': [], 'compact': ['--compact', '--outfmt', 'f16']}
+# NET_ENCODINGS=f32 / NET_VARIANTS=unix narrow a run (e.g. to A/B unix against unix+shm only)
+ENCODINGS = {k: v for k, v in ENCODINGS.items()
+             if k in os.environ.get('NET_ENCODINGS', 'f32,compact').split(',')}
+VARIANTS = os.environ.get('NET_VARIANTS', 'tcp,unix').split(',')
+SHM = os.environ.get('NET_WIRE_SHM', '1') != '0'    # the unix+shm column (0: leave it out)
 TCK = os.sysconf('SC_CLK_TCK')
 
 
@@ -96,11 +104,11 @@ def add(key, val):
     raw.setdefault(key, []).append(val)
 
 
-def sample_run(d, name, batch, enc, conns):
+def sample_run(d, name, batch, enc, conns, extra=()):
     c0 = cpu_s(d.p.pid)
     j = bench(d.addr + ['-o', 'sample', '-b', str(batch), '-m', 'traverse', '-f', 'bilinear',
                         '-c', str(conns), '-T', str(conns), '-P', '2', '-d', SECS, '-w', '0.5']
-              + ENCODINGS[enc], d.bench)
+              + ENCODINGS[enc] + list(extra), d.bench)
     c1 = cpu_s(d.p.pid)
     if not j:
         return
@@ -133,7 +141,8 @@ def main():
             sys.exit(f'net_wire: {exe} is missing (make first)')
     load0 = load()
     # (name, daemon, unix socket, daemon flags, load tester)
-    variants = [('tcp', DAEMON, False, [], BENCH), ('unix', DAEMON, True, [], BENCH)]
+    variants = [v for v in [('tcp', DAEMON, False, [], BENCH), ('unix', DAEMON, True, [], BENCH)]
+                if v[0] in VARIANTS]
     if BASE:
         bb = BASE_BENCH or BENCH
         variants[:0] = [('base-tcp', BASE, False, [], bb), ('base-unix', BASE, True, [], bb)]
@@ -156,6 +165,9 @@ def main():
                     for enc in ENCODINGS:
                         for conns in (1, 2):
                             sample_run(d, name, batch, enc, conns)
+                            if unix and SHM and name == 'unix':
+                                # A B in the same window: plain Unix, then with shared memory
+                                sample_run(d, 'unix+shm', batch, enc, conns, ['--shm'])
                 if not unix:
                     ping_runs(d, name)
             finally:
@@ -178,7 +190,10 @@ def main():
             rows.append(dict(batch=batch, encoding='-', run='inproc', threads=t,
                              queries_per_s=q, ns_cpu_per_query=ns))
         for enc in ENCODINGS:
-            for name, *_ in variants:
+            names = [v[0] for v in variants]
+            if SHM and 'unix' in names:
+                names.insert(names.index('unix') + 1, 'unix+shm')
+            for name in names:
                 for conns in (1, 2):
                     k = (batch, enc, name, conns)
                     if (*k, 'qps') not in med:
@@ -191,10 +206,18 @@ def main():
                     rc = ns / ins if ins else 0
                     print(f"{batch:>6} {enc:<8} {name:<10} {conns:>5} {q / 1e6:8.2f} {rq:9.2f} "
                           f"{ns:9.1f} {rc:9.2f}")
-                    rows.append(dict(batch=batch, encoding=enc, run=name, conns=conns,
-                                     queries_per_s=q, ratio_vs_inproc_same_threads=rq,
-                                     ns_daemon_cpu_per_query=ns,
-                                     cpu_ratio_vs_inproc=rc))
+                    row = dict(batch=batch, encoding=enc, run=name, conns=conns,
+                               queries_per_s=q, ratio_vs_inproc_same_threads=rq,
+                               ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc)
+                    uq = med.get((batch, enc, 'unix', conns, 'qps'), 0)
+                    uns = med.get((batch, enc, 'unix', conns, 'ns_cpu'), 0)
+                    if name == 'unix+shm' and uq and uns:
+                        # the A/B of the shared-memory path against plain Unix (same window)
+                        row['ratio_vs_unix'] = q / uq
+                        row['cpu_ratio_vs_unix'] = ns / uns
+                        print(f"{'':>6} {'':<8} {'  vs unix':<10} {'':>5} {'':>8} {q / uq:9.2f} "
+                              f"{'':>9} {ns / uns:9.2f}")
+                    rows.append(row)
     ping = {}
     for name, _, unix, _, _ in variants:
         if unix:
@@ -208,6 +231,7 @@ def main():
            'reps': REPS, 'seconds': float(SECS), 'mode': 'traverse', 'filter': 'bilinear',
            'pipeline': 2, 'base_daemon': BASE or None, 'base_bench': BASE_BENCH or None,
            'alt_args': ALT_ARGS or None,
+           'shm': SHM,
            'encodings': {'f32': '28-byte queries, f32 replies',
                          'compact': '14-byte queries (UV16 | FACE16), f16 replies'},
            'targets': {'ratio_at_4096_and_up': 0.8, 'ratio_at_256': 0.5,

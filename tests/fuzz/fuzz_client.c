@@ -14,6 +14,7 @@
 #include "../../client/libconn.c"
 #include "../../client/libcalls.c"
 #include "../../client/libxfer.c"
+#include "../../client/libshm.c"
 
 #define CHECK(c) do { if (!(c)) __builtin_trap(); } while (0)
 

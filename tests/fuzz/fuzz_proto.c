@@ -5,7 +5,8 @@
  * parser's answer does not change when more bytes arrive (a prefix may only say NEED_MORE or
  * the same BAD), a decoded count always fits the body it came from (in each SAMPLE query
  * layout, PROTOCOL.md 4.4.1) and agrees with stp_sample_peek_count, and a decoded compact
- * query is a fixed point of its rounding.
+ * query is a fixed point of its rounding; a shared-memory SAMPLE (PROTOCOL.md 4.12) carries no
+ * query bytes and its reply is exactly 16 bytes.
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -52,7 +53,11 @@ static void all_decoders(const uint8_t *b, size_t n)
     for (int dir = 0; dir < 2; dir++) {
         int s = dir ? stp_dec_sample_dir_req(b, n, 1u << 20, &u.sq, &why)
                     : stp_dec_sample_req(b, n, 1u << 20, &u.sq, &why);
-        if (s == 0) {
+        if (s == 0 && (u.sq.p.flags & STP_SF_SHM)) {
+            /* shared-memory form (4.12): offsets instead of queries, no query in the body */
+            CHECK(u.sq.count <= (1u << 20) && u.sq.raw == NULL && n >= STP_SHM_REF_SIZE + 26);
+            CHECK(stp_sample_peek_count(b, n) == u.sq.count);
+        } else if (s == 0) {
             stp_query q;
             stp_dir_query dq;
             CHECK(u.sq.count <= (1u << 20));
@@ -75,6 +80,9 @@ static void all_decoders(const uint8_t *b, size_t n)
             }
         }
     }
+    stp_shm_reply shr;
+    if (stp_dec_shm_reply(b, n, &shr, &why) == 0)
+        CHECK(n == STP_SHM_REPLY_SIZE);
     if (stp_dec_sample_reply(b, n, &u.sr, &why) == 0) {
         size_t nv = (size_t)u.sr.count * u.sr.nchan;
         CHECK(nv * stp_outfmt_size(u.sr.outfmt) <= n);

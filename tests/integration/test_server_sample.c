@@ -1,6 +1,7 @@
 /* tests/integration/test_server_sample.c - seamtexd's read requests through libseamtex:
  * HELLO, PING, LIST, INFO, STATS, SAMPLE equal to the in-process sampler (inline, on a worker,
- * split in parts, in every output form) and pipelined requests answered in order.
+ * split in parts, in every output form, two connections of split batches at once) and
+ * pipelined requests answered in order.
  *
  * One daemon with defaults for the group (tests/common/daemon_fixture.h) on 127.0.0.1 port 0;
  * nothing here needs SEAMTEX_DATA.
@@ -231,6 +232,81 @@ static void split_batches_match_the_sampler_in_every_form(void **state)
     st_set_free(s);
 }
 
+/* Two connections (two I/O threads) each pipelining split-size batches at once: both I/O
+ * threads sample side by side, helpers are woken only onto a CPU neither keeps and leave a
+ * batch when another starts (workers.c). Whatever the split, every reply is the in-process
+ * sampler's, bit for bit, for that connection's own queries, in request order. */
+static void two_connections_of_split_batches_answer_exactly_in_order(void **state)
+{
+    (void)state;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_default_set(&s, &e), 0);
+    enum { N = 2048, K = 8, C = 2 };   /* 2048: inline (--heavy-batch 2048) and split */
+    stc_query *q[C][K];
+    float *want[C][K];
+    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0};
+    srand(23);
+    for (int c = 0; c < C; c++)
+        for (int k = 0; k < K; k++) {
+            q[c][k] = calloc(N, sizeof(stc_query));
+            st_query *sq = calloc(N, sizeof *sq);
+            want[c][k] = calloc((size_t)N * 4, sizeof(float));
+            assert_true(q[c][k] && sq && want[c][k]);
+            for (int i = 0; i < N; i++) {
+                q[c][k][i].face = (uint32_t)(rand() % 384);
+                q[c][k][i].u = (float)rand() / (float)RAND_MAX;
+                q[c][k][i].v = (float)rand() / (float)RAND_MAX;
+                q[c][k][i].dudx = q[c][k][i].dvdy = 0.01f;
+                memcpy(&sq[i], &q[c][k][i], sizeof sq[i]);
+            }
+            assert_int_equal(st_sample_batch(s, &so, sq, N, want[c][k], NULL, NULL), 0);
+            free(sq);
+        }
+    stc_conn *conn[C];
+    uint32_t ids[C][K];
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    for (int c = 0; c < C; c++) {
+        conn[c] = st_daemon_client(&D1, NULL);
+        assert_non_null(conn[c]);
+    }
+    for (int round = 0; round < 3; round++) {
+        for (int c = 0; c < C; c++)
+            for (int k = 0; k < K; k++)
+                assert_int_equal(stc_append_sample(conn[c], "default", &o, q[c][k], N,
+                                                   &ids[c][k]), 0);
+        for (int c = 0; c < C; c++)
+            assert_int_equal(stc_flush(conn[c]), 0);
+        for (int k = 0; k < K; k++)
+            for (int c = 0; c < C; c++) {
+                stc_reply r;
+                assert_int_equal(stc_get_reply(conn[c], 30000, &r), 0);
+                assert_int_equal(r.reqid, ids[c][k]);
+                assert_int_equal(r.status, 0);
+                stc_sample_result res;
+                assert_int_equal(stc_reply_sample(conn[c], &r, &res), 0);
+                assert_int_equal(res.count, N);
+                assert_int_equal(res.nbad, 0);
+                assert_memory_equal(res.values, want[c][k], (size_t)N * 4 * sizeof(float));
+            }
+    }
+    const stc_stat *st;
+    size_t ns;
+    assert_int_equal(stc_stats(conn[0], &st, &ns), 0);
+    assert_non_null(stc_stat_find(st, ns, "helpers_yielded"));
+    for (int c = 0; c < C; c++) {
+        stc_close(conn[c]);
+        for (int k = 0; k < K; k++) {
+            free(q[c][k]);
+            free(want[c][k]);
+        }
+    }
+    st_set_free(s);
+}
+
 static void pipelined_requests_come_back_in_order(void **state)
 {
     (void)state;
@@ -283,6 +359,7 @@ int main(void)
         cmocka_unit_test(ping_list_info_stats_answer),
         cmocka_unit_test(sample_matches_in_process_sampler),
         cmocka_unit_test(split_batches_match_the_sampler_in_every_form),
+        cmocka_unit_test(two_connections_of_split_batches_answer_exactly_in_order),
         cmocka_unit_test(pipelined_requests_come_back_in_order),
     };
     static const char *const args[] = {"--heavy-batch", "2048", NULL};

@@ -28,6 +28,7 @@
 #include <cmocka.h>
 
 #include "../common/daemon_client.h"
+#include "../common/unix_daemon.h"
 #include "../common/wait.h"
 #include "proto.h"
 
@@ -215,123 +216,10 @@ static void compact_flags_on_sample_dir_are_invalid(void **state)
 
 /* ---- the Unix socket listener ------------------------------------------------------------------ */
 
-static const char *build_dir(void)
-{
-    const char *b = getenv("SEAMTEX_BUILD");
-    return b && *b ? b : "build";
-}
-
-/* Runs argv with stderr to errpath; returns the exit status (128 + signal), -1 when it could
- * not start. */
-static int run(const char *const *argv, const char *errpath, pid_t *bg)
-{
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 2, errpath, O_WRONLY | O_CREAT | O_APPEND, 0644);
-    pid_t pid;
-    int rc = posix_spawnp(&pid, argv[0], &fa, NULL, (char *const *)argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0)
-        return -1;
-    if (bg) {
-        *bg = pid;
-        return 0;
-    }
-    int st;
-    while (waitpid(pid, &st, 0) < 0 && errno == EINTR)
-        ;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-typedef struct unix_daemon {
-    st_daemon d;            /* for its temp dir and log */
-    char      sock[300], addr[310], port[300];
-    pid_t     pid;
-} unix_daemon;
-
-static int port_written(void *arg)
-{
-    unix_daemon *u = arg;
-    struct stat st;
-    int status;
-    if (waitpid(u->pid, &status, WNOHANG) == u->pid) {
-        u->pid = -(WIFEXITED(status) ? WEXITSTATUS(status) : 128);
-        return 1;
-    }
-    return stat(u->port, &st) == 0 && st.st_size > 0;
-}
-
-/* Starts seamtexd on unix:<dir>/s.sock with --unix-mode mode. Returns 0 once it serves, or
- * the daemon's exit status when it refused to start (> 0). */
-static int unix_start(unix_daemon *u, const char *mode)
-{
-    char exe[512];
-    snprintf(exe, sizeof exe, "%s/seamtexd", build_dir());
-    unlink(u->port);
-    const char *argv[] = {exe, "--listen", u->addr, "--unix-mode", mode, "--port-file", u->port,
-                          "--data-dir", u->d.datadir, NULL};
-    if (run(argv, u->d.log, &u->pid) != 0)
-        return -1;
-    if (st_wait_until(port_written, u, 30000) != 0)
-        return -1;
-    return u->pid < 0 ? -u->pid : 0;
-}
-
-static int unix_stop(unix_daemon *u)
-{
-    if (u->pid <= 0)
-        return -1;
-    kill(u->pid, SIGTERM);
-    int st;
-    while (waitpid(u->pid, &st, 0) < 0 && errno == EINTR)
-        ;
-    u->pid = 0;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-static int unix_setup(void **state)
-{
-    unix_daemon *u = calloc(1, sizeof *u);
-    if (!u || st_daemon_init(&u->d) != 0)
-        return -1;
-    chmod(u->d.dir, 0755);   /* so that only the socket's own mode decides who gets in */
-    snprintf(u->sock, sizeof u->sock, "%.250s/s.sock", u->d.dir);
-    snprintf(u->addr, sizeof u->addr, "unix:%s", u->sock);
-    snprintf(u->port, sizeof u->port, "%.250s/port", u->d.dir);
-    *state = u;
-    return 0;
-}
-
-static int unix_teardown(void **state)
-{
-    unix_daemon *u = *state;
-    if (u->pid > 0) {
-        kill(u->pid, SIGKILL);
-        waitpid(u->pid, NULL, 0);
-    }
-    st_daemon_cleanup(&u->d);
-    free(u);
-    return 0;
-}
-
-static int log_has(const unix_daemon *u, const char *text)
-{
-    FILE *f = fopen(u->d.log, "r");
-    char line[1024];
-    int found = 0;
-    while (f && fgets(line, sizeof line, f))
-        found |= strstr(line, text) != NULL;
-    if (f)
-        fclose(f);
-    return found;
-}
-
 static void unix_socket_serves_with_its_mode_and_is_removed_at_exit(void **state)
 {
-    unix_daemon *u = *state;
-    assert_int_equal(unix_start(u, "0660"), 0);
+    st_unix_daemon *u = *state;
+    assert_int_equal(st_unix_start(u, "0660"), 0);
     struct stat st;
     assert_int_equal(lstat(u->sock, &st), 0);
     assert_true(S_ISSOCK(st.st_mode));
@@ -352,7 +240,7 @@ static void unix_socket_serves_with_its_mode_and_is_removed_at_exit(void **state
     assert_int_equal(r.count, 1);
     assert_int_equal(r.nbad, 0);
     stc_close(c);
-    assert_int_equal(unix_stop(u), 0);
+    assert_int_equal(st_unix_stop(u), 0);
     assert_int_equal(lstat(u->sock, &st), -1);   /* removed at exit */
     assert_int_equal(errno, ENOENT);
 }
@@ -376,12 +264,12 @@ static long wmem_max(void)
  * Counted in STATS writes: the STATS reply after the first snapshot, then the SAMPLE reply. */
 static void unix_big_reply_leaves_in_one_write(void **state)
 {
-    unix_daemon *u = *state;
+    st_unix_daemon *u = *state;
     enum { N = 16384 };
     /* the buffer the kernel grants is twice the request, capped at wmem_max (doubled) */
     if (2 * wmem_max() < 2L * N * 4 * 4)
         skip();
-    assert_int_equal(unix_start(u, "0600"), 0);
+    assert_int_equal(st_unix_start(u, "0600"), 0);
     stc_opts o;
     memset(&o, 0, sizeof o);
     int err = 0;
@@ -406,52 +294,52 @@ static void unix_big_reply_leaves_in_one_write(void **state)
     assert_int_equal(w1 - w0, 2);
     free(q);
     stc_close(c);
-    assert_int_equal(unix_stop(u), 0);
+    assert_int_equal(st_unix_stop(u), 0);
 }
 
 static void unix_socket_mode_is_the_access_control(void **state)
 {
-    unix_daemon *u = *state;
+    st_unix_daemon *u = *state;
     char errpath[290], cli[512];
     snprintf(errpath, sizeof errpath, "%.250s/cli.err", u->d.dir);
-    snprintf(cli, sizeof cli, "%s/seamtex", build_dir());
+    snprintf(cli, sizeof cli, "%s/seamtex", st_build_dir());
     if (geteuid() != 0) {
         /* not root: the owner itself has no write permission on a 0000 socket */
-        assert_int_equal(unix_start(u, "0000"), 0);
+        assert_int_equal(st_unix_start(u, "0000"), 0);
         int err = 0;
         char msg[256];
         stc_conn *c = stc_connect_opts(u->addr, 0, NULL, &err, msg, sizeof msg);
         assert_null(c);
         assert_int_equal(err, STC_ECONNECT);
         assert_non_null(strstr(msg, strerror(EACCES)));
-        assert_int_equal(unix_stop(u), 0);
+        assert_int_equal(st_unix_stop(u), 0);
         return;
     }
     /* root passes every permission check: the client runs as nobody (setpriv) instead */
     const char *probe[] = {"setpriv", "--help", NULL};
-    if (run(probe, errpath, NULL) != 0)
+    if (st_run(probe, errpath, NULL) != 0)
         skip();
     char abs_cli[600];
     if (!realpath(cli, abs_cli))
         skip();
     const char *as_nobody[] = {"setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
                                abs_cli, "-h", u->addr, "ping", NULL};
-    assert_int_equal(unix_start(u, "0600"), 0);
+    assert_int_equal(st_unix_start(u, "0600"), 0);
     unlink(errpath);
-    assert_int_equal(run(as_nobody, errpath, NULL), 3);   /* 3: connection failed */
-    unix_daemon probe_err = *u;
+    assert_int_equal(st_run(as_nobody, errpath, NULL), 3);   /* 3: connection failed */
+    st_unix_daemon probe_err = *u;
     snprintf(probe_err.d.log, sizeof probe_err.d.log, "%s", errpath);
-    assert_true(log_has(&probe_err, strerror(EACCES)));
-    assert_int_equal(unix_stop(u), 0);
+    assert_true(st_unix_log_has(&probe_err, strerror(EACCES)));
+    assert_int_equal(st_unix_stop(u), 0);
     /* the same user gets in once the mode lets others write */
-    assert_int_equal(unix_start(u, "0666"), 0);
-    assert_int_equal(run(as_nobody, errpath, NULL), 0);
-    assert_int_equal(unix_stop(u), 0);
+    assert_int_equal(st_unix_start(u, "0666"), 0);
+    assert_int_equal(st_run(as_nobody, errpath, NULL), 0);
+    assert_int_equal(st_unix_stop(u), 0);
 }
 
 static void unix_stale_socket_is_replaced_live_one_and_files_are_not(void **state)
 {
-    unix_daemon *u = *state;
+    st_unix_daemon *u = *state;
     /* a socket file nobody listens on: what a killed daemon leaves */
     int fd = socket(AF_UNIX, SOCK_STREAM, 0);
     struct sockaddr_un sa;
@@ -461,24 +349,24 @@ static void unix_stale_socket_is_replaced_live_one_and_files_are_not(void **stat
     memcpy(sa.sun_path, u->sock, strlen(u->sock) + 1);
     assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
     close(fd);
-    assert_int_equal(unix_start(u, "0600"), 0);
-    assert_true(log_has(u, "removed a stale socket"));
+    assert_int_equal(st_unix_start(u, "0600"), 0);
+    assert_true(st_unix_log_has(u, "removed a stale socket"));
     /* a second daemon on the same path refuses: the first is alive */
-    unix_daemon second = *u;
-    assert_true(unix_start(&second, "0600") > 0);
-    assert_true(log_has(u, "another server is listening"));
+    st_unix_daemon second = *u;
+    assert_true(st_unix_start(&second, "0600") > 0);
+    assert_true(st_unix_log_has(u, "another server is listening"));
     stc_conn *c = stc_connect_opts(u->addr, 0, NULL, NULL, NULL, 0);
     assert_non_null(c);                       /* the first still serves */
     assert_int_equal(stc_ping(c), 0);
     stc_close(c);
-    assert_int_equal(unix_stop(u), 0);
+    assert_int_equal(st_unix_stop(u), 0);
     /* a regular file at the path is not ours to remove */
     FILE *f = fopen(u->sock, "w");
     assert_non_null(f);
     fputs("keep me\n", f);
     fclose(f);
-    assert_true(unix_start(u, "0600") > 0);
-    assert_true(log_has(u, "exists and is not a socket"));
+    assert_true(st_unix_start(u, "0600") > 0);
+    assert_true(st_unix_log_has(u, "exists and is not a socket"));
     struct stat st;
     assert_int_equal(lstat(u->sock, &st), 0);
     assert_true(S_ISREG(st.st_mode));
@@ -494,13 +382,13 @@ int main(void)
     };
     const struct CMUnitTest unix_tests[] = {
         cmocka_unit_test_setup_teardown(unix_socket_serves_with_its_mode_and_is_removed_at_exit,
-                                        unix_setup, unix_teardown),
-        cmocka_unit_test_setup_teardown(unix_socket_mode_is_the_access_control, unix_setup,
-                                        unix_teardown),
-        cmocka_unit_test_setup_teardown(unix_big_reply_leaves_in_one_write, unix_setup,
-                                        unix_teardown),
+                                        st_unix_setup, st_unix_teardown),
+        cmocka_unit_test_setup_teardown(unix_socket_mode_is_the_access_control, st_unix_setup,
+                                        st_unix_teardown),
+        cmocka_unit_test_setup_teardown(unix_big_reply_leaves_in_one_write, st_unix_setup,
+                                        st_unix_teardown),
         cmocka_unit_test_setup_teardown(unix_stale_socket_is_replaced_live_one_and_files_are_not,
-                                        unix_setup, unix_teardown),
+                                        st_unix_setup, st_unix_teardown),
     };
     static const char *const args[] = {"--heavy-batch", "2048", NULL};
     st_group_args = args;

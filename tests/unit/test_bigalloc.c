@@ -1,6 +1,7 @@
 /* tests/unit/test_bigalloc.c - large buffers (util/bigalloc.h): alignment, the rounding rule
  * for long-lived and temporary buffers (seen through the kernel's MADV_HUGEPAGE flag on the
- * mapping, VmFlags "hg" in /proc/self/smaps), sizes that cannot be had. */
+ * mapping, VmFlags "hg" in /proc/self/smaps), the footprint it reserves, sizes that cannot
+ * be had. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -78,18 +79,24 @@ static void large_buffers_follow_the_rounding_rule(void **state)
     assert_int_equal(h, 1);
     assert_int_equal(marked_huge(p + 3 * MIB - 1), 1);
     free(p);
-    /* 2 MiB + 64 kept: rounding would nearly double it, so only the first 2 MiB are huge */
+    /* 2 MiB + 64 kept: rounded up to 4 MiB, every byte on huge pages */
     p = stu_big_alloc(2 * MIB + 64, STU_BIG_KEEP);
     assert_non_null(p);
     assert_int_equal((uintptr_t)p % (2 * MIB), 0);
     memset(p, 1, 2 * MIB + 64);
     assert_int_equal(marked_huge(p), 1);
-    assert_int_equal(marked_huge(p + 2 * MIB), 0);
+    assert_int_equal(marked_huge(p + 2 * MIB), 1);
     free(p);
-    /* 1 MiB kept: not huge (rounding would double it); 1 MiB temporary: huge */
+    /* 1 MiB kept: huge (from 2/3 MiB on); 512 KiB kept: not (rounding would quadruple it) */
     p = stu_big_alloc(MIB, STU_BIG_KEEP);
     assert_non_null(p);
+    assert_int_equal((uintptr_t)p % (2 * MIB), 0);
     memset(p, 1, MIB);
+    assert_int_equal(marked_huge(p), 1);
+    free(p);
+    p = stu_big_alloc(MIB / 2, STU_BIG_KEEP);
+    assert_non_null(p);
+    memset(p, 1, MIB / 2);
     assert_int_equal(marked_huge(p), 0);
     free(p);
     p = stu_big_alloc(MIB, STU_BIG_TEMP);
@@ -98,6 +105,19 @@ static void large_buffers_follow_the_rounding_rule(void **state)
     memset(p, 1, MIB);
     assert_int_equal(marked_huge(p), 1);
     free(p);
+}
+
+static void footprint_is_what_is_reserved(void **state)
+{
+    (void)state;
+    assert_int_equal(stu_big_footprint(0, STU_BIG_KEEP), 64);
+    assert_int_equal(stu_big_footprint(100, STU_BIG_KEEP), 128);
+    assert_int_equal(stu_big_footprint(MIB / 2, STU_BIG_KEEP), MIB / 2);
+    assert_int_equal(stu_big_footprint(MIB / 2, STU_BIG_TEMP), 2 * MIB);
+    assert_int_equal(stu_big_footprint(MIB, STU_BIG_KEEP), 2 * MIB);
+    assert_int_equal(stu_big_footprint(2 * MIB + 64, STU_BIG_KEEP), 4 * MIB);
+    assert_int_equal(stu_big_footprint(640 << 10, STU_BIG_KEEP), 640 << 10); /* < 2/3 MiB */
+    assert_int_equal(stu_big_footprint(700 << 10, STU_BIG_KEEP), 2 * MIB);
 }
 
 static void impossible_sizes_fail_with_enomem(void **state)
@@ -117,6 +137,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(small_buffers_are_64_byte_aligned_and_writable),
         cmocka_unit_test(large_buffers_follow_the_rounding_rule),
+        cmocka_unit_test(footprint_is_what_is_reserved),
         cmocka_unit_test(impossible_sizes_fail_with_enomem),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

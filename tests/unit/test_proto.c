@@ -524,7 +524,8 @@ static void sample_request_refuses_bad_values(void **state)
         { 4, 4, STP_S_INVALID },     /* outfmt 4 */
         { 4, 3, 0 },                 /* outfmt 3, f16 */
         { 3, 17, STP_S_INVALID },    /* max_aniso 17 */
-        { 5, 16, STP_S_INVALID },    /* unknown flag bit (bit 4) */
+        { 5, 16, STP_S_BAD_REQUEST },/* SHM (bit 4) without its 24 bytes of offsets */
+        { 5, 32, STP_S_INVALID },    /* unknown flag bit (bit 5) */
         { 5, 4 | 8, 0 },             /* UV16 | FACE16: no query, so the length still fits */
         { 3, 16, 0 },
         { 3, 0, 0 },
@@ -536,6 +537,71 @@ static void sample_request_refuses_bad_values(void **state)
         body[p0 + rows[i].off] = rows[i].v;
         assert_int_equal(stp_dec_sample_req(body, len, 100, &r, NULL), rows[i].want);
     }
+    stp_buf_free(&b);
+}
+
+/* PROTOCOL.md 4.12: a SAMPLE / SAMPLE_DIR with flag SHM carries three u64 offsets instead of
+ * its queries; the reply is 16 bytes; ranges are checked without wrapping. */
+static void shm_sample_request_round_trips_and_is_checked(void **state)
+{
+    (void)state;
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_sample_req r, d;
+    memset(&r, 0, sizeof r);
+    snprintf(r.p.name, sizeof r.p.name, "tex");
+    r.p.mode = 1;
+    r.p.filter = 1;
+    r.p.flags = STP_SF_SHM | STP_SF_STATUS | STP_SF_UV16;
+    r.count = 1000;
+    r.shm.query_off = 4096;
+    r.shm.reply_off = 0x123456789ull;
+    r.shm.reply_cap = UINT64_MAX;
+    for (int dir = 0; dir < 2; dir++) {
+        stp_buf_clear(&b);
+        r.p.flags = STP_SF_SHM | STP_SF_STATUS | (dir ? 0 : STP_SF_UV16);
+        assert_int_equal(dir ? stp_enc_sample_dir_req(&b, 7, 0, &r)
+                             : stp_enc_sample_req(&b, 7, 0, &r), 0);
+        size_t len = b.len - STP_HEADER_SIZE;
+        assert_int_equal(len, 2 + 3 + 24 + STP_SHM_REF_SIZE);   /* no queries in the body */
+        const uint8_t *body = b.data + STP_HEADER_SIZE;
+        assert_int_equal(dir ? stp_dec_sample_dir_req(body, len, 1u << 20, &d, NULL)
+                             : stp_dec_sample_req(body, len, 1u << 20, &d, NULL), 0);
+        assert_int_equal(d.count, 1000);
+        assert_int_equal(d.p.flags, r.p.flags);
+        assert_true(d.raw == NULL);
+        assert_true(d.shm.query_off == 4096 && d.shm.reply_off == 0x123456789ull &&
+                    d.shm.reply_cap == UINT64_MAX);
+        assert_int_equal(stp_sample_peek_count(body, len), 1000);
+        /* a byte more or less: BAD_REQUEST; count over max_batch: TOO_LARGE */
+        assert_int_equal(stp_dec_sample_req(body, len - 1, 1u << 20, &d, NULL),
+                         STP_S_BAD_REQUEST);
+        assert_int_equal(stp_dec_sample_req(body, len, 999, &d, NULL), STP_S_TOO_LARGE);
+    }
+    /* the sizes both sides compute */
+    assert_int_equal(stp_sample_query_bytes(STP_OP_SAMPLE, 0, 10), 280);
+    assert_int_equal(stp_sample_query_bytes(STP_OP_SAMPLE, STP_SF_UV16 | STP_SF_FACE16, 10), 140);
+    assert_int_equal(stp_sample_query_bytes(STP_OP_SAMPLE_DIR, 0, 10), 360);
+    assert_int_equal(stp_sample_reply_bytes(10, 4, STP_OUT_F32, STP_SF_COVERAGE | STP_SF_STATUS),
+                     12 + 10 * 21);
+    assert_int_equal(stp_sample_reply_bytes(10, 3, STP_OUT_UNORM8, 0), 12 + 30);
+    assert_int_equal(stp_sample_reply_bytes(10, 3, 9, 0), 0);
+    /* ranges: inside, touching the end, past it, wrapping */
+    assert_true(stp_shm_range_ok(100, 0, 100));
+    assert_true(stp_shm_range_ok(100, 100, 0));
+    assert_false(stp_shm_range_ok(100, 101, 0));
+    assert_false(stp_shm_range_ok(100, 1, 100));
+    assert_false(stp_shm_range_ok(100, UINT64_MAX, 2));
+    assert_false(stp_shm_range_ok(100, 2, UINT64_MAX));
+    /* the reply */
+    stp_buf_clear(&b);
+    stp_shm_reply rp = {64, 1000}, rp2;
+    assert_int_equal(stp_enc_shm_reply(&b, STP_OP_SAMPLE, 7, &rp), 0);
+    assert_int_equal(b.len, STP_HEADER_SIZE + STP_SHM_REPLY_SIZE);
+    assert_int_equal(stp_dec_shm_reply(b.data + STP_HEADER_SIZE, 16, &rp2, NULL), 0);
+    assert_true(rp2.offset == 64 && rp2.length == 1000);
+    assert_int_equal(stp_dec_shm_reply(b.data + STP_HEADER_SIZE, 15, &rp2, NULL),
+                     STP_S_BAD_REQUEST);
     stp_buf_free(&b);
 }
 
@@ -1070,7 +1136,7 @@ static void status_and_opcode_names_come_from_the_lists(void **state)
         {0x13, "UPLOAD_ABORT", 1}, {0x14, "UPLOAD_STATUS", 0}, {0x15, "DELETE", 1},
         {0x20, "COMPRESS", 1}, {0x21, "JOB_STATUS", 0}, {0x22, "JOB_CANCEL", 1},
         {0x23, "FETCH_OPEN", 0}, {0x24, "FETCH_READ", 0}, {0x25, "FETCH_CLOSE", 0},
-        {0x30, "CLUSTER", 0},
+        {0x30, "CLUSTER", 0}, {0x08, "SHM_ATTACH", 0},
     };
     unsigned named = 0;
     for (unsigned op = 0; op < 256; op++)
@@ -1080,7 +1146,7 @@ static void status_and_opcode_names_come_from_the_lists(void **state)
         assert_string_equal(stp_opcode_name(ops[i].op), ops[i].name);
         assert_int_equal(stp_opcode_mutating(ops[i].op), ops[i].mut);
     }
-    assert_null(stp_opcode_name(0x08));
+    assert_null(stp_opcode_name(0x09));
     assert_false(stp_opcode_mutating(0x99));
 }
 
@@ -1283,6 +1349,7 @@ int main(void)
         cmocka_unit_test(info_round_trips_with_face_records),
         cmocka_unit_test(sample_request_round_trips_and_keeps_nan),
         cmocka_unit_test(sample_request_refuses_lying_counts),
+        cmocka_unit_test(shm_sample_request_round_trips_and_is_checked),
         cmocka_unit_test(sample_request_refuses_bad_values),
         cmocka_unit_test(zero_length_batch_is_valid),
         cmocka_unit_test(sample_dir_request_round_trips),

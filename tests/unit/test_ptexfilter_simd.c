@@ -146,8 +146,9 @@ static void window_sums_match_the_definition_for_every_type_and_channel_count(vo
 /* The fused path of a kernel inside one face (pf_fast_select) against the general one
  * (pk_build, pk_strip_zeros, pk_weight, pf_apply_avx2, divided by weight * one value) on a
  * 32 x 16 face with every (ru, rv) resolution: bit for bit equal wherever it takes a query,
- * for every texel type, channel count and filter that has one; and it declines every kernel
- * that overhangs the face. */
+ * for every texel type, channel count and filter that has one; a kernel that overhangs the
+ * face is declined, or handed over (kout given) as exactly the kernel the general path
+ * builds. */
 static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
 {
     (void)state;
@@ -157,7 +158,7 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
     }
     enum { UL = 5, VL = 4, SLACK = 64 };
     static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
-    int taken = 0, declined = 0;
+    int taken = 0, declined = 0, handed = 0;
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
         for (unsigned nc = 1; nc <= 4; nc++) {
             size_t es = st_dtype_size(dt), ts = es * nc;
@@ -192,12 +193,27 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
                         vw = uw * 2.0f;
                     }
                     float got[4] = {0, 0, 0, 0};
-                    int took = fast(&p, (const uint8_t *const *)px, UL, VL, u, v, uw, vw, got);
-                    pk k;
+                    pk k, kh;
+                    int took = fast(&p, (const uint8_t *const *)px, UL, VL, u, v, uw, vw, got,
+                                    r % 2 ? &kh : NULL);
                     pk_build(&p, &k, u, v, uw, vw, UL, VL);
                     pk_strip_zeros(&k);
                     int inside = k.uw > 0 && k.vw > 0 && k.u >= 0 && k.v >= 0 &&
                                  k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2);
+                    if (took == 2) { /* handed over: the general path's kernel, bit for bit */
+                        assert_true(r % 2 && !inside && k.uw > 0 && k.vw > 0);
+                        assert_int_equal(kh.ulog2, k.ulog2);
+                        assert_int_equal(kh.vlog2, k.vlog2);
+                        assert_int_equal(kh.u, k.u);
+                        assert_int_equal(kh.v, k.v);
+                        assert_int_equal(kh.uw, k.uw);
+                        assert_int_equal(kh.vw, k.vw);
+                        assert_int_equal(kh.rot, 0);
+                        assert_memory_equal(pk_ku(&kh), pk_ku(&k), sizeof(float) * (size_t)k.uw);
+                        assert_memory_equal(pk_kv(&kh), pk_kv(&k), sizeof(float) * (size_t)k.vw);
+                        handed++;
+                        continue;
+                    }
                     if (!took) {
                         declined++;
                         continue;
@@ -218,8 +234,10 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
             for (int i = 0; i < (UL + 1) * (VL + 1); i++)
                 free(px[i]);
         }
-    print_message("%d queries on the fused path, identical; %d declined\n", taken, declined);
+    print_message("%d queries on the fused path, identical; %d kernels over an edge handed "
+                  "over, identical; %d declined\n", taken, handed, declined);
     assert_true(taken > declined / 4); /* the fused path is exercised, not always declined */
+    assert_true(handed > 100);         /* and so is the hand-over */
 }
 
 int main(void)
