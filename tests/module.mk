@@ -43,7 +43,7 @@ $(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
 
 # Fault injection (tests/common/faultinject.h): test_faults_* binaries get every wrapped call
 # redirected to the shim; the daemon tests preload libfaultpreload.so into seamtexd.
-FI_WRAP := $(foreach f,malloc calloc realloc strdup aligned_alloc open openat fopen write \
+FI_WRAP := $(foreach f,malloc calloc realloc strdup aligned_alloc posix_memalign open openat fopen write \
              pwrite fsync fdatasync rename renameat link mkdir,-Wl,--wrap=$(f))
 $(B)/tests/unit/test_faults_%: LDFLAGS += $(FI_WRAP)
 FAULT_PRELOAD := $(B)/tests/libfaultpreload.so

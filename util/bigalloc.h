@@ -14,7 +14,8 @@
  *   the arena was before); otherwise only the whole 2 MiB pages inside n are huge and the
  *   tail has 4 KiB pages.
  * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
- * Smaller buffers are 64-byte aligned, sized up to a multiple of 64.
+ * Smaller buffers are 64-byte aligned, sized up to a multiple of 64. Aligned buffers come from
+ * posix_memalign (aligned_alloc wants a size that is a multiple of the alignment).
  *
  * Ownership: the caller frees the buffer with free(). NULL with errno ENOMEM when the memory
  * cannot be had (n of 0 gives a 64-byte buffer).
