@@ -19,7 +19,9 @@ int sts_metrics_judge(const char *buf, size_t len, int *head)
     size_t line = nl ? (size_t)(nl - buf) : len;
     for (size_t i = 0; i < line; i++) {
         unsigned char c = (unsigned char)buf[i];
-        if ((c < 0x20 && !(c == '\r' && i + 1 == line && nl)) || c >= 0x7F)
+        /* a CR only right before the LF, or as the last byte read so far: a read may stop
+         * between the two (a valid request must not get 400 for where the reads fell) */
+        if ((c < 0x20 && !(c == '\r' && i + 1 == line)) || c >= 0x7F)
             return 400;                      /* binary garbage: no need to wait */
     }
     if (!nl)
@@ -45,7 +47,7 @@ int sts_metrics_judge(const char *buf, size_t len, int *head)
         size_t hl = e ? (size_t)(e - p) : (size_t)(end - p);
         for (size_t i = 0; i < hl; i++) {
             unsigned char c = (unsigned char)p[i];
-            if ((c < 0x20 && c != '\t' && !(c == '\r' && i + 1 == hl && e)) || c == 0x7F)
+            if ((c < 0x20 && c != '\t' && !(c == '\r' && i + 1 == hl)) || c == 0x7F)
                 return 400;
         }
         if (!e)

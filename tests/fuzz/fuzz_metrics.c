@@ -1,8 +1,8 @@
 /* tests/fuzz/fuzz_metrics.c - libFuzzer target for the /metrics endpoint's request reader
  * (server/metrics_req.c, sts_metrics_judge): the bytes a scraper (or anyone reaching
  * --metrics-listen) sends, at most STS_METRICS_MAX_REQUEST of them (the endpoint's buffer).
- * The input is judged whole and at every prefix that ends after a '\n' (the ways reads can
- * cut it). Invariants:
+ * The input is judged whole and at every prefix that ends after a '\n' or a '\r' (the ways
+ * reads can cut it, a CRLF split between two reads included). Invariants:
  *   - the answer is 0 (wait for more) or one of 200 400 404 405 414 431; 0 only while the
  *     buffer is not full, 414 / 431 only once it is;
  *   - a prefix that got an answer gets the same answer with more bytes after it (the endpoint
@@ -58,10 +58,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         CHECK(line >= ml + 9 && (!memcmp(data + line - 8, "HTTP/1.1", 8) ||
                                  !memcmp(data + line - 8, "HTTP/1.0", 8)));
     }
-    /* every prefix that ends after a line end, as a read could have stopped there */
+    /* prefixes that end after a '\n' or a '\r' (a read can stop between the two), as a read
+     * could have stopped there */
     int checked = 0;
     for (size_t i = 0; i < len && checked < 64; i++) {
-        if (data[i] != '\n' || i + 1 == len)
+        if ((data[i] != '\n' && data[i] != '\r') || i + 1 == len)
             continue;
         checked++;
         int h2, st2 = judge_copy(data, i + 1, &h2);
