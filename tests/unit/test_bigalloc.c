@@ -18,6 +18,15 @@
 
 #define MIB ((size_t)1 << 20)
 
+/* Under ASan (make asan) an allocation past its limit aborts the process unless the allocator
+ * may return NULL; impossible_sizes_fail_with_enomem needs the NULL that libc gives. Read by
+ * ASan's runtime only; an ordinary build never calls it. */
+const char *__asan_default_options(void);
+const char *__asan_default_options(void)
+{
+    return "allocator_may_return_null=1";
+}
+
 /* 1 when the mapping holding address a is marked MADV_HUGEPAGE, 0 when not, -1 when smaps
  * cannot tell (no /proc, or a kernel without transparent huge pages). */
 static int marked_huge(const void *a)
