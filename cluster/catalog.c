@@ -68,7 +68,8 @@ int scl_node_parse(const char *json, char *addr, size_t cap, uint64_t *inc)
         get_inc(o, inc) == 0) {
         const char *s = json_object_get_string(a);
         size_t n = strlen(s);
-        if (n > 0 && n < cap && n <= STP_MAX_NODE_ADDR && strchr(s, ':')) {
+        if (n > 0 && n < cap && n <= STP_MAX_NODE_ADDR && strchr(s, ':') &&
+            n == (size_t)json_object_get_string_len(a)) {
             memcpy(addr, s, n + 1);
             rc = 0;
         }
@@ -111,8 +112,8 @@ static int get_str(json_object *o, const char *k, char *out, size_t cap)
         return -1;
     const char *s = json_object_get_string(x);
     size_t n = strlen(s);
-    if (n >= cap)
-        return -1;
+    if (n >= cap || n != (size_t)json_object_get_string_len(x))
+        return -1;     /* too long, or a "\u0000" inside */
     memcpy(out, s, n + 1);
     return 0;
 }
@@ -155,12 +156,9 @@ void scl_copy_format(char out[9], uint32_t crc32)
 
 int scl_copy_parse(const char *val, uint32_t *crc32)
 {
-    if (strlen(val) != 8)
+    /* exactly 8 hex digits: strtoul alone would take " -1", "+1234567" or "0x123456" */
+    if (strlen(val) != 8 || strspn(val, "0123456789abcdefABCDEF") != 8)
         return -1;
-    char *end;
-    unsigned long v = strtoul(val, &end, 16);
-    if (*end)
-        return -1;
-    *crc32 = (uint32_t)v;
+    *crc32 = (uint32_t)strtoul(val, NULL, 16);
     return 0;
 }

@@ -1,8 +1,7 @@
 /* cluster/etcd.c - etcd v3 JSON gateway client (etcd.h).
  *
- * Owns: the HTTP exchange (one curl easy handle per scl_etcd, reused: keep-alive), base64,
- * building request JSON and reading replies with json-c. Does not own: key meanings.
- * Every int64 in etcd's JSON is a string ("revision":"12"); absent fields mean 0 / false.
+ * Owns: the HTTP exchange (one curl easy handle per scl_etcd, reused: keep-alive), building
+ * request JSON. Does not own: key meanings, decoding the replies and base64 (etcd_reply.c).
  */
 #include <curl/curl.h>
 #include <json.h>
@@ -11,6 +10,7 @@
 #include <string.h>
 
 #include "etcd.h"
+#include "etcd_reply.h"
 
 struct scl_etcd {
     CURL *curl;
@@ -131,72 +131,6 @@ void scl_etcd_close(scl_etcd *e)
 const char *scl_etcd_prefix(const scl_etcd *e) { return e->prefix; }
 const char *scl_etcd_errmsg(const scl_etcd *e) { return e->msg; }
 
-/* ---- base64 (RFC 4648, with padding) ---------------------------------------------------------- */
-
-static const char B64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
-static char *b64_enc(const char *s, size_t n)
-{
-    char *out = malloc((n + 2) / 3 * 4 + 1), *o = out;
-    if (!out)
-        return NULL;
-    const unsigned char *p = (const unsigned char *)s;
-    size_t i = 0;
-    for (; i + 2 < n; i += 3) {
-        uint32_t v = (uint32_t)p[i] << 16 | (uint32_t)p[i + 1] << 8 | p[i + 2];
-        *o++ = B64[v >> 18]; *o++ = B64[(v >> 12) & 63]; *o++ = B64[(v >> 6) & 63]; *o++ = B64[v & 63];
-    }
-    if (i < n) {
-        uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0);
-        *o++ = B64[v >> 18];
-        *o++ = B64[(v >> 12) & 63];
-        *o++ = i + 1 < n ? B64[(v >> 6) & 63] : '=';
-        *o++ = '=';
-    }
-    *o = 0;
-    return out;
-}
-
-static int b64_val(int c)
-{
-    if (c >= 'A' && c <= 'Z') return c - 'A';
-    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
-    if (c >= '0' && c <= '9') return c - '0' + 52;
-    if (c == '+') return 62;
-    if (c == '/') return 63;
-    return -1;
-}
-
-/* NULL on bad input; *len gets the decoded size; the result is NUL-terminated */
-static char *b64_dec(const char *s, size_t *len)
-{
-    size_t n = strlen(s);
-    if (n % 4)
-        return NULL;
-    char *out = malloc(n / 4 * 3 + 1);
-    if (!out)
-        return NULL;
-    size_t o = 0;
-    for (size_t i = 0; i < n; i += 4) {
-        int a = b64_val(s[i]), b = b64_val(s[i + 1]);
-        int c = s[i + 2] == '=' ? 0 : b64_val(s[i + 2]);
-        int d = s[i + 3] == '=' ? 0 : b64_val(s[i + 3]);
-        int pad = (s[i + 2] == '=') + (s[i + 3] == '=');
-        if (a < 0 || b < 0 || c < 0 || d < 0 || (pad && i + 4 != n) ||
-            (s[i + 2] == '=' && s[i + 3] != '=')) {
-            free(out);
-            return NULL;
-        }
-        uint32_t v = (uint32_t)a << 18 | (uint32_t)b << 12 | (uint32_t)c << 6 | (uint32_t)d;
-        out[o++] = (char)(v >> 16);
-        if (pad < 2) out[o++] = (char)(v >> 8);
-        if (pad < 1) out[o++] = (char)v;
-    }
-    out[o] = 0;
-    *len = o;
-    return out;
-}
-
 /* ---- HTTP ------------------------------------------------------------------------------------ */
 
 /* POSTs body to path on the current endpoint, then the others; parses the reply into *out. */
@@ -230,6 +164,13 @@ static int post(scl_etcd *e, const char *path, json_object *body, json_object **
         long code = 0;
         curl_easy_getinfo(e->curl, CURLINFO_RESPONSE_CODE, &code);
         json_object *j = e->resp ? json_tokener_parse(e->resp) : NULL;
+        if (code == 200 && j && !json_object_is_type(j, json_type_object)) {
+            snprintf(e->msg, sizeof e->msg, "etcd %s%s: the reply is not a JSON object: %.120s",
+                     e->endpoints[k], path, e->resp);
+            json_object_put(j);
+            rc = SCL_EBADREPLY;
+            break;
+        }
         if (code != 200 || !j) {
             snprintf(e->msg, sizeof e->msg, "etcd %s%s: HTTP %ld: %.120s", e->endpoints[k], path,
                      code, e->resp ? e->resp : "");
@@ -249,19 +190,9 @@ static int post(scl_etcd *e, const char *path, json_object *body, json_object **
     return rc;
 }
 
-static int64_t j_i64(json_object *o, const char *key)
-{
-    json_object *v;
-    if (!o || !json_object_object_get_ex(o, key, &v))
-        return 0;
-    if (json_object_is_type(v, json_type_string))
-        return strtoll(json_object_get_string(v), NULL, 10);
-    return json_object_get_int64(v);
-}
-
 static void add_b64(json_object *o, const char *field, const char *s, size_t n)
 {
-    char *b = b64_enc(s, n);
+    char *b = scl_b64_enc(s, n);
     json_object_object_add(o, field, json_object_new_string(b ? b : ""));
     free(b);
 }
@@ -280,57 +211,6 @@ static void add_prefix_end(json_object *o, const char *key)
     free(end);
 }
 
-void scl_kvs_free(scl_kvs *k)
-{
-    if (!k)
-        return;
-    for (size_t i = 0; i < k->n; i++) {
-        free(k->v[i].key);
-        free(k->v[i].val);
-    }
-    free(k->v);
-    memset(k, 0, sizeof *k);
-}
-
-static int read_kvs(scl_etcd *e, json_object *r, scl_kvs *out)
-{
-    json_object *hdr = NULL, *kvs = NULL;
-    memset(out, 0, sizeof *out);
-    if (json_object_object_get_ex(r, "header", &hdr))
-        out->revision = j_i64(hdr, "revision");
-    if (!json_object_object_get_ex(r, "kvs", &kvs))
-        return SCL_OK;
-    if (!json_object_is_type(kvs, json_type_array)) {
-        snprintf(e->msg, sizeof e->msg, "etcd range: kvs is not an array");
-        return SCL_EBADREPLY;
-    }
-    size_t n = json_object_array_length(kvs);
-    out->v = calloc(n ? n : 1, sizeof *out->v);
-    if (!out->v)
-        return SCL_ENOMEM;
-    for (size_t i = 0; i < n; i++) {
-        json_object *kv = json_object_array_get_idx(kvs, i), *k = NULL, *v = NULL;
-        scl_kv *d = &out->v[out->n];
-        json_object_object_get_ex(kv, "key", &k);
-        json_object_object_get_ex(kv, "value", &v);
-        d->key = b64_dec(k ? json_object_get_string(k) : "", &d->key_len);
-        d->val = b64_dec(v ? json_object_get_string(v) : "", &d->val_len);
-        if (!d->key || !d->val) {
-            free(d->key);
-            free(d->val);
-            scl_kvs_free(out);
-            snprintf(e->msg, sizeof e->msg, "etcd range: bad base64");
-            return SCL_EBADREPLY;
-        }
-        d->create_rev = j_i64(kv, "create_revision");
-        d->mod_rev = j_i64(kv, "mod_revision");
-        d->version = j_i64(kv, "version");
-        d->lease = j_i64(kv, "lease");
-        out->n++;
-    }
-    return SCL_OK;
-}
-
 int scl_etcd_range(scl_etcd *e, const char *key, int prefix, scl_kvs *out)
 {
     memset(out, 0, sizeof *out);
@@ -341,7 +221,7 @@ int scl_etcd_range(scl_etcd *e, const char *key, int prefix, scl_kvs *out)
     int rc = post(e, "/v3/kv/range", rq, &r);
     json_object_put(rq);
     if (rc == SCL_OK)
-        rc = read_kvs(e, r, out);
+        rc = scl_reply_range(r, out, e->msg, sizeof e->msg);
     json_object_put(r);
     return rc;
 }
@@ -389,33 +269,21 @@ int scl_etcd_grant(scl_etcd *e, int64_t ttl_s, int64_t *lease)
     json_object_object_add(rq, "TTL", json_object_new_int64(ttl_s));
     int rc = post(e, "/v3/lease/grant", rq, &r);
     json_object_put(rq);
-    if (rc == SCL_OK) {
-        *lease = j_i64(r, "ID");
-        if (*lease == 0) {
-            snprintf(e->msg, sizeof e->msg, "etcd lease grant: no ID in the reply");
-            rc = SCL_EBADREPLY;
-        }
-    }
+    if (rc == SCL_OK)
+        rc = scl_reply_grant(r, lease, e->msg, sizeof e->msg);
     json_object_put(r);
     return rc;
 }
 
 int scl_etcd_keepalive(scl_etcd *e, int64_t lease, int64_t *ttl)
 {
-    /* the gateway streams: one request message in, one {"result": {...}} out */
-    json_object *rq = json_object_new_object(), *r = NULL, *res = NULL;
+    json_object *rq = json_object_new_object(), *r = NULL;
     json_object_object_add(rq, "ID", json_object_new_int64(lease));
     int rc = post(e, "/v3/lease/keepalive", rq, &r);
     json_object_put(rq);
     *ttl = 0;
-    if (rc == SCL_OK) {
-        if (json_object_object_get_ex(r, "result", &res))
-            *ttl = j_i64(res, "TTL");
-        else {
-            snprintf(e->msg, sizeof e->msg, "etcd keepalive: no result in the reply");
-            rc = SCL_EBADREPLY;
-        }
-    }
+    if (rc == SCL_OK)
+        rc = scl_reply_keepalive(r, ttl, e->msg, sizeof e->msg);
     json_object_put(r);
     return rc;
 }
@@ -448,12 +316,11 @@ int scl_etcd_txn(scl_etcd *e, const scl_cmp *cmp, size_t ncmp, const scl_op *ops
     json_object_object_add(rq, "success", sa);
     int rc = post(e, "/v3/kv/txn", rq, &r);
     json_object_put(rq);
-    if (rc == SCL_OK) {
-        json_object *v = NULL, *hdr = NULL;
-        *succeeded = json_object_object_get_ex(r, "succeeded", &v) && json_object_get_boolean(v);
-        if (revision)
-            *revision = json_object_object_get_ex(r, "header", &hdr) ? j_i64(hdr, "revision") : 0;
-    }
+    *succeeded = 0;
+    if (revision)
+        *revision = 0;
+    if (rc == SCL_OK)
+        rc = scl_reply_txn(r, succeeded, revision, e->msg, sizeof e->msg);
     json_object_put(r);
     return rc;
 }

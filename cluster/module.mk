@@ -24,7 +24,7 @@ $(LIB_CLUSTER): $(CLUSTER_OBJ)
 # seamtex-bench, programs that open a cluster from its etcd URL), so that libseamtex.a itself
 # never needs libcurl or json-c. Link: -lseamtex_etcd -lseamtex + libcurl, json-c.
 LIB_ETCD := $(B)/libseamtex_etcd.a
-$(LIB_ETCD): $(addprefix $(B)/cluster/,etcd.o catalog.o etcd_open.o)
+$(LIB_ETCD): $(addprefix $(B)/cluster/,etcd.o etcd_reply.o catalog.o etcd_open.o)
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
 ALL_BINS     += $(LIB_ETCD)

@@ -16,6 +16,7 @@
 #include "cluster_node.h"
 #include "h_upload.h"
 #include "server.h"
+#include "stp_name.h"
 
 static int64_t wall_ms(void)
 {
@@ -154,7 +155,8 @@ static void pass(sts_cluster *cl)
     size_t nc = 0;
     for (size_t i = 0; cat && rows && i < sets.n; i++) {
         const char *name = sets.v[i].key + splen;
-        if (sets.v[i].key_len <= splen || strlen(name) > STP_MAX_NAME ||
+        /* a name etcd hands back is outside input too: only a valid set name is a set */
+        if (sets.v[i].key_len <= splen || !stp_name_valid(name, sets.v[i].key_len - splen) ||
             scl_setrec_parse(sets.v[i].val, &rows[nc].rec) != 0)
             continue;
         snprintf(cat[nc].name, sizeof cat[nc].name, "%s", name);

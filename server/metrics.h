@@ -6,6 +6,7 @@
  *                    /metrics and refuses everything else with a 4xx; bounded request size,
  *                    time and connections. It never touches the I/O threads or their
  *                    connections, so a hostile scraper cannot slow the data path.
+ *   metrics_req.c    the request reader (sts_metrics_judge), fuzzed by tests/fuzz/fuzz_metrics.c.
  *   metrics_text.c   the rendering: every STATS entry (sts_stats_collect, h_basic.c) as a
  *                    metric with HELP and TYPE, plus the per-opcode, per-query-mode and cold
  *                    sample histograms read from the same counters STATS reads. No counter is
@@ -50,6 +51,11 @@ int sts_metrics_start(struct sts_server *srv);
 void sts_metrics_stop(struct sts_server *srv);
 /* Closes the listening socket. */
 void sts_metrics_close(struct sts_server *srv);
+
+/* Judges the len request bytes read so far (len <= STS_METRICS_MAX_REQUEST; metrics_req.c):
+ * 0 = a whole request is not there yet, else the status to answer: 200 for GET / HEAD
+ * /metrics (*head set to 1 for HEAD, else 0), 400, 404, 405, 414 or 431. */
+int sts_metrics_judge(const char *buf, size_t len, int *head);
 
 /* Appends the whole exposition (text format 0.0.4) to out. 0, or -1 when out could not grow. */
 int sts_metrics_render(struct sts_server *srv, stp_buf *out);

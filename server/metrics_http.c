@@ -13,8 +13,8 @@
  * data path: it reads the counters with relaxed atomic loads, like STATS does on an I/O
  * thread, and takes the registry's lock only as long as a STATS takes it.
  *
- * What it answers (the request line and headers must be whole, at most 8 KiB, CRLF or LF line
- * ends):
+ * What it answers (judged by sts_metrics_judge, metrics_req.c; the request line and headers
+ * must be whole, at most 8 KiB, CRLF or LF line ends):
  *   GET /metrics, HEAD /metrics (a query string is ignored)      200, text format 0.0.4
  *   another path                                                 404
  *   another method (a well-formed token)                         405, Allow: GET, HEAD
@@ -56,78 +56,7 @@ typedef struct mconn {
     char     req[STS_METRICS_MAX_REQUEST];
 } mconn;
 
-/* ---- the request ------------------------------------------------------------------------- */
-
-static int tchar(unsigned char c)
-{
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-           (c && strchr("!#$%&'*+-.^_`|~", c));
-}
-
-/* Judges the len bytes read so far: 0 = a whole request is not there yet, else the status to
- * answer (200 for GET / HEAD /metrics; *head set for HEAD). */
-static int judge(const char *buf, size_t len, int *head)
-{
-    const char *nl = memchr(buf, '\n', len);
-    size_t line = nl ? (size_t)(nl - buf) : len;
-    for (size_t i = 0; i < line; i++) {
-        unsigned char c = (unsigned char)buf[i];
-        if ((c < 0x20 && !(c == '\r' && i + 1 == line && nl)) || c >= 0x7F)
-            return 400;                      /* binary garbage: no need to wait */
-    }
-    if (!nl)
-        return len >= STS_METRICS_MAX_REQUEST ? 414 : 0;
-    if (line && buf[line - 1] == '\r')
-        line--;
-    /* METHOD SP TARGET SP HTTP/1.x */
-    const char *sp1 = memchr(buf, ' ', line);
-    const char *sp2 = sp1 ? memchr(sp1 + 1, ' ', line - (size_t)(sp1 + 1 - buf)) : NULL;
-    if (!sp1 || !sp2 || sp1 == buf || sp2 == sp1 + 1)
-        return 400;
-    const char *ver = sp2 + 1;
-    size_t vlen = line - (size_t)(ver - buf);
-    if (vlen != 8 || (memcmp(ver, "HTTP/1.1", 8) && memcmp(ver, "HTTP/1.0", 8)))
-        return 400;
-    for (const char *p = buf; p < sp1; p++)
-        if (!tchar((unsigned char)*p))
-            return 400;
-    /* headers: up to an empty line */
-    const char *p = nl + 1, *end = buf + len;
-    for (;;) {
-        const char *e = memchr(p, '\n', (size_t)(end - p));
-        size_t hl = e ? (size_t)(e - p) : (size_t)(end - p);
-        for (size_t i = 0; i < hl; i++) {
-            unsigned char c = (unsigned char)p[i];
-            if ((c < 0x20 && c != '\t' && !(c == '\r' && i + 1 == hl && e)) || c == 0x7F)
-                return 400;
-        }
-        if (!e)
-            return len >= STS_METRICS_MAX_REQUEST ? 431 : 0;
-        if (hl && p[hl - 1] == '\r')
-            hl--;
-        if (!hl)
-            break;                             /* the empty line: the request is whole */
-        const char *colon = memchr(p, ':', hl);
-        if (p[0] == ' ' || p[0] == '\t' || !colon || colon == p)
-            return 400;                        /* folded, or no "name:" */
-        for (const char *q = p; q < colon; q++)
-            if (!tchar((unsigned char)*q))
-                return 400;
-        p = e + 1;
-    }
-    size_t mlen = (size_t)(sp1 - buf);
-    int get = mlen == 3 && !memcmp(buf, "GET", 3);
-    *head = mlen == 4 && !memcmp(buf, "HEAD", 4);
-    if (!get && !*head)
-        return 405;
-    size_t tlen = (size_t)(sp2 - sp1 - 1);
-    const char *q = memchr(sp1 + 1, '?', tlen);
-    if (q)
-        tlen = (size_t)(q - sp1 - 1);
-    if (tlen != 8 || memcmp(sp1 + 1, "/metrics", 8))
-        return 404;
-    return 200;
-}
+/* ---- the response ------------------------------------------------------------------------ */
 
 static const char *reason(int status)
 {
@@ -207,7 +136,7 @@ static void on_read(sts_server *srv, mconn *c)
         return;
     }
     c->len += (size_t)r;
-    int head = 0, st = judge(c->req, c->len, &head);
+    int head = 0, st = sts_metrics_judge(c->req, c->len, &head);
     if (st)
         respond(srv, c, st, head);
 }

@@ -34,13 +34,16 @@ TEST_BINS += $(patsubst tests/%.c,$(B)/tests/%,$(TEST_SRC))
 BENCH_SRC := $(sort $(wildcard tests/bench/bench_*.c))
 BENCH_BINS += $(patsubst tests/bench/%.c,$(B)/bench/%,$(BENCH_SRC))
 
+# tests of cluster/'s decoders see its headers and json-c
+$(B)/tests/unit/test_etcd_reply.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
+
 $(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
 	@mkdir -p $(@D)
 	$(CC) $(LDFLAGS) -o $@ $< $(ST_LINK) -lcmocka $(LDLIBS) $(CLUSTER_PKG_LIBS)
 
 # Fault injection (tests/common/faultinject.h): test_faults_* binaries get every wrapped call
 # redirected to the shim; the daemon tests preload libfaultpreload.so into seamtexd.
-FI_WRAP := $(foreach f,malloc calloc realloc strdup aligned_alloc open openat fopen write \
+FI_WRAP := $(foreach f,malloc calloc realloc strdup aligned_alloc posix_memalign open openat fopen write \
              pwrite fsync fdatasync rename renameat link mkdir,-Wl,--wrap=$(f))
 $(B)/tests/unit/test_faults_%: LDFLAGS += $(FI_WRAP)
 FAULT_PRELOAD := $(B)/tests/libfaultpreload.so
@@ -94,6 +97,10 @@ $(FZ)/obj/tests/fuzz/%.o: tests/fuzz/%.c
 $(FZ)/fuzz_%: $(FZ)/obj/tests/fuzz/fuzz_%.o $(FZ)/libfuzz.a
 	$(FUZZ_CXX) -g -O1 -fsanitize=fuzzer,address,undefined -fno-omit-frame-pointer -o $@ $< \
 		$(FZ)/libfuzz.a $(LDLIBS)
+
+# the targets that compile daemon or cluster sources in (fuzz_etcd: cluster/ on json-c, libcurl)
+$(FZ)/obj/tests/fuzz/fuzz_etcd.o: INC_TESTS += -Icluster $(CLUSTER_PKG_CFLAGS)
+$(FZ)/fuzz_etcd: LDLIBS += $(CLUSTER_PKG_LIBS)
 
 # sanitizer builds (SAN=1, SAN=tsan) leave out the fuzz targets: they have their own tree
 ifneq ($(SAN),0)

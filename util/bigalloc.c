@@ -36,8 +36,12 @@ void *stu_big_alloc(size_t n, int use)
     size_t r = plan(n, use, &huge);
     /* a small temporary buffer from malloc: glibc serves it from its heap, where freeing it
      * is not an munmap (which cost about as much as reading a 130 KiB file) */
-    void *p = huge ? aligned_alloc(HUGE_PAGE, r) : use == STU_BIG_TEMP ? malloc(r)
-                                                                       : aligned_alloc(64, r);
+    void *p = NULL;
+    if (!huge && use == STU_BIG_TEMP)
+        p = malloc(r);
+    else if (posix_memalign(&p, huge ? HUGE_PAGE : 64, r) != 0)
+        p = NULL;   /* not aligned_alloc: C11 wants its size a multiple of the alignment,
+                       and a KEEP buffer with a 4 KiB-page tail is not one */
     if (!p) {
         errno = ENOMEM;
         return NULL;

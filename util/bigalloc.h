@@ -19,7 +19,8 @@
  *   faults, more than its decoding (before: from 4/3 MiB on).
  * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
  * stu_big_footprint says how many bytes a buffer of n really holds (for memory accounting).
- * Smaller buffers are 64-byte aligned, sized up to a multiple of 64.
+ * Smaller buffers are 64-byte aligned, sized up to a multiple of 64. Aligned buffers come from
+ * posix_memalign (aligned_alloc wants a size that is a multiple of the alignment).
  *
  * Ownership: the caller frees the buffer with free(). NULL with errno ENOMEM when the memory
  * cannot be had (n of 0 gives a 64-byte buffer).

@@ -70,6 +70,7 @@ void *__real_calloc(size_t a, size_t b);
 void *__real_realloc(void *p, size_t n);
 char *__real_strdup(const char *s);
 void *__real_aligned_alloc(size_t al, size_t n);
+int __real_posix_memalign(void **p, size_t al, size_t n);
 int __real_open(const char *p, int flags, ...);
 int __real_openat(int dirfd, const char *p, int flags, ...);
 FILE *__real_fopen(const char *p, const char *mode);
@@ -87,6 +88,7 @@ void *__wrap_calloc(size_t a, size_t b);
 void *__wrap_realloc(void *p, size_t n);
 char *__wrap_strdup(const char *s);
 void *__wrap_aligned_alloc(size_t al, size_t n);
+int __wrap_posix_memalign(void **p, size_t al, size_t n);
 int __wrap_open(const char *p, int flags, ...);
 int __wrap_openat(int dirfd, const char *p, int flags, ...);
 FILE *__wrap_fopen(const char *p, const char *mode);
@@ -116,6 +118,13 @@ void *__wrap_aligned_alloc(size_t al, size_t n)
 {
     FAIL_IF(FI_ALLOC, NULL);
     return __real_aligned_alloc(al, n);
+}
+int __wrap_posix_memalign(void **p, size_t al, size_t n)
+{
+    int e_ = fi_hit(FI_ALLOC);
+    if (e_ > 0)
+        return e_;      /* posix_memalign reports through its result, not errno */
+    return __real_posix_memalign(p, al, n);
 }
 
 static mode_t open_mode(int flags, va_list ap)

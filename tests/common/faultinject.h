@@ -8,7 +8,8 @@
  * store archives, the test), not those inside libc, zlib or OpenImageIO, which is the scope we
  * want: the store's own error paths. Does not own: what a failure must lead to (the tests).
  *
- * Kinds: FI_ALLOC (malloc calloc realloc strdup aligned_alloc: NULL, errno ENOMEM), FI_OPEN (open openat
+ * Kinds: FI_ALLOC (malloc calloc realloc strdup aligned_alloc: NULL, errno ENOMEM;
+ * posix_memalign: ENOMEM returned), FI_OPEN (open openat
  * fopen), FI_WRITE (write pwrite), FI_FSYNC (fsync fdatasync), FI_RENAME (rename renameat link
  * mkdir). Only one kind counts at a time; single shot: after the Nth call fails, later calls
  * succeed (SQLite's "transient" mode), unless fi_arm's persist is set (every call from the Nth
@@ -24,7 +25,7 @@
 typedef enum fi_kind { FI_ALLOC, FI_OPEN, FI_WRITE, FI_FSYNC, FI_RENAME, FI_NKINDS } fi_kind;
 typedef enum fi_how { FI_EIO, FI_ENOSPC, FI_SHORT, FI_ENOMEM } fi_how;
 
-#define FI_WRAPPED "malloc calloc realloc strdup aligned_alloc open openat fopen write pwrite fsync " \
+#define FI_WRAPPED "malloc calloc realloc strdup aligned_alloc posix_memalign open openat fopen write pwrite fsync " \
                    "fdatasync rename renameat link mkdir"
 
 /* Counts calls of kind from now on; the nth (n >= 1) fails as how says (FI_ALLOC always

@@ -515,6 +515,29 @@ static void expect_status(int port, const char *req, int want)
     free(resp);
 }
 
+/* A whole GET /metrics sent in pieces cut between each CR and its LF, with a pause after each
+ * piece so that the endpoint reads them apart: still a 200 (the reader once answered 400 to
+ * a CR that was the last byte read so far). */
+static void crlf_split_by_reads_is_served(int port)
+{
+    static const char *const parts[] = {"GET /metrics HTTP/1.1\r", "\nHost: a\r", "\n\r",
+                                        "\n"};
+    int fd = connect_port(port);
+    assert_true(fd >= 0);
+    for (size_t i = 0; i < sizeof parts / sizeof parts[0]; i++) {
+        assert_int_equal(send_all(fd, parts[i], strlen(parts[i])), 0);
+        poll(NULL, 0, 150);
+    }
+    size_t len;
+    char *resp = read_to_close(fd, &len);
+    close(fd);
+    assert_non_null(resp);
+    if (status_of(resp) != 200)
+        fprintf(stderr, "CRLF split by reads: got:\n%.300s\n", resp);
+    assert_int_equal(status_of(resp), 200);
+    free(resp);
+}
+
 /* The data port still answers PING and a SAMPLE batch. */
 static void data_path_serves(const st_daemon *d)
 {
@@ -534,6 +557,7 @@ static void only_get_metrics_is_served(void **state)
     expect_status(port, "GET / HTTP/1.1\r\n\r\n", 404);
     expect_status(port, "GET /metricsx HTTP/1.0\r\n\r\n", 404);
     expect_status(port, "GET /metrics?name[]=x HTTP/1.1\n\n", 200);   /* LF only, a query */
+    crlf_split_by_reads_is_served(port);
     expect_status(port, "POST /metrics HTTP/1.1\r\nContent-Length: 0\r\n\r\n", 405);
     expect_status(port, "DELETE /metrics HTTP/1.1\r\n\r\n", 405);
     expect_status(port, "GET /metrics HTTP/2.0\r\n\r\n", 400);
