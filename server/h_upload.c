@@ -83,6 +83,7 @@ int sts_import_path(sts_server *srv, const char *path, const char *fmt, const ch
     st_import_opts o;
     st_import_opts_init(&o);
     o.max_bytes = (size_t)STS_LIVE(srv, max_set_bytes);
+    o.no_side_files = 1; /* the uploads folder holds other clients' uploads: never read them */
     char texture[STP_MAX_NAME + 1];
     int rc = parse_options(options, &o, texture, sizeof texture, e);
     if (rc)

@@ -312,7 +312,7 @@ static int copy_atlas_texture(const st_set *t, st_set **out, st_error *e)
 static int mesh_to_set(const char *path, int fmt, const st_import_opts *o, st_image_caps *caps,
                        st_set **out, st_error *e)
 {
-    st_mesh_caps mc = {0, 0, o->max_bytes};
+    st_mesh_caps mc = {0, 0, o->max_bytes, o->no_side_files};
     st_mesh *m = NULL;
     int rc = fmt == ST_FMT_OBJ ? st_obj_read_file(path, &mc, &m, e)
                                : st_draco_read_file(path, &mc, &m, e);

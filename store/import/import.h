@@ -71,6 +71,9 @@ typedef struct st_import_opts {
     const char *texture_path;   /* or an image file to pair a mesh with, may be NULL */
     size_t   max_bytes;         /* cap on input file bytes and set texels; 0 = default */
     uint32_t max_dim;           /* cap per image axis; 0 = ST_MAX_DIM */
+    uint8_t  no_side_files;     /* 1: open no file the input names (an OBJ's mtllib / map_Kd);
+                                   the daemon's uploads, whose folder holds other clients'
+                                   uploads: a mesh there pairs only with texture= */
 } st_import_opts;
 
 /* Fills o with defaults (everything auto / zero). */

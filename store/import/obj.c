@@ -6,7 +6,8 @@
  * and negative (relative) indices, polygons (fan-triangulated), g / o / s (ignored), usemtl,
  * mtllib (several names on a line; .mtl newmtl and map_Kd with options and Windows '\'
  * paths), comments, CRLF line ends and backslash line continuation. mtllib and map_Kd paths
- * are only followed when relative and inside the OBJ's folder (no "..", not absolute).
+ * are only followed when relative and inside the OBJ's folder (no "..", not absolute), and
+ * never with caps->no_side_files (the daemon's uploads).
  *
  * Hostile input: counts are capped (caps) as they grow, every index is range-checked (at the
  * end, so faces may name vertices defined later), NaN / infinite coordinates are refused, and
@@ -507,7 +508,7 @@ int st_obj_read_file(const char *path, const st_mesh_caps *caps, st_mesh **out, 
     } else {
         strcpy(dir, ".");
     }
-    int rc = st_obj_read_mem(buf, sz, dir, caps, out, e);
+    int rc = st_obj_read_mem(buf, sz, caps && caps->no_side_files ? NULL : dir, caps, out, e);
     free(buf);
     return rc;
 }

@@ -109,6 +109,8 @@ typedef struct st_mesh_caps {
     uint32_t max_tris;          /* 0 = ST_MESH_MAX_TRIS */
     uint32_t max_verts;         /* 0 = ST_MESH_MAX_VERTS */
     size_t   max_bytes;         /* cap on the input file, 0 = 1 GiB */
+    uint8_t  no_side_files;     /* 1: open no file the input names (an OBJ's mtllib): for input
+                                   from outside, whose folder may hold other users' files */
 } st_mesh_caps;
 
 

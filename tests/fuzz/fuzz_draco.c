@@ -21,7 +21,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    st_mesh_caps caps = {1u << 14, 1u << 14, 1u << 20};
+    st_mesh_caps caps = {1u << 14, 1u << 14, 1u << 20, 0};
     st_mesh *m = NULL;
     st_error e;
     int rc = st_draco_read_mem(data, size, &caps, &m, &e);

@@ -11,7 +11,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    st_mesh_caps caps = {1u << 14, 1u << 14, 1u << 20};
+    st_mesh_caps caps = {1u << 14, 1u << 14, 1u << 20, 0};
     st_mesh *m = NULL;
     st_error e;
     if (st_obj_read_mem((const char *)data, size, NULL, &caps, &m, &e) == ST_OK) {

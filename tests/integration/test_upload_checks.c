@@ -1,7 +1,7 @@
 /* tests/integration/test_upload_checks.c - how seamtexd refuses uploads: the options and the
  * format hint are checked at UPLOAD_BEGIN with the store's one grammar (before any chunk),
  * every refusal is logged with its reason and the peer, and no reply names a server path
- * whatever the import failure.
+ * whatever the import failure; an uploaded mesh opens no file it names (mtllib / map_Kd).
  *
  * One daemon for the group (tests/common/daemon_fixture.h, a temp data dir). Bad files are
  * made in memory from the fixture .ptx or from the shared data (skipped when it is missing).
@@ -208,12 +208,51 @@ static void chunk_refusals_are_logged(void **state)
                                       10000), 0);
 }
 
+/* An uploaded mesh pairs only with its texture= set: the uploads folder (<data>/tmp/) holds
+ * other clients' uploads, so the server follows no mtllib / map_Kd an upload names. A .mtl
+ * and an image planted there must not make the mesh an atlas of someone else's image. */
+static void an_uploaded_mesh_opens_no_other_file(void **state)
+{
+    (void)state;
+    char png[1024], path[1400];
+    if (st_test_data_path(png, sizeof png, "meshes/duck/DuckCM.png") != 0)
+        skip();
+    size_t plen = 0;
+    uint8_t *img = st_test_read_file(png, &plen);
+    assert_non_null(img);
+    snprintf(path, sizeof path, "%s/tmp/planted.png", D.datadir);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(img, 1, plen, f), plen);
+    assert_int_equal(fclose(f), 0);
+    free(img);
+    snprintf(path, sizeof path, "%s/tmp/planted.mtl", D.datadir);
+    f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs("newmtl m\nmap_Kd planted.png\n", f);
+    assert_int_equal(fclose(f), 0);
+    stc_conn *c = st_daemon_client(&D, NULL);
+    assert_non_null(c);
+    static const char obj[] = "mtllib planted.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                              "vt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "obj";
+    stc_upload_result ur;
+    int rc = stc_upload_buffer(c, obj, sizeof obj - 1, "planted_mesh", &uo, &ur);
+    if (rc == 0)
+        fail_msg("a mesh upload was paired with a file in the uploads folder");
+    assert_non_null(strstr(stc_errmsg(c), "needs a texture"));
+    stc_close(c);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(bad_options_and_hints_are_invalid_at_begin),
         cmocka_unit_test(import_failures_name_no_server_path),
         cmocka_unit_test(chunk_refusals_are_logged),
+        cmocka_unit_test(an_uploaded_mesh_opens_no_other_file),
     };
     return cmocka_run_group_tests_name("upload_checks", tests, st_group_setup, st_group_teardown);
 }

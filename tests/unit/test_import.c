@@ -482,7 +482,7 @@ static void draco_header_declaring_too_many_faces_is_refused_before_decoding(voi
     assert_null(m);
     assert_non_null(strstr(e.msg, "268435456 faces"));
     /* under small caps, a modest declared count is refused too */
-    st_mesh_caps caps = {1000, 1000, 1u << 20};
+    st_mesh_caps caps = {1000, 1000, 1u << 20, 0};
     static const uint8_t small[] = {'D', 'R', 'A', 'C', 'O', 2, 2, 1, 0 /* sequential */, 0, 0,
                                     0xd1, 0x0f /* 2001 faces */, 3 /* points */, 0};
     assert_int_equal(st_draco_read_mem(small, sizeof small, &caps, &m, &e), ST_ETOOBIG);
@@ -571,11 +571,11 @@ static void obj_over_the_caps_is_refused(void **state)
 {
     (void)state;
     const char *obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
-    st_mesh_caps c = {1, 0, 0};
+    st_mesh_caps c = {1, 0, 0, 0};
     st_mesh *m = NULL;
     st_error e;
     assert_int_equal(st_obj_read_mem(obj, strlen(obj), NULL, &c, &m, &e), ST_ETOOBIG);
-    st_mesh_caps c2 = {0, 3, 0};
+    st_mesh_caps c2 = {0, 3, 0, 0};
     assert_int_equal(st_obj_read_mem(obj, strlen(obj), NULL, &c2, &m, &e), ST_ETOOBIG);
     assert_null(m);
 }
