@@ -40,7 +40,6 @@
  *                                    amount of work, for instruction counts under callgrind)
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
  * To compare two builds, run their binaries alternately (A B A B) and take the medians. */
-#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -84,39 +83,6 @@ typedef struct ptxfile {
     char rel[512];               /* path under the data folder */
     char name[64];               /* short unique name */
 } ptxfile;
-
-static int cmp_rel(const void *a, const void *b)
-{
-    return strcmp(((const ptxfile *)a)->rel, ((const ptxfile *)b)->rel);
-}
-
-/* Every *.ptx under dd/sub, recursively, appended to fl. */
-static void walk(const char *dd, const char *sub, ptxfile *fl, int *n)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", dd, sub);
-    DIR *d = opendir(path);
-    if (!d)
-        return;
-    struct dirent *de;
-    while ((de = readdir(d))) {
-        if (de->d_name[0] == '.')
-            continue;
-        char rel[512];
-        if (snprintf(rel, sizeof rel, "%s/%s", sub, de->d_name) >= (int)sizeof rel)
-            continue;
-        snprintf(path, sizeof path, "%s/%s", dd, rel);
-        struct stat sb;
-        if (stat(path, &sb))
-            continue;
-        size_t l = strlen(de->d_name);
-        if (S_ISDIR(sb.st_mode))
-            walk(dd, rel, fl, n);
-        else if (l > 4 && !strcmp(de->d_name + l - 4, ".ptx") && *n < MAXFILES)
-            snprintf(fl[(*n)++].rel, sizeof fl[0].rel, "%s", rel);
-    }
-    closedir(d);
-}
 
 /* The file name without .ptx; folder/name when another file has the same name. */
 static void name_files(ptxfile *fl, int n)
@@ -633,14 +599,14 @@ int main(int argc, char **argv)
         return run_query_file(&op, dd);
     }
     static ptxfile fl[MAXFILES];
-    int nfl = 0;
-    walk(dd, "ptex-ref", fl, &nfl);
-    walk(dd, "ptx", fl, &nfl);
+    static char rel[MAXFILES][512];
+    int nfl = st_test_ptx_files(rel, MAXFILES);
     if (!nfl) {
         printf("no .ptx files under %s (SEAMTEX_DATA)\n", dd);
         return 0;
     }
-    qsort(fl, (size_t)nfl, sizeof fl[0], cmp_rel);
+    for (int i = 0; i < nfl; i++)
+        memcpy(fl[i].rel, rel[i], sizeof fl[i].rel);
     name_files(fl, nfl);
     FILE *js = op.json ? fopen(op.json, "w") : NULL;
     if (js)

@@ -1,7 +1,9 @@
 /* tests/common/daemon_client.c - see daemon_client.h. */
 #include "daemon_client.h"
 
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "wait.h"
@@ -67,4 +69,28 @@ int st_wait_stat(const st_daemon *d, stc_conn *c, const char *key, st_stat_cmp c
             (unsigned long long)sc.last, timeout_ms, cmp == ST_STAT_EQ ? "==" : ">=",
             (unsigned long long)value);
     return -1;
+}
+
+uint32_t st_rng_next(uint32_t *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return *s >> 8;
+}
+
+stc_query *st_default_set_queries(size_t n, uint32_t seed)
+{
+    stc_query *q = calloc(n ? n : 1, sizeof *q);
+    if (!q)
+        return NULL;
+    for (size_t i = 0; i < n; i++) {
+        q[i].face = st_rng_next(&seed) % 390;
+        q[i].u = (float)(st_rng_next(&seed) % 1000001) / 1e6f;
+        q[i].v = (float)(st_rng_next(&seed) % 1000001) / 1e6f;
+        float fp = (float)pow(10.0, -(double)(st_rng_next(&seed) % 5) - 0.3);
+        q[i].dudx = fp;
+        q[i].dvdy = fp * 0.7f;
+        q[i].dvdx = (i % 3) ? 0.0f : fp * 0.3f;
+        q[i].dudy = (i % 97) ? 0.0f : NAN;
+    }
+    return q;
 }

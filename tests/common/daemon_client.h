@@ -3,7 +3,8 @@
  *
  * Owns: connecting with the options tests use (20 s request timeout, optional token),
  * reading one STATS counter, and waiting until a counter reaches a value (wait.h) - the way a
- * test learns that the daemon has done something instead of sleeping. Does not own: the
+ * test learns that the daemon has done something instead of sleeping; the random SAMPLE
+ * queries over the default set that the wire tests share. Does not own: the
  * daemon's process (daemon_fixture.h) or raw frames (wire.h).
  */
 #ifndef ST_DAEMON_CLIENT_H
@@ -34,5 +35,13 @@ typedef enum st_stat_cmp {
  * fresh connection for every read). 0, or -1 on timeout (the last value read is printed). */
 int st_wait_stat(const st_daemon *d, stc_conn *c, const char *key, st_stat_cmp cmp,
                  uint64_t value, int timeout_ms);
+
+/* The tests' small deterministic generator (an LCG): the next 24-bit value of state *s. */
+uint32_t st_rng_next(uint32_t *s);
+
+/* n SAMPLE queries over the default set's 384 faces (malloc'd, the caller frees): uniform
+ * (u, v), some on the edges, footprints from none to large, a few NaN derivatives and faces
+ * past the end; the same seed gives the same queries. NULL when out of memory. */
+stc_query *st_default_set_queries(size_t n, uint32_t seed);
 
 #endif

@@ -2,10 +2,12 @@
  * testdata.h). */
 #include "testdata.h"
 
+#include <dirent.h>
 #include <ftw.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 const char *st_test_data_dir(void)
@@ -64,4 +66,46 @@ void *st_test_read_file(const char *path, size_t *len)
         b[n] = 0;
     *len = b ? (size_t)n : 0;
     return b;
+}
+
+/* Every *.ptx under <data>/sub, recursively, appended to rel (paths relative to the data dir). */
+static void ptx_walk(const char *sub, char (*rel)[512], int *n, int max)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), sub);
+    DIR *d = opendir(path);
+    if (!d)
+        return;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (de->d_name[0] == '.')
+            continue;
+        char r[512];
+        if (snprintf(r, sizeof r, "%s/%s", sub, de->d_name) >= (int)sizeof r)
+            continue;
+        snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), r);
+        struct stat sb;
+        if (stat(path, &sb))
+            continue;
+        size_t l = strlen(de->d_name);
+        if (S_ISDIR(sb.st_mode))
+            ptx_walk(r, rel, n, max);
+        else if (l > 4 && !strcmp(de->d_name + l - 4, ".ptx") && *n < max)
+            memcpy(rel[(*n)++], r, sizeof r);
+    }
+    closedir(d);
+}
+
+static int cmp_rel(const void *a, const void *b)
+{
+    return strcmp((const char *)a, (const char *)b);
+}
+
+int st_test_ptx_files(char (*rel)[512], int max)
+{
+    int n = 0;
+    ptx_walk("ptex-ref", rel, &n, max);
+    ptx_walk("ptx", rel, &n, max);
+    qsort(rel, (size_t)n, sizeof rel[0], cmp_rel);
+    return n;
 }

@@ -13,6 +13,11 @@ const char *st_test_data_dir(void);
  * a TAP comment saying what is missing (the caller then skips) and returns -1. */
 int st_test_data_path(char *buf, size_t cap, const char *rel);
 
+/* The shared .ptx files: every *.ptx under <data dir>/ptex-ref and <data dir>/ptx, searched
+ * recursively, as paths relative to the data dir ("ptx/foo/bar.ptx"), sorted; at most max.
+ * Returns how many (0 when the data dir has none). */
+int st_test_ptx_files(char (*rel)[512], int max);
+
 /* Creates a fresh scratch directory /tmp/seamtex_<tag>_XXXXXX into buf; 0 or -1. */
 int st_test_mkdtemp(char *buf, size_t cap, const char *tag);
 

@@ -57,29 +57,6 @@ static uint64_t stat_of(stc_conn *c, const char *key)
 
 /* ---- results ------------------------------------------------------------------------------- */
 
-static uint32_t rng_next(uint32_t *s)
-{
-    *s = *s * 1664525u + 1013904223u;
-    return *s >> 8;
-}
-
-/* n queries over the default set (some bad faces and NaN derivatives among them) */
-static stc_query *make_queries(size_t n, uint32_t seed)
-{
-    stc_query *q = calloc(n, sizeof *q);
-    for (size_t i = 0; i < n; i++) {
-        q[i].face = rng_next(&seed) % 390;
-        q[i].u = (float)(rng_next(&seed) % 1000001) / 1e6f;
-        q[i].v = (float)(rng_next(&seed) % 1000001) / 1e6f;
-        float fp = (float)pow(10.0, -(double)(rng_next(&seed) % 5) - 0.3);
-        q[i].dudx = fp;
-        q[i].dvdy = fp * 0.7f;
-        q[i].dvdx = (i % 3) ? 0.0f : fp * 0.3f;
-        q[i].dudy = (i % 97) ? 0.0f : NAN;
-    }
-    return q;
-}
-
 typedef struct copy {
     uint32_t count, nbad;
     unsigned nchan, outfmt;
@@ -149,7 +126,7 @@ static void shm_results_are_bit_identical_to_the_socket_path(void **state)
     static const size_t sizes[] = {1, 300, 5000};   /* inline; on a worker and split */
     size_t checked = 0;
     for (size_t si = 0; si < 3; si++) {
-        stc_query *q = make_queries(sizes[si], 7 + (uint32_t)si);
+        stc_query *q = st_default_set_queries(sizes[si], 7 + (uint32_t)si);
         for (size_t mi = 0; mi < 3; mi++)
             for (size_t fi = 0; fi < 4; fi++) {
                 stc_sample_opts o;
@@ -182,7 +159,7 @@ static void shm_results_are_bit_identical_to_the_socket_path(void **state)
     stc_conn *small = client(u);
     assert_non_null(small);
     assert_int_equal(stc_shm_attach(small, 64u << 10), 0);
-    stc_query *q = make_queries(4000, 99);
+    stc_query *q = st_default_set_queries(4000, 99);
     stc_sample_opts o;
     memset(&o, 0, sizeof o);
     o.mode = STP_MODE_TRAVERSE;
@@ -223,7 +200,7 @@ static void shm_results_are_bit_identical_to_the_socket_path(void **state)
     stc_close(small);
 
     /* a batch larger than the region goes over the socket, same results */
-    stc_query *big = make_queries(200000, 5);
+    stc_query *big = st_default_set_queries(200000, 5);
     stc_sample_result r;
     copy a, b;
     assert_int_equal(stc_sample(plain, "default", &o, big, 200000, &r), 0);
@@ -489,9 +466,9 @@ static void *scribble(void *arg)
     scribbler *s = arg;
     uint32_t seed = 12345;
     while (!__atomic_load_n(&s->stop, __ATOMIC_RELAXED)) {
-        size_t at = rng_next(&seed) % (s->size - 64);
+        size_t at = st_rng_next(&seed) % (s->size - 64);
         for (int i = 0; i < 64; i += 4) {
-            uint32_t v = rng_next(&seed);
+            uint32_t v = st_rng_next(&seed);
             /* faces, floats, NaNs, huge values: whatever the daemon reads must be safe */
             memcpy(s->region + at + i, &v, 4);
         }
@@ -501,13 +478,13 @@ static void *scribble(void *arg)
 
 static uint64_t pick_offset(uint32_t *seed, uint64_t size)
 {
-    switch (rng_next(seed) % 6) {
-    case 0: return rng_next(seed) % (size + 1);
-    case 1: return size - rng_next(seed) % 64;
-    case 2: return size + rng_next(seed) % 64;
-    case 3: return UINT64_MAX - rng_next(seed) % 64;
-    case 4: return (uint64_t)rng_next(seed) << 32 | rng_next(seed);
-    default: return (rng_next(seed) % 16) * 4096;
+    switch (st_rng_next(seed) % 6) {
+    case 0: return st_rng_next(seed) % (size + 1);
+    case 1: return size - st_rng_next(seed) % 64;
+    case 2: return size + st_rng_next(seed) % 64;
+    case 3: return UINT64_MAX - st_rng_next(seed) % 64;
+    case 4: return (uint64_t)st_rng_next(seed) << 32 | st_rng_next(seed);
+    default: return (st_rng_next(seed) % 16) * 4096;
     }
 }
 
@@ -527,9 +504,9 @@ static void random_offsets_never_hurt_the_daemon(void **state)
     uint32_t seed = 777;
     unsigned ok = 0, invalid = 0, small = 0;
     for (int i = 0; i < 1500; i++) {
-        uint32_t count = rng_next(&seed) % 3 ? rng_next(&seed) % 3000 : rng_next(&seed) % 40000;
+        uint32_t count = st_rng_next(&seed) % 3 ? st_rng_next(&seed) % 3000 : st_rng_next(&seed) % 40000;
         uint64_t qoff = pick_offset(&seed, SZ), roff = pick_offset(&seed, SZ);
-        uint64_t rcap = rng_next(&seed) % 2 ? pick_offset(&seed, SZ) : SZ - roff % SZ;
+        uint64_t rcap = st_rng_next(&seed) % 2 ? pick_offset(&seed, SZ) : SZ - roff % SZ;
         unsigned st = shm_sample(fd, count, qoff, roff, rcap, 0, &r);
         if (st == STP_S_OK) {
             ok++;

@@ -70,30 +70,6 @@ static void connections_land_on_different_io_threads(void **state)
 
 /* ---- compact queries and f16 replies ----------------------------------------------------------- */
 
-static uint32_t rng_next(uint32_t *s)
-{
-    *s = *s * 1664525u + 1013904223u;
-    return *s >> 8;
-}
-
-/* n queries over the default set's 384 faces: uniform (u, v), some on the edges, footprints
- * from none to large, a few NaN derivatives and bad faces */
-static stc_query *make_queries(size_t n, uint32_t seed)
-{
-    stc_query *q = calloc(n, sizeof *q);
-    for (size_t i = 0; i < n; i++) {
-        q[i].face = rng_next(&seed) % 390;
-        q[i].u = (float)(rng_next(&seed) % 1000001) / 1e6f;
-        q[i].v = (float)(rng_next(&seed) % 1000001) / 1e6f;
-        float fp = (float)pow(10.0, -(double)(rng_next(&seed) % 5) - 0.3);
-        q[i].dudx = fp;
-        q[i].dvdy = fp * 0.7f;
-        q[i].dvdx = (i % 3) ? 0.0f : fp * 0.3f;
-        q[i].dudy = (i % 97) ? 0.0f : NAN;
-    }
-    return q;
-}
-
 typedef struct result_copy {
     uint32_t count, nbad;
     unsigned nchan, outfmt;
@@ -140,7 +116,7 @@ static void compact_queries_sample_like_f32_of_the_rounded_query(void **state)
     size_t checked = 0, bad = 0;
     for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
         size_t n = sizes[si];
-        stc_query *q = make_queries(n, 17u + (uint32_t)n);
+        stc_query *q = st_default_set_queries(n, 17u + (uint32_t)n);
         stc_query *rounded = calloc(n, sizeof *rounded);
         for (size_t li = 0; li < sizeof layouts / sizeof layouts[0]; li++) {
             unsigned lay = layouts[li];

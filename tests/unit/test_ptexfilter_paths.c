@@ -12,11 +12,9 @@
 #include <stdint.h>
 #include <cmocka.h>
 
-#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "ptex.h"
 #include "ptexfilter.h"
@@ -31,31 +29,6 @@ static float rndf(void) /* [0, 1) */
 {
     rng = rng * 1664525u + 1013904223u;
     return (float)(rng >> 8) / 16777216.0f;
-}
-
-/* Every *.ptx under dir, recursively, appended to paths. */
-static void walk(const char *dir, char (*paths)[1024], int *n)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return;
-    struct dirent *de;
-    while ((de = readdir(d))) {
-        if (de->d_name[0] == '.')
-            continue;
-        char p[1024];
-        if (snprintf(p, sizeof p, "%s/%s", dir, de->d_name) >= (int)sizeof p)
-            continue;
-        struct stat sb;
-        if (stat(p, &sb))
-            continue;
-        size_t l = strlen(de->d_name);
-        if (S_ISDIR(sb.st_mode))
-            walk(p, paths, n);
-        else if (l > 4 && !strcmp(de->d_name + l - 4, ".ptx") && *n < MAXF)
-            snprintf(paths[(*n)++], sizeof paths[0], "%s", p);
-    }
-    closedir(d);
 }
 
 /* NQ queries on s: uniform, or (one in three) within a level-0 texel or two of an edge or
@@ -98,13 +71,12 @@ static void make_queries(const st_set *s, st_query *q)
 static void shortcuts_give_the_general_paths_results_bit_for_bit(void **state)
 {
     (void)state;
-    static char paths[MAXF][1024];
-    int n = 0;
-    char dir[1024];
-    snprintf(dir, sizeof dir, "%s/ptex-ref", st_test_data_dir());
-    walk(dir, paths, &n);
-    snprintf(dir, sizeof dir, "%s/ptx", st_test_data_dir());
-    walk(dir, paths, &n);
+    static char rel[MAXF][512], paths[MAXF][1024];
+    int n = st_test_ptx_files(rel, MAXF);
+    for (int i = 0; i < n; i++)
+        if (snprintf(paths[i], sizeof paths[i], "%s/%s", st_test_data_dir(), rel[i]) >=
+            (int)sizeof paths[i])
+            fail_msg("data dir path too long: %s", st_test_data_dir());
     if (n == 0) {
         print_message("SEAMTEX_DATA (%s) has no .ptx files: skipped\n", st_test_data_dir());
         skip();
