@@ -324,85 +324,6 @@ static void apply_to_corner(pf *c, pk *k, int f, int eid, int depth)
     }
 }
 
-static void split_apply(pf *c, pk *k, int f, int depth)
-{
-    const st_face *F = &c->s->faces[f];
-    int resu = 1 << k->ulog2, resv = 1 << k->vlog2;
-    int sr = k->u + k->uw > resu, sl = k->u < 0;
-    int st = k->v + k->vw > resv, sb = k->v < 0;
-    int bu = c->bu == 1, bv = c->bv == 1;
-    if (c->mode != ST_MODE_TRAVERSE || depth > PF_MAX_DEPTH) {
-        int drop = c->mode == ST_MODE_DISCARD;
-        if (sr) pk_merge_r(k, drop || bu);
-        if (sl) pk_merge_l(k, drop || bu);
-        if (st) pk_merge_t(k, drop || bv);
-        if (sb) pk_merge_b(k, drop || bv);
-        if (drop)
-            c->weight = pk_weight(k);
-        apply(c, k, f);
-        return;
-    }
-    if (sr || sl || st || sb) {
-        pk ka, kc;
-        if (sr) {
-            if (F->adjface[1] >= 0) {
-                pk_split_r(k, &ka);
-                if (st) {
-                    if (F->adjface[2] >= 0) {
-                        pk_split_t(&ka, &kc);
-                        apply_to_corner(c, &kc, f, 2, depth);
-                    } else
-                        pk_merge_t(&ka, bv);
-                }
-                if (sb) {
-                    if (F->adjface[0] >= 0) {
-                        pk_split_b(&ka, &kc);
-                        apply_to_corner(c, &kc, f, 1, depth);
-                    } else
-                        pk_merge_b(&ka, bv);
-                }
-                apply_across_edge(c, &ka, f, 1, depth);
-            } else
-                pk_merge_r(k, bu);
-        }
-        if (sl) {
-            if (F->adjface[3] >= 0) {
-                pk_split_l(k, &ka);
-                if (st) {
-                    if (F->adjface[2] >= 0) {
-                        pk_split_t(&ka, &kc);
-                        apply_to_corner(c, &kc, f, 3, depth);
-                    } else
-                        pk_merge_t(&ka, bv);
-                }
-                if (sb) {
-                    if (F->adjface[0] >= 0) {
-                        pk_split_b(&ka, &kc);
-                        apply_to_corner(c, &kc, f, 0, depth);
-                    } else
-                        pk_merge_b(&ka, bv);
-                }
-                apply_across_edge(c, &ka, f, 3, depth);
-            } else
-                pk_merge_l(k, bu);
-        }
-        if (st) {
-            if (F->adjface[2] >= 0) {
-                pk_split_t(k, &ka);
-                apply_across_edge(c, &ka, f, 2, depth);
-            } else
-                pk_merge_t(k, bv);
-        }
-        if (sb) {
-            if (F->adjface[0] >= 0) {
-                pk_split_b(k, &ka);
-                apply_across_edge(c, &ka, f, 0, depth);
-            } else
-                pk_merge_b(k, bv);
-        }
-    }
-    apply(c, k, f);
-}
 
 /* Ptex's point filter: the level-0 texel under (u, v), clamped into the face. */
 static void eval_point(pf *c, uint32_t f, float u, float v, float *out)
@@ -606,15 +527,47 @@ static void corner_small(pf *c, pk *k, int f, int eid)
     apply_to_corner(c, k, f, eid, 0);
 }
 
-/* split_apply at depth 0 on face f (not a subface) for a kernel of at most 2 x 2 texels. */
-static void split_apply_small(pf *c, pk *k, int f)
+/* The split of a kernel that overhangs face f, one walk for both paths: the pieces past an
+ * edge go to the neighbour (apply_across_edge), past a vertex to the faces around it
+ * (apply_to_corner), past a border are merged back (Clamp) or dropped (Discard), and the rest
+ * is applied on f. small (a constant where it is inlined) picks the functions for kernels of at
+ * most 2 x 2 texels on faces that are not subfaces (split_apply_small) or the general ones
+ * (split_apply); the pk operations and their order are the same. */
+__attribute__((always_inline)) static inline void leaf(pf *c, pk *k, int f, int small)
+{
+    if (small)
+        apply_small(c, k, f);
+    else
+        apply(c, k, f);
+}
+
+__attribute__((always_inline)) static inline void to_edge(pf *c, pk *k, int f, int eid, int depth,
+                                                         int small)
+{
+    if (small)
+        across_small(c, k, f, eid);
+    else
+        apply_across_edge(c, k, f, eid, depth);
+}
+
+__attribute__((always_inline)) static inline void to_corner(pf *c, pk *k, int f, int eid,
+                                                           int depth, int small)
+{
+    if (small)
+        corner_small(c, k, f, eid);
+    else
+        apply_to_corner(c, k, f, eid, depth);
+}
+
+__attribute__((always_inline)) static inline void split_walk(pf *c, pk *k, int f, int depth,
+                                                            int small)
 {
     const st_face *F = &c->s->faces[f];
     int resu = 1 << k->ulog2, resv = 1 << k->vlog2;
     int sr = k->u + k->uw > resu, sl = k->u < 0;
     int st = k->v + k->vw > resv, sb = k->v < 0;
     int bu = c->bu == 1, bv = c->bv == 1;
-    if (c->mode != ST_MODE_TRAVERSE) {
+    if (c->mode != ST_MODE_TRAVERSE || depth > PF_MAX_DEPTH) {
         int drop = c->mode == ST_MODE_DISCARD;
         if (sr) pk_merge_r(k, drop || bu);
         if (sl) pk_merge_l(k, drop || bu);
@@ -622,7 +575,7 @@ static void split_apply_small(pf *c, pk *k, int f)
         if (sb) pk_merge_b(k, drop || bv);
         if (drop)
             c->weight = pk_weight(k);
-        apply_small(c, k, f);
+        leaf(c, k, f, small);
         return;
     }
     pk ka, kc;
@@ -632,18 +585,18 @@ static void split_apply_small(pf *c, pk *k, int f)
             if (st) {
                 if (F->adjface[2] >= 0) {
                     pk_split_t(&ka, &kc);
-                    corner_small(c, &kc, f, 2);
+                    to_corner(c, &kc, f, 2, depth, small);
                 } else
                     pk_merge_t(&ka, bv);
             }
             if (sb) {
                 if (F->adjface[0] >= 0) {
                     pk_split_b(&ka, &kc);
-                    corner_small(c, &kc, f, 1);
+                    to_corner(c, &kc, f, 1, depth, small);
                 } else
                     pk_merge_b(&ka, bv);
             }
-            across_small(c, &ka, f, 1);
+            to_edge(c, &ka, f, 1, depth, small);
         } else
             pk_merge_r(k, bu);
     }
@@ -653,36 +606,47 @@ static void split_apply_small(pf *c, pk *k, int f)
             if (st) {
                 if (F->adjface[2] >= 0) {
                     pk_split_t(&ka, &kc);
-                    corner_small(c, &kc, f, 3);
+                    to_corner(c, &kc, f, 3, depth, small);
                 } else
                     pk_merge_t(&ka, bv);
             }
             if (sb) {
                 if (F->adjface[0] >= 0) {
                     pk_split_b(&ka, &kc);
-                    corner_small(c, &kc, f, 0);
+                    to_corner(c, &kc, f, 0, depth, small);
                 } else
                     pk_merge_b(&ka, bv);
             }
-            across_small(c, &ka, f, 3);
+            to_edge(c, &ka, f, 3, depth, small);
         } else
             pk_merge_l(k, bu);
     }
     if (st) {
         if (F->adjface[2] >= 0) {
             pk_split_t(k, &ka);
-            across_small(c, &ka, f, 2);
+            to_edge(c, &ka, f, 2, depth, small);
         } else
             pk_merge_t(k, bv);
     }
     if (sb) {
         if (F->adjface[0] >= 0) {
             pk_split_b(k, &ka);
-            across_small(c, &ka, f, 0);
+            to_edge(c, &ka, f, 0, depth, small);
         } else
             pk_merge_b(k, bv);
     }
-    apply_small(c, k, f);
+    leaf(c, k, f, small);
+}
+
+static void split_apply(pf *c, pk *k, int f, int depth)
+{
+    split_walk(c, k, f, depth, 0);
+}
+
+/* split_apply at depth 0 on face f (not a subface) for a kernel of at most 2 x 2 texels. */
+static void split_apply_small(pf *c, pk *k, int f)
+{
+    split_walk(c, k, f, 0, 1);
 }
 
 /* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode: the
