@@ -92,7 +92,7 @@ typedef struct pf {
     int kind;                /* PF_U8 (1..4 channels), PF_F32 (3..4 channels), PF_OTHER */
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
     pf_window_fn win;        /* the window loop for the batch's type and channels, or NULL */
-    pf_small_fn small;       /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
+    pf_window_fn small;      /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
     pf_bilinear_half_fn bhalf; /* the in-face bilinear of half texels (F16C), or NULL */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;

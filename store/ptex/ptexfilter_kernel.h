@@ -154,10 +154,9 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype);
 /* A window of uw x vw texels with uw, vw in 1..2 (ptexfilter_simd.c, AVX2): bit for bit what
  * pf_apply_avx2 gives for a kernel with that window and weights ku, kv, without its
  * dispatch (the pieces of a bilinear kernel split at face edges). pf_small_select gives the
- * function for texels of type dt with nc channels, or NULL without AVX2. */
-typedef pf_v4 (*pf_small_fn)(const uint8_t *base, size_t rowb, const float *ku, int uw,
-                             const float *kv, int vw, pf_v4 acc);
-pf_small_fn pf_small_select(unsigned dt, unsigned nc);
+ * function (the window loop's type) for texels of type dt with nc channels, or NULL without
+ * AVX2. */
+pf_window_fn pf_small_select(unsigned dt, unsigned nc);
 
 /* The bilinear of 2 x 2 texels of 4 half values each (p the first, ts bytes per texel, rows
  * rowb apart; reads 8 bytes per texel, so up to 2 past a 3-channel one): lanes 0..3 of

@@ -250,6 +250,15 @@ PF_WIN_NC(1)
 PF_WIN_NC(2)
 PF_WIN_NC(3)
 
+/* The entry of a [type][channels - 1] table of window functions, NULL out of range or
+ * without AVX2 (pf_window_select, pf_small_select). */
+static pf_window_fn pick_window(const pf_window_fn fns[4][4], unsigned dt, unsigned nc)
+{
+    if (dt > 3 || nc < 1 || nc > 4 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 pf_window_fn pf_window_select(unsigned dt, unsigned nc)
 {
     static const pf_window_fn fns[4][4] = {
@@ -258,9 +267,7 @@ pf_window_fn pf_window_select(unsigned dt, unsigned nc)
         {pf_win_2_1, pf_win_2_2, pf_win_2_3, pf_win_2_4},
         {pf_win_3_1, pf_win_3_2, pf_win_3_3, pf_win_3_4},
     };
-    if (dt > 3 || nc < 1 || nc > 4 || !pf_have_avx2())
-        return NULL;
-    return fns[dt][nc - 1];
+    return pick_window(fns, dt, nc);
 }
 
 pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
@@ -584,17 +591,15 @@ PF_SMALLFN_NC(1)
 PF_SMALLFN_NC(2)
 PF_SMALLFN_NC(3)
 
-pf_small_fn pf_small_select(unsigned dt, unsigned nc)
+pf_window_fn pf_small_select(unsigned dt, unsigned nc)
 {
-    static const pf_small_fn fns[4][4] = {
+    static const pf_window_fn fns[4][4] = {
         {pf_small_0_1, pf_small_0_2, pf_small_0_3, pf_small_0_4},
         {pf_small_1_1, pf_small_1_2, pf_small_1_3, pf_small_1_4},
         {pf_small_2_1, pf_small_2_2, pf_small_2_3, pf_small_2_4},
         {pf_small_3_1, pf_small_3_2, pf_small_3_3, pf_small_3_4},
     };
-    if (dt > 3 || nc < 1 || nc > 4 || !pf_have_avx2())
-        return NULL;
-    return fns[dt][nc - 1];
+    return pick_window(fns, dt, nc);
 }
 
 /* Bilinear of 2 x 2 half texels (4 values each, F16C): the same operations in the same
@@ -662,7 +667,7 @@ pf_window_fn pf_window_select(unsigned dt, unsigned nc)
     return NULL;
 }
 
-pf_small_fn pf_small_select(unsigned dt, unsigned nc)
+pf_window_fn pf_small_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
     return NULL;
