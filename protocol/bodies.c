@@ -628,12 +628,9 @@ int stp_dec_sample_reply(const uint8_t *body, size_t len, stp_sample_reply *r, c
         return fail(why, "SAMPLE reply: unknown flags", STP_S_BAD_REQUEST);
     if (r->nbad > r->count)
         return fail(why, "SAMPLE reply: nbad > count", STP_S_BAD_REQUEST);
-    /* count < 2^32, nchan <= 4, esz <= 4: need fits in 64 bits. */
-    need = (uint64_t)r->count * r->nchan * esz;
-    if (r->flags & STP_SF_COVERAGE)
-        need += (uint64_t)r->count * 4;
-    if (r->flags & STP_SF_STATUS)
-        need += r->count;
+    /* the whole body's size less its 12-byte head (count < 2^32, nchan <= 4, esz <= 4: no
+     * overflow) */
+    need = stp_sample_reply_bytes(r->count, r->nchan, r->outfmt, r->flags) - 12;
     if (need != stp_rd_left(&rd))
         return fail(why, "SAMPLE reply: count does not match the body length", STP_S_BAD_REQUEST);
     r->raw_values = stp_rd_take(&rd, (size_t)r->count * r->nchan * esz);
