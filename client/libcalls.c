@@ -36,9 +36,7 @@ _Static_assert((int)STC_CAP_AUTH == (int)STP_CAP_AUTH && (int)STC_CAP_FETCH == (
  * leaves an untracked frame in the output). */
 static int start(stc_conn *c, uint8_t op, int pipelined, uint32_t *id)
 {
-    *id = c->next_reqid++;
-    if (c->next_reqid == 0)
-        c->next_reqid = 1;
+    *id = stc__next_reqid(c);
     return stc__pend_add(c, *id, op, pipelined);
 }
 

@@ -226,6 +226,14 @@ int stc__begin_blocking(stc_conn *c)
     return 0;
 }
 
+uint32_t stc__next_reqid(stc_conn *c)
+{
+    uint32_t id = c->next_reqid++;
+    if (c->next_reqid == 0)
+        c->next_reqid = 1;
+    return id;
+}
+
 int stc__pend_add(stc_conn *c, uint32_t reqid, uint8_t opcode, int pipelined)
 {
     if (c->phead && c->phead == c->pn)
@@ -614,7 +622,7 @@ static int hello(stc_conn *c, const stc_opts *o, int64_t deadline)
     stp_hello_reply rp;
     stc_frame f;
     const char *why = "";
-    uint32_t id = c->next_reqid++;
+    uint32_t id = stc__next_reqid(c);
     int rc;
 
     memset(&rq, 0, sizeof rq);

@@ -79,6 +79,8 @@ int stc__begin_blocking(stc_conn *c);
 /* Monotonic milliseconds; deadline for a timeout (-1 = none). */
 int64_t stc__now_ms(void);
 int64_t stc__deadline(int timeout_ms);
+/* The next request id of c (never 0: ids wrap past it). */
+uint32_t stc__next_reqid(stc_conn *c);
 /* Adds a request to the pending list. */
 int stc__pend_add(stc_conn *c, uint32_t reqid, uint8_t opcode, int pipelined);
 /* Removes the most recently added pending request (its frame could not be encoded). */

@@ -85,9 +85,7 @@ int stc_shm_attach(stc_conn *c, size_t bytes)
         return stc__fail(c, errno == EINVAL ? STC_EINVAL : STC_ENOMEM,
                          "shared-memory region of %zu bytes: %s", bytes, strerror(errno));
     int64_t dl = stc__deadline(c->timeout_ms);
-    uint32_t id = c->next_reqid++;
-    if (c->next_reqid == 0)
-        c->next_reqid = 1;
+    uint32_t id = stc__next_reqid(c);
     stp_buf b;
     stp_buf_init(&b);
     stc_frame f;

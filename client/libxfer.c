@@ -22,9 +22,7 @@
 
 static int start_req(stc_conn *c, uint8_t op, uint32_t *id)
 {
-    *id = c->next_reqid++;
-    if (c->next_reqid == 0)
-        c->next_reqid = 1;
+    *id = stc__next_reqid(c);
     return stc__pend_add(c, *id, op, 0);
 }
 
