@@ -10,6 +10,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "unixaddr.h"
+
 int app_texture_for(const app_cfg *c, const char *mesh, char *path, size_t cap, int *kind,
                     const char **image, char *msg, size_t ml)
 {
@@ -57,15 +59,22 @@ int app_connect(const app_cfg *c, stc_conn **conn, char *msg, size_t ml)
 {
     if (*conn)
         return 0;
-    if (!c->port) {
-        snprintf(msg, ml, "no daemon: give --port (or --inproc)");
+    if (!c->port && !stu_is_unix_addr(c->host)) {
+        snprintf(msg, ml, "no daemon: give --port or --host unix:PATH (or --inproc)");
         return -1;
     }
     int err = 0;
     stc_opts o = { .connect_timeout_ms = 5000, .request_timeout_ms = 120000,
                    .client_name = "seamtex-render" };
     *conn = stc_connect_opts(c->host, c->port, &o, &err, msg, ml);
-    return *conn ? 0 : -1;
+    if (!*conn)
+        return -1;
+    char note[512];
+    int rc = rs_net_shm(*conn, c->host, c->shm, c->batch, c->inflight, c->outfmt, note,
+                        sizeof note, msg, ml);
+    if (rc == 0 && c->shm == RS_SHM_AUTO && stu_is_unix_addr(c->host))
+        fprintf(stderr, "seamtex-render: sampling over the socket: %s\n", note);
+    return rc < 0 ? -1 : 0;
 }
 
 int app_upload(const app_cfg *c, stc_conn *conn, const char *path, const char *image,

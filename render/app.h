@@ -32,6 +32,7 @@ typedef struct app_cfg {
     unsigned    repeat;                /* renders per frame (timing medians) */
     int         breakdown;             /* also time in-process sampling of the same queries */
     unsigned    batch, inflight;
+    int         shm;                   /* RS_SHM_AUTO (default), RS_SHM_ON, RS_SHM_OFF */
     const char *out;                   /* output folder */
     const char *toth;                  /* study output folder */
     unsigned    ref_ss;                /* study reference factor (8) */
@@ -48,7 +49,9 @@ int app_texture_for(const app_cfg *c, const char *mesh, char *path, size_t cap, 
 /* The set name for a texture file: "render-" + its base name without extension, cleaned to
  * the set-name alphabet. */
 void app_set_name(const char *path, const char *prefix, char *name, size_t cap);
-/* Connects to the daemon (once per process; *conn NULL first). */
+/* Connects to the daemon (once per process; *conn NULL first): host:port, or host alone when
+ * it is a unix: address; then shared memory by c->shm (rs_net_shm; a unix: daemon that
+ * refuses it under auto is noted on stderr and the socket used). */
 int app_connect(const app_cfg *c, stc_conn **conn, char *msg, size_t ml);
 /* Uploads path as set name (REPLACE), unless c->no_upload; with an image (atlas mesh), the
  * image first as name + "-tex", then the OBJ with the option texture=<that set>. */

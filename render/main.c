@@ -15,6 +15,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "unixaddr.h"
+
 static const char *MODE_NAMES[3] = { "discard", "traverse", "clamp" };
 
 static void usage(FILE *f)
@@ -24,8 +26,8 @@ static void usage(FILE *f)
 "       seamtex-render --toth DIR [options] MESH.obj...  the Toth 2013 study (docs/render.md)\n"
 "\n"
 "Texture and sampling:\n"
-"  --host H            daemon address (default 127.0.0.1)\n"
-"  -p, --port P        daemon port (needed unless --inproc)\n"
+"  --host H            daemon address (default 127.0.0.1), or unix:PATH (no --port)\n"
+"  -p, --port P        daemon port (needed unless --inproc or a unix: host)\n"
 "  --set NAME          the set to sample (default: render-<texture base name>)\n"
 "  --texture FILE      the texture: a .ptx (Ptex mesh) or an image; default MESH.ptx beside\n"
 "                      the mesh, else the OBJ itself is uploaded as an atlas set (map_Kd)\n"
@@ -34,6 +36,9 @@ static void usage(FILE *f)
 "  --batch N           queries per SAMPLE request (default 16384, at most max_batch)\n"
 "  --inflight N        SAMPLE requests outstanding (default 8, at most 64)\n"
 "  --outfmt F          f32 (default), unorm8, unorm16\n"
+"  --shm auto|on|off   on a unix: host, queries and replies through a shared-memory\n"
+"                      region (auto: when the daemon allows it, else the socket; on: it\n"
+"                      must; default auto)\n"
 "Rendering:\n"
 "  --size WxH          image size (default 1280x720)\n"
 "  --msaa N            samples per pixel: 1, 2, 4 (default), 8 (D3D standard patterns)\n"
@@ -95,7 +100,7 @@ static double median(double *v, unsigned n)
 enum { OPT_HOST = 256, OPT_PORT, OPT_SET, OPT_TEXTURE, OPT_NOUPLOAD, OPT_INPROC, OPT_BATCH,
        OPT_INFLIGHT, OPT_OUTFMT, OPT_SIZE, OPT_MSAA, OPT_MODE, OPT_FILTER, OPT_ANISO, OPT_FRAMES,
        OPT_FRAME, OPT_ALL, OPT_ELEV, OPT_AZIM, OPT_DIST, OPT_FOV, OPT_OUT, OPT_STRIP, OPT_REF,
-       OPT_REPEAT, OPT_BREAKDOWN, OPT_QUIET, OPT_TOTH, OPT_REFSS, OPT_CLOSEUP, OPT_BC1LEVEL };
+       OPT_REPEAT, OPT_BREAKDOWN, OPT_QUIET, OPT_TOTH, OPT_REFSS, OPT_CLOSEUP, OPT_BC1LEVEL, OPT_SHM };
 
 static const struct option LONGOPTS[] = {
     { "host", 1, 0, OPT_HOST }, { "port", 1, 0, OPT_PORT }, { "set", 1, 0, OPT_SET },
@@ -111,6 +116,7 @@ static const struct option LONGOPTS[] = {
     { "repeat", 1, 0, OPT_REPEAT }, { "breakdown", 0, 0, OPT_BREAKDOWN },
     { "quiet", 0, 0, OPT_QUIET }, { "toth", 1, 0, OPT_TOTH }, { "ref-ss", 1, 0, OPT_REFSS },
     { "closeup", 1, 0, OPT_CLOSEUP }, { "bc1-level", 1, 0, OPT_BC1LEVEL },
+    { "shm", 1, 0, OPT_SHM },
     { "help", 0, 0, 'h' }, { 0, 0, 0, 0 }
 };
 
@@ -121,7 +127,8 @@ static int parse_args(int argc, char **argv, app_cfg *c)
                     .filter = 3, .max_aniso = 16, .outfmt = STC_OUT_F32,
                     .orbit = { .frames = 120, .elev_deg = 25, .dist = 0.8, .fov_deg = 40,
                                .azim0_deg = 30 },
-                    .repeat = 1, .out = ".", .ref_ss = 8, .closeup_size = 40, .bc1_level = 5 };
+                    .repeat = 1, .out = ".", .ref_ss = 8, .closeup_size = 40, .bc1_level = 5,
+                    .shm = RS_SHM_AUTO };
     int o;
     while ((o = getopt_long(argc, argv, "hp:", LONGOPTS, NULL)) != -1) {
         const char *a = optarg;
@@ -186,6 +193,11 @@ static int parse_args(int argc, char **argv, app_cfg *c)
         case OPT_REFSS: bad = parse_uint(a, 1, 16, &c->ref_ss); break;
         case OPT_CLOSEUP: bad = parse_uint(a, 4, 512, &c->closeup_size); break;
         case OPT_BC1LEVEL: bad = parse_uint(a, 0, 9, &c->bc1_level); break;
+        case OPT_SHM:
+            c->shm = !strcmp(a, "auto") ? RS_SHM_AUTO : !strcmp(a, "on") ? RS_SHM_ON
+                   : !strcmp(a, "off") ? RS_SHM_OFF : -1;
+            bad = c->shm < 0;
+            break;
         case 'h': usage(stdout); exit(0);
         default: usage(stderr); return -1;
         }
@@ -219,8 +231,9 @@ static int parse_args(int argc, char **argv, app_cfg *c)
                 c->orbit.frames);
         return -1;
     }
-    if (!c->inproc && !c->port) {
-        fprintf(stderr, "seamtex-render: give --port of a running seamtexd, or --inproc\n");
+    if (!c->inproc && !c->port && !stu_is_unix_addr(c->host)) {
+        fprintf(stderr, "seamtex-render: give --port of a running seamtexd (or --host "
+                "unix:PATH), or --inproc\n");
         return -1;
     }
     return 0;
@@ -305,7 +318,9 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         double mt = median(tt, c->repeat), mr = median(tr, c->repeat), ms = median(ts, c->repeat);
         printf("%s %-8s %ux %ux%u frame %u: %.1f ms (raster %.1f, %s %.1f", j->base,
                MODE_NAMES[mode], c->msaa, c->width, c->height, frame, mt, mr,
-               c->inproc ? "sampling" : "sampling over loopback", ms);
+               c->inproc ? "sampling" : st.shm_batches ? "sampling through shared memory"
+               : stu_is_unix_addr(c->host) ? "sampling over the socket"
+               : "sampling over loopback", ms);
         if (j->timing) {
             double mi = median(tin, c->repeat);
             printf(" = in-process sampling %.1f + network and protocol %.1f", mi, ms - mi);
@@ -314,9 +329,13 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         if (j->timing && mode == 0)
             printf("; %zu footprints leave their face", edge);
         printf("; %zu fragments, %llu helper lanes, %llu queries, %llu bytes "
-               "out, %llu in -> %s\n", j->t.nfrag,
+               "out, %llu in", j->t.nfrag,
                (unsigned long long)j->t.helper_lanes, (unsigned long long)st.queries,
-               (unsigned long long)st.bytes_out, (unsigned long long)st.bytes_in, path);
+               (unsigned long long)st.bytes_out, (unsigned long long)st.bytes_in);
+        if (st.shm_batches)
+            printf(" (%llu of %llu batches through shared memory)",
+                   (unsigned long long)st.shm_batches, (unsigned long long)st.batches);
+        printf(" -> %s\n", path);
     }
     return 0;
 }

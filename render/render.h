@@ -78,6 +78,8 @@ void rc_orbit_camera(const rc_orbit *o, const rm_mesh *m, unsigned i, unsigned w
 typedef struct rs_stats {
     uint64_t queries, batches, bytes_out, bytes_in;
     uint64_t zero_coverage;           /* queries answered by the zero rule (coverage 0) */
+    uint64_t shm_batches;             /* batches whose queries and reply went through the
+                                         shared-memory region (rs_net_shm) */
 } rs_stats;
 
 typedef struct rs_sampler rs_sampler;
@@ -97,6 +99,17 @@ void rs_expand_rgba(const float *in, unsigned nchan, size_t n, float *out);
  * `inflight` SAMPLE requests outstanding. The set must exist on the daemon. */
 rs_sampler *rs_net_new(stc_conn *c, const char *set, unsigned batch, unsigned inflight,
                        char *msg, size_t ml);
+/* Shared-memory sampling (PROTOCOL.md 4.12) for the rs_net samplers of c, connected to host:
+ * attaches a region that holds `inflight` requests of `batch` queries in outfmt (clamped as
+ * rs_net_new clamps them); libseamtex then sends every batch that fits through it, bit for bit
+ * the same results. Call once, right after connecting. policy RS_SHM_OFF: nothing; RS_SHM_AUTO:
+ * attached when host is unix: and the daemon allows it, else the socket, with the reason in
+ * note (nl bytes; "" when off); RS_SHM_ON: as auto, but no region is an error. Returns 1
+ * attached (note says the size), 0 the socket, -1 with msg (RS_SHM_ON without a region, or
+ * the connection broke). */
+enum { RS_SHM_OFF = 0, RS_SHM_AUTO = 1, RS_SHM_ON = 2 };
+int rs_net_shm(stc_conn *c, const char *host, int policy, unsigned batch, unsigned inflight,
+               unsigned outfmt, char *note, size_t nl, char *msg, size_t ml);
 /* In-process (sampler_inproc.c): imports the texture file as the daemon would; for an atlas
  * mesh, texture_path is the OBJ and image its texture image (else NULL). */
 rs_sampler *rs_inproc_new(const char *texture_path, const char *image, char *msg, size_t ml);
