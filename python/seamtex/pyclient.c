@@ -141,12 +141,14 @@ static int ms_of(double secs)
 
 static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
 {
-    static char *kwlist[] = {"host", "port", "token", "timeout", "numpy", "client_name", NULL};
+    static char *kwlist[] = {"host", "port", "token", "timeout", "numpy", "client_name", "shm",
+                             "shm_bytes", NULL};
     const char *host = "127.0.0.1", *token = NULL, *cname = "seamtex-python";
     unsigned port = 7450;
-    PyObject *timeout_o = NULL, *numpy_o = Py_None;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|sIzO$Os:Client", kwlist, &host, &port, &token,
-                                     &timeout_o, &numpy_o, &cname))
+    PyObject *timeout_o = NULL, *numpy_o = Py_None, *shm_o = Py_False;
+    Py_ssize_t shm_bytes = ST_PY_SHM_DEFAULT;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "|sIzO$OsOn:Client", kwlist, &host, &port, &token,
+                                     &timeout_o, &numpy_o, &cname, &shm_o, &shm_bytes))
         return -1;
     if (port > 65535) {
         PyErr_Format(PyExc_ValueError, "port %u is not 0..65535", port);
@@ -195,6 +197,13 @@ static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
     self->timeout = timeout;
     snprintf(self->host, sizeof self->host, "%s", host);
     self->port = port;
+    if (st_py_shm_open(self, shm_o, shm_bytes) < 0) {
+        self->conn = NULL;
+        Py_BEGIN_ALLOW_THREADS
+        stc_close(c);
+        Py_END_ALLOW_THREADS
+        return -1;
+    }
     return 0;
 }
 
@@ -757,6 +766,10 @@ static PyGetSetDef client_getset[] = {
      "max_inflight, authenticated, name.", NULL},
     {"timeout", (getter)client_get_timeout, (setter)client_set_timeout,
      "Per-request timeout in seconds (None = none).", NULL},
+    {"shm_status", (getter)st_py_shm_status, NULL,
+     "Shared-memory sampling (Client(shm=...)): attached (bool), bytes (the region, 0 when\n"
+     "none), via_shm and via_socket (SAMPLE requests sent each way so far), reason (why no\n"
+     "region: None when attached).", NULL},
     {NULL, NULL, NULL, NULL, NULL},
 };
 
@@ -818,12 +831,15 @@ PyTypeObject st_py_client_type = {
     .tp_repr = (reprfunc)client_repr,
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE,
     .tp_doc = "Client(host='127.0.0.1', port=7450, token=None, timeout=10.0, *, numpy=None,\n"
-              "       client_name='seamtex-python')\n\n"
+              "       client_name='seamtex-python', shm=False, shm_bytes=64 << 20)\n\n"
               "One connection to seamtexd (HELLO done). timeout: seconds for the connect and\n"
               "for each request (None = none). numpy: None = sample results are numpy arrays\n"
-              "when numpy imports, else seamtex.Array; True / False force either. A Client is\n"
-              "a context manager (closed on exit); it may be shared by threads (calls take\n"
-              "turns), though one Client per thread runs them in parallel.",
+              "when numpy imports, else seamtex.Array; True / False force either. shm: on a\n"
+              "'unix:/path' host, sample through a shared-memory region of shm_bytes (True:\n"
+              "or raise why not - Unsupported, TooLarge, InvalidArgument on TCP; 'auto': or\n"
+              "fall back to the socket, reason in shm_status). A Client is a context manager\n"
+              "(closed on exit); it may be shared by threads (calls take turns), though one\n"
+              "Client per thread runs them in parallel.",
     .tp_methods = client_methods,
     .tp_getset = client_getset,
     .tp_init = (initproc)client_init,

@@ -9,8 +9,8 @@
  * through stc_*.
  *
  * Files: _seamtex.c (module init, constants), pyclient.c (Client: connect, ls, info, upload,
- * jobs, fetch, stats, ...), pysample.c (sample, sample_dir), pyarray.c (Array), pyerrors.c
- * (exceptions).
+ * jobs, fetch, stats, ...), pysample.c (sample, sample_dir), pyshm.c (shared memory: shm=,
+ * shm_status), pyarray.c (Array), pyerrors.c (exceptions).
  *
  * GIL: every stc_* call that may wait on the network runs between Py_BEGIN_ALLOW_THREADS and
  * Py_END_ALLOW_THREADS. A Client holds one connection, used by one thread at a time (the
@@ -41,6 +41,8 @@ typedef struct st_py_client {
                                      no fresh pages to fault in for each big batch); under lock */
     size_t             scratch_cap;
     double             times[3];  /* the last sample call: packing, stc_sample, copying out (s) */
+    size_t             shm_bytes; /* the shared-memory region attached (pyshm.c), 0: none */
+    char               shm_why[256];  /* why there is none */
 } st_py_client;
 
 /* CLOCK_MONOTONIC in seconds. */
@@ -60,6 +62,19 @@ void st_py_client_leave(st_py_client *self);
 /* Raises the exception for rc (an stc_err code) with the connection's message; call with the
  * lock held (the message belongs to the connection). Returns NULL. */
 PyObject *st_py_client_fail(st_py_client *self, int rc);
+
+/* ---- shared memory (pyshm.c) ------------------------------------------------------------------ */
+
+/* Default of Client(shm_bytes=...): room for a 10^6-query f32 call (28 MB of queries, its
+ * reply overwriting them) and then some. */
+#define ST_PY_SHM_DEFAULT ((Py_ssize_t)64 << 20)
+/* After connecting (GIL held, the Client not yet shared): the shm policy of Client(shm=...)
+ * (False / None, True, "auto") with a region of `bytes`. 0 (attached, or not with the reason
+ * kept under auto / False), or -1 with an exception set (a bad argument; shm=True and no
+ * region; the connection broke). */
+int st_py_shm_open(st_py_client *self, PyObject *shm_o, Py_ssize_t bytes);
+/* Getter of Client.shm_status: {attached, bytes, via_shm, via_socket, reason}. */
+PyObject *st_py_shm_status(st_py_client *self, void *closure);
 
 /* ---- sampling (pysample.c) -------------------------------------------------------------------- */
 

@@ -30,28 +30,30 @@ import seamtex  # noqa: E402
 
 
 class Daemon:
-    """One seamtexd process on 127.0.0.1:<free port>."""
+    """One seamtexd process on 127.0.0.1:<free port>, or with unix=True on
+    unix:<its temp dir>/s.sock (host is then that address)."""
 
-    def __init__(self, *extra):
+    def __init__(self, *extra, unix=False):
         self.dir = Path(tempfile.mkdtemp(prefix="seamtex-py-"))
         self.log = self.dir / "daemon.log"
         exe = BUILD / "seamtexd"
         if not exe.exists():
             pytest.exit("%s is missing: run make first" % exe, returncode=1)
         port_file = self.dir / "port"
+        self.host = "unix:%s" % (self.dir / "s.sock") if unix else "127.0.0.1"
+        self.port = 0
         with open(self.log, "wb") as log:
             self.proc = subprocess.Popen(
-                [str(exe), "--listen", "127.0.0.1:0", "--data-dir", str(self.dir / "data"),
+                [str(exe), "--listen", self.host if unix else "127.0.0.1:0",
+                 "--data-dir", str(self.dir / "data"),
                  "--port-file", str(port_file), "--log-level", "warn", *extra],
                 stdout=log, stderr=log)
-        self.host = "127.0.0.1"
-        self.port = 0
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 raise RuntimeError("seamtexd exited at start:\n" + self.log.read_text())
             if port_file.exists() and port_file.read_text().strip():
-                self.port = int(port_file.read_text().strip())
+                self.port = 0 if unix else int(port_file.read_text().strip())
                 try:
                     seamtex.Client(self.host, self.port, timeout=5).close()
                     return
