@@ -6,7 +6,8 @@
  * Owns: the query file parser and the output formats. Does not own: sampling (the server),
  * framing (libseamtex), the names of modes, filters, formats and query statuses (the
  * protocol's lists, protocol/proto_lists.h); batches larger than the server's max_batch are
- * split by libseamtex.
+ * split by libseamtex. A query file on a unix: host is sent through a shared-memory region
+ * (--shm, attach_shm below: the region's size; libseamtex does the rest).
  */
 #include "cli.h"
 
@@ -16,6 +17,7 @@
 #include <unistd.h>
 
 #include "proto.h"
+#include "unixaddr.h"
 
 #define MAX_FILE_QUERIES (16u << 20)    /* 16 M queries (448 MiB of queries) at most */
 
@@ -39,7 +41,39 @@ static const char *const SAMPLE_USAGE =
 "  --format f32|unorm8|unorm16|f16   value format on the wire and in --binary output\n"
 "                     (f32; f16 travels as binary16 and is written as f32)\n"
 "  --compact          send the queries compact (PROTOCOL.md 4.4.1): u, v rounded to\n"
-"                     multiples of 2^-16, derivatives to binary16\n";
+"                     multiples of 2^-16, derivatives to binary16\n"
+"  --shm auto|on|off  with --queries on a unix: host: queries and values through a\n"
+"                     shared-memory region (PROTOCOL.md 4.12); auto (default): when the\n"
+"                     daemon allows it, else the socket; on: no region is an error\n";
+
+enum { SHM_OFF, SHM_AUTO, SHM_ON };
+
+/* --shm: attaches a region to ctx->conn for one call of `chunk` queries, which libseamtex
+ * sends as parts of at most max_batch queries, up to 16 outstanding: room for all parts, each
+ * the larger of its queries (36 bytes each: a direction, the largest layout) and its reply
+ * (4 channels, coverage and status), plus 64 bytes of span alignment. Under auto a refusal (a TCP host,
+ * no SHM capability, over the daemon's shm-max) leaves the socket; under on it is an error.
+ * CLI_OK or an exit code (printed). */
+static int attach_shm(cli_ctx *ctx, int policy, size_t chunk, unsigned outfmt)
+{
+    if (policy == SHM_OFF || ctx->conn_borrowed)
+        return CLI_OK;
+    if (policy == SHM_AUTO && !stu_is_unix_addr(ctx->host))
+        return CLI_OK;
+    size_t per = stc_server_info(ctx->conn)->max_batch;
+    if (per == 0 || per > chunk)
+        per = chunk;
+    uint64_t q = stp_sample_query_bytes(STP_OP_SAMPLE_DIR, 0, (uint32_t)per);
+    uint64_t r = stp_sample_reply_bytes((uint32_t)per, 4, (uint8_t)outfmt,
+                                        STP_SF_COVERAGE | STP_SF_STATUS);
+    size_t bytes = (size_t)(((q > r ? q : r) + 64) * ((chunk + per - 1) / per));
+    int rc = stc_shm_attach(ctx->conn, bytes);
+    /* STC_ESTATE: interactive mode's connection has its region from an earlier command (the
+     * CLI never leaves pipelined replies unread, the other cause) */
+    if (rc == 0 || rc == STC_ESTATE || (policy == SHM_AUTO && !stc_error(ctx->conn)))
+        return CLI_OK;
+    return cli_fail(ctx, "--shm on", rc);
+}
 
 /* Reads a query file of either kind into *out (elements of `size` bytes). */
 static int read_lines(const char *path, int dir, void **out, size_t *count)
@@ -138,7 +172,7 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     o.mode = STP_MODE_TRAVERSE;
     o.filter = STP_FILTER_BILINEAR;
     const char *pos[4];
-    int npos = 0, binary = 0, dir = 0;
+    int npos = 0, binary = 0, dir = 0, shm = SHM_AUTO;
     const char *qfile = NULL, *set = NULL;
     stc_query one;
     stc_dir_query onedir;
@@ -209,6 +243,10 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             int f = stp_outfmt_parse(v);
             bad = f < 0;
             o.outfmt = bad ? 0 : (unsigned)f;
+        } else if (!strcmp(a, "--shm")) {
+            shm = !strcmp(v, "auto") ? SHM_AUTO : !strcmp(v, "on") ? SHM_ON
+                : !strcmp(v, "off") ? SHM_OFF : -1;
+            bad = shm < 0;
         } else {
             fprintf(stderr, "seamtex sample: unknown option %s (see --help)\n", a);
             return CLI_USAGE;
@@ -259,6 +297,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     size_t chunk = stc_server_info(ctx->conn)->max_batch;
     if (chunk == 0 || chunk > 65536)
         chunk = 65536;
+    if (qfile && (rc = attach_shm(ctx, shm, n < chunk ? n : chunk, o.outfmt)) != CLI_OK)
+        goto out;
     size_t qsize = dir ? sizeof(stc_dir_query) : sizeof(stc_query);
     uint64_t nbad = 0;
     for (size_t at = 0; at < n; at += chunk) {
