@@ -2,7 +2,8 @@
 # tests/bench/net_shm_users.sh [OUT.json] - what shared-memory sampling (PROTOCOL.md 4.12)
 # buys the tools that use it, against a seamtexd on a Unix socket (temp dir, stopped at the
 # end):
-#   render  seamtex-render, the teapot of $SEAMTEX_DATA at SIZE (1280x720) 4x Traverse aniso,
+#   render  seamtex-render, the teapot of $SEAMTEX_DATA at SIZE (1280x720) 4x Traverse FILTER
+#           (aniso, 16 probes; bilinear shows the transport's share better),
 #           --repeat REPEAT (5) per run: in-process (--inproc, one sampling thread), over the
 #           Unix socket (--shm off) and through the region (--shm on); ROUNDS (5) rounds, the
 #           order rotating each round (A B C, B C A, C A B, ...); medians of the runs' median
@@ -10,14 +11,17 @@
 #   python  Client.sample of PYN (10^6) random bilinear Traverse queries on the default set,
 #           a socket Client and a shm=True Client in one process, PYROUNDS (9) pairs
 #           alternating which goes first; medians of the wall times
-# Prints a table and the load average before and after; writes JSON. Env: SIZE, REPEAT,
-# ROUNDS, PYN, PYROUNDS. Without the teapot the render part is skipped and says so.
+# and the medians of the per-round ratios (the runs of one round are adjacent in time).
+# Prints a table and the load average before and after; writes JSON. Env: SIZE, FILTER,
+# REPEAT, ROUNDS (0: no render part), PYN, PYROUNDS (0: no Python part). Without the teapot
+# the render part is skipped and says so.
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$ROOT"
 OUT=${1:-$B/bench/net_shm_users.json}
 SIZE=${SIZE:-1280x720}
+FILTER=${FILTER:-aniso}
 REPEAT=${REPEAT:-5}
 ROUNDS=${ROUNDS:-5}
 PYN=${PYN:-1000000}
@@ -51,7 +55,7 @@ echo "net_shm_users: load before $LOAD0"
 # ---- render ------------------------------------------------------------------------------
 declare -A FR=() SA=()
 RENDER_JSON="null"
-if [ -r "$TEAPOT" ]; then
+if [ "$ROUNDS" -gt 0 ] && [ -r "$TEAPOT" ]; then
     # the first run uploads the texture; every timed run then uses --no-upload
     "$B/seamtex-render" --host "$ADDR" --shm off --size 64x48 --mode traverse --quiet \
         --out "$TMP" "$TEAPOT" >/dev/null || { echo "render warm-up failed" >&2; exit 1; }
@@ -65,6 +69,7 @@ if [ -r "$TEAPOT" ]; then
             shm)    how=(--host "$ADDR" --no-upload --shm on) ;;
             esac
             line=$("$B/seamtex-render" "${how[@]}" --size "$SIZE" --msaa 4 --mode traverse \
+                   --filter "$FILTER" \
                    --repeat "$REPEAT" --out "$TMP" "$TEAPOT" | grep ' frame 0: ')
             [ -n "$line" ] || { echo "render $v failed" >&2; exit 1; }
             # "... frame 0: T ms (raster R, sampling[ over ...] S, resolve X) median; ..."
@@ -72,19 +77,26 @@ if [ -r "$TEAPOT" ]; then
             SA[$v]+="$(sed -E 's/.*sampling[a-z ]* ([0-9.]+), resolve.*/\1/' <<<"$line") "
         done
     done
-    printf '\nseamtex-render teapot %s 4x traverse aniso, --repeat %s, %s rounds (medians, ms)\n' \
-        "$SIZE" "$REPEAT" "$ROUNDS"
-    printf '%-22s %10s %10s %12s\n' variant frame sampling "sampling/inproc"
+    printf '\nseamtex-render teapot %s 4x traverse %s, --repeat %s, %s rounds (medians, ms; ratios:\n' \
+        "$SIZE" "$FILTER" "$REPEAT" "$ROUNDS"
+    printf 'medians of the per-round ratios of the sampling times)\n'
+    printf '%-10s %10s %10s %14s %14s\n' variant frame sampling "vs inproc" "vs socket"
     declare -A MF=() MS=()
     for v in inproc socket shm; do
         MF[$v]=$(tr ' ' '\n' <<<"${FR[$v]}" | grep . | median)
         MS[$v]=$(tr ' ' '\n' <<<"${SA[$v]}" | grep . | median)
     done
+    ratio() {   # median over rounds of run(a) / run(b)
+        paste -d' ' <(tr ' ' '\n' <<<"${SA[$1]}" | grep .) <(tr ' ' '\n' <<<"${SA[$2]}" | grep .) |
+            awk '{ print $1 / $2 }' | median
+    }
     for v in inproc socket shm; do
-        printf '%-22s %10s %10s %12.2f\n' "$v" "${MF[$v]}" "${MS[$v]}" \
-            "$(awk -v a="${MS[$v]}" -v b="${MS[inproc]}" 'BEGIN { print a / b }')"
+        printf '%-10s %10s %10s %14.2f %14.2f\n' "$v" "${MF[$v]}" "${MS[$v]}" \
+            "$(ratio "$v" inproc)" "$(ratio "$v" socket)"
     done
-    RENDER_JSON=$(printf '{"size": "%s", "repeat": %s, "rounds": %s, ' "$SIZE" "$REPEAT" "$ROUNDS")
+    RENDER_JSON=$(printf '{"size": "%s", "filter": "%s", "repeat": %s, "rounds": %s, "shm_vs_socket": %s, "socket_vs_inproc": %s, "shm_vs_inproc": %s, ' \
+        "$SIZE" "$FILTER" "$REPEAT" "$ROUNDS" "$(ratio shm socket)" "$(ratio socket inproc)" \
+        "$(ratio shm inproc)")
     for v in inproc socket shm; do
         RENDER_JSON+=$(printf '"%s": {"frame_ms": %s, "sampling_ms": %s, "frame_runs": [%s], "sampling_runs": [%s]}, ' \
             "$v" "${MF[$v]}" "${MS[$v]}" "$(tr ' ' '\n' <<<"${FR[$v]}" | grep . | paste -sd,)" \
@@ -92,12 +104,12 @@ if [ -r "$TEAPOT" ]; then
     done
     RENDER_JSON="${RENDER_JSON%, }}"
 else
-    echo "render: skipped: $TEAPOT is missing (SEAMTEX_DATA)"
+    [ "$ROUNDS" -gt 0 ] && echo "render: skipped: $TEAPOT is missing (SEAMTEX_DATA)"
 fi
 
 # ---- python ------------------------------------------------------------------------------
 PY_JSON="null"
-if [ -f "$B/python/seamtex/__init__.py" ]; then
+if [ "$PYROUNDS" -gt 0 ] && [ -f "$B/python/seamtex/__init__.py" ]; then
     PY_JSON=$(SEAMTEX_BUILD=$ROOT/$B "$PY" - "$ADDR" "$PYN" "$PYROUNDS" <<'EOF'
 import json, os, statistics, sys, time
 sys.path.insert(0, os.path.join(os.environ["SEAMTEX_BUILD"], "python"))
@@ -124,6 +136,7 @@ with seamtex.Client(addr, timeout=120) as s, seamtex.Client(addr, timeout=120, s
     assert m.shm_status["via_shm"] >= rounds + 2 and m.shm_status["via_socket"] == 0
 print(json.dumps({"n": n, "rounds": rounds,
                   "socket_s": statistics.median(t["socket"]), "shm_s": statistics.median(t["shm"]),
+                  "shm_vs_socket": statistics.median(a / b for a, b in zip(t["shm"], t["socket"])),
                   "socket_runs": t["socket"], "shm_runs": t["shm"]}))
 EOF
 ) || { echo "python part failed" >&2; exit 1; }
@@ -135,9 +148,9 @@ print("\nPython Client.sample of %d bilinear Traverse queries, %d alternated pai
 for k in ("socket", "shm"):
     s = j[k + "_s"]
     print("%-8s %8.3f s  %6.2f M queries/s" % (k, s, j["n"] / s / 1e6))
-print("shm / socket time: %.2f" % (j["shm_s"] / j["socket_s"]))
+print("shm / socket time, median of the pairs' ratios: %.2f" % j["shm_vs_socket"])
 EOF
-else
+elif [ "$PYROUNDS" -gt 0 ]; then
     echo "python: skipped: $B/python/seamtex is not built"
 fi
 
