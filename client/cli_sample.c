@@ -51,8 +51,9 @@ enum { SHM_OFF, SHM_AUTO, SHM_ON };
 /* --shm: attaches a region to ctx->conn for one call of `chunk` queries, which libseamtex
  * sends as parts of at most max_batch queries, up to 16 outstanding: room for all parts, each
  * the larger of its queries (36 bytes each: a direction, the largest layout) and its reply
- * (4 channels, coverage and status), plus 64 bytes of span alignment. Under auto a refusal (a TCP host,
- * no SHM capability, over the daemon's shm-max) leaves the socket; under on it is an error.
+ * (4 channels, coverage and status), plus 64 bytes of span alignment. Under auto a refusal
+ * (a TCP host, no SHM capability, over the daemon's shm-max) leaves the socket; under on it is
+ * an error.
  * CLI_OK or an exit code (printed). */
 static int attach_shm(cli_ctx *ctx, int policy, size_t chunk, unsigned outfmt)
 {
