@@ -7,7 +7,8 @@
 #           --repeat REPEAT (5) per run: in-process (--inproc, one sampling thread), over the
 #           Unix socket (--shm off) and through the region (--shm on); ROUNDS (5) rounds, the
 #           order rotating each round (A B C, B C A, C A B, ...); medians of the runs' median
-#           frame and sampling times
+#           frame and sampling times, and of the daemon's CPU time per frame (utime + stime
+#           from /proc over the run's REPEAT frames: steadier than wall times under load)
 #   python  Client.sample of PYN (10^6) random bilinear Traverse queries on the default set,
 #           a socket Client and a shm=True Client in one process, PYROUNDS (9) pairs
 #           alternating which goes first; medians of the wall times
@@ -53,7 +54,11 @@ LOAD0=$(cut -d' ' -f1-3 /proc/loadavg)
 echo "net_shm_users: load before $LOAD0"
 
 # ---- render ------------------------------------------------------------------------------
-declare -A FR=() SA=()
+declare -A FR=() SA=() DC=()
+daemon_cpu_ms() {   # utime + stime of the daemon in ms (fields 14, 15 of /proc/PID/stat)
+    awk -v hz="$(getconf CLK_TCK)" '{ sub(/.*\) /, ""); print ($12 + $13) * 1000 / hz }' \
+        "/proc/$PID/stat"
+}
 RENDER_JSON="null"
 if [ "$ROUNDS" -gt 0 ] && [ -r "$TEAPOT" ]; then
     # the first run uploads the texture; every timed run then uses --no-upload
@@ -68,10 +73,13 @@ if [ "$ROUNDS" -gt 0 ] && [ -r "$TEAPOT" ]; then
             socket) how=(--host "$ADDR" --no-upload --shm off) ;;
             shm)    how=(--host "$ADDR" --no-upload --shm on) ;;
             esac
+            c0=$(daemon_cpu_ms)
             line=$("$B/seamtex-render" "${how[@]}" --size "$SIZE" --msaa 4 --mode traverse \
                    --filter "$FILTER" \
                    --repeat "$REPEAT" --out "$TMP" "$TEAPOT" | grep ' frame 0: ')
             [ -n "$line" ] || { echo "render $v failed" >&2; exit 1; }
+            DC[$v]+="$(awk -v a="$c0" -v b="$(daemon_cpu_ms)" -v n="$REPEAT" \
+                       'BEGIN { print (b - a) / n }') "
             # "... frame 0: T ms (raster R, sampling[ over ...] S, resolve X) median; ..."
             FR[$v]+="$(sed -E 's/.* frame 0: ([0-9.]+) ms.*/\1/' <<<"$line") "
             SA[$v]+="$(sed -E 's/.*sampling[a-z ]* ([0-9.]+), resolve.*/\1/' <<<"$line") "
@@ -80,27 +88,31 @@ if [ "$ROUNDS" -gt 0 ] && [ -r "$TEAPOT" ]; then
     printf '\nseamtex-render teapot %s 4x traverse %s, --repeat %s, %s rounds (medians, ms; ratios:\n' \
         "$SIZE" "$FILTER" "$REPEAT" "$ROUNDS"
     printf 'medians of the per-round ratios of the sampling times)\n'
-    printf '%-10s %10s %10s %14s %14s\n' variant frame sampling "vs inproc" "vs socket"
-    declare -A MF=() MS=()
+    printf '%-10s %10s %10s %14s %14s %18s\n' variant frame sampling "vs inproc" "vs socket" \
+        "daemon CPU/frame"
+    declare -A MF=() MS=() MD=()
     for v in inproc socket shm; do
         MF[$v]=$(tr ' ' '\n' <<<"${FR[$v]}" | grep . | median)
         MS[$v]=$(tr ' ' '\n' <<<"${SA[$v]}" | grep . | median)
+        MD[$v]=$(tr ' ' '\n' <<<"${DC[$v]}" | grep . | median)
     done
     ratio() {   # median over rounds of run(a) / run(b)
         paste -d' ' <(tr ' ' '\n' <<<"${SA[$1]}" | grep .) <(tr ' ' '\n' <<<"${SA[$2]}" | grep .) |
             awk '{ print $1 / $2 }' | median
     }
     for v in inproc socket shm; do
-        printf '%-10s %10s %10s %14.2f %14.2f\n' "$v" "${MF[$v]}" "${MS[$v]}" \
-            "$(ratio "$v" inproc)" "$(ratio "$v" socket)"
+        printf '%-10s %10s %10s %14.2f %14.2f %18s\n' "$v" "${MF[$v]}" "${MS[$v]}" \
+            "$(ratio "$v" inproc)" "$(ratio "$v" socket)" "${MD[$v]}"
     done
     RENDER_JSON=$(printf '{"size": "%s", "filter": "%s", "repeat": %s, "rounds": %s, "shm_vs_socket": %s, "socket_vs_inproc": %s, "shm_vs_inproc": %s, ' \
         "$SIZE" "$FILTER" "$REPEAT" "$ROUNDS" "$(ratio shm socket)" "$(ratio socket inproc)" \
         "$(ratio shm inproc)")
     for v in inproc socket shm; do
-        RENDER_JSON+=$(printf '"%s": {"frame_ms": %s, "sampling_ms": %s, "frame_runs": [%s], "sampling_runs": [%s]}, ' \
-            "$v" "${MF[$v]}" "${MS[$v]}" "$(tr ' ' '\n' <<<"${FR[$v]}" | grep . | paste -sd,)" \
-            "$(tr ' ' '\n' <<<"${SA[$v]}" | grep . | paste -sd,)")
+        RENDER_JSON+=$(printf '"%s": {"frame_ms": %s, "sampling_ms": %s, "daemon_cpu_ms_per_frame": %s, "frame_runs": [%s], "sampling_runs": [%s], "daemon_cpu_runs": [%s]}, ' \
+            "$v" "${MF[$v]}" "${MS[$v]}" "${MD[$v]}" \
+            "$(tr ' ' '\n' <<<"${FR[$v]}" | grep . | paste -sd,)" \
+            "$(tr ' ' '\n' <<<"${SA[$v]}" | grep . | paste -sd,)" \
+            "$(tr ' ' '\n' <<<"${DC[$v]}" | grep . | paste -sd,)")
     done
     RENDER_JSON="${RENDER_JSON%, }}"
 else
