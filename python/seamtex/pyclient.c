@@ -145,7 +145,7 @@ static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
                              "shm_bytes", NULL};
     const char *host = "127.0.0.1", *token = NULL, *cname = "seamtex-python";
     unsigned port = 7450;
-    PyObject *timeout_o = NULL, *numpy_o = Py_None, *shm_o = Py_False;
+    PyObject *timeout_o = NULL, *numpy_o = Py_None, *shm_o = NULL;   /* NULL: "auto" */
     Py_ssize_t shm_bytes = ST_PY_SHM_DEFAULT;
     if (!PyArg_ParseTupleAndKeywords(args, kw, "|sIzO$OsOn:Client", kwlist, &host, &port, &token,
                                      &timeout_o, &numpy_o, &cname, &shm_o, &shm_bytes))
@@ -831,15 +831,15 @@ PyTypeObject st_py_client_type = {
     .tp_repr = (reprfunc)client_repr,
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE,
     .tp_doc = "Client(host='127.0.0.1', port=7450, token=None, timeout=10.0, *, numpy=None,\n"
-              "       client_name='seamtex-python', shm=False, shm_bytes=64 << 20)\n\n"
+              "       client_name='seamtex-python', shm='auto', shm_bytes=64 << 20)\n\n"
               "One connection to seamtexd (HELLO done). timeout: seconds for the connect and\n"
               "for each request (None = none). numpy: None = sample results are numpy arrays\n"
               "when numpy imports, else seamtex.Array; True / False force either. shm: on a\n"
-              "'unix:/path' host, sample through a shared-memory region of shm_bytes (True:\n"
-              "or raise why not - Unsupported, TooLarge, InvalidArgument on TCP; 'auto': or\n"
-              "fall back to the socket, reason in shm_status). A Client is a context manager\n"
-              "(closed on exit); it may be shared by threads (calls take turns), though one\n"
-              "Client per thread runs them in parallel.",
+              "'unix:/path' host, sample through a shared-memory region of shm_bytes ('auto':\n"
+              "or fall back to the socket, reason in shm_status; True: or raise why not -\n"
+              "Unsupported, TooLarge, InvalidArgument on TCP; False: never). A Client is a\n"
+              "context manager (closed on exit); it may be shared by threads (calls take\n"
+              "turns), though one Client per thread runs them in parallel.",
     .tp_methods = client_methods,
     .tp_getset = client_getset,
     .tp_init = (initproc)client_init,

@@ -69,7 +69,7 @@ PyObject *st_py_client_fail(st_py_client *self, int rc);
  * reply overwriting them) and then some. */
 #define ST_PY_SHM_DEFAULT ((Py_ssize_t)64 << 20)
 /* After connecting (GIL held, the Client not yet shared): the shm policy of Client(shm=...)
- * (False / None, True, "auto") with a region of `bytes`. 0 (attached, or not with the reason
+ * (False / None, True, "auto"; NULL = not given = "auto") with a region of `bytes`. 0 (attached, or not with the reason
  * kept under auto / False), or -1 with an exception set (a bad argument; shm=True and no
  * region; the connection broke). */
 int st_py_shm_open(st_py_client *self, PyObject *shm_o, Py_ssize_t bytes);

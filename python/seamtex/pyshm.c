@@ -1,8 +1,9 @@
 /* python/seamtex/pyshm.c - Client(..., shm=..., shm_bytes=...): shared-memory sampling
  * (PROTOCOL.md 4.12) on a unix: connection, and the Client.shm_status attribute.
  *
- * Owns: the policy (False: never; True: a region or an exception; "auto": a region when the
- * connection and the daemon allow it, else the socket with the reason kept), the region's size
+ * Owns: the policy ("auto", the default: a region when the connection and the daemon allow it,
+ * else the socket with the reason kept; True: a region or an exception; False: never), the
+ * region's size
  * argument, the status dict. Does not own: the region, the ring, SHM_ATTACH (libseamtex,
  * stc_shm_attach); sampling through the region needs nothing here: stc_sample uses it by itself.
  */
@@ -10,10 +11,15 @@
 
 #include <string.h>
 
-/* shm_o -> *policy: 0 off, 1 on, 2 auto; -1 with TypeError / ValueError set. */
+/* shm_o -> *policy: 0 off, 1 on, 2 auto (also when shm_o is NULL: not given); -1 with
+ * ValueError set. */
 static int shm_policy(PyObject *shm_o, int *policy)
 {
-    if (!shm_o || shm_o == Py_False || shm_o == Py_None) {
+    if (!shm_o) {
+        *policy = 2;
+        return 0;
+    }
+    if (shm_o == Py_False || shm_o == Py_None) {
         *policy = 0;
         return 0;
     }

@@ -6,7 +6,7 @@ Results through the region equal the socket path's byte for byte (f32, unorm8, f
 coverage and status, footprints, several calls on one region); a call too big for the region
 goes over the socket and still matches; a daemon that refuses (over --shm-max: TooLarge;
 --shm-max 0: Unsupported) or a TCP address raises with shm=True and falls back with
-shm="auto", the reason in shm_status; bad arguments raise ValueError.
+shm="auto" (the default), the reason in shm_status; bad arguments raise ValueError.
 Run: /usr/bin/python3 -m pytest -q python/tests/test_shm.py
 """
 
@@ -46,7 +46,7 @@ def same(a, b):
 
 def test_shm_results_equal_the_socket(unix_daemon):
     face, u, v, d = queries(200_000)
-    with unix_daemon.client(shm=True) as s, unix_daemon.client() as p:
+    with unix_daemon.client(shm=True) as s, unix_daemon.client(shm=False) as p:
         st = s.shm_status
         assert st["attached"] is True and st["bytes"] == 64 << 20 and st["reason"] is None
         assert p.shm_status["attached"] is False
@@ -68,7 +68,8 @@ def test_shm_results_equal_the_socket(unix_daemon):
 
 def test_call_bigger_than_the_region_goes_over_the_socket(unix_daemon):
     face, u, v, d = queries(100_000)     # 2.8 MB of queries: more than a 1 MiB region
-    with unix_daemon.client(shm=True, shm_bytes=1 << 20) as s, unix_daemon.client() as p:
+    with unix_daemon.client(shm=True, shm_bytes=1 << 20) as s, \
+            unix_daemon.client(shm=False) as p:
         assert s.shm_status["bytes"] == 1 << 20
         same(s.sample("default", face, u, v, d, 0, 0, d),
              p.sample("default", face, u, v, d, 0, 0, d))
@@ -89,7 +90,7 @@ def test_refused_raises_or_falls_back(extra, cls, words):
         with pytest.raises(cls, match=words):
             d.client(shm=True)
         face, u, v, _ = queries(5000)
-        with d.client(shm="auto") as a, d.client() as p:
+        with d.client() as a, d.client(shm=False) as p:    # auto by default
             st = a.shm_status
             assert st["attached"] is False and st["bytes"] == 0
             assert words in st["reason"]
@@ -102,10 +103,19 @@ def test_refused_raises_or_falls_back(extra, cls, words):
 def test_tcp_address(daemon):
     with pytest.raises(seamtex.InvalidArgument, match="unix:"):
         daemon.client(shm=True)
-    with daemon.client(shm="auto") as c:
-        assert c.shm_status["attached"] is False
-        assert "unix:" in c.shm_status["reason"]
-        assert c.ping() > 0
+    for kw in ({}, {"shm": "auto"}):
+        with daemon.client(**kw) as c:
+            assert c.shm_status["attached"] is False
+            assert "unix:" in c.shm_status["reason"]
+            assert c.ping() > 0
+
+
+def test_auto_is_the_default_on_unix(unix_daemon):
+    face, u, v, _ = queries(3000)
+    with unix_daemon.client() as a:
+        assert a.shm_status["attached"] is True
+        a.sample("default", face, u, v)
+        assert a.shm_status["via_shm"] == 1
 
 
 def test_bad_arguments(unix_daemon):

@@ -133,7 +133,8 @@ face = rng.integers(0, 384, n, dtype=np.uint32)
 u = rng.random(n, dtype=np.float32)
 v = rng.random(n, dtype=np.float32)
 t = {"socket": [], "shm": []}
-with seamtex.Client(addr, timeout=120) as s, seamtex.Client(addr, timeout=120, shm=True) as m:
+with seamtex.Client(addr, timeout=120, shm=False) as s, \
+        seamtex.Client(addr, timeout=120, shm=True) as m:
     cl = {"socket": s, "shm": m}
     out = {}
     for k in cl:                       # warm-up, and the results must agree
