@@ -96,6 +96,7 @@ typedef struct bench_cfg {
     uint8_t     lib;           /* --lib: the same loop on a direct stc_conn (bench_cluster.c) */
     uint8_t     blocking;      /* --blocking: --cluster one stc_cluster_sample at a time */
     uint8_t     shm;           /* --shm: SAMPLE through a shared-memory region per connection */
+    uint8_t     shm_copy;      /* --shm-copy: and copy each request's queries into it */
 } bench_cfg;
 
 /* What one thread measured; merged by bench_main.c. */
@@ -128,7 +129,9 @@ typedef struct bench_thread {
     uint64_t    t_end;         /* t_measure + duration: no request is issued from then */
     int        *fds;           /* connected sockets, conn_count of them, owned by the caller */
     uint8_t   **shm;           /* --shm: each connection's region (pipeline slots), or NULL */
-    size_t      shm_slot;      /* --shm: bytes of one slot */
+    size_t      shm_slot;      /* --shm: bytes of one reply room */
+    size_t      shm_qroom;     /* --shm: bytes of one pool frame's query room */
+    size_t      shm_qarea;     /* --shm: the query rooms' bytes (the reply rooms follow) */
     bench_wire *wire;
     bench_result *res;         /* caller-owned, zeroed, histograms reset */
     char        err[256];      /* first fatal error of the thread */
@@ -169,19 +172,32 @@ size_t bench_wire_next(bench_wire *w, const uint8_t **frame, uint32_t *nq);
  * expected answer) and *reqid, 0 when more bytes are needed, or -1 when the bytes are not a
  * valid reply. For the peers *reqid is 0: their replies come in request order. */
 long bench_wire_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok, uint32_t *reqid);
-/* --shm (PROTOCOL.md 4.12): bytes of one request's slot (its queries, then its reply in the
- * same place: the larger of the two, for 4 channels, page-rounded); the region of a connection
- * is pipeline slots. */
+/* Distinct SAMPLE frames in a thread's pool. */
+#define BENCH_POOL 16
+/* --shm (PROTOCOL.md 4.12): a connection's region is query rooms of bench_wire_shm_qroom
+ * bytes, then pipeline reply rooms (each of bench_wire_shm_slot bytes: a reply for 4
+ * channels), page-rounded. Without --shm-copy there are BENCH_POOL query rooms, each holding
+ * the queries of one pool frame, written once before the run (as a renderer building its
+ * queries in the region would): requests carry offsets only. With --shm-copy there is one
+ * query room per request in flight, and each request's queries are copied into its room (a
+ * client that builds its queries elsewhere). Either way the server samples in place. */
+size_t bench_wire_shm_qrooms(const bench_cfg *cfg);
 size_t bench_wire_shm_slot(const bench_cfg *cfg);
-/* Creates a sealed memfd of pipeline slots, attaches it to fd (SHM_ATTACH) and maps it at
- * *map (*size bytes; the caller munmaps). 0, or -1 with msg. */
+size_t bench_wire_shm_qroom(const bench_cfg *cfg);
+/* Creates a sealed memfd of that size, attaches it to fd (SHM_ATTACH) and maps it at *map
+ * (*size bytes; the caller munmaps). 0, or -1 with msg. */
 int bench_wire_shm_attach(const bench_cfg *cfg, int fd, uint8_t **map, size_t *size,
                           char *msg, size_t msglen);
-/* Turns a pool frame into its shared-memory form: copies its queries into region at slot_off
- * and writes the small frame (flag SHM, the offsets) to out (at least the frame's length up
- * to its queries + 24 bytes); returns that frame's length. */
-size_t bench_wire_shm_frame(const uint8_t *frame, size_t len, uint8_t *region,
-                            uint64_t slot_off, uint64_t slot_size, uint8_t *out);
+/* Copies the queries of a pool frame (len bytes) to room. */
+void bench_wire_shm_copy(const uint8_t *frame, size_t len, uint8_t *room);
+/* Writes the queries of every frame of w's pool into its query room of region. */
+void bench_wire_shm_place(const bench_wire *w, uint8_t *region, size_t qroom);
+/* The pool index of the frame the last bench_wire_next returned. */
+unsigned bench_wire_last(const bench_wire *w);
+/* The shared-memory form of a pool frame (flag SHM, the three offsets) written to out (at
+ * least the frame's length up to its queries + 24 bytes); returns that frame's length. */
+size_t bench_wire_shm_frame(const uint8_t *frame, uint64_t query_off, uint64_t reply_off,
+                            uint64_t reply_cap, uint8_t *out);
 /* Byte offset of the request id in a seamtex frame (the loop patches it per request; peers'
  * requests have none). */
 #define BENCH_REQID_OFFSET 8

@@ -113,9 +113,17 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
         return -1;
     uint32_t rid = c->next_rid++;
     uint32_t slot = rid % c->cap;
-    if (c->shm)   /* --shm: the queries go into the slot's room, a small frame on the socket */
-        len = bench_wire_shm_frame(frame, len, c->shm, (uint64_t)slot * th->shm_slot,
+    if (c->shm) { /* --shm: the pool frame's queries are in the region already (--shm-copy:
+                   * copied into the slot's room now); the frame carries offsets only */
+        uint64_t qoff = (uint64_t)bench_wire_last(th->wire) * th->shm_qroom;
+        if (th->cfg->shm_copy) {
+            qoff = (uint64_t)slot * th->shm_qroom;
+            bench_wire_shm_copy(frame, len, c->shm + qoff);
+        }
+        len = bench_wire_shm_frame(frame, qoff,
+                                   (uint64_t)th->shm_qarea + (uint64_t)slot * th->shm_slot,
                                    th->shm_slot, c->out + c->out_len);
+    }
     else
         memcpy(c->out + c->out_len, frame, len);
     if (th->cfg->proto == BENCH_PROTO_SEAMTEX)

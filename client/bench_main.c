@@ -79,8 +79,11 @@ static void usage(FILE *f)
 "                         derivatives as f16, faces as u16 when the set has <= 65536\n"
 "      --outfmt FMT       reply values: f32 | f16 | unorm8 | unorm16 (f32)\n"
 "      --shm              SAMPLE on a unix: address through a shared-memory region per\n"
-"                         connection (PROTOCOL.md 4.12): each request's queries are copied\n"
-"                         into its slot, the reply is written there, frames stay small"
+"                         connection (PROTOCOL.md 4.12): the pool's queries are written\n"
+"                         into it once, each request names them and a reply room of its\n"
+"                         own, the daemon samples in place, frames stay small\n"
+"      --shm-copy         --shm, and each request's queries are copied into a room of its\n"
+"                         own first (a client that builds its queries elsewhere)\n"
 "      --inproc           no server: st_sample_batch on the default set, same queries\n"
 "      --idle N           open N connections, PING each once, hold them --hold seconds\n"
 "      --hold S           (10)\n"
@@ -176,9 +179,10 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
         fprintf(f, "],\n  \"filters\": [");
         for (unsigned i = 0; i < cfg->nfilters; i++)
             fprintf(f, "%s\"%s\"", i ? ", " : "", stp_filter_name(cfg->filters[i]));
-        fprintf(f, "],\n  \"queries\": \"%s\",\n  \"outfmt\": \"%s\",\n  \"shm\": %s,\n",
-                cfg->compact ? "compact" : "f32", stp_outfmt_name(cfg->outfmt),
-                cfg->shm ? "true" : "false");
+        fprintf(f, "],\n  \"queries\": \"%s\",\n  \"outfmt\": \"%s\",\n  \"shm\": %s,\n"
+                "  \"shm_copy\": %s,\n", cfg->compact ? "compact" : "f32",
+                stp_outfmt_name(cfg->outfmt), cfg->shm ? "true" : "false",
+                cfg->shm_copy ? "true" : "false");
         fprintf(f, "  \"queries_per_s\": %.1f,\n", secs > 0 ? r->queries / secs : 0.0);
         if (inproc_qps > 0)
             fprintf(f, "  \"inproc_queries_per_s\": %.1f,\n", inproc_qps);
@@ -275,7 +279,7 @@ int main(int argc, char **argv)
     };
     int inproc = 0;
     enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
-           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB, O_SHM };
+           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB, O_SHM, O_SHM_COPY };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -298,6 +302,7 @@ int main(int argc, char **argv)
         { "cluster", required_argument, 0, O_CLUSTER },
         { "blocking", no_argument, 0, O_BLOCKING }, { "lib", no_argument, 0, O_LIB },
         { "shm", no_argument, 0, O_SHM },
+        { "shm-copy", no_argument, 0, O_SHM_COPY },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -354,6 +359,7 @@ int main(int argc, char **argv)
         case O_INPROC: inproc = 1; break;
         case O_COMPACT: cfg.compact = 1; break;
         case O_SHM: cfg.shm = 1; break;
+        case O_SHM_COPY: cfg.shm = cfg.shm_copy = 1; break;
         case O_OUTFMT: {
             int f = stp_outfmt_parse(optarg);
             bad = f < 0;
@@ -524,6 +530,10 @@ int main(int argc, char **argv)
             rc = 1;
             goto done;
         }
+        th->shm_qroom = cfg.shm ? bench_wire_shm_qroom(&cfg) : 0;
+        th->shm_qarea = th->shm_qroom * (cfg.shm ? bench_wire_shm_qrooms(&cfg) : 0);
+        for (unsigned i = 0; th->shm && !cfg.shm_copy && i < th->conn_count; i++)  /* once */
+            bench_wire_shm_place(th->wire, th->shm[i], th->shm_qroom);
     }
     if (!cfg.quiet)
         printf("seamtex-bench: %s%s%s, %s loop, %u conns, %u threads, pipeline %u%s, %.1f s "

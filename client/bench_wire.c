@@ -39,12 +39,10 @@
 #include "shmfd.h"
 #include "unixaddr.h"
 
-#define POOL_SAMPLE 16          /* distinct SAMPLE frames per thread */
-
 struct bench_wire {
     stp_buf  buf;               /* every frame of the pool, back to back */
-    size_t   off[POOL_SAMPLE + 1];
-    uint32_t nq[POOL_SAMPLE];
+    size_t   off[BENCH_POOL + 1];
+    uint32_t nq[BENCH_POOL];
     unsigned n, next;
 };
 
@@ -342,8 +340,8 @@ static bench_wire *dir_pool(bench_wire *w, const bench_cfg *cfg, uint64_t *rng, 
     stp_dir_query *q = malloc(cfg->batch * sizeof *q);
     if (!q)
         goto fail;
-    w->n = POOL_SAMPLE;
-    for (unsigned i = 0; i < POOL_SAMPLE; i++) {
+    w->n = BENCH_POOL;
+    for (unsigned i = 0; i < BENCH_POOL; i++) {
         for (unsigned k = 0; k < cfg->batch; k++) {
             /* uniform on the sphere: z uniform in [-1,1], the angle around z uniform */
             double z = 2.0 * stc_rng_unit(rng) - 1.0, a = 6.283185307179586 * stc_rng_unit(rng);
@@ -370,7 +368,7 @@ static bench_wire *dir_pool(bench_wire *w, const bench_cfg *cfg, uint64_t *rng, 
         }
         w->nq[i] = cfg->batch;
     }
-    w->off[POOL_SAMPLE] = w->buf.len;
+    w->off[BENCH_POOL] = w->buf.len;
     free(q);
     return w;
 fail:
@@ -410,8 +408,8 @@ bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_
     st_query *q = malloc(cfg->batch * sizeof *q);
     if (!q)
         goto fail;
-    w->n = POOL_SAMPLE;
-    for (unsigned i = 0; i < POOL_SAMPLE; i++) {
+    w->n = BENCH_POOL;
+    for (unsigned i = 0; i < BENCH_POOL; i++) {
         bench_make_queries(q, cfg->batch, cfg->nfaces, cfg->footprint, &rng);
         stp_sample_req r;
         memset(&r, 0, sizeof r);
@@ -432,7 +430,7 @@ bench_wire *bench_wire_new(const bench_cfg *cfg, uint64_t seed, char *msg, size_
         }
         w->nq[i] = cfg->batch;
     }
-    w->off[POOL_SAMPLE] = w->buf.len;
+    w->off[BENCH_POOL] = w->buf.len;
     free(q);
     return w;
 fail:
@@ -505,21 +503,35 @@ long bench_wire_reply(unsigned proto, const uint8_t *buf, size_t len, int *ok, u
 
 /* ---- --shm: a shared-memory region per connection (PROTOCOL.md 4.12) ----------------------- */
 
+/* page-rounded */
+static size_t page_up(uint64_t v)
+{
+    return (size_t)((v + 4095) & ~(uint64_t)4095);
+}
+
 size_t bench_wire_shm_slot(const bench_cfg *cfg)
+{
+    return page_up(stp_sample_reply_bytes(cfg->batch, 4, cfg->outfmt, 0));
+}
+
+size_t bench_wire_shm_qrooms(const bench_cfg *cfg)
+{
+    return cfg->shm_copy ? (cfg->pipeline ? cfg->pipeline : 1) : BENCH_POOL;
+}
+
+size_t bench_wire_shm_qroom(const bench_cfg *cfg)
 {
     uint8_t op = cfg->op == BENCH_OP_SAMPLE_DIR ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE;
     uint8_t flags = cfg->compact ? STP_SF_UV16 | STP_SF_FACE16 : 0;
-    uint64_t q = stp_sample_query_bytes(op, flags, cfg->batch);
-    uint64_t r = stp_sample_reply_bytes(cfg->batch, 4, cfg->outfmt, 0);
-    uint64_t s = q > r ? q : r;
-    return (size_t)((s + 4095) & ~(uint64_t)4095);   /* slots on page boundaries */
+    return page_up(stp_sample_query_bytes(op, flags, cfg->batch));
 }
 
 int bench_wire_shm_attach(const bench_cfg *cfg, int fd, uint8_t **map, size_t *size,
                           char *msg, size_t ml)
 {
     *map = NULL;
-    *size = bench_wire_shm_slot(cfg) * (cfg->pipeline ? cfg->pipeline : 1);
+    *size = bench_wire_shm_qroom(cfg) * bench_wire_shm_qrooms(cfg) +
+            bench_wire_shm_slot(cfg) * (cfg->pipeline ? cfg->pipeline : 1);
     int mfd = -1;
     void *p = NULL;
     if (stu_memfd_sealed("seamtex-bench", *size, &mfd, &p) != 0) {
@@ -560,17 +572,39 @@ int bench_wire_shm_attach(const bench_cfg *cfg, int fd, uint8_t **map, size_t *s
     return rc;
 }
 
-size_t bench_wire_shm_frame(const uint8_t *frame, size_t len, uint8_t *region,
-                            uint64_t slot_off, uint64_t slot_size, uint8_t *out)
+/* Bytes of a pool frame before its queries: header, name, 24 bytes of parameters and count. */
+static size_t frame_fixed(const uint8_t *frame)
 {
-    /* the pool's frame: header, name, 24 bytes of parameters and count, then the queries */
-    size_t fixed = STP_HEADER_SIZE + 2 + (size_t)stp_rd16(frame + STP_HEADER_SIZE) + 24;
-    memcpy(region + slot_off, frame + fixed, len - fixed);
+    return STP_HEADER_SIZE + 2 + (size_t)stp_rd16(frame + STP_HEADER_SIZE) + 24;
+}
+
+void bench_wire_shm_copy(const uint8_t *frame, size_t len, uint8_t *room)
+{
+    size_t fixed = frame_fixed(frame);
+    memcpy(room, frame + fixed, len - fixed);
+}
+
+void bench_wire_shm_place(const bench_wire *w, uint8_t *region, size_t qroom)
+{
+    for (unsigned i = 0; i < w->n; i++)
+        bench_wire_shm_copy(w->buf.data + w->off[i], w->off[i + 1] - w->off[i],
+                            region + (size_t)i * qroom);
+}
+
+unsigned bench_wire_last(const bench_wire *w)
+{
+    return (w->next + w->n - 1) % w->n;
+}
+
+size_t bench_wire_shm_frame(const uint8_t *frame, uint64_t query_off, uint64_t reply_off,
+                            uint64_t reply_cap, uint8_t *out)
+{
+    size_t fixed = frame_fixed(frame);
     memcpy(out, frame, fixed);
     out[fixed - 24 + 5] |= STP_SF_SHM;          /* the flags byte of the parameters */
-    stp_wr64(out + fixed, slot_off);            /* query_off */
-    stp_wr64(out + fixed + 8, slot_off);        /* reply_off: the reply overwrites the queries */
-    stp_wr64(out + fixed + 16, slot_size);      /* reply_cap */
+    stp_wr64(out + fixed, query_off);
+    stp_wr64(out + fixed + 8, reply_off);       /* a room of its own: sampled in place */
+    stp_wr64(out + fixed + 16, reply_cap);
     stp_wr32(out + 16, (uint32_t)(fixed + STP_SHM_REF_SIZE - STP_HEADER_SIZE));
     return fixed + STP_SHM_REF_SIZE;
 }

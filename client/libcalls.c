@@ -327,8 +327,8 @@ int stc_reply_info(stc_conn *c, const stc_reply *r, stc_info *out)
 
 /* ---- sampling ----------------------------------------------------------------------------- */
 
-static int fill_params(stc_conn *c, const char *set, const stc_sample_opts *o, size_t n,
-                       stp_sample_params *p)
+int stc__fill_params(stc_conn *c, const char *set, const stc_sample_opts *o, size_t n,
+                     stp_sample_params *p)
 {
     int rc = check_name(c, set);
     if (rc)
@@ -361,7 +361,7 @@ static int enc_sample(stc_conn *c, uint32_t id, int dir, const char *set,
     stp_sample_req rq;
     int rc;
     memset(&rq, 0, sizeof rq);
-    if ((rc = fill_params(c, set, o, n, &rq.p)) != 0) {
+    if ((rc = stc__fill_params(c, set, o, n, &rq.p)) != 0) {
         stc__pend_drop_last(c);
         return rc;
     }
@@ -444,6 +444,26 @@ static int sample_decode_at(stc_conn *c, const uint8_t *body, size_t len, size_t
     return 0;
 }
 
+/* A reply in the shared region whose arrays are already what the caller gets (little-endian
+ * host, not f16, aligned): the result points at them where they lie. 1 when done. */
+static int sample_in_place(const stp_sample_reply *rp, stc_sample_result *res)
+{
+    size_t esz = stp_outfmt_size(rp->outfmt);
+    if (__BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__ || rp->outfmt == STP_OUT_F16 ||
+        ((uintptr_t)rp->raw_values % esz) != 0 ||
+        (rp->raw_coverage && ((uintptr_t)rp->raw_coverage % _Alignof(float)) != 0))
+        return 0;
+    memset(res, 0, sizeof *res);
+    res->count = rp->count;
+    res->nchan = rp->nchan;
+    res->outfmt = rp->outfmt;
+    res->nbad = rp->nbad;
+    res->values = rp->raw_values;
+    res->coverage = (const float *)(const void *)rp->raw_coverage;
+    res->status = rp->raw_status;
+    return 1;
+}
+
 static int sample_from_body(stc_conn *c, const uint8_t *body, size_t len, stc_sample_result *res)
 {
     stp_sample_reply rp;
@@ -451,6 +471,9 @@ static int sample_from_body(stc_conn *c, const uint8_t *body, size_t len, stc_sa
     /* peek at the count to size the arrays */
     if (stp_dec_sample_reply(body, len, &rp, &why) != 0)
         return bad_reply(c, why);
+    /* a reply in the region is read where it lies (held until the next call, libshm.c) */
+    if (stc__shm_holds(c, body, len) && sample_in_place(&rp, res))
+        return 0;
     return sample_decode_at(c, body, len, 0, rp.count, res);
 }
 
@@ -702,6 +725,58 @@ int stc_append_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o
                           const stc_dir_query *q, size_t n, uint32_t *reqid)
 {
     return append_sample(c, 1, set, o, q, n, reqid);
+}
+
+/* Encodes the open reservation (stc_shm_reserve) as the request `id`. */
+static int enc_reserved(stc_conn *c, uint32_t id)
+{
+    stp_sample_req rq;
+    int dir = c->shm_resv.dir;
+    stc__shm_take_reserved(c, &rq);
+    if (!dir)
+        return encoded(c, stp_enc_sample_req(&c->out, id, tmo(c), &rq));
+    return encoded(c, stp_enc_sample_dir_req(&c->out, id, tmo(c), &rq));
+}
+
+int stc_shm_append(stc_conn *c, uint32_t *reqid)
+{
+    uint32_t id;
+    if (!c)
+        return STC_EINVAL;
+    if (!c->shm_resv.open)
+        return stc__fail(c, STC_ESTATE, "no open reservation (stc_shm_reserve)");
+    int rc = stc__begin(c);
+    if (!rc && !reqid)
+        rc = stc__fail(c, STC_EINVAL, "reqid is NULL");
+    if (rc || (rc = make_room(c)) != 0 ||
+        (rc = start(c, c->shm_resv.dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, 1, &id)) != 0) {
+        stc_shm_cancel(c);           /* used up, as the header promises */
+        return rc;
+    }
+    if ((rc = enc_reserved(c, id)) != 0)
+        return rc;
+    *reqid = id;
+    return appended(c);
+}
+
+int stc_shm_sample(stc_conn *c, stc_sample_result *res)
+{
+    stc_frame f;
+    uint32_t id;
+    if (!c)
+        return STC_EINVAL;
+    if (!c->shm_resv.open)
+        return stc__fail(c, STC_ESTATE, "no open reservation (stc_shm_reserve)");
+    int rc = stc__begin_blocking(c);
+    if (!rc && !res)
+        rc = stc__fail(c, STC_EINVAL, "result is NULL");
+    if (rc || (rc = start(c, c->shm_resv.dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, 0, &id)) != 0) {
+        stc_shm_cancel(c);
+        return rc;
+    }
+    if ((rc = enc_reserved(c, id)) != 0 || (rc = finish(c, id, &f)) != 0)
+        return rc;
+    return sample_from_body(c, f.body, f.h.body_len, res);
 }
 
 int stc_append_info(stc_conn *c, const char *set, uint32_t *reqid)

@@ -18,7 +18,7 @@ typedef struct stc_pend {
     uint8_t  shm;         /* a shared-memory SAMPLE: holds [shm_off, +shm_len) of the region */
     uint64_t shm_at;      /* where its span starts in the ring (released in reply order) */
     uint64_t shm_span;    /* bytes the span takes from the ring (a wrap's waste included) */
-    uint64_t shm_off, shm_len;   /* its queries, then its reply room */
+    uint64_t shm_off, shm_len;   /* its reply room (its queries lie before it in the span) */
 } stc_pend;
 
 struct stc_conn {
@@ -59,6 +59,14 @@ struct stc_conn {
     size_t   shm_size;
     uint64_t shm_head, shm_tail, shm_used;
     uint64_t shm_n, sock_n;       /* SAMPLE requests sent each way (stc_shm_counts) */
+    uint64_t shm_kept_at, shm_kept_span;  /* the span of the last reply read, held while the
+                                     caller reads it in place (until the next call); 0 none */
+    struct {                      /* an open stc_shm_reserve, not yet sent */
+        int      open, dir;
+        uint32_t n;
+        stp_sample_params p;
+        uint64_t at, span, qoff, roff, rcap;
+    } shm_resv;
 };
 
 /* A frame as received: header plus a body that lives in c->in until the next call. */
@@ -102,6 +110,14 @@ int stc__enc_error(stc_conn *c, int st);
  * (r->p.flags gets STP_SF_SHM, r->shm the offsets, the last pending request the span); 1 when
  * done, 0 when it goes over the socket (no region, no room), or an error code. */
 int stc__shm_place(stc_conn *c, uint8_t opcode, stp_sample_req *r);
+/* libshm.c: the open reservation (stc_shm_reserve) becomes the last pending request's: r
+ * gets its parameters, count and offsets (flag SHM). */
+void stc__shm_take_reserved(stc_conn *c, stp_sample_req *r);
+/* libshm.c: body lies inside c's region (a shared-memory reply, read in place). */
+int stc__shm_holds(const stc_conn *c, const uint8_t *body, size_t len);
+/* libcalls.c: sample options -> request parameters (checks the name and ranges). */
+int stc__fill_params(stc_conn *c, const char *set, const stc_sample_opts *o, size_t n,
+                     stp_sample_params *p);
 /* libshm.c: gives the span of the most recent pending request back (its frame failed). */
 void stc__shm_unplace(stc_conn *c, stc_pend *p);
 /* libshm.c: a reply to pending request p arrived (dropped when `drop`): releases its span

@@ -2,9 +2,11 @@
  * seamtex.h).
  *
  * Owns: the connection's region (a sealed memfd, mapped; util/shmfd.c makes it), SHM_ATTACH,
- * and a ring of spans in it: each shared-memory SAMPLE takes one span for its queries, which
- * its reply then overwrites (the server reads the queries whole before it writes), and gives
- * it back when its reply is read or dropped. Replies come in request order (the library uses
+ * and a ring of spans in it: each shared-memory SAMPLE takes one span, its queries followed
+ * by a disjoint reply room (so the server samples in place, PROTOCOL.md 4.12), and gives it
+ * back after its reply was read (held until the next call, so the caller may read the reply
+ * where it lies) or dropped; stc_shm_reserve hands a span out for the caller to write its
+ * queries into, stc_shm_append (libcalls.c) sends it. Replies come in request order (the library uses
  * the region only with a server that does not offer OUT_OF_ORDER), so spans are given back in
  * the order they were taken and the ring needs no more than a head, a tail and a count.
  * Does not own: the frames (protocol/), pending-request bookkeeping (libconn.c), decoding the
@@ -127,10 +129,25 @@ out:
 
 /* ---- the ring ------------------------------------------------------------------------------ */
 
-/* Takes need bytes: *off where they start, *span what the ring gives (need, plus the end of
- * the ring skipped when it wraps). 0 when there is no room. */
-static int ring_take(stc_conn *c, uint64_t need, uint64_t *off, uint64_t *span)
+/* Gives back the span of the last reply read (held while the caller read it in place). */
+static void release_kept(stc_conn *c)
 {
+    if (!c->shm_kept_span)
+        return;
+    c->shm_tail = c->shm_kept_at + c->shm_kept_span;
+    if (c->shm_tail > c->shm_size)
+        c->shm_tail -= c->shm_size;
+    c->shm_used -= c->shm_kept_span;
+    c->shm_kept_span = 0;
+    if (c->shm_used == 0)
+        c->shm_head = c->shm_tail = 0;
+}
+
+/* Takes need bytes: *off where they start, *span what the ring gives (need, plus the end of
+ * the ring skipped when it wraps), *at where the span starts. 0 when there is no room. */
+static int ring_take(stc_conn *c, uint64_t need, uint64_t *at, uint64_t *off, uint64_t *span)
+{
+    release_kept(c);             /* a new request: the last reply's results are let go */
     uint64_t size = c->shm_size;
     if (c->shm_used == 0)
         c->shm_head = c->shm_tail = 0;
@@ -153,34 +170,60 @@ static int ring_take(stc_conn *c, uint64_t need, uint64_t *off, uint64_t *span)
     } else {
         return 0;
     }
+    *at = head;
     c->shm_head = *off + need;
     c->shm_used += *span;
     return 1;
 }
 
-int stc__shm_place(stc_conn *c, uint8_t opcode, stp_sample_req *r)
+static uint64_t align_up(uint64_t v)
 {
-    uint64_t q = stp_sample_query_bytes(opcode, r->p.flags, r->count);
-    uint64_t rep = stp_sample_reply_bytes(r->count, 4, r->p.outfmt, r->p.flags);
-    uint64_t need = (q > rep ? q : rep) + (SHM_ALIGN - 1);
-    need -= need % SHM_ALIGN;
-    uint64_t at = c->shm_used ? c->shm_head : 0, off = 0, span = 0;
-    if (!c->shm || !rep || c->pn == c->phead || !ring_take(c, need, &off, &span)) {
-        c->sock_n++;
+    return (v + SHM_ALIGN - 1) / SHM_ALIGN * SHM_ALIGN;
+}
+
+/* Room for a request: its queries, then (disjoint, so the server samples in place) its reply
+ * room sized for 4 channels. 0 when it does not fit. */
+static int take_room(stc_conn *c, uint8_t opcode, uint8_t flags, uint8_t outfmt, uint32_t n,
+                     uint64_t *at, uint64_t *span, uint64_t *qoff, uint64_t *roff,
+                     uint64_t *rcap)
+{
+    uint64_t q = align_up(stp_sample_query_bytes(opcode, flags, n));
+    uint64_t rep = stp_sample_reply_bytes(n, 4, outfmt, flags);
+    if (!c->shm || !rep || !ring_take(c, q + align_up(rep), at, qoff, span))
         return 0;
-    }
-    stp_put_queries(opcode, r, c->shm + off);
-    r->p.flags |= STP_SF_SHM;
-    r->shm.query_off = off;
-    r->shm.reply_off = off;
-    r->shm.reply_cap = need;
+    *roff = *qoff + q;
+    *rcap = align_up(rep);
+    return 1;
+}
+
+/* The last pending request holds the span. */
+static void hold_span(stc_conn *c, uint64_t at, uint64_t span, uint64_t roff, uint64_t rcap)
+{
     stc_pend *p = &c->pend[c->pn - 1];
     p->shm = 1;
     p->shm_at = at;
     p->shm_span = span;
-    p->shm_off = off;
-    p->shm_len = need;
+    p->shm_off = roff;
+    p->shm_len = rcap;
     c->shm_n++;
+}
+
+int stc__shm_place(stc_conn *c, uint8_t opcode, stp_sample_req *r)
+{
+    uint64_t at = 0, span = 0, qoff = 0, roff = 0, rcap = 0;
+    /* an open reservation is the next span in the ring: other requests go over the socket */
+    if (c->shm_resv.open || c->pn == c->phead ||
+        !take_room(c, opcode, r->p.flags, r->p.outfmt, r->count, &at, &span, &qoff, &roff,
+                   &rcap)) {
+        c->sock_n++;
+        return 0;
+    }
+    stp_put_queries(opcode, r, c->shm + qoff);
+    r->p.flags |= STP_SF_SHM;
+    r->shm.query_off = qoff;
+    r->shm.reply_off = roff;
+    r->shm.reply_cap = rcap;
+    hold_span(c, at, span, roff, rcap);
     return 1;
 }
 
@@ -196,18 +239,18 @@ void stc__shm_unplace(stc_conn *c, stc_pend *p)
 
 int stc__shm_reply(stc_conn *c, const stc_pend *p, stc_frame *f, int drop)
 {
+    release_kept(c);
     if (!p->shm)
         return 0;
     if (p->shm_at != c->shm_tail)
         return stc__break(c, STC_EPROTO, "shared-memory reply out of request order");
-    c->shm_tail = p->shm_at + p->shm_span;
-    if (c->shm_tail > c->shm_size)
-        c->shm_tail -= c->shm_size;
-    c->shm_used -= p->shm_span;
-    if (c->shm_used == 0)
-        c->shm_head = c->shm_tail = 0;
-    if (drop || f->h.status != 0)
+    /* held until the next call: the caller may read the reply where it lies */
+    c->shm_kept_at = p->shm_at;
+    c->shm_kept_span = p->shm_span;
+    if (drop || f->h.status != 0) {
+        release_kept(c);
         return 0;
+    }
     stp_shm_reply r;
     const char *why = NULL;
     if (stp_dec_shm_reply(f->body, f->h.body_len, &r, &why) != 0)
@@ -220,4 +263,76 @@ int stc__shm_reply(stc_conn *c, const stc_pend *p, stc_frame *f, int drop)
     f->body = c->shm + r.offset;
     f->h.body_len = (uint32_t)r.length;
     return 0;
+}
+
+int stc__shm_holds(const stc_conn *c, const uint8_t *body, size_t len)
+{
+    return c->shm && body >= c->shm && (size_t)(body - c->shm) <= c->shm_size &&
+           len <= c->shm_size - (size_t)(body - c->shm);
+}
+
+/* ---- zero-copy requests ------------------------------------------------------------------- */
+
+int stc_shm_reserve(stc_conn *c, const char *set, const stc_sample_opts *o, int dir, size_t n,
+                    void **queries)
+{
+    int rc = stc__begin(c);
+    if (rc)
+        return rc;
+    if (!queries)
+        return stc__fail(c, STC_EINVAL, "queries is NULL");
+    *queries = NULL;
+    if (!c->shm)
+        return stc__fail(c, STC_ESTATE, "no shared-memory region (stc_shm_attach first)");
+    if (c->shm_resv.open)
+        return stc__fail(c, STC_ESTATE, "a reservation is open: send it (stc_shm_append, "
+                         "stc_shm_sample) or cancel it");
+    stp_sample_params p;
+    if ((rc = stc__fill_params(c, set, o, n, &p)) != 0)
+        return rc;
+    if (dir && (p.flags & (STP_SF_UV16 | STP_SF_FACE16)))
+        return stc__fail(c, STC_EINVAL, "compact queries (UV16, FACE16) are for SAMPLE only");
+    if (n > c->server.max_batch)
+        return stc__fail(c, STC_EINVAL, "%zu queries: over the server's max_batch (%u)", n,
+                         (unsigned)c->server.max_batch);
+    uint8_t op = dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE;
+    uint64_t at, span, qoff, roff, rcap;
+    if (!take_room(c, op, p.flags, p.outfmt, (uint32_t)n, &at, &span, &qoff, &roff, &rcap))
+        return stc__fail(c, STC_ESTATE, "no room for %zu queries and their reply in the region "
+                         "(%zu bytes; read replies to free room)", n, c->shm_size);
+    c->shm_resv.open = 1;
+    c->shm_resv.dir = dir;
+    c->shm_resv.n = (uint32_t)n;
+    c->shm_resv.p = p;
+    c->shm_resv.at = at;
+    c->shm_resv.span = span;
+    c->shm_resv.qoff = qoff;
+    c->shm_resv.roff = roff;
+    c->shm_resv.rcap = rcap;
+    *queries = c->shm + qoff;
+    return 0;
+}
+
+void stc_shm_cancel(stc_conn *c)
+{
+    if (!c || !c->shm_resv.open)
+        return;
+    c->shm_head = c->shm_resv.at;    /* nothing was taken after it */
+    c->shm_used -= c->shm_resv.span;
+    if (c->shm_used == 0)
+        c->shm_head = c->shm_tail = 0;
+    c->shm_resv.open = 0;
+}
+
+void stc__shm_take_reserved(stc_conn *c, stp_sample_req *r)
+{
+    memset(r, 0, sizeof *r);
+    r->p = c->shm_resv.p;
+    r->p.flags |= STP_SF_SHM;
+    r->count = c->shm_resv.n;
+    r->shm.query_off = c->shm_resv.qoff;
+    r->shm.reply_off = c->shm_resv.roff;
+    r->shm.reply_cap = c->shm_resv.rcap;
+    hold_span(c, c->shm_resv.at, c->shm_resv.span, c->shm_resv.roff, c->shm_resv.rcap);
+    c->shm_resv.open = 0;
 }

@@ -154,16 +154,19 @@ const stc_server *stc_server_info(const stc_conn *c);
  * offers STC_CAP_SHM: creates a memfd of `bytes` (0 = 64 MiB) sealed against shrinking and
  * growing, maps it and attaches it to c (SHM_ATTACH, the descriptor passed over the socket).
  * From then on stc_sample, stc_sample_dir, stc_append_sample and stc_append_sample_dir write
- * each request's queries into the region and the server writes the reply there; only small
- * frames cross the socket. Results are bit for bit those of the socket path. A request whose
- * queries or reply (counted with 4 channels) do not fit in the free part of the region goes
- * over the socket as before. Returns 0; STC_EINVAL on a TCP connection; STC_EUNSUPPORTED when
+ * each request's queries into the region, the server samples them in place and writes the
+ * reply into a room of its own beside them, and results are read where they lie (values and
+ * coverage point into the region, except f16 and unaligned ones, which are copied; valid
+ * until the next call on c, as every result); only small frames cross the socket. Results
+ * are bit for bit those of the socket path. A request whose queries plus reply (counted with
+ * 4 channels) do not fit in the free part of the region goes over the socket as before. Returns 0; STC_EINVAL on a TCP connection; STC_EUNSUPPORTED when
  * the server does not offer it; STC_ESTATE when a region is attached already or pipelined
  * replies are unread; a server error (TOO_LARGE: over its shm-max) or STC_ENOMEM otherwise.
  * The region belongs to c and is unmapped by stc_close. */
 int stc_shm_attach(stc_conn *c, size_t bytes);
 /* Requests sent through the region and over the socket since the connection opened. */
 void stc_shm_counts(const stc_conn *c, uint64_t *via_shm, uint64_t *via_socket);
+
 
 /* ---- blocking calls -------------------------------------------------------------------------
  * Each sends one request and waits for its reply (per-request timeout). They return
@@ -363,6 +366,30 @@ size_t stc_discard_pending(stc_conn *c);
 /* Decoders for replies from stc_get_reply (results owned by c). */
 int stc_reply_sample(stc_conn *c, const stc_reply *r, stc_sample_result *res);
 int stc_reply_info(stc_conn *c, const stc_reply *r, stc_info *out);
+
+/* ---- zero-copy shared-memory sampling (PROTOCOL.md 4.12; after stc_shm_attach) ----
+ * The caller writes its queries straight into the region.
+ * stc_shm_reserve takes room in the region for a SAMPLE (dir 0) or SAMPLE_DIR (dir 1) of n
+ * queries of set `set` with options o (n at most the server's max_batch) and sets *queries to
+ * where the n queries go: packed, little-endian, in the wire layout of PROTOCOL.md 4.4 /
+ * 4.4.1 / 4.5 that o->want selects (28 bytes: u32 face, then u, v, dudx, dvdx, dudy, dvdy as
+ * f32; with UV16 / FACE16 the compact forms; 36 bytes per direction query). On a
+ * little-endian host the f32 layouts are exactly stc_query[n] and stc_dir_query[n], and
+ * *queries is aligned for them (64 bytes). Returns 0; STC_ESTATE with no region, while a
+ * reservation is open, or when the free part of the region cannot hold the queries and the
+ * reply (read the replies of pipelined requests to free it); STC_EINVAL for bad options.
+ * One reservation at a time: until it is sent or cancelled, other SAMPLE calls on c go over
+ * the socket. stc_shm_append sends it pipelined (the reply through stc_get_reply and
+ * stc_reply_sample); stc_shm_sample sends it and waits (the blocking rules apply). The
+ * queries must be complete before that call and left alone until the reply is read; the
+ * reservation is used up by the call whether it succeeds or fails. The result is read in
+ * place in the region (f16 values are widened into c's memory) and stays valid until the
+ * next call on c. stc_shm_cancel gives an unsent reservation back (none open: no-op). */
+int stc_shm_reserve(stc_conn *c, const char *set, const stc_sample_opts *o, int dir, size_t n,
+                    void **queries);
+int stc_shm_append(stc_conn *c, uint32_t *reqid);
+int stc_shm_sample(stc_conn *c, stc_sample_result *res);
+void stc_shm_cancel(stc_conn *c);
 
 #ifdef __cplusplus
 }

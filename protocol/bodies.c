@@ -558,6 +558,27 @@ static inline uint32_t to_unorm(float v, double max)
     return (uint32_t)x;
 }
 
+void stp_enc_sample_values(uint8_t *dst, const float *v, size_t n, uint8_t outfmt)
+{
+    switch (outfmt) {
+    case STP_OUT_F32:
+        for (size_t i = 0; i < n; i++)
+            stp_wr32(dst + 4 * i, stp_f2u(v[i]));
+        break;
+    case STP_OUT_UNORM8:
+        for (size_t i = 0; i < n; i++)
+            dst[i] = (uint8_t)to_unorm(v[i], 255.0);
+        break;
+    case STP_OUT_F16:
+        stp_f16_encode(v, n, dst);
+        break;
+    default:
+        for (size_t i = 0; i < n; i++)
+            stp_wr16(dst + 2 * i, (uint16_t)to_unorm(v[i], 65535.0));
+        break;
+    }
+}
+
 int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_sample_reply *r)
 {
     size_t at, nval, bytes, esz = stp_outfmt_size(r->outfmt);
@@ -574,30 +595,11 @@ int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_s
     if (__builtin_mul_overflow(nval, esz, &bytes))
         b->err = STP_S_TOO_LARGE;
     else if (stp_buf_reserve(b, bytes) == 0) {
-        uint8_t *p = b->data + b->len;
-        switch (r->outfmt) {
-        case STP_OUT_F32:
-            for (size_t i = 0; i < nval; i++)
-                stp_wr32(p + 4 * i, stp_f2u(r->values[i]));
-            break;
-        case STP_OUT_UNORM8:
-            for (size_t i = 0; i < nval; i++)
-                p[i] = (uint8_t)to_unorm(r->values[i], 255.0);
-            break;
-        case STP_OUT_F16:
-            stp_f16_encode(r->values, nval, p);
-            break;
-        default:
-            for (size_t i = 0; i < nval; i++)
-                stp_wr16(p + 2 * i, (uint16_t)to_unorm(r->values[i], 65535.0));
-            break;
-        }
+        stp_enc_sample_values(b->data + b->len, r->values, nval, r->outfmt);
         b->len += bytes;
     }
     if ((r->flags & STP_SF_COVERAGE) && stp_buf_reserve(b, (size_t)r->count * 4) == 0) {
-        uint8_t *p = b->data + b->len;
-        for (uint32_t i = 0; i < r->count; i++)
-            stp_wr32(p + 4 * (size_t)i, stp_f2u(r->coverage[i]));
+        stp_enc_sample_values(b->data + b->len, r->coverage, r->count, STP_OUT_F32);
         b->len += (size_t)r->count * 4;
     }
     if (r->flags & STP_SF_STATUS)

@@ -525,6 +525,10 @@ void stp_query_round(const stp_query *q, unsigned flags, stp_query *out);
 void stp_sample_dir_query(const stp_sample_req *r, uint32_t i, stp_dir_query *q);
 /* The same reply layout serves SAMPLE and SAMPLE_DIR (pass the opcode). */
 int stp_enc_sample_reply(stp_buf *b, uint8_t opcode, uint32_t reqid, const stp_sample_reply *r);
+/* n values in outfmt's wire form (4.6: f32, unorm8, unorm16, f16; little-endian) at dst, which
+ * holds n x stp_outfmt_size(outfmt) bytes; outfmt must be one of the four. The encoder of the
+ * reply's values and coverage (coverage: STP_OUT_F32), for a reply built in place. */
+void stp_enc_sample_values(uint8_t *dst, const float *v, size_t n, uint8_t outfmt);
 int stp_dec_sample_reply(const uint8_t *body, size_t len, stp_sample_reply *r, const char **why);
 /* Converts the values of a decoded reply: to floats (unorm / max, f16 widened exactly) or
  * to the raw unsigned integers (for unorm formats; f32 and f16 replies refuse with -1). out

@@ -302,22 +302,9 @@ static int part_sample(void *arg, size_t first, size_t count)
 static int part_sample_compact(void *arg, size_t first, size_t count)
 {
     const part_arg *a = arg;
-    stp_query tmp[64];
-    for (size_t i = 0; i < count;) {
-        uint32_t k = count - i < 64 ? (uint32_t)(count - i) : 64;
-        stp_sample_queries(a->rq, (uint32_t)(first + i), k, tmp);
-        for (uint32_t j = 0; j < k; j++) {
-            st_query *d = &a->wq[first + i + j];
-            d->face = tmp[j].face;
-            d->u = tmp[j].u;
-            d->v = tmp[j].v;
-            d->dudx = tmp[j].dudx;
-            d->dvdx = tmp[j].dvdx;
-            d->dudy = tmp[j].dudy;
-            d->dvdy = tmp[j].dvdy;
-        }
-        i += k;
-    }
+    size_t qs = stp_query_size(a->rq->p.flags);
+    sts_sample_decode(STP_OP_SAMPLE, a->rq, a->rq->raw + first * qs, (uint32_t)count,
+                      a->wq + first, NULL);
     return st_sample_batch(a->s, a->o, a->wq + first, count, a->out + first * a->nchan,
                            a->cov ? a->cov + first : NULL, a->status + first);
 }
@@ -332,7 +319,7 @@ static int part_sample_dir(void *arg, size_t first, size_t count)
 
 /* Samples the batch on this thread, split with idle workers when it has split-batch queries
  * or more (0 = never split). */
-static int run_batch(sts_ctx *c, size_t n, sts_part_fn fn, part_arg *a)
+int sts_sample_parts(sts_ctx *c, size_t n, sts_part_fn fn, void *arg)
 {
     uint32_t split = STS_LIVE(c->srv, split_batch);
     if (n == 0)
@@ -341,9 +328,9 @@ static int run_batch(sts_ctx *c, size_t n, sts_part_fn fn, part_arg *a)
         /* on an I/O thread (its own scratch) the pool tracks it as that thread's batches */
         const sts_io *io = c->conn ? c->conn->io : NULL;
         int slot = io && c->scratch == &io->scratch ? io->index : -1;
-        return sts_pool_parallel(&c->srv->pool, slot, n, PART_GRAIN, fn, a);
+        return sts_pool_parallel(&c->srv->pool, slot, n, PART_GRAIN, fn, arg);
     }
-    return fn(a, 0, n);
+    return fn(arg, 0, n);
 }
 
 /* f32 replies on a little-endian host: the reply's values (and coverage, status) are laid
@@ -375,7 +362,7 @@ static int sample_into_reply(sts_ctx *c, const stp_header *h, const stp_sample_r
         a->cov = want_cov ? (float *)(void *)(dst + vbytes) : NULL;
         if (want_st)
             a->status = dst + vbytes + cbytes;
-        *rc = run_batch(c, n, fn, a);
+        *rc = sts_sample_parts(c, n, fn, a);
         if (*rc >= 0) {
             out->len += bytes;
             stp_wr32(out->data + out->start + nbad_at, (uint32_t)*rc);
@@ -403,97 +390,86 @@ static void count_queries(sts_server *srv, const stp_sample_params *p, uint32_t 
         STS_STAT_ADD(srv, queries_by[p->mode][p->filter], n);
 }
 
-/* Samples and replies; shared by SAMPLE and SAMPLE_DIR (h->opcode tells which), and by their
- * shared-memory form (shm.c, with the queries already copied into private memory). */
-int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out)
+void sts_sample_decode(uint8_t opcode, const stp_sample_req *rq, const uint8_t *raw, uint32_t k,
+                       st_query *q, st_cube_query *cq)
 {
-    st_sample_opts o;
-    if (fill_opts(&rq->p, &o) != 0)
-        return sts_reply_bad(out, h, STP_S_INVALID,
-                             "unknown mode, filter, zero_rule or outfmt, max_aniso over 16, or "
-                             "sharpness (0..1), width or blur (0..1e4) out of range");
-    st_setref *ref = get_set(c, h, rq->p.name, out);
-    if (!ref)
-        return 0;
-    const st_set *s = ref->set;
-    uint32_t n = rq->count;
-    int cold = sts_budget_touch(c->srv, ref->set);  /* a released set faults back in */
-    int64_t t0 = cold ? sts_now_us() : 0;
-    if (h->opcode == STP_OP_SAMPLE_DIR && !st_cube_is_cube(s)) {
-        st_setref_release(ref);
-        sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
-        return 0;
-    }
-    if (sts_scratch_reserve(c->scratch, n ? n : 1, h->opcode == STP_OP_SAMPLE_DIR) != 0) {
-        st_setref_release(ref);
-        sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
-        return 0;
-    }
-    sts_scratch *sc = c->scratch;
-    float *cov = (rq->p.flags & STP_SF_COVERAGE) ? sc->cov : NULL;
-    part_arg a = {s, &o, sc->q, sc->cq, sc->out, cov, sc->status, s->info.nchan, NULL, NULL};
-    sts_part_fn fn;
-    if (h->opcode == STP_OP_SAMPLE && (rq->p.flags & STP_SF_COMPACT_MASK)) {
-        /* compact queries (PROTOCOL.md 4.4.1): widened in each part, on the thread that
-         * samples it, so a split batch decodes in parallel too */
-        a.rq = rq;
-        a.wq = sc->q;
-        fn = part_sample_compact;
-    } else if (h->opcode == STP_OP_SAMPLE && WIRE_IS_ST_QUERY) {
-        /* the wire query (u32 face, 6 x f32, little-endian, packed) is st_query's layout on
-         * a little-endian host: sampled where it lies in the input buffer when aligned, else
-         * after one copy */
-        if (n && ((uintptr_t)rq->raw % _Alignof(st_query)) == 0)
-            a.q = (const st_query *)(const void *)rq->raw;
-        else if (n)  /* with n == 0 both pointers may be NULL: memcpy must not see them */
-            memcpy(sc->q, rq->raw, (size_t)n * STP_QUERY_SIZE);
-        fn = part_sample;
-    } else if (h->opcode == STP_OP_SAMPLE) {
-        for (uint32_t i = 0; i < n; i++) {
-            stp_query q;
-            stp_sample_query(rq, i, &q);
-            st_query *d = &sc->q[i];
-            d->face = q.face;
-            d->u = q.u;
-            d->v = q.v;
-            d->dudx = q.dudx;
-            d->dvdx = q.dvdx;
-            d->dudy = q.dudy;
-            d->dvdy = q.dvdy;
-        }
-        fn = part_sample;
-    } else {
-        st_cube_query *cq = sc->cq;
-        for (uint32_t i = 0; i < n; i++) {
-            stp_dir_query q;
-            stp_sample_dir_query(rq, i, &q);
-            memcpy(cq[i].dir, q.dir, sizeof q.dir);
+    stp_sample_req r = *rq;
+    r.raw = raw;
+    r.count = k;
+    if (opcode == STP_OP_SAMPLE_DIR) {
+        for (uint32_t i = 0; i < k; i++) {
+            stp_dir_query d;
+            stp_sample_dir_query(&r, i, &d);
+            memcpy(cq[i].dir, d.dir, sizeof d.dir);
             if (rq->p.footprint == STP_FP_CONE) {
-                cq[i].cone = q.ddx[0];
+                cq[i].cone = d.ddx[0];
                 memset(cq[i].ddx, 0, sizeof cq[i].ddx);
                 memset(cq[i].ddy, 0, sizeof cq[i].ddy);
             } else {
                 cq[i].cone = 0;
-                memcpy(cq[i].ddx, q.ddx, sizeof q.ddx);
-                memcpy(cq[i].ddy, q.ddy, sizeof q.ddy);
+                memcpy(cq[i].ddx, d.ddx, sizeof d.ddx);
+                memcpy(cq[i].ddy, d.ddy, sizeof d.ddy);
             }
         }
-        fn = part_sample_dir;
+        return;
     }
-    int rc = 0, replied = 0;
-    if (n && rq->p.outfmt == STP_OUT_F32 && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__)
-        replied = sample_into_reply(c, h, rq, n, fn, &a, out, &rc);
-    if (!replied && rc >= 0)
-        rc = run_batch(c, n, fn, &a);
-    if (cold)
-        sts_budget_cold_done(c->srv, t0, n);
-    if (replied && rc >= 0) {
-        count_queries(c->srv, &rq->p, n, (uint64_t)rc);
-        st_setref_release(ref);
-        return 0;
+    if (!(rq->p.flags & STP_SF_COMPACT_MASK) && WIRE_IS_ST_QUERY) {
+        if (k)    /* with k == 0 both pointers may be NULL: memcpy must not see them */
+            memcpy(q, raw, (size_t)k * STP_QUERY_SIZE);
+        return;
     }
-    if (rc < 0) {
-        st_setref_release(ref);
+    stp_query tmp[64];
+    for (uint32_t i = 0; i < k;) {
+        uint32_t m = k - i < 64 ? k - i : 64;
+        stp_sample_queries(&r, i, m, tmp);
+        for (uint32_t j = 0; j < m; j++) {
+            st_query *d = &q[i + j];
+            d->face = tmp[j].face;
+            d->u = tmp[j].u;
+            d->v = tmp[j].v;
+            d->dudx = tmp[j].dudx;
+            d->dvdx = tmp[j].dvdx;
+            d->dudy = tmp[j].dudy;
+            d->dvdy = tmp[j].dvdy;
+        }
+        i += m;
+    }
+}
+
+int sts_sample_prepare(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out,
+                       sts_sample_prep *pp)
+{
+    memset(pp, 0, sizeof *pp);
+    if (fill_opts(&rq->p, &pp->o) != 0) {
+        sts_reply_bad(out, h, STP_S_INVALID,
+                      "unknown mode, filter, zero_rule or outfmt, max_aniso over 16, or "
+                      "sharpness (0..1), width or blur (0..1e4) out of range");
+        return 1;
+    }
+    pp->ref = get_set(c, h, rq->p.name, out);
+    if (!pp->ref)
+        return 1;
+    pp->s = pp->ref->set;
+    pp->cold = sts_budget_touch(c->srv, pp->ref->set);  /* a released set faults back in */
+    pp->t0 = pp->cold ? sts_now_us() : 0;
+    if (h->opcode == STP_OP_SAMPLE_DIR && !st_cube_is_cube(pp->s)) {
+        st_setref_release(pp->ref);
+        pp->ref = NULL;
+        sts_reply_error(out, h, STP_S_UNSUPPORTED, "SAMPLE_DIR needs a cube-map set");
+        return 1;
+    }
+    return 0;
+}
+
+int sts_sample_finish(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
+                      sts_sample_prep *pp, int rc, stp_buf *out)
+{
+    const st_set *s = pp->s;
+    if (pp->cold)
+        sts_budget_cold_done(c->srv, pp->t0, rq->count);
+    if (rc >= 0)
+        count_queries(c->srv, &rq->p, rq->count, (uint64_t)rc);
+    else
         sts_reply_st(out, h, rc, rc != ST_EUNSUPPORTED ? "invalid sampling options"
                                  : s->info.meshtype == ST_MESH_TRIANGLE
                                      ? "a triangle-mesh set samples with point (0) and the "
@@ -503,9 +479,54 @@ int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, st
                                      ? "the Ptex filters need an uncompressed per-face set; BC1 "
                                        "sets sample with point, bilinear, trilinear and aniso"
                                      : "the Ptex filters need a per-face set");
+    st_setref_release(pp->ref);
+    pp->ref = NULL;
+    return rc < 0;
+}
+
+/* Samples and replies; shared by SAMPLE and SAMPLE_DIR (h->opcode tells which). */
+int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out)
+{
+    sts_sample_prep pp;
+    if (sts_sample_prepare(c, h, rq, out, &pp))
+        return 0;
+    const st_set *s = pp.s;
+    uint32_t n = rq->count;
+    if (sts_scratch_reserve(c->scratch, n ? n : 1, h->opcode == STP_OP_SAMPLE_DIR) != 0) {
+        st_setref_release(pp.ref);
+        sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
         return 0;
     }
-    count_queries(c->srv, &rq->p, n, (uint64_t)rc);
+    sts_scratch *sc = c->scratch;
+    float *cov = (rq->p.flags & STP_SF_COVERAGE) ? sc->cov : NULL;
+    part_arg a = {s, &pp.o, sc->q, sc->cq, sc->out, cov, sc->status, s->info.nchan, NULL, NULL};
+    sts_part_fn fn;
+    if (h->opcode == STP_OP_SAMPLE && (rq->p.flags & STP_SF_COMPACT_MASK)) {
+        /* compact queries (PROTOCOL.md 4.4.1): widened in each part, on the thread that
+         * samples it, so a split batch decodes in parallel too */
+        a.rq = rq;
+        a.wq = sc->q;
+        fn = part_sample_compact;
+    } else if (h->opcode == STP_OP_SAMPLE) {
+        /* the wire query (u32 face, 6 x f32, little-endian, packed) is st_query's layout on
+         * a little-endian host: sampled where it lies in the input buffer when aligned, else
+         * after one copy */
+        if (WIRE_IS_ST_QUERY && n && ((uintptr_t)rq->raw % _Alignof(st_query)) == 0)
+            a.q = (const st_query *)(const void *)rq->raw;
+        else
+            sts_sample_decode(h->opcode, rq, rq->raw, n, sc->q, NULL);
+        fn = part_sample;
+    } else {
+        sts_sample_decode(h->opcode, rq, rq->raw, n, NULL, sc->cq);
+        fn = part_sample_dir;
+    }
+    int rc = 0, replied = 0;
+    if (n && rq->p.outfmt == STP_OUT_F32 && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__)
+        replied = sample_into_reply(c, h, rq, n, fn, &a, out, &rc);
+    if (!replied && rc >= 0)
+        rc = sts_sample_parts(c, n, fn, &a);
+    if (sts_sample_finish(c, h, rq, &pp, rc, out) || replied)
+        return 0;
     stp_sample_reply r;
     memset(&r, 0, sizeof r);
     r.count = n;
@@ -517,7 +538,6 @@ int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, st
     r.coverage = cov;
     r.status = sc->status;
     int e = stp_enc_sample_reply(out, h->opcode, h->reqid, &r);
-    st_setref_release(ref);
     if (e)
         sts_reply_error(out, h, e, "reply could not be encoded (too large?)");
     return 0;

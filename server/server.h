@@ -79,6 +79,7 @@ typedef struct sts_stats {
     uint64_t conns_request_timeout, conns_evicted;
     uint64_t shm_attached, shm_refused, shm_maps, shm_bytes;   /* shm.c; maps, bytes: now */
     uint64_t shm_requests, shm_too_small, shm_fds_dropped;
+    uint64_t shm_overlap_copies;   /* shm_sample.c: query and reply rooms overlapped */
     uint64_t by_op[256];
     uint64_t queries_by[STS_QMODES][STS_QFILTERS];  /* queries by wire mode and filter value */
 } sts_stats;

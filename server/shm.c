@@ -4,11 +4,10 @@
  * A client on the daemon's host creates a memfd, seals it against shrinking and growing,
  * maps it, and hands it over with SHM_ATTACH (the descriptor as SCM_RIGHTS ancillary data on
  * the frame's bytes). From then on a SAMPLE / SAMPLE_DIR with flag SHM carries three offsets
- * instead of its queries: the daemon copies count x Q bytes of queries out of the region into
- * this thread's private buffer (the only read of the region), samples them exactly as if they
- * had come in the frame, writes the 4.6 reply body at reply_off and answers with a 16-byte
- * frame saying where it is and how long. Frames still carry ids, order and errors, so
- * pipelining and every status work as on the socket path.
+ * instead of its queries; shm_sample.c samples it in place (queries copied out in small
+ * chunks, each read once, the reply written straight into the region) and answers with a
+ * 16-byte frame saying where the reply body is and how long. Frames still carry ids, order
+ * and errors, so pipelining and every status work as on the socket path.
  *
  * Every check on a descriptor is made before it is mapped (memfd: F_GET_SEALS works; seals
  * SHRINK and GROW present, WRITE absent; size equal to the announced one and within shm-max;
@@ -28,7 +27,6 @@
 #include <sys/statfs.h>
 #include <unistd.h>
 
-#include "h_basic.h"
 #include "io.h"
 #include "server.h"
 #include "shm.h"
@@ -120,7 +118,6 @@ void sts_shm_scratch_free(sts_shm_scratch *s)
     if (!s)
         return;
     free(s->q);
-    stp_buf_free(&s->reply);
     free(s);
 }
 
@@ -226,80 +223,6 @@ int sts_h_shm_attach(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     return 0;
 }
 
-/* ---- SAMPLE / SAMPLE_DIR with flag SHM ------------------------------------------------------- */
-
-int sts_shm_sample(sts_ctx *c, const stp_header *h, stp_sample_req *rq, stp_buf *out)
-{
-    const sts_shm_conn *s = c->conn->shm;
-    char msg[256];
-    if (!s || !s->map) {
-        sts_reply_error(out, h, STP_S_INVALID, c->conn->unix_sock
-                        ? "SAMPLE: flag SHM without a region: send SHM_ATTACH first"
-                        : "SAMPLE: flag SHM needs a Unix-domain connection and SHM_ATTACH");
-        return 0;
-    }
-    uint64_t qbytes = stp_sample_query_bytes(h->opcode, rq->p.flags, rq->count);
-    const stp_shm_ref *r = &rq->shm;
-    if (!stp_shm_range_ok(s->size, r->query_off, qbytes)) {
-        snprintf(msg, sizeof msg, "SAMPLE: queries at [%" PRIu64 ", +%" PRIu64 ") are outside "
-                 "the region of %" PRIu64 " bytes", r->query_off, qbytes, s->size);
-        sts_reply_error(out, h, STP_S_INVALID, msg);
-        return 0;
-    }
-    if (!stp_shm_range_ok(s->size, r->reply_off, r->reply_cap)) {
-        snprintf(msg, sizeof msg, "SAMPLE: reply room at [%" PRIu64 ", +%" PRIu64 ") is outside "
-                 "the region of %" PRIu64 " bytes", r->reply_off, r->reply_cap, s->size);
-        sts_reply_error(out, h, STP_S_INVALID, msg);
-        return 0;
-    }
-    sts_scratch *sc = c->scratch;
-    if (!sc->shm)
-        sc->shm = calloc(1, sizeof *sc->shm);
-    sts_shm_scratch *ps = sc->shm;
-    if (ps && qbytes > ps->qcap) {
-        uint8_t *q = realloc(ps->q, (size_t)qbytes);
-        if (q) {
-            ps->q = q;
-            ps->qcap = (size_t)qbytes;
-        }
-    }
-    if (!ps || qbytes > ps->qcap) {
-        sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the batch");
-        return 0;
-    }
-    /* the one read of the region: from here on only the private copy is looked at */
-    if (qbytes)
-        memcpy(ps->q, s->map + r->query_off, (size_t)qbytes);
-    rq->raw = ps->q;
-    stp_buf_clear(&ps->reply);
-    sts_sample_run(c, h, rq, &ps->reply);
-    /* one frame in ps->reply: an error goes out as it is, an OK body into the region */
-    stp_header rh;
-    int reason = 0;
-    const uint8_t *f = stp_buf_head(&ps->reply);
-    if (ps->reply.err || stp_parse_header(f, stp_buf_avail(&ps->reply), SIZE_MAX, &rh,
-                                          &reason) != STP_OK) {
-        sts_reply_error(out, h, STP_S_NOMEM, "out of memory for the reply");
-        return 0;
-    }
-    if (rh.status != STP_S_OK) {
-        stp_put_bytes(out, f, stp_buf_avail(&ps->reply));
-        return 0;
-    }
-    if (rh.body_len > r->reply_cap) {
-        STS_STAT_ADD(c->srv, shm_too_small, 1);
-        snprintf(msg, sizeof msg, "SAMPLE: the reply needs %" PRIu32 " bytes; reply_cap is %"
-                 PRIu64, rh.body_len, r->reply_cap);
-        sts_reply_error(out, h, STP_S_TOO_LARGE, msg);
-        return 0;
-    }
-    memcpy(s->map + r->reply_off, f + STP_HEADER_SIZE, rh.body_len);
-    STS_STAT_ADD(c->srv, shm_requests, 1);
-    stp_shm_reply rp = { r->reply_off, rh.body_len };
-    stp_enc_shm_reply(out, h->opcode, h->reqid, &rp);
-    return 0;
-}
-
 /* ---- STATS -------------------------------------------------------------------------------------- */
 
 size_t sts_shm_stats(sts_server *srv, stp_stat *s, size_t cap)
@@ -312,6 +235,8 @@ size_t sts_shm_stats(sts_server *srv, stp_stat *s, size_t cap)
         {"shm_requests", __atomic_load_n(&srv->stats.shm_requests, __ATOMIC_RELAXED)},
         {"shm_too_small", __atomic_load_n(&srv->stats.shm_too_small, __ATOMIC_RELAXED)},
         {"shm_fds_dropped", __atomic_load_n(&srv->stats.shm_fds_dropped, __ATOMIC_RELAXED)},
+        {"shm_overlap_copies",
+         __atomic_load_n(&srv->stats.shm_overlap_copies, __ATOMIC_RELAXED)},
     };
     size_t n = 0;
     for (; n < STS_SHM_STAT_KEYS && n < cap; n++) {

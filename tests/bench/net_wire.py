@@ -8,7 +8,10 @@ and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.
   - seamtexd over TCP loopback and over a Unix socket, with 1 and 2 connections (-P 2 each),
     and over the Unix socket with shared memory ("unix+shm": seamtex-bench --shm, PROTOCOL.md
     4.12: the queries and replies in a sealed memfd, small frames on the socket), run in the
-    same daemon right after the plain Unix run of each batch, encoding and connection count;
+    same daemon right after the plain Unix run of each batch, encoding and connection count
+    (with NET_WIRE_BASE also "base-unix+shm" on the base daemon, and unix+shm's ratios to it;
+    with NET_WIRE_SHM_COPY=1 also "unix+shmcp": seamtex-bench --shm-copy, the queries copied
+    into the region per request);
   - ratios to the in-process figure at the same total thread count (1 connection vs 1 thread,
     2 connections vs 2 threads), and the daemon's CPU per query: utime + stime from
     /proc/<pid>/stat over the queries it served, against the in-process CPU per query;
@@ -49,6 +52,8 @@ ENCODINGS = {k: v for k, v in ENCODINGS.items()
              if k in os.environ.get('NET_ENCODINGS', 'f32,compact').split(',')}
 VARIANTS = os.environ.get('NET_VARIANTS', 'tcp,unix').split(',')
 SHM = os.environ.get('NET_WIRE_SHM', '1') != '0'    # the unix+shm column (0: leave it out)
+# the unix+shmcp column (seamtex-bench --shm-copy: queries copied into the region per request)
+SHM_COPY = os.environ.get('NET_WIRE_SHM_COPY', '0') != '0'
 TCK = os.sysconf('SC_CLK_TCK')
 
 
@@ -165,9 +170,12 @@ def main():
                     for enc in ENCODINGS:
                         for conns in (1, 2):
                             sample_run(d, name, batch, enc, conns)
-                            if unix and SHM and name == 'unix':
+                            if unix and SHM and name in ('unix', 'base-unix'):
                                 # A B in the same window: plain Unix, then with shared memory
-                                sample_run(d, 'unix+shm', batch, enc, conns, ['--shm'])
+                                sample_run(d, name + '+shm', batch, enc, conns, ['--shm'])
+                            if unix and SHM and SHM_COPY and name == 'unix':
+                                # the queries copied into the region per request
+                                sample_run(d, 'unix+shmcp', batch, enc, conns, ['--shm-copy'])
                 if not unix:
                     ping_runs(d, name)
             finally:
@@ -191,8 +199,11 @@ def main():
                              queries_per_s=q, ns_cpu_per_query=ns))
         for enc in ENCODINGS:
             names = [v[0] for v in variants]
-            if SHM and 'unix' in names:
-                names.insert(names.index('unix') + 1, 'unix+shm')
+            for u in ('unix', 'base-unix'):
+                if SHM and u in names:
+                    names.insert(names.index(u) + 1, u + '+shm')
+            if SHM and SHM_COPY and 'unix' in names:
+                names.insert(names.index('unix+shm') + 1, 'unix+shmcp')
             for name in names:
                 for conns in (1, 2):
                     k = (batch, enc, name, conns)
@@ -209,13 +220,21 @@ def main():
                     row = dict(batch=batch, encoding=enc, run=name, conns=conns,
                                queries_per_s=q, ratio_vs_inproc_same_threads=rq,
                                ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc)
-                    uq = med.get((batch, enc, 'unix', conns, 'qps'), 0)
-                    uns = med.get((batch, enc, 'unix', conns, 'ns_cpu'), 0)
-                    if name == 'unix+shm' and uq and uns:
-                        # the A/B of the shared-memory path against plain Unix (same window)
-                        row['ratio_vs_unix'] = q / uq
-                        row['cpu_ratio_vs_unix'] = ns / uns
-                        print(f"{'':>6} {'':<8} {'  vs unix':<10} {'':>5} {'':>8} {q / uq:9.2f} "
+                    # the A/Bs of the shared-memory path: against plain Unix of the same
+                    # daemon (same window), and against the base daemon's shared memory
+                    refs = [('unix', 'vs unix')] if name in ('unix+shm', 'unix+shmcp') else []
+                    refs += ([('base-unix+shm', 'vs base')] if name in ('unix+shm', 'unix+shmcp')
+                             else [])
+                    refs += [('base-unix', 'vs unix')] if name == 'base-unix+shm' else []
+                    for ref, label in refs:
+                        uq = med.get((batch, enc, ref, conns, 'qps'), 0)
+                        uns = med.get((batch, enc, ref, conns, 'ns_cpu'), 0)
+                        if not (uq and uns):
+                            continue
+                        key = 'vs_base_shm' if ref == 'base-unix+shm' else 'vs_unix'
+                        row['ratio_' + key] = q / uq
+                        row['cpu_ratio_' + key] = ns / uns
+                        print(f"{'':>6} {'':<8} {'  ' + label:<10} {'':>5} {'':>8} {q / uq:9.2f} "
                               f"{'':>9} {ns / uns:9.2f}")
                     rows.append(row)
     ping = {}
@@ -231,7 +250,7 @@ def main():
            'reps': REPS, 'seconds': float(SECS), 'mode': 'traverse', 'filter': 'bilinear',
            'pipeline': 2, 'base_daemon': BASE or None, 'base_bench': BASE_BENCH or None,
            'alt_args': ALT_ARGS or None,
-           'shm': SHM,
+           'shm': SHM, 'shm_copy': SHM_COPY,
            'encodings': {'f32': '28-byte queries, f32 replies',
                          'compact': '14-byte queries (UV16 | FACE16), f16 replies'},
            'targets': {'ratio_at_4096_and_up': 0.8, 'ratio_at_256': 0.5,

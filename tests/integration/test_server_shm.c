@@ -1,11 +1,15 @@
 /* tests/integration/test_server_shm.c - shared-memory sampling (PROTOCOL.md 4.12): results
  * through the region are bit for bit those of the socket path (blocking and pipelined, inline
- * and on a worker, f32 and compact queries, every reply format); every hostile attach and
+ * and on a worker, f32 and compact queries, every reply format, SAMPLE_DIR on a cube; the
+ * daemon samples them in place, and byte for byte the same when the rooms overlap or the
+ * reply is unaligned); the zero-copy calls (stc_shm_reserve, stc_shm_append, stc_shm_sample)
+ * give the same results as the copying ones; every hostile attach and
  * request gets its defined status while the daemon keeps serving (no descriptor, not a memfd,
  * unsealed, sealed against writes, size mismatch, over shm-max, a second attach, TCP,
  * offsets past the region or wrapping, a reply room too small); a client cannot shrink its
  * sealed region; a fuzz-ish loop of random offsets while another thread scribbles over the
- * region; mappings counted in STATS and dropped at close.
+ * region, and split batches sampled while another thread scribbles over their queries;
+ * mappings counted in STATS and dropped at close.
  *
  * Each test starts its own daemon on a Unix socket (unix_daemon.h) with --heavy-batch 2048
  * (so 5000-query batches run on a worker and are split).
@@ -31,6 +35,7 @@
 #include "../common/unix_daemon.h"
 #include "../common/wait.h"
 #include "../common/wire.h"
+#include "../common/testdata.h"
 #include "proto.h"
 #include "shmfd.h"
 #include "unixaddr.h"
@@ -153,12 +158,15 @@ static void shm_results_are_bit_identical_to_the_socket_path(void **state)
     assert_int_equal(via_shm, checked);
     assert_int_equal(via_sock, 0);
     assert_int_equal(stat_of(plain, "shm_requests"), checked);
+    /* libseamtex gives every request disjoint rooms: all were sampled in place */
+    assert_int_equal(stat_of(plain, "shm_overlap_copies"), 0);
 
-    /* pipelined, on a connection with a small region (64 KiB): three requests in flight
+    /* pipelined, on a connection with a small region (128 KiB; a request takes its queries
+     * and its reply room): three requests in flight
      * share the ring, which wraps, and those that find no room go over the socket */
     stc_conn *small = client(u);
     assert_non_null(small);
-    assert_int_equal(stc_shm_attach(small, 64u << 10), 0);
+    assert_int_equal(stc_shm_attach(small, 128u << 10), 0);
     stc_query *q = st_default_set_queries(4000, 99);
     stc_sample_opts o;
     memset(&o, 0, sizeof o);
@@ -194,6 +202,8 @@ static void shm_results_are_bit_identical_to_the_socket_path(void **state)
     for (int i = 0; i < 6; i++)
         drop(&want[i]);
     stc_shm_counts(small, &via_shm, &via_sock);
+    printf("# small region: %llu via shm, %llu via the socket\n", (unsigned long long)via_shm,
+           (unsigned long long)via_sock);
     assert_int_equal(via_shm + via_sock, NREQ);
     assert_true(via_shm > NREQ / 2);
     assert_true(via_sock > 0);
@@ -213,6 +223,49 @@ static void shm_results_are_bit_identical_to_the_socket_path(void **state)
     stc_shm_counts(shm, NULL, &via_sock);
     assert_int_equal(via_sock, 1);
     free(big);
+
+    /* SAMPLE_DIR on a cube map: every reply format, both footprints, inline and split */
+    char path[1024];
+    if (st_test_data_path(path, sizeof path, "env/StageEnvLatLong.exr") == 0) {
+        stc_upload_opts uo;
+        stc_upload_result up;
+        memset(&uo, 0, sizeof uo);
+        uo.options = "cube=latlong:64";
+        assert_int_equal(stc_upload_file(plain, path, "env", &uo, &up), 0);
+        for (size_t si = 0; si < 3; si++) {
+            size_t n = sizes[si];
+            stc_dir_query *dq = calloc(n, sizeof *dq);
+            uint32_t seed = 31 + (uint32_t)si;
+            for (size_t i = 0; i < n; i++) {
+                for (int k = 0; k < 3; k++) {
+                    dq[i].dir[k] = (float)st_rng_next(&seed) / 8388608.0f - 1.0f;
+                    dq[i].ddx[k] = (float)(st_rng_next(&seed) % 100) / 4000.0f;
+                    dq[i].ddy[k] = (float)(st_rng_next(&seed) % 100) / 4000.0f;
+                }
+                if (i % 97 == 5)
+                    dq[i].dir[0] = dq[i].dir[1] = dq[i].dir[2] = 0;   /* not a direction */
+            }
+            for (unsigned fmt = 0; fmt < 4; fmt++) {
+                stc_sample_opts od;
+                memset(&od, 0, sizeof od);
+                od.mode = STP_MODE_TRAVERSE;
+                od.filter = fmt % 2 ? STP_FILTER_TRILINEAR : STP_FILTER_BILINEAR;
+                od.outfmt = outfmts[fmt];
+                od.footprint = fmt >= 2;
+                od.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+                copy a, b;
+                assert_int_equal(stc_sample_dir(plain, "env", &od, dq, n, &r), 0);
+                take(&r, &a);
+                assert_int_equal(stc_sample_dir(shm, "env", &od, dq, n, &r), 0);
+                take(&r, &b);
+                same(&a, &b);
+                drop(&a);
+                drop(&b);
+            }
+            free(dq);
+        }
+        assert_int_equal(stat_of(plain, "shm_overlap_copies"), 0);
+    }
 
     /* errors travel as frames: SAMPLE_DIR on a per-face set, a bad set name */
     stc_dir_query d;
@@ -453,11 +506,225 @@ static void shm_is_refused_over_tcp(void **state)
     assert_int_equal(st_daemon_down(&d, 20000), 0);
 }
 
+
+/* ---- zero-copy calls ------------------------------------------------------------------------ */
+
+static void zero_copy_calls_match_the_copying_ones(void **state)
+{
+    st_unix_daemon *u = *state;
+    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
+    stc_conn *plain = client(u), *c = client(u);
+    assert_non_null(plain);
+    assert_non_null(c);
+    void *qp = NULL;
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = STP_MODE_TRAVERSE;
+    o.filter = STP_FILTER_BILINEAR;
+    o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    /* no region yet */
+    assert_int_equal(stc_shm_reserve(c, "default", &o, 0, 10, &qp), STC_ESTATE);
+    assert_null(qp);
+    assert_int_equal(stc_shm_attach(c, 2u << 20), 0);
+    enum { N = 5000 };
+    stc_query *q = st_default_set_queries(N, 41);
+    static const unsigned outfmts[] = {STC_OUT_F32, STC_OUT_UNORM8, STC_OUT_UNORM16,
+                                       STC_OUT_F16};
+    for (unsigned k = 0; k < 8; k++) {
+        o.outfmt = outfmts[k % 4];
+        o.want = STC_WANT_COVERAGE | STC_WANT_STATUS |
+                 (k >= 4 ? STC_WANT_UV16 | STC_WANT_FACE16 : 0);
+        size_t n = k % 2 ? N : 77;
+        stc_sample_result r;
+        copy a, b;
+        assert_int_equal(stc_sample(plain, "default", &o, q, n, &r), 0);
+        take(&r, &a);
+        assert_int_equal(stc_shm_reserve(c, "default", &o, 0, n, &qp), 0);
+        assert_non_null(qp);
+        assert_int_equal((uintptr_t)qp % 64, 0);
+        /* the caller writes the wire layout itself (stp_put_queries: the reference encoder) */
+        stp_sample_req rq;
+        memset(&rq, 0, sizeof rq);
+        rq.p.flags = (uint8_t)o.want;
+        rq.count = (uint32_t)n;
+        rq.queries = (const stp_query *)q;
+        stp_put_queries(STP_OP_SAMPLE, &rq, qp);
+        assert_int_equal(stc_shm_sample(c, &r), 0);
+        take(&r, &b);
+        same(&a, &b);
+        drop(&a);
+        drop(&b);
+    }
+    /* pipelined: three reservations in flight, the f32 layout written as stc_query[] */
+    o.outfmt = STC_OUT_F32;
+    o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    copy want[3];
+    for (int i = 0; i < 3; i++) {
+        stc_sample_result r;
+        assert_int_equal(stc_sample(plain, "default", &o, q + i * 1000, 1000 + 500 * i, &r), 0);
+        take(&r, &want[i]);
+    }
+    uint32_t ids[12], extra = 0;
+    for (int k = 0; k < 12 + 3; k++) {
+        if (k < 12) {
+            int i = k % 3;
+            assert_int_equal(stc_shm_reserve(c, "default", &o, 0, 1000 + 500 * i, &qp), 0);
+            memcpy(qp, q + i * 1000, (1000 + 500 * (size_t)i) * sizeof(stc_query));
+            /* while a reservation is open, a copying SAMPLE goes over the socket (its reply
+             * comes in order, before request 4's) */
+            if (k == 4) {
+                uint64_t s0 = 0, s1 = 0;
+                stc_shm_counts(c, NULL, &s0);
+                assert_int_equal(stc_shm_reserve(c, "default", &o, 0, 1, &qp), STC_ESTATE);
+                assert_int_equal(stc_append_sample(c, "default", &o, q, 1000, &extra), 0);
+                stc_shm_counts(c, NULL, &s1);
+                assert_int_equal(s1, s0 + 1);
+            }
+            assert_int_equal(stc_shm_append(c, &ids[k]), 0);
+        }
+        if (k < 3)
+            continue;
+        int j = k - 3;
+        stc_reply rep;
+        stc_sample_result r;
+        copy got;
+        if (j == 4) {                         /* the socket SAMPLE appended before request 4 */
+            assert_int_equal(stc_get_reply(c, -1, &rep), 0);
+            assert_int_equal(rep.reqid, extra);
+            assert_int_equal(stc_reply_sample(c, &rep, &r), 0);
+            take(&r, &got);
+            same(&want[0], &got);
+            drop(&got);
+        }
+        assert_int_equal(stc_get_reply(c, -1, &rep), 0);
+        assert_int_equal(rep.reqid, ids[j]);
+        assert_int_equal(stc_reply_sample(c, &rep, &r), 0);
+        take(&r, &got);
+        same(&want[j % 3], &got);
+        drop(&got);
+    }
+    for (int i = 0; i < 3; i++)
+        drop(&want[i]);
+    /* misuse: nothing open, too many queries, more than the region holds, cancel */
+    uint32_t id;
+    assert_int_equal(stc_shm_append(c, &id), STC_ESTATE);
+    assert_int_equal(stc_shm_reserve(c, "default", &o, 0,
+                                     (size_t)stc_server_info(c)->max_batch + 1, &qp),
+                     STC_EINVAL);
+    assert_int_equal(stc_shm_reserve(c, "default", &o, 0, 60000, &qp), STC_ESTATE);  /* 2 MiB */
+    assert_int_equal(stc_shm_reserve(c, "default", &o, 1, 10, &qp), 0);
+    void *first = qp;
+    stc_shm_cancel(c);
+    assert_int_equal(stc_shm_reserve(c, "default", &o, 0, 10, &qp), 0);
+    assert_ptr_equal(qp, first);             /* the cancelled room is handed out again */
+    stc_shm_cancel(c);
+    stc_shm_cancel(c);                       /* none open: nothing happens */
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(stc_ping(c), 0);
+    free(q);
+    stc_close(c);
+    stc_close(plain);
+    assert_int_equal(st_unix_stop(u), 0);
+}
+
+/* ---- in place, overlapping, unaligned: the bytes the socket path gives ------------------ */
+
+/* A shared-memory SAMPLE of rq (its parameters, count and offsets; flag SHM added) on fd. */
+static unsigned shm_request(int fd, stp_sample_req *rq, st_wire_reply *r)
+{
+    uint8_t frame[300];
+    stp_buf b;
+    stp_buf_init(&b);
+    rq->p.flags |= STP_SF_SHM;
+    assert_int_equal(stp_enc_sample_req(&b, 6, 0, rq), 0);
+    rq->p.flags &= (uint8_t)~STP_SF_SHM;
+    size_t len = stp_buf_avail(&b) - STP_HEADER_SIZE;
+    size_t n = st_wire_frame(frame, "STX1", 1, STP_OP_SAMPLE, 0, 6,
+                             stp_buf_head(&b) + STP_HEADER_SIZE, (uint32_t)len, (uint32_t)len);
+    stp_buf_free(&b);
+    assert_int_equal(st_wire_send_all(fd, frame, n), 0);
+    assert_int_equal(st_wire_read_reply(fd, r, 20000), 0);
+    assert_int_equal(r->reqid, 6);
+    return r->status;
+}
+
+static void rooms_in_place_overlapping_or_unaligned_give_the_socket_bytes(void **state)
+{
+    st_unix_daemon *u = *state;
+    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
+    enum { SZ = 4 << 20, N = 5000, QOFF = 8192 };
+    int fd = raw_connect(u), mfd;
+    void *map;
+    st_wire_reply r;
+    assert_int_equal(stu_memfd_sealed("t", SZ, &mfd, &map), 0);
+    assert_int_equal(attach(fd, SZ, mfd, &r), STP_S_OK);
+    uint8_t *region = map;
+    stc_conn *plain = client(u);
+    assert_non_null(plain);
+    stc_query *q = st_default_set_queries(N, 3);
+    /* reply rooms: disjoint and aligned, disjoint at an odd offset, the queries' own room,
+     * overlapping the queries' second half at an odd offset */
+    const uint64_t rooms[] = {2u << 20, (2u << 20) + 1, QOFF, QOFF + N * 7 + 3};
+    const int overlaps[] = {0, 0, 1, 1};
+    static const uint8_t outfmts[] = {STP_OUT_F32, STP_OUT_UNORM8, STP_OUT_UNORM16, STP_OUT_F16};
+    static const uint8_t wants[] = {STP_SF_COVERAGE | STP_SF_STATUS, 0, STP_SF_STATUS,
+                                    STP_SF_COVERAGE | STP_SF_UV16 | STP_SF_FACE16};
+    uint64_t copies = 0;
+    for (unsigned fi = 0; fi < 4; fi++)
+        for (unsigned wi = 0; wi < 4; wi++) {
+            stp_sample_req rq;
+            memset(&rq, 0, sizeof rq);
+            snprintf(rq.p.name, sizeof rq.p.name, "default");
+            rq.p.mode = STP_MODE_TRAVERSE;
+            rq.p.filter = (fi + wi) % 2 ? STP_FILTER_BILINEAR : STP_FILTER_ANISO;
+            rq.p.outfmt = outfmts[fi];
+            rq.p.flags = wants[wi];
+            rq.count = N;
+            rq.queries = (const stp_query *)q;
+            /* the socket path's reply body */
+            stp_buf b;
+            stp_buf_init(&b);
+            assert_int_equal(stp_enc_sample_req(&b, 1, 0, &rq), 0);
+            uint32_t id;
+            stc_reply rep;
+            assert_int_equal(stc_append_raw(plain, STP_OP_SAMPLE,
+                                            stp_buf_head(&b) + STP_HEADER_SIZE,
+                                            stp_buf_avail(&b) - STP_HEADER_SIZE, &id), 0);
+            stp_buf_free(&b);
+            assert_int_equal(stc_get_reply(plain, -1, &rep), 0);
+            assert_int_equal(rep.status, 0);
+            uint8_t *want = malloc(rep.body_len);
+            memcpy(want, rep.body, rep.body_len);
+            size_t wlen = rep.body_len;
+            for (unsigned ri = 0; ri < 4; ri++) {
+                /* the room first (it may cover queries), then the queries */
+                memset(region + rooms[ri], 0xA5, wlen);
+                stp_put_queries(STP_OP_SAMPLE, &rq, region + QOFF);
+                rq.shm.query_off = QOFF;
+                rq.shm.reply_off = rooms[ri];
+                rq.shm.reply_cap = SZ - rooms[ri];
+                assert_int_equal(shm_request(fd, &rq, &r), STP_S_OK);
+                assert_int_equal(stp_rd64(r.body), rooms[ri]);
+                assert_int_equal(stp_rd64(r.body + 8), wlen);
+                assert_memory_equal(region + rooms[ri], want, wlen);
+                copies += (uint64_t)overlaps[ri];
+            }
+            free(want);
+        }
+    assert_int_equal(stat_of(plain, "shm_overlap_copies"), copies);
+    free(q);
+    stc_close(plain);
+    close(fd);
+    munmap(map, SZ);
+    close(mfd);
+    assert_int_equal(st_unix_stop(u), 0);
+}
+
 /* ---- fuzz-ish: random offsets while the region is rewritten ------------------------------- */
 
 typedef struct scribbler {
     uint8_t *region;
-    size_t   size;
+    size_t   size;     /* it writes inside [0, size) of region */
     int      stop;
 } scribbler;
 
@@ -534,6 +801,93 @@ static void random_offsets_never_hurt_the_daemon(void **state)
     assert_int_equal(st_unix_stop(u), 0);    /* a clean exit: nothing broke inside */
 }
 
+
+static void scribbling_over_split_batches_never_hurts_the_daemon(void **state)
+{
+    st_unix_daemon *u = *state;
+    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
+    enum { SZ = 2 << 20, N = 20000, ROOM = 1 << 20 };     /* N over split-batch (2048) */
+    int fd = raw_connect(u), mfd;
+    void *map;
+    st_wire_reply r;
+    assert_int_equal(stu_memfd_sealed("t", SZ, &mfd, &map), 0);
+    assert_int_equal(attach(fd, SZ, mfd, &r), STP_S_OK);
+    uint8_t *region = map;
+    stc_conn *plain = client(u);
+    assert_non_null(plain);
+    uint64_t split0 = stat_of(plain, "split_batches");
+    stc_query *q = st_default_set_queries(N, 8);
+    stp_sample_req rq;
+    memset(&rq, 0, sizeof rq);
+    snprintf(rq.p.name, sizeof rq.p.name, "default");
+    rq.p.mode = STP_MODE_TRAVERSE;
+    rq.p.filter = STP_FILTER_BILINEAR;
+    rq.p.flags = STP_SF_COVERAGE | STP_SF_STATUS;
+    rq.count = N;
+    rq.queries = (const stp_query *)q;
+    rq.shm.query_off = 0;
+    rq.shm.reply_off = ROOM;
+    rq.shm.reply_cap = ROOM;
+    const uint64_t rlen = 12 + (uint64_t)N * 21;
+    /* another thread rewrites the queries (faces, NaNs, huge values) all the time */
+    scribbler sc = {region, (size_t)N * STP_QUERY_SIZE, 0};
+    stp_put_queries(STP_OP_SAMPLE, &rq, region);
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, scribble, &sc), 0);
+    for (int i = 0; i < 3; i++) {
+        for (unsigned fmt = 0; fmt < 4; fmt++) {
+            rq.p.outfmt = (uint8_t)fmt;
+            assert_int_equal(shm_request(fd, &rq, &r), STP_S_OK);
+            uint64_t len = stp_rd64(r.body + 8);
+            assert_int_equal(stp_rd64(r.body), ROOM);
+            assert_int_equal(len, stp_sample_reply_bytes(N, 4, (uint8_t)fmt, rq.p.flags));
+            stp_sample_reply rp;
+            const char *why = NULL;
+            assert_int_equal(stp_dec_sample_reply(region + ROOM, len, &rp, &why), 0);
+            assert_int_equal(rp.count, N);
+            assert_true(rp.nbad <= N);
+        }
+        /* the compact and direction-free f32 forms too; and overlapping rooms (copied
+         * whole first) */
+        rq.p.outfmt = STP_OUT_F32;
+        rq.shm.reply_off = 0;
+        assert_int_equal(shm_request(fd, &rq, &r), STP_S_OK);
+        rq.shm.reply_off = ROOM;
+        rq.p.flags |= STP_SF_UV16 | STP_SF_FACE16;
+        assert_int_equal(shm_request(fd, &rq, &r), STP_S_OK);
+        rq.p.flags &= (uint8_t)~(STP_SF_UV16 | STP_SF_FACE16);
+    }
+    __atomic_store_n(&sc.stop, 1, __ATOMIC_RELAXED);
+    pthread_join(th, NULL);
+    /* with the queries left alone, the same request gives the socket path's bytes */
+    rq.p.outfmt = STP_OUT_F32;
+    stp_put_queries(STP_OP_SAMPLE, &rq, region);
+    assert_int_equal(shm_request(fd, &rq, &r), STP_S_OK);
+    assert_int_equal(stp_rd64(r.body + 8), rlen);
+    stc_sample_result res;
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = STP_MODE_TRAVERSE;
+    o.filter = STP_FILTER_BILINEAR;
+    o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    assert_int_equal(stc_sample(plain, "default", &o, q, N, &res), 0);
+    assert_int_equal(stp_rd32(region + ROOM), N);
+    assert_int_equal(stp_rd32(region + ROOM + 8), res.nbad);
+    assert_memory_equal(region + ROOM + 12, res.values, (size_t)N * 16);
+    assert_memory_equal(region + ROOM + 12 + (size_t)N * 16, res.coverage, (size_t)N * 4);
+    assert_memory_equal(region + ROOM + 12 + (size_t)N * 20, res.status, N);
+    /* with two CPUs or more helpers took parts of those batches */
+    if (sysconf(_SC_NPROCESSORS_ONLN) >= 2)
+        assert_true(stat_of(plain, "split_batches") > split0);
+    ping_ok(fd);
+    free(q);
+    stc_close(plain);
+    close(fd);
+    munmap(map, SZ);
+    close(mfd);
+    assert_int_equal(st_unix_stop(u), 0);    /* a clean exit: nothing broke inside */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -545,6 +899,13 @@ int main(void)
         cmocka_unit_test(shm_is_refused_over_tcp),
         cmocka_unit_test_setup_teardown(random_offsets_never_hurt_the_daemon, st_unix_setup,
                                         st_unix_teardown),
+        cmocka_unit_test_setup_teardown(zero_copy_calls_match_the_copying_ones, st_unix_setup,
+                                        st_unix_teardown),
+        cmocka_unit_test_setup_teardown(
+            rooms_in_place_overlapping_or_unaligned_give_the_socket_bytes, st_unix_setup,
+            st_unix_teardown),
+        cmocka_unit_test_setup_teardown(scribbling_over_split_batches_never_hurts_the_daemon,
+                                        st_unix_setup, st_unix_teardown),
     };
     return cmocka_run_group_tests_name("server_shm", tests, NULL, NULL);
 }
