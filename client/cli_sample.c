@@ -49,9 +49,9 @@ static const char *const SAMPLE_USAGE =
 enum { SHM_OFF, SHM_AUTO, SHM_ON };
 
 /* --shm: attaches a region to ctx->conn for one call of `chunk` queries, which libseamtex
- * sends as parts of at most max_batch queries, up to 16 outstanding: room for all parts, each
- * the larger of its queries (36 bytes each: a direction, the largest layout) and its reply
- * (4 channels, coverage and status), plus 64 bytes of span alignment. Under auto a refusal
+ * sends as parts of at most max_batch queries, up to 16 outstanding: room for all parts and one
+ * more (the reply last read in place), each as libseamtex counts a SAMPLE_DIR part
+ * (stc_shm_request_bytes: the larger query form). Under auto a refusal
  * (a TCP host, no SHM capability, over the daemon's shm-max) leaves the socket; under on it is
  * an error.
  * CLI_OK or an exit code (printed). */
@@ -64,10 +64,7 @@ static int attach_shm(cli_ctx *ctx, int policy, size_t chunk, unsigned outfmt)
     size_t per = stc_server_info(ctx->conn)->max_batch;
     if (per == 0 || per > chunk)
         per = chunk;
-    uint64_t q = stp_sample_query_bytes(STP_OP_SAMPLE_DIR, 0, (uint32_t)per);
-    uint64_t r = stp_sample_reply_bytes((uint32_t)per, 4, (uint8_t)outfmt,
-                                        STP_SF_COVERAGE | STP_SF_STATUS);
-    size_t bytes = (size_t)(((q > r ? q : r) + 64) * ((chunk + per - 1) / per));
+    size_t bytes = stc_shm_request_bytes(1, per, outfmt) * ((chunk + per - 1) / per + 1);
     int rc = stc_shm_attach(ctx->conn, bytes);
     /* STC_ESTATE: interactive mode's connection has its region from an earlier command (the
      * CLI never leaves pipelined replies unread, the other cause) */

@@ -196,6 +196,17 @@ static int take_room(stc_conn *c, uint8_t opcode, uint8_t flags, uint8_t outfmt,
     return 1;
 }
 
+size_t stc_shm_request_bytes(int dir, size_t n, unsigned outfmt)
+{
+    if (n == 0 || n > UINT32_MAX)
+        return 0;
+    uint8_t op = dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE;
+    uint64_t q = align_up(stp_sample_query_bytes(op, 0, (uint32_t)n));
+    uint64_t rep = align_up(stp_sample_reply_bytes((uint32_t)n, 4, (uint8_t)outfmt,
+                                                   STP_SF_COVERAGE | STP_SF_STATUS));
+    return q + rep > SIZE_MAX ? 0 : (size_t)(q + rep);
+}
+
 /* The last pending request holds the span. */
 static void hold_span(stc_conn *c, uint64_t at, uint64_t span, uint64_t roff, uint64_t rcap)
 {

@@ -182,15 +182,11 @@ rs_sampler *rs_net_new(stc_conn *c, const char *set, unsigned batch, unsigned in
 }
 
 /* The region for `inflight` requests of `batch` queries outstanding at once (as rs_net_new
- * clamps them): each takes, rounded up to libseamtex's 64-byte span alignment, the larger of
- * its 28-byte queries and its reply counted with 4 channels, coverage and status (the reply
- * overwrites the queries, PROTOCOL.md 4.12). */
+ * clamps them), plus one for the reply last read in place: libseamtex's own count of what a
+ * request takes (its queries, then a reply room of 4 channels with coverage and status). */
 static size_t shm_bytes(unsigned batch, unsigned inflight, unsigned outfmt)
 {
-    uint64_t q = stp_sample_query_bytes(STP_OP_SAMPLE, 0, batch);
-    uint64_t r = stp_sample_reply_bytes(batch, 4, (uint8_t)outfmt,
-                                        STP_SF_COVERAGE | STP_SF_STATUS);
-    return (size_t)(((q > r ? q : r) + 64) * inflight);
+    return stc_shm_request_bytes(0, batch, outfmt) * (inflight + 1);
 }
 
 int rs_net_shm(stc_conn *c, const char *host, int policy, unsigned batch, unsigned inflight,
