@@ -30,6 +30,7 @@
 
 #include "ptex_format.h"
 #include "ptexfilter_kernel.h"
+#include "ptexfilter_lanes.h"
 #include "ptexres.h"
 #include "ptextri.h"
 
@@ -928,9 +929,39 @@ static pf_query_fn query_fn(const pf *c, unsigned filter)
     return c->fast ? kernel_q : eval;
 }
 
-/* The batch; general: every query through eval (pf_batch_general). */
+/* One query of a batch: the checks (one vector compare for the common case: |u|, |v| and the
+ * four derivatives within the bound, NaN failing it), then qfn; returns its status. */
+static inline int one_query(pf *c, const pk_params *pp, const st_sample_opts *o,
+                            pf_query_fn qfn, const st_query *qi, float *oi, float *cov)
+{
+    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
+    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
+    v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
+    memcpy(&a, &qi->u, sizeof a);
+    v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
+#ifdef __SSE2__
+    int all = _mm_movemask_ps((__m128)ok) == 15;
+#else
+    int all = ok[0] && ok[1] && ok[2] && ok[3];
+#endif
+    if (__builtin_expect(qi->face < c->s->info.nfaces && all, 1))
+        return qfn(c, pp, o, qi, oi, cov);
+    int st;
+    if (qi->face >= c->s->info.nfaces)
+        st = ST_Q_BAD_FACE;
+    else
+        st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) && isfinite(qi->dvdx) &&
+                     isfinite(qi->dudy) && isfinite(qi->dvdy)
+                 ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        oi[ch] = NAN;
+    *cov = 0.0f;
+    return st;
+}
+
+/* The batch along path (pf_path): PF_PATH_BEST is st_ptexfilter_batch. */
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                 float *out, float *coverage, uint8_t *status, int general)
+                 float *out, float *coverage, uint8_t *status, int path)
 {
     if (!s || !o || (!q && n) || (!out && n))
         return ST_EINVAL;
@@ -952,6 +983,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     const st_ptexres *t = st_ptexres_pin(s, &be);
     if (!t)
         return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
+    int general = path == PF_PATH_GENERAL;
     int avx2 = pf_have_avx2();
     pk_params pp;
     pk_params_init(&pp, o->filter, o->sharpness, avx2);
@@ -966,37 +998,37 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;
     pf_query_fn qfn = general ? eval : query_fn(&c, o->filter);
+    /* the bilinear of in-face queries several at a time (ptexfilter_lanes.c), the rest and
+     * the tail one by one */
+    unsigned nl = 0;
+    pf_bilinear_lanes_fn lanes = NULL;
+    if (o->filter == ST_FILTER_PTEX_BILINEAR && s->info.nfaces > 0 &&
+        (path == PF_PATH_BEST || path == PF_PATH_LANES4))
+        lanes = pf_bilinear_lanes_select(c.dt, c.nc, path == PF_PATH_BEST ? 8 : 4, &nl);
+    pf_lanes lc = {.faces = s->faces, .ptxflags = t->ptxflags, .base = t->base, .px = t->px,
+                   .nfaces = s->info.nfaces, .width = c.width, .blur = c.blur};
     int bad = 0;
     unsigned nc = c.nc;
-    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
-    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
-    for (size_t i = 0; i < n; i++) {
-        const st_query *qi = &q[i];
-        float *oi = out + i * nc, cov;
-        int st;
-        /* one test for the common case: |u|, |v| and the four derivatives within the bound
-         * (NaN fails it too) */
-        v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
-        memcpy(&a, &qi->u, sizeof a);
-        v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
-#ifdef __SSE2__
-        int all = _mm_movemask_ps((__m128)ok) == 15;
-#else
-        int all = ok[0] && ok[1] && ok[2] && ok[3];
-#endif
-        if (__builtin_expect(qi->face < s->info.nfaces && all, 1)) {
-            st = qfn(&c, &pp, o, qi, oi, &cov);
-        } else {
-            if (qi->face >= s->info.nfaces)
-                st = ST_Q_BAD_FACE;
-            else
-                st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
-                     isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)
-                         ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
-            for (unsigned ch = 0; ch < nc; ch++)
-                oi[ch] = NAN;
-            cov = 0.0f;
+    size_t i = 0;
+    if (lanes) {
+        for (; i + nl <= n; i += nl) {
+            unsigned done = lanes(&lc, q + i, out + i * nc);
+            for (unsigned j = 0; j < nl; j++) {
+                float cov = 1.0f;
+                int st = ST_Q_OK;
+                if (!(done >> j & 1))
+                    st = one_query(&c, &pp, o, qfn, q + i + j, out + (i + j) * nc, &cov);
+                if (coverage)
+                    coverage[i + j] = cov;
+                if (status)
+                    status[i + j] = (uint8_t)st;
+                bad += st != ST_Q_OK;
+            }
         }
+    }
+    for (; i < n; i++) {
+        float cov;
+        int st = one_query(&c, &pp, o, qfn, q + i, out + i * nc, &cov);
         if (coverage)
             coverage[i] = cov;
         if (status)
@@ -1010,13 +1042,13 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
 int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                         float *out, float *coverage, uint8_t *status)
 {
-    return batch(s, o, q, n, out, coverage, status, 0);
+    return batch(s, o, q, n, out, coverage, status, PF_PATH_BEST);
 }
 
-int pf_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                     float *out, float *coverage, uint8_t *status)
+int pf_batch_path(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                  float *out, float *coverage, uint8_t *status, int path)
 {
-    return batch(s, o, q, n, out, coverage, status, 1);
+    return batch(s, o, q, n, out, coverage, status, path);
 }
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)

@@ -101,7 +101,7 @@ static void shortcuts_give_the_general_paths_results_bit_for_bit(void **state)
                     memset(o1, 0x5a, sizeof o1);
                     memset(o2, 0xa5, sizeof o2);
                     int b1 = st_ptexfilter_batch(s, &o, q, NQ, o1, c1, s1);
-                    int b2 = pf_batch_general(s, &o, q, NQ, o2, c2, s2);
+                    int b2 = pf_batch_path(s, &o, q, NQ, o2, c2, s2, PF_PATH_GENERAL);
                     assert_int_equal(b1, b2);
                     for (size_t k = 0; k < nv; k++) {
                         if (memcmp(&o1[k], &o2[k], sizeof(float))) {
