@@ -108,6 +108,26 @@ void  pk_split_t(pk *k, pk *out);
 void  pk_rotate(pk *k, int rot);
 int   pk_main_to_subface(pk *k, int eid);       /* returns 1 when the primary subface */
 void  pk_subface_to_main(pk *k, int eid);
+/* Halves the resolution of the w weights at kw of a window starting at *u (Ptex's
+ * downres: pairs summed, an odd first or last weight kept); pk_downres_u / _v on one axis. */
+static inline void pk_downres_run(float *kw, int *u, int *uw)
+{
+    float *src = kw, *dst = kw;
+    int w = *uw;
+    if (*u & 1) {
+        dst++;
+        src++;
+        w--;
+    }
+    for (int i = w / 2; i > 0; i--) {
+        *dst++ = src[0] + src[1];
+        src += 2;
+    }
+    if (w & 1)
+        *dst++ = *src++;
+    *u /= 2;
+    *uw = (int)(dst - kw);
+}
 void  pk_downres_u(pk *k);
 void  pk_downres_v(pk *k);
 void  pk_upres_u(pk *k);
