@@ -58,34 +58,38 @@ static float one_of(unsigned dt)
 
 #define PL_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline
 
-/* One axis of bilinear_kernel for 8 lanes: x the coordinate, w the width (|d/dx| + |d/dy|),
- * lg the face's log2 size; r the resolution, fl the first texel (a float), fr the fraction. */
-PL_TARGET void axis8(__m256 x, __m256 w, __m256i lg, __m256 width, __m256 blur, __m256i *r,
-                     __m256 *fl, __m256 *fr)
-{
-    const __m256 one = _mm256_set1_ps(1.0f);
-    const __m256i e127 = _mm256_set1_epi32(127);
-    w = _mm256_add_ps(_mm256_mul_ps(w, width), blur);
-    w = _mm256_min_ps(w, one);
-    w = _mm256_max_ps(w, _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lg), 23)));
-    *r = _mm256_sub_epi32(e127, _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(w), 23),
-                                                 _mm256_set1_epi32(0xff)));
-    __m256 rf = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(*r, e127), 23));
-    __m256 pix = _mm256_sub_ps(_mm256_mul_ps(x, rf), _mm256_set1_ps(0.5f));
-    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(pix));
-    *fl = _mm256_sub_ps(t, _mm256_and_ps(_mm256_cmp_ps(t, pix, _CMP_GT_OQ), one));
-    *fr = _mm256_sub_ps(pix, *fl);
-}
+/* One axis of bilinear_kernel, lane by lane, for W lanes (float vector V, int32 vector I of
+ * the same size; ATTR the function's target): x the coordinate, w the width (|d/dx| +
+ * |d/dy|), lg the face's log2 size; r the resolution, fl the first texel (a float), fr the
+ * fraction; returns the lanes whose 2 x 2 texels lie inside the face (fl >= 0, fl + 1 < 2^r,
+ * fr > 0, exact for these small integers). The same operations as the scalar code's (min and
+ * max as its compare-and-select: minps and maxps pick the same operand, NaN included). One
+ * text for both lane counts. */
+#define PL_AXIS(NAME, ATTR, V, I)                                                           \
+    ATTR I NAME(V x, V w, I lg, float width, float blur, I *r, V *fl, V *fr)                 \
+    {                                                                                       \
+        const V one = (V){0} + 1.0f, zero = (V){0};                                         \
+        w = w * width + blur;                                                               \
+        I lt = w < one;                                                                     \
+        w = (V)((lt & (I)w) | (~lt & (I)one));                 /* bu < 1 ? bu : 1 */        \
+        V lo = (V)((127 - lg) << 23);                                                       \
+        I gt = w > lo;                                                                      \
+        w = (V)((gt & (I)w) | (~gt & (I)lo));                  /* bu > lu ? bu : lu */      \
+        *r = 127 - (((I)w >> 23) & 0xff);                                                   \
+        V rf = (V)((*r + 127) << 23);                          /* 2^r */                    \
+        V pix = x * rf - 0.5f;                                                              \
+        V t = __builtin_convertvector(__builtin_convertvector(pix, I), V); /* pk_floor */     \
+        *fl = t - (V)((I)(t > pix) & (I)one);                                               \
+        *fr = pix - *fl;                                                                    \
+        return (*fl >= zero) & (*fl + 1.0f < rf) & (*fr > zero);                            \
+    }
 
-/* The 2 x 2 texels of 8 lanes inside their face: fl >= 0, fl + 1 < 2^r, fraction > 0. */
-PL_TARGET __m256 fits8(__m256i r, __m256 fl, __m256 fr)
-{
-    __m256 rf = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(r, _mm256_set1_epi32(127)), 23));
-    __m256 a = _mm256_cmp_ps(fl, _mm256_setzero_ps(), _CMP_GE_OQ);
-    __m256 b = _mm256_cmp_ps(_mm256_add_ps(fl, _mm256_set1_ps(1.0f)), rf, _CMP_LT_OQ);
-    __m256 c = _mm256_cmp_ps(fr, _mm256_setzero_ps(), _CMP_GT_OQ);
-    return _mm256_and_ps(_mm256_and_ps(a, b), c);
-}
+typedef int32_t pl_v8i __attribute__((vector_size(32)));
+typedef float pl_v8f __attribute__((vector_size(32)));
+typedef int32_t pl_v4i __attribute__((vector_size(16)));
+typedef float pl_v4f __attribute__((vector_size(16)));
+
+PL_AXIS(axis8, PL_TARGET, pl_v8f, pl_v8i)
 
 /* Rows [x[lo] .. x[lo + 3] | y[lo] .. y[lo + 3]] of 8 queries, transposed: 4 fields. */
 PL_TARGET void fields8(const st_query *q, size_t off, __m256 f[4])
@@ -149,13 +153,15 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsi
                          _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
     m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
     __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
-    __m256 width = _mm256_set1_ps(c->width), blur = _mm256_set1_ps(c->blur);
-    __m256i ru, rv;
-    __m256 flu, flv, fu, fv;
-    axis8(u, _mm256_add_ps(ax, ay), lu, width, blur, &ru, &flu, &fu);
-    axis8(v, _mm256_add_ps(bx, by), lv, width, blur, &rv, &flv, &fv);
-    m = _mm256_and_si256(m, _mm256_castps_si256(_mm256_and_ps(fits8(ru, flu, fu),
-                                                              fits8(rv, flv, fv))));
+    pl_v8i ru8, rv8;
+    pl_v8f flu8, flv8, fu8, fv8;
+    pl_v8i in = axis8((pl_v8f)u, (pl_v8f)_mm256_add_ps(ax, ay), (pl_v8i)lu, c->width, c->blur,
+                      &ru8, &flu8, &fu8) &
+                axis8((pl_v8f)v, (pl_v8f)_mm256_add_ps(bx, by), (pl_v8i)lv, c->width, c->blur,
+                      &rv8, &flv8, &fv8);
+    m = _mm256_and_si256(m, (__m256i)in);
+    __m256i ru = (__m256i)ru8, rv = (__m256i)rv8;
+    __m256 flu = (__m256)flu8, flv = (__m256)flv8, fu = (__m256)fu8, fv = (__m256)fv8;
     unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
     if (!mask)
         return 0;
@@ -317,27 +323,7 @@ PL_FN8_NC(3)
 
 /* ---- 4 lanes (SSE2) --------------------------------------------------------------------- */
 
-/* bilinear_kernel's SSE2 arithmetic on one axis of 4 lanes (axis8's operations). */
-static inline void axis4(__m128 x, __m128 w, __m128i lg, __m128 width, __m128 blur, __m128i *r,
-                         __m128 *fl, __m128 *fr)
-{
-    const __m128 one = _mm_set1_ps(1.0f);
-    const __m128i e127 = _mm_set1_epi32(127);
-    w = _mm_add_ps(_mm_mul_ps(w, width), blur);
-    w = _mm_min_ps(w, one);
-    w = _mm_max_ps(w, _mm_castsi128_ps(_mm_slli_epi32(_mm_sub_epi32(e127, lg), 23)));
-    *r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
-                                           _mm_set1_epi32(0xff)));
-    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(*r, e127), 23));
-    __m128 pix = _mm_sub_ps(_mm_mul_ps(x, rf), _mm_set1_ps(0.5f));
-    __m128 t = _mm_cvtepi32_ps(_mm_cvttps_epi32(pix));
-    *fl = _mm_sub_ps(t, _mm_and_ps(_mm_cmpgt_ps(t, pix), one));
-    *fr = _mm_sub_ps(pix, *fl);
-    __m128 a = _mm_cmpge_ps(*fl, _mm_setzero_ps());
-    __m128 b = _mm_cmplt_ps(_mm_add_ps(*fl, one), rf);
-    __m128 c = _mm_cmpgt_ps(*fr, _mm_setzero_ps());
-    *fr = _mm_and_ps(*fr, _mm_and_ps(_mm_and_ps(a, b), c)); /* 0 where the texels do not fit */
-}
+PL_AXIS(axis4, static inline, pl_v4f, pl_v4i)
 
 /* One texel of type DT as 4 float lanes (ptexfilter.c's loads: u8 4 bytes, u16 and half 8,
  * float 16, whatever the channel count; the lanes past it are never stored). */
@@ -396,16 +382,17 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
         uw_[j] = ax + ay, vw_[j] = bx + by;
         lu_[j] = F->ulog2, lv_[j] = F->vlog2;
     }
-    __m128 width = _mm_set1_ps(c->width), blur = _mm_set1_ps(c->blur);
-    __m128i ru, rv;
-    __m128 flu, flv, fu, fv;
-    axis4(_mm_loadu_ps(u_), _mm_loadu_ps(uw_), _mm_loadu_si128((const __m128i *)(const void *)lu_),
-          width, blur, &ru, &flu, &fu);
-    axis4(_mm_loadu_ps(v_), _mm_loadu_ps(vw_), _mm_loadu_si128((const __m128i *)(const void *)lv_),
-          width, blur, &rv, &flv, &fv);
-    /* fu, fv are 0 where the texels do not fit (> 0 where they do) */
-    unsigned mask = (unsigned)_mm_movemask_ps(_mm_and_ps(_mm_cmpgt_ps(fu, _mm_setzero_ps()),
-                                                         _mm_cmpgt_ps(fv, _mm_setzero_ps())));
+    pl_v4i ru4, rv4;
+    pl_v4f flu4, flv4, fu4, fv4;
+    pl_v4i in = axis4((pl_v4f)_mm_loadu_ps(u_), (pl_v4f)_mm_loadu_ps(uw_),
+                      (pl_v4i)_mm_loadu_si128((const __m128i *)(const void *)lu_), c->width,
+                      c->blur, &ru4, &flu4, &fu4) &
+                axis4((pl_v4f)_mm_loadu_ps(v_), (pl_v4f)_mm_loadu_ps(vw_),
+                      (pl_v4i)_mm_loadu_si128((const __m128i *)(const void *)lv_), c->width,
+                      c->blur, &rv4, &flv4, &fv4);
+    __m128i ru = (__m128i)ru4, rv = (__m128i)rv4;
+    __m128 flu = (__m128)flu4, flv = (__m128)flv4, fu = (__m128)fu4, fv = (__m128)fv4;
+    unsigned mask = (unsigned)_mm_movemask_ps((__m128)in);
     mask &= (unsigned)(ok_[0] | ok_[1] << 1 | ok_[2] << 2 | ok_[3] << 3);
     if (!mask)
         return 0;
