@@ -108,6 +108,31 @@ PL_TARGET void fields8(const st_query *q, size_t off, __m256 f[4])
     f[3] = _mm256_shuffle_ps(t1, t3, 0xee);
 }
 
+/* The texels at a and b (type DT, 4 values each: as bilinear_write loads one) as the low and
+ * the high 4 lanes. */
+PL_TARGET __m256 texel2(const uint8_t *a, const uint8_t *b, unsigned DT)
+{
+    switch (DT) {
+    case ST_DT_U8: {
+        int x, y;
+        memcpy(&x, a, 4);
+        memcpy(&y, b, 4);
+        return _mm256_cvtepi32_ps(
+            _mm256_cvtepu8_epi32(_mm_unpacklo_epi32(_mm_cvtsi32_si128(x), _mm_cvtsi32_si128(y))));
+    }
+    case ST_DT_U16:
+        return _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
+            _mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)a),
+                               _mm_loadl_epi64((const __m128i *)(const void *)b))));
+    case ST_DT_HALF:
+        return _mm256_cvtph_ps(_mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)a),
+                                                  _mm_loadl_epi64((const __m128i *)(const void *)b)));
+    default:
+        return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps((const float *)(const void *)a)),
+                                    _mm_loadu_ps((const float *)(const void *)b), 1);
+    }
+}
+
 /* 8 queries of texels of type DT with NC channels. */
 PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsigned DT,
                           unsigned NC)
@@ -244,7 +269,47 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsi
         _mm256_storeu_ps(out, _mm256_mul_ps(acc, scale));
         return mask;
     }
-    /* several channels: one lane's texels in 4 lanes, as bilinear_write */
+    if (NC >= 3) {
+        /* two lanes a vector: lane 2k's texel in the low 4 lanes, lane 2k + 1's in the high 4
+         * (bilinear_write's operations on each); a lane not served reads zeros */
+        static const uint8_t zeros[64];
+        const __m256i safe = _mm256_set1_epi64x((long long)(uintptr_t)zeros);
+        uint64_t b0[8], b1[8];
+        for (int h = 0; h < 2; h++) {
+            _mm256_storeu_si256((__m256i *)(void *)(b0 + 4 * h), _mm256_blendv_epi8(safe, p0[h], m64[h]));
+            _mm256_storeu_si256((__m256i *)(void *)(b1 + 4 * h), _mm256_blendv_epi8(safe, p1[h], m64[h]));
+        }
+        const __m256i sel = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        for (int k = 0; k < 4; k++) {
+            if (!(mask >> (2 * k) & 3))
+                continue;
+            __m256i ix = _mm256_add_epi32(sel, _mm256_set1_epi32(2 * k));
+            const uint8_t *pa = (const uint8_t *)(uintptr_t)b0[2 * k];
+            const uint8_t *pb = (const uint8_t *)(uintptr_t)b0[2 * k + 1];
+            const uint8_t *qa = (const uint8_t *)(uintptr_t)b1[2 * k];
+            const uint8_t *qb = (const uint8_t *)(uintptr_t)b1[2 * k + 1];
+            __m256 a = _mm256_permutevar8x32_ps(ku0, ix), b = _mm256_permutevar8x32_ps(fu, ix);
+            __m256 r0 = _mm256_add_ps(_mm256_mul_ps(texel2(pa, pb, DT), a),
+                                      _mm256_mul_ps(texel2(pa + ts, pb + ts, DT), b));
+            __m256 r1 = _mm256_add_ps(_mm256_mul_ps(texel2(qa, qb, DT), a),
+                                      _mm256_mul_ps(texel2(qa + ts, qb + ts, DT), b));
+            __m256 acc = _mm256_add_ps(_mm256_mul_ps(r0, _mm256_permutevar8x32_ps(kv0, ix)),
+                                       _mm256_mul_ps(r1, _mm256_permutevar8x32_ps(fv, ix)));
+            __m256 res = _mm256_mul_ps(acc, _mm256_permutevar8x32_ps(scale, ix));
+            float *o = out + (size_t)(2 * k) * NC;
+            if (NC == 4) {
+                _mm256_storeu_ps(o, res);
+            } else {
+                __m128 lo = _mm256_castps256_ps128(res), hi = _mm256_extractf128_ps(res, 1);
+                _mm_storel_pi((__m64 *)(void *)o, lo);
+                _mm_store_ss(o + 2, _mm_movehl_ps(lo, lo));
+                _mm_storel_pi((__m64 *)(void *)(o + 3), hi);
+                _mm_store_ss(o + 5, _mm_movehl_ps(hi, hi));
+            }
+        }
+        return mask;
+    }
+    /* two channels: one lane's texels in 4 lanes, as bilinear_write */
     uint64_t a0[8], a1[8];
     float k0[8], k1[8], w0[8], w1[8], sc[8];
     for (int h = 0; h < 2; h++) {
