@@ -1164,39 +1164,29 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                    .nfaces = s->info.nfaces, .width = c.width, .blur = c.blur};
     int bad = 0;
     unsigned nc = c.nc;
-    size_t i = 0;
-    if (lanes) {
-        /* where the lanes serve fewer than 2 queries of a block (kernels that overhang their
-         * faces: large footprints on small faces) the next 3 blocks skip them, so such runs
-         * pay for a quarter of the lane work that only finds them edge queries */
-        unsigned skip = 0;
-        for (; i + nl <= n; i += nl) {
-            unsigned done = 0;
-            if (skip)
-                skip--;
-            else if (__builtin_popcount(done = lanes(&lc, q + i, out + i * nc)) < 2)
-                skip = 3;
-            for (unsigned j = 0; j < nl; j++) {
-                float cov = 1.0f;
-                int st = ST_Q_OK;
-                if (!(done >> j & 1))
-                    st = one_query(&c, &pp, o, qfn, q + i + j, out + (i + j) * nc, &cov);
-                if (coverage)
-                    coverage[i + j] = cov;
-                if (status)
-                    status[i + j] = (uint8_t)st;
-                bad += st != ST_Q_OK;
-            }
+    for (size_t i = 0; i < n;) {
+        /* a block of lanes, then [i, end) one by one but for those the lanes served (done);
+         * where the lanes serve fewer than 2 of a block (kernels that overhang their faces:
+         * large footprints on small faces, subfaces), the next 3 blocks go one by one without
+         * them, so such runs pay for a quarter of the lane work that finds nothing */
+        unsigned done = 0;
+        size_t end = n;
+        if (lanes && i + nl <= n) {
+            done = lanes(&lc, q + i, out + i * nc);
+            end = i + (__builtin_popcount(done) < 2 ? 4 * (size_t)nl : nl);
+            end = end < n ? end : n;
         }
-    }
-    for (; i < n; i++) {
-        float cov;
-        int st = one_query(&c, &pp, o, qfn, q + i, out + i * nc, &cov);
-        if (coverage)
-            coverage[i] = cov;
-        if (status)
-            status[i] = (uint8_t)st;
-        bad += st != ST_Q_OK;
+        for (; i < end; i++, done >>= 1) {
+            float cov = 1.0f;
+            int st = ST_Q_OK;
+            if (!(done & 1))
+                st = one_query(&c, &pp, o, qfn, q + i, out + i * nc, &cov);
+            if (coverage)
+                coverage[i] = cov;
+            if (status)
+                status[i] = (uint8_t)st;
+            bad += st != ST_Q_OK;
+        }
     }
     st_ptexres_unpin(t);
     return bad;

@@ -177,6 +177,8 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsi
         _mm256_and_si256(_mm256_srli_epi32(fw, 24),
                          _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
     m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
+    if (_mm256_testz_si256(m, m)) /* subfaces, constant faces: nothing for the lanes */
+        return 0;
     __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
     pl_v8i ru8, rv8;
     pl_v8f flu8, flv8, fu8, fv8;
