@@ -30,6 +30,7 @@
 
 #include "ptex_format.h"
 #include "ptexfilter_kernel.h"
+#include "ptexfilter_lanes.h"
 #include "ptexres.h"
 #include "ptextri.h"
 
@@ -459,27 +460,170 @@ __attribute__((always_inline)) static inline int bilinear_inface(const pf *c, co
 }
 
 /* ---- a bilinear kernel that overhangs its face (c->small set) ----------------------------
- * split_apply and apply for kernels of at most 2 x 2 texels: the same pk operations in the
- * same order, the same weights, the pieces summed by c->small (bit for bit pf_apply_avx2 on
- * such windows) in the same order; what is left out is the general path's overhead (eval's
- * prologue, pk_build, the window loop's dispatch). Anything rarer - a corner, a subface
- * neighbour, a constant face - goes to the general functions, so the results are those of
- * eval bit for bit (test_ptexfilter_simd checks it on every shared file). */
+ * split_apply and apply for kernels of at most 2 x 2 texels: the same kernel operations in the
+ * same order on the same weights, on pk2 pieces (a pk of at most 2 x 2 weights held at index
+ * 0: no weight buffers to copy, no calls per operation), the pieces summed by c->small (bit
+ * for bit pf_apply_avx2 on such windows) in the same order; what is left out is the general
+ * path's overhead (eval's prologue, pk_build, the window loop's dispatch, pk's bookkeeping).
+ * Anything rarer - a corner of valence other than 4, a subface neighbour, a constant face -
+ * goes to the general functions with the pk the general path would hold at that point, so
+ * the results are those of eval bit for bit (test_ptexfilter_paths checks it on every shared
+ * file). */
 
-/* apply() for a window of at most 2 x 2 texels. */
-__attribute__((always_inline)) static inline void apply_small(pf *c, pk *k, int f)
+typedef struct pk2 {
+    int ulog2, vlog2, u, v, uw, vw;  /* as pk's; uw, vw <= 2 */
+    float ku[2], kv[2];              /* weights at index 0 (pk's ku0 = kv0 = 0) */
+} pk2;
+
+static void pk2_to_pk(pk *k, const pk2 *p)
+{
+    k->ulog2 = p->ulog2, k->vlog2 = p->vlog2, k->u = p->u, k->v = p->v;
+    k->uw = p->uw, k->vw = p->vw;
+    k->ku0 = k->kv0 = k->rot = 0;
+    for (int i = 0; i < p->uw; i++)
+        k->kub[i] = p->ku[i];
+    for (int i = 0; i < p->vw; i++)
+        k->kvb[i] = p->kv[i];
+}
+
+static inline float p2_weight(const pk2 *p)
+{
+    return pk_accumulate(p->ku, p->uw) * pk_accumulate(p->kv, p->vw);
+}
+
+/* pk_merge_l / _r along one axis of a pk2 (x the first texel, n the width, w the weights,
+ * res the size): the overhang folded onto the edge texel (unless black) and dropped. */
+static inline void p2_merge_lo(int *x, int *n, float *w, int black)
+{
+    int o = -*x;
+    if (!black)
+        w[o] += pk_accumulate(w, o);
+    for (int i = o; i < *n && i < 2; i++) /* i < 2: n <= 2 (lets the compiler unroll) */
+        w[i - o] = w[i];
+    *n -= o;
+    *x = 0;
+}
+static inline void p2_merge_hi(int x, int *n, float *w, int res, int black)
+{
+    int o = *n + x - res;
+    float *kp = w + *n - o;
+    if (!black)
+        kp[-1] += pk_accumulate(kp, o);
+    *n -= o;
+}
+static inline void p2_merge_l(pk2 *p, int black) { p2_merge_lo(&p->u, &p->uw, p->ku, black); }
+static inline void p2_merge_b(pk2 *p, int black) { p2_merge_lo(&p->v, &p->vw, p->kv, black); }
+static inline void p2_merge_r(pk2 *p, int black)
+{
+    p2_merge_hi(p->u, &p->uw, p->ku, 1 << p->ulog2, black);
+}
+static inline void p2_merge_t(pk2 *p, int black)
+{
+    p2_merge_hi(p->v, &p->vw, p->kv, 1 << p->vlog2, black);
+}
+
+/* pk_split_l / _r along one axis: o (a copy of p) gets the part past the low / high edge,
+ * p keeps the rest. */
+static inline void p2_split_lo(int *x, int *n, float *w, int res, int *ox, int *on, float *ow)
+{
+    int o = -*x;
+    if (o < *n) {
+        *ox = res - o;
+        *on = o;
+        for (int i = 0; i < o && i < 2; i++)
+            ow[i] = w[i];
+        for (int i = o; i < *n && i < 2; i++)
+            w[i - o] = w[i];
+        *n -= o;
+    } else {
+        *ox += res;
+        *n = 0;
+    }
+    *x = 0;
+}
+static inline void p2_split_hi(int *x, int *n, float *w, int res, int *ox, int *on, float *ow)
+{
+    int o = *x + *n - res;
+    if (o < *n) {
+        *ox = 0;
+        *on = o;
+        for (int i = 0; i < o && i < 2; i++)
+            ow[i] = w[*n - o + i];
+        *n -= o;
+    } else {
+        *ox -= res;
+        *x = 0;
+        *n = 0;
+    }
+}
+static inline void p2_split_l(pk2 *p, pk2 *o)
+{
+    *o = *p;
+    p2_split_lo(&p->u, &p->uw, p->ku, 1 << p->ulog2, &o->u, &o->uw, o->ku);
+}
+static inline void p2_split_r(pk2 *p, pk2 *o)
+{
+    *o = *p;
+    p2_split_hi(&p->u, &p->uw, p->ku, 1 << p->ulog2, &o->u, &o->uw, o->ku);
+}
+static inline void p2_split_b(pk2 *p, pk2 *o)
+{
+    *o = *p;
+    p2_split_lo(&p->v, &p->vw, p->kv, 1 << p->vlog2, &o->v, &o->vw, o->kv);
+}
+static inline void p2_split_t(pk2 *p, pk2 *o)
+{
+    *o = *p;
+    p2_split_hi(&p->v, &p->vw, p->kv, 1 << p->vlog2, &o->v, &o->vw, o->kv);
+}
+
+/* pk_rotate: quarter turns (flip u then swap, flip both, flip v then swap). */
+static inline void p2_flip(int *x, int n, float *w, int lg)
+{
+    *x = (1 << lg) - *x - n;
+    if (n == 2) {
+        float t = w[0];
+        w[0] = w[1];
+        w[1] = t;
+    }
+}
+static inline void p2_rotate(pk2 *p, int rot)
+{
+    rot &= 3;
+    if (rot == 0)
+        return;
+    if (rot != 3)
+        p2_flip(&p->u, p->uw, p->ku, p->ulog2);
+    if (rot != 1)
+        p2_flip(&p->v, p->vw, p->kv, p->vlog2);
+    if (rot != 2) {
+        pk2 t = *p;
+        p->ulog2 = t.vlog2, p->vlog2 = t.ulog2, p->u = t.v, p->v = t.u;
+        p->uw = t.vw, p->vw = t.uw;
+        p->ku[0] = t.kv[0], p->ku[1] = t.kv[1], p->kv[0] = t.ku[0], p->kv[1] = t.ku[1];
+    }
+}
+
+/* apply() for a piece of at most 2 x 2 texels. */
+__attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int f)
 {
     const st_face *F = &c->s->faces[f];
-    if ((F->flags & ST_FACE_CONSTANT) || k->uw > 2 || k->vw > 2) {
-        apply(c, k, f);
+    if (F->flags & ST_FACE_CONSTANT) {
+        pk g;
+        pk2_to_pk(&g, k);
+        apply(c, &g, f);
         return;
     }
     if (k->uw <= 0 || k->vw <= 0)
         return;
-    while (k->ulog2 > F->ulog2)
-        pk_downres_u(k);
-    while (k->vlog2 > F->vlog2)
-        pk_downres_v(k);
+    while (k->ulog2 > F->ulog2) {
+        pk_downres_run(k->ku, &k->u, &k->uw);
+        k->ulog2--;
+    }
+    while (k->vlog2 > F->vlog2) {
+        pk_downres_run(k->kv, &k->v, &k->vw);
+        k->vlog2--;
+    }
     int resu = 1 << k->ulog2;
     if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
         return;
@@ -487,25 +631,27 @@ __attribute__((always_inline)) static inline void apply_small(pf *c, pk *k, int 
                                 (size_t)k->vlog2];
     size_t rowb = (size_t)resu * c->ts;
     const uint8_t *base = d + ((size_t)k->v * (size_t)resu + (size_t)k->u) * c->ts;
-    c->acc = c->small(base, rowb, k->kub + k->ku0, k->uw, k->kvb + k->kv0, k->vw, c->acc);
+    c->acc = c->small(base, rowb, k->ku, k->uw, k->kv, k->vw, c->acc);
 }
 
 /* apply_across_edge when neither face is a subface (else the general one). */
-static void across_small(pf *c, pk *k, int f, int eid)
+static void across_small(pf *c, pk2 *k, int f, int eid)
 {
     const st_face *F = &c->s->faces[f];
     int af = F->adjface[eid];
     if (is_subface(c, af)) {
-        apply_across_edge(c, k, f, eid, 0);
+        pk g;
+        pk2_to_pk(&g, k);
+        apply_across_edge(c, &g, f, eid, 0);
         return;
     }
-    pk_rotate(k, eid - F->adjedge[eid] + 2);
+    p2_rotate(k, eid - F->adjedge[eid] + 2);
     apply_small(c, k, af);
 }
 
 /* apply_to_corner when no face around the vertex is a subface and the vertex is regular
  * (valence 4: one diagonal face); else the general one. */
-static void corner_small(pf *c, pk *k, int f, int eid)
+static void corner_small(pf *c, pk2 *k, int f, int eid)
 {
     int af = f, ae = eid, cf = -1, ce = 0;
     for (int i = 0; i < 4; i++) {
@@ -519,134 +665,145 @@ static void corner_small(pf *c, pk *k, int f, int eid)
             ce = ae;
         }
         if (i == 3) { /* back at (f, eid) after 4 steps: ncorners == 1 */
-            pk_rotate(k, eid - ce + 2);
+            p2_rotate(k, eid - ce + 2);
             apply_small(c, k, cf);
             return;
         }
     }
-    apply_to_corner(c, k, f, eid, 0);
+    pk g;
+    pk2_to_pk(&g, k);
+    apply_to_corner(c, &g, f, eid, 0);
 }
 
-/* The split of a kernel that overhangs face f, one walk for both paths: the pieces past an
- * edge go to the neighbour (apply_across_edge), past a vertex to the faces around it
+/* The split of a kernel that overhangs face f, one walk for both kinds of kernel: the pieces
+ * past an edge go to the neighbour (apply_across_edge), past a vertex to the faces around it
  * (apply_to_corner), past a border are merged back (Clamp) or dropped (Discard), and the rest
- * is applied on f. small (a constant where it is inlined) picks the functions for kernels of at
- * most 2 x 2 texels on faces that are not subfaces (split_apply_small) or the general ones
- * (split_apply); the pk operations and their order are the same. */
-__attribute__((always_inline)) static inline void leaf(pf *c, pk *k, int f, int small)
+ * is applied on f. small (a constant where it is inlined) says which kernel the walk holds: a
+ * pk (k; the general functions, split_apply) or a pk2 of at most 2 x 2 texels on a face that
+ * is not a subface, at depth 0 (k2; the functions above, split_apply_small); the kernel
+ * operations and their order are the same. */
+#define W_MERGE(D, K, K2, BLACK) (small ? p2_merge_##D(K2, BLACK) : pk_merge_##D(K, BLACK))
+#define W_SPLIT(D, K, K2, O, O2) (small ? p2_split_##D(K2, O2) : pk_split_##D(K, O))
+
+__attribute__((always_inline)) static inline void leaf(pf *c, pk *k, pk2 *k2, int f, int small)
 {
     if (small)
-        apply_small(c, k, f);
+        apply_small(c, k2, f);
     else
         apply(c, k, f);
 }
 
-__attribute__((always_inline)) static inline void to_edge(pf *c, pk *k, int f, int eid, int depth,
-                                                         int small)
+__attribute__((always_inline)) static inline void to_edge(pf *c, pk *k, pk2 *k2, int f, int eid,
+                                                         int depth, int small)
 {
     if (small)
-        across_small(c, k, f, eid);
+        across_small(c, k2, f, eid);
     else
         apply_across_edge(c, k, f, eid, depth);
 }
 
-__attribute__((always_inline)) static inline void to_corner(pf *c, pk *k, int f, int eid,
-                                                           int depth, int small)
+__attribute__((always_inline)) static inline void to_corner(pf *c, pk *k, pk2 *k2, int f,
+                                                           int eid, int depth, int small)
 {
     if (small)
-        corner_small(c, k, f, eid);
+        corner_small(c, k2, f, eid);
     else
         apply_to_corner(c, k, f, eid, depth);
 }
 
-__attribute__((always_inline)) static inline void split_walk(pf *c, pk *k, int f, int depth,
-                                                            int small)
+__attribute__((always_inline)) static inline void split_walk(pf *c, pk *k, pk2 *k2, int f,
+                                                            int depth, int small)
 {
     const st_face *F = &c->s->faces[f];
-    int resu = 1 << k->ulog2, resv = 1 << k->vlog2;
-    int sr = k->u + k->uw > resu, sl = k->u < 0;
-    int st = k->v + k->vw > resv, sb = k->v < 0;
+    int u = small ? k2->u : k->u, v = small ? k2->v : k->v;
+    int uw = small ? k2->uw : k->uw, vw = small ? k2->vw : k->vw;
+    int resu = 1 << (small ? k2->ulog2 : k->ulog2), resv = 1 << (small ? k2->vlog2 : k->vlog2);
+    int sr = u + uw > resu, sl = u < 0;
+    int st = v + vw > resv, sb = v < 0;
     int bu = c->bu == 1, bv = c->bv == 1;
     if (c->mode != ST_MODE_TRAVERSE || depth > PF_MAX_DEPTH) {
         int drop = c->mode == ST_MODE_DISCARD;
-        if (sr) pk_merge_r(k, drop || bu);
-        if (sl) pk_merge_l(k, drop || bu);
-        if (st) pk_merge_t(k, drop || bv);
-        if (sb) pk_merge_b(k, drop || bv);
+        if (sr) W_MERGE(r, k, k2, drop || bu);
+        if (sl) W_MERGE(l, k, k2, drop || bu);
+        if (st) W_MERGE(t, k, k2, drop || bv);
+        if (sb) W_MERGE(b, k, k2, drop || bv);
         if (drop)
-            c->weight = pk_weight(k);
-        leaf(c, k, f, small);
+            c->weight = small ? p2_weight(k2) : pk_weight(k);
+        leaf(c, k, k2, f, small);
         return;
     }
     pk ka, kc;
+    pk2 ka2, kc2;
     if (sr) {
         if (F->adjface[1] >= 0) {
-            pk_split_r(k, &ka);
+            W_SPLIT(r, k, k2, &ka, &ka2);
             if (st) {
                 if (F->adjface[2] >= 0) {
-                    pk_split_t(&ka, &kc);
-                    to_corner(c, &kc, f, 2, depth, small);
+                    W_SPLIT(t, &ka, &ka2, &kc, &kc2);
+                    to_corner(c, &kc, &kc2, f, 2, depth, small);
                 } else
-                    pk_merge_t(&ka, bv);
+                    W_MERGE(t, &ka, &ka2, bv);
             }
             if (sb) {
                 if (F->adjface[0] >= 0) {
-                    pk_split_b(&ka, &kc);
-                    to_corner(c, &kc, f, 1, depth, small);
+                    W_SPLIT(b, &ka, &ka2, &kc, &kc2);
+                    to_corner(c, &kc, &kc2, f, 1, depth, small);
                 } else
-                    pk_merge_b(&ka, bv);
+                    W_MERGE(b, &ka, &ka2, bv);
             }
-            to_edge(c, &ka, f, 1, depth, small);
+            to_edge(c, &ka, &ka2, f, 1, depth, small);
         } else
-            pk_merge_r(k, bu);
+            W_MERGE(r, k, k2, bu);
     }
     if (sl) {
         if (F->adjface[3] >= 0) {
-            pk_split_l(k, &ka);
+            W_SPLIT(l, k, k2, &ka, &ka2);
             if (st) {
                 if (F->adjface[2] >= 0) {
-                    pk_split_t(&ka, &kc);
-                    to_corner(c, &kc, f, 3, depth, small);
+                    W_SPLIT(t, &ka, &ka2, &kc, &kc2);
+                    to_corner(c, &kc, &kc2, f, 3, depth, small);
                 } else
-                    pk_merge_t(&ka, bv);
+                    W_MERGE(t, &ka, &ka2, bv);
             }
             if (sb) {
                 if (F->adjface[0] >= 0) {
-                    pk_split_b(&ka, &kc);
-                    to_corner(c, &kc, f, 0, depth, small);
+                    W_SPLIT(b, &ka, &ka2, &kc, &kc2);
+                    to_corner(c, &kc, &kc2, f, 0, depth, small);
                 } else
-                    pk_merge_b(&ka, bv);
+                    W_MERGE(b, &ka, &ka2, bv);
             }
-            to_edge(c, &ka, f, 3, depth, small);
+            to_edge(c, &ka, &ka2, f, 3, depth, small);
         } else
-            pk_merge_l(k, bu);
+            W_MERGE(l, k, k2, bu);
     }
     if (st) {
         if (F->adjface[2] >= 0) {
-            pk_split_t(k, &ka);
-            to_edge(c, &ka, f, 2, depth, small);
+            W_SPLIT(t, k, k2, &ka, &ka2);
+            to_edge(c, &ka, &ka2, f, 2, depth, small);
         } else
-            pk_merge_t(k, bv);
+            W_MERGE(t, k, k2, bv);
     }
     if (sb) {
         if (F->adjface[0] >= 0) {
-            pk_split_b(k, &ka);
-            to_edge(c, &ka, f, 0, depth, small);
+            W_SPLIT(b, k, k2, &ka, &ka2);
+            to_edge(c, &ka, &ka2, f, 0, depth, small);
         } else
-            pk_merge_b(k, bv);
+            W_MERGE(b, k, k2, bv);
     }
-    leaf(c, k, f, small);
+    leaf(c, k, k2, f, small);
 }
+#undef W_MERGE
+#undef W_SPLIT
 
 static void split_apply(pf *c, pk *k, int f, int depth)
 {
-    split_walk(c, k, f, depth, 0);
+    split_walk(c, k, NULL, f, depth, 0);
 }
 
 /* split_apply at depth 0 on face f (not a subface) for a kernel of at most 2 x 2 texels. */
-static void split_apply_small(pf *c, pk *k, int f)
+__attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *k, int f)
 {
-    split_walk(c, k, f, 0, 1);
+    split_walk(c, NULL, k, f, 0, 1);
 }
 
 /* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode: the
@@ -655,15 +812,14 @@ static void split_apply_small(pf *c, pk *k, int f)
  * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
 static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
 {
-    pk k;
+    pk2 k;
     k.ulog2 = b.ru, k.vlog2 = b.rv, k.u = b.ui, k.v = b.vi;
     k.uw = b.fu != 0.0f ? 2 : 1;
     k.vw = b.fv != 0.0f ? 2 : 1;
-    k.ku0 = k.kv0 = k.rot = 0;
-    k.kub[0] = 1.0f - b.fu, k.kub[1] = b.fu;
-    k.kvb[0] = 1.0f - b.fv, k.kvb[1] = b.fv;
+    k.ku[0] = 1.0f - b.fu, k.ku[1] = b.fu;
+    k.kv[0] = 1.0f - b.fv, k.kv[1] = b.fv;
     c->acc = (v4f){0, 0, 0, 0};
-    float total = pk_weight(&k);
+    float total = p2_weight(&k);
     c->weight = total;
     split_apply_small(c, &k, (int)f);
     *cov = 1.0f;
@@ -928,9 +1084,39 @@ static pf_query_fn query_fn(const pf *c, unsigned filter)
     return c->fast ? kernel_q : eval;
 }
 
-/* The batch; general: every query through eval (pf_batch_general). */
+/* One query of a batch: the checks (one vector compare for the common case: |u|, |v| and the
+ * four derivatives within the bound, NaN failing it), then qfn; returns its status. */
+static inline int one_query(pf *c, const pk_params *pp, const st_sample_opts *o,
+                            pf_query_fn qfn, const st_query *qi, float *oi, float *cov)
+{
+    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
+    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
+    v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
+    memcpy(&a, &qi->u, sizeof a);
+    v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
+#ifdef __SSE2__
+    int all = _mm_movemask_ps((__m128)ok) == 15;
+#else
+    int all = ok[0] && ok[1] && ok[2] && ok[3];
+#endif
+    if (__builtin_expect(qi->face < c->s->info.nfaces && all, 1))
+        return qfn(c, pp, o, qi, oi, cov);
+    int st;
+    if (qi->face >= c->s->info.nfaces)
+        st = ST_Q_BAD_FACE;
+    else
+        st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) && isfinite(qi->dvdx) &&
+                     isfinite(qi->dudy) && isfinite(qi->dvdy)
+                 ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        oi[ch] = NAN;
+    *cov = 0.0f;
+    return st;
+}
+
+/* The batch along path (pf_path): PF_PATH_BEST is st_ptexfilter_batch. */
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                 float *out, float *coverage, uint8_t *status, int general)
+                 float *out, float *coverage, uint8_t *status, int path)
 {
     if (!s || !o || (!q && n) || (!out && n))
         return ST_EINVAL;
@@ -952,6 +1138,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     const st_ptexres *t = st_ptexres_pin(s, &be);
     if (!t)
         return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
+    int general = path == PF_PATH_GENERAL;
     int avx2 = pf_have_avx2();
     pk_params pp;
     pk_params_init(&pp, o->filter, o->sharpness, avx2);
@@ -966,42 +1153,40 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;
     pf_query_fn qfn = general ? eval : query_fn(&c, o->filter);
+    /* the bilinear of in-face queries several at a time (ptexfilter_lanes.c), the rest and
+     * the tail one by one */
+    unsigned nl = 0;
+    pf_bilinear_lanes_fn lanes = NULL;
+    if (o->filter == ST_FILTER_PTEX_BILINEAR && s->info.nfaces > 0 &&
+        (path == PF_PATH_BEST || path == PF_PATH_LANES4))
+        lanes = pf_bilinear_lanes_select(c.dt, c.nc, path == PF_PATH_BEST ? 8 : 4, &nl);
+    pf_lanes lc = {.faces = s->faces, .ptxflags = t->ptxflags, .base = t->base, .px = t->px,
+                   .nfaces = s->info.nfaces, .width = c.width, .blur = c.blur};
     int bad = 0;
     unsigned nc = c.nc;
-    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
-    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
-    for (size_t i = 0; i < n; i++) {
-        const st_query *qi = &q[i];
-        float *oi = out + i * nc, cov;
-        int st;
-        /* one test for the common case: |u|, |v| and the four derivatives within the bound
-         * (NaN fails it too) */
-        v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
-        memcpy(&a, &qi->u, sizeof a);
-        v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
-#ifdef __SSE2__
-        int all = _mm_movemask_ps((__m128)ok) == 15;
-#else
-        int all = ok[0] && ok[1] && ok[2] && ok[3];
-#endif
-        if (__builtin_expect(qi->face < s->info.nfaces && all, 1)) {
-            st = qfn(&c, &pp, o, qi, oi, &cov);
-        } else {
-            if (qi->face >= s->info.nfaces)
-                st = ST_Q_BAD_FACE;
-            else
-                st = isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
-                     isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)
-                         ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
-            for (unsigned ch = 0; ch < nc; ch++)
-                oi[ch] = NAN;
-            cov = 0.0f;
+    for (size_t i = 0; i < n;) {
+        /* a block of lanes, then [i, end) one by one but for those the lanes served (done);
+         * where the lanes serve fewer than 2 of a block (kernels that overhang their faces:
+         * large footprints on small faces, subfaces), the next 3 blocks go one by one without
+         * them, so such runs pay for a quarter of the lane work that finds nothing */
+        unsigned done = 0;
+        size_t end = n;
+        if (lanes && i + nl <= n) {
+            done = lanes(&lc, q + i, out + i * nc);
+            end = i + (__builtin_popcount(done) < 2 ? 4 * (size_t)nl : nl);
+            end = end < n ? end : n;
         }
-        if (coverage)
-            coverage[i] = cov;
-        if (status)
-            status[i] = (uint8_t)st;
-        bad += st != ST_Q_OK;
+        for (; i < end; i++, done >>= 1) {
+            float cov = 1.0f;
+            int st = ST_Q_OK;
+            if (!(done & 1))
+                st = one_query(&c, &pp, o, qfn, q + i, out + i * nc, &cov);
+            if (coverage)
+                coverage[i] = cov;
+            if (status)
+                status[i] = (uint8_t)st;
+            bad += st != ST_Q_OK;
+        }
     }
     st_ptexres_unpin(t);
     return bad;
@@ -1010,13 +1195,13 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
 int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                         float *out, float *coverage, uint8_t *status)
 {
-    return batch(s, o, q, n, out, coverage, status, 0);
+    return batch(s, o, q, n, out, coverage, status, PF_PATH_BEST);
 }
 
-int pf_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                     float *out, float *coverage, uint8_t *status)
+int pf_batch_path(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                  float *out, float *coverage, uint8_t *status, int path)
 {
-    return batch(s, o, q, n, out, coverage, status, 1);
+    return batch(s, o, q, n, out, coverage, status, path);
 }
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)

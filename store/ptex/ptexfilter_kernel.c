@@ -230,34 +230,15 @@ void pk_upres_v(pk *k)
     k->vlog2++;
 }
 
-static void downres(float *kw, int *u, int *uw)
-{
-    float *src = kw, *dst = kw;
-    int w = *uw;
-    if (*u & 1) {
-        dst++;
-        src++;
-        w--;
-    }
-    for (int i = w / 2; i > 0; i--) {
-        *dst++ = src[0] + src[1];
-        src += 2;
-    }
-    if (w & 1)
-        *dst++ = *src++;
-    *u /= 2;
-    *uw = (int)(dst - kw);
-}
-
 void pk_downres_u(pk *k)
 {
-    downres(pk_ku(k), &k->u, &k->uw);
+    pk_downres_run(pk_ku(k), &k->u, &k->uw);
     k->ulog2--;
 }
 
 void pk_downres_v(pk *k)
 {
-    downres(pk_kv(k), &k->v, &k->vw);
+    pk_downres_run(pk_kv(k), &k->v, &k->vw);
     k->vlog2--;
 }
 

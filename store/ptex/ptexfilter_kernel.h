@@ -108,6 +108,26 @@ void  pk_split_t(pk *k, pk *out);
 void  pk_rotate(pk *k, int rot);
 int   pk_main_to_subface(pk *k, int eid);       /* returns 1 when the primary subface */
 void  pk_subface_to_main(pk *k, int eid);
+/* Halves the resolution of the w weights at kw of a window starting at *u (Ptex's
+ * downres: pairs summed, an odd first or last weight kept); pk_downres_u / _v on one axis. */
+static inline void pk_downres_run(float *kw, int *u, int *uw)
+{
+    float *src = kw, *dst = kw;
+    int w = *uw;
+    if (*u & 1) {
+        dst++;
+        src++;
+        w--;
+    }
+    for (int i = w / 2; i > 0; i--) {
+        *dst++ = src[0] + src[1];
+        src += 2;
+    }
+    if (w & 1)
+        *dst++ = *src++;
+    *u /= 2;
+    *uw = (int)(dst - kw);
+}
 void  pk_downres_u(pk *k);
 void  pk_downres_v(pk *k);
 void  pk_upres_u(pk *k);
@@ -166,10 +186,13 @@ typedef pf_v4 (*pf_bilinear_half_fn)(const uint8_t *p, size_t ts, size_t rowb, f
                                      float fu, float kv0, float fv);
 pf_bilinear_half_fn pf_bilinear_half_select(void);
 
-/* ptexfilter.c, for tests: st_ptexfilter_batch with every query through the general path
- * (eval: no per-type query function, no fused or small-window path), to check that those
- * give its results bit for bit. */
-int pf_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                     float *out, float *coverage, uint8_t *status);
+/* ptexfilter.c, for tests: st_ptexfilter_batch along one path, to check that the shortcuts
+ * give the general path's results bit for bit. PF_PATH_BEST: what st_ptexfilter_batch does;
+ * PF_PATH_GENERAL: every query through eval (no per-type query function, no fused,
+ * small-window or lane path); PF_PATH_QUERY: the per-query shortcuts without the bilinear
+ * lanes; PF_PATH_LANES4: the 4-lane (SSE2) bilinear lanes whatever the CPU. */
+enum { PF_PATH_BEST, PF_PATH_GENERAL, PF_PATH_QUERY, PF_PATH_LANES4 };
+int pf_batch_path(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                  float *out, float *coverage, uint8_t *status, int path);
 
 #endif

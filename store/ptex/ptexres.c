@@ -311,7 +311,7 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     t->magic = ST_PTEXRES_MAGIC;
     t->nfaces = n;
     t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
-    t->ptxflags = malloc(n);
+    t->ptxflags = calloc((size_t)n + 3, 1); /* + 3: the bilinear lanes read 32 bits at a face */
     t->nstored = malloc(n);
     int mx = !t->ptxflags || !t->nstored ? -1 : pthread_mutex_init(&t->lock, NULL);
     if (mx == 0 && pthread_rwlock_init(&t->pin, NULL)) {

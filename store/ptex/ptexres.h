@@ -44,7 +44,8 @@
 typedef struct st_ptexres {
     uint32_t        magic;        /* ST_PTEXRES_MAGIC */
     uint32_t        nfaces;
-    uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*) */
+    uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*), then 3 zero
+                                     bytes (ptexfilter_lanes.c reads 32 bits at a face) */
     uint8_t        *nstored;      /* per face: set levels that hold stored reductions (>= 1) */
     size_t          max_bytes;    /* cap on the arena */
     /* built by st_ptexres_table; read only once `built` is 1 (acquire) */

@@ -5,7 +5,10 @@
  * covered), every filter, Traverse, Discard and Clamp, many random queries - a third of them
  * near a face edge or corner, some on texel centres - at footprints from a quarter texel to 32 texels, isotropic and
  * not, with default and non-default width and blur. Outputs, coverage and status are compared
- * as bytes (pf_batch_general runs every query through eval). */
+ * as bytes (pf_batch_path with PF_PATH_GENERAL runs every query through eval). The bilinear is
+ * also compared along its per-query path and its 4-lane (SSE2) lanes, whatever the CPU, and
+ * its lanes on blocks that mix queries they serve with every kind they must leave to the
+ * per-query path, in batches of every length up to 40 (ptexfilter_lanes.h). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -68,68 +71,163 @@ static void make_queries(const st_set *s, st_query *q)
     }
 }
 
-static void shortcuts_give_the_general_paths_results_bit_for_bit(void **state)
+/* Reads every shared .ptx file and runs body on it (compared counts the queries compared);
+ * skips the test when there are none. */
+typedef void ptx_body(const char *path, st_set *s, long *compared);
+static void for_each_ptx(ptx_body *body)
 {
-    (void)state;
-    static char rel[MAXF][512], paths[MAXF][1024];
+    static char rel[MAXF][512], path[1024];
     int n = st_test_ptx_files(rel, MAXF);
-    for (int i = 0; i < n; i++)
-        if (snprintf(paths[i], sizeof paths[i], "%s/%s", st_test_data_dir(), rel[i]) >=
-            (int)sizeof paths[i])
-            fail_msg("data dir path too long: %s", st_test_data_dir());
     if (n == 0) {
         print_message("SEAMTEX_DATA (%s) has no .ptx files: skipped\n", st_test_data_dir());
         skip();
     }
-    static st_query q[NQ];
-    static float o1[NQ * 4], o2[NQ * 4], c1[NQ], c2[NQ];
-    static uint8_t s1[NQ], s2[NQ];
-    static const float widths[2][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}}; /* width, blur */
     long compared = 0;
     for (int i = 0; i < n; i++) {
+        if (snprintf(path, sizeof path, "%s/%s", st_test_data_dir(), rel[i]) >= (int)sizeof path)
+            fail_msg("data dir path too long: %s", st_test_data_dir());
         st_set *s;
         st_error e = {0};
-        assert_int_equal(st_ptex_read_file(paths[i], 0, &s, &e), 0);
-        make_queries(s, q);
-        size_t nv = (size_t)NQ * s->info.nchan;
-        for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
-            for (unsigned flt = ST_FILTER_PTEX_POINT; flt <= ST_FILTER_PTEX_MITCHELL; flt++) {
-                for (int w = 0; w < 2; w++) {
-                    st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
-                                        .width = widths[w][0], .blur = widths[w][1],
-                                        .sharpness = 0.5f};
-                    memset(o1, 0x5a, sizeof o1);
-                    memset(o2, 0xa5, sizeof o2);
-                    int b1 = st_ptexfilter_batch(s, &o, q, NQ, o1, c1, s1);
-                    int b2 = pf_batch_general(s, &o, q, NQ, o2, c2, s2);
-                    assert_int_equal(b1, b2);
-                    for (size_t k = 0; k < nv; k++) {
-                        if (memcmp(&o1[k], &o2[k], sizeof(float))) {
-                            size_t qi = k / s->info.nchan;
-                            print_message("%s mode %u filter %u width %d query %zu (face %u u %.9g "
-                                          "v %.9g dudx %.9g dvdy %.9g): %.9g != %.9g\n",
-                                          paths[i], m, flt, w, qi, q[qi].face,
-                                          (double)q[qi].u, (double)q[qi].v,
-                                          (double)q[qi].dudx, (double)q[qi].dvdy,
-                                          (double)o1[k], (double)o2[k]);
-                            fail();
-                        }
-                    }
-                    assert_memory_equal(c1, c2, sizeof c1);
-                    assert_memory_equal(s1, s2, sizeof s1);
-                    compared += NQ;
-                }
-            }
-        }
+        assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
+        body(path, s, &compared);
         st_set_free(s);
     }
     print_message("%d files, %ld queries compared\n", n, compared);
+}
+
+/* Runs q[0..nq) through path and through the general path; fails unless outputs, coverage,
+ * status and the return value are the same bytes. */
+static void compare_paths(const char *name, const st_set *s, const st_sample_opts *o,
+                          const st_query *q, size_t nq, int path)
+{
+    static float o1[NQ * 4], o2[NQ * 4], c1[NQ], c2[NQ];
+    static uint8_t s1[NQ], s2[NQ];
+    assert_true(nq <= NQ);
+    size_t nv = nq * s->info.nchan;
+    memset(o1, 0x5a, sizeof o1);
+    memset(o2, 0xa5, sizeof o2);
+    memset(c1, 0x5a, sizeof c1);
+    memset(c2, 0xa5, sizeof c2);
+    memset(s1, 0x5a, sizeof s1);
+    memset(s2, 0xa5, sizeof s2);
+    int b1 = pf_batch_path(s, o, q, nq, o1, c1, s1, path);
+    int b2 = pf_batch_path(s, o, q, nq, o2, c2, s2, PF_PATH_GENERAL);
+    assert_int_equal(b1, b2);
+    for (size_t k = 0; k < nv; k++) {
+        if (memcmp(&o1[k], &o2[k], sizeof(float))) {
+            size_t qi = k / s->info.nchan;
+            print_message("%s path %d mode %u filter %u width %g blur %g query %zu of %zu (face "
+                          "%u u %.9g v %.9g dudx %.9g dvdy %.9g): %.9g != %.9g\n",
+                          name, path, o->mode, o->filter, (double)o->width, (double)o->blur,
+                          qi, nq, q[qi].face, (double)q[qi].u, (double)q[qi].v,
+                          (double)q[qi].dudx, (double)q[qi].dvdy, (double)o1[k], (double)o2[k]);
+            fail();
+        }
+    }
+    assert_memory_equal(c1, c2, nq * sizeof c1[0]);
+    assert_memory_equal(s1, s2, nq);
+}
+
+static void every_path(const char *path, st_set *s, long *compared)
+{
+    static st_query q[NQ];
+    static const float widths[2][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}}; /* width, blur */
+    make_queries(s, q);
+    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+        for (unsigned flt = ST_FILTER_PTEX_POINT; flt <= ST_FILTER_PTEX_MITCHELL; flt++) {
+            for (int w = 0; w < 2; w++) {
+                st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
+                                    .width = widths[w][0], .blur = widths[w][1],
+                                    .sharpness = 0.5f};
+                /* st_ptexfilter_batch's own path, then (bilinear only: the others take the
+                 * same path) the per-query shortcuts and the 4-lane bilinear */
+                compare_paths(path, s, &o, q, NQ, PF_PATH_BEST);
+                *compared += NQ;
+                if (flt != ST_FILTER_PTEX_BILINEAR)
+                    continue;
+                compare_paths(path, s, &o, q, NQ, PF_PATH_QUERY);
+                compare_paths(path, s, &o, q, NQ, PF_PATH_LANES4);
+                *compared += 2 * NQ;
+            }
+        }
+    }
+}
+
+static void shortcuts_give_the_general_paths_results_bit_for_bit(void **state)
+{
+    (void)state;
+    for_each_ptx(every_path);
+}
+
+/* The bilinear lanes (8 with AVX2, 4 with SSE2) take the queries of a block that they can
+ * serve and leave the others to the per-query path: blocks that mix in-face queries with
+ * every kind the lanes must refuse - a face out of range, NaN, infinite and too large
+ * derivatives, u or v outside [0, 1) (1 itself, just below 0, NaN), queries on texel
+ * centres (a fraction of 0), next to an edge, on subfaces, constant faces and faces with a
+ * constant neighbourhood (whichever the file has), tiny and huge footprints, negative
+ * derivatives and -0 - in batches of every length from 1 to 40 (tails of every size) and at
+ * every offset, with default and non-default width and blur, in the three modes. */
+static void mixed_blocks(const char *path, st_set *s, long *compared)
+{
+    static st_query q[NQ];
+    static const float widths[3][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}, {0.3f, 0.0f}};
+    const float inf = 1.0f / 0.0f;
+    uint32_t nf = s->info.nfaces;
+    for (int k = 0; k < NQ; k++) {
+        uint32_t f = (uint32_t)(rndf() * (float)nf) % nf;
+        const st_face *F = &s->faces[f];
+        float fp = k % 11 == 0 ? 0.01f : k % 13 == 0 ? 40.0f : 0.25f + 4.0f * rndf();
+        st_query x = {.face = f, .u = rndf(), .v = rndf(), .dudx = fp / (float)F->w,
+                      .dvdy = fp / (float)F->h};
+        switch (k % 17) {
+        case 1: x.face = nf + (uint32_t)(rndf() * 5.0f); break;
+        case 2: x.face = 0xffffffffu; break;
+        case 3: x.dudx = 0.0f / 0.0f; break;
+        case 4: x.dvdy = inf; break;
+        case 5: x.dudy = 2.0e4f; break;
+        case 6: x.u = 1.0f; break;
+        case 7: x.v = -1e-7f; break;
+        case 8: x.u = 0.0f / 0.0f; break;
+        case 9: x.u = ((float)(int)(rndf() * (float)F->w) + 0.5f) / (float)F->w;
+                x.dudx = 1.0f / (float)F->w; break;
+        case 10: x.v = 0.5f / (float)F->h; x.dvdy = 1.0f / (float)F->h; break;
+        case 11: x.dudx = -x.dudx; x.dvdx = -0.0f; x.dudy = -0.0f; break;
+        case 12: x.dvdx = 0.5f * x.dudx; x.dudy = -0.25f * x.dvdy; break;
+        case 13: x.u = 0.0f; x.v = 0.99999994f; break;
+        default: break;
+        }
+        q[k] = x;
+    }
+    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+        for (int w = 0; w < 3; w++) {
+            st_sample_opts o = {.mode = (uint8_t)m, .filter = ST_FILTER_PTEX_BILINEAR,
+                                .width = widths[w][0], .blur = widths[w][1]};
+            compare_paths(path, s, &o, q, NQ, PF_PATH_BEST);
+            compare_paths(path, s, &o, q, NQ, PF_PATH_LANES4);
+            *compared += 2 * NQ;
+        }
+    }
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
+    for (size_t len = 1; len <= 40; len++) {
+        for (size_t at = 0; at < 9; at++) {
+            compare_paths(path, s, &o, q + at * 41 + len, len, PF_PATH_BEST);
+            compare_paths(path, s, &o, q + at * 41 + len, len, PF_PATH_LANES4);
+            *compared += 2 * (long)len;
+        }
+    }
+}
+
+static void bilinear_lanes_serve_mixed_blocks_bit_for_bit(void **state)
+{
+    (void)state;
+    for_each_ptx(mixed_blocks);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(shortcuts_give_the_general_paths_results_bit_for_bit),
+        cmocka_unit_test(bilinear_lanes_serve_mixed_blocks_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

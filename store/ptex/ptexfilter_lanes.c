@@ -1,0 +1,562 @@
+/* store/ptex/ptexfilter_lanes.c - Ptex's in-face bilinear on 8 queries at once (AVX2 + FMA +
+ * F16C, chosen at run time) or 4 (SSE2), one query per lane (ptexfilter_lanes.h).
+ *
+ * The per-query bilinear (ptexfilter.c: the batch's checks, plain_face, bilinear_kernel,
+ * bilinear_fits, bilinear_write) spends most of its ~200 instructions on one query's
+ * bookkeeping: loading and checking it, the kernel set-up of two axes in one SSE vector, the
+ * table look-up through three dependent loads, the division. Here the same operations run
+ * lane by lane on 8 (4) queries:
+ *   1. the queries are transposed into one vector per field (face, u, v, derivatives);
+ *   2. the checks: face in range, derivatives within ST_MAX_DERIV (NaN fails), u and v in
+ *      [0, 1), the face's flags (gathered from the face table: ulog2, vlog2, flags in one
+ *      32-bit word) and its Ptex flags;
+ *   3. bilinear_kernel's arithmetic per axis (width and blur, clamps, the resolution from the
+ *      exponent, pixel position, branchless floor, fraction) and bilinear_fits' test, in
+ *      float (fl >= 0, fl + 1 < 2^r, fraction > 0: exact for these small integers);
+ *   4. the table entry px[base[f] + ru * (vlog2 + 1) + rv] and the texel address (64-bit
+ *      lanes), gathered only for the lanes served;
+ *   5. the 2 x 2 texels: one channel in lanes (a 32-bit gather per row holds both texels of a
+ *      u8, u16 or half row, a 64-bit gather both of a float row), several channels per lane
+ *      (4 lanes of channels, as bilinear_write does);
+ *   6. (t00 ku0 + t01 fu) kv0 + (t10 ku0 + t11 fu) fv times 1 / ((ku0 + fu)(kv0 + fv) one),
+ *      multiplies and adds as written (no fused multiply-adds: C11 mode does not contract, and
+ *      every product here is its own intrinsic), the division a true division.
+ * Every step is an IEEE operation on the same operands as the scalar code's, so each lane's
+ * result is bit for bit the per-query path's (test_ptexfilter_paths compares both lane
+ * counts with the general path on every shared file). Lanes that fail a test are only masked:
+ * their gathers are not made (masked gathers read nothing for them) and the caller serves
+ * them afterwards.
+ *
+ * Owns: nothing but these loops.
+ */
+#include "ptexfilter_lanes.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "ptex_format.h"
+#include "ptexfilter_kernel.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+
+/* The face's ulog2, vlog2, nlevels and flags are one aligned 32-bit word (one gather). */
+_Static_assert(offsetof(st_face, ulog2) % 4 == 0 &&
+                   offsetof(st_face, vlog2) == offsetof(st_face, ulog2) + 1 &&
+                   offsetof(st_face, flags) == offsetof(st_face, ulog2) + 3 &&
+                   sizeof(st_face) == 64,
+               "st_face layout: ulog2, vlog2, nlevels, flags in one word, 64 bytes a face");
+enum { PL_FACE_WORDS = sizeof(st_face) / 4 };
+
+static float one_of(unsigned dt)
+{
+    return dt == ST_DT_U8 ? 255.0f : dt == ST_DT_U16 ? 65535.0f : 1.0f;
+}
+
+/* ---- 8 lanes (AVX2) --------------------------------------------------------------------- */
+
+#define PL_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline
+
+/* One axis of bilinear_kernel, lane by lane, for W lanes (float vector V, int32 vector I of
+ * the same size; ATTR the function's target): x the coordinate, w the width (|d/dx| +
+ * |d/dy|), lg the face's log2 size; r the resolution, fl the first texel (a float), fr the
+ * fraction; returns the lanes whose 2 x 2 texels lie inside the face (fl >= 0, fl + 1 < 2^r,
+ * fr > 0, exact for these small integers). The same operations as the scalar code's (min and
+ * max as its compare-and-select: minps and maxps pick the same operand, NaN included). One
+ * text for both lane counts. */
+#define PL_AXIS(NAME, ATTR, V, I)                                                           \
+    ATTR I NAME(V x, V w, I lg, float width, float blur, I *r, V *fl, V *fr)                 \
+    {                                                                                       \
+        const V one = (V){0} + 1.0f, zero = (V){0};                                         \
+        w = w * width + blur;                                                               \
+        I lt = w < one;                                                                     \
+        w = (V)((lt & (I)w) | (~lt & (I)one));                 /* bu < 1 ? bu : 1 */        \
+        V lo = (V)((127 - lg) << 23);                                                       \
+        I gt = w > lo;                                                                      \
+        w = (V)((gt & (I)w) | (~gt & (I)lo));                  /* bu > lu ? bu : lu */      \
+        *r = 127 - (((I)w >> 23) & 0xff);                                                   \
+        V rf = (V)((*r + 127) << 23);                          /* 2^r */                    \
+        V pix = x * rf - 0.5f;                                                              \
+        V t = __builtin_convertvector(__builtin_convertvector(pix, I), V); /* pk_floor */     \
+        *fl = t - (V)((I)(t > pix) & (I)one);                                               \
+        *fr = pix - *fl;                                                                    \
+        return (*fl >= zero) & (*fl + 1.0f < rf) & (*fr > zero);                            \
+    }
+
+typedef int32_t pl_v8i __attribute__((vector_size(32)));
+typedef float pl_v8f __attribute__((vector_size(32)));
+typedef int32_t pl_v4i __attribute__((vector_size(16)));
+typedef float pl_v4f __attribute__((vector_size(16)));
+
+PL_AXIS(axis8, PL_TARGET, pl_v8f, pl_v8i)
+
+/* Rows [x[lo] .. x[lo + 3] | y[lo] .. y[lo + 3]] of 8 queries, transposed: 4 fields. */
+PL_TARGET void fields8(const st_query *q, size_t off, __m256 f[4])
+{
+    __m256 r[4];
+    for (int i = 0; i < 4; i++) {
+        const float *a = (const float *)(const void *)((const uint8_t *)&q[i] + off);
+        const float *b = (const float *)(const void *)((const uint8_t *)&q[i + 4] + off);
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a)), _mm_loadu_ps(b), 1);
+    }
+    __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    f[0] = _mm256_shuffle_ps(t0, t2, 0x44);
+    f[1] = _mm256_shuffle_ps(t0, t2, 0xee);
+    f[2] = _mm256_shuffle_ps(t1, t3, 0x44);
+    f[3] = _mm256_shuffle_ps(t1, t3, 0xee);
+}
+
+/* The texels at a and b (type DT, 4 values each: as bilinear_write loads one) as the low and
+ * the high 4 lanes. */
+PL_TARGET __m256 texel2(const uint8_t *a, const uint8_t *b, unsigned DT)
+{
+    switch (DT) {
+    case ST_DT_U8: {
+        int x, y;
+        memcpy(&x, a, 4);
+        memcpy(&y, b, 4);
+        return _mm256_cvtepi32_ps(
+            _mm256_cvtepu8_epi32(_mm_unpacklo_epi32(_mm_cvtsi32_si128(x), _mm_cvtsi32_si128(y))));
+    }
+    case ST_DT_U16:
+        return _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
+            _mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)a),
+                               _mm_loadl_epi64((const __m128i *)(const void *)b))));
+    case ST_DT_HALF:
+        return _mm256_cvtph_ps(_mm_unpacklo_epi64(_mm_loadl_epi64((const __m128i *)(const void *)a),
+                                                  _mm_loadl_epi64((const __m128i *)(const void *)b)));
+    default:
+        return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps((const float *)(const void *)a)),
+                                    _mm_loadu_ps((const float *)(const void *)b), 1);
+    }
+}
+
+/* 8 queries of texels of type DT with NC channels. */
+PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsigned DT,
+                          unsigned NC)
+{
+    _Static_assert(offsetof(st_query, u) == 4 && offsetof(st_query, dudx) == 12 &&
+                       offsetof(st_query, dvdy) == 24,
+                   "st_query: face u v dudx dvdx dudy dvdy");
+    __m256 fa[4], fb[4];
+    fields8(q, 0, fa);  /* face u v dudx */
+    fields8(q, 12, fb); /* dudx dvdx dudy dvdy */
+    const __m256 absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    const __m256 lim = _mm256_set1_ps(ST_MAX_DERIV), one = _mm256_set1_ps(1.0f);
+    __m256i face = _mm256_castps_si256(fa[0]);
+    __m256 u = fa[1], v = fa[2];
+    __m256 ax = _mm256_and_ps(fb[0], absm), bx = _mm256_and_ps(fb[1], absm);
+    __m256 ay = _mm256_and_ps(fb[2], absm), by = _mm256_and_ps(fb[3], absm);
+    /* face < nfaces, unsigned */
+    const __m256i sgn = _mm256_set1_epi32((int)0x80000000u);
+    __m256i fok = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(c->nfaces ^ 0x80000000u)),
+                                     _mm256_xor_si256(face, sgn));
+    __m256 ok = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(ax, lim, _CMP_LE_OQ),
+                                            _mm256_cmp_ps(bx, lim, _CMP_LE_OQ)),
+                              _mm256_and_ps(_mm256_cmp_ps(ay, lim, _CMP_LE_OQ),
+                                            _mm256_cmp_ps(by, lim, _CMP_LE_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(u, _mm256_setzero_ps(), _CMP_GE_OQ),
+                                         _mm256_cmp_ps(u, one, _CMP_LT_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GE_OQ),
+                                         _mm256_cmp_ps(v, one, _CMP_LT_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_castsi256_ps(fok));
+    if (_mm256_testz_ps(ok, ok))
+        return 0;
+    __m256i m = _mm256_castps_si256(ok);
+    const int *fw0 = (const int *)(const void *)((const uint8_t *)c->faces +
+                                                 offsetof(st_face, ulog2));
+    __m256i fw = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fw0,
+                                             _mm256_slli_epi32(face, 4), m, 4);
+    __m256i pxf = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
+                                              (const int *)(const void *)c->ptxflags, face, m, 1);
+    const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
+    __m256i bad = _mm256_or_si256(
+        _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
+        _mm256_and_si256(_mm256_srli_epi32(fw, 24),
+                         _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
+    m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
+    if (_mm256_testz_si256(m, m)) /* subfaces, constant faces: nothing for the lanes */
+        return 0;
+    __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
+    pl_v8i ru8, rv8;
+    pl_v8f flu8, flv8, fu8, fv8;
+    pl_v8i in = axis8((pl_v8f)u, (pl_v8f)_mm256_add_ps(ax, ay), (pl_v8i)lu, c->width, c->blur,
+                      &ru8, &flu8, &fu8) &
+                axis8((pl_v8f)v, (pl_v8f)_mm256_add_ps(bx, by), (pl_v8i)lv, c->width, c->blur,
+                      &rv8, &flv8, &fv8);
+    m = _mm256_and_si256(m, (__m256i)in);
+    __m256i ru = (__m256i)ru8, rv = (__m256i)rv8;
+    __m256 flu = (__m256)flu8, flv = (__m256)flv8, fu = (__m256)fu8, fv = (__m256)fv8;
+    unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
+    if (!mask)
+        return 0;
+    /* the table entry of (ru, rv) and the first texel's address, 64-bit lanes 0-3 / 4-7 */
+    __m256i ui = _mm256_cvttps_epi32(flu), vi = _mm256_cvttps_epi32(flv);
+    __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, _mm256_set1_epi32(1))), rv);
+    __m256i off = _mm256_add_epi32(_mm256_sllv_epi32(vi, ru), ui); /* < 2^30 */
+    const size_t ts = st_dtype_size(DT) * NC;
+    const __m256i ts64 = _mm256_set1_epi64x((long long)ts);
+    __m256i p0[2], p1[2], m64[2];
+    __m128i m32[2] = {_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1)};
+    __m128i f32[2] = {_mm256_castsi256_si128(face), _mm256_extracti128_si256(face, 1)};
+    __m128i i32[2] = {_mm256_castsi256_si128(idx), _mm256_extracti128_si256(idx, 1)};
+    __m128i o32[2] = {_mm256_castsi256_si128(off), _mm256_extracti128_si256(off, 1)};
+    __m128i r32[2] = {_mm256_castsi256_si128(ru), _mm256_extracti128_si256(ru, 1)};
+    for (int h = 0; h < 2; h++) {
+        m64[h] = _mm256_cvtepi32_epi64(m32[h]);
+        __m256i b = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base,
+                                                f32[h], m64[h], 8);
+        __m256i e = _mm256_add_epi64(b, _mm256_cvtepu32_epi64(i32[h]));
+        __m256i d = _mm256_mask_i64gather_epi64(zero, (const long long *)(const void *)c->px,
+                                                e, m64[h], 8);
+        p0[h] = _mm256_add_epi64(d, _mm256_mul_epu32(_mm256_cvtepu32_epi64(o32[h]), ts64));
+        p1[h] = _mm256_add_epi64(p0[h], _mm256_sllv_epi64(ts64, _mm256_cvtepu32_epi64(r32[h])));
+    }
+    __m256 ku0 = _mm256_sub_ps(one, fu), kv0 = _mm256_sub_ps(one, fv);
+    __m256 scale = _mm256_div_ps(
+        one, _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(ku0, fu), _mm256_add_ps(kv0, fv)),
+                           _mm256_set1_ps(one_of(DT))));
+    if (NC == 1) {
+        __m256 t00, t01, t10, t11;
+        if (DT == ST_DT_F32) {
+            /* a 64-bit gather per row: both texels */
+            __m256 g[2][2];
+            for (int h = 0; h < 2; h++) {
+                g[0][h] = _mm256_castsi256_ps(_mm256_mask_i64gather_epi64(zero, (const long long *)0, p0[h], m64[h], 1));
+                g[1][h] = _mm256_castsi256_ps(_mm256_mask_i64gather_epi64(zero, (const long long *)0, p1[h], m64[h], 1));
+            }
+            /* [lane 0 1 4 5 | 2 3 6 7] in 64-bit pairs -> lanes in order */
+            t00 = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g[0][0], g[0][1], 0x88)), 0xd8));
+            t01 = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g[0][0], g[0][1], 0xdd)), 0xd8));
+            t10 = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g[1][0], g[1][1], 0x88)), 0xd8));
+            t11 = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g[1][0], g[1][1], 0xdd)), 0xd8));
+        } else {
+            /* a 32-bit gather per row: both texels (u8 and u16 / half) */
+            __m256i g[2];
+            for (int row = 0; row < 2; row++) {
+                const __m256i *p = row ? p1 : p0;
+                __m128i lo = _mm256_mask_i64gather_epi32(_mm_setzero_si128(), (const int *)0, p[0], m32[0], 1);
+                __m128i hi = _mm256_mask_i64gather_epi32(_mm_setzero_si128(), (const int *)0, p[1], m32[1], 1);
+                g[row] = _mm256_inserti128_si256(_mm256_castsi128_si256(lo), hi, 1);
+            }
+            if (DT == ST_DT_U8) {
+                t00 = _mm256_cvtepi32_ps(_mm256_and_si256(g[0], ff));
+                t01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(g[0], 8), ff));
+                t10 = _mm256_cvtepi32_ps(_mm256_and_si256(g[1], ff));
+                t11 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(g[1], 8), ff));
+            } else if (DT == ST_DT_U16) {
+                const __m256i fff = _mm256_set1_epi32(0xffff);
+                t00 = _mm256_cvtepi32_ps(_mm256_and_si256(g[0], fff));
+                t01 = _mm256_cvtepi32_ps(_mm256_srli_epi32(g[0], 16));
+                t10 = _mm256_cvtepi32_ps(_mm256_and_si256(g[1], fff));
+                t11 = _mm256_cvtepi32_ps(_mm256_srli_epi32(g[1], 16));
+            } else {
+                /* half: [lo halves 0-3, hi 0-3 | lo 4-7, hi 4-7] -> lo 0-7, hi 0-7 */
+                const __m256i fff = _mm256_set1_epi32(0xffff);
+                __m256i a = _mm256_permute4x64_epi64(
+                    _mm256_packus_epi32(_mm256_and_si256(g[0], fff), _mm256_srli_epi32(g[0], 16)), 0xd8);
+                __m256i b = _mm256_permute4x64_epi64(
+                    _mm256_packus_epi32(_mm256_and_si256(g[1], fff), _mm256_srli_epi32(g[1], 16)), 0xd8);
+                t00 = _mm256_cvtph_ps(_mm256_castsi256_si128(a));
+                t01 = _mm256_cvtph_ps(_mm256_extracti128_si256(a, 1));
+                t10 = _mm256_cvtph_ps(_mm256_castsi256_si128(b));
+                t11 = _mm256_cvtph_ps(_mm256_extracti128_si256(b, 1));
+            }
+        }
+        __m256 r0 = _mm256_add_ps(_mm256_mul_ps(t00, ku0), _mm256_mul_ps(t01, fu));
+        __m256 r1 = _mm256_add_ps(_mm256_mul_ps(t10, ku0), _mm256_mul_ps(t11, fu));
+        __m256 acc = _mm256_add_ps(_mm256_mul_ps(r0, kv0), _mm256_mul_ps(r1, fv));
+        _mm256_storeu_ps(out, _mm256_mul_ps(acc, scale));
+        return mask;
+    }
+    if (NC >= 3) {
+        /* two lanes a vector: lane 2k's texel in the low 4 lanes, lane 2k + 1's in the high 4
+         * (bilinear_write's operations on each); a lane not served reads zeros */
+        static const uint8_t zeros[64];
+        const __m256i safe = _mm256_set1_epi64x((long long)(uintptr_t)zeros);
+        uint64_t b0[8], b1[8];
+        for (int h = 0; h < 2; h++) {
+            _mm256_storeu_si256((__m256i *)(void *)(b0 + 4 * h), _mm256_blendv_epi8(safe, p0[h], m64[h]));
+            _mm256_storeu_si256((__m256i *)(void *)(b1 + 4 * h), _mm256_blendv_epi8(safe, p1[h], m64[h]));
+        }
+        const __m256i sel = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        for (int k = 0; k < 4; k++) {
+            if (!(mask >> (2 * k) & 3))
+                continue;
+            __m256i ix = _mm256_add_epi32(sel, _mm256_set1_epi32(2 * k));
+            const uint8_t *pa = (const uint8_t *)(uintptr_t)b0[2 * k];
+            const uint8_t *pb = (const uint8_t *)(uintptr_t)b0[2 * k + 1];
+            const uint8_t *qa = (const uint8_t *)(uintptr_t)b1[2 * k];
+            const uint8_t *qb = (const uint8_t *)(uintptr_t)b1[2 * k + 1];
+            __m256 a = _mm256_permutevar8x32_ps(ku0, ix), b = _mm256_permutevar8x32_ps(fu, ix);
+            __m256 r0 = _mm256_add_ps(_mm256_mul_ps(texel2(pa, pb, DT), a),
+                                      _mm256_mul_ps(texel2(pa + ts, pb + ts, DT), b));
+            __m256 r1 = _mm256_add_ps(_mm256_mul_ps(texel2(qa, qb, DT), a),
+                                      _mm256_mul_ps(texel2(qa + ts, qb + ts, DT), b));
+            __m256 acc = _mm256_add_ps(_mm256_mul_ps(r0, _mm256_permutevar8x32_ps(kv0, ix)),
+                                       _mm256_mul_ps(r1, _mm256_permutevar8x32_ps(fv, ix)));
+            __m256 res = _mm256_mul_ps(acc, _mm256_permutevar8x32_ps(scale, ix));
+            float *o = out + (size_t)(2 * k) * NC;
+            if (NC == 4) {
+                _mm256_storeu_ps(o, res);
+            } else {
+                __m128 lo = _mm256_castps256_ps128(res), hi = _mm256_extractf128_ps(res, 1);
+                _mm_storel_pi((__m64 *)(void *)o, lo);
+                _mm_store_ss(o + 2, _mm_movehl_ps(lo, lo));
+                _mm_storel_pi((__m64 *)(void *)(o + 3), hi);
+                _mm_store_ss(o + 5, _mm_movehl_ps(hi, hi));
+            }
+        }
+        return mask;
+    }
+    /* two channels: one lane's texels in 4 lanes, as bilinear_write */
+    uint64_t a0[8], a1[8];
+    float k0[8], k1[8], w0[8], w1[8], sc[8];
+    for (int h = 0; h < 2; h++) {
+        _mm256_storeu_si256((__m256i *)(void *)(a0 + 4 * h), p0[h]);
+        _mm256_storeu_si256((__m256i *)(void *)(a1 + 4 * h), p1[h]);
+    }
+    _mm256_storeu_ps(k0, ku0);
+    _mm256_storeu_ps(k1, fu);
+    _mm256_storeu_ps(w0, kv0);
+    _mm256_storeu_ps(w1, fv);
+    _mm256_storeu_ps(sc, scale);
+    for (unsigned rest = mask; rest; rest &= rest - 1) {
+        int j = __builtin_ctz(rest);
+        const uint8_t *p = (const uint8_t *)(uintptr_t)a0[j], *p1r = (const uint8_t *)(uintptr_t)a1[j];
+        __m128 x00, x01, x10, x11;
+        switch (DT) {
+        case ST_DT_U8: {
+            int b00, b01, b10, b11;
+            memcpy(&b00, p, 4);
+            memcpy(&b01, p + ts, 4);
+            memcpy(&b10, p1r, 4);
+            memcpy(&b11, p1r + ts, 4);
+            x00 = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(b00)));
+            x01 = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(b01)));
+            x10 = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(b10)));
+            x11 = _mm_cvtepi32_ps(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(b11)));
+            break;
+        }
+        case ST_DT_U16:
+            x00 = _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p)));
+            x01 = _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)(p + ts))));
+            x10 = _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)p1r)));
+            x11 = _mm_cvtepi32_ps(_mm_cvtepu16_epi32(_mm_loadl_epi64((const __m128i *)(const void *)(p1r + ts))));
+            break;
+        case ST_DT_HALF:
+            x00 = _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p));
+            x01 = _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)(p + ts)));
+            x10 = _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)p1r));
+            x11 = _mm_cvtph_ps(_mm_loadl_epi64((const __m128i *)(const void *)(p1r + ts)));
+            break;
+        default:
+            x00 = _mm_loadu_ps((const float *)(const void *)p);
+            x01 = _mm_loadu_ps((const float *)(const void *)(p + ts));
+            x10 = _mm_loadu_ps((const float *)(const void *)p1r);
+            x11 = _mm_loadu_ps((const float *)(const void *)(p1r + ts));
+            break;
+        }
+        __m128 a = _mm_set1_ps(k0[j]), b = _mm_set1_ps(k1[j]);
+        __m128 r0 = _mm_add_ps(_mm_mul_ps(x00, a), _mm_mul_ps(x01, b));
+        __m128 r1 = _mm_add_ps(_mm_mul_ps(x10, a), _mm_mul_ps(x11, b));
+        __m128 acc = _mm_add_ps(_mm_mul_ps(r0, _mm_set1_ps(w0[j])), _mm_mul_ps(r1, _mm_set1_ps(w1[j])));
+        __m128 res = _mm_mul_ps(acc, _mm_set1_ps(sc[j]));
+        float *o = out + (size_t)j * NC;
+        if (NC == 4) {
+            _mm_storeu_ps(o, res);
+        } else {
+            _mm_storel_pi((__m64 *)(void *)o, res);
+            if (NC == 3)
+                _mm_store_ss(o + 2, _mm_movehl_ps(res, res));
+        }
+    }
+    return mask;
+}
+
+#define PL_FN8(DT, NC)                                                                      \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pl8_##DT##_##NC(               \
+        const pf_lanes *c, const st_query *q, float *out)                                   \
+    {                                                                                       \
+        return lanes8(c, q, out, DT, NC);                                                   \
+    }
+#define PL_FN8_NC(DT) PL_FN8(DT, 1) PL_FN8(DT, 2) PL_FN8(DT, 3) PL_FN8(DT, 4)
+PL_FN8_NC(0)
+PL_FN8_NC(1)
+PL_FN8_NC(2)
+PL_FN8_NC(3)
+
+/* ---- 4 lanes (SSE2) --------------------------------------------------------------------- */
+
+PL_AXIS(axis4, static inline, pl_v4f, pl_v4i)
+
+/* One texel of type DT as 4 float lanes (ptexfilter.c's loads: u8 4 bytes, u16 and half 8,
+ * float 16, whatever the channel count; the lanes past it are never stored). */
+static inline __m128 texel4(const uint8_t *p, unsigned DT)
+{
+    switch (DT) {
+    case ST_DT_U8: {
+        int x;
+        memcpy(&x, p, 4);
+        __m128i z = _mm_setzero_si128();
+        return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(x), z), z));
+    }
+    case ST_DT_U16:
+        return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_loadl_epi64((const __m128i *)(const void *)p),
+                                                  _mm_setzero_si128()));
+    case ST_DT_HALF: {
+        uint16_t h[4];
+        memcpy(h, p, sizeof h);
+        return _mm_setr_ps(st_half_to_float(h[0]), st_half_to_float(h[1]),
+                           st_half_to_float(h[2]), st_half_to_float(h[3]));
+    }
+    default:
+        return _mm_loadu_ps((const float *)(const void *)p);
+    }
+}
+
+/* One value of type DT (the one-channel lanes). */
+static inline float value1(const uint8_t *p, unsigned DT)
+{
+    switch (DT) {
+    case ST_DT_U8: return (float)p[0];
+    case ST_DT_U16: { uint16_t x; memcpy(&x, p, 2); return (float)x; }
+    case ST_DT_HALF: { uint16_t x; memcpy(&x, p, 2); return st_half_to_float(x); }
+    default: { float x; memcpy(&x, p, 4); return x; }
+    }
+}
+
+__attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
+                                                             const st_query *q, float *out,
+                                                             unsigned DT, unsigned NC)
+{
+    /* the queries' fields by lane: checks, then the face words (scalar loads) */
+    float u_[4], v_[4], uw_[4], vw_[4];
+    int lu_[4], lv_[4], ok_[4];
+    for (int j = 0; j < 4; j++) {
+        const st_query *x = &q[j];
+        float ax = fabsf(x->dudx), bx = fabsf(x->dvdx), ay = fabsf(x->dudy), by = fabsf(x->dvdy);
+        int ok = x->face < c->nfaces && ax <= ST_MAX_DERIV && bx <= ST_MAX_DERIV &&
+                 ay <= ST_MAX_DERIV && by <= ST_MAX_DERIV && x->u >= 0.0f && x->u < 1.0f &&
+                 x->v >= 0.0f && x->v < 1.0f;
+        const st_face *F = ok ? &c->faces[x->face] : c->faces;
+        ok = ok && !(c->ptxflags[x->face] & PTX_FLAG_NBCONSTANT) &&
+             !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT));
+        ok_[j] = ok;
+        u_[j] = x->u, v_[j] = x->v;
+        uw_[j] = ax + ay, vw_[j] = bx + by;
+        lu_[j] = F->ulog2, lv_[j] = F->vlog2;
+    }
+    pl_v4i ru4, rv4;
+    pl_v4f flu4, flv4, fu4, fv4;
+    pl_v4i in = axis4((pl_v4f)_mm_loadu_ps(u_), (pl_v4f)_mm_loadu_ps(uw_),
+                      (pl_v4i)_mm_loadu_si128((const __m128i *)(const void *)lu_), c->width,
+                      c->blur, &ru4, &flu4, &fu4) &
+                axis4((pl_v4f)_mm_loadu_ps(v_), (pl_v4f)_mm_loadu_ps(vw_),
+                      (pl_v4i)_mm_loadu_si128((const __m128i *)(const void *)lv_), c->width,
+                      c->blur, &rv4, &flv4, &fv4);
+    __m128i ru = (__m128i)ru4, rv = (__m128i)rv4;
+    __m128 flu = (__m128)flu4, flv = (__m128)flv4, fu = (__m128)fu4, fv = (__m128)fv4;
+    unsigned mask = (unsigned)_mm_movemask_ps((__m128)in);
+    mask &= (unsigned)(ok_[0] | ok_[1] << 1 | ok_[2] << 2 | ok_[3] << 3);
+    if (!mask)
+        return 0;
+    const __m128 one = _mm_set1_ps(1.0f);
+    __m128 ku0 = _mm_sub_ps(one, fu), kv0 = _mm_sub_ps(one, fv);
+    __m128 scale = _mm_div_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_add_ps(ku0, fu), _mm_add_ps(kv0, fv)),
+                                              _mm_set1_ps(one_of(DT))));
+    int ru_[4], rv_[4], ui_[4], vi_[4];
+    _mm_storeu_si128((__m128i *)(void *)ru_, ru);
+    _mm_storeu_si128((__m128i *)(void *)rv_, rv);
+    _mm_storeu_si128((__m128i *)(void *)ui_, _mm_cvttps_epi32(flu));
+    _mm_storeu_si128((__m128i *)(void *)vi_, _mm_cvttps_epi32(flv));
+    const size_t ts = st_dtype_size(DT) * NC;
+    const uint8_t *p0[4], *p1[4];
+    for (int j = 0; j < 4; j++) {
+        p0[j] = p1[j] = NULL;
+        if (!(mask >> j & 1))
+            continue;
+        const uint8_t *d = c->px[c->base[q[j].face] + (size_t)ru_[j] * ((unsigned)lv_[j] + 1u) +
+                                 (size_t)rv_[j]];
+        size_t rowb = ts << ru_[j];
+        p0[j] = d + (size_t)vi_[j] * rowb + (size_t)ui_[j] * ts;
+        p1[j] = p0[j] + rowb;
+    }
+    if (NC == 1) {
+        float t[4][4] = {{0}};
+        for (int j = 0; j < 4; j++) {
+            if (!p0[j])
+                continue;
+            t[0][j] = value1(p0[j], DT);
+            t[1][j] = value1(p0[j] + ts, DT);
+            t[2][j] = value1(p1[j], DT);
+            t[3][j] = value1(p1[j] + ts, DT);
+        }
+        __m128 r0 = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(t[0]), ku0), _mm_mul_ps(_mm_loadu_ps(t[1]), fu));
+        __m128 r1 = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(t[2]), ku0), _mm_mul_ps(_mm_loadu_ps(t[3]), fu));
+        __m128 acc = _mm_add_ps(_mm_mul_ps(r0, kv0), _mm_mul_ps(r1, fv));
+        _mm_storeu_ps(out, _mm_mul_ps(acc, scale));
+        return mask;
+    }
+    float k0[4], k1[4], w0[4], w1[4], sc[4];
+    _mm_storeu_ps(k0, ku0);
+    _mm_storeu_ps(k1, fu);
+    _mm_storeu_ps(w0, kv0);
+    _mm_storeu_ps(w1, fv);
+    _mm_storeu_ps(sc, scale);
+    for (int j = 0; j < 4; j++) {
+        if (!p0[j])
+            continue;
+        __m128 a = _mm_set1_ps(k0[j]), b = _mm_set1_ps(k1[j]);
+        __m128 r0 = _mm_add_ps(_mm_mul_ps(texel4(p0[j], DT), a), _mm_mul_ps(texel4(p0[j] + ts, DT), b));
+        __m128 r1 = _mm_add_ps(_mm_mul_ps(texel4(p1[j], DT), a), _mm_mul_ps(texel4(p1[j] + ts, DT), b));
+        __m128 acc = _mm_add_ps(_mm_mul_ps(r0, _mm_set1_ps(w0[j])), _mm_mul_ps(r1, _mm_set1_ps(w1[j])));
+        float res[4];
+        _mm_storeu_ps(res, _mm_mul_ps(acc, _mm_set1_ps(sc[j])));
+        memcpy(out + (size_t)j * NC, res, NC * sizeof(float));
+    }
+    return mask;
+}
+
+#define PL_FN4(DT, NC)                                                                      \
+    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, float *out)       \
+    {                                                                                       \
+        return lanes4(c, q, out, DT, NC);                                                   \
+    }
+#define PL_FN4_NC(DT) PL_FN4(DT, 1) PL_FN4(DT, 2) PL_FN4(DT, 3) PL_FN4(DT, 4)
+PL_FN4_NC(0)
+PL_FN4_NC(1)
+PL_FN4_NC(2)
+PL_FN4_NC(3)
+
+pf_bilinear_lanes_fn pf_bilinear_lanes_select(unsigned dt, unsigned nc, unsigned maxlanes,
+                                              unsigned *lanes)
+{
+#define PL_ROW(W, DT) {pl##W##_##DT##_1, pl##W##_##DT##_2, pl##W##_##DT##_3, pl##W##_##DT##_4}
+    static const pf_bilinear_lanes_fn f8[4][4] = {PL_ROW(8, 0), PL_ROW(8, 1), PL_ROW(8, 2),
+                                                  PL_ROW(8, 3)};
+    static const pf_bilinear_lanes_fn f4[4][4] = {PL_ROW(4, 0), PL_ROW(4, 1), PL_ROW(4, 2),
+                                                  PL_ROW(4, 3)};
+#undef PL_ROW
+    if (dt > 3 || nc < 1 || nc > 4 || maxlanes < 4)
+        return NULL;
+    if (maxlanes >= 8 && pf_have_avx2()) {
+        *lanes = 8;
+        return f8[dt][nc - 1];
+    }
+    *lanes = 4;
+    return f4[dt][nc - 1];
+}
+
+#else
+
+pf_bilinear_lanes_fn pf_bilinear_lanes_select(unsigned dt, unsigned nc, unsigned maxlanes,
+                                              unsigned *lanes)
+{
+    (void)dt; (void)nc; (void)maxlanes; (void)lanes;
+    return NULL;
+}
+
+#endif

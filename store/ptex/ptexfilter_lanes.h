@@ -1,0 +1,45 @@
+/* store/ptex/ptexfilter_lanes.h - Ptex's bilinear filter on several queries at once, one query
+ * per vector lane (private to ptexfilter*.c).
+ *
+ * A lane function takes a fixed number of queries (8 with AVX2, 4 with SSE2: its lane count)
+ * and serves those whose bilinear needs no kernel: a valid query (face in range, every
+ * derivative finite and within ST_MAX_DERIV) on a plain face (no constant neighbourhood,
+ * neither constant nor a subface) with (u, v) in [0, 1), whose 2 x 2 texels at Ptex's
+ * resolution lie inside the face with both fractions > 0 - what ptexfilter.c's per-query
+ * bilinear_q serves without a kernel, with its operations in its order lane by lane, so the
+ * outputs are bit for bit the same. The caller runs the per-query path for the others.
+ *
+ * Owns: nothing but the lane loops (ptexfilter_lanes.c). The context points into the set and
+ * its built Ptex resolution table, which the caller keeps pinned.
+ */
+#ifndef ST_PTEXFILTER_LANES_H
+#define ST_PTEXFILTER_LANES_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sample.h"
+
+typedef struct pf_lanes {
+    const st_face *faces;        /* the set's faces */
+    const uint8_t *ptxflags;     /* st_ptexres ptxflags (3 readable bytes after the last) */
+    const uint64_t *base;        /* st_ptexres base */
+    const uint8_t *const *px;    /* st_ptexres px */
+    uint32_t nfaces;
+    float width, blur;           /* the options' width (0 -> 1) and blur (0 -> 0) */
+} pf_lanes;
+
+/* Reads q[0 .. lanes); for every query it serves writes its nc values to out (at q's place:
+ * out + j * nc for q[j]) and sets bit j of the returned mask. The others' outputs are left
+ * as they were or overwritten with anything: the caller writes them afterwards. Reads texels
+ * up to 15 bytes past a 2 x 2 window's last texel (the arenas' 64 bytes of slack cover it). */
+typedef unsigned (*pf_bilinear_lanes_fn)(const pf_lanes *c, const st_query *q, float *out);
+
+/* The lane function for texels of type dt (st_dtype) with nc channels, its lane count in
+ * *lanes: with maxlanes >= 8 the 8-lane one when the CPU has AVX2 + FMA + F16C
+ * (pf_have_avx2), else (or with maxlanes 4: tests) the 4-lane SSE2 one; NULL when maxlanes
+ * < 4, dt or nc is out of range, or the build has no SSE2. */
+pf_bilinear_lanes_fn pf_bilinear_lanes_select(unsigned dt, unsigned nc, unsigned maxlanes,
+                                              unsigned *lanes);
+
+#endif
