@@ -762,6 +762,8 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
     if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
         k->v + k->vw <= (1 << k->vlog2))
         apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
+    else if (c->small && !is_subface(c, f))
+        split_apply_small(c, k, f); /* the same walk without the general path's detours */
     else
         split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
