@@ -217,8 +217,38 @@ PF_TARGET __m128 window3(const uint8_t *base, size_t rowb, unsigned DT, const fl
     return acc;
 }
 
+/* The window loop for rows of more than 8 values (window_dt's rarer cases), called out of
+ * line (pf_winlong_DT_NC), so that its column sums' stack frame is not set up for the short
+ * rows of most windows. */
+PF_TARGET __m128 window_long(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
+                             const float *ku, int uw, const float *kv, int vw, int nv,
+                             __m128 acc)
+{
+    switch (nv) {
+    case 2: return window(base, rowb, DT, NC, ku, uw, kv, vw, 2, acc);
+    case 3: return window(base, rowb, DT, NC, ku, uw, kv, vw, 3, acc);
+    case 4: return window(base, rowb, DT, NC, ku, uw, kv, vw, 4, acc);
+    case 5: return window(base, rowb, DT, NC, ku, uw, kv, vw, 5, acc);
+    default: return window(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);
+    }
+}
+
+#define PF_WINLONG(DT, NC)                                                                  \
+    __attribute__((target("avx2,fma,f16c"), noinline)) static __m128 pf_winlong_##DT##_##NC( \
+        const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
+        int nv, __m128 acc)                                                                 \
+    {                                                                                       \
+        return window_long(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);                    \
+    }
+#define PF_WINLONG_NC(DT) PF_WINLONG(DT, 1) PF_WINLONG(DT, 2) PF_WINLONG(DT, 4)
+PF_WINLONG_NC(0)
+PF_WINLONG_NC(1)
+PF_WINLONG_NC(2)
+PF_WINLONG_NC(3)
+
 /* The window loop for texels of type DT with NC channels (both constants): NC == 3 one
- * texel a vector, else the row length's number of 8-value vectors (1..5 unrolled). */
+ * texel a vector, else the row length's number of 8-value vectors (1 here, 2..5 unrolled in
+ * window_long). */
 PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
                            const float *ku, int uw, const float *kv, int vw, __m128 acc)
 {
@@ -227,13 +257,19 @@ PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsign
     int nv = (uw * (int)NC + 7) / 8;
     if (nv < 1)
         return acc;
-    switch (nv) {
-    case 1: return window(base, rowb, DT, NC, ku, uw, kv, vw, 1, acc);
-    case 2: return window(base, rowb, DT, NC, ku, uw, kv, vw, 2, acc);
-    case 3: return window(base, rowb, DT, NC, ku, uw, kv, vw, 3, acc);
-    case 4: return window(base, rowb, DT, NC, ku, uw, kv, vw, 4, acc);
-    case 5: return window(base, rowb, DT, NC, ku, uw, kv, vw, 5, acc);
-    default: return window(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);
+    if (nv == 1)
+        return window(base, rowb, DT, NC, ku, uw, kv, vw, 1, acc);
+    switch (DT * 4 + NC) {
+#define PF_LONG_CASE(D, N)                                                                  \
+    case D * 4 + N: return pf_winlong_##D##_##N(base, rowb, ku, uw, kv, vw, nv, acc);
+#define PF_LONG_CASES(D) PF_LONG_CASE(D, 1) PF_LONG_CASE(D, 2) PF_LONG_CASE(D, 4)
+    PF_LONG_CASES(0)
+    PF_LONG_CASES(1)
+    PF_LONG_CASES(2)
+    PF_LONG_CASES(3)
+#undef PF_LONG_CASES
+#undef PF_LONG_CASE
+    default: return acc; /* NC == 3 returned above */
     }
 }
 
