@@ -890,6 +890,19 @@ static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const s
         }
         if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
             return eval_kernel(c, pp, o, q, &k, out, cov);
+        /* declined (a width-4 kernel of 1/4 face or wider, a weight <= 0, no taps): eval's
+         * kernel path without its prologue, which a plain face with (u, v) in [0, 1) passes
+         * through unchanged */
+        pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur,
+                 F->ulog2, F->vlog2);
+        pk_strip_zeros(&k);
+        if (k.uw <= 0 || k.vw <= 0) {
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = 0.0f;
+            *cov = 0.0f;
+            return ST_Q_OK;
+        }
+        return eval_kernel(c, pp, o, q, &k, out, cov);
     }
     return eval(c, pp, o, q, out, cov);
 }
