@@ -30,6 +30,7 @@
 
 #include "ptex_format.h"
 #include "ptexfilter_kernel.h"
+#include "ptexfilter_walk.h"
 #include "ptexres.h"
 #include "ptextri.h"
 
@@ -97,6 +98,7 @@ typedef struct pf {
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
+    pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
 } pf;
 
 static float one_value(unsigned dt)
@@ -762,9 +764,13 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
     if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
         k->v + k->vw <= (1 << k->vlog2))
         apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
-    else if (c->small && !is_subface(c, f))
-        split_apply_small(c, k, f); /* the same walk without the general path's detours */
-    else
+    else if (c->small && !is_subface(c, f)) {
+        /* the same walk without the general path's detours: in Traverse on pieces without
+         * copies (ptexfilter_walk.c; it declines subfaces and constant faces) */
+        if (c->mode != ST_MODE_TRAVERSE ||
+            !pf_walk_traverse(&c->walk, k, f, &c->acc, &c->weight))
+            split_apply_small(c, k, f);
+    } else
         split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
@@ -977,6 +983,11 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
     c.ts = st_dtype_size(c.dt) * c.nc;
+    if (!c.win)
+        c.small = NULL; /* the shortcut walks need both window loops */
+    c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
+                       .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
+                       .small = c.small};
     c.bhalf = pf_bilinear_half_select(); /* in eval's in-face bilinear too */
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;
