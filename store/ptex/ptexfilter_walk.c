@@ -12,11 +12,12 @@
 
 #include "ptexres.h"
 
-/* A piece of a kernel: its window at resolution 2^ulog2 x 2^vlog2 and its weights, which
- * belong to the parent (or to a buffer of the step that made them). */
+/* A piece of a kernel: along axis a (0 u, 1 v) its window [at[a], at[a] + n[a]) at
+ * resolution 2^lg[a] and its weights k[a], which belong to the parent (or to a buffer of the
+ * step that made them). */
 typedef struct pw {
-    int ulog2, vlog2, u, v, uw, vw;
-    const float *ku, *kv;
+    int lg[2], at[2], n[2];
+    const float *k[2];
 } pw;
 
 typedef struct pw_state {
@@ -36,26 +37,33 @@ static inline void reversed(float *dst, const float *src, int n)
         dst[i] = src[n - 1 - i];
 }
 
-/* downres of ptexfilter_kernel.c from src into dst (dst == src allowed: dst never passes
- * src): the first weight kept alone when u is odd, then pairs summed, a last single one
- * kept. Returns the new width; *u halved. */
-__attribute__((noinline)) static int reduce(float *dst, const float *src, int *u, int uw)
+/* downres of ptexfilter_kernel.c, repeated until the resolution is 2^lg: per step the
+ * first weight kept alone when the start is odd, then pairs summed, a last single one kept;
+ * from src into buf (in place after the first step: the write never passes the read).
+ * t = {start, taps, log2 resolution}, updated. Returns buf. */
+__attribute__((noinline)) static const float *shrink(float *buf, const float *src, int t[3],
+                                                     int lg)
 {
-    float *d = dst;
-    const float *s = src;
-    int w = uw;
-    if (*u & 1) {
-        *d++ = *s++;
-        w--;
-    }
-    for (int i = w / 2; i > 0; i--) {
-        *d++ = s[0] + s[1];
-        s += 2;
-    }
-    if (w & 1)
-        *d++ = *s++;
-    *u /= 2;
-    return (int)(d - dst);
+    do {
+        float *d = buf;
+        const float *r = src;
+        int w = t[1];
+        if (t[0] & 1) {
+            *d++ = *r++;
+            w--;
+        }
+        for (int i = w / 2; i > 0; i--) {
+            *d++ = r[0] + r[1];
+            r += 2;
+        }
+        if (w & 1)
+            *d++ = *r++;
+        t[0] /= 2;
+        t[1] = (int)(d - buf);
+        t[2]--;
+        src = buf;
+    } while (t[2] > lg);
+    return buf;
 }
 
 /* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
@@ -74,27 +82,15 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
     if (F->flags & ST_FACE_CONSTANT)
         return 0;
     float rbu[PK_MAX], rbv[PK_MAX];
-    if (__builtin_expect(ru > F->ulog2, 0)) {
-        int uu = u;
-        const float *src = ku;
-        do {
-            uw = reduce(rbu, src, &uu, uw);
-            src = rbu;
-            ru--;
-        } while (ru > F->ulog2);
-        u = uu;
-        ku = rbu;
+    if (__builtin_expect(ru > F->ulog2, 0)) { /* a smaller face: reduced as apply does */
+        int t[3] = {u, uw, ru};
+        ku = shrink(rbu, ku, t, F->ulog2);
+        u = t[0], uw = t[1], ru = t[2];
     }
     if (__builtin_expect(rv > F->vlog2, 0)) {
-        int vv = v;
-        const float *src = kv;
-        do {
-            vw = reduce(rbv, src, &vv, vw);
-            src = rbv;
-            rv--;
-        } while (rv > F->vlog2);
-        v = vv;
-        kv = rbv;
+        int t[3] = {v, vw, rv};
+        kv = shrink(rbv, kv, t, F->vlog2);
+        v = t[0], vw = t[1], rv = t[2];
     }
     int resu = 1 << ru;
     if (u < 0 || v < 0 || u + uw > resu || v + vw > (1 << rv))
@@ -112,94 +108,61 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
 __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, int rot, int af)
 {
     float tu[PK_MAX], tv[PK_MAX];
-    int resu = 1 << p->ulog2, resv = 1 << p->vlog2;
+    int resu = 1 << p->lg[0], resv = 1 << p->lg[1];
+    int fu = resu - p->at[0] - p->n[0], fv = resv - p->at[1] - p->n[1]; /* flipped starts */
     switch (rot & 3) {
     case 1: /* flip_u, swap_uv */
-        reversed(tv, p->ku, p->uw);
-        return put_face(s, p->vlog2, p->ulog2, p->v, resu - p->u - p->uw, p->vw, p->uw, p->kv,
-                        tv, af);
+        reversed(tv, p->k[0], p->n[0]);
+        return put_face(s, p->lg[1], p->lg[0], p->at[1], fu, p->n[1], p->n[0], p->k[1], tv, af);
     case 2: /* flip_u, flip_v */
-        reversed(tu, p->ku, p->uw);
-        reversed(tv, p->kv, p->vw);
-        return put_face(s, p->ulog2, p->vlog2, resu - p->u - p->uw, resv - p->v - p->vw,
-                        p->uw, p->vw, tu, tv, af);
+        reversed(tu, p->k[0], p->n[0]);
+        reversed(tv, p->k[1], p->n[1]);
+        return put_face(s, p->lg[0], p->lg[1], fu, fv, p->n[0], p->n[1], tu, tv, af);
     case 3: /* flip_v, swap_uv */
-        reversed(tu, p->kv, p->vw);
-        return put_face(s, p->vlog2, p->ulog2, resv - p->v - p->vw, p->u, p->vw, p->uw, tu,
-                        p->ku, af);
+        reversed(tu, p->k[1], p->n[1]);
+        return put_face(s, p->lg[1], p->lg[0], fv, p->at[0], p->n[1], p->n[0], tu, p->k[0], af);
     default:
-        return put_face(s, p->ulog2, p->vlog2, p->u, p->v, p->uw, p->vw, p->ku, p->kv, af);
+        return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
+                        p->k[1], af);
     }
 }
 
-/* ---- splits and folds (pk_split_*, pk_merge_*) ------------------------------------------ */
+/* ---- splits and folds (pk_split_*, pk_merge_*) along axis a ----------------------------- */
 
-__attribute__((always_inline)) static inline pw split_r(pw *k)
+/* pk_split_r (a = 0) / pk_split_t (a = 1): the part past the high edge, moved to the far
+ * side (at 0); the whole kernel when it lies past the edge. */
+__attribute__((always_inline)) static inline pw split_hi(pw *k, int a)
 {
-    int resu = 1 << k->ulog2, w = k->u + k->uw - resu;
+    int res = 1 << k->lg[a], w = k->at[a] + k->n[a] - res;
     pw o = *k;
-    if (w < k->uw) {
-        o.u = 0;
-        o.uw = w;
-        o.ku = k->ku + k->uw - w;
-        k->uw -= w;
+    if (w < k->n[a]) {
+        o.at[a] = 0;
+        o.n[a] = w;
+        o.k[a] = k->k[a] + k->n[a] - w;
+        k->n[a] -= w;
     } else {
-        o.u -= resu;
-        k->u = 0;
-        k->uw = 0;
-    }
-    return o;
-}
-
-__attribute__((always_inline)) static inline pw split_l(pw *k)
-{
-    int resu = 1 << k->ulog2, w = -k->u;
-    pw o = *k;
-    if (w < k->uw) {
-        o.u = resu - w;
-        o.uw = w;
-        k->u = 0;
-        k->uw -= w;
-        k->ku += w;
-    } else {
-        o.u += resu;
-        k->u = 0;
-        k->uw = 0;
+        o.at[a] -= res;
+        k->at[a] = 0;
+        k->n[a] = 0;
     }
     return o;
 }
 
-__attribute__((always_inline)) static inline pw split_t(pw *k)
+/* pk_split_l (a = 0) / pk_split_b (a = 1): the part before the low edge. */
+__attribute__((always_inline)) static inline pw split_lo(pw *k, int a)
 {
-    int resv = 1 << k->vlog2, w = k->v + k->vw - resv;
+    int res = 1 << k->lg[a], w = -k->at[a];
     pw o = *k;
-    if (w < k->vw) {
-        o.v = 0;
-        o.vw = w;
-        o.kv = k->kv + k->vw - w;
-        k->vw -= w;
+    if (w < k->n[a]) {
+        o.at[a] = res - w;
+        o.n[a] = w;
+        k->at[a] = 0;
+        k->n[a] -= w;
+        k->k[a] += w;
     } else {
-        o.v -= resv;
-        k->v = 0;
-        k->vw = 0;
-    }
-    return o;
-}
-
-__attribute__((always_inline)) static inline pw split_b(pw *k)
-{
-    int resv = 1 << k->vlog2, w = -k->v;
-    pw o = *k;
-    if (w < k->vw) {
-        o.v = resv - w;
-        o.vw = w;
-        k->v = 0;
-        k->vw -= w;
-        k->kv += w;
-    } else {
-        o.v += resv;
-        k->v = 0;
-        k->vw = 0;
+        o.at[a] += res;
+        k->at[a] = 0;
+        k->n[a] = 0;
     }
     return o;
 }
@@ -213,56 +176,32 @@ static float *own(float *buf, const float **kp, int n)
     return buf;
 }
 
-/* pk_merge_l / _r (fold the columns past the edge onto the edge column, or drop them when
- * black): an overhang as wide as the window leaves it empty (nothing to fold onto). */
-static void merge_l(pw *k, int black, float *buf)
+/* pk_merge_l / pk_merge_b: the weights before the low edge folded onto the first one inside
+ * (dropped when black); an overhang as wide as the window leaves it empty. */
+static void merge_lo(pw *k, int a, int black, float *buf)
 {
-    int w = -k->u;
-    if (w < k->uw) {
-        float *ku = own(buf, &k->ku, k->uw);
+    int w = -k->at[a];
+    if (w < k->n[a]) {
+        float *kk = own(buf, &k->k[a], k->n[a]);
         if (!black)
-            ku[w] += pk_accumulate(ku, w);
+            kk[w] += pk_accumulate(kk, w);
     }
-    k->ku += w;
-    k->uw -= w;
-    k->u = 0;
+    k->k[a] += w;
+    k->n[a] -= w;
+    k->at[a] = 0;
 }
 
-static void merge_r(pw *k, int black, float *buf)
+/* pk_merge_r / pk_merge_t: the weights past the high edge folded onto the last one inside. */
+static void merge_hi(pw *k, int a, int black, float *buf)
 {
-    int w = k->uw + k->u - (1 << k->ulog2);
-    if (w < k->uw) {
-        float *ku = own(buf, &k->ku, k->uw);
-        float *kp = ku + k->uw - w;
+    int w = k->n[a] + k->at[a] - (1 << k->lg[a]);
+    if (w < k->n[a]) {
+        float *kk = own(buf, &k->k[a], k->n[a]);
+        float *kp = kk + k->n[a] - w;
         if (!black)
             kp[-1] += pk_accumulate(kp, w);
     }
-    k->uw -= w;
-}
-
-static void merge_b(pw *k, int black, float *buf)
-{
-    int w = -k->v;
-    if (w < k->vw) {
-        float *kv = own(buf, &k->kv, k->vw);
-        if (!black)
-            kv[w] += pk_accumulate(kv, w);
-    }
-    k->kv += w;
-    k->vw -= w;
-    k->v = 0;
-}
-
-static void merge_t(pw *k, int black, float *buf)
-{
-    int w = k->vw + k->v - (1 << k->vlog2);
-    if (w < k->vw) {
-        float *kv = own(buf, &k->kv, k->vw);
-        float *kp = kv + k->vw - w;
-        if (!black)
-            kp[-1] += pk_accumulate(kp, w);
-    }
-    k->vw -= w;
+    k->n[a] -= w;
 }
 
 /* ---- edges and corners (across_small, corner_small, apply_to_corner) -------------------- */
@@ -301,23 +240,23 @@ __attribute__((noinline)) static int corner_other(pw_state *s, pw kc, int f, int
         return put(s, &kc, eid - cedge[1] + 2, cface[1]);
     if (ncorners > 1) {
         pk k;
-        k.ulog2 = kc.ulog2, k.vlog2 = kc.vlog2, k.u = kc.u, k.v = kc.v;
-        k.uw = kc.uw, k.vw = kc.vw, k.ku0 = k.kv0 = k.rot = 0;
-        for (int i = 0; i < kc.uw; i++)
-            k.kub[i] = kc.ku[i];
-        for (int i = 0; i < kc.vw; i++)
-            k.kvb[i] = kc.kv[i];
+        k.ulog2 = kc.lg[0], k.vlog2 = kc.lg[1], k.u = kc.at[0], k.v = kc.at[1];
+        k.uw = kc.n[0], k.vw = kc.n[1], k.ku0 = k.kv0 = k.rot = 0;
+        for (int i = 0; i < kc.n[0]; i++)
+            k.kub[i] = kc.k[0][i];
+        for (int i = 0; i < kc.n[1]; i++)
+            k.kvb[i] = kc.k[1][i];
         pk_rotate(&k, eid + 2);
         float w0 = pk_weight(&k);
         float nw = pk_make_symmetric(&k, w0);
-        pw ks = {k.ulog2, k.vlog2, k.u, k.v, k.uw, k.vw, pk_ku(&k), pk_kv(&k)};
+        pw ks = {{k.ulog2, k.vlog2}, {k.u, k.v}, {k.uw, k.vw}, {pk_ku(&k), pk_kv(&k)}};
         for (int i = 1; i <= ncorners; i++)
             if (!put(s, &ks, 2 - cedge[i] + 2, cface[i]))
                 return 0;
         s->weight += nw * (float)ncorners - w0;
         return 1;
     }
-    float wu = pk_accumulate(kc.ku, kc.uw), wv = pk_accumulate(kc.kv, kc.vw);
+    float wu = pk_accumulate(kc.k[0], kc.n[0]), wv = pk_accumulate(kc.k[1], kc.n[1]);
     s->weight -= wu * wv;
     return 1;
 }
@@ -346,74 +285,67 @@ __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int 
 
 /* ---- the walk (split_walk in Traverse at depth 0) ---------------------------------------- */
 
+/* One side of split_walk: the part past the right edge (hi, edge 1, corners 2 above and 1
+ * below) or the left edge (edge 3, corners 3 and 0) split off with its corners and sent
+ * across, or folded back at a boundary. st, sb: the kernel overhangs the top, the bottom. */
+__attribute__((always_inline)) static inline int side(pw_state *s, pw *k, int f, int hi, int st,
+                                                      int sb, float *bk_u, float *ba)
+{
+    const st_face *F = &s->w->faces[f];
+    int eid = hi ? 1 : 3, ct = hi ? 2 : 3, cb = hi ? 1 : 0;
+    int bv = s->w->black_v;
+    if (F->adjface[eid] < 0) {
+        if (hi)
+            merge_hi(k, 0, s->w->black_u, bk_u);
+        else
+            merge_lo(k, 0, s->w->black_u, bk_u);
+        return 1;
+    }
+    pw ka = hi ? split_hi(k, 0) : split_lo(k, 0);
+    if (st) {
+        if (F->adjface[2] >= 0) {
+            if (!corner(s, split_hi(&ka, 1), f, ct))
+                return 0;
+        } else
+            merge_hi(&ka, 1, bv, ba);
+    }
+    if (sb) {
+        if (F->adjface[0] >= 0) {
+            if (!corner(s, split_lo(&ka, 1), f, cb))
+                return 0;
+        } else
+            merge_lo(&ka, 1, bv, ba);
+    }
+    return edge(s, ka, f, eid);
+}
+
 int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
 {
     pw_state s = {w, *acc, *weight};
     const st_face *F = &w->faces[f];
-    pw k = {k0->ulog2, k0->vlog2, k0->u, k0->v, k0->uw, k0->vw, k0->kub + k0->ku0,
-            k0->kvb + k0->kv0};
+    pw k = {{k0->ulog2, k0->vlog2}, {k0->u, k0->v}, {k0->uw, k0->vw},
+            {k0->kub + k0->ku0, k0->kvb + k0->kv0}};
     float bk_u[PK_MAX], bk_v[PK_MAX], ba[PK_MAX]; /* k's folds, a side piece's fold */
-    int resu = 1 << k.ulog2, resv = 1 << k.vlog2;
-    int sr = k.u + k.uw > resu, sl = k.u < 0;
-    int st = k.v + k.vw > resv, sb = k.v < 0;
-    int bu = w->black_u, bv = w->black_v;
-    if (sr) {
-        if (F->adjface[1] >= 0) {
-            pw ka = split_r(&k);
-            if (st) {
-                if (F->adjface[2] >= 0) {
-                    if (!corner(&s, split_t(&ka), f, 2))
-                        return 0;
-                } else
-                    merge_t(&ka, bv, ba);
-            }
-            if (sb) {
-                if (F->adjface[0] >= 0) {
-                    if (!corner(&s, split_b(&ka), f, 1))
-                        return 0;
-                } else
-                    merge_b(&ka, bv, ba);
-            }
-            if (!edge(&s, ka, f, 1))
-                return 0;
-        } else
-            merge_r(&k, bu, bk_u);
-    }
-    if (sl) {
-        if (F->adjface[3] >= 0) {
-            pw ka = split_l(&k);
-            if (st) {
-                if (F->adjface[2] >= 0) {
-                    if (!corner(&s, split_t(&ka), f, 3))
-                        return 0;
-                } else
-                    merge_t(&ka, bv, ba);
-            }
-            if (sb) {
-                if (F->adjface[0] >= 0) {
-                    if (!corner(&s, split_b(&ka), f, 0))
-                        return 0;
-                } else
-                    merge_b(&ka, bv, ba);
-            }
-            if (!edge(&s, ka, f, 3))
-                return 0;
-        } else
-            merge_l(&k, bu, bk_u);
-    }
+    int resu = 1 << k.lg[0], resv = 1 << k.lg[1];
+    int sr = k.at[0] + k.n[0] > resu, sl = k.at[0] < 0;
+    int st = k.at[1] + k.n[1] > resv, sb = k.at[1] < 0;
+    if (sr && !side(&s, &k, f, 1, st, sb, bk_u, ba))
+        return 0;
+    if (sl && !side(&s, &k, f, 0, st, sb, bk_u, ba))
+        return 0;
     if (st) {
         if (F->adjface[2] >= 0) {
-            if (!edge(&s, split_t(&k), f, 2))
+            if (!edge(&s, split_hi(&k, 1), f, 2))
                 return 0;
         } else
-            merge_t(&k, bv, bk_v);
+            merge_hi(&k, 1, w->black_v, bk_v);
     }
     if (sb) {
         if (F->adjface[0] >= 0) {
-            if (!edge(&s, split_b(&k), f, 0))
+            if (!edge(&s, split_lo(&k, 1), f, 0))
                 return 0;
         } else
-            merge_b(&k, bv, bk_v);
+            merge_lo(&k, 1, w->black_v, bk_v);
     }
     if (!put(&s, &k, 0, f))
         return 0;
