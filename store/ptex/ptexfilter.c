@@ -31,6 +31,7 @@
 #include "ptex_format.h"
 #include "ptexfilter_kernel.h"
 #include "ptexfilter_lanes.h"
+#include "ptexfilter_walk.h"
 #include "ptexres.h"
 #include "ptextri.h"
 
@@ -98,6 +99,7 @@ typedef struct pf {
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
+    pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
 } pf;
 
 static float one_value(unsigned dt)
@@ -918,7 +920,11 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
     if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
         k->v + k->vw <= (1 << k->vlog2))
         apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
-    else
+    else if (!(c->small && c->mode == ST_MODE_TRAVERSE && !is_subface(c, f) &&
+               pf_walk_traverse(&c->walk, k, f, &c->acc, &c->weight)))
+        /* Traverse on a plain face: the same walk on pieces without copies
+         * (ptexfilter_walk.c; it declines subfaces and constant faces, touching nothing);
+         * Discard, Clamp and what it declines: the general walk */
         split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
@@ -1044,6 +1050,19 @@ static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const s
         }
         if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
             return eval_kernel(c, pp, o, q, &k, out, cov);
+        /* declined (a width-4 kernel of 1/4 face or wider, a weight <= 0, no taps): eval's
+         * kernel path without its prologue, which a plain face with (u, v) in [0, 1) passes
+         * through unchanged */
+        pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur,
+                 F->ulog2, F->vlog2);
+        pk_strip_zeros(&k);
+        if (k.uw <= 0 || k.vw <= 0) {
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = 0.0f;
+            *cov = 0.0f;
+            return ST_Q_OK;
+        }
+        return eval_kernel(c, pp, o, q, &k, out, cov);
     }
     return eval(c, pp, o, q, out, cov);
 }
@@ -1149,6 +1168,11 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
     c.ts = st_dtype_size(c.dt) * c.nc;
+    if (!c.win)
+        c.small = NULL; /* the shortcut walks need both window loops */
+    c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
+                       .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
+                       .small = c.small};
     c.bhalf = pf_bilinear_half_select(); /* in eval's in-face bilinear too */
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;

@@ -397,82 +397,6 @@ static void kernel_eval(const pk_params *p, float x1, float step, float *w, int 
     }
 }
 
-static float hermite_blur(float x)
-{
-    x = fabsf(x);
-    return x < 1.0f ? (2.0f * x - 3.0f) * x * x + 1.0f : 0.0f;
-}
-
-/* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off. Returns 1 when the
- * weights are kernel_eval(p, *x1o, *stepo, w, *kw), left to the caller (so that both axes can
- * be evaluated at once); 0 when they are written already. */
-static int width4_axis(int *kres, int *ku, int *kw, float *w, float u,
-                       float uw, int fres, float *x1o, float *stepo)
-{
-    float lo = recip_pow2(fres);
-    if (!(uw >= lo))
-        uw = lo;
-    *kres = res_from_width(uw);
-    int resu = 1 << (*kres < 0 ? 0 : *kres > 30 ? 30 : *kres);
-    if (uw >= .25f) {
-        if (uw < .5f) {
-            *kres = 2;
-            float upix = u * 4.0f - 0.5f;
-            int u1 = (int)fceil(upix - 2), u2 = (int)fceil(upix + 2);
-            u1 = u1 & ~1;
-            u2 = (u2 + 1) & ~1;
-            *ku = u1;
-            *kw = u2 - u1;
-            if (*kw > PK_MAX / 2)
-                *kw = PK_MAX / 2;
-            *x1o = (float)u1 - upix;
-            *stepo = 1.0f;
-            return 1;
-        } else if (uw < 1) {
-            *kres = 1;
-            float upix = u * 2.0f - 0.5f;
-            *ku = (int)ffloor(u - .5f) * 2;
-            *kw = 4;
-            float x1 = (float)*ku - upix;
-            float s = 1.0f / (uw * 1.5f + .5f);
-            /* hermite_blur of (x1 + i) * s, i = 0, 2, and of ((x1 + i) + 1) * s, 4 lanes, the
-             * same operations in the same order */
-            v4f xa = x1 + (v4f){0.0f, 0.0f, 2.0f, 2.0f};
-            v4f x = (xa + (v4f){0.0f, 1.0f, 0.0f, 1.0f}) * s;
-            v4i xb;
-            memcpy(&xb, &x, sizeof x);
-            xb &= 0x7fffffff;
-            memcpy(&x, &xb, sizeof x);
-            v4f h = (2.0f * x - 3.0f) * x * x + 1.0f;
-            v4i hb, lt = x < 1.0f;
-            memcpy(&hb, &h, sizeof h);
-            hb &= lt;
-            memcpy(w, &hb, sizeof hb);
-            return 0;
-        } else {
-            *kres = 0;
-            float upix = u - .5f;
-            *kw = 2;
-            float ui = ffloor(upix);
-            *ku = (int)ui;
-            w[0] = hermite_blur(upix - ui);
-            w[1] = 1 - w[0];
-            return 0;
-        }
-    }
-    float upix = u * (float)resu - 0.5f;
-    float uwpix = uw * (float)resu;
-    float dupix = 2.0f * uwpix;
-    int u1 = (int)fceil(upix - dupix), u2 = (int)fceil(upix + dupix);
-    *ku = u1;
-    *kw = u2 - u1;
-    if (*kw > PK_MAX / 2)
-        *kw = PK_MAX / 2; /* cannot happen: uwpix < 2 gives at most 9 */
-    *x1o = ((float)u1 - upix) / uwpix;
-    *stepo = 1.0f / uwpix;
-    return 1;
-}
-
 static void box_weights(float *k, int size, float f1, float f2)
 {
     if (size == 1) {
@@ -531,8 +455,8 @@ void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, i
         return;
     }
     float x1u = 0, su = 0, x1v = 0, sv = 0;
-    int eu = width4_axis(&k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2, &x1u, &su);
-    int ev = width4_axis(&k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2, &x1v, &sv);
+    int eu = pk_width4_axis(&k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2, &x1u, &su);
+    int ev = pk_width4_axis(&k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2, &x1v, &sv);
     if (eu && ev && p->avx2) {
         pf_kernel_eval2_avx2(p, x1u, su, k->kub, k->uw, x1v, sv, k->kvb, k->vw);
         return;

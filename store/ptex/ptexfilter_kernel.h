@@ -62,6 +62,88 @@ static inline int pk_res_from_width(float w)
     return 127 - (int)((i >> 23) & 0xff);
 }
 
+typedef float pk_v4f __attribute__((vector_size(16)));
+typedef int32_t pk_v4i __attribute__((vector_size(16)));
+
+static inline float pk_hermite_blur(float x)
+{
+    x = __builtin_fabsf(x);
+    return x < 1.0f ? (2.0f * x - 3.0f) * x * x + 1.0f : 0.0f;
+}
+
+/* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off (pk_build's, and the
+ * fused path's in ptexfilter_simd.c): resolution *kres, first texel *ku and taps *kw of a
+ * width uw at u on a face of resolution 2^fres. Returns 1 when the weights are
+ * pk_kernel_eval(p, *x1o, *stepo, w, *kw), left to the caller (so that both axes can be
+ * evaluated at once); 0 when they are written to w already (room for 4). */
+__attribute__((always_inline)) static inline int
+pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fres, float *x1o,
+               float *stepo)
+{
+    float lo = pk_recip_pow2(fres);
+    if (!(uw >= lo))
+        uw = lo;
+    *kres = pk_res_from_width(uw);
+    int resu = 1 << (*kres < 0 ? 0 : *kres > 30 ? 30 : *kres);
+    if (uw >= .25f) {
+        if (uw < .5f) {
+            *kres = 2;
+            float upix = u * 4.0f - 0.5f;
+            int u1 = (int)pk_ceil(upix - 2), u2 = (int)pk_ceil(upix + 2);
+            u1 = u1 & ~1;
+            u2 = (u2 + 1) & ~1;
+            *ku = u1;
+            *kw = u2 - u1;
+            if (*kw > PK_MAX / 2)
+                *kw = PK_MAX / 2;
+            *x1o = (float)u1 - upix;
+            *stepo = 1.0f;
+            return 1;
+        } else if (uw < 1) {
+            *kres = 1;
+            float upix = u * 2.0f - 0.5f;
+            *ku = (int)pk_floor(u - .5f) * 2;
+            *kw = 4;
+            float x1 = (float)*ku - upix;
+            float s = 1.0f / (uw * 1.5f + .5f);
+            /* hermite_blur of (x1 + i) * s, i = 0, 2, and of ((x1 + i) + 1) * s, 4 lanes, the
+             * same operations in the same order */
+            pk_v4f xa = x1 + (pk_v4f){0.0f, 0.0f, 2.0f, 2.0f};
+            pk_v4f x = (xa + (pk_v4f){0.0f, 1.0f, 0.0f, 1.0f}) * s;
+            pk_v4i xb;
+            __builtin_memcpy(&xb, &x, sizeof x);
+            xb &= 0x7fffffff;
+            __builtin_memcpy(&x, &xb, sizeof x);
+            pk_v4f h = (2.0f * x - 3.0f) * x * x + 1.0f;
+            pk_v4i hb, lt = x < 1.0f;
+            __builtin_memcpy(&hb, &h, sizeof h);
+            hb &= lt;
+            __builtin_memcpy(w, &hb, sizeof hb);
+            return 0;
+        } else {
+            *kres = 0;
+            float upix = u - .5f;
+            *kw = 2;
+            float ui = pk_floor(upix);
+            *ku = (int)ui;
+            w[0] = pk_hermite_blur(upix - ui);
+            w[1] = 1 - w[0];
+            return 0;
+        }
+    }
+    float upix = u * (float)resu - 0.5f;
+    float uwpix = uw * (float)resu;
+    float dupix = 2.0f * uwpix;
+    int u1 = (int)pk_ceil(upix - dupix), u2 = (int)pk_ceil(upix + dupix);
+    *ku = u1;
+    *kw = u2 - u1;
+    if (*kw > PK_MAX / 2)
+        *kw = PK_MAX / 2; /* cannot happen: uwpix < 2 gives at most 9 */
+    *x1o = ((float)u1 - upix) / uwpix;
+    *stepo = 1.0f / uwpix;
+    return 1;
+}
+
 /* Filter-specific kernel construction (Ptex's buildKernel); ftype is st_filter. */
 typedef struct pk_params {
     unsigned ftype;

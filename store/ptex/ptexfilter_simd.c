@@ -217,8 +217,38 @@ PF_TARGET __m128 window3(const uint8_t *base, size_t rowb, unsigned DT, const fl
     return acc;
 }
 
+/* The window loop for rows of more than 8 values (window_dt's rarer cases), called out of
+ * line (pf_winlong_DT_NC), so that its column sums' stack frame is not set up for the short
+ * rows of most windows. */
+PF_TARGET __m128 window_long(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
+                             const float *ku, int uw, const float *kv, int vw, int nv,
+                             __m128 acc)
+{
+    switch (nv) {
+    case 2: return window(base, rowb, DT, NC, ku, uw, kv, vw, 2, acc);
+    case 3: return window(base, rowb, DT, NC, ku, uw, kv, vw, 3, acc);
+    case 4: return window(base, rowb, DT, NC, ku, uw, kv, vw, 4, acc);
+    case 5: return window(base, rowb, DT, NC, ku, uw, kv, vw, 5, acc);
+    default: return window(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);
+    }
+}
+
+#define PF_WINLONG(DT, NC)                                                                  \
+    __attribute__((target("avx2,fma,f16c"), noinline)) static __m128 pf_winlong_##DT##_##NC( \
+        const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
+        int nv, __m128 acc)                                                                 \
+    {                                                                                       \
+        return window_long(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);                    \
+    }
+#define PF_WINLONG_NC(DT) PF_WINLONG(DT, 1) PF_WINLONG(DT, 2) PF_WINLONG(DT, 4)
+PF_WINLONG_NC(0)
+PF_WINLONG_NC(1)
+PF_WINLONG_NC(2)
+PF_WINLONG_NC(3)
+
 /* The window loop for texels of type DT with NC channels (both constants): NC == 3 one
- * texel a vector, else the row length's number of 8-value vectors (1..5 unrolled). */
+ * texel a vector, else the row length's number of 8-value vectors (1 here, 2..5 unrolled in
+ * window_long). */
 PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
                            const float *ku, int uw, const float *kv, int vw, __m128 acc)
 {
@@ -227,13 +257,19 @@ PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsign
     int nv = (uw * (int)NC + 7) / 8;
     if (nv < 1)
         return acc;
-    switch (nv) {
-    case 1: return window(base, rowb, DT, NC, ku, uw, kv, vw, 1, acc);
-    case 2: return window(base, rowb, DT, NC, ku, uw, kv, vw, 2, acc);
-    case 3: return window(base, rowb, DT, NC, ku, uw, kv, vw, 3, acc);
-    case 4: return window(base, rowb, DT, NC, ku, uw, kv, vw, 4, acc);
-    case 5: return window(base, rowb, DT, NC, ku, uw, kv, vw, 5, acc);
-    default: return window(base, rowb, DT, NC, ku, uw, kv, vw, nv, acc);
+    if (nv == 1)
+        return window(base, rowb, DT, NC, ku, uw, kv, vw, 1, acc);
+    switch (DT * 4 + NC) {
+#define PF_LONG_CASE(D, N)                                                                  \
+    case D * 4 + N: return pf_winlong_##D##_##N(base, rowb, ku, uw, kv, vw, nv, acc);
+#define PF_LONG_CASES(D) PF_LONG_CASE(D, 1) PF_LONG_CASE(D, 2) PF_LONG_CASE(D, 4)
+    PF_LONG_CASES(0)
+    PF_LONG_CASES(1)
+    PF_LONG_CASES(2)
+    PF_LONG_CASES(3)
+#undef PF_LONG_CASES
+#undef PF_LONG_CASE
+    default: return acc; /* NC == 3 returned above */
     }
 }
 
@@ -489,22 +525,37 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
     } else {
         int res[2], k0[2], kw[2];
         float x1[2], st[2];
-        if (!w4_axes(u, v, uw, vw, fulog2, fvlog2, res, k0, kw, x1, st))
-            return 0;
-        ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
         const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
         __m256 wu, wv;
-        if (nu <= 4 && nv <= 4) { /* both axes in one evaluation: u in lanes 0-3, v in 4-7 */
-            const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
-            __m256 x0 = _mm256_setr_m128(_mm_set1_ps(x1[0]), _mm_set1_ps(x1[1]));
-            __m256 s8 = _mm256_setr_m128(_mm_set1_ps(st[0]), _mm_set1_ps(st[1]));
-            wu = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
-            wv = _mm256_permute2f128_ps(wu, wu, 0x11); /* lanes 4-7 to 0-3 */
+        if (!w4_axes(u, v, uw, vw, fulog2, fvlog2, res, k0, kw, x1, st)) {
+            /* a width of 1/4 face or more (or more than 8 taps): pk_build's axes, each
+             * evaluated on its own */
+            float hu[4] = {0, 0, 0, 0}, hv[4] = {0, 0, 0, 0};
+            int eu = pk_width4_axis(&res[0], &k0[0], &kw[0], hu, u, uw, fulog2, &x1[0], &st[0]);
+            int ev = pk_width4_axis(&res[1], &k0[1], &kw[1], hv, v, vw, fvlog2, &x1[1], &st[1]);
+            if (kw[0] > 8 || kw[1] > 8)
+                return 0;
+            ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
+            wu = eu ? kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[0]),
+                                               _mm256_mul_ps(i0, _mm256_set1_ps(st[0]))))
+                    : _mm256_setr_m128(_mm_loadu_ps(hu), _mm_setzero_ps());
+            wv = ev ? kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[1]),
+                                               _mm256_mul_ps(i0, _mm256_set1_ps(st[1]))))
+                    : _mm256_setr_m128(_mm_loadu_ps(hv), _mm_setzero_ps());
         } else {
-            wu = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[0]),
-                                          _mm256_mul_ps(i0, _mm256_set1_ps(st[0]))));
-            wv = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[1]),
-                                          _mm256_mul_ps(i0, _mm256_set1_ps(st[1]))));
+            ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
+            if (nu <= 4 && nv <= 4) { /* both axes in one evaluation: u in lanes 0-3, v 4-7 */
+                const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
+                __m256 x0 = _mm256_setr_m128(_mm_set1_ps(x1[0]), _mm_set1_ps(x1[1]));
+                __m256 s8 = _mm256_setr_m128(_mm_set1_ps(st[0]), _mm_set1_ps(st[1]));
+                wu = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
+                wv = _mm256_permute2f128_ps(wu, wu, 0x11); /* lanes 4-7 to 0-3 */
+            } else {
+                wu = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[0]),
+                                              _mm256_mul_ps(i0, _mm256_set1_ps(st[0]))));
+                wv = kernel8(p, _mm256_add_ps(_mm256_set1_ps(x1[1]),
+                                              _mm256_mul_ps(i0, _mm256_set1_ps(st[1]))));
+            }
         }
         if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
             return 0;

@@ -1,6 +1,8 @@
 /* tests/unit/test_ptexfilter_paths.c - the Ptex filters' per-batch shortcuts (point and bilinear
  * per texel type, bilinear inside a face and across its edges and corners, the fused path of
- * box and width-4 kernels, the small-window loop) give the general path's outputs bit for bit:
+ * box and width-4 kernels of every width, the shortcut walk and ptexfilter_walk.c's split of
+ * kernels of any size that overhang a plain face, the small-window loop) give the general
+ * path's outputs bit for bit:
  * on every shared .ptx file (SEAMTEX_DATA ptex-ref/ and ptx/, walked, so a new file is
  * covered), every filter, Traverse, Discard and Clamp, many random queries - a third of them
  * near a face edge or corner, some on texel centres - at footprints from a quarter texel to 32 texels, isotropic and

@@ -1,0 +1,355 @@
+/* store/ptex/ptexfilter_walk.c - the Traverse split of a kernel that overhangs a plain face,
+ * on pieces that point at their parent's weights; see ptexfilter_walk.h.
+ *
+ * Each step names the pk operation (ptexfilter_kernel.c) and the walk function
+ * (ptexfilter.c) it stands for; the float operations and their order are theirs: weights
+ * are moved, reversed and swapped (no arithmetic), folds add the overhang's sum (summed in
+ * order) to the edge weight, reductions add pairs, and each piece's window sum goes through
+ * the same window loop, pieces in the walk's order. Corners of a vertex of valence other
+ * than 4 go through the pk operations themselves on a pk copy (they are rare).
+ */
+#include "ptexfilter_walk.h"
+
+#include "ptexres.h"
+
+/* A piece of a kernel: along axis a (0 u, 1 v) its window [at[a], at[a] + n[a]) at
+ * resolution 2^lg[a] and its weights k[a], which belong to the parent (or to a buffer of the
+ * step that made them). */
+typedef struct pw {
+    int lg[2], at[2], n[2];
+    const float *k[2];
+} pw;
+
+typedef struct pw_state {
+    const pf_walk *w;
+    pf_v4 acc;
+    float weight;
+} pw_state;
+
+static inline int subface(const pf_walk *w, int f)
+{
+    return (w->faces[f].flags & ST_FACE_SUBFACE) != 0;
+}
+
+static inline void reversed(float *dst, const float *src, int n)
+{
+    for (int i = 0; i < n; i++)
+        dst[i] = src[n - 1 - i];
+}
+
+/* downres of ptexfilter_kernel.c, repeated until the resolution is 2^lg: per step the
+ * first weight kept alone when the start is odd, then pairs summed, a last single one kept;
+ * from src into buf (in place after the first step: the write never passes the read).
+ * t = {start, taps, log2 resolution}, updated. Returns buf. */
+__attribute__((noinline)) static const float *shrink(float *buf, const float *src, int t[3],
+                                                     int lg)
+{
+    do {
+        float *d = buf;
+        const float *r = src;
+        int w = t[1];
+        if (t[0] & 1) {
+            *d++ = *r++;
+            w--;
+        }
+        for (int i = w / 2; i > 0; i--) {
+            *d++ = r[0] + r[1];
+            r += 2;
+        }
+        if (w & 1)
+            *d++ = *r++;
+        t[0] /= 2;
+        t[1] = (int)(d - buf);
+        t[2]--;
+        src = buf;
+    } while (t[2] > lg);
+    return buf;
+}
+
+/* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
+ * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
+ * smaller, the window summed into s->acc. 0: a constant face (declined). Scalars, not a
+ * struct, so that they stay in registers. */
+__attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
+                                                          int v, int uw, int vw,
+                                                          const float *ku, const float *kv,
+                                                          int af)
+{
+    if (uw <= 0 || vw <= 0)
+        return 1;
+    const pf_walk *w = s->w;
+    const st_face *F = &w->faces[af];
+    if (F->flags & ST_FACE_CONSTANT)
+        return 0;
+    float rbu[PK_MAX], rbv[PK_MAX];
+    if (__builtin_expect(ru > F->ulog2, 0)) { /* a smaller face: reduced as apply does */
+        int t[3] = {u, uw, ru};
+        ku = shrink(rbu, ku, t, F->ulog2);
+        u = t[0], uw = t[1], ru = t[2];
+    }
+    if (__builtin_expect(rv > F->vlog2, 0)) {
+        int t[3] = {v, vw, rv};
+        kv = shrink(rbv, kv, t, F->vlog2);
+        v = t[0], vw = t[1], rv = t[2];
+    }
+    int resu = 1 << ru;
+    if (u < 0 || v < 0 || u + uw > resu || v + vw > (1 << rv))
+        return 1; /* outside the face: apply's guard against bad input */
+    const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
+    size_t rowb = (size_t)resu * w->ts;
+    const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
+    pf_window_fn fn = uw <= 2 && vw <= 2 ? w->small : w->win;
+    s->acc = fn(base, rowb, ku, uw, kv, vw, s->acc);
+    return 1;
+}
+
+/* pk_rotate(k, rot) then put_face: the window flipped and its axes swapped as pk_rotate
+ * does, the weights reversed into this frame's buffers. */
+__attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, int rot, int af)
+{
+    float tu[PK_MAX], tv[PK_MAX];
+    int resu = 1 << p->lg[0], resv = 1 << p->lg[1];
+    int fu = resu - p->at[0] - p->n[0], fv = resv - p->at[1] - p->n[1]; /* flipped starts */
+    switch (rot & 3) {
+    case 1: /* flip_u, swap_uv */
+        reversed(tv, p->k[0], p->n[0]);
+        return put_face(s, p->lg[1], p->lg[0], p->at[1], fu, p->n[1], p->n[0], p->k[1], tv, af);
+    case 2: /* flip_u, flip_v */
+        reversed(tu, p->k[0], p->n[0]);
+        reversed(tv, p->k[1], p->n[1]);
+        return put_face(s, p->lg[0], p->lg[1], fu, fv, p->n[0], p->n[1], tu, tv, af);
+    case 3: /* flip_v, swap_uv */
+        reversed(tu, p->k[1], p->n[1]);
+        return put_face(s, p->lg[1], p->lg[0], fv, p->at[0], p->n[1], p->n[0], tu, p->k[0], af);
+    default:
+        return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
+                        p->k[1], af);
+    }
+}
+
+/* ---- splits and folds (pk_split_*, pk_merge_*) along axis a ----------------------------- */
+
+/* pk_split_r (a = 0) / pk_split_t (a = 1): the part past the high edge, moved to the far
+ * side (at 0); the whole kernel when it lies past the edge. */
+__attribute__((always_inline)) static inline pw split_hi(pw *k, int a)
+{
+    int res = 1 << k->lg[a], w = k->at[a] + k->n[a] - res;
+    pw o = *k;
+    if (w < k->n[a]) {
+        o.at[a] = 0;
+        o.n[a] = w;
+        o.k[a] = k->k[a] + k->n[a] - w;
+        k->n[a] -= w;
+    } else {
+        o.at[a] -= res;
+        k->at[a] = 0;
+        k->n[a] = 0;
+    }
+    return o;
+}
+
+/* pk_split_l (a = 0) / pk_split_b (a = 1): the part before the low edge. */
+__attribute__((always_inline)) static inline pw split_lo(pw *k, int a)
+{
+    int res = 1 << k->lg[a], w = -k->at[a];
+    pw o = *k;
+    if (w < k->n[a]) {
+        o.at[a] = res - w;
+        o.n[a] = w;
+        k->at[a] = 0;
+        k->n[a] -= w;
+        k->k[a] += w;
+    } else {
+        o.at[a] += res;
+        k->at[a] = 0;
+        k->n[a] = 0;
+    }
+    return o;
+}
+
+/* The weights *kp (n of them) copied into buf, for a fold that changes one. */
+static float *own(float *buf, const float **kp, int n)
+{
+    for (int i = 0; i < n; i++)
+        buf[i] = (*kp)[i];
+    *kp = buf;
+    return buf;
+}
+
+/* pk_merge_l / pk_merge_b: the weights before the low edge folded onto the first one inside
+ * (dropped when black); an overhang as wide as the window leaves it empty. */
+static void merge_lo(pw *k, int a, int black, float *buf)
+{
+    int w = -k->at[a];
+    if (w < k->n[a]) {
+        float *kk = own(buf, &k->k[a], k->n[a]);
+        if (!black)
+            kk[w] += pk_accumulate(kk, w);
+    }
+    k->k[a] += w;
+    k->n[a] -= w;
+    k->at[a] = 0;
+}
+
+/* pk_merge_r / pk_merge_t: the weights past the high edge folded onto the last one inside. */
+static void merge_hi(pw *k, int a, int black, float *buf)
+{
+    int w = k->n[a] + k->at[a] - (1 << k->lg[a]);
+    if (w < k->n[a]) {
+        float *kk = own(buf, &k->k[a], k->n[a]);
+        float *kp = kk + k->n[a] - w;
+        if (!black)
+            kp[-1] += pk_accumulate(kp, w);
+    }
+    k->n[a] -= w;
+}
+
+/* ---- edges and corners (across_small, corner_small, apply_to_corner) -------------------- */
+
+__attribute__((always_inline)) static inline int edge(pw_state *s, pw ka, int f, int eid)
+{
+    const st_face *F = &s->w->faces[f];
+    int af = F->adjface[eid];
+    if (subface(s->w, af))
+        return 0;
+    return put(s, &ka, eid - F->adjedge[eid] + 2, af);
+}
+
+/* apply_to_corner for a vertex whose faces are not subfaces and whose valence is not 4
+ * (corner() took the regular one): shared among the faces of a vertex of valence > 4 (the
+ * kernel made symmetric with the pk operations), dropped (its weight removed) otherwise. */
+__attribute__((noinline)) static int corner_other(pw_state *s, pw kc, int f, int eid)
+{
+    enum { MAXV = 10 };
+    const st_face *faces = s->w->faces;
+    int af = f, ae = eid, cface[MAXV], cedge[MAXV], ncorners = 0;
+    for (int i = 0; i < MAXV; i++) {
+        const st_face *A = &faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || (af == f && ae == eid)) {
+            ncorners = i - 2;
+            break;
+        }
+        if (subface(s->w, af))
+            return 0;
+        cface[i] = af;
+        cedge[i] = ae;
+    }
+    if (ncorners == 1)
+        return put(s, &kc, eid - cedge[1] + 2, cface[1]);
+    if (ncorners > 1) {
+        pk k;
+        k.ulog2 = kc.lg[0], k.vlog2 = kc.lg[1], k.u = kc.at[0], k.v = kc.at[1];
+        k.uw = kc.n[0], k.vw = kc.n[1], k.ku0 = k.kv0 = k.rot = 0;
+        for (int i = 0; i < kc.n[0]; i++)
+            k.kub[i] = kc.k[0][i];
+        for (int i = 0; i < kc.n[1]; i++)
+            k.kvb[i] = kc.k[1][i];
+        pk_rotate(&k, eid + 2);
+        float w0 = pk_weight(&k);
+        float nw = pk_make_symmetric(&k, w0);
+        pw ks = {{k.ulog2, k.vlog2}, {k.u, k.v}, {k.uw, k.vw}, {pk_ku(&k), pk_kv(&k)}};
+        for (int i = 1; i <= ncorners; i++)
+            if (!put(s, &ks, 2 - cedge[i] + 2, cface[i]))
+                return 0;
+        s->weight += nw * (float)ncorners - w0;
+        return 1;
+    }
+    float wu = pk_accumulate(kc.k[0], kc.n[0]), wv = pk_accumulate(kc.k[1], kc.n[1]);
+    s->weight -= wu * wv;
+    return 1;
+}
+
+/* corner_small: the diagonal face of a regular vertex (4 steps around it back to the start),
+ * else corner_other. */
+__attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int f, int eid)
+{
+    const st_face *faces = s->w->faces;
+    int af = f, ae = eid, cf = -1, ce = 0;
+    for (int i = 0; i < 4; i++) {
+        const st_face *A = &faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || subface(s->w, af) || (af == f && ae == eid) != (i == 3))
+            break;
+        if (i == 1) {
+            cf = af;
+            ce = ae;
+        }
+        if (i == 3)
+            return put(s, &kc, eid - ce + 2, cf);
+    }
+    return corner_other(s, kc, f, eid);
+}
+
+/* ---- the walk (split_walk in Traverse at depth 0) ---------------------------------------- */
+
+/* One side of split_walk: the part past the right edge (hi, edge 1, corners 2 above and 1
+ * below) or the left edge (edge 3, corners 3 and 0) split off with its corners and sent
+ * across, or folded back at a boundary. st, sb: the kernel overhangs the top, the bottom. */
+__attribute__((always_inline)) static inline int side(pw_state *s, pw *k, int f, int hi, int st,
+                                                      int sb, float *bk_u, float *ba)
+{
+    const st_face *F = &s->w->faces[f];
+    int eid = hi ? 1 : 3, ct = hi ? 2 : 3, cb = hi ? 1 : 0;
+    int bv = s->w->black_v;
+    if (F->adjface[eid] < 0) {
+        if (hi)
+            merge_hi(k, 0, s->w->black_u, bk_u);
+        else
+            merge_lo(k, 0, s->w->black_u, bk_u);
+        return 1;
+    }
+    pw ka = hi ? split_hi(k, 0) : split_lo(k, 0);
+    if (st) {
+        if (F->adjface[2] >= 0) {
+            if (!corner(s, split_hi(&ka, 1), f, ct))
+                return 0;
+        } else
+            merge_hi(&ka, 1, bv, ba);
+    }
+    if (sb) {
+        if (F->adjface[0] >= 0) {
+            if (!corner(s, split_lo(&ka, 1), f, cb))
+                return 0;
+        } else
+            merge_lo(&ka, 1, bv, ba);
+    }
+    return edge(s, ka, f, eid);
+}
+
+int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    pw_state s = {w, *acc, *weight};
+    const st_face *F = &w->faces[f];
+    pw k = {{k0->ulog2, k0->vlog2}, {k0->u, k0->v}, {k0->uw, k0->vw},
+            {k0->kub + k0->ku0, k0->kvb + k0->kv0}};
+    float bk_u[PK_MAX], bk_v[PK_MAX], ba[PK_MAX]; /* k's folds, a side piece's fold */
+    int resu = 1 << k.lg[0], resv = 1 << k.lg[1];
+    int sr = k.at[0] + k.n[0] > resu, sl = k.at[0] < 0;
+    int st = k.at[1] + k.n[1] > resv, sb = k.at[1] < 0;
+    if (sr && !side(&s, &k, f, 1, st, sb, bk_u, ba))
+        return 0;
+    if (sl && !side(&s, &k, f, 0, st, sb, bk_u, ba))
+        return 0;
+    if (st) {
+        if (F->adjface[2] >= 0) {
+            if (!edge(&s, split_hi(&k, 1), f, 2))
+                return 0;
+        } else
+            merge_hi(&k, 1, w->black_v, bk_v);
+    }
+    if (sb) {
+        if (F->adjface[0] >= 0) {
+            if (!edge(&s, split_lo(&k, 1), f, 0))
+                return 0;
+        } else
+            merge_lo(&k, 1, w->black_v, bk_v);
+    }
+    if (!put(&s, &k, 0, f))
+        return 0;
+    *acc = s.acc;
+    *weight = s.weight;
+    return 1;
+}

@@ -1,0 +1,44 @@
+/* store/ptex/ptexfilter_walk.h - the Traverse split of a kernel that overhangs a plain face,
+ * for the common neighbourhood (private to ptexfilter*.c).
+ *
+ * ptexfilter.c's split walk (split_walk with its shortcuts for faces that are not subfaces)
+ * splits the kernel into pk copies, rotates each into its neighbour's frame and applies it.
+ * pf_walk_traverse does the same splits, rotations, folds at boundary edges, reductions to a
+ * smaller neighbour's resolution, corners (regular, shared among the faces of a vertex of
+ * valence > 4, or dropped) and window sums, in the same order with the same float
+ * operations, on pieces that point at their parent's weights (a piece copies weights only
+ * when it reverses, folds or reduces them), in one function with the pieces in registers, so
+ * the results are the walk's bit for bit at a fraction of its bookkeeping. It declines what
+ * it does not take: a subface or a constant face among the faces the kernel reaches; the
+ * caller then runs the general walk from the start (nothing it wrote counts).
+ *
+ * Owns: nothing but the walk. Does not own: the kernel (ptexfilter_kernel.h), the window
+ * loops (ptexfilter_simd.c), eval_kernel's weight and division (ptexfilter.c).
+ */
+#ifndef ST_PTEXFILTER_WALK_H
+#define ST_PTEXFILTER_WALK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ptexfilter_kernel.h"
+#include "set.h"
+
+/* What the walk reads, set once per batch (all borrowed). */
+typedef struct pf_walk {
+    const st_face *faces;        /* the set's faces */
+    const uint8_t *const *px;    /* the resolution table (st_ptexres px) */
+    const uint64_t *base;        /* its per-face index (st_ptexres base) */
+    size_t ts;                   /* bytes per texel */
+    int black_u, black_v;        /* border mode black in u / v: a fold drops the overhang */
+    pf_window_fn win;            /* the window loop (pf_window_select), not NULL */
+    pf_window_fn small;          /* windows of <= 2 x 2 texels (pf_small_select), not NULL */
+} pf_walk;
+
+/* The Traverse split of kernel k (weights not empty, zeros stripped) built for face f (not a
+ * subface), which it overhangs: every piece's window sum added to *acc in the walk's order,
+ * and *weight (the kernel's total weight on entry) adjusted for the corners as the walk does.
+ * Returns 1; 0 when it declines (*acc and *weight untouched). k is not modified. */
+int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
+
+#endif

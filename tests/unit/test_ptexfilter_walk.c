@@ -1,0 +1,160 @@
+/* tests/unit/test_ptexfilter_walk.c - the split of a box or width-4 kernel that overhangs a
+ * plain face (the shortcut walk and ptexfilter_walk.c in Traverse, the fused path's wide
+ * kernels and its hand-over) gives the general path's outputs bit for bit where the walk has
+ * choices to make: boundary edges folded back or dropped (each file also sampled with its
+ * border modes set to black and to periodic), neighbours at other resolutions (reductions),
+ * rotated frames, vertices of valence 3 and 5 (holeycube), and neighbours the walk declines
+ * (a tenth of the faces flagged constant, then a tenth flagged subface, after the resolution
+ * table is built: both paths then read the same memory, and the walk must hand those queries
+ * back to the general walk from the start). Queries sit within two texels of an edge or a
+ * corner, footprints 1-64 texels (kernels of a quarter face and wider on small faces),
+ * isotropic and not; box, gaussian, bicubic, Catmull-Rom and Mitchell (negative lobes); all
+ * three modes. Outputs, coverage and status are compared as bytes against
+ * pf_batch_path(PF_PATH_GENERAL) (every query through eval). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <string.h>
+
+#include "ptex.h"
+#include "ptexfilter.h"
+#include "ptexfilter_kernel.h"
+#include "sample.h"
+#include "../common/testdata.h"
+
+enum { NQ = 3000 };
+
+static uint32_t rng = 17;
+static float rnd01(void) /* [0, 1) */
+{
+    rng = rng * 1664525u + 1013904223u;
+    return (float)(rng >> 8) / 16777216.0f;
+}
+
+/* Within two level-0 texels of an edge (half the queries) or a corner (the other half). */
+static void edge_queries(const st_set *s, st_query *q)
+{
+    static const float fps[] = {1.0f, 2.0f, 3.0f, 4.0f, 6.0f, 8.0f, 16.0f, 64.0f};
+    for (int i = 0; i < NQ; i++) {
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        const st_face *F = &s->faces[f];
+        float du = rnd01() * 2.0f / (float)F->w, dv = rnd01() * 2.0f / (float)F->h;
+        float u = rnd01() < 0.5f ? du : 1.0f - du, v = rnd01();
+        if (i % 2)
+            v = rnd01() < 0.5f ? dv : 1.0f - dv;
+        if (i % 4 == 3) { /* the same, edges v = 0 and v = 1 */
+            float t = u;
+            u = v;
+            v = t;
+        }
+        u = u < 0.99999994f ? u : 0.99999994f;
+        v = v < 0.99999994f ? v : 0.99999994f;
+        float fu = fps[(int)(rnd01() * 8) & 7], fv = i % 3 == 1 ? fps[(int)(rnd01() * 8) & 7] : fu;
+        q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = fu / (float)F->w,
+                          .dvdy = fv / (float)F->h};
+    }
+}
+
+/* Both paths on q for the kernel filters in every mode; returns the queries compared. */
+static long compare_paths(const st_set *s, const st_query *q, const char *what)
+{
+    static const unsigned filters[] = {ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,
+                                       ST_FILTER_PTEX_BICUBIC, ST_FILTER_PTEX_CATMULLROM,
+                                       ST_FILTER_PTEX_MITCHELL};
+    static float out[2][NQ * 4], cov[2][NQ];
+    static uint8_t st[2][NQ];
+    long n = 0;
+    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+        for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++) {
+            st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)filters[fi],
+                                .sharpness = 0.3f};
+            memset(out, 0x5a, sizeof out);
+            int b0 = st_ptexfilter_batch(s, &o, q, NQ, out[0], cov[0], st[0]);
+            int b1 = pf_batch_path(s, &o, q, NQ, out[1], cov[1], st[1], PF_PATH_GENERAL);
+            assert_int_equal(b0, b1);
+            for (int i = 0; i < NQ; i++) {
+                size_t nc = s->info.nchan;
+                if (memcmp(&out[0][i * nc], &out[1][i * nc], nc * sizeof(float)) ||
+                    memcmp(&cov[0][i], &cov[1][i], sizeof(float)) || st[0][i] != st[1][i]) {
+                    print_message("%s mode %u filter %u query %d (face %u u %.9g v %.9g dudx "
+                                  "%.9g dvdy %.9g): %.9g != %.9g\n",
+                                  what, m, filters[fi], i, q[i].face, (double)q[i].u,
+                                  (double)q[i].v, (double)q[i].dudx, (double)q[i].dvdy,
+                                  (double)out[0][i * nc], (double)out[1][i * nc]);
+                    fail();
+                }
+            }
+            n += NQ;
+        }
+    }
+    return n;
+}
+
+/* Every tenth face (from the first) gets flag: after the table is built, so its data stays
+ * where the table points. */
+static void flag_faces(st_set *s, uint8_t flag, uint8_t clear)
+{
+    for (uint32_t f = 0; f < s->info.nfaces; f++) {
+        s->faces[f].flags &= (uint8_t)~clear;
+        if (f % 10 == 3)
+            s->faces[f].flags |= flag;
+    }
+}
+
+static void overhanging_kernels_match_the_general_walk(void **state)
+{
+    (void)state;
+    static const char *files[] = {
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+        "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
+        "ptx/wdas-ptex-2009/dispplane/rand_lo/pPlane1.ptx",
+        "ptex-ref/cube8_k6_u8_rot.ptx",
+        "ptex-ref/cube8_k7varrot_f32.ptx",
+    };
+    static st_query q[NQ];
+    long compared = 0;
+    int found = 0;
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        char path[1024];
+        if (st_test_data_path(path, sizeof path, files[i]) != 0)
+            continue;
+        st_set *s;
+        st_error e = {0};
+        if (st_ptex_read_file(path, 0, &s, &e) != 0) {
+            print_message("%s: %s\n", path, e.msg);
+            fail();
+        }
+        found++;
+        edge_queries(s, q);
+        compared += compare_paths(s, q, path); /* also builds the table */
+        uint8_t bu = s->info.border_u, bv = s->info.border_v;
+        for (uint8_t b = 1; b <= 2; b++) { /* black, periodic */
+            s->info.border_u = s->info.border_v = b;
+            compared += compare_paths(s, q, path);
+        }
+        s->info.border_u = bu;
+        s->info.border_v = bv;
+        flag_faces(s, ST_FACE_CONSTANT, 0);
+        compared += compare_paths(s, q, path);
+        flag_faces(s, ST_FACE_SUBFACE, ST_FACE_CONSTANT);
+        compared += compare_paths(s, q, path);
+        st_set_free(s);
+    }
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared\n", found, compared);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(overhanging_kernels_match_the_general_walk),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
