@@ -4,15 +4,24 @@
  * threads are inside etcd calls and its graceful leave cannot reach etcd; once etcd answers
  * again the restarted nodes serve the set acknowledged before, with its contents, on both.
  *
+ * The nodes' cluster URL lists, after the real etcd, HOLES more endpoints that accept
+ * connections and never answer (listening sockets nobody accepts on), as a node cut off from
+ * a whole etcd cluster sees it: every etcd call then waits its 2 s deadline on each of the 6
+ * endpoints, 12 s, and the membership thread makes two calls a round, so a stop that waited
+ * for the calls in progress and then tried a graceful leave took up to 36 s.
+ *
  * 2 nodes, R = W = 2, a real etcd (etcd_fixture.h); the waits are deadlines against a hang,
  * never speed checks.
  */
+#include <netinet/in.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <cmocka.h>
 
@@ -22,20 +31,55 @@
 #include "../common/wait.h"
 
 #define STOP_MS 20000
+#define HOLES 5
 
 static st_etcd ETCD;
 static st_daemon NODE[2];
+static int HOLE_FD[HOLES];
+static char URL[640];   /* ETCD.url with the holes added to its endpoints */
+
+/* a loopback socket that listens and never accepts: connects succeed, requests get no answer */
+static int hole(int *port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t al = sizeof a;
+    if (fd < 0 || bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, 64) != 0 ||
+        getsockname(fd, (struct sockaddr *)&a, &al) != 0)
+        return -1;
+    *port = ntohs(a.sin_port);
+    return fd;
+}
+
+/* URL = etcd://127.0.0.1:<etcd>,127.0.0.1:<hole>.../stop */
+static void url_with_holes(void)
+{
+    const char *slash = strchr(ETCD.url + strlen("etcd://"), '/');
+    assert_non_null(slash);
+    int n = snprintf(URL, sizeof URL, "%.*s", (int)(slash - ETCD.url), ETCD.url);
+    for (int i = 0; i < HOLES; i++) {
+        int port = 0;
+        HOLE_FD[i] = hole(&port);
+        assert_true(HOLE_FD[i] >= 0);
+        n += snprintf(URL + n, sizeof URL - (size_t)n, ",127.0.0.1:%d", port);
+    }
+    snprintf(URL + n, sizeof URL - (size_t)n, "%s", slash);
+}
 
 static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(void **state)
 {
     (void)state;
     assert_int_equal(st_etcd_start(&ETCD, "/stop"), 0);
+    url_with_holes();
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_daemon_init(&NODE[i]), 0);
     char files[1][300];
     assert_int_equal(st_cluster_tint_files(NODE[0].dir, 1, 70, files), 0);
     for (int i = 0; i < 2; i++)
-        assert_int_equal(st_cluster_node_start(&NODE[i], ETCD.url, i, 2, 2), 0);
+        assert_int_equal(st_cluster_node_start(&NODE[i], URL, i, 2, 2), 0);
     /* both nodes listed (an upload with W = 2 needs the other as well) */
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_wait_stat(&NODE[i], NULL, "cluster_members", ST_STAT_EQ, 2, 30000), 0);
@@ -67,7 +111,7 @@ static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(voi
     /* etcd back: both nodes restart and serve the acknowledged set */
     st_etcd_pause(&ETCD, 0);
     for (int i = 0; i < 2; i++)
-        assert_int_equal(st_cluster_node_start(&NODE[i], ETCD.url, i, 2, 2), 0);
+        assert_int_equal(st_cluster_node_start(&NODE[i], URL, i, 2, 2), 0);
     for (int i = 0; i < 2; i++) {
         c = st_daemon_client(&NODE[i], NULL);
         assert_non_null(c);
@@ -79,6 +123,8 @@ static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(voi
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_daemon_down(&NODE[i], STOP_MS), 0);
     st_etcd_stop(&ETCD);
+    for (int i = 0; i < HOLES; i++)
+        close(HOLE_FD[i]);
 }
 
 int main(void)
