@@ -327,11 +327,12 @@ int st_daemon_stop(st_daemon *d, int timeout_ms)
     if (rc == -2 && logged_stopped(d)) {
         long tracer = tracer_of(d->pid);
         const char *em = getenv("SEAMTEX_EXIT_MS");
-        int exit_ms = em && atoi(em) > 0 ? atoi(em) : tracer ? 180000 : 10000;
+        int exit_ms = em && atoi(em) > 0 ? atoi(em) : 120000;
+        char why[96] = "not traced";
+        if (tracer)
+            snprintf(why, sizeof why, "traced by %ld: LeakSanitizer's leak check", tracer);
         fprintf(stderr, "daemon_fixture: seamtexd logged 'stopped' but had not exited after %d "
-                "ms (%s); giving its exit %d ms more\n", timeout_ms, tracer
-                ? "traced: a sanitizer's exit work, e.g. LeakSanitizer's leak check"
-                : "not traced", exit_ms);
+                "ms (%s); giving its exit %d ms more\n", timeout_ms, why, exit_ms);
         rc = reap(d, exit_ms);
         timeout_ms += exit_ms;
     }

@@ -41,10 +41,10 @@ int st_daemon_start(st_daemon *d, const char *const *extra);
  * (library destructors and, in sanitizer builds, LeakSanitizer's leak check, which stops the
  * process with ptrace and scans all its memory: seconds to tens of seconds on a loaded
  * machine, docs/testing.md). So when the time is up but this run logged "stopped", the exit
- * gets SEAMTEX_EXIT_MS more (default 10 s; 180 s while the process is being traced, i.e. in
- * the leak check), with a note on stderr. Past that: every thread's stack on stderr (gdb, else
- * /proc), SIGKILL, -1. Returns the exit status (see exit_status), or -1 when the daemon was
- * not running. */
+ * gets SEAMTEX_EXIT_MS more (default 120 s; the normal build's exit takes well under 1 s),
+ * with a note on stderr saying whether the process is being traced (the leak check). Past
+ * that: every thread's stack on stderr (gdb, else /proc), SIGKILL, -1. Returns the exit
+ * status (see exit_status), or -1 when the daemon was not running. */
 int st_daemon_stop(st_daemon *d, int timeout_ms);
 
 /* SIGKILL and reap. */
