@@ -13,14 +13,12 @@
  * 2 nodes, R = W = 2, a real etcd (etcd_fixture.h); the waits are deadlines against a hang,
  * never speed checks.
  */
-#include <netinet/in.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -29,6 +27,7 @@
 #include "../common/daemon_client.h"
 #include "../common/etcd_fixture.h"
 #include "../common/wait.h"
+#include "../common/wire.h"
 
 #define STOP_MS 20000
 #define HOLES 5
@@ -38,22 +37,6 @@ static st_daemon NODE[2];
 static int HOLE_FD[HOLES];
 static char URL[640];   /* ETCD.url with the holes added to its endpoints */
 
-/* a loopback socket that listens and never accepts: connects succeed, requests get no answer */
-static int hole(int *port)
-{
-    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    struct sockaddr_in a;
-    memset(&a, 0, sizeof a);
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t al = sizeof a;
-    if (fd < 0 || bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, 64) != 0 ||
-        getsockname(fd, (struct sockaddr *)&a, &al) != 0)
-        return -1;
-    *port = ntohs(a.sin_port);
-    return fd;
-}
-
 /* URL = etcd://127.0.0.1:<etcd>,127.0.0.1:<hole>.../stop */
 static void url_with_holes(void)
 {
@@ -62,7 +45,7 @@ static void url_with_holes(void)
     int n = snprintf(URL, sizeof URL, "%.*s", (int)(slash - ETCD.url), ETCD.url);
     for (int i = 0; i < HOLES; i++) {
         int port = 0;
-        HOLE_FD[i] = hole(&port);
+        HOLE_FD[i] = st_wire_listen(64, &port);   /* never accepted on */
         assert_true(HOLE_FD[i] >= 0);
         n += snprintf(URL + n, sizeof URL - (size_t)n, ",127.0.0.1:%d", port);
     }
