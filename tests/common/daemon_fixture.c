@@ -333,7 +333,11 @@ int st_daemon_stop(st_daemon *d, int timeout_ms)
             snprintf(why, sizeof why, "traced by %ld: LeakSanitizer's leak check", tracer);
         fprintf(stderr, "daemon_fixture: seamtexd logged 'stopped' but had not exited after %d "
                 "ms (%s); giving its exit %d ms more\n", timeout_ms, why, exit_ms);
+        int64_t t0 = st_now_ms();
         rc = reap(d, exit_ms);
+        if (rc != -2)
+            fprintf(stderr, "daemon_fixture: seamtexd exited %lld ms after that\n",
+                    (long long)(st_now_ms() - t0));
         timeout_ms += exit_ms;
     }
     if (rc == -2) {
