@@ -17,6 +17,7 @@ struct scl_etcd {
     char  endpoints[SCL_MAX_ENDPOINTS][128];
     int   nend, cur;            /* cur: the endpoint that answered last */
     int   timeout_ms;
+    const int *abort;           /* scl_etcd_set_abort; NULL = none */
     char  prefix[256];
     char  msg[256];
     char *resp; size_t resp_len, resp_cap;
@@ -128,6 +129,21 @@ void scl_etcd_close(scl_etcd *e)
     free(e);
 }
 
+void scl_etcd_set_abort(scl_etcd *e, const int *flag) { e->abort = flag; }
+
+static int aborted(const scl_etcd *e)
+{
+    return e->abort && __atomic_load_n(e->abort, __ATOMIC_RELAXED);
+}
+
+/* libcurl's progress callback: nonzero ends the transfer (CURLE_ABORTED_BY_CALLBACK) */
+static int on_progress(void *arg, curl_off_t dltotal, curl_off_t dlnow, curl_off_t ultotal,
+                       curl_off_t ulnow)
+{
+    (void)dltotal, (void)dlnow, (void)ultotal, (void)ulnow;
+    return aborted(arg);
+}
+
 const char *scl_etcd_prefix(const scl_etcd *e) { return e->prefix; }
 const char *scl_etcd_errmsg(const scl_etcd *e) { return e->msg; }
 
@@ -142,6 +158,11 @@ static int post(scl_etcd *e, const char *path, json_object *body, json_object **
     int rc = SCL_EUNREACHABLE;
     for (int t = 0; t < e->nend; t++) {
         int k = (e->cur + t) % e->nend;
+        if (aborted(e)) {
+            snprintf(e->msg, sizeof e->msg, "etcd %s%s: not asked: stopping", e->endpoints[k], path);
+            rc = SCL_ECANCELED;
+            break;
+        }
         char url[256];
         snprintf(url, sizeof url, "http://%s%s", e->endpoints[k], path);
         e->resp_len = 0;
@@ -156,9 +177,18 @@ static int post(scl_etcd *e, const char *path, json_object *body, json_object **
         curl_easy_setopt(e->curl, CURLOPT_TIMEOUT_MS, (long)e->timeout_ms);
         curl_easy_setopt(e->curl, CURLOPT_CONNECTTIMEOUT_MS, (long)e->timeout_ms);
         curl_easy_setopt(e->curl, CURLOPT_NOSIGNAL, 1L);
+        if (e->abort) {
+            curl_easy_setopt(e->curl, CURLOPT_XFERINFOFUNCTION, on_progress);
+            curl_easy_setopt(e->curl, CURLOPT_XFERINFODATA, e);
+            curl_easy_setopt(e->curl, CURLOPT_NOPROGRESS, 0L);
+        }
         CURLcode cc = curl_easy_perform(e->curl);
         if (cc != CURLE_OK) {
             snprintf(e->msg, sizeof e->msg, "etcd %s: %s", e->endpoints[k], curl_easy_strerror(cc));
+            if (cc == CURLE_ABORTED_BY_CALLBACK) {
+                rc = SCL_ECANCELED;
+                break;
+            }
             continue;
         }
         long code = 0;

@@ -7,7 +7,8 @@
  * (catalog.h), threads (the caller's).
  *
  * Errors: every call returns 0, or SCL_EUNREACHABLE (no endpoint answered within the deadline)
- * or SCL_EBADREPLY (an answer that is not what etcd sends), with a message in e->msg.
+ * or SCL_EBADREPLY (an answer that is not what etcd sends), or SCL_ECANCELED (the handle's
+ * abort flag was set), with a message in e->msg.
  * Threading: one scl_etcd is used by one thread at a time (it owns one curl handle); open one
  * per thread, or lock around it. curl_global_init must have run (scl_etcd_global_init) before
  * the first open, on a thread of its own while no other thread uses curl.
@@ -19,7 +20,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-enum { SCL_OK = 0, SCL_EUNREACHABLE = -1, SCL_EBADREPLY = -2, SCL_ENOMEM = -3 };
+enum { SCL_OK = 0, SCL_EUNREACHABLE = -1, SCL_EBADREPLY = -2, SCL_ENOMEM = -3,
+       SCL_ECANCELED = -4   /* the abort flag (scl_etcd_set_abort) was set */ };
 
 #define SCL_MAX_ENDPOINTS 8
 
@@ -32,6 +34,11 @@ void scl_etcd_global_init(void);
 /* NULL on a bad url (message in err) or out of memory. timeout_ms bounds every call. */
 scl_etcd *scl_etcd_open(const char *url, int timeout_ms, char *err, size_t cap);
 void scl_etcd_close(scl_etcd *e);
+/* flag (NULL: none; not owned, read atomically, must outlive the handle's calls): while it is
+ * nonzero a call fails at once with SCL_ECANCELED, and a call in progress gives up within
+ * about a second (libcurl's progress callback) instead of waiting out its deadline on every
+ * endpoint: what lets a stopping server leave an etcd that stopped answering. */
+void scl_etcd_set_abort(scl_etcd *e, const int *flag);
 const char *scl_etcd_prefix(const scl_etcd *e);
 const char *scl_etcd_errmsg(const scl_etcd *e);
 

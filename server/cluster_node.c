@@ -25,6 +25,8 @@ int sts_cluster_etcd_ok(sts_cluster *cl)
 
 void sts_cluster_note_etcd(sts_cluster *cl, int rc)
 {
+    if (rc == SCL_ECANCELED)
+        return;   /* not asked (stopping): says nothing about etcd */
     int ok = rc != SCL_EUNREACHABLE;
     int was = __atomic_exchange_n(&cl->etcd_ok, ok, __ATOMIC_RELAXED);
     if (!ok)
@@ -359,6 +361,10 @@ int sts_cluster_init(sts_server *srv)
         sts_logf(&srv->log, STS_ERROR, "cluster: %s", err);
         return -1;
     }
+    /* the membership and repair threads' calls end at stop; the write path's (etcd_w, on
+     * workers) are let finish: an acknowledged write has all of them behind it */
+    scl_etcd_set_abort(cl->etcd_m, &cl->stop);
+    scl_etcd_set_abort(cl->etcd_r, &cl->stop);
     return 0;
 }
 
@@ -398,8 +404,10 @@ void sts_cluster_stop(sts_server *srv)
     sts_cluster *cl = srv->cluster;
     if (!cl)
         return;
+    /* also ends the etcd calls the membership and repair threads are inside (an etcd that
+     * stopped answering would hold each for its deadline on every endpoint) */
     pthread_mutex_lock(&cl->wake_mu);
-    cl->stop = 1;
+    __atomic_store_n(&cl->stop, 1, __ATOMIC_RELAXED);
     pthread_cond_broadcast(&cl->wake);
     pthread_mutex_unlock(&cl->wake_mu);
     if (cl->threads >= 1)
@@ -407,11 +415,17 @@ void sts_cluster_stop(sts_server *srv)
     if (cl->threads >= 2)
         pthread_join(cl->repair_thread, NULL);
     cl->threads = 0;
-    if (cl->lease) {   /* a graceful leave: the others need not wait for the lease */
+    if (cl->lease && sts_cluster_etcd_ok(cl)) {
+        /* a graceful leave: the others need not wait for the lease */
         char key[SCL_KEY_MAX];
         scl_key_node(key, cl->prefix, cl->self);
-        scl_etcd_delete(cl->etcd_m, key, 0);
-        sts_logf(&srv->log, STS_INFO, "cluster: node '%s' left", cl->self);
+        scl_etcd_set_abort(cl->etcd_m, NULL);
+        int rc = scl_etcd_delete(cl->etcd_m, key, 0);
+        sts_logf(&srv->log, rc ? STS_WARN : STS_INFO, "cluster: node '%s' %s", cl->self,
+                 rc ? "could not leave: etcd did not answer; its lease ends it" : "left");
+    } else if (cl->lease) {
+        sts_logf(&srv->log, STS_INFO, "cluster: etcd unreachable: node '%s' leaves when its "
+                 "lease expires (%u s)", cl->self, srv->cfg.lease_ttl);
     }
 }
 

@@ -73,7 +73,8 @@ typedef struct sts_cluster {
     int64_t         lease;             /* membership thread only */
 
     int             etcd_ok;           /* atomic: the last etcd call of any thread succeeded */
-    int             stop;              /* under wake_mu */
+    int             stop;              /* under wake_mu (set atomically: it is the abort
+                                          flag of etcd_m and etcd_r, scl_etcd_set_abort) */
     int             kick;              /* under wake_mu: run a repair pass now */
     pthread_mutex_t wake_mu;
     pthread_cond_t  wake;

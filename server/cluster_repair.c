@@ -238,6 +238,8 @@ static void pass(sts_cluster *cl)
     size_t *order = calloc(nm ? nm : 1, sizeof *order);
     uint64_t under = 0;
     for (size_t i = 0; order && mine && i < nc; i++) {
+        if (__atomic_load_n(&cl->stop, __ATOMIC_RELAXED))
+            break;   /* stopping: no further push (a peer that hangs would hold the stop) */
         sts_cl_entry *e = &cat[i];
         if (e->state != SCL_SET_OK) {
             if (!origin_live(m, nm, rows[i].rec.origin, rows[i].rec.inc) &&

@@ -310,9 +310,16 @@ void sts_server_stop(sts_server *srv, int grace_ms)
     for (;;) {
         uint32_t live = 0;
         for (uint32_t i = 0; i < srv->nio; i++)
-            live += __atomic_load_n(&srv->io[i].nconns, __ATOMIC_RELAXED) > 0;
-        if (!live || sts_now_ms() >= deadline)
+            live += __atomic_load_n(&srv->io[i].nconns, __ATOMIC_RELAXED);
+        if (!live)
             break;
+        if (sts_now_ms() >= deadline) {
+            /* peers that do not read their replies, or keep a request half-sent, do not hold
+             * the stop: closed now (a request on a worker is still finished first) */
+            sts_logf(&srv->log, STS_WARN, "stop: grace period over: closing %u connection%s "
+                     "with replies unsent or a request unfinished", live, live == 1 ? "" : "s");
+            break;
+        }
         struct timespec ts = {0, 10 * 1000000L};
         nanosleep(&ts, NULL);
     }

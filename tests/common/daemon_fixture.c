@@ -177,6 +177,8 @@ int st_daemon_start(st_daemon *d, const char *const *extra)
         argv[ac++] = extra[i];
     argv[ac] = NULL;
 
+    struct stat lst;
+    d->log_mark = stat(d->log, &lst) == 0 ? (long)lst.st_size : 0;
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     const char *through = getenv("SEAMTEX_DAEMON_LOG");
@@ -249,16 +251,100 @@ static int reap(st_daemon *d, int timeout_ms)
     return rc.lost ? -1 : d->exit_status;
 }
 
+/* Runs argv (PATH search) with stdin /dev/null and stdout onto stderr, waits; its status or
+ * -1 (posix_spawn, never fork: the test binaries link OpenImageIO). */
+static int spawn_wait(const char *const *argv)
+{
+    pid_t g;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_adddup2(&fa, 2, 1);
+    int rc = posix_spawnp(&g, argv[0], &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0)
+        return -1;
+    int st = 0;
+    while (waitpid(g, &st, 0) < 0)
+        if (errno != EINTR)
+            return -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* Every thread's stack of a daemon that does not exit, to stderr, before it is killed: gdb's
+ * (bounded by timeout(1): attaching to a process in uninterruptible sleep can block), else
+ * each thread's name, wchan and kernel stack from /proc. */
+static void dump_stacks(pid_t pid)
+{
+    char spid[16], cmd[256];
+    snprintf(spid, sizeof spid, "%d", (int)pid);
+    const char *gdb[] = {"timeout", "60", "gdb", "-nx", "-batch", "-p", spid,
+                         "-ex", "thread apply all bt", NULL};
+    if (access("/usr/bin/gdb", X_OK) == 0 && spawn_wait(gdb) == 0)
+        return;
+    snprintf(cmd, sizeof cmd, "for t in /proc/%d/task/*; do echo \"$t $(cat $t/comm) "
+             "$(cat $t/wchan)\"; cat $t/stack; done", (int)pid);
+    const char *sh[] = {"sh", "-c", cmd, NULL};
+    spawn_wait(sh);
+}
+
+/* 1 when this run of the daemon (its log from log_mark on) logged "stopped", text or JSON */
+static int logged_stopped(const st_daemon *d)
+{
+    FILE *f = fopen(d->log, "r");
+    if (!f)
+        return 0;
+    char line[1024];
+    int found = 0;
+    if (fseek(f, d->log_mark, SEEK_SET) == 0)
+        while (!found && fgets(line, sizeof line, f))
+            found = strstr(line, "Z INFO  stopped: ") || strstr(line, "\"event\":\"stopped\"");
+    fclose(f);
+    return found;
+}
+
+/* the pid tracing this process (LeakSanitizer's stop-the-world), 0 when none */
+static long tracer_of(pid_t pid)
+{
+    char path[64], line[256];
+    snprintf(path, sizeof path, "/proc/%d/status", (int)pid);
+    FILE *f = fopen(path, "r");
+    long tracer = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (strncmp(line, "TracerPid:", 10) == 0)
+            tracer = atol(line + 10);
+    if (f)
+        fclose(f);
+    return tracer;
+}
+
 int st_daemon_stop(st_daemon *d, int timeout_ms)
 {
     if (d->pid <= 0)
         return -1;
     kill(d->pid, SIGTERM);
     int rc = reap(d, timeout_ms);
+    if (rc == -2 && logged_stopped(d)) {
+        long tracer = tracer_of(d->pid);
+        const char *em = getenv("SEAMTEX_EXIT_MS");
+        int exit_ms = em && atoi(em) > 0 ? atoi(em) : 120000;
+        char why[96] = "not traced";
+        if (tracer)
+            snprintf(why, sizeof why, "traced by %ld: LeakSanitizer's leak check", tracer);
+        fprintf(stderr, "daemon_fixture: seamtexd logged 'stopped' but had not exited after %d "
+                "ms (%s); giving its exit %d ms more\n", timeout_ms, why, exit_ms);
+        int64_t t0 = st_now_ms();
+        rc = reap(d, exit_ms);
+        if (rc != -2)
+            fprintf(stderr, "daemon_fixture: seamtexd exited %lld ms after that\n",
+                    (long long)(st_now_ms() - t0));
+        timeout_ms += exit_ms;
+    }
     if (rc == -2) {
         fprintf(stderr, "daemon_fixture: seamtexd ignored SIGTERM for %d ms, killing\n",
                 timeout_ms);
         st_daemon_dump_log(d, 20);
+        dump_stacks(d->pid);
         st_daemon_kill(d);
         return -1;
     }

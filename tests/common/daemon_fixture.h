@@ -25,6 +25,7 @@ typedef struct st_daemon {
     char  datadir[300];    /* the data dir passed with --data-dir */
     char  log[300];        /* the daemon's stderr */
     int   exit_status;     /* after stop: exit code, or 128 + signal */
+    long  log_mark;        /* size of the log when this run started (its lines follow) */
 } st_daemon;
 
 /* Creates a temp dir (mkdtemp under $TMPDIR or /tmp) and fills d; nothing is started. */
@@ -35,8 +36,15 @@ int st_daemon_init(st_daemon *d);
  * Can be called again after a stop or kill (same data dir: restart tests). 0 or -1. */
 int st_daemon_start(st_daemon *d, const char *const *extra);
 
-/* SIGTERM, then waits up to timeout_ms (then SIGKILL). Returns the exit status (see
- * exit_status), or -1 when the daemon was not running. */
+/* SIGTERM, then waits up to timeout_ms for the process to exit. The daemon's own stop ends
+ * with the log line "stopped" (every thread joined); what follows is the process's exit
+ * (library destructors and, in sanitizer builds, LeakSanitizer's leak check, which stops the
+ * process with ptrace and scans all its memory: seconds to tens of seconds on a loaded
+ * machine, docs/testing.md). So when the time is up but this run logged "stopped", the exit
+ * gets SEAMTEX_EXIT_MS more (default 120 s; the normal build's exit takes well under 1 s),
+ * with a note on stderr saying whether the process is being traced (the leak check). Past
+ * that: every thread's stack on stderr (gdb, else /proc), SIGKILL, -1. Returns the exit
+ * status (see exit_status), or -1 when the daemon was not running. */
 int st_daemon_stop(st_daemon *d, int timeout_ms);
 
 /* SIGKILL and reap. */

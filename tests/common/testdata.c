@@ -47,6 +47,20 @@ int st_test_rmtree(const char *dir)
     return nftw(dir, rm_one, 16, FTW_DEPTH | FTW_PHYS);
 }
 
+int st_test_dir_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)))
+        if (strcmp(de->d_name, ".") && strcmp(de->d_name, ".."))
+            n++;
+    closedir(d);
+    return n;
+}
+
 void *st_test_read_file(const char *path, size_t *len)
 {
     FILE *f = fopen(path, "rb");

@@ -24,6 +24,9 @@ int st_test_mkdtemp(char *buf, size_t cap, const char *tag);
 /* Removes a directory tree (made by st_test_mkdtemp, mkdtemp or a daemon); 0 or -1. */
 int st_test_rmtree(const char *dir);
 
+/* Entries of a directory other than "." and ".."; 0 when it does not exist. */
+int st_test_dir_entries(const char *dir);
+
 /* Reads a whole file into a malloc'ed buffer with a NUL byte after its *len bytes (so text
  * files can be used as strings). NULL when it cannot be read. */
 void *st_test_read_file(const char *path, size_t *len);

@@ -1,9 +1,11 @@
 /* tests/common/wire.c - see wire.h. */
 #include "wire.h"
 
+#include <netinet/in.h>
 #include <poll.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include "proto.h"
 #include "wait.h"
@@ -24,6 +26,25 @@ size_t st_wire_frame(uint8_t *out, const char *magic, unsigned version, unsigned
     if (len)
         memcpy(out + ST_WIRE_HEADER, body, len);
     return ST_WIRE_HEADER + (size_t)len;
+}
+
+int st_wire_listen(int backlog, int *port)
+{
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        return -1;
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t al = sizeof a;
+    if (bind(fd, (struct sockaddr *)&a, sizeof a) != 0 || listen(fd, backlog) != 0 ||
+        getsockname(fd, (struct sockaddr *)&a, &al) != 0) {
+        close(fd);
+        return -1;
+    }
+    *port = ntohs(a.sin_port);
+    return fd;
 }
 
 int st_wire_send_all(int fd, const void *p, size_t n)

@@ -23,6 +23,11 @@ size_t st_wire_frame(uint8_t *out, const char *magic, unsigned version, unsigned
                      unsigned flags, uint32_t reqid, const void *body, uint32_t len,
                      uint32_t claimed_len);
 
+/* A TCP socket on 127.0.0.1, bound to a free port (written to *port) and listening with the
+ * given backlog; the caller accepts on it, or never does (a peer that connects and gets no
+ * answer). fd, or -1. */
+int st_wire_listen(int backlog, int *port);
+
 /* Sends n bytes whole (blocking, no SIGPIPE). 0, or -1 when the socket fails. */
 int st_wire_send_all(int fd, const void *p, size_t n);
 

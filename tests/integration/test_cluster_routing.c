@@ -32,6 +32,7 @@
 #include "../common/cluster_fixture.h"
 #include "../common/daemon_fixture.h"
 #include "../common/wait.h"
+#include "../common/wire.h"
 #include "proto.h"
 #include "seamtex_cluster.h"
 #include "stp_cluster.h"
@@ -152,16 +153,9 @@ static int scripted_start(scripted *s)
 {
     memset(s, 0, sizeof *s);
     pthread_mutex_init(&s->mu, NULL);
-    s->lfd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    struct sockaddr_in a;
-    memset(&a, 0, sizeof a);
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t al = sizeof a;
-    if (s->lfd < 0 || bind(s->lfd, (struct sockaddr *)&a, sizeof a) != 0 ||
-        listen(s->lfd, 8) != 0 || getsockname(s->lfd, (struct sockaddr *)&a, &al) != 0)
+    s->lfd = st_wire_listen(8, &s->port);
+    if (s->lfd < 0)
         return -1;
-    s->port = ntohs(a.sin_port);
     return pthread_create(&s->th, NULL, scripted_main, s) == 0 ? 0 : -1;
 }
 

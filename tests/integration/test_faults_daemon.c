@@ -20,7 +20,6 @@
  * restart), nothing else is listed, broken/ stays empty.
  * Each operation prints one "fault-table:" line (docs/daemon.md, "Fault injection").
  */
-#include <dirent.h>
 #include <errno.h>
 #include <limits.h>
 #include <setjmp.h>
@@ -38,6 +37,7 @@
 #include "../common/ptx_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/daemon_fixture.h"
+#include "../common/testdata.h"
 #include "fdio.h"
 #include "ptex.h"
 #include "set.h"
@@ -215,22 +215,6 @@ static void check_serving(void)
     assert_int_equal(r.count, 1);
 }
 
-static int dir_entries(const char *sub)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/%s", D.datadir, sub);
-    DIR *d = opendir(path);
-    if (!d)
-        return 0;
-    int n = 0;
-    struct dirent *de;
-    while ((de = readdir(d)))
-        if (strcmp(de->d_name, ".") && strcmp(de->d_name, ".."))
-            n++;
-    closedir(d);
-    return n;
-}
-
 /* Stop (clean exit), start on the same data dir, everything acknowledged is there whole,
  * nothing else is. */
 static double T_STOP, T_START, T_CHECK;
@@ -260,7 +244,9 @@ static void restart_check(tally *t, int all)
         if ((all || k < 3 || k >= VERIFIED) && !fetch_matches(&ACK[k]))
             t->lost++;
     VERIFIED = NACK;
-    assert_int_equal(dir_entries("broken"), 0);
+    char broken[600];
+    snprintf(broken, sizeof broken, "%s/broken", D.datadir);
+    assert_int_equal(st_test_dir_entries(broken), 0);
     assert_int_equal(t->lost, 0);
     assert_int_equal(t->half, 0);
     check_serving();

@@ -10,7 +10,6 @@
  * shows exactly the acknowledged sets, whole. The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -32,6 +31,7 @@
 #include "../common/ptx_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/daemon_fixture.h"
+#include "../common/testdata.h"
 #include "fdio.h"
 #include "ptex.h"
 #include "set.h"
@@ -165,20 +165,12 @@ static int fetch_same(int i)
     return same;
 }
 
+/* entries of the data dir's tmp/ (half-written uploads) */
 static int tmp_entries(void)
 {
     char path[400];
     snprintf(path, sizeof path, "%s/tmp", D.datadir);
-    DIR *d = opendir(path);
-    if (!d)
-        return 0;
-    int n = 0;
-    struct dirent *de;
-    while ((de = readdir(d)))
-        if (strcmp(de->d_name, ".") && strcmp(de->d_name, ".."))
-            n++;
-    closedir(d);
-    return n;
+    return st_test_dir_entries(path);
 }
 
 /* Everything stored is listed and fetched back whole; nothing else is listed; still serving. */
