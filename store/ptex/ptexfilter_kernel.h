@@ -71,8 +71,7 @@ static inline float pk_hermite_blur(float x)
     return x < 1.0f ? (2.0f * x - 3.0f) * x * x + 1.0f : 0.0f;
 }
 
-/* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off (pk_build's, and the
- * fused path's in ptexfilter_simd.c): resolution *kres, first texel *ku and taps *kw of a
+/* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off (pk_build's): resolution *kres, first texel *ku and taps *kw of a
  * width uw at u on a face of resolution 2^fres. Returns 1 when the weights are
  * pk_kernel_eval(p, *x1o, *stepo, w, *kw), left to the caller (so that both axes can be
  * evaluated at once); 0 when they are written to w already (room for 4). */
