@@ -35,16 +35,8 @@ BASE_BENCH = os.environ.get('SHM_AB_BASE_BENCH', '') or BENCH
 ROUNDS = int(os.environ.get('SHM_AB_ROUNDS', '15'))
 SECS = os.environ.get('SHM_AB_SECS', '1')
 BATCHES = [int(x) for x in os.environ.get('SHM_AB_BATCHES', '1024,4096,16384').split(',')]
-TCK = os.sysconf('SC_CLK_TCK')
-
-
-def load():
-    return float(open('/proc/loadavg').read().split()[0])
-
-
-def cpu_s(pid):
-    f = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
-    return (int(f[11]) + int(f[12])) / TCK
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from net_wire import cpu_s, load  # noqa: E402  (one reader of /proc for both benches)
 
 
 def bench(exe, args):
