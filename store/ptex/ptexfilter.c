@@ -1144,6 +1144,20 @@ static inline int one_query(pf *c, const pk_params *pp, const st_sample_opts *o,
 }
 
 /* The batch along path (pf_path): PF_PATH_BEST is st_ptexfilter_batch. */
+/* Query i of a batch one by one: its values, coverage and status written; 1 when it failed. */
+static inline int serve(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
+                        const st_query *q, size_t i, float *out, float *coverage,
+                        uint8_t *status)
+{
+    float cov = 1.0f;
+    int st = one_query(c, pp, o, qfn, q + i, out + i * c->nc, &cov);
+    if (coverage)
+        coverage[i] = cov;
+    if (status)
+        status[i] = (uint8_t)st;
+    return st != ST_Q_OK;
+}
+
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                  float *out, float *coverage, uint8_t *status, int path)
 {
@@ -1210,16 +1224,18 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
             end = i + (__builtin_popcount(done) < 2 ? 4 * (size_t)nl : nl);
             end = end < n ? end : n;
         }
+        if (!done) /* no lane served one (or no lanes): the plain loop */
+            for (; i < end; i++)
+                bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
         for (; i < end; i++, done >>= 1) {
-            float cov = 1.0f;
-            int st = ST_Q_OK;
-            if (!(done & 1))
-                st = one_query(&c, &pp, o, qfn, q + i, out + i * nc, &cov);
+            if (!(done & 1)) {
+                bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
+                continue;
+            }
             if (coverage)
-                coverage[i] = cov;
+                coverage[i] = 1.0f;
             if (status)
-                status[i] = (uint8_t)st;
-            bad += st != ST_Q_OK;
+                status[i] = ST_Q_OK;
         }
     }
     st_ptexres_unpin(t);
