@@ -311,6 +311,18 @@ static unsigned attach(int fd, uint64_t size, int passfd, st_wire_reply *r)
     return r->status;
 }
 
+/* Starts u's daemon (ARGS), connects a raw socket and attaches a sealed region of sz bytes to
+ * it (*mfd, *map: the memfd and its mapping). Returns the socket. */
+static int raw_with_region(st_unix_daemon *u, size_t sz, int *mfd, void **map)
+{
+    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
+    int fd = raw_connect(u);
+    st_wire_reply r;
+    assert_int_equal(stu_memfd_sealed("t", sz, mfd, map), 0);
+    assert_int_equal(attach(fd, sz, *mfd, &r), STP_S_OK);
+    return fd;
+}
+
 static void ping_ok(int fd)
 {
     uint8_t frame[64];
@@ -651,13 +663,11 @@ static unsigned shm_request(int fd, stp_sample_req *rq, st_wire_reply *r)
 static void rooms_in_place_overlapping_or_unaligned_give_the_socket_bytes(void **state)
 {
     st_unix_daemon *u = *state;
-    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
     enum { SZ = 4 << 20, N = 5000, QOFF = 8192 };
-    int fd = raw_connect(u), mfd;
+    int mfd;
     void *map;
+    int fd = raw_with_region(u, SZ, &mfd, &map);
     st_wire_reply r;
-    assert_int_equal(stu_memfd_sealed("t", SZ, &mfd, &map), 0);
-    assert_int_equal(attach(fd, SZ, mfd, &r), STP_S_OK);
     uint8_t *region = map;
     stc_conn *plain = client(u);
     assert_non_null(plain);
@@ -758,13 +768,11 @@ static uint64_t pick_offset(uint32_t *seed, uint64_t size)
 static void random_offsets_never_hurt_the_daemon(void **state)
 {
     st_unix_daemon *u = *state;
-    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
     enum { SZ = 1 << 20 };
-    int fd = raw_connect(u), mfd;
+    int mfd;
     void *map;
+    int fd = raw_with_region(u, SZ, &mfd, &map);
     st_wire_reply r;
-    assert_int_equal(stu_memfd_sealed("t", SZ, &mfd, &map), 0);
-    assert_int_equal(attach(fd, SZ, mfd, &r), STP_S_OK);
     scribbler s = {map, SZ, 0};
     pthread_t th;
     assert_int_equal(pthread_create(&th, NULL, scribble, &s), 0);
@@ -805,13 +813,11 @@ static void random_offsets_never_hurt_the_daemon(void **state)
 static void scribbling_over_split_batches_never_hurts_the_daemon(void **state)
 {
     st_unix_daemon *u = *state;
-    assert_int_equal(st_unix_start_args(u, "0600", ARGS), 0);
     enum { SZ = 2 << 20, N = 20000, ROOM = 1 << 20 };     /* N over split-batch (2048) */
-    int fd = raw_connect(u), mfd;
+    int mfd;
     void *map;
+    int fd = raw_with_region(u, SZ, &mfd, &map);
     st_wire_reply r;
-    assert_int_equal(stu_memfd_sealed("t", SZ, &mfd, &map), 0);
-    assert_int_equal(attach(fd, SZ, mfd, &r), STP_S_OK);
     uint8_t *region = map;
     stc_conn *plain = client(u);
     assert_non_null(plain);
