@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # tools/toth-study.sh - Toth 2013's Table 1 and Figure 5 reproduced with seamtexd: starts a
-# seamtexd on loopback (a free port, a temp data dir), runs `seamtex-render --toth OUT` against
-# it on the given meshes (default: the teapot and the holey cube of $SEAMTEX_DATA), then draws
+# seamtexd on a Unix socket in a temp dir (TOTH_LISTEN=tcp: on TCP loopback, a free port) with a
+# temp data dir, runs `seamtex-render --toth OUT` against it (on the Unix socket its queries and
+# replies go through a shared-memory region, `--shm auto`) on the given meshes (default: the teapot and the holey cube of $SEAMTEX_DATA), then draws
 # Figure 5 from the CSVs with gnuplot (OUT/fig5_<mesh>.png: left Traverse vs Discard, right each
 # vs the reference) and stops the daemon with SIGTERM.
 #
 #   tools/toth-study.sh OUT [seamtex-render options] [MESH.obj ...]
 #   e.g. nice tools/toth-study.sh build/toth --frames 120 --size 320x240
 #
-# B names the build dir (default build). Exits non-zero when any step fails.
+# B names the build dir (default build); TOTH_LISTEN=unix (default) or tcp. Exits non-zero when
+# any step fails.
 set -u
 B=${B:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -64,7 +66,12 @@ cleanup() {
 }
 trap cleanup EXIT
 mkdir -p "$TMP/data" "$OUT"
-"$DAEMON" --listen 127.0.0.1:0 --data-dir "$TMP/data" --port-file "$TMP/port" 2>"$TMP/daemon.log" &
+case "${TOTH_LISTEN:-unix}" in
+    unix) LISTEN="unix:$TMP/s.sock" ;;
+    tcp) LISTEN=127.0.0.1:0 ;;
+    *) echo "toth-study: TOTH_LISTEN must be unix or tcp" >&2; exit 2 ;;
+esac
+"$DAEMON" --listen "$LISTEN" --data-dir "$TMP/data" --port-file "$TMP/port" 2>"$TMP/daemon.log" &
 PID=$!
 for _ in $(seq 1 600); do                     # up to 60 s on a loaded machine
     [ -s "$TMP/port" ] && break
@@ -76,9 +83,15 @@ for _ in $(seq 1 600); do                     # up to 60 s on a loaded machine
     sleep 0.1
 done
 [ -s "$TMP/port" ] || { echo "toth-study: seamtexd did not start within 60 s" >&2; exit 1; }
-PORT=$(cat "$TMP/port")
-echo "toth-study: seamtexd on 127.0.0.1:$PORT; load $(cut -d' ' -f1-3 /proc/loadavg); $(date -u +%FT%TZ)"
-if ! "$RENDER" --toth "$OUT" --port "$PORT" "${args[@]}" "${meshes[@]}"; then
+if [ "$LISTEN" = 127.0.0.1:0 ]; then
+    WHERE="127.0.0.1:$(cat "$TMP/port")"
+    CONNECT=(--port "$(cat "$TMP/port")")
+else
+    WHERE=$LISTEN
+    CONNECT=(--host "$LISTEN")
+fi
+echo "toth-study: seamtexd on $WHERE; load $(cut -d' ' -f1-3 /proc/loadavg); $(date -u +%FT%TZ)"
+if ! "$RENDER" --toth "$OUT" "${CONNECT[@]}" "${args[@]}" "${meshes[@]}"; then
     echo "toth-study: seamtex-render failed" >&2
     tail -5 "$TMP/daemon.log" >&2
     exit 1

@@ -1,5 +1,5 @@
 /* tests/integration/test_render_study.c - the Toth study end to end on a tiny orbit:
- * tools/toth-study.sh starts its own seamtexd on loopback (port 0), seamtex-render --toth
+ * tools/toth-study.sh starts its own seamtexd on a Unix socket (queries through shared memory), seamtex-render --toth
  * renders the teapot and the holey cube of the shared data for 3 frames at 64x48 through it,
  * and the CSVs, tables, plots and close-ups it promises are there with the right shapes.
  * Skipped when the shared data is missing.
@@ -87,6 +87,31 @@ static void test_study_tiny_orbit(void **state)
     assert_int_equal(count_lines(p, NULL, 0), 1 + 2 * 12);
     snprintf(p, sizeof p, "%s/table1_frames.csv", out);
     assert_int_equal(count_lines(p, NULL, 0), 1 + 2 * 3 * 8);
+    /* the daemon is on a Unix socket and the queries went through the shared region: a frame
+     * sends far less than the 28 bytes per query the socket would carry */
+    f = fopen(p, "r");
+    assert_non_null(f);
+    assert_non_null(fgets(head, sizeof head, f));
+    unsigned rows = 0;
+    while (fgets(head, sizeof head, f)) {
+        char mesh[64], mode[16];
+        unsigned frame, msaa;
+        double ms[4], queries, bytes_out, bytes_in;
+        assert_int_equal(sscanf(head, "%63[^,],%u,%15[^,],%u,%lf,%lf,%lf,%lf,%lf,%lf,%lf", mesh,
+                                &frame, mode, &msaa, &ms[0], &ms[1], &ms[2], &ms[3], &queries,
+                                &bytes_out, &bytes_in), 11);
+        assert_true(queries > 0);
+        if (bytes_out * 4 >= queries * 28)
+            fail_msg("frame %u %s %ux: %.0f bytes out for %.0f queries: not through the region",
+                     frame, mode, msaa, bytes_out, queries);
+        rows++;
+    }
+    fclose(f);
+    assert_int_equal(rows, 2 * 3 * 8);
+    snprintf(p, sizeof p, "%s/log", dir);
+    assert_true(count_lines(p, head, sizeof head) > 0);
+    snprintf(cmd, sizeof cmd, "grep -q 'seamtexd on unix:' %s/log", dir);
+    assert_int_equal(system(cmd), 0);
     const char *files[] = { "fig5_teapot.csv", "fig5_holeycube.csv", "fig5_all.png",
                             "fig5_teapot.png", "table1.md", "closeup_seam.png",
                             "closeup_clamp_1x.png", "closeup_traverse_4x.png", "bc1_seam.png",
