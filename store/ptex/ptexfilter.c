@@ -1302,6 +1302,16 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         if (!(done | edge)) /* no lane served one (or no lanes): the plain loop */
             for (; i < end; i++)
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
+        if (done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the whole block */
+            for (unsigned j = 0; j < 8 && j < nl; j++) {
+                if (coverage)
+                    coverage[i + j] = 1.0f;
+                if (status)
+                    status[i + j] = ST_Q_OK;
+            }
+            i = end;
+            continue;
+        }
         for (unsigned j = 0; i < end; i++, j++) {
             if (!(done >> j & 1)) {
                 float cov;
