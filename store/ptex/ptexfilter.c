@@ -606,6 +606,17 @@ static inline void p2_rotate(pk2 *p, int rot)
     }
 }
 
+/* pk_downres_run on at most 2 weights (n >= 1): a pair starting at an even texel is summed,
+ * anything else kept. */
+static inline void p2_downres(int *x, int *n, float *w)
+{
+    if (!(*x & 1) && *n == 2) {
+        w[0] = w[0] + w[1];
+        *n = 1;
+    }
+    *x /= 2;
+}
+
 /* apply() for a piece of at most 2 x 2 texels. */
 __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int f)
 {
@@ -619,11 +630,11 @@ __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int
     if (k->uw <= 0 || k->vw <= 0)
         return;
     while (k->ulog2 > F->ulog2) {
-        pk_downres_run(k->ku, &k->u, &k->uw);
+        p2_downres(&k->u, &k->uw, k->ku);
         k->ulog2--;
     }
     while (k->vlog2 > F->vlog2) {
-        pk_downres_run(k->kv, &k->v, &k->vw);
+        p2_downres(&k->v, &k->vw, k->kv);
         k->vlog2--;
     }
     int resu = 1 << k->ulog2;
