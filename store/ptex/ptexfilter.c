@@ -606,6 +606,17 @@ static inline void p2_rotate(pk2 *p, int rot)
     }
 }
 
+/* pk_downres_run on at most 2 weights (n >= 1): a pair starting at an even texel is summed,
+ * anything else kept. */
+static inline void p2_downres(int *x, int *n, float *w)
+{
+    if (!(*x & 1) && *n == 2) {
+        w[0] = w[0] + w[1];
+        *n = 1;
+    }
+    *x /= 2;
+}
+
 /* apply() for a piece of at most 2 x 2 texels. */
 __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int f)
 {
@@ -619,11 +630,11 @@ __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int
     if (k->uw <= 0 || k->vw <= 0)
         return;
     while (k->ulog2 > F->ulog2) {
-        pk_downres_run(k->ku, &k->u, &k->uw);
+        p2_downres(&k->u, &k->uw, k->ku);
         k->ulog2--;
     }
     while (k->vlog2 > F->vlog2) {
-        pk_downres_run(k->kv, &k->v, &k->vw);
+        p2_downres(&k->v, &k->vw, k->kv);
         k->vlog2--;
     }
     int resu = 1 << k->ulog2;
@@ -1158,6 +1169,70 @@ static inline int serve(pf *c, const pk_params *pp, const st_sample_opts *o, pf_
     return st != ST_Q_OK;
 }
 
+/* The point filter's batch for type DT, NC channels: one_query's checks and point_q inline
+ * per query (no call per query, coverage and status written directly); a query that fails
+ * the checks goes through serve. Returns the number that failed. */
+__attribute__((always_inline)) static inline int point_run(pf *c, const pk_params *pp,
+                                                           const st_sample_opts *o,
+                                                           pf_query_fn qfn,
+                                                           const st_query *q, size_t n,
+                                                           float *out, float *coverage,
+                                                           uint8_t *status, unsigned DT,
+                                                           unsigned NC)
+{
+    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
+    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
+    uint32_t nfaces = c->s->info.nfaces;
+    int bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        const st_query *qi = q + i;
+        v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
+        memcpy(&a, &qi->u, sizeof a);
+        v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
+#ifdef __SSE2__
+        int all = _mm_movemask_ps((__m128)ok) == 15;
+#else
+        int all = ok[0] && ok[1] && ok[2] && ok[3];
+#endif
+        if (__builtin_expect(qi->face < nfaces && all, 1)) {
+            float cov;
+            point_q(c, qi, out + i * NC, &cov, DT, NC);
+            if (coverage)
+                coverage[i] = 1.0f;
+            if (status)
+                status[i] = ST_Q_OK;
+            continue;
+        }
+        bad += serve(c, pp, o, qfn, q, i, out, coverage, status); /* fails its checks */
+    }
+    return bad;
+}
+
+typedef int (*pf_point_run_fn)(pf *c, const pk_params *pp, const st_sample_opts *o,
+                               pf_query_fn qfn, const st_query *q, size_t n, float *out,
+                               float *coverage, uint8_t *status);
+#define PF_PRUN(DT, NC)                                                                     \
+    static int point_run_##DT##_##NC(pf *c, const pk_params *pp, const st_sample_opts *o,  \
+                                     pf_query_fn qfn, const st_query *q, size_t n,         \
+                                     float *out, float *coverage, uint8_t *status)         \
+    {                                                                                       \
+        return point_run(c, pp, o, qfn, q, n, out, coverage, status, DT, NC);               \
+    }
+#define PF_PRUN_NC(DT) PF_PRUN(DT, 1) PF_PRUN(DT, 2) PF_PRUN(DT, 3) PF_PRUN(DT, 4)
+PF_PRUN_NC(0)
+PF_PRUN_NC(1)
+PF_PRUN_NC(2)
+PF_PRUN_NC(3)
+
+/* The point filter's batch loop for the batch's type and channel count, or NULL. */
+static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
+{
+#define PF_ROW(DT) {point_run_##DT##_1, point_run_##DT##_2, point_run_##DT##_3, point_run_##DT##_4}
+    static const pf_point_run_fn fns[4][4] = {PF_ROW(0), PF_ROW(1), PF_ROW(2), PF_ROW(3)};
+#undef PF_ROW
+    return dt > 3 || nc < 1 || nc > 4 ? NULL : fns[dt][nc - 1];
+}
+
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                  float *out, float *coverage, uint8_t *status, int path)
 {
@@ -1210,25 +1285,57 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         lanes = pf_bilinear_lanes_select(c.dt, c.nc, path == PF_PATH_BEST ? 8 : 4, &nl);
     pf_lanes lc = {.faces = s->faces, .ptxflags = t->ptxflags, .base = t->base, .px = t->px,
                    .nfaces = s->info.nfaces, .width = c.width, .blur = c.blur};
+    if (o->filter == ST_FILTER_PTEX_POINT && !general && point_run_select(c.dt, c.nc)) {
+        int bad = point_run_select(c.dt, c.nc)(&c, &pp, o, qfn, q, n, out, coverage, status);
+        st_ptexres_unpin(t);
+        return bad;
+    }
+    pf_lanes_kern lk;
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n;) {
-        /* a block of lanes, then [i, end) one by one but for those the lanes served (done);
-         * where the lanes serve fewer than 2 of a block (kernels that overhang their faces:
-         * large footprints on small faces, subfaces), the next 3 blocks go one by one without
-         * them, so such runs pay for a quarter of the lane work that finds nothing */
-        unsigned done = 0;
+        /* a block of lanes, then [i, end) one by one but for those the lanes served (done)
+         * and those whose kernel set-up they handed over (edge: the 2 x 2 kernel's own path
+         * from there, when there is one); where the lanes take fewer than 2 of a block
+         * (subfaces, constant faces, coordinates outside the face), the next 3 blocks go one
+         * by one without them, so such runs pay for a quarter of the lane work that finds
+         * nothing */
+        unsigned done = 0, edge = 0;
         size_t end = n;
         if (lanes && i + nl <= n) {
-            done = lanes(&lc, q + i, out + i * nc);
-            end = i + (__builtin_popcount(done) < 2 ? 4 * (size_t)nl : nl);
+            done = lanes(&lc, q + i, out + i * nc, &lk, &edge);
+            if (!c.small)
+                edge = 0;
+            unsigned took = done | edge;
+            end = i + ((took & (took - 1)) == 0 ? 4 * (size_t)nl : nl); /* fewer than 2 */
             end = end < n ? end : n;
         }
-        if (!done) /* no lane served one (or no lanes): the plain loop */
+        if (!(done | edge)) /* no lane served one (or no lanes): the plain loop */
             for (; i < end; i++)
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
-        for (; i < end; i++, done >>= 1) {
-            if (!(done & 1)) {
+        if (done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the whole block */
+            for (unsigned j = 0; j < 8 && j < nl; j++) {
+                if (coverage)
+                    coverage[i + j] = 1.0f;
+                if (status)
+                    status[i + j] = ST_Q_OK;
+            }
+            i = end;
+            continue;
+        }
+        for (unsigned j = 0; i < end; i++, j++) {
+            if (!(done >> j & 1)) {
+                float cov;
+                if (edge >> j & 1 &&
+                    bilinear_edge(&c, (pf_bil){lk.ru[j], lk.rv[j], lk.ui[j], lk.vi[j], lk.fu[j],
+                                               lk.fv[j]},
+                                  q[i].face, out + i * nc, &cov)) {
+                    if (coverage)
+                        coverage[i] = cov;
+                    if (status)
+                        status[i] = ST_Q_OK;
+                    continue;
+                }
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
                 continue;
             }

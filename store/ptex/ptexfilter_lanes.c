@@ -134,8 +134,8 @@ PL_TARGET __m256 texel2(const uint8_t *a, const uint8_t *b, unsigned DT)
 }
 
 /* 8 queries of texels of type DT with NC channels. */
-PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsigned DT,
-                          unsigned NC)
+PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k,
+                          unsigned *edge, unsigned DT, unsigned NC)
 {
     _Static_assert(offsetof(st_query, u) == 4 && offsetof(st_query, dudx) == 12 &&
                        offsetof(st_query, dvdy) == 24,
@@ -162,6 +162,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsi
     ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GE_OQ),
                                          _mm256_cmp_ps(v, one, _CMP_LT_OQ)));
     ok = _mm256_and_ps(ok, _mm256_castsi256_ps(fok));
+    *edge = 0;
     if (_mm256_testz_ps(ok, ok))
         return 0;
     __m256i m = _mm256_castps_si256(ok);
@@ -186,14 +187,24 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsi
                       &ru8, &flu8, &fu8) &
                 axis8((pl_v8f)v, (pl_v8f)_mm256_add_ps(bx, by), (pl_v8i)lv, c->width, c->blur,
                       &rv8, &flv8, &fv8);
+    __m256i plain = m;
     m = _mm256_and_si256(m, (__m256i)in);
     __m256i ru = (__m256i)ru8, rv = (__m256i)rv8;
     __m256 flu = (__m256)flu8, flv = (__m256)flv8, fu = (__m256)fu8, fv = (__m256)fv8;
+    __m256i ui = _mm256_cvttps_epi32(flu), vi = _mm256_cvttps_epi32(flv);
     unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
+    *edge = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(plain)) & ~mask;
+    if (*edge) { /* the kernel set-up of the lanes handed over */
+        _mm256_storeu_si256((__m256i *)(void *)k->ru, ru);
+        _mm256_storeu_si256((__m256i *)(void *)k->rv, rv);
+        _mm256_storeu_si256((__m256i *)(void *)k->ui, ui);
+        _mm256_storeu_si256((__m256i *)(void *)k->vi, vi);
+        _mm256_storeu_ps(k->fu, fu);
+        _mm256_storeu_ps(k->fv, fv);
+    }
     if (!mask)
         return 0;
     /* the table entry of (ru, rv) and the first texel's address, 64-bit lanes 0-3 / 4-7 */
-    __m256i ui = _mm256_cvttps_epi32(flu), vi = _mm256_cvttps_epi32(flv);
     __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, _mm256_set1_epi32(1))), rv);
     __m256i off = _mm256_add_epi32(_mm256_sllv_epi32(vi, ru), ui); /* < 2^30 */
     const size_t ts = st_dtype_size(DT) * NC;
@@ -378,9 +389,9 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, unsi
 
 #define PL_FN8(DT, NC)                                                                      \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pl8_##DT##_##NC(               \
-        const pf_lanes *c, const st_query *q, float *out)                                   \
+        const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k, unsigned *edge) \
     {                                                                                       \
-        return lanes8(c, q, out, DT, NC);                                                   \
+        return lanes8(c, q, out, k, edge, DT, NC);                                          \
     }
 #define PL_FN8_NC(DT) PL_FN8(DT, 1) PL_FN8(DT, 2) PL_FN8(DT, 3) PL_FN8(DT, 4)
 PL_FN8_NC(0)
@@ -430,6 +441,7 @@ static inline float value1(const uint8_t *p, unsigned DT)
 
 __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
                                                              const st_query *q, float *out,
+                                                             pf_lanes_kern *k, unsigned *edge,
                                                              unsigned DT, unsigned NC)
 {
     /* the queries' fields by lane: checks, then the face words (scalar loads) */
@@ -459,8 +471,17 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
                       c->blur, &rv4, &flv4, &fv4);
     __m128i ru = (__m128i)ru4, rv = (__m128i)rv4;
     __m128 flu = (__m128)flu4, flv = (__m128)flv4, fu = (__m128)fu4, fv = (__m128)fv4;
-    unsigned mask = (unsigned)_mm_movemask_ps((__m128)in);
-    mask &= (unsigned)(ok_[0] | ok_[1] << 1 | ok_[2] << 2 | ok_[3] << 3);
+    unsigned plain = (unsigned)(ok_[0] | ok_[1] << 1 | ok_[2] << 2 | ok_[3] << 3);
+    unsigned mask = (unsigned)_mm_movemask_ps((__m128)in) & plain;
+    *edge = plain & ~mask;
+    if (*edge) { /* the kernel set-up of the lanes handed over */
+        _mm_storeu_si128((__m128i *)(void *)k->ru, ru);
+        _mm_storeu_si128((__m128i *)(void *)k->rv, rv);
+        _mm_storeu_si128((__m128i *)(void *)k->ui, _mm_cvttps_epi32(flu));
+        _mm_storeu_si128((__m128i *)(void *)k->vi, _mm_cvttps_epi32(flv));
+        _mm_storeu_ps(k->fu, fu);
+        _mm_storeu_ps(k->fv, fv);
+    }
     if (!mask)
         return 0;
     const __m128 one = _mm_set1_ps(1.0f);
@@ -521,9 +542,10 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
 }
 
 #define PL_FN4(DT, NC)                                                                      \
-    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, float *out)       \
+    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, float *out,       \
+                                    pf_lanes_kern *k, unsigned *edge)                       \
     {                                                                                       \
-        return lanes4(c, q, out, DT, NC);                                                   \
+        return lanes4(c, q, out, k, edge, DT, NC);                                          \
     }
 #define PL_FN4_NC(DT) PL_FN4(DT, 1) PL_FN4(DT, 2) PL_FN4(DT, 3) PL_FN4(DT, 4)
 PL_FN4_NC(0)

@@ -29,11 +29,24 @@ typedef struct pf_lanes {
     float width, blur;           /* the options' width (0 -> 1) and blur (0 -> 0) */
 } pf_lanes;
 
+/* The kernel set-up of the lanes handed over (pf_bilinear_lanes_fn's *edge): per lane the
+ * resolution (ru, rv), the first texel (ui, vi) and the fractions (fu, fv) of the 2 x 2
+ * texels, as ptexfilter.c's bilinear_kernel computes them. */
+typedef struct pf_lanes_kern {
+    int32_t ru[8], rv[8], ui[8], vi[8];
+    float fu[8], fv[8];
+} pf_lanes_kern;
+
 /* Reads q[0 .. lanes); for every query it serves writes its nc values to out (at q's place:
- * out + j * nc for q[j]) and sets bit j of the returned mask. The others' outputs are left
- * as they were or overwritten with anything: the caller writes them afterwards. Reads texels
- * up to 15 bytes past a 2 x 2 window's last texel (the arenas' 64 bytes of slack cover it). */
-typedef unsigned (*pf_bilinear_lanes_fn)(const pf_lanes *c, const st_query *q, float *out);
+ * out + j * nc for q[j]) and sets bit j of the returned mask. A valid query on a plain face
+ * with (u, v) in [0, 1) whose 2 x 2 texels overhang the face or sit on a texel centre (a
+ * fraction of 0) is not served but handed over: bit j of *edge set and its kernel set-up in
+ * k (the caller's kernel path takes it from there without computing it again). The others'
+ * outputs are left as they were or overwritten with anything: the caller writes them
+ * afterwards. Reads texels up to 15 bytes past a 2 x 2 window's last texel (the arenas' 64
+ * bytes of slack cover it). */
+typedef unsigned (*pf_bilinear_lanes_fn)(const pf_lanes *c, const st_query *q, float *out,
+                                         pf_lanes_kern *k, unsigned *edge);
 
 /* The lane function for texels of type dt (st_dtype) with nc channels, its lane count in
  * *lanes: with maxlanes >= 8 the 8-lane one when the CPU has AVX2 + FMA + F16C

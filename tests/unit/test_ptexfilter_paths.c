@@ -162,7 +162,9 @@ static void shortcuts_give_the_general_paths_results_bit_for_bit(void **state)
 }
 
 /* The bilinear lanes (8 with AVX2, 4 with SSE2) take the queries of a block that they can
- * serve and leave the others to the per-query path: blocks that mix in-face queries with
+ * serve, hand the kernel set-up of those that overhang their face or sit on a texel centre
+ * to the 2 x 2 kernel's path and leave the others to the per-query path (and the point
+ * filter's batch loop checks each query itself): blocks that mix in-face queries with
  * every kind the lanes must refuse - a face out of range, NaN, infinite and too large
  * derivatives, u or v outside [0, 1) (1 itself, just below 0, NaN), queries on texel
  * centres (a fraction of 0), next to an edge, on subfaces, constant faces and faces with a
@@ -208,6 +210,12 @@ static void mixed_blocks(const char *path, st_set *s, long *compared)
             compare_paths(path, s, &o, q, NQ, PF_PATH_LANES4);
             *compared += 2 * NQ;
         }
+    }
+    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+        /* the point filter's own batch loop (its checks inline) on the same mix */
+        st_sample_opts op = {.mode = (uint8_t)m, .filter = ST_FILTER_PTEX_POINT};
+        compare_paths(path, s, &op, q, NQ, PF_PATH_BEST);
+        *compared += NQ;
     }
     st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_BILINEAR};
     for (size_t len = 1; len <= 40; len++) {
