@@ -161,6 +161,12 @@ void stp_sample_queries_f32_scalar(const stp_sample_req *r, uint32_t first, uint
     for (uint32_t i = 0; i < n;) {
         uint32_t m = n - i < 64 ? n - i : 64;
         stp_sample_queries(r, first + i, m, t);
+        i += m;
+        if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && sizeof *t == STP_QUERY_SIZE) {
+            memcpy(out, t, m * sizeof *t);   /* stp_query is the wire layout: one copy */
+            out += m * sizeof *t;
+            continue;
+        }
         for (uint32_t j = 0; j < m; j++, out += STP_QUERY_SIZE) {
             stp_wr32(out, t[j].face);
             stp_wr32(out + 4, stp_f2u(t[j].u));
@@ -170,7 +176,6 @@ void stp_sample_queries_f32_scalar(const stp_sample_req *r, uint32_t first, uint
             stp_wr32(out + 20, stp_f2u(t[j].dudy));
             stp_wr32(out + 24, stp_f2u(t[j].dvdy));
         }
-        i += m;
     }
 }
 
