@@ -10,7 +10,7 @@
  * checked against the bytes left before it is used (multiplications overflow-checked), and
  * leftover bytes are refused. They point into the body for bulk arrays (zero copy).
  */
-#include "proto.h"
+#include "codec_simd.h"
 
 /* Ends a decode: the cursor must have stayed in bounds and used every byte. */
 static int finish(const stp_rd *r, const char **why, const char *what)
@@ -558,23 +558,35 @@ static inline uint32_t to_unorm(float v, double max)
     return (uint32_t)x;
 }
 
+void stp_unorm8_encode_scalar(const float *v, size_t n, uint8_t *out)
+{
+    for (size_t i = 0; i < n; i++)
+        out[i] = (uint8_t)to_unorm(v[i], 255.0);
+}
+
+void stp_unorm16_encode_scalar(const float *v, size_t n, uint8_t *out)
+{
+    for (size_t i = 0; i < n; i++)
+        stp_wr16(out + 2 * i, (uint16_t)to_unorm(v[i], 65535.0));
+}
+
+/* unorm and f16 through codec_avx2.c when the CPU has AVX2 + F16C (the same bits) */
 void stp_enc_sample_values(uint8_t *dst, const float *v, size_t n, uint8_t outfmt)
 {
+    int avx2 = outfmt != STP_OUT_F32 && stp_codec_have_avx2();
     switch (outfmt) {
     case STP_OUT_F32:
         for (size_t i = 0; i < n; i++)
             stp_wr32(dst + 4 * i, stp_f2u(v[i]));
         break;
     case STP_OUT_UNORM8:
-        for (size_t i = 0; i < n; i++)
-            dst[i] = (uint8_t)to_unorm(v[i], 255.0);
+        (avx2 ? stp_unorm8_encode_avx2 : stp_unorm8_encode_scalar)(v, n, dst);
         break;
     case STP_OUT_F16:
-        stp_f16_encode(v, n, dst);
+        (avx2 ? stp_f16_encode_avx2 : stp_f16_encode_scalar)(v, n, dst);
         break;
     default:
-        for (size_t i = 0; i < n; i++)
-            stp_wr16(dst + 2 * i, (uint16_t)to_unorm(v[i], 65535.0));
+        (avx2 ? stp_unorm16_encode_avx2 : stp_unorm16_encode_scalar)(v, n, dst);
         break;
     }
 }
@@ -657,8 +669,7 @@ void stp_sample_values_f32(const stp_sample_reply *r, float *out)
             out[i] = p[i] * (1.0f / 255.0f);
         break;
     case STP_OUT_F16:
-        for (size_t i = 0; i < n; i++)
-            out[i] = stp_f16_to_f32(stp_rd16(p + 2 * i));
+        stp_f16_decode(p, n, out);
         break;
     default:
         for (size_t i = 0; i < n; i++)

@@ -1,13 +1,16 @@
 /* protocol/compact.c - the compact SAMPLE forms of PROTOCOL.md 4.4.1: binary16 (half) values
  * and u16 fixed-point (u, v), both directions, exact and without the F16C instructions (so
- * every host gives the same bits).
+ * every host gives the same bits). These loops are the reference: the bulk entry points
+ * (stp_f16_encode, stp_f16_decode, stp_sample_queries_f32) run codec_avx2.c's forms instead
+ * when the CPU has AVX2 and F16C, bit for bit the same.
  *
- * Owns: stp_f32_to_f16, stp_f16_to_f32 (and stp_f16_encode for replies), stp_f32_to_unit16,
- * stp_query_round, and stp_sample_queries (every SAMPLE query layout widened to stp_query, in
- * this file so that the conversions inline into its loops). Does not own the frame layouts
- * around the queries (bodies.c).
+ * Owns: stp_f32_to_f16, stp_f16_to_f32 (and stp_f16_encode / stp_f16_decode for replies),
+ * stp_f32_to_unit16, stp_query_round, stp_sample_queries (every SAMPLE query layout widened
+ * to stp_query, in this file so that the conversions inline into its loops) and
+ * stp_sample_queries_f32 (the same in the f32 wire layout, what the daemon samples). Does not
+ * own the frame layouts around the queries (bodies.c).
  */
-#include "proto.h"
+#include "codec_simd.h"
 
 static inline uint16_t f32_to_f16(float f)
 {
@@ -85,10 +88,32 @@ float stp_f16_to_f32(uint16_t h)
     return f16_to_f32(h);
 }
 
-void stp_f16_encode(const float *v, size_t n, uint8_t *out)
+void stp_f16_encode_scalar(const float *v, size_t n, uint8_t *out)
 {
     for (size_t i = 0; i < n; i++)
         stp_wr16(out + 2 * i, f32_to_f16(v[i]));
+}
+
+void stp_f16_encode(const float *v, size_t n, uint8_t *out)
+{
+    if (stp_codec_have_avx2())
+        stp_f16_encode_avx2(v, n, out);
+    else
+        stp_f16_encode_scalar(v, n, out);
+}
+
+void stp_f16_decode_scalar(const uint8_t *p, size_t n, float *out)
+{
+    for (size_t i = 0; i < n; i++)
+        out[i] = f16_to_f32(stp_rd16(p + 2 * i));
+}
+
+void stp_f16_decode(const uint8_t *p, size_t n, float *out)
+{
+    if (stp_codec_have_avx2())
+        stp_f16_decode_avx2(p, n, out);
+    else
+        stp_f16_decode_scalar(p, n, out);
 }
 
 /* One layout per loop, so that no flag is tested per query (the daemon widens every compact
@@ -128,6 +153,39 @@ void stp_sample_queries(const stp_sample_req *r, uint32_t first, uint32_t n, stp
     }
 }
 #undef QUERY_LOOP
+
+void stp_sample_queries_f32_scalar(const stp_sample_req *r, uint32_t first, uint32_t n,
+                                   uint8_t *out)
+{
+    stp_query t[64];
+    for (uint32_t i = 0; i < n;) {
+        uint32_t m = n - i < 64 ? n - i : 64;
+        stp_sample_queries(r, first + i, m, t);
+        i += m;
+        if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && sizeof *t == STP_QUERY_SIZE) {
+            memcpy(out, t, m * sizeof *t);   /* stp_query is the wire layout: one copy */
+            out += m * sizeof *t;
+            continue;
+        }
+        for (uint32_t j = 0; j < m; j++, out += STP_QUERY_SIZE) {
+            stp_wr32(out, t[j].face);
+            stp_wr32(out + 4, stp_f2u(t[j].u));
+            stp_wr32(out + 8, stp_f2u(t[j].v));
+            stp_wr32(out + 12, stp_f2u(t[j].dudx));
+            stp_wr32(out + 16, stp_f2u(t[j].dvdx));
+            stp_wr32(out + 20, stp_f2u(t[j].dudy));
+            stp_wr32(out + 24, stp_f2u(t[j].dvdy));
+        }
+    }
+}
+
+void stp_sample_queries_f32(const stp_sample_req *r, uint32_t first, uint32_t n, uint8_t *out)
+{
+    if (stp_codec_have_avx2())
+        stp_sample_queries_f32_avx2(r, first, n, out);
+    else
+        stp_sample_queries_f32_scalar(r, first, n, out);
+}
 
 void stp_query_round(const stp_query *q, unsigned flags, stp_query *out)
 {

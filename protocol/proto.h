@@ -512,10 +512,15 @@ uint32_t stp_sample_peek_count(const uint8_t *body, size_t len);
 void stp_sample_query(const stp_sample_req *r, uint32_t i, stp_query *q);
 /* Queries [first, first + n) of a decoded SAMPLE request, as stp_sample_query. */
 void stp_sample_queries(const stp_sample_req *r, uint32_t first, uint32_t n, stp_query *out);
+/* The same queries in the f32 layout of 4.4 (28 bytes each: u32 face, 6 x f32, little-endian)
+ * at out, any alignment: the form the daemon samples (the store's query layout on a
+ * little-endian host), without a copy through stp_query. */
+void stp_sample_queries_f32(const stp_sample_req *r, uint32_t first, uint32_t n, uint8_t *out);
 /* The compact forms of PROTOCOL.md 4.4.1, encode and decode, exact: */
 uint16_t stp_f32_to_f16(float f);       /* binary16, round to nearest even; NaN -> 0x7E00|sign */
 float    stp_f16_to_f32(uint16_t h);    /* exact widening (NaN payload kept) */
 void     stp_f16_encode(const float *v, size_t n, uint8_t *out);  /* n values, LE binary16 */
+void     stp_f16_decode(const uint8_t *p, size_t n, float *out);  /* n LE binary16, widened */
 uint16_t stp_f32_to_unit16(float u);    /* nearest integer to u x 65536, ties to even, clamped
                                            to 0..65535; NaN -> 0 */
 static inline float stp_unit16_to_f32(uint16_t q) { return (float)q * (1.0f / 65536.0f); }

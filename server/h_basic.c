@@ -418,6 +418,11 @@ void sts_sample_decode(uint8_t opcode, const stp_sample_req *rq, const uint8_t *
             memcpy(q, raw, (size_t)k * STP_QUERY_SIZE);
         return;
     }
+    if (WIRE_IS_ST_QUERY) {
+        /* compact queries widened straight into st_query's layout (the f32 wire form) */
+        stp_sample_queries_f32(&r, 0, k, (uint8_t *)(void *)q);
+        return;
+    }
     stp_query tmp[64];
     for (uint32_t i = 0; i < k;) {
         uint32_t m = k - i < 64 ? k - i : 64;

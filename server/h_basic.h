@@ -49,7 +49,9 @@ int sts_sample_finish(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
  * split-batch queries on (workers.c). The sum of the parts' results, or the first error. */
 int sts_sample_parts(sts_ctx *c, size_t n, sts_part_fn fn, void *arg);
 /* Widens k wire queries at raw (in rq's layout: opcode, flags bits 2-3, footprint) into q
- * (SAMPLE) or cq (SAMPLE_DIR), caller-owned, k entries. Reads each byte of raw once. */
+ * (SAMPLE) or cq (SAMPLE_DIR), caller-owned, k entries. Uses each byte of raw once (the
+ * vector widening of 14-byte queries loads the 2 bytes between two queries with both, and
+ * keeps them from one load only). */
 void sts_sample_decode(uint8_t opcode, const stp_sample_req *rq, const uint8_t *raw, uint32_t k,
                        st_query *q, st_cube_query *cq);
 
