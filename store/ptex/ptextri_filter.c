@@ -19,6 +19,11 @@
  * kept / the weight of the whole kernel (over the triangle lattice extended past the face).
  * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
  * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
+ *
+ * Speed: the sweeps and the point filter's batch loop are instances per texel type and
+ * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
+ * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are one
+ * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path").
  */
 #include "ptextri.h"
 
