@@ -19,6 +19,11 @@
  * kept / the weight of the whole kernel (over the triangle lattice extended past the face).
  * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
  * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
+ *
+ * Speed: the sweeps and the point filter's batch loop are instances per texel type and
+ * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
+ * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are one
+ * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path").
  */
 #include "ptextri.h"
 
@@ -32,6 +37,7 @@
 
 #define PT_MAX_DEPTH  24   /* edge crossings in a row; a closed mesh needs a few */
 #define PT_MAX_PIECES 256  /* pieces per query; bounds the work a hostile adjacency can cause */
+
 
 static const float PT_WIDTH = 3.5f;  /* kernel extent in filter widths (Ptex's) */
 
@@ -57,6 +63,8 @@ typedef struct ti {
 typedef struct tc {
     const st_set *s;
     unsigned nc, dt;
+    float (*rd)(struct tc *c, const ti *it, const uint8_t *data, int constant);   /* SW_READ */
+    float (*fold)(struct tc *c, const ti *it, const uint8_t *data, int constant); /* SW_FOLD */
     float acc[ST_MAX_CHANNELS];
     float weight;          /* weight applied */
     unsigned pieces;
@@ -150,6 +158,16 @@ static void clamp_extent(tk *k)
     k->hi[2] = fminf_(k->hi[2], 1.0f - (k->lo[0] + k->lo[1]));
 }
 
+/* (int)ceilf(x) without the libm call where the conversion is exact (|x| < 2^30, which the
+ * bounds of a kernel always are). */
+static inline int ceil_int(float x)
+{
+    if (!(fabsf(x) < 1073741824.0f))
+        return (int)ceilf(x);
+    int t = (int)x; /* truncates towards 0 */
+    return t + ((float)t < x);
+}
+
 /* The two sweeps of kernel k at resolution 2^k->res: upright taps, and inverted ones seen
  * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). */
 static void iterators(const tk *k, ti *ev, ti *od)
@@ -165,8 +183,8 @@ static void iterators(const tk *k, ti *ev, ti *od)
     ev->u = k->u * fR - third;
     ev->v = k->v * fR - third;
     for (int i = 0; i < 3; i++) {
-        ev->lo[i] = (int)ceilf(k->lo[i] * fR - third);
-        ev->hi[i] = (int)ceilf(k->hi[i] * fR - third);
+        ev->lo[i] = ceil_int(k->lo[i] * fR - third);
+        ev->hi[i] = ceil_int(k->hi[i] * fR - third);
     }
     ev->A = Ak;
     ev->B = Bk;
@@ -174,29 +192,27 @@ static void iterators(const tk *k, ti *ev, ti *od)
     ev->valid = ev->hi[0] > ev->lo[0] && ev->hi[1] > ev->lo[1] && ev->hi[2] > ev->lo[2];
     od->u = (1.0f - k->v) * fR - third;
     od->v = (1.0f - k->u) * fR - third;
-    od->lo[0] = (int)ceilf((1.0f - k->hi[1]) * fR - third);
-    od->lo[1] = (int)ceilf((1.0f - k->hi[0]) * fR - third);
-    od->lo[2] = (int)ceilf((-k->hi[2]) * fR - third);
-    od->hi[0] = (int)ceilf((1.0f - k->lo[1]) * fR - third);
-    od->hi[1] = (int)ceilf((1.0f - k->lo[0]) * fR - third);
-    od->hi[2] = (int)ceilf((-k->lo[2]) * fR - third);
+    od->lo[0] = ceil_int((1.0f - k->hi[1]) * fR - third);
+    od->lo[1] = ceil_int((1.0f - k->hi[0]) * fR - third);
+    od->lo[2] = ceil_int((-k->hi[2]) * fR - third);
+    od->hi[0] = ceil_int((1.0f - k->lo[1]) * fR - third);
+    od->hi[1] = ceil_int((1.0f - k->lo[0]) * fR - third);
+    od->hi[2] = ceil_int((-k->lo[2]) * fR - third);
     od->A = Ck;
     od->B = Bk;
     od->C = Ak;
     od->valid = od->hi[0] > od->lo[0] && od->hi[1] > od->lo[1] && od->hi[2] > od->lo[2];
 }
 
-static inline void accum(tc *c, const uint8_t *px, float w)
+/* Channel ch of the texel at px as a float of its stored value (not scaled to [0, 1]). */
+__attribute__((always_inline)) static inline float texel_chan(const uint8_t *px, unsigned ch,
+                                                              unsigned DT)
 {
-    for (unsigned ch = 0; ch < c->nc; ch++) {
-        float x;
-        switch (c->dt) {
-        case ST_DT_U8:   x = (float)px[ch]; break;
-        case ST_DT_U16:  x = (float)((const uint16_t *)(const void *)px)[ch]; break;
-        case ST_DT_HALF: x = st_half_to_float(((const uint16_t *)(const void *)px)[ch]); break;
-        default:         x = ((const float *)(const void *)px)[ch]; break;
-        }
-        c->acc[ch] += x * w;
+    switch (DT) {
+    case ST_DT_U8:   return (float)px[ch];
+    case ST_DT_U16:  return (float)((const uint16_t *)(const void *)px)[ch];
+    case ST_DT_HALF: return st_half_to_float(((const uint16_t *)(const void *)px)[ch]);
+    default:         return ((const float *)(const void *)px)[ch];
     }
 }
 
@@ -236,35 +252,68 @@ enum { SW_READ, SW_WEIGHT, SW_FOLD };
 /* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
  * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
  * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
- * SW_WEIGHT only sums; SW_FOLD reads the folded texel of each tap. Returns the weight. */
-static float sweep(tc *c, const ti *it, const uint8_t *data, int constant, int how)
+ * SW_WEIGHT only sums; SW_FOLD reads the folded texel of each tap. Returns the weight. The
+ * texel type DT and channel count NC are constants in each instance (sweep_fns), so a tap's
+ * loads and sums are a few instructions and the sums stay in registers; the arithmetic and
+ * its order are those of every other instance (each channel's sum gets x * w tap by tap). */
+__attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
+                                                           const uint8_t *data, int constant,
+                                                           int how, unsigned DT, unsigned NC)
 {
-    size_t ts = st_texel_size(c->s);
+    const size_t ts = st_dtype_size(DT) * NC;
+    const int R = it->R;
+    float acc[ST_MAX_CHANNELS];
+    for (unsigned ch = 0; ch < NC; ch++)
+        acc[ch] = c->acc[ch];
     float wsum = 0.0f, DDQ = 2.0f * it->A;
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+    const float A = it->A, B = it->B, C = it->C, wscale = it->wscale;
+    const int reads = how == SW_READ && !constant;
     for (int y = it->lo[1]; y < it->hi[1]; y++) {
-        int xw = it->R - y;
+        int xw = R - y;
         int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
         int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
         float U = (float)x1 - it->u, V = (float)y - it->v;
-        float DQ = it->A * (2.0f * U + 1.0f) + it->B * V;
-        float Q = it->A * U * U + (it->B * U + it->C * V) * V;
+        float DQ = A * (2.0f * U + 1.0f) + B * V;
+        float Q = A * U * U + (B * U + C * V) * V;
         /* a read stays inside the level whatever the float bounds did */
-        int rd_ok = how != SW_READ || constant || (y >= 0 && y < it->R);
+        int rd_ok = reads && y >= 0 && y < R;
+        const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
+        if (rd_ok && x1 >= 0 && x2 <= R) {
+            /* the whole row inside the level (a piece clamped into its face): no checks */
+            const uint8_t *px = row + (size_t)x1 * ts;
+            for (int x = x1; x < x2; x++, px += ts) {
+                if (Q < 1.0f) {
+                    float w = expf(gs * Q) * wscale;
+                    wsum += w;
+#pragma GCC unroll 4
+                    for (unsigned ch = 0; ch < NC; ch++)
+                        acc[ch] += texel_chan(px, ch, DT) * w;
+                }
+                Q += DQ;
+                DQ += DDQ;
+            }
+            continue;
+        }
         for (int x = x1; x < x2; x++) {
             if (Q < 1.0f) {
-                float w = expf(gs * Q) * it->wscale;
+                float w = expf(gs * Q) * wscale;
                 wsum += w;
-                if (how == SW_READ && !constant && rd_ok && x >= 0 && x < it->R)
-                    accum(c, data + ((size_t)y * (size_t)it->R + (size_t)x) * ts, w);
-                else if (how == SW_FOLD) {
-                    int tx, ty;
-                    if (constant) {
-                        tx = ty = 0;
-                    } else {
-                        fold_tap(it->R, it->odd, x, y, &tx, &ty);
+                if (how == SW_READ) {
+                    if (rd_ok && (unsigned)x < (unsigned)R) {
+                        const uint8_t *px = row + (size_t)x * ts;
+#pragma GCC unroll 4
+                        for (unsigned ch = 0; ch < NC; ch++)
+                            acc[ch] += texel_chan(px, ch, DT) * w;
                     }
-                    accum(c, data + ((size_t)ty * (size_t)it->R + (size_t)tx) * ts, w);
+                } else if (how == SW_FOLD) {
+                    int tx = 0, ty = 0;
+                    if (!constant)
+                        fold_tap(R, it->odd, x, y, &tx, &ty);
+                    const uint8_t *px = data + ((size_t)ty * (size_t)R + (size_t)tx) * ts;
+#pragma GCC unroll 4
+                    for (unsigned ch = 0; ch < NC; ch++)
+                        acc[ch] += texel_chan(px, ch, DT) * w;
                 }
             }
             Q += DQ;
@@ -272,29 +321,87 @@ static float sweep(tc *c, const ti *it, const uint8_t *data, int constant, int h
         }
     }
     if (how == SW_READ && constant)
-        accum(c, data, wsum);
+        for (unsigned ch = 0; ch < NC; ch++)
+            acc[ch] += texel_chan(data, ch, DT) * wsum;
+    for (unsigned ch = 0; ch < NC; ch++)
+        c->acc[ch] = acc[ch];
     return wsum;
 }
 
+typedef float (*sweep_fn)(tc *c, const ti *it, const uint8_t *data, int constant);
+
+#define PT_SWEEP(DT, NC)                                                                     \
+    static float sweep_r_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    {                                                                                        \
+        return sweep_t(c, it, d, constant, SW_READ, DT, NC);                                 \
+    }                                                                                        \
+    static float sweep_f_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    {                                                                                        \
+        return sweep_t(c, it, d, constant, SW_FOLD, DT, NC);                                 \
+    }
+#define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
+PT_SWEEP_NC(0)
+PT_SWEEP_NC(1)
+PT_SWEEP_NC(2)
+PT_SWEEP_NC(3)
+
+/* SW_WEIGHT reads nothing: one instance. */
+static float sweep_weight(tc *c, const ti *it)
+{
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, ST_DT_F32, 1);
+}
+
+/* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels. */
+static void sweep_fns(unsigned dt, unsigned nc, sweep_fn *rd, sweep_fn *fold)
+{
+#define PT_ROW(F, DT) {F##_##DT##_1, F##_##DT##_2, F##_##DT##_3, F##_##DT##_4}
+    static const sweep_fn r[4][4] = {PT_ROW(sweep_r, 0), PT_ROW(sweep_r, 1),
+                                     PT_ROW(sweep_r, 2), PT_ROW(sweep_r, 3)};
+    static const sweep_fn f[4][4] = {PT_ROW(sweep_f, 0), PT_ROW(sweep_f, 1),
+                                     PT_ROW(sweep_f, 2), PT_ROW(sweep_f, 3)};
+#undef PT_ROW
+    *rd = r[dt][nc - 1];
+    *fold = f[dt][nc - 1];
+}
+
 /* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
- * triangle. */
-static void apply_face(tc *c, tk *k, uint32_t f)
+ * triangle; its two sweeps are left in ev, od. */
+static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
 {
     const st_face *F = &c->s->faces[f];
     if (k->res > (int)F->ulog2)
         k->res = F->ulog2;
     clamp_extent(k);
-    ti ev, od;
-    iterators(k, &ev, &od);
-    if (!ev.valid && !od.valid)
+    iterators(k, ev, od);
+    if (!ev->valid && !od->valid)
         return;
     unsigned level = F->ulog2 - (unsigned)k->res;
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
-    if (ev.valid)
-        c->weight += sweep(c, &ev, data, constant, SW_READ);
-    if (od.valid)
-        c->weight += sweep(c, &od, data, constant, SW_READ);
+    if (ev->valid)
+        c->weight += c->rd(c, ev, data, constant);
+    if (od->valid)
+        c->weight += c->rd(c, od, data, constant);
+}
+
+static void apply_face(tc *c, tk *k, uint32_t f)
+{
+    ti ev, od;
+    apply_face_its(c, k, f, &ev, &od);
+}
+
+/* Whether two sweeps of one kernel (same centre, ellipse and resolution) visit the same taps,
+ * so that they sum the same weights in the same order. */
+static int same_taps(const ti *a, const ti *b)
+{
+    if (a->valid != b->valid)
+        return 0;
+    if (!a->valid)
+        return 1;
+    for (int i = 0; i < 3; i++)
+        if (a->lo[i] != b->lo[i] || a->hi[i] != b->hi[i])
+            return 0;
+    return 1;
 }
 
 /* Traverse: splits k at each edge it overhangs into a neighbour (u, then v, then w) and
@@ -319,21 +426,26 @@ static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
     apply_face(c, k, f);
 }
 
-/* The weight of the whole kernel k on face f's lattice at its clamped resolution, extended
- * past the face (Discard's denominator); k is not changed. */
-static float whole_weight(tc *c, const tk *k0, uint32_t f)
+/* Discard: k applied to face f, and its whole weight on f's lattice at its clamped
+ * resolution, extended past the face (the coverage's denominator). When clamping k into the
+ * face left its taps as they were (a kernel inside the face), the whole weight is the weight
+ * just applied, summed by the same sweeps. */
+static float apply_discard(tc *c, tk *k, uint32_t f)
 {
-    tk k = *k0;
+    tk kw = *k;
     const st_face *F = &c->s->faces[f];
-    if (k.res > (int)F->ulog2)
-        k.res = F->ulog2;
-    ti ev, od;
-    iterators(&k, &ev, &od);
+    if (kw.res > (int)F->ulog2)
+        kw.res = F->ulog2;
+    ti wev, wod, ev, od;
+    iterators(&kw, &wev, &wod);
+    apply_face_its(c, k, f, &ev, &od);
+    if (same_taps(&ev, &wev) && same_taps(&od, &wod))
+        return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
     float w = 0.0f;
-    if (ev.valid)
-        w += sweep(c, &ev, NULL, 0, SW_WEIGHT);
-    if (od.valid)
-        w += sweep(c, &od, NULL, 0, SW_WEIGHT);
+    if (wev.valid)
+        w += sweep_weight(c, &wev);
+    if (wod.valid)
+        w += sweep_weight(c, &wod);
     return w;
 }
 
@@ -350,9 +462,9 @@ static void apply_folded(tc *c, const tk *k0, uint32_t f)
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)k.res);
     if (ev.valid)
-        c->weight += sweep(c, &ev, data, constant, SW_FOLD);
+        c->weight += c->fold(c, &ev, data, constant);
     if (od.valid)
-        c->weight += sweep(c, &od, data, constant, SW_FOLD);
+        c->weight += c->fold(c, &od, data, constant);
 }
 
 static float one_value(unsigned dt)
@@ -374,7 +486,7 @@ static void point(const st_set *s, uint32_t f, float u, float v, float *out)
         out[ch] = st_channel_get(s->info.dtype, p, ch);
 }
 
-/* One triangle-filter query; returns its st_qstatus. */
+/* One triangle-filter query (not the point filter: point_batch_t); returns its st_qstatus. */
 static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *o,
                     const st_query *q, float *out, float *cov)
 {
@@ -382,10 +494,6 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     const st_face *F = &s->faces[f];
     unsigned nc = s->info.nchan, dt = s->info.dtype;
     *cov = 1.0f;
-    if (o->filter == ST_FILTER_PTEX_POINT) {
-        point(s, f, q->u, q->v, out);
-        return ST_Q_OK;
-    }
     if (o->mode == ST_MODE_TRAVERSE && t && t->ptxflags &&
         (t->ptxflags[f] & PTX_FLAG_NBCONSTANT)) {
         /* Ptex: a face whose neighbourhood is constant returns its value */
@@ -401,11 +509,11 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
                  o->blur, F->ulog2);
     tc c = {.s = s, .nc = nc, .dt = dt};
+    sweep_fns(dt, nc, &c.rd, &c.fold);
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
     } else if (o->mode == ST_MODE_DISCARD) {
-        float whole = whole_weight(&c, &k, f);
-        apply_face(&c, &k, f);
+        float whole = apply_discard(&c, &k, f);
         *cov = whole > 0.0f && c.weight < whole ? c.weight / whole : 1.0f;
     } else {
         apply_folded(&c, &k, f);
@@ -433,25 +541,95 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     return ST_Q_OK;
 }
 
+/* The checks of a query: its status (ST_Q_OK when it may be sampled). */
+static inline int query_status(const st_set *s, const st_query *qi)
+{
+    /* the common case in one pass: every compare fails on a NaN or an infinity */
+    if (__builtin_expect(qi->face < s->info.nfaces && fabsf(qi->u) <= ST_MAX_COORD &&
+                             fabsf(qi->v) <= ST_MAX_COORD && fabsf(qi->dudx) <= ST_MAX_DERIV &&
+                             fabsf(qi->dvdx) <= ST_MAX_DERIV && fabsf(qi->dudy) <= ST_MAX_DERIV &&
+                             fabsf(qi->dvdy) <= ST_MAX_DERIV, 1))
+        return ST_Q_OK;
+    if (qi->face >= s->info.nfaces)
+        return ST_Q_BAD_FACE;
+    if (!(isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) && isfinite(qi->dvdx) &&
+          isfinite(qi->dudy) && isfinite(qi->dvdy)))
+        return ST_Q_NONFINITE;
+    if (!(fabsf(qi->u) <= ST_MAX_COORD && fabsf(qi->v) <= ST_MAX_COORD &&
+          fabsf(qi->dudx) <= ST_MAX_DERIV && fabsf(qi->dvdx) <= ST_MAX_DERIV &&
+          fabsf(qi->dudy) <= ST_MAX_DERIV && fabsf(qi->dvdy) <= ST_MAX_DERIV))
+        return ST_Q_BAD_FOOTPRINT;
+    return ST_Q_OK;
+}
+
+/* The point filter over a batch for texel type DT with NC channels: point() with the type's
+ * loads, one query after another (the same values, coverage and status as tri_eval gives). */
+__attribute__((always_inline)) static inline int point_batch_t(const st_set *s,
+                                                               const st_query *q, size_t n,
+                                                               float *out, float *coverage,
+                                                               uint8_t *status, unsigned DT,
+                                                               unsigned NC)
+{
+    const size_t ts = st_dtype_size(DT) * NC;
+    int bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        const st_query *qi = &q[i];
+        float *oi = out + i * NC;
+        int st = query_status(s, qi);
+        if (st == ST_Q_OK) {
+            const st_face *F = &s->faces[qi->face];
+            const uint8_t *p = st_face_level(s, qi->face, 0);
+            if (!(F->flags & ST_FACE_CONSTANT)) {
+                uint32_t x, y;
+                st_tri_texel(F->w, qi->u, qi->v, &x, &y);
+                p += ((size_t)y * F->w + x) * ts;
+            }
+            for (unsigned ch = 0; ch < NC; ch++)
+                oi[ch] = st_channel_get(DT, p, ch);
+        } else {
+            for (unsigned ch = 0; ch < NC; ch++)
+                oi[ch] = NAN;
+        }
+        if (coverage)
+            coverage[i] = st == ST_Q_OK ? 1.0f : 0.0f;
+        if (status)
+            status[i] = (uint8_t)st;
+        bad += st != ST_Q_OK;
+    }
+    return bad;
+}
+
+typedef int (*point_batch_fn)(const st_set *s, const st_query *q, size_t n, float *out,
+                              float *coverage, uint8_t *status);
+
+#define PT_POINT(DT, NC)                                                                     \
+    static int point_##DT##_##NC(const st_set *s, const st_query *q, size_t n, float *out,   \
+                                 float *coverage, uint8_t *status)                           \
+    {                                                                                        \
+        return point_batch_t(s, q, n, out, coverage, status, DT, NC);                        \
+    }
+#define PT_POINT_NC(DT) PT_POINT(DT, 1) PT_POINT(DT, 2) PT_POINT(DT, 3) PT_POINT(DT, 4)
+PT_POINT_NC(0)
+PT_POINT_NC(1)
+PT_POINT_NC(2)
+PT_POINT_NC(3)
+
 int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                      float *out, float *coverage, uint8_t *status)
 {
-    const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
     unsigned nc = s->info.nchan;
+    if (o->filter == ST_FILTER_PTEX_POINT) {
+#define PT_ROW(DT) {point_##DT##_1, point_##DT##_2, point_##DT##_3, point_##DT##_4}
+        static const point_batch_fn pt[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+        return pt[s->info.dtype][nc - 1](s, q, n, out, coverage, status);
+    }
+    const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
         float *oi = out + i * nc, cov = 0.0f;
-        int st = ST_Q_OK;
-        if (qi->face >= s->info.nfaces)
-            st = ST_Q_BAD_FACE;
-        else if (!(isfinite(qi->u) && isfinite(qi->v) && isfinite(qi->dudx) &&
-                   isfinite(qi->dvdx) && isfinite(qi->dudy) && isfinite(qi->dvdy)))
-            st = ST_Q_NONFINITE;
-        else if (!(fabsf(qi->u) <= ST_MAX_COORD && fabsf(qi->v) <= ST_MAX_COORD &&
-                   fabsf(qi->dudx) <= ST_MAX_DERIV && fabsf(qi->dvdx) <= ST_MAX_DERIV &&
-                   fabsf(qi->dudy) <= ST_MAX_DERIV && fabsf(qi->dvdy) <= ST_MAX_DERIV))
-            st = ST_Q_BAD_FOOTPRINT;
+        int st = query_status(s, qi);
         if (st == ST_Q_OK) {
             st = tri_eval(s, t, o, qi, oi, &cov);
         } else {

@@ -1,0 +1,244 @@
+/* tests/unit/test_ptextri_outputs.c - Ptex's point and triangle filters on triangle meshes
+ * (ptextri_filter.c) give exactly the outputs of the build before their speed-up (main at
+ * eb912b6): the two shared triangle .ptx files as read (f32, 3 channels, with the files'
+ * constant and neighbourhood-constant flags) and the first of them remade in u8, u16 and half
+ * with 1, 2 and 4 channels and with some faces constant; the point filter and the triangle
+ * filter (gaussian, and bicubic with width 1.5 and blur 0.01) in Traverse, Discard and Clamp,
+ * the zero rules NaN and Clamp; 3000 queries per group - uv inside the triangle, within two
+ * texels of an edge or a corner, or past an edge by up to 10% of the face, footprints from a
+ * quarter texel to 32 texels, anisotropic and rotated, a few refused ones. Outputs, coverage
+ * and status of each group are hashed (FNV-1a over their bytes) and compared with the hash
+ * the old build gave for the same queries (this file built against it; on a mismatch the test
+ * prints the line to compare). Bit for bit, so skipped on a CPU without AVX2 + FMA + F16C
+ * (libm's expf, which the weights call, picks another variant there). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ptex.h"
+#include "ptexfilter.h"
+#include "ptexfilter_kernel.h"
+#include "sample.h"
+#include "set.h"
+#include "../common/testdata.h"
+
+enum { NQ = 3000 };
+
+static const char *const files[] = {
+    "ptx/wdas-ptex-2009/tri/tri.ptx",
+    "ptx/wdas-ptex-samples/triangle/triangle.ptx",
+};
+
+/* The sets: 0, 1 the files; 2.. the first file remade as {dtype, nchan, constant faces}. */
+static const struct { unsigned dt, nc, constant; } remade[] = {
+    {ST_DT_U8, 1, 0}, {ST_DT_U16, 2, 0}, {ST_DT_HALF, 4, 1}, {ST_DT_F32, 1, 1},
+    {ST_DT_U8, 4, 1}, {ST_DT_F32, 3, 1},
+};
+#define NSETS (2 + sizeof remade / sizeof remade[0])
+#define NGROUP 5 /* point, gaussian, bicubic w 1.5 blur 0.01, gaussian zero rule clamp, box */
+
+/* The old build's hashes, [set][group][mode] (st_mode order: discard, traverse, clamp). */
+static const uint64_t want[NSETS][NGROUP][3] = {
+#include "ptextri_outputs_hashes.inc"
+};
+
+static uint32_t rng;
+static float rndf(void) /* [0, 1) */
+{
+    rng = rng * 1664525u + 1013904223u;
+    return (float)(rng >> 8) / 16777216.0f;
+}
+
+static uint64_t fnv(uint64_t h, const void *p, size_t n)
+{
+    const uint8_t *b = p;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* s's faces and adjacency with dtype dt and nc channels, level 0 from s's channel c % 3
+ * (every third face constant when asked), its levels made as the reader makes them. */
+static st_set *remake(const st_set *s, unsigned dt, unsigned nc, int constant)
+{
+    uint32_t n = s->info.nfaces;
+    st_face_desc *fd = calloc(n, sizeof *fd);
+    assert_non_null(fd);
+    for (uint32_t f = 0; f < n; f++) {
+        const st_face *F = &s->faces[f];
+        fd[f].w = F->w;
+        fd[f].h = F->h;
+        fd[f].flags = constant && f % 3 == 1 ? ST_FACE_CONSTANT : 0;
+        for (int e = 0; e < 4; e++) {
+            fd[f].adjface[e] = F->adjface[e];
+            fd[f].adjedge[e] = F->adjface[e] < 0 ? 0 : (int8_t)F->adjedge[e];
+        }
+    }
+    st_set_info info = {.nfaces = n, .nchan = (uint8_t)nc, .dtype = (uint8_t)dt,
+                        .alpha_chan = -1, .kind = ST_KIND_PERFACE,
+                        .meshtype = ST_MESH_TRIANGLE};
+    st_set *d;
+    st_error e = {0};
+    int rc = st_set_create(&info, fd, 0, &d, &e);
+    if (rc)
+        print_message("%s\n", e.msg);
+    assert_int_equal(rc, 0);
+    free(fd);
+    for (uint32_t f = 0; f < n; f++) {
+        const uint8_t *sp = st_face_level(s, f, 0);
+        uint8_t *dp = st_face_level(d, f, 0);
+        size_t nt = (d->faces[f].flags & ST_FACE_CONSTANT) ? 1
+                    : (s->faces[f].flags & ST_FACE_CONSTANT) ? 0
+                    : (size_t)d->faces[f].w * d->faces[f].h;
+        if (!nt) { /* constant in the file: every texel its value */
+            for (size_t i = 0; i < (size_t)d->faces[f].w * d->faces[f].h; i++)
+                for (unsigned c = 0; c < nc; c++)
+                    st_channel_put(dt, dp + i * st_texel_size(d), c,
+                                   st_channel_get(s->info.dtype, sp, c % 3));
+            continue;
+        }
+        for (size_t i = 0; i < nt; i++)
+            for (unsigned c = 0; c < nc; c++)
+                st_channel_put(dt, dp + i * st_texel_size(d), c,
+                               st_channel_get(s->info.dtype, sp + i * st_texel_size(s), c % 3));
+    }
+    st_set_build_mips(d, UINT32_MAX);
+    assert_int_equal(st_ptexfilter_prepare(d, &e), 0);
+    return d;
+}
+
+/* The queries of one set: faces uniform; uv inside the triangle (40%), within two texels of
+ * an edge or a corner (35%), past the triangle by up to 10% (20%), refused (5%: a bad face,
+ * a NaN, a huge derivative); footprints 2^[-2, 5] texels, anisotropic, a third rotated. */
+static void make_queries(const st_set *s, st_query *q, uint32_t seed)
+{
+    rng = seed;
+    for (int i = 0; i < NQ; i++) {
+        uint32_t f = (uint32_t)(rndf() * (float)s->info.nfaces) % s->info.nfaces;
+        float R = (float)s->faces[f].w;
+        float u = rndf(), v = rndf(), r = rndf();
+        if (u + v > 1.0f) {
+            u = 1.0f - u;
+            v = 1.0f - v;
+        }
+        if (r < 0.35f) {
+            float d = 2.0f * rndf() / R;
+            int side = (int)(rndf() * 6.0f);
+            if (side == 0 || side == 3)
+                v = d;
+            if (side == 1 || side == 3)
+                u = d;
+            if (side == 2 || side == 4) {
+                float t = 0.5f * (u + v - 1.0f + d);
+                u -= t;
+                v -= t;
+            }
+            if (side == 5)
+                u = 1.0f - d, v = 0.5f * d;
+        } else if (r < 0.55f) {
+            u = -0.1f + 1.2f * u;
+            v = -0.1f + 1.2f * v;
+        }
+        float fpu = exp2f(-2.0f + 7.0f * rndf()), fpv = fpu * exp2f(-1.0f + 2.0f * rndf());
+        float rot = rndf() < 0.33f ? rndf() * 6.2831853f : 0.0f;
+        float c = cosf(rot), sn = sinf(rot);
+        q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = c * fpu / R, .dvdx = sn * fpv / R,
+                          .dudy = -sn * fpu / R, .dvdy = c * fpv / R};
+        if (r > 0.95f) {
+            int k = (int)(rndf() * 3.0f);
+            if (k == 0)
+                q[i].face = s->info.nfaces + 3;
+            else if (k == 1)
+                q[i].v = NAN;
+            else
+                q[i].dvdy = 2.0e4f;
+        }
+    }
+}
+
+static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **state)
+{
+    (void)state;
+    if (!pf_have_avx2()) {
+        print_message("no AVX2 + FMA + F16C: skipped\n");
+        skip();
+    }
+    char path[1024];
+    if (st_test_data_path(path, sizeof path, files[0]))
+        skip();
+    st_query *q = malloc(sizeof *q * NQ);
+    float *out = malloc(sizeof(float) * 4 * NQ), *cov = malloc(sizeof(float) * NQ);
+    uint8_t *stat = malloc(NQ);
+    assert_true(q && out && cov && stat);
+    st_set *file0 = NULL;
+    int bad = 0, checked = 0;
+    for (size_t si = 0; si < NSETS; si++) {
+        st_set *s;
+        st_error e = {0};
+        if (si < 2) {
+            if (st_test_data_path(path, sizeof path, files[si]))
+                continue;
+            assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
+            if (si == 0) {
+                file0 = s;
+                s = NULL;
+            }
+        } else {
+            if (!file0)
+                continue;
+            s = remake(file0, remade[si - 2].dt, remade[si - 2].nc, remade[si - 2].constant);
+        }
+        const st_set *ss = s ? s : file0;
+        assert_int_equal(ss->info.meshtype, ST_MESH_TRIANGLE);
+        make_queries(ss, q, 2000u + (uint32_t)si);
+        for (int g = 0; g < NGROUP; g++)
+            for (int mode = 0; mode < 3; mode++) {
+                static const uint8_t filt[NGROUP] = {
+                    ST_FILTER_PTEX_POINT, ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
+                    ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BOX};
+                st_sample_opts o = {.filter = filt[g], .mode = (uint8_t)mode,
+                                    .sharpness = 0.3f, .width = g == 2 ? 1.5f : 0.0f,
+                                    .blur = g == 2 ? 0.01f : 0.0f,
+                                    .zero_rule = g == 3 ? ST_ZERO_CLAMP : ST_ZERO_NAN};
+                memset(out, 0, sizeof(float) * 4 * NQ);
+                int r = st_ptexfilter_batch(ss, &o, q, NQ, out, cov, stat);
+                assert_true(r >= 0);
+                uint64_t h = 0xcbf29ce484222325ull;
+                h = fnv(h, out, sizeof(float) * ss->info.nchan * NQ);
+                h = fnv(h, cov, sizeof(float) * NQ);
+                h = fnv(h, stat, NQ);
+                checked++;
+                if (h != want[si][g][mode]) {
+                    bad++;
+                    print_message("differs: set %zu group %d mode %d: [%zu][%d][%d] = "
+                                  "0x%016llxull\n", si, g, mode, si, g, mode,
+                                  (unsigned long long)h);
+                }
+            }
+        st_set_free(s);
+    }
+    st_set_free(file0);
+    free(q);
+    free(out);
+    free(cov);
+    free(stat);
+    print_message("%d (set, filter, mode) groups of %d queries, %d differ from the old "
+                  "build\n", checked, NQ, bad);
+    assert_int_equal(bad, 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(triangle_filters_give_the_old_builds_outputs_bit_for_bit),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
