@@ -1051,20 +1051,26 @@ static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const s
     const st_face *F = plain_face(c, q);
     if (F) {
         float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+        float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
         pk k;
-        int r = c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
-                        uw * c->width + c->blur, vw * c->width + c->blur, out, &k);
-        if (r == 1) {
-            *cov = 1.0f;
-            return ST_Q_OK;
+        /* a width-4 kernel of 1/4 face or wider (the width clamped to a texel first, so any
+         * width on a face of fewer than 8 texels along an axis) is one the fused path
+         * declines (w4_axes' first test, NaN widths included): not offered it */
+        if (pp->ftype == ST_FILTER_PTEX_BOX ||
+            !(bu >= .25f || bv >= .25f || F->ulog2 < 3 || F->vlog2 < 3)) {
+            int r = c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
+                            bu, bv, out, &k);
+            if (r == 1) {
+                *cov = 1.0f;
+                return ST_Q_OK;
+            }
+            if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+                return eval_kernel(c, pp, o, q, &k, out, cov);
         }
-        if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
-            return eval_kernel(c, pp, o, q, &k, out, cov);
         /* declined (a width-4 kernel of 1/4 face or wider, a weight <= 0, no taps): eval's
          * kernel path without its prologue, which a plain face with (u, v) in [0, 1) passes
          * through unchanged */
-        pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur,
-                 F->ulog2, F->vlog2);
+        pk_build(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
         pk_strip_zeros(&k);
         if (k.uw <= 0 || k.vw <= 0) {
             for (unsigned ch = 0; ch < c->nc; ch++)

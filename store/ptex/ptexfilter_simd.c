@@ -365,6 +365,16 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
         _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
 }
 
+__attribute__((target("avx2,fma,f16c")))
+void pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n)
+{
+    __m256 s8 = _mm256_set1_ps(s), x = _mm256_set1_ps(x1);
+    _mm256_storeu_ps(w, kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
+                                       _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7), s8))));
+    if (n > 8)
+        _mm256_storeu_ps(w + 8, kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
+                                               _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15), s8))));
+}
 
 /* ---- the fused path of a kernel inside one face (pf_fast_select) ------------------------ */
 
@@ -694,6 +704,11 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 {
     pk_kernel_eval(p, x1u, su, wu, nu);
     pk_kernel_eval(p, x1v, sv, wv, nv);
+}
+
+void pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n)
+{
+    pk_kernel_eval(p, x1, s, w, n);
 }
 
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
