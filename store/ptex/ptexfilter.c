@@ -1054,38 +1054,56 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
     return eval(c, pp, o, q, out, cov);
 }
 
+/* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
+ * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
+ * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
+ * recomputed from q so that kernel_q keeps nothing live across the fused call (its spills
+ * cost the in-face queries more than the recomputation costs the others). */
+__attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk_params *pp,
+                                                     const st_sample_opts *o, const st_query *q,
+                                                     float *out, float *cov)
+{
+    const st_face *F = &c->s->faces[q->face];
+    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+    pk k;
+    pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur, F->ulog2,
+             F->vlog2);
+    pk_strip_zeros(&k);
+    if (k.uw <= 0 || k.vw <= 0) {
+        for (unsigned ch = 0; ch < c->nc; ch++)
+            out[ch] = 0.0f;
+        *cov = 0.0f;
+        return ST_Q_OK;
+    }
+    return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
 /* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
  * the face (every mode agrees there), else eval. */
 static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                     float *out, float *cov)
 {
     const st_face *F = plain_face(c, q);
-    if (F) {
-        float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
-        pk k;
-        int r = c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v,
-                        uw * c->width + c->blur, vw * c->width + c->blur, out, &k);
-        if (r == 1) {
-            *cov = 1.0f;
-            return ST_Q_OK;
-        }
-        if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
-            return eval_kernel(c, pp, o, q, &k, out, cov);
-        /* declined (a width-4 kernel of 1/4 face or wider, a weight <= 0, no taps): eval's
-         * kernel path without its prologue, which a plain face with (u, v) in [0, 1) passes
-         * through unchanged */
-        pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur,
-                 F->ulog2, F->vlog2);
-        pk_strip_zeros(&k);
-        if (k.uw <= 0 || k.vw <= 0) {
-            for (unsigned ch = 0; ch < c->nc; ch++)
-                out[ch] = 0.0f;
-            *cov = 0.0f;
-            return ST_Q_OK;
-        }
-        return eval_kernel(c, pp, o, q, &k, out, cov);
+    if (!F)
+        return eval(c, pp, o, q, out, cov);
+    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+    float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
+    /* a width-4 kernel of 1/4 face or wider (the width clamped to a texel first, so any
+     * width on a face of fewer than 8 texels along an axis) is one the fused path declines
+     * (w4_axes' first test; NaN widths are offered, as before): not offered it */
+    if (pp->ftype != ST_FILTER_PTEX_BOX &&
+        (bu >= .25f || bv >= .25f || F->ulog2 < 3 || F->vlog2 < 3))
+        return kernel_declined(c, pp, o, q, out, cov);
+    pk k;
+    int r = c->fast(pp, c->t->px + c->t->base[q->face], F->ulog2, F->vlog2, q->u, q->v, bu, bv,
+                    out, &k);
+    if (r == 1) {
+        *cov = 1.0f;
+        return ST_Q_OK;
     }
-    return eval(c, pp, o, q, out, cov);
+    if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+        return eval_kernel(c, pp, o, q, &k, out, cov);
+    return kernel_declined(c, pp, o, q, out, cov);
 }
 
 #define PF_QFN(DT, NC)                                                                      \

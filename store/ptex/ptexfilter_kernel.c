@@ -457,8 +457,13 @@ void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, i
     float x1u = 0, su = 0, x1v = 0, sv = 0;
     int eu = pk_width4_axis(&k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2, &x1u, &su);
     int ev = pk_width4_axis(&k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2, &x1v, &sv);
-    if (eu && ev && p->avx2) {
-        pf_kernel_eval2_avx2(p, x1u, su, k->kub, k->uw, x1v, sv, k->kvb, k->vw);
+    if (p->avx2) {
+        if (eu && ev)
+            pf_kernel_eval2_avx2(p, x1u, su, k->kub, k->uw, x1v, sv, k->kvb, k->vw);
+        else if (eu) /* the other axis' width is 1/4 or more: its weights are written */
+            pf_kernel_eval1_avx2(p, x1u, su, k->kub, k->uw);
+        else if (ev)
+            pf_kernel_eval1_avx2(p, x1v, sv, k->kvb, k->vw);
         return;
     }
     if (eu)

@@ -19,6 +19,10 @@
 
 #include "sample.h"
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #define PK_MAX 24   /* weights per axis; Ptex needs at most 10, doubled once by upres */
 
 typedef struct pk {
@@ -171,12 +175,70 @@ static inline float pk_weight(const pk *k)
 {
     return pk_accumulate(k->kub + k->ku0, k->uw) * pk_accumulate(k->kvb + k->kv0, k->vw);
 }
-static inline void pk_strip_zeros(pk *k)
+/* The taps of w[0 .. n) (1 <= n <= 12) that are not zero, as a bit mask (NaN counts as not
+ * zero, -0 as zero, as pk_strip_zeros' == 0 tests). Reads w[0 .. 4) and, for longer axes,
+ * up to w[12), defined or not: the lanes at n and past are cleared before the compare. */
+__attribute__((always_inline)) static inline unsigned pk_nonzero_mask12(const float *w, int n)
+{
+#ifdef __SSE2__
+    const __m128i idx = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128 z = _mm_setzero_ps();
+    __m128i nn = _mm_set1_epi32(n);
+    __m128 x = _mm_and_ps(_mm_loadu_ps(w), _mm_castsi128_ps(_mm_cmpgt_epi32(nn, idx)));
+    unsigned m = (unsigned)_mm_movemask_ps(_mm_cmpneq_ps(x, z));
+    if (__builtin_expect(n > 4, 0)) {
+        for (int b = 1; b < 3; b++) {
+            nn = _mm_sub_epi32(nn, _mm_set1_epi32(4));
+            x = _mm_and_ps(_mm_loadu_ps(w + 4 * b), _mm_castsi128_ps(_mm_cmpgt_epi32(nn, idx)));
+            m |= (unsigned)_mm_movemask_ps(_mm_cmpneq_ps(x, z)) << (4 * b);
+        }
+    }
+    return m;
+#else
+    unsigned m = 0;
+    for (int i = 0; i < n; i++)
+        m |= (unsigned)(w[i] != 0) << i;
+    return m;
+#endif
+}
+
+/* pk_strip_zeros of one axis whose weights start at index 0 (1 <= n <= 12): the first and
+ * last tap that is not zero from a mask instead of the loops (the same window; an axis of
+ * zeros only ends empty past its last tap, as the loops leave it). */
+__attribute__((always_inline)) static inline void pk_strip_axis12(int *k0, int *x, int *n,
+                                                                  const float *w)
+{
+    unsigned m = pk_nonzero_mask12(w, *n);
+    if (__builtin_expect(!m, 0)) { /* the first loop strips every tap */
+        *k0 += *n;
+        *x += *n;
+        *n = 0;
+        return;
+    }
+    int a = __builtin_ctz(m), b = 31 - __builtin_clz(m);
+    *k0 += a;
+    *x += a;
+    *n = b - a + 1;
+}
+
+/* The zero weights at both ends of each axis removed (Ptex's stripZeros). */
+static inline void pk_strip_zeros_loops(pk *k)
 {
     while (k->uw > 0 && k->kub[k->ku0] == 0) { k->ku0++; k->u++; k->uw--; }
     while (k->uw > 0 && k->kub[k->ku0 + k->uw - 1] == 0) k->uw--;
     while (k->vw > 0 && k->kvb[k->kv0] == 0) { k->kv0++; k->v++; k->vw--; }
     while (k->vw > 0 && k->kvb[k->kv0 + k->vw - 1] == 0) k->vw--;
+}
+__attribute__((always_inline)) static inline void pk_strip_zeros(pk *k)
+{
+    if (__builtin_expect(k->ku0 == 0 && k->kv0 == 0 && k->uw >= 1 && k->uw <= 12 &&
+                             k->vw >= 1 && k->vw <= 12, 1)) {
+        /* a kernel as pk_build makes it (the common case) */
+        pk_strip_axis12(&k->ku0, &k->u, &k->uw, k->kub);
+        pk_strip_axis12(&k->kv0, &k->v, &k->vw, k->kvb);
+        return;
+    }
+    pk_strip_zeros_loops(k);
 }
 void  pk_merge_l(pk *k, int black);
 void  pk_merge_r(pk *k, int black);
@@ -226,6 +288,9 @@ int   pf_have_avx2(void);
  * pk_kernel_eval(p, x1v, sv, wv, nv) (nu, nv <= PK_MAX / 2; writes 8 or 16 weights each). */
 void  pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
                            float x1v, float sv, float *wv, int nv);
+/* One axis: bit for bit pk_kernel_eval(p, x1, s, w, n) (n <= PK_MAX / 2; writes 8 or 16
+ * weights). */
+void  pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n);
 pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
                     pf_v4 acc);
 /* The same window loop with the weights given directly (uw, vw >= 1), for texels of one type

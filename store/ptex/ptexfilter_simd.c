@@ -365,6 +365,16 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
         _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
 }
 
+__attribute__((target("avx2,fma,f16c")))
+void pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n)
+{
+    __m256 s8 = _mm256_set1_ps(s), x = _mm256_set1_ps(x1);
+    _mm256_storeu_ps(w, kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
+                                       _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7), s8))));
+    if (n > 8)
+        _mm256_storeu_ps(w + 8, kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
+                                               _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15), s8))));
+}
 
 /* ---- the fused path of a kernel inside one face (pf_fast_select) ------------------------ */
 
@@ -486,6 +496,28 @@ PF_TARGET int strip8(__m256 w, int n, float *out, int *k0, int *kw)
     return 1;
 }
 
+/* pk_accumulate(w, n) (1 <= n <= 8; reads w[0 .. 4), and w[4 .. 8) when n > 4) in lane 0:
+ * 0 + w[0] + w[1] + ... in order, in registers, the lanes past n cleared to +0 first (adding
+ * +0 changes no sum: a running sum that starts at +0 is never -0). */
+PF_TARGET __m128 sum_in_order(const float *w, int n)
+{
+    const __m128i idx = _mm_setr_epi32(0, 1, 2, 3);
+    __m128i nn = _mm_set1_epi32(n);
+    __m128 s = _mm_setzero_ps();
+    for (int b = 0; b < 2; b++) {
+        __m128 x = _mm_and_ps(_mm_loadu_ps(w + 4 * b),
+                              _mm_castsi128_ps(_mm_cmpgt_epi32(nn, idx)));
+        s = _mm_add_ss(s, x);
+        s = _mm_add_ss(s, _mm_shuffle_ps(x, x, 1));
+        s = _mm_add_ss(s, _mm_movehl_ps(x, x));
+        s = _mm_add_ss(s, _mm_shuffle_ps(x, x, 3));
+        if (n <= 4)
+            break;
+        nn = _mm_sub_epi32(nn, _mm_set1_epi32(4));
+    }
+    return s;
+}
+
 /* The kernel the fused path built, handed to the general path (weights at index 0). */
 PF_TARGET int hand_over(pk *k, int ru, int rv, int u0, int v0, const float *ku, int nu,
                         const float *kv, int nv)
@@ -552,12 +584,7 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
         if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
             return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv);
         /* pk_weight: each axis summed in order */
-        float s0 = 0, s1 = 0;
-        for (int i = 0; i < nu; i++)
-            s0 += ku[i];
-        for (int j = 0; j < nv; j++)
-            s1 += kv[j];
-        total = s0 * s1;
+        total = _mm_cvtss_f32(sum_in_order(ku, nu)) * _mm_cvtss_f32(sum_in_order(kv, nv));
     }
     if (!(total > 0.0f))
         return 0;
@@ -694,6 +721,11 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 {
     pk_kernel_eval(p, x1u, su, wu, nu);
     pk_kernel_eval(p, x1v, sv, wv, nv);
+}
+
+void pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n)
+{
+    pk_kernel_eval(p, x1, s, w, n);
 }
 
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)

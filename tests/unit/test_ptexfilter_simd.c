@@ -54,6 +54,9 @@ static void kernel_weights_are_the_portable_ones_bit_for_bit(void **state)
                 pf_kernel_eval2_avx2(&p, x1u, su, wu, nu, x1v, sv, wv, nv);
                 assert_memory_equal(wu, ru, sizeof(float) * (size_t)nu);
                 assert_memory_equal(wv, rv, sizeof(float) * (size_t)nv);
+                /* one axis (pk_build when the other axis' width is 1/4 face or more) */
+                pf_kernel_eval1_avx2(&p, x1v, sv, wu, nv);
+                assert_memory_equal(wu, rv, sizeof(float) * (size_t)nv);
                 cases++;
             }
         }
@@ -240,10 +243,46 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
     assert_true(handed > 100);         /* and so is the hand-over */
 }
 
+/* pk_strip_zeros' mask path (a kernel as pk_build makes it: weights at index 0, 1..12
+ * taps) leaves the window and weights its loops leave, for weights with zeros (+0 and -0) at
+ * either end or everywhere, NaN, Inf and denormals, and whatever lies past the taps. */
+static void strip_zeros_mask_is_the_loops(void **state)
+{
+    (void)state;
+    static const float vals[] = {0.0f, -0.0f, 0.0f, 1.0f, 0.25f, -0.5f, 1e-40f, INFINITY, NAN};
+    int cases = 0;
+    for (int r = 0; r < 20000; r++) {
+        pk a;
+        memset(&a, 0, sizeof a);
+        a.u = (int)(rndf() * 20.0f) - 10, a.v = (int)(rndf() * 20.0f) - 10;
+        a.ulog2 = 3, a.vlog2 = 4;
+        a.uw = 1 + r % 12, a.vw = 1 + (r / 12) % 12;
+        for (int i = 0; i < PK_MAX; i++) {
+            /* mostly zeros near the ends, garbage (NaN, Inf, ...) past the taps */
+            int su = r % 17 == 0 ? 3 : i < 2 || i >= a.uw - 2 ? 5 : 9;
+            int sv = r % 13 == 0 ? 3 : i < 2 || i >= a.vw - 2 ? 5 : 9;
+            a.kub[i] = i < a.uw ? vals[(int)(rndf() * (float)su)] : vals[(int)(rndf() * 9.0f)];
+            a.kvb[i] = i < a.vw ? vals[(int)(rndf() * (float)sv)] : vals[(int)(rndf() * 9.0f)];
+        }
+        pk b = a;
+        pk_strip_zeros(&a);
+        pk_strip_zeros_loops(&b);
+        assert_int_equal(a.u, b.u);
+        assert_int_equal(a.v, b.v);
+        assert_int_equal(a.uw, b.uw);
+        assert_int_equal(a.vw, b.vw);
+        assert_int_equal(a.ku0, b.ku0);
+        assert_int_equal(a.kv0, b.kv0);
+        cases++;
+    }
+    print_message("%d kernels stripped alike\n", cases);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(kernel_weights_are_the_portable_ones_bit_for_bit),
+        cmocka_unit_test(strip_zeros_mask_is_the_loops),
         cmocka_unit_test(window_sums_match_the_definition_for_every_type_and_channel_count),
         cmocka_unit_test(fused_inside_face_path_is_the_kernel_path_bit_for_bit),
     };
