@@ -38,8 +38,12 @@ struct sts_par {
  * pipelined requests its next batch starts after a send and a read (tens of microseconds), so
  * a helper woken into that gap would make three samplers on two cores (measured on 2 cores, 2
  * connections x 4096 queries: helpers woken for 55% of the batches, daemon CPU per query
- * +15% against no splitting). */
-#define RECENT_US 1000
+ * +15% against no splitting). On a loaded machine that gap is often a whole time slice of
+ * the client's (milliseconds), hence 10 ms, not 1: 2 connections x 4096 over Unix + shm at
+ * load 8, helpers woken for 4-40% of the batches with 1 ms, 0-0.5% with 10 ms (TCP 3-12% ->
+ * 0-3%), daemon CPU per query median of 8 alternated runs 45.2 -> 43.2 ns. A lone connection
+ * still gets helpers as soon as the others have been out of their batches for 10 ms. */
+#define RECENT_US 10000
 
 /* Threads sampling now or about to, as far as helpers are concerned: the larger of those
  * inside a batch (this one included) and this one + the other I/O threads inside a batch or

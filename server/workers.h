@@ -73,7 +73,7 @@ void sts_pool_submit(sts_pool *p, sts_task *t);
 void sts_pool_stop(sts_pool *p);
 /* Runs fn over [0, n) in parts of `grain` items: the calling thread takes parts itself and
  * idle workers (only those already idle, and only as many as there are CPUs not already
- * sampling a batch, nor kept by another I/O thread that ended a batch less than 1 ms ago
+ * sampling a batch, nor kept by another I/O thread that ended a batch less than 10 ms ago
  * and is likely to start the next: `slot` is the caller's I/O thread index, -1 on a worker)
  * take the others as they wake,
  * so the call never waits for a worker to start, only for parts a worker has already begun.

@@ -5,7 +5,8 @@
 Per batch size (NET_BATCHES, default 256,1024,4096,16384) and encoding (f32: 28-byte queries
 and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.md 4.4.1):
   - in-process st_sample_batch with 1 and 2 threads (seamtex-bench --inproc -T 1 / -T 2);
-  - seamtexd over TCP loopback and over a Unix socket, with 1 and 2 connections (-P 2 each),
+  - seamtexd over TCP loopback and over a Unix socket, with 1 and 2 connections (-P 2 each:
+    NET_PIPELINE, below),
     and over the Unix socket with shared memory ("unix+shm": seamtex-bench --shm, PROTOCOL.md
     4.12: the queries and replies in a sealed memfd, small frames on the socket), run in the
     same daemon right after the plain Unix run of each batch, encoding and connection count
@@ -15,6 +16,11 @@ and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.
   - ratios to the in-process figure at the same total thread count (1 connection vs 1 thread,
     2 connections vs 2 threads), and the daemon's CPU per query: utime + stime from
     /proc/<pid>/stat over the queries it served, against the in-process CPU per query;
+With NET_PIPELINE=2,8 (default 2) every wire run is made at each of those pipeline depths
+(seamtex-bench -P: requests in flight per connection), one after the other on the same daemon,
+and the table has a row per depth (column P); the in-process figures do not depend on it. A
+deeper pipeline is how a client hides the round trip of small batches (256 queries: ~15 us of
+sampling against a wakeup and a send each way); at 4096 and up -P 2 already keeps the daemon busy.
 and PING: closed-loop capacity (8 connections x pipeline 16) and open-loop p50/p99 at 20k
 req/s (8 connections).
 
@@ -54,6 +60,8 @@ VARIANTS = os.environ.get('NET_VARIANTS', 'tcp,unix').split(',')
 SHM = os.environ.get('NET_WIRE_SHM', '1') != '0'    # the unix+shm column (0: leave it out)
 # the unix+shmcp column (seamtex-bench --shm-copy: queries copied into the region per request)
 SHM_COPY = os.environ.get('NET_WIRE_SHM_COPY', '0') != '0'
+# NET_PIPELINE=2,8: the wire runs at each pipeline depth (-P), a table row per depth
+PIPELINES = [int(x) for x in os.environ.get('NET_PIPELINE', '2').split(',')]
 TCK = os.sysconf('SC_CLK_TCK')
 
 
@@ -109,18 +117,19 @@ def add(key, val):
     raw.setdefault(key, []).append(val)
 
 
-def sample_run(d, name, batch, enc, conns, extra=()):
+def sample_run(d, name, batch, enc, conns, pipe, extra=()):
     c0 = cpu_s(d.p.pid)
     j = bench(d.addr + ['-o', 'sample', '-b', str(batch), '-m', 'traverse', '-f', 'bilinear',
-                        '-c', str(conns), '-T', str(conns), '-P', '2', '-d', SECS, '-w', '0.5']
+                        '-c', str(conns), '-T', str(conns), '-P', str(pipe), '-d', SECS,
+                        '-w', '0.5']
               + ENCODINGS[enc] + list(extra), d.bench)
     c1 = cpu_s(d.p.pid)
     if not j:
         return
     served = j.get('completed', 0) * batch
-    add((batch, enc, name, conns, 'qps'), j.get('queries_per_s', 0))
+    add((batch, enc, name, conns, pipe, 'qps'), j.get('queries_per_s', 0))
     if served:
-        add((batch, enc, name, conns, 'ns_cpu'), (c1 - c0) * 1e9 / served)
+        add((batch, enc, name, conns, pipe, 'ns_cpu'), (c1 - c0) * 1e9 / served)
     if j.get('errors'):
         print(f'net_wire: {name} {enc} batch {batch}: {j["errors"]} error replies',
               file=sys.stderr)
@@ -169,13 +178,17 @@ def main():
                 for batch in BATCHES:
                     for enc in ENCODINGS:
                         for conns in (1, 2):
-                            sample_run(d, name, batch, enc, conns)
-                            if unix and SHM and name in ('unix', 'base-unix'):
-                                # A B in the same window: plain Unix, then with shared memory
-                                sample_run(d, name + '+shm', batch, enc, conns, ['--shm'])
-                            if unix and SHM and SHM_COPY and name == 'unix':
-                                # the queries copied into the region per request
-                                sample_run(d, 'unix+shmcp', batch, enc, conns, ['--shm-copy'])
+                            for pipe in PIPELINES:
+                                sample_run(d, name, batch, enc, conns, pipe)
+                                if unix and SHM and name in ('unix', 'base-unix'):
+                                    # A B in the same window: plain Unix, then with shared
+                                    # memory
+                                    sample_run(d, name + '+shm', batch, enc, conns, pipe,
+                                               ['--shm'])
+                                if unix and SHM and SHM_COPY and name == 'unix':
+                                    # the queries copied into the region per request
+                                    sample_run(d, 'unix+shmcp', batch, enc, conns, pipe,
+                                               ['--shm-copy'])
                 if not unix:
                     ping_runs(d, name)
             finally:
@@ -186,15 +199,17 @@ def main():
     med = {k: statistics.median(v) for k, v in raw.items()}
 
     rows = []
-    print(f'\nnet_wire: SAMPLE bilinear traverse on the default set, -P 2 per connection, '
+    print(f'\nnet_wire: SAMPLE bilinear traverse on the default set, -P '
+          f'{",".join(map(str, PIPELINES))} per connection, '
           f'{os.cpu_count()} cores, load {load0} -> {load1}, medians of {REPS}')
-    print(f"{'batch':>6} {'enc':<8} {'run':<10} {'conns':>5} {'Mq/s':>8} {'x inproc':>9} "
-          f"{'ns CPU/q':>9} {'x inproc':>9}")
+    print(f"{'batch':>6} {'enc':<8} {'run':<10} {'conns':>5} {'P':>3} {'Mq/s':>8} "
+          f"{'x inproc':>9} {'ns CPU/q':>9} {'x inproc':>9}")
     for batch in BATCHES:
         for t in (1, 2):
             q = med.get((batch, 'inproc', t, 'qps'), 0)
             ns = med.get((batch, 'inproc', t, 'ns_cpu'), 0)
-            print(f"{batch:>6} {'-':<8} {'inproc':<10} {t:>5} {q / 1e6:8.2f} {'':>9} {ns:9.1f}")
+            print(f"{batch:>6} {'-':<8} {'inproc':<10} {t:>5} {'-':>3} {q / 1e6:8.2f} {'':>9} "
+                  f"{ns:9.1f}")
             rows.append(dict(batch=batch, encoding='-', run='inproc', threads=t,
                              queries_per_s=q, ns_cpu_per_query=ns))
         for enc in ENCODINGS:
@@ -204,39 +219,40 @@ def main():
                     names.insert(names.index(u) + 1, u + '+shm')
             if SHM and SHM_COPY and 'unix' in names:
                 names.insert(names.index('unix+shm') + 1, 'unix+shmcp')
-            for name in names:
-                for conns in (1, 2):
-                    k = (batch, enc, name, conns)
-                    if (*k, 'qps') not in med:
+            for name, conns, pipe in [(n, c, p) for n in names for c in (1, 2)
+                                      for p in PIPELINES]:
+                k = (batch, enc, name, conns, pipe)
+                if (*k, 'qps') not in med:
+                    continue
+                q = med[(*k, 'qps')]
+                ns = med.get((*k, 'ns_cpu'), 0)
+                iq = med.get((batch, 'inproc', conns, 'qps'), 0)
+                ins = med.get((batch, 'inproc', 1, 'ns_cpu'), 0)
+                rq = q / iq if iq else 0
+                rc = ns / ins if ins else 0
+                print(f"{batch:>6} {enc:<8} {name:<10} {conns:>5} {pipe:>3} {q / 1e6:8.2f} "
+                      f"{rq:9.2f} {ns:9.1f} {rc:9.2f}")
+                row = dict(batch=batch, encoding=enc, run=name, conns=conns, pipeline=pipe,
+                           queries_per_s=q, ratio_vs_inproc_same_threads=rq,
+                           ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc)
+                # the A/Bs of the shared-memory path: against plain Unix of the same
+                # daemon (same window), and against the base daemon's shared memory
+                refs = [('unix', 'vs unix')] if name in ('unix+shm', 'unix+shmcp') else []
+                refs += ([('base-unix+shm', 'vs base')] if name in ('unix+shm', 'unix+shmcp')
+                         else [])
+                refs += [('base-unix', 'vs unix')] if name == 'base-unix+shm' else []
+                for ref, label in refs:
+                    uq = med.get((batch, enc, ref, conns, pipe, 'qps'), 0)
+                    uns = med.get((batch, enc, ref, conns, pipe, 'ns_cpu'), 0)
+                    if not (uq and uns):
                         continue
-                    q = med[(*k, 'qps')]
-                    ns = med.get((*k, 'ns_cpu'), 0)
-                    iq = med.get((batch, 'inproc', conns, 'qps'), 0)
-                    ins = med.get((batch, 'inproc', 1, 'ns_cpu'), 0)
-                    rq = q / iq if iq else 0
-                    rc = ns / ins if ins else 0
-                    print(f"{batch:>6} {enc:<8} {name:<10} {conns:>5} {q / 1e6:8.2f} {rq:9.2f} "
-                          f"{ns:9.1f} {rc:9.2f}")
-                    row = dict(batch=batch, encoding=enc, run=name, conns=conns,
-                               queries_per_s=q, ratio_vs_inproc_same_threads=rq,
-                               ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc)
-                    # the A/Bs of the shared-memory path: against plain Unix of the same
-                    # daemon (same window), and against the base daemon's shared memory
-                    refs = [('unix', 'vs unix')] if name in ('unix+shm', 'unix+shmcp') else []
-                    refs += ([('base-unix+shm', 'vs base')] if name in ('unix+shm', 'unix+shmcp')
-                             else [])
-                    refs += [('base-unix', 'vs unix')] if name == 'base-unix+shm' else []
-                    for ref, label in refs:
-                        uq = med.get((batch, enc, ref, conns, 'qps'), 0)
-                        uns = med.get((batch, enc, ref, conns, 'ns_cpu'), 0)
-                        if not (uq and uns):
-                            continue
-                        key = 'vs_base_shm' if ref == 'base-unix+shm' else 'vs_unix'
-                        row['ratio_' + key] = q / uq
-                        row['cpu_ratio_' + key] = ns / uns
-                        print(f"{'':>6} {'':<8} {'  ' + label:<10} {'':>5} {'':>8} {q / uq:9.2f} "
-                              f"{'':>9} {ns / uns:9.2f}")
-                    rows.append(row)
+                    key = 'vs_base_shm' if ref == 'base-unix+shm' else 'vs_unix'
+                    row['ratio_' + key] = q / uq
+                    row['cpu_ratio_' + key] = ns / uns
+                    print(f"{'':>6} {'':<8} {'  ' + label:<10} {'':>5} {'':>3} {'':>8} "
+                          f"{q / uq:9.2f} "
+                          f"{'':>9} {ns / uns:9.2f}")
+                rows.append(row)
     ping = {}
     for name, _, unix, _, _ in variants:
         if unix:
@@ -248,7 +264,7 @@ def main():
     doc = {'benchmark': 'net_wire', 'machine': {'cores': os.cpu_count(), 'loadavg_before': load0,
                                                 'loadavg_after': load1},
            'reps': REPS, 'seconds': float(SECS), 'mode': 'traverse', 'filter': 'bilinear',
-           'pipeline': 2, 'base_daemon': BASE or None, 'base_bench': BASE_BENCH or None,
+           'pipeline': PIPELINES, 'base_daemon': BASE or None, 'base_bench': BASE_BENCH or None,
            'alt_args': ALT_ARGS or None,
            'shm': SHM, 'shm_copy': SHM_COPY,
            'encodings': {'f32': '28-byte queries, f32 replies',

@@ -192,6 +192,9 @@ static void no_helper_while_another_io_thread_samples_or_just_did(void **st)
     /* slot 0 ended a batch "just now" (a time ahead of the clock: within the millisecond
      * however late this thread runs) */
     assert_false(woken_with_slot0(1, now + 10 * 1000000));
+    /* slot 0 ended one 2 ms ago: a loaded machine's gap between a connection's batches (the
+     * client waiting for a time slice) still keeps its CPU (RECENT_US, 10 ms) */
+    assert_false(woken_with_slot0(1, sts_now_us() - 2000));
     /* slot 0 ended one 10 s ago, or never: its CPU is free */
     assert_true(woken_with_slot0(1, now - 10 * 1000000));
     assert_true(woken_with_slot0(1, 0));
