@@ -1142,10 +1142,10 @@ static pf_query_fn query_fn(const pf *c, unsigned filter)
     return c->fast ? kernel_q : eval;
 }
 
-/* One query of a batch: the checks (one vector compare for the common case: |u|, |v| and the
- * four derivatives within the bound, NaN failing it), then qfn; returns its status. */
-static inline int one_query(pf *c, const pk_params *pp, const st_sample_opts *o,
-                            pf_query_fn qfn, const st_query *qi, float *oi, float *cov)
+/* The common case's checks of a query (one vector compare: |u|, |v| and the four derivatives
+ * within the bound, NaN failing it, and the face in range): 1 when it passes them all. */
+__attribute__((always_inline)) static inline int query_plain(const st_query *qi,
+                                                             uint32_t nfaces)
 {
     const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
     const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
@@ -1157,7 +1157,14 @@ static inline int one_query(pf *c, const pk_params *pp, const st_sample_opts *o,
 #else
     int all = ok[0] && ok[1] && ok[2] && ok[3];
 #endif
-    if (__builtin_expect(qi->face < c->s->info.nfaces && all, 1))
+    return qi->face < nfaces && all;
+}
+
+/* One query of a batch: query_plain's checks, then qfn; returns its status. */
+static inline int one_query(pf *c, const pk_params *pp, const st_sample_opts *o,
+                            pf_query_fn qfn, const st_query *qi, float *oi, float *cov)
+{
+    if (__builtin_expect(query_plain(qi, c->s->info.nfaces), 1))
         return qfn(c, pp, o, qi, oi, cov);
     int st;
     if (qi->face >= c->s->info.nfaces)
@@ -1198,21 +1205,11 @@ __attribute__((always_inline)) static inline int point_run(pf *c, const pk_param
                                                            uint8_t *status, unsigned DT,
                                                            unsigned NC)
 {
-    const v4f lima = {ST_MAX_COORD, ST_MAX_COORD, ST_MAX_DERIV, ST_MAX_DERIV};
-    const v4f limb = {ST_MAX_DERIV, ST_MAX_DERIV, 1.0f, 1.0f};
     uint32_t nfaces = c->s->info.nfaces;
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = q + i;
-        v4f a, b = {qi->dudy, qi->dvdy, 0.0f, 0.0f};
-        memcpy(&a, &qi->u, sizeof a);
-        v4i ok = (v4f_abs(a) <= lima) & (v4f_abs(b) <= limb);
-#ifdef __SSE2__
-        int all = _mm_movemask_ps((__m128)ok) == 15;
-#else
-        int all = ok[0] && ok[1] && ok[2] && ok[3];
-#endif
-        if (__builtin_expect(qi->face < nfaces && all, 1)) {
+        if (__builtin_expect(query_plain(qi, nfaces), 1)) {
             float cov;
             point_q(c, qi, out + i * NC, &cov, DT, NC);
             if (coverage)
