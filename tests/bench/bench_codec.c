@@ -69,20 +69,10 @@ static double time_ns(run_fn f, int fast, size_t items, int reps, double *t)
 
 int main(int argc, char **argv)
 {
-    const char *json = NULL;
-    int reps = 7;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json") && i + 1 < argc)
-            json = argv[++i];
-        else if (!strcmp(argv[i], "--reps") && i + 1 < argc)
-            reps = atoi(argv[++i]);
-        else {
-            fprintf(stderr, "usage: %s [--json PATH] [--reps N]\n", argv[0]);
-            return 2;
-        }
-    }
-    if (reps < 1 || reps > 101)
-        reps = 7;
+    const char *json;
+    int reps;
+    if (st_bench_args(argc, argv, &json, &reps, 7) != 0)
+        return 2;
     double *t = calloc((size_t)reps, sizeof *t);
     uint32_t x = 12345;
     for (int i = 0; i < NV; i++) {

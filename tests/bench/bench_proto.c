@@ -130,20 +130,10 @@ static int note_progress(void *user, uint64_t done, uint64_t total)
 
 int main(int argc, char **argv)
 {
-    const char *json = NULL;
-    int reps = 5;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json") && i + 1 < argc)
-            json = argv[++i];
-        else if (!strcmp(argv[i], "--reps") && i + 1 < argc)
-            reps = atoi(argv[++i]);
-        else {
-            fprintf(stderr, "usage: %s [--json PATH] [--reps N]\n", argv[0]);
-            return 2;
-        }
-    }
-    if (reps < 1 || reps > 101)
-        reps = 5;
+    const char *json;
+    int reps;
+    if (st_bench_args(argc, argv, &json, &reps, 5) != 0)
+        return 2;
     double *t = calloc((size_t)reps, sizeof *t);
 
     /* CRC32C over 32 MiB */

@@ -2,7 +2,9 @@
 #include "benchstat.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 double st_bench_clock(clockid_t c)
 {
@@ -33,4 +35,23 @@ double st_bench_pct(double *v, int n, double p)
     qsort(v, (size_t)n, sizeof *v, st_bench_cmp_double);
     int k = (int)ceil(p * n) - 1;
     return v[k < 0 ? 0 : k >= n ? n - 1 : k];
+}
+
+int st_bench_args(int argc, char **argv, const char **json, int *reps, int reps_default)
+{
+    *json = NULL;
+    *reps = reps_default;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json") && i + 1 < argc)
+            *json = argv[++i];
+        else if (!strcmp(argv[i], "--reps") && i + 1 < argc)
+            *reps = atoi(argv[++i]);
+        else {
+            fprintf(stderr, "usage: %s [--json PATH] [--reps N]\n", argv[0]);
+            return -1;
+        }
+    }
+    if (*reps < 1 || *reps > 101)
+        *reps = reps_default;
+    return 0;
 }

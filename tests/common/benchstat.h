@@ -1,7 +1,8 @@
 /* tests/common/benchstat.h - the clocks and order statistics of the benchmarks in tests/bench/.
  *
  * Owns: reading a clock in seconds, the comparison of doubles for qsort, the median and the
- * nearest-rank percentile of a sample. Does not own: what is timed, nor the JSON the
+ * nearest-rank percentile of a sample, and the "[--json PATH] [--reps N]" command line of the
+ * benchmarks that take only those. Does not own: what is timed, nor the JSON the
  * benchmarks write. The client's load tester (client/bench*.c) keeps its own nanosecond clock
  * and histograms: client/ does not link the test helpers.
  */
@@ -24,5 +25,9 @@ double st_bench_median(double *v, int n);
 
 /* The nearest-rank p-quantile (0 < p <= 1) of v[0..n-1] (n >= 1). Sorts v. */
 double st_bench_pct(double *v, int n, double p);
+
+/* Reads "[--json PATH] [--reps N]" from argv: *json (NULL when not given) and *reps
+ * (reps_default when not given or outside 1..101). Anything else: the usage on stderr and -1. */
+int st_bench_args(int argc, char **argv, const char **json, int *reps, int reps_default);
 
 #endif

@@ -28,6 +28,7 @@
 #include "sample.h"
 #include "set.h"
 #include "../common/testdata.h"
+#include "../common/testhash.h"
 
 enum { NQ = 2500 };
 
@@ -59,20 +60,6 @@ static const uint64_t want[NFILES][NFILT][3] = {
 };
 
 static uint32_t rng;
-static float rndf(void) /* [0, 1) */
-{
-    rng = rng * 1664525u + 1013904223u;
-    return (float)(rng >> 8) / 16777216.0f;
-}
-
-static uint64_t fnv(uint64_t h, const void *p, size_t n)
-{
-    const uint8_t *b = p;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ b[i]) * 0x100000001b3ull;
-    return h;
-}
-
 /* The queries of one file: faces uniform; uv inside (40%), within two texels of an edge or a
  * corner (40%) or up to 5% outside the face (20%); footprints 2^[-2, 5] texels of the face,
  * anisotropic, a third of them rotated. */
@@ -80,23 +67,23 @@ static void make_queries(const st_set *s, st_query *q, uint32_t seed)
 {
     rng = seed;
     for (int i = 0; i < NQ; i++) {
-        uint32_t f = (uint32_t)(rndf() * (float)s->info.nfaces) % s->info.nfaces;
+        uint32_t f = (uint32_t)(st_test_rndf(&rng) * (float)s->info.nfaces) % s->info.nfaces;
         const st_face *F = &s->faces[f];
         float w = (float)F->w, h = (float)F->h;
-        float u = rndf(), v = rndf(), r = rndf();
+        float u = st_test_rndf(&rng), v = st_test_rndf(&rng), r = st_test_rndf(&rng);
         if (r < 0.4f) {
-            float du = 2.0f * rndf() / w, dv = 2.0f * rndf() / h;
-            int side = (int)(rndf() * 4.0f);
+            float du = 2.0f * st_test_rndf(&rng) / w, dv = 2.0f * st_test_rndf(&rng) / h;
+            int side = (int)(st_test_rndf(&rng) * 4.0f);
             if (side & 1)
                 u = side & 2 ? 1.0f - du : du;
-            if (side != 1 || rndf() < 0.5f)
+            if (side != 1 || st_test_rndf(&rng) < 0.5f)
                 v = side & 2 ? 1.0f - dv : dv;
         } else if (r < 0.6f) {
             u = -0.05f + 1.1f * u;
             v = -0.05f + 1.1f * v;
         }
-        float fpu = exp2f(-2.0f + 7.0f * rndf()), fpv = fpu * exp2f(-1.0f + 2.0f * rndf());
-        float rot = rndf() < 0.33f ? rndf() * 6.2831853f : 0.0f;
+        float fpu = exp2f(-2.0f + 7.0f * st_test_rndf(&rng)), fpv = fpu * exp2f(-1.0f + 2.0f * st_test_rndf(&rng));
+        float rot = st_test_rndf(&rng) < 0.33f ? st_test_rndf(&rng) * 6.2831853f : 0.0f;
         float c = cosf(rot), sn = sinf(rot);
         q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = c * fpu / w, .dvdx = sn * fpv / h,
                           .dudy = -sn * fpu / w, .dvdy = c * fpv / h};
@@ -134,9 +121,9 @@ static void general_path_gives_the_old_builds_outputs_bit_for_bit(void **state)
                 int r = st_ptexfilter_batch(s, &o, q, NQ, out, cov, stat);
                 assert_true(r >= 0);
                 uint64_t h = 0xcbf29ce484222325ull;
-                h = fnv(h, out, sizeof(float) * s->info.nchan * NQ);
-                h = fnv(h, cov, sizeof(float) * NQ);
-                h = fnv(h, stat, NQ);
+                h = st_test_fnv(h, out, sizeof(float) * s->info.nchan * NQ);
+                h = st_test_fnv(h, cov, sizeof(float) * NQ);
+                h = st_test_fnv(h, stat, NQ);
                 checked++;
                 if (h != want[fi][ft][mode]) {
                     bad++;

@@ -29,6 +29,7 @@
 #include "sample.h"
 #include "set.h"
 #include "../common/testdata.h"
+#include "../common/testhash.h"
 
 enum { NQ = 3000 };
 
@@ -51,20 +52,6 @@ static const uint64_t want[NSETS][NGROUP][3] = {
 };
 
 static uint32_t rng;
-static float rndf(void) /* [0, 1) */
-{
-    rng = rng * 1664525u + 1013904223u;
-    return (float)(rng >> 8) / 16777216.0f;
-}
-
-static uint64_t fnv(uint64_t h, const void *p, size_t n)
-{
-    const uint8_t *b = p;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ b[i]) * 0x100000001b3ull;
-    return h;
-}
-
 /* s's faces and adjacency with dtype dt and nc channels, level 0 from s's channel c % 3
  * (every third face constant when asked), its levels made as the reader makes them. */
 static st_set *remake(const st_set *s, unsigned dt, unsigned nc, int constant)
@@ -122,16 +109,16 @@ static void make_queries(const st_set *s, st_query *q, uint32_t seed)
 {
     rng = seed;
     for (int i = 0; i < NQ; i++) {
-        uint32_t f = (uint32_t)(rndf() * (float)s->info.nfaces) % s->info.nfaces;
+        uint32_t f = (uint32_t)(st_test_rndf(&rng) * (float)s->info.nfaces) % s->info.nfaces;
         float R = (float)s->faces[f].w;
-        float u = rndf(), v = rndf(), r = rndf();
+        float u = st_test_rndf(&rng), v = st_test_rndf(&rng), r = st_test_rndf(&rng);
         if (u + v > 1.0f) {
             u = 1.0f - u;
             v = 1.0f - v;
         }
         if (r < 0.35f) {
-            float d = 2.0f * rndf() / R;
-            int side = (int)(rndf() * 6.0f);
+            float d = 2.0f * st_test_rndf(&rng) / R;
+            int side = (int)(st_test_rndf(&rng) * 6.0f);
             if (side == 0 || side == 3)
                 v = d;
             if (side == 1 || side == 3)
@@ -147,13 +134,13 @@ static void make_queries(const st_set *s, st_query *q, uint32_t seed)
             u = -0.1f + 1.2f * u;
             v = -0.1f + 1.2f * v;
         }
-        float fpu = exp2f(-2.0f + 7.0f * rndf()), fpv = fpu * exp2f(-1.0f + 2.0f * rndf());
-        float rot = rndf() < 0.33f ? rndf() * 6.2831853f : 0.0f;
+        float fpu = exp2f(-2.0f + 7.0f * st_test_rndf(&rng)), fpv = fpu * exp2f(-1.0f + 2.0f * st_test_rndf(&rng));
+        float rot = st_test_rndf(&rng) < 0.33f ? st_test_rndf(&rng) * 6.2831853f : 0.0f;
         float c = cosf(rot), sn = sinf(rot);
         q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = c * fpu / R, .dvdx = sn * fpv / R,
                           .dudy = -sn * fpu / R, .dvdy = c * fpv / R};
         if (r > 0.95f) {
-            int k = (int)(rndf() * 3.0f);
+            int k = (int)(st_test_rndf(&rng) * 3.0f);
             if (k == 0)
                 q[i].face = s->info.nfaces + 3;
             else if (k == 1)
@@ -212,9 +199,9 @@ static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **stat
                 int r = st_ptexfilter_batch(ss, &o, q, NQ, out, cov, stat);
                 assert_true(r >= 0);
                 uint64_t h = 0xcbf29ce484222325ull;
-                h = fnv(h, out, sizeof(float) * ss->info.nchan * NQ);
-                h = fnv(h, cov, sizeof(float) * NQ);
-                h = fnv(h, stat, NQ);
+                h = st_test_fnv(h, out, sizeof(float) * ss->info.nchan * NQ);
+                h = st_test_fnv(h, cov, sizeof(float) * NQ);
+                h = st_test_fnv(h, stat, NQ);
                 checked++;
                 if (h != want[si][g][mode]) {
                     bad++;
