@@ -87,7 +87,6 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
     if (!(uw >= lo))
         uw = lo;
     *kres = pk_res_from_width(uw);
-    int resu = 1 << (*kres < 0 ? 0 : *kres > 30 ? 30 : *kres);
     if (uw >= .25f) {
         if (uw < .5f) {
             *kres = 2;
@@ -134,6 +133,7 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
             return 0;
         }
     }
+    int resu = 1 << (*kres < 0 ? 0 : *kres > 30 ? 30 : *kres); /* widths under 1/4 only */
     float upix = u * (float)resu - 0.5f;
     float uwpix = uw * (float)resu;
     float dupix = 2.0f * uwpix;
