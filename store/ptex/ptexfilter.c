@@ -14,7 +14,9 @@
  * query function is chosen: point and bilinear inside a face specialised per texel type and
  * channel count, box and width-4 kernels inside a face through the fused path of
  * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
- * eval, the general path. Both ways do the same arithmetic in the same order.
+ * eval, the general path. Both ways do the same arithmetic in the same order. The point
+ * filter and the box and width-4 filters also have their own batch loops (point_run,
+ * kernel_run: the query checks and the query function inline, no call per query).
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
