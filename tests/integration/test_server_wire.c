@@ -106,6 +106,16 @@ static void free_result(result_copy *o)
     free(o->status);
 }
 
+/* got has n results equal, bit for bit, to want's (values, coverage, status, nbad) */
+static void assert_same_result(const result_copy *got, const result_copy *want, size_t n)
+{
+    assert_int_equal(got->count, n);
+    assert_int_equal(got->nbad, want->nbad);
+    assert_memory_equal(got->values, want->values, (size_t)n * want->nchan * sizeof(float));
+    assert_memory_equal(got->coverage, want->coverage, (size_t)n * sizeof(float));
+    assert_memory_equal(got->status, want->status, n);
+}
+
 static void compact_queries_sample_like_f32_of_the_rounded_query(void **state)
 {
     (void)state;
@@ -146,11 +156,7 @@ static void compact_queries_sample_like_f32_of_the_rounded_query(void **state)
                     o.want |= lay;
                     assert_int_equal(stc_sample(c, "default", &o, q, n, &r), 0);
                     copy_result(&r, &got);
-                    assert_int_equal(got.count, n);
-                    assert_int_equal(got.nbad, ref.nbad);
-                    assert_memory_equal(got.values, ref.values, n * ref.nchan * sizeof(float));
-                    assert_memory_equal(got.coverage, ref.coverage, n * sizeof(float));
-                    assert_memory_equal(got.status, ref.status, n);
+                    assert_same_result(&got, &ref, n);
                     free_result(&got);
                     /* f16 replies: the f32 values rounded to binary16 (NaN stays NaN) */
                     o.outfmt = STC_OUT_F16;
@@ -247,11 +253,7 @@ static void pin_io_pins_each_io_thread_and_samples_the_same(void **state)
         copy_result(&r, &want);
         assert_int_equal(stc_sample(c, "default", &o, q, n, &r), 0);
         copy_result(&r, &got);
-        assert_int_equal(got.count, n);
-        assert_int_equal(got.nbad, want.nbad);
-        assert_memory_equal(got.values, want.values, n * want.nchan * sizeof(float));
-        assert_memory_equal(got.coverage, want.coverage, n * sizeof(float));
-        assert_memory_equal(got.status, want.status, n);
+        assert_same_result(&got, &want, n);
         free_result(&want);
         free_result(&got);
         free(q);
