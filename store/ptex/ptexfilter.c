@@ -95,6 +95,7 @@ typedef struct pf {
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
     pf_window_fn win;        /* the window loop for the batch's type and channels, or NULL */
     pf_window_fn small;      /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
+    pf_edge2_fn edge2;       /* a 2 x 2 kernel's Traverse walk, plain faces (AVX2), or NULL */
     pf_bilinear_half_fn bhalf; /* the in-face bilinear of half texels (F16C), or NULL */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
@@ -819,117 +820,6 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
     split_walk(c, NULL, k, f, 0, 1);
 }
 
-/* ---- Traverse: the 2 x 2 kernel's split when every face it reaches is plain -------------
- * split_apply_small's walk for the common case, on values instead of pk2s behind pointers
- * and without its general checks: in Traverse, on a face with a neighbour across every edge
- * the kernel overhangs, each such neighbour (and the diagonal face of a regular corner)
- * neither a subface nor constant, and every piece inside its face after the reduction. The
- * pieces are split, rotated, reduced and summed by c->small exactly as the walk does (corner,
- * the piece past the u edge, the piece past the v edge, the rest; p2_split_*, p2_rotate,
- * p2_downres on the same weights), so the sum is the walk's bit for bit. Anything else
- * declines (returns 0, c->acc to be reset by the caller) and the walk runs from the start. */
-
-/* apply_small on face af for a piece of a plain neighbourhood: 0 (decline) when af is
- * constant or a subface or the piece does not lie inside it (apply_small's guard). */
-__attribute__((always_inline)) static inline int tv_apply(pf *c, pk2 k, int af)
-{
-    const st_face *A = &c->s->faces[af];
-    if (A->flags & (ST_FACE_CONSTANT | ST_FACE_SUBFACE))
-        return 0;
-    while (k.ulog2 > A->ulog2) {
-        p2_downres(&k.u, &k.uw, k.ku);
-        k.ulog2--;
-    }
-    while (k.vlog2 > A->vlog2) {
-        p2_downres(&k.v, &k.vw, k.kv);
-        k.vlog2--;
-    }
-    int resu = 1 << k.ulog2;
-    if (k.u < 0 || k.v < 0 || k.u + k.uw > resu || k.v + k.vw > (1 << k.vlog2))
-        return 0;
-    const uint8_t *d = c->t->px[c->t->base[af] + (size_t)k.ulog2 * (A->vlog2 + 1u) +
-                                (size_t)k.vlog2];
-    size_t rowb = (size_t)resu * c->ts;
-    c->acc = c->small(d + ((size_t)k.v * (size_t)resu + (size_t)k.u) * c->ts, rowb, k.ku, k.uw,
-                      k.kv, k.vw, c->acc);
-    return 1;
-}
-
-/* across_small for a plain neighbour across edge eid of face F. */
-__attribute__((always_inline)) static inline int tv_across(pf *c, pk2 k, const st_face *F,
-                                                           int eid)
-{
-    p2_rotate(&k, eid - F->adjedge[eid] + 2);
-    return tv_apply(c, k, F->adjface[eid]);
-}
-
-/* corner_small at a regular vertex (valence 4, no subface around it). */
-__attribute__((always_inline)) static inline int tv_corner(pf *c, pk2 k, int f, int eid)
-{
-    int af = f, ae = eid, cf = -1, ce = 0;
-    for (int i = 0; i < 4; i++) {
-        const st_face *A = &c->s->faces[af];
-        af = A->adjface[ae];
-        ae = (A->adjedge[ae] + 1) % 4;
-        if (af < 0 || is_subface(c, af) || (af == f && ae == eid) != (i == 3))
-            return 0;
-        if (i == 1) {
-            cf = af;
-            ce = ae;
-        }
-    }
-    p2_rotate(&k, eid - ce + 2);
-    return tv_apply(c, k, cf);
-}
-
-/* The walk of the kernel k (bilinear_edge's, weights set) on plain face f in Traverse:
- * 1 with every piece's sum in c->acc (c->weight is the kernel's total: a regular corner
- * keeps it), 0 when it declines. */
-static int bilinear_edge_traverse(pf *c, pk2 k, int f)
-{
-    const st_face *F = &c->s->faces[f];
-    int sr = k.u + k.uw > 1 << k.ulog2, sl = k.u < 0;
-    int st = k.v + k.vw > 1 << k.vlog2, sb = k.v < 0;
-    int eu = sr ? 1 : sl ? 3 : -1, ev = st ? 2 : sb ? 0 : -1;
-    if ((eu >= 0 && F->adjface[eu] < 0) || (ev >= 0 && F->adjface[ev] < 0))
-        return 0; /* a boundary: folds */
-    c->acc = (v4f){0, 0, 0, 0};
-    if (eu >= 0) {
-        pk2 ka;
-        if (sr)
-            p2_split_r(&k, &ka);
-        else
-            p2_split_l(&k, &ka);
-        if (ev >= 0) {
-            pk2 kc;
-            if (st)
-                p2_split_t(&ka, &kc);
-            else
-                p2_split_b(&ka, &kc);
-            if (!tv_corner(c, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0)))
-                return 0;
-        }
-        if (!tv_across(c, ka, F, eu))
-            return 0;
-    }
-    if (ev >= 0) {
-        pk2 ka;
-        if (st)
-            p2_split_t(&k, &ka);
-        else
-            p2_split_b(&k, &ka);
-        if (!tv_across(c, ka, F, ev))
-            return 0;
-    }
-    /* the rest lies inside f (plain), at a resolution f has */
-    const uint8_t *d = c->t->px[c->t->base[f] + (size_t)k.ulog2 * (F->vlog2 + 1u) +
-                                (size_t)k.vlog2];
-    size_t rowb = (size_t)c->ts << k.ulog2;
-    c->acc = c->small(d + (size_t)k.v * rowb + (size_t)k.u * c->ts, rowb, k.ku, k.uw, k.kv,
-                      k.vw, c->acc);
-    return 1;
-}
-
 /* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode: the
  * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
  * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
@@ -944,7 +834,9 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     k.kv[0] = 1.0f - b.fv, k.kv[1] = b.fv;
     float total = p2_weight(&k);
     c->weight = total;
-    if (c->mode != ST_MODE_TRAVERSE || !bilinear_edge_traverse(c, k, (int)f)) {
+    if (!c->edge2 || c->mode != ST_MODE_TRAVERSE ||
+        !c->edge2(&c->walk, (int)f, k.ulog2, k.vlog2, k.u, k.v,
+                  (pf_v4){k.ku[0], k.ku[1], k.kv[0], k.kv[1]}, k.uw, k.vw, &c->acc)) {
         c->acc = (v4f){0, 0, 0, 0};
         split_apply_small(c, &k, (int)f);
     }
@@ -1395,8 +1287,9 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
     c.ts = st_dtype_size(c.dt) * c.nc;
+    c.edge2 = general ? NULL : pf_edge2_select(c.dt, c.nc);
     if (!c.win)
-        c.small = NULL; /* the shortcut walks need both window loops */
+        c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small};
