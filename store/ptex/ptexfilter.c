@@ -854,6 +854,33 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     return 1;
 }
 
+/* bilinear_edge for lane j of a block the lanes handed over (their kernel set-up in lk): in
+ * Traverse the 2 x 2 kernel's walk over plain faces (c->edge2) straight from the set-up,
+ * with bilinear_edge's weights, total and division (the same operations); else, or when it
+ * declines, bilinear_edge. */
+static int bilinear_edge_lane(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
+                              float *out, float *cov)
+{
+    float fu = lk->fu[j], fv = lk->fv[j];
+    if (c->edge2 && c->mode == ST_MODE_TRAVERSE) {
+        int nu = fu != 0.0f ? 2 : 1, nv = fv != 0.0f ? 2 : 1;
+        float ku[2] = {1.0f - fu, fu}, kv[2] = {1.0f - fv, fv};
+        v4f acc;
+        if (c->edge2(&c->walk, (int)f, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j],
+                     (pf_v4){ku[0], ku[1], kv[0], kv[1]}, nu, nv, &acc)) {
+            /* p2_weight: the total, which a walk over regular corners keeps */
+            float scale = 1.0f / (pk_accumulate(ku, nu) * pk_accumulate(kv, nv) *
+                                  one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = acc[ch] * scale;
+            *cov = 1.0f;
+            return 1;
+        }
+    }
+    return bilinear_edge(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], fu, fv}, f,
+                         out, cov);
+}
+
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                        pk *k, float *out, float *cov);
 
@@ -1347,10 +1374,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         for (unsigned j = 0; i < end; i++, j++) {
             if (!(done >> j & 1)) {
                 float cov;
-                if (edge >> j & 1 &&
-                    bilinear_edge(&c, (pf_bil){lk.ru[j], lk.rv[j], lk.ui[j], lk.vi[j], lk.fu[j],
-                                               lk.fv[j]},
-                                  q[i].face, out + i * nc, &cov)) {
+                if (edge >> j & 1 && bilinear_edge_lane(&c, &lk, j, q[i].face, out + i * nc, &cov)) {
                     if (coverage)
                         coverage[i] = cov;
                     if (status)
