@@ -1362,11 +1362,20 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
             for (; i < end; i++)
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
         if (done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the whole block */
-            for (unsigned j = 0; j < 8 && j < nl; j++) {
+            /* coverage 1 and status ST_Q_OK for nl (4 or 8) queries: fixed-size copies */
+            static const float ones[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+            static const uint8_t oks[8] = {ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK,
+                                           ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK};
+            if (nl == 8) {
                 if (coverage)
-                    coverage[i + j] = 1.0f;
+                    memcpy(coverage + i, ones, 8 * sizeof ones[0]);
                 if (status)
-                    status[i + j] = ST_Q_OK;
+                    memcpy(status + i, oks, 8);
+            } else {
+                if (coverage)
+                    memcpy(coverage + i, ones, 4 * sizeof ones[0]);
+                if (status)
+                    memcpy(status + i, oks, 4);
             }
             i = end;
             continue;
