@@ -1361,7 +1361,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         if (!(done | edge)) /* no lane served one (or no lanes): the plain loop */
             for (; i < end; i++)
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
-        if (done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the whole block */
+        if (nl && done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the block */
             /* coverage 1 and status ST_Q_OK for nl (4 or 8) queries: fixed-size copies */
             static const float ones[8] = {1, 1, 1, 1, 1, 1, 1, 1};
             static const uint8_t oks[8] = {ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK,
