@@ -858,8 +858,10 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
  * Traverse the 2 x 2 kernel's walk over plain faces (c->edge2) straight from the set-up,
  * with bilinear_edge's weights, total and division (the same operations); else, or when it
  * declines, bilinear_edge. */
-static int bilinear_edge_lane(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
-                              float *out, float *cov)
+__attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
+                                                                    const pf_lanes_kern *lk,
+                                                                    unsigned j, uint32_t f,
+                                                                    float *out, float *cov)
 {
     float fu = lk->fu[j], fv = lk->fv[j];
     if (c->edge2 && c->mode == ST_MODE_TRAVERSE) {
@@ -1361,8 +1363,9 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         if (!(done | edge)) /* no lane served one (or no lanes): the plain loop */
             for (; i < end; i++)
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
-        if (nl && done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the block */
-            /* coverage 1 and status ST_Q_OK for nl (4 or 8) queries: fixed-size copies */
+        if (nl && end == i + nl) {
+            /* a block of lanes that took 2 or more: coverage 1 and status ST_Q_OK for the
+             * whole block (fixed-size copies), then the lanes not served one by one */
             static const float ones[8] = {1, 1, 1, 1, 1, 1, 1, 1};
             static const uint8_t oks[8] = {ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK,
                                            ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK};
@@ -1376,6 +1379,18 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                     memcpy(coverage + i, ones, 4 * sizeof ones[0]);
                 if (status)
                     memcpy(status + i, oks, 4);
+            }
+            for (unsigned rest = ~done & ((1u << nl) - 1); rest; rest &= rest - 1) {
+                unsigned j = (unsigned)__builtin_ctz(rest);
+                size_t k = i + j;
+                float cov;
+                if (edge >> j & 1 &&
+                    bilinear_edge_lane(&c, &lk, j, q[k].face, out + k * nc, &cov)) {
+                    if (coverage)
+                        coverage[k] = cov; /* status ST_Q_OK already */
+                    continue;
+                }
+                bad += serve(&c, &pp, o, qfn, q, k, out, coverage, status);
             }
             i = end;
             continue;
