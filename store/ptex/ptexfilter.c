@@ -820,11 +820,11 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
     split_walk(c, NULL, k, f, 0, 1);
 }
 
-/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode: the
- * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
- * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
- * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
-static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode, by the
+ * walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre:
+ * the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0
+ * (nothing written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
+static int bilinear_walk(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
 {
     pk2 k;
     k.ulog2 = b.ru, k.vlog2 = b.rv, k.u = b.ui, k.v = b.vi;
@@ -832,14 +832,10 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     k.vw = b.fv != 0.0f ? 2 : 1;
     k.ku[0] = 1.0f - b.fu, k.ku[1] = b.fu;
     k.kv[0] = 1.0f - b.fv, k.kv[1] = b.fv;
+    c->acc = (v4f){0, 0, 0, 0};
     float total = p2_weight(&k);
     c->weight = total;
-    if (!c->edge2 || c->mode != ST_MODE_TRAVERSE ||
-        !c->edge2(&c->walk, (int)f, k.ulog2, k.vlog2, k.u, k.v,
-                  (pf_v4){k.ku[0], k.ku[1], k.kv[0], k.kv[1]}, k.uw, k.vw, &c->acc)) {
-        c->acc = (v4f){0, 0, 0, 0};
-        split_apply_small(c, &k, (int)f);
-    }
+    split_apply_small(c, &k, (int)f);
     *cov = 1.0f;
     if (c->mode == ST_MODE_DISCARD) {
         *cov = total != 0.0f ? c->weight / total : 0.0f;
@@ -854,33 +850,42 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     return 1;
 }
 
-/* bilinear_edge for lane j of a block the lanes handed over (their kernel set-up in lk): in
- * Traverse the 2 x 2 kernel's walk over plain faces (c->edge2) straight from the set-up,
- * with bilinear_edge's weights, total and division (the same operations); else, or when it
- * declines, bilinear_edge. */
+/* The 2 x 2 kernel of b on face f in Traverse over plain faces (c->edge2, ptexfilter_simd.c:
+ * bilinear_walk's weights, walk, total and division, inline): 1 with out written and *cov 1,
+ * 0 when there is none or it declines (nothing written). */
+__attribute__((always_inline)) static inline int bilinear_edge2(pf *c, int ru, int rv, int ui,
+                                                                int vi, float fu, float fv,
+                                                                uint32_t f, float *out,
+                                                                float *cov)
+{
+    if (!c->edge2 || c->mode != ST_MODE_TRAVERSE ||
+        !c->edge2(&c->walk, (int)f, ru, rv, ui, vi, fu, fv, out))
+        return 0;
+    *cov = 1.0f;
+    return 1;
+}
+
+/* The bilinear kernel b that overhangs face f (plain_face) or sits on a texel centre, in
+ * every mode: bilinear_edge2, else bilinear_walk (its return value). */
+static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+{
+    if (bilinear_edge2(c, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
+        return 1;
+    return bilinear_walk(c, b, f, out, cov);
+}
+
+/* bilinear_edge for lane j of a block the lanes handed over, from their kernel set-up lk. */
 __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
                                                                     const pf_lanes_kern *lk,
                                                                     unsigned j, uint32_t f,
                                                                     float *out, float *cov)
 {
-    float fu = lk->fu[j], fv = lk->fv[j];
-    if (c->edge2 && c->mode == ST_MODE_TRAVERSE) {
-        int nu = fu != 0.0f ? 2 : 1, nv = fv != 0.0f ? 2 : 1;
-        float ku[2] = {1.0f - fu, fu}, kv[2] = {1.0f - fv, fv};
-        v4f acc;
-        if (c->edge2(&c->walk, (int)f, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j],
-                     (pf_v4){ku[0], ku[1], kv[0], kv[1]}, nu, nv, &acc)) {
-            /* p2_weight: the total, which a walk over regular corners keeps */
-            float scale = 1.0f / (pk_accumulate(ku, nu) * pk_accumulate(kv, nv) *
-                                  one_value(c->dt));
-            for (unsigned ch = 0; ch < c->nc; ch++)
-                out[ch] = acc[ch] * scale;
-            *cov = 1.0f;
-            return 1;
-        }
-    }
-    return bilinear_edge(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], fu, fv}, f,
-                         out, cov);
+    if (bilinear_edge2(c, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j], f,
+                       out, cov))
+        return 1;
+    return bilinear_walk(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
+                                     lk->fv[j]},
+                         f, out, cov);
 }
 
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,

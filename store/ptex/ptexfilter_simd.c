@@ -774,11 +774,14 @@ PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, un
     return tv_apply(w, tv_rotate(k, eid - ce + 2), cf, acc, DT, NC);
 }
 
-PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, pf_v4 wt,
-                         int nu, int nv, pf_v4 *accp, unsigned DT, unsigned NC)
+PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, float fu,
+                         float fv, float *out, unsigned DT, unsigned NC)
 {
+    /* bilinear_walk's kernel: the taps of a zero fraction left out */
+    int nu = fu != 0.0f ? 2 : 1, nv = fv != 0.0f ? 2 : 1;
+    float ku[2] = {1.0f - fu, fu}, kv[2] = {1.0f - fv, fv};
     const st_face *F = &w->faces[f];
-    tv2 k = {ulog2, vlog2, u, v, nu, nv, (__m128)wt};
+    tv2 k = {ulog2, vlog2, u, v, nu, nv, _mm_setr_ps(ku[0], ku[1], kv[0], kv[1])};
     int resu = 1 << k.lu, resv = 1 << k.lv;
     int sr = k.u + k.nu > resu, sl = k.u < 0, st = k.v + k.nv > resv, sb = k.v < 0;
     int eu = sr ? 1 : sl ? 3 : -1, ev = st ? 2 : sb ? 0 : -1;
@@ -833,17 +836,22 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
     size_t rowb = w->ts << k.lu;
     float wr[4];
     _mm_storeu_ps(wr, k.w);
-    *accp = small_body(d + (size_t)k.v * rowb + (size_t)k.u * w->ts, rowb, wr, k.nu, wr + 2,
-                       k.nv, (pf_v4)acc, DT, NC);
+    pf_v4 sum = small_body(d + (size_t)k.v * rowb + (size_t)k.u * w->ts, rowb, wr, k.nu, wr + 2,
+                           k.nv, (pf_v4)acc, DT, NC);
+    /* bilinear_walk's division: by the total weight (p2_weight) times the type's one value */
+    float one = DT == ST_DT_U8 ? 255.0f : DT == ST_DT_U16 ? 65535.0f : 1.0f;
+    float scale = 1.0f / (pk_accumulate(ku, nu) * pk_accumulate(kv, nv) * one);
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = sum[ch] * scale;
     return 1;
 }
 
 #define PF_EDGE2FN(DT, NC)                                                                  \
     __attribute__((target("avx2,fma,f16c"))) static int pf_edge2_##DT##_##NC(               \
-        const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, pf_v4 wt, int nu,      \
-        int nv, pf_v4 *acc)                                                                 \
+        const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, float fu, float fv,    \
+        float *out)                                                                         \
     {                                                                                       \
-        return edge2_body(w, f, ulog2, vlog2, u, v, wt, nu, nv, acc, DT, NC);               \
+        return edge2_body(w, f, ulog2, vlog2, u, v, fu, fv, out, DT, NC);                   \
     }
 #define PF_EDGE2FN_NC(DT) PF_EDGE2FN(DT, 1) PF_EDGE2FN(DT, 2) PF_EDGE2FN(DT, 3) PF_EDGE2FN(DT, 4)
 PF_EDGE2FN_NC(0)
