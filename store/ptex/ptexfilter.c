@@ -14,7 +14,9 @@
  * query function is chosen: point and bilinear inside a face specialised per texel type and
  * channel count, box and width-4 kernels inside a face through the fused path of
  * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
- * eval, the general path. Both ways do the same arithmetic in the same order.
+ * eval, the general path. Both ways do the same arithmetic in the same order. A bilinear
+ * 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on pk2 pieces;
+ * in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in registers).
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
@@ -850,16 +852,24 @@ static int bilinear_walk(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     return 1;
 }
 
-/* The 2 x 2 kernel of b on face f in Traverse over plain faces (c->edge2, ptexfilter_simd.c:
- * bilinear_walk's weights, walk, total and division, inline): 1 with out written and *cov 1,
- * 0 when there is none or it declines (nothing written). */
-__attribute__((always_inline)) static inline int bilinear_edge2(pf *c, int ru, int rv, int ui,
-                                                                int vi, float fu, float fv,
-                                                                uint32_t f, float *out,
-                                                                float *cov)
+/* The 2 x 2 kernel of b on face f in Traverse over plain faces (e2: c->edge2 in Traverse,
+ * else NULL; ptexfilter_simd.c: bilinear_walk's weights, walk, total and division, inline):
+ * 1 with out written and *cov 1, 0 when there is none, the kernel overhangs a boundary edge,
+ * or it declines (nothing written). */
+__attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_fn e2, int ru,
+                                                                int rv, int ui, int vi,
+                                                                float fu, float fv, uint32_t f,
+                                                                float *out, float *cov)
 {
-    if (!c->edge2 || c->mode != ST_MODE_TRAVERSE ||
-        !c->edge2(&c->walk, (int)f, ru, rv, ui, vi, fu, fv, out))
+    if (!e2)
+        return 0;
+    /* a kernel past a mesh boundary edge goes to the walk (its folds) without the attempt
+     * (pf_edge2 declines it too, after a call and its set-up) */
+    const int *adj = c->s->faces[f].adjface;
+    if ((ui < 0 && adj[3] < 0) || (vi < 0 && adj[0] < 0) ||
+        (fu != 0.0f && ui + 2 > 1 << ru && adj[1] < 0) ||
+        (fv != 0.0f && vi + 2 > 1 << rv && adj[2] < 0) ||
+        !e2(&c->walk, (int)f, ru, rv, ui, vi, fu, fv, out))
         return 0;
     *cov = 1.0f;
     return 1;
@@ -869,19 +879,22 @@ __attribute__((always_inline)) static inline int bilinear_edge2(pf *c, int ru, i
  * every mode: bilinear_edge2, else bilinear_walk (its return value). */
 static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
 {
-    if (bilinear_edge2(c, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
+    if (bilinear_edge2(c, c->mode == ST_MODE_TRAVERSE ? c->edge2 : NULL, b.ru, b.rv, b.ui, b.vi,
+                       b.fu, b.fv, f, out, cov))
         return 1;
     return bilinear_walk(c, b, f, out, cov);
 }
 
-/* bilinear_edge for lane j of a block the lanes handed over, from their kernel set-up lk. */
+/* bilinear_edge for lane j of a block the lanes handed over, from their kernel set-up lk
+ * (e2 as bilinear_edge2's, decided once per batch). */
 __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
+                                                                    pf_edge2_fn e2,
                                                                     const pf_lanes_kern *lk,
                                                                     unsigned j, uint32_t f,
                                                                     float *out, float *cov)
 {
-    if (bilinear_edge2(c, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j], f,
-                       out, cov))
+    if (bilinear_edge2(c, e2, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j],
+                       f, out, cov))
         return 1;
     return bilinear_walk(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
                                      lk->fv[j]},
@@ -1346,6 +1359,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         return bad;
     }
     pf_lanes_kern lk;
+    pf_edge2_fn e2 = c.mode == ST_MODE_TRAVERSE ? c.edge2 : NULL; /* bilinear_edge2's */
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n;) {
@@ -1390,7 +1404,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                 size_t k = i + j;
                 float cov;
                 if (edge >> j & 1 &&
-                    bilinear_edge_lane(&c, &lk, j, q[k].face, out + k * nc, &cov)) {
+                    bilinear_edge_lane(&c, e2, &lk, j, q[k].face, out + k * nc, &cov)) {
                     if (coverage)
                         coverage[k] = cov; /* status ST_Q_OK already */
                     continue;
@@ -1403,7 +1417,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         for (unsigned j = 0; i < end; i++, j++) {
             if (!(done >> j & 1)) {
                 float cov;
-                if (edge >> j & 1 && bilinear_edge_lane(&c, &lk, j, q[i].face, out + i * nc, &cov)) {
+                if (edge >> j & 1 &&
+                    bilinear_edge_lane(&c, e2, &lk, j, q[i].face, out + i * nc, &cov)) {
                     if (coverage)
                         coverage[i] = cov;
                     if (status)

@@ -12,6 +12,10 @@
  * it does not take: a subface or a constant face among the faces the kernel reaches; the
  * caller then runs the general walk from the start (nothing it wrote counts).
  *
+ * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
+ * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
+ * registers and its windows summed inline.
+ *
  * Owns: nothing but the walk. Does not own: the kernel (ptexfilter_kernel.h), the window
  * loops (ptexfilter_simd.c), eval_kernel's weight and division (ptexfilter.c).
  */
