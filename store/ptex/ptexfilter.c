@@ -852,16 +852,21 @@ static int bilinear_walk(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     return 1;
 }
 
-/* The 2 x 2 kernel of b on face f in Traverse over plain faces (e2: c->edge2 in Traverse,
- * else NULL; ptexfilter_simd.c: bilinear_walk's weights, walk, total and division, inline):
- * 1 with out written and *cov 1, 0 when there is none, the kernel overhangs a boundary edge,
- * or it declines (nothing written). */
-__attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_fn e2, int ru,
-                                                                int rv, int ui, int vi,
+/* The 2 x 2 kernel of b on face f in Traverse over plain faces (e2: c->edge2 or NULL;
+ * ptexfilter_simd.c: bilinear_walk's weights, walk, total and division, inline): 1 with out
+ * written and *cov 1, 0 when there is none, the kernel overhangs a boundary edge, or it
+ * declines (nothing written). In Discard and Clamp (trav 0) only a kernel inside the face (a
+ * texel centre: a zero fraction), where every mode agrees (Discard keeps the whole weight,
+ * coverage 1); one that overhangs goes to the walk's merges. */
+__attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_fn e2, int trav,
+                                                                int ru, int rv, int ui, int vi,
                                                                 float fu, float fv, uint32_t f,
                                                                 float *out, float *cov)
 {
     if (!e2)
+        return 0;
+    if (!trav && (ui < 0 || vi < 0 || (fu != 0.0f && ui + 2 > 1 << ru) ||
+                  (fv != 0.0f && vi + 2 > 1 << rv)))
         return 0;
     /* a kernel past a mesh boundary edge goes to the walk (its folds) without the attempt
      * (pf_edge2 declines it too, after a call and its set-up) */
@@ -879,22 +884,22 @@ __attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_
  * every mode: bilinear_edge2, else bilinear_walk (its return value). */
 static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
 {
-    if (bilinear_edge2(c, c->mode == ST_MODE_TRAVERSE ? c->edge2 : NULL, b.ru, b.rv, b.ui, b.vi,
-                       b.fu, b.fv, f, out, cov))
+    if (bilinear_edge2(c, c->edge2, c->mode == ST_MODE_TRAVERSE, b.ru, b.rv, b.ui, b.vi, b.fu,
+                       b.fv, f, out, cov))
         return 1;
     return bilinear_walk(c, b, f, out, cov);
 }
 
 /* bilinear_edge for lane j of a block the lanes handed over, from their kernel set-up lk
- * (e2 as bilinear_edge2's, decided once per batch). */
+ * (e2, trav as bilinear_edge2's, decided once per batch). */
 __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
-                                                                    pf_edge2_fn e2,
+                                                                    pf_edge2_fn e2, int trav,
                                                                     const pf_lanes_kern *lk,
                                                                     unsigned j, uint32_t f,
                                                                     float *out, float *cov)
 {
-    if (bilinear_edge2(c, e2, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j],
-                       f, out, cov))
+    if (bilinear_edge2(c, e2, trav, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
+                       lk->fv[j], f, out, cov))
         return 1;
     return bilinear_walk(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
                                      lk->fv[j]},
@@ -1359,7 +1364,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         return bad;
     }
     pf_lanes_kern lk;
-    pf_edge2_fn e2 = c.mode == ST_MODE_TRAVERSE ? c.edge2 : NULL; /* bilinear_edge2's */
+    pf_edge2_fn e2 = c.edge2;                  /* bilinear_edge2's, decided once */
+    int trav = c.mode == ST_MODE_TRAVERSE;
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n;) {
@@ -1404,7 +1410,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                 size_t k = i + j;
                 float cov;
                 if (edge >> j & 1 &&
-                    bilinear_edge_lane(&c, e2, &lk, j, q[k].face, out + k * nc, &cov)) {
+                    bilinear_edge_lane(&c, e2, trav, &lk, j, q[k].face, out + k * nc, &cov)) {
                     if (coverage)
                         coverage[k] = cov; /* status ST_Q_OK already */
                     continue;
@@ -1418,7 +1424,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
             if (!(done >> j & 1)) {
                 float cov;
                 if (edge >> j & 1 &&
-                    bilinear_edge_lane(&c, e2, &lk, j, q[i].face, out + i * nc, &cov)) {
+                    bilinear_edge_lane(&c, e2, trav, &lk, j, q[i].face, out + i * nc, &cov)) {
                     if (coverage)
                         coverage[i] = cov;
                     if (status)
