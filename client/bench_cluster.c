@@ -5,6 +5,9 @@
  *   --lib                 the same pipelined loop on one direct stc_conn to -h/-p: the
  *                         baseline --cluster's routing overhead is measured against.
  * Closed loop, SAMPLE only; one handle per connection (-c), each driven by its own thread.
+ * Each request gets a fresh random batch, encoded by the library (with --compact in the
+ * compact layouts): what a library client pays per request, unlike the raw-frame loop, whose
+ * frames are encoded once (bench_wire.c).
  * -s may name several sets (a,b,c): request k samples set k mod n.
  *
  * Owns: the handles, the per-thread loop, latency per request (append to reply: corrected and
@@ -54,12 +57,14 @@ static void make_batch(lib_ctx *x, const bench_cfg *cfg)
     }
 }
 
-static void opts_of(const bench_cfg *cfg, uint64_t *rng, stc_sample_opts *o)
+static void opts_of(const bench_cfg *cfg, const lib_ctx *x, uint64_t *rng, stc_sample_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->mode = cfg->modes[rnd(rng) % cfg->nmodes];
     o->filter = cfg->filters[rnd(rng) % cfg->nfilters];
     o->outfmt = cfg->outfmt;
+    if (cfg->compact)             /* as the raw-frame loop does (bench_wire.c) */
+        o->want = STC_WANT_UV16 | (x->nfaces <= 65536 ? STC_WANT_FACE16 : 0);
 }
 
 static int open_handle(lib_ctx *x, const bench_cfg *cfg, char *msg, size_t ml)
@@ -132,7 +137,7 @@ static void run_blocking(bench_thread *th, lib_ctx *x)
     uint64_t k = 0;
     while (bench_now_ns() < th->t_end && (!th->max_requests || k < th->max_requests)) {
         stc_sample_opts o;
-        opts_of(cfg, &x->rng, &o);
+        opts_of(cfg, x, &x->rng, &o);
         make_batch(x, cfg);
         stc_sample_result res;
         uint64_t t0 = bench_now_ns();
@@ -159,7 +164,7 @@ static int run_pipelined(bench_thread *th, lib_ctx *x)
         int issuing = now < th->t_end && (!th->max_requests || k < th->max_requests);
         while (issuing && n < P && (!th->max_requests || k < th->max_requests)) {
             stc_sample_opts o;
-            opts_of(cfg, &x->rng, &o);
+            opts_of(cfg, x, &x->rng, &o);
             make_batch(x, cfg);
             const char *set = x->sets[k++ % x->nsets];
             uint32_t id;

@@ -5,6 +5,15 @@
  * Owns: per-connection buffers, the table of outstanding requests, timestamps, timeouts.
  * Does not own: sockets' creation (bench_main.c connects them), frame bytes (bench_wire.c).
  *
+ * What a request costs the client (it shares the machine with the daemon): the pool's frames
+ * are encoded once (bench_wire.c), so a request is not re-encoded, and not copied either: it
+ * is queued as an iovec pair, its own 16-byte header (the pool's with the request id
+ * patched) and the pool frame's body where it lies, written with writev (a --shm frame, a few
+ * dozen bytes, is built in a per-slot buffer). Replies are read into one buffer (256 KiB,
+ * grown for larger ones), a read offered all the free room (a short read means the socket is
+ * drained, so no read ends in EAGAIN), their headers parsed where they lie; the unparsed tail
+ * of a partly read reply is moved to the front, so the buffer's hot part stays small.
+ *
  * Timestamps: t_intended comes from the schedule (closed loop: equal to the send time);
  * t_send is read just before the write() that carries the request's first byte; t_reply just
  * after the read() that completed its reply. corrected = t_reply - t_intended (what a user
@@ -28,10 +37,15 @@
 #include <string.h>
 #include <sys/epoll.h>
 #include <sys/prctl.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
-#define OUT_INIT   (64 * 1024)
-#define IN_INIT    (64 * 1024)
+#define IN_INIT    (256 * 1024)
+#define IN_ROOM    (128 * 1024)            /* free room wanted behind the data before a read */
+#define SLOT_BYTES 512                     /* a --shm frame: header, name, parameters, refs */
+#define IOV_BATCH  1024                    /* iovecs per writev (IOV_MAX) */
+_Static_assert(STP_HEADER_SIZE + 2 + STP_MAX_NAME + 24 + STP_SHM_REF_SIZE <= SLOT_BYTES,
+               "a --shm frame fits its slot");
 #define IN_MAX     ((size_t)256 << 20)     /* one reply may not exceed this */
 #define LATE_NS    1000000ull              /* a send more than 1 ms after due is "late" */
 
@@ -39,8 +53,10 @@ typedef struct bconn {
     int       fd;
     int       dead;
     uint32_t  events;           /* current epoll interest */
-    uint8_t  *out;              /* bytes not yet written: out[out_off .. out_len) */
-    size_t    out_off, out_len, out_cap;
+    struct iovec *iov;          /* bytes not yet written: iov[iov_head .. iov_n) */
+    unsigned  iov_head, iov_n, iov_cap;
+    uint8_t  *slotbuf;          /* per slot: the request's header (or whole --shm frame) */
+    size_t    slot_bytes;
     uint8_t  *in;               /* bytes read, not yet parsed: in[0 .. in_len) */
     size_t    in_len, in_cap;
     /* outstanding requests: request id r in slot r % cap */
@@ -101,18 +117,30 @@ static inline int can_issue(const bconn *c)
     return c->count < c->cap && c->rid[c->next_rid % c->cap] == 0;
 }
 
+static inline int out_pending(const bconn *c)
+{
+    return c->iov_head < c->iov_n;
+}
+
+static void out_add(bconn *c, const uint8_t *p, size_t len)
+{
+    if (c->iov_n == c->iov_cap) {           /* room was freed at the front: reuse it */
+        memmove(c->iov, c->iov + c->iov_head, (c->iov_n - c->iov_head) * sizeof *c->iov);
+        c->iov_n -= c->iov_head;
+        c->iov_head = 0;
+    }
+    c->iov[c->iov_n++] = (struct iovec){ (void *)(uintptr_t)p, len };
+}
+
 /* Queues one request frame with its intended time. */
 static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
 {
     const uint8_t *frame;
     uint32_t nq;
     size_t len = bench_wire_next(th->wire, &frame, &nq);
-    if (c->out_off > 0 && c->out_off == c->out_len)
-        c->out_off = c->out_len = 0;
-    if (grow(&c->out, &c->out_cap, c->out_len + len) < 0)
-        return -1;
     uint32_t rid = c->next_rid++;
     uint32_t slot = rid % c->cap;
+    uint8_t *own = c->slotbuf + (size_t)slot * c->slot_bytes;
     if (c->shm) { /* --shm: the pool frame's queries are in the region already (--shm-copy:
                    * copied into the slot's room now); the frame carries offsets only */
         uint64_t qoff = (uint64_t)bench_wire_last(th->wire) * th->shm_qroom;
@@ -122,13 +150,19 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
         }
         len = bench_wire_shm_frame(frame, qoff,
                                    (uint64_t)th->shm_qarea + (uint64_t)slot * th->shm_slot,
-                                   th->shm_slot, c->out + c->out_len);
+                                   th->shm_slot, own);
+        stp_wr32(own + BENCH_REQID_OFFSET, rid);
+        out_add(c, own, len);
+    } else if (th->cfg->proto == BENCH_PROTO_SEAMTEX) {
+        /* the header with this request's id, then the pool frame's body as it lies */
+        memcpy(own, frame, STP_HEADER_SIZE);
+        stp_wr32(own + BENCH_REQID_OFFSET, rid);
+        out_add(c, own, STP_HEADER_SIZE);
+        if (len > STP_HEADER_SIZE)
+            out_add(c, frame + STP_HEADER_SIZE, len - STP_HEADER_SIZE);
+    } else {
+        out_add(c, frame, len);             /* peers: the same line every time */
     }
-    else
-        memcpy(c->out + c->out_len, frame, len);
-    if (th->cfg->proto == BENCH_PROTO_SEAMTEX)
-        stp_wr32(c->out + c->out_len + BENCH_REQID_OFFSET, rid);
-    c->out_len += len;
     c->rid[slot] = rid;
     c->t_int[slot] = t_int;
     c->t_send[slot] = 0;
@@ -141,7 +175,7 @@ static int conn_queue(bench_thread *th, bconn *c, uint64_t t_int)
 /* Writes what is pending; stamps the requests whose bytes go out with this write. */
 static int conn_flush(bench_thread *th, bconn *c)
 {
-    while (c->out_off < c->out_len) {
+    while (out_pending(c)) {
         uint64_t now = bench_now_ns();
         for (; c->stamp_from != c->next_rid; c->stamp_from++) {
             uint32_t slot = c->stamp_from % c->cap;
@@ -149,7 +183,8 @@ static int conn_flush(bench_thread *th, bconn *c)
             if (th->cfg->open_loop && now > c->t_int[slot] + LATE_NS)
                 th->res->late_sends++;
         }
-        ssize_t w = write(c->fd, c->out + c->out_off, c->out_len - c->out_off);
+        unsigned k = c->iov_n - c->iov_head;
+        ssize_t w = writev(c->fd, c->iov + c->iov_head, (int)(k < IOV_BATCH ? k : IOV_BATCH));
         if (w < 0) {
             if (errno == EINTR)
                 continue;
@@ -157,10 +192,19 @@ static int conn_flush(bench_thread *th, bconn *c)
                 return 0;
             return -1;
         }
-        c->out_off += (size_t)w;
         th->res->bytes_out += (uint64_t)w;
+        for (size_t left = (size_t)w; left > 0;) {  /* drop what went out */
+            struct iovec *v = &c->iov[c->iov_head];
+            if (left < v->iov_len) {
+                v->iov_base = (uint8_t *)v->iov_base + left;
+                v->iov_len -= left;
+                break;
+            }
+            left -= v->iov_len;
+            c->iov_head++;
+        }
     }
-    c->out_off = c->out_len = 0;
+    c->iov_head = c->iov_n = 0;
     return 0;
 }
 
@@ -169,9 +213,10 @@ static int conn_read(bench_thread *th, bconn *c)
 {
     bench_result *r = th->res;
     for (;;) {
-        if (c->in_cap - c->in_len < 16384 && grow(&c->in, &c->in_cap, c->in_len + 65536) < 0)
+        if (c->in_cap - c->in_len < IN_ROOM && grow(&c->in, &c->in_cap, c->in_len + IN_ROOM) < 0)
             return -1;
-        ssize_t n = read(c->fd, c->in + c->in_len, c->in_cap - c->in_len);
+        size_t room = c->in_cap - c->in_len;
+        ssize_t n = read(c->fd, c->in + c->in_len, room);
         if (n < 0) {
             if (errno == EINTR)
                 continue;
@@ -217,14 +262,16 @@ static int conn_read(bench_thread *th, bconn *c)
             }
             off += (size_t)flen;
         }
+        /* the unparsed tail to the front: replies land in the same few hundred KiB, which
+         * stay in cache, rather than walking the buffer */
         if (off > 0) {
             memmove(c->in, c->in + off, c->in_len - off);
             c->in_len -= off;
         }
         if (c->in_len > IN_MAX)
             return -1;
-        if ((size_t)n < 16384)
-            return 0;                       /* most likely drained; epoll says if not */
+        if ((size_t)n < room)
+            return 0;                       /* a short read: the socket is drained */
     }
 }
 
@@ -274,8 +321,12 @@ int bench_loop_run(bench_thread *th)
         c->nq = malloc(cap * sizeof *c->nq);
         c->rid = calloc(cap, sizeof *c->rid);
         c->next_rid = c->stamp_from = c->oldest = 1;
-        if (!c->t_int || !c->t_send || !c->nq || !c->rid ||
-            grow(&c->out, &c->out_cap, OUT_INIT) < 0 || grow(&c->in, &c->in_cap, IN_INIT) < 0) {
+        c->slot_bytes = c->shm ? SLOT_BYTES : STP_HEADER_SIZE;
+        c->slotbuf = malloc((size_t)cap * c->slot_bytes);
+        c->iov_cap = 2 * cap + 2;           /* at most two per outstanding request */
+        c->iov = malloc(c->iov_cap * sizeof *c->iov);
+        if (!c->t_int || !c->t_send || !c->nq || !c->rid || !c->slotbuf || !c->iov ||
+            grow(&c->in, &c->in_cap, IN_INIT) < 0) {
             snprintf(th->err, sizeof th->err, "thread %u: out of memory", th->index);
             goto out;
         }
@@ -339,14 +390,13 @@ int bench_loop_run(bench_thread *th)
                     }
                 }
             }
-            if (queued || c->out_len > c->out_off) {
+            if (queued || out_pending(c)) {
                 if (conn_flush(th, c) < 0) {
                     conn_kill(th, ep, c);
                     alive--;
                     continue;
                 }
-                conn_set_events(ep, c, c->out_len > c->out_off ? EPOLLIN | EPOLLOUT : EPOLLIN,
-                                i);
+                conn_set_events(ep, c, out_pending(c) ? EPOLLIN | EPOLLOUT : EPOLLIN, i);
             }
             /* the oldest request sent on this connection is too old: give up on it */
             if (c->count > 0 && c->oldest != c->stamp_from && timeout_ns &&
@@ -400,8 +450,7 @@ int bench_loop_run(bench_thread *th)
             if (!bad && (evs[k].events & EPOLLOUT)) {
                 bad = conn_flush(th, c) < 0;
                 if (!bad)
-                    conn_set_events(ep, c,
-                                    c->out_len > c->out_off ? EPOLLIN | EPOLLOUT : EPOLLIN, i);
+                    conn_set_events(ep, c, out_pending(c) ? EPOLLIN | EPOLLOUT : EPOLLIN, i);
             }
             if (bad) {
                 conn_kill(th, ep, c);
@@ -436,7 +485,8 @@ oom:
 out:
     if (cs) {
         for (unsigned i = 0; i < nc; i++) {
-            free(cs[i].out);
+            free(cs[i].iov);
+            free(cs[i].slotbuf);
             free(cs[i].in);
             free(cs[i].t_int);
             free(cs[i].t_send);

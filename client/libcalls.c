@@ -15,12 +15,18 @@
 #include <time.h>
 
 /* stc_query and stp_query (and the direction queries) are the same fields in the same order:
- * the client copies caller arrays into the encoder's type with one memcpy. */
-_Static_assert(sizeof(stc_query) == sizeof(stp_query), "query layout");
-_Static_assert(offsetof(stc_query, dvdy) == offsetof(stp_query, dvdy), "query layout");
-_Static_assert(offsetof(stc_query, u) == offsetof(stp_query, u), "query layout");
-_Static_assert(sizeof(stc_dir_query) == sizeof(stp_dir_query), "dir query layout");
-_Static_assert(offsetof(stc_dir_query, ddy) == offsetof(stp_dir_query, ddy), "dir query layout");
+ * the encoder reads the caller's arrays as they are, nothing is copied first. */
+#define SAME_FIELD(a, b, f) (offsetof(a, f) == offsetof(b, f))
+_Static_assert(sizeof(stc_query) == sizeof(stp_query) && SAME_FIELD(stc_query, stp_query, face) &&
+               SAME_FIELD(stc_query, stp_query, u) && SAME_FIELD(stc_query, stp_query, v) &&
+               SAME_FIELD(stc_query, stp_query, dudx) && SAME_FIELD(stc_query, stp_query, dvdx) &&
+               SAME_FIELD(stc_query, stp_query, dudy) && SAME_FIELD(stc_query, stp_query, dvdy),
+               "query layout");
+_Static_assert(sizeof(stc_dir_query) == sizeof(stp_dir_query) &&
+               SAME_FIELD(stc_dir_query, stp_dir_query, dir) &&
+               SAME_FIELD(stc_dir_query, stp_dir_query, ddx) &&
+               SAME_FIELD(stc_dir_query, stp_dir_query, ddy), "dir query layout");
+#undef SAME_FIELD
 _Static_assert((int)STC_OUT_UNORM16 == (int)STP_OUT_UNORM16 && (int)STC_WANT_STATUS == (int)STP_SF_STATUS, "enums");
 _Static_assert(STC_ESHUTDOWN == -(STC_SERVER_BASE + STP_S_SHUTDOWN), "status numbering");
 _Static_assert((int)STC_CAP_AUTH == (int)STP_CAP_AUTH && (int)STC_CAP_FETCH == (int)STP_CAP_FETCH &&
@@ -370,23 +376,11 @@ static int enc_sample(stc_conn *c, uint32_t id, int dir, const char *set,
         return stc__fail(c, STC_EINVAL, "queries are NULL");
     }
     rq.count = (uint32_t)n;
-    if (!dir) {
-        if (stc__grow((void **)&c->qs, &c->qs_cap, n * sizeof *c->qs) != 0) {
-            stc__pend_drop_last(c);
-            return stc__fail(c, STC_ENOMEM, "out of memory");
-        }
-        if (n)
-            memcpy(c->qs, q, n * sizeof *c->qs);
-        rq.queries = c->qs;
-    } else {
-        if (stc__grow((void **)&c->dqs, &c->dqs_cap, n * sizeof *c->dqs) != 0) {
-            stc__pend_drop_last(c);
-            return stc__fail(c, STC_ENOMEM, "out of memory");
-        }
-        if (n)
-            memcpy(c->dqs, q, n * sizeof *c->dqs);
-        rq.dqueries = c->dqs;
-    }
+    /* the caller's array is encoded as it is (the same layout: checked at the top) */
+    if (!dir)
+        rq.queries = (const stp_query *)q;
+    else
+        rq.dqueries = (const stp_dir_query *)q;
     /* with a region attached (libshm.c) the queries go there and the frame stays small */
     if ((rc = stc__shm_place(c, dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE, &rq)) < 0) {
         stc__pend_drop_last(c);
@@ -444,8 +438,10 @@ static int sample_decode_at(stc_conn *c, const uint8_t *body, size_t len, size_t
     return 0;
 }
 
-/* A reply in the shared region whose arrays are already what the caller gets (little-endian
- * host, not f16, aligned): the result points at them where they lie. 1 when done. */
+/* A reply (in the shared region, or the socket's reply held in the receive buffer until the
+ * next call) whose arrays are already what the caller gets (little-endian host, not f16,
+ * aligned): the result points at them where they lie, valid until the next call as every
+ * result. 1 when done. */
 static int sample_in_place(const stp_sample_reply *rp, stc_sample_result *res)
 {
     size_t esz = stp_outfmt_size(rp->outfmt);
@@ -471,8 +467,10 @@ static int sample_from_body(stc_conn *c, const uint8_t *body, size_t len, stc_sa
     /* peek at the count to size the arrays */
     if (stp_dec_sample_reply(body, len, &rp, &why) != 0)
         return bad_reply(c, why);
-    /* a reply in the region is read where it lies (held until the next call, libshm.c) */
-    if (stc__shm_holds(c, body, len) && sample_in_place(&rp, res))
+    /* a reply in the region (held until the next call, libshm.c) or in the receive buffer
+     * (held until the next call, libconn.c) is read where it lies */
+    if ((stc__shm_holds(c, body, len) || stc__in_holds(c, body, len)) &&
+        sample_in_place(&rp, res))
         return 0;
     return sample_decode_at(c, body, len, 0, rp.count, res);
 }
@@ -525,7 +523,11 @@ static int sample_blocking(stc_conn *c, int dir, const char *set, const stc_samp
             goto fail;
         }
         size_t first = (got - 1) * per, cnt = n - first < per ? n - first : per;
-        if ((rc = sample_decode_at(c, f.body, f.h.body_len, first, n, res)) != 0)
+        if (nparts == 1)                  /* one reply: where it lies when it can be */
+            rc = sample_from_body(c, f.body, f.h.body_len, res);
+        else
+            rc = sample_decode_at(c, f.body, f.h.body_len, first, n, res);
+        if (rc != 0)
             goto fail;
         if (res->count != first + cnt) {
             rc = bad_reply(c, "SAMPLE reply count differs from the request's");

@@ -305,11 +305,13 @@ void stc__pend_abandon(stc_conn *c, uint32_t reqid)
 
 /* ---- socket I/O ---------------------------------------------------------------------------------- */
 
-/* Reads what is available (at most one recv). 0 on progress, 1 when it would block. */
-static int read_some(stc_conn *c)
+/* Reads what is available (at most one recv, offered room for `want` more bytes, at least
+ * STC_READ_CHUNK: a reply whose size is known comes in one recv when it is all there). 0 on
+ * progress, 1 when it would block. */
+static int read_some(stc_conn *c, size_t want)
 {
     ssize_t n;
-    if (stp_buf_reserve(&c->in, STC_READ_CHUNK) != 0) {
+    if (stp_buf_reserve(&c->in, want > STC_READ_CHUNK ? want : STC_READ_CHUNK) != 0) {
         c->in.err = 0;
         return stc__break(c, STC_ENOMEM, "out of memory for the receive buffer");
     }
@@ -351,7 +353,7 @@ int stc__flush(stc_conn *c, int64_t deadline)
             return stc__fail(c, STC_ETIMEDOUT, "timed out sending (%zu bytes queued)",
                              stp_buf_avail(&c->out));
         if (pfd.revents & (POLLIN | POLLHUP | POLLERR)) {
-            int rc = read_some(c);
+            int rc = read_some(c, 0);
             if (rc < 0)
                 return rc;
         }
@@ -384,7 +386,7 @@ static int fill(stc_conn *c, size_t need, int64_t deadline)
                                   : STC_EIO, "send: %s", strerror(errno));
         }
         if (pfd.revents & (POLLIN | POLLHUP | POLLERR)) {
-            int rc = read_some(c);
+            int rc = read_some(c, need - stp_buf_avail(&c->in));
             if (rc < 0)
                 return rc;
         }
@@ -496,6 +498,13 @@ int stc__wait(stc_conn *c, uint32_t reqid, int reqid_any, int64_t deadline, stc_
                              "of %u (dropped)", (unsigned)f->h.body_len, (unsigned)c->max_body);
         return 0;
     }
+}
+
+int stc__in_holds(const stc_conn *c, const uint8_t *body, size_t len)
+{
+    const uint8_t *p = stp_buf_head(&c->in);
+    return c->hold && body >= p && (size_t)(body - p) <= c->hold &&
+           len <= c->hold - (size_t)(body - p);
 }
 
 int stc__status_error(stc_conn *c, const stc_frame *f)
@@ -785,8 +794,6 @@ void stc_close(stc_conn *c)
     free(c->names);
     free(c->stats);
     free(c->faces);
-    free(c->qs);
-    free(c->dqs);
     stc__shm_free(c);
     free(c);
 }

@@ -50,8 +50,6 @@ struct stc_conn {
     char    *names;  size_t names_len, names_cap;
     stc_stat *stats; size_t stats_cap;
     stc_face *faces; size_t faces_cap;
-    stp_query *qs;   size_t qs_cap;     /* scratch: queries converted for the encoder */
-    stp_dir_query *dqs; size_t dqs_cap;
 
     /* shared-memory region (libshm.c; PROTOCOL.md 4.12), NULL = none: a ring of spans, one
      * per shared-memory SAMPLE in flight, released in reply order */
@@ -115,6 +113,9 @@ int stc__shm_place(stc_conn *c, uint8_t opcode, stp_sample_req *r);
 void stc__shm_take_reserved(stc_conn *c, stp_sample_req *r);
 /* libshm.c: body lies inside c's region (a shared-memory reply, read in place). */
 int stc__shm_holds(const stc_conn *c, const uint8_t *body, size_t len);
+/* 1 when body[0 .. len) lies in the reply held in the receive buffer until the next call
+ * (libconn.c) */
+int stc__in_holds(const stc_conn *c, const uint8_t *body, size_t len);
 /* libcalls.c: sample options -> request parameters (checks the name and ranges). */
 int stc__fill_params(stc_conn *c, const char *set, const stc_sample_opts *o, size_t n,
                      stp_sample_params *p);

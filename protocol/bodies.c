@@ -383,7 +383,16 @@ void stp_put_queries(uint8_t opcode, const stp_sample_req *r, uint8_t *out)
         return;
     }
     size_t qs = stp_query_size(r->p.flags);
-    int face16 = (r->p.flags & STP_SF_FACE16) != 0, uv16 = (r->p.flags & STP_SF_UV16) != 0;
+    int face16 = (r->p.flags & STP_SF_FACE16) != 0;
+    if (r->p.flags & STP_SF_UV16) {             /* compact.c, vectorised where the CPU can */
+        stp_put_queries_uv16(r->queries, r->count, face16, out);
+        return;
+    }
+    if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && !face16 && sizeof *r->queries == qs) {
+        if (r->count)                           /* stp_query is the wire layout: one copy */
+            memcpy(out, r->queries, (size_t)r->count * qs);
+        return;
+    }
     for (uint32_t i = 0; i < r->count; i++, p += qs) {
         const stp_query *q = &r->queries[i];
         uint8_t *f = p + (face16 ? 2 : 4);
@@ -391,21 +400,12 @@ void stp_put_queries(uint8_t opcode, const stp_sample_req *r, uint8_t *out)
             stp_wr16(p, (uint16_t)q->face);
         else
             stp_wr32(p, q->face);
-        if (uv16) {
-            stp_wr16(f, stp_f32_to_unit16(q->u));
-            stp_wr16(f + 2, stp_f32_to_unit16(q->v));
-            stp_wr16(f + 4, stp_f32_to_f16(q->dudx));
-            stp_wr16(f + 6, stp_f32_to_f16(q->dvdx));
-            stp_wr16(f + 8, stp_f32_to_f16(q->dudy));
-            stp_wr16(f + 10, stp_f32_to_f16(q->dvdy));
-        } else {
-            stp_wr32(f, stp_f2u(q->u));
-            stp_wr32(f + 4, stp_f2u(q->v));
-            stp_wr32(f + 8, stp_f2u(q->dudx));
-            stp_wr32(f + 12, stp_f2u(q->dvdx));
-            stp_wr32(f + 16, stp_f2u(q->dudy));
-            stp_wr32(f + 20, stp_f2u(q->dvdy));
-        }
+        stp_wr32(f, stp_f2u(q->u));
+        stp_wr32(f + 4, stp_f2u(q->v));
+        stp_wr32(f + 8, stp_f2u(q->dudx));
+        stp_wr32(f + 12, stp_f2u(q->dvdx));
+        stp_wr32(f + 16, stp_f2u(q->dudy));
+        stp_wr32(f + 20, stp_f2u(q->dvdy));
     }
 }
 

@@ -32,6 +32,12 @@
  * query goes through a buffer). The f32-float layouts (FACE16 alone, none) are copies, left to
  * the portable loop.
  *
+ * The other way, a client's compact queries (stp_put_queries_uv16_avx2, the same two layouts):
+ * one stp_query in one 32-byte load (the last one copied out first), u and v rounded to
+ * u16 fixed point (narrow_uv16 says how that equals stp_f32_to_unit16), the derivatives
+ * through f16_of, blended with the face's low half into one 16-byte store per query (14 bytes
+ * apart with FACE16, the next store overwriting the 2 extra; the last through a buffer).
+ *
  * Owns: nothing but these loops and the CPU check.
  */
 #include "codec_simd.h"
@@ -232,6 +238,60 @@ CX_TARGET void stp_sample_queries_f32_avx2(const stp_sample_req *r, uint32_t fir
     memcpy(out, last, STP_QUERY_SIZE);
 }
 
+/* One query narrowed to the UV16 + FACE16 layout: x holds its 7 dwords (and one more, not
+ * used); u16 lanes [face & 0xFFFF, u16(u), u16(v), f16(dudx), ..., f16(dvdy), any]. u16 is
+ * compact.c's stp_f32_to_unit16: u x 2^16 is exact, VROUNDPS with the rounding in the
+ * immediate rounds it to nearest, ties to even (whatever MXCSR says); MAXPS(r, 0) returns its
+ * second operand for NaN, as `!(u > 0)` gives 0; MINPS clamps at 65535 (u >= 65535 / 65536,
+ * infinity: the scalar's 65535; below that the rounded value is at most 65535 anyway); the
+ * packs see values 0..65535 only. */
+CX_INLINE __m128i narrow_uv16(__m256 x)
+{
+    __m128 lo = _mm256_castps256_ps128(x);
+    __m128 r = _mm_round_ps(_mm_mul_ps(lo, _mm_set1_ps(65536.0f)),
+                            _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+    r = _mm_min_ps(_mm_max_ps(r, _mm_setzero_ps()), _mm_set1_ps(65535.0f));
+    __m128i uv = _mm_cvttps_epi32(r);
+    uv = _mm_packus_epi32(uv, uv);                /* u16 lanes 1, 2: u, v */
+    __m128i h = f16_of(x);                        /* u16 lanes 3..6: the derivatives */
+    __m128i q = _mm_blend_epi16(_mm_castps_si128(lo), uv, 0x06);   /* lane 0: face low */
+    return _mm_blend_epi16(q, h, 0x78);
+}
+
+CX_INLINE __m256 load32(const stp_query *q)
+{
+    return _mm256_loadu_ps((const float *)(const void *)q);
+}
+
+CX_TARGET void stp_put_queries_uv16_avx2(const stp_query *q, size_t n, int face16, uint8_t *out)
+{
+    if (n == 0)
+        return;
+    float last[8] = {0};
+    memcpy(last, &q[n - 1], sizeof *q);           /* nothing past the queries is read */
+    if (face16) {
+        /* 16-byte stores 14 bytes apart: each one's last 2 bytes are the next query's */
+        for (size_t i = 0; i + 1 < n; i++, out += 14)
+            _mm_storeu_si128((__m128i *)(void *)out, narrow_uv16(load32(&q[i])));
+        uint8_t t[16];
+        _mm_storeu_si128((__m128i *)(void *)t, narrow_uv16(_mm256_loadu_ps(last)));
+        memcpy(out, t, 14);
+        return;
+    }
+    /* [face lo, face hi, u, v, h x 4]: the 14-byte form shifted up a lane, the face's high
+     * half put back */
+    for (size_t i = 0; i + 1 < n; i++, out += 16) {
+        __m256 x = load32(&q[i]);
+        __m128i w = _mm_bslli_si128(narrow_uv16(x), 2);
+        _mm_storeu_si128((__m128i *)(void *)out,
+                         _mm_blend_epi16(w, _mm_castps_si128(_mm256_castps256_ps128(x)), 0x03));
+    }
+    __m256 x = _mm256_loadu_ps(last);
+    __m128i w = _mm_bslli_si128(narrow_uv16(x), 2);
+    _mm_storeu_si128((__m128i *)(void *)out,
+                     _mm_blend_epi16(w, _mm_castps_si128(_mm256_castps256_ps128(x)), 0x03));
+}
+
 #else /* no x86-64 intrinsics: the portable loops */
 
 int stp_codec_have_avx2(void)
@@ -253,6 +313,11 @@ void stp_sample_queries_f32_avx2(const stp_sample_req *r, uint32_t first, uint32
                                  uint8_t *out)
 {
     stp_sample_queries_f32_scalar(r, first, n, out);
+}
+
+void stp_put_queries_uv16_avx2(const stp_query *q, size_t n, int face16, uint8_t *out)
+{
+    stp_put_queries_uv16_scalar(q, n, face16, out);
 }
 
 void stp_unorm8_encode_avx2(const float *v, size_t n, uint8_t *out)

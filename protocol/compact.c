@@ -1,14 +1,16 @@
 /* protocol/compact.c - the compact SAMPLE forms of PROTOCOL.md 4.4.1: binary16 (half) values
  * and u16 fixed-point (u, v), both directions, exact and without the F16C instructions (so
  * every host gives the same bits). These loops are the reference: the bulk entry points
- * (stp_f16_encode, stp_f16_decode, stp_sample_queries_f32) run codec_avx2.c's forms instead
+ * (stp_f16_encode, stp_f16_decode, stp_sample_queries_f32, stp_put_queries_uv16) run codec_avx2.c's forms instead
  * when the CPU has AVX2 and F16C, bit for bit the same.
  *
  * Owns: stp_f32_to_f16, stp_f16_to_f32 (and stp_f16_encode / stp_f16_decode for replies),
  * stp_f32_to_unit16, stp_query_round, stp_sample_queries (every SAMPLE query layout widened
- * to stp_query, in this file so that the conversions inline into its loops) and
- * stp_sample_queries_f32 (the same in the f32 wire layout, what the daemon samples). Does not
- * own the frame layouts around the queries (bodies.c).
+ * to stp_query, in this file so that the conversions inline into its loops),
+ * stp_sample_queries_f32 (the same in the f32 wire layout, what the daemon samples) and
+ * stp_put_queries_uv16 (the other way: stp_query narrowed to the UV16 layouts, what a client
+ * sends; bodies.c's stp_put_queries calls it). Does not own the frame layouts around the
+ * queries (bodies.c).
  */
 #include "codec_simd.h"
 
@@ -185,6 +187,32 @@ void stp_sample_queries_f32(const stp_sample_req *r, uint32_t first, uint32_t n,
         stp_sample_queries_f32_avx2(r, first, n, out);
     else
         stp_sample_queries_f32_scalar(r, first, n, out);
+}
+
+void stp_put_queries_uv16_scalar(const stp_query *q, size_t n, int face16, uint8_t *out)
+{
+    size_t qs = face16 ? 14 : 16;
+    for (size_t i = 0; i < n; i++, q++, out += qs) {
+        uint8_t *f = out + (face16 ? 2 : 4);
+        if (face16)
+            stp_wr16(out, (uint16_t)q->face);
+        else
+            stp_wr32(out, q->face);
+        stp_wr16(f, stp_f32_to_unit16(q->u));
+        stp_wr16(f + 2, stp_f32_to_unit16(q->v));
+        stp_wr16(f + 4, f32_to_f16(q->dudx));
+        stp_wr16(f + 6, f32_to_f16(q->dvdx));
+        stp_wr16(f + 8, f32_to_f16(q->dudy));
+        stp_wr16(f + 10, f32_to_f16(q->dvdy));
+    }
+}
+
+void stp_put_queries_uv16(const stp_query *q, size_t n, int face16, uint8_t *out)
+{
+    if (stp_codec_have_avx2())
+        stp_put_queries_uv16_avx2(q, n, face16, out);
+    else
+        stp_put_queries_uv16_scalar(q, n, face16, out);
 }
 
 void stp_query_round(const stp_query *q, unsigned flags, stp_query *out)

@@ -54,6 +54,9 @@ static const opt OPTS[] = {
     {"deadline-ms", T_U32, O(deadline_ms), 0, 1, "MS",
      "a request still waiting for a worker after MS gets TIMEOUT; 0 = none (default 10000)"},
     {"io-threads", T_U32, O(io_threads), 0, 0, "N", "event-loop threads (default 2)"},
+    {"pin-io", T_BOOL, O(pin_io), 0, 0, "yes|no",
+     "pin I/O thread i to the i-th CPU the daemon may run on, wrapping around (STATS\n"
+     "io<i>_cpu); workers stay unpinned (default no)"},
     {"workers", T_U32, O(workers), 0, 0, "N",
      "worker threads for heavy requests: big SAMPLE batches, upload commits, imports (default 2)"},
     {"max-batch", T_U32, O(max_batch), 0, 1, "N", "queries per SAMPLE request (default 1048576)"},

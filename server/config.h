@@ -34,6 +34,7 @@ typedef struct sts_config {
     uint64_t max_upload;        /* largest uploaded file (bytes) */
     uint32_t deadline_ms;       /* server-side deadline per request (0 = none) */
     uint32_t io_threads;        /* event-loop threads */
+    int      pin_io;            /* pin I/O thread i to the i-th CPU the process may run on */
     uint32_t workers;           /* worker threads for heavy requests */
     uint32_t max_batch;         /* queries per SAMPLE request */
     uint32_t heavy_batch;       /* SAMPLE batches above this go to a worker */

@@ -592,8 +592,8 @@ int sts_h_sample_dir(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
 size_t sts_stats_max_keys(const sts_server *srv)
 {
     /* with the budget's keys (budget.c), the cluster's (cluster_node.c), the query counts
-     * by mode and filter and two per I/O thread */
-    return 224 + STS_SHM_STAT_KEYS + 2 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
+     * by mode and filter and three per I/O thread */
+    return 224 + STS_SHM_STAT_KEYS + 3 * (size_t)srv->nio + STS_QMODES * STS_QFILTERS + sts_opstats_max_keys();
 }
 
 size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
@@ -650,6 +650,10 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
         U(key, __atomic_load_n(&srv->io[i].nconns, __ATOMIC_RELAXED));
         snprintf(key, sizeof key, "io%u_accepted", i);
         U(key, __atomic_load_n(&srv->io[i].accepted, __ATOMIC_RELAXED));
+        if (srv->io[i].cpu >= 0) {   /* pin-io (server.c) */
+            snprintf(key, sizeof key, "io%u_cpu", i);
+            U(key, (uint64_t)srv->io[i].cpu);
+        }
     }
     U("workers", srv->pool.nthreads);
     U("worker_queue", __atomic_load_n(&srv->pool.queued, __ATOMIC_RELAXED));

@@ -88,6 +88,7 @@ struct sts_io {
                                           time of this thread's oldest half-sent frame at least
                                           a second old (0 = none): eviction candidates */
     uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
+    int             cpu;           /* the CPU this thread is pinned to (pin-io), -1 = none */
 };
 
 void *sts_io_main(void *arg);

@@ -14,9 +14,12 @@
  * query function is chosen: point and bilinear inside a face specialised per texel type and
  * channel count, box and width-4 kernels inside a face through the fused path of
  * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
- * eval, the general path. Both ways do the same arithmetic in the same order. A bilinear
- * 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on pk2 pieces;
- * in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in registers).
+ * eval, the general path. Both ways do the same arithmetic in the same order. The point
+ * filter and the box and width-4 filters also have their own batch loops (point_run,
+ * kernel_run: the query checks and the query function inline, no call per query). A
+ * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
+ * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
+ * registers).
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
@@ -1136,9 +1139,12 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
 }
 
 /* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
- * the face (every mode agrees there), else eval. */
-static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
-                    float *out, float *cov)
+ * the face (every mode agrees there), else eval. Inlined into kernel_run's batch loop;
+ * kernel_q is the per-query function of the same. */
+__attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_params *pp,
+                                                           const st_sample_opts *o,
+                                                           const st_query *q, float *out,
+                                                           float *cov)
 {
     const st_face *F = plain_face(c, q);
     if (!F)
@@ -1161,6 +1167,12 @@ static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const s
     if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
         return eval_kernel(c, pp, o, q, &k, out, cov);
     return kernel_declined(c, pp, o, q, out, cov);
+}
+
+static int kernel_q(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
+                    float *out, float *cov)
+{
+    return kernel_qi(c, pp, o, q, out, cov);
 }
 
 #define PF_QFN(DT, NC)                                                                      \
@@ -1305,6 +1317,32 @@ static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
     return dt > 3 || nc < 1 || nc > 4 ? NULL : fns[dt][nc - 1];
 }
 
+/* The batch of the box and width-4 filters with the fused path (qfn is kernel_q): one_query's
+ * checks and kernel_q inline per query (no call through serve and qfn), coverage and status
+ * written directly; a query that fails the checks goes through serve. Returns the number
+ * that failed. */
+static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
+                      const st_query *q, size_t n, float *out, float *coverage,
+                      uint8_t *status)
+{
+    int bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        const st_query *qi = q + i;
+        if (__builtin_expect(query_plain(qi, c->s->info.nfaces), 1)) {
+            float cov;
+            int st = kernel_qi(c, pp, o, qi, out + i * c->nc, &cov);
+            if (coverage)
+                coverage[i] = cov;
+            if (status)
+                status[i] = (uint8_t)st;
+            bad += st != ST_Q_OK;
+            continue;
+        }
+        bad += serve(c, pp, o, qfn, q, i, out, coverage, status); /* fails its checks */
+    }
+    return bad;
+}
+
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                  float *out, float *coverage, uint8_t *status, int path)
 {
@@ -1360,6 +1398,11 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                    .nfaces = s->info.nfaces, .width = c.width, .blur = c.blur};
     if (o->filter == ST_FILTER_PTEX_POINT && !general && point_run_select(c.dt, c.nc)) {
         int bad = point_run_select(c.dt, c.nc)(&c, &pp, o, qfn, q, n, out, coverage, status);
+        st_ptexres_unpin(t);
+        return bad;
+    }
+    if (qfn == kernel_q && path == PF_PATH_BEST) {
+        int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status);
         st_ptexres_unpin(t);
         return bad;
     }

@@ -87,7 +87,6 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
     if (!(uw >= lo))
         uw = lo;
     *kres = pk_res_from_width(uw);
-    int resu = 1 << (*kres < 0 ? 0 : *kres > 30 ? 30 : *kres);
     if (uw >= .25f) {
         if (uw < .5f) {
             *kres = 2;
@@ -134,6 +133,7 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
             return 0;
         }
     }
+    int resu = 1 << (*kres < 0 ? 0 : *kres > 30 ? 30 : *kres); /* widths under 1/4 only */
     float upix = u * (float)resu - 0.5f;
     float uwpix = uw * (float)resu;
     float dupix = 2.0f * uwpix;
@@ -336,7 +336,7 @@ pf_bilinear_half_fn pf_bilinear_half_select(void);
  * give the general path's results bit for bit. PF_PATH_BEST: what st_ptexfilter_batch does;
  * PF_PATH_GENERAL: every query through eval (no per-type query function, no fused,
  * small-window or lane path); PF_PATH_QUERY: the per-query shortcuts without the bilinear
- * lanes; PF_PATH_LANES4: the 4-lane (SSE2) bilinear lanes whatever the CPU. */
+ * lanes and without the box / width-4 batch loop (kernel_run); PF_PATH_LANES4: the 4-lane (SSE2) bilinear lanes whatever the CPU. */
 enum { PF_PATH_BEST, PF_PATH_GENERAL, PF_PATH_QUERY, PF_PATH_LANES4 };
 int pf_batch_path(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                   float *out, float *coverage, uint8_t *status, int path);

@@ -411,33 +411,35 @@ PF_TARGET int box_axes(float u, float v, float uw, float vw, int fulog2, int fvl
     __m128i n = _mm_sub_epi32(_mm_cvttps_epi32(x2c), a);
     n = _mm_min_epi32(_mm_max_epi32(n, _mm_set1_epi32(1)), _mm_set1_epi32(3));
     __m128 f1 = _mm_sub_ps(one, _mm_sub_ps(x1, x1f)), f2 = _mm_sub_ps(one, _mm_sub_ps(x2c, x2));
-    float F1[4], F2[4];
-    int A[4], N[4], R[4];
-    _mm_storeu_ps(F1, f1);
-    _mm_storeu_ps(F2, f2);
-    _mm_storeu_si128((__m128i *)(void *)A, a);
-    _mm_storeu_si128((__m128i *)(void *)N, n);
-    _mm_storeu_si128((__m128i *)(void *)R, r);
-    float *k[2] = {ku, kv};
-    for (int ax = 0; ax < 2; ax++) {
-        float *kk = k[ax];
-        res[ax] = R[ax];
-        k0[ax] = A[ax];
-        kw[ax] = N[ax];
-        if (N[ax] == 1) {
-            kk[0] = F1[ax] + F2[ax] - 1.0f;
-            if (kk[0] == 0)
-                return 0;
-            sum[ax] = kk[0];
-        } else {
-            if (F1[ax] == 0 || F2[ax] == 0)
-                return 0;
-            kk[0] = F1[ax];
-            kk[1] = 1.0f;
-            kk[N[ax] - 1] = F2[ax];
-            sum[ax] = N[ax] == 2 ? F1[ax] + F2[ax] : (F1[ax] + 1.0f) + F2[ax];
-        }
-    }
+    /* both axes' weights and sums in the lanes, pk_build's and pk_weight's operations:
+     * 1 tap f1 + f2 - 1; 2 taps f1, f2 (sum f1 + f2); 3 taps f1, 1, f2 (sum (f1 + 1) + f2) */
+    __m128 s12 = _mm_add_ps(f1, f2);
+    __m128 w1 = _mm_sub_ps(s12, one);
+    __m128 s3 = _mm_add_ps(_mm_add_ps(f1, one), f2);
+    __m128 n1 = _mm_castsi128_ps(_mm_cmpeq_epi32(n, _mm_set1_epi32(1)));
+    __m128 n3 = _mm_castsi128_ps(_mm_cmpeq_epi32(n, _mm_set1_epi32(3)));
+    const __m128 z = _mm_setzero_ps();
+    /* a zero weight at an end: the one weight (1 tap), else f1 or f2 */
+    __m128 bad = _mm_or_ps(_mm_and_ps(n1, _mm_cmpeq_ps(w1, z)),
+                           _mm_andnot_ps(n1, _mm_or_ps(_mm_cmpeq_ps(f1, z), _mm_cmpeq_ps(f2, z))));
+    if (_mm_movemask_ps(bad) & 3)
+        return 0;
+    __m128 k0v = _mm_blendv_ps(f1, w1, n1);
+    __m128 k1v = _mm_blendv_ps(f2, one, n3);
+    __m128 sm = _mm_blendv_ps(_mm_blendv_ps(s12, s3, n3), w1, n1);
+    __m128 k01 = _mm_unpacklo_ps(k0v, k1v); /* k0u k1u k0v k1v */
+    _mm_storel_pi((__m64 *)(void *)ku, k01);
+    _mm_storeh_pi((__m64 *)(void *)kv, k01);
+    ku[2] = _mm_cvtss_f32(f2);
+    kv[2] = _mm_cvtss_f32(_mm_shuffle_ps(f2, f2, 1));
+    res[0] = _mm_cvtsi128_si32(r);
+    res[1] = _mm_extract_epi32(r, 1);
+    k0[0] = _mm_cvtsi128_si32(a);
+    k0[1] = _mm_extract_epi32(a, 1);
+    kw[0] = _mm_cvtsi128_si32(n);
+    kw[1] = _mm_extract_epi32(n, 1);
+    sum[0] = _mm_cvtss_f32(sm);
+    sum[1] = _mm_cvtss_f32(_mm_shuffle_ps(sm, sm, 1));
     return 1;
 }
 

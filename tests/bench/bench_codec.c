@@ -3,7 +3,7 @@
  * reference loops against the AVX2 + F16C forms the daemon runs when the CPU has them:
  * f16 reply encode, f16 reply decode (client), unorm8 and unorm16 reply encode, and the
  * compact query widening (UV16 + FACE16 and UV16 layouts, PROTOCOL.md 4.4.1) to the f32
- * layout. A batch of 4096 RGBA values (16384) or 4096 queries, in cache, 64 passes per timing.
+ * layout, and the client's narrowing of stp_query to those layouts. A batch of 4096 RGBA values (16384) or 4096 queries, in cache, 64 passes per timing.
  *
  * Usage: bench_codec [--json PATH] [--reps N]   (medians of N repetitions, default 7)
  */
@@ -29,6 +29,7 @@ static float    back[NV];
 static uint8_t  halves[NV * 2];
 static uint8_t  raw14[NQ * 14], raw16[NQ * 16];
 static uint8_t  wide[NQ * STP_QUERY_SIZE];
+static stp_query qry[NQ];
 
 typedef void (*run_fn)(int fast);
 
@@ -52,6 +53,11 @@ static stp_sample_req rq;
 static void widen(int fast)
 {
     (fast ? stp_sample_queries_f32_avx2 : stp_sample_queries_f32_scalar)(&rq, 0, NQ, wide);
+}
+static int narrow_face16;
+static void narrow(int fast)
+{
+    (fast ? stp_put_queries_uv16_avx2 : stp_put_queries_uv16_scalar)(qry, NQ, narrow_face16, out);
 }
 
 /* median ns per item over reps timings of PASS passes */
@@ -95,6 +101,15 @@ int main(int argc, char **argv)
     }
     memset(&rq, 0, sizeof rq);
     rq.count = NQ;
+    /* what a renderer sends: u, v in [0, 1), derivatives about 2^-8 */
+    for (int i = 0; i < NQ; i++) {
+        float d[6];
+        for (int k = 0; k < 6; k++) {
+            x = x * 1664525u + 1013904223u;
+            d[k] = k < 2 ? (float)(x >> 8) * 0x1p-24f : (float)(x >> 8) * 0x1p-31f;
+        }
+        qry[i] = (stp_query){ x % 5000, d[0], d[1], d[2], d[3], d[4], d[5] };
+    }
 
     int have = stp_codec_have_avx2();
     row rows[] = {
@@ -104,12 +119,15 @@ int main(int argc, char **argv)
         { "unorm16 reply encode (ns/value)", "unorm16_encode", 0, 0 },
         { "query widen, UV16+FACE16 14 B (ns/query)", "widen_uv16_face16", 0, 0 },
         { "query widen, UV16 16 B (ns/query)", "widen_uv16", 0, 0 },
+        { "query narrow, client, UV16+FACE16 (ns/query)", "narrow_uv16_face16", 0, 0 },
+        { "query narrow, client, UV16 (ns/query)", "narrow_uv16", 0, 0 },
     };
-    run_fn fns[] = { f16_enc, f16_dec, un8_enc, un16_enc, widen, widen };
-    size_t items[] = { NV, NV, NV, NV, NQ, NQ };
+    run_fn fns[] = { f16_enc, f16_dec, un8_enc, un16_enc, widen, widen, narrow, narrow };
+    size_t items[] = { NV, NV, NV, NV, NQ, NQ, NQ, NQ };
     for (size_t i = 0; i < sizeof rows / sizeof *rows; i++) {
         rq.p.flags = i == 4 ? STP_SF_UV16 | STP_SF_FACE16 : STP_SF_UV16;
         rq.raw = i == 4 ? raw14 : raw16;
+        narrow_face16 = i == 6;
         rows[i].ref_ns = time_ns(fns[i], 0, items[i], reps, t);
         rows[i].fast_ns = have ? time_ns(fns[i], 1, items[i], reps, t) : 0;
     }

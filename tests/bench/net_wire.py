@@ -16,6 +16,11 @@ and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.
   - ratios to the in-process figure at the same total thread count (1 connection vs 1 thread,
     2 connections vs 2 threads), and the daemon's CPU per query: utime + stime from
     /proc/<pid>/stat over the queries it served, against the in-process CPU per query;
+  - the load tester's CPU per query (column "client": its user + system time from
+    getrusage, warm-up included, over the queries served) and "bound": the in-process CPU per
+    query (same thread count) over daemon + client CPU per query, the ratio the run could
+    reach if the two had the cores to themselves (both run on the same cores: the client's
+    share and the daemon's extra CPU are what cap the ratio, whatever the machine's load);
 With NET_PIPELINE=2,8 (default 2) every wire run is made at each of those pipeline depths
 (seamtex-bench -P: requests in flight per connection), one after the other on the same daemon,
 and the table has a row per depth (column P); the in-process figures do not depend on it. A
@@ -36,6 +41,7 @@ machine leaves us.
 """
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -99,12 +105,21 @@ class Daemon:
         subprocess.run(['rm', '-rf', self.dir])
 
 
+def children_cpu_s():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def bench(args, exe=BENCH):
     with tempfile.NamedTemporaryFile(suffix='.json') as j:
+        c0 = children_cpu_s()
         r = subprocess.run([exe] + args + ['-q', '-j', j.name], capture_output=True,
                            text=True, timeout=300)
         try:
-            return json.load(open(j.name))
+            doc = json.load(open(j.name))
+            # the load tester's own CPU (user + system, warm-up and connect included)
+            doc['_client_cpu_s'] = children_cpu_s() - c0
+            return doc
         except (ValueError, OSError):
             print('net_wire: run failed:', ' '.join(args), r.stderr[-300:], file=sys.stderr)
             return None
@@ -130,6 +145,7 @@ def sample_run(d, name, batch, enc, conns, pipe, extra=()):
     add((batch, enc, name, conns, pipe, 'qps'), j.get('queries_per_s', 0))
     if served:
         add((batch, enc, name, conns, pipe, 'ns_cpu'), (c1 - c0) * 1e9 / served)
+        add((batch, enc, name, conns, pipe, 'ns_client'), j['_client_cpu_s'] * 1e9 / served)
     if j.get('errors'):
         print(f'net_wire: {name} {enc} batch {batch}: {j["errors"]} error replies',
               file=sys.stderr)
@@ -203,7 +219,7 @@ def main():
           f'{",".join(map(str, PIPELINES))} per connection, '
           f'{os.cpu_count()} cores, load {load0} -> {load1}, medians of {REPS}')
     print(f"{'batch':>6} {'enc':<8} {'run':<10} {'conns':>5} {'P':>3} {'Mq/s':>8} "
-          f"{'x inproc':>9} {'ns CPU/q':>9} {'x inproc':>9}")
+          f"{'x inproc':>9} {'ns CPU/q':>9} {'x inproc':>9} {'client':>7} {'bound':>6}")
     for batch in BATCHES:
         for t in (1, 2):
             q = med.get((batch, 'inproc', t, 'qps'), 0)
@@ -226,15 +242,22 @@ def main():
                     continue
                 q = med[(*k, 'qps')]
                 ns = med.get((*k, 'ns_cpu'), 0)
+                ncl = med.get((*k, 'ns_client'), 0)
                 iq = med.get((batch, 'inproc', conns, 'qps'), 0)
                 ins = med.get((batch, 'inproc', 1, 'ns_cpu'), 0)
+                ins_t = med.get((batch, 'inproc', conns, 'ns_cpu'), 0)
                 rq = q / iq if iq else 0
                 rc = ns / ins if ins else 0
+                # the ratio this run could reach if the daemon and the load tester had the
+                # cores the in-process run has, all to themselves: in-process CPU per query
+                # over daemon + client CPU per query (both measured, same thread count)
+                bound = ins_t / (ns + ncl) if ns + ncl > 0 else 0
                 print(f"{batch:>6} {enc:<8} {name:<10} {conns:>5} {pipe:>3} {q / 1e6:8.2f} "
-                      f"{rq:9.2f} {ns:9.1f} {rc:9.2f}")
+                      f"{rq:9.2f} {ns:9.1f} {rc:9.2f} {ncl:7.1f} {bound:6.2f}")
                 row = dict(batch=batch, encoding=enc, run=name, conns=conns, pipeline=pipe,
                            queries_per_s=q, ratio_vs_inproc_same_threads=rq,
-                           ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc)
+                           ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc,
+                           ns_client_cpu_per_query=ncl, ratio_bound_from_cpu=bound)
                 # the A/Bs of the shared-memory path: against plain Unix of the same
                 # daemon (same window), and against the base daemon's shared memory
                 refs = [('unix', 'vs unix')] if name in ('unix+shm', 'unix+shmcp') else []

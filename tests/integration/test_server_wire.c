@@ -5,11 +5,16 @@
  * replaced; a live one or a non-socket file left alone; the file removed at exit; a 256 KiB
  * reply leaves in one write).
  *
+ * With --pin-io each I/O thread runs on its own CPU (STATS io<i>_cpu, the kernel's affinity of
+ * the threads) and samples what an unpinned daemon does.
+ *
  * The first tests share one daemon with defaults (2 I/O threads, --heavy-batch 2048 so that
  * large batches run on a worker and split); the Unix-socket tests start their own.
  */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <sched.h>
 #include <math.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -169,6 +174,91 @@ static void compact_queries_sample_like_f32_of_the_rounded_query(void **state)
     }
     assert_true(bad > 0 && bad < checked);   /* the bad faces and NaNs were in there */
     stc_close(c);
+}
+
+/* ---- pin-io: I/O threads pinned to CPUs -------------------------------------------------------- */
+
+/* Threads of `pid` allowed on exactly one CPU. */
+static int single_cpu_threads(pid_t pid)
+{
+    char path[64];
+    snprintf(path, sizeof path, "/proc/%d/task", (int)pid);
+    DIR *d = opendir(path);
+    assert_non_null(d);
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.')
+            continue;
+        cpu_set_t m;
+        CPU_ZERO(&m);
+        if (sched_getaffinity(atoi(e->d_name), sizeof m, &m) == 0 && CPU_COUNT(&m) == 1)
+            n++;
+    }
+    closedir(d);
+    return n;
+}
+
+static void pin_io_pins_each_io_thread_and_samples_the_same(void **state)
+{
+    (void)state;
+    cpu_set_t mask;
+    CPU_ZERO(&mask);
+    assert_int_equal(sched_getaffinity(0, sizeof mask, &mask), 0);   /* the daemon inherits it */
+    int ncpu = CPU_COUNT(&mask), cpus[CPU_SETSIZE], k = 0;
+    for (int i = 0; i < CPU_SETSIZE; i++)
+        if (CPU_ISSET(i, &mask))
+            cpus[k++] = i;
+    /* unpinned by default: no io<i>_cpu */
+    stc_conn *ref = st_daemon_client(&D1, NULL);
+    assert_non_null(ref);
+    assert_int_equal(st_conn_stat(ref, "io0_cpu"), UINT64_MAX);
+
+    st_daemon d;
+    static const char *const args[] = {"--pin-io", "yes", "--io-threads", "3", "--heavy-batch",
+                                       "2048", NULL};
+    assert_int_equal(st_daemon_up(&d, args), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    /* thread i on the i-th CPU of the mask, wrapping around */
+    for (unsigned i = 0; i < 3; i++) {
+        char key[16];
+        snprintf(key, sizeof key, "io%u_cpu", i);
+        assert_int_equal(st_conn_stat(c, key), (uint64_t)cpus[i % (unsigned)ncpu]);
+    }
+    assert_int_equal(st_conn_stat(c, "io3_cpu"), UINT64_MAX);
+    /* and the kernel holds them there: three threads on one CPU each (every thread is, on a
+     * one-CPU machine) */
+    if (ncpu > 1)
+        assert_int_equal(single_cpu_threads(d.pid), 3);
+    /* the same values as the unpinned daemon: inline, on a worker, split */
+    static const size_t sizes[] = {300, 5000};
+    for (size_t si = 0; si < 2; si++) {
+        size_t n = sizes[si];
+        stc_query *q = st_default_set_queries(n, 5u + (uint32_t)n);
+        stc_sample_opts o;
+        memset(&o, 0, sizeof o);
+        o.mode = STP_MODE_TRAVERSE;
+        o.filter = STP_FILTER_BILINEAR;
+        o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+        stc_sample_result r;
+        result_copy want, got;
+        assert_int_equal(stc_sample(ref, "default", &o, q, n, &r), 0);
+        copy_result(&r, &want);
+        assert_int_equal(stc_sample(c, "default", &o, q, n, &r), 0);
+        copy_result(&r, &got);
+        assert_int_equal(got.count, n);
+        assert_int_equal(got.nbad, want.nbad);
+        assert_memory_equal(got.values, want.values, n * want.nchan * sizeof(float));
+        assert_memory_equal(got.coverage, want.coverage, n * sizeof(float));
+        assert_memory_equal(got.status, want.status, n);
+        free_result(&want);
+        free_result(&got);
+        free(q);
+    }
+    stc_close(c);
+    stc_close(ref);
+    assert_int_equal(st_daemon_down(&d, 30000), 0);
 }
 
 static void compact_flags_on_sample_dir_are_invalid(void **state)
@@ -355,6 +445,7 @@ int main(void)
         cmocka_unit_test(connections_land_on_different_io_threads),
         cmocka_unit_test(compact_queries_sample_like_f32_of_the_rounded_query),
         cmocka_unit_test(compact_flags_on_sample_dir_are_invalid),
+        cmocka_unit_test(pin_io_pins_each_io_thread_and_samples_the_same),
     };
     const struct CMUnitTest unix_tests[] = {
         cmocka_unit_test_setup_teardown(unix_socket_serves_with_its_mode_and_is_removed_at_exit,

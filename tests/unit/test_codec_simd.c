@@ -4,13 +4,17 @@
  * subnormals, 2^-25, 65504..65520, infinities, signalling and quiet NaNs with payloads) and
  * millions of random bit patterns; binary16 -> binary32 over all 65536 halves; unorm8 and
  * unorm16 around every step and tie, out of range, NaN; the compact query layouts (UV16,
- * UV16 + FACE16) over random bytes (NaN and infinite derivatives included). Every length
+ * UV16 + FACE16) over random bytes (NaN and infinite derivatives included), and the other
+ * way (a client's stp_query narrowed to those layouts) over every u16 step and tie of u and v
+ * with their neighbours, out-of-range, infinite and NaN u and v, every edge class of the
+ * derivatives and random bit patterns, in each rounding mode. Every length
  * 0..67 at unaligned offsets, with the input ending at an unreadable page (an over-read
  * faults) and canaries around the output (an over-write fails). Also that the public entry
  * points (stp_f16_encode, stp_f16_decode, stp_enc_sample_values, stp_sample_queries_f32) give
  * the reference's bytes whichever path they take. Skips the comparisons on a CPU without
  * AVX2 and F16C.
  */
+#include <fenv.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -393,6 +397,178 @@ static void compact_queries_widen_as_the_reference(void **state)
     }
 }
 
+/* Narrows q[0..n) both ways for one layout, the output at offset oo with canaries, and fails
+ * at the first query whose bytes differ (naming it). */
+static void same_narrowing(int face16, const stp_query *q, size_t n, size_t oo)
+{
+    size_t qs = face16 ? 14 : 16, bytes = 16 + n * qs + 16 + 8;
+    uint8_t *a = malloc(bytes), *b = malloc(bytes);
+    memset(a, 0xA5, bytes);
+    memset(b, 0xA5, bytes);
+    stp_put_queries_uv16_avx2(q, n, face16, a + 16 + oo);
+    stp_put_queries_uv16_scalar(q, n, face16, b + 16 + oo);
+    if (memcmp(a, b, bytes) != 0) {
+        for (size_t i = 0; i < bytes; i++) {
+            if (a[i] == b[i])
+                continue;
+            ssize_t at = (ssize_t)i - 16 - (ssize_t)oo;
+            if (at < 0 || at >= (ssize_t)(n * qs))
+                fail_msg("face16 %d, %zu queries: the fast path wrote byte %zd, outside them",
+                         face16, n, at);
+            const stp_query *x = &q[(size_t)at / qs];
+            fail_msg("face16 %d, query %zd (face %u u 0x%08x v 0x%08x d 0x%08x 0x%08x 0x%08x "
+                     "0x%08x): byte %zd: fast %02x, reference %02x", face16, at / (ssize_t)qs,
+                     x->face, stp_f2u(x->u), stp_f2u(x->v), stp_f2u(x->dudx), stp_f2u(x->dvdx),
+                     stp_f2u(x->dudy), stp_f2u(x->dvdy), at % (ssize_t)qs, a[i], b[i]);
+        }
+    }
+    /* the public entry point */
+    memset(a, 0xA5, bytes);
+    stp_put_queries_uv16(q, n, face16, a + 16 + oo);
+    assert_memory_equal(a, b, bytes);
+    free(a);
+    free(b);
+}
+
+/* A u or v of every kind: each u16 step k / 2^16 and tie (k + 0.5) / 2^16 (the even and odd
+ * cases) with their binary32 neighbours, the clamp at 65535 / 65536, out of range, zeros,
+ * subnormals, infinities, NaNs, random bit patterns and random values in [0, 1). */
+static float uv_value(size_t i)
+{
+    static const uint32_t edges[] = {
+        0x00000000, 0x80000000, 0x00000001, 0x80000001, 0x007FFFFF, 0x00800000, 0x37800000,
+        0x377FFFFF, 0x37000000, 0x37000001, 0x36FFFFFF, 0x37C00000, 0x3F7FFF00, 0x3F7FFEFF,
+        0x3F7FFF01, 0x3F7FFF80, 0x3F7FFF7F, 0x3F7FFFFF, 0x3F800000, 0x3F800001, 0x40000000,
+        0x7F7FFFFF, 0x7F800000, 0xFF800000, 0x7FC00000, 0xFFC00000, 0x7F800001, 0xFFBFFFFF,
+        0xBF800000, 0xB7800000, 0x4F800000, 0xCF800000,
+    };
+    size_t ne = sizeof edges / sizeof *edges;
+    switch (i % 8) {
+    case 0: case 1: case 2: {                    /* steps and ties, walked in order */
+        uint32_t k = (uint32_t)(i / 8) % 65536;
+        float t = (i % 8 == 0) ? (float)k * 0x1p-16f : ((float)k + 0.5f) * 0x1p-16f;
+        return i % 3 == 0 ? t : i % 3 == 1 ? nextafterf(t, -1.0f) : nextafterf(t, 2.0f);
+    }
+    case 3: return from_bits(edges[(i / 8) % ne]);
+    case 4: return from_bits(rnd());
+    case 5: return (float)(rnd() >> 8) * 0x1p-24f;
+    case 6: return ((float)(rnd() % 65536) + 0.5f) * 0x1p-16f;
+    default: return (float)(rnd() >> 8) * 0x1p-23f - 0.5f;   /* [-0.5, 1.5) */
+    }
+}
+
+static void fill_queries(stp_query *q, size_t n, size_t salt)
+{
+    float pool[512];
+    edge_pool(pool, 512);
+    for (size_t i = 0; i < n; i++) {
+        q[i].face = (i & 1) ? rnd() : rnd() % 70000;
+        q[i].u = uv_value(i + salt);
+        q[i].v = uv_value(i * 7 + 3 + salt);
+        float *d = &q[i].dudx;
+        for (int k = 0; k < 4; k++)
+            d[k] = (i + k) % 2 ? pool[(i * 4 + (size_t)k + salt) % 512] : from_bits(rnd());
+    }
+}
+
+static void compact_queries_narrow_as_the_reference(void **state)
+{
+    (void)state;
+    SKIP_WITHOUT_AVX2();
+    /* the spec's answers themselves (PROTOCOL.md 4.4.1), on the fast path */
+    stp_query s[6];
+    static const float su[6] = { 0.5f / 65536, 1.5f / 65536, 65534.5f / 65536, 65535.0f / 65536,
+                                 -0.0f, 2.0f };
+    static const uint16_t want[6] = { 0, 2, 65534, 65535, 0, 65535 };
+    for (int i = 0; i < 6; i++) {
+        memset(&s[i], 0, sizeof s[i]);
+        s[i].face = 0x12345u + (uint32_t)i;
+        s[i].u = su[i];
+        s[i].v = from_bits(0x7FC00000);          /* NaN: 0 */
+        s[i].dudx = 65520.0f;                    /* inf */
+        s[i].dvdx = from_bits(0xFFC00001);       /* NaN: 0xFE00 */
+        s[i].dudy = 0x1p-25f;                    /* the tie with 0: 0 */
+        s[i].dvdy = -1.0f;
+    }
+    uint8_t o[6 * 14];
+    stp_put_queries_uv16_avx2(s, 6, 1, o);
+    for (int i = 0; i < 6; i++) {
+        const uint8_t *p = o + 14 * i;
+        assert_int_equal(stp_rd16(p), 0x2345u + (unsigned)i);
+        assert_int_equal(stp_rd16(p + 2), want[i]);
+        assert_int_equal(stp_rd16(p + 4), 0);
+        assert_int_equal(stp_rd16(p + 6), 0x7C00);
+        assert_int_equal(stp_rd16(p + 8), 0xFE00);
+        assert_int_equal(stp_rd16(p + 10), 0);
+        assert_int_equal(stp_rd16(p + 12), 0xBC00);
+    }
+    size_t nq = (size_t)8 * 65536 * 2 + 1000;     /* every step and tie, twice over */
+    stp_query *q = malloc(nq * sizeof *q);
+    fill_queries(q, nq, 0);
+    static const int modes[] = { FE_TONEAREST, FE_UPWARD, FE_DOWNWARD, FE_TOWARDZERO };
+    for (int face16 = 0; face16 < 2; face16++) {
+        for (size_t m = 0; m < 4; m++) {
+            assert_int_equal(fesetround(modes[m]), 0);
+            for (size_t at = 0; at < nq; at += 4096)
+                same_narrowing(face16, q + at, nq - at < 4096 ? nq - at : 4096, at / 4096 % 8);
+        }
+        assert_int_equal(fesetround(FE_TONEAREST), 0);
+        /* every count 0..67, the input ending at an unreadable page, at output offsets */
+        guard g = guard_alloc(67 * sizeof *q);
+        for (size_t n = 0; n <= 67; n++) {
+            stp_query *p = (stp_query *)(void *)g.p + (67 - n);
+            memcpy(p, q + n * 131, n * sizeof *q);
+            for (size_t oo = 0; oo < 8; oo++)
+                same_narrowing(face16, p, n, oo);
+        }
+        guard_free(&g);
+    }
+    /* the frame encoder (bodies.c stp_put_queries) gives the reference's bytes */
+    for (unsigned fl = 0; fl < 16; fl += 4) {
+        stp_sample_req r;
+        memset(&r, 0, sizeof r);
+        snprintf(r.p.name, sizeof r.p.name, "default");
+        r.p.flags = (uint8_t)fl;
+        r.count = 300;
+        r.queries = q + 77;
+        size_t qs = stp_query_size(fl);
+        uint8_t *a = malloc(300 * 28), *b = malloc(300 * 28);
+        stp_put_queries(STP_OP_SAMPLE, &r, a);
+        if (fl & STP_SF_UV16)
+            stp_put_queries_uv16_scalar(r.queries, 300, (fl & STP_SF_FACE16) != 0, b);
+        else
+            for (size_t i = 0; i < 300; i++) {
+                const stp_query *x = &r.queries[i];
+                uint8_t *w = b + i * qs, *f = w + ((fl & STP_SF_FACE16) ? 2 : 4);
+                if (fl & STP_SF_FACE16)
+                    stp_wr16(w, (uint16_t)x->face);
+                else
+                    stp_wr32(w, x->face);
+                const float *v = &x->u;
+                for (int k = 0; k < 6; k++)
+                    stp_wr32(f + 4 * k, stp_f2u(v[k]));
+            }
+        assert_memory_equal(a, b, 300 * qs);
+        /* and what the daemon widens back is the rounded query (stp_query_round) */
+        if (fl & STP_SF_UV16) {
+            stp_sample_req d;
+            memset(&d, 0, sizeof d);
+            d.p.flags = (uint8_t)fl;
+            d.raw = a;
+            d.count = 300;
+            for (uint32_t i = 0; i < 300; i++) {
+                stp_query got, rounded;
+                stp_sample_query(&d, i, &got);
+                stp_query_round(&r.queries[i], fl, &rounded);
+                assert_memory_equal(&got, &rounded, sizeof got);
+            }
+        }
+        free(a);
+        free(b);
+    }
+    free(q);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -401,6 +577,7 @@ int main(void)
         cmocka_unit_test(f16_decode_equals_the_reference_for_every_half),
         cmocka_unit_test(unorm_encodes_equal_the_reference),
         cmocka_unit_test(compact_queries_widen_as_the_reference),
+        cmocka_unit_test(compact_queries_narrow_as_the_reference),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -11,7 +11,8 @@
  * also compared along its per-query path and its 4-lane (SSE2) lanes, whatever the CPU, and
  * its lanes on blocks that mix queries they serve with every kind they must leave to the
  * per-query path, in batches of every length up to 40 (ptexfilter_lanes.h), and its 2 x 2
- * kernel over every edge and corner of every face at every resolution. */
+ * kernel over every edge and corner of every face at every resolution; the batch loop of
+ * the box and width-4 filters (kernel_run) on the same mix. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -142,8 +143,9 @@ static void every_path(const char *path, st_set *s, long *compared)
                 st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
                                     .width = widths[w][0], .blur = widths[w][1],
                                     .sharpness = 0.5f};
-                /* st_ptexfilter_batch's own path, then (bilinear only: the others take the
-                 * same path) the per-query shortcuts and the 4-lane bilinear */
+                /* st_ptexfilter_batch's own path, then (bilinear only here; the box and
+                 * width-4 filters' per-query path is checked on the mix of kernel_mixed) the
+                 * per-query shortcuts and the 4-lane bilinear */
                 compare_paths(path, s, &o, q, NQ, PF_PATH_BEST);
                 *compared += NQ;
                 if (flt != ST_FILTER_PTEX_BILINEAR)
@@ -172,10 +174,8 @@ static void shortcuts_give_the_general_paths_results_bit_for_bit(void **state)
  * constant neighbourhood (whichever the file has), tiny and huge footprints, negative
  * derivatives and -0 - in batches of every length from 1 to 40 (tails of every size) and at
  * every offset, with default and non-default width and blur, in the three modes. */
-static void mixed_blocks(const char *path, st_set *s, long *compared)
+static void make_mix(const st_set *s, st_query *q)
 {
-    static st_query q[NQ];
-    static const float widths[3][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}, {0.3f, 0.0f}};
     const float inf = 1.0f / 0.0f;
     uint32_t nf = s->info.nfaces;
     for (int k = 0; k < NQ; k++) {
@@ -203,6 +203,13 @@ static void mixed_blocks(const char *path, st_set *s, long *compared)
         }
         q[k] = x;
     }
+}
+
+static void mixed_blocks(const char *path, st_set *s, long *compared)
+{
+    static st_query q[NQ];
+    static const float widths[3][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}, {0.3f, 0.0f}};
+    make_mix(s, q);
     for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
         for (int w = 0; w < 3; w++) {
             st_sample_opts o = {.mode = (uint8_t)m, .filter = ST_FILTER_PTEX_BILINEAR,
@@ -232,6 +239,42 @@ static void bilinear_lanes_serve_mixed_blocks_bit_for_bit(void **state)
 {
     (void)state;
     for_each_ptx(mixed_blocks);
+}
+
+/* The box and width-4 filters' batch loop (kernel_run: the query checks and the fused path
+ * inline) on the same mix of queries it must serve and queries it must leave to serve
+ * (faces out of range, NaN, infinite and too large derivatives, coordinates outside
+ * [0, 1), subfaces, constant faces, overhanging kernels): bit for bit the general path and
+ * the per-query path (PF_PATH_QUERY: kernel_q through serve), in the three modes with
+ * default and non-default width and blur, whole and in batches of every length 1-40. */
+static void kernel_mixed(const char *path, st_set *s, long *compared)
+{
+    static st_query q[NQ];
+    static const float widths[2][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}};
+    make_mix(s, q);
+    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+        for (unsigned flt = ST_FILTER_PTEX_BOX; flt <= ST_FILTER_PTEX_MITCHELL; flt++) {
+            for (int w = 0; w < 2; w++) {
+                st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
+                                    .width = widths[w][0], .blur = widths[w][1],
+                                    .sharpness = 0.5f};
+                compare_paths(path, s, &o, q, NQ, PF_PATH_BEST);
+                compare_paths(path, s, &o, q, NQ, PF_PATH_QUERY);
+                *compared += 2 * NQ;
+            }
+        }
+    }
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_PTEX_GAUSSIAN};
+    for (size_t len = 1; len <= 40; len++) {
+        compare_paths(path, s, &o, q + len * 41, len, PF_PATH_BEST);
+        *compared += (long)len;
+    }
+}
+
+static void kernel_batch_loop_serves_mixed_blocks_bit_for_bit(void **state)
+{
+    (void)state;
+    for_each_ptx(kernel_mixed);
 }
 
 /* Every face's four edges and four corners, overhung by the bilinear's 2 x 2 kernel at every
@@ -299,6 +342,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(shortcuts_give_the_general_paths_results_bit_for_bit),
         cmocka_unit_test(bilinear_lanes_serve_mixed_blocks_bit_for_bit),
+        cmocka_unit_test(kernel_batch_loop_serves_mixed_blocks_bit_for_bit),
         cmocka_unit_test(bilinear_overhangs_every_edge_and_corner_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
