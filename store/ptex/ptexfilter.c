@@ -16,7 +16,10 @@
  * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
  * eval, the general path. Both ways do the same arithmetic in the same order. The point
  * filter and the box and width-4 filters also have their own batch loops (point_run,
- * kernel_run: the query checks and the query function inline, no call per query).
+ * kernel_run: the query checks and the query function inline, no call per query). A
+ * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
+ * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
+ * registers).
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
@@ -97,6 +100,7 @@ typedef struct pf {
     pf_fast_fn fast;         /* the fused path of a kernel inside one face, or NULL */
     pf_window_fn win;        /* the window loop for the batch's type and channels, or NULL */
     pf_window_fn small;      /* windows of <= 2 x 2 texels (bilinear pieces), or NULL */
+    pf_edge2_fn edge2;       /* a 2 x 2 kernel's Traverse walk, plain faces (AVX2), or NULL */
     pf_bilinear_half_fn bhalf; /* the in-face bilinear of half texels (F16C), or NULL */
     float width, blur;       /* the options' width (0 -> 1) and blur (0 -> 0) */
     float weight;
@@ -821,11 +825,11 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
     split_walk(c, NULL, k, f, 0, 1);
 }
 
-/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode: the
- * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
- * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
- * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
-static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode, by the
+ * walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre:
+ * the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0
+ * (nothing written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
+static int bilinear_walk(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
 {
     pk2 k;
     k.ulog2 = b.ru, k.vlog2 = b.rv, k.u = b.ui, k.v = b.vi;
@@ -849,6 +853,60 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     for (unsigned ch = 0; ch < c->nc; ch++)
         out[ch] = c->acc[ch] * scale;
     return 1;
+}
+
+/* The 2 x 2 kernel of b on face f in Traverse over plain faces (e2: c->edge2 or NULL;
+ * ptexfilter_simd.c: bilinear_walk's weights, walk, total and division, inline): 1 with out
+ * written and *cov 1, 0 when there is none, the kernel overhangs a boundary edge, or it
+ * declines (nothing written). In Discard and Clamp (trav 0) only a kernel inside the face (a
+ * texel centre: a zero fraction), where every mode agrees (Discard keeps the whole weight,
+ * coverage 1); one that overhangs goes to the walk's merges. */
+__attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_fn e2, int trav,
+                                                                int ru, int rv, int ui, int vi,
+                                                                float fu, float fv, uint32_t f,
+                                                                float *out, float *cov)
+{
+    if (!e2)
+        return 0;
+    if (!trav && (ui < 0 || vi < 0 || (fu != 0.0f && ui + 2 > 1 << ru) ||
+                  (fv != 0.0f && vi + 2 > 1 << rv)))
+        return 0;
+    /* a kernel past a mesh boundary edge goes to the walk (its folds) without the attempt
+     * (pf_edge2 declines it too, after a call and its set-up) */
+    const int *adj = c->s->faces[f].adjface;
+    if ((ui < 0 && adj[3] < 0) || (vi < 0 && adj[0] < 0) ||
+        (fu != 0.0f && ui + 2 > 1 << ru && adj[1] < 0) ||
+        (fv != 0.0f && vi + 2 > 1 << rv && adj[2] < 0) ||
+        !e2(&c->walk, (int)f, ru, rv, ui, vi, fu, fv, out))
+        return 0;
+    *cov = 1.0f;
+    return 1;
+}
+
+/* The bilinear kernel b that overhangs face f (plain_face) or sits on a texel centre, in
+ * every mode: bilinear_edge2, else bilinear_walk (its return value). */
+static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+{
+    if (bilinear_edge2(c, c->edge2, c->mode == ST_MODE_TRAVERSE, b.ru, b.rv, b.ui, b.vi, b.fu,
+                       b.fv, f, out, cov))
+        return 1;
+    return bilinear_walk(c, b, f, out, cov);
+}
+
+/* bilinear_edge for lane j of a block the lanes handed over, from their kernel set-up lk
+ * (e2, trav as bilinear_edge2's, decided once per batch). */
+__attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
+                                                                    pf_edge2_fn e2, int trav,
+                                                                    const pf_lanes_kern *lk,
+                                                                    unsigned j, uint32_t f,
+                                                                    float *out, float *cov)
+{
+    if (bilinear_edge2(c, e2, trav, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
+                       lk->fv[j], f, out, cov))
+        return 1;
+    return bilinear_walk(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
+                                     lk->fv[j]},
+                         f, out, cov);
 }
 
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
@@ -1319,8 +1377,9 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
     c.ts = st_dtype_size(c.dt) * c.nc;
+    c.edge2 = general ? NULL : pf_edge2_select(c.dt, c.nc);
     if (!c.win)
-        c.small = NULL; /* the shortcut walks need both window loops */
+        c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small};
@@ -1348,6 +1407,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         return bad;
     }
     pf_lanes_kern lk;
+    pf_edge2_fn e2 = c.edge2;                  /* bilinear_edge2's, decided once */
+    int trav = c.mode == ST_MODE_TRAVERSE;
     int bad = 0;
     unsigned nc = c.nc;
     for (size_t i = 0; i < n;) {
@@ -1370,12 +1431,34 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         if (!(done | edge)) /* no lane served one (or no lanes): the plain loop */
             for (; i < end; i++)
                 bad += serve(&c, &pp, o, qfn, q, i, out, coverage, status);
-        if (done == (1u << nl) - 1 && end == i + nl) { /* the lanes served the whole block */
-            for (unsigned j = 0; j < 8 && j < nl; j++) {
+        if (nl && end == i + nl) {
+            /* a block of lanes that took 2 or more: coverage 1 and status ST_Q_OK for the
+             * whole block (fixed-size copies), then the lanes not served one by one */
+            static const float ones[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+            static const uint8_t oks[8] = {ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK,
+                                           ST_Q_OK, ST_Q_OK, ST_Q_OK, ST_Q_OK};
+            if (nl == 8) {
                 if (coverage)
-                    coverage[i + j] = 1.0f;
+                    memcpy(coverage + i, ones, 8 * sizeof ones[0]);
                 if (status)
-                    status[i + j] = ST_Q_OK;
+                    memcpy(status + i, oks, 8);
+            } else {
+                if (coverage)
+                    memcpy(coverage + i, ones, 4 * sizeof ones[0]);
+                if (status)
+                    memcpy(status + i, oks, 4);
+            }
+            for (unsigned rest = ~done & ((1u << nl) - 1); rest; rest &= rest - 1) {
+                unsigned j = (unsigned)__builtin_ctz(rest);
+                size_t k = i + j;
+                float cov;
+                if (edge >> j & 1 &&
+                    bilinear_edge_lane(&c, e2, trav, &lk, j, q[k].face, out + k * nc, &cov)) {
+                    if (coverage)
+                        coverage[k] = cov; /* status ST_Q_OK already */
+                    continue;
+                }
+                bad += serve(&c, &pp, o, qfn, q, k, out, coverage, status);
             }
             i = end;
             continue;
@@ -1384,9 +1467,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
             if (!(done >> j & 1)) {
                 float cov;
                 if (edge >> j & 1 &&
-                    bilinear_edge(&c, (pf_bil){lk.ru[j], lk.rv[j], lk.ui[j], lk.vi[j], lk.fu[j],
-                                               lk.fv[j]},
-                                  q[i].face, out + i * nc, &cov)) {
+                    bilinear_edge_lane(&c, e2, trav, &lk, j, q[i].face, out + i * nc, &cov)) {
                     if (coverage)
                         coverage[i] = cov;
                     if (status)

@@ -34,6 +34,11 @@
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
  *
+ * The Traverse walk of a bilinear 2 x 2 kernel over plain faces (pf_edge2_select,
+ * ptexfilter_walk.h): ptexfilter.c's split walk for that kernel, its pieces in registers and
+ * their windows summed inline by the same small-window code (no call per piece, which
+ * spilled every piece around each call).
+ *
  * The in-face bilinear of half texels (pf_bilinear_half_select): F16C conversions, then the
  * portable bilinear's multiplies and adds in its order (no fused multiply-adds), so the
  * results are the portable loop's for every finite value.
@@ -45,6 +50,8 @@
 #include "ptexfilter_kernel.h"
 
 #include <stddef.h>
+
+#include "ptexfilter_walk.h"
 
 #include "sample.h"
 
@@ -672,6 +679,201 @@ pf_window_fn pf_small_select(unsigned dt, unsigned nc)
     return pick_window(fns, dt, nc);
 }
 
+/* ---- the Traverse walk of a 2 x 2 kernel over plain faces (pf_edge2_select) -------------
+ * ptexfilter.c's split_apply_small for the common case: each step names the pk2 operation
+ * (ptexfilter.c) it stands for; weights are only moved, swapped and, in a reduction, summed
+ * in pairs (p2_downres), and each piece's window goes through small_body (pf_small's code)
+ * in the walk's order: corner, the piece past the u edge, the piece past the v edge, the
+ * rest. bilinear_kernel's 2 x 2 kernel overhangs an edge by one of its two taps (first
+ * texel -1 or 2^r - 1), so each split leaves one tap on each side; anything else declines. */
+
+typedef struct tv2 {
+    int lu, lv, u, v, nu, nv;   /* as pk2's ulog2, vlog2, u, v, uw, vw */
+    __m128 w;                   /* ku[0], ku[1], kv[0], kv[1] */
+} tv2;
+
+/* p2_rotate */
+PF_TARGET tv2 tv_rotate(tv2 k, int rot)
+{
+    rot &= 3;
+    if (rot == 0)
+        return k;
+    if (rot != 3) { /* flip u */
+        k.u = (1 << k.lu) - k.u - k.nu;
+        if (k.nu == 2)
+            k.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 2, 0, 1));
+    }
+    if (rot != 1) { /* flip v */
+        k.v = (1 << k.lv) - k.v - k.nv;
+        if (k.nv == 2)
+            k.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(2, 3, 1, 0));
+    }
+    if (rot != 2) { /* swap the axes */
+        tv2 t = k;
+        k.lu = t.lv, k.lv = t.lu, k.u = t.v, k.v = t.u, k.nu = t.nv, k.nv = t.nu;
+        k.w = _mm_shuffle_ps(t.w, t.w, _MM_SHUFFLE(1, 0, 3, 2));
+    }
+    return k;
+}
+
+/* apply_small on face af (p2_downres to its resolution, the guard, the window): 0 (decline)
+ * when af is constant or a subface or the piece does not lie inside it. */
+PF_TARGET int tv_apply(const pf_walk *w, tv2 k, int af, __m128 *acc, unsigned DT, unsigned NC)
+{
+    const st_face *A = &w->faces[af];
+    if (A->flags & (ST_FACE_CONSTANT | ST_FACE_SUBFACE))
+        return 0;
+    for (; k.lu > A->ulog2; k.lu--) {
+        if (!(k.u & 1) && k.nu == 2) {
+            k.w = _mm_move_ss(k.w, _mm_add_ss(k.w, _mm_shuffle_ps(k.w, k.w, 1)));
+            k.nu = 1;
+        }
+        k.u /= 2;
+    }
+    for (; k.lv > A->vlog2; k.lv--) {
+        if (!(k.v & 1) && k.nv == 2) {
+            __m128 s = _mm_add_ss(_mm_movehl_ps(k.w, k.w), _mm_shuffle_ps(k.w, k.w, 3));
+            k.w = _mm_shuffle_ps(k.w, _mm_unpacklo_ps(s, s), _MM_SHUFFLE(1, 0, 1, 0));
+            k.nv = 1;
+        }
+        k.v /= 2;
+    }
+    int resu = 1 << k.lu;
+    if (k.u < 0 || k.v < 0 || k.u + k.nu > resu || k.v + k.nv > (1 << k.lv))
+        return 0;
+    const uint8_t *d = w->px[w->base[af] + (size_t)k.lu * (A->vlog2 + 1u) + (size_t)k.lv];
+    size_t rowb = (size_t)resu * w->ts;
+    float wt[4];
+    _mm_storeu_ps(wt, k.w);
+    *acc = (__m128)small_body(d + (size_t)k.v * rowb + (size_t)k.u * w->ts, rowb, wt, k.nu,
+                              wt + 2, k.nv, (pf_v4)*acc, DT, NC);
+    return 1;
+}
+
+/* across_small for a plain neighbour across edge eid of face F */
+PF_TARGET int tv_across(const pf_walk *w, tv2 k, const st_face *F, int eid, __m128 *acc,
+                        unsigned DT, unsigned NC)
+{
+    return tv_apply(w, tv_rotate(k, eid - F->adjedge[eid] + 2), F->adjface[eid], acc, DT, NC);
+}
+
+/* corner_small at a regular vertex (valence 4, no subface around it) */
+PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, unsigned DT,
+                        unsigned NC)
+{
+    int af = f, ae = eid, cf = -1, ce = 0;
+    for (int i = 0; i < 4; i++) {
+        const st_face *A = &w->faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || (w->faces[af].flags & ST_FACE_SUBFACE) || (af == f && ae == eid) != (i == 3))
+            return 0;
+        if (i == 1) {
+            cf = af;
+            ce = ae;
+        }
+    }
+    return tv_apply(w, tv_rotate(k, eid - ce + 2), cf, acc, DT, NC);
+}
+
+PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, float fu,
+                         float fv, float *out, unsigned DT, unsigned NC)
+{
+    /* bilinear_walk's kernel: the taps of a zero fraction left out */
+    int nu = fu != 0.0f ? 2 : 1, nv = fv != 0.0f ? 2 : 1;
+    float ku[2] = {1.0f - fu, fu}, kv[2] = {1.0f - fv, fv};
+    const st_face *F = &w->faces[f];
+    tv2 k = {ulog2, vlog2, u, v, nu, nv, _mm_setr_ps(ku[0], ku[1], kv[0], kv[1])};
+    int resu = 1 << k.lu, resv = 1 << k.lv;
+    int sr = k.u + k.nu > resu, sl = k.u < 0, st = k.v + k.nv > resv, sb = k.v < 0;
+    int eu = sr ? 1 : sl ? 3 : -1, ev = st ? 2 : sb ? 0 : -1;
+    if ((eu >= 0 && (F->adjface[eu] < 0 || k.nu != 2 || k.u != (sr ? resu - 1 : -1))) ||
+        (ev >= 0 && (F->adjface[ev] < 0 || k.nv != 2 || k.v != (st ? resv - 1 : -1))))
+        return 0; /* a boundary (folds), or not a one-tap overhang */
+    __m128 acc = _mm_setzero_ps();
+    if (eu >= 0) {
+        tv2 ka = k; /* p2_split_r / _l */
+        ka.nu = k.nu = 1;
+        if (sr) {
+            ka.u = 0;
+            ka.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 2, 1, 1));
+        } else {
+            ka.u = resu - 1;
+            k.u = 0;
+            k.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 2, 1, 1));
+        }
+        if (ev >= 0) {
+            tv2 kc = ka; /* p2_split_t / _b of that piece */
+            kc.nv = ka.nv = 1;
+            if (st) {
+                kc.v = 0;
+                kc.w = _mm_shuffle_ps(ka.w, ka.w, _MM_SHUFFLE(3, 3, 1, 0));
+            } else {
+                kc.v = resv - 1;
+                ka.v = 0;
+                ka.w = _mm_shuffle_ps(ka.w, ka.w, _MM_SHUFFLE(3, 3, 1, 0));
+            }
+            if (!tv_corner(w, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0), &acc, DT, NC))
+                return 0;
+        }
+        if (!tv_across(w, ka, F, eu, &acc, DT, NC))
+            return 0;
+    }
+    if (ev >= 0) {
+        tv2 ka = k; /* p2_split_t / _b of the rest */
+        ka.nv = k.nv = 1;
+        if (st) {
+            ka.v = 0;
+            ka.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 3, 1, 0));
+        } else {
+            ka.v = resv - 1;
+            k.v = 0;
+            k.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 3, 1, 0));
+        }
+        if (!tv_across(w, ka, F, ev, &acc, DT, NC))
+            return 0;
+    }
+    /* the rest lies inside f (plain), at a resolution f has: apply_small without its checks */
+    const uint8_t *d = w->px[w->base[f] + (size_t)k.lu * (F->vlog2 + 1u) + (size_t)k.lv];
+    size_t rowb = w->ts << k.lu;
+    float wr[4];
+    _mm_storeu_ps(wr, k.w);
+    pf_v4 sum = small_body(d + (size_t)k.v * rowb + (size_t)k.u * w->ts, rowb, wr, k.nu, wr + 2,
+                           k.nv, (pf_v4)acc, DT, NC);
+    /* bilinear_walk's division: by the total weight (p2_weight) times the type's one value */
+    float one = DT == ST_DT_U8 ? 255.0f : DT == ST_DT_U16 ? 65535.0f : 1.0f;
+    float scale = 1.0f / (pk_accumulate(ku, nu) * pk_accumulate(kv, nv) * one);
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = sum[ch] * scale;
+    return 1;
+}
+
+#define PF_EDGE2FN(DT, NC)                                                                  \
+    __attribute__((target("avx2,fma,f16c"))) static int pf_edge2_##DT##_##NC(               \
+        const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, float fu, float fv,    \
+        float *out)                                                                         \
+    {                                                                                       \
+        return edge2_body(w, f, ulog2, vlog2, u, v, fu, fv, out, DT, NC);                   \
+    }
+#define PF_EDGE2FN_NC(DT) PF_EDGE2FN(DT, 1) PF_EDGE2FN(DT, 2) PF_EDGE2FN(DT, 3) PF_EDGE2FN(DT, 4)
+PF_EDGE2FN_NC(0)
+PF_EDGE2FN_NC(1)
+PF_EDGE2FN_NC(2)
+PF_EDGE2FN_NC(3)
+
+pf_edge2_fn pf_edge2_select(unsigned dt, unsigned nc)
+{
+    static const pf_edge2_fn fns[4][4] = {
+        {pf_edge2_0_1, pf_edge2_0_2, pf_edge2_0_3, pf_edge2_0_4},
+        {pf_edge2_1_1, pf_edge2_1_2, pf_edge2_1_3, pf_edge2_1_4},
+        {pf_edge2_2_1, pf_edge2_2_2, pf_edge2_2_3, pf_edge2_2_4},
+        {pf_edge2_3_1, pf_edge2_3_2, pf_edge2_3_3, pf_edge2_3_4},
+    };
+    if (dt > 3 || nc < 1 || nc > 4 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 /* Bilinear of 2 x 2 half texels (4 values each, F16C): the same operations in the same
  * order as ptexfilter.c's portable bilinear, (t00 k0 + t01 fu) kv0 + (t10 k0 + t11 fu) fv. */
 __attribute__((target("avx2,fma,f16c")))
@@ -750,6 +952,12 @@ pf_window_fn pf_small_select(unsigned dt, unsigned nc)
 
 pf_bilinear_half_fn pf_bilinear_half_select(void)
 {
+    return NULL;
+}
+
+pf_edge2_fn pf_edge2_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
     return NULL;
 }
 

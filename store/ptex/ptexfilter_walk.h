@@ -12,6 +12,10 @@
  * it does not take: a subface or a constant face among the faces the kernel reaches; the
  * caller then runs the general walk from the start (nothing it wrote counts).
  *
+ * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
+ * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
+ * registers and its windows summed inline.
+ *
  * Owns: nothing but the walk. Does not own: the kernel (ptexfilter_kernel.h), the window
  * loops (ptexfilter_simd.c), eval_kernel's weight and division (ptexfilter.c).
  */
@@ -40,5 +44,20 @@ typedef struct pf_walk {
  * and *weight (the kernel's total weight on entry) adjusted for the corners as the walk does.
  * Returns 1; 0 when it declines (*acc and *weight untouched). k is not modified. */
 int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
+
+/* The Traverse filter of a bilinear 2 x 2 kernel (ptexfilter.c's bilinear_walk: first texel
+ * (u, v) at resolution (ulog2, vlog2), fractions fu, fv: weights 1 - fu, fu and 1 - fv, fv,
+ * a zero fraction's tap left out) that overhangs face f (plain), for the common
+ * neighbourhood: a neighbour across every edge it overhangs, each of them (and the diagonal
+ * face of a regular corner) neither a subface nor constant. ptexfilter_simd.c (AVX2, one
+ * function per texel type and channel count): the walk's splits, rotations, reductions and
+ * window sums (pf_small_select's code) in its order, inline, then its division by the
+ * kernel's total weight (which regular corners keep) and the type's one value, so out is
+ * bilinear_walk's bit for bit. Returns 1 with out's nc values written, 0 when it declines
+ * (nothing written: the caller runs the walk). */
+typedef int (*pf_edge2_fn)(const pf_walk *w, int f, int ulog2, int vlog2, int u, int v,
+                           float fu, float fv, float *out);
+/* The function for texels of type dt with nc channels, NULL without AVX2. */
+pf_edge2_fn pf_edge2_select(unsigned dt, unsigned nc);
 
 #endif

@@ -10,7 +10,8 @@
  * as bytes (pf_batch_path with PF_PATH_GENERAL runs every query through eval). The bilinear is
  * also compared along its per-query path and its 4-lane (SSE2) lanes, whatever the CPU, and
  * its lanes on blocks that mix queries they serve with every kind they must leave to the
- * per-query path, in batches of every length up to 40 (ptexfilter_lanes.h); the batch loop of
+ * per-query path, in batches of every length up to 40 (ptexfilter_lanes.h), and its 2 x 2
+ * kernel over every edge and corner of every face at every resolution; the batch loop of
  * the box and width-4 filters (kernel_run) on the same mix. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -276,12 +277,73 @@ static void kernel_batch_loop_serves_mixed_blocks_bit_for_bit(void **state)
     for_each_ptx(kernel_mixed);
 }
 
+/* Every face's four edges and four corners, overhung by the bilinear's 2 x 2 kernel at every
+ * resolution from level 0 to the smallest (footprints 0.25 to 64 texels, so the pieces are
+ * reduced to smaller neighbours and rotated into every neighbour's frame the files have):
+ * the u and v of each query within half a kernel texel of the edge, each block of 8 mixing
+ * positions, on the path with the lanes (whose hand-over runs the 2 x 2 kernel's Traverse
+ * walk, ptexfilter_simd.c's pf_edge2_select), without them and with the 4-lane lanes,
+ * against the general path, in the three modes. */
+static void every_edge(const char *path, st_set *s, long *compared)
+{
+    static st_query q[NQ];
+    static const float fps[] = {0.25f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 64.0f};
+    size_t n = 0;
+    for (uint32_t f = 0; f < s->info.nfaces; f++) {
+        const st_face *F = &s->faces[f];
+        for (int fi = 0; fi < 7; fi++) {
+            float fp = fps[fi];
+            float hu = 0.5f * (fp < 1.0f ? 1.0f : fp) / (float)F->w;
+            float hv = 0.5f * (fp < 1.0f ? 1.0f : fp) / (float)F->h;
+            for (int pos = 0; pos < 8; pos++) {
+                /* 0-3: the edges (v = 0, u = 1, v = 1, u = 0), 4-7: the corners */
+                float u = 0.05f + 0.9f * rndf(), v = 0.05f + 0.9f * rndf();
+                float du = rndf() * hu, dv = rndf() * hv;
+                int e = pos & 3;
+                if (pos < 4) {
+                    if (e == 0) v = dv;
+                    if (e == 1) u = 1.0f - du;
+                    if (e == 2) v = 1.0f - dv;
+                    if (e == 3) u = du;
+                } else {
+                    u = e == 1 || e == 2 ? 1.0f - du : du;
+                    v = e >= 2 ? 1.0f - dv : dv;
+                }
+                if (u >= 1.0f)
+                    u = 0.99999994f;
+                if (v >= 1.0f)
+                    v = 0.99999994f;
+                q[n++] = (st_query){.face = f, .u = u, .v = v, .dudx = fp / (float)F->w,
+                                    .dvdy = fp / (float)F->h};
+                if (n == NQ || (f + 1 == s->info.nfaces && fi == 6 && pos == 7)) {
+                    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+                        st_sample_opts o = {.mode = (uint8_t)m,
+                                            .filter = ST_FILTER_PTEX_BILINEAR};
+                        compare_paths(path, s, &o, q, n, PF_PATH_BEST);
+                        compare_paths(path, s, &o, q, n, PF_PATH_QUERY);
+                        compare_paths(path, s, &o, q, n, PF_PATH_LANES4);
+                        *compared += 3 * (long)n;
+                    }
+                    n = 0;
+                }
+            }
+        }
+    }
+}
+
+static void bilinear_overhangs_every_edge_and_corner_bit_for_bit(void **state)
+{
+    (void)state;
+    for_each_ptx(every_edge);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(shortcuts_give_the_general_paths_results_bit_for_bit),
         cmocka_unit_test(bilinear_lanes_serve_mixed_blocks_bit_for_bit),
         cmocka_unit_test(kernel_batch_loop_serves_mixed_blocks_bit_for_bit),
+        cmocka_unit_test(bilinear_overhangs_every_edge_and_corner_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
