@@ -901,12 +901,11 @@ __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
                                                                     unsigned j, uint32_t f,
                                                                     float *out, float *cov)
 {
-    if (bilinear_edge2(c, e2, trav, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
-                       lk->fv[j], f, out, cov))
+    /* the lane's set-up read once, for both */
+    pf_bil b = {lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j]};
+    if (bilinear_edge2(c, e2, trav, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
         return 1;
-    return bilinear_walk(c, (pf_bil){lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j],
-                                     lk->fv[j]},
-                         f, out, cov);
+    return bilinear_walk(c, b, f, out, cov);
 }
 
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
