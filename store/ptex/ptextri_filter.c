@@ -269,7 +269,14 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     const float A = it->A, B = it->B, C = it->C, wscale = it->wscale;
     const int reads = how == SW_READ && !constant;
-    for (int y = it->lo[1]; y < it->hi[1]; y++) {
+    /* only the rows with a tap: x1 < x2 needs R - y - hi[2] < hi[0] and lo[0] < R - y - lo[2]
+     * (the rows left out visit nothing) */
+    int y1 = it->lo[1], y2 = it->hi[1];
+    if (y1 < R - it->hi[2] - it->hi[0] + 1)
+        y1 = R - it->hi[2] - it->hi[0] + 1;
+    if (y2 > R - it->lo[2] - it->lo[0])
+        y2 = R - it->lo[2] - it->lo[0];
+    for (int y = y1; y < y2; y++) {
         int xw = R - y;
         int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
         int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
