@@ -2,7 +2,8 @@
  * path: the portable reference loops (the definition of every result) and their AVX2 + F16C
  * forms (codec_avx2.c), bit for bit the same for every input. For the dispatching entry points
  * (compact.c, bodies.c: stp_f16_encode, stp_f16_decode, stp_enc_sample_values,
- * stp_sample_queries_f32, stp_put_queries_uv16) and for the tests and benchmarks that compare the two.
+ * stp_sample_queries_f32, stp_put_queries_uv16) and for the tests and benchmarks that
+ * compare the two.
  *
  * Owns: these declarations only. Not part of the public protocol API (proto.h).
  */

@@ -1,8 +1,8 @@
 /* protocol/compact.c - the compact SAMPLE forms of PROTOCOL.md 4.4.1: binary16 (half) values
  * and u16 fixed-point (u, v), both directions, exact and without the F16C instructions (so
  * every host gives the same bits). These loops are the reference: the bulk entry points
- * (stp_f16_encode, stp_f16_decode, stp_sample_queries_f32, stp_put_queries_uv16) run codec_avx2.c's forms instead
- * when the CPU has AVX2 and F16C, bit for bit the same.
+ * (stp_f16_encode, stp_f16_decode, stp_sample_queries_f32, stp_put_queries_uv16) run
+ * codec_avx2.c's forms instead when the CPU has AVX2 and F16C, bit for bit the same.
  *
  * Owns: stp_f32_to_f16, stp_f16_to_f32 (and stp_f16_encode / stp_f16_decode for replies),
  * stp_f32_to_unit16, stp_query_round, stp_sample_queries (every SAMPLE query layout widened

@@ -884,28 +884,33 @@ __attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_
 }
 
 /* The bilinear kernel b that overhangs face f (plain_face) or sits on a texel centre, in
- * every mode: bilinear_edge2, else bilinear_walk (its return value). */
-static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+ * every mode: bilinear_edge2 (e2, trav as its), else bilinear_walk (its return value). */
+__attribute__((always_inline)) static inline int bilinear_edge_with(pf *c, pf_edge2_fn e2,
+                                                                    int trav, pf_bil b,
+                                                                    uint32_t f, float *out,
+                                                                    float *cov)
 {
-    if (bilinear_edge2(c, c->edge2, c->mode == ST_MODE_TRAVERSE, b.ru, b.rv, b.ui, b.vi, b.fu,
-                       b.fv, f, out, cov))
+    if (bilinear_edge2(c, e2, trav, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
         return 1;
     return bilinear_walk(c, b, f, out, cov);
 }
 
-/* bilinear_edge for lane j of a block the lanes handed over, from their kernel set-up lk
- * (e2, trav as bilinear_edge2's, decided once per batch). */
+/* bilinear_edge_with for a query of its own (c's edge2 and mode) */
+static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+{
+    return bilinear_edge_with(c, c->edge2, c->mode == ST_MODE_TRAVERSE, b, f, out, cov);
+}
+
+/* bilinear_edge_with for lane j of a block the lanes handed over, from their kernel set-up
+ * lk (e2, trav decided once per batch). */
 __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
                                                                     pf_edge2_fn e2, int trav,
                                                                     const pf_lanes_kern *lk,
                                                                     unsigned j, uint32_t f,
                                                                     float *out, float *cov)
 {
-    /* the lane's set-up read once, for both */
     pf_bil b = {lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j]};
-    if (bilinear_edge2(c, e2, trav, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
-        return 1;
-    return bilinear_walk(c, b, f, out, cov);
+    return bilinear_edge_with(c, e2, trav, b, f, out, cov);
 }
 
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,

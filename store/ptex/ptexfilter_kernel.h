@@ -336,7 +336,8 @@ pf_bilinear_half_fn pf_bilinear_half_select(void);
  * give the general path's results bit for bit. PF_PATH_BEST: what st_ptexfilter_batch does;
  * PF_PATH_GENERAL: every query through eval (no per-type query function, no fused,
  * small-window or lane path); PF_PATH_QUERY: the per-query shortcuts without the bilinear
- * lanes and without the box / width-4 batch loop (kernel_run); PF_PATH_LANES4: the 4-lane (SSE2) bilinear lanes whatever the CPU. */
+ * lanes and without the box / width-4 batch loop (kernel_run); PF_PATH_LANES4: the 4-lane
+ * (SSE2) bilinear lanes whatever the CPU. */
 enum { PF_PATH_BEST, PF_PATH_GENERAL, PF_PATH_QUERY, PF_PATH_LANES4 };
 int pf_batch_path(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                   float *out, float *coverage, uint8_t *status, int path);

@@ -776,6 +776,42 @@ PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, un
     return tv_apply(w, tv_rotate(k, eid - ce + 2), cf, acc, DT, NC);
 }
 
+/* p2_split_r (past, 1) / p2_split_l (0) of a one-tap overhang in u: k keeps the tap inside
+ * its face, the piece returned holds the one past the edge (first texel 0 past the right
+ * edge, resu - 1 past the left), each with its own weight and one tap wide. */
+PF_TARGET tv2 tv_split_u(tv2 *k, int past, int resu)
+{
+    tv2 p = *k;
+    p.nu = k->nu = 1;
+    __m128 second = _mm_shuffle_ps(k->w, k->w, _MM_SHUFFLE(3, 2, 1, 1)); /* ku[1] first */
+    if (past) {
+        p.u = 0;
+        p.w = second;
+    } else {
+        p.u = resu - 1;
+        k->u = 0;
+        k->w = second;
+    }
+    return p;
+}
+
+/* p2_split_t (past, 1) / p2_split_b (0) in v, as tv_split_u. */
+PF_TARGET tv2 tv_split_v(tv2 *k, int past, int resv)
+{
+    tv2 p = *k;
+    p.nv = k->nv = 1;
+    __m128 second = _mm_shuffle_ps(k->w, k->w, _MM_SHUFFLE(3, 3, 1, 0)); /* kv[1] first */
+    if (past) {
+        p.v = 0;
+        p.w = second;
+    } else {
+        p.v = resv - 1;
+        k->v = 0;
+        k->w = second;
+    }
+    return p;
+}
+
 PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, int v, float fu,
                          float fv, float *out, unsigned DT, unsigned NC)
 {
@@ -792,27 +828,9 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
         return 0; /* a boundary (folds), or not a one-tap overhang */
     __m128 acc = _mm_setzero_ps();
     if (eu >= 0) {
-        tv2 ka = k; /* p2_split_r / _l */
-        ka.nu = k.nu = 1;
-        if (sr) {
-            ka.u = 0;
-            ka.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 2, 1, 1));
-        } else {
-            ka.u = resu - 1;
-            k.u = 0;
-            k.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 2, 1, 1));
-        }
+        tv2 ka = tv_split_u(&k, sr, resu);
         if (ev >= 0) {
-            tv2 kc = ka; /* p2_split_t / _b of that piece */
-            kc.nv = ka.nv = 1;
-            if (st) {
-                kc.v = 0;
-                kc.w = _mm_shuffle_ps(ka.w, ka.w, _MM_SHUFFLE(3, 3, 1, 0));
-            } else {
-                kc.v = resv - 1;
-                ka.v = 0;
-                ka.w = _mm_shuffle_ps(ka.w, ka.w, _MM_SHUFFLE(3, 3, 1, 0));
-            }
+            tv2 kc = tv_split_v(&ka, st, resv); /* that piece's corner */
             if (!tv_corner(w, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0), &acc, DT, NC))
                 return 0;
         }
@@ -820,16 +838,7 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
             return 0;
     }
     if (ev >= 0) {
-        tv2 ka = k; /* p2_split_t / _b of the rest */
-        ka.nv = k.nv = 1;
-        if (st) {
-            ka.v = 0;
-            ka.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 3, 1, 0));
-        } else {
-            ka.v = resv - 1;
-            k.v = 0;
-            k.w = _mm_shuffle_ps(k.w, k.w, _MM_SHUFFLE(3, 3, 1, 0));
-        }
+        tv2 ka = tv_split_v(&k, st, resv);
         if (!tv_across(w, ka, F, ev, &acc, DT, NC))
             return 0;
     }

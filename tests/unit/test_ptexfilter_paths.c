@@ -132,16 +132,18 @@ static void compare_paths(const char *name, const st_set *s, const st_sample_opt
     assert_memory_equal(s1, s2, nq);
 }
 
+/* the options' width and blur: the defaults, and others */
+static const float WIDTH_BLUR[2][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}};
+
 static void every_path(const char *path, st_set *s, long *compared)
 {
     static st_query q[NQ];
-    static const float widths[2][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}}; /* width, blur */
     make_queries(s, q);
     for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
         for (unsigned flt = ST_FILTER_PTEX_POINT; flt <= ST_FILTER_PTEX_MITCHELL; flt++) {
             for (int w = 0; w < 2; w++) {
                 st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
-                                    .width = widths[w][0], .blur = widths[w][1],
+                                    .width = WIDTH_BLUR[w][0], .blur = WIDTH_BLUR[w][1],
                                     .sharpness = 0.5f};
                 /* st_ptexfilter_batch's own path, then (bilinear only here; the box and
                  * width-4 filters' per-query path is checked on the mix of kernel_mixed) the
@@ -250,13 +252,12 @@ static void bilinear_lanes_serve_mixed_blocks_bit_for_bit(void **state)
 static void kernel_mixed(const char *path, st_set *s, long *compared)
 {
     static st_query q[NQ];
-    static const float widths[2][2] = {{0.0f, 0.0f}, {1.5f, 0.01f}};
     make_mix(s, q);
     for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
         for (unsigned flt = ST_FILTER_PTEX_BOX; flt <= ST_FILTER_PTEX_MITCHELL; flt++) {
             for (int w = 0; w < 2; w++) {
                 st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
-                                    .width = widths[w][0], .blur = widths[w][1],
+                                    .width = WIDTH_BLUR[w][0], .blur = WIDTH_BLUR[w][1],
                                     .sharpness = 0.5f};
                 compare_paths(path, s, &o, q, NQ, PF_PATH_BEST);
                 compare_paths(path, s, &o, q, NQ, PF_PATH_QUERY);
