@@ -89,6 +89,13 @@ struct sts_io {
                                           a second old (0 = none): eviction candidates */
     uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
     int             cpu;           /* the CPU this thread is pinned to (pin-io), -1 = none */
+    /* One input and one output buffer (<= 64 KiB each) that a connection of this thread
+     * released when everything was answered, kept for the next connection that reads: a
+     * request / reply cycle then neither mallocs and frees them nor regrows the output
+     * buffer (with a copy) from 256 bytes (io.c). Not counted in buffer_memory. */
+    uint8_t        *spare_in;
+    size_t          spare_in_cap;
+    stp_buf         spare_out;
 };
 
 void *sts_io_main(void *arg);
