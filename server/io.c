@@ -11,7 +11,8 @@
  * pipeline of big SAMPLE replies streams instead of waiting for the whole burst). Level-triggered polling keeps the loop fair between connections.
  * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
  * (nor parsed) until the peer drains them. Memory: buffers are allocated when data arrives
- * and released as soon as everything is parsed and answered, so an idle connection holds
+ * and released as soon as everything is parsed and answered (small ones to the thread's
+ * spare slot, which the next connection that reads takes), so an idle connection holds
  * only its struct (~200 bytes) plus the kernel's socket.
  */
 #include <arpa/inet.h>
