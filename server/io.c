@@ -101,7 +101,8 @@ static void account(sts_conn *c)
  * where they lie (h_basic.c) instead of being copied out a chunk at a time: with a set name
  * of 7 bytes, such as `default`, they start at an odd offset of the frame (PROTOCOL.md 4.4:
  * u16 name length, name, 20 bytes of parameters, u32 count, the queries). The buffer from
- * malloc is 16-byte aligned. */
+ * malloc is 16-byte aligned. A read into an empty buffer starts at the last frame's pad
+ * (c->in_pad), so the first frame of a read is aligned too when the client repeats it. */
 static size_t in_pad(const uint8_t *p, size_t avail)
 {
     if (avail < STP_HEADER_SIZE + 2 || p[5] != STP_OP_SAMPLE)
@@ -423,6 +424,7 @@ static void conn_process(sts_conn *c)
         }
         c->last_ms = sts_now_ms();
         c->req_start_ms = 0;   /* the frame is whole: its deadline is met */
+        c->in_pad = (uint8_t)in_pad(head, avail);
         int d = sts_dispatch(c->io, c, &h, head + STP_HEADER_SIZE);
         if (d == 1)
             break;  /* on a worker: the frame stays in the buffer until the reply is back */
@@ -453,6 +455,8 @@ static void conn_readable(sts_conn *c)
         conn_close(c);
         return;
     }
+    if (c->in.start == c->in.len && c->in.len != c->in_pad && c->in.cap - c->in_pad >= need)
+        c->in.start = c->in.len = c->in_pad;   /* the next frame's queries aligned (in_pad) */
     ssize_t r;
     do {
         r = c->unix_sock ? sts_shm_recv(srv, c, c->in.data + c->in.len, c->in.cap - c->in.len)

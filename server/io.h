@@ -51,6 +51,9 @@ struct sts_conn {
     uint8_t   paused;        /* not reading (backpressure or busy) */
     unsigned  ev_mask;       /* events registered with the poller */
     uint8_t   unix_sock;     /* a Unix-domain connection: may pass descriptors (shm.h) */
+    uint8_t   in_pad;        /* where a read into an empty input buffer starts (0-3): the last
+                                frame's in_pad (io.c), so a client's next SAMPLE of the same
+                                set lands with its queries aligned */
     struct sts_shm_conn *shm;  /* shm.c: descriptors held and the mapped region; NULL = none */
     sts_conn *prev, *next;   /* the I/O thread's list (idle scan, drain) */
 };
