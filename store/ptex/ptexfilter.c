@@ -1118,6 +1118,23 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
     return eval(c, pp, o, q, out, cov);
 }
 
+/* eval_kernel in Traverse for kernel k (zeros stripped, overhanging) of face f, neither a
+ * subface nor constant, when it overhangs one edge only into a neighbour (pf_walk_edge1):
+ * the two pieces summed as the walk sums them and divided by the kernel's total weight,
+ * without eval_kernel's frame and walk's dispatch; 0 when it declines (nothing written). */
+__attribute__((always_inline)) static inline int kernel_edge1(pf *c, const pk *k, int f,
+                                                              float *out, float *cov)
+{
+    pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
+    if (!pf_walk_edge1(&c->walk, k, f, &acc))
+        return 0;
+    float scale = 1.0f / (pk_weight(k) * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = acc[ch] * scale;
+    *cov = 1.0f;
+    return 1;
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1168,8 +1185,12 @@ __attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_param
         *cov = 1.0f;
         return ST_Q_OK;
     }
-    if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+    if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
+        if (c->small && c->mode == ST_MODE_TRAVERSE &&
+            kernel_edge1(c, &k, (int)q->face, out, cov))
+            return ST_Q_OK;
         return eval_kernel(c, pp, o, q, &k, out, cov);
+    }
     return kernel_declined(c, pp, o, q, out, cov);
 }
 
