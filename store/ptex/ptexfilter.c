@@ -1119,16 +1119,17 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
 }
 
 /* eval_kernel in Traverse for kernel k (zeros stripped, overhanging) of face f, neither a
- * subface nor constant, when it overhangs one edge only into a neighbour (pf_walk_edge1):
- * the two pieces summed as the walk sums them and divided by the kernel's total weight,
- * without eval_kernel's frame and walk's dispatch; 0 when it declines (nothing written). */
-__attribute__((always_inline)) static inline int kernel_edge1(pf *c, const pk *k, int f,
-                                                              float *out, float *cov)
+ * subface nor constant, when pf_walk_kernel takes it: the pieces summed as the walk sums
+ * them and divided by the weight (the kernel's total, adjusted at corners as the walk
+ * does), without eval_kernel's frame and checks; 0 when it declines (nothing written). */
+__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
+                                                             float *out, float *cov)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
-    if (!pf_walk_edge1(&c->walk, k, f, &acc))
+    float weight = pk_weight(k);
+    if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
         return 0;
-    float scale = 1.0f / (pk_weight(k) * one_value(c->dt));
+    float scale = 1.0f / (weight * one_value(c->dt));
     for (unsigned ch = 0; ch < c->nc; ch++)
         out[ch] = acc[ch] * scale;
     *cov = 1.0f;
@@ -1156,6 +1157,20 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
         *cov = 0.0f;
         return ST_Q_OK;
     }
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
+        if (c->mode != ST_MODE_DISCARD) {
+            /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
+            c->acc = (v4f){0, 0, 0, 0};
+            apply(c, &k, (int)q->face);
+            float scale = 1.0f / (pk_weight(&k) * one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = c->acc[ch] * scale;
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    } else if (c->small && c->mode == ST_MODE_TRAVERSE &&
+               kernel_walk(c, &k, (int)q->face, out, cov))
+        return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
 
@@ -1187,7 +1202,7 @@ __attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_param
     }
     if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
         if (c->small && c->mode == ST_MODE_TRAVERSE &&
-            kernel_edge1(c, &k, (int)q->face, out, cov))
+            kernel_walk(c, &k, (int)q->face, out, cov))
             return ST_Q_OK;
         return eval_kernel(c, pp, o, q, &k, out, cov);
     }

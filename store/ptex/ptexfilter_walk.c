@@ -399,8 +399,13 @@ int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *w
     return walk_all(w, k0, f, acc, weight);
 }
 
-int pf_walk_edge1(const pf_walk *w, const pk *k0, int f, pf_v4 *acc)
+int pf_walk_kernel(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
 {
     int eid = one_edge(w, k0, f);
-    return eid >= 0 && walk_one(w, k0, f, eid, acc);
+    if (eid >= 0)
+        return walk_one(w, k0, f, eid, acc);
+    const int *adj = w->faces[f].adjface;
+    if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
+        return 0;
+    return walk_all(w, k0, f, acc, weight);
 }

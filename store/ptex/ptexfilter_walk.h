@@ -45,13 +45,12 @@ typedef struct pf_walk {
  * Returns 1; 0 when it declines (*acc and *weight untouched). k is not modified. */
 int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
 
-/* pf_walk_traverse for a kernel that overhangs one edge of f only, into a neighbour there
- * (the piece past the edge, rotated and reduced as the walk does, then the rest), on a face
- * f that may lie at a mesh boundary (no fold is involved): the kernel's total weight stays
- * its weight. Returns 1 with the two window sums added to *acc in the walk's order, 0 when
- * it declines (*acc untouched: more or fewer edges overhung, no neighbour there, a subface
- * or constant face reached). */
-int pf_walk_edge1(const pf_walk *w, const pk *k, int f, pf_v4 *acc);
+/* What ptexfilter.c's walk() offers pf_walk_traverse, decided here: a kernel that overhangs
+ * one edge of f only, into a neighbour there, on any face f (no fold is involved, so also
+ * at a mesh boundary); any other overhanging kernel of a face with four neighbours. Returns
+ * 0 (nothing written) for a kernel of a face at a mesh boundary that overhangs more than
+ * one edge or one without a neighbour, and when pf_walk_traverse declines. */
+int pf_walk_kernel(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
 
 /* The Traverse filter of a bilinear 2 x 2 kernel (ptexfilter.c's bilinear_walk: first texel
  * (u, v) at resolution (ulog2, vlog2), fractions fu, fv: weights 1 - fu, fu and 1 - fv, fv,
