@@ -982,16 +982,15 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
 
-/* pf_walk_traverse (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
- * kernels that reach a subface or a constant face). Offered only kernels of faces with four
- * neighbours: at a mesh boundary its folds copy weights where the general walk merges them in
- * place (black, clamp and quad, faces on a boundary, ran 0.8-0.9x with it). */
+/* pf_walk_kernel (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
+ * kernels that reach a subface or a constant face). It takes a kernel that overhangs more
+ * than one edge only on a face with four neighbours: at a mesh boundary the walk's folds
+ * copy weights where the general walk merges them in place (black, clamp and quad, faces on a
+ * boundary, ran 0.8-0.9x with it); one that overhangs one edge only, into a neighbour, on
+ * any face (no fold). */
 static int walk(pf *c, const pk *k, int f)
 {
-    const int *adj = c->s->faces[f].adjface;
-    if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
-        return 0;
-    return pf_walk_traverse(&c->walk, k, f, &c->acc, &c->weight);
+    return pf_walk_kernel(&c->walk, k, f, &c->acc, &c->weight);
 }
 
 /* The rest of eval once the query's kernel k is built with its zeros stripped (uw, vw >= 1):

@@ -10,7 +10,11 @@
  * when it reverses, folds or reduces them), in one function with the pieces in registers, so
  * the results are the walk's bit for bit at a fraction of its bookkeeping. It declines what
  * it does not take: a subface or a constant face among the faces the kernel reaches; the
- * caller then runs the general walk from the start (nothing it wrote counts).
+ * caller then runs the general walk from the start (nothing it wrote counts). A kernel that
+ * overhangs one edge only (80% of the walks of the teapot's box at 4 texels) takes a
+ * function of its own with the two pieces (walk_one: a small frame, where the whole walk
+ * keeps every side's state across its window calls). pf_walk_kernel is what the filter
+ * calls: that one-edge walk on any face, the whole walk on faces with four neighbours.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
