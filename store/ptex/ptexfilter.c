@@ -982,16 +982,15 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
 
-/* pf_walk_traverse (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
- * kernels that reach a subface or a constant face). Offered only kernels of faces with four
- * neighbours: at a mesh boundary its folds copy weights where the general walk merges them in
- * place (black, clamp and quad, faces on a boundary, ran 0.8-0.9x with it). */
+/* pf_walk_kernel (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
+ * kernels that reach a subface or a constant face). It takes a kernel that overhangs more
+ * than one edge only on a face with four neighbours: at a mesh boundary the walk's folds
+ * copy weights where the general walk merges them in place (black, clamp and quad, faces on a
+ * boundary, ran 0.8-0.9x with it); one that overhangs one edge only, into a neighbour, on
+ * any face (no fold). */
 static int walk(pf *c, const pk *k, int f)
 {
-    const int *adj = c->s->faces[f].adjface;
-    if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
-        return 0;
-    return pf_walk_traverse(&c->walk, k, f, &c->acc, &c->weight);
+    return pf_walk_kernel(&c->walk, k, f, &c->acc, &c->weight);
 }
 
 /* The rest of eval once the query's kernel k is built with its zeros stripped (uw, vw >= 1):
@@ -1118,6 +1117,24 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
     return eval(c, pp, o, q, out, cov);
 }
 
+/* eval_kernel in Traverse for kernel k (zeros stripped, overhanging) of face f, neither a
+ * subface nor constant, when pf_walk_kernel takes it: the pieces summed as the walk sums
+ * them and divided by the weight (the kernel's total, adjusted at corners as the walk
+ * does), without eval_kernel's frame and checks; 0 when it declines (nothing written). */
+__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
+                                                             float *out, float *cov)
+{
+    pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
+    float weight = pk_weight(k);
+    if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
+        return 0;
+    float scale = 1.0f / (weight * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = acc[ch] * scale;
+    *cov = 1.0f;
+    return 1;
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1139,6 +1156,20 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
         *cov = 0.0f;
         return ST_Q_OK;
     }
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
+        if (c->mode != ST_MODE_DISCARD) {
+            /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
+            c->acc = (v4f){0, 0, 0, 0};
+            apply(c, &k, (int)q->face);
+            float scale = 1.0f / (pk_weight(&k) * one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = c->acc[ch] * scale;
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    } else if (c->small && c->mode == ST_MODE_TRAVERSE &&
+               kernel_walk(c, &k, (int)q->face, out, cov))
+        return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
 
@@ -1168,8 +1199,12 @@ __attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_param
         *cov = 1.0f;
         return ST_Q_OK;
     }
-    if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+    if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
+        if (c->small && c->mode == ST_MODE_TRAVERSE &&
+            kernel_walk(c, &k, (int)q->face, out, cov))
+            return ST_Q_OK;
         return eval_kernel(c, pp, o, q, &k, out, cov);
+    }
     return kernel_declined(c, pp, o, q, out, cov);
 }
 

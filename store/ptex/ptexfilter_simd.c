@@ -527,9 +527,12 @@ PF_TARGET __m128 sum_in_order(const float *w, int n)
     return s;
 }
 
-/* The kernel the fused path built, handed to the general path (weights at index 0). */
+/* The kernel the fused path built, handed to the general path (weights at index 0). The
+ * weights are copied as a fixed number of values (the loops were two memcpy calls): 3 per
+ * axis for the box (box_axes writes ku[0 .. 3) and kv[0 .. 3), nu, nv <= 3), else 8 (strip8
+ * writes 8, nu, nv <= 8); the values past nu and nv are never read. */
 PF_TARGET int hand_over(pk *k, int ru, int rv, int u0, int v0, const float *ku, int nu,
-                        const float *kv, int nv)
+                        const float *kv, int nv, int box)
 {
     if (!k)
         return 0;
@@ -540,10 +543,15 @@ PF_TARGET int hand_over(pk *k, int ru, int rv, int u0, int v0, const float *ku, 
     k->uw = nu;
     k->vw = nv;
     k->ku0 = k->kv0 = k->rot = 0;
-    for (int i = 0; i < nu; i++)
-        k->kub[i] = ku[i];
-    for (int i = 0; i < nv; i++)
-        k->kvb[i] = kv[i];
+    if (box) {
+        for (int i = 0; i < 3; i++) {
+            k->kub[i] = ku[i];
+            k->kvb[i] = kv[i];
+        }
+    } else {
+        _mm256_storeu_ps(k->kub, _mm256_loadu_ps(ku));
+        _mm256_storeu_ps(k->kvb, _mm256_loadu_ps(kv));
+    }
     return 2;
 }
 
@@ -561,7 +569,7 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
             return 0;
         ru = res[0], rv = res[1], u0 = k0[0], v0 = k0[1], nu = kw[0], nv = kw[1];
         if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
-            return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv);
+            return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv, 1);
         total = sum[0] * sum[1];
     } else {
         int res[2], k0[2], kw[2];
@@ -591,7 +599,7 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
         if (!strip8(wu, nu, ku, &u0, &nu) || !strip8(wv, nv, kv, &v0, &nv))
             return 0;
         if (u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv))
-            return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv);
+            return hand_over(kout, ru, rv, u0, v0, ku, nu, kv, nv, 0);
         /* pk_weight: each axis summed in order */
         total = _mm_cvtss_f32(sum_in_order(ku, nu)) * _mm_cvtss_f32(sum_in_order(kv, nv));
     }

@@ -319,7 +319,31 @@ __attribute__((always_inline)) static inline int side(pw_state *s, pw *k, int f,
     return edge(s, ka, f, eid);
 }
 
-int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
+/* The walk of a kernel that overhangs one edge only (eid) of f, to a neighbour there: the
+ * piece past the edge sent across, then the rest (side() or the top / bottom split of
+ * walk_all without corners), in a function of its own so that its frame is small (walk_all
+ * keeps every side's state across its window calls). */
+__attribute__((noinline)) static int walk_one(const pf_walk *w, const pk *k0, int f, int eid,
+                                              pf_v4 *acc)
+{
+    pw_state s = {w, *acc, 0.0f};
+    pw k = {{k0->ulog2, k0->vlog2}, {k0->u, k0->v}, {k0->uw, k0->vw},
+            {k0->kub + k0->ku0, k0->kvb + k0->kv0}};
+    pw ka;
+    switch (eid) {
+    case 0: ka = split_lo(&k, 1); break;
+    case 1: ka = split_hi(&k, 0); break;
+    case 2: ka = split_hi(&k, 1); break;
+    default: ka = split_lo(&k, 0); break;
+    }
+    if (!edge(&s, ka, f, eid) || !put(&s, &k, 0, f))
+        return 0;
+    *acc = s.acc;
+    return 1;
+}
+
+__attribute__((noinline)) static int walk_all(const pf_walk *w, const pk *k0, int f,
+                                              pf_v4 *acc, float *weight)
 {
     pw_state s = {w, *acc, *weight};
     const st_face *F = &w->faces[f];
@@ -352,4 +376,36 @@ int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *w
     *acc = s.acc;
     *weight = s.weight;
     return 1;
+}
+
+/* The edge the kernel overhangs when it overhangs one only and f has a neighbour there,
+ * else -1. */
+static inline int one_edge(const pf_walk *w, const pk *k0, int f)
+{
+    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    int sr = k0->u + k0->uw > resu, sl = k0->u < 0;
+    int st = k0->v + k0->vw > resv, sb = k0->v < 0;
+    if (sr + sl + st + sb != 1)
+        return -1;
+    int eid = sr ? 1 : sl ? 3 : st ? 2 : 0;
+    return w->faces[f].adjface[eid] >= 0 ? eid : -1;
+}
+
+int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    int eid = one_edge(w, k0, f);
+    if (eid >= 0)
+        return walk_one(w, k0, f, eid, acc);
+    return walk_all(w, k0, f, acc, weight);
+}
+
+int pf_walk_kernel(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    int eid = one_edge(w, k0, f);
+    if (eid >= 0)
+        return walk_one(w, k0, f, eid, acc);
+    const int *adj = w->faces[f].adjface;
+    if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
+        return 0;
+    return walk_all(w, k0, f, acc, weight);
 }

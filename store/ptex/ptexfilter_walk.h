@@ -10,7 +10,11 @@
  * when it reverses, folds or reduces them), in one function with the pieces in registers, so
  * the results are the walk's bit for bit at a fraction of its bookkeeping. It declines what
  * it does not take: a subface or a constant face among the faces the kernel reaches; the
- * caller then runs the general walk from the start (nothing it wrote counts).
+ * caller then runs the general walk from the start (nothing it wrote counts). A kernel that
+ * overhangs one edge only (80% of the walks of the teapot's box at 4 texels) takes a
+ * function of its own with the two pieces (walk_one: a small frame, where the whole walk
+ * keeps every side's state across its window calls). pf_walk_kernel is what the filter
+ * calls: that one-edge walk on any face, the whole walk on faces with four neighbours.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
@@ -44,6 +48,13 @@ typedef struct pf_walk {
  * and *weight (the kernel's total weight on entry) adjusted for the corners as the walk does.
  * Returns 1; 0 when it declines (*acc and *weight untouched). k is not modified. */
 int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
+
+/* What ptexfilter.c's walk() offers pf_walk_traverse, decided here: a kernel that overhangs
+ * one edge of f only, into a neighbour there, on any face f (no fold is involved, so also
+ * at a mesh boundary); any other overhanging kernel of a face with four neighbours. Returns
+ * 0 (nothing written) for a kernel of a face at a mesh boundary that overhangs more than
+ * one edge or one without a neighbour, and when pf_walk_traverse declines. */
+int pf_walk_kernel(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
 
 /* The Traverse filter of a bilinear 2 x 2 kernel (ptexfilter.c's bilinear_walk: first texel
  * (u, v) at resolution (ulog2, vlog2), fractions fu, fv: weights 1 - fu, fu and 1 - fv, fv,

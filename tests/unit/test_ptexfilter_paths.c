@@ -12,7 +12,8 @@
  * its lanes on blocks that mix queries they serve with every kind they must leave to the
  * per-query path, in batches of every length up to 40 (ptexfilter_lanes.h), and its 2 x 2
  * kernel over every edge and corner of every face at every resolution; the batch loop of
- * the box and width-4 filters (kernel_run) on the same mix. */
+ * the box and width-4 filters (kernel_run) on the same mix, and their kernels over every
+ * edge and corner of every face (the walks they take in Traverse). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -278,14 +279,14 @@ static void kernel_batch_loop_serves_mixed_blocks_bit_for_bit(void **state)
     for_each_ptx(kernel_mixed);
 }
 
-/* Every face's four edges and four corners, overhung by the bilinear's 2 x 2 kernel at every
- * resolution from level 0 to the smallest (footprints 0.25 to 64 texels, so the pieces are
- * reduced to smaller neighbours and rotated into every neighbour's frame the files have):
- * the u and v of each query within half a kernel texel of the edge, each block of 8 mixing
- * positions, on the path with the lanes (whose hand-over runs the 2 x 2 kernel's Traverse
- * walk, ptexfilter_simd.c's pf_edge2_select), without them and with the 4-lane lanes,
- * against the general path, in the three modes. */
-static void every_edge(const char *path, st_set *s, long *compared)
+/* Every face's four edges and four corners, overhung by a kernel at every resolution from
+ * level 0 to the smallest (footprints 0.25 to 64 texels, so the pieces are reduced to
+ * smaller neighbours and rotated into every neighbour's frame the files have): the u and v
+ * of each query within half a kernel texel of the edge, each block of 8 mixing positions;
+ * each full block (and the last) goes to flush. */
+typedef void edge_flush(const char *path, st_set *s, const st_query *q, size_t n,
+                        long *compared);
+static void every_edge_with(const char *path, st_set *s, long *compared, edge_flush *flush)
 {
     static st_query q[NQ];
     static const float fps[] = {0.25f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 64.0f};
@@ -317,14 +318,7 @@ static void every_edge(const char *path, st_set *s, long *compared)
                 q[n++] = (st_query){.face = f, .u = u, .v = v, .dudx = fp / (float)F->w,
                                     .dvdy = fp / (float)F->h};
                 if (n == NQ || (f + 1 == s->info.nfaces && fi == 6 && pos == 7)) {
-                    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
-                        st_sample_opts o = {.mode = (uint8_t)m,
-                                            .filter = ST_FILTER_PTEX_BILINEAR};
-                        compare_paths(path, s, &o, q, n, PF_PATH_BEST);
-                        compare_paths(path, s, &o, q, n, PF_PATH_QUERY);
-                        compare_paths(path, s, &o, q, n, PF_PATH_LANES4);
-                        *compared += 3 * (long)n;
-                    }
+                    flush(path, s, q, n, compared);
                     n = 0;
                 }
             }
@@ -332,10 +326,64 @@ static void every_edge(const char *path, st_set *s, long *compared)
     }
 }
 
+/* The bilinear's 2 x 2 kernel: on the path with the lanes (whose hand-over runs the 2 x 2
+ * kernel's Traverse walk, ptexfilter_simd.c's pf_edge2_select), without them and with the
+ * 4-lane lanes, against the general path, in the three modes. */
+static void bilinear_edge_block(const char *path, st_set *s, const st_query *q, size_t n,
+                                long *compared)
+{
+    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
+        st_sample_opts o = {.mode = (uint8_t)m, .filter = ST_FILTER_PTEX_BILINEAR};
+        compare_paths(path, s, &o, q, n, PF_PATH_BEST);
+        compare_paths(path, s, &o, q, n, PF_PATH_QUERY);
+        compare_paths(path, s, &o, q, n, PF_PATH_LANES4);
+        *compared += 3 * (long)n;
+    }
+}
+
+static void every_edge(const char *path, st_set *s, long *compared)
+{
+    every_edge_with(path, s, compared, bilinear_edge_block);
+}
+
 static void bilinear_overhangs_every_edge_and_corner_bit_for_bit(void **state)
 {
     (void)state;
     for_each_ptx(every_edge);
+}
+
+/* The box and width-4 kernels (gaussian, the bicubic family): in Traverse their overhangs go
+ * from the fused path's hand-over and from the declined kernel's build straight to
+ * ptexfilter_walk.c's pf_walk_kernel (the one-edge walk walk_one on any face, the whole walk
+ * on faces with four neighbours) and a declined kernel inside its face is applied directly
+ * outside Discard: the batch loop's path and the per-query path against the general path,
+ * Traverse and Clamp, default and non-default width and blur. */
+static void kernel_edge_block(const char *path, st_set *s, const st_query *q, size_t n,
+                              long *compared)
+{
+    for (unsigned m = ST_MODE_TRAVERSE; m <= ST_MODE_CLAMP; m++) { /* Traverse, Clamp */
+        for (unsigned flt = ST_FILTER_PTEX_BOX; flt <= ST_FILTER_PTEX_MITCHELL; flt++) {
+            for (int w = 0; w < 2; w++) {
+                st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)flt,
+                                    .width = WIDTH_BLUR[w][0], .blur = WIDTH_BLUR[w][1],
+                                    .sharpness = 0.3f};
+                compare_paths(path, s, &o, q, n, PF_PATH_BEST);
+                compare_paths(path, s, &o, q, n, PF_PATH_QUERY);
+                *compared += 2 * (long)n;
+            }
+        }
+    }
+}
+
+static void every_edge_kernel(const char *path, st_set *s, long *compared)
+{
+    every_edge_with(path, s, compared, kernel_edge_block);
+}
+
+static void kernels_overhang_every_edge_and_corner_bit_for_bit(void **state)
+{
+    (void)state;
+    for_each_ptx(every_edge_kernel);
 }
 
 int main(void)
@@ -345,6 +393,7 @@ int main(void)
         cmocka_unit_test(bilinear_lanes_serve_mixed_blocks_bit_for_bit),
         cmocka_unit_test(kernel_batch_loop_serves_mixed_blocks_bit_for_bit),
         cmocka_unit_test(bilinear_overhangs_every_edge_and_corner_bit_for_bit),
+        cmocka_unit_test(kernels_overhang_every_edge_and_corner_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
