@@ -64,6 +64,8 @@ typedef struct ti {
  * expf per tap in a loop of its own, so nothing is spilled around the call; pass 3: the sums,
  * tap by tap in sweep order, exactly as a sweep that weighed each tap where it found it). */
 enum { PT_TAPS = 256, PT_SEGS = 32 };
+typedef float v4f __attribute__((vector_size(16)));
+typedef int32_t v4i __attribute__((vector_size(16)));
 
 /* One sweep's taps: those before end since the previous segment's end. */
 typedef struct tseg {
@@ -85,7 +87,7 @@ typedef struct tc {
     float wpart;           /* the open sweep's weight so far, carried across a flush */
     tseg open;             /* the open sweep's wscale and cst */
     tseg seg[PT_SEGS];     /* closed sweeps not yet flushed */
-    float x[PT_TAPS];
+    float x[PT_TAPS + 4];
     const uint8_t *px[PT_TAPS];
 } tc;
 
@@ -409,8 +411,20 @@ __attribute__((always_inline)) static inline void flush_t(tc *c, unsigned DT, un
 {
     const unsigned n = c->n;
     float *xs = c->x;
-    for (unsigned i = 0; i < n; i++)
-        xs[i] = expf(xs[i]);
+    for (unsigned i = 0; i < n; i += 4) {
+        v4f y;
+        memcpy(&y, xs + i, 16);
+        y = y * 1.44269504f;
+        v4i ii = __builtin_convertvector(y - 0.5f, v4i);
+        v4f f = y - __builtin_convertvector(ii, v4f);
+        v4f q = 1.0f + f * (0.693147181f + f * (0.240226507f + f * (0.0555041087f +
+                f * (0.00961812911f + f * (0.00133335581f + f * 0.000154035304f)))));
+        v4i bits = (ii + 127) << 23;
+        v4f sc;
+        memcpy(&sc, &bits, 16);
+        y = q * sc;
+        memcpy(xs + i, &y, 16);
+    }
     float acc[ST_MAX_CHANNELS];
     for (unsigned ch = 0; ch < NC; ch++)
         acc[ch] = c->acc[ch];
