@@ -60,35 +60,14 @@ typedef struct ti {
     int odd;               /* the flipped sweep: taps are the inverted triangles */
 } ti;
 
-/* A query's kept taps, gathered by the sweeps and weighed in order by flush (pass 2: one libm
- * expf per tap in a loop of its own, so nothing is spilled around the call; pass 3: the sums,
- * tap by tap in sweep order, exactly as a sweep that weighed each tap where it found it). */
-enum { PT_TAPS = 256, PT_SEGS = 32 };
-typedef float v4f __attribute__((vector_size(16)));
-typedef int32_t v4i __attribute__((vector_size(16)));
-
-/* One sweep's taps: those before end since the previous segment's end. */
-typedef struct tseg {
-    unsigned end;
-    float wscale;          /* 1 / R^2 */
-    const uint8_t *cst;    /* a constant face's (or 1x1 level's) texel, applied once with the
-                            * sweep's summed weight; NULL: each tap's own texel */
-} tseg;
-
 typedef struct tc {
     const st_set *s;
-    size_t ts;             /* texel size in bytes */
-    void (*flush)(struct tc *c);  /* flush_t for the set's texel type and channel count */
+    unsigned nc, dt;
+    float (*rd)(struct tc *c, const ti *it, const uint8_t *data, int constant);   /* SW_READ */
+    float (*fold)(struct tc *c, const ti *it, const uint8_t *data, int constant); /* SW_FOLD */
     float acc[ST_MAX_CHANNELS];
     float weight;          /* weight applied */
     unsigned pieces;
-    /* the gathered taps: argument of expf (-Q 3.5^2 / 2; expf's value after pass 2) and texel */
-    unsigned n, nseg;
-    float wpart;           /* the open sweep's weight so far, carried across a flush */
-    tseg open;             /* the open sweep's wscale and cst */
-    tseg seg[PT_SEGS];     /* closed sweeps not yet flushed */
-    float x[PT_TAPS + 4];
-    const uint8_t *px[PT_TAPS];
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -270,73 +249,33 @@ static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
 
 enum { SW_READ, SW_WEIGHT, SW_FOLD };
 
-/* The first sweep row that holds a tap and the row after the last (x1 < x2 needs
- * R - y - hi[2] < hi[0] and lo[0] < R - y - lo[2]; the rows left out visit nothing). */
-static inline void sweep_rows(const ti *it, int *y1, int *y2)
+/* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
+ * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
+ * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
+ * SW_WEIGHT only sums; SW_FOLD reads the folded texel of each tap. Returns the weight. The
+ * texel type DT and channel count NC are constants in each instance (sweep_fns), so a tap's
+ * loads and sums are a few instructions and the sums stay in registers; the arithmetic and
+ * its order are those of every other instance (each channel's sum gets x * w tap by tap). */
+__attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
+                                                           const uint8_t *data, int constant,
+                                                           int how, unsigned DT, unsigned NC)
 {
+    const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R;
-    int a = it->lo[1], b = it->hi[1];
-    if (a < R - it->hi[2] - it->hi[0] + 1)
-        a = R - it->hi[2] - it->hi[0] + 1;
-    if (b > R - it->lo[2] - it->lo[0])
-        b = R - it->lo[2] - it->lo[0];
-    *y1 = a;
-    *y2 = b;
-}
-
-/* SW_WEIGHT: sweeps one iterator and returns the sum of its weights (Discard's whole kernel):
- * Q by finite differences along each row (Heckbert), a tap where Q < 1 weighs
- * exp(-Q * 3.5^2 / 2) / R^2, summed in sweep order. The same Q and weights as sweep_gather's. */
-static float sweep_weight(const ti *it)
-{
+    float acc[ST_MAX_CHANNELS];
+    for (unsigned ch = 0; ch < NC; ch++)
+        acc[ch] = c->acc[ch];
     float wsum = 0.0f, DDQ = 2.0f * it->A;
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     const float A = it->A, B = it->B, C = it->C, wscale = it->wscale;
-    const int R = it->R;
-    int y1, y2;
-    sweep_rows(it, &y1, &y2);
-    for (int y = y1; y < y2; y++) {
-        int xw = R - y;
-        int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
-        int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
-        float U = (float)x1 - it->u, V = (float)y - it->v;
-        float DQ = A * (2.0f * U + 1.0f) + B * V;
-        float Q = A * U * U + (B * U + C * V) * V;
-        for (int x = x1; x < x2; x++) {
-            if (Q < 1.0f)
-                wsum += expf(gs * Q) * wscale;
-            Q += DQ;
-            DQ += DDQ;
-        }
-    }
-    return wsum;
-}
-
-/* A texel of zeros (every type): the texel of a tap outside the level, whose weight counts
- * but whose value does not (acc + 0 * w is acc: a sum that starts at +0 is never -0). */
-static const uint8_t zero_texel[ST_MAX_CHANNELS * 4];
-
-/* Sweeps one iterator and gathers its taps into c (flushed when full): Q by finite
- * differences along each row (Heckbert), in float, in Ptex's order; a tap where Q < 1 is kept
- * with expf's argument -Q * 3.5^2 / 2 and the texel it reads. SW_READ reads texel (x, y) of
- * data (a constant face or a 1x1 level: data is its one texel, applied once with the sweep's
- * summed weight, as Ptex does); SW_FOLD reads the folded texel of each tap. The sweep is one
- * segment of c; flush weighs the taps (exp(..) / R^2) and sums them in this order. */
-static void sweep_gather(tc *c, const ti *it, const uint8_t *data, int constant, int how)
-{
-    const size_t ts = c->ts;
-    const int R = it->R;
-    float DDQ = 2.0f * it->A;
-    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
-    const float A = it->A, B = it->B, C = it->C;
     const int reads = how == SW_READ && !constant;
-    c->open.wscale = it->wscale;
-    c->open.cst = how == SW_READ && constant ? data : NULL;
-    float *xs = c->x;
-    const uint8_t **ps = c->px;
-    unsigned n = c->n;
-    int y1, y2;
-    sweep_rows(it, &y1, &y2);
+    /* only the rows with a tap: x1 < x2 needs R - y - hi[2] < hi[0] and lo[0] < R - y - lo[2]
+     * (the rows left out visit nothing) */
+    int y1 = it->lo[1], y2 = it->hi[1];
+    if (y1 < R - it->hi[2] - it->hi[0] + 1)
+        y1 = R - it->hi[2] - it->hi[0] + 1;
+    if (y2 > R - it->lo[2] - it->lo[0])
+        y2 = R - it->lo[2] - it->lo[0];
     for (int y = y1; y < y2; y++) {
         int xw = R - y;
         int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
@@ -347,143 +286,89 @@ static void sweep_gather(tc *c, const ti *it, const uint8_t *data, int constant,
         /* a read stays inside the level whatever the float bounds did */
         int rd_ok = reads && y >= 0 && y < R;
         const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
-        int plain = how != SW_FOLD && (!reads || (rd_ok && x1 >= 0 && x2 <= R));
-        int x = x1;
-        while (x < x2) {
-            int m = x2 - x;
-            if (m > (int)(PT_TAPS - n))
-                m = (int)(PT_TAPS - n);
-            if (m == 0) {
-                c->n = n;
-                c->flush(c);
-                n = 0;
-                continue;
-            }
-            int xe = x + m;
-            if (plain) {
-                /* the whole row inside the level (a piece clamped into its face), or a
-                 * constant face: no checks; a dropped tap's slot is overwritten */
-                const uint8_t *px = reads ? row + (size_t)x * ts : data;
-                for (; x < xe; x++) {
-                    xs[n] = gs * Q;
-                    ps[n] = px;
-                    n += Q < 1.0f;
-                    px += reads ? ts : 0;
-                    Q += DQ;
-                    DQ += DDQ;
-                }
-                continue;
-            }
-            for (; x < xe; x++) {
+        if (rd_ok && x1 >= 0 && x2 <= R) {
+            /* the whole row inside the level (a piece clamped into its face): no checks */
+            const uint8_t *px = row + (size_t)x1 * ts;
+            for (int x = x1; x < x2; x++, px += ts) {
                 if (Q < 1.0f) {
-                    const uint8_t *px;
-                    if (how == SW_READ) {
-                        px = rd_ok && (unsigned)x < (unsigned)R ? row + (size_t)x * ts
-                                                                : zero_texel;
-                    } else {
-                        int tx = 0, ty = 0;
-                        if (!constant)
-                            fold_tap(R, it->odd, x, y, &tx, &ty);
-                        px = data + ((size_t)ty * (size_t)R + (size_t)tx) * ts;
-                    }
-                    xs[n] = gs * Q;
-                    ps[n++] = px;
+                    float w = expf(gs * Q) * wscale;
+                    wsum += w;
+#pragma GCC unroll 4
+                    for (unsigned ch = 0; ch < NC; ch++)
+                        acc[ch] += texel_chan(px, ch, DT) * w;
                 }
                 Q += DQ;
                 DQ += DDQ;
             }
+            continue;
         }
-    }
-    c->n = n;
-    c->seg[c->nseg].end = n;
-    c->seg[c->nseg].wscale = c->open.wscale;
-    c->seg[c->nseg].cst = c->open.cst;
-    if (++c->nseg == PT_SEGS)
-        c->flush(c);
-}
-
-/* Weighs the gathered taps and adds them to the sums, tap by tap in the order gathered, the
- * weight of each closed sweep summed on its own and then added to c->weight (as a sweep that
- * weighed each tap where it found it did: the same bits). The taps after the last closed
- * sweep belong to the open one: their weight is carried in c->wpart. Texel type DT and
- * channel count NC are constants in each instance (flush_fn). */
-__attribute__((always_inline)) static inline void flush_t(tc *c, unsigned DT, unsigned NC)
-{
-    const unsigned n = c->n;
-    float *xs = c->x;
-    for (unsigned i = 0; i < n; i += 4) {
-        v4f y;
-        memcpy(&y, xs + i, 16);
-        y = y * 1.44269504f;
-        v4i ii = __builtin_convertvector(y - 0.5f, v4i);
-        v4f f = y - __builtin_convertvector(ii, v4f);
-        v4f q = 1.0f + f * (0.693147181f + f * (0.240226507f + f * (0.0555041087f +
-                f * (0.00961812911f + f * (0.00133335581f + f * 0.000154035304f)))));
-        v4i bits = (ii + 127) << 23;
-        v4f sc;
-        memcpy(&sc, &bits, 16);
-        y = q * sc;
-        memcpy(xs + i, &y, 16);
-    }
-    float acc[ST_MAX_CHANNELS];
-    for (unsigned ch = 0; ch < NC; ch++)
-        acc[ch] = c->acc[ch];
-    float carry = c->wpart, weight = c->weight;
-    unsigned i = 0;
-    for (unsigned g = 0; g <= c->nseg; g++) {
-        const tseg *sg = g < c->nseg ? &c->seg[g] : &c->open;
-        const unsigned end = g < c->nseg ? sg->end : n;
-        const float wscale = sg->wscale;
-        float wsum = carry;
-        carry = 0.0f;
-        if (sg->cst) {
-            for (; i < end; i++)
-                wsum += xs[i] * wscale;
-            if (g < c->nseg)
-                for (unsigned ch = 0; ch < NC; ch++)
-                    acc[ch] += texel_chan(sg->cst, ch, DT) * wsum;
-        } else {
-            for (; i < end; i++) {
-                float w = xs[i] * wscale;
-                const uint8_t *px = c->px[i];
+        for (int x = x1; x < x2; x++) {
+            if (Q < 1.0f) {
+                float w = expf(gs * Q) * wscale;
                 wsum += w;
+                if (how == SW_READ) {
+                    if (rd_ok && (unsigned)x < (unsigned)R) {
+                        const uint8_t *px = row + (size_t)x * ts;
 #pragma GCC unroll 4
-                for (unsigned ch = 0; ch < NC; ch++)
-                    acc[ch] += texel_chan(px, ch, DT) * w;
+                        for (unsigned ch = 0; ch < NC; ch++)
+                            acc[ch] += texel_chan(px, ch, DT) * w;
+                    }
+                } else if (how == SW_FOLD) {
+                    int tx = 0, ty = 0;
+                    if (!constant)
+                        fold_tap(R, it->odd, x, y, &tx, &ty);
+                    const uint8_t *px = data + ((size_t)ty * (size_t)R + (size_t)tx) * ts;
+#pragma GCC unroll 4
+                    for (unsigned ch = 0; ch < NC; ch++)
+                        acc[ch] += texel_chan(px, ch, DT) * w;
+                }
             }
+            Q += DQ;
+            DQ += DDQ;
         }
-        if (g < c->nseg)
-            weight += wsum;
-        else
-            c->wpart = wsum;
     }
+    if (how == SW_READ && constant)
+        for (unsigned ch = 0; ch < NC; ch++)
+            acc[ch] += texel_chan(data, ch, DT) * wsum;
     for (unsigned ch = 0; ch < NC; ch++)
         c->acc[ch] = acc[ch];
-    c->weight = weight;
-    c->n = 0;
-    c->nseg = 0;
+    return wsum;
 }
 
-typedef void (*flush_fn)(tc *c);
+typedef float (*sweep_fn)(tc *c, const ti *it, const uint8_t *data, int constant);
 
-#define PT_FLUSH(DT, NC)                                                                     \
-    static void flush_##DT##_##NC(tc *c)                                                     \
+#define PT_SWEEP(DT, NC)                                                                     \
+    static float sweep_r_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
     {                                                                                        \
-        flush_t(c, DT, NC);                                                                  \
+        return sweep_t(c, it, d, constant, SW_READ, DT, NC);                                 \
+    }                                                                                        \
+    static float sweep_f_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    {                                                                                        \
+        return sweep_t(c, it, d, constant, SW_FOLD, DT, NC);                                 \
     }
-#define PT_FLUSH_NC(DT) PT_FLUSH(DT, 1) PT_FLUSH(DT, 2) PT_FLUSH(DT, 3) PT_FLUSH(DT, 4)
-PT_FLUSH_NC(0)
-PT_FLUSH_NC(1)
-PT_FLUSH_NC(2)
-PT_FLUSH_NC(3)
+#define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
+PT_SWEEP_NC(0)
+PT_SWEEP_NC(1)
+PT_SWEEP_NC(2)
+PT_SWEEP_NC(3)
 
-/* The flush of texel type dt (0..3) with nc (1..4) channels. */
-static flush_fn flush_fn_of(unsigned dt, unsigned nc)
+/* SW_WEIGHT reads nothing: one instance. */
+static float sweep_weight(tc *c, const ti *it)
 {
-#define PT_ROW(DT) {flush_##DT##_1, flush_##DT##_2, flush_##DT##_3, flush_##DT##_4}
-    static const flush_fn f[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, ST_DT_F32, 1);
+}
+
+/* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels. */
+static void sweep_fns(unsigned dt, unsigned nc, sweep_fn *rd, sweep_fn *fold)
+{
+#define PT_ROW(F, DT) {F##_##DT##_1, F##_##DT##_2, F##_##DT##_3, F##_##DT##_4}
+    static const sweep_fn r[4][4] = {PT_ROW(sweep_r, 0), PT_ROW(sweep_r, 1),
+                                     PT_ROW(sweep_r, 2), PT_ROW(sweep_r, 3)};
+    static const sweep_fn f[4][4] = {PT_ROW(sweep_f, 0), PT_ROW(sweep_f, 1),
+                                     PT_ROW(sweep_f, 2), PT_ROW(sweep_f, 3)};
 #undef PT_ROW
-    return f[dt][nc - 1];
+    *rd = r[dt][nc - 1];
+    *fold = f[dt][nc - 1];
 }
 
 /* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
@@ -501,9 +386,9 @@ static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
     if (ev->valid)
-        sweep_gather(c, ev, data, constant, SW_READ);
+        c->weight += c->rd(c, ev, data, constant);
     if (od->valid)
-        sweep_gather(c, od, data, constant, SW_READ);
+        c->weight += c->rd(c, od, data, constant);
 }
 
 static void apply_face(tc *c, tk *k, uint32_t f)
@@ -561,14 +446,13 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
     ti wev, wod, ev, od;
     iterators(&kw, &wev, &wod);
     apply_face_its(c, k, f, &ev, &od);
-    c->flush(c);
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
     float w = 0.0f;
     if (wev.valid)
-        w += sweep_weight(&wev);
+        w += sweep_weight(c, &wev);
     if (wod.valid)
-        w += sweep_weight(&wod);
+        w += sweep_weight(c, &wod);
     return w;
 }
 
@@ -585,9 +469,9 @@ static void apply_folded(tc *c, const tk *k0, uint32_t f)
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)k.res);
     if (ev.valid)
-        sweep_gather(c, &ev, data, constant, SW_FOLD);
+        c->weight += c->fold(c, &ev, data, constant);
     if (od.valid)
-        sweep_gather(c, &od, data, constant, SW_FOLD);
+        c->weight += c->fold(c, &od, data, constant);
 }
 
 static float one_value(unsigned dt)
@@ -631,17 +515,8 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     tk k;
     build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
                  o->blur, F->ulog2);
-    tc c; /* not zeroed whole: the tap arrays are written before they are read */
-    c.s = s;
-    c.ts = st_dtype_size(dt) * nc;
-    c.flush = flush_fn_of(dt, nc);
-    memset(c.acc, 0, sizeof c.acc);
-    c.weight = 0.0f;
-    c.pieces = 0;
-    c.n = c.nseg = 0;
-    c.wpart = 0.0f;
-    c.open.cst = NULL;
-    c.open.wscale = 0.0f;
+    tc c = {.s = s, .nc = nc, .dt = dt};
+    sweep_fns(dt, nc, &c.rd, &c.fold);
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
     } else if (o->mode == ST_MODE_DISCARD) {
@@ -650,7 +525,6 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     } else {
         apply_folded(&c, &k, f);
     }
-    c.flush(&c);
     if (!(c.weight > 0.0f)) {
         /* nothing of the kernel fell on a texel (a point far past a boundary edge) */
         *cov = 0.0f;
