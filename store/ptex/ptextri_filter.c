@@ -171,23 +171,23 @@ static inline int ceil_int(float x)
 typedef float pt_v4f __attribute__((vector_size(16)));
 typedef int32_t pt_v4i __attribute__((vector_size(16)));
 
-/* ceil_int of the four lanes of x: (int)x plus one where that is below x, four at a time
- * (the same ints as ceil_int, lane by lane; a lane outside |x| < 2^30 takes ceil_int). */
+/* Whether every lane of x is inside |x| < 2^30 (false for a NaN). */
+static inline pt_v4i small4(pt_v4f x)
+{
+    pt_v4i bits;
+    memcpy(&bits, &x, 16);
+    bits &= 0x7fffffff;
+    pt_v4f ax;
+    memcpy(&ax, &bits, 16);
+    return ax < 1073741824.0f;
+}
+
+/* ceil_int of the four lanes of x, which are inside |x| < 2^30: (int)x plus one where that is
+ * below x (the same ints as ceil_int, lane by lane). */
 static inline pt_v4i ceil_int4(pt_v4f x)
 {
     pt_v4i t = __builtin_convertvector(x, pt_v4i); /* truncates towards 0 */
-    pt_v4f ax = x;
-    pt_v4i bits;
-    memcpy(&bits, &ax, 16);
-    bits &= 0x7fffffff;
-    memcpy(&ax, &bits, 16);
-    pt_v4i big = ax < 1073741824.0f;
-    if (__builtin_expect(big[0] & big[1] & big[2] & big[3], 1))
-        return t - (__builtin_convertvector(t, pt_v4f) < x); /* a true compare is -1 */
-    pt_v4i r;
-    for (int i = 0; i < 4; i++)
-        r[i] = ceil_int(x[i]);
-    return r;
+    return t - (__builtin_convertvector(t, pt_v4f) < x); /* a true compare is -1 */
 }
 
 /* The two sweeps of kernel k at resolution 2^k->res: upright taps, and inverted ones seen
@@ -210,8 +210,22 @@ static void iterators(const tk *k, ti *ev, ti *od)
     pt_v4f a = {lo[0], lo[1], lo[2], hi[0]};
     pt_v4f b = {hi[1], hi[2], 1.0f - hi[1], 1.0f - hi[0]};
     pt_v4f c = {-hi[2], 1.0f - lo[1], 1.0f - lo[0], -lo[2]};
-    pt_v4i ia = ceil_int4(a * fR - third), ib = ceil_int4(b * fR - third);
-    pt_v4i ic = ceil_int4(c * fR - third);
+    a = a * fR - third;
+    b = b * fR - third;
+    c = c * fR - third;
+    pt_v4i ia, ib, ic, ok = small4(a) & small4(b) & small4(c);
+    ok &= __builtin_shufflevector(ok, ok, 2, 3, 0, 1);
+    if (__builtin_expect((ok & __builtin_shufflevector(ok, ok, 1, 0, 3, 2))[0] != 0, 1)) {
+        ia = ceil_int4(a);
+        ib = ceil_int4(b);
+        ic = ceil_int4(c);
+    } else { /* a bound past 2^30 (a huge blur): libm's ceilf where ceil_int takes it */
+        for (int i = 0; i < 4; i++) {
+            ia[i] = ceil_int(a[i]);
+            ib[i] = ceil_int(b[i]);
+            ic[i] = ceil_int(c[i]);
+        }
+    }
     ev->lo[0] = ia[0]; ev->lo[1] = ia[1]; ev->lo[2] = ia[2];
     ev->hi[0] = ia[3]; ev->hi[1] = ib[0]; ev->hi[2] = ib[1];
     od->lo[0] = ib[2]; od->lo[1] = ib[3]; od->lo[2] = ic[0];
