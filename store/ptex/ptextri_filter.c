@@ -28,6 +28,7 @@
 #include "ptextri.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "ptex_format.h"
@@ -53,7 +54,7 @@ typedef struct tk {
 typedef struct ti {
     int R;                 /* texels per row */
     float u, v;            /* centre, texel units, relative to the tap centroids */
-    int lo[3], hi[3];      /* index bounds of u, v, w */
+    int lo[3], hi[3];      /* index bounds of u, v, w (adjacent: iterators stores them so) */
     float A, B, C;         /* ellipse over texel units */
     float wscale;          /* 1 / R^2: the area of a tap */
     int valid;
@@ -226,10 +227,13 @@ static void iterators(const tk *k, ti *ev, ti *od)
             ic[i] = ceil_int(c[i]);
         }
     }
-    ev->lo[0] = ia[0]; ev->lo[1] = ia[1]; ev->lo[2] = ia[2];
-    ev->hi[0] = ia[3]; ev->hi[1] = ib[0]; ev->hi[2] = ib[1];
-    od->lo[0] = ib[2]; od->lo[1] = ib[3]; od->lo[2] = ic[0];
-    od->hi[0] = ic[1]; od->hi[1] = ic[2]; od->hi[2] = ic[3];
+    /* lo[3] and hi[3] are adjacent: ev lo 0..2 hi 0 | ev hi 1, 2 | od lo 0, 1 | od lo 2 hi 0..2 */
+    _Static_assert(offsetof(ti, hi) == offsetof(ti, lo) + 3 * sizeof(int), "lo, hi adjacent");
+    char *el = (char *)ev + offsetof(ti, lo), *ol = (char *)od + offsetof(ti, lo);
+    memcpy(el, &ia, 16);
+    memcpy(el + 16, &ib, 8);
+    memcpy(ol, (const char *)&ib + 8, 8);
+    memcpy(ol + 8, &ic, 16);
     ev->A = Ak;
     ev->B = Bk;
     ev->C = Ck;
