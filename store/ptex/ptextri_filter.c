@@ -40,6 +40,16 @@
 #define PT_MAX_PIECES 256  /* pieces per query; bounds the work a hostile adjacency can cause */
 
 
+/* GCC's SLP vectoriser joins the loads of adjacent kernel fields (u and v, two bounds) into
+ * one wide load; right after the fields were stored one by one (a piece just reoriented or
+ * clamped) such a load cannot take its value from the store buffer and waits for the stores
+ * to reach the cache. The functions that read a piece just made keep their loads apart. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define PT_NO_SLP __attribute__((optimize("no-tree-slp-vectorize")))
+#else
+#define PT_NO_SLP
+#endif
+
 static const float PT_WIDTH = 3.5f;  /* kernel extent in filter widths (Ptex's) */
 
 /* The kernel in normalised barycentric coordinates. */
@@ -121,42 +131,41 @@ static void build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw
     k->C = C;
 }
 
-/* Carries a piece across edge e of its face into the neighbour whose edge ae it is
+/* The piece of k past edge e of its face (where coordinate i, 0 on that edge, is below 0: k
+ * with hi[i] = 0), carried into the neighbour whose edge ae it is, written to ka
  * (st_tri_across_edge: the unfolding across the shared edge). The map renames (u, v, w)
  * cyclically by s = e - ae (mod 3), so the ellipse only rotates; every coordinate decreases
  * with the one it reads, so lower bounds come from upper ones and back. */
-static void reorient(tk *k, unsigned e, unsigned ae)
+PT_NO_SLP static void across(const tk *k, unsigned i, unsigned e, unsigned ae, tk *ka)
 {
     float p[3] = {k->u, k->v, 1.0f - k->u - k->v}, np[3], nlo[3], nhi[3];
+    float lo[3] = {k->lo[0], k->lo[1], k->lo[2]}, hi[3] = {k->hi[0], k->hi[1], k->hi[2]};
+    hi[i] = 0.0f;
     st_tri_across_edge(e, ae, p, np);
-    st_tri_across_edge(e, ae, k->hi, nlo);
-    st_tri_across_edge(e, ae, k->lo, nhi);
-    k->u = np[0];
-    k->v = np[1];
-    memcpy(k->lo, nlo, sizeof nlo);
-    memcpy(k->hi, nhi, sizeof nhi);
+    st_tri_across_edge(e, ae, hi, nlo);
+    st_tri_across_edge(e, ae, lo, nhi);
+    ka->res = k->res;
+    ka->u = np[0];
+    ka->v = np[1];
+    for (int j = 0; j < 3; j++) {
+        ka->lo[j] = nlo[j];
+        ka->hi[j] = nhi[j];
+    }
     float A = k->A, B = k->B, C = k->C;
     unsigned s = (e + 3 - ae) % 3;
     if (s == 2) {        /* u' = w, v' = u */
-        k->A = C;
-        k->B = 2.0f * C - B;
-        k->C = A + C - B;
+        ka->A = C;
+        ka->B = 2.0f * C - B;
+        ka->C = A + C - B;
     } else if (s == 1) { /* u' = v, v' = w */
-        k->A = A + C - B;
-        k->B = 2.0f * A - B;
-        k->C = A;
+        ka->A = A + C - B;
+        ka->B = 2.0f * A - B;
+        ka->C = A;
+    } else {
+        ka->A = A;
+        ka->B = B;
+        ka->C = C;
     }
-}
-
-/* The kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
- * two lower bounds leave. */
-static void clamp_extent(tk *k)
-{
-    for (int i = 0; i < 3; i++)
-        k->lo[i] = fmaxf_(k->lo[i], 0.0f);
-    k->hi[0] = fminf_(k->hi[0], 1.0f - (k->lo[1] + k->lo[2]));
-    k->hi[1] = fminf_(k->hi[1], 1.0f - (k->lo[2] + k->lo[0]));
-    k->hi[2] = fminf_(k->hi[2], 1.0f - (k->lo[0] + k->lo[1]));
 }
 
 /* (int)ceilf(x) without the libm call where the conversion is exact (|x| < 2^30, which the
@@ -192,9 +201,13 @@ static inline pt_v4i ceil_int4(pt_v4f x)
 }
 
 /* The two sweeps of kernel k at resolution 2^k->res: upright taps, and inverted ones seen
- * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). The twelve
- * index bounds are taken four at a time, each lane with the scalar expression's operations. */
-static void iterators(const tk *k, ti *ev, ti *od)
+ * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). With clamp,
+ * the kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
+ * two lower bounds leave (k itself is not changed). The twelve index bounds are taken four at
+ * a time, each lane with the scalar expression's operations, from the six bounds held in
+ * registers (read one by one: a wide load of bounds just stored one by one would wait for the
+ * stores instead of taking their values from the store buffer). */
+PT_NO_SLP static void iterators(const tk *k, int clamp, ti *ev, ti *od)
 {
     int R = 1 << k->res;
     float fR = (float)R, third = (float)(1 / 3.0);
@@ -206,7 +219,14 @@ static void iterators(const tk *k, ti *ev, ti *od)
     od->odd = 1;
     ev->u = k->u * fR - third;
     ev->v = k->v * fR - third;
-    const float *lo = k->lo, *hi = k->hi;
+    float lo[3] = {k->lo[0], k->lo[1], k->lo[2]}, hi[3] = {k->hi[0], k->hi[1], k->hi[2]};
+    if (clamp) {
+        for (int i = 0; i < 3; i++)
+            lo[i] = fmaxf_(lo[i], 0.0f);
+        hi[0] = fminf_(hi[0], 1.0f - (lo[1] + lo[2]));
+        hi[1] = fminf_(hi[1], 1.0f - (lo[2] + lo[0]));
+        hi[2] = fminf_(hi[2], 1.0f - (lo[0] + lo[1]));
+    }
     /* ev lo 0..2, hi 0; ev hi 1, 2, od lo 0, 1; od lo 2, hi 0..2 */
     pt_v4f a = {lo[0], lo[1], lo[2], hi[0]};
     pt_v4f b = {hi[1], hi[2], 1.0f - hi[1], 1.0f - hi[0]};
@@ -420,8 +440,7 @@ static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
     const st_face *F = &c->s->faces[f];
     if (k->res > (int)F->ulog2)
         k->res = F->ulog2;
-    clamp_extent(k);
-    iterators(k, ev, od);
+    iterators(k, 1, ev, od);
     if (!ev->valid && !od->valid)
         return;
     unsigned level = F->ulog2 - (unsigned)k->res;
@@ -455,7 +474,7 @@ static int same_taps(const ti *a, const ti *b)
 
 /* Traverse: splits k at each edge it overhangs into a neighbour (u, then v, then w) and
  * applies every piece where it lands. */
-static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
+PT_NO_SLP static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
 {
     static const unsigned edge_of[3] = {2, 0, 1}; /* coordinate u, v, w is 0 on edge 2, 0, 1 */
     const st_face *F = &c->s->faces[f];
@@ -465,11 +484,10 @@ static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
             continue;
         if (depth >= PT_MAX_DEPTH || c->pieces >= PT_MAX_PIECES)
             continue; /* dropped: the piece stays and is clamped into this face */
-        tk ka = *k;
+        tk ka;
+        across(k, i, e, F->adjedge[e], &ka);
         k->lo[i] = 0.0f;
-        ka.hi[i] = 0.0f;
         c->pieces++;
-        reorient(&ka, e, F->adjedge[e]);
         split_apply(c, &ka, (uint32_t)F->adjface[e], depth + 1);
     }
     apply_face(c, k, f);
@@ -486,7 +504,7 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
     if (kw.res > (int)F->ulog2)
         kw.res = F->ulog2;
     ti wev, wod, ev, od;
-    iterators(&kw, &wev, &wod);
+    iterators(&kw, 0, &wev, &wod);
     apply_face_its(c, k, f, &ev, &od);
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
@@ -506,7 +524,7 @@ static void apply_folded(tc *c, const tk *k0, uint32_t f)
     if (k.res > (int)F->ulog2)
         k.res = F->ulog2;
     ti ev, od;
-    iterators(&k, &ev, &od);
+    iterators(&k, 0, &ev, &od);
     int constant = (F->flags & ST_FACE_CONSTANT) || k.res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)k.res);
