@@ -200,16 +200,16 @@ static inline pt_v4i ceil_int4(pt_v4f x)
     return t - (__builtin_convertvector(t, pt_v4f) < x); /* a true compare is -1 */
 }
 
-/* The two sweeps of kernel k at resolution 2^k->res: upright taps, and inverted ones seen
+/* The two sweeps of kernel k at resolution 2^res: upright taps, and inverted ones seen
  * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). With clamp,
  * the kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
  * two lower bounds leave (k itself is not changed). The twelve index bounds are taken four at
  * a time, each lane with the scalar expression's operations, from the six bounds held in
  * registers (read one by one: a wide load of bounds just stored one by one would wait for the
  * stores instead of taking their values from the store buffer). */
-PT_NO_SLP static void iterators(const tk *k, int clamp, ti *ev, ti *od)
+PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
 {
-    int R = 1 << k->res;
+    int R = 1 << res;
     float fR = (float)R, third = (float)(1 / 3.0);
     float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
     float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
@@ -440,7 +440,7 @@ static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
     const st_face *F = &c->s->faces[f];
     if (k->res > (int)F->ulog2)
         k->res = F->ulog2;
-    iterators(k, 1, ev, od);
+    iterators(k, k->res, 1, ev, od);
     if (!ev->valid && !od->valid)
         return;
     unsigned level = F->ulog2 - (unsigned)k->res;
@@ -499,12 +499,10 @@ PT_NO_SLP static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
  * just applied, summed by the same sweeps. */
 static float apply_discard(tc *c, tk *k, uint32_t f)
 {
-    tk kw = *k;
     const st_face *F = &c->s->faces[f];
-    if (kw.res > (int)F->ulog2)
-        kw.res = F->ulog2;
+    int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
     ti wev, wod, ev, od;
-    iterators(&kw, 0, &wev, &wod);
+    iterators(k, res, 0, &wev, &wod);
     apply_face_its(c, k, f, &ev, &od);
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
@@ -517,17 +515,15 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
 }
 
 /* Clamp: every tap of the whole kernel, folded into the face. */
-static void apply_folded(tc *c, const tk *k0, uint32_t f)
+static void apply_folded(tc *c, const tk *k, uint32_t f)
 {
-    tk k = *k0;
     const st_face *F = &c->s->faces[f];
-    if (k.res > (int)F->ulog2)
-        k.res = F->ulog2;
+    int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
     ti ev, od;
-    iterators(&k, 0, &ev, &od);
-    int constant = (F->flags & ST_FACE_CONSTANT) || k.res == 0;
+    iterators(k, res, 0, &ev, &od);
+    int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
-                                                     : F->ulog2 - (unsigned)k.res);
+                                                     : F->ulog2 - (unsigned)res);
     if (ev.valid)
         c->weight += c->fold(c, &ev, data, constant);
     if (od.valid)
