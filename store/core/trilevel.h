@@ -55,8 +55,9 @@ static inline void st_tri_texel(uint32_t R, float u, float v, uint32_t *x, uint3
 static inline void st_tri_across_edge(unsigned e, unsigned ae, const float p[3], float np[3])
 {
     unsigned s = (e + 3 - ae) % 3, cz = (ae + 1) % 3;
+#pragma GCC unroll 3
     for (unsigned i = 0; i < 3; i++) {
-        unsigned o = (i + s) % 3;
+        unsigned o = i + s < 3 ? i + s : i + s - 3; /* (i + s) % 3 without a division */
         np[i] = i == cz ? -p[o] : 1.0f - p[o];
     }
 }

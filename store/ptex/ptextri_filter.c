@@ -28,6 +28,7 @@
 #include "ptextri.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "ptex_format.h"
@@ -38,6 +39,16 @@
 #define PT_MAX_DEPTH  24   /* edge crossings in a row; a closed mesh needs a few */
 #define PT_MAX_PIECES 256  /* pieces per query; bounds the work a hostile adjacency can cause */
 
+
+/* GCC's SLP vectoriser joins the loads of adjacent kernel fields (u and v, two bounds) into
+ * one wide load; right after the fields were stored one by one (a piece just reoriented or
+ * clamped) such a load cannot take its value from the store buffer and waits for the stores
+ * to reach the cache. The functions that read a piece just made keep their loads apart. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define PT_NO_SLP __attribute__((optimize("no-tree-slp-vectorize")))
+#else
+#define PT_NO_SLP
+#endif
 
 static const float PT_WIDTH = 3.5f;  /* kernel extent in filter widths (Ptex's) */
 
@@ -53,7 +64,7 @@ typedef struct tk {
 typedef struct ti {
     int R;                 /* texels per row */
     float u, v;            /* centre, texel units, relative to the tap centroids */
-    int lo[3], hi[3];      /* index bounds of u, v, w */
+    int lo[3], hi[3];      /* index bounds of u, v, w (adjacent: iterators stores them so) */
     float A, B, C;         /* ellipse over texel units */
     float wscale;          /* 1 / R^2: the area of a tap */
     int valid;
@@ -120,42 +131,41 @@ static void build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw
     k->C = C;
 }
 
-/* Carries a piece across edge e of its face into the neighbour whose edge ae it is
+/* The piece of k past edge e of its face (where coordinate i, 0 on that edge, is below 0: k
+ * with hi[i] = 0), carried into the neighbour whose edge ae it is, written to ka
  * (st_tri_across_edge: the unfolding across the shared edge). The map renames (u, v, w)
  * cyclically by s = e - ae (mod 3), so the ellipse only rotates; every coordinate decreases
  * with the one it reads, so lower bounds come from upper ones and back. */
-static void reorient(tk *k, unsigned e, unsigned ae)
+PT_NO_SLP static void across(const tk *k, unsigned i, unsigned e, unsigned ae, tk *ka)
 {
     float p[3] = {k->u, k->v, 1.0f - k->u - k->v}, np[3], nlo[3], nhi[3];
+    float lo[3] = {k->lo[0], k->lo[1], k->lo[2]}, hi[3] = {k->hi[0], k->hi[1], k->hi[2]};
+    hi[i] = 0.0f;
     st_tri_across_edge(e, ae, p, np);
-    st_tri_across_edge(e, ae, k->hi, nlo);
-    st_tri_across_edge(e, ae, k->lo, nhi);
-    k->u = np[0];
-    k->v = np[1];
-    memcpy(k->lo, nlo, sizeof nlo);
-    memcpy(k->hi, nhi, sizeof nhi);
+    st_tri_across_edge(e, ae, hi, nlo);
+    st_tri_across_edge(e, ae, lo, nhi);
+    ka->res = k->res;
+    ka->u = np[0];
+    ka->v = np[1];
+    for (int j = 0; j < 3; j++) {
+        ka->lo[j] = nlo[j];
+        ka->hi[j] = nhi[j];
+    }
     float A = k->A, B = k->B, C = k->C;
     unsigned s = (e + 3 - ae) % 3;
     if (s == 2) {        /* u' = w, v' = u */
-        k->A = C;
-        k->B = 2.0f * C - B;
-        k->C = A + C - B;
+        ka->A = C;
+        ka->B = 2.0f * C - B;
+        ka->C = A + C - B;
     } else if (s == 1) { /* u' = v, v' = w */
-        k->A = A + C - B;
-        k->B = 2.0f * A - B;
-        k->C = A;
+        ka->A = A + C - B;
+        ka->B = 2.0f * A - B;
+        ka->C = A;
+    } else {
+        ka->A = A;
+        ka->B = B;
+        ka->C = C;
     }
-}
-
-/* The kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
- * two lower bounds leave. */
-static void clamp_extent(tk *k)
-{
-    for (int i = 0; i < 3; i++)
-        k->lo[i] = fmaxf_(k->lo[i], 0.0f);
-    k->hi[0] = fminf_(k->hi[0], 1.0f - (k->lo[1] + k->lo[2]));
-    k->hi[1] = fminf_(k->hi[1], 1.0f - (k->lo[2] + k->lo[0]));
-    k->hi[2] = fminf_(k->hi[2], 1.0f - (k->lo[0] + k->lo[1]));
 }
 
 /* (int)ceilf(x) without the libm call where the conversion is exact (|x| < 2^30, which the
@@ -168,11 +178,38 @@ static inline int ceil_int(float x)
     return t + ((float)t < x);
 }
 
-/* The two sweeps of kernel k at resolution 2^k->res: upright taps, and inverted ones seen
- * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). */
-static void iterators(const tk *k, ti *ev, ti *od)
+typedef float pt_v4f __attribute__((vector_size(16)));
+typedef int32_t pt_v4i __attribute__((vector_size(16)));
+
+/* Whether every lane of x is inside |x| < 2^30 (false for a NaN). */
+static inline pt_v4i small4(pt_v4f x)
 {
-    int R = 1 << k->res;
+    pt_v4i bits;
+    memcpy(&bits, &x, 16);
+    bits &= 0x7fffffff;
+    pt_v4f ax;
+    memcpy(&ax, &bits, 16);
+    return ax < 1073741824.0f;
+}
+
+/* ceil_int of the four lanes of x, which are inside |x| < 2^30: (int)x plus one where that is
+ * below x (the same ints as ceil_int, lane by lane). */
+static inline pt_v4i ceil_int4(pt_v4f x)
+{
+    pt_v4i t = __builtin_convertvector(x, pt_v4i); /* truncates towards 0 */
+    return t - (__builtin_convertvector(t, pt_v4f) < x); /* a true compare is -1 */
+}
+
+/* The two sweeps of kernel k at resolution 2^res: upright taps, and inverted ones seen
+ * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). With clamp,
+ * the kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
+ * two lower bounds leave (k itself is not changed). The twelve index bounds are taken four at
+ * a time, each lane with the scalar expression's operations, from the six bounds held in
+ * registers (read one by one: a wide load of bounds just stored one by one would wait for the
+ * stores instead of taking their values from the store buffer). */
+PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
+{
+    int R = 1 << res;
     float fR = (float)R, third = (float)(1 / 3.0);
     float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
     float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
@@ -182,22 +219,47 @@ static void iterators(const tk *k, ti *ev, ti *od)
     od->odd = 1;
     ev->u = k->u * fR - third;
     ev->v = k->v * fR - third;
-    for (int i = 0; i < 3; i++) {
-        ev->lo[i] = ceil_int(k->lo[i] * fR - third);
-        ev->hi[i] = ceil_int(k->hi[i] * fR - third);
+    float lo[3] = {k->lo[0], k->lo[1], k->lo[2]}, hi[3] = {k->hi[0], k->hi[1], k->hi[2]};
+    if (clamp) {
+        for (int i = 0; i < 3; i++)
+            lo[i] = fmaxf_(lo[i], 0.0f);
+        hi[0] = fminf_(hi[0], 1.0f - (lo[1] + lo[2]));
+        hi[1] = fminf_(hi[1], 1.0f - (lo[2] + lo[0]));
+        hi[2] = fminf_(hi[2], 1.0f - (lo[0] + lo[1]));
     }
+    /* ev lo 0..2, hi 0; ev hi 1, 2, od lo 0, 1; od lo 2, hi 0..2 */
+    pt_v4f a = {lo[0], lo[1], lo[2], hi[0]};
+    pt_v4f b = {hi[1], hi[2], 1.0f - hi[1], 1.0f - hi[0]};
+    pt_v4f c = {-hi[2], 1.0f - lo[1], 1.0f - lo[0], -lo[2]};
+    a = a * fR - third;
+    b = b * fR - third;
+    c = c * fR - third;
+    pt_v4i ia, ib, ic, ok = small4(a) & small4(b) & small4(c);
+    ok &= __builtin_shufflevector(ok, ok, 2, 3, 0, 1);
+    if (__builtin_expect((ok & __builtin_shufflevector(ok, ok, 1, 0, 3, 2))[0] != 0, 1)) {
+        ia = ceil_int4(a);
+        ib = ceil_int4(b);
+        ic = ceil_int4(c);
+    } else { /* a bound past 2^30 (a huge blur): libm's ceilf where ceil_int takes it */
+        for (int i = 0; i < 4; i++) {
+            ia[i] = ceil_int(a[i]);
+            ib[i] = ceil_int(b[i]);
+            ic[i] = ceil_int(c[i]);
+        }
+    }
+    /* lo[3] and hi[3] are adjacent: ev lo 0..2 hi 0 | ev hi 1, 2 | od lo 0, 1 | od lo 2 hi 0..2 */
+    _Static_assert(offsetof(ti, hi) == offsetof(ti, lo) + 3 * sizeof(int), "lo, hi adjacent");
+    char *el = (char *)ev + offsetof(ti, lo), *ol = (char *)od + offsetof(ti, lo);
+    memcpy(el, &ia, 16);
+    memcpy(el + 16, &ib, 8);
+    memcpy(ol, (const char *)&ib + 8, 8);
+    memcpy(ol + 8, &ic, 16);
     ev->A = Ak;
     ev->B = Bk;
     ev->C = Ck;
     ev->valid = ev->hi[0] > ev->lo[0] && ev->hi[1] > ev->lo[1] && ev->hi[2] > ev->lo[2];
     od->u = (1.0f - k->v) * fR - third;
     od->v = (1.0f - k->u) * fR - third;
-    od->lo[0] = ceil_int((1.0f - k->hi[1]) * fR - third);
-    od->lo[1] = ceil_int((1.0f - k->hi[0]) * fR - third);
-    od->lo[2] = ceil_int((-k->hi[2]) * fR - third);
-    od->hi[0] = ceil_int((1.0f - k->lo[1]) * fR - third);
-    od->hi[1] = ceil_int((1.0f - k->lo[0]) * fR - third);
-    od->hi[2] = ceil_int((-k->lo[2]) * fR - third);
     od->A = Ck;
     od->B = Bk;
     od->C = Ak;
@@ -378,8 +440,7 @@ static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
     const st_face *F = &c->s->faces[f];
     if (k->res > (int)F->ulog2)
         k->res = F->ulog2;
-    clamp_extent(k);
-    iterators(k, ev, od);
+    iterators(k, k->res, 1, ev, od);
     if (!ev->valid && !od->valid)
         return;
     unsigned level = F->ulog2 - (unsigned)k->res;
@@ -413,7 +474,7 @@ static int same_taps(const ti *a, const ti *b)
 
 /* Traverse: splits k at each edge it overhangs into a neighbour (u, then v, then w) and
  * applies every piece where it lands. */
-static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
+PT_NO_SLP static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
 {
     static const unsigned edge_of[3] = {2, 0, 1}; /* coordinate u, v, w is 0 on edge 2, 0, 1 */
     const st_face *F = &c->s->faces[f];
@@ -423,11 +484,10 @@ static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
             continue;
         if (depth >= PT_MAX_DEPTH || c->pieces >= PT_MAX_PIECES)
             continue; /* dropped: the piece stays and is clamped into this face */
-        tk ka = *k;
+        tk ka;
+        across(k, i, e, F->adjedge[e], &ka);
         k->lo[i] = 0.0f;
-        ka.hi[i] = 0.0f;
         c->pieces++;
-        reorient(&ka, e, F->adjedge[e]);
         split_apply(c, &ka, (uint32_t)F->adjface[e], depth + 1);
     }
     apply_face(c, k, f);
@@ -439,12 +499,10 @@ static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
  * just applied, summed by the same sweeps. */
 static float apply_discard(tc *c, tk *k, uint32_t f)
 {
-    tk kw = *k;
     const st_face *F = &c->s->faces[f];
-    if (kw.res > (int)F->ulog2)
-        kw.res = F->ulog2;
+    int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
     ti wev, wod, ev, od;
-    iterators(&kw, &wev, &wod);
+    iterators(k, res, 0, &wev, &wod);
     apply_face_its(c, k, f, &ev, &od);
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
@@ -457,17 +515,15 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
 }
 
 /* Clamp: every tap of the whole kernel, folded into the face. */
-static void apply_folded(tc *c, const tk *k0, uint32_t f)
+static void apply_folded(tc *c, const tk *k, uint32_t f)
 {
-    tk k = *k0;
     const st_face *F = &c->s->faces[f];
-    if (k.res > (int)F->ulog2)
-        k.res = F->ulog2;
+    int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
     ti ev, od;
-    iterators(&k, &ev, &od);
-    int constant = (F->flags & ST_FACE_CONSTANT) || k.res == 0;
+    iterators(k, res, 0, &ev, &od);
+    int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
-                                                     : F->ulog2 - (unsigned)k.res);
+                                                     : F->ulog2 - (unsigned)res);
     if (ev.valid)
         c->weight += c->fold(c, &ev, data, constant);
     if (od.valid)
