@@ -54,6 +54,14 @@ static float one_of(unsigned dt)
     return dt == ST_DT_U8 ? 255.0f : dt == ST_DT_U16 ? 65535.0f : 1.0f;
 }
 
+/* The edges a handed-over 2 x 2 kernel overhangs, as pf_lanes lanef's boundary bits (bit
+ * 4 + e: past edge e): pf_lanes_kern's open and inside for one lane. */
+static inline unsigned pl_overhang(int ru, int rv, int ui, int vi, float fu, float fv)
+{
+    return (vi < 0 ? 0x10u : 0u) | (fu != 0.0f && ui + 2 > 1 << ru ? 0x20u : 0u) |
+           (fv != 0.0f && vi + 2 > 1 << rv ? 0x40u : 0u) | (ui < 0 ? 0x80u : 0u);
+}
+
 /* ---- 8 lanes (AVX2) --------------------------------------------------------------------- */
 
 #define PL_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline
@@ -171,7 +179,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     __m256i fw = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fw0,
                                              _mm256_slli_epi32(face, 4), m, 4);
     __m256i pxf = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
-                                              (const int *)(const void *)c->ptxflags, face, m, 1);
+                                              (const int *)(const void *)c->lanef, face, m, 1);
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
     __m256i bad = _mm256_or_si256(
         _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
@@ -201,6 +209,24 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
         _mm256_storeu_si256((__m256i *)(void *)k->vi, vi);
         _mm256_storeu_ps(k->fu, fu);
         _mm256_storeu_ps(k->fv, fv);
+        /* the edges each kernel overhangs (pl_overhang's), each against its boundary bit of
+         * lanef (gathered above) shifted to the sign: a sign set is a blocked lane */
+        const __m256i one32 = _mm256_set1_epi32(1), two32 = _mm256_set1_epi32(2);
+        __m256i fun = _mm256_castps_si256(_mm256_cmp_ps(fu, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+        __m256i fvn = _mm256_castps_si256(_mm256_cmp_ps(fv, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+        __m256i ovb = _mm256_cmpgt_epi32(zero, vi), ovl = _mm256_cmpgt_epi32(zero, ui);
+        __m256i ovr = _mm256_and_si256(fun, _mm256_cmpgt_epi32(_mm256_add_epi32(ui, two32),
+                                                               _mm256_sllv_epi32(one32, ru)));
+        __m256i ovt = _mm256_and_si256(fvn, _mm256_cmpgt_epi32(_mm256_add_epi32(vi, two32),
+                                                               _mm256_sllv_epi32(one32, rv)));
+        __m256i blocked = _mm256_or_si256(
+            _mm256_or_si256(_mm256_and_si256(ovb, _mm256_slli_epi32(pxf, 27)),
+                            _mm256_and_si256(ovr, _mm256_slli_epi32(pxf, 26))),
+            _mm256_or_si256(_mm256_and_si256(ovt, _mm256_slli_epi32(pxf, 25)),
+                            _mm256_and_si256(ovl, _mm256_slli_epi32(pxf, 24))));
+        __m256i over = _mm256_or_si256(_mm256_or_si256(ovb, ovr), _mm256_or_si256(ovt, ovl));
+        k->inside = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(over)) & *edge;
+        k->open = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(blocked)) & *edge;
     }
     if (!mask)
         return 0;
@@ -454,7 +480,7 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
                  ay <= ST_MAX_DERIV && by <= ST_MAX_DERIV && x->u >= 0.0f && x->u < 1.0f &&
                  x->v >= 0.0f && x->v < 1.0f;
         const st_face *F = ok ? &c->faces[x->face] : c->faces;
-        ok = ok && !(c->ptxflags[x->face] & PTX_FLAG_NBCONSTANT) &&
+        ok = ok && !(c->lanef[x->face] & PTX_FLAG_NBCONSTANT) &&
              !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT));
         ok_[j] = ok;
         u_[j] = x->u, v_[j] = x->v;
@@ -481,6 +507,13 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
         _mm_storeu_si128((__m128i *)(void *)k->vi, _mm_cvttps_epi32(flv));
         _mm_storeu_ps(k->fu, fu);
         _mm_storeu_ps(k->fv, fv);
+        k->open = k->inside = 0;
+        for (unsigned rest = *edge; rest; rest &= rest - 1) {
+            int j = __builtin_ctz(rest);
+            unsigned bits = pl_overhang(k->ru[j], k->rv[j], k->ui[j], k->vi[j], k->fu[j], k->fv[j]);
+            k->inside |= (bits == 0) << j;
+            k->open |= ((bits & c->lanef[q[j].face]) == 0) << j;
+        }
     }
     if (!mask)
         return 0;

@@ -22,7 +22,7 @@
 
 typedef struct pf_lanes {
     const st_face *faces;        /* the set's faces */
-    const uint8_t *ptxflags;     /* st_ptexres ptxflags (3 readable bytes after the last) */
+    const uint8_t *lanef;        /* st_ptexres lanef (3 readable bytes after the last) */
     const uint64_t *base;        /* st_ptexres base */
     const uint8_t *const *px;    /* st_ptexres px */
     uint32_t nfaces;
@@ -31,10 +31,15 @@ typedef struct pf_lanes {
 
 /* The kernel set-up of the lanes handed over (pf_bilinear_lanes_fn's *edge): per lane the
  * resolution (ru, rv), the first texel (ui, vi) and the fractions (fu, fv) of the 2 x 2
- * texels, as ptexfilter.c's bilinear_kernel computes them. */
+ * texels, as ptexfilter.c's bilinear_kernel computes them; and two masks of those lanes (bit
+ * j: lane j): open, the 2 x 2 texels overhang no mesh boundary edge of the face (ui < 0 past
+ * edge 3, vi < 0 past edge 0, fu != 0 and ui + 2 > 2^ru past edge 1, fv != 0 and vi + 2 >
+ * 2^rv past edge 2, each counting when that edge's adjface is < 0), and inside, they overhang
+ * no edge (a texel centre). */
 typedef struct pf_lanes_kern {
     int32_t ru[8], rv[8], ui[8], vi[8];
     float fu[8], fv[8];
+    unsigned open, inside;
 } pf_lanes_kern;
 
 /* Reads q[0 .. lanes); for every query it serves writes its nc values to out (at q's place:
