@@ -102,14 +102,15 @@ PL_AXIS(axis8, PL_TARGET, pl_v8f, pl_v8i)
 /* Rows [x[lo] .. x[lo + 3] | y[lo] .. y[lo + 3]] of 8 queries, transposed: 4 fields. */
 PL_TARGET void fields8(const st_query *q, size_t off, __m256 f[4])
 {
-    __m256 r[4];
-    for (int i = 0; i < 4; i++) {
-        const float *a = (const float *)(const void *)((const uint8_t *)&q[i] + off);
-        const float *b = (const float *)(const void *)((const uint8_t *)&q[i + 4] + off);
-        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a)), _mm_loadu_ps(b), 1);
-    }
-    __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
-    __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    /* written out (no array): the four rows stay in registers */
+#define PL_ROW8(i)                                                                          \
+    _mm256_insertf128_ps(                                                                   \
+        _mm256_castps128_ps256(_mm_loadu_ps((const float *)(const void *)((const uint8_t *)&q[i] + off))), \
+        _mm_loadu_ps((const float *)(const void *)((const uint8_t *)&q[(i) + 4] + off)), 1)
+    __m256 r0 = PL_ROW8(0), r1 = PL_ROW8(1), r2 = PL_ROW8(2), r3 = PL_ROW8(3);
+#undef PL_ROW8
+    __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+    __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
     f[0] = _mm256_shuffle_ps(t0, t2, 0x44);
     f[1] = _mm256_shuffle_ps(t0, t2, 0xee);
     f[2] = _mm256_shuffle_ps(t1, t3, 0x44);
@@ -139,6 +140,23 @@ PL_TARGET __m256 texel2(const uint8_t *a, const uint8_t *b, unsigned DT)
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps((const float *)(const void *)a)),
                                     _mm_loadu_ps((const float *)(const void *)b), 1);
     }
+}
+
+/* The first texel's address (p0) and the next row's (p1) of 4 lanes (64-bit) whose mask m32
+ * is set (m64: the mask widened): the table entry px[base[f] + idx], plus off texels of ts
+ * bytes; a row is ts << ru bytes. */
+PL_TARGET void addr4(const pf_lanes *c, __m128i m32, __m128i f32, __m128i i32, __m128i o32,
+                     __m128i r32, __m256i ts64, __m256i *m64, __m256i *p0, __m256i *p1)
+{
+    const __m256i zero = _mm256_setzero_si256();
+    *m64 = _mm256_cvtepi32_epi64(m32);
+    __m256i b = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base, f32,
+                                            *m64, 8);
+    __m256i e = _mm256_add_epi64(b, _mm256_cvtepu32_epi64(i32));
+    __m256i d = _mm256_mask_i64gather_epi64(zero, (const long long *)(const void *)c->px, e,
+                                            *m64, 8);
+    *p0 = _mm256_add_epi64(d, _mm256_mul_epu32(_mm256_cvtepu32_epi64(o32), ts64));
+    *p1 = _mm256_add_epi64(*p0, _mm256_sllv_epi64(ts64, _mm256_cvtepu32_epi64(r32)));
 }
 
 /* 8 queries of texels of type DT with NC channels. */
@@ -237,20 +255,12 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     const __m256i ts64 = _mm256_set1_epi64x((long long)ts);
     __m256i p0[2], p1[2], m64[2];
     __m128i m32[2] = {_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1)};
-    __m128i f32[2] = {_mm256_castsi256_si128(face), _mm256_extracti128_si256(face, 1)};
-    __m128i i32[2] = {_mm256_castsi256_si128(idx), _mm256_extracti128_si256(idx, 1)};
-    __m128i o32[2] = {_mm256_castsi256_si128(off), _mm256_extracti128_si256(off, 1)};
-    __m128i r32[2] = {_mm256_castsi256_si128(ru), _mm256_extracti128_si256(ru, 1)};
-    for (int h = 0; h < 2; h++) {
-        m64[h] = _mm256_cvtepi32_epi64(m32[h]);
-        __m256i b = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base,
-                                                f32[h], m64[h], 8);
-        __m256i e = _mm256_add_epi64(b, _mm256_cvtepu32_epi64(i32[h]));
-        __m256i d = _mm256_mask_i64gather_epi64(zero, (const long long *)(const void *)c->px,
-                                                e, m64[h], 8);
-        p0[h] = _mm256_add_epi64(d, _mm256_mul_epu32(_mm256_cvtepu32_epi64(o32[h]), ts64));
-        p1[h] = _mm256_add_epi64(p0[h], _mm256_sllv_epi64(ts64, _mm256_cvtepu32_epi64(r32[h])));
-    }
+    /* each half written out (no loop over arrays: the halves stay in registers) */
+    addr4(c, m32[0], _mm256_castsi256_si128(face), _mm256_castsi256_si128(idx),
+          _mm256_castsi256_si128(off), _mm256_castsi256_si128(ru), ts64, &m64[0], &p0[0], &p1[0]);
+    addr4(c, m32[1], _mm256_extracti128_si256(face, 1), _mm256_extracti128_si256(idx, 1),
+          _mm256_extracti128_si256(off, 1), _mm256_extracti128_si256(ru, 1), ts64, &m64[1],
+          &p0[1], &p1[1]);
     __m256 ku0 = _mm256_sub_ps(one, fu), kv0 = _mm256_sub_ps(one, fv);
     __m256 scale = _mm256_div_ps(
         one, _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(ku0, fu), _mm256_add_ps(kv0, fv)),
