@@ -1440,7 +1440,21 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         unsigned done = 0, edge = 0;
         size_t end = n;
         if (lanes && i + nl <= n) {
-            done = lanes(&lc, q + i, out + i * nc, &lk, &edge);
+            /* the lanes run block after block while each is served whole; coverage 1 and
+             * ST_Q_OK for those, then the block they stopped at, if any, as below */
+            size_t nblk = (n - i) / nl, whole;
+            done = lanes(&lc, q + i, nblk, out + i * nc, &lk, &edge, &whole);
+            if (whole) {
+                size_t w = whole * nl;
+                if (coverage)
+                    for (size_t k = 0; k < w; k++)
+                        coverage[i + k] = 1.0f;
+                if (status)
+                    memset(status + i, ST_Q_OK, w);
+                i += w;
+                if (whole == nblk)
+                    continue;
+            }
             if (!c.small)
                 edge = 0;
             unsigned took = done | edge;

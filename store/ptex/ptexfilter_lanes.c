@@ -423,12 +423,25 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     return mask;
 }
 
+/* Blocks of W lanes (FN the one-block body) until one is not served whole or nblk are: the
+ * loop in the lane function, so that a run of in-face blocks pays for one call and one set-up
+ * of the constants (pf_bilinear_lanes_fn). */
+#define PL_BLOCKS(FN, W, DT, NC)                                                            \
+    {                                                                                       \
+        size_t b = 0;                                                                       \
+        for (;;) {                                                                          \
+            unsigned m = FN(c, q + W * b, out + (size_t)W * NC * b, k, edge, DT, NC);       \
+            if (m != (1u << W) - 1 || ++b == nblk) {                                        \
+                *whole = b;                                                                 \
+                return m;                                                                   \
+            }                                                                               \
+        }                                                                                   \
+    }
 #define PL_FN8(DT, NC)                                                                      \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pl8_##DT##_##NC(               \
-        const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k, unsigned *edge) \
-    {                                                                                       \
-        return lanes8(c, q, out, k, edge, DT, NC);                                          \
-    }
+        const pf_lanes *c, const st_query *q, size_t nblk, float *out, pf_lanes_kern *k,    \
+        unsigned *edge, size_t *whole)                                                      \
+    PL_BLOCKS(lanes8, 8, DT, NC)
 #define PL_FN8_NC(DT) PL_FN8(DT, 1) PL_FN8(DT, 2) PL_FN8(DT, 3) PL_FN8(DT, 4)
 PL_FN8_NC(0)
 PL_FN8_NC(1)
@@ -585,11 +598,10 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
 }
 
 #define PL_FN4(DT, NC)                                                                      \
-    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, float *out,       \
-                                    pf_lanes_kern *k, unsigned *edge)                       \
-    {                                                                                       \
-        return lanes4(c, q, out, k, edge, DT, NC);                                          \
-    }
+    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, size_t nblk,      \
+                                    float *out, pf_lanes_kern *k, unsigned *edge,           \
+                                    size_t *whole)                                          \
+    PL_BLOCKS(lanes4, 4, DT, NC)
 #define PL_FN4_NC(DT) PL_FN4(DT, 1) PL_FN4(DT, 2) PL_FN4(DT, 3) PL_FN4(DT, 4)
 PL_FN4_NC(0)
 PL_FN4_NC(1)
