@@ -825,13 +825,17 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
     split_walk(c, NULL, k, f, 0, 1);
 }
 
-/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode, by the
- * walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre:
- * the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0
- * (nothing written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
-static int bilinear_walk(pf *c, int ru, int rv, int ui, int vi, float fu, float fv, uint32_t f,
-                         float *out, float *cov)
+/* eval's kernel path for the bilinear kernel of lane j of lk (its resolution, first texel and
+ * fractions; a query of its own passes lane 0 of a local one: the lanes' hand-over passes
+ * its set-up as it lies, with no copy) on face f (plain_face) in every mode, by the walk: the
+ * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
+ * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
+ * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
+static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f, float *out,
+                         float *cov)
 {
+    int ru = lk->ru[j], rv = lk->rv[j], ui = lk->ui[j], vi = lk->vi[j];
+    float fu = lk->fu[j], fv = lk->fv[j];
     pk2 k;
     k.ulog2 = ru, k.vlog2 = rv, k.u = ui, k.v = vi;
     k.uw = fu != 0.0f ? 2 : 1;
@@ -893,7 +897,10 @@ __attribute__((always_inline)) static inline int bilinear_edge_with(pf *c, pf_ed
 {
     if (bilinear_edge2(c, e2, trav, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
         return 1;
-    return bilinear_walk(c, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov);
+    pf_lanes_kern lk; /* lane 0 of it */
+    lk.ru[0] = b.ru, lk.rv[0] = b.rv, lk.ui[0] = b.ui, lk.vi[0] = b.vi;
+    lk.fu[0] = b.fu, lk.fv[0] = b.fv;
+    return bilinear_walk(c, &lk, 0, f, out, cov);
 }
 
 /* bilinear_edge_with for a query of its own (c's edge2 and mode) */
@@ -924,8 +931,7 @@ __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c, pf_ed
         *cov = 1.0f;
         return 1;
     }
-    return bilinear_walk(c, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j],
-                         f, out, cov);
+    return bilinear_walk(c, lk, j, f, out, cov);
 }
 
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
