@@ -9,7 +9,8 @@
  *   1. the queries are transposed into one vector per field (face, u, v, derivatives);
  *   2. the checks: face in range, derivatives within ST_MAX_DERIV (NaN fails), u and v in
  *      [0, 1), the face's flags (gathered from the face table: ulog2, vlog2, flags in one
- *      32-bit word) and its Ptex flags;
+ *      32-bit word) and its lanef byte (ptexres.h: the neighbourhood-constant bit, and the
+ *      mesh boundary edges that decide where a handed-over kernel may go);
  *   3. bilinear_kernel's arithmetic per axis (width and blur, clamps, the resolution from the
  *      exponent, pixel position, branchless floor, fraction) and bilinear_fits' test, in
  *      float (fl >= 0, fl + 1 < 2^r, fraction > 0: exact for these small integers);
