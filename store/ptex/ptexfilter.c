@@ -825,18 +825,23 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
     split_walk(c, NULL, k, f, 0, 1);
 }
 
-/* eval's kernel path for the bilinear kernel b on face f (plain_face) in every mode, by the
- * walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre:
- * the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0
- * (nothing written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
-static int bilinear_walk(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
+/* eval's kernel path for the bilinear kernel of lane j of lk (its resolution, first texel and
+ * fractions; a query of its own passes lane 0 of a local one: the lanes' hand-over passes
+ * its set-up as it lies, with no copy) on face f (plain_face) in every mode, by the walk: the
+ * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
+ * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
+ * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
+static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f, float *out,
+                         float *cov)
 {
+    int ru = lk->ru[j], rv = lk->rv[j], ui = lk->ui[j], vi = lk->vi[j];
+    float fu = lk->fu[j], fv = lk->fv[j];
     pk2 k;
-    k.ulog2 = b.ru, k.vlog2 = b.rv, k.u = b.ui, k.v = b.vi;
-    k.uw = b.fu != 0.0f ? 2 : 1;
-    k.vw = b.fv != 0.0f ? 2 : 1;
-    k.ku[0] = 1.0f - b.fu, k.ku[1] = b.fu;
-    k.kv[0] = 1.0f - b.fv, k.kv[1] = b.fv;
+    k.ulog2 = ru, k.vlog2 = rv, k.u = ui, k.v = vi;
+    k.uw = fu != 0.0f ? 2 : 1;
+    k.vw = fv != 0.0f ? 2 : 1;
+    k.ku[0] = 1.0f - fu, k.ku[1] = fu;
+    k.kv[0] = 1.0f - fv, k.kv[1] = fv;
     c->acc = (v4f){0, 0, 0, 0};
     float total = p2_weight(&k);
     c->weight = total;
@@ -892,7 +897,10 @@ __attribute__((always_inline)) static inline int bilinear_edge_with(pf *c, pf_ed
 {
     if (bilinear_edge2(c, e2, trav, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
         return 1;
-    return bilinear_walk(c, b, f, out, cov);
+    pf_lanes_kern lk; /* lane 0 of it */
+    lk.ru[0] = b.ru, lk.rv[0] = b.rv, lk.ui[0] = b.ui, lk.vi[0] = b.vi;
+    lk.fu[0] = b.fu, lk.fv[0] = b.fv;
+    return bilinear_walk(c, &lk, 0, f, out, cov);
 }
 
 /* bilinear_edge_with for a query of its own (c's edge2 and mode) */
@@ -901,16 +909,29 @@ static int bilinear_edge(pf *c, pf_bil b, uint32_t f, float *out, float *cov)
     return bilinear_edge_with(c, c->edge2, c->mode == ST_MODE_TRAVERSE, b, f, out, cov);
 }
 
+/* The handed-over lanes whose kernel bilinear_edge2 would offer e2, from the lanes' masks:
+ * in Traverse those past no mesh boundary edge, else those inside the face; none without e2. */
+static inline unsigned lanes_e2m(pf_edge2_fn e2, int trav, const pf_lanes_kern *lk)
+{
+    return !e2 ? 0u : trav ? lk->open : lk->inside;
+}
+
 /* bilinear_edge_with for lane j of a block the lanes handed over, from their kernel set-up
- * lk (e2, trav decided once per batch). */
-__attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c,
-                                                                    pf_edge2_fn e2, int trav,
+ * lk: e2m (bit j) says whether bilinear_edge2 would attempt e2 (the lanes' open or inside
+ * mask, chosen once per block by mode, 0 without e2), so its checks are not made again. */
+__attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c, pf_edge2_fn e2,
+                                                                    unsigned e2m,
                                                                     const pf_lanes_kern *lk,
                                                                     unsigned j, uint32_t f,
                                                                     float *out, float *cov)
 {
-    pf_bil b = {lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j]};
-    return bilinear_edge_with(c, e2, trav, b, f, out, cov);
+    if (e2m >> j & 1 &&
+        e2(&c->walk, (int)f, lk->ru[j], lk->rv[j], lk->ui[j], lk->vi[j], lk->fu[j], lk->fv[j],
+           out)) {
+        *cov = 1.0f;
+        return 1;
+    }
+    return bilinear_walk(c, lk, j, f, out, cov);
 }
 
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
@@ -1433,7 +1454,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     if (o->filter == ST_FILTER_PTEX_BILINEAR && s->info.nfaces > 0 &&
         (path == PF_PATH_BEST || path == PF_PATH_LANES4))
         lanes = pf_bilinear_lanes_select(c.dt, c.nc, path == PF_PATH_BEST ? 8 : 4, &nl);
-    pf_lanes lc = {.faces = s->faces, .ptxflags = t->ptxflags, .base = t->base, .px = t->px,
+    pf_lanes lc = {.faces = s->faces, .lanef = t->lanef, .base = t->base, .px = t->px,
                    .nfaces = s->info.nfaces, .width = c.width, .blur = c.blur};
     if (o->filter == ST_FILTER_PTEX_POINT && !general && point_run_select(c.dt, c.nc)) {
         int bad = point_run_select(c.dt, c.nc)(&c, &pp, o, qfn, q, n, out, coverage, status);
@@ -1460,7 +1481,21 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         unsigned done = 0, edge = 0;
         size_t end = n;
         if (lanes && i + nl <= n) {
-            done = lanes(&lc, q + i, out + i * nc, &lk, &edge);
+            /* the lanes run block after block while each is served whole; coverage 1 and
+             * ST_Q_OK for those, then the block they stopped at, if any, as below */
+            size_t nblk = (n - i) / nl, whole;
+            done = lanes(&lc, q + i, nblk, out + i * nc, &lk, &edge, &whole);
+            if (whole) {
+                size_t w = whole * nl;
+                if (coverage)
+                    for (size_t k = 0; k < w; k++)
+                        coverage[i + k] = 1.0f;
+                if (status)
+                    memset(status + i, ST_Q_OK, w);
+                i += w;
+                if (whole == nblk)
+                    continue;
+            }
             if (!c.small)
                 edge = 0;
             unsigned took = done | edge;
@@ -1487,12 +1522,13 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                 if (status)
                     memcpy(status + i, oks, 4);
             }
+            unsigned e2m = edge ? lanes_e2m(e2, trav, &lk) : 0u;
             for (unsigned rest = ~done & ((1u << nl) - 1); rest; rest &= rest - 1) {
                 unsigned j = (unsigned)__builtin_ctz(rest);
                 size_t k = i + j;
                 float cov;
                 if (edge >> j & 1 &&
-                    bilinear_edge_lane(&c, e2, trav, &lk, j, q[k].face, out + k * nc, &cov)) {
+                    bilinear_edge_lane(&c, e2, e2m, &lk, j, q[k].face, out + k * nc, &cov)) {
                     if (coverage)
                         coverage[k] = cov; /* status ST_Q_OK already */
                     continue;
@@ -1502,11 +1538,12 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
             i = end;
             continue;
         }
+        unsigned e2m = edge ? lanes_e2m(e2, trav, &lk) : 0u;
         for (unsigned j = 0; i < end; i++, j++) {
             if (!(done >> j & 1)) {
                 float cov;
                 if (edge >> j & 1 &&
-                    bilinear_edge_lane(&c, e2, trav, &lk, j, q[i].face, out + i * nc, &cov)) {
+                    bilinear_edge_lane(&c, e2, e2m, &lk, j, q[i].face, out + i * nc, &cov)) {
                     if (coverage)
                         coverage[i] = cov;
                     if (status)

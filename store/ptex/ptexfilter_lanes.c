@@ -9,7 +9,8 @@
  *   1. the queries are transposed into one vector per field (face, u, v, derivatives);
  *   2. the checks: face in range, derivatives within ST_MAX_DERIV (NaN fails), u and v in
  *      [0, 1), the face's flags (gathered from the face table: ulog2, vlog2, flags in one
- *      32-bit word) and its Ptex flags;
+ *      32-bit word) and its lanef byte (ptexres.h: the neighbourhood-constant bit, and the
+ *      mesh boundary edges that decide where a handed-over kernel may go);
  *   3. bilinear_kernel's arithmetic per axis (width and blur, clamps, the resolution from the
  *      exponent, pixel position, branchless floor, fraction) and bilinear_fits' test, in
  *      float (fl >= 0, fl + 1 < 2^r, fraction > 0: exact for these small integers);
@@ -54,6 +55,14 @@ static float one_of(unsigned dt)
     return dt == ST_DT_U8 ? 255.0f : dt == ST_DT_U16 ? 65535.0f : 1.0f;
 }
 
+/* The edges a handed-over 2 x 2 kernel overhangs, as pf_lanes lanef's boundary bits (bit
+ * 4 + e: past edge e): pf_lanes_kern's open and inside for one lane. */
+static inline unsigned pl_overhang(int ru, int rv, int ui, int vi, float fu, float fv)
+{
+    return (vi < 0 ? 0x10u : 0u) | (fu != 0.0f && ui + 2 > 1 << ru ? 0x20u : 0u) |
+           (fv != 0.0f && vi + 2 > 1 << rv ? 0x40u : 0u) | (ui < 0 ? 0x80u : 0u);
+}
+
 /* ---- 8 lanes (AVX2) --------------------------------------------------------------------- */
 
 #define PL_TARGET __attribute__((target("avx2,fma,f16c"), always_inline)) static inline
@@ -94,14 +103,15 @@ PL_AXIS(axis8, PL_TARGET, pl_v8f, pl_v8i)
 /* Rows [x[lo] .. x[lo + 3] | y[lo] .. y[lo + 3]] of 8 queries, transposed: 4 fields. */
 PL_TARGET void fields8(const st_query *q, size_t off, __m256 f[4])
 {
-    __m256 r[4];
-    for (int i = 0; i < 4; i++) {
-        const float *a = (const float *)(const void *)((const uint8_t *)&q[i] + off);
-        const float *b = (const float *)(const void *)((const uint8_t *)&q[i + 4] + off);
-        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a)), _mm_loadu_ps(b), 1);
-    }
-    __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
-    __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    /* written out (no array): the four rows stay in registers */
+#define PL_ROW8(i)                                                                          \
+    _mm256_insertf128_ps(                                                                   \
+        _mm256_castps128_ps256(_mm_loadu_ps((const float *)(const void *)((const uint8_t *)&q[i] + off))), \
+        _mm_loadu_ps((const float *)(const void *)((const uint8_t *)&q[(i) + 4] + off)), 1)
+    __m256 r0 = PL_ROW8(0), r1 = PL_ROW8(1), r2 = PL_ROW8(2), r3 = PL_ROW8(3);
+#undef PL_ROW8
+    __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+    __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
     f[0] = _mm256_shuffle_ps(t0, t2, 0x44);
     f[1] = _mm256_shuffle_ps(t0, t2, 0xee);
     f[2] = _mm256_shuffle_ps(t1, t3, 0x44);
@@ -131,6 +141,23 @@ PL_TARGET __m256 texel2(const uint8_t *a, const uint8_t *b, unsigned DT)
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps((const float *)(const void *)a)),
                                     _mm_loadu_ps((const float *)(const void *)b), 1);
     }
+}
+
+/* The first texel's address (p0) and the next row's (p1) of 4 lanes (64-bit) whose mask m32
+ * is set (m64: the mask widened): the table entry px[base[f] + idx], plus off texels of ts
+ * bytes; a row is ts << ru bytes. */
+PL_TARGET void addr4(const pf_lanes *c, __m128i m32, __m128i f32, __m128i i32, __m128i o32,
+                     __m128i r32, __m256i ts64, __m256i *m64, __m256i *p0, __m256i *p1)
+{
+    const __m256i zero = _mm256_setzero_si256();
+    *m64 = _mm256_cvtepi32_epi64(m32);
+    __m256i b = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base, f32,
+                                            *m64, 8);
+    __m256i e = _mm256_add_epi64(b, _mm256_cvtepu32_epi64(i32));
+    __m256i d = _mm256_mask_i64gather_epi64(zero, (const long long *)(const void *)c->px, e,
+                                            *m64, 8);
+    *p0 = _mm256_add_epi64(d, _mm256_mul_epu32(_mm256_cvtepu32_epi64(o32), ts64));
+    *p1 = _mm256_add_epi64(*p0, _mm256_sllv_epi64(ts64, _mm256_cvtepu32_epi64(r32)));
 }
 
 /* 8 queries of texels of type DT with NC channels. */
@@ -171,7 +198,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     __m256i fw = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fw0,
                                              _mm256_slli_epi32(face, 4), m, 4);
     __m256i pxf = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
-                                              (const int *)(const void *)c->ptxflags, face, m, 1);
+                                              (const int *)(const void *)c->lanef, face, m, 1);
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
     __m256i bad = _mm256_or_si256(
         _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
@@ -201,6 +228,24 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
         _mm256_storeu_si256((__m256i *)(void *)k->vi, vi);
         _mm256_storeu_ps(k->fu, fu);
         _mm256_storeu_ps(k->fv, fv);
+        /* the edges each kernel overhangs (pl_overhang's), each against its boundary bit of
+         * lanef (gathered above) shifted to the sign: a sign set is a blocked lane */
+        const __m256i one32 = _mm256_set1_epi32(1), two32 = _mm256_set1_epi32(2);
+        __m256i fun = _mm256_castps_si256(_mm256_cmp_ps(fu, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+        __m256i fvn = _mm256_castps_si256(_mm256_cmp_ps(fv, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+        __m256i ovb = _mm256_cmpgt_epi32(zero, vi), ovl = _mm256_cmpgt_epi32(zero, ui);
+        __m256i ovr = _mm256_and_si256(fun, _mm256_cmpgt_epi32(_mm256_add_epi32(ui, two32),
+                                                               _mm256_sllv_epi32(one32, ru)));
+        __m256i ovt = _mm256_and_si256(fvn, _mm256_cmpgt_epi32(_mm256_add_epi32(vi, two32),
+                                                               _mm256_sllv_epi32(one32, rv)));
+        __m256i blocked = _mm256_or_si256(
+            _mm256_or_si256(_mm256_and_si256(ovb, _mm256_slli_epi32(pxf, 27)),
+                            _mm256_and_si256(ovr, _mm256_slli_epi32(pxf, 26))),
+            _mm256_or_si256(_mm256_and_si256(ovt, _mm256_slli_epi32(pxf, 25)),
+                            _mm256_and_si256(ovl, _mm256_slli_epi32(pxf, 24))));
+        __m256i over = _mm256_or_si256(_mm256_or_si256(ovb, ovr), _mm256_or_si256(ovt, ovl));
+        k->inside = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(over)) & *edge;
+        k->open = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(blocked)) & *edge;
     }
     if (!mask)
         return 0;
@@ -211,20 +256,12 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     const __m256i ts64 = _mm256_set1_epi64x((long long)ts);
     __m256i p0[2], p1[2], m64[2];
     __m128i m32[2] = {_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1)};
-    __m128i f32[2] = {_mm256_castsi256_si128(face), _mm256_extracti128_si256(face, 1)};
-    __m128i i32[2] = {_mm256_castsi256_si128(idx), _mm256_extracti128_si256(idx, 1)};
-    __m128i o32[2] = {_mm256_castsi256_si128(off), _mm256_extracti128_si256(off, 1)};
-    __m128i r32[2] = {_mm256_castsi256_si128(ru), _mm256_extracti128_si256(ru, 1)};
-    for (int h = 0; h < 2; h++) {
-        m64[h] = _mm256_cvtepi32_epi64(m32[h]);
-        __m256i b = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base,
-                                                f32[h], m64[h], 8);
-        __m256i e = _mm256_add_epi64(b, _mm256_cvtepu32_epi64(i32[h]));
-        __m256i d = _mm256_mask_i64gather_epi64(zero, (const long long *)(const void *)c->px,
-                                                e, m64[h], 8);
-        p0[h] = _mm256_add_epi64(d, _mm256_mul_epu32(_mm256_cvtepu32_epi64(o32[h]), ts64));
-        p1[h] = _mm256_add_epi64(p0[h], _mm256_sllv_epi64(ts64, _mm256_cvtepu32_epi64(r32[h])));
-    }
+    /* each half written out (no loop over arrays: the halves stay in registers) */
+    addr4(c, m32[0], _mm256_castsi256_si128(face), _mm256_castsi256_si128(idx),
+          _mm256_castsi256_si128(off), _mm256_castsi256_si128(ru), ts64, &m64[0], &p0[0], &p1[0]);
+    addr4(c, m32[1], _mm256_extracti128_si256(face, 1), _mm256_extracti128_si256(idx, 1),
+          _mm256_extracti128_si256(off, 1), _mm256_extracti128_si256(ru, 1), ts64, &m64[1],
+          &p0[1], &p1[1]);
     __m256 ku0 = _mm256_sub_ps(one, fu), kv0 = _mm256_sub_ps(one, fv);
     __m256 scale = _mm256_div_ps(
         one, _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(ku0, fu), _mm256_add_ps(kv0, fv)),
@@ -387,12 +424,25 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     return mask;
 }
 
+/* Blocks of W lanes (FN the one-block body) until one is not served whole or nblk are: the
+ * loop in the lane function, so that a run of in-face blocks pays for one call and one set-up
+ * of the constants (pf_bilinear_lanes_fn). */
+#define PL_BLOCKS(FN, W, DT, NC)                                                            \
+    {                                                                                       \
+        size_t b = 0;                                                                       \
+        for (;;) {                                                                          \
+            unsigned m = FN(c, q + W * b, out + (size_t)W * NC * b, k, edge, DT, NC);       \
+            if (m != (1u << W) - 1 || ++b == nblk) {                                        \
+                *whole = b;                                                                 \
+                return m;                                                                   \
+            }                                                                               \
+        }                                                                                   \
+    }
 #define PL_FN8(DT, NC)                                                                      \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pl8_##DT##_##NC(               \
-        const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k, unsigned *edge) \
-    {                                                                                       \
-        return lanes8(c, q, out, k, edge, DT, NC);                                          \
-    }
+        const pf_lanes *c, const st_query *q, size_t nblk, float *out, pf_lanes_kern *k,    \
+        unsigned *edge, size_t *whole)                                                      \
+    PL_BLOCKS(lanes8, 8, DT, NC)
 #define PL_FN8_NC(DT) PL_FN8(DT, 1) PL_FN8(DT, 2) PL_FN8(DT, 3) PL_FN8(DT, 4)
 PL_FN8_NC(0)
 PL_FN8_NC(1)
@@ -454,7 +504,7 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
                  ay <= ST_MAX_DERIV && by <= ST_MAX_DERIV && x->u >= 0.0f && x->u < 1.0f &&
                  x->v >= 0.0f && x->v < 1.0f;
         const st_face *F = ok ? &c->faces[x->face] : c->faces;
-        ok = ok && !(c->ptxflags[x->face] & PTX_FLAG_NBCONSTANT) &&
+        ok = ok && !(c->lanef[x->face] & PTX_FLAG_NBCONSTANT) &&
              !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT));
         ok_[j] = ok;
         u_[j] = x->u, v_[j] = x->v;
@@ -481,6 +531,13 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
         _mm_storeu_si128((__m128i *)(void *)k->vi, _mm_cvttps_epi32(flv));
         _mm_storeu_ps(k->fu, fu);
         _mm_storeu_ps(k->fv, fv);
+        k->open = k->inside = 0;
+        for (unsigned rest = *edge; rest; rest &= rest - 1) {
+            int j = __builtin_ctz(rest);
+            unsigned bits = pl_overhang(k->ru[j], k->rv[j], k->ui[j], k->vi[j], k->fu[j], k->fv[j]);
+            k->inside |= (bits == 0) << j;
+            k->open |= ((bits & c->lanef[q[j].face]) == 0) << j;
+        }
     }
     if (!mask)
         return 0;
@@ -542,11 +599,10 @@ __attribute__((always_inline)) static inline unsigned lanes4(const pf_lanes *c,
 }
 
 #define PL_FN4(DT, NC)                                                                      \
-    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, float *out,       \
-                                    pf_lanes_kern *k, unsigned *edge)                       \
-    {                                                                                       \
-        return lanes4(c, q, out, k, edge, DT, NC);                                          \
-    }
+    static unsigned pl4_##DT##_##NC(const pf_lanes *c, const st_query *q, size_t nblk,      \
+                                    float *out, pf_lanes_kern *k, unsigned *edge,           \
+                                    size_t *whole)                                          \
+    PL_BLOCKS(lanes4, 4, DT, NC)
 #define PL_FN4_NC(DT) PL_FN4(DT, 1) PL_FN4(DT, 2) PL_FN4(DT, 3) PL_FN4(DT, 4)
 PL_FN4_NC(0)
 PL_FN4_NC(1)

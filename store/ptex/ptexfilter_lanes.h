@@ -22,7 +22,7 @@
 
 typedef struct pf_lanes {
     const st_face *faces;        /* the set's faces */
-    const uint8_t *ptxflags;     /* st_ptexres ptxflags (3 readable bytes after the last) */
+    const uint8_t *lanef;        /* st_ptexres lanef (3 readable bytes after the last) */
     const uint64_t *base;        /* st_ptexres base */
     const uint8_t *const *px;    /* st_ptexres px */
     uint32_t nfaces;
@@ -31,22 +31,32 @@ typedef struct pf_lanes {
 
 /* The kernel set-up of the lanes handed over (pf_bilinear_lanes_fn's *edge): per lane the
  * resolution (ru, rv), the first texel (ui, vi) and the fractions (fu, fv) of the 2 x 2
- * texels, as ptexfilter.c's bilinear_kernel computes them. */
+ * texels, as ptexfilter.c's bilinear_kernel computes them; and two masks of those lanes (bit
+ * j: lane j): open, the 2 x 2 texels overhang no mesh boundary edge of the face (ui < 0 past
+ * edge 3, vi < 0 past edge 0, fu != 0 and ui + 2 > 2^ru past edge 1, fv != 0 and vi + 2 >
+ * 2^rv past edge 2, each counting when that edge's adjface is < 0), and inside, they overhang
+ * no edge (a texel centre). */
 typedef struct pf_lanes_kern {
     int32_t ru[8], rv[8], ui[8], vi[8];
     float fu[8], fv[8];
+    unsigned open, inside;
 } pf_lanes_kern;
 
-/* Reads q[0 .. lanes); for every query it serves writes its nc values to out (at q's place:
- * out + j * nc for q[j]) and sets bit j of the returned mask. A valid query on a plain face
+/* Runs blocks of `lanes` queries, q[0 .. lanes), q[lanes .. 2 lanes), ..., until a block is
+ * not served whole or nblk (>= 1) blocks were: *whole = the number of blocks served whole
+ * before the one it stopped at (nblk when all were; their outputs written, edge 0, the mask
+ * returned all ones). What follows is about the block it stopped at (q, out below: that
+ * block's, at q + *whole * lanes). Reads q[0 .. lanes); for every query it serves writes its
+ * nc values to out (at q's place: out + j * nc for q[j]) and sets bit j of the returned mask. A valid query on a plain face
  * with (u, v) in [0, 1) whose 2 x 2 texels overhang the face or sit on a texel centre (a
  * fraction of 0) is not served but handed over: bit j of *edge set and its kernel set-up in
  * k (the caller's kernel path takes it from there without computing it again). The others'
  * outputs are left as they were or overwritten with anything: the caller writes them
  * afterwards. Reads texels up to 15 bytes past a 2 x 2 window's last texel (the arenas' 64
  * bytes of slack cover it). */
-typedef unsigned (*pf_bilinear_lanes_fn)(const pf_lanes *c, const st_query *q, float *out,
-                                         pf_lanes_kern *k, unsigned *edge);
+typedef unsigned (*pf_bilinear_lanes_fn)(const pf_lanes *c, const st_query *q, size_t nblk,
+                                         float *out, pf_lanes_kern *k, unsigned *edge,
+                                         size_t *whole);
 
 /* The lane function for texels of type dt (st_dtype) with nc channels, its lane count in
  * *lanes: with maxlanes >= 8 the 8-lane one when the CPU has AVX2 + FMA + F16C

@@ -47,11 +47,11 @@ static uint8_t *arena_alloc(size_t bytes)
     return p;
 }
 
-/* The record (two bytes per face) always; the table once it is built. */
+/* The record (three bytes per face) always; the table once it is built. */
 static size_t ptexres_memory(const void *p)
 {
     const st_ptexres *t = p;
-    size_t m = sizeof *t + (size_t)t->nfaces * 2;
+    size_t m = sizeof *t + (size_t)t->nfaces * 3;
     if (atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
         m += __atomic_load_n(&t->bytes, __ATOMIC_RELAXED); /* a drop may zero it meanwhile */
     return m;
@@ -68,6 +68,7 @@ static void ptexres_free(void *p)
     free(t->px);
     free(t->ptxflags);
     free(t->nstored);
+    free(t->lanef);
     free(t->arena);
     free(t);
 }
@@ -313,7 +314,8 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     t->max_bytes = max_bytes ? max_bytes : ST_DEFAULT_MAX_BYTES;
     t->ptxflags = calloc((size_t)n + 3, 1); /* + 3: the bilinear lanes read 32 bits at a face */
     t->nstored = malloc(n);
-    int mx = !t->ptxflags || !t->nstored ? -1 : pthread_mutex_init(&t->lock, NULL);
+    t->lanef = calloc((size_t)n + 3, 1);
+    int mx = !t->ptxflags || !t->nstored || !t->lanef ? -1 : pthread_mutex_init(&t->lock, NULL);
     if (mx == 0 && pthread_rwlock_init(&t->pin, NULL)) {
         pthread_mutex_destroy(&t->lock);
         mx = -1;
@@ -321,6 +323,7 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     if (mx) {
         free(t->ptxflags);
         free(t->nstored);
+        free(t->lanef);
         free(t);
         return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
     }
@@ -330,6 +333,10 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
         t->ptxflags[f] = ptxflags ? ptxflags[f] : (uint8_t)((F->flags & ST_FACE_CONSTANT ?
                             PTX_FLAG_CONSTANT : 0) | (F->flags & ST_FACE_SUBFACE ? PTX_FLAG_SUBFACE : 0));
         t->nstored[f] = nstored ? nstored[f] : (uint8_t)((F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u);
+        unsigned bnd = 0;
+        for (unsigned eid = 0; eid < 4; eid++)
+            bnd |= F->adjface[eid] < 0 ? 1u << (4 + eid) : 0u;
+        t->lanef[f] = (uint8_t)((t->ptxflags[f] & PTX_FLAG_NBCONSTANT) | bnd);
     }
     /* the Ptex filter family registers itself with the sampler through the extension */
     st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,

@@ -47,6 +47,10 @@ typedef struct st_ptexres {
     uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*), then 3 zero
                                      bytes (ptexfilter_lanes.c reads 32 bits at a face) */
     uint8_t        *nstored;      /* per face: set levels that hold stored reductions (>= 1) */
+    uint8_t        *lanef;        /* per face: ptxflags' PTX_FLAG_NBCONSTANT bit, and bit
+                                     4 + e set when edge e is a mesh boundary (adjface < 0),
+                                     then 3 zero bytes (the bilinear lanes read 32 bits at a
+                                     face: one gather for both) */
     size_t          max_bytes;    /* cap on the arena */
     /* built by st_ptexres_table; read only once `built` is 1 (acquire) */
     atomic_int      built;
