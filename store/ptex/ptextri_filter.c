@@ -180,6 +180,7 @@ static inline int ceil_int(float x)
 
 typedef float pt_v4f __attribute__((vector_size(16)));
 typedef int32_t pt_v4i __attribute__((vector_size(16)));
+typedef double pt_v2d __attribute__((vector_size(16)));
 
 /* Whether every lane of x is inside |x| < 2^30 (false for a NaN). */
 static inline pt_v4i small4(pt_v4f x)
@@ -278,6 +279,30 @@ __attribute__((always_inline)) static inline float texel_chan(const uint8_t *px,
     }
 }
 
+/* A tap's vector: channels 0..NC-1 of the texel at px as texel_chan gives them, the other
+ * lanes those of one (lane 3 = 1 for the weight's sum when NC < 4). Float texels are loaded
+ * whole (8 + 4 bytes for three channels) instead of lane by lane. */
+__attribute__((always_inline)) static inline pt_v4f texel_vec(const uint8_t *px, pt_v4f one,
+                                                             unsigned DT, unsigned NC)
+{
+    pt_v4f tv = one;
+    if (DT == ST_DT_F32 && NC >= 2) {
+        if (NC == 4) {
+            memcpy(&tv, px, 16);
+            return tv;
+        }
+        double d; /* the first two channels' bits, loaded as one 8-byte scalar */
+        memcpy(&d, px, 8);
+        pt_v4f lo = (pt_v4f)(pt_v2d){d, 0.0};
+        pt_v4f hi = {NC == 3 ? ((const float *)(const void *)px)[2] : 0.0f, one[3], 0.0f, 0.0f};
+        return __builtin_shufflevector(lo, hi, 0, 1, 4, 5);
+    }
+#pragma GCC unroll 4
+    for (unsigned ch = 0; ch < NC; ch++)
+        tv[ch] = texel_chan(px, ch, DT);
+    return tv;
+}
+
 /* Clamp mode: the texel (x, y) of an R x R level a tap at stored position (x, y) reads (a tap
  * outside the face: the texel under the face point nearest its centroid). */
 static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
@@ -324,12 +349,15 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R;
-    float acc[ST_MAX_CHANNELS];
+    /* the channel sums and (NC < 4) the weight's sum in lane 3 of one vector: a tap adds
+     * {x0, .., 1} * w, lane by lane the scalar sums' operations (1 * w is w); the untouched
+     * lanes add +0 (a sum is never -0: it starts +0 and x + y rounds to +0 when it is 0) */
+    pt_v4f acc = {0.0f, 0.0f, 0.0f, 0.0f}, one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
     for (unsigned ch = 0; ch < NC; ch++)
         acc[ch] = c->acc[ch];
-    float wsum = 0.0f, DDQ = 2.0f * it->A;
+    float wsum4 = 0.0f, DDQ = 2.0f * it->A; /* wsum4: the weight's sum when NC == 4 */
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
-    const float A = it->A, B = it->B, C = it->C, wscale = it->wscale;
+    const float wscale = it->wscale;
     const int reads = how == SW_READ && !constant;
     /* only the rows with a tap: x1 < x2 needs R - y - hi[2] < hi[0] and lo[0] < R - y - lo[2]
      * (the rows left out visit nothing) */
@@ -339,6 +367,11 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     if (y2 > R - it->lo[2] - it->lo[0])
         y2 = R - it->lo[2] - it->lo[0];
     for (int y = y1; y < y2; y++) {
+        /* the row's set-up reads the sweep's fields from memory (an empty asm that may change
+         * memory), so that they are not held in registers across the loop, where every expf
+         * call would spill and reload them */
+        __asm__ volatile("" ::: "memory");
+        const float A = it->A, B = it->B, C = it->C;
         int xw = R - y;
         int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
         int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
@@ -354,10 +387,9 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             for (int x = x1; x < x2; x++, px += ts) {
                 if (Q < 1.0f) {
                     float w = expf(gs * Q) * wscale;
-                    wsum += w;
-#pragma GCC unroll 4
-                    for (unsigned ch = 0; ch < NC; ch++)
-                        acc[ch] += texel_chan(px, ch, DT) * w;
+                    acc += texel_vec(px, one, DT, NC) * w;
+                    if (NC == 4)
+                        wsum4 += w;
                 }
                 Q += DQ;
                 DQ += DDQ;
@@ -367,33 +399,33 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         for (int x = x1; x < x2; x++) {
             if (Q < 1.0f) {
                 float w = expf(gs * Q) * wscale;
-                wsum += w;
+                pt_v4f tv = one;
                 if (how == SW_READ) {
                     if (rd_ok && (unsigned)x < (unsigned)R) {
-                        const uint8_t *px = row + (size_t)x * ts;
-#pragma GCC unroll 4
-                        for (unsigned ch = 0; ch < NC; ch++)
-                            acc[ch] += texel_chan(px, ch, DT) * w;
+                        tv = texel_vec(row + (size_t)x * ts, one, DT, NC);
                     }
                 } else if (how == SW_FOLD) {
                     int tx = 0, ty = 0;
                     if (!constant)
                         fold_tap(R, it->odd, x, y, &tx, &ty);
-                    const uint8_t *px = data + ((size_t)ty * (size_t)R + (size_t)tx) * ts;
-#pragma GCC unroll 4
-                    for (unsigned ch = 0; ch < NC; ch++)
-                        acc[ch] += texel_chan(px, ch, DT) * w;
+                    tv = texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT,
+                                   NC);
                 }
+                acc += tv * w;
+                if (NC == 4)
+                    wsum4 += w;
             }
             Q += DQ;
             DQ += DDQ;
         }
     }
+    float wsum = NC < 4 ? acc[3] : wsum4;
     if (how == SW_READ && constant)
         for (unsigned ch = 0; ch < NC; ch++)
             acc[ch] += texel_chan(data, ch, DT) * wsum;
-    for (unsigned ch = 0; ch < NC; ch++)
-        c->acc[ch] = acc[ch];
+    if (how != SW_WEIGHT)
+        for (unsigned ch = 0; ch < NC; ch++)
+            c->acc[ch] = acc[ch];
     return wsum;
 }
 
