@@ -381,6 +381,20 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         /* a read stays inside the level whatever the float bounds did */
         int rd_ok = reads && y >= 0 && y < R;
         const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
+        /* SW_FOLD: the taps of the row inside the face, x in [fx1, fx2), read texel (x, y)
+         * (fold_tap's first case); upright: y >= 0, 0 <= x <= R-1-y; inverted: y <= R-1,
+         * R-y <= x <= R-1 */
+        int fx1 = 0, fx2 = 0;
+        if (how == SW_FOLD && !constant) {
+            if (!it->odd) {
+                fx2 = y >= 0 ? R - y : 0;
+            } else if (y <= R - 1) {
+                fx1 = R - y;
+                fx2 = R;
+            }
+            if (fx2 < fx1)
+                fx2 = fx1;
+        }
         if (rd_ok && x1 >= 0 && x2 <= R) {
             /* the whole row inside the level (a piece clamped into its face): no checks */
             const uint8_t *px = row + (size_t)x1 * ts;
@@ -406,8 +420,12 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                     }
                 } else if (how == SW_FOLD) {
                     int tx = 0, ty = 0;
-                    if (!constant)
+                    if ((unsigned)(x - fx1) < (unsigned)(fx2 - fx1)) {
+                        tx = x;
+                        ty = y;
+                    } else if (!constant) {
                         fold_tap(R, it->odd, x, y, &tx, &ty);
+                    }
                     tv = texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT,
                                    NC);
                 }
