@@ -328,8 +328,11 @@ static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
         if (cu < 0.0f) { cv = fR; cu = 0.0f; }
         if (cv < 0.0f) { cu = fR; cv = 0.0f; }
     }
+    /* st_tri_texel(R, cu / fR, cv / fR), whose first step multiplies back by R: R is a power
+     * of two and cu, cv >= 0 are far from underflow, so that gives cu and cv exactly; the
+     * texel-unit form without the two divisions */
     uint32_t ux, uy;
-    st_tri_texel((uint32_t)R, cu / fR, cv / fR, &ux, &uy);
+    st_tri_texel_t((uint32_t)R, cu, cv, &ux, &uy);
     *tx = (int)ux;
     *ty = (int)uy;
 }
