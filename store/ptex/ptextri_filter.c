@@ -303,17 +303,12 @@ __attribute__((always_inline)) static inline pt_v4f texel_vec(const uint8_t *px,
     return tv;
 }
 
-/* Clamp mode: the texel (x, y) of an R x R level a tap at stored position (x, y) reads (a tap
- * outside the face: the texel under the face point nearest its centroid). */
+/* Clamp mode: the texel (x, y) of an R x R level that a tap at stored position (x, y) outside
+ * the face reads: the texel under the face point nearest its centroid. (A tap inside the face,
+ * upright x >= 0, y >= 0, x + y <= R - 1 or inverted x <= R - 1, y <= R - 1, x + y >= R, reads
+ * itself: sweep_t takes those without calling this.) */
 static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
 {
-    int inside = odd ? x <= R - 1 && y <= R - 1 && x + y >= R
-                     : x >= 0 && y >= 0 && x + y <= R - 1;
-    if (inside) {
-        *tx = x;
-        *ty = y;
-        return;
-    }
     /* centroid in texel units: upright (x + 1/3, y + 1/3); an inverted one is cell
      * (R-1-y, R-1-x), centroid + 2/3 */
     float cu = odd ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)x + 1.0f / 3.0f;
