@@ -50,6 +50,10 @@
 #define PT_NO_SLP
 #endif
 
+typedef float pt_v4f __attribute__((vector_size(16)));
+typedef int32_t pt_v4i __attribute__((vector_size(16)));
+typedef double pt_v2d __attribute__((vector_size(16)));
+
 static const float PT_WIDTH = 3.5f;  /* kernel extent in filter widths (Ptex's) */
 
 /* The kernel in normalised barycentric coordinates. */
@@ -76,7 +80,8 @@ typedef struct tc {
     unsigned nc, dt;
     float (*rd)(struct tc *c, const ti *it, const uint8_t *data, int constant);   /* SW_READ */
     float (*fold)(struct tc *c, const ti *it, const uint8_t *data, int constant); /* SW_FOLD */
-    float acc[ST_MAX_CHANNELS];
+    pt_v4f acc;            /* channel sums, lanes 0..nc-1 (the rest: 0, or lane 3 scratch
+                            * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
     unsigned pieces;
 } tc;
@@ -178,9 +183,6 @@ static inline int ceil_int(float x)
     return t + ((float)t < x);
 }
 
-typedef float pt_v4f __attribute__((vector_size(16)));
-typedef int32_t pt_v4i __attribute__((vector_size(16)));
-typedef double pt_v2d __attribute__((vector_size(16)));
 
 /* Whether every lane of x is inside |x| < 2^30 (false for a NaN). */
 static inline pt_v4i small4(pt_v4f x)
@@ -350,9 +352,13 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     /* the channel sums and (NC < 4) the weight's sum in lane 3 of one vector: a tap adds
      * {x0, .., 1} * w, lane by lane the scalar sums' operations (1 * w is w); the untouched
      * lanes add +0 (a sum is never -0: it starts +0 and x + y rounds to +0 when it is 0) */
-    pt_v4f acc = {0.0f, 0.0f, 0.0f, 0.0f}, one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
-    for (unsigned ch = 0; ch < NC; ch++)
-        acc[ch] = c->acc[ch];
+    pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f}, acc = c->acc;
+    if (NC < 4) { /* lane 3 (the last sweep's weight) to +0, the other lanes' bits kept */
+        pt_v4i keep = {-1, -1, -1, 0}, bits;
+        memcpy(&bits, &acc, 16);
+        bits &= keep;
+        memcpy(&acc, &bits, 16);
+    }
     float wsum4 = 0.0f, DDQ = 2.0f * it->A; /* wsum4: the weight's sum when NC == 4 */
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     const float wscale = it->wscale;
@@ -436,12 +442,12 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         }
     }
     float wsum = NC < 4 ? acc[3] : wsum4;
-    if (how == SW_READ && constant)
-        for (unsigned ch = 0; ch < NC; ch++)
-            acc[ch] += texel_chan(data, ch, DT) * wsum;
+    if (how == SW_READ && constant) { /* channel lanes get x * wsum, lane 3 (spent) + 0 */
+        pt_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
+        acc += texel_vec(data, zero, DT, NC) * wsum;
+    }
     if (how != SW_WEIGHT)
-        for (unsigned ch = 0; ch < NC; ch++)
-            c->acc[ch] = acc[ch];
+        c->acc = acc; /* one 16-byte store, which the next sweep's 16-byte load forwards */
     return wsum;
 }
 
