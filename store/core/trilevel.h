@@ -12,8 +12,8 @@
  * for an even one, (i + 2/3, j + 2/3) / R for an odd one.
  *
  * Owns: the point rule (which texel holds (u, v)) and the 2:1 reduction, shared by the set
- * (st_set_build_mips), the .ptx reader (levels a file does not store), the Ptex point filter
- * and the GPU-style point filter. Does not own: filtering across faces (ptex/ptextri_filter.c).
+ * (st_set_build_mips), the .ptx reader (levels a file does not store), the Ptex point filter,
+ * the triangle filter's Clamp mode (st_tri_texel_t) and the GPU-style point filter. Does not own: filtering across faces (ptex/ptextri_filter.c).
  * No allocation, no globals.
  */
 #ifndef ST_TRILEVEL_H
