@@ -12,8 +12,8 @@
  * for an even one, (i + 2/3, j + 2/3) / R for an odd one.
  *
  * Owns: the point rule (which texel holds (u, v)) and the 2:1 reduction, shared by the set
- * (st_set_build_mips), the .ptx reader (levels a file does not store), the Ptex point filter
- * and the GPU-style point filter. Does not own: filtering across faces (ptex/ptextri_filter.c).
+ * (st_set_build_mips), the .ptx reader (levels a file does not store), the Ptex point filter,
+ * the triangle filter's Clamp mode (st_tri_texel_t) and the GPU-style point filter. Does not own: filtering across faces (ptex/ptextri_filter.c).
  * No allocation, no globals.
  */
 #ifndef ST_TRILEVEL_H
@@ -22,15 +22,12 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* The texel (*x, *y) of an R x R triangle level that holds the point (u, v): Ptex's triangle
- * point rule. The cell is (int)(u R), (int)(v R) clamped to 0..R-1; inside it, the even texel
- * when the fractional parts sum to <= 1, else the odd one. (u, v) beyond the triangle (u + v >
- * 1) is not moved first: it lands on a texel near edge 1, as in Ptex. |u|, |v| must be below
- * 2^31 / R (the caller caps coordinates). */
-static inline void st_tri_texel(uint32_t R, float u, float v, uint32_t *x, uint32_t *y)
+/* The texel (*x, *y) of an R x R triangle level that holds the point (ut, vt) given in texel
+ * units (u R, v R): the cell is (int)ut, (int)vt clamped to 0..R-1; inside it, the even texel
+ * when the fractional parts sum to <= 1, else the odd one. */
+static inline void st_tri_texel_t(uint32_t R, float ut, float vt, uint32_t *x, uint32_t *y)
 {
     int r1 = (int)R - 1;
-    float ut = u * (float)R, vt = v * (float)R;
     int ui = (int)ut, vi = (int)vt;
     ui = ui < 0 ? 0 : ui > r1 ? r1 : ui;
     vi = vi < 0 ? 0 : vi > r1 ? r1 : vi;
@@ -42,6 +39,15 @@ static inline void st_tri_texel(uint32_t R, float u, float v, uint32_t *x, uint3
         *x = (uint32_t)(r1 - vi);
         *y = (uint32_t)(r1 - ui);
     }
+}
+
+/* The texel (*x, *y) of an R x R triangle level that holds the point (u, v): Ptex's triangle
+ * point rule, st_tri_texel_t of (u R, v R). (u, v) beyond the triangle (u + v > 1) is not
+ * moved first: it lands on a texel near edge 1, as in Ptex. |u|, |v| must be below 2^31 / R
+ * (the caller caps coordinates). */
+static inline void st_tri_texel(uint32_t R, float u, float v, uint32_t *x, uint32_t *y)
+{
+    st_tri_texel_t(R, u * (float)R, v * (float)R, x, y);
 }
 
 /* The barycentric coordinates p = (u, v, w) of a point of a triangle face, on or beyond its

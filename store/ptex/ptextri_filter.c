@@ -50,6 +50,10 @@
 #define PT_NO_SLP
 #endif
 
+typedef float pt_v4f __attribute__((vector_size(16)));
+typedef int32_t pt_v4i __attribute__((vector_size(16)));
+typedef double pt_v2d __attribute__((vector_size(16)));
+
 static const float PT_WIDTH = 3.5f;  /* kernel extent in filter widths (Ptex's) */
 
 /* The kernel in normalised barycentric coordinates. */
@@ -76,7 +80,8 @@ typedef struct tc {
     unsigned nc, dt;
     float (*rd)(struct tc *c, const ti *it, const uint8_t *data, int constant);   /* SW_READ */
     float (*fold)(struct tc *c, const ti *it, const uint8_t *data, int constant); /* SW_FOLD */
-    float acc[ST_MAX_CHANNELS];
+    pt_v4f acc;            /* channel sums, lanes 0..nc-1 (the rest: 0, or lane 3 scratch
+                            * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
     unsigned pieces;
 } tc;
@@ -178,8 +183,6 @@ static inline int ceil_int(float x)
     return t + ((float)t < x);
 }
 
-typedef float pt_v4f __attribute__((vector_size(16)));
-typedef int32_t pt_v4i __attribute__((vector_size(16)));
 
 /* Whether every lane of x is inside |x| < 2^30 (false for a NaN). */
 static inline pt_v4i small4(pt_v4f x)
@@ -278,17 +281,36 @@ __attribute__((always_inline)) static inline float texel_chan(const uint8_t *px,
     }
 }
 
-/* Clamp mode: the texel (x, y) of an R x R level a tap at stored position (x, y) reads (a tap
- * outside the face: the texel under the face point nearest its centroid). */
+/* A tap's vector: channels 0..NC-1 of the texel at px as texel_chan gives them, the other
+ * lanes those of one (lane 3 = 1 for the weight's sum when NC < 4). Float texels are loaded
+ * whole (8 + 4 bytes for three channels) instead of lane by lane. */
+__attribute__((always_inline)) static inline pt_v4f texel_vec(const uint8_t *px, pt_v4f one,
+                                                             unsigned DT, unsigned NC)
+{
+    pt_v4f tv = one;
+    if (DT == ST_DT_F32 && NC >= 2) {
+        if (NC == 4) {
+            memcpy(&tv, px, 16);
+            return tv;
+        }
+        double d; /* the first two channels' bits, loaded as one 8-byte scalar */
+        memcpy(&d, px, 8);
+        pt_v4f lo = (pt_v4f)(pt_v2d){d, 0.0};
+        pt_v4f hi = {NC == 3 ? ((const float *)(const void *)px)[2] : 0.0f, one[3], 0.0f, 0.0f};
+        return __builtin_shufflevector(lo, hi, 0, 1, 4, 5);
+    }
+#pragma GCC unroll 4
+    for (unsigned ch = 0; ch < NC; ch++)
+        tv[ch] = texel_chan(px, ch, DT);
+    return tv;
+}
+
+/* Clamp mode: the texel (x, y) of an R x R level that a tap at stored position (x, y) outside
+ * the face reads: the texel under the face point nearest its centroid. (A tap inside the face,
+ * upright x >= 0, y >= 0, x + y <= R - 1 or inverted x <= R - 1, y <= R - 1, x + y >= R, reads
+ * itself: sweep_t takes those without calling this.) */
 static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
 {
-    int inside = odd ? x <= R - 1 && y <= R - 1 && x + y >= R
-                     : x >= 0 && y >= 0 && x + y <= R - 1;
-    if (inside) {
-        *tx = x;
-        *ty = y;
-        return;
-    }
     /* centroid in texel units: upright (x + 1/3, y + 1/3); an inverted one is cell
      * (R-1-y, R-1-x), centroid + 2/3 */
     float cu = odd ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)x + 1.0f / 3.0f;
@@ -303,8 +325,11 @@ static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
         if (cu < 0.0f) { cv = fR; cu = 0.0f; }
         if (cv < 0.0f) { cu = fR; cv = 0.0f; }
     }
+    /* st_tri_texel(R, cu / fR, cv / fR), whose first step multiplies back by R: R is a power
+     * of two and cu, cv >= 0 are far from underflow, so that gives cu and cv exactly; the
+     * texel-unit form without the two divisions */
     uint32_t ux, uy;
-    st_tri_texel((uint32_t)R, cu / fR, cv / fR, &ux, &uy);
+    st_tri_texel_t((uint32_t)R, cu, cv, &ux, &uy);
     *tx = (int)ux;
     *ty = (int)uy;
 }
@@ -324,12 +349,19 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R;
-    float acc[ST_MAX_CHANNELS];
-    for (unsigned ch = 0; ch < NC; ch++)
-        acc[ch] = c->acc[ch];
-    float wsum = 0.0f, DDQ = 2.0f * it->A;
+    /* the channel sums and (NC < 4) the weight's sum in lane 3 of one vector: a tap adds
+     * {x0, .., 1} * w, lane by lane the scalar sums' operations (1 * w is w); the untouched
+     * lanes add +0 (a sum is never -0: it starts +0 and x + y rounds to +0 when it is 0) */
+    pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f}, acc = c->acc;
+    if (NC < 4) { /* lane 3 (the last sweep's weight) to +0, the other lanes' bits kept */
+        pt_v4i keep = {-1, -1, -1, 0}, bits;
+        memcpy(&bits, &acc, 16);
+        bits &= keep;
+        memcpy(&acc, &bits, 16);
+    }
+    float wsum4 = 0.0f, DDQ = 2.0f * it->A; /* wsum4: the weight's sum when NC == 4 */
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
-    const float A = it->A, B = it->B, C = it->C, wscale = it->wscale;
+    const float wscale = it->wscale;
     const int reads = how == SW_READ && !constant;
     /* only the rows with a tap: x1 < x2 needs R - y - hi[2] < hi[0] and lo[0] < R - y - lo[2]
      * (the rows left out visit nothing) */
@@ -339,6 +371,11 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     if (y2 > R - it->lo[2] - it->lo[0])
         y2 = R - it->lo[2] - it->lo[0];
     for (int y = y1; y < y2; y++) {
+        /* the row's set-up reads the sweep's fields from memory (an empty asm that may change
+         * memory), so that they are not held in registers across the loop, where every expf
+         * call would spill and reload them */
+        __asm__ volatile("" ::: "memory");
+        const float A = it->A, B = it->B, C = it->C;
         int xw = R - y;
         int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
         int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
@@ -348,16 +385,29 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         /* a read stays inside the level whatever the float bounds did */
         int rd_ok = reads && y >= 0 && y < R;
         const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
+        /* SW_FOLD: the taps of the row inside the face, x in [fx1, fx2), read texel (x, y)
+         * (fold_tap's first case); upright: y >= 0, 0 <= x <= R-1-y; inverted: y <= R-1,
+         * R-y <= x <= R-1 */
+        int fx1 = 0, fx2 = 0;
+        if (how == SW_FOLD && !constant) {
+            if (!it->odd) {
+                fx2 = y >= 0 ? R - y : 0;
+            } else if (y <= R - 1) {
+                fx1 = R - y;
+                fx2 = R;
+            }
+            if (fx2 < fx1)
+                fx2 = fx1;
+        }
         if (rd_ok && x1 >= 0 && x2 <= R) {
             /* the whole row inside the level (a piece clamped into its face): no checks */
             const uint8_t *px = row + (size_t)x1 * ts;
             for (int x = x1; x < x2; x++, px += ts) {
                 if (Q < 1.0f) {
                     float w = expf(gs * Q) * wscale;
-                    wsum += w;
-#pragma GCC unroll 4
-                    for (unsigned ch = 0; ch < NC; ch++)
-                        acc[ch] += texel_chan(px, ch, DT) * w;
+                    acc += texel_vec(px, one, DT, NC) * w;
+                    if (NC == 4)
+                        wsum4 += w;
                 }
                 Q += DQ;
                 DQ += DDQ;
@@ -367,33 +417,37 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         for (int x = x1; x < x2; x++) {
             if (Q < 1.0f) {
                 float w = expf(gs * Q) * wscale;
-                wsum += w;
+                pt_v4f tv = one;
                 if (how == SW_READ) {
                     if (rd_ok && (unsigned)x < (unsigned)R) {
-                        const uint8_t *px = row + (size_t)x * ts;
-#pragma GCC unroll 4
-                        for (unsigned ch = 0; ch < NC; ch++)
-                            acc[ch] += texel_chan(px, ch, DT) * w;
+                        tv = texel_vec(row + (size_t)x * ts, one, DT, NC);
                     }
                 } else if (how == SW_FOLD) {
                     int tx = 0, ty = 0;
-                    if (!constant)
+                    if ((unsigned)(x - fx1) < (unsigned)(fx2 - fx1)) {
+                        tx = x;
+                        ty = y;
+                    } else if (!constant) {
                         fold_tap(R, it->odd, x, y, &tx, &ty);
-                    const uint8_t *px = data + ((size_t)ty * (size_t)R + (size_t)tx) * ts;
-#pragma GCC unroll 4
-                    for (unsigned ch = 0; ch < NC; ch++)
-                        acc[ch] += texel_chan(px, ch, DT) * w;
+                    }
+                    tv = texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT,
+                                   NC);
                 }
+                acc += tv * w;
+                if (NC == 4)
+                    wsum4 += w;
             }
             Q += DQ;
             DQ += DDQ;
         }
     }
-    if (how == SW_READ && constant)
-        for (unsigned ch = 0; ch < NC; ch++)
-            acc[ch] += texel_chan(data, ch, DT) * wsum;
-    for (unsigned ch = 0; ch < NC; ch++)
-        c->acc[ch] = acc[ch];
+    float wsum = NC < 4 ? acc[3] : wsum4;
+    if (how == SW_READ && constant) { /* channel lanes get x * wsum, lane 3 (spent) + 0 */
+        pt_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
+        acc += texel_vec(data, zero, DT, NC) * wsum;
+    }
+    if (how != SW_WEIGHT)
+        c->acc = acc; /* one 16-byte store, which the next sweep's 16-byte load forwards */
     return wsum;
 }
 
