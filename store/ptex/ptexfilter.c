@@ -494,9 +494,17 @@ static void pk2_to_pk(pk *k, const pk2 *p)
         k->kvb[i] = p->kv[i];
 }
 
+/* pk_accumulate for n <= 2 with no loop: the same additions in the same order (0 + w[0]
+ * first), so the same bits. */
+static inline float p2_sum(const float *w, int n)
+{
+    float r = n > 0 ? 0.0f + w[0] : 0.0f;
+    return n > 1 ? r + w[1] : r;
+}
+
 static inline float p2_weight(const pk2 *p)
 {
-    return pk_accumulate(p->ku, p->uw) * pk_accumulate(p->kv, p->vw);
+    return p2_sum(p->ku, p->uw) * p2_sum(p->kv, p->vw);
 }
 
 /* pk_merge_l / _r along one axis of a pk2 (x the first texel, n the width, w the weights,
@@ -505,7 +513,7 @@ static inline void p2_merge_lo(int *x, int *n, float *w, int black)
 {
     int o = -*x;
     if (!black)
-        w[o] += pk_accumulate(w, o);
+        w[o] += p2_sum(w, o);
     for (int i = o; i < *n && i < 2; i++) /* i < 2: n <= 2 (lets the compiler unroll) */
         w[i - o] = w[i];
     *n -= o;
@@ -516,7 +524,7 @@ static inline void p2_merge_hi(int x, int *n, float *w, int res, int black)
     int o = *n + x - res;
     float *kp = w + *n - o;
     if (!black)
-        kp[-1] += pk_accumulate(kp, o);
+        kp[-1] += p2_sum(kp, o);
     *n -= o;
 }
 static inline void p2_merge_l(pk2 *p, int black) { p2_merge_lo(&p->u, &p->uw, p->ku, black); }
@@ -843,17 +851,38 @@ static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
     k.ku[0] = 1.0f - fu, k.ku[1] = fu;
     k.kv[0] = 1.0f - fv, k.kv[1] = fv;
     c->acc = (v4f){0, 0, 0, 0};
-    float total = p2_weight(&k);
+    float su = p2_sum(k.ku, k.uw), sv = p2_sum(k.kv, k.vw);
+    float total = su * sv;
     c->weight = total;
-    split_apply_small(c, &k, (int)f);
     *cov = 1.0f;
     if (c->mode == ST_MODE_DISCARD) {
+        /* split_walk's Discard at depth 0 (the overhang dropped in the order r, l, t, b, the
+         * weight left, the piece on f), with the sum of an axis kept when no merge touched
+         * it: p2_weight's value, one sum fewer per unmerged axis */
+        int sr = k.u + k.uw > 1 << ru, sl = k.u < 0, st = k.v + k.vw > 1 << rv, sb = k.v < 0;
+        if (sr | sl) {
+            if (sr)
+                p2_merge_r(&k, 1);
+            if (sl)
+                p2_merge_l(&k, 1);
+            su = p2_sum(k.ku, k.uw);
+        }
+        if (st | sb) {
+            if (st)
+                p2_merge_t(&k, 1);
+            if (sb)
+                p2_merge_b(&k, 1);
+            sv = p2_sum(k.kv, k.vw);
+        }
+        c->weight = su * sv;
+        apply_small(c, &k, (int)f);
         *cov = total != 0.0f ? c->weight / total : 0.0f;
         if (*cov > 1.0f)
             *cov = 1.0f;
         if (!(c->weight > 0.0f) || *cov <= 0.0f)
             return 0;
-    }
+    } else
+        split_apply_small(c, &k, (int)f);
     float scale = 1.0f / (c->weight * one_value(c->dt));
     for (unsigned ch = 0; ch < c->nc; ch++)
         out[ch] = c->acc[ch] * scale;
