@@ -1054,9 +1054,15 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
     float total = pk_weight(k);
     c->weight = total;
     if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
-        k->v + k->vw <= (1 << k->vlog2))
+        k->v + k->vw <= (1 << k->vlog2)) {
         apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
-    else if (!(c->small && c->mode == ST_MODE_TRAVERSE && !is_subface(c, f) && walk(c, k, f)))
+        /* with a finite positive total (its bits in (0, +inf)), Discard keeps the whole
+         * weight (apply leaves it): total / total is 1 exactly, the coverage already set */
+        uint32_t tb;
+        memcpy(&tb, &total, sizeof tb);
+        if (tb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)
+            goto divide;
+    } else if (!(c->small && c->mode == ST_MODE_TRAVERSE && !is_subface(c, f) && walk(c, k, f)))
         /* Traverse on a plain face: the same walk on pieces without copies (walk below);
          * Discard, Clamp and what it declines: the general walk */
         split_apply(c, k, f, 0);
@@ -1086,6 +1092,7 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
             return ST_Q_ZERO_COVERAGE;
         }
     }
+divide:;
     float scale = 1.0f / (c->weight * one_value(c->dt));
     for (unsigned ch = 0; ch < c->nc; ch++)
         out[ch] = c->acc[ch] * scale;
