@@ -854,35 +854,41 @@ static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
     float su = p2_sum(k.ku, k.uw), sv = p2_sum(k.kv, k.vw);
     float total = su * sv;
     c->weight = total;
-    *cov = 1.0f;
     if (c->mode == ST_MODE_DISCARD) {
         /* split_walk's Discard at depth 0 (the overhang dropped in the order r, l, t, b, the
          * weight left, the piece on f), with the sum of an axis kept when no merge touched
          * it: p2_weight's value, one sum fewer per unmerged axis */
         int sr = k.u + k.uw > 1 << ru, sl = k.u < 0, st = k.v + k.vw > 1 << rv, sb = k.v < 0;
-        if (sr | sl) {
-            if (sr)
-                p2_merge_r(&k, 1);
-            if (sl)
-                p2_merge_l(&k, 1);
+        if (sr) {
+            p2_merge_r(&k, 1);
             su = p2_sum(k.ku, k.uw);
         }
-        if (st | sb) {
-            if (st)
-                p2_merge_t(&k, 1);
-            if (sb)
-                p2_merge_b(&k, 1);
+        if (sl) {
+            p2_merge_l(&k, 1);
+            su = p2_sum(k.ku, k.uw);
+        }
+        if (st) {
+            p2_merge_t(&k, 1);
             sv = p2_sum(k.kv, k.vw);
         }
-        c->weight = su * sv;
+        if (sb) {
+            p2_merge_b(&k, 1);
+            sv = p2_sum(k.kv, k.vw);
+        }
+        float w = su * sv; /* c->weight, held where the call below cannot reach it */
+        c->weight = w;
         apply_small(c, &k, (int)f);
-        *cov = total != 0.0f ? c->weight / total : 0.0f;
-        if (*cov > 1.0f)
-            *cov = 1.0f;
-        if (!(c->weight > 0.0f) || *cov <= 0.0f)
+        /* no clamp to 1 (eval_kernel's, for a dropped negative lobe): the weights here,
+         * 1 - fu and fu with fu = upix - floor(upix) in [0, 1) (or NaN), are not negative,
+         * so each axis sum left is at most its whole and w <= total: w / total <= 1 */
+        float cv = total != 0.0f ? w / total : 0.0f;
+        *cov = cv;
+        if (!(w > 0.0f) || cv <= 0.0f)
             return 0;
-    } else
+    } else {
         split_apply_small(c, &k, (int)f);
+        *cov = 1.0f;
+    }
     float scale = 1.0f / (c->weight * one_value(c->dt));
     for (unsigned ch = 0; ch < c->nc; ch++)
         out[ch] = c->acc[ch] * scale;
