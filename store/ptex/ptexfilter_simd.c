@@ -630,12 +630,229 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
     return 1;
 }
 
-#define PF_FAST(DT, NC)                                                                     \
-    __attribute__((target("avx2,fma,f16c"))) static int pf_fast_##DT##_##NC(                \
+/* fast_body out of line (pf_fgen_DT_NC): the box, and the width-4 kernels w4_body does not
+ * take, so that w4_body's common case runs without fast_body's stack frame. */
+#define PF_FGEN(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"), noinline)) static int pf_fgen_##DT##_##NC(      \
         const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
         float uw, float vw, float *out, pk *kout)                                           \
     {                                                                                       \
         return fast_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC);                   \
+    }
+#define PF_FGEN_NC(DT) PF_FGEN(DT, 1) PF_FGEN(DT, 2) PF_FGEN(DT, 3) PF_FGEN(DT, 4)
+PF_FGEN_NC(0)
+PF_FGEN_NC(1)
+PF_FGEN_NC(2)
+PF_FGEN_NC(3)
+
+/* Lane j of a in every lane (j constant once the rows are unrolled: a shuffle). */
+PF_TARGET __m256 bcast8(__m256 a, int j)
+{
+    return _mm256_set1_ps(a[j]);
+}
+
+/* The 1-channel window of w4_body: nv rows (NV, a constant) of nu <= 8 values, with
+ * window4's (nu <= 4) or window's (NV = 1) operations in their order: each column summed
+ * down the rows with one FMA a row (row j's weight lane j of kv), then the dot with the
+ * column weights ku (zero past nu) and the fold, lane % 4, lane % 2, lanes 0 + 1, into +0.
+ * Integer texels are finite, so the lanes past the row need no clearing: their column sums
+ * meet a zero weight and give +0, as the cleared lanes do; half and float ones are cleared. */
+#define PF_W4ROWS(NV)                                                                       \
+    do {                                                                                    \
+        _Pragma("GCC unroll 8") for (int j = 0; j < (NV); j++) {                            \
+            const uint8_t *rp = base + (size_t)j * rowb;                                    \
+            if (short4) {                                                                   \
+                __m128 t = load4(rp, DT);                                                   \
+                if (DT >= 2)                                                                \
+                    t = _mm_and_ps(t, tail4);                                               \
+                c4 = _mm_fmadd_ps(t, _mm256_castps256_ps128(bcast8(kv, j)), c4);            \
+            } else {                                                                        \
+                __m256 t = load8(rp, DT);                                                   \
+                if (DT >= 2)                                                                \
+                    t = _mm256_and_ps(t, tail8);                                            \
+                c8 = _mm256_fmadd_ps(t, bcast8(kv, j), c8);                                 \
+            }                                                                               \
+        }                                                                                   \
+    } while (0)
+
+/* The fused width-4 path's common case, in registers: both widths under 1/4 face, every tap
+ * nonzero (nothing to strip), the window inside the face or handed over whole. The same
+ * arithmetic as w4_axes, kernel8, strip8 (a no-op here), sum_in_order and window in their
+ * order, so bit for bit fast_body; anything else goes to fast_body (gen, out of line).
+ * A width-4 axis has 4 to 8 taps: its width in texels of the resolution chosen (uwpix) lies
+ * in [1, 2), so 4 uwpix rounds out to 4..8 taps; 4 each way (uwpix 1: a power-of-two width,
+ * or the width clamped to a texel) is the case WIDE = 0 takes with the shape as constants
+ * (one 8-lane kernel evaluation, u in lanes 0-3, v in 4-7); the others go to the WIDE = 1
+ * instance (wide, out of line, so that its registers cost the common case nothing). */
+PF_TARGET int w4_body(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
+                      float u, float v, float uw, float vw, float *out, pk *kout,
+                      unsigned DT, unsigned NC, int WIDE, pf_fast_fn gen, pf_fast_fn wide)
+{
+    const __m128i e127 = _mm_set1_epi32(127);
+    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 0.0f, 0.0f);
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
+        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
+    w = _mm_max_ps(w, lo);
+    if (_mm_movemask_ps(_mm_cmpge_ps(w, _mm_set1_ps(.25f))) & 3)
+        return 0;
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23));
+    __m128 upix = _mm_sub_ps(_mm_mul_ps(x, rf), _mm_set1_ps(0.5f));
+    __m128 uwpix = _mm_mul_ps(w, rf);
+    __m128 dupix = _mm_mul_ps(_mm_set1_ps(2.0f), uwpix);
+    __m128i u1 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_sub_ps(upix, dupix)));
+    __m128i u2 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_add_ps(upix, dupix)));
+    __m128i n = _mm_sub_epi32(u2, u1);
+    int nu = 4, nv = 4;
+    if (!WIDE) {
+        if ((_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(n, _mm_set1_epi32(4)))) & 3) != 3)
+            return wide(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
+    } else {
+        nu = _mm_cvtsi128_si32(n), nv = _mm_extract_epi32(n, 1);
+        if (nu < 1 || nu > 8 || nv < 1 || nv > 8)
+            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
+    }
+    __m128 x1v = _mm_div_ps(_mm_sub_ps(_mm_cvtepi32_ps(u1), upix), uwpix);
+    __m128 sv = _mm_div_ps(_mm_set1_ps(1.0f), uwpix);
+    const __m256i idx8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 z8 = _mm256_setzero_ps();
+    __m256 ku, kv; /* taps in lanes from 0, +0 past the last */
+    __m128 s;      /* the axis sums in lanes 0 (u) and 1 (v) */
+    if (!WIDE) {   /* both axes in one evaluation: u in lanes 0-3, v 4-7 */
+        const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
+        const __m256i sel = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        __m256 x0 = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(x1v), sel);
+        __m256 s8 = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(sv), sel);
+        __m256 k = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
+        /* a zero tap (+0 or -0; NaN is not: strip8's compare) goes to fast_body */
+        if (_mm256_movemask_ps(_mm256_cmp_ps(k, z8, _CMP_EQ_OQ)))
+            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
+        /* sum_in_order of each axis, both at once: lanes (u_i, v_i) added in i's order */
+        __m128 a = _mm256_castps256_ps128(k), b = _mm256_extractf128_ps(k, 1);
+        __m128 t0 = _mm_unpacklo_ps(a, b), t1 = _mm_unpackhi_ps(a, b);
+        s = _mm_add_ps(_mm_setzero_ps(), t0);
+        s = _mm_add_ps(s, _mm_movehl_ps(t0, t0));
+        s = _mm_add_ps(s, t1);
+        s = _mm_add_ps(s, _mm_movehl_ps(t1, t1));
+        ku = _mm256_zextps128_ps256(a);
+        kv = _mm256_zextps128_ps256(b);
+    } else {
+        const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+        ku = kernel8(p, _mm256_add_ps(_mm256_set1_ps(_mm_cvtss_f32(x1v)),
+                                      _mm256_mul_ps(i0, _mm256_set1_ps(_mm_cvtss_f32(sv)))));
+        kv = kernel8(p, _mm256_add_ps(
+                            _mm256_set1_ps(_mm_cvtss_f32(_mm_movehdup_ps(x1v))),
+                            _mm256_mul_ps(i0, _mm256_set1_ps(_mm_cvtss_f32(_mm_movehdup_ps(sv))))));
+        __m256 lu = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu), idx8));
+        __m256 lv = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nv), idx8));
+        if (!_mm256_testz_ps(_mm256_cmp_ps(ku, z8, _CMP_EQ_OQ), lu) ||
+            !_mm256_testz_ps(_mm256_cmp_ps(kv, z8, _CMP_EQ_OQ), lv))
+            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
+        ku = _mm256_and_ps(ku, lu);
+        kv = _mm256_and_ps(kv, lv);
+        __m256 t0 = _mm256_unpacklo_ps(ku, kv), t1 = _mm256_unpackhi_ps(ku, kv);
+        __m128 a0 = _mm256_castps256_ps128(t0), a1 = _mm256_castps256_ps128(t1);
+        __m128 b0 = _mm256_extractf128_ps(t0, 1), b1 = _mm256_extractf128_ps(t1, 1);
+        s = _mm_add_ps(_mm_setzero_ps(), a0);
+        s = _mm_add_ps(s, _mm_movehl_ps(a0, a0));
+        s = _mm_add_ps(s, a1);
+        s = _mm_add_ps(s, _mm_movehl_ps(a1, a1));
+        s = _mm_add_ps(s, b0);
+        s = _mm_add_ps(s, _mm_movehl_ps(b0, b0));
+        s = _mm_add_ps(s, b1);
+        s = _mm_add_ps(s, _mm_movehl_ps(b1, b1));
+    }
+    int ru = _mm_cvtsi128_si32(r), rv = _mm_extract_epi32(r, 1);
+    int u0 = _mm_cvtsi128_si32(u1), v0 = _mm_extract_epi32(u1, 1);
+    /* the window inside the face (first texel >= 0, last < 2^res), else handed over */
+    __m128i lim = _mm_sllv_epi32(_mm_set1_epi32(1), r);
+    __m128i out_of = _mm_or_si128(_mm_cmpgt_epi32(_mm_setzero_si128(), u1),
+                                  _mm_cmpgt_epi32(u2, lim));
+    if (_mm_movemask_ps(_mm_castsi128_ps(out_of)) & 3) {
+        if (!kout)
+            return 0;
+        float kub[8], kvb[8];
+        _mm256_storeu_ps(kub, ku);
+        _mm256_storeu_ps(kvb, kv);
+        return hand_over(kout, ru, rv, u0, v0, kub, nu, kvb, nv, 0);
+    }
+    float total = _mm_cvtss_f32(_mm_mul_ss(s, _mm_movehdup_ps(s)));
+    if (!(total > 0.0f))
+        return 0;
+    int resu = 1 << ru;
+    size_t ts = (size_t)NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    const uint8_t *d = px[(unsigned)ru * ((unsigned)fvlog2 + 1u) + (unsigned)rv];
+    const uint8_t *base = d + ((size_t)v0 * (size_t)resu + (size_t)u0) * ts;
+    size_t rowb = (size_t)resu * ts;
+    float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    float scale = 1.0f / (total * one);
+    if (NC == 1) {
+        int short4 = nu <= 4;
+        __m128 tail4 = _mm_castsi128_ps(_mm_cmpgt_epi32(_mm_set1_epi32(nu), _mm_setr_epi32(0, 1, 2, 3)));
+        __m256 tail8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu), idx8));
+        __m128 c4 = _mm_setzero_ps();
+        __m256 c8 = _mm256_setzero_ps();
+        switch (nv) {
+        case 1: PF_W4ROWS(1); break;
+        case 2: PF_W4ROWS(2); break;
+        case 3: PF_W4ROWS(3); break;
+        case 4: PF_W4ROWS(4); break;
+        case 5: PF_W4ROWS(5); break;
+        case 6: PF_W4ROWS(6); break;
+        case 7: PF_W4ROWS(7); break;
+        default: PF_W4ROWS(8); break;
+        }
+        const __m128 z = _mm_setzero_ps();
+        __m128 q;
+        if (short4)
+            q = _mm_add_ps(_mm_fmadd_ps(c4, _mm256_castps256_ps128(ku), z), z);
+        else {
+            __m256 s8 = _mm256_fmadd_ps(c8, ku, z8);
+            q = _mm_add_ps(_mm256_castps256_ps128(s8), _mm256_extractf128_ps(s8, 1));
+        }
+        __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+        __m128 res = _mm_add_ss(z, _mm_add_ss(h, _mm_movehdup_ps(h)));
+        out[0] = _mm_cvtss_f32(res) * scale;
+        return 1;
+    }
+    float kub[32], kvb[8]; /* window() may name up to 4 vectors of lanes (it reads < nu) */
+    _mm256_storeu_ps(kub, ku);
+    _mm256_storeu_ps(kvb, kv);
+    __m128 acc = _mm_setzero_ps();
+    if (NC == 3) {
+        acc = window3(base, rowb, DT, kub, nu, kvb, nv, acc);
+    } else {
+        switch ((nu * (int)NC + 7) / 8) {
+        case 1: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 1, acc); break;
+        case 2: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 2, acc); break;
+        case 3: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 3, acc); break;
+        default: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 4, acc); break;
+        }
+    }
+    float rr[4];
+    _mm_storeu_ps(rr, acc);
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = rr[ch] * scale;
+    return 1;
+}
+
+#define PF_FAST(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"), noinline)) static int pf_w4wide_##DT##_##NC(   \
+        const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
+        float uw, float vw, float *out, pk *kout)                                           \
+    {                                                                                       \
+        return w4_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC, 1,                   \
+                       pf_fgen_##DT##_##NC, NULL);                                          \
+    }                                                                                       \
+    __attribute__((target("avx2,fma,f16c"))) static int pf_fast_##DT##_##NC(                \
+        const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
+        float uw, float vw, float *out, pk *kout)                                           \
+    {                                                                                       \
+        if (p->ftype == ST_FILTER_PTEX_BOX)                                                 \
+            return pf_fgen_##DT##_##NC(p, px, fu, fv, u, v, uw, vw, out, kout);             \
+        return w4_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC, 0,                   \
+                       pf_fgen_##DT##_##NC, pf_w4wide_##DT##_##NC);                         \
     }
 #define PF_FAST_NC(DT) PF_FAST(DT, 1) PF_FAST(DT, 2) PF_FAST(DT, 3) PF_FAST(DT, 4)
 PF_FAST_NC(0)
