@@ -849,8 +849,6 @@ PF_TARGET int w4_body(const pk_params *p, const uint8_t *const *px, int fulog2, 
         const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
         float uw, float vw, float *out, pk *kout)                                           \
     {                                                                                       \
-        if (p->ftype == ST_FILTER_PTEX_BOX)                                                 \
-            return pf_fgen_##DT##_##NC(p, px, fu, fv, u, v, uw, vw, out, kout);             \
         return w4_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC, 0,                   \
                        pf_fgen_##DT##_##NC, pf_w4wide_##DT##_##NC);                         \
     }
@@ -1128,16 +1126,23 @@ pf_bilinear_half_fn pf_bilinear_half_select(void)
 
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 {
+    /* the width-4 filters' (w4_body first), and the box's (fast_body) */
     static const pf_fast_fn fns[4][4] = {
         {pf_fast_0_1, pf_fast_0_2, pf_fast_0_3, pf_fast_0_4},
         {pf_fast_1_1, pf_fast_1_2, pf_fast_1_3, pf_fast_1_4},
         {pf_fast_2_1, pf_fast_2_2, pf_fast_2_3, pf_fast_2_4},
         {pf_fast_3_1, pf_fast_3_2, pf_fast_3_3, pf_fast_3_4},
     };
+    static const pf_fast_fn box[4][4] = {
+        {pf_fgen_0_1, pf_fgen_0_2, pf_fgen_0_3, pf_fgen_0_4},
+        {pf_fgen_1_1, pf_fgen_1_2, pf_fgen_1_3, pf_fgen_1_4},
+        {pf_fgen_2_1, pf_fgen_2_2, pf_fgen_2_3, pf_fgen_2_4},
+        {pf_fgen_3_1, pf_fgen_3_2, pf_fgen_3_3, pf_fgen_3_4},
+    };
     if (ftype < ST_FILTER_PTEX_BOX || ftype > ST_FILTER_PTEX_MITCHELL || dt > 3 || nc < 1 ||
         nc > 4 || !pf_have_avx2())
         return NULL;
-    return fns[dt][nc - 1];
+    return ftype == ST_FILTER_PTEX_BOX ? box[dt][nc - 1] : fns[dt][nc - 1];
 }
 
 #else
