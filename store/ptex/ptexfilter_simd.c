@@ -26,7 +26,11 @@
  * in one SSE vector (lane 0 u, lane 1 v) with pk_build's operations in its order, the
  * width-4 weights of both axes in one 8-lane evaluation when each has at most 4 taps, zeros
  * stripped with a mask, and the same window loop; no pk is built and nothing crosses a
- * function boundary per query. It declines (returns 0) whatever it does not take, and the
+ * function boundary per query. The width-4 filters' common case (w4_body: 4 taps each way,
+ * none zero) runs first with its shape as constants and everything in registers, without
+ * a stack frame; 5 to 8 taps go to its out-of-line instance, the rest (and the box, whose
+ * function pf_fast_select gives directly) to that general fused code (pf_fgen).
+ * It declines (returns 0) whatever it does not take, and the
  * general path then runs: results are bit for bit those of the general path
  * (test_ptexfilter_simd).
  *
@@ -675,101 +679,41 @@ PF_TARGET __m256 bcast8(__m256 a, int j)
         }                                                                                   \
     } while (0)
 
-/* The fused width-4 path's common case, in registers: both widths under 1/4 face, every tap
- * nonzero (nothing to strip), the window inside the face or handed over whole. The same
- * arithmetic as w4_axes, kernel8, strip8 (a no-op here), sum_in_order and window in their
- * order, so bit for bit fast_body; anything else goes to fast_body (gen, out of line).
- * A width-4 axis has 4 to 8 taps: its width in texels of the resolution chosen (uwpix) lies
- * in [1, 2), so 4 uwpix rounds out to 4..8 taps; 4 each way (uwpix 1: a power-of-two width,
- * or the width clamped to a texel) is the case WIDE = 0 takes with the shape as constants
- * (one 8-lane kernel evaluation, u in lanes 0-3, v in 4-7); the others go to the WIDE = 1
- * instance (wide, out of line, so that its registers cost the common case nothing). */
-PF_TARGET int w4_body(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
-                      float u, float v, float uw, float vw, float *out, pk *kout,
-                      unsigned DT, unsigned NC, int WIDE, pf_fast_fn gen, pf_fast_fn wide)
+/* w4_body's second half: the taps ku, kv (from lane 0, +0 past nu, nv), their sums s
+ * (lanes 0, 1), the window's first texel (u0, v0) at resolution (ru, rv). STRIP: strips
+ * zero taps at the ends first (pk_strip_zeros, strip8) and tests the window against the
+ * face itself; else outside says whether it overhangs. Hands the kernel over, declines, or
+ * writes the NC values and returns 1, as fast_body. */
+PF_TARGET int w4_tail(__m256 ku, __m256 kv, __m128 s, int nu, int nv, int u0, int v0, int ru,
+                      int rv, const uint8_t *const *px, int fvlog2, float *out, pk *kout,
+                      unsigned DT, unsigned NC, int STRIP, int outside)
 {
-    const __m128i e127 = _mm_set1_epi32(127);
-    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 0.0f, 0.0f);
-    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
-        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
-    w = _mm_max_ps(w, lo);
-    if (_mm_movemask_ps(_mm_cmpge_ps(w, _mm_set1_ps(.25f))) & 3)
-        return 0;
-    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
-                                                  _mm_set1_epi32(0xff)));
-    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23));
-    __m128 upix = _mm_sub_ps(_mm_mul_ps(x, rf), _mm_set1_ps(0.5f));
-    __m128 uwpix = _mm_mul_ps(w, rf);
-    __m128 dupix = _mm_mul_ps(_mm_set1_ps(2.0f), uwpix);
-    __m128i u1 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_sub_ps(upix, dupix)));
-    __m128i u2 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_add_ps(upix, dupix)));
-    __m128i n = _mm_sub_epi32(u2, u1);
-    int nu = 4, nv = 4;
-    if (!WIDE) {
-        if ((_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(n, _mm_set1_epi32(4)))) & 3) != 3)
-            return wide(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
-    } else {
-        nu = _mm_cvtsi128_si32(n), nv = _mm_extract_epi32(n, 1);
-        if (nu < 1 || nu > 8 || nv < 1 || nv > 8)
-            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
-    }
-    __m128 x1v = _mm_div_ps(_mm_sub_ps(_mm_cvtepi32_ps(u1), upix), uwpix);
-    __m128 sv = _mm_div_ps(_mm_set1_ps(1.0f), uwpix);
     const __m256i idx8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     const __m256 z8 = _mm256_setzero_ps();
-    __m256 ku, kv; /* taps in lanes from 0, +0 past the last */
-    __m128 s;      /* the axis sums in lanes 0 (u) and 1 (v) */
-    if (!WIDE) {   /* both axes in one evaluation: u in lanes 0-3, v 4-7 */
-        const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
-        const __m256i sel = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
-        __m256 x0 = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(x1v), sel);
-        __m256 s8 = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(sv), sel);
-        __m256 k = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
-        /* a zero tap (+0 or -0; NaN is not: strip8's compare) goes to fast_body */
-        if (_mm256_movemask_ps(_mm256_cmp_ps(k, z8, _CMP_EQ_OQ)))
-            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
-        /* sum_in_order of each axis, both at once: lanes (u_i, v_i) added in i's order */
-        __m128 a = _mm256_castps256_ps128(k), b = _mm256_extractf128_ps(k, 1);
-        __m128 t0 = _mm_unpacklo_ps(a, b), t1 = _mm_unpackhi_ps(a, b);
-        s = _mm_add_ps(_mm_setzero_ps(), t0);
-        s = _mm_add_ps(s, _mm_movehl_ps(t0, t0));
-        s = _mm_add_ps(s, t1);
-        s = _mm_add_ps(s, _mm_movehl_ps(t1, t1));
-        ku = _mm256_zextps128_ps256(a);
-        kv = _mm256_zextps128_ps256(b);
-    } else {
-        const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
-        ku = kernel8(p, _mm256_add_ps(_mm256_set1_ps(_mm_cvtss_f32(x1v)),
-                                      _mm256_mul_ps(i0, _mm256_set1_ps(_mm_cvtss_f32(sv)))));
-        kv = kernel8(p, _mm256_add_ps(
-                            _mm256_set1_ps(_mm_cvtss_f32(_mm_movehdup_ps(x1v))),
-                            _mm256_mul_ps(i0, _mm256_set1_ps(_mm_cvtss_f32(_mm_movehdup_ps(sv))))));
-        __m256 lu = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu), idx8));
-        __m256 lv = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nv), idx8));
-        if (!_mm256_testz_ps(_mm256_cmp_ps(ku, z8, _CMP_EQ_OQ), lu) ||
-            !_mm256_testz_ps(_mm256_cmp_ps(kv, z8, _CMP_EQ_OQ), lv))
-            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
-        ku = _mm256_and_ps(ku, lu);
-        kv = _mm256_and_ps(kv, lv);
-        __m256 t0 = _mm256_unpacklo_ps(ku, kv), t1 = _mm256_unpackhi_ps(ku, kv);
-        __m128 a0 = _mm256_castps256_ps128(t0), a1 = _mm256_castps256_ps128(t1);
-        __m128 b0 = _mm256_extractf128_ps(t0, 1), b1 = _mm256_extractf128_ps(t1, 1);
-        s = _mm_add_ps(_mm_setzero_ps(), a0);
-        s = _mm_add_ps(s, _mm_movehl_ps(a0, a0));
-        s = _mm_add_ps(s, a1);
-        s = _mm_add_ps(s, _mm_movehl_ps(a1, a1));
-        s = _mm_add_ps(s, b0);
-        s = _mm_add_ps(s, _mm_movehl_ps(b0, b0));
-        s = _mm_add_ps(s, b1);
-        s = _mm_add_ps(s, _mm_movehl_ps(b1, b1));
+    if (STRIP) { /* pk_strip_zeros (strip8): the zero taps at both ends of each axis */
+        unsigned mu = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(ku, z8, _CMP_NEQ_UQ)) &
+                      ((1u << nu) - 1u);
+        unsigned mv = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(kv, z8, _CMP_NEQ_UQ)) &
+                      ((1u << nv) - 1u);
+        if (!mu || !mv)
+            return 0;
+        int au = __builtin_ctz(mu), av = __builtin_ctz(mv);
+        int nu2 = 32 - __builtin_clz(mu) - au, nv2 = 32 - __builtin_clz(mv) - av;
+        if (au || nu2 != nu) {
+            ku = _mm256_and_ps(_mm256_permutevar8x32_ps(ku, _mm256_add_epi32(idx8, _mm256_set1_epi32(au))),
+                               _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu2), idx8)));
+            u0 += au;
+            nu = nu2;
+        }
+        if (av || nv2 != nv) {
+            kv = _mm256_and_ps(_mm256_permutevar8x32_ps(kv, _mm256_add_epi32(idx8, _mm256_set1_epi32(av))),
+                               _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nv2), idx8)));
+            v0 += av;
+            nv = nv2;
+        }
+        outside = u0 < 0 || v0 < 0 || u0 + nu > (1 << ru) || v0 + nv > (1 << rv);
     }
-    int ru = _mm_cvtsi128_si32(r), rv = _mm_extract_epi32(r, 1);
-    int u0 = _mm_cvtsi128_si32(u1), v0 = _mm_extract_epi32(u1, 1);
-    /* the window inside the face (first texel >= 0, last < 2^res), else handed over */
-    __m128i lim = _mm_sllv_epi32(_mm_set1_epi32(1), r);
-    __m128i out_of = _mm_or_si128(_mm_cmpgt_epi32(_mm_setzero_si128(), u1),
-                                  _mm_cmpgt_epi32(u2, lim));
-    if (_mm_movemask_ps(_mm_castsi128_ps(out_of)) & 3) {
+    if (outside) { /* handed over */
         if (!kout)
             return 0;
         float kub[8], kvb[8];
@@ -837,20 +781,144 @@ PF_TARGET int w4_body(const pk_params *p, const uint8_t *const *px, int fulog2, 
     return 1;
 }
 
+/* w4_tail with the strip, out of line (pf_w4tail_DT_NC): a 4 x 4 kernel with a zero tap
+ * (coherent queries on texel centres: bicubic taps at distance 2). */
+#define PF_W4TAIL(DT, NC)                                                                   \
+    __attribute__((target("avx2,fma,f16c"), noinline)) static int pf_w4tail_##DT##_##NC(   \
+        __m256 ku, __m256 kv, __m128 s, int nu, int nv, int u0, int v0, int ru, int rv,    \
+        const uint8_t *const *px, int fvlog2, float *out, pk *kout)                        \
+    {                                                                                       \
+        return w4_tail(ku, kv, s, nu, nv, u0, v0, ru, rv, px, fvlog2, out, kout, DT, NC, 1, \
+                       0);                                                                  \
+    }
+#define PF_W4TAIL_NC(DT) PF_W4TAIL(DT, 1) PF_W4TAIL(DT, 2) PF_W4TAIL(DT, 3) PF_W4TAIL(DT, 4)
+PF_W4TAIL_NC(0)
+PF_W4TAIL_NC(1)
+PF_W4TAIL_NC(2)
+PF_W4TAIL_NC(3)
+
+typedef int (*pf_w4tail_fn)(__m256 ku, __m256 kv, __m128 s, int nu, int nv, int u0, int v0,
+                            int ru, int rv, const uint8_t *const *px, int fvlog2, float *out,
+                            pk *kout);
+
+/* The fused width-4 path's common case, in registers: both widths under 1/4 face, every tap
+ * nonzero (nothing to strip), the window inside the face or handed over whole. The same
+ * arithmetic as w4_axes, kernel8, strip8 (a no-op here), sum_in_order and window in their
+ * order, so bit for bit fast_body; anything else goes to fast_body (gen, out of line).
+ * A width-4 axis has 4 to 8 taps: its width in texels of the resolution chosen (uwpix) lies
+ * in [1, 2), so 4 uwpix rounds out to 4..8 taps; 4 each way (uwpix 1: a power-of-two width,
+ * or the width clamped to a texel) is the case WIDE = 0 takes with the shape as constants
+ * (one 8-lane kernel evaluation, u in lanes 0-3, v in 4-7); the others go to the WIDE = 1
+ * instance (wide, out of line, so that its registers cost the common case nothing). */
+PF_TARGET int w4_body(const pk_params *p, const uint8_t *const *px, int fulog2, int fvlog2,
+                      float u, float v, float uw, float vw, float *out, pk *kout,
+                      unsigned DT, unsigned NC, int WIDE, pf_fast_fn gen, pf_fast_fn wide,
+                      pf_w4tail_fn strip)
+{
+    const __m128i e127 = _mm_set1_epi32(127);
+    __m128 x = _mm_setr_ps(u, v, 0.0f, 0.0f), w = _mm_setr_ps(uw, vw, 0.0f, 0.0f);
+    __m128 lo = _mm_castsi128_ps(_mm_slli_epi32(
+        _mm_sub_epi32(e127, _mm_setr_epi32(fulog2, fvlog2, 0, 0)), 23));
+    w = _mm_max_ps(w, lo);
+    if (_mm_movemask_ps(_mm_cmpge_ps(w, _mm_set1_ps(.25f))) & 3)
+        return 0;
+    __m128i r = _mm_sub_epi32(e127, _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(w), 23),
+                                                  _mm_set1_epi32(0xff)));
+    __m128 rf = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(r, e127), 23));
+    __m128 upix = _mm_sub_ps(_mm_mul_ps(x, rf), _mm_set1_ps(0.5f));
+    __m128 uwpix = _mm_mul_ps(w, rf);
+    __m128 dupix = _mm_mul_ps(_mm_set1_ps(2.0f), uwpix);
+    __m128i u1 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_sub_ps(upix, dupix)));
+    __m128i u2 = _mm_cvttps_epi32(_mm_ceil_ps(_mm_add_ps(upix, dupix)));
+    __m128i n = _mm_sub_epi32(u2, u1);
+    int nu = 4, nv = 4;
+    if (!WIDE) {
+        if ((_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(n, _mm_set1_epi32(4)))) & 3) != 3)
+            return wide(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
+    } else {
+        nu = _mm_cvtsi128_si32(n), nv = _mm_extract_epi32(n, 1);
+        if (nu < 1 || nu > 8 || nv < 1 || nv > 8)
+            return gen(p, px, fulog2, fvlog2, u, v, uw, vw, out, kout);
+    }
+    __m128 x1v = _mm_div_ps(_mm_sub_ps(_mm_cvtepi32_ps(u1), upix), uwpix);
+    __m128 sv = _mm_div_ps(_mm_set1_ps(1.0f), uwpix);
+    const __m256i idx8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 z8 = _mm256_setzero_ps();
+    __m256 ku, kv; /* taps in lanes from 0, +0 past the last */
+    __m128 s;      /* the axis sums in lanes 0 (u) and 1 (v) */
+    if (!WIDE) {   /* both axes in one evaluation: u in lanes 0-3, v 4-7 */
+        const __m256 i4 = _mm256_setr_ps(0, 1, 2, 3, 0, 1, 2, 3);
+        const __m256i sel = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        __m256 x0 = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(x1v), sel);
+        __m256 s8 = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(sv), sel);
+        __m256 k = kernel8(p, _mm256_add_ps(x0, _mm256_mul_ps(i4, s8)));
+        int zero = _mm256_movemask_ps(_mm256_cmp_ps(k, z8, _CMP_EQ_OQ));
+        /* sum_in_order of each axis, both at once: lanes (u_i, v_i) added in i's order */
+        __m128 a = _mm256_castps256_ps128(k), b = _mm256_extractf128_ps(k, 1);
+        __m128 t0 = _mm_unpacklo_ps(a, b), t1 = _mm_unpackhi_ps(a, b);
+        s = _mm_add_ps(_mm_setzero_ps(), t0);
+        s = _mm_add_ps(s, _mm_movehl_ps(t0, t0));
+        s = _mm_add_ps(s, t1);
+        s = _mm_add_ps(s, _mm_movehl_ps(t1, t1));
+        ku = _mm256_zextps128_ps256(a);
+        kv = _mm256_zextps128_ps256(b);
+        if (zero) /* a zero tap (+0 or -0; NaN is not: strip8's compare): stripped */
+            return strip(ku, kv, s, 4, 4, _mm_cvtsi128_si32(u1), _mm_extract_epi32(u1, 1),
+                         _mm_cvtsi128_si32(r), _mm_extract_epi32(r, 1), px, fvlog2, out,
+                         kout);
+    } else {
+        const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+        ku = kernel8(p, _mm256_add_ps(_mm256_set1_ps(_mm_cvtss_f32(x1v)),
+                                      _mm256_mul_ps(i0, _mm256_set1_ps(_mm_cvtss_f32(sv)))));
+        kv = kernel8(p, _mm256_add_ps(
+                            _mm256_set1_ps(_mm_cvtss_f32(_mm_movehdup_ps(x1v))),
+                            _mm256_mul_ps(i0, _mm256_set1_ps(_mm_cvtss_f32(_mm_movehdup_ps(sv))))));
+        __m256 lu = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu), idx8));
+        __m256 lv = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nv), idx8));
+        ku = _mm256_and_ps(ku, lu);
+        kv = _mm256_and_ps(kv, lv);
+        /* the sums below run over the taps before stripping: the zeros stripped lie before
+         * the first nonzero tap (+0 + ±0 is +0) or after the last (s + ±0 is s for s not
+         * -0), so they are strip8's sums */
+        __m256 t0 = _mm256_unpacklo_ps(ku, kv), t1 = _mm256_unpackhi_ps(ku, kv);
+        __m128 a0 = _mm256_castps256_ps128(t0), a1 = _mm256_castps256_ps128(t1);
+        __m128 b0 = _mm256_extractf128_ps(t0, 1), b1 = _mm256_extractf128_ps(t1, 1);
+        s = _mm_add_ps(_mm_setzero_ps(), a0);
+        s = _mm_add_ps(s, _mm_movehl_ps(a0, a0));
+        s = _mm_add_ps(s, a1);
+        s = _mm_add_ps(s, _mm_movehl_ps(a1, a1));
+        s = _mm_add_ps(s, b0);
+        s = _mm_add_ps(s, _mm_movehl_ps(b0, b0));
+        s = _mm_add_ps(s, b1);
+        s = _mm_add_ps(s, _mm_movehl_ps(b1, b1));
+    }
+    int ru = _mm_cvtsi128_si32(r), rv = _mm_extract_epi32(r, 1);
+    int u0 = _mm_cvtsi128_si32(u1), v0 = _mm_extract_epi32(u1, 1);
+    if (WIDE)
+        return w4_tail(ku, kv, s, nu, nv, u0, v0, ru, rv, px, fvlog2, out, kout, DT, NC, 1,
+                       0);
+    /* the window inside the face (first texel >= 0, last < 2^res) */
+    __m128i lim = _mm_sllv_epi32(_mm_set1_epi32(1), r);
+    __m128i out_of = _mm_or_si128(_mm_cmpgt_epi32(_mm_setzero_si128(), u1),
+                                  _mm_cmpgt_epi32(u2, lim));
+    return w4_tail(ku, kv, s, 4, 4, u0, v0, ru, rv, px, fvlog2, out, kout, DT, NC, 0,
+                   _mm_movemask_ps(_mm_castsi128_ps(out_of)) & 3);
+}
+
 #define PF_FAST(DT, NC)                                                                     \
     __attribute__((target("avx2,fma,f16c"), noinline)) static int pf_w4wide_##DT##_##NC(   \
         const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
         float uw, float vw, float *out, pk *kout)                                           \
     {                                                                                       \
         return w4_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC, 1,                   \
-                       pf_fgen_##DT##_##NC, NULL);                                          \
+                       pf_fgen_##DT##_##NC, NULL, NULL);                                    \
     }                                                                                       \
     __attribute__((target("avx2,fma,f16c"))) static int pf_fast_##DT##_##NC(                \
         const pk_params *p, const uint8_t *const *px, int fu, int fv, float u, float v,     \
         float uw, float vw, float *out, pk *kout)                                           \
     {                                                                                       \
         return w4_body(p, px, fu, fv, u, v, uw, vw, out, kout, DT, NC, 0,                   \
-                       pf_fgen_##DT##_##NC, pf_w4wide_##DT##_##NC);                         \
+                       pf_fgen_##DT##_##NC, pf_w4wide_##DT##_##NC, pf_w4tail_##DT##_##NC);  \
     }
 #define PF_FAST_NC(DT) PF_FAST(DT, 1) PF_FAST(DT, 2) PF_FAST(DT, 3) PF_FAST(DT, 4)
 PF_FAST_NC(0)
