@@ -16,7 +16,9 @@
  * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
  * eval, the general path. Both ways do the same arithmetic in the same order. The point
  * filter and the box and width-4 filters also have their own batch loops (point_run,
- * kernel_run: the query checks and the query function inline, no call per query). A
+ * kernel_run: the query checks and the query function inline, no call per query; kernel_run
+ * takes the checks and set-up of 8 queries at once from ptexfilter_lanes.c's kernel lanes
+ * with AVX2, then calls the fused path per query). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
@@ -1203,15 +1205,16 @@ __attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
  * recomputed from q so that kernel_q keeps nothing live across the fused call (its spills
  * cost the in-face queries more than the recomputation costs the others). */
-__attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk_params *pp,
-                                                     const st_sample_opts *o, const st_query *q,
-                                                     float *out, float *cov)
+__attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
+                                                                      const pk_params *pp,
+                                                                      const st_sample_opts *o,
+                                                                      const st_query *q,
+                                                                      int ulog2, int vlog2,
+                                                                      float bu, float bv,
+                                                                      float *out, float *cov)
 {
-    const st_face *F = &c->s->faces[q->face];
-    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
     pk k;
-    pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur, F->ulog2,
-             F->vlog2);
+    pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     pk_strip_zeros(&k);
     if (k.uw <= 0 || k.vw <= 0) {
         for (unsigned ch = 0; ch < c->nc; ch++)
@@ -1234,6 +1237,17 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
                kernel_walk(c, &k, (int)q->face, out, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
+/* kernel_declined_with with the face's size and the widths recomputed from q. */
+__attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk_params *pp,
+                                                     const st_sample_opts *o, const st_query *q,
+                                                     float *out, float *cov)
+{
+    const st_face *F = &c->s->faces[q->face];
+    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+    return kernel_declined_with(c, pp, o, q, F->ulog2, F->vlog2, uw * c->width + c->blur,
+                                vw * c->width + c->blur, out, cov);
 }
 
 /* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
@@ -1432,19 +1446,18 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
                                                               float *oi, float *cov)
 {
     *cov = 1.0f;
-    if (fast) {
-        pk k;
-        int r = c->fast(pp, px, ulog2, vlog2, u, v, bu, bv, oi, &k);
-        if (r == 1)
+    if (!fast) /* not offered: the widths and size as computed (kernel_declined's) */
+        return kernel_declined_with(c, pp, o, qi, ulog2, vlog2, bu, bv, oi, cov);
+    pk k;
+    int r = c->fast(pp, px, ulog2, vlog2, u, v, bu, bv, oi, &k);
+    if (r == 1)
+        return ST_Q_OK;
+    if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
+        if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, &k, (int)qi->face, oi, cov))
             return ST_Q_OK;
-        if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
-            if (c->small && c->mode == ST_MODE_TRAVERSE &&
-                kernel_walk(c, &k, (int)qi->face, oi, cov))
-                return ST_Q_OK;
-            return eval_kernel(c, pp, o, qi, &k, oi, cov);
-        }
+        return eval_kernel(c, pp, o, qi, &k, oi, cov);
     }
-    return kernel_declined(c, pp, o, qi, oi, cov);
+    return kernel_declined(c, pp, o, qi, oi, cov); /* declined: recomputed from qi */
 }
 
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of

@@ -28,6 +28,13 @@
  * their gathers are not made (masked gathers read nothing for them) and the caller serves
  * them afterwards.
  *
+ * The box and width-4 filters (pf_kernel_lanes_select, AVX2 only): steps 1 and 2 on 8
+ * queries, then kernel_qi's widths (|du/dx| + |du/dy|, times width, plus blur: a multiply and
+ * an add, not fused) and its test for the fused path (width-4: widths under 1/4, NaN offered,
+ * a face of at least 8 x 8 texels), and the face's row of the resolution table (base[f],
+ * gathered for the plain lanes); the caller (kernel_run) calls the fused path per query with
+ * these, and serves the others one by one. Same operations, same operands: the same bits.
+ *
  * Owns: nothing but these loops.
  */
 #include "ptexfilter_lanes.h"

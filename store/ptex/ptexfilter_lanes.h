@@ -1,5 +1,6 @@
 /* store/ptex/ptexfilter_lanes.h - Ptex's bilinear filter on several queries at once, one query
- * per vector lane (private to ptexfilter*.c).
+ * per vector lane, and the checks and set-up of the box and width-4 filters' queries the same
+ * way (private to ptexfilter*.c).
  *
  * A lane function takes a fixed number of queries (8 with AVX2, 4 with SSE2: its lane count)
  * and serves those whose bilinear needs no kernel: a valid query (face in range, every
