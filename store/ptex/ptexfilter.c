@@ -16,7 +16,9 @@
  * ptexfilter_simd.c; everything else (edges, subfaces, constant faces, wide kernels) through
  * eval, the general path. Both ways do the same arithmetic in the same order. The point
  * filter and the box and width-4 filters also have their own batch loops (point_run,
- * kernel_run: the query checks and the query function inline, no call per query). A
+ * kernel_run: the query checks and the query function inline, no call per query; kernel_run
+ * takes the checks and set-up of 8 queries at once from ptexfilter_lanes.c's kernel lanes
+ * with AVX2, then calls the fused path per query). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
@@ -1203,15 +1205,16 @@ __attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
  * recomputed from q so that kernel_q keeps nothing live across the fused call (its spills
  * cost the in-face queries more than the recomputation costs the others). */
-__attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk_params *pp,
-                                                     const st_sample_opts *o, const st_query *q,
-                                                     float *out, float *cov)
+__attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
+                                                                      const pk_params *pp,
+                                                                      const st_sample_opts *o,
+                                                                      const st_query *q,
+                                                                      int ulog2, int vlog2,
+                                                                      float bu, float bv,
+                                                                      float *out, float *cov)
 {
-    const st_face *F = &c->s->faces[q->face];
-    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
     pk k;
-    pk_build(pp, &k, q->u, q->v, uw * c->width + c->blur, vw * c->width + c->blur, F->ulog2,
-             F->vlog2);
+    pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     pk_strip_zeros(&k);
     if (k.uw <= 0 || k.vw <= 0) {
         for (unsigned ch = 0; ch < c->nc; ch++)
@@ -1234,6 +1237,17 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
                kernel_walk(c, &k, (int)q->face, out, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
+/* kernel_declined_with with the face's size and the widths recomputed from q. */
+__attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk_params *pp,
+                                                     const st_sample_opts *o, const st_query *q,
+                                                     float *out, float *cov)
+{
+    const st_face *F = &c->s->faces[q->face];
+    float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
+    return kernel_declined_with(c, pp, o, q, F->ulog2, F->vlog2, uw * c->width + c->blur,
+                                vw * c->width + c->blur, out, cov);
 }
 
 /* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
@@ -1419,28 +1433,108 @@ static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
     return dt > 3 || nc < 1 || nc > 4 ? NULL : fns[dt][nc - 1];
 }
 
-/* The batch of the box and width-4 filters with the fused path (qfn is kernel_q): one_query's
- * checks and kernel_q inline per query (no call through serve and qfn), coverage and status
- * written directly; a query that fails the checks goes through serve. Returns the number
- * that failed. */
+/* kernel_qi's steps past its checks for a query that passed them (face f plain, (u, v) in
+ * [0, 1)), the fused path offered (fast) or not (a width-4 kernel it declines): px the face's
+ * row of the table, bu, bv the widths with width and blur applied. Returns the status,
+ * *cov set. */
+__attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_params *pp,
+                                                              const st_sample_opts *o,
+                                                              const st_query *qi, int fast,
+                                                              const uint8_t *const *px,
+                                                              int ulog2, int vlog2, float u,
+                                                              float v, float bu, float bv,
+                                                              float *oi, float *cov)
+{
+    *cov = 1.0f;
+    if (!fast) /* not offered: the widths and size as computed (kernel_declined's) */
+        return kernel_declined_with(c, pp, o, qi, ulog2, vlog2, bu, bv, oi, cov);
+    pk k;
+    int r = c->fast(pp, px, ulog2, vlog2, u, v, bu, bv, oi, &k);
+    if (r == 1)
+        return ST_Q_OK;
+    if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
+        if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, &k, (int)qi->face, oi, cov))
+            return ST_Q_OK;
+        return eval_kernel(c, pp, o, qi, &k, oi, cov);
+    }
+    return kernel_declined(c, pp, o, qi, oi, cov); /* declined: recomputed from qi */
+}
+
+/* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
+ * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
+ * plain_face's checks and kernel_qi's widths and test, lane by lane), then per query the
+ * fused path (kernel_plain); the rest one by one with the same checks in one vector compare
+ * ((u, v) in [0, 1), the four derivatives within the bound, NaN failing it; the face in
+ * range and plain: together they imply one_query's checks and plain_face's) and kernel_qi's
+ * widths from the same vector. A query that fails the checks goes through serve
+ * (one_query, kernel_q: what it did before, in full). Coverage and status written directly.
+ * Returns the number that failed. */
 static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
                       const st_query *q, size_t n, float *out, float *coverage,
-                      uint8_t *status)
+                      uint8_t *status, pf_kernel_lanes_fn kl, const pf_lanes *lc)
 {
+    const uint32_t nfaces = c->s->info.nfaces;
+    const st_face *faces = c->s->faces;
+    const uint8_t *ptxflags = c->t->ptxflags;
+    const uint8_t *const *px = c->t->px;
+    const uint64_t *base = c->t->base;
+    const unsigned nc = c->nc;
+    const int w4 = pp->ftype != ST_FILTER_PTEX_BOX;
+    const v4f width = {c->width, c->width, 0.0f, 0.0f}, blur = {c->blur, c->blur, 0.0f, 0.0f};
+    const v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, one = {1.0f, 1.0f, 1.0f, 1.0f};
+    const v4f lim = {ST_MAX_DERIV, ST_MAX_DERIV, ST_MAX_DERIV, ST_MAX_DERIV};
     int bad = 0;
-    for (size_t i = 0; i < n; i++) {
+    size_t i = 0;
+    if (kl) {
+        for (; i + 8 <= n; i += 8) {
+            pf_klanes k;
+            kl(lc, q + i, &k);
+            for (unsigned j = 0; j < 8; j++) {
+                size_t ii = i + j;
+                if (!(k.plain >> j & 1)) {
+                    bad += serve(c, pp, o, qfn, q, ii, out, coverage, status);
+                    continue;
+                }
+                float cov;
+                int st = kernel_plain(c, pp, o, q + ii, k.fast >> j & 1, k.px[j], k.ulog2[j],
+                                      k.vlog2[j], k.u[j], k.v[j], k.bu[j], k.bv[j],
+                                      out + ii * nc, &cov);
+                if (coverage)
+                    coverage[ii] = cov;
+                if (status)
+                    status[ii] = (uint8_t)st;
+                bad += st != ST_Q_OK;
+            }
+        }
+    }
+    for (; i < n; i++) {
         const st_query *qi = q + i;
-        if (__builtin_expect(query_plain(qi, c->s->info.nfaces), 1)) {
-            float cov;
-            int st = kernel_qi(c, pp, o, qi, out + i * c->nc, &cov);
-            if (coverage)
-                coverage[i] = cov;
-            if (status)
-                status[i] = (uint8_t)st;
-            bad += st != ST_Q_OK;
+        v4f a, d; /* (u, v, dudx, dvdx), (dudx, dvdx, dudy, dvdy): inside the query */
+        memcpy(&a, &qi->u, sizeof a);
+        memcpy(&d, &qi->dudx, sizeof d);
+        v4f ad = v4f_abs(d);
+        v4i ok = (a >= zero) & (a < one), okd = ad <= lim;
+        int m = (ok[0] & 1) | (ok[1] & 2) | (okd[0] & 4) | (okd[1] & 8) | (okd[2] & 16) |
+                (okd[3] & 32);
+        uint32_t f = qi->face;
+        const st_face *F;
+        if (m != 63 || f >= nfaces || (ptxflags[f] & PTX_FLAG_NBCONSTANT) ||
+            ((F = &faces[f])->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))) {
+            bad += serve(c, pp, o, qfn, q, i, out, coverage, status);
             continue;
         }
-        bad += serve(c, pp, o, qfn, q, i, out, coverage, status); /* fails its checks */
+        v4f w = ad + (v4f){ad[2], ad[3], 0.0f, 0.0f}; /* |d.x| + |d.y| per axis */
+        w = w * width + blur;
+        float bu = w[0], bv = w[1], cov;
+        /* kernel_qi: a width-4 kernel of 1/4 face or wider is one the fused path declines */
+        int fast = !w4 || !(bu >= .25f || bv >= .25f || F->ulog2 < 3 || F->vlog2 < 3);
+        int st = kernel_plain(c, pp, o, qi, fast, px + base[f], F->ulog2, F->vlog2, a[0], a[1],
+                              bu, bv, out + i * nc, &cov);
+        if (coverage)
+            coverage[i] = cov;
+        if (status)
+            status[i] = (uint8_t)st;
+        bad += st != ST_Q_OK;
     }
     return bad;
 }
@@ -1504,7 +1598,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         return bad;
     }
     if (qfn == kernel_q && path == PF_PATH_BEST) {
-        int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status);
+        int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status,
+                             pf_kernel_lanes_select(o->filter), &lc);
         st_ptexres_unpin(t);
         return bad;
     }

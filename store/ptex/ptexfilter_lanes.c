@@ -28,6 +28,13 @@
  * their gathers are not made (masked gathers read nothing for them) and the caller serves
  * them afterwards.
  *
+ * The box and width-4 filters (pf_kernel_lanes_select, AVX2 only): steps 1 and 2 on 8
+ * queries, then kernel_qi's widths (|du/dx| + |du/dy|, times width, plus blur: a multiply and
+ * an add, not fused) and its test for the fused path (width-4: widths under 1/4, NaN offered,
+ * a face of at least 8 x 8 texels), and the face's row of the resolution table (base[f],
+ * gathered for the plain lanes); the caller (kernel_run) calls the fused path per query with
+ * these, and serves the others one by one. Same operations, same operands: the same bits.
+ *
  * Owns: nothing but these loops.
  */
 #include "ptexfilter_lanes.h"
@@ -609,6 +616,112 @@ PL_FN4_NC(1)
 PL_FN4_NC(2)
 PL_FN4_NC(3)
 
+/* ---- the box and width-4 filters' checks and set-up (pf_kernel_lanes_select) ----------- */
+
+/* lanes8's steps 1 and 2 (the same checks), then kernel_qi's widths and its test for the
+ * fused path, and the face's row of the table (base[f] gathered for the plain lanes). */
+__attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lanes *c,
+                                                                    const st_query *q,
+                                                                    pf_klanes *k, int w4)
+{
+    __m256 fa[4], fb[4];
+    fields8(q, 0, fa);  /* face u v dudx */
+    fields8(q, 12, fb); /* dudx dvdx dudy dvdy */
+    const __m256 absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    const __m256 lim = _mm256_set1_ps(ST_MAX_DERIV), one = _mm256_set1_ps(1.0f);
+    __m256i face = _mm256_castps_si256(fa[0]);
+    __m256 u = fa[1], v = fa[2];
+    __m256 ax = _mm256_and_ps(fb[0], absm), bx = _mm256_and_ps(fb[1], absm);
+    __m256 ay = _mm256_and_ps(fb[2], absm), by = _mm256_and_ps(fb[3], absm);
+    const __m256i sgn = _mm256_set1_epi32((int)0x80000000u);
+    __m256i fok = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(c->nfaces ^ 0x80000000u)),
+                                     _mm256_xor_si256(face, sgn));
+    __m256 ok = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(ax, lim, _CMP_LE_OQ),
+                                            _mm256_cmp_ps(bx, lim, _CMP_LE_OQ)),
+                              _mm256_and_ps(_mm256_cmp_ps(ay, lim, _CMP_LE_OQ),
+                                            _mm256_cmp_ps(by, lim, _CMP_LE_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(u, _mm256_setzero_ps(), _CMP_GE_OQ),
+                                         _mm256_cmp_ps(u, one, _CMP_LT_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GE_OQ),
+                                         _mm256_cmp_ps(v, one, _CMP_LT_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_castsi256_ps(fok));
+    k->plain = k->fast = 0;
+    if (_mm256_testz_ps(ok, ok))
+        return;
+    __m256i m = _mm256_castps_si256(ok);
+    const int *fw0 = (const int *)(const void *)((const uint8_t *)c->faces +
+                                                 offsetof(st_face, ulog2));
+    __m256i fw = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fw0,
+                                             _mm256_slli_epi32(face, 4), m, 4);
+    __m256i pxf = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
+                                              (const int *)(const void *)c->lanef, face, m, 1);
+    const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
+    __m256i bad = _mm256_or_si256(
+        _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
+        _mm256_and_si256(_mm256_srli_epi32(fw, 24),
+                         _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
+    m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
+    unsigned plain = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
+    if (!plain)
+        return;
+    __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
+    /* kernel_qi's widths: |du/dx| + |du/dy|, times width, plus blur (two operations) */
+    __m256 bu = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(ax, ay), _mm256_set1_ps(c->width)),
+                              _mm256_set1_ps(c->blur));
+    __m256 bv = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(bx, by), _mm256_set1_ps(c->width)),
+                              _mm256_set1_ps(c->blur));
+    unsigned fast = plain;
+    if (w4) { /* not (bu >= 1/4 or bv >= 1/4 or ulog2 < 3 or vlog2 < 3); NaN widths offered */
+        const __m256 q4 = _mm256_set1_ps(.25f);
+        const __m256i three = _mm256_set1_epi32(3);
+        __m256i decl = _mm256_or_si256(
+            _mm256_castps_si256(_mm256_or_ps(_mm256_cmp_ps(bu, q4, _CMP_GE_OQ),
+                                             _mm256_cmp_ps(bv, q4, _CMP_GE_OQ))),
+            _mm256_or_si256(_mm256_cmpgt_epi32(three, lu), _mm256_cmpgt_epi32(three, lv)));
+        fast &= ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(decl));
+    }
+    k->plain = plain;
+    k->fast = fast;
+    _mm256_storeu_si256((__m256i *)(void *)k->ulog2, lu);
+    _mm256_storeu_si256((__m256i *)(void *)k->vlog2, lv);
+    _mm256_storeu_ps(k->u, u);
+    _mm256_storeu_ps(k->v, v);
+    _mm256_storeu_ps(k->bu, bu);
+    _mm256_storeu_ps(k->bv, bv);
+    /* px + base[f] for the plain lanes (8 bytes an entry) */
+    const __m256i pxb = _mm256_set1_epi64x((long long)(uintptr_t)c->px);
+    __m128i f0 = _mm256_castsi256_si128(face), f1 = _mm256_extracti128_si256(face, 1);
+    __m128i m0 = _mm256_castsi256_si128(m), m1 = _mm256_extracti128_si256(m, 1);
+    __m256i b0 = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base, f0,
+                                             _mm256_cvtepi32_epi64(m0), 8);
+    __m256i b1 = _mm256_mask_i32gather_epi64(zero, (const long long *)(const void *)c->base, f1,
+                                             _mm256_cvtepi32_epi64(m1), 8);
+    _mm256_storeu_si256((__m256i *)(void *)&k->px[0],
+                        _mm256_add_epi64(pxb, _mm256_slli_epi64(b0, 3)));
+    _mm256_storeu_si256((__m256i *)(void *)&k->px[4],
+                        _mm256_add_epi64(pxb, _mm256_slli_epi64(b1, 3)));
+}
+
+__attribute__((target("avx2,fma,f16c"))) static void klanes8_box(const pf_lanes *c,
+                                                                 const st_query *q,
+                                                                 pf_klanes *k)
+{
+    klanes8(c, q, k, 0);
+}
+__attribute__((target("avx2,fma,f16c"))) static void klanes8_w4(const pf_lanes *c,
+                                                                const st_query *q,
+                                                                pf_klanes *k)
+{
+    klanes8(c, q, k, 1);
+}
+
+pf_kernel_lanes_fn pf_kernel_lanes_select(unsigned ftype)
+{
+    if (!pf_have_avx2())
+        return NULL;
+    return ftype == ST_FILTER_PTEX_BOX ? klanes8_box : klanes8_w4;
+}
+
 pf_bilinear_lanes_fn pf_bilinear_lanes_select(unsigned dt, unsigned nc, unsigned maxlanes,
                                               unsigned *lanes)
 {
@@ -634,6 +747,12 @@ pf_bilinear_lanes_fn pf_bilinear_lanes_select(unsigned dt, unsigned nc, unsigned
                                               unsigned *lanes)
 {
     (void)dt; (void)nc; (void)maxlanes; (void)lanes;
+    return NULL;
+}
+
+pf_kernel_lanes_fn pf_kernel_lanes_select(unsigned ftype)
+{
+    (void)ftype;
     return NULL;
 }
 

@@ -1,5 +1,6 @@
 /* store/ptex/ptexfilter_lanes.h - Ptex's bilinear filter on several queries at once, one query
- * per vector lane (private to ptexfilter*.c).
+ * per vector lane, and the checks and set-up of the box and width-4 filters' queries the same
+ * way (private to ptexfilter*.c).
  *
  * A lane function takes a fixed number of queries (8 with AVX2, 4 with SSE2: its lane count)
  * and serves those whose bilinear needs no kernel: a valid query (face in range, every
@@ -64,5 +65,27 @@ typedef unsigned (*pf_bilinear_lanes_fn)(const pf_lanes *c, const st_query *q, s
  * < 4, dt or nc is out of range, or the build has no SSE2. */
 pf_bilinear_lanes_fn pf_bilinear_lanes_select(unsigned dt, unsigned nc, unsigned maxlanes,
                                               unsigned *lanes);
+
+/* The box and width-4 filters (ptexfilter.c's kernel_run): the checks and the set-up of 8
+ * queries at once, the per-query path's operations lane by lane (the kernel itself is built
+ * and applied per query by the fused path, ptexfilter_simd.c). plain: the lanes whose query
+ * passes the checks above (face in range, derivatives within ST_MAX_DERIV, NaN failing,
+ * (u, v) in [0, 1), a plain face); fast: of those, the ones to offer the fused path (every
+ * plain one for the box; for a width-4 filter those whose widths are not 1/4 or more - NaN
+ * is offered - on a face of at least 8 x 8 texels: kernel_qi's test). For the plain lanes:
+ * the face's row of the resolution table (px + base[f]), its log2 size, u, v and the widths
+ * with width and blur applied (|du/dx| + |du/dy|, then * width + blur, as kernel_qi
+ * computes them). */
+typedef struct pf_klanes {
+    const uint8_t *const *px[8];
+    int32_t ulog2[8], vlog2[8];
+    float u[8], v[8], bu[8], bv[8];
+    unsigned plain, fast;
+} pf_klanes;
+typedef void (*pf_kernel_lanes_fn)(const pf_lanes *c, const st_query *q, pf_klanes *k);
+
+/* The function for filter ftype (st_filter: box, or a width-4 one), NULL without AVX2 + FMA
+ * + F16C (pf_have_avx2) or SSE2 builds. */
+pf_kernel_lanes_fn pf_kernel_lanes_select(unsigned ftype);
 
 #endif

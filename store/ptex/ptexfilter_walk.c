@@ -108,19 +108,24 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
 __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, int rot, int af)
 {
     float tu[PK_MAX], tv[PK_MAX];
-    int resu = 1 << p->lg[0], resv = 1 << p->lg[1];
-    int fu = resu - p->at[0] - p->n[0], fv = resv - p->at[1] - p->n[1]; /* flipped starts */
+    /* the flipped starts, in the cases that flip (rot 0, the commonest, needs neither) */
+#define PW_FU ((1 << p->lg[0]) - p->at[0] - p->n[0])
+#define PW_FV ((1 << p->lg[1]) - p->at[1] - p->n[1])
     switch (rot & 3) {
     case 1: /* flip_u, swap_uv */
         reversed(tv, p->k[0], p->n[0]);
-        return put_face(s, p->lg[1], p->lg[0], p->at[1], fu, p->n[1], p->n[0], p->k[1], tv, af);
+        return put_face(s, p->lg[1], p->lg[0], p->at[1], PW_FU, p->n[1], p->n[0], p->k[1], tv,
+                        af);
     case 2: /* flip_u, flip_v */
         reversed(tu, p->k[0], p->n[0]);
         reversed(tv, p->k[1], p->n[1]);
-        return put_face(s, p->lg[0], p->lg[1], fu, fv, p->n[0], p->n[1], tu, tv, af);
+        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af);
     case 3: /* flip_v, swap_uv */
         reversed(tu, p->k[1], p->n[1]);
-        return put_face(s, p->lg[1], p->lg[0], fv, p->at[0], p->n[1], p->n[0], tu, p->k[0], af);
+        return put_face(s, p->lg[1], p->lg[0], PW_FV, p->at[0], p->n[1], p->n[0], tu, p->k[0],
+                        af);
+#undef PW_FU
+#undef PW_FV
     default:
         return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
                         p->k[1], af);
@@ -265,21 +270,40 @@ __attribute__((noinline)) static int corner_other(pw_state *s, pw kc, int f, int
  * else corner_other. */
 __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int f, int eid)
 {
+    /* the four steps around the vertex written out (the loop's tests in its order: a step
+     * that leaves the mesh, reaches a subface, or comes back to (f, eid) before the fourth,
+     * or not at the fourth, goes to corner_other) */
     const st_face *faces = s->w->faces;
-    int af = f, ae = eid, cf = -1, ce = 0;
-    for (int i = 0; i < 4; i++) {
-        const st_face *A = &faces[af];
-        af = A->adjface[ae];
-        ae = (A->adjedge[ae] + 1) % 4;
-        if (af < 0 || subface(s->w, af) || (af == f && ae == eid) != (i == 3))
-            break;
-        if (i == 1) {
-            cf = af;
-            ce = ae;
-        }
-        if (i == 3)
-            return put(s, &kc, eid - ce + 2, cf);
-    }
+    const st_face *A = &faces[f];
+    int a1 = A->adjface[eid];
+    if (a1 < 0)
+        goto other;
+    int e1 = (A->adjedge[eid] + 1) % 4;
+    if (subface(s->w, a1) || (a1 == f && e1 == eid))
+        goto other;
+    A = &faces[a1];
+    int cf = A->adjface[e1];
+    if (cf < 0)
+        goto other;
+    int ce = (A->adjedge[e1] + 1) % 4;
+    if (subface(s->w, cf) || (cf == f && ce == eid))
+        goto other;
+    A = &faces[cf];
+    int a3 = A->adjface[ce];
+    if (a3 < 0)
+        goto other;
+    int e3 = (A->adjedge[ce] + 1) % 4;
+    if (subface(s->w, a3) || (a3 == f && e3 == eid))
+        goto other;
+    A = &faces[a3];
+    int a4 = A->adjface[e3];
+    if (a4 < 0)
+        goto other;
+    int e4 = (A->adjedge[e3] + 1) % 4;
+    if (subface(s->w, a4) || !(a4 == f && e4 == eid))
+        goto other;
+    return put(s, &kc, eid - ce + 2, cf);
+other:
     return corner_other(s, kc, f, eid);
 }
 
