@@ -370,6 +370,35 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         y1 = R - it->hi[2] - it->hi[0] + 1;
     if (y2 > R - it->lo[2] - it->lo[0])
         y2 = R - it->lo[2] - it->lo[0];
+    if (reads && y1 >= 0 && y2 <= R && it->lo[0] >= 0 && it->hi[0] <= R) {
+        /* every row inside the level (a piece clamped into its face, which Traverse and
+         * Discard always apply): the rows without the per-row checks, the row's address
+         * stepped; the same Q, DQ and taps as the loop below */
+        const size_t rs = (size_t)R * ts;
+        const uint8_t *row = data + (size_t)y1 * rs;
+        for (int y = y1; y < y2; y++, row += rs) {
+            __asm__ volatile("" ::: "memory"); /* as below: the fields re-read each row */
+            const float A = it->A, B = it->B, C = it->C;
+            int xw = R - y;
+            int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
+            int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
+            float U = (float)x1 - it->u, V = (float)y - it->v;
+            float DQ = A * (2.0f * U + 1.0f) + B * V;
+            float Q = A * U * U + (B * U + C * V) * V;
+            const uint8_t *px = row + (size_t)x1 * ts, *end = row + (size_t)x2 * ts;
+            for (; px < end; px += ts) {
+                if (Q < 1.0f) {
+                    float w = expf(gs * Q) * wscale;
+                    acc += texel_vec(px, one, DT, NC) * w;
+                    if (NC == 4)
+                        wsum4 += w;
+                }
+                Q += DQ;
+                DQ += DDQ;
+            }
+        }
+        y2 = y1; /* done: the loop below visits nothing */
+    }
     for (int y = y1; y < y2; y++) {
         /* the row's set-up reads the sweep's fields from memory (an empty asm that may change
          * memory), so that they are not held in registers across the loop, where every expf
