@@ -309,7 +309,8 @@ __attribute__((always_inline)) static inline pt_v4f texel_vec(const uint8_t *px,
  * the face reads: the texel under the face point nearest its centroid. (A tap inside the face,
  * upright x >= 0, y >= 0, x + y <= R - 1 or inverted x <= R - 1, y <= R - 1, x + y >= R, reads
  * itself: sweep_t takes those without calling this.) */
-static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
+__attribute__((always_inline)) static inline void fold_tap(int R, int odd, int x, int y,
+                                                           int *tx, int *ty)
 {
     /* centroid in texel units: upright (x + 1/3, y + 1/3); an inverted one is cell
      * (R-1-y, R-1-x), centroid + 2/3 */
