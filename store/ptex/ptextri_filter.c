@@ -78,8 +78,11 @@ typedef struct ti {
 typedef struct tc {
     const st_set *s;
     unsigned nc, dt;
-    float (*rd)(struct tc *c, const ti *it, const uint8_t *data, int constant);   /* SW_READ */
-    float (*fold)(struct tc *c, const ti *it, const uint8_t *data, int constant); /* SW_FOLD */
+    /* a piece's two sweeps (each when valid), their weights added to weight in turn */
+    void (*rd)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data,
+               int constant);   /* SW_READ */
+    void (*fold)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data,
+                 int constant); /* SW_FOLD */
     pt_v4f acc;            /* channel sums, lanes 0..nc-1 (the rest: 0, or lane 3 scratch
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
@@ -481,16 +484,33 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     return wsum;
 }
 
-typedef float (*sweep_fn)(tc *c, const ti *it, const uint8_t *data, int constant);
+typedef void (*sweep_fn)(tc *c, const ti *ev, const ti *od, const uint8_t *data,
+                         int constant);
+
+/* Both sweeps of a piece in one call (the sums carried in registers from one to the other):
+ * c->weight += the upright sweep's weight, then += the inverted sweep's, as two calls would. */
+__attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, const ti *od,
+                                                           const uint8_t *data, int constant,
+                                                           int how, unsigned DT, unsigned NC)
+{
+    float w = c->weight;
+    if (ev->valid)
+        w += sweep_t(c, ev, data, constant, how, DT, NC);
+    if (od->valid)
+        w += sweep_t(c, od, data, constant, how, DT, NC);
+    c->weight = w;
+}
 
 #define PT_SWEEP(DT, NC)                                                                     \
-    static float sweep_r_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    static void sweep_r_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
+                                    int constant)                                           \
     {                                                                                        \
-        return sweep_t(c, it, d, constant, SW_READ, DT, NC);                                 \
+        sweep2_t(c, ev, od, d, constant, SW_READ, DT, NC);                                   \
     }                                                                                        \
-    static float sweep_f_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    static void sweep_f_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
+                                    int constant)                                           \
     {                                                                                        \
-        return sweep_t(c, it, d, constant, SW_FOLD, DT, NC);                                 \
+        sweep2_t(c, ev, od, d, constant, SW_FOLD, DT, NC);                                   \
     }
 #define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
 PT_SWEEP_NC(0)
@@ -530,10 +550,7 @@ static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
     unsigned level = F->ulog2 - (unsigned)k->res;
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
-    if (ev->valid)
-        c->weight += c->rd(c, ev, data, constant);
-    if (od->valid)
-        c->weight += c->rd(c, od, data, constant);
+    c->rd(c, ev, od, data, constant);
 }
 
 static void apply_face(tc *c, tk *k, uint32_t f)
@@ -608,10 +625,8 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
     int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)res);
-    if (ev.valid)
-        c->weight += c->fold(c, &ev, data, constant);
-    if (od.valid)
-        c->weight += c->fold(c, &od, data, constant);
+    if (ev.valid || od.valid)
+        c->fold(c, &ev, &od, data, constant);
 }
 
 static float one_value(unsigned dt)
