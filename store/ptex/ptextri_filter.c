@@ -36,6 +36,10 @@
 #include "ptexres.h"
 #include "trilevel.h"
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #define PT_MAX_DEPTH  24   /* edge crossings in a row; a closed mesh needs a few */
 #define PT_MAX_PIECES 256  /* pieces per query; bounds the work a hostile adjacency can cause */
 
@@ -220,7 +224,11 @@ PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
     float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
     float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
     ev->R = od->R = R;
-    ev->wscale = od->wscale = 1.0f / (fR * fR);
+    /* 1 / R^2 = 2^(-2 res) exactly (res <= 15): its bits instead of a division */
+    uint32_t wsb = (uint32_t)(127 - 2 * res) << 23;
+    float wscale;
+    memcpy(&wscale, &wsb, 4);
+    ev->wscale = od->wscale = wscale;
     ev->odd = 0;
     od->odd = 1;
     ev->u = k->u * fR - third;
@@ -257,19 +265,37 @@ PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
     _Static_assert(offsetof(ti, hi) == offsetof(ti, lo) + 3 * sizeof(int), "lo, hi adjacent");
     char *el = (char *)ev + offsetof(ti, lo), *ol = (char *)od + offsetof(ti, lo);
     memcpy(el, &ia, 16);
+#ifdef __SSE2__ /* the halves of ib straight from the register */
+    _mm_storel_epi64((__m128i *)(void *)(el + 16), (__m128i)ib);
+    _mm_storeh_pi((__m64 *)(void *)ol, (__m128)ib);
+#else
     memcpy(el + 16, &ib, 8);
     memcpy(ol, (const char *)&ib + 8, 8);
+#endif
     memcpy(ol + 8, &ic, 16);
     ev->A = Ak;
     ev->B = Bk;
     ev->C = Ck;
-    ev->valid = ev->hi[0] > ev->lo[0] && ev->hi[1] > ev->lo[1] && ev->hi[2] > ev->lo[2];
+    /* valid: hi[j] > lo[j] for j = 0..2, the three compares of each sweep at once */
+    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
+    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
+    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
+    pt_v4i ev_ok = ehi > ia, od_ok = ohi > olo; /* -1 where true */
+#ifdef __SSE2__
+    ev->valid = (_mm_movemask_ps((__m128)ev_ok) & 7) == 7;
+#else
+    ev->valid = (ev_ok[0] & ev_ok[1] & ev_ok[2]) != 0;
+#endif
     od->u = (1.0f - k->v) * fR - third;
     od->v = (1.0f - k->u) * fR - third;
     od->A = Ck;
     od->B = Bk;
     od->C = Ak;
-    od->valid = od->hi[0] > od->lo[0] && od->hi[1] > od->lo[1] && od->hi[2] > od->lo[2];
+#ifdef __SSE2__
+    od->valid = (_mm_movemask_ps((__m128)od_ok) & 7) == 7;
+#else
+    od->valid = (od_ok[0] & od_ok[1] & od_ok[2]) != 0;
+#endif
 }
 
 /* Channel ch of the texel at px as a float of its stored value (not scaled to [0, 1]). */
