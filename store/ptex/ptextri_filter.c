@@ -527,16 +527,32 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
     c->weight = w;
 }
 
+/* The read sweeps of a constant face or a 1x1 level (no texel read per tap, the one texel
+ * times the summed weight after) are an instance of their own, sweep_rc_*; in the others, and
+ * in the fold sweeps' two branches, `constant` is a constant. */
 #define PT_SWEEP(DT, NC)                                                                     \
+    __attribute__((noinline)) static void sweep_rc_##DT##_##NC(tc *c, const ti *ev,          \
+                                                               const ti *od,                 \
+                                                               const uint8_t *d)             \
+    {                                                                                        \
+        sweep2_t(c, ev, od, d, 1, SW_READ, DT, NC);                                          \
+    }                                                                                        \
     static void sweep_r_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
                                     int constant)                                           \
     {                                                                                        \
-        sweep2_t(c, ev, od, d, constant, SW_READ, DT, NC);                                   \
+        if (constant) {                                                                      \
+            sweep_rc_##DT##_##NC(c, ev, od, d);                                              \
+            return;                                                                          \
+        }                                                                                    \
+        sweep2_t(c, ev, od, d, 0, SW_READ, DT, NC);                                          \
     }                                                                                        \
     static void sweep_f_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
                                     int constant)                                           \
     {                                                                                        \
-        sweep2_t(c, ev, od, d, constant, SW_FOLD, DT, NC);                                   \
+        if (constant) /* every tap reads texel 0 (not the read sweeps' sum) */              \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, DT, NC);                                      \
+        else                                                                                 \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, DT, NC);                                      \
     }
 #define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
 PT_SWEEP_NC(0)
