@@ -36,6 +36,10 @@
 #include "ptexres.h"
 #include "trilevel.h"
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #define PT_MAX_DEPTH  24   /* edge crossings in a row; a closed mesh needs a few */
 #define PT_MAX_PIECES 256  /* pieces per query; bounds the work a hostile adjacency can cause */
 
@@ -78,8 +82,11 @@ typedef struct ti {
 typedef struct tc {
     const st_set *s;
     unsigned nc, dt;
-    float (*rd)(struct tc *c, const ti *it, const uint8_t *data, int constant);   /* SW_READ */
-    float (*fold)(struct tc *c, const ti *it, const uint8_t *data, int constant); /* SW_FOLD */
+    /* a piece's two sweeps (each when valid), their weights added to weight in turn */
+    void (*rd)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data,
+               int constant);   /* SW_READ */
+    void (*fold)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data,
+                 int constant); /* SW_FOLD */
     pt_v4f acc;            /* channel sums, lanes 0..nc-1 (the rest: 0, or lane 3 scratch
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
@@ -217,7 +224,11 @@ PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
     float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
     float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
     ev->R = od->R = R;
-    ev->wscale = od->wscale = 1.0f / (fR * fR);
+    /* 1 / R^2 = 2^(-2 res) exactly (res <= 15): its bits instead of a division */
+    uint32_t wsb = (uint32_t)(127 - 2 * res) << 23;
+    float wscale;
+    memcpy(&wscale, &wsb, 4);
+    ev->wscale = od->wscale = wscale;
     ev->odd = 0;
     od->odd = 1;
     ev->u = k->u * fR - third;
@@ -254,19 +265,37 @@ PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
     _Static_assert(offsetof(ti, hi) == offsetof(ti, lo) + 3 * sizeof(int), "lo, hi adjacent");
     char *el = (char *)ev + offsetof(ti, lo), *ol = (char *)od + offsetof(ti, lo);
     memcpy(el, &ia, 16);
+#ifdef __SSE2__ /* the halves of ib straight from the register */
+    _mm_storel_epi64((__m128i *)(void *)(el + 16), (__m128i)ib);
+    _mm_storeh_pi((__m64 *)(void *)ol, (__m128)ib);
+#else
     memcpy(el + 16, &ib, 8);
     memcpy(ol, (const char *)&ib + 8, 8);
+#endif
     memcpy(ol + 8, &ic, 16);
     ev->A = Ak;
     ev->B = Bk;
     ev->C = Ck;
-    ev->valid = ev->hi[0] > ev->lo[0] && ev->hi[1] > ev->lo[1] && ev->hi[2] > ev->lo[2];
+    /* valid: hi[j] > lo[j] for j = 0..2, the three compares of each sweep at once */
+    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
+    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
+    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
+    pt_v4i ev_ok = ehi > ia, od_ok = ohi > olo; /* -1 where true */
+#ifdef __SSE2__
+    ev->valid = (_mm_movemask_ps((__m128)ev_ok) & 7) == 7;
+#else
+    ev->valid = (ev_ok[0] & ev_ok[1] & ev_ok[2]) != 0;
+#endif
     od->u = (1.0f - k->v) * fR - third;
     od->v = (1.0f - k->u) * fR - third;
     od->A = Ck;
     od->B = Bk;
     od->C = Ak;
-    od->valid = od->hi[0] > od->lo[0] && od->hi[1] > od->lo[1] && od->hi[2] > od->lo[2];
+#ifdef __SSE2__
+    od->valid = (_mm_movemask_ps((__m128)od_ok) & 7) == 7;
+#else
+    od->valid = (od_ok[0] & od_ok[1] & od_ok[2]) != 0;
+#endif
 }
 
 /* Channel ch of the texel at px as a float of its stored value (not scaled to [0, 1]). */
@@ -309,7 +338,8 @@ __attribute__((always_inline)) static inline pt_v4f texel_vec(const uint8_t *px,
  * the face reads: the texel under the face point nearest its centroid. (A tap inside the face,
  * upright x >= 0, y >= 0, x + y <= R - 1 or inverted x <= R - 1, y <= R - 1, x + y >= R, reads
  * itself: sweep_t takes those without calling this.) */
-static void fold_tap(int R, int odd, int x, int y, int *tx, int *ty)
+__attribute__((always_inline)) static inline void fold_tap(int R, int odd, int x, int y,
+                                                           int *tx, int *ty)
 {
     /* centroid in texel units: upright (x + 1/3, y + 1/3); an inverted one is cell
      * (R-1-y, R-1-x), centroid + 2/3 */
@@ -370,6 +400,35 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         y1 = R - it->hi[2] - it->hi[0] + 1;
     if (y2 > R - it->lo[2] - it->lo[0])
         y2 = R - it->lo[2] - it->lo[0];
+    if (reads && y1 >= 0 && y2 <= R && it->lo[0] >= 0 && it->hi[0] <= R) {
+        /* every row inside the level (a piece clamped into its face, which Traverse and
+         * Discard always apply): the rows without the per-row checks, the row's address
+         * stepped; the same Q, DQ and taps as the loop below */
+        const size_t rs = (size_t)R * ts;
+        const uint8_t *row = data + (size_t)y1 * rs;
+        for (int y = y1; y < y2; y++, row += rs) {
+            __asm__ volatile("" ::: "memory"); /* as below: the fields re-read each row */
+            const float A = it->A, B = it->B, C = it->C;
+            int xw = R - y;
+            int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
+            int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
+            float U = (float)x1 - it->u, V = (float)y - it->v;
+            float DQ = A * (2.0f * U + 1.0f) + B * V;
+            float Q = A * U * U + (B * U + C * V) * V;
+            const uint8_t *px = row + (size_t)x1 * ts, *end = row + (size_t)x2 * ts;
+            for (; px < end; px += ts) {
+                if (Q < 1.0f) {
+                    float w = expf(gs * Q) * wscale;
+                    acc += texel_vec(px, one, DT, NC) * w;
+                    if (NC == 4)
+                        wsum4 += w;
+                }
+                Q += DQ;
+                DQ += DDQ;
+            }
+        }
+        y2 = y1; /* done: the loop below visits nothing */
+    }
     for (int y = y1; y < y2; y++) {
         /* the row's set-up reads the sweep's fields from memory (an empty asm that may change
          * memory), so that they are not held in registers across the loop, where every expf
@@ -451,16 +510,49 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     return wsum;
 }
 
-typedef float (*sweep_fn)(tc *c, const ti *it, const uint8_t *data, int constant);
+typedef void (*sweep_fn)(tc *c, const ti *ev, const ti *od, const uint8_t *data,
+                         int constant);
 
+/* Both sweeps of a piece in one call (the sums carried in registers from one to the other):
+ * c->weight += the upright sweep's weight, then += the inverted sweep's, as two calls would. */
+__attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, const ti *od,
+                                                           const uint8_t *data, int constant,
+                                                           int how, unsigned DT, unsigned NC)
+{
+    float w = c->weight;
+    if (ev->valid)
+        w += sweep_t(c, ev, data, constant, how, DT, NC);
+    if (od->valid)
+        w += sweep_t(c, od, data, constant, how, DT, NC);
+    c->weight = w;
+}
+
+/* The read sweeps of a constant face or a 1x1 level (no texel read per tap, the one texel
+ * times the summed weight after) are an instance of their own, sweep_rc_*; in the others, and
+ * in the fold sweeps' two branches, `constant` is a constant. */
 #define PT_SWEEP(DT, NC)                                                                     \
-    static float sweep_r_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    __attribute__((noinline)) static void sweep_rc_##DT##_##NC(tc *c, const ti *ev,          \
+                                                               const ti *od,                 \
+                                                               const uint8_t *d)             \
     {                                                                                        \
-        return sweep_t(c, it, d, constant, SW_READ, DT, NC);                                 \
+        sweep2_t(c, ev, od, d, 1, SW_READ, DT, NC);                                          \
     }                                                                                        \
-    static float sweep_f_##DT##_##NC(tc *c, const ti *it, const uint8_t *d, int constant)   \
+    static void sweep_r_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
+                                    int constant)                                           \
     {                                                                                        \
-        return sweep_t(c, it, d, constant, SW_FOLD, DT, NC);                                 \
+        if (constant) {                                                                      \
+            sweep_rc_##DT##_##NC(c, ev, od, d);                                              \
+            return;                                                                          \
+        }                                                                                    \
+        sweep2_t(c, ev, od, d, 0, SW_READ, DT, NC);                                          \
+    }                                                                                        \
+    static void sweep_f_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
+                                    int constant)                                           \
+    {                                                                                        \
+        if (constant) /* every tap reads texel 0 (not the read sweeps' sum) */              \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, DT, NC);                                      \
+        else                                                                                 \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, DT, NC);                                      \
     }
 #define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
 PT_SWEEP_NC(0)
@@ -500,10 +592,7 @@ static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
     unsigned level = F->ulog2 - (unsigned)k->res;
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
-    if (ev->valid)
-        c->weight += c->rd(c, ev, data, constant);
-    if (od->valid)
-        c->weight += c->rd(c, od, data, constant);
+    c->rd(c, ev, od, data, constant);
 }
 
 static void apply_face(tc *c, tk *k, uint32_t f)
@@ -578,10 +667,8 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
     int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)res);
-    if (ev.valid)
-        c->weight += c->fold(c, &ev, data, constant);
-    if (od.valid)
-        c->weight += c->fold(c, &od, data, constant);
+    if (ev.valid || od.valid)
+        c->fold(c, &ev, &od, data, constant);
 }
 
 static float one_value(unsigned dt)
