@@ -12,7 +12,7 @@
  * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
  * (nor parsed) until the peer drains them. Memory: buffers are allocated when data arrives
  * and released as soon as everything is parsed and answered (small ones to the thread's
- * spare slot, which the next connection that reads takes), so an idle connection holds
+ * spare slots, which the next connection that reads takes), so an idle connection holds
  * only its struct (~200 bytes) plus the kernel's socket.
  */
 #include <arpa/inet.h>
@@ -172,11 +172,11 @@ static void in_consume(sts_conn *c, size_t n)
 /* ---- split reads ---------------------------------------------------------------------------
  * A SAMPLE frame of SPLIT_MIN bytes or more ends a read: when the frame being read has its
  * header in the buffer (or, in an empty buffer, when the last frame was such a SAMPLE: the
- * client repeats its batches, c->next_total), the read is one readv-style call into two
- * buffers, the rest of that frame into `in` and whatever follows into `in2` at the pad the
- * frame has (in_pad), sized for a frame as long. So the next frame lands at its final,
- * aligned place in a buffer that has room for all of it: it is never moved to make room
- * (the compaction in in_reserve) and its queries are sampled where recv put them. Once `in`
+ * client repeats its batches, c->next_total), the read is one recvmsg with two iovecs: the
+ * rest of that frame into `in`, whatever follows into `in2` at the pad the frame has
+ * (in_pad), `in2` sized for a frame as long. So the next frame lands at its final, aligned
+ * place in a buffer that has room for all of it: it is never moved to make room (the
+ * compaction in in_reserve) and its queries are sampled where recvmsg put them. Once `in`
  * is parsed to its end the two buffers swap (in_swap). When the guess was wrong (the next
  * frame is longer than its room, or the split fell inside a frame) `in2`'s bytes are
  * appended to `in` (in_join) and parsing goes on as with one buffer. */
@@ -238,8 +238,8 @@ static int in2_prepare(sts_conn *c, size_t pad, size_t n)
  * answered is sent, small buffers (<= KEEP_SMALL) are released at once (so 10k idle
  * connections hold only their structs) and big ones once the connection has been quiet for
  * a second (re-growing a 100 KiB+ buffer per SAMPLE request would cost mmap and page faults).
- * A small buffer goes to its I/O thread's spare slot (one input, one output buffer) when
- * that is empty, else back to malloc; the next connection of the thread that reads takes the
+ * A small buffer goes to its I/O thread's spare slots (two input buffers, a split read's
+ * pair, and one output buffer) when one is empty, else back to malloc; the next connection of the thread that reads takes the
  * spares (in_reserve, out_take_spare). Measured (callgrind, 2 connections x -P 2, 256-query
  * SAMPLE over TCP): before, each request pair re-malloced the input buffer and regrew the
  * output buffer from 256 bytes to 16 KiB, copying the first reply on the way, ~2,600 of the
@@ -592,7 +592,7 @@ static void conn_readable(sts_conn *c)
         else if (niov == 1)
             r = recv(c->fd, iov[0].iov_base, iov[0].iov_len, MSG_DONTWAIT);
         else
-            r = readv(c->fd, iov, niov);   /* nonblocking socket (accept4) */
+            r = recvmsg(c->fd, &(struct msghdr){.msg_iov = iov, .msg_iovlen = 2}, MSG_DONTWAIT);
     } while (r < 0 && errno == EINTR);
     if (r == 0 && stp_buf_avail(&c->out)) {
         c->close_after = 1;  /* the peer half-closed: still send what it asked for */
