@@ -207,6 +207,18 @@ static int in_join(sts_conn *c)
     return 0;
 }
 
+/* in_join for conn_process (a split read whose split was not a frame's end); without memory
+ * the connection is closed once its replies are out. 0 or -1. */
+static int in_join_or_close(sts_conn *c)
+{
+    if (in_join(c) == 0)
+        return 0;
+    STS_STAT_ADD(c->io->srv, mem_rejected, 1);
+    c->close_after = 1;
+    c->in.start = c->in.len = c->in2.start = c->in2.len = 0;
+    return -1;
+}
+
 /* Makes `in2` (empty) ready to take a frame of n bytes at offset pad. 0 or -1 (the read is
  * then not split). */
 static int in2_prepare(sts_conn *c, size_t pad, size_t n)
@@ -443,36 +455,35 @@ static void conn_process(sts_conn *c)
     while (!c->busy && !c->close_after && !c->dead) {
         if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
             break;  /* backpressure: answer the rest once the peer has read */
-        if (c->in.start == c->in.len && in2_avail(c))
-            in_swap(c);   /* a split read: the next frame is in the other buffer */
         size_t avail = c->in.len - c->in.start;
         if (c->skip) {
             size_t n = avail < c->skip ? avail : (size_t)c->skip;
             in_consume(c, n);
             c->skip -= n;
-            if (c->skip)
-                break;
+            if (c->skip) {
+                if (!in2_avail(c))
+                    break;
+                in_swap(c);   /* a split read: the rest is in the other buffer */
+                continue;
+            }
             c->req_start_ms = 0;   /* the refused frame is over */
             continue;
         }
-        if (avail == 0)
-            break;
+        if (avail == 0) {
+            if (!in2_avail(c))
+                break;
+            in_swap(c);   /* a split read: the next frame is in the other buffer */
+            continue;
+        }
         const uint8_t *head = c->in.data + c->in.start;
         uint64_t max_frame = STS_LIVE(srv, max_frame);
         stp_header h;
         int reason = 0;
         memset(&h, 0, sizeof h);
         int rc = stp_parse_header(head, avail, (size_t)max_frame, &h, &reason);
-        if (rc == STP_NEED_MORE || (rc == STP_OK && avail < STP_HEADER_SIZE + (size_t)h.body_len &&
-                                    in2_avail(c))) {
-            if (!in2_avail(c))
+        if (rc == STP_NEED_MORE) {
+            if (!in2_avail(c) || in_join_or_close(c) != 0)
                 break;
-            if (in_join(c) != 0) {   /* a split read whose split was not a frame's end */
-                STS_STAT_ADD(srv, mem_rejected, 1);
-                c->close_after = 1;
-                c->in.start = c->in.len = c->in2.start = c->in2.len = 0;
-                break;
-            }
             continue;
         }
         if (rc == STP_BAD) {
@@ -512,6 +523,11 @@ static void conn_process(sts_conn *c)
         }
         size_t total = STP_HEADER_SIZE + (size_t)h.body_len;
         if (avail < total) {
+            if (in2_avail(c)) {
+                if (in_join_or_close(c) != 0)
+                    break;
+                continue;
+            }
             /* the frame is not all here: make room for it, within the memory limit */
             if (c->in.cap - c->in.start < total) {
                 uint64_t grow = total > c->in.cap ? total - c->in.cap : 0;
