@@ -37,6 +37,9 @@ struct sts_conn {
     sts_io   *io;
     uint64_t  id;
     sts_inbuf in;            /* allocated lazily on the first read */
+    sts_inbuf in2;           /* the next buffer of a split read (io.c, "Split reads"): its
+                                bytes [start, len) follow in's on the wire; empty but for the
+                                moment between such a read and the parse that takes them */
     stp_buf   out;           /* replies not yet written; allocated lazily */
     int64_t   last_ms;       /* last traffic, monotonic ms */
     int64_t   req_start_ms;  /* when the first byte of the frame still incomplete in `in` (or
@@ -54,6 +57,9 @@ struct sts_conn {
     uint8_t   in_pad;        /* where a read into an empty input buffer starts (0-3): the last
                                 frame's in_pad (io.c), so a client's next SAMPLE of the same
                                 set lands with its queries aligned */
+    uint32_t  next_total;    /* the length of the last whole frame when it was a SAMPLE of
+                                SPLIT_MIN bytes or more, else 0: where a read into an empty
+                                buffer is split (the client repeats its batches) */
     struct sts_shm_conn *shm;  /* shm.c: descriptors held and the mapped region; NULL = none */
     sts_conn *prev, *next;   /* the I/O thread's list (idle scan, drain) */
 };
@@ -92,12 +98,13 @@ struct sts_io {
                                           a second old (0 = none): eviction candidates */
     uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
     int             cpu;           /* the CPU this thread is pinned to (pin-io), -1 = none */
-    /* One input and one output buffer (<= 64 KiB each) that a connection of this thread
-     * released when everything was answered, kept for the next connection that reads: a
-     * request / reply cycle then neither mallocs and frees them nor regrows the output
-     * buffer (with a copy) from 256 bytes (io.c). Not counted in buffer_memory. */
-    uint8_t        *spare_in;
-    size_t          spare_in_cap;
+    /* Two input buffers (a split read's pair) and one output buffer (<= 64 KiB each) that a
+     * connection of this thread released when everything was answered, kept for the next
+     * connection that reads: a request / reply cycle then neither mallocs and frees them nor
+     * regrows the output buffer (with a copy) from 256 bytes (io.c). Not counted in
+     * buffer_memory. */
+    uint8_t        *spare_in[2];
+    size_t          spare_in_cap[2];
     stp_buf         spare_out;
 };
 

@@ -393,7 +393,8 @@ void sts_server_free(sts_server *srv)
         if (io->wakefd >= 0)
             close(io->wakefd);
         sts_scratch_free(&io->scratch);
-        free(io->spare_in);
+        free(io->spare_in[0]);
+        free(io->spare_in[1]);
         stp_buf_free(&io->spare_out);
         pthread_mutex_destroy(&io->mu);
     }

@@ -54,17 +54,16 @@ static void keep_fd(sts_server *srv, sts_conn *c, int fd)
     s->fds[s->nfds++] = fd;
 }
 
-ssize_t sts_shm_recv(sts_server *srv, sts_conn *c, void *buf, size_t len)
+ssize_t sts_shm_recv(sts_server *srv, sts_conn *c, struct iovec *iov, int niov)
 {
     union {
         struct cmsghdr h;
         char b[CMSG_SPACE(sizeof(int) * 8)];
     } ctl;
-    struct iovec iov = { buf, len };
     struct msghdr m;
     memset(&m, 0, sizeof m);
-    m.msg_iov = &iov;
-    m.msg_iovlen = 1;
+    m.msg_iov = iov;
+    m.msg_iovlen = (size_t)niov;
     m.msg_control = ctl.b;
     m.msg_controllen = sizeof ctl.b;
     ssize_t r = recvmsg(c->fd, &m, MSG_DONTWAIT | MSG_CMSG_CLOEXEC);

@@ -47,9 +47,11 @@ typedef struct sts_shm_scratch {
 } sts_shm_scratch;
 void sts_shm_scratch_free(sts_shm_scratch *s);   /* NULL accepted; frees s too */
 
-/* recv() for a Unix connection: the same result, and descriptors that come with the bytes
- * are kept for SHM_ATTACH (STS_SHM_MAX_FDS at most; more are closed at once, shm_fds_dropped). */
-ssize_t sts_shm_recv(sts_server *srv, sts_conn *c, void *buf, size_t len);
+/* readv() for a Unix connection (niov buffers filled in turn: io.c's split reads): the same
+ * result, and descriptors that come with the bytes are kept for SHM_ATTACH (STS_SHM_MAX_FDS
+ * at most; more are closed at once, shm_fds_dropped). */
+struct iovec;
+ssize_t sts_shm_recv(sts_server *srv, sts_conn *c, struct iovec *iov, int niov);
 /* Unmaps the region and closes held descriptors; the connection is closing. */
 void sts_shm_conn_free(sts_server *srv, sts_conn *c);
 

@@ -1,6 +1,7 @@
 /* tests/integration/test_server_frames.c - seamtexd on the raw wire: the malformed-frame
  * table (bad magic and version, unknown opcode, lying lengths, truncated headers, bodies over
- * the caps, NaN queries), each on its own connection, and the server still serving after.
+ * the caps, NaN queries), each on its own connection, and the server still serving after;
+ * pipelines of big SAMPLE frames (the daemon's split reads) answered as each frame alone.
  *
  * One daemon with defaults for the group (tests/common/daemon_fixture.h) on 127.0.0.1 port 0;
  * frames are written byte by byte (tests/common/wire.h). Nothing here needs SEAMTEX_DATA.
@@ -11,6 +12,8 @@
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -170,10 +173,134 @@ static void malformed_frames_get_their_status(void **state)
     free(frame);
 }
 
+/* ---- split reads --------------------------------------------------------------------------- */
+
+/* Reads one reply frame whole (any body length) into buf (cap bytes). Its length, or 0. */
+static size_t read_frame(int fd, uint8_t *buf, size_t cap)
+{
+    size_t got = 0, want = ST_WIRE_HEADER;
+    while (got < want) {
+        ssize_t r = recv(fd, buf + got, want - got, 0);
+        if (r <= 0)
+            return 0;
+        got += (size_t)r;
+        if (got == ST_WIRE_HEADER && want == ST_WIRE_HEADER) {
+            want += stp_rd32(buf + 16);
+            if (want > cap)
+                return 0;
+        }
+    }
+    return got;
+}
+
+/* A read of a big SAMPLE frame ends at the frame's end and what follows lands in a second
+ * buffer (io.c, split reads), guessed from the last frame's length: pipelined SAMPLE frames
+ * of different sizes and set names (so different pads), with PINGs between, sent whole,
+ * trickled in pieces that end anywhere, or in groups after the last group's replies (so each
+ * group's first read is split where the last frame's length says: at a frame's end, inside a
+ * frame's body, inside its header), get byte for byte the replies each gets alone. */
+static void split_reads_answer_every_pipeline_like_single_frames(void **state)
+{
+    (void)state;
+    static const struct { const char *set; uint32_t n; int group; } shape[] = {
+        {"default", 1024, 0},
+        {"default", 2048, 1}, {"default", 1024, 1},              /* guess short: in a body */
+        /* 10 bytes shorter than the 1024-query frame before: the guess ends in a header */
+        {"xxxxxxxxxxxxxxxxxxxxxxxxx", 1023, 2}, {"default", 1024, 2},
+        {"default", 700, 3}, {"", 0, 3}, {"default", 3000, 3},
+        {"default", 3000, 4}, {"defaultx", 1024, 4}, {"abc", 800, 4}, {"default", 4096, 4},
+    };
+    enum { NF = sizeof shape / sizeof shape[0] };
+    size_t cap = 64 + 34 + 32 + 28 * 4096;
+    uint8_t *all = malloc(NF * cap), *body = malloc(cap), *got = malloc(cap);
+    uint8_t *want[NF];
+    size_t want_len[NF], off[NF + 1];
+    float *q = malloc(sizeof(float) * 7 * 4096);
+    assert_non_null(all);
+    assert_non_null(body);
+    assert_non_null(got);
+    assert_non_null(q);
+    for (uint32_t i = 0; i < 4096; i++) {
+        float t = (float)i / 4096.0f;
+        float qi[7] = {0, t, 1.0f - t * 0.5f, 0.01f, 0, 0, 0.01f};
+        memcpy(q + 7 * i, qi, sizeof qi);
+    }
+    off[0] = 0;
+    for (int i = 0; i < NF; i++) {
+        size_t bl, fl;
+        if (shape[i].n) {
+            bl = st_wire_sample_body(body, shape[i].set, shape[i].n, q, shape[i].n);
+            fl = st_wire_frame(all + off[i], "STX1", 1, STP_OP_SAMPLE, 0, 500 + (uint32_t)i, body,
+                               (uint32_t)bl, (uint32_t)bl);
+        } else {
+            fl = st_wire_frame(all + off[i], "STX1", 1, STP_OP_PING, 0, 500 + (uint32_t)i, "pp",
+                               2, 2);
+        }
+        off[i + 1] = off[i] + fl;
+        /* the reference: the frame alone on a connection of its own */
+        int fd = st_daemon_connect(&D1);
+        assert_true(fd >= 0);
+        assert_int_equal(st_wire_send_all(fd, all + off[i], fl), 0);
+        want_len[i] = read_frame(fd, got, cap);
+        assert_true(want_len[i] > 0);
+        /* the set `default` samples (OK); the other names are unknown (an error reply) */
+        int known = !shape[i].n || !strcmp(shape[i].set, "default");
+        assert_int_equal(stp_rd16(got + 12) == STP_S_OK, known);
+        want[i] = malloc(want_len[i]);
+        assert_non_null(want[i]);
+        memcpy(want[i], got, want_len[i]);
+        close(fd);
+    }
+    assert_int_equal(off[4] - off[3], off[3] - off[2] - 10);
+    /* whole, in groups, then in pieces of odd sizes with pauses (reads that end anywhere) */
+    static const size_t piece[] = {0, 1, 7001, 40000, 16411};
+    for (size_t p = 0; p < sizeof piece / sizeof piece[0]; p++) {
+        int fd = st_daemon_connect(&D1);
+        assert_true(fd >= 0);
+        int next = 0;   /* the first reply not read */
+        for (int i = 0; i < NF; i++) {
+            if (piece[p] == 1 && (i == NF - 1 || shape[i + 1].group != shape[i].group)) {
+                int g0 = next;
+                assert_int_equal(st_wire_send_all(fd, all + off[g0], off[i + 1] - off[g0]), 0);
+                for (; next <= i; next++) {
+                    size_t n = read_frame(fd, got, cap);
+                    assert_int_equal(n, want_len[next]);
+                    assert_memory_equal(got, want[next], n);
+                }
+            }
+        }
+        if (!piece[p]) {
+            assert_int_equal(st_wire_send_all(fd, all, off[NF]), 0);
+        } else if (piece[p] > 1) {
+            for (size_t o = 0; o < off[NF]; o += piece[p]) {
+                size_t n = off[NF] - o < piece[p] ? off[NF] - o : piece[p];
+                assert_int_equal(st_wire_send_all(fd, all + o, n), 0);
+                usleep(2000);
+            }
+        }
+        for (; next < NF; next++) {
+            size_t n = read_frame(fd, got, cap);
+            if (n != want_len[next] || memcmp(got, want[next], n) != 0)
+                fprintf(stderr, "pieces of %zu: reply %d differs (%zu bytes, want %zu)\n",
+                        piece[p], next, n, want_len[next]);
+            assert_int_equal(n, want_len[next]);
+            assert_memory_equal(got, want[next], n);
+        }
+        close(fd);
+    }
+    for (int i = 0; i < NF; i++)
+        free(want[i]);
+    free(all);
+    free(body);
+    free(got);
+    free(q);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(malformed_frames_get_their_status),
+        cmocka_unit_test(split_reads_answer_every_pipeline_like_single_frames),
     };
     static const char *const args[] = {"--heavy-batch", "2048", NULL};
     st_group_args = args;
