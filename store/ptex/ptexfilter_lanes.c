@@ -167,13 +167,17 @@ PL_TARGET void addr4(const pf_lanes *c, __m128i m32, __m128i f32, __m128i i32, _
     *p1 = _mm256_add_epi64(*p0, _mm256_sllv_epi64(ts64, _mm256_cvtepu32_epi64(r32)));
 }
 
-/* 8 queries of texels of type DT with NC channels. */
-PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k,
-                          unsigned *edge, unsigned DT, unsigned NC)
+/* Steps 1 and 2 of 8 queries, for lanes8 and klanes8: the query checks (face < nfaces,
+ * every derivative within ST_MAX_DERIV, 0 <= u, v < 1; a NaN fails), then the face's row and
+ * lane byte gathered and the lanes of subfaces, constant faces and faces next to a constant
+ * one dropped (o->m). Returns 0, o left unset, when no query passes the checks. */
+typedef struct {
+    __m256i face, fw, pxf, m;
+    __m256 u, v, ax, bx, ay, by;
+} pl_q8;
+
+PL_TARGET int q8_checks(const pf_lanes *c, const st_query *q, pl_q8 *o)
 {
-    _Static_assert(offsetof(st_query, u) == 4 && offsetof(st_query, dudx) == 12 &&
-                       offsetof(st_query, dvdy) == 24,
-                   "st_query: face u v dudx dvdx dudy dvdy");
     __m256 fa[4], fb[4];
     fields8(q, 0, fa);  /* face u v dudx */
     fields8(q, 12, fb); /* dudx dvdx dudy dvdy */
@@ -196,7 +200,6 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GE_OQ),
                                          _mm256_cmp_ps(v, one, _CMP_LT_OQ)));
     ok = _mm256_and_ps(ok, _mm256_castsi256_ps(fok));
-    *edge = 0;
     if (_mm256_testz_ps(ok, ok))
         return 0;
     __m256i m = _mm256_castps_si256(ok);
@@ -206,12 +209,40 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
                                              _mm256_slli_epi32(face, 4), m, 4);
     __m256i pxf = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
                                               (const int *)(const void *)c->lanef, face, m, 1);
-    const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
+    const __m256i zero = _mm256_setzero_si256();
     __m256i bad = _mm256_or_si256(
         _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
         _mm256_and_si256(_mm256_srli_epi32(fw, 24),
                          _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
     m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
+    o->face = face;
+    o->fw = fw;
+    o->pxf = pxf;
+    o->m = m;
+    o->u = u;
+    o->v = v;
+    o->ax = ax;
+    o->bx = bx;
+    o->ay = ay;
+    o->by = by;
+    return 1;
+}
+
+/* 8 queries of texels of type DT with NC channels. */
+PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k,
+                          unsigned *edge, unsigned DT, unsigned NC)
+{
+    _Static_assert(offsetof(st_query, u) == 4 && offsetof(st_query, dudx) == 12 &&
+                       offsetof(st_query, dvdy) == 24,
+                   "st_query: face u v dudx dvdx dudy dvdy");
+    pl_q8 q8;
+    *edge = 0;
+    if (!q8_checks(c, q, &q8))
+        return 0;
+    const __m256 one = _mm256_set1_ps(1.0f);
+    const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
+    __m256i face = q8.face, fw = q8.fw, pxf = q8.pxf, m = q8.m;
+    __m256 u = q8.u, v = q8.v, ax = q8.ax, bx = q8.bx, ay = q8.ay, by = q8.by;
     if (_mm256_testz_si256(m, m)) /* subfaces, constant faces: nothing for the lanes */
         return 0;
     __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
@@ -624,43 +655,13 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
                                                                     const st_query *q,
                                                                     pf_klanes *k, int w4)
 {
-    __m256 fa[4], fb[4];
-    fields8(q, 0, fa);  /* face u v dudx */
-    fields8(q, 12, fb); /* dudx dvdx dudy dvdy */
-    const __m256 absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-    const __m256 lim = _mm256_set1_ps(ST_MAX_DERIV), one = _mm256_set1_ps(1.0f);
-    __m256i face = _mm256_castps_si256(fa[0]);
-    __m256 u = fa[1], v = fa[2];
-    __m256 ax = _mm256_and_ps(fb[0], absm), bx = _mm256_and_ps(fb[1], absm);
-    __m256 ay = _mm256_and_ps(fb[2], absm), by = _mm256_and_ps(fb[3], absm);
-    const __m256i sgn = _mm256_set1_epi32((int)0x80000000u);
-    __m256i fok = _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(c->nfaces ^ 0x80000000u)),
-                                     _mm256_xor_si256(face, sgn));
-    __m256 ok = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(ax, lim, _CMP_LE_OQ),
-                                            _mm256_cmp_ps(bx, lim, _CMP_LE_OQ)),
-                              _mm256_and_ps(_mm256_cmp_ps(ay, lim, _CMP_LE_OQ),
-                                            _mm256_cmp_ps(by, lim, _CMP_LE_OQ)));
-    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(u, _mm256_setzero_ps(), _CMP_GE_OQ),
-                                         _mm256_cmp_ps(u, one, _CMP_LT_OQ)));
-    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GE_OQ),
-                                         _mm256_cmp_ps(v, one, _CMP_LT_OQ)));
-    ok = _mm256_and_ps(ok, _mm256_castsi256_ps(fok));
+    pl_q8 q8;
     k->plain = k->fast = 0;
-    if (_mm256_testz_ps(ok, ok))
+    if (!q8_checks(c, q, &q8))
         return;
-    __m256i m = _mm256_castps_si256(ok);
-    const int *fw0 = (const int *)(const void *)((const uint8_t *)c->faces +
-                                                 offsetof(st_face, ulog2));
-    __m256i fw = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), fw0,
-                                             _mm256_slli_epi32(face, 4), m, 4);
-    __m256i pxf = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
-                                              (const int *)(const void *)c->lanef, face, m, 1);
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
-    __m256i bad = _mm256_or_si256(
-        _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
-        _mm256_and_si256(_mm256_srli_epi32(fw, 24),
-                         _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
-    m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
+    __m256i face = q8.face, fw = q8.fw, m = q8.m;
+    __m256 u = q8.u, v = q8.v, ax = q8.ax, bx = q8.bx, ay = q8.ay, by = q8.by;
     unsigned plain = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
     if (!plain)
         return;
