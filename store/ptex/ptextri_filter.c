@@ -366,6 +366,42 @@ __attribute__((always_inline)) static inline void fold_tap(int R, int odd, int x
 
 enum { SW_READ, SW_WEIGHT, SW_FOLD };
 
+/* A sweep's row y: its taps' span [x1, x2) (the upright or inverted triangle's bounds on x)
+ * and Q, DQ at x1 (the kernel's quadratic form and its step along x). */
+__attribute__((always_inline)) static inline void row_span(const ti *it, int R, int y, int *x1,
+                                                           int *x2, float *Q, float *DQ)
+{
+    const float A = it->A, B = it->B, C = it->C;
+    int xw = R - y;
+    int a = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
+    *x1 = a;
+    *x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
+    float U = (float)a - it->u, V = (float)y - it->v;
+    *DQ = A * (2.0f * U + 1.0f) + B * V;
+    *Q = A * U * U + (B * U + C * V) * V;
+}
+
+/* The taps of a row read where they lie, texels px up to end (all inside the level): each
+ * tap with Q < 1 adds its texel times its weight to acc (and the weight to *wsum4 when
+ * NC == 4); Q steps by DQ, DQ by DDQ. Returns acc. */
+__attribute__((always_inline)) static inline pt_v4f
+row_inside(const uint8_t *px, const uint8_t *end, size_t ts, float Q, float DQ, float DDQ,
+           float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
+           unsigned NC)
+{
+    for (; px < end; px += ts) {
+        if (Q < 1.0f) {
+            float w = expf(gs * Q) * wscale;
+            acc += texel_vec(px, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
+        }
+        Q += DQ;
+        DQ += DDQ;
+    }
+    return acc;
+}
+
 /* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
  * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
  * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
@@ -408,24 +444,11 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         const uint8_t *row = data + (size_t)y1 * rs;
         for (int y = y1; y < y2; y++, row += rs) {
             __asm__ volatile("" ::: "memory"); /* as below: the fields re-read each row */
-            const float A = it->A, B = it->B, C = it->C;
-            int xw = R - y;
-            int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
-            int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
-            float U = (float)x1 - it->u, V = (float)y - it->v;
-            float DQ = A * (2.0f * U + 1.0f) + B * V;
-            float Q = A * U * U + (B * U + C * V) * V;
-            const uint8_t *px = row + (size_t)x1 * ts, *end = row + (size_t)x2 * ts;
-            for (; px < end; px += ts) {
-                if (Q < 1.0f) {
-                    float w = expf(gs * Q) * wscale;
-                    acc += texel_vec(px, one, DT, NC) * w;
-                    if (NC == 4)
-                        wsum4 += w;
-                }
-                Q += DQ;
-                DQ += DDQ;
-            }
+            int x1, x2;
+            float Q, DQ;
+            row_span(it, R, y, &x1, &x2, &Q, &DQ);
+            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, Q, DQ, DDQ, gs,
+                             wscale, one, acc, &wsum4, DT, NC);
         }
         y2 = y1; /* done: the loop below visits nothing */
     }
@@ -434,13 +457,9 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
          * memory), so that they are not held in registers across the loop, where every expf
          * call would spill and reload them */
         __asm__ volatile("" ::: "memory");
-        const float A = it->A, B = it->B, C = it->C;
-        int xw = R - y;
-        int x1 = it->lo[0] > xw - it->hi[2] ? it->lo[0] : xw - it->hi[2];
-        int x2 = it->hi[0] < xw - it->lo[2] ? it->hi[0] : xw - it->lo[2];
-        float U = (float)x1 - it->u, V = (float)y - it->v;
-        float DQ = A * (2.0f * U + 1.0f) + B * V;
-        float Q = A * U * U + (B * U + C * V) * V;
+        int x1, x2;
+        float Q, DQ;
+        row_span(it, R, y, &x1, &x2, &Q, &DQ);
         /* a read stays inside the level whatever the float bounds did */
         int rd_ok = reads && y >= 0 && y < R;
         const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
@@ -460,17 +479,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         }
         if (rd_ok && x1 >= 0 && x2 <= R) {
             /* the whole row inside the level (a piece clamped into its face): no checks */
-            const uint8_t *px = row + (size_t)x1 * ts;
-            for (int x = x1; x < x2; x++, px += ts) {
-                if (Q < 1.0f) {
-                    float w = expf(gs * Q) * wscale;
-                    acc += texel_vec(px, one, DT, NC) * w;
-                    if (NC == 4)
-                        wsum4 += w;
-                }
-                Q += DQ;
-                DQ += DDQ;
-            }
+            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, Q, DQ, DDQ, gs,
+                             wscale, one, acc, &wsum4, DT, NC);
             continue;
         }
         for (int x = x1; x < x2; x++) {
