@@ -284,6 +284,31 @@ PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsign
     }
 }
 
+/* The fused paths' window (fast_body, w4_body; at most 8 taps a side): NC == 3 one texel
+ * a vector, else 1 to 4 8-value vectors a row, each count an instance of window. */
+PF_TARGET __m128 window_fused(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
+                              const float *ku, int nu, const float *kv, int nv)
+{
+    __m128 acc = _mm_setzero_ps();
+    if (NC == 3)
+        return window3(base, rowb, DT, ku, nu, kv, nv, acc);
+    switch ((nu * (int)NC + 7) / 8) {
+    case 1: return window(base, rowb, DT, NC, ku, nu, kv, nv, 1, acc);
+    case 2: return window(base, rowb, DT, NC, ku, nu, kv, nv, 2, acc);
+    case 3: return window(base, rowb, DT, NC, ku, nu, kv, nv, 3, acc);
+    default: return window(base, rowb, DT, NC, ku, nu, kv, nv, 4, acc);
+    }
+}
+
+/* out[ch] = channel ch of acc times scale, for the NC channels. */
+PF_TARGET void put_scaled(float *out, __m128 acc, float scale, unsigned NC)
+{
+    float r[4];
+    _mm_storeu_ps(r, acc);
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = r[ch] * scale;
+}
+
 #define PF_WIN(DT, NC)                                                                      \
     __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_win_##DT##_##NC(               \
         const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
@@ -614,23 +639,9 @@ PF_TARGET int fast_body(const pk_params *p, const uint8_t *const *px, int fulog2
     const uint8_t *d = px[(unsigned)ru * ((unsigned)fvlog2 + 1u) + (unsigned)rv];
     const uint8_t *base = d + ((size_t)v0 * (size_t)resu + (size_t)u0) * ts;
     size_t rowb = (size_t)resu * ts;
-    __m128 acc = _mm_setzero_ps();
-    if (NC == 3) {
-        acc = window3(base, rowb, DT, ku, nu, kv, nv, acc);
-    } else {
-        switch ((nu * (int)NC + 7) / 8) {
-        case 1: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 1, acc); break;
-        case 2: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 2, acc); break;
-        case 3: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 3, acc); break;
-        default: acc = window(base, rowb, DT, NC, ku, nu, kv, nv, 4, acc); break;
-        }
-    }
+    __m128 acc = window_fused(base, rowb, DT, NC, ku, nu, kv, nv);
     float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
-    float scale = 1.0f / (total * one);
-    float r[4];
-    _mm_storeu_ps(r, acc);
-    for (unsigned ch = 0; ch < NC; ch++)
-        out[ch] = r[ch] * scale;
+    put_scaled(out, acc, 1.0f / (total * one), NC);
     return 1;
 }
 
@@ -763,21 +774,7 @@ PF_TARGET int w4_tail(__m256 ku, __m256 kv, __m128 s, int nu, int nv, int u0, in
     float kub[32], kvb[8]; /* window() may name up to 4 vectors of lanes (it reads < nu) */
     _mm256_storeu_ps(kub, ku);
     _mm256_storeu_ps(kvb, kv);
-    __m128 acc = _mm_setzero_ps();
-    if (NC == 3) {
-        acc = window3(base, rowb, DT, kub, nu, kvb, nv, acc);
-    } else {
-        switch ((nu * (int)NC + 7) / 8) {
-        case 1: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 1, acc); break;
-        case 2: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 2, acc); break;
-        case 3: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 3, acc); break;
-        default: acc = window(base, rowb, DT, NC, kub, nu, kvb, nv, 4, acc); break;
-        }
-    }
-    float rr[4];
-    _mm_storeu_ps(rr, acc);
-    for (unsigned ch = 0; ch < NC; ch++)
-        out[ch] = rr[ch] * scale;
+    put_scaled(out, window_fused(base, rowb, DT, NC, kub, nu, kvb, nv), scale, NC);
     return 1;
 }
 
