@@ -7,6 +7,8 @@
 #include <sys/mman.h>
 
 #define HUGE_PAGE ((size_t)2 << 20)
+#define PAGE ((uintptr_t)4096)
+#define POPULATE_FROM ((size_t)16 << 10) /* below: at most 4 faults, about one madvise */
 #define TEMP_HUGE_FROM ((size_t)256 << 10)
 #define KEEP_HUGE_FROM (HUGE_PAGE / 3) /* 2/3 MiB: the rounding adds at most twice n */
 
@@ -49,6 +51,16 @@ void *stu_big_alloc(size_t n, int use)
 #ifdef MADV_HUGEPAGE
     if (huge)
         madvise(p, r, MADV_HUGEPAGE); /* advice only: failure changes nothing */
+#endif
+#ifdef MADV_POPULATE_WRITE
+    /* the n bytes the caller is about to write, faulted in by one call (not the rounding past
+     * them: without huge pages it would stay untouched); the whole pages around them belong
+     * to the same mapping (malloc's heap or this buffer's own mmap). Fails harmlessly
+     * (EINVAL) before Linux 5.14, and leaves the pages to be faulted one by one. */
+    if (n >= POPULATE_FROM) {
+        uintptr_t a = (uintptr_t)p & ~(PAGE - 1), z = ((uintptr_t)p + n + PAGE - 1) & ~(PAGE - 1);
+        madvise((void *)a, z - a, MADV_POPULATE_WRITE);
+    }
 #endif
     return p;
 }

@@ -36,6 +36,7 @@
 #include "ptex_unpack.h"
 #include "ptexres.h"
 #include "fileio.h"
+#include "bigalloc.h"
 
 #define PTX_MAX_LEVELS 16u
 
@@ -252,22 +253,24 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
     return rc;
 }
 
-/* Reads a level header: nfaces FaceDataHeaders and the offsets of their blocks. */
+/* Reads a level header: nf FaceDataHeaders (inflated into tmp, nf * 4 bytes) and the offsets
+ * of their blocks. Messages name "level L header", formatted only on failure (the first
+ * snprintf of a process faults in a few pages of libc's printf code). */
 static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize, uint32_t nf,
-                             uint32_t *fdh, uint64_t *offs, unsigned level)
+                             uint8_t *tmp, uint32_t *fdh, uint64_t *offs, unsigned level)
 {
-    char what[64];
-    snprintf(what, sizeof what, "level %u header", level);
     if (hsize > lsize)
-        return st_fail(r->e, ST_EFORMAT, "%s: %u bytes, larger than the level (%llu)", what,
-                       hsize, (unsigned long long)lsize);
+        return st_fail(r->e, ST_EFORMAT, "level %u header: %u bytes, larger than the level "
+                       "(%llu)", level, hsize, (unsigned long long)lsize);
     if (!zip_bound_ok(hsize, (uint64_t)nf * 4))
-        return st_fail(r->e, ST_EFORMAT, "%s: %u zipped bytes cannot hold %u face headers",
-                       what, hsize, nf);
-    uint8_t *tmp = malloc((size_t)nf * 4 + 1);
-    if (!tmp)
-        return st_fail(r->e, ST_ENOMEM, "%s: out of memory", what);
-    int rc = inflate_exact(r, pos, hsize, tmp, (size_t)nf * 4, what);
+        return st_fail(r->e, ST_EFORMAT, "level %u header: %u zipped bytes cannot hold %u face "
+                       "headers", level, hsize, nf);
+    int rc = inflate_exact(r, pos, hsize, tmp, (size_t)nf * 4, "");
+    if (rc && r->e) {
+        char m[ST_ERRMSG_LEN];
+        snprintf(m, sizeof m, "%s", r->e->msg);
+        st_fail(r->e, rc, "level %u header%s", level, m);
+    }
     if (rc == ST_OK) {
         uint64_t o = pos + hsize, end = pos + lsize;
         for (uint32_t i = 0; i < nf; i++) {
@@ -282,7 +285,6 @@ static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize
             }
         }
     }
-    free(tmp);
     return rc;
 }
 
@@ -453,6 +455,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
     meta_edit *medits = NULL;
     size_t nfedits = 0, nmedits = 0;
     st_face_desc *fd = NULL;
+    uint8_t *work = NULL, *lhtmp = NULL; /* the per-face tables' block; level headers' inflate */
 
     if (len < PTX_HEADER_SIZE)
         return st_fail(e, ST_EFORMAT, "file of %zu bytes is shorter than the Ptex header (64)", len);
@@ -528,13 +531,33 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         return st_fail(e, ST_EFORMAT, "face info: %u zipped bytes cannot hold %u faces", fisize,
                        nfaces);
     uint8_t *fiz = malloc(fibytes);
-    fi = malloc((size_t)nfaces * sizeof *fi);
-    if (!fiz || !fi) {
-        free(fiz);
+    if (!fiz)
+        return st_fail(e, ST_ENOMEM, "out of memory for %u faces", nfaces);
+    rc = inflate_exact(r, fipos, fisize, fiz, fibytes, "face info");
+    /* The import's per-face tables, in one block allocated once the face count is backed by
+     * a face info that inflated to it: from 16 KiB on util/bigalloc.c faults its pages in by
+     * one call (a fresh 4 KiB page first written from user space costs 10-25 us on the
+     * project's VM; these tables are 100 bytes a face). */
+    size_t nfc = nfaces, cdbytes = nfc * r->psize;
+    size_t o_fi = nfc * sizeof *offs, o_fd = o_fi + nfc * sizeof *fi;
+    size_t o_fdh = o_fd + nfc * sizeof *fd, o_ids = o_fdh + nfc * sizeof *fdh;
+    size_t o_lh = o_ids + nfc * sizeof *faceids_r, o_cd = o_lh + nfc * 4;
+    size_t o_flags = o_cd + cdbytes, o_nstored = o_flags + nfc, worksize = o_nstored + nfc;
+    if (rc == ST_OK && !(work = stu_big_alloc(worksize, STU_BIG_TEMP)))
         rc = st_fail(e, ST_ENOMEM, "out of memory for %u faces", nfaces);
+    if (rc) {
+        free(fiz);
         goto done;
     }
-    rc = inflate_exact(r, fipos, fisize, fiz, fibytes, "face info");
+    offs = (uint64_t *)(void *)work;
+    fi = (ptx_faceinfo *)(void *)(work + o_fi);
+    fd = (st_face_desc *)(void *)(work + o_fd);
+    fdh = (uint32_t *)(void *)(work + o_fdh);
+    faceids_r = (uint32_t *)(void *)(work + o_ids);
+    lhtmp = work + o_lh;
+    constdata = work + o_cd;
+    ptxflags = work + o_flags;
+    nstored = work + o_nstored;
     for (uint32_t f = 0; rc == ST_OK && f < nfaces; f++) {
         ptx_faceinfo_decode(fiz + (size_t)f * PTX_FACEINFO_SIZE, &fi[f]);
         rc = check_faceinfo(r, &fi[f], f, nfaces);
@@ -544,15 +567,9 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         goto done;
 
     /* constant data */
-    size_t cdbytes = (size_t)nfaces * r->psize;
     if (!zip_bound_ok(cdsize, cdbytes)) {
         rc = st_fail(e, ST_EFORMAT, "constant data: %u zipped bytes cannot hold %zu", cdsize,
                      cdbytes);
-        goto done;
-    }
-    constdata = malloc(cdbytes);
-    if (!constdata) {
-        rc = st_fail(e, ST_ENOMEM, "out of memory for constant data");
         goto done;
     }
     if ((rc = inflate_exact(r, cdpos, cdsize, constdata, cdbytes, "constant data")))
@@ -640,14 +657,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         }
     }
 
-    /* the set */
-    fd = calloc(nfaces, sizeof *fd);
-    ptxflags = malloc(nfaces);
-    nstored = malloc(nfaces);
-    if (!fd || !ptxflags || !nstored) {
-        rc = st_fail(e, ST_ENOMEM, "out of memory for %u faces", nfaces);
-        goto done;
-    }
+    /* the set (every field of fd[f] is set here) */
     for (uint32_t f = 0; f < nfaces; f++) {
         fd[f].w = 1u << fi[f].ulog2;
         fd[f].h = 1u << fi[f].vlog2;
@@ -685,13 +695,6 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             memcpy(st_face_level(s, f, 0), constdata + (size_t)f * r->psize, r->psize);
 
     /* levels */
-    fdh = malloc((size_t)nfaces * sizeof *fdh);
-    offs = malloc((size_t)nfaces * sizeof *offs);
-    faceids_r = malloc((size_t)nfaces * sizeof *faceids_r);
-    if (!fdh || !offs || !faceids_r) {
-        rc = st_fail(e, ST_ENOMEM, "out of memory for level headers");
-        goto done;
-    }
     {
         /* rfaceid order: stable sort by min(ulog2, vlog2) descending, constant faces count 1
          * (counting sort keeps it stable) */
@@ -726,7 +729,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             rc = st_fail(e, ST_EFORMAT, "level %u holds %u faces of %u", l, nf, nfaces);
             goto done;
         }
-        if ((rc = read_level_header(r, lpos, lsize, hsize, nf, fdh, offs, l)))
+        if ((rc = read_level_header(r, lpos, lsize, hsize, nf, lhtmp, fdh, offs, l)))
             goto done;
         if (l == 0)
             for (size_t i = 0; i < nfedits; i++) {
@@ -789,16 +792,9 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
 done:
     libdeflate_free_decompressor(r->dd);
     free(r->scratch);
-    free(fi);
-    free(constdata);
-    free(ptxflags);
-    free(nstored);
-    free(fdh);
-    free(offs);
-    free(faceids_r);
+    free(work);
     free(fedits);
     free(medits);
-    free(fd);
     if (rc) {
         st_set_free(s);
         return rc;
