@@ -55,12 +55,14 @@ typedef struct rd {
 
 /* The reader's scratch of at least n bytes: grown, never shrunk, freed at the end. A planar
  * block is at most a tile or a face (the Ptex writer tiles faces over 64 KiB), so it stays
- * in the cache between the inflate and the interleave. */
+ * in the cache between the inflate and the interleave. The first block needing it is
+ * usually the largest (level 0 comes first); its size rounded up to 4 KiB, from
+ * util/bigalloc.c so that its pages are faulted in by one call. */
 static uint8_t *scratch(rd *r, size_t n)
 {
     if (n > r->scratch_cap) {
-        size_t cap = n < ((size_t)64 << 10) ? (size_t)64 << 10 : n;
-        uint8_t *p = malloc(cap);
+        size_t cap = (n + 4095) & ~(size_t)4095;
+        uint8_t *p = stu_big_alloc(cap, STU_BIG_TEMP);
         if (!p)
             return NULL;
         free(r->scratch);
