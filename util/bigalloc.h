@@ -19,6 +19,13 @@
  *   faults, more than its decoding (before: from 4/3 MiB on).
  * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
  * stu_big_footprint says how many bytes a buffer of n really holds (for memory accounting).
+ *
+ * Pre-faulting (2026-12-03): a buffer of 16 KiB or more has its n bytes (not the rounding
+ * past them) faulted in right away by one madvise(MADV_POPULATE_WRITE) (Linux 5.14 on; an
+ * older kernel refuses it and the pages fault one by one as before). Every caller writes all
+ * n bytes at once (an importer its whole arena, a file read its buffer), so this makes
+ * nothing resident that would not be. Measured (load 5, fresh 4 KiB pages): 256 KiB written
+ * page by page 0.77 ms of CPU, populated first 0.41 ms; one 2 MiB huge page 0.13-0.22 ms.
  * Smaller buffers are 64-byte aligned, sized up to a multiple of 64. Aligned buffers come from
  * posix_memalign (aligned_alloc wants a size that is a multiple of the alignment).
  *
