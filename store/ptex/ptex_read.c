@@ -545,7 +545,11 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
     size_t o_fdh = o_fd + nfc * sizeof *fd, o_ids = o_fdh + nfc * sizeof *fdh;
     size_t o_lh = o_ids + nfc * sizeof *faceids_r, o_cd = o_lh + nfc * 4;
     size_t o_flags = o_cd + cdbytes, o_nstored = o_flags + nfc, worksize = o_nstored + nfc;
-    if (rc == ST_OK && !(work = stu_big_alloc(worksize, STU_BIG_TEMP)))
+    /* a constant data that cannot inflate to its size is refused right after the face
+     * checks: its block is then left to malloc, not populated */
+    int cd_ok = zip_bound_ok(cdsize, cdbytes);
+    if (rc == ST_OK &&
+        !(work = cd_ok ? stu_big_alloc(worksize, STU_BIG_TEMP) : malloc(worksize)))
         rc = st_fail(e, ST_ENOMEM, "out of memory for %u faces", nfaces);
     if (rc) {
         free(fiz);
@@ -569,7 +573,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
         goto done;
 
     /* constant data */
-    if (!zip_bound_ok(cdsize, cdbytes)) {
+    if (!cd_ok) {
         rc = st_fail(e, ST_EFORMAT, "constant data: %u zipped bytes cannot hold %zu", cdsize,
                      cdbytes);
         goto done;
