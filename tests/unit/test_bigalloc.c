@@ -2,7 +2,8 @@
  * for long-lived and temporary buffers (seen through the kernel's MADV_HUGEPAGE flag on the
  * mapping, VmFlags "hg" in /proc/self/smaps), the footprint it reserves, sizes that cannot
  * be had, and allocations the C library and ASan accept for every size (no aligned_alloc of a
- * size that is not a multiple of the alignment). */
+ * size that is not a multiple of the alignment), and that a buffer of 16 KiB or more is
+ * resident before it is written (pre-faulted in one call, seen through mincore). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -13,6 +14,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include "bigalloc.h"
 
@@ -148,6 +151,56 @@ static void kept_buffers_with_a_small_page_tail_are_valid_allocations(void **sta
     }
 }
 
+/* Pages of [p, p + n) resident now (mincore), or -1 when the kernel cannot tell. */
+static long resident_pages(const void *p, size_t n)
+{
+    long pg = sysconf(_SC_PAGESIZE);
+    uintptr_t a = (uintptr_t)p & ~(uintptr_t)(pg - 1), z = (uintptr_t)p + n;
+    size_t np = (size_t)((z - a + (uintptr_t)pg - 1) / (uintptr_t)pg);
+    unsigned char *v = malloc(np);
+    if (!v || mincore((void *)a, z - a, v)) {
+        free(v);
+        return -1;
+    }
+    long r = 0;
+    for (size_t i = 0; i < np; i++)
+        r += v[i] & 1;
+    free(v);
+    return r;
+}
+
+static void buffers_from_16_kib_are_resident_before_they_are_written(void **state)
+{
+    (void)state;
+#ifdef MADV_POPULATE_WRITE
+    /* a kernel that refuses MADV_POPULATE_WRITE (before 5.14) leaves the pages to fault one by
+     * one: then there is nothing to check */
+    void *probe = mmap(NULL, 4096, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    assert_true(probe != MAP_FAILED);
+    int can = madvise(probe, 4096, MADV_POPULATE_WRITE) == 0;
+    munmap(probe, 4096);
+    if (!can)
+        skip();
+    size_t sizes[] = {16 << 10, 100 << 10, 300 << 10, 3 * MIB};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++)
+        for (int use = STU_BIG_KEEP; use <= STU_BIG_TEMP; use++) {
+            uint8_t *p = stu_big_alloc(sizes[i], use);
+            assert_non_null(p);
+            long pg = sysconf(_SC_PAGESIZE), want = (long)(sizes[i] / (size_t)pg);
+            long got = resident_pages(p, sizes[i]);
+            if (got < 0) {
+                free(p);
+                skip();
+            }
+            /* every whole page of the n bytes, untouched by this test */
+            assert_true(got >= want);
+            free(p);
+        }
+#else
+    skip();
+#endif
+}
+
 static void impossible_sizes_fail_with_enomem(void **state)
 {
     (void)state;
@@ -168,6 +221,7 @@ int main(void)
         cmocka_unit_test(footprint_is_what_is_reserved),
         cmocka_unit_test(kept_buffers_with_a_small_page_tail_are_valid_allocations),
         cmocka_unit_test(impossible_sizes_fail_with_enomem),
+        cmocka_unit_test(buffers_from_16_kib_are_resident_before_they_are_written),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
