@@ -700,9 +700,11 @@ static void point(const st_set *s, uint32_t f, float u, float v, float *out)
         out[ch] = st_channel_get(s->info.dtype, p, ch);
 }
 
-/* One triangle-filter query (not the point filter: point_batch_t); returns its st_qstatus. */
+/* One triangle-filter query (not the point filter: point_batch_t); returns its st_qstatus.
+ * want_cov: the caller keeps the coverage (else Discard skips the sweeps of its denominator,
+ * the whole kernel's weight, which nothing else reads; *cov is then not meaningful). */
 static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *o,
-                    const st_query *q, float *out, float *cov)
+                    const st_query *q, float *out, float *cov, int want_cov)
 {
     uint32_t f = q->face;
     const st_face *F = &s->faces[f];
@@ -726,6 +728,8 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     sweep_fns(dt, nc, &c.rd, &c.fold);
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
+    } else if (o->mode == ST_MODE_DISCARD && !want_cov) {
+        apply_face(&c, &k, f);
     } else if (o->mode == ST_MODE_DISCARD) {
         float whole = apply_discard(&c, &k, f);
         *cov = whole > 0.0f && c.weight < whole ? c.weight / whole : 1.0f;
@@ -845,7 +849,7 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
         float *oi = out + i * nc, cov = 0.0f;
         int st = query_status(s, qi);
         if (st == ST_Q_OK) {
-            st = tri_eval(s, t, o, qi, oi, &cov);
+            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL);
         } else {
             for (unsigned ch = 0; ch < nc; ch++)
                 oi[ch] = NAN;
