@@ -480,12 +480,12 @@ static inline pt_v4i fold_tap4(int R, int odd, int x0, int y)
     pt_v4i even = uf + vf <= 1.0f;
     pt_v4i tx = (ui & even) | ((r1 - vi) & ~even);
     pt_v4i ty = (vi & even) | ((r1 - ui) & ~even);
-    return (ty << __builtin_ctz((unsigned)R)) + tx; /* ty * R: R is a power of two */
+    return ty * R + tx;
 }
 
 /* The taps x in [xa, xb) of row y of a Clamp sweep that fall outside the face, each read
- * from the texel fold_tap gives it (fold_tap4, four taps at a time, for the fours with a
- * tap of Q < 1); Q, DQ stepped as in row_inside. */
+ * from the texel fold_tap gives it (fold_tap4, four taps at a time); Q, DQ stepped as in
+ * row_inside. */
 __attribute__((always_inline)) static inline pt_v4f
 row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
            float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
@@ -494,15 +494,11 @@ row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, 
     float Q = *Qp, DQ = *DQp;
     const int R = it->R, odd = it->odd;
     for (int x0 = xa; x0 < xb; x0 += 4) {
-        int n = xb - x0 < 4 ? xb - x0 : 4, have = 0;
-        pt_v4i idx = {0, 0, 0, 0};
+        int n = xb - x0 < 4 ? xb - x0 : 4;
+        pt_v4i idx = fold_tap4(R, odd, x0, y);
         for (int k = 0; k < n; k++) {
             if (Q < 1.0f) {
                 float w = expf(gs * Q) * wscale;
-                if (!have) { /* the four taps' texels, when one of them has a weight */
-                    idx = fold_tap4(R, odd, x0, y);
-                    have = 1;
-                }
                 acc += texel_vec(data + (size_t)idx[k] * ts, one, DT, NC) * w;
                 if (NC == 4)
                     *wsum4 += w;
