@@ -430,62 +430,8 @@ row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, f
     return acc;
 }
 
-/* fold_tap of taps x0 .. x0 + 3 of row y, four lanes at a time with fold_tap's operations
- * lane by lane (the same floats, compares and truncations): each lane's texel index
- * ty * R + tx. */
-static inline pt_v4i fold_tap4(int R, int odd, int x0, int y)
-{
-    const pt_v4i lane = {0, 1, 2, 3};
-    const pt_v4i xs = x0 + lane;
-    const float fR = (float)R;
-    pt_v4f cu, cv;
-    if (odd) {
-        float c = (float)(R - 1 - y) + 2.0f / 3.0f;
-        cu = (pt_v4f){c, c, c, c};
-        cv = __builtin_convertvector((R - 1) - xs, pt_v4f) + 2.0f / 3.0f;
-    } else {
-        float c = (float)y + 1.0f / 3.0f;
-        cu = __builtin_convertvector(xs, pt_v4f) + 1.0f / 3.0f;
-        cv = (pt_v4f){c, c, c, c};
-    }
-    /* x < 0 ? 0 : x, as bits: a true compare is all ones */
-#define PT_ZERO_IF(x, m) ((pt_v4f)((pt_v4i)(x) & ~(m)))
-#define PT_SEL(m, a, b) ((pt_v4f)(((pt_v4i)(a) & (m)) | ((pt_v4i)(b) & ~(m))))
-    cu = PT_ZERO_IF(cu, cu < 0.0f);
-    cv = PT_ZERO_IF(cv, cv < 0.0f);
-    const pt_v4f vR = {fR, fR, fR, fR};
-    pt_v4i pull = cu + cv > fR;
-    pt_v4f t = 0.5f * (cu + cv - fR);
-    pt_v4f pu = cu - t, pv = cv - t;
-    pt_v4i m = pu < 0.0f;
-    pv = PT_SEL(m, vR, pv);
-    pu = PT_ZERO_IF(pu, m);
-    m = pv < 0.0f;
-    pu = PT_SEL(m, vR, pu);
-    pv = PT_ZERO_IF(pv, m);
-    cu = PT_SEL(pull, pu, cu);
-    cv = PT_SEL(pull, pv, cv);
-#undef PT_ZERO_IF
-#undef PT_SEL
-    /* st_tri_texel_t */
-    const int r1 = R - 1;
-    pt_v4i ui = __builtin_convertvector(cu, pt_v4i), vi = __builtin_convertvector(cv, pt_v4i);
-    ui &= ~(ui < 0);
-    vi &= ~(vi < 0);
-    pt_v4i mu = ui > r1, mv = vi > r1;
-    ui = (ui & ~mu) | (r1 & mu);
-    vi = (vi & ~mv) | (r1 & mv);
-    pt_v4f uf = cu - __builtin_convertvector(ui, pt_v4f);
-    pt_v4f vf = cv - __builtin_convertvector(vi, pt_v4f);
-    pt_v4i even = uf + vf <= 1.0f;
-    pt_v4i tx = (ui & even) | ((r1 - vi) & ~even);
-    pt_v4i ty = (vi & even) | ((r1 - ui) & ~even);
-    return ty * R + tx;
-}
-
 /* The taps x in [xa, xb) of row y of a Clamp sweep that fall outside the face, each read
- * from the texel fold_tap gives it (fold_tap4, four taps at a time); Q, DQ stepped as in
- * row_inside. */
+ * from the texel fold_tap gives it; Q, DQ stepped as in row_inside. */
 __attribute__((always_inline)) static inline pt_v4f
 row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
            float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
@@ -493,19 +439,17 @@ row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, 
 {
     float Q = *Qp, DQ = *DQp;
     const int R = it->R, odd = it->odd;
-    for (int x0 = xa; x0 < xb; x0 += 4) {
-        int n = xb - x0 < 4 ? xb - x0 : 4;
-        pt_v4i idx = fold_tap4(R, odd, x0, y);
-        for (int k = 0; k < n; k++) {
-            if (Q < 1.0f) {
-                float w = expf(gs * Q) * wscale;
-                acc += texel_vec(data + (size_t)idx[k] * ts, one, DT, NC) * w;
-                if (NC == 4)
-                    *wsum4 += w;
-            }
-            Q += DQ;
-            DQ += DDQ;
+    for (int x = xa; x < xb; x++) {
+        if (Q < 1.0f) {
+            float w = expf(gs * Q) * wscale;
+            int tx, ty;
+            fold_tap(R, odd, x, y, &tx, &ty);
+            acc += texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
         }
+        Q += DQ;
+        DQ += DDQ;
     }
     *Qp = Q;
     *DQp = DQ;
