@@ -431,19 +431,19 @@ row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, f
 }
 
 /* The taps x in [xa, xb) of row y of a Clamp sweep that fall outside the face, each read
- * from the texel fold_tap gives it; Q, DQ stepped as in row_inside. */
+ * from the texel fold_tap gives it; Q, DQ stepped as in row_inside. ODD is the sweep's
+ * (a constant in each of row_folded's two loops, so fold_tap has no select on it). */
 __attribute__((always_inline)) static inline pt_v4f
-row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
-           float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
-           float *wsum4, unsigned DT, unsigned NC)
+row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
+             float *Qp, float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
+             float *wsum4, unsigned DT, unsigned NC)
 {
     float Q = *Qp, DQ = *DQp;
-    const int R = it->R, odd = it->odd;
     for (int x = xa; x < xb; x++) {
         if (Q < 1.0f) {
             float w = expf(gs * Q) * wscale;
             int tx, ty;
-            fold_tap(R, odd, x, y, &tx, &ty);
+            fold_tap(R, ODD, x, y, &tx, &ty);
             acc += texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT, NC) * w;
             if (NC == 4)
                 *wsum4 += w;
@@ -454,6 +454,20 @@ row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, 
     *Qp = Q;
     *DQp = DQ;
     return acc;
+}
+
+__attribute__((always_inline)) static inline pt_v4f
+row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
+           float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
+           float *wsum4, unsigned DT, unsigned NC)
+{
+    if (xa >= xb)
+        return acc;
+    if (it->odd)
+        return row_folded_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
+                            wsum4, DT, NC);
+    return row_folded_t(0, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
+                        wsum4, DT, NC);
 }
 
 /* n taps of a row read from texels px, px + step, .. (a run of Clamp taps that fold onto a
