@@ -849,9 +849,12 @@ static void point(const st_set *s, uint32_t f, float u, float v, float *out)
 
 /* One triangle-filter query (not the point filter: point_batch_t); returns its st_qstatus.
  * want_cov: the caller keeps the coverage (else Discard skips the sweeps of its denominator,
- * the whole kernel's weight, which nothing else reads; *cov is then not meaningful). */
-static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *o,
-                    const st_query *q, float *out, float *cov, int want_cov)
+ * the whole kernel's weight, which nothing else reads; *cov is then not meaningful). Inlined
+ * into its one caller, as GCC did on its own before want_cov (a call a query otherwise). */
+__attribute__((always_inline)) static inline int tri_eval(const st_set *s, const st_ptexres *t,
+                                                          const st_sample_opts *o,
+                                                          const st_query *q, float *out,
+                                                          float *cov, int want_cov)
 {
     uint32_t f = q->face;
     const st_face *F = &s->faces[f];
