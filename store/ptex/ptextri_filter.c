@@ -16,9 +16,12 @@
  * order Ptex uses, so the result matches the library's to float rounding.
  *
  * Discard: no piece crosses an edge; the result is divided by the weight kept; coverage =
- * kept / the weight of the whole kernel (over the triangle lattice extended past the face).
+ * kept / the weight of the whole kernel (over the triangle lattice extended past the face),
+ * summed only when the caller passes a coverage array (it is two more sweeps).
  * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
  * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
+ * Each row is cut into runs (row_clamp): taps inside the face read in place, runs that fold
+ * onto one texel or onto a line of texels read without the fold, the rest folded tap by tap.
  *
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
