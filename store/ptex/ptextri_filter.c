@@ -16,9 +16,12 @@
  * order Ptex uses, so the result matches the library's to float rounding.
  *
  * Discard: no piece crosses an edge; the result is divided by the weight kept; coverage =
- * kept / the weight of the whole kernel (over the triangle lattice extended past the face).
+ * kept / the weight of the whole kernel (over the triangle lattice extended past the face),
+ * summed only when the caller passes a coverage array (it is two more sweeps).
  * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
  * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
+ * Each row is cut into runs (row_clamp): taps inside the face read in place, runs that fold
+ * onto one texel or onto a line of texels read without the fold, the rest folded tap by tap.
  *
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
@@ -383,12 +386,14 @@ __attribute__((always_inline)) static inline void row_span(const ti *it, int R, 
 
 /* The taps of a row read where they lie, texels px up to end (all inside the level): each
  * tap with Q < 1 adds its texel times its weight to acc (and the weight to *wsum4 when
- * NC == 4); Q steps by DQ, DQ by DDQ. Returns acc. */
+ * NC == 4); *Q steps by *DQ, *DQ by DDQ (left as after the last tap, for the taps that
+ * follow in the row). Returns acc. */
 __attribute__((always_inline)) static inline pt_v4f
-row_inside(const uint8_t *px, const uint8_t *end, size_t ts, float Q, float DQ, float DDQ,
+row_inside(const uint8_t *px, const uint8_t *end, size_t ts, float *Qp, float *DQp, float DDQ,
            float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
            unsigned NC)
 {
+    float Q = *Qp, DQ = *DQp;
     for (; px < end; px += ts) {
         if (Q < 1.0f) {
             float w = expf(gs * Q) * wscale;
@@ -398,6 +403,169 @@ row_inside(const uint8_t *px, const uint8_t *end, size_t ts, float Q, float DQ, 
         }
         Q += DQ;
         DQ += DDQ;
+    }
+    *Qp = Q;
+    *DQp = DQ;
+    return acc;
+}
+
+/* n taps of a row that all read the texel at px (a Clamp run whose taps fold onto one
+ * texel): row_inside's sums tap by tap (x * w added to each channel's sum in turn, not x
+ * times the run's weight), the texel loaded once. */
+__attribute__((always_inline)) static inline pt_v4f
+row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, float wscale,
+         pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
+{
+    float Q = *Qp, DQ = *DQp;
+    const pt_v4f tv = texel_vec(px, one, DT, NC);
+    for (; n > 0; n--) {
+        if (Q < 1.0f) {
+            float w = expf(gs * Q) * wscale;
+            acc += tv * w;
+            if (NC == 4)
+                *wsum4 += w;
+        }
+        Q += DQ;
+        DQ += DDQ;
+    }
+    *Qp = Q;
+    *DQp = DQ;
+    return acc;
+}
+
+/* The taps x in [xa, xb) of row y of a Clamp sweep that fall outside the face, each read
+ * from the texel fold_tap gives it; Q, DQ stepped as in row_inside. ODD is the sweep's
+ * (a constant in each of row_folded's two loops, so fold_tap has no select on it). */
+__attribute__((always_inline)) static inline pt_v4f
+row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
+             float *Qp, float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
+             float *wsum4, unsigned DT, unsigned NC)
+{
+    float Q = *Qp, DQ = *DQp;
+    for (int x = xa; x < xb; x++) {
+        if (Q < 1.0f) {
+            float w = expf(gs * Q) * wscale;
+            int tx, ty;
+            fold_tap(R, ODD, x, y, &tx, &ty);
+            acc += texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
+        }
+        Q += DQ;
+        DQ += DDQ;
+    }
+    *Qp = Q;
+    *DQp = DQ;
+    return acc;
+}
+
+__attribute__((always_inline)) static inline pt_v4f
+row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
+           float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
+           float *wsum4, unsigned DT, unsigned NC)
+{
+    if (xa >= xb)
+        return acc;
+    if (it->odd)
+        return row_folded_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
+                            wsum4, DT, NC);
+    return row_folded_t(0, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
+                        wsum4, DT, NC);
+}
+
+/* n taps of a row read from texels px, px + step, .. (a run of Clamp taps that fold onto a
+ * line of texels, one after another): row_inside's sums tap by tap. */
+__attribute__((always_inline)) static inline pt_v4f
+row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float DDQ, float gs,
+         float wscale, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
+{
+    float Q = *Qp, DQ = *DQp;
+    for (; n > 0; n--, px += step) {
+        if (Q < 1.0f) {
+            float w = expf(gs * Q) * wscale;
+            acc += texel_vec(px, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
+        }
+        Q += DQ;
+        DQ += DDQ;
+    }
+    *Qp = Q;
+    *DQp = DQ;
+    return acc;
+}
+
+static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x; }
+
+/* Row y of a Clamp sweep over a level with texels (not a constant face), taps [x1, x2) with
+ * Q, DQ at x1, in tap order, in five runs (cut at c1 <= c2 <= c3 <= c4):
+ *   [x1, c1) and [c4, x2): taps that fold_tap maps to one texel, read once;
+ *   [c2, c3): taps that read texels in a line, texel (x, y) of the face for those inside it
+ *             (upright: y >= 0, 0 <= x <= R-1-y; inverted: y <= R-1, R-y <= x <= R-1);
+ *   [c1, c2) and [c3, c4): the others (past the diagonal edge), fold_tap tap by tap.
+ * With the centroid (cu, cv) = upright (x + 1/3, y + 1/3), inverted (R-1-y + 2/3,
+ * R-1-x + 2/3), fold_tap gives (R >= 1, |x|, |y| < 2^20, where (int) of these is exact):
+ *   upright x < 0: cu is clamped to 0, the rest depends on y only;
+ *   upright y < 0: cv is clamped to 0; 0 <= x <= R-1: cu < R, no pull-back, texel (x, 0);
+ *     x >= R: cu > R is pulled back until cv < 0, then (R, 0) whatever x: texel (R-1, 0);
+ *   inverted x >= R: cv is clamped to 0, the rest depends on y only;
+ *   inverted y >= R: cu is clamped to 0; 0 <= x <= R-1: cv < R, texel (0, R-1-x);
+ *     x < 0: cv > R is pulled back until cu < 0, then (0, R) whatever x: texel (0, R-1). */
+__attribute__((always_inline)) static inline pt_v4f
+row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, float DQ,
+          float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
+          unsigned DT, unsigned NC)
+{
+    const size_t ts = st_dtype_size(DT) * NC;
+    const int R = it->R, odd = it->odd;
+    int c1, c2, c3, c4;
+    const uint8_t *line; /* the texel tap x of [c2, c3) reads: line + x * step */
+    ptrdiff_t step = (ptrdiff_t)ts;
+    if (x2 <= x1)
+        return acc;
+    if (!odd) {
+        c1 = 0;
+        if (y < 0) { /* row 0, then its last texel */
+            c2 = 0;
+            c3 = c4 = R;
+            line = data;
+        } else { /* inside, then past the diagonal edge (none when y >= R) */
+            c2 = 0;
+            c3 = R - y > 0 ? R - y : 0;
+            c4 = x2;
+            line = data + (size_t)y * (size_t)R * ts;
+        }
+    } else if (y >= R) { /* texels (0, R-1-x): column 0 upwards */
+        c1 = c2 = 0;
+        c3 = c4 = R;
+        step = -(ptrdiff_t)((size_t)R * ts);
+        line = data + (size_t)(R - 1) * (size_t)R * ts;
+    } else { /* past the diagonal edge, then inside */
+        c1 = x1;
+        c2 = R - y < R ? R - y : R;
+        c3 = c4 = R;
+        line = data + (size_t)y * (size_t)R * ts;
+    }
+    c1 = clampi(c1, x1, x2);
+    c2 = clampi(c2, c1, x2);
+    c3 = clampi(c3, c2, x2);
+    c4 = clampi(c4, c3, x2);
+    if (c1 > x1) {
+        int tx, ty;
+        fold_tap(R, odd, x1, y, &tx, &ty);
+        acc = row_same(c1 - x1, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, &Q, &DQ,
+                       DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+    }
+    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+    if (c3 > c2)
+        acc = row_step(c3 - c2, line + (ptrdiff_t)c2 * step, step, &Q, &DQ, DDQ, gs, wscale,
+                       one, acc, wsum4, DT, NC);
+    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+    if (x2 > c4) {
+        int tx, ty;
+        fold_tap(R, odd, c4, y, &tx, &ty);
+        acc = row_same(x2 - c4, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, &Q, &DQ,
+                       DDQ, gs, wscale, one, acc, wsum4, DT, NC);
     }
     return acc;
 }
@@ -447,7 +615,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             int x1, x2;
             float Q, DQ;
             row_span(it, R, y, &x1, &x2, &Q, &DQ);
-            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, Q, DQ, DDQ, gs,
+            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, &Q, &DQ, DDQ, gs,
                              wscale, one, acc, &wsum4, DT, NC);
         }
         y2 = y1; /* done: the loop below visits nothing */
@@ -460,26 +628,21 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         int x1, x2;
         float Q, DQ;
         row_span(it, R, y, &x1, &x2, &Q, &DQ);
+        if (how == SW_FOLD) {
+            if (constant) /* every tap reads texel 0 */
+                acc = row_same(x2 - x1, data, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, DT,
+                               NC);
+            else
+                acc = row_clamp(it, data, y, x1, x2, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
+                                DT, NC);
+            continue;
+        }
         /* a read stays inside the level whatever the float bounds did */
         int rd_ok = reads && y >= 0 && y < R;
         const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
-        /* SW_FOLD: the taps of the row inside the face, x in [fx1, fx2), read texel (x, y)
-         * (fold_tap's first case); upright: y >= 0, 0 <= x <= R-1-y; inverted: y <= R-1,
-         * R-y <= x <= R-1 */
-        int fx1 = 0, fx2 = 0;
-        if (how == SW_FOLD && !constant) {
-            if (!it->odd) {
-                fx2 = y >= 0 ? R - y : 0;
-            } else if (y <= R - 1) {
-                fx1 = R - y;
-                fx2 = R;
-            }
-            if (fx2 < fx1)
-                fx2 = fx1;
-        }
         if (rd_ok && x1 >= 0 && x2 <= R) {
             /* the whole row inside the level (a piece clamped into its face): no checks */
-            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, Q, DQ, DDQ, gs,
+            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, &Q, &DQ, DDQ, gs,
                              wscale, one, acc, &wsum4, DT, NC);
             continue;
         }
@@ -487,21 +650,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             if (Q < 1.0f) {
                 float w = expf(gs * Q) * wscale;
                 pt_v4f tv = one;
-                if (how == SW_READ) {
-                    if (rd_ok && (unsigned)x < (unsigned)R) {
-                        tv = texel_vec(row + (size_t)x * ts, one, DT, NC);
-                    }
-                } else if (how == SW_FOLD) {
-                    int tx = 0, ty = 0;
-                    if ((unsigned)(x - fx1) < (unsigned)(fx2 - fx1)) {
-                        tx = x;
-                        ty = y;
-                    } else if (!constant) {
-                        fold_tap(R, it->odd, x, y, &tx, &ty);
-                    }
-                    tv = texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT,
-                                   NC);
-                }
+                if (how == SW_READ && rd_ok && (unsigned)x < (unsigned)R)
+                    tv = texel_vec(row + (size_t)x * ts, one, DT, NC);
                 acc += tv * w;
                 if (NC == 4)
                     wsum4 += w;
@@ -700,9 +850,14 @@ static void point(const st_set *s, uint32_t f, float u, float v, float *out)
         out[ch] = st_channel_get(s->info.dtype, p, ch);
 }
 
-/* One triangle-filter query (not the point filter: point_batch_t); returns its st_qstatus. */
-static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *o,
-                    const st_query *q, float *out, float *cov)
+/* One triangle-filter query (not the point filter: point_batch_t); returns its st_qstatus.
+ * want_cov: the caller keeps the coverage (else Discard skips the sweeps of its denominator,
+ * the whole kernel's weight, which nothing else reads; *cov is then not meaningful). Inlined
+ * into its one caller, as GCC did on its own before want_cov (a call a query otherwise). */
+__attribute__((always_inline)) static inline int tri_eval(const st_set *s, const st_ptexres *t,
+                                                          const st_sample_opts *o,
+                                                          const st_query *q, float *out,
+                                                          float *cov, int want_cov)
 {
     uint32_t f = q->face;
     const st_face *F = &s->faces[f];
@@ -726,6 +881,8 @@ static int tri_eval(const st_set *s, const st_ptexres *t, const st_sample_opts *
     sweep_fns(dt, nc, &c.rd, &c.fold);
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
+    } else if (o->mode == ST_MODE_DISCARD && !want_cov) {
+        apply_face(&c, &k, f);
     } else if (o->mode == ST_MODE_DISCARD) {
         float whole = apply_discard(&c, &k, f);
         *cov = whole > 0.0f && c.weight < whole ? c.weight / whole : 1.0f;
@@ -845,7 +1002,7 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
         float *oi = out + i * nc, cov = 0.0f;
         int st = query_status(s, qi);
         if (st == ST_Q_OK) {
-            st = tri_eval(s, t, o, qi, oi, &cov);
+            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL);
         } else {
             for (unsigned ch = 0; ch < nc; ch++)
                 oi[ch] = NAN;

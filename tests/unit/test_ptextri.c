@@ -336,6 +336,40 @@ static void discard_renormalises_at_boundaries_and_modes_agree_inside(void **sta
     st_set_free(s);
 }
 
+/* Discard's values and statuses do not depend on whether the caller asks for coverage (the
+ * whole kernel's weight, its denominator, is only summed when it does): queries in, near
+ * and past the edges of both faces, footprints up to a third of the face, compared bit for
+ * bit; and with coverage, some of them are cut by a boundary edge (coverage < 1). */
+static void discard_values_do_not_depend_on_asking_for_coverage(void **state)
+{
+    (void)state;
+    st_set *s = two_triangles(32, ST_DT_F32, 3);
+    enum { N = 600 };
+    st_query q[N];
+    uint32_t seed = 11;
+    for (size_t i = 0; i < N; i++) {
+        seed = seed * 1103515245u + 12345u;
+        float u = -0.1f + 1.2f * (float)((seed >> 8) & 1023) / 1023.0f;
+        seed = seed * 1103515245u + 12345u;
+        float v = -0.1f + 1.2f * (float)((seed >> 8) & 1023) / 1023.0f;
+        float d = 0.002f + 0.3f * (float)(i % 17) / 16.0f;
+        q[i] = (st_query){(uint32_t)(i & 1), u, v, d, 0.3f * d * (float)(i % 3), 0.0f, d};
+    }
+    static float with[N * 3], without[N * 3], cov[N];
+    uint8_t st_with[N], st_without[N];
+    st_sample_opts o = {.mode = ST_MODE_DISCARD, .filter = ST_FILTER_PTEX_GAUSSIAN};
+    int r1 = st_sample_batch(s, &o, q, N, with, cov, st_with);
+    int r2 = st_sample_batch(s, &o, q, N, without, NULL, st_without);
+    assert_int_equal(r1, r2);
+    assert_memory_equal(st_with, st_without, sizeof st_with);
+    assert_memory_equal(with, without, sizeof with);
+    size_t cut = 0;
+    for (size_t i = 0; i < N; i++)
+        cut += st_with[i] == ST_Q_OK && cov[i] < 1.0f;
+    assert_true(cut > N / 20);
+    st_set_free(s);
+}
+
 static void gpu_point_uses_the_footprint_level_and_the_rest_is_refused(void **state)
 {
     (void)state;
@@ -456,6 +490,7 @@ int main(void)
         cmocka_unit_test(native_set_file_keeps_triangle_sets),
         cmocka_unit_test(a_constant_texture_stays_constant_in_every_mode),
         cmocka_unit_test(discard_renormalises_at_boundaries_and_modes_agree_inside),
+        cmocka_unit_test(discard_values_do_not_depend_on_asking_for_coverage),
         cmocka_unit_test(gpu_point_uses_the_footprint_level_and_the_rest_is_refused),
         cmocka_unit_test(a_point_across_an_edge_lands_on_the_neighbours_side),
         cmocka_unit_test(triangle_sets_are_checked_and_bc1_refuses_them),
