@@ -1433,6 +1433,17 @@ static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
     return dt > 3 || nc < 1 || nc > 4 ? NULL : fns[dt][nc - 1];
 }
 
+/* A kernel the fused path handed over (built, stripped, overhanging the face: what eval
+ * would have built): the Traverse shortcut walk, else eval_kernel. Returns the status,
+ * *cov set. */
+static inline int kernel_handed(pf *c, const pk_params *pp, const st_sample_opts *o,
+                                const st_query *qi, pk *k, float *oi, float *cov)
+{
+    if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, k, (int)qi->face, oi, cov))
+        return ST_Q_OK;
+    return eval_kernel(c, pp, o, qi, k, oi, cov);
+}
+
 /* kernel_qi's steps past its checks for a query that passed them (face f plain, (u, v) in
  * [0, 1)), the fused path offered (fast) or not (a width-4 kernel it declines): px the face's
  * row of the table, bu, bv the widths with width and blur applied. Returns the status,
@@ -1452,11 +1463,8 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
     int r = c->fast(pp, px, ulog2, vlog2, u, v, bu, bv, oi, &k);
     if (r == 1)
         return ST_Q_OK;
-    if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
-        if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, &k, (int)qi->face, oi, cov))
-            return ST_Q_OK;
-        return eval_kernel(c, pp, o, qi, &k, oi, cov);
-    }
+    if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
+        return kernel_handed(c, pp, o, qi, &k, oi, cov);
     return kernel_declined(c, pp, o, qi, oi, cov); /* declined: recomputed from qi */
 }
 
@@ -1471,7 +1479,8 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
  * Returns the number that failed. */
 static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
                       const st_query *q, size_t n, float *out, float *coverage,
-                      uint8_t *status, pf_kernel_lanes_fn kl, const pf_lanes *lc)
+                      uint8_t *status, pf_kernel_lanes_fn kl, pf_w4x8_fn w8,
+                      const pf_lanes *lc)
 {
     const uint32_t nfaces = c->s->info.nfaces;
     const st_face *faces = c->s->faces;
@@ -1486,11 +1495,29 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
     int bad = 0;
     size_t i = 0;
     if (kl) {
+        pk ks[8];
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
+            /* the fused path's common case of the 1-channel width-4 filters, 8 at a time:
+             * done, or handed over (over: the kernels in ks) */
+            unsigned done = 0, over = 0;
+            if (w8 && k.fast)
+                done = w8(pp, &k, out + i, ks, &over);
             for (unsigned j = 0; j < 8; j++) {
                 size_t ii = i + j;
+                if ((done | over) >> j & 1) {
+                    float cov = 1.0f;
+                    int st = ST_Q_OK;
+                    if (over >> j & 1)
+                        st = kernel_handed(c, pp, o, q + ii, &ks[j], out + ii, &cov);
+                    if (coverage)
+                        coverage[ii] = cov;
+                    if (status)
+                        status[ii] = (uint8_t)st;
+                    bad += st != ST_Q_OK;
+                    continue;
+                }
                 if (!(k.plain >> j & 1)) {
                     bad += serve(c, pp, o, qfn, q, ii, out, coverage, status);
                     continue;
@@ -1599,7 +1626,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     }
     if (qfn == kernel_q && path == PF_PATH_BEST) {
         int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status,
-                             pf_kernel_lanes_select(o->filter), &lc);
+                             pf_kernel_lanes_select(o->filter),
+                             pf_w4x8_select(c.dt, c.nc, o->filter), &lc);
         st_ptexres_unpin(t);
         return bad;
     }
