@@ -1504,13 +1504,21 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
             unsigned done = 0, over = 0;
             if (w8 && k.fast)
                 done = w8(pp, &k, out + i, ks, &over);
-            for (unsigned j = 0; j < 8; j++) {
+            if (done) { /* served: coverage 1, status OK */
+                for (unsigned m = done; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
+                    if (coverage)
+                        coverage[i + j] = 1.0f;
+                    if (status)
+                        status[i + j] = ST_Q_OK;
+                }
+            }
+            for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
+                unsigned j = (unsigned)__builtin_ctz(m);
                 size_t ii = i + j;
-                if ((done | over) >> j & 1) {
+                if (over >> j & 1) {
                     float cov = 1.0f;
-                    int st = ST_Q_OK;
-                    if (over >> j & 1)
-                        st = kernel_handed(c, pp, o, q + ii, &ks[j], out + ii, &cov);
+                    int st = kernel_handed(c, pp, o, q + ii, &ks[j], out + ii, &cov);
                     if (coverage)
                         coverage[ii] = cov;
                     if (status)

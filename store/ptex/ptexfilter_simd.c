@@ -942,13 +942,13 @@ PF_TARGET __m256i odd64(__m256i v)
     return _mm256_srli_epi64(v, 32);
 }
 
-/* One axis of w4_body for 8 queries, lane by lane its operations in its order: x the
- * coordinates, bw the widths, lg the faces' log2 sizes. Sets the resolution r, the first
- * texel u1, the 4 taps k[0..3], their sum s (0 + k0 + k1 + k2 + k3) and the lanes whose
- * window overhangs the face (outside); returns the lanes of w4_body's common case along
- * this axis: width under 1/4 (after the clamp to a texel), 4 taps, none zero. */
-PF_TARGET __m256i w4x8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, __m256i *r,
-                            __m256i *u1o, __m256 *k, __m256 *s, __m256i *outside, int G)
+/* One axis of w4_body's set-up for 8 queries, lane by lane its operations in its order: x
+ * the coordinates, bw the widths, lg the faces' log2 sizes. Sets the resolution r, the first
+ * texel u1, the first tap's position x1 and the step st, and the lanes whose window
+ * overhangs the face (outside); returns the lanes of w4_body's common case along this axis:
+ * width under 1/4 (after the clamp to a texel) and 4 taps. */
+PF_TARGET __m256i w4x8_axis(__m256 x, __m256 bw, __m256i lg, __m256i *r, __m256i *u1o,
+                            __m256 *x1, __m256 *st, __m256i *outside)
 {
     const __m256i e127 = _mm256_set1_epi32(127);
     __m256 lo = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lg), 23));
@@ -967,18 +967,24 @@ PF_TARGET __m256i w4x8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg,
     __m256i lim = _mm256_sllv_epi32(_mm256_set1_epi32(1), rr);
     *outside = _mm256_or_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), u1),
                                _mm256_cmpgt_epi32(u2, lim));
-    __m256 x1v = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix), uwpix);
-    __m256 sv = _mm256_div_ps(_mm256_set1_ps(1.0f), uwpix);
-    __m256 sum = _mm256_setzero_ps(), zero = _mm256_setzero_ps();
-    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) {
-        k[t] = kernel8_as(p, _mm256_add_ps(x1v, _mm256_mul_ps(_mm256_set1_ps((float)t), sv)), G);
-        ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(k[t], zero, _CMP_EQ_OQ)), ok);
-        sum = _mm256_add_ps(sum, k[t]);
-    }
+    *x1 = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix), uwpix);
+    *st = _mm256_div_ps(_mm256_set1_ps(1.0f), uwpix);
     *r = rr;
     *u1o = u1;
-    *s = sum;
     return ok;
+}
+
+/* Tap t of 8 queries (x1 + t * st, kernel8's function), stored to k; *sum += it, and the
+ * lanes where it is zero (w4_body strips those: not its common case) cleared from *ok. */
+PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float *k,
+                          __m256 *sum, __m256i *ok, int G)
+{
+    __m256 w = kernel8_as(p, _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)t), st)), G);
+    *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
+                              *ok);
+    *sum = _mm256_add_ps(*sum, w);
+    _mm256_storeu_ps(k, w);
+    return w;
 }
 
 /* The 4 texels of one window row of 8 queries, type DT (u8 or u16), 1 channel, as floats
@@ -1016,9 +1022,12 @@ PF_TARGET void w4x8_row(__m256i ae, __m256i ao, __m256i me, __m256i mo, unsigned
  * (klanes8): the lanes of k->fast that w4_body would serve in its common case (4 x 4 taps,
  * none zero, the window inside the face, total weight > 0) get w4_body's result, lane by
  * lane its operations in its order, so bit for bit; out[j] for those lanes j written, their
- * mask returned. The other lanes are left alone (the caller serves them one by one).
- * Queries are even/odd-split for the 64-bit address arithmetic and gathers; the 16 texels
- * of a query's window are 4 row gathers of 8 bytes. */
+ * mask returned. The lanes of that case but for a window that overhangs the face get the
+ * kernel w4_body hands over in kout[j], their mask in *over. The other lanes are left alone
+ * (the caller serves them one by one). Queries are even/odd-split for the 64-bit address
+ * arithmetic and gathers; the 16 texels of a query's window are 4 row gathers of 8 bytes.
+ * The v taps and the window's column sums come first, then the u taps one by one into the
+ * dot, so that few vectors are live at a time. */
 PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out, pk *kout,
                              unsigned *over, unsigned DT, int G)
 {
@@ -1029,25 +1038,66 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         _mm256_setzero_si256());
     __m256i lu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
     __m256i lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
-    __m256 ku[4], kv[4], su, sv;
     __m256i ru, rv, u0, v0, ou, ov;
+    __m256 xu, stu, xv, stv;
     __m256i ok = _mm256_and_si256(
-        fast, w4x8_axis(p, _mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu, &ru, &u0, ku, &su,
-                        &ou, G));
+        fast, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu, &ru, &u0, &xu, &stu, &ou));
     ok = _mm256_and_si256(
-        ok, w4x8_axis(p, _mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &rv, &v0, kv, &sv,
-                      &ov, G));
-    /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane */
+        ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &rv, &v0, &xv, &stv, &ov));
+    if (_mm256_testz_si256(ok, ok))
+        return *over = 0;
+    float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
+    __m256 kv[4], sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
+    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
+        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, G);
     __m256i out_of = _mm256_or_si256(ou, ov);
+    __m256i in = _mm256_andnot_si256(out_of, ok); /* so far: the u taps may still be zero */
+    const __m256 zf = _mm256_setzero_ps();
+    __m256 col[4] = {zf, zf, zf, zf}; /* fma(t, kv0, +0) first, as w4_tail */
+    if (!_mm256_testz_si256(in, in)) {
+        /* the level's data: px[ru * (fvlog2 + 1) + rv] of each face's row */
+        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, one)), rv);
+        __m256i p0 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[0]);
+        __m256i p1 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[4]);
+        __m256i pe = _mm256_permute4x64_epi64(_mm256_unpacklo_epi64(p0, p1), 0xD8);
+        __m256i po = _mm256_permute4x64_epi64(_mm256_unpackhi_epi64(p0, p1), 0xD8);
+        __m256i me = _mm256_slli_epi64(in, 32), mo = in; /* sign bits: even / odd lanes */
+        const __m256i z = _mm256_setzero_si256();
+        __m256i de = _mm256_mask_i64gather_epi64(
+            z, (const long long *)0, _mm256_add_epi64(pe, _mm256_slli_epi64(even64(idx), 3)), me, 1);
+        __m256i dof = _mm256_mask_i64gather_epi64(
+            z, (const long long *)0, _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
+        /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
+        const int sh = DT == 0 ? 0 : 1;
+        __m256i resu = _mm256_sllv_epi32(one, ru);
+        __m256i ae = _mm256_add_epi64(
+            de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), sh));
+        __m256i ao = _mm256_add_epi64(
+            dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
+                                                    odd64(u0)), sh));
+        __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
+        _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
+            __m256 t[4];
+            w4x8_row(ae, ao, me, mo, DT, t);
+            _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
+                col[i] = _mm256_fmadd_ps(t[i], kv[j], col[i]);
+            ae = _mm256_add_epi64(ae, re);
+            ao = _mm256_add_epi64(ao, ro);
+        }
+    }
+    /* the u taps, each into w4_tail's dot with the column weights (q_i = col_i ku_i + 0 + 0)
+     * and its fold (q0 + q2) + (q1 + q3), into +0 */
+    __m256 q0 = _mm256_add_ps(_mm256_fmadd_ps(col[0], w4x8_tap(p, xu, stu, 0, tu[0], &su, &ok, G), zf), zf);
+    __m256 q1 = _mm256_add_ps(_mm256_fmadd_ps(col[1], w4x8_tap(p, xu, stu, 1, tu[1], &su, &ok, G), zf), zf);
+    __m256 q2 = _mm256_add_ps(_mm256_fmadd_ps(col[2], w4x8_tap(p, xu, stu, 2, tu[2], &su, &ok, G), zf), zf);
+    __m256 h0 = _mm256_add_ps(q0, q2);
+    __m256 q3 = _mm256_add_ps(_mm256_fmadd_ps(col[3], w4x8_tap(p, xu, stu, 3, tu[3], &su, &ok, G), zf), zf);
+    __m256 res = _mm256_add_ps(zf, _mm256_add_ps(h0, _mm256_add_ps(q1, q3)));
+    /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane */
     unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
     *over = ho;
     if (ho) {
-        float tu[4][8], tv[4][8];
         int R[2][8], O[2][8];
-        for (int t = 0; t < 4; t++) {
-            _mm256_storeu_ps(tu[t], ku[t]);
-            _mm256_storeu_ps(tv[t], kv[t]);
-        }
         _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
         _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
         _mm256_storeu_si256((__m256i *)(void *)O[0], u0);
@@ -1067,47 +1117,14 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
                                                      0.0f, 0.0f, 0.0f, 0.0f));
         }
     }
-    ok = _mm256_andnot_si256(out_of, ok);
     __m256 total = _mm256_mul_ps(su, sv);
-    ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, _mm256_setzero_ps(), _CMP_GT_OQ)));
+    ok = _mm256_andnot_si256(out_of, ok);
+    ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
     unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
     if (!done)
         return 0;
     __m256 scale = _mm256_div_ps(_mm256_set1_ps(1.0f),
                                  _mm256_mul_ps(total, _mm256_set1_ps(DT == 0 ? 255.0f : 65535.0f)));
-    /* the level's data: px[ru * (fvlog2 + 1) + rv] of each face's row */
-    __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, one)), rv);
-    __m256i p0 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[0]);
-    __m256i p1 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[4]);
-    __m256i pe = _mm256_permute4x64_epi64(_mm256_unpacklo_epi64(p0, p1), 0xD8);
-    __m256i po = _mm256_permute4x64_epi64(_mm256_unpackhi_epi64(p0, p1), 0xD8);
-    __m256i me = _mm256_slli_epi64(ok, 32), mo = ok; /* sign bits: even / odd lanes of ok */
-    const __m256i z = _mm256_setzero_si256();
-    __m256i de = _mm256_mask_i64gather_epi64(z, (const long long *)0,
-                                             _mm256_add_epi64(pe, _mm256_slli_epi64(even64(idx), 3)), me, 1);
-    __m256i dof = _mm256_mask_i64gather_epi64(z, (const long long *)0,
-                                              _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
-    /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
-    const int sh = DT == 0 ? 0 : 1;
-    __m256i resu = _mm256_sllv_epi32(one, ru);
-    __m256i ae = _mm256_add_epi64(de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), sh));
-    __m256i ao = _mm256_add_epi64(dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)), odd64(u0)), sh));
-    __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
-    const __m256 zf = _mm256_setzero_ps();
-    __m256 col[4] = {zf, zf, zf, zf}; /* fma(t, kv0, +0) first, as w4_tail */
-    _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
-        __m256 t[4];
-        w4x8_row(ae, ao, me, mo, DT, t);
-        _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
-            col[i] = _mm256_fmadd_ps(t[i], kv[j], col[i]);
-        ae = _mm256_add_epi64(ae, re);
-        ao = _mm256_add_epi64(ao, ro);
-    }
-    /* w4_tail's dot with the column weights and its fold: (q0 + q2) + (q1 + q3), into +0 */
-    __m256 q[4];
-    _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
-        q[i] = _mm256_add_ps(_mm256_fmadd_ps(col[i], ku[i], zf), zf);
-    __m256 res = _mm256_add_ps(zf, _mm256_add_ps(_mm256_add_ps(q[0], q[2]), _mm256_add_ps(q[1], q[3])));
     _mm256_maskstore_ps(out, ok, _mm256_mul_ps(res, scale));
     return done;
 }
