@@ -1186,11 +1186,11 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
  * subface nor constant, when pf_walk_kernel takes it: the pieces summed as the walk sums
  * them and divided by the weight (the kernel's total, adjusted at corners as the walk
  * does), without eval_kernel's frame and checks; 0 when it declines (nothing written). */
-__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
-                                                             float *out, float *cov)
+__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, const pk *k, int f,
+                                                               float weight, float *out,
+                                                               float *cov)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
-    float weight = pk_weight(k);
     if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
         return 0;
     float scale = 1.0f / (weight * one_value(c->dt));
@@ -1198,6 +1198,13 @@ __attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k,
         out[ch] = acc[ch] * scale;
     *cov = 1.0f;
     return 1;
+}
+
+/* kernel_walk_w with the kernel's weight pk_weight(k). */
+__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
+                                                             float *out, float *cov)
+{
+    return kernel_walk_w(c, k, f, pk_weight(k), out, cov);
 }
 
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
@@ -1434,12 +1441,14 @@ static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
 }
 
 /* A kernel the fused path handed over (built, stripped, overhanging the face: what eval
- * would have built): the Traverse shortcut walk, else eval_kernel. Returns the status,
- * *cov set. */
+ * would have built; weight its pk_weight): the Traverse shortcut walk, else eval_kernel.
+ * Returns the status, *cov set. */
 static inline int kernel_handed(pf *c, const pk_params *pp, const st_sample_opts *o,
-                                const st_query *qi, pk *k, float *oi, float *cov)
+                                const st_query *qi, pk *k, float weight, float *oi,
+                                float *cov)
 {
-    if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, k, (int)qi->face, oi, cov))
+    if (c->small && c->mode == ST_MODE_TRAVERSE &&
+        kernel_walk_w(c, k, (int)qi->face, weight, oi, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, qi, k, oi, cov);
 }
@@ -1464,7 +1473,7 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
     if (r == 1)
         return ST_Q_OK;
     if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
-        return kernel_handed(c, pp, o, qi, &k, oi, cov);
+        return kernel_handed(c, pp, o, qi, &k, pk_weight(&k), oi, cov);
     return kernel_declined(c, pp, o, qi, oi, cov); /* declined: recomputed from qi */
 }
 
@@ -1496,15 +1505,16 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
     size_t i = 0;
     if (kl) {
         pk ks[8];
+        float kw[8];
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
             /* the fused path's common case of the 1-channel width-4 filters, 8 at a time:
-             * done, or handed over (over: the kernels in ks) */
+             * done, or handed over (over: the kernels in ks, their weights in kw) */
             unsigned done = 0, over = 0;
             if (w8 && k.fast)
-                done = w8(pp, &k, out + i, ks, &over);
-            if (done) { /* served: coverage 1, status OK */
+                done = w8(pp, &k, out + i, ks, kw, &over);
+            if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
                     if (coverage)
@@ -1518,7 +1528,7 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
                 size_t ii = i + j;
                 if (over >> j & 1) {
                     float cov = 1.0f;
-                    int st = kernel_handed(c, pp, o, q + ii, &ks[j], out + ii, &cov);
+                    int st = kernel_handed(c, pp, o, q + ii, &ks[j], kw[j], out + ii, &cov);
                     if (coverage)
                         coverage[ii] = cov;
                     if (status)

@@ -1023,13 +1023,13 @@ PF_TARGET void w4x8_row(__m256i ae, __m256i ao, __m256i me, __m256i mo, unsigned
  * none zero, the window inside the face, total weight > 0) get w4_body's result, lane by
  * lane its operations in its order, so bit for bit; out[j] for those lanes j written, their
  * mask returned. The lanes of that case but for a window that overhangs the face get the
- * kernel w4_body hands over in kout[j], their mask in *over. The other lanes are left alone
+ * kernel w4_body hands over in kout[j] and its weight in wout[j], their mask in *over. The other lanes are left alone
  * (the caller serves them one by one). Queries are even/odd-split for the 64-bit address
  * arithmetic and gathers; the 16 texels of a query's window are 4 row gathers of 8 bytes.
  * The v taps and the window's column sums come first, then the u taps one by one into the
  * dot, so that few vectors are live at a time. */
 PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out, pk *kout,
-                             unsigned *over, unsigned DT, int G)
+                             float *wout, unsigned *over, unsigned DT, int G)
 {
     const __m256i one = _mm256_set1_epi32(1);
     __m256i fast = _mm256_cmpgt_epi32(
@@ -1093,10 +1093,13 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     __m256 h0 = _mm256_add_ps(q0, q2);
     __m256 q3 = _mm256_add_ps(_mm256_fmadd_ps(col[3], w4x8_tap(p, xu, stu, 3, tu[3], &su, &ok, G), zf), zf);
     __m256 res = _mm256_add_ps(zf, _mm256_add_ps(h0, _mm256_add_ps(q1, q3)));
-    /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane */
+    /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane, with
+     * the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)) */
+    __m256 total = _mm256_mul_ps(su, sv);
     unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
     *over = ho;
     if (ho) {
+        _mm256_storeu_ps(wout, total);
         int R[2][8], O[2][8];
         _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
         _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
@@ -1117,7 +1120,6 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
                                                      0.0f, 0.0f, 0.0f, 0.0f));
         }
     }
-    __m256 total = _mm256_mul_ps(su, sv);
     ok = _mm256_andnot_si256(out_of, ok);
     ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
     unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
@@ -1131,14 +1133,16 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
 
 #define PF_W4X8(DT)                                                                         \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8_##DT##_g(              \
-        const pk_params *p, const pf_klanes *k, float *out, pk *kout, unsigned *over)       \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
     {                                                                                       \
-        return w4x8_body(p, k, out, kout, over, DT, 1); \
+        return w4x8_body(p, k, out, kout, wo, over, DT, 1);                          \
     }                                                                                       \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8_##DT##_c(              \
-        const pk_params *p, const pf_klanes *k, float *out, pk *kout, unsigned *over)       \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
     {                                                                                       \
-        return w4x8_body(p, k, out, kout, over, DT, 0); \
+        return w4x8_body(p, k, out, kout, wo, over, DT, 0);                          \
     }
 PF_W4X8(0)
 PF_W4X8(1)
