@@ -1472,24 +1472,57 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
     int r = c->fast(pp, px, ulog2, vlog2, u, v, bu, bv, oi, &k);
     if (r == 1)
         return ST_Q_OK;
-    if (r == 2) /* built, stripped, overhangs the face: what eval would have built */
-        return kernel_handed(c, pp, o, qi, &k, pk_weight(&k), oi, cov);
+    if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
+        if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, &k, (int)qi->face, oi, cov))
+            return ST_Q_OK;
+        return eval_kernel(c, pp, o, qi, &k, oi, cov);
+    }
     return kernel_declined(c, pp, o, qi, oi, cov); /* declined: recomputed from qi */
+}
+
+/* Lane j of a block of kernel_run_with (query ii): its kernel handed over by the 8-query
+ * fused path (handed: kh, its weight kwh) to kernel_handed, else serve for a query that
+ * failed the lanes' checks, else kernel_plain; coverage and status written. Returns 1 when
+ * it failed. */
+__attribute__((always_inline)) static inline int kernel_lane(
+    pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn, const st_query *q,
+    size_t ii, const pf_klanes *k, unsigned j, int handed, pk *kh, float kwh, float *out,
+    float *coverage, uint8_t *status, unsigned nc)
+{
+    float cov;
+    int st;
+    if (handed) {
+        cov = 1.0f;
+        st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii, &cov);
+    }
+    else if (!(k->plain >> j & 1))
+        return serve(c, pp, o, qfn, q, ii, out, coverage, status);
+    else
+        st = kernel_plain(c, pp, o, q + ii, k->fast >> j & 1, k->px[j], k->ulog2[j],
+                          k->vlog2[j], k->u[j], k->v[j], k->bu[j], k->bv[j],
+                          out + ii * nc, &cov);
+    if (coverage)
+        coverage[ii] = cov;
+    if (status)
+        status[ii] = (uint8_t)st;
+    return st != ST_Q_OK;
 }
 
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
- * plain_face's checks and kernel_qi's widths and test, lane by lane), then per query the
- * fused path (kernel_plain); the rest one by one with the same checks in one vector compare
+ * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the
+ * 1-channel width-4 filters) the fused path's common case of the block at once
+ * (ptexfilter_simd.c's pf_w4x8_select: served, or its kernel handed over to kernel_handed),
+ * then per query the fused path (kernel_plain) for the lanes left; the rest one by one with the same checks in one vector compare
  * ((u, v) in [0, 1), the four derivatives within the bound, NaN failing it; the face in
  * range and plain: together they imply one_query's checks and plain_face's) and kernel_qi's
  * widths from the same vector. A query that fails the checks goes through serve
  * (one_query, kernel_q: what it did before, in full). Coverage and status written directly.
  * Returns the number that failed. */
-static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
-                      const st_query *q, size_t n, float *out, float *coverage,
-                      uint8_t *status, pf_kernel_lanes_fn kl, pf_w4x8_fn w8,
-                      const pf_lanes *lc)
+__attribute__((always_inline)) static inline int kernel_run_with(
+    pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn, const st_query *q,
+    size_t n, float *out, float *coverage, uint8_t *status, pf_kernel_lanes_fn kl,
+    pf_w4x8_fn w8, const pf_lanes *lc, int W8)
 {
     const uint32_t nfaces = c->s->info.nfaces;
     const st_face *faces = c->s->faces;
@@ -1512,7 +1545,7 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
             /* the fused path's common case of the 1-channel width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
             unsigned done = 0, over = 0;
-            if (w8 && k.fast)
+            if (W8 && k.fast)
                 done = w8(pp, &k, out + i, ks, kw, &over);
             if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
@@ -1523,32 +1556,16 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
                         status[i + j] = ST_Q_OK;
                 }
             }
-            for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
-                unsigned j = (unsigned)__builtin_ctz(m);
-                size_t ii = i + j;
-                if (over >> j & 1) {
-                    float cov = 1.0f;
-                    int st = kernel_handed(c, pp, o, q + ii, &ks[j], kw[j], out + ii, &cov);
-                    if (coverage)
-                        coverage[ii] = cov;
-                    if (status)
-                        status[ii] = (uint8_t)st;
-                    bad += st != ST_Q_OK;
-                    continue;
+            if (W8) {
+                for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
+                                       kw[j], out, coverage, status, 1);
                 }
-                if (!(k.plain >> j & 1)) {
-                    bad += serve(c, pp, o, qfn, q, ii, out, coverage, status);
-                    continue;
-                }
-                float cov;
-                int st = kernel_plain(c, pp, o, q + ii, k.fast >> j & 1, k.px[j], k.ulog2[j],
-                                      k.vlog2[j], k.u[j], k.v[j], k.bu[j], k.bv[j],
-                                      out + ii * nc, &cov);
-                if (coverage)
-                    coverage[ii] = cov;
-                if (status)
-                    status[ii] = (uint8_t)st;
-                bad += st != ST_Q_OK;
+            } else {
+                for (unsigned j = 0; j < 8; j++)
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
+                                       coverage, status, nc);
             }
         }
     }
@@ -1582,6 +1599,17 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
         bad += st != ST_Q_OK;
     }
     return bad;
+}
+
+/* kernel_run_with, its block loop with the 8-query fused path (w8) or without it. */
+static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
+                      const st_query *q, size_t n, float *out, float *coverage,
+                      uint8_t *status, pf_kernel_lanes_fn kl, pf_w4x8_fn w8,
+                      const pf_lanes *lc)
+{
+    if (w8)
+        return kernel_run_with(c, pp, o, qfn, q, n, out, coverage, status, kl, w8, lc, 1);
+    return kernel_run_with(c, pp, o, qfn, q, n, out, coverage, status, kl, NULL, lc, 0);
 }
 
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
