@@ -1544,8 +1544,8 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             kl(lc, q + i, &k);
             /* the fused path's common case of the 1-channel width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
-            unsigned done = 0, over = 0;
-            if (W8 && k.fast)
+            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1);
+            if (W8 && (f2 & (f2 - 1))) /* 3 lanes or more offered: else one by one is less */
                 done = w8(pp, &k, out + i, ks, kw, &over);
             if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
