@@ -34,6 +34,12 @@
  * general path then runs: results are bit for bit those of the general path
  * (test_ptexfilter_simd).
  *
+ * The width-4 filters' common case 8 queries at a time (pf_w4x8_select: 1-channel u8 and
+ * u16 texels, after ptexfilter_lanes.c's klanes8 has classified the block): w4_body's
+ * set-up, taps and 4 x 4 window lane by lane in 8-lane vectors (one lane a query, the window
+ * rows gathered), its operations in its order, so bit for bit; the kernels that overhang
+ * their face handed over as w4_body hands them over.
+ *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
