@@ -18,7 +18,9 @@
  * filter and the box and width-4 filters also have their own batch loops (point_run,
  * kernel_run: the query checks and the query function inline, no call per query; kernel_run
  * takes the checks and set-up of 8 queries at once from ptexfilter_lanes.c's kernel lanes
- * with AVX2, then calls the fused path per query). A
+ * with AVX2, then - for the 1-channel u8 / u16 width-4 filters - the fused path's common case
+ * of the whole block at once (ptexfilter_simd.c's pf_w4x8_select), and calls the fused path
+ * per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
@@ -1186,11 +1188,11 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
  * subface nor constant, when pf_walk_kernel takes it: the pieces summed as the walk sums
  * them and divided by the weight (the kernel's total, adjusted at corners as the walk
  * does), without eval_kernel's frame and checks; 0 when it declines (nothing written). */
-__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
-                                                             float *out, float *cov)
+__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, const pk *k, int f,
+                                                               float weight, float *out,
+                                                               float *cov)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
-    float weight = pk_weight(k);
     if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
         return 0;
     float scale = 1.0f / (weight * one_value(c->dt));
@@ -1198,6 +1200,13 @@ __attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k,
         out[ch] = acc[ch] * scale;
     *cov = 1.0f;
     return 1;
+}
+
+/* kernel_walk_w with the kernel's weight pk_weight(k). */
+__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
+                                                             float *out, float *cov)
+{
+    return kernel_walk_w(c, k, f, pk_weight(k), out, cov);
 }
 
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
@@ -1433,6 +1442,19 @@ static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
     return dt > 3 || nc < 1 || nc > 4 ? NULL : fns[dt][nc - 1];
 }
 
+/* A kernel the fused path handed over (built, stripped, overhanging the face: what eval
+ * would have built; weight its pk_weight): the Traverse shortcut walk, else eval_kernel.
+ * Returns the status, *cov set. */
+static inline int kernel_handed(pf *c, const pk_params *pp, const st_sample_opts *o,
+                                const st_query *qi, pk *k, float weight, float *oi,
+                                float *cov)
+{
+    if (c->small && c->mode == ST_MODE_TRAVERSE &&
+        kernel_walk_w(c, k, (int)qi->face, weight, oi, cov))
+        return ST_Q_OK;
+    return eval_kernel(c, pp, o, qi, k, oi, cov);
+}
+
 /* kernel_qi's steps past its checks for a query that passed them (face f plain, (u, v) in
  * [0, 1)), the fused path offered (fast) or not (a width-4 kernel it declines): px the face's
  * row of the table, bu, bv the widths with width and blur applied. Returns the status,
@@ -1460,18 +1482,49 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
     return kernel_declined(c, pp, o, qi, oi, cov); /* declined: recomputed from qi */
 }
 
+/* Lane j of a block of kernel_run_with (query ii): its kernel handed over by the 8-query
+ * fused path (handed: kh, its weight kwh) to kernel_handed, else serve for a query that
+ * failed the lanes' checks, else kernel_plain; coverage and status written. Returns 1 when
+ * it failed. */
+__attribute__((always_inline)) static inline int kernel_lane(
+    pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn, const st_query *q,
+    size_t ii, const pf_klanes *k, unsigned j, int handed, pk *kh, float kwh, float *out,
+    float *coverage, uint8_t *status, unsigned nc)
+{
+    float cov;
+    int st;
+    if (handed) {
+        cov = 1.0f;
+        st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii, &cov);
+    }
+    else if (!(k->plain >> j & 1))
+        return serve(c, pp, o, qfn, q, ii, out, coverage, status);
+    else
+        st = kernel_plain(c, pp, o, q + ii, k->fast >> j & 1, k->px[j], k->ulog2[j],
+                          k->vlog2[j], k->u[j], k->v[j], k->bu[j], k->bv[j],
+                          out + ii * nc, &cov);
+    if (coverage)
+        coverage[ii] = cov;
+    if (status)
+        status[ii] = (uint8_t)st;
+    return st != ST_Q_OK;
+}
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
- * plain_face's checks and kernel_qi's widths and test, lane by lane), then per query the
- * fused path (kernel_plain); the rest one by one with the same checks in one vector compare
+ * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the
+ * 1-channel width-4 filters) the fused path's common case of the block at once
+ * (ptexfilter_simd.c's pf_w4x8_select: served, or its kernel handed over to kernel_handed),
+ * then per query the fused path (kernel_plain) for the lanes left; the rest one by one with the same checks in one vector compare
  * ((u, v) in [0, 1), the four derivatives within the bound, NaN failing it; the face in
  * range and plain: together they imply one_query's checks and plain_face's) and kernel_qi's
  * widths from the same vector. A query that fails the checks goes through serve
  * (one_query, kernel_q: what it did before, in full). Coverage and status written directly.
  * Returns the number that failed. */
-static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
-                      const st_query *q, size_t n, float *out, float *coverage,
-                      uint8_t *status, pf_kernel_lanes_fn kl, const pf_lanes *lc)
+__attribute__((always_inline)) static inline int kernel_run_with(
+    pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn, const st_query *q,
+    size_t n, float *out, float *coverage, uint8_t *status, pf_kernel_lanes_fn kl,
+    pf_w4x8_fn w8, const pf_lanes *lc, int W8)
 {
     const uint32_t nfaces = c->s->info.nfaces;
     const st_face *faces = c->s->faces;
@@ -1486,24 +1539,35 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
     int bad = 0;
     size_t i = 0;
     if (kl) {
+        pk ks[8];
+        float kw[8];
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
-            for (unsigned j = 0; j < 8; j++) {
-                size_t ii = i + j;
-                if (!(k.plain >> j & 1)) {
-                    bad += serve(c, pp, o, qfn, q, ii, out, coverage, status);
-                    continue;
+            /* the fused path's common case of the 1-channel width-4 filters, 8 at a time:
+             * done, or handed over (over: the kernels in ks, their weights in kw) */
+            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1);
+            if (W8 && (f2 & (f2 - 1))) /* 3 lanes or more offered: else one by one is less */
+                done = w8(pp, &k, out + i, ks, kw, &over);
+            if (done && (coverage || status)) { /* served: coverage 1, status OK */
+                for (unsigned m = done; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
+                    if (coverage)
+                        coverage[i + j] = 1.0f;
+                    if (status)
+                        status[i + j] = ST_Q_OK;
                 }
-                float cov;
-                int st = kernel_plain(c, pp, o, q + ii, k.fast >> j & 1, k.px[j], k.ulog2[j],
-                                      k.vlog2[j], k.u[j], k.v[j], k.bu[j], k.bv[j],
-                                      out + ii * nc, &cov);
-                if (coverage)
-                    coverage[ii] = cov;
-                if (status)
-                    status[ii] = (uint8_t)st;
-                bad += st != ST_Q_OK;
+            }
+            if (W8) {
+                for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
+                                       kw[j], out, coverage, status, 1);
+                }
+            } else {
+                for (unsigned j = 0; j < 8; j++)
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
+                                       coverage, status, nc);
             }
         }
     }
@@ -1537,6 +1601,17 @@ static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_qu
         bad += st != ST_Q_OK;
     }
     return bad;
+}
+
+/* kernel_run_with, its block loop with the 8-query fused path (w8) or without it. */
+static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
+                      const st_query *q, size_t n, float *out, float *coverage,
+                      uint8_t *status, pf_kernel_lanes_fn kl, pf_w4x8_fn w8,
+                      const pf_lanes *lc)
+{
+    if (w8)
+        return kernel_run_with(c, pp, o, qfn, q, n, out, coverage, status, kl, w8, lc, 1);
+    return kernel_run_with(c, pp, o, qfn, q, n, out, coverage, status, kl, NULL, lc, 0);
 }
 
 static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
@@ -1599,7 +1674,8 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     }
     if (qfn == kernel_q && path == PF_PATH_BEST) {
         int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status,
-                             pf_kernel_lanes_select(o->filter), &lc);
+                             pf_kernel_lanes_select(o->filter),
+                             pf_w4x8_select(c.dt, c.nc, o->filter), &lc);
         st_ptexres_unpin(t);
         return bad;
     }

@@ -317,6 +317,19 @@ typedef int (*pf_fast_fn)(const pk_params *p, const uint8_t *const *px, int fulo
  * or a filter without one). */
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype);
 
+/* The fused width-4 path of 8 queries at once (ptexfilter_simd.c, AVX2), after klanes8
+ * (ptexfilter_lanes.h: k the block's checks and set-up): for the lanes of k->fast whose
+ * kernel is the fused path's common case (4 x 4 taps, none zero, the window inside the
+ * face, total weight > 0) writes out[lane] (1 channel), bit for bit what pf_fast_fn writes,
+ * and returns their mask; sets *over to the lanes of the same case but for a window that
+ * overhangs the face, kout[lane] (kout: 8 of them) the kernel pf_fast_fn hands over for
+ * them (its return 2) and wout[lane] its pk_weight; the other lanes are left to the per-query path. NULL but for the
+ * width-4 filters on 1-channel u8 or u16 texels with AVX2. */
+struct pf_klanes;
+typedef unsigned (*pf_w4x8_fn)(const pk_params *p, const struct pf_klanes *k, float *out,
+                               pk *kout, float *wout, unsigned *over);
+pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype);
+
 /* A window of uw x vw texels with uw, vw in 1..2 (ptexfilter_simd.c, AVX2): bit for bit what
  * pf_apply_avx2 gives for a kernel with that window and weights ku, kv, without its
  * dispatch (the pieces of a bilinear kernel split at face edges). pf_small_select gives the

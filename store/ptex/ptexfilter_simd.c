@@ -34,6 +34,12 @@
  * general path then runs: results are bit for bit those of the general path
  * (test_ptexfilter_simd).
  *
+ * The width-4 filters' common case 8 queries at a time (pf_w4x8_select: 1-channel u8 and
+ * u16 texels, after ptexfilter_lanes.c's klanes8 has classified the block): w4_body's
+ * set-up, taps and 4 x 4 window lane by lane in 8-lane vectors (one lane a query, the window
+ * rows gathered), its operations in its order, so bit for bit; the kernels that overhang
+ * their face handed over as w4_body hands them over.
+ *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
@@ -55,6 +61,7 @@
 
 #include <stddef.h>
 
+#include "ptexfilter_lanes.h"
 #include "ptexfilter_walk.h"
 
 #include "sample.h"
@@ -354,10 +361,10 @@ pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, 
 /* The width-4 kernel function at 8 points: the same operations in the same order as
  * ptexfilter_kernel.c's kernel_eval (no fused multiply-adds), so the weights are bit for bit
  * the portable ones. */
-PF_TARGET __m256 kernel8(const pk_params *p, __m256 x)
+PF_TARGET __m256 kernel8_as(const pk_params *p, __m256 x, int gauss)
 {
     const float *c = p->coeffs;
-    if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
+    if (gauss) {
         __m256 y = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f)),
                                  _mm256_set1_ps(1.44269504f));
         y = _mm256_max_ps(y, _mm256_set1_ps(-126.0f));
@@ -383,6 +390,12 @@ PF_TARGET __m256 kernel8(const pk_params *p, __m256 x)
     __m256 m1 = _mm256_cmp_ps(a, _mm256_set1_ps(1.0f), _CMP_LT_OQ);
     __m256 m2 = _mm256_cmp_ps(a, _mm256_set1_ps(2.0f), _CMP_LT_OQ);
     return _mm256_or_ps(_mm256_and_ps(inner, m1), _mm256_andnot_ps(m1, _mm256_and_ps(outer, m2)));
+}
+
+/* kernel8_as for p's filter. */
+PF_TARGET __m256 kernel8(const pk_params *p, __m256 x)
+{
+    return kernel8_as(p, x, p->ftype == ST_FILTER_PTEX_GAUSSIAN);
 }
 
 __attribute__((target("avx2,fma,f16c")))
@@ -923,6 +936,233 @@ PF_FAST_NC(1)
 PF_FAST_NC(2)
 PF_FAST_NC(3)
 
+/* ---- the width-4 filters' common case, 8 queries at a time (pf_w4x8_select) ------------ */
+
+/* The even (0, 2, 4, 6) and odd (1, 3, 5, 7) 32-bit lanes of v as 64-bit lanes, zero-extended. */
+PF_TARGET __m256i even64(__m256i v)
+{
+    return _mm256_and_si256(v, _mm256_set1_epi64x(0xffffffffLL));
+}
+PF_TARGET __m256i odd64(__m256i v)
+{
+    return _mm256_srli_epi64(v, 32);
+}
+
+/* One axis of w4_body's set-up for 8 queries, lane by lane its operations in its order: x
+ * the coordinates, bw the widths, lg the faces' log2 sizes. Sets the resolution r, the first
+ * texel u1, the first tap's position x1 and the step st, and the lanes whose window
+ * overhangs the face (outside); returns the lanes of w4_body's common case along this axis:
+ * width under 1/4 (after the clamp to a texel) and 4 taps. */
+PF_TARGET __m256i w4x8_axis(__m256 x, __m256 bw, __m256i lg, __m256i *r, __m256i *u1o,
+                            __m256 *x1, __m256 *st, __m256i *outside)
+{
+    const __m256i e127 = _mm256_set1_epi32(127);
+    __m256 lo = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lg), 23));
+    __m256 w = _mm256_max_ps(bw, lo);
+    __m256i ok = _mm256_castps_si256(_mm256_cmp_ps(w, _mm256_set1_ps(.25f), _CMP_NGE_UQ));
+    __m256i rr = _mm256_sub_epi32(e127, _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(w), 23),
+                                                         _mm256_set1_epi32(0xff)));
+    __m256 rf = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(rr, e127), 23));
+    __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, rf), _mm256_set1_ps(0.5f));
+    __m256 uwpix = _mm256_mul_ps(w, rf);
+    __m256 dupix = _mm256_mul_ps(_mm256_set1_ps(2.0f), uwpix);
+    __m256i u1 = _mm256_cvttps_epi32(_mm256_ceil_ps(_mm256_sub_ps(upix, dupix)));
+    __m256i u2 = _mm256_cvttps_epi32(_mm256_ceil_ps(_mm256_add_ps(upix, dupix)));
+    ok = _mm256_and_si256(ok, _mm256_cmpeq_epi32(_mm256_sub_epi32(u2, u1), _mm256_set1_epi32(4)));
+    /* inside: u1 >= 0, u2 <= 2^r */
+    __m256i lim = _mm256_sllv_epi32(_mm256_set1_epi32(1), rr);
+    *outside = _mm256_or_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), u1),
+                               _mm256_cmpgt_epi32(u2, lim));
+    *x1 = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix), uwpix);
+    *st = _mm256_div_ps(_mm256_set1_ps(1.0f), uwpix);
+    *r = rr;
+    *u1o = u1;
+    return ok;
+}
+
+/* Tap t of 8 queries (x1 + t * st, kernel8's function), stored to k; *sum += it, and the
+ * lanes where it is zero (w4_body strips those: not its common case) cleared from *ok. */
+PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float *k,
+                          __m256 *sum, __m256i *ok, int G)
+{
+    __m256 w = kernel8_as(p, _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)t), st)), G);
+    *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
+                              *ok);
+    *sum = _mm256_add_ps(*sum, w);
+    _mm256_storeu_ps(k, w);
+    return w;
+}
+
+/* The 4 texels of one window row of 8 queries, type DT (u8 or u16), 1 channel, as floats
+ * per column: ae, ao the rows' addresses of the even and odd queries (64-bit lanes), me, mo
+ * their gather masks (sign bits). Reads 8 bytes a row (4 past a u8 row: the arenas' slack). */
+PF_TARGET void w4x8_row(__m256i ae, __m256i ao, __m256i me, __m256i mo, unsigned DT,
+                        __m256 *t)
+{
+    const __m256i z = _mm256_setzero_si256();
+    __m256i ge = _mm256_mask_i64gather_epi64(z, (const long long *)0, ae, me, 1);
+    __m256i go = _mm256_mask_i64gather_epi64(z, (const long long *)0, ao, mo, 1);
+    _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++) {
+        /* column i: value i of each qword, into dword 0 / 2 (even queries) or 1 / 3 (odd) */
+        __m256i se, so;
+        if (DT == 0) {
+            char a = (char)i, b = (char)(8 + i), n = (char)0x80;
+            se = _mm256_setr_epi8(a, n, n, n, n, n, n, n, b, n, n, n, n, n, n, n,
+                                  a, n, n, n, n, n, n, n, b, n, n, n, n, n, n, n);
+            so = _mm256_setr_epi8(n, n, n, n, a, n, n, n, n, n, n, n, b, n, n, n,
+                                  n, n, n, n, a, n, n, n, n, n, n, n, b, n, n, n);
+        } else {
+            char a = (char)(2 * i), a1 = (char)(2 * i + 1), b = (char)(8 + 2 * i),
+                 b1 = (char)(9 + 2 * i), n = (char)0x80;
+            se = _mm256_setr_epi8(a, a1, n, n, n, n, n, n, b, b1, n, n, n, n, n, n,
+                                  a, a1, n, n, n, n, n, n, b, b1, n, n, n, n, n, n);
+            so = _mm256_setr_epi8(n, n, n, n, a, a1, n, n, n, n, n, n, b, b1, n, n,
+                                  n, n, n, n, a, a1, n, n, n, n, n, n, b, b1, n, n);
+        }
+        t[i] = _mm256_cvtepi32_ps(_mm256_or_si256(_mm256_shuffle_epi8(ge, se),
+                                                  _mm256_shuffle_epi8(go, so)));
+    }
+}
+
+/* 8 queries of a width-4 filter on 1-channel u8 or u16 texels (DT), the block's set-up k
+ * (klanes8): the lanes of k->fast that w4_body would serve in its common case (4 x 4 taps,
+ * none zero, the window inside the face, total weight > 0) get w4_body's result, lane by
+ * lane its operations in its order, so bit for bit; out[j] for those lanes j written, their
+ * mask returned. The lanes of that case but for a window that overhangs the face get the
+ * kernel w4_body hands over in kout[j] and its weight in wout[j], their mask in *over. The other lanes are left alone
+ * (the caller serves them one by one). Queries are even/odd-split for the 64-bit address
+ * arithmetic and gathers; the 16 texels of a query's window are 4 row gathers of 8 bytes.
+ * The v taps and the window's column sums come first, then the u taps one by one into the
+ * dot, so that few vectors are live at a time. */
+PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out, pk *kout,
+                             float *wout, unsigned *over, unsigned DT, int G)
+{
+    const __m256i one = _mm256_set1_epi32(1);
+    __m256i fast = _mm256_cmpgt_epi32(
+        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
+                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
+        _mm256_setzero_si256());
+    __m256i lu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
+    __m256i lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
+    __m256i ru, rv, u0, v0, ou, ov;
+    __m256 xu, stu, xv, stv;
+    __m256i ok = _mm256_and_si256(
+        fast, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu, &ru, &u0, &xu, &stu, &ou));
+    ok = _mm256_and_si256(
+        ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &rv, &v0, &xv, &stv, &ov));
+    if (_mm256_testz_si256(ok, ok))
+        return *over = 0;
+    float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
+    __m256 kv[4], sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
+    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
+        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, G);
+    __m256i out_of = _mm256_or_si256(ou, ov);
+    __m256i in = _mm256_andnot_si256(out_of, ok); /* so far: the u taps may still be zero */
+    const __m256 zf = _mm256_setzero_ps();
+    __m256 col[4] = {zf, zf, zf, zf}; /* fma(t, kv0, +0) first, as w4_tail */
+    if (!_mm256_testz_si256(in, in)) {
+        /* the level's data: px[ru * (fvlog2 + 1) + rv] of each face's row */
+        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, one)), rv);
+        __m256i p0 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[0]);
+        __m256i p1 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[4]);
+        __m256i pe = _mm256_permute4x64_epi64(_mm256_unpacklo_epi64(p0, p1), 0xD8);
+        __m256i po = _mm256_permute4x64_epi64(_mm256_unpackhi_epi64(p0, p1), 0xD8);
+        __m256i me = _mm256_slli_epi64(in, 32), mo = in; /* sign bits: even / odd lanes */
+        const __m256i z = _mm256_setzero_si256();
+        __m256i de = _mm256_mask_i64gather_epi64(
+            z, (const long long *)0, _mm256_add_epi64(pe, _mm256_slli_epi64(even64(idx), 3)), me, 1);
+        __m256i dof = _mm256_mask_i64gather_epi64(
+            z, (const long long *)0, _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
+        /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
+        const int sh = DT == 0 ? 0 : 1;
+        __m256i resu = _mm256_sllv_epi32(one, ru);
+        __m256i ae = _mm256_add_epi64(
+            de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), sh));
+        __m256i ao = _mm256_add_epi64(
+            dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
+                                                    odd64(u0)), sh));
+        __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
+        _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
+            __m256 t[4];
+            w4x8_row(ae, ao, me, mo, DT, t);
+            _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
+                col[i] = _mm256_fmadd_ps(t[i], kv[j], col[i]);
+            ae = _mm256_add_epi64(ae, re);
+            ao = _mm256_add_epi64(ao, ro);
+        }
+    }
+    /* the u taps, each into w4_tail's dot with the column weights (q_i = col_i ku_i + 0 + 0)
+     * and its fold (q0 + q2) + (q1 + q3), into +0 */
+    __m256 q0 = _mm256_add_ps(_mm256_fmadd_ps(col[0], w4x8_tap(p, xu, stu, 0, tu[0], &su, &ok, G), zf), zf);
+    __m256 q1 = _mm256_add_ps(_mm256_fmadd_ps(col[1], w4x8_tap(p, xu, stu, 1, tu[1], &su, &ok, G), zf), zf);
+    __m256 q2 = _mm256_add_ps(_mm256_fmadd_ps(col[2], w4x8_tap(p, xu, stu, 2, tu[2], &su, &ok, G), zf), zf);
+    __m256 h0 = _mm256_add_ps(q0, q2);
+    __m256 q3 = _mm256_add_ps(_mm256_fmadd_ps(col[3], w4x8_tap(p, xu, stu, 3, tu[3], &su, &ok, G), zf), zf);
+    __m256 res = _mm256_add_ps(zf, _mm256_add_ps(h0, _mm256_add_ps(q1, q3)));
+    /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane, with
+     * the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)) */
+    __m256 total = _mm256_mul_ps(su, sv);
+    unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
+    *over = ho;
+    if (ho) {
+        _mm256_storeu_ps(wout, total);
+        int R[2][8], O[2][8];
+        _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
+        _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
+        _mm256_storeu_si256((__m256i *)(void *)O[0], u0);
+        _mm256_storeu_si256((__m256i *)(void *)O[1], v0);
+        for (unsigned m = ho; m; m &= m - 1) {
+            int j = __builtin_ctz(m);
+            pk *kj = kout + j;
+            kj->ulog2 = R[0][j];
+            kj->vlog2 = R[1][j];
+            kj->u = O[0][j];
+            kj->v = O[1][j];
+            kj->uw = kj->vw = 4;
+            kj->ku0 = kj->kv0 = kj->rot = 0;
+            _mm256_storeu_ps(kj->kub, _mm256_setr_ps(tu[0][j], tu[1][j], tu[2][j], tu[3][j],
+                                                     0.0f, 0.0f, 0.0f, 0.0f));
+            _mm256_storeu_ps(kj->kvb, _mm256_setr_ps(tv[0][j], tv[1][j], tv[2][j], tv[3][j],
+                                                     0.0f, 0.0f, 0.0f, 0.0f));
+        }
+    }
+    ok = _mm256_andnot_si256(out_of, ok);
+    ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
+    unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
+    if (!done)
+        return 0;
+    __m256 scale = _mm256_div_ps(_mm256_set1_ps(1.0f),
+                                 _mm256_mul_ps(total, _mm256_set1_ps(DT == 0 ? 255.0f : 65535.0f)));
+    _mm256_maskstore_ps(out, ok, _mm256_mul_ps(res, scale));
+    return done;
+}
+
+#define PF_W4X8(DT)                                                                         \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8_##DT##_g(              \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
+    {                                                                                       \
+        return w4x8_body(p, k, out, kout, wo, over, DT, 1);                          \
+    }                                                                                       \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8_##DT##_c(              \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
+    {                                                                                       \
+        return w4x8_body(p, k, out, kout, wo, over, DT, 0);                          \
+    }
+PF_W4X8(0)
+PF_W4X8(1)
+
+pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype)
+{
+    if (ftype <= ST_FILTER_PTEX_BOX || ftype > ST_FILTER_PTEX_MITCHELL || nc != 1 || dt > 1 ||
+        !pf_have_avx2())
+        return NULL;
+    if (ftype == ST_FILTER_PTEX_GAUSSIAN)
+        return dt == 0 ? pf_w4x8_0_g : pf_w4x8_1_g;
+    return dt == 0 ? pf_w4x8_0_c : pf_w4x8_1_c;
+}
+
 /* ---- windows of at most 2 x 2 texels (pf_small_select) ---------------------------------- */
 
 /* window() / window3() with NV = 1 (uw * nc <= 8) and the window's shape as constants: the
@@ -1245,6 +1485,12 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
 pf_window_fn pf_window_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype)
+{
+    (void)dt; (void)nc; (void)ftype;
     return NULL;
 }
 
