@@ -561,13 +561,14 @@ static void conn_process(sts_conn *c)
 /* One read into the input (split in two buffers when a big SAMPLE frame ends it), then every
  * complete frame answered (conn_process). Returns 1 when the read filled all the room it was
  * offered (more is likely waiting in the socket), 0 when it did not or read nothing, -1 when
- * the connection was closed or the read is over for this wake-up (peer half-closed). */
+ * reading is over for this wake-up (the peer half-closed), -2 when the connection is closed
+ * (c may be freed: not to be touched). */
 static int read_once(sts_conn *c)
 {
     sts_server *srv = c->io->srv;
     if (in2_avail(c) && in_join(c) != 0) {   /* not left by conn_process; kept safe */
         conn_close(c);
-        return -1;
+        return -2;
     }
     size_t unparsed = c->in.len - c->in.start;
     size_t need = unparsed + READ_MIN;
@@ -590,7 +591,7 @@ static int read_once(sts_conn *c)
     }
     if (in_reserve(c, need) != 0) {
         conn_close(c);
-        return -1;
+        return -2;
     }
     if (c->in.start == c->in.len && c->in.len != c->in_pad && c->in.cap - c->in_pad >= need)
         c->in.start = c->in.len = c->in_pad;   /* the next frame's queries aligned (in_pad) */
@@ -619,7 +620,7 @@ static int read_once(sts_conn *c)
     }
     if (r == 0 || (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
         conn_close(c);
-        return -1;
+        return -2;
     }
     if (r < 0)
         return 0;
@@ -636,7 +637,7 @@ static int read_once(sts_conn *c)
     out_take_spare(c);
     conn_process(c);
     if (c->dead)
-        return -1;
+        return -2;
     return (size_t)r == offered;
 }
 
@@ -657,7 +658,7 @@ static void conn_readable(sts_conn *c)
         if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
             break;   /* backpressure: set_interest stops reading */
         int rc = read_once(c);
-        if (c->dead)
+        if (rc == -2)
             return;
         if (rc != 1)
             break;
