@@ -18,8 +18,9 @@
  * instead of each: every wake-up of the load tester is a context switch that preempts a
  * daemon I/O thread on these 2 cores (measured, 2 connections x -P 8, 4096 queries, TCP:
  * 0.95 -> 0.29 switches a request, 12.4 -> 4.6 ns of client CPU a query). The mark is
- * dropped when the run stops issuing (fewer replies than it are left), and after 50 ms
- * without an event the connections are read anyway (an error reply is shorter than the mark).
+ * dropped when the run stops issuing (fewer replies than it are left) and at a connection's
+ * first error reply (shorter than the others), and after 50 ms without an event the
+ * connections are read anyway (error replies that arrive together below the mark).
  *
  * Timestamps: t_intended comes from the schedule (closed loop: equal to the send time);
  * t_send is read just before the write() that carries the request's first byte; t_reply just
@@ -275,6 +276,11 @@ static int conn_read(bench_thread *th, bconn *c)
                 int lw = (int)(th->lowat_k * (unsigned)flen);
                 setsockopt(c->fd, SOL_SOCKET, SO_RCVLOWAT, &lw, sizeof lw);
                 c->lowat = lw;
+            } else if (!ok && c->lowat > 0) {
+                /* error replies are shorter: the mark could wait for bytes that never come */
+                int one = 1;
+                setsockopt(c->fd, SOL_SOCKET, SO_RCVLOWAT, &one, sizeof one);
+                c->lowat = -1;
             }
         }
         /* the unparsed tail to the front: replies land in the same few hundred KiB, which
