@@ -97,6 +97,8 @@ typedef struct bench_cfg {
     uint8_t     blocking;      /* --blocking: --cluster one stc_cluster_sample at a time */
     uint8_t     shm;           /* --shm: SAMPLE through a shared-memory region per connection */
     uint8_t     shm_copy;      /* --shm-copy: and copy each request's queries into it */
+    int         lowat;         /* --lowat K: closed-loop SAMPLE wakes for K whole replies
+                                * (SO_RCVLOWAT); -1 = pipeline / 2 (at least 1), 0 = off */
 } bench_cfg;
 
 /* What one thread measured; merged by bench_main.c. */
@@ -133,6 +135,7 @@ typedef struct bench_thread {
     size_t      shm_qroom;     /* --shm: bytes of one pool frame's query room */
     size_t      shm_qarea;     /* --shm: the query rooms' bytes (the reply rooms follow) */
     bench_wire *wire;
+    unsigned    lowat_k;       /* SO_RCVLOWAT: wake for this many whole replies (0 = off) */
     bench_result *res;         /* caller-owned, zeroed, histograms reset */
     char        err[256];      /* first fatal error of the thread */
 } bench_thread;

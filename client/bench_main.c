@@ -84,6 +84,10 @@ static void usage(FILE *f)
 "                         own, the daemon samples in place, frames stay small\n"
 "      --shm-copy         --shm, and each request's queries are copied into a room of its\n"
 "                         own first (a client that builds its queries elsewhere)\n"
+"      --lowat K          closed-loop SAMPLE: a connection's thread is woken when K whole\n"
+"                         replies are in its socket (SO_RCVLOWAT; TCP honours it), not at\n"
+"                         each reply's first bytes: fewer wake-ups of the client and fewer\n"
+"                         preemptions of the daemon (default: -P / 2, at least 1; 0 = off)\n"
 "      --inproc           no server: st_sample_batch on the default set, same queries\n"
 "      --idle N           open N connections, PING each once, hold them --hold seconds\n"
 "      --hold S           (10)\n"
@@ -275,11 +279,12 @@ int main(int argc, char **argv)
         .host = "127.0.0.1", .port = "7450", .set = "default", .op = BENCH_OP_PING,
         .arrival = STC_ARRIVAL_UNIFORM, .duration_s = 5, .warmup_s = 1, .timeout_s = 5,
         .seed = 1, .conns = 1, .threads = 1, .pipeline = 0, .batch = 4096,
-        .footprint = 0.001f, .hold_s = 10, .spin_us = 100,
+        .footprint = 0.001f, .hold_s = 10, .spin_us = 100, .lowat = -1,
     };
     int inproc = 0;
     enum { O_ARRIVAL = 256, O_TIMEOUT, O_SPIN, O_SEED, O_FOOTPRINT, O_INPROC, O_IDLE, O_HOLD, O_HELP,
-           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB, O_SHM, O_SHM_COPY };
+           O_PROTO, O_COMPACT, O_OUTFMT, O_CLUSTER, O_BLOCKING, O_LIB, O_SHM, O_SHM_COPY,
+           O_LOWAT };
     static const struct option opts[] = {
         { "host", required_argument, 0, 'h' },     { "port", required_argument, 0, 'p' },
         { "token", required_argument, 0, 't' },    { "op", required_argument, 0, 'o' },
@@ -303,6 +308,7 @@ int main(int argc, char **argv)
         { "blocking", no_argument, 0, O_BLOCKING }, { "lib", no_argument, 0, O_LIB },
         { "shm", no_argument, 0, O_SHM },
         { "shm-copy", no_argument, 0, O_SHM_COPY },
+        { "lowat", required_argument, 0, O_LOWAT },
         { 0, 0, 0, 0 }
     };
     cfg.modes[0] = STP_MODE_TRAVERSE;
@@ -360,6 +366,7 @@ int main(int argc, char **argv)
         case O_COMPACT: cfg.compact = 1; break;
         case O_SHM: cfg.shm = 1; break;
         case O_SHM_COPY: cfg.shm = cfg.shm_copy = 1; break;
+        case O_LOWAT: bad = parse_uint(optarg, 0, BENCH_MAX_PIPELINE, &u); cfg.lowat = (int)u; break;
         case O_OUTFMT: {
             int f = stp_outfmt_parse(optarg);
             bad = f < 0;

@@ -31,7 +31,8 @@ req/s (8 connections).
 
 A/B: with NET_WIRE_BASE=/path/to/an/older/seamtexd the same runs (TCP and Unix, both
 encodings) are made against that binary too, driven by NET_WIRE_BASE_BENCH (an older
-seamtex-bench; default: this one), and with NET_WIRE_ALT_ARGS="--flag value ..." against this
+seamtex-bench; default: this one; NET_WIRE_BENCH_ARGS adds flags to this tree's load tester
+only, e.g. "--lowat 0"), and with NET_WIRE_ALT_ARGS="--flag value ..." against this
 daemon started with those flags; the variants alternate A B A B inside each repetition, so
 before/after figures come from one window of the machine's load. Every figure is the median of NET_REPS repetitions (default 3) of NET_SECS seconds
 (default 2) after a 0.5 s warm-up; the machine's load average is recorded before and after.
@@ -55,6 +56,9 @@ BENCH = os.path.join(B, 'seamtex-bench')
 BASE = os.environ.get('NET_WIRE_BASE', '')
 BASE_BENCH = os.environ.get('NET_WIRE_BASE_BENCH', '')
 ALT_ARGS = os.environ.get('NET_WIRE_ALT_ARGS', '').split()
+# extra seamtex-bench flags for the SAMPLE runs of this tree's load tester (not the base's),
+# e.g. NET_WIRE_BENCH_ARGS="--lowat 0" to measure the daemon change without the client's
+BENCH_ARGS = os.environ.get('NET_WIRE_BENCH_ARGS', '').split()
 REPS = int(os.environ.get('NET_REPS', '3'))
 SECS = os.environ.get('NET_SECS', '2')
 BATCHES = [int(x) for x in os.environ.get('NET_BATCHES', '256,1024,4096,16384').split(',')]
@@ -137,7 +141,8 @@ def sample_run(d, name, batch, enc, conns, pipe, extra=()):
     j = bench(d.addr + ['-o', 'sample', '-b', str(batch), '-m', 'traverse', '-f', 'bilinear',
                         '-c', str(conns), '-T', str(conns), '-P', str(pipe), '-d', SECS,
                         '-w', '0.5']
-              + ENCODINGS[enc] + list(extra), d.bench)
+              + ENCODINGS[enc] + list(extra) + (BENCH_ARGS if d.bench == BENCH else []),
+              d.bench)
     c1 = cpu_s(d.p.pid)
     if not j:
         return

@@ -459,6 +459,26 @@ static void bench_sample_batches_are_answered(void **state)
     assert_true(json_num(js, "queries_per_s") > 0);
 }
 
+/* Closed-loop SAMPLE wakes for several whole replies (--lowat, SO_RCVLOWAT): the last
+ * replies of a run, fewer than the mark, still arrive (the mark is dropped when no more
+ * requests are issued), whatever the mark, with -n not a multiple of the pipeline. */
+static void bench_sample_pipeline_with_a_low_water_mark_answers_every_request(void **state)
+{
+    (void)state;
+    char jf[400], js[8192];
+    snprintf(jf, sizeof jf, "%s/lowat.json", D.dir);
+    const char *marks[] = {"6", "0", "8"};
+    for (unsigned i = 0; i < 3; i++) {
+        assert_int_equal(BENCH("-o", "sample", "-b", "1024", "-c", "2", "-T", "2", "-P", "8",
+                               "--lowat", marks[i], "-n", "45", "-d", "10", "-w", "0", "-j", jf),
+                         0);
+        slurp(jf, js, sizeof js, NULL);
+        assert_true(json_num(js, "completed") == 45);
+        assert_true(json_num(js, "errors") == 0);
+        assert_true(json_num(js, "timeouts") == 0);
+    }
+}
+
 static void bench_refuses_a_non_loopback_host(void **state)
 {
     (void)state;
@@ -775,6 +795,7 @@ int main(void)
         cmocka_unit_test(bench_closed_loop_answers_every_request),
         cmocka_unit_test(bench_open_loop_sends_its_schedule_and_corrects_latency),
         cmocka_unit_test(bench_sample_batches_are_answered),
+        cmocka_unit_test(bench_sample_pipeline_with_a_low_water_mark_answers_every_request),
         cmocka_unit_test(bench_refuses_a_non_loopback_host),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
         cmocka_unit_test(info_json_matches_the_text_and_the_library),

@@ -3,7 +3,7 @@
  * bit for bit like the f32 form of the rounded query, and the Unix socket listener (file mode
  * as access control, refused by the kernel for a user without permission; a stale socket
  * replaced; a live one or a non-socket file left alone; the file removed at exit; a 256 KiB
- * reply leaves in one write).
+ * reply leaves in one write), and a pipeline deeper than a read's room answered in one write.
  *
  * With --pin-io each I/O thread runs on its own CPU (STATS io<i>_cpu, the kernel's affinity of
  * the threads) and samples what an unpinned daemon does.
@@ -16,6 +16,7 @@
 #include <fcntl.h>
 #include <sched.h>
 #include <math.h>
+#include <poll.h>
 #include <setjmp.h>
 #include <signal.h>
 #include <spawn.h>
@@ -35,6 +36,7 @@
 #include "../common/daemon_client.h"
 #include "../common/unix_daemon.h"
 #include "../common/wait.h"
+#include "../common/wire.h"
 #include "proto.h"
 
 extern char **environ;
@@ -314,6 +316,82 @@ static void unix_socket_serves_with_its_mode_and_is_removed_at_exit(void **state
 }
 
 /* The kernel's net.core.wmem_max, or 0 when it cannot be read. */
+
+/* ---- a pipeline deeper than the read room ------------------------------------------------------ */
+
+/* Reads n bytes whole from a blocking socket, waiting at most 20 s for each piece. 0 or -1. */
+static int st_read_exact(int fd, void *p, size_t n)
+{
+    uint8_t *d = p;
+    while (n) {
+        struct pollfd pfd = {fd, POLLIN, 0};
+        if (poll(&pfd, 1, 20000) <= 0)
+            return -1;
+        ssize_t r = read(fd, d, n);
+        if (r <= 0)
+            return -1;
+        d += r;
+        n -= (size_t)r;
+    }
+    return 0;
+}
+
+/* 8 SAMPLE requests of 256 queries (57 KiB) sent in one write reach the daemon at once but
+ * are more than a read's room (32 KiB): the I/O thread reads again while a read fills all
+ * its room (io.c, conn_readable) and answers the 8 in one write; before, it answered the
+ * first read's frames, went back to epoll, read the rest and wrote again (2 writes a burst).
+ * Every reply comes back whole and in order. Counted in STATS writes: the first STATS reply
+ * follows the first snapshot, so one write more than the bursts'. */
+static void deep_pipeline_is_read_on_and_answered_in_one_write(void **state)
+{
+    (void)state;
+    enum { DEPTH = 8, N = 256, ROUNDS = 20 };
+    stc_conn *sc = st_daemon_client(&D1, NULL);
+    assert_non_null(sc);
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    stc_query *q = st_default_set_queries(N, 7);
+    assert_non_null(q);
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_sample_req r;
+    memset(&r, 0, sizeof r);
+    snprintf(r.p.name, sizeof r.p.name, "default");
+    r.p.mode = STP_MODE_TRAVERSE;
+    r.p.filter = STP_FILTER_BILINEAR;
+    r.count = N;
+    _Static_assert(sizeof(stc_query) == sizeof(stp_query), "query layouts differ");
+    r.queries = (const stp_query *)q;
+    for (uint32_t k = 0; k < DEPTH; k++)
+        assert_int_equal(stp_enc_sample_req(&b, k + 1, 0, &r), 0);
+    assert_true(stp_buf_avail(&b) > 48u << 10);
+    size_t cap = 64u << 10;
+    uint8_t *in = malloc(cap);
+    assert_non_null(in);
+    uint64_t w0 = st_conn_stat(sc, "writes");
+    for (int round = 0; round < ROUNDS; round++) {
+        assert_int_equal(st_wire_send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
+        for (uint32_t k = 0; k < DEPTH; k++) {
+            uint8_t hdr[STP_HEADER_SIZE];
+            assert_int_equal(st_read_exact(fd, hdr, sizeof hdr), 0);
+            stp_header h;
+            int reason = 0;
+            assert_int_equal(stp_parse_header(hdr, sizeof hdr, cap, &h, &reason), STP_OK);
+            assert_int_equal(h.reqid, k + 1);
+            assert_int_equal(h.status, STP_S_OK);
+            assert_true(h.body_len > 4u * N);
+            assert_int_equal(st_read_exact(fd, in, h.body_len), 0);
+        }
+    }
+    uint64_t w1 = st_conn_stat(sc, "writes");
+    assert_true(w1 - w0 <= ROUNDS + 1 + 2);   /* 2 to spare: not 2 a round */
+    free(in);
+    free(q);
+    stp_buf_free(&b);
+    close(fd);
+    stc_close(sc);
+}
+
 static long wmem_max(void)
 {
     FILE *f = fopen("/proc/sys/net/core/wmem_max", "r");
@@ -448,6 +526,7 @@ int main(void)
         cmocka_unit_test(compact_queries_sample_like_f32_of_the_rounded_query),
         cmocka_unit_test(compact_flags_on_sample_dir_are_invalid),
         cmocka_unit_test(pin_io_pins_each_io_thread_and_samples_the_same),
+        cmocka_unit_test(deep_pipeline_is_read_on_and_answered_in_one_write),
     };
     const struct CMUnitTest unix_tests[] = {
         cmocka_unit_test_setup_teardown(unix_socket_serves_with_its_mode_and_is_removed_at_exit,
