@@ -384,33 +384,8 @@ __attribute__((always_inline)) static inline void row_span(const ti *it, int R, 
     *Q = A * U * U + (B * U + C * V) * V;
 }
 
-/* The taps of a row read where they lie, texels px up to end (all inside the level): each
- * tap with Q < 1 adds its texel times its weight to acc (and the weight to *wsum4 when
- * NC == 4); *Q steps by *DQ, *DQ by DDQ (left as after the last tap, for the taps that
- * follow in the row). Returns acc. */
-__attribute__((always_inline)) static inline pt_v4f
-row_inside(const uint8_t *px, const uint8_t *end, size_t ts, float *Qp, float *DQp, float DDQ,
-           float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
-           unsigned NC)
-{
-    float Q = *Qp, DQ = *DQp;
-    for (; px < end; px += ts) {
-        if (Q < 1.0f) {
-            float w = expf(gs * Q) * wscale;
-            acc += texel_vec(px, one, DT, NC) * w;
-            if (NC == 4)
-                *wsum4 += w;
-        }
-        Q += DQ;
-        DQ += DDQ;
-    }
-    *Qp = Q;
-    *DQp = DQ;
-    return acc;
-}
-
 /* n taps of a row that all read the texel at px (a Clamp run whose taps fold onto one
- * texel): row_inside's sums tap by tap (x * w added to each channel's sum in turn, not x
+ * texel): row_step's sums tap by tap (x * w added to each channel's sum in turn, not x
  * times the run's weight), the texel loaded once. */
 __attribute__((always_inline)) static inline pt_v4f
 row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, float wscale,
@@ -434,7 +409,7 @@ row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, f
 }
 
 /* The taps x in [xa, xb) of row y of a Clamp sweep that fall outside the face, each read
- * from the texel fold_tap gives it; Q, DQ stepped as in row_inside. ODD is the sweep's
+ * from the texel fold_tap gives it; Q, DQ stepped as in row_step. ODD is the sweep's
  * (a constant in each of row_folded's two loops, so fold_tap has no select on it). */
 __attribute__((always_inline)) static inline pt_v4f
 row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
@@ -473,8 +448,11 @@ row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, 
                         wsum4, DT, NC);
 }
 
-/* n taps of a row read from texels px, px + step, .. (a run of Clamp taps that fold onto a
- * line of texels, one after another): row_inside's sums tap by tap. */
+/* n taps of a row read from texels px, px + step, .. (the taps of a row inside the level, or a
+ * run of Clamp taps that fold onto a line of texels, one after another): each tap with Q < 1
+ * adds its texel times its weight to acc (and the weight to *wsum4 when NC == 4); *Q steps by
+ * *DQ, *DQ by DDQ (left as after the last tap, for the taps that follow in the row); n <= 0
+ * reads nothing. Returns acc. */
 __attribute__((always_inline)) static inline pt_v4f
 row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float DDQ, float gs,
          float wscale, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
@@ -615,8 +593,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             int x1, x2;
             float Q, DQ;
             row_span(it, R, y, &x1, &x2, &Q, &DQ);
-            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, &Q, &DQ, DDQ, gs,
-                             wscale, one, acc, &wsum4, DT, NC);
+            acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ, gs,
+                           wscale, one, acc, &wsum4, DT, NC);
         }
         y2 = y1; /* done: the loop below visits nothing */
     }
@@ -642,8 +620,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         const uint8_t *row = rd_ok ? data + (size_t)y * (size_t)R * ts : NULL;
         if (rd_ok && x1 >= 0 && x2 <= R) {
             /* the whole row inside the level (a piece clamped into its face): no checks */
-            acc = row_inside(row + (size_t)x1 * ts, row + (size_t)x2 * ts, ts, &Q, &DQ, DDQ, gs,
-                             wscale, one, acc, &wsum4, DT, NC);
+            acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ, gs,
+                           wscale, one, acc, &wsum4, DT, NC);
             continue;
         }
         for (int x = x1; x < x2; x++) {
