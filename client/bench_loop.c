@@ -218,6 +218,14 @@ static int conn_flush(bench_thread *th, bconn *c)
     return 0;
 }
 
+/* the connection's low-water mark back to 1 byte (every reply wakes its thread again) */
+static void lowat_drop(bconn *c)
+{
+    int one = 1;
+    setsockopt(c->fd, SOL_SOCKET, SO_RCVLOWAT, &one, sizeof one);
+    c->lowat = -1;
+}
+
 /* Reads what is there and consumes every complete reply. */
 static int conn_read(bench_thread *th, bconn *c)
 {
@@ -278,9 +286,7 @@ static int conn_read(bench_thread *th, bconn *c)
                 c->lowat = lw;
             } else if (!ok && c->lowat > 0) {
                 /* error replies are shorter: the mark could wait for bytes that never come */
-                int one = 1;
-                setsockopt(c->fd, SOL_SOCKET, SO_RCVLOWAT, &one, sizeof one);
-                c->lowat = -1;
+                lowat_drop(c);
             }
         }
         /* the unparsed tail to the front: replies land in the same few hundred KiB, which
@@ -461,11 +467,8 @@ int bench_loop_run(bench_thread *th)
             deadline = t_stop;
         if (!issuing) {   /* draining: fewer replies than the low-water mark are left */
             for (unsigned i = 0; i < nc; i++)
-                if (cs[i].lowat > 0 && !cs[i].dead) {
-                    int one = 1;
-                    setsockopt(cs[i].fd, SOL_SOCKET, SO_RCVLOWAT, &one, sizeof one);
-                    cs[i].lowat = -1;
-                }
+                if (cs[i].lowat > 0 && !cs[i].dead)
+                    lowat_drop(&cs[i]);
         }
         int n = wait_events(ep, evs, 256, deadline);
         if (n == 0) {   /* a low-water mark that short (error) replies never reach: read */
