@@ -18,7 +18,7 @@
  * filter and the box and width-4 filters also have their own batch loops (point_run,
  * kernel_run: the query checks and the query function inline, no call per query; kernel_run
  * takes the checks and set-up of 8 queries at once from ptexfilter_lanes.c's kernel lanes
- * with AVX2, then - for the 1-channel u8 / u16 width-4 filters - the fused path's common case
+ * with AVX2, then - for the width-4 filters - the fused path's common case
  * of the whole block at once (ptexfilter_simd.c's pf_w4x8_select), and calls the fused path
  * per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
@@ -1495,7 +1495,7 @@ __attribute__((always_inline)) static inline int kernel_lane(
     int st;
     if (handed) {
         cov = 1.0f;
-        st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii, &cov);
+        st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov);
     }
     else if (!(k->plain >> j & 1))
         return serve(c, pp, o, qfn, q, ii, out, coverage, status);
@@ -1513,7 +1513,7 @@ __attribute__((always_inline)) static inline int kernel_lane(
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the
- * 1-channel width-4 filters) the fused path's common case of the block at once
+ * width-4 filters) the fused path's common case of the block at once
  * (ptexfilter_simd.c's pf_w4x8_select: served, or its kernel handed over to kernel_handed),
  * then per query the fused path (kernel_plain) for the lanes left; the rest one by one with the same checks in one vector compare
  * ((u, v) in [0, 1), the four derivatives within the bound, NaN failing it; the face in
@@ -1544,11 +1544,11 @@ __attribute__((always_inline)) static inline int kernel_run_with(
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
-            /* the fused path's common case of the 1-channel width-4 filters, 8 at a time:
+            /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
             unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1);
             if (W8 && (f2 & (f2 - 1))) /* 3 lanes or more offered: else one by one is less */
-                done = w8(pp, &k, out + i, ks, kw, &over);
+                done = w8(pp, &k, out + i * nc, ks, kw, &over);
             if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
@@ -1562,7 +1562,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                 for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
                     bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
-                                       kw[j], out, coverage, status, 1);
+                                       kw[j], out, coverage, status, nc);
                 }
             } else {
                 for (unsigned j = 0; j < 8; j++)

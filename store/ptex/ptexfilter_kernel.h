@@ -320,11 +320,12 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype);
 /* The fused width-4 path of 8 queries at once (ptexfilter_simd.c, AVX2), after klanes8
  * (ptexfilter_lanes.h: k the block's checks and set-up): for the lanes of k->fast whose
  * kernel is the fused path's common case (4 x 4 taps, none zero, the window inside the
- * face, total weight > 0) writes out[lane] (1 channel), bit for bit what pf_fast_fn writes,
- * and returns their mask; sets *over to the lanes of the same case but for a window that
- * overhangs the face, kout[lane] (kout: 8 of them) the kernel pf_fast_fn hands over for
- * them (its return 2) and wout[lane] its pk_weight; the other lanes are left to the per-query path. NULL but for the
- * width-4 filters on 1-channel u8 or u16 texels with AVX2. */
+ * face, total weight > 0) writes the nc values of lane j at out + j * nc, bit for bit what
+ * pf_fast_fn writes, and returns their mask; sets *over to the lanes of the same case but
+ * for a window that overhangs the face, kout[lane] (kout: 8 of them) the kernel pf_fast_fn
+ * hands over for them (its return 2) and wout[lane] its pk_weight; the other lanes are left
+ * to the per-query path (their outputs untouched). NULL but for the width-4 filters (any
+ * texel type, 1..4 channels) with AVX2. */
 struct pf_klanes;
 typedef unsigned (*pf_w4x8_fn)(const pk_params *p, const struct pf_klanes *k, float *out,
                                pk *kout, float *wout, unsigned *over);

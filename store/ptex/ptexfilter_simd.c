@@ -34,11 +34,13 @@
  * general path then runs: results are bit for bit those of the general path
  * (test_ptexfilter_simd).
  *
- * The width-4 filters' common case 8 queries at a time (pf_w4x8_select: 1-channel u8 and
- * u16 texels, after ptexfilter_lanes.c's klanes8 has classified the block): w4_body's
- * set-up, taps and 4 x 4 window lane by lane in 8-lane vectors (one lane a query, the window
- * rows gathered), its operations in its order, so bit for bit; the kernels that overhang
- * their face handed over as w4_body hands them over.
+ * The width-4 filters' common case 8 queries at a time (pf_w4x8_select, after
+ * ptexfilter_lanes.c's klanes8 has classified the block): w4_body's set-up and taps lane by
+ * lane in 8-lane vectors (one lane a query), its operations in its order, so bit for bit;
+ * the kernels that overhang their face handed over as w4_body hands them over. The 4 x 4
+ * window: for 1-channel u8 and u16 texels in the vectors too (w4x8_body: the window rows
+ * gathered); for the other types and channel counts (w4x8_each) per lane served, w4_tail's
+ * own window loop on the taps transposed out of the vectors.
  *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
@@ -1024,6 +1026,57 @@ PF_TARGET void w4x8_row(__m256i ae, __m256i ao, __m256i me, __m256i mo, unsigned
     }
 }
 
+/* The level's data of 8 queries: px[ru * (fvlog2 + 1) + rv] of each face's row (k->px[j]),
+ * gathered for the lanes whose sign bit is set in me (even queries, 64-bit lanes) and mo
+ * (odd), into *de and *dof (0 for the others). */
+PF_TARGET void w4x8_data(const pf_klanes *k, __m256i ru, __m256i rv, __m256i lv, __m256i me,
+                         __m256i mo, __m256i *de, __m256i *dof)
+{
+    __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, _mm256_set1_epi32(1))), rv);
+    __m256i p0 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[0]);
+    __m256i p1 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[4]);
+    __m256i pe = _mm256_permute4x64_epi64(_mm256_unpacklo_epi64(p0, p1), 0xD8);
+    __m256i po = _mm256_permute4x64_epi64(_mm256_unpackhi_epi64(p0, p1), 0xD8);
+    const __m256i z = _mm256_setzero_si256();
+    *de = _mm256_mask_i64gather_epi64(
+        z, (const long long *)0, _mm256_add_epi64(pe, _mm256_slli_epi64(even64(idx), 3)), me, 1);
+    *dof = _mm256_mask_i64gather_epi64(
+        z, (const long long *)0, _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
+}
+
+/* The lanes of ok whose window overhangs the face (out_of) handed over as w4_tail hands
+ * them over (hand_over): kout[j] the 4 x 4 kernel (resolution r, first texel (u0, v0), the
+ * taps tu[t][j], tv[t][j]), wout[j] its weight (total). Returns their mask. */
+PF_TARGET unsigned w4x8_hand(__m256i ok, __m256i out_of, __m256 total, __m256i ru, __m256i rv,
+                             __m256i u0, __m256i v0, float tu[4][8], float tv[4][8], pk *kout,
+                             float *wout)
+{
+    unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
+    if (ho) {
+        _mm256_storeu_ps(wout, total);
+        int R[2][8], O[2][8];
+        _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
+        _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
+        _mm256_storeu_si256((__m256i *)(void *)O[0], u0);
+        _mm256_storeu_si256((__m256i *)(void *)O[1], v0);
+        for (unsigned m = ho; m; m &= m - 1) {
+            int j = __builtin_ctz(m);
+            pk *kj = kout + j;
+            kj->ulog2 = R[0][j];
+            kj->vlog2 = R[1][j];
+            kj->u = O[0][j];
+            kj->v = O[1][j];
+            kj->uw = kj->vw = 4;
+            kj->ku0 = kj->kv0 = kj->rot = 0;
+            _mm256_storeu_ps(kj->kub, _mm256_setr_ps(tu[0][j], tu[1][j], tu[2][j], tu[3][j],
+                                                     0.0f, 0.0f, 0.0f, 0.0f));
+            _mm256_storeu_ps(kj->kvb, _mm256_setr_ps(tv[0][j], tv[1][j], tv[2][j], tv[3][j],
+                                                     0.0f, 0.0f, 0.0f, 0.0f));
+        }
+    }
+    return ho;
+}
+
 /* 8 queries of a width-4 filter on 1-channel u8 or u16 texels (DT), the block's set-up k
  * (klanes8): the lanes of k->fast that w4_body would serve in its common case (4 x 4 taps,
  * none zero, the window inside the face, total weight > 0) get w4_body's result, lane by
@@ -1061,18 +1114,9 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     const __m256 zf = _mm256_setzero_ps();
     __m256 col[4] = {zf, zf, zf, zf}; /* fma(t, kv0, +0) first, as w4_tail */
     if (!_mm256_testz_si256(in, in)) {
-        /* the level's data: px[ru * (fvlog2 + 1) + rv] of each face's row */
-        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, one)), rv);
-        __m256i p0 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[0]);
-        __m256i p1 = _mm256_loadu_si256((const __m256i *)(const void *)&k->px[4]);
-        __m256i pe = _mm256_permute4x64_epi64(_mm256_unpacklo_epi64(p0, p1), 0xD8);
-        __m256i po = _mm256_permute4x64_epi64(_mm256_unpackhi_epi64(p0, p1), 0xD8);
         __m256i me = _mm256_slli_epi64(in, 32), mo = in; /* sign bits: even / odd lanes */
-        const __m256i z = _mm256_setzero_si256();
-        __m256i de = _mm256_mask_i64gather_epi64(
-            z, (const long long *)0, _mm256_add_epi64(pe, _mm256_slli_epi64(even64(idx), 3)), me, 1);
-        __m256i dof = _mm256_mask_i64gather_epi64(
-            z, (const long long *)0, _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
+        __m256i de, dof;
+        w4x8_data(k, ru, rv, lv, me, mo, &de, &dof);
         /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
         const int sh = DT == 0 ? 0 : 1;
         __m256i resu = _mm256_sllv_epi32(one, ru);
@@ -1102,30 +1146,7 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane, with
      * the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)) */
     __m256 total = _mm256_mul_ps(su, sv);
-    unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
-    *over = ho;
-    if (ho) {
-        _mm256_storeu_ps(wout, total);
-        int R[2][8], O[2][8];
-        _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
-        _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
-        _mm256_storeu_si256((__m256i *)(void *)O[0], u0);
-        _mm256_storeu_si256((__m256i *)(void *)O[1], v0);
-        for (unsigned m = ho; m; m &= m - 1) {
-            int j = __builtin_ctz(m);
-            pk *kj = kout + j;
-            kj->ulog2 = R[0][j];
-            kj->vlog2 = R[1][j];
-            kj->u = O[0][j];
-            kj->v = O[1][j];
-            kj->uw = kj->vw = 4;
-            kj->ku0 = kj->kv0 = kj->rot = 0;
-            _mm256_storeu_ps(kj->kub, _mm256_setr_ps(tu[0][j], tu[1][j], tu[2][j], tu[3][j],
-                                                     0.0f, 0.0f, 0.0f, 0.0f));
-            _mm256_storeu_ps(kj->kvb, _mm256_setr_ps(tv[0][j], tv[1][j], tv[2][j], tv[3][j],
-                                                     0.0f, 0.0f, 0.0f, 0.0f));
-        }
-    }
+    *over = w4x8_hand(ok, out_of, total, ru, rv, u0, v0, tu, tv, kout, wout);
     ok = _mm256_andnot_si256(out_of, ok);
     ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
     unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
@@ -1137,30 +1158,141 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     return done;
 }
 
+
+/* 8 queries of a width-4 filter on texels of type DT with NC channels (every type and channel
+ * count but 1-channel u8 and u16, which w4x8_body takes), the block's set-up k (klanes8):
+ * the same lanes as w4x8_body served, handed over or left alone. The set-up, the taps of
+ * both axes, their sums and the weight run 8 lanes at a time as in w4x8_body; then each lane
+ * served runs w4_tail's window (window_fused with 4 x 4 taps: the same function on the same
+ * taps) and put_scaled, its texel address computed in the vectors (64-bit lanes, even and
+ * odd queries apart) and its taps transposed from the vectors into 4 per lane. */
+PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out, pk *kout,
+                             float *wout, unsigned *over, unsigned DT, unsigned NC, int G)
+{
+    const __m256i one = _mm256_set1_epi32(1);
+    __m256i fast = _mm256_cmpgt_epi32(
+        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
+                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
+        _mm256_setzero_si256());
+    __m256i lu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
+    __m256i lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
+    __m256i ru, rv, u0, v0, ou, ov;
+    __m256 xu, stu, xv, stv;
+    __m256i ok = _mm256_and_si256(
+        fast, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu, &ru, &u0, &xu, &stu, &ou));
+    ok = _mm256_and_si256(
+        ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &rv, &v0, &xv, &stv, &ov));
+    if (_mm256_testz_si256(ok, ok))
+        return *over = 0;
+    float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
+    __m256 ku[4], kv[4], sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
+    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
+        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, G);
+    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
+        ku[t] = w4x8_tap(p, xu, stu, t, tu[t], &su, &ok, G);
+    __m256i out_of = _mm256_or_si256(ou, ov);
+    __m256 total = _mm256_mul_ps(su, sv);
+    *over = w4x8_hand(ok, out_of, total, ru, rv, u0, v0, tu, tv, kout, wout);
+    const __m256 zf = _mm256_setzero_ps();
+    ok = _mm256_andnot_si256(out_of, ok);
+    ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
+    unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
+    if (!done)
+        return 0;
+    /* w4_tail's scale 1 / (total * one), and the first texel's address d + (v0 2^ru + u0) ts
+     * and the row length 2^ru ts of each lane (< 2^32 texels a level: exact in mul_epu32) */
+    float S[8];
+    float onev = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    _mm256_storeu_ps(S, _mm256_div_ps(_mm256_set1_ps(1.0f),
+                                      _mm256_mul_ps(total, _mm256_set1_ps(onev))));
+    __m256i de, dof;
+    w4x8_data(k, ru, rv, lv, _mm256_slli_epi64(ok, 32), ok, &de, &dof);
+    const __m256i ts = _mm256_set1_epi64x((long long)(NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1)));
+    __m256i resu = _mm256_sllv_epi32(one, ru);
+    __m256i ae = _mm256_add_epi64(
+        de, _mm256_mul_epu32(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), ts));
+    __m256i ao = _mm256_add_epi64(
+        dof, _mm256_mul_epu32(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
+                                               odd64(u0)), ts));
+    uint64_t A[2][4], RB[2][4]; /* [j & 1][j >> 1] */
+    _mm256_storeu_si256((__m256i *)(void *)A[0], ae);
+    _mm256_storeu_si256((__m256i *)(void *)A[1], ao);
+    _mm256_storeu_si256((__m256i *)(void *)RB[0], _mm256_mul_epu32(resu, ts));
+    _mm256_storeu_si256((__m256i *)(void *)RB[1], _mm256_mul_epu32(odd64(resu), ts));
+    /* the taps by lane: lane j's 4 at (j & 3) * 8 + (j >> 2) * 4 */
+    float KU[32], KV[32];
+    {
+        __m256 a0 = _mm256_unpacklo_ps(ku[0], ku[1]), a1 = _mm256_unpackhi_ps(ku[0], ku[1]);
+        __m256 a2 = _mm256_unpacklo_ps(ku[2], ku[3]), a3 = _mm256_unpackhi_ps(ku[2], ku[3]);
+        _mm256_storeu_ps(KU + 0, _mm256_shuffle_ps(a0, a2, 0x44));
+        _mm256_storeu_ps(KU + 8, _mm256_shuffle_ps(a0, a2, 0xEE));
+        _mm256_storeu_ps(KU + 16, _mm256_shuffle_ps(a1, a3, 0x44));
+        _mm256_storeu_ps(KU + 24, _mm256_shuffle_ps(a1, a3, 0xEE));
+        __m256 b0 = _mm256_unpacklo_ps(kv[0], kv[1]), b1 = _mm256_unpackhi_ps(kv[0], kv[1]);
+        __m256 b2 = _mm256_unpacklo_ps(kv[2], kv[3]), b3 = _mm256_unpackhi_ps(kv[2], kv[3]);
+        _mm256_storeu_ps(KV + 0, _mm256_shuffle_ps(b0, b2, 0x44));
+        _mm256_storeu_ps(KV + 8, _mm256_shuffle_ps(b0, b2, 0xEE));
+        _mm256_storeu_ps(KV + 16, _mm256_shuffle_ps(b1, b3, 0x44));
+        _mm256_storeu_ps(KV + 24, _mm256_shuffle_ps(b1, b3, 0xEE));
+    }
+    for (unsigned m = done; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        unsigned at = (j & 3u) * 8u + (j >> 2) * 4u;
+        const uint8_t *base = (const uint8_t *)(uintptr_t)A[j & 1][j >> 1];
+        __m128 acc = window_fused(base, (size_t)RB[j & 1][j >> 1], DT, NC, KU + at, 4, KV + at, 4);
+        put_scaled(out + (size_t)j * NC, acc, S[j], NC);
+    }
+    return done;
+}
+
 #define PF_W4X8(DT)                                                                         \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8_##DT##_g(              \
         const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
         unsigned *over)                                                                     \
     {                                                                                       \
-        return w4x8_body(p, k, out, kout, wo, over, DT, 1);                          \
+        return w4x8_body(p, k, out, kout, wo, over, DT, 1);                                 \
     }                                                                                       \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8_##DT##_c(              \
         const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
         unsigned *over)                                                                     \
     {                                                                                       \
-        return w4x8_body(p, k, out, kout, wo, over, DT, 0);                          \
+        return w4x8_body(p, k, out, kout, wo, over, DT, 0);                                 \
     }
 PF_W4X8(0)
 PF_W4X8(1)
 
+#define PF_W4X8E(DT, NC)                                                                    \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8e_##DT##_##NC##_g(      \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
+    {                                                                                       \
+        return w4x8_each(p, k, out, kout, wo, over, DT, NC, 1);                             \
+    }                                                                                       \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_w4x8e_##DT##_##NC##_c(      \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
+    {                                                                                       \
+        return w4x8_each(p, k, out, kout, wo, over, DT, NC, 0);                             \
+    }
+PF_W4X8E(0, 2) PF_W4X8E(0, 3) PF_W4X8E(0, 4)
+PF_W4X8E(1, 2) PF_W4X8E(1, 3) PF_W4X8E(1, 4)
+PF_W4X8E(2, 1) PF_W4X8E(2, 2) PF_W4X8E(2, 3) PF_W4X8E(2, 4)
+PF_W4X8E(3, 1) PF_W4X8E(3, 2) PF_W4X8E(3, 3) PF_W4X8E(3, 4)
+
 pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype)
 {
-    if (ftype <= ST_FILTER_PTEX_BOX || ftype > ST_FILTER_PTEX_MITCHELL || nc != 1 || dt > 1 ||
-        !pf_have_avx2())
+#define E(D, N) {pf_w4x8e_##D##_##N##_g, pf_w4x8e_##D##_##N##_c}
+    static const pf_w4x8_fn fns[4][4][2] = {
+        {{pf_w4x8_0_g, pf_w4x8_0_c}, E(0, 2), E(0, 3), E(0, 4)},
+        {{pf_w4x8_1_g, pf_w4x8_1_c}, E(1, 2), E(1, 3), E(1, 4)},
+        {E(2, 1), E(2, 2), E(2, 3), E(2, 4)},
+        {E(3, 1), E(3, 2), E(3, 3), E(3, 4)},
+    };
+#undef E
+    if (ftype <= ST_FILTER_PTEX_BOX || ftype > ST_FILTER_PTEX_MITCHELL || nc < 1 || nc > 4 ||
+        dt > 3 || !pf_have_avx2())
         return NULL;
-    if (ftype == ST_FILTER_PTEX_GAUSSIAN)
-        return dt == 0 ? pf_w4x8_0_g : pf_w4x8_1_g;
-    return dt == 0 ? pf_w4x8_0_c : pf_w4x8_1_c;
+    return fns[dt][nc - 1][ftype == ST_FILTER_PTEX_GAUSSIAN ? 0 : 1];
 }
 
 /* ---- windows of at most 2 x 2 texels (pf_small_select) ---------------------------------- */

@@ -17,6 +17,7 @@
 
 #include "half.h"
 #include "ptexfilter_kernel.h"
+#include "ptexfilter_lanes.h"
 #include "sample.h"
 #include "set.h"
 
@@ -243,6 +244,125 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
     assert_true(handed > 100);         /* and so is the hand-over */
 }
 
+/* The width-4 filters' 8-query path (pf_w4x8_select) against the per-query fused path
+ * (pf_fast_select) on the same queries, for every texel type, channel count 1..4 and width-4
+ * filter: blocks of 8 random queries on three faces of different sizes (so each lane reads
+ * its own table), widths under a texel, powers of two (4 x 4 taps, the batch's case) and
+ * arbitrary, some lanes not offered. A lane the batch serves must be one the fused path
+ * serves, with the same output bytes (every channel); a lane it hands over one the fused
+ * path hands over, with the same kernel and its pk_weight; a lane it leaves alone may be
+ * anything, its outputs untouched. Texels: integers for u8 / u16, signed fractions for half
+ * and float. */
+static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
+{
+    (void)state;
+    if (!pf_have_avx2()) {
+        print_message("no AVX2 + FMA + F16C: skipped\n");
+        skip();
+    }
+    enum { NF = 3, SLACK = 64 };
+    static const int FL[NF][2] = {{5, 4}, {3, 6}, {6, 3}};
+    static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
+    long served = 0, handed = 0, left = 0;
+    for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
+        for (unsigned nc = 1; nc <= 4; nc++) {
+            size_t es = st_dtype_size(dt), ts = es * nc;
+            uint8_t *px[NF][8 * 8];
+            for (int f = 0; f < NF; f++)
+                for (int ru = 0; ru <= FL[f][0]; ru++)
+                    for (int rv = 0; rv <= FL[f][1]; rv++) {
+                        size_t nt = (size_t)1 << (ru + rv);
+                        uint8_t *d = malloc(nt * ts + SLACK);
+                        assert_non_null(d);
+                        for (size_t i = 0; i < nt * nc; i++) {
+                            float x = rndf() * maxv[dt];
+                            put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x - 500.0f);
+                        }
+                        memset(d + nt * ts, 0, SLACK);
+                        px[f][ru * (FL[f][1] + 1) + rv] = d;
+                    }
+            for (unsigned ft = ST_FILTER_PTEX_GAUSSIAN; ft <= ST_FILTER_PTEX_MITCHELL; ft++) {
+                pf_w4x8_fn w8 = pf_w4x8_select(dt, nc, ft);
+                pf_fast_fn fast = pf_fast_select(dt, nc, ft);
+                assert_non_null(w8);
+                assert_non_null(fast);
+                pk_params p;
+                pk_params_init(&p, ft, 0.3f, 1);
+                for (int r = 0; r < 300; r++) {
+                    pf_klanes k;
+                    memset(&k, 0, sizeof k);
+                    k.plain = 0xff;
+                    k.fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
+                    for (int j = 0; j < 8; j++) {
+                        int f = (int)(rndf() * NF) % NF;
+                        k.px[j] = (const uint8_t *const *)px[f];
+                        k.ulog2[j] = FL[f][0];
+                        k.vlog2[j] = FL[f][1];
+                        k.u[j] = rndf();
+                        k.v[j] = rndf();
+                        int c = (int)(rndf() * 3.0f);
+                        for (int ax = 0; ax < 2; ax++) {
+                            int lg = ax ? FL[f][1] : FL[f][0];
+                            float w = c == 0   ? rndf() * exp2f(-(float)lg)           /* < a texel */
+                                      : c == 1 ? exp2f(-(float)(lg - (int)(rndf() * 4))) /* 2^-n */
+                                               : exp2f(-7.0f + 5.0f * rndf());
+                            if (ax)
+                                k.bv[j] = w;
+                            else
+                                k.bu[j] = w;
+                        }
+                    }
+                    float got[8 * 4], want[4];
+                    pk kout[8], kh;
+                    float wout[8];
+                    unsigned over = 0;
+                    memset(got, 0x5a, sizeof got);
+                    unsigned done = w8(&p, &k, got, kout, wout, &over);
+                    assert_int_equal(done & over, 0);
+                    assert_int_equal((done | over) & ~k.fast, 0);
+                    for (int j = 0; j < 8; j++) {
+                        memset(want, 0, sizeof want);
+                        int took = fast(&p, k.px[j], k.ulog2[j], k.vlog2[j], k.u[j], k.v[j],
+                                        k.bu[j], k.bv[j], want, &kh);
+                        if (done >> j & 1) {
+                            assert_int_equal(took, 1);
+                            assert_memory_equal(got + j * nc, want, sizeof(float) * nc);
+                            served++;
+                        } else if (over >> j & 1) {
+                            assert_int_equal(took, 2);
+                            assert_int_equal(kout[j].ulog2, kh.ulog2);
+                            assert_int_equal(kout[j].vlog2, kh.vlog2);
+                            assert_int_equal(kout[j].u, kh.u);
+                            assert_int_equal(kout[j].v, kh.v);
+                            assert_int_equal(kout[j].uw, kh.uw);
+                            assert_int_equal(kout[j].vw, kh.vw);
+                            assert_int_equal(kout[j].rot, 0);
+                            assert_memory_equal(pk_ku(&kout[j]), pk_ku(&kh), sizeof(float) * 4);
+                            assert_memory_equal(pk_kv(&kout[j]), pk_kv(&kh), sizeof(float) * 4);
+                            float wt = pk_weight(&kh);
+                            assert_memory_equal(&wout[j], &wt, sizeof wt);
+                            handed++;
+                        } else {
+                            for (unsigned ch = 0; ch < nc; ch++) {
+                                uint32_t b;
+                                memcpy(&b, &got[j * nc + ch], 4);
+                                assert_int_equal(b, 0x5a5a5a5au);
+                            }
+                            left++;
+                        }
+                    }
+                }
+            }
+            for (int f = 0; f < NF; f++)
+                for (int i = 0; i < (FL[f][0] + 1) * (FL[f][1] + 1); i++)
+                    free(px[f][i]);
+        }
+    print_message("%ld lanes served by the batch, identical; %ld handed over, identical; "
+                  "%ld left to the per-query path\n", served, handed, left);
+    assert_true(served > 16 * 4 * 300);  /* every type and channel count is exercised */
+    assert_true(handed > 16 * 4 * 20);
+}
+
 /* pk_strip_zeros' mask path (a kernel as pk_build makes it: weights at index 0, 1..12
  * taps) leaves the window and weights its loops leave, for weights with zeros (+0 and -0) at
  * either end or everywhere, NaN, Inf and denormals, and whatever lies past the taps. */
@@ -285,6 +405,7 @@ int main(void)
         cmocka_unit_test(strip_zeros_mask_is_the_loops),
         cmocka_unit_test(window_sums_match_the_definition_for_every_type_and_channel_count),
         cmocka_unit_test(fused_inside_face_path_is_the_kernel_path_bit_for_bit),
+        cmocka_unit_test(batch_of_8_is_the_fused_path_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
