@@ -1159,6 +1159,91 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
 }
 
 
+/* window_fused(base, rowb, DT, NC, ku, 4, kv, 4) (w4_tail's window of a 4 x 4 kernel) with
+ * every loop unrolled: the same operations on the same lanes in the same order (window3 for
+ * 3 channels; window4 for 1, window with one or two vectors a row for 2 and 4, whose masks
+ * of the lanes past the row are all ones here and left out), so bit for bit its result. */
+PF_TARGET __m128 w4x8_win(const uint8_t *base, size_t rowb, const float *ku, const float *kv,
+                          unsigned DT, unsigned NC)
+{
+    const __m128 z = _mm_setzero_ps();
+    if (NC == 3) {
+        size_t ts = (size_t)3 << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+        __m128 k0 = _mm_set1_ps(ku[0]), k1 = _mm_set1_ps(ku[1]), k2 = _mm_set1_ps(ku[2]),
+               k3 = _mm_set1_ps(ku[3]);
+        __m128 acc = z;
+        _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
+            const uint8_t *p = base + (size_t)j * rowb;
+            __m128 row = _mm_mul_ps(load4(p, DT), k0);
+            row = _mm_fmadd_ps(load4(p + ts, DT), k1, row);
+            row = _mm_fmadd_ps(load4(p + 2 * ts, DT), k2, row);
+            row = _mm_fmadd_ps(load4(p + 3 * ts, DT), k3, row);
+            acc = _mm_fmadd_ps(row, _mm_set1_ps(kv[j]), acc);
+        }
+        return acc;
+    }
+    __m128 k = _mm_loadu_ps(ku);
+    if (NC == 1) {
+        __m128 col = z;
+        _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++)
+            col = _mm_fmadd_ps(load4(base + (size_t)j * rowb, DT), _mm_set1_ps(kv[j]), col);
+        __m128 q = _mm_add_ps(_mm_fmadd_ps(col, k, z), z);
+        __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+        return _mm_add_ss(z, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+    }
+    size_t vb = (size_t)8 << (DT == 0 ? 0 : DT == 3 ? 2 : 1); /* bytes per 8 values */
+    __m256 c0 = _mm256_setzero_ps(), c1 = _mm256_setzero_ps();
+    _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
+        const uint8_t *p = base + (size_t)j * rowb;
+        __m256 w = _mm256_set1_ps(kv[j]);
+        c0 = _mm256_fmadd_ps(load8(p, DT), w, c0);
+        if (NC == 4)
+            c1 = _mm256_fmadd_ps(load8(p + vb, DT), w, c1);
+    }
+    __m256 sv;
+    if (NC == 4) {
+        sv = _mm256_mul_ps(c0, _mm256_set_m128(_mm_set1_ps(ku[1]), _mm_set1_ps(ku[0])));
+        sv = _mm256_fmadd_ps(c1, _mm256_set_m128(_mm_set1_ps(ku[3]), _mm_set1_ps(ku[2])), sv);
+    } else {
+        sv = _mm256_fmadd_ps(c0, _mm256_set_m128(_mm_unpackhi_ps(k, k), _mm_unpacklo_ps(k, k)),
+                             _mm256_setzero_ps());
+    }
+    __m128 q = _mm_add_ps(_mm256_castps256_ps128(sv), _mm256_extractf128_ps(sv, 1));
+    if (NC == 4)
+        return _mm_add_ps(z, q);
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+    return _mm_add_ps(z, _mm_movelh_ps(h, z));
+}
+
+/* put_scaled (out[ch] = channel ch of acc times scale) with the NC values stored at once. */
+PF_TARGET void w4x8_put(float *out, __m128 acc, float scale, unsigned NC)
+{
+    __m128 r = _mm_mul_ps(acc, _mm_set1_ps(scale));
+    if (NC == 4)
+        _mm_storeu_ps(out, r);
+    else if (NC == 1)
+        _mm_store_ss(out, r);
+    else {
+        _mm_storel_pi((__m64 *)(void *)out, r);
+        if (NC == 3)
+            _mm_store_ss(out + 2, _mm_movehl_ps(r, r));
+    }
+}
+
+/* The 4 taps of 8 lanes (k[t]: tap t of each lane) stored lane by lane: lane j's at 4 j. */
+PF_TARGET void w4x8_bylane(const __m256 *k, float *out)
+{
+    __m256 a0 = _mm256_unpacklo_ps(k[0], k[1]), a1 = _mm256_unpackhi_ps(k[0], k[1]);
+    __m256 a2 = _mm256_unpacklo_ps(k[2], k[3]), a3 = _mm256_unpackhi_ps(k[2], k[3]);
+    __m256 r0 = _mm256_shuffle_ps(a0, a2, 0x44), r1 = _mm256_shuffle_ps(a0, a2, 0xEE);
+    __m256 r2 = _mm256_shuffle_ps(a1, a3, 0x44), r3 = _mm256_shuffle_ps(a1, a3, 0xEE);
+    /* r_i holds lanes i (low half) and i + 4 (high half) */
+    _mm256_storeu_ps(out + 0, _mm256_permute2f128_ps(r0, r1, 0x20));
+    _mm256_storeu_ps(out + 8, _mm256_permute2f128_ps(r2, r3, 0x20));
+    _mm256_storeu_ps(out + 16, _mm256_permute2f128_ps(r0, r1, 0x31));
+    _mm256_storeu_ps(out + 24, _mm256_permute2f128_ps(r2, r3, 0x31));
+}
+
 /* 8 queries of a width-4 filter on texels of type DT with NC channels (every type and channel
  * count but 1-channel u8 and u16, which w4x8_body takes), the block's set-up k (klanes8):
  * the same lanes as w4x8_body served, handed over or left alone. The set-up, the taps of
@@ -1219,28 +1304,15 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
     _mm256_storeu_si256((__m256i *)(void *)A[1], ao);
     _mm256_storeu_si256((__m256i *)(void *)RB[0], _mm256_mul_epu32(resu, ts));
     _mm256_storeu_si256((__m256i *)(void *)RB[1], _mm256_mul_epu32(odd64(resu), ts));
-    /* the taps by lane: lane j's 4 at (j & 3) * 8 + (j >> 2) * 4 */
+    /* the taps by lane: lane j's 4 at 4 j */
     float KU[32], KV[32];
-    {
-        __m256 a0 = _mm256_unpacklo_ps(ku[0], ku[1]), a1 = _mm256_unpackhi_ps(ku[0], ku[1]);
-        __m256 a2 = _mm256_unpacklo_ps(ku[2], ku[3]), a3 = _mm256_unpackhi_ps(ku[2], ku[3]);
-        _mm256_storeu_ps(KU + 0, _mm256_shuffle_ps(a0, a2, 0x44));
-        _mm256_storeu_ps(KU + 8, _mm256_shuffle_ps(a0, a2, 0xEE));
-        _mm256_storeu_ps(KU + 16, _mm256_shuffle_ps(a1, a3, 0x44));
-        _mm256_storeu_ps(KU + 24, _mm256_shuffle_ps(a1, a3, 0xEE));
-        __m256 b0 = _mm256_unpacklo_ps(kv[0], kv[1]), b1 = _mm256_unpackhi_ps(kv[0], kv[1]);
-        __m256 b2 = _mm256_unpacklo_ps(kv[2], kv[3]), b3 = _mm256_unpackhi_ps(kv[2], kv[3]);
-        _mm256_storeu_ps(KV + 0, _mm256_shuffle_ps(b0, b2, 0x44));
-        _mm256_storeu_ps(KV + 8, _mm256_shuffle_ps(b0, b2, 0xEE));
-        _mm256_storeu_ps(KV + 16, _mm256_shuffle_ps(b1, b3, 0x44));
-        _mm256_storeu_ps(KV + 24, _mm256_shuffle_ps(b1, b3, 0xEE));
-    }
+    w4x8_bylane(ku, KU);
+    w4x8_bylane(kv, KV);
     for (unsigned m = done; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
-        unsigned at = (j & 3u) * 8u + (j >> 2) * 4u;
         const uint8_t *base = (const uint8_t *)(uintptr_t)A[j & 1][j >> 1];
-        __m128 acc = window_fused(base, (size_t)RB[j & 1][j >> 1], DT, NC, KU + at, 4, KV + at, 4);
-        put_scaled(out + (size_t)j * NC, acc, S[j], NC);
+        __m128 acc = w4x8_win(base, (size_t)RB[j & 1][j >> 1], KU + 4 * j, KV + 4 * j, DT, NC);
+        w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
     }
     return done;
 }
