@@ -272,8 +272,15 @@ PF_WINLONG_NC(3)
 PF_TARGET __m128 window_dt(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
                            const float *ku, int uw, const float *kv, int vw, __m128 acc)
 {
-    if (NC == 3)
-        return window3(base, rowb, DT, ku, uw, kv, vw, acc);
+    if (NC == 3) { /* rows of 1 to 4 texels unrolled (the pieces of split kernels) */
+        switch (uw) {
+        case 1: return window3(base, rowb, DT, ku, 1, kv, vw, acc);
+        case 2: return window3(base, rowb, DT, ku, 2, kv, vw, acc);
+        case 3: return window3(base, rowb, DT, ku, 3, kv, vw, acc);
+        case 4: return window3(base, rowb, DT, ku, 4, kv, vw, acc);
+        default: return window3(base, rowb, DT, ku, uw, kv, vw, acc);
+        }
+    }
     int nv = (uw * (int)NC + 7) / 8;
     if (nv < 1)
         return acc;
