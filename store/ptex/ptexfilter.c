@@ -1547,8 +1547,13 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
             unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1);
-            if (W8 && (f2 & (f2 - 1))) /* 3 lanes or more offered: else one by one is less */
-                done = w8(pp, &k, out + i * nc, ks, kw, &over);
+            if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
+                for (unsigned j = 0; j < 8; j++)
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
+                                       coverage, status, nc);
+                continue;
+            }
+            done = w8(pp, &k, out + i * nc, ks, kw, &over);
             if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
@@ -1558,16 +1563,10 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                         status[i + j] = ST_Q_OK;
                 }
             }
-            if (W8) {
-                for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
-                    unsigned j = (unsigned)__builtin_ctz(m);
-                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
-                                       kw[j], out, coverage, status, nc);
-                }
-            } else {
-                for (unsigned j = 0; j < 8; j++)
-                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
-                                       coverage, status, nc);
+            for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
+                unsigned j = (unsigned)__builtin_ctz(m);
+                bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
+                                   kw[j], out, coverage, status, nc);
             }
         }
     }
