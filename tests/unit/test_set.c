@@ -8,6 +8,7 @@
 #include <cmocka.h>
 
 #include "set.h"
+#include "bigalloc.h"
 
 /* Two faces side by side: face 0 right edge <-> face 1 left edge. */
 static void two_faces(st_face_desc fd[2])
@@ -175,6 +176,45 @@ static void metadata_is_kept(void **state)
     st_set_free(NULL);
 }
 
+/* The face table and the level offsets are one block from util/bigalloc.c (offsets right
+ * after the faces), and st_set_memory counts that block as bigalloc reserves it (rounded up
+ * to 64 bytes): 601 faces of 16x8 (5 levels each) are 38464 + 24040 = 62504 bytes, 62528
+ * counted. Against separate calloc/malloc blocks counted at their exact sizes this fails. */
+static void face_table_and_level_offsets_are_one_counted_block(void **state)
+{
+    (void)state;
+    enum { N = 601 };
+    static st_face_desc fd[N];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < N; f++) {
+        fd[f].w = 16;
+        fd[f].h = 8;
+        for (int e = 0; e < 4; e++)
+            fd[f].adjface[e] = -1;
+    }
+    st_set_info in = {.nfaces = N, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1};
+    st_set *s = NULL;
+    assert_int_equal(st_set_create(&in, fd, 0, &s, NULL), ST_OK);
+    assert_ptr_equal((void *)s->level_off, (void *)(s->faces + N));
+    size_t tb = 0;
+    for (int f = 0; f < N; f++) {
+        assert_int_equal(s->faces[f].nlevels, 5);
+        assert_int_equal(s->faces[f].lvl, 5 * f);
+        assert_int_equal(s->faces[f].cornerface[0], -1);
+        for (unsigned l = 0; l < 5; l++) {
+            assert_int_equal(s->level_off[5 * f + l], tb);
+            tb += (size_t)st_level_w(&s->faces[f], l) * st_level_h(&s->faces[f], l) * 3;
+        }
+    }
+    assert_int_equal(s->texel_bytes, tb);
+    size_t arena = stu_big_footprint((tb + 64 + 63) & ~(size_t)63, STU_BIG_KEEP);
+    size_t block = (size_t)N * sizeof(st_face) + (size_t)N * 5 * sizeof(uint64_t);
+    assert_int_equal(block, 62504);
+    assert_int_equal(stu_big_footprint(block, STU_BIG_KEEP), 62528);
+    assert_int_equal(st_set_memory(s), sizeof *s + 62528 + arena);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -185,6 +225,7 @@ int main(void)
         cmocka_unit_test(box_mips_average_and_constant_faces_share_one_texel),
         cmocka_unit_test(corner_walk_finds_diagonal_faces),
         cmocka_unit_test(metadata_is_kept),
+        cmocka_unit_test(face_table_and_level_offsets_are_one_counted_block),
     };
     return cmocka_run_group_tests_name("set", tests, NULL, NULL);
 }
