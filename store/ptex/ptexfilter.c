@@ -1048,13 +1048,11 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
  * copy weights where the general walk merges them in place (black, clamp and quad, faces on a
  * boundary, ran 0.8-0.9x with it); one that overhangs one edge only, into a neighbour, on
  * any face (no fold). In Discard and Clamp pf_walk_fold: split_walk's merges and the window
- * on f; not offered a constant face (it would decline it after the merges). */
+ * on f. eval_kernel offers neither a constant face (evblur: most faces). */
 static int walk(pf *c, pk *k, int f)
 {
     if (c->mode == ST_MODE_TRAVERSE)
         return pf_walk_kernel(&c->walk, k, f, &c->acc, &c->weight);
-    if (c->s->faces[f].flags & ST_FACE_CONSTANT)
-        return 0; /* declined before its merges (evblur: most faces are constant) */
     return pf_walk_fold(&c->walk, k, f, c->mode == ST_MODE_DISCARD, &c->acc, &c->weight);
 }
 
@@ -1077,10 +1075,11 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
         memcpy(&tb, &total, sizeof tb);
         if (tb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)
             goto divide;
-    } else if (!(c->small && !is_subface(c, f) && walk(c, k, f)))
-        /* on a face that is not a subface: the same walk on pieces without copies (walk
-         * above: Traverse's splits, Discard's and Clamp's merges); what it declines: the
-         * general walk */
+    } else if (!(c->small && !(c->s->faces[f].flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
+                 walk(c, k, f)))
+        /* on a face neither a subface nor constant (the walks decline a constant one, after
+         * their work): the same walk on pieces without copies (walk above: Traverse's
+         * splits, Discard's and Clamp's merges); what it declines: the general walk */
         split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
