@@ -1,5 +1,6 @@
 /* store/ptex/ptexfilter_walk.c - the Traverse split of a kernel that overhangs a plain face,
- * on pieces that point at their parent's weights; see ptexfilter_walk.h.
+ * on pieces that point at their parent's weights, and Discard's and Clamp's merges of one;
+ * see ptexfilter_walk.h.
  *
  * Each step names the pk operation (ptexfilter_kernel.c) and the walk function
  * (ptexfilter.c) it stands for; the float operations and their order are theirs: weights

@@ -1,5 +1,6 @@
 /* store/ptex/ptexfilter_walk.h - the Traverse split of a kernel that overhangs a plain face,
- * for the common neighbourhood (private to ptexfilter*.c).
+ * for the common neighbourhood, and Discard's and Clamp's merges of one (pf_walk_fold)
+ * (private to ptexfilter*.c).
  *
  * ptexfilter.c's split walk (split_walk with its shortcuts for faces that are not subfaces)
  * splits the kernel into pk copies, rotates each into its neighbour's frame and applies it.
