@@ -1047,10 +1047,13 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
  * than one edge only on a face with four neighbours: at a mesh boundary the walk's folds
  * copy weights where the general walk merges them in place (black, clamp and quad, faces on a
  * boundary, ran 0.8-0.9x with it); one that overhangs one edge only, into a neighbour, on
- * any face (no fold). */
-static int walk(pf *c, const pk *k, int f)
+ * any face (no fold). In Discard and Clamp pf_walk_fold: split_walk's merges and the window
+ * on f. eval_kernel offers neither a constant face (evblur: most faces). */
+static int walk(pf *c, pk *k, int f)
 {
-    return pf_walk_kernel(&c->walk, k, f, &c->acc, &c->weight);
+    if (c->mode == ST_MODE_TRAVERSE)
+        return pf_walk_kernel(&c->walk, k, f, &c->acc, &c->weight);
+    return pf_walk_fold(&c->walk, k, f, c->mode == ST_MODE_DISCARD, &c->acc, &c->weight);
 }
 
 /* The rest of eval once the query's kernel k is built with its zeros stripped (uw, vw >= 1):
@@ -1072,9 +1075,11 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
         memcpy(&tb, &total, sizeof tb);
         if (tb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)
             goto divide;
-    } else if (!(c->small && c->mode == ST_MODE_TRAVERSE && !is_subface(c, f) && walk(c, k, f)))
-        /* Traverse on a plain face: the same walk on pieces without copies (walk below);
-         * Discard, Clamp and what it declines: the general walk */
+    } else if (!(c->small && !(c->s->faces[f].flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
+                 walk(c, k, f)))
+        /* on a face neither a subface nor constant (the walks decline a constant one, after
+         * their work): the same walk on pieces without copies (walk above: Traverse's
+         * splits, Discard's and Clamp's merges); what it declines: the general walk */
         split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
@@ -1184,26 +1189,43 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
     return eval(c, pp, o, q, out, cov);
 }
 
-/* eval_kernel in Traverse for kernel k (zeros stripped, overhanging) of face f, neither a
- * subface nor constant, when pf_walk_kernel takes it: the pieces summed as the walk sums
- * them and divided by the weight (the kernel's total, adjusted at corners as the walk
- * does), without eval_kernel's frame and checks; 0 when it declines (nothing written). */
-__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, const pk *k, int f,
+/* eval_kernel for kernel k (zeros stripped, overhanging, weight its pk_weight) of face f,
+ * neither a subface nor constant, when the walk takes it (ptexfilter_walk.c): in Traverse
+ * pf_walk_kernel (the pieces summed as split_walk sums them, the weight adjusted at corners
+ * as it does), in Discard and Clamp pf_walk_fold (the overhang merged, the window on f; in
+ * Discard the weight kept, with eval_kernel's coverage), divided by the weight, without
+ * eval_kernel's frame and checks; 0 when it declines or Discard keeps no weight (nothing
+ * written, k as it was: eval_kernel then runs, its zero-coverage rule included). Clamp
+ * leaves k merged (split_walk's pk_merge_* would too; no caller reads it after). */
+__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
                                                                float weight, float *out,
                                                                float *cov)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
-    if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
+    float cv = 1.0f;
+    if (c->mode == ST_MODE_TRAVERSE) {
+        if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
+            return 0;
+    } else if (c->mode == ST_MODE_DISCARD) {
+        float total = weight;
+        if (!pf_walk_fold(&c->walk, k, f, 1, &acc, &weight))
+            return 0;
+        cv = total != 0.0f ? weight / total : 0.0f;
+        if (cv > 1.0f)
+            cv = 1.0f;
+        if (!(weight > 0.0f) || cv <= 0.0f)
+            return 0;
+    } else if (!pf_walk_fold(&c->walk, k, f, 0, &acc, &weight))
         return 0;
     float scale = 1.0f / (weight * one_value(c->dt));
     for (unsigned ch = 0; ch < c->nc; ch++)
         out[ch] = acc[ch] * scale;
-    *cov = 1.0f;
+    *cov = cv;
     return 1;
 }
 
 /* kernel_walk_w with the kernel's weight pk_weight(k). */
-__attribute__((always_inline)) static inline int kernel_walk(pf *c, const pk *k, int f,
+__attribute__((always_inline)) static inline int kernel_walk(pf *c, pk *k, int f,
                                                              float *out, float *cov)
 {
     return kernel_walk_w(c, k, f, pk_weight(k), out, cov);
@@ -1242,8 +1264,7 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
             *cov = 1.0f;
             return ST_Q_OK;
         }
-    } else if (c->small && c->mode == ST_MODE_TRAVERSE &&
-               kernel_walk(c, &k, (int)q->face, out, cov))
+    } else if (c->small && kernel_walk(c, &k, (int)q->face, out, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
@@ -1286,8 +1307,7 @@ __attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_param
         return ST_Q_OK;
     }
     if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
-        if (c->small && c->mode == ST_MODE_TRAVERSE &&
-            kernel_walk(c, &k, (int)q->face, out, cov))
+        if (c->small && kernel_walk(c, &k, (int)q->face, out, cov))
             return ST_Q_OK;
         return eval_kernel(c, pp, o, q, &k, out, cov);
     }
@@ -1443,14 +1463,13 @@ static pf_point_run_fn point_run_select(unsigned dt, unsigned nc)
 }
 
 /* A kernel the fused path handed over (built, stripped, overhanging the face: what eval
- * would have built; weight its pk_weight): the Traverse shortcut walk, else eval_kernel.
+ * would have built; weight its pk_weight): the shortcut walk of the mode, else eval_kernel.
  * Returns the status, *cov set. */
 static inline int kernel_handed(pf *c, const pk_params *pp, const st_sample_opts *o,
                                 const st_query *qi, pk *k, float weight, float *oi,
                                 float *cov)
 {
-    if (c->small && c->mode == ST_MODE_TRAVERSE &&
-        kernel_walk_w(c, k, (int)qi->face, weight, oi, cov))
+    if (c->small && kernel_walk_w(c, k, (int)qi->face, weight, oi, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, qi, k, oi, cov);
 }
@@ -1475,7 +1494,7 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
     if (r == 1)
         return ST_Q_OK;
     if (r == 2) { /* built, stripped, overhangs the face: what eval would have built */
-        if (c->small && c->mode == ST_MODE_TRAVERSE && kernel_walk(c, &k, (int)qi->face, oi, cov))
+        if (c->small && kernel_walk(c, &k, (int)qi->face, oi, cov))
             return ST_Q_OK;
         return eval_kernel(c, pp, o, qi, &k, oi, cov);
     }

@@ -1,5 +1,6 @@
 /* store/ptex/ptexfilter_walk.c - the Traverse split of a kernel that overhangs a plain face,
- * on pieces that point at their parent's weights; see ptexfilter_walk.h.
+ * on pieces that point at their parent's weights, and Discard's and Clamp's merges of one;
+ * see ptexfilter_walk.h.
  *
  * Each step names the pk operation (ptexfilter_kernel.c) and the walk function
  * (ptexfilter.c) it stands for; the float operations and their order are theirs: weights
@@ -7,6 +8,7 @@
  * order) to the edge weight, reductions add pairs, and each piece's window sum goes through
  * the same window loop, pieces in the walk's order. Corners of a vertex of valence other
  * than 4 go through the pk operations themselves on a pk copy (they are rare).
+ * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window.
  */
 #include "ptexfilter_walk.h"
 
@@ -186,10 +188,9 @@ static float *own(float *buf, const float **kp, int n)
 static void merge_lo(pw *k, int a, int black, float *buf)
 {
     int w = -k->at[a];
-    if (w < k->n[a]) {
+    if (w < k->n[a] && !black) { /* black drops the overhang: the weights are not changed */
         float *kk = own(buf, &k->k[a], k->n[a]);
-        if (!black)
-            kk[w] += pk_accumulate(kk, w);
+        kk[w] += pk_accumulate(kk, w);
     }
     k->k[a] += w;
     k->n[a] -= w;
@@ -200,11 +201,10 @@ static void merge_lo(pw *k, int a, int black, float *buf)
 static void merge_hi(pw *k, int a, int black, float *buf)
 {
     int w = k->n[a] + k->at[a] - (1 << k->lg[a]);
-    if (w < k->n[a]) {
+    if (w < k->n[a] && !black) {
         float *kk = own(buf, &k->k[a], k->n[a]);
         float *kp = kk + k->n[a] - w;
-        if (!black)
-            kp[-1] += pk_accumulate(kp, w);
+        kp[-1] += pk_accumulate(kp, w);
     }
     k->n[a] -= w;
 }
@@ -432,4 +432,58 @@ int pf_walk_kernel(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *wei
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return 0;
     return walk_all(w, k0, f, acc, weight);
+}
+
+/* ---- Discard and Clamp (split_walk's other modes at depth 0) ----------------------------- */
+
+int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float *weight)
+{
+    if (w->faces[f].flags & ST_FACE_CONSTANT)
+        return 0;
+    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
+    int sr = u + uw > resu, sl = u < 0, st = v + vw > resv, sb = v < 0;
+    /* an overhang as wide as the window (a kernel past the face, which no query's kernel
+     * is): pk_merge_* would write outside it, so the general walk takes it */
+    if ((sr && u >= resu) || (sl && u + uw <= 0) || (st && v >= resv) || (sb && v + vw <= 0))
+        return 0;
+    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
+     * do; Discard and a black border only move the window) */
+    int blu = discard || w->black_u, blv = discard || w->black_v;
+    float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+    if (sr) {
+        int n = u + uw - resu;
+        if (!blu)
+            ku[uw - n - 1] += pk_accumulate(ku + uw - n, n);
+        uw -= n;
+    }
+    if (sl) {
+        int n = -u;
+        if (!blu)
+            ku[n] += pk_accumulate(ku, n);
+        ku += n;
+        uw -= n;
+        u = 0;
+    }
+    if (st) {
+        int n = v + vw - resv;
+        if (!blv)
+            kv[vw - n - 1] += pk_accumulate(kv + vw - n, n);
+        vw -= n;
+    }
+    if (sb) {
+        int n = -v;
+        if (!blv)
+            kv[n] += pk_accumulate(kv, n);
+        kv += n;
+        vw -= n;
+        v = 0;
+    }
+    /* Discard's weight: pk_weight of the kernel left, taken before apply reduces it */
+    if (discard)
+        *weight = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);
+    pw_state s = {w, *acc, 0.0f};
+    put_face(&s, k0->ulog2, k0->vlog2, u, v, uw, vw, ku, kv, f); /* f is not constant: 1 */
+    *acc = s.acc;
+    return 1;
 }

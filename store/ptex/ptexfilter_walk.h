@@ -1,5 +1,6 @@
 /* store/ptex/ptexfilter_walk.h - the Traverse split of a kernel that overhangs a plain face,
- * for the common neighbourhood (private to ptexfilter*.c).
+ * for the common neighbourhood, and Discard's and Clamp's merges of one (pf_walk_fold)
+ * (private to ptexfilter*.c).
  *
  * ptexfilter.c's split walk (split_walk with its shortcuts for faces that are not subfaces)
  * splits the kernel into pk copies, rotates each into its neighbour's frame and applies it.
@@ -55,6 +56,16 @@ int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *we
  * 0 (nothing written) for a kernel of a face at a mesh boundary that overhangs more than
  * one edge or one without a neighbour, and when pf_walk_traverse declines. */
 int pf_walk_kernel(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
+
+/* split_walk's Discard (discard 1) or Clamp (0) of kernel k (weights not empty, zeros
+ * stripped) built for face f (not a subface), which it overhangs: the overhang past each edge
+ * merged as pk_merge_r, _l, _t, _b do, in that order (dropped in Discard and at a black
+ * border; else folded onto the edge weight, in k's weights: k is the merged kernel after),
+ * then the window on f summed into *acc; in Discard *weight becomes the weight kept
+ * (pk_weight of the merged kernel, whose weights it leaves as they were), in Clamp it is
+ * left alone (the kernel's total). Returns 1; 0 when it declines, before any change: f
+ * constant, or an overhang as wide as the window. */
+int pf_walk_fold(const pf_walk *w, pk *k, int f, int discard, pf_v4 *acc, float *weight);
 
 /* The Traverse filter of a bilinear 2 x 2 kernel (ptexfilter.c's bilinear_walk: first texel
  * (u, v) at resolution (ulog2, vlog2), fractions fu, fv: weights 1 - fu, fu and 1 - fv, fv,

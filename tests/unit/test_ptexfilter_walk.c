@@ -1,5 +1,6 @@
 /* tests/unit/test_ptexfilter_walk.c - the split of a box or width-4 kernel that overhangs a
- * plain face (the shortcut walk and ptexfilter_walk.c in Traverse, the fused path's wide
+ * plain face (the shortcut walks of ptexfilter_walk.c: Traverse's splits, Discard's and
+ * Clamp's merges since session 13; the fused path's wide
  * kernels and its hand-over) gives the general path's outputs bit for bit where the walk has
  * choices to make: boundary edges folded back or dropped (each file also sampled with its
  * border modes set to black and to periodic), neighbours at other resolutions (reductions),
