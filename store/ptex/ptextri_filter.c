@@ -605,16 +605,25 @@ typedef struct pt_cur {
     double G, Ex, Ey, kxx, kxy, kyy, ixx, ixy;
 } pt_cur;
 
-/* The second differences' factors of an upright sweep (its inverted one has A and C swapped,
- * B the same: kxx and kyy swap). */
-__attribute__((noinline)) static void cur_consts(pt_cur *cu, const ti *it)
+/* A piece's second differences' factors, in the upright sweep's frame (the inverted sweep has
+ * A and C swapped, B the same: kxx and kyy swap); computed by the first sweep that needs them
+ * (libm exp, double: each is used many times). */
+typedef struct pt_kf {
+    int set;
+    double kxx, kxy, kyy, ixx, ixy, iyy;
+} pt_kf;
+
+__attribute__((noinline)) static void kf_set(pt_kf *kf, const ti *it)
 {
     const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
-    cu->kxx = exp(g * 2.0 * (double)it->A);
-    cu->kxy = exp(g * (double)it->B);
-    cu->kyy = exp(g * 2.0 * (double)it->C);
-    cu->ixx = 1.0 / cu->kxx;
-    cu->ixy = 1.0 / cu->kxy;
+    double a = exp(g * 2.0 * (double)it->A), c = exp(g * 2.0 * (double)it->C);
+    kf->set = 1;
+    kf->kxx = it->odd ? c : a;
+    kf->kyy = it->odd ? a : c;
+    kf->kxy = exp(g * (double)it->B);
+    kf->ixx = 1.0 / kf->kxx;
+    kf->iyy = 1.0 / kf->kyy;
+    kf->ixy = 1.0 / kf->kxy;
 }
 
 /* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double (three
@@ -675,7 +684,7 @@ __attribute__((always_inline)) static inline void cur_to(pt_cur *cu, const ti *i
  * its order are those of every other instance (each channel's sum gets x * w tap by tap). */
 __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                                            const uint8_t *data, int constant,
-                                                           int how, int REC, const pt_cur *cur,
+                                                           int how, int REC, pt_kf *kf,
                                                            unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
@@ -717,11 +726,17 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         }
         y2 = y1; /* done: the loop below visits nothing */
     }
-    if (REC && how != SW_READ && DDQ > 0.0f) {
+    /* a sweep of a few taps (under about 16 in its bounds) keeps the per-tap expf, cheaper
+     * than the recurrence's start */
+    if (REC && how != SW_READ && DDQ > 0.0f &&
+        (y2 - y1) * (it->hi[0] - it->lo[0]) >= 16) {
+        if (!kf->set)
+            kf_set(kf, it);
         /* the weights by recurrence (pt_rec): each row's kept taps [xk, xl) found with the
          * float Q of the per-tap loop below (the same taps), the cursor moved to xk */
-        pt_cur cu = {.seeded = 0, .kxx = cur->kxx, .kxy = cur->kxy, .kyy = cur->kyy,
-                     .ixx = cur->ixx, .ixy = cur->ixy}; /* seeded at its first kept tap */
+        pt_cur cu = {.seeded = 0, .kxx = it->odd ? kf->kyy : kf->kxx, .kxy = kf->kxy,
+                     .kyy = it->odd ? kf->kxx : kf->kyy, .ixx = it->odd ? kf->iyy : kf->ixx,
+                     .ixy = kf->ixy}; /* seeded at its first kept tap */
         for (int y = y1; y < y2; y++) {
             int x1, x2;
             float Q, DQ;
@@ -815,22 +830,11 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
                                                            unsigned NC)
 {
     float w = c->weight;
-    pt_cur ce, co;
-    if (REC) { /* the factors once a piece, the inverted sweep's from the upright one's */
-        cur_consts(&ce, ev->valid ? ev : od);
-        if (!ev->valid) /* they were od's */
-            co = ce;
-        else {
-            co = ce;
-            co.kxx = ce.kyy;
-            co.kyy = ce.kxx;
-            co.ixx = 1.0 / ce.kyy;
-        }
-    }
+    pt_kf kf = {.set = 0}; /* the factors once a piece, for both sweeps */
     if (ev->valid)
-        w += sweep_t(c, ev, data, constant, how, REC, &ce, DT, NC);
+        w += sweep_t(c, ev, data, constant, how, REC, &kf, DT, NC);
     if (od->valid)
-        w += sweep_t(c, od, data, constant, how, REC, &co, DT, NC);
+        w += sweep_t(c, od, data, constant, how, REC, &kf, DT, NC);
     c->weight = w;
 }
 
@@ -885,9 +889,8 @@ static float sweep_weight(tc *c, const ti *it)
 {
     if (c->pertap)
         return sweep_weight_pertap(c, it);
-    pt_cur cu;
-    cur_consts(&cu, it);
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, &cu, ST_DT_F32, 1);
+    pt_kf kf = {.set = 0};
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, &kf, ST_DT_F32, 1);
 }
 
 /* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels (pertap: the fold
