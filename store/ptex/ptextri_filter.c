@@ -26,7 +26,11 @@
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
  * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are one
- * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path").
+ * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path"),
+ * except in Clamp's fold sweeps and Discard's whole-kernel weight (seamtex's own, no Ptex
+ * reference), which step them by recurrence (pt_rec, pt_cur: within about 1e-6 of the
+ * per-tap expf, which st_ptextri_batch_pertap keeps for the tests; docs/ptex.md, "Session 13,
+ * tri6").
  */
 #include "ptextri.h"
 
