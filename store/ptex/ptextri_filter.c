@@ -26,7 +26,11 @@
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
  * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are one
- * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path").
+ * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path"),
+ * except in Clamp's fold sweeps and Discard's whole-kernel weight (seamtex's own, no Ptex
+ * reference), which step them by recurrence (pt_rec, pt_cur: within about 1e-6 of the
+ * per-tap expf, which st_ptextri_batch_pertap keeps for the tests; docs/ptex.md, "Session 13,
+ * tri6").
  */
 #include "ptextri.h"
 
@@ -94,6 +98,7 @@ typedef struct tc {
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
     unsigned pieces;
+    int pertap;            /* Clamp's and Discard's whole-kernel weights one expf a tap */
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -369,6 +374,18 @@ __attribute__((always_inline)) static inline void fold_tap(int R, int odd, int x
 
 enum { SW_READ, SW_WEIGHT, SW_FOLD };
 
+/* Clamp's and Discard's whole-kernel sweeps step their weights by recurrence instead of one
+ * libm expf per tap (the Gaussian of a quadratic form is a product of exponentials of its
+ * finite differences): in a row, a tap weighs w = G (the Gaussian times 1/R^2, in double),
+ * then G *= E and E *= kxx (E = exp(gs * the step of Q to the next tap), kxx = exp(gs * 2A)).
+ * The taps are the same (Q < 1 with the float Q of the per-tap sweeps); each weight is the
+ * Gaussian of the exact Q where the per-tap sweep takes expf of the float finite-difference
+ * Q: they differ by about 1e-6 relatively (docs/ptex.md, "Session 13, tri6"). rc == NULL:
+ * the per-tap expf (Traverse, Discard's kept taps, and st_ptextri_batch_pertap). */
+typedef struct pt_rec {
+    double G, E, kxx;
+} pt_rec;
+
 /* A sweep's row y: its taps' span [x1, x2) (the upright or inverted triangle's bounds on x)
  * and Q, DQ at x1 (the kernel's quadratic form and its step along x). */
 __attribute__((always_inline)) static inline void row_span(const ti *it, int R, int y, int *x1,
@@ -389,19 +406,29 @@ __attribute__((always_inline)) static inline void row_span(const ti *it, int R, 
  * times the run's weight), the texel loaded once. */
 __attribute__((always_inline)) static inline pt_v4f
 row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, float wscale,
-         pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
+         pt_v4f one, pt_v4f acc, float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
 {
     float Q = *Qp, DQ = *DQp;
+    double G = rc ? rc->G : 0.0, E = rc ? rc->E : 0.0, kxx = rc ? rc->kxx : 0.0;
     const pt_v4f tv = texel_vec(px, one, DT, NC);
     for (; n > 0; n--) {
-        if (Q < 1.0f) {
-            float w = expf(gs * Q) * wscale;
+        if (rc || Q < 1.0f) {
+            float w = rc ? (float)G : expf(gs * Q) * wscale;
             acc += tv * w;
             if (NC == 4)
                 *wsum4 += w;
         }
-        Q += DQ;
-        DQ += DDQ;
+        if (rc) {
+            G *= E;
+            E *= kxx;
+        } else {
+            Q += DQ;
+            DQ += DDQ;
+        }
+    }
+    if (rc) {
+        rc->G = G;
+        rc->E = E;
     }
     *Qp = Q;
     *DQp = DQ;
@@ -414,20 +441,30 @@ row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, f
 __attribute__((always_inline)) static inline pt_v4f
 row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
              float *Qp, float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
-             float *wsum4, unsigned DT, unsigned NC)
+             float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
 {
     float Q = *Qp, DQ = *DQp;
+    double G = rc ? rc->G : 0.0, E = rc ? rc->E : 0.0, kxx = rc ? rc->kxx : 0.0;
     for (int x = xa; x < xb; x++) {
-        if (Q < 1.0f) {
-            float w = expf(gs * Q) * wscale;
+        if (rc || Q < 1.0f) {
+            float w = rc ? (float)G : expf(gs * Q) * wscale;
             int tx, ty;
             fold_tap(R, ODD, x, y, &tx, &ty);
             acc += texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT, NC) * w;
             if (NC == 4)
                 *wsum4 += w;
         }
-        Q += DQ;
-        DQ += DDQ;
+        if (rc) {
+            G *= E;
+            E *= kxx;
+        } else {
+            Q += DQ;
+            DQ += DDQ;
+        }
+    }
+    if (rc) {
+        rc->G = G;
+        rc->E = E;
     }
     *Qp = Q;
     *DQp = DQ;
@@ -437,15 +474,15 @@ row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t 
 __attribute__((always_inline)) static inline pt_v4f
 row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
            float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
-           float *wsum4, unsigned DT, unsigned NC)
+           float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
 {
     if (xa >= xb)
         return acc;
     if (it->odd)
         return row_folded_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
-                            wsum4, DT, NC);
+                            wsum4, rc, DT, NC);
     return row_folded_t(0, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
-                        wsum4, DT, NC);
+                        wsum4, rc, DT, NC);
 }
 
 /* n taps of a row read from texels px, px + step, .. (the taps of a row inside the level, or a
@@ -455,18 +492,29 @@ row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, 
  * reads nothing. Returns acc. */
 __attribute__((always_inline)) static inline pt_v4f
 row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float DDQ, float gs,
-         float wscale, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
+         float wscale, pt_v4f one, pt_v4f acc, float *wsum4, pt_rec *rc, unsigned DT,
+         unsigned NC)
 {
     float Q = *Qp, DQ = *DQp;
+    double G = rc ? rc->G : 0.0, E = rc ? rc->E : 0.0, kxx = rc ? rc->kxx : 0.0;
     for (; n > 0; n--, px += step) {
-        if (Q < 1.0f) {
-            float w = expf(gs * Q) * wscale;
+        if (rc || Q < 1.0f) {
+            float w = rc ? (float)G : expf(gs * Q) * wscale;
             acc += texel_vec(px, one, DT, NC) * w;
             if (NC == 4)
                 *wsum4 += w;
         }
-        Q += DQ;
-        DQ += DDQ;
+        if (rc) {
+            G *= E;
+            E *= kxx;
+        } else {
+            Q += DQ;
+            DQ += DDQ;
+        }
+    }
+    if (rc) {
+        rc->G = G;
+        rc->E = E;
     }
     *Qp = Q;
     *DQp = DQ;
@@ -492,7 +540,7 @@ static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? 
 __attribute__((always_inline)) static inline pt_v4f
 row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, float DQ,
           float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
-          unsigned DT, unsigned NC)
+          pt_rec *rc, unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R, odd = it->odd;
@@ -532,20 +580,103 @@ row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, flo
         int tx, ty;
         fold_tap(R, odd, x1, y, &tx, &ty);
         acc = row_same(c1 - x1, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, &Q, &DQ,
-                       DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+                       DDQ, gs, wscale, one, acc, wsum4, rc, DT, NC);
     }
-    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc, DT,
+                     NC);
     if (c3 > c2)
         acc = row_step(c3 - c2, line + (ptrdiff_t)c2 * step, step, &Q, &DQ, DDQ, gs, wscale,
-                       one, acc, wsum4, DT, NC);
-    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+                       one, acc, wsum4, rc, DT, NC);
+    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc, DT,
+                     NC);
     if (x2 > c4) {
         int tx, ty;
         fold_tap(R, odd, c4, y, &tx, &ty);
         acc = row_same(x2 - c4, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, &Q, &DQ,
-                       DDQ, gs, wscale, one, acc, wsum4, DT, NC);
+                       DDQ, gs, wscale, one, acc, wsum4, rc, DT, NC);
     }
     return acc;
+}
+
+/* A recurrence sweep's cursor: the Gaussian times 1/R^2 (G) at the first kept tap (x, y) of
+ * the last row that had one, and exp(gs * the step of Q) to the next tap along x (Ex) and
+ * along y (Ey); k**: exp(gs * the second differences), i**: their inverses. Every row moves it
+ * to its own first kept tap: down one row per y step (G *= Ey), then along x. The taps it
+ * passes through lie within a lattice step of the kernel's ellipse (Q of a few units at
+ * most), so no factor underflows or overflows in double. */
+typedef struct pt_cur {
+    int seeded, x, y;
+    double G, Ex, Ey, kxx, kxy, kyy, ixx, ixy;
+} pt_cur;
+
+/* A piece's second differences' factors, in the upright sweep's frame (the inverted sweep has
+ * A and C swapped, B the same: kxx and kyy swap); computed by the first sweep that needs them
+ * (libm exp, double: each is used many times). */
+typedef struct pt_kf {
+    int set;
+    double kxx, kxy, kyy, ixx, ixy, iyy;
+} pt_kf;
+
+__attribute__((noinline)) static void kf_set(pt_kf *kf, const ti *it)
+{
+    const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
+    double a = exp(g * 2.0 * (double)it->A), c = exp(g * 2.0 * (double)it->C);
+    kf->set = 1;
+    kf->kxx = it->odd ? c : a;
+    kf->kyy = it->odd ? a : c;
+    kf->kxy = exp(g * (double)it->B);
+    kf->ixx = 1.0 / kf->kxx;
+    kf->iyy = 1.0 / kf->kyy;
+    kf->ixy = 1.0 / kf->kxy;
+}
+
+/* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double (three
+ * libm expf calls a sweep; out of line). */
+__attribute__((noinline)) static void cur_seed(pt_cur *cu, const ti *it, int x, int y,
+                                               float wscale)
+{
+    const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
+    const double A = it->A, B = it->B, C = it->C;
+    const double U = (double)x - (double)it->u, V = (double)y - (double)it->v;
+    cu->seeded = 1;
+    cu->x = x;
+    cu->y = y;
+    /* libm's expf (a third of exp's instructions): each start factor is used a few times,
+     * its 6e-8 relative error stays below 1e-6 in the weights */
+    cu->G = (double)wscale * (double)expf((float)(g * (A * U * U + (B * U + C * V) * V)));
+    cu->Ex = (double)expf((float)(g * (A * (2.0 * U + 1.0) + B * V)));
+    cu->Ey = (double)expf((float)(g * (B * U + C * (2.0 * V + 1.0))));
+}
+
+/* Moves the cursor to tap (x, y) (y >= its row), seeding it at the sweep's first kept tap. */
+__attribute__((always_inline)) static inline void cur_to(pt_cur *cu, const ti *it, int x, int y,
+                                                         float wscale)
+{
+    if (!cu->seeded) {
+        cur_seed(cu, it, x, y, wscale);
+        return;
+    }
+    double G = cu->G, Ex = cu->Ex, Ey = cu->Ey;
+    for (int j = cu->y; j < y; j++) { /* Q(x, j + 1) - Q(x, j) steps by 2C, Q's x step by B */
+        G *= Ey;
+        Ex *= cu->kxy;
+        Ey *= cu->kyy;
+    }
+    for (int i = cu->x; i < x; i++) {
+        G *= Ex;
+        Ex *= cu->kxx;
+        Ey *= cu->kxy;
+    }
+    for (int i = cu->x; i > x; i--) { /* G(i - 1) = G(i) / Ex(i - 1) */
+        Ex *= cu->ixx;
+        Ey *= cu->ixy;
+        G /= Ex;
+    }
+    cu->x = x;
+    cu->y = y;
+    cu->G = G;
+    cu->Ex = Ex;
+    cu->Ey = Ey;
 }
 
 /* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
@@ -557,7 +688,8 @@ row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, flo
  * its order are those of every other instance (each channel's sum gets x * w tap by tap). */
 __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                                            const uint8_t *data, int constant,
-                                                           int how, unsigned DT, unsigned NC)
+                                                           int how, int REC, pt_kf *kf,
+                                                           unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R;
@@ -594,9 +726,52 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             float Q, DQ;
             row_span(it, R, y, &x1, &x2, &Q, &DQ);
             acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ, gs,
-                           wscale, one, acc, &wsum4, DT, NC);
+                           wscale, one, acc, &wsum4, NULL, DT, NC);
         }
         y2 = y1; /* done: the loop below visits nothing */
+    }
+    /* a sweep of a few taps (under about 16 in its bounds) keeps the per-tap expf, cheaper
+     * than the recurrence's start */
+    if (REC && how != SW_READ && DDQ > 0.0f &&
+        (y2 - y1) * (it->hi[0] - it->lo[0]) >= 16) {
+        if (!kf->set)
+            kf_set(kf, it);
+        /* the weights by recurrence (pt_rec): each row's kept taps [xk, xl) found with the
+         * float Q of the per-tap loop below (the same taps), the cursor moved to xk */
+        pt_cur cu = {.seeded = 0, .kxx = it->odd ? kf->kyy : kf->kxx, .kxy = kf->kxy,
+                     .kyy = it->odd ? kf->kxx : kf->kyy, .ixx = it->odd ? kf->iyy : kf->ixx,
+                     .ixy = kf->ixy}; /* seeded at its first kept tap */
+        for (int y = y1; y < y2; y++) {
+            int x1, x2;
+            float Q, DQ;
+            row_span(it, R, y, &x1, &x2, &Q, &DQ);
+            int xk = x1;
+            while (xk < x2 && !(Q < 1.0f)) {
+                Q += DQ;
+                DQ += DDQ;
+                xk++;
+            }
+            if (xk >= x2)
+                continue;
+            /* DQ only grows (DDQ > 0), so Q falls then rises: the kept taps are one run */
+            int xl = xk + 1;
+            for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
+                q += dq;
+                dq += DDQ;
+            }
+            cur_to(&cu, it, xk, y, wscale);
+            pt_rec rc = {cu.G, cu.Ex, cu.kxx};
+            if (how == SW_WEIGHT)
+                acc = row_same(xl - xk, NULL, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, &rc,
+                               DT, 0);
+            else if (constant) /* every tap reads texel 0 */
+                acc = row_same(xl - xk, data, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, &rc,
+                               DT, NC);
+            else
+                acc = row_clamp(it, data, y, xk, xl, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
+                                &rc, DT, NC);
+        }
+        y2 = y1; /* done */
     }
     for (int y = y1; y < y2; y++) {
         /* the row's set-up reads the sweep's fields from memory (an empty asm that may change
@@ -608,11 +783,11 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         row_span(it, R, y, &x1, &x2, &Q, &DQ);
         if (how == SW_FOLD) {
             if (constant) /* every tap reads texel 0 */
-                acc = row_same(x2 - x1, data, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, DT,
-                               NC);
+                acc = row_same(x2 - x1, data, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, NULL,
+                               DT, NC);
             else
                 acc = row_clamp(it, data, y, x1, x2, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
-                                DT, NC);
+                                NULL, DT, NC);
             continue;
         }
         /* a read stays inside the level whatever the float bounds did */
@@ -621,7 +796,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         if (rd_ok && x1 >= 0 && x2 <= R) {
             /* the whole row inside the level (a piece clamped into its face): no checks */
             acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ, gs,
-                           wscale, one, acc, &wsum4, DT, NC);
+                           wscale, one, acc, &wsum4, NULL, DT, NC);
             continue;
         }
         for (int x = x1; x < x2; x++) {
@@ -655,13 +830,15 @@ typedef void (*sweep_fn)(tc *c, const ti *ev, const ti *od, const uint8_t *data,
  * c->weight += the upright sweep's weight, then += the inverted sweep's, as two calls would. */
 __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, const ti *od,
                                                            const uint8_t *data, int constant,
-                                                           int how, unsigned DT, unsigned NC)
+                                                           int how, int REC, unsigned DT,
+                                                           unsigned NC)
 {
     float w = c->weight;
+    pt_kf kf = {.set = 0}; /* the factors once a piece, for both sweeps */
     if (ev->valid)
-        w += sweep_t(c, ev, data, constant, how, DT, NC);
+        w += sweep_t(c, ev, data, constant, how, REC, &kf, DT, NC);
     if (od->valid)
-        w += sweep_t(c, od, data, constant, how, DT, NC);
+        w += sweep_t(c, od, data, constant, how, REC, &kf, DT, NC);
     c->weight = w;
 }
 
@@ -673,7 +850,7 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
                                                                const ti *od,                 \
                                                                const uint8_t *d)             \
     {                                                                                        \
-        sweep2_t(c, ev, od, d, 1, SW_READ, DT, NC);                                          \
+        sweep2_t(c, ev, od, d, 1, SW_READ, 0, DT, NC);                                          \
     }                                                                                        \
     static void sweep_r_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
                                     int constant)                                           \
@@ -682,15 +859,23 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
             sweep_rc_##DT##_##NC(c, ev, od, d);                                              \
             return;                                                                          \
         }                                                                                    \
-        sweep2_t(c, ev, od, d, 0, SW_READ, DT, NC);                                          \
+        sweep2_t(c, ev, od, d, 0, SW_READ, 0, DT, NC);                                          \
     }                                                                                        \
     static void sweep_f_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
                                     int constant)                                           \
     {                                                                                        \
         if (constant) /* every tap reads texel 0 (not the read sweeps' sum) */              \
-            sweep2_t(c, ev, od, d, 1, SW_FOLD, DT, NC);                                      \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, 1, DT, NC);                                   \
         else                                                                                 \
-            sweep2_t(c, ev, od, d, 0, SW_FOLD, DT, NC);                                      \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, 1, DT, NC);                                   \
+    }                                                                                        \
+    static void sweep_fp_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
+                                     int constant)                                          \
+    {                                                                                        \
+        if (constant)                                                                        \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, 0, DT, NC);                                   \
+        else                                                                                 \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, 0, DT, NC);                                   \
     }
 #define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
 PT_SWEEP_NC(0)
@@ -698,23 +883,34 @@ PT_SWEEP_NC(1)
 PT_SWEEP_NC(2)
 PT_SWEEP_NC(3)
 
-/* SW_WEIGHT reads nothing: one instance. */
-static float sweep_weight(tc *c, const ti *it)
+/* SW_WEIGHT reads nothing: one instance, and one with the per-tap expf. */
+__attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, ST_DT_F32, 1);
 }
 
-/* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels. */
-static void sweep_fns(unsigned dt, unsigned nc, sweep_fn *rd, sweep_fn *fold)
+static float sweep_weight(tc *c, const ti *it)
+{
+    if (c->pertap)
+        return sweep_weight_pertap(c, it);
+    pt_kf kf = {.set = 0};
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, &kf, ST_DT_F32, 1);
+}
+
+/* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels (pertap: the fold
+ * sweeps with one libm expf per tap). */
+static void sweep_fns(unsigned dt, unsigned nc, int pertap, sweep_fn *rd, sweep_fn *fold)
 {
 #define PT_ROW(F, DT) {F##_##DT##_1, F##_##DT##_2, F##_##DT##_3, F##_##DT##_4}
     static const sweep_fn r[4][4] = {PT_ROW(sweep_r, 0), PT_ROW(sweep_r, 1),
                                      PT_ROW(sweep_r, 2), PT_ROW(sweep_r, 3)};
     static const sweep_fn f[4][4] = {PT_ROW(sweep_f, 0), PT_ROW(sweep_f, 1),
                                      PT_ROW(sweep_f, 2), PT_ROW(sweep_f, 3)};
+    static const sweep_fn fp[4][4] = {PT_ROW(sweep_fp, 0), PT_ROW(sweep_fp, 1),
+                                      PT_ROW(sweep_fp, 2), PT_ROW(sweep_fp, 3)};
 #undef PT_ROW
     *rd = r[dt][nc - 1];
-    *fold = f[dt][nc - 1];
+    *fold = pertap ? fp[dt][nc - 1] : f[dt][nc - 1];
 }
 
 /* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
@@ -805,7 +1001,16 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
     int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)res);
-    if (ev.valid || od.valid)
+    if (!ev.valid && !od.valid)
+        return;
+    /* a kernel inside the face (clamping it into the face, as iterators does, would leave its
+     * bounds as they are) reads every tap in place: the read sweeps, Traverse's and Discard's
+     * for such a kernel, the same taps and sums as the fold sweep with the per-tap expf */
+    if (!constant && k->lo[0] >= 0.0f && k->lo[1] >= 0.0f && k->lo[2] >= 0.0f &&
+        k->hi[0] <= 1.0f - (k->lo[1] + k->lo[2]) && k->hi[1] <= 1.0f - (k->lo[2] + k->lo[0]) &&
+        k->hi[2] <= 1.0f - (k->lo[0] + k->lo[1]))
+        c->rd(c, &ev, &od, data, 0);
+    else
         c->fold(c, &ev, &od, data, constant);
 }
 
@@ -835,7 +1040,8 @@ static void point(const st_set *s, uint32_t f, float u, float v, float *out)
 __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const st_ptexres *t,
                                                           const st_sample_opts *o,
                                                           const st_query *q, float *out,
-                                                          float *cov, int want_cov)
+                                                          float *cov, int want_cov,
+                                                          int pertap)
 {
     uint32_t f = q->face;
     const st_face *F = &s->faces[f];
@@ -855,8 +1061,8 @@ __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const
     tk k;
     build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
                  o->blur, F->ulog2);
-    tc c = {.s = s, .nc = nc, .dt = dt};
-    sweep_fns(dt, nc, &c.rd, &c.fold);
+    tc c = {.s = s, .nc = nc, .dt = dt, .pertap = pertap};
+    sweep_fns(dt, nc, pertap, &c.rd, &c.fold);
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
     } else if (o->mode == ST_MODE_DISCARD && !want_cov) {
@@ -963,8 +1169,11 @@ PT_POINT_NC(1)
 PT_POINT_NC(2)
 PT_POINT_NC(3)
 
-int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                     float *out, float *coverage, uint8_t *status)
+__attribute__((always_inline)) static inline int tri_batch(const st_set *s,
+                                                            const st_sample_opts *o,
+                                                            const st_query *q, size_t n,
+                                                            float *out, float *coverage,
+                                                            uint8_t *status, int pertap)
 {
     unsigned nc = s->info.nchan;
     if (o->filter == ST_FILTER_PTEX_POINT) {
@@ -980,7 +1189,7 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
         float *oi = out + i * nc, cov = 0.0f;
         int st = query_status(s, qi);
         if (st == ST_Q_OK) {
-            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL);
+            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL, pertap);
         } else {
             for (unsigned ch = 0; ch < nc; ch++)
                 oi[ch] = NAN;
@@ -992,4 +1201,16 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
         bad += st != ST_Q_OK;
     }
     return bad;
+}
+
+int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                     float *out, float *coverage, uint8_t *status)
+{
+    return tri_batch(s, o, q, n, out, coverage, status, 0);
+}
+
+int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_query *q,
+                            size_t n, float *out, float *coverage, uint8_t *status)
+{
+    return tri_batch(s, o, q, n, out, coverage, status, 1);
 }
