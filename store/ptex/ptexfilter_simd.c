@@ -1084,6 +1084,28 @@ PF_TARGET unsigned w4x8_hand(__m256i ok, __m256i out_of, __m256 total, __m256i r
     return ho;
 }
 
+/* Both axes of a block's queries (w4x8_axis on u and on v), the log2 v resolutions kept for the
+ * texel addresses; returns the lanes klanes8 marked fast whose 4 x 4 taps lie inside the face. */
+typedef struct {
+    __m256i ru, rv, u0, v0, ou, ov, lv;
+    __m256 xu, stu, xv, stv;
+} w4x8_ax;
+
+PF_TARGET __m256i w4x8_axes(const pf_klanes *k, w4x8_ax *a)
+{
+    const __m256i one = _mm256_set1_epi32(1);
+    __m256i fast = _mm256_cmpgt_epi32(
+        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
+                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
+        _mm256_setzero_si256());
+    __m256i lu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
+    a->lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
+    __m256i ok = _mm256_and_si256(fast, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu,
+                                                  &a->ru, &a->u0, &a->xu, &a->stu, &a->ou));
+    return _mm256_and_si256(ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), a->lv,
+                                          &a->rv, &a->v0, &a->xv, &a->stv, &a->ov));
+}
+
 /* 8 queries of a width-4 filter on 1-channel u8 or u16 texels (DT), the block's set-up k
  * (klanes8): the lanes of k->fast that w4_body would serve in its common case (4 x 4 taps,
  * none zero, the window inside the face, total weight > 0) get w4_body's result, lane by
@@ -1098,18 +1120,10 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
                              float *wout, unsigned *over, unsigned DT, int G)
 {
     const __m256i one = _mm256_set1_epi32(1);
-    __m256i fast = _mm256_cmpgt_epi32(
-        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
-                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
-        _mm256_setzero_si256());
-    __m256i lu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
-    __m256i lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
-    __m256i ru, rv, u0, v0, ou, ov;
-    __m256 xu, stu, xv, stv;
-    __m256i ok = _mm256_and_si256(
-        fast, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu, &ru, &u0, &xu, &stu, &ou));
-    ok = _mm256_and_si256(
-        ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &rv, &v0, &xv, &stv, &ov));
+    w4x8_ax a;
+    __m256i ok = w4x8_axes(k, &a);
+    __m256i ru = a.ru, rv = a.rv, u0 = a.u0, v0 = a.v0, ou = a.ou, ov = a.ov, lv = a.lv;
+    __m256 xu = a.xu, stu = a.stu, xv = a.xv, stv = a.stv;
     if (_mm256_testz_si256(ok, ok))
         return *over = 0;
     float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
@@ -1262,18 +1276,10 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
                              float *wout, unsigned *over, unsigned DT, unsigned NC, int G)
 {
     const __m256i one = _mm256_set1_epi32(1);
-    __m256i fast = _mm256_cmpgt_epi32(
-        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
-                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
-        _mm256_setzero_si256());
-    __m256i lu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
-    __m256i lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
-    __m256i ru, rv, u0, v0, ou, ov;
-    __m256 xu, stu, xv, stv;
-    __m256i ok = _mm256_and_si256(
-        fast, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lu, &ru, &u0, &xu, &stu, &ou));
-    ok = _mm256_and_si256(
-        ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &rv, &v0, &xv, &stv, &ov));
+    w4x8_ax a;
+    __m256i ok = w4x8_axes(k, &a);
+    __m256i ru = a.ru, rv = a.rv, u0 = a.u0, v0 = a.v0, ou = a.ou, ov = a.ov, lv = a.lv;
+    __m256 xu = a.xu, stu = a.stu, xv = a.xv, stv = a.stv;
     if (_mm256_testz_si256(ok, ok))
         return *over = 0;
     float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
