@@ -386,6 +386,47 @@ typedef struct pt_rec {
     double G, E, kxx;
 } pt_rec;
 
+/* One row's taps in turn: Q and its step DQ (per-tap expf, rc == NULL) or the recurrence's G
+ * and E (rc); tap_end hands both back for the row that follows. */
+typedef struct pt_tap {
+    float Q, DQ;
+    double G, E, kxx;
+} pt_tap;
+
+__attribute__((always_inline)) static inline pt_tap tap_begin(float Q, float DQ, const pt_rec *rc)
+{
+    pt_tap t = {Q, DQ, rc ? rc->G : 0.0, rc ? rc->E : 0.0, rc ? rc->kxx : 0.0};
+    return t;
+}
+
+__attribute__((always_inline)) static inline float tap_w(const pt_tap *t, const pt_rec *rc,
+                                                         float gs, float wscale)
+{
+    return rc ? (float)t->G : expf(gs * t->Q) * wscale;
+}
+
+__attribute__((always_inline)) static inline void tap_next(pt_tap *t, const pt_rec *rc, float DDQ)
+{
+    if (rc) {
+        t->G *= t->E;
+        t->E *= t->kxx;
+    } else {
+        t->Q += t->DQ;
+        t->DQ += DDQ;
+    }
+}
+
+__attribute__((always_inline)) static inline void tap_end(const pt_tap *t, pt_rec *rc, float *Qp,
+                                                          float *DQp)
+{
+    if (rc) {
+        rc->G = t->G;
+        rc->E = t->E;
+    }
+    *Qp = t->Q;
+    *DQp = t->DQ;
+}
+
 /* A sweep's row y: its taps' span [x1, x2) (the upright or inverted triangle's bounds on x)
  * and Q, DQ at x1 (the kernel's quadratic form and its step along x). */
 __attribute__((always_inline)) static inline void row_span(const ti *it, int R, int y, int *x1,
@@ -408,30 +449,18 @@ __attribute__((always_inline)) static inline pt_v4f
 row_same(int n, const uint8_t *px, float *Qp, float *DQp, float DDQ, float gs, float wscale,
          pt_v4f one, pt_v4f acc, float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
 {
-    float Q = *Qp, DQ = *DQp;
-    double G = rc ? rc->G : 0.0, E = rc ? rc->E : 0.0, kxx = rc ? rc->kxx : 0.0;
+    pt_tap t = tap_begin(*Qp, *DQp, rc);
     const pt_v4f tv = texel_vec(px, one, DT, NC);
     for (; n > 0; n--) {
-        if (rc || Q < 1.0f) {
-            float w = rc ? (float)G : expf(gs * Q) * wscale;
+        if (rc || t.Q < 1.0f) {
+            float w = tap_w(&t, rc, gs, wscale);
             acc += tv * w;
             if (NC == 4)
                 *wsum4 += w;
         }
-        if (rc) {
-            G *= E;
-            E *= kxx;
-        } else {
-            Q += DQ;
-            DQ += DDQ;
-        }
+        tap_next(&t, rc, DDQ);
     }
-    if (rc) {
-        rc->G = G;
-        rc->E = E;
-    }
-    *Qp = Q;
-    *DQp = DQ;
+    tap_end(&t, rc, Qp, DQp);
     return acc;
 }
 
@@ -443,31 +472,19 @@ row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t 
              float *Qp, float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
              float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
 {
-    float Q = *Qp, DQ = *DQp;
-    double G = rc ? rc->G : 0.0, E = rc ? rc->E : 0.0, kxx = rc ? rc->kxx : 0.0;
+    pt_tap t = tap_begin(*Qp, *DQp, rc);
     for (int x = xa; x < xb; x++) {
-        if (rc || Q < 1.0f) {
-            float w = rc ? (float)G : expf(gs * Q) * wscale;
+        if (rc || t.Q < 1.0f) {
+            float w = tap_w(&t, rc, gs, wscale);
             int tx, ty;
             fold_tap(R, ODD, x, y, &tx, &ty);
             acc += texel_vec(data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, one, DT, NC) * w;
             if (NC == 4)
                 *wsum4 += w;
         }
-        if (rc) {
-            G *= E;
-            E *= kxx;
-        } else {
-            Q += DQ;
-            DQ += DDQ;
-        }
+        tap_next(&t, rc, DDQ);
     }
-    if (rc) {
-        rc->G = G;
-        rc->E = E;
-    }
-    *Qp = Q;
-    *DQp = DQ;
+    tap_end(&t, rc, Qp, DQp);
     return acc;
 }
 
@@ -495,29 +512,17 @@ row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float 
          float wscale, pt_v4f one, pt_v4f acc, float *wsum4, pt_rec *rc, unsigned DT,
          unsigned NC)
 {
-    float Q = *Qp, DQ = *DQp;
-    double G = rc ? rc->G : 0.0, E = rc ? rc->E : 0.0, kxx = rc ? rc->kxx : 0.0;
+    pt_tap t = tap_begin(*Qp, *DQp, rc);
     for (; n > 0; n--, px += step) {
-        if (rc || Q < 1.0f) {
-            float w = rc ? (float)G : expf(gs * Q) * wscale;
+        if (rc || t.Q < 1.0f) {
+            float w = tap_w(&t, rc, gs, wscale);
             acc += texel_vec(px, one, DT, NC) * w;
             if (NC == 4)
                 *wsum4 += w;
         }
-        if (rc) {
-            G *= E;
-            E *= kxx;
-        } else {
-            Q += DQ;
-            DQ += DDQ;
-        }
+        tap_next(&t, rc, DDQ);
     }
-    if (rc) {
-        rc->G = G;
-        rc->E = E;
-    }
-    *Qp = Q;
-    *DQp = DQ;
+    tap_end(&t, rc, Qp, DQp);
     return acc;
 }
 
