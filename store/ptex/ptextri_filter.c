@@ -104,8 +104,9 @@ typedef struct tc {
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
 static inline float fminf_(float a, float b) { return a < b ? a : b; }
 
-static void build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2,
-                         float width, float blur, unsigned face_log2)
+__attribute__((always_inline)) static inline void
+build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2, float width,
+             float blur, unsigned face_log2)
 {
     const float sqrt3 = 1.7320508075688772f;
     /* the footprint's ellipse in (u, v) */
@@ -1046,7 +1047,7 @@ __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const
                                                           const st_sample_opts *o,
                                                           const st_query *q, float *out,
                                                           float *cov, int want_cov,
-                                                          int pertap)
+                                                          const tc *proto)
 {
     uint32_t f = q->face;
     const st_face *F = &s->faces[f];
@@ -1066,8 +1067,7 @@ __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const
     tk k;
     build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
                  o->blur, F->ulog2);
-    tc c = {.s = s, .nc = nc, .dt = dt, .pertap = pertap};
-    sweep_fns(dt, nc, pertap, &c.rd, &c.fold);
+    tc c = *proto;
     if (o->mode == ST_MODE_TRAVERSE) {
         split_apply(&c, &k, f, 0);
     } else if (o->mode == ST_MODE_DISCARD && !want_cov) {
@@ -1188,13 +1188,15 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
         return pt[s->info.dtype][nc - 1](s, q, n, out, coverage, status);
     }
     const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
+    tc proto = {.s = s, .nc = nc, .dt = s->info.dtype, .pertap = pertap}; /* once a batch */
+    sweep_fns(proto.dt, nc, pertap, &proto.rd, &proto.fold);
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
         float *oi = out + i * nc, cov = 0.0f;
         int st = query_status(s, qi);
         if (st == ST_Q_OK) {
-            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL, pertap);
+            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL, &proto);
         } else {
             for (unsigned ch = 0; ch < nc; ch++)
                 oi[ch] = NAN;
