@@ -16,7 +16,7 @@ reads.
 usage: mode_audit.py ROOT [--files a,b] [--exclude tri,triangle] [--filters ..] [--fp ..]
                      [--order random|coherent|both] [--jobs 2] [--over 0.03] [--tsv OUT]
 ROOT is a built checkout (ROOT/build/bench/bench_ptex); SEAMTEX_DATA defaults to
-/work/shared/data. Files default to every file bench_ptex lists but the excluded ones (the
+../shared/data beside this repository, as for the tests. Files default to every file bench_ptex lists but the excluded ones (the
 triangle meshes: their filter is another one). Prints every cell and then the cells where
 Discard or Clamp is over Traverse by more than --over.
 """
@@ -88,7 +88,8 @@ def main():
     ap.add_argument("--tsv")
     a = ap.parse_args()
     env = dict(os.environ)
-    env.setdefault("SEAMTEX_DATA", "/work/shared/data")
+    env.setdefault("SEAMTEX_DATA", os.path.normpath(os.path.join(
+        os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "shared", "data")))
     bench = os.path.join(a.root, "build/bench/bench_ptex")
     files = a.files.split(",") if a.files else list_files(bench, env)
     excl = set(a.exclude.split(",")) if a.exclude else set()
