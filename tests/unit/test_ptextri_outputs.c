@@ -152,6 +152,44 @@ static void make_queries(const st_set *s, st_query *q, uint32_t seed)
     }
 }
 
+/* Group g's options in mode `mode`: point, gaussian, bicubic (width 1.5, blur 0.01), gaussian
+ * with the clamp zero rule, box. */
+static st_sample_opts group_opts(int g, int mode)
+{
+    static const uint8_t filt[NGROUP] = {ST_FILTER_PTEX_POINT, ST_FILTER_PTEX_GAUSSIAN,
+                                         ST_FILTER_PTEX_BICUBIC, ST_FILTER_PTEX_GAUSSIAN,
+                                         ST_FILTER_PTEX_BOX};
+    st_sample_opts o = {.filter = filt[g], .mode = (uint8_t)mode, .sharpness = 0.3f,
+                        .width = g == 2 ? 1.5f : 0.0f, .blur = g == 2 ? 0.01f : 0.0f,
+                        .zero_rule = g == 3 ? ST_ZERO_CLAMP : ST_ZERO_NAN};
+    return o;
+}
+
+/* The si-th set of the tests: the two shared files, then file 0 remade as remade[si - 2]
+ * says. *file0 keeps file 0 (the caller frees it last), *own the set to free after it is
+ * sampled (NULL for file 0); NULL: skipped (its file is not in the shared data). */
+static const st_set *nth_set(size_t si, st_set **file0, st_set **own)
+{
+    *own = NULL;
+    if (si >= 2) {
+        if (!*file0)
+            return NULL;
+        *own = remake(*file0, remade[si - 2].dt, remade[si - 2].nc, remade[si - 2].constant);
+        return *own;
+    }
+    char path[1024];
+    st_error e = {0};
+    st_set *s;
+    if (st_test_data_path(path, sizeof path, files[si]))
+        return NULL;
+    assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
+    if (si == 0)
+        *file0 = s;
+    else
+        *own = s;
+    return s;
+}
+
 static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **state)
 {
     (void)state;
@@ -170,32 +208,14 @@ static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **stat
     int bad = 0, checked = 0;
     for (size_t si = 0; si < NSETS; si++) {
         st_set *s;
-        st_error e = {0};
-        if (si < 2) {
-            if (st_test_data_path(path, sizeof path, files[si]))
-                continue;
-            assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
-            if (si == 0) {
-                file0 = s;
-                s = NULL;
-            }
-        } else {
-            if (!file0)
-                continue;
-            s = remake(file0, remade[si - 2].dt, remade[si - 2].nc, remade[si - 2].constant);
-        }
-        const st_set *ss = s ? s : file0;
+        const st_set *ss = nth_set(si, &file0, &s);
+        if (!ss)
+            continue;
         assert_int_equal(ss->info.meshtype, ST_MESH_TRIANGLE);
         make_queries(ss, q, 2000u + (uint32_t)si);
         for (int g = 0; g < NGROUP; g++)
             for (int mode = 0; mode < 3; mode++) {
-                static const uint8_t filt[NGROUP] = {
-                    ST_FILTER_PTEX_POINT, ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
-                    ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BOX};
-                st_sample_opts o = {.filter = filt[g], .mode = (uint8_t)mode,
-                                    .sharpness = 0.3f, .width = g == 2 ? 1.5f : 0.0f,
-                                    .blur = g == 2 ? 0.01f : 0.0f,
-                                    .zero_rule = g == 3 ? ST_ZERO_CLAMP : ST_ZERO_NAN};
+                st_sample_opts o = group_opts(g, mode);
                 memset(out, 0, sizeof(float) * 4 * NQ);
                 /* the per-tap weights (Clamp's and Discard's coverage are stepped by
                  * recurrence in st_ptexfilter_batch: compared below) */
@@ -246,32 +266,14 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
     int folded_differ = 0, exact_differ = 0;
     for (size_t si = 0; si < NSETS; si++) {
         st_set *s;
-        st_error e = {0};
-        if (si < 2) {
-            if (st_test_data_path(path, sizeof path, files[si]))
-                continue;
-            assert_int_equal(st_ptex_read_file(path, 0, &s, &e), 0);
-            if (si == 0) {
-                file0 = s;
-                s = NULL;
-            }
-        } else {
-            if (!file0)
-                continue;
-            s = remake(file0, remade[si - 2].dt, remade[si - 2].nc, remade[si - 2].constant);
-        }
-        const st_set *ss = s ? s : file0;
+        const st_set *ss = nth_set(si, &file0, &s);
+        if (!ss)
+            continue;
         unsigned nc = ss->info.nchan;
         make_queries(ss, q, 4000u + (uint32_t)si);
         for (int g = 1; g < NGROUP; g++)
             for (int mode = 0; mode < 3; mode++) {
-                static const uint8_t filt[NGROUP] = {
-                    ST_FILTER_PTEX_POINT, ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
-                    ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BOX};
-                st_sample_opts o = {.filter = filt[g], .mode = (uint8_t)mode,
-                                    .sharpness = 0.3f, .width = g == 2 ? 1.5f : 0.0f,
-                                    .blur = g == 2 ? 0.01f : 0.0f,
-                                    .zero_rule = g == 3 ? ST_ZERO_CLAMP : ST_ZERO_NAN};
+                st_sample_opts o = group_opts(g, mode);
                 assert_int_equal(st_ptextri_batch(ss, &o, q, NQ, o1, c1, s1),
                                  st_ptextri_batch_pertap(ss, &o, q, NQ, o2, c2, s2));
                 assert_memory_equal(s1, s2, NQ);
