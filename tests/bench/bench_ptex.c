@@ -18,7 +18,9 @@
  * fp / width, dvdy = fp / height, isotropic, axis-aligned) and query order (--order,
  * default both): "random" = uniform face and uv; "coherent" = the faces in turn, on each a
  * 16 x 16 raster of queries one footprint apart (steps capped at 1/16 of the face), like the
- * pixels of a render. Mode Traverse; --modes traverse,discard,clamp adds the others. One
+ * pixels of a render. Mode Traverse; --modes traverse,discard,clamp adds the others. --coverage
+ * also asks for the coverage array (the kept weight over the kernel's: what a Discard user
+ * reads; without it the filters skip computing it). One
  * untimed batch first builds the table. Tables in the shape of issue 17: file x filter,
  * M queries/s, one table per (mode, order, footprint).
  *
@@ -35,7 +37,8 @@
  * Usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]
  *                   [--files SUBSTR[,SUBSTR..]]   (=NAME: that file only) [--filters point,bilinear,..]
  *                   [--fp 0.25,4,16] [--order random|coherent|both]
- *                   [--modes traverse[,discard][,clamp]] [--min-ms MS] [--reps-sample N]
+ *                   [--modes traverse[,discard][,clamp]] [--coverage]
+ *                   [--min-ms MS] [--reps-sample N]
  *                   [--batches N]   (exactly N timed batches per cell, one run: a fixed
  *                                    amount of work, for instruction counts under callgrind)
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
@@ -70,6 +73,7 @@ static const char *dtnames[4] = {"u8", "u16", "half", "f32"};     /* st_dtype or
 typedef struct opts {
     const char *json, *files, *queries, *ptx, *dump;
     int reps, reps_sample, import_only, sample_only, order_mask, mode_mask;
+    int coverage;                /* --coverage: ask for the coverage array too (Discard's use) */
     long batches;                /* --batches: exactly this many timed batches, one run */
     unsigned filter_mask;
     double min_s;
@@ -263,21 +267,23 @@ static double time_batch(const opts *op, const st_set *s, int flt, int mode, con
                          size_t n, float *out)
 {
     st_sample_opts o = {.mode = (uint8_t)mode, .filter = (uint8_t)(ST_FILTER_PTEX_POINT + flt)};
+    static float covbuf[NQ];
+    float *cov = op->coverage && n <= NQ ? covbuf : NULL;
     double t[99];
     long iters = 1;
     /* find a batch count that lasts min_s (the first, untimed call builds the table) */
-    st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+    st_ptexfilter_batch(s, &o, q, n, out, cov, NULL);
     if (op->batches > 0) { /* a fixed amount of work, for instruction counts (callgrind) */
         double t0 = now();
         for (long k = 0; k < op->batches; k++)
-            st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+            st_ptexfilter_batch(s, &o, q, n, out, cov, NULL);
         double d = now() - t0;
         return (double)n * (double)op->batches / (d > 0 ? d : 1e-9) / 1e6;
     }
     for (;;) {
         double t0 = now();
         for (long k = 0; k < iters; k++)
-            st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+            st_ptexfilter_batch(s, &o, q, n, out, cov, NULL);
         double d = now() - t0;
         if (d >= op->min_s || iters > (1L << 30)) {
             t[0] = d;
@@ -288,7 +294,7 @@ static double time_batch(const opts *op, const st_set *s, int flt, int mode, con
     for (int r = 1; r < op->reps_sample; r++) {
         double t0 = now();
         for (long k = 0; k < iters; k++)
-            st_ptexfilter_batch(s, &o, q, n, out, NULL, NULL);
+            st_ptexfilter_batch(s, &o, q, n, out, cov, NULL);
         t[r] = now() - t0;
     }
     return (double)n * (double)iters / st_bench_median(t, op->reps_sample) / 1e6;
@@ -306,9 +312,9 @@ static void sample_tables(const opts *op, ptxfile *fl, st_set **sets, int nfl, F
             if (!(op->order_mask >> ord & 1))
                 continue;
             for (int fi = 0; fi < op->nfp; fi++) {
-                printf("\nM queries/s, %s, %s order, footprint %g texels\n%-22s %-6s",
-                       mnames[m], ord ? "coherent" : "random", (double)op->fp[fi], "file",
-                       "type");
+                printf("\nM queries/s, %s, %s order, footprint %g texels%s\n%-22s %-6s",
+                       mnames[m], ord ? "coherent" : "random", (double)op->fp[fi],
+                       op->coverage ? ", coverage asked" : "", "file", "type");
                 for (int f = 0; f < NFILT; f++)
                     if (op->filter_mask >> f & 1)
                         printf(" %10s", fnames[f]);
@@ -331,9 +337,10 @@ static void sample_tables(const opts *op, ptxfile *fl, st_set **sets, int nfl, F
                         if (js) {
                             fprintf(js, "%s{\"file\":\"%s\",\"type\":\"%s\",\"filter\":\"%s\","
                                     "\"mode\":\"%s\",\"order\":\"%s\",\"footprint\":%g,"
-                                    "\"mqps\":%.4f}",
+                                    "\"coverage\":%s,\"mqps\":%.4f}",
                                     first ? "" : ",", fl[i].name, ty, fnames[f], mnames[m],
-                                    ord ? "coherent" : "random", (double)op->fp[fi], mq);
+                                    ord ? "coherent" : "random", (double)op->fp[fi],
+                                    op->coverage ? "true" : "false", mq);
                             first = 0;
                         }
                     }
@@ -517,7 +524,7 @@ static int usage(void)
 {
     fprintf(stderr, "usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]"
             " [--files S,..] [--filters F,..] [--fp X,..] [--order random|coherent|both]"
-            " [--modes M,..] [--min-ms MS] [--reps-sample N] [--batches N]\n"
+            " [--modes M,..] [--coverage] [--min-ms MS] [--reps-sample N] [--batches N]\n"
             "       bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH]\n");
     return 2;
 }
@@ -536,6 +543,8 @@ int main(int argc, char **argv)
             op.import_only = 1;
         else if (!strcmp(a, "--sample-only"))
             op.sample_only = 1;
+        else if (!strcmp(a, "--coverage"))
+            op.coverage = 1;
         else if (!v)
             return usage();
         else if (!strcmp(a, "--json"))
