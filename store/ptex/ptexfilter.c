@@ -1693,7 +1693,10 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     if (qfn == kernel_q && path == PF_PATH_BEST) {
         int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status,
                              pf_kernel_lanes_select(o->filter),
-                             pf_w4x8_select(c.dt, c.nc, o->filter), &lc);
+                             o->filter == ST_FILTER_PTEX_BOX
+                                 ? pf_box8_select(c.dt, c.nc)
+                                 : pf_w4x8_select(c.dt, c.nc, o->filter),
+                             &lc);
         st_ptexres_unpin(t);
         return bad;
     }
