@@ -42,6 +42,15 @@
  * gathered); for the other types and channel counts (w4x8_each) per lane served, w4_tail's
  * own window loop on the taps transposed out of the vectors.
  *
+ * The box filter's in-face case 8 queries at a time (pf_box8_select, after klanes8): box_axes'
+ * set-up of both axes, its zero-weight test, the inside test, the weight and the scale lane
+ * by lane in 8-lane vectors, its operations in its order; the kernels that overhang their
+ * face handed over as fast_body hands them over. The window of 1, 2 or 3 taps each way: for
+ * 1-channel u8 and u16 texels in the vectors (3 rows gathered, a row past a lane's taps not
+ * read, a column past them weighted +0, which for finite texels is what window4's cleared
+ * lane gives); for the others per lane served, fast_body's window with the lane's shape as
+ * constants (box8_win: the same function, its loops unrolled).
+ *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
@@ -1475,6 +1484,15 @@ PF_TARGET unsigned box8_hand(__m256i ok, __m256i out_of, __m256 total, const box
     return ho;
 }
 
+/* The 64-bit lanes of the even (e: 0, 2, 4, 6) and odd (o: 1, 3, 5, 7) queries stored in
+ * query order. */
+PF_TARGET void box8_lanes64(__m256i e, __m256i o, uint64_t *out)
+{
+    __m256i lo = _mm256_unpacklo_epi64(e, o), hi = _mm256_unpackhi_epi64(e, o); /* 0 1 4 5, 2 3 6 7 */
+    _mm256_storeu_si256((__m256i *)(void *)out, _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256((__m256i *)(void *)(out + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
+}
+
 /* fast_body's box window of one lane (window_fused with nu x nv taps, 1..3 each way, as
  * constants: case (nu - 1) * 3 + nv - 1), so its loops unroll: the same function on the
  * same taps. */
@@ -1587,11 +1605,9 @@ PF_TARGET unsigned box8(const pf_klanes *k, float *out, pk *kout, float *wout, u
     __m256i ao = _mm256_add_epi64(
         dof, _mm256_mul_epu32(_mm256_add_epi64(_mm256_mul_epu32(odd64(av.a), odd64(resu)),
                                                odd64(au.a)), ts));
-    uint64_t A[2][4], RB[2][4]; /* [j & 1][j >> 1] */
-    _mm256_storeu_si256((__m256i *)(void *)A[0], ae);
-    _mm256_storeu_si256((__m256i *)(void *)A[1], ao);
-    _mm256_storeu_si256((__m256i *)(void *)RB[0], _mm256_mul_epu32(resu, ts));
-    _mm256_storeu_si256((__m256i *)(void *)RB[1], _mm256_mul_epu32(odd64(resu), ts));
+    uint64_t A[8], RB[8]; /* in lane order */
+    box8_lanes64(ae, ao, A);
+    box8_lanes64(_mm256_mul_epu32(resu, ts), _mm256_mul_epu32(odd64(resu), ts), RB);
     float S[8];
     int C[8];
     _mm256_storeu_ps(S, scale);
@@ -1606,9 +1622,8 @@ PF_TARGET unsigned box8(const pf_klanes *k, float *out, pk *kout, float *wout, u
     w4x8_bylane(tv, KV);
     for (unsigned m = done; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
-        const uint8_t *base = (const uint8_t *)(uintptr_t)A[j & 1][j >> 1];
-        __m128 acc = box8_win(C[j], base, (size_t)RB[j & 1][j >> 1], KU + 4 * j, KV + 4 * j,
-                              DT, NC);
+        const uint8_t *base = (const uint8_t *)(uintptr_t)A[j];
+        __m128 acc = box8_win(C[j], base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
         w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
     }
     return done;
