@@ -1531,9 +1531,10 @@ __attribute__((always_inline)) static inline int kernel_lane(
 
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
- * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the
- * width-4 filters) the fused path's common case of the block at once
- * (ptexfilter_simd.c's pf_w4x8_select: served, or its kernel handed over to kernel_handed),
+ * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
+ * and width-4 filters with AVX2) the fused path's common case of the block at once
+ * (ptexfilter_simd.c's pf_box8_select and pf_w4x8_select: served, or its kernel handed
+ * over to kernel_handed),
  * then per query the fused path (kernel_plain) for the lanes left; the rest one by one with the same checks in one vector compare
  * ((u, v) in [0, 1), the four derivatives within the bound, NaN failing it; the face in
  * range and plain: together they imply one_query's checks and plain_face's) and kernel_qi's
@@ -1621,7 +1622,8 @@ __attribute__((always_inline)) static inline int kernel_run_with(
     return bad;
 }
 
-/* kernel_run_with, its block loop with the 8-query fused path (w8) or without it. */
+/* kernel_run_with, its block loop with the 8-query fused path (w8: the box's or the width-4
+ * filters') or without it. */
 static int kernel_run(pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn,
                       const st_query *q, size_t n, float *out, float *coverage,
                       uint8_t *status, pf_kernel_lanes_fn kl, pf_w4x8_fn w8,
@@ -1693,7 +1695,10 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     if (qfn == kernel_q && path == PF_PATH_BEST) {
         int bad = kernel_run(&c, &pp, o, qfn, q, n, out, coverage, status,
                              pf_kernel_lanes_select(o->filter),
-                             pf_w4x8_select(c.dt, c.nc, o->filter), &lc);
+                             o->filter == ST_FILTER_PTEX_BOX
+                                 ? pf_box8_select(c.dt, c.nc)
+                                 : pf_w4x8_select(c.dt, c.nc, o->filter),
+                             &lc);
         st_ptexres_unpin(t);
         return bad;
     }

@@ -32,8 +32,10 @@
  * queries, then kernel_qi's widths (|du/dx| + |du/dy|, times width, plus blur: a multiply and
  * an add, not fused) and its test for the fused path (width-4: widths under 1/4, NaN offered,
  * a face of at least 8 x 8 texels), and the face's row of the resolution table (base[f],
- * gathered for the plain lanes); the caller (kernel_run) calls the fused path per query with
- * these, and serves the others one by one. Same operations, same operands: the same bits.
+ * gathered for the plain lanes); the caller (kernel_run) gives these to the 8-query fused
+ * path (ptexfilter_simd.c's pf_box8_select, pf_w4x8_select), calls the fused path per query
+ * for the lanes it leaves, and serves the others one by one. Same operations, same
+ * operands: the same bits.
  *
  * Owns: nothing but these loops.
  */

@@ -1,6 +1,7 @@
 /* store/ptex/ptexfilter_lanes.h - Ptex's bilinear filter on several queries at once, one query
  * per vector lane, and the checks and set-up of the box and width-4 filters' queries the same
- * way (private to ptexfilter*.c).
+ * way, and the box filter's 8-query in-face case that follows them (ptexfilter_simd.c's
+ * pf_box8_select; private to ptexfilter*.c).
  *
  * A lane function takes a fixed number of queries (8 with AVX2, 4 with SSE2: its lane count)
  * and serves those whose bilinear needs no kernel: a valid query (face in range, every
@@ -19,6 +20,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ptexfilter_kernel.h"
 #include "sample.h"
 
 typedef struct pf_lanes {
@@ -87,5 +89,14 @@ typedef void (*pf_kernel_lanes_fn)(const pf_lanes *c, const st_query *q, pf_klan
 /* The function for filter ftype (st_filter: box, or a width-4 one), NULL without AVX2 + FMA
  * + F16C (pf_have_avx2) or SSE2 builds. */
 pf_kernel_lanes_fn pf_kernel_lanes_select(unsigned ftype);
+
+/* The box filter's in-face case of 8 queries at once (ptexfilter_simd.c, AVX2), after
+ * klanes8 (k): pf_w4x8_fn's contract for the box (p unused): the lanes of k->fast whose box
+ * kernel the fused path serves (no zero weight at an end, the window inside the face, total
+ * weight > 0) written bit for bit as pf_fast_fn writes them and their mask returned; those
+ * whose window overhangs the face handed over (*over, kout[lane], wout[lane] its pk_weight)
+ * as pf_fast_fn hands them over; the others left to the per-query path. Any texel type, 1..4
+ * channels; NULL without AVX2 + FMA + F16C (pf_have_avx2) or off x86. */
+pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc);
 
 #endif

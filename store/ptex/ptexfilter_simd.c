@@ -42,6 +42,15 @@
  * gathered); for the other types and channel counts (w4x8_each) per lane served, w4_tail's
  * own window loop on the taps transposed out of the vectors.
  *
+ * The box filter's in-face case 8 queries at a time (pf_box8_select, after klanes8): box_axes'
+ * set-up of both axes, its zero-weight test, the inside test, the weight and the scale lane
+ * by lane in 8-lane vectors, its operations in its order; the kernels that overhang their
+ * face handed over as fast_body hands them over. The window of 1, 2 or 3 taps each way: for
+ * 1-channel u8 and u16 texels in the vectors (3 rows gathered, a row past a lane's taps not
+ * read, a column past them weighted +0, which for finite texels is what window4's cleared
+ * lane gives); for the others per lane served, fast_body's window with the lane's shape as
+ * constants (box8_win: the same function, its loops unrolled).
+ *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
@@ -1002,16 +1011,18 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
     return w;
 }
 
-/* The 4 texels of one window row of 8 queries, type DT (u8 or u16), 1 channel, as floats
- * per column: ae, ao the rows' addresses of the even and odd queries (64-bit lanes), me, mo
- * their gather masks (sign bits). Reads 8 bytes a row (4 past a u8 row: the arenas' slack). */
+/* The first NCOL (<= 4) texels of one window row of 8 queries, type DT (u8 or u16), 1
+ * channel, as floats per column: ae, ao the rows' addresses of the even and odd queries
+ * (64-bit lanes), me, mo their gather masks (sign bits; a lane masked off gives 0). Reads 8
+ * bytes a row (past a u8 row, or past a row of fewer than 4 u16 texels: the arenas'
+ * slack). */
 PF_TARGET void w4x8_row(__m256i ae, __m256i ao, __m256i me, __m256i mo, unsigned DT,
-                        __m256 *t)
+                        __m256 *t, int NCOL)
 {
     const __m256i z = _mm256_setzero_si256();
     __m256i ge = _mm256_mask_i64gather_epi64(z, (const long long *)0, ae, me, 1);
     __m256i go = _mm256_mask_i64gather_epi64(z, (const long long *)0, ao, mo, 1);
-    _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++) {
+    _Pragma("GCC unroll 4") for (int i = 0; i < NCOL; i++) {
         /* column i: value i of each qword, into dword 0 / 2 (even queries) or 1 / 3 (odd) */
         __m256i se, so;
         if (DT == 0) {
@@ -1149,7 +1160,7 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
         _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
             __m256 t[4];
-            w4x8_row(ae, ao, me, mo, DT, t);
+            w4x8_row(ae, ao, me, mo, DT, t, 4);
             _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
                 col[i] = _mm256_fmadd_ps(t[i], kv[j], col[i]);
             ae = _mm256_add_epi64(ae, re);
@@ -1378,6 +1389,268 @@ pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype)
         dt > 3 || !pf_have_avx2())
         return NULL;
     return fns[dt][nc - 1][ftype == ST_FILTER_PTEX_GAUSSIAN ? 0 : 1];
+}
+
+/* ---- the box filter's in-face case, 8 queries at a time (pf_box8_select) --------------- */
+
+/* One axis of box_axes for 8 queries, lane by lane its operations in its order: x the
+ * coordinates, bw the widths, lg the faces' log2 sizes. r the resolution, a the first texel,
+ * n the taps (1..3), t0, t1, t2 box_axes' ku[0], ku[1], ku[2] (w1 or f1, f2 or 1, f2: those
+ * at n and past are no taps), sm the axis' sum (pk_weight's factor), bad the lanes with a
+ * zero weight at an end (box_axes declines them). */
+typedef struct {
+    __m256i r, a, n, bad;
+    __m256 t0, t1, t2, sm;
+} box8_ax;
+
+PF_TARGET void box8_axis(__m256 x, __m256 bw, __m256i lg, box8_ax *o)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f);
+    const __m256 z = _mm256_setzero_ps();
+    const __m256i e127 = _mm256_set1_epi32(127);
+    __m256 w = _mm256_min_ps(bw, one);                        /* uw < 1 ? uw : 1 */
+    __m256 lo = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lg), 23));
+    w = _mm256_max_ps(w, lo);                                 /* uw > lu ? uw : lu */
+    __m256i r = _mm256_sub_epi32(e127, _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(w), 23),
+                                                        _mm256_set1_epi32(0xff)));
+    __m256 rf = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(r, e127), 23));
+    x = _mm256_mul_ps(x, rf);
+    w = _mm256_mul_ps(w, rf);
+    __m256 hw = _mm256_mul_ps(half, w);
+    __m256 x1 = _mm256_sub_ps(x, hw), x2 = _mm256_add_ps(x, hw);
+    __m256 x1f = _mm256_floor_ps(x1), x2c = _mm256_ceil_ps(x2);
+    __m256i a = _mm256_cvttps_epi32(x1f);
+    __m256i n = _mm256_sub_epi32(_mm256_cvttps_epi32(x2c), a);
+    n = _mm256_min_epi32(_mm256_max_epi32(n, _mm256_set1_epi32(1)), _mm256_set1_epi32(3));
+    __m256 f1 = _mm256_sub_ps(one, _mm256_sub_ps(x1, x1f));
+    __m256 f2 = _mm256_sub_ps(one, _mm256_sub_ps(x2c, x2));
+    __m256 s12 = _mm256_add_ps(f1, f2);
+    __m256 w1 = _mm256_sub_ps(s12, one);
+    __m256 s3 = _mm256_add_ps(_mm256_add_ps(f1, one), f2);
+    __m256 n1 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(n, _mm256_set1_epi32(1)));
+    __m256 n3 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(n, _mm256_set1_epi32(3)));
+    __m256 bad = _mm256_or_ps(_mm256_and_ps(n1, _mm256_cmp_ps(w1, z, _CMP_EQ_OQ)),
+                              _mm256_andnot_ps(n1, _mm256_or_ps(_mm256_cmp_ps(f1, z, _CMP_EQ_OQ),
+                                                                _mm256_cmp_ps(f2, z, _CMP_EQ_OQ))));
+    o->r = r;
+    o->a = a;
+    o->n = n;
+    o->bad = _mm256_castps_si256(bad);
+    o->t0 = _mm256_blendv_ps(f1, w1, n1);
+    o->t1 = _mm256_blendv_ps(f2, one, n3);
+    o->t2 = f2;
+    o->sm = _mm256_blendv_ps(_mm256_blendv_ps(s12, s3, n3), w1, n1);
+}
+
+/* The lanes of ok whose window overhangs the face (out_of) handed over as fast_body hands a
+ * box kernel over (hand_over with box: 3 weights an axis): kout[j], its weight wout[j]
+ * (total). Returns their mask. */
+PF_TARGET unsigned box8_hand(__m256i ok, __m256i out_of, __m256 total, const box8_ax *au,
+                             const box8_ax *av, pk *kout, float *wout)
+{
+    unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
+    if (ho) {
+        _mm256_storeu_ps(wout, total);
+        int I[6][8];
+        float T[6][8];
+        _mm256_storeu_si256((__m256i *)(void *)I[0], au->r);
+        _mm256_storeu_si256((__m256i *)(void *)I[1], av->r);
+        _mm256_storeu_si256((__m256i *)(void *)I[2], au->a);
+        _mm256_storeu_si256((__m256i *)(void *)I[3], av->a);
+        _mm256_storeu_si256((__m256i *)(void *)I[4], au->n);
+        _mm256_storeu_si256((__m256i *)(void *)I[5], av->n);
+        _mm256_storeu_ps(T[0], au->t0);
+        _mm256_storeu_ps(T[1], au->t1);
+        _mm256_storeu_ps(T[2], au->t2);
+        _mm256_storeu_ps(T[3], av->t0);
+        _mm256_storeu_ps(T[4], av->t1);
+        _mm256_storeu_ps(T[5], av->t2);
+        for (unsigned m = ho; m; m &= m - 1) {
+            int j = __builtin_ctz(m);
+            pk *kj = kout + j;
+            kj->ulog2 = I[0][j];
+            kj->vlog2 = I[1][j];
+            kj->u = I[2][j];
+            kj->v = I[3][j];
+            kj->uw = I[4][j];
+            kj->vw = I[5][j];
+            kj->ku0 = kj->kv0 = kj->rot = 0;
+            for (int t = 0; t < 3; t++) {
+                kj->kub[t] = T[t][j];
+                kj->kvb[t] = T[3 + t][j];
+            }
+        }
+    }
+    return ho;
+}
+
+/* The 64-bit lanes of the even (e: 0, 2, 4, 6) and odd (o: 1, 3, 5, 7) queries stored in
+ * query order. */
+PF_TARGET void box8_lanes64(__m256i e, __m256i o, uint64_t *out)
+{
+    __m256i lo = _mm256_unpacklo_epi64(e, o), hi = _mm256_unpackhi_epi64(e, o); /* 0 1 4 5, 2 3 6 7 */
+    _mm256_storeu_si256((__m256i *)(void *)out, _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256((__m256i *)(void *)(out + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
+}
+
+/* fast_body's box window of one lane (window_fused with nu x nv taps, 1..3 each way, as
+ * constants: case (nu - 1) * 3 + nv - 1), so its loops unroll: the same function on the
+ * same taps. */
+PF_TARGET __m128 box8_win(int c, const uint8_t *base, size_t rowb, const float *ku,
+                          const float *kv, unsigned DT, unsigned NC)
+{
+    switch (c) {
+    case 0: return window_fused(base, rowb, DT, NC, ku, 1, kv, 1);
+    case 1: return window_fused(base, rowb, DT, NC, ku, 1, kv, 2);
+    case 2: return window_fused(base, rowb, DT, NC, ku, 1, kv, 3);
+    case 3: return window_fused(base, rowb, DT, NC, ku, 2, kv, 1);
+    case 4: return window_fused(base, rowb, DT, NC, ku, 2, kv, 2);
+    case 5: return window_fused(base, rowb, DT, NC, ku, 2, kv, 3);
+    case 6: return window_fused(base, rowb, DT, NC, ku, 3, kv, 1);
+    case 7: return window_fused(base, rowb, DT, NC, ku, 3, kv, 2);
+    default: return window_fused(base, rowb, DT, NC, ku, 3, kv, 3);
+    }
+}
+
+/* 8 queries of the box filter on texels of type DT with NC channels, the block's set-up k
+ * (klanes8): the lanes of k->fast that fast_body serves (no zero weight at an end, the
+ * window inside the face, total weight > 0) get its result, lane by lane its operations in
+ * its order, so bit for bit; out + j * NC written for those lanes j, their mask returned.
+ * The lanes whose window overhangs the face get the kernel fast_body hands over in kout[j]
+ * and its pk_weight in wout[j], their mask in *over. The other lanes are left alone (the
+ * caller serves them one by one). box_axes' set-up of both axes, the weight, the scale and
+ * each lane's first texel and row length run 8 lanes at a time. The window: for 1-channel
+ * u8 and u16 texels (VEC) in the vectors too, 3 rows of 8 queries gathered (a row of a lane
+ * past its taps not read, a column past them weighted +0: integer texels are finite, so
+ * that adds +0 where the per-query window adds a cleared lane's +0); for the others, per
+ * lane served, fast_body's window with the lane's shape as constants (box8_win). */
+PF_TARGET unsigned box8(const pf_klanes *k, float *out, pk *kout, float *wout, unsigned *over,
+                        unsigned DT, unsigned NC)
+{
+    const __m256i one = _mm256_set1_epi32(1);
+    const __m256 zf = _mm256_setzero_ps();
+    __m256i ok = _mm256_cmpgt_epi32(
+        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
+                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
+        _mm256_setzero_si256());
+    box8_ax au, av;
+    __m256i lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
+    box8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu),
+              _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2), &au);
+    box8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lv, &av);
+    ok = _mm256_andnot_si256(_mm256_or_si256(au.bad, av.bad), ok);
+    if (_mm256_testz_si256(ok, ok))
+        return *over = 0;
+    /* inside: a >= 0 and a + n <= 2^r along both axes */
+    const __m256i z = _mm256_setzero_si256();
+    __m256i out_of = _mm256_or_si256(
+        _mm256_or_si256(_mm256_cmpgt_epi32(z, au.a),
+                        _mm256_cmpgt_epi32(_mm256_add_epi32(au.a, au.n), _mm256_sllv_epi32(one, au.r))),
+        _mm256_or_si256(_mm256_cmpgt_epi32(z, av.a),
+                        _mm256_cmpgt_epi32(_mm256_add_epi32(av.a, av.n), _mm256_sllv_epi32(one, av.r))));
+    __m256 total = _mm256_mul_ps(au.sm, av.sm); /* sum[0] * sum[1] */
+    *over = box8_hand(ok, out_of, total, &au, &av, kout, wout);
+    ok = _mm256_andnot_si256(out_of, ok);
+    ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
+    unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
+    if (!done)
+        return 0;
+    const float onev = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    __m256 scale = _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(total, _mm256_set1_ps(onev)));
+    __m256i me = _mm256_slli_epi64(ok, 32), mo = ok; /* sign bits: even / odd lanes */
+    __m256i de, dof;
+    w4x8_data(k, au.r, av.r, lv, me, mo, &de, &dof);
+    const int sh = DT == 0 ? 0 : DT == 3 ? 2 : 1;
+    __m256i resu = _mm256_sllv_epi32(one, au.r);
+    const int VEC = NC == 1 && DT <= 1;
+    if (VEC) {
+        /* first texel (v0 2^ru + u0) ts, rows 2^ru ts bytes apart */
+        __m256i ae = _mm256_add_epi64(
+            de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(av.a, resu), even64(au.a)), sh));
+        __m256i ao = _mm256_add_epi64(
+            dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(av.a), odd64(resu)),
+                                                    odd64(au.a)), sh));
+        __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
+        /* the taps of each lane, +0 past its last (rows past it are not read: 0) */
+        __m256 kv[3] = {av.t0, av.t1, av.t2};
+        __m256 col[3] = {zf, zf, zf};
+        _Pragma("GCC unroll 3") for (int j = 0; j < 3; j++) {
+            __m256i rm = ok;
+            if (j) {
+                rm = _mm256_and_si256(rm, _mm256_cmpgt_epi32(av.n, _mm256_set1_epi32(j)));
+                kv[j] = _mm256_and_ps(kv[j], _mm256_castsi256_ps(rm));
+            }
+            __m256 t[3];
+            w4x8_row(ae, ao, _mm256_slli_epi64(rm, 32), rm, DT, t, 3);
+            _Pragma("GCC unroll 3") for (int i = 0; i < 3; i++)
+                col[i] = _mm256_fmadd_ps(t[i], kv[j], col[i]);
+            ae = _mm256_add_epi64(ae, re);
+            ao = _mm256_add_epi64(ao, ro);
+        }
+        /* window4's dot (q_i = col_i ku_i + 0 + 0, lane 3's +0) and fold into +0 */
+        __m256 ku1 = _mm256_and_ps(au.t1, _mm256_castsi256_ps(_mm256_cmpgt_epi32(au.n, one)));
+        __m256 ku2 = _mm256_and_ps(au.t2, _mm256_castsi256_ps(
+                                              _mm256_cmpgt_epi32(au.n, _mm256_set1_epi32(2))));
+        __m256 q0 = _mm256_add_ps(_mm256_fmadd_ps(col[0], au.t0, zf), zf);
+        __m256 q1 = _mm256_add_ps(_mm256_fmadd_ps(col[1], ku1, zf), zf);
+        __m256 q2 = _mm256_add_ps(_mm256_fmadd_ps(col[2], ku2, zf), zf);
+        __m256 h0 = _mm256_add_ps(q0, q2), h1 = _mm256_add_ps(q1, zf);
+        __m256 res = _mm256_add_ps(zf, _mm256_add_ps(h0, h1));
+        _mm256_maskstore_ps(out, ok, _mm256_mul_ps(res, scale));
+        return done;
+    }
+    const __m256i ts = _mm256_set1_epi64x((long long)(NC << sh));
+    __m256i ae = _mm256_add_epi64(
+        de, _mm256_mul_epu32(_mm256_add_epi64(_mm256_mul_epu32(av.a, resu), even64(au.a)), ts));
+    __m256i ao = _mm256_add_epi64(
+        dof, _mm256_mul_epu32(_mm256_add_epi64(_mm256_mul_epu32(odd64(av.a), odd64(resu)),
+                                               odd64(au.a)), ts));
+    uint64_t A[8], RB[8]; /* in lane order */
+    box8_lanes64(ae, ao, A);
+    box8_lanes64(_mm256_mul_epu32(resu, ts), _mm256_mul_epu32(odd64(resu), ts), RB);
+    float S[8];
+    int C[8];
+    _mm256_storeu_ps(S, scale);
+    _mm256_storeu_si256((__m256i *)(void *)C,
+                        _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(au.n, one),
+                                                            _mm256_set1_epi32(3)),
+                                         _mm256_sub_epi32(av.n, one)));
+    /* the taps by lane: lane j's 3 at 4 j */
+    float KU[32], KV[32];
+    const __m256 tu[4] = {au.t0, au.t1, au.t2, zf}, tv[4] = {av.t0, av.t1, av.t2, zf};
+    w4x8_bylane(tu, KU);
+    w4x8_bylane(tv, KV);
+    for (unsigned m = done; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        const uint8_t *base = (const uint8_t *)(uintptr_t)A[j];
+        __m128 acc = box8_win(C[j], base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
+        w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
+    }
+    return done;
+}
+
+#define PF_BOX8(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_box8_##DT##_##NC(           \
+        const pk_params *p, const pf_klanes *k, float *out, pk *kout, float *wo,           \
+        unsigned *over)                                                                     \
+    {                                                                                       \
+        (void)p;                                                                            \
+        return box8(k, out, kout, wo, over, DT, NC);                                        \
+    }
+#define PF_BOX8_NC(DT) PF_BOX8(DT, 1) PF_BOX8(DT, 2) PF_BOX8(DT, 3) PF_BOX8(DT, 4)
+PF_BOX8_NC(0)
+PF_BOX8_NC(1)
+PF_BOX8_NC(2)
+PF_BOX8_NC(3)
+
+pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
+{
+#define PF_ROW(DT) {pf_box8_##DT##_1, pf_box8_##DT##_2, pf_box8_##DT##_3, pf_box8_##DT##_4}
+    static const pf_w4x8_fn fns[4][4] = {PF_ROW(0), PF_ROW(1), PF_ROW(2), PF_ROW(3)};
+#undef PF_ROW
+    if (nc < 1 || nc > 4 || dt > 3 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
 }
 
 /* ---- windows of at most 2 x 2 texels (pf_small_select) ---------------------------------- */
@@ -1712,6 +1985,12 @@ pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype)
 }
 
 pf_window_fn pf_small_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
     return NULL;

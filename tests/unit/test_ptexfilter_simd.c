@@ -3,7 +3,8 @@
  * every filter, offset, step and tap count; the window loop gives sum_j kv[j] sum_i ku[i]
  * texel(i, j) to float rounding for every texel type, channel count 1..4 and window shape,
  * and a NaN or Inf just past the window (its loads overrun it) never reaches the result; the
- * fused path of a kernel inside one face gives the general path's results bit for bit.
+ * fused path of a kernel inside one face gives the general path's results bit for bit, and
+ * the 8-query paths (width-4 filters, box) the fused path's.
  * Skipped on a CPU without AVX2 + FMA + F16C (the portable loops run there). */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -363,6 +364,150 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
     assert_true(handed > 16 * 4 * 20);
 }
 
+/* The box filter's 8-query path (pf_box8_select) against the per-query fused path
+ * (pf_fast_select's box) on the same queries, for every texel type and channel count 1..4:
+ * blocks of 8 random queries on three faces of different sizes (each lane its own table),
+ * footprints of a quarter texel, 1, 4 and 16 texels (every 1..3 x 1..3 window shape and
+ * every resolution), exact powers of two (weights of 0 at an end: declined), widths of the
+ * whole face, some lanes not offered. A lane the batch serves must be one the fused path
+ * serves, with the same output bytes; a lane it hands over one the fused path hands over,
+ * with the same kernel and its pk_weight; a lane it leaves alone keeps its output bytes.
+ * Texels: integers for u8 / u16; signed fractions for half and float, with now and then an
+ * Inf or a NaN (a window next to one must not read it: 0 * Inf is NaN). */
+static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
+{
+    (void)state;
+    if (!pf_have_avx2()) {
+        print_message("no AVX2 + FMA + F16C: skipped\n");
+        skip();
+    }
+    enum { NF = 3, SLACK = 64 };
+    static const int FL[NF][2] = {{5, 4}, {3, 6}, {6, 3}};
+    static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
+    static const float fps[4] = {0.25f, 1.0f, 4.0f, 16.0f};
+    long served = 0, handed = 0, left = 0, shapes[9] = {0};
+    pk_params p;
+    pk_params_init(&p, ST_FILTER_PTEX_BOX, 0.0f, 1);
+    for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
+        for (unsigned nc = 1; nc <= 4; nc++) {
+            size_t es = st_dtype_size(dt), ts = es * nc;
+            uint8_t *px[NF][8 * 8];
+            for (int f = 0; f < NF; f++)
+                for (int ru = 0; ru <= FL[f][0]; ru++)
+                    for (int rv = 0; rv <= FL[f][1]; rv++) {
+                        size_t nt = (size_t)1 << (ru + rv);
+                        uint8_t *d = malloc(nt * ts + SLACK);
+                        assert_non_null(d);
+                        for (size_t i = 0; i < nt * nc; i++) {
+                            float x = rndf() * maxv[dt], y = rndf();
+                            if (dt >= ST_DT_HALF)
+                                x = y < 0.004f ? INFINITY : y < 0.008f ? NAN : x - 500.0f;
+                            put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x);
+                        }
+                        memset(d + nt * ts, 0, SLACK);
+                        px[f][ru * (FL[f][1] + 1) + rv] = d;
+                    }
+            pf_w4x8_fn b8 = pf_box8_select(dt, nc);
+            pf_fast_fn fast = pf_fast_select(dt, nc, ST_FILTER_PTEX_BOX);
+            assert_non_null(b8);
+            assert_non_null(fast);
+            for (int r = 0; r < 600; r++) {
+                pf_klanes k;
+                memset(&k, 0, sizeof k);
+                k.plain = 0xff;
+                k.fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
+                for (int j = 0; j < 8; j++) {
+                    int f = (int)(rndf() * NF) % NF;
+                    k.px[j] = (const uint8_t *const *)px[f];
+                    k.ulog2[j] = FL[f][0];
+                    k.vlog2[j] = FL[f][1];
+                    k.u[j] = rndf();
+                    k.v[j] = rndf();
+                    for (int ax = 0; ax < 2; ax++) {
+                        int lg = ax ? FL[f][1] : FL[f][0], c = (int)(rndf() * 4.0f) & 3;
+                        float fp = fps[(int)(rndf() * 4.0f) & 3];
+                        int m = lg - (int)(rndf() * 5.0f); /* 2^-m: a texel at resolution m */
+                        m = m < 0 ? 0 : m;
+                        float w = c == 0   ? fp * (0.5f + rndf()) * exp2f(-(float)lg)
+                                  : c == 1 ? exp2f(-(float)m)
+                                  : c == 2 ? exp2f(-8.0f + 8.5f * rndf())
+                                           : fp * exp2f(-(float)lg);
+                        float *x = ax ? &k.v[j] : &k.u[j];
+                        float sx = exp2f((float)m), y = rndf();
+                        if (c == 1 && y < 0.4f) /* a texel centre: 1 tap */
+                            *x = (floorf(*x * sx) + 0.5f) / sx;
+                        else if (c == 1 && y < 0.6f) /* a texel edge: a weight of 0 */
+                            *x = floorf(*x * sx) / sx;
+                        if (ax)
+                            k.bv[j] = w;
+                        else
+                            k.bu[j] = w;
+                    }
+                }
+                float got[8 * 4], want[4];
+                pk kout[8], kh;
+                float wout[8];
+                unsigned over = 0;
+                memset(got, 0x5a, sizeof got);
+                unsigned done = b8(&p, &k, got, kout, wout, &over);
+                assert_int_equal(done & over, 0);
+                assert_int_equal((done | over) & ~k.fast, 0);
+                for (int j = 0; j < 8; j++) {
+                    memset(want, 0, sizeof want);
+                    int took = fast(&p, k.px[j], k.ulog2[j], k.vlog2[j], k.u[j], k.v[j],
+                                    k.bu[j], k.bv[j], want, &kh);
+                    if (done >> j & 1) {
+                        assert_int_equal(took, 1);
+                        assert_memory_equal(got + j * nc, want, sizeof(float) * nc);
+                        pk kb;
+                        pk_build(&p, &kb, k.u[j], k.v[j], k.bu[j], k.bv[j], k.ulog2[j],
+                                 k.vlog2[j]);
+                        assert_true(kb.uw >= 1 && kb.uw <= 3 && kb.vw >= 1 && kb.vw <= 3);
+                        shapes[(kb.uw - 1) * 3 + kb.vw - 1]++;
+                        served++;
+                    } else if (over >> j & 1) {
+                        assert_int_equal(took, 2);
+                        assert_int_equal(kout[j].ulog2, kh.ulog2);
+                        assert_int_equal(kout[j].vlog2, kh.vlog2);
+                        assert_int_equal(kout[j].u, kh.u);
+                        assert_int_equal(kout[j].v, kh.v);
+                        assert_int_equal(kout[j].uw, kh.uw);
+                        assert_int_equal(kout[j].vw, kh.vw);
+                        assert_int_equal(kout[j].ku0, 0);
+                        assert_int_equal(kout[j].kv0, 0);
+                        assert_int_equal(kout[j].rot, 0);
+                        assert_memory_equal(pk_ku(&kout[j]), pk_ku(&kh), sizeof(float) * (size_t)kh.uw);
+                        assert_memory_equal(pk_kv(&kout[j]), pk_kv(&kh), sizeof(float) * (size_t)kh.vw);
+                        float wt = pk_weight(&kh);
+                        assert_memory_equal(&wout[j], &wt, sizeof wt);
+                        handed++;
+                    } else {
+                        /* left alone: one the fused path does not serve or hand over, or
+                         * not offered */
+                        assert_true(!(k.fast >> j & 1) || took == 0);
+                        for (unsigned ch = 0; ch < nc; ch++) {
+                            uint32_t b;
+                            memcpy(&b, &got[j * nc + ch], 4);
+                            assert_int_equal(b, 0x5a5a5a5au);
+                        }
+                        left++;
+                    }
+                }
+            }
+            for (int f = 0; f < NF; f++)
+                for (int i = 0; i < (FL[f][0] + 1) * (FL[f][1] + 1); i++)
+                    free(px[f][i]);
+        }
+    print_message("box: %ld lanes served by the batch, identical; %ld handed over, identical; "
+                  "%ld left to the per-query path; shapes 1x1 .. 3x3: %ld %ld %ld %ld %ld %ld "
+                  "%ld %ld %ld\n", served, handed, left, shapes[0], shapes[1], shapes[2],
+                  shapes[3], shapes[4], shapes[5], shapes[6], shapes[7], shapes[8]);
+    assert_true(served > 16 * 8 * 200); /* every type and channel count is exercised */
+    assert_true(handed > 16 * 500);
+    for (int s = 0; s < 9; s++)
+        assert_true(shapes[s] > 16 * 5); /* and every window shape */
+}
+
 /* pk_strip_zeros' mask path (a kernel as pk_build makes it: weights at index 0, 1..12
  * taps) leaves the window and weights its loops leave, for weights with zeros (+0 and -0) at
  * either end or everywhere, NaN, Inf and denormals, and whatever lies past the taps. */
@@ -406,6 +551,7 @@ int main(void)
         cmocka_unit_test(window_sums_match_the_definition_for_every_type_and_channel_count),
         cmocka_unit_test(fused_inside_face_path_is_the_kernel_path_bit_for_bit),
         cmocka_unit_test(batch_of_8_is_the_fused_path_bit_for_bit),
+        cmocka_unit_test(box_batch_of_8_is_the_fused_path_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
