@@ -18,9 +18,9 @@
  * filter and the box and width-4 filters also have their own batch loops (point_run,
  * kernel_run: the query checks and the query function inline, no call per query; kernel_run
  * takes the checks and set-up of 8 queries at once from ptexfilter_lanes.c's kernel lanes
- * with AVX2, then - for the width-4 filters - the fused path's common case
- * of the whole block at once (ptexfilter_simd.c's pf_w4x8_select), and calls the fused path
- * per query for the lanes left). A
+ * with AVX2, then the fused path's common case of the whole block at once (ptexfilter_simd.c's
+ * pf_w4x8_select for the width-4 filters, pf_box8_select for the box), and calls the fused
+ * path per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
