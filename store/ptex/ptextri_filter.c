@@ -489,13 +489,94 @@ row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t 
     return acc;
 }
 
+/* The band past the diagonal edge, walked instead of folded tap by tap. For a tap (x, y) that
+ * row_folded would fold (upright: x, y >= 0, x + y >= R; inverted: y <= R - 1, x <= R - 1,
+ * x + y <= R - 1, so cu, cv >= 0 and cu + cv > R: the pull-back always runs), with
+ * d = x - y + R, the pulled-back centroid is exactly ((R + x - y) / 2, (R - x + y) / 2) in
+ * either orientation (the 1/3 or 2/3 offsets cancel), up to float rounding of a few ulps of
+ * numbers below 2^18 (|x|, |y| <= 2R + 2 <= 2^16 + 2: kernel bounds are within 1 of a centre
+ * in [0, 1]), i.e. errors far below 1/2. So fold_tap gives:
+ *   d <= 0: cu - t <= 0 (or just above 0 with cv - t just below R): texel (0, R-1);
+ *   d >= 2R: texel (R-1, 0) the same way;
+ *   d odd, 0 < d < 2R: the midpoint of an edge segment, texel (k, R-1-k), k = (d - 1) / 2
+ *     (the point is on cell (k, R-1-k)'s diagonal: either side of it is that texel);
+ *   d even, 0 < d < 2R: the vertex (k, R - k), k = d / 2, where rounding picks among the
+ *     three small triangles meeting there: with a = cu - t, b = cv - t as fold_tap computes
+ *     them, a < k and b < R - k: texel (k, R-k); a >= k and b >= R - k: (k, R-k) too; a >= k,
+ *     b < R - k: (k, R-k-1); a < k, b >= R - k: (k-1, R-k).
+ * In texels after M(k) = texel (k, R-1-k) (texel index (R-1-k) R + k), the vertex's texel is
+ * R, R, 0 or R - 1 further. band_vertex computes that offset with fold_tap's float operations;
+ * tests/unit/test_ptextri.c checks the whole rule against fold_tap (st_ptextri_band_check). */
+__attribute__((always_inline)) static inline int band_vertex(int ODD, int R, float fR, int x,
+                                                             int y, int k)
+{
+    float cu = ODD ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)x + 1.0f / 3.0f;
+    float cv = ODD ? (float)(R - 1 - x) + 2.0f / 3.0f : (float)y + 1.0f / 3.0f;
+    float t = 0.5f * (cu + cv - fR);
+    int p = cu - t < (float)k, q = cv - t < (float)(R - k);
+    return p == q ? R : p ? R - 1 : 0;
+}
+
+/* The taps x in [xa, xb) of row y that row_folded_t would fold, by the rule over band_vertex:
+ * the runs d <= 0 and d >= 2R read one texel each (row_same), the band between them steps
+ * M(k) by 1 - R texels every second tap and reads the midpoint texels at M(k) and the vertex
+ * texels at M(k) + band_vertex. Same taps, same texels, same sums as row_folded_t. */
+__attribute__((always_inline)) static inline pt_v4f
+row_band_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
+           float *Qp, float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
+           float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
+{
+    int lo = y - R + 1, hi = y + R; /* d <= 0 below lo, d >= 2R from hi */
+    if (xa < lo) {
+        int e = xb < lo ? xb : lo;
+        acc = row_same(e - xa, data + (size_t)(R - 1) * (size_t)R * ts, Qp, DQp, DDQ, gs,
+                       wscale, one, acc, wsum4, rc, DT, NC);
+        xa = e;
+    }
+    int xe = xb < hi ? xb : hi;
+    if (xa < xe) {
+        const float fR = (float)R;
+        int d = xa - y + R, k = d >> 1;
+        const uint8_t *m = data + ((size_t)(R - 1 - k) * (size_t)R + (size_t)k) * ts;
+        const ptrdiff_t mstep = (ptrdiff_t)(1 - R) * (ptrdiff_t)ts;
+        pt_tap t = tap_begin(*Qp, *DQp, rc);
+        for (int x = xa; x < xe; x++, d++) {
+            if (rc || t.Q < 1.0f) {
+                float w = tap_w(&t, rc, gs, wscale);
+                const uint8_t *px = m;
+                if (!(d & 1))
+                    px += (ptrdiff_t)band_vertex(ODD, R, fR, x, y, d >> 1) * (ptrdiff_t)ts;
+                acc += texel_vec(px, one, DT, NC) * w;
+                if (NC == 4)
+                    *wsum4 += w;
+            }
+            if (d & 1)
+                m += mstep;
+            tap_next(&t, rc, DDQ);
+        }
+        tap_end(&t, rc, Qp, DQp);
+        xa = xe;
+    }
+    if (xa < xb)
+        acc = row_same(xb - xa, data + (size_t)(R - 1) * ts, Qp, DQp, DDQ, gs, wscale, one,
+                       acc, wsum4, rc, DT, NC);
+    return acc;
+}
+
 __attribute__((always_inline)) static inline pt_v4f
 row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
            float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
-           float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
+           float *wsum4, pt_rec *rc, int WALK, unsigned DT, unsigned NC)
 {
     if (xa >= xb)
         return acc;
+    if (WALK) {
+        if (it->odd)
+            return row_band_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one,
+                              acc, wsum4, rc, DT, NC);
+        return row_band_t(0, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
+                          wsum4, rc, DT, NC);
+    }
     if (it->odd)
         return row_folded_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
                             wsum4, rc, DT, NC);
@@ -527,6 +608,25 @@ row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float 
     return acc;
 }
 
+int st_ptextri_band_check(int R, int odd, int y, int xa, int xb, const float *texels,
+                          int recurrence)
+{
+    const uint8_t *data = (const uint8_t *)(const void *)texels;
+    pt_v4f one = {0.0f, 0.0f, 0.0f, 1.0f}, zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    pt_v4f sum[2];
+    for (int walk = 0; walk < 2; walk++) {
+        /* weights: a recurrence that keeps every tap (all different, none underflowing over
+         * a row), or expf of a Q stepped so that the first few taps and those past about
+         * 2000 fail Q < 1 */
+        pt_rec rc = {1.0, 1.0001, 1.0};
+        float Q = 1.05f, DQ = -0.01f, DDQ = 1e-5f, wsum4 = 0.0f;
+        sum[walk] = row_folded(&(ti){.R = R, .odd = odd}, data, y, xa, xb, 4, &Q, &DQ, DDQ,
+                               -0.5f, 0.5f, one, zero, &wsum4, recurrence ? &rc : NULL, walk,
+                               ST_DT_F32, 1);
+    }
+    return memcmp(&sum[0], &sum[1], sizeof sum[0]) == 0;
+}
+
 static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x; }
 
 /* Row y of a Clamp sweep over a level with texels (not a constant face), taps [x1, x2) with
@@ -546,7 +646,7 @@ static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? 
 __attribute__((always_inline)) static inline pt_v4f
 row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, float DQ,
           float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
-          pt_rec *rc, unsigned DT, unsigned NC)
+          pt_rec *rc, int WALK, unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R, odd = it->odd;
@@ -588,13 +688,13 @@ row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, flo
         acc = row_same(c1 - x1, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, &Q, &DQ,
                        DDQ, gs, wscale, one, acc, wsum4, rc, DT, NC);
     }
-    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc, DT,
-                     NC);
+    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc,
+                     WALK, DT, NC);
     if (c3 > c2)
         acc = row_step(c3 - c2, line + (ptrdiff_t)c2 * step, step, &Q, &DQ, DDQ, gs, wscale,
                        one, acc, wsum4, rc, DT, NC);
-    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc, DT,
-                     NC);
+    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc,
+                     WALK, DT, NC);
     if (x2 > c4) {
         int tx, ty;
         fold_tap(R, odd, c4, y, &tx, &ty);
@@ -775,7 +875,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                DT, NC);
             else
                 acc = row_clamp(it, data, y, xk, xl, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
-                                &rc, DT, NC);
+                                &rc, 1, DT, NC);
         }
         y2 = y1; /* done */
     }
@@ -793,7 +893,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                DT, NC);
             else
                 acc = row_clamp(it, data, y, x1, x2, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
-                                NULL, DT, NC);
+                                NULL, REC, DT, NC);
             continue;
         }
         /* a read stays inside the level whatever the float bounds did */
