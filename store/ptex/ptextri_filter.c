@@ -723,23 +723,66 @@ typedef struct pt_kf {
     double kxx, kxy, kyy, ixx, ixy, iyy;
 } pt_kf;
 
-__attribute__((noinline)) static void kf_set(pt_kf *kf, const ti *it)
+typedef int64_t pt_v2l __attribute__((vector_size(16)));
+
+/* exp of both lanes of x, x clamped to [-700, 700], to about 1e-14 relatively: x = n ln 2 + r,
+ * |r| <= ln 2 / 2 (n by the 1.5 * 2^52 rounding trick; ln 2 in two parts, the first exact
+ * times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15), times 2^n made
+ * in the exponent bits. Inline, in place of libm's exp and expf for the recurrence's factors
+ * (nine a piece). */
+static inline pt_v2d pt_exp2(pt_v2d x)
 {
-    const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
-    double a = exp(g * 2.0 * (double)it->A), c = exp(g * 2.0 * (double)it->C);
-    kf->set = 1;
-    kf->kxx = it->odd ? c : a;
-    kf->kyy = it->odd ? a : c;
-    kf->kxy = exp(g * (double)it->B);
-    kf->ixx = 1.0 / kf->kxx;
-    kf->iyy = 1.0 / kf->kyy;
-    kf->ixy = 1.0 / kf->kxy;
+    const pt_v2d lo = {-700.0, -700.0}, hi = {700.0, 700.0}, magic = {0x1.8p52, 0x1.8p52};
+    pt_v2l m = x > lo, xb, lb, hb; /* -1 where true (false for a NaN: clamped) */
+    memcpy(&xb, &x, 16);
+    memcpy(&lb, &lo, 16);
+    memcpy(&hb, &hi, 16);
+    xb = (xb & m) | (lb & ~m);
+    memcpy(&x, &xb, 16);
+    m = x < hi;
+    xb = (xb & m) | (hb & ~m);
+    memcpy(&x, &xb, 16);
+    pt_v2d k = x * 1.4426950408889634 + magic; /* n + 1.5 * 2^52 */
+    pt_v2l kb, mb;
+    memcpy(&kb, &k, 16);
+    memcpy(&mb, &magic, 16);
+    pt_v2d n = k - magic;
+    pt_v2d r = (x - n * 0x1.62e4p-1) - n * 0x1.7f7d1cf79abcap-20;
+    pt_v2d p = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
+    p = p * r + 1.0 / 362880.0;
+    p = p * r + 1.0 / 40320.0;
+    p = p * r + 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    pt_v2l sb = (kb - mb + 1023) << 52;
+    pt_v2d sc;
+    memcpy(&sc, &sb, 16);
+    return p * sc;
 }
 
-/* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double (three
- * libm expf calls a sweep; out of line). */
-__attribute__((noinline)) static void cur_seed(pt_cur *cu, const ti *it, int x, int y,
-                                               float wscale)
+__attribute__((always_inline)) static inline void kf_set(pt_kf *kf, const ti *it)
+{
+    const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
+    pt_v2d ac = pt_exp2((pt_v2d){g * 2.0 * (double)it->A, g * 2.0 * (double)it->C});
+    pt_v2d bb = pt_exp2((pt_v2d){g * (double)it->B, -g * (double)it->B});
+    pt_v2d iac = (pt_v2d){1.0, 1.0} / ac;
+    kf->set = 1;
+    kf->kxx = it->odd ? ac[1] : ac[0];
+    kf->kyy = it->odd ? ac[0] : ac[1];
+    kf->ixx = it->odd ? iac[1] : iac[0];
+    kf->iyy = it->odd ? iac[0] : iac[1];
+    kf->kxy = bb[0];
+    kf->ixy = bb[1];
+}
+
+/* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double. */
+__attribute__((always_inline)) static inline void cur_seed(pt_cur *cu, const ti *it, int x,
+                                                           int y, float wscale)
 {
     const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
     const double A = it->A, B = it->B, C = it->C;
@@ -747,11 +790,12 @@ __attribute__((noinline)) static void cur_seed(pt_cur *cu, const ti *it, int x, 
     cu->seeded = 1;
     cu->x = x;
     cu->y = y;
-    /* libm's expf (a third of exp's instructions): each start factor is used a few times,
-     * its 6e-8 relative error stays below 1e-6 in the weights */
-    cu->G = (double)wscale * (double)expf((float)(g * (A * U * U + (B * U + C * V) * V)));
-    cu->Ex = (double)expf((float)(g * (A * (2.0 * U + 1.0) + B * V)));
-    cu->Ey = (double)expf((float)(g * (B * U + C * (2.0 * V + 1.0))));
+    pt_v2d ge = pt_exp2((pt_v2d){g * (A * U * U + (B * U + C * V) * V),
+                                 g * (A * (2.0 * U + 1.0) + B * V)});
+    pt_v2d ey = pt_exp2((pt_v2d){g * (B * U + C * (2.0 * V + 1.0)), 0.0});
+    cu->G = (double)wscale * ge[0];
+    cu->Ex = ge[1];
+    cu->Ey = ey[0];
 }
 
 /* Moves the cursor to tap (x, y) (y >= its row), seeding it at the sweep's first kept tap. */
