@@ -21,7 +21,9 @@
  * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
  * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
  * Each row is cut into runs (row_clamp): taps inside the face read in place, runs that fold
- * onto one texel or onto a line of texels read without the fold, the rest folded tap by tap.
+ * onto one texel or onto a line of texels read without the fold; the band past the diagonal
+ * edge is walked (row_band_t: the same texels as folding each tap, fold_tap, which the
+ * per-tap build st_ptextri_batch_pertap keeps).
  *
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
@@ -634,7 +636,8 @@ static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? 
  *   [x1, c1) and [c4, x2): taps that fold_tap maps to one texel, read once;
  *   [c2, c3): taps that read texels in a line, texel (x, y) of the face for those inside it
  *             (upright: y >= 0, 0 <= x <= R-1-y; inverted: y <= R-1, R-y <= x <= R-1);
- *   [c1, c2) and [c3, c4): the others (past the diagonal edge), fold_tap tap by tap.
+ *   [c1, c2) and [c3, c4): the others (past the diagonal edge): walked (row_band_t) or, in
+ *             the per-tap build, fold_tap tap by tap.
  * With the centroid (cu, cv) = upright (x + 1/3, y + 1/3), inverted (R-1-y + 2/3,
  * R-1-x + 2/3), fold_tap gives (R >= 1, |x|, |y| < 2^20, where (int) of these is exact):
  *   upright x < 0: cu is clamped to 0, the rest depends on y only;
@@ -717,7 +720,7 @@ typedef struct pt_cur {
 
 /* A piece's second differences' factors, in the upright sweep's frame (the inverted sweep has
  * A and C swapped, B the same: kxx and kyy swap); computed by the first sweep that needs them
- * (libm exp, double: each is used many times). */
+ * (pt_exp2, double: each is used many times). */
 typedef struct pt_kf {
     int set;
     double kxx, kxy, kyy, ixx, ixy, iyy;
