@@ -36,4 +36,13 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
 int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_query *q,
                             size_t n, float *out, float *coverage, uint8_t *status);
 
+/* For tests: whether Clamp's walk of the band past the diagonal edge (row_band_t) reads the
+ * texels fold_tap gives, tap by tap: the sums of row y's taps x in [xa, xb) of an R x R level
+ * of one f32 channel (texels: R * R values), upright (odd 0) or inverted, with made-up weights
+ * (stepped by recurrence, or per-tap expf of a made-up Q), walked and folded, are the same
+ * bits. The taps must be ones the fold reads past the diagonal: upright y >= 0, x >= 0,
+ * x + y >= R; inverted y <= R - 1, x <= R - 1, x + y <= R - 1. */
+int st_ptextri_band_check(int R, int odd, int y, int xa, int xb, const float *texels,
+                          int recurrence);
+
 #endif

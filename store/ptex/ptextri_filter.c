@@ -21,7 +21,9 @@
  * Clamp: a tap outside the face reads the small triangle under the point of the face nearest
  * its centroid (u, v clamped to >= 0, then pulled back onto u + v = 1 along (1, 1)); coverage 1.
  * Each row is cut into runs (row_clamp): taps inside the face read in place, runs that fold
- * onto one texel or onto a line of texels read without the fold, the rest folded tap by tap.
+ * onto one texel or onto a line of texels read without the fold; the band past the diagonal
+ * edge is walked (row_band_t: the same texels as folding each tap, fold_tap, which the
+ * per-tap build st_ptextri_batch_pertap keeps).
  *
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
@@ -489,13 +491,94 @@ row_folded_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t 
     return acc;
 }
 
+/* The band past the diagonal edge, walked instead of folded tap by tap. For a tap (x, y) that
+ * row_folded would fold (upright: x, y >= 0, x + y >= R; inverted: y <= R - 1, x <= R - 1,
+ * x + y <= R - 1, so cu, cv >= 0 and cu + cv > R: the pull-back always runs), with
+ * d = x - y + R, the pulled-back centroid is exactly ((R + x - y) / 2, (R - x + y) / 2) in
+ * either orientation (the 1/3 or 2/3 offsets cancel), up to float rounding of a few ulps of
+ * numbers below 2^18 (|x|, |y| <= 2R + 2 <= 2^16 + 2: kernel bounds are within 1 of a centre
+ * in [0, 1]), i.e. errors far below 1/2. So fold_tap gives:
+ *   d <= 0: cu - t <= 0 (or just above 0 with cv - t just below R): texel (0, R-1);
+ *   d >= 2R: texel (R-1, 0) the same way;
+ *   d odd, 0 < d < 2R: the midpoint of an edge segment, texel (k, R-1-k), k = (d - 1) / 2
+ *     (the point is on cell (k, R-1-k)'s diagonal: either side of it is that texel);
+ *   d even, 0 < d < 2R: the vertex (k, R - k), k = d / 2, where rounding picks among the
+ *     three small triangles meeting there: with a = cu - t, b = cv - t as fold_tap computes
+ *     them, a < k and b < R - k: texel (k, R-k); a >= k and b >= R - k: (k, R-k) too; a >= k,
+ *     b < R - k: (k, R-k-1); a < k, b >= R - k: (k-1, R-k).
+ * In texels after M(k) = texel (k, R-1-k) (texel index (R-1-k) R + k), the vertex's texel is
+ * R, R, 0 or R - 1 further. band_vertex computes that offset with fold_tap's float operations;
+ * tests/unit/test_ptextri.c checks the whole rule against fold_tap (st_ptextri_band_check). */
+__attribute__((always_inline)) static inline int band_vertex(int ODD, int R, float fR, int x,
+                                                             int y, int k)
+{
+    float cu = ODD ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)x + 1.0f / 3.0f;
+    float cv = ODD ? (float)(R - 1 - x) + 2.0f / 3.0f : (float)y + 1.0f / 3.0f;
+    float t = 0.5f * (cu + cv - fR);
+    int p = cu - t < (float)k, q = cv - t < (float)(R - k);
+    return p == q ? R : p ? R - 1 : 0;
+}
+
+/* The taps x in [xa, xb) of row y that row_folded_t would fold, by the rule over band_vertex:
+ * the runs d <= 0 and d >= 2R read one texel each (row_same), the band between them steps
+ * M(k) by 1 - R texels every second tap and reads the midpoint texels at M(k) and the vertex
+ * texels at M(k) + band_vertex. Same taps, same texels, same sums as row_folded_t. */
+__attribute__((always_inline)) static inline pt_v4f
+row_band_t(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
+           float *Qp, float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
+           float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
+{
+    int lo = y - R + 1, hi = y + R; /* d <= 0 below lo, d >= 2R from hi */
+    if (xa < lo) {
+        int e = xb < lo ? xb : lo;
+        acc = row_same(e - xa, data + (size_t)(R - 1) * (size_t)R * ts, Qp, DQp, DDQ, gs,
+                       wscale, one, acc, wsum4, rc, DT, NC);
+        xa = e;
+    }
+    int xe = xb < hi ? xb : hi;
+    if (xa < xe) {
+        const float fR = (float)R;
+        int d = xa - y + R, k = d >> 1;
+        const uint8_t *m = data + ((size_t)(R - 1 - k) * (size_t)R + (size_t)k) * ts;
+        const ptrdiff_t mstep = (ptrdiff_t)(1 - R) * (ptrdiff_t)ts;
+        pt_tap t = tap_begin(*Qp, *DQp, rc);
+        for (int x = xa; x < xe; x++, d++) {
+            if (rc || t.Q < 1.0f) {
+                float w = tap_w(&t, rc, gs, wscale);
+                const uint8_t *px = m;
+                if (!(d & 1))
+                    px += (ptrdiff_t)band_vertex(ODD, R, fR, x, y, d >> 1) * (ptrdiff_t)ts;
+                acc += texel_vec(px, one, DT, NC) * w;
+                if (NC == 4)
+                    *wsum4 += w;
+            }
+            if (d & 1)
+                m += mstep;
+            tap_next(&t, rc, DDQ);
+        }
+        tap_end(&t, rc, Qp, DQp);
+        xa = xe;
+    }
+    if (xa < xb)
+        acc = row_same(xb - xa, data + (size_t)(R - 1) * ts, Qp, DQp, DDQ, gs, wscale, one,
+                       acc, wsum4, rc, DT, NC);
+    return acc;
+}
+
 __attribute__((always_inline)) static inline pt_v4f
 row_folded(const ti *it, const uint8_t *data, int y, int xa, int xb, size_t ts, float *Qp,
            float *DQp, float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc,
-           float *wsum4, pt_rec *rc, unsigned DT, unsigned NC)
+           float *wsum4, pt_rec *rc, int WALK, unsigned DT, unsigned NC)
 {
     if (xa >= xb)
         return acc;
+    if (WALK) {
+        if (it->odd)
+            return row_band_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one,
+                              acc, wsum4, rc, DT, NC);
+        return row_band_t(0, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
+                          wsum4, rc, DT, NC);
+    }
     if (it->odd)
         return row_folded_t(1, it->R, data, y, xa, xb, ts, Qp, DQp, DDQ, gs, wscale, one, acc,
                             wsum4, rc, DT, NC);
@@ -527,6 +610,25 @@ row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float 
     return acc;
 }
 
+int st_ptextri_band_check(int R, int odd, int y, int xa, int xb, const float *texels,
+                          int recurrence)
+{
+    const uint8_t *data = (const uint8_t *)(const void *)texels;
+    pt_v4f one = {0.0f, 0.0f, 0.0f, 1.0f}, zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    pt_v4f sum[2];
+    for (int walk = 0; walk < 2; walk++) {
+        /* weights: a recurrence that keeps every tap (all different, none underflowing over
+         * a row), or expf of a Q stepped so that the first few taps and those past about
+         * 2000 fail Q < 1 */
+        pt_rec rc = {1.0, 1.0001, 1.0};
+        float Q = 1.05f, DQ = -0.01f, DDQ = 1e-5f, wsum4 = 0.0f;
+        sum[walk] = row_folded(&(ti){.R = R, .odd = odd}, data, y, xa, xb, 4, &Q, &DQ, DDQ,
+                               -0.5f, 0.5f, one, zero, &wsum4, recurrence ? &rc : NULL, walk,
+                               ST_DT_F32, 1);
+    }
+    return memcmp(&sum[0], &sum[1], sizeof sum[0]) == 0;
+}
+
 static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x; }
 
 /* Row y of a Clamp sweep over a level with texels (not a constant face), taps [x1, x2) with
@@ -534,7 +636,8 @@ static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? 
  *   [x1, c1) and [c4, x2): taps that fold_tap maps to one texel, read once;
  *   [c2, c3): taps that read texels in a line, texel (x, y) of the face for those inside it
  *             (upright: y >= 0, 0 <= x <= R-1-y; inverted: y <= R-1, R-y <= x <= R-1);
- *   [c1, c2) and [c3, c4): the others (past the diagonal edge), fold_tap tap by tap.
+ *   [c1, c2) and [c3, c4): the others (past the diagonal edge): walked (row_band_t) or, in
+ *             the per-tap build, fold_tap tap by tap.
  * With the centroid (cu, cv) = upright (x + 1/3, y + 1/3), inverted (R-1-y + 2/3,
  * R-1-x + 2/3), fold_tap gives (R >= 1, |x|, |y| < 2^20, where (int) of these is exact):
  *   upright x < 0: cu is clamped to 0, the rest depends on y only;
@@ -546,7 +649,7 @@ static inline int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? 
 __attribute__((always_inline)) static inline pt_v4f
 row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, float DQ,
           float DDQ, float gs, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
-          pt_rec *rc, unsigned DT, unsigned NC)
+          pt_rec *rc, int WALK, unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R, odd = it->odd;
@@ -588,13 +691,13 @@ row_clamp(const ti *it, const uint8_t *data, int y, int x1, int x2, float Q, flo
         acc = row_same(c1 - x1, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, &Q, &DQ,
                        DDQ, gs, wscale, one, acc, wsum4, rc, DT, NC);
     }
-    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc, DT,
-                     NC);
+    acc = row_folded(it, data, y, c1, c2, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc,
+                     WALK, DT, NC);
     if (c3 > c2)
         acc = row_step(c3 - c2, line + (ptrdiff_t)c2 * step, step, &Q, &DQ, DDQ, gs, wscale,
                        one, acc, wsum4, rc, DT, NC);
-    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc, DT,
-                     NC);
+    acc = row_folded(it, data, y, c3, c4, ts, &Q, &DQ, DDQ, gs, wscale, one, acc, wsum4, rc,
+                     WALK, DT, NC);
     if (x2 > c4) {
         int tx, ty;
         fold_tap(R, odd, c4, y, &tx, &ty);
@@ -617,29 +720,72 @@ typedef struct pt_cur {
 
 /* A piece's second differences' factors, in the upright sweep's frame (the inverted sweep has
  * A and C swapped, B the same: kxx and kyy swap); computed by the first sweep that needs them
- * (libm exp, double: each is used many times). */
+ * (pt_exp2, double: each is used many times). */
 typedef struct pt_kf {
     int set;
     double kxx, kxy, kyy, ixx, ixy, iyy;
 } pt_kf;
 
-__attribute__((noinline)) static void kf_set(pt_kf *kf, const ti *it)
+typedef int64_t pt_v2l __attribute__((vector_size(16)));
+
+/* exp of both lanes of x, x clamped to [-700, 700], to about 1e-14 relatively: x = n ln 2 + r,
+ * |r| <= ln 2 / 2 (n by the 1.5 * 2^52 rounding trick; ln 2 in two parts, the first exact
+ * times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15), times 2^n made
+ * in the exponent bits. Inline, in place of libm's exp and expf for the recurrence's factors
+ * (nine a piece). */
+static inline pt_v2d pt_exp2(pt_v2d x)
 {
-    const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
-    double a = exp(g * 2.0 * (double)it->A), c = exp(g * 2.0 * (double)it->C);
-    kf->set = 1;
-    kf->kxx = it->odd ? c : a;
-    kf->kyy = it->odd ? a : c;
-    kf->kxy = exp(g * (double)it->B);
-    kf->ixx = 1.0 / kf->kxx;
-    kf->iyy = 1.0 / kf->kyy;
-    kf->ixy = 1.0 / kf->kxy;
+    const pt_v2d lo = {-700.0, -700.0}, hi = {700.0, 700.0}, magic = {0x1.8p52, 0x1.8p52};
+    pt_v2l m = x > lo, xb, lb, hb; /* -1 where true (false for a NaN: clamped) */
+    memcpy(&xb, &x, 16);
+    memcpy(&lb, &lo, 16);
+    memcpy(&hb, &hi, 16);
+    xb = (xb & m) | (lb & ~m);
+    memcpy(&x, &xb, 16);
+    m = x < hi;
+    xb = (xb & m) | (hb & ~m);
+    memcpy(&x, &xb, 16);
+    pt_v2d k = x * 1.4426950408889634 + magic; /* n + 1.5 * 2^52 */
+    pt_v2l kb, mb;
+    memcpy(&kb, &k, 16);
+    memcpy(&mb, &magic, 16);
+    pt_v2d n = k - magic;
+    pt_v2d r = (x - n * 0x1.62e4p-1) - n * 0x1.7f7d1cf79abcap-20;
+    pt_v2d p = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
+    p = p * r + 1.0 / 362880.0;
+    p = p * r + 1.0 / 40320.0;
+    p = p * r + 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    pt_v2l sb = (kb - mb + 1023) << 52;
+    pt_v2d sc;
+    memcpy(&sc, &sb, 16);
+    return p * sc;
 }
 
-/* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double (three
- * libm expf calls a sweep; out of line). */
-__attribute__((noinline)) static void cur_seed(pt_cur *cu, const ti *it, int x, int y,
-                                               float wscale)
+__attribute__((always_inline)) static inline void kf_set(pt_kf *kf, const ti *it)
+{
+    const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
+    pt_v2d ac = pt_exp2((pt_v2d){g * 2.0 * (double)it->A, g * 2.0 * (double)it->C});
+    pt_v2d bb = pt_exp2((pt_v2d){g * (double)it->B, -g * (double)it->B});
+    pt_v2d iac = (pt_v2d){1.0, 1.0} / ac;
+    kf->set = 1;
+    kf->kxx = it->odd ? ac[1] : ac[0];
+    kf->kyy = it->odd ? ac[0] : ac[1];
+    kf->ixx = it->odd ? iac[1] : iac[0];
+    kf->iyy = it->odd ? iac[0] : iac[1];
+    kf->kxy = bb[0];
+    kf->ixy = bb[1];
+}
+
+/* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double. */
+__attribute__((always_inline)) static inline void cur_seed(pt_cur *cu, const ti *it, int x,
+                                                           int y, float wscale)
 {
     const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
     const double A = it->A, B = it->B, C = it->C;
@@ -647,11 +793,12 @@ __attribute__((noinline)) static void cur_seed(pt_cur *cu, const ti *it, int x, 
     cu->seeded = 1;
     cu->x = x;
     cu->y = y;
-    /* libm's expf (a third of exp's instructions): each start factor is used a few times,
-     * its 6e-8 relative error stays below 1e-6 in the weights */
-    cu->G = (double)wscale * (double)expf((float)(g * (A * U * U + (B * U + C * V) * V)));
-    cu->Ex = (double)expf((float)(g * (A * (2.0 * U + 1.0) + B * V)));
-    cu->Ey = (double)expf((float)(g * (B * U + C * (2.0 * V + 1.0))));
+    pt_v2d ge = pt_exp2((pt_v2d){g * (A * U * U + (B * U + C * V) * V),
+                                 g * (A * (2.0 * U + 1.0) + B * V)});
+    pt_v2d ey = pt_exp2((pt_v2d){g * (B * U + C * (2.0 * V + 1.0)), 0.0});
+    cu->G = (double)wscale * ge[0];
+    cu->Ex = ge[1];
+    cu->Ey = ey[0];
 }
 
 /* Moves the cursor to tap (x, y) (y >= its row), seeding it at the sweep's first kept tap. */
@@ -775,7 +922,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                DT, NC);
             else
                 acc = row_clamp(it, data, y, xk, xl, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
-                                &rc, DT, NC);
+                                &rc, 1, DT, NC);
         }
         y2 = y1; /* done */
     }
@@ -793,7 +940,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                DT, NC);
             else
                 acc = row_clamp(it, data, y, x1, x2, Q, DQ, DDQ, gs, wscale, one, acc, &wsum4,
-                                NULL, DT, NC);
+                                NULL, REC, DT, NC);
             continue;
         }
         /* a read stays inside the level whatever the float bounds did */

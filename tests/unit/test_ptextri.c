@@ -22,6 +22,7 @@
 #include "native.h"
 #include "ptex.h"
 #include "ptexfilter.h"
+#include "ptextri.h"
 #include "sample.h"
 #include "trilevel.h"
 #include "../common/ptexref.h"
@@ -480,6 +481,61 @@ static void triangle_sets_are_checked_and_bc1_refuses_them(void **state)
     st_set_free(s);
 }
 
+/* Clamp walks the band past a face's diagonal edge (ptextri_filter.c, row_band_t) instead of
+ * folding each tap's centroid onto the face: the walk must read, tap by tap, the texel the
+ * fold gives, in both sweeps, for every row the fold reaches and wherever a run of taps starts
+ * (the sums of a row, walked and folded, the same bits on random texels). Every row of every
+ * resolution up to 512 (each tap alone and the whole row, twice shifted), whole rows up to
+ * 2048; all runs of rows of an 8 x 8 level. */
+static void clamp_band_walk_reads_the_folded_texels(void **state)
+{
+    (void)state;
+    enum { RMAX = 2048 };
+    float *tex = malloc(sizeof(float) * RMAX * RMAX);
+    assert_non_null(tex);
+    uint32_t r = 12345u;
+    for (size_t i = 0; i < (size_t)RMAX * RMAX; i++) {
+        r = r * 1664525u + 1013904223u;
+        tex[i] = (float)(r >> 8) * (1.0f / 16777216.0f) + 0.5f;
+    }
+    long checked = 0, bad = 0;
+    for (int R = 2; R <= RMAX; R *= 2) {
+        int far = 2 * R + 2; /* kernel bounds stay within 1 of a centre in [0, 1] */
+        for (int odd = 0; odd < 2; odd++) {
+            int ya = odd ? -far : 0, yb = odd ? R - 1 : far;
+            for (int y = ya; y <= yb; y++) {
+                /* the row's taps the fold reads: upright x >= max(0, R - y), inverted
+                 * x <= min(R - 1, R - 1 - y) */
+                int xa = odd ? -far : (R - y > 0 ? R - y : 0);
+                int xb = odd ? (R - y < R ? R - y : R) : far + 1;
+                for (int rec = 0; rec < 2; rec++) {
+                    for (int s = 0; s < 3; s++) {
+                        checked++;
+                        bad += !st_ptextri_band_check(R, odd, y, xa + s, xb, tex, rec);
+                    }
+                    if (R > 512 || (R > 64 && rec))
+                        continue;
+                    for (int x = xa; x < xb; x++) {
+                        checked++;
+                        bad += !st_ptextri_band_check(R, odd, y, x, x + 1, tex, rec);
+                    }
+                    if (R != 8)
+                        continue;
+                    for (int a = xa; a < xb; a++)
+                        for (int b = a + 2; b <= xb; b++) {
+                            checked++;
+                            bad += !st_ptextri_band_check(R, odd, y, a, b, tex, rec);
+                        }
+                }
+            }
+        }
+    }
+    free(tex);
+    print_message("%ld runs of band taps checked, %ld differ\n", checked, bad);
+    assert_true(checked > 100000);
+    assert_int_equal(bad, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -494,6 +550,7 @@ int main(void)
         cmocka_unit_test(gpu_point_uses_the_footprint_level_and_the_rest_is_refused),
         cmocka_unit_test(a_point_across_an_edge_lands_on_the_neighbours_side),
         cmocka_unit_test(triangle_sets_are_checked_and_bc1_refuses_them),
+        cmocka_unit_test(clamp_band_walk_reads_the_folded_texels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
