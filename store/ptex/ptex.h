@@ -20,7 +20,8 @@
  * error message names the field, face or byte offset at fault.
  *
  * Ownership: *out is a new set the caller frees with st_set_free. The input buffer is only
- * read during the call. No globals; safe to call from several threads.
+ * read during the call (the set keeps a copy of what it still needs). No globals; safe to
+ * call from several threads.
  */
 #ifndef ST_PTEX_H
 #define ST_PTEX_H
@@ -36,8 +37,9 @@
  *
  * Levels past level 0 are deferred (as Ptex reads them on demand): level 0, the faces,
  * adjacency and metadata are complete on return; the stored reductions are checked (every
- * size, offset, zip-ratio bound and zlib header) but kept zipped, in a copy of that part of
- * the file, and inflated - with the unstored levels filled - by the first st_set_levels
+ * size, offset, zip-ratio bound and zlib header) but kept zipped (st_ptex_read_file keeps its
+ * file buffer; st_ptex_read_mem copies the level data from level 1 on), and inflated - with
+ * the unstored levels filled - by the first st_set_levels
  * (set.h), which every reader of those levels calls (samplers, Ptex filters, the writers).
  * So a corrupt deflate body or Adler-32 of a stored reduction is found there: that call and
  * every later one return ST_EFORMAT with the message the import would have given. A caller

@@ -14,7 +14,9 @@
  * level is inflated once - a one-channel block straight into its place in the arena, any other
  * into one reused scratch that stays in the cache - and unpacked into the arena; the levels the
  * file does not store are then made from the level before each. Everything the import writes
- * is written once.
+ * is written once. By default (not the _eager readers) only level 0 is inflated in that pass:
+ * the stored reductions are checked and listed, and inflated - with the unstored levels made -
+ * by the first st_set_levels (pend_make below, through ptexres.c's levels hook).
  *
  * Hostile input: the whole file is in memory; every section is located with overflow-checked
  * arithmetic and must lie inside the buffer; every count is capped before it sizes an
@@ -22,7 +24,9 @@
  * than PTX_MAX_ZIP_RATIO times its size, so a declared size larger than that is refused before
  * allocating); every zlib stream must inflate to exactly its declared size, with a valid zlib
  * header and Adler-32; every byte of the unzeroed arena is written before the set is returned
- * (a failure frees it unread). Errors name the section, face, level or byte offset.
+ * (a failure frees it unread) - or, for levels past 0 of a deferred import, before
+ * st_set_levels first returns ST_OK (no reader reads them until then). Errors name the
+ * section, face, level or byte offset.
  */
 #include "ptex.h"
 
