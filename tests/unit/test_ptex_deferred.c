@@ -92,7 +92,8 @@ static void deferred_then_made_equals_eager_for_every_shared_file(void **state)
             assert_int_equal(a->meta[k].type, b->meta[k].type);
             assert_int_equal(a->meta[k].count, b->meta[k].count);
             static const size_t ts[] = {1, 1, 2, 4, 4, 8};
-            assert_memory_equal(a->meta[k].data, b->meta[k].data, ts[a->meta[k].type] * a->meta[k].count);
+            assert_memory_equal(a->meta[k].data, b->meta[k].data,
+                                ts[a->meta[k].type] * a->meta[k].count);
         }
         const st_ptexres *ta = st_ptexres_get(a), *tb = st_ptexres_get(b);
         assert_memory_equal(ta->ptxflags, tb->ptxflags, a->info.nfaces);
