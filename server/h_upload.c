@@ -97,6 +97,11 @@ int sts_import_path(sts_server *srv, const char *path, const char *fmt, const ch
     }
     rc = st_import_file(path, &o, out, e);
     st_setref_release(tex);
+    /* a .ptx's levels past level 0 are made now, so that a corrupt one is refused here */
+    if (rc == ST_OK && (rc = st_set_levels(*out, e)) != ST_OK) {
+        st_set_free(*out);
+        *out = NULL;
+    }
     return rc;
 }
 

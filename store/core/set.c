@@ -315,11 +315,19 @@ int st_set_create_unzeroed(const st_set_info *info, const st_face_desc *fd, size
     return set_create(info, fd, max_bytes, 0, out, e);
 }
 
+/* Frees the extension of s, whatever state its levels are in. */
+static void ext_free(st_set *s)
+{
+    if (s->ext.data && s->ext.free)
+        s->ext.free(s->ext.data);
+    memset(&s->ext, 0, sizeof s->ext);
+}
+
 void st_set_free(st_set *s)
 {
     if (!s)
         return;
-    st_set_ext_attach(s, NULL);
+    ext_free(s);
     for (uint32_t i = 0; i < s->nmeta; i++) {
         free(s->meta[i].key);
         free(s->meta[i].data);
@@ -366,6 +374,9 @@ void st_set_build_mips(st_set *s, uint32_t f)
 {
     if (s->info.kind == ST_KIND_BC1)
         return; /* BC1 levels are encoded from reduced uncompressed levels, see bc1.h */
+    /* deferred levels are made first, so that they cannot overwrite these later (a failure
+     * leaves nothing to make: every level below is written here) */
+    (void)st_set_levels(s, NULL);
     uint32_t lo = f == UINT32_MAX ? 0 : f, hi = f == UINT32_MAX ? s->info.nfaces : f + 1;
     for (uint32_t i = lo; i < hi && i < s->info.nfaces; i++) {
         if (s->faces[i].flags & ST_FACE_CONSTANT)
@@ -472,9 +483,19 @@ size_t st_set_memory(const st_set *s)
 
 void st_set_ext_attach(st_set *s, const st_set_ext *x)
 {
-    if (s->ext.data && s->ext.free)
-        s->ext.free(s->ext.data);
-    memset(&s->ext, 0, sizeof s->ext);
+    /* the old extension may hold what the levels past level 0 are made from: make them now
+     * (a set's levels never stay undefined once nothing can make them) */
+    if (s->ext.levels && st_set_levels(s, NULL) != ST_OK)
+        for (uint32_t f = 0; f < s->info.nfaces; f++) {
+            const st_face *F = &s->faces[f];
+            if (F->flags & ST_FACE_CONSTANT || F->nlevels < 2)
+                continue;
+            size_t a = s->level_off[F->lvl + 1];
+            size_t b = f + 1 < s->info.nfaces ? s->level_off[s->faces[f + 1].lvl]
+                                              : s->texel_bytes;
+            memset(s->texels + a, 0, b - a);
+        }
+    ext_free(s);
     if (x)
         s->ext = *x;
 }

@@ -144,12 +144,17 @@ typedef int (*st_ext_filter_fn)(const struct st_set *s, const struct st_sample_o
                                 const struct st_query *q, size_t n, float *out,
                                 float *coverage, uint8_t *status);
 
+/* Makes the set's levels past level 0 when an extension's module deferred them (the Ptex
+ * reader: st_set_levels below). Thread-safe; once they are made, one atomic load. */
+typedef int (*st_ext_levels_fn)(const struct st_set *s, st_error *e);
+
 typedef struct st_set_ext {
     uint8_t          kind;       /* st_ext_kind; ST_EXT_NONE: every other field is NULL */
     void            *data;       /* owned by the set */
     void           (*free)(void *data);          /* NULL: nothing to free */
     size_t         (*memory)(const void *data);  /* bytes data holds (NULL: 0) */
     st_ext_filter_fn filter;     /* NULL: this extension adds no filters */
+    st_ext_levels_fn levels;     /* NULL: every level is made (see st_set_levels) */
 } st_set_ext;
 
 typedef struct st_set {
@@ -195,7 +200,8 @@ static inline uint32_t st_level_h(const st_face *f, unsigned level)
     return h ? h : 1;
 }
 /* Pointer to level `level` (< nlevels) of face f: st_level_w x st_level_h texels, or one
- * texel for a constant face. */
+ * texel for a constant face. Levels >= 1 of a set from the Ptex reader hold nothing defined
+ * until st_set_levels(s) has returned ST_OK (level 0 always does). */
 static inline uint8_t *st_face_level(const st_set *s, uint32_t f, unsigned level)
 {
     return s->texels + s->level_off[s->faces[f].lvl + level];
@@ -275,7 +281,22 @@ static inline void *st_set_ext_get(const st_set *s, st_ext_kind k)
 {
     return s && s->ext.kind == (uint8_t)k ? s->ext.data : NULL;
 }
-/* Attaches x to s, freeing the extension s had (x may be NULL: detach and free). */
+/* Makes sure every level of s holds its texels: ST_OK at once (one atomic load) for any set
+ * but one whose reader deferred its levels past level 0 (the Ptex reader keeps the stored
+ * reductions zipped until first use, ptex.h); for that one, the first call inflates and
+ * fills them (any number of threads may call at once; one does the work, the others wait).
+ * Every reader of a level >= 1 (samplers, filters, writers, ...) calls it once per call,
+ * never per query, and reads no level >= 1 when it fails. A failure is final: ST_EFORMAT
+ * with the same message (the level, face and stream at fault) from every later call, or
+ * ST_ENOMEM. Level 0, the faces, offsets and metadata never depend on it. */
+static inline int st_set_levels(const st_set *s, st_error *e)
+{
+    return s->ext.levels ? s->ext.levels(s, e) : ST_OK;
+}
+
+/* Attaches x to s, freeing the extension s had (x may be NULL: detach and free). Levels that
+ * the old extension deferred are made first (st_set_levels; should that fail, the levels past
+ * level 0 are zeroed, not left undefined). */
 void st_set_ext_attach(st_set *s, const st_set_ext *x);
 
 /* Re-checks adjacency of an existing set (used by importers that patch adjacency). */

@@ -302,8 +302,8 @@ static int copy_atlas_texture(const st_set *t, st_set **out, st_error *e)
     fd.h = t->faces[0].h;
     for (int k = 0; k < 4; k++)
         fd.adjface[k] = -1;
-    int rc = st_set_create(&t->info, &fd, 0, out, e);
-    if (rc)
+    int rc = st_set_levels(t, e); /* every level is copied (set.h) */
+    if (rc || (rc = st_set_create(&t->info, &fd, 0, out, e)))
         return rc;
     memcpy((*out)->texels, t->texels, t->texel_bytes);
     return ST_OK;
@@ -415,7 +415,10 @@ int st_import_file(const char *path, const st_import_opts *opts, st_set **out, s
         if (cs && cs->type == 0 && cs->count == 5 && !memcmp(cs->data, "srgb", 5))
             p->info.colorspace = ST_CS_SRGB;
         if (is_env_ptex(p, path, opts)) {
-            rc = st_cube_from_ptex_env(p, opts->max_bytes, out, e);
+            /* level 0 only is read; the stored reductions are still checked as before */
+            rc = st_set_levels(p, e);
+            if (rc == ST_OK)
+                rc = st_cube_from_ptex_env(p, opts->max_bytes, out, e);
             if (rc == ST_OK)
                 (*out)->info.colorspace = p->info.colorspace;
             st_set_free(p);

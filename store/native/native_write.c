@@ -208,6 +208,9 @@ static int write_zeros(int fd, uint64_t n)
 
 int st_native_write_fd(int fd, const st_set *s, const st_native_source *src, st_error *e)
 {
+    int lrc = st_set_levels(s, e); /* every level is written: a deferred Ptex import's (set.h) */
+    if (lrc)
+        return lrc;
     uint64_t nlev = 0;
     for (uint32_t f = 0; f < s->info.nfaces; f++)
         nlev += s->faces[f].nlevels;

@@ -20,7 +20,8 @@
  * error message names the field, face or byte offset at fault.
  *
  * Ownership: *out is a new set the caller frees with st_set_free. The input buffer is only
- * read during the call. No globals; safe to call from several threads.
+ * read during the call (the set keeps a copy of what it still needs). No globals; safe to
+ * call from several threads.
  */
 #ifndef ST_PTEX_H
 #define ST_PTEX_H
@@ -32,11 +33,27 @@
 #include "set.h"
 
 /* Reads a .ptx held in memory. max_bytes caps the set's texel arena (0 = the default cap of
- * st_set_create); inflated sizes are also capped by it. */
+ * st_set_create); inflated sizes are also capped by it.
+ *
+ * Levels past level 0 are deferred (as Ptex reads them on demand): level 0, the faces,
+ * adjacency and metadata are complete on return; the stored reductions are checked (every
+ * size, offset, zip-ratio bound and zlib header) but kept zipped (st_ptex_read_file keeps its
+ * file buffer; st_ptex_read_mem copies the level data from level 1 on), and inflated - with
+ * the unstored levels filled - by the first st_set_levels
+ * (set.h), which every reader of those levels calls (samplers, Ptex filters, the writers).
+ * So a corrupt deflate body or Adler-32 of a stored reduction is found there: that call and
+ * every later one return ST_EFORMAT with the message the import would have given. A caller
+ * that wants the whole file checked at once calls st_set_levels right after (the daemon does)
+ * or uses the _eager readers, which inflate everything in the one pass. */
 int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e);
 
 /* Reads a .ptx file (the whole file is read into memory first; files over 4 GiB are refused). */
 int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e);
+
+/* The same, every level made before returning (the set needs no st_set_levels). */
+int st_ptex_read_mem_eager(const void *buf, size_t len, size_t max_bytes, st_set **out,
+                           st_error *e);
+int st_ptex_read_file_eager(const char *path, size_t max_bytes, st_set **out, st_error *e);
 
 /* Writes a per-face set as a Ptex v1.4 file: extended header, zipped face info and constant
  * data, level 0 plus the stored reductions in Ptex's rfaceid order, zipped (u8/u16:

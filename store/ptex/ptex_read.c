@@ -14,7 +14,9 @@
  * level is inflated once - a one-channel block straight into its place in the arena, any other
  * into one reused scratch that stays in the cache - and unpacked into the arena; the levels the
  * file does not store are then made from the level before each. Everything the import writes
- * is written once.
+ * is written once. By default (not the _eager readers) only level 0 is inflated in that pass:
+ * the stored reductions are checked and listed, and inflated - with the unstored levels made -
+ * by the first st_set_levels (pend_make below, through ptexres.c's levels hook).
  *
  * Hostile input: the whole file is in memory; every section is located with overflow-checked
  * arithmetic and must lie inside the buffer; every count is capped before it sizes an
@@ -22,7 +24,9 @@
  * than PTX_MAX_ZIP_RATIO times its size, so a declared size larger than that is refused before
  * allocating); every zlib stream must inflate to exactly its declared size, with a valid zlib
  * header and Adler-32; every byte of the unzeroed arena is written before the set is returned
- * (a failure frees it unread). Errors name the section, face, level or byte offset.
+ * (a failure frees it unread) - or, for levels past 0 of a deferred import, before
+ * st_set_levels first returns ST_OK (no reader reads them until then). Errors name the
+ * section, face, level or byte offset.
  */
 #include "ptex.h"
 
@@ -41,8 +45,12 @@
 #define PTX_MAX_LEVELS 16u
 
 typedef struct rd {
-    const uint8_t *buf;
-    size_t len;
+    const uint8_t *buf;         /* the bytes from file offset `origin` on */
+    size_t len;                 /* the file's length (import) or the copy's (deferred) */
+    uint64_t origin;            /* file offset of buf[0]: 0, or the first stored reduction's
+                                   level when making deferred levels from their copy */
+    int dry;                    /* check every block but inflate and write nothing (the
+                                   stored reductions of a deferred import) */
     size_t max_bytes;
     unsigned dt, nc;
     int tri;                    /* a triangle mesh: square faces, three edges */
@@ -72,10 +80,16 @@ static uint8_t *scratch(rd *r, size_t n)
     return r->scratch;
 }
 
-/* [off, off+n) inside the buffer? */
+/* [off, off+n) inside the buffer? (off is a file offset) */
 static int in_file(const rd *r, uint64_t off, uint64_t n)
 {
-    return off <= r->len && n <= r->len - off;
+    return off >= r->origin && off - r->origin <= r->len && n <= r->len - (off - r->origin);
+}
+
+/* The byte at file offset off (inside the buffer). */
+static const uint8_t *at(const rd *r, uint64_t off)
+{
+    return r->buf + (off - r->origin);
 }
 
 static int zip_bound_ok(uint64_t zipsize, uint64_t memsize)
@@ -108,29 +122,15 @@ static const char *zlib_bad_reason(rd *r, const uint8_t *p, uint64_t zlen, void 
  * clear message. Like zlib, refuses a bad header, a preset dictionary, malformed or truncated
  * deflate data, a missing or wrong check value, and a stream that inflates to more or fewer
  * bytes than declared. */
+static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what);
+
 static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
                          const char *what)
 {
-    if (!in_file(r, off, zlen))
-        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu (%llu bytes) overruns "
-                       "the file (%zu bytes)", what, (unsigned long long)off,
-                       (unsigned long long)zlen, r->len);
-    if (!zip_bound_ok(zlen, outlen))
-        return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to the declared "
-                       "%zu bytes", what, (unsigned long long)zlen, outlen);
-    if (outlen > UINT32_MAX)
-        return st_fail(r->e, ST_ETOOBIG, "%s: block of %zu bytes is too large", what, outlen);
-    if (zlen < 2)
-        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
-                       "(inflated 0 of %zu bytes)", what, (unsigned long long)off, outlen);
-    const uint8_t *p = r->buf + off;
-    unsigned cmf = p[0], flg = p[1];
-    if ((cmf & 15) != 8 || (cmf >> 4) > 7 || (cmf * 256 + flg) % 31)
-        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (incorrect "
-                       "header)", what, (unsigned long long)off);
-    if (flg & 0x20)
-        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (needs a preset "
-                       "dictionary)", what, (unsigned long long)off);
+    int rc = zip_check(r, off, zlen, outlen, what);
+    if (rc)
+        return rc;
+    const uint8_t *p = at(r, off);
     if (!r->dd && !(r->dd = libdeflate_alloc_decompressor()))
         return st_fail(r->e, ST_ENOMEM, "out of memory for the inflater");
     size_t got = 0;
@@ -144,6 +144,34 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (got != outlen)
         return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %zu bytes, "
                        "declared %zu", what, (unsigned long long)off, got, outlen);
+    return ST_OK;
+}
+
+/* Everything inflate_exact checks before inflating: the block inside the file, the zip-ratio
+ * bound, the size cap and the 2-byte zlib header (so that only the deflate data and its
+ * Adler-32 are left for the inflate). */
+static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what)
+{
+    if (!in_file(r, off, zlen))
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu (%llu bytes) overruns "
+                       "the file (%zu bytes)", what, (unsigned long long)off,
+                       (unsigned long long)zlen, r->len);
+    if (!zip_bound_ok(zlen, outlen))
+        return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to the declared "
+                       "%zu bytes", what, (unsigned long long)zlen, outlen);
+    if (outlen > UINT32_MAX)
+        return st_fail(r->e, ST_ETOOBIG, "%s: block of %zu bytes is too large", what, outlen);
+    if (zlen < 2)
+        return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu is truncated "
+                       "(inflated 0 of %zu bytes)", what, (unsigned long long)off, outlen);
+    const uint8_t *p = at(r, off);
+    unsigned cmf = p[0], flg = p[1];
+    if ((cmf & 15) != 8 || (cmf >> 4) > 7 || (cmf * 256 + flg) % 31)
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (incorrect "
+                       "header)", what, (unsigned long long)off);
+    if (flg & 0x20)
+        return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (needs a preset "
+                       "dictionary)", what, (unsigned long long)off);
     return ST_OK;
 }
 
@@ -170,7 +198,8 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
         if (size < r->psize)
             return st_fail(r->e, ST_EFORMAT, "%s: constant block of %llu bytes, a pixel is %zu",
                            what, (unsigned long long)size, r->psize);
-        fill_rect(r, r->buf + off, w, h, dst, stride);
+        if (!r->dry)
+            fill_rect(r, at(r, off), w, h, dst, stride);
         return ST_OK;
     }
     if (enc == PTX_ENC_DIFFZIPPED && r->dt != ST_DT_U8 && r->dt != ST_DT_U16)
@@ -180,6 +209,8 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
         return st_fail(r->e, ST_EFORMAT, "%s: %llu zipped bytes cannot inflate to %zu", what,
                        (unsigned long long)size, bytes);
     int diff = enc == PTX_ENC_DIFFZIPPED, rc;
+    if (r->dry)
+        return zip_check(r, off, size, bytes, what);
     if (r->nc == 1 && stride == (size_t)w * r->psize) {
         if ((rc = inflate_exact(r, off, size, dst, bytes, what)) == ST_OK && diff)
             st_ptx_undiff(r->csize, dst, bytes);
@@ -213,8 +244,8 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
     if (size < 6 || !in_file(r, off, size))
         return st_fail(r->e, ST_EFORMAT, "%s: tiled block at offset %llu is too short", what,
                        (unsigned long long)off);
-    int tu = (int8_t)r->buf[off], tv = (int8_t)r->buf[off + 1];
-    uint32_t thsize = ptx_rd32(r->buf + off + 2);
+    int tu = (int8_t)*at(r, off), tv = (int8_t)*at(r, off + 1);
+    uint32_t thsize = ptx_rd32(at(r, off + 2));
     if (tu < 0 || tv < 0 || (unsigned)tu > ulog2 || (unsigned)tv > vlog2)
         return st_fail(r->e, ST_EFORMAT, "%s: tile resolution %dx%d (log2) does not fit the face "
                        "%ux%u (log2)", what, tu, tv, ulog2, vlog2);
@@ -247,7 +278,7 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
             break;
         }
         size_t tx = i % ntu, ty = i / ntu;
-        uint8_t *d = dst + ty * tht * stride + tx * tw * r->psize;
+        uint8_t *d = r->dry ? dst : dst + ty * tht * stride + tx * tw * r->psize;
         rc = decode_block(r, tenc, pos, tsize, tw, tht, d, stride, what);
         pos += tsize;
     }
@@ -287,6 +318,90 @@ static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize
             }
         }
     }
+    return rc;
+}
+
+/* ---- deferred stored reductions ----------------------------------------------------------
+ * A deferred import (the default) checks the stored reductions' blocks as it reads them (every
+ * check of decode_face but the inflate: r->dry) and keeps what making them later needs: the
+ * zipped blocks, where each (face, level) block lies, and the constant data. The blocks are
+ * the file buffer itself when the reader owns it (st_ptex_read_file: it is kept instead of
+ * freed, no copy and no fresh page to fault in), else a copy of the level data from level 1 on
+ * (its level headers included: one memcpy). ptexres.c's levels hook calls pend_make once, on
+ * the first st_set_levels. */
+typedef struct pend_blk {
+    uint32_t face;
+    uint32_t fdh;               /* its FaceDataHeader */
+    uint64_t off;               /* file offset of its block */
+} pend_blk;
+
+typedef struct pend {
+    uint8_t *zip;               /* the file's bytes [origin, origin + zlen) */
+    uint64_t origin;
+    size_t zlen;
+    size_t zbytes;              /* what zip holds in memory (a file buffer: its footprint) */
+    size_t max_bytes;
+    unsigned dt, nc, tri;
+    pend_blk *blk;              /* in file order: level by level, rfaceid order inside */
+    size_t nblk, cap;
+    uint32_t first[PTX_MAX_LEVELS + 1]; /* blk[first[l], first[l+1]) are level l's (l >= 1) */
+    uint64_t lend[PTX_MAX_LEVELS];      /* file offset where level l ends */
+    unsigned nlevels;
+    uint8_t *constdata;         /* nfaces texels */
+} pend;
+
+static void pend_free(void *p)
+{
+    pend *d = p;
+    if (!d)
+        return;
+    free(d->zip);
+    free(d->blk);
+    free(d->constdata);
+    free(d);
+}
+
+static int pend_push(pend *d, uint32_t f, uint32_t fdh, uint64_t off)
+{
+    if (d->nblk == d->cap) {
+        size_t nc = d->cap ? 2 * d->cap : 256;
+        pend_blk *nb = realloc(d->blk, nc * sizeof *nb);
+        if (!nb)
+            return -1;
+        d->blk = nb;
+        d->cap = nc;
+    }
+    d->blk[d->nblk++] = (pend_blk){f, fdh, off};
+    return 0;
+}
+
+/* The deferred levels' make (st_ptexres_deferred): inflates every kept block into its level,
+ * with the import's own decoding and messages ("level L face F: ..." and the file offset). */
+static int pend_make(st_set *s, void *p, st_error *e)
+{
+    pend *d = p;
+    rd R = {.buf = d->zip, .len = d->zlen, .origin = d->origin, .max_bytes = d->max_bytes,
+            .dt = d->dt, .nc = d->nc, .tri = (int)d->tri, .e = e};
+    rd *r = &R;
+    r->csize = st_dtype_size(d->dt);
+    r->psize = r->csize * d->nc;
+    int rc = ST_OK;
+    for (unsigned l = 1; rc == ST_OK && l < d->nlevels; l++)
+        for (size_t i = d->first[l]; i < d->first[l + 1]; i++) {
+            const pend_blk *k = &d->blk[i];
+            const st_face *F = &s->faces[k->face];
+            if ((rc = decode_face(r, k->fdh, k->off, d->lend[l], F->ulog2 - l, F->vlog2 - l,
+                                  st_face_level(s, k->face, l), ""))) {
+                if (e) {
+                    char tmp[ST_ERRMSG_LEN];
+                    snprintf(tmp, sizeof tmp, "%s", e->msg);
+                    st_fail(e, rc, "level %u face %u%s", l, k->face, tmp);
+                }
+                break;
+            }
+        }
+    libdeflate_free_decompressor(r->dd);
+    free(r->scratch);
     return rc;
 }
 
@@ -438,7 +553,11 @@ static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nf
     return ST_OK;
 }
 
-int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
+/* own: the caller's pointer to buf when the reader may keep buf (a buffer from
+ * util/bigalloc.c, freed with free()): a deferred import with stored reductions takes it and
+ * sets *own to NULL. */
+static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, void **own,
+                    st_set **out, st_error *e)
 {
     *out = NULL;
     if (!max_bytes)
@@ -458,6 +577,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
     size_t nfedits = 0, nmedits = 0;
     st_face_desc *fd = NULL;
     uint8_t *work = NULL, *lhtmp = NULL; /* the per-face tables' block; level headers' inflate */
+    pend *pd = NULL;                     /* a deferred import's kept blocks */
 
     if (len < PTX_HEADER_SIZE)
         return st_fail(e, ST_EFORMAT, "file of %zu bytes is shorter than the Ptex header (64)", len);
@@ -721,8 +841,18 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             faceids_r[start[m]++] = f;
         }
     }
+    if (!eager && !(pd = calloc(1, sizeof *pd))) {
+        rc = st_fail(e, ST_ENOMEM, "out of memory for the stored reductions");
+        goto done;
+    }
     uint64_t lpos = ldpos, lend_all = ldpos + ldsize;
     for (unsigned l = 0; l < nlevels; l++) {
+        if (pd && l > 0) {
+            pd->first[l] = (uint32_t)pd->nblk;
+            if (l == 1)
+                pd->origin = lpos;
+        }
+        r->dry = pd && l > 0; /* a deferred import checks the stored reductions only */
         const uint8_t *li = b + lipos + (size_t)l * PTX_LEVELINFO_SIZE;
         uint64_t lsize = ptx_rd64(li);
         uint32_t hsize = ptx_rd32(li + 8), nf = ptx_rd32(li + 12);
@@ -765,7 +895,7 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
             /* the message names "level L face F", formatted only on failure (a printf per
              * face was a few percent of importing a file of small faces) */
             if ((rc = decode_face(r, fdh[i], offs[i], end, F->ulog2 - l, F->vlog2 - l,
-                                  st_face_level(s, f, l), ""))) {
+                                  r->dry ? NULL : st_face_level(s, f, l), ""))) {
                 if (e) {
                     char tmp[ST_ERRMSG_LEN];
                     snprintf(tmp, sizeof tmp, "%s", e->msg);
@@ -773,10 +903,48 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
                 }
                 goto done;
             }
+            if (r->dry && pend_push(pd, f, fdh[i], offs[i])) {
+                rc = st_fail(e, ST_ENOMEM, "out of memory for the stored reductions");
+                goto done;
+            }
             if (l > 0)
                 nstored[f] = (uint8_t)(l + 1);
         }
         lpos += lsize;
+        if (pd && l > 0)
+            pd->lend[l] = lpos;
+    }
+    r->dry = 0;
+    if (pd) {
+        pd->nlevels = nlevels;
+        pd->first[nlevels > 1 ? nlevels : 1] = (uint32_t)pd->nblk;
+        /* the blocks, when one is kept: the file buffer itself, or a copy of the level data
+         * from level 1 on */
+        if (pd->nblk && own) {
+            pd->zip = *own;
+            *own = NULL;
+            pd->origin = 0;
+            pd->zlen = len;
+            pd->zbytes = stu_big_footprint(len + 1, STU_BIG_TEMP); /* as util/fdio.c reads */
+        } else if (pd->nblk) {
+            pd->zlen = (size_t)(lpos - pd->origin);
+            if (!(pd->zip = malloc(pd->zlen))) {
+                rc = st_fail(e, ST_ENOMEM, "out of memory for %zu bytes of stored reductions",
+                             pd->zlen);
+                goto done;
+            }
+            memcpy(pd->zip, b + pd->origin, pd->zlen);
+            pd->zbytes = pd->zlen;
+        }
+        if (!(pd->constdata = malloc(cdbytes ? cdbytes : 1))) {
+            rc = st_fail(e, ST_ENOMEM, "out of memory for the constant data");
+            goto done;
+        }
+        memcpy(pd->constdata, constdata, cdbytes);
+        pd->max_bytes = max_bytes;
+        pd->dt = dtype;
+        pd->nc = nchan;
+        pd->tri = (unsigned)r->tri;
     }
 
     /* metadata: small, large, then edits in file order */
@@ -791,11 +959,22 @@ int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out
                 goto done;
     }
 
-    /* every other resolution, as Ptex serves it; also fills the set's unstored levels */
-    if ((rc = st_ptexres_attach(s, constdata, ptxflags, nstored, max_bytes, e)))
+    /* every other resolution, as Ptex serves it; also fills the set's unstored levels - now
+     * (eager), or with the stored reductions on the first st_set_levels */
+    if (pd) {
+        st_ptexres_deferred d = {.make = pend_make, .free = pend_free, .data = pd,
+                                 .constpx = pd->constdata,
+                                 .bytes = sizeof *pd + pd->zbytes + pd->cap * sizeof *pd->blk +
+                                          cdbytes};
+        pd = NULL; /* the record owns it now, whatever happens */
+        if ((rc = st_ptexres_attach_deferred(s, &d, ptxflags, nstored, max_bytes, e)))
+            goto done;
+    } else if ((rc = st_ptexres_attach(s, constdata, ptxflags, nstored, max_bytes, e))) {
         goto done;
+    }
 
 done:
+    pend_free(pd);
     libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     free(work);
@@ -809,7 +988,18 @@ done:
     return ST_OK;
 }
 
-int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
+int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
+{
+    return read_mem(buf, len, max_bytes, 0, NULL, out, e);
+}
+
+int st_ptex_read_mem_eager(const void *buf, size_t len, size_t max_bytes, st_set **out,
+                           st_error *e)
+{
+    return read_mem(buf, len, max_bytes, 1, NULL, out, e);
+}
+
+static int read_file(const char *path, size_t max_bytes, int eager, st_set **out, st_error *e)
 {
     *out = NULL;
     void *buf;
@@ -817,7 +1007,7 @@ int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error
     int rc = st_file_read(path, (size_t)4 << 30, &buf, &len, e);
     if (rc)
         return rc;
-    rc = st_ptex_read_mem(buf, len, max_bytes, out, e);
+    rc = read_mem(buf, len, max_bytes, eager, &buf, out, e); /* may keep buf (NULL then) */
     if (rc && e) {
         char tmp[ST_ERRMSG_LEN];
         snprintf(tmp, sizeof tmp, "%s", e->msg);
@@ -825,4 +1015,14 @@ int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error
     }
     free(buf);
     return rc;
+}
+
+int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
+{
+    return read_file(path, max_bytes, 0, out, e);
+}
+
+int st_ptex_read_file_eager(const char *path, size_t max_bytes, st_set **out, st_error *e)
+{
+    return read_file(path, max_bytes, 1, out, e);
 }

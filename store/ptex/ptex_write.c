@@ -299,6 +299,9 @@ int st_ptex_write_mem(const st_set *s, void **bufp, size_t *lenp, st_error *e)
     if (s->info.kind != ST_KIND_PERFACE)
         return st_fail(e, ST_EUNSUPPORTED, "only per-face sets can be written as Ptex (kind %u)",
                        s->info.kind);
+    int lrc = st_set_levels(s, e); /* the reductions written: a deferred Ptex import's (set.h) */
+    if (lrc)
+        return lrc;
     uint32_t n = s->info.nfaces;
     wctx w = {.s = s, .csize = st_dtype_size(s->info.dtype), .nc = s->info.nchan};
     w.psize = w.csize * w.nc;

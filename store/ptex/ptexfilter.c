@@ -1802,19 +1802,21 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
 int st_ptexfilter_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                         float *out, float *coverage, uint8_t *status)
 {
-    return batch(s, o, q, n, out, coverage, status, PF_PATH_BEST);
+    int lrc = s ? st_set_levels(s, NULL) : ST_OK; /* a deferred Ptex import's levels (set.h) */
+    return lrc ? lrc : batch(s, o, q, n, out, coverage, status, PF_PATH_BEST);
 }
 
 int pf_batch_path(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                   float *out, float *coverage, uint8_t *status, int path)
 {
-    return batch(s, o, q, n, out, coverage, status, path);
+    int lrc = s ? st_set_levels(s, NULL) : ST_OK;
+    return lrc ? lrc : batch(s, o, q, n, out, coverage, status, path);
 }
 
 int st_ptexfilter_prepare(st_set *s, st_error *e)
 {
     if (st_ptexres_get(s))
-        return ST_OK; /* built by the first Ptex filter call */
+        return st_set_levels(s, e); /* the table is built by the first Ptex filter call */
     if (s->info.kind != ST_KIND_PERFACE)
         return st_fail(e, ST_EUNSUPPORTED, "Ptex filters need a per-face set");
     return st_ptexres_attach(s, NULL, NULL, NULL, 0, e);

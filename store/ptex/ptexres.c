@@ -47,14 +47,28 @@ static uint8_t *arena_alloc(size_t bytes)
     return p;
 }
 
-/* The record (three bytes per face) always; the table once it is built. */
+/* The record (three bytes per face) always; what makes deferred levels while they are
+ * pending; the table once it is built. */
 static size_t ptexres_memory(const void *p)
 {
     const st_ptexres *t = p;
     size_t m = sizeof *t + (size_t)t->nfaces * 3;
+    m += __atomic_load_n(&t->def_bytes, __ATOMIC_RELAXED); /* 0 once made (or failed) */
     if (atomic_load_explicit(&((st_ptexres *)(uintptr_t)t)->built, memory_order_acquire))
         m += __atomic_load_n(&t->bytes, __ATOMIC_RELAXED); /* a drop may zero it meanwhile */
     return m;
+}
+
+/* Frees what made the deferred levels (under levels_lock, or with the record unshared). */
+static void def_free(st_ptexres *t)
+{
+    if (!t->def)
+        return;
+    if (t->def->free)
+        t->def->free(t->def->data);
+    free(t->def);
+    t->def = NULL;
+    __atomic_store_n(&t->def_bytes, 0, __ATOMIC_RELAXED);
 }
 
 static void ptexres_free(void *p)
@@ -63,7 +77,9 @@ static void ptexres_free(void *p)
     if (!t)
         return;
     pthread_mutex_destroy(&t->lock);
+    pthread_mutex_destroy(&t->levels_lock);
     pthread_rwlock_destroy(&t->pin);
+    def_free(t);
     free(t->base);
     free(t->px);
     free(t->ptxflags);
@@ -300,8 +316,64 @@ int st_ptexres_fill_levels(st_set *s, uint32_t f, unsigned nstored, const uint8_
     return ST_OK;
 }
 
-int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
-                           size_t max_bytes, st_error *e)
+/* Every face's levels past the stored ones, as Ptex serves them (st_ptexres_fill_levels). */
+static int fill_all(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+                    const uint8_t *nstored, st_error *e)
+{
+    size_t ts = st_texel_size(s);
+    for (uint32_t f = 0; f < s->info.nfaces; f++) {
+        const st_face *F = &s->faces[f];
+        unsigned ns = nstored ? nstored[f] : (F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u;
+        if (ptxflags && (ptxflags[f] & PTX_FLAG_HASEDITS))
+            ns = 1; /* an edited face's stored reductions are stale */
+        int rc = st_ptexres_fill_levels(s, f, ns, constpx ? constpx + (size_t)f * ts : NULL, e);
+        if (rc)
+            return rc;
+    }
+    return ST_OK;
+}
+
+/* The set's levels hook (st_set_levels) of a record with deferred levels: one acquire load
+ * once they are made; else the first caller makes them under levels_lock (the reader's
+ * inflate, then the fill of the unstored levels), publishes 1 with release and frees what
+ * made them. A failure other than ST_ENOMEM is final: 2 and its message for every caller. */
+static int ptexres_levels(const st_set *s, st_error *e)
+{
+    st_ptexres *t = s->ext.data;
+    int st = atomic_load_explicit(&t->levels, memory_order_acquire);
+    if (st == 1)
+        return ST_OK;
+    if (st == 0) {
+        pthread_mutex_lock(&t->levels_lock);
+        st = atomic_load_explicit(&t->levels, memory_order_relaxed);
+        if (st == 0) {
+            st_set *w = (st_set *)(uintptr_t)s; /* the levels are written once, here */
+            st_error le;
+            st_error_clear(&le);
+            int rc = t->def->make(w, t->def->data, &le);
+            if (rc == ST_OK)
+                rc = fill_all(w, t->def->constpx, t->ptxflags, t->nstored, &le);
+            if (rc == ST_ENOMEM) { /* nothing is wrong with the file: a later call tries again */
+                pthread_mutex_unlock(&t->levels_lock);
+                return st_fail(e, rc, "%s", le.msg);
+            }
+            if (rc != ST_OK) {
+                t->levels_err = le;
+                t->levels_err.code = rc;
+            }
+            def_free(t);
+            st = rc == ST_OK ? 1 : 2;
+            atomic_store_explicit(&t->levels, st, memory_order_release);
+        }
+        pthread_mutex_unlock(&t->levels_lock);
+        if (st == 1)
+            return ST_OK;
+    }
+    return st_fail(e, t->levels_err.code, "%s", t->levels_err.msg);
+}
+
+static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+                         size_t max_bytes, st_ptexres_deferred *def, st_error *e)
 {
     if (s->ext.kind != ST_EXT_NONE)
         return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
@@ -320,6 +392,11 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
         pthread_mutex_destroy(&t->lock);
         mx = -1;
     }
+    if (mx == 0 && pthread_mutex_init(&t->levels_lock, NULL)) {
+        pthread_rwlock_destroy(&t->pin);
+        pthread_mutex_destroy(&t->lock);
+        mx = -1;
+    }
     if (mx) {
         free(t->ptxflags);
         free(t->nstored);
@@ -328,6 +405,9 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
         return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
     }
     atomic_init(&t->built, 0);
+    atomic_init(&t->levels, def ? 0 : 1);
+    t->def = def;
+    t->def_bytes = def ? sizeof *def + def->bytes : 0;
     for (uint32_t f = 0; f < n; f++) {
         const st_face *F = &s->faces[f];
         t->ptxflags[f] = ptxflags ? ptxflags[f] : (uint8_t)((F->flags & ST_FACE_CONSTANT ?
@@ -339,10 +419,38 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
         t->lanef[f] = (uint8_t)((t->ptxflags[f] & PTX_FLAG_NBCONSTANT) | bnd);
     }
     /* the Ptex filter family registers itself with the sampler through the extension */
+    /* the Ptex filter family registers itself with the sampler through the extension; a
+     * record with deferred levels also hooks st_set_levels */
     st_set_ext_attach(s, &(st_set_ext){.kind = ST_EXT_PTEXRES, .data = t, .free = ptexres_free,
                                        .memory = ptexres_memory,
-                                       .filter = st_ptexfilter_batch});
+                                       .filter = st_ptexfilter_batch,
+                                       .levels = def ? ptexres_levels : NULL});
     return ST_OK;
+}
+
+int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+                           size_t max_bytes, st_error *e)
+{
+    return attach_record(s, ptxflags, nstored, max_bytes, NULL, e);
+}
+
+int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
+                               const uint8_t *nstored, size_t max_bytes, st_error *e)
+{
+    st_ptexres_deferred *def = malloc(sizeof *def);
+    if (!def) {
+        if (d->free)
+            d->free(d->data);
+        return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
+    }
+    *def = *d;
+    int rc = attach_record(s, ptxflags, nstored, max_bytes, def, e);
+    if (rc) {
+        if (def->free)
+            def->free(def->data);
+        free(def);
+    }
+    return rc;
 }
 
 int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
@@ -350,17 +458,8 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
 {
     if (s->ext.kind != ST_EXT_NONE)
         return st_fail(e, ST_EINVAL, "set already has an extension; cannot attach the Ptex table");
-    size_t ts = st_texel_size(s);
-    for (uint32_t f = 0; f < s->info.nfaces; f++) {
-        const st_face *F = &s->faces[f];
-        unsigned ns = nstored ? nstored[f] : (F->ulog2 < F->vlog2 ? F->ulog2 : F->vlog2) + 1u;
-        if (ptxflags && (ptxflags[f] & PTX_FLAG_HASEDITS))
-            ns = 1; /* an edited face's stored reductions are stale */
-        int rc = st_ptexres_fill_levels(s, f, ns, constpx ? constpx + (size_t)f * ts : NULL, e);
-        if (rc)
-            return rc;
-    }
-    return st_ptexres_attach_lazy(s, ptxflags, nstored, max_bytes, e);
+    int rc = fill_all(s, constpx, ptxflags, nstored, e);
+    return rc ? rc : st_ptexres_attach_lazy(s, ptxflags, nstored, max_bytes, e);
 }
 
 /* Builds px and the arena of t for s (t->lock held). */
@@ -458,6 +557,8 @@ const st_ptexres *st_ptexres_table(const st_set *s, st_error *e)
     }
     if (atomic_load_explicit(&t->built, memory_order_acquire))
         return t;
+    if (st_set_levels(s, e)) /* the table points into the set's levels */
+        return NULL;
     pthread_mutex_lock(&t->lock);
     int rc = ST_OK;
     if (!atomic_load_explicit(&t->built, memory_order_relaxed)) {

@@ -18,6 +18,15 @@
  * st_ptexres_attach_lazy hangs the (unbuilt) table on a set whose levels are already filled;
  * st_ptexres_attach does both steps' set-up for a set whose levels are not filled yet.
  *
+ * Deferred levels (st_ptexres_attach_deferred, the Ptex reader's default): step 1 itself waits
+ * for the first reader of a level past level 0. The record then holds what the reader kept
+ * (the zipped stored reductions, the constant data) and the set's levels hook
+ * (st_set_levels, set.h): one state for the whole set, `levels` 0 pending / 1 made /
+ * 2 failed, read with acquire ordering; the first call inflates the stored reductions and
+ * fills the rest under `levels_lock`, stores 1 with release and frees what it kept. A failure
+ * (a corrupt deflate stream found late) stores 2 and its message, which every later call
+ * returns. The table build (st_ptexres_table) makes the levels first.
+ *
  * Owns: the table (a set extension, set->ext, freed with the set). Does not own: the set's
  * own levels (set.c), filtering (ptexfilter*.c).
  *
@@ -62,7 +71,24 @@ typedef struct st_ptexres {
     uint8_t        *arena;        /* texels of the entries that are not set levels */
     size_t          arena_bytes;
     size_t          bytes;        /* everything the table holds, counted by st_set_memory */
+    /* the set's levels past level 0 (deferred by st_ptexres_attach_deferred; else always 1) */
+    atomic_int      levels;       /* 0 pending, 1 made, 2 failed (levels_err says why) */
+    pthread_mutex_t levels_lock;  /* serialises making them */
+    struct st_ptexres_deferred *def; /* what makes them while pending, freed once made */
+    size_t          def_bytes;    /* its memory, counted by st_set_memory (0 once freed) */
+    st_error        levels_err;   /* the failure, read once `levels` is 2 (acquire) */
 } st_ptexres;
+
+/* What a reader keeps to make a set's levels later (st_ptexres_attach_deferred). make inflates
+ * the stored reductions into the set's levels (nothing else: the rest is filled from them by
+ * st_ptexres_fill_levels with constpx afterwards); free releases data. */
+typedef struct st_ptexres_deferred {
+    int          (*make)(st_set *s, void *data, st_error *e);
+    void         (*free)(void *data);
+    void          *data;
+    const uint8_t *constpx;       /* per face one texel (inside data): the 1x1 values */
+    size_t         bytes;         /* data's memory, for st_set_memory */
+} st_ptexres_deferred;
 
 /* Overwrites face f's levels [nstored, nlevels) with the values Ptex serves for them (every
  * level when nstored is 1; the 1x1 level always gets the constant value): constpx (one texel;
@@ -81,6 +107,13 @@ int st_ptexres_fill_levels(st_set *s, uint32_t f, unsigned nstored, const uint8_
  * bytes per face until a Ptex filter first runs. */
 int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
                            size_t max_bytes, st_error *e);
+
+/* Like st_ptexres_attach, but nothing past level 0 is made now: the set's levels hook makes
+ * them on the first st_set_levels (d->make, then st_ptexres_fill_levels of every face from
+ * d->constpx, ptxflags and nstored). *d is copied; d->data passes to the record in every case
+ * (freed by d->free on failure too). Level 0 must be complete. */
+int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
+                               const uint8_t *nstored, size_t max_bytes, st_error *e);
 
 /* For a set whose levels past level 0 are not Ptex's yet: fills them (st_ptexres_fill_levels
  * with constpx + f * texel size, or NULL) and attaches the table lazily. Arguments as above. */

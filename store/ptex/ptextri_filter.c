@@ -1360,11 +1360,13 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
 int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                      float *out, float *coverage, uint8_t *status)
 {
-    return tri_batch(s, o, q, n, out, coverage, status, 0);
+    int lrc = st_set_levels(s, NULL); /* a deferred Ptex import's levels (set.h) */
+    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, 0);
 }
 
 int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_query *q,
                             size_t n, float *out, float *coverage, uint8_t *status)
 {
-    return tri_batch(s, o, q, n, out, coverage, status, 1);
+    int lrc = st_set_levels(s, NULL);
+    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, 1);
 }

@@ -339,6 +339,11 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
     }
     if (o->filter > ST_FILTER_ANISO)
         return ST_EINVAL;
+    /* levels >= 1 of a deferred Ptex import (set.h; the Ptex filters above make them in
+     * their own entry): nothing below reads a level before this */
+    int lrc = st_set_levels(s, NULL);
+    if (lrc)
+        return lrc;
     if (s->info.meshtype == ST_MESH_TRIANGLE) /* sample_tri.c: point only */
         return st_sample_tri_batch(s, o, q, n, out, coverage, status);
     if (s->info.nchan < 1 || s->info.nchan > ST_MAX_CHANNELS || !st_dtype_size(s->info.dtype))

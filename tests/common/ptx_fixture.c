@@ -5,8 +5,11 @@
 #include <stdio.h>
 #include <string.h>
 
+#include <zlib.h>
+
 #include "defaultset.h"
 #include "ptex.h"
+#include "ptex_format.h"
 
 void *st_fixture_default_ptx(size_t *len, int tint)
 {
@@ -68,4 +71,27 @@ void *st_fixture_uniform_ptx(size_t *len)
         buf = NULL;
     st_set_free(s);
     return buf;
+}
+
+int st_fixture_corrupt_reduction(uint8_t *b, size_t len, int what)
+{
+    if (len < PTX_HEADER_SIZE || ptx_rd16(b + 22) < 2)
+        return -1;
+    uint64_t ext = ptx_rd32(b + 28), fisize = ptx_rd32(b + 32), cdsize = ptx_rd32(b + 36);
+    uint64_t lipos = PTX_HEADER_SIZE + ext + fisize + cdsize, ldpos = lipos + ptx_rd32(b + 40);
+    if (lipos + 2 * PTX_LEVELINFO_SIZE > len)
+        return -1;
+    uint64_t l1 = ldpos + ptx_rd64(b + lipos);
+    uint32_t hsize = ptx_rd32(b + lipos + PTX_LEVELINFO_SIZE + 8);
+    uint8_t fdh[4096];
+    uLongf fl = sizeof fdh;
+    if (l1 + hsize > len || uncompress(fdh, &fl, b + l1, hsize) != Z_OK || fl < 4)
+        return -1;
+    uint32_t h0 = ptx_rd32(fdh), size = h0 & 0x3fffffffu;
+    uint64_t blk = l1 + hsize;
+    if ((h0 >> 30 != PTX_ENC_ZIPPED && h0 >> 30 != PTX_ENC_DIFFZIPPED) || size <= 12 ||
+        blk + size > len)
+        return -1;
+    b[what == 0 ? blk + size / 2 : blk + size - 1] ^= what == 0 ? 0x24 : 0x01;
+    return 0;
 }

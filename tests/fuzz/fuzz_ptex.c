@@ -1,4 +1,5 @@
-/* tests/fuzz/fuzz_ptex.c - libFuzzer target for the Ptex reader (st_ptex_read_mem). A file
+/* tests/fuzz/fuzz_ptex.c - libFuzzer target for the Ptex reader (st_ptex_read_mem). The
+ * deferred and the eager import must accept the same files and give the same texels. A file
  * that loads is also sampled with every Ptex filter in Traverse mode (hostile adjacency must
  * not crash the traversal) and written back and re-read (the writer must accept what the
  * reader built). Seeds in tests/fuzz/seeds/fuzz_ptex/ were written by st_ptex_write_mem
@@ -6,16 +7,32 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "ptex.h"
 #include "ptexfilter.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    st_set *s = NULL;
+    st_set *s = NULL, *x = NULL;
     st_error e;
-    if (st_ptex_read_mem(data, size, (size_t)32 << 20, &s, &e) != ST_OK)
+    /* the deferred import (levels past 0 made on first use) accepts exactly what the eager
+     * one does, the two at most apart in time, and then holds the same texels */
+    int rx = st_ptex_read_mem_eager(data, size, (size_t)32 << 20, &x, &e);
+    int rs = st_ptex_read_mem(data, size, (size_t)32 << 20, &s, &e);
+    if (rs == ST_OK && rx != ST_OK && st_set_levels(s, &e) == ST_OK)
+        abort();
+    if (rx == ST_OK && (rs != ST_OK || st_set_levels(s, &e) != ST_OK ||
+                        x->texel_bytes != s->texel_bytes ||
+                        memcmp(x->texels, s->texels, x->texel_bytes)))
+        abort();
+    st_set_free(x);
+    if (rs != ST_OK)
         return 0;
+    st_set_free(s);
+    /* again, for the readers to be the first to use its levels */
+    if (st_ptex_read_mem(data, size, (size_t)32 << 20, &s, &e) != ST_OK)
+        abort();
     st_query q[6];
     for (int i = 0; i < 6; i++) {
         q[i].face = (uint32_t)i % s->info.nfaces;
@@ -28,6 +45,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     float out[6 * ST_MAX_CHANNELS], cov[6];
     uint8_t st[6];
+    st_sample_opts g = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_TRILINEAR};
+    st_sample_batch(s, &g, q, 6, out, cov, st); /* a GPU-style filter first */
     for (unsigned f = ST_FILTER_PTEX_POINT; f <= ST_FILTER_PTEX_MITCHELL; f++)
         for (unsigned m = 0; m < 3; m++) {
             st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)f, .sharpness = 0.5f};

@@ -189,7 +189,8 @@ static void *upload_loop(void *arg)
 static int same_as_variant(const st_set *b, int var)
 {
     const st_set *a = V[var].set;
-    return a->info.nfaces == b->info.nfaces && a->texel_bytes == b->texel_bytes &&
+    return st_set_levels(a, NULL) == ST_OK && st_set_levels(b, NULL) == ST_OK && /* ptex.h */
+           a->info.nfaces == b->info.nfaces && a->texel_bytes == b->texel_bytes &&
            !memcmp(a->faces, b->faces, (size_t)a->info.nfaces * sizeof *a->faces) &&
            !memcmp(a->texels, b->texels, a->texel_bytes);
 }

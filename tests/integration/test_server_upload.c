@@ -12,6 +12,7 @@
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -154,6 +155,8 @@ static void upload_info_fetch_delete_round_trip(void **state)
     st_error e;
     assert_int_equal(st_ptex_read_mem(ptx, len, 0, &a, &e), 0);
     assert_int_equal(st_ptex_read_file(out, 0, &b, &e), 0);
+    assert_int_equal(st_set_levels(a, &e), 0); /* every level compared: made (ptex.h) */
+    assert_int_equal(st_set_levels(b, &e), 0);
     assert_int_equal(a->info.nfaces, b->info.nfaces);
     assert_int_equal(a->texel_bytes, b->texel_bytes);
     assert_memory_equal(a->faces, b->faces, (size_t)a->info.nfaces * sizeof *a->faces);
@@ -174,6 +177,36 @@ static void upload_info_fetch_delete_round_trip(void **state)
     assert_int_equal(stc_info_get(c, "junk", 0, 0, &info), STC_ENOTFOUND);
     stc_close(c);
     free(ptx);
+}
+
+/* A .ptx whose stored reduction does not inflate imports in the library (the reader defers
+ * the reductions, ptex.h) but is refused at upload, with FORMAT, as before: the daemon makes
+ * the levels right after the import. */
+static void upload_with_a_corrupt_stored_reduction_is_refused(void **state)
+{
+    (void)state;
+    stc_conn *c = st_daemon_client(&D1, NULL);
+    assert_non_null(c);
+    for (int what = 0; what < 2; what++) {
+        size_t len = 0;
+        uint8_t *ptx = st_fixture_default_ptx(&len, 5);
+        assert_non_null(ptx);
+        assert_int_equal(st_fixture_corrupt_reduction(ptx, len, what), 0);
+        st_set *s = NULL;
+        st_error e;
+        assert_int_equal(st_ptex_read_mem(ptx, len, 0, &s, &e), 0);
+        assert_int_equal(st_set_levels(s, &e), ST_EFORMAT);
+        st_set_free(s);
+        stc_upload_opts uo;
+        memset(&uo, 0, sizeof uo);
+        uo.hint = "ptx";
+        stc_upload_result ur;
+        assert_int_equal(stc_upload_buffer(c, ptx, len, "badreduction", &uo, &ur), STC_EFORMAT);
+        stc_info info;
+        assert_int_equal(stc_info_get(c, "badreduction", 0, 0, &info), STC_ENOTFOUND);
+        free(ptx);
+    }
+    stc_close(c);
 }
 
 static void upload_with_wrong_crc_is_corrupt(void **state)
@@ -365,6 +398,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(upload_info_fetch_delete_round_trip),
         cmocka_unit_test(upload_with_wrong_crc_is_corrupt),
+        cmocka_unit_test(upload_with_a_corrupt_stored_reduction_is_refused),
         cmocka_unit_test(dropped_upload_resumes_on_a_new_connection),
         cmocka_unit_test(kept_uploads_expire_and_can_be_turned_off),
         cmocka_unit_test(concurrent_uploads_of_one_name_one_wins),
