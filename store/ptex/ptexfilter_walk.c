@@ -267,7 +267,7 @@ __attribute__((noinline)) static int corner_other(pw_state *s, pw kc, int f, int
 }
 
 /* corner_small: the diagonal face of a regular vertex (4 steps around it back to the start),
- * else corner_other. */
+ * the piece dropped at a vertex of valence 3 (3 steps), else corner_other. */
 __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int f, int eid)
 {
     /* the four steps around the vertex written out (the loop's tests in its order: a step
@@ -293,7 +293,13 @@ __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int 
     if (a3 < 0)
         goto other;
     int e3 = (A->adjedge[ce] + 1) % 4;
-    if (subface(s->w, a3) || (a3 == f && e3 == eid))
+    if (a3 == f && e3 == eid) {
+        /* back at (f, eid) after 3 steps: valence 3, corner_other's ncorners 0 (its loop
+         * stops there before any other test): the piece dropped, its weight removed */
+        s->weight -= pk_accumulate(kc.k[0], kc.n[0]) * pk_accumulate(kc.k[1], kc.n[1]);
+        return 1;
+    }
+    if (subface(s->w, a3))
         goto other;
     A = &faces[a3];
     int a4 = A->adjface[e3];
