@@ -194,27 +194,12 @@ void pk_kernel_eval(const pk_params *p, float x1, float step, float *w, int n);
 
 /* Kernel operations (Ptex semantics). */
 void  pk_set(pk *dst, const pk *src);           /* copy with weights packed at index 0 */
-/* The sum of p[0 .. n) added in order from 0; up to 8 terms straight-line (a jump into the
- * run of additions: the same additions in the same order, without the loop's counter). */
 static inline float pk_accumulate(const float *p, int n)
 {
     float r = 0;
-    const float *e = p + n;
-    switch (n) {
-    case 8: r += e[-8]; /* fallthrough */
-    case 7: r += e[-7]; /* fallthrough */
-    case 6: r += e[-6]; /* fallthrough */
-    case 5: r += e[-5]; /* fallthrough */
-    case 4: r += e[-4]; /* fallthrough */
-    case 3: r += e[-3]; /* fallthrough */
-    case 2: r += e[-2]; /* fallthrough */
-    case 1: r += e[-1]; /* fallthrough */
-    case 0: return r;
-    default:
-        for (int i = 0; i < n; i++)
-            r += p[i];
-        return r;
-    }
+    for (int i = 0; i < n; i++)
+        r += p[i];
+    return r;
 }
 static inline float pk_weight(const pk *k)
 {
