@@ -366,7 +366,7 @@ __attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsig
     case ST_DT_U8: return load_u8(p);
     case ST_DT_U16: return load_u16(p);
     case ST_DT_F32: return load_f32(p);
-    default: return load_any(ST_DT_HALF, NC, p);
+    default: return pk_half4(p, NC); /* load_any's values without its per-channel switch */
     }
 }
 
@@ -1043,11 +1043,10 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
 }
 
 /* pf_walk_kernel (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
- * kernels that reach a subface or a constant face). It takes a kernel that overhangs more
- * than one edge only on a face with four neighbours: at a mesh boundary the walk's folds
- * copy weights where the general walk merges them in place (black, clamp and quad, faces on a
- * boundary, ran 0.8-0.9x with it); one that overhangs one edge only, into a neighbour, on
- * any face (no fold). In Discard and Clamp pf_walk_fold: split_walk's merges and the window
+ * kernels that reach a subface or a constant face). On a face at a mesh boundary it folds
+ * (no overhung edge with a neighbour: pf_walk_fold's merges) or runs the whole walk with its
+ * folds (since session 14); one that overhangs one edge only, into a neighbour, walks in
+ * walk_one on any face. In Discard and Clamp pf_walk_fold: split_walk's merges and the window
  * on f. eval_kernel offers neither a constant face (evblur: most faces). */
 static int walk(pf *c, pk *k, int f)
 {

@@ -147,6 +147,36 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
     return 1;
 }
 
+/* The first nc (1..4) of 4 half values at p as floats, lanes nc..3 zero: st_half_to_float's
+ * bits lane by lane (both are exact: a normal or infinite / NaN half moves its exponent and
+ * mantissa, a zero or subnormal one is its mantissa times 2^-24, which a float holds
+ * exactly), without its per-channel branches. Reads 8 bytes at p (the arenas end with
+ * slack). */
+__attribute__((always_inline)) static inline pk_v4f pk_half4(const uint8_t *p, unsigned nc)
+{
+#ifdef __SSE2__
+    pk_v4i h = (pk_v4i)_mm_unpacklo_epi16(_mm_loadl_epi64((const __m128i *)(const void *)p),
+                                          _mm_setzero_si128());
+#else
+    uint16_t h16[4];
+    memcpy(h16, p, sizeof h16);
+    pk_v4i h = {h16[0], h16[1], h16[2], h16[3]};
+#endif
+    pk_v4i sign = (h & 0x8000) << 16, em = h & 0x7fff;
+    pk_v4i norm = (em << 13) + (112 << 23);
+    norm += (em > 0x7bff) & (112 << 23);                  /* exponent 31: infinity, NaN */
+    pk_v4f sub = __builtin_convertvector(em, pk_v4f) * 0x1p-24f; /* exponent 0 */
+    pk_v4i sb, lt = em < 0x400;
+    __builtin_memcpy(&sb, &sub, sizeof sb);
+    pk_v4i bits = ((norm & ~lt) | (sb & lt)) | sign;
+    static const pk_v4i keep[4] = {{-1, 0, 0, 0}, {-1, -1, 0, 0}, {-1, -1, -1, 0},
+                                   {-1, -1, -1, -1}};
+    bits &= keep[(nc - 1) & 3];
+    pk_v4f r;
+    __builtin_memcpy(&r, &bits, sizeof r);
+    return r;
+}
+
 /* Filter-specific kernel construction (Ptex's buildKernel); ftype is st_filter. */
 typedef struct pk_params {
     unsigned ftype;

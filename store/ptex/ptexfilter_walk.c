@@ -267,7 +267,7 @@ __attribute__((noinline)) static int corner_other(pw_state *s, pw kc, int f, int
 }
 
 /* corner_small: the diagonal face of a regular vertex (4 steps around it back to the start),
- * else corner_other. */
+ * the piece dropped at a vertex of valence 3 (3 steps), else corner_other. */
 __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int f, int eid)
 {
     /* the four steps around the vertex written out (the loop's tests in its order: a step
@@ -293,7 +293,13 @@ __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int 
     if (a3 < 0)
         goto other;
     int e3 = (A->adjedge[ce] + 1) % 4;
-    if (subface(s->w, a3) || (a3 == f && e3 == eid))
+    if (a3 == f && e3 == eid) {
+        /* back at (f, eid) after 3 steps: valence 3, corner_other's ncorners 0 (its loop
+         * stops there before any other test): the piece dropped, its weight removed */
+        s->weight -= pk_accumulate(kc.k[0], kc.n[0]) * pk_accumulate(kc.k[1], kc.n[1]);
+        return 1;
+    }
+    if (subface(s->w, a3))
         goto other;
     A = &faces[a3];
     int a4 = A->adjface[e3];
@@ -423,20 +429,11 @@ int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *w
     return walk_all(w, k0, f, acc, weight);
 }
 
-int pf_walk_kernel(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *weight)
-{
-    int eid = one_edge(w, k0, f);
-    if (eid >= 0)
-        return walk_one(w, k0, f, eid, acc);
-    const int *adj = w->faces[f].adjface;
-    if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
-        return 0;
-    return walk_all(w, k0, f, acc, weight);
-}
-
 /* ---- Discard and Clamp (split_walk's other modes at depth 0) ----------------------------- */
 
-int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float *weight)
+/* pf_walk_fold, inline where the boundary walk takes it */
+__attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
+                                                      int discard, pf_v4 *acc, float *weight)
 {
     if (w->faces[f].flags & ST_FACE_CONSTANT)
         return 0;
@@ -486,4 +483,40 @@ int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float
     put_face(&s, k0->ulog2, k0->vlog2, u, v, uw, vw, ku, kv, f); /* f is not constant: 1 */
     *acc = s.acc;
     return 1;
+}
+
+int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float *weight)
+{
+    return fold(w, k0, f, discard, acc, weight);
+}
+
+/* ---- Traverse's entry (ptexfilter.c's walk() and kernel_walk_w) ------------------------ */
+
+/* pf_walk_kernel's kernel of a face at a mesh boundary (not a one-edge walk): where no edge
+ * the kernel overhangs has a neighbour, split_walk only merges (pk_merge_r, _l, _t, _b in
+ * that order, black per border mode) and applies the rest on f, the weight untouched:
+ * Clamp's fold with the border modes' black; else the whole walk (its folds copy the edge
+ * weights). Out of line: pf_walk_kernel's frame stays that of its common cases. */
+__attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int f,
+                                                   pf_v4 *acc, float *weight)
+{
+    const int *adj = w->faces[f].adjface;
+    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    int sr = k0->u + k0->uw > resu, sl = k0->u < 0;
+    int st = k0->v + k0->vw > resv, sb = k0->v < 0;
+    if (!((sr && adj[1] >= 0) || (sl && adj[3] >= 0) || (st && adj[2] >= 0) ||
+          (sb && adj[0] >= 0)))
+        return fold(w, k0, f, 0, acc, weight);
+    return walk_all(w, k0, f, acc, weight);
+}
+
+int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    int eid = one_edge(w, k0, f);
+    if (eid >= 0)
+        return walk_one(w, k0, f, eid, acc);
+    const int *adj = w->faces[f].adjface;
+    if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
+        return walk_boundary(w, k0, f, acc, weight);
+    return walk_all(w, k0, f, acc, weight);
 }

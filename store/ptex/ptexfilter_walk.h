@@ -15,7 +15,8 @@
  * overhangs one edge only (80% of the walks of the teapot's box at 4 texels) takes a
  * function of its own with the two pieces (walk_one: a small frame, where the whole walk
  * keeps every side's state across its window calls). pf_walk_kernel is what the filter
- * calls: that one-edge walk on any face, the whole walk on faces with four neighbours.
+ * calls: that one-edge walk on any face, the fold where no overhung edge has a neighbour, the
+ * whole walk otherwise.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
@@ -50,12 +51,14 @@ typedef struct pf_walk {
  * Returns 1; 0 when it declines (*acc and *weight untouched). k is not modified. */
 int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
 
-/* What ptexfilter.c's walk() offers pf_walk_traverse, decided here: a kernel that overhangs
- * one edge of f only, into a neighbour there, on any face f (no fold is involved, so also
- * at a mesh boundary); any other overhanging kernel of a face with four neighbours. Returns
- * 0 (nothing written) for a kernel of a face at a mesh boundary that overhangs more than
- * one edge or one without a neighbour, and when pf_walk_traverse declines. */
-int pf_walk_kernel(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
+/* What ptexfilter.c's walk() and kernel_walk_w call in Traverse: a kernel that overhangs
+ * one edge of f only, into a neighbour there, takes the one-edge walk (walk_one); one of a
+ * face at a mesh boundary none of whose overhung edges has a neighbour takes pf_walk_fold
+ * with the border modes' black (split_walk then only merges: k's weights are merged in place
+ * when it returns 1, as pk_merge_* would leave them); any other the whole walk
+ * (pf_walk_traverse's, folds at boundary edges included). Returns 0 (nothing written, k as
+ * it was) when the walk or the fold declines. */
+int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
 
 /* split_walk's Discard (discard 1) or Clamp (0) of kernel k (weights not empty, zeros
  * stripped) built for face f (not a subface), which it overhangs: the overhang past each edge
