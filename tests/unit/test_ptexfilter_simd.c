@@ -245,6 +245,66 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
     assert_true(handed > 100);         /* and so is the hand-over */
 }
 
+/* One block k through an 8-query function (w8: pf_w4x8_select's or pf_box8_select's) and
+ * each lane through the per-query fused path (fast) on the same query: a lane the block
+ * serves must be one the fused path serves, with the same output bytes; a lane it hands over
+ * one the fused path hands over, with the same kernel and its pk_weight (box: the whole
+ * kernel's taps from index 0, and a lane left alone one the fused path does not serve or was
+ * not offered); a lane left alone keeps its output bytes. Counts the lanes; returns the mask
+ * of those served. */
+static unsigned check_block(pf_w4x8_fn w8, pf_fast_fn fast, const pk_params *p,
+                            const pf_klanes *k, unsigned nc, int box, long *served,
+                            long *handed, long *left)
+{
+    float got[8 * 4], want[4];
+    pk kout[8], kh;
+    float wout[8];
+    unsigned over = 0;
+    memset(got, 0x5a, sizeof got);
+    unsigned done = w8(p, k, got, kout, wout, &over);
+    assert_int_equal(done & over, 0);
+    assert_int_equal((done | over) & ~k->fast, 0);
+    for (int j = 0; j < 8; j++) {
+        memset(want, 0, sizeof want);
+        int took = fast(p, k->px[j], k->ulog2[j], k->vlog2[j], k->u[j], k->v[j], k->bu[j],
+                        k->bv[j], want, &kh);
+        if (done >> j & 1) {
+            assert_int_equal(took, 1);
+            assert_memory_equal(got + j * nc, want, sizeof(float) * nc);
+            (*served)++;
+        } else if (over >> j & 1) {
+            assert_int_equal(took, 2);
+            assert_int_equal(kout[j].ulog2, kh.ulog2);
+            assert_int_equal(kout[j].vlog2, kh.vlog2);
+            assert_int_equal(kout[j].u, kh.u);
+            assert_int_equal(kout[j].v, kh.v);
+            assert_int_equal(kout[j].uw, kh.uw);
+            assert_int_equal(kout[j].vw, kh.vw);
+            if (box) {
+                assert_int_equal(kout[j].ku0, 0);
+                assert_int_equal(kout[j].kv0, 0);
+            }
+            assert_int_equal(kout[j].rot, 0);
+            size_t nu = box ? (size_t)kh.uw : 4, nv = box ? (size_t)kh.vw : 4;
+            assert_memory_equal(pk_ku(&kout[j]), pk_ku(&kh), sizeof(float) * nu);
+            assert_memory_equal(pk_kv(&kout[j]), pk_kv(&kh), sizeof(float) * nv);
+            float wt = pk_weight(&kh);
+            assert_memory_equal(&wout[j], &wt, sizeof wt);
+            (*handed)++;
+        } else {
+            if (box)
+                assert_true(!(k->fast >> j & 1) || took == 0);
+            for (unsigned ch = 0; ch < nc; ch++) {
+                uint32_t b;
+                memcpy(&b, &got[j * nc + ch], 4);
+                assert_int_equal(b, 0x5a5a5a5au);
+            }
+            (*left)++;
+        }
+    }
+    return done;
+}
+
 /* The width-4 filters' 8-query path (pf_w4x8_select) against the per-query fused path
  * (pf_fast_select) on the same queries, for every texel type, channel count 1..4 and width-4
  * filter: blocks of 8 random queries on three faces of different sizes (so each lane reads
@@ -313,45 +373,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                                 k.bu[j] = w;
                         }
                     }
-                    float got[8 * 4], want[4];
-                    pk kout[8], kh;
-                    float wout[8];
-                    unsigned over = 0;
-                    memset(got, 0x5a, sizeof got);
-                    unsigned done = w8(&p, &k, got, kout, wout, &over);
-                    assert_int_equal(done & over, 0);
-                    assert_int_equal((done | over) & ~k.fast, 0);
-                    for (int j = 0; j < 8; j++) {
-                        memset(want, 0, sizeof want);
-                        int took = fast(&p, k.px[j], k.ulog2[j], k.vlog2[j], k.u[j], k.v[j],
-                                        k.bu[j], k.bv[j], want, &kh);
-                        if (done >> j & 1) {
-                            assert_int_equal(took, 1);
-                            assert_memory_equal(got + j * nc, want, sizeof(float) * nc);
-                            served++;
-                        } else if (over >> j & 1) {
-                            assert_int_equal(took, 2);
-                            assert_int_equal(kout[j].ulog2, kh.ulog2);
-                            assert_int_equal(kout[j].vlog2, kh.vlog2);
-                            assert_int_equal(kout[j].u, kh.u);
-                            assert_int_equal(kout[j].v, kh.v);
-                            assert_int_equal(kout[j].uw, kh.uw);
-                            assert_int_equal(kout[j].vw, kh.vw);
-                            assert_int_equal(kout[j].rot, 0);
-                            assert_memory_equal(pk_ku(&kout[j]), pk_ku(&kh), sizeof(float) * 4);
-                            assert_memory_equal(pk_kv(&kout[j]), pk_kv(&kh), sizeof(float) * 4);
-                            float wt = pk_weight(&kh);
-                            assert_memory_equal(&wout[j], &wt, sizeof wt);
-                            handed++;
-                        } else {
-                            for (unsigned ch = 0; ch < nc; ch++) {
-                                uint32_t b;
-                                memcpy(&b, &got[j * nc + ch], 4);
-                                assert_int_equal(b, 0x5a5a5a5au);
-                            }
-                            left++;
-                        }
-                    }
+                    check_block(w8, fast, &p, &k, nc, 0, &served, &handed, &left);
                 }
             }
             for (int f = 0; f < NF; f++)
@@ -444,55 +466,15 @@ static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                             k.bu[j] = w;
                     }
                 }
-                float got[8 * 4], want[4];
-                pk kout[8], kh;
-                float wout[8];
-                unsigned over = 0;
-                memset(got, 0x5a, sizeof got);
-                unsigned done = b8(&p, &k, got, kout, wout, &over);
-                assert_int_equal(done & over, 0);
-                assert_int_equal((done | over) & ~k.fast, 0);
-                for (int j = 0; j < 8; j++) {
-                    memset(want, 0, sizeof want);
-                    int took = fast(&p, k.px[j], k.ulog2[j], k.vlog2[j], k.u[j], k.v[j],
-                                    k.bu[j], k.bv[j], want, &kh);
+                unsigned done = check_block(b8, fast, &p, &k, nc, 1, &served, &handed, &left);
+                for (int j = 0; j < 8; j++)
                     if (done >> j & 1) {
-                        assert_int_equal(took, 1);
-                        assert_memory_equal(got + j * nc, want, sizeof(float) * nc);
                         pk kb;
                         pk_build(&p, &kb, k.u[j], k.v[j], k.bu[j], k.bv[j], k.ulog2[j],
                                  k.vlog2[j]);
                         assert_true(kb.uw >= 1 && kb.uw <= 3 && kb.vw >= 1 && kb.vw <= 3);
                         shapes[(kb.uw - 1) * 3 + kb.vw - 1]++;
-                        served++;
-                    } else if (over >> j & 1) {
-                        assert_int_equal(took, 2);
-                        assert_int_equal(kout[j].ulog2, kh.ulog2);
-                        assert_int_equal(kout[j].vlog2, kh.vlog2);
-                        assert_int_equal(kout[j].u, kh.u);
-                        assert_int_equal(kout[j].v, kh.v);
-                        assert_int_equal(kout[j].uw, kh.uw);
-                        assert_int_equal(kout[j].vw, kh.vw);
-                        assert_int_equal(kout[j].ku0, 0);
-                        assert_int_equal(kout[j].kv0, 0);
-                        assert_int_equal(kout[j].rot, 0);
-                        assert_memory_equal(pk_ku(&kout[j]), pk_ku(&kh), sizeof(float) * (size_t)kh.uw);
-                        assert_memory_equal(pk_kv(&kout[j]), pk_kv(&kh), sizeof(float) * (size_t)kh.vw);
-                        float wt = pk_weight(&kh);
-                        assert_memory_equal(&wout[j], &wt, sizeof wt);
-                        handed++;
-                    } else {
-                        /* left alone: one the fused path does not serve or hand over, or
-                         * not offered */
-                        assert_true(!(k.fast >> j & 1) || took == 0);
-                        for (unsigned ch = 0; ch < nc; ch++) {
-                            uint32_t b;
-                            memcpy(&b, &got[j * nc + ch], 4);
-                            assert_int_equal(b, 0x5a5a5a5au);
-                        }
-                        left++;
                     }
-                }
             }
             for (int f = 0; f < NF; f++)
                 for (int i = 0; i < (FL[f][0] + 1) * (FL[f][1] + 1); i++)
