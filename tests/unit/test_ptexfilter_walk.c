@@ -114,6 +114,21 @@ static void flag_faces(st_set *s, uint8_t flag, uint8_t clear)
     }
 }
 
+/* The shared file rel (under SEAMTEX_DATA) read, its full path in path; NULL when the data
+ * folder does not have it; a read error fails the test. */
+static st_set *read_shared(const char *rel, char *path, size_t cap)
+{
+    if (st_test_data_path(path, cap, rel) != 0)
+        return NULL;
+    st_set *s;
+    st_error e = {0};
+    if (st_ptex_read_file(path, 0, &s, &e) != 0) {
+        print_message("%s: %s\n", path, e.msg);
+        fail();
+    }
+    return s;
+}
+
 static void overhanging_kernels_match_the_general_walk(void **state)
 {
     (void)state;
@@ -129,14 +144,9 @@ static void overhanging_kernels_match_the_general_walk(void **state)
     int found = 0;
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         char path[1024];
-        if (st_test_data_path(path, sizeof path, files[i]) != 0)
+        st_set *s = read_shared(files[i], path, sizeof path);
+        if (!s)
             continue;
-        st_set *s;
-        st_error e = {0};
-        if (st_ptex_read_file(path, 0, &s, &e) != 0) {
-            print_message("%s: %s\n", path, e.msg);
-            fail();
-        }
         found++;
         edge_queries(s, q);
         compared += compare_paths(s, q, path); /* also builds the table */
@@ -185,14 +195,9 @@ static void boundary_folds_and_valence3_corners_match_the_general_path(void **st
     int found = 0;
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         char path[1024];
-        if (st_test_data_path(path, sizeof path, files[i]) != 0)
+        st_set *s = read_shared(files[i], path, sizeof path);
+        if (!s)
             continue;
-        st_set *s;
-        st_error e = {0};
-        if (st_ptex_read_file(path, 0, &s, &e) != 0) {
-            print_message("%s: %s\n", path, e.msg);
-            fail();
-        }
         found++;
         edge_queries(s, q);
         compared += compare_filters(s, q, path, filters, nf);
