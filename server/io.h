@@ -60,6 +60,10 @@ struct sts_conn {
     uint32_t  next_total;    /* the length of the last whole frame when it was a SAMPLE of
                                 SPLIT_MIN bytes or more, else 0: where a read into an empty
                                 buffer is split (the client repeats its batches) */
+    uint32_t  read_hint;     /* room the first read of a wake-up is offered (0 = the default):
+                                what the last wake-up read when that took more than one read
+                                of the default room (io.c, conn_readable) */
+    uint32_t  wake_bytes;    /* bytes read so far in this wake-up (conn_readable) */
     struct sts_shm_conn *shm;  /* shm.c: descriptors held and the mapped region; NULL = none */
     sts_conn *prev, *next;   /* the I/O thread's list (idle scan, drain) */
 };
