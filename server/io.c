@@ -5,7 +5,8 @@
  * what a request means (dispatch.c and the handlers), the worker queue (workers.c).
  *
  * Per wake-up a readable connection gets one read of up to the free input space (at least
- * 16 KiB; another, up to READS_MAX in all, while a read fills all the room it was offered),
+ * 16 KiB, or what the last wake-up read when that was more than the default room: read_hint;
+ * another, up to READS_MAX in all, while a read fills all the room it was offered),
  * every complete frame in the buffer is parsed and answered into the output buffer, then
  * the output is written with one send: a pipelined burst of N requests costs one read and
  * one write, not N (once 64 KiB of replies are pending they are sent at once, so a
