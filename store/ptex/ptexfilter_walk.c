@@ -95,8 +95,11 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
         v = t[0], vw = t[1], rv = t[2];
     }
     int resu = 1 << ru;
-    if (u < 0 || v < 0 || u + uw > resu || v + vw > (1 << rv))
-        return 1; /* outside the face: apply's guard against bad input */
+    /* outside the face: apply's guard against bad input (u < 0 or u + uw > resu, uw >= 1,
+     * as one unsigned compare: a negative u is 2^31 or more as unsigned) */
+    if ((uint64_t)(uint32_t)u + (uint32_t)uw > (uint64_t)(uint32_t)resu ||
+        (uint64_t)(uint32_t)v + (uint32_t)vw > (uint64_t)(1u << rv))
+        return 1;
     const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
     size_t rowb = (size_t)resu * w->ts;
     const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
@@ -276,6 +279,16 @@ __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int 
     const st_face *faces = s->w->faces;
     const st_face *A = &faces[f];
     int a1 = A->adjface[eid];
+    /* a regular vertex (the set's cornerface: the same four steps back to (f, eid), from the
+     * adjacency, which does not change): its faces are f, a1, the diagonal face and f's
+     * neighbour across the edge before eid; the loop's tests that remain are the subface
+     * flags (f is not one), which may change after the set is made */
+    int dg = A->cornerface[eid];
+    if (__builtin_expect(dg >= 0, 1)) {
+        if (subface(s->w, a1) || subface(s->w, dg) || subface(s->w, A->adjface[(eid + 3) & 3]))
+            goto other;
+        return put(s, &kc, eid - A->cornercorner[eid] + 2, dg);
+    }
     if (a1 < 0)
         goto other;
     int e1 = (A->adjedge[eid] + 1) % 4;
