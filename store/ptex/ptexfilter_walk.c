@@ -385,6 +385,31 @@ __attribute__((noinline)) static int walk_one(const pf_walk *w, const pk *k0, in
     return 1;
 }
 
+/* The walk of a kernel that overhangs one u edge (the high one when hu, as split_hi; else
+ * the low one) and one v edge (hv), each to a neighbour: walk_all's steps for that case in
+ * its order (the side's corner piece, the side's edge piece, the v edge's piece, the rest on
+ * f), in a function of its own with a small frame (no folds, one side, one corner). */
+__attribute__((noinline)) static int walk_two(const pf_walk *w, const pk *k0, int f, int sides,
+                                              pf_v4 *acc, float *weight)
+{
+    int hu = sides & 1, hv = sides >> 1; /* six arguments: the caller's call is a jump */
+    pw_state s = {w, *acc, *weight};
+    pw k = {{k0->ulog2, k0->vlog2}, {k0->u, k0->v}, {k0->uw, k0->vw},
+            {k0->kub + k0->ku0, k0->kvb + k0->kv0}};
+    pw ka = hu ? split_hi(&k, 0) : split_lo(&k, 0);
+    pw kc = hv ? split_hi(&ka, 1) : split_lo(&ka, 1);
+    /* side()'s corner: 2 (hu, hv), 1 (hu, low v), 3 (low u, hv), 0 */
+    int c = hu ? 2 - !hv : 3 * !!hv;
+    if (!corner(&s, kc, f, c) || !edge(&s, ka, f, hu ? 1 : 3))
+        return 0;
+    pw kb = hv ? split_hi(&k, 1) : split_lo(&k, 1);
+    if (!edge(&s, kb, f, hv ? 2 : 0) || !put(&s, &k, 0, f))
+        return 0;
+    *acc = s.acc;
+    *weight = s.weight;
+    return 1;
+}
+
 __attribute__((noinline)) static int walk_all(const pf_walk *w, const pk *k0, int f,
                                               pf_v4 *acc, float *weight)
 {
@@ -525,10 +550,17 @@ __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int
 
 int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
-    int eid = one_edge(w, k0, f);
-    if (eid >= 0)
-        return walk_one(w, k0, f, eid, acc);
+    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    int sr = k0->u + k0->uw > resu, sl = k0->u < 0;
+    int st = k0->v + k0->vw > resv, sb = k0->v < 0;
     const int *adj = w->faces[f].adjface;
+    int nu = sr + sl, nv = st + sb;
+    if (nu + nv == 1) { /* one edge (one_edge's test) */
+        int eid = sr ? 1 : sl ? 3 : st ? 2 : 0;
+        if (adj[eid] >= 0)
+            return walk_one(w, k0, f, eid, acc);
+    } else if (nu == 1 && nv == 1 && adj[sr ? 1 : 3] >= 0 && adj[st ? 2 : 0] >= 0)
+        return walk_two(w, k0, f, sr | st << 1, acc, weight);
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, acc, weight);
     return walk_all(w, k0, f, acc, weight);
