@@ -291,6 +291,15 @@ __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int 
             goto other;
         return put(s, &kc, eid - A->cornercorner[eid] + 2, dg);
     }
+    /* a vertex of valence 3 inside the mesh (the set's valence: 3 steps back to (f, eid),
+     * none before; its faces f, a1 and f's neighbour across the edge before eid): the
+     * piece dropped, its weight removed, as below, when neither is a subface */
+    if (A->valence[eid] == 3) {
+        if (subface(s->w, a1) || subface(s->w, A->adjface[(eid + 3) & 3]))
+            goto other;
+        s->weight -= pk_accumulate(kc.k[0], kc.n[0]) * pk_accumulate(kc.k[1], kc.n[1]);
+        return 1;
+    }
     if (a1 < 0)
         goto other;
     int e1 = (A->adjedge[eid] + 1) % 4;
