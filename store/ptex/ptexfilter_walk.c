@@ -562,17 +562,30 @@ __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int
 int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
     int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
-    int sr = k0->u + k0->uw > resu, sl = k0->u < 0;
-    int st = k0->v + k0->vw > resv, sb = k0->v < 0;
+    /* the edges the kernel overhangs: right 1, left 2, top 4, bottom 8 */
+    unsigned m = (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
+                 (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
     const int *adj = w->faces[f].adjface;
-    int nu = sr + sl, nv = st + sb;
-    if (nu + nv == 1) { /* one edge (one_edge's test) */
-        int eid = sr ? 1 : sl ? 3 : st ? 2 : 0;
-        if (adj[eid] >= 0)
-            return walk_one(w, k0, f, eid, acc);
-    } else if (nu == 1 && nv == 1 && adj[sr ? 1 : 3] >= 0 && adj[st ? 2 : 0] >= 0)
-        return walk_two(w, k0, f, sr | st << 1, acc, weight);
+    switch (m) { /* one edge (one_edge's test), or one u edge and one v edge, to neighbours;
+                  * an overhung edge without one: f is at a mesh boundary */
+    case 1: return adj[1] >= 0 ? walk_one(w, k0, f, 1, acc) : walk_boundary(w, k0, f, acc, weight);
+    case 2: return adj[3] >= 0 ? walk_one(w, k0, f, 3, acc) : walk_boundary(w, k0, f, acc, weight);
+    case 4: return adj[2] >= 0 ? walk_one(w, k0, f, 2, acc) : walk_boundary(w, k0, f, acc, weight);
+    case 8: return adj[0] >= 0 ? walk_one(w, k0, f, 0, acc) : walk_boundary(w, k0, f, acc, weight);
+    case 5: return (adj[1] | adj[2]) >= 0 ? walk_two(w, k0, f, 3, acc, weight)
+                                          : walk_boundary(w, k0, f, acc, weight);
+    case 6: return (adj[3] | adj[2]) >= 0 ? walk_two(w, k0, f, 2, acc, weight)
+                                          : walk_boundary(w, k0, f, acc, weight);
+    case 9: return (adj[1] | adj[0]) >= 0 ? walk_two(w, k0, f, 1, acc, weight)
+                                          : walk_boundary(w, k0, f, acc, weight);
+    case 10: return (adj[3] | adj[0]) >= 0 ? walk_two(w, k0, f, 0, acc, weight)
+                                           : walk_boundary(w, k0, f, acc, weight);
+    default: break;
+    }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, acc, weight);
     return walk_all(w, k0, f, acc, weight);
 }
+
+
+
