@@ -68,10 +68,52 @@ __attribute__((noinline)) static const float *shrink(float *buf, const float *sr
     return buf;
 }
 
+/* The window (u, v, uw, vw) at resolution (ru, rv) with weights ku, kv on face af (F), at
+ * the face's resolution or below it, inside it (put_face's checks made): summed into
+ * s->acc. */
+__attribute__((always_inline)) static inline void put_window(pw_state *s, int ru, int rv,
+                                                             int u, int v, int uw, int vw,
+                                                             const float *ku, const float *kv,
+                                                             int af, const st_face *F)
+{
+    const pf_walk *w = s->w;
+    int resu = 1 << ru;
+    const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
+    size_t rowb = (size_t)resu * w->ts;
+    const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
+    pf_window_fn fn = uw <= 2 && vw <= 2 ? w->small : w->win;
+    s->acc = fn(base, rowb, ku, uw, kv, vw, s->acc);
+}
+
+/* put_face for a face smaller than the window's resolution along an axis: the weights
+ * reduced to the face's resolution as apply does, then the guard and the window. Out of
+ * line (rare): its buffers stay out of the walks' frames. */
+__attribute__((noinline)) static void put_reduced(pw_state *s, int ru, int rv, int u, int v,
+                                                  int uw, int vw, const float *ku,
+                                                  const float *kv, int af)
+{
+    const st_face *F = &s->w->faces[af];
+    float rbu[PK_MAX], rbv[PK_MAX];
+    if (ru > F->ulog2) {
+        int t[3] = {u, uw, ru};
+        ku = shrink(rbu, ku, t, F->ulog2);
+        u = t[0], uw = t[1], ru = t[2];
+    }
+    if (rv > F->vlog2) {
+        int t[3] = {v, vw, rv};
+        kv = shrink(rbv, kv, t, F->vlog2);
+        v = t[0], vw = t[1], rv = t[2];
+    }
+    if (u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv))
+        return; /* outside the face: apply's guard against bad input */
+    put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
+}
+
 /* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
  * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
- * smaller, the window summed into s->acc. 0: a constant face (declined). Scalars, not a
- * struct, so that they stay in registers. */
+ * smaller (put_reduced, out of line, in the walks; sg, the fold: inline), the window summed
+ * into s->acc. 0: a constant face (declined). Scalars, not a struct, so that they stay in
+ * registers. */
 __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
                                                           int v, int uw, int vw,
                                                           const float *ku, const float *kv,
@@ -79,34 +121,33 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
 {
     if (uw <= 0 || vw <= 0)
         return 1;
-    const pf_walk *w = s->w;
-    const st_face *F = &w->faces[af];
+    const st_face *F = &s->w->faces[af];
     if (F->flags & ST_FACE_CONSTANT)
         return 0;
     float rbu[PK_MAX], rbv[PK_MAX];
-    if (__builtin_expect(ru > F->ulog2, 0)) { /* a smaller face: reduced as apply does */
-        int t[3] = {u, uw, ru};
-        ku = shrink(rbu, ku, t, F->ulog2);
-        u = t[0], uw = t[1], ru = t[2];
+    if (sg) { /* the fold: reduced inline (fewer instructions in its frame) */
+        if (__builtin_expect(ru > F->ulog2, 0)) {
+            int t[3] = {u, uw, ru};
+            ku = shrink(rbu, ku, t, F->ulog2);
+            u = t[0], uw = t[1], ru = t[2];
+        }
+        if (__builtin_expect(rv > F->vlog2, 0)) {
+            int t[3] = {v, vw, rv};
+            kv = shrink(rbv, kv, t, F->vlog2);
+            v = t[0], vw = t[1], rv = t[2];
+        }
+    } else if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
+        put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
+        return 1;
     }
-    if (__builtin_expect(rv > F->vlog2, 0)) {
-        int t[3] = {v, vw, rv};
-        kv = shrink(rbv, kv, t, F->vlog2);
-        v = t[0], vw = t[1], rv = t[2];
-    }
-    int resu = 1 << ru;
     /* outside the face: apply's guard against bad input (u < 0 or u + uw > resu, uw >= 1;
      * in the walk as one unsigned compare per axis, a negative u being 2^31 or more as
      * unsigned; sg: the signed compares, fewer instructions in the fold's frame) */
-    if (sg ? u < 0 || v < 0 || u + uw > resu || v + vw > (1 << rv)
-           : (uint64_t)(uint32_t)u + (uint32_t)uw > (uint64_t)(uint32_t)resu ||
+    if (sg ? u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv)
+           : (uint64_t)(uint32_t)u + (uint32_t)uw > (uint64_t)(1u << ru) ||
                  (uint64_t)(uint32_t)v + (uint32_t)vw > (uint64_t)(1u << rv))
         return 1;
-    const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
-    size_t rowb = (size_t)resu * w->ts;
-    const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
-    pf_window_fn fn = uw <= 2 && vw <= 2 ? w->small : w->win;
-    s->acc = fn(base, rowb, ku, uw, kv, vw, s->acc);
+    put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
     return 1;
 }
 
