@@ -81,7 +81,7 @@ __attribute__((always_inline)) static inline void put_window(pw_state *s, int ru
     const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
     size_t rowb = (size_t)resu * w->ts;
     const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
-    pf_window_fn fn = uw <= 2 && vw <= 2 ? w->small : w->win;
+    pf_window_fn fn = (((uint32_t)uw - 1u) | ((uint32_t)vw - 1u)) < 2u ? w->small : w->win;
     s->acc = fn(base, rowb, ku, uw, kv, vw, s->acc);
 }
 
@@ -140,12 +140,13 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
         put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
         return 1;
     }
-    /* outside the face: apply's guard against bad input (u < 0 or u + uw > resu, uw >= 1;
-     * in the walk as one unsigned compare per axis, a negative u being 2^31 or more as
-     * unsigned; sg: the signed compares, fewer instructions in the fold's frame) */
+    /* outside the face: apply's guard against bad input (u < 0 or u + uw > 2^ru, uw >= 1;
+     * in the walk as bits: u and its last texel u + uw - 1 both below 2^ru, a negative u
+     * having its top bit set as unsigned, ru <= 30; sg: the signed compares, fewer
+     * instructions in the fold's frame) */
     if (sg ? u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv)
-           : (uint64_t)(uint32_t)u + (uint32_t)uw > (uint64_t)(1u << ru) ||
-                 (uint64_t)(uint32_t)v + (uint32_t)vw > (uint64_t)(1u << rv))
+           : ((((uint32_t)u | ((uint32_t)u + (uint32_t)uw - 1u)) >> ru) |
+              (((uint32_t)v | ((uint32_t)v + (uint32_t)vw - 1u)) >> rv)) != 0)
         return 1;
     put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
     return 1;
