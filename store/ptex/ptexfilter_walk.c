@@ -160,6 +160,9 @@ __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, i
     /* the flipped starts, in the cases that flip (rot 0, the commonest, needs neither) */
 #define PW_FU ((1 << p->lg[0]) - p->at[0] - p->n[0])
 #define PW_FV ((1 << p->lg[1]) - p->at[1] - p->n[1])
+    if (__builtin_expect(!(rot & 3), 1)) /* tested first: the switch's compares come after */
+        return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
+                        p->k[1], af, 0);
     switch (rot & 3) {
     case 1: /* flip_u, swap_uv */
         reversed(tv, p->k[0], p->n[0]);
@@ -169,16 +172,13 @@ __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, i
         reversed(tu, p->k[0], p->n[0]);
         reversed(tv, p->k[1], p->n[1]);
         return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af, 0);
-    case 3: /* flip_v, swap_uv */
+    default: /* 3: flip_v, swap_uv */
         reversed(tu, p->k[1], p->n[1]);
         return put_face(s, p->lg[1], p->lg[0], PW_FV, p->at[0], p->n[1], p->n[0], tu, p->k[0],
                         af, 0);
+    }
 #undef PW_FU
 #undef PW_FV
-    default:
-        return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
-                        p->k[1], af, 0);
-    }
 }
 
 /* ---- splits and folds (pk_split_*, pk_merge_*) along axis a ----------------------------- */
