@@ -7,7 +7,9 @@
  * are moved, reversed and swapped (no arithmetic), folds add the overhang's sum (summed in
  * order) to the edge weight, reductions add pairs, and each piece's window sum goes through
  * the same window loop, pieces in the walk's order. Corners of a vertex of valence other
- * than 4 go through the pk operations themselves on a pk copy (they are rare).
+ * than 3 or 4 go through the pk operations themselves on a pk copy (they are rare). A
+ * piece's window goes through put (rotation 0 first), put_face (constant face, reductions
+ * out of line in put_reduced, the guard) and put_window (the table and the window call).
  * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window.
  */
 #include "ptexfilter_walk.h"
