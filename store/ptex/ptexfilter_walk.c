@@ -7,7 +7,9 @@
  * are moved, reversed and swapped (no arithmetic), folds add the overhang's sum (summed in
  * order) to the edge weight, reductions add pairs, and each piece's window sum goes through
  * the same window loop, pieces in the walk's order. Corners of a vertex of valence other
- * than 4 go through the pk operations themselves on a pk copy (they are rare).
+ * than 3 or 4 go through the pk operations themselves on a pk copy (they are rare). A
+ * piece's window goes through put (rotation 0 first), put_face (constant face, reductions
+ * out of line in put_reduced, the guard) and put_window (the table and the window call).
  * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window.
  */
 #include "ptexfilter_walk.h"
@@ -68,40 +70,87 @@ __attribute__((noinline)) static const float *shrink(float *buf, const float *sr
     return buf;
 }
 
-/* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
- * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
- * smaller, the window summed into s->acc. 0: a constant face (declined). Scalars, not a
- * struct, so that they stay in registers. */
-__attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
-                                                          int v, int uw, int vw,
-                                                          const float *ku, const float *kv,
-                                                          int af)
+/* The window (u, v, uw, vw) at resolution (ru, rv) with weights ku, kv on face af (F), at
+ * the face's resolution or below it, inside it (put_face's checks made): summed into
+ * s->acc. */
+__attribute__((always_inline)) static inline void put_window(pw_state *s, int ru, int rv,
+                                                             int u, int v, int uw, int vw,
+                                                             const float *ku, const float *kv,
+                                                             int af, const st_face *F)
 {
-    if (uw <= 0 || vw <= 0)
-        return 1;
     const pf_walk *w = s->w;
-    const st_face *F = &w->faces[af];
-    if (F->flags & ST_FACE_CONSTANT)
-        return 0;
+    int resu = 1 << ru;
+    const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
+    size_t rowb = (size_t)resu * w->ts;
+    const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
+    pf_window_fn fn = (((uint32_t)uw - 1u) | ((uint32_t)vw - 1u)) < 2u ? w->small : w->win;
+    s->acc = fn(base, rowb, ku, uw, kv, vw, s->acc);
+}
+
+/* put_face for a face smaller than the window's resolution along an axis: the weights
+ * reduced to the face's resolution as apply does, then the guard and the window. Out of
+ * line (rare): its buffers stay out of the walks' frames. */
+__attribute__((noinline)) static void put_reduced(pw_state *s, int ru, int rv, int u, int v,
+                                                  int uw, int vw, const float *ku,
+                                                  const float *kv, int af)
+{
+    const st_face *F = &s->w->faces[af];
     float rbu[PK_MAX], rbv[PK_MAX];
-    if (__builtin_expect(ru > F->ulog2, 0)) { /* a smaller face: reduced as apply does */
+    if (ru > F->ulog2) {
         int t[3] = {u, uw, ru};
         ku = shrink(rbu, ku, t, F->ulog2);
         u = t[0], uw = t[1], ru = t[2];
     }
-    if (__builtin_expect(rv > F->vlog2, 0)) {
+    if (rv > F->vlog2) {
         int t[3] = {v, vw, rv};
         kv = shrink(rbv, kv, t, F->vlog2);
         v = t[0], vw = t[1], rv = t[2];
     }
-    int resu = 1 << ru;
-    if (u < 0 || v < 0 || u + uw > resu || v + vw > (1 << rv))
-        return 1; /* outside the face: apply's guard against bad input */
-    const uint8_t *d = w->px[w->base[af] + (size_t)ru * (F->vlog2 + 1u) + (size_t)rv];
-    size_t rowb = (size_t)resu * w->ts;
-    const uint8_t *base = d + ((size_t)v * (size_t)resu + (size_t)u) * w->ts;
-    pf_window_fn fn = uw <= 2 && vw <= 2 ? w->small : w->win;
-    s->acc = fn(base, rowb, ku, uw, kv, vw, s->acc);
+    if (u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv))
+        return; /* outside the face: apply's guard against bad input */
+    put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
+}
+
+/* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
+ * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
+ * smaller (put_reduced, out of line, in the walks; sg, the fold: inline), the window summed
+ * into s->acc. 0: a constant face (declined). Scalars, not a struct, so that they stay in
+ * registers. */
+__attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
+                                                          int v, int uw, int vw,
+                                                          const float *ku, const float *kv,
+                                                          int af, int sg)
+{
+    if (uw <= 0 || vw <= 0)
+        return 1;
+    const st_face *F = &s->w->faces[af];
+    if (F->flags & ST_FACE_CONSTANT)
+        return 0;
+    float rbu[PK_MAX], rbv[PK_MAX];
+    if (sg) { /* the fold: reduced inline (fewer instructions in its frame) */
+        if (__builtin_expect(ru > F->ulog2, 0)) {
+            int t[3] = {u, uw, ru};
+            ku = shrink(rbu, ku, t, F->ulog2);
+            u = t[0], uw = t[1], ru = t[2];
+        }
+        if (__builtin_expect(rv > F->vlog2, 0)) {
+            int t[3] = {v, vw, rv};
+            kv = shrink(rbv, kv, t, F->vlog2);
+            v = t[0], vw = t[1], rv = t[2];
+        }
+    } else if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
+        put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
+        return 1;
+    }
+    /* outside the face: apply's guard against bad input (u < 0 or u + uw > 2^ru, uw >= 1;
+     * in the walk as bits: u and its last texel u + uw - 1 both below 2^ru, a negative u
+     * having its top bit set as unsigned, ru <= 30; sg: the signed compares, fewer
+     * instructions in the fold's frame) */
+    if (sg ? u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv)
+           : ((((uint32_t)u | ((uint32_t)u + (uint32_t)uw - 1u)) >> ru) |
+              (((uint32_t)v | ((uint32_t)v + (uint32_t)vw - 1u)) >> rv)) != 0)
+        return 1;
+    put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
     return 1;
 }
 
@@ -113,25 +162,25 @@ __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, i
     /* the flipped starts, in the cases that flip (rot 0, the commonest, needs neither) */
 #define PW_FU ((1 << p->lg[0]) - p->at[0] - p->n[0])
 #define PW_FV ((1 << p->lg[1]) - p->at[1] - p->n[1])
+    if (__builtin_expect(!(rot & 3), 1)) /* tested first: the switch's compares come after */
+        return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
+                        p->k[1], af, 0);
     switch (rot & 3) {
     case 1: /* flip_u, swap_uv */
         reversed(tv, p->k[0], p->n[0]);
         return put_face(s, p->lg[1], p->lg[0], p->at[1], PW_FU, p->n[1], p->n[0], p->k[1], tv,
-                        af);
+                        af, 0);
     case 2: /* flip_u, flip_v */
         reversed(tu, p->k[0], p->n[0]);
         reversed(tv, p->k[1], p->n[1]);
-        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af);
-    case 3: /* flip_v, swap_uv */
+        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af, 0);
+    default: /* 3: flip_v, swap_uv */
         reversed(tu, p->k[1], p->n[1]);
         return put_face(s, p->lg[1], p->lg[0], PW_FV, p->at[0], p->n[1], p->n[0], tu, p->k[0],
-                        af);
+                        af, 0);
+    }
 #undef PW_FU
 #undef PW_FV
-    default:
-        return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
-                        p->k[1], af);
-    }
 }
 
 /* ---- splits and folds (pk_split_*, pk_merge_*) along axis a ----------------------------- */
@@ -276,6 +325,25 @@ __attribute__((always_inline)) static inline int corner(pw_state *s, pw kc, int 
     const st_face *faces = s->w->faces;
     const st_face *A = &faces[f];
     int a1 = A->adjface[eid];
+    /* a regular vertex (the set's cornerface: the same four steps back to (f, eid), from the
+     * adjacency, which does not change): its faces are f, a1, the diagonal face and f's
+     * neighbour across the edge before eid; the loop's tests that remain are the subface
+     * flags (f is not one), which may change after the set is made */
+    int dg = A->cornerface[eid];
+    if (__builtin_expect(dg >= 0, 1)) {
+        if (subface(s->w, a1) || subface(s->w, dg) || subface(s->w, A->adjface[(eid + 3) & 3]))
+            goto other;
+        return put(s, &kc, eid - A->cornercorner[eid] + 2, dg);
+    }
+    /* a vertex of valence 3 inside the mesh (the set's valence: 3 steps back to (f, eid),
+     * none before; its faces f, a1 and f's neighbour across the edge before eid): the
+     * piece dropped, its weight removed, as below, when neither is a subface */
+    if (A->valence[eid] == 3) {
+        if (subface(s->w, a1) || subface(s->w, A->adjface[(eid + 3) & 3]))
+            goto other;
+        s->weight -= pk_accumulate(kc.k[0], kc.n[0]) * pk_accumulate(kc.k[1], kc.n[1]);
+        return 1;
+    }
     if (a1 < 0)
         goto other;
     int e1 = (A->adjedge[eid] + 1) % 4;
@@ -369,6 +437,31 @@ __attribute__((noinline)) static int walk_one(const pf_walk *w, const pk *k0, in
     if (!edge(&s, ka, f, eid) || !put(&s, &k, 0, f))
         return 0;
     *acc = s.acc;
+    return 1;
+}
+
+/* The walk of a kernel that overhangs one u edge (the high one when hu, as split_hi; else
+ * the low one) and one v edge (hv), each to a neighbour: walk_all's steps for that case in
+ * its order (the side's corner piece, the side's edge piece, the v edge's piece, the rest on
+ * f), in a function of its own with a small frame (no folds, one side, one corner). */
+__attribute__((noinline)) static int walk_two(const pf_walk *w, const pk *k0, int f, int sides,
+                                              pf_v4 *acc, float *weight)
+{
+    int hu = sides & 1, hv = sides >> 1; /* six arguments: the caller's call is a jump */
+    pw_state s = {w, *acc, *weight};
+    pw k = {{k0->ulog2, k0->vlog2}, {k0->u, k0->v}, {k0->uw, k0->vw},
+            {k0->kub + k0->ku0, k0->kvb + k0->kv0}};
+    pw ka = hu ? split_hi(&k, 0) : split_lo(&k, 0);
+    pw kc = hv ? split_hi(&ka, 1) : split_lo(&ka, 1);
+    /* side()'s corner: 2 (hu, hv), 1 (hu, low v), 3 (low u, hv), 0 */
+    int c = hu ? 2 - !hv : 3 * !!hv;
+    if (!corner(&s, kc, f, c) || !edge(&s, ka, f, hu ? 1 : 3))
+        return 0;
+    pw kb = hv ? split_hi(&k, 1) : split_lo(&k, 1);
+    if (!edge(&s, kb, f, hv ? 2 : 0) || !put(&s, &k, 0, f))
+        return 0;
+    *acc = s.acc;
+    *weight = s.weight;
     return 1;
 }
 
@@ -480,7 +573,7 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     if (discard)
         *weight = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);
     pw_state s = {w, *acc, 0.0f};
-    put_face(&s, k0->ulog2, k0->vlog2, u, v, uw, vw, ku, kv, f); /* f is not constant: 1 */
+    put_face(&s, k0->ulog2, k0->vlog2, u, v, uw, vw, ku, kv, f, 1); /* f not constant: 1 */
     *acc = s.acc;
     return 1;
 }
@@ -512,10 +605,25 @@ __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int
 
 int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
-    int eid = one_edge(w, k0, f);
-    if (eid >= 0)
-        return walk_one(w, k0, f, eid, acc);
+    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    /* the edges the kernel overhangs: right 1, left 2, top 4, bottom 8 */
+    unsigned m = (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
+                 (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
     const int *adj = w->faces[f].adjface;
+    /* one edge (one_edge's test) or one u edge and one v edge, to neighbours (an overhung
+     * edge without one: f is at a mesh boundary); tables, not a switch: its jump table's
+     * indirect branch mispredicted (callgrind --branch-sim: 0.5 more a query on envcube) */
+    static const signed char one[16] = {-1, 1, 3, -1, 2, -1, -1, -1, 0, -1, -1, -1, -1, -1,
+                                        -1, -1};
+    static const signed char two[16] = {-1, -1, -1, -1, -1, 3, 2, -1, -1, 1, 0, -1, -1, -1,
+                                        -1, -1};
+    int e = one[m], t = two[m];
+    if (e >= 0)
+        return adj[e] >= 0 ? walk_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, acc, weight);
+    if (t >= 0)
+        return (adj[t & 1 ? 1 : 3] | adj[t & 2 ? 2 : 0]) >= 0
+                   ? walk_two(w, k0, f, t, acc, weight)
+                   : walk_boundary(w, k0, f, acc, weight);
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, acc, weight);
     return walk_all(w, k0, f, acc, weight);

@@ -14,9 +14,13 @@
  * caller then runs the general walk from the start (nothing it wrote counts). A kernel that
  * overhangs one edge only (80% of the walks of the teapot's box at 4 texels) takes a
  * function of its own with the two pieces (walk_one: a small frame, where the whole walk
- * keeps every side's state across its window calls). pf_walk_kernel is what the filter
- * calls: that one-edge walk on any face, the fold where no overhung edge has a neighbour, the
- * whole walk otherwise.
+ * keeps every side's state across its window calls); one that overhangs one u edge and one
+ * v edge, each to a neighbour (most of the teapot's kernels at 16 texels), takes walk_two
+ * (the same steps, one side, one corner). A regular corner's diagonal face is the set's
+ * cornerface and a corner of valence 3 is read from its valence (the adjacency does not
+ * change; the subface flags, which may, are tested at run time). pf_walk_kernel is what the
+ * filter calls: those walks on any face, the fold where no overhung edge has a neighbour,
+ * the whole walk otherwise.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
@@ -52,7 +56,8 @@ typedef struct pf_walk {
 int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *weight);
 
 /* What ptexfilter.c's walk() and kernel_walk_w call in Traverse: a kernel that overhangs
- * one edge of f only, into a neighbour there, takes the one-edge walk (walk_one); one of a
+ * one edge of f only, into a neighbour there, takes the one-edge walk (walk_one), one that
+ * overhangs one u and one v edge, into neighbours there, walk_two; one of a
  * face at a mesh boundary none of whose overhung edges has a neighbour takes pf_walk_fold
  * with the border modes' black (split_walk then only merges: k's weights are merged in place
  * when it returns 1, as pk_merge_* would leave them); any other the whole walk

@@ -217,6 +217,58 @@ static void boundary_folds_and_valence3_corners_match_the_general_path(void **st
     print_message("%d files, %ld queries compared\n", found, compared);
 }
 
+/* Session 15 (walk8): a kernel that overhangs one u edge and one v edge, each to a
+ * neighbour, takes walk_two (ptexfilter_walk.c), and a regular corner's diagonal face comes
+ * from the set's cornerface (its subface flags tested at run time). Queries as bench_ptex
+ * makes them (uniform face and (u, v), footprints of 2 to 24 level-0 texels, isotropic and
+ * not: at 4 and more most of the teapot's kernels overhang two edges), on files with mixed
+ * face sizes (teapot: reductions), rotated neighbours (cube8_k6_u8_rot, cube8_k7varrot_f32),
+ * vertices of valence 3 (cube1_k6_u8) and 5 (holeycube); every kernel filter in every mode,
+ * then with a tenth of the faces flagged subface and, separately, constant (after the table
+ * and the corners are made: the cornerface of a vertex with a subface is still set, so the
+ * run-time test must send it back to the general walk). Against the general path. */
+static void two_edge_kernels_match_the_general_walk(void **state)
+{
+    (void)state;
+    static const char *files[] = {
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+        "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
+        "ptex-ref/cube8_k6_u8_rot.ptx",
+        "ptex-ref/cube8_k7varrot_f32.ptx",
+        "ptex-ref/cube1_k6_u8.ptx",
+    };
+    static const float fps[] = {2.0f, 3.0f, 4.0f, 6.0f, 8.0f, 12.0f, 16.0f, 24.0f};
+    static st_query q[NQ];
+    long compared = 0;
+    int found = 0;
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        char path[1024];
+        st_set *s = read_shared(files[i], path, sizeof path);
+        if (!s)
+            continue;
+        found++;
+        for (int j = 0; j < NQ; j++) {
+            uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+            const st_face *F = &s->faces[f];
+            float fu = fps[(int)(rnd01() * 8) & 7];
+            float fv = j % 3 == 1 ? fps[(int)(rnd01() * 8) & 7] : fu;
+            q[j] = (st_query){.face = f, .u = rnd01(), .v = rnd01(),
+                              .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
+        }
+        compared += compare_paths(s, q, path);
+        flag_faces(s, ST_FACE_SUBFACE, 0);
+        compared += compare_paths(s, q, path);
+        flag_faces(s, ST_FACE_CONSTANT, ST_FACE_SUBFACE);
+        compared += compare_paths(s, q, path);
+        st_set_free(s);
+    }
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared\n", found, compared);
+}
+
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives
  * st_half_to_float's bits for every one of the 65536 halves, in every lane, and zeros the
  * lanes past the channel count. */
@@ -250,6 +302,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(overhanging_kernels_match_the_general_walk),
         cmocka_unit_test(boundary_folds_and_valence3_corners_match_the_general_path),
+        cmocka_unit_test(two_edge_kernels_match_the_general_walk),
         cmocka_unit_test(half_loads_match_the_scalar_conversion_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
