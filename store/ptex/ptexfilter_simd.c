@@ -334,12 +334,32 @@ PF_TARGET void put_scaled(float *out, __m128 acc, float scale, unsigned NC)
         out[ch] = r[ch] * scale;
 }
 
+/* window_dt with rows of 1 to 4 texels (the pieces of the walked 4 x 4 and box kernels, most
+ * windows of pf_window_select's callers) as constants: the same window() on the same values
+ * (window_dt gives it its vector count (uw NC + 7) / 8 too, out of line from 2 on), so the
+ * same bits, with the row's masks and column weights made from constants and the 2-vector
+ * rows of 4-channel texels inline (no call, no stack frame for window_long's column sums).
+ * Longer rows and 3 channels (window_dt unrolls those itself) go to window_dt. */
+PF_TARGET __m128 window_piece(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
+                              const float *ku, int uw, const float *kv, int vw, __m128 acc)
+{
+    if (NC == 3)
+        return window_dt(base, rowb, DT, NC, ku, uw, kv, vw, acc);
+    switch (uw) {
+    case 1: return window(base, rowb, DT, NC, ku, 1, kv, vw, 1, acc);
+    case 2: return window(base, rowb, DT, NC, ku, 2, kv, vw, ((int)NC * 2 + 7) / 8, acc);
+    case 3: return window(base, rowb, DT, NC, ku, 3, kv, vw, ((int)NC * 3 + 7) / 8, acc);
+    case 4: return window(base, rowb, DT, NC, ku, 4, kv, vw, ((int)NC * 4 + 7) / 8, acc);
+    default: return window_dt(base, rowb, DT, NC, ku, uw, kv, vw, acc);
+    }
+}
+
 #define PF_WIN(DT, NC)                                                                      \
     __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_win_##DT##_##NC(               \
         const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
         pf_v4 acc)                                                                          \
     {                                                                                       \
-        return (pf_v4)window_dt(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);           \
+        return (pf_v4)window_piece(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);        \
     }
 #define PF_WIN_NC(DT) PF_WIN(DT, 1) PF_WIN(DT, 2) PF_WIN(DT, 3) PF_WIN(DT, 4)
 PF_WIN_NC(0)
