@@ -334,12 +334,32 @@ PF_TARGET void put_scaled(float *out, __m128 acc, float scale, unsigned NC)
         out[ch] = r[ch] * scale;
 }
 
+/* window_dt with rows of 1 to 4 texels (the pieces of the walked 4 x 4 and box kernels, most
+ * windows of pf_window_select's callers) as constants: the same window() on the same values
+ * (window_dt gives it its vector count (uw NC + 7) / 8 too, out of line from 2 on), so the
+ * same bits, with the row's masks and column weights made from constants and the 2-vector
+ * rows of 4-channel texels inline (no call, no stack frame for window_long's column sums).
+ * Longer rows and 3 channels (window_dt unrolls those itself) go to window_dt. */
+PF_TARGET __m128 window_piece(const uint8_t *base, size_t rowb, unsigned DT, unsigned NC,
+                              const float *ku, int uw, const float *kv, int vw, __m128 acc)
+{
+    if (NC == 3)
+        return window_dt(base, rowb, DT, NC, ku, uw, kv, vw, acc);
+    switch (uw) {
+    case 1: return window(base, rowb, DT, NC, ku, 1, kv, vw, 1, acc);
+    case 2: return window(base, rowb, DT, NC, ku, 2, kv, vw, ((int)NC * 2 + 7) / 8, acc);
+    case 3: return window(base, rowb, DT, NC, ku, 3, kv, vw, ((int)NC * 3 + 7) / 8, acc);
+    case 4: return window(base, rowb, DT, NC, ku, 4, kv, vw, ((int)NC * 4 + 7) / 8, acc);
+    default: return window_dt(base, rowb, DT, NC, ku, uw, kv, vw, acc);
+    }
+}
+
 #define PF_WIN(DT, NC)                                                                      \
     __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_win_##DT##_##NC(               \
         const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
         pf_v4 acc)                                                                          \
     {                                                                                       \
-        return (pf_v4)window_dt(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);           \
+        return (pf_v4)window_piece(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);        \
     }
 #define PF_WIN_NC(DT) PF_WIN(DT, 1) PF_WIN(DT, 2) PF_WIN(DT, 3) PF_WIN(DT, 4)
 PF_WIN_NC(0)
@@ -1003,7 +1023,29 @@ PF_TARGET __m256i w4x8_axis(__m256 x, __m256 bw, __m256i lg, __m256i *r, __m256i
 PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float *k,
                           __m256 *sum, __m256i *ok, int G)
 {
-    __m256 w = kernel8_as(p, _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)t), st)), G);
+    /* The lanes that count (w4x8_axis' common case) have a step st = 1 / uwpix in (1/2, 1]
+     * and x1 in [-2, -1], so |x| <= 2: tap 0 is x1 itself (x1 + 0 st differs from it only
+     * in the sign of a zero, which x * x and |x| drop); the gaussian's clamp of its exponent
+     * to -126 never applies (it is above -12), and (x x) -2 log2(e), whose product by -2 is
+     * exact, is x x times the float -2 log2(e) (twice 1.44269504f, exact): the same
+     * roundings, so kernel8's weights bit for bit. The other lanes' weights are not used. */
+    __m256 x = t ? _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)t), st)) : x1;
+    __m256 w;
+    if (G) {
+        __m256 y = _mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f * 1.44269504f));
+        __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_set1_ps(0.5f)));
+        __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
+        __m256 q = _mm256_set1_ps(0.000154035304f);
+        q = _mm256_add_ps(_mm256_set1_ps(0.00133335581f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.00961812911f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.0555041087f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.240226507f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(0.693147181f), _mm256_mul_ps(f, q));
+        q = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(f, q));
+        __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
+        w = _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
+    } else
+        w = kernel8_as(p, x, 0);
     *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
                               *ok);
     *sum = _mm256_add_ps(*sum, w);
@@ -1233,9 +1275,12 @@ PF_TARGET __m128 w4x8_win(const uint8_t *base, size_t rowb, const float *ku, con
             c1 = _mm256_fmadd_ps(load8(p + vb, DT), w, c1);
     }
     __m256 sv;
-    if (NC == 4) {
-        sv = _mm256_mul_ps(c0, _mm256_set_m128(_mm_set1_ps(ku[1]), _mm_set1_ps(ku[0])));
-        sv = _mm256_fmadd_ps(c1, _mm256_set_m128(_mm_set1_ps(ku[3]), _mm_set1_ps(ku[2])), sv);
+    if (NC == 4) { /* (ku0 x 4, ku1 x 4) and (ku2 x 4, ku3 x 4) from the 4 taps */
+        __m256 k8 = _mm256_castps128_ps256(k);
+        sv = _mm256_mul_ps(c0, _mm256_permutevar8x32_ps(
+                                   k8, _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1)));
+        sv = _mm256_fmadd_ps(c1, _mm256_permutevar8x32_ps(
+                                     k8, _mm256_setr_epi32(2, 2, 2, 2, 3, 3, 3, 3)), sv);
     } else {
         sv = _mm256_fmadd_ps(c0, _mm256_set_m128(_mm_unpackhi_ps(k, k), _mm_unpacklo_ps(k, k)),
                              _mm256_setzero_ps());
@@ -1274,6 +1319,15 @@ PF_TARGET void w4x8_bylane(const __m256 *k, float *out)
     _mm256_storeu_ps(out + 8, _mm256_permute2f128_ps(r2, r3, 0x20));
     _mm256_storeu_ps(out + 16, _mm256_permute2f128_ps(r0, r1, 0x31));
     _mm256_storeu_ps(out + 24, _mm256_permute2f128_ps(r2, r3, 0x31));
+}
+
+/* The 64-bit lanes of the even (e: 0, 2, 4, 6) and odd (o: 1, 3, 5, 7) queries stored in
+ * query order. */
+PF_TARGET void box8_lanes64(__m256i e, __m256i o, uint64_t *out)
+{
+    __m256i lo = _mm256_unpacklo_epi64(e, o), hi = _mm256_unpackhi_epi64(e, o); /* 0 1 4 5, 2 3 6 7 */
+    _mm256_storeu_si256((__m256i *)(void *)out, _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256((__m256i *)(void *)(out + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
 }
 
 /* 8 queries of a width-4 filter on texels of type DT with NC channels (every type and channel
@@ -1323,19 +1377,17 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
     __m256i ao = _mm256_add_epi64(
         dof, _mm256_mul_epu32(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
                                                odd64(u0)), ts));
-    uint64_t A[2][4], RB[2][4]; /* [j & 1][j >> 1] */
-    _mm256_storeu_si256((__m256i *)(void *)A[0], ae);
-    _mm256_storeu_si256((__m256i *)(void *)A[1], ao);
-    _mm256_storeu_si256((__m256i *)(void *)RB[0], _mm256_mul_epu32(resu, ts));
-    _mm256_storeu_si256((__m256i *)(void *)RB[1], _mm256_mul_epu32(odd64(resu), ts));
+    uint64_t A[8], RB[8]; /* in lane order */
+    box8_lanes64(ae, ao, A);
+    box8_lanes64(_mm256_mul_epu32(resu, ts), _mm256_mul_epu32(odd64(resu), ts), RB);
     /* the taps by lane: lane j's 4 at 4 j */
     float KU[32], KV[32];
     w4x8_bylane(ku, KU);
     w4x8_bylane(kv, KV);
     for (unsigned m = done; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
-        const uint8_t *base = (const uint8_t *)(uintptr_t)A[j & 1][j >> 1];
-        __m128 acc = w4x8_win(base, (size_t)RB[j & 1][j >> 1], KU + 4 * j, KV + 4 * j, DT, NC);
+        const uint8_t *base = (const uint8_t *)(uintptr_t)A[j];
+        __m128 acc = w4x8_win(base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
         w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
     }
     return done;
@@ -1482,15 +1534,6 @@ PF_TARGET unsigned box8_hand(__m256i ok, __m256i out_of, __m256 total, const box
         }
     }
     return ho;
-}
-
-/* The 64-bit lanes of the even (e: 0, 2, 4, 6) and odd (o: 1, 3, 5, 7) queries stored in
- * query order. */
-PF_TARGET void box8_lanes64(__m256i e, __m256i o, uint64_t *out)
-{
-    __m256i lo = _mm256_unpacklo_epi64(e, o), hi = _mm256_unpackhi_epi64(e, o); /* 0 1 4 5, 2 3 6 7 */
-    _mm256_storeu_si256((__m256i *)(void *)out, _mm256_permute2x128_si256(lo, hi, 0x20));
-    _mm256_storeu_si256((__m256i *)(void *)(out + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
 }
 
 /* fast_body's box window of one lane (window_fused with nu x nv taps, 1..3 each way, as

@@ -173,8 +173,12 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
                     size_t nt = (size_t)1 << (ru + rv);
                     uint8_t *d = malloc(nt * ts + SLACK);
                     assert_non_null(d);
-                    for (size_t i = 0; i < nt * nc; i++)
-                        put(dt, d + i * es, floorf(rndf() * maxv[dt]));
+                    for (size_t i = 0; i < nt * nc; i++) {
+                        float y = rndf(); /* half, float: now and then an Inf or a NaN */
+                        put(dt, d + i * es, dt >= ST_DT_HALF && y < 0.004f ? INFINITY
+                                            : dt >= ST_DT_HALF && y < 0.008f ? NAN
+                                                                               : floorf(rndf() * maxv[dt]));
+                    }
                     memset(d + nt * ts, 0, SLACK);
                     px[ru * (VL + 1) + rv] = d;
                 }
@@ -336,8 +340,10 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                         uint8_t *d = malloc(nt * ts + SLACK);
                         assert_non_null(d);
                         for (size_t i = 0; i < nt * nc; i++) {
-                            float x = rndf() * maxv[dt];
-                            put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x - 500.0f);
+                            float x = rndf() * maxv[dt], y = rndf();
+                            if (dt >= ST_DT_HALF) /* now and then an Inf or a NaN */
+                                x = y < 0.004f ? INFINITY : y < 0.008f ? NAN : x - 500.0f;
+                            put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x);
                         }
                         memset(d + nt * ts, 0, SLACK);
                         px[f][ru * (FL[f][1] + 1) + rv] = d;
