@@ -396,6 +396,23 @@ pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, 
     return w(base, rowb, k->kub + k->ku0, k->uw, k->kvb + k->kv0, k->vw, acc);
 }
 
+/* 2^y at 8 points for y in [-126, 0]: kernel_eval's exp2 polynomial (ptexfilter_kernel.c),
+ * the same operations in the same order; the callers clamp y (or know it is in range). */
+PF_TARGET __m256 exp2_8(__m256 y)
+{
+    __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_set1_ps(0.5f)));
+    __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
+    __m256 q = _mm256_set1_ps(0.000154035304f);
+    q = _mm256_add_ps(_mm256_set1_ps(0.00133335581f), _mm256_mul_ps(f, q));
+    q = _mm256_add_ps(_mm256_set1_ps(0.00961812911f), _mm256_mul_ps(f, q));
+    q = _mm256_add_ps(_mm256_set1_ps(0.0555041087f), _mm256_mul_ps(f, q));
+    q = _mm256_add_ps(_mm256_set1_ps(0.240226507f), _mm256_mul_ps(f, q));
+    q = _mm256_add_ps(_mm256_set1_ps(0.693147181f), _mm256_mul_ps(f, q));
+    q = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(f, q));
+    __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
+    return _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
+}
+
 /* The width-4 kernel function at 8 points: the same operations in the same order as
  * ptexfilter_kernel.c's kernel_eval (no fused multiply-adds), so the weights are bit for bit
  * the portable ones. */
@@ -406,17 +423,7 @@ PF_TARGET __m256 kernel8_as(const pk_params *p, __m256 x, int gauss)
         __m256 y = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f)),
                                  _mm256_set1_ps(1.44269504f));
         y = _mm256_max_ps(y, _mm256_set1_ps(-126.0f));
-        __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_set1_ps(0.5f)));
-        __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
-        __m256 q = _mm256_set1_ps(0.000154035304f);
-        q = _mm256_add_ps(_mm256_set1_ps(0.00133335581f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.00961812911f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.0555041087f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.240226507f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.693147181f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(f, q));
-        __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
-        return _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
+        return exp2_8(y);
     }
     __m256 a = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), x);
     __m256 inner = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(c[0]), a),
@@ -1033,17 +1040,7 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
     __m256 w;
     if (G) {
         __m256 y = _mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f * 1.44269504f));
-        __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_set1_ps(0.5f)));
-        __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
-        __m256 q = _mm256_set1_ps(0.000154035304f);
-        q = _mm256_add_ps(_mm256_set1_ps(0.00133335581f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.00961812911f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.0555041087f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.240226507f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(0.693147181f), _mm256_mul_ps(f, q));
-        q = _mm256_add_ps(_mm256_set1_ps(1.0f), _mm256_mul_ps(f, q));
-        __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
-        w = _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
+        w = exp2_8(y);
     } else
         w = kernel8_as(p, x, 0);
     *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
