@@ -739,6 +739,11 @@ typedef int64_t pt_v2l __attribute__((vector_size(16)));
 static inline pt_v2d pt_exp2(pt_v2d x)
 {
     const pt_v2d lo = {-700.0, -700.0}, hi = {700.0, 700.0}, magic = {0x1.8p52, 0x1.8p52};
+#ifdef __SSE2__
+    /* maxpd gives its second operand unless the first is greater (a NaN: lo), minpd likewise:
+     * the selects below, two instructions */
+    x = (pt_v2d)_mm_min_pd(_mm_max_pd((__m128d)x, (__m128d)lo), (__m128d)hi);
+#else
     pt_v2l m = x > lo, xb, lb, hb; /* -1 where true (false for a NaN: clamped) */
     memcpy(&xb, &x, 16);
     memcpy(&lb, &lo, 16);
@@ -748,6 +753,7 @@ static inline pt_v2d pt_exp2(pt_v2d x)
     m = x < hi;
     xb = (xb & m) | (hb & ~m);
     memcpy(&x, &xb, 16);
+#endif
     pt_v2d k = x * 1.4426950408889634 + magic; /* n + 1.5 * 2^52 */
     pt_v2l kb, mb;
     memcpy(&kb, &k, 16);
@@ -894,9 +900,21 @@ lean_band(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
             x++;
             d++;
         }
-        for (; x < xe; x += 2, d += 2) { /* d even: the vertex, then the midpoint */
-            const uint8_t *px = m + (ptrdiff_t)band_vertex(ODD, R, fR, x, y, d >> 1) *
-                                        (ptrdiff_t)ts;
+        /* band_vertex's operations with its int-to-float conversions kept as float counters
+         * (integers below 2^18: exact): the centroid coordinate that moves with x, k and R - k;
+         * the other coordinate is the row's */
+        const float cfix = ODD ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)y + 1.0f / 3.0f;
+        float xf = ODD ? (float)(R - 1 - x) : (float)x, kf = (float)(d >> 1),
+              rkf = (float)(R - (d >> 1));
+        const float xstep = ODD ? -2.0f : 2.0f;
+        const ptrdiff_t offR = (ptrdiff_t)R * (ptrdiff_t)ts, offR1 = offR - (ptrdiff_t)ts;
+        for (; x < xe; x += 2, d += 2, xf += xstep, kf += 1.0f, rkf -= 1.0f) {
+            /* d even: the vertex, then the midpoint */
+            float cmov = ODD ? xf + 2.0f / 3.0f : xf + 1.0f / 3.0f;
+            float cu = ODD ? cfix : cmov, cv = ODD ? cmov : cfix;
+            float t = 0.5f * (cu + cv - fR);
+            int p = cu - t < kf, q = cv - t < rkf;
+            const uint8_t *px = m + (p == q ? offR : p ? offR1 : 0);
             float w = (float)G;
             acc += texel_vec(px, one, DT, NC) * w;
             if (NC == 4)
