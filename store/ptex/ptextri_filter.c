@@ -32,7 +32,10 @@
  * except in Clamp's fold sweeps and Discard's whole-kernel weight (seamtex's own, no Ptex
  * reference), which step them by recurrence (pt_rec, pt_cur: within about 1e-6 of the
  * per-tap expf, which st_ptextri_batch_pertap keeps for the tests; docs/ptex.md, "Session 13,
- * tri6").
+ * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
+ * general rows' taps, texels, weights and order with less work a row); the general rows stay
+ * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex.md,
+ * "Session 15, tri8").
  */
 #include "ptextri.h"
 
@@ -90,6 +93,8 @@ typedef struct ti {
 
 enum { PT_LEAN, PT_PERTAP, PT_GENERAL }; /* tc.wmode: the builds st_ptextri_batch* run */
 
+struct pt_kf;
+
 typedef struct tc {
     const st_set *s;
     unsigned nc, dt;
@@ -98,6 +103,8 @@ typedef struct tc {
                int constant);   /* SW_READ */
     void (*fold)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data,
                  int constant); /* SW_FOLD */
+    /* a sweep's whole weight (SW_WEIGHT; kf: the piece's factors, shared by its sweeps) */
+    float (*wt)(struct tc *c, const struct ti *it, struct pt_kf *kf);
     pt_v4f acc;            /* channel sums, lanes 0..nc-1 (the rest: 0, or lane 3 scratch
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
@@ -1235,9 +1242,12 @@ PT_SWEEP_NC(1)
 PT_SWEEP_NC(2)
 PT_SWEEP_NC(3)
 
-/* SW_WEIGHT reads nothing: one instance, and one with the per-tap expf. */
-__attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it)
+/* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
+ * (tc.wt; kf: the piece's factors, shared by its two sweeps, the same values either sweep
+ * would make). */
+__attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it, pt_kf *kf)
 {
+    (void)kf;
     return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, ST_DT_F32, 1);
 }
 
@@ -1246,15 +1256,11 @@ __attribute__((noinline)) static float sweep_weight_general(tc *c, const ti *it,
     return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, kf, ST_DT_F32, 1);
 }
 
-/* kf: the piece's factors, shared by its two sweeps (the same values either sweep makes). */
-static float sweep_weight(tc *c, const ti *it, pt_kf *kf)
+__attribute__((noinline)) static float sweep_weight_lean(tc *c, const ti *it, pt_kf *kf)
 {
-    if (c->wmode == PT_PERTAP)
-        return sweep_weight_pertap(c, it);
-    if (c->wmode == PT_GENERAL)
-        return sweep_weight_general(c, it, kf);
     return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
 }
+
 
 /* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels (pertap: the fold
  * sweeps with one libm expf per tap). */
@@ -1346,11 +1352,12 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
     float w = 0.0f;
-    pt_kf kf = {.set = 0};
+    pt_kf kf; /* only .set is read before kf_set fills the rest */
+    kf.set = 0;
     if (wev.valid)
-        w += sweep_weight(c, &wev, &kf);
+        w += c->wt(c, &wev, &kf);
     if (wod.valid)
-        w += sweep_weight(c, &wod, &kf);
+        w += c->wt(c, &wod, &kf);
     return w;
 }
 
@@ -1547,6 +1554,9 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
     tc proto = {.s = s, .nc = nc, .dt = s->info.dtype, .wmode = wmode}; /* once a batch */
     sweep_fns(proto.dt, nc, wmode, &proto.rd, &proto.fold);
+    proto.wt = wmode == PT_PERTAP    ? sweep_weight_pertap
+               : wmode == PT_GENERAL ? sweep_weight_general
+                                     : sweep_weight_lean;
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
