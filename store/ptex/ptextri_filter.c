@@ -91,7 +91,8 @@ typedef struct ti {
     int odd;               /* the flipped sweep: taps are the inverted triangles */
 } ti;
 
-enum { PT_LEAN, PT_PERTAP, PT_GENERAL }; /* tc.wmode: the builds st_ptextri_batch* run */
+enum { PT_LEAN, PT_PERTAP, PT_GENERAL }; /* the builds st_ptextri_batch* run (tri_batch's
+                                          * wmode: tc.fold and tc.wt follow from it) */
 
 struct pt_kf;
 
@@ -109,8 +110,6 @@ typedef struct tc {
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
     unsigned pieces;
-    int wmode;             /* PT_LEAN; PT_PERTAP: Clamp's and Discard's whole-kernel weights
-                            * one expf a tap; PT_GENERAL: the general recurrence sweeps */
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1083,6 +1082,23 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             }
             if (xk >= x2)
                 continue;
+            if (REC == 2 && how == SW_WEIGHT) {
+                /* the lean weight rows: the kept-run scan below and the weight loop in one
+                 * (tap x + 1 is kept when x + 1 < x2 and its float Q, q, is below 1) */
+                cur_to(&cu, it, xk, y, wscale);
+                double G = cu.G, E = cu.Ex;
+                float q = Q + DQ, dq = DQ + DDQ;
+                for (int x = xk;;) { /* lane 3 += 1 * w: += w */
+                    ws += (float)G;
+                    G *= E;
+                    E *= cu.kxx;
+                    if (!(++x < x2 && q < 1.0f))
+                        break;
+                    q += dq;
+                    dq += DDQ;
+                }
+                continue;
+            }
             /* DQ only grows (DDQ > 0), so Q falls then rises: the kept taps are one run */
             int xl = xk + 1;
             for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
@@ -1092,13 +1108,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             cur_to(&cu, it, xk, y, wscale);
             if (REC == 2) { /* the lean rows */
                 double G = cu.G, E = cu.Ex;
-                if (how == SW_WEIGHT) {
-                    for (int n = xl - xk; n > 0; n--) { /* lane 3 += 1 * w: += w */
-                        ws += (float)G;
-                        G *= E;
-                        E *= cu.kxx;
-                    }
-                } else if (constant) {
+                if (constant) {
                     acc = lean_run(xl - xk, data, 0, &G, &E, cu.kxx, one, acc, &wsum4, DT, NC);
                 } else if (it->odd) {
                     acc = lean_fold_row(1, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
@@ -1552,7 +1562,7 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
         return pt[s->info.dtype][nc - 1](s, q, n, out, coverage, status);
     }
     const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
-    tc proto = {.s = s, .nc = nc, .dt = s->info.dtype, .wmode = wmode}; /* once a batch */
+    tc proto = {.s = s, .nc = nc, .dt = s->info.dtype}; /* once a batch */
     sweep_fns(proto.dt, nc, wmode, &proto.rd, &proto.fold);
     proto.wt = wmode == PT_PERTAP    ? sweep_weight_pertap
                : wmode == PT_GENERAL ? sweep_weight_general
