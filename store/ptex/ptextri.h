@@ -36,6 +36,13 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
 int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_query *q,
                             size_t n, float *out, float *coverage, uint8_t *status);
 
+/* st_ptextri_batch with Clamp's fold sweeps and Discard's whole-kernel weight sweeps stepped
+ * by recurrence through the general rows (row_clamp: row_same, row_step, row_band_t) instead
+ * of the lean ones st_ptextri_batch runs: the same taps, texels, weights and order, so the
+ * same bits in every output. For tests. */
+int st_ptextri_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q,
+                             size_t n, float *out, float *coverage, uint8_t *status);
+
 /* For tests: whether Clamp's walk of the band past the diagonal edge (row_band_t) reads the
  * texels fold_tap gives, tap by tap: the sums of row y's taps x in [xa, xb) of an R x R level
  * of one f32 channel (texels: R * R values), upright (odd 0) or inverted, with made-up weights

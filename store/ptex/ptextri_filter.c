@@ -32,7 +32,10 @@
  * except in Clamp's fold sweeps and Discard's whole-kernel weight (seamtex's own, no Ptex
  * reference), which step them by recurrence (pt_rec, pt_cur: within about 1e-6 of the
  * per-tap expf, which st_ptextri_batch_pertap keeps for the tests; docs/ptex.md, "Session 13,
- * tri6").
+ * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
+ * general rows' taps, texels, weights and order with less work a row); the general rows stay
+ * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex.md,
+ * "Session 15, tri8").
  */
 #include "ptextri.h"
 
@@ -88,6 +91,11 @@ typedef struct ti {
     int odd;               /* the flipped sweep: taps are the inverted triangles */
 } ti;
 
+enum { PT_LEAN, PT_PERTAP, PT_GENERAL }; /* the builds st_ptextri_batch* run (tri_batch's
+                                          * wmode: tc.fold and tc.wt follow from it) */
+
+struct pt_kf;
+
 typedef struct tc {
     const st_set *s;
     unsigned nc, dt;
@@ -96,11 +104,12 @@ typedef struct tc {
                int constant);   /* SW_READ */
     void (*fold)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data,
                  int constant); /* SW_FOLD */
+    /* a sweep's whole weight (SW_WEIGHT; kf: the piece's factors, shared by its sweeps) */
+    float (*wt)(struct tc *c, const struct ti *it, struct pt_kf *kf);
     pt_v4f acc;            /* channel sums, lanes 0..nc-1 (the rest: 0, or lane 3 scratch
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
     unsigned pieces;
-    int pertap;            /* Clamp's and Discard's whole-kernel weights one expf a tap */
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -736,6 +745,11 @@ typedef int64_t pt_v2l __attribute__((vector_size(16)));
 static inline pt_v2d pt_exp2(pt_v2d x)
 {
     const pt_v2d lo = {-700.0, -700.0}, hi = {700.0, 700.0}, magic = {0x1.8p52, 0x1.8p52};
+#ifdef __SSE2__
+    /* maxpd gives its second operand unless the first is greater (a NaN: lo), minpd likewise:
+     * the selects below, two instructions */
+    x = (pt_v2d)_mm_min_pd(_mm_max_pd((__m128d)x, (__m128d)lo), (__m128d)hi);
+#else
     pt_v2l m = x > lo, xb, lb, hb; /* -1 where true (false for a NaN: clamped) */
     memcpy(&xb, &x, 16);
     memcpy(&lb, &lo, 16);
@@ -745,6 +759,7 @@ static inline pt_v2d pt_exp2(pt_v2d x)
     m = x < hi;
     xb = (xb & m) | (hb & ~m);
     memcpy(&x, &xb, 16);
+#endif
     pt_v2d k = x * 1.4426950408889634 + magic; /* n + 1.5 * 2^52 */
     pt_v2l kb, mb;
     memcpy(&kb, &k, 16);
@@ -832,6 +847,166 @@ __attribute__((always_inline)) static inline void cur_to(pt_cur *cu, const ti *i
     cu->Ey = Ey;
 }
 
+/* The lean recurrence sweeps (REC == 2, the build's own; REC == 1 keeps the general ones,
+ * which st_ptextri_batch_general runs for the tests). The same rows, taps, texels, weights
+ * and sums in the same order as the general fold sweep (row_clamp over row_same, row_step
+ * and row_band_t with a pt_rec) and weight sweep, with less per-row work: each row's texels
+ * come from at most three regions found with a few compares (lean_fold_row), each run of
+ * taps is one loop stepping a texel address, and the weights G, E stay in registers. */
+
+/* n taps reading px, px + step, ..: acc += texel * (float)G (and wsum4 += it when NC == 4),
+ * then G *= E, E *= kxx, as pt_rec's taps do. */
+__attribute__((always_inline)) static inline pt_v4f
+lean_run(int n, const uint8_t *px, ptrdiff_t step, double *Gp, double *Ep, double kxx,
+         pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
+{
+    double G = *Gp, E = *Ep;
+    for (; n > 0; n--, px += step) {
+        float w = (float)G;
+        acc += texel_vec(px, one, DT, NC) * w;
+        if (NC == 4)
+            *wsum4 += w;
+        G *= E;
+        E *= kxx;
+    }
+    *Gp = G;
+    *Ep = E;
+    return acc;
+}
+
+/* row_band_t's taps [xa, xb) of row y (the part of a row past the diagonal edge that the
+ * general sweep walks): the same three runs, texels and order. */
+__attribute__((always_inline)) static inline pt_v4f
+lean_band(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts, double *Gp,
+          double *Ep, double kxx, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
+          unsigned NC)
+{
+    int lo = y - R + 1, hi = y + R; /* d <= 0 below lo, d >= 2R from hi */
+    if (xa < lo) {
+        int e = xb < lo ? xb : lo;
+        acc = lean_run(e - xa, data + (size_t)(R - 1) * (size_t)R * ts, 0, Gp, Ep, kxx, one,
+                       acc, wsum4, DT, NC);
+        xa = e;
+    }
+    int xe = xb < hi ? xb : hi;
+    if (xa < xe) {
+        const float fR = (float)R;
+        int d = xa - y + R, k = d >> 1, x = xa;
+        const uint8_t *m = data + ((size_t)(R - 1 - k) * (size_t)R + (size_t)k) * ts;
+        const ptrdiff_t mstep = (ptrdiff_t)(1 - R) * (ptrdiff_t)ts;
+        double G = *Gp, E = *Ep;
+        if (d & 1) { /* a midpoint first: M(k), then the next k */
+            float w = (float)G;
+            acc += texel_vec(m, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
+            G *= E;
+            E *= kxx;
+            m += mstep;
+            x++;
+            d++;
+        }
+        /* band_vertex's operations with its int-to-float conversions kept as float counters
+         * (integers below 2^18: exact): the centroid coordinate that moves with x, k and R - k;
+         * the other coordinate is the row's */
+        const float cfix = ODD ? (float)(R - 1 - y) + 2.0f / 3.0f : (float)y + 1.0f / 3.0f;
+        float xf = ODD ? (float)(R - 1 - x) : (float)x, kf = (float)(d >> 1),
+              rkf = (float)(R - (d >> 1));
+        const float xstep = ODD ? -2.0f : 2.0f;
+        const ptrdiff_t offR = (ptrdiff_t)R * (ptrdiff_t)ts, offR1 = offR - (ptrdiff_t)ts;
+        for (; x < xe; x += 2, d += 2, xf += xstep, kf += 1.0f, rkf -= 1.0f) {
+            /* d even: the vertex, then the midpoint */
+            float cmov = ODD ? xf + 2.0f / 3.0f : xf + 1.0f / 3.0f;
+            float cu = ODD ? cfix : cmov, cv = ODD ? cmov : cfix;
+            float t = 0.5f * (cu + cv - fR);
+            int p = cu - t < kf, q = cv - t < rkf;
+            const uint8_t *px = m + (p == q ? offR : p ? offR1 : 0);
+            float w = (float)G;
+            acc += texel_vec(px, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
+            G *= E;
+            E *= kxx;
+            if (x + 1 >= xe)
+                break;
+            w = (float)G;
+            acc += texel_vec(m, one, DT, NC) * w;
+            if (NC == 4)
+                *wsum4 += w;
+            G *= E;
+            E *= kxx;
+            m += mstep;
+        }
+        *Gp = G;
+        *Ep = E;
+        xa = xe;
+    }
+    if (xa < xb)
+        acc = lean_run(xb - xa, data + (size_t)(R - 1) * ts, 0, Gp, Ep, kxx, one, acc, wsum4,
+                       DT, NC);
+    return acc;
+}
+
+/* A Clamp row's kept taps [xk, xl) as row_clamp reads them (its comment has the rules), in
+ * three regions: [xk, a) one texel (fold_tap of its first tap) or, inverted rows y < R, the
+ * band; [.., b) a line of texels; the rest one texel (fold_tap of its first tap) or, upright
+ * rows y >= 0, the band. */
+__attribute__((always_inline)) static inline pt_v4f
+lean_fold_row(int ODD, int R, const uint8_t *data, int y, int xk, int xl, double *Gp,
+              double *Ep, double kxx, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
+              unsigned NC)
+{
+    const size_t ts = st_dtype_size(DT) * NC;
+    int a, b, band;
+    const uint8_t *line;
+    ptrdiff_t step = (ptrdiff_t)ts;
+    if (!ODD) {
+        a = 0;
+        band = y >= 0; /* the third region */
+        b = y < 0 ? R : R - y > 0 ? R - y : 0;
+        line = data + (y > 0 ? (size_t)y * (size_t)R * ts : 0);
+    } else if (y >= R) { /* column 0 upwards */
+        a = 0;
+        b = R;
+        band = 0;
+        step = -(ptrdiff_t)((size_t)R * ts);
+        line = data + (size_t)(R - 1) * (size_t)R * ts;
+    } else {
+        a = R - (y > 0 ? y : 0);
+        b = R;
+        band = 1; /* the first region */
+        line = data + (y > 0 ? (size_t)y * (size_t)R * ts : 0);
+    }
+    int x = xk, tx, ty;
+    if (x < a) {
+        int e = xl < a ? xl : a;
+        if (ODD && band) {
+            acc = lean_band(1, R, data, y, x, e, ts, Gp, Ep, kxx, one, acc, wsum4, DT, NC);
+        } else {
+            fold_tap(R, ODD, x, y, &tx, &ty);
+            acc = lean_run(e - x, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, 0, Gp, Ep,
+                           kxx, one, acc, wsum4, DT, NC);
+        }
+        x = e;
+    }
+    if (x < xl && x < b) {
+        int e = xl < b ? xl : b;
+        acc = lean_run(e - x, line + (ptrdiff_t)x * step, step, Gp, Ep, kxx, one, acc, wsum4,
+                       DT, NC);
+        x = e;
+    }
+    if (x < xl) {
+        if (!ODD && band) {
+            acc = lean_band(0, R, data, y, x, xl, ts, Gp, Ep, kxx, one, acc, wsum4, DT, NC);
+        } else {
+            fold_tap(R, ODD, x, y, &tx, &ty);
+            acc = lean_run(xl - x, data + ((size_t)ty * (size_t)R + (size_t)tx) * ts, 0, Gp, Ep,
+                           kxx, one, acc, wsum4, DT, NC);
+        }
+    }
+    return acc;
+}
+
 /* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
  * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
  * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
@@ -857,6 +1032,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         memcpy(&acc, &bits, 16);
     }
     float wsum4 = 0.0f, DDQ = 2.0f * it->A; /* wsum4: the weight's sum when NC == 4 */
+    float ws = 0.0f; /* the lean weight sweep's sum (lane 3's, which starts at +0) */
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     const float wscale = it->wscale;
     const int reads = how == SW_READ && !constant;
@@ -906,6 +1082,23 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             }
             if (xk >= x2)
                 continue;
+            if (REC == 2 && how == SW_WEIGHT) {
+                /* the lean weight rows: the kept-run scan below and the weight loop in one
+                 * (tap x + 1 is kept when x + 1 < x2 and its float Q, q, is below 1) */
+                cur_to(&cu, it, xk, y, wscale);
+                double G = cu.G, E = cu.Ex;
+                float q = Q + DQ, dq = DQ + DDQ;
+                for (int x = xk;;) { /* lane 3 += 1 * w: += w */
+                    ws += (float)G;
+                    G *= E;
+                    E *= cu.kxx;
+                    if (!(++x < x2 && q < 1.0f))
+                        break;
+                    q += dq;
+                    dq += DDQ;
+                }
+                continue;
+            }
             /* DQ only grows (DDQ > 0), so Q falls then rises: the kept taps are one run */
             int xl = xk + 1;
             for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
@@ -913,6 +1106,19 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                 dq += DDQ;
             }
             cur_to(&cu, it, xk, y, wscale);
+            if (REC == 2) { /* the lean rows */
+                double G = cu.G, E = cu.Ex;
+                if (constant) {
+                    acc = lean_run(xl - xk, data, 0, &G, &E, cu.kxx, one, acc, &wsum4, DT, NC);
+                } else if (it->odd) {
+                    acc = lean_fold_row(1, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
+                                        &wsum4, DT, NC);
+                } else {
+                    acc = lean_fold_row(0, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
+                                        &wsum4, DT, NC);
+                }
+                continue;
+            }
             pt_rec rc = {cu.G, cu.Ex, cu.kxx};
             if (how == SW_WEIGHT)
                 acc = row_same(xl - xk, NULL, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, &rc,
@@ -925,6 +1131,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                 &rc, 1, DT, NC);
         }
         y2 = y1; /* done */
+        if (REC == 2 && how == SW_WEIGHT)
+            return ws;
     }
     for (int y = y1; y < y2; y++) {
         /* the row's set-up reads the sweep's fields from memory (an empty asm that may change
@@ -1022,6 +1230,14 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
         else                                                                                 \
             sweep2_t(c, ev, od, d, 0, SW_FOLD, 1, DT, NC);                                   \
     }                                                                                        \
+    static void sweep_fl_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
+                                     int constant)                                          \
+    {                                                                                        \
+        if (constant)                                                                        \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, 2, DT, NC);                                   \
+        else                                                                                 \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, 2, DT, NC);                                   \
+    }                                                                                        \
     static void sweep_fp_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
                                      int constant)                                          \
     {                                                                                        \
@@ -1036,23 +1252,29 @@ PT_SWEEP_NC(1)
 PT_SWEEP_NC(2)
 PT_SWEEP_NC(3)
 
-/* SW_WEIGHT reads nothing: one instance, and one with the per-tap expf. */
-__attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it)
+/* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
+ * (tc.wt; kf: the piece's factors, shared by its two sweeps, the same values either sweep
+ * would make). */
+__attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it, pt_kf *kf)
 {
+    (void)kf;
     return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, ST_DT_F32, 1);
 }
 
-static float sweep_weight(tc *c, const ti *it)
+__attribute__((noinline)) static float sweep_weight_general(tc *c, const ti *it, pt_kf *kf)
 {
-    if (c->pertap)
-        return sweep_weight_pertap(c, it);
-    pt_kf kf = {.set = 0};
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, &kf, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, kf, ST_DT_F32, 1);
 }
+
+__attribute__((noinline)) static float sweep_weight_lean(tc *c, const ti *it, pt_kf *kf)
+{
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
+}
+
 
 /* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels (pertap: the fold
  * sweeps with one libm expf per tap). */
-static void sweep_fns(unsigned dt, unsigned nc, int pertap, sweep_fn *rd, sweep_fn *fold)
+static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_fn *fold)
 {
 #define PT_ROW(F, DT) {F##_##DT##_1, F##_##DT##_2, F##_##DT##_3, F##_##DT##_4}
     static const sweep_fn r[4][4] = {PT_ROW(sweep_r, 0), PT_ROW(sweep_r, 1),
@@ -1061,9 +1283,12 @@ static void sweep_fns(unsigned dt, unsigned nc, int pertap, sweep_fn *rd, sweep_
                                      PT_ROW(sweep_f, 2), PT_ROW(sweep_f, 3)};
     static const sweep_fn fp[4][4] = {PT_ROW(sweep_fp, 0), PT_ROW(sweep_fp, 1),
                                       PT_ROW(sweep_fp, 2), PT_ROW(sweep_fp, 3)};
+    static const sweep_fn fl[4][4] = {PT_ROW(sweep_fl, 0), PT_ROW(sweep_fl, 1),
+                                      PT_ROW(sweep_fl, 2), PT_ROW(sweep_fl, 3)};
 #undef PT_ROW
     *rd = r[dt][nc - 1];
-    *fold = pertap ? fp[dt][nc - 1] : f[dt][nc - 1];
+    *fold = wmode == PT_PERTAP ? fp[dt][nc - 1] : wmode == PT_GENERAL ? f[dt][nc - 1]
+                                                                      : fl[dt][nc - 1];
 }
 
 /* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
@@ -1137,10 +1362,12 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
     float w = 0.0f;
+    pt_kf kf; /* only .set is read before kf_set fills the rest */
+    kf.set = 0;
     if (wev.valid)
-        w += sweep_weight(c, &wev);
+        w += c->wt(c, &wev, &kf);
     if (wod.valid)
-        w += sweep_weight(c, &wod);
+        w += c->wt(c, &wod, &kf);
     return w;
 }
 
@@ -1325,7 +1552,7 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
                                                             const st_sample_opts *o,
                                                             const st_query *q, size_t n,
                                                             float *out, float *coverage,
-                                                            uint8_t *status, int pertap)
+                                                            uint8_t *status, int wmode)
 {
     unsigned nc = s->info.nchan;
     if (o->filter == ST_FILTER_PTEX_POINT) {
@@ -1335,8 +1562,11 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
         return pt[s->info.dtype][nc - 1](s, q, n, out, coverage, status);
     }
     const st_ptexres *t = st_ptexres_get(s); /* the record (flags); its table is not needed */
-    tc proto = {.s = s, .nc = nc, .dt = s->info.dtype, .pertap = pertap}; /* once a batch */
-    sweep_fns(proto.dt, nc, pertap, &proto.rd, &proto.fold);
+    tc proto = {.s = s, .nc = nc, .dt = s->info.dtype}; /* once a batch */
+    sweep_fns(proto.dt, nc, wmode, &proto.rd, &proto.fold);
+    proto.wt = wmode == PT_PERTAP    ? sweep_weight_pertap
+               : wmode == PT_GENERAL ? sweep_weight_general
+                                     : sweep_weight_lean;
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
@@ -1361,12 +1591,19 @@ int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q
                      float *out, float *coverage, uint8_t *status)
 {
     int lrc = st_set_levels(s, NULL); /* a deferred Ptex import's levels (set.h) */
-    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, 0);
+    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, PT_LEAN);
 }
 
 int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_query *q,
                             size_t n, float *out, float *coverage, uint8_t *status)
 {
     int lrc = st_set_levels(s, NULL);
-    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, 1);
+    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, PT_PERTAP);
+}
+
+int st_ptextri_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q,
+                             size_t n, float *out, float *coverage, uint8_t *status)
+{
+    int lrc = st_set_levels(s, NULL);
+    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, PT_GENERAL);
 }

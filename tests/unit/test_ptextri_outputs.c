@@ -318,11 +318,90 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
     assert_true(max_cov <= 1e-5);
 }
 
+/* The lean recurrence sweeps st_ptextri_batch runs (Clamp's fold sweeps, Discard's
+ * whole-kernel weight) against the general ones (st_ptextri_batch_general: row_clamp over
+ * row_same, row_step and row_band_t): every output, coverage and status the same bits, on
+ * every set and group above (with and without the coverage array) and on queries like
+ * bench_ptex's (uv uniform over the square, so half past the diagonal edge, isotropic
+ * footprints of 2^-3 to 2^6 texels). Checks that the recurrence ran: Clamp's values differ
+ * from the per-tap expf's in some groups. */
+static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
+{
+    (void)state;
+    char path[1024];
+    if (st_test_data_path(path, sizeof path, files[0]))
+        skip();
+    st_query *q = malloc(sizeof *q * NQ);
+    float *o1 = malloc(sizeof(float) * 4 * NQ), *c1 = malloc(sizeof(float) * NQ);
+    float *o2 = malloc(sizeof(float) * 4 * NQ), *c2 = malloc(sizeof(float) * NQ);
+    uint8_t *s1 = malloc(NQ), *s2 = malloc(NQ);
+    assert_true(q && o1 && c1 && o2 && c2 && s1 && s2);
+    st_set *file0 = NULL;
+    int groups = 0, differ = 0, recurrence_ran = 0;
+    for (size_t si = 0; si < NSETS; si++) {
+        st_set *s;
+        const st_set *ss = nth_set(si, &file0, &s);
+        if (!ss)
+            continue;
+        unsigned nc = ss->info.nchan;
+        for (int kind = 0; kind < 2; kind++) {
+            make_queries(ss, q, 6000u + (uint32_t)si);
+            if (kind == 1) { /* bench_ptex's random queries */
+                rng = 7000u + (uint32_t)si;
+                for (int i = 0; i < NQ; i++) {
+                    uint32_t f = (uint32_t)(st_test_rndf(&rng) * (float)ss->info.nfaces) %
+                                 ss->info.nfaces;
+                    float R = (float)ss->faces[f].w, u = st_test_rndf(&rng);
+                    float v = st_test_rndf(&rng);
+                    float fp = exp2f(-3.0f + 9.0f * st_test_rndf(&rng));
+                    q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = fp / R, .dvdy = fp / R};
+                }
+            }
+            for (int g = 1; g < NGROUP; g++)
+                for (int mode = 0; mode < 3; mode++)
+                    for (int wc = 0; wc < 2; wc++) {
+                        st_sample_opts o = group_opts(g, mode);
+                        memset(c1, 0, sizeof(float) * NQ);
+                        memset(c2, 0, sizeof(float) * NQ);
+                        int r1 = st_ptextri_batch(ss, &o, q, NQ, o1, wc ? c1 : NULL, s1);
+                        int r2 = st_ptextri_batch_general(ss, &o, q, NQ, o2, wc ? c2 : NULL, s2);
+                        groups++;
+                        int d = r1 != r2 || memcmp(s1, s2, NQ) != 0 ||
+                                memcmp(o1, o2, sizeof(float) * nc * NQ) != 0 ||
+                                memcmp(c1, c2, sizeof(float) * NQ) != 0;
+                        if (d)
+                            print_message("lean differs: set %zu kind %d group %d mode %d "
+                                          "coverage %d\n", si, kind, g, mode, wc);
+                        differ += d;
+                        if (mode == ST_MODE_CLAMP && !wc) {
+                            st_ptextri_batch_pertap(ss, &o, q, NQ, o2, NULL, s2);
+                            recurrence_ran += memcmp(o1, o2, sizeof(float) * nc * NQ) != 0;
+                        }
+                    }
+        }
+        st_set_free(s);
+    }
+    st_set_free(file0);
+    free(q);
+    free(o1);
+    free(c1);
+    free(o2);
+    free(c2);
+    free(s1);
+    free(s2);
+    print_message("lean vs general recurrence sweeps: %d of %d groups of %d queries differ; "
+                  "%d Clamp groups differ from the per-tap expf\n", differ, groups, NQ,
+                  recurrence_ran);
+    assert_int_equal(differ, 0);
+    assert_true(recurrence_ran > 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(triangle_filters_give_the_old_builds_outputs_bit_for_bit),
         cmocka_unit_test(recurrence_weights_match_the_per_tap_expf),
+        cmocka_unit_test(lean_sweeps_match_the_general_sweeps_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
