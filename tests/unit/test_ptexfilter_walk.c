@@ -114,6 +114,29 @@ static void flag_faces(st_set *s, uint8_t flag, uint8_t clear)
     }
 }
 
+/* compare_paths with a tenth of the faces flagged constant, then (that flag cleared) with a
+ * tenth flagged subface: flags set after the table and the corners are made. */
+static long compare_flagged(st_set *s, const st_query *q, const char *path)
+{
+    long n = 0;
+    flag_faces(s, ST_FACE_CONSTANT, 0);
+    n += compare_paths(s, q, path);
+    flag_faces(s, ST_FACE_SUBFACE, ST_FACE_CONSTANT);
+    n += compare_paths(s, q, path);
+    return n;
+}
+
+/* The end of a loop over shared files: skipped when the data folder had none of them, else
+ * how many files and queries were compared. */
+static void files_done(int found, long compared)
+{
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared\n", found, compared);
+}
+
 /* The shared file rel (under SEAMTEX_DATA) read, its full path in path; NULL when the data
  * folder does not have it; a read error fails the test. */
 static st_set *read_shared(const char *rel, char *path, size_t cap)
@@ -157,17 +180,10 @@ static void overhanging_kernels_match_the_general_walk(void **state)
         }
         s->info.border_u = bu;
         s->info.border_v = bv;
-        flag_faces(s, ST_FACE_CONSTANT, 0);
-        compared += compare_paths(s, q, path);
-        flag_faces(s, ST_FACE_SUBFACE, ST_FACE_CONSTANT);
-        compared += compare_paths(s, q, path);
+        compared += compare_flagged(s, q, path);
         st_set_free(s);
     }
-    if (!found) {
-        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
-        skip();
-    }
-    print_message("%d files, %ld queries compared\n", found, compared);
+    files_done(found, compared);
 }
 
 /* Session 14 (walk7): in Traverse a kernel of a face at a mesh boundary goes to
@@ -210,11 +226,7 @@ static void boundary_folds_and_valence3_corners_match_the_general_path(void **st
         s->info.border_v = bv;
         st_set_free(s);
     }
-    if (!found) {
-        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
-        skip();
-    }
-    print_message("%d files, %ld queries compared\n", found, compared);
+    files_done(found, compared);
 }
 
 /* Session 15 (walk8): a kernel that overhangs one u edge and one v edge, each to a
@@ -256,17 +268,10 @@ static void two_edge_kernels_match_the_general_walk(void **state)
                               .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
         }
         compared += compare_paths(s, q, path);
-        flag_faces(s, ST_FACE_SUBFACE, 0);
-        compared += compare_paths(s, q, path);
-        flag_faces(s, ST_FACE_CONSTANT, ST_FACE_SUBFACE);
-        compared += compare_paths(s, q, path);
+        compared += compare_flagged(s, q, path);
         st_set_free(s);
     }
-    if (!found) {
-        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
-        skip();
-    }
-    print_message("%d files, %ld queries compared\n", found, compared);
+    files_done(found, compared);
 }
 
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives

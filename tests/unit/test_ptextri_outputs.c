@@ -245,6 +245,35 @@ static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **stat
     assert_int_equal(bad, 0);
 }
 
+/* The buffers of two runs of the same NQ queries compared: outputs (up to 4 channels),
+ * coverage and statuses of each. pair_alloc fails the test when memory is short. */
+typedef struct {
+    st_query *q;
+    float *o1, *c1, *o2, *c2;
+    uint8_t *s1, *s2;
+} pair_bufs;
+
+static pair_bufs pair_alloc(void)
+{
+    pair_bufs b = {.q = malloc(sizeof *b.q * NQ),
+                   .o1 = malloc(sizeof(float) * 4 * NQ), .c1 = malloc(sizeof(float) * NQ),
+                   .o2 = malloc(sizeof(float) * 4 * NQ), .c2 = malloc(sizeof(float) * NQ),
+                   .s1 = malloc(NQ), .s2 = malloc(NQ)};
+    assert_true(b.q && b.o1 && b.c1 && b.o2 && b.c2 && b.s1 && b.s2);
+    return b;
+}
+
+static void pair_free(pair_bufs *b)
+{
+    free(b->q);
+    free(b->o1);
+    free(b->c1);
+    free(b->o2);
+    free(b->c2);
+    free(b->s1);
+    free(b->s2);
+}
+
 /* Clamp's folded sweeps and Discard's whole-kernel weight (the coverage's denominator) step
  * their weights by recurrence (ptextri_filter.c, pt_rec): against the per-tap expf on the
  * same sets and queries, Traverse, the point filter and Discard's values are the same bits,
@@ -256,11 +285,10 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
     char path[1024];
     if (st_test_data_path(path, sizeof path, files[0]))
         skip();
-    st_query *q = malloc(sizeof *q * NQ);
-    float *o1 = malloc(sizeof(float) * 4 * NQ), *c1 = malloc(sizeof(float) * NQ);
-    float *o2 = malloc(sizeof(float) * 4 * NQ), *c2 = malloc(sizeof(float) * NQ);
-    uint8_t *s1 = malloc(NQ), *s2 = malloc(NQ);
-    assert_true(q && o1 && c1 && o2 && c2 && s1 && s2);
+    pair_bufs b = pair_alloc();
+    st_query *q = b.q;
+    float *o1 = b.o1, *c1 = b.c1, *o2 = b.o2, *c2 = b.c2;
+    uint8_t *s1 = b.s1, *s2 = b.s2;
     st_set *file0 = NULL;
     double max_out = 0.0, max_cov = 0.0;
     int folded_differ = 0, exact_differ = 0;
@@ -302,13 +330,7 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
         st_set_free(s);
     }
     st_set_free(file0);
-    free(q);
-    free(o1);
-    free(c1);
-    free(o2);
-    free(c2);
-    free(s1);
-    free(s2);
+    pair_free(&b);
     print_message("recurrence vs per-tap expf: max |value difference| %.3g, max |coverage "
                   "difference| %.3g; %d Clamp groups differ at all\n", max_out, max_cov,
                   folded_differ);
@@ -331,11 +353,10 @@ static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
     char path[1024];
     if (st_test_data_path(path, sizeof path, files[0]))
         skip();
-    st_query *q = malloc(sizeof *q * NQ);
-    float *o1 = malloc(sizeof(float) * 4 * NQ), *c1 = malloc(sizeof(float) * NQ);
-    float *o2 = malloc(sizeof(float) * 4 * NQ), *c2 = malloc(sizeof(float) * NQ);
-    uint8_t *s1 = malloc(NQ), *s2 = malloc(NQ);
-    assert_true(q && o1 && c1 && o2 && c2 && s1 && s2);
+    pair_bufs b = pair_alloc();
+    st_query *q = b.q;
+    float *o1 = b.o1, *c1 = b.c1, *o2 = b.o2, *c2 = b.c2;
+    uint8_t *s1 = b.s1, *s2 = b.s2;
     st_set *file0 = NULL;
     int groups = 0, differ = 0, recurrence_ran = 0;
     for (size_t si = 0; si < NSETS; si++) {
@@ -382,13 +403,7 @@ static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
         st_set_free(s);
     }
     st_set_free(file0);
-    free(q);
-    free(o1);
-    free(c1);
-    free(o2);
-    free(c2);
-    free(s1);
-    free(s2);
+    pair_free(&b);
     print_message("lean vs general recurrence sweeps: %d of %d groups of %d queries differ; "
                   "%d Clamp groups differ from the per-tap expf\n", differ, groups, NQ,
                   recurrence_ran);
