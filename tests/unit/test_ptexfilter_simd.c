@@ -249,6 +249,52 @@ static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
     assert_true(handed > 100);         /* and so is the hand-over */
 }
 
+/* The 8-query tests' faces: NF faces of FL[f] = (u, v) log2 sizes, every resolution of each
+ * a table of random texels (integers for u8 / u16; signed fractions for half and float, now
+ * and then an Inf or a NaN), SLACK zero bytes past each; px[f][ru * (FL[f][1] + 1) + rv]. */
+enum { NF = 3, SLACK = 64 };
+static const int FL[NF][2] = {{5, 4}, {3, 6}, {6, 3}};
+
+static void tables_make(unsigned dt, unsigned nc, uint8_t *px[NF][8 * 8])
+{
+    static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
+    size_t es = st_dtype_size(dt), ts = es * nc;
+    for (int f = 0; f < NF; f++)
+        for (int ru = 0; ru <= FL[f][0]; ru++)
+            for (int rv = 0; rv <= FL[f][1]; rv++) {
+                size_t nt = (size_t)1 << (ru + rv);
+                uint8_t *d = malloc(nt * ts + SLACK);
+                assert_non_null(d);
+                for (size_t i = 0; i < nt * nc; i++) {
+                    float x = rndf() * maxv[dt], y = rndf();
+                    if (dt >= ST_DT_HALF)
+                        x = y < 0.004f ? INFINITY : y < 0.008f ? NAN : x - 500.0f;
+                    put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x);
+                }
+                memset(d + nt * ts, 0, SLACK);
+                px[f][ru * (FL[f][1] + 1) + rv] = d;
+            }
+}
+
+static void tables_free(uint8_t *px[NF][8 * 8])
+{
+    for (int f = 0; f < NF; f++)
+        for (int i = 0; i < (FL[f][0] + 1) * (FL[f][1] + 1); i++)
+            free(px[f][i]);
+}
+
+/* Lane j of k on a random one of the faces, at a random (u, v); returns the face. */
+static int lane_on_face(pf_klanes *k, int j, uint8_t *px[NF][8 * 8])
+{
+    int f = (int)(rndf() * NF) % NF;
+    k->px[j] = (const uint8_t *const *)px[f];
+    k->ulog2[j] = FL[f][0];
+    k->vlog2[j] = FL[f][1];
+    k->u[j] = rndf();
+    k->v[j] = rndf();
+    return f;
+}
+
 /* One block k through an 8-query function (w8: pf_w4x8_select's or pf_box8_select's) and
  * each lane through the per-query fused path (fast) on the same query: a lane the block
  * serves must be one the fused path serves, with the same output bytes; a lane it hands over
@@ -325,29 +371,11 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
         print_message("no AVX2 + FMA + F16C: skipped\n");
         skip();
     }
-    enum { NF = 3, SLACK = 64 };
-    static const int FL[NF][2] = {{5, 4}, {3, 6}, {6, 3}};
-    static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
     long served = 0, handed = 0, left = 0;
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
         for (unsigned nc = 1; nc <= 4; nc++) {
-            size_t es = st_dtype_size(dt), ts = es * nc;
             uint8_t *px[NF][8 * 8];
-            for (int f = 0; f < NF; f++)
-                for (int ru = 0; ru <= FL[f][0]; ru++)
-                    for (int rv = 0; rv <= FL[f][1]; rv++) {
-                        size_t nt = (size_t)1 << (ru + rv);
-                        uint8_t *d = malloc(nt * ts + SLACK);
-                        assert_non_null(d);
-                        for (size_t i = 0; i < nt * nc; i++) {
-                            float x = rndf() * maxv[dt], y = rndf();
-                            if (dt >= ST_DT_HALF) /* now and then an Inf or a NaN */
-                                x = y < 0.004f ? INFINITY : y < 0.008f ? NAN : x - 500.0f;
-                            put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x);
-                        }
-                        memset(d + nt * ts, 0, SLACK);
-                        px[f][ru * (FL[f][1] + 1) + rv] = d;
-                    }
+            tables_make(dt, nc, px);
             for (unsigned ft = ST_FILTER_PTEX_GAUSSIAN; ft <= ST_FILTER_PTEX_MITCHELL; ft++) {
                 pf_w4x8_fn w8 = pf_w4x8_select(dt, nc, ft);
                 pf_fast_fn fast = pf_fast_select(dt, nc, ft);
@@ -361,12 +389,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                     k.plain = 0xff;
                     k.fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
                     for (int j = 0; j < 8; j++) {
-                        int f = (int)(rndf() * NF) % NF;
-                        k.px[j] = (const uint8_t *const *)px[f];
-                        k.ulog2[j] = FL[f][0];
-                        k.vlog2[j] = FL[f][1];
-                        k.u[j] = rndf();
-                        k.v[j] = rndf();
+                        int f = lane_on_face(&k, j, px);
                         int c = (int)(rndf() * 3.0f);
                         for (int ax = 0; ax < 2; ax++) {
                             int lg = ax ? FL[f][1] : FL[f][0];
@@ -382,9 +405,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                     check_block(w8, fast, &p, &k, nc, 0, &served, &handed, &left);
                 }
             }
-            for (int f = 0; f < NF; f++)
-                for (int i = 0; i < (FL[f][0] + 1) * (FL[f][1] + 1); i++)
-                    free(px[f][i]);
+            tables_free(px);
         }
     print_message("%ld lanes served by the batch, identical; %ld handed over, identical; "
                   "%ld left to the per-query path\n", served, handed, left);
@@ -409,32 +430,14 @@ static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
         print_message("no AVX2 + FMA + F16C: skipped\n");
         skip();
     }
-    enum { NF = 3, SLACK = 64 };
-    static const int FL[NF][2] = {{5, 4}, {3, 6}, {6, 3}};
-    static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
     static const float fps[4] = {0.25f, 1.0f, 4.0f, 16.0f};
     long served = 0, handed = 0, left = 0, shapes[9] = {0};
     pk_params p;
     pk_params_init(&p, ST_FILTER_PTEX_BOX, 0.0f, 1);
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
         for (unsigned nc = 1; nc <= 4; nc++) {
-            size_t es = st_dtype_size(dt), ts = es * nc;
             uint8_t *px[NF][8 * 8];
-            for (int f = 0; f < NF; f++)
-                for (int ru = 0; ru <= FL[f][0]; ru++)
-                    for (int rv = 0; rv <= FL[f][1]; rv++) {
-                        size_t nt = (size_t)1 << (ru + rv);
-                        uint8_t *d = malloc(nt * ts + SLACK);
-                        assert_non_null(d);
-                        for (size_t i = 0; i < nt * nc; i++) {
-                            float x = rndf() * maxv[dt], y = rndf();
-                            if (dt >= ST_DT_HALF)
-                                x = y < 0.004f ? INFINITY : y < 0.008f ? NAN : x - 500.0f;
-                            put(dt, d + i * es, dt <= ST_DT_U16 ? floorf(x) : x);
-                        }
-                        memset(d + nt * ts, 0, SLACK);
-                        px[f][ru * (FL[f][1] + 1) + rv] = d;
-                    }
+            tables_make(dt, nc, px);
             pf_w4x8_fn b8 = pf_box8_select(dt, nc);
             pf_fast_fn fast = pf_fast_select(dt, nc, ST_FILTER_PTEX_BOX);
             assert_non_null(b8);
@@ -445,12 +448,7 @@ static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                 k.plain = 0xff;
                 k.fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
                 for (int j = 0; j < 8; j++) {
-                    int f = (int)(rndf() * NF) % NF;
-                    k.px[j] = (const uint8_t *const *)px[f];
-                    k.ulog2[j] = FL[f][0];
-                    k.vlog2[j] = FL[f][1];
-                    k.u[j] = rndf();
-                    k.v[j] = rndf();
+                    int f = lane_on_face(&k, j, px);
                     for (int ax = 0; ax < 2; ax++) {
                         int lg = ax ? FL[f][1] : FL[f][0], c = (int)(rndf() * 4.0f) & 3;
                         float fp = fps[(int)(rndf() * 4.0f) & 3];
@@ -482,9 +480,7 @@ static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                         shapes[(kb.uw - 1) * 3 + kb.vw - 1]++;
                     }
             }
-            for (int f = 0; f < NF; f++)
-                for (int i = 0; i < (FL[f][0] + 1) * (FL[f][1] + 1); i++)
-                    free(px[f][i]);
+            tables_free(px);
         }
     print_message("box: %ld lanes served by the batch, identical; %ld handed over, identical; "
                   "%ld left to the per-query path; shapes 1x1 .. 3x3: %ld %ld %ld %ld %ld %ld "
