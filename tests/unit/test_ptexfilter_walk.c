@@ -126,17 +126,6 @@ static long compare_flagged(st_set *s, const st_query *q, const char *path)
     return n;
 }
 
-/* The end of a loop over shared files: skipped when the data folder had none of them, else
- * how many files and queries were compared. */
-static void files_done(int found, long compared)
-{
-    if (!found) {
-        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
-        skip();
-    }
-    print_message("%d files, %ld queries compared\n", found, compared);
-}
-
 /* The shared file rel (under SEAMTEX_DATA) read, its full path in path; NULL when the data
  * folder does not have it; a read error fails the test. */
 static st_set *read_shared(const char *rel, char *path, size_t cap)
@@ -152,6 +141,48 @@ static st_set *read_shared(const char *rel, char *path, size_t cap)
     return s;
 }
 
+/* fn(set, queries, path) for each of the n shared files the data folder has, each read into
+ * its own set (freed after); fn returns how many queries it compared. Skipped when the data
+ * folder has none of the files. */
+typedef long (*file_check)(st_set *s, st_query *q, const char *path);
+
+static void check_files(const char *const *files, size_t n, file_check fn)
+{
+    static st_query q[NQ];
+    long compared = 0;
+    int found = 0;
+    for (size_t i = 0; i < n; i++) {
+        char path[1024];
+        st_set *s = read_shared(files[i], path, sizeof path);
+        if (!s)
+            continue;
+        found++;
+        compared += fn(s, q, path);
+        st_set_free(s);
+    }
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared\n", found, compared);
+}
+
+static long overhanging_file(st_set *s, st_query *q, const char *path)
+{
+    long n = 0;
+    edge_queries(s, q);
+    n += compare_paths(s, q, path); /* also builds the table */
+    uint8_t bu = s->info.border_u, bv = s->info.border_v;
+    for (uint8_t b = 1; b <= 2; b++) { /* black, periodic */
+        s->info.border_u = s->info.border_v = b;
+        n += compare_paths(s, q, path);
+    }
+    s->info.border_u = bu;
+    s->info.border_v = bv;
+    n += compare_flagged(s, q, path);
+    return n;
+}
+
 static void overhanging_kernels_match_the_general_walk(void **state)
 {
     (void)state;
@@ -162,28 +193,7 @@ static void overhanging_kernels_match_the_general_walk(void **state)
         "ptex-ref/cube8_k6_u8_rot.ptx",
         "ptex-ref/cube8_k7varrot_f32.ptx",
     };
-    static st_query q[NQ];
-    long compared = 0;
-    int found = 0;
-    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
-        char path[1024];
-        st_set *s = read_shared(files[i], path, sizeof path);
-        if (!s)
-            continue;
-        found++;
-        edge_queries(s, q);
-        compared += compare_paths(s, q, path); /* also builds the table */
-        uint8_t bu = s->info.border_u, bv = s->info.border_v;
-        for (uint8_t b = 1; b <= 2; b++) { /* black, periodic */
-            s->info.border_u = s->info.border_v = b;
-            compared += compare_paths(s, q, path);
-        }
-        s->info.border_u = bu;
-        s->info.border_v = bv;
-        compared += compare_flagged(s, q, path);
-        st_set_free(s);
-    }
-    files_done(found, compared);
+    check_files(files, sizeof files / sizeof files[0], overhanging_file);
 }
 
 /* Session 14 (walk7): in Traverse a kernel of a face at a mesh boundary goes to
@@ -193,6 +203,25 @@ static void overhanging_kernels_match_the_general_walk(void **state)
  * one-face files of bordermodes (every overhang a boundary fold; black and clamp.ptx half
  * texels, each also sampled with the other border modes) and cube1_k6_u8 (every corner of
  * valence 3), every filter but the triangle's, all three modes, against the general path. */
+static long boundary_file(st_set *s, st_query *q, const char *path)
+{
+    static const unsigned filters[] = {ST_FILTER_PTEX_POINT, ST_FILTER_PTEX_BILINEAR,
+                                       ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,
+                                       ST_FILTER_PTEX_BICUBIC, ST_FILTER_PTEX_MITCHELL};
+    const size_t nf = sizeof filters / sizeof filters[0];
+    long n = 0;
+    edge_queries(s, q);
+    n += compare_filters(s, q, path, filters, nf);
+    uint8_t bu = s->info.border_u, bv = s->info.border_v;
+    for (uint8_t b = 0; b <= 2; b++) { /* clamp, black, periodic */
+        s->info.border_u = s->info.border_v = b;
+        n += compare_filters(s, q, path, filters, nf);
+    }
+    s->info.border_u = bu;
+    s->info.border_v = bv;
+    return n;
+}
+
 static void boundary_folds_and_valence3_corners_match_the_general_path(void **state)
 {
     (void)state;
@@ -202,31 +231,7 @@ static void boundary_folds_and_valence3_corners_match_the_general_path(void **st
         "ptx/wdas-ptex-2009/bordermodes/periodic.ptx",
         "ptex-ref/cube1_k6_u8.ptx",
     };
-    static const unsigned filters[] = {ST_FILTER_PTEX_POINT, ST_FILTER_PTEX_BILINEAR,
-                                       ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,
-                                       ST_FILTER_PTEX_BICUBIC, ST_FILTER_PTEX_MITCHELL};
-    const size_t nf = sizeof filters / sizeof filters[0];
-    static st_query q[NQ];
-    long compared = 0;
-    int found = 0;
-    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
-        char path[1024];
-        st_set *s = read_shared(files[i], path, sizeof path);
-        if (!s)
-            continue;
-        found++;
-        edge_queries(s, q);
-        compared += compare_filters(s, q, path, filters, nf);
-        uint8_t bu = s->info.border_u, bv = s->info.border_v;
-        for (uint8_t b = 0; b <= 2; b++) { /* clamp, black, periodic */
-            s->info.border_u = s->info.border_v = b;
-            compared += compare_filters(s, q, path, filters, nf);
-        }
-        s->info.border_u = bu;
-        s->info.border_v = bv;
-        st_set_free(s);
-    }
-    files_done(found, compared);
+    check_files(files, sizeof files / sizeof files[0], boundary_file);
 }
 
 /* Session 15 (walk8): a kernel that overhangs one u edge and one v edge, each to a
@@ -239,6 +244,23 @@ static void boundary_folds_and_valence3_corners_match_the_general_path(void **st
  * then with a tenth of the faces flagged subface and, separately, constant (after the table
  * and the corners are made: the cornerface of a vertex with a subface is still set, so the
  * run-time test must send it back to the general walk). Against the general path. */
+static long two_edge_file(st_set *s, st_query *q, const char *path)
+{
+    static const float fps[] = {2.0f, 3.0f, 4.0f, 6.0f, 8.0f, 12.0f, 16.0f, 24.0f};
+    long n = 0;
+    for (int j = 0; j < NQ; j++) {
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        const st_face *F = &s->faces[f];
+        float fu = fps[(int)(rnd01() * 8) & 7];
+        float fv = j % 3 == 1 ? fps[(int)(rnd01() * 8) & 7] : fu;
+        q[j] = (st_query){.face = f, .u = rnd01(), .v = rnd01(),
+                          .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
+    }
+    n += compare_paths(s, q, path);
+    n += compare_flagged(s, q, path);
+    return n;
+}
+
 static void two_edge_kernels_match_the_general_walk(void **state)
 {
     (void)state;
@@ -249,29 +271,7 @@ static void two_edge_kernels_match_the_general_walk(void **state)
         "ptex-ref/cube8_k7varrot_f32.ptx",
         "ptex-ref/cube1_k6_u8.ptx",
     };
-    static const float fps[] = {2.0f, 3.0f, 4.0f, 6.0f, 8.0f, 12.0f, 16.0f, 24.0f};
-    static st_query q[NQ];
-    long compared = 0;
-    int found = 0;
-    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
-        char path[1024];
-        st_set *s = read_shared(files[i], path, sizeof path);
-        if (!s)
-            continue;
-        found++;
-        for (int j = 0; j < NQ; j++) {
-            uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
-            const st_face *F = &s->faces[f];
-            float fu = fps[(int)(rnd01() * 8) & 7];
-            float fv = j % 3 == 1 ? fps[(int)(rnd01() * 8) & 7] : fu;
-            q[j] = (st_query){.face = f, .u = rnd01(), .v = rnd01(),
-                              .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
-        }
-        compared += compare_paths(s, q, path);
-        compared += compare_flagged(s, q, path);
-        st_set_free(s);
-    }
-    files_done(found, compared);
+    check_files(files, sizeof files / sizeof files[0], two_edge_file);
 }
 
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives
