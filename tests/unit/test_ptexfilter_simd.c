@@ -283,6 +283,15 @@ static void tables_free(uint8_t *px[NF][8 * 8])
             free(px[f][i]);
 }
 
+/* A block of 8 lanes, every lane plain; in every fourth block (r % 4 == 0) a random subset
+ * offered to the fused path, else all of them. */
+static void block_start(pf_klanes *k, int r)
+{
+    memset(k, 0, sizeof *k);
+    k->plain = 0xff;
+    k->fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
+}
+
 /* Lane j of k on a random one of the faces, at a random (u, v); returns the face. */
 static int lane_on_face(pf_klanes *k, int j, uint8_t *px[NF][8 * 8])
 {
@@ -385,9 +394,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                 pk_params_init(&p, ft, 0.3f, 1);
                 for (int r = 0; r < 300; r++) {
                     pf_klanes k;
-                    memset(&k, 0, sizeof k);
-                    k.plain = 0xff;
-                    k.fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
+                    block_start(&k, r);
                     for (int j = 0; j < 8; j++) {
                         int f = lane_on_face(&k, j, px);
                         int c = (int)(rndf() * 3.0f);
@@ -444,9 +451,7 @@ static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
             assert_non_null(fast);
             for (int r = 0; r < 600; r++) {
                 pf_klanes k;
-                memset(&k, 0, sizeof k);
-                k.plain = 0xff;
-                k.fast = r % 4 ? 0xffu : (unsigned)(rndf() * 256.0f);
+                block_start(&k, r);
                 for (int j = 0; j < 8; j++) {
                     int f = lane_on_face(&k, j, px);
                     for (int ax = 0; ax < 2; ax++) {
