@@ -26,6 +26,11 @@ void scl_key_all_copies(char *out, const char *prefix)
     snprintf(out, SCL_KEY_MAX, "%s/copies/", prefix);
 }
 
+void scl_key_op(char *out, const char *prefix, const char *id)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/ops/%s", prefix, id);
+}
+
 /* the incarnation as 16 hex digits (a JSON number cannot hold 64 bits exactly) */
 static void add_inc(json_object *o, uint64_t inc)
 {
@@ -48,6 +53,19 @@ static int get_inc(json_object *o, uint64_t *inc)
         return -1;
     *inc = strtoull(s, NULL, 16);
     return 0;
+}
+
+int scl_op_format(char *out, size_t cap, uint64_t inc, uint64_t seq, const char *op,
+                  const char *name)
+{
+    json_object *o = json_object_new_object();
+    add_inc(o, inc);
+    json_object_object_add(o, "seq", json_object_new_int64((int64_t)seq));
+    json_object_object_add(o, "op", json_object_new_string(op));
+    json_object_object_add(o, "set", json_object_new_string(name));
+    int n = snprintf(out, cap, "%s", json_object_to_json_string_ext(o, JSON_C_TO_STRING_PLAIN));
+    json_object_put(o);
+    return n < 0 || (size_t)n >= cap ? -1 : 0;
 }
 
 int scl_node_format(char *out, size_t cap, const char *addr, uint64_t inc)

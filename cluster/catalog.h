@@ -1,8 +1,8 @@
 /* cluster/catalog.h - the records seamtexd keeps in etcd (docs/cluster.md "Keys").
  *
- * Owns: the key names under the prefix (nodes/, sets/, copies/), the JSON of a node record and
- * of a set record, and their parsing (every field checked). Does not own: when records are
- * written (server/cluster_node.c), the HTTP (etcd.h).
+ * Owns: the key names under the prefix (nodes/, sets/, copies/, ops/), the JSON of a node
+ * record, of a set record and of an op key, and their parsing (every field checked). Does not
+ * own: when records are written (server/cluster_*.c), the HTTP (etcd.h).
  */
 #ifndef SCL_CATALOG_H
 #define SCL_CATALOG_H
@@ -21,6 +21,14 @@ void scl_key_set(char *out, const char *prefix, const char *name);
 void scl_key_copies(char *out, const char *prefix, const char *name, const char *id);
 /* "<prefix>/copies/" */
 void scl_key_all_copies(char *out, const char *prefix);
+/* "<prefix>/ops/<id>": the node's op key (server/cluster_fence.c, docs/cluster.md "Writes in
+ * doubt") */
+void scl_key_op(char *out, const char *prefix, const char *id);
+
+/* The op key's value: {"inc":"<16 hex digits>","seq":N,"op":"<what>","set":"<name>"}; -1 when
+ * it does not fit cap. Only the node that wrote it reads it back (compared as bytes). */
+int scl_op_format(char *out, size_t cap, uint64_t inc, uint64_t seq, const char *op,
+                  const char *name);
 
 /* The node record {"addr":"HOST:PORT","inc":"<16 hex digits>"}: inc is the incarnation of the
  * process that registered (a random id drawn at each start); a record without one parses as 0

@@ -302,6 +302,13 @@ static void *member_main(void *arg)
             }
         }
         poll_members(cl);
+        /* a write in doubt is settled as soon as etcd answers, not only at the next write
+         * (repair keeps what it may put back meanwhile); never waits for the write path */
+        if (__atomic_load_n(&cl->in_doubt, __ATOMIC_RELAXED) && sts_cluster_etcd_ok(cl) &&
+            pthread_mutex_trylock(&cl->etcd_mu) == 0) {
+            sts_cluster_resolve(cl, cl->etcd_m);
+            pthread_mutex_unlock(&cl->etcd_mu);
+        }
     } while (!nap(cl, poll_ms, 0));
     return NULL;
 }
@@ -440,6 +447,8 @@ void sts_cluster_free(sts_server *srv)
     free(cl->members);
     free(cl->cat);
     free(cl->orphans);
+    free(cl->gone);
+    sts_cluster_doubt_free(cl);
     pthread_mutex_destroy(&cl->mu);
     pthread_mutex_destroy(&cl->etcd_mu);
     pthread_mutex_destroy(&cl->wake_mu);
@@ -518,6 +527,9 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("under_replicated", C(under_replicated));
     K("claims", C(claims));
     K("claims_lost", C(claims_lost));
+    K("in_doubt", (uint64_t)__atomic_load_n(&cl->in_doubt, __ATOMIC_RELAXED));
+    K("writes_in_doubt", C(writes_in_doubt));
+    K("doubts_undone", C(doubts_undone));
 #undef K
 #undef C
     return n;

@@ -6,14 +6,19 @@
  *   cluster_repair.c  the repair thread: a pass over the catalogue (push, drop, forget)
  *   cluster_write.c   the write path run by a COMMIT, DELETE or COMPRESS job on its own thread:
  *                     claim, local commit (the caller's), pushes, finalize / take back
+ *   cluster_fence.c   the write path's transactions and the node's op key: a write whose
+ *                     outcome is unknown (etcd did not answer) is fenced and made to match
+ *                     the UNAVAILABLE its request was answered with
  *
  * Shared state and its locks (no lock is held across I/O):
  *   cl->mu       guards the view: members[] (sorted by id), epoch, cat[] (catalogue snapshot
  *                of the last repair pass, sorted by name). Writers: the membership thread
  *                (members, epoch), the repair thread and the write path (cat). Readers:
  *                handlers (CLUSTER, MOVED), the write path (owners), the repair thread.
- *   cl->etcd_mu  guards cl->etcd_w, the etcd handle of the write path (workers, job thread);
- *                the membership and repair threads have their own handles.
+ *   cl->etcd_mu  guards cl->etcd_w, the etcd handle of the write path (workers, job thread),
+ *                and the op key's state (op_rev, op_seq, doubt); the membership and repair
+ *                threads have their own handles (the membership thread takes etcd_mu, with
+ *                trylock, to resolve a write in doubt).
  *   etcd_ok, the counters: atomics.
  * Without --cluster srv->cluster is NULL and none of this runs.
  */
@@ -51,6 +56,7 @@ typedef struct sts_cl_counters {
     uint64_t etcd_errors, lease_grants, lease_renewals, membership_changes, repair_passes;
     uint64_t copies_pushed, copies_received, copies_dropped, push_failures, push_bytes;
     uint64_t moved, refused_unavailable, under_replicated, claims, claims_lost;
+    uint64_t writes_in_doubt, doubts_undone;   /* cluster_fence.c */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -85,6 +91,17 @@ typedef struct sts_cluster {
      * of another incarnation than the one that claimed), and since when */
     struct sts_cl_orphan { char name[STP_MAX_NAME + 1]; int64_t mod_rev, since_ms; } *orphans;
     size_t          norphans;
+    /* repair thread only: local sets the catalogue did not record, and since when (dropped
+     * after two lease TTLs: a delete in doubt may be put back meanwhile) */
+    struct sts_cl_orphan *gone;
+    size_t          ngone;
+    /* the op key (cluster_fence.c), under etcd_mu */
+    int64_t         op_rev;            /* mod_revision of ops/<self> as last written or read */
+    int             op_known;          /* op_rev has been read since start */
+    uint64_t        op_seq;            /* writes sent by this process */
+    struct sts_cl_doubt *doubt;        /* the write whose outcome is unknown, or NULL */
+    int             in_doubt;          /* atomic: doubt != NULL (a hint for other threads) */
+    char            doubt_set[STP_MAX_NAME + 1];   /* under mu: the set of the write in doubt */
     sts_cl_counters n;                 /* atomics */
 } sts_cluster;
 
@@ -159,6 +176,40 @@ int sts_cluster_delete(sts_cluster *cl, const char *name,
 int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int kind,
                              int (*local_delete)(sts_server *srv, const char *name), char *msg,
                              size_t cap);
+/* ---- cluster_fence.c ---- */
+enum { STS_DOUBT_CLAIM, STS_DOUBT_FINALIZE, STS_DOUBT_UNCLAIM, STS_DOUBT_DELETE,
+       STS_DOUBT_RESTORE };
+typedef struct sts_cl_doubt {           /* a write and what undoing or redoing it needs */
+    int          kind;                  /* STS_DOUBT_* */
+    char         name[STP_MAX_NAME + 1];
+    char         tag[1024];             /* the op key's value the write put */
+    sts_cl_claim claim;                 /* CLAIM, FINALIZE, UNCLAIM */
+    int          nacked;                /* FINALIZE: the copies/ keys it put */
+    char         acked[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ID + 1];
+    char        *rec;                   /* DELETE, RESTORE: the record's value as it was */
+    scl_kvs      copies;                /* DELETE, RESTORE: its copies/ keys as they were */
+} sts_cl_doubt;
+/* One transaction of the write path; the caller holds etcd_mu. The op key's compare
+ * (mod_revision == op_rev) and put are added to cmp and ops; a write left in doubt is resolved
+ * first (when that fails, so does this call, with nothing sent). On an etcd error the write is
+ * in doubt: a copy of *d (rec and copies copied too) is kept until sts_cluster_resolve settles
+ * it. *ok 0 means a compare of the caller failed. Returns an SCL_* code. */
+int  sts_cluster_wtxn(sts_cluster *cl, scl_etcd *h, const scl_cmp *cmp, size_t ncmp,
+                      const scl_op *ops, size_t nops, int *ok, int64_t *rev,
+                      const sts_cl_doubt *d);
+/* Settles the write in doubt, if any (caller holds etcd_mu): fences the op key, learns
+ * whether the write was applied and undoes or completes it so that the cluster matches the
+ * UNAVAILABLE the request was answered with. SCL_OK when nothing is in doubt any more. */
+int  sts_cluster_resolve(sts_cluster *cl, scl_etcd *h);
+/* Takes a claim back (caller holds etcd_mu): compare the record's mod_revision with rev, then
+ * delete it (or put back the record it replaced) and the copies/ keys of acked. SCL_* code;
+ * the outcome is logged. */
+int  sts_cluster_take_back(sts_cluster *cl, scl_etcd *h, const sts_cl_claim *c, int64_t rev,
+                           int nacked, const char (*acked)[STP_MAX_NODE_ID + 1]);
+/* 1 when name is the set of a write in doubt (repair keeps its local copy). */
+int  sts_cluster_doubts(sts_cluster *cl, const char *name);
+void sts_cluster_doubt_free(sts_cluster *cl);
+
 /* Pushes the local copy of name to the node at addr (the repair thread and the write path):
  * 0, or non-zero with msg set. */
 int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap);

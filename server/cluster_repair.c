@@ -2,9 +2,9 @@
  *
  * Owns: one pass over the catalogue, run on every membership change and every
  * --repair-interval seconds: the copies/ keys of this node's copies kept true, stale and
- * forgotten copies dropped, copies pushed to owners that lack one (by the first live holder in
- * the ranking only, so one node pushes each set), extra copies dropped once every owner has
- * confirmed its own, abandoned claims removed; then the catalogue snapshot the handlers use
+ * forgotten copies dropped (a set the catalogue lacks, after two lease TTLs), copies pushed
+ * to owners that lack one (by the first live holder in the ranking only, so one node pushes
+ * each set), extra copies dropped once every owner has confirmed its own, abandoned claims removed; then the catalogue snapshot the handlers use
  * (MOVED) is replaced. Does not own: the membership (cluster_node.c), the write path.
  * Nothing happens while etcd is unreachable.
  */
@@ -109,15 +109,20 @@ static void drop_local(sts_cluster *cl, const char *name, const char *why)
     }
 }
 
-/* 1 when the pending claim (name, mod_rev) has been seen without its origin node for longer
- * than twice the lease TTL (a node re-registering after an etcd outage is not gone) */
-static int orphan_long_enough(sts_cluster *cl, const char *name, int64_t mod_rev,
-                              struct sts_cl_orphan *next, size_t *nnext)
+/* 1 when (name, mod_rev) has been in the list was[] (seen by earlier passes) for longer than
+ * twice the lease TTL; records it in next[] with the time it was first seen. The lists: the
+ * pending claims seen without their origin node (a node re-registering after an etcd outage
+ * is not gone), and the local sets seen missing from the catalogue (mod_rev 0: a delete that
+ * etcd applied after the request was answered UNAVAILABLE is put back by its node meanwhile,
+ * cluster_fence.c). */
+static int seen_long_enough(sts_cluster *cl, const struct sts_cl_orphan *was, size_t nwas,
+                            const char *name, int64_t mod_rev, struct sts_cl_orphan *next,
+                            size_t *nnext)
 {
     int64_t now = sts_now_ms(), since = now;
-    for (size_t i = 0; i < cl->norphans; i++)
-        if (!strcmp(cl->orphans[i].name, name) && cl->orphans[i].mod_rev == mod_rev)
-            since = cl->orphans[i].since_ms;
+    for (size_t i = 0; i < nwas; i++)
+        if (!strcmp(was[i].name, name) && was[i].mod_rev == mod_rev)
+            since = was[i].since_ms;
     if (next) {
         snprintf(next[*nnext].name, sizeof next[0].name, "%s", name);
         next[*nnext].mod_rev = mod_rev;
@@ -200,6 +205,8 @@ static void pass(sts_cluster *cl)
     st_setref **refs = calloc(cap, sizeof *refs);
     size_t nr = refs ? st_registry_snapshot(srv->reg, refs, cap) : 0;
     char *mine = calloc(nc ? nc : 1, 1);   /* 1: a current local copy */
+    struct sts_cl_orphan *gone = calloc(nr ? nr : 1, sizeof *gone);
+    size_t ngone = 0;
     for (size_t i = 0; mine && i < nr; i++) {
         st_setref *r = refs[i];
         if (!r->source_bytes)
@@ -207,7 +214,10 @@ static void pass(sts_cluster *cl)
         sts_cl_entry *e = find_entry(cat, nc, r->name);
         int settled = r->created_ms < t0 - 2000;   /* published before the catalogue was read */
         if (!e) {
-            if (settled)
+            /* deleted, unless this node's delete of it is in doubt or was applied late by
+             * another node's etcd and is about to be put back: kept for two lease TTLs */
+            if (settled && !sts_cluster_doubts(cl, r->name) &&
+                seen_long_enough(cl, cl->gone, cl->ngone, r->name, 0, gone, &ngone))
                 drop_local(cl, r->name, "the cluster does not record it: deleted");
         } else if (e->state != SCL_SET_OK) {
             continue;
@@ -228,6 +238,16 @@ static void pass(sts_cluster *cl)
     for (size_t i = 0; i < nr; i++)
         st_setref_release(refs[i]);
     free(refs);
+    free(cl->gone);
+    cl->gone = gone;
+    cl->ngone = gone ? ngone : 0;
+    /* a copies/ key of this node without a current local copy (lost, or dropped while a
+     * record was away) is not a copy: removed, so that repair makes one where it is owed */
+    for (size_t i = 0; mine && i < nc; i++)
+        if (cat[i].state == SCL_SET_OK && !mine[i] && holds(&cat[i], cl->self)) {
+            copy_key(cl, cat[i].name, 0, 0);
+            remove_holder(&cat[i], cl->self);
+        }
 
     /* placement; copies are dropped only once the membership has been stable for a lease TTL
      * (after an etcd outage every node re-registers, and a partial view must not move sets) */
@@ -243,7 +263,8 @@ static void pass(sts_cluster *cl)
         sts_cl_entry *e = &cat[i];
         if (e->state != SCL_SET_OK) {
             if (!origin_live(m, nm, rows[i].rec.origin, rows[i].rec.inc) &&
-                orphan_long_enough(cl, e->name, rows[i].mod_rev, next, &nnext)) {
+                seen_long_enough(cl, cl->orphans, cl->norphans, e->name, rows[i].mod_rev, next,
+                                 &nnext)) {
                 /* a claim whose node is gone, or was restarted since (its write path died
                  * with the process that claimed): abandoned */
                 char key[SCL_KEY_MAX];

@@ -1,7 +1,9 @@
 /* server/cluster_write.c - the cluster's write path (docs/cluster.md "Writes"): the claim in
  * etcd, pushes of the committed copy to the other owners, the finalizing transaction, taking
  * a claim back, DELETE. Runs on the thread of the request (a worker for COMMIT and DELETE),
- * never on an I/O thread; etcd calls go through cl->etcd_w under cl->etcd_mu.
+ * never on an I/O thread; etcd calls go through cl->etcd_w under cl->etcd_mu, and every
+ * transaction through sts_cluster_wtxn (cluster_fence.c: a write etcd did not answer is
+ * settled so that it matches its UNAVAILABLE reply).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -61,8 +63,9 @@ int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *
     return rc;
 }
 
-/* reads sets/<name>; 1 found (rec, mod), 0 absent, < 0 an etcd error (noted) */
-static int read_rec(sts_cluster *cl, const char *key, scl_setrec *rec, int64_t *mod)
+/* reads sets/<name>; 1 found (rec, mod), 0 absent, < 0 an etcd error (noted); with raw, a
+ * copy of the value as it is in etcd (the caller frees it) */
+static int read_rec(sts_cluster *cl, const char *key, scl_setrec *rec, int64_t *mod, char **raw)
 {
     scl_kvs kvs;
     int rc = scl_etcd_range(cl->etcd_w, key, 0, &kvs);
@@ -76,6 +79,11 @@ static int read_rec(sts_cluster *cl, const char *key, scl_setrec *rec, int64_t *
     } else if (kvs.n == 1) {
         *mod = kvs.v[0].mod_rev;
         found = 2;   /* a record that is not ours: treated as taken */
+    }
+    if (raw && found) {
+        *raw = strdup(kvs.v[0].val);
+        if (!*raw)
+            found = SCL_ENOMEM;
     }
     scl_kvs_free(&kvs);
     return found;
@@ -112,7 +120,9 @@ int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32
     for (int attempt = 0; attempt < 2; attempt++) {
         scl_setrec cur;
         int64_t mod = 0;
-        int found = read_rec(cl, key, &cur, &mod);
+        int found = cl->doubt && sts_cluster_resolve(cl, cl->etcd_w) != SCL_OK
+                        ? SCL_EUNREACHABLE
+                        : read_rec(cl, key, &cur, &mod, NULL);
         if (found < 0) {
             status = unavailable(cl, msg, cap, "upload");
             break;
@@ -148,8 +158,12 @@ int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32
         scl_op op = {SCL_OP_PUT, key, val, 0};
         int ok = 0;
         int64_t rev = 0;
-        int rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, &op, 1, &ok, &rev);
-        sts_cluster_note_etcd(cl, rc);
+        sts_cl_doubt d;
+        memset(&d, 0, sizeof d);
+        d.kind = STS_DOUBT_CLAIM;
+        snprintf(d.name, sizeof d.name, "%s", name);
+        d.claim = *c;
+        int rc = sts_cluster_wtxn(cl, cl->etcd_w, &cmp, 1, &op, 1, &ok, &rev, &d);
         if (rc != SCL_OK) {
             status = rc == SCL_EUNREACHABLE ? unavailable(cl, msg, cap, "upload") : STP_S_INTERNAL;
             if (rc != SCL_EUNREACHABLE)
@@ -174,22 +188,12 @@ void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c)
 {
     if (c->repeat)
         return;
-    char key[SCL_KEY_MAX], val[2048];
-    scl_key_set(key, cl->prefix, c->name);
-    scl_cmp cmp = {key, SCL_CMP_MOD, c->mod_rev};
-    scl_op op = {SCL_OP_DEL, key, NULL, 0};
-    if (c->had_prev) {
-        scl_setrec_format(val, sizeof val, &c->prev);
-        op.type = SCL_OP_PUT;
-        op.val = val;
-    }
-    int ok = 0;
     pthread_mutex_lock(&cl->etcd_mu);
-    int rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, &op, 1, &ok, NULL);
+    int rc = sts_cluster_take_back(cl, cl->etcd_w, c, c->mod_rev, 0, NULL);
     pthread_mutex_unlock(&cl->etcd_mu);
-    sts_cluster_note_etcd(cl, rc);
-    sts_logf(&cl->srv->log, STS_INFO, "cluster: claim of '%s' taken back%s", c->name,
-             rc == SCL_OK && ok ? "" : " (not possible now: repair abandons it)");
+    if (rc != SCL_OK)
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: claim of '%s' not taken back yet (etcd: "
+                 "%s); settled when etcd answers again", c->name, scl_etcd_errmsg(cl->etcd_w));
 }
 
 int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg, size_t cap)
@@ -198,7 +202,7 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg,
     size_t n = sts_cluster_members(cl, &m, NULL);
     size_t order[16];
     size_t R = sts_cluster_rank(m, n, c->name, order, cl->replicas < 16 ? cl->replicas : 16);
-    char acked[16][STP_MAX_NODE_ID + 1];
+    char acked[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ID + 1];   /* the owners and this node */
     int nack = 0, self_owner = 0;
     char why[512] = "";
     for (size_t i = 0; i < R; i++) {
@@ -241,12 +245,23 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg,
     }
     scl_cmp cmp = {key, SCL_CMP_MOD, c->mod_rev};
     int ok = 0;
+    sts_cl_doubt *d = calloc(1, sizeof *d);
+    if (!d) {
+        sts_cluster_unclaim(cl, c);
+        snprintf(msg, cap, "out of memory while recording '%s'", c->name);
+        return STP_S_INTERNAL;
+    }
+    d->kind = STS_DOUBT_FINALIZE;
+    snprintf(d->name, sizeof d->name, "%s", c->name);
+    d->claim = *c;
+    d->nacked = nack;
+    memcpy(d->acked, acked, (size_t)nack * sizeof acked[0]);
     pthread_mutex_lock(&cl->etcd_mu);
-    int rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, ops, nops, &ok, NULL);
+    int rc = sts_cluster_wtxn(cl, cl->etcd_w, &cmp, 1, ops, nops, &ok, NULL, d);
     pthread_mutex_unlock(&cl->etcd_mu);
-    sts_cluster_note_etcd(cl, rc);
+    free(d);
     if (rc != SCL_OK)
-        return unavailable(cl, msg, cap, "upload (its copies are made; retry to confirm)");
+        return unavailable(cl, msg, cap, "upload");   /* taken back when etcd answers */
     if (!ok) {
         snprintf(msg, cap, "set '%s' was replaced or deleted while this upload was copied", c->name);
         return STP_S_EXISTS;
@@ -298,29 +313,41 @@ int sts_cluster_delete(sts_cluster *cl, const char *name,
     scl_key_copies(ckey, cl->prefix, name, "");
     scl_setrec rec;
     int64_t mod = 0;
+    char *raw = NULL;
     scl_kvs copies;
     memset(&copies, 0, sizeof copies);
     pthread_mutex_lock(&cl->etcd_mu);
-    int found = read_rec(cl, key, &rec, &mod);
+    int found = cl->doubt && sts_cluster_resolve(cl, cl->etcd_w) != SCL_OK
+                    ? SCL_EUNREACHABLE
+                    : read_rec(cl, key, &rec, &mod, &raw);
     int rc = found < 0 ? found : SCL_OK;
     if (found > 0) {
         rc = scl_etcd_range(cl->etcd_w, ckey, 1, &copies);
+        sts_cluster_note_etcd(cl, rc);
         if (rc == SCL_OK) {
-            /* recorded first: the record and every copies/ key in one transaction */
+            /* recorded first: the record and every copies/ key in one transaction; what it
+             * removes is kept in case etcd applies it after this request was refused */
             scl_cmp cmp = {key, SCL_CMP_MOD, mod};
             scl_op ops[2] = {{SCL_OP_DEL, key, NULL, 0}, {SCL_OP_DEL_PREFIX, ckey, NULL, 0}};
+            sts_cl_doubt d;
+            memset(&d, 0, sizeof d);
+            d.kind = STS_DOUBT_DELETE;
+            snprintf(d.name, sizeof d.name, "%s", name);
+            d.rec = raw;
+            d.copies = copies;
             int ok = 0;
-            rc = scl_etcd_txn(cl->etcd_w, &cmp, 1, ops, 2, &ok, NULL);
+            rc = sts_cluster_wtxn(cl, cl->etcd_w, &cmp, 1, ops, 2, &ok, NULL, &d);
             if (rc == SCL_OK && !ok) {
                 pthread_mutex_unlock(&cl->etcd_mu);
                 scl_kvs_free(&copies);
+                free(raw);
                 snprintf(msg, cap, "set '%s' changed while being deleted (retry)", name);
                 return STP_S_BUSY;
             }
         }
     }
     pthread_mutex_unlock(&cl->etcd_mu);
-    sts_cluster_note_etcd(cl, rc);
+    free(raw);
     if (rc != SCL_OK) {
         scl_kvs_free(&copies);
         return unavailable(cl, msg, cap, "delete");

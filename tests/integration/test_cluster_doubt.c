@@ -1,0 +1,305 @@
+/* tests/integration/test_cluster_doubt.c - writes in doubt (docs/cluster.md "Writes in
+ * doubt"): a write whose etcd transaction got no answer is answered UNAVAILABLE ("refused"),
+ * and the cluster must end up as if it had been refused even when etcd applies the
+ * transaction afterwards.
+ *
+ * Deterministic: node n0 reaches etcd through a proxy (tests/common/etcd_hold.h) that keeps
+ * n0's transactions unanswered while holding (n0's call times out after 2 s) and replays them
+ * to etcd on demand, after n0 gave up on them: exactly what a paused or overloaded etcd does
+ * now and then. n1 reaches etcd directly. 2 nodes, R = W = 2, 2 s leases, repair every 1 s.
+ *   1. DELETE through n0, held, UNAVAILABLE, then replayed (etcd removes the record and the
+ *      copies/ keys): the record and both copies are back, and the set stays on both nodes
+ *      past the time repair takes to drop a deleted set. A later DELETE works.
+ *   2. DELETE through n0, held, UNAVAILABLE; holding stops, n0 settles the doubt (fence);
+ *      then the kept DELETE is replayed: etcd does not apply it, the set stays.
+ *   3. UPLOAD through n0 whose claim is held, UNAVAILABLE, replayed (a pending record of the
+ *      live n0): n0 takes the claim back, and other contents uploaded through n1 are
+ *      accepted under the name.
+ *   4. UPLOAD through n0 whose finalizing transaction is held (the claim goes through),
+ *      UNAVAILABLE, replayed (the record "ok"): n0 takes it back, the name is free and neither
+ *      node keeps the refused contents.
+ * Each fails on the code before the fix (no op key, no resolution): the replayed transaction
+ * takes effect.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../common/cluster_fixture.h"
+#include "../common/daemon_client.h"
+#include "../common/etcd_fixture.h"
+#include "../common/etcd_hold.h"
+#include "../common/wait.h"
+#include "catalog.h"
+#include "etcd.h"
+
+#define DEADLINE_MS 30000
+#define KEEP_MS 7000      /* longer than two 2 s lease TTLs: repair would have dropped a set */
+
+static st_etcd ETCD;
+static st_etcd_hold *PROXY;
+static char proxy_url[320];
+static st_daemon N[2];
+static char files[2][300];
+static float red[2];
+static scl_etcd *E;       /* the test's own reads of etcd */
+
+/* 1 when etcd has PREFIX/sets/<name> (state "ok" when ok is set); -1 on an etcd error */
+static int recorded(const char *name, int ok)
+{
+    char key[SCL_KEY_MAX];
+    scl_key_set(key, "/doubt", name);
+    scl_kvs kvs;
+    if (scl_etcd_range(E, key, 0, &kvs) != SCL_OK)
+        return -1;
+    scl_setrec r;
+    int found = kvs.n == 1 && scl_setrec_parse(kvs.v[0].val, &r) == 0 &&
+                (!ok || r.state == SCL_SET_OK);
+    scl_kvs_free(&kvs);
+    return found;
+}
+
+/* how many copies/<name>/ keys etcd has */
+static int copy_keys(const char *name)
+{
+    char key[SCL_KEY_MAX];
+    scl_key_copies(key, "/doubt", name, "");
+    scl_kvs kvs;
+    if (scl_etcd_range(E, key, 1, &kvs) != SCL_OK)
+        return -1;
+    int n = (int)kvs.n;
+    scl_kvs_free(&kvs);
+    return n;
+}
+
+/* red of name read directly from node i (other than a number: not served there) */
+static float red_on(int i, const char *name)
+{
+    stc_conn *c = st_daemon_client(&N[i], NULL);
+    float r = -1;
+    if (!c || st_red_at(c, name, &r) != 0)
+        r = -1;
+    stc_close(c);
+    return r;
+}
+
+static int both_members(void *arg)
+{
+    (void)arg;
+    for (int i = 0; i < 2; i++)
+        if (st_daemon_stat(&N[i], "cluster_members") != 2 ||
+            st_daemon_stat(&N[i], "cluster_etcd_ok") != 1)
+            return 0;
+    return 1;
+}
+
+typedef struct served { const char *name; float red; } served;
+
+static int both_serve(void *arg)
+{
+    const served *s = arg;
+    return red_on(0, s->name) == s->red && red_on(1, s->name) == s->red;
+}
+
+static int neither_serves(void *arg)
+{
+    const char *name = arg;
+    return red_on(0, name) < 0 && red_on(1, name) < 0;
+}
+
+static int settled(void *arg)
+{
+    (void)arg;
+    return st_daemon_stat(&N[0], "cluster_in_doubt") == 0 &&
+           st_daemon_stat(&N[0], "cluster_etcd_ok") == 1;
+}
+
+static int recorded_with_copies(void *arg)
+{
+    const char *name = arg;
+    return recorded(name, 1) == 1 && copy_keys(name) == 2;
+}
+
+static int not_recorded(void *arg)
+{
+    const char *name = arg;
+    return recorded(name, 0) == 0 && copy_keys(name) == 0;
+}
+
+static int upload_direct(int i, int file, const char *name)
+{
+    stc_conn *c = st_daemon_client(&N[i], NULL);
+    int rc = c ? stc_upload_file(c, files[file], name, NULL, NULL) : -1;
+    stc_close(c);
+    return rc;
+}
+
+static int delete_direct(int i, const char *name)
+{
+    stc_conn *c = st_daemon_client(&N[i], NULL);
+    int rc = c ? stc_delete(c, name) : -1;
+    stc_close(c);
+    return rc;
+}
+
+/* uploads name (tint 0) through n1 and waits until both nodes serve it */
+static void put_set(const char *name)
+{
+    assert_int_equal(upload_direct(1, 0, name), 0);
+    served s = {name, red[0]};
+    if (st_wait_until(both_serve, &s, DEADLINE_MS) != 0)
+        fail_msg("'%s' is not on both nodes", name);
+}
+
+/* the set stays recorded and served by both nodes for KEEP_MS, checked every 200 ms */
+static void stays(const char *name)
+{
+    served s = {name, red[0]};
+    for (int t = 0; t < KEEP_MS / 200; t++) {
+        if (!both_serve(&s) || recorded(name, 1) != 1) {
+            st_daemon_dump_log(&N[0], 30);
+            fail_msg("'%s' is gone after %d ms (recorded %d, n0 %g, n1 %g)", name, t * 200,
+                     recorded(name, 1), red_on(0, name), red_on(1, name));
+        }
+        st_sleep_ms(200);
+    }
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    scl_etcd_global_init();
+    if (st_etcd_start(&ETCD, "/doubt") != 0)
+        return -1;
+    PROXY = st_etcd_hold_start(ETCD.client_port, "/doubt", proxy_url, sizeof proxy_url);
+    char err[256];
+    E = scl_etcd_open(ETCD.url, 5000, err, sizeof err);
+    if (!PROXY || !E)
+        return -1;
+    for (int i = 0; i < 2; i++)
+        if (st_daemon_init(&N[i]) != 0)
+            return -1;
+    if (st_cluster_tint_files(N[0].dir, 2, 40, files) != 0 ||
+        st_cluster_node_start(&N[0], proxy_url, 0, 2, 2) != 0 ||
+        st_cluster_node_start(&N[1], ETCD.url, 1, 2, 2) != 0 ||
+        st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
+        return -1;
+    char seeds[64], msg[256];
+    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
+    int e = 0;
+    stc_cluster *cl = stc_cluster_open(seeds, NULL, &e, msg, sizeof msg);
+    int rc = cl ? st_cluster_tint_reds(cl, 2, files, red) : -1;
+    stc_cluster_close(cl);
+    return rc == 0 && red[0] != red[1] ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    int bad = 0;
+    for (int i = 0; i < 2; i++)
+        bad |= st_daemon_down(&N[i], 10000) != 0;
+    st_etcd_hold_stop(PROXY);
+    scl_etcd_close(E);
+    st_etcd_stop(&ETCD);
+    return bad;
+}
+
+static void delete_applied_late_is_put_back(void **state)
+{
+    (void)state;
+    put_set("a");
+    st_etcd_hold_on(PROXY, 0);
+    assert_int_equal(delete_direct(0, "a"), STC_EUNAVAILABLE);
+    assert_true(st_etcd_hold_count(PROXY) >= 1);
+    /* etcd now runs the delete n0 gave up on (and any fence n0 tried meanwhile) */
+    st_etcd_hold_off(PROXY);
+    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    if (st_wait_until(recorded_with_copies, "a", DEADLINE_MS) != 0)
+        fail_msg("the refused delete of 'a' stayed applied (recorded %d, %d copies keys)",
+                 recorded("a", 1), copy_keys("a"));
+    stays("a");
+    assert_true(st_daemon_stat(&N[0], "cluster_doubts_undone") >= 1);
+    /* a delete that etcd answers still deletes */
+    assert_int_equal(delete_direct(0, "a"), 0);
+    assert_int_equal(recorded("a", 0), 0);
+    if (st_wait_until(neither_serves, "a", DEADLINE_MS) != 0)
+        fail_msg("'a' was deleted but is still served");
+}
+
+static void delete_fenced_never_applies(void **state)
+{
+    (void)state;
+    put_set("b");
+    uint64_t undone = st_daemon_stat(&N[0], "cluster_doubts_undone");
+    st_etcd_hold_on(PROXY, 0);
+    assert_int_equal(delete_direct(0, "b"), STC_EUNAVAILABLE);
+    assert_true(st_etcd_hold_count(PROXY) >= 1);
+    st_etcd_hold_off(PROXY);
+    if (st_wait_until(settled, NULL, DEADLINE_MS) != 0)
+        fail_msg("n0 did not settle the delete in doubt");
+    /* the kept delete reaches etcd only now: its compare on n0's op key fails */
+    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    stays("b");
+    assert_int_equal(st_daemon_stat(&N[0], "cluster_doubts_undone"), undone);
+    assert_int_equal(st_daemon_stat(&N[0], "cluster_in_doubt"), 0);
+}
+
+/* the other contents are accepted under name through n1 (EXISTS while a claim holds it) */
+static int name_free(void *arg)
+{
+    return upload_direct(1, 1, arg) == 0;
+}
+
+static void claim_applied_late_is_taken_back(void **state)
+{
+    (void)state;
+    st_etcd_hold_on(PROXY, 0);
+    assert_int_equal(upload_direct(0, 0, "c"), STC_EUNAVAILABLE);
+    assert_true(st_etcd_hold_count(PROXY) >= 1);
+    st_etcd_hold_off(PROXY);
+    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    if (st_wait_until(name_free, "c", DEADLINE_MS) != 0) {
+        st_daemon_dump_log(&N[0], 30);
+        fail_msg("the refused upload's claim still holds 'c'");
+    }
+    served s = {"c", red[1]};
+    if (st_wait_until(both_serve, &s, DEADLINE_MS) != 0)
+        fail_msg("the second contents of 'c' are not on both nodes");
+}
+
+static void finalize_applied_late_is_taken_back(void **state)
+{
+    (void)state;
+    st_etcd_hold_on(PROXY, 1);   /* the claim goes through, the finalizing txn is kept */
+    assert_int_equal(upload_direct(0, 0, "d"), STC_EUNAVAILABLE);
+    assert_true(st_etcd_hold_count(PROXY) >= 1);
+    st_etcd_hold_off(PROXY);
+    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    if (st_wait_until(not_recorded, "d", DEADLINE_MS) != 0)
+        fail_msg("the refused upload of 'd' stayed recorded (%d, %d copies keys)",
+                 recorded("d", 0), copy_keys("d"));
+    if (st_wait_until(neither_serves, "d", DEADLINE_MS) != 0)
+        fail_msg("the refused contents of 'd' are still served");
+    assert_int_equal(recorded("d", 0), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(delete_applied_late_is_put_back),
+        cmocka_unit_test(delete_fenced_never_applies),
+        cmocka_unit_test(claim_applied_late_is_taken_back),
+        cmocka_unit_test(finalize_applied_late_is_taken_back),
+    };
+    int rc = cmocka_run_group_tests(tests, setup, teardown);
+    for (int i = 0; i < 2; i++)
+        st_daemon_cleanup(&N[i]);
+    return rc;
+}
