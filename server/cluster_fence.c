@@ -28,15 +28,6 @@
 
 static const char *const kind_name[] = {"claim", "finalize", "unclaim", "delete", "restore"};
 
-static char *dup_str(const char *s)
-{
-    size_t n = strlen(s) + 1;
-    char *d = malloc(n);
-    if (d)
-        memcpy(d, s, n);
-    return d;
-}
-
 static void kvs_drop(scl_kvs *k)
 {
     scl_kvs_free(k);
@@ -54,8 +45,8 @@ static int kvs_copy(scl_kvs *dst, const scl_kvs *src)
         return -1;
     for (size_t i = 0; i < src->n; i++) {
         dst->v[i] = src->v[i];
-        dst->v[i].key = dup_str(src->v[i].key);
-        dst->v[i].val = dup_str(src->v[i].val);
+        dst->v[i].key = strdup(src->v[i].key);
+        dst->v[i].val = strdup(src->v[i].val);
         dst->n = i + 1;
         if (!dst->v[i].key || !dst->v[i].val) {
             kvs_drop(dst);
@@ -165,7 +156,7 @@ int sts_cluster_wtxn(sts_cluster *cl, scl_etcd *h, const scl_cmp *cmp, size_t nc
         sts_cluster_note_etcd(cl, rc);
         if (rc != SCL_OK) {
             /* sent, perhaps applied, perhaps still to be: in doubt until resolved */
-            if ((d->rec && !(nd->rec = dup_str(d->rec))) || kvs_copy(&nd->copies, &d->copies)) {
+            if ((d->rec && !(nd->rec = strdup(d->rec))) || kvs_copy(&nd->copies, &d->copies)) {
                 /* cannot keep what undoing needs: keep the rest (logged when resolved) */
                 free(nd->rec);
                 nd->rec = NULL;

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/wait.h>
 
+#include "daemon_client.h"
 #include "ptx_fixture.h"
 
 int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned R, unsigned W)
@@ -20,6 +21,15 @@ int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned 
                           "--replicas", r, "--write-quorum", w, "--lease-ttl", "2",
                           "--repair-interval", "1", "--no-default-set", NULL};
     return st_daemon_start(d, args);
+}
+
+int st_cluster_all_see(const st_daemon *nodes, int n, uint64_t members)
+{
+    for (int i = 0; i < n; i++)
+        if (st_daemon_stat(&nodes[i], "cluster_members") != members ||
+            st_daemon_stat(&nodes[i], "cluster_etcd_ok") != 1)
+            return 0;
+    return 1;
 }
 
 int st_cluster_tint_files(const char *dir, int n, int step, char (*files)[300])

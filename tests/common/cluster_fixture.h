@@ -10,12 +10,18 @@
 #ifndef ST_CLUSTER_FIXTURE_H
 #define ST_CLUSTER_FIXTURE_H
 
+#include <stdint.h>
+
 #include "daemon_fixture.h"
 #include "seamtex_cluster.h"
 
 /* Starts d as node "n<idx>" of the cluster at etcd_url with replicas R and write quorum W
  * (0: W = R). 0 or -1. Call again after a kill to restart it with the same data dir and id. */
 int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned R, unsigned W);
+
+/* 1 when each of the n nodes counts `members` members and reaches etcd (STATS
+ * cluster_members, cluster_etcd_ok). */
+int st_cluster_all_see(const st_daemon *nodes, int n, uint64_t members);
 
 /* Writes n tint files <dir>/tint<t>.ptx (tint t * step) and their paths into files[t]
  * (each cap bytes). 0 or -1. */

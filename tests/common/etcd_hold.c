@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "etcd_hold.h"
+#include "wire.h"
 
 #define MAX_CONNS 512
 #define MAX_HEADER 65536
@@ -47,18 +48,6 @@ static int connect_etcd(int port)
         fd = -1;
     }
     return fd;
-}
-
-static int write_all(int fd, const char *b, size_t n)
-{
-    while (n) {
-        ssize_t w = send(fd, b, n, MSG_NOSIGNAL);
-        if (w <= 0)
-            return -1;
-        b += w;
-        n -= (size_t)w;
-    }
-    return 0;
 }
 
 /* the request's header length (through the blank line) or 0 when not all there yet; *body
@@ -99,7 +88,7 @@ static void *conn_main(void *arg)
             break;
         if (pf[1].revents) {
             ssize_t r = recv(u, rb, sizeof rb, 0);
-            if (r <= 0 || write_all(c, rb, (size_t)r) != 0)
+            if (r <= 0 || st_wire_send_all(c, rb, (size_t)r) != 0)
                 break;
         }
         if (!pf[0].revents)
@@ -133,7 +122,7 @@ static void *conn_main(void *arg)
                     p->last = &h->next;
                 }
                 pthread_mutex_unlock(&p->mu);
-                if (!h && write_all(u, ib, hl) != 0)
+                if (!h && st_wire_send_all(u, ib, hl) != 0)
                     bad = 1;
                 memmove(ib, ib + hl, in - hl);
                 in -= hl;
@@ -146,7 +135,7 @@ static void *conn_main(void *arg)
                 memcpy(h->buf + h->len, ib, k);
                 h->len += k;
                 pthread_mutex_unlock(&p->mu);
-            } else if (k && write_all(u, ib, k) != 0) {
+            } else if (k && st_wire_send_all(u, ib, k) != 0) {
                 bad = 1;
             }
             memmove(ib, ib + k, in - k);
@@ -204,13 +193,9 @@ st_etcd_hold *st_etcd_hold_start(int etcd_port, const char *prefix, char *url, s
     p->etcd_port = etcd_port;
     p->last = &p->first;
     pthread_mutex_init(&p->mu, NULL);
-    p->lfd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    struct sockaddr_in a = {.sin_family = AF_INET};
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t al = sizeof a;
-    if (p->lfd < 0 || bind(p->lfd, (struct sockaddr *)&a, sizeof a) != 0 ||
-        listen(p->lfd, 64) != 0 || getsockname(p->lfd, (struct sockaddr *)&a, &al) != 0 ||
-        pthread_create(&p->acceptor, NULL, accept_main, p) != 0) {
+    int port = 0;
+    p->lfd = st_wire_listen(64, &port);
+    if (p->lfd < 0 || pthread_create(&p->acceptor, NULL, accept_main, p) != 0) {
         perror("etcd_hold: listen");
         if (p->lfd >= 0)
             close(p->lfd);
@@ -218,7 +203,7 @@ st_etcd_hold *st_etcd_hold_start(int etcd_port, const char *prefix, char *url, s
         free(p);
         return NULL;
     }
-    snprintf(url, cap, "etcd://127.0.0.1:%d%s", ntohs(a.sin_port), prefix);
+    snprintf(url, cap, "etcd://127.0.0.1:%d%s", port, prefix);
     return p;
 }
 
@@ -244,7 +229,7 @@ int st_etcd_hold_count(st_etcd_hold *p)
 static int replay(int port, const held *h)
 {
     int fd = connect_etcd(port);
-    if (fd < 0 || write_all(fd, h->buf, h->len) != 0) {
+    if (fd < 0 || st_wire_send_all(fd, h->buf, h->len) != 0) {
         if (fd >= 0)
             close(fd);
         return 0;

@@ -48,11 +48,7 @@ static int start_node(int i)
 static int both_members(void *arg)
 {
     (void)arg;
-    for (int i = 0; i < 2; i++)
-        if (st_daemon_stat(&N[i], "cluster_members") != 2 ||
-            st_daemon_stat(&N[i], "cluster_etcd_ok") != 1)
-            return 0;
-    return 1;
+    return st_cluster_all_see(N, 2, 2);
 }
 
 static stc_cluster *open_both(void)

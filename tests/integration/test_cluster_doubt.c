@@ -92,11 +92,7 @@ static float red_on(int i, const char *name)
 static int both_members(void *arg)
 {
     (void)arg;
-    for (int i = 0; i < 2; i++)
-        if (st_daemon_stat(&N[i], "cluster_members") != 2 ||
-            st_daemon_stat(&N[i], "cluster_etcd_ok") != 1)
-            return 0;
-    return 1;
+    return st_cluster_all_see(N, 2, 2);
 }
 
 typedef struct served { const char *name; float red; } served;
