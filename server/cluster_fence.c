@@ -174,12 +174,22 @@ int sts_cluster_wtxn(sts_cluster *cl, scl_etcd *h, const scl_cmp *cmp, size_t nc
                 *rev = r;
             break;
         }
-        /* a compare failed: the caller's, or the op key's (moved by a write of an earlier
-         * process of this node that etcd applied late): read it, go again once */
+        /* a compare failed: the caller's, or the op key's. The key moved either to this very
+         * tag (etcd applied the request on an endpoint that timed out, and the try on the
+         * next endpoint then failed its compare: the write is done) or to a write of an
+         * earlier process of this node that etcd applied late: read it, go again once */
         int64_t mod = 0;
-        rc = read_op(cl, h, &mod, NULL, 0);
+        char now[sizeof nd->tag];
+        rc = read_op(cl, h, &mod, now, sizeof now);
         if (rc != SCL_OK || mod == cl->op_rev)
             break;
+        if (!strcmp(now, nd->tag)) {
+            *ok = 1;
+            cl->op_rev = mod;
+            if (rev)
+                *rev = mod;
+            break;
+        }
         sts_logf(&cl->srv->log, STS_WARN, "cluster: op key of '%s' moved (rev %lld -> %lld): "
                  "a late write of an earlier process", cl->self, (long long)cl->op_rev,
                  (long long)mod);

@@ -27,8 +27,8 @@ struct st_etcd_hold {
     int             stop;             /* atomic */
     pthread_t       acceptor;
     pthread_mutex_t mu;               /* holding, the queue, held contents, conns */
-    int             holding;
-    int             pass;             /* transactions still let through while holding */
+    int             holding, muting;
+    int             pass;             /* transactions still let through while holding/muting */
     held           *first, **last;
     pthread_t       conns[MAX_CONNS];
     int             nconns;
@@ -82,13 +82,14 @@ static void *conn_main(void *arg)
     size_t in = 0, remaining = 0;
     int in_body = 0;
     held *h = NULL;   /* the kept request being read, when in_body */
+    int mute = 0;     /* a transaction was muted: nothing more goes back to the client */
     while (u >= 0 && ib && !stopping(p)) {
         struct pollfd pf[2] = {{c, POLLIN, 0}, {u, POLLIN, 0}};
         if (poll(pf, 2, 100) < 0)
             break;
         if (pf[1].revents) {
             ssize_t r = recv(u, rb, sizeof rb, 0);
-            if (r <= 0 || st_wire_send_all(c, rb, (size_t)r) != 0)
+            if (r <= 0 || (!mute && st_wire_send_all(c, rb, (size_t)r) != 0))
                 break;
         }
         if (!pf[0].revents)
@@ -108,8 +109,9 @@ static void *conn_main(void *arg)
                     break;
                 }
                 pthread_mutex_lock(&p->mu);
-                int keep = p->holding && txn && !(p->pass > 0 && p->pass--);
-                h = keep ? calloc(1, sizeof *h) : NULL;
+                int act = (p->holding || p->muting) && txn && !(p->pass > 0 && p->pass--);
+                mute |= act && p->muting;
+                h = act && p->holding ? calloc(1, sizeof *h) : NULL;
                 if (h && !(h->buf = malloc(hl + body))) {
                     free(h);
                     h = NULL;
@@ -252,10 +254,19 @@ static int replay(int port, const held *h)
     return answered;
 }
 
+void st_etcd_hold_mute(st_etcd_hold *p, int pass)
+{
+    pthread_mutex_lock(&p->mu);
+    p->muting = 1;
+    p->pass = pass;
+    pthread_mutex_unlock(&p->mu);
+}
+
 void st_etcd_hold_off(st_etcd_hold *p)
 {
     pthread_mutex_lock(&p->mu);
     p->holding = 0;
+    p->muting = 0;
     pthread_mutex_unlock(&p->mu);
 }
 

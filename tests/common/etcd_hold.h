@@ -6,7 +6,7 @@
  * Owns: a listening socket on a free loopback port, one thread accepting and one thread per
  * connection relaying bytes to etcd's client port. While holding, a request `POST
  * /v3/kv/txn` is kept (never forwarded, never answered: its client times out); every other
- * request goes through. A replay sends the kept requests to etcd in the order they came,
+ * request goes through (muting: a transaction is forwarded but its answer dropped). A replay sends the kept requests to etcd in the order they came,
  * each on its own connection, and waits until etcd answers each (then it has applied it),
  * whether or not its client is still there. Does not own: etcd (etcd_fixture.h).
  */
@@ -22,7 +22,12 @@ typedef struct st_etcd_hold st_etcd_hold;
 st_etcd_hold *st_etcd_hold_start(int etcd_port, const char *prefix, char *url, size_t cap);
 /* Starts holding transactions; the next `pass` of them still go through. */
 void st_etcd_hold_on(st_etcd_hold *p, int pass);
-/* Stops holding: transactions go through again; the kept ones stay kept. */
+/* Starts muting transactions (the next `pass` of them still go through as usual): they are
+ * sent to etcd at once, which applies them, but their answers (and whatever else comes back
+ * on that connection) never reach the client, which times out: a reply lost after the
+ * write. */
+void st_etcd_hold_mute(st_etcd_hold *p, int pass);
+/* Stops holding and muting: transactions go through again; the kept ones stay kept. */
 void st_etcd_hold_off(st_etcd_hold *p);
 /* Sends the kept (complete) transactions to etcd; returns how many etcd answered. */
 int  st_etcd_hold_replay(st_etcd_hold *p);

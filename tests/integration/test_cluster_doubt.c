@@ -18,8 +18,12 @@
  *   4. UPLOAD through n0 whose finalizing transaction is held (the claim goes through),
  *      UNAVAILABLE, replayed (the record "ok"): n0 takes it back, the name is free and neither
  *      node keeps the refused contents.
- * Each fails on the code before the fix (no op key, no resolution): the replayed transaction
- * takes effect.
+ *   5. n0 restarted with two etcd endpoints, the proxy first: a DELETE whose transaction
+ *      etcd applies through the proxy but whose answer the proxy drops (muting) is tried on
+ *      the second endpoint, fails its compares there, and is answered OK (the op key holds
+ *      its tag: it was done), not BUSY.
+ * 1-4 fail on the code before the fix (no op key, no resolution): the replayed transaction
+ * takes effect; 5 answers BUSY for a delete that was done.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -286,6 +290,33 @@ static void finalize_applied_late_is_taken_back(void **state)
     assert_int_equal(recorded("d", 0), 0);
 }
 
+static void reply_lost_on_one_endpoint_is_done_on_the_next(void **state)
+{
+    (void)state;
+    /* n0 again with two etcd endpoints: the proxy first, etcd itself second */
+    char url2[400];
+    int pport = 0;
+    assert_int_equal(sscanf(proxy_url, "etcd://127.0.0.1:%d", &pport), 1);
+    snprintf(url2, sizeof url2, "etcd://127.0.0.1:%d,127.0.0.1:%d/doubt", pport,
+             ETCD.client_port);
+    assert_int_equal(st_daemon_stop(&N[0], 10000), 0);
+    assert_int_equal(st_cluster_node_start(&N[0], url2, 0, 2, 2), 0);
+    if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
+        fail_msg("n0 did not come back");
+    put_set("e");
+    /* the delete's transaction is applied through the proxy, its answer lost; the try on
+     * the second endpoint then fails its compares: the delete is done, and says so */
+    st_etcd_hold_mute(PROXY, 0);
+    int rc = delete_direct(0, "e");
+    st_etcd_hold_off(PROXY);
+    assert_int_equal(rc, 0);
+    assert_int_equal(recorded("e", 0), 0);
+    assert_int_equal(copy_keys("e"), 0);
+    if (st_wait_until(neither_serves, "e", DEADLINE_MS) != 0)
+        fail_msg("'e' was deleted but is still served");
+    assert_int_equal(st_daemon_stat(&N[0], "cluster_in_doubt"), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -293,6 +324,7 @@ int main(void)
         cmocka_unit_test(delete_fenced_never_applies),
         cmocka_unit_test(claim_applied_late_is_taken_back),
         cmocka_unit_test(finalize_applied_late_is_taken_back),
+        cmocka_unit_test(reply_lost_on_one_endpoint_is_done_on_the_next),
     };
     int rc = cmocka_run_group_tests(tests, setup, teardown);
     for (int i = 0; i < 2; i++)
