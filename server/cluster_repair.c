@@ -89,13 +89,27 @@ static int origin_live(const sts_cl_member *m, size_t n, const char *id, uint64_
     return 0;
 }
 
-static void copy_key(sts_cluster *cl, const char *name, uint32_t crc, int put)
+/* Puts copies/<name>/<id> only while the record is the one this pass read (its
+ * mod_revision rec_rev): a delete or replace since then (the pass reads sets/ and copies/ one
+ * after the other) must not get a copies/ key of the old contents back. */
+static void put_copy_key(sts_cluster *cl, const char *name, const char *id, uint32_t crc,
+                         int64_t rec_rev)
 {
-    char key[SCL_KEY_MAX], val[9];
-    scl_key_copies(key, cl->prefix, name, cl->self);
+    char key[SCL_KEY_MAX], skey[SCL_KEY_MAX], val[9];
+    scl_key_copies(key, cl->prefix, name, id);
+    scl_key_set(skey, cl->prefix, name);
     scl_copy_format(val, crc);
-    int rc = put ? scl_etcd_put(cl->etcd_r, key, val, 0) : scl_etcd_delete(cl->etcd_r, key, 0);
-    sts_cluster_note_etcd(cl, rc);
+    scl_cmp cmp = {skey, SCL_CMP_MOD, rec_rev};
+    scl_op op = {SCL_OP_PUT, key, val, 0};
+    int ok = 0;
+    sts_cluster_note_etcd(cl, scl_etcd_txn(cl->etcd_r, &cmp, 1, &op, 1, &ok, NULL));
+}
+
+static void drop_copy_key(sts_cluster *cl, const char *name)
+{
+    char key[SCL_KEY_MAX];
+    scl_key_copies(key, cl->prefix, name, cl->self);
+    sts_cluster_note_etcd(cl, scl_etcd_delete(cl->etcd_r, key, 0));
 }
 
 static void drop_local(sts_cluster *cl, const char *name, const char *why)
@@ -224,13 +238,13 @@ static void pass(sts_cluster *cl)
         } else if (r->source_crc != e->crc32) {
             if (settled) {
                 drop_local(cl, r->name, "stale: the cluster records other contents");
-                copy_key(cl, r->name, 0, 0);
+                drop_copy_key(cl, r->name);
                 remove_holder(e, cl->self);
             }
         } else {
             mine[e - cat] = 1;
             if (!holds(e, cl->self)) {
-                copy_key(cl, r->name, e->crc32, 1);
+                put_copy_key(cl, r->name, cl->self, e->crc32, rows[e - cat].mod_rev);
                 add_holder(e, cl->self);
             }
         }
@@ -245,7 +259,7 @@ static void pass(sts_cluster *cl)
      * record was away) is not a copy: removed, so that repair makes one where it is owed */
     for (size_t i = 0; mine && i < nc; i++)
         if (cat[i].state == SCL_SET_OK && !mine[i] && holds(&cat[i], cl->self)) {
-            copy_key(cl, cat[i].name, 0, 0);
+            drop_copy_key(cl, cat[i].name);
             remove_holder(&cat[i], cl->self);
         }
 
@@ -293,10 +307,7 @@ static void pass(sts_cluster *cl)
                         continue;
                     char msg[512];
                     if (sts_cluster_push(cl, e->name, o->addr, msg, sizeof msg) == 0) {
-                        char key[SCL_KEY_MAX], val[9];
-                        scl_key_copies(key, cl->prefix, e->name, o->id);
-                        scl_copy_format(val, e->crc32);
-                        sts_cluster_note_etcd(cl, scl_etcd_put(cl->etcd_r, key, val, 0));
+                        put_copy_key(cl, e->name, o->id, e->crc32, rows[i].mod_rev);
                         add_holder(e, o->id);
                     }
                 }
@@ -308,7 +319,7 @@ static void pass(sts_cluster *cl)
             }
             if (!owner && confirmed && R > 0 && may_drop) {
                 /* every owner is live and has confirmed a current copy: this one is extra */
-                copy_key(cl, e->name, 0, 0);
+                drop_copy_key(cl, e->name);
                 drop_local(cl, e->name, "extra: every owner holds a current copy");
                 remove_holder(e, cl->self);
             }
