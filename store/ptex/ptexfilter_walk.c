@@ -660,17 +660,27 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
 __attribute__((noinline)) static int lean_one(const pf_walk *w, const pk *k0, int f, int eid,
                                               pf_v4 *acc)
 {
-    if (lean_one_case(w, k0, f, eid, acc))
-        return 1;
-    return walk_one(w, k0, f, eid, acc);
+    int ok; /* the edge a constant in each case: its selects folded */
+    switch (eid) {
+    case 0: ok = lean_one_case(w, k0, f, 0, acc); break;
+    case 1: ok = lean_one_case(w, k0, f, 1, acc); break;
+    case 2: ok = lean_one_case(w, k0, f, 2, acc); break;
+    default: ok = lean_one_case(w, k0, f, 3, acc); break;
+    }
+    return ok || walk_one(w, k0, f, eid, acc);
 }
 
 __attribute__((noinline)) static int lean_two(const pf_walk *w, const pk *k0, int f, int sides,
                                               pf_v4 *acc, float *weight)
 {
-    if (lean_two_case(w, k0, f, sides & 1, sides >> 1, acc))
-        return 1;
-    return walk_two(w, k0, f, sides, acc, weight);
+    int ok; /* the sides constants in each case: their selects folded */
+    switch (sides & 3) {
+    case 0: ok = lean_two_case(w, k0, f, 0, 0, acc); break;
+    case 1: ok = lean_two_case(w, k0, f, 1, 0, acc); break;
+    case 2: ok = lean_two_case(w, k0, f, 0, 1, acc); break;
+    default: ok = lean_two_case(w, k0, f, 1, 1, acc); break;
+    }
+    return ok || walk_two(w, k0, f, sides, acc, weight);
 }
 
 /* The edge the kernel overhangs when it overhangs one only and f has a neighbour there,
