@@ -1195,18 +1195,15 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
  * Discard the weight kept, with eval_kernel's coverage), divided by the weight, without
  * eval_kernel's frame and checks; 0 when it declines or Discard keeps no weight (nothing
  * written, k as it was: eval_kernel then runs, its zero-coverage rule included). Clamp
- * leaves k merged (split_walk's pk_merge_* would too; no caller reads it after). m: the
- * edges k overhangs (pf_walk_sides) when the caller has them, else 0 (pf_walk_kernel
- * computes them). */
-__attribute__((always_inline)) static inline int kernel_walk_m(pf *c, pk *k, int f,
-                                                               unsigned m, float weight,
-                                                               float *out, float *cov)
+ * leaves k merged (split_walk's pk_merge_* would too; no caller reads it after). */
+__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
+                                                               float weight, float *out,
+                                                               float *cov)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
     float cv = 1.0f;
     if (c->mode == ST_MODE_TRAVERSE) {
-        if (m ? !pf_walk_kernel_m(&c->walk, k, f, m, &acc, &weight)
-              : !pf_walk_kernel(&c->walk, k, f, &acc, &weight))
+        if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
             return 0;
     } else if (c->mode == ST_MODE_DISCARD) {
         float total = weight;
@@ -1224,14 +1221,6 @@ __attribute__((always_inline)) static inline int kernel_walk_m(pf *c, pk *k, int
         out[ch] = acc[ch] * scale;
     *cov = cv;
     return 1;
-}
-
-/* kernel_walk_m with the sides left to pf_walk_kernel (k overhangs its face). */
-__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
-                                                               float weight, float *out,
-                                                               float *cov)
-{
-    return kernel_walk_m(c, k, f, 0, weight, out, cov);
 }
 
 /* kernel_walk_w with the kernel's weight pk_weight(k). */
@@ -1291,8 +1280,7 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
         *cov = 0.0f;
         return ST_Q_OK;
     }
-    unsigned m = pf_walk_sides(&k); /* the edges it overhangs: none inside the face */
-    if (!m) {
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
         if (c->mode != ST_MODE_DISCARD) {
             /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
             c->acc = (v4f){0, 0, 0, 0};
@@ -1303,7 +1291,7 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
             *cov = 1.0f;
             return ST_Q_OK;
         }
-    } else if (c->small && kernel_walk_m(c, &k, (int)q->face, m, pk_weight(&k), out, cov))
+    } else if (c->small && kernel_walk(c, &k, (int)q->face, out, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }

@@ -785,11 +785,12 @@ __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int
     return walk_all(w, k0, f, acc, weight);
 }
 
-/* pf_walk_kernel_m's dispatch, inline in both entries (no call between them) */
-__attribute__((always_inline)) static inline int walk_kernel(const pf_walk *w, pk *k0, int f,
-                                                             unsigned m, pf_v4 *acc,
-                                                             float *weight)
+int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
+    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    /* the edges the kernel overhangs: right 1, left 2, top 4, bottom 8 */
+    unsigned m = (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
+                 (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
     const int *adj = w->faces[f].adjface;
     /* one edge (one_edge's test) or one u edge and one v edge, to neighbours (an overhung
      * edge without one: f is at a mesh boundary); tables, not a switch: its jump table's
@@ -813,14 +814,4 @@ __attribute__((always_inline)) static inline int walk_kernel(const pf_walk *w, p
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, acc, weight);
     return walk_all(w, k0, f, acc, weight);
-}
-
-int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
-{
-    return walk_kernel(w, k0, f, pf_walk_sides(k0), acc, weight);
-}
-
-int pf_walk_kernel_m(const pf_walk *w, pk *k0, int f, unsigned m, pf_v4 *acc, float *weight)
-{
-    return walk_kernel(w, k0, f, m, acc, weight);
 }

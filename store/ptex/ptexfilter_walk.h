@@ -65,18 +65,6 @@ int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *we
  * it was) when the walk or the fold declines. */
 int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
 
-/* The edges kernel k overhangs as a mask: right 1, left 2, top 4, bottom 8 (0: inside its
- * face). */
-static inline unsigned pf_walk_sides(const pk *k)
-{
-    int resu = 1 << k->ulog2, resv = 1 << k->vlog2;
-    return (unsigned)(k->u + k->uw > resu) | (unsigned)(k->u < 0) << 1 |
-           (unsigned)(k->v + k->vw > resv) << 2 | (unsigned)(k->v < 0) << 3;
-}
-
-/* pf_walk_kernel with m = pf_walk_sides(k) computed by the caller (not 0). */
-int pf_walk_kernel_m(const pf_walk *w, pk *k, int f, unsigned m, pf_v4 *acc, float *weight);
-
 /* split_walk's Discard (discard 1) or Clamp (0) of kernel k (weights not empty, zeros
  * stripped) built for face f (not a subface), which it overhangs: the overhang past each edge
  * merged as pk_merge_r, _l, _t, _b do, in that order (dropped in Discard and at a black
