@@ -1230,6 +1230,31 @@ __attribute__((always_inline)) static inline int kernel_walk(pf *c, pk *k, int f
     return kernel_walk_w(c, k, f, pk_weight(k), out, cov);
 }
 
+/* pk_build for a width-4 filter (gaussian, bicubic family), inline: its width-4 branch with
+ * the same pk_width4_axis and the same evaluations (pf_kernel_eval2_avx2 for both axes,
+ * pf_kernel_eval1_avx2 for one, pk_kernel_eval without AVX2), so the same kernel bit for
+ * bit, without the call and its filter-type tests. */
+__attribute__((always_inline)) static inline void build_w4(const pk_params *p, pk *k, float u,
+                                                           float v, float uw, float vw,
+                                                           int fulog2, int fvlog2)
+{
+    k->ku0 = k->kv0 = k->rot = 0;
+    float x1u = 0, su = 0, x1v = 0, sv = 0;
+    int eu = pk_width4_axis(&k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2, &x1u, &su);
+    int ev = pk_width4_axis(&k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2, &x1v, &sv);
+    if (!p->avx2) {
+        if (eu)
+            pk_kernel_eval(p, x1u, su, k->kub, k->uw);
+        if (ev)
+            pk_kernel_eval(p, x1v, sv, k->kvb, k->vw);
+    } else if (eu && ev)
+        pf_kernel_eval2_avx2(p, x1u, su, k->kub, k->uw, x1v, sv, k->kvb, k->vw);
+    else if (eu)
+        pf_kernel_eval1_avx2(p, x1u, su, k->kub, k->uw);
+    else if (ev)
+        pf_kernel_eval1_avx2(p, x1v, sv, k->kvb, k->vw);
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1244,7 +1269,10 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                                                                       float *out, float *cov)
 {
     pk k;
-    pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
+    if (pp->ftype != ST_FILTER_PTEX_BOX)
+        build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
+    else
+        pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     pk_strip_zeros(&k);
     if (k.uw <= 0 || k.vw <= 0) {
         for (unsigned ch = 0; ch < c->nc; ch++)

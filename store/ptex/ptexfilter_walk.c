@@ -501,6 +501,188 @@ __attribute__((noinline)) static int walk_all(const pf_walk *w, const pk *k0, in
     return 1;
 }
 
+/* ---- lean walks: walk_one's and walk_two's common case, checked first -------------------- */
+
+/* The piece (lg, at, n, weights per axis) of a lean walk rotated by rot into face af's
+ * frame as put() rotates it (its reversed weights in tu, tv), then put_window: 0 when af is
+ * smaller than the piece's resolution (a reduction: the caller takes the walk instead).
+ * The checks put_face makes that the lean walks' entry made for every piece at once (no
+ * empty piece, no constant face, the window inside the face: see lean_fits) are not
+ * repeated. */
+__attribute__((always_inline)) static inline int lean_put(pw_state *s, int lg0, int lg1,
+                                                          int at0, int at1, int n0, int n1,
+                                                          const float *k0, const float *k1,
+                                                          int rot, int af, float *tu,
+                                                          float *tv)
+{
+    const st_face *F = &s->w->faces[af];
+    int ru = lg0, rv = lg1, u = at0, v = at1, uw = n0, vw = n1;
+    const float *ku = k0, *kv = k1;
+    if (__builtin_expect(rot & 3, 0)) {
+        int fu = (1 << lg0) - at0 - n0, fv = (1 << lg1) - at1 - n1;
+        switch (rot & 3) {
+        case 1: /* flip_u, swap_uv */
+            reversed(tv, k0, n0);
+            ru = lg1, rv = lg0, u = at1, v = fu, uw = n1, vw = n0, ku = k1, kv = tv;
+            break;
+        case 2: /* flip_u, flip_v */
+            reversed(tu, k0, n0);
+            reversed(tv, k1, n1);
+            u = fu, v = fv, ku = tu, kv = tv;
+            break;
+        default: /* 3: flip_v, swap_uv */
+            reversed(tu, k1, n1);
+            ru = lg1, rv = lg0, u = fv, v = at0, uw = n1, vw = n0, ku = tu, kv = k0;
+            break;
+        }
+    }
+    if (ru > F->ulog2 || rv > F->vlog2)
+        return 0;
+    put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
+    return 1;
+}
+
+/* The lean walks' entry test of one overhung axis: the overhang w (> 0) narrower than the
+ * kernel (n taps) and at most the resolution res wide. Then every piece of the split is
+ * non-empty, and each lies inside [0, res) along the axis: the part past the edge is [0, w)
+ * or [res - w, res) (its flip the other), the part left on f ends at the edge it overhung
+ * and starts inside (the kernel overhangs one edge of the axis); along the other axis a
+ * piece is that axis' part, inside as well. A neighbour at the piece's resolution or finer
+ * (lean_put's test) then holds the window: put_face's guard would pass. */
+static inline int lean_fits(int w, int n, int res)
+{
+    return w < n && w <= res;
+}
+
+/* walk_one for the common case: the neighbour af across eid neither a subface nor constant
+ * (f plain), the overhang as lean_fits says, af at the piece's resolution or finer. The
+ * same pieces, rotation, windows and order (the piece past the edge, then the rest on f).
+ * Returns 1 with *acc updated; 0 (*acc untouched) when the case does not hold. */
+__attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
+                                                               const pk *k0, int f, int eid,
+                                                               pf_v4 *acc)
+{
+    const st_face *faces = w->faces, *F = &faces[f];
+    int af = F->adjface[eid];
+    if ((faces[af].flags | F->flags) & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))
+        return 0;
+    int lg0 = k0->ulog2, lg1 = k0->vlog2, at0 = k0->u, at1 = k0->v, n0 = k0->uw, n1 = k0->vw;
+    const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+    int a = eid & 1, res = 1 << (a ? lg0 : lg1);
+    int at = a ? at0 : at1, n = a ? n0 : n1;
+    int hi = eid == 1 || eid == 2, wd = hi ? at + n - res : -at;
+    if (!lean_fits(wd, n, res) || lg0 > F->ulog2 || lg1 > F->vlog2)
+        return 0;
+    /* the part past the edge (split_hi / split_lo) and the rest on f */
+    int pat = hi ? 0 : res - wd, rat = hi ? at : 0;
+    const float *kk = a ? ku : kv, *kp = hi ? kk + n - wd : kk, *kr = hi ? kk : kk + wd;
+    float tu[PK_MAX], tv[PK_MAX];
+    pw_state s = {w, *acc, 0.0f};
+    int rot = eid - F->adjedge[eid] + 2;
+    int ok = a ? lean_put(&s, lg0, lg1, pat, at1, wd, n1, kp, kv, rot, af, tu, tv)
+               : lean_put(&s, lg0, lg1, at0, pat, n0, wd, ku, kp, rot, af, tu, tv);
+    if (!ok)
+        return 0;
+    if (a)
+        put_window(&s, lg0, lg1, rat, at1, n - wd, n1, kr, kv, f, F);
+    else
+        put_window(&s, lg0, lg1, at0, rat, n0, n - wd, ku, kr, f, F);
+    *acc = s.acc;
+    return 1;
+}
+
+/* walk_two for the common case: the neighbours across the two overhung edges and the
+ * diagonal face of a regular corner (the set's cornerface) neither subfaces nor constant
+ * (f plain), both overhangs as lean_fits says, every face at its piece's resolution or
+ * finer. The same pieces, rotations, windows and order (corner, the u edge's piece, the v
+ * edge's piece, the rest on f); a regular corner leaves the weight alone. Returns 1 with
+ * *acc updated; 0 (*acc untouched) when the case does not hold. */
+__attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
+                                                               const pk *k0, int f, int hu,
+                                                               int hv, pf_v4 *acc)
+{
+    const st_face *faces = w->faces, *F = &faces[f];
+    int eu = hu ? 1 : 3, ev = hv ? 2 : 0, c = hu ? 2 - !hv : 3 * !!hv;
+    int au = F->adjface[eu], av = F->adjface[ev], dg = F->cornerface[c];
+    if (dg < 0 || ((faces[au].flags | faces[av].flags | faces[dg].flags | F->flags) &
+                   (ST_FACE_SUBFACE | ST_FACE_CONSTANT)))
+        return 0;
+    int lg0 = k0->ulog2, lg1 = k0->vlog2, at0 = k0->u, at1 = k0->v, n0 = k0->uw, n1 = k0->vw;
+    const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+    int res0 = 1 << lg0, res1 = 1 << lg1;
+    int wu = hu ? at0 + n0 - res0 : -at0, wv = hv ? at1 + n1 - res1 : -at1;
+    if (!lean_fits(wu, n0, res0) || !lean_fits(wv, n1, res1) || lg0 > F->ulog2 ||
+        lg1 > F->vlog2)
+        return 0;
+    /* split_hi / split_lo on each axis: the part past the edge (p) and the rest on f (r) */
+    int pu = hu ? 0 : res0 - wu, ru = hu ? at0 : 0;
+    int pv = hv ? 0 : res1 - wv, rv = hv ? at1 : 0;
+    const float *kpu = hu ? ku + n0 - wu : ku, *kru = hu ? ku : ku + wu;
+    const float *kpv = hv ? kv + n1 - wv : kv, *krv = hv ? kv : kv + wv;
+    float tu[PK_MAX], tv[PK_MAX];
+    pw_state s = {w, *acc, 0.0f};
+    int rc = c - F->cornercorner[c] + 2, ra = eu - F->adjedge[eu] + 2;
+    int rb = ev - F->adjedge[ev] + 2;
+    if (!(lg0 | lg1)) {
+        /* a kernel at resolution 1 x 1: every piece one texel (lean_fits: each overhang one
+         * texel, the rest one texel), at (0, 0) of table entry 0 in any frame (a flip of one
+         * texel at resolution 1 is itself); a rotation reverses one weight (the same value)
+         * and, when odd, swaps the axes: put_window's window and call, with the weights */
+        const uint8_t *const *px = w->px;
+        const uint64_t *bs = w->base;
+        size_t ts = w->ts;
+        pf_window_fn sm = w->small; /* 1 x 1 windows */
+        pf_v4 a = *acc;
+        a = sm(px[bs[dg]], ts, rc & 1 ? kpv : kpu, 1, rc & 1 ? kpu : kpv, 1, a);
+        a = sm(px[bs[au]], ts, ra & 1 ? krv : kpu, 1, ra & 1 ? kpu : krv, 1, a);
+        a = sm(px[bs[av]], ts, rb & 1 ? kpv : kru, 1, rb & 1 ? kru : kpv, 1, a);
+        *acc = sm(px[bs[f]], ts, kru, 1, krv, 1, a);
+        return 1;
+    }
+    if (!((rc | ra | rb) & 3)) { /* no piece rotated: lean_put's rotation 0 for each */
+        const st_face *C = &faces[dg], *A = &faces[au], *B = &faces[av];
+        if ((lg0 > C->ulog2) | (lg1 > C->vlog2) | (lg0 > A->ulog2) | (lg1 > A->vlog2) |
+            (lg0 > B->ulog2) | (lg1 > B->vlog2))
+            return 0;
+        put_window(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, dg, C);
+        put_window(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, au, A);
+        put_window(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, av, B);
+    } else if (!lean_put(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, rc, dg, tu, tv) ||
+               !lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv) ||
+               !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv))
+        return 0;
+    put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
+    *acc = s.acc;
+    return 1;
+}
+
+/* pf_walk_kernel's one-edge and two-edge walks: the lean case, else walk_one / walk_two. */
+__attribute__((noinline)) static int lean_one(const pf_walk *w, const pk *k0, int f, int eid,
+                                              pf_v4 *acc)
+{
+    int ok; /* the edge a constant in each case: its selects folded */
+    switch (eid) {
+    case 0: ok = lean_one_case(w, k0, f, 0, acc); break;
+    case 1: ok = lean_one_case(w, k0, f, 1, acc); break;
+    case 2: ok = lean_one_case(w, k0, f, 2, acc); break;
+    default: ok = lean_one_case(w, k0, f, 3, acc); break;
+    }
+    return ok || walk_one(w, k0, f, eid, acc);
+}
+
+__attribute__((noinline)) static int lean_two(const pf_walk *w, const pk *k0, int f, int sides,
+                                              pf_v4 *acc, float *weight)
+{
+    int ok; /* the sides constants in each case: their selects folded */
+    switch (sides & 3) {
+    case 0: ok = lean_two_case(w, k0, f, 0, 0, acc); break;
+    case 1: ok = lean_two_case(w, k0, f, 1, 0, acc); break;
+    case 2: ok = lean_two_case(w, k0, f, 0, 1, acc); break;
+    default: ok = lean_two_case(w, k0, f, 1, 1, acc); break;
+    }
+    return ok || walk_two(w, k0, f, sides, acc, weight);
+}
+
 /* The edge the kernel overhangs when it overhangs one only and f has a neighbour there,
  * else -1. */
 static inline int one_edge(const pf_walk *w, const pk *k0, int f)
@@ -619,11 +801,16 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
                                         -1, -1};
     int e = one[m], t = two[m];
     if (e >= 0)
-        return adj[e] >= 0 ? walk_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, acc, weight);
-    if (t >= 0)
-        return (adj[t & 1 ? 1 : 3] | adj[t & 2 ? 2 : 0]) >= 0
-                   ? walk_two(w, k0, f, t, acc, weight)
-                   : walk_boundary(w, k0, f, acc, weight);
+        return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, acc, weight);
+    if (t >= 0) {
+        if ((adj[t & 1 ? 1 : 3] | adj[t & 2 ? 2 : 0]) < 0)
+            return walk_boundary(w, k0, f, acc, weight);
+        /* the corner between the two edges (walk_two's c); lean_two only where it is a
+         * regular vertex (a valence-3 corner of a cube would only cost its checks) */
+        static const signed char corner_of[4] = {0, 1, 3, 2};
+        return w->faces[f].cornerface[corner_of[t]] >= 0 ? lean_two(w, k0, f, t, acc, weight)
+                                                          : walk_two(w, k0, f, t, acc, weight);
+    }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, acc, weight);
     return walk_all(w, k0, f, acc, weight);

@@ -20,7 +20,10 @@
  * cornerface and a corner of valence 3 is read from its valence (the adjacency does not
  * change; the subface flags, which may, are tested at run time). pf_walk_kernel is what the
  * filter calls: those walks on any face, the fold where no overhung edge has a neighbour,
- * the whole walk otherwise.
+ * the whole walk otherwise. walk_one and walk_two are preceded by lean_one / lean_two (since
+ * session 16): their common case (plain faces, overhangs narrower than the kernel and at
+ * most a face wide, no reduction) checked once for all pieces, then the same windows in the
+ * same order without put_face's per-piece checks; a 1 x 1 kernel's pieces one texel each.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in

@@ -126,6 +126,13 @@ static long compare_flagged(st_set *s, const st_query *q, const char *path)
     return n;
 }
 
+/* compare_paths on q as the set is, then compare_flagged. */
+static long compare_plain_flagged(st_set *s, const st_query *q, const char *path)
+{
+    long n = compare_paths(s, q, path);
+    return n + compare_flagged(s, q, path);
+}
+
 /* The shared file rel (under SEAMTEX_DATA) read, its full path in path; NULL when the data
  * folder does not have it; a read error fails the test. */
 static st_set *read_shared(const char *rel, char *path, size_t cap)
@@ -247,7 +254,6 @@ static void boundary_folds_and_valence3_corners_match_the_general_path(void **st
 static long two_edge_file(st_set *s, st_query *q, const char *path)
 {
     static const float fps[] = {2.0f, 3.0f, 4.0f, 6.0f, 8.0f, 12.0f, 16.0f, 24.0f};
-    long n = 0;
     for (int j = 0; j < NQ; j++) {
         uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
         const st_face *F = &s->faces[f];
@@ -256,22 +262,62 @@ static long two_edge_file(st_set *s, st_query *q, const char *path)
         q[j] = (st_query){.face = f, .u = rnd01(), .v = rnd01(),
                           .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
     }
-    n += compare_paths(s, q, path);
-    n += compare_flagged(s, q, path);
-    return n;
+    return compare_plain_flagged(s, q, path);
 }
+
+/* Files with mixed face sizes (teapot: reductions), rotated neighbours (cube8_k6_u8_rot,
+ * cube8_k7varrot_f32), vertices of valence 3 (cube1_k6_u8) and 5 (holeycube). */
+static const char *const mixed_files[] = {
+    "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+    "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
+    "ptex-ref/cube8_k6_u8_rot.ptx",
+    "ptex-ref/cube8_k7varrot_f32.ptx",
+    "ptex-ref/cube1_k6_u8.ptx",
+};
 
 static void two_edge_kernels_match_the_general_walk(void **state)
 {
     (void)state;
-    static const char *files[] = {
-        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
-        "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
-        "ptex-ref/cube8_k6_u8_rot.ptx",
-        "ptex-ref/cube8_k7varrot_f32.ptx",
-        "ptex-ref/cube1_k6_u8.ptx",
-    };
-    check_files(files, sizeof files / sizeof files[0], two_edge_file);
+    check_files(mixed_files, sizeof mixed_files / sizeof mixed_files[0], two_edge_file);
+}
+
+/* Session 16 (walk9): a kernel that overhangs one edge, or one u and one v edge, into plain
+ * neighbours takes ptexfilter_walk.c's lean walks first (lean_one_case, lean_two_case:
+ * the faces' flags, the overhangs' widths and the pieces' resolutions checked once, then
+ * the windows without put_face's per-piece checks; a kernel at resolution 1 x 1 takes one
+ * texel of table entry 0 per piece, its axes' weights swapped by odd rotations), else the
+ * walks as before. Footprints relative to each face's size (the kernel at resolution 1, 2,
+ * 4, 8 along each axis, the axes alike or not), (u, v) near an edge, a corner or anywhere,
+ * on files with rotated neighbours (teapot, cube8_k6_u8_rot, cube8_k7varrot_f32: the odd
+ * rotations that swap a 1 x 1 kernel's weights), smaller neighbours (teapot, varrot: the
+ * lean walks must hand reductions back), corners of valence 3 and 5 (cube1_k6_u8,
+ * holeycube: no cornerface), with a tenth of the faces flagged subface and then constant
+ * after the set is made; every kernel filter, every mode, against the general path. */
+static long lean_file(st_set *s, st_query *q, const char *path)
+{
+    static const float rel[] = {1.0f, 1.5f, 3.0f, 0.75f, 0.5f, 0.3f, 0.25f, 0.125f};
+    for (int j = 0; j < NQ; j++) {
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        float ru = rel[(int)(rnd01() * 8) & 7];
+        float rv = j % 3 == 1 ? rel[(int)(rnd01() * 8) & 7] : ru;
+        float u = rnd01(), v = rnd01();
+        if (j % 4 == 1) /* near an edge */
+            u = rnd01() < 0.5f ? u * 0.1f : 1.0f - u * 0.1f;
+        if (j % 4 == 2) { /* near a corner */
+            u = rnd01() < 0.5f ? u * 0.1f : 1.0f - u * 0.1f;
+            v = rnd01() < 0.5f ? v * 0.1f : 1.0f - v * 0.1f;
+        }
+        u = u < 0.99999994f ? u : 0.99999994f;
+        v = v < 0.99999994f ? v : 0.99999994f;
+        q[j] = (st_query){.face = f, .u = u, .v = v, .dudx = ru, .dvdy = rv};
+    }
+    return compare_plain_flagged(s, q, path);
+}
+
+static void lean_walks_match_the_general_walk(void **state)
+{
+    (void)state;
+    check_files(mixed_files, sizeof mixed_files / sizeof mixed_files[0], lean_file);
 }
 
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives
@@ -308,6 +354,7 @@ int main(void)
         cmocka_unit_test(overhanging_kernels_match_the_general_walk),
         cmocka_unit_test(boundary_folds_and_valence3_corners_match_the_general_path),
         cmocka_unit_test(two_edge_kernels_match_the_general_walk),
+        cmocka_unit_test(lean_walks_match_the_general_walk),
         cmocka_unit_test(half_loads_match_the_scalar_conversion_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
