@@ -1020,6 +1020,42 @@ lean_fold_row(int ODD, int R, const uint8_t *data, int y, int xk, int xl, double
     return acc;
 }
 
+/* A recurrence sweep's row y: its first kept tap xk (the first x of [x1, x2) whose float Q,
+ * stepped from row_span's as the per-tap loop steps it, is below 1), Q and DQ there, and x2;
+ * 0 when the row keeps none. */
+__attribute__((always_inline)) static inline int row_first_kept(const ti *it, int R, int y,
+                                                                float DDQ, int *xkp, int *x2p,
+                                                                float *Qp, float *DQp)
+{
+    int x1, x2;
+    float Q, DQ;
+    row_span(it, R, y, &x1, &x2, &Q, &DQ);
+    int xk = x1;
+    while (xk < x2 && !(Q < 1.0f)) {
+        Q += DQ;
+        DQ += DDQ;
+        xk++;
+    }
+    *xkp = xk;
+    *x2p = x2;
+    *Qp = Q;
+    *DQp = DQ;
+    return xk < x2;
+}
+
+/* The end of the kept run that starts at xk (Q, DQ there): DQ only grows (DDQ > 0), so Q
+ * falls then rises, and the kept taps of a row are one run [xk, xl). */
+__attribute__((always_inline)) static inline int kept_end(int xk, int x2, float Q, float DQ,
+                                                          float DDQ)
+{
+    int xl = xk + 1;
+    for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
+        q += dq;
+        dq += DDQ;
+    }
+    return xl;
+}
+
 /* Whether every tap of sweep it's rows [y1, y2) lies in the band proper past the diagonal
  * edge: a tap that fold_tap pulls back onto u + v = 1 (upright x, y >= 0, x + y >= R;
  * inverted x, y <= R - 1, x + y <= R - 1) with 0 < d = x - y + R < 2R, which lean_fold_row
@@ -1049,23 +1085,11 @@ lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int
 {
     const int R = it->R;
     for (int y = y1; y < y2; y++) {
-        int x1, x2;
+        int xk, x2;
         float Q, DQ;
-        row_span(it, R, y, &x1, &x2, &Q, &DQ);
-        int xk = x1;
-        while (xk < x2 && !(Q < 1.0f)) {
-            Q += DQ;
-            DQ += DDQ;
-            xk++;
-        }
-        if (xk >= x2)
+        if (!row_first_kept(it, R, y, DDQ, &xk, &x2, &Q, &DQ))
             continue;
-        /* DQ only grows (DDQ > 0), so Q falls then rises: the kept taps are one run */
-        int xl = xk + 1;
-        for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
-            q += dq;
-            dq += DDQ;
-        }
+        int xl = kept_end(xk, x2, Q, DQ, DDQ);
         cur_to(cu, it, xk, y, wscale);
         double G = cu->G, E = cu->Ex;
         if (BAND) /* lean_fold_row's band proper (fold_band_only), without its cuts */
@@ -1158,19 +1182,12 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             y2 = y1; /* done: the loop below visits nothing */
         }
         for (int y = y1; y < y2; y++) {
-            int x1, x2;
+            int xk, x2;
             float Q, DQ;
-            row_span(it, R, y, &x1, &x2, &Q, &DQ);
-            int xk = x1;
-            while (xk < x2 && !(Q < 1.0f)) {
-                Q += DQ;
-                DQ += DDQ;
-                xk++;
-            }
-            if (xk >= x2)
+            if (!row_first_kept(it, R, y, DDQ, &xk, &x2, &Q, &DQ))
                 continue;
             if (REC == 2 && how == SW_WEIGHT) {
-                /* the lean weight rows: the kept-run scan below and the weight loop in one
+                /* the lean weight rows: kept_end and the weight loop in one
                  * (tap x + 1 is kept when x + 1 < x2 and its float Q, q, is below 1) */
                 cur_to(&cu, it, xk, y, wscale);
                 double G = cu.G, E = cu.Ex;
@@ -1186,24 +1203,11 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                 }
                 continue;
             }
-            /* DQ only grows (DDQ > 0), so Q falls then rises: the kept taps are one run */
-            int xl = xk + 1;
-            for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
-                q += dq;
-                dq += DDQ;
-            }
+            int xl = kept_end(xk, x2, Q, DQ, DDQ);
             cur_to(&cu, it, xk, y, wscale);
-            if (REC == 2) { /* the lean rows */
+            if (REC == 2) { /* the lean rows of a constant face (others: lean_fold_rows) */
                 double G = cu.G, E = cu.Ex;
-                if (constant) {
-                    acc = lean_run(xl - xk, data, 0, &G, &E, cu.kxx, one, acc, &wsum4, DT, NC);
-                } else if (it->odd) {
-                    acc = lean_fold_row(1, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
-                                        &wsum4, DT, NC);
-                } else {
-                    acc = lean_fold_row(0, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
-                                        &wsum4, DT, NC);
-                }
+                acc = lean_run(xl - xk, data, 0, &G, &E, cu.kxx, one, acc, &wsum4, DT, NC);
                 continue;
             }
             pt_rec rc = {cu.G, cu.Ex, cu.kxx};
