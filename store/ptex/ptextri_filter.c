@@ -874,22 +874,14 @@ lean_run(int n, const uint8_t *px, ptrdiff_t step, double *Gp, double *Ep, doubl
     return acc;
 }
 
-/* row_band_t's taps [xa, xb) of row y (the part of a row past the diagonal edge that the
- * general sweep walks): the same three runs, texels and order. */
+/* The taps [xa, xe) of row y of lean_band's middle run (0 < d < 2R for each: the band
+ * proper), midpoints and vertices as row_band_t walks them; xa < xe. */
 __attribute__((always_inline)) static inline pt_v4f
-lean_band(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts, double *Gp,
-          double *Ep, double kxx, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
-          unsigned NC)
+lean_band_mid(int ODD, int R, const uint8_t *data, int y, int xa, int xe, size_t ts,
+              double *Gp, double *Ep, double kxx, pt_v4f one, pt_v4f acc, float *wsum4,
+              unsigned DT, unsigned NC)
 {
-    int lo = y - R + 1, hi = y + R; /* d <= 0 below lo, d >= 2R from hi */
-    if (xa < lo) {
-        int e = xb < lo ? xb : lo;
-        acc = lean_run(e - xa, data + (size_t)(R - 1) * (size_t)R * ts, 0, Gp, Ep, kxx, one,
-                       acc, wsum4, DT, NC);
-        xa = e;
-    }
-    int xe = xb < hi ? xb : hi;
-    if (xa < xe) {
+    {
         const float fR = (float)R;
         int d = xa - y + R, k = d >> 1, x = xa;
         const uint8_t *m = data + ((size_t)(R - 1 - k) * (size_t)R + (size_t)k) * ts;
@@ -939,6 +931,27 @@ lean_band(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts,
         }
         *Gp = G;
         *Ep = E;
+    }
+    return acc;
+}
+
+/* row_band_t's taps [xa, xb) of row y (the part of a row past the diagonal edge that the
+ * general sweep walks): the same three runs, texels and order. */
+__attribute__((always_inline)) static inline pt_v4f
+lean_band(int ODD, int R, const uint8_t *data, int y, int xa, int xb, size_t ts, double *Gp,
+          double *Ep, double kxx, pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT,
+          unsigned NC)
+{
+    int lo = y - R + 1, hi = y + R; /* d <= 0 below lo, d >= 2R from hi */
+    if (xa < lo) {
+        int e = xb < lo ? xb : lo;
+        acc = lean_run(e - xa, data + (size_t)(R - 1) * (size_t)R * ts, 0, Gp, Ep, kxx, one,
+                       acc, wsum4, DT, NC);
+        xa = e;
+    }
+    int xe = xb < hi ? xb : hi;
+    if (xa < xe) {
+        acc = lean_band_mid(ODD, R, data, y, xa, xe, ts, Gp, Ep, kxx, one, acc, wsum4, DT, NC);
         xa = xe;
     }
     if (xa < xb)
@@ -1007,6 +1020,88 @@ lean_fold_row(int ODD, int R, const uint8_t *data, int y, int xk, int xl, double
     return acc;
 }
 
+/* A recurrence sweep's row y: its first kept tap xk (the first x of [x1, x2) whose float Q,
+ * stepped from row_span's as the per-tap loop steps it, is below 1), Q and DQ there, and x2;
+ * 0 when the row keeps none. */
+__attribute__((always_inline)) static inline int row_first_kept(const ti *it, int R, int y,
+                                                                float DDQ, int *xkp, int *x2p,
+                                                                float *Qp, float *DQp)
+{
+    int x1, x2;
+    float Q, DQ;
+    row_span(it, R, y, &x1, &x2, &Q, &DQ);
+    int xk = x1;
+    while (xk < x2 && !(Q < 1.0f)) {
+        Q += DQ;
+        DQ += DDQ;
+        xk++;
+    }
+    *xkp = xk;
+    *x2p = x2;
+    *Qp = Q;
+    *DQp = DQ;
+    return xk < x2;
+}
+
+/* The end of the kept run that starts at xk (Q, DQ there): DQ only grows (DDQ > 0), so Q
+ * falls then rises, and the kept taps of a row are one run [xk, xl). */
+__attribute__((always_inline)) static inline int kept_end(int xk, int x2, float Q, float DQ,
+                                                          float DDQ)
+{
+    int xl = xk + 1;
+    for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
+        q += dq;
+        dq += DDQ;
+    }
+    return xl;
+}
+
+/* Whether every tap of sweep it's rows [y1, y2) lies in the band proper past the diagonal
+ * edge: a tap that fold_tap pulls back onto u + v = 1 (upright x, y >= 0, x + y >= R;
+ * inverted x, y <= R - 1, x + y <= R - 1) with 0 < d = x - y + R < 2R, which lean_fold_row
+ * reads through lean_band's middle run alone. A row's taps x in [x1, x2) (row_span) have
+ * x >= lo[0], x < hi[0], R - hi[2] <= x + y < R - lo[2]; so hi[2] <= 0 (upright) or
+ * lo[2] >= 0 (inverted) puts x + y on the band's side, lo[0] >= y2 - R gives d > 0 and
+ * hi[0] <= y1 + R gives d < 2R on every row. */
+static inline int fold_band_only(const ti *it, int y1, int y2)
+{
+    const int R = it->R;
+    if (it->lo[0] < y2 - R || it->hi[0] > y1 + R)
+        return 0;
+    if (it->odd)
+        return y2 <= R && it->hi[0] <= R && it->lo[2] >= 0;
+    return y1 >= 0 && it->lo[0] >= 0 && it->hi[2] <= 0;
+}
+
+/* The rows [y1, y2) of a lean Clamp fold sweep over a level with texels, orientation ODD (the
+ * sweep's it->odd, a constant here so that the loop holds one lean_fold_row): each row's kept
+ * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
+ * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
+ * weights, texels and order. */
+__attribute__((always_inline)) static inline pt_v4f
+lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int y2,
+               pt_cur *cu, float DDQ, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
+               unsigned DT, unsigned NC)
+{
+    const int R = it->R;
+    for (int y = y1; y < y2; y++) {
+        int xk, x2;
+        float Q, DQ;
+        if (!row_first_kept(it, R, y, DDQ, &xk, &x2, &Q, &DQ))
+            continue;
+        int xl = kept_end(xk, x2, Q, DQ, DDQ);
+        cur_to(cu, it, xk, y, wscale);
+        double G = cu->G, E = cu->Ex;
+        if (BAND) /* lean_fold_row's band proper (fold_band_only), without its cuts */
+            acc = lean_band_mid(ODD, R, data, y, xk, xl, st_dtype_size(DT) * NC, &G, &E,
+                                cu->kxx, one, acc, wsum4, DT, NC);
+        else
+            acc = lean_fold_row(ODD, R, data, y, xk, xl, &G, &E, cu->kxx, one, acc, wsum4, DT,
+                                NC);
+    }
+    return acc;
+}
+
 /* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
  * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
  * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
@@ -1070,20 +1165,29 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         pt_cur cu = {.seeded = 0, .kxx = it->odd ? kf->kyy : kf->kxx, .kxy = kf->kxy,
                      .kyy = it->odd ? kf->kxx : kf->kyy, .ixx = it->odd ? kf->iyy : kf->ixx,
                      .ixy = kf->ixy}; /* seeded at its first kept tap */
+        if (REC == 2 && how == SW_FOLD && !constant) {
+            int band = fold_band_only(it, y1, y2);
+            if (it->odd && band)
+                acc = lean_fold_rows(1, 1, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
+                                     &wsum4, DT, NC);
+            else if (it->odd)
+                acc = lean_fold_rows(1, 0, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
+                                     &wsum4, DT, NC);
+            else if (band)
+                acc = lean_fold_rows(0, 1, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
+                                     &wsum4, DT, NC);
+            else
+                acc = lean_fold_rows(0, 0, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
+                                     &wsum4, DT, NC);
+            y2 = y1; /* done: the loop below visits nothing */
+        }
         for (int y = y1; y < y2; y++) {
-            int x1, x2;
+            int xk, x2;
             float Q, DQ;
-            row_span(it, R, y, &x1, &x2, &Q, &DQ);
-            int xk = x1;
-            while (xk < x2 && !(Q < 1.0f)) {
-                Q += DQ;
-                DQ += DDQ;
-                xk++;
-            }
-            if (xk >= x2)
+            if (!row_first_kept(it, R, y, DDQ, &xk, &x2, &Q, &DQ))
                 continue;
             if (REC == 2 && how == SW_WEIGHT) {
-                /* the lean weight rows: the kept-run scan below and the weight loop in one
+                /* the lean weight rows: kept_end and the weight loop in one
                  * (tap x + 1 is kept when x + 1 < x2 and its float Q, q, is below 1) */
                 cur_to(&cu, it, xk, y, wscale);
                 double G = cu.G, E = cu.Ex;
@@ -1099,24 +1203,11 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                 }
                 continue;
             }
-            /* DQ only grows (DDQ > 0), so Q falls then rises: the kept taps are one run */
-            int xl = xk + 1;
-            for (float q = Q + DQ, dq = DQ + DDQ; xl < x2 && q < 1.0f; xl++) {
-                q += dq;
-                dq += DDQ;
-            }
+            int xl = kept_end(xk, x2, Q, DQ, DDQ);
             cur_to(&cu, it, xk, y, wscale);
-            if (REC == 2) { /* the lean rows */
+            if (REC == 2) { /* the lean rows of a constant face (others: lean_fold_rows) */
                 double G = cu.G, E = cu.Ex;
-                if (constant) {
-                    acc = lean_run(xl - xk, data, 0, &G, &E, cu.kxx, one, acc, &wsum4, DT, NC);
-                } else if (it->odd) {
-                    acc = lean_fold_row(1, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
-                                        &wsum4, DT, NC);
-                } else {
-                    acc = lean_fold_row(0, R, data, y, xk, xl, &G, &E, cu.kxx, one, acc,
-                                        &wsum4, DT, NC);
-                }
+                acc = lean_run(xl - xk, data, 0, &G, &E, cu.kxx, one, acc, &wsum4, DT, NC);
                 continue;
             }
             pt_rec rc = {cu.G, cu.Ex, cu.kxx};
@@ -1327,6 +1418,15 @@ static int same_taps(const ti *a, const ti *b)
     return 1;
 }
 
+/* Whether clamping k into its face, as iterators does with clamp, leaves its bounds as they
+ * are (the kernel lies inside the face): then its clamped and unclamped sweeps are the same. */
+static inline int kernel_in_face(const tk *k)
+{
+    return k->lo[0] >= 0.0f && k->lo[1] >= 0.0f && k->lo[2] >= 0.0f &&
+           k->hi[0] <= 1.0f - (k->lo[1] + k->lo[2]) && k->hi[1] <= 1.0f - (k->lo[2] + k->lo[0]) &&
+           k->hi[2] <= 1.0f - (k->lo[0] + k->lo[1]);
+}
+
 /* Traverse: splits k at each edge it overhangs into a neighbour (u, then v, then w) and
  * applies every piece where it lands. */
 PT_NO_SLP static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
@@ -1350,15 +1450,23 @@ PT_NO_SLP static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
 
 /* Discard: k applied to face f, and its whole weight on f's lattice at its clamped
  * resolution, extended past the face (the coverage's denominator). When clamping k into the
- * face left its taps as they were (a kernel inside the face), the whole weight is the weight
- * just applied, summed by the same sweeps. */
+ * face leaves its taps as they are (a kernel inside the face: kernel_in_face, or the same
+ * taps after clamping), the whole weight is the weight just applied, summed by the same
+ * sweeps. When nothing was kept (weight not above 0: a kernel past the face), tri_eval sets
+ * the coverage to 0 without reading the whole weight, so it is not summed. */
 static float apply_discard(tc *c, tk *k, uint32_t f)
 {
     const st_face *F = &c->s->faces[f];
     int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
     ti wev, wod, ev, od;
-    iterators(k, res, 0, &wev, &wod);
+    if (kernel_in_face(k)) { /* clamping leaves its bounds: the same taps as below */
+        apply_face(c, k, f);
+        return c->weight;
+    }
     apply_face_its(c, k, f, &ev, &od);
+    if (!(c->weight > 0.0f))
+        return 0.0f; /* nothing kept: the coverage is 0 whatever the whole weight */
+    iterators(k, res, 0, &wev, &wod);
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
     float w = 0.0f;
@@ -1386,9 +1494,7 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
     /* a kernel inside the face (clamping it into the face, as iterators does, would leave its
      * bounds as they are) reads every tap in place: the read sweeps, Traverse's and Discard's
      * for such a kernel, the same taps and sums as the fold sweep with the per-tap expf */
-    if (!constant && k->lo[0] >= 0.0f && k->lo[1] >= 0.0f && k->lo[2] >= 0.0f &&
-        k->hi[0] <= 1.0f - (k->lo[1] + k->lo[2]) && k->hi[1] <= 1.0f - (k->lo[2] + k->lo[0]) &&
-        k->hi[2] <= 1.0f - (k->lo[0] + k->lo[1]))
+    if (!constant && kernel_in_face(k))
         c->rd(c, &ev, &od, data, 0);
     else
         c->fold(c, &ev, &od, data, constant);
