@@ -1246,7 +1246,7 @@ PF_TARGET unsigned w4x8_hand(__m256i ok, __m256i out_of, __m256 total, __m256i r
         w4x8_bylane(ku, KU);
         w4x8_bylane(kv, KV);
         for (unsigned m = ho; m; m &= m - 1) {
-            int j = __builtin_ctz(m);
+            size_t j = (size_t)__builtin_ctz(m);
             pk *kj = kout + j;
             _mm_storeu_ps((float *)(void *)kj, _mm_loadu_ps(RO + 4 * j));
             _mm_storeu_si128((__m128i *)(void *)&kj->uw, shape);
