@@ -1099,60 +1099,6 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
     return w;
 }
 
-/* exp2_8 with its constants read from memory (FMA-free multiply and add operands, through
- * a pointer the compiler cannot see through, so not hoisted into registers across the 8
- * evaluations of a block): the same operations on the same values. */
-PF_TARGET __m256 exp2_8m(__m256 y)
-{
-    static const float C[9][8] __attribute__((aligned(32))) = {
-#define PF_C8(x) {x, x, x, x, x, x, x, x}
-        PF_C8(0.5f), PF_C8(0.000154035304f), PF_C8(0.00133335581f), PF_C8(0.00961812911f),
-        PF_C8(0.0555041087f), PF_C8(0.240226507f), PF_C8(0.693147181f), PF_C8(1.0f),
-#undef PF_C8
-    };
-    const float(*c)[8] = C;
-    __asm__("" : "+r"(c));
-    __m256i ii = _mm256_cvttps_epi32(_mm256_sub_ps(y, _mm256_load_ps(c[0])));
-    __m256 f = _mm256_sub_ps(y, _mm256_cvtepi32_ps(ii));
-    __m256 q = _mm256_load_ps(c[1]);
-    q = _mm256_add_ps(_mm256_load_ps(c[2]), _mm256_mul_ps(f, q));
-    q = _mm256_add_ps(_mm256_load_ps(c[3]), _mm256_mul_ps(f, q));
-    q = _mm256_add_ps(_mm256_load_ps(c[4]), _mm256_mul_ps(f, q));
-    q = _mm256_add_ps(_mm256_load_ps(c[5]), _mm256_mul_ps(f, q));
-    q = _mm256_add_ps(_mm256_load_ps(c[6]), _mm256_mul_ps(f, q));
-    q = _mm256_add_ps(_mm256_load_ps(c[7]), _mm256_mul_ps(f, q));
-    __m256i bits = _mm256_slli_epi32(_mm256_add_epi32(ii, _mm256_set1_epi32(127)), 23);
-    return _mm256_mul_ps(q, _mm256_castsi256_ps(bits));
-}
-
-/* w4x8_tap without the sum (the caller sums the stored taps: the same additions in the same
- * order), the gaussian's exponential through exp2_8m. */
-PF_TARGET void w4x8_tapm(const pk_params *p, __m256 x1, __m256 st, int t, float *k, __m256i *ok,
-                         int G)
-{
-    /* as w4x8_tap: the lanes that count have |x| <= 2 */
-    __m256 x = t ? _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)t), st)) : x1;
-    __m256 w;
-    if (G) {
-        __m256 y = _mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f * 1.44269504f));
-        w = exp2_8m(y);
-    } else {
-        w = kernel8_as(p, x, 0);
-        *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
-                                  *ok);
-    }
-    _mm256_storeu_ps(k, w);
-}
-
-/* (((0 + k[0]) + k[1]) + k[2]) + k[3] of 4 stored taps (w4x8_tap's sum). */
-PF_TARGET __m256 w4x8_sum(const float (*k)[8])
-{
-    __m256 s = _mm256_add_ps(_mm256_setzero_ps(), _mm256_loadu_ps(k[0]));
-    s = _mm256_add_ps(s, _mm256_loadu_ps(k[1]));
-    s = _mm256_add_ps(s, _mm256_loadu_ps(k[2]));
-    return _mm256_add_ps(s, _mm256_loadu_ps(k[3]));
-}
-
 /* The first NCOL (<= 4) texels of one window row of 8 queries, type DT (u8 or u16), 1
  * channel, as floats per column: ae, ao the rows' addresses of the even and odd queries
  * (64-bit lanes), me, mo their gather masks (sign bits; a lane masked off gives 0). Reads 8
@@ -1202,6 +1148,15 @@ PF_TARGET void w4x8_data(const pf_klanes *k, __m256i ru, __m256i rv, __m256i lv,
         z, (const long long *)0, _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
 }
 
+/* A handed-over kernel's resolution (ulog2, vlog2) and first texel (u, v). */
+PF_TARGET void pk_origin(pk *kj, int ulog2, int vlog2, int u, int v)
+{
+    kj->ulog2 = ulog2;
+    kj->vlog2 = vlog2;
+    kj->u = u;
+    kj->v = v;
+}
+
 /* The 4 taps of 8 lanes (k[t]: tap t of each lane) stored lane by lane: lane j's at 4 j. */
 PF_TARGET void w4x8_bylane(const __m256 *k, float *out)
 {
@@ -1214,6 +1169,21 @@ PF_TARGET void w4x8_bylane(const __m256 *k, float *out)
     _mm256_storeu_ps(out + 8, _mm256_permute2f128_ps(r2, r3, 0x20));
     _mm256_storeu_ps(out + 16, _mm256_permute2f128_ps(r0, r1, 0x31));
     _mm256_storeu_ps(out + 24, _mm256_permute2f128_ps(r2, r3, 0x31));
+}
+
+/* The first texel's address (v0 2^r + u0) << sh past the level's data (de, dof: the even and
+ * odd queries' 64-bit lanes), and the row length 2^r << sh (resu: 2^r), of 1-channel
+ * texels of 1 << sh bytes: *ae, *ao and *re, *ro. */
+PF_TARGET void w4x8_rows(__m256i de, __m256i dof, __m256i u0, __m256i v0, __m256i resu, int sh,
+                         __m256i *ae, __m256i *ao, __m256i *re, __m256i *ro)
+{
+    *ae = _mm256_add_epi64(
+        de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), sh));
+    *ao = _mm256_add_epi64(
+        dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
+                                                odd64(u0)), sh));
+    *re = _mm256_slli_epi64(even64(resu), sh);
+    *ro = _mm256_slli_epi64(odd64(resu), sh);
 }
 
 /* The lanes of ok whose window overhangs the face (out_of) handed over as w4_tail hands
@@ -1264,10 +1234,7 @@ PF_TARGET unsigned w4x8_hand(__m256i ok, __m256i out_of, __m256 total, __m256i r
     for (unsigned m = ho; m; m &= m - 1) {
         int j = __builtin_ctz(m);
         pk *kj = kout + j;
-        kj->ulog2 = R[0][j];
-        kj->vlog2 = R[1][j];
-        kj->u = O[0][j];
-        kj->v = O[1][j];
+        pk_origin(kj, R[0][j], R[1][j], O[0][j], O[1][j]);
         _mm_storeu_si128((__m128i *)(void *)&kj->uw, shape);
         kj->rot = 0;
         _mm256_storeu_ps(kj->kub, _mm256_setr_ps(tu[0][j], tu[1][j], tu[2][j], tu[3][j],
@@ -1315,51 +1282,21 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
                              float *wout, unsigned *over, unsigned DT, int G)
 {
     const __m256i one = _mm256_set1_epi32(1);
-    __m256i ok = _mm256_cmpgt_epi32(
-        _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32((int)k->fast),
-                                           _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)), one),
-        _mm256_setzero_si256());
-    /* each axis' set-up, then its taps (each stored: the hand-over reads them); the
-     * resolutions and first texels kept in memory (RO: ru, rv, u0, v0) so that few vectors
-     * are live across the taps */
-    int32_t RO[4][8];
-    float tu[4][8], tv[4][8];
-    __m256 x1, st;
-    __m256i r, o, ov, ou;
-    ok = _mm256_and_si256(ok, w4x8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv),
-                                        _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2),
-                                        &r, &o, &x1, &st, &ov));
-    _mm256_storeu_si256((__m256i *)(void *)RO[1], r);
-    _mm256_storeu_si256((__m256i *)(void *)RO[3], o);
-    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        w4x8_tapm(p, x1, st, t, tv[t], &ok, G);
-    ok = _mm256_and_si256(ok, w4x8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu),
-                                        _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2),
-                                        &r, &o, &x1, &st, &ou));
+    w4x8_ax a;
+    __m256i ok = w4x8_axes(k, &a);
     if (_mm256_testz_si256(ok, ok))
         return *over = 0;
-    _mm256_storeu_si256((__m256i *)(void *)RO[0], r);
-    _mm256_storeu_si256((__m256i *)(void *)RO[2], o);
+    float tu[4][8], tv[4][8]; /* the taps: the window's, and the kernels handed over */
+    __m256 sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        w4x8_tapm(p, x1, st, t, tu[t], &ok, G);
-    /* from memory from here on (not kept in registers across the taps and the gathers) */
-    const int32_t(*rop)[8] = RO;
-    const float(*ku)[8] = tu, (*kv)[8] = tv;
-    __asm__("" : "+r"(rop), "+r"(ku), "+r"(kv) : "m"(RO), "m"(tu), "m"(tv));
-    __m256 su = w4x8_sum(ku), sv = w4x8_sum(kv);
-    w4x8_ax a;
-    a.ru = _mm256_loadu_si256((const __m256i *)(const void *)rop[0]);
-    a.rv = _mm256_loadu_si256((const __m256i *)(const void *)rop[1]);
-    a.u0 = _mm256_loadu_si256((const __m256i *)(const void *)rop[2]);
-    a.v0 = _mm256_loadu_si256((const __m256i *)(const void *)rop[3]);
-    a.lv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
-    a.ou = ou;
-    a.ov = ov;
+        w4x8_tap(p, a.xv, a.stv, t, tv[t], &sv, &ok, G);
+    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
+        w4x8_tap(p, a.xu, a.stu, t, tu[t], &su, &ok, G);
     __m256i out_of = _mm256_or_si256(a.ou, a.ov);
     /* the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)); the window overhangs the
      * face: handed over (w4_tail's hand_over) */
     __m256 total = _mm256_mul_ps(su, sv);
-    *over = w4x8_hand(ok, out_of, total, a.ru, a.rv, a.u0, a.v0, ku, kv, kout, wout);
+    *over = w4x8_hand(ok, out_of, total, a.ru, a.rv, a.u0, a.v0, tu, tv, kout, wout);
     const __m256 zf = _mm256_setzero_ps();
     ok = _mm256_andnot_si256(out_of, ok);
     ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
@@ -1368,39 +1305,27 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         return 0;
     __m256 scale = _mm256_div_ps(_mm256_set1_ps(1.0f),
                                  _mm256_mul_ps(total, _mm256_set1_ps(DT == 0 ? 255.0f : 65535.0f)));
+    /* the taps from memory from here on (not kept in registers across the gathers) */
+    const float(*ku)[8] = tu, (*kv)[8] = tv;
+    __asm__("" : "+r"(ku), "+r"(kv) : "m"(tu), "m"(tv));
     __m256i me = _mm256_slli_epi64(ok, 32), mo = ok; /* sign bits: even / odd lanes */
     __m256i de, dof;
     w4x8_data(k, a.ru, a.rv, a.lv, me, mo, &de, &dof);
     /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
     const int sh = DT == 0 ? 0 : 1;
     __m256i resu = _mm256_sllv_epi32(one, a.ru);
-    __m256i ae = _mm256_add_epi64(
-        de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(a.v0, resu), even64(a.u0)), sh));
-    __m256i ao = _mm256_add_epi64(
-        dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(a.v0), odd64(resu)),
-                                                odd64(a.u0)), sh));
-    /* the gathers' masks, the row steps, the lanes served and their scale in memory too:
-     * each gather takes a copy of its mask anyway, and the window's column sums, two
-     * addresses and the gathered rows fill the registers */
-    __m256i M[6];
-    M[0] = me;
-    M[1] = mo;
-    M[2] = _mm256_slli_epi64(even64(resu), sh);
-    M[3] = _mm256_slli_epi64(odd64(resu), sh);
-    M[4] = ok;
-    M[5] = _mm256_castps_si256(scale);
-    const __m256i *m = M;
-    __asm__("" : "+r"(m) : "m"(M));
+    __m256i ae, ao, re, ro;
+    w4x8_rows(de, dof, a.u0, a.v0, resu, sh, &ae, &ao, &re, &ro);
     /* w4_tail's window: fma(t, kv_j, col) down the rows from +0 */
     __m256 col[4] = {zf, zf, zf, zf};
     _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
         __m256 t[4];
-        w4x8_row(ae, ao, m[0], m[1], DT, t, 4);
+        w4x8_row(ae, ao, me, mo, DT, t, 4);
         __m256 w = _mm256_loadu_ps(kv[j]);
         _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
             col[i] = _mm256_fmadd_ps(t[i], w, col[i]);
-        ae = _mm256_add_epi64(ae, m[2]);
-        ao = _mm256_add_epi64(ao, m[3]);
+        ae = _mm256_add_epi64(ae, re);
+        ao = _mm256_add_epi64(ao, ro);
     }
     /* its dot with the column weights (q_i = col_i ku_i + 0 + 0) and its fold
      * (q0 + q2) + (q1 + q3), into +0 */
@@ -1409,7 +1334,7 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     __m256 q2 = _mm256_add_ps(_mm256_fmadd_ps(col[2], _mm256_loadu_ps(ku[2]), zf), zf);
     __m256 q3 = _mm256_add_ps(_mm256_fmadd_ps(col[3], _mm256_loadu_ps(ku[3]), zf), zf);
     __m256 res = _mm256_add_ps(zf, _mm256_add_ps(_mm256_add_ps(q0, q2), _mm256_add_ps(q1, q3)));
-    _mm256_maskstore_ps(out, m[4], _mm256_mul_ps(res, _mm256_castsi256_ps(m[5])));
+    _mm256_maskstore_ps(out, ok, _mm256_mul_ps(res, scale));
     return done;
 }
 
@@ -1687,10 +1612,7 @@ PF_TARGET unsigned box8_hand(__m256i ok, __m256i out_of, __m256 total, const box
         for (unsigned m = ho; m; m &= m - 1) {
             int j = __builtin_ctz(m);
             pk *kj = kout + j;
-            kj->ulog2 = I[0][j];
-            kj->vlog2 = I[1][j];
-            kj->u = I[2][j];
-            kj->v = I[3][j];
+            pk_origin(kj, I[0][j], I[1][j], I[2][j], I[3][j]);
             kj->uw = I[4][j];
             kj->vw = I[5][j];
             kj->ku0 = kj->kv0 = kj->rot = 0;
@@ -1775,12 +1697,8 @@ PF_TARGET unsigned box8(const pf_klanes *k, float *out, pk *kout, float *wout, u
     const int VEC = NC == 1 && DT <= 1;
     if (VEC) {
         /* first texel (v0 2^ru + u0) ts, rows 2^ru ts bytes apart */
-        __m256i ae = _mm256_add_epi64(
-            de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(av.a, resu), even64(au.a)), sh));
-        __m256i ao = _mm256_add_epi64(
-            dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(av.a), odd64(resu)),
-                                                    odd64(au.a)), sh));
-        __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
+        __m256i ae, ao, re, ro;
+        w4x8_rows(de, dof, au.a, av.a, resu, sh, &ae, &ao, &re, &ro);
         /* the taps of each lane, +0 past its last (rows past it are not read: 0) */
         __m256 kv[3] = {av.t0, av.t1, av.t2};
         __m256 col[3] = {zf, zf, zf};
