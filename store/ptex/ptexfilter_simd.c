@@ -334,6 +334,26 @@ PF_TARGET void put_scaled(float *out, __m128 acc, float scale, unsigned NC)
         out[ch] = r[ch] * scale;
 }
 
+/* window4 for 1-channel u8 or u16 texels (DT) with the window's shape (uw, vw <= 4) as
+ * constants, every row unrolled, and the lanes past the row not cleared: the same
+ * operations on the same lanes in the same order but for that mask, and it changes no bit.
+ * A lane past the row (i >= uw) sums finite values (integer texels, finite weights) into
+ * a column c, which the dot weights +0: fma(c, +0, +0) is +0 for any finite c, as
+ * fma(+0, +0, +0) is for the cleared lane. The lanes < uw are window4's. */
+PF_TARGET __m128 window4_int(const uint8_t *base, size_t rowb, unsigned DT, const float *ku,
+                             int uw, const float *kv, int vw, __m128 acc)
+{
+    __m128 col = _mm_setzero_ps();
+    _Pragma("GCC unroll 4") for (int j = 0; j < vw; j++)
+        col = _mm_fmadd_ps(load4(base + (size_t)j * rowb, DT), _mm_set1_ps(kv[j]), col);
+    const __m128 z = _mm_setzero_ps();
+    __m128 k = uw == 4 ? _mm_loadu_ps(ku)
+                       : _mm_setr_ps(ku[0], uw > 1 ? ku[1] : 0.0f, uw > 2 ? ku[2] : 0.0f, 0.0f);
+    __m128 q = _mm_add_ps(_mm_fmadd_ps(col, k, z), z);
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+    return _mm_add_ss(acc, _mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+
 /* window_dt with rows of 1 to 4 texels (the pieces of the walked 4 x 4 and box kernels, most
  * windows of pf_window_select's callers) as constants: the same window() on the same values
  * (window_dt gives it its vector count (uw NC + 7) / 8 too, out of line from 2 on), so the
@@ -354,12 +374,40 @@ PF_TARGET __m128 window_piece(const uint8_t *base, size_t rowb, unsigned DT, uns
     }
 }
 
+/* window_piece, for 1-channel u8 and u16 texels with windows of at most 4 x 4 (uw - 1 and
+ * vw - 1 in [0, 4)): window4_int with the shape as constants (a jump table; no stack frame:
+ * pf_win_ gives the rest, whose column sums may need one, to window_piece out of line). */
+PF_TARGET __m128 window_small_int(const uint8_t *base, size_t rowb, unsigned DT,
+                                  const float *ku, int uw, const float *kv, int vw, __m128 acc)
+{
+    switch ((uw - 1) * 4 + vw - 1) {
+#define PF_INT_CASE(U, V)                                                                   \
+    case (U - 1) * 4 + V - 1: return window4_int(base, rowb, DT, ku, U, kv, V, acc);
+#define PF_INT_CASES(U) PF_INT_CASE(U, 1) PF_INT_CASE(U, 2) PF_INT_CASE(U, 3) PF_INT_CASE(U, 4)
+    PF_INT_CASES(1)
+    PF_INT_CASES(2)
+    PF_INT_CASES(3)
+    PF_INT_CASES(4)
+#undef PF_INT_CASES
+#undef PF_INT_CASE
+    default: __builtin_unreachable();
+    }
+}
+
 #define PF_WIN(DT, NC)                                                                      \
-    __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_win_##DT##_##NC(               \
+    __attribute__((target("avx2,fma,f16c"), noinline)) static pf_v4 pf_winrest_##DT##_##NC( \
         const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
         pf_v4 acc)                                                                          \
     {                                                                                       \
         return (pf_v4)window_piece(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);        \
+    }                                                                                       \
+    __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_win_##DT##_##NC(               \
+        const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
+        pf_v4 acc)                                                                          \
+    {                                                                                       \
+        if (NC == 1 && DT <= 1 && ((unsigned)(uw - 1) | (unsigned)(vw - 1)) < 4)           \
+            return (pf_v4)window_small_int(base, rowb, DT, ku, uw, kv, vw, (__m128)acc);    \
+        return pf_winrest_##DT##_##NC(base, rowb, ku, uw, kv, vw, acc);                     \
     }
 #define PF_WIN_NC(DT) PF_WIN(DT, 1) PF_WIN(DT, 2) PF_WIN(DT, 3) PF_WIN(DT, 4)
 PF_WIN_NC(0)
@@ -1043,8 +1091,9 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
         w = exp2_8(y);
     } else
         w = kernel8_as(p, x, 0);
-    *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
-                              *ok);
+    if (!G) /* 2^y for y >= -12 is never 0: the gaussian's taps that count are not zero */
+        *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
+                                  *ok);
     *sum = _mm256_add_ps(*sum, w);
     _mm256_storeu_ps(k, w);
     return w;
@@ -1061,25 +1110,23 @@ PF_TARGET void w4x8_row(__m256i ae, __m256i ao, __m256i me, __m256i mo, unsigned
     const __m256i z = _mm256_setzero_si256();
     __m256i ge = _mm256_mask_i64gather_epi64(z, (const long long *)0, ae, me, 1);
     __m256i go = _mm256_mask_i64gather_epi64(z, (const long long *)0, ao, mo, 1);
-    _Pragma("GCC unroll 4") for (int i = 0; i < NCOL; i++) {
-        /* column i: value i of each qword, into dword 0 / 2 (even queries) or 1 / 3 (odd) */
-        __m256i se, so;
-        if (DT == 0) {
-            char a = (char)i, b = (char)(8 + i), n = (char)0x80;
-            se = _mm256_setr_epi8(a, n, n, n, n, n, n, n, b, n, n, n, n, n, n, n,
-                                  a, n, n, n, n, n, n, n, b, n, n, n, n, n, n, n);
-            so = _mm256_setr_epi8(n, n, n, n, a, n, n, n, n, n, n, n, b, n, n, n,
-                                  n, n, n, n, a, n, n, n, n, n, n, n, b, n, n, n);
-        } else {
-            char a = (char)(2 * i), a1 = (char)(2 * i + 1), b = (char)(8 + 2 * i),
-                 b1 = (char)(9 + 2 * i), n = (char)0x80;
-            se = _mm256_setr_epi8(a, a1, n, n, n, n, n, n, b, b1, n, n, n, n, n, n,
-                                  a, a1, n, n, n, n, n, n, b, b1, n, n, n, n, n, n);
-            so = _mm256_setr_epi8(n, n, n, n, a, a1, n, n, n, n, n, n, b, b1, n, n,
-                                  n, n, n, n, a, a1, n, n, n, n, n, n, b, b1, n, n);
+    /* the first dword of each query's qword in query order: [q0 q1 q2 q3 | q4 q5 q6 q7]
+     * (the 4 u8 texels, or the first 2 u16); x2 the second (the next 2 u16) */
+    __m256i lo = _mm256_unpacklo_epi32(ge, go), hi = _mm256_unpackhi_epi32(ge, go);
+    __m256i x = _mm256_unpacklo_epi64(lo, hi);
+    if (DT == 0) {
+        const __m256i ff = _mm256_set1_epi32(0xff);
+        _Pragma("GCC unroll 4") for (int i = 0; i < NCOL; i++) {
+            __m256i c = i ? _mm256_srli_epi32(x, 8 * i) : x;
+            t[i] = _mm256_cvtepi32_ps(i < 3 ? _mm256_and_si256(c, ff) : c);
         }
-        t[i] = _mm256_cvtepi32_ps(_mm256_or_si256(_mm256_shuffle_epi8(ge, se),
-                                                  _mm256_shuffle_epi8(go, so)));
+    } else {
+        const __m256i ffff = _mm256_set1_epi32(0xffff);
+        __m256i x2 = NCOL > 2 ? _mm256_unpackhi_epi64(lo, hi) : x;
+        _Pragma("GCC unroll 4") for (int i = 0; i < NCOL; i++) {
+            __m256i d = i < 2 ? x : x2;
+            t[i] = _mm256_cvtepi32_ps(i & 1 ? _mm256_srli_epi32(d, 16) : _mm256_and_si256(d, ffff));
+        }
     }
 }
 
@@ -1101,35 +1148,99 @@ PF_TARGET void w4x8_data(const pf_klanes *k, __m256i ru, __m256i rv, __m256i lv,
         z, (const long long *)0, _mm256_add_epi64(po, _mm256_slli_epi64(odd64(idx), 3)), mo, 1);
 }
 
+/* A handed-over kernel's resolution (ulog2, vlog2) and first texel (u, v). */
+PF_TARGET void pk_origin(pk *kj, int ulog2, int vlog2, int u, int v)
+{
+    kj->ulog2 = ulog2;
+    kj->vlog2 = vlog2;
+    kj->u = u;
+    kj->v = v;
+}
+
+/* The 4 taps of 8 lanes (k[t]: tap t of each lane) stored lane by lane: lane j's at 4 j. */
+PF_TARGET void w4x8_bylane(const __m256 *k, float *out)
+{
+    __m256 a0 = _mm256_unpacklo_ps(k[0], k[1]), a1 = _mm256_unpackhi_ps(k[0], k[1]);
+    __m256 a2 = _mm256_unpacklo_ps(k[2], k[3]), a3 = _mm256_unpackhi_ps(k[2], k[3]);
+    __m256 r0 = _mm256_shuffle_ps(a0, a2, 0x44), r1 = _mm256_shuffle_ps(a0, a2, 0xEE);
+    __m256 r2 = _mm256_shuffle_ps(a1, a3, 0x44), r3 = _mm256_shuffle_ps(a1, a3, 0xEE);
+    /* r_i holds lanes i (low half) and i + 4 (high half) */
+    _mm256_storeu_ps(out + 0, _mm256_permute2f128_ps(r0, r1, 0x20));
+    _mm256_storeu_ps(out + 8, _mm256_permute2f128_ps(r2, r3, 0x20));
+    _mm256_storeu_ps(out + 16, _mm256_permute2f128_ps(r0, r1, 0x31));
+    _mm256_storeu_ps(out + 24, _mm256_permute2f128_ps(r2, r3, 0x31));
+}
+
+/* The first texel's address (v0 2^r + u0) << sh past the level's data (de, dof: the even and
+ * odd queries' 64-bit lanes), and the row length 2^r << sh (resu: 2^r), of 1-channel
+ * texels of 1 << sh bytes: *ae, *ao and *re, *ro. */
+PF_TARGET void w4x8_rows(__m256i de, __m256i dof, __m256i u0, __m256i v0, __m256i resu, int sh,
+                         __m256i *ae, __m256i *ao, __m256i *re, __m256i *ro)
+{
+    *ae = _mm256_add_epi64(
+        de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), sh));
+    *ao = _mm256_add_epi64(
+        dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
+                                                odd64(u0)), sh));
+    *re = _mm256_slli_epi64(even64(resu), sh);
+    *ro = _mm256_slli_epi64(odd64(resu), sh);
+}
+
 /* The lanes of ok whose window overhangs the face (out_of) handed over as w4_tail hands
  * them over (hand_over): kout[j] the 4 x 4 kernel (resolution r, first texel (u0, v0), the
- * taps tu[t][j], tv[t][j]), wout[j] its weight (total). Returns their mask. */
+ * taps tu[t][j], tv[t][j]), wout[j] its weight (total). Returns their mask. With 3 lanes or
+ * more the 4 ints and the taps of every lane are transposed at once (w4x8_bylane), each lane
+ * then a few 16-byte copies; with fewer, lane by lane from the vectors' lanes. */
 PF_TARGET unsigned w4x8_hand(__m256i ok, __m256i out_of, __m256 total, __m256i ru, __m256i rv,
-                             __m256i u0, __m256i v0, float tu[4][8], float tv[4][8], pk *kout,
+                             __m256i u0, __m256i v0, const float (*tu)[8], const float (*tv)[8], pk *kout,
                              float *wout)
 {
     unsigned ho = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, out_of)));
-    if (ho) {
-        _mm256_storeu_ps(wout, total);
-        int R[2][8], O[2][8];
-        _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
-        _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
-        _mm256_storeu_si256((__m256i *)(void *)O[0], u0);
-        _mm256_storeu_si256((__m256i *)(void *)O[1], v0);
+    if (!ho)
+        return 0;
+    _mm256_storeu_ps(wout, total);
+    _Static_assert(offsetof(pk, vlog2) == 4 && offsetof(pk, u) == 8 && offsetof(pk, v) == 12 &&
+                       offsetof(pk, uw) == 16 && offsetof(pk, kv0) == 28 &&
+                       offsetof(pk, rot) == 32 && PK_MAX >= 8,
+                   "pk: ulog2 vlog2 u v, then uw vw ku0 kv0, rot");
+    const __m128i shape = _mm_setr_epi32(4, 4, 0, 0); /* uw, vw, ku0, kv0 */
+    if (__builtin_popcount(ho) >= 3) {
+        float KU[32], KV[32], RO[32]; /* lane j's at 4 j */
+        __m256 ro[4] = {_mm256_castsi256_ps(ru), _mm256_castsi256_ps(rv),
+                        _mm256_castsi256_ps(u0), _mm256_castsi256_ps(v0)};
+        __m256 ku[4] = {_mm256_loadu_ps(tu[0]), _mm256_loadu_ps(tu[1]), _mm256_loadu_ps(tu[2]),
+                        _mm256_loadu_ps(tu[3])};
+        __m256 kv[4] = {_mm256_loadu_ps(tv[0]), _mm256_loadu_ps(tv[1]), _mm256_loadu_ps(tv[2]),
+                        _mm256_loadu_ps(tv[3])};
+        w4x8_bylane(ro, RO);
+        w4x8_bylane(ku, KU);
+        w4x8_bylane(kv, KV);
         for (unsigned m = ho; m; m &= m - 1) {
-            int j = __builtin_ctz(m);
+            size_t j = (size_t)__builtin_ctz(m);
             pk *kj = kout + j;
-            kj->ulog2 = R[0][j];
-            kj->vlog2 = R[1][j];
-            kj->u = O[0][j];
-            kj->v = O[1][j];
-            kj->uw = kj->vw = 4;
-            kj->ku0 = kj->kv0 = kj->rot = 0;
-            _mm256_storeu_ps(kj->kub, _mm256_setr_ps(tu[0][j], tu[1][j], tu[2][j], tu[3][j],
-                                                     0.0f, 0.0f, 0.0f, 0.0f));
-            _mm256_storeu_ps(kj->kvb, _mm256_setr_ps(tv[0][j], tv[1][j], tv[2][j], tv[3][j],
-                                                     0.0f, 0.0f, 0.0f, 0.0f));
+            _mm_storeu_ps((float *)(void *)kj, _mm_loadu_ps(RO + 4 * j));
+            _mm_storeu_si128((__m128i *)(void *)&kj->uw, shape);
+            kj->rot = 0;
+            _mm256_storeu_ps(kj->kub, _mm256_zextps128_ps256(_mm_loadu_ps(KU + 4 * j)));
+            _mm256_storeu_ps(kj->kvb, _mm256_zextps128_ps256(_mm_loadu_ps(KV + 4 * j)));
         }
+        return ho;
+    }
+    int R[2][8], O[2][8];
+    _mm256_storeu_si256((__m256i *)(void *)R[0], ru);
+    _mm256_storeu_si256((__m256i *)(void *)R[1], rv);
+    _mm256_storeu_si256((__m256i *)(void *)O[0], u0);
+    _mm256_storeu_si256((__m256i *)(void *)O[1], v0);
+    for (unsigned m = ho; m; m &= m - 1) {
+        int j = __builtin_ctz(m);
+        pk *kj = kout + j;
+        pk_origin(kj, R[0][j], R[1][j], O[0][j], O[1][j]);
+        _mm_storeu_si128((__m128i *)(void *)&kj->uw, shape);
+        kj->rot = 0;
+        _mm256_storeu_ps(kj->kub, _mm256_setr_ps(tu[0][j], tu[1][j], tu[2][j], tu[3][j],
+                                                 0.0f, 0.0f, 0.0f, 0.0f));
+        _mm256_storeu_ps(kj->kvb, _mm256_setr_ps(tv[0][j], tv[1][j], tv[2][j], tv[3][j],
+                                                 0.0f, 0.0f, 0.0f, 0.0f));
     }
     return ho;
 }
@@ -1164,60 +1275,29 @@ PF_TARGET __m256i w4x8_axes(const pf_klanes *k, w4x8_ax *a)
  * kernel w4_body hands over in kout[j] and its weight in wout[j], their mask in *over. The other lanes are left alone
  * (the caller serves them one by one). Queries are even/odd-split for the 64-bit address
  * arithmetic and gathers; the 16 texels of a query's window are 4 row gathers of 8 bytes.
- * The v taps and the window's column sums come first, then the u taps one by one into the
- * dot, so that few vectors are live at a time. */
+ * The 8 taps come first, each stored (the hand-over reads them); the window's rows and
+ * its dot then take them from memory (FMA operands), so that few vectors are live across
+ * the gathers. */
 PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out, pk *kout,
                              float *wout, unsigned *over, unsigned DT, int G)
 {
     const __m256i one = _mm256_set1_epi32(1);
     w4x8_ax a;
     __m256i ok = w4x8_axes(k, &a);
-    __m256i ru = a.ru, rv = a.rv, u0 = a.u0, v0 = a.v0, ou = a.ou, ov = a.ov, lv = a.lv;
-    __m256 xu = a.xu, stu = a.stu, xv = a.xv, stv = a.stv;
     if (_mm256_testz_si256(ok, ok))
         return *over = 0;
-    float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
-    __m256 kv[4], sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
+    float tu[4][8], tv[4][8]; /* the taps: the window's, and the kernels handed over */
+    __m256 sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, G);
-    __m256i out_of = _mm256_or_si256(ou, ov);
-    __m256i in = _mm256_andnot_si256(out_of, ok); /* so far: the u taps may still be zero */
-    const __m256 zf = _mm256_setzero_ps();
-    __m256 col[4] = {zf, zf, zf, zf}; /* fma(t, kv0, +0) first, as w4_tail */
-    if (!_mm256_testz_si256(in, in)) {
-        __m256i me = _mm256_slli_epi64(in, 32), mo = in; /* sign bits: even / odd lanes */
-        __m256i de, dof;
-        w4x8_data(k, ru, rv, lv, me, mo, &de, &dof);
-        /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
-        const int sh = DT == 0 ? 0 : 1;
-        __m256i resu = _mm256_sllv_epi32(one, ru);
-        __m256i ae = _mm256_add_epi64(
-            de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(v0, resu), even64(u0)), sh));
-        __m256i ao = _mm256_add_epi64(
-            dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(v0), odd64(resu)),
-                                                    odd64(u0)), sh));
-        __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
-        _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
-            __m256 t[4];
-            w4x8_row(ae, ao, me, mo, DT, t, 4);
-            _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
-                col[i] = _mm256_fmadd_ps(t[i], kv[j], col[i]);
-            ae = _mm256_add_epi64(ae, re);
-            ao = _mm256_add_epi64(ao, ro);
-        }
-    }
-    /* the u taps, each into w4_tail's dot with the column weights (q_i = col_i ku_i + 0 + 0)
-     * and its fold (q0 + q2) + (q1 + q3), into +0 */
-    __m256 q0 = _mm256_add_ps(_mm256_fmadd_ps(col[0], w4x8_tap(p, xu, stu, 0, tu[0], &su, &ok, G), zf), zf);
-    __m256 q1 = _mm256_add_ps(_mm256_fmadd_ps(col[1], w4x8_tap(p, xu, stu, 1, tu[1], &su, &ok, G), zf), zf);
-    __m256 q2 = _mm256_add_ps(_mm256_fmadd_ps(col[2], w4x8_tap(p, xu, stu, 2, tu[2], &su, &ok, G), zf), zf);
-    __m256 h0 = _mm256_add_ps(q0, q2);
-    __m256 q3 = _mm256_add_ps(_mm256_fmadd_ps(col[3], w4x8_tap(p, xu, stu, 3, tu[3], &su, &ok, G), zf), zf);
-    __m256 res = _mm256_add_ps(zf, _mm256_add_ps(h0, _mm256_add_ps(q1, q3)));
-    /* the window overhangs the face: handed over (w4_tail's hand_over), lane by lane, with
-     * the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)) */
+        w4x8_tap(p, a.xv, a.stv, t, tv[t], &sv, &ok, G);
+    _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
+        w4x8_tap(p, a.xu, a.stu, t, tu[t], &su, &ok, G);
+    __m256i out_of = _mm256_or_si256(a.ou, a.ov);
+    /* the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)); the window overhangs the
+     * face: handed over (w4_tail's hand_over) */
     __m256 total = _mm256_mul_ps(su, sv);
-    *over = w4x8_hand(ok, out_of, total, ru, rv, u0, v0, tu, tv, kout, wout);
+    *over = w4x8_hand(ok, out_of, total, a.ru, a.rv, a.u0, a.v0, tu, tv, kout, wout);
+    const __m256 zf = _mm256_setzero_ps();
     ok = _mm256_andnot_si256(out_of, ok);
     ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
     unsigned done = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(ok));
@@ -1225,6 +1305,35 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         return 0;
     __m256 scale = _mm256_div_ps(_mm256_set1_ps(1.0f),
                                  _mm256_mul_ps(total, _mm256_set1_ps(DT == 0 ? 255.0f : 65535.0f)));
+    /* the taps from memory from here on (not kept in registers across the gathers) */
+    const float(*ku)[8] = tu, (*kv)[8] = tv;
+    __asm__("" : "+r"(ku), "+r"(kv) : "m"(tu), "m"(tv));
+    __m256i me = _mm256_slli_epi64(ok, 32), mo = ok; /* sign bits: even / odd lanes */
+    __m256i de, dof;
+    w4x8_data(k, a.ru, a.rv, a.lv, me, mo, &de, &dof);
+    /* first texel (v0 * 2^ru + u0) * ts, rows 2^ru * ts bytes apart */
+    const int sh = DT == 0 ? 0 : 1;
+    __m256i resu = _mm256_sllv_epi32(one, a.ru);
+    __m256i ae, ao, re, ro;
+    w4x8_rows(de, dof, a.u0, a.v0, resu, sh, &ae, &ao, &re, &ro);
+    /* w4_tail's window: fma(t, kv_j, col) down the rows from +0 */
+    __m256 col[4] = {zf, zf, zf, zf};
+    _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
+        __m256 t[4];
+        w4x8_row(ae, ao, me, mo, DT, t, 4);
+        __m256 w = _mm256_loadu_ps(kv[j]);
+        _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
+            col[i] = _mm256_fmadd_ps(t[i], w, col[i]);
+        ae = _mm256_add_epi64(ae, re);
+        ao = _mm256_add_epi64(ao, ro);
+    }
+    /* its dot with the column weights (q_i = col_i ku_i + 0 + 0) and its fold
+     * (q0 + q2) + (q1 + q3), into +0 */
+    __m256 q0 = _mm256_add_ps(_mm256_fmadd_ps(col[0], _mm256_loadu_ps(ku[0]), zf), zf);
+    __m256 q1 = _mm256_add_ps(_mm256_fmadd_ps(col[1], _mm256_loadu_ps(ku[1]), zf), zf);
+    __m256 q2 = _mm256_add_ps(_mm256_fmadd_ps(col[2], _mm256_loadu_ps(ku[2]), zf), zf);
+    __m256 q3 = _mm256_add_ps(_mm256_fmadd_ps(col[3], _mm256_loadu_ps(ku[3]), zf), zf);
+    __m256 res = _mm256_add_ps(zf, _mm256_add_ps(_mm256_add_ps(q0, q2), _mm256_add_ps(q1, q3)));
     _mm256_maskstore_ps(out, ok, _mm256_mul_ps(res, scale));
     return done;
 }
@@ -1302,20 +1411,6 @@ PF_TARGET void w4x8_put(float *out, __m128 acc, float scale, unsigned NC)
         if (NC == 3)
             _mm_store_ss(out + 2, _mm_movehl_ps(r, r));
     }
-}
-
-/* The 4 taps of 8 lanes (k[t]: tap t of each lane) stored lane by lane: lane j's at 4 j. */
-PF_TARGET void w4x8_bylane(const __m256 *k, float *out)
-{
-    __m256 a0 = _mm256_unpacklo_ps(k[0], k[1]), a1 = _mm256_unpackhi_ps(k[0], k[1]);
-    __m256 a2 = _mm256_unpacklo_ps(k[2], k[3]), a3 = _mm256_unpackhi_ps(k[2], k[3]);
-    __m256 r0 = _mm256_shuffle_ps(a0, a2, 0x44), r1 = _mm256_shuffle_ps(a0, a2, 0xEE);
-    __m256 r2 = _mm256_shuffle_ps(a1, a3, 0x44), r3 = _mm256_shuffle_ps(a1, a3, 0xEE);
-    /* r_i holds lanes i (low half) and i + 4 (high half) */
-    _mm256_storeu_ps(out + 0, _mm256_permute2f128_ps(r0, r1, 0x20));
-    _mm256_storeu_ps(out + 8, _mm256_permute2f128_ps(r2, r3, 0x20));
-    _mm256_storeu_ps(out + 16, _mm256_permute2f128_ps(r0, r1, 0x31));
-    _mm256_storeu_ps(out + 24, _mm256_permute2f128_ps(r2, r3, 0x31));
 }
 
 /* The 64-bit lanes of the even (e: 0, 2, 4, 6) and odd (o: 1, 3, 5, 7) queries stored in
@@ -1517,10 +1612,7 @@ PF_TARGET unsigned box8_hand(__m256i ok, __m256i out_of, __m256 total, const box
         for (unsigned m = ho; m; m &= m - 1) {
             int j = __builtin_ctz(m);
             pk *kj = kout + j;
-            kj->ulog2 = I[0][j];
-            kj->vlog2 = I[1][j];
-            kj->u = I[2][j];
-            kj->v = I[3][j];
+            pk_origin(kj, I[0][j], I[1][j], I[2][j], I[3][j]);
             kj->uw = I[4][j];
             kj->vw = I[5][j];
             kj->ku0 = kj->kv0 = kj->rot = 0;
@@ -1605,12 +1697,8 @@ PF_TARGET unsigned box8(const pf_klanes *k, float *out, pk *kout, float *wout, u
     const int VEC = NC == 1 && DT <= 1;
     if (VEC) {
         /* first texel (v0 2^ru + u0) ts, rows 2^ru ts bytes apart */
-        __m256i ae = _mm256_add_epi64(
-            de, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(av.a, resu), even64(au.a)), sh));
-        __m256i ao = _mm256_add_epi64(
-            dof, _mm256_slli_epi64(_mm256_add_epi64(_mm256_mul_epu32(odd64(av.a), odd64(resu)),
-                                                    odd64(au.a)), sh));
-        __m256i re = _mm256_slli_epi64(even64(resu), sh), ro = _mm256_slli_epi64(odd64(resu), sh);
+        __m256i ae, ao, re, ro;
+        w4x8_rows(de, dof, au.a, av.a, resu, sh, &ae, &ao, &re, &ro);
         /* the taps of each lane, +0 past its last (rows past it are not read: 0) */
         __m256 kv[3] = {av.t0, av.t1, av.t2};
         __m256 col[3] = {zf, zf, zf};
@@ -1703,7 +1791,8 @@ PF_TARGET pf_v4 small_body(const uint8_t *base, size_t rowb, const float *ku, in
     __m128 acc = (__m128)acc4;
 #define PF_SMALL(UW, VW)                                                                    \
     (NC == 3 ? window3(base, rowb, DT, ku, UW, kv, VW, acc)                                 \
-             : window(base, rowb, DT, NC, ku, UW, kv, VW, 1, acc))
+     : NC == 1 && DT <= 1 ? window4_int(base, rowb, DT, ku, UW, kv, VW, acc)                \
+                          : window(base, rowb, DT, NC, ku, UW, kv, VW, 1, acc))
     switch ((uw - 1) * 2 + (vw - 1)) {
     case 0: return (pf_v4)PF_SMALL(1, 1);
     case 1: return (pf_v4)PF_SMALL(1, 2);
