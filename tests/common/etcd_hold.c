@@ -209,13 +209,18 @@ st_etcd_hold *st_etcd_hold_start(int etcd_port, const char *prefix, char *url, s
     return p;
 }
 
-void st_etcd_hold_on(st_etcd_hold *p, int pass)
+static void set_mode(st_etcd_hold *p, int holding, int muting, int pass)
 {
     pthread_mutex_lock(&p->mu);
-    p->holding = 1;
+    p->holding = holding;
+    p->muting = muting;
     p->pass = pass;
     pthread_mutex_unlock(&p->mu);
 }
+
+void st_etcd_hold_on(st_etcd_hold *p, int pass) { set_mode(p, 1, 0, pass); }
+void st_etcd_hold_mute(st_etcd_hold *p, int pass) { set_mode(p, 0, 1, pass); }
+void st_etcd_hold_off(st_etcd_hold *p) { set_mode(p, 0, 0, 0); }
 
 int st_etcd_hold_count(st_etcd_hold *p)
 {
@@ -252,22 +257,6 @@ static int replay(int port, const held *h)
     }
     close(fd);
     return answered;
-}
-
-void st_etcd_hold_mute(st_etcd_hold *p, int pass)
-{
-    pthread_mutex_lock(&p->mu);
-    p->muting = 1;
-    p->pass = pass;
-    pthread_mutex_unlock(&p->mu);
-}
-
-void st_etcd_hold_off(st_etcd_hold *p)
-{
-    pthread_mutex_lock(&p->mu);
-    p->holding = 0;
-    p->muting = 0;
-    pthread_mutex_unlock(&p->mu);
 }
 
 int st_etcd_hold_replay(st_etcd_hold *p)
