@@ -1086,14 +1086,14 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
      * roundings, so kernel8's weights bit for bit. The other lanes' weights are not used. */
     __m256 x = t ? _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)t), st)) : x1;
     __m256 w;
-    if (G) {
+    if (G) { /* 2^y for y >= -12 is never 0: the gaussian's taps that count are not zero */
         __m256 y = _mm256_mul_ps(_mm256_mul_ps(x, x), _mm256_set1_ps(-2.0f * 1.44269504f));
         w = exp2_8(y);
-    } else
+    } else {
         w = kernel8_as(p, x, 0);
-    if (!G) /* 2^y for y >= -12 is never 0: the gaussian's taps that count are not zero */
         *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
                                   *ok);
+    }
     *sum = _mm256_add_ps(*sum, w);
     _mm256_storeu_ps(k, w);
     return w;

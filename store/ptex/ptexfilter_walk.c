@@ -90,22 +90,34 @@ __attribute__((always_inline)) static inline void put_window(pw_state *s, int ru
 /* put_face for a face smaller than the window's resolution along an axis: the weights
  * reduced to the face's resolution as apply does, then the guard and the window. Out of
  * line (rare): its buffers stay out of the walks' frames. */
+/* The window's weights along each axis where face F is coarser reduced to F's resolution as
+ * apply does (into rbu, rbv), its start, width and resolution with them. */
+__attribute__((always_inline)) static inline void reduce_to_face(const st_face *F, int *ru,
+                                                                 int *rv, int *u, int *v,
+                                                                 int *uw, int *vw,
+                                                                 const float **ku,
+                                                                 const float **kv, float *rbu,
+                                                                 float *rbv)
+{
+    if (__builtin_expect(*ru > F->ulog2, 0)) {
+        int t[3] = {*u, *uw, *ru};
+        *ku = shrink(rbu, *ku, t, F->ulog2);
+        *u = t[0], *uw = t[1], *ru = t[2];
+    }
+    if (__builtin_expect(*rv > F->vlog2, 0)) {
+        int t[3] = {*v, *vw, *rv};
+        *kv = shrink(rbv, *kv, t, F->vlog2);
+        *v = t[0], *vw = t[1], *rv = t[2];
+    }
+}
+
 __attribute__((noinline)) static void put_reduced(pw_state *s, int ru, int rv, int u, int v,
                                                   int uw, int vw, const float *ku,
                                                   const float *kv, int af)
 {
     const st_face *F = &s->w->faces[af];
     float rbu[PK_MAX], rbv[PK_MAX];
-    if (ru > F->ulog2) {
-        int t[3] = {u, uw, ru};
-        ku = shrink(rbu, ku, t, F->ulog2);
-        u = t[0], uw = t[1], ru = t[2];
-    }
-    if (rv > F->vlog2) {
-        int t[3] = {v, vw, rv};
-        kv = shrink(rbv, kv, t, F->vlog2);
-        v = t[0], vw = t[1], rv = t[2];
-    }
+    reduce_to_face(F, &ru, &rv, &u, &v, &uw, &vw, &ku, &kv, rbu, rbv);
     if (u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv))
         return; /* outside the face: apply's guard against bad input */
     put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
@@ -127,18 +139,9 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
     if (F->flags & ST_FACE_CONSTANT)
         return 0;
     float rbu[PK_MAX], rbv[PK_MAX];
-    if (sg) { /* the fold: reduced inline (fewer instructions in its frame) */
-        if (__builtin_expect(ru > F->ulog2, 0)) {
-            int t[3] = {u, uw, ru};
-            ku = shrink(rbu, ku, t, F->ulog2);
-            u = t[0], uw = t[1], ru = t[2];
-        }
-        if (__builtin_expect(rv > F->vlog2, 0)) {
-            int t[3] = {v, vw, rv};
-            kv = shrink(rbv, kv, t, F->vlog2);
-            v = t[0], vw = t[1], rv = t[2];
-        }
-    } else if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
+    if (sg) /* the fold: reduced inline (fewer instructions in its frame) */
+        reduce_to_face(F, &ru, &rv, &u, &v, &uw, &vw, &ku, &kv, rbu, rbv);
+    else if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
         put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
         return 1;
     }
@@ -440,6 +443,13 @@ __attribute__((noinline)) static int walk_one(const pf_walk *w, const pk *k0, in
     return 1;
 }
 
+/* The corner between the overhung u edge (the high one when hu) and v edge (hv), as side()
+ * numbers them: 2 (hu, hv), 1 (hu, low v), 3 (low u, hv), 0. */
+static inline int corner_between(int hu, int hv)
+{
+    return hu ? 2 - !hv : 3 * !!hv;
+}
+
 /* The walk of a kernel that overhangs one u edge (the high one when hu, as split_hi; else
  * the low one) and one v edge (hv), each to a neighbour: walk_all's steps for that case in
  * its order (the side's corner piece, the side's edge piece, the v edge's piece, the rest on
@@ -453,8 +463,7 @@ __attribute__((noinline)) static int walk_two(const pf_walk *w, const pk *k0, in
             {k0->kub + k0->ku0, k0->kvb + k0->kv0}};
     pw ka = hu ? split_hi(&k, 0) : split_lo(&k, 0);
     pw kc = hv ? split_hi(&ka, 1) : split_lo(&ka, 1);
-    /* side()'s corner: 2 (hu, hv), 1 (hu, low v), 3 (low u, hv), 0 */
-    int c = hu ? 2 - !hv : 3 * !!hv;
+    int c = corner_between(hu, hv);
     if (!corner(&s, kc, f, c) || !edge(&s, ka, f, hu ? 1 : 3))
         return 0;
     pw kb = hv ? split_hi(&k, 1) : split_lo(&k, 1);
@@ -602,7 +611,7 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
                                                                int hv, pf_v4 *acc)
 {
     const st_face *faces = w->faces, *F = &faces[f];
-    int eu = hu ? 1 : 3, ev = hv ? 2 : 0, c = hu ? 2 - !hv : 3 * !!hv;
+    int eu = hu ? 1 : 3, ev = hv ? 2 : 0, c = corner_between(hu, hv);
     int au = F->adjface[eu], av = F->adjface[ev], dg = F->cornerface[c];
     if (dg < 0 || ((faces[au].flags | faces[av].flags | faces[dg].flags | F->flags) &
                    (ST_FACE_SUBFACE | ST_FACE_CONSTANT)))
@@ -807,9 +816,9 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
             return walk_boundary(w, k0, f, acc, weight);
         /* the corner between the two edges (walk_two's c); lean_two only where it is a
          * regular vertex (a valence-3 corner of a cube would only cost its checks) */
-        static const signed char corner_of[4] = {0, 1, 3, 2};
-        return w->faces[f].cornerface[corner_of[t]] >= 0 ? lean_two(w, k0, f, t, acc, weight)
-                                                          : walk_two(w, k0, f, t, acc, weight);
+        return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
+                   ? lean_two(w, k0, f, t, acc, weight)
+                   : walk_two(w, k0, f, t, acc, weight);
     }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, acc, weight);

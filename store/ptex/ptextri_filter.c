@@ -854,6 +854,23 @@ __attribute__((always_inline)) static inline void cur_to(pt_cur *cu, const ti *i
  * come from at most three regions found with a few compares (lean_fold_row), each run of
  * taps is one loop stepping a texel address, and the weights G, E stay in registers. */
 
+/* One tap of the lean sweeps: acc += texel px * (float)G (and wsum4 += it when NC == 4),
+ * then G *= E, E *= kxx, as pt_rec's taps do. */
+__attribute__((always_inline)) static inline pt_v4f lean_tap(const uint8_t *px, double *G,
+                                                             double *E, double kxx,
+                                                             pt_v4f one, pt_v4f acc,
+                                                             float *wsum4, unsigned DT,
+                                                             unsigned NC)
+{
+    float w = (float)*G;
+    acc += texel_vec(px, one, DT, NC) * w;
+    if (NC == 4)
+        *wsum4 += w;
+    *G *= *E;
+    *E *= kxx;
+    return acc;
+}
+
 /* n taps reading px, px + step, ..: acc += texel * (float)G (and wsum4 += it when NC == 4),
  * then G *= E, E *= kxx, as pt_rec's taps do. */
 __attribute__((always_inline)) static inline pt_v4f
@@ -861,14 +878,8 @@ lean_run(int n, const uint8_t *px, ptrdiff_t step, double *Gp, double *Ep, doubl
          pt_v4f one, pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
 {
     double G = *Gp, E = *Ep;
-    for (; n > 0; n--, px += step) {
-        float w = (float)G;
-        acc += texel_vec(px, one, DT, NC) * w;
-        if (NC == 4)
-            *wsum4 += w;
-        G *= E;
-        E *= kxx;
-    }
+    for (; n > 0; n--, px += step)
+        acc = lean_tap(px, &G, &E, kxx, one, acc, wsum4, DT, NC);
     *Gp = G;
     *Ep = E;
     return acc;
@@ -888,12 +899,7 @@ lean_band_mid(int ODD, int R, const uint8_t *data, int y, int xa, int xe, size_t
         const ptrdiff_t mstep = (ptrdiff_t)(1 - R) * (ptrdiff_t)ts;
         double G = *Gp, E = *Ep;
         if (d & 1) { /* a midpoint first: M(k), then the next k */
-            float w = (float)G;
-            acc += texel_vec(m, one, DT, NC) * w;
-            if (NC == 4)
-                *wsum4 += w;
-            G *= E;
-            E *= kxx;
+            acc = lean_tap(m, &G, &E, kxx, one, acc, wsum4, DT, NC);
             m += mstep;
             x++;
             d++;
@@ -913,20 +919,10 @@ lean_band_mid(int ODD, int R, const uint8_t *data, int y, int xa, int xe, size_t
             float t = 0.5f * (cu + cv - fR);
             int p = cu - t < kf, q = cv - t < rkf;
             const uint8_t *px = m + (p == q ? offR : p ? offR1 : 0);
-            float w = (float)G;
-            acc += texel_vec(px, one, DT, NC) * w;
-            if (NC == 4)
-                *wsum4 += w;
-            G *= E;
-            E *= kxx;
+            acc = lean_tap(px, &G, &E, kxx, one, acc, wsum4, DT, NC);
             if (x + 1 >= xe)
                 break;
-            w = (float)G;
-            acc += texel_vec(m, one, DT, NC) * w;
-            if (NC == 4)
-                *wsum4 += w;
-            G *= E;
-            E *= kxx;
+            acc = lean_tap(m, &G, &E, kxx, one, acc, wsum4, DT, NC);
             m += mstep;
         }
         *Gp = G;
@@ -1313,29 +1309,19 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
         }                                                                                    \
         sweep2_t(c, ev, od, d, 0, SW_READ, 0, DT, NC);                                          \
     }                                                                                        \
-    static void sweep_f_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
-                                    int constant)                                           \
-    {                                                                                        \
-        if (constant) /* every tap reads texel 0 (not the read sweeps' sum) */              \
-            sweep2_t(c, ev, od, d, 1, SW_FOLD, 1, DT, NC);                                   \
-        else                                                                                 \
-            sweep2_t(c, ev, od, d, 0, SW_FOLD, 1, DT, NC);                                   \
-    }                                                                                        \
-    static void sweep_fl_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
-                                     int constant)                                          \
+    PT_FOLD(sweep_f, 1, DT, NC)  /* the general recurrence rows */                          \
+    PT_FOLD(sweep_fl, 2, DT, NC) /* the lean ones */                                         \
+    PT_FOLD(sweep_fp, 0, DT, NC) /* the per-tap expf */
+/* A fold sweep with weights by REC; a constant face: every tap reads texel 0 (not the read
+ * sweeps' sum). */
+#define PT_FOLD(F, REC, DT, NC)                                                              \
+    static void F##_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,        \
+                                int constant)                                               \
     {                                                                                        \
         if (constant)                                                                        \
-            sweep2_t(c, ev, od, d, 1, SW_FOLD, 2, DT, NC);                                   \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, REC, DT, NC);                                 \
         else                                                                                 \
-            sweep2_t(c, ev, od, d, 0, SW_FOLD, 2, DT, NC);                                   \
-    }                                                                                        \
-    static void sweep_fp_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
-                                     int constant)                                          \
-    {                                                                                        \
-        if (constant)                                                                        \
-            sweep2_t(c, ev, od, d, 1, SW_FOLD, 0, DT, NC);                                   \
-        else                                                                                 \
-            sweep2_t(c, ev, od, d, 0, SW_FOLD, 0, DT, NC);                                   \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, REC, DT, NC);                                 \
     }
 #define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
 PT_SWEEP_NC(0)
@@ -1361,7 +1347,6 @@ __attribute__((noinline)) static float sweep_weight_lean(tc *c, const ti *it, pt
 {
     return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
 }
-
 
 /* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels (pertap: the fold
  * sweeps with one libm expf per tap). */

@@ -211,16 +211,24 @@ static int teardown(void **state)
     return bad;
 }
 
+/* rc, a write through n0 while the proxy held its transactions, was refused and left at
+ * least one kept; holding stops, and with replay what was kept reaches etcd now */
+static void refused_while_held(int rc, int replay)
+{
+    assert_int_equal(rc, STC_EUNAVAILABLE);
+    assert_true(st_etcd_hold_count(PROXY) >= 1);
+    st_etcd_hold_off(PROXY);
+    if (replay)
+        assert_true(st_etcd_hold_replay(PROXY) >= 1);
+}
+
 static void delete_applied_late_is_put_back(void **state)
 {
     (void)state;
     put_set("a");
     st_etcd_hold_on(PROXY, 0);
-    assert_int_equal(delete_direct(0, "a"), STC_EUNAVAILABLE);
-    assert_true(st_etcd_hold_count(PROXY) >= 1);
-    /* etcd now runs the delete n0 gave up on (and any fence n0 tried meanwhile) */
-    st_etcd_hold_off(PROXY);
-    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    /* then etcd runs the delete n0 gave up on (and any fence n0 tried meanwhile) */
+    refused_while_held(delete_direct(0, "a"), 1);
     if (st_wait_until(recorded_with_copies, "a", DEADLINE_MS) != 0)
         fail_msg("the refused delete of 'a' stayed applied (recorded %d, %d copies keys)",
                  recorded("a", 1), copy_keys("a"));
@@ -239,9 +247,7 @@ static void delete_fenced_never_applies(void **state)
     put_set("b");
     uint64_t undone = st_daemon_stat(&N[0], "cluster_doubts_undone");
     st_etcd_hold_on(PROXY, 0);
-    assert_int_equal(delete_direct(0, "b"), STC_EUNAVAILABLE);
-    assert_true(st_etcd_hold_count(PROXY) >= 1);
-    st_etcd_hold_off(PROXY);
+    refused_while_held(delete_direct(0, "b"), 0);
     if (st_wait_until(settled, NULL, DEADLINE_MS) != 0)
         fail_msg("n0 did not settle the delete in doubt");
     /* the kept delete reaches etcd only now: its compare on n0's op key fails */
@@ -261,10 +267,7 @@ static void claim_applied_late_is_taken_back(void **state)
 {
     (void)state;
     st_etcd_hold_on(PROXY, 0);
-    assert_int_equal(upload_direct(0, 0, "c"), STC_EUNAVAILABLE);
-    assert_true(st_etcd_hold_count(PROXY) >= 1);
-    st_etcd_hold_off(PROXY);
-    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    refused_while_held(upload_direct(0, 0, "c"), 1);
     if (st_wait_until(name_free, "c", DEADLINE_MS) != 0) {
         st_daemon_dump_log(&N[0], 30);
         fail_msg("the refused upload's claim still holds 'c'");
@@ -278,10 +281,7 @@ static void finalize_applied_late_is_taken_back(void **state)
 {
     (void)state;
     st_etcd_hold_on(PROXY, 1);   /* the claim goes through, the finalizing txn is kept */
-    assert_int_equal(upload_direct(0, 0, "d"), STC_EUNAVAILABLE);
-    assert_true(st_etcd_hold_count(PROXY) >= 1);
-    st_etcd_hold_off(PROXY);
-    assert_true(st_etcd_hold_replay(PROXY) >= 1);
+    refused_while_held(upload_direct(0, 0, "d"), 1);
     if (st_wait_until(not_recorded, "d", DEADLINE_MS) != 0)
         fail_msg("the refused upload of 'd' stayed recorded (%d, %d copies keys)",
                  recorded("d", 0), copy_keys("d"));

@@ -27,6 +27,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "../common/skip_unless.h"
+
 #include "codec_simd.h"
 
 static uint64_t rng = 0x9E3779B97F4A7C15ull;
@@ -71,12 +73,7 @@ static void guard_free(guard *g)
 }
 
 #define SKIP_WITHOUT_AVX2()                                                                \
-    do {                                                                                    \
-        if (!stp_codec_have_avx2()) {                                                       \
-            print_message("no AVX2 + F16C on this CPU: only the portable loops run\n");   \
-            skip();                                                                         \
-        }                                                                                   \
-    } while (0)
+    ST_SKIP_UNLESS(stp_codec_have_avx2(), "no AVX2 + F16C on this CPU: only the portable loops run")
 
 typedef void (*enc_fn)(const float *, size_t, uint8_t *);
 

@@ -16,6 +16,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "../common/skip_unless.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -93,10 +95,7 @@ static void make_queries(const st_set *s, st_query *q, uint32_t seed)
 static void general_path_gives_the_old_builds_outputs_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     char path[1024];
     if (st_test_data_path(path, sizeof path, files[0]))
         skip();

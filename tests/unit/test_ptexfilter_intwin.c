@@ -13,6 +13,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "skip_unless.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -66,10 +68,7 @@ static float weight(void)
 static void integer_windows_are_window4_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     enum { RES = 16, SLACK = 64 };
     int cases = 0, small = 0;
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_U16; dt++) {

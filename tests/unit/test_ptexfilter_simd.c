@@ -12,6 +12,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "skip_unless.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,10 +34,7 @@ static float rndf(void) /* [0, 1) */
 static void kernel_weights_are_the_portable_ones_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     static const unsigned filters[] = {ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
                                        ST_FILTER_PTEX_BSPLINE, ST_FILTER_PTEX_CATMULLROM,
                                        ST_FILTER_PTEX_MITCHELL};
@@ -88,10 +87,7 @@ static double get(unsigned dt, const uint8_t *p)
 static void window_sums_match_the_definition_for_every_type_and_channel_count(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     enum { RES = 32, SLACK = 64 };
     static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
     int cases = 0;
@@ -157,10 +153,7 @@ static void window_sums_match_the_definition_for_every_type_and_channel_count(vo
 static void fused_inside_face_path_is_the_kernel_path_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     enum { UL = 5, VL = 4, SLACK = 64 };
     static const float maxv[4] = {255.0f, 65535.0f, 1000.0f, 1000.0f};
     int taken = 0, declined = 0, handed = 0;
@@ -376,10 +369,7 @@ static unsigned check_block(pf_w4x8_fn w8, pf_fast_fn fast, const pk_params *p,
 static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     long served = 0, handed = 0, left = 0;
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
         for (unsigned nc = 1; nc <= 4; nc++) {
@@ -433,10 +423,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
 static void box_batch_of_8_is_the_fused_path_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     static const float fps[4] = {0.25f, 1.0f, 4.0f, 16.0f};
     long served = 0, handed = 0, left = 0, shapes[9] = {0};
     pk_params p;

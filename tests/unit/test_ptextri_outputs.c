@@ -17,6 +17,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "../common/skip_unless.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -193,10 +195,7 @@ static const st_set *nth_set(size_t si, st_set **file0, st_set **own)
 static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **state)
 {
     (void)state;
-    if (!pf_have_avx2()) {
-        print_message("no AVX2 + FMA + F16C: skipped\n");
-        skip();
-    }
+    ST_SKIP_WITHOUT_AVX2();
     char path[1024];
     if (st_test_data_path(path, sizeof path, files[0]))
         skip();
@@ -246,15 +245,19 @@ static void triangle_filters_give_the_old_builds_outputs_bit_for_bit(void **stat
 }
 
 /* The buffers of two runs of the same NQ queries compared: outputs (up to 4 channels),
- * coverage and statuses of each. pair_alloc fails the test when memory is short. */
+ * coverage and statuses of each. pair_begin skips the test when the data folder lacks the
+ * first file and fails it when memory is short. */
 typedef struct {
     st_query *q;
     float *o1, *c1, *o2, *c2;
     uint8_t *s1, *s2;
 } pair_bufs;
 
-static pair_bufs pair_alloc(void)
+static pair_bufs pair_begin(void)
 {
+    char path[1024];
+    if (st_test_data_path(path, sizeof path, files[0]))
+        skip();
     pair_bufs b = {.q = malloc(sizeof *b.q * NQ),
                    .o1 = malloc(sizeof(float) * 4 * NQ), .c1 = malloc(sizeof(float) * NQ),
                    .o2 = malloc(sizeof(float) * 4 * NQ), .c2 = malloc(sizeof(float) * NQ),
@@ -282,10 +285,7 @@ static void pair_free(pair_bufs *b)
 static void recurrence_weights_match_the_per_tap_expf(void **state)
 {
     (void)state;
-    char path[1024];
-    if (st_test_data_path(path, sizeof path, files[0]))
-        skip();
-    pair_bufs b = pair_alloc();
+    pair_bufs b = pair_begin();
     st_query *q = b.q;
     float *o1 = b.o1, *c1 = b.c1, *o2 = b.o2, *c2 = b.c2;
     uint8_t *s1 = b.s1, *s2 = b.s2;
@@ -350,10 +350,7 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
 static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
 {
     (void)state;
-    char path[1024];
-    if (st_test_data_path(path, sizeof path, files[0]))
-        skip();
-    pair_bufs b = pair_alloc();
+    pair_bufs b = pair_begin();
     st_query *q = b.q;
     float *o1 = b.o1, *c1 = b.c1, *o2 = b.o2, *c2 = b.c2;
     uint8_t *s1 = b.s1, *s2 = b.s2;
