@@ -66,8 +66,11 @@ static void doubt_free(sts_cl_doubt *d)
     free(d);
 }
 
-static void set_doubt(sts_cluster *cl, sts_cl_doubt *d)
+void sts_cluster_doubt_set(sts_cluster *cl, sts_cl_doubt *d, int keep)
 {
+    /* on disk first: the write is answered UNAVAILABLE after this returns */
+    if (keep)
+        sts_cluster_doubt_save(cl, d);
     doubt_free(cl->doubt);
     cl->doubt = d;
     __atomic_store_n(&cl->in_doubt, d != NULL, __ATOMIC_RELAXED);
@@ -139,6 +142,8 @@ int sts_cluster_wtxn(sts_cluster *cl, scl_etcd *h, const scl_cmp *cmp, size_t nc
     memcpy(c, cmp, ncmp * sizeof *c);
     memcpy(o, ops, nops * sizeof *o);
     *nd = *d;
+    nd->applied = 0;
+    nd->applied_rev = 0;
     nd->rec = NULL;
     memset(&nd->copies, 0, sizeof nd->copies);
     int rc = SCL_OK;
@@ -163,7 +168,7 @@ int sts_cluster_wtxn(sts_cluster *cl, scl_etcd *h, const scl_cmp *cmp, size_t nc
             }
             sts_logf(&cl->srv->log, STS_WARN, "cluster: %s of '%s' in doubt (etcd did not "
                      "answer); settled when etcd answers again", kind_name[d->kind], d->name);
-            set_doubt(cl, nd);
+            sts_cluster_doubt_set(cl, nd, 1);
             STS_CL_ADD(cl, writes_in_doubt, 1);
             nd = NULL;
             break;
@@ -271,35 +276,47 @@ int sts_cluster_resolve(sts_cluster *cl, scl_etcd *h)
 {
     for (int round = 0; cl->doubt && round < 8; round++) {
         sts_cl_doubt *d = cl->doubt;
-        char key[SCL_KEY_MAX], fence[256], now[1024];
-        scl_key_op(key, cl->prefix, cl->self);
-        cl->op_seq++;
-        scl_op_format(fence, sizeof fence, cl->inc, cl->op_seq, "fence", d->name);
-        scl_cmp cmp = {key, SCL_CMP_MOD, cl->op_rev};
-        scl_op op = {SCL_OP_PUT, key, fence, 0};
-        int ok = 0;
-        int64_t rev = 0;
-        int rc = scl_etcd_txn(h, &cmp, 1, &op, 1, &ok, &rev);
-        sts_cluster_note_etcd(cl, rc);
-        if (rc != SCL_OK)
-            return rc;   /* still in doubt (a fence that applied unseen is handled next time) */
-        int applied = 0;
-        if (ok) {
-            cl->op_rev = rev;
-        } else {
-            /* the key moved: to the write's tag when it applied, else to a fence sent in an
-             * earlier try (or a late write of an earlier process); in every case the write
-             * can no longer apply, its compare names a revision that is gone */
-            rc = read_op(cl, h, &cl->op_rev, now, sizeof now);
+        int rc = SCL_OK, applied = d->applied;   /* 1: known already (kept by a process that
+                                                    died before undoing it): no fence */
+        if (!applied) {
+            char key[SCL_KEY_MAX], fence[256], now[1024];
+            scl_key_op(key, cl->prefix, cl->self);
+            cl->op_seq++;
+            scl_op_format(fence, sizeof fence, cl->inc, cl->op_seq, "fence", d->name);
+            scl_cmp cmp = {key, SCL_CMP_MOD, cl->op_rev};
+            scl_op op = {SCL_OP_PUT, key, fence, 0};
+            int ok = 0;
+            int64_t rev = 0;
+            rc = scl_etcd_txn(h, &cmp, 1, &op, 1, &ok, &rev);
+            sts_cluster_note_etcd(cl, rc);
             if (rc != SCL_OK)
-                return rc;
-            applied = !strcmp(now, d->tag);
+                return rc;   /* still in doubt (a fence that applied unseen is handled next
+                                time) */
+            if (ok) {
+                cl->op_rev = rev;
+            } else {
+                /* the key moved: to the write's tag when it applied, else to a fence sent in
+                 * an earlier try (or a late write of an earlier process); in every case the
+                 * write can no longer apply, its compare names a revision that is gone */
+                rc = read_op(cl, h, &cl->op_rev, now, sizeof now);
+                if (rc != SCL_OK)
+                    return rc;
+                applied = !strcmp(now, d->tag);
+            }
+            if (applied) {
+                /* the op key now says so for good only until this node's next write: kept
+                 * before undoing, so that a restart undoes it without asking again */
+                d->applied = 1;
+                d->applied_rev = cl->op_rev;
+                if (d->kind == STS_DOUBT_CLAIM || d->kind == STS_DOUBT_FINALIZE ||
+                    d->kind == STS_DOUBT_DELETE)
+                    sts_cluster_doubt_save(cl, d);
+            }
         }
         cl->doubt = NULL;   /* owned here now; undoing may leave a new one */
         __atomic_store_n(&cl->in_doubt, 0, __ATOMIC_RELAXED);
         sts_logf(&cl->srv->log, STS_INFO, "cluster: %s of '%s' %s", kind_name[d->kind], d->name,
                  applied ? "was applied late: undoing it" : "did not apply (fenced)");
-        rc = SCL_OK;
         /* a claim, finalize or delete that applied is undone; a take-back or put-back that
          * did not apply is sent again */
         if (applied && (d->kind == STS_DOUBT_CLAIM || d->kind == STS_DOUBT_FINALIZE ||
@@ -309,11 +326,11 @@ int sts_cluster_resolve(sts_cluster *cl, scl_etcd *h)
         case STS_DOUBT_CLAIM:
             /* the claim's revision is the op key's: one transaction */
             if (applied)
-                rc = sts_cluster_take_back(cl, h, &d->claim, cl->op_rev, 0, NULL);
+                rc = sts_cluster_take_back(cl, h, &d->claim, d->applied_rev, 0, NULL);
             break;
         case STS_DOUBT_FINALIZE:
             /* applied: the record "ok" and the copies/ keys, at the op key's revision */
-            rc = applied ? sts_cluster_take_back(cl, h, &d->claim, cl->op_rev, d->nacked,
+            rc = applied ? sts_cluster_take_back(cl, h, &d->claim, d->applied_rev, d->nacked,
                                                  (const char (*)[STP_MAX_NODE_ID + 1])d->acked)
                          : sts_cluster_take_back(cl, h, &d->claim, d->claim.mod_rev, 0, NULL);
             break;
@@ -331,8 +348,13 @@ int sts_cluster_resolve(sts_cluster *cl, scl_etcd *h)
                 rc = restore(cl, h, d);
             break;
         }
+        if (rc != SCL_OK && !cl->doubt) {
+            /* the undo or resend was not sent (etcd unreadable, no memory): still owed */
+            sts_cluster_doubt_set(cl, d, 0);
+            return rc;
+        }
         if (!cl->doubt)
-            set_doubt(cl, NULL);   /* clears doubt_set */
+            sts_cluster_doubt_set(cl, NULL, 1);   /* clears doubt_set and the file */
         doubt_free(d);
         if (rc != SCL_OK)
             return rc;

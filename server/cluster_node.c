@@ -372,6 +372,7 @@ int sts_cluster_init(sts_server *srv)
      * workers) are let finish: an acknowledged write has all of them behind it */
     scl_etcd_set_abort(cl->etcd_m, &cl->stop);
     scl_etcd_set_abort(cl->etcd_r, &cl->stop);
+    sts_cluster_doubt_load(cl);
     return 0;
 }
 

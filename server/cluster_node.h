@@ -188,6 +188,8 @@ typedef struct sts_cl_doubt {           /* a write and what undoing or redoing i
     char         acked[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ID + 1];
     char        *rec;                   /* DELETE, RESTORE: the record's value as it was */
     scl_kvs      copies;                /* DELETE, RESTORE: its copies/ keys as they were */
+    int          applied;               /* the fence showed it applied (undo without one) */
+    int64_t      applied_rev;           /* then: the write's revision (the op key's) */
 } sts_cl_doubt;
 /* One transaction of the write path; the caller holds etcd_mu. The op key's compare
  * (mod_revision == op_rev) and put are added to cmp and ops; a write left in doubt is resolved
@@ -206,9 +208,21 @@ int  sts_cluster_resolve(sts_cluster *cl, scl_etcd *h);
  * the outcome is logged. */
 int  sts_cluster_take_back(sts_cluster *cl, scl_etcd *h, const sts_cl_claim *c, int64_t rev,
                            int nacked, const char (*acked)[STP_MAX_NODE_ID + 1]);
+/* Makes d (NULL: none) the write in doubt, freeing the one before; with keep, d is first
+ * written to the data dir (cluster_doubt_file.c) or the file removed. Caller holds etcd_mu. */
+void sts_cluster_doubt_set(sts_cluster *cl, sts_cl_doubt *d, int keep);
 /* 1 when name is the set of a write in doubt (repair keeps its local copy). */
 int  sts_cluster_doubts(sts_cluster *cl, const char *name);
 void sts_cluster_doubt_free(sts_cluster *cl);
+
+/* ---- cluster_doubt_file.c ---- */
+/* Writes d to <data-dir>/cluster-doubt whole (NULL: removes the file); 0, or -1 (logged).
+ * Caller holds etcd_mu. */
+int  sts_cluster_doubt_save(sts_cluster *cl, const sts_cl_doubt *d);
+/* At init: a write this node left in doubt in an earlier process becomes cl->doubt, with the
+ * op key's revision it compared; a file of another node id or prefix, or unreadable, is
+ * logged and removed. */
+void sts_cluster_doubt_load(sts_cluster *cl);
 
 /* Pushes the local copy of name to the node at addr (the repair thread and the write path):
  * 0, or non-zero with msg set. */

@@ -18,12 +18,17 @@
  *   4. UPLOAD through n0 whose finalizing transaction is held (the claim goes through),
  *      UNAVAILABLE, replayed (the record "ok"): n0 takes it back, the name is free and neither
  *      node keeps the refused contents.
- *   5. n0 restarted with two etcd endpoints, the proxy first: a DELETE whose transaction
+ *   5. DELETE through n0, held, UNAVAILABLE; n0 is killed (SIGKILL) before etcd answers
+ *      again, the delete is replayed (applied), n0 restarts with its data dir: it finds the
+ *      delete it refused there (cluster-doubt) and puts the set back.
+ *   6. n0 restarted (with a cluster-doubt file of another node id in its data dir: removed,
+ *      nothing settled) with two etcd endpoints, the proxy first: a DELETE whose transaction
  *      etcd applies through the proxy but whose answer the proxy drops (muting) is tried on
  *      the second endpoint, fails its compares there, and is answered OK (the op key holds
  *      its tag: it was done), not BUSY.
  * 1-4 fail on the code before the fix (no op key, no resolution): the replayed transaction
- * takes effect; 5 answers BUSY for a delete that was done.
+ * takes effect; 5 fails without the data dir's record of the doubt (the restarted node
+ * knows nothing of it: the set is deleted); 6 answers BUSY for a delete that was done.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -32,6 +37,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cmocka.h>
 
@@ -290,6 +296,39 @@ static void finalize_applied_late_is_taken_back(void **state)
     assert_int_equal(recorded("d", 0), 0);
 }
 
+static int doubt_undone_on_n0(void *arg)
+{
+    (void)arg;
+    return st_daemon_stat(&N[0], "cluster_doubts_undone") >= 1;
+}
+
+static void delete_refused_by_a_node_killed_since_is_put_back(void **state)
+{
+    (void)state;
+    put_set("f");
+    st_etcd_hold_on(PROXY, 0);
+    int rc = delete_direct(0, "f");
+    /* n0 dies with the delete in doubt (its fences are held too); then etcd runs what n0
+     * sent, the delete first */
+    st_daemon_kill(&N[0]);
+    refused_while_held(rc, 1);
+    assert_int_equal(recorded("f", 0), 0);
+    /* the node comes back with its data dir: the delete it refused is undone */
+    assert_int_equal(st_cluster_node_start(&N[0], proxy_url, 0, 2, 2), 0);
+    if (st_wait_until(recorded_with_copies, "f", DEADLINE_MS) != 0 ||
+        st_wait_until(doubt_undone_on_n0, NULL, DEADLINE_MS) != 0) {
+        st_daemon_dump_log(&N[0], 30);
+        fail_msg("the delete of 'f' refused before n0 was killed stayed applied (recorded %d, "
+                 "%d copies keys)", recorded("f", 1), copy_keys("f"));
+    }
+    served s = {"f", red[0]};
+    if (st_wait_until(both_serve, &s, DEADLINE_MS) != 0)
+        fail_msg("'f' is not on both nodes after its put-back");
+    stays("f");
+    if (st_wait_until(settled, NULL, DEADLINE_MS) != 0)
+        fail_msg("n0 did not settle the delete it found in its data dir");
+}
+
 static void reply_lost_on_one_endpoint_is_done_on_the_next(void **state)
 {
     (void)state;
@@ -300,9 +339,18 @@ static void reply_lost_on_one_endpoint_is_done_on_the_next(void **state)
     snprintf(url2, sizeof url2, "etcd://127.0.0.1:%d,127.0.0.1:%d/doubt", pport,
              ETCD.client_port);
     assert_int_equal(st_daemon_stop(&N[0], 10000), 0);
+    /* a cluster-doubt file of another node id in its data dir: logged, removed, not acted on */
+    char doubt[400];
+    snprintf(doubt, sizeof doubt, "%s/cluster-doubt", N[0].datadir);
+    FILE *f = fopen(doubt, "w");
+    assert_non_null(f);
+    fputs("seamtex-doubt 1\nnode n7\nprefix /doubt\nkind 3\nname e\ntag x\nend \n", f);
+    fclose(f);
     assert_int_equal(st_cluster_node_start(&N[0], url2, 0, 2, 2), 0);
     if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
         fail_msg("n0 did not come back");
+    assert_int_equal(access(doubt, F_OK), -1);
+    assert_int_equal(st_daemon_stat(&N[0], "cluster_in_doubt"), 0);
     put_set("e");
     /* the delete's transaction is applied through the proxy, its answer lost; the try on
      * the second endpoint then fails its compares: the delete is done, and says so */
@@ -324,6 +372,7 @@ int main(void)
         cmocka_unit_test(delete_fenced_never_applies),
         cmocka_unit_test(claim_applied_late_is_taken_back),
         cmocka_unit_test(finalize_applied_late_is_taken_back),
+        cmocka_unit_test(delete_refused_by_a_node_killed_since_is_put_back),
         cmocka_unit_test(reply_lost_on_one_endpoint_is_done_on_the_next),
     };
     int rc = cmocka_run_group_tests(tests, setup, teardown);
