@@ -41,6 +41,12 @@
  *                   [--min-ms MS] [--reps-sample N]
  *                   [--batches N]   (exactly N timed batches per cell, one run: a fixed
  *                                    amount of work, for instruction counts under callgrind)
+ *                   [--emit-queries DIR]   (write every cell's queries as query files
+ *                                           DIR/<file>_<order>_fp<fp>.txt, one block of 4096
+ *                                           lines per filter, and DIR/index.txt: "<query
+ *                                           file> <.ptx under SEAMTEX_DATA>" per line; time
+ *                                           nothing: for a comparison with another
+ *                                           implementation through --queries on both sides)
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
  * To compare two builds, run their binaries alternately (A B A B) and take the medians. */
 #include <math.h>
@@ -72,6 +78,7 @@ static const char *dtnames[4] = {"u8", "u16", "half", "f32"};     /* st_dtype or
 
 typedef struct opts {
     const char *json, *files, *queries, *ptx, *dump;
+    const char *emit;            /* --emit-queries DIR: write the cells' queries, time nothing */
     int reps, reps_sample, import_only, sample_only, order_mask, mode_mask;
     int coverage;                /* --coverage: ask for the coverage array too (Discard's use) */
     long batches;                /* --batches: exactly this many timed batches, one run */
@@ -300,6 +307,35 @@ static double time_batch(const opts *op, const st_set *s, int flt, int mode, con
     return (double)n * (double)iters / st_bench_median(t, op->reps_sample) / 1e6;
 }
 
+/* --emit-queries: the cell's queries for every filter asked, as query-file lines
+ * (DIR/<file>_<order>_fp<fp>.txt), and the file's path in DIR/index.txt; 0 or -1 */
+static int emit_cell(const opts *op, const ptxfile *pf, int ord, float fp, const st_query *q)
+{
+    char qf[256], path[1024];
+    snprintf(qf, sizeof qf, "%s_%s_fp%g.txt", pf->name, ord ? "coherent" : "random",
+             (double)fp);
+    for (char *c = qf; *c; c++)
+        if (*c == '/')
+            *c = '-';                /* folder/name file names */
+    snprintf(path, sizeof path, "%s/%s", op->emit, qf);
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return -1;
+    for (int flt = 0; flt < NFILT; flt++)
+        if (op->filter_mask >> flt & 1)
+            for (int k = 0; k < NQ; k++)
+                fprintf(f, "%u %.9g %.9g %.9g 0 0 %.9g %s\n", q[k].face, (double)q[k].u,
+                        (double)q[k].v, (double)q[k].dudx, (double)q[k].dvdy, fnames[flt]);
+    int bad = ferror(f) | fclose(f);
+    snprintf(path, sizeof path, "%s/index.txt", op->emit);
+    FILE *ix = fopen(path, "a");
+    if (!ix)
+        return -1;
+    fprintf(ix, "%s %s\n", qf, pf->rel);
+    bad |= ferror(ix) | fclose(ix);
+    return bad ? -1 : 0;
+}
+
 static void sample_tables(const opts *op, ptxfile *fl, st_set **sets, int nfl, FILE *js)
 {
     static st_query q[NQ];
@@ -328,6 +364,12 @@ static void sample_tables(const opts *op, ptxfile *fl, st_set **sets, int nfl, F
                     printf("%-22s %-6s", fl[i].name, ty);
                     fflush(stdout);
                     make_queries(s, op->fp[fi], ord, q);
+                    if (op->emit) {
+                        int rc = m == 0 || !(op->mode_mask & ((1 << m) - 1))
+                                     ? emit_cell(op, &fl[i], ord, op->fp[fi], q) : 0;
+                        printf(" %s\n", rc ? "could not write its queries" : "queries written");
+                        continue;
+                    }
                     for (int f = 0; f < NFILT; f++) {
                         if (!(op->filter_mask >> f & 1))
                             continue;
@@ -524,7 +566,8 @@ static int usage(void)
 {
     fprintf(stderr, "usage: bench_ptex [--json PATH] [--reps N] [--import-only | --sample-only]"
             " [--files S,..] [--filters F,..] [--fp X,..] [--order random|coherent|both]"
-            " [--modes M,..] [--coverage] [--min-ms MS] [--reps-sample N] [--batches N]\n"
+            " [--modes M,..] [--coverage] [--min-ms MS] [--reps-sample N] [--batches N]"
+            " [--emit-queries DIR]\n"
             "       bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH]\n");
     return 2;
 }
@@ -565,6 +608,8 @@ int main(int argc, char **argv)
             op.ptx = v, i++;
         else if (!strcmp(a, "--dump"))
             op.dump = v, i++;
+        else if (!strcmp(a, "--emit-queries"))
+            op.emit = v, i++, op.sample_only = 1;
         else if (!strcmp(a, "--filters")) {
             int m = parse_list(v, fnames, NFILT);
             if (m <= 0)
