@@ -10,6 +10,7 @@
 #   make python     the Python module seamtex into build/python/ (also part of make all when
 #                   python3-dev is installed; docs/python.md)
 #   make bench      every benchmark; figures printed and written to build/bench/*.json
+#   make ptex-compare PTEX_PREFIX=DIR   seamtex against a Ptex build of your own, every cell
 #   make run        the main job: daemon on loopback, default data set, a query, a short load test
 #   make asan       the tests again under AddressSanitizer + UBSan (build-san/)
 #   make tsan       the daemon and client tests (tests/integration/) under ThreadSanitizer, the
@@ -190,6 +191,21 @@ run: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) all
 	@B=$(B) bash deploy/run-main.sh
 
+# seamtex against the Ptex library, cell by cell (tests/bench/ptex_compare.py; docs/ptex.md
+# "Against the Ptex library"). Ptex is not in Debian and never part of this repository:
+# PTEX_PREFIX names a Ptex you built (PTEX_PREFIX/include/Ptexture.h, PTEX_PREFIX/lib/libPtex.*);
+# PTEX_COMPARE_ARGS adds the script's options (--files, --fp, --rounds, ...).
+ptex-compare: deps
+	@test -n "$(PTEX_PREFIX)" || { echo "make ptex-compare PTEX_PREFIX=DIR (a Ptex build)"; exit 2; }
+	@$(MAKE) --no-print-directory -j$(NPROC) all bench-build
+	@mkdir -p $(B)/ptexcmp
+	$(CXX) -std=c++11 -O2 -Wall -Wextra -I$(PTEX_PREFIX)/include tests/bench/ptexcmp/ptexq.cpp \
+		-L$(PTEX_PREFIX)/lib -Wl,-rpath,$(PTEX_PREFIX)/lib -lPtex -lz -lpthread -o $(B)/ptexcmp/ptexq
+	$(CXX) -std=c++11 -O2 -Wall -Wextra -I$(PTEX_PREFIX)/include tests/bench/ptexcmp/ptexopen.cpp \
+		-L$(PTEX_PREFIX)/lib -Wl,-rpath,$(PTEX_PREFIX)/lib -lPtex -lz -lpthread -o $(B)/ptexcmp/ptexopen
+	python3 tests/bench/ptex_compare.py --ptexq $(B)/ptexcmp/ptexq --ptexopen $(B)/ptexcmp/ptexopen \
+		--bench $(B)/bench/bench_ptex --json $(B)/bench/ptex_compare.json $(PTEX_COMPARE_ARGS)
+
 # a daemon under ASan starts several times slower: as make tsan, give starts more time
 asan:
 	@SEAMTEX_START_MS=$${SEAMTEX_START_MS:-180000} $(MAKE) --no-print-directory SAN=1 test
@@ -262,7 +278,7 @@ check-layout:
 clean:
 	rm -rf build build-san build-tsan
 
-.PHONY: all deps test fuzz soak bench run asan tsan install clean tests-build fuzz-build bench-build \
+.PHONY: all deps test fuzz soak bench ptex-compare run asan tsan install clean tests-build fuzz-build bench-build \
 	tsan-build check-layout check-deploy python deb check-man check-deb
 
 -include $(shell find $(B) -name '*.d' 2>/dev/null)

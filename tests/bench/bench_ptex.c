@@ -44,7 +44,8 @@
  *                   [--emit-queries DIR]   (write every cell's queries as query files
  *                                           DIR/<file>_<order>_fp<fp>.txt, one block of 4096
  *                                           lines per filter, and DIR/index.txt: "<query
- *                                           file> <.ptx under SEAMTEX_DATA>" per line; time
+ *                                           file> <.ptx under SEAMTEX_DATA> <its --files
+ *                                           name>" per line; time
  *                                           nothing: for a comparison with another
  *                                           implementation through --queries on both sides)
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
@@ -308,7 +309,7 @@ static double time_batch(const opts *op, const st_set *s, int flt, int mode, con
 }
 
 /* --emit-queries: the cell's queries for every filter asked, as query-file lines
- * (DIR/<file>_<order>_fp<fp>.txt), and the file's path in DIR/index.txt; 0 or -1 */
+ * (DIR/<file>_<order>_fp<fp>.txt), and the file's path and name in DIR/index.txt; 0 or -1 */
 static int emit_cell(const opts *op, const ptxfile *pf, int ord, float fp, const st_query *q)
 {
     char qf[256], path[1024];
@@ -331,7 +332,7 @@ static int emit_cell(const opts *op, const ptxfile *pf, int ord, float fp, const
     FILE *ix = fopen(path, "a");
     if (!ix)
         return -1;
-    fprintf(ix, "%s %s\n", qf, pf->rel);
+    fprintf(ix, "%s %s %s\n", qf, pf->rel, pf->name);
     bad |= ferror(ix) | fclose(ix);
     return bad ? -1 : 0;
 }
