@@ -22,26 +22,14 @@
 #include <unistd.h>
 #include <vector>
 
+#include "harness.h"
+
 namespace {
-
-double clk(clockid_t c)
-{
-    struct timespec ts;
-    clock_gettime(c, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-double median(std::vector<double> v)
-{
-    std::sort(v.begin(), v.end());
-    size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 // one open + level-0 decode; returns 0, fills wall / cpu seconds and a checksum
 int one(const char* path, double* wall, double* cpu, unsigned long* sum, long* bytes)
 {
-    double w0 = clk(CLOCK_MONOTONIC), c0 = clk(CLOCK_PROCESS_CPUTIME_ID);
+    double w0 = harness_clock(CLOCK_MONOTONIC), c0 = harness_clock(CLOCK_PROCESS_CPUTIME_ID);
     Ptex::String err;
     PtexTexture* tx = PtexTexture::open(path, err, false);
     if (!tx) { fprintf(stderr, "%s: %s\n", path, err.c_str()); return 1; }
@@ -63,8 +51,8 @@ int one(const char* path, double* wall, double* cpu, unsigned long* sum, long* b
         total += (long)n;
     }
     tx->release();
-    *wall = clk(CLOCK_MONOTONIC) - w0;
-    *cpu = clk(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    *wall = harness_clock(CLOCK_MONOTONIC) - w0;
+    *cpu = harness_clock(CLOCK_PROCESS_CPUTIME_ID) - c0;
     *sum = s;
     *bytes = total;
     return 0;
@@ -136,7 +124,7 @@ int main(int argc, char** argv)
     printf("ptexopen %s (Ptex %d.%d: PtexTexture::open, no cache, + getData of every face at "
            "level 0, %ld bytes): fresh process x %d: median wall %.3f ms, median cpu %.3f ms\n",
            path, PtexLibraryMajorVersion, PtexLibraryMinorVersion, bytes, reps,
-           median(fw) * 1e3, median(fc) * 1e3);
+           harness_median(fw) * 1e3, harness_median(fc) * 1e3);
     printf("  cpu ms per run:");
     for (size_t i = 0; i < fc.size(); i++) printf(" %.3f", fc[i] * 1e3);
     printf("\n");
@@ -145,8 +133,8 @@ int main(int argc, char** argv)
             if (one(path, &w, &c, &s, &bytes)) return 1;
             wc.push_back(c);
         }
-        printf("  warm (same process) median cpu %.3f ms\n", median(wc) * 1e3);
+        printf("  warm (same process) median cpu %.3f ms\n", harness_median(wc) * 1e3);
     }
-    printf("RESULT fresh_cpu_ms=%.4f fresh_wall_ms=%.4f\n", median(fc) * 1e3, median(fw) * 1e3);
+    printf("RESULT fresh_cpu_ms=%.4f fresh_wall_ms=%.4f\n", harness_median(fc) * 1e3, harness_median(fw) * 1e3);
     return 0;
 }

@@ -31,6 +31,8 @@
 #include <time.h>
 #include <vector>
 
+#include "harness.h"
+
 namespace {
 
 const char* const kNames[8] = {"point", "bilinear", "box", "gaussian",
@@ -50,19 +52,7 @@ struct Query {
     std::string head;   // the line up to and including the filter name
 };
 
-double now_thread()
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-double median(std::vector<double> v)
-{
-    std::sort(v.begin(), v.end());
-    size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+double now_thread() { return harness_clock(CLOCK_THREAD_CPUTIME_ID); }
 
 int usage()
 {
@@ -244,7 +234,8 @@ int main(int argc, char** argv)
             const int m = (int)G.size();
             long iters = 1;
             std::vector<double> t;
-            for (;;) {
+            // the group's queries iters times over: thread CPU seconds
+            auto timed = [&](long iters) {
                 double t0 = now_thread();
                 for (long k = 0; k < iters; k++)
                     for (int j = 0; j < m; j++) {
@@ -252,21 +243,16 @@ int main(int argc, char** argv)
                         filt[q.filter]->eval(res, 0, nc, q.face, q.u, q.v, q.uw1, q.vw1, q.uw2,
                                              q.vw2, 1.0f, 0.0f);
                     }
-                double d = now_thread() - t0;
+                return now_thread() - t0;
+            };
+            for (;;) {
+                double d = timed(iters);
                 if (d >= min_s || iters > (1L << 30)) { t.push_back(d); break; }
                 iters = d <= 0 ? iters * 8 : (long)((double)iters * min_s * 1.2 / d) + 1;
             }
-            for (int r = 1; r < reps; r++) {
-                double t0 = now_thread();
-                for (long k = 0; k < iters; k++)
-                    for (int j = 0; j < m; j++) {
-                        const Query& q = Q[G[j]];
-                        filt[q.filter]->eval(res, 0, nc, q.face, q.u, q.v, q.uw1, q.vw1, q.uw2,
-                                             q.vw2, 1.0f, 0.0f);
-                    }
-                t.push_back(now_thread() - t0);
-            }
-            double mq = (double)m * (double)iters / median(t) / 1e6;
+            for (int r = 1; r < reps; r++)
+                t.push_back(timed(iters));
+            double mq = (double)m * (double)iters / harness_median(t) / 1e6;
             total_s += (double)m / (mq * 1e6);
             total_n += m;
             printf("%-10s %8d %12.2f %10.1f\n", gfilter[g] < 0 ? "whole" : kNames[gfilter[g]], m,
