@@ -1255,6 +1255,34 @@ __attribute__((always_inline)) static inline void build_w4(const pk_params *p, p
         pf_kernel_eval1_avx2(p, x1v, sv, k->kvb, k->vw);
 }
 
+/* One axis of a width-4 kernel at resolution 2^0 (a width of a face or more, not NaN):
+ * pk_width4_axis' last case (2 taps at u - 0.5 rounded down, the hermite weight and its
+ * complement) with pk_strip_zeros' end taps removed (w0 is 0 only when w1 is 1, and the
+ * other way round: one tap is left, written first, as at kub + ku0). Returns the axis'
+ * pk_accumulate: (0 + w0) + w1, or 0 + the one tap. */
+__attribute__((always_inline)) static inline float build_r0_axis(float u, int *ku, int *kw,
+                                                                 float *w)
+{
+    float upix = u - .5f;
+    float ui = pk_floor(upix);
+    float w0 = pk_hermite_blur(upix - ui), w1 = 1 - w0;
+    *ku = (int)ui;
+    *kw = 2;
+    w[0] = w0;
+    w[1] = w1;
+    if (__builtin_expect(w0 == 0, 0)) {
+        *ku += 1;
+        *kw = 1;
+        w[0] = w1;
+        return 0.0f + w1;
+    }
+    if (__builtin_expect(w1 == 0, 0)) {
+        *kw = 1;
+        return 0.0f + w0;
+    }
+    return (0.0f + w0) + w1;
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1269,6 +1297,26 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                                                                       float *out, float *cov)
 {
     pk k;
+    if (pp->ftype != ST_FILTER_PTEX_BOX && bu >= 1.0f && bv >= 1.0f) {
+        /* a width-4 kernel at resolution 1 x 1 (pk_width4_axis' last case on both axes,
+         * stripped): 1 or 2 taps an axis, the rest of this function's steps with them */
+        k.ulog2 = k.vlog2 = k.ku0 = k.kv0 = k.rot = 0;
+        float wu = build_r0_axis(q->u, &k.u, &k.uw, k.kub);
+        float wv = build_r0_axis(q->v, &k.v, &k.vw, k.kvb);
+        if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= 1 && k.v + k.vw <= 1) {
+            if (c->mode != ST_MODE_DISCARD) {
+                c->acc = (v4f){0, 0, 0, 0};
+                apply(c, &k, (int)q->face);
+                float scale = 1.0f / (wu * wv * one_value(c->dt));
+                for (unsigned ch = 0; ch < c->nc; ch++)
+                    out[ch] = c->acc[ch] * scale;
+                *cov = 1.0f;
+                return ST_Q_OK;
+            }
+        } else if (c->small && kernel_walk_w(c, &k, (int)q->face, wu * wv, out, cov))
+            return ST_Q_OK;
+        return eval_kernel(c, pp, o, q, &k, out, cov);
+    }
     if (pp->ftype != ST_FILTER_PTEX_BOX)
         build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     else

@@ -719,26 +719,44 @@ int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *w
 __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
                                                       int discard, pf_v4 *acc, float *weight)
 {
-    if (w->faces[f].flags & ST_FACE_CONSTANT)
+    const st_face *F = &w->faces[f];
+    if (F->flags & ST_FACE_CONSTANT)
         return 0;
-    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    int ru = k0->ulog2, rv = k0->vlog2, resu = 1 << ru, resv = 1 << rv;
     int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
-    int sr = u + uw > resu, sl = u < 0, st = v + vw > resv, sb = v < 0;
     /* an overhang as wide as the window (a kernel past the face, which no query's kernel
-     * is): pk_merge_* would write outside it, so the general walk takes it */
-    if ((sr && u >= resu) || (sl && u + uw <= 0) || (st && v >= resv) || (sb && v + vw <= 0))
+     * is): pk_merge_* would write outside it, so the general walk takes it (u >= resu
+     * implies the kernel overhangs the right edge, u + uw <= 0 the left: uw >= 1) */
+    if ((u >= resu) | (u + uw <= 0) | (v >= resv) | (v + vw <= 0))
         return 0;
-    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
-     * do; Discard and a black border only move the window) */
     int blu = discard || w->black_u, blv = discard || w->black_v;
     float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
-    if (sr) {
+    if (!(ru | rv) && uw <= 2 && vw <= 2) {
+        /* a kernel at resolution 1 x 1 of at most 2 x 2 taps (the width-4 filters' at a
+         * footprint of a face or more): along each axis one tap on the face (u = 0, or -1
+         * with 2 taps), one past its edge or none; the merges as below, in pk_merge's order
+         * (the folded tap plus the overhang's sum, 0 + the one tap: that tap, not zero),
+         * on copies (k's weights are not read after); the window the face's one texel
+         * (table entry 0) */
+        float a = ku[-u], b = kv[-v];
+        if (uw == 2 && !blu)
+            a = u ? ku[1] + ku[0] : ku[0] + ku[1];
+        if (vw == 2 && !blv)
+            b = v ? kv[1] + kv[0] : kv[0] + kv[1];
+        if (discard) /* pk_weight of the kernel left */
+            *weight = a * b;
+        *acc = w->small(w->px[w->base[f]], w->ts, &a, 1, &b, 1, *acc);
+        return 1;
+    }
+    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
+     * do; Discard and a black border only move the window) */
+    if (u + uw > resu) {
         int n = u + uw - resu;
         if (!blu)
             ku[uw - n - 1] += pk_accumulate(ku + uw - n, n);
         uw -= n;
     }
-    if (sl) {
+    if (u < 0) {
         int n = -u;
         if (!blu)
             ku[n] += pk_accumulate(ku, n);
@@ -746,13 +764,13 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
         uw -= n;
         u = 0;
     }
-    if (st) {
+    if (v + vw > resv) {
         int n = v + vw - resv;
         if (!blv)
             kv[vw - n - 1] += pk_accumulate(kv + vw - n, n);
         vw -= n;
     }
-    if (sb) {
+    if (v < 0) {
         int n = -v;
         if (!blv)
             kv[n] += pk_accumulate(kv, n);
@@ -764,7 +782,11 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     if (discard)
         *weight = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);
     pw_state s = {w, *acc, 0.0f};
-    put_face(&s, k0->ulog2, k0->vlog2, u, v, uw, vw, ku, kv, f, 1); /* f not constant: 1 */
+    /* the window lies inside the face (the test above): put_face's guard cannot fire */
+    if (__builtin_expect((ru > F->ulog2) | (rv > F->vlog2), 0))
+        put_reduced(&s, ru, rv, u, v, uw, vw, ku, kv, f);
+    else
+        put_window(&s, ru, rv, u, v, uw, vw, ku, kv, f, F);
     *acc = s.acc;
     return 1;
 }
@@ -782,14 +804,13 @@ int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float
  * Clamp's fold with the border modes' black; else the whole walk (its folds copy the edge
  * weights). Out of line: pf_walk_kernel's frame stays that of its common cases. */
 __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int f,
-                                                   pf_v4 *acc, float *weight)
+                                                   unsigned m, pf_v4 *acc, float *weight)
 {
     const int *adj = w->faces[f].adjface;
-    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
-    int sr = k0->u + k0->uw > resu, sl = k0->u < 0;
-    int st = k0->v + k0->vw > resv, sb = k0->v < 0;
-    if (!((sr && adj[1] >= 0) || (sl && adj[3] >= 0) || (st && adj[2] >= 0) ||
-          (sb && adj[0] >= 0)))
+    /* the edges with a neighbour, as pf_walk_kernel's m numbers them */
+    unsigned nb = (unsigned)(adj[1] >= 0) | (unsigned)(adj[3] >= 0) << 1 |
+                  (unsigned)(adj[2] >= 0) << 2 | (unsigned)(adj[0] >= 0) << 3;
+    if (!(m & nb))
         return fold(w, k0, f, 0, acc, weight);
     return walk_all(w, k0, f, acc, weight);
 }
@@ -810,10 +831,10 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
                                         -1, -1};
     int e = one[m], t = two[m];
     if (e >= 0)
-        return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, acc, weight);
+        return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, m, acc, weight);
     if (t >= 0) {
         if ((adj[t & 1 ? 1 : 3] | adj[t & 2 ? 2 : 0]) < 0)
-            return walk_boundary(w, k0, f, acc, weight);
+            return walk_boundary(w, k0, f, m, acc, weight);
         /* the corner between the two edges (walk_two's c); lean_two only where it is a
          * regular vertex (a valence-3 corner of a cube would only cost its checks) */
         return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
@@ -821,6 +842,6 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
                    : walk_two(w, k0, f, t, acc, weight);
     }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
-        return walk_boundary(w, k0, f, acc, weight);
+        return walk_boundary(w, k0, f, m, acc, weight);
     return walk_all(w, k0, f, acc, weight);
 }
