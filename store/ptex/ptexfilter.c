@@ -1283,6 +1283,32 @@ __attribute__((always_inline)) static inline float build_r0_axis(float u, int *k
     return (0.0f + w0) + w1;
 }
 
+/* kernel_declined_with's steps for a width-4 kernel at resolution 1 x 1 (pk_width4_axis'
+ * last case on both axes, stripped: 1 or 2 taps an axis). Out of line: kernel_run's batch
+ * loop keeps its registers for the other kernels. */
+__attribute__((noinline)) static int kernel_r0(pf *c, const pk_params *pp,
+                                               const st_sample_opts *o, const st_query *q,
+                                               float *out, float *cov)
+{
+    pk k;
+    k.ulog2 = k.vlog2 = k.ku0 = k.kv0 = k.rot = 0;
+    float wu = build_r0_axis(q->u, &k.u, &k.uw, k.kub);
+    float wv = build_r0_axis(q->v, &k.v, &k.vw, k.kvb);
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= 1 && k.v + k.vw <= 1) {
+        if (c->mode != ST_MODE_DISCARD) {
+            c->acc = (v4f){0, 0, 0, 0};
+            apply(c, &k, (int)q->face);
+            float scale = 1.0f / (wu * wv * one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = c->acc[ch] * scale;
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    } else if (c->small && kernel_walk_w(c, &k, (int)q->face, wu * wv, out, cov))
+        return ST_Q_OK;
+    return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1297,26 +1323,8 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                                                                       float *out, float *cov)
 {
     pk k;
-    if (pp->ftype != ST_FILTER_PTEX_BOX && bu >= 1.0f && bv >= 1.0f) {
-        /* a width-4 kernel at resolution 1 x 1 (pk_width4_axis' last case on both axes,
-         * stripped): 1 or 2 taps an axis, the rest of this function's steps with them */
-        k.ulog2 = k.vlog2 = k.ku0 = k.kv0 = k.rot = 0;
-        float wu = build_r0_axis(q->u, &k.u, &k.uw, k.kub);
-        float wv = build_r0_axis(q->v, &k.v, &k.vw, k.kvb);
-        if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= 1 && k.v + k.vw <= 1) {
-            if (c->mode != ST_MODE_DISCARD) {
-                c->acc = (v4f){0, 0, 0, 0};
-                apply(c, &k, (int)q->face);
-                float scale = 1.0f / (wu * wv * one_value(c->dt));
-                for (unsigned ch = 0; ch < c->nc; ch++)
-                    out[ch] = c->acc[ch] * scale;
-                *cov = 1.0f;
-                return ST_Q_OK;
-            }
-        } else if (c->small && kernel_walk_w(c, &k, (int)q->face, wu * wv, out, cov))
-            return ST_Q_OK;
-        return eval_kernel(c, pp, o, q, &k, out, cov);
-    }
+    if (pp->ftype != ST_FILTER_PTEX_BOX && bu >= 1.0f && bv >= 1.0f)
+        return kernel_r0(c, pp, o, q, out, cov);
     if (pp->ftype != ST_FILTER_PTEX_BOX)
         build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     else
