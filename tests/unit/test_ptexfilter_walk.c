@@ -320,6 +320,61 @@ static void lean_walks_match_the_general_walk(void **state)
     check_files(mixed_files, sizeof mixed_files / sizeof mixed_files[0], lean_file);
 }
 
+/* Session 17 (walk10): a width-4 kernel at resolution 1 x 1 (a footprint of a face or more
+ * along both axes) is built and stripped by ptexfilter.c's kernel_r0 (1 or 2 taps an axis:
+ * (u, v) = 0.5 leaves the first tap alone, 0.49999997 the second), and a boundary fold of
+ * such a kernel merges its two taps and takes the face's one texel (ptexfilter_walk.c's
+ * fold). Widths on either side of a face (0.999 and 1: the general build next to it), the
+ * axes alike or not, (u, v) anywhere, near an edge or at those two values; the one-face
+ * files of bordermodes and tri/quad.ptx under each border mode, teapot and cube1_k6_u8
+ * (neighbours, valence-3 corners) plain and with a tenth of the faces flagged; every kernel
+ * filter, every mode, against the general path. */
+static long one_texel_file(st_set *s, st_query *q, const char *path)
+{
+    static const float rel[] = {1.0f, 1.5f, 4.0f, 0.999f, 2.0f, 1.0f, 16.0f, 0.5f};
+    static const float at[] = {0.5f, 0.49999997f, 0.0f, 0.99999994f};
+    for (int j = 0; j < NQ; j++) {
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        float ru = rel[(int)(rnd01() * 8) & 7];
+        float rv = j % 3 == 1 ? rel[(int)(rnd01() * 8) & 7] : ru;
+        float u = rnd01(), v = rnd01();
+        if (j % 4 == 1) /* near an edge */
+            u = rnd01() < 0.5f ? u * 0.1f : 1.0f - u * 0.1f;
+        if (j % 8 == 2) /* one tap left along u, or v, or both */
+            u = at[(int)(rnd01() * 4) & 3];
+        if (j % 8 == 6)
+            v = at[(int)(rnd01() * 4) & 3];
+        if (j % 16 == 10)
+            u = at[(int)(rnd01() * 2) & 1];
+        u = u < 0.99999994f ? u : 0.99999994f;
+        v = v < 0.99999994f ? v : 0.99999994f;
+        q[j] = (st_query){.face = f, .u = u, .v = v, .dudx = ru, .dvdy = rv};
+    }
+    long n = compare_plain_flagged(s, q, path);
+    uint8_t bu = s->info.border_u, bv = s->info.border_v;
+    for (uint8_t b = 0; b <= 2; b++) { /* clamp, black, periodic */
+        s->info.border_u = s->info.border_v = b;
+        n += compare_paths(s, q, path);
+    }
+    s->info.border_u = bu;
+    s->info.border_v = bv;
+    return n;
+}
+
+static void one_texel_kernels_match_the_general_path(void **state)
+{
+    (void)state;
+    static const char *files[] = {
+        "ptx/wdas-ptex-2009/bordermodes/black.ptx",
+        "ptx/wdas-ptex-2009/bordermodes/clamp.ptx",
+        "ptx/wdas-ptex-2009/bordermodes/periodic.ptx",
+        "ptx/wdas-ptex-2009/tri/quad.ptx",
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+        "ptex-ref/cube1_k6_u8.ptx",
+    };
+    check_files(files, sizeof files / sizeof files[0], one_texel_file);
+}
+
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives
  * st_half_to_float's bits for every one of the 65536 halves, in every lane, and zeros the
  * lanes past the channel count. */
@@ -355,6 +410,7 @@ int main(void)
         cmocka_unit_test(boundary_folds_and_valence3_corners_match_the_general_path),
         cmocka_unit_test(two_edge_kernels_match_the_general_walk),
         cmocka_unit_test(lean_walks_match_the_general_walk),
+        cmocka_unit_test(one_texel_kernels_match_the_general_path),
         cmocka_unit_test(half_loads_match_the_scalar_conversion_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
