@@ -125,33 +125,27 @@ __attribute__((noinline)) static void put_reduced(pw_state *s, int ru, int rv, i
 
 /* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
  * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
- * smaller (put_reduced, out of line, in the walks; sg, the fold: inline), the window summed
- * into s->acc. 0: a constant face (declined). Scalars, not a struct, so that they stay in
- * registers. */
+ * smaller (put_reduced, out of line), the window summed into s->acc. 0: a constant face
+ * (declined). Scalars, not a struct, so that they stay in registers. */
 __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
                                                           int v, int uw, int vw,
                                                           const float *ku, const float *kv,
-                                                          int af, int sg)
+                                                          int af)
 {
     if (uw <= 0 || vw <= 0)
         return 1;
     const st_face *F = &s->w->faces[af];
     if (F->flags & ST_FACE_CONSTANT)
         return 0;
-    float rbu[PK_MAX], rbv[PK_MAX];
-    if (sg) /* the fold: reduced inline (fewer instructions in its frame) */
-        reduce_to_face(F, &ru, &rv, &u, &v, &uw, &vw, &ku, &kv, rbu, rbv);
-    else if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
+    if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
         put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
         return 1;
     }
     /* outside the face: apply's guard against bad input (u < 0 or u + uw > 2^ru, uw >= 1;
-     * in the walk as bits: u and its last texel u + uw - 1 both below 2^ru, a negative u
-     * having its top bit set as unsigned, ru <= 30; sg: the signed compares, fewer
-     * instructions in the fold's frame) */
-    if (sg ? u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv)
-           : ((((uint32_t)u | ((uint32_t)u + (uint32_t)uw - 1u)) >> ru) |
-              (((uint32_t)v | ((uint32_t)v + (uint32_t)vw - 1u)) >> rv)) != 0)
+     * as bits: u and its last texel u + uw - 1 both below 2^ru, a negative u having its
+     * top bit set as unsigned, ru <= 30) */
+    if (((((uint32_t)u | ((uint32_t)u + (uint32_t)uw - 1u)) >> ru) |
+         (((uint32_t)v | ((uint32_t)v + (uint32_t)vw - 1u)) >> rv)) != 0)
         return 1;
     put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
     return 1;
@@ -167,20 +161,20 @@ __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, i
 #define PW_FV ((1 << p->lg[1]) - p->at[1] - p->n[1])
     if (__builtin_expect(!(rot & 3), 1)) /* tested first: the switch's compares come after */
         return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
-                        p->k[1], af, 0);
+                        p->k[1], af);
     switch (rot & 3) {
     case 1: /* flip_u, swap_uv */
         reversed(tv, p->k[0], p->n[0]);
         return put_face(s, p->lg[1], p->lg[0], p->at[1], PW_FU, p->n[1], p->n[0], p->k[1], tv,
-                        af, 0);
+                        af);
     case 2: /* flip_u, flip_v */
         reversed(tu, p->k[0], p->n[0]);
         reversed(tv, p->k[1], p->n[1]);
-        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af, 0);
+        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af);
     default: /* 3: flip_v, swap_uv */
         reversed(tu, p->k[1], p->n[1]);
         return put_face(s, p->lg[1], p->lg[0], PW_FV, p->at[0], p->n[1], p->n[0], tu, p->k[0],
-                        af, 0);
+                        af);
     }
 #undef PW_FU
 #undef PW_FV
