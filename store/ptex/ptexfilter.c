@@ -1196,14 +1196,14 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
  * eval_kernel's frame and checks; 0 when it declines or Discard keeps no weight (nothing
  * written, k as it was: eval_kernel then runs, its zero-coverage rule included). Clamp
  * leaves k merged (split_walk's pk_merge_* would too; no caller reads it after). */
-__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
-                                                               float weight, float *out,
-                                                               float *cov)
+__attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, int f,
+                                                                float weight, float *out,
+                                                                float *cov, int r0)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
     float cv = 1.0f;
     if (c->mode == ST_MODE_TRAVERSE) {
-        if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
+        if (!(r0 ? pf_walk_kernel_r0 : pf_walk_kernel)(&c->walk, k, f, &acc, &weight))
             return 0;
     } else if (c->mode == ST_MODE_DISCARD) {
         float total = weight;
@@ -1221,6 +1221,15 @@ __attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int
         out[ch] = acc[ch] * scale;
     *cov = cv;
     return 1;
+}
+
+/* kernel_walk_wr with pf_walk_kernel in Traverse (r0: pf_walk_kernel_r0, for kernel_r0's
+ * kernels at resolution 1 x 1). */
+__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
+                                                               float weight, float *out,
+                                                               float *cov)
+{
+    return kernel_walk_wr(c, k, f, weight, out, cov, 0);
 }
 
 /* kernel_walk_w with the kernel's weight pk_weight(k). */
@@ -1304,7 +1313,7 @@ __attribute__((noinline)) static int kernel_r0(pf *c, const pk_params *pp,
             *cov = 1.0f;
             return ST_Q_OK;
         }
-    } else if (c->small && kernel_walk_w(c, &k, (int)q->face, wu * wv, out, cov))
+    } else if (c->small && kernel_walk_wr(c, &k, (int)q->face, wu * wv, out, cov, 1))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }

@@ -709,6 +709,28 @@ int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *w
 
 /* ---- Discard and Clamp (split_walk's other modes at depth 0) ----------------------------- */
 
+/* The fold of a kernel at resolution 1 x 1 of at most 2 x 2 taps (the width-4 filters' at a
+ * footprint of a face or more; the test of fold() passed): along each axis one tap on the
+ * face (u = 0, or -1 with 2 taps), one past its edge or none; the merges as fold's (blu,
+ * blv: dropped), in pk_merge's order (the folded tap plus the overhang's sum, 0 + the one
+ * tap: that tap, not zero), on copies (k's weights are not read after); the window the
+ * face's one texel (table entry 0). Discard's weight (pk_weight of the kernel left) in
+ * *weight when weight is not NULL. */
+__attribute__((always_inline)) static inline void fold_r0(const pf_walk *w, const float *ku,
+                                                          const float *kv, int u, int v,
+                                                          int uw, int vw, int blu, int blv,
+                                                          int f, pf_v4 *acc, float *weight)
+{
+    float a = ku[-u], b = kv[-v];
+    if (uw == 2 && !blu)
+        a = u ? ku[1] + ku[0] : ku[0] + ku[1];
+    if (vw == 2 && !blv)
+        b = v ? kv[1] + kv[0] : kv[0] + kv[1];
+    if (weight)
+        *weight = a * b;
+    *acc = w->small(w->px[w->base[f]], w->ts, &a, 1, &b, 1, *acc);
+}
+
 /* pf_walk_fold, inline where the boundary walk takes it */
 __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
                                                       int discard, pf_v4 *acc, float *weight)
@@ -726,20 +748,7 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     int blu = discard || w->black_u, blv = discard || w->black_v;
     float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
     if (!(ru | rv) && uw <= 2 && vw <= 2) {
-        /* a kernel at resolution 1 x 1 of at most 2 x 2 taps (the width-4 filters' at a
-         * footprint of a face or more): along each axis one tap on the face (u = 0, or -1
-         * with 2 taps), one past its edge or none; the merges as below, in pk_merge's order
-         * (the folded tap plus the overhang's sum, 0 + the one tap: that tap, not zero),
-         * on copies (k's weights are not read after); the window the face's one texel
-         * (table entry 0) */
-        float a = ku[-u], b = kv[-v];
-        if (uw == 2 && !blu)
-            a = u ? ku[1] + ku[0] : ku[0] + ku[1];
-        if (vw == 2 && !blv)
-            b = v ? kv[1] + kv[0] : kv[0] + kv[1];
-        if (discard) /* pk_weight of the kernel left */
-            *weight = a * b;
-        *acc = w->small(w->px[w->base[f]], w->ts, &a, 1, &b, 1, *acc);
+        fold_r0(w, ku, kv, u, v, uw, vw, blu, blv, f, acc, discard ? weight : NULL);
         return 1;
     }
     /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
@@ -838,4 +847,29 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, m, acc, weight);
     return walk_all(w, k0, f, acc, weight);
+}
+
+int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    const st_face *F = &w->faces[f];
+    const int *adj = F->adjface;
+    int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
+    /* the overhung edges (a kernel at resolution 1 x 1: left u < 0, right u + uw > 1) and
+     * whether each has a neighbour */
+    int sl = u < 0, sr = u + uw > 1, sb = v < 0, st = v + vw > 1;
+    int nl = adj[3] >= 0, nr = adj[1] >= 0, nb = adj[0] >= 0, nt = adj[2] >= 0;
+    /* walk_boundary's fold: no overhung edge with a neighbour, f not constant, no overhang
+     * as wide as the window */
+    if (!((sl & nl) | (sr & nr) | (sb & nb) | (st & nt) | (F->flags & ST_FACE_CONSTANT) |
+          (u >= 1) | (u + uw <= 0) | (v >= 1) | (v + vw <= 0))) {
+        fold_r0(w, k0->kub + k0->ku0, k0->kvb + k0->kv0, u, v, uw, vw, w->black_u,
+                w->black_v, f, acc, NULL);
+        return 1;
+    }
+    /* pf_walk_kernel's lean_two: one u and one v edge overhung, each to a neighbour, their
+     * corner a regular vertex */
+    if ((sl | sr) & (sb | st) & (sl ? nl : nr) & (sb ? nb : nt) &&
+        F->cornerface[corner_between(sr, st)] >= 0)
+        return lean_two(w, k0, f, sr | st << 1, acc, weight);
+    return pf_walk_kernel(w, k0, f, acc, weight);
 }

@@ -68,6 +68,12 @@ int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *we
  * it was) when the walk or the fold declines. */
 int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
 
+/* pf_walk_kernel for a kernel at resolution 1 x 1 of at most 2 x 2 taps, at or inside the
+ * face (u, v >= -1; ptexfilter.c's kernel_r0): a face at a mesh boundary none of whose
+ * overhung edges has a neighbour takes the fold's one texel at once (walk_boundary's fold,
+ * without pf_walk_kernel's dispatch), any other pf_walk_kernel. */
+int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight);
+
 /* split_walk's Discard (discard 1) or Clamp (0) of kernel k (weights not empty, zeros
  * stripped) built for face f (not a subface), which it overhangs: the overhang past each edge
  * merged as pk_merge_r, _l, _t, _b do, in that order (dropped in Discard and at a black
