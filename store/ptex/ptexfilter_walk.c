@@ -866,10 +866,20 @@ int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight
                 w->black_v, f, acc, NULL);
         return 1;
     }
-    /* pf_walk_kernel's lean_two: one u and one v edge overhung, each to a neighbour, their
-     * corner a regular vertex */
-    if ((sl | sr) & (sb | st) & (sl ? nl : nr) & (sb ? nb : nt) &&
-        F->cornerface[corner_between(sr, st)] >= 0)
-        return lean_two(w, k0, f, sr | st << 1, acc, weight);
+    /* pf_walk_kernel's dispatch with these sides: one u and one v edge overhung, each to a
+     * neighbour: lean_two where their corner is a regular vertex, else walk_two; one edge
+     * overhung, to a neighbour: lean_one; the rest (an overhung edge without a neighbour
+     * beside one with) through pf_walk_kernel */
+    int hu = sl | sr, hv = sb | st;
+    if (hu & hv) {
+        if ((sl ? nl : nr) & (sb ? nb : nt))
+            return F->cornerface[corner_between(sr, st)] >= 0
+                       ? lean_two(w, k0, f, sr | st << 1, acc, weight)
+                       : walk_two(w, k0, f, sr | st << 1, acc, weight);
+    } else if (hu | hv) {
+        int e = sl ? 3 : sr ? 1 : sb ? 0 : 2;
+        if (adj[e] >= 0)
+            return lean_one(w, k0, f, e, acc);
+    }
     return pf_walk_kernel(w, k0, f, acc, weight);
 }
