@@ -10,7 +10,9 @@
  * than 3 or 4 go through the pk operations themselves on a pk copy (they are rare). A
  * piece's window goes through put (rotation 0 first), put_face (constant face, reductions
  * out of line in put_reduced, the guard) and put_window (the table and the window call).
- * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window.
+ * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window; a
+ * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
+ * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once.
  */
 #include "ptexfilter_walk.h"
 
