@@ -1196,14 +1196,14 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
  * eval_kernel's frame and checks; 0 when it declines or Discard keeps no weight (nothing
  * written, k as it was: eval_kernel then runs, its zero-coverage rule included). Clamp
  * leaves k merged (split_walk's pk_merge_* would too; no caller reads it after). */
-__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
-                                                               float weight, float *out,
-                                                               float *cov)
+__attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, int f,
+                                                                float weight, float *out,
+                                                                float *cov, int r0)
 {
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
     float cv = 1.0f;
     if (c->mode == ST_MODE_TRAVERSE) {
-        if (!pf_walk_kernel(&c->walk, k, f, &acc, &weight))
+        if (!(r0 ? pf_walk_kernel_r0 : pf_walk_kernel)(&c->walk, k, f, &acc, &weight))
             return 0;
     } else if (c->mode == ST_MODE_DISCARD) {
         float total = weight;
@@ -1221,6 +1221,15 @@ __attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int
         out[ch] = acc[ch] * scale;
     *cov = cv;
     return 1;
+}
+
+/* kernel_walk_wr with pf_walk_kernel in Traverse (r0: pf_walk_kernel_r0, for kernel_r0's
+ * kernels at resolution 1 x 1). */
+__attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
+                                                               float weight, float *out,
+                                                               float *cov)
+{
+    return kernel_walk_wr(c, k, f, weight, out, cov, 0);
 }
 
 /* kernel_walk_w with the kernel's weight pk_weight(k). */
@@ -1255,6 +1264,60 @@ __attribute__((always_inline)) static inline void build_w4(const pk_params *p, p
         pf_kernel_eval1_avx2(p, x1v, sv, k->kvb, k->vw);
 }
 
+/* One axis of a width-4 kernel at resolution 2^0 (a width of a face or more, not NaN):
+ * pk_width4_axis' last case (2 taps at u - 0.5 rounded down, the hermite weight and its
+ * complement) with pk_strip_zeros' end taps removed (w0 is 0 only when w1 is 1, and the
+ * other way round: one tap is left, written first, as at kub + ku0). Returns the axis'
+ * pk_accumulate: (0 + w0) + w1, or 0 + the one tap. */
+__attribute__((always_inline)) static inline float build_r0_axis(float u, int *ku, int *kw,
+                                                                 float *w)
+{
+    float upix = u - .5f;
+    float ui = pk_floor(upix);
+    float w0 = pk_hermite_blur(upix - ui), w1 = 1 - w0;
+    *ku = (int)ui;
+    *kw = 2;
+    w[0] = w0;
+    w[1] = w1;
+    if (__builtin_expect(w0 == 0, 0)) {
+        *ku += 1;
+        *kw = 1;
+        w[0] = w1;
+        return 0.0f + w1;
+    }
+    if (__builtin_expect(w1 == 0, 0)) {
+        *kw = 1;
+        return 0.0f + w0;
+    }
+    return (0.0f + w0) + w1;
+}
+
+/* kernel_declined_with's steps for a width-4 kernel at resolution 1 x 1 (pk_width4_axis'
+ * last case on both axes, stripped: 1 or 2 taps an axis). Out of line: kernel_run's batch
+ * loop keeps its registers for the other kernels. */
+__attribute__((noinline)) static int kernel_r0(pf *c, const pk_params *pp,
+                                               const st_sample_opts *o, const st_query *q,
+                                               float *out, float *cov)
+{
+    pk k;
+    k.ulog2 = k.vlog2 = k.ku0 = k.kv0 = k.rot = 0;
+    float wu = build_r0_axis(q->u, &k.u, &k.uw, k.kub);
+    float wv = build_r0_axis(q->v, &k.v, &k.vw, k.kvb);
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= 1 && k.v + k.vw <= 1) {
+        if (c->mode != ST_MODE_DISCARD) {
+            c->acc = (v4f){0, 0, 0, 0};
+            apply(c, &k, (int)q->face);
+            float scale = 1.0f / (wu * wv * one_value(c->dt));
+            for (unsigned ch = 0; ch < c->nc; ch++)
+                out[ch] = c->acc[ch] * scale;
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    } else if (c->small && kernel_walk_wr(c, &k, (int)q->face, wu * wv, out, cov, 1))
+        return ST_Q_OK;
+    return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1269,6 +1332,8 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                                                                       float *out, float *cov)
 {
     pk k;
+    if (pp->ftype != ST_FILTER_PTEX_BOX && bu >= 1.0f && bv >= 1.0f)
+        return kernel_r0(c, pp, o, q, out, cov);
     if (pp->ftype != ST_FILTER_PTEX_BOX)
         build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     else

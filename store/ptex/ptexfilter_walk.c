@@ -10,7 +10,9 @@
  * than 3 or 4 go through the pk operations themselves on a pk copy (they are rare). A
  * piece's window goes through put (rotation 0 first), put_face (constant face, reductions
  * out of line in put_reduced, the guard) and put_window (the table and the window call).
- * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window.
+ * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window; a
+ * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
+ * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once.
  */
 #include "ptexfilter_walk.h"
 
@@ -125,33 +127,27 @@ __attribute__((noinline)) static void put_reduced(pw_state *s, int ru, int rv, i
 
 /* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
  * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
- * smaller (put_reduced, out of line, in the walks; sg, the fold: inline), the window summed
- * into s->acc. 0: a constant face (declined). Scalars, not a struct, so that they stay in
- * registers. */
+ * smaller (put_reduced, out of line), the window summed into s->acc. 0: a constant face
+ * (declined). Scalars, not a struct, so that they stay in registers. */
 __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
                                                           int v, int uw, int vw,
                                                           const float *ku, const float *kv,
-                                                          int af, int sg)
+                                                          int af)
 {
     if (uw <= 0 || vw <= 0)
         return 1;
     const st_face *F = &s->w->faces[af];
     if (F->flags & ST_FACE_CONSTANT)
         return 0;
-    float rbu[PK_MAX], rbv[PK_MAX];
-    if (sg) /* the fold: reduced inline (fewer instructions in its frame) */
-        reduce_to_face(F, &ru, &rv, &u, &v, &uw, &vw, &ku, &kv, rbu, rbv);
-    else if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
+    if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
         put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
         return 1;
     }
     /* outside the face: apply's guard against bad input (u < 0 or u + uw > 2^ru, uw >= 1;
-     * in the walk as bits: u and its last texel u + uw - 1 both below 2^ru, a negative u
-     * having its top bit set as unsigned, ru <= 30; sg: the signed compares, fewer
-     * instructions in the fold's frame) */
-    if (sg ? u < 0 || v < 0 || u + uw > (1 << ru) || v + vw > (1 << rv)
-           : ((((uint32_t)u | ((uint32_t)u + (uint32_t)uw - 1u)) >> ru) |
-              (((uint32_t)v | ((uint32_t)v + (uint32_t)vw - 1u)) >> rv)) != 0)
+     * as bits: u and its last texel u + uw - 1 both below 2^ru, a negative u having its
+     * top bit set as unsigned, ru <= 30) */
+    if (((((uint32_t)u | ((uint32_t)u + (uint32_t)uw - 1u)) >> ru) |
+         (((uint32_t)v | ((uint32_t)v + (uint32_t)vw - 1u)) >> rv)) != 0)
         return 1;
     put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
     return 1;
@@ -167,20 +163,20 @@ __attribute__((always_inline)) static inline int put(pw_state *s, const pw *p, i
 #define PW_FV ((1 << p->lg[1]) - p->at[1] - p->n[1])
     if (__builtin_expect(!(rot & 3), 1)) /* tested first: the switch's compares come after */
         return put_face(s, p->lg[0], p->lg[1], p->at[0], p->at[1], p->n[0], p->n[1], p->k[0],
-                        p->k[1], af, 0);
+                        p->k[1], af);
     switch (rot & 3) {
     case 1: /* flip_u, swap_uv */
         reversed(tv, p->k[0], p->n[0]);
         return put_face(s, p->lg[1], p->lg[0], p->at[1], PW_FU, p->n[1], p->n[0], p->k[1], tv,
-                        af, 0);
+                        af);
     case 2: /* flip_u, flip_v */
         reversed(tu, p->k[0], p->n[0]);
         reversed(tv, p->k[1], p->n[1]);
-        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af, 0);
+        return put_face(s, p->lg[0], p->lg[1], PW_FU, PW_FV, p->n[0], p->n[1], tu, tv, af);
     default: /* 3: flip_v, swap_uv */
         reversed(tu, p->k[1], p->n[1]);
         return put_face(s, p->lg[1], p->lg[0], PW_FV, p->at[0], p->n[1], p->n[0], tu, p->k[0],
-                        af, 0);
+                        af);
     }
 #undef PW_FU
 #undef PW_FV
@@ -715,30 +711,57 @@ int pf_walk_traverse(const pf_walk *w, const pk *k0, int f, pf_v4 *acc, float *w
 
 /* ---- Discard and Clamp (split_walk's other modes at depth 0) ----------------------------- */
 
+/* The fold of a kernel at resolution 1 x 1 of at most 2 x 2 taps (the width-4 filters' at a
+ * footprint of a face or more; the test of fold() passed): along each axis one tap on the
+ * face (u = 0, or -1 with 2 taps), one past its edge or none; the merges as fold's (blu,
+ * blv: dropped), in pk_merge's order (the folded tap plus the overhang's sum, 0 + the one
+ * tap: that tap, not zero), on copies (k's weights are not read after); the window the
+ * face's one texel (table entry 0). Discard's weight (pk_weight of the kernel left) in
+ * *weight when weight is not NULL. */
+__attribute__((always_inline)) static inline void fold_r0(const pf_walk *w, const float *ku,
+                                                          const float *kv, int u, int v,
+                                                          int uw, int vw, int blu, int blv,
+                                                          int f, pf_v4 *acc, float *weight)
+{
+    float a = ku[-u], b = kv[-v];
+    if (uw == 2 && !blu)
+        a = u ? ku[1] + ku[0] : ku[0] + ku[1];
+    if (vw == 2 && !blv)
+        b = v ? kv[1] + kv[0] : kv[0] + kv[1];
+    if (weight)
+        *weight = a * b;
+    *acc = w->small(w->px[w->base[f]], w->ts, &a, 1, &b, 1, *acc);
+}
+
 /* pf_walk_fold, inline where the boundary walk takes it */
 __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
                                                       int discard, pf_v4 *acc, float *weight)
 {
-    if (w->faces[f].flags & ST_FACE_CONSTANT)
+    const st_face *F = &w->faces[f];
+    if (F->flags & ST_FACE_CONSTANT)
         return 0;
-    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
+    int ru = k0->ulog2, rv = k0->vlog2, resu = 1 << ru, resv = 1 << rv;
     int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
-    int sr = u + uw > resu, sl = u < 0, st = v + vw > resv, sb = v < 0;
     /* an overhang as wide as the window (a kernel past the face, which no query's kernel
-     * is): pk_merge_* would write outside it, so the general walk takes it */
-    if ((sr && u >= resu) || (sl && u + uw <= 0) || (st && v >= resv) || (sb && v + vw <= 0))
+     * is): pk_merge_* would write outside it, so the general walk takes it (u >= resu
+     * implies the kernel overhangs the right edge, u + uw <= 0 the left: uw >= 1) */
+    if ((u >= resu) | (u + uw <= 0) | (v >= resv) | (v + vw <= 0))
         return 0;
-    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
-     * do; Discard and a black border only move the window) */
     int blu = discard || w->black_u, blv = discard || w->black_v;
     float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
-    if (sr) {
+    if (!(ru | rv) && uw <= 2 && vw <= 2) {
+        fold_r0(w, ku, kv, u, v, uw, vw, blu, blv, f, acc, discard ? weight : NULL);
+        return 1;
+    }
+    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
+     * do; Discard and a black border only move the window) */
+    if (u + uw > resu) {
         int n = u + uw - resu;
         if (!blu)
             ku[uw - n - 1] += pk_accumulate(ku + uw - n, n);
         uw -= n;
     }
-    if (sl) {
+    if (u < 0) {
         int n = -u;
         if (!blu)
             ku[n] += pk_accumulate(ku, n);
@@ -746,13 +769,13 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
         uw -= n;
         u = 0;
     }
-    if (st) {
+    if (v + vw > resv) {
         int n = v + vw - resv;
         if (!blv)
             kv[vw - n - 1] += pk_accumulate(kv + vw - n, n);
         vw -= n;
     }
-    if (sb) {
+    if (v < 0) {
         int n = -v;
         if (!blv)
             kv[n] += pk_accumulate(kv, n);
@@ -764,7 +787,11 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     if (discard)
         *weight = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);
     pw_state s = {w, *acc, 0.0f};
-    put_face(&s, k0->ulog2, k0->vlog2, u, v, uw, vw, ku, kv, f, 1); /* f not constant: 1 */
+    /* the window lies inside the face (the test above): put_face's guard cannot fire */
+    if (__builtin_expect((ru > F->ulog2) | (rv > F->vlog2), 0))
+        put_reduced(&s, ru, rv, u, v, uw, vw, ku, kv, f);
+    else
+        put_window(&s, ru, rv, u, v, uw, vw, ku, kv, f, F);
     *acc = s.acc;
     return 1;
 }
@@ -782,14 +809,13 @@ int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float
  * Clamp's fold with the border modes' black; else the whole walk (its folds copy the edge
  * weights). Out of line: pf_walk_kernel's frame stays that of its common cases. */
 __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int f,
-                                                   pf_v4 *acc, float *weight)
+                                                   unsigned m, pf_v4 *acc, float *weight)
 {
     const int *adj = w->faces[f].adjface;
-    int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
-    int sr = k0->u + k0->uw > resu, sl = k0->u < 0;
-    int st = k0->v + k0->vw > resv, sb = k0->v < 0;
-    if (!((sr && adj[1] >= 0) || (sl && adj[3] >= 0) || (st && adj[2] >= 0) ||
-          (sb && adj[0] >= 0)))
+    /* the edges with a neighbour, as pf_walk_kernel's m numbers them */
+    unsigned nb = (unsigned)(adj[1] >= 0) | (unsigned)(adj[3] >= 0) << 1 |
+                  (unsigned)(adj[2] >= 0) << 2 | (unsigned)(adj[0] >= 0) << 3;
+    if (!(m & nb))
         return fold(w, k0, f, 0, acc, weight);
     return walk_all(w, k0, f, acc, weight);
 }
@@ -810,10 +836,10 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
                                         -1, -1};
     int e = one[m], t = two[m];
     if (e >= 0)
-        return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, acc, weight);
+        return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, m, acc, weight);
     if (t >= 0) {
         if ((adj[t & 1 ? 1 : 3] | adj[t & 2 ? 2 : 0]) < 0)
-            return walk_boundary(w, k0, f, acc, weight);
+            return walk_boundary(w, k0, f, m, acc, weight);
         /* the corner between the two edges (walk_two's c); lean_two only where it is a
          * regular vertex (a valence-3 corner of a cube would only cost its checks) */
         return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
@@ -821,6 +847,41 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
                    : walk_two(w, k0, f, t, acc, weight);
     }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
-        return walk_boundary(w, k0, f, acc, weight);
+        return walk_boundary(w, k0, f, m, acc, weight);
     return walk_all(w, k0, f, acc, weight);
+}
+
+int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    const st_face *F = &w->faces[f];
+    const int *adj = F->adjface;
+    int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
+    /* the overhung edges (a kernel at resolution 1 x 1: left u < 0, right u + uw > 1) and
+     * whether each has a neighbour */
+    int sl = u < 0, sr = u + uw > 1, sb = v < 0, st = v + vw > 1;
+    int nl = adj[3] >= 0, nr = adj[1] >= 0, nb = adj[0] >= 0, nt = adj[2] >= 0;
+    /* walk_boundary's fold: no overhung edge with a neighbour, f not constant, no overhang
+     * as wide as the window */
+    if (!((sl & nl) | (sr & nr) | (sb & nb) | (st & nt) | (F->flags & ST_FACE_CONSTANT) |
+          (u >= 1) | (u + uw <= 0) | (v >= 1) | (v + vw <= 0))) {
+        fold_r0(w, k0->kub + k0->ku0, k0->kvb + k0->kv0, u, v, uw, vw, w->black_u,
+                w->black_v, f, acc, NULL);
+        return 1;
+    }
+    /* pf_walk_kernel's dispatch with these sides: one u and one v edge overhung, each to a
+     * neighbour: lean_two where their corner is a regular vertex, else walk_two; one edge
+     * overhung, to a neighbour: lean_one; the rest (an overhung edge without a neighbour
+     * beside one with) through pf_walk_kernel */
+    int hu = sl | sr, hv = sb | st;
+    if (hu & hv) {
+        if ((sl ? nl : nr) & (sb ? nb : nt))
+            return F->cornerface[corner_between(sr, st)] >= 0
+                       ? lean_two(w, k0, f, sr | st << 1, acc, weight)
+                       : walk_two(w, k0, f, sr | st << 1, acc, weight);
+    } else if (hu | hv) {
+        int e = sl ? 3 : sr ? 1 : sb ? 0 : 2;
+        if (adj[e] >= 0)
+            return lean_one(w, k0, f, e, acc);
+    }
+    return pf_walk_kernel(w, k0, f, acc, weight);
 }

@@ -62,16 +62,26 @@ int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *we
  * one edge of f only, into a neighbour there, takes the one-edge walk (walk_one), one that
  * overhangs one u and one v edge, into neighbours there, walk_two; one of a
  * face at a mesh boundary none of whose overhung edges has a neighbour takes pf_walk_fold
- * with the border modes' black (split_walk then only merges: k's weights are merged in place
- * when it returns 1, as pk_merge_* would leave them); any other the whole walk
+ * with the border modes' black (split_walk then only merges: k's weights may be left merged
+ * in place when it returns 1, as pk_merge_* would leave them, or not: no caller reads them
+ * after); any other the whole walk
  * (pf_walk_traverse's, folds at boundary edges included). Returns 0 (nothing written, k as
  * it was) when the walk or the fold declines. */
 int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
 
+/* pf_walk_kernel for a kernel at resolution 1 x 1 of at most 2 x 2 taps, at or inside the
+ * face (u, v >= -1; ptexfilter.c's kernel_r0), with the same results: a face at a mesh
+ * boundary none of whose overhung edges has a neighbour takes the fold's one texel at once
+ * (walk_boundary's fold), a kernel over one u and one v edge with neighbours lean_two or
+ * walk_two, over one edge with a neighbour lean_one, without pf_walk_kernel's dispatch (since
+ * session 17); any other pf_walk_kernel. */
+int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight);
+
 /* split_walk's Discard (discard 1) or Clamp (0) of kernel k (weights not empty, zeros
  * stripped) built for face f (not a subface), which it overhangs: the overhang past each edge
  * merged as pk_merge_r, _l, _t, _b do, in that order (dropped in Discard and at a black
- * border; else folded onto the edge weight, in k's weights: k is the merged kernel after),
+ * border; else folded onto the edge weight, in k's weights, or in copies for a kernel at
+ * resolution 1 x 1 of at most 2 x 2 taps: k's weights are not read after),
  * then the window on f summed into *acc; in Discard *weight becomes the weight kept
  * (pk_weight of the merged kernel, whose weights it leaves as they were), in Clamp it is
  * left alone (the kernel's total). Returns 1; 0 when it declines, before any change: f

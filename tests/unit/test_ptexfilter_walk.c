@@ -94,13 +94,32 @@ static long compare_filters(const st_set *s, const st_query *q, const char *what
     return n;
 }
 
+/* The kernel filters. */
+static const unsigned kernel_filters[] = {ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,
+                                          ST_FILTER_PTEX_BICUBIC, ST_FILTER_PTEX_CATMULLROM,
+                                          ST_FILTER_PTEX_MITCHELL};
+enum { NKF = sizeof kernel_filters / sizeof kernel_filters[0] };
+
 /* Both paths on q for the kernel filters in every mode; returns the queries compared. */
 static long compare_paths(const st_set *s, const st_query *q, const char *what)
 {
-    static const unsigned filters[] = {ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,
-                                       ST_FILTER_PTEX_BICUBIC, ST_FILTER_PTEX_CATMULLROM,
-                                       ST_FILTER_PTEX_MITCHELL};
-    return compare_filters(s, q, what, filters, sizeof filters / sizeof filters[0]);
+    return compare_filters(s, q, what, kernel_filters, NKF);
+}
+
+/* compare_filters with the set's border modes set to clamp, black and periodic in turn (then
+ * put back). */
+static long compare_border_modes(st_set *s, const st_query *q, const char *what,
+                                 const unsigned *filters, size_t nf)
+{
+    long n = 0;
+    uint8_t bu = s->info.border_u, bv = s->info.border_v;
+    for (uint8_t b = 0; b <= 2; b++) { /* clamp, black, periodic */
+        s->info.border_u = s->info.border_v = b;
+        n += compare_filters(s, q, what, filters, nf);
+    }
+    s->info.border_u = bu;
+    s->info.border_v = bv;
+    return n;
 }
 
 /* Every tenth face (from the first) gets flag: after the table is built, so its data stays
@@ -219,26 +238,22 @@ static long boundary_file(st_set *s, st_query *q, const char *path)
     long n = 0;
     edge_queries(s, q);
     n += compare_filters(s, q, path, filters, nf);
-    uint8_t bu = s->info.border_u, bv = s->info.border_v;
-    for (uint8_t b = 0; b <= 2; b++) { /* clamp, black, periodic */
-        s->info.border_u = s->info.border_v = b;
-        n += compare_filters(s, q, path, filters, nf);
-    }
-    s->info.border_u = bu;
-    s->info.border_v = bv;
-    return n;
+    return n + compare_border_modes(s, q, path, filters, nf);
 }
+
+/* The one-face files of bordermodes and cube1_k6_u8 (valence-3 corners). */
+static const char *const bordermode_files[] = {
+    "ptx/wdas-ptex-2009/bordermodes/black.ptx",
+    "ptx/wdas-ptex-2009/bordermodes/clamp.ptx",
+    "ptx/wdas-ptex-2009/bordermodes/periodic.ptx",
+    "ptex-ref/cube1_k6_u8.ptx",
+};
+enum { NBF = sizeof bordermode_files / sizeof bordermode_files[0] };
 
 static void boundary_folds_and_valence3_corners_match_the_general_path(void **state)
 {
     (void)state;
-    static const char *files[] = {
-        "ptx/wdas-ptex-2009/bordermodes/black.ptx",
-        "ptx/wdas-ptex-2009/bordermodes/clamp.ptx",
-        "ptx/wdas-ptex-2009/bordermodes/periodic.ptx",
-        "ptex-ref/cube1_k6_u8.ptx",
-    };
-    check_files(files, sizeof files / sizeof files[0], boundary_file);
+    check_files(bordermode_files, NBF, boundary_file);
 }
 
 /* Session 15 (walk8): a kernel that overhangs one u edge and one v edge, each to a
@@ -281,6 +296,20 @@ static void two_edge_kernels_match_the_general_walk(void **state)
     check_files(mixed_files, sizeof mixed_files / sizeof mixed_files[0], two_edge_file);
 }
 
+/* Query j of a walk test with widths relative to the face: a uniform face, widths from rel
+ * (8 of them; the axes alike but for every third query), (u, v) uniform, u near an edge for
+ * every fourth (j % 4 == 1); not clamped below 1. */
+static void rel_query(const st_set *s, const float *rel, int j, st_query *q)
+{
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        float ru = rel[(int)(rnd01() * 8) & 7];
+        float rv = j % 3 == 1 ? rel[(int)(rnd01() * 8) & 7] : ru;
+        float u = rnd01(), v = rnd01();
+        if (j % 4 == 1) /* near an edge */
+            u = rnd01() < 0.5f ? u * 0.1f : 1.0f - u * 0.1f;
+    *q = (st_query){.face = f, .u = u, .v = v, .dudx = ru, .dvdy = rv};
+}
+
 /* Session 16 (walk9): a kernel that overhangs one edge, or one u and one v edge, into plain
  * neighbours takes ptexfilter_walk.c's lean walks first (lean_one_case, lean_two_case:
  * the faces' flags, the overhangs' widths and the pieces' resolutions checked once, then
@@ -297,19 +326,14 @@ static long lean_file(st_set *s, st_query *q, const char *path)
 {
     static const float rel[] = {1.0f, 1.5f, 3.0f, 0.75f, 0.5f, 0.3f, 0.25f, 0.125f};
     for (int j = 0; j < NQ; j++) {
-        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
-        float ru = rel[(int)(rnd01() * 8) & 7];
-        float rv = j % 3 == 1 ? rel[(int)(rnd01() * 8) & 7] : ru;
-        float u = rnd01(), v = rnd01();
-        if (j % 4 == 1) /* near an edge */
-            u = rnd01() < 0.5f ? u * 0.1f : 1.0f - u * 0.1f;
+        rel_query(s, rel, j, &q[j]);
+        float u = q[j].u, v = q[j].v;
         if (j % 4 == 2) { /* near a corner */
             u = rnd01() < 0.5f ? u * 0.1f : 1.0f - u * 0.1f;
             v = rnd01() < 0.5f ? v * 0.1f : 1.0f - v * 0.1f;
         }
-        u = u < 0.99999994f ? u : 0.99999994f;
-        v = v < 0.99999994f ? v : 0.99999994f;
-        q[j] = (st_query){.face = f, .u = u, .v = v, .dudx = ru, .dvdy = rv};
+        q[j].u = u < 0.99999994f ? u : 0.99999994f;
+        q[j].v = v < 0.99999994f ? v : 0.99999994f;
     }
     return compare_plain_flagged(s, q, path);
 }
@@ -318,6 +342,46 @@ static void lean_walks_match_the_general_walk(void **state)
 {
     (void)state;
     check_files(mixed_files, sizeof mixed_files / sizeof mixed_files[0], lean_file);
+}
+
+/* Session 17 (walk10): a width-4 kernel at resolution 1 x 1 (a footprint of a face or more
+ * along both axes) is built and stripped by ptexfilter.c's kernel_r0 (1 or 2 taps an axis:
+ * (u, v) = 0.5 leaves the first tap alone, 0.49999997 the second), and a boundary fold of
+ * such a kernel merges its two taps and takes the face's one texel (ptexfilter_walk.c's
+ * fold). Widths on either side of a face (0.999 and 1: the general build next to it), the
+ * axes alike or not, (u, v) anywhere, near an edge or at those two values; the one-face
+ * files of bordermodes and tri/quad.ptx under each border mode, teapot and cube1_k6_u8
+ * (neighbours, valence-3 corners) plain and with a tenth of the faces flagged; every kernel
+ * filter, every mode, against the general path. */
+static long one_texel_file(st_set *s, st_query *q, const char *path)
+{
+    static const float rel[] = {1.0f, 1.5f, 4.0f, 0.999f, 2.0f, 1.0f, 16.0f, 0.5f};
+    static const float at[] = {0.5f, 0.49999997f, 0.0f, 0.99999994f};
+    for (int j = 0; j < NQ; j++) {
+        rel_query(s, rel, j, &q[j]);
+        float u = q[j].u, v = q[j].v;
+        if (j % 8 == 2) /* one tap left along u, or v, or both */
+            u = at[(int)(rnd01() * 4) & 3];
+        if (j % 8 == 6)
+            v = at[(int)(rnd01() * 4) & 3];
+        if (j % 16 == 10)
+            u = at[(int)(rnd01() * 2) & 1];
+        q[j].u = u < 0.99999994f ? u : 0.99999994f;
+        q[j].v = v < 0.99999994f ? v : 0.99999994f;
+    }
+    long n = compare_plain_flagged(s, q, path);
+    return n + compare_border_modes(s, q, path, kernel_filters, NKF);
+}
+
+static void one_texel_kernels_match_the_general_path(void **state)
+{
+    (void)state;
+    static const char *const more[] = {
+        "ptx/wdas-ptex-2009/tri/quad.ptx",
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+    };
+    check_files(bordermode_files, NBF, one_texel_file);
+    check_files(more, sizeof more / sizeof more[0], one_texel_file);
 }
 
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives
@@ -355,6 +419,7 @@ int main(void)
         cmocka_unit_test(boundary_folds_and_valence3_corners_match_the_general_path),
         cmocka_unit_test(two_edge_kernels_match_the_general_walk),
         cmocka_unit_test(lean_walks_match_the_general_walk),
+        cmocka_unit_test(one_texel_kernels_match_the_general_path),
         cmocka_unit_test(half_loads_match_the_scalar_conversion_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
