@@ -35,7 +35,10 @@
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
  * general rows' taps, texels, weights and order with less work a row); the general rows stay
  * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex.md,
- * "Session 15, tri8").
+ * "Session 15, tri8"). Clamp's lean fold rows find their kept runs four rows at a time
+ * (rows_kept4), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
+ * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex.md,
+ * "tri10").
  */
 #include "ptextri.h"
 
@@ -731,7 +734,7 @@ typedef struct pt_cur {
 
 /* A piece's second differences' factors, in the upright sweep's frame (the inverted sweep has
  * A and C swapped, B the same: kxx and kyy swap); computed by the first sweep that needs them
- * (pt_exp2, double: each is used many times). */
+ * (pt_exp4, double: each is used many times). */
 typedef struct pt_kf {
     int set;
     double kxx, kxy, kyy, ixx, ixy, iyy;
@@ -915,9 +918,12 @@ lean_band_mid(int ODD, int R, const uint8_t *data, int y, int xa, int xe, size_t
 {
     {
         const float fR = (float)R;
-        int d = xa - y + R, k = d >> 1, x = xa;
-        const uint8_t *m = data + ((size_t)(R - 1 - k) * (size_t)R + (size_t)k) * ts;
+        int d = xa - y + R, x = xa;
+        /* M(k) = texel (k, R-1-k), index (R-1) R + k (1 - R): M(0) (a row's invariant) plus
+         * k steps */
         const ptrdiff_t mstep = (ptrdiff_t)(1 - R) * (ptrdiff_t)ts;
+        const uint8_t *m = data + (ptrdiff_t)(R - 1) * (ptrdiff_t)R * (ptrdiff_t)ts +
+                           (ptrdiff_t)(d >> 1) * mstep;
         double G = *Gp, E = *Ep;
         if (d & 1) { /* a midpoint first: M(k), then the next k */
             acc = lean_tap(m, &G, &E, kxx, one, acc, wsum4, DT, NC);
