@@ -43,6 +43,12 @@ int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_q
 int st_ptextri_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q,
                              size_t n, float *out, float *coverage, uint8_t *status);
 
+/* st_ptextri_batch as a CPU without AVX2 runs it: the lean fold and whole-weight sweeps'
+ * baseline instances, where st_ptextri_batch takes their AVX2 instances when the CPU has AVX2
+ * (the same operations on the same values: the same bits in every output). For tests. */
+int st_ptextri_batch_baseline(const st_set *s, const st_sample_opts *o, const st_query *q,
+                              size_t n, float *out, float *coverage, uint8_t *status);
+
 /* For tests: whether Clamp's walk of the band past the diagonal edge (row_band_t) reads the
  * texels fold_tap gives, tap by tap: the sums of row y's taps x in [xa, xb) of an R x R level
  * of one f32 channel (texels: R * R values), upright (odd 0) or inverted, with made-up weights

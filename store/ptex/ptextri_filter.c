@@ -35,7 +35,10 @@
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
  * general rows' taps, texels, weights and order with less work a row); the general rows stay
  * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex.md,
- * "Session 15, tri8").
+ * "Session 15, tri8"). Clamp's lean fold rows find their kept runs four rows at a time
+ * (rows_kept4), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
+ * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex.md,
+ * "tri10").
  */
 #include "ptextri.h"
 
@@ -91,8 +94,10 @@ typedef struct ti {
     int odd;               /* the flipped sweep: taps are the inverted triangles */
 } ti;
 
-enum { PT_LEAN, PT_PERTAP, PT_GENERAL }; /* the builds st_ptextri_batch* run (tri_batch's
-                                          * wmode: tc.fold and tc.wt follow from it) */
+enum { PT_LEAN, PT_PERTAP, PT_GENERAL, PT_LEAN_BASE }; /* the builds st_ptextri_batch* run
+                                                       * (tri_batch's wmode: tc.fold and tc.wt
+                                                       * follow from it; PT_LEAN_BASE: PT_LEAN
+                                                       * without the AVX2 instances) */
 
 struct pt_kf;
 
@@ -729,44 +734,59 @@ typedef struct pt_cur {
 
 /* A piece's second differences' factors, in the upright sweep's frame (the inverted sweep has
  * A and C swapped, B the same: kxx and kyy swap); computed by the first sweep that needs them
- * (pt_exp2, double: each is used many times). */
+ * (pt_exp4, double: each is used many times). */
 typedef struct pt_kf {
     int set;
     double kxx, kxy, kyy, ixx, ixy, iyy;
 } pt_kf;
 
-typedef int64_t pt_v2l __attribute__((vector_size(16)));
+typedef double pt_v4d __attribute__((vector_size(32)));
+typedef int64_t pt_v4l __attribute__((vector_size(32)));
 
-/* exp of both lanes of x, x clamped to [-700, 700], to about 1e-14 relatively: x = n ln 2 + r,
- * |r| <= ln 2 / 2 (n by the 1.5 * 2^52 rounding trick; ln 2 in two parts, the first exact
- * times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15), times 2^n made
- * in the exponent bits. Inline, in place of libm's exp and expf for the recurrence's factors
- * (nine a piece). */
-static inline pt_v2d pt_exp2(pt_v2d x)
+/* exp of the four lanes of x (out = e^x), x clamped to [-700, 700], to about 1e-14 relatively:
+ * x = n ln 2 + r, |r| <= ln 2 / 2 (n by the 1.5 * 2^52 rounding trick; ln 2 in two parts, the
+ * first exact times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15),
+ * times 2^n made in the exponent bits. Inline, in place of libm's exp and expf for the
+ * recurrence's factors. Generic vectors: one 256-bit vector where the caller is built for AVX2
+ * (the fold sweeps' AVX2 instances), two SSE2 halves elsewhere; each lane the same operations
+ * either way. Pointers, not vector arguments: a 32-byte vector argument of a function built
+ * without AVX would change its ABI. */
+__attribute__((always_inline)) static inline void pt_exp4(const double *xin, double *out)
 {
-    const pt_v2d lo = {-700.0, -700.0}, hi = {700.0, 700.0}, magic = {0x1.8p52, 0x1.8p52};
+    const pt_v4d magic = {0x1.8p52, 0x1.8p52, 0x1.8p52, 0x1.8p52};
+#ifndef __SSE2__
+    const pt_v4d lo = {-700.0, -700.0, -700.0, -700.0}, hi = {700.0, 700.0, 700.0, 700.0};
+#endif
+    pt_v4d x;
 #ifdef __SSE2__
     /* maxpd gives its second operand unless the first is greater (a NaN: lo), minpd likewise:
-     * the selects below, two instructions */
-    x = (pt_v2d)_mm_min_pd(_mm_max_pd((__m128d)x, (__m128d)lo), (__m128d)hi);
+     * the selects below, by halves (two instructions each in an SSE2 build) */
+    pt_v2d xh[2];
+    memcpy(xh, xin, 32);
+    for (int i = 0; i < 2; i++)
+        xh[i] = (pt_v2d)_mm_min_pd(_mm_max_pd((__m128d)xh[i], _mm_set1_pd(-700.0)),
+                                   _mm_set1_pd(700.0));
+    memcpy(&x, xh, 32);
 #else
-    pt_v2l m = x > lo, xb, lb, hb; /* -1 where true (false for a NaN: clamped) */
-    memcpy(&xb, &x, 16);
-    memcpy(&lb, &lo, 16);
-    memcpy(&hb, &hi, 16);
+    memcpy(&x, xin, 32);
+    /* x > lo ? x : lo, then x < hi ? x : hi */
+    pt_v4l m = x > lo, xb, lb, hb; /* -1 where true (false for a NaN: clamped) */
+    memcpy(&xb, &x, 32);
+    memcpy(&lb, &lo, 32);
+    memcpy(&hb, &hi, 32);
     xb = (xb & m) | (lb & ~m);
-    memcpy(&x, &xb, 16);
+    memcpy(&x, &xb, 32);
     m = x < hi;
     xb = (xb & m) | (hb & ~m);
-    memcpy(&x, &xb, 16);
+    memcpy(&x, &xb, 32);
 #endif
-    pt_v2d k = x * 1.4426950408889634 + magic; /* n + 1.5 * 2^52 */
-    pt_v2l kb, mb;
-    memcpy(&kb, &k, 16);
-    memcpy(&mb, &magic, 16);
-    pt_v2d n = k - magic;
-    pt_v2d r = (x - n * 0x1.62e4p-1) - n * 0x1.7f7d1cf79abcap-20;
-    pt_v2d p = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
+    pt_v4d k = x * 1.4426950408889634 + magic; /* n + 1.5 * 2^52 */
+    pt_v4l kb, mb;
+    memcpy(&kb, &k, 32);
+    memcpy(&mb, &magic, 32);
+    pt_v4d n = k - magic;
+    pt_v4d r = (x - n * 0x1.62e4p-1) - n * 0x1.7f7d1cf79abcap-20;
+    pt_v4d p = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
     p = p * r + 1.0 / 362880.0;
     p = p * r + 1.0 / 40320.0;
     p = p * r + 1.0 / 5040.0;
@@ -777,25 +797,28 @@ static inline pt_v2d pt_exp2(pt_v2d x)
     p = p * r + 0.5;
     p = p * r + 1.0;
     p = p * r + 1.0;
-    pt_v2l sb = (kb - mb + 1023) << 52;
-    pt_v2d sc;
-    memcpy(&sc, &sb, 16);
-    return p * sc;
+    pt_v4l sb = (kb - mb + 1023) << 52;
+    pt_v4d sc;
+    memcpy(&sc, &sb, 32);
+    p *= sc;
+    memcpy(out, &p, 32);
 }
 
 __attribute__((always_inline)) static inline void kf_set(pt_kf *kf, const ti *it)
 {
     const double g = -0.5 * (double)PT_WIDTH * (double)PT_WIDTH;
-    pt_v2d ac = pt_exp2((pt_v2d){g * 2.0 * (double)it->A, g * 2.0 * (double)it->C});
-    pt_v2d bb = pt_exp2((pt_v2d){g * (double)it->B, -g * (double)it->B});
+    double e[4];
+    pt_exp4((const double[4]){g * 2.0 * (double)it->A, g * 2.0 * (double)it->C,
+                              g * (double)it->B, -g * (double)it->B}, e);
+    pt_v2d ac = {e[0], e[1]};
     pt_v2d iac = (pt_v2d){1.0, 1.0} / ac;
     kf->set = 1;
     kf->kxx = it->odd ? ac[1] : ac[0];
     kf->kyy = it->odd ? ac[0] : ac[1];
     kf->ixx = it->odd ? iac[1] : iac[0];
     kf->iyy = it->odd ? iac[0] : iac[1];
-    kf->kxy = bb[0];
-    kf->ixy = bb[1];
+    kf->kxy = e[2];
+    kf->ixy = e[3];
 }
 
 /* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double. */
@@ -808,12 +831,13 @@ __attribute__((always_inline)) static inline void cur_seed(pt_cur *cu, const ti 
     cu->seeded = 1;
     cu->x = x;
     cu->y = y;
-    pt_v2d ge = pt_exp2((pt_v2d){g * (A * U * U + (B * U + C * V) * V),
-                                 g * (A * (2.0 * U + 1.0) + B * V)});
-    pt_v2d ey = pt_exp2((pt_v2d){g * (B * U + C * (2.0 * V + 1.0)), 0.0});
-    cu->G = (double)wscale * ge[0];
-    cu->Ex = ge[1];
-    cu->Ey = ey[0];
+    double e[4];
+    pt_exp4((const double[4]){g * (A * U * U + (B * U + C * V) * V),
+                              g * (A * (2.0 * U + 1.0) + B * V),
+                              g * (B * U + C * (2.0 * V + 1.0)), 0.0}, e);
+    cu->G = (double)wscale * e[0];
+    cu->Ex = e[1];
+    cu->Ey = e[2];
 }
 
 /* Moves the cursor to tap (x, y) (y >= its row), seeding it at the sweep's first kept tap. */
@@ -894,9 +918,12 @@ lean_band_mid(int ODD, int R, const uint8_t *data, int y, int xa, int xe, size_t
 {
     {
         const float fR = (float)R;
-        int d = xa - y + R, k = d >> 1, x = xa;
-        const uint8_t *m = data + ((size_t)(R - 1 - k) * (size_t)R + (size_t)k) * ts;
+        int d = xa - y + R, x = xa;
+        /* M(k) = texel (k, R-1-k), index (R-1) R + k (1 - R): M(0) (a row's invariant) plus
+         * k steps */
         const ptrdiff_t mstep = (ptrdiff_t)(1 - R) * (ptrdiff_t)ts;
+        const uint8_t *m = data + (ptrdiff_t)(R - 1) * (ptrdiff_t)R * (ptrdiff_t)ts +
+                           (ptrdiff_t)(d >> 1) * mstep;
         double G = *Gp, E = *Ep;
         if (d & 1) { /* a midpoint first: M(k), then the next k */
             acc = lean_tap(m, &G, &E, kxx, one, acc, wsum4, DT, NC);
@@ -1052,6 +1079,65 @@ __attribute__((always_inline)) static inline int kept_end(int xk, int x2, float 
     return xl;
 }
 
+/* The kept runs [xk, xl) of four rows y0 .. y0 + 3 of a recurrence sweep (rows from y2 on keep
+ * nothing), as row_first_kept and kept_end find them, a row a lane: row_span's bounds, Q and
+ * DQ (each lane the scalar expressions' operations in their order: the same floats), then the
+ * float Q chain stepped over the rows' spans together. Returns a mask of the rows that keep a
+ * tap (bit r: row y0 + r).
+ * The kept taps of a row are one run, so counting is enough: DDQ > 0, so DQ never decreases
+ * (rounding is monotone) and Q, once it has risen, never falls (Q + DQ rounds to >= Q when
+ * DQ >= 0; a NaN stays a NaN). So no row keeps a tap, then not one, then another: if Q_i < 1
+ * <= Q_j (or Q_j NaN) and i < j < k, Q rose somewhere in (i, j] (a NaN does not come back to
+ * Q_k < 1), and from there Q_k >= Q_j >= 1. With the run [p, p + c) of a row's steps, the
+ * steps at and after its first kept one number N - p (N steps in all) and the kept ones c. */
+__attribute__((always_inline)) static inline unsigned rows_kept4(const ti *it, int R, int y0,
+                                                                 int y2, float DDQ, int *xk,
+                                                                 int *xl)
+{
+    const pt_v4i yv = (pt_v4i){0, 1, 2, 3} + y0, xw = R - yv;
+    pt_v4i lo0 = it->lo[0] - (pt_v4i){0, 0, 0, 0}, t = xw - it->hi[2], m = lo0 > t;
+    pt_v4i a = (lo0 & m) | (t & ~m); /* max(lo[0], R - y - hi[2]) */
+    pt_v4i hi0 = it->hi[0] - (pt_v4i){0, 0, 0, 0}, t2 = xw - it->lo[2];
+    m = hi0 < t2;
+    pt_v4i x2 = (hi0 & m) | (t2 & ~m);      /* min(hi[0], R - y - lo[2]) */
+    pt_v4i n = (x2 - a) & (yv < y2); /* taps left in the row (none past y2) */
+    const float A = it->A, B = it->B, C = it->C;
+    pt_v4f U = __builtin_convertvector(a, pt_v4f) - it->u;
+    pt_v4f V = __builtin_convertvector(yv, pt_v4f) - it->v;
+    pt_v4f DQ = A * (2.0f * U + 1.0f) + B * V;
+    pt_v4f Q = A * U * U + (B * U + C * V) * V;
+    pt_v4i z = {0, 0, 0, 0}, started = z, after = z, kept = z;
+    int N = 0;
+    for (;;) {
+        pt_v4i live = n > 0; /* -1 where the step is in the row */
+#ifdef __SSE2__
+        if (!_mm_movemask_ps((__m128)live))
+            break;
+#else
+        if (!(live[0] | live[1] | live[2] | live[3]))
+            break;
+#endif
+        pt_v4i k = (Q < 1.0f) & live;
+        started |= k;
+        after -= started; /* a true compare is -1 */
+        kept -= k;
+        Q += DQ;
+        DQ += DDQ;
+        n -= 1;
+        N++;
+    }
+    pt_v4i first = a + (N - after);
+    pt_v4i last = first + kept;
+    memcpy(xk, &first, 16);
+    memcpy(xl, &last, 16);
+#ifdef __SSE2__
+    return (unsigned)_mm_movemask_ps((__m128)(kept > 0));
+#else
+    pt_v4i has = kept > 0;
+    return (has[0] & 1u) | (has[1] & 2u) | (has[2] & 4u) | (has[3] & 8u);
+#endif
+}
+
 /* Whether every tap of sweep it's rows [y1, y2) lies in the band proper past the diagonal
  * edge: a tap that fold_tap pulls back onto u + v = 1 (upright x, y >= 0, x + y >= R;
  * inverted x, y <= R - 1, x + y <= R - 1) with 0 < d = x - y + R < 2R, which lean_fold_row
@@ -1080,20 +1166,19 @@ lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int
                unsigned DT, unsigned NC)
 {
     const int R = it->R;
-    for (int y = y1; y < y2; y++) {
-        int xk, x2;
-        float Q, DQ;
-        if (!row_first_kept(it, R, y, DDQ, &xk, &x2, &Q, &DQ))
-            continue;
-        int xl = kept_end(xk, x2, Q, DQ, DDQ);
-        cur_to(cu, it, xk, y, wscale);
-        double G = cu->G, E = cu->Ex;
-        if (BAND) /* lean_fold_row's band proper (fold_band_only), without its cuts */
-            acc = lean_band_mid(ODD, R, data, y, xk, xl, st_dtype_size(DT) * NC, &G, &E,
-                                cu->kxx, one, acc, wsum4, DT, NC);
-        else
-            acc = lean_fold_row(ODD, R, data, y, xk, xl, &G, &E, cu->kxx, one, acc, wsum4, DT,
-                                NC);
+    for (int y0 = y1; y0 < y2; y0 += 4) {
+        int xks[4], xls[4];
+        for (unsigned rows = rows_kept4(it, R, y0, y2, DDQ, xks, xls); rows; rows &= rows - 1) {
+            int r = __builtin_ctz(rows), y = y0 + r, xk = xks[r], xl = xls[r];
+            cur_to(cu, it, xk, y, wscale);
+            double G = cu->G, E = cu->Ex;
+            if (BAND) /* lean_fold_row's band proper (fold_band_only), without its cuts */
+                acc = lean_band_mid(ODD, R, data, y, xk, xl, st_dtype_size(DT) * NC, &G, &E,
+                                    cu->kxx, one, acc, wsum4, DT, NC);
+            else
+                acc = lean_fold_row(ODD, R, data, y, xk, xl, &G, &E, cu->kxx, one, acc, wsum4,
+                                    DT, NC);
+        }
     }
     return acc;
 }
@@ -1311,12 +1396,24 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
     }                                                                                        \
     PT_FOLD(sweep_f, 1, DT, NC)  /* the general recurrence rows */                          \
     PT_FOLD(sweep_fl, 2, DT, NC) /* the lean ones */                                         \
-    PT_FOLD(sweep_fp, 0, DT, NC) /* the per-tap expf */
+    PT_FOLD(sweep_fp, 0, DT, NC) /* the per-tap expf */                                     \
+    PT_FOLD_AVX2(DT, NC)
+/* The lean fold sweeps built for AVX2 as well (PT_AVX2: x86 with GCC or clang), chosen at run
+ * time when the CPU has it: the same C, so the same operations on the same values (no FMA:
+ * the target adds none, and ISO C mode contracts nothing), in VEX encodings (three operands,
+ * fewer register copies) and with pt_exp4 in one 256-bit vector. */
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#define PT_AVX2 1
+#define PT_FOLD_AVX2(DT, NC) PT_FOLD_AT(sweep_fla, 2, DT, NC, __attribute__((target("avx2"))))
+#else
+#define PT_FOLD_AVX2(DT, NC)
+#endif
 /* A fold sweep with weights by REC; a constant face: every tap reads texel 0 (not the read
  * sweeps' sum). */
-#define PT_FOLD(F, REC, DT, NC)                                                              \
-    static void F##_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,        \
-                                int constant)                                               \
+#define PT_FOLD(F, REC, DT, NC) PT_FOLD_AT(F, REC, DT, NC, )
+#define PT_FOLD_AT(F, REC, DT, NC, ATTR)                                                     \
+    ATTR static void F##_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
+                                     int constant)                                          \
     {                                                                                        \
         if (constant)                                                                        \
             sweep2_t(c, ev, od, d, 1, SW_FOLD, REC, DT, NC);                                 \
@@ -1348,6 +1445,27 @@ __attribute__((noinline)) static float sweep_weight_lean(tc *c, const ti *it, pt
     return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
 }
 
+#ifdef PT_AVX2
+__attribute__((noinline, target("avx2"))) static float sweep_weight_lean_avx2(tc *c,
+                                                                            const ti *it,
+                                                                            pt_kf *kf)
+{
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
+}
+#endif
+
+/* Whether the lean sweeps' AVX2 instances run (PT_LEAN on a CPU with AVX2: what libgcc found
+ * at start-up). */
+static int lean_avx2(int wmode)
+{
+#ifdef PT_AVX2
+    return wmode == PT_LEAN && __builtin_cpu_supports("avx2");
+#else
+    (void)wmode;
+    return 0;
+#endif
+}
+
 /* The read and fold sweeps of texel type dt (0..3) with nc (1..4) channels (pertap: the fold
  * sweeps with one libm expf per tap). */
 static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_fn *fold)
@@ -1361,6 +1479,15 @@ static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_f
                                       PT_ROW(sweep_fp, 2), PT_ROW(sweep_fp, 3)};
     static const sweep_fn fl[4][4] = {PT_ROW(sweep_fl, 0), PT_ROW(sweep_fl, 1),
                                       PT_ROW(sweep_fl, 2), PT_ROW(sweep_fl, 3)};
+#ifdef PT_AVX2
+    static const sweep_fn fla[4][4] = {PT_ROW(sweep_fla, 0), PT_ROW(sweep_fla, 1),
+                                       PT_ROW(sweep_fla, 2), PT_ROW(sweep_fla, 3)};
+    if (lean_avx2(wmode)) {
+        *rd = r[dt][nc - 1];
+        *fold = fla[dt][nc - 1];
+        return;
+    }
+#endif
 #undef PT_ROW
     *rd = r[dt][nc - 1];
     *fold = wmode == PT_PERTAP ? fp[dt][nc - 1] : wmode == PT_GENERAL ? f[dt][nc - 1]
@@ -1658,6 +1785,10 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     proto.wt = wmode == PT_PERTAP    ? sweep_weight_pertap
                : wmode == PT_GENERAL ? sweep_weight_general
                                      : sweep_weight_lean;
+#ifdef PT_AVX2
+    if (lean_avx2(wmode))
+        proto.wt = sweep_weight_lean_avx2;
+#endif
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
@@ -1690,6 +1821,13 @@ int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_q
 {
     int lrc = st_set_levels(s, NULL);
     return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, PT_PERTAP);
+}
+
+int st_ptextri_batch_baseline(const st_set *s, const st_sample_opts *o, const st_query *q,
+                              size_t n, float *out, float *coverage, uint8_t *status)
+{
+    int lrc = st_set_levels(s, NULL);
+    return lrc ? lrc : tri_batch(s, o, q, n, out, coverage, status, PT_LEAN_BASE);
 }
 
 int st_ptextri_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q,

@@ -341,7 +341,8 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
 }
 
 /* The lean recurrence sweeps st_ptextri_batch runs (Clamp's fold sweeps, Discard's
- * whole-kernel weight) against the general ones (st_ptextri_batch_general: row_clamp over
+ * whole-kernel weight) and their baseline instances (st_ptextri_batch_baseline: the same
+ * sweeps without AVX2) against the general ones (st_ptextri_batch_general: row_clamp over
  * row_same, row_step and row_band_t): every output, coverage and status the same bits, on
  * every set and group above (with and without the coverage array) and on queries like
  * bench_ptex's (uv uniform over the square, so half past the diagonal edge, isotropic
@@ -355,7 +356,7 @@ static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
     float *o1 = b.o1, *c1 = b.c1, *o2 = b.o2, *c2 = b.c2;
     uint8_t *s1 = b.s1, *s2 = b.s2;
     st_set *file0 = NULL;
-    int groups = 0, differ = 0, recurrence_ran = 0;
+    int groups = 0, differ = 0, base_differ = 0, recurrence_ran = 0;
     for (size_t si = 0; si < NSETS; si++) {
         st_set *s;
         const st_set *ss = nth_set(si, &file0, &s);
@@ -379,18 +380,24 @@ static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
                 for (int mode = 0; mode < 3; mode++)
                     for (int wc = 0; wc < 2; wc++) {
                         st_sample_opts o = group_opts(g, mode);
-                        memset(c1, 0, sizeof(float) * NQ);
                         memset(c2, 0, sizeof(float) * NQ);
-                        int r1 = st_ptextri_batch(ss, &o, q, NQ, o1, wc ? c1 : NULL, s1);
                         int r2 = st_ptextri_batch_general(ss, &o, q, NQ, o2, wc ? c2 : NULL, s2);
                         groups++;
-                        int d = r1 != r2 || memcmp(s1, s2, NQ) != 0 ||
-                                memcmp(o1, o2, sizeof(float) * nc * NQ) != 0 ||
-                                memcmp(c1, c2, sizeof(float) * NQ) != 0;
-                        if (d)
-                            print_message("lean differs: set %zu kind %d group %d mode %d "
-                                          "coverage %d\n", si, kind, g, mode, wc);
-                        differ += d;
+                        /* st_ptextri_batch (its AVX2 instances on a CPU with AVX2), then the
+                         * baseline instances (what a CPU without AVX2 runs) */
+                        for (int base = 0; base < 2; base++) {
+                            memset(c1, 0, sizeof(float) * NQ);
+                            int r1 = (base ? st_ptextri_batch_baseline : st_ptextri_batch)(
+                                ss, &o, q, NQ, o1, wc ? c1 : NULL, s1);
+                            int d = r1 != r2 || memcmp(s1, s2, NQ) != 0 ||
+                                    memcmp(o1, o2, sizeof(float) * nc * NQ) != 0 ||
+                                    memcmp(c1, c2, sizeof(float) * NQ) != 0;
+                            if (d)
+                                print_message("%s differs: set %zu kind %d group %d mode %d "
+                                              "coverage %d\n", base ? "baseline" : "lean", si,
+                                              kind, g, mode, wc);
+                            *(base ? &base_differ : &differ) += d;
+                        }
                         if (mode == ST_MODE_CLAMP && !wc) {
                             st_ptextri_batch_pertap(ss, &o, q, NQ, o2, NULL, s2);
                             recurrence_ran += memcmp(o1, o2, sizeof(float) * nc * NQ) != 0;
@@ -401,10 +408,11 @@ static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
     }
     st_set_free(file0);
     pair_free(&b);
-    print_message("lean vs general recurrence sweeps: %d of %d groups of %d queries differ; "
-                  "%d Clamp groups differ from the per-tap expf\n", differ, groups, NQ,
-                  recurrence_ran);
+    print_message("lean vs general recurrence sweeps: %d of %d groups of %d queries differ "
+                  "(baseline instances: %d); %d Clamp groups differ from the per-tap expf\n",
+                  differ, groups, NQ, base_differ, recurrence_ran);
     assert_int_equal(differ, 0);
+    assert_int_equal(base_differ, 0);
     assert_true(recurrence_ran > 0);
 }
 
