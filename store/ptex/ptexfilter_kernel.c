@@ -351,7 +351,8 @@ void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2)
 
 /* The kernel function at x1 + i * step, i < n: Ptex's gaussian exp(-2x^2) or the bicubic
  * family, four points at a time (w has room for n rounded up to 4).
- * exp is 2^(x log2 e) with a degree-6 polynomial on [-1/2, 1/2]: relative error about 2e-7,
+ * exp is 2^(x log2 e) with a degree-6 polynomial on [-1/2, 1/2] (pk_exp2_4, shared with the
+ * triangle filter's read sweeps): relative error about 2e-7,
  * against the ulp of the exp that Ptex calls. */
 typedef float v4f __attribute__((vector_size(16)));
 typedef int32_t v4i __attribute__((vector_size(16)));
@@ -363,22 +364,7 @@ static void kernel_eval(const pk_params *p, float x1, float step, float *w, int 
         v4f r, iv = {(float)i, (float)(i + 1), (float)(i + 2), (float)(i + 3)};
         v4f xv = x1 + iv * step;
         if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
-            v4f y = xv * xv * -2.0f * 1.44269504f;
-            v4i lo = y < -126.0f;
-            v4i yb, mb;
-            memcpy(&yb, &y, 16);
-            v4f m126 = {-126.0f, -126.0f, -126.0f, -126.0f};
-            memcpy(&mb, &m126, 16);
-            yb = (yb & ~lo) | (mb & lo);
-            memcpy(&y, &yb, 16);
-            v4i ii = __builtin_convertvector(y - 0.5f, v4i); /* y <= 0: nearest */
-            v4f f = y - __builtin_convertvector(ii, v4f);
-            v4f q = 1.0f + f * (0.693147181f + f * (0.240226507f + f * (0.0555041087f +
-                    f * (0.00961812911f + f * (0.00133335581f + f * 0.000154035304f)))));
-            v4i bits = (ii + 127) << 23;
-            v4f sc;
-            memcpy(&sc, &bits, 16);
-            r = q * sc;
+            r = pk_exp2_4(xv * xv * -2.0f * 1.44269504f);
         } else {
             v4i xb;
             memcpy(&xb, &xv, 16);

@@ -69,6 +69,44 @@ static inline int pk_res_from_width(float w)
 typedef float pk_v4f __attribute__((vector_size(16)));
 typedef int32_t pk_v4i __attribute__((vector_size(16)));
 
+/* 2^y in each lane, for y below 1/2 (the Gaussian weights: y = -x^2 * 2 log2(e) for the
+ * quad filters' kernel_eval, y = -Q * 3.5^2 / 2 * log2(e) for the triangle filter's read
+ * sweeps): y clamped to -126 from below, y = n + f with n = (int)(y - 1/2) (y - 1/2 rounded
+ * towards 0: the nearest integer for y <= 0 and for 0 <= y < 1/2, |f| <= 1/2), 2^f by a
+ * degree-6 polynomial (relative error about 2e-7), times 2^n made in the exponent bits. One
+ * implementation for both: kernel_eval's weights are these bits (ptexfilter_simd.c's AVX2
+ * copy repeats them 8 lanes at a time, bit for bit). */
+__attribute__((always_inline)) static inline pk_v4f pk_exp2_4(pk_v4f y)
+{
+    /* the constants in memory, whole vectors (operands of the vector instructions, not
+     * scalars broadcast at each use) */
+#define PK_C4(c) {c, c, c, c}
+    static const pk_v4f k[9] = {PK_C4(-126.0f), PK_C4(0.5f), PK_C4(1.0f),
+                                PK_C4(0.693147181f), PK_C4(0.240226507f),
+                                PK_C4(0.0555041087f), PK_C4(0.00961812911f),
+                                PK_C4(0.00133335581f), PK_C4(0.000154035304f)};
+#undef PK_C4
+#ifdef __SSE2__
+    /* maxps gives its second operand unless the first is greater: y, or -126 where y is
+     * below it (a NaN y: y), the select below in one instruction */
+    y = (pk_v4f)_mm_max_ps((__m128)k[0], (__m128)y);
+#else
+    pk_v4i lo = y < k[0];
+    pk_v4i yb, mb;
+    memcpy(&yb, &y, 16);
+    memcpy(&mb, &k[0], 16);
+    yb = (yb & ~lo) | (mb & lo);
+    memcpy(&y, &yb, 16);
+#endif
+    pk_v4i ii = __builtin_convertvector(y - k[1], pk_v4i); /* y <= 0: nearest */
+    pk_v4f f = y - __builtin_convertvector(ii, pk_v4f);
+    pk_v4f q = k[2] + f * (k[3] + f * (k[4] + f * (k[5] + f * (k[6] + f * (k[7] + f * k[8])))));
+    pk_v4i bits = (ii + 127) << 23;
+    pk_v4f sc;
+    memcpy(&sc, &bits, 16);
+    return q * sc;
+}
+
 static inline float pk_hermite_blur(float x)
 {
     x = __builtin_fabsf(x);

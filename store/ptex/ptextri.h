@@ -29,10 +29,12 @@
 int st_ptextri_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                      float *out, float *coverage, uint8_t *status);
 
-/* st_ptextri_batch with Clamp's folded sweeps and Discard's whole-kernel weight (the coverage's
- * denominator) weighing each tap with one libm expf, as Traverse does, instead of stepping
- * the weights by recurrence (the definition those approximate to about 1e-6 relatively;
- * Traverse, the point filter and Discard's values are the same bits either way). For tests. */
+/* st_ptextri_batch with every weight one libm expf a tap, as Ptex does (the outputs of the
+ * builds before session 17): the read sweeps (Traverse, Discard's kept taps, Clamp's kernels
+ * inside the face) instead of the polynomial exp four taps at a time, Clamp's folded sweeps
+ * and Discard's whole-kernel weight (the coverage's denominator) instead of the recurrence
+ * (the definition those approximate to about 1e-6 relatively; the point filter's values are
+ * the same bits either way). For tests. */
 int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_query *q,
                             size_t n, float *out, float *coverage, uint8_t *status);
 

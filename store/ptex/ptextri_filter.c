@@ -13,7 +13,7 @@
  * small triangles: the upright ones (texel (x, y), centroid (x + 1/3, y + 1/3)) and the
  * inverted ones (stored mirrored, visited as upright ones of the face flipped across its
  * diagonal), each swept row by row with Q updated by finite differences, in float, in the
- * order Ptex uses, so the result matches the library's to float rounding.
+ * order Ptex uses, so the taps are the library's (the weights: below).
  *
  * Discard: no piece crosses an edge; the result is divided by the weight kept; coverage =
  * kept / the weight of the whole kernel (over the triangle lattice extended past the face),
@@ -27,11 +27,14 @@
  *
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
- * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are one
- * libm expf per tap, kept for those bits (docs/ptex.md, "Speed-up of the triangle path"),
- * except in Clamp's fold sweeps and Discard's whole-kernel weight (seamtex's own, no Ptex
- * reference), which step them by recurrence (pt_rec, pt_cur: within about 1e-6 of the
- * per-tap expf, which st_ptextri_batch_pertap keeps for the tests; docs/ptex.md, "Session 13,
+ * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are not
+ * libm's expf per tap (Ptex's; st_ptextri_batch_pertap keeps it for the tests, the old
+ * bits): the read sweeps (Traverse, Discard's kept taps, Clamp's kernels inside the face)
+ * weigh the kept taps of rows of 3 taps or more four at a time with the quad filters'
+ * polynomial exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex.md, "trix"), shorter
+ * rows one expf a tap; Clamp's fold sweeps and
+ * Discard's whole-kernel weight (seamtex's own, no Ptex reference) step them by recurrence
+ * (pt_rec, pt_cur: within about 1e-6 of the per-tap expf; docs/ptex.md, "Session 13,
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
  * general rows' taps, texels, weights and order with less work a row); the general rows stay
  * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex.md,
@@ -624,6 +627,105 @@ row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float 
     return acc;
 }
 
+/* The lanes of m that are true (-1), as the bits of an int. */
+static inline int mask4(pt_v4i m)
+{
+#ifdef __SSE2__
+    return _mm_movemask_ps((__m128)m);
+#else
+    return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8);
+#endif
+}
+
+/* Four taps of a read sweep's row with Q values qv (a lane of 1: no tap): the kept ones
+ * (Q < 1) weigh 2^(Q gl) wscale (gl = gs log2(e)), by pk_exp2_4 for the four at once, and add
+ * in lane order, as row_step adds them, the texel at px + lane * step (READ) or one (a
+ * constant face: lane 3, or wsum4, sums the weights) times the weight. Returns the kept
+ * lanes' mask. */
+__attribute__((always_inline)) static inline int
+read_blk4(const uint8_t *px, ptrdiff_t step, pt_v4f qv, pt_v4f gl, pt_v4f wscale, pt_v4f one,
+          pt_v4f *accp, float *wsum4, int READ, unsigned DT, unsigned NC)
+{
+    int m = mask4(qv < 1.0f);
+    if (!m)
+        return m;
+    pt_v4f w = pk_exp2_4(qv * gl) * wscale, acc = *accp;
+#define PT_LANE(L)                                                                           \
+    do {                                                                                     \
+        pt_v4f wl = __builtin_shufflevector(w, w, L, L, L, L);                               \
+        acc += (READ ? texel_vec(px + (L) * step, one, DT, NC) : one) * wl;                  \
+        if (NC == 4)                                                                         \
+            *wsum4 += wl[0];                                                                 \
+    } while (0)
+    if (m == 15) { /* the common case: no test a tap */
+        PT_LANE(0);
+        PT_LANE(1);
+        PT_LANE(2);
+        PT_LANE(3);
+    } else {
+        if (m & 1)
+            PT_LANE(0);
+        if (m & 2)
+            PT_LANE(1);
+        if (m & 4)
+            PT_LANE(2);
+        if (m & 8)
+            PT_LANE(3);
+    }
+#undef PT_LANE
+    *accp = acc;
+    return m;
+}
+
+/* Q at a row's tap, then Q, DQ stepped to the next tap (row_step's operations). */
+static inline float q_step(float *Q, float *DQ, float DDQ)
+{
+    float q = *Q;
+    *Q += *DQ;
+    *DQ += DDQ;
+    return q;
+}
+
+/* A read sweep's rows of fewer taps than this keep the per-tap expf (row_step): a vector exp
+ * for one or two kept taps costs more than their expf calls (docs/ptex.md, "trix"). */
+#define PT_W4_MIN 3
+
+/* The read sweeps' rows (Traverse, Discard, Clamp's kernels inside the face): n taps as
+ * row_step takes them with rc == NULL - the same float Q, DQ chain, so the same taps (Q < 1),
+ * texels and order of the sums - but the weights four kept taps at a time by pk_exp2_4
+ * (within about 2e-7 relatively of the per-tap expf, which st_ptextri_batch_pertap keeps:
+ * docs/ptex.md, "trix"). READ: tap i reads the texel at px + i * step; else none
+ * (read_blk4). The taps before the first kept one are stepped over one by one. *Q, *DQ are
+ * left as after the last tap, except with LAST (the row's last run): then the row stops at
+ * the end of its kept taps when DDQ > 0 (Q falls then rises along the row: DQ only grows, so
+ * the kept taps are one run) and *Q, *DQ are not meaningful. */
+__attribute__((always_inline)) static inline pt_v4f
+row_read4(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float DDQ,
+          pt_v4f gl, pt_v4f wscale, pt_v4f one, pt_v4f acc, float *wsum4, int READ, int LAST,
+          unsigned DT, unsigned NC)
+{
+    float Q = *Qp, DQ = *DQp;
+    for (; n > 0 && !(Q < 1.0f); n--, px += step)
+        q_step(&Q, &DQ, DDQ);
+    for (; n >= 4; n -= 4, px += 4 * step) {
+        float q0 = q_step(&Q, &DQ, DDQ), q1 = q_step(&Q, &DQ, DDQ);
+        float q2 = q_step(&Q, &DQ, DDQ), q3 = q_step(&Q, &DQ, DDQ);
+        int m = read_blk4(px, step, (pt_v4f){q0, q1, q2, q3}, gl, wscale, one, &acc, wsum4,
+                          READ, DT, NC);
+        if (LAST && m != 15 && DDQ > 0.0f) /* the kept run ended in this block */
+            return acc;
+    }
+    if (n > 0) { /* 1 to 3 taps left: the other lanes 1 (no tap) */
+        float q0 = q_step(&Q, &DQ, DDQ), q1 = n > 1 ? q_step(&Q, &DQ, DDQ) : 1.0f;
+        float q2 = n > 2 ? q_step(&Q, &DQ, DDQ) : 1.0f;
+        read_blk4(px, step, (pt_v4f){q0, q1, q2, 1.0f}, gl, wscale, one, &acc, wsum4, READ,
+                  DT, NC);
+    }
+    *Qp = Q;
+    *DQp = DQ;
+    return acc;
+}
+
 int st_ptextri_band_check(int R, int odd, int y, int xa, int xb, const float *texels,
                           int recurrence)
 {
@@ -1212,6 +1314,12 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     const float wscale = it->wscale;
     const int reads = how == SW_READ && !constant;
+    /* a read sweep with REC set: the weights by pk_exp2_4, four taps at a time (row_read4;
+     * REC 0: the per-tap expf) */
+    const int W4 = how == SW_READ && REC;
+    const pt_v4f gl = {gs * 1.44269504f, gs * 1.44269504f, gs * 1.44269504f,
+                       gs * 1.44269504f}; /* 2^(Q gl) = exp(gs Q) */
+    const pt_v4f wsv = {wscale, wscale, wscale, wscale};
     /* only the rows with a tap: x1 < x2 needs R - y - hi[2] < hi[0] and lo[0] < R - y - lo[2]
      * (the rows left out visit nothing) */
     int y1 = it->lo[1], y2 = it->hi[1];
@@ -1230,8 +1338,12 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
             int x1, x2;
             float Q, DQ;
             row_span(it, R, y, &x1, &x2, &Q, &DQ);
-            acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ, gs,
-                           wscale, one, acc, &wsum4, NULL, DT, NC);
+            if (W4 && x2 - x1 >= PT_W4_MIN)
+                acc = row_read4(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ,
+                                gl, wsv, one, acc, &wsum4, 1, 1, DT, NC);
+            else
+                acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ,
+                               gs, wscale, one, acc, &wsum4, NULL, DT, NC);
         }
         y2 = y1; /* done: the loop below visits nothing */
     }
@@ -1314,6 +1426,23 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
         int x1, x2;
         float Q, DQ;
         row_span(it, R, y, &x1, &x2, &Q, &DQ);
+        if (W4 && x2 - x1 >= PT_W4_MIN) { /* the row's taps before, in and after the level's
+                                            * row, as the loop below */
+            if (!(reads && y >= 0 && y < R)) { /* none read */
+                acc = row_read4(x2 - x1, data, 0, &Q, &DQ, DDQ, gl, wsv, one, acc, &wsum4, 0, 1,
+                                DT, NC);
+                continue;
+            }
+            int a = clampi(0, x1, x2), b = clampi(R, a, x2);
+            acc = row_read4(a - x1, data, 0, &Q, &DQ, DDQ, gl, wsv, one, acc, &wsum4, 0, 0, DT,
+                            NC);
+            acc = row_read4(b - a, data + ((size_t)y * (size_t)R + (size_t)a) * ts,
+                            (ptrdiff_t)ts, &Q, &DQ, DDQ, gl, wsv, one, acc, &wsum4, 1, 0, DT,
+                            NC);
+            acc = row_read4(x2 - b, data, 0, &Q, &DQ, DDQ, gl, wsv, one, acc, &wsum4, 0, 1, DT,
+                            NC);
+            continue;
+        }
         if (how == SW_FOLD) {
             if (constant) /* every tap reads texel 0 */
                 acc = row_same(x2 - x1, data, &Q, &DQ, DDQ, gs, wscale, one, acc, &wsum4, NULL,
@@ -1375,25 +1504,29 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
     c->weight = w;
 }
 
+/* A read sweep F (its constant faces' instance: F##c), weights by pk_exp2_4 (W4) or the
+ * per-tap expf. */
+#define PT_READ(F, W4, DT, NC)                                                               \
+    __attribute__((noinline)) static void F##c_##DT##_##NC(tc *c, const ti *ev, const ti *od, \
+                                                           const uint8_t *d)                 \
+    {                                                                                        \
+        sweep2_t(c, ev, od, d, 1, SW_READ, W4, DT, NC);                                      \
+    }                                                                                        \
+    static void F##_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,        \
+                                int constant)                                               \
+    {                                                                                        \
+        if (constant) {                                                                      \
+            F##c_##DT##_##NC(c, ev, od, d);                                                  \
+            return;                                                                          \
+        }                                                                                    \
+        sweep2_t(c, ev, od, d, 0, SW_READ, W4, DT, NC);                                      \
+    }
 /* The read sweeps of a constant face or a 1x1 level (no texel read per tap, the one texel
  * times the summed weight after) are an instance of their own, sweep_rc_*; in the others, and
  * in the fold sweeps' two branches, `constant` is a constant. */
 #define PT_SWEEP(DT, NC)                                                                     \
-    __attribute__((noinline)) static void sweep_rc_##DT##_##NC(tc *c, const ti *ev,          \
-                                                               const ti *od,                 \
-                                                               const uint8_t *d)             \
-    {                                                                                        \
-        sweep2_t(c, ev, od, d, 1, SW_READ, 0, DT, NC);                                          \
-    }                                                                                        \
-    static void sweep_r_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,    \
-                                    int constant)                                           \
-    {                                                                                        \
-        if (constant) {                                                                      \
-            sweep_rc_##DT##_##NC(c, ev, od, d);                                              \
-            return;                                                                          \
-        }                                                                                    \
-        sweep2_t(c, ev, od, d, 0, SW_READ, 0, DT, NC);                                          \
-    }                                                                                        \
+    PT_READ(sweep_r, 1, DT, NC)  /* the weights by pk_exp2_4 (row_read4) */                 \
+    PT_READ(sweep_rp, 0, DT, NC) /* the per-tap expf (st_ptextri_batch_pertap) */           \
     PT_FOLD(sweep_f, 1, DT, NC)  /* the general recurrence rows */                          \
     PT_FOLD(sweep_fl, 2, DT, NC) /* the lean ones */                                         \
     PT_FOLD(sweep_fp, 0, DT, NC) /* the per-tap expf */                                     \
@@ -1473,6 +1606,8 @@ static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_f
 #define PT_ROW(F, DT) {F##_##DT##_1, F##_##DT##_2, F##_##DT##_3, F##_##DT##_4}
     static const sweep_fn r[4][4] = {PT_ROW(sweep_r, 0), PT_ROW(sweep_r, 1),
                                      PT_ROW(sweep_r, 2), PT_ROW(sweep_r, 3)};
+    static const sweep_fn rp[4][4] = {PT_ROW(sweep_rp, 0), PT_ROW(sweep_rp, 1),
+                                      PT_ROW(sweep_rp, 2), PT_ROW(sweep_rp, 3)};
     static const sweep_fn f[4][4] = {PT_ROW(sweep_f, 0), PT_ROW(sweep_f, 1),
                                      PT_ROW(sweep_f, 2), PT_ROW(sweep_f, 3)};
     static const sweep_fn fp[4][4] = {PT_ROW(sweep_fp, 0), PT_ROW(sweep_fp, 1),
@@ -1489,7 +1624,7 @@ static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_f
     }
 #endif
 #undef PT_ROW
-    *rd = r[dt][nc - 1];
+    *rd = wmode == PT_PERTAP ? rp[dt][nc - 1] : r[dt][nc - 1];
     *fold = wmode == PT_PERTAP ? fp[dt][nc - 1] : wmode == PT_GENERAL ? f[dt][nc - 1]
                                                                       : fl[dt][nc - 1];
 }

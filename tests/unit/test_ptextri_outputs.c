@@ -277,12 +277,18 @@ static void pair_free(pair_bufs *b)
     free(b->s2);
 }
 
-/* Clamp's folded sweeps and Discard's whole-kernel weight (the coverage's denominator) step
- * their weights by recurrence (ptextri_filter.c, pt_rec): against the per-tap expf on the
- * same sets and queries, Traverse, the point filter and Discard's values are the same bits,
- * statuses the same, and Clamp's values and Discard's coverage within 1e-5 (the Ptex
- * reference lines are checked to 1e-4; measured: about 1e-6). */
-static void recurrence_weights_match_the_per_tap_expf(void **state)
+/* st_ptextri_batch against st_ptextri_batch_pertap (every weight one libm expf, the old
+ * build's outputs: the hashes above) on the same sets and queries. The read sweeps (Traverse,
+ * Discard, Clamp's kernels inside the face) take the weights by the shared polynomial exp
+ * (pk_exp2_4, four taps at a time), Clamp's folded sweeps and Discard's whole-kernel weight
+ * (the coverage's denominator) step them by recurrence (pt_rec): the same taps, so the same
+ * statuses, and each weight within about 1e-6 relatively of the expf's (the polynomial's
+ * 2e-7, the roundings of the exponent's argument in either); a value, a weighted mean of
+ * texels in [0, 1], then moves by at most about twice that: Traverse's and Discard's values
+ * within 4e-6, Clamp's values and the coverage within 1e-5 (the Ptex reference lines are
+ * checked to 1e-4; measured: below 1e-6). A wrong weight (a coefficient of the polynomial,
+ * a weight given to the wrong tap) moves some values far more. */
+static void fast_weights_match_the_per_tap_expf(void **state)
 {
     (void)state;
     pair_bufs b = pair_begin();
@@ -290,8 +296,8 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
     float *o1 = b.o1, *c1 = b.c1, *o2 = b.o2, *c2 = b.c2;
     uint8_t *s1 = b.s1, *s2 = b.s2;
     st_set *file0 = NULL;
-    double max_out = 0.0, max_cov = 0.0;
-    int folded_differ = 0, exact_differ = 0;
+    double max_out[3] = {0.0, 0.0, 0.0}, max_cov = 0.0;
+    int differ[3] = {0, 0, 0};
     for (size_t si = 0; si < NSETS; si++) {
         st_set *s;
         const st_set *ss = nth_set(si, &file0, &s);
@@ -305,21 +311,15 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
                 assert_int_equal(st_ptextri_batch(ss, &o, q, NQ, o1, c1, s1),
                                  st_ptextri_batch_pertap(ss, &o, q, NQ, o2, c2, s2));
                 assert_memory_equal(s1, s2, NQ);
-                if (mode != ST_MODE_CLAMP) { /* values the same bits */
-                    exact_differ += memcmp(o1, o2, sizeof(float) * nc * NQ) != 0;
-                    if (mode == ST_MODE_TRAVERSE)
-                        exact_differ += memcmp(c1, c2, sizeof(float) * NQ) != 0;
-                } else {
-                    folded_differ += memcmp(o1, o2, sizeof(float) * nc * NQ) != 0;
-                }
+                differ[mode] += memcmp(o1, o2, sizeof(float) * nc * NQ) != 0;
                 for (size_t i = 0; i < NQ; i++) {
                     if (s1[i] != ST_Q_OK)
                         continue;
                     for (unsigned ch = 0; ch < nc; ch++) {
                         double d = fabs((double)o1[i * nc + ch] - (double)o2[i * nc + ch]);
                         assert_false(isnan(d));
-                        if (d > max_out)
-                            max_out = d;
+                        if (d > max_out[mode])
+                            max_out[mode] = d;
                     }
                     double dc = fabs((double)c1[i] - (double)c2[i]);
                     assert_false(isnan(dc));
@@ -331,13 +331,47 @@ static void recurrence_weights_match_the_per_tap_expf(void **state)
     }
     st_set_free(file0);
     pair_free(&b);
-    print_message("recurrence vs per-tap expf: max |value difference| %.3g, max |coverage "
-                  "difference| %.3g; %d Clamp groups differ at all\n", max_out, max_cov,
-                  folded_differ);
-    assert_int_equal(exact_differ, 0);
-    assert_true(folded_differ > 0); /* the recurrence path ran */
-    assert_true(max_out <= 1e-5);
+    print_message("polynomial / recurrence weights vs per-tap expf: max |value difference| "
+                  "Discard %.3g, Traverse %.3g, Clamp %.3g; max |coverage difference| %.3g; "
+                  "groups that differ at all: %d, %d, %d\n", max_out[ST_MODE_DISCARD],
+                  max_out[ST_MODE_TRAVERSE], max_out[ST_MODE_CLAMP], max_cov,
+                  differ[ST_MODE_DISCARD], differ[ST_MODE_TRAVERSE], differ[ST_MODE_CLAMP]);
+    /* the fast weights ran in every mode */
+    assert_true(differ[0] > 0 && differ[1] > 0 && differ[2] > 0);
+    assert_true(max_out[ST_MODE_TRAVERSE] <= 4e-6);
+    assert_true(max_out[ST_MODE_DISCARD] <= 4e-6);
+    assert_true(max_out[ST_MODE_CLAMP] <= 1e-5);
     assert_true(max_cov <= 1e-5);
+}
+
+/* The shared polynomial exp (ptexfilter_kernel.h, pk_exp2_4: the quad filters' gaussian
+ * weights and the triangle filter's read sweeps) against exp2 in double, lane by lane over
+ * y in [-126, 0.5) (the quad kernel's range and the triangle weights' [-8.84, 0], densely):
+ * relative error below 3e-7 (its polynomial's about 2e-7), each lane its own. */
+static void the_shared_exp2_is_within_3e_7_of_exp2(void **state)
+{
+    (void)state;
+    double worst = 0.0;
+    long n = 0;
+    for (int part = 0; part < 2; part++) {
+        float lo = part ? -9.0f : -126.0f, hi = part ? 0.5f : -9.0f;
+        int steps = part ? 400000 : 100000;
+        for (int i = 0; i < steps; i += 4) {
+            pk_v4f y;
+            for (int l = 0; l < 4; l++)
+                y[l] = lo + (hi - lo) * (float)(i + l) / (float)steps;
+            pk_v4f r = pk_exp2_4(y);
+            for (int l = 0; l < 4; l++) {
+                double want = exp2((double)y[l]);
+                double e = fabs((double)r[l] - want) / want;
+                if (e > worst)
+                    worst = e;
+                n++;
+            }
+        }
+    }
+    print_message("pk_exp2_4: %ld points, max relative error %.3g\n", n, worst);
+    assert_true(worst < 3e-7);
 }
 
 /* The lean recurrence sweeps st_ptextri_batch runs (Clamp's fold sweeps, Discard's
@@ -420,7 +454,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(triangle_filters_give_the_old_builds_outputs_bit_for_bit),
-        cmocka_unit_test(recurrence_weights_match_the_per_tap_expf),
+        cmocka_unit_test(fast_weights_match_the_per_tap_expf),
+        cmocka_unit_test(the_shared_exp2_is_within_3e_7_of_exp2),
         cmocka_unit_test(lean_sweeps_match_the_general_sweeps_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
