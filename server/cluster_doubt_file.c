@@ -281,11 +281,7 @@ void sts_cluster_doubt_load(sts_cluster *cl)
         free(buf);
         return;
     }
-    if (d) {
-        free(d->rec);
-        scl_kvs_free(&d->copies);
-        free(d);
-    }
+    sts_cluster_doubt_free_one(d);
     free(buf);
     sts_logf(&cl->srv->log, STS_ERROR, "cluster: %s: not a write in doubt of this node (%s): "
              "ignored and removed", path, why);

@@ -57,7 +57,7 @@ static int kvs_copy(scl_kvs *dst, const scl_kvs *src)
     return 0;
 }
 
-static void doubt_free(sts_cl_doubt *d)
+void sts_cluster_doubt_free_one(sts_cl_doubt *d)
 {
     if (!d)
         return;
@@ -66,12 +66,18 @@ static void doubt_free(sts_cl_doubt *d)
     free(d);
 }
 
+/* a claim, finalize or delete that etcd applied after its refusal is undone */
+static int undone_when_applied(int kind)
+{
+    return kind == STS_DOUBT_CLAIM || kind == STS_DOUBT_FINALIZE || kind == STS_DOUBT_DELETE;
+}
+
 void sts_cluster_doubt_set(sts_cluster *cl, sts_cl_doubt *d, int keep)
 {
     /* on disk first: the write is answered UNAVAILABLE after this returns */
     if (keep)
         sts_cluster_doubt_save(cl, d);
-    doubt_free(cl->doubt);
+    sts_cluster_doubt_free_one(cl->doubt);
     cl->doubt = d;
     __atomic_store_n(&cl->in_doubt, d != NULL, __ATOMIC_RELAXED);
     pthread_mutex_lock(&cl->mu);
@@ -91,7 +97,7 @@ int sts_cluster_doubts(sts_cluster *cl, const char *name)
 
 void sts_cluster_doubt_free(sts_cluster *cl)
 {
-    doubt_free(cl->doubt);
+    sts_cluster_doubt_free_one(cl->doubt);
     cl->doubt = NULL;
 }
 
@@ -308,8 +314,7 @@ int sts_cluster_resolve(sts_cluster *cl, scl_etcd *h)
                  * before undoing, so that a restart undoes it without asking again */
                 d->applied = 1;
                 d->applied_rev = cl->op_rev;
-                if (d->kind == STS_DOUBT_CLAIM || d->kind == STS_DOUBT_FINALIZE ||
-                    d->kind == STS_DOUBT_DELETE)
+                if (undone_when_applied(d->kind))
                     sts_cluster_doubt_save(cl, d);
             }
         }
@@ -319,8 +324,7 @@ int sts_cluster_resolve(sts_cluster *cl, scl_etcd *h)
                  applied ? "was applied late: undoing it" : "did not apply (fenced)");
         /* a claim, finalize or delete that applied is undone; a take-back or put-back that
          * did not apply is sent again */
-        if (applied && (d->kind == STS_DOUBT_CLAIM || d->kind == STS_DOUBT_FINALIZE ||
-                        d->kind == STS_DOUBT_DELETE))
+        if (applied && undone_when_applied(d->kind))
             STS_CL_ADD(cl, doubts_undone, 1);
         switch (d->kind) {
         case STS_DOUBT_CLAIM:
@@ -355,7 +359,7 @@ int sts_cluster_resolve(sts_cluster *cl, scl_etcd *h)
         }
         if (!cl->doubt)
             sts_cluster_doubt_set(cl, NULL, 1);   /* clears doubt_set and the file */
-        doubt_free(d);
+        sts_cluster_doubt_free_one(d);
         if (rc != SCL_OK)
             return rc;
     }

@@ -214,6 +214,8 @@ void sts_cluster_doubt_set(sts_cluster *cl, sts_cl_doubt *d, int keep);
 /* 1 when name is the set of a write in doubt (repair keeps its local copy). */
 int  sts_cluster_doubts(sts_cluster *cl, const char *name);
 void sts_cluster_doubt_free(sts_cluster *cl);
+/* Frees d, its record and copies/ keys (NULL is fine). */
+void sts_cluster_doubt_free_one(sts_cl_doubt *d);
 
 /* ---- cluster_doubt_file.c ---- */
 /* Writes d to <data-dir>/cluster-doubt whole (NULL: removes the file); 0, or -1 (logged).
