@@ -387,10 +387,12 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype);
 
 /* The fused width-4 path of 8 queries at once (ptexfilter_simd.c, AVX2), after klanes8
  * (ptexfilter_lanes.h: k the block's checks and set-up): for the lanes of k->fast whose
- * kernel is the fused path's common case (4 x 4 taps, none zero, the window inside the
- * face, total weight > 0) writes the nc values of lane j at out + j * nc, bit for bit what
- * pf_fast_fn writes, and returns their mask; sets *over to the lanes of the same case but
- * for a window that overhangs the face, kout[lane] (kout: 8 of them) the kernel pf_fast_fn
+ * kernel is the fused path's common case (4 x 4 taps, none zero - or, but for 1-channel half
+ * and float texels, only the first of an axis: a query on a texel centre, whose axis
+ * pf_fast_fn strips to 3 taps - the window after any strip inside the face, total weight
+ * > 0) writes the nc values of lane j at out + j * nc, bit for bit what pf_fast_fn writes,
+ * and returns their mask; sets *over to the lanes with no zero tap but for a window that
+ * overhangs the face, kout[lane] (kout: 8 of them) the kernel pf_fast_fn
  * hands over for them (its return 2) and wout[lane] its pk_weight; the other lanes are left
  * to the per-query path (their outputs untouched). NULL but for the width-4 filters (any
  * texel type, 1..4 channels) with AVX2. */

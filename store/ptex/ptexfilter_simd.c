@@ -37,8 +37,9 @@
  * The width-4 filters' common case 8 queries at a time (pf_w4x8_select, after
  * ptexfilter_lanes.c's klanes8 has classified the block): w4_body's set-up and taps lane by
  * lane in 8-lane vectors (one lane a query), its operations in its order, so bit for bit;
- * the kernels that overhang their face handed over as w4_body hands them over. The 4 x 4
- * window: for 1-channel u8 and u16 texels in the vectors too (w4x8_body: the window rows
+ * the kernels that overhang their face handed over as w4_body hands them over; a query on a
+ * texel centre, whose bicubic-family tap 0 is zero, stripped as w4_tail strips it (3 taps one
+ * texel on, w4x8_lead). The 4 x 4 window: for 1-channel u8 and u16 texels in the vectors too (w4x8_body: the window rows
  * gathered); for the other types and channel counts (w4x8_each) per lane served, w4_tail's
  * own window loop on the taps transposed out of the vectors.
  *
@@ -1074,9 +1075,10 @@ PF_TARGET __m256i w4x8_axis(__m256 x, __m256 bw, __m256i lg, __m256i *r, __m256i
 }
 
 /* Tap t of 8 queries (x1 + t * st, kernel8's function), stored to k; *sum += it, and the
- * lanes where it is zero (w4_body strips those: not its common case) cleared from *ok. */
+ * lanes where it is zero (w4_body strips those) cleared from *ok, but for tap 0: its zero
+ * lanes go to *lead (w4x8_lead strips them). */
 PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float *k,
-                          __m256 *sum, __m256i *ok, int G)
+                          __m256 *sum, __m256i *ok, __m256i *lead, int G)
 {
     /* The lanes that count (w4x8_axis' common case) have a step st = 1 / uwpix in (1/2, 1]
      * and x1 in [-2, -1], so |x| <= 2: tap 0 is x1 itself (x1 + 0 st differs from it only
@@ -1091,12 +1093,39 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
         w = exp2_8(y);
     } else {
         w = kernel8_as(p, x, 0);
-        *ok = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ)),
-                                  *ok);
+        __m256i z = _mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ));
+        if (t)
+            *ok = _mm256_andnot_si256(z, *ok);
+        else
+            *lead = z;
     }
     *sum = _mm256_add_ps(*sum, w);
     _mm256_storeu_ps(k, w);
     return w;
+}
+
+/* The lanes of lead (tap 0 zero, taps 1 to 3 not: a query on a texel centre, a bicubic-family
+ * tap at distance 2) stripped as w4_tail strips them (pk_strip_zeros): taps 1 to 3 moved to
+ * 0 to 2, +0 after them, the window's first texel *u0 one texel on; the other lanes left as
+ * they are. The taps' sum is not touched: w4_tail's is the sum before the strip. */
+PF_TARGET void w4x8_lead(float (*tk)[8], __m256i lead, __m256i *u0)
+{
+    __m256 m = _mm256_castsi256_ps(lead);
+    __m256 k1 = _mm256_loadu_ps(tk[1]), k2 = _mm256_loadu_ps(tk[2]), k3 = _mm256_loadu_ps(tk[3]);
+    _mm256_storeu_ps(tk[0], _mm256_blendv_ps(_mm256_loadu_ps(tk[0]), k1, m));
+    _mm256_storeu_ps(tk[1], _mm256_blendv_ps(k1, k2, m));
+    _mm256_storeu_ps(tk[2], _mm256_blendv_ps(k2, k3, m));
+    _mm256_storeu_ps(tk[3], _mm256_andnot_ps(m, k3));
+    *u0 = _mm256_sub_epi32(*u0, lead); /* lead lanes are -1 */
+}
+
+/* w4_tail's test after a strip along one axis: the window of 4 + lead taps (lead -1: 3)
+ * from u0 overhangs the face (u0 < 0 or past 2^r). */
+PF_TARGET __m256i w4x8_over(__m256i u0, __m256i lead, __m256i r)
+{
+    __m256i end = _mm256_add_epi32(u0, _mm256_add_epi32(_mm256_set1_epi32(4), lead));
+    return _mm256_or_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), u0),
+                           _mm256_cmpgt_epi32(end, _mm256_sllv_epi32(_mm256_set1_epi32(1), r)));
 }
 
 /* The first NCOL (<= 4) texels of one window row of 8 queries, type DT (u8 or u16), 1
@@ -1269,7 +1298,8 @@ PF_TARGET __m256i w4x8_axes(const pf_klanes *k, w4x8_ax *a)
 
 /* 8 queries of a width-4 filter on 1-channel u8 or u16 texels (DT), the block's set-up k
  * (klanes8): the lanes of k->fast that w4_body would serve in its common case (4 x 4 taps,
- * none zero, the window inside the face, total weight > 0) get w4_body's result, lane by
+ * none zero, the window inside the face, total weight > 0), or with w4_tail's strip of a
+ * zero tap 0 (w4x8_lead: the window after it inside the face), get w4_body's result, lane by
  * lane its operations in its order, so bit for bit; out[j] for those lanes j written, their
  * mask returned. The lanes of that case but for a window that overhangs the face get the
  * kernel w4_body hands over in kout[j] and its weight in wout[j], their mask in *over. The other lanes are left alone
@@ -1288,15 +1318,29 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         return *over = 0;
     float tu[4][8], tv[4][8]; /* the taps: the window's, and the kernels handed over */
     __m256 sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
+    __m256i zv = _mm256_setzero_si256(), zu = zv; /* the lanes whose tap 0 is zero */
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        w4x8_tap(p, a.xv, a.stv, t, tv[t], &sv, &ok, G);
+        w4x8_tap(p, a.xv, a.stv, t, tv[t], &sv, &ok, &zv, G);
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        w4x8_tap(p, a.xu, a.stu, t, tu[t], &su, &ok, G);
-    __m256i out_of = _mm256_or_si256(a.ou, a.ov);
-    /* the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)); the window overhangs the
-     * face: handed over (w4_tail's hand_over) */
+        w4x8_tap(p, a.xu, a.stu, t, tu[t], &su, &ok, &zu, G);
+    /* the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)) */
     __m256 total = _mm256_mul_ps(su, sv);
-    *over = w4x8_hand(ok, out_of, total, a.ru, a.rv, a.u0, a.v0, tu, tv, kout, wout);
+    zu = _mm256_and_si256(zu, ok);
+    zv = _mm256_and_si256(zv, ok);
+    __m256i lead = _mm256_or_si256(zu, zv), hand = ok;
+    if (!G && !_mm256_testz_si256(lead, lead)) {
+        /* tap 0 zero (on a texel centre): w4_tail strips it, a 3-tap axis one texel on,
+         * and tests the window against the face again; of those, the ones still
+         * overhanging are left to the per-query path (not handed over) */
+        w4x8_lead(tu, zu, &a.u0);
+        w4x8_lead(tv, zv, &a.v0);
+        a.ou = w4x8_over(a.u0, zu, a.ru);
+        a.ov = w4x8_over(a.v0, zv, a.rv);
+        hand = _mm256_andnot_si256(lead, ok);
+    }
+    /* the window overhangs the face: handed over (w4_tail's hand_over) */
+    __m256i out_of = _mm256_or_si256(a.ou, a.ov);
+    *over = w4x8_hand(hand, out_of, total, a.ru, a.rv, a.u0, a.v0, tu, tv, kout, wout);
     const __m256 zf = _mm256_setzero_ps();
     ok = _mm256_andnot_si256(out_of, ok);
     ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
@@ -1316,11 +1360,17 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     __m256i resu = _mm256_sllv_epi32(one, a.ru);
     __m256i ae, ao, re, ro;
     w4x8_rows(de, dof, a.u0, a.v0, resu, sh, &ae, &ao, &re, &ro);
-    /* w4_tail's window: fma(t, kv_j, col) down the rows from +0 */
+    /* w4_tail's window: fma(t, kv_j, col) down the rows from +0. A lane stripped along v has
+     * 3 rows: its fourth (past the face, perhaps past the level) is not read but gathered as
+     * 0 and weighted +0, so col + (+0): col (never -0: a sum from +0). One stripped along u
+     * has its fourth column weighted +0 in the dot: +0, as in w4_tail (integer texels are
+     * finite), read from the row's next texel (inside the face, or the arena's slack) */
+    __m256i me3 = _mm256_slli_epi64(_mm256_andnot_si256(zv, ok), 32),
+            mo3 = _mm256_andnot_si256(zv, ok);
     __m256 col[4] = {zf, zf, zf, zf};
     _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
         __m256 t[4];
-        w4x8_row(ae, ao, me, mo, DT, t, 4);
+        w4x8_row(ae, ao, j == 3 ? me3 : me, j == 3 ? mo3 : mo, DT, t, 4);
         __m256 w = _mm256_loadu_ps(kv[j]);
         _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
             col[i] = _mm256_fmadd_ps(t[i], w, col[i]);
@@ -1441,13 +1491,34 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
         return *over = 0;
     float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
     __m256 ku[4], kv[4], sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
+    __m256i zv = _mm256_setzero_si256(), zu = zv; /* the lanes whose tap 0 is zero */
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, G);
+        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, &zv, G);
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        ku[t] = w4x8_tap(p, xu, stu, t, tu[t], &su, &ok, G);
-    __m256i out_of = _mm256_or_si256(ou, ov);
+        ku[t] = w4x8_tap(p, xu, stu, t, tu[t], &su, &ok, &zu, G);
     __m256 total = _mm256_mul_ps(su, sv);
-    *over = w4x8_hand(ok, out_of, total, ru, rv, u0, v0, tu, tv, kout, wout);
+    zu = _mm256_and_si256(zu, ok);
+    zv = _mm256_and_si256(zv, ok);
+    __m256i lead = _mm256_or_si256(zu, zv), hand = ok;
+    unsigned strip = 0; /* the lanes stripped (w4x8_body's lead) */
+    if (!G && !_mm256_testz_si256(lead, lead)) {
+        if (NC == 1) { /* w4_tail's 1-channel rows: left to the per-query path */
+            ok = hand = _mm256_andnot_si256(lead, ok);
+        } else { /* as w4x8_body; each such lane's window is w4_tail's window_fused */
+            w4x8_lead(tu, zu, &u0);
+            w4x8_lead(tv, zv, &v0);
+            ou = w4x8_over(u0, zu, ru);
+            ov = w4x8_over(v0, zv, rv);
+            hand = _mm256_andnot_si256(lead, ok);
+            strip = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(lead));
+            _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) {
+                ku[t] = _mm256_loadu_ps(tu[t]);
+                kv[t] = _mm256_loadu_ps(tv[t]);
+            }
+        }
+    }
+    __m256i out_of = _mm256_or_si256(ou, ov);
+    *over = w4x8_hand(hand, out_of, total, ru, rv, u0, v0, tu, tv, kout, wout);
     const __m256 zf = _mm256_setzero_ps();
     ok = _mm256_andnot_si256(out_of, ok);
     ok = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps(total, zf, _CMP_GT_OQ)));
@@ -1476,10 +1547,25 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
     float KU[32], KV[32];
     w4x8_bylane(ku, KU);
     w4x8_bylane(kv, KV);
+    if (!(strip & done)) {
+        for (unsigned m = done; m; m &= m - 1) {
+            unsigned j = (unsigned)__builtin_ctz(m);
+            const uint8_t *base = (const uint8_t *)(uintptr_t)A[j];
+            __m128 acc = w4x8_win(base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
+            w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
+        }
+        return done;
+    }
+    int ZU[8], ZV[8]; /* -1: that axis stripped to 3 taps */
+    _mm256_storeu_si256((__m256i *)(void *)ZU, zu);
+    _mm256_storeu_si256((__m256i *)(void *)ZV, zv);
     for (unsigned m = done; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
         const uint8_t *base = (const uint8_t *)(uintptr_t)A[j];
-        __m128 acc = w4x8_win(base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
+        __m128 acc = strip >> j & 1
+                         ? window_fused(base, (size_t)RB[j], DT, NC, KU + 4 * j, 4 + ZU[j],
+                                        KV + 4 * j, 4 + ZV[j])
+                         : w4x8_win(base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
         w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
     }
     return done;

@@ -360,7 +360,8 @@ static unsigned check_block(pf_w4x8_fn w8, pf_fast_fn fast, const pk_params *p,
 /* The width-4 filters' 8-query path (pf_w4x8_select) against the per-query fused path
  * (pf_fast_select) on the same queries, for every texel type, channel count 1..4 and width-4
  * filter: blocks of 8 random queries on three faces of different sizes (so each lane reads
- * its own table), widths under a texel, powers of two (4 x 4 taps, the batch's case) and
+ * its own table), widths under a texel, powers of two (4 x 4 taps, the batch's case; half of
+ * those on a texel centre, where the bicubic family's tap 0 is zero and stripped) and
  * arbitrary, some lanes not offered. A lane the batch serves must be one the fused path
  * serves, with the same output bytes (every channel); a lane it hands over one the fused
  * path hands over, with the same kernel and its pk_weight; a lane it leaves alone may be
@@ -370,7 +371,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
 {
     (void)state;
     ST_SKIP_WITHOUT_AVX2();
-    long served = 0, handed = 0, left = 0;
+    long served = 0, handed = 0, left = 0, centred = 0;
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
         for (unsigned nc = 1; nc <= 4; nc++) {
             uint8_t *px[NF][8 * 8];
@@ -385,29 +386,48 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                 for (int r = 0; r < 300; r++) {
                     pf_klanes k;
                     block_start(&k, r);
+                    int centre[8] = {0};
                     for (int j = 0; j < 8; j++) {
                         int f = lane_on_face(&k, j, px);
                         int c = (int)(rndf() * 3.0f);
                         for (int ax = 0; ax < 2; ax++) {
                             int lg = ax ? FL[f][1] : FL[f][0];
+                            int m = lg - (int)(rndf() * 4);
                             float w = c == 0   ? rndf() * exp2f(-(float)lg)           /* < a texel */
-                                      : c == 1 ? exp2f(-(float)(lg - (int)(rndf() * 4))) /* 2^-n */
+                                      : c == 1 ? exp2f(-(float)m) /* 2^-n */
                                                : exp2f(-7.0f + 5.0f * rndf());
                             if (ax)
                                 k.bv[j] = w;
                             else
                                 k.bu[j] = w;
+                            /* half of those on a texel centre of the resolution the width
+                             * picks (2^m): tap 0 at distance 2, zero but for the gaussian */
+                            if (c == 1 && rndf() < 0.5f) {
+                                float x = ((float)(int)(rndf() * exp2f((float)m)) + 0.5f) *
+                                          exp2f(-(float)m);
+                                if (ax)
+                                    k.v[j] = x;
+                                else
+                                    k.u[j] = x;
+                                centre[j] = 1;
+                            }
                         }
                     }
-                    check_block(w8, fast, &p, &k, nc, 0, &served, &handed, &left);
+                    unsigned done = check_block(w8, fast, &p, &k, nc, 0, &served, &handed, &left);
+                    for (int j = 0; j < 8; j++)
+                        if (centre[j] && (done >> j & 1) && ft != ST_FILTER_PTEX_GAUSSIAN &&
+                            !(nc == 1 && dt >= ST_DT_HALF))
+                            centred++;
                 }
             }
             tables_free(px);
         }
     print_message("%ld lanes served by the batch, identical; %ld handed over, identical; "
-                  "%ld left to the per-query path\n", served, handed, left);
+                  "%ld left to the per-query path; %ld served on a texel centre (the "
+                  "bicubic family's zero tap 0 stripped)\n", served, handed, left, centred);
     assert_true(served > 16 * 4 * 300);  /* every type and channel count is exercised */
     assert_true(handed > 16 * 4 * 20);
+    assert_true(centred > 14 * 4 * 30);  /* w4x8_lead's lanes too */
 }
 
 /* The box filter's 8-query path (pf_box8_select) against the per-query fused path
