@@ -1419,10 +1419,10 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
     if (pp->ftype != ST_FILTER_PTEX_BOX) {
         if (bu >= 1.0f && bv >= 1.0f)
             return kernel_r0(c, pp, o, q, out, cov);
-        /* half a face to under a face wide, on a face without neighbours (lanef's four
-         * boundary bits) */
-        if (c->iso && bu >= .5f && bv >= .5f && bu < 1.0f && bv < 1.0f &&
-            (c->t->lanef[q->face] & 0xf0u) == 0xf0u) {
+        /* half a face wide or more (not both a face: kernel_r0's), on a face without
+         * neighbours (lanef's four boundary bits) */
+        if (__builtin_expect(bu >= .5f && bv >= .5f && c->iso &&
+                                 (c->t->lanef[q->face] & 0xf0u) == 0xf0u, 0)) {
             int r = kernel_iso(c, q, ulog2, vlog2, bu, bv, out, cov);
             if (r >= 0)
                 return r;
