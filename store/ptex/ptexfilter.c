@@ -110,6 +110,7 @@ typedef struct pf {
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
     pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
+    int iso;                 /* kernel_iso may run: Traverse or Clamp, both window loops */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1318,6 +1319,89 @@ __attribute__((noinline)) static int kernel_r0(pf *c, const pk_params *pp,
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
 
+/* One axis of kernel_iso's kernel (a width of half a face or more, not NaN): pk_width4_axis
+ * (its last two cases: 4 hermite taps at resolution 2, or 2 at resolution 1) and
+ * pk_strip_axis12, as build_w4 and pk_strip_zeros make it: resolution *lg, first texel *at,
+ * *n taps from w + *k0. Returns their pk_accumulate. */
+__attribute__((always_inline)) static inline float iso_axis(float u, float uw, int fres, int *lg,
+                                                            int *at, int *n, int *k0, float *w)
+{
+    float x1, st;
+    *k0 = 0;
+    if (pk_width4_axis(lg, at, n, w, u, uw, fres, &x1, &st)) {
+        *n = 0; /* a width under half the face (not for kernel_iso) */
+        return 0.0f;
+    }
+    /* pk_accumulate of the taps left: at resolution 2 the 4 taps' sum from 0 in order, the
+     * same bits (the stripped end taps are +0: a zero added to the sum leaves it, a run of
+     * zeros before the first tap leaves 0; the weights are never -0) */
+    float sum = *lg ? (((0.0f + w[0]) + w[1]) + w[2]) + w[3] : 0.0f;
+    pk_strip_axis12(k0, at, n, w);
+    return *lg ? sum : pk_accumulate(w + *k0, *n);
+}
+
+/* pf_walk_fold's merges of one axis (fold(): the part past the high edge, then the part
+ * before the low edge, folded onto the edge tap, dropped when black), on w (n taps from at
+ * at resolution res): *at, *n and *w updated. */
+__attribute__((always_inline)) static inline void iso_fold(int res, int *at, int *n, float **w,
+                                                           int black)
+{
+    float *k = *w;
+    if (*at + *n > res) {
+        int m = *at + *n - res;
+        if (!black)
+            k[*n - m - 1] += pk_accumulate(k + *n - m, m);
+        *n -= m;
+    }
+    if (*at < 0) {
+        int m = -*at;
+        if (!black)
+            k[m] += pk_accumulate(k, m);
+        *w = k + m;
+        *n -= m;
+        *at = 0;
+    }
+}
+
+/* A width-4 kernel of half a face or more along both axes (bu, bv >= 1/2, not NaN) on plain
+ * face q->face with no neighbour across any edge, in Traverse or Clamp (c->iso): what
+ * kernel_declined_with (or kernel_r0) does, without the pk and the walk's dispatch. The
+ * kernel as build_w4 / build_r0_axis and pk_strip_zeros make it (1 to 4 taps an axis at
+ * resolution 2 or 1), its weight pk_weight's; inside the face apply's window (c->win); else
+ * the walk of a face without neighbours, which in both modes is pf_walk_fold's Clamp fold
+ * (fold(), fold_r0: the same sums) and put_window's window choice. Returns the status, or -1
+ * (nothing written) where fold declines or the kernel is empty: the caller's path then. */
+__attribute__((noinline)) static int kernel_iso(pf *c, const st_query *q, int ulog2, int vlog2,
+                                                float bu, float bv, float *out, float *cov)
+{
+    float ku[12], kv[12]; /* pk_strip_axis12 reads 4 (12 for more taps: none here) */
+    int lu, lv, u, v, nu, nv, au, av;
+    float su = iso_axis(q->u, bu, ulog2, &lu, &u, &nu, &au, ku);
+    float sv = iso_axis(q->v, bv, vlog2, &lv, &v, &nv, &av, kv);
+    if (nu <= 0 || nv <= 0)
+        return -1;
+    float *pu = ku + au, *pv = kv + av;
+    float weight = su * sv; /* pk_weight */
+    int resu = 1 << lu, resv = 1 << lv;
+    pf_window_fn fn = c->win;
+    if ((u < 0) | (u + nu > resu) | (v < 0) | (v + nv > resv)) {
+        if ((u >= resu) | (u + nu <= 0) | (v >= resv) | (v + nv <= 0))
+            return -1; /* fold declines */
+        iso_fold(resu, &u, &nu, &pu, c->walk.black_u);
+        iso_fold(resv, &v, &nv, &pv, c->walk.black_v);
+        if ((((uint32_t)nu - 1u) | ((uint32_t)nv - 1u)) < 2u)
+            fn = c->small;
+    }
+    const uint8_t *d = c->t->px[c->t->base[q->face] + (size_t)lu * (vlog2 + 1u) + (size_t)lv];
+    pf_v4 acc = fn(d + ((size_t)v * (size_t)resu + (size_t)u) * c->ts, (size_t)resu * c->ts, pu,
+                   nu, pv, nv, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
+    float scale = 1.0f / (weight * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = acc[ch] * scale;
+    *cov = 1.0f;
+    return ST_Q_OK;
+}
+
 /* kernel_q's query whose kernel the fused path does not take (a width-4 kernel of 1/4 face or
  * wider, a weight <= 0, no taps) on plain face F: eval's kernel path without its prologue,
  * which a plain face with (u, v) in [0, 1) passes through unchanged. The face and widths are
@@ -1332,8 +1416,18 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                                                                       float *out, float *cov)
 {
     pk k;
-    if (pp->ftype != ST_FILTER_PTEX_BOX && bu >= 1.0f && bv >= 1.0f)
-        return kernel_r0(c, pp, o, q, out, cov);
+    if (pp->ftype != ST_FILTER_PTEX_BOX) {
+        if (bu >= 1.0f && bv >= 1.0f)
+            return kernel_r0(c, pp, o, q, out, cov);
+        /* half a face wide or more (not both a face: kernel_r0's), on a face without
+         * neighbours (lanef's four boundary bits) */
+        if (__builtin_expect(bu >= .5f && bv >= .5f && c->iso &&
+                                 (c->t->lanef[q->face] & 0xf0u) == 0xf0u, 0)) {
+            int r = kernel_iso(c, q, ulog2, vlog2, bu, bv, out, cov);
+            if (r >= 0)
+                return r;
+        }
+    }
     if (pp->ftype != ST_FILTER_PTEX_BOX)
         build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
     else
@@ -1763,6 +1857,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.edge2 = general ? NULL : pf_edge2_select(c.dt, c.nc);
     if (!c.win)
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
+    c.iso = c.small && c.mode != ST_MODE_DISCARD;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small};
