@@ -24,6 +24,7 @@
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
 #include "sample.h"
+#include "../common/pfpaths.h"
 #include "../common/testdata.h"
 
 enum { NQ = 4000 };
@@ -40,35 +41,12 @@ static const unsigned filters[] = {ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,
                                    ST_FILTER_PTEX_MITCHELL};
 enum { NF = sizeof filters / sizeof filters[0] };
 
-/* Both paths on q for every filter and mode; returns the queries compared. */
+/* Both paths on q for every filter and mode (pfpaths.h); returns the queries compared. */
 static long compare(const st_set *s, const st_query *q, const char *what)
 {
-    static float out[2][NQ * 4], cov[2][NQ];
-    static uint8_t st[2][NQ];
-    long n = 0;
-    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
-        for (size_t fi = 0; fi < NF; fi++) {
-            st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)filters[fi],
-                                .sharpness = 0.3f};
-            memset(out, 0x5a, sizeof out);
-            int b0 = st_ptexfilter_batch(s, &o, q, NQ, out[0], cov[0], st[0]);
-            int b1 = pf_batch_path(s, &o, q, NQ, out[1], cov[1], st[1], PF_PATH_GENERAL);
-            assert_int_equal(b0, b1);
-            size_t nc = s->info.nchan;
-            for (int i = 0; i < NQ; i++) {
-                if (memcmp(&out[0][i * nc], &out[1][i * nc], nc * sizeof(float)) ||
-                    memcmp(&cov[0][i], &cov[1][i], sizeof(float)) || st[0][i] != st[1][i]) {
-                    print_message("%s mode %u filter %u query %d (u %.9g v %.9g dudx %.9g "
-                                  "dvdy %.9g): %.9g != %.9g\n",
-                                  what, m, filters[fi], i, (double)q[i].u, (double)q[i].v,
-                                  (double)q[i].dudx, (double)q[i].dvdy,
-                                  (double)out[0][i * nc], (double)out[1][i * nc]);
-                    fail();
-                }
-            }
-            n += NQ;
-        }
-    }
+    long n = st_pf_paths_agree(s, q, NQ, what, filters, NF);
+    if (n < 0)
+        fail();
     return n;
 }
 

@@ -26,6 +26,7 @@
 #include "half.h"
 #include "ptexfilter_kernel.h"
 #include "sample.h"
+#include "../common/pfpaths.h"
 #include "../common/testdata.h"
 
 enum { NQ = 3000 };
@@ -61,36 +62,14 @@ static void edge_queries(const st_set *s, st_query *q)
     }
 }
 
-/* Both paths on q for the nf filters in every mode; returns the queries compared. */
+/* Both paths on q for the nf filters in every mode (pfpaths.h); returns the queries
+ * compared. */
 static long compare_filters(const st_set *s, const st_query *q, const char *what,
                             const unsigned *filters, size_t nf)
 {
-    static float out[2][NQ * 4], cov[2][NQ];
-    static uint8_t st[2][NQ];
-    long n = 0;
-    for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++) {
-        for (size_t fi = 0; fi < nf; fi++) {
-            st_sample_opts o = {.mode = (uint8_t)m, .filter = (uint8_t)filters[fi],
-                                .sharpness = 0.3f};
-            memset(out, 0x5a, sizeof out);
-            int b0 = st_ptexfilter_batch(s, &o, q, NQ, out[0], cov[0], st[0]);
-            int b1 = pf_batch_path(s, &o, q, NQ, out[1], cov[1], st[1], PF_PATH_GENERAL);
-            assert_int_equal(b0, b1);
-            for (int i = 0; i < NQ; i++) {
-                size_t nc = s->info.nchan;
-                if (memcmp(&out[0][i * nc], &out[1][i * nc], nc * sizeof(float)) ||
-                    memcmp(&cov[0][i], &cov[1][i], sizeof(float)) || st[0][i] != st[1][i]) {
-                    print_message("%s mode %u filter %u query %d (face %u u %.9g v %.9g dudx "
-                                  "%.9g dvdy %.9g): %.9g != %.9g\n",
-                                  what, m, filters[fi], i, q[i].face, (double)q[i].u,
-                                  (double)q[i].v, (double)q[i].dudx, (double)q[i].dvdy,
-                                  (double)out[0][i * nc], (double)out[1][i * nc]);
-                    fail();
-                }
-            }
-            n += NQ;
-        }
-    }
+    long n = st_pf_paths_agree(s, q, NQ, what, filters, nf);
+    if (n < 0)
+        fail();
     return n;
 }
 

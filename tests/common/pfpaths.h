@@ -1,0 +1,23 @@
+/* tests/common/pfpaths.h - the Ptex filters' fast paths against their general path, for the
+ * tests that prove a fast path bit for bit (test_ptexfilter_walk, test_ptexfilter_iso).
+ *
+ * Owns nothing: reads the set and the queries the caller owns; its output buffers are its
+ * own, allocated per call.
+ */
+#ifndef ST_TEST_PFPATHS_H
+#define ST_TEST_PFPATHS_H
+
+#include <stddef.h>
+
+#include "sample.h"
+#include "set.h"
+
+/* Samples the n queries q with st_ptexfilter_batch (every fast path allowed) and with
+ * pf_batch_path(PF_PATH_GENERAL), for each of the nf filters and each mode (Discard,
+ * Traverse, Clamp; sharpness 0.3): the failure counts, every output value, coverage and
+ * status must be the same bits. Returns the queries compared (n x nf x 3), or -1 after
+ * printing the first difference to stderr, labelled with what. */
+long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char *what,
+                       const unsigned *filters, size_t nf);
+
+#endif
