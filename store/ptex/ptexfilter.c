@@ -1340,29 +1340,6 @@ __attribute__((always_inline)) static inline float iso_axis(float u, float uw, i
     return *lg ? sum : pk_accumulate(w + *k0, *n);
 }
 
-/* pf_walk_fold's merges of one axis (fold(): the part past the high edge, then the part
- * before the low edge, folded onto the edge tap, dropped when black), on w (n taps from at
- * at resolution res): *at, *n and *w updated. */
-__attribute__((always_inline)) static inline void iso_fold(int res, int *at, int *n, float **w,
-                                                           int black)
-{
-    float *k = *w;
-    if (*at + *n > res) {
-        int m = *at + *n - res;
-        if (!black)
-            k[*n - m - 1] += pk_accumulate(k + *n - m, m);
-        *n -= m;
-    }
-    if (*at < 0) {
-        int m = -*at;
-        if (!black)
-            k[m] += pk_accumulate(k, m);
-        *w = k + m;
-        *n -= m;
-        *at = 0;
-    }
-}
-
 /* A width-4 kernel of half a face or more along both axes (bu, bv >= 1/2, not NaN) on plain
  * face q->face with no neighbour across any edge, in Traverse or Clamp (c->iso): what
  * kernel_declined_with (or kernel_r0) does, without the pk and the walk's dispatch. The
@@ -1387,8 +1364,8 @@ __attribute__((noinline)) static int kernel_iso(pf *c, const st_query *q, int ul
     if ((u < 0) | (u + nu > resu) | (v < 0) | (v + nv > resv)) {
         if ((u >= resu) | (u + nu <= 0) | (v >= resv) | (v + nv <= 0))
             return -1; /* fold declines */
-        iso_fold(resu, &u, &nu, &pu, c->walk.black_u);
-        iso_fold(resv, &v, &nv, &pv, c->walk.black_v);
+        pf_fold_axis(resu, &u, &nu, &pu, c->walk.black_u);
+        pf_fold_axis(resv, &v, &nv, &pv, c->walk.black_v);
         if ((((uint32_t)nu - 1u) | ((uint32_t)nv - 1u)) < 2u)
             fn = c->small;
     }

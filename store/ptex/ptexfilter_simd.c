@@ -1128,6 +1128,17 @@ PF_TARGET __m256i w4x8_over(__m256i u0, __m256i lead, __m256i r)
                            _mm256_cmpgt_epi32(end, _mm256_sllv_epi32(_mm256_set1_epi32(1), r)));
 }
 
+/* Both axes' strip (w4x8_lead on the lanes zu, zv) and w4_tail's test of the window after
+ * it (*ou, *ov: w4x8_over at resolutions ru, rv). */
+PF_TARGET void w4x8_strip(float (*tu)[8], float (*tv)[8], __m256i zu, __m256i zv, __m256i ru,
+                          __m256i rv, __m256i *u0, __m256i *v0, __m256i *ou, __m256i *ov)
+{
+    w4x8_lead(tu, zu, u0);
+    w4x8_lead(tv, zv, v0);
+    *ou = w4x8_over(*u0, zu, ru);
+    *ov = w4x8_over(*v0, zv, rv);
+}
+
 /* The first NCOL (<= 4) texels of one window row of 8 queries, type DT (u8 or u16), 1
  * channel, as floats per column: ae, ao the rows' addresses of the even and odd queries
  * (64-bit lanes), me, mo their gather masks (sign bits; a lane masked off gives 0). Reads 8
@@ -1332,10 +1343,7 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         /* tap 0 zero (on a texel centre): w4_tail strips it, a 3-tap axis one texel on,
          * and tests the window against the face again; of those, the ones still
          * overhanging are left to the per-query path (not handed over) */
-        w4x8_lead(tu, zu, &a.u0);
-        w4x8_lead(tv, zv, &a.v0);
-        a.ou = w4x8_over(a.u0, zu, a.ru);
-        a.ov = w4x8_over(a.v0, zv, a.rv);
+        w4x8_strip(tu, tv, zu, zv, a.ru, a.rv, &a.u0, &a.v0, &a.ou, &a.ov);
         hand = _mm256_andnot_si256(lead, ok);
     }
     /* the window overhangs the face: handed over (w4_tail's hand_over) */
@@ -1505,10 +1513,7 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
         if (NC == 1) { /* w4_tail's 1-channel rows: left to the per-query path */
             ok = hand = _mm256_andnot_si256(lead, ok);
         } else { /* as w4x8_body; each such lane's window is w4_tail's window_fused */
-            w4x8_lead(tu, zu, &u0);
-            w4x8_lead(tv, zv, &v0);
-            ou = w4x8_over(u0, zu, ru);
-            ov = w4x8_over(v0, zv, rv);
+            w4x8_strip(tu, tv, zu, zv, ru, rv, &u0, &v0, &ou, &ov);
             hand = _mm256_andnot_si256(lead, ok);
             strip = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(lead));
             _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) {

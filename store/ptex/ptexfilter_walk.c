@@ -755,34 +755,8 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     }
     /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
      * do; Discard and a black border only move the window) */
-    if (u + uw > resu) {
-        int n = u + uw - resu;
-        if (!blu)
-            ku[uw - n - 1] += pk_accumulate(ku + uw - n, n);
-        uw -= n;
-    }
-    if (u < 0) {
-        int n = -u;
-        if (!blu)
-            ku[n] += pk_accumulate(ku, n);
-        ku += n;
-        uw -= n;
-        u = 0;
-    }
-    if (v + vw > resv) {
-        int n = v + vw - resv;
-        if (!blv)
-            kv[vw - n - 1] += pk_accumulate(kv + vw - n, n);
-        vw -= n;
-    }
-    if (v < 0) {
-        int n = -v;
-        if (!blv)
-            kv[n] += pk_accumulate(kv, n);
-        kv += n;
-        vw -= n;
-        v = 0;
-    }
+    pf_fold_axis(resu, &u, &uw, &ku, blu);
+    pf_fold_axis(resv, &v, &vw, &kv, blv);
     /* Discard's weight: pk_weight of the kernel left, taken before apply reduces it */
     if (discard)
         *weight = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);

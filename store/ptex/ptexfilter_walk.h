@@ -77,6 +77,30 @@ int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
  * session 17); any other pf_walk_kernel. */
 int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight);
 
+/* One axis of pf_walk_fold's merges (pk_merge_r then _l, or _t then _b): the taps past the
+ * high edge of a window of res texels, then those before the low edge, folded onto the edge
+ * tap (pk_accumulate's sum added to it) or, black, dropped; *w (n taps from texel *at) moved
+ * past the taps dropped at the low end, *n and *at updated. The window overlaps the face
+ * (*at < res, *at + *n > 0). */
+static inline void pf_fold_axis(int res, int *at, int *n, float **w, int black)
+{
+    float *k = *w;
+    if (*at + *n > res) {
+        int m = *at + *n - res;
+        if (!black)
+            k[*n - m - 1] += pk_accumulate(k + *n - m, m);
+        *n -= m;
+    }
+    if (*at < 0) {
+        int m = -*at;
+        if (!black)
+            k[m] += pk_accumulate(k, m);
+        *w = k + m;
+        *n -= m;
+        *at = 0;
+    }
+}
+
 /* split_walk's Discard (discard 1) or Clamp (0) of kernel k (weights not empty, zeros
  * stripped) built for face f (not a subface), which it overhangs: the overhang past each edge
  * merged as pk_merge_r, _l, _t, _b do, in that order (dropped in Discard and at a black
