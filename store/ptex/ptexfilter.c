@@ -111,6 +111,8 @@ typedef struct pf {
     v4f acc;                 /* the weighted sum, raw units */
     pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
     int iso;                 /* kernel_iso may run: Traverse or Clamp, both window loops */
+    int cst;                 /* eval's shortcuts for kernels inside a constant face
+                              * (const_write): all paths but PF_PATH_GENERAL */
 } pf;
 
 static float one_value(unsigned dt)
@@ -134,6 +136,12 @@ static inline v4f load_any(unsigned dt, unsigned nc, const uint8_t *p)
     for (unsigned ch = 0; ch < nc; ch++)
         v[ch] = texel_raw(dt, p, ch);
     return v;
+}
+
+/* load_any for the walk (pf_walk's texel: a constant face's texel) */
+static pf_v4 walk_texel(unsigned dt, unsigned nc, const uint8_t *p)
+{
+    return load_any(dt, nc, p);
 }
 
 static inline int is_subface(const pf *c, int f)
@@ -371,10 +379,6 @@ __attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsig
     }
 }
 
-/* Ptex's bilinear on face f (neither a subface nor constant) without building a kernel, for
- * type DT with NC channels (constants where inlined; eval passes the batch's): uw, vw are
- * |du/dx| + |du/dy| and |dv/dx| + |dv/dy|. Writes out and returns 1 when the 2x2 texels lie
- * inside the face with both fractions > 0; else 0 (the kernel path then runs). */
 /* Ptex's bilinear kernel (pk_build's arithmetic in its order): resolution (ru, rv), first
  * texel (ui, vi) and fractions (fu, fv) of the 2 x 2 texels; weights 1 - fu, fu and 1 - fv,
  * fv. */
@@ -458,18 +462,6 @@ __attribute__((always_inline)) static inline void bilinear_write(const pf *c, co
     float scale = 1.0f / ((ku0 + fu) * (kv0 + fv) * one_value(DT));
     for (unsigned ch = 0; ch < NC; ch++)
         out[ch] = acc[ch] * scale;
-}
-
-__attribute__((always_inline)) static inline int bilinear_inface(const pf *c, const st_face *F,
-                                                                 uint32_t f, float u, float v,
-                                                                 float uw, float vw, float *out,
-                                                                 unsigned DT, unsigned NC)
-{
-    pf_bil b = bilinear_kernel(c, F, u, v, uw, vw);
-    if (!bilinear_fits(&b))
-        return 0;
-    bilinear_write(c, F, f, &b, out, DT, NC);
-    return 1;
 }
 
 /* ---- a bilinear kernel that overhangs its face (c->small set) ----------------------------
@@ -640,12 +632,6 @@ static inline void p2_downres(int *x, int *n, float *w)
 __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int f)
 {
     const st_face *F = &c->s->faces[f];
-    if (F->flags & ST_FACE_CONSTANT) {
-        pk g;
-        pk2_to_pk(&g, k);
-        apply(c, &g, f);
-        return;
-    }
     if (k->uw <= 0 || k->vw <= 0)
         return;
     while (k->ulog2 > F->ulog2) {
@@ -655,6 +641,11 @@ __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int
     while (k->vlog2 > F->vlog2) {
         p2_downres(&k->v, &k->vw, k->kv);
         k->vlog2--;
+    }
+    if (__builtin_expect(F->flags & ST_FACE_CONSTANT, 0)) {
+        /* apply's constant face: its texel times the weight left (no window guard) */
+        c->acc += load_any(c->dt, c->nc, c->t->px[c->t->base[f]]) * p2_weight(k);
+        return;
     }
     int resu = 1 << k->ulog2;
     if (k->u < 0 || k->v < 0 || k->u + k->uw > resu || k->v + k->vw > (1 << k->vlog2))
@@ -900,6 +891,13 @@ static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
     return 1;
 }
 
+/* b as lane 0 of lk (a query of its own on bilinear_walk) */
+static inline void bil_lane0(pf_lanes_kern *lk, const pf_bil *b)
+{
+    lk->ru[0] = b->ru, lk->rv[0] = b->rv, lk->ui[0] = b->ui, lk->vi[0] = b->vi;
+    lk->fu[0] = b->fu, lk->fv[0] = b->fv;
+}
+
 /* The 2 x 2 kernel of b on face f in Traverse over plain faces (e2: c->edge2 or NULL;
  * ptexfilter_simd.c: bilinear_walk's weights, walk, total and division, inline): 1 with out
  * written and *cov 1, 0 when there is none, the kernel overhangs a boundary edge, or it
@@ -937,9 +935,8 @@ __attribute__((always_inline)) static inline int bilinear_edge_with(pf *c, pf_ed
 {
     if (bilinear_edge2(c, e2, trav, b.ru, b.rv, b.ui, b.vi, b.fu, b.fv, f, out, cov))
         return 1;
-    pf_lanes_kern lk; /* lane 0 of it */
-    lk.ru[0] = b.ru, lk.rv[0] = b.rv, lk.ui[0] = b.ui, lk.vi[0] = b.vi;
-    lk.fu[0] = b.fu, lk.fv[0] = b.fv;
+    pf_lanes_kern lk;
+    bil_lane0(&lk, &b);
     return bilinear_walk(c, &lk, 0, f, out, cov);
 }
 
@@ -977,6 +974,40 @@ __attribute__((always_inline)) static inline int bilinear_edge_lane(pf *c, pf_ed
 static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                        pk *k, float *out, float *cov);
 
+/* eval_kernel on a kernel of weight w (its pk_weight) inside constant face f, at or under the
+ * face's resolution: apply's sum (the face's texel times w, added to zero) divided by w and
+ * the type's one value, in eval_kernel's operations; texels of type DT with NC channels
+ * (constants where inlined). */
+__attribute__((always_inline)) static inline void const_write(const pf *c, uint32_t f, float w,
+                                                             float *out, unsigned DT,
+                                                             unsigned NC)
+{
+    v4f acc = (v4f){0, 0, 0, 0};
+    acc += load_dt(c->t->px[c->t->base[f]], DT, NC) * w; /* load_any's values */
+    float scale = 1.0f / (w * one_value(DT));
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = acc[ch] * scale;
+}
+
+/* Kernel k (zeros stripped, not empty) of constant face F (f) when it lies inside the face
+ * at or under its resolution and every mode keeps its whole weight (its pk_weight in (0,
+ * +inf), or not Discard): eval_kernel's result written by const_write, 1; else 0, nothing
+ * written (*cov is eval_kernel's 1 either way). */
+static inline int const_inside(const pf *c, const pk *k, const st_face *F, uint32_t f,
+                               float *out)
+{
+    if (k->u < 0 || k->v < 0 || k->ulog2 > F->ulog2 || k->vlog2 > F->vlog2 ||
+        k->u + k->uw > (1 << k->ulog2) || k->v + k->vw > (1 << k->vlog2))
+        return 0;
+    float w = pk_weight(k);
+    uint32_t wb;
+    memcpy(&wb, &w, sizeof wb);
+    if (!(wb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD))
+        return 0;
+    const_write(c, f, w, out, c->dt, c->nc);
+    return 1;
+}
+
 static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_query *q,
                 float *out, float *cov)
 {
@@ -1012,10 +1043,14 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         return ST_Q_OK;
     }
     float width = o->width > 0 ? o->width : 1.0f, blur = o->blur > 0 ? o->blur : 0.0f;
-    if (pp->ftype == ST_FILTER_PTEX_BILINEAR &&
-        !(F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
-        bilinear_inface(c, F, f, u, v, uw, vw, out, c->dt, c->nc))
-        return ST_Q_OK; /* the common case without building a kernel */
+    unsigned kind = F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT);
+    if (pp->ftype == ST_FILTER_PTEX_BILINEAR && !kind) {
+        pf_bil b = bilinear_kernel(c, F, u, v, uw, vw);
+        if (bilinear_fits(&b)) { /* the common case without building a kernel */
+            bilinear_write(c, F, f, &b, out, c->dt, c->nc);
+            return ST_Q_OK;
+        }
+    }
     pk k;
     if (F->flags & ST_FACE_SUBFACE) {
         uw = uw * width + blur * 2.0f;
@@ -1040,15 +1075,17 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
         *cov = 0.0f;
         return ST_Q_OK;
     }
+    if (kind == ST_FACE_CONSTANT && c->cst && const_inside(c, &k, F, f, out))
+        return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
 
 /* pf_walk_kernel (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
- * kernels that reach a subface or a constant face). On a face at a mesh boundary it folds
+ * kernels that reach a subface, and takes constant faces since session 19). On a face at a mesh boundary it folds
  * (no overhung edge with a neighbour: pf_walk_fold's merges) or runs the whole walk with its
  * folds (since session 14); one that overhangs one edge only, into a neighbour, walks in
  * walk_one on any face. In Discard and Clamp pf_walk_fold: split_walk's merges and the window
- * on f. eval_kernel offers neither a constant face (evblur: most faces). */
+ * on f. eval_kernel does not offer a subface. */
 static int walk(pf *c, pk *k, int f)
 {
     if (c->mode == ST_MODE_TRAVERSE)
@@ -1075,11 +1112,10 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
         memcpy(&tb, &total, sizeof tb);
         if (tb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)
             goto divide;
-    } else if (!(c->small && !(c->s->faces[f].flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) &&
-                 walk(c, k, f)))
-        /* on a face neither a subface nor constant (the walks decline a constant one, after
-         * their work): the same walk on pieces without copies (walk above: Traverse's
-         * splits, Discard's and Clamp's merges); what it declines: the general walk */
+    } else if (!(c->small && !(c->s->faces[f].flags & ST_FACE_SUBFACE) && walk(c, k, f)))
+        /* on a face that is not a subface: the same walk on pieces without copies (walk
+         * above: Traverse's splits, Discard's and Clamp's merges; pieces on constant faces
+         * their texel times their weight); what it declines: the general walk */
         split_apply(c, k, f, 0);
     if (c->mode == ST_MODE_DISCARD) {
         /* the share of the kernel's weight kept; a sharpening kernel whose dropped lobe was
@@ -1166,25 +1202,46 @@ static inline const st_face *plain_face(const pf *c, const st_query *q)
     return F;
 }
 
-/* Ptex's bilinear filter for type DT, NC channels: the no-kernel path inside the face, the
- * 2 x 2 kernel's own path when it overhangs (c->small), else eval. */
+/* Ptex's bilinear filter for type DT, NC channels: the no-kernel path inside the face (on a
+ * constant face its texel times the weight), the 2 x 2 kernel's own path when it overhangs
+ * (c->small), else eval. */
 __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_params *pp,
                                                             const st_sample_opts *o,
                                                             const st_query *q, float *out,
                                                             float *cov, unsigned DT,
                                                             unsigned NC)
 {
-    const st_face *F = plain_face(c, q);
-    if (F) {
+    uint32_t f = q->face;
+    const st_face *F = &c->s->faces[f];
+    if (!(c->t->ptxflags[f] & PTX_FLAG_NBCONSTANT) && !(F->flags & ST_FACE_SUBFACE) &&
+        q->u >= 0.0f && q->u < 1.0f && q->v >= 0.0f && q->v < 1.0f) {
+        /* plain_face, or a constant face (eval's shortcuts for one, without its prologue) */
         pf_bil b = bilinear_kernel(c, F, q->u, q->v, fabsf(q->dudx) + fabsf(q->dudy),
                                    fabsf(q->dvdx) + fabsf(q->dvdy));
-        if (bilinear_fits(&b)) {
-            bilinear_write(c, F, q->face, &b, out, DT, NC);
-            *cov = 1.0f;
-            return ST_Q_OK;
+        if (!(F->flags & ST_FACE_CONSTANT)) {
+            if (bilinear_fits(&b)) {
+                bilinear_write(c, F, f, &b, out, DT, NC);
+                *cov = 1.0f;
+                return ST_Q_OK;
+            }
+            if (c->small && bilinear_edge(c, b, f, out, cov))
+                return ST_Q_OK;
+        } else {
+            /* a constant face: the kernel (a zero fraction's tap stripped) inside it, its
+             * texel times the kernel's pk_weight, (1 - fu + fu)(1 - fv + fv) (with fu 0 the
+             * stripped axis' 0 + 1: the same 1); else the 2 x 2 kernel's walk as on a plain
+             * face (not bilinear_edge2, which reads f's texels) */
+            int uw = b.fu != 0.0f ? 2 : 1, vw = b.fv != 0.0f ? 2 : 1;
+            if (b.ui >= 0 && b.vi >= 0 && b.ui + uw <= 1 << b.ru && b.vi + vw <= 1 << b.rv) {
+                const_write(c, f, (1.0f - b.fu + b.fu) * (1.0f - b.fv + b.fv), out, DT, NC);
+                *cov = 1.0f;
+                return ST_Q_OK;
+            }
+            pf_lanes_kern lk;
+            bil_lane0(&lk, &b);
+            if (c->small && bilinear_walk(c, &lk, 0, f, out, cov))
+                return ST_Q_OK;
         }
-        if (c->small && bilinear_edge(c, b, q->face, out, cov))
-            return ST_Q_OK;
     }
     return eval(c, pp, o, q, out, cov);
 }
@@ -1443,17 +1500,49 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
                                 vw * c->width + c->blur, out, cov);
 }
 
+/* kernel_qi's query on constant face F (neither a subface nor with a constant
+ * neighbourhood, (u, v) in [0, 1), which every border mode leaves as it is): eval's kernel
+ * path without its prologue, built as kernel_declined_with builds it; a kernel inside the
+ * face, at or under its resolution, to const_write (the weight one that every mode keeps),
+ * any other to eval_kernel (its walk). */
+__attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
+                                                  const st_sample_opts *o, const st_query *q,
+                                                  const st_face *F, float *out, float *cov)
+{
+    float bu = (fabsf(q->dudx) + fabsf(q->dudy)) * c->width + c->blur;
+    float bv = (fabsf(q->dvdx) + fabsf(q->dvdy)) * c->width + c->blur;
+    pk k;
+    if (pp->ftype != ST_FILTER_PTEX_BOX)
+        build_w4(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
+    else
+        pk_build(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
+    pk_strip_zeros(&k);
+    if (k.uw <= 0 || k.vw <= 0)
+        return eval(c, pp, o, q, out, cov);
+    *cov = 1.0f;
+    if (const_inside(c, &k, F, q->face, out))
+        return ST_Q_OK;
+    c->acc = (v4f){0, 0, 0, 0};
+    return eval_kernel(c, pp, o, q, &k, out, cov);
+}
+
 /* Box and width-4 filters: the fused path (ptexfilter_simd.c) when the kernel lies inside
- * the face (every mode agrees there), else eval. Inlined into kernel_run's batch loop;
- * kernel_q is the per-query function of the same. */
+ * the face (every mode agrees there), kernel_const on a constant face, else eval. Inlined
+ * into kernel_run's batch loop; kernel_q is the per-query function of the same. */
 __attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_params *pp,
                                                            const st_sample_opts *o,
                                                            const st_query *q, float *out,
                                                            float *cov)
 {
     const st_face *F = plain_face(c, q);
-    if (!F)
+    if (!F) {
+        F = &c->s->faces[q->face];
+        if ((F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) == ST_FACE_CONSTANT &&
+            !(c->t->ptxflags[q->face] & PTX_FLAG_NBCONSTANT) && q->u >= 0.0f && q->u < 1.0f &&
+            q->v >= 0.0f && q->v < 1.0f)
+            return kernel_const(c, pp, o, q, F, out, cov);
         return eval(c, pp, o, q, out, cov);
+    }
     float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
     float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
     /* a width-4 kernel of 1/4 face or wider (the width clamped to a texel first, so any
@@ -1835,9 +1924,10 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     if (!c.win)
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.iso = c.small && c.mode != ST_MODE_DISCARD;
+    c.cst = !general;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
-                       .small = c.small};
+                       .small = c.small, .texel = walk_texel, .dt = c.dt, .nc = c.nc};
     c.bhalf = pf_bilinear_half_select(); /* in eval's in-face bilinear too */
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;

@@ -125,10 +125,26 @@ __attribute__((noinline)) static void put_reduced(pw_state *s, int ru, int rv, i
     put_window(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
 }
 
+/* apply of ptexfilter.c on constant face af (F) for the window (u, v, uw, vw) at resolution
+ * (ru, rv) with weights ku, kv: the weights reduced to the face's resolution where it is
+ * coarser, then the face's texel times their pk_weight added to s->acc (no window guard:
+ * apply has none for a constant face). Out of line (a constant face is the rare case). */
+__attribute__((noinline)) static void put_const(pw_state *s, int ru, int rv, int u, int v,
+                                                int uw, int vw, const float *ku,
+                                                const float *kv, int af, const st_face *F)
+{
+    const pf_walk *w = s->w;
+    float rbu[PK_MAX], rbv[PK_MAX];
+    reduce_to_face(F, &ru, &rv, &u, &v, &uw, &vw, &ku, &kv, rbu, rbv);
+    float wt = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);
+    s->acc += w->texel(w->dt, w->nc, w->px[w->base[af]]) * wt;
+}
+
 /* apply_small / apply of ptexfilter.c for the window (u, v, uw, vw) at resolution
  * (ru, rv) with weights ku, kv on face af: reduced to the face's resolution when the face is
- * smaller (put_reduced, out of line), the window summed into s->acc. 0: a constant face
- * (declined). Scalars, not a struct, so that they stay in registers. */
+ * smaller (put_reduced, out of line), the window summed into s->acc; on a constant face
+ * put_const. Returns 1 (the walk's pieces continue). Scalars, not a struct, so that they
+ * stay in registers. */
 __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, int rv, int u,
                                                           int v, int uw, int vw,
                                                           const float *ku, const float *kv,
@@ -137,8 +153,10 @@ __attribute__((always_inline)) static inline int put_face(pw_state *s, int ru, i
     if (uw <= 0 || vw <= 0)
         return 1;
     const st_face *F = &s->w->faces[af];
-    if (F->flags & ST_FACE_CONSTANT)
-        return 0;
+    if (__builtin_expect(F->flags & ST_FACE_CONSTANT, 0)) {
+        put_const(s, ru, rv, u, v, uw, vw, ku, kv, af, F);
+        return 1;
+    }
     if (__builtin_expect(ru > F->ulog2 || rv > F->vlog2, 0)) { /* a smaller face */
         put_reduced(s, ru, rv, u, v, uw, vw, ku, kv, af);
         return 1;
@@ -738,8 +756,7 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
                                                       int discard, pf_v4 *acc, float *weight)
 {
     const st_face *F = &w->faces[f];
-    if (F->flags & ST_FACE_CONSTANT)
-        return 0;
+    int cst = (F->flags & ST_FACE_CONSTANT) != 0;
     int ru = k0->ulog2, rv = k0->vlog2, resu = 1 << ru, resv = 1 << rv;
     int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
     /* an overhang as wide as the window (a kernel past the face, which no query's kernel
@@ -749,7 +766,7 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
         return 0;
     int blu = discard || w->black_u, blv = discard || w->black_v;
     float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
-    if (!(ru | rv) && uw <= 2 && vw <= 2) {
+    if (!(ru | rv) && uw <= 2 && vw <= 2 && !cst) {
         fold_r0(w, ku, kv, u, v, uw, vw, blu, blv, f, acc, discard ? weight : NULL);
         return 1;
     }
@@ -762,7 +779,9 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
         *weight = pk_accumulate(ku, uw) * pk_accumulate(kv, vw);
     pw_state s = {w, *acc, 0.0f};
     /* the window lies inside the face (the test above): put_face's guard cannot fire */
-    if (__builtin_expect((ru > F->ulog2) | (rv > F->vlog2), 0))
+    if (__builtin_expect(cst, 0))
+        put_const(&s, ru, rv, u, v, uw, vw, ku, kv, f, F);
+    else if (__builtin_expect((ru > F->ulog2) | (rv > F->vlog2), 0))
         put_reduced(&s, ru, rv, u, v, uw, vw, ku, kv, f);
     else
         put_window(&s, ru, rv, u, v, uw, vw, ku, kv, f, F);

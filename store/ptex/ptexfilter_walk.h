@@ -10,8 +10,10 @@
  * operations, on pieces that point at their parent's weights (a piece copies weights only
  * when it reverses, folds or reduces them), in one function with the pieces in registers, so
  * the results are the walk's bit for bit at a fraction of its bookkeeping. It declines what
- * it does not take: a subface or a constant face among the faces the kernel reaches; the
- * caller then runs the general walk from the start (nothing it wrote counts). A kernel that
+ * it does not take: a subface among the faces the kernel reaches, or a constant face where
+ * its lean cases and folds would sum a window (a piece on a constant face is its texel times
+ * the piece's weight, as apply sums it, since session 19); the caller then runs the general
+ * walk from the start (nothing it wrote counts). A kernel that
  * overhangs one edge only (80% of the walks of the teapot's box at 4 texels) takes a
  * function of its own with the two pieces (walk_one: a small frame, where the whole walk
  * keeps every side's state across its window calls); one that overhangs one u edge and one
@@ -50,6 +52,10 @@ typedef struct pf_walk {
     int black_u, black_v;        /* border mode black in u / v: a fold drops the overhang */
     pf_window_fn win;            /* the window loop (pf_window_select), not NULL */
     pf_window_fn small;          /* windows of <= 2 x 2 texels (pf_small_select), not NULL */
+    /* a constant face's texel at p as 4 float lanes, nc of them set (ptexfilter.c's
+     * load_any for the set's type dt) */
+    pf_v4 (*texel)(unsigned dt, unsigned nc, const uint8_t *p);
+    unsigned dt, nc;
 } pf_walk;
 
 /* The Traverse split of kernel k (weights not empty, zeros stripped) built for face f (not a
@@ -108,8 +114,9 @@ static inline void pf_fold_axis(int res, int *at, int *n, float **w, int black)
  * resolution 1 x 1 of at most 2 x 2 taps: k's weights are not read after),
  * then the window on f summed into *acc; in Discard *weight becomes the weight kept
  * (pk_weight of the merged kernel, whose weights it leaves as they were), in Clamp it is
- * left alone (the kernel's total). Returns 1; 0 when it declines, before any change: f
- * constant, or an overhang as wide as the window. */
+ * left alone (the kernel's total); on a constant f the face's texel times the merged
+ * kernel's weight, as apply sums it. Returns 1; 0 when it declines, before any change: an
+ * overhang as wide as the window. */
 int pf_walk_fold(const pf_walk *w, pk *k, int f, int discard, pf_v4 *acc, float *weight);
 
 /* The Traverse filter of a bilinear 2 x 2 kernel (ptexfilter.c's bilinear_walk: first texel

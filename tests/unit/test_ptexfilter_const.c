@@ -1,0 +1,136 @@
+/* tests/unit/test_ptexfilter_const.c - eval's shortcut for a kernel inside a constant face
+ * (ptexfilter.c's const_write, session 19): the face's one texel times the kernel's weight,
+ * divided by that weight, without eval_kernel's frame; for the bilinear without building the
+ * kernel. Its outputs, coverage and status must be the general path's
+ * (pf_batch_path(PF_PATH_GENERAL), which does not take the shortcut) bit for bit: evblur
+ * (every face constant, 64 x 64 declared, u8 x 3), and files of other texel types with every
+ * third face flagged constant after the resolution table is built (teapot u8 x 1, holeycube
+ * u16 x 1, cube8_k7varrot_f32 float x 3, black half x 4); (u, v) anywhere in the face, on
+ * texel centres of the kernel's level (a zero tap stripped: the bilinear then takes the
+ * kernel) and next to the edges (kernels that overhang: the general walk); footprints from
+ * a quarter texel to a whole face, isotropic and not; every filter but the point and the
+ * triangle's, every mode. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+
+#include "ptex.h"
+#include "ptexfilter.h"
+#include "ptexfilter_kernel.h"
+#include "sample.h"
+#include "../common/pfpaths.h"
+#include "../common/testdata.h"
+
+enum { NQ = 4000 };
+
+static uint32_t rng = 41;
+static float rnd01(void) /* [0, 1) */
+{
+    rng = rng * 1664525u + 1013904223u;
+    return (float)(rng >> 8) / 16777216.0f;
+}
+
+static const unsigned filters[] = {ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,
+                                   ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
+                                   ST_FILTER_PTEX_BSPLINE,  ST_FILTER_PTEX_CATMULLROM,
+                                   ST_FILTER_PTEX_MITCHELL};
+enum { NF = sizeof filters / sizeof filters[0] };
+
+/* A coordinate of a face of res texels at footprint fp texels: anywhere, on a texel centre
+ * of the level the kernel is built at (about res / fp texels), or within fp texels of an
+ * edge. */
+static float coord(int j, int res, float fp)
+{
+    float u = rnd01();
+    if (j % 3 == 1) {
+        int lres = 1;
+        while (lres * 2 <= res && (float)(lres * 2) * fp <= (float)res * 1.5f)
+            lres *= 2;
+        u = ((float)(int)(u * (float)lres) + 0.5f) / (float)lres;
+    } else if (j % 3 == 2) {
+        float d = rnd01() * fp / (float)res;
+        u = rnd01() < 0.5f ? d : 1.0f - d;
+    }
+    u = u < 0.0f ? 0.0f : u;
+    return u < 0.99999994f ? u : 0.99999994f;
+}
+
+/* NQ queries on faces drawn uniformly; returns how many of them sit on a constant face. */
+static size_t const_queries(const st_set *s, st_query *q)
+{
+    static const float fps[] = {0.25f, 0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 64.0f};
+    size_t on = 0;
+    for (int j = 0; j < NQ; j++) {
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        const st_face *F = &s->faces[f];
+        float fu = fps[(int)(rnd01() * 8) & 7];
+        float fv = j % 4 == 1 ? fps[(int)(rnd01() * 8) & 7] : fu;
+        q[j] = (st_query){.face = f, .u = coord(j, (int)F->w, fu), .v = coord(j / 3, (int)F->h, fv),
+                          .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
+        on += (F->flags & ST_FACE_CONSTANT) != 0;
+    }
+    return on;
+}
+
+static void const_faces_match_the_general_path(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *rel;
+        uint32_t every; /* flag every n-th face constant (0: the file's own flags) */
+    } files[] = {
+        {"ptx/wdas-ptex-2009/nonquad/evblur/pPlane1.ptx", 0},
+        {"ptx/wdas-ptex-samples/teapot/teapot.ptx", 3},
+        {"ptx/wdas-ptex-samples/holeycube/holeycube.ptx", 3},
+        {"ptex-ref/cube8_k7varrot_f32.ptx", 3},
+        {"ptx/wdas-ptex-2009/bordermodes/black.ptx", 1},
+    };
+    static st_query q[NQ];
+    long compared = 0;
+    size_t on = 0;
+    int found = 0;
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        char path[1024];
+        if (st_test_data_path(path, sizeof path, files[i].rel) != 0)
+            continue;
+        st_set *s;
+        st_error e = {0};
+        if (st_ptex_read_file(path, 0, &s, &e) != 0) {
+            print_message("%s: %s\n", path, e.msg);
+            fail();
+        }
+        found++;
+        /* the table built before any flag changes, so both paths read the same texels */
+        q[0] = (st_query){.face = 0, .u = 0.5f, .v = 0.5f};
+        assert_true(st_pf_paths_agree(s, q, 1, path, filters, 1) >= 0);
+        if (files[i].every)
+            for (uint32_t f = 0; f < s->info.nfaces; f++)
+                if (f % files[i].every == 0)
+                    s->faces[f].flags |= ST_FACE_CONSTANT;
+        size_t n_on = const_queries(s, q);
+        assert_true(n_on * 4 >= NQ); /* a quarter of the queries or more (fewer: bad test) */
+        on += n_on;
+        long n = st_pf_paths_agree(s, q, NQ, path, filters, NF);
+        if (n < 0)
+            fail();
+        compared += n;
+        st_set_free(s);
+    }
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared, %zu on constant faces\n", found, compared, on);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(const_faces_match_the_general_path),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
