@@ -21,7 +21,10 @@
  *      (4 lanes of channels, as bilinear_write does);
  *   6. (t00 ku0 + t01 fu) kv0 + (t10 ku0 + t11 fu) fv times 1 / ((ku0 + fu)(kv0 + fv) one),
  *      multiplies and adds as written (no fused multiply-adds: C11 mode does not contract, and
- *      every product here is its own intrinsic), the division a true division.
+ *      every product here is its own intrinsic), the division a true division;
+ *   7. (8 lanes, since session 19) a lane on a constant face whose kernel lies inside it (a
+ *      zero fraction's tap stripped): 0 + texel (ku0 + fu)(kv0 + fv) times the same scale,
+ *      ptexfilter.c's const_write (const_lanes8).
  * Every step is an IEEE operation on the same operands as the scalar code's, so each lane's
  * result is bit for bit the per-query path's (test_ptexfilter_paths compares both lane
  * counts with the general path on every shared file). Lanes that fail a test are only masked:
@@ -172,9 +175,11 @@ PL_TARGET void addr4(const pf_lanes *c, __m128i m32, __m128i f32, __m128i i32, _
 /* Steps 1 and 2 of 8 queries, for lanes8 and klanes8: the query checks (face < nfaces,
  * every derivative within ST_MAX_DERIV, 0 <= u, v < 1; a NaN fails), then the face's row and
  * lane byte gathered and the lanes of subfaces, constant faces and faces next to a constant
- * one dropped (o->m). Returns 0, o left unset, when no query passes the checks. */
+ * one dropped (o->m); those of a constant face (not a subface, no constant neighbourhood)
+ * that passed the checks in o->cm (lanes8 serves them, klanes8 does not). Returns 0, o left
+ * unset, when no query passes the checks. */
 typedef struct {
-    __m256i face, fw, pxf, m;
+    __m256i face, fw, pxf, m, cm; /* cm: the lanes that passed but for a constant face */
     __m256 u, v, ax, bx, ay, by;
 } pl_q8;
 
@@ -216,6 +221,8 @@ PL_TARGET int q8_checks(const pf_lanes *c, const st_query *q, pl_q8 *o)
         _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
         _mm256_and_si256(_mm256_srli_epi32(fw, 24),
                          _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
+    /* a constant face (not a subface) without a constant neighbourhood: flags CONSTANT */
+    o->cm = _mm256_and_si256(_mm256_cmpeq_epi32(bad, _mm256_set1_epi32(ST_FACE_CONSTANT)), m);
     m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
     o->face = face;
     o->fw = fw;
@@ -230,7 +237,38 @@ PL_TARGET int q8_checks(const pf_lanes *c, const st_query *q, pl_q8 *o)
     return 1;
 }
 
-/* 8 queries of texels of type DT with NC channels. */
+static inline __m128 texel4(const uint8_t *p, unsigned DT);
+
+/* The lanes of cmask, whose kernel lies inside a constant face (ptexfilter.c's bilinear_q
+ * and const_write): the face's texel (table entry 0) times the kernel's weight
+ * (ku0 + fu)(kv0 + fv) (with a zero fraction the stripped axis' 0 + 1: the same 1), added to
+ * zero, times 1 / (weight one), a lane at a time; after the plain lanes' stores (which may
+ * write whole vectors). */
+PL_TARGET unsigned const_lanes8(const pf_lanes *c, unsigned cmask, __m256i face, __m256 fu,
+                                __m256 fv, float *out, unsigned DT, unsigned NC)
+{
+    const __m256 one = _mm256_set1_ps(1.0f);
+    __m256 w = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(one, fu), fu),
+                             _mm256_add_ps(_mm256_sub_ps(one, fv), fv));
+    __m256 sc = _mm256_div_ps(one, _mm256_mul_ps(w, _mm256_set1_ps(one_of(DT))));
+    float wl[8], sl[8];
+    uint32_t fl[8];
+    _mm256_storeu_ps(wl, w);
+    _mm256_storeu_ps(sl, sc);
+    _mm256_storeu_si256((__m256i *)(void *)fl, face);
+    for (unsigned rest = cmask; rest; rest &= rest - 1) {
+        int j = __builtin_ctz(rest);
+        __m128 acc = _mm_add_ps(_mm_setzero_ps(), _mm_mul_ps(texel4(c->px[c->base[fl[j]]], DT),
+                                                             _mm_set1_ps(wl[j])));
+        float res[4];
+        _mm_storeu_ps(res, _mm_mul_ps(acc, _mm_set1_ps(sl[j])));
+        memcpy(out + (size_t)j * NC, res, NC * sizeof(float));
+    }
+    return cmask;
+}
+
+/* 8 queries of texels of type DT with NC channels; the lanes on a constant face whose 2 x 2
+ * texels lie inside it served too. */
 PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_lanes_kern *k,
                           unsigned *edge, unsigned DT, unsigned NC)
 {
@@ -245,8 +283,8 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
     __m256i face = q8.face, fw = q8.fw, pxf = q8.pxf, m = q8.m;
     __m256 u = q8.u, v = q8.v, ax = q8.ax, bx = q8.bx, ay = q8.ay, by = q8.by;
-    if (_mm256_testz_si256(m, m)) /* subfaces, constant faces: nothing for the lanes */
-        return 0;
+    if (_mm256_testz_si256(m, m) && _mm256_testz_si256(q8.cm, q8.cm))
+        return 0; /* subfaces, faces with a constant neighbourhood: nothing for the lanes */
     __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
     pl_v8i ru8, rv8;
     pl_v8f flu8, flv8, fu8, fv8;
@@ -259,6 +297,23 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     __m256i ru = (__m256i)ru8, rv = (__m256i)rv8;
     __m256 flu = (__m256)flu8, flv = (__m256)flv8, fu = (__m256)fu8, fv = (__m256)fv8;
     __m256i ui = _mm256_cvttps_epi32(flu), vi = _mm256_cvttps_epi32(flv);
+    /* the lanes on a constant face whose kernel lies inside it (const_lanes8), a zero
+     * fraction's tap stripped (bilinear_q's test: fl >= 0, fl + 2 or 1 <= 2^r) */
+    unsigned cmask = 0;
+    if (!_mm256_testz_si256(q8.cm, q8.cm)) {
+        const __m256 two = _mm256_set1_ps(2.0f), zf = _mm256_setzero_ps();
+        const __m256i e127 = _mm256_set1_epi32(127);
+        __m256 rfu = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(ru, e127), 23));
+        __m256 rfv = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(rv, e127), 23));
+        __m256 nu = _mm256_blendv_ps(one, two, _mm256_cmp_ps(fu, zf, _CMP_NEQ_UQ));
+        __m256 nv = _mm256_blendv_ps(one, two, _mm256_cmp_ps(fv, zf, _CMP_NEQ_UQ));
+        __m256 cin = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps(flu, zf, _CMP_GE_OQ),
+                          _mm256_cmp_ps(_mm256_add_ps(flu, nu), rfu, _CMP_LE_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(flv, zf, _CMP_GE_OQ),
+                          _mm256_cmp_ps(_mm256_add_ps(flv, nv), rfv, _CMP_LE_OQ)));
+        cmask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(_mm256_castsi256_ps(q8.cm), cin));
+    }
     unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
     *edge = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(plain)) & ~mask;
     if (*edge) { /* the kernel set-up of the lanes handed over */
@@ -288,7 +343,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
         k->open = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(blocked)) & *edge;
     }
     if (!mask)
-        return 0;
+        return cmask ? const_lanes8(c, cmask, face, fu, fv, out, DT, NC) : 0u;
     /* the table entry of (ru, rv) and the first texel's address, 64-bit lanes 0-3 / 4-7 */
     __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ru, _mm256_add_epi32(lv, _mm256_set1_epi32(1))), rv);
     __m256i off = _mm256_add_epi32(_mm256_sllv_epi32(vi, ru), ui); /* < 2^30 */
@@ -357,7 +412,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
         __m256 r1 = _mm256_add_ps(_mm256_mul_ps(t10, ku0), _mm256_mul_ps(t11, fu));
         __m256 acc = _mm256_add_ps(_mm256_mul_ps(r0, kv0), _mm256_mul_ps(r1, fv));
         _mm256_storeu_ps(out, _mm256_mul_ps(acc, scale));
-        return mask;
+        return mask | (cmask ? const_lanes8(c, cmask, face, fu, fv, out, DT, NC) : 0u);
     }
     if (NC >= 3) {
         /* two lanes a vector: lane 2k's texel in the low 4 lanes, lane 2k + 1's in the high 4
@@ -397,7 +452,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
                 _mm_store_ss(o + 5, _mm_movehl_ps(hi, hi));
             }
         }
-        return mask;
+        return mask | (cmask ? const_lanes8(c, cmask, face, fu, fv, out, DT, NC) : 0u);
     }
     /* two channels: one lane's texels in 4 lanes, as bilinear_write */
     uint64_t a0[8], a1[8];
@@ -461,7 +516,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
                 _mm_store_ss(o + 2, _mm_movehl_ps(res, res));
         }
     }
-    return mask;
+    return mask | (cmask ? const_lanes8(c, cmask, face, fu, fv, out, DT, NC) : 0u);
 }
 
 /* Blocks of W lanes (FN the one-block body) until one is not served whole or nblk are: the
