@@ -175,11 +175,12 @@ PL_TARGET void addr4(const pf_lanes *c, __m128i m32, __m128i f32, __m128i i32, _
 /* Steps 1 and 2 of 8 queries, for lanes8 and klanes8: the query checks (face < nfaces,
  * every derivative within ST_MAX_DERIV, 0 <= u, v < 1; a NaN fails), then the face's row and
  * lane byte gathered and the lanes of subfaces, constant faces and faces next to a constant
- * one dropped (o->m); those of a constant face (not a subface, no constant neighbourhood)
- * that passed the checks in o->cm (lanes8 serves them, klanes8 does not). Returns 0, o left
- * unset, when no query passes the checks. */
+ * one dropped (o->m; o->mok the lanes before the drop, o->bad their flags that drop one:
+ * lanes8 serves a constant face's, klanes8 does not). Returns 0, o left unset, when no query
+ * passes the checks. */
 typedef struct {
-    __m256i face, fw, pxf, m, cm; /* cm: the lanes that passed but for a constant face */
+    __m256i face, fw, pxf, m;
+    __m256i mok, bad; /* the lanes that passed the query checks; their flags that drop one */
     __m256 u, v, ax, bx, ay, by;
 } pl_q8;
 
@@ -221,8 +222,8 @@ PL_TARGET int q8_checks(const pf_lanes *c, const st_query *q, pl_q8 *o)
         _mm256_and_si256(pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)),
         _mm256_and_si256(_mm256_srli_epi32(fw, 24),
                          _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)));
-    /* a constant face (not a subface) without a constant neighbourhood: flags CONSTANT */
-    o->cm = _mm256_and_si256(_mm256_cmpeq_epi32(bad, _mm256_set1_epi32(ST_FACE_CONSTANT)), m);
+    o->mok = m;
+    o->bad = bad;
     m = _mm256_andnot_si256(_mm256_cmpgt_epi32(bad, zero), m);
     o->face = face;
     o->fw = fw;
@@ -283,7 +284,14 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
     __m256i face = q8.face, fw = q8.fw, pxf = q8.pxf, m = q8.m;
     __m256 u = q8.u, v = q8.v, ax = q8.ax, bx = q8.bx, ay = q8.ay, by = q8.by;
-    if (_mm256_testz_si256(m, m) && _mm256_testz_si256(q8.cm, q8.cm))
+    /* the lanes on a constant face (not a subface, no constant neighbourhood: the flags
+     * that drop it are CONSTANT alone), looked for only when a lane was dropped */
+    unsigned pm = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
+    __m256i cm = zero;
+    if (pm != 0xffu)
+        cm = _mm256_and_si256(_mm256_cmpeq_epi32(q8.bad, _mm256_set1_epi32(ST_FACE_CONSTANT)),
+                              q8.mok);
+    if (!pm && _mm256_testz_si256(cm, cm))
         return 0; /* subfaces, faces with a constant neighbourhood: nothing for the lanes */
     __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
     pl_v8i ru8, rv8;
@@ -300,7 +308,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
     /* the lanes on a constant face whose kernel lies inside it (const_lanes8), a zero
      * fraction's tap stripped (bilinear_q's test: fl >= 0, fl + 2 or 1 <= 2^r) */
     unsigned cmask = 0;
-    if (!_mm256_testz_si256(q8.cm, q8.cm)) {
+    if (pm != 0xffu && !_mm256_testz_si256(cm, cm)) {
         const __m256 two = _mm256_set1_ps(2.0f), zf = _mm256_setzero_ps();
         const __m256i e127 = _mm256_set1_epi32(127);
         __m256 rfu = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(ru, e127), 23));
@@ -312,7 +320,7 @@ PL_TARGET unsigned lanes8(const pf_lanes *c, const st_query *q, float *out, pf_l
                           _mm256_cmp_ps(_mm256_add_ps(flu, nu), rfu, _CMP_LE_OQ)),
             _mm256_and_ps(_mm256_cmp_ps(flv, zf, _CMP_GE_OQ),
                           _mm256_cmp_ps(_mm256_add_ps(flv, nv), rfv, _CMP_LE_OQ)));
-        cmask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(_mm256_castsi256_ps(q8.cm), cin));
+        cmask = (unsigned)_mm256_movemask_ps(_mm256_and_ps(_mm256_castsi256_ps(cm), cin));
     }
     unsigned mask = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
     *edge = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(plain)) & ~mask;
