@@ -831,10 +831,11 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
 
 /* eval's kernel path for the bilinear kernel of lane j of lk (its resolution, first texel and
  * fractions; a query of its own passes lane 0 of a local one: the lanes' hand-over passes
- * its set-up as it lies, with no copy) on face f (plain_face) in every mode, by the walk: the
- * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
- * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
- * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
+ * its set-up as it lies, with no copy) on face f (open_face: plain or constant) in every
+ * mode, by the walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a
+ * texel centre: the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0).
+ * Returns 0 (nothing written) when Discard keeps no weight: eval then runs (its
+ * zero-coverage rule). */
 static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f, float *out,
                          float *cov)
 {
@@ -926,8 +927,9 @@ __attribute__((always_inline)) static inline int bilinear_edge2(pf *c, pf_edge2_
     return 1;
 }
 
-/* The bilinear kernel b that overhangs face f (plain_face) or sits on a texel centre, in
- * every mode: bilinear_edge2 (e2, trav as its), else bilinear_walk (its return value). */
+/* The bilinear kernel b that overhangs face f (open_face, not constant) or sits on a texel
+ * centre, in every mode: bilinear_edge2 (e2, trav as its), else bilinear_walk (its return
+ * value). */
 __attribute__((always_inline)) static inline int bilinear_edge_with(pf *c, pf_edge2_fn e2,
                                                                     int trav, pf_bil b,
                                                                     uint32_t f, float *out,
@@ -1081,11 +1083,11 @@ static int eval(pf *c, const pk_params *pp, const st_sample_opts *o, const st_qu
 }
 
 /* pf_walk_kernel (ptexfilter_walk.c) on kernel k of face f: 1 when it took it (it declines
- * kernels that reach a subface, and takes constant faces since session 19). On a face at a mesh boundary it folds
- * (no overhung edge with a neighbour: pf_walk_fold's merges) or runs the whole walk with its
- * folds (since session 14); one that overhangs one edge only, into a neighbour, walks in
- * walk_one on any face. In Discard and Clamp pf_walk_fold: split_walk's merges and the window
- * on f. eval_kernel does not offer a subface. */
+ * kernels that reach a subface; constant faces it takes since session 19). On a face at a
+ * mesh boundary it folds (no overhung edge with a neighbour: pf_walk_fold's merges) or runs
+ * the whole walk with its folds (since session 14); one that overhangs one edge only, into a
+ * neighbour, walks in walk_one on any face. In Discard and Clamp pf_walk_fold: split_walk's
+ * merges and the window on f. eval_kernel does not offer a subface. */
 static int walk(pf *c, pk *k, int f)
 {
     if (c->mode == ST_MODE_TRAVERSE)
@@ -1189,14 +1191,14 @@ __attribute__((always_inline)) static inline int point_q(pf *c, const st_query *
 }
 
 /* The query's face when the filter may take a shortcut on it: no constant neighbourhood,
- * neither constant nor a subface, (u, v) in [0, 1) (which every border mode leaves as it
- * is); else NULL (eval's general path). */
-static inline const st_face *plain_face(const pf *c, const st_query *q)
+ * not a subface, (u, v) in [0, 1) (which every border mode leaves as it is); else NULL
+ * (eval's general path). A face that is not constant as well is plain (the fused path's,
+ * the lanes', the walks'); a constant one takes const_write's shortcuts. */
+static inline const st_face *open_face(const pf *c, const st_query *q)
 {
     uint32_t f = q->face;
     const st_face *F = &c->s->faces[f];
-    if ((c->t->ptxflags[f] & PTX_FLAG_NBCONSTANT) ||
-        (F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) ||
+    if ((c->t->ptxflags[f] & PTX_FLAG_NBCONSTANT) || (F->flags & ST_FACE_SUBFACE) ||
         !(q->u >= 0.0f && q->u < 1.0f && q->v >= 0.0f && q->v < 1.0f))
         return NULL;
     return F;
@@ -1212,10 +1214,8 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
                                                             unsigned NC)
 {
     uint32_t f = q->face;
-    const st_face *F = &c->s->faces[f];
-    if (!(c->t->ptxflags[f] & PTX_FLAG_NBCONSTANT) && !(F->flags & ST_FACE_SUBFACE) &&
-        q->u >= 0.0f && q->u < 1.0f && q->v >= 0.0f && q->v < 1.0f) {
-        /* plain_face, or a constant face (eval's shortcuts for one, without its prologue) */
+    const st_face *F = open_face(c, q);
+    if (F) {
         pf_bil b = bilinear_kernel(c, F, q->u, q->v, fabsf(q->dudx) + fabsf(q->dudy),
                                    fabsf(q->dvdx) + fabsf(q->dvdy));
         if (!(F->flags & ST_FACE_CONSTANT)) {
@@ -1534,15 +1534,11 @@ __attribute__((always_inline)) static inline int kernel_qi(pf *c, const pk_param
                                                            const st_query *q, float *out,
                                                            float *cov)
 {
-    const st_face *F = plain_face(c, q);
-    if (!F) {
-        F = &c->s->faces[q->face];
-        if ((F->flags & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) == ST_FACE_CONSTANT &&
-            !(c->t->ptxflags[q->face] & PTX_FLAG_NBCONSTANT) && q->u >= 0.0f && q->u < 1.0f &&
-            q->v >= 0.0f && q->v < 1.0f)
-            return kernel_const(c, pp, o, q, F, out, cov);
+    const st_face *F = open_face(c, q);
+    if (!F)
         return eval(c, pp, o, q, out, cov);
-    }
+    if (F->flags & ST_FACE_CONSTANT)
+        return kernel_const(c, pp, o, q, F, out, cov);
     float uw = fabsf(q->dudx) + fabsf(q->dudy), vw = fabsf(q->dvdx) + fabsf(q->dvdy);
     float bu = uw * c->width + c->blur, bv = vw * c->width + c->blur;
     /* a width-4 kernel of 1/4 face or wider (the width clamped to a texel first, so any
@@ -1783,13 +1779,13 @@ __attribute__((always_inline)) static inline int kernel_lane(
 
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
- * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
+ * open_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
  * and width-4 filters with AVX2) the fused path's common case of the block at once
  * (ptexfilter_simd.c's pf_box8_select and pf_w4x8_select: served, or its kernel handed
  * over to kernel_handed),
  * then per query the fused path (kernel_plain) for the lanes left; the rest one by one with the same checks in one vector compare
  * ((u, v) in [0, 1), the four derivatives within the bound, NaN failing it; the face in
- * range and plain: together they imply one_query's checks and plain_face's) and kernel_qi's
+ * range and plain: together they imply one_query's checks and open_face's) and kernel_qi's
  * widths from the same vector. A query that fails the checks goes through serve
  * (one_query, kernel_q: what it did before, in full). Coverage and status written directly.
  * Returns the number that failed. */

@@ -1,7 +1,7 @@
 /* store/ptex/ptexfilter_lanes.c - Ptex's in-face bilinear on 8 queries at once (AVX2 + FMA +
  * F16C, chosen at run time) or 4 (SSE2), one query per lane (ptexfilter_lanes.h).
  *
- * The per-query bilinear (ptexfilter.c: the batch's checks, plain_face, bilinear_kernel,
+ * The per-query bilinear (ptexfilter.c: the batch's checks, open_face, bilinear_kernel,
  * bilinear_fits, bilinear_write) spends most of its ~200 instructions on one query's
  * bookkeeping: loading and checking it, the kernel set-up of two axes in one SSE vector, the
  * table look-up through three dependent loads, the division. Here the same operations run
