@@ -24,15 +24,9 @@
 #include "sample.h"
 #include "../common/pfpaths.h"
 #include "../common/testdata.h"
+#include "../common/testhash.h"
 
 enum { NQ = 4000 };
-
-static uint32_t rng = 41;
-static float rnd01(void) /* [0, 1) */
-{
-    rng = rng * 1664525u + 1013904223u;
-    return (float)(rng >> 8) / 16777216.0f;
-}
 
 static const unsigned filters[] = {ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,
                                    ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
@@ -43,33 +37,34 @@ enum { NF = sizeof filters / sizeof filters[0] };
 /* A coordinate of a face of res texels at footprint fp texels: anywhere, on a texel centre
  * of the level the kernel is built at (about res / fp texels), or within fp texels of an
  * edge. */
-static float coord(int j, int res, float fp)
+static float coord(int j, int res, float fp, uint32_t *rng)
 {
-    float u = rnd01();
+    float u = st_test_rndf(rng);
     if (j % 3 == 1) {
         int lres = 1;
         while (lres * 2 <= res && (float)(lres * 2) * fp <= (float)res * 1.5f)
             lres *= 2;
         u = ((float)(int)(u * (float)lres) + 0.5f) / (float)lres;
     } else if (j % 3 == 2) {
-        float d = rnd01() * fp / (float)res;
-        u = rnd01() < 0.5f ? d : 1.0f - d;
+        float d = st_test_rndf(rng) * fp / (float)res;
+        u = st_test_rndf(rng) < 0.5f ? d : 1.0f - d;
     }
     u = u < 0.0f ? 0.0f : u;
     return u < 0.99999994f ? u : 0.99999994f;
 }
 
 /* NQ queries on faces drawn uniformly; returns how many of them sit on a constant face. */
-static size_t const_queries(const st_set *s, st_query *q)
+static size_t const_queries(const st_set *s, st_query *q, uint32_t *rng)
 {
     static const float fps[] = {0.25f, 0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 64.0f};
     size_t on = 0;
     for (int j = 0; j < NQ; j++) {
-        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        uint32_t f = (uint32_t)(st_test_rndf(rng) * (float)s->info.nfaces) % s->info.nfaces;
         const st_face *F = &s->faces[f];
-        float fu = fps[(int)(rnd01() * 8) & 7];
-        float fv = j % 4 == 1 ? fps[(int)(rnd01() * 8) & 7] : fu;
-        q[j] = (st_query){.face = f, .u = coord(j, (int)F->w, fu), .v = coord(j / 3, (int)F->h, fv),
+        float fu = fps[(int)(st_test_rndf(rng) * 8) & 7];
+        float fv = j % 4 == 1 ? fps[(int)(st_test_rndf(rng) * 8) & 7] : fu;
+        q[j] = (st_query){.face = f, .u = coord(j, (int)F->w, fu, rng),
+                          .v = coord(j / 3, (int)F->h, fv, rng),
                           .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
         on += (F->flags & ST_FACE_CONSTANT) != 0;
     }
@@ -90,6 +85,7 @@ static void const_faces_match_the_general_path(void **state)
         {"ptx/wdas-ptex-2009/bordermodes/black.ptx", 1},
     };
     static st_query q[NQ];
+    uint32_t rng = 41; /* the queries' generator (testhash.h) */
     long compared = 0;
     size_t on = 0;
     int found = 0;
@@ -111,7 +107,7 @@ static void const_faces_match_the_general_path(void **state)
             for (uint32_t f = 0; f < s->info.nfaces; f++)
                 if (f % files[i].every == 0)
                     s->faces[f].flags |= ST_FACE_CONSTANT;
-        size_t n_on = const_queries(s, q);
+        size_t n_on = const_queries(s, q, &rng);
         assert_true(n_on * 4 >= NQ); /* a quarter of the queries or more (fewer: bad test) */
         on += n_on;
         long n = st_pf_paths_agree(s, q, NQ, path, filters, NF);
