@@ -135,14 +135,9 @@ static long compare_plain_flagged(st_set *s, const st_query *q, const char *path
  * folder does not have it; a read error fails the test. */
 static st_set *read_shared(const char *rel, char *path, size_t cap)
 {
-    if (st_test_data_path(path, cap, rel) != 0)
-        return NULL;
     st_set *s;
-    st_error e = {0};
-    if (st_ptex_read_file(path, 0, &s, &e) != 0) {
-        print_message("%s: %s\n", path, e.msg);
-        fail();
-    }
+    int r = st_pf_read_shared(rel, path, cap, &s);
+    assert_true(r >= 0);
     return s;
 }
 
