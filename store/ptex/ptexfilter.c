@@ -111,6 +111,7 @@ typedef struct pf {
     v4f acc;                 /* the weighted sum, raw units */
     pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
     int iso;                 /* kernel_iso may run: Traverse or Clamp, both window loops */
+    pf_r0x8_fn r0x8;         /* kernel_r0's folds 8 at a time (set when c->small is), or NULL */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1692,6 +1693,23 @@ __attribute__((always_inline)) static inline int kernel_lane(
     return st != ST_Q_OK;
 }
 
+/* The lanes of k->nonb that c->r0x8 serves (kernel_r0's kernels folded on a face without
+ * neighbours), their coverage (when cov) and status (when st) written: the mask. */
+static unsigned kernel_r0x8(pf *c, const pf_klanes *k, float *out, float *cov, uint8_t *st)
+{
+    float cv[8];
+    unsigned m = c->r0x8(c->walk.black_u, c->walk.black_v, c->mode == ST_MODE_DISCARD, k, out,
+                         cv);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        if (cov)
+            cov[j] = cv[j];
+        if (st)
+            st[j] = ST_Q_OK;
+    }
+    return m;
+}
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
@@ -1729,10 +1747,14 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             kl(lc, q + i, &k);
             /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
-            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1);
+            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = 0;
+            if (k.nonb && c->r0x8) /* kernel_r0's folds on faces without neighbours */
+                r0 = kernel_r0x8(c, &k, out + i * nc, coverage ? coverage + i : NULL,
+                                 status ? status + i : NULL);
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
-                for (unsigned j = 0; j < 8; j++)
-                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
+                for (unsigned m = ~r0 & 0xffu; m; m &= m - 1)
+                    bad += kernel_lane(c, pp, o, qfn, q, i + (unsigned)__builtin_ctz(m), &k,
+                                       (unsigned)__builtin_ctz(m), 0, NULL, 0.0f, out,
                                        coverage, status, nc);
                 continue;
             }
@@ -1746,7 +1768,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                         status[i + j] = ST_Q_OK;
                 }
             }
-            for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
+            for (unsigned m = ~(done | r0) & 0xffu; m; m &= m - 1) {
                 unsigned j = (unsigned)__builtin_ctz(m);
                 bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
                                    kw[j], out, coverage, status, nc);
@@ -1835,6 +1857,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     if (!c.win)
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.iso = c.small && c.mode != ST_MODE_DISCARD;
+    c.r0x8 = c.small ? pf_r0x8_select(c.dt, c.nc) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small};

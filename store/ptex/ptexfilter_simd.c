@@ -2160,6 +2160,108 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
     return ftype == ST_FILTER_PTEX_BOX ? box[dt][nc - 1] : fns[dt][nc - 1];
 }
 
+/* ---- kernels at resolution 1 x 1 on faces without neighbours (pf_r0x8_select) ----------- */
+
+/* One axis of kernel_r0's kernel (ptexfilter.c's build_r0_axis) lane by lane, x in [0, 1):
+ * the 2 taps at x - 1/2 rounded down (-1 or 0: the face's one texel is 0), w0 the hermite
+ * weight (pk_hermite_blur's operations in its order) and w1 = 1 - w0; a zero tap stripped.
+ * in: the tap on the face's texel (w1 at -1, w0 at 0); *s the axis' pk_accumulate ((0 + w0)
+ * + w1 = w0 + w1, or 0 + the one tap = the one tap + the stripped 0: no weight is -0), *a
+ * fold_r0's weight (black: the tap on the face; else the folded sum w0 + w1, whichever tap
+ * is first: a sum of two), *one the lanes with a single tap. Returns the lanes with a tap on the face (a single tap past it
+ * makes an overhang as wide as the window, which the fold declines). */
+PF_TARGET __m256 r0x8_axis(__m256 x, int black, __m256 *a, __m256 *s, __m256 *one)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), z = _mm256_setzero_ps();
+    __m256 upix = _mm256_sub_ps(x, _mm256_set1_ps(.5f));
+    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(upix)); /* pk_floor */
+    __m256 lo = _mm256_cmp_ps(t, upix, _CMP_GT_OQ);
+    __m256 ui = _mm256_sub_ps(t, _mm256_and_ps(lo, c1));
+    __m256 f = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), _mm256_sub_ps(upix, ui));
+    __m256 h = _mm256_add_ps(
+        _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), f),
+                                                  _mm256_set1_ps(3.0f)),
+                                    f),
+                      f),
+        c1);
+    __m256 w0 = _mm256_and_ps(h, _mm256_cmp_ps(f, c1, _CMP_LT_OQ));
+    __m256 w1 = _mm256_sub_ps(c1, w0);
+    __m256 neg = _mm256_cmp_ps(ui, z, _CMP_LT_OQ); /* first tap at -1 */
+    __m256 z0 = _mm256_cmp_ps(w0, z, _CMP_EQ_OQ), z1 = _mm256_cmp_ps(w1, z, _CMP_EQ_OQ);
+    __m256 in = _mm256_blendv_ps(w0, w1, neg);
+    *one = _mm256_or_ps(z0, z1);
+    *s = _mm256_add_ps(w0, w1); /* the tap + 0 where one is stripped */
+    *a = black ? in : *s;
+    /* two taps, or one on the texel: w0 zero with the first tap at -1, w1 zero with it at 0 */
+    return _mm256_or_ps(_mm256_andnot_ps(*one, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
+                        _mm256_or_ps(_mm256_and_ps(z0, neg), _mm256_andnot_ps(neg, z1)));
+}
+
+PF_TARGET unsigned r0x8(int blu, int blv, int discard, const pf_klanes *k, float *out,
+                        float *cov, unsigned DT, unsigned NC)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), z = _mm256_setzero_ps();
+    __m256 bu = _mm256_loadu_ps(k->bu), bv = _mm256_loadu_ps(k->bv);
+    unsigned m = k->nonb & (unsigned)_mm256_movemask_ps(_mm256_and_ps(
+                               _mm256_cmp_ps(bu, c1, _CMP_GE_OQ), _mm256_cmp_ps(bv, c1, _CMP_GE_OQ)));
+    if (!m)
+        return 0;
+    __m256 au, su, ou, av, sv, ov;
+    __m256 ok = _mm256_and_ps(r0x8_axis(_mm256_loadu_ps(k->u), blu | discard, &au, &su, &ou),
+                              r0x8_axis(_mm256_loadu_ps(k->v), blv | discard, &av, &sv, &ov));
+    ok = _mm256_andnot_ps(_mm256_and_ps(ou, ov), ok); /* inside the face: the per-query path */
+    __m256 total = _mm256_mul_ps(su, sv), weight = total, cv = c1;
+    if (discard) { /* kernel_walk_wr's Discard: the weight kept, the coverage */
+        weight = _mm256_mul_ps(au, av);
+        /* weight / total, 0 where total is; never over 1 (kernel_walk_wr's clamp): the kept
+         * tap of an axis is at most its sum, and rounding keeps the order of the products */
+        cv = _mm256_and_ps(_mm256_div_ps(weight, total), _mm256_cmp_ps(total, z, _CMP_NEQ_OQ));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(weight, z, _CMP_GT_OQ),
+                                             _mm256_cmp_ps(cv, z, _CMP_GT_OQ)));
+    }
+    m &= (unsigned)_mm256_movemask_ps(ok);
+    if (!m)
+        return 0;
+    const float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    __m256 scale = _mm256_div_ps(c1, _mm256_mul_ps(weight, _mm256_set1_ps(one)));
+    float A[8], B[8], S[8];
+    _mm256_storeu_ps(A, au);
+    _mm256_storeu_ps(B, av);
+    _mm256_storeu_ps(S, scale);
+    if (discard)
+        _mm256_storeu_ps(cov, cv);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        pf_v4 acc = small_body(k->px[j][0], 0, A + j, 1, B + j, 1, (pf_v4){0, 0, 0, 0}, DT, NC);
+        w4x8_put(out + (size_t)j * NC, (__m128)acc, S[j], NC);
+        if (!discard)
+            cov[j] = 1.0f;
+    }
+    return m;
+}
+
+#define PF_R0X8(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_r0x8_##DT##_##NC(           \
+        int blu, int blv, int discard, const pf_klanes *k, float *out, float *cov)         \
+    {                                                                                       \
+        return r0x8(blu, blv, discard, k, out, cov, DT, NC);                                \
+    }
+#define PF_R0X8_NC(DT) PF_R0X8(DT, 1) PF_R0X8(DT, 2) PF_R0X8(DT, 3) PF_R0X8(DT, 4)
+PF_R0X8_NC(0)
+PF_R0X8_NC(1)
+PF_R0X8_NC(2)
+PF_R0X8_NC(3)
+
+pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc)
+{
+#define PF_ROW(DT) {pf_r0x8_##DT##_1, pf_r0x8_##DT##_2, pf_r0x8_##DT##_3, pf_r0x8_##DT##_4}
+    static const pf_r0x8_fn fns[4][4] = {PF_ROW(0), PF_ROW(1), PF_ROW(2), PF_ROW(3)};
+#undef PF_ROW
+    if (nc < 1 || nc > 4 || dt > 3 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 #else
 
 int pf_have_avx2(void)
@@ -2211,6 +2313,12 @@ pf_window_fn pf_small_select(unsigned dt, unsigned nc)
 }
 
 pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
     return NULL;

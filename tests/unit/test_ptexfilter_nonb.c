@@ -1,0 +1,183 @@
+/* tests/unit/test_ptexfilter_nonb.c - the width-4 filters' kernels on faces without
+ * neighbours 8 queries at a time (session 19): pf_r0x8_select (ptexfilter_simd.c), which
+ * kernel_run serves the lanes of klanes8's nonb mask with whose widths are a face or more
+ * (kernel_r0's kernels at resolution 1 x 1: 2 hermite taps an axis, folded at the border).
+ * Outputs, coverage and status must be the general path's (pf_batch_path(PF_PATH_GENERAL):
+ * every query through eval) bit for bit, for every kernel filter and mode, on the one-face
+ * files of bordermodes and tri/quad.ptx under each border mode (black drops the overhang,
+ * clamp folds it; periodic's file has itself as neighbour: not the path's), plain and with
+ * the face flagged constant, then subface. The queries come in blocks of 8 with widths of a
+ * face or more (1, just over, 4, 16, one axis so and the other half a face, or under),
+ * (u, v) anywhere, near an edge, at 0.5 and a few ulps either side (where the first tap
+ * moves from texel -1 to 0, and where the hermite weight of one tap is 0 or 1: one tap
+ * left, on the texel or past it, or a kernel inside the face), with an invalid query or a
+ * NaN width among them; the lanes the 8-query path served are counted through klanes8 and
+ * pf_r0x8_select on the same blocks, so that the comparison is known to cover it. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "ptex.h"
+#include "ptexfilter.h"
+#include "ptexfilter_kernel.h"
+#include "ptexfilter_lanes.h"
+#include "ptexres.h"
+#include "sample.h"
+#include "../common/pfpaths.h"
+#include "../common/skip_unless.h"
+#include "../common/testdata.h"
+
+enum { NQ = 4096 };
+
+static uint32_t rng = 41;
+static float rnd01(void) /* [0, 1) */
+{
+    rng = rng * 1664525u + 1013904223u;
+    return (float)(rng >> 8) / 16777216.0f;
+}
+
+static const unsigned filters[] = {ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
+                                   ST_FILTER_PTEX_BSPLINE, ST_FILTER_PTEX_CATMULLROM,
+                                   ST_FILTER_PTEX_MITCHELL};
+enum { NF = sizeof filters / sizeof filters[0] };
+
+/* A coordinate: anywhere, near an edge, or at / next to 0.5 (the ulps below it make the
+ * first tap's weight 1 - tiny, or 0 where upix + 1 rounds to 1). */
+static float coord(void)
+{
+    static const float at[] = {0.5f,        0.49999997f, 0.49999994f, 0.4999999f,
+                               0.50000006f, 0.5000001f,  0.0f,        0.99999994f};
+    float u = rnd01();
+    switch ((int)(rnd01() * 4)) {
+    case 1: return rnd01() < 0.5f ? u * 1e-3f : 1.0f - u * 1e-3f;
+    case 2: return at[(int)(rnd01() * 8) & 7];
+    default: return u;
+    }
+}
+
+/* A width for the r0 lanes (in units of the face: dudx = w here): a face or more mostly,
+ * sometimes half a face or under (that lane is not the path's, the block still is). */
+static float width(void)
+{
+    static const float w[] = {1.0f, 1.00000012f, 4.0f, 16.0f, 1.5f, 2.0f, 0.5f, 0.1f};
+    return w[(int)(rnd01() * 8) & 7];
+}
+
+static void make_queries(st_query *q)
+{
+    for (int j = 0; j < NQ; j++) {
+        float wu = width(), wv = rnd01() < 0.7f ? wu : width();
+        q[j] = (st_query){.face = 0, .u = coord(), .v = coord(), .dudx = wu, .dvdy = wv};
+        if (rnd01() < 0.3f) /* the width as the sum of two derivatives */
+            q[j].dudx = wu * 0.25f, q[j].dudy = wu * 0.75f;
+        if (j % 97 == 5)
+            q[j].face = 7; /* past the faces: a query that fails */
+        if (j % 89 == 11)
+            q[j].dvdy = NAN;
+    }
+}
+
+/* The lanes of q's blocks that pf_r0x8_select's function serves for filter ft in mode
+ * `mode` (klanes8 first, as kernel_run calls them). */
+static long r0_served(const st_set *s, const st_query *q, unsigned ft, unsigned mode)
+{
+    st_error e = {0};
+    const st_ptexres *t = st_ptexres_pin(s, &e);
+    assert_non_null(t);
+    pf_kernel_lanes_fn kl = pf_kernel_lanes_select(ft);
+    pf_r0x8_fn r8 = pf_r0x8_select(s->info.dtype, s->info.nchan);
+    assert_non_null(kl);
+    assert_non_null(r8);
+    pf_lanes lc = {.faces = s->faces, .lanef = t->lanef, .base = t->base, .px = t->px,
+                   .nfaces = s->info.nfaces, .width = 1.0f, .blur = 0.0f};
+    long n = 0;
+    for (size_t i = 0; i + 8 <= NQ; i += 8) {
+        pf_klanes k;
+        float out[8 * 4], cov[8];
+        kl(&lc, q + i, &k);
+        unsigned m = r8(s->info.border_u == 1, s->info.border_v == 1, mode == ST_MODE_DISCARD,
+                        &k, out, cov);
+        assert_int_equal(m & ~k.nonb, 0);
+        n += __builtin_popcount(m);
+    }
+    st_ptexres_unpin(t);
+    return n;
+}
+
+static long compare(const st_set *s, const st_query *q, const char *what)
+{
+    long n = st_pf_paths_agree(s, q, NQ, what, filters, NF);
+    if (n < 0)
+        fail();
+    return n;
+}
+
+static void r0_lanes_match_the_general_path(void **state)
+{
+    (void)state;
+    ST_SKIP_WITHOUT_AVX2();
+    static const char *const files[] = {
+        "ptx/wdas-ptex-2009/tri/quad.ptx",
+        "ptx/wdas-ptex-2009/bordermodes/black.ptx",
+        "ptx/wdas-ptex-2009/bordermodes/clamp.ptx",
+        "ptx/wdas-ptex-2009/bordermodes/periodic.ptx",
+    };
+    static st_query q[NQ];
+    long compared = 0, served[3] = {0};
+    int found = 0;
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        char path[1024];
+        if (st_test_data_path(path, sizeof path, files[i]) != 0)
+            continue;
+        st_set *s;
+        st_error e = {0};
+        if (st_ptex_read_file(path, 0, &s, &e) != 0) {
+            print_message("%s: %s\n", path, e.msg);
+            fail();
+        }
+        found++;
+        make_queries(q);
+        uint8_t bu = s->info.border_u, bv = s->info.border_v;
+        for (uint8_t b = 0; b <= 4; b++) { /* as read, clamp, black, periodic, mixed */
+            if (b == 4)
+                s->info.border_u = 1, s->info.border_v = 0;
+            else if (b)
+                s->info.border_u = s->info.border_v = (uint8_t)(b - 1);
+            compared += compare(s, q, path);
+            for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++)
+                served[m - ST_MODE_DISCARD] += r0_served(s, q, ST_FILTER_PTEX_GAUSSIAN, m);
+        }
+        s->info.border_u = bu;
+        s->info.border_v = bv;
+        uint8_t fl = s->faces[0].flags;
+        s->faces[0].flags = (uint8_t)(fl | ST_FACE_CONSTANT);
+        compared += compare(s, q, path);
+        s->faces[0].flags = (uint8_t)(fl | ST_FACE_SUBFACE);
+        compared += compare(s, q, path);
+        s->faces[0].flags = fl;
+        st_set_free(s);
+    }
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared; lanes served 8 at a time: Discard %ld, "
+                  "Traverse %ld, Clamp %ld\n", found, compared, served[0], served[1], served[2]);
+    /* 3 of the files have no neighbours, 5 border settings: most r0 lanes are served */
+    for (int m = 0; m < 3; m++)
+        assert_true(served[m] > 3 * 5 * NQ / 4);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(r0_lanes_match_the_general_path),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
