@@ -112,6 +112,7 @@ typedef struct pf {
     pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
     int iso;                 /* kernel_iso may run: Traverse or Clamp, both window loops */
     pf_r0x8_fn r0x8;         /* kernel_r0's folds 8 at a time (set when c->small is), or NULL */
+    pf_r0x8_fn iso8;         /* kernel_iso's, the same */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1693,17 +1694,20 @@ __attribute__((always_inline)) static inline int kernel_lane(
     return st != ST_Q_OK;
 }
 
-/* The lanes of k->nonb that c->r0x8 serves (kernel_r0's kernels folded on a face without
- * neighbours), their coverage (when cov) and status (when st) written: the mask. */
+/* The lanes of k->nonb that c->r0x8 and c->iso8 serve (kernel_r0's and kernel_iso's kernels
+ * folded on a face without neighbours), their coverage (when cov) and status (when st)
+ * written: the mask. */
 static unsigned kernel_r0x8(pf *c, const pf_klanes *k, float *out, float *cov, uint8_t *st)
 {
-    float cv[8];
-    unsigned m = c->r0x8(c->walk.black_u, c->walk.black_v, c->mode == ST_MODE_DISCARD, k, out,
-                         cv);
+    float cv[2][8];
+    int dis = c->mode == ST_MODE_DISCARD;
+    unsigned r0 = c->r0x8(c->walk.black_u, c->walk.black_v, dis, k, out, cv[0]), m = r0;
+    if (k->nonb & ~r0)
+        m |= c->iso8(c->walk.black_u, c->walk.black_v, dis, k, out, cv[1]);
     for (unsigned r = m; r; r &= r - 1) {
         unsigned j = (unsigned)__builtin_ctz(r);
         if (cov)
-            cov[j] = cv[j];
+            cov[j] = cv[!(r0 >> j & 1)][j];
         if (st)
             st[j] = ST_Q_OK;
     }
@@ -1748,7 +1752,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
             unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = 0;
-            if (k.nonb && c->r0x8) /* kernel_r0's folds on faces without neighbours */
+            if (k.nonb && c->r0x8) /* kernel_r0's and kernel_iso's folds, no neighbours */
                 r0 = kernel_r0x8(c, &k, out + i * nc, coverage ? coverage + i : NULL,
                                  status ? status + i : NULL);
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
@@ -1858,6 +1862,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.iso = c.small && c.mode != ST_MODE_DISCARD;
     c.r0x8 = c.small ? pf_r0x8_select(c.dt, c.nc) : NULL;
+    c.iso8 = c.small ? pf_iso8_select(c.dt, c.nc) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small};

@@ -116,4 +116,11 @@ typedef unsigned (*pf_r0x8_fn)(int blu, int blv, int discard, const pf_klanes *k
                                float *cov);
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc);
 
+/* The same for ptexfilter.c's kernel_iso's kernels of widths in [1/2, 1) along both axes
+ * (resolution 2 x 2, 4 hermite taps an axis, zeros stripped) on faces of 2 x 2 texels or more
+ * without neighbours: the lanes whose kernel keeps a tap on the face along each axis and
+ * overhangs it served (the overhang folded, or dropped where black and in Discard; the
+ * window on the face's level (1, 1)); NULL without AVX2 + FMA + F16C. */
+pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc);
+
 #endif

@@ -2240,6 +2240,155 @@ PF_TARGET unsigned r0x8(int blu, int blv, int discard, const pf_klanes *k, float
     return m;
 }
 
+/* One axis of kernel_iso's kernel at resolution 2 (a width w in [1/2, 1) on a face of 2 or
+ * more texels: pk_width4_axis' 4 hermite taps from texel -2 or 0, its operations in its
+ * order) lane by lane, with pk_strip_zeros and pf_fold_axis after it: the nonzero taps are
+ * one run (|x1 + i| s falls then rises), so the taps on the face's 2 texels that are not
+ * zero are the window (*at its first texel, *n 1 or 2, *k0 and *k1 its weights), the
+ * others the overhang, folded onto the edge texel's weight ((0 + t0) + t1 onto t2 from -2,
+ * (0 + t2) + t3 onto t1 from 0: stripped zeros add +0, and no weight is -0) unless black.
+ * *s the 4 taps' sum in order (pk_accumulate of the stripped ones: the same bits), *kept
+ * the window's own taps' sum (Discard's weight), *over the lanes with an overhang. Returns
+ * the lanes with a tap on the face. */
+PF_TARGET __m256 iso8_axis(__m256 x, __m256 w, int black, __m256i *at, __m256i *n,
+                           __m256 *k0, __m256 *k1, __m256 *s, __m256 *kept, __m256 *over)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), z = _mm256_setzero_ps();
+    __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, _mm256_set1_ps(2.0f)), _mm256_set1_ps(.5f));
+    __m256 xm = _mm256_sub_ps(x, _mm256_set1_ps(.5f));
+    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(xm)); /* pk_floor */
+    __m256 fl = _mm256_sub_ps(t, _mm256_and_ps(_mm256_cmp_ps(t, xm, _CMP_GT_OQ), c1));
+    __m256 neg = _mm256_cmp_ps(fl, z, _CMP_LT_OQ);           /* taps from -2, else from 0 */
+    __m256 x1 = _mm256_sub_ps(_mm256_add_ps(fl, fl), upix);  /* (float)(fl * 2) - upix */
+    __m256 st = _mm256_div_ps(c1, _mm256_add_ps(_mm256_mul_ps(w, _mm256_set1_ps(1.5f)),
+                                                _mm256_set1_ps(.5f)));
+    __m256 xa0 = _mm256_add_ps(x1, z), xa2 = _mm256_add_ps(x1, _mm256_set1_ps(2.0f));
+    __m256 xs[4] = {_mm256_mul_ps(_mm256_add_ps(xa0, z), st),
+                    _mm256_mul_ps(_mm256_add_ps(xa0, c1), st),
+                    _mm256_mul_ps(_mm256_add_ps(xa2, z), st),
+                    _mm256_mul_ps(_mm256_add_ps(xa2, c1), st)};
+    __m256 tp[4];
+    for (int i = 0; i < 4; i++) {
+        __m256 a = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), xs[i]);
+        __m256 h = _mm256_add_ps(
+            _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), a),
+                                                      _mm256_set1_ps(3.0f)),
+                                        a),
+                          a),
+            c1);
+        tp[i] = _mm256_and_ps(h, _mm256_cmp_ps(a, c1, _CMP_LT_OQ));
+    }
+    *s = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(z, tp[0]), tp[1]), tp[2]),
+                       tp[3]);
+    __m256 l0 = _mm256_blendv_ps(tp[0], tp[2], neg), r0 = _mm256_blendv_ps(tp[1], tp[3], neg);
+    __m256 o = _mm256_blendv_ps(_mm256_add_ps(_mm256_add_ps(z, tp[2]), tp[3]),
+                                _mm256_add_ps(_mm256_add_ps(z, tp[0]), tp[1]), neg);
+    __m256 l = l0, r = r0;
+    if (!black) {
+        l = _mm256_blendv_ps(l0, _mm256_add_ps(l0, o), neg);
+        r = _mm256_blendv_ps(_mm256_add_ps(r0, o), r0, neg);
+    }
+    __m256 nzl = _mm256_cmp_ps(l0, z, _CMP_NEQ_OQ), nzr = _mm256_cmp_ps(r0, z, _CMP_NEQ_OQ);
+    *over = _mm256_cmp_ps(o, z, _CMP_NEQ_OQ);
+    *k0 = _mm256_blendv_ps(r, l, nzl);
+    *k1 = r;
+    *kept = _mm256_add_ps(l0, r0);
+    *at = _mm256_add_epi32(_mm256_castps_si256(nzl), _mm256_set1_epi32(1)); /* 0 or 1 */
+    *n = _mm256_sub_epi32(_mm256_setzero_si256(),
+                          _mm256_add_epi32(_mm256_castps_si256(nzl), _mm256_castps_si256(nzr)));
+    return _mm256_or_ps(nzl, nzr);
+}
+
+/* kernel_iso's kernels of widths in [1/2, 1) along both axes (resolution 2 x 2) on faces of
+ * 2 x 2 texels or more without neighbours, 8 at a time: pf_r0x8_fn's contract for them
+ * (lanes of k->nonb), the lanes whose kernel overhangs the face served (Traverse and Clamp:
+ * kernel_iso's fold and window, the weight the 4 taps' sums' product; Discard: the overhang
+ * dropped, pf_walk_fold's kept weight and kernel_walk_wr's coverage), the window the small
+ * window's, as put_window picks it for at most 2 x 2 texels. */
+PF_TARGET unsigned iso8(int blu, int blv, int discard, const pf_klanes *k, float *out,
+                        float *cov, unsigned DT, unsigned NC)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), h = _mm256_set1_ps(.5f), z = _mm256_setzero_ps();
+    __m256 bu = _mm256_loadu_ps(k->bu), bv = _mm256_loadu_ps(k->bv);
+    __m256i lg = _mm256_and_si256(
+        _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(const void *)k->ulog2), _mm256_setzero_si256()),
+        _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(const void *)k->vlog2), _mm256_setzero_si256()));
+    __m256 in = _mm256_and_ps(
+        _mm256_and_ps(_mm256_cmp_ps(bu, h, _CMP_GE_OQ), _mm256_cmp_ps(bu, c1, _CMP_LT_OQ)),
+        _mm256_and_ps(_mm256_cmp_ps(bv, h, _CMP_GE_OQ), _mm256_cmp_ps(bv, c1, _CMP_LT_OQ)));
+    unsigned m = k->nonb & (unsigned)_mm256_movemask_ps(_mm256_and_ps(in, _mm256_castsi256_ps(lg)));
+    if (!m)
+        return 0;
+    __m256i atu, nu, atv, nv;
+    __m256 ku0, ku1, su, kpu, ou, kv0, kv1, sv, kpv, ov;
+    __m256 ok = _mm256_and_ps(
+        iso8_axis(_mm256_loadu_ps(k->u), bu, blu | discard, &atu, &nu, &ku0, &ku1, &su, &kpu, &ou),
+        iso8_axis(_mm256_loadu_ps(k->v), bv, blv | discard, &atv, &nv, &kv0, &kv1, &sv, &kpv, &ov));
+    ok = _mm256_and_ps(ok, _mm256_or_ps(ou, ov)); /* inside the face: the per-query path */
+    __m256 total = _mm256_mul_ps(su, sv), weight = total, cv = c1;
+    if (discard) { /* as r0x8: the kept taps' sum is at most the 4 taps' along each axis */
+        weight = _mm256_mul_ps(kpu, kpv);
+        cv = _mm256_and_ps(_mm256_div_ps(weight, total), _mm256_cmp_ps(total, z, _CMP_NEQ_OQ));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(weight, z, _CMP_GT_OQ),
+                                             _mm256_cmp_ps(cv, z, _CMP_GT_OQ)));
+    }
+    m &= (unsigned)_mm256_movemask_ps(ok);
+    if (!m)
+        return 0;
+    const float onev = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    __m256 scale = _mm256_div_ps(c1, _mm256_mul_ps(weight, _mm256_set1_ps(onev)));
+    float U[16], V[16], S[8];
+    int32_t AU[8], AV[8], NU[8], NV[8];
+    /* lane j's weights at U + 2 j, V + 2 j */
+    _mm256_storeu_ps(U, _mm256_unpacklo_ps(ku0, ku1));
+    _mm256_storeu_ps(U + 8, _mm256_unpackhi_ps(ku0, ku1));
+    _mm256_storeu_ps(V, _mm256_unpacklo_ps(kv0, kv1));
+    _mm256_storeu_ps(V + 8, _mm256_unpackhi_ps(kv0, kv1));
+    _mm256_storeu_ps(S, scale);
+    _mm256_storeu_si256((__m256i *)(void *)AU, atu);
+    _mm256_storeu_si256((__m256i *)(void *)AV, atv);
+    _mm256_storeu_si256((__m256i *)(void *)NU, nu);
+    _mm256_storeu_si256((__m256i *)(void *)NV, nv);
+    if (discard)
+        _mm256_storeu_ps(cov, cv);
+    /* unpacklo / hi pair lanes within each 128-bit half: lane j's pair is at this index */
+    static const unsigned char at2[8] = {0, 2, 8, 10, 4, 6, 12, 14};
+    const size_t ts = (size_t)NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        const uint8_t *d = k->px[j][k->vlog2[j] + 2]; /* resolution (1, 1) */
+        pf_v4 acc = small_body(d + ((size_t)AV[j] * 2 + (size_t)AU[j]) * ts, 2 * ts,
+                               U + at2[j], NU[j], V + at2[j], NV[j], (pf_v4){0, 0, 0, 0}, DT,
+                               NC);
+        w4x8_put(out + (size_t)j * NC, (__m128)acc, S[j], NC);
+        if (!discard)
+            cov[j] = 1.0f;
+    }
+    return m;
+}
+
+#define PF_ISO8(DT, NC)                                                                     \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_iso8_##DT##_##NC(           \
+        int blu, int blv, int discard, const pf_klanes *k, float *out, float *cov)         \
+    {                                                                                       \
+        return iso8(blu, blv, discard, k, out, cov, DT, NC);                                \
+    }
+#define PF_ISO8_NC(DT) PF_ISO8(DT, 1) PF_ISO8(DT, 2) PF_ISO8(DT, 3) PF_ISO8(DT, 4)
+PF_ISO8_NC(0)
+PF_ISO8_NC(1)
+PF_ISO8_NC(2)
+PF_ISO8_NC(3)
+
+pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc)
+{
+#define PF_ROW(DT) {pf_iso8_##DT##_1, pf_iso8_##DT##_2, pf_iso8_##DT##_3, pf_iso8_##DT##_4}
+    static const pf_r0x8_fn fns[4][4] = {PF_ROW(0), PF_ROW(1), PF_ROW(2), PF_ROW(3)};
+#undef PF_ROW
+    if (nc < 1 || nc > 4 || dt > 3 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 #define PF_R0X8(DT, NC)                                                                     \
     __attribute__((target("avx2,fma,f16c"))) static unsigned pf_r0x8_##DT##_##NC(           \
         int blu, int blv, int discard, const pf_klanes *k, float *out, float *cov)         \
@@ -2319,6 +2468,12 @@ pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
 }
 
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
     return NULL;

@@ -1,18 +1,22 @@
 /* tests/unit/test_ptexfilter_nonb.c - the width-4 filters' kernels on faces without
- * neighbours 8 queries at a time (session 19): pf_r0x8_select (ptexfilter_simd.c), which
- * kernel_run serves the lanes of klanes8's nonb mask with whose widths are a face or more
- * (kernel_r0's kernels at resolution 1 x 1: 2 hermite taps an axis, folded at the border).
- * Outputs, coverage and status must be the general path's (pf_batch_path(PF_PATH_GENERAL):
- * every query through eval) bit for bit, for every kernel filter and mode, on the one-face
- * files of bordermodes and tri/quad.ptx under each border mode (black drops the overhang,
- * clamp folds it; periodic's file has itself as neighbour: not the path's), plain and with
- * the face flagged constant, then subface. The queries come in blocks of 8 with widths of a
- * face or more (1, just over, 4, 16, one axis so and the other half a face, or under),
- * (u, v) anywhere, near an edge, at 0.5 and a few ulps either side (where the first tap
- * moves from texel -1 to 0, and where the hermite weight of one tap is 0 or 1: one tap
- * left, on the texel or past it, or a kernel inside the face), with an invalid query or a
- * NaN width among them; the lanes the 8-query path served are counted through klanes8 and
- * pf_r0x8_select on the same blocks, so that the comparison is known to cover it. */
+ * neighbours 8 queries at a time (session 19): pf_r0x8_select and pf_iso8_select
+ * (ptexfilter_simd.c), with which kernel_run serves the lanes of klanes8's nonb mask whose
+ * widths are a face or more along both axes (kernel_r0's kernels at resolution 1 x 1: 2
+ * hermite taps an axis) or half a face to under a face (kernel_iso's at resolution 2 x 2: 4
+ * taps an axis, zeros stripped), folded at the border. Outputs, coverage and status must be
+ * the general path's (pf_batch_path(PF_PATH_GENERAL): every query through eval) bit for
+ * bit, for every width-4 filter and mode, on the one-face files of bordermodes and
+ * tri/quad.ptx under each border mode (black drops the overhang, clamp folds it; periodic's
+ * file has itself as neighbour: not these paths'), one axis black and the other not, plain
+ * and with the face flagged constant, then subface. The queries: r0 - widths of a face or
+ * more (1, just over, 4, 16, one axis so and the other half a face or under), (u, v)
+ * anywhere, near an edge, at 0.5 and a few ulps either side (where the first tap moves from
+ * texel -1 to 0 and where one tap's hermite weight is 0: one tap left, on the texel or past
+ * it, or a kernel inside the face), with an invalid face or a NaN width among them; iso -
+ * widths in [1/2, 1) and next to both ends, (u, v) where an end tap's weight crosses zero
+ * (the window a texel narrower, or no overhang left) or as above. The lanes the 8-query
+ * functions serve are counted through klanes8 on the same blocks, so that the comparison
+ * is known to cover them. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -69,9 +73,46 @@ static float width(void)
     return w[(int)(rnd01() * 8) & 7];
 }
 
-static void make_queries(st_query *q)
+/* A width for the iso lanes: half a face to under a face (0.5 and the float below it, the
+ * float below 1 and 1: the builds next to it), sometimes a face or more. */
+static float iso_width(void)
+{
+    static const float w[] = {0.5f, 0.75f, 0.6f, 0.99999994f, 0.9f, 0.49999997f, 1.0f, 0.55f};
+    int i = (int)(rnd01() * 10);
+    return i < 8 ? w[i] : 0.5f + rnd01() * 0.5f;
+}
+
+/* A coordinate where an end tap of the iso kernel of width w (resolution 2) has a weight
+ * next to 0 (|x| s at 1 for s = 1 / (w * 1.5 + 0.5): the tap at (u * 2 - 0.5) + t, t = +-1.5
+ * / s, moved by a few ulps), near 0 or 1 or 0.5 (the first tap from -2 to 0), or anywhere. */
+static float iso_coord(float w)
+{
+    float u;
+    switch ((int)(rnd01() * 4)) {
+    case 0: case 1: {
+        float r = w * 1.5f + 0.5f;
+        float x = (rnd01() < 0.5f ? 1.5f : 0.5f) - r + (float)((int)(rnd01() * 7) - 3) * 1e-6f;
+        u = rnd01() < 0.5f ? (x + 0.5f) / 2.0f : (2.0f + x + 0.5f) / 2.0f - 1.0f;
+        if (rnd01() < 0.5f)
+            u = 1.0f - u;
+        break;
+    }
+    case 2: return coord();
+    default: u = rnd01(); break;
+    }
+    u = u < 0.0f ? 0.0f : u;
+    return u < 0.99999994f ? u : 0.99999994f;
+}
+
+static void make_queries(st_query *q, int iso)
 {
     for (int j = 0; j < NQ; j++) {
+        if (iso) {
+            float wu = iso_width(), wv = rnd01() < 0.6f ? wu : iso_width();
+            q[j] = (st_query){.face = 0, .u = iso_coord(wu), .v = iso_coord(wv), .dudx = wu,
+                              .dvdy = wv};
+            continue;
+        }
         float wu = width(), wv = rnd01() < 0.7f ? wu : width();
         q[j] = (st_query){.face = 0, .u = coord(), .v = coord(), .dudx = wu, .dvdy = wv};
         if (rnd01() < 0.3f) /* the width as the sum of two derivatives */
@@ -85,13 +126,14 @@ static void make_queries(st_query *q)
 
 /* The lanes of q's blocks that pf_r0x8_select's function serves for filter ft in mode
  * `mode` (klanes8 first, as kernel_run calls them). */
-static long r0_served(const st_set *s, const st_query *q, unsigned ft, unsigned mode)
+static long lanes_served(const st_set *s, const st_query *q, unsigned ft, unsigned mode,
+                         int iso)
 {
     st_error e = {0};
     const st_ptexres *t = st_ptexres_pin(s, &e);
     assert_non_null(t);
     pf_kernel_lanes_fn kl = pf_kernel_lanes_select(ft);
-    pf_r0x8_fn r8 = pf_r0x8_select(s->info.dtype, s->info.nchan);
+    pf_r0x8_fn r8 = (iso ? pf_iso8_select : pf_r0x8_select)(s->info.dtype, s->info.nchan);
     assert_non_null(kl);
     assert_non_null(r8);
     pf_lanes lc = {.faces = s->faces, .lanef = t->lanef, .base = t->base, .px = t->px,
@@ -118,9 +160,8 @@ static long compare(const st_set *s, const st_query *q, const char *what)
     return n;
 }
 
-static void r0_lanes_match_the_general_path(void **state)
+static void lanes_match_the_general_path(int iso)
 {
-    (void)state;
     ST_SKIP_WITHOUT_AVX2();
     static const char *const files[] = {
         "ptx/wdas-ptex-2009/tri/quad.ptx",
@@ -142,7 +183,7 @@ static void r0_lanes_match_the_general_path(void **state)
             fail();
         }
         found++;
-        make_queries(q);
+        make_queries(q, iso);
         uint8_t bu = s->info.border_u, bv = s->info.border_v;
         for (uint8_t b = 0; b <= 4; b++) { /* as read, clamp, black, periodic, mixed */
             if (b == 4)
@@ -151,7 +192,8 @@ static void r0_lanes_match_the_general_path(void **state)
                 s->info.border_u = s->info.border_v = (uint8_t)(b - 1);
             compared += compare(s, q, path);
             for (unsigned m = ST_MODE_DISCARD; m <= ST_MODE_CLAMP; m++)
-                served[m - ST_MODE_DISCARD] += r0_served(s, q, ST_FILTER_PTEX_GAUSSIAN, m);
+                served[m - ST_MODE_DISCARD] +=
+                    lanes_served(s, q, ST_FILTER_PTEX_GAUSSIAN, m, iso);
         }
         s->info.border_u = bu;
         s->info.border_v = bv;
@@ -167,17 +209,31 @@ static void r0_lanes_match_the_general_path(void **state)
         print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
         skip();
     }
-    print_message("%d files, %ld queries compared; lanes served 8 at a time: Discard %ld, "
-                  "Traverse %ld, Clamp %ld\n", found, compared, served[0], served[1], served[2]);
-    /* 3 of the files have no neighbours, 5 border settings: most r0 lanes are served */
+    print_message("%s: %d files, %ld queries compared; lanes served 8 at a time: Discard "
+                  "%ld, Traverse %ld, Clamp %ld\n", iso ? "iso8" : "r0x8", found, compared,
+                  served[0], served[1], served[2]);
+    /* 3 of the files have no neighbours, 5 border settings: most lanes are served */
     for (int m = 0; m < 3; m++)
-        assert_true(served[m] > 3 * 5 * NQ / 4);
+        assert_true(served[m] > 3 * 5 * NQ / (iso ? 3 : 4));
+}
+
+static void r0_lanes_match_the_general_path(void **state)
+{
+    (void)state;
+    lanes_match_the_general_path(0);
+}
+
+static void iso_lanes_match_the_general_path(void **state)
+{
+    (void)state;
+    lanes_match_the_general_path(1);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(r0_lanes_match_the_general_path),
+        cmocka_unit_test(iso_lanes_match_the_general_path),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
