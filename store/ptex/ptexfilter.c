@@ -846,11 +846,66 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
  * 2 x 2 texels overhang the face, or a fraction is 0 (a query on a texel centre: the zero
  * weight stripped as pk_strip_zeros does; 1 - fraction is never 0). Returns 0 (nothing
  * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
+/* One axis of a kernel at resolution 1 (the face's one texel) folded at the face's edges:
+ * n (1 or 2) taps w from texel x (-1 or 0; one tap only at 0), the overhang's one tap merged
+ * onto the tap on the texel as pk_merge_l / _r, p2_merge_lo / _hi and fold_r0 merge it (that
+ * tap + the overhang's sum 0 + tap: the same bits, no weight being -0), or dropped (black).
+ * Returns the weight on the texel. */
+static inline float fold1_taps(int x, int n, const float *w, int black)
+{
+    return n < 2 || black ? w[-x] : w[-x] + w[1 + x];
+}
+
+/* One axis of bilinear_fold1: the taps 1 - fr and fr from texel x (-1 or 0; fr 0: the one
+ * tap 1 at 0), *s their p2_sum; returns fold1_taps' weight (written out: no array). */
+static inline float fold1_axis(int x, float fr, int black, float *s)
+{
+    float t0 = 1.0f - fr;
+    if (fr == 0.0f) { /* one tap, on the texel: no merge */
+        *s = 0.0f + t0;
+        return t0;
+    }
+    *s = (0.0f + t0) + fr; /* p2_sum */
+    if (black)
+        return x < 0 ? fr : t0;
+    return x < 0 ? fr + t0 : t0 + fr;
+}
+
+/* bilinear_walk's kernel at resolution 1 x 1 (first texel -1 or 0 along each axis) on a face
+ * with no neighbour across any edge, where split_walk only merges, in every mode (black:
+ * the border mode's, or Discard), then applies the one texel (apply_small's window, c->small,
+ * 1 x 1): the same operations, without the pk2. */
+static int bilinear_fold1(pf *c, int ui, int vi, float fu, float fv, uint32_t f, float *out,
+                          float *cov)
+{
+    int dis = c->mode == ST_MODE_DISCARD;
+    float su, sv;
+    float a = fold1_axis(ui, fu, dis || c->bu == 1, &su);
+    float b = fold1_axis(vi, fv, dis || c->bv == 1, &sv);
+    float total = su * sv, w = total;
+    pf_v4 acc = c->small(c->t->px[c->t->base[f]], c->ts, &a, 1, &b, 1,
+                         (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
+    *cov = 1.0f;
+    if (dis) { /* each axis' sum after the merge is its one tap left (0 + it) */
+        w = a * b;
+        float cv = total != 0.0f ? w / total : 0.0f;
+        *cov = cv;
+        if (!(w > 0.0f) || cv <= 0.0f)
+            return 0;
+    }
+    float scale = 1.0f / (w * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = acc[ch] * scale;
+    return 1;
+}
+
 static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f, float *out,
                          float *cov)
 {
     int ru = lk->ru[j], rv = lk->rv[j], ui = lk->ui[j], vi = lk->vi[j];
     float fu = lk->fu[j], fv = lk->fv[j];
+    if (!(ru | rv) && (c->t->lanef[f] & 0xf0u) == 0xf0u)
+        return bilinear_fold1(c, ui, vi, fu, fv, f, out, cov);
     pk2 k;
     k.ulog2 = ru, k.vlog2 = rv, k.u = ui, k.v = vi;
     k.uw = fu != 0.0f ? 2 : 1;
@@ -1206,7 +1261,12 @@ __attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, in
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
     float cv = 1.0f;
     if (c->mode == ST_MODE_TRAVERSE) {
-        if (!(r0 ? pf_walk_kernel_r0 : pf_walk_kernel)(&c->walk, k, f, &acc, &weight))
+        /* on a face with no neighbour across any edge (lanef's four boundary bits) the walk
+         * is walk_boundary's fold with the border modes' black: taken at once */
+        if ((c->t->lanef[f] & 0xf0u) == 0xf0u) {
+            if (!pf_walk_fold(&c->walk, k, f, 0, &acc, &weight))
+                return 0;
+        } else if (!(r0 ? pf_walk_kernel_r0 : pf_walk_kernel)(&c->walk, k, f, &acc, &weight))
             return 0;
     } else if (c->mode == ST_MODE_DISCARD) {
         float total = weight;
@@ -1714,6 +1774,53 @@ static unsigned kernel_r0x8(pf *c, const pf_klanes *k, float *out, float *cov, u
     return m;
 }
 
+/* The lanes of mask (kernels handed over by the 8-query fused path, ks[j] with its
+ * pk_weight kw[j], on faces without neighbours: k->nonb) whose kernel is at resolution 1 x 1
+ * with at most 2 x 2 taps (the box's at a face or more): kernel_handed's steps for them
+ * (kernel_walk_wr: in every mode pf_walk_fold's fold there, which is fold_r0's: fold1_taps,
+ * the one texel through c->small; Discard's weight and coverage) and its division, at out +
+ * j * nc, coverage (when cov) and status (when st) written. Returns the lanes served; the
+ * others (an overhang as wide as the window, Discard keeping no weight) are left. */
+__attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k, const pk *ks,
+                                                       const float *kw, unsigned mask,
+                                                       float *out, float *cov, uint8_t *st)
+{
+    int dis = c->mode == ST_MODE_DISCARD;
+    int blu = dis || c->walk.black_u, blv = dis || c->walk.black_v;
+    float one = one_value(c->dt);
+    unsigned done = 0, nc = c->nc;
+    for (unsigned m = mask; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        const pk *kj = ks + j;
+        int u = kj->u, v = kj->v;
+        if ((kj->ulog2 | kj->vlog2) | (kj->uw > 2) | (kj->vw > 2) | (u >= 1) |
+            (u + kj->uw <= 0) | (v >= 1) | (v + kj->vw <= 0))
+            continue;
+        float a = fold1_taps(u, kj->uw, kj->kub + kj->ku0, blu);
+        float b = fold1_taps(v, kj->vw, kj->kvb + kj->kv0, blv);
+        float weight = kw[j], cv = 1.0f;
+        if (dis) {
+            float total = weight;
+            weight = a * b;
+            cv = total != 0.0f ? weight / total : 0.0f;
+            if (cv > 1.0f)
+                cv = 1.0f;
+            if (!(weight > 0.0f) || cv <= 0.0f)
+                continue;
+        }
+        pf_v4 acc = c->small(k->px[j][0], c->ts, &a, 1, &b, 1, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
+        float scale = 1.0f / (weight * one);
+        for (unsigned ch = 0; ch < nc; ch++)
+            out[j * nc + ch] = acc[ch] * scale;
+        if (cov)
+            cov[j] = cv;
+        if (st)
+            st[j] = ST_Q_OK;
+        done |= 1u << j;
+    }
+    return done;
+}
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
@@ -1763,6 +1870,13 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                 continue;
             }
             done = w8(pp, &k, out + i * nc, ks, kw, &over);
+            if (over & k.nonb && c->small) { /* folds of 1 x 1 kernels, no neighbours */
+                unsigned fo = kernel_fold8(c, &k, ks, kw, over & k.nonb, out + i * nc,
+                                           coverage ? coverage + i : NULL,
+                                           status ? status + i : NULL);
+                over &= ~fo;
+                r0 |= fo;
+            }
             if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
@@ -1861,8 +1975,9 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     if (!c.win)
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.iso = c.small && c.mode != ST_MODE_DISCARD;
-    c.r0x8 = c.small ? pf_r0x8_select(c.dt, c.nc) : NULL;
-    c.iso8 = c.small ? pf_iso8_select(c.dt, c.nc) : NULL;
+    int w4 = o->filter > ST_FILTER_PTEX_BOX; /* pf_klanes' nonb means another thing for the box */
+    c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;
+    c.iso8 = c.small && w4 ? pf_iso8_select(c.dt, c.nc) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small};

@@ -83,8 +83,9 @@ typedef struct pf_klanes {
     int32_t ulog2[8], vlog2[8];
     float u[8], v[8], bu[8], bv[8];
     unsigned plain, fast;
-    unsigned nonb; /* width-4 filters: the plain lanes whose face has no neighbour across any
-                      edge (lanef's four boundary bits) and whose widths are both 1/2 or more */
+    unsigned nonb; /* the plain lanes whose face has no neighbour across any edge (lanef's
+                      four boundary bits); for a width-4 filter, of those, the ones whose
+                      widths are both 1/2 or more */
 } pf_klanes;
 typedef void (*pf_kernel_lanes_fn)(const pf_lanes *c, const st_query *q, pf_klanes *k);
 

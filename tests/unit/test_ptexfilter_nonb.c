@@ -46,7 +46,8 @@ static float rnd01(void) /* [0, 1) */
     return (float)(rng >> 8) / 16777216.0f;
 }
 
-static const unsigned filters[] = {ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
+static const unsigned filters[] = {ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,
+                                   ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
                                    ST_FILTER_PTEX_BSPLINE, ST_FILTER_PTEX_CATMULLROM,
                                    ST_FILTER_PTEX_MITCHELL};
 enum { NF = sizeof filters / sizeof filters[0] };
