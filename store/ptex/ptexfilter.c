@@ -856,38 +856,78 @@ static inline float fold1_taps(int x, int n, const float *w, int black)
     return n < 2 || black ? w[-x] : w[-x] + w[1 + x];
 }
 
-/* One axis of bilinear_fold1: the taps 1 - fr and fr from texel x (-1 or 0; fr 0: the one
- * tap 1 at 0), *s their p2_sum; returns fold1_taps' weight (written out: no array). */
-static inline float fold1_axis(int x, float fr, int black, float *s)
+/* One axis of bilinear_fold: the taps 1 - fr and fr from texel x of res (fr 0: the one tap 1
+ * at x, inside), *s their p2_sum; the window left after split_walk's merge (p2_merge_lo /
+ * _hi: the edge tap plus p2_sum of the overhang's one tap, that tap + 0 + it: the same bits
+ * as the tap + it, no weight being -0; black: dropped): its first texel *at, *n taps in w,
+ * *kept their p2_sum where a merge left one tap (Discard's weight), else *s. */
+static inline void fold2_axis(int x, float fr, int res, int black, float *s, int *at, int *n,
+                              float *w, float *kept)
+{
+    float t0 = 1.0f - fr;
+    *at = x;
+    w[0] = t0;
+    if (fr == 0.0f) { /* one tap, inside: no merge */
+        *s = *kept = 0.0f + t0;
+        *n = 1;
+        return;
+    }
+    *s = *kept = (0.0f + t0) + fr;
+    *n = 1;
+    if (x < 0) { /* the tap at -1 past the low edge */
+        *at = 0;
+        w[0] = black ? fr : fr + t0;
+        *kept = w[0];
+    } else if (x + 2 > res) { /* the tap at res past the high edge */
+        w[0] = black ? t0 : t0 + fr;
+        *kept = w[0];
+    } else {
+        w[1] = fr;
+        *n = 2;
+    }
+}
+
+/* fold2_axis at resolution 1 (the face's one texel: x -1 or 0), the weight on the texel
+ * returned (written out: no window to describe). */
+static inline float fold1_axis(int x, float fr, int black, float *s, float *kept)
 {
     float t0 = 1.0f - fr;
     if (fr == 0.0f) { /* one tap, on the texel: no merge */
-        *s = 0.0f + t0;
+        *s = *kept = 0.0f + t0;
         return t0;
     }
     *s = (0.0f + t0) + fr; /* p2_sum */
-    if (black)
-        return x < 0 ? fr : t0;
-    return x < 0 ? fr + t0 : t0 + fr;
+    *kept = black ? (x < 0 ? fr : t0) : (x < 0 ? fr + t0 : t0 + fr);
+    return *kept;
 }
 
-/* bilinear_walk's kernel at resolution 1 x 1 (first texel -1 or 0 along each axis) on a face
- * with no neighbour across any edge, where split_walk only merges, in every mode (black:
- * the border mode's, or Discard), then applies the one texel (apply_small's window, c->small,
- * 1 x 1): the same operations, without the pk2. */
-static int bilinear_fold1(pf *c, int ui, int vi, float fu, float fv, uint32_t f, float *out,
-                          float *cov)
+/* bilinear_walk's kernel on a face with no neighbour across any edge, where split_walk only
+ * merges, in every mode (black: the border mode's, or Discard), then applies what is left
+ * (apply_small's window, c->small, at most 2 x 2 texels): the same operations, without the
+ * pk2. */
+static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float fv, uint32_t f,
+                         float *out, float *cov)
 {
     int dis = c->mode == ST_MODE_DISCARD;
-    float su, sv;
-    float a = fold1_axis(ui, fu, dis || c->bu == 1, &su);
-    float b = fold1_axis(vi, fv, dis || c->bv == 1, &sv);
+    float su, sv, ku[2], kv[2], wu, wv;
+    pf_v4 acc, zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    if (!(ru | rv)) { /* the face's one texel (a footprint of a face or more) */
+        ku[0] = fold1_axis(ui, fu, dis || c->bu == 1, &su, &wu);
+        kv[0] = fold1_axis(vi, fv, dis || c->bv == 1, &sv, &wv);
+        acc = c->small(c->t->px[c->t->base[f]], c->ts, ku, 1, kv, 1, zero);
+    } else {
+        int u, v, nu, nv, resu = 1 << ru;
+        fold2_axis(ui, fu, resu, dis || c->bu == 1, &su, &u, &nu, ku, &wu);
+        fold2_axis(vi, fv, 1 << rv, dis || c->bv == 1, &sv, &v, &nv, kv, &wv);
+        const uint8_t *d = c->t->px[c->t->base[f] +
+                                    (size_t)ru * (c->s->faces[f].vlog2 + 1u) + (size_t)rv];
+        acc = c->small(d + ((size_t)v * (size_t)resu + (size_t)u) * c->ts,
+                       (size_t)resu * c->ts, ku, nu, kv, nv, zero);
+    }
     float total = su * sv, w = total;
-    pf_v4 acc = c->small(c->t->px[c->t->base[f]], c->ts, &a, 1, &b, 1,
-                         (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
     *cov = 1.0f;
-    if (dis) { /* each axis' sum after the merge is its one tap left (0 + it) */
-        w = a * b;
+    if (dis) {
+        w = wu * wv;
         float cv = total != 0.0f ? w / total : 0.0f;
         *cov = cv;
         if (!(w > 0.0f) || cv <= 0.0f)
@@ -904,8 +944,8 @@ static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
 {
     int ru = lk->ru[j], rv = lk->rv[j], ui = lk->ui[j], vi = lk->vi[j];
     float fu = lk->fu[j], fv = lk->fv[j];
-    if (!(ru | rv) && (c->t->lanef[f] & 0xf0u) == 0xf0u)
-        return bilinear_fold1(c, ui, vi, fu, fv, f, out, cov);
+    if ((c->t->lanef[f] & 0xf0u) == 0xf0u)
+        return bilinear_fold(c, ru, rv, ui, vi, fu, fv, f, out, cov);
     pk2 k;
     k.ulog2 = ru, k.vlog2 = rv, k.u = ui, k.v = vi;
     k.uw = fu != 0.0f ? 2 : 1;
