@@ -161,28 +161,35 @@ static long compare(const st_set *s, const st_query *q, const char *what)
     return n;
 }
 
+/* The one-face file rel of SEAMTEX_DATA read (its path in path), or NULL when it is not
+ * there. */
+static st_set *one_face_file(const char *rel, char *path, size_t cap)
+{
+    st_set *s = NULL;
+    st_error e = {0};
+    if (st_test_data_path(path, cap, rel) != 0)
+        return NULL;
+    if (st_ptex_read_file(path, 0, &s, &e) != 0) {
+        print_message("%s: %s\n", path, e.msg);
+        fail();
+    }
+    return s;
+}
+
 static void lanes_match_the_general_path(int iso)
 {
     ST_SKIP_WITHOUT_AVX2();
-    static const char *const files[] = {
-        "ptx/wdas-ptex-2009/tri/quad.ptx",
-        "ptx/wdas-ptex-2009/bordermodes/black.ptx",
-        "ptx/wdas-ptex-2009/bordermodes/clamp.ptx",
-        "ptx/wdas-ptex-2009/bordermodes/periodic.ptx",
-    };
+    static const char *const rels[] = {"tri/quad", "bordermodes/black", "bordermodes/clamp",
+                                       "bordermodes/periodic"};
     static st_query q[NQ];
     long compared = 0, served[3] = {0};
     int found = 0;
-    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
-        char path[1024];
-        if (st_test_data_path(path, sizeof path, files[i]) != 0)
+    for (size_t i = 0; i < sizeof rels / sizeof rels[0]; i++) {
+        char rel[128], path[1024];
+        snprintf(rel, sizeof rel, "ptx/wdas-ptex-2009/%s.ptx", rels[i]);
+        st_set *s = one_face_file(rel, path, sizeof path);
+        if (!s)
             continue;
-        st_set *s;
-        st_error e = {0};
-        if (st_ptex_read_file(path, 0, &s, &e) != 0) {
-            print_message("%s: %s\n", path, e.msg);
-            fail();
-        }
         found++;
         make_queries(q, iso);
         uint8_t bu = s->info.border_u, bv = s->info.border_v;
