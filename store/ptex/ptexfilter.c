@@ -1301,12 +1301,7 @@ __attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, in
     pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
     float cv = 1.0f;
     if (c->mode == ST_MODE_TRAVERSE) {
-        /* on a face with no neighbour across any edge (lanef's four boundary bits) the walk
-         * is walk_boundary's fold with the border modes' black: taken at once */
-        if ((c->t->lanef[f] & 0xf0u) == 0xf0u) {
-            if (!pf_walk_fold(&c->walk, k, f, 0, &acc, &weight))
-                return 0;
-        } else if (!(r0 ? pf_walk_kernel_r0 : pf_walk_kernel)(&c->walk, k, f, &acc, &weight))
+        if (!(r0 ? pf_walk_kernel_r0 : pf_walk_kernel)(&c->walk, k, f, &acc, &weight))
             return 0;
     } else if (c->mode == ST_MODE_DISCARD) {
         float total = weight;
@@ -1861,6 +1856,29 @@ __attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k
     return done;
 }
 
+/* A block of 8 queries from q + i (k: klanes8's) with lanes of k->nonb, for a width-4
+ * filter: kernel_r0x8's lanes, then the others one by one (kernel_lane; such blocks are
+ * mostly of one-face files, where the 8-query fused path finds nothing). Out of line:
+ * kernel_run_with's loop keeps its registers for the common blocks. Returns the number
+ * that failed. */
+__attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *pp,
+                                                       const st_sample_opts *o, pf_query_fn qfn,
+                                                       const st_query *q, size_t i,
+                                                       const pf_klanes *k, float *out,
+                                                       float *coverage, uint8_t *status)
+{
+    unsigned nc = c->nc;
+    unsigned r0 = kernel_r0x8(c, k, out + i * nc, coverage ? coverage + i : NULL,
+                              status ? status + i : NULL);
+    int bad = 0;
+    for (unsigned m = ~r0 & 0xffu; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        bad += kernel_lane(c, pp, o, qfn, q, i + j, k, j, 0, NULL, 0.0f, out, coverage, status,
+                           nc);
+    }
+    return bad;
+}
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * plain_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
@@ -1898,14 +1916,14 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             kl(lc, q + i, &k);
             /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
+            if (__builtin_expect(k.nonb != 0, 0) && c->r0x8) { /* width-4, no neighbours */
+                bad += kernel_block_nonb(c, pp, o, qfn, q, i, &k, out, coverage, status);
+                continue;
+            }
             unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = 0;
-            if (k.nonb && c->r0x8) /* kernel_r0's and kernel_iso's folds, no neighbours */
-                r0 = kernel_r0x8(c, &k, out + i * nc, coverage ? coverage + i : NULL,
-                                 status ? status + i : NULL);
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
-                for (unsigned m = ~r0 & 0xffu; m; m &= m - 1)
-                    bad += kernel_lane(c, pp, o, qfn, q, i + (unsigned)__builtin_ctz(m), &k,
-                                       (unsigned)__builtin_ctz(m), 0, NULL, 0.0f, out,
+                for (unsigned j = 0; j < 8; j++)
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
                                        coverage, status, nc);
                 continue;
             }
