@@ -113,6 +113,8 @@ typedef struct pf {
     int iso;                 /* kernel_iso may run: Traverse or Clamp, both window loops */
     int cst;                 /* eval's shortcuts for kernels inside a constant face
                               * (const_write): all paths but PF_PATH_GENERAL */
+    pf_r0x8_fn r0x8;         /* kernel_r0's folds 8 at a time (set when c->small is), or NULL */
+    pf_r0x8_fn iso8;         /* kernel_iso's, the same */
 } pf;
 
 static float one_value(unsigned dt)
@@ -829,18 +831,114 @@ __attribute__((always_inline)) static inline void split_apply_small(pf *c, pk2 *
     split_walk(c, NULL, k, f, 0, 1);
 }
 
+/* One axis of a kernel at resolution 1 (the face's one texel) folded at the face's edges:
+ * n (1 or 2) taps w from texel x (-1 or 0; one tap only at 0), the overhang's one tap merged
+ * onto the tap on the texel as pk_merge_l / _r, p2_merge_lo / _hi and fold_r0 merge it (that
+ * tap + the overhang's sum 0 + tap: the same bits, no weight being -0), or dropped (black).
+ * Returns the weight on the texel. */
+static inline float fold1_taps(int x, int n, const float *w, int black)
+{
+    return n < 2 || black ? w[-x] : w[-x] + w[1 + x];
+}
+
+/* One axis of bilinear_fold: the taps 1 - fr and fr from texel x of res (fr 0: the one tap 1
+ * at x, inside), *s their p2_sum; the window left after split_walk's merge (p2_merge_lo /
+ * _hi: the edge tap plus p2_sum of the overhang's one tap, that tap + 0 + it: the same bits
+ * as the tap + it, no weight being -0; black: dropped): its first texel *at, *n taps in w,
+ * *kept their p2_sum where a merge left one tap (Discard's weight), else *s. */
+static inline void fold2_axis(int x, float fr, int res, int black, float *s, int *at, int *n,
+                              float *w, float *kept)
+{
+    float t0 = 1.0f - fr;
+    *at = x;
+    w[0] = t0;
+    if (fr == 0.0f) { /* one tap, inside: no merge */
+        *s = *kept = 0.0f + t0;
+        *n = 1;
+        return;
+    }
+    *s = *kept = (0.0f + t0) + fr;
+    *n = 1;
+    if (x < 0) { /* the tap at -1 past the low edge */
+        *at = 0;
+        w[0] = black ? fr : fr + t0;
+        *kept = w[0];
+    } else if (x + 2 > res) { /* the tap at res past the high edge */
+        w[0] = black ? t0 : t0 + fr;
+        *kept = w[0];
+    } else {
+        w[1] = fr;
+        *n = 2;
+    }
+}
+
+/* fold2_axis at resolution 1 (the face's one texel: x -1 or 0), the weight on the texel
+ * returned (written out: no window to describe). */
+static inline float fold1_axis(int x, float fr, int black, float *s, float *kept)
+{
+    float t0 = 1.0f - fr;
+    if (fr == 0.0f) { /* one tap, on the texel: no merge */
+        *s = *kept = 0.0f + t0;
+        return t0;
+    }
+    *s = (0.0f + t0) + fr; /* p2_sum */
+    *kept = black ? (x < 0 ? fr : t0) : (x < 0 ? fr + t0 : t0 + fr);
+    return *kept;
+}
+
+/* bilinear_walk's kernel on a face with no neighbour across any edge, where split_walk only
+ * merges, in every mode (black: the border mode's, or Discard), then applies what is left
+ * (apply_small's window, c->small, at most 2 x 2 texels): the same operations, without the
+ * pk2. */
+static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float fv, uint32_t f,
+                         float *out, float *cov)
+{
+    int dis = c->mode == ST_MODE_DISCARD;
+    float su, sv, ku[2], kv[2], wu, wv;
+    pf_v4 acc, zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    if (!(ru | rv)) { /* the face's one texel (a footprint of a face or more) */
+        ku[0] = fold1_axis(ui, fu, dis || c->bu == 1, &su, &wu);
+        kv[0] = fold1_axis(vi, fv, dis || c->bv == 1, &sv, &wv);
+        acc = c->small(c->t->px[c->t->base[f]], c->ts, ku, 1, kv, 1, zero);
+    } else {
+        int u, v, nu, nv, resu = 1 << ru;
+        fold2_axis(ui, fu, resu, dis || c->bu == 1, &su, &u, &nu, ku, &wu);
+        fold2_axis(vi, fv, 1 << rv, dis || c->bv == 1, &sv, &v, &nv, kv, &wv);
+        const uint8_t *d = c->t->px[c->t->base[f] +
+                                    (size_t)ru * (c->s->faces[f].vlog2 + 1u) + (size_t)rv];
+        acc = c->small(d + ((size_t)v * (size_t)resu + (size_t)u) * c->ts,
+                       (size_t)resu * c->ts, ku, nu, kv, nv, zero);
+    }
+    float total = su * sv, w = total;
+    *cov = 1.0f;
+    if (dis) {
+        w = wu * wv;
+        float cv = total != 0.0f ? w / total : 0.0f;
+        *cov = cv;
+        if (!(w > 0.0f) || cv <= 0.0f)
+            return 0;
+    }
+    float scale = 1.0f / (w * one_value(c->dt));
+    for (unsigned ch = 0; ch < c->nc; ch++)
+        out[ch] = acc[ch] * scale;
+    return 1;
+}
+
 /* eval's kernel path for the bilinear kernel of lane j of lk (its resolution, first texel and
  * fractions; a query of its own passes lane 0 of a local one: the lanes' hand-over passes
  * its set-up as it lies, with no copy) on face f (open_face: plain or constant) in every
  * mode, by the walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a
  * texel centre: the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0).
- * Returns 0 (nothing written) when Discard keeps no weight: eval then runs (its
- * zero-coverage rule). */
+ * On a face with no neighbour across any edge (not a constant one: bilinear_fold sums f's
+ * window) the merges alone (bilinear_fold). Returns 0 (nothing written) when Discard keeps
+ * no weight: eval then runs (its zero-coverage rule). */
 static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f, float *out,
                          float *cov)
 {
     int ru = lk->ru[j], rv = lk->rv[j], ui = lk->ui[j], vi = lk->vi[j];
     float fu = lk->fu[j], fv = lk->fv[j];
+    if ((c->t->lanef[f] & 0xf0u) == 0xf0u && !(c->s->faces[f].flags & ST_FACE_CONSTANT))
+        return bilinear_fold(c, ru, rv, ui, vi, fu, fv, f, out, cov); /* reads f's window */
     pk2 k;
     k.ulog2 = ru, k.vlog2 = rv, k.u = ui, k.v = vi;
     k.uw = fu != 0.0f ? 2 : 1;
@@ -1777,6 +1875,96 @@ __attribute__((always_inline)) static inline int kernel_lane(
     return st != ST_Q_OK;
 }
 
+/* The lanes of k->nonb that c->r0x8 and c->iso8 serve (kernel_r0's and kernel_iso's kernels
+ * folded on a face without neighbours), their coverage (when cov) and status (when st)
+ * written: the mask. */
+static unsigned kernel_r0x8(pf *c, const pf_klanes *k, float *out, float *cov, uint8_t *st)
+{
+    float cv[2][8];
+    int dis = c->mode == ST_MODE_DISCARD;
+    unsigned r0 = c->r0x8(c->walk.black_u, c->walk.black_v, dis, k, out, cv[0]), m = r0;
+    if (k->nonb & ~r0)
+        m |= c->iso8(c->walk.black_u, c->walk.black_v, dis, k, out, cv[1]);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        if (cov)
+            cov[j] = cv[!(r0 >> j & 1)][j];
+        if (st)
+            st[j] = ST_Q_OK;
+    }
+    return m;
+}
+
+/* The lanes of mask (kernels handed over by the 8-query fused path, ks[j] with its
+ * pk_weight kw[j], on faces without neighbours: k->nonb) whose kernel is at resolution 1 x 1
+ * with at most 2 x 2 taps (the box's at a face or more): kernel_handed's steps for them
+ * (kernel_walk_wr: in every mode pf_walk_fold's fold there, which is fold_r0's: fold1_taps,
+ * the one texel through c->small; Discard's weight and coverage) and its division, at out +
+ * j * nc, coverage (when cov) and status (when st) written. Returns the lanes served; the
+ * others (an overhang as wide as the window, Discard keeping no weight) are left. */
+__attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k, const pk *ks,
+                                                       const float *kw, unsigned mask,
+                                                       float *out, float *cov, uint8_t *st)
+{
+    int dis = c->mode == ST_MODE_DISCARD;
+    int blu = dis || c->walk.black_u, blv = dis || c->walk.black_v;
+    float one = one_value(c->dt);
+    unsigned done = 0, nc = c->nc;
+    for (unsigned m = mask; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        const pk *kj = ks + j;
+        int u = kj->u, v = kj->v;
+        if ((kj->ulog2 | kj->vlog2) | (kj->uw > 2) | (kj->vw > 2) | (u >= 1) |
+            (u + kj->uw <= 0) | (v >= 1) | (v + kj->vw <= 0))
+            continue;
+        float a = fold1_taps(u, kj->uw, kj->kub + kj->ku0, blu);
+        float b = fold1_taps(v, kj->vw, kj->kvb + kj->kv0, blv);
+        float weight = kw[j], cv = 1.0f;
+        if (dis) {
+            float total = weight;
+            weight = a * b;
+            cv = total != 0.0f ? weight / total : 0.0f;
+            if (cv > 1.0f)
+                cv = 1.0f;
+            if (!(weight > 0.0f) || cv <= 0.0f)
+                continue;
+        }
+        pf_v4 acc = c->small(k->px[j][0], c->ts, &a, 1, &b, 1, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
+        float scale = 1.0f / (weight * one);
+        for (unsigned ch = 0; ch < nc; ch++)
+            out[j * nc + ch] = acc[ch] * scale;
+        if (cov)
+            cov[j] = cv;
+        if (st)
+            st[j] = ST_Q_OK;
+        done |= 1u << j;
+    }
+    return done;
+}
+
+/* A block of 8 queries from q + i (k: klanes8's) with lanes of k->nonb, for a width-4
+ * filter: kernel_r0x8's lanes, then the others one by one (kernel_lane; such blocks are
+ * mostly of one-face files, where the 8-query fused path finds nothing). Out of line:
+ * kernel_run_with's loop keeps its registers for the common blocks. Returns the number
+ * that failed. */
+__attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *pp,
+                                                       const st_sample_opts *o, pf_query_fn qfn,
+                                                       const st_query *q, size_t i,
+                                                       const pf_klanes *k, float *out,
+                                                       float *coverage, uint8_t *status)
+{
+    unsigned nc = c->nc;
+    unsigned r0 = kernel_r0x8(c, k, out + i * nc, coverage ? coverage + i : NULL,
+                              status ? status + i : NULL);
+    int bad = 0;
+    for (unsigned m = ~r0 & 0xffu; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        bad += kernel_lane(c, pp, o, qfn, q, i + j, k, j, 0, NULL, 0.0f, out, coverage, status,
+                           nc);
+    }
+    return bad;
+}
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * open_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
@@ -1814,7 +2002,11 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             kl(lc, q + i, &k);
             /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
-            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1);
+            if (__builtin_expect(k.nonb != 0, 0) && c->r0x8) { /* width-4, no neighbours */
+                bad += kernel_block_nonb(c, pp, o, qfn, q, i, &k, out, coverage, status);
+                continue;
+            }
+            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = 0;
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
                 for (unsigned j = 0; j < 8; j++)
                     bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
@@ -1822,6 +2014,13 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                 continue;
             }
             done = w8(pp, &k, out + i * nc, ks, kw, &over);
+            if (over & k.nonb && c->small) { /* folds of 1 x 1 kernels, no neighbours */
+                unsigned fo = kernel_fold8(c, &k, ks, kw, over & k.nonb, out + i * nc,
+                                           coverage ? coverage + i : NULL,
+                                           status ? status + i : NULL);
+                over &= ~fo;
+                r0 |= fo;
+            }
             if (done && (coverage || status)) { /* served: coverage 1, status OK */
                 for (unsigned m = done; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
@@ -1831,7 +2030,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                         status[i + j] = ST_Q_OK;
                 }
             }
-            for (unsigned m = ~done & 0xffu; m; m &= m - 1) {
+            for (unsigned m = ~(done | r0) & 0xffu; m; m &= m - 1) {
                 unsigned j = (unsigned)__builtin_ctz(m);
                 bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, over >> j & 1, &ks[j],
                                    kw[j], out, coverage, status, nc);
@@ -1921,6 +2120,9 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
     c.iso = c.small && c.mode != ST_MODE_DISCARD;
     c.cst = !general;
+    int w4 = o->filter > ST_FILTER_PTEX_BOX; /* pf_klanes' nonb means another thing for the box */
+    c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;
+    c.iso8 = c.small && w4 ? pf_iso8_select(c.dt, c.nc) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small, .texel = walk_texel, .dt = c.dt, .nc = c.nc};

@@ -721,7 +721,7 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
                                                                     pf_klanes *k, int w4)
 {
     pl_q8 q8;
-    k->plain = k->fast = 0;
+    k->plain = k->fast = k->nonb = 0;
     if (!q8_checks(c, q, &q8))
         return;
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
@@ -746,6 +746,15 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
             _mm256_or_si256(_mm256_cmpgt_epi32(three, lu), _mm256_cmpgt_epi32(three, lv)));
         fast &= ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(decl));
     }
+    /* no neighbour (the four boundary bits of the lane byte); width-4: both widths >= 1/2 */
+    const __m256i bnd = _mm256_set1_epi32(0xf0);
+    __m256 nb = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(q8.pxf, bnd), bnd));
+    if (w4) {
+        const __m256 h = _mm256_set1_ps(.5f);
+        nb = _mm256_and_ps(nb, _mm256_and_ps(_mm256_cmp_ps(bu, h, _CMP_GE_OQ),
+                                             _mm256_cmp_ps(bv, h, _CMP_GE_OQ)));
+    }
+    k->nonb = plain & (unsigned)_mm256_movemask_ps(nb);
     k->plain = plain;
     k->fast = fast;
     _mm256_storeu_si256((__m256i *)(void *)k->ulog2, lu);

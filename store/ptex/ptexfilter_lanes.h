@@ -83,6 +83,9 @@ typedef struct pf_klanes {
     int32_t ulog2[8], vlog2[8];
     float u[8], v[8], bu[8], bv[8];
     unsigned plain, fast;
+    unsigned nonb; /* the plain lanes whose face has no neighbour across any edge (lanef's
+                      four boundary bits); for a width-4 filter, of those, the ones whose
+                      widths are both 1/2 or more */
 } pf_klanes;
 typedef void (*pf_kernel_lanes_fn)(const pf_lanes *c, const st_query *q, pf_klanes *k);
 
@@ -98,5 +101,27 @@ pf_kernel_lanes_fn pf_kernel_lanes_select(unsigned ftype);
  * as pf_fast_fn hands them over; the others left to the per-query path. Any texel type, 1..4
  * channels; NULL without AVX2 + FMA + F16C (pf_have_avx2) or off x86. */
 pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc);
+
+/* The width-4 filters' kernels of a face or more along both axes (resolution 1 x 1:
+ * ptexfilter.c's kernel_r0) on faces with no neighbour, 8 queries at once (ptexfilter_simd.c,
+ * AVX2), after klanes8 (k): of the lanes of k->nonb whose widths are both 1 or more, those
+ * whose kernel keeps a tap on the face's one texel along each axis and overhangs the face
+ * (what kernel_r0 gives to pf_walk_kernel_r0's fold in Traverse and Clamp, to pf_walk_fold
+ * in Discard) are served: each axis' 2 hermite taps (zeros stripped) folded as fold_r0 folds
+ * them (blu, blv: black; discard: Discard's drop and weight, its coverage rule), the window
+ * the small window of the face's one texel, the division kernel_walk_wr's; outputs written
+ * at out + lane * nc, coverage at cov[lane], the mask returned (bit for bit the per-query
+ * path's). The others (a tap past the face only, a kernel inside the face, Discard's zero
+ * weight) are left to the per-query path, untouched. NULL without AVX2 + FMA + F16C. */
+typedef unsigned (*pf_r0x8_fn)(int blu, int blv, int discard, const pf_klanes *k, float *out,
+                               float *cov);
+pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc);
+
+/* The same for ptexfilter.c's kernel_iso's kernels of widths in [1/2, 1) along both axes
+ * (resolution 2 x 2, 4 hermite taps an axis, zeros stripped) on faces of 2 x 2 texels or more
+ * without neighbours: the lanes whose kernel keeps a tap on the face along each axis and
+ * overhangs it served (the overhang folded, or dropped where black and in Discard; the
+ * window on the face's level (1, 1)); NULL without AVX2 + FMA + F16C. */
+pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc);
 
 #endif

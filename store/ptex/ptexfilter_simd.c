@@ -2160,6 +2160,238 @@ pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
     return ftype == ST_FILTER_PTEX_BOX ? box[dt][nc - 1] : fns[dt][nc - 1];
 }
 
+/* ---- kernels at resolution 1 x 1 on faces without neighbours (pf_r0x8_select) ----------- */
+
+/* pk_hermite_blur lane by lane, its operations in its order: |x| < 1 ? (2|x| - 3)|x||x| + 1
+ * : 0 (pk_width4_axis' vector form is the same). */
+PF_TARGET __m256 hermite8(__m256 x)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f);
+    __m256 a = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), x);
+    __m256 h = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), a),
+                                           _mm256_set1_ps(3.0f)),
+                             a);
+    h = _mm256_add_ps(_mm256_mul_ps(h, a), c1);
+    return _mm256_and_ps(h, _mm256_cmp_ps(a, c1, _CMP_LT_OQ));
+}
+
+/* One axis of kernel_r0's kernel (ptexfilter.c's build_r0_axis) lane by lane, x in [0, 1):
+ * the 2 taps at x - 1/2 rounded down (-1 or 0: the face's one texel is 0), w0 the hermite
+ * weight (pk_hermite_blur's operations in its order) and w1 = 1 - w0; a zero tap stripped.
+ * in: the tap on the face's texel (w1 at -1, w0 at 0); *s the axis' pk_accumulate ((0 + w0)
+ * + w1 = w0 + w1, or 0 + the one tap = the one tap + the stripped 0: no weight is -0), *a
+ * fold_r0's weight (black: the tap on the face; else the folded sum w0 + w1, whichever tap
+ * is first: a sum of two), *one the lanes with a single tap. Returns the lanes with a tap on the face (a single tap past it
+ * makes an overhang as wide as the window, which the fold declines). */
+PF_TARGET __m256 r0x8_axis(__m256 x, int black, __m256 *a, __m256 *s, __m256 *one)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), z = _mm256_setzero_ps();
+    __m256 upix = _mm256_sub_ps(x, _mm256_set1_ps(.5f));
+    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(upix)); /* pk_floor */
+    __m256 lo = _mm256_cmp_ps(t, upix, _CMP_GT_OQ);
+    __m256 ui = _mm256_sub_ps(t, _mm256_and_ps(lo, c1));
+    __m256 w0 = hermite8(_mm256_sub_ps(upix, ui));
+    __m256 w1 = _mm256_sub_ps(c1, w0);
+    __m256 neg = _mm256_cmp_ps(ui, z, _CMP_LT_OQ); /* first tap at -1 */
+    __m256 z0 = _mm256_cmp_ps(w0, z, _CMP_EQ_OQ), z1 = _mm256_cmp_ps(w1, z, _CMP_EQ_OQ);
+    __m256 in = _mm256_blendv_ps(w0, w1, neg);
+    *one = _mm256_or_ps(z0, z1);
+    *s = _mm256_add_ps(w0, w1); /* the tap + 0 where one is stripped */
+    *a = black ? in : *s;
+    /* two taps, or one on the texel: w0 zero with the first tap at -1, w1 zero with it at 0 */
+    return _mm256_or_ps(_mm256_andnot_ps(*one, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
+                        _mm256_or_ps(_mm256_and_ps(z0, neg), _mm256_andnot_ps(neg, z1)));
+}
+
+/* The weight of r0x8's and iso8's lanes m (ok: those they take), from each axis' sum (su,
+ * sv) and, in Discard, the sum of the taps it keeps (ku, kv): the scale (1 / (weight x the
+ * type's one), kernel_walk_wr's division) into S, Discard's coverage into cov (weight /
+ * total, 0 where total is; never over 1, kernel_walk_wr's clamp: what an axis keeps is at
+ * most its sum, and rounding keeps the order of the products) and its zero-weight lanes
+ * dropped. Returns the lanes left. */
+PF_TARGET unsigned nonb8_weight(int discard, unsigned m, __m256 ok, __m256 su, __m256 sv,
+                                __m256 ku, __m256 kv, unsigned DT, float *S, float *cov)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), z = _mm256_setzero_ps();
+    __m256 total = _mm256_mul_ps(su, sv), weight = total;
+    if (discard) {
+        weight = _mm256_mul_ps(ku, kv);
+        __m256 cv = _mm256_and_ps(_mm256_div_ps(weight, total),
+                                  _mm256_cmp_ps(total, z, _CMP_NEQ_OQ));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(weight, z, _CMP_GT_OQ),
+                                             _mm256_cmp_ps(cv, z, _CMP_GT_OQ)));
+        _mm256_storeu_ps(cov, cv);
+    }
+    m &= (unsigned)_mm256_movemask_ps(ok);
+    const float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
+    _mm256_storeu_ps(S, _mm256_div_ps(c1, _mm256_mul_ps(weight, _mm256_set1_ps(one))));
+    return m;
+}
+
+PF_TARGET unsigned r0x8(int blu, int blv, int discard, const pf_klanes *k, float *out,
+                        float *cov, unsigned DT, unsigned NC)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f);
+    __m256 bu = _mm256_loadu_ps(k->bu), bv = _mm256_loadu_ps(k->bv);
+    unsigned m = k->nonb & (unsigned)_mm256_movemask_ps(_mm256_and_ps(
+                               _mm256_cmp_ps(bu, c1, _CMP_GE_OQ), _mm256_cmp_ps(bv, c1, _CMP_GE_OQ)));
+    if (!m)
+        return 0;
+    __m256 au, su, ou, av, sv, ov;
+    __m256 ok = _mm256_and_ps(r0x8_axis(_mm256_loadu_ps(k->u), blu | discard, &au, &su, &ou),
+                              r0x8_axis(_mm256_loadu_ps(k->v), blv | discard, &av, &sv, &ov));
+    ok = _mm256_andnot_ps(_mm256_and_ps(ou, ov), ok); /* inside the face: the per-query path */
+    float A[8], B[8], S[8];
+    m = nonb8_weight(discard, m, ok, su, sv, au, av, DT, S, cov);
+    if (!m)
+        return 0;
+    _mm256_storeu_ps(A, au);
+    _mm256_storeu_ps(B, av);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        pf_v4 acc = small_body(k->px[j][0], 0, A + j, 1, B + j, 1, (pf_v4){0, 0, 0, 0}, DT, NC);
+        w4x8_put(out + (size_t)j * NC, (__m128)acc, S[j], NC);
+        if (!discard)
+            cov[j] = 1.0f;
+    }
+    return m;
+}
+
+/* One axis of kernel_iso's kernel at resolution 2 (a width w in [1/2, 1) on a face of 2 or
+ * more texels: pk_width4_axis' 4 hermite taps from texel -2 or 0, its operations in its
+ * order) lane by lane, with pk_strip_zeros and pf_fold_axis after it: the nonzero taps are
+ * one run (|x1 + i| s falls then rises), so the taps on the face's 2 texels that are not
+ * zero are the window (*at its first texel, *n 1 or 2, *k0 and *k1 its weights), the
+ * others the overhang, folded onto the edge texel's weight ((0 + t0) + t1 onto t2 from -2,
+ * (0 + t2) + t3 onto t1 from 0: stripped zeros add +0, and no weight is -0) unless black.
+ * *s the 4 taps' sum in order (pk_accumulate of the stripped ones: the same bits), *kept
+ * the window's own taps' sum (Discard's weight), *over the lanes with an overhang. Returns
+ * the lanes with a tap on the face. */
+PF_TARGET __m256 iso8_axis(__m256 x, __m256 w, int black, __m256i *at, __m256i *n,
+                           __m256 *k0, __m256 *k1, __m256 *s, __m256 *kept, __m256 *over)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), z = _mm256_setzero_ps();
+    __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, _mm256_set1_ps(2.0f)), _mm256_set1_ps(.5f));
+    __m256 xm = _mm256_sub_ps(x, _mm256_set1_ps(.5f));
+    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(xm)); /* pk_floor */
+    __m256 fl = _mm256_sub_ps(t, _mm256_and_ps(_mm256_cmp_ps(t, xm, _CMP_GT_OQ), c1));
+    __m256 neg = _mm256_cmp_ps(fl, z, _CMP_LT_OQ);           /* taps from -2, else from 0 */
+    __m256 x1 = _mm256_sub_ps(_mm256_add_ps(fl, fl), upix);  /* (float)(fl * 2) - upix */
+    __m256 st = _mm256_div_ps(c1, _mm256_add_ps(_mm256_mul_ps(w, _mm256_set1_ps(1.5f)),
+                                                _mm256_set1_ps(.5f)));
+    __m256 xa0 = _mm256_add_ps(x1, z), xa2 = _mm256_add_ps(x1, _mm256_set1_ps(2.0f));
+    __m256 xs[4] = {_mm256_mul_ps(_mm256_add_ps(xa0, z), st),
+                    _mm256_mul_ps(_mm256_add_ps(xa0, c1), st),
+                    _mm256_mul_ps(_mm256_add_ps(xa2, z), st),
+                    _mm256_mul_ps(_mm256_add_ps(xa2, c1), st)};
+    __m256 tp[4];
+    for (int i = 0; i < 4; i++)
+        tp[i] = hermite8(xs[i]);
+    *s = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(z, tp[0]), tp[1]), tp[2]),
+                       tp[3]);
+    __m256 l0 = _mm256_blendv_ps(tp[0], tp[2], neg), r0 = _mm256_blendv_ps(tp[1], tp[3], neg);
+    __m256 o = _mm256_blendv_ps(_mm256_add_ps(_mm256_add_ps(z, tp[2]), tp[3]),
+                                _mm256_add_ps(_mm256_add_ps(z, tp[0]), tp[1]), neg);
+    __m256 l = l0, r = r0;
+    if (!black) {
+        l = _mm256_blendv_ps(l0, _mm256_add_ps(l0, o), neg);
+        r = _mm256_blendv_ps(_mm256_add_ps(r0, o), r0, neg);
+    }
+    __m256 nzl = _mm256_cmp_ps(l0, z, _CMP_NEQ_OQ), nzr = _mm256_cmp_ps(r0, z, _CMP_NEQ_OQ);
+    *over = _mm256_cmp_ps(o, z, _CMP_NEQ_OQ);
+    *k0 = _mm256_blendv_ps(r, l, nzl);
+    *k1 = r;
+    *kept = _mm256_add_ps(l0, r0);
+    *at = _mm256_add_epi32(_mm256_castps_si256(nzl), _mm256_set1_epi32(1)); /* 0 or 1 */
+    *n = _mm256_sub_epi32(_mm256_setzero_si256(),
+                          _mm256_add_epi32(_mm256_castps_si256(nzl), _mm256_castps_si256(nzr)));
+    return _mm256_or_ps(nzl, nzr);
+}
+
+/* kernel_iso's kernels of widths in [1/2, 1) along both axes (resolution 2 x 2) on faces of
+ * 2 x 2 texels or more without neighbours, 8 at a time: pf_r0x8_fn's contract for them
+ * (lanes of k->nonb), the lanes whose kernel overhangs the face served (Traverse and Clamp:
+ * kernel_iso's fold and window, the weight the 4 taps' sums' product; Discard: the overhang
+ * dropped, pf_walk_fold's kept weight and kernel_walk_wr's coverage), the window the small
+ * window's, as put_window picks it for at most 2 x 2 texels. */
+PF_TARGET unsigned iso8(int blu, int blv, int discard, const pf_klanes *k, float *out,
+                        float *cov, unsigned DT, unsigned NC)
+{
+    const __m256 c1 = _mm256_set1_ps(1.0f), h = _mm256_set1_ps(.5f);
+    __m256 bu = _mm256_loadu_ps(k->bu), bv = _mm256_loadu_ps(k->bv);
+    __m256i lg = _mm256_and_si256(
+        _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(const void *)k->ulog2), _mm256_setzero_si256()),
+        _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(const void *)k->vlog2), _mm256_setzero_si256()));
+    __m256 in = _mm256_and_ps(
+        _mm256_and_ps(_mm256_cmp_ps(bu, h, _CMP_GE_OQ), _mm256_cmp_ps(bu, c1, _CMP_LT_OQ)),
+        _mm256_and_ps(_mm256_cmp_ps(bv, h, _CMP_GE_OQ), _mm256_cmp_ps(bv, c1, _CMP_LT_OQ)));
+    unsigned m = k->nonb & (unsigned)_mm256_movemask_ps(_mm256_and_ps(in, _mm256_castsi256_ps(lg)));
+    if (!m)
+        return 0;
+    __m256i atu, nu, atv, nv;
+    __m256 ku0, ku1, su, kpu, ou, kv0, kv1, sv, kpv, ov;
+    __m256 ok = _mm256_and_ps(
+        iso8_axis(_mm256_loadu_ps(k->u), bu, blu | discard, &atu, &nu, &ku0, &ku1, &su, &kpu, &ou),
+        iso8_axis(_mm256_loadu_ps(k->v), bv, blv | discard, &atv, &nv, &kv0, &kv1, &sv, &kpv, &ov));
+    ok = _mm256_and_ps(ok, _mm256_or_ps(ou, ov)); /* inside the face: the per-query path */
+    float U[16], V[16], S[8];
+    m = nonb8_weight(discard, m, ok, su, sv, kpu, kpv, DT, S, cov);
+    if (!m)
+        return 0;
+    int32_t AU[8], AV[8], NU[8], NV[8];
+    /* lane j's weights at U + 2 j, V + 2 j */
+    _mm256_storeu_ps(U, _mm256_unpacklo_ps(ku0, ku1));
+    _mm256_storeu_ps(U + 8, _mm256_unpackhi_ps(ku0, ku1));
+    _mm256_storeu_ps(V, _mm256_unpacklo_ps(kv0, kv1));
+    _mm256_storeu_ps(V + 8, _mm256_unpackhi_ps(kv0, kv1));
+    _mm256_storeu_si256((__m256i *)(void *)AU, atu);
+    _mm256_storeu_si256((__m256i *)(void *)AV, atv);
+    _mm256_storeu_si256((__m256i *)(void *)NU, nu);
+    _mm256_storeu_si256((__m256i *)(void *)NV, nv);
+    /* unpacklo / hi pair lanes within each 128-bit half: lane j's pair is at this index */
+    static const unsigned char at2[8] = {0, 2, 8, 10, 4, 6, 12, 14};
+    const size_t ts = (size_t)NC << (DT == 0 ? 0 : DT == 3 ? 2 : 1);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        const uint8_t *d = k->px[j][k->vlog2[j] + 2]; /* resolution (1, 1) */
+        pf_v4 acc = small_body(d + ((size_t)AV[j] * 2 + (size_t)AU[j]) * ts, 2 * ts,
+                               U + at2[j], NU[j], V + at2[j], NV[j], (pf_v4){0, 0, 0, 0}, DT,
+                               NC);
+        w4x8_put(out + (size_t)j * NC, (__m128)acc, S[j], NC);
+        if (!discard)
+            cov[j] = 1.0f;
+    }
+    return m;
+}
+
+/* The instances of r0x8 and iso8 (F) per texel type and channel count, and their tables. */
+#define PF_NONB8(F, DT, NC)                                                                 \
+    __attribute__((target("avx2,fma,f16c"))) static unsigned pf_##F##_##DT##_##NC(          \
+        int blu, int blv, int discard, const pf_klanes *k, float *out, float *cov)         \
+    {                                                                                       \
+        return F(blu, blv, discard, k, out, cov, DT, NC);                                   \
+    }
+#define PF_NONB8_DT(F, DT) PF_NONB8(F, DT, 1) PF_NONB8(F, DT, 2) PF_NONB8(F, DT, 3) PF_NONB8(F, DT, 4)
+#define PF_NONB8_ALL(F) PF_NONB8_DT(F, 0) PF_NONB8_DT(F, 1) PF_NONB8_DT(F, 2) PF_NONB8_DT(F, 3)
+PF_NONB8_ALL(r0x8)
+PF_NONB8_ALL(iso8)
+#define PF_ROW(F, DT) {pf_##F##_##DT##_1, pf_##F##_##DT##_2, pf_##F##_##DT##_3, pf_##F##_##DT##_4}
+static const pf_r0x8_fn nonb8_fns[2][4][4] = {
+    {PF_ROW(r0x8, 0), PF_ROW(r0x8, 1), PF_ROW(r0x8, 2), PF_ROW(r0x8, 3)},
+    {PF_ROW(iso8, 0), PF_ROW(iso8, 1), PF_ROW(iso8, 2), PF_ROW(iso8, 3)},
+};
+#undef PF_ROW
+
+static pf_r0x8_fn nonb8_select(int iso, unsigned dt, unsigned nc)
+{
+    if (nc < 1 || nc > 4 || dt > 3 || !pf_have_avx2())
+        return NULL;
+    return nonb8_fns[iso][dt][nc - 1];
+}
+
+pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return nonb8_select(0, dt, nc); }
+pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return nonb8_select(1, dt, nc); }
+
 #else
 
 int pf_have_avx2(void)
@@ -2215,6 +2447,10 @@ pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
     (void)dt; (void)nc;
     return NULL;
 }
+
+/* no 8-lane folds off x86 */
+pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
+pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
 
 pf_bilinear_half_fn pf_bilinear_half_select(void)
 {
