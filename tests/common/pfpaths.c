@@ -11,6 +11,11 @@
 #include "ptexfilter_kernel.h"
 #include "testdata.h"
 
+const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS] = {
+    ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,        ST_FILTER_PTEX_GAUSSIAN,
+    ST_FILTER_PTEX_BICUBIC,  ST_FILTER_PTEX_BSPLINE,    ST_FILTER_PTEX_CATMULLROM,
+    ST_FILTER_PTEX_MITCHELL};
+
 long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char *what,
                        const unsigned *filters, size_t nf)
 {

@@ -13,6 +13,11 @@
 #include "sample.h"
 #include "set.h"
 
+/* The Ptex filters with a kernel (bilinear, box and the width-4 family), for the tests that
+ * try them all. */
+enum { ST_PF_NKERNEL_FILTERS = 7 };
+extern const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS];
+
 /* Samples the n queries q with st_ptexfilter_batch (every fast path allowed) and with
  * pf_batch_path(PF_PATH_GENERAL), for each of the nf filters and each mode (Discard,
  * Traverse, Clamp; sharpness 0.3): the failure counts, every output value, coverage and

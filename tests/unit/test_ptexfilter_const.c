@@ -28,11 +28,8 @@
 
 enum { NQ = 4000 };
 
-static const unsigned filters[] = {ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,
-                                   ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
-                                   ST_FILTER_PTEX_BSPLINE,  ST_FILTER_PTEX_CATMULLROM,
-                                   ST_FILTER_PTEX_MITCHELL};
-enum { NF = sizeof filters / sizeof filters[0] };
+static const unsigned *const filters = st_pf_kernel_filters; /* every one (pfpaths.h) */
+enum { NF = ST_PF_NKERNEL_FILTERS };
 
 /* A coordinate of a face of res texels at footprint fp texels: anywhere, on a texel centre
  * of the level the kernel is built at (about res / fp texels), or within fp texels of an

@@ -26,14 +26,14 @@
 #include "sample.h"
 #include "../common/pfpaths.h"
 #include "../common/testdata.h"
+#include "../common/testhash.h"
 
 enum { NQ = 4000 };
 
 static uint32_t rng = 29;
-static float rnd01(void) /* [0, 1) */
+static float rnd01(void) /* [0, 1): testhash.h's generator on this file's state */
 {
-    rng = rng * 1664525u + 1013904223u;
-    return (float)(rng >> 8) / 16777216.0f;
+    return st_test_rndf(&rng);
 }
 
 static const unsigned filters[] = {ST_FILTER_PTEX_BOX, ST_FILTER_PTEX_GAUSSIAN,

@@ -36,21 +36,18 @@
 #include "../common/pfpaths.h"
 #include "../common/skip_unless.h"
 #include "../common/testdata.h"
+#include "../common/testhash.h"
 
 enum { NQ = 4096 };
 
 static uint32_t rng = 41;
-static float rnd01(void) /* [0, 1) */
+static float rnd01(void) /* [0, 1): testhash.h's generator on this file's state */
 {
-    rng = rng * 1664525u + 1013904223u;
-    return (float)(rng >> 8) / 16777216.0f;
+    return st_test_rndf(&rng);
 }
 
-static const unsigned filters[] = {ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,
-                                   ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
-                                   ST_FILTER_PTEX_BSPLINE, ST_FILTER_PTEX_CATMULLROM,
-                                   ST_FILTER_PTEX_MITCHELL};
-enum { NF = sizeof filters / sizeof filters[0] };
+static const unsigned *const filters = st_pf_kernel_filters; /* every one (pfpaths.h) */
+enum { NF = ST_PF_NKERNEL_FILTERS };
 
 /* A coordinate: anywhere, near an edge, or at / next to 0.5 (the ulps below it make the
  * first tap's weight 1 - tiny, or 0 where upix + 1 rounds to 1). */
@@ -165,14 +162,8 @@ static long compare(const st_set *s, const st_query *q, const char *what)
  * there. */
 static st_set *one_face_file(const char *rel, char *path, size_t cap)
 {
-    st_set *s = NULL;
-    st_error e = {0};
-    if (st_test_data_path(path, cap, rel) != 0)
-        return NULL;
-    if (st_ptex_read_file(path, 0, &s, &e) != 0) {
-        print_message("%s: %s\n", path, e.msg);
-        fail();
-    }
+    st_set *s;
+    assert_true(st_pf_read_shared(rel, path, cap, &s) >= 0);
     return s;
 }
 
