@@ -929,16 +929,16 @@ static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float 
  * its set-up as it lies, with no copy) on face f (open_face: plain or constant) in every
  * mode, by the walk: the 2 x 2 texels overhang the face, or a fraction is 0 (a query on a
  * texel centre: the zero weight stripped as pk_strip_zeros does; 1 - fraction is never 0).
- * On a face with no neighbour across any edge (not a constant one: bilinear_fold sums f's
- * window) the merges alone (bilinear_fold). Returns 0 (nothing written) when Discard keeps
- * no weight: eval then runs (its zero-coverage rule). */
+ * On a face with no neighbour across any edge the merges alone (bilinear_fold, which sums
+ * f's window: callers do not pass a constant face without neighbours). Returns 0 (nothing
+ * written) when Discard keeps no weight: eval then runs (its zero-coverage rule). */
 static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f, float *out,
                          float *cov)
 {
     int ru = lk->ru[j], rv = lk->rv[j], ui = lk->ui[j], vi = lk->vi[j];
     float fu = lk->fu[j], fv = lk->fv[j];
-    if ((c->t->lanef[f] & 0xf0u) == 0xf0u && !(c->s->faces[f].flags & ST_FACE_CONSTANT))
-        return bilinear_fold(c, ru, rv, ui, vi, fu, fv, f, out, cov); /* reads f's window */
+    if ((c->t->lanef[f] & 0xf0u) == 0xf0u) /* f not constant there: bilinear_q's test */
+        return bilinear_fold(c, ru, rv, ui, vi, fu, fv, f, out, cov);
     pk2 k;
     k.ulog2 = ru, k.vlog2 = rv, k.u = ui, k.v = vi;
     k.uw = fu != 0.0f ? 2 : 1;
@@ -1328,7 +1328,8 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
             /* a constant face: the kernel (a zero fraction's tap stripped) inside it, its
              * texel times the kernel's pk_weight, (1 - fu + fu)(1 - fv + fv) (with fu 0 the
              * stripped axis' 0 + 1: the same 1); else the 2 x 2 kernel's walk as on a plain
-             * face (not bilinear_edge2, which reads f's texels) */
+             * face (not bilinear_edge2 nor, on a face without neighbours, bilinear_fold: both
+             * read f's texels; eval's general walk takes those) */
             int uw = b.fu != 0.0f ? 2 : 1, vw = b.fv != 0.0f ? 2 : 1;
             if (b.ui >= 0 && b.vi >= 0 && b.ui + uw <= 1 << b.ru && b.vi + vw <= 1 << b.rv) {
                 const_write(c, f, (1.0f - b.fu + b.fu) * (1.0f - b.fv + b.fv), out, DT, NC);
@@ -1337,7 +1338,8 @@ __attribute__((always_inline)) static inline int bilinear_q(pf *c, const pk_para
             }
             pf_lanes_kern lk;
             bil_lane0(&lk, &b);
-            if (c->small && bilinear_walk(c, &lk, 0, f, out, cov))
+            if (c->small && (c->t->lanef[f] & 0xf0u) != 0xf0u && /* not bilinear_fold's */
+                bilinear_walk(c, &lk, 0, f, out, cov))
                 return ST_Q_OK;
         }
     }
