@@ -239,6 +239,27 @@ static inline float pk_accumulate(const float *p, int n)
         r += p[i];
     return r;
 }
+/* pk_accumulate(p, n) for 1 <= n <= 4 where p[0 .. 4) may be read (defined or not): the
+ * same additions in the same order, without the loop's exit test (it mispredicts when the
+ * tap counts vary from query to query): the lanes at n and past cleared to +0, and every
+ * lane added, from 0 in order. A +0 added leaves the sum as it is: the sum is never -0 (0
+ * plus -0 is +0, and a sum of two values is -0 only when both are), NaN stays NaN, an
+ * infinity stays. */
+__attribute__((always_inline)) static inline float pk_accumulate4(const float *p, int n)
+{
+#ifdef __SSE2__
+    __m128 a = _mm_and_ps(_mm_loadu_ps(p), _mm_castsi128_ps(_mm_cmpgt_epi32(
+                                               _mm_set1_epi32(n), _mm_setr_epi32(0, 1, 2, 3))));
+    __m128 r = _mm_add_ss(_mm_setzero_ps(), a);
+    r = _mm_add_ss(r, _mm_shuffle_ps(a, a, 1));
+    r = _mm_add_ss(r, _mm_shuffle_ps(a, a, 2));
+    r = _mm_add_ss(r, _mm_shuffle_ps(a, a, 3));
+    return _mm_cvtss_f32(r);
+#else
+    return pk_accumulate(p, n);
+#endif
+}
+
 static inline float pk_weight(const pk *k)
 {
     return pk_accumulate(k->kub + k->ku0, k->uw) * pk_accumulate(k->kvb + k->kv0, k->vw);
@@ -270,13 +291,36 @@ __attribute__((always_inline)) static inline unsigned pk_nonzero_mask12(const fl
 #endif
 }
 
-/* pk_strip_zeros of one axis whose weights start at index 0 (1 <= n <= 12): the first and
- * last tap that is not zero from a mask instead of the loops (the same window; an axis of
- * zeros only ends empty past its last tap, as the loops leave it). */
-__attribute__((always_inline)) static inline void pk_strip_axis12(int *k0, int *x, int *n,
-                                                                  const float *w)
+/* pk_nonzero_mask12 for w in a buffer of which w[0 .. 8) may be read (a pk's kub, kvb):
+ * the first 8 taps without a branch (4 and 6 taps, the commonest, alternate at random: the
+ * test of n > 4 mispredicted about once a query); w[8 .. 12) for more than 8 taps. */
+__attribute__((always_inline)) static inline unsigned pk_nonzero_mask24(const float *w, int n)
 {
-    unsigned m = pk_nonzero_mask12(w, *n);
+#ifdef __SSE2__
+    const __m128i idx = _mm_setr_epi32(0, 1, 2, 3), idx4 = _mm_setr_epi32(4, 5, 6, 7);
+    const __m128 z = _mm_setzero_ps();
+    __m128i nn = _mm_set1_epi32(n);
+    __m128 x = _mm_and_ps(_mm_loadu_ps(w), _mm_castsi128_ps(_mm_cmpgt_epi32(nn, idx)));
+    __m128 y = _mm_and_ps(_mm_loadu_ps(w + 4), _mm_castsi128_ps(_mm_cmpgt_epi32(nn, idx4)));
+    unsigned m = (unsigned)_mm_movemask_ps(_mm_cmpneq_ps(x, z)) |
+                 (unsigned)_mm_movemask_ps(_mm_cmpneq_ps(y, z)) << 4;
+    if (__builtin_expect(n > 8, 0)) {
+        nn = _mm_sub_epi32(nn, _mm_set1_epi32(8));
+        x = _mm_and_ps(_mm_loadu_ps(w + 8), _mm_castsi128_ps(_mm_cmpgt_epi32(nn, idx)));
+        m |= (unsigned)_mm_movemask_ps(_mm_cmpneq_ps(x, z)) << 8;
+    }
+    return m;
+#else
+    return pk_nonzero_mask12(w, n);
+#endif
+}
+
+/* pk_strip_zeros of one axis whose weights start at index 0 (1 <= n <= 12): the first and
+ * last tap that is not zero from the mask m of its nonzero taps instead of the loops (the
+ * same window; an axis of zeros only ends empty past its last tap, as the loops leave it). */
+__attribute__((always_inline)) static inline void pk_strip_axis_m(int *k0, int *x, int *n,
+                                                                  unsigned m)
+{
     if (__builtin_expect(!m, 0)) { /* the first loop strips every tap */
         *k0 += *n;
         *x += *n;
@@ -287,6 +331,12 @@ __attribute__((always_inline)) static inline void pk_strip_axis12(int *k0, int *
     *k0 += a;
     *x += a;
     *n = b - a + 1;
+}
+/* pk_strip_axis_m with pk_nonzero_mask12's mask of w[0 .. *n). */
+__attribute__((always_inline)) static inline void pk_strip_axis12(int *k0, int *x, int *n,
+                                                                  const float *w)
+{
+    pk_strip_axis_m(k0, x, n, pk_nonzero_mask12(w, *n));
 }
 
 /* The zero weights at both ends of each axis removed (Ptex's stripZeros). */
@@ -302,8 +352,8 @@ __attribute__((always_inline)) static inline void pk_strip_zeros(pk *k)
     if (__builtin_expect(k->ku0 == 0 && k->kv0 == 0 && k->uw >= 1 && k->uw <= 12 &&
                              k->vw >= 1 && k->vw <= 12, 1)) {
         /* a kernel as pk_build makes it (the common case) */
-        pk_strip_axis12(&k->ku0, &k->u, &k->uw, k->kub);
-        pk_strip_axis12(&k->kv0, &k->v, &k->vw, k->kvb);
+        pk_strip_axis_m(&k->ku0, &k->u, &k->uw, pk_nonzero_mask24(k->kub, k->uw));
+        pk_strip_axis_m(&k->kv0, &k->v, &k->vw, pk_nonzero_mask24(k->kvb, k->vw));
         return;
     }
     pk_strip_zeros_loops(k);

@@ -565,6 +565,15 @@ __attribute__((always_inline)) static inline int lean_put(pw_state *s, int lg0, 
     return 1;
 }
 
+/* pk_accumulate(p, n) of taps p in buffer b (a pk's kub or kvb): pk_accumulate4 (no loop)
+ * for at most 4 taps (a corner's overhang) where 4 floats from p lie in the buffer. */
+static inline float sum_in(const float *b, const float *p, int n)
+{
+    if (__builtin_expect((unsigned)(n - 1) < 4u && p - b <= PK_MAX - 4, 1))
+        return pk_accumulate4(p, n);
+    return pk_accumulate(p, n);
+}
+
 /* The lean walks' entry test of one overhung axis: the overhang w (> 0) narrower than the
  * kernel (n taps) and at most the resolution res wide. Then every piece of the split is
  * non-empty, and each lies inside [0, res) along the axis: the part past the edge is [0, w)
@@ -581,16 +590,16 @@ static inline int lean_fits(int w, int n, int res)
  * (f plain), the overhang as lean_fits says, af at the piece's resolution or finer. The
  * same pieces, rotation, windows and order (the piece past the edge, then the rest on f).
  * Returns 1 with *acc updated; 0 (*acc untouched) when the case does not hold. */
-__attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
-                                                               const pk *k0, int f, int eid,
-                                                               pf_v4 *acc)
+__attribute__((always_inline)) static inline int lean_one_core(const pf_walk *w, int f,
+                                                               int eid, int lg0, int lg1,
+                                                               int at0, int at1, int n0,
+                                                               int n1, const float *ku,
+                                                               const float *kv, pf_v4 *acc)
 {
     const st_face *faces = w->faces, *F = &faces[f];
     int af = F->adjface[eid];
     if ((faces[af].flags | F->flags) & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))
         return 0;
-    int lg0 = k0->ulog2, lg1 = k0->vlog2, at0 = k0->u, at1 = k0->v, n0 = k0->uw, n1 = k0->vw;
-    const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
     int a = eid & 1, res = 1 << (a ? lg0 : lg1);
     int at = a ? at0 : at1, n = a ? n0 : n1;
     int hi = eid == 1 || eid == 2, wd = hi ? at + n - res : -at;
@@ -614,6 +623,14 @@ __attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
     return 1;
 }
 
+__attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
+                                                               const pk *k0, int f, int eid,
+                                                               pf_v4 *acc)
+{
+    return lean_one_core(w, f, eid, k0->ulog2, k0->vlog2, k0->u, k0->v, k0->uw, k0->vw,
+                         k0->kub + k0->ku0, k0->kvb + k0->kv0, acc);
+}
+
 /* walk_two for the common case: the neighbours across the two overhung edges and the
  * diagonal face of a regular corner (the set's cornerface) neither subfaces nor constant
  * (f plain), both overhangs as lean_fits says, every face at its piece's resolution or
@@ -622,11 +639,19 @@ __attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
  * *acc updated; 0 (*acc untouched) when the case does not hold. */
 __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
                                                                const pk *k0, int f, int hu,
-                                                               int hv, pf_v4 *acc)
+                                                               int hv, pf_v4 *acc,
+                                                               float *weight, int drop)
 {
     const st_face *faces = w->faces, *F = &faces[f];
     int eu = hu ? 1 : 3, ev = hv ? 2 : 0, c = corner_between(hu, hv);
     int au = F->adjface[eu], av = F->adjface[ev], dg = F->cornerface[c];
+    if (drop) {
+        /* corner()'s valence-3 case: no cornerface, valence 3, its faces au and av (the
+         * neighbours across the corner's two edges) not subfaces (tested below) */
+        if (dg >= 0 || F->valence[c] != 3)
+            return 0;
+        dg = f; /* no corner face: f's flags tested twice */
+    }
     if (dg < 0 || ((faces[au].flags | faces[av].flags | faces[dg].flags | F->flags) &
                    (ST_FACE_SUBFACE | ST_FACE_CONSTANT)))
         return 0;
@@ -644,8 +669,20 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
     const float *kpv = hv ? kv + n1 - wv : kv, *krv = hv ? kv : kv + wv;
     float tu[PK_MAX], tv[PK_MAX];
     pw_state s = {w, *acc, 0.0f};
-    int rc = c - F->cornercorner[c] + 2, ra = eu - F->adjedge[eu] + 2;
+    int rc = drop ? 0 : c - F->cornercorner[c] + 2, ra = eu - F->adjedge[eu] + 2;
     int rb = ev - F->adjedge[ev] + 2;
+    if (drop) {
+        /* the corner piece (wu x wv taps past both edges) dropped, its weight removed, as
+         * corner() does at a vertex of valence 3; then the two edge pieces and the rest,
+         * walk_two's order */
+        if (!lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv) ||
+            !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv))
+            return 0;
+        put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
+        *acc = s.acc;
+        *weight -= sum_in(k0->kub, kpu, wu) * sum_in(k0->kvb, kpv, wv);
+        return 1;
+    }
     if (!(lg0 | lg1)) {
         /* a kernel at resolution 1 x 1: every piece one texel (lean_fits: each overhang one
          * texel, the rest one texel), at (0, 0) of table entry 0 in any frame (a flip of one
@@ -693,17 +730,76 @@ __attribute__((noinline)) static int lean_one(const pf_walk *w, const pk *k0, in
     return ok || walk_one(w, k0, f, eid, acc);
 }
 
+/* lean_two_case with the sides as constants in each case (their selects folded), else
+ * walk_two; drop: lean_two3's. */
+__attribute__((always_inline)) static inline int lean_two_sides(const pf_walk *w, const pk *k0,
+                                                                int f, int sides, pf_v4 *acc,
+                                                                float *weight, int drop)
+{
+    int ok;
+    switch (sides & 3) {
+    case 0: ok = lean_two_case(w, k0, f, 0, 0, acc, weight, drop); break;
+    case 1: ok = lean_two_case(w, k0, f, 1, 0, acc, weight, drop); break;
+    case 2: ok = lean_two_case(w, k0, f, 0, 1, acc, weight, drop); break;
+    default: ok = lean_two_case(w, k0, f, 1, 1, acc, weight, drop); break;
+    }
+    return ok || walk_two(w, k0, f, sides, acc, weight);
+}
+
 __attribute__((noinline)) static int lean_two(const pf_walk *w, const pk *k0, int f, int sides,
                                               pf_v4 *acc, float *weight)
 {
-    int ok; /* the sides constants in each case: their selects folded */
-    switch (sides & 3) {
-    case 0: ok = lean_two_case(w, k0, f, 0, 0, acc); break;
-    case 1: ok = lean_two_case(w, k0, f, 1, 0, acc); break;
-    case 2: ok = lean_two_case(w, k0, f, 0, 1, acc); break;
-    default: ok = lean_two_case(w, k0, f, 1, 1, acc); break;
+    return lean_two_sides(w, k0, f, sides, acc, weight, 0);
+}
+
+/* lean_two where the corner between the two edges has no cornerface (a vertex of valence 3
+ * is the common one: a cube's corners), its piece dropped as corner() drops it. */
+__attribute__((noinline)) static int lean_two3(const pf_walk *w, const pk *k0, int f,
+                                               int sides, pf_v4 *acc, float *weight)
+{
+    return lean_two_sides(w, k0, f, sides, acc, weight, 1);
+}
+
+static int walk_boundary(const pf_walk *w, pk *k0, int f, unsigned m, pf_v4 *acc,
+                         float *weight);
+
+/* walk_all for a kernel that overhangs one u edge (the high one when sides & 1) and one v
+ * edge (sides & 2), one of them with a neighbour, the other at a mesh boundary: walk_all
+ * folds the boundary axis (merge_hi / merge_lo with its border's black, on the kernel and,
+ * when the u edge is the one with a neighbour, on its piece past that edge: the same
+ * weights, the same sums) and sends the piece past the other edge across, then the rest on
+ * f: the fold (pf_fold_axis, on a copy of that axis' weights) then lean_one's pieces. Falls
+ * back to walk_boundary (nothing written) where lean_one declines or the overhang at the
+ * boundary is as wide as the kernel. */
+__attribute__((noinline)) static int lean_fold_one(const pf_walk *w, pk *k0, int f, int sides,
+                                                   unsigned m, pf_v4 *acc, float *weight)
+{
+    const int *adj = w->faces[f].adjface;
+    int hu = sides & 1, hv = sides >> 1 & 1;
+    int eu = hu ? 1 : 3, ev = hv ? 2 : 0;
+    int lg0 = k0->ulog2, lg1 = k0->vlog2, at0 = k0->u, at1 = k0->v, n0 = k0->uw, n1 = k0->vw;
+    const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+    float fb[PK_MAX];
+    float *fk = fb;
+    int ok = 0;
+    if (adj[eu] < 0) { /* the u edge at the boundary: u folded, the v edge's piece across */
+        int ov = hu ? at0 + n0 - (1 << lg0) : -at0;
+        if (ov < n0) {
+            for (int i = 0; i < n0; i++)
+                fb[i] = ku[i];
+            pf_fold_axis(1 << lg0, &at0, &n0, &fk, w->black_u);
+            ok = lean_one_core(w, f, ev, lg0, lg1, at0, at1, n0, n1, fk, kv, acc);
+        }
+    } else { /* the v edge at the boundary: v folded, the u edge's piece across */
+        int ov = hv ? at1 + n1 - (1 << lg1) : -at1;
+        if (ov < n1) {
+            for (int i = 0; i < n1; i++)
+                fb[i] = kv[i];
+            pf_fold_axis(1 << lg1, &at1, &n1, &fk, w->black_v);
+            ok = lean_one_core(w, f, eu, lg0, lg1, at0, at1, n0, n1, ku, fk, acc);
+        }
     }
-    return ok || walk_two(w, k0, f, sides, acc, weight);
+    return ok || walk_boundary(w, k0, f, m, acc, weight);
 }
 
 /* The edge the kernel overhangs when it overhangs one only and f has a neighbour there,
@@ -831,13 +927,15 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
     if (e >= 0)
         return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, m, acc, weight);
     if (t >= 0) {
-        if ((adj[t & 1 ? 1 : 3] | adj[t & 2 ? 2 : 0]) < 0)
-            return walk_boundary(w, k0, f, m, acc, weight);
-        /* the corner between the two edges (walk_two's c); lean_two only where it is a
-         * regular vertex (a valence-3 corner of a cube would only cost its checks) */
+        int au = adj[t & 1 ? 1 : 3], av = adj[t & 2 ? 2 : 0];
+        if ((au | av) < 0) /* one edge with a neighbour: lean_fold_one */
+            return (au & av) < 0 ? walk_boundary(w, k0, f, m, acc, weight)
+                                 : lean_fold_one(w, k0, f, t, m, acc, weight);
+        /* the corner between the two edges (walk_two's c): lean_two where it is a regular
+         * vertex, lean_two3 (a valence-3 corner's piece dropped) where it has no cornerface */
         return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
                    ? lean_two(w, k0, f, t, acc, weight)
-                   : walk_two(w, k0, f, t, acc, weight);
+                   : lean_two3(w, k0, f, t, acc, weight);
     }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, m, acc, weight);
@@ -862,15 +960,19 @@ int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight
         return 1;
     }
     /* pf_walk_kernel's dispatch with these sides: one u and one v edge overhung, each to a
-     * neighbour: lean_two where their corner is a regular vertex, else walk_two; one edge
-     * overhung, to a neighbour: lean_one; the rest (an overhung edge without a neighbour
-     * beside one with) through pf_walk_kernel */
+     * neighbour: lean_two where their corner is a regular vertex, else lean_two3; one of
+     * them to a neighbour: lean_fold_one; one edge overhung, to a neighbour: lean_one; the
+     * rest through pf_walk_kernel */
     int hu = sl | sr, hv = sb | st;
     if (hu & hv) {
-        if ((sl ? nl : nr) & (sb ? nb : nt))
+        int nu = sl ? nl : nr, nv = sb ? nb : nt;
+        if (nu & nv)
             return F->cornerface[corner_between(sr, st)] >= 0
                        ? lean_two(w, k0, f, sr | st << 1, acc, weight)
-                       : walk_two(w, k0, f, sr | st << 1, acc, weight);
+                       : lean_two3(w, k0, f, sr | st << 1, acc, weight);
+        if (nu | nv) /* with pf_walk_kernel's mask of the overhung edges */
+            return lean_fold_one(w, k0, f, sr | st << 1,
+                                 (unsigned)(sr | sl << 1 | st << 2 | sb << 3), acc, weight);
     } else if (hu | hv) {
         int e = sl ? 3 : sr ? 1 : sb ? 0 : 2;
         if (adj[e] >= 0)

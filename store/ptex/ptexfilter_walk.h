@@ -26,6 +26,11 @@
  * session 16): their common case (plain faces, overhangs narrower than the kernel and at
  * most a face wide, no reduction) checked once for all pieces, then the same windows in the
  * same order without put_face's per-piece checks; a 1 x 1 kernel's pieces one texel each.
+ * Since session 19 two more: lean_two3, a two-edge kernel whose corner has no cornerface
+ * and valence 3 (a cube's corners: the corner piece dropped, its weight removed, as
+ * corner() does, then lean_two's other pieces), and lean_fold_one, a two-edge kernel one of
+ * whose edges is at a mesh boundary (that axis folded on a copy of its weights as walk_all
+ * folds it, then lean_one's two pieces across the other edge).
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in

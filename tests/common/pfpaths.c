@@ -6,10 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ptex.h"
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
-#include "testdata.h"
 
 const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS] = {
     ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,        ST_FILTER_PTEX_GAUSSIAN,
@@ -66,17 +64,4 @@ long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char 
         free(st[k]);
     }
     return done;
-}
-
-int st_pf_read_shared(const char *rel, char *path, size_t cap, st_set **s)
-{
-    *s = NULL;
-    if (st_test_data_path(path, cap, rel) != 0)
-        return 0;
-    st_error e = {0};
-    if (st_ptex_read_file(path, 0, s, &e) != 0) {
-        fprintf(stderr, "%s: %s\n", path, e.msg);
-        return -1;
-    }
-    return 1;
 }

@@ -1,6 +1,6 @@
 /* tests/common/pfpaths.h - the Ptex filters' fast paths against their general path, for the
- * tests that prove a fast path bit for bit (test_ptexfilter_walk, test_ptexfilter_iso,
- * test_ptexfilter_const), and the shared files they read.
+ * tests that prove a fast path bit for bit (test_ptexfilter_walk, _iso, _const, _nonb,
+ * _lean3); the files they read: pffiles.h.
  *
  * Owns nothing: reads the set and the queries the caller owns; its output buffers are its
  * own, allocated per call.
@@ -25,10 +25,5 @@ extern const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS];
  * printing the first difference to stderr, labelled with what. */
 long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char *what,
                        const unsigned *filters, size_t nf);
-
-/* The shared file rel (under SEAMTEX_DATA) read into *s (the caller frees it), its full path
- * in path (cap bytes): 1 when read, 0 when the data folder does not have it, -1 (the
- * reader's message on stderr) when it does not read. */
-int st_pf_read_shared(const char *rel, char *path, size_t cap, st_set **s);
 
 #endif

@@ -24,6 +24,7 @@
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
 #include "sample.h"
+#include "../common/pffiles.h"
 #include "../common/pfpaths.h"
 #include "../common/testdata.h"
 #include "../common/testhash.h"

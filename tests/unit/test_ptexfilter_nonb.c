@@ -33,6 +33,7 @@
 #include "ptexfilter_lanes.h"
 #include "ptexres.h"
 #include "sample.h"
+#include "../common/pffiles.h"
 #include "../common/pfpaths.h"
 #include "../common/skip_unless.h"
 #include "../common/testdata.h"

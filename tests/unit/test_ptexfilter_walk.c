@@ -26,6 +26,7 @@
 #include "half.h"
 #include "ptexfilter_kernel.h"
 #include "sample.h"
+#include "../common/pffiles.h"
 #include "../common/pfpaths.h"
 #include "../common/testdata.h"
 
@@ -101,25 +102,14 @@ static long compare_border_modes(st_set *s, const st_query *q, const char *what,
     return n;
 }
 
-/* Every tenth face (from the first) gets flag: after the table is built, so its data stays
- * where the table points. */
-static void flag_faces(st_set *s, uint8_t flag, uint8_t clear)
-{
-    for (uint32_t f = 0; f < s->info.nfaces; f++) {
-        s->faces[f].flags &= (uint8_t)~clear;
-        if (f % 10 == 3)
-            s->faces[f].flags |= flag;
-    }
-}
-
 /* compare_paths with a tenth of the faces flagged constant, then (that flag cleared) with a
  * tenth flagged subface: flags set after the table and the corners are made. */
 static long compare_flagged(st_set *s, const st_query *q, const char *path)
 {
     long n = 0;
-    flag_faces(s, ST_FACE_CONSTANT, 0);
+    st_pf_flag_faces(s, ST_FACE_CONSTANT, 0); /* pffiles.h: every tenth face */
     n += compare_paths(s, q, path);
-    flag_faces(s, ST_FACE_SUBFACE, ST_FACE_CONSTANT);
+    st_pf_flag_faces(s, ST_FACE_SUBFACE, ST_FACE_CONSTANT);
     n += compare_paths(s, q, path);
     return n;
 }
@@ -131,35 +121,28 @@ static long compare_plain_flagged(st_set *s, const st_query *q, const char *path
     return n + compare_flagged(s, q, path);
 }
 
-/* The shared file rel (under SEAMTEX_DATA) read, its full path in path; NULL when the data
- * folder does not have it; a read error fails the test. */
-static st_set *read_shared(const char *rel, char *path, size_t cap)
-{
-    st_set *s;
-    int r = st_pf_read_shared(rel, path, cap, &s);
-    assert_true(r >= 0);
-    return s;
-}
-
 /* fn(set, queries, path) for each of the n shared files the data folder has, each read into
- * its own set (freed after); fn returns how many queries it compared. Skipped when the data
- * folder has none of the files. */
+ * its own set (freed after: st_pf_each_file); fn returns how many queries it compared.
+ * Skipped when the data folder has none of the files. */
 typedef long (*file_check)(st_set *s, st_query *q, const char *path);
+typedef struct {
+    file_check fn;
+    st_query *q;
+} check_ctx;
+
+static long run_check(st_set *s, void *ctx, const char *path)
+{
+    const check_ctx *c = ctx;
+    return c->fn(s, c->q, path);
+}
 
 static void check_files(const char *const *files, size_t n, file_check fn)
 {
     static st_query q[NQ];
-    long compared = 0;
-    int found = 0;
-    for (size_t i = 0; i < n; i++) {
-        char path[1024];
-        st_set *s = read_shared(files[i], path, sizeof path);
-        if (!s)
-            continue;
-        found++;
-        compared += fn(s, q, path);
-        st_set_free(s);
-    }
+    check_ctx c = {fn, q};
+    int found;
+    long compared = st_pf_each_file(files, n, run_check, &c, &found);
+    assert_true(compared >= 0);
     if (!found) {
         print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
         skip();
