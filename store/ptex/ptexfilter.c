@@ -115,6 +115,7 @@ typedef struct pf {
                               * (const_write): all paths but PF_PATH_GENERAL */
     pf_r0x8_fn r0x8;         /* kernel_r0's folds 8 at a time (set when c->small is), or NULL */
     pf_r0x8_fn iso8;         /* kernel_iso's, the same */
+    pf_q8_fn q8;             /* kernel_q8's taps 8 at a time (set when c->iso8 is), or NULL */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1944,8 +1945,38 @@ __attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k
     return done;
 }
 
+/* The lanes of mask (of k->nonb) that c->q8 serves (both widths in pf_q8's band:
+ * resolution 2 x 2, evaluated taps; everything up to the window 8 at a time), each lane's
+ * window summed by the window loop put_window (or apply, inside the face) picks for it and
+ * divided as kernel_walk_wr divides; coverage (when cov) and status (when st) written: the
+ * mask. */
+__attribute__((noinline)) static unsigned kernel_q8(pf *c, const pk_params *pp,
+                                                    const pf_klanes *k, unsigned mask,
+                                                    float *out, float *cov, uint8_t *st)
+{
+    pf_q8 t;
+    unsigned done = c->q8(pp, k, mask, c->walk.black_u, c->walk.black_v,
+                          c->mode == ST_MODE_DISCARD, c->dt, &t),
+             nc = c->nc;
+    for (unsigned m = done; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        const uint8_t *d = k->px[j][2u * ((unsigned)k->vlog2[j] + 1u) + 2u]; /* level (2, 2) */
+        int u = t.u[j], v = t.v[j];
+        pf_v4 acc = (t.small >> j & 1 ? c->small : c->win)(
+            d + ((size_t)v * 4u + (size_t)u) * c->ts, 4u * c->ts, t.wu[j] + u, t.nu[j],
+            t.wv[j] + v, t.nv[j], (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
+        for (unsigned ch = 0; ch < nc; ch++)
+            out[j * nc + ch] = acc[ch] * t.scale[j];
+        if (cov)
+            cov[j] = t.cov[j];
+        if (st)
+            st[j] = ST_Q_OK;
+    }
+    return done;
+}
+
 /* A block of 8 queries from q + i (k: klanes8's) with lanes of k->nonb, for a width-4
- * filter: kernel_r0x8's lanes, then the others one by one (kernel_lane; such blocks are
+ * filter: kernel_r0x8's lanes, kernel_q8's, then the others one by one (kernel_lane; such blocks are
  * mostly of one-face files, where the 8-query fused path finds nothing). Out of line:
  * kernel_run_with's loop keeps its registers for the common blocks. Returns the number
  * that failed. */
@@ -1958,6 +1989,9 @@ __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *p
     unsigned nc = c->nc;
     unsigned r0 = kernel_r0x8(c, k, out + i * nc, coverage ? coverage + i : NULL,
                               status ? status + i : NULL);
+    if (c->q8 && (k->nonb & ~r0))
+        r0 |= kernel_q8(c, pp, k, k->nonb & ~r0, out + i * nc, coverage ? coverage + i : NULL,
+                        status ? status + i : NULL);
     int bad = 0;
     for (unsigned m = ~r0 & 0xffu; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
@@ -2125,6 +2159,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     int w4 = o->filter > ST_FILTER_PTEX_BOX; /* pf_klanes' nonb means another thing for the box */
     c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;
     c.iso8 = c.small && w4 ? pf_iso8_select(c.dt, c.nc) : NULL;
+    c.q8 = c.iso8 ? pf_q8_select() : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small, .texel = walk_texel, .dt = c.dt, .nc = c.nc};

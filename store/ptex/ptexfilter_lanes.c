@@ -746,13 +746,24 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
             _mm256_or_si256(_mm256_cmpgt_epi32(three, lu), _mm256_cmpgt_epi32(three, lv)));
         fast &= ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(decl));
     }
-    /* no neighbour (the four boundary bits of the lane byte); width-4: both widths >= 1/2 */
+    /* no neighbour (the four boundary bits of the lane byte); width-4: both widths >= 1/2,
+     * or both in [1/4, 1/2) once clamped to a texel of the face (pf_q8's band; NaN clamped
+     * too, as pk_width4_axis clamps it) */
     const __m256i bnd = _mm256_set1_epi32(0xf0);
     __m256 nb = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(q8.pxf, bnd), bnd));
     if (w4) {
-        const __m256 h = _mm256_set1_ps(.5f);
-        nb = _mm256_and_ps(nb, _mm256_and_ps(_mm256_cmp_ps(bu, h, _CMP_GE_OQ),
-                                             _mm256_cmp_ps(bv, h, _CMP_GE_OQ)));
+        const __m256 h = _mm256_set1_ps(.5f), q4 = _mm256_set1_ps(.25f);
+        const __m256i e127 = _mm256_set1_epi32(127);
+        __m256 lou = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lu), 23));
+        __m256 lov = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lv), 23));
+        __m256 cu = _mm256_blendv_ps(lou, bu, _mm256_cmp_ps(bu, lou, _CMP_GE_OQ));
+        __m256 cv = _mm256_blendv_ps(lov, bv, _mm256_cmp_ps(bv, lov, _CMP_GE_OQ));
+        __m256 band = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps(cu, q4, _CMP_GE_OQ), _mm256_cmp_ps(cu, h, _CMP_LT_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(cv, q4, _CMP_GE_OQ), _mm256_cmp_ps(cv, h, _CMP_LT_OQ)));
+        nb = _mm256_and_ps(nb, _mm256_or_ps(_mm256_and_ps(_mm256_cmp_ps(bu, h, _CMP_GE_OQ),
+                                                          _mm256_cmp_ps(bv, h, _CMP_GE_OQ)),
+                                            band));
     }
     k->nonb = plain & (unsigned)_mm256_movemask_ps(nb);
     k->plain = plain;

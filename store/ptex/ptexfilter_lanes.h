@@ -85,7 +85,7 @@ typedef struct pf_klanes {
     unsigned plain, fast;
     unsigned nonb; /* the plain lanes whose face has no neighbour across any edge (lanef's
                       four boundary bits); for a width-4 filter, of those, the ones whose
-                      widths are both 1/2 or more */
+                      widths are both 1/2 or more, or both in pf_q8's band */
 } pf_klanes;
 typedef void (*pf_kernel_lanes_fn)(const pf_lanes *c, const st_query *q, pf_klanes *k);
 
@@ -123,5 +123,33 @@ pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc);
  * overhangs it served (the overhang folded, or dropped where black and in Discard; the
  * window on the face's level (1, 1)); NULL without AVX2 + FMA + F16C. */
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc);
+
+/* The width-4 filters' kernels of widths in [1/4, 1/2) along both axes, counted after
+ * pk_width4_axis' clamp of a width to a texel of the face (so also narrower ones on faces of
+ * 4 texels): resolution 2 x 2, 4 or 6 taps an axis from texel -2 or 0 whose weights are
+ * evaluated (pf_kernel_eval2_avx2's operations: build_w4's kernel bit for bit), on faces
+ * without neighbours, 8 queries at a time up to the window: what ptexfilter.c's
+ * kernel_declined_with does with them - pk_strip_zeros, pk_weight; inside the face apply's
+ * window (Traverse and Clamp); else kernel_walk_wr's fold (pf_walk_fold: each overhang
+ * folded onto the edge texel's weight, or dropped where black (blu, blv) and in Discard,
+ * Discard's kept weight and coverage rule) and put_window's window choice. Per lane j
+ * served: the window's first texel (u[j], v[j]) and taps (nu[j], nv[j]) on the face's
+ * level (2, 2), its weights from wu[j] + u[j] and wv[j] + v[j], small bit j when the window
+ * is the small window's (else the window loop's), the division's scale (1 / (weight x the
+ * type's one value)) and the coverage. */
+typedef struct pf_q8 {
+    float wu[8][4], wv[8][4];
+    int32_t u[8], v[8], nu[8], nv[8];
+    float scale[8], cov[8];
+    unsigned small;
+} pf_q8;
+
+/* Fills t for the lanes of m (of k->nonb; k: klanes8's set-up, p the filter) that it
+ * serves and returns them; the others (widths outside the band, a kernel of zeros, a fold
+ * that declines, Discard inside the face or keeping no weight) are left to the per-query
+ * path. dt: st_dtype. NULL without AVX2 + FMA + F16C (pf_have_avx2) or off x86. */
+typedef unsigned (*pf_q8_fn)(const pk_params *p, const pf_klanes *k, unsigned m, int blu,
+                             int blv, int discard, unsigned dt, pf_q8 *t);
+pf_q8_fn pf_q8_select(void);
 
 #endif

@@ -2392,6 +2392,164 @@ static pf_r0x8_fn nonb8_select(int iso, unsigned dt, unsigned nc)
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return nonb8_select(0, dt, nc); }
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return nonb8_select(1, dt, nc); }
 
+/* pk_ceil of 8 floats (the truncation, plus 1 where it is below x: its operations). */
+PF_TARGET __m256 ceil8(__m256 x)
+{
+    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(x));
+    return _mm256_add_ps(t, _mm256_and_ps(_mm256_cmp_ps(t, x, _CMP_LT_OQ), _mm256_set1_ps(1.0f)));
+}
+
+/* One axis of pf_q8 for 8 lanes: x the coordinates, bw the widths, lg the faces' log2
+ * sizes. pk_width4_axis lane by lane (the width clamped to the face's texel first, NaN to
+ * it as well; the band's branch: taps from u1 = (int)ceil(upix - 2) rounded down to even to
+ * (int)ceil(upix + 2) + 1 rounded down to even, x1 = u1 - upix, step 1), the weights as
+ * pf_kernel_eval2_avx2 evaluates them (x1 + i * 1 is x1 + i). For (u, v) in [0, 1) the
+ * taps start at -2 or 0 (4 or 6 of them) or at 2 (4; other lanes are not ok): the taps on
+ * texels 0..3 are w[q] = t[q + 2], t[q] or t[q - 2], the overhang t0, t1 (left, from -2),
+ * t4, t5 (right, 6 from 0) or t2, t3 (right, from 2). pk_strip_zeros keeps the taps from the first to the last nonzero one (pa, pb
+ * their texels): the window is [max(pa, 0), min(pb, 3)] (first, n), it overhangs where pa <
+ * 0 or pb > 3, and the fold declines where it lies past the face. Sums in tap order from 0
+ * (pk_accumulate): zero taps add +0 and change no bits (no weight is -0, no sum of nonzero
+ * weights is -0), so the whole kernel's sum is the stripped one's (*s), the texels' 0..3
+ * the kept one (*kept, Discard), the overhang's the fold's; a fold adds it to w[0] or w[3]
+ * (an overhang of zeros adds +0). black: no fold. */
+typedef struct {
+    __m256 w[4], s, kept, ok, over;
+    __m256i first, n;
+} q8_ax;
+
+PF_TARGET void q8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, int black,
+                       q8_ax *o)
+{
+    const __m256 q4 = _mm256_set1_ps(.25f), h = _mm256_set1_ps(.5f), c2 = _mm256_set1_ps(2.0f);
+    const __m256 z = _mm256_setzero_ps();
+    const __m256i e127 = _mm256_set1_epi32(127), even = _mm256_set1_epi32(~1);
+    const __m256i i0 = _mm256_setzero_si256(), i3 = _mm256_set1_epi32(3);
+    __m256 lo = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lg), 23));
+    __m256 w = _mm256_blendv_ps(lo, bw, _mm256_cmp_ps(bw, lo, _CMP_GE_OQ)); /* !(uw >= lo) */
+    __m256 band = _mm256_and_ps(_mm256_cmp_ps(w, q4, _CMP_GE_OQ), _mm256_cmp_ps(w, h, _CMP_LT_OQ));
+    __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, _mm256_set1_ps(4.0f)), h);
+    __m256i u1 = _mm256_and_si256(_mm256_cvttps_epi32(ceil8(_mm256_sub_ps(upix, c2))), even);
+    __m256i u2 = _mm256_and_si256(
+        _mm256_add_epi32(_mm256_cvttps_epi32(ceil8(_mm256_add_ps(upix, c2))), _mm256_set1_epi32(1)),
+        even);
+    __m256i kw = _mm256_sub_epi32(u2, u1);
+    __m256i neg = _mm256_cmpeq_epi32(u1, _mm256_set1_epi32(-2)), zero = _mm256_cmpeq_epi32(u1, i0);
+    __m256i six = _mm256_cmpeq_epi32(kw, _mm256_set1_epi32(6));
+    __m256i four = _mm256_cmpeq_epi32(kw, _mm256_set1_epi32(4));
+    /* from -2 or 0 with 4 or 6 taps, or from 2 with 4 */
+    __m256 shape = _mm256_castsi256_ps(_mm256_or_si256(
+        _mm256_and_si256(_mm256_or_si256(neg, zero), _mm256_or_si256(six, four)),
+        _mm256_and_si256(_mm256_cmpeq_epi32(u1, _mm256_set1_epi32(2)), four)));
+    __m256 x1 = _mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix);
+    __m256 t[6];
+    for (int i = 0; i < 6; i++)
+        t[i] = kernel8(p, _mm256_add_ps(x1, _mm256_set1_ps((float)i)));
+    t[4] = _mm256_and_ps(t[4], _mm256_castsi256_ps(six)); /* no taps past the fourth */
+    t[5] = _mm256_and_ps(t[5], _mm256_castsi256_ps(six));
+    /* the first and last nonzero tap (pk_nonzero_mask's unordered compare) */
+    __m256i a = _mm256_set1_epi32(6), b = _mm256_set1_epi32(-1);
+    for (int i = 5; i >= 0; i--)
+        a = _mm256_blendv_epi8(a, _mm256_set1_epi32(i),
+                               _mm256_castps_si256(_mm256_cmp_ps(t[i], z, _CMP_NEQ_UQ)));
+    for (int i = 0; i < 6; i++)
+        b = _mm256_blendv_epi8(b, _mm256_set1_epi32(i),
+                               _mm256_castps_si256(_mm256_cmp_ps(t[i], z, _CMP_NEQ_UQ)));
+    __m256i pa = _mm256_add_epi32(u1, a), pb = _mm256_add_epi32(u1, b);
+    /* a tap left (b >= 0), on the face: pa <= 3 and pb >= 0 */
+    __m256i on = _mm256_andnot_si256(
+        _mm256_or_si256(_mm256_cmpgt_epi32(i0, b),
+                        _mm256_or_si256(_mm256_cmpgt_epi32(pa, i3), _mm256_cmpgt_epi32(i0, pb))),
+        _mm256_set1_epi32(-1));
+    o->ok = _mm256_and_ps(_mm256_and_ps(band, shape), _mm256_castsi256_ps(on));
+    o->over = _mm256_castsi256_ps(_mm256_or_si256(_mm256_cmpgt_epi32(i0, pa),
+                                                  _mm256_cmpgt_epi32(pb, i3)));
+    o->first = _mm256_max_epi32(pa, i0);
+    o->n = _mm256_sub_epi32(_mm256_add_epi32(_mm256_min_epi32(pb, i3), _mm256_set1_epi32(1)),
+                            o->first);
+    __m256 s = z;
+    for (int i = 0; i < 6; i++)
+        s = _mm256_add_ps(s, t[i]);
+    o->s = s;
+    /* texels 0..3: taps 2..5 from -2, 0..3 from 0, none, none, 0, 1 from 2 */
+    __m256 nf = _mm256_castsi256_ps(neg), zf = _mm256_castsi256_ps(zero);
+    o->w[0] = _mm256_blendv_ps(_mm256_and_ps(t[0], zf), t[2], nf);
+    o->w[1] = _mm256_blendv_ps(_mm256_and_ps(t[1], zf), t[3], nf);
+    o->w[2] = _mm256_blendv_ps(_mm256_blendv_ps(t[0], t[2], zf), t[4], nf);
+    o->w[3] = _mm256_blendv_ps(_mm256_blendv_ps(t[1], t[3], zf), t[5], nf);
+    o->kept = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_add_ps(z, o->w[0]), o->w[1]),
+                                          o->w[2]),
+                            o->w[3]);
+    if (!black) {
+        __m256 l = _mm256_and_ps(_mm256_add_ps(_mm256_add_ps(z, t[0]), t[1]), nf);
+        __m256 r = _mm256_andnot_ps(nf, _mm256_blendv_ps(_mm256_add_ps(_mm256_add_ps(z, t[2]), t[3]),
+                                                         _mm256_add_ps(_mm256_add_ps(z, t[4]), t[5]),
+                                                         zf));
+        o->w[3] = _mm256_add_ps(o->w[3], r); /* pk_merge_r first, then _l */
+        o->w[0] = _mm256_add_ps(o->w[0], l);
+    }
+}
+
+/* pf_q8_fn */
+__attribute__((target("avx2,fma,f16c"))) static unsigned q8(const pk_params *p,
+                                                            const pf_klanes *k, unsigned m,
+                                                            int blu, int blv, int discard,
+                                                            unsigned dt, pf_q8 *t)
+{
+    const __m256 z = _mm256_setzero_ps(), c1 = _mm256_set1_ps(1.0f);
+    q8_ax au, av;
+    q8_axis(p, _mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu),
+            _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2), blu | discard, &au);
+    q8_axis(p, _mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv),
+            _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2), blv | discard, &av);
+    __m256 ok = _mm256_and_ps(au.ok, av.ok), over = _mm256_or_ps(au.over, av.over);
+    __m256 total = _mm256_mul_ps(au.s, av.s), weight = total, cv = c1;
+    if (discard) { /* overhanging lanes only (inside: eval_kernel's) */
+        weight = _mm256_mul_ps(au.kept, av.kept);
+        cv = _mm256_and_ps(_mm256_div_ps(weight, total), _mm256_cmp_ps(total, z, _CMP_NEQ_OQ));
+        cv = _mm256_blendv_ps(cv, c1, _mm256_cmp_ps(cv, c1, _CMP_GT_OQ));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(over, _mm256_and_ps(_mm256_cmp_ps(weight, z, _CMP_GT_OQ),
+                                                                 _mm256_cmp_ps(cv, z, _CMP_GT_OQ))));
+    }
+    m &= (unsigned)_mm256_movemask_ps(ok);
+    if (!m)
+        return 0;
+    const float one = dt == 0 ? 255.0f : dt == 1 ? 65535.0f : 1.0f;
+    _mm256_storeu_ps(t->scale, _mm256_div_ps(c1, _mm256_mul_ps(weight, _mm256_set1_ps(one))));
+    _mm256_storeu_ps(t->cov, cv);
+    /* the small window: an overhang and at most 2 x 2 taps ((n - 1) unsigned < 2 each) */
+    __m256i two = _mm256_set1_epi32(2), n1 = _mm256_set1_epi32(1);
+    __m256i sm = _mm256_and_si256(
+        _mm256_cmpgt_epi32(two, _mm256_sub_epi32(au.n, n1)),
+        _mm256_cmpgt_epi32(two, _mm256_sub_epi32(av.n, n1)));
+    t->small = (unsigned)_mm256_movemask_ps(_mm256_and_ps(over, _mm256_castsi256_ps(sm)));
+    _mm256_storeu_si256((__m256i *)(void *)t->u, au.first);
+    _mm256_storeu_si256((__m256i *)(void *)t->v, av.first);
+    _mm256_storeu_si256((__m256i *)(void *)t->nu, au.n);
+    _mm256_storeu_si256((__m256i *)(void *)t->nv, av.n);
+    /* lane j's 4 weights at wu[j]: the 4 x 8 transposed (unpack within halves, then the
+     * 128-bit halves: lanes 0-3 in the low half of each, 4-7 in the high) */
+    for (int a = 0; a < 2; a++) {
+        const __m256 *w = a ? av.w : au.w;
+        float(*d)[4] = a ? t->wv : t->wu;
+        __m256 l01 = _mm256_unpacklo_ps(w[0], w[1]), h01 = _mm256_unpackhi_ps(w[0], w[1]);
+        __m256 l23 = _mm256_unpacklo_ps(w[2], w[3]), h23 = _mm256_unpackhi_ps(w[2], w[3]);
+        __m256 r0 = _mm256_shuffle_ps(l01, l23, 0x44), r1 = _mm256_shuffle_ps(l01, l23, 0xee);
+        __m256 r2 = _mm256_shuffle_ps(h01, h23, 0x44), r3 = _mm256_shuffle_ps(h01, h23, 0xee);
+        /* r0 = lanes 0 and 4, r1 = 1 and 5, r2 = 2 and 6, r3 = 3 and 7 */
+        _mm256_storeu_ps(d[0], _mm256_permute2f128_ps(r0, r1, 0x20));
+        _mm256_storeu_ps(d[2], _mm256_permute2f128_ps(r2, r3, 0x20));
+        _mm256_storeu_ps(d[4], _mm256_permute2f128_ps(r0, r1, 0x31));
+        _mm256_storeu_ps(d[6], _mm256_permute2f128_ps(r2, r3, 0x31));
+    }
+    return m;
+}
+
+pf_q8_fn pf_q8_select(void)
+{
+    return pf_have_avx2() ? q8 : NULL;
+}
+
 #else
 
 int pf_have_avx2(void)
@@ -2451,6 +2609,7 @@ pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
 /* no 8-lane folds off x86 */
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
+pf_q8_fn pf_q8_select(void) { return NULL; }
 
 pf_bilinear_half_fn pf_bilinear_half_select(void)
 {

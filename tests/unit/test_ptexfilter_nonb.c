@@ -4,6 +4,8 @@
  * widths are a face or more along both axes (kernel_r0's kernels at resolution 1 x 1: 2
  * hermite taps an axis) or half a face to under a face (kernel_iso's at resolution 2 x 2: 4
  * taps an axis, zeros stripped), folded at the border. Outputs, coverage and status must be
+ * (and, session 20, pf_q8_select's: widths in [1/4, 1/2) once clamped to a texel of the face,
+ * resolution 2 x 2, 4 or 6 evaluated taps an axis, on every kernel filter) must be
  * the general path's (pf_batch_path(PF_PATH_GENERAL): every query through eval) bit for
  * bit, for every width-4 filter and mode, on the one-face files of bordermodes and
  * tri/quad.ptx under each border mode (black drops the overhang, clamp folds it; periodic's
@@ -103,9 +105,44 @@ static float iso_coord(float w)
     return u < 0.99999994f ? u : 0.99999994f;
 }
 
+/* A width for the q8 lanes: [1/4, 1/2) and next to both ends, sometimes under 1/4 (on the
+ * 4 x 4 faces clamped to 1/4: the band; on quad's 8 x 8 not) or 1/2 (not the band). */
+static float q8_width(void)
+{
+    static const float w[] = {0.25f, 0.3f, 0.4f, 0.49999997f, 0.24999999f, 0.0625f, 0.5f, 0.45f};
+    int i = (int)(rnd01() * 10);
+    return i < 8 ? w[i] : 0.25f + rnd01() * 0.25f;
+}
+
+/* A coordinate for the q8 lanes: where the first tap moves (u * 4 - 2.5 an integer: u =
+ * 1/8, 3/8, 5/8, 7/8) or an end tap's x reaches 2 (the bicubic family's zero: the window a
+ * texel narrower; u = k / 4 + 1/8 moved by the tap's offset), a few ulps either side, or as
+ * coord(). */
+static float q8_coord(void)
+{
+    float b = (float)((int)(rnd01() * 4)) * 0.25f + 0.125f;
+    switch ((int)(rnd01() * 3)) {
+    case 0: {
+        float u = b + (float)((int)(rnd01() * 7) - 3) * 3e-8f;
+        u = u < 0.0f ? 0.0f : u;
+        return u < 0.99999994f ? u : 0.99999994f;
+    }
+    case 1: return coord();
+    default: return rnd01();
+    }
+}
+
 static void make_queries(st_query *q, int iso)
 {
     for (int j = 0; j < NQ; j++) {
+        if (iso == 2) {
+            float wu = q8_width(), wv = rnd01() < 0.6f ? wu : q8_width();
+            q[j] = (st_query){.face = 0, .u = q8_coord(), .v = q8_coord(), .dudx = wu,
+                              .dvdy = wv};
+            if (j % 101 == 7)
+                q[j].dudx = NAN; /* clamped to the face's texel, as pk_width4_axis does */
+            continue;
+        }
         if (iso) {
             float wu = iso_width(), wv = rnd01() < 0.6f ? wu : iso_width();
             q[j] = (st_query){.face = 0, .u = iso_coord(wu), .v = iso_coord(wv), .dudx = wu,
@@ -133,8 +170,12 @@ static long lanes_served(const st_set *s, const st_query *q, unsigned ft, unsign
     assert_non_null(t);
     pf_kernel_lanes_fn kl = pf_kernel_lanes_select(ft);
     pf_r0x8_fn r8 = (iso ? pf_iso8_select : pf_r0x8_select)(s->info.dtype, s->info.nchan);
+    pf_q8_fn q8 = pf_q8_select();
+    pk_params pp;
+    pk_params_init(&pp, ft, 0.0f, 1);
     assert_non_null(kl);
     assert_non_null(r8);
+    assert_non_null(q8);
     pf_lanes lc = {.faces = s->faces, .lanef = t->lanef, .base = t->base, .px = t->px,
                    .nfaces = s->info.nfaces, .width = 1.0f, .blur = 0.0f};
     long n = 0;
@@ -142,8 +183,14 @@ static long lanes_served(const st_set *s, const st_query *q, unsigned ft, unsign
         pf_klanes k;
         float out[8 * 4], cov[8];
         kl(&lc, q + i, &k);
-        unsigned m = r8(s->info.border_u == 1, s->info.border_v == 1, mode == ST_MODE_DISCARD,
-                        &k, out, cov);
+        unsigned m;
+        if (iso == 2) {
+            pf_q8 t;
+            m = q8(&pp, &k, k.nonb, s->info.border_u == 1, s->info.border_v == 1,
+                   mode == ST_MODE_DISCARD, s->info.dtype, &t);
+        } else
+            m = r8(s->info.border_u == 1, s->info.border_v == 1, mode == ST_MODE_DISCARD, &k,
+                   out, cov);
         assert_int_equal(m & ~k.nonb, 0);
         n += __builtin_popcount(m);
     }
@@ -210,11 +257,12 @@ static void lanes_match_the_general_path(int iso)
         skip();
     }
     print_message("%s: %d files, %ld queries compared; lanes served 8 at a time: Discard "
-                  "%ld, Traverse %ld, Clamp %ld\n", iso ? "iso8" : "r0x8", found, compared,
-                  served[0], served[1], served[2]);
-    /* 3 of the files have no neighbours, 5 border settings: most lanes are served */
+                  "%ld, Traverse %ld, Clamp %ld\n", iso == 2 ? "q8" : iso ? "iso8" : "r0x8",
+                  found, compared, served[0], served[1], served[2]);
+    /* 3 of the files have no neighbours, 5 border settings: most lanes are served (q8 in
+     * Discard: only the overhanging ones) */
     for (int m = 0; m < 3; m++)
-        assert_true(served[m] > 3 * 5 * NQ / (iso ? 3 : 4));
+        assert_true(served[m] > 3 * 5 * NQ / (iso == 2 ? (m ? 2 : 4) : iso ? 3 : 4));
 }
 
 static void r0_lanes_match_the_general_path(void **state)
@@ -229,11 +277,18 @@ static void iso_lanes_match_the_general_path(void **state)
     lanes_match_the_general_path(1);
 }
 
+static void q8_lanes_match_the_general_path(void **state)
+{
+    (void)state;
+    lanes_match_the_general_path(2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(r0_lanes_match_the_general_path),
         cmocka_unit_test(iso_lanes_match_the_general_path),
+        cmocka_unit_test(q8_lanes_match_the_general_path),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
