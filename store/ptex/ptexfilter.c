@@ -116,6 +116,7 @@ typedef struct pf {
     pf_r0x8_fn r0x8;         /* kernel_r0's folds 8 at a time (set when c->small is), or NULL */
     pf_r0x8_fn iso8;         /* kernel_iso's, the same */
     pf_q8_fn q8;             /* kernel_q8's taps 8 at a time (set when c->iso8 is), or NULL */
+    pf_cst8_fn cst8;         /* kernel_cst8's kernels 8 at a time (with c->cst), or NULL */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1079,15 +1080,22 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
  * face's resolution: apply's sum (the face's texel times w, added to zero) divided by w and
  * the type's one value, in eval_kernel's operations; texels of type DT with NC channels
  * (constants where inlined). */
+__attribute__((always_inline)) static inline void const_write_at(const uint8_t *texel, float w,
+                                                                float *out, unsigned DT,
+                                                                unsigned NC)
+{
+    v4f acc = (v4f){0, 0, 0, 0};
+    acc += load_dt(texel, DT, NC) * w; /* load_any's values */
+    float scale = 1.0f / (w * one_value(DT));
+    for (unsigned ch = 0; ch < NC; ch++)
+        out[ch] = acc[ch] * scale;
+}
+/* const_write_at of face f's texel */
 __attribute__((always_inline)) static inline void const_write(const pf *c, uint32_t f, float w,
                                                              float *out, unsigned DT,
                                                              unsigned NC)
 {
-    v4f acc = (v4f){0, 0, 0, 0};
-    acc += load_dt(c->t->px[c->t->base[f]], DT, NC) * w; /* load_any's values */
-    float scale = 1.0f / (w * one_value(DT));
-    for (unsigned ch = 0; ch < NC; ch++)
-        out[ch] = acc[ch] * scale;
+    const_write_at(c->t->px[c->t->base[f]], w, out, DT, NC);
 }
 
 /* Kernel k (zeros stripped, not empty) of constant face F (f) when it lies inside the face
@@ -1975,6 +1983,26 @@ __attribute__((noinline)) static unsigned kernel_q8(pf *c, const pk_params *pp,
     return done;
 }
 
+/* The lanes of k->cst whose kernel c->cst8 finds inside their constant face (with a weight
+ * in (0, +inf)): kernel_const's const_inside result, const_write's operations on the face's
+ * texel, coverage (when cov) and status (when st) written: the mask. */
+__attribute__((noinline)) static unsigned kernel_cst8(pf *c, const pk_params *pp,
+                                                      const pf_klanes *k, float *out,
+                                                      float *cov, uint8_t *st)
+{
+    float w[8];
+    unsigned done = c->cst8(pp, k, k->cst, w), nc = c->nc;
+    for (unsigned m = done; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        const_write_at(k->px[j][0], w[j], out + j * nc, c->dt, nc);
+        if (cov)
+            cov[j] = 1.0f;
+        if (st)
+            st[j] = ST_Q_OK;
+    }
+    return done;
+}
+
 /* A block of 8 queries from q + i (k: klanes8's) with lanes of k->nonb, for a width-4
  * filter: kernel_r0x8's lanes, kernel_q8's, then the others one by one (kernel_lane; such blocks are
  * mostly of one-face files, where the 8-query fused path finds nothing). Out of line:
@@ -1983,8 +2011,9 @@ __attribute__((noinline)) static unsigned kernel_q8(pf *c, const pk_params *pp,
 __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *pp,
                                                        const st_sample_opts *o, pf_query_fn qfn,
                                                        const st_query *q, size_t i,
-                                                       const pf_klanes *k, float *out,
-                                                       float *coverage, uint8_t *status)
+                                                       const pf_klanes *k, unsigned skip,
+                                                       float *out, float *coverage,
+                                                       uint8_t *status)
 {
     unsigned nc = c->nc;
     unsigned r0 = kernel_r0x8(c, k, out + i * nc, coverage ? coverage + i : NULL,
@@ -1993,7 +2022,7 @@ __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *p
         r0 |= kernel_q8(c, pp, k, k->nonb & ~r0, out + i * nc, coverage ? coverage + i : NULL,
                         status ? status + i : NULL);
     int bad = 0;
-    for (unsigned m = ~r0 & 0xffu; m; m &= m - 1) {
+    for (unsigned m = ~(r0 | skip) & 0xffu; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
         bad += kernel_lane(c, pp, o, qfn, q, i + j, k, j, 0, NULL, 0.0f, out, coverage, status,
                            nc);
@@ -2036,17 +2065,24 @@ __attribute__((always_inline)) static inline int kernel_run_with(
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
+            /* kernels inside constant faces, 8 at a time (cs: the lanes served) */
+            unsigned cs = 0;
+            if (__builtin_expect(k.cst != 0, 0) && c->cst8)
+                cs = kernel_cst8(c, pp, &k, out + i * nc, coverage ? coverage + i : NULL,
+                                 status ? status + i : NULL);
             /* the fused path's common case of the width-4 filters, 8 at a time:
              * done, or handed over (over: the kernels in ks, their weights in kw) */
             if (__builtin_expect(k.nonb != 0, 0) && c->r0x8) { /* width-4, no neighbours */
-                bad += kernel_block_nonb(c, pp, o, qfn, q, i, &k, out, coverage, status);
+                bad += kernel_block_nonb(c, pp, o, qfn, q, i, &k, cs, out, coverage, status);
                 continue;
             }
-            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = 0;
+            unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = cs;
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
-                for (unsigned j = 0; j < 8; j++)
+                for (unsigned m = ~cs & 0xffu; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
                     bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
                                        coverage, status, nc);
+                }
                 continue;
             }
             done = w8(pp, &k, out + i * nc, ks, kw, &over);
@@ -2160,6 +2196,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;
     c.iso8 = c.small && w4 ? pf_iso8_select(c.dt, c.nc) : NULL;
     c.q8 = c.iso8 ? pf_q8_select() : NULL;
+    c.cst8 = c.cst && o->filter >= ST_FILTER_PTEX_BOX ? pf_cst8_select(o->filter) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
                        .small = c.small, .texel = walk_texel, .dt = c.dt, .nc = c.nc};

@@ -721,15 +721,25 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
                                                                     pf_klanes *k, int w4)
 {
     pl_q8 q8;
-    k->plain = k->fast = k->nonb = 0;
+    k->plain = k->fast = k->nonb = k->cst = 0;
     if (!q8_checks(c, q, &q8))
         return;
     const __m256i zero = _mm256_setzero_si256(), ff = _mm256_set1_epi32(0xff);
     __m256i face = q8.face, fw = q8.fw, m = q8.m;
     __m256 u = q8.u, v = q8.v, ax = q8.ax, bx = q8.bx, ay = q8.ay, by = q8.by;
     unsigned plain = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(m));
-    if (!plain)
+    /* constant faces that open_face opens: the flag byte's subface and constant bits are
+     * the constant one, not next to a constant face */
+    __m256i cm = _mm256_and_si256(
+        q8.mok, _mm256_and_si256(
+                    _mm256_cmpeq_epi32(_mm256_and_si256(q8.pxf, _mm256_set1_epi32(PTX_FLAG_NBCONSTANT)), zero),
+                    _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_srli_epi32(fw, 24),
+                                                        _mm256_set1_epi32(ST_FACE_SUBFACE | ST_FACE_CONSTANT)),
+                                       _mm256_set1_epi32(ST_FACE_CONSTANT))));
+    unsigned cst = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(cm));
+    if (!(plain | cst))
         return;
+    m = _mm256_or_si256(m, cm); /* the rows gathered below */
     __m256i lu = _mm256_and_si256(fw, ff), lv = _mm256_and_si256(_mm256_srli_epi32(fw, 8), ff);
     /* kernel_qi's widths: |du/dx| + |du/dy|, times width, plus blur (two operations) */
     __m256 bu = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(ax, ay), _mm256_set1_ps(c->width)),
@@ -768,13 +778,14 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
     k->nonb = plain & (unsigned)_mm256_movemask_ps(nb);
     k->plain = plain;
     k->fast = fast;
+    k->cst = cst;
     _mm256_storeu_si256((__m256i *)(void *)k->ulog2, lu);
     _mm256_storeu_si256((__m256i *)(void *)k->vlog2, lv);
     _mm256_storeu_ps(k->u, u);
     _mm256_storeu_ps(k->v, v);
     _mm256_storeu_ps(k->bu, bu);
     _mm256_storeu_ps(k->bv, bv);
-    /* px + base[f] for the plain lanes (8 bytes an entry) */
+    /* px + base[f] for the plain and constant lanes (8 bytes an entry) */
     const __m256i pxb = _mm256_set1_epi64x((long long)(uintptr_t)c->px);
     __m128i f0 = _mm256_castsi256_si128(face), f1 = _mm256_extracti128_si256(face, 1);
     __m128i m0 = _mm256_castsi256_si128(m), m1 = _mm256_extracti128_si256(m, 1);

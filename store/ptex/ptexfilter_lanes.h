@@ -86,6 +86,9 @@ typedef struct pf_klanes {
     unsigned nonb; /* the plain lanes whose face has no neighbour across any edge (lanef's
                       four boundary bits); for a width-4 filter, of those, the ones whose
                       widths are both 1/2 or more, or both in pf_q8's band */
+    unsigned cst;  /* the lanes that pass the checks on a constant face (neither a subface
+                      nor next to a constant face: open_face's), their set-up filled as a
+                      plain lane's (px + base[f]: the face's one texel at px[base[f]]) */
 } pf_klanes;
 typedef void (*pf_kernel_lanes_fn)(const pf_lanes *c, const st_query *q, pf_klanes *k);
 
@@ -151,5 +154,16 @@ typedef struct pf_q8 {
 typedef unsigned (*pf_q8_fn)(const pk_params *p, const pf_klanes *k, unsigned m, int blu,
                              int blv, int discard, unsigned dt, pf_q8 *t);
 pf_q8_fn pf_q8_select(void);
+
+/* The box's and the width-4 filters' kernels inside a constant face (ptexfilter.c's
+ * const_inside), 8 at a time after klanes8 (k): of the lanes of m (of k->cst), those whose
+ * kernel - the box's as pk_build makes it, or a width-4 filter's of a width under 1/4 once
+ * clamped to a texel of the face, as build_w4 makes it (the resolution from the width, up to
+ * 8 evaluated taps an axis) - keeps a tap on each axis, lies inside the face with its zero
+ * end taps stripped (the box: with none at an end) and weighs in (0, +inf): its pk_weight in
+ * w[lane], their mask returned (what every mode keeps whole: const_write's result). The
+ * others are left to the per-query path. NULL without AVX2 + FMA + F16C or off x86. */
+typedef unsigned (*pf_cst8_fn)(const pk_params *p, const pf_klanes *k, unsigned m, float *w);
+pf_cst8_fn pf_cst8_select(unsigned ftype);
 
 #endif

@@ -2550,6 +2550,110 @@ pf_q8_fn pf_q8_select(void)
     return pf_have_avx2() ? q8 : NULL;
 }
 
+/* One axis of pf_cst8's width-4 kernel, 8 lanes: pk_width4_axis' branch for a width under
+ * 1/4 (after the clamp to the face's texel, NaN clamped too; the lanes at 1/4 or more are
+ * not ok): resolution r = 127 - the width's exponent (0..30), upix = x 2^r - 0.5, uwpix =
+ * w 2^r, taps from (int)ceil(upix - 2 uwpix) to (int)ceil(upix + 2 uwpix) (at most 8, else
+ * not ok), x1 = (u1 - upix) / uwpix, step 1 / uwpix; the weights as pf_kernel_eval2_avx2
+ * evaluates them (x1 + i step). *s the taps' sum in order from 0 (pk_accumulate of the
+ * stripped ones: zero taps add +0). ok: a nonzero tap, and the first to the last nonzero
+ * one lie on [0, 2^r). */
+PF_TARGET __m256 cst8_w4_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, __m256 *s)
+{
+    const __m256 z = _mm256_setzero_ps(), h = _mm256_set1_ps(.5f);
+    const __m256i e127 = _mm256_set1_epi32(127), i0 = _mm256_setzero_si256();
+    __m256 lo = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lg), 23));
+    __m256 w = _mm256_blendv_ps(lo, bw, _mm256_cmp_ps(bw, lo, _CMP_GE_OQ)); /* !(uw >= lo) */
+    __m256 ok = _mm256_cmp_ps(w, _mm256_set1_ps(.25f), _CMP_LT_OQ);
+    __m256i r = _mm256_sub_epi32(e127, _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(w), 23),
+                                                        _mm256_set1_epi32(0xff)));
+    r = _mm256_min_epi32(_mm256_max_epi32(r, i0), _mm256_set1_epi32(30));
+    __m256 rf = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(r, e127), 23));
+    __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, rf), h);
+    __m256 uwpix = _mm256_mul_ps(w, rf);
+    __m256 dupix = _mm256_mul_ps(_mm256_set1_ps(2.0f), uwpix);
+    __m256i u1 = _mm256_cvttps_epi32(ceil8(_mm256_sub_ps(upix, dupix)));
+    __m256i u2 = _mm256_cvttps_epi32(ceil8(_mm256_add_ps(upix, dupix)));
+    __m256i kw = _mm256_sub_epi32(u2, u1);
+    ok = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(kw, _mm256_set1_epi32(8))), ok);
+    __m256 x1 = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix), uwpix);
+    __m256 st = _mm256_div_ps(_mm256_set1_ps(1.0f), uwpix);
+    __m256i a = _mm256_set1_epi32(8), b = _mm256_set1_epi32(-1);
+    __m256 sum = z;
+    for (int i = 0; i < 8; i++) {
+        __m256 t = kernel8(p, _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)i), st)));
+        __m256i in = _mm256_cmpgt_epi32(kw, _mm256_set1_epi32(i));
+        t = _mm256_and_ps(t, _mm256_castsi256_ps(in)); /* past the taps: +0 */
+        sum = _mm256_add_ps(sum, t);
+        __m256i nz = _mm256_castps_si256(_mm256_cmp_ps(t, z, _CMP_NEQ_UQ));
+        a = _mm256_blendv_epi8(a, _mm256_min_epi32(a, _mm256_set1_epi32(i)), nz);
+        b = _mm256_blendv_epi8(b, _mm256_set1_epi32(i), nz);
+    }
+    *s = sum;
+    __m256i pa = _mm256_add_epi32(u1, a), pb1 = _mm256_add_epi32(_mm256_add_epi32(u1, b),
+                                                                   _mm256_set1_epi32(1));
+    __m256i res = _mm256_sllv_epi32(_mm256_set1_epi32(1), r);
+    __m256i bad = _mm256_or_si256(_mm256_cmpgt_epi32(i0, b),
+                                  _mm256_or_si256(_mm256_cmpgt_epi32(i0, pa),
+                                                  _mm256_cmpgt_epi32(pb1, res)));
+    return _mm256_andnot_ps(_mm256_castsi256_ps(bad), ok);
+}
+
+/* The weight of pf_cst8's lanes ok from the axes' sums: in (0, +inf), stored at w. */
+PF_TARGET unsigned cst8_weight(unsigned m, __m256 ok, __m256 su, __m256 sv, float *w)
+{
+    __m256 tw = _mm256_mul_ps(su, sv); /* pk_weight */
+    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(tw, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                         _mm256_cmp_ps(tw, _mm256_set1_ps(3.40282347e38f),
+                                                       _CMP_LE_OQ)));
+    _mm256_storeu_ps(w, tw);
+    return m & (unsigned)_mm256_movemask_ps(ok);
+}
+
+/* pf_cst8_fn for the width-4 filters */
+__attribute__((target("avx2,fma,f16c"))) static unsigned cst8_w4(const pk_params *p,
+                                                                const pf_klanes *k,
+                                                                unsigned m, float *w)
+{
+    __m256 su, sv;
+    __m256 ok = cst8_w4_axis(p, _mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu),
+                             _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2), &su);
+    ok = _mm256_and_ps(ok, cst8_w4_axis(p, _mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv),
+                                        _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2),
+                                        &sv));
+    return cst8_weight(m, ok, su, sv, w);
+}
+
+/* pf_cst8_fn for the box: box8_axis' kernel (no zero weight at an end), inside the face */
+__attribute__((target("avx2,fma,f16c"))) static unsigned cst8_box(const pk_params *p,
+                                                                 const pf_klanes *k,
+                                                                 unsigned m, float *w)
+{
+    (void)p;
+    const __m256i z = _mm256_setzero_si256(), one = _mm256_set1_epi32(1);
+    box8_ax au, av;
+    box8_axis(_mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu),
+              _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2), &au);
+    box8_axis(_mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv),
+              _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2), &av);
+    __m256i bad = _mm256_or_si256(
+        _mm256_or_si256(au.bad, av.bad),
+        _mm256_or_si256(
+            _mm256_or_si256(_mm256_cmpgt_epi32(z, au.a),
+                            _mm256_cmpgt_epi32(_mm256_add_epi32(au.a, au.n), _mm256_sllv_epi32(one, au.r))),
+            _mm256_or_si256(_mm256_cmpgt_epi32(z, av.a),
+                            _mm256_cmpgt_epi32(_mm256_add_epi32(av.a, av.n), _mm256_sllv_epi32(one, av.r)))));
+    return cst8_weight(m, _mm256_castsi256_ps(_mm256_andnot_si256(bad, _mm256_set1_epi32(-1))),
+                       au.sm, av.sm, w);
+}
+
+pf_cst8_fn pf_cst8_select(unsigned ftype)
+{
+    if (!pf_have_avx2())
+        return NULL;
+    return ftype == ST_FILTER_PTEX_BOX ? cst8_box : cst8_w4;
+}
+
 #else
 
 int pf_have_avx2(void)
@@ -2610,6 +2714,7 @@ pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
 pf_q8_fn pf_q8_select(void) { return NULL; }
+pf_cst8_fn pf_cst8_select(unsigned ftype) { return (void)ftype, NULL; }
 
 pf_bilinear_half_fn pf_bilinear_half_select(void)
 {

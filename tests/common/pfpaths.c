@@ -8,6 +8,8 @@
 
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
+#include "ptexfilter_lanes.h"
+#include "ptexres.h"
 
 const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS] = {
     ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,        ST_FILTER_PTEX_GAUSSIAN,
@@ -64,4 +66,26 @@ long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char 
         free(st[k]);
     }
     return done;
+}
+
+long st_pf_lanes_served(const st_set *s, const st_query *q, size_t n, unsigned ft,
+                        unsigned (*serve)(const struct pf_klanes *k, void *arg), void *arg)
+{
+    st_error e = {0};
+    pf_kernel_lanes_fn kl = pf_kernel_lanes_select(ft);
+    if (!kl)
+        return -1;
+    const st_ptexres *t = st_ptexres_pin(s, &e);
+    if (!t)
+        return -1;
+    pf_lanes lc = {.faces = s->faces, .lanef = t->lanef, .base = t->base, .px = t->px,
+                   .nfaces = s->info.nfaces, .width = 1.0f, .blur = 0.0f};
+    long served = 0;
+    for (size_t i = 0; i + 8 <= n; i += 8) {
+        pf_klanes k;
+        kl(&lc, q + i, &k);
+        served += __builtin_popcount(serve(&k, arg));
+    }
+    st_ptexres_unpin(t);
+    return served;
 }

@@ -26,4 +26,12 @@ extern const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS];
 long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char *what,
                        const unsigned *filters, size_t nf);
 
+struct pf_klanes;
+/* The 8-query lanes a fast path serves: for each block of 8 of the n queries q, the kernel
+ * lanes of filter ft (pf_kernel_lanes_select, the options' width 1 and blur 0) set the block
+ * up, then serve(k, arg) returns the lanes it serves (a mask within k's lanes). Returns the
+ * lanes served in all, -1 without AVX2 lanes or the set's resolution table. */
+long st_pf_lanes_served(const st_set *s, const st_query *q, size_t n, unsigned ft,
+                        unsigned (*serve)(const struct pf_klanes *k, void *arg), void *arg);
+
 #endif

@@ -9,7 +9,10 @@
  * texel centres of the kernel's level (a zero tap stripped: the bilinear then takes the
  * kernel) and next to the edges (kernels that overhang: the general walk); footprints from
  * a quarter texel to a whole face, isotropic and not; every filter but the point and the
- * triangle's, every mode. */
+ * triangle's, every mode. The lanes that pf_cst8_select's functions serve 8 at a time
+ * (session 20: the box's and the width-4 filters' kernels inside a constant face) are
+ * counted through klanes8 on the same blocks, so that the comparison is known to cover
+ * them. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -21,6 +24,7 @@
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
+#include "ptexfilter_lanes.h"
 #include "sample.h"
 #include "../common/pffiles.h"
 #include "../common/pfpaths.h"
@@ -54,7 +58,7 @@ static float coord(int j, int res, float fp, uint32_t *rng)
 /* NQ queries on faces drawn uniformly; returns how many of them sit on a constant face. */
 static size_t const_queries(const st_set *s, st_query *q, uint32_t *rng)
 {
-    static const float fps[] = {0.25f, 0.5f, 1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 64.0f};
+    static const float fps[] = {0.25f, 0.5f, 1.0f, 1.93f, 4.0f, 7.7f, 16.0f, 64.0f};
     size_t on = 0;
     for (int j = 0; j < NQ; j++) {
         uint32_t f = (uint32_t)(st_test_rndf(rng) * (float)s->info.nfaces) % s->info.nfaces;
@@ -67,6 +71,16 @@ static size_t const_queries(const st_set *s, st_query *q, uint32_t *rng)
         on += (F->flags & ST_FACE_CONSTANT) != 0;
     }
     return on;
+}
+
+/* The lanes of k->cst that the filter's pf_cst8 function (arg: its pk_params) serves. */
+static unsigned serve_cst8(const pf_klanes *k, void *arg)
+{
+    const pk_params *pp = arg;
+    float w[8];
+    unsigned m = pf_cst8_select(pp->ftype)(pp, k, k->cst, w);
+    assert_int_equal(m & ~k->cst, 0);
+    return m;
 }
 
 static void const_faces_match_the_general_path(void **state)
@@ -84,7 +98,7 @@ static void const_faces_match_the_general_path(void **state)
     };
     static st_query q[NQ];
     uint32_t rng = 41; /* the queries' generator (testhash.h) */
-    long compared = 0;
+    long compared = 0, served[2] = {0};
     size_t on = 0;
     int found = 0;
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
@@ -109,13 +123,24 @@ static void const_faces_match_the_general_path(void **state)
         if (n < 0)
             fail();
         compared += n;
+        for (int b = 0; b < 2 && pf_cst8_select(ST_FILTER_PTEX_BOX); b++) {
+            pk_params pp;
+            pk_params_init(&pp, b ? ST_FILTER_PTEX_BICUBIC : ST_FILTER_PTEX_BOX, 0.0f, 1);
+            long m = st_pf_lanes_served(s, q, NQ, pp.ftype, serve_cst8, &pp);
+            assert_true(m >= 0);
+            served[b] += m;
+        }
         st_set_free(s);
     }
     if (!found) {
         print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
         skip();
     }
-    print_message("%d files, %ld queries compared, %zu on constant faces\n", found, compared, on);
+    print_message("%d files, %ld queries compared, %zu on constant faces; served 8 at a time: "
+                  "box %ld, bicubic %ld\n", found, compared, on, served[0], served[1]);
+    /* the kernels of footprints up to 8 texels that lie inside the face: a good share */
+    if (pf_cst8_select(ST_FILTER_PTEX_BOX))
+        assert_true(served[0] * 5 > (long)on && served[1] * 8 > (long)on);
 }
 
 int main(void)

@@ -160,41 +160,41 @@ static void make_queries(st_query *q, int iso)
     }
 }
 
-/* The lanes of q's blocks that pf_r0x8_select's function serves for filter ft in mode
- * `mode` (klanes8 first, as kernel_run calls them). */
+/* What lanes_served's blocks go through: the 8-query function under test and its options. */
+typedef struct {
+    int iso, blu, blv, discard;
+    unsigned dt, nc;
+    pk_params pp;
+} served_arg;
+
+static unsigned serve8(const pf_klanes *k, void *arg)
+{
+    served_arg *a = arg;
+    float out[8 * 4], cov[8];
+    unsigned m;
+    if (a->iso == 2) {
+        pf_q8 t;
+        m = pf_q8_select()(&a->pp, k, k->nonb, a->blu, a->blv, a->discard, a->dt, &t);
+    } else
+        m = (a->iso ? pf_iso8_select : pf_r0x8_select)(a->dt, a->nc)(a->blu, a->blv, a->discard,
+                                                                    k, out, cov);
+    assert_int_equal(m & ~k->nonb, 0);
+    return m;
+}
+
+/* The lanes of q's blocks that the 8-query function of iso (0 r0x8, 1 iso8, 2 q8) serves
+ * for filter ft in mode `mode` (klanes8 first, as kernel_run calls them). */
 static long lanes_served(const st_set *s, const st_query *q, unsigned ft, unsigned mode,
                          int iso)
 {
-    st_error e = {0};
-    const st_ptexres *t = st_ptexres_pin(s, &e);
-    assert_non_null(t);
-    pf_kernel_lanes_fn kl = pf_kernel_lanes_select(ft);
-    pf_r0x8_fn r8 = (iso ? pf_iso8_select : pf_r0x8_select)(s->info.dtype, s->info.nchan);
-    pf_q8_fn q8 = pf_q8_select();
-    pk_params pp;
-    pk_params_init(&pp, ft, 0.0f, 1);
-    assert_non_null(kl);
-    assert_non_null(r8);
-    assert_non_null(q8);
-    pf_lanes lc = {.faces = s->faces, .lanef = t->lanef, .base = t->base, .px = t->px,
-                   .nfaces = s->info.nfaces, .width = 1.0f, .blur = 0.0f};
-    long n = 0;
-    for (size_t i = 0; i + 8 <= NQ; i += 8) {
-        pf_klanes k;
-        float out[8 * 4], cov[8];
-        kl(&lc, q + i, &k);
-        unsigned m;
-        if (iso == 2) {
-            pf_q8 t;
-            m = q8(&pp, &k, k.nonb, s->info.border_u == 1, s->info.border_v == 1,
-                   mode == ST_MODE_DISCARD, s->info.dtype, &t);
-        } else
-            m = r8(s->info.border_u == 1, s->info.border_v == 1, mode == ST_MODE_DISCARD, &k,
-                   out, cov);
-        assert_int_equal(m & ~k.nonb, 0);
-        n += __builtin_popcount(m);
-    }
-    st_ptexres_unpin(t);
+    served_arg a = {.iso = iso, .blu = s->info.border_u == 1, .blv = s->info.border_v == 1,
+                    .discard = mode == ST_MODE_DISCARD, .dt = s->info.dtype,
+                    .nc = s->info.nchan};
+    pk_params_init(&a.pp, ft, 0.0f, 1);
+    assert_non_null(pf_r0x8_select(a.dt, a.nc));
+    assert_non_null(pf_q8_select());
+    long n = st_pf_lanes_served(s, q, NQ, ft, serve8, &a);
+    assert_true(n >= 0);
     return n;
 }
 
