@@ -2584,7 +2584,13 @@ PF_TARGET __m256 cst8_w4_axis(const pk_params *p, __m256 x, __m256 w, __m256 *s)
     __m256 st = _mm256_div_ps(_mm256_set1_ps(1.0f), uwpix);
     __m256i a = _mm256_set1_epi32(8), b = _mm256_set1_epi32(-1);
     __m256 sum = z;
-    for (int i = 0; i < 8; i++) {
+    /* the taps of the ok lanes' longest kernel (most have 4 or 5) */
+    __m256i kmax = _mm256_and_si256(kw, _mm256_castps_si256(ok));
+    kmax = _mm256_max_epi32(kmax, _mm256_shuffle_epi32(kmax, 0x4e));
+    kmax = _mm256_max_epi32(kmax, _mm256_shuffle_epi32(kmax, 0xb1));
+    kmax = _mm256_max_epi32(kmax, _mm256_permute2x128_si256(kmax, kmax, 1));
+    int nt = _mm256_cvtsi256_si32(kmax);
+    for (int i = 0; i < 8 && i < nt; i++) {
         __m256 t = kernel8(p, _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)i), st)));
         __m256i in = _mm256_cmpgt_epi32(kw, _mm256_set1_epi32(i));
         t = _mm256_and_ps(t, _mm256_castsi256_ps(in)); /* past the taps: +0 */
