@@ -763,11 +763,7 @@ __attribute__((target("avx2,fma,f16c"))) static inline void klanes8(const pf_lan
     __m256 nb = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(q8.pxf, bnd), bnd));
     if (w4) {
         const __m256 h = _mm256_set1_ps(.5f), q4 = _mm256_set1_ps(.25f);
-        const __m256i e127 = _mm256_set1_epi32(127);
-        __m256 lou = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lu), 23));
-        __m256 lov = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(e127, lv), 23));
-        __m256 cu = _mm256_blendv_ps(lou, bu, _mm256_cmp_ps(bu, lou, _CMP_GE_OQ));
-        __m256 cv = _mm256_blendv_ps(lov, bv, _mm256_cmp_ps(bv, lov, _CMP_GE_OQ));
+        __m256 cu = pf_w4_clamp8(bu, lu), cv = pf_w4_clamp8(bv, lv);
         __m256 band = _mm256_and_ps(
             _mm256_and_ps(_mm256_cmp_ps(cu, q4, _CMP_GE_OQ), _mm256_cmp_ps(cu, h, _CMP_LT_OQ)),
             _mm256_and_ps(_mm256_cmp_ps(cv, q4, _CMP_GE_OQ), _mm256_cmp_ps(cv, h, _CMP_LT_OQ)));

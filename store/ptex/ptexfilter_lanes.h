@@ -140,6 +140,19 @@ pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc);
  * level (2, 2), its weights from wu[j] + u[j] and wv[j] + v[j], small bit j when the window
  * is the small window's (else the window loop's), the division's scale (1 / (weight x the
  * type's one value)) and the coverage. */
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+/* pk_width4_axis' clamp of a width, 8 lanes: bw clamped to a texel of a face of 2^lg texels
+ * (NaN too: !(uw >= lo)). For the AVX2 functions of ptexfilter_lanes.c and _simd.c. */
+__attribute__((target("avx2"), always_inline)) static inline __m256 pf_w4_clamp8(__m256 bw,
+                                                                               __m256i lg)
+{
+    __m256 lo = _mm256_castsi256_ps(
+        _mm256_slli_epi32(_mm256_sub_epi32(_mm256_set1_epi32(127), lg), 23));
+    return _mm256_blendv_ps(lo, bw, _mm256_cmp_ps(bw, lo, _CMP_GE_OQ));
+}
+#endif
+
 typedef struct pf_q8 {
     float wu[8][4], wv[8][4];
     int32_t u[8], v[8], nu[8], nv[8];

@@ -2392,13 +2392,6 @@ static pf_r0x8_fn nonb8_select(int iso, unsigned dt, unsigned nc)
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return nonb8_select(0, dt, nc); }
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return nonb8_select(1, dt, nc); }
 
-/* pk_width4_axis' width: bw clamped to a texel of a face of 2^lg (NaN too: !(uw >= lo)). */
-PF_TARGET __m256 w4_clamped(__m256 bw, __m256i lg)
-{
-    __m256 lo = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_sub_epi32(_mm256_set1_epi32(127), lg), 23));
-    return _mm256_blendv_ps(lo, bw, _mm256_cmp_ps(bw, lo, _CMP_GE_OQ));
-}
-
 /* pk_ceil of 8 floats (the truncation, plus 1 where it is below x: its operations). */
 PF_TARGET __m256 ceil8(__m256 x)
 {
@@ -2432,7 +2425,7 @@ PF_TARGET void q8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, int 
     const __m256 z = _mm256_setzero_ps();
     const __m256i even = _mm256_set1_epi32(~1);
     const __m256i i0 = _mm256_setzero_si256(), i3 = _mm256_set1_epi32(3);
-    __m256 w = w4_clamped(bw, lg);
+    __m256 w = pf_w4_clamp8(bw, lg);
     __m256 band = _mm256_and_ps(_mm256_cmp_ps(w, q4, _CMP_GE_OQ), _mm256_cmp_ps(w, h, _CMP_LT_OQ));
     __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, _mm256_set1_ps(4.0f)), h);
     __m256i u1 = _mm256_and_si256(_mm256_cvttps_epi32(ceil8(_mm256_sub_ps(upix, c2))), even);
@@ -2626,9 +2619,9 @@ __attribute__((target("avx2,fma,f16c"))) static unsigned cst8_w4(const pk_params
                                                                 unsigned m, float *w)
 {
     __m256 su, sv, q4 = _mm256_set1_ps(.25f);
-    __m256 wu = w4_clamped(_mm256_loadu_ps(k->bu),
+    __m256 wu = pf_w4_clamp8(_mm256_loadu_ps(k->bu),
                            _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2));
-    __m256 wv = w4_clamped(_mm256_loadu_ps(k->bv),
+    __m256 wv = pf_w4_clamp8(_mm256_loadu_ps(k->bv),
                            _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2));
     m &= (unsigned)_mm256_movemask_ps(_mm256_and_ps(_mm256_cmp_ps(wu, q4, _CMP_LT_OQ),
                                                     _mm256_cmp_ps(wv, q4, _CMP_LT_OQ)));
