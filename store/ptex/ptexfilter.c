@@ -1872,8 +1872,10 @@ __attribute__((always_inline)) static inline int kernel_lane(
     if (handed) {
         cov = 1.0f;
         st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov);
-    }
-    else if (!(k->plain >> j & 1))
+    } else if (k->cst >> j & 1) { /* checked, on a constant face open_face opens */
+        cov = 1.0f;
+        st = kernel_const(c, pp, o, q + ii, &c->s->faces[q[ii].face], out + ii * nc, &cov);
+    } else if (!(k->plain >> j & 1))
         return serve(c, pp, o, qfn, q, ii, out, coverage, status);
     else
         st = kernel_plain(c, pp, o, q + ii, k->fast >> j & 1, k->px[j], k->ulog2[j],
