@@ -93,6 +93,18 @@ static inline v4f load_u16(const uint8_t *p)
 #endif
 }
 
+/* The first nc (1..4) lanes of v stored at out (whole stores where the count allows: the
+ * loop over a run-time count extracts lane by lane). */
+static inline void put_nc(float *out, v4f v, unsigned nc)
+{
+    switch (nc) {
+    case 4: memcpy(out, &v, 16); break;
+    case 3: memcpy(out, &v, 8); out[2] = v[2]; break;
+    case 2: memcpy(out, &v, 8); break;
+    default: out[0] = v[0]; break;
+    }
+}
+
 typedef struct pf {
     const st_set *s;
     const st_ptexres *t;
@@ -1087,8 +1099,7 @@ __attribute__((always_inline)) static inline void const_write_at(const uint8_t *
     v4f acc = (v4f){0, 0, 0, 0};
     acc += load_dt(texel, DT, NC) * w; /* load_any's values */
     float scale = 1.0f / (w * one_value(DT));
-    for (unsigned ch = 0; ch < NC; ch++)
-        out[ch] = acc[ch] * scale;
+    put_nc(out, acc * scale, NC);
 }
 /* const_write_at of face f's texel */
 __attribute__((always_inline)) static inline void const_write(const pf *c, uint32_t f, float w,
@@ -1975,8 +1986,7 @@ __attribute__((noinline)) static unsigned kernel_q8(pf *c, const pk_params *pp,
         pf_v4 acc = (t.small >> j & 1 ? c->small : c->win)(
             d + ((size_t)v * 4u + (size_t)u) * c->ts, 4u * c->ts, t.wu[j] + u, t.nu[j],
             t.wv[j] + v, t.nv[j], (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
-        for (unsigned ch = 0; ch < nc; ch++)
-            out[j * nc + ch] = acc[ch] * t.scale[j];
+        put_nc(out + j * nc, (v4f)acc * t.scale[j], nc);
         if (cov)
             cov[j] = t.cov[j];
         if (st)
