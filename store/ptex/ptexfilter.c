@@ -1920,15 +1920,17 @@ static unsigned kernel_r0x8(pf *c, const pf_klanes *k, float *out, float *cov, u
 }
 
 /* The lanes of mask (kernels handed over by the 8-query fused path, ks[j] with its
- * pk_weight kw[j], on faces without neighbours: k->nonb) whose kernel is at resolution 1 x 1
- * with at most 2 x 2 taps (the box's at a face or more): kernel_handed's steps for them
- * (kernel_walk_wr: in every mode pf_walk_fold's fold there, which is fold_r0's: fold1_taps,
- * the one texel through c->small; Discard's weight and coverage) and its division, at out +
- * j * nc, coverage (when cov) and status (when st) written. Returns the lanes served; the
- * others (an overhang as wide as the window, Discard keeping no weight) are left. */
+ * pk_weight kw[j], on faces without neighbours: k->nonb; q the block's queries): kernel_handed's
+ * steps for them (kernel_walk_wr: in every mode pf_walk_fold's fold - at resolution 1 x 1
+ * with at most 2 x 2 taps (the box's at a face or more) fold_r0's: fold1_taps, the one
+ * texel through c->small; else pf_walk_fold itself on a copy of the kernel; Discard's
+ * weight and coverage) and its division, at out + j * nc, coverage (when cov) and status
+ * (when st) written. Returns the lanes served; the others (an overhang as wide as the
+ * window, Discard keeping no weight) are left. */
 __attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k, const pk *ks,
                                                        const float *kw, unsigned mask,
-                                                       float *out, float *cov, uint8_t *st)
+                                                       const st_query *q, float *out,
+                                                       float *cov, uint8_t *st)
 {
     int dis = c->mode == ST_MODE_DISCARD;
     int blu = dis || c->walk.black_u, blv = dis || c->walk.black_v;
@@ -1938,25 +1940,30 @@ __attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k
         unsigned j = (unsigned)__builtin_ctz(m);
         const pk *kj = ks + j;
         int u = kj->u, v = kj->v;
-        if ((kj->ulog2 | kj->vlog2) | (kj->uw > 2) | (kj->vw > 2) | (u >= 1) |
-            (u + kj->uw <= 0) | (v >= 1) | (v + kj->vw <= 0))
-            continue;
-        float a = fold1_taps(u, kj->uw, kj->kub + kj->ku0, blu);
-        float b = fold1_taps(v, kj->vw, kj->kvb + kj->kv0, blv);
         float weight = kw[j], cv = 1.0f;
+        pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
+        if ((kj->ulog2 | kj->vlog2) | (kj->uw > 2) | (kj->vw > 2)) {
+            pk kc = *kj; /* pf_walk_fold folds in place; a lane it declines keeps ks[j] */
+            if (!pf_walk_fold(&c->walk, &kc, (int)q[j].face, dis, &acc, &weight))
+                continue;
+        } else {
+            if ((u >= 1) | (u + kj->uw <= 0) | (v >= 1) | (v + kj->vw <= 0))
+                continue;
+            float a = fold1_taps(u, kj->uw, kj->kub + kj->ku0, blu);
+            float b = fold1_taps(v, kj->vw, kj->kvb + kj->kv0, blv);
+            if (dis)
+                weight = a * b;
+            acc = c->small(k->px[j][0], c->ts, &a, 1, &b, 1, acc);
+        }
         if (dis) {
-            float total = weight;
-            weight = a * b;
+            float total = kw[j];
             cv = total != 0.0f ? weight / total : 0.0f;
             if (cv > 1.0f)
                 cv = 1.0f;
             if (!(weight > 0.0f) || cv <= 0.0f)
                 continue;
         }
-        pf_v4 acc = c->small(k->px[j][0], c->ts, &a, 1, &b, 1, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
-        float scale = 1.0f / (weight * one);
-        for (unsigned ch = 0; ch < nc; ch++)
-            out[j * nc + ch] = acc[ch] * scale;
+        put_nc(out + j * nc, (v4f)acc * (1.0f / (weight * one)), nc);
         if (cov)
             cov[j] = cv;
         if (st)
@@ -2098,8 +2105,8 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                 continue;
             }
             done = w8(pp, &k, out + i * nc, ks, kw, &over);
-            if (over & k.nonb && c->small) { /* folds of 1 x 1 kernels, no neighbours */
-                unsigned fo = kernel_fold8(c, &k, ks, kw, over & k.nonb, out + i * nc,
+            if (over & k.nonb && c->small) { /* folds on faces without neighbours */
+                unsigned fo = kernel_fold8(c, &k, ks, kw, over & k.nonb, q + i, out + i * nc,
                                            coverage ? coverage + i : NULL,
                                            status ? status + i : NULL);
                 over &= ~fo;
