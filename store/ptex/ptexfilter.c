@@ -1374,9 +1374,7 @@ __attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, in
             return 0;
     } else if (!pf_walk_fold(&c->walk, k, f, 0, &acc, &weight))
         return 0;
-    float scale = 1.0f / (weight * one_value(c->dt));
-    for (unsigned ch = 0; ch < c->nc; ch++)
-        out[ch] = acc[ch] * scale;
+    pf_put_scaled(out, acc, 1.0f / (weight * one_value(c->dt)), c->nc);
     *cov = cv;
     return 1;
 }
@@ -1562,11 +1560,17 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                 return r;
         }
     }
-    if (pp->ftype != ST_FILTER_PTEX_BOX)
-        build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
-    else
+    /* the width-4 kernel's pk_weight (after the strip) from its build, without pk_weight's
+     * loops (pk_build_w4s) */
+    float weight;
+    if (pp->ftype != ST_FILTER_PTEX_BOX) {
+        weight = pk_build_w4s(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
+        pk_strip_zeros(&k);
+    } else {
         pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
-    pk_strip_zeros(&k);
+        pk_strip_zeros(&k);
+        weight = pk_weight(&k); /* not read when the kernel is empty */
+    }
     if (k.uw <= 0 || k.vw <= 0) {
         for (unsigned ch = 0; ch < c->nc; ch++)
             out[ch] = 0.0f;
@@ -1578,13 +1582,11 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
             /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
             c->acc = (v4f){0, 0, 0, 0};
             apply(c, &k, (int)q->face);
-            float scale = 1.0f / (pk_weight(&k) * one_value(c->dt));
-            for (unsigned ch = 0; ch < c->nc; ch++)
-                out[ch] = c->acc[ch] * scale;
+            pf_put_scaled(out, c->acc, 1.0f / (weight * one_value(c->dt)), c->nc);
             *cov = 1.0f;
             return ST_Q_OK;
         }
-    } else if (c->small && kernel_walk(c, &k, (int)q->face, out, cov))
+    } else if (c->small && kernel_walk_w(c, &k, (int)q->face, weight, out, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
