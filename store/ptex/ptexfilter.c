@@ -93,18 +93,6 @@ static inline v4f load_u16(const uint8_t *p)
 #endif
 }
 
-/* The first nc (1..4) lanes of v stored at out (whole stores where the count allows: the
- * loop over a run-time count extracts lane by lane). */
-static inline void put_nc(float *out, v4f v, unsigned nc)
-{
-    switch (nc) {
-    case 4: memcpy(out, &v, 16); break;
-    case 3: memcpy(out, &v, 8); out[2] = v[2]; break;
-    case 2: memcpy(out, &v, 8); break;
-    default: out[0] = v[0]; break;
-    }
-}
-
 typedef struct pf {
     const st_set *s;
     const st_ptexres *t;
@@ -1099,7 +1087,7 @@ __attribute__((always_inline)) static inline void const_write_at(const uint8_t *
     v4f acc = (v4f){0, 0, 0, 0};
     acc += load_dt(texel, DT, NC) * w; /* load_any's values */
     float scale = 1.0f / (w * one_value(DT));
-    put_nc(out, acc * scale, NC);
+    pf_put_scaled(out, acc, scale, NC);
 }
 /* const_write_at of face f's texel */
 __attribute__((always_inline)) static inline void const_write(const pf *c, uint32_t f, float w,
@@ -1394,9 +1382,7 @@ __attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, in
             return 0;
     } else if (!pf_walk_fold(&c->walk, k, f, 0, &acc, &weight))
         return 0;
-    float scale = 1.0f / (weight * one_value(c->dt));
-    for (unsigned ch = 0; ch < c->nc; ch++)
-        out[ch] = acc[ch] * scale;
+    pf_put_scaled(out, acc, 1.0f / (weight * one_value(c->dt)), c->nc);
     *cov = cv;
     return 1;
 }
@@ -1582,11 +1568,17 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
                 return r;
         }
     }
-    if (pp->ftype != ST_FILTER_PTEX_BOX)
-        build_w4(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
-    else
+    /* the width-4 kernel's pk_weight (after the strip) from its build, without pk_weight's
+     * loops (pk_build_w4s) */
+    float weight;
+    if (pp->ftype != ST_FILTER_PTEX_BOX) {
+        weight = pk_build_w4s(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
+        pk_strip_zeros(&k);
+    } else {
         pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
-    pk_strip_zeros(&k);
+        pk_strip_zeros(&k);
+        weight = pk_weight(&k); /* not read when the kernel is empty */
+    }
     if (k.uw <= 0 || k.vw <= 0) {
         for (unsigned ch = 0; ch < c->nc; ch++)
             out[ch] = 0.0f;
@@ -1598,13 +1590,11 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
             /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
             c->acc = (v4f){0, 0, 0, 0};
             apply(c, &k, (int)q->face);
-            float scale = 1.0f / (pk_weight(&k) * one_value(c->dt));
-            for (unsigned ch = 0; ch < c->nc; ch++)
-                out[ch] = c->acc[ch] * scale;
+            pf_put_scaled(out, c->acc, 1.0f / (weight * one_value(c->dt)), c->nc);
             *cov = 1.0f;
             return ST_Q_OK;
         }
-    } else if (c->small && kernel_walk(c, &k, (int)q->face, out, cov))
+    } else if (c->small && kernel_walk_w(c, &k, (int)q->face, weight, out, cov))
         return ST_Q_OK;
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }
@@ -1963,7 +1953,7 @@ __attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k
             if (!(weight > 0.0f) || cv <= 0.0f)
                 continue;
         }
-        put_nc(out + j * nc, (v4f)acc * (1.0f / (weight * one)), nc);
+        pf_put_scaled(out + j * nc, acc, 1.0f / (weight * one), nc);
         if (cov)
             cov[j] = cv;
         if (st)
@@ -1993,7 +1983,7 @@ __attribute__((noinline)) static unsigned kernel_q8(pf *c, const pk_params *pp,
         pf_v4 acc = (t.small >> j & 1 ? c->small : c->win)(
             d + ((size_t)v * 4u + (size_t)u) * c->ts, 4u * c->ts, t.wu[j] + u, t.nu[j],
             t.wv[j] + v, t.nv[j], (pf_v4){0.0f, 0.0f, 0.0f, 0.0f});
-        put_nc(out + j * nc, (v4f)acc * t.scale[j], nc);
+        pf_put_scaled(out + j * nc, acc, t.scale[j], nc);
         if (cov)
             cov[j] = t.cov[j];
         if (st)

@@ -50,6 +50,18 @@ static inline float pk_ceil(float x)
     float t = (float)(int)x;
     return t + (float)(t < x);
 }
+/* (int)pk_floor(x) and (int)pk_ceil(x) in integers (the same values: t + 1 is exact where
+ * t < x, as x is not integral there, |x| < 2^23), without the conversion back and forth. */
+static inline int pk_ifloor(float x)
+{
+    int i = (int)x;
+    return i - ((float)i > x);
+}
+static inline int pk_iceil(float x)
+{
+    int i = (int)x;
+    return i + ((float)i < x);
+}
 
 /* 1 / 2^power, and Ptex's resolution for a width: ceil(log2(1/w)) read from the exponent. */
 static inline float pk_recip_pow2(int power)
@@ -116,10 +128,11 @@ static inline float pk_hermite_blur(float x)
 /* Ptex's width-4 filters (gaussian, bicubic family), one axis, lerp off (pk_build's): resolution *kres, first texel *ku and taps *kw of a
  * width uw at u on a face of resolution 2^fres. Returns 1 when the weights are
  * pk_kernel_eval(p, *x1o, *stepo, w, *kw), left to the caller (so that both axes can be
- * evaluated at once); 0 when they are written to w already (room for 4). */
+ * evaluated at once); 0 when they are written to w already (room for 4), their
+ * pk_accumulate in *sumo (the 4 or 2 taps' sum from 0 in order, without a loop). */
 __attribute__((always_inline)) static inline int
-pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fres, float *x1o,
-               float *stepo)
+pk_width4_axis_s(int *kres, int *ku, int *kw, float *w, float u, float uw, int fres,
+                 float *x1o, float *stepo, float *sumo)
 {
     float lo = pk_recip_pow2(fres);
     if (!(uw >= lo))
@@ -129,7 +142,7 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
         if (uw < .5f) {
             *kres = 2;
             float upix = u * 4.0f - 0.5f;
-            int u1 = (int)pk_ceil(upix - 2), u2 = (int)pk_ceil(upix + 2);
+            int u1 = pk_iceil(upix - 2), u2 = pk_iceil(upix + 2);
             u1 = u1 & ~1;
             u2 = (u2 + 1) & ~1;
             *ku = u1;
@@ -142,7 +155,7 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
         } else if (uw < 1) {
             *kres = 1;
             float upix = u * 2.0f - 0.5f;
-            *ku = (int)pk_floor(u - .5f) * 2;
+            *ku = pk_ifloor(u - .5f) * 2;
             *kw = 4;
             float x1 = (float)*ku - upix;
             float s = 1.0f / (uw * 1.5f + .5f);
@@ -159,6 +172,8 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
             __builtin_memcpy(&hb, &h, sizeof h);
             hb &= lt;
             __builtin_memcpy(w, &hb, sizeof hb);
+            __builtin_memcpy(&h, &hb, sizeof hb);
+            *sumo = (((0.0f + h[0]) + h[1]) + h[2]) + h[3];
             return 0;
         } else {
             *kres = 0;
@@ -168,6 +183,7 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
             *ku = (int)ui;
             w[0] = pk_hermite_blur(upix - ui);
             w[1] = 1 - w[0];
+            *sumo = (0.0f + w[0]) + w[1];
             return 0;
         }
     }
@@ -175,7 +191,7 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
     float upix = u * (float)resu - 0.5f;
     float uwpix = uw * (float)resu;
     float dupix = 2.0f * uwpix;
-    int u1 = (int)pk_ceil(upix - dupix), u2 = (int)pk_ceil(upix + dupix);
+    int u1 = pk_iceil(upix - dupix), u2 = pk_iceil(upix + dupix);
     *ku = u1;
     *kw = u2 - u1;
     if (*kw > PK_MAX / 2)
@@ -183,6 +199,15 @@ pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fre
     *x1o = ((float)u1 - upix) / uwpix;
     *stepo = 1.0f / uwpix;
     return 1;
+}
+
+/* pk_width4_axis_s without the sum. */
+__attribute__((always_inline)) static inline int
+pk_width4_axis(int *kres, int *ku, int *kw, float *w, float u, float uw, int fres, float *x1o,
+               float *stepo)
+{
+    float sum;
+    return pk_width4_axis_s(kres, ku, kw, w, u, uw, fres, x1o, stepo, &sum);
 }
 
 /* The first nc (1..4) of 4 half values at p as floats, lanes nc..3 zero: st_half_to_float's
@@ -402,6 +427,26 @@ float pk_make_symmetric(pk *k, float initial_weight);
  * arenas' 64 bytes of slack cover it). */
 typedef float pf_v4 __attribute__((vector_size(16)));
 int   pf_have_avx2(void);
+/* out[ch] = acc[ch] * scale for the nc (1..4) channels: the same products, in one vector
+ * multiply and a store of nc lanes (nothing past out[nc - 1] written). */
+static inline void pf_put_scaled(float *out, pf_v4 acc, float scale, unsigned nc)
+{
+#ifdef __SSE2__
+    __m128 r = _mm_mul_ps((__m128)acc, _mm_set1_ps(scale));
+    switch (nc) {
+    case 4: _mm_storeu_ps(out, r); break;
+    case 3:
+        _mm_storel_pi((__m64 *)(void *)out, r);
+        _mm_store_ss(out + 2, _mm_movehl_ps(r, r));
+        break;
+    case 2: _mm_storel_pi((__m64 *)(void *)out, r); break;
+    default: _mm_store_ss(out, r); break;
+    }
+#else
+    for (unsigned ch = 0; ch < nc; ch++)
+        out[ch] = acc[ch] * scale;
+#endif
+}
 /* Both axes of a width-4 kernel at once, bit for bit pk_kernel_eval(p, x1u, su, wu, nu) and
  * pk_kernel_eval(p, x1v, sv, wv, nv) (nu, nv <= PK_MAX / 2; writes 8 or 16 weights each). */
 void  pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
@@ -409,6 +454,49 @@ void  pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, i
 /* One axis: bit for bit pk_kernel_eval(p, x1, s, w, n) (n <= PK_MAX / 2; writes 8 or 16
  * weights). */
 void  pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n);
+/* pf_kernel_eval2_avx2 that also sums each axis' weights as pk_accumulate(wu, nu) and
+ * pk_accumulate(wv, nv) do (lanes 0 and 1; in registers, without a loop: the loop's exit
+ * mispredicts when the tap counts vary from query to query), and pf_kernel_eval1_avx2 with
+ * pk_accumulate(w, n). */
+pf_v4 pf_kernel_eval2s_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                            float x1v, float sv, float *wv, int nv);
+float pf_kernel_eval1s_avx2(const pk_params *p, float x1, float s, float *w, int n);
+
+/* The width-4 filters' pk_build (gaussian, bicubic family; lerp off) into k, with the same
+ * pk_width4_axis and the same evaluations, inline (no call, no filter-type tests), returning
+ * the pk_weight that k has after pk_strip_zeros: each axis' taps as built summed in order
+ * from 0 (pk_width4_axis_s' sums, pf_kernel_eval2s_avx2's), which is the stripped taps' sum
+ * bit for bit: the zeros the strip removes lie before the first tap that is not zero, where
+ * the sum is +0 and stays +0, or after the last, where adding a zero changes no sum (a sum
+ * from +0 is never -0). */
+__attribute__((always_inline)) static inline float pk_build_w4s(const pk_params *p, pk *k,
+                                                                float u, float v, float uw,
+                                                                float vw, int fulog2,
+                                                                int fvlog2)
+{
+    k->ku0 = k->kv0 = k->rot = 0;
+    float x1u = 0, su = 0, x1v = 0, sv = 0, wu = 0, wv = 0;
+    int eu = pk_width4_axis_s(&k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2, &x1u, &su, &wu);
+    int ev = pk_width4_axis_s(&k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2, &x1v, &sv, &wv);
+    if (!p->avx2) {
+        if (eu) {
+            pk_kernel_eval(p, x1u, su, k->kub, k->uw);
+            wu = pk_accumulate(k->kub, k->uw);
+        }
+        if (ev) {
+            pk_kernel_eval(p, x1v, sv, k->kvb, k->vw);
+            wv = pk_accumulate(k->kvb, k->vw);
+        }
+    } else if (eu && ev) {
+        pf_v4 s = pf_kernel_eval2s_avx2(p, x1u, su, k->kub, k->uw, x1v, sv, k->kvb, k->vw);
+        wu = s[0];
+        wv = s[1];
+    } else if (eu)
+        wu = pf_kernel_eval1s_avx2(p, x1u, su, k->kub, k->uw);
+    else if (ev)
+        wv = pf_kernel_eval1s_avx2(p, x1v, sv, k->kvb, k->vw);
+    return wu * wv;
+}
 pf_v4 pf_apply_avx2(const uint8_t *base, size_t rowb, const pk *k, unsigned dt, unsigned nc,
                     pf_v4 acc);
 /* The same window loop with the weights given directly (uw, vw >= 1), for texels of one type

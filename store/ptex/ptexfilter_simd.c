@@ -492,31 +492,101 @@ PF_TARGET __m256 kernel8(const pk_params *p, __m256 x)
     return kernel8_as(p, x, p->ftype == ST_FILTER_PTEX_GAUSSIAN);
 }
 
-__attribute__((target("avx2,fma,f16c")))
-void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
-                          float x1v, float sv, float *wv, int nv)
+/* The sums in order of a's lanes below na and b's below nb (na, nb <= 8; s + a[0] + a[1] +
+ * ... in lane 0, the same of b in lane 1), the other lanes cleared to +0 first: adding +0
+ * changes no sum that starts at +0 (such a sum is never -0). The lanes paired (a[i], b[i])
+ * so that both axes take one addition a tap. */
+PF_TARGET __m128 sum2_lanes(__m256 a, int na, __m256 b, int nb, __m128 s)
+{
+    const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    a = _mm256_and_ps(a, _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(na), iota)));
+    b = _mm256_and_ps(b, _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nb), iota)));
+    __m256 lo = _mm256_unpacklo_ps(a, b), hi = _mm256_unpackhi_ps(a, b);
+    __m128 l0 = _mm256_castps256_ps128(lo), h0 = _mm256_castps256_ps128(hi);
+    __m128 l1 = _mm256_extractf128_ps(lo, 1), h1 = _mm256_extractf128_ps(hi, 1);
+    s = _mm_add_ps(s, l0);                     /* taps 0 */
+    s = _mm_add_ps(s, _mm_movehl_ps(l0, l0)); /* 1 */
+    s = _mm_add_ps(s, h0);                     /* 2 */
+    s = _mm_add_ps(s, _mm_movehl_ps(h0, h0)); /* 3 */
+    s = _mm_add_ps(s, l1);                     /* 4 */
+    s = _mm_add_ps(s, _mm_movehl_ps(l1, l1)); /* 5 */
+    s = _mm_add_ps(s, h1);                     /* 6 */
+    return _mm_add_ps(s, _mm_movehl_ps(h1, h1)); /* 7 */
+}
+
+/* Both axes' weights (8, or 16 for more than 8 taps) stored; with SUMS (a constant) their
+ * sums in order (sum2_lanes) in lanes 0 and 1 of the result, else nothing summed. */
+PF_TARGET __m128 eval2(const pk_params *p, float x1u, float su, float *wu, int nu, float x1v,
+                       float sv, float *wv, int nv, int SUMS)
 {
     const __m256 i0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
     const __m256 i1 = _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15);
     __m256 su8 = _mm256_set1_ps(su), sv8 = _mm256_set1_ps(sv);
     __m256 xu = _mm256_set1_ps(x1u), xv = _mm256_set1_ps(x1v);
-    _mm256_storeu_ps(wu, kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i0, su8))));
-    _mm256_storeu_ps(wv, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i0, sv8))));
-    if (nu > 8)
-        _mm256_storeu_ps(wu + 8, kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i1, su8))));
-    if (nv > 8)
-        _mm256_storeu_ps(wv + 8, kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
+    __m256 a = kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i0, su8)));
+    __m256 b = kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i0, sv8)));
+    _mm256_storeu_ps(wu, a);
+    _mm256_storeu_ps(wv, b);
+    __m128 s = _mm_setzero_ps();
+    if (SUMS)
+        s = sum2_lanes(a, nu, b, nv, s);
+    if (__builtin_expect(nu > 8 || nv > 8, 0)) {
+        a = _mm256_setzero_ps();
+        b = _mm256_setzero_ps();
+        if (nu > 8)
+            _mm256_storeu_ps(wu + 8, a = kernel8(p, _mm256_add_ps(xu, _mm256_mul_ps(i1, su8))));
+        if (nv > 8)
+            _mm256_storeu_ps(wv + 8, b = kernel8(p, _mm256_add_ps(xv, _mm256_mul_ps(i1, sv8))));
+        if (SUMS)
+            s = sum2_lanes(a, nu - 8, b, nv - 8, s);
+    }
+    return s;
+}
+
+/* One axis' weights stored; with SUMS their sum in order in lane 0. */
+PF_TARGET __m128 eval1(const pk_params *p, float x1, float s, float *w, int n, int SUMS)
+{
+    __m256 s8 = _mm256_set1_ps(s), x = _mm256_set1_ps(x1), z = _mm256_setzero_ps();
+    __m256 a = kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(_mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7),
+                                                         s8)));
+    _mm256_storeu_ps(w, a);
+    __m128 r = _mm_setzero_ps();
+    if (SUMS)
+        r = sum2_lanes(a, n, z, 0, r);
+    if (__builtin_expect(n > 8, 0)) {
+        a = kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
+                                            _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15), s8)));
+        _mm256_storeu_ps(w + 8, a);
+        if (SUMS)
+            r = sum2_lanes(a, n - 8, z, 0, r);
+    }
+    return r;
+}
+
+__attribute__((target("avx2,fma,f16c")))
+void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                          float x1v, float sv, float *wv, int nv)
+{
+    eval2(p, x1u, su, wu, nu, x1v, sv, wv, nv, 0);
 }
 
 __attribute__((target("avx2,fma,f16c")))
 void pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n)
 {
-    __m256 s8 = _mm256_set1_ps(s), x = _mm256_set1_ps(x1);
-    _mm256_storeu_ps(w, kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
-                                       _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7), s8))));
-    if (n > 8)
-        _mm256_storeu_ps(w + 8, kernel8(p, _mm256_add_ps(x, _mm256_mul_ps(
-                                               _mm256_setr_ps(8, 9, 10, 11, 12, 13, 14, 15), s8))));
+    eval1(p, x1, s, w, n, 0);
+}
+
+__attribute__((target("avx2,fma,f16c")))
+pf_v4 pf_kernel_eval2s_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                            float x1v, float sv, float *wv, int nv)
+{
+    return (pf_v4)eval2(p, x1u, su, wu, nu, x1v, sv, wv, nv, 1);
+}
+
+__attribute__((target("avx2,fma,f16c")))
+float pf_kernel_eval1s_avx2(const pk_params *p, float x1, float s, float *w, int n)
+{
+    return _mm_cvtss_f32(eval1(p, x1, s, w, n, 1));
 }
 
 /* ---- the fused path of a kernel inside one face (pf_fast_select) ------------------------ */
@@ -2686,6 +2756,20 @@ void pf_kernel_eval2_avx2(const pk_params *p, float x1u, float su, float *wu, in
 void pf_kernel_eval1_avx2(const pk_params *p, float x1, float s, float *w, int n)
 {
     pk_kernel_eval(p, x1, s, w, n);
+}
+
+pf_v4 pf_kernel_eval2s_avx2(const pk_params *p, float x1u, float su, float *wu, int nu,
+                            float x1v, float sv, float *wv, int nv)
+{
+    pk_kernel_eval(p, x1u, su, wu, nu);
+    pk_kernel_eval(p, x1v, sv, wv, nv);
+    return (pf_v4){pk_accumulate(wu, nu), pk_accumulate(wv, nv), 0.0f, 0.0f};
+}
+
+float pf_kernel_eval1s_avx2(const pk_params *p, float x1, float s, float *w, int n)
+{
+    pk_kernel_eval(p, x1, s, w, n);
+    return pk_accumulate(w, n);
 }
 
 pf_fast_fn pf_fast_select(unsigned dt, unsigned nc, unsigned ftype)
