@@ -118,6 +118,7 @@ typedef struct tc {
                             * when nc < 4); loaded and stored whole by each sweep */
     float weight;          /* weight applied */
     unsigned pieces;
+    int avx2;              /* Traverse's split_apply_avx2 (PT_LEAN on a CPU with AVX2) */
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -176,23 +177,54 @@ build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2
  * (st_tri_across_edge: the unfolding across the shared edge). The map renames (u, v, w)
  * cyclically by s = e - ae (mod 3), so the ellipse only rotates; every coordinate decreases
  * with the one it reads, so lower bounds come from upper ones and back. */
-PT_NO_SLP static void across(const tk *k, unsigned i, unsigned e, unsigned ae, tk *ka)
+__attribute__((always_inline)) static inline void across_t(const tk *k, unsigned i, unsigned e,
+                                                         unsigned ae, tk *ka)
 {
-    float p[3] = {k->u, k->v, 1.0f - k->u - k->v}, np[3], nlo[3], nhi[3];
-    float lo[3] = {k->lo[0], k->lo[1], k->lo[2]}, hi[3] = {k->hi[0], k->hi[1], k->hi[2]};
-    hi[i] = 0.0f;
-    st_tri_across_edge(e, ae, p, np);
-    st_tri_across_edge(e, ae, hi, nlo);
-    st_tri_across_edge(e, ae, lo, nhi);
+    /* st_tri_across_edge's map on the centre, hi (-> lo) and lo (-> hi) at once, a coordinate
+     * a lane: new coordinate j reads old (j + s) % 3 and is minus it (j == cz) or 1 minus it,
+     * the same operation on the same float as the scalar map */
+    static const uint8_t s_of[3][3] = {{0, 2, 1}, {1, 0, 2}, {2, 1, 0}}; /* (e - ae) mod 3 */
+    static const uint8_t next_of[3] = {1, 2, 0};                          /* (ae + 1) mod 3 */
+    unsigned s = s_of[e][ae], cz = next_of[ae];
+    pt_v4f p = {k->u, k->v, 1.0f - k->u - k->v, 0.0f};
+    static const pt_v4i lane[3] = {{-1, 0, 0, 0}, {0, -1, 0, 0}, {0, 0, -1, 0}};
+    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
+    pt_v4i hb;
+    memcpy(&hb, &hi, 16);
+    hb &= ~lane[i]; /* hi[i] = +0 */
+    memcpy(&hi, &hb, 16);
+    if (s == 1) {
+        p = __builtin_shufflevector(p, p, 1, 2, 0, 3);
+        lo = __builtin_shufflevector(lo, lo, 1, 2, 0, 3);
+        hi = __builtin_shufflevector(hi, hi, 1, 2, 0, 3);
+    } else if (s == 2) {
+        p = __builtin_shufflevector(p, p, 2, 0, 1, 3);
+        lo = __builtin_shufflevector(lo, lo, 2, 0, 1, 3);
+        hi = __builtin_shufflevector(hi, hi, 2, 0, 1, 3);
+    }
+    const pt_v4i m = lane[cz];
+    const pt_v4f one = {1.0f, 1.0f, 1.0f, 1.0f};
+    pt_v4i pn, ln, hn, po, lon, hon;
+    pt_v4f t;
+    t = -p; memcpy(&pn, &t, 16);
+    t = -lo; memcpy(&ln, &t, 16);
+    t = -hi; memcpy(&hn, &t, 16);
+    t = one - p; memcpy(&po, &t, 16);
+    t = one - lo; memcpy(&lon, &t, 16);
+    t = one - hi; memcpy(&hon, &t, 16);
+    pt_v4i np = (pn & m) | (po & ~m), nhi = (ln & m) | (lon & ~m), nlo = (hn & m) | (hon & ~m);
+    pt_v4f npf, nlof, nhif;
+    memcpy(&npf, &np, 16);
+    memcpy(&nlof, &nlo, 16);
+    memcpy(&nhif, &nhi, 16);
     ka->res = k->res;
-    ka->u = np[0];
-    ka->v = np[1];
+    ka->u = npf[0];
+    ka->v = npf[1];
     for (int j = 0; j < 3; j++) {
-        ka->lo[j] = nlo[j];
-        ka->hi[j] = nhi[j];
+        ka->lo[j] = nlof[j];
+        ka->hi[j] = nhif[j];
     }
     float A = k->A, B = k->B, C = k->C;
-    unsigned s = (e + 3 - ae) % 3;
     if (s == 2) {        /* u' = w, v' = u */
         ka->A = C;
         ka->B = 2.0f * C - B;
@@ -245,7 +277,8 @@ static inline pt_v4i ceil_int4(pt_v4f x)
  * a time, each lane with the scalar expression's operations, from the six bounds held in
  * registers (read one by one: a wide load of bounds just stored one by one would wait for the
  * stores instead of taking their values from the store buffer). */
-PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
+__attribute__((always_inline)) static inline void iterators_t(const tk *k, int res, int clamp,
+                                                            ti *ev, ti *od)
 {
     int R = 1 << res;
     float fR = (float)R, third = (float)(1 / 3.0);
@@ -261,18 +294,31 @@ PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
     od->odd = 1;
     ev->u = k->u * fR - third;
     ev->v = k->v * fR - third;
-    float lo[3] = {k->lo[0], k->lo[1], k->lo[2]}, hi[3] = {k->hi[0], k->hi[1], k->hi[2]};
+    /* the bounds a coordinate a lane (lane 3: 0, not used); with clamp, each lane the scalar
+     * clamp's operations: lo = lo > 0 ? lo : 0 (maxps), then hi = hi < t ? hi : t (minps)
+     * with t = 1 - (the other two lower bounds' sum) */
+    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
+    const pt_v4f one = {1.0f, 1.0f, 1.0f, 1.0f};
     if (clamp) {
+#ifdef __SSE2__
+        lo = (pt_v4f)_mm_max_ps((__m128)lo, _mm_setzero_ps());
+        pt_v4f t = one - (__builtin_shufflevector(lo, lo, 1, 2, 0, 3) +
+                          __builtin_shufflevector(lo, lo, 2, 0, 1, 3));
+        hi = (pt_v4f)_mm_min_ps((__m128)hi, (__m128)t);
+#else
         for (int i = 0; i < 3; i++)
             lo[i] = fmaxf_(lo[i], 0.0f);
         hi[0] = fminf_(hi[0], 1.0f - (lo[1] + lo[2]));
         hi[1] = fminf_(hi[1], 1.0f - (lo[2] + lo[0]));
         hi[2] = fminf_(hi[2], 1.0f - (lo[0] + lo[1]));
+#endif
     }
     /* ev lo 0..2, hi 0; ev hi 1, 2, od lo 0, 1; od lo 2, hi 0..2 */
-    pt_v4f a = {lo[0], lo[1], lo[2], hi[0]};
-    pt_v4f b = {hi[1], hi[2], 1.0f - hi[1], 1.0f - hi[0]};
-    pt_v4f c = {-hi[2], 1.0f - lo[1], 1.0f - lo[0], -lo[2]};
+    pt_v4f hi1 = one - hi, lo1 = one - lo;
+    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6); /* -hi[2], -lo[2] */
+    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
+    pt_v4f b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4);
+    pt_v4f c = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1);
     a = a * fR - third;
     b = b * fR - third;
     c = c * fR - third;
@@ -324,6 +370,44 @@ PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
 #else
     od->valid = (od_ok[0] & od_ok[1] & od_ok[2]) != 0;
 #endif
+}
+
+PT_NO_SLP static void iterators_clamped(const tk *k, int res, ti *ev, ti *od)
+{
+    iterators_t(k, res, 1, ev, od);
+}
+
+PT_NO_SLP static void across(const tk *k, unsigned i, unsigned e, unsigned ae, tk *ka)
+{
+    across_t(k, i, e, ae, ka);
+}
+
+/* Traverse's per-piece work (across, iterators_clamped, split_apply, apply_face_its) built for
+ * AVX2 as well, chosen once a batch as the lean sweeps' AVX2 instances are (tc.avx2): the same
+ * C, so the same operations on the same values (no FMA: the target adds none and ISO C mode
+ * contracts nothing), in VEX encodings (three operands: fewer register copies). */
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#define PT_TRAV_AVX2 1
+__attribute__((target("avx2"))) PT_NO_SLP static void iterators_clamped_avx2(const tk *k, int res,
+                                                                            ti *ev, ti *od)
+{
+    iterators_t(k, res, 1, ev, od);
+}
+
+__attribute__((target("avx2"))) PT_NO_SLP static void across_avx2(const tk *k, unsigned i,
+                                                                 unsigned e, unsigned ae,
+                                                                 tk *ka)
+{
+    across_t(k, i, e, ae, ka);
+}
+#endif
+
+PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
+{
+    if (clamp)
+        iterators_clamped(k, res, ev, od);
+    else
+        iterators_t(k, res, 0, ev, od);
 }
 
 /* Channel ch of the texel at px as a float of its stored value (not scaled to [0, 1]). */
@@ -391,6 +475,7 @@ __attribute__((always_inline)) static inline void fold_tap(int R, int odd, int x
     *tx = (int)ux;
     *ty = (int)uy;
 }
+
 
 enum { SW_READ, SW_WEIGHT, SW_FOLD };
 
@@ -1506,14 +1591,16 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
 
 /* A read sweep F (its constant faces' instance: F##c), weights by pk_exp2_4 (W4) or the
  * per-tap expf. */
-#define PT_READ(F, W4, DT, NC)                                                               \
-    __attribute__((noinline)) static void F##c_##DT##_##NC(tc *c, const ti *ev, const ti *od, \
-                                                           const uint8_t *d)                 \
+#define PT_READ(F, W4, DT, NC) PT_READ_AT(F, W4, DT, NC, )
+#define PT_READ_AT(F, W4, DT, NC, ATTR)                                                      \
+    ATTR __attribute__((noinline)) static void F##c_##DT##_##NC(tc *c, const ti *ev,          \
+                                                                const ti *od,                 \
+                                                                const uint8_t *d)             \
     {                                                                                        \
         sweep2_t(c, ev, od, d, 1, SW_READ, W4, DT, NC);                                      \
     }                                                                                        \
-    static void F##_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,        \
-                                int constant)                                               \
+    ATTR static void F##_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d,   \
+                                     int constant)                                          \
     {                                                                                        \
         if (constant) {                                                                      \
             F##c_##DT##_##NC(c, ev, od, d);                                                  \
@@ -1537,7 +1624,9 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
  * fewer register copies) and with pt_exp4 in one 256-bit vector. */
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
 #define PT_AVX2 1
-#define PT_FOLD_AVX2(DT, NC) PT_FOLD_AT(sweep_fla, 2, DT, NC, __attribute__((target("avx2"))))
+#define PT_FOLD_AVX2(DT, NC)                                                                 \
+    PT_FOLD_AT(sweep_fla, 2, DT, NC, __attribute__((target("avx2"))))                       \
+    PT_READ_AT(sweep_ra, 1, DT, NC, __attribute__((target("avx2"))))
 #else
 #define PT_FOLD_AVX2(DT, NC)
 #endif
@@ -1617,8 +1706,11 @@ static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_f
 #ifdef PT_AVX2
     static const sweep_fn fla[4][4] = {PT_ROW(sweep_fla, 0), PT_ROW(sweep_fla, 1),
                                        PT_ROW(sweep_fla, 2), PT_ROW(sweep_fla, 3)};
+    /* the read sweeps built for AVX2 (the same C: the same bits) */
+    static const sweep_fn ra[4][4] = {PT_ROW(sweep_ra, 0), PT_ROW(sweep_ra, 1),
+                                      PT_ROW(sweep_ra, 2), PT_ROW(sweep_ra, 3)};
     if (lean_avx2(wmode)) {
-        *rd = r[dt][nc - 1];
+        *rd = ra[dt][nc - 1];
         *fold = fla[dt][nc - 1];
         return;
     }
@@ -1631,18 +1723,29 @@ static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_f
 
 /* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
  * triangle; its two sweeps are left in ev, od. */
-static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
+__attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k, uint32_t f,
+                                                                 ti *ev, ti *od, int AVX)
 {
     const st_face *F = &c->s->faces[f];
     if (k->res > (int)F->ulog2)
         k->res = F->ulog2;
-    iterators(k, k->res, 1, ev, od);
+#ifdef PT_TRAV_AVX2
+    if (AVX)
+        iterators_clamped_avx2(k, k->res, ev, od);
+    else
+#endif
+        iterators_clamped(k, k->res, ev, od);
     if (!ev->valid && !od->valid)
         return;
     unsigned level = F->ulog2 - (unsigned)k->res;
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
     c->rd(c, ev, od, data, constant);
+}
+
+static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
+{
+    apply_face_its_t(c, k, f, ev, od, 0);
 }
 
 static void apply_face(tc *c, tk *k, uint32_t f)
@@ -1676,24 +1779,30 @@ static inline int kernel_in_face(const tk *k)
 
 /* Traverse: splits k at each edge it overhangs into a neighbour (u, then v, then w) and
  * applies every piece where it lands. */
-PT_NO_SLP static void split_apply(tc *c, tk *k, uint32_t f, unsigned depth)
-{
-    static const unsigned edge_of[3] = {2, 0, 1}; /* coordinate u, v, w is 0 on edge 2, 0, 1 */
-    const st_face *F = &c->s->faces[f];
-    for (unsigned i = 0; i < 3; i++) {
-        unsigned e = edge_of[i];
-        if (!(k->lo[i] < 0.0f) || F->adjface[e] < 0)
-            continue;
-        if (depth >= PT_MAX_DEPTH || c->pieces >= PT_MAX_PIECES)
-            continue; /* dropped: the piece stays and is clamped into this face */
-        tk ka;
-        across(k, i, e, F->adjedge[e], &ka);
-        k->lo[i] = 0.0f;
-        c->pieces++;
-        split_apply(c, &ka, (uint32_t)F->adjface[e], depth + 1);
+#define PT_SPLIT(SUF, ATTR, AVX)                                                             \
+    ATTR PT_NO_SLP static void split_apply##SUF(tc *c, tk *k, uint32_t f, unsigned depth)     \
+    {                                                                                        \
+        static const unsigned edge_of[3] = {2, 0, 1}; /* u, v, w is 0 on edge 2, 0, 1 */     \
+        const st_face *F = &c->s->faces[f];                                                  \
+        for (unsigned i = 0; i < 3; i++) {                                                   \
+            unsigned e = edge_of[i];                                                         \
+            if (!(k->lo[i] < 0.0f) || F->adjface[e] < 0)                                     \
+                continue;                                                                    \
+            if (depth >= PT_MAX_DEPTH || c->pieces >= PT_MAX_PIECES)                         \
+                continue; /* dropped: the piece stays and is clamped into this face */      \
+            tk ka;                                                                           \
+            across##SUF(k, i, e, F->adjedge[e], &ka);                                        \
+            k->lo[i] = 0.0f;                                                                 \
+            c->pieces++;                                                                     \
+            split_apply##SUF(c, &ka, (uint32_t)F->adjface[e], depth + 1);                    \
+        }                                                                                    \
+        ti ev, od;                                                                           \
+        apply_face_its_t(c, k, f, &ev, &od, AVX);                                            \
     }
-    apply_face(c, k, f);
-}
+PT_SPLIT(, , 0)
+#ifdef PT_TRAV_AVX2
+PT_SPLIT(_avx2, __attribute__((target("avx2"))), 1)
+#endif
 
 /* Discard: k applied to face f, and its whole weight on f's lattice at its clamped
  * resolution, extended past the face (the coverage's denominator). When clamping k into the
@@ -1796,7 +1905,12 @@ __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const
                  o->blur, F->ulog2);
     tc c = *proto;
     if (o->mode == ST_MODE_TRAVERSE) {
-        split_apply(&c, &k, f, 0);
+#ifdef PT_TRAV_AVX2
+        if (c.avx2)
+            split_apply_avx2(&c, &k, f, 0);
+        else
+#endif
+            split_apply(&c, &k, f, 0);
     } else if (o->mode == ST_MODE_DISCARD && !want_cov) {
         apply_face(&c, &k, f);
     } else if (o->mode == ST_MODE_DISCARD) {
@@ -1924,6 +2038,7 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     if (lean_avx2(wmode))
         proto.wt = sweep_weight_lean_avx2;
 #endif
+    proto.avx2 = lean_avx2(wmode);
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
