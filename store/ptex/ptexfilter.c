@@ -19,8 +19,10 @@
  * kernel_run: the query checks and the query function inline, no call per query; kernel_run
  * takes the checks and set-up of 8 queries at once from ptexfilter_lanes.c's kernel lanes
  * with AVX2, then the fused path's common case of the whole block at once (ptexfilter_simd.c's
- * pf_w4x8_select for the width-4 filters, pf_box8_select for the box), and calls the fused
- * path per query for the lanes left). A
+ * pf_w4x8_select for the width-4 filters, pf_box8_select for the box; kernels inside a
+ * constant face through pf_cst8_select, and on faces without neighbours the folds of width-4
+ * kernels of a quarter face or more through pf_r0x8_select, pf_iso8_select and
+ * pf_q8_select), and calls the fused path per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
@@ -2013,10 +2015,10 @@ __attribute__((noinline)) static unsigned kernel_cst8(pf *c, const pk_params *pp
 }
 
 /* A block of 8 queries from q + i (k: klanes8's) with lanes of k->nonb, for a width-4
- * filter: kernel_r0x8's lanes, kernel_q8's, then the others one by one (kernel_lane; such blocks are
- * mostly of one-face files, where the 8-query fused path finds nothing). Out of line:
- * kernel_run_with's loop keeps its registers for the common blocks. Returns the number
- * that failed. */
+ * filter: kernel_r0x8's lanes, kernel_q8's, then the others but skip (lanes served
+ * already) one by one (kernel_lane; such blocks are mostly of one-face files, where the
+ * 8-query fused path finds nothing). Out of line: kernel_run_with's loop keeps its
+ * registers for the common blocks. Returns the number that failed. */
 __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *pp,
                                                        const st_sample_opts *o, pf_query_fn qfn,
                                                        const st_query *q, size_t i,

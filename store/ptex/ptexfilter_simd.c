@@ -61,6 +61,14 @@
  * their windows summed inline by the same small-window code (no call per piece, which
  * spilled every piece around each call).
  *
+ * The width-4 filters' kernels on faces without neighbours, 8 at a time after klanes8:
+ * kernel_r0's of a face or more (pf_r0x8_select), kernel_iso's of half a face to a face
+ * (pf_iso8_select), and those of a quarter to half a face at resolution 2 x 2 with evaluated
+ * taps (pf_q8_select: up to the window's shape and weights; ptexfilter.c sums the window):
+ * pk_width4_axis, the strip, the fold at the face's edges (or Discard's drop) and the weight
+ * lane by lane. Kernels inside a constant face (pf_cst8_select): the box's (box8_axis) and
+ * the width-4 filters' under a quarter face, the inside test and pk_weight lane by lane.
+ *
  * The in-face bilinear of half texels (pf_bilinear_half_select): F16C conversions, then the
  * portable bilinear's multiplies and adds in its order (no fused multiply-adds), so the
  * results are the portable loop's for every finite value.
@@ -2476,9 +2484,10 @@ PF_TARGET __m256 ceil8(__m256 x)
  * pf_kernel_eval2_avx2 evaluates them (x1 + i * 1 is x1 + i). For (u, v) in [0, 1) the
  * taps start at -2 or 0 (4 or 6 of them) or at 2 (4; other lanes are not ok): the taps on
  * texels 0..3 are w[q] = t[q + 2], t[q] or t[q - 2], the overhang t0, t1 (left, from -2),
- * t4, t5 (right, 6 from 0) or t2, t3 (right, from 2). pk_strip_zeros keeps the taps from the first to the last nonzero one (pa, pb
- * their texels): the window is [max(pa, 0), min(pb, 3)] (first, n), it overhangs where pa <
- * 0 or pb > 3, and the fold declines where it lies past the face. Sums in tap order from 0
+ * t4, t5 (right, 6 from 0) or t2, t3 (right, from 2). pk_strip_zeros keeps the taps from
+ * the first to the last nonzero one (pa, pb their texels): the window is [max(pa, 0),
+ * min(pb, 3)] (first, n), it overhangs where pa < 0 or pb > 3, and the fold declines where
+ * it lies past the face. Sums in tap order from 0
  * (pk_accumulate): zero taps add +0 and change no bits (no weight is -0, no sum of nonzero
  * weights is -0), so the whole kernel's sum is the stripped one's (*s), the texels' 0..3
  * the kept one (*kept, Discard), the overhang's the fold's; a fold adds it to w[0] or w[3]
