@@ -1618,8 +1618,8 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
     PT_FOLD(sweep_fl, 2, DT, NC) /* the lean ones */                                         \
     PT_FOLD(sweep_fp, 0, DT, NC) /* the per-tap expf */                                     \
     PT_FOLD_AVX2(DT, NC)
-/* The lean fold sweeps built for AVX2 as well (PT_AVX2: x86 with GCC or clang), chosen at run
- * time when the CPU has it: the same C, so the same operations on the same values (no FMA:
+/* The lean fold sweeps and the read sweeps built for AVX2 as well (PT_AVX2: x86 with GCC or
+ * clang; sweep_fla, sweep_ra), chosen at run time when the CPU has it: the same C, so the same operations on the same values (no FMA:
  * the target adds none, and ISO C mode contracts nothing), in VEX encodings (three operands,
  * fewer register copies) and with pt_exp4 in one 256-bit vector. */
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
