@@ -2470,11 +2470,21 @@ static pf_r0x8_fn nonb8_select(int iso, unsigned dt, unsigned nc)
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return nonb8_select(0, dt, nc); }
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return nonb8_select(1, dt, nc); }
 
-/* pk_ceil of 8 floats (the truncation, plus 1 where it is below x: its operations). */
-PF_TARGET __m256 ceil8(__m256 x)
+/* (int)pk_ceil(x) of 8 floats: the rounding instruction's ceiling, truncated (the same
+ * integers: pk_ceil differs from it only in the sign of a zero). */
+PF_TARGET __m256i iceil8(__m256 x)
 {
-    __m256 t = _mm256_cvtepi32_ps(_mm256_cvttps_epi32(x));
-    return _mm256_add_ps(t, _mm256_and_ps(_mm256_cmp_ps(t, x, _CMP_LT_OQ), _mm256_set1_ps(1.0f)));
+    return _mm256_cvttps_epi32(_mm256_ceil_ps(x));
+}
+
+/* pk_strip_zeros' ends, a tap at a time: where tap i's weight t is not zero
+ * (pk_nonzero_mask's unordered compare) the first nonzero tap *a moves down to i and the
+ * last *b up to i, lane by lane. */
+PF_TARGET void nz_ends8(__m256 t, int i, __m256i *a, __m256i *b)
+{
+    __m256i nz = _mm256_castps_si256(_mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_NEQ_UQ));
+    *a = _mm256_blendv_epi8(*a, _mm256_min_epi32(*a, _mm256_set1_epi32(i)), nz);
+    *b = _mm256_blendv_epi8(*b, _mm256_set1_epi32(i), nz);
 }
 
 /* One axis of pf_q8 for 8 lanes: x the coordinates, bw the widths, lg the faces' log2
@@ -2507,9 +2517,9 @@ PF_TARGET void q8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, int 
     __m256 w = pf_w4_clamp8(bw, lg);
     __m256 band = _mm256_and_ps(_mm256_cmp_ps(w, q4, _CMP_GE_OQ), _mm256_cmp_ps(w, h, _CMP_LT_OQ));
     __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, _mm256_set1_ps(4.0f)), h);
-    __m256i u1 = _mm256_and_si256(_mm256_cvttps_epi32(ceil8(_mm256_sub_ps(upix, c2))), even);
+    __m256i u1 = _mm256_and_si256(iceil8(_mm256_sub_ps(upix, c2)), even);
     __m256i u2 = _mm256_and_si256(
-        _mm256_add_epi32(_mm256_cvttps_epi32(ceil8(_mm256_add_ps(upix, c2))), _mm256_set1_epi32(1)),
+        _mm256_add_epi32(iceil8(_mm256_add_ps(upix, c2)), _mm256_set1_epi32(1)),
         even);
     __m256i kw = _mm256_sub_epi32(u2, u1);
     __m256i neg = _mm256_cmpeq_epi32(u1, _mm256_set1_epi32(-2)), zero = _mm256_cmpeq_epi32(u1, i0);
@@ -2525,14 +2535,10 @@ PF_TARGET void q8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, int 
         t[i] = kernel8(p, _mm256_add_ps(x1, _mm256_set1_ps((float)i)));
     t[4] = _mm256_and_ps(t[4], _mm256_castsi256_ps(six)); /* no taps past the fourth */
     t[5] = _mm256_and_ps(t[5], _mm256_castsi256_ps(six));
-    /* the first and last nonzero tap (pk_nonzero_mask's unordered compare) */
+    /* the first and last nonzero tap */
     __m256i a = _mm256_set1_epi32(6), b = _mm256_set1_epi32(-1);
-    for (int i = 5; i >= 0; i--)
-        a = _mm256_blendv_epi8(a, _mm256_set1_epi32(i),
-                               _mm256_castps_si256(_mm256_cmp_ps(t[i], z, _CMP_NEQ_UQ)));
     for (int i = 0; i < 6; i++)
-        b = _mm256_blendv_epi8(b, _mm256_set1_epi32(i),
-                               _mm256_castps_si256(_mm256_cmp_ps(t[i], z, _CMP_NEQ_UQ)));
+        nz_ends8(t[i], i, &a, &b);
     __m256i pa = _mm256_add_epi32(u1, a), pb = _mm256_add_epi32(u1, b);
     /* a tap left (b >= 0), on the face: pa <= 3 and pb >= 0 */
     __m256i on = _mm256_andnot_si256(
@@ -2648,8 +2654,8 @@ PF_TARGET __m256 cst8_w4_axis(const pk_params *p, __m256 x, __m256 w, __m256 *s)
     __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, rf), h);
     __m256 uwpix = _mm256_mul_ps(w, rf);
     __m256 dupix = _mm256_mul_ps(_mm256_set1_ps(2.0f), uwpix);
-    __m256i u1 = _mm256_cvttps_epi32(ceil8(_mm256_sub_ps(upix, dupix)));
-    __m256i u2 = _mm256_cvttps_epi32(ceil8(_mm256_add_ps(upix, dupix)));
+    __m256i u1 = iceil8(_mm256_sub_ps(upix, dupix));
+    __m256i u2 = iceil8(_mm256_add_ps(upix, dupix));
     __m256i kw = _mm256_sub_epi32(u2, u1);
     ok = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(kw, _mm256_set1_epi32(8))), ok);
     __m256 x1 = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix), uwpix);
@@ -2667,9 +2673,7 @@ PF_TARGET __m256 cst8_w4_axis(const pk_params *p, __m256 x, __m256 w, __m256 *s)
         __m256i in = _mm256_cmpgt_epi32(kw, _mm256_set1_epi32(i));
         t = _mm256_and_ps(t, _mm256_castsi256_ps(in)); /* past the taps: +0 */
         sum = _mm256_add_ps(sum, t);
-        __m256i nz = _mm256_castps_si256(_mm256_cmp_ps(t, z, _CMP_NEQ_UQ));
-        a = _mm256_blendv_epi8(a, _mm256_min_epi32(a, _mm256_set1_epi32(i)), nz);
-        b = _mm256_blendv_epi8(b, _mm256_set1_epi32(i), nz);
+        nz_ends8(t, i, &a, &b);
     }
     *s = sum;
     __m256i pa = _mm256_add_epi32(u1, a), pb1 = _mm256_add_epi32(_mm256_add_epi32(u1, b),
