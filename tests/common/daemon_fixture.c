@@ -361,7 +361,9 @@ void st_daemon_kill(st_daemon *d)
 
 int st_daemon_signal(st_daemon *d, int sig)
 {
-    return d->pid > 0 ? kill(d->pid, sig) : -1;
+    if (d->pid <= 0 || kill(d->pid, sig) != 0)
+        return -1;
+    return sig == SIGSTOP ? st_wait_stopped(d->pid, 10000) : 0;
 }
 
 void st_daemon_cleanup(st_daemon *d)

@@ -50,7 +50,8 @@ int st_daemon_stop(st_daemon *d, int timeout_ms);
 /* SIGKILL and reap. */
 void st_daemon_kill(st_daemon *d);
 
-/* Sends a signal (SIGHUP for reload tests). */
+/* Sends a signal (SIGHUP for reload tests). For SIGSTOP it returns once every thread of the
+ * daemon has stopped (st_wait_stopped, 10 s): -1 when that did not happen. */
 int st_daemon_signal(st_daemon *d, int sig);
 
 /* Stops the daemon if running and removes the temp dir. */

@@ -93,10 +93,11 @@ int st_etcd_start(st_etcd *e, const char *prefix)
     return 0;
 }
 
-void st_etcd_pause(st_etcd *e, int paused)
+int st_etcd_pause(st_etcd *e, int paused)
 {
-    if (e->pid > 0)
-        kill(e->pid, paused ? SIGSTOP : SIGCONT);
+    if (e->pid <= 0 || kill(e->pid, paused ? SIGSTOP : SIGCONT) != 0)
+        return -1;
+    return paused ? st_wait_stopped(e->pid, 10000) : 0;
 }
 
 void st_etcd_stop(st_etcd *e)

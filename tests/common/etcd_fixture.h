@@ -19,7 +19,9 @@ typedef struct st_etcd {
 
 /* 0, or -1 with the reason on stderr. prefix: the cluster's key prefix ("/t"). */
 int  st_etcd_start(st_etcd *e, const char *prefix);
-void st_etcd_pause(st_etcd *e, int paused);
+/* SIGSTOP (paused) or SIGCONT to etcd; a pause returns once every etcd thread has stopped
+ * (st_wait_stopped). 0, or -1 when etcd is not running or did not stop within 10 s. */
+int  st_etcd_pause(st_etcd *e, int paused);
 /* Kills etcd and removes its dir. */
 void st_etcd_stop(st_etcd *e);
 

@@ -1,6 +1,7 @@
 /* tests/common/wait.c - see wait.h. */
 #include "wait.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <poll.h>
 #include <stdio.h>
@@ -73,4 +74,39 @@ int st_wait_file_has(const char *path, const char *needle, int timeout_ms)
 {
     file_cond fc = {path, needle};
     return st_wait_until(file_has, &fc, timeout_ms);
+}
+
+/* 1 when every thread of the process is stopped, 0 when one is not (or the process is gone) */
+static int all_stopped(void *arg)
+{
+    pid_t pid = *(const pid_t *)arg;
+    char dir[64];
+    snprintf(dir, sizeof dir, "/proc/%d/task", (int)pid);
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    int threads = 0, stopped = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.')
+            continue;
+        char path[320], buf[512];
+        snprintf(path, sizeof path, "%s/%.200s/stat", dir, e->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue;              /* the thread exited meanwhile */
+        size_t n = fread(buf, 1, sizeof buf - 1, f);
+        fclose(f);
+        buf[n] = 0;
+        const char *end = strrchr(buf, ')');   /* "tid (comm) S ...": comm may hold ')' */
+        threads++;
+        stopped += end && (end[2] == 'T' || end[2] == 't');
+    }
+    closedir(d);
+    return threads > 0 && stopped == threads;
+}
+
+int st_wait_stopped(pid_t pid, int timeout_ms)
+{
+    return st_wait_until(all_stopped, &pid, timeout_ms);
 }

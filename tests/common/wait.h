@@ -12,6 +12,7 @@
 #define ST_WAIT_H
 
 #include <stdint.h>
+#include <sys/types.h>
 
 /* CLOCK_MONOTONIC in milliseconds. */
 int64_t st_now_ms(void);
@@ -30,5 +31,11 @@ int st_wait_readable(int fd, int timeout_ms);
 /* Waits until the file at path exists and, when needle is not NULL, holds a line containing
  * needle. 0 or -1 on timeout. */
 int st_wait_file_has(const char *path, const char *needle, int timeout_ms);
+
+/* Waits until every thread of process pid is stopped (state T or t in /proc/<pid>/task/
+ * <tid>/stat). kill(SIGSTOP) returns once the signal is queued; the process stops only when
+ * one of its threads takes the signal, which on a loaded machine can be many milliseconds
+ * later - meanwhile the others go on serving. 0, or -1 on timeout or when pid is gone. */
+int st_wait_stopped(pid_t pid, int timeout_ms);
 
 #endif

@@ -287,7 +287,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     reader_check(&rd, "the return of n2");
 
     /* etcd paused 10 s: sampling goes on, uploads are refused UNAVAILABLE */
-    st_etcd_pause(&ETCD, 1);
+    assert_int_equal(st_etcd_pause(&ETCD, 1), 0);
     st_sleep_ms(2500);
     stc_conn *c0 = st_daemon_client(&NODE[0], NULL);
     assert_non_null(c0);
@@ -299,7 +299,7 @@ static void cluster_survives_kills_joins_and_etcd_outage(void **state)
     stc_close(c0);
     st_sleep_ms(7500);
     reader_check(&rd, "the etcd outage");
-    st_etcd_pause(&ETCD, 0);
+    assert_int_equal(st_etcd_pause(&ETCD, 0), 0);
     wait_converged_with("etcd came back", members_settled, NULL);
     int rc = -1;
     for (int k = 0; k < 100 && rc != 0; k++) {   /* the nodes notice etcd is back */

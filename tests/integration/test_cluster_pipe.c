@@ -214,7 +214,10 @@ static void stream(stc_cluster *cl, int total, int window, int kill_after, int v
             st_daemon_kill(&NODE[victim]);
             live[victim] = 0;
         } else if (recv == kill_after && victim >= 0) {
-            st_daemon_signal(&NODE[victim], sig);
+            /* for SIGSTOP this returns once every thread has stopped: until one of them takes
+             * the signal the others go on answering, on a loaded machine long enough to
+             * answer everything still to come */
+            assert_int_equal(st_daemon_signal(&NODE[victim], sig), 0);
         }
     }
     for (int k = 0; k < total; k++)

@@ -77,7 +77,7 @@ static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(voi
     stc_close(c);
 
     /* etcd stops answering; the nodes notice (a keepalive or poll times out) */
-    st_etcd_pause(&ETCD, 1);
+    assert_int_equal(st_etcd_pause(&ETCD, 1), 0);
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_wait_stat(&NODE[i], NULL, "cluster_etcd_ok", ST_STAT_EQ, 0,
                                       30000), 0);
@@ -92,7 +92,7 @@ static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(voi
     }
 
     /* etcd back: both nodes restart and serve the acknowledged set */
-    st_etcd_pause(&ETCD, 0);
+    assert_int_equal(st_etcd_pause(&ETCD, 0), 0);
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_cluster_node_start(&NODE[i], URL, i, 2, 2), 0);
     for (int i = 0; i < 2; i++) {
