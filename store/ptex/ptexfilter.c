@@ -112,7 +112,7 @@ typedef struct pf {
     float weight;
     v4f acc;                 /* the weighted sum, raw units */
     pf_walk walk;            /* what pf_walk_traverse reads (set when c->small is) */
-    int iso;                 /* kernel_iso may run: Traverse or Clamp, both window loops */
+    int iso;                 /* kernel_iso may run: both window loops (Discard: inside only) */
     int cst;                 /* eval's shortcuts for kernels inside a constant face
                               * (const_write): all paths but PF_PATH_GENERAL */
     pf_r0x8_fn r0x8;         /* kernel_r0's folds 8 at a time (set when c->small is), or NULL */
@@ -1099,6 +1099,17 @@ __attribute__((always_inline)) static inline void const_write(const pf *c, uint3
     const_write_at(c->t->px[c->t->base[f]], w, out, DT, NC);
 }
 
+/* 1 when eval_kernel keeps the whole weight w of a kernel that lies inside its face: in
+ * every mode but Discard, and in Discard when w's bits are in (0, +inf) (positive, finite,
+ * not NaN: the coverage w / w is 1 exactly). Then the result is apply's sum divided by w
+ * with coverage 1, the same bits in every mode. */
+static inline int keeps_whole(const pf *c, float w)
+{
+    uint32_t wb;
+    memcpy(&wb, &w, sizeof wb);
+    return c->mode != ST_MODE_DISCARD || wb - 1u < 0x7f7fffffu;
+}
+
 /* Kernel k (zeros stripped, not empty) of constant face F (f) when it lies inside the face
  * at or under its resolution and every mode keeps its whole weight (its pk_weight in (0,
  * +inf), or not Discard): eval_kernel's result written by const_write, 1; else 0, nothing
@@ -1110,9 +1121,7 @@ static inline int const_inside(const pf *c, const pk *k, const st_face *F, uint3
         k->u + k->uw > (1 << k->ulog2) || k->v + k->vw > (1 << k->vlog2))
         return 0;
     float w = pk_weight(k);
-    uint32_t wb;
-    memcpy(&wb, &w, sizeof wb);
-    if (!(wb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD))
+    if (!keeps_whole(c, w))
         return 0;
     const_write(c, f, w, out, c->dt, c->nc);
     return 1;
@@ -1218,9 +1227,7 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
         apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
         /* with a finite positive total (its bits in (0, +inf)), Discard keeps the whole
          * weight (apply leaves it): total / total is 1 exactly, the coverage already set */
-        uint32_t tb;
-        memcpy(&tb, &total, sizeof tb);
-        if (tb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)
+        if (keeps_whole(c, total))
             goto divide;
     } else if (!(c->small && !(c->s->faces[f].flags & ST_FACE_SUBFACE) && walk(c, k, f)))
         /* on a face that is not a subface: the same walk on pieces without copies (walk
@@ -1470,7 +1477,7 @@ __attribute__((noinline)) static int kernel_r0(pf *c, const pk_params *pp,
     float wu = build_r0_axis(q->u, &k.u, &k.uw, k.kub);
     float wv = build_r0_axis(q->v, &k.v, &k.vw, k.kvb);
     if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= 1 && k.v + k.vw <= 1) {
-        if (c->mode != ST_MODE_DISCARD) {
+        if (keeps_whole(c, wu * wv)) {
             c->acc = (v4f){0, 0, 0, 0};
             apply(c, &k, (int)q->face);
             float scale = 1.0f / (wu * wv * one_value(c->dt));
@@ -1506,13 +1513,15 @@ __attribute__((always_inline)) static inline float iso_axis(float u, float uw, i
 }
 
 /* A width-4 kernel of half a face or more along both axes (bu, bv >= 1/2, not NaN) on plain
- * face q->face with no neighbour across any edge, in Traverse or Clamp (c->iso): what
- * kernel_declined_with (or kernel_r0) does, without the pk and the walk's dispatch. The
- * kernel as build_w4 / build_r0_axis and pk_strip_zeros make it (1 to 4 taps an axis at
- * resolution 2 or 1), its weight pk_weight's; inside the face apply's window (c->win); else
- * the walk of a face without neighbours, which in both modes is pf_walk_fold's Clamp fold
- * (fold(), fold_r0: the same sums) and put_window's window choice. Returns the status, or -1
- * (nothing written) where fold declines or the kernel is empty: the caller's path then. */
+ * face q->face with no neighbour across any edge (c->iso): what kernel_declined_with (or
+ * kernel_r0) does, without the pk and the walk's dispatch. The kernel as build_w4 /
+ * build_r0_axis and pk_strip_zeros make it (1 to 4 taps an axis at resolution 2 or 1), its
+ * weight pk_weight's; inside the face apply's window (c->win), in every mode that keeps the
+ * whole weight (keeps_whole); else, in Traverse and Clamp, the walk of a face without
+ * neighbours, which in both modes is pf_walk_fold's Clamp fold (fold(), fold_r0: the same
+ * sums) and put_window's window choice. Returns the status, or -1 (nothing written) where
+ * fold declines, Discard would drop taps or keep a part of the weight, or the kernel is
+ * empty: the caller's path then. */
 __attribute__((noinline)) static int kernel_iso(pf *c, const st_query *q, int ulog2, int vlog2,
                                                 float bu, float bv, float *out, float *cov)
 {
@@ -1526,9 +1535,12 @@ __attribute__((noinline)) static int kernel_iso(pf *c, const st_query *q, int ul
     float weight = su * sv; /* pk_weight */
     int resu = 1 << lu, resv = 1 << lv;
     pf_window_fn fn = c->win;
+    if (!keeps_whole(c, weight))
+        return -1;
     if ((u < 0) | (u + nu > resu) | (v < 0) | (v + nv > resv)) {
-        if ((u >= resu) | (u + nu <= 0) | (v >= resv) | (v + nv <= 0))
-            return -1; /* fold declines */
+        if (c->mode == ST_MODE_DISCARD || (u >= resu) | (u + nu <= 0) | (v >= resv) |
+                                              (v + nv <= 0))
+            return -1; /* Discard's drop, or fold declines */
         pf_fold_axis(resu, &u, &nu, &pu, c->walk.black_u);
         pf_fold_axis(resv, &v, &nv, &pv, c->walk.black_v);
         if ((((uint32_t)nu - 1u) | ((uint32_t)nv - 1u)) < 2u)
@@ -1588,7 +1600,7 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
         return ST_Q_OK;
     }
     if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
-        if (c->mode != ST_MODE_DISCARD) {
+        if (keeps_whole(c, weight)) {
             /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
             c->acc = (v4f){0, 0, 0, 0};
             apply(c, &k, (int)q->face);
@@ -2201,7 +2213,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.edge2 = general ? NULL : pf_edge2_select(c.dt, c.nc);
     if (!c.win)
         c.small = NULL, c.edge2 = NULL; /* the shortcut walks need both window loops */
-    c.iso = c.small && c.mode != ST_MODE_DISCARD;
+    c.iso = c.small != NULL;
     c.cst = !general;
     int w4 = o->filter > ST_FILTER_PTEX_BOX; /* pf_klanes' nonb means another thing for the box */
     c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;

@@ -2588,12 +2588,16 @@ __attribute__((target("avx2,fma,f16c"))) static unsigned q8(const pk_params *p,
             _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2), blv | discard, &av);
     __m256 ok = _mm256_and_ps(au.ok, av.ok), over = _mm256_or_ps(au.over, av.over);
     __m256 total = _mm256_mul_ps(au.s, av.s), weight = total, cv = c1;
-    if (discard) { /* overhanging lanes only (inside: eval_kernel's) */
+    if (discard) {
+        /* the kept taps' weight and its share of the total; lanes keeping none are left to
+         * eval_kernel. Inside the face the window holds every nonzero tap, so the kept sum is
+         * the total's bits (the taps it leaves are zeros added first or last) and the share
+         * 1 where the total is in (0, +inf): Traverse's result, as eval_kernel gives it */
         weight = _mm256_mul_ps(au.kept, av.kept);
         cv = _mm256_and_ps(_mm256_div_ps(weight, total), _mm256_cmp_ps(total, z, _CMP_NEQ_OQ));
         cv = _mm256_blendv_ps(cv, c1, _mm256_cmp_ps(cv, c1, _CMP_GT_OQ));
-        ok = _mm256_and_ps(ok, _mm256_and_ps(over, _mm256_and_ps(_mm256_cmp_ps(weight, z, _CMP_GT_OQ),
-                                                                 _mm256_cmp_ps(cv, z, _CMP_GT_OQ))));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(weight, z, _CMP_GT_OQ),
+                                             _mm256_cmp_ps(cv, z, _CMP_GT_OQ)));
     }
     m &= (unsigned)_mm256_movemask_ps(ok);
     if (!m)
