@@ -163,7 +163,8 @@ typedef struct pf_q8 {
 /* Fills t for the lanes of m (of k->nonb; k: klanes8's set-up, p the filter) that it
  * serves and returns them; the others (widths outside the band, a kernel of zeros, a fold
  * that declines, Discard keeping no weight or, inside the face, not the whole of it) are
- * left to the per-query path. dt: st_dtype. NULL without AVX2 + FMA + F16C (pf_have_avx2) or off x86. */
+ * left to the per-query path. dt: st_dtype. NULL without AVX2 + FMA + F16C (pf_have_avx2)
+ * or off x86. */
 typedef unsigned (*pf_q8_fn)(const pk_params *p, const pf_klanes *k, unsigned m, int blu,
                              int blv, int discard, unsigned dt, pf_q8 *t);
 pf_q8_fn pf_q8_select(void);
