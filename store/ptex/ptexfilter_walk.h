@@ -80,6 +80,12 @@ int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *we
  * it was) when the walk or the fold declines. */
 int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
 
+/* pf_walk_kernel for a kernel of a constant face f (ptexfilter.c's kernel_const), with the
+ * same results: its lean cases also take constant faces (a piece on one is the face's
+ * texel times the piece's weight in that face's frame, as put_const sums it), apart from
+ * pf_walk_kernel's so that a plain face's walk does not test for them (since session 21). */
+int pf_walk_kernel_cst(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
+
 /* pf_walk_kernel for a kernel at resolution 1 x 1 of at most 2 x 2 taps, at or inside the
  * face (u, v >= -1; ptexfilter.c's kernel_r0), with the same results: a face at a mesh
  * boundary none of whose overhung edges has a neighbour takes the fold's one texel at once
