@@ -539,18 +539,21 @@ static inline float sum_reversed(const float *p, int n)
  * smaller than the piece's resolution, as lean_put declines): the face's texel times the
  * piece's pk_weight in af's frame, where a flip reverses an axis' weights (so its sum runs
  * from the other end) and an odd rotation swaps the axes (the u sum, taken first, is then
- * the v weights'). */
-__attribute__((noinline)) static int lean_const(pw_state *s, int lg0, int lg1, int n0, int n1,
-                                                const float *k0, const float *k1, int rot,
-                                                int af, const st_face *F)
+ * the v weights'). s0, s1: pk_accumulate of k0 and k1 (the caller's, taken once for the
+ * pieces that share them). */
+__attribute__((always_inline)) static inline int lean_const(pw_state *s, int lg0, int lg1,
+                                                            int n0, int n1, const float *k0,
+                                                            const float *k1, float s0,
+                                                            float s1, int rot, int af,
+                                                            const st_face *F)
 {
     rot &= 3;
     int odd = rot & 1;
     if ((odd ? lg1 : lg0) > F->ulog2 || (odd ? lg0 : lg1) > F->vlog2)
         return 0;
     /* rotation 1 and 2 flip u (k0 reversed), 2 and 3 flip v (k1 reversed) */
-    float a = ((rot + 3) & 3) < 2 ? sum_reversed(k0, n0) : pk_accumulate(k0, n0);
-    float b = (rot & 2) ? sum_reversed(k1, n1) : pk_accumulate(k1, n1);
+    float a = ((rot + 3) & 3) < 2 ? sum_reversed(k0, n0) : s0;
+    float b = (rot & 2) ? sum_reversed(k1, n1) : s1;
     float wt = odd ? b * a : a * b;
     const pf_walk *w = s->w;
     s->acc += w->texel(w->dt, w->nc, w->px[w->base[af]]) * wt;
@@ -567,11 +570,12 @@ __attribute__((always_inline)) static inline int lean_put(pw_state *s, int lg0, 
                                                           int at0, int at1, int n0, int n1,
                                                           const float *k0, const float *k1,
                                                           int rot, int af, float *tu,
-                                                          float *tv, int cst)
+                                                          float *tv, int cst, float s0,
+                                                          float s1)
 {
     const st_face *F = &s->w->faces[af];
     if (cst && (F->flags & ST_FACE_CONSTANT))
-        return lean_const(s, lg0, lg1, n0, n1, k0, k1, rot, af, F);
+        return lean_const(s, lg0, lg1, n0, n1, k0, k1, s0, s1, rot, af, F);
     int ru = lg0, rv = lg1, u = at0, v = at1, uw = n0, vw = n1;
     const float *ku = k0, *kv = k1;
     if (__builtin_expect(rot & 3, 0)) {
@@ -647,13 +651,17 @@ __attribute__((always_inline)) static inline int lean_one_core(const pf_walk *w,
     float tu[PK_MAX], tv[PK_MAX];
     pw_state s = {w, *acc, 0.0f};
     int rot = eid - F->adjedge[eid] + 2;
-    int ok = a ? lean_put(&s, lg0, lg1, pat, at1, wd, n1, kp, kv, rot, af, tu, tv, cst)
-               : lean_put(&s, lg0, lg1, at0, pat, n0, wd, ku, kp, rot, af, tu, tv, cst);
+    /* with constant faces (cst) the sums lean_const takes: the other axis' weights, the
+     * part past the edge and the rest */
+    float so = cst ? pk_accumulate(a ? kv : ku, a ? n1 : n0) : 0.0f;
+    float sp = cst ? pk_accumulate(kp, wd) : 0.0f, sr = cst ? pk_accumulate(kr, n - wd) : 0.0f;
+    int ok = a ? lean_put(&s, lg0, lg1, pat, at1, wd, n1, kp, kv, rot, af, tu, tv, cst, sp, so)
+               : lean_put(&s, lg0, lg1, at0, pat, n0, wd, ku, kp, rot, af, tu, tv, cst, so, sp);
     if (!ok)
         return 0;
     if (cst && (F->flags & ST_FACE_CONSTANT)) /* f at the kernel's resolution (tested) */
-        lean_const(&s, lg0, lg1, a ? n - wd : n0, a ? n1 : n - wd, a ? kr : ku, a ? kv : kr, 0,
-                   f, F);
+        lean_const(&s, lg0, lg1, a ? n - wd : n0, a ? n1 : n - wd, a ? kr : ku, a ? kv : kr,
+                   a ? sr : so, a ? so : sr, 0, f, F);
     else if (a)
         put_window(&s, lg0, lg1, rat, at1, n - wd, n1, kr, kv, f, F);
     else
@@ -712,17 +720,21 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
     const float *kpv = hv ? kv + n1 - wv : kv, *krv = hv ? kv : kv + wv;
     float tu[PK_MAX], tv[PK_MAX];
     pw_state s = {w, *acc, 0.0f};
+    /* with constant faces (cst) the sums lean_const takes, each once */
+    float spu = cst ? pk_accumulate(kpu, wu) : 0.0f, sru = cst ? pk_accumulate(kru, n0 - wu) : 0.0f;
+    float spv = cst ? pk_accumulate(kpv, wv) : 0.0f, srv = cst ? pk_accumulate(krv, n1 - wv) : 0.0f;
     int rc = drop ? 0 : c - F->cornercorner[c] + 2, ra = eu - F->adjedge[eu] + 2;
     int rb = ev - F->adjedge[ev] + 2;
     if (drop) {
         /* the corner piece (wu x wv taps past both edges) dropped, its weight removed, as
          * corner() does at a vertex of valence 3; then the two edge pieces and the rest,
          * walk_two's order */
-        if (!lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv, cst) ||
-            !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv, cst))
+        if (!lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv, cst, spu,
+                      srv) ||
+            !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv, cst, sru, spv))
             return 0;
         if (cst && (F->flags & ST_FACE_CONSTANT))
-            lean_const(&s, lg0, lg1, n0 - wu, n1 - wv, kru, krv, 0, f, F);
+            lean_const(&s, lg0, lg1, n0 - wu, n1 - wv, kru, krv, sru, srv, 0, f, F);
         else
             put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
         *acc = s.acc;
@@ -753,12 +765,15 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
         put_window(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, dg, C);
         put_window(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, au, A);
         put_window(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, av, B);
-    } else if (!lean_put(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, rc, dg, tu, tv, cst) ||
-               !lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv, cst) ||
-               !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv, cst))
+    } else if (!lean_put(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, rc, dg, tu, tv, cst, spu,
+                         spv) ||
+               !lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv, cst, spu,
+                         srv) ||
+               !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv, cst, sru,
+                         spv))
         return 0;
     if (cst && (F->flags & ST_FACE_CONSTANT))
-        lean_const(&s, lg0, lg1, n0 - wu, n1 - wv, kru, krv, 0, f, F);
+        lean_const(&s, lg0, lg1, n0 - wu, n1 - wv, kru, krv, sru, srv, 0, f, F);
     else
         put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
     *acc = s.acc;
