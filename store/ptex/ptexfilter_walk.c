@@ -37,7 +37,7 @@ static inline int subface(const pf_walk *w, int f)
     return (w->faces[f].flags & ST_FACE_SUBFACE) != 0;
 }
 
-static inline void reversed(float *dst, const float *src, int n)
+__attribute__((always_inline)) static inline void reversed(float *dst, const float *src, int n)
 {
     for (int i = 0; i < n; i++)
         dst[i] = src[n - 1 - i];
@@ -1030,15 +1030,21 @@ __attribute__((always_inline)) static inline int walk_kernel(const pf_walk *w, p
     static const signed char two[16] = {-1, -1, -1, -1, -1, 3, 2, -1, -1, 1, 0, -1, -1, -1,
                                         -1, -1};
     int e = one[m], t = two[m];
-    if (e >= 0)
-        return adj[e] >= 0 ? (cst ? lean_one_k : lean_one)(w, k0, f, e, acc)
-                           : walk_boundary(w, k0, f, m, acc, weight);
+    if (e >= 0) {
+        if (cst)
+            return adj[e] >= 0 ? lean_one_k(w, k0, f, e, acc)
+                               : walk_boundary(w, k0, f, m, acc, weight);
+        return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, m, acc, weight);
+    }
     if (t >= 0) {
         int au = adj[t & 1 ? 1 : 3], av = adj[t & 2 ? 2 : 0];
-        if ((au | av) < 0) /* one edge with a neighbour: lean_fold_one */
+        if ((au | av) < 0) { /* one edge with a neighbour: lean_fold_one */
+            if (cst)
+                return (au & av) < 0 ? walk_boundary(w, k0, f, m, acc, weight)
+                                     : lean_fold_k(w, k0, f, t, m, acc, weight);
             return (au & av) < 0 ? walk_boundary(w, k0, f, m, acc, weight)
-                          : cst ? lean_fold_k(w, k0, f, t, m, acc, weight)
-                                : lean_fold_one(w, k0, f, t, m, acc, weight);
+                                 : lean_fold_one(w, k0, f, t, m, acc, weight);
+        }
         /* the corner between the two edges (walk_two's c): lean_two where it is a regular
          * vertex, lean_two3 (a valence-3 corner's piece dropped) where it has no cornerface */
         if (cst)
