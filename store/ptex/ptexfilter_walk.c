@@ -37,7 +37,7 @@ static inline int subface(const pf_walk *w, int f)
     return (w->faces[f].flags & ST_FACE_SUBFACE) != 0;
 }
 
-__attribute__((always_inline)) static inline void reversed(float *dst, const float *src, int n)
+static inline void reversed(float *dst, const float *src, int n)
 {
     for (int i = 0; i < n; i++)
         dst[i] = src[n - 1 - i];
@@ -1011,45 +1011,37 @@ __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int
     return walk_all(w, k0, f, acc, weight);
 }
 
-/* pf_walk_kernel's dispatch; cst: f is constant (its lean walks summing constant faces'
- * pieces, lean_one_k / lean_two_k, tried first) */
-__attribute__((always_inline)) static inline int walk_kernel(const pf_walk *w, pk *k0, int f,
-                                                             pf_v4 *acc, float *weight,
-                                                             int cst)
+/* The edges kernel k0 overhangs: right 1, left 2, top 4, bottom 8; from them the one edge
+ * (one_edge's test) or the one u edge and one v edge (walk_two's sides) it overhangs, else
+ * -1: tables, not a switch: its jump table's indirect branch mispredicted (callgrind
+ * --branch-sim: 0.5 more a query on envcube). */
+static const signed char one_of[16] = {-1, 1, 3, -1, 2, -1, -1, -1, 0, -1, -1, -1, -1, -1,
+                                       -1, -1};
+static const signed char two_of[16] = {-1, -1, -1, -1, -1, 3, 2, -1, -1, 1, 0, -1, -1, -1,
+                                       -1, -1};
+static inline unsigned overhung(const pk *k0)
 {
     int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
-    /* the edges the kernel overhangs: right 1, left 2, top 4, bottom 8 */
-    unsigned m = (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
-                 (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
+    return (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
+           (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
+}
+
+int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    unsigned m = overhung(k0);
     const int *adj = w->faces[f].adjface;
-    /* one edge (one_edge's test) or one u edge and one v edge, to neighbours (an overhung
-     * edge without one: f is at a mesh boundary); tables, not a switch: its jump table's
-     * indirect branch mispredicted (callgrind --branch-sim: 0.5 more a query on envcube) */
-    static const signed char one[16] = {-1, 1, 3, -1, 2, -1, -1, -1, 0, -1, -1, -1, -1, -1,
-                                        -1, -1};
-    static const signed char two[16] = {-1, -1, -1, -1, -1, 3, 2, -1, -1, 1, 0, -1, -1, -1,
-                                        -1, -1};
-    int e = one[m], t = two[m];
-    if (e >= 0) {
-        if (cst)
-            return adj[e] >= 0 ? lean_one_k(w, k0, f, e, acc)
-                               : walk_boundary(w, k0, f, m, acc, weight);
+    /* one edge or one u edge and one v edge, to neighbours (an overhung edge without one: f
+     * is at a mesh boundary) */
+    int e = one_of[m], t = two_of[m];
+    if (e >= 0)
         return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, m, acc, weight);
-    }
     if (t >= 0) {
         int au = adj[t & 1 ? 1 : 3], av = adj[t & 2 ? 2 : 0];
-        if ((au | av) < 0) { /* one edge with a neighbour: lean_fold_one */
-            if (cst)
-                return (au & av) < 0 ? walk_boundary(w, k0, f, m, acc, weight)
-                                     : lean_fold_k(w, k0, f, t, m, acc, weight);
+        if ((au | av) < 0) /* one edge with a neighbour: lean_fold_one */
             return (au & av) < 0 ? walk_boundary(w, k0, f, m, acc, weight)
                                  : lean_fold_one(w, k0, f, t, m, acc, weight);
-        }
         /* the corner between the two edges (walk_two's c): lean_two where it is a regular
          * vertex, lean_two3 (a valence-3 corner's piece dropped) where it has no cornerface */
-        if (cst)
-            return lean_two_k(w, k0, f, t, acc, weight,
-                              w->faces[f].cornerface[corner_between(t & 1, t >> 1)] < 0);
         return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
                    ? lean_two(w, k0, f, t, acc, weight)
                    : lean_two3(w, k0, f, t, acc, weight);
@@ -1059,14 +1051,25 @@ __attribute__((always_inline)) static inline int walk_kernel(const pf_walk *w, p
     return walk_all(w, k0, f, acc, weight);
 }
 
+/* pf_walk_kernel's one-edge and two-edge cases, to neighbours, and the two-edge case with
+ * one neighbour, in their constant-face forms (lean_one_k, lean_two_k, lean_fold_k); the
+ * rest (mesh boundaries without neighbours, walk_all) as pf_walk_kernel takes them. */
 int pf_walk_kernel_cst(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
-    return walk_kernel(w, k0, f, acc, weight, 1);
-}
-
-int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
-{
-    return walk_kernel(w, k0, f, acc, weight, 0);
+    unsigned m = overhung(k0);
+    const int *adj = w->faces[f].adjface;
+    int e = one_of[m], t = two_of[m];
+    if (e >= 0 && adj[e] >= 0)
+        return lean_one_k(w, k0, f, e, acc);
+    if (t >= 0) {
+        int au = adj[t & 1 ? 1 : 3], av = adj[t & 2 ? 2 : 0];
+        if ((au | av) >= 0)
+            return lean_two_k(w, k0, f, t, acc, weight,
+                              w->faces[f].cornerface[corner_between(t & 1, t >> 1)] < 0);
+        if ((au & av) >= 0)
+            return lean_fold_k(w, k0, f, t, m, acc, weight);
+    }
+    return pf_walk_kernel(w, k0, f, acc, weight);
 }
 
 int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
