@@ -13,6 +13,8 @@
  * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window; a
  * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
  * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once.
+ * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
+ * (put_const without the reduction, the flips as reversed sums).
  */
 #include "ptexfilter_walk.h"
 

@@ -30,7 +30,10 @@
  * and valence 3 (a cube's corners: the corner piece dropped, its weight removed, as
  * corner() does, then lean_two's other pieces), and lean_fold_one, a two-edge kernel one of
  * whose edges is at a mesh boundary (that axis folded on a copy of its weights as walk_all
- * folds it, then lean_one's two pieces across the other edge).
+ * folds it, then lean_one's two pieces across the other edge). Since session 21 the lean
+ * cases also have constant-face instances (lean_one_k, lean_two_k, lean_fold_k: a piece on a
+ * constant face is its texel times the piece's weight in that face's frame, lean_const),
+ * which pf_walk_kernel_cst takes for a kernel of a constant face.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
