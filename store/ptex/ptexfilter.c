@@ -144,11 +144,7 @@ static inline v4f load_any(unsigned dt, unsigned nc, const uint8_t *p)
     return v;
 }
 
-/* load_any for the walk (pf_walk's texel: a constant face's texel) */
-static pf_v4 walk_texel(unsigned dt, unsigned nc, const uint8_t *p)
-{
-    return load_any(dt, nc, p);
-}
+static pf_v4 walk_texel(unsigned dt, unsigned nc, const uint8_t *p);
 
 static inline int is_subface(const pf *c, int f)
 {
@@ -383,6 +379,27 @@ __attribute__((always_inline)) static inline v4f load_dt(const uint8_t *p, unsig
     case ST_DT_F32: return load_f32(p);
     default: return pk_half4(p, NC); /* load_any's values without its per-channel switch */
     }
+}
+
+/* load_any for the walk (pf_walk's texel: a constant face's texel): load_dt's one vector
+ * load of the type (load_any's values lane by lane; it reads past the texel, as
+ * const_write's load does), the lanes from nc on cleared as load_any leaves them. */
+static pf_v4 walk_texel(unsigned dt, unsigned nc, const uint8_t *p)
+{
+    static const pk_v4i keep[4] = {{-1, 0, 0, 0}, {-1, -1, 0, 0}, {-1, -1, -1, 0},
+                                   {-1, -1, -1, -1}};
+    v4f x;
+    switch (dt) {
+    case ST_DT_U8: x = load_u8(p); break;
+    case ST_DT_U16: x = load_u16(p); break;
+    case ST_DT_F32: x = load_f32(p); break;
+    default: return pk_half4(p, nc); /* its lanes from nc on cleared */
+    }
+    pk_v4i b;
+    memcpy(&b, &x, sizeof b);
+    b &= keep[(nc - 1) & 3];
+    memcpy(&x, &b, sizeof x);
+    return x;
 }
 
 /* Ptex's bilinear kernel (pk_build's arithmetic in its order): resolution (ru, rv), first
@@ -1626,9 +1643,13 @@ __attribute__((always_inline)) static inline int kernel_declined(pf *c, const pk
 
 /* kernel_qi's query on constant face F (neither a subface nor with a constant
  * neighbourhood, (u, v) in [0, 1), which every border mode leaves as it is): eval's kernel
- * path without its prologue, built as kernel_declined_with builds it; a kernel inside the
- * face, at or under its resolution, to const_write (the weight one that every mode keeps),
- * any other to eval_kernel (its walk). */
+ * path without its prologue, built as kernel_declined_with builds it, its pk_weight taken
+ * once; a kernel inside the face, at or under its resolution, to const_write (const_inside's
+ * test: the weight one that every mode keeps);
+ * one that overhangs the face to the walk as kernel_declined_with sends a plain face's
+ * (eval_kernel's walk and division without its frame: in Traverse pf_walk_kernel_cst, whose
+ * lean cases take constant faces, in the other modes kernel_walk_w); any other, or what the
+ * walk declines, to eval_kernel. */
 __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
                                                   const st_sample_opts *o, const st_query *q,
                                                   const st_face *F, float *out, float *cov)
@@ -1641,11 +1662,33 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
     else
         pk_build(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
     pk_strip_zeros(&k);
+    float w = pk_weight(&k); /* not read when the kernel is empty */
     if (k.uw <= 0 || k.vw <= 0)
         return eval(c, pp, o, q, out, cov);
     *cov = 1.0f;
-    if (const_inside(c, &k, F, q->face, out))
-        return ST_Q_OK;
+    int f = (int)q->face;
+    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
+        /* const_inside's test with this weight */
+        uint32_t wb;
+        memcpy(&wb, &w, sizeof wb);
+        if (k.ulog2 <= F->ulog2 && k.vlog2 <= F->vlog2 &&
+            (wb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)) {
+            const_write(c, q->face, w, out, c->dt, c->nc);
+            return ST_Q_OK;
+        }
+    } else if (c->small) {
+        if (c->mode != ST_MODE_TRAVERSE) {
+            if (kernel_walk_w(c, &k, f, w, out, cov))
+                return ST_Q_OK;
+        } else {
+            /* kernel_walk_wr's Traverse with the constant face's walk */
+            pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
+            if (pf_walk_kernel_cst(&c->walk, &k, f, &acc, &w)) {
+                pf_put_scaled(out, acc, 1.0f / (w * one_value(c->dt)), c->nc);
+                return ST_Q_OK;
+            }
+        }
+    }
     c->acc = (v4f){0, 0, 0, 0};
     return eval_kernel(c, pp, o, q, &k, out, cov);
 }

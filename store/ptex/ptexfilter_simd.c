@@ -414,7 +414,9 @@ PF_TARGET __m128 window_small_int(const uint8_t *base, size_t rowb, unsigned DT,
         const uint8_t *base, size_t rowb, const float *ku, int uw, const float *kv, int vw,  \
         pf_v4 acc)                                                                          \
     {                                                                                       \
-        if (NC == 1 && DT <= 1 && ((unsigned)(uw - 1) | (unsigned)(vw - 1)) < 4)           \
+        if (!(NC == 1 && DT <= 1)) /* window_piece here: no jump to pf_winrest */          \
+            return (pf_v4)window_piece(base, rowb, DT, NC, ku, uw, kv, vw, (__m128)acc);    \
+        if (((unsigned)(uw - 1) | (unsigned)(vw - 1)) < 4)                                 \
             return (pf_v4)window_small_int(base, rowb, DT, ku, uw, kv, vw, (__m128)acc);    \
         return pf_winrest_##DT##_##NC(base, rowb, ku, uw, kv, vw, acc);                     \
     }

@@ -13,6 +13,8 @@
  * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window; a
  * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
  * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once.
+ * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
+ * (put_const without the reduction, the flips as reversed sums).
  */
 #include "ptexfilter_walk.h"
 
@@ -526,6 +528,40 @@ __attribute__((noinline)) static int walk_all(const pf_walk *w, const pk *k0, in
 
 /* ---- lean walks: walk_one's and walk_two's common case, checked first -------------------- */
 
+/* pk_accumulate of the n weights at p in reverse order (the sum of reversed()'s copy). */
+static inline float sum_reversed(const float *p, int n)
+{
+    float r = 0;
+    for (int i = n - 1; i >= 0; i--)
+        r += p[i];
+    return r;
+}
+
+/* lean_put's piece on constant face af (F): put_const without a reduction (0 when af is
+ * smaller than the piece's resolution, as lean_put declines): the face's texel times the
+ * piece's pk_weight in af's frame, where a flip reverses an axis' weights (so its sum runs
+ * from the other end) and an odd rotation swaps the axes (the u sum, taken first, is then
+ * the v weights'). s0, s1: pk_accumulate of k0 and k1 (the caller's, taken once for the
+ * pieces that share them). */
+__attribute__((always_inline)) static inline int lean_const(pw_state *s, int lg0, int lg1,
+                                                            int n0, int n1, const float *k0,
+                                                            const float *k1, float s0,
+                                                            float s1, int rot, int af,
+                                                            const st_face *F)
+{
+    rot &= 3;
+    int odd = rot & 1;
+    if ((odd ? lg1 : lg0) > F->ulog2 || (odd ? lg0 : lg1) > F->vlog2)
+        return 0;
+    /* rotation 1 and 2 flip u (k0 reversed), 2 and 3 flip v (k1 reversed) */
+    float a = ((rot + 3) & 3) < 2 ? sum_reversed(k0, n0) : s0;
+    float b = (rot & 2) ? sum_reversed(k1, n1) : s1;
+    float wt = odd ? b * a : a * b;
+    const pf_walk *w = s->w;
+    s->acc += w->texel(w->dt, w->nc, w->px[w->base[af]]) * wt;
+    return 1;
+}
+
 /* The piece (lg, at, n, weights per axis) of a lean walk rotated by rot into face af's
  * frame as put() rotates it (its reversed weights in tu, tv), then put_window: 0 when af is
  * smaller than the piece's resolution (a reduction: the caller takes the walk instead).
@@ -536,9 +572,12 @@ __attribute__((always_inline)) static inline int lean_put(pw_state *s, int lg0, 
                                                           int at0, int at1, int n0, int n1,
                                                           const float *k0, const float *k1,
                                                           int rot, int af, float *tu,
-                                                          float *tv)
+                                                          float *tv, int cst, float s0,
+                                                          float s1)
 {
     const st_face *F = &s->w->faces[af];
+    if (cst && (F->flags & ST_FACE_CONSTANT))
+        return lean_const(s, lg0, lg1, n0, n1, k0, k1, s0, s1, rot, af, F);
     int ru = lg0, rv = lg1, u = at0, v = at1, uw = n0, vw = n1;
     const float *ku = k0, *kv = k1;
     if (__builtin_expect(rot & 3, 0)) {
@@ -594,11 +633,14 @@ __attribute__((always_inline)) static inline int lean_one_core(const pf_walk *w,
                                                                int eid, int lg0, int lg1,
                                                                int at0, int at1, int n0,
                                                                int n1, const float *ku,
-                                                               const float *kv, pf_v4 *acc)
+                                                               const float *kv, pf_v4 *acc,
+                                                               int cst)
 {
     const st_face *faces = w->faces, *F = &faces[f];
     int af = F->adjface[eid];
-    if ((faces[af].flags | F->flags) & (ST_FACE_SUBFACE | ST_FACE_CONSTANT))
+    unsigned fl = faces[af].flags | F->flags;
+    if (cst ? (fl & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) != ST_FACE_CONSTANT
+            : (fl & (ST_FACE_SUBFACE | ST_FACE_CONSTANT)) != 0)
         return 0;
     int a = eid & 1, res = 1 << (a ? lg0 : lg1);
     int at = a ? at0 : at1, n = a ? n0 : n1;
@@ -611,11 +653,18 @@ __attribute__((always_inline)) static inline int lean_one_core(const pf_walk *w,
     float tu[PK_MAX], tv[PK_MAX];
     pw_state s = {w, *acc, 0.0f};
     int rot = eid - F->adjedge[eid] + 2;
-    int ok = a ? lean_put(&s, lg0, lg1, pat, at1, wd, n1, kp, kv, rot, af, tu, tv)
-               : lean_put(&s, lg0, lg1, at0, pat, n0, wd, ku, kp, rot, af, tu, tv);
+    /* with constant faces (cst) the sums lean_const takes: the other axis' weights, the
+     * part past the edge and the rest */
+    float so = cst ? pk_accumulate(a ? kv : ku, a ? n1 : n0) : 0.0f;
+    float sp = cst ? pk_accumulate(kp, wd) : 0.0f, sr = cst ? pk_accumulate(kr, n - wd) : 0.0f;
+    int ok = a ? lean_put(&s, lg0, lg1, pat, at1, wd, n1, kp, kv, rot, af, tu, tv, cst, sp, so)
+               : lean_put(&s, lg0, lg1, at0, pat, n0, wd, ku, kp, rot, af, tu, tv, cst, so, sp);
     if (!ok)
         return 0;
-    if (a)
+    if (cst && (F->flags & ST_FACE_CONSTANT)) /* f at the kernel's resolution (tested) */
+        lean_const(&s, lg0, lg1, a ? n - wd : n0, a ? n1 : n - wd, a ? kr : ku, a ? kv : kr,
+                   a ? sr : so, a ? so : sr, 0, f, F);
+    else if (a)
         put_window(&s, lg0, lg1, rat, at1, n - wd, n1, kr, kv, f, F);
     else
         put_window(&s, lg0, lg1, at0, rat, n0, n - wd, ku, kr, f, F);
@@ -628,7 +677,7 @@ __attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
                                                                pf_v4 *acc)
 {
     return lean_one_core(w, f, eid, k0->ulog2, k0->vlog2, k0->u, k0->v, k0->uw, k0->vw,
-                         k0->kub + k0->ku0, k0->kvb + k0->kv0, acc);
+                         k0->kub + k0->ku0, k0->kvb + k0->kv0, acc, 0);
 }
 
 /* walk_two for the common case: the neighbours across the two overhung edges and the
@@ -640,7 +689,8 @@ __attribute__((always_inline)) static inline int lean_one_case(const pf_walk *w,
 __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
                                                                const pk *k0, int f, int hu,
                                                                int hv, pf_v4 *acc,
-                                                               float *weight, int drop)
+                                                               float *weight, int drop,
+                                                               int cst)
 {
     const st_face *faces = w->faces, *F = &faces[f];
     int eu = hu ? 1 : 3, ev = hv ? 2 : 0, c = corner_between(hu, hv);
@@ -652,8 +702,11 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
             return 0;
         dg = f; /* no corner face: f's flags tested twice */
     }
-    if (dg < 0 || ((faces[au].flags | faces[av].flags | faces[dg].flags | F->flags) &
-                   (ST_FACE_SUBFACE | ST_FACE_CONSTANT)))
+    if (dg < 0)
+        return 0;
+    unsigned fl = (faces[au].flags | faces[av].flags | faces[dg].flags | F->flags) &
+                  (ST_FACE_SUBFACE | ST_FACE_CONSTANT);
+    if (cst ? fl != ST_FACE_CONSTANT : fl != 0)
         return 0;
     int lg0 = k0->ulog2, lg1 = k0->vlog2, at0 = k0->u, at1 = k0->v, n0 = k0->uw, n1 = k0->vw;
     const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
@@ -669,21 +722,28 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
     const float *kpv = hv ? kv + n1 - wv : kv, *krv = hv ? kv : kv + wv;
     float tu[PK_MAX], tv[PK_MAX];
     pw_state s = {w, *acc, 0.0f};
+    /* with constant faces (cst) the sums lean_const takes, each once */
+    float spu = cst ? pk_accumulate(kpu, wu) : 0.0f, sru = cst ? pk_accumulate(kru, n0 - wu) : 0.0f;
+    float spv = cst ? pk_accumulate(kpv, wv) : 0.0f, srv = cst ? pk_accumulate(krv, n1 - wv) : 0.0f;
     int rc = drop ? 0 : c - F->cornercorner[c] + 2, ra = eu - F->adjedge[eu] + 2;
     int rb = ev - F->adjedge[ev] + 2;
     if (drop) {
         /* the corner piece (wu x wv taps past both edges) dropped, its weight removed, as
          * corner() does at a vertex of valence 3; then the two edge pieces and the rest,
          * walk_two's order */
-        if (!lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv) ||
-            !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv))
+        if (!lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv, cst, spu,
+                      srv) ||
+            !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv, cst, sru, spv))
             return 0;
-        put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
+        if (cst && (F->flags & ST_FACE_CONSTANT))
+            lean_const(&s, lg0, lg1, n0 - wu, n1 - wv, kru, krv, sru, srv, 0, f, F);
+        else
+            put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
         *acc = s.acc;
         *weight -= sum_in(k0->kub, kpu, wu) * sum_in(k0->kvb, kpv, wv);
         return 1;
     }
-    if (!(lg0 | lg1)) {
+    if (!cst && !(lg0 | lg1)) {
         /* a kernel at resolution 1 x 1: every piece one texel (lean_fits: each overhang one
          * texel, the rest one texel), at (0, 0) of table entry 0 in any frame (a flip of one
          * texel at resolution 1 is itself); a rotation reverses one weight (the same value)
@@ -699,7 +759,7 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
         *acc = sm(px[bs[f]], ts, kru, 1, krv, 1, a);
         return 1;
     }
-    if (!((rc | ra | rb) & 3)) { /* no piece rotated: lean_put's rotation 0 for each */
+    if (!cst && !((rc | ra | rb) & 3)) { /* no piece rotated: lean_put's rotation 0 for each */
         const st_face *C = &faces[dg], *A = &faces[au], *B = &faces[av];
         if ((lg0 > C->ulog2) | (lg1 > C->vlog2) | (lg0 > A->ulog2) | (lg1 > A->vlog2) |
             (lg0 > B->ulog2) | (lg1 > B->vlog2))
@@ -707,11 +767,17 @@ __attribute__((always_inline)) static inline int lean_two_case(const pf_walk *w,
         put_window(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, dg, C);
         put_window(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, au, A);
         put_window(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, av, B);
-    } else if (!lean_put(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, rc, dg, tu, tv) ||
-               !lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv) ||
-               !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv))
+    } else if (!lean_put(&s, lg0, lg1, pu, pv, wu, wv, kpu, kpv, rc, dg, tu, tv, cst, spu,
+                         spv) ||
+               !lean_put(&s, lg0, lg1, pu, rv, wu, n1 - wv, kpu, krv, ra, au, tu, tv, cst, spu,
+                         srv) ||
+               !lean_put(&s, lg0, lg1, ru, pv, n0 - wu, wv, kru, kpv, rb, av, tu, tv, cst, sru,
+                         spv))
         return 0;
-    put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
+    if (cst && (F->flags & ST_FACE_CONSTANT))
+        lean_const(&s, lg0, lg1, n0 - wu, n1 - wv, kru, krv, sru, srv, 0, f, F);
+    else
+        put_window(&s, lg0, lg1, ru, rv, n0 - wu, n1 - wv, kru, krv, f, F);
     *acc = s.acc;
     return 1;
 }
@@ -738,10 +804,10 @@ __attribute__((always_inline)) static inline int lean_two_sides(const pf_walk *w
 {
     int ok;
     switch (sides & 3) {
-    case 0: ok = lean_two_case(w, k0, f, 0, 0, acc, weight, drop); break;
-    case 1: ok = lean_two_case(w, k0, f, 1, 0, acc, weight, drop); break;
-    case 2: ok = lean_two_case(w, k0, f, 0, 1, acc, weight, drop); break;
-    default: ok = lean_two_case(w, k0, f, 1, 1, acc, weight, drop); break;
+    case 0: ok = lean_two_case(w, k0, f, 0, 0, acc, weight, drop, 0); break;
+    case 1: ok = lean_two_case(w, k0, f, 1, 0, acc, weight, drop, 0); break;
+    case 2: ok = lean_two_case(w, k0, f, 0, 1, acc, weight, drop, 0); break;
+    default: ok = lean_two_case(w, k0, f, 1, 1, acc, weight, drop, 0); break;
     }
     return ok || walk_two(w, k0, f, sides, acc, weight);
 }
@@ -760,6 +826,29 @@ __attribute__((noinline)) static int lean_two3(const pf_walk *w, const pk *k0, i
     return lean_two_sides(w, k0, f, sides, acc, weight, 1);
 }
 
+/* lean_one / lean_two / lean_two3 for a constant face f (pf_walk_kernel_cst): the same lean
+ * cases with the pieces on constant faces summed by lean_const (cst), the other faces'
+ * windows as before, else walk_one / walk_two (drop: lean_two3's). Out of line and apart
+ * from lean_one / lean_two: the plain faces' code stays as it was. */
+__attribute__((noinline)) static int lean_one_k(const pf_walk *w, const pk *k0, int f, int eid,
+                                                pf_v4 *acc)
+{
+    return lean_one_core(w, f, eid, k0->ulog2, k0->vlog2, k0->u, k0->v, k0->uw, k0->vw,
+                         k0->kub + k0->ku0, k0->kvb + k0->kv0, acc, 1) ||
+           walk_one(w, k0, f, eid, acc);
+}
+
+__attribute__((noinline)) static int lean_two_k(const pf_walk *w, const pk *k0, int f,
+                                                int sides, pf_v4 *acc, float *weight, int drop)
+{
+    int hu = sides & 1, hv = sides >> 1 & 1, ok;
+    if (drop)
+        ok = lean_two_case(w, k0, f, hu, hv, acc, weight, 1, 1);
+    else
+        ok = lean_two_case(w, k0, f, hu, hv, acc, weight, 0, 1);
+    return ok || walk_two(w, k0, f, sides, acc, weight);
+}
+
 static int walk_boundary(const pf_walk *w, pk *k0, int f, unsigned m, pf_v4 *acc,
                          float *weight);
 
@@ -771,8 +860,10 @@ static int walk_boundary(const pf_walk *w, pk *k0, int f, unsigned m, pf_v4 *acc
  * f: the fold (pf_fold_axis, on a copy of that axis' weights) then lean_one's pieces. Falls
  * back to walk_boundary (nothing written) where lean_one declines or the overhang at the
  * boundary is as wide as the kernel. */
-__attribute__((noinline)) static int lean_fold_one(const pf_walk *w, pk *k0, int f, int sides,
-                                                   unsigned m, pf_v4 *acc, float *weight)
+__attribute__((always_inline)) static inline int lean_fold_body(const pf_walk *w, pk *k0,
+                                                                int f, int sides, unsigned m,
+                                                                pf_v4 *acc, float *weight,
+                                                                int cst)
 {
     const int *adj = w->faces[f].adjface;
     int hu = sides & 1, hv = sides >> 1 & 1;
@@ -788,7 +879,7 @@ __attribute__((noinline)) static int lean_fold_one(const pf_walk *w, pk *k0, int
             for (int i = 0; i < n0; i++)
                 fb[i] = ku[i];
             pf_fold_axis(1 << lg0, &at0, &n0, &fk, w->black_u);
-            ok = lean_one_core(w, f, ev, lg0, lg1, at0, at1, n0, n1, fk, kv, acc);
+            ok = lean_one_core(w, f, ev, lg0, lg1, at0, at1, n0, n1, fk, kv, acc, cst);
         }
     } else { /* the v edge at the boundary: v folded, the u edge's piece across */
         int ov = hv ? at1 + n1 - (1 << lg1) : -at1;
@@ -796,10 +887,23 @@ __attribute__((noinline)) static int lean_fold_one(const pf_walk *w, pk *k0, int
             for (int i = 0; i < n1; i++)
                 fb[i] = kv[i];
             pf_fold_axis(1 << lg1, &at1, &n1, &fk, w->black_v);
-            ok = lean_one_core(w, f, eu, lg0, lg1, at0, at1, n0, n1, ku, fk, acc);
+            ok = lean_one_core(w, f, eu, lg0, lg1, at0, at1, n0, n1, ku, fk, acc, cst);
         }
     }
     return ok || walk_boundary(w, k0, f, m, acc, weight);
+}
+
+/* lean_fold_body on a plain face f, and on a constant one (lean_fold_k) */
+__attribute__((noinline)) static int lean_fold_one(const pf_walk *w, pk *k0, int f, int sides,
+                                                   unsigned m, pf_v4 *acc, float *weight)
+{
+    return lean_fold_body(w, k0, f, sides, m, acc, weight, 0);
+}
+
+__attribute__((noinline)) static int lean_fold_k(const pf_walk *w, pk *k0, int f, int sides,
+                                                 unsigned m, pf_v4 *acc, float *weight)
+{
+    return lean_fold_body(w, k0, f, sides, m, acc, weight, 1);
 }
 
 /* The edge the kernel overhangs when it overhangs one only and f has a neighbour there,
@@ -909,21 +1013,28 @@ __attribute__((noinline)) static int walk_boundary(const pf_walk *w, pk *k0, int
     return walk_all(w, k0, f, acc, weight);
 }
 
-int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+/* The edges kernel k0 overhangs: right 1, left 2, top 4, bottom 8; from them the one edge
+ * (one_edge's test) or the one u edge and one v edge (walk_two's sides) it overhangs, else
+ * -1: tables, not a switch: its jump table's indirect branch mispredicted (callgrind
+ * --branch-sim: 0.5 more a query on envcube). */
+static const signed char one_of[16] = {-1, 1, 3, -1, 2, -1, -1, -1, 0, -1, -1, -1, -1, -1,
+                                       -1, -1};
+static const signed char two_of[16] = {-1, -1, -1, -1, -1, 3, 2, -1, -1, 1, 0, -1, -1, -1,
+                                       -1, -1};
+static inline unsigned overhung(const pk *k0)
 {
     int resu = 1 << k0->ulog2, resv = 1 << k0->vlog2;
-    /* the edges the kernel overhangs: right 1, left 2, top 4, bottom 8 */
-    unsigned m = (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
-                 (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
+    return (unsigned)(k0->u + k0->uw > resu) | (unsigned)(k0->u < 0) << 1 |
+           (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
+}
+
+int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    unsigned m = overhung(k0);
     const int *adj = w->faces[f].adjface;
-    /* one edge (one_edge's test) or one u edge and one v edge, to neighbours (an overhung
-     * edge without one: f is at a mesh boundary); tables, not a switch: its jump table's
-     * indirect branch mispredicted (callgrind --branch-sim: 0.5 more a query on envcube) */
-    static const signed char one[16] = {-1, 1, 3, -1, 2, -1, -1, -1, 0, -1, -1, -1, -1, -1,
-                                        -1, -1};
-    static const signed char two[16] = {-1, -1, -1, -1, -1, 3, 2, -1, -1, 1, 0, -1, -1, -1,
-                                        -1, -1};
-    int e = one[m], t = two[m];
+    /* one edge or one u edge and one v edge, to neighbours (an overhung edge without one: f
+     * is at a mesh boundary) */
+    int e = one_of[m], t = two_of[m];
     if (e >= 0)
         return adj[e] >= 0 ? lean_one(w, k0, f, e, acc) : walk_boundary(w, k0, f, m, acc, weight);
     if (t >= 0) {
@@ -940,6 +1051,27 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, m, acc, weight);
     return walk_all(w, k0, f, acc, weight);
+}
+
+/* pf_walk_kernel's one-edge and two-edge cases, to neighbours, and the two-edge case with
+ * one neighbour, in their constant-face forms (lean_one_k, lean_two_k, lean_fold_k); the
+ * rest (mesh boundaries without neighbours, walk_all) as pf_walk_kernel takes them. */
+int pf_walk_kernel_cst(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
+{
+    unsigned m = overhung(k0);
+    const int *adj = w->faces[f].adjface;
+    int e = one_of[m], t = two_of[m];
+    if (e >= 0 && adj[e] >= 0)
+        return lean_one_k(w, k0, f, e, acc);
+    if (t >= 0) {
+        int au = adj[t & 1 ? 1 : 3], av = adj[t & 2 ? 2 : 0];
+        if ((au | av) >= 0)
+            return lean_two_k(w, k0, f, t, acc, weight,
+                              w->faces[f].cornerface[corner_between(t & 1, t >> 1)] < 0);
+        if ((au & av) >= 0)
+            return lean_fold_k(w, k0, f, t, m, acc, weight);
+    }
+    return pf_walk_kernel(w, k0, f, acc, weight);
 }
 
 int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)

@@ -30,7 +30,10 @@
  * and valence 3 (a cube's corners: the corner piece dropped, its weight removed, as
  * corner() does, then lean_two's other pieces), and lean_fold_one, a two-edge kernel one of
  * whose edges is at a mesh boundary (that axis folded on a copy of its weights as walk_all
- * folds it, then lean_one's two pieces across the other edge).
+ * folds it, then lean_one's two pieces across the other edge). Since session 21 the lean
+ * cases also have constant-face instances (lean_one_k, lean_two_k, lean_fold_k: a piece on a
+ * constant face is its texel times the piece's weight in that face's frame, lean_const),
+ * which pf_walk_kernel_cst takes for a kernel of a constant face.
  *
  * pf_edge2_select (declared here, implemented in ptexfilter_simd.c with the window code it
  * inlines) is the same walk for the bilinear's 2 x 2 kernel alone, with its pieces in
@@ -79,6 +82,12 @@ int pf_walk_traverse(const pf_walk *w, const pk *k, int f, pf_v4 *acc, float *we
  * (pf_walk_traverse's, folds at boundary edges included). Returns 0 (nothing written, k as
  * it was) when the walk or the fold declines. */
 int pf_walk_kernel(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
+
+/* pf_walk_kernel for a kernel of a constant face f (ptexfilter.c's kernel_const), with the
+ * same results: its lean cases also take constant faces (a piece on one is the face's
+ * texel times the piece's weight in that face's frame, as put_const sums it), apart from
+ * pf_walk_kernel's so that a plain face's walk does not test for them (since session 21). */
+int pf_walk_kernel_cst(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight);
 
 /* pf_walk_kernel for a kernel at resolution 1 x 1 of at most 2 x 2 taps, at or inside the
  * face (u, v >= -1; ptexfilter.c's kernel_r0), with the same results: a face at a mesh

@@ -83,6 +83,19 @@ static unsigned serve_cst8(const pf_klanes *k, void *arg)
     return m;
 }
 
+/* Shared file rel read into *s (its path in path), its resolution table built before any
+ * flag changes so that both paths read the same texels: 1; 0 when SEAMTEX_DATA lacks it. */
+static int open_shared(const char *rel, char *path, size_t n, st_set **s)
+{
+    int r = st_pf_read_shared(rel, path, n, s);
+    if (r == 0)
+        return 0;
+    assert_int_equal(r, 1);
+    st_query q0 = {.face = 0, .u = 0.5f, .v = 0.5f};
+    assert_true(st_pf_paths_agree(*s, &q0, 1, path, filters, 1) >= 0);
+    return 1;
+}
+
 static void const_faces_match_the_general_path(void **state)
 {
     (void)state;
@@ -104,14 +117,9 @@ static void const_faces_match_the_general_path(void **state)
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         char path[1024];
         st_set *s;
-        int r = st_pf_read_shared(files[i].rel, path, sizeof path, &s);
-        if (r == 0)
+        if (!open_shared(files[i].rel, path, sizeof path, &s))
             continue;
-        assert_int_equal(r, 1);
         found++;
-        /* the table built before any flag changes, so both paths read the same texels */
-        q[0] = (st_query){.face = 0, .u = 0.5f, .v = 0.5f};
-        assert_true(st_pf_paths_agree(s, q, 1, path, filters, 1) >= 0);
         if (files[i].every)
             for (uint32_t f = 0; f < s->info.nfaces; f++)
                 if (f % files[i].every == 0)
@@ -143,10 +151,70 @@ static void const_faces_match_the_general_path(void **state)
         assert_true(served[0] * 5 > (long)on && served[1] * 8 > (long)on);
 }
 
+/* Kernels of a constant face that overhang it, near a corner or an edge (session 21: the
+ * Traverse walk's lean cases take constant faces, pf_walk_kernel_cst): on files whose
+ * neighbours are rotated (cube8_k6_u8_rot: every rotation of a piece), whose corners have
+ * valence 3 (cube1_k6_u8: the corner piece dropped) or 4 (teapot), every other face flagged
+ * constant (so constant faces next to constant and plain ones); footprints of 1 to 16
+ * texels; every kernel filter and mode against the general path, bit for bit. */
+static void walked_const_kernels_match_the_general_path(void **state)
+{
+    (void)state;
+    static const char *const rels[] = {
+        "ptex-ref/cube8_k6_u8_rot.ptx",
+        "ptex-ref/cube1_k6_u8.ptx",
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+    };
+    static const float fps[] = {1.0f, 2.0f, 3.3f, 4.0f, 7.7f, 16.0f};
+    static st_query q[NQ];
+    uint32_t rng = 43;
+    long compared = 0, over = 0;
+    int found = 0;
+    for (size_t i = 0; i < sizeof rels / sizeof rels[0]; i++) {
+        char path[1024];
+        st_set *s;
+        if (!open_shared(rels[i], path, sizeof path, &s))
+            continue;
+        found++;
+        for (uint32_t f = 0; f < s->info.nfaces; f += 2)
+            s->faces[f].flags |= ST_FACE_CONSTANT;
+        for (int j = 0; j < NQ; j++) {
+            /* a constant face; (u, v) within the footprint of a corner (j even) or of one
+             * edge */
+            uint32_t f = 2 * ((uint32_t)(st_test_rndf(&rng) * (float)s->info.nfaces) / 2);
+            const st_face *F = &s->faces[f % s->info.nfaces];
+            float fu = fps[(int)(st_test_rndf(&rng) * 6) % 6];
+            float fv = j % 3 == 1 ? fps[(int)(st_test_rndf(&rng) * 6) % 6] : fu;
+            float du = st_test_rndf(&rng) * fu / (float)F->w;
+            float dv = st_test_rndf(&rng) * fv / (float)F->h;
+            float u = st_test_rndf(&rng) < 0.5f ? du : 1.0f - du;
+            float v = j % 2 ? st_test_rndf(&rng) : st_test_rndf(&rng) < 0.5f ? dv : 1.0f - dv;
+            u = u < 0.99999994f ? u : 0.99999994f;
+            v = v < 0.99999994f ? v : 0.99999994f;
+            q[j] = (st_query){.face = f % s->info.nfaces, .u = u, .v = v,
+                              .dudx = fu / (float)F->w, .dvdy = fv / (float)F->h};
+            over += du * 2.0f < fu / (float)F->w; /* about: within half the kernel */
+        }
+        long n = st_pf_paths_agree(s, q, NQ, path, filters, NF);
+        if (n < 0)
+            fail();
+        compared += n;
+        st_set_free(s);
+    }
+    if (!found) {
+        print_message("SEAMTEX_DATA (%s) has none of the files: skipped\n", st_test_data_dir());
+        skip();
+    }
+    print_message("%d files, %ld queries compared, about %ld near an edge\n", found, compared,
+                  over);
+    assert_true(over * 3 > (long)found * NQ); /* a good share overhang (fewer: bad test) */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(const_faces_match_the_general_path),
+        cmocka_unit_test(walked_const_kernels_match_the_general_path),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
