@@ -402,12 +402,31 @@ __attribute__((target("avx2"))) PT_NO_SLP static void across_avx2(const tk *k, u
 }
 #endif
 
-PT_NO_SLP static void iterators(const tk *k, int res, int clamp, ti *ev, ti *od)
+/* The unclamped sweeps (Clamp's whole kernel, Discard's whole weight), in the AVX2 instance
+ * when Traverse's per-piece work takes it (avx2: tc.avx2). */
+PT_NO_SLP static void iterators_whole(const tk *k, int res, ti *ev, ti *od)
 {
-    if (clamp)
-        iterators_clamped(k, res, ev, od);
-    else
-        iterators_t(k, res, 0, ev, od);
+    iterators_t(k, res, 0, ev, od);
+}
+
+#ifdef PT_TRAV_AVX2
+__attribute__((target("avx2"))) PT_NO_SLP static void iterators_whole_avx2(const tk *k, int res,
+                                                                          ti *ev, ti *od)
+{
+    iterators_t(k, res, 0, ev, od);
+}
+#endif
+
+static inline void iterators(int avx2, const tk *k, int res, ti *ev, ti *od)
+{
+#ifdef PT_TRAV_AVX2
+    if (avx2) {
+        iterators_whole_avx2(k, res, ev, od);
+        return;
+    }
+#endif
+    (void)avx2;
+    iterators_whole(k, res, ev, od);
 }
 
 /* Channel ch of the texel at px as a float of its stored value (not scaled to [0, 1]). */
@@ -1822,7 +1841,7 @@ static float apply_discard(tc *c, tk *k, uint32_t f)
     apply_face_its(c, k, f, &ev, &od);
     if (!(c->weight > 0.0f))
         return 0.0f; /* nothing kept: the coverage is 0 whatever the whole weight */
-    iterators(k, res, 0, &wev, &wod);
+    iterators(c->avx2, k, res, &wev, &wod);
     if (same_taps(&ev, &wev) && same_taps(&od, &wod))
         return c->weight; /* 0 + the even sweep's + the odd sweep's, as below */
     float w = 0.0f;
@@ -1841,7 +1860,7 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
     const st_face *F = &c->s->faces[f];
     int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
     ti ev, od;
-    iterators(k, res, 0, &ev, &od);
+    iterators(c->avx2, k, res, &ev, &od);
     int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)res);
