@@ -151,6 +151,13 @@ static double loadavg1(void)
     return l;
 }
 
+/* This process's CPU (every thread, user + system) and context switches at one instant. */
+typedef struct cpu_mark {
+    double   cpu_s;
+    uint64_t vcsw, ivcsw;
+    uint64_t t0, t1;       /* CLOCK_MONOTONIC ns: when it was read (a window: its edges) */
+} cpu_mark;
+
 static void json_hist(FILE *f, const char *name, const stc_hist *h)
 {
     fprintf(f, "  \"%s_us\": {", name);
@@ -160,7 +167,8 @@ static void json_hist(FILE *f, const char *name, const stc_hist *h)
 }
 
 static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
-                      double load0, double load1, double inproc_qps)
+                      double load0, double load1, double inproc_qps, const cpu_mark *win,
+                      double cpu_total_s)
 {
     FILE *f = fopen(cfg->json_path, "w");
     if (!f) {
@@ -204,6 +212,18 @@ static int write_json(const bench_cfg *cfg, const bench_result *r, double secs,
             (unsigned long long)r->unsent);
     fprintf(f, "  \"bytes_out\": %llu,\n  \"bytes_in\": %llu,\n",
             (unsigned long long)r->bytes_out, (unsigned long long)r->bytes_in);
+    /* the load tester's own cost: its CPU over the measured window (from the warm-up's end to
+     * t_end, or to the last thread's end under -n) against the requests and queries recorded
+     * in it, so start-up, connecting, the pools and --shm's region are not in it; and over
+     * the whole process for comparison with figures taken from outside */
+    fprintf(f, "  \"cpu_s\": %.4f,\n  \"cpu_window_s\": %.4f,\n"
+               "  \"vcsw_window\": %llu,\n  \"ivcsw_window\": %llu,\n"
+               "  \"window_start_ns\": %llu,\n  \"window_end_ns\": %llu,\n",
+            cpu_total_s, win->cpu_s, (unsigned long long)win->vcsw,
+            (unsigned long long)win->ivcsw, (unsigned long long)win->t0,
+            (unsigned long long)win->t1);
+    if (bench_op_samples(cfg->op))
+        fprintf(f, "  \"queries_measured\": %llu,\n", (unsigned long long)r->queries);
     if (cfg->cluster || cfg->lib)
         fprintf(f, "  \"client\": \"%s\",\n  \"failovers\": %llu,\n  \"moved\": %llu,\n",
                 cfg->lib ? "lib" : cfg->blocking ? "cluster-blocking" : "cluster-pipelined",
@@ -228,6 +248,12 @@ static void print_hist(const char *name, const stc_hist *h)
     printf("  max %8.1f us\n", h->max / 1e3);
 }
 
+/* Threads that have returned, so that the main thread's waits for the measured window's
+ * edges end early when a request cap (-n) ends the run first. */
+static pthread_mutex_t done_mu = PTHREAD_MUTEX_INITIALIZER;
+static pthread_cond_t done_cv;
+static unsigned done_n;
+
 static void *thread_main(void *arg)
 {
     bench_thread *th = arg;
@@ -235,7 +261,35 @@ static void *thread_main(void *arg)
         bench_lib_run(th);
     else
         bench_loop_run(th);
+    pthread_mutex_lock(&done_mu);
+    done_n++;
+    pthread_cond_signal(&done_cv);
+    pthread_mutex_unlock(&done_mu);
     return NULL;
+}
+
+static cpu_mark cpu_now(void)
+{
+    struct rusage ru;
+    cpu_mark m = { 0, 0, 0, bench_now_ns(), 0 };
+    if (getrusage(RUSAGE_SELF, &ru) == 0) {
+        m.cpu_s = (double)ru.ru_utime.tv_sec + ru.ru_utime.tv_usec / 1e6 +
+                  (double)ru.ru_stime.tv_sec + ru.ru_stime.tv_usec / 1e6;
+        m.vcsw = (uint64_t)ru.ru_nvcsw;
+        m.ivcsw = (uint64_t)ru.ru_nivcsw;
+    }
+    return m;
+}
+
+/* Sleeps until `deadline` (CLOCK_MONOTONIC ns) or until n threads have returned. */
+static void wait_edge(uint64_t deadline, unsigned n)
+{
+    struct timespec ts = { (time_t)(deadline / 1000000000ull), (long)(deadline % 1000000000ull) };
+    pthread_mutex_lock(&done_mu);
+    while (done_n < n && bench_now_ns() < deadline)
+        if (pthread_cond_timedwait(&done_cv, &done_mu, &ts) == ETIMEDOUT)
+            break;
+    pthread_mutex_unlock(&done_mu);
 }
 
 static void close_all(int *fds, unsigned n)
@@ -551,6 +605,11 @@ int main(int argc, char **argv)
     if (!cfg.quiet && (cfg.cluster || cfg.lib))
         printf("  through libseamtex: %s\n", cfg.lib ? "direct stc_conn, pipelined"
                : cfg.blocking ? "stc_cluster, blocking" : "stc_cluster, pipelined");
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_cond_init(&done_cv, &ca);
+    pthread_condattr_destroy(&ca);
     unsigned started = 0;
     for (; started < cfg.threads; started++)
         if (pthread_create(&tids[started], NULL, thread_main, &ths[started]) != 0) {
@@ -558,8 +617,15 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
+    /* the measured window's CPU: read at its edges by this thread, which sleeps between */
+    wait_edge(t_measure, started);
+    cpu_mark w0 = cpu_now();
+    wait_edge(t_end, started);
+    cpu_mark w1 = cpu_now();
+    cpu_mark win = { w1.cpu_s - w0.cpu_s, w1.vcsw - w0.vcsw, w1.ivcsw - w0.ivcsw, w0.t0, w1.t0 };
     for (unsigned t = 0; t < started; t++)
         pthread_join(tids[t], NULL);
+    double cpu_total = cpu_now().cpu_s;
 
     bench_result *all = &res[cfg.threads];
     stc_hist_reset(&all->corrected);
@@ -625,7 +691,7 @@ int main(int argc, char **argv)
                stc_hist_percentile(&all->corrected, 99) / 1e3, all->corrected.max / 1e3,
                (unsigned long long)all->errors, (unsigned long long)all->timeouts);
     }
-    if (cfg.json_path && write_json(&cfg, all, secs, load0, load1, 0) < 0)
+    if (cfg.json_path && write_json(&cfg, all, secs, load0, load1, 0, &win, cpu_total) < 0)
         rc = 1;
     if (all->measured == 0) {
         fprintf(stderr, "seamtex-bench: no reply was measured\n");

@@ -15,12 +15,18 @@ and f32 replies; compact: 14-byte UV16+FACE16 queries and f16 replies, PROTOCOL.
     into the region per request);
   - ratios to the in-process figure at the same total thread count (1 connection vs 1 thread,
     2 connections vs 2 threads), and the daemon's CPU per query: utime + stime from
-    /proc/<pid>/stat over the queries it served, against the in-process CPU per query;
-  - the load tester's CPU per query (column "client": its user + system time from
-    getrusage, warm-up included, over the queries served) and "bound": the in-process CPU per
-    query (same thread count) over daemon + client CPU per query, the ratio the run could
+    /proc/<pid>/stat (sampled every 20 ms, read at the edges of the load tester's measured
+    window) over the queries recorded in that window, against the in-process CPU per query;
+  - the load tester's CPU per query (column "client": its user + system time over the same
+    window, from its JSON, cpu_window_s / queries_measured) and "bound": the in-process CPU
+    per query (same thread count) over daemon + client CPU per query, the ratio the run could
     reach if the two had the cores to themselves (both run on the same cores: the client's
     share and the daemon's extra CPU are what cap the ratio, whatever the machine's load);
+    column "cl-run": the load tester's CPU over its whole process (start-up, connecting, its
+    request pools, --shm's region, warm-up and drain) over every query answered, the figure
+    this column gave before session 22 and the only one an older load tester allows (its rows
+    fall back to whole-run figures everywhere); "cs/rq": the load tester's context switches
+    per request in the window (each one a wake-up that preempts a daemon thread);
 With NET_PIPELINE=2,8 (default 2) every wire run is made at each of those pipeline depths
 (seamtex-bench -P: requests in flight per connection), one after the other on the same daemon,
 and the table has a row per depth (column P); the in-process figures do not depend on it. A
@@ -47,6 +53,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), '..', '..'))
@@ -82,6 +89,35 @@ def load():
 def cpu_s(pid):
     f = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
     return (int(f[11]) + int(f[12])) / TCK
+
+
+class CpuTrace(threading.Thread):
+    """The daemon's CPU (utime + stime, /proc/<pid>/stat) every 20 ms while a load tester runs,
+    so that it can be read at the edges of the load tester's measured window (its JSON gives
+    them as CLOCK_MONOTONIC ns, the clock of time.monotonic_ns), interpolated between the two
+    samples around each edge."""
+
+    def __init__(self, pid):
+        super().__init__(daemon=True)
+        self.pid, self.samples, self.stop_ev = pid, [], threading.Event()
+
+    def run(self):
+        while True:
+            self.samples.append((time.monotonic_ns(), cpu_s(self.pid)))
+            if self.stop_ev.wait(0.02):
+                self.samples.append((time.monotonic_ns(), cpu_s(self.pid)))
+                return
+
+    def stop(self):
+        self.stop_ev.set()
+        self.join()
+
+    def at(self, t):
+        s = self.samples
+        for (t0, c0), (t1, c1) in zip(s, s[1:]):
+            if t0 <= t <= t1:
+                return c0 + (c1 - c0) * (t - t0) / (t1 - t0) if t1 > t0 else c0
+        return None
 
 
 class Daemon:
@@ -138,19 +174,39 @@ def add(key, val):
 
 def sample_run(d, name, batch, enc, conns, pipe, extra=()):
     c0 = cpu_s(d.p.pid)
+    trace = CpuTrace(d.p.pid)
+    trace.start()
     j = bench(d.addr + ['-o', 'sample', '-b', str(batch), '-m', 'traverse', '-f', 'bilinear',
                         '-c', str(conns), '-T', str(conns), '-P', str(pipe), '-d', SECS,
                         '-w', '0.5']
               + ENCODINGS[enc] + list(extra) + (BENCH_ARGS if d.bench == BENCH else []),
               d.bench)
+    trace.stop()
     c1 = cpu_s(d.p.pid)
     if not j:
         return
     served = j.get('completed', 0) * batch
-    add((batch, enc, name, conns, pipe, 'qps'), j.get('queries_per_s', 0))
+    k = (batch, enc, name, conns, pipe)
+    add((*k, 'qps'), j.get('queries_per_s', 0))
     if served:
-        add((batch, enc, name, conns, pipe, 'ns_cpu'), (c1 - c0) * 1e9 / served)
-        add((batch, enc, name, conns, pipe, 'ns_client'), j['_client_cpu_s'] * 1e9 / served)
+        # whole run: every query answered against the CPU of the whole load-tester process
+        # (start-up, connecting, the pools, --shm's region, warm-up and drain included)
+        add((*k, 'ns_cpu_run'), (c1 - c0) * 1e9 / served)
+        add((*k, 'ns_client_run'), j['_client_cpu_s'] * 1e9 / served)
+    # the measured window (a load tester that reports it): both processes' CPU from the end of
+    # the warm-up to the end of the run over the queries recorded in it - the steady state,
+    # which is what the in-process figure is too (its set loaded before its clock starts)
+    qw = j.get('queries_measured', 0)
+    dw0 = trace.at(j.get('window_start_ns', -1))
+    dw1 = trace.at(j.get('window_end_ns', -1))
+    if qw and 'cpu_window_s' in j and dw0 is not None and dw1 is not None:
+        add((*k, 'ns_cpu'), (dw1 - dw0) * 1e9 / qw)
+        add((*k, 'ns_client'), j['cpu_window_s'] * 1e9 / qw)
+        req = qw / batch
+        add((*k, 'client_csw'), (j.get('vcsw_window', 0) + j.get('ivcsw_window', 0)) / req)
+    elif served:
+        add((*k, 'ns_cpu'), (c1 - c0) * 1e9 / served)
+        add((*k, 'ns_client'), j['_client_cpu_s'] * 1e9 / served)
     if j.get('errors'):
         print(f'net_wire: {name} {enc} batch {batch}: {j["errors"]} error replies',
               file=sys.stderr)
@@ -224,7 +280,8 @@ def main():
           f'{",".join(map(str, PIPELINES))} per connection, '
           f'{os.cpu_count()} cores, load {load0} -> {load1}, medians of {REPS}')
     print(f"{'batch':>6} {'enc':<8} {'run':<10} {'conns':>5} {'P':>3} {'Mq/s':>8} "
-          f"{'x inproc':>9} {'ns CPU/q':>9} {'x inproc':>9} {'client':>7} {'bound':>6}")
+          f"{'x inproc':>9} {'ns CPU/q':>9} {'x inproc':>9} {'client':>7} {'bound':>6} "
+          f"{'cl-run':>7} {'cs/rq':>6}")
     for batch in BATCHES:
         for t in (1, 2):
             q = med.get((batch, 'inproc', t, 'qps'), 0)
@@ -248,6 +305,8 @@ def main():
                 q = med[(*k, 'qps')]
                 ns = med.get((*k, 'ns_cpu'), 0)
                 ncl = med.get((*k, 'ns_client'), 0)
+                ncl_run = med.get((*k, 'ns_client_run'), 0)
+                csw = med.get((*k, 'client_csw'))
                 iq = med.get((batch, 'inproc', conns, 'qps'), 0)
                 ins = med.get((batch, 'inproc', 1, 'ns_cpu'), 0)
                 ins_t = med.get((batch, 'inproc', conns, 'ns_cpu'), 0)
@@ -258,11 +317,15 @@ def main():
                 # over daemon + client CPU per query (both measured, same thread count)
                 bound = ins_t / (ns + ncl) if ns + ncl > 0 else 0
                 print(f"{batch:>6} {enc:<8} {name:<10} {conns:>5} {pipe:>3} {q / 1e6:8.2f} "
-                      f"{rq:9.2f} {ns:9.1f} {rc:9.2f} {ncl:7.1f} {bound:6.2f}")
+                      f"{rq:9.2f} {ns:9.1f} {rc:9.2f} {ncl:7.1f} {bound:6.2f} {ncl_run:7.1f} "
+                      + (f"{csw:6.2f}" if csw is not None else f"{'-':>6}"))
                 row = dict(batch=batch, encoding=enc, run=name, conns=conns, pipeline=pipe,
                            queries_per_s=q, ratio_vs_inproc_same_threads=rq,
                            ns_daemon_cpu_per_query=ns, cpu_ratio_vs_inproc=rc,
-                           ns_client_cpu_per_query=ncl, ratio_bound_from_cpu=bound)
+                           ns_client_cpu_per_query=ncl, ratio_bound_from_cpu=bound,
+                           ns_daemon_cpu_per_query_run=med.get((*k, 'ns_cpu_run'), 0),
+                           ns_client_cpu_per_query_run=ncl_run,
+                           client_switches_per_request=csw)
                 # the A/Bs of the shared-memory path: against plain Unix of the same
                 # daemon (same window), and against the base daemon's shared memory
                 refs = [('unix', 'vs unix')] if name in ('unix+shm', 'unix+shmcp') else []

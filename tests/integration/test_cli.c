@@ -14,6 +14,7 @@
 #include <cmocka.h>
 
 #include <fcntl.h>
+#include <math.h>
 #include <netinet/in.h>
 #include <spawn.h>
 #include <stdio.h>
@@ -459,6 +460,39 @@ static void bench_sample_batches_are_answered(void **state)
     assert_true(json_num(js, "queries_per_s") > 0);
 }
 
+/* The load tester's own CPU over its measured window (JSON cpu_window_s, with the window's
+ * edges and the queries recorded in it), which net_wire.py divides by queries_measured: less
+ * than the whole process's (start-up, connecting and the request pools are outside it), the
+ * edges a warm-up apart from the start and a duration apart from each other; under a request
+ * cap (-n) the window ends with the last thread, not at t_end. */
+static void bench_reports_its_cpu_over_the_measured_window(void **state)
+{
+    (void)state;
+    char jf[400], js[8192];
+    snprintf(jf, sizeof jf, "%s/window.json", D.dir);
+    assert_int_equal(BENCH("-o", "sample", "-b", "512", "-c", "2", "-T", "2", "-P", "2", "-d",
+                           "1", "-w", "0.3", "-j", jf), 0);
+    slurp(jf, js, sizeof js, NULL);
+    double cpu = json_num(js, "cpu_s"), win = json_num(js, "cpu_window_s");
+    double t0 = json_num(js, "window_start_ns"), t1 = json_num(js, "window_end_ns");
+    assert_true(win > 0 && win < cpu);
+    assert_true(t1 - t0 >= 0.99e9 && t1 - t0 < 1.5e9);
+    assert_true(json_num(js, "vcsw_window") + json_num(js, "ivcsw_window") > 0);
+    double q = json_num(js, "queries_measured");
+    assert_true(q > 0 && (long long)q % 512 == 0);
+    assert_true(fabs(q - json_num(js, "queries_per_s") * json_num(js, "duration_s")) < 1024);
+
+    /* -n ends the run long before -d: so does the window */
+    assert_int_equal(BENCH("-o", "sample", "-b", "512", "-n", "20", "-d", "30", "-w", "0",
+                           "-j", jf), 0);
+    slurp(jf, js, sizeof js, NULL);
+    assert_true(json_num(js, "completed") == 20);
+    t0 = json_num(js, "window_start_ns");
+    t1 = json_num(js, "window_end_ns");
+    assert_true(t1 >= t0 && t1 - t0 < 10e9);
+    assert_true(json_num(js, "queries_measured") == 20 * 512);
+}
+
 /* Closed-loop SAMPLE wakes for several whole replies (--lowat, SO_RCVLOWAT): the last
  * replies of a run, fewer than the mark, still arrive (the mark is dropped when no more
  * requests are issued), whatever the mark, with -n not a multiple of the pipeline. */
@@ -795,6 +829,7 @@ int main(void)
         cmocka_unit_test(bench_closed_loop_answers_every_request),
         cmocka_unit_test(bench_open_loop_sends_its_schedule_and_corrects_latency),
         cmocka_unit_test(bench_sample_batches_are_answered),
+        cmocka_unit_test(bench_reports_its_cpu_over_the_measured_window),
         cmocka_unit_test(bench_sample_pipeline_with_a_low_water_mark_answers_every_request),
         cmocka_unit_test(bench_refuses_a_non_loopback_host),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
