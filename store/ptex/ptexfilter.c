@@ -1668,11 +1668,13 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
     float bu = (fabsf(q->dudx) + fabsf(q->dudy)) * c->width + c->blur;
     float bv = (fabsf(q->dvdx) + fabsf(q->dvdy)) * c->width + c->blur;
     pk k;
-    if (pp->ftype != ST_FILTER_PTEX_BOX)
+    if (pp->ftype != ST_FILTER_PTEX_BOX) {
         build_w4(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
-    else
+        strip_w4(&k);
+    } else {
         pk_build(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
-    pk_strip_zeros(&k);
+        pk_strip_zeros(&k);
+    }
     float w = pk_weight(&k); /* not read when the kernel is empty */
     if (k.uw <= 0 || k.vw <= 0)
         return eval(c, pp, o, q, out, cov);
