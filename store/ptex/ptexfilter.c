@@ -1482,6 +1482,17 @@ __attribute__((always_inline)) static inline float build_r0_axis(float u, int *k
     return (0.0f + w0) + w1;
 }
 
+/* pk_strip_zeros of a kernel pk_build_w4s (or build_w4) made: its common case without the
+ * test that picks it, which such a kernel always passes (ku0 = kv0 = 0; along each axis 2 to
+ * PK_MAX / 2 taps: 4 or 2 at resolutions 1 and 0, an even count of at least 2 at resolution
+ * 2, and under a width of 1/4 the taps over 4 widths of at least a texel each, clamped to
+ * PK_MAX / 2). */
+__attribute__((always_inline)) static inline void strip_w4(pk *k)
+{
+    pk_strip_axis_m(&k->ku0, &k->u, &k->uw, pk_nonzero_mask24(k->kub, k->uw));
+    pk_strip_axis_m(&k->kv0, &k->v, &k->vw, pk_nonzero_mask24(k->kvb, k->vw));
+}
+
 /* kernel_declined_with's steps for a width-4 kernel at resolution 1 x 1 (pk_width4_axis'
  * last case on both axes, stripped: 1 or 2 taps an axis). Out of line: kernel_run's batch
  * loop keeps its registers for the other kernels. */
@@ -1604,7 +1615,7 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
     float weight;
     if (pp->ftype != ST_FILTER_PTEX_BOX) {
         weight = pk_build_w4s(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
-        pk_strip_zeros(&k);
+        strip_w4(&k);
     } else {
         pk_build(pp, &k, q->u, q->v, bu, bv, ulog2, vlog2);
         pk_strip_zeros(&k);
@@ -1657,11 +1668,13 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
     float bu = (fabsf(q->dudx) + fabsf(q->dudy)) * c->width + c->blur;
     float bv = (fabsf(q->dvdx) + fabsf(q->dvdy)) * c->width + c->blur;
     pk k;
-    if (pp->ftype != ST_FILTER_PTEX_BOX)
+    if (pp->ftype != ST_FILTER_PTEX_BOX) {
         build_w4(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
-    else
+        strip_w4(&k);
+    } else {
         pk_build(pp, &k, q->u, q->v, bu, bv, F->ulog2, F->vlog2);
-    pk_strip_zeros(&k);
+        pk_strip_zeros(&k);
+    }
     float w = pk_weight(&k); /* not read when the kernel is empty */
     if (k.uw <= 0 || k.vw <= 0)
         return eval(c, pp, o, q, out, cov);
