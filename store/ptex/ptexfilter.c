@@ -1127,6 +1127,14 @@ static inline int keeps_whole(const pf *c, float w)
     return c->mode != ST_MODE_DISCARD || wb - 1u < 0x7f7fffffu;
 }
 
+/* Kernel k (zeros stripped) lies inside its face at its own resolution: every tap on a
+ * texel of the face, none to walk. */
+static inline int pk_in_face(const pk *k)
+{
+    return k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
+           k->v + k->vw <= (1 << k->vlog2);
+}
+
 /* Kernel k (zeros stripped, not empty) of constant face F (f) when it lies inside the face
  * at or under its resolution and every mode keeps its whole weight (its pk_weight in (0,
  * +inf), or not Discard): eval_kernel's result written by const_write, 1; else 0, nothing
@@ -1134,8 +1142,7 @@ static inline int keeps_whole(const pf *c, float w)
 static inline int const_inside(const pf *c, const pk *k, const st_face *F, uint32_t f,
                                float *out)
 {
-    if (k->u < 0 || k->v < 0 || k->ulog2 > F->ulog2 || k->vlog2 > F->vlog2 ||
-        k->u + k->uw > (1 << k->ulog2) || k->v + k->vw > (1 << k->vlog2))
+    if (!pk_in_face(k) || k->ulog2 > F->ulog2 || k->vlog2 > F->vlog2)
         return 0;
     float w = pk_weight(k);
     if (!keeps_whole(c, w))
@@ -1239,8 +1246,7 @@ static int eval_kernel(pf *c, const pk_params *pp, const st_sample_opts *o, cons
     c->acc = (v4f){0, 0, 0, 0};
     float total = pk_weight(k);
     c->weight = total;
-    if (k->u >= 0 && k->v >= 0 && k->u + k->uw <= (1 << k->ulog2) &&
-        k->v + k->vw <= (1 << k->vlog2)) {
+    if (pk_in_face(k)) {
         apply(c, k, f); /* the kernel lies inside the face: every mode agrees */
         /* with a finite positive total (its bits in (0, +inf)), Discard keeps the whole
          * weight (apply leaves it): total / total is 1 exactly, the coverage already set */
@@ -1627,7 +1633,7 @@ __attribute__((always_inline)) static inline int kernel_declined_with(pf *c,
         *cov = 0.0f;
         return ST_Q_OK;
     }
-    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
+    if (pk_in_face(&k)) {
         if (keeps_whole(c, weight)) {
             /* inside the face: eval_kernel's apply and division (its Discard rules aside) */
             c->acc = (v4f){0, 0, 0, 0};
@@ -1680,12 +1686,9 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
         return eval(c, pp, o, q, out, cov);
     *cov = 1.0f;
     int f = (int)q->face;
-    if (k.u >= 0 && k.v >= 0 && k.u + k.uw <= (1 << k.ulog2) && k.v + k.vw <= (1 << k.vlog2)) {
+    if (pk_in_face(&k)) {
         /* const_inside's test with this weight */
-        uint32_t wb;
-        memcpy(&wb, &w, sizeof wb);
-        if (k.ulog2 <= F->ulog2 && k.vlog2 <= F->vlog2 &&
-            (wb - 1u < 0x7f7fffffu || c->mode != ST_MODE_DISCARD)) {
+        if (k.ulog2 <= F->ulog2 && k.vlog2 <= F->vlog2 && keeps_whole(c, w)) {
             const_write(c, q->face, w, out, c->dt, c->nc);
             return ST_Q_OK;
         }
