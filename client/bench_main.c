@@ -248,23 +248,32 @@ static void print_hist(const char *name, const stc_hist *h)
     printf("  max %8.1f us\n", h->max / 1e3);
 }
 
-/* Threads that have returned, so that the main thread's waits for the measured window's
- * edges end early when a request cap (-n) ends the run first. */
-static pthread_mutex_t done_mu = PTHREAD_MUTEX_INITIALIZER;
-static pthread_cond_t done_cv;
-static unsigned done_n;
+/* The threads that have returned, so that main's waits for the measured window's edges end
+ * early when a request cap (-n) ends the run first. Owned by main; each thread holds a
+ * pointer to it in its thread_arg. */
+typedef struct done_gate {
+    pthread_mutex_t mu;
+    pthread_cond_t  cv; /* on CLOCK_MONOTONIC */
+    unsigned        n;
+} done_gate;
+
+typedef struct thread_arg {
+    bench_thread *th;
+    done_gate    *gate;
+} thread_arg;
 
 static void *thread_main(void *arg)
 {
-    bench_thread *th = arg;
+    thread_arg *a = arg;
+    bench_thread *th = a->th;
     if (th->cfg->cluster || th->cfg->lib)
         bench_lib_run(th);
     else
         bench_loop_run(th);
-    pthread_mutex_lock(&done_mu);
-    done_n++;
-    pthread_cond_signal(&done_cv);
-    pthread_mutex_unlock(&done_mu);
+    pthread_mutex_lock(&a->gate->mu);
+    a->gate->n++;
+    pthread_cond_signal(&a->gate->cv);
+    pthread_mutex_unlock(&a->gate->mu);
     return NULL;
 }
 
@@ -282,14 +291,14 @@ static cpu_mark cpu_now(void)
 }
 
 /* Sleeps until `deadline` (CLOCK_MONOTONIC ns) or until n threads have returned. */
-static void wait_edge(uint64_t deadline, unsigned n)
+static void wait_edge(done_gate *g, uint64_t deadline, unsigned n)
 {
     struct timespec ts = { (time_t)(deadline / 1000000000ull), (long)(deadline % 1000000000ull) };
-    pthread_mutex_lock(&done_mu);
-    while (done_n < n && bench_now_ns() < deadline)
-        if (pthread_cond_timedwait(&done_cv, &done_mu, &ts) == ETIMEDOUT)
+    pthread_mutex_lock(&g->mu);
+    while (g->n < n && bench_now_ns() < deadline)
+        if (pthread_cond_timedwait(&g->cv, &g->mu, &ts) == ETIMEDOUT)
             break;
-    pthread_mutex_unlock(&done_mu);
+    pthread_mutex_unlock(&g->mu);
 }
 
 static void close_all(int *fds, unsigned n)
@@ -532,9 +541,11 @@ int main(int argc, char **argv)
     bench_thread *ths = calloc(cfg.threads, sizeof *ths);
     bench_result *res = calloc(cfg.threads + 1, sizeof *res);
     pthread_t *tids = calloc(cfg.threads, sizeof *tids);
+    thread_arg *targs = calloc(cfg.threads, sizeof *targs);
+    done_gate gate = { .n = 0 };
     unsigned nfds = 0;
     int rc = 0;
-    if (!fds || !ths || !res || !tids) {
+    if (!fds || !ths || !res || !tids || !targs) {
         fprintf(stderr, "seamtex-bench: out of memory\n");
         rc = 1;
         goto done;
@@ -608,23 +619,28 @@ int main(int argc, char **argv)
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-    pthread_cond_init(&done_cv, &ca);
+    pthread_mutex_init(&gate.mu, NULL);
+    pthread_cond_init(&gate.cv, &ca);
     pthread_condattr_destroy(&ca);
     unsigned started = 0;
-    for (; started < cfg.threads; started++)
-        if (pthread_create(&tids[started], NULL, thread_main, &ths[started]) != 0) {
+    for (; started < cfg.threads; started++) {
+        targs[started] = (thread_arg){ &ths[started], &gate };
+        if (pthread_create(&tids[started], NULL, thread_main, &targs[started]) != 0) {
             fprintf(stderr, "seamtex-bench: cannot start thread %u\n", started);
             rc = 1;
             break;
         }
+    }
     /* the measured window's CPU: read at its edges by this thread, which sleeps between */
-    wait_edge(t_measure, started);
+    wait_edge(&gate, t_measure, started);
     cpu_mark w0 = cpu_now();
-    wait_edge(t_end, started);
+    wait_edge(&gate, t_end, started);
     cpu_mark w1 = cpu_now();
     cpu_mark win = { w1.cpu_s - w0.cpu_s, w1.vcsw - w0.vcsw, w1.ivcsw - w0.ivcsw, w0.t0, w1.t0 };
     for (unsigned t = 0; t < started; t++)
         pthread_join(tids[t], NULL);
+    pthread_cond_destroy(&gate.cv);
+    pthread_mutex_destroy(&gate.mu);
     double cpu_total = cpu_now().cpu_s;
 
     bench_result *all = &res[cfg.threads];
@@ -710,5 +726,6 @@ done:
     free(ths);
     free(res);
     free(tids);
+    free(targs);
     return rc;
 }
