@@ -119,14 +119,25 @@ typedef struct tc {
     float weight;          /* weight applied */
     unsigned pieces;
     int avx2;              /* Traverse's split_apply_avx2 (PT_LEAN on a CPU with AVX2) */
+    /* the read sweeps of a piece at resolution 0 (a 1 x 1 level: sweep_r1), or NULL (the
+     * general and per-tap builds: c->rd) */
+    void (*r1)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data);
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
 static inline float fminf_(float a, float b) { return a < b ? a : b; }
 
+/* The part of a kernel that depends on the footprint only (not on (u, v)): the resolution,
+ * the ellipse and the half extents of u, v, w (build_kernel's first steps). */
+typedef struct tk_shape {
+    int res;
+    float A, B, C;
+    float uw, vw, ww;
+} tk_shape;
+
 __attribute__((always_inline)) static inline void
-build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2, float width,
-             float blur, unsigned face_log2)
+build_shape(tk_shape *sh, float uw1, float vw1, float uw2, float vw2, float width, float blur,
+            unsigned face_log2)
 {
     const float sqrt3 = 1.7320508075688772f;
     /* the footprint's ellipse in (u, v) */
@@ -151,7 +162,7 @@ build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2
     /* minor radius -> resolution */
     float m = sqrtf(2.0f * (Ac * Cc - 0.25f * Bc * Bc) / (Ac + Cc + X));
     int r = pk_res_from_width(2.0f * m);
-    k->res = r > 0 ? r : 0;
+    sh->res = r > 0 ? r : 0;
     /* back to the triangle domain, scaled to the kernel's extent */
     A = (float)(4 / 3.0) * Ac;
     B = (2 / sqrt3) * Bc + A;
@@ -160,16 +171,61 @@ build_kernel(tk *k, float u, float v, float uw1, float vw1, float uw2, float vw2
     A *= sc;
     B *= sc;
     C *= sc;
-    float uw = fminf_(sqrtf(C), 1.0f), vw = fminf_(sqrtf(A), 1.0f);
-    float ww = fminf_(sqrtf(A - B + C), 1.0f);
+    sh->uw = fminf_(sqrtf(C), 1.0f);
+    sh->vw = fminf_(sqrtf(A), 1.0f);
+    sh->ww = fminf_(sqrtf(A - B + C), 1.0f);
+    sh->A = A;
+    sh->B = B;
+    sh->C = C;
+}
+
+/* The kernel of shape sh centred at (u, v). */
+__attribute__((always_inline)) static inline void kernel_at(tk *k, const tk_shape *sh, float u,
+                                                            float v)
+{
+    float uw = sh->uw, vw = sh->vw, ww = sh->ww;
     float w = 1.0f - u - v;
+    k->res = sh->res;
     k->u = u;
     k->v = v;
     k->lo[0] = u - uw; k->lo[1] = v - vw; k->lo[2] = w - ww;
     k->hi[0] = u + uw; k->hi[1] = v + vw; k->hi[2] = w + ww;
-    k->A = A;
-    k->B = B;
-    k->C = C;
+    k->A = sh->A;
+    k->B = sh->B;
+    k->C = sh->C;
+}
+
+/* The last shape a batch built and what it was built from (the query's four derivatives'
+ * bits and the face's ulog2; the width and blur are the batch's): a query with the same
+ * footprint on a face of the same size (every query of a batch whose footprints repeat, as
+ * a renderer's neighbouring pixels often do) takes the shape instead of rebuilding it - the
+ * same function of the same inputs, so the same bits. */
+typedef struct tk_cache {
+    int valid;
+    unsigned face_log2;
+    uint32_t key[4];
+    tk_shape sh;
+} tk_cache;
+
+__attribute__((always_inline)) static inline void
+build_kernel(tk *k, float u, float v, const st_query *q, float width, float blur,
+             unsigned face_log2, tk_cache *kc)
+{
+    if (kc) {
+        uint32_t key[4];
+        memcpy(key, &q->dudx, 16);
+        if (!(kc->valid && kc->face_log2 == face_log2 && memcmp(key, kc->key, 16) == 0)) {
+            build_shape(&kc->sh, q->dudx, q->dvdx, q->dudy, q->dvdy, width, blur, face_log2);
+            kc->valid = 1;
+            kc->face_log2 = face_log2;
+            memcpy(kc->key, key, 16);
+        }
+        kernel_at(k, &kc->sh, u, v);
+        return;
+    }
+    tk_shape sh;
+    build_shape(&sh, q->dudx, q->dvdx, q->dudy, q->dvdy, width, blur, face_log2);
+    kernel_at(k, &sh, u, v);
 }
 
 /* The piece of k past edge e of its face (where coordinate i, 0 on that edge, is below 0: k
@@ -1667,6 +1723,81 @@ PT_SWEEP_NC(1)
 PT_SWEEP_NC(2)
 PT_SWEEP_NC(3)
 
+/* The read sweeps (c->rd, sweep2_t with constant set) of a piece clamped into its face at
+ * resolution 0, whose level is one texel, without walking rows: the clamped bounds (each in
+ * [0, 1], the upper ones at most 1 minus the other two lower ones) give the upright sweep, when
+ * valid, the bounds lo {0, 0, 0}, hi {1, 1, 1} (ceil of a value in [-1/3, 2/3]), so one row
+ * (y 0) of one tap (x 0), and the inverted sweep, when valid, lo {0, 0, -1}, hi {1, 1, 0},
+ * so no row (y from R - hi[2] - hi[0] + 1 = 1 to hi[1] = 1): row_span's Q of the one tap,
+ * its expf when Q < 1, then what sweep_t does after its rows - the same operations on the
+ * same values. Other bounds (not seen: a NaN kernel has no valid sweep) go to c->rd. */
+__attribute__((always_inline)) static inline void sweep_r1_t(tc *c, const ti *ev, const ti *od,
+                                                             const uint8_t *data, unsigned DT,
+                                                             unsigned NC)
+{
+    static const int ev_b[6] = {0, 0, 0, 1, 1, 1}, od_b[6] = {0, 0, -1, 1, 1, 0};
+    if ((ev->valid && memcmp(ev->lo, ev_b, sizeof ev_b) != 0) ||
+        (od->valid && memcmp(od->lo, od_b, sizeof od_b) != 0)) {
+        c->rd(c, ev, od, data, 1);
+        return;
+    }
+    const pt_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
+    const pt_v4f tv = texel_vec(data, zero, DT, NC);
+    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+    pt_v4f acc = c->acc;
+    float w = c->weight;
+    for (int odd = 0; odd < 2; odd++) {
+        const ti *it = odd ? od : ev;
+        if (!it->valid)
+            continue;
+        if (NC < 4) { /* lane 3 to +0, as sweep_t */
+            pt_v4i keep = {-1, -1, -1, 0}, bits;
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wsum4 = 0.0f;
+        if (!odd) { /* the one tap */
+            int x1, x2;
+            float Q, DQ;
+            row_span(it, 1, 0, &x1, &x2, &Q, &DQ);
+            if (Q < 1.0f) {
+                float wt = expf(gs * Q) * it->wscale;
+                acc += one * wt;
+                if (NC == 4)
+                    wsum4 += wt;
+            }
+        }
+        float wsum = NC < 4 ? acc[3] : wsum4;
+        acc += tv * wsum;
+        w += wsum;
+    }
+    c->acc = acc;
+    c->weight = w;
+}
+
+#define PT_R1(DT, NC)                                                                        \
+    static void sweep_r1_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d)     \
+    {                                                                                        \
+        sweep_r1_t(c, ev, od, d, DT, NC);                                                    \
+    }
+#define PT_R1_NC(DT) PT_R1(DT, 1) PT_R1(DT, 2) PT_R1(DT, 3) PT_R1(DT, 4)
+PT_R1_NC(0)
+PT_R1_NC(1)
+PT_R1_NC(2)
+PT_R1_NC(3)
+
+typedef void (*sweep_r1_fnp)(tc *c, const ti *ev, const ti *od, const uint8_t *d);
+
+static sweep_r1_fnp sweep_r1_fn(unsigned dt, unsigned nc)
+{
+#define PT_ROW(DT) {sweep_r1_##DT##_1, sweep_r1_##DT##_2, sweep_r1_##DT##_3, sweep_r1_##DT##_4}
+    static const sweep_r1_fnp r1[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+    return r1[dt][nc - 1];
+}
+
 /* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
  * (tc.wt; kf: the piece's factors, shared by its two sweeps, the same values either sweep
  * would make). */
@@ -1759,6 +1890,10 @@ __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k,
     unsigned level = F->ulog2 - (unsigned)k->res;
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
+    if (k->res == 0 && c->r1) {
+        c->r1(c, ev, od, data);
+        return;
+    }
     c->rd(c, ev, od, data, constant);
 }
 
@@ -1902,7 +2037,7 @@ __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const
                                                           const st_sample_opts *o,
                                                           const st_query *q, float *out,
                                                           float *cov, int want_cov,
-                                                          const tc *proto)
+                                                          const tc *proto, tk_cache *kc)
 {
     uint32_t f = q->face;
     const st_face *F = &s->faces[f];
@@ -1920,8 +2055,7 @@ __attribute__((always_inline)) static inline int tri_eval(const st_set *s, const
     float u = q->u < 0.0f ? 0.0f : q->u > 1.0f ? 1.0f : q->u;
     float v = q->v < 0.0f ? 0.0f : q->v > 1.0f ? 1.0f : q->v;
     tk k;
-    build_kernel(&k, u, v, q->dudx, q->dvdx, q->dudy, q->dvdy, o->width > 0.0f ? o->width : 1.0f,
-                 o->blur, F->ulog2);
+    build_kernel(&k, u, v, q, o->width > 0.0f ? o->width : 1.0f, o->blur, F->ulog2, kc);
     tc c = *proto;
     if (o->mode == ST_MODE_TRAVERSE) {
 #ifdef PT_TRAV_AVX2
@@ -2058,13 +2192,19 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
         proto.wt = sweep_weight_lean_avx2;
 #endif
     proto.avx2 = lean_avx2(wmode);
+    /* the lean builds' own shortcuts (the kernel's shape reused, sweep_r1): the general and
+     * per-tap builds keep the long way, which the tests compare them with */
+    const int lean = wmode == PT_LEAN || wmode == PT_LEAN_BASE;
+    proto.r1 = lean ? sweep_r1_fn(proto.dt, nc) : NULL;
+    tk_cache kc = {.valid = 0};
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
         float *oi = out + i * nc, cov = 0.0f;
         int st = query_status(s, qi);
         if (st == ST_Q_OK) {
-            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL, &proto);
+            st = tri_eval(s, t, o, qi, oi, &cov, coverage != NULL, &proto,
+                          lean ? &kc : NULL);
         } else {
             for (unsigned ch = 0; ch < nc; ch++)
                 oi[ch] = NAN;

@@ -378,10 +378,14 @@ static void the_shared_exp2_is_within_3e_7_of_exp2(void **state)
  * whole-kernel weight) and their baseline instances (st_ptextri_batch_baseline: the same
  * sweeps without AVX2) against the general ones (st_ptextri_batch_general: row_clamp over
  * row_same, row_step and row_band_t): every output, coverage and status the same bits, on
- * every set and group above (with and without the coverage array) and on queries like
+ * every set and group above (with and without the coverage array), on queries like
  * bench_ptex's (uv uniform over the square, so half past the diagonal edge, isotropic
- * footprints of 2^-3 to 2^6 texels). Checks that the recurrence ran: Clamp's values differ
- * from the per-tap expf's in some groups. */
+ * footprints of 2^-3 to 2^6 texels) and on queries whose footprints repeat or change one
+ * derivative at a time. The lean builds' own shortcuts are checked the same way: the kernel's
+ * shape taken from the query before (same footprint and face size) and the read sweeps of
+ * pieces at resolution 0 (sweep_r1: the large footprints on triangle.ptx's 4-texel faces).
+ * Checks that the recurrence ran: Clamp's values differ from the per-tap expf's in some
+ * groups. */
 static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
 {
     (void)state;
@@ -397,8 +401,29 @@ static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
         if (!ss)
             continue;
         unsigned nc = ss->info.nchan;
-        for (int kind = 0; kind < 2; kind++) {
+        for (int kind = 0; kind < 3; kind++) {
             make_queries(ss, q, 6000u + (uint32_t)si);
+            if (kind == 2) { /* footprints that repeat (st_ptextri_batch reuses the kernel's
+                              * shape of the query before when its footprint and face size
+                              * are the same): a query keeps the last one's footprint (3 in
+                              * 4) or changes one of its four derivatives, on faces at
+                              * random; footprints in uv (not texels), a quarter texel to 64
+                              * texels of a 32-texel face */
+                rng = 8000u + (uint32_t)si;
+                float d[4] = {0.01f, 0.0f, 0.0f, 0.01f};
+                for (int i = 0; i < NQ; i++) {
+                    if (st_test_rndf(&rng) >= 0.75f) {
+                        int j = (int)(st_test_rndf(&rng) * 4.0f) & 3;
+                        d[j] = (j == 1 || j == 2 ? 0.5f : 1.0f) *
+                               exp2f(-7.0f + 8.0f * st_test_rndf(&rng));
+                    }
+                    uint32_t f = (uint32_t)(st_test_rndf(&rng) * (float)ss->info.nfaces) %
+                                 ss->info.nfaces;
+                    float u = st_test_rndf(&rng), v = st_test_rndf(&rng);
+                    q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = d[0], .dvdx = d[1],
+                                      .dudy = d[2], .dvdy = d[3]};
+                }
+            }
             if (kind == 1) { /* bench_ptex's random queries */
                 rng = 7000u + (uint32_t)si;
                 for (int i = 0; i < NQ; i++) {
