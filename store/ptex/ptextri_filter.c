@@ -122,6 +122,9 @@ typedef struct tc {
     /* the read sweeps of a piece at resolution 0 (a 1 x 1 level: sweep_r1), or NULL (the
      * general and per-tap builds: c->rd) */
     void (*r1)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data);
+    /* a piece at resolution 0 applied whole, without its sweeps' bounds (piece_r1: Traverse,
+     * Discard without coverage); 0: not done (the caller takes the long way) */
+    int (*p1)(struct tc *c, const tk *k, const uint8_t *data);
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1788,6 +1791,96 @@ PT_R1_NC(1)
 PT_R1_NC(2)
 PT_R1_NC(3)
 
+/* A piece k (its resolution 0) applied to a face whose 1 x 1 level is the texel at data, as
+ * iterators_clamped then sweep_r1 apply it, without making its two sweeps: the clamped
+ * bounds and the upright sweep's six index bounds by iterators' operations (lanes 0..3: lo
+ * 0..2, hi 0; hi 1, 2 from a second vector); valid exactly when they are {0, 0, 0} and
+ * {1, 1, 1} (sweep_r1's comment: a clamped bound is at least 0, an upper one at most 1, so
+ * these are the only bounds with hi > lo); then the one tap's Q as iterators and row_span
+ * make it (R = 1: fR * fR * .. is the value itself, 1 / R^2 is 1). The inverted sweep
+ * (valid or not) adds texel * 0 to the sums and 0 to the weight: nothing, for a finite
+ * texel; with a texel not finite this returns 0 and the caller takes the long way. Lane 3 of
+ * c->acc (scratch when NC < 4) is not what the long way leaves there. */
+__attribute__((always_inline)) static inline int piece_r1_t(tc *c, const tk *k,
+                                                            const uint8_t *data, unsigned DT,
+                                                            unsigned NC)
+{
+    const pt_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    const pt_v4f tv = texel_vec(data, zero, DT, NC);
+    if (mask4(tv * 0.0f == zero) != 15) /* inf * 0 and NaN * 0 are NaN */
+        return 0;
+    const float fR = 1.0f, third = (float)(1 / 3.0);
+    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
+    const pt_v4f one4 = {1.0f, 1.0f, 1.0f, 1.0f};
+#ifdef __SSE2__
+    lo = (pt_v4f)_mm_max_ps((__m128)lo, _mm_setzero_ps());
+    pt_v4f t = one4 - (__builtin_shufflevector(lo, lo, 1, 2, 0, 3) +
+                       __builtin_shufflevector(lo, lo, 2, 0, 1, 3));
+    hi = (pt_v4f)_mm_min_ps((__m128)hi, (__m128)t);
+#else
+    for (int i = 0; i < 3; i++)
+        lo[i] = fmaxf_(lo[i], 0.0f);
+    hi[0] = fminf_(hi[0], 1.0f - (lo[1] + lo[2]));
+    hi[1] = fminf_(hi[1], 1.0f - (lo[2] + lo[0]));
+    hi[2] = fminf_(hi[2], 1.0f - (lo[0] + lo[1]));
+#endif
+    (void)one4;
+    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
+    pt_v4f b = __builtin_shufflevector(hi, hi, 1, 2, 1, 2);
+    a = a * fR - third;
+    b = b * fR - third;
+    /* ceil_int4 outside |x| < 2^30 gives some other int, never 0 or 1 where the ceiling is
+     * not (2^30 and more are neither) */
+    const pt_v4i want_a = {0, 0, 0, 1}, want_b = {1, 1, 1, 1};
+    if (mask4(ceil_int4(a) == want_a) != 15 || mask4(ceil_int4(b) == want_b) != 15)
+        return 1; /* the upright sweep is not valid: nothing to add */
+    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
+    float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
+    float eu = k->u * fR - third, evv = k->v * fR - third;
+    float U = (float)0 - eu, V = (float)0 - evv; /* row_span at x = 0, y = 0 */
+    float Q = Ak * U * U + (Bk * U + Ck * V) * V;
+    if (Q < 1.0f) {
+        const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+        const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
+        pt_v4f acc = c->acc;
+        if (NC < 4) { /* lane 3 to +0, as sweep_t */
+            pt_v4i keep = {-1, -1, -1, 0}, bits;
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wt = expf(gs * Q) * 1.0f, wsum4 = 0.0f;
+        acc += one * wt;
+        if (NC == 4)
+            wsum4 += wt;
+        float wsum = NC < 4 ? acc[3] : wsum4;
+        c->acc = acc + tv * wsum;
+        c->weight += wsum;
+    }
+    return 1;
+}
+
+#define PT_P1(DT, NC)                                                                        \
+    static int piece_r1_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                    \
+    {                                                                                        \
+        return piece_r1_t(c, k, d, DT, NC);                                                  \
+    }
+#define PT_P1_NC(DT) PT_P1(DT, 1) PT_P1(DT, 2) PT_P1(DT, 3) PT_P1(DT, 4)
+PT_P1_NC(0)
+PT_P1_NC(1)
+PT_P1_NC(2)
+PT_P1_NC(3)
+
+typedef int (*piece_r1_fnp)(tc *c, const tk *k, const uint8_t *d);
+
+static piece_r1_fnp piece_r1_fn(unsigned dt, unsigned nc)
+{
+#define PT_ROW(DT) {piece_r1_##DT##_1, piece_r1_##DT##_2, piece_r1_##DT##_3, piece_r1_##DT##_4}
+    static const piece_r1_fnp p1[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+    return p1[dt][nc - 1];
+}
+
 typedef void (*sweep_r1_fnp)(tc *c, const ti *ev, const ti *od, const uint8_t *d);
 
 static sweep_r1_fnp sweep_r1_fn(unsigned dt, unsigned nc)
@@ -1874,11 +1967,16 @@ static void sweep_fns(unsigned dt, unsigned nc, int wmode, sweep_fn *rd, sweep_f
 /* Applies the piece k to face f (inside it): resolution clamped to the face's, extent to the
  * triangle; its two sweeps are left in ev, od. */
 __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k, uint32_t f,
-                                                                 ti *ev, ti *od, int AVX)
+                                                                 ti *ev, ti *od, int AVX,
+                                                                 int FUSE)
 {
     const st_face *F = &c->s->faces[f];
     if (k->res > (int)F->ulog2)
         k->res = F->ulog2;
+    /* FUSE (the caller does not read ev, od): a piece at resolution 0 by piece_r1 */
+    if (FUSE && k->res == 0 && c->p1 &&
+        c->p1(c, k, st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : F->ulog2)))
+        return;
 #ifdef PT_TRAV_AVX2
     if (AVX)
         iterators_clamped_avx2(k, k->res, ev, od);
@@ -1899,13 +1997,13 @@ __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k,
 
 static void apply_face_its(tc *c, tk *k, uint32_t f, ti *ev, ti *od)
 {
-    apply_face_its_t(c, k, f, ev, od, 0);
+    apply_face_its_t(c, k, f, ev, od, 0, 0);
 }
 
 static void apply_face(tc *c, tk *k, uint32_t f)
 {
     ti ev, od;
-    apply_face_its(c, k, f, &ev, &od);
+    apply_face_its_t(c, k, f, &ev, &od, 0, 1);
 }
 
 /* Whether two sweeps of one kernel (same centre, ellipse and resolution) visit the same taps,
@@ -1951,7 +2049,7 @@ static inline int kernel_in_face(const tk *k)
             split_apply##SUF(c, &ka, (uint32_t)F->adjface[e], depth + 1);                    \
         }                                                                                    \
         ti ev, od;                                                                           \
-        apply_face_its_t(c, k, f, &ev, &od, AVX);                                            \
+        apply_face_its_t(c, k, f, &ev, &od, AVX, 1);                                         \
     }
 PT_SPLIT(, , 0)
 #ifdef PT_TRAV_AVX2
@@ -2196,6 +2294,7 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
      * per-tap builds keep the long way, which the tests compare them with */
     const int lean = wmode == PT_LEAN || wmode == PT_LEAN_BASE;
     proto.r1 = lean ? sweep_r1_fn(proto.dt, nc) : NULL;
+    proto.p1 = lean ? piece_r1_fn(proto.dt, nc) : NULL;
     tk_cache kc = {.valid = 0};
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
