@@ -41,7 +41,11 @@
  * "Session 15, tri8"). Clamp's lean fold rows find their kept runs four rows at a time
  * (rows_kept4), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
  * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex.md,
- * "tri10").
+ * "tri10"). st_ptextri_batch and _baseline also take two shortcuts of their own (docs/ptex.md,
+ * "tri23"), which the general and per-tap builds do not, so the tests compare them: a query
+ * whose footprint and face size are the last query's reuses its kernel shape (tk_shape,
+ * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
+ * most) are applied whole (piece_r1) instead of by iterators and the sweeps.
  */
 #include "ptextri.h"
 
@@ -119,9 +123,6 @@ typedef struct tc {
     float weight;          /* weight applied */
     unsigned pieces;
     int avx2;              /* Traverse's split_apply_avx2 (PT_LEAN on a CPU with AVX2) */
-    /* the read sweeps of a piece at resolution 0 (a 1 x 1 level: sweep_r1), or NULL (the
-     * general and per-tap builds: c->rd) */
-    void (*r1)(struct tc *c, const ti *ev, const ti *od, const uint8_t *data);
     /* a piece at resolution 0 applied whole, without its sweeps' bounds (piece_r1: Traverse,
      * Discard without coverage); 0: not done (the caller takes the long way) */
     int (*p1)(struct tc *c, const tk *k, const uint8_t *data);
@@ -1726,81 +1727,21 @@ PT_SWEEP_NC(1)
 PT_SWEEP_NC(2)
 PT_SWEEP_NC(3)
 
-/* The read sweeps (c->rd, sweep2_t with constant set) of a piece clamped into its face at
- * resolution 0, whose level is one texel, without walking rows: the clamped bounds (each in
- * [0, 1], the upper ones at most 1 minus the other two lower ones) give the upright sweep, when
- * valid, the bounds lo {0, 0, 0}, hi {1, 1, 1} (ceil of a value in [-1/3, 2/3]), so one row
- * (y 0) of one tap (x 0), and the inverted sweep, when valid, lo {0, 0, -1}, hi {1, 1, 0},
- * so no row (y from R - hi[2] - hi[0] + 1 = 1 to hi[1] = 1): row_span's Q of the one tap,
- * its expf when Q < 1, then what sweep_t does after its rows - the same operations on the
- * same values. Other bounds (not seen: a NaN kernel has no valid sweep) go to c->rd. */
-__attribute__((always_inline)) static inline void sweep_r1_t(tc *c, const ti *ev, const ti *od,
-                                                             const uint8_t *data, unsigned DT,
-                                                             unsigned NC)
-{
-    static const int ev_b[6] = {0, 0, 0, 1, 1, 1}, od_b[6] = {0, 0, -1, 1, 1, 0};
-    if ((ev->valid && memcmp(ev->lo, ev_b, sizeof ev_b) != 0) ||
-        (od->valid && memcmp(od->lo, od_b, sizeof od_b) != 0)) {
-        c->rd(c, ev, od, data, 1);
-        return;
-    }
-    const pt_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
-    const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
-    const pt_v4f tv = texel_vec(data, zero, DT, NC);
-    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
-    pt_v4f acc = c->acc;
-    float w = c->weight;
-    for (int odd = 0; odd < 2; odd++) {
-        const ti *it = odd ? od : ev;
-        if (!it->valid)
-            continue;
-        if (NC < 4) { /* lane 3 to +0, as sweep_t */
-            pt_v4i keep = {-1, -1, -1, 0}, bits;
-            memcpy(&bits, &acc, 16);
-            bits &= keep;
-            memcpy(&acc, &bits, 16);
-        }
-        float wsum4 = 0.0f;
-        if (!odd) { /* the one tap */
-            int x1, x2;
-            float Q, DQ;
-            row_span(it, 1, 0, &x1, &x2, &Q, &DQ);
-            if (Q < 1.0f) {
-                float wt = expf(gs * Q) * it->wscale;
-                acc += one * wt;
-                if (NC == 4)
-                    wsum4 += wt;
-            }
-        }
-        float wsum = NC < 4 ? acc[3] : wsum4;
-        acc += tv * wsum;
-        w += wsum;
-    }
-    c->acc = acc;
-    c->weight = w;
-}
-
-#define PT_R1(DT, NC)                                                                        \
-    static void sweep_r1_##DT##_##NC(tc *c, const ti *ev, const ti *od, const uint8_t *d)     \
-    {                                                                                        \
-        sweep_r1_t(c, ev, od, d, DT, NC);                                                    \
-    }
-#define PT_R1_NC(DT) PT_R1(DT, 1) PT_R1(DT, 2) PT_R1(DT, 3) PT_R1(DT, 4)
-PT_R1_NC(0)
-PT_R1_NC(1)
-PT_R1_NC(2)
-PT_R1_NC(3)
-
-/* A piece k (its resolution 0) applied to a face whose 1 x 1 level is the texel at data, as
- * iterators_clamped then sweep_r1 apply it, without making its two sweeps: the clamped
- * bounds and the upright sweep's six index bounds by iterators' operations (lanes 0..3: lo
- * 0..2, hi 0; hi 1, 2 from a second vector); valid exactly when they are {0, 0, 0} and
- * {1, 1, 1} (sweep_r1's comment: a clamped bound is at least 0, an upper one at most 1, so
- * these are the only bounds with hi > lo); then the one tap's Q as iterators and row_span
- * make it (R = 1: fR * fR * .. is the value itself, 1 / R^2 is 1). The inverted sweep
- * (valid or not) adds texel * 0 to the sums and 0 to the weight: nothing, for a finite
- * texel; with a texel not finite this returns 0 and the caller takes the long way. Lane 3 of
- * c->acc (scratch when NC < 4) is not what the long way leaves there. */
+/* A piece k clamped into its face at resolution 0 (the face's 1 x 1 level: the texel at
+ * data), applied as iterators_clamped and c->rd (sweep2_t with constant set) apply it,
+ * without making its two sweeps or walking their rows. The clamped bounds are each at least
+ * 0, the upper ones at most 1 (1 minus two lower ones), so with R = 1 each index bound is the
+ * ceiling of a value in [-1/3, 2/3] or of a lower bound minus 1/3: the upright sweep is valid
+ * (hi > lo for u, v and w) exactly when its bounds are lo {0, 0, 0}, hi {1, 1, 1}, and then
+ * has one row (y 0) of one tap (x 0); the inverted sweep, when valid, has lo {0, 0, -1}, hi
+ * {1, 1, 0}, so no row (y from R - hi[2] - hi[0] + 1 = 1 to hi[1] = 1), and adds texel * 0 to
+ * the sums and 0 to the weight: nothing, for a finite texel. So: the upright sweep's bounds
+ * by iterators' operations (lanes lo 0..2, hi 0, then hi 1, 2; ceil_int4 outside
+ * |x| < 2^30 gives some int that is neither 0 nor 1, as the ceiling there is neither), the
+ * tap's Q as iterators and row_span make it (R = 1: fR * fR * .. is the value itself,
+ * 1 / R^2 is 1), its expf when Q < 1, then what sweep_t does after its rows - the same
+ * operations on the same values. A texel not finite returns 0 (the caller takes the long
+ * way). Lane 3 of c->acc (scratch when NC < 4) is not what the long way leaves there. */
 __attribute__((always_inline)) static inline int piece_r1_t(tc *c, const tk *k,
                                                             const uint8_t *data, unsigned DT,
                                                             unsigned NC)
@@ -1829,8 +1770,6 @@ __attribute__((always_inline)) static inline int piece_r1_t(tc *c, const tk *k,
     pt_v4f b = __builtin_shufflevector(hi, hi, 1, 2, 1, 2);
     a = a * fR - third;
     b = b * fR - third;
-    /* ceil_int4 outside |x| < 2^30 gives some other int, never 0 or 1 where the ceiling is
-     * not (2^30 and more are neither) */
     const pt_v4i want_a = {0, 0, 0, 1}, want_b = {1, 1, 1, 1};
     if (mask4(ceil_int4(a) == want_a) != 15 || mask4(ceil_int4(b) == want_b) != 15)
         return 1; /* the upright sweep is not valid: nothing to add */
@@ -1879,16 +1818,6 @@ static piece_r1_fnp piece_r1_fn(unsigned dt, unsigned nc)
     static const piece_r1_fnp p1[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
 #undef PT_ROW
     return p1[dt][nc - 1];
-}
-
-typedef void (*sweep_r1_fnp)(tc *c, const ti *ev, const ti *od, const uint8_t *d);
-
-static sweep_r1_fnp sweep_r1_fn(unsigned dt, unsigned nc)
-{
-#define PT_ROW(DT) {sweep_r1_##DT##_1, sweep_r1_##DT##_2, sweep_r1_##DT##_3, sweep_r1_##DT##_4}
-    static const sweep_r1_fnp r1[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
-#undef PT_ROW
-    return r1[dt][nc - 1];
 }
 
 /* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
@@ -1988,10 +1917,6 @@ __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k,
     unsigned level = F->ulog2 - (unsigned)k->res;
     int constant = (F->flags & ST_FACE_CONSTANT) || k->res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : level);
-    if (k->res == 0 && c->r1) {
-        c->r1(c, ev, od, data);
-        return;
-    }
     c->rd(c, ev, od, data, constant);
 }
 
@@ -2290,10 +2215,9 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
         proto.wt = sweep_weight_lean_avx2;
 #endif
     proto.avx2 = lean_avx2(wmode);
-    /* the lean builds' own shortcuts (the kernel's shape reused, sweep_r1): the general and
+    /* the lean builds' own shortcuts (the kernel's shape reused, piece_r1): the general and
      * per-tap builds keep the long way, which the tests compare them with */
     const int lean = wmode == PT_LEAN || wmode == PT_LEAN_BASE;
-    proto.r1 = lean ? sweep_r1_fn(proto.dt, nc) : NULL;
     proto.p1 = lean ? piece_r1_fn(proto.dt, nc) : NULL;
     tk_cache kc = {.valid = 0};
     int bad = 0;
