@@ -216,6 +216,10 @@ build_kernel(tk *k, float u, float v, const st_query *q, float width, float blur
              unsigned face_log2, tk_cache *kc)
 {
     if (kc) {
+        _Static_assert(offsetof(st_query, dvdx) == offsetof(st_query, dudx) + 4 &&
+                           offsetof(st_query, dudy) == offsetof(st_query, dudx) + 8 &&
+                           offsetof(st_query, dvdy) == offsetof(st_query, dudx) + 12,
+                       "the four derivatives adjacent");
         uint32_t key[4];
         memcpy(key, &q->dudx, 16);
         if (!(kc->valid && kc->face_log2 == face_log2 && memcmp(key, kc->key, 16) == 0)) {
