@@ -119,6 +119,8 @@ typedef struct pf {
     pf_r0x8_fn iso8;         /* kernel_iso's, the same */
     pf_q8_fn q8;             /* kernel_q8's taps 8 at a time (set when c->iso8 is), or NULL */
     pf_cst8_fn cst8;         /* kernel_cst8's kernels 8 at a time (with c->cst), or NULL */
+    pf_b8_fn b8;             /* kernel_declined_with's width-4 builds 8 at a time (with
+                              * c->small), or NULL */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1905,6 +1907,29 @@ static inline int kernel_handed(pf *c, const pk_params *pp, const st_sample_opts
     return eval_kernel(c, pp, o, qi, k, oi, cov);
 }
 
+/* A kernel c->b8 built (kernel_declined_with's build and strip, not empty; weight the
+ * weight its build returns), inside the face or not: kernel_declined_with's steps past its
+ * build - inside the face apply's window and the division where every mode keeps the
+ * weight, else kernel_handed's walk - else eval_kernel. Returns the status, *cov set. */
+__attribute__((always_inline)) static inline int kernel_built(pf *c, const pk_params *pp,
+                                                             const st_sample_opts *o,
+                                                             const st_query *qi, pk *k,
+                                                             float weight, float *oi,
+                                                             float *cov)
+{
+    if (pk_in_face(k)) {
+        if (keeps_whole(c, weight)) {
+            c->acc = (v4f){0, 0, 0, 0};
+            apply(c, k, (int)qi->face);
+            pf_put_scaled(oi, c->acc, 1.0f / (weight * one_value(c->dt)), c->nc);
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    } else if (c->small && kernel_walk_w(c, k, (int)qi->face, weight, oi, cov))
+        return ST_Q_OK;
+    return eval_kernel(c, pp, o, qi, k, oi, cov);
+}
+
 /* kernel_qi's steps past its checks for a query that passed them (face f plain, (u, v) in
  * [0, 1)), the fused path offered (fast) or not (a width-4 kernel it declines): px the face's
  * row of the table, bu, bv the widths with width and blur applied. Returns the status,
@@ -1933,7 +1958,8 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
 }
 
 /* Lane j of a block of kernel_run_with (query ii): its kernel handed over by the 8-query
- * fused path (handed: kh, its weight kwh) to kernel_handed, else serve for a query that
+ * fused path (handed 1: kh, its weight kwh) to kernel_handed, or built by c->b8 (handed 2)
+ * to kernel_built, else serve for a query that
  * failed the lanes' checks, else kernel_plain; coverage and status written. Returns 1 when
  * it failed. */
 __attribute__((always_inline)) static inline int kernel_lane(
@@ -1945,7 +1971,8 @@ __attribute__((always_inline)) static inline int kernel_lane(
     int st;
     if (handed) {
         cov = 1.0f;
-        st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov);
+        st = handed == 2 ? kernel_built(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov)
+                         : kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov);
     } else if (k->cst >> j & 1) { /* checked, on a constant face open_face opens */
         cov = 1.0f;
         st = kernel_const(c, pp, o, q + ii, &c->s->faces[q[ii].face], out + ii * nc, &cov);
@@ -2124,6 +2151,9 @@ __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *p
  * widths from the same vector. A query that fails the checks goes through serve
  * (one_query, kernel_q: what it did before, in full). Coverage and status written directly.
  * Returns the number that failed. */
+#ifndef B8_MIN
+#define B8_MIN 3
+#endif
 __attribute__((always_inline)) static inline int kernel_run_with(
     pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn, const st_query *q,
     size_t n, float *out, float *coverage, uint8_t *status, pf_kernel_lanes_fn kl,
@@ -2143,7 +2173,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
     size_t i = 0;
     if (kl) {
         pk ks[8];
-        float kw[8];
+        float kw[8], kwb[8];
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
@@ -2160,10 +2190,16 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             }
             unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = cs;
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
+                /* the width-4 kernels of the lanes not offered to the fused path, which
+                 * kernel_declined_with builds one by one, built 8 at a time where c->b8
+                 * takes them (bl; ks, kwb): kernel_lane gives them to kernel_built */
+                unsigned bl = 0, nf = k.plain & ~(k.fast | k.cst | k.nonb | cs) & 0xffu;
+                if (__builtin_popcount(nf) >= B8_MIN && c->b8)
+                    bl = c->b8(pp, &k, nf, ks, kwb);
                 for (unsigned m = ~cs & 0xffu; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
-                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
-                                       coverage, status, nc);
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, (bl >> j & 1) << 1,
+                                       &ks[j], kwb[j], out, coverage, status, nc);
                 }
                 continue;
             }
@@ -2278,6 +2314,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;
     c.iso8 = c.small && w4 ? pf_iso8_select(c.dt, c.nc) : NULL;
     c.q8 = c.iso8 ? pf_q8_select() : NULL;
+    c.b8 = c.small && w4 ? pf_b8_select(o->filter) : NULL;
     c.cst8 = c.cst && o->filter >= ST_FILTER_PTEX_BOX ? pf_cst8_select(o->filter) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
