@@ -22,7 +22,9 @@
  * pf_w4x8_select for the width-4 filters, pf_box8_select for the box; kernels inside a
  * constant face through pf_cst8_select, and on faces without neighbours the folds of width-4
  * kernels of a quarter face or more through pf_r0x8_select, pf_iso8_select and
- * pf_q8_select), and calls the fused path per query for the lanes left). A
+ * pf_q8_select; in blocks with under 3 fused-path lanes, the width-4 kernels that
+ * kernel_declined_with would build one by one through pf_b8_select, handed to kernel_built),
+ * and calls the fused path per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
@@ -2139,6 +2141,10 @@ __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *p
     return bad;
 }
 
+/* The fewest lanes of a block worth c->b8 (about 1100 instructions a block against about 240
+ * a kernel built by kernel_declined_with: callgrind, teapot gaussian). */
+enum { B8_MIN = 4 };
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * open_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
@@ -2151,9 +2157,6 @@ __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *p
  * widths from the same vector. A query that fails the checks goes through serve
  * (one_query, kernel_q: what it did before, in full). Coverage and status written directly.
  * Returns the number that failed. */
-#ifndef B8_MIN
-#define B8_MIN 3
-#endif
 __attribute__((always_inline)) static inline int kernel_run_with(
     pf *c, const pk_params *pp, const st_sample_opts *o, pf_query_fn qfn, const st_query *q,
     size_t n, float *out, float *coverage, uint8_t *status, pf_kernel_lanes_fn kl,

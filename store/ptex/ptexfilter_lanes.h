@@ -177,7 +177,8 @@ pf_q8_fn pf_q8_select(void);
  * overhangs the face get in kout[lane] the kernel pk_build_w4s + strip_w4 make (bit for
  * bit: the weights from index 0, ku0 and kv0 the first nonzero taps) and in wout[lane] the
  * weight pk_build_w4s returns; their mask is returned (kout and wout untouched in the other
- * lanes). NULL without AVX2 + FMA + F16C or off x86. */
+ * lanes). Lanes whose widths as given are both 1 or more (kernel_r0's) are left; so are all
+ * when under 4 of m remain (the per-query build is cheaper then). NULL without AVX2 + FMA + F16C or off x86. */
 typedef unsigned (*pf_b8_fn)(const pk_params *p, const pf_klanes *k, unsigned m, pk *kout,
                              float *wout);
 pf_b8_fn pf_b8_select(unsigned ftype);

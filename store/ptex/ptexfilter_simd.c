@@ -52,6 +52,13 @@
  * lane gives); for the others per lane served, fast_body's window with the lane's shape as
  * constants (box8_win: the same function, its loops unrolled).
  *
+ * The width-4 kernels the per-query path builds itself (pf_b8_select: a width of a quarter
+ * face or more, or a face under 8 x 8 texels; ptexfilter.c's kernel_declined_with), 8 at a
+ * time in blocks that offer the 8-query fused path under 3 lanes: pk_width4_axis' four
+ * bands of the clamped width lane by lane (under 1/4 and [1/4, 1/2) evaluated as one, their
+ * taps x1 + i step; [1/2, 1) and 1 or more hermite taps), the strip and the weight, the
+ * kernels and weights handed to ptexfilter.c's kernel_built (apply, the walk or eval_kernel).
+ *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
@@ -2808,16 +2815,20 @@ PF_TARGET void tr8x8(const __m256 a[8], __m256 r[8])
 PF_TARGET unsigned b8(const pk_params *p, const pf_klanes *k, unsigned m, pk *kout, float *wout,
                       int GAUSS)
 {
+    /* not kernel_r0's (both widths as given 1 or more); under 4 lanes left: none (the
+     * per-query build costs less) */
+    const __m256 c1 = _mm256_set1_ps(1.0f);
+    __m256 r0 = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(k->bu), c1, _CMP_GE_OQ),
+                              _mm256_cmp_ps(_mm256_loadu_ps(k->bv), c1, _CMP_GE_OQ));
+    m &= ~(unsigned)_mm256_movemask_ps(r0);
+    if (__builtin_popcount(m) < 4)
+        return 0;
     b8_ax au, av;
     __m256i lgu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
     __m256i lgv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
     b8_axis(p, _mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lgu, m, GAUSS, &au);
     b8_axis(p, _mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lgv, m, GAUSS, &av);
-    /* not kernel_r0's (both widths as given 1 or more) */
-    const __m256 c1 = _mm256_set1_ps(1.0f);
-    __m256 r0 = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(k->bu), c1, _CMP_GE_OQ),
-                              _mm256_cmp_ps(_mm256_loadu_ps(k->bv), c1, _CMP_GE_OQ));
-    __m256 ok = _mm256_andnot_ps(r0, _mm256_and_ps(au.ok, av.ok));
+    __m256 ok = _mm256_and_ps(au.ok, av.ok);
     m &= (unsigned)_mm256_movemask_ps(ok);
     if (!m)
         return 0;
