@@ -1960,8 +1960,7 @@ __attribute__((always_inline)) static inline int kernel_plain(pf *c, const pk_pa
 }
 
 /* Lane j of a block of kernel_run_with (query ii): its kernel handed over by the 8-query
- * fused path (handed 1: kh, its weight kwh) to kernel_handed, or built by c->b8 (handed 2)
- * to kernel_built, else serve for a query that
+ * fused path (handed: kh, its weight kwh) to kernel_handed, else serve for a query that
  * failed the lanes' checks, else kernel_plain; coverage and status written. Returns 1 when
  * it failed. */
 __attribute__((always_inline)) static inline int kernel_lane(
@@ -1973,8 +1972,7 @@ __attribute__((always_inline)) static inline int kernel_lane(
     int st;
     if (handed) {
         cov = 1.0f;
-        st = handed == 2 ? kernel_built(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov)
-                         : kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov);
+        st = kernel_handed(c, pp, o, q + ii, kh, kwh, out + ii * nc, &cov);
     } else if (k->cst >> j & 1) { /* checked, on a constant face open_face opens */
         cov = 1.0f;
         st = kernel_const(c, pp, o, q + ii, &c->s->faces[q[ii].face], out + ii * nc, &cov);
@@ -2195,14 +2193,26 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
                 /* the width-4 kernels of the lanes not offered to the fused path, which
                  * kernel_declined_with builds one by one, built 8 at a time where c->b8
-                 * takes them (bl; ks, kwb): kernel_lane gives them to kernel_built */
+                 * takes them (bl; ks, kwb) and given to kernel_built, coverage and status
+                 * written; then the other lanes (each query on its own: any order) */
                 unsigned bl = 0, nf = k.plain & ~(k.fast | k.cst | k.nonb | cs) & 0xffu;
                 if (__builtin_popcount(nf) >= B8_MIN && c->b8)
                     bl = c->b8(pp, &k, nf, ks, kwb);
-                for (unsigned m = ~cs & 0xffu; m; m &= m - 1) {
+                for (unsigned m = bl; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
-                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, (bl >> j & 1) << 1,
-                                       &ks[j], kwb[j], out, coverage, status, nc);
+                    size_t ii = i + j;
+                    float cov = 1.0f;
+                    int st = kernel_built(c, pp, o, q + ii, &ks[j], kwb[j], out + ii * nc, &cov);
+                    if (coverage)
+                        coverage[ii] = cov;
+                    if (status)
+                        status[ii] = (uint8_t)st;
+                    bad += st != ST_Q_OK;
+                }
+                for (unsigned m = ~(cs | bl) & 0xffu; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
+                    bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
+                                       coverage, status, nc);
                 }
                 continue;
             }
