@@ -275,8 +275,8 @@ static void rel_query(const st_set *s, const float *rel, int j, st_query *q)
  * to kernel_built (inside the face: apply; else the walk; else eval_kernel). Widths per
  * axis drawn independently from every band and its edges (1/4, 1/2, 1, and kernel_r0's
  * both 1 or more, which pf_b8 leaves), scaled so that faces of 2 to 64 texels see each
- * band; (u, v) anywhere, on texel centres at resolutions 1, 2 and 4 (the bicubic family's
- * zero end taps, the hermite's zero second tap) or near an edge; the faces as they are, then
+ * band; (u, v) anywhere, on the texel centres of 2, 4 and 8-texel grids (the bicubic
+ * family's zero end taps, the hermite's zero second tap) or near an edge; the faces as they are, then
  * flagged constant and subface; every kernel filter, every mode, against the general path. */
 static long built8_file(st_set *s, st_query *q, const char *path)
 {
