@@ -2769,12 +2769,20 @@ PF_TARGET void b8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, unsi
         u1 = _mm256_blendv_epi8(u1, _mm256_cvttps_epi32(ui), _mm256_castps_si256(bc));
         r = _mm256_blendv_epi8(r, i0, _mm256_castps_si256(bc));
     }
-    if (GAUSS && !(mb | mc)) {
+    if (GAUSS) {
         /* the gaussian's taps are never zero (exp2 of at least -126; NaN to -126): the
-         * evaluated ones kept whole, the first at 0 */
+         * evaluated ones kept whole, the first at 0; the hermite lanes' ends from their 4
+         * taps (+0 past them) */
         _Pragma("GCC unroll 8") for (int i = 0; i < 8; i++) sum = _mm256_add_ps(sum, o->t[i]);
         a = i0;
         b = _mm256_sub_epi32(kw, _mm256_set1_epi32(1));
+        if (mb | mc) {
+            __m256i ah = _mm256_set1_epi32(8), bh = _mm256_set1_epi32(-1);
+            _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++) nz_ends8(o->t[i], i, &ah, &bh);
+            __m256i hm = _mm256_castps_si256(_mm256_or_ps(bb, bc));
+            a = _mm256_blendv_epi8(a, ah, hm);
+            b = _mm256_blendv_epi8(b, bh, hm);
+        }
     } else {
         _Pragma("GCC unroll 8") for (int i = 0; i < 8; i++) {
             sum = _mm256_add_ps(sum, o->t[i]);
