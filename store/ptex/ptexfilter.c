@@ -22,7 +22,9 @@
  * pf_w4x8_select for the width-4 filters, pf_box8_select for the box; kernels inside a
  * constant face through pf_cst8_select, and on faces without neighbours the folds of width-4
  * kernels of a quarter face or more through pf_r0x8_select, pf_iso8_select and
- * pf_q8_select), and calls the fused path per query for the lanes left). A
+ * pf_q8_select; in blocks with under 3 fused-path lanes, the width-4 kernels that
+ * kernel_declined_with would build one by one through pf_b8_select, handed to kernel_built),
+ * and calls the fused path per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers).
@@ -119,6 +121,8 @@ typedef struct pf {
     pf_r0x8_fn iso8;         /* kernel_iso's, the same */
     pf_q8_fn q8;             /* kernel_q8's taps 8 at a time (set when c->iso8 is), or NULL */
     pf_cst8_fn cst8;         /* kernel_cst8's kernels 8 at a time (with c->cst), or NULL */
+    pf_b8_fn b8;             /* kernel_declined_with's width-4 builds 8 at a time (with
+                              * c->small), or NULL */
 } pf;
 
 static float one_value(unsigned dt)
@@ -1905,6 +1909,29 @@ static inline int kernel_handed(pf *c, const pk_params *pp, const st_sample_opts
     return eval_kernel(c, pp, o, qi, k, oi, cov);
 }
 
+/* A kernel c->b8 built (kernel_declined_with's build and strip, not empty; weight the
+ * weight its build returns), inside the face or not: kernel_declined_with's steps past its
+ * build - inside the face apply's window and the division where every mode keeps the
+ * weight, else kernel_handed's walk - else eval_kernel. Returns the status, *cov set. */
+__attribute__((always_inline)) static inline int kernel_built(pf *c, const pk_params *pp,
+                                                             const st_sample_opts *o,
+                                                             const st_query *qi, pk *k,
+                                                             float weight, float *oi,
+                                                             float *cov)
+{
+    if (pk_in_face(k)) {
+        if (keeps_whole(c, weight)) {
+            c->acc = (v4f){0, 0, 0, 0};
+            apply(c, k, (int)qi->face);
+            pf_put_scaled(oi, c->acc, 1.0f / (weight * one_value(c->dt)), c->nc);
+            *cov = 1.0f;
+            return ST_Q_OK;
+        }
+    } else if (c->small && kernel_walk_w(c, k, (int)qi->face, weight, oi, cov))
+        return ST_Q_OK;
+    return eval_kernel(c, pp, o, qi, k, oi, cov);
+}
+
 /* kernel_qi's steps past its checks for a query that passed them (face f plain, (u, v) in
  * [0, 1)), the fused path offered (fast) or not (a width-4 kernel it declines): px the face's
  * row of the table, bu, bv the widths with width and blur applied. Returns the status,
@@ -2112,6 +2139,10 @@ __attribute__((noinline)) static int kernel_block_nonb(pf *c, const pk_params *p
     return bad;
 }
 
+/* The fewest lanes of a block worth c->b8 (about 1100 instructions a block against about 240
+ * a kernel built by kernel_declined_with: callgrind, teapot gaussian). */
+enum { B8_MIN = 4 };
+
 /* The batch of the box and width-4 filters with the fused path (qfn is kernel_q). Blocks of
  * 8 queries go through the kernel lanes (kl, ptexfilter_lanes.c, AVX2: one_query's and
  * open_face's checks and kernel_qi's widths and test, lane by lane), then (W8: w8, the box
@@ -2143,7 +2174,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
     size_t i = 0;
     if (kl) {
         pk ks[8];
-        float kw[8];
+        float kw[8], kwb[8];
         for (; i + 8 <= n; i += 8) {
             pf_klanes k;
             kl(lc, q + i, &k);
@@ -2160,7 +2191,25 @@ __attribute__((always_inline)) static inline int kernel_run_with(
             }
             unsigned done = 0, over = 0, f2 = k.fast & (k.fast - 1), r0 = cs;
             if (!W8 || !(f2 & (f2 - 1))) { /* under 3 lanes offered: one by one is less */
-                for (unsigned m = ~cs & 0xffu; m; m &= m - 1) {
+                /* the width-4 kernels of the lanes not offered to the fused path, which
+                 * kernel_declined_with builds one by one, built 8 at a time where c->b8
+                 * takes them (bl; ks, kwb) and given to kernel_built, coverage and status
+                 * written; then the other lanes (each query on its own: any order) */
+                unsigned bl = 0, nf = k.plain & ~(k.fast | k.cst | k.nonb | cs) & 0xffu;
+                if (__builtin_popcount(nf) >= B8_MIN && c->b8)
+                    bl = c->b8(pp, &k, nf, ks, kwb);
+                for (unsigned m = bl; m; m &= m - 1) {
+                    unsigned j = (unsigned)__builtin_ctz(m);
+                    size_t ii = i + j;
+                    float cov = 1.0f;
+                    int st = kernel_built(c, pp, o, q + ii, &ks[j], kwb[j], out + ii * nc, &cov);
+                    if (coverage)
+                        coverage[ii] = cov;
+                    if (status)
+                        status[ii] = (uint8_t)st;
+                    bad += st != ST_Q_OK;
+                }
+                for (unsigned m = ~(cs | bl) & 0xffu; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);
                     bad += kernel_lane(c, pp, o, qfn, q, i + j, &k, j, 0, NULL, 0.0f, out,
                                        coverage, status, nc);
@@ -2278,6 +2327,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.r0x8 = c.small && w4 ? pf_r0x8_select(c.dt, c.nc) : NULL;
     c.iso8 = c.small && w4 ? pf_iso8_select(c.dt, c.nc) : NULL;
     c.q8 = c.iso8 ? pf_q8_select() : NULL;
+    c.b8 = c.small && w4 ? pf_b8_select(o->filter) : NULL;
     c.cst8 = c.cst && o->filter >= ST_FILTER_PTEX_BOX ? pf_cst8_select(o->filter) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,

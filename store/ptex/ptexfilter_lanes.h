@@ -169,6 +169,20 @@ typedef unsigned (*pf_q8_fn)(const pk_params *p, const pf_klanes *k, unsigned m,
                              int blv, int discard, unsigned dt, pf_q8 *t);
 pf_q8_fn pf_q8_select(void);
 
+/* The width-4 filters' kernels whose widths, after pk_width4_axis' clamp of a width to a
+ * texel of the face, are in [1/4, 1) along each axis (resolution 2 with 4 or 6 evaluated
+ * taps from an even texel, or resolution 1 with 4 hermite taps), built 8 at a time for the
+ * per-query path (ptexfilter.c's kernel_declined_with): of the lanes of m (plain lanes that
+ * path would build, k: klanes8's set-up), those whose kernel keeps a tap on each axis and
+ * overhangs the face get in kout[lane] the kernel pk_build_w4s + strip_w4 make (bit for
+ * bit: the weights from index 0, ku0 and kv0 the first nonzero taps) and in wout[lane] the
+ * weight pk_build_w4s returns; their mask is returned (kout and wout untouched in the other
+ * lanes). Lanes whose widths as given are both 1 or more (kernel_r0's) are left; so are all
+ * when under 4 of m remain (the per-query build is cheaper then). NULL without AVX2 + FMA + F16C or off x86. */
+typedef unsigned (*pf_b8_fn)(const pk_params *p, const pf_klanes *k, unsigned m, pk *kout,
+                             float *wout);
+pf_b8_fn pf_b8_select(unsigned ftype);
+
 /* The box's and the width-4 filters' kernels inside a constant face (ptexfilter.c's
  * const_inside), 8 at a time after klanes8 (k): of the lanes of m (of k->cst), those whose
  * kernel - the box's as pk_build makes it, or a width-4 filter's of a width under 1/4 once

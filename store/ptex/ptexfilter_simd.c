@@ -52,6 +52,13 @@
  * lane gives); for the others per lane served, fast_body's window with the lane's shape as
  * constants (box8_win: the same function, its loops unrolled).
  *
+ * The width-4 kernels the per-query path builds itself (pf_b8_select: a width of a quarter
+ * face or more, or a face under 8 x 8 texels; ptexfilter.c's kernel_declined_with), 8 at a
+ * time in blocks that offer the 8-query fused path under 3 lanes: pk_width4_axis' four
+ * bands of the clamped width lane by lane (under 1/4 and [1/4, 1/2) evaluated as one, their
+ * taps x1 + i step; [1/2, 1) and 1 or more hermite taps), the strip and the weight, the
+ * kernels and weights handed to ptexfilter.c's kernel_built (apply, the walk or eval_kernel).
+ *
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
@@ -2640,6 +2647,248 @@ pf_q8_fn pf_q8_select(void)
     return pf_have_avx2() ? q8 : NULL;
 }
 
+/* One axis of pf_b8 for 8 lanes (x the coordinates, bw the widths, lg the faces' log2
+ * sizes; m the lanes wanted): pk_width4_axis after its clamp of the width w to a texel of
+ * the face (NaN to it too), in its three bands of widths under 1 (the lanes past 1 are
+ * not ok). Under 1/4: resolution r = res_from_width(w) (the exponent's), upix = x 2^r -
+ * 1/2, uwpix = w 2^r, taps from (int)ceil(upix - 2 uwpix) to (int)ceil(upix + 2 uwpix)
+ * (4 to 8: uwpix is in [1, 2)), x1 = (u1 - upix) / uwpix, step 1 / uwpix. [1/4, 1/2):
+ * resolution 2, upix = 4 x - 1/2, taps from (int)ceil(upix - 2) rounded down to even to
+ * (int)ceil(upix + 2) + 1 rounded down to even (4 or 6), x1 = u1 - upix, step 1: the
+ * first band's steps with uwpix 1 (a division by 1 and a product with 1 are exact), so
+ * one evaluation for both, x1 + i step as pf_kernel_eval2_avx2 evaluates it. [1/2, 1):
+ * resolution 1, 4 taps from pk_ifloor(x - 1/2) * 2, pk_width4_axis' hermite weights with
+ * its operations in its order (((x1 + {0, 0, 2, 2}) + {0, 1, 0, 1}) * s, |.|, ((2x - 3) x)
+ * x + 1 below 1, else 0). t[0..8) the taps (+0 past the last), s their sum in order from 0
+ * (pk_accumulate of the stripped ones: zero taps add +0, and no such sum is -0), then
+ * pk_strip_zeros' window: the first nonzero tap k0, the window's first texel at and its n
+ * taps; ok: a band and a nonzero tap. */
+typedef struct {
+    __m256 t[8], s, ok;
+    __m256i lg, at, n, k0;
+} b8_ax;
+
+PF_TARGET void b8_axis(const pk_params *p, __m256 x, __m256 bw, __m256i lg, unsigned m,
+                       int GAUSS, b8_ax *o)
+{
+    const __m256 q4 = _mm256_set1_ps(.25f), h = _mm256_set1_ps(.5f), c1 = _mm256_set1_ps(1.0f);
+    const __m256 c2 = _mm256_set1_ps(2.0f), z = _mm256_setzero_ps();
+    const __m256i e127 = _mm256_set1_epi32(127), i0 = _mm256_setzero_si256();
+    const __m256i even = _mm256_set1_epi32(~1);
+    __m256 w = pf_w4_clamp8(bw, lg);
+    __m256 lth = _mm256_cmp_ps(w, h, _CMP_LT_OQ), ltq = _mm256_cmp_ps(w, q4, _CMP_LT_OQ);
+    __m256 ba = _mm256_andnot_ps(ltq, lth);                               /* [1/4, 1/2) */
+    __m256 bb = _mm256_andnot_ps(lth, _mm256_cmp_ps(w, c1, _CMP_LT_OQ)); /* [1/2, 1) */
+    __m256 bc = _mm256_cmp_ps(w, c1, _CMP_GE_OQ);                        /* 1 or more */
+    __m256 be = _mm256_or_ps(ltq, ba);                                    /* evaluated */
+    __m256i bai = _mm256_castps_si256(ba);
+    unsigned me = (unsigned)_mm256_movemask_ps(be) & m, mb = (unsigned)_mm256_movemask_ps(bb) & m;
+    unsigned mc = (unsigned)_mm256_movemask_ps(bc) & m;
+    __m256i u1 = i0, kw = i0;
+    __m256i r = _mm256_sub_epi32(e127, _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(w), 23),
+                                                        _mm256_set1_epi32(0xff)));
+    r = _mm256_min_epi32(_mm256_max_epi32(r, i0), _mm256_set1_epi32(30));
+    r = _mm256_blendv_epi8(r, _mm256_set1_epi32(2), bai);
+    __m256 sum = z;
+    __m256i a = _mm256_set1_epi32(8), b = _mm256_set1_epi32(-1);
+    _Pragma("GCC unroll 8") for (int i = 0; i < 8; i++) o->t[i] = z;
+    if (me) {
+        __m256 rf = _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(r, e127), 23));
+        __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, rf), h);
+        __m256 uwpix = _mm256_blendv_ps(_mm256_mul_ps(w, rf), c1, ba);
+        __m256 dupix = _mm256_mul_ps(c2, uwpix);
+        u1 = iceil8(_mm256_sub_ps(upix, dupix));
+        __m256i u2 = iceil8(_mm256_add_ps(upix, dupix));
+        u1 = _mm256_blendv_epi8(u1, _mm256_and_si256(u1, even), bai);
+        u2 = _mm256_blendv_epi8(u2, _mm256_and_si256(_mm256_add_epi32(u2, _mm256_set1_epi32(1)), even),
+                                bai);
+        kw = _mm256_sub_epi32(u2, u1);
+        /* at most 8 taps (always but where float spacing at 2^r texels is too coarse) */
+        be = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(kw, _mm256_set1_epi32(8))),
+                              be);
+        kw = _mm256_and_si256(kw, _mm256_castps_si256(be));
+        __m256 x1 = _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(u1), upix), uwpix);
+        __m256 st = _mm256_div_ps(c1, uwpix);
+        /* the taps of the wanted lanes' longest kernel */
+        __m256i kmax = _mm256_and_si256(
+            kw, _mm256_castps_si256(_mm256_and_ps(be, _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                                                           _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128) &
+                                                               _mm256_set1_epi32((int)m),
+                                                           i0)))));
+        kmax = _mm256_max_epi32(kmax, _mm256_shuffle_epi32(kmax, 0x4e));
+        kmax = _mm256_max_epi32(kmax, _mm256_shuffle_epi32(kmax, 0xb1));
+        kmax = _mm256_max_epi32(kmax, _mm256_permute2x128_si256(kmax, kmax, 1));
+        int nt = _mm256_cvtsi256_si32(kmax);
+        _Pragma("GCC unroll 8") for (int i = 0; i < 8; i++) {
+            if (i >= nt)
+                break;
+            __m256 t = kernel8_as(p, _mm256_add_ps(x1, _mm256_mul_ps(_mm256_set1_ps((float)i), st)),
+                                  GAUSS);
+            o->t[i] = _mm256_and_ps(t, _mm256_castsi256_ps(_mm256_cmpgt_epi32(kw, _mm256_set1_epi32(i))));
+        }
+    }
+    if (mb) {
+        __m256 upix = _mm256_sub_ps(_mm256_mul_ps(x, c2), h);
+        __m256i ku = _mm256_slli_epi32(_mm256_cvttps_epi32(_mm256_floor_ps(_mm256_sub_ps(x, h))), 1);
+        __m256 x1 = _mm256_sub_ps(_mm256_cvtepi32_ps(ku), upix);
+        __m256 s = _mm256_div_ps(c1, _mm256_add_ps(_mm256_mul_ps(w, _mm256_set1_ps(1.5f)), h));
+        const __m256 ab = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+        _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++) {
+            __m256 xi = _mm256_add_ps(_mm256_add_ps(x1, _mm256_set1_ps(i & 2 ? 2.0f : 0.0f)),
+                                      _mm256_set1_ps(i & 1 ? 1.0f : 0.0f));
+            xi = _mm256_and_ps(_mm256_mul_ps(xi, s), ab);
+            __m256 hh = _mm256_add_ps(
+                _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(c2, xi),
+                                                          _mm256_set1_ps(3.0f)),
+                                            xi),
+                              xi),
+                c1);
+            hh = _mm256_and_ps(hh, _mm256_and_ps(_mm256_cmp_ps(xi, c1, _CMP_LT_OQ), bb));
+            o->t[i] = _mm256_or_ps(o->t[i], hh); /* the evaluated lanes are +0 here */
+        }
+        u1 = _mm256_blendv_epi8(u1, ku, _mm256_castps_si256(bb));
+        r = _mm256_blendv_epi8(r, _mm256_set1_epi32(1), _mm256_castps_si256(bb));
+    }
+    if (mc) {
+        /* resolution 0, 2 taps from pk_floor(x - 1/2) (floor's value: they differ only in
+         * the sign of a zero, which the hermite's |.| drops), hermite_blur of the distance
+         * to it, then 1 minus that */
+        __m256 upix = _mm256_sub_ps(x, h);
+        __m256 ui = _mm256_floor_ps(upix);
+        __m256 d = _mm256_and_ps(_mm256_sub_ps(upix, ui),
+                                 _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)));
+        __m256 w0 = _mm256_add_ps(
+            _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(c2, d), _mm256_set1_ps(3.0f)),
+                                        d),
+                          d),
+            c1);
+        w0 = _mm256_and_ps(w0, _mm256_cmp_ps(d, c1, _CMP_LT_OQ));
+        __m256 w1 = _mm256_sub_ps(c1, w0);
+        o->t[0] = _mm256_or_ps(o->t[0], _mm256_and_ps(w0, bc)); /* the others' lanes: +0 */
+        o->t[1] = _mm256_or_ps(o->t[1], _mm256_and_ps(w1, bc));
+        u1 = _mm256_blendv_epi8(u1, _mm256_cvttps_epi32(ui), _mm256_castps_si256(bc));
+        r = _mm256_blendv_epi8(r, i0, _mm256_castps_si256(bc));
+    }
+    if (GAUSS) {
+        /* the gaussian's taps are never zero (exp2 of at least -126; NaN to -126): the
+         * evaluated ones kept whole, the first at 0; the hermite lanes' ends from their 4
+         * taps (+0 past them) */
+        _Pragma("GCC unroll 8") for (int i = 0; i < 8; i++) sum = _mm256_add_ps(sum, o->t[i]);
+        a = i0;
+        b = _mm256_sub_epi32(kw, _mm256_set1_epi32(1));
+        if (mb | mc) {
+            __m256i ah = _mm256_set1_epi32(8), bh = _mm256_set1_epi32(-1);
+            _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++) nz_ends8(o->t[i], i, &ah, &bh);
+            __m256i hm = _mm256_castps_si256(_mm256_or_ps(bb, bc));
+            a = _mm256_blendv_epi8(a, ah, hm);
+            b = _mm256_blendv_epi8(b, bh, hm);
+        }
+    } else {
+        _Pragma("GCC unroll 8") for (int i = 0; i < 8; i++) {
+            sum = _mm256_add_ps(sum, o->t[i]);
+            nz_ends8(o->t[i], i, &a, &b);
+        }
+    }
+    o->lg = r;
+    o->s = sum;
+    o->ok = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(i0, b)),
+                             _mm256_or_ps(_mm256_or_ps(be, bb), bc));
+    o->k0 = a;
+    o->at = _mm256_add_epi32(u1, a);
+    o->n = _mm256_sub_epi32(_mm256_add_epi32(b, _mm256_set1_epi32(1)), a);
+}
+
+/* The 8 x 8 transpose: r[j] lane i = a[i] lane j. */
+PF_TARGET void tr8x8(const __m256 a[8], __m256 r[8])
+{
+    __m256 l01 = _mm256_unpacklo_ps(a[0], a[1]), h01 = _mm256_unpackhi_ps(a[0], a[1]);
+    __m256 l23 = _mm256_unpacklo_ps(a[2], a[3]), h23 = _mm256_unpackhi_ps(a[2], a[3]);
+    __m256 l45 = _mm256_unpacklo_ps(a[4], a[5]), h45 = _mm256_unpackhi_ps(a[4], a[5]);
+    __m256 l67 = _mm256_unpacklo_ps(a[6], a[7]), h67 = _mm256_unpackhi_ps(a[6], a[7]);
+    __m256 q0 = _mm256_shuffle_ps(l01, l23, 0x44), q1 = _mm256_shuffle_ps(l01, l23, 0xee);
+    __m256 q2 = _mm256_shuffle_ps(h01, h23, 0x44), q3 = _mm256_shuffle_ps(h01, h23, 0xee);
+    __m256 q4 = _mm256_shuffle_ps(l45, l67, 0x44), q5 = _mm256_shuffle_ps(l45, l67, 0xee);
+    __m256 q6 = _mm256_shuffle_ps(h45, h67, 0x44), q7 = _mm256_shuffle_ps(h45, h67, 0xee);
+    r[0] = _mm256_permute2f128_ps(q0, q4, 0x20);
+    r[1] = _mm256_permute2f128_ps(q1, q5, 0x20);
+    r[2] = _mm256_permute2f128_ps(q2, q6, 0x20);
+    r[3] = _mm256_permute2f128_ps(q3, q7, 0x20);
+    r[4] = _mm256_permute2f128_ps(q0, q4, 0x31);
+    r[5] = _mm256_permute2f128_ps(q1, q5, 0x31);
+    r[6] = _mm256_permute2f128_ps(q2, q6, 0x31);
+    r[7] = _mm256_permute2f128_ps(q3, q7, 0x31);
+}
+
+/* pf_b8_fn, GAUSS: the gaussian (else the bicubic family) */
+PF_TARGET unsigned b8(const pk_params *p, const pf_klanes *k, unsigned m, pk *kout, float *wout,
+                      int GAUSS)
+{
+    /* not kernel_r0's (both widths as given 1 or more); under 4 lanes left: none (the
+     * per-query build costs less) */
+    const __m256 c1 = _mm256_set1_ps(1.0f);
+    __m256 r0 = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(k->bu), c1, _CMP_GE_OQ),
+                              _mm256_cmp_ps(_mm256_loadu_ps(k->bv), c1, _CMP_GE_OQ));
+    m &= ~(unsigned)_mm256_movemask_ps(r0);
+    if (__builtin_popcount(m) < 4)
+        return 0;
+    b8_ax au, av;
+    __m256i lgu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);
+    __m256i lgv = _mm256_loadu_si256((const __m256i *)(const void *)k->vlog2);
+    b8_axis(p, _mm256_loadu_ps(k->u), _mm256_loadu_ps(k->bu), lgu, m, GAUSS, &au);
+    b8_axis(p, _mm256_loadu_ps(k->v), _mm256_loadu_ps(k->bv), lgv, m, GAUSS, &av);
+    __m256 ok = _mm256_and_ps(au.ok, av.ok);
+    m &= (unsigned)_mm256_movemask_ps(ok);
+    if (!m)
+        return 0;
+    float wt[8];
+    _mm256_storeu_ps(wt, _mm256_mul_ps(au.s, av.s)); /* pk_build_w4s' wu * wv */
+    _Static_assert(offsetof(pk, vlog2) == 4 && offsetof(pk, u) == 8 && offsetof(pk, v) == 12 &&
+                       offsetof(pk, uw) == 16 && offsetof(pk, vw) == 20 &&
+                       offsetof(pk, ku0) == 24 && offsetof(pk, kv0) == 28 &&
+                       offsetof(pk, rot) == 32 && PK_MAX >= 8,
+                   "pk: ulog2 vlog2 u v uw vw ku0 kv0, then rot");
+    __m256 hd[8] = {_mm256_castsi256_ps(au.lg), _mm256_castsi256_ps(av.lg),
+                    _mm256_castsi256_ps(au.at), _mm256_castsi256_ps(av.at),
+                    _mm256_castsi256_ps(au.n),  _mm256_castsi256_ps(av.n),
+                    _mm256_castsi256_ps(au.k0), _mm256_castsi256_ps(av.k0)};
+    __m256 rh[8], ru[8], rv[8];
+    tr8x8(hd, rh);
+    tr8x8(au.t, ru);
+    tr8x8(av.t, rv);
+    for (unsigned r = m; r; r &= r - 1) {
+        unsigned j = (unsigned)__builtin_ctz(r);
+        pk *kj = kout + j;
+        _mm256_storeu_ps((float *)(void *)kj, rh[j]);
+        kj->rot = 0;
+        _mm256_storeu_ps(kj->kub, ru[j]);
+        _mm256_storeu_ps(kj->kvb, rv[j]);
+        wout[j] = wt[j];
+    }
+    return m;
+}
+
+__attribute__((target("avx2,fma,f16c"))) static unsigned b8_gauss(const pk_params *p,
+                                                                  const pf_klanes *k,
+                                                                  unsigned m, pk *kout,
+                                                                  float *wout)
+{
+    return b8(p, k, m, kout, wout, 1);
+}
+__attribute__((target("avx2,fma,f16c"))) static unsigned b8_cubic(const pk_params *p,
+                                                                  const pf_klanes *k,
+                                                                  unsigned m, pk *kout,
+                                                                  float *wout)
+{
+    return b8(p, k, m, kout, wout, 0);
+}
+
+pf_b8_fn pf_b8_select(unsigned ftype)
+{
+    if (!pf_have_avx2() || ftype <= ST_FILTER_PTEX_BOX)
+        return NULL;
+    return ftype == ST_FILTER_PTEX_GAUSSIAN ? b8_gauss : b8_cubic;
+}
+
 /* One axis of pf_cst8's width-4 kernel, 8 lanes: pk_width4_axis' branch for a width under
  * 1/4 (after the clamp to the face's texel, NaN clamped too; the lanes at 1/4 or more are
  * not ok): resolution r = 127 - the width's exponent (0..30), upix = x 2^r - 0.5, uwpix =
@@ -2825,6 +3074,7 @@ pf_w4x8_fn pf_box8_select(unsigned dt, unsigned nc)
 pf_r0x8_fn pf_r0x8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
 pf_r0x8_fn pf_iso8_select(unsigned dt, unsigned nc) { return (void)dt, (void)nc, NULL; }
 pf_q8_fn pf_q8_select(void) { return NULL; }
+pf_b8_fn pf_b8_select(unsigned ftype) { return (void)ftype, NULL; }
 pf_cst8_fn pf_cst8_select(unsigned ftype) { return (void)ftype, NULL; }
 
 pf_bilinear_half_fn pf_bilinear_half_select(void)

@@ -267,6 +267,56 @@ static void rel_query(const st_set *s, const float *rel, int j, st_query *q)
     *q = (st_query){.face = f, .u = u, .v = v, .dudx = ru, .dvdy = rv};
 }
 
+/* Session 23 (gauss23): the width-4 kernels the per-query path builds one by one
+ * (kernel_declined_with: a width of 1/4 face or more, or a face under 8 x 8 texels) are
+ * built 8 at a time in blocks that offer the 8-query fused path under 3 lanes (pf_b8:
+ * widths under 1/4, [1/4, 1/2), [1/2, 1) and 1 or more after the clamp to a texel of the
+ * face, each with its own resolution, taps and weights; zero end taps stripped) and handed
+ * to kernel_built (inside the face: apply; else the walk; else eval_kernel). Widths per
+ * axis drawn independently from every band and its edges (1/4, 1/2, 1, and kernel_r0's
+ * both 1 or more, which pf_b8 leaves), scaled so that faces of 2 to 64 texels see each
+ * band; (u, v) anywhere, on the texel centres of 2, 4 and 8-texel grids (the bicubic
+ * family's zero end taps, the hermite's zero second tap) or near an edge; the faces as they are, then
+ * flagged constant and subface; every kernel filter, every mode, against the general path. */
+static long built8_file(st_set *s, st_query *q, const char *path)
+{
+    static const float wsel[] = {0.25f, 0.5f, 1.0f, 2.0f, 0.3f, 0.7f, 1.4f, 0.125f,
+                                 0.2f, 0.0625f, 0.45f, 0.99f, 0.03f, 0.6f, 0.26f, 3.0f};
+    for (int j = 0; j < NQ; j++) {
+        uint32_t f = (uint32_t)(rnd01() * (float)s->info.nfaces) % s->info.nfaces;
+        float bu = wsel[(int)(rnd01() * 16) & 15], bv = wsel[(int)(rnd01() * 16) & 15];
+        if (j % 5 == 4) /* a random width, up to 2 faces */
+            bu = rnd01() * 2.0f;
+        float u = rnd01(), v = rnd01();
+        if (j % 4 == 1) { /* on a texel centre at resolution 1, 2 or 4 */
+            float r = (float)(2 << (j / 4 % 3));
+            u = ((float)(int)(u * r) + 0.5f) / r;
+            v = ((float)(int)(v * r) + 0.5f) / r;
+        } else if (j % 4 == 2) { /* near an edge */
+            u = rnd01() < 0.5f ? u * 0.05f : 1.0f - u * 0.05f;
+        }
+        q[j] = (st_query){.face = f,
+                          .u = u < 0.99999994f ? u : 0.99999994f,
+                          .v = v < 0.99999994f ? v : 0.99999994f,
+                          .dudx = bu, .dvdy = bv};
+    }
+    return compare_plain_flagged(s, q, path);
+}
+
+static void declined_kernels_built_8_at_a_time_match_the_general_path(void **state)
+{
+    (void)state;
+    static const char *const files[] = {
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+        "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
+        "ptx/wdas-ptex-2009/dispplane/rand_lo/pPlane1.ptx",
+        "ptex-ref/cube8_k6_u8_rot.ptx",
+        "ptex-ref/cube8_k7varrot_f32.ptx",
+        "ptex-ref/cube1_k6_u8.ptx",
+    };
+    check_files(files, sizeof files / sizeof files[0], built8_file);
+}
+
 /* Session 16 (walk9): a kernel that overhangs one edge, or one u and one v edge, into plain
  * neighbours takes ptexfilter_walk.c's lean walks first (lean_one_case, lean_two_case:
  * the faces' flags, the overhangs' widths and the pieces' resolutions checked once, then
@@ -376,6 +426,7 @@ int main(void)
         cmocka_unit_test(boundary_folds_and_valence3_corners_match_the_general_path),
         cmocka_unit_test(two_edge_kernels_match_the_general_walk),
         cmocka_unit_test(lean_walks_match_the_general_walk),
+        cmocka_unit_test(declined_kernels_built_8_at_a_time_match_the_general_path),
         cmocka_unit_test(one_texel_kernels_match_the_general_path),
         cmocka_unit_test(half_loads_match_the_scalar_conversion_bit_for_bit),
     };
