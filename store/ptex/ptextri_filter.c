@@ -201,9 +201,10 @@ __attribute__((always_inline)) static inline void kernel_at(tk *k, const tk_shap
 
 /* The last shape a batch built and what it was built from (the query's four derivatives'
  * bits and the face's ulog2; the width and blur are the batch's): a query with the same
- * footprint on a face of the same size (every query of a batch whose footprints repeat, as
- * a renderer's neighbouring pixels often do) takes the shape instead of rebuilding it - the
- * same function of the same inputs, so the same bits. */
+ * footprint on a face of the same size (fixed-footprint work: a bake, one filter width, an
+ * orthographic view of affinely mapped faces; under perspective derivatives vary and a query
+ * pays only the key's compare) takes the shape instead of rebuilding it - the same function
+ * of the same inputs, so the same bits. */
 typedef struct tk_cache {
     int valid;
     unsigned face_log2;
