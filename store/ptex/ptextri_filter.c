@@ -131,6 +131,30 @@ typedef struct tc {
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
 static inline float fminf_(float a, float b) { return a < b ? a : b; }
 
+/* A kernel's bounds (lanes 0..2 of lo, hi: u, v, w; lane 3 unused) clamped into the triangle,
+ * the scalar clamp's operations a lane: lo = lo > 0 ? lo : 0 (maxps), then hi = hi < t ? hi :
+ * t (minps) with t = 1 - (the other two lower bounds' sum). */
+__attribute__((always_inline)) static inline void clamp_bounds4(pt_v4f *lo, pt_v4f *hi)
+{
+#ifdef __SSE2__
+    const pt_v4f one = {1.0f, 1.0f, 1.0f, 1.0f};
+    pt_v4f l = (pt_v4f)_mm_max_ps((__m128)*lo, _mm_setzero_ps());
+    pt_v4f t = one - (__builtin_shufflevector(l, l, 1, 2, 0, 3) +
+                      __builtin_shufflevector(l, l, 2, 0, 1, 3));
+    *hi = (pt_v4f)_mm_min_ps((__m128)*hi, (__m128)t);
+    *lo = l;
+#else
+    pt_v4f l = *lo, h = *hi;
+    for (int i = 0; i < 3; i++)
+        l[i] = fmaxf_(l[i], 0.0f);
+    h[0] = fminf_(h[0], 1.0f - (l[1] + l[2]));
+    h[1] = fminf_(h[1], 1.0f - (l[2] + l[0]));
+    h[2] = fminf_(h[2], 1.0f - (l[0] + l[1]));
+    *lo = l;
+    *hi = h;
+#endif
+}
+
 /* The part of a kernel that depends on the footprint only (not on (u, v)): the resolution,
  * the ellipse and the half extents of u, v, w (build_kernel's first steps). */
 typedef struct tk_shape {
@@ -359,25 +383,12 @@ __attribute__((always_inline)) static inline void iterators_t(const tk *k, int r
     od->odd = 1;
     ev->u = k->u * fR - third;
     ev->v = k->v * fR - third;
-    /* the bounds a coordinate a lane (lane 3: 0, not used); with clamp, each lane the scalar
-     * clamp's operations: lo = lo > 0 ? lo : 0 (maxps), then hi = hi < t ? hi : t (minps)
-     * with t = 1 - (the other two lower bounds' sum) */
+    /* the bounds a coordinate a lane (lane 3: 0, not used), with clamp clamped into the
+     * triangle (clamp_bounds4) */
     pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
     const pt_v4f one = {1.0f, 1.0f, 1.0f, 1.0f};
-    if (clamp) {
-#ifdef __SSE2__
-        lo = (pt_v4f)_mm_max_ps((__m128)lo, _mm_setzero_ps());
-        pt_v4f t = one - (__builtin_shufflevector(lo, lo, 1, 2, 0, 3) +
-                          __builtin_shufflevector(lo, lo, 2, 0, 1, 3));
-        hi = (pt_v4f)_mm_min_ps((__m128)hi, (__m128)t);
-#else
-        for (int i = 0; i < 3; i++)
-            lo[i] = fmaxf_(lo[i], 0.0f);
-        hi[0] = fminf_(hi[0], 1.0f - (lo[1] + lo[2]));
-        hi[1] = fminf_(hi[1], 1.0f - (lo[2] + lo[0]));
-        hi[2] = fminf_(hi[2], 1.0f - (lo[0] + lo[1]));
-#endif
-    }
+    if (clamp)
+        clamp_bounds4(&lo, &hi);
     /* ev lo 0..2, hi 0; ev hi 1, 2, od lo 0, 1; od lo 2, hi 0..2 */
     pt_v4f hi1 = one - hi, lo1 = one - lo;
     pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6); /* -hi[2], -lo[2] */
@@ -1757,20 +1768,7 @@ __attribute__((always_inline)) static inline int piece_r1_t(tc *c, const tk *k,
         return 0;
     const float fR = 1.0f, third = (float)(1 / 3.0);
     pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
-    const pt_v4f one4 = {1.0f, 1.0f, 1.0f, 1.0f};
-#ifdef __SSE2__
-    lo = (pt_v4f)_mm_max_ps((__m128)lo, _mm_setzero_ps());
-    pt_v4f t = one4 - (__builtin_shufflevector(lo, lo, 1, 2, 0, 3) +
-                       __builtin_shufflevector(lo, lo, 2, 0, 1, 3));
-    hi = (pt_v4f)_mm_min_ps((__m128)hi, (__m128)t);
-#else
-    for (int i = 0; i < 3; i++)
-        lo[i] = fmaxf_(lo[i], 0.0f);
-    hi[0] = fminf_(hi[0], 1.0f - (lo[1] + lo[2]));
-    hi[1] = fminf_(hi[1], 1.0f - (lo[2] + lo[0]));
-    hi[2] = fminf_(hi[2], 1.0f - (lo[0] + lo[1]));
-#endif
-    (void)one4;
+    clamp_bounds4(&lo, &hi);
     pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
     pt_v4f b = __builtin_shufflevector(hi, hi, 1, 2, 1, 2);
     a = a * fR - third;
