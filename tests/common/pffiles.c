@@ -43,10 +43,20 @@ long st_pf_each_file(const char *const *files, size_t n, st_pf_file_fn fn, void 
     return compared;
 }
 
+/* A face the file made constant: flagged so, and its levels all start at one offset (they
+ * share its one texel: set.c's layout), so it has no level data to fall back on. */
+static int holds_one_texel(const st_set *s, uint32_t f)
+{
+    const st_face *F = &s->faces[f];
+    return (F->flags & ST_FACE_CONSTANT) && F->nlevels >= 2 &&
+           s->level_off[F->lvl] == s->level_off[F->lvl + 1];
+}
+
 void st_pf_flag_faces(st_set *s, uint8_t flag, uint8_t clear)
 {
     for (uint32_t f = 0; f < s->info.nfaces; f++) {
-        s->faces[f].flags &= (uint8_t)~clear;
+        if (!holds_one_texel(s, f))
+            s->faces[f].flags &= (uint8_t)~clear;
         if (f % 10 == 3)
             s->faces[f].flags |= flag;
     }

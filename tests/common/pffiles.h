@@ -25,8 +25,10 @@ typedef long (*st_pf_file_fn)(st_set *s, void *ctx, const char *path);
 long st_pf_each_file(const char *const *files, size_t n, st_pf_file_fn fn, void *ctx,
                      int *found);
 
-/* Every tenth face (from the fourth) gets flag, and clear is removed from every face; set
- * after the resolution table and the corners are made, so both paths read the same data. */
+/* Every tenth face (from the fourth) gets flag, and clear is removed from every face but
+ * those the file made constant (they hold one texel: without the flag they would be read as
+ * whole faces); set after the resolution table and the corners are made, so both paths read
+ * the same data. */
 void st_pf_flag_faces(st_set *s, uint8_t flag, uint8_t clear);
 
 #endif

@@ -310,6 +310,7 @@ static void declined_kernels_built_8_at_a_time_match_the_general_path(void **sta
         "ptx/wdas-ptex-samples/teapot/teapot.ptx",
         "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
         "ptx/wdas-ptex-2009/dispplane/rand_lo/pPlane1.ptx",
+        "ptx/wdas-ptex-2009/nonquad/evblur/pPlane1.ptx",
         "ptex-ref/cube8_k6_u8_rot.ptx",
         "ptex-ref/cube8_k7varrot_f32.ptx",
         "ptex-ref/cube1_k6_u8.ptx",
