@@ -60,6 +60,8 @@ typedef struct pf_walk {
     int black_u, black_v;        /* border mode black in u / v: a fold drops the overhang */
     pf_window_fn win;            /* the window loop (pf_window_select), not NULL */
     pf_window_fn small;          /* windows of <= 2 x 2 texels (pf_small_select), not NULL */
+    pf_small4_fn small4;         /* four 1 x 1 windows (pf_small4_select), or NULL */
+    pf_small4_fn small2;         /* two (pf_small2_select), NULL when small4 is */
     /* a constant face's texel at p as 4 float lanes, nc of them set (ptexfilter.c's
      * load_any for the set's type dt) */
     pf_v4 (*texel)(unsigned dt, unsigned nc, const uint8_t *p);
