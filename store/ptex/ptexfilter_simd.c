@@ -62,6 +62,9 @@
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
+ Four (two) one-texel windows in one call (pf_small4_select, pf_small2_select: the pieces of
+ * a width-4 kernel at resolution 1 x 1 split at a regular corner, or folded at a boundary
+ * and split at one edge): the same small-window code four (two) times in order.
  *
  * The Traverse walk of a bilinear 2 x 2 kernel over plain faces (pf_edge2_select,
  * ptexfilter_walk.h): ptexfilter.c's split walk for that kernel, its pieces in registers and

@@ -12,7 +12,9 @@
  * out of line in put_reduced, the guard) and put_window (the table and the window call).
  * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window; a
  * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
- * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once.
+ * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once;
+ * it also sums such a kernel's one-texel pieces over a regular corner (lean_two's) or over a
+ * boundary and one edge (lean_fold_one's) in one pf_small4 / pf_small2 call.
  * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
  * (put_const without the reduction, the flips as reversed sums).
  */
