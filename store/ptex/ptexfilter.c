@@ -2331,7 +2331,10 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     c.cst8 = c.cst && o->filter >= ST_FILTER_PTEX_BOX ? pf_cst8_select(o->filter) : NULL;
     c.walk = (pf_walk){.faces = s->faces, .px = t->px, .base = t->base, .ts = c.ts,
                        .black_u = c.bu == 1, .black_v = c.bv == 1, .win = c.win,
-                       .small = c.small, .texel = walk_texel, .dt = c.dt, .nc = c.nc};
+                       .small = c.small,
+                       .small4 = c.small ? pf_small4_select(c.dt, c.nc) : NULL,
+                       .small2 = c.small ? pf_small2_select(c.dt, c.nc) : NULL,
+                       .texel = walk_texel, .dt = c.dt, .nc = c.nc};
     c.bhalf = pf_bilinear_half_select(); /* in eval's in-face bilinear too */
     c.width = o->width > 0 ? o->width : 1.0f;
     c.blur = o->blur > 0 ? o->blur : 0.0f;

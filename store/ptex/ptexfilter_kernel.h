@@ -546,6 +546,21 @@ pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype);
  * AVX2. */
 pf_window_fn pf_small_select(unsigned dt, unsigned nc);
 
+/* Four windows of one texel each summed into acc in order (texel p[i], weights ku[i][0] and
+ * kv[i][0], rows rowb apart as the small window takes them): bit for bit four calls of
+ * pf_small_select's function with uw = vw = 1, in one call (the four pieces of a width-4
+ * kernel at resolution 1 x 1 split at a regular corner: ptexfilter_walk.c's
+ * pf_walk_kernel_r0).
+ * pf_small4_select gives it for texels of type dt with nc channels, or NULL without AVX2. */
+typedef struct pf_tex4 {
+    const uint8_t *p[4];
+    const float *ku[4], *kv[4];
+} pf_tex4;
+typedef pf_v4 (*pf_small4_fn)(const pf_tex4 *t, size_t rowb, pf_v4 acc);
+pf_small4_fn pf_small4_select(unsigned dt, unsigned nc);
+/* The same with the first two windows of t only (a fold's two pieces: lean_r0's). */
+pf_small4_fn pf_small2_select(unsigned dt, unsigned nc);
+
 /* The bilinear of 2 x 2 texels of 4 half values each (p the first, ts bytes per texel, rows
  * rowb apart; reads 8 bytes per texel, so up to 2 past a 3-channel one): lanes 0..3 of
  * (t00 ku0 + t01 fu) kv0 + (t10 ku0 + t11 fu) fv, with ptexfilter.c's operations in its

@@ -62,6 +62,9 @@
  * Windows of at most 2 x 2 texels (pf_small_select: the pieces of a bilinear kernel split
  * at face edges): the same window loop with the shape as constants, one function per texel
  * type and channel count, so a piece costs no dispatch; bit for bit pf_apply_avx2.
+ Four (two) one-texel windows in one call (pf_small4_select, pf_small2_select: the pieces of
+ * a width-4 kernel at resolution 1 x 1 split at a regular corner, or folded at a boundary
+ * and split at one edge): the same small-window code four (two) times in order.
  *
  * The Traverse walk of a bilinear 2 x 2 kernel over plain faces (pf_edge2_select,
  * ptexfilter_walk.h): ptexfilter.c's split walk for that kernel, its pieces in registers and
@@ -2004,6 +2007,56 @@ pf_window_fn pf_small_select(unsigned dt, unsigned nc)
     return pick_window(fns, dt, nc);
 }
 
+/* pf_small4_select (pf_small2_select): small_body with uw = vw = 1 (its switch folded), four
+ * (two) times in order. */
+#define PF_SMALL4FN(DT, NC)                                                                 \
+    __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_small4_##DT##_##NC(            \
+        const pf_tex4 *t, size_t rowb, pf_v4 acc)                                           \
+    {                                                                                       \
+        acc = small_body(t->p[0], rowb, t->ku[0], 1, t->kv[0], 1, acc, DT, NC);             \
+        acc = small_body(t->p[1], rowb, t->ku[1], 1, t->kv[1], 1, acc, DT, NC);             \
+        acc = small_body(t->p[2], rowb, t->ku[2], 1, t->kv[2], 1, acc, DT, NC);             \
+        return small_body(t->p[3], rowb, t->ku[3], 1, t->kv[3], 1, acc, DT, NC);            \
+    }
+#define PF_SMALL4FN_NC(DT) PF_SMALL4FN(DT, 1) PF_SMALL4FN(DT, 2) PF_SMALL4FN(DT, 3) PF_SMALL4FN(DT, 4)
+PF_SMALL4FN_NC(0)
+PF_SMALL4FN_NC(1)
+PF_SMALL4FN_NC(2)
+PF_SMALL4FN_NC(3)
+
+#define PF_SMALL2FN(DT, NC)                                                                 \
+    __attribute__((target("avx2,fma,f16c"))) static pf_v4 pf_small2_##DT##_##NC(            \
+        const pf_tex4 *t, size_t rowb, pf_v4 acc)                                           \
+    {                                                                                       \
+        acc = small_body(t->p[0], rowb, t->ku[0], 1, t->kv[0], 1, acc, DT, NC);             \
+        return small_body(t->p[1], rowb, t->ku[1], 1, t->kv[1], 1, acc, DT, NC);            \
+    }
+#define PF_SMALL2FN_NC(DT) PF_SMALL2FN(DT, 1) PF_SMALL2FN(DT, 2) PF_SMALL2FN(DT, 3) PF_SMALL2FN(DT, 4)
+PF_SMALL2FN_NC(0)
+PF_SMALL2FN_NC(1)
+PF_SMALL2FN_NC(2)
+PF_SMALL2FN_NC(3)
+
+pf_small4_fn pf_small4_select(unsigned dt, unsigned nc)
+{
+#define PF_ROW(DT) {pf_small4_##DT##_1, pf_small4_##DT##_2, pf_small4_##DT##_3, pf_small4_##DT##_4}
+    static const pf_small4_fn fns[4][4] = {PF_ROW(0), PF_ROW(1), PF_ROW(2), PF_ROW(3)};
+#undef PF_ROW
+    if (nc < 1 || nc > 4 || dt > 3 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
+pf_small4_fn pf_small2_select(unsigned dt, unsigned nc)
+{
+#define PF_ROW(DT) {pf_small2_##DT##_1, pf_small2_##DT##_2, pf_small2_##DT##_3, pf_small2_##DT##_4}
+    static const pf_small4_fn fns[4][4] = {PF_ROW(0), PF_ROW(1), PF_ROW(2), PF_ROW(3)};
+#undef PF_ROW
+    if (nc < 1 || nc > 4 || dt > 3 || !pf_have_avx2())
+        return NULL;
+    return fns[dt][nc - 1];
+}
+
 /* ---- the Traverse walk of a 2 x 2 kernel over plain faces (pf_edge2_select) -------------
  * ptexfilter.c's split_apply_small for the common case: each step names the pk2 operation
  * (ptexfilter.c) it stands for; weights are only moved, swapped and, in a reduction, summed
@@ -3059,6 +3112,18 @@ pf_w4x8_fn pf_w4x8_select(unsigned dt, unsigned nc, unsigned ftype)
 }
 
 pf_window_fn pf_small_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_small4_fn pf_small4_select(unsigned dt, unsigned nc)
+{
+    (void)dt; (void)nc;
+    return NULL;
+}
+
+pf_small4_fn pf_small2_select(unsigned dt, unsigned nc)
 {
     (void)dt; (void)nc;
     return NULL;

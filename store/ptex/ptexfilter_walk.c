@@ -12,7 +12,9 @@
  * out of line in put_reduced, the guard) and put_window (the table and the window call).
  * pf_walk_fold is split_walk's Discard and Clamp on the same pieces: merges, one window; a
  * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
- * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once.
+ * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once;
+ * it also sums such a kernel's one-texel pieces over a regular corner (lean_two's) or over a
+ * boundary and one edge (lean_fold_one's) in one pf_small4 / pf_small2 call.
  * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
  * (put_const without the reduction, the flips as reversed sums).
  */
@@ -1076,9 +1078,73 @@ int pf_walk_kernel_cst(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weigh
 
 int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
-    const st_face *F = &w->faces[f];
+    const st_face *faces = w->faces, *F = &faces[f];
     const int *adj = F->adjface;
     int u = k0->u, v = k0->v, uw = k0->uw, vw = k0->vw;
+    /* 2 taps an axis at u, v in {-1, 0}: one u and one v edge overhung by a texel (the high
+     * one at 0), what the dispatch below gives lean_two or lean_fold_one; their cases that
+     * take it, here without their dispatch and frames, each window one texel at (0, 0) of
+     * table entry 0 (a flip of one texel at resolution 1 is itself) summed in their order by
+     * one pf_small4 / pf_small2 call: */
+    if (__builtin_expect(w->small4 != NULL, 1) && uw == 2 && vw == 2 &&
+        (unsigned)(u + 1) < 2u && (unsigned)(v + 1) < 2u) {
+        int hu = u == 0, hv = v == 0, c = corner_between(hu, hv);
+        int eu = hu ? 1 : 3, ev = hv ? 2 : 0, au = adj[eu], av = adj[ev];
+        const uint8_t *const *px = w->px;
+        const uint64_t *bs = w->base;
+        const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+        /* the parts past each edge (p) and left on f (r), as lean_two_case / lean_one_core
+         * split them */
+        const float *kpu = ku + hu, *kru = ku + !hu, *kpv = kv + hv, *krv = kv + !hv;
+        const unsigned sc = ST_FACE_SUBFACE | ST_FACE_CONSTANT;
+        if ((au | av) >= 0) {
+            /* both edges to neighbours, their corner a regular vertex, no face a subface
+             * or constant: lean_two_case's resolution-1 x 1 case (lean_fits: overhangs of
+             * 1 < 2 taps, at most the resolution; no face coarser than 1 x 1): the corner's,
+             * the u edge's, the v edge's and f's windows, the weight left alone */
+            int dg = F->cornerface[c];
+            if (dg >= 0 &&
+                !((faces[au].flags | faces[av].flags | faces[dg].flags | F->flags) & sc)) {
+                int rc = c - F->cornercorner[c] + 2, ra = eu - F->adjedge[eu] + 2;
+                int rb = ev - F->adjedge[ev] + 2;
+                pf_tex4 t = {{px[bs[dg]], px[bs[au]], px[bs[av]], px[bs[f]]},
+                             {rc & 1 ? kpv : kpu, ra & 1 ? krv : kpu, rb & 1 ? kpv : kru, kru},
+                             {rc & 1 ? kpu : kpv, ra & 1 ? kpu : krv, rb & 1 ? kru : kpv, krv}};
+                *acc = w->small4(&t, w->ts, *acc);
+                return 1;
+            }
+        } else if ((au & av) >= 0) {
+            /* one edge to a neighbour an, the other at the mesh boundary, an and f neither
+             * a subface nor constant: lean_fold_body's case (the overhang 1 < 2 taps): the
+             * boundary axis folded (pf_fold_axis on a copy: one tap left), then lean_one_core
+             * across the other edge: the piece past it on an (an odd rotation swaps the
+             * axes' weights), the rest on f */
+            int an = au >= 0 ? au : av;
+            if (!((faces[an].flags | F->flags) & sc)) {
+                float fb[2];
+                float *fk = fb;
+                int at, n = 2;
+                pf_tex4 t;
+                t.p[0] = px[bs[an]];
+                t.p[1] = px[bs[f]];
+                if (au < 0) { /* u folded, the v edge's piece on av */
+                    fb[0] = ku[0], fb[1] = ku[1], at = u;
+                    pf_fold_axis(1, &at, &n, &fk, w->black_u);
+                    int rot = ev - F->adjedge[ev] + 2;
+                    t.ku[0] = rot & 1 ? kpv : fk, t.kv[0] = rot & 1 ? fk : kpv;
+                    t.ku[1] = fk, t.kv[1] = krv;
+                } else { /* v folded, the u edge's piece on au */
+                    fb[0] = kv[0], fb[1] = kv[1], at = v;
+                    pf_fold_axis(1, &at, &n, &fk, w->black_v);
+                    int rot = eu - F->adjedge[eu] + 2;
+                    t.ku[0] = rot & 1 ? fk : kpu, t.kv[0] = rot & 1 ? kpu : fk;
+                    t.ku[1] = kru, t.kv[1] = fk;
+                }
+                *acc = w->small2(&t, w->ts, *acc);
+                return 1;
+            }
+        }
+    }
     /* the overhung edges (a kernel at resolution 1 x 1: left u < 0, right u + uw > 1) and
      * whether each has a neighbour */
     int sl = u < 0, sr = u + uw > 1, sb = v < 0, st = v + vw > 1;

@@ -60,6 +60,8 @@ typedef struct pf_walk {
     int black_u, black_v;        /* border mode black in u / v: a fold drops the overhang */
     pf_window_fn win;            /* the window loop (pf_window_select), not NULL */
     pf_window_fn small;          /* windows of <= 2 x 2 texels (pf_small_select), not NULL */
+    pf_small4_fn small4;         /* four 1 x 1 windows (pf_small4_select), or NULL */
+    pf_small4_fn small2;         /* two (pf_small2_select), NULL when small4 is */
     /* a constant face's texel at p as 4 float lanes, nc of them set (ptexfilter.c's
      * load_any for the set's type dt) */
     pf_v4 (*texel)(unsigned dt, unsigned nc, const uint8_t *p);
@@ -94,7 +96,9 @@ int pf_walk_kernel_cst(const pf_walk *w, pk *k, int f, pf_v4 *acc, float *weight
  * boundary none of whose overhung edges has a neighbour takes the fold's one texel at once
  * (walk_boundary's fold), a kernel over one u and one v edge with neighbours lean_two or
  * walk_two, over one edge with a neighbour lean_one, without pf_walk_kernel's dispatch (since
- * session 17); any other pf_walk_kernel. */
+ * session 17); any other pf_walk_kernel. Since session 24 a kernel of 2 x 2 taps over one u
+ * and one v edge takes lean_two's (a regular corner) and lean_fold_one's (one edge at the
+ * mesh boundary) one-texel windows itself, summed by one w->small4 / w->small2 call. */
 int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight);
 
 /* One axis of pf_walk_fold's merges (pk_merge_r then _l, or _t then _b): the taps past the

@@ -392,6 +392,55 @@ static void one_texel_kernels_match_the_general_path(void **state)
     check_files(more, sizeof more / sizeof more[0], one_texel_file);
 }
 
+/* Session 24 (w424): a width-4 kernel at resolution 1 x 1 with 2 taps an axis (kernel_r0's,
+ * (u, v) not on a texel centre) overhangs one u and one v edge by a texel; where both have
+ * neighbours and their corner is a regular vertex, or one has a neighbour and the other is
+ * a mesh boundary, pf_walk_kernel_r0 sums its four (two) one-texel windows in one
+ * pf_small4 (pf_small2) call, the weights swapped by odd rotations, the boundary axis
+ * folded (dropped at a black border). Widths of a face or more, the axes alike or not, (u, v)
+ * anywhere; files with rotated neighbours of every rotation (cube8_k6_u8_rot), 1 to 4
+ * channels of u8 to float (cube8_k7varrot_f32, teapot, rand_lo: u16), mesh boundaries
+ * (rand_lo, holeycube), valence-3 and 5 corners (cube1_k6_u8, holeycube: no cornerface);
+ * plain, with a tenth of the faces flagged constant then subface, under each border mode
+ * and with black along one axis only; every kernel filter, every mode, against the general path. */
+static long r0_walk_file(st_set *s, st_query *q, const char *path)
+{
+    static const float rel[] = {1.0f, 1.5f, 2.0f, 4.0f, 1.25f, 16.0f, 3.0f, 1.0f};
+    for (int j = 0; j < NQ; j++) {
+        rel_query(s, rel, j, &q[j]);
+        if (j % 8 == 3) /* near a corner */
+            q[j].v = rnd01() < 0.5f ? q[j].v * 0.05f : 1.0f - q[j].v * 0.05f;
+        q[j].u = q[j].u < 0.99999994f ? q[j].u : 0.99999994f;
+        q[j].v = q[j].v < 0.99999994f ? q[j].v : 0.99999994f;
+    }
+    long n = compare_plain_flagged(s, q, path);
+    n += compare_border_modes(s, q, path, kernel_filters, NKF);
+    /* black along one axis only (the fold drops that axis' overhang, keeps the other's) */
+    uint8_t bu = s->info.border_u, bv = s->info.border_v;
+    for (uint8_t b = 0; b <= 1; b++) {
+        s->info.border_u = b;
+        s->info.border_v = (uint8_t)!b;
+        n += compare_paths(s, q, path);
+    }
+    s->info.border_u = bu;
+    s->info.border_v = bv;
+    return n;
+}
+
+static void one_texel_walks_in_one_call_match_the_general_path(void **state)
+{
+    (void)state;
+    static const char *const files[] = {
+        "ptex-ref/cube8_k6_u8_rot.ptx",
+        "ptex-ref/cube8_k7varrot_f32.ptx",
+        "ptx/wdas-ptex-samples/teapot/teapot.ptx",
+        "ptx/wdas-ptex-2009/dispplane/rand_lo/pPlane1.ptx",
+        "ptx/wdas-ptex-samples/holeycube/holeycube.ptx",
+        "ptex-ref/cube1_k6_u8.ptx",
+    };
+    check_files(files, sizeof files / sizeof files[0], r0_walk_file);
+}
+
 /* pk_half4 (the half texels' loads of the point filter and the portable bilinear) gives
  * st_half_to_float's bits for every one of the 65536 halves, in every lane, and zeros the
  * lanes past the channel count. */
@@ -429,6 +478,7 @@ int main(void)
         cmocka_unit_test(lean_walks_match_the_general_walk),
         cmocka_unit_test(declined_kernels_built_8_at_a_time_match_the_general_path),
         cmocka_unit_test(one_texel_kernels_match_the_general_path),
+        cmocka_unit_test(one_texel_walks_in_one_call_match_the_general_path),
         cmocka_unit_test(half_loads_match_the_scalar_conversion_bit_for_bit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
