@@ -45,7 +45,9 @@
  * "tri23"), which the general and per-tap builds do not, so the tests compare them: a query
  * whose footprint and face size are the last query's reuses its kernel shape (tk_shape,
  * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
- * most) are applied whole (piece_r1) instead of by iterators and the sweeps.
+ * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
+ * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
+ * docs/ptex.md, "trip24").
  */
 #include "ptextri.h"
 
@@ -1943,17 +1945,31 @@ __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
     const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
     pt_v4f acc = c->acc;
     float wt = c->weight;
-    for (int s = 0, i = 0; s < 2; s++) {
-        if (!(s ? od_ok : ev_ok))
-            continue;
-        if (NC < 4) { /* lane 3 to +0, as sweep_t */
-            pt_v4i keep = {-1, -1, -1, 0}, bits;
+    const pt_v4i keep = {-1, -1, -1, 0}; /* NC < 4: lane 3 to +0 at a sweep's start */
+    pt_v4i bits;
+    int i = 0;
+    if (ev_ok) {
+        if (NC < 4) {
             memcpy(&bits, &acc, 16);
             bits &= keep;
             memcpy(&acc, &bits, 16);
         }
         float wsum4 = 0.0f;
-        for (int e = s ? n : ne; i < e; i++) {
+        for (; i < ne; i++) {
+            acc += texel_vec(px[i], one, DT, NC) * w[i];
+            if (NC == 4)
+                wsum4 += w[i];
+        }
+        wt += NC < 4 ? acc[3] : wsum4;
+    }
+    if (od_ok) { /* at most one kept tap (r2_sweep) */
+        if (NC < 4) {
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wsum4 = 0.0f;
+        if (i < n) {
             acc += texel_vec(px[i], one, DT, NC) * w[i];
             if (NC == 4)
                 wsum4 += w[i];
