@@ -45,7 +45,9 @@
  * "tri23"), which the general and per-tap builds do not, so the tests compare them: a query
  * whose footprint and face size are the last query's reuses its kernel shape (tk_shape,
  * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
- * most) are applied whole (piece_r1) instead of by iterators and the sweeps.
+ * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
+ * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
+ * docs/ptex.md, "trip24").
  */
 #include "ptextri.h"
 
@@ -126,6 +128,8 @@ typedef struct tc {
     /* a piece at resolution 0 applied whole, without its sweeps' bounds (piece_r1: Traverse,
      * Discard without coverage); 0: not done (the caller takes the long way) */
     int (*p1)(struct tc *c, const tk *k, const uint8_t *data);
+    /* the same for a piece at resolution 1 of a face with texels (piece_r2) */
+    int (*p2)(struct tc *c, const tk *k, const uint8_t *data);
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1813,6 +1817,181 @@ PT_P1_NC(1)
 PT_P1_NC(2)
 PT_P1_NC(3)
 
+/* The weights of n taps with Q values q[0..n-1] as row_step weighs a kept tap (a read
+ * sweep's rows under PT_W4_MIN taps: one libm expf a tap), into w: the one place piece_r2
+ * evaluates weights, to follow row_step's if its weights change. */
+__attribute__((always_inline)) static inline void short_row_weights(const float *q, int n,
+                                                                    float wscale, float *w)
+{
+    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+    for (int i = 0; i < n; i++)
+        w[i] = expf(gs * q[i]) * wscale;
+}
+
+/* A valid sweep of a clamped piece at R = 2 (index bounds l0..2, h0..2; the ellipse A, B, C
+ * and centre u, v of its ti): its kept taps appended to q, px from n on, the number after them
+ * returned. A clamped piece's lower bounds are at least 0 and its upper ones at most 1, so a
+ * valid sweep has l0, l1 >= 0 and h0, h1 <= 2 (each the ceiling of 2 x (a value in [0, 1])
+ * - 1/3): its rows are 0 and 1, within the level (sweep_t's fast path), row y's taps x in
+ * [max(l0, 2 - y - h2), min(h0, 2 - y - l2)) (row_span); row 0 has at most 2 taps and row 1 at
+ * most one (upright: l2 >= 0, so x < 1 - l2 <= 1; inverted: h2 <= 0, so x >= 1 - h2 >= 1, and
+ * x < h0 <= 2). Rows sweep_t leaves out have empty spans. Each row as row_span starts it (its
+ * first tap's Q from the row's x1) and row_step steps it. */
+__attribute__((always_inline)) static inline int r2_sweep(int l0, int l1, int l2, int h0,
+                                                          int h1, int h2, float A, float B,
+                                                          float C, float u, float v,
+                                                          const uint8_t *data, size_t ts,
+                                                          float *q, const uint8_t **px, int n)
+{
+    const int R = 2;
+    if (l1 <= 0 && 0 < h1) { /* row 0: up to 2 taps */
+        int y = 0, xw = R - y;
+        int x1 = l0 > xw - h2 ? l0 : xw - h2;
+        int x2 = h0 < xw - l2 ? h0 : xw - l2;
+        if (x1 < x2) {
+            float U = (float)x1 - u, V = (float)y - v;
+            float DQ = A * (2.0f * U + 1.0f) + B * V;
+            float Q = A * U * U + (B * U + C * V) * V;
+            if (Q < 1.0f) {
+                q[n] = Q;
+                px[n++] = data + (size_t)x1 * ts;
+            }
+            if (x1 + 1 < x2) {
+                Q += DQ;
+                if (Q < 1.0f) {
+                    q[n] = Q;
+                    px[n++] = data + (size_t)(x1 + 1) * ts;
+                }
+            }
+        }
+    }
+    if (l1 <= 1 && 1 < h1) { /* row 1: at most tap (0, 1) */
+        int y = 1, xw = R - y;
+        int x1 = l0 > xw - h2 ? l0 : xw - h2;
+        int x2 = h0 < xw - l2 ? h0 : xw - l2;
+        if (x1 < x2) {
+            float U = (float)x1 - u, V = (float)y - v;
+            float Q = A * U * U + (B * U + C * V) * V;
+            if (Q < 1.0f) {
+                q[n] = Q;
+                px[n++] = data + ((size_t)R + (size_t)x1) * ts;
+            }
+        }
+    }
+    return n;
+}
+
+/* A piece k clamped into its face at resolution 1 (the face's 2 x 2 level, texels at data, not
+ * a constant face), applied as iterators_clamped and c->rd (sweep2_t with constant 0) apply
+ * it, without the two ti structs, the sweep call or its per-sweep set-up. The twelve index
+ * bounds are iterators' operations on the same values (Finv, Ak, Bk, Ck, the centres, the
+ * clamp and ceil_int4 of the same lanes); a valid sweep's rows lie inside the level and have
+ * at most 2 taps (r2_sweep), so sweep_t takes its fast path and row_step's per-tap weights.
+ * Each row's taps are those of row_span and row_step (the same float Q, DQ chain: the same
+ * kept taps, Q < 1); the kept taps of both sweeps (at most 3 upright and 1 inverted) are
+ * weighed by one short_row_weights call, then added in the sweeps' order: a sweep's channel
+ * lanes on from c->acc, its weight's lane 3 from +0 (NC < 4; wsum4 when NC == 4), then
+ * c->weight += the upright sweep's weight, += the inverted one's - the same operations on the
+ * same values as the long way. Returns 0 (the caller takes the long way) when a bound is past
+ * 2^30 (where iterators takes libm's ceilf). Lane 3 of c->acc when NC < 4 (scratch) is the
+ * last valid sweep's weight, as the long way leaves it. */
+__attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
+                                                            const uint8_t *data, unsigned DT,
+                                                            unsigned NC)
+{
+    const int R = 2;
+    const size_t ts = st_dtype_size(DT) * NC;
+    const float fR = (float)R, third = (float)(1 / 3.0);
+    /* iterators_t with clamp, R = 2 */
+    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
+    const pt_v4f one4 = {1.0f, 1.0f, 1.0f, 1.0f};
+    clamp_bounds4(&lo, &hi);
+    pt_v4f hi1 = one4 - hi, lo1 = one4 - lo;
+    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6);
+    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
+    pt_v4f b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4);
+    pt_v4f cc = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1);
+    a = a * fR - third;
+    b = b * fR - third;
+    cc = cc * fR - third;
+    if (mask4(small4(a) & small4(b) & small4(cc)) != 15)
+        return 0;
+    /* ev lo 0..2 hi 0 | ev hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2 */
+    pt_v4i ia = ceil_int4(a), ib = ceil_int4(b), ic = ceil_int4(cc);
+    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
+    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
+    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
+    const int ev_ok = (mask4(ehi > ia) & 7) == 7, od_ok = (mask4(ohi > olo) & 7) == 7;
+    if (!ev_ok && !od_ok)
+        return 1;
+    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
+    float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
+    /* the kept taps of both sweeps in order (at most 3 each): Q and texel */
+    float q[8], w[8];
+    const uint8_t *px[8];
+    int n = 0, ne = 0;
+    if (ev_ok)
+        n = r2_sweep(ia[0], ia[1], ia[2], ia[3], ib[0], ib[1], Ak, Bk, Ck,
+                     k->u * fR - third, k->v * fR - third, data, ts, q, px, n);
+    ne = n;
+    if (od_ok)
+        n = r2_sweep(ib[2], ib[3], ic[0], ic[1], ic[2], ic[3], Ck, Bk, Ak,
+                     (1.0f - k->v) * fR - third, (1.0f - k->u) * fR - third, data, ts, q, px,
+                     n);
+    uint32_t wsb = (uint32_t)(127 - 2 * 1) << 23; /* 1 / R^2, as iterators_t */
+    float wscale;
+    memcpy(&wscale, &wsb, 4);
+    short_row_weights(q, n, wscale, w);
+    const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
+    pt_v4f acc = c->acc;
+    float wt = c->weight;
+    const pt_v4i keep = {-1, -1, -1, 0}; /* NC < 4: lane 3 to +0 at a sweep's start */
+    pt_v4i bits;
+    int i = 0;
+    if (ev_ok) {
+        if (NC < 4) {
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wsum4 = 0.0f;
+        for (; i < ne; i++) {
+            acc += texel_vec(px[i], one, DT, NC) * w[i];
+            if (NC == 4)
+                wsum4 += w[i];
+        }
+        wt += NC < 4 ? acc[3] : wsum4;
+    }
+    if (od_ok) { /* at most one kept tap (r2_sweep) */
+        if (NC < 4) {
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wsum4 = 0.0f;
+        if (i < n) {
+            acc += texel_vec(px[i], one, DT, NC) * w[i];
+            if (NC == 4)
+                wsum4 += w[i];
+        }
+        wt += NC < 4 ? acc[3] : wsum4;
+    }
+    c->acc = acc;
+    c->weight = wt;
+    return 1;
+}
+
+#define PT_P2(DT, NC)                                                                        \
+    static int piece_r2_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                    \
+    {                                                                                        \
+        return piece_r2_t(c, k, d, DT, NC);                                                  \
+    }
+#define PT_P2_NC(DT) PT_P2(DT, 1) PT_P2(DT, 2) PT_P2(DT, 3) PT_P2(DT, 4)
+PT_P2_NC(0)
+PT_P2_NC(1)
+PT_P2_NC(2)
+PT_P2_NC(3)
+
 typedef int (*piece_r1_fnp)(tc *c, const tk *k, const uint8_t *d);
 
 static piece_r1_fnp piece_r1_fn(unsigned dt, unsigned nc)
@@ -1821,6 +2000,14 @@ static piece_r1_fnp piece_r1_fn(unsigned dt, unsigned nc)
     static const piece_r1_fnp p1[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
 #undef PT_ROW
     return p1[dt][nc - 1];
+}
+
+static piece_r1_fnp piece_r2_fn(unsigned dt, unsigned nc)
+{
+#define PT_ROW(DT) {piece_r2_##DT##_1, piece_r2_##DT##_2, piece_r2_##DT##_3, piece_r2_##DT##_4}
+    static const piece_r1_fnp p2[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+    return p2[dt][nc - 1];
 }
 
 /* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
@@ -1908,6 +2095,10 @@ __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k,
     /* FUSE (the caller does not read ev, od): a piece at resolution 0 by piece_r1 */
     if (FUSE && k->res == 0 && c->p1 &&
         c->p1(c, k, st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0 : F->ulog2)))
+        return;
+    /* FUSE: a piece at resolution 1 of a face with texels by piece_r2 */
+    if (FUSE && k->res == 1 && c->p2 && !(F->flags & ST_FACE_CONSTANT) &&
+        c->p2(c, k, st_face_level(c->s, f, F->ulog2 - 1u)))
         return;
 #ifdef PT_TRAV_AVX2
     if (AVX)
@@ -2222,6 +2413,7 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
      * per-tap builds keep the long way, which the tests compare them with */
     const int lean = wmode == PT_LEAN || wmode == PT_LEAN_BASE;
     proto.p1 = lean ? piece_r1_fn(proto.dt, nc) : NULL;
+    proto.p2 = lean ? piece_r2_fn(proto.dt, nc) : NULL;
     tk_cache kc = {.valid = 0};
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
