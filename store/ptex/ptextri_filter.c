@@ -918,8 +918,12 @@ row_read4(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float
  * their four weights are made - after those of later whole blocks, so the sums' order is not
  * the taps' (the values move by roundings: docs/ptex.md, "triw24"). */
 typedef struct pt_pend {
-    float q[4];            /* the waiting taps' Q (lanes from n on: a former tap's or 0) */
-    const uint8_t *p[4];   /* their texels */
+    pt_v4f q;              /* the waiting taps' Q in its last n lanes, the latest in lane 3
+                            * (each tap shifts the lanes down: the vector is stored and loaded
+                            * whole, so a load takes its value from the store before it, which a
+                            * 16-byte load of four 4-byte stores cannot); the other lanes: former
+                            * taps' or 0 */
+    const uint8_t *p[4];   /* their texels, in order */
     int n;
 } pt_pend;
 
@@ -929,8 +933,13 @@ __attribute__((always_inline)) static inline pt_v4f
 pend_flush(pt_pend *pd, int n, pt_v4f gl, pt_v4f wscale, pt_v4f one, pt_v4f acc,
            float *wsum4, unsigned DT, unsigned NC)
 {
-    pt_v4f qv;
-    memcpy(&qv, pd->q, 16);
+    pt_v4f qv = pd->q; /* the n taps to lanes 0..n-1 */
+    if (n == 3)
+        qv = __builtin_shufflevector(qv, qv, 1, 2, 3, 3);
+    else if (n == 2)
+        qv = __builtin_shufflevector(qv, qv, 2, 3, 3, 3);
+    else if (n == 1)
+        qv = __builtin_shufflevector(qv, qv, 3, 3, 3, 3);
     pt_v4f w = pk_exp2_4(qv * gl) * wscale;
 #define PT_LANE(L)                                                                           \
     do {                                                                                     \
@@ -958,7 +967,7 @@ pend_tap(pt_pend *pd, float q, const uint8_t *px, pt_v4f gl, pt_v4f wscale, pt_v
 {
     if (q < 1.0f) {
         int n = pd->n;
-        pd->q[n] = q;
+        pd->q = __builtin_shufflevector(pd->q, (pt_v4f){q, q, q, q}, 1, 2, 3, 4);
         pd->p[n] = px;
         if (++n == 4)
             return pend_flush(pd, 4, gl, wscale, one, acc, wsum4, DT, NC);
