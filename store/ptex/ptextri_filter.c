@@ -30,13 +30,9 @@
  * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are not
  * libm's expf per tap (Ptex's; st_ptextri_batch_pertap keeps it for the tests, the old
  * bits): the read sweeps (Traverse, Discard's kept taps, Clamp's kernels inside the face)
- * weigh their kept taps four at a time with the quad filters' polynomial exp (pk_exp2_4:
- * within about 2e-7; docs/ptex.md, "trix"): a row's whole blocks of four kept taps at once
- * (row_read4q), its other kept taps (rows of 1-3 taps, a row's last 1-3, the block where
- * its kept run ends) queued across the rows of a piece's two sweeps and weighed when four
- * wait (pt_pend; docs/ptex.md, "triw24": the sums' order is then not the taps'); the sweeps
- * of a constant face or a 1 x 1 level keep row_read4 and one expf a tap in short rows;
- * Clamp's fold sweeps and
+ * weigh the kept taps of rows of 3 taps or more four at a time with the quad filters'
+ * polynomial exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex.md, "trix"), shorter
+ * rows one expf a tap; Clamp's fold sweeps and
  * Discard's whole-kernel weight (seamtex's own, no Ptex reference) step them by recurrence
  * (pt_rec, pt_cur: within about 1e-6 of the per-tap expf; docs/ptex.md, "Session 13,
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
@@ -914,102 +910,6 @@ row_read4(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float
     return acc;
 }
 
-/* The read sweeps' taps that row_read4's whole blocks do not take (the rows of 1-3 taps,
- * a row's last 1-3 taps, the kept lanes of a block where the kept run ends) wait here, up to
- * four, and are weighed four at a time by one pk_exp2_4 (pend_flush) instead of one libm
- * expf each or a vector exp for a part of a block: the same taps (Q < 1 of the same float Q
- * chain), each weight within about 2e-7 relatively of the expf's, the texels added when
- * their four weights are made - after those of later whole blocks, so the sums' order is not
- * the taps' (the values move by roundings: docs/ptex.md, "triw24"). */
-typedef struct pt_pend {
-    pt_v4f q;              /* the waiting taps' Q in its last n lanes, the latest in lane 3
-                            * (each tap shifts the lanes down: the vector is stored and loaded
-                            * whole, so a load takes its value from the store before it, which a
-                            * 16-byte load of four 4-byte stores cannot); the other lanes: former
-                            * taps' or 0 */
-    const uint8_t *p[4];   /* their texels, in order */
-    int n;
-} pt_pend;
-
-/* The first n (1..4; 4: every lane without a test) waiting taps weighed and added to acc
- * (read_blk4's lanes), the queue emptied. */
-__attribute__((always_inline)) static inline pt_v4f
-pend_flush(pt_pend *pd, int n, pt_v4f gl, pt_v4f wscale, pt_v4f one, pt_v4f acc,
-           float *wsum4, unsigned DT, unsigned NC)
-{
-    pt_v4f qv = pd->q; /* the n taps to lanes 0..n-1 */
-    if (n == 3)
-        qv = __builtin_shufflevector(qv, qv, 1, 2, 3, 3);
-    else if (n == 2)
-        qv = __builtin_shufflevector(qv, qv, 2, 3, 3, 3);
-    else if (n == 1)
-        qv = __builtin_shufflevector(qv, qv, 3, 3, 3, 3);
-    pt_v4f w = pk_exp2_4(qv * gl) * wscale;
-#define PT_LANE(L)                                                                           \
-    do {                                                                                     \
-        pt_v4f wl = __builtin_shufflevector(w, w, L, L, L, L);                               \
-        acc += texel_vec(pd->p[L], one, DT, NC) * wl;                                        \
-        if (NC == 4)                                                                         \
-            *wsum4 += wl[0];                                                                 \
-    } while (0)
-    PT_LANE(0);
-    if (n > 1)
-        PT_LANE(1);
-    if (n > 2)
-        PT_LANE(2);
-    if (n > 3)
-        PT_LANE(3);
-#undef PT_LANE
-    pd->n = 0;
-    return acc;
-}
-
-/* A tap with this q at px: kept (q < 1) it waits, and four waiting are weighed. */
-__attribute__((always_inline)) static inline pt_v4f
-pend_tap(pt_pend *pd, float q, const uint8_t *px, pt_v4f gl, pt_v4f wscale, pt_v4f one,
-         pt_v4f acc, float *wsum4, unsigned DT, unsigned NC)
-{
-    if (q < 1.0f) {
-        int n = pd->n;
-        pd->q = __builtin_shufflevector(pd->q, (pt_v4f){q, q, q, q}, 1, 2, 3, 4);
-        pd->p[n] = px;
-        if (++n == 4)
-            return pend_flush(pd, 4, gl, wscale, one, acc, wsum4, DT, NC);
-        pd->n = n;
-    }
-    return acc;
-}
-
-/* A read sweep's row of n >= 1 taps inside the level (texel i at px + i * step), Q, DQ at its
- * first tap: row_read4 with READ and LAST, but the taps it would weigh in a part of a block
- * (the tail, the block where the kept run ends) wait in pd. */
-__attribute__((always_inline)) static inline pt_v4f
-row_read4q(int n, const uint8_t *px, ptrdiff_t step, float Q, float DQ, float DDQ, pt_v4f gl,
-           pt_v4f wscale, pt_v4f one, pt_v4f acc, float *wsum4, pt_pend *pd, unsigned DT,
-           unsigned NC)
-{
-    for (; n > 0 && !(Q < 1.0f); n--, px += step)
-        q_step(&Q, &DQ, DDQ);
-    for (; n >= 4; n -= 4, px += 4 * step) {
-        float q0 = q_step(&Q, &DQ, DDQ), q1 = q_step(&Q, &DQ, DDQ);
-        float q2 = q_step(&Q, &DQ, DDQ), q3 = q_step(&Q, &DQ, DDQ);
-        pt_v4f qv = {q0, q1, q2, q3};
-        int m = mask4(qv < 1.0f);
-        if (m == 15) {
-            read_blk4(px, step, qv, gl, wscale, one, &acc, wsum4, 1, DT, NC);
-            continue;
-        }
-        for (int l = 0; l < 4; l++)
-            if (m & (1 << l))
-                acc = pend_tap(pd, qv[l], px + l * step, gl, wscale, one, acc, wsum4, DT, NC);
-        if (DDQ > 0.0f) /* the kept run ended in this block */
-            return acc;
-    }
-    for (; n > 0; n--, px += step)
-        acc = pend_tap(pd, q_step(&Q, &DQ, DDQ), px, gl, wscale, one, acc, wsum4, DT, NC);
-    return acc;
-}
-
 int st_ptextri_band_check(int R, int odd, int y, int xa, int xb, const float *texels,
                           int recurrence)
 {
@@ -1579,8 +1479,7 @@ lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int
 __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                                            const uint8_t *data, int constant,
                                                            int how, int REC, pt_kf *kf,
-                                                           pt_pend *pdp, unsigned DT,
-                                                           unsigned NC)
+                                                           unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R;
@@ -1599,8 +1498,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     const float wscale = it->wscale;
     const int reads = how == SW_READ && !constant;
-    /* a read sweep with REC set: the weights by pk_exp2_4, four taps at a time (row_read4q
-     * and the queue pt_pend inside the level, row_read4 elsewhere; REC 0: the per-tap expf) */
+    /* a read sweep with REC set: the weights by pk_exp2_4, four taps at a time (row_read4;
+     * REC 0: the per-tap expf) */
     const int W4 = how == SW_READ && REC;
     const pt_v4f gl = {gs * 1.44269504f, gs * 1.44269504f, gs * 1.44269504f,
                        gs * 1.44269504f}; /* 2^(Q gl) = exp(gs Q) */
@@ -1618,22 +1517,18 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
          * stepped; the same Q, DQ and taps as the loop below */
         const size_t rs = (size_t)R * ts;
         const uint8_t *row = data + (size_t)y1 * rs;
-        /* W4: the taps waiting (pdp: the piece's, which sweep2_t weighs after both sweeps) */
-        pt_pend pd0 = {.q = {0.0f, 0.0f, 0.0f, 0.0f}, .n = 0}, *pd = pdp ? pdp : &pd0;
         for (int y = y1; y < y2; y++, row += rs) {
             __asm__ volatile("" ::: "memory"); /* as below: the fields re-read each row */
             int x1, x2;
             float Q, DQ;
             row_span(it, R, y, &x1, &x2, &Q, &DQ);
-            if (W4 && x2 > x1)
-                acc = row_read4q(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, Q, DQ, DDQ,
-                                 gl, wsv, one, acc, &wsum4, pd, DT, NC);
+            if (W4 && x2 - x1 >= PT_W4_MIN)
+                acc = row_read4(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ,
+                                gl, wsv, one, acc, &wsum4, 1, 1, DT, NC);
             else
                 acc = row_step(x2 - x1, row + (size_t)x1 * ts, (ptrdiff_t)ts, &Q, &DQ, DDQ,
                                gs, wscale, one, acc, &wsum4, NULL, DT, NC);
         }
-        if (!pdp && pd0.n)
-            acc = pend_flush(&pd0, pd0.n, gl, wsv, one, acc, &wsum4, DT, NC);
         y2 = y1; /* done: the loop below visits nothing */
     }
     /* a sweep of a few taps (under about 16 in its bounds) keeps the per-tap expf, cheaper
@@ -1778,10 +1673,7 @@ typedef void (*sweep_fn)(tc *c, const ti *ev, const ti *od, const uint8_t *data,
                          int constant);
 
 /* Both sweeps of a piece in one call (the sums carried in registers from one to the other):
- * c->weight += the upright sweep's weight, then += the inverted sweep's, as two calls would;
- * a read sweep's taps still waiting after both (pt_pend: the piece's two sweeps share one
- * queue, their R and so their wscale being the same) are then weighed and their weight added
- * last. */
+ * c->weight += the upright sweep's weight, then += the inverted sweep's, as two calls would. */
 __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, const ti *od,
                                                            const uint8_t *data, int constant,
                                                            int how, int REC, unsigned DT,
@@ -1789,28 +1681,10 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
 {
     float w = c->weight;
     pt_kf kf = {.set = 0}; /* the factors once a piece, for both sweeps */
-    const int Q4 = how == SW_READ && REC && !constant; /* the sweeps' queue is the piece's */
-    pt_pend pd = {.q = {0.0f, 0.0f, 0.0f, 0.0f}, .n = 0};
     if (ev->valid)
-        w += sweep_t(c, ev, data, constant, how, REC, &kf, Q4 ? &pd : NULL, DT, NC);
+        w += sweep_t(c, ev, data, constant, how, REC, &kf, DT, NC);
     if (od->valid)
-        w += sweep_t(c, od, data, constant, how, REC, &kf, Q4 ? &pd : NULL, DT, NC);
-    if (Q4 && pd.n) { /* sweep_t's start and end around the waiting taps */
-        const float gs = -0.5f * (PT_WIDTH * PT_WIDTH), ws = (ev->valid ? ev : od)->wscale;
-        const pt_v4f gl = {gs * 1.44269504f, gs * 1.44269504f, gs * 1.44269504f,
-                           gs * 1.44269504f}, wsv = {ws, ws, ws, ws};
-        pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f}, acc = c->acc;
-        if (NC < 4) {
-            pt_v4i keep = {-1, -1, -1, 0}, bits;
-            memcpy(&bits, &acc, 16);
-            bits &= keep;
-            memcpy(&acc, &bits, 16);
-        }
-        float wsum4 = 0.0f;
-        acc = pend_flush(&pd, pd.n, gl, wsv, one, acc, &wsum4, DT, NC);
-        w += NC < 4 ? acc[3] : wsum4;
-        c->acc = acc;
-    }
+        w += sweep_t(c, od, data, constant, how, REC, &kf, DT, NC);
     c->weight = w;
 }
 
@@ -1943,19 +1817,15 @@ PT_P1_NC(1)
 PT_P1_NC(2)
 PT_P1_NC(3)
 
-/* The weights of n (0..4) kept taps with Q values q[0..n-1] as the read sweeps' queue weighs
- * them (pend_flush: pk_exp2_4 of Q gl, times wscale, each lane on its own), into w: the one
- * place piece_r2 evaluates weights, to follow pend_flush's if its weights change. */
+/* The weights of n taps with Q values q[0..n-1] as row_step weighs a kept tap (a read
+ * sweep's rows under PT_W4_MIN taps: one libm expf a tap), into w: the one place piece_r2
+ * evaluates weights, to follow row_step's if its weights change. */
 __attribute__((always_inline)) static inline void short_row_weights(const float *q, int n,
                                                                     float wscale, float *w)
 {
-    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH), g = gs * 1.44269504f;
-    const pt_v4f gl = {g, g, g, g}, wsv = {wscale, wscale, wscale, wscale};
-    pt_v4f qv = {n > 0 ? q[0] : 0.0f, n > 1 ? q[1] : 0.0f, n > 2 ? q[2] : 0.0f,
-                 n > 3 ? q[3] : 0.0f};
-    pt_v4f wv = pk_exp2_4(qv * gl) * wsv;
+    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
     for (int i = 0; i < n; i++)
-        w[i] = wv[i];
+        w[i] = expf(gs * q[i]) * wscale;
 }
 
 /* A valid sweep of a clamped piece at R = 2 (index bounds l0..2, h0..2; the ellipse A, B, C
@@ -2017,15 +1887,14 @@ __attribute__((always_inline)) static inline int r2_sweep(int l0, int l1, int l2
  * bounds are iterators' operations on the same values (Finv, Ak, Bk, Ck, the centres, the
  * clamp and ceil_int4 of the same lanes); a valid sweep's rows lie inside the level and have
  * at most 2 taps (r2_sweep), so sweep_t takes its fast path and row_step's per-tap weights.
- * Each row's taps are those of row_span and row_read4q (the same float Q, DQ chain: the same
- * kept taps, Q < 1); the kept taps of both sweeps (at most 3 upright and 1 inverted: never
- * more than the long way's queue of four, pt_pend, which it weighs in one pend_flush, inside
- * the inverted sweep or after both) are weighed by one short_row_weights call, then added in
- * the sweeps' order: the channel lanes on from c->acc, the weight's lane 3 from +0 (NC < 4;
- * wsum4 when NC == 4), then c->weight += that sum (the long way adds the sweeps' +0 weights
- * before it) - the same operations on the same values as the long way. Returns 0 (the caller
- * takes the long way) when a bound is past 2^30 (where iterators takes libm's ceilf). Lane 3
- * of c->acc when NC < 4 (scratch) is the weight just added, as the long way leaves it. */
+ * Each row's taps are those of row_span and row_step (the same float Q, DQ chain: the same
+ * kept taps, Q < 1); the kept taps of both sweeps (at most 3 upright and 1 inverted) are
+ * weighed by one short_row_weights call, then added in the sweeps' order: a sweep's channel
+ * lanes on from c->acc, its weight's lane 3 from +0 (NC < 4; wsum4 when NC == 4), then
+ * c->weight += the upright sweep's weight, += the inverted one's - the same operations on the
+ * same values as the long way. Returns 0 (the caller takes the long way) when a bound is past
+ * 2^30 (where iterators takes libm's ceilf). Lane 3 of c->acc when NC < 4 (scratch) is the
+ * last valid sweep's weight, as the long way leaves it. */
 __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
                                                             const uint8_t *data, unsigned DT,
                                                             unsigned NC)
@@ -2060,10 +1929,11 @@ __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
     /* the kept taps of both sweeps in order (at most 3 each): Q and texel */
     float q[8], w[8];
     const uint8_t *px[8];
-    int n = 0;
+    int n = 0, ne = 0;
     if (ev_ok)
         n = r2_sweep(ia[0], ia[1], ia[2], ia[3], ib[0], ib[1], Ak, Bk, Ck,
                      k->u * fR - third, k->v * fR - third, data, ts, q, px, n);
+    ne = n;
     if (od_ok)
         n = r2_sweep(ib[2], ib[3], ic[0], ic[1], ic[2], ic[3], Ck, Bk, Ak,
                      (1.0f - k->v) * fR - third, (1.0f - k->u) * fR - third, data, ts, q, px,
@@ -2075,20 +1945,37 @@ __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
     const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
     pt_v4f acc = c->acc;
     float wt = c->weight;
-    if (NC < 4) { /* lane 3 to +0, as each valid sweep's start leaves it */
-        const pt_v4i keep = {-1, -1, -1, 0};
-        pt_v4i bits;
-        memcpy(&bits, &acc, 16);
-        bits &= keep;
-        memcpy(&acc, &bits, 16);
+    const pt_v4i keep = {-1, -1, -1, 0}; /* NC < 4: lane 3 to +0 at a sweep's start */
+    pt_v4i bits;
+    int i = 0;
+    if (ev_ok) {
+        if (NC < 4) {
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wsum4 = 0.0f;
+        for (; i < ne; i++) {
+            acc += texel_vec(px[i], one, DT, NC) * w[i];
+            if (NC == 4)
+                wsum4 += w[i];
+        }
+        wt += NC < 4 ? acc[3] : wsum4;
     }
-    float wsum4 = 0.0f;
-    for (int i = 0; i < n; i++) {
-        acc += texel_vec(px[i], one, DT, NC) * w[i];
-        if (NC == 4)
-            wsum4 += w[i];
+    if (od_ok) { /* at most one kept tap (r2_sweep) */
+        if (NC < 4) {
+            memcpy(&bits, &acc, 16);
+            bits &= keep;
+            memcpy(&acc, &bits, 16);
+        }
+        float wsum4 = 0.0f;
+        if (i < n) {
+            acc += texel_vec(px[i], one, DT, NC) * w[i];
+            if (NC == 4)
+                wsum4 += w[i];
+        }
+        wt += NC < 4 ? acc[3] : wsum4;
     }
-    wt += NC < 4 ? acc[3] : wsum4;
     c->acc = acc;
     c->weight = wt;
     return 1;
@@ -2129,17 +2016,17 @@ static piece_r1_fnp piece_r2_fn(unsigned dt, unsigned nc)
 __attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it, pt_kf *kf)
 {
     (void)kf;
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, NULL, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, ST_DT_F32, 1);
 }
 
 __attribute__((noinline)) static float sweep_weight_general(tc *c, const ti *it, pt_kf *kf)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, kf, NULL, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, kf, ST_DT_F32, 1);
 }
 
 __attribute__((noinline)) static float sweep_weight_lean(tc *c, const ti *it, pt_kf *kf)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, NULL, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
 }
 
 #ifdef PT_AVX2
@@ -2147,7 +2034,7 @@ __attribute__((noinline, target("avx2"))) static float sweep_weight_lean_avx2(tc
                                                                             const ti *it,
                                                                             pt_kf *kf)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, NULL, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
 }
 #endif
 
