@@ -1469,6 +1469,18 @@ lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int
     return acc;
 }
 
+
+/* acc with lane 3 set to +0 and the other lanes' bits kept: where a sweep's weight sum starts
+ * (NC < 4: lane 3 sums the weights; sweep_t, piece_r1, piece_r2). */
+__attribute__((always_inline)) static inline pt_v4f lane3_cleared(pt_v4f acc)
+{
+    const pt_v4i keep = {-1, -1, -1, 0};
+    pt_v4i bits;
+    memcpy(&bits, &acc, 16);
+    bits &= keep;
+    memcpy(&acc, &bits, 16);
+    return acc;
+}
 /* Sweeps one iterator: Q by finite differences along each row (Heckbert), a tap where Q < 1
  * weighs exp(-Q * 3.5^2 / 2) / R^2. SW_READ reads texel (x, y) of data (a constant face or a
  * 1x1 level: data is its one texel, applied once with the summed weight, as Ptex does);
@@ -1487,12 +1499,8 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
      * {x0, .., 1} * w, lane by lane the scalar sums' operations (1 * w is w); the untouched
      * lanes add +0 (a sum is never -0: it starts +0 and x + y rounds to +0 when it is 0) */
     pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f}, acc = c->acc;
-    if (NC < 4) { /* lane 3 (the last sweep's weight) to +0, the other lanes' bits kept */
-        pt_v4i keep = {-1, -1, -1, 0}, bits;
-        memcpy(&bits, &acc, 16);
-        bits &= keep;
-        memcpy(&acc, &bits, 16);
-    }
+    if (NC < 4) /* lane 3 (the last sweep's weight) to +0 */
+        acc = lane3_cleared(acc);
     float wsum4 = 0.0f, DDQ = 2.0f * it->A; /* wsum4: the weight's sum when NC == 4 */
     float ws = 0.0f; /* the lean weight sweep's sum (lane 3's, which starts at +0) */
     const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
@@ -1789,12 +1797,8 @@ __attribute__((always_inline)) static inline int piece_r1_t(tc *c, const tk *k,
         const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
         const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
         pt_v4f acc = c->acc;
-        if (NC < 4) { /* lane 3 to +0, as sweep_t */
-            pt_v4i keep = {-1, -1, -1, 0}, bits;
-            memcpy(&bits, &acc, 16);
-            bits &= keep;
-            memcpy(&acc, &bits, 16);
-        }
+        if (NC < 4) /* lane 3 to +0, as sweep_t */
+            acc = lane3_cleared(acc);
         float wt = expf(gs * Q) * 1.0f, wsum4 = 0.0f;
         acc += one * wt;
         if (NC == 4)
@@ -1881,6 +1885,26 @@ __attribute__((always_inline)) static inline int r2_sweep(int l0, int l1, int l2
     return n;
 }
 
+/* Taps i0..i1-1 (texels px, weights w; at most MAX of them, a constant the loop unrolls by)
+ * of one sweep of piece_r2 added to acc as sweep_t adds them: lane 3 from +0 (NC < 4; wsum4
+ * when NC == 4), then *wt += the sweep's weight. */
+__attribute__((always_inline)) static inline pt_v4f
+r2_add(pt_v4f acc, const uint8_t *const *px, const float *w, int i0, int i1, int MAX,
+       float *wt, unsigned DT, unsigned NC)
+{
+    const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
+    if (NC < 4)
+        acc = lane3_cleared(acc);
+    float wsum4 = 0.0f;
+    for (int i = i0; i < i1 && i < i0 + MAX; i++) {
+        acc += texel_vec(px[i], one, DT, NC) * w[i];
+        if (NC == 4)
+            wsum4 += w[i];
+    }
+    *wt += NC < 4 ? acc[3] : wsum4;
+    return acc;
+}
+
 /* A piece k clamped into its face at resolution 1 (the face's 2 x 2 level, texels at data, not
  * a constant face), applied as iterators_clamped and c->rd (sweep2_t with constant 0) apply
  * it, without the two ti structs, the sweep call or its per-sweep set-up. The twelve index
@@ -1942,40 +1966,14 @@ __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
     float wscale;
     memcpy(&wscale, &wsb, 4);
     short_row_weights(q, n, wscale, w);
-    const pt_v4f one = {0.0f, 0.0f, 0.0f, NC < 4 ? 1.0f : 0.0f};
     pt_v4f acc = c->acc;
     float wt = c->weight;
-    const pt_v4i keep = {-1, -1, -1, 0}; /* NC < 4: lane 3 to +0 at a sweep's start */
-    pt_v4i bits;
-    int i = 0;
-    if (ev_ok) {
-        if (NC < 4) {
-            memcpy(&bits, &acc, 16);
-            bits &= keep;
-            memcpy(&acc, &bits, 16);
-        }
-        float wsum4 = 0.0f;
-        for (; i < ne; i++) {
-            acc += texel_vec(px[i], one, DT, NC) * w[i];
-            if (NC == 4)
-                wsum4 += w[i];
-        }
-        wt += NC < 4 ? acc[3] : wsum4;
-    }
-    if (od_ok) { /* at most one kept tap (r2_sweep) */
-        if (NC < 4) {
-            memcpy(&bits, &acc, 16);
-            bits &= keep;
-            memcpy(&acc, &bits, 16);
-        }
-        float wsum4 = 0.0f;
-        if (i < n) {
-            acc += texel_vec(px[i], one, DT, NC) * w[i];
-            if (NC == 4)
-                wsum4 += w[i];
-        }
-        wt += NC < 4 ? acc[3] : wsum4;
-    }
+    /* each valid sweep as sweep_t ends it: lane 3 from +0 (NC < 4; wsum4 when NC == 4), its
+     * taps added, c->weight += its weight (the inverted sweep: at most one tap) */
+    if (ev_ok)
+        acc = r2_add(acc, px, w, 0, ne, 3, &wt, DT, NC);
+    if (od_ok)
+        acc = r2_add(acc, px, w, ne, n, 1, &wt, DT, NC);
     c->acc = acc;
     c->weight = wt;
     return 1;
