@@ -30,7 +30,8 @@
  * Owns: the table (a set extension, set->ext, freed with the set). Does not own: the set's
  * own levels (set.c), filtering (ptexfilter*.c).
  *
- * Cost: before the first Ptex-filter call, two bytes per face. After it: one pointer per
+ * Cost: before the first Ptex-filter call, three bytes per face (Ptex flags, stored levels,
+ * lane flags) and the deferred reductions' compressed bytes. After it: one pointer per
  * (face, ulog2', vlog2') pair plus the texels of the pairs that are not set levels (about 2.7x
  * level 0); st_set_memory counts it once built. A built table may be dropped again under a
  * memory budget (st_ptexres_drop, server/budget.c) and is rebuilt by the next Ptex filter
