@@ -22,7 +22,9 @@
  * reader makes its reductions and derived flags as for a file.
  *
  * Queries (per set): random; a third within two texels of an edge or corner; some on texel
- * centres; a few on or past the face's bounds; footprints 0.25 to 32 texels (the exact powers
+ * centres; a few on or past the face's bounds; 40% in runs that keep the face and footprint
+ * of the query before (the 8-query lanes' coherent blocks; on triangles, the kernel shape
+ * the filter reuses, a quarter of them with one derivative changed); footprints 0.25 to 32 texels (the exact powers
  * of two and in between), isotropic, anisotropic, with cross terms; a few with a zero
  * footprint. Quad sets: every Ptex filter (point, bilinear, box, gaussian, bicubic, bspline,
  * catmullrom, mitchell), Discard, Traverse and Clamp, default width and blur and (kernel
@@ -424,9 +426,9 @@ static st_set *quad_set(const mesh *m, const spec *sp, int rot)
             for (int k = 0; k < 4; k++)
                 C[f][k] = c0[(k + r) & 3];
         }
-        for (int e = 0; e < 4; e++) {
-            int *s = hm_slot(&edges, dkey(C[f][e], C[f][(e + 1) & 3]), 1);
-            *s = f * 4 + e;
+        for (int e = 0; e < 4; e++) { /* each directed edge once: a manifold mesh */
+            assert_null(hm_slot(&edges, dkey(C[f][e], C[f][(e + 1) & 3]), 0));
+            *hm_slot(&edges, dkey(C[f][e], C[f][(e + 1) & 3]), 1) = f * 4 + e;
         }
     }
     int nv0 = m->nv;
@@ -505,8 +507,10 @@ static st_set *tri_set(const mesh *m, const spec *sp, int rot)
         int r = rot ? (int)rndu(3) : 0;
         for (int k = 0; k < 3; k++)
             C[f][k] = m->idx[m->start[f] + (k + r) % 3];
-        for (int e = 0; e < 3; e++)
+        for (int e = 0; e < 3; e++) {
+            assert_null(hm_slot(&edges, dkey(C[f][e], C[f][(e + 1) % 3]), 0));
             *hm_slot(&edges, dkey(C[f][e], C[f][(e + 1) % 3]), 1) = f * 4 + e;
+        }
     }
     int l0 = rand_log(sp->maxlog);
     size_t texels = 0;
@@ -571,7 +575,8 @@ static void set_fp(st_query *q, float fu, float fv, float w, float h)
 static void quad_queries(const st_set *s, st_query *q, size_t n)
 {
     for (size_t i = 0; i < n; i++) {
-        uint32_t f = rndu(s->info.nfaces);
+        int run = i > 0 && rndf() < 0.4f; /* the face and footprint of the query before */
+        uint32_t f = run ? q[i - 1].face : rndu(s->info.nfaces);
         const st_face *F = &s->faces[f];
         float W = (float)F->w, H = (float)F->h, u = rndf(), v = rndf();
         float r = rndf();
@@ -599,16 +604,21 @@ static void quad_queries(const st_set *s, st_query *q, size_t n)
             u = 0.99999994f;
         if (v >= 1.0f && r < 0.5f)
             v = 0.99999994f;
+        st_query prev = i > 0 ? q[i - 1] : (st_query){0};
         q[i] = (st_query){.face = f, .u = u, .v = v};
         float fu = rand_fp(), fv = rndf() < 0.5f ? fu : rand_fp();
         set_fp(&q[i], fu, fv, W, H);
+        if (run)
+            q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = prev.dudx, .dvdx = prev.dvdx,
+                              .dudy = prev.dudy, .dvdy = prev.dvdy};
     }
 }
 
 static void tri_queries(const st_set *s, st_query *q, size_t n)
 {
     for (size_t i = 0; i < n; i++) {
-        uint32_t f = rndu(s->info.nfaces);
+        int run = i > 0 && rndf() < 0.4f; /* the face and footprint of the query before */
+        uint32_t f = run ? q[i - 1].face : rndu(s->info.nfaces);
         float R = (float)s->faces[f].w;
         float u = rndf(), v = rndf(), r = rndf();
         if (u + v > 1.0f) {
@@ -646,9 +656,15 @@ static void tri_queries(const st_set *s, st_query *q, size_t n)
             u = -0.1f + 1.2f * u;
             v = -0.1f + 1.2f * v;
         }
+        st_query prev = i > 0 ? q[i - 1] : (st_query){0};
         q[i] = (st_query){.face = f, .u = u, .v = v};
         float fu = rand_fp(), fv = rndf() < 0.5f ? fu : rand_fp();
         set_fp(&q[i], fu, fv, R, R);
+        if (run) /* the same footprint, or one derivative changed */
+            q[i] = (st_query){.face = f, .u = u, .v = v, .dudx = prev.dudx, .dvdx = prev.dvdx,
+                              .dudy = prev.dudy, .dvdy = prev.dvdy};
+        if (run && rndf() < 0.25f)
+            (&q[i].dudx)[rndu(4)] = q[i].dudx * 0.5f + 0.25f / R;
     }
 }
 
