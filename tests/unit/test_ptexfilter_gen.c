@@ -16,27 +16,31 @@
  * (neighbours of very different resolutions); u8, u16, half and f32 with 1..4 channels;
  * contents smooth, noise, steps, uniform, extreme (0, the max, large and tiny floats,
  * subnormal floats and halfs), constant faces (some sharing one value, so that the reader
- * marks neighbourhoods constant). Triangle meshes (ST_MESH_TRIANGLE): triangulated grids with
- * holes, tetrahedra (valence 3), bipyramids (valence 4..9, closed), a triangulated torus.
+ * marks neighbourhoods constant); Ptex border modes (clamp, black, periodic) at random.
+ * Triangle meshes (ST_MESH_TRIANGLE): triangulated grids with holes, tetrahedra (valence 3),
+ * bipyramids (valence 3..9, closed), triangulated tori.
  * Every set is written with st_ptex_write_mem and read back with st_ptex_read_mem, so the
  * reader makes its reductions and derived flags as for a file.
  *
  * Queries (per set): random; a third within two texels of an edge or corner; some on texel
  * centres; a few on or past the face's bounds; 40% in runs that keep the face and footprint
  * of the query before (the 8-query lanes' coherent blocks; on triangles, the kernel shape
- * the filter reuses, a quarter of them with one derivative changed); footprints 0.25 to 32 texels (the exact powers
- * of two and in between), isotropic, anisotropic, with cross terms; a few with a zero
- * footprint. Quad sets: every Ptex filter (point, bilinear, box, gaussian, bicubic, bspline,
- * catmullrom, mitchell), Discard, Traverse and Clamp, default width and blur and (kernel
- * filters) width 1.5 blur 0.02: pf_batch_path with PF_PATH_BEST, PF_PATH_QUERY and
+ * the filter reuses, a quarter of them with one derivative changed); footprints 0.25 to 32
+ * texels (the exact powers of two and in between), isotropic, anisotropic, with cross terms;
+ * a few with a zero footprint. Quad sets: every Ptex filter (point, bilinear, box, gaussian,
+ * bicubic, bspline, catmullrom, mitchell), Discard, Traverse and Clamp, default width and
+ * blur and (kernel filters) width 1.5 blur 0.02: pf_batch_path with PF_PATH_BEST, PF_PATH_QUERY and
  * PF_PATH_LANES4 against PF_PATH_GENERAL (every query through eval): outputs, coverage,
  * status and return value the same bytes. Triangle sets: st_ptextri_batch and
  * st_ptextri_batch_baseline against st_ptextri_batch_general (point, gaussian, bicubic with
  * width 1.5 and blur 0.01, gaussian with the clamp zero rule, box; three modes; with and
  * without the coverage array).
  *
+ * Faults planted in the 2 x 2 path's subface declines (across_small, corner_small) fail this
+ * test and no test on the shared files (docs/ptex.md, "gen25").
+ *
  * GEN_SETS=N (environment) runs N sets of each kind instead of the default, GEN_SEED=S
- * another seed: for longer hunts by hand. */
+ * another seed: for longer hunts by hand; GEN_VERBOSE=1 prints what each set holds. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -192,7 +196,8 @@ static void refine(mesh *m)
         const int *v = &m->idx[m->start[p]];
         int c = mid_new(&d, -1, -1);
         for (int i = 0; i < n; i++)
-            quad4(&r, v[i], mid_of(&d, v[i], v[(i + 1) % n]), c, mid_of(&d, v[(i + n - 1) % n], v[i]));
+            quad4(&r, v[i], mid_of(&d, v[i], v[(i + 1) % n]), c,
+                  mid_of(&d, v[(i + n - 1) % n], v[i]));
     }
     r.nv = m->nv + d.n;
     mids_free(&d);
@@ -353,7 +358,8 @@ static st_set *fill_write_read(st_set *s)
         if (F->flags & ST_FACE_CONSTANT) {
             float v0 = rndf() < 0.7f ? shared[f & 1 && rndf() < 0.3f] : rndf();
             for (unsigned c = 0; c < s->info.nchan; c++)
-                st_channel_put(s->info.dtype, t, c, (v0 - 0.25f) * ((s->info.dtype >= ST_DT_HALF) ? scale : 1.0f));
+                st_channel_put(s->info.dtype, t, c,
+                               (v0 - 0.25f) * (s->info.dtype >= ST_DT_HALF ? scale : 1.0f));
             continue;
         }
         float r = rndf();
@@ -480,7 +486,8 @@ static st_set *quad_set(const mesh *m, const spec *sp, int rot)
     }
     st_set_info info = {.nfaces = (uint32_t)nf, .nchan = (uint8_t)sp->nchan,
                         .dtype = (uint8_t)sp->dtype, .alpha_chan = -1,
-                        .kind = ST_KIND_PERFACE, .meshtype = ST_MESH_QUAD};
+                        .kind = ST_KIND_PERFACE, .meshtype = ST_MESH_QUAD,
+                        .border_u = (uint8_t)rndu(3), .border_v = (uint8_t)rndu(3)};
     st_set *s = NULL;
     st_error e = {0};
     int rc = st_set_create(&info, fd, 0, &s, &e);
@@ -531,7 +538,8 @@ static st_set *tri_set(const mesh *m, const spec *sp, int rot)
     hm_free(&edges);
     st_set_info info = {.nfaces = (uint32_t)nf, .nchan = (uint8_t)sp->nchan,
                         .dtype = (uint8_t)sp->dtype, .alpha_chan = -1,
-                        .kind = ST_KIND_PERFACE, .meshtype = ST_MESH_TRIANGLE};
+                        .kind = ST_KIND_PERFACE, .meshtype = ST_MESH_TRIANGLE,
+                        .border_u = (uint8_t)rndu(3), .border_v = (uint8_t)rndu(3)};
     st_set *s = NULL;
     st_error e = {0};
     int rc = st_set_create(&info, fd, 0, &s, &e);
@@ -755,7 +763,8 @@ static int tri_compare(const char *what, const st_set *s, const st_query *q, siz
                     int r1 = (base ? st_ptextri_batch_baseline : st_ptextri_batch)(
                         s, &o, q, n, o1, wc ? c1 : NULL, s1);
                     char w[256];
-                    snprintf(w, sizeof w, "%.200s %s coverage %d", what, base ? "baseline" : "lean", wc);
+                    snprintf(w, sizeof w, "%.200s %s coverage %d", what,
+                             base ? "baseline" : "lean", wc);
                     bad += differ(w, s, &o, q, n, r1, r2, wc);
                     (*runs)++;
                 }
