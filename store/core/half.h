@@ -61,4 +61,29 @@ static inline uint16_t st_float_to_half(float f)
     return (uint16_t)(sign | r);
 }
 
+/* Ptex's float -> half (PtexHalf::fromFloat, v2.4), which the Ptex reader and writer use for
+ * every half value they compute (reductions, averages): normal results round half away from
+ * zero (mantissa + 0x1000, then >> 13; a carry moves into the exponent, up to infinity),
+ * subnormal results are int(|f| * 2^24 + 0.5) computed in double, +-0 gives +0, too large
+ * values give infinity and NaN keeps the top mantissa bits (0x7c00 | m >> 13). It differs from
+ * st_float_to_half (nearest even) on ties, so the levels seamtex computes the way Ptex does
+ * (store/ptex/ptexres.c, core/trilevel.c) use this one to match Ptex's bits. */
+static inline uint16_t st_float_to_half_ptex(float f)
+{
+    if (f == 0.0f)
+        return 0;
+    uint32_t x;
+    memcpy(&x, &f, sizeof x);
+    uint32_t sign = (x >> 16) & 0x8000u, E = (x >> 23) & 0xffu;
+    if (E >= 113 && E <= 142)
+        return (uint16_t)((sign | ((E - 112) << 10)) + (((x & 0x7fffffu) + 0x1000u) >> 13));
+    if (E <= 112) {
+        double a = (double)(f < 0 ? -f : f);
+        return (uint16_t)(sign | (uint32_t)(int)(a * 1.6777216e7 + .5));
+    }
+    if (E == 255)
+        return (uint16_t)(sign | 0x7c00u | ((x & 0x7fffffu) >> 13));
+    return (uint16_t)(sign | 0x7c00u);
+}
+
 #endif

@@ -35,7 +35,7 @@ void st_tri_reduce(unsigned dt, unsigned nc, const uint8_t *src, uint32_t R, uin
                     float sum = st_half_to_float(s[a + k]) + st_half_to_float(s[b + k]);
                     sum += st_half_to_float(s[c + k]);
                     sum += st_half_to_float(s[d + k]);
-                    ((uint16_t *)(void *)dst)[o + k] = st_float_to_half(0.25f * sum);
+                    ((uint16_t *)(void *)dst)[o + k] = st_float_to_half_ptex(0.25f * sum);
                     break;
                 }
                 default: {

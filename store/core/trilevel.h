@@ -73,7 +73,8 @@ static inline void st_tri_across_edge(unsigned e, unsigned ae, const float p[3],
  * the same orientation at its corners and the opposite one in the middle). Texel (i, j) of dst
  * = quarter(src(2i, 2j) + src(2i+1, 2j) + src(2i, 2j+1) + src(R-1-2j, R-1-2i)), per channel,
  * exactly as Ptex's reader makes triangle reductions: integers summed and shifted right by 2
- * (truncating), half and float summed in float in that order and multiplied by 0.25. dt is
+ * (truncating), half and float summed in float in that order and multiplied by 0.25 (half
+ * converted back as PtexHalf does, st_float_to_half_ptex: ties away from zero). dt is
  * st_dtype, nc the channel count; texels interleaved, rows of u. */
 void st_tri_reduce(unsigned dt, unsigned nc, const uint8_t *src, uint32_t R, uint8_t *dst);
 

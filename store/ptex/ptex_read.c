@@ -701,6 +701,30 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
     if ((rc = inflate_exact(r, cdpos, cdsize, constdata, cdbytes, "constant data")))
         goto done;
 
+    {
+        /* rfaceid order: stable sort by min(ulog2, vlog2) descending, constant faces count 1
+         * (counting sort keeps it stable). Made from the face info as stored, before the
+         * edit records below replace it: the stored reductions are in that order (Ptex's
+         * reader makes its rfaceids in readFaceInfo, before readEditData), so a face edit
+         * that changes a face's size or makes it constant must not move the other faces'
+         * reductions. */
+        uint32_t cnt[ST_MAX_LOG2 + 2] = {0};
+        for (uint32_t f = 0; f < nfaces; f++) {
+            unsigned m = fi[f].flags & PTX_FLAG_CONSTANT ? 1u :
+                         (unsigned)(fi[f].ulog2 < fi[f].vlog2 ? fi[f].ulog2 : fi[f].vlog2);
+            cnt[m]++;
+        }
+        uint32_t start[ST_MAX_LOG2 + 2], acc = 0;
+        for (int m = ST_MAX_LOG2 + 1; m >= 0; m--) {
+            start[m] = acc;
+            acc += cnt[m];
+        }
+        for (uint32_t f = 0; f < nfaces; f++) {
+            unsigned m = fi[f].flags & PTX_FLAG_CONSTANT ? 1u :
+                         (unsigned)(fi[f].ulog2 < fi[f].vlog2 ? fi[f].ulog2 : fi[f].vlog2);
+            faceids_r[start[m]++] = f;
+        }
+    }
     /* edit records */
     {
         uint64_t ep = editpos > pos ? editpos : pos, eend;
@@ -820,27 +844,6 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         if ((s->faces[f].flags & ST_FACE_CONSTANT) || (fi[f].ulog2 == 0 && fi[f].vlog2 == 0))
             memcpy(st_face_level(s, f, 0), constdata + (size_t)f * r->psize, r->psize);
 
-    /* levels */
-    {
-        /* rfaceid order: stable sort by min(ulog2, vlog2) descending, constant faces count 1
-         * (counting sort keeps it stable) */
-        uint32_t cnt[ST_MAX_LOG2 + 2] = {0};
-        for (uint32_t f = 0; f < nfaces; f++) {
-            unsigned m = fi[f].flags & PTX_FLAG_CONSTANT ? 1u :
-                         (unsigned)(fi[f].ulog2 < fi[f].vlog2 ? fi[f].ulog2 : fi[f].vlog2);
-            cnt[m]++;
-        }
-        uint32_t start[ST_MAX_LOG2 + 2], acc = 0;
-        for (int m = ST_MAX_LOG2 + 1; m >= 0; m--) {
-            start[m] = acc;
-            acc += cnt[m];
-        }
-        for (uint32_t f = 0; f < nfaces; f++) {
-            unsigned m = fi[f].flags & PTX_FLAG_CONSTANT ? 1u :
-                         (unsigned)(fi[f].ulog2 < fi[f].vlog2 ? fi[f].ulog2 : fi[f].vlog2);
-            faceids_r[start[m]++] = f;
-        }
-    }
     if (!eager && !(pd = calloc(1, sizeof *pd))) {
         rc = st_fail(e, ST_ENOMEM, "out of memory for the stored reductions");
         goto done;

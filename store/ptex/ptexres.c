@@ -96,8 +96,9 @@ const st_ptexres *st_ptexres_get(const st_set *s)
 }
 
 /* Ptex's 2:1 reductions of interleaved texels: integers halve with truncation, half and float
- * take 0.5 * (a + b) in float (half rounds back to nearest even). One loop per dtype over
- * channel elements so that the compiler vectorises it. d[i] = reduce(a[i], b[i]), i < n. */
+ * take 0.5 * (a + b) in float (half rounds back the way PtexHalf does, ties away from zero:
+ * st_float_to_half_ptex). One loop per dtype over channel elements so that the compiler
+ * vectorises it. d[i] = reduce(a[i], b[i]), i < n. */
 static void reduce_run(unsigned dt, const uint8_t *a, const uint8_t *b, uint8_t *d, size_t n,
                        size_t step)
 {
@@ -119,7 +120,7 @@ static void reduce_run(unsigned dt, const uint8_t *a, const uint8_t *b, uint8_t 
         const uint16_t *x = (const uint16_t *)(const void *)a, *y = (const uint16_t *)(const void *)b;
         uint16_t *z = (uint16_t *)(void *)d;
         for (size_t i = 0; i < n; i++)
-            z[i] = st_float_to_half(0.5f * (st_half_to_float(x[i]) + st_half_to_float(y[i])));
+            z[i] = st_float_to_half_ptex(0.5f * (st_half_to_float(x[i]) + st_half_to_float(y[i])));
         break;
     }
     default: {
@@ -215,7 +216,7 @@ static void average_px(unsigned dt, unsigned nc, const uint8_t *src, size_t n, u
         switch (dt) {
         case ST_DT_U8: dst[c] = (uint8_t)v; break;
         case ST_DT_U16: { uint16_t x = (uint16_t)v; memcpy(dst + 2 * c, &x, 2); break; }
-        case ST_DT_HALF: { uint16_t x = st_float_to_half(v); memcpy(dst + 2 * c, &x, 2); break; }
+        case ST_DT_HALF: { uint16_t x = st_float_to_half_ptex(v); memcpy(dst + 2 * c, &x, 2); break; }
         default: memcpy(dst + 4 * c, &v, 4); break;
         }
     }
