@@ -47,7 +47,8 @@
  * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
- * docs/ptex.md, "trip24").
+ * docs/ptex.md, "trip24") and at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
+ * row_read4 and row_step weigh them; docs/ptex.md, "tp25").
  */
 #include "ptextri.h"
 
@@ -128,8 +129,10 @@ typedef struct tc {
     /* a piece at resolution 0 applied whole, without its sweeps' bounds (piece_r1: Traverse,
      * Discard without coverage); 0: not done (the caller takes the long way) */
     int (*p1)(struct tc *c, const tk *k, const uint8_t *data);
-    /* the same for a piece at resolution 1 of a face with texels (piece_r2) */
+    /* the same for a piece at resolution 1 of a face with texels (piece_r2) and at resolution
+     * 2 (piece_r4: its AVX2 instance when avx2) */
     int (*p2)(struct tc *c, const tk *k, const uint8_t *data);
+    int (*p4)(struct tc *c, const tk *k, const uint8_t *data);
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1823,7 +1826,8 @@ PT_P1_NC(3)
 
 /* The weights of n taps with Q values q[0..n-1] as row_step weighs a kept tap (a read
  * sweep's rows under PT_W4_MIN taps: one libm expf a tap), into w: the one place piece_r2
- * evaluates weights, to follow row_step's if its weights change. */
+ * evaluates weights, to follow row_step's if its weights change (piece_r4 has its own copies
+ * of row_step's and row_read4's weights: r4_row and its caller). */
 __attribute__((always_inline)) static inline void short_row_weights(const float *q, int n,
                                                                     float wscale, float *w)
 {
@@ -1886,7 +1890,7 @@ __attribute__((always_inline)) static inline int r2_sweep(int l0, int l1, int l2
 }
 
 /* Taps i0..i1-1 (texels px, weights w; at most MAX of them, a constant the loop unrolls by)
- * of one sweep of piece_r2 added to acc as sweep_t adds them: lane 3 from +0 (NC < 4; wsum4
+ * of one sweep of piece_r2 (or piece_r4) added to acc as sweep_t adds them: lane 3 from +0 (NC < 4; wsum4
  * when NC == 4), then *wt += the sweep's weight. */
 __attribute__((always_inline)) static inline pt_v4f
 r2_add(pt_v4f acc, const uint8_t *const *px, const float *w, int i0, int i1, int MAX,
@@ -1990,6 +1994,184 @@ PT_P2_NC(1)
 PT_P2_NC(2)
 PT_P2_NC(3)
 
+/* Row y of a valid sweep of piece_r4 (index bounds l0..2, h0..2; the ellipse A, B, C and
+ * centre u, v of its ti; at most MAXN taps): its kept taps (Q < 1) appended to q, w, px from
+ * *np on, as sweep_t's fast path takes the row - row_span's span, Q and DQ, then the float
+ * chain Q += DQ, DQ += DDQ a tap (row_step's and row_read4's q_step: the same Q a tap, so the
+ * same kept taps). A row of PT_W4_MIN taps or more is weighed as row_read4 weighs it: one
+ * pk_exp2_4 of the row's Q values times gl, times wscale (lane by lane, so a lane's weight
+ * does not depend on the lanes beside it, nor on which taps row_read4 stepped over first);
+ * a shorter row's kept taps are listed in e (*ne on) for row_step's per-tap expf after. */
+__attribute__((always_inline)) static inline void
+r4_row(int y, int MAXN, int l0, int l2, int h0, int h2, float A, float B, float C, float u,
+       float v, float DDQ, float wscale, const uint8_t *data, size_t ts, float *q, float *w,
+       const uint8_t **px, int *np, int *e, int *ne)
+{
+    const int R = 4;
+    int xw = R - y;
+    int x1 = l0 > xw - h2 ? l0 : xw - h2;
+    int x2 = h0 < xw - l2 ? h0 : xw - l2;
+    int nt = x2 - x1;
+    if (nt <= 0)
+        return;
+    float U = (float)x1 - u, V = (float)y - v;
+    float DQ = A * (2.0f * U + 1.0f) + B * V;
+    float Q = A * U * U + (B * U + C * V) * V;
+    const uint8_t *p0 = data + ((size_t)y * (size_t)R + (size_t)x1) * ts;
+    int n = *np;
+    if (MAXN >= PT_W4_MIN && nt >= PT_W4_MIN) {
+        const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+        const pt_v4f gl = {gs * 1.44269504f, gs * 1.44269504f, gs * 1.44269504f,
+                           gs * 1.44269504f};
+        float q0 = q_step(&Q, &DQ, DDQ), q1 = q_step(&Q, &DQ, DDQ);
+        float q2 = q_step(&Q, &DQ, DDQ), q3 = MAXN > 3 && nt > 3 ? Q : 1.0f;
+        pt_v4f qv = {q0, q1, q2, q3};
+        pt_v4f wv = pk_exp2_4(qv * gl) * wscale;
+        for (int i = 0; i < MAXN && i < 4; i++)
+            if (qv[i] < 1.0f) {
+                q[n] = qv[i];
+                w[n] = wv[i];
+                px[n++] = p0 + (size_t)i * ts;
+            }
+        *np = n;
+        return;
+    }
+    for (int i = 0; i < MAXN && i < PT_W4_MIN - 1 && i < nt; i++) {
+        float qi = q_step(&Q, &DQ, DDQ);
+        if (qi < 1.0f) {
+            e[(*ne)++] = n;
+            q[n] = qi;
+            px[n++] = p0 + (size_t)i * ts;
+        }
+    }
+    *np = n;
+}
+
+/* The rows of one valid sweep of piece_r4 (rows y1..y2 - 1 as sweep_t clips them; a clamped
+ * piece's lower bounds are at least 0 and its upper ones at most 1, so l0, l1 >= 0 and h0,
+ * h1 <= R - the fast path of sweep_t - and row y has at most R - y taps upright (l2 >= 0), at
+ * most y inverted (h2 <= 0)). */
+__attribute__((always_inline)) static inline void
+r4_sweep(int ODD, int l0, int l1, int l2, int h0, int h1, int h2, float A, float B, float C,
+         float u, float v, float wscale, const uint8_t *data, size_t ts, float *q, float *w,
+         const uint8_t **px, int *np, int *e, int *ne)
+{
+    const int R = 4;
+    int y1 = l1, y2 = h1;
+    if (y1 < R - h2 - h0 + 1)
+        y1 = R - h2 - h0 + 1;
+    if (y2 > R - l2 - l0)
+        y2 = R - l2 - l0;
+    const float DDQ = 2.0f * A;
+#define PT_R4ROW(Y)                                                                          \
+    if (y1 <= (Y) && (Y) < y2)                                                               \
+        r4_row(Y, ODD ? (Y) : R - (Y), l0, l2, h0, h2, A, B, C, u, v, DDQ, wscale, data, ts, q, \
+               w, px, np, e, ne);
+    PT_R4ROW(0)
+    PT_R4ROW(1)
+    PT_R4ROW(2)
+    PT_R4ROW(3)
+#undef PT_R4ROW
+}
+
+/* A piece k clamped into its face at resolution 2 (the face's 4 x 4 level, texels at data,
+ * not a constant face), applied as iterators_clamped and c->rd (sweep2_t with constant 0)
+ * apply it: piece_r2's bounds (iterators' operations on the same values, R = 4), then each
+ * valid sweep by r4_sweep (sweep_t's fast path: the same row functions), without the two ti
+ * structs, the sweep call or its per-sweep loads. Returns 0 (the caller takes the long way)
+ * when a bound is past 2^30. Lane 3 of c->acc when NC < 4 (scratch) is the last valid
+ * sweep's weight, as the long way leaves it. */
+__attribute__((always_inline)) static inline int piece_r4_t(tc *c, const tk *k,
+                                                            const uint8_t *data, unsigned DT,
+                                                            unsigned NC)
+{
+    const int R = 4;
+    const float fR = (float)R, third = (float)(1 / 3.0);
+    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
+    const pt_v4f one4 = {1.0f, 1.0f, 1.0f, 1.0f};
+    clamp_bounds4(&lo, &hi);
+    pt_v4f hi1 = one4 - hi, lo1 = one4 - lo;
+    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6);
+    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
+    pt_v4f b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4);
+    pt_v4f cc = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1);
+    a = a * fR - third;
+    b = b * fR - third;
+    cc = cc * fR - third;
+    if (mask4(small4(a) & small4(b) & small4(cc)) != 15)
+        return 0;
+    /* ev lo 0..2 hi 0 | ev hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2 */
+    pt_v4i ia = ceil_int4(a), ib = ceil_int4(b), ic = ceil_int4(cc);
+    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
+    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
+    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
+    const int ev_ok = (mask4(ehi > ia) & 7) == 7, od_ok = (mask4(ohi > olo) & 7) == 7;
+    if (!ev_ok && !od_ok)
+        return 1;
+    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
+    float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
+    uint32_t wsb = (uint32_t)(127 - 2 * 2) << 23; /* 1 / R^2, as iterators_t */
+    float wscale;
+    memcpy(&wscale, &wsb, 4);
+    const size_t ts = st_dtype_size(DT) * NC;
+    /* the kept taps of both sweeps in order (at most 10 upright, 6 inverted): Q, weight and
+     * texel; e: those of rows under PT_W4_MIN taps (weighed after, by expf) */
+    float q[16], w[16];
+    const uint8_t *px[16];
+    int e[16];
+    int n = 0, ne = 0, n1;
+    if (ev_ok)
+        r4_sweep(0, ia[0], ia[1], ia[2], ia[3], ib[0], ib[1], Ak, Bk, Ck, k->u * fR - third,
+                 k->v * fR - third, wscale, data, ts, q, w, px, &n, e, &ne);
+    n1 = n;
+    if (od_ok)
+        r4_sweep(1, ib[2], ib[3], ic[0], ic[1], ic[2], ic[3], Ck, Bk, Ak,
+                 (1.0f - k->v) * fR - third, (1.0f - k->u) * fR - third, wscale, data, ts, q,
+                 w, px, &n, e, &ne);
+    {
+        const float gs = -0.5f * (PT_WIDTH * PT_WIDTH);
+        for (int j = 0; j < ne; j++) /* row_step's weights */
+            w[e[j]] = expf(gs * q[e[j]]) * wscale;
+    }
+    pt_v4f acc = c->acc;
+    float wt = c->weight;
+    /* each valid sweep as sweep_t ends it: lane 3 from +0 (NC < 4; wsum4 when NC == 4), its
+     * taps added in order, c->weight += its weight */
+    if (ev_ok)
+        acc = r2_add(acc, px, w, 0, n1, 16, &wt, DT, NC);
+    if (od_ok)
+        acc = r2_add(acc, px, w, n1, n, 16, &wt, DT, NC);
+    c->acc = acc;
+    c->weight = wt;
+    return 1;
+}
+
+/* piece_r4 a texel type and channel count, and (x86 with GCC or clang) its AVX2 instance,
+ * which Traverse's split_apply_avx2 calls when the lean sweeps run theirs (tc.avx2): the same
+ * C, so the same operations on the same values (no FMA), in VEX encodings - about 10% fewer
+ * instructions than the SSE build at triangle fp 0.25 (docs/ptex.md, "tp25"). */
+#ifdef PT_AVX2
+#define PT_P4_AVX2(DT, NC)                                                                   \
+    __attribute__((target("avx2"))) static int piece_r4a_##DT##_##NC(tc *c, const tk *k,    \
+                                                                     const uint8_t *d)       \
+    {                                                                                        \
+        return piece_r4_t(c, k, d, DT, NC);                                                  \
+    }
+#else
+#define PT_P4_AVX2(DT, NC)
+#endif
+#define PT_P4(DT, NC)                                                                        \
+    static int piece_r4_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                    \
+    {                                                                                        \
+        return piece_r4_t(c, k, d, DT, NC);                                                  \
+    }                                                                                        \
+    PT_P4_AVX2(DT, NC)
+#define PT_P4_NC(DT) PT_P4(DT, 1) PT_P4(DT, 2) PT_P4(DT, 3) PT_P4(DT, 4)
+PT_P4_NC(0)
+PT_P4_NC(1)
+PT_P4_NC(2)
+PT_P4_NC(3)
+
 typedef int (*piece_r1_fnp)(tc *c, const tk *k, const uint8_t *d);
 
 static piece_r1_fnp piece_r1_fn(unsigned dt, unsigned nc)
@@ -2006,6 +2188,22 @@ static piece_r1_fnp piece_r2_fn(unsigned dt, unsigned nc)
     static const piece_r1_fnp p2[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
 #undef PT_ROW
     return p2[dt][nc - 1];
+}
+
+static piece_r1_fnp piece_r4_fn(unsigned dt, unsigned nc, int avx2)
+{
+#define PT_ROW(DT) {piece_r4_##DT##_1, piece_r4_##DT##_2, piece_r4_##DT##_3, piece_r4_##DT##_4}
+    static const piece_r1_fnp p4[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+#ifdef PT_AVX2
+#define PT_ROW(DT) {piece_r4a_##DT##_1, piece_r4a_##DT##_2, piece_r4a_##DT##_3, piece_r4a_##DT##_4}
+    static const piece_r1_fnp p4a[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+    if (avx2)
+        return p4a[dt][nc - 1];
+#endif
+    (void)avx2;
+    return p4[dt][nc - 1];
 }
 
 /* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
@@ -2097,6 +2295,10 @@ __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k,
     /* FUSE: a piece at resolution 1 of a face with texels by piece_r2 */
     if (FUSE && k->res == 1 && c->p2 && !(F->flags & ST_FACE_CONSTANT) &&
         c->p2(c, k, st_face_level(c->s, f, F->ulog2 - 1u)))
+        return;
+    /* FUSE: a piece at resolution 2 of a face with texels by piece_r4 */
+    if (FUSE && k->res == 2 && c->p4 && !(F->flags & ST_FACE_CONSTANT) &&
+        c->p4(c, k, st_face_level(c->s, f, F->ulog2 - 2u)))
         return;
 #ifdef PT_TRAV_AVX2
     if (AVX)
@@ -2412,6 +2614,7 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     const int lean = wmode == PT_LEAN || wmode == PT_LEAN_BASE;
     proto.p1 = lean ? piece_r1_fn(proto.dt, nc) : NULL;
     proto.p2 = lean ? piece_r2_fn(proto.dt, nc) : NULL;
+    proto.p4 = lean ? piece_r4_fn(proto.dt, nc, proto.avx2) : NULL;
     tk_cache kc = {.valid = 0};
     int bad = 0;
     for (size_t i = 0; i < n; i++) {

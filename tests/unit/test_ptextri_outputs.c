@@ -388,8 +388,8 @@ static void the_shared_exp2_is_within_3e_7_of_exp2(void **state)
  * footprints of 2^-3 to 2^6 texels) and on queries whose footprints repeat or change one
  * derivative at a time. The lean builds' own shortcuts are checked the same way: the kernel's
  * shape taken from the query before (same footprint and face size) and the read sweeps of
- * pieces at resolution 0 and 1 (piece_r1, piece_r2: the large and middling footprints on
- * triangle.ptx's 4-texel faces).
+ * pieces at resolution 0, 1 and 2 (piece_r1, piece_r2, piece_r4 and its AVX2 instance: the
+ * large, middling and small footprints on triangle.ptx's 4-texel faces).
  * Checks that the recurrence ran: Clamp's values differ from the per-tap expf's in some
  * groups. */
 static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
