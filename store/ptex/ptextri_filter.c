@@ -366,6 +366,47 @@ static inline pt_v4i ceil_int4(pt_v4f x)
     return t - (__builtin_convertvector(t, pt_v4f) < x); /* a true compare is -1 */
 }
 
+/* The lanes of m that are true (-1), as the bits of an int. */
+static inline int mask4(pt_v4i m)
+{
+#ifdef __SSE2__
+    return _mm_movemask_ps((__m128)m);
+#else
+    return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8);
+#endif
+}
+
+/* The twelve index bounds of kernel k's two sweeps at resolution fR, before their ceilings, as
+ * three lanes (lane 3 unused): a = upright lo 0..2, hi 0; b = upright hi 1, 2, inverted lo 0,
+ * 1; c = inverted lo 2, hi 0..2, each R x - 1/3 (the inverted sweep seen through its flip);
+ * with clamp, the bounds clamped into the triangle first (clamp_bounds4). iterators_t and the
+ * whole-piece shortcuts (piece_r2_t, piece_r4_t) take the same operations from here. */
+__attribute__((always_inline)) static inline void bound_lanes(const tk *k, float fR, int clamp,
+                                                             pt_v4f *a, pt_v4f *b, pt_v4f *c)
+{
+    const float third = (float)(1 / 3.0);
+    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
+    const pt_v4f one = {1.0f, 1.0f, 1.0f, 1.0f};
+    if (clamp)
+        clamp_bounds4(&lo, &hi);
+    pt_v4f hi1 = one - hi, lo1 = one - lo;
+    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6); /* -hi[2], -lo[2] */
+    *a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4) * fR - third;
+    *b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4) * fR - third;
+    *c = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1) * fR - third;
+}
+
+/* Which sweeps the ceilings ia, ib, ic of bound_lanes' lanes leave valid (hi[j] > lo[j] for
+ * j = 0..2, the three compares of each sweep at once): bit 0 the upright sweep, bit 1 the
+ * inverted one. */
+static inline int sweeps_valid(pt_v4i ia, pt_v4i ib, pt_v4i ic)
+{
+    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
+    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
+    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
+    return ((mask4(ehi > ia) & 7) == 7) | ((mask4(ohi > olo) & 7) == 7) << 1;
+}
+
 /* The two sweeps of kernel k at resolution 2^res: upright taps, and inverted ones seen
  * through the flip u' = 1 - v, v' = 1 - u, w' = -w (which makes them upright). With clamp,
  * the kernel kept inside the face: lower bounds raised to 0, upper bounds to what the other
@@ -390,21 +431,9 @@ __attribute__((always_inline)) static inline void iterators_t(const tk *k, int r
     od->odd = 1;
     ev->u = k->u * fR - third;
     ev->v = k->v * fR - third;
-    /* the bounds a coordinate a lane (lane 3: 0, not used), with clamp clamped into the
-     * triangle (clamp_bounds4) */
-    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
-    const pt_v4f one = {1.0f, 1.0f, 1.0f, 1.0f};
-    if (clamp)
-        clamp_bounds4(&lo, &hi);
-    /* ev lo 0..2, hi 0; ev hi 1, 2, od lo 0, 1; od lo 2, hi 0..2 */
-    pt_v4f hi1 = one - hi, lo1 = one - lo;
-    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6); /* -hi[2], -lo[2] */
-    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
-    pt_v4f b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4);
-    pt_v4f c = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1);
-    a = a * fR - third;
-    b = b * fR - third;
-    c = c * fR - third;
+    /* the bounds a coordinate a lane: ev lo 0..2, hi 0; ev hi 1, 2, od lo 0, 1; od lo 2, hi 0..2 */
+    pt_v4f a, b, c;
+    bound_lanes(k, fR, clamp, &a, &b, &c);
     pt_v4i ia, ib, ic, ok = small4(a) & small4(b) & small4(c);
     ok &= __builtin_shufflevector(ok, ok, 2, 3, 0, 1);
     if (__builtin_expect((ok & __builtin_shufflevector(ok, ok, 1, 0, 3, 2))[0] != 0, 1)) {
@@ -433,26 +462,14 @@ __attribute__((always_inline)) static inline void iterators_t(const tk *k, int r
     ev->A = Ak;
     ev->B = Bk;
     ev->C = Ck;
-    /* valid: hi[j] > lo[j] for j = 0..2, the three compares of each sweep at once */
-    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
-    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
-    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
-    pt_v4i ev_ok = ehi > ia, od_ok = ohi > olo; /* -1 where true */
-#ifdef __SSE2__
-    ev->valid = (_mm_movemask_ps((__m128)ev_ok) & 7) == 7;
-#else
-    ev->valid = (ev_ok[0] & ev_ok[1] & ev_ok[2]) != 0;
-#endif
+    const int valid = sweeps_valid(ia, ib, ic);
+    ev->valid = valid & 1;
     od->u = (1.0f - k->v) * fR - third;
     od->v = (1.0f - k->u) * fR - third;
     od->A = Ck;
     od->B = Bk;
     od->C = Ak;
-#ifdef __SSE2__
-    od->valid = (_mm_movemask_ps((__m128)od_ok) & 7) == 7;
-#else
-    od->valid = (od_ok[0] & od_ok[1] & od_ok[2]) != 0;
-#endif
+    od->valid = valid >> 1;
 }
 
 PT_NO_SLP static void iterators_clamped(const tk *k, int res, ti *ev, ti *od)
@@ -812,16 +829,6 @@ row_step(int n, const uint8_t *px, ptrdiff_t step, float *Qp, float *DQp, float 
     }
     tap_end(&t, rc, Qp, DQp);
     return acc;
-}
-
-/* The lanes of m that are true (-1), as the bits of an int. */
-static inline int mask4(pt_v4i m)
-{
-#ifdef __SSE2__
-    return _mm_movemask_ps((__m128)m);
-#else
-    return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8);
-#endif
 }
 
 /* Four taps of a read sweep's row with Q values qv (a lane of 1: no tap): the kept ones
@@ -1931,26 +1938,14 @@ __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
     const size_t ts = st_dtype_size(DT) * NC;
     const float fR = (float)R, third = (float)(1 / 3.0);
     /* iterators_t with clamp, R = 2 */
-    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
-    const pt_v4f one4 = {1.0f, 1.0f, 1.0f, 1.0f};
-    clamp_bounds4(&lo, &hi);
-    pt_v4f hi1 = one4 - hi, lo1 = one4 - lo;
-    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6);
-    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
-    pt_v4f b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4);
-    pt_v4f cc = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1);
-    a = a * fR - third;
-    b = b * fR - third;
-    cc = cc * fR - third;
+    pt_v4f a, b, cc;
+    bound_lanes(k, fR, 1, &a, &b, &cc);
     if (mask4(small4(a) & small4(b) & small4(cc)) != 15)
         return 0;
     /* ev lo 0..2 hi 0 | ev hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2 */
     pt_v4i ia = ceil_int4(a), ib = ceil_int4(b), ic = ceil_int4(cc);
-    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
-    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
-    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
-    const int ev_ok = (mask4(ehi > ia) & 7) == 7, od_ok = (mask4(ohi > olo) & 7) == 7;
-    if (!ev_ok && !od_ok)
+    const int valid = sweeps_valid(ia, ib, ic), ev_ok = valid & 1, od_ok = valid >> 1;
+    if (!valid)
         return 1;
     float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
     float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
@@ -2087,26 +2082,14 @@ __attribute__((always_inline)) static inline int piece_r4_t(tc *c, const tk *k,
 {
     const int R = 4;
     const float fR = (float)R, third = (float)(1 / 3.0);
-    pt_v4f lo = {k->lo[0], k->lo[1], k->lo[2], 0.0f}, hi = {k->hi[0], k->hi[1], k->hi[2], 0.0f};
-    const pt_v4f one4 = {1.0f, 1.0f, 1.0f, 1.0f};
-    clamp_bounds4(&lo, &hi);
-    pt_v4f hi1 = one4 - hi, lo1 = one4 - lo;
-    pt_v4f n2 = -__builtin_shufflevector(hi, lo, 2, 6, 2, 6);
-    pt_v4f a = __builtin_shufflevector(lo, hi, 0, 1, 2, 4);
-    pt_v4f b = __builtin_shufflevector(hi, hi1, 1, 2, 5, 4);
-    pt_v4f cc = __builtin_shufflevector(n2, lo1, 0, 5, 4, 1);
-    a = a * fR - third;
-    b = b * fR - third;
-    cc = cc * fR - third;
+    pt_v4f a, b, cc;
+    bound_lanes(k, fR, 1, &a, &b, &cc);
     if (mask4(small4(a) & small4(b) & small4(cc)) != 15)
         return 0;
     /* ev lo 0..2 hi 0 | ev hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2 */
     pt_v4i ia = ceil_int4(a), ib = ceil_int4(b), ic = ceil_int4(cc);
-    pt_v4i ehi = __builtin_shufflevector(ia, ib, 3, 4, 5, 5);
-    pt_v4i olo = __builtin_shufflevector(ib, ic, 2, 3, 4, 4);
-    pt_v4i ohi = __builtin_shufflevector(ic, ic, 1, 2, 3, 3);
-    const int ev_ok = (mask4(ehi > ia) & 7) == 7, od_ok = (mask4(ohi > olo) & 7) == 7;
-    if (!ev_ok && !od_ok)
+    const int valid = sweeps_valid(ia, ib, ic), ev_ok = valid & 1, od_ok = valid >> 1;
+    if (!valid)
         return 1;
     float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
     float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
