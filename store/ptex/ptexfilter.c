@@ -9,6 +9,9 @@
  * boundaries; at a boundary edge the overhang is folded back (clamp, periodic) or dropped
  * (black). The sum is divided by the kernel's weight. Discard drops every overhanging piece
  * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
+ * In a set with Ptex's tanvec edge filter mode (info.edgefilter) Traverse turns channels 0-1
+ * of each piece that reached a face turned against the query face back (apply, tanvec_add),
+ * on the general path only: batch sends such sets there.
  *
  * Per batch (texel type, channel count, filter and options are the same for every query) one
  * query function is chosen: point and bilinear inside a face specialised per texel type and
