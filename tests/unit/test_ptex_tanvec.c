@@ -20,12 +20,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "native.h"
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "set.h"
+#include "testdata.h"
 
 /* Face 0 (8x8) and face 1 (8x8, or 1x1) side by side: face 0's right edge (1) meets face 1's
  * edge ae, so a kernel piece crossing it turns by 1 - ae + 2 quarter turns. 3 float channels:
@@ -193,16 +193,15 @@ static void mode_survives_the_writers(void **state)
         free(buf);
         assert_int_equal(r->info.edgefilter, efm);
         st_set_free(r);
-        char path[] = "/tmp/st_tanvec_XXXXXX";
-        int fd = mkstemp(path);
-        assert_true(fd >= 0);
-        close(fd);
+        char dir[512], path[600];
+        assert_int_equal(st_test_mkdtemp(dir, sizeof dir, "tanvec"), 0);
+        snprintf(path, sizeof path, "%s/set.stx", dir);
         assert_int_equal(st_native_write(path, s, NULL, &e), 0);
         r = NULL;
         assert_int_equal(st_native_open(path, 0, NULL, &r, &e), 0);
         assert_int_equal(r->info.edgefilter, efm);
         st_set_free(r);
-        unlink(path);
+        st_test_rmtree(dir);
         st_set_free(s);
     }
 }
