@@ -260,6 +260,7 @@ static int info_from_body(stc_conn *c, const uint8_t *body, size_t len, stc_info
     o->border_u = rp.border_u;
     o->border_v = rp.border_v;
     o->meshtype = rp.meshtype;
+    o->edgefilter = rp.edgefilter;
     o->alpha_chan = rp.alpha_chan;
     o->memory = rp.memory;
     o->texel_bytes = rp.texel_bytes;

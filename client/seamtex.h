@@ -199,6 +199,7 @@ typedef struct stc_info {
     uint32_t nfaces;
     unsigned nchan, dtype, kind, colorspace, premultiplied, border_u, border_v, meshtype;
     int      alpha_chan;
+    unsigned edgefilter;              /* Ptex edge filter mode: 0 none, 1 tanvec */
     uint64_t memory, texel_bytes;
     uint32_t min_w, max_w, min_h, max_h;
     uint32_t nconstant, nsubfaces, boundary_edges, irregular_corners, max_valence, nmeta;

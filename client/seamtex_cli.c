@@ -309,6 +309,7 @@ static int info_json(const char *set, const stc_info *in)
     cli_json_u64(&j, "border_u", in->border_u);
     cli_json_u64(&j, "border_v", in->border_v);
     cli_json_str(&j, "mesh", in->meshtype ? "triangle" : "quad");
+    cli_json_str(&j, "edge_filter", in->edgefilter == 1 ? "tanvec" : "none");
     cli_json_u64(&j, "metadata_entries", in->nmeta);
     if (in->nrec) {
         cli_json_array(&j, "face_records");
@@ -395,8 +396,8 @@ static int cmd_info(cli_ctx *ctx, int argc, char **argv)
            cli_bytes(in.texel_bytes, b2, sizeof b2));
     printf("boundary edges:    %u\n", in.boundary_edges);
     printf("irregular corners: %u (max valence %u)\n", in.irregular_corners, in.max_valence);
-    printf("border modes:      u %u, v %u; mesh %s\n", in.border_u, in.border_v,
-           in.meshtype ? "triangle" : "quad");
+    printf("border modes:      u %u, v %u; mesh %s; edge filter %s\n", in.border_u,
+           in.border_v, in.meshtype ? "triangle" : "quad", in.edgefilter == 1 ? "tanvec" : "none");
     printf("metadata entries:  %u\n", in.nmeta);
     for (uint32_t i = 0; i < in.nrec; i++) {
         const stc_face *f = &in.faces[i];

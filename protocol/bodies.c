@@ -256,7 +256,7 @@ int stp_enc_info_reply(stp_buf *b, uint32_t reqid, const stp_info_reply *r)
     stp_put_u8(b, r->border_u);
     stp_put_u8(b, r->border_v);
     stp_put_u8(b, r->meshtype);
-    stp_put_u8(b, 0);
+    stp_put_u8(b, r->edgefilter);
     stp_put_u16(b, 0);
     stp_put_u64(b, r->memory);
     stp_put_u64(b, r->texel_bytes);
@@ -303,7 +303,7 @@ int stp_dec_info_reply(const uint8_t *body, size_t len, stp_info_reply *r, const
     r->border_u = stp_get_u8(&rd);
     r->border_v = stp_get_u8(&rd);
     r->meshtype = stp_get_u8(&rd);
-    (void)stp_get_u8(&rd);
+    r->edgefilter = stp_get_u8(&rd); /* reserved (0) from older servers: none */
     (void)stp_get_u16(&rd);
     r->memory = stp_get_u64(&rd);
     r->texel_bytes = stp_get_u64(&rd);

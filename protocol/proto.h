@@ -406,6 +406,7 @@ typedef struct stp_info_reply {
     uint8_t  nchan, dtype;
     int8_t   alpha_chan;
     uint8_t  kind, colorspace, premultiplied, border_u, border_v, meshtype;
+    uint8_t  edgefilter;                  /* Ptex edge filter mode: 0 none, 1 tanvec */
     uint64_t memory;                      /* bytes held in memory by the set */
     uint64_t texel_bytes;
     uint32_t min_w, max_w, min_h, max_h;  /* level-0 resolutions over all faces */

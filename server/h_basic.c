@@ -154,6 +154,7 @@ int sts_h_info(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
     r.border_u = s->info.border_u;
     r.border_v = s->info.border_v;
     r.meshtype = s->info.meshtype;
+    r.edgefilter = s->info.edgefilter;
     r.memory = st_set_memory(s);
     r.texel_bytes = s->texel_bytes;
     r.min_w = r.min_h = s->info.nfaces ? UINT32_MAX : 0;

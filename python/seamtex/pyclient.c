@@ -364,12 +364,13 @@ static PyObject *client_info(st_py_client *self, PyObject *args, PyObject *kw)
     if (!fl)
         return NULL;
     PyObject *d = Py_BuildValue(
-        "{s:s,s:I,s:I,s:s,s:s,s:I,s:O,s:I,s:I,s:I,s:i,s:K,s:K,s:I,s:I,s:I,s:I,s:I,s:I,s:I,s:I,"
+        "{s:s,s:I,s:I,s:s,s:s,s:I,s:O,s:I,s:I,s:I,s:I,s:i,s:K,s:K,s:I,s:I,s:I,s:I,s:I,s:I,s:I,s:I,"
         "s:I,s:I,s:N}",
         "name", name, "nfaces", (unsigned)in.nfaces, "nchan", in.nchan, "dtype", dt ? dt : "?",
         "kind", kind ? kind : "?", "colorspace", in.colorspace,
         "premultiplied", in.premultiplied ? Py_True : Py_False, "border_u", in.border_u,
-        "border_v", in.border_v, "meshtype", in.meshtype, "alpha_chan", in.alpha_chan,
+        "border_v", in.border_v, "meshtype", in.meshtype, "edgefilter", in.edgefilter,
+        "alpha_chan", in.alpha_chan,
         "memory", (unsigned long long)in.memory, "texel_bytes", (unsigned long long)in.texel_bytes,
         "min_w", (unsigned)in.min_w, "max_w", (unsigned)in.max_w, "min_h", (unsigned)in.min_h,
         "max_h", (unsigned)in.max_h, "nconstant", (unsigned)in.nconstant,

@@ -101,7 +101,13 @@ typedef struct st_set_info {
     uint8_t  border_u, border_v; /* Ptex border modes: 0 clamp, 1 black, 2 periodic */
     uint8_t  meshtype;           /* st_meshtype: 0 quad, 1 triangle (NOT Ptex's numbering,
                                     where 0 is triangle) */
+    uint8_t  edgefilter;         /* st_edgefilter: Ptex's edge filter mode, 0 none, 1 tanvec
+                                    (channels 0-1 a tangent-space vector, rotated across
+                                    rotated edges by the quad Ptex filters' Traverse) */
 } st_set_info;
+
+/* Ptex's edge filter mode (its numbering). */
+typedef enum st_edgefilter { ST_EDGEFILTER_NONE = 0, ST_EDGEFILTER_TANVEC = 1 } st_edgefilter;
 
 /* Mesh type of a per-face set. A triangle face (Ptex meshtype triangle) is square (w == h),
  * never a subface, has three edges - 0 (v = 0), 1 (u + v = 1), 2 (u = 0), corner c where edge

@@ -420,6 +420,7 @@ int st_native_open_fd(int fd, unsigned flags, st_native_source *src, st_set **ou
     info.border_u = h[42];
     info.border_v = h[43];
     info.meshtype = h[44];
+    info.edgefilter = h[46]; /* reserved (0, none) in files written before it */
     unsigned ext_kind = h[45];
     uint64_t nlev = rd64(h + 48), tbytes = rd64(h + 56);
     uint32_t nsec = rd32(h + 24);
@@ -434,8 +435,8 @@ int st_native_open_fd(int fd, unsigned flags, st_native_source *src, st_set **ou
              (info.dtype != ST_DT_U8 || info.nchan != 4)))
         why = "set kind";
     else if (info.colorspace > 1 || info.premultiplied > 1 || info.border_u > 2 ||
-             info.border_v > 2 || info.meshtype > 1)
-        why = "colour space, border or mesh type";
+             info.border_v > 2 || info.meshtype > 1 || info.edgefilter > 1)
+        why = "colour space, border, mesh type or edge filter mode";
     else if (nlev > (uint64_t)info.nfaces * ST_MAX_LEVELS || nlev < info.nfaces)
         why = "level count";
     else if (nsec < 3 || nsec > ST_NATIVE_MAX_SECTIONS)

@@ -272,6 +272,7 @@ int st_native_write_fd(int fd, const st_set *s, const st_native_source *src, st_
     h[43] = s->info.border_v;
     h[44] = s->info.meshtype;
     h[45] = ext_kind;
+    h[46] = s->info.edgefilter;
     wr64(h + 48, nlev);
     wr64(h + 56, s->texel_bytes);
     if (src) {

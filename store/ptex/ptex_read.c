@@ -621,6 +621,8 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         return st_fail(e, ST_EFORMAT, "extended header of %u bytes overruns the file", exthsize);
     memcpy(ext, b + PTX_HEADER_SIZE, exthsize < PTX_EXTHEADER_SIZE ? exthsize : PTX_EXTHEADER_SIZE);
     unsigned bu = ptx_rd16(ext), bv = ptx_rd16(ext + 4);
+    /* edge filter mode: Ptex's filters test for tanvec (1) only, any other value is none */
+    unsigned efm = ptx_rd16(ext + 6) == 1 ? ST_EDGEFILTER_TANVEC : ST_EDGEFILTER_NONE;
     uint32_t lmdzip = ptx_rd32(ext + 8), lmdmem = ptx_rd32(ext + 12);
     uint64_t lmddata = ptx_rd64(ext + 16), editsize = ptx_rd64(ext + 24), editpos = ptx_rd64(ext + 32);
     if (bu > 2 || bv > 2)
@@ -831,6 +833,7 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         .kind = ST_KIND_PERFACE, .colorspace = ST_CS_LINEAR, .premultiplied = 0,
         .border_u = (uint8_t)bu, .border_v = (uint8_t)bv,
         .meshtype = (uint8_t)(r->tri ? ST_MESH_TRIANGLE : ST_MESH_QUAD),
+        .edgefilter = (uint8_t)efm,
     };
     /* every byte of every level is written below: constant and 1x1 faces from the constant
      * data, level 0 of the others and their stored reductions decoded (a block must fill its

@@ -487,6 +487,7 @@ int st_ptex_write_mem(const st_set *s, void **bufp, size_t *lenp, st_error *e)
     uint8_t *x = h + PTX_HEADER_SIZE;
     ptx_wr16(x, s->info.border_u);
     ptx_wr16(x + 4, s->info.border_v);
+    ptx_wr16(x + 6, s->info.edgefilter == ST_EDGEFILTER_TANVEC);
     ptx_wr32(x + 8, lmdzip);
     ptx_wr32(x + 12, lmdmem);
     ptx_wr64(x + 16, lmddata);

@@ -9,6 +9,9 @@
  * boundaries; at a boundary edge the overhang is folded back (clamp, periodic) or dropped
  * (black). The sum is divided by the kernel's weight. Discard drops every overhanging piece
  * and divides by the weight kept (coverage = kept / total); Clamp folds every overhang back.
+ * In a set with Ptex's tanvec edge filter mode (info.edgefilter) Traverse turns channels 0-1
+ * of each piece that reached a face turned against the query face back (apply, tanvec_add),
+ * on the general path only: batch sends such sets there.
  *
  * Per batch (texel type, channel count, filter and options are the same for every query) one
  * query function is chosen: point and bilinear inside a face specialised per texel type and
@@ -123,6 +126,9 @@ typedef struct pf {
     pf_cst8_fn cst8;         /* kernel_cst8's kernels 8 at a time (with c->cst), or NULL */
     pf_b8_fn b8;             /* kernel_declined_with's width-4 builds 8 at a time (with
                               * c->small), or NULL */
+    int tanvec;              /* Ptex's tanvec edge filter mode in Traverse (the set's mode
+                              * tanvec, 2+ channels): apply rotates channels 0-1 of each
+                              * rotated piece (tanvec_add); the batch takes the general path */
 } pf;
 
 static float one_value(unsigned dt)
@@ -222,8 +228,28 @@ __attribute__((noinline)) static v4f apply_portable(const pf *c, const uint8_t *
     return acc;
 }
 
+/* Ptex's tanvec edge filter mode: the sum r of a piece that reached its face turned by rot
+ * quarter turns (pk's rot) added to acc with channels 0-1, a tangent-space vector, turned
+ * back into the query face's frame: (x, y) -> (-y, x) per quarter turn; the other channels
+ * added as they are. Ptex's order: the piece summed on its own from zero, then each channel
+ * added to (or subtracted from) the result. */
+static inline v4f tanvec_add(v4f acc, v4f r, int rot)
+{
+    switch (rot & 3) {
+    case 1: acc[0] -= r[1]; acc[1] += r[0]; break;
+    case 2: acc[0] -= r[0]; acc[1] -= r[1]; break;
+    case 3: acc[0] += r[1]; acc[1] -= r[0]; break;
+    default: acc[0] += r[0]; acc[1] += r[1]; break;
+    }
+    acc[2] += r[2];
+    acc[3] += r[3];
+    return acc;
+}
+
 /* Kernel applied to the data of face f at the kernel's resolution (reduced first when the
- * face is smaller). */
+ * face is smaller). In the tanvec mode a piece turned against the query face (k->rot) is
+ * summed apart and its channels 0-1 turned back (tanvec_add), except, as in Ptex, on data
+ * Ptex serves as a constant: a constant face, and any face at 1 x 1 (its constant value). */
 static void apply(pf *c, pk *k, int f)
 {
     if (k->uw <= 0 || k->vw <= 0)
@@ -252,6 +278,14 @@ static void apply(pf *c, pk *k, int f)
     size_t ts = c->ts;
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
+    if (__builtin_expect(c->tanvec, 0) && (k->rot & 3) && (k->ulog2 | k->vlog2)) {
+        v4f acc = c->acc;
+        c->acc = (v4f){0, 0, 0, 0};
+        v4f r = c->win ? c->win(base, rowb, ku, k->uw, kv, k->vw, c->acc)
+                       : apply_portable(c, base, rowb, ts, ku, k->uw, kv, k->vw);
+        c->acc = tanvec_add(acc, r, k->rot);
+        return;
+    }
     if (c->win)
         c->acc = c->win(base, rowb, ku, k->uw, kv, k->vw, c->acc);
     else
@@ -2307,6 +2341,12 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     const st_ptexres *t = st_ptexres_pin(s, &be);
     if (!t)
         return be.code; /* ST_ENOMEM or ST_ETOOBIG; the next call tries again */
+    /* Ptex's tanvec edge filter mode rotates what Traverse reads across rotated edges: only
+     * the general path does (apply); Discard and Clamp read no neighbour */
+    int tanvec = s->info.edgefilter == ST_EDGEFILTER_TANVEC && s->info.nchan >= 2 &&
+                 o->mode == ST_MODE_TRAVERSE;
+    if (tanvec)
+        path = PF_PATH_GENERAL;
     int general = path == PF_PATH_GENERAL;
     int avx2 = pf_have_avx2();
     pk_params pp;
@@ -2314,6 +2354,7 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
+    c.tanvec = tanvec;
     c.fast = general ? NULL : pf_fast_select(c.dt, c.nc, o->filter);
     c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
