@@ -31,24 +31,24 @@
  * libm's expf per tap (Ptex's; st_ptextri_batch_pertap keeps it for the tests, the old
  * bits): the read sweeps (Traverse, Discard's kept taps, Clamp's kernels inside the face)
  * weigh the kept taps of rows of 3 taps or more four at a time with the quad filters'
- * polynomial exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex.md, "trix"), shorter
+ * polynomial exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex-log.md, "trix"), shorter
  * rows one expf a tap; Clamp's fold sweeps and
  * Discard's whole-kernel weight (seamtex's own, no Ptex reference) step them by recurrence
- * (pt_rec, pt_cur: within about 1e-6 of the per-tap expf; docs/ptex.md, "Session 13,
+ * (pt_rec, pt_cur: within about 1e-6 of the per-tap expf; docs/ptex-log.md, "Session 13,
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
  * general rows' taps, texels, weights and order with less work a row); the general rows stay
- * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex.md,
+ * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex-log.md,
  * "Session 15, tri8"). Clamp's lean fold rows find their kept runs four rows at a time
  * (rows_kept4), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
- * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex.md,
- * "tri10"). st_ptextri_batch and _baseline also take two shortcuts of their own (docs/ptex.md,
+ * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex-log.md,
+ * "tri10"). st_ptextri_batch and _baseline also take two shortcuts of their own (docs/ptex-log.md,
  * "tri23"), which the general and per-tap builds do not, so the tests compare them: a query
  * whose footprint and face size are the last query's reuses its kernel shape (tk_shape,
  * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
- * docs/ptex.md, "trip24") and at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
- * row_read4 and row_step weigh them; docs/ptex.md, "tp25").
+ * docs/ptex-log.md, "trip24") and at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
+ * row_read4 and row_step weigh them; docs/ptex-log.md, "tp25").
  */
 #include "ptextri.h"
 
@@ -604,7 +604,7 @@ enum { SW_READ, SW_WEIGHT, SW_FOLD };
  * then G *= E and E *= kxx (E = exp(gs * the step of Q to the next tap), kxx = exp(gs * 2A)).
  * The taps are the same (Q < 1 with the float Q of the per-tap sweeps); each weight is the
  * Gaussian of the exact Q where the per-tap sweep takes expf of the float finite-difference
- * Q: they differ by about 1e-6 relatively (docs/ptex.md, "Session 13, tri6"). rc == NULL:
+ * Q: they differ by about 1e-6 relatively (docs/ptex-log.md, "Session 13, tri6"). rc == NULL:
  * the per-tap expf (Traverse, Discard's kept taps, and st_ptextri_batch_pertap). */
 typedef struct pt_rec {
     double G, E, kxx;
@@ -881,14 +881,14 @@ static inline float q_step(float *Q, float *DQ, float DDQ)
 }
 
 /* A read sweep's rows of fewer taps than this keep the per-tap expf (row_step): a vector exp
- * for one or two kept taps costs more than their expf calls (docs/ptex.md, "trix"). */
+ * for one or two kept taps costs more than their expf calls (docs/ptex-log.md, "trix"). */
 #define PT_W4_MIN 3
 
 /* The read sweeps' rows (Traverse, Discard, Clamp's kernels inside the face): n taps as
  * row_step takes them with rc == NULL - the same float Q, DQ chain, so the same taps (Q < 1),
  * texels and order of the sums - but the weights four kept taps at a time by pk_exp2_4
  * (within about 2e-7 relatively of the per-tap expf, which st_ptextri_batch_pertap keeps:
- * docs/ptex.md, "trix"). READ: tap i reads the texel at px + i * step; else none
+ * docs/ptex-log.md, "trix"). READ: tap i reads the texel at px + i * step; else none
  * (read_blk4). The taps before the first kept one are stepped over one by one. *Q, *DQ are
  * left as after the last tap, except with LAST (the row's last run): then the row stops at
  * the end of its kept taps when DDQ > 0 (Q falls then rises along the row: DQ only grows, so
@@ -2132,7 +2132,7 @@ __attribute__((always_inline)) static inline int piece_r4_t(tc *c, const tk *k,
 /* piece_r4 a texel type and channel count, and (x86 with GCC or clang) its AVX2 instance,
  * which Traverse's split_apply_avx2 calls when the lean sweeps run theirs (tc.avx2): the same
  * C, so the same operations on the same values (no FMA), in VEX encodings - about 10% fewer
- * instructions than the SSE build at triangle fp 0.25 (docs/ptex.md, "tp25"). */
+ * instructions than the SSE build at triangle fp 0.25 (docs/ptex-log.md, "tp25"). */
 #ifdef PT_AVX2
 #define PT_P4_AVX2(DT, NC)                                                                   \
     __attribute__((target("avx2"))) static int piece_r4a_##DT##_##NC(tc *c, const tk *k,    \

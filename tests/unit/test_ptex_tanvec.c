@@ -1,5 +1,5 @@
-/* tests/unit/test_ptex_tanvec.c - Ptex's tanvec edge filter mode (docs/ptex.md, session 25
- * tv25): in a set whose edge filter mode is tanvec, channels 0-1 are a tangent-space vector,
+/* tests/unit/test_ptex_tanvec.c - Ptex's tanvec edge filter mode (docs/ptex.md section 6; docs/ptex-log.md,
+ * "tv25"): in a set whose edge filter mode is tanvec, channels 0-1 are a tangent-space vector,
  * and what Traverse reads from a neighbour whose frame is turned against the query face's
  * (the kernel piece's quarter turns, adjedge) comes back with its vector turned the other way:
  * (x, y) -> (-y, x) per quarter turn. The other channels, Discard and Clamp, the point filter,

@@ -1,5 +1,5 @@
 /* tests/unit/test_ptex_writer_files.c - cases found by comparing seamtex with the Ptex library
- * (2.4.3) on .ptx files written by Ptex's own writer (docs/ptex.md, session 25 xw25): half
+ * (2.4.3) on .ptx files written by Ptex's own writer (docs/ptex-log.md, "xw25"): half
  * float levels made the way Ptex makes them, and stored reductions of a file with face edits.
  *
  * The Ptex reader fills the levels a .ptx does not store (the reductions past min(ulog2,
@@ -9,7 +9,7 @@
  * levels seamtex makes for a Ptex set (store/ptex/ptexres.c, core/trilevel.c) must use the
  * same conversion (st_float_to_half_ptex, core/half.h): with nearest-even rounding, half
  * files written by Ptex's writer filtered up to 2 half steps off Ptex at coarse levels
- * (found by comparing with Ptex 2.4.3 on generated files, docs/ptex.md, session 25 xw25).
+ * (found by comparing with Ptex 2.4.3 on generated files, docs/ptex-log.md, "xw25").
  * The cases are built here (no Ptex, no shared files): the conversion itself, a non-square
  * half face written with the project's writer and read back (its unstored levels made by
  * ptexres), and the triangle reduction. */

@@ -37,7 +37,7 @@
  * without the coverage array).
  *
  * Faults planted in the 2 x 2 path's subface declines (across_small, corner_small) fail this
- * test and no test on the shared files (docs/ptex.md, "gen25").
+ * test and no test on the shared files (docs/ptex-log.md, "gen25").
  *
  * GEN_SETS=N (environment) runs N sets of each kind instead of the default, GEN_SEED=S
  * another seed: for longer hunts by hand; GEN_VERBOSE=1 prints what each set holds. */
