@@ -1916,6 +1916,32 @@ r2_add(pt_v4f acc, const uint8_t *const *px, const float *w, int i0, int i1, int
     return acc;
 }
 
+/* A whole piece's (piece_r2_t, piece_r4_t) bounds at resolution fR, as iterators_t with clamp
+ * makes them: the twelve index bounds in ia, ib, ic (bound_lanes' lanes: ev lo 0..2 hi 0 | ev
+ * hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2) and the ellipse's Ak, Bk, Ck. Returns sweeps_valid's
+ * bits (0: no valid sweep), or -1 when a bound is past 2^30 (iterators takes libm's ceilf
+ * there: the caller takes the long way). */
+__attribute__((always_inline)) static inline int piece_bounds(const tk *k, float fR, pt_v4i *ia,
+                                                              pt_v4i *ib, pt_v4i *ic, float *Ak,
+                                                              float *Bk, float *Ck)
+{
+    pt_v4f a, b, c;
+    bound_lanes(k, fR, 1, &a, &b, &c);
+    if (mask4(small4(a) & small4(b) & small4(c)) != 15)
+        return -1;
+    *ia = ceil_int4(a);
+    *ib = ceil_int4(b);
+    *ic = ceil_int4(c);
+    const int valid = sweeps_valid(*ia, *ib, *ic);
+    if (!valid)
+        return 0;
+    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
+    *Ak = k->A * Finv;
+    *Bk = k->B * Finv;
+    *Ck = k->C * Finv;
+    return valid;
+}
+
 /* A piece k clamped into its face at resolution 1 (the face's 2 x 2 level, texels at data, not
  * a constant face), applied as iterators_clamped and c->rd (sweep2_t with constant 0) apply
  * it, without the two ti structs, the sweep call or its per-sweep set-up. The twelve index
@@ -1937,18 +1963,12 @@ __attribute__((always_inline)) static inline int piece_r2_t(tc *c, const tk *k,
     const int R = 2;
     const size_t ts = st_dtype_size(DT) * NC;
     const float fR = (float)R, third = (float)(1 / 3.0);
-    /* iterators_t with clamp, R = 2 */
-    pt_v4f a, b, cc;
-    bound_lanes(k, fR, 1, &a, &b, &cc);
-    if (mask4(small4(a) & small4(b) & small4(cc)) != 15)
-        return 0;
-    /* ev lo 0..2 hi 0 | ev hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2 */
-    pt_v4i ia = ceil_int4(a), ib = ceil_int4(b), ic = ceil_int4(cc);
-    const int valid = sweeps_valid(ia, ib, ic), ev_ok = valid & 1, od_ok = valid >> 1;
-    if (!valid)
-        return 1;
-    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
-    float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
+    pt_v4i ia, ib, ic;
+    float Ak, Bk, Ck;
+    const int valid = piece_bounds(k, fR, &ia, &ib, &ic, &Ak, &Bk, &Ck);
+    if (valid <= 0)
+        return valid + 1; /* -1: the long way (0); 0: no valid sweep, nothing to add (1) */
+    const int ev_ok = valid & 1, od_ok = valid >> 1;
     /* the kept taps of both sweeps in order (at most 3 each): Q and texel */
     float q[8], w[8];
     const uint8_t *px[8];
@@ -2082,17 +2102,12 @@ __attribute__((always_inline)) static inline int piece_r4_t(tc *c, const tk *k,
 {
     const int R = 4;
     const float fR = (float)R, third = (float)(1 / 3.0);
-    pt_v4f a, b, cc;
-    bound_lanes(k, fR, 1, &a, &b, &cc);
-    if (mask4(small4(a) & small4(b) & small4(cc)) != 15)
-        return 0;
-    /* ev lo 0..2 hi 0 | ev hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2 */
-    pt_v4i ia = ceil_int4(a), ib = ceil_int4(b), ic = ceil_int4(cc);
-    const int valid = sweeps_valid(ia, ib, ic), ev_ok = valid & 1, od_ok = valid >> 1;
-    if (!valid)
-        return 1;
-    float Finv = 1.0f / (fR * fR * (k->A * k->C - 0.25f * k->B * k->B));
-    float Ak = k->A * Finv, Bk = k->B * Finv, Ck = k->C * Finv;
+    pt_v4i ia, ib, ic;
+    float Ak, Bk, Ck;
+    const int valid = piece_bounds(k, fR, &ia, &ib, &ic, &Ak, &Bk, &Ck);
+    if (valid <= 0)
+        return valid + 1; /* -1: the long way (0); 0: no valid sweep, nothing to add (1) */
+    const int ev_ok = valid & 1, od_ok = valid >> 1;
     uint32_t wsb = (uint32_t)(127 - 2 * 2) << 23; /* 1 / R^2, as iterators_t */
     float wscale;
     memcpy(&wscale, &wsb, 4);
