@@ -391,6 +391,20 @@ static st_set *fill_write_read(st_set *s)
     return r2;
 }
 
+/* The set of info and fd (fd freed here), filled, written and read back (fill_write_read). */
+static st_set *create_write_read(const st_set_info *info, st_face_desc *fd)
+{
+    st_set *s = NULL;
+    st_error e = {0};
+    int rc = st_set_create(info, fd, 0, &s, &e);
+    if (rc)
+        print_message("create: %s\n", e.msg);
+    assert_int_equal(rc, 0);
+    free(fd);
+    return fill_write_read(s);
+}
+
+
 /* A quad set from the polygons of m (see the file header), each face's edges rotated at
  * random when rot. */
 static st_set *quad_set(const mesh *m, const spec *sp, int rot)
@@ -488,16 +502,9 @@ static st_set *quad_set(const mesh *m, const spec *sp, int rot)
                         .dtype = (uint8_t)sp->dtype, .alpha_chan = -1,
                         .kind = ST_KIND_PERFACE, .meshtype = ST_MESH_QUAD,
                         .border_u = (uint8_t)rndu(3), .border_v = (uint8_t)rndu(3)};
-    st_set *s = NULL;
-    st_error e = {0};
-    int rc = st_set_create(&info, fd, 0, &s, &e);
-    if (rc)
-        print_message("create: %s\n", e.msg);
-    assert_int_equal(rc, 0);
     free(C);
     free(sub);
-    free(fd);
-    return fill_write_read(s);
+    return create_write_read(&info, fd);
 }
 
 /* A triangle set from the triangles of m, each face's edges rotated at random when rot. */
@@ -540,15 +547,8 @@ static st_set *tri_set(const mesh *m, const spec *sp, int rot)
                         .dtype = (uint8_t)sp->dtype, .alpha_chan = -1,
                         .kind = ST_KIND_PERFACE, .meshtype = ST_MESH_TRIANGLE,
                         .border_u = (uint8_t)rndu(3), .border_v = (uint8_t)rndu(3)};
-    st_set *s = NULL;
-    st_error e = {0};
-    int rc = st_set_create(&info, fd, 0, &s, &e);
-    if (rc)
-        print_message("create: %s\n", e.msg);
-    assert_int_equal(rc, 0);
     free(C);
-    free(fd);
-    return fill_write_read(s);
+    return create_write_read(&info, fd);
 }
 
 /* ---- queries ----------------------------------------------------------------------------- */
