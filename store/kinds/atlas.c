@@ -247,9 +247,9 @@ int st_atlas_sample(const st_set *s, const st_sample_opts *o, unsigned flags, co
 {
     if (!s || s->info.kind != ST_KIND_ATLAS || !o || !out)
         return ST_EINVAL;
+    /* the modes as st_sample_batch (and so SAMPLE over the wire) takes them: face 0 has four
+     * boundary edges, so Traverse drops the taps beyond the image border as at any boundary */
     st_sample_opts oo = *o;
-    if (oo.mode == ST_MODE_TRAVERSE)
-        oo.mode = ST_MODE_CLAMP; /* an atlas face has no neighbours */
     const st_atlas *a = st_atlas_get(s);
     int chart = (flags & ST_ATLAS_CHART_DISCARD) && oo.mode == ST_MODE_DISCARD && a &&
                 a->chart_mask && (oo.filter == ST_FILTER_POINT || oo.filter == ST_FILTER_BILINEAR);

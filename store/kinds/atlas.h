@@ -7,10 +7,12 @@
  * filters (sample.h).
  *
  * Texture space: u right, v down from the image's top row (mesh.h says how file UVs are
- * flipped into it). Sampling an atlas uses st_sample_batch on face 0; Clamp addressing is
- * what an atlas means (Traverse has no neighbour to go to and behaves as Clamp); Discard is
- * relative to the face rectangle, and st_atlas_sample with ST_ATLAS_CHART_DISCARD also
- * discards taps on texels outside every chart (the chart mask), renormalising.
+ * flipped into it). Sampling an atlas uses st_sample_batch on face 0, in every mode as
+ * SAMPLE over the wire does: Clamp clamps taps into the image; face 0's four edges are
+ * boundaries, so Traverse, having no neighbour to go to, drops the taps beyond the image
+ * border and renormalises (coverage < 1 there), as Discard does; st_atlas_sample with
+ * ST_ATLAS_CHART_DISCARD also discards taps on texels outside every chart (the chart mask),
+ * renormalising.
  *
  * Ownership: the atlas owns its mesh (freed by st_atlas_free, which is the set's ext_free).
  */

@@ -248,6 +248,63 @@ static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(voi
     st_set_free(s);
 }
 
+/* st_atlas_sample (without chart discard) is st_sample_batch on face 0 in every mode, the path
+ * SAMPLE takes over the wire: Traverse at the image border drops the taps beyond it and
+ * renormalises (the border is a boundary), which is Discard's value and coverage there; Clamp
+ * gives coverage 1. (It used to take Traverse as Clamp, unlike the daemon.) */
+static void atlas_sampling_takes_the_modes_as_the_wire_does(void **state)
+{
+    (void)state;
+    char obj[1024];
+    if (st_test_data_path(obj, sizeof obj, "meshes/duck/Duck.obj"))
+        skip();
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(obj, NULL, &s, &e), ST_OK);
+    enum { N = 64 };
+    st_query q[N];
+    memset(q, 0, sizeof q);
+    for (int i = 0; i < N; i++) {
+        q[i].face = (uint32_t)(i % 3); /* the face is ignored: an atlas has face 0 only */
+        q[i].u = (i & 1) ? 0.0003f * (float)(i % 7) : 1.0f - 0.0002f * (float)(i % 5);
+        q[i].v = 0.015625f * (float)i;
+        q[i].dudx = q[i].dvdy = (i % 4) ? 0.001f * (float)(i % 4) : 0.0f;
+    }
+    static const uint8_t modes[3] = {ST_MODE_DISCARD, ST_MODE_TRAVERSE, ST_MODE_CLAMP};
+    static const uint8_t filters[3] = {ST_FILTER_POINT, ST_FILTER_BILINEAR, ST_FILTER_TRILINEAR};
+    float out[3][N * 4], cov[3][N];
+    assert_true(s->info.nchan <= 4);
+    for (int f = 0; f < 3; f++) {
+        for (int m = 0; m < 3; m++) {
+            st_sample_opts o = {.mode = modes[m], .filter = filters[f]};
+            float a[N * 4], ca[N], b[N * 4], cb[N];
+            uint8_t sa[N], sb[N];
+            st_query q0[N];
+            memcpy(q0, q, sizeof q);
+            for (int i = 0; i < N; i++)
+                q0[i].face = 0;
+            assert_int_equal(st_atlas_sample(s, &o, 0, q, N, a, ca, sa),
+                             st_sample_batch(s, &o, q0, N, b, cb, sb));
+            assert_memory_equal(a, b, N * s->info.nchan * sizeof(float));
+            assert_memory_equal(ca, cb, sizeof ca);
+            assert_memory_equal(sa, sb, sizeof sa);
+            memcpy(out[m], a, sizeof a);
+            memcpy(cov[m], ca, sizeof ca);
+        }
+        int border = 0;
+        size_t nc = s->info.nchan;
+        for (int i = 0; i < N; i++) {
+            assert_float_equal(cov[2][i], 1.0f, 0.0f);                  /* Clamp */
+            assert_memory_equal(&cov[1][i], &cov[0][i], sizeof(float)); /* Traverse = Discard */
+            assert_memory_equal(&out[1][i * nc], &out[0][i * nc], nc * sizeof(float));
+            border += cov[1][i] < 1.0f;
+        }
+        if (f)
+            assert_true(border >= N / 4); /* the queries do reach past the border */
+    }
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -260,6 +317,7 @@ int main(void)
         cmocka_unit_test(shared_meshes_match_the_data_readme),
         cmocka_unit_test(draco_mesh_without_uvs_is_refused_with_enouv),
         cmocka_unit_test(duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps),
+        cmocka_unit_test(atlas_sampling_takes_the_modes_as_the_wire_does),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
