@@ -198,15 +198,24 @@ static void draco_mesh_without_uvs_is_refused_with_enouv(void **state)
     assert_null(s);
 }
 
-static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(void **state)
+/* The duck's atlas set (Duck.obj with its texture), or NULL when the shared data is absent. */
+static st_set *duck_atlas(void)
 {
-    (void)state;
     char obj[1024];
     if (st_test_data_path(obj, sizeof obj, "meshes/duck/Duck.obj"))
-        skip();
+        return NULL;
     st_set *s = NULL;
     st_error e;
     assert_int_equal(st_import_file(obj, NULL, &s, &e), ST_OK);
+    return s;
+}
+
+static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(void **state)
+{
+    (void)state;
+    st_set *s = duck_atlas();
+    if (!s)
+        skip();
     const st_atlas *a = st_atlas_get(s);
     assert_non_null(a);
     assert_non_null(a->mesh);
@@ -255,12 +264,9 @@ static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(voi
 static void atlas_sampling_takes_the_modes_as_the_wire_does(void **state)
 {
     (void)state;
-    char obj[1024];
-    if (st_test_data_path(obj, sizeof obj, "meshes/duck/Duck.obj"))
+    st_set *s = duck_atlas();
+    if (!s)
         skip();
-    st_set *s = NULL;
-    st_error e;
-    assert_int_equal(st_import_file(obj, NULL, &s, &e), ST_OK);
     enum { N = 64 };
     st_query q[N];
     memset(q, 0, sizeof q);
