@@ -202,7 +202,7 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
     const float ax = q->dudx * W0, ay = q->dvdx * H0, bx = q->dudy * W0, by = q->dvdy * H0;
     const float rx2 = ax * ax + ay * ay, ry2 = bx * bx + by * by;
     const float rho2 = rx2 > ry2 ? rx2 : ry2;
-    st_acc a = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f};
+    st_acc a = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f, 0};
     /* lodadj NaN: Traverse's slow path derives min(lod, 0) from rho2 only when it needs it */
     st_fp fp = {q->dudx, q->dvdx, q->dudy, q->dvdy, rho2, NAN};
     float lod = -INFINITY;
@@ -276,7 +276,7 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
     /* every tap was discarded (Discard, or Traverse with no face to go to) */
     *cov = 0.0f;
     if (o->zero_rule == ST_ZERO_CLAMP) {
-        st_acc z = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f};
+        st_acc z = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f, 0};
         float u = q->u < 0.0f ? 0.0f : q->u > 1.0f ? 1.0f : q->u;
         float v = q->v < 0.0f ? 0.0f : q->v > 1.0f ? 1.0f : q->v;
         st_lookup_clamped(s, f, st_nearest_level(lod, nl), u, v, 0, 1.0f, &z);

@@ -29,10 +29,13 @@ typedef struct st_fp {
     float lodadj;  /* min(lod, 0): how far below level 0 the footprint asked (magnification) */
 } st_fp;
 
-/* Running sums of one query: sum(w T) per channel and sum(w). */
+/* Running sums of one query: sum(w T) per channel and sum(w). rot: quarter turns given to
+ * channels 0-1 of each texel added, (x, y) -> (-y, x) per turn; 0 except while Traverse reads
+ * a turned neighbour of a set in Ptex's tanvec edge filter mode (sample_tap.c). */
 typedef struct st_acc {
     float c[ST_MAX_CHANNELS];
     float w;
+    unsigned rot;
 } st_acc;
 
 ST_AI void st_view_init(st_view *v, const st_set *s, uint32_t f, unsigned level)

@@ -2,8 +2,9 @@
  *
  * Owns: the per-tap rules of the three modes (Discard drops the tap, Clamp clamps its index,
  * Traverse reads it from the neighbour across the edge or the diagonal face across the
- * corner), the edge and corner uv mappings, the choice of the neighbour's level, and the
- * generic (any dtype, BC1) texel fetch. Does not own: option and query validation, level
+ * corner), the edge and corner uv mappings, the choice of the neighbour's level, the turn of
+ * channels 0-1 of what Traverse reads in a turned neighbour of a set in Ptex's tanvec edge
+ * filter mode (tanvec_rot), and the generic (any dtype, BC1) texel fetch. Does not own: option and query validation, level
  * selection, the in-face fast path (sample.c).
  *
  * Traverse has two paths: the general one maps each outside tap's centre in floats
@@ -59,6 +60,14 @@ static void add_tap(const st_set *s, const st_view *v, int32_t i, int32_t j, flo
     float t[4];
     st_fetch_any(s, v, i, j, t);
     unsigned nc = s->info.nchan;
+    if (a->rot) { /* a tangent-space vector read in a turned neighbour, into the query's frame */
+        float x = t[0], y = t[1];
+        switch (a->rot & 3u) {
+        case 1:  t[0] = -y; t[1] = x;  break;
+        case 2:  t[0] = -x; t[1] = -y; break;
+        default: t[0] = y;  t[1] = -x; break;
+        }
+    }
     for (unsigned c = 0; c < nc; c++)
         a->c[c] += w * t[c];
     a->w += w;
@@ -126,6 +135,21 @@ static void corner_frame_inv(unsigned c, float X, float Y, float *u, float *v)
     case 2:  *u = 1.0f - X; *v = 1.0f - Y; break;
     default: *u = Y;        *v = 1.0f - X; break;
     }
+}
+
+/* Ptex's tanvec edge filter mode: in a per-face quad set whose mode is tanvec and which has 2+
+ * channels, channels 0-1 are a vector in each face's (u, v) frame, and a texel Traverse reads
+ * in a neighbour turned by rot quarter turns against the query face is turned back (as Ptex's
+ * filters do). Across edge e of F to edge ge of G rot is (e - ge + 2) mod 4; across corner c
+ * to the diagonal face's corner c', (c - c' + 2) mod 4 (both frames meet the shared edge or
+ * corner with opposite orientation). Unlike Ptex's separable filters, a neighbour read at 1 x 1
+ * is turned too: its one texel is a vector in its frame like any other. */
+static unsigned tanvec_rot(const st_set *s, unsigned e, unsigned ge)
+{
+    if (s->info.edgefilter != ST_EDGEFILTER_TANVEC || s->info.nchan < 2 ||
+        s->info.kind != ST_KIND_PERFACE || s->info.meshtype != ST_MESH_QUAD)
+        return 0;
+    return (e - ge + 2u) & 3u;
 }
 
 /* Level of neighbour G for a tap of a probe at `level` of the query's face: the footprint is
@@ -226,8 +250,11 @@ static void neighbour_read(const st_set *s, uint32_t g, unsigned gl, float gu, f
         float fu, fv;
         if (across && !st_uv_across_edge(s, g, (unsigned)back, ((float)i + 0.5f) / (float)V.w,
                                          ((float)j + 0.5f) / (float)V.h, &f2, &fu, &fv)) {
+            unsigned rot = a->rot; /* f2 is the query's face: its own frame, nothing turned */
+            a->rot = 0;
             st_lookup_clamped(s, f2, level < s->faces[f2].nlevels ? level : 0, fu, fv, 0,
                               pw * w[k], a);
+            a->rot = rot;
             continue;
         }
         (void)f;
@@ -249,20 +276,25 @@ static void traverse_tap(const st_set *s, const st_fp *fp, uint32_t f, unsigned 
     uint32_t g;
     float gu, gv;
     int swap, back = -1;
+    unsigned rot;
     if (ou && ov) {
         unsigned c = ov < 0 ? (ou < 0 ? 0u : 1u) : (ou > 0 ? 2u : 3u);
         if (st_uv_across_corner(s, f, c, uc, vc, &g, &gu, &gv))
             return;
         swap = (F->cornercorner[c] ^ c) & 1;
+        rot = tanvec_rot(s, c, F->cornercorner[c]);
     } else {
         unsigned e = ov < 0 ? 0u : ou > 0 ? 1u : ov > 0 ? 2u : 3u;
         if (st_uv_across_edge(s, f, e, uc, vc, &g, &gu, &gv))
             return;
         swap = (F->adjedge[e] ^ e) & 1;
         back = F->adjedge[e];
+        rot = tanvec_rot(s, e, F->adjedge[e]);
     }
     unsigned gl = neighbour_level(fp, level, &s->faces[g], swap);
+    a->rot = rot;
     neighbour_read(s, g, gl, gu, gv, point, w, a, back, f, level);
+    a->rot = 0;
 }
 
 static void outside_tap(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
@@ -341,7 +373,9 @@ static int traverse_edge_exact(const st_set *s, const st_fp *fp, uint32_t f, uns
         case 2:  gi = gw - 1 - ga; gj = gh - 1 - dp; break;
         default: gi = dp;          gj = gh - 1 - ga; break;
         }
+        a->rot = tanvec_rot(s, e, ge);
         add_tap(s, &GV, gi, gj, pw * w[k], a);
+        a->rot = 0;
     }
     return 1;
 }

@@ -5,7 +5,8 @@
  * (x, y) -> (-y, x) per quarter turn. The other channels, Discard and Clamp, the point filter,
  * an unturned neighbour and a neighbour read at 1 x 1 (Ptex serves that as a constant, which
  * it never turns) are as without the mode. The mode survives the Ptex writer and reader and
- * the native set file.
+ * the native set file. The GPU-style filters' Traverse turns likewise (a 1 x 1 neighbour too),
+ * across edges and across corners into the diagonal face.
  *
  * The check uses linearity instead of a second implementation: with the neighbour's texels
  * zeroed the filter gives Z = A / W (the query face's share), with them N = (A + B) / W; the
@@ -24,6 +25,7 @@
 #include "native.h"
 #include "ptex.h"
 #include "ptexfilter.h"
+#include "sample.h"
 #include "set.h"
 #include "testdata.h"
 
@@ -206,12 +208,154 @@ static void mode_survives_the_writers(void **state)
     }
 }
 
+/* The GPU-style filters (docs/sampler.md) in Traverse turn what they read in a turned
+ * neighbour the same way: the linearity check of the Ptex filters, with a 1 x 1 neighbour
+ * turned too (its texel is a vector in its frame; only Ptex's own filters leave a constant
+ * unturned). Discard and Clamp read no neighbour: as without the mode. */
+static void gpu_filters_turn_the_vector(void **state)
+{
+    (void)state;
+    static const unsigned filters[] = {ST_FILTER_POINT, ST_FILTER_BILINEAR, ST_FILTER_TRILINEAR,
+                                       ST_FILTER_ANISO};
+    for (int nb1x1 = 0; nb1x1 < 2; nb1x1++)
+        for (int ae = 0; ae < 4; ae++) {
+            int rot = (1 - ae + 2) & 3;
+            st_set *none = pair(ae, ST_EDGEFILTER_NONE, 0, nb1x1);
+            st_set *zero = pair(ae, ST_EDGEFILTER_NONE, 1, nb1x1);
+            st_set *tv = pair(ae, ST_EDGEFILTER_TANVEC, 0, nb1x1);
+            st_query q[NQ];
+            queries(q);
+            for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++)
+                for (unsigned mode = 0; mode < 3; mode++) {
+                    st_sample_opts o = {.mode = (uint8_t)mode, .filter = (uint8_t)filters[fi]};
+                    float n[3 * NQ], z[3 * NQ], t[3 * NQ];
+                    for (int i = 0; i < NQ; i++) /* the point filter reads past the edge only */
+                        q[i].u = filters[fi] == ST_FILTER_POINT ? 1.0f + 0.002f * (float)(i % 9)
+                                                                : 0.97f + 0.003f * (float)(i % 5);
+                    assert_true(st_sample_batch(none, &o, q, NQ, n, NULL, NULL) >= 0);
+                    assert_true(st_sample_batch(zero, &o, q, NQ, z, NULL, NULL) >= 0);
+                    assert_true(st_sample_batch(tv, &o, q, NQ, t, NULL, NULL) >= 0);
+                    if (mode != ST_MODE_TRAVERSE) {
+                        assert_memory_equal(t, n, sizeof t);
+                        continue;
+                    }
+                    int crossed = 0;
+                    for (int i = 0; i < NQ; i++) {
+                        float bx = n[3 * i] - z[3 * i], by = n[3 * i + 1] - z[3 * i + 1], ex, ey;
+                        crossed += fabsf(bx) + fabsf(by) > 1e-3f;
+                        turn(rot, bx, by, &ex, &ey);
+                        if (fabsf(t[3 * i] - (z[3 * i] + ex)) > 1e-5f ||
+                            fabsf(t[3 * i + 1] - (z[3 * i + 1] + ey)) > 1e-5f)
+                            fail_msg("1x1 %d ae %d filter %u query %d: tanvec (%g, %g), want "
+                                     "(%g, %g)", nb1x1, ae, filters[fi], i, t[3 * i],
+                                     t[3 * i + 1], z[3 * i] + ex, z[3 * i + 1] + ey);
+                        assert_true(t[3 * i + 2] == n[3 * i + 2]);
+                        if (rot == 0)
+                            assert_memory_equal(t + 3 * i, n + 3 * i, 3 * sizeof(float));
+                    }
+                    assert_true(crossed >= NQ / 3); /* the queries do read face 1 */
+                }
+            st_set_free(none);
+            st_set_free(zero);
+            st_set_free(tv);
+        }
+}
+
+/* A 2 x 2 grid of faces around one interior vertex, each face's frame turned by its own
+ * quarter turns r[f] against the world, holding one world vector V in its own frame (channel 2
+ * varies). In the tanvec mode Traverse near the middle vertex - across both edges and the
+ * corner into the diagonal face - must give back the query face's own vector, with every GPU
+ * filter; without the mode it mixes the frames. */
+static void constant_vector_field_stays_constant_across_edges_and_corners(void **state)
+{
+    (void)state;
+    static const float V[2] = {0.6f, -0.35f};
+    static const int rsets[4][4] = {{0, 1, 2, 3}, {3, 3, 1, 0}, {2, 0, 1, 1}, {1, 2, 3, 0}};
+    static const unsigned filters[] = {ST_FILTER_BILINEAR, ST_FILTER_TRILINEAR, ST_FILTER_ANISO};
+    for (int rs = 0; rs < 4; rs++)
+        for (unsigned efm = 0; efm < 2; efm++) {
+            const int *r = rsets[rs];
+            /* cell of face f: (f & 1, f >> 1); world edges 0 bottom, 1 right, 2 top, 3 left;
+             * the face's edge k is world edge (k + r[f]) mod 4 */
+            st_face_desc fd[4];
+            memset(fd, 0, sizeof fd);
+            for (int f = 0; f < 4; f++) {
+                fd[f].w = fd[f].h = 8;
+                for (int k = 0; k < 4; k++) {
+                    int W = (k + r[f]) & 3;
+                    int cx = (f & 1) + (W == 1) - (W == 3), cy = (f >> 1) + (W == 2) - (W == 0);
+                    if (cx < 0 || cx > 1 || cy < 0 || cy > 1) {
+                        fd[f].adjface[k] = -1;
+                        continue;
+                    }
+                    int g = cx + 2 * cy;
+                    fd[f].adjface[k] = g;
+                    fd[f].adjedge[k] = (int8_t)((W + 2 - r[g]) & 3);
+                }
+            }
+            st_set_info info = {.nfaces = 4, .nchan = 3, .dtype = ST_DT_F32, .alpha_chan = -1,
+                                .kind = ST_KIND_PERFACE, .edgefilter = (uint8_t)efm};
+            st_set *s;
+            st_error e = {0};
+            assert_int_equal(st_set_create(&info, fd, 0, &s, &e), 0);
+            float L[4][2];
+            for (int f = 0; f < 4; f++) {
+                turn(-r[f], V[0], V[1], &L[f][0], &L[f][1]); /* V in face f's frame */
+                float *p = (float *)st_face_level(s, (uint32_t)f, 0);
+                for (int t = 0; t < 64; t++) {
+                    p[3 * t] = L[f][0];
+                    p[3 * t + 1] = L[f][1];
+                    p[3 * t + 2] = 0.1f * (float)f + 0.001f * (float)t;
+                }
+            }
+            st_set_build_mips(s, UINT32_MAX);
+            int mixed = 0;
+            for (int f = 0; f < 4; f++) {
+                /* the middle vertex in face f's own (u, v): the corner at world (1, 1) */
+                float cu = 0.0f, cv = 0.0f;
+                for (int c = 0; c < 4; c++) {
+                    /* corner c of a face is where its edges c and c - 1 meet; corner c points
+                     * world-wards to the diagonal quadrant of world corner (c + r[f]) */
+                    int Wc = (c + r[f]) & 3; /* world corner: 0 (-,-) 1 (+,-) 2 (+,+) 3 (-,+) */
+                    int wx = (f & 1) + (Wc == 1 || Wc == 2), wy = (f >> 1) + (Wc >= 2);
+                    if (wx == 1 && wy == 1) {
+                        cu = (c == 1 || c == 2) ? 1.0f : 0.0f;
+                        cv = (c >= 2) ? 1.0f : 0.0f;
+                    }
+                }
+                for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++)
+                    for (int k = 0; k < 9; k++) {
+                        float du = (float)(k % 3 - 1) * 0.04f, dv = (float)(k / 3 - 1) * 0.04f;
+                        st_query q = {.face = (uint32_t)f,
+                                      .u = cu + (cu > 0.5f ? -0.03f : 0.03f) + du * 0.25f,
+                                      .v = cv + (cv > 0.5f ? -0.03f : 0.03f) + dv * 0.25f,
+                                      .dudx = 0.2f, .dvdy = 0.15f + 0.05f * (float)(k % 2)};
+                        st_sample_opts o = {.mode = ST_MODE_TRAVERSE,
+                                            .filter = (uint8_t)filters[fi]};
+                        float out[3], cov;
+                        assert_int_equal(st_sample_batch(s, &o, &q, 1, out, &cov, NULL), 0);
+                        assert_float_equal(cov, 1.0f, 0.0f); /* every tap found a face */
+                        float d = fabsf(out[0] - L[f][0]) + fabsf(out[1] - L[f][1]);
+                        if (efm)
+                            assert_true(d < 1e-5f);
+                        else
+                            mixed += d > 1e-2f;
+                    }
+            }
+            st_set_free(s);
+            if (!efm)
+                assert_true(mixed > 0 || (r[0] == r[1] && r[1] == r[2] && r[2] == r[3]));
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(turned_neighbours_turn_the_vector),
         cmocka_unit_test(one_texel_neighbour_is_not_turned),
         cmocka_unit_test(mode_survives_the_writers),
+        cmocka_unit_test(gpu_filters_turn_the_vector),
+        cmocka_unit_test(constant_vector_field_stays_constant_across_edges_and_corners),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
