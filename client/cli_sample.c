@@ -258,6 +258,11 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         fputs(SAMPLE_USAGE, stderr);
         return CLI_USAGE;
     }
+    if (dir && (o.want & STC_WANT_UV16)) {
+        fprintf(stderr, "seamtex sample: --compact is for face queries, not --dir (PROTOCOL.md "
+                        "4.4.1: the compact layouts are SAMPLE's)\n");
+        return CLI_USAGE;
+    }
     if (binary && isatty(STDOUT_FILENO)) {
         fprintf(stderr, "seamtex sample: --binary output is not for a terminal; redirect it\n");
         return CLI_USAGE;
@@ -287,7 +292,9 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             d[i].ddx[0] = cone;
         }
     }
-    o.want = binary ? 0 : STC_WANT_COVERAGE | STC_WANT_STATUS;
+    /* --compact's bits stay; coverage and status only for the text output */
+    o.want = (o.want & (STC_WANT_UV16 | STC_WANT_FACE16)) |
+             (binary ? 0 : STC_WANT_COVERAGE | STC_WANT_STATUS);
 
     int rc = cli_connect(ctx);
     if (rc)

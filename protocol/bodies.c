@@ -17,7 +17,7 @@ static int finish(const stp_rd *r, const char **why, const char *what)
 {
     if (r->bad) {
         if (why)
-            *why = what;
+            *why = r->nul ? STP_WHY_NUL : what;
         return STP_S_BAD_REQUEST;
     }
     if (stp_rd_left(r) != 0) {
@@ -49,7 +49,7 @@ static void get_name(stp_rd *r, char name[STP_MAX_NAME + 1], int *problem)
     if (!p)
         return;
     if (memchr(p, 0, n)) {
-        r->bad = 1;
+        r->bad = r->nul = 1;
         return;
     }
     *problem = stp_name_check(p, n, NULL);
@@ -91,11 +91,11 @@ int stp_dec_hello_req(const uint8_t *body, size_t len, stp_hello_req *r, const c
     r->caps = stp_get_u32(&rd);
     stp_get_str(&rd, r->token, sizeof r->token);
     stp_get_str(&rd, r->client_name, sizeof r->client_name);
-    int s = finish(&rd, why, "HELLO: truncated body or bad token / client name");
+    int s = finish(&rd, why, "truncated body or bad token / client name");
     if (s)
         return s;
     if (r->min_version > r->max_version)
-        return fail(why, "HELLO: min_version > max_version", STP_S_INVALID);
+        return fail(why, "min_version > max_version", STP_S_INVALID);
     return 0;
 }
 
@@ -149,7 +149,7 @@ int stp_dec_list_req(const uint8_t *body, size_t len, stp_list_req *r, const cha
     stp_rd_init(&rd, body, len);
     r->first = stp_get_u32(&rd);
     r->max = stp_get_u32(&rd);
-    return finish(&rd, why, "LIST: body must be empty or 8 bytes");
+    return finish(&rd, why, "body must be empty or 8 bytes");
 }
 
 static void put_list_entry(stp_buf *b, const stp_list_entry *e)
@@ -239,7 +239,7 @@ int stp_dec_info_req(const uint8_t *body, size_t len, stp_info_req *r, const cha
     get_name(&rd, r->name, &np);
     r->face_first = stp_get_u32(&rd);
     r->face_count = stp_get_u32(&rd);
-    int s = finish(&rd, why, "INFO: truncated body");
+    int s = finish(&rd, why, "truncated body");
     return s ? s : np ? name_fail(why, SET_NAME_WHY, np) : 0;
 }
 
@@ -470,7 +470,7 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
     r->dqueries = NULL;
     r->raw = NULL;
     if (rd.bad)
-        return fail(why, "SAMPLE: truncated parameters", STP_S_BAD_REQUEST);
+        return fail(why, rd.nul ? STP_WHY_NUL : "truncated parameters", STP_S_BAD_REQUEST);
     if (!dir)
         p->footprint = 0;
     /* the query layout follows the flags (SAMPLE_DIR has one layout: compact flags there are
@@ -480,7 +480,7 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
     if (p->flags & STP_SF_SHM) {
         /* the queries are in the shared region (4.12): exactly the three offsets follow */
         if (stp_rd_left(&rd) != STP_SHM_REF_SIZE)
-            return fail(why, "SAMPLE: a shared-memory request ends with 24 bytes of offsets",
+            return fail(why, "a shared-memory request ends with 24 bytes of offsets",
                         STP_S_BAD_REQUEST);
         r->shm.query_off = stp_get_u64(&rd);
         r->shm.reply_off = stp_get_u64(&rd);
@@ -488,22 +488,22 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
     }
     /* The lying-length check: count must account for every remaining byte exactly. */
     else if ((uint64_t)r->count * qsize != stp_rd_left(&rd))
-        return fail(why, "SAMPLE: count does not match the body length", STP_S_BAD_REQUEST);
+        return fail(why, "count does not match the body length", STP_S_BAD_REQUEST);
     if (r->count > max_batch)
-        return fail(why, "SAMPLE: count over the server's max_batch", STP_S_TOO_LARGE);
+        return fail(why, "count over the server's max_batch", STP_S_TOO_LARGE);
     if (np)
         return name_fail(why, SET_NAME_WHY, np);
     if (stp_outfmt_size(p->outfmt) == 0)
-        return fail(why, "SAMPLE: unknown output format", STP_S_INVALID);
+        return fail(why, "unknown output format", STP_S_INVALID);
     if (p->max_aniso > 16)
-        return fail(why, "SAMPLE: max_aniso over 16", STP_S_INVALID);
+        return fail(why, "max_aniso over 16", STP_S_INVALID);
     if (p->flags & ~(STP_SF_REPLY_MASK | STP_SF_COMPACT_MASK | STP_SF_SHM))
-        return fail(why, "SAMPLE: unknown flag bits", STP_S_INVALID);
+        return fail(why, "unknown flag bits", STP_S_INVALID);
     if (dir && (p->flags & STP_SF_COMPACT_MASK))
-        return fail(why, "SAMPLE_DIR: the compact query flags (UV16, FACE16) are for SAMPLE only",
+        return fail(why, "the compact query flags (UV16, FACE16) are for SAMPLE only",
                     STP_S_INVALID);
     if (dir && p->footprint > STP_FP_CONE)
-        return fail(why, "SAMPLE_DIR: unknown footprint kind", STP_S_INVALID);
+        return fail(why, "unknown footprint kind", STP_S_INVALID);
     r->raw = (p->flags & STP_SF_SHM) ? NULL : rd.p + rd.off;
     return 0;
 }
@@ -845,13 +845,13 @@ int stp_dec_upload_begin(const uint8_t *body, size_t len, stp_upload_begin *r, c
     r->crc32c = stp_get_u32(&rd);
     r->flags = stp_get_u32(&rd);
     stp_get_str(&rd, r->options, sizeof r->options);
-    int s = finish(&rd, why, "UPLOAD_BEGIN: truncated body or bad hint / options");
+    int s = finish(&rd, why, "truncated body or bad hint / options");
     if (s)
         return s;
     if (np)
         return name_fail(why, SET_NAME_WHY, np);
     if (r->flags & ~(uint32_t)(STP_UF_REPLACE | STP_UF_RESUME | STP_UF_REPLICA))
-        return fail(why, "UPLOAD_BEGIN: unknown flag bits", STP_S_INVALID);
+        return fail(why, "unknown flag bits", STP_S_INVALID);
     return 0;
 }
 
@@ -895,12 +895,12 @@ int stp_dec_upload_chunk(const uint8_t *body, size_t len, stp_upload_chunk *r, c
     r->len = stp_get_u32(&rd);
     r->data = NULL;
     if (rd.bad)
-        return fail(why, "UPLOAD_CHUNK: truncated", STP_S_BAD_REQUEST);
+        return fail(why, "truncated", STP_S_BAD_REQUEST);
     if ((size_t)r->len != stp_rd_left(&rd))
-        return fail(why, "UPLOAD_CHUNK: len does not match the body length", STP_S_BAD_REQUEST);
+        return fail(why, "len does not match the body length", STP_S_BAD_REQUEST);
     r->data = stp_rd_take(&rd, r->len);
     if (r->offset > UINT64_MAX - r->len)
-        return fail(why, "UPLOAD_CHUNK: offset + len overflows", STP_S_INVALID);
+        return fail(why, "offset + len overflows", STP_S_INVALID);
     return 0;
 }
 
@@ -975,7 +975,7 @@ int stp_dec_compress_req(const uint8_t *body, size_t len, stp_compress_req *r, c
     get_name(&rd, r->target, &tp);
     r->level = stp_get_u8(&rd);
     r->flags = stp_get_u8(&rd);
-    int s = finish(&rd, why, "COMPRESS: truncated body");
+    int s = finish(&rd, why, "truncated body");
     if (s)
         return s;
     if (np)
@@ -983,9 +983,9 @@ int stp_dec_compress_req(const uint8_t *body, size_t len, stp_compress_req *r, c
     if (tp)
         return name_fail(why, TARGET_NAME_WHY, tp);
     if (r->level > 9)
-        return fail(why, "COMPRESS: level over 9", STP_S_INVALID);
+        return fail(why, "level over 9", STP_S_INVALID);
     if (r->flags & ~(STP_CF_SEAM_AWARE | STP_CF_REPLACE))
-        return fail(why, "COMPRESS: unknown flag bits", STP_S_INVALID);
+        return fail(why, "unknown flag bits", STP_S_INVALID);
     return 0;
 }
 
@@ -1034,11 +1034,11 @@ int stp_dec_fetch_open(const uint8_t *body, size_t len, stp_fetch_open *r, const
     stp_rd_init(&rd, body, len);
     get_name(&rd, r->name, &np);
     r->format = stp_get_u8(&rd);
-    int s = finish(&rd, why, "FETCH_OPEN: truncated body");
+    int s = finish(&rd, why, "truncated body");
     if (s == 0 && np)
         return name_fail(why, SET_NAME_WHY, np);
     if (s == 0 && !stp_fetch_format_name(r->format))
-        return fail(why, "FETCH_OPEN: unknown format", STP_S_INVALID);
+        return fail(why, "unknown format", STP_S_INVALID);
     return s;
 }
 

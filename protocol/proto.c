@@ -444,7 +444,7 @@ void stp_get_str(stp_rd *r, char *dst, size_t cap)
     if (!p)
         return;
     if (memchr(p, 0, n)) {
-        r->bad = 1;
+        r->bad = r->nul = 1;
         return;
     }
     memcpy(dst, p, n);

@@ -291,16 +291,19 @@ int stp_frame_end(stp_buf *b, size_t at);
 
 /* ---- body reader ------------------------------------------------------------------------------ */
 
-/* A cursor over a body. Reads past the end return 0 and set `bad`; decoders check `bad` once. */
+/* A cursor over a body. Reads past the end return 0 and set `bad`; decoders check `bad` once.
+ * `nul`: bad was set by a NUL byte inside a string (a str16 holds none), not by a short body,
+ * so the decoder's message can say which (STP_WHY_NUL). */
 typedef struct stp_rd {
     const uint8_t *p;
     size_t len, off;
-    int bad;
+    int bad, nul;
 } stp_rd;
+#define STP_WHY_NUL "a string holds a NUL byte (str16 strings carry none)"
 
 static inline void stp_rd_init(stp_rd *r, const void *p, size_t len)
 {
-    r->p = (const uint8_t *)p; r->len = len; r->off = 0; r->bad = 0;
+    r->p = (const uint8_t *)p; r->len = len; r->off = 0; r->bad = 0; r->nul = 0;
 }
 static inline size_t stp_rd_left(const stp_rd *r) { return r->len - r->off; }
 static inline const uint8_t *stp_rd_take(stp_rd *r, size_t n)

@@ -253,7 +253,9 @@ STP_DTYPES(SAME_DTYPE)
  * range (PROTOCOL.md 4.4: sharpness 0..1, width and blur 0..1e4, NaN never), whatever the
  * filter: only the Ptex filters use them, but a value no filter could take is refused for
  * every filter, so a client's bad value does not wait for a filter change to surface. */
-static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
+/* The request's parameters into o; NULL, or the reason naming the first bad one in PROTOCOL.md
+ * 4.4's order (the decoder has checked name, outfmt, max_aniso, flags and footprint). */
+static const char *fill_opts(const stp_sample_params *p, st_sample_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->mode = p->mode;
@@ -263,16 +265,22 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     o->sharpness = p->sharpness;
     o->width = p->width;
     o->blur = p->blur;
-    if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) ||
-        !stp_zero_rule_name(p->zero_rule) ||
-        p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
-        return -1;
+    if (!stp_mode_name(p->mode))
+        return "unknown mode (0 discard, 1 traverse, 2 clamp)";
+    if (!stp_filter_name(p->filter))
+        return "unknown filter (0-3, 8-15)";
+    if (!stp_zero_rule_name(p->zero_rule))
+        return "unknown zero_rule (0 nan, 1 clamp)";
+    if (p->max_aniso > 16 || !stp_outfmt_size(p->outfmt)) /* the decoder refused these first */
+        return "unknown outfmt, or max_aniso over 16";
     /* written so that NaN fails every test */
-    if (!(p->sharpness >= 0.0f && p->sharpness <= 1.0f) ||
-        !(p->width >= 0.0f && p->width <= ST_MAX_DERIV) ||
-        !(p->blur >= 0.0f && p->blur <= ST_MAX_DERIV))
-        return -1;
-    return 0;
+    if (!(p->sharpness >= 0.0f && p->sharpness <= 1.0f))
+        return "sharpness out of range (0..1)";
+    if (!(p->width >= 0.0f && p->width <= ST_MAX_DERIV))
+        return "width out of range (0..10000)";
+    if (!(p->blur >= 0.0f && p->blur <= ST_MAX_DERIV))
+        return "blur out of range (0..10000)";
+    return NULL;
 }
 
 /* Queries per part of a split batch (sts_pool_parallel): ~20 us of bilinear sampling, so a
@@ -460,10 +468,9 @@ int sts_sample_prepare(sts_ctx *c, const stp_header *h, const stp_sample_req *rq
                        sts_sample_prep *pp)
 {
     memset(pp, 0, sizeof *pp);
-    if (fill_opts(&rq->p, &pp->o) != 0) {
-        sts_reply_bad(out, h, STP_S_INVALID,
-                      "unknown mode, filter, zero_rule or outfmt, max_aniso over 16, or "
-                      "sharpness (0..1), width or blur (0..1e4) out of range");
+    const char *bad = fill_opts(&rq->p, &pp->o);
+    if (bad) {
+        sts_reply_bad(out, h, STP_S_INVALID, bad);
         return 1;
     }
     pp->ref = get_set(c, h, rq->p.name, out);

@@ -352,8 +352,10 @@ static int mesh_to_set(const char *path, int fmt, const st_import_opts *o, st_im
         }
     if (!tex) {
         st_mesh_free(m);
-        return st_fail(e, ST_EINVAL, "%s: a mesh needs a texture (none given and no map_Kd found)",
-                       path);
+        return st_fail(e, ST_EINVAL, "%s: a mesh needs a texture (%s)", path,
+                       o->no_side_files ? "none given; the files an OBJ names (mtllib, map_Kd) "
+                                          "are not opened here"
+                                        : "none given and no map_Kd found");
     }
     st_image img;
     if ((rc = st_image_read_any(tex, caps, &img, e)) != ST_OK) {

@@ -232,6 +232,44 @@ static void sample_binary_writes_count_times_channels_floats(void **state)
     assert_int_equal(OUTLEN, 10 * 4);
 }
 
+/* --compact sends the queries compact (PROTOCOL.md 4.4.1: u, v rounded to multiples of 2^-16):
+ * its values are bit for bit those of the same queries rounded beforehand and sent as f32,
+ * and differ from the unrounded queries' (the CLI once dropped the flag and sent f32). */
+static void sample_compact_sends_the_rounded_queries(void **state)
+{
+    (void)state;
+    enum { N = 16 };
+    char qf[400], rf[400];
+    snprintf(qf, sizeof qf, "%s/qc.txt", D.dir);
+    snprintf(rf, sizeof rf, "%s/qr.txt", D.dir);
+    FILE *f = fopen(qf, "w"), *g = fopen(rf, "w");
+    assert_non_null(f);
+    assert_non_null(g);
+    for (int i = 0; i < N; i++) {
+        /* a quarter of a 2^-16 step off the grid: the nearest multiple is k / 65536 */
+        long ku = 13000 + 2711 * i, kv = 40000 - 1907 * i;
+        double u = ((double)ku + 0.25) / 65536.0, v = ((double)kv - 0.25) / 65536.0;
+        fprintf(f, "%d %.9g %.9g\n", i % 6, u, v);
+        fprintf(g, "%d %.9g %.9g\n", i % 6, (double)ku / 65536.0, (double)kv / 65536.0);
+    }
+    fclose(f);
+    fclose(g);
+    static char compact[N * 4 * sizeof(float)], rounded[sizeof compact], plain[sizeof compact];
+    assert_int_equal(CLI("sample", "default", "--queries", qf, "--binary", "--compact"), 0);
+    assert_int_equal(OUTLEN, sizeof compact);
+    memcpy(compact, OUT, sizeof compact);
+    assert_int_equal(CLI("sample", "default", "--queries", rf, "--binary"), 0);
+    assert_int_equal(OUTLEN, sizeof rounded);
+    memcpy(rounded, OUT, sizeof rounded);
+    assert_int_equal(CLI("sample", "default", "--queries", qf, "--binary"), 0);
+    assert_int_equal(OUTLEN, sizeof plain);
+    memcpy(plain, OUT, sizeof plain);
+    assert_memory_equal(compact, rounded, sizeof compact);
+    assert_true(memcmp(compact, plain, sizeof plain) != 0);
+    /* the compact layouts are SAMPLE's: with --dir a usage error */
+    assert_int_equal(CLI("sample", "default", "--dir", "1", "0", "0", "--compact"), 2);
+}
+
 static void an_unknown_set_exits_1_with_the_servers_message(void **state)
 {
     (void)state;
@@ -818,6 +856,7 @@ int main(void)
         cmocka_unit_test(sample_query_file_answers_every_line_in_each_mode),
         cmocka_unit_test(sample_reports_a_bad_face_per_query),
         cmocka_unit_test(sample_binary_writes_count_times_channels_floats),
+        cmocka_unit_test(sample_compact_sends_the_rounded_queries),
         cmocka_unit_test(an_unknown_set_exits_1_with_the_servers_message),
         cmocka_unit_test(bad_usage_exits_2),
         cmocka_unit_test(no_server_exits_3),

@@ -171,6 +171,61 @@ static void sharpness_width_blur_ranges(void **state)
     close(fd);
 }
 
+/* PROTOCOL.md 4.4: each refused parameter gets a message naming it, prefixed once by the
+ * opcode's name (the decoders' texts once carried it too: "SAMPLE: SAMPLE: ..."); 2.1: a NUL
+ * byte in a str16 is BAD_REQUEST saying so, not "truncated body". */
+static void error_messages_name_the_parameter_once(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    struct { int what; unsigned v; float f; const char *name; } rows[] = {
+        {0, 3, 0, "mode"}, {1, 7, 0, "filter"}, {2, 2, 0, "zero_rule"},
+        {3, 0, 1.5f, "sharpness"}, {4, 0, -1.0f, "width"}, {5, 0, NAN, "blur"},
+        {6, 9, 0, "output format"}, {7, 17, 0, "max_aniso"},
+    };
+    stp_buf b;
+    stp_buf_init(&b);
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        stp_sample_req rq = sample_req(&GOOD, 1);
+        switch (rows[i].what) {
+        case 0: rq.p.mode = (uint8_t)rows[i].v; break;
+        case 1: rq.p.filter = (uint8_t)rows[i].v; break;
+        case 2: rq.p.zero_rule = (uint8_t)rows[i].v; break;
+        case 3: rq.p.sharpness = rows[i].f; break;
+        case 4: rq.p.width = rows[i].f; break;
+        case 5: rq.p.blur = rows[i].f; break;
+        case 6: rq.p.outfmt = (uint8_t)rows[i].v; break;
+        default: rq.p.max_aniso = (uint8_t)rows[i].v; break;
+        }
+        assert_int_equal(stp_enc_sample_req(&b, 40 + (uint32_t)i, 0, &rq), 0);
+        reply r;
+        roundtrip(fd, &b, 40 + (uint32_t)i, STP_S_INVALID, &r);
+        const char *m = (const char *)r.body;
+        if (strncmp(m, "SAMPLE: ", 8) || strstr(m + 8, "SAMPLE") || !strstr(m, rows[i].name))
+            fail_msg("row %zu: \"%s\" should name %s once after \"SAMPLE: \"", i, m,
+                     rows[i].name);
+        free(r.body);
+    }
+    /* a lying count: the decoder's text, with one prefix */
+    stp_sample_req rq = sample_req(&GOOD, 1);
+    assert_int_equal(stp_enc_sample_req(&b, 60, 0, &rq), 0);
+    stp_wr32(b.data + b.start + STP_HEADER_SIZE + 2 + strlen("default") + 20, 2);
+    reply r;
+    roundtrip(fd, &b, 60, STP_S_BAD_REQUEST, &r);
+    assert_string_equal((const char *)r.body, "SAMPLE: count does not match the body length");
+    free(r.body);
+    /* INFO of a name with a NUL in it */
+    static const uint8_t body[2 + 2 + 8] = {2, 0, 'p', 0}; /* "p\0", face_first, face_count */
+    assert_int_equal(stp_enc_raw(&b, STP_OP_INFO, 0, 61, 0, 0, body, sizeof body), 0);
+    roundtrip(fd, &b, 61, STP_S_BAD_REQUEST, &r);
+    if (!strstr((const char *)r.body, "NUL") || strstr((const char *)r.body, "truncated"))
+        fail_msg("INFO with a NUL in the name: \"%s\"", (const char *)r.body);
+    free(r.body);
+    stp_buf_free(&b);
+    close(fd);
+}
+
 /* PROTOCOL.md 4.4: flag bits 2-7 are reserved: INVALID when set (libseamtex never sets them). */
 static void sample_flag_bits_4_to_7_are_invalid(void **state)
 {
@@ -389,6 +444,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(lying_count_over_max_batch_is_bad_request),
         cmocka_unit_test(sharpness_width_blur_ranges),
+        cmocka_unit_test(error_messages_name_the_parameter_once),
         cmocka_unit_test(sample_flag_bits_4_to_7_are_invalid),
         cmocka_unit_test(failed_queries_get_nan_and_zero_coverage),
         cmocka_unit_test(hello_version_ranges_and_a_second_hello),
