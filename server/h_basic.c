@@ -263,6 +263,7 @@ static int fill_opts(const stp_sample_params *p, st_sample_opts *o)
     o->sharpness = p->sharpness;
     o->width = p->width;
     o->blur = p->blur;
+    o->lerp = (p->flags & STP_SF_LERP) != 0; /* Ptex's lerp (SAMPLE flag bit 5) */
     if (!stp_mode_name(p->mode) || !stp_filter_name(p->filter) ||
         !stp_zero_rule_name(p->zero_rule) ||
         p->max_aniso > 16 || !stp_outfmt_size(p->outfmt))
