@@ -37,6 +37,8 @@ static const char *const SAMPLE_USAGE =
 "                     ptex-mitchell (bilinear)\n"
 "  --zero-rule nan|clamp  a query whose taps all fall outside (discard) (nan)\n"
 "  --max-aniso N  --sharpness S  --width W  --blur B\n"
+"  --lerp             Ptex's lerp option: the ptex-gaussian and bicubic-family kernels\n"
+"                     blended toward the next lower resolution (not with --dir)\n"
 "  --binary           write the values raw (little-endian, count x channels) to stdout\n"
 "  --format f32|unorm8|unorm16|f16   value format on the wire and in --binary output\n"
 "                     (f32; f16 travels as binary16 and is written as f32)\n"
@@ -170,7 +172,7 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     o.mode = STP_MODE_TRAVERSE;
     o.filter = STP_FILTER_BILINEAR;
     const char *pos[4];
-    int npos = 0, binary = 0, dir = 0, shm = SHM_AUTO;
+    int npos = 0, binary = 0, dir = 0, shm = SHM_AUTO, lerp = 0;
     const char *qfile = NULL, *set = NULL;
     stc_query one;
     stc_dir_query onedir;
@@ -201,6 +203,10 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         }
         if (!strcmp(a, "--dir")) {
             dir = 1;
+            continue;
+        }
+        if (!strcmp(a, "--lerp")) {
+            lerp = 1;
             continue;
         }
         if (!strcmp(a, "--compact")) {
@@ -295,6 +301,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     /* --compact's bits stay; coverage and status only for the text output */
     o.want = (o.want & (STC_WANT_UV16 | STC_WANT_FACE16)) |
              (binary ? 0 : STC_WANT_COVERAGE | STC_WANT_STATUS);
+    if (lerp)
+        o.want |= STC_WANT_LERP;
 
     int rc = cli_connect(ctx);
     if (rc)

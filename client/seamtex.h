@@ -221,6 +221,11 @@ enum { STC_OUT_F32 = 0, STC_OUT_UNORM8 = 1, STC_OUT_UNORM16 = 2,
  * (face & 0xFFFF: only for sets of at most 65536 faces). The server samples the rounded
  * queries, exactly as if they had been sent as f32. */
 enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2, STC_WANT_UV16 = 4, STC_WANT_FACE16 = 8 };
+/* LERP (stc_sample only; in want, although no part of the result: the SAMPLE flag bit 5):
+ * Ptex's lerp filter option, the gaussian and bicubic-family kernels blended toward the next
+ * lower resolution as PtexFilter::Options::lerp does; other filters ignore it. A server
+ * older than session 26 answers INVALID (bit 5 was reserved). */
+enum { STC_WANT_LERP = 32 };
 typedef struct stc_sample_opts {
     unsigned mode, filter, zero_rule, max_aniso;
     unsigned outfmt;                  /* STC_OUT_* */

@@ -497,8 +497,10 @@ static int dec_sample_common(const uint8_t *body, size_t len, uint32_t max_batch
         return fail(why, "unknown output format", STP_S_INVALID);
     if (p->max_aniso > 16)
         return fail(why, "max_aniso over 16", STP_S_INVALID);
-    if (p->flags & ~(STP_SF_REPLY_MASK | STP_SF_COMPACT_MASK | STP_SF_SHM))
+    if (p->flags & ~(STP_SF_REPLY_MASK | STP_SF_COMPACT_MASK | STP_SF_SHM | STP_SF_LERP))
         return fail(why, "unknown flag bits", STP_S_INVALID);
+    if (dir && (p->flags & STP_SF_LERP))
+        return fail(why, "the lerp flag (bit 5) is for SAMPLE only", STP_S_INVALID);
     if (dir && (p->flags & STP_SF_COMPACT_MASK))
         return fail(why, "the compact query flags (UV16, FACE16) are for SAMPLE only",
                     STP_S_INVALID);

@@ -434,8 +434,10 @@ enum stp_sample_flags {
     STP_SF_STATUS   = 2,   /* reply carries one u8 status (stp_qstatus) per query */
     STP_SF_UV16     = 4,   /* SAMPLE request: u, v as u16 x 2^-16, derivatives as binary16 */
     STP_SF_FACE16   = 8,   /* SAMPLE request: face as u16 */
-    STP_SF_SHM      = 16   /* SAMPLE / SAMPLE_DIR request: queries and reply in the
+    STP_SF_SHM      = 16,  /* SAMPLE / SAMPLE_DIR request: queries and reply in the
                               connection's shared region (PROTOCOL.md 4.12; stp_shm_ref) */
+    STP_SF_LERP     = 32   /* SAMPLE request: Ptex's lerp option (the gaussian and bicubic
+                              family blend toward the next lower resolution); not echoed */
 };
 #define STP_SF_REPLY_MASK   (STP_SF_COVERAGE | STP_SF_STATUS)   /* what a reply echoes */
 #define STP_SF_COMPACT_MASK (STP_SF_UV16 | STP_SF_FACE16)       /* query layout (SAMPLE) */

@@ -27,7 +27,8 @@ static int inproc_sample(rs_sampler *s, const stc_sample_opts *o, const stc_quer
     inproc *p = (inproc *)s;
     st_sample_opts so = { .mode = (uint8_t)o->mode, .filter = (uint8_t)o->filter,
                           .zero_rule = (uint8_t)o->zero_rule, .max_aniso = (uint8_t)o->max_aniso,
-                          .sharpness = o->sharpness, .width = o->width, .blur = o->blur };
+                          .sharpness = o->sharpness, .width = o->width, .blur = o->blur,
+                          .lerp = (o->want & STC_WANT_LERP) != 0 };
     st_query sq[INPROC_CHUNK];
     float c[INPROC_CHUNK];
     for (size_t i = 0; i < n; i += INPROC_CHUNK) {

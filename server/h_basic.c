@@ -265,6 +265,7 @@ static const char *fill_opts(const stp_sample_params *p, st_sample_opts *o)
     o->sharpness = p->sharpness;
     o->width = p->width;
     o->blur = p->blur;
+    o->lerp = (p->flags & STP_SF_LERP) != 0; /* Ptex's lerp (SAMPLE flag bit 5) */
     if (!stp_mode_name(p->mode))
         return "unknown mode (0 discard, 1 traverse, 2 clamp)";
     if (!stp_filter_name(p->filter))

@@ -114,7 +114,7 @@ class Client:
                zero_rule: Literal["nan", "clamp"] = "nan", max_aniso: int = 0,
                sharpness: float = 0.0, width: float = 0.0, blur: float = 0.0,
                nonfinite: Literal["raise", "status"] = "raise",
-               out: Optional[Buffer] = None) -> _SampleResult: ...
+               out: Optional[Buffer] = None, lerp: bool = False) -> _SampleResult: ...
     def sample_dir(self, name: str, dirs: Buffer, ddx: Optional[Buffer] = None,
                    ddy: Optional[Buffer] = None, cone: Optional[_Floats] = None, *,
                    mode: _Mode = "traverse", filter: str = "bilinear", format: _Format = "f32",

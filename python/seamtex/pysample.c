@@ -203,6 +203,7 @@ typedef struct sopts {
     unsigned    max_aniso;
     float       sharpness, width, blur;
     PyObject   *out;
+    int         lerp;             /* sample(): Ptex's lerp option (SAMPLE flag bit 5) */
 } sopts;
 
 static int parse_one(const char *what, const char *v, int (*parse)(const char *),
@@ -242,7 +243,7 @@ static int opts_to_stc(const sopts *s, stc_sample_opts *o, int *pass_nonfinite)
     o->sharpness = s->sharpness;
     o->width = s->width;
     o->blur = s->blur;
-    o->want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    o->want = STC_WANT_COVERAGE | STC_WANT_STATUS | (s->lerp ? STC_WANT_LERP : 0);
     return 0;
 }
 
@@ -513,17 +514,18 @@ static int send_uv(const call *c, const void *q, stc_sample_result *res)
 PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
 {
     static char *kwlist[] = {"name", "face", "u", "v", "dudx", "dvdx", "dudy", "dvdy",
-                             SAMPLE_KW, NULL};
+                             SAMPLE_KW, "lerp", NULL};
     static const char *const names[7] = {"face", "u", "v", "dudx", "dvdx", "dudy", "dvdy"};
     static const int is_int[7] = {1, 0, 0, 0, 0, 0, 0}, ncomp[7] = {1, 1, 1, 1, 1, 1, 1};
     PyObject *o[7] = {NULL, NULL, NULL, NULL, NULL, NULL, NULL};
     call c = {.self = self, .s = SOPTS_DEFAULT, .qsize = sizeof(stc_query),
               .pack = pack_uv, .send = send_uv};
     sopts *s = &c.s;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sOOO|OOOO$ssssIfffsO:sample", kwlist, &c.name,
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sOOO|OOOO$ssssIfffsOp:sample", kwlist, &c.name,
                                      &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &s->mode,
                                      &s->filter, &s->format, &s->zero_rule, &s->max_aniso,
-                                     &s->sharpness, &s->width, &s->blur, &s->nonfinite, &s->out))
+                                     &s->sharpness, &s->width, &s->blur, &s->nonfinite, &s->out,
+                                     &s->lerp))
         return NULL;
     if (opts_to_stc(s, &c.so, &c.pass_nf) < 0)
         return NULL;
@@ -596,7 +598,7 @@ PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
 const char st_py_sample_doc[] =
 "sample(name, face, u, v, dudx=None, dvdx=None, dudy=None, dvdy=None, *,\n"
 "       mode='traverse', filter='bilinear', format='f32', zero_rule='nan', max_aniso=0,\n"
-"       sharpness=0.0, width=0.0, blur=0.0, nonfinite='raise', out=None)\n"
+"       sharpness=0.0, width=0.0, blur=0.0, nonfinite='raise', out=None, lerp=False)\n"
 "       -> (values, coverage, status)\n\n"
 "Samples set name at n points in one round trip (split and pipelined by libseamtex when n\n"
 "exceeds the server's batch limit). face, u, v and the derivatives are 1-D arrays with the\n"
@@ -606,6 +608,9 @@ const char st_py_sample_doc[] =
 "mode: 'discard', 'traverse', 'clamp'. filter: 'point', 'bilinear', 'trilinear', 'aniso',\n"
 "'ptex-point' ... 'ptex-mitchell'. format: 'f32' (float32 values), 'unorm8' (uint8),\n"
 "'unorm16' (uint16). zero_rule: 'nan' or 'clamp' (Discard with no tap inside).\n"
+"sharpness (0..1, ptex-bicubic), width (0..1e4, 0 = 1), blur (0..1e4): Ptex's filter options;\n"
+"lerp=True: Ptex's lerp option (ptex-gaussian and the bicubic family blend toward the next\n"
+"lower resolution; a server before session 26 refuses it with Invalid).\n"
 "nonfinite: 'raise' (ValueError on NaN / infinity in any input) or 'status' (sent as is;\n"
 "the server reports NONFINITE for that query).\n\n"
 "Returns values[n, nchan], coverage[n] (float32) and status[n] (uint8: 0 OK, 1 BAD_FACE,\n"

@@ -159,6 +159,29 @@ def test_sample_values_equal_the_c_clients(client, daemon, build, tmp_path, mode
     assert (st == 0).all()
 
 
+def test_sample_lerp_reaches_the_sampler_and_equals_the_cli(client, daemon, build, tmp_path):
+    # Ptex's lerp (SAMPLE flag bit 5): footprints between levels change the width-4 filters,
+    # footprints on a level (1/4 of a face) do not; the CLI's --lerp gives the same values
+    n = 200
+    face, u, v, _ = queries(n)
+    w = (0.3 + 0.4 * RNG.random(n)).astype(np.float32) * 0.5  # 0.15-0.35 of a face
+    off, _, _ = client.sample("default", face, u, v, w, 0, 0, w, filter="ptex-gaussian")
+    on, _, st = client.sample("default", face, u, v, w, 0, 0, w, filter="ptex-gaussian",
+                              lerp=True)
+    assert (st == 0).all() and not np.array_equal(on, off)
+    q = np.full(n, 0.25, np.float32)
+    a, _, _ = client.sample("default", face, u, v, q, 0, 0, q, filter="ptex-mitchell")
+    b, _, _ = client.sample("default", face, u, v, q, 0, 0, q, filter="ptex-mitchell",
+                            lerp=True)
+    assert np.array_equal(a, b)
+    qf = tmp_path / "q.txt"
+    qf.write_text("".join("%d %.9g %.9g %.9g 0 0 %.9g\n" % (face[i], u[i], v[i], w[i], w[i])
+                          for i in range(n)))
+    out = run_cli(build, daemon, ["sample", "default", "--queries", str(qf), "--binary",
+                                  "--filter", "ptex-gaussian", "--lerp"])
+    assert np.array_equal(np.frombuffer(out, np.float32).reshape(n, 4), on)
+
+
 def test_sample_unorm_formats_equal_the_c_clients(client, daemon, build, tmp_path):
     n = 500
     face, u, v, _ = queries(n)

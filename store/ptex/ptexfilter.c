@@ -2347,10 +2347,16 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
                  o->mode == ST_MODE_TRAVERSE;
     if (tanvec)
         path = PF_PATH_GENERAL;
+    /* Ptex's lerp (width-4 filters only): pk_build makes the blended kernels; no shortcut
+     * builds them, so the batch takes the general path */
+    int lerp = o->lerp && o->filter >= ST_FILTER_PTEX_GAUSSIAN;
+    if (lerp)
+        path = PF_PATH_GENERAL;
     int general = path == PF_PATH_GENERAL;
     int avx2 = pf_have_avx2();
     pk_params pp;
     pk_params_init(&pp, o->filter, o->sharpness, avx2);
+    pp.lerp = lerp;
     pf c = {.s = s, .t = t, .nc = s->info.nchan, .dt = s->info.dtype, .mode = o->mode,
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;

@@ -332,6 +332,7 @@ void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2)
 {
     p->ftype = ftype;
     p->avx2 = avx2;
+    p->lerp = 0;
     float sh = sharpness;
     if (ftype == ST_FILTER_PTEX_BSPLINE)
         sh = 0.f;
@@ -380,6 +381,128 @@ static void kernel_eval(const pk_params *p, float x1, float step, float *w, int 
             memcpy(&r, &rb, 16);
         }
         memcpy(w + i, &r, sizeof r);
+    }
+}
+
+/* The kernel function at the n points x[0 .. n) (n a multiple of 4, x and w with room for
+ * them): kernel_eval's operations on given points. */
+static void kernel_at(const pk_params *p, const float *x, float *w, int n)
+{
+    const float *c = p->coeffs;
+    for (int i = 0; i < n; i += 4) {
+        v4f r, xv;
+        memcpy(&xv, x + i, 16);
+        if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
+            r = pk_exp2_4(xv * xv * -2.0f * 1.44269504f);
+        } else {
+            v4i xb;
+            memcpy(&xb, &xv, 16);
+            xb &= 0x7fffffff;
+            v4f a;
+            memcpy(&a, &xb, 16);
+            v4f inner = (c[0] * a + c[1]) * a * a + c[2];
+            v4f outer = ((c[3] * a + c[4]) * a + c[5]) * a + c[6];
+            v4i m1 = a < 1.0f, m2 = a < 2.0f, ib, ob;
+            memcpy(&ib, &inner, 16);
+            memcpy(&ob, &outer, 16);
+            v4i rb = (ib & m1) | (ob & ~m1 & m2);
+            memcpy(&r, &rb, 16);
+        }
+        memcpy(w + i, &r, sizeof r);
+    }
+}
+
+void pk_width4_axis_lerp(const pk_params *p, int *kres, int *ku, int *kw, float *w, float u,
+                         float uw, int fres)
+{
+    float lo = recip_pow2(fres), x1, step;
+    float uwc = uw >= lo ? uw : lo;          /* pk_width4_axis' clamp to a texel */
+    float lerp2 = 0.0f;
+    int res = res_from_width(uwc);
+    if (uwc < 1.0f) {
+        float uwlo = 1.0f / (float)(1 << res); /* the width of the level picked */
+        lerp2 = (uwc - uwlo) / uwlo;
+    }
+    if (!(lerp2 != 0.0f)) { /* on a level, a face or wider: the kernel without lerp */
+        if (pk_width4_axis(kres, ku, kw, w, u, uw, fres, &x1, &step))
+            kernel_eval(p, x1, step, w, *kw);
+        return;
+    }
+    float lerp1 = 1.0f - lerp2;
+    /* xa, xb: the pair's taps; xc: its middle (kernel points for k, Hermite points for h) */
+    float xa[PK_MAX / 4 + 2] = {0}, xb[PK_MAX / 4 + 2] = {0}, xc[PK_MAX / 4 + 2] = {0};
+    float ka[PK_MAX / 4 + 2], kb[PK_MAX / 4 + 2], kc[PK_MAX / 4 + 2]; /* pairs, room for 8 */
+    int np;
+    uw = uwc;
+    if (uw >= .5f) { /* 2 texels, Hermite taps: kernel_s's [1/2, 1) branch blended */
+        *kres = 1;
+        float upix = u * 2.0f - 0.5f;
+        *ku = pk_ifloor(u - .5f) * 2;
+        *kw = 4;
+        float x0 = (float)*ku - upix;
+        float s = 1.0f / (uw * 1.5f + .5f);
+        for (int i = 0; i < 4; i += 2) {
+            float a = x0 + (float)i, b = a + 1.0f, m = (a + b) * 0.5f;
+            float ha = pk_hermite_blur(a * s), hb = pk_hermite_blur(b * s);
+            float hc = pk_hermite_blur(m * s);
+            w[i] = ha * lerp1 + hc * lerp2;
+            w[i + 1] = hb * lerp1 + hc * lerp2;
+        }
+        return;
+    }
+    if (uw >= .25f) { /* 4 texels: the kernel at texel steps, the middle by Hermite */
+        *kres = 2;
+        float upix = u * 4.0f - 0.5f;
+        int u1 = pk_iceil(upix - 2), u2 = pk_iceil(upix + 2);
+        u1 = u1 & ~1;
+        u2 = (u2 + 1) & ~1;
+        *ku = u1;
+        *kw = u2 - u1;
+        if (*kw > PK_MAX / 2)
+            *kw = PK_MAX / 2;
+        float x0 = (float)u1 - upix;
+        float s = 1.0f / (uw + .75f);
+        np = 0;
+        for (int i = 0; i < *kw; i += 2, np++) {
+            xa[np] = x0 + (float)i;
+            xb[np] = xa[np] + 1.0f;
+            xc[np] = (xa[np] + xb[np]) * 0.25f;
+        }
+        kernel_at(p, xa, ka, (np + 3) / 4 * 4);
+        kernel_at(p, xb, kb, (np + 3) / 4 * 4);
+        for (int j = 0; j < np; j++) {
+            float hc = pk_hermite_blur(xc[j] * s);
+            w[2 * j] = ka[j] * lerp1 + hc * lerp2;
+            w[2 * j + 1] = kb[j] * lerp1 + hc * lerp2;
+        }
+        return;
+    }
+    *kres = res;
+    int resu = 1 << res;
+    float upix = u * (float)resu - 0.5f;
+    float uwpix = uw * (float)resu;
+    float dupix = 2.0f * uwpix;
+    int u1 = pk_iceil(upix - dupix), u2 = pk_iceil(upix + dupix);
+    u1 = u1 & ~1;
+    u2 = (u2 + 1) & ~1;
+    *ku = u1;
+    *kw = u2 - u1;
+    if (*kw > PK_MAX / 2)
+        *kw = PK_MAX / 2; /* cannot happen: uwpix < 2 gives at most 10 */
+    step = 1.0f / uwpix;
+    x1 = ((float)u1 - upix) * step;
+    np = 0;
+    for (int i = 0; i < *kw; i += 2, np++) {
+        xa[np] = x1 + (float)i * step;
+        xb[np] = xa[np] + step;
+        xc[np] = (xa[np] + xb[np]) * 0.5f;
+    }
+    kernel_at(p, xa, ka, (np + 3) / 4 * 4);
+    kernel_at(p, xb, kb, (np + 3) / 4 * 4);
+    kernel_at(p, xc, kc, (np + 3) / 4 * 4);
+    for (int j = 0; j < np; j++) {
+        w[2 * j] = ka[j] * lerp1 + kc[j] * lerp2;
+        w[2 * j + 1] = kb[j] * lerp1 + kc[j] * lerp2;
     }
 }
 
@@ -438,6 +561,11 @@ void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, i
         if (k->vw > 3) k->vw = 3;
         box_weights(k->kub, k->uw, 1.0f - (u1 - u1f), 1.0f - (u2c - u2));
         box_weights(k->kvb, k->vw, 1.0f - (v1 - v1f), 1.0f - (v2c - v2));
+        return;
+    }
+    if (p->lerp) {
+        pk_width4_axis_lerp(p, &k->ulog2, &k->u, &k->uw, k->kub, u, uw, fulog2);
+        pk_width4_axis_lerp(p, &k->vlog2, &k->v, &k->vw, k->kvb, v, vw, fvlog2);
         return;
     }
     float x1u = 0, su = 0, x1v = 0, sv = 0;

@@ -245,12 +245,26 @@ typedef struct pk_params {
     unsigned ftype;
     int avx2;                    /* pf_have_avx2(): kernels evaluated by ptexfilter_simd.c */
     float coeffs[7];             /* bicubic coefficients for the sharpness */
+    int lerp;                    /* Ptex's lerp option for the width-4 filters (gaussian,
+                                    bicubic family): their kernels blended toward the next
+                                    lower resolution (pk_build; 0 from pk_params_init) */
 } pk_params;
 
-/* avx2: pf_have_avx2(), asked once by the caller (per batch) */
+/* avx2: pf_have_avx2(), asked once by the caller (per batch). lerp is left 0: the caller
+ * sets it (only the width-4 filters read it). */
 void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2);
 void pk_build(const pk_params *p, pk *k, float u, float v, float uw, float vw, int fulog2,
               int fvlog2);
+/* One axis of a width-4 kernel with Ptex's lerp on (PtexWidth4Filter::buildKernelAxis with
+ * lerp): the width's place between the resolution it picks (width 1/2^r) and the next lower
+ * one (2/2^r), lerp2 = (uw - 1/2^r) * 2^r in [0, 1), blends each pair of taps (an even
+ * pair: the window widened to even ends) toward the kernel at the pair's middle: widths under
+ * 1/4, the kernel at the middle point; 1/4 to 1/2, Ptex's Hermite blur of the middle at the
+ * next lower resolution's spread; 1/2 to 1, the Hermite taps blended likewise. At lerp2 = 0
+ * (a width on a level) and for widths of a face or more the kernel without lerp, bit for
+ * bit. Writes the taps to w (room for PK_MAX / 2) and the window to *kres, *ku, *kw. */
+void pk_width4_axis_lerp(const pk_params *p, int *kres, int *ku, int *kw, float *w, float u,
+                         float uw, int fres);
 /* The kernel function of a width-4 filter (gaussian, bicubic family) at x1 + i * step,
  * i < n, into w (room for n rounded up to 4): the portable evaluation. */
 void pk_kernel_eval(const pk_params *p, float x1, float step, float *w, int n);

@@ -60,6 +60,9 @@ typedef struct st_sample_opts {
     float   sharpness;   /* Ptex bicubic sharpness, 0..1 */
     float   width;       /* Ptex filter width multiplier; 0 means 1 */
     float   blur;        /* Ptex blur; 0 = none */
+    uint8_t lerp;        /* Ptex's lerp option: 1 blends the gaussian and bicubic-family
+                            kernels toward the next lower resolution (PtexWidth4Filter);
+                            0 = off; ignored by every other filter, as in Ptex */
 } st_sample_opts;
 
 /* Per-query status. */

@@ -50,6 +50,11 @@
  *                                           nothing: for a comparison with another
  *                                           implementation through --queries on both sides)
  *        bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH] [...]
+ * Filter options, for every query of the run (either form; defaults as Ptex's reference
+ * generator): [--sharpness S] (the bicubic filter, 0..1, default 0: the B-spline) [--width W]
+ * (footprint multiplier, default 0 = 1) [--blur B] (default 0) [--lerp] (Ptex's lerp: the
+ * gaussian and bicubic family blend toward the next lower resolution; default off).
+ * tests/bench/ptexcmp/ptexq takes the same options with the same meaning on Ptex's side.
  * To compare two builds, run their binaries alternately (A B A B) and take the medians. */
 #include <math.h>
 #include <stdio.h>
@@ -85,6 +90,8 @@ typedef struct opts {
     int coverage;                /* --coverage: ask for the coverage array too (Discard's use) */
     long batches;                /* --batches: exactly this many timed batches, one run */
     unsigned filter_mask;
+    float sharpness, width, blur; /* the filter options of every query (st_sample_opts) */
+    int lerp;                     /* --lerp: st_sample_opts.lerp = 1 */
     double min_s;
     int nfp;
     float fp[MAXFP];
@@ -285,7 +292,9 @@ static void make_queries(const st_set *s, float fp, int coherent, st_query *q)
 static double time_batch(const opts *op, const st_set *s, int flt, int mode, const st_query *q,
                          size_t n, float *out)
 {
-    st_sample_opts o = {.mode = (uint8_t)mode, .filter = (uint8_t)(ST_FILTER_PTEX_POINT + flt)};
+    st_sample_opts o = {.mode = (uint8_t)mode, .filter = (uint8_t)(ST_FILTER_PTEX_POINT + flt),
+                        .sharpness = op->sharpness, .width = op->width, .blur = op->blur,
+                        .lerp = (uint8_t)op->lerp};
     static float covbuf[NQ];
     float *cov = op->coverage && n <= NQ ? covbuf : NULL;
     double t[99];
@@ -483,6 +492,10 @@ static int run_query_file(const opts *op, const char *dd)
     printf("%s on %s, %s, %zu queries; per filter its lines in file order as one batch, "
            "median of %d runs of >= %.0f ms (thread CPU time)\n",
            op->queries, op->ptx, mnames[mode], n, op->reps_sample, op->min_s * 1e3);
+    if (op->sharpness > 0 || op->width > 0 || op->blur > 0 || op->lerp)
+        printf("filter options: sharpness %g, width %g, blur %g%s\n", (double)op->sharpness,
+               (double)(op->width > 0 ? op->width : 1.0f), (double)op->blur,
+               op->lerp ? ", lerp" : "");
     printf("%-10s %8s %12s %10s %10s\n", "filter", "queries", "M queries/s", "ns/query",
            "match%");
     FILE *js = op->json ? fopen(op->json, "w") : NULL;
@@ -580,7 +593,8 @@ static int usage(void)
             " [--files S,..] [--filters F,..] [--fp X,..] [--order random|coherent|both]"
             " [--modes M,..] [--coverage] [--min-ms MS] [--reps-sample N] [--batches N]"
             " [--emit-queries DIR]\n"
-            "       bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH]\n");
+            "       bench_ptex --queries REF.txt --ptx FILE.ptx [--dump OUT] [--json PATH]\n"
+            "       either form: [--sharpness S] [--width W] [--blur B] [--lerp]\n");
     return 2;
 }
 
@@ -600,6 +614,8 @@ int main(int argc, char **argv)
             op.sample_only = 1;
         else if (!strcmp(a, "--coverage"))
             op.coverage = 1;
+        else if (!strcmp(a, "--lerp"))
+            op.lerp = 1;
         else if (!v)
             return usage();
         else if (!strcmp(a, "--json"))
@@ -620,6 +636,12 @@ int main(int argc, char **argv)
             op.ptx = v, i++;
         else if (!strcmp(a, "--dump"))
             op.dump = v, i++;
+        else if (!strcmp(a, "--sharpness"))
+            op.sharpness = strtof(v, NULL), i++;
+        else if (!strcmp(a, "--width"))
+            op.width = strtof(v, NULL), i++;
+        else if (!strcmp(a, "--blur"))
+            op.blur = strtof(v, NULL), i++;
         else if (!strcmp(a, "--emit-queries"))
             op.emit = v, i++, op.sample_only = 1;
         else if (!strcmp(a, "--filters")) {
@@ -658,6 +680,9 @@ int main(int argc, char **argv)
         op.reps_sample = 3;
     if (!(op.min_s > 0 && op.min_s < 60))
         op.min_s = 0.015;
+    if (!(op.sharpness >= 0 && op.sharpness <= 1) || !(op.width >= 0 && op.width <= 1e4f) ||
+        !(op.blur >= 0 && op.blur <= 1e4f))
+        return usage();
     const char *dd = st_test_data_dir();
     if (op.queries || op.ptx) {
         if (!op.queries || !op.ptx)

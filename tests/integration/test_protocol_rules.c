@@ -1,6 +1,7 @@
 /* tests/integration/test_protocol_rules.c - the rules PROTOCOL.md states for the corners an
  * outside client hit (issue 11), on the raw wire: which status wins when a SAMPLE count both
- * lies and exceeds max_batch, the ranges of sharpness / width / blur, SAMPLE flag bits 2-7,
+ * lies and exceeds max_batch, the ranges of sharpness / width / blur, SAMPLE flag bits 2-7
+ * (bit 5, Ptex's lerp, reaching the sampler),
  * the values of queries that fail (BAD_FACE, NONFINITE, BAD_FOOTPRINT), HELLO with
  * min > max and a second HELLO, a chunk over max_chunk, another connection's upload id,
  * FETCH_READ with max_len 0.
@@ -226,7 +227,8 @@ static void error_messages_name_the_parameter_once(void **state)
     close(fd);
 }
 
-/* PROTOCOL.md 4.4: flag bits 2-7 are reserved: INVALID when set (libseamtex never sets them). */
+/* PROTOCOL.md 4.4: flag bits 6-7 are reserved: INVALID when set (libseamtex never sets them);
+ * bit 4 (SHM) without its offsets and on a connection without a region is INVALID too. */
 static void sample_flag_bits_4_to_7_are_invalid(void **state)
 {
     (void)state;
@@ -235,6 +237,8 @@ static void sample_flag_bits_4_to_7_are_invalid(void **state)
     stp_buf b;
     stp_buf_init(&b);
     for (unsigned bit = 4; bit < 8; bit++) {
+        if (bit == 5)
+            continue; /* lerp: sample_flag_bit_5_is_lerp */
         stp_sample_req rq = sample_req(&GOOD, 1);
         rq.p.flags = (uint8_t)(STP_SF_STATUS | 1u << bit);
         assert_int_equal(stp_enc_sample_req(&b, bit, 0, &rq), 0);
@@ -252,6 +256,71 @@ static void sample_flag_bits_4_to_7_are_invalid(void **state)
         assert_int_equal(stp_enc_sample_req(&b, 20 + bit, 0, &rq), 0);
         expect(fd, &b, 20 + bit, STP_S_OK);
     }
+    stp_buf_free(&b);
+    close(fd);
+}
+
+/* The values of a SAMPLE reply of n queries (f32, 4 channels: the set "default"). */
+static void sample_values(int fd, stp_sample_req *rq, uint32_t reqid, float *v)
+{
+    stp_buf b;
+    stp_buf_init(&b);
+    assert_int_equal(stp_enc_sample_req(&b, reqid, 0, rq), 0);
+    reply r;
+    roundtrip(fd, &b, reqid, STP_S_OK, &r);
+    stp_sample_reply sr;
+    assert_int_equal(stp_dec_sample_reply(r.body, r.h.body_len, &sr, NULL), 0);
+    assert_int_equal(sr.count, rq->count);
+    assert_int_equal(sr.nchan, 4);
+    memcpy(v, sr.raw_values, (size_t)sr.count * 4 * sizeof(float)); /* LE f32 */
+    free(r.body);
+    stp_buf_free(&b);
+}
+
+/* PROTOCOL.md 4.4: flag bit 5 is Ptex's lerp: served (OK) and it reaches the sampler: a
+ * gaussian / Mitchell query whose footprint lies between two levels changes, one on a level
+ * does not, nor a box or bilinear query; SAMPLE_DIR refuses it (INVALID). */
+static void sample_flag_bit_5_is_lerp(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    /* face 3 of "default"; footprints between levels (0.3, 0.7, 0.06 and 0.13 of the face)
+     * and on levels (1/4, 1/2, 1/16, 1/8) */
+    const stp_query between[4] = {{3, 0.43f, 0.37f, 0.3f, 0, 0, 0.3f},
+                                  {3, 0.61f, 0.52f, 0.7f, 0, 0, 0.7f},
+                                  {3, 0.27f, 0.71f, 0.06f, 0, 0, 0.06f},
+                                  {3, 0.55f, 0.33f, 0.13f, 0, 0, 0.13f}};
+    const stp_query level[4] = {{3, 0.43f, 0.37f, 0.25f, 0, 0, 0.25f},
+                                {3, 0.61f, 0.52f, 0.5f, 0, 0, 0.5f},
+                                {3, 0.27f, 0.71f, 0.0625f, 0, 0, 0.0625f},
+                                {3, 0.55f, 0.33f, 0.125f, 0, 0, 0.125f}};
+    static const uint8_t filters[4] = {STP_FILTER_PTEX_GAUSSIAN, STP_FILTER_PTEX_MITCHELL,
+                                       STP_FILTER_PTEX_BOX, STP_FILTER_PTEX_BILINEAR};
+    uint32_t id = 100;
+    for (int fi = 0; fi < 4; fi++)
+        for (int lv = 0; lv < 2; lv++) {
+            float off[16], on[16];
+            stp_sample_req rq = sample_req(lv ? level : between, 4);
+            rq.p.filter = filters[fi];
+            sample_values(fd, &rq, id++, off);
+            rq.p.flags |= STP_SF_LERP;
+            sample_values(fd, &rq, id++, on);
+            int same = !memcmp(off, on, sizeof off);
+            if (fi < 2 && !lv)
+                assert_false(same); /* the width-4 filters between levels */
+            else
+                assert_true(same);
+        }
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_dir_query dq = {{1, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    stp_sample_req rq = sample_req(NULL, 1);
+    rq.queries = NULL;
+    rq.dqueries = &dq;
+    rq.p.flags = STP_SF_LERP;
+    assert_int_equal(stp_enc_sample_dir_req(&b, id, 0, &rq), 0);
+    expect(fd, &b, id, STP_S_INVALID);
     stp_buf_free(&b);
     close(fd);
 }
@@ -446,6 +515,7 @@ int main(void)
         cmocka_unit_test(sharpness_width_blur_ranges),
         cmocka_unit_test(error_messages_name_the_parameter_once),
         cmocka_unit_test(sample_flag_bits_4_to_7_are_invalid),
+        cmocka_unit_test(sample_flag_bit_5_is_lerp),
         cmocka_unit_test(failed_queries_get_nan_and_zero_coverage),
         cmocka_unit_test(hello_version_ranges_and_a_second_hello),
         cmocka_unit_test(chunk_over_max_chunk_and_foreign_upload_ids),

@@ -97,7 +97,7 @@ static void sample_matches_in_process_sampler(void **state)
         q[i].dudx = q[i].dvdy = 0.01f;
         memcpy(&sq[i], &q[i], sizeof sq[i]);
     }
-    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0};
+    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0, 0};
     assert_int_equal(st_sample_batch(s, &so, sq, N, want, NULL, NULL), 0);
     stc_conn *c = st_daemon_client(&D1, NULL);
     assert_non_null(c);
@@ -157,7 +157,7 @@ static void split_batches_match_the_sampler_in_every_form(void **state)
     }
     q[17].u = NAN;  /* a bad query inside the first part: its status and NaN values travel */
     sq[17].u = NAN;
-    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0};
+    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0, 0};
     assert_int_equal(st_sample_batch(s, &so, sq, N, want, wcov, NULL), 1);
     stc_conn *c = st_daemon_client(&D1, NULL);
     assert_non_null(c);
@@ -245,7 +245,7 @@ static void two_connections_of_split_batches_answer_exactly_in_order(void **stat
     enum { N = 2048, K = 8, C = 2 };   /* 2048: inline (--heavy-batch 2048) and split */
     stc_query *q[C][K];
     float *want[C][K];
-    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0};
+    st_sample_opts so = {ST_MODE_TRAVERSE, ST_FILTER_BILINEAR, 0, 0, 0, 0, 0, 0};
     srand(23);
     for (int c = 0; c < C; c++)
         for (int k = 0; k < K; k++) {

@@ -525,7 +525,9 @@ static void sample_request_refuses_bad_values(void **state)
         { 4, 3, 0 },                 /* outfmt 3, f16 */
         { 3, 17, STP_S_INVALID },    /* max_aniso 17 */
         { 5, 16, STP_S_BAD_REQUEST },/* SHM (bit 4) without its 24 bytes of offsets */
-        { 5, 32, STP_S_INVALID },    /* unknown flag bit (bit 5) */
+        { 5, 32, 0 },                /* LERP (bit 5, since session 26) */
+        { 5, 64, STP_S_INVALID },    /* unknown flag bit (bit 6) */
+        { 5, 128, STP_S_INVALID },   /* unknown flag bit (bit 7) */
         { 5, 4 | 8, 0 },             /* UV16 | FACE16: no query, so the length still fits */
         { 3, 16, 0 },
         { 3, 0, 0 },

@@ -237,11 +237,15 @@ static void malformed_compact_bodies_get_the_defined_statuses(void **state)
     /* over max_batch with the right compact length: TOO_LARGE */
     len = body_of(body, STP_SF_UV16 | STP_SF_FACE16, 10, 140);
     assert_int_equal(stp_dec_sample_req(body, len, 9, &r, &why), STP_S_TOO_LARGE);
-    /* bit 4 (SHM) wants 24 bytes of offsets instead of queries; bits 5-7 are still reserved:
-     * INVALID, whatever the layout bits say */
+    /* bit 4 (SHM) wants 24 bytes of offsets instead of queries; bit 5 (LERP, session 26)
+     * goes with any layout; bits 6-7 are still reserved: INVALID, whatever the layout bits
+     * say */
     len = body_of(body, STP_SF_SHM | STP_SF_UV16, 2, 32);
     assert_int_equal(stp_dec_sample_req(body, len, 1u << 20, &r, &why), STP_S_BAD_REQUEST);
-    for (unsigned bit = 5; bit < 8; bit++) {
+    len = body_of(body, STP_SF_LERP | STP_SF_UV16, 2, 32);
+    assert_int_equal(stp_dec_sample_req(body, len, 1u << 20, &r, &why), 0);
+    assert_true(r.p.flags & STP_SF_LERP);
+    for (unsigned bit = 6; bit < 8; bit++) {
         len = body_of(body, (1u << bit) | STP_SF_UV16, 2, 32);
         assert_int_equal(stp_dec_sample_req(body, len, 1u << 20, &r, &why), STP_S_INVALID);
     }

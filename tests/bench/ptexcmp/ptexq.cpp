@@ -2,7 +2,7 @@
 // (PtexFilter::getFilter + PtexFilter::eval), dump the outputs and time them.
 //
 // usage: ptexq FILE.ptx QUERIES.txt [--dump OUT] [--values OUT] [--reps N] [--min-ms M]
-//              [--whole] [--check]
+//              [--whole] [--check] [--sharpness S] [--width W] [--blur B] [--lerp]
 //   QUERIES.txt  lines `faceid u v uw1 vw1 uw2 vw2 filter [-> c0 c1 c2 [c3]]` (the format of
 //                shared/data/ptex-ref/ref_*.txt; blank and '#' lines skipped)
 //   --dump OUT   each query line again, in the reference form: the query text up to the
@@ -17,9 +17,15 @@
 //                M queries/s per filter and overall (total queries / sum of per-filter
 //                times). --whole: the whole list in file order as one batch instead.
 //   --reps 0     no timing (dump / check only)
-// Filter options as the reference generator: width=1, blur=0, lerp=false, sharpness=0
-// (so `bicubic` is the B-spline), noedgeblend=false, no premultiplication; the texture is
-// opened with PtexTexture::open (no PtexCache).
+//   --sharpness S  PtexFilter::Options::sharpness (the `bicubic` filter only; default 0: the
+//                  B-spline); --lerp  Options::lerp = true (default false)
+//   --width W      eval's width (default 1; 0 is read as 1, as seamtex reads it)
+//   --blur B       eval's blur (default 0)
+//                these apply to every query of the run (the same meaning as bench_ptex's
+//                options of the same names)
+// Default filter options = the reference generator's: width=1, blur=0, lerp=false,
+// sharpness=0, noedgeblend=false, no premultiplication; the texture is opened with
+// PtexTexture::open (no PtexCache).
 #include <Ptexture.h>
 
 #include <algorithm>
@@ -57,7 +63,8 @@ double now_thread() { return harness_clock(CLOCK_THREAD_CPUTIME_ID); }
 int usage()
 {
     fprintf(stderr, "usage: ptexq FILE.ptx QUERIES.txt [--dump OUT] [--values OUT] [--reps N]"
-                    " [--min-ms M] [--whole] [--check]\n");
+                    " [--min-ms M] [--whole] [--check] [--sharpness S] [--width W] [--blur B]"
+                    " [--lerp]\n");
     return 2;
 }
 
@@ -107,7 +114,8 @@ int main(int argc, char** argv)
     const char* values = 0;
     int reps = 3;
     double min_s = 0.015;
-    bool whole = false, check = false;
+    bool whole = false, check = false, lerp = false;
+    float sharpness = 0.0f, width = 1.0f, blur = 0.0f;
     for (int i = 3; i < argc; i++) {
         std::string a = argv[i];
         if (a == "--dump" && i + 1 < argc) dump = argv[++i];
@@ -116,9 +124,16 @@ int main(int argc, char** argv)
         else if (a == "--min-ms" && i + 1 < argc) min_s = atof(argv[++i]) * 1e-3;
         else if (a == "--whole") whole = true;
         else if (a == "--check") check = true;
+        else if (a == "--lerp") lerp = true;
+        else if (a == "--sharpness" && i + 1 < argc) sharpness = strtof(argv[++i], 0);
+        else if (a == "--width" && i + 1 < argc) width = strtof(argv[++i], 0);
+        else if (a == "--blur" && i + 1 < argc) blur = strtof(argv[++i], 0);
         else return usage();
     }
     if (reps < 0 || reps > 99) reps = 3;
+    if (!(sharpness >= 0.0f && sharpness <= 1.0f) || !(width >= 0.0f) || !(blur >= 0.0f))
+        return usage();
+    if (width == 0.0f) width = 1.0f;
 
     FILE* fp = fopen(qfile, "r");
     if (!fp) { fprintf(stderr, "%s: cannot open\n", qfile); return 1; }
@@ -143,7 +158,7 @@ int main(int argc, char** argv)
 
     PtexFilter* filt[8];
     for (int f = 0; f < 8; f++) {
-        PtexFilter::Options opts(kTypes[f], false, 0.0f, false);
+        PtexFilter::Options opts(kTypes[f], lerp, sharpness, false);
         filt[f] = PtexFilter::getFilter(tx, opts);
     }
 
@@ -152,7 +167,7 @@ int main(int argc, char** argv)
     for (int i = 0; i < nq; i++) {
         const Query& q = Q[i];
         filt[q.filter]->eval(&out[(size_t)i * 4], 0, nc, q.face, q.u, q.v, q.uw1, q.vw1, q.uw2,
-                             q.vw2, 1.0f, 0.0f);
+                             q.vw2, width, blur);
     }
 
     int rc = 0;
@@ -241,7 +256,7 @@ int main(int argc, char** argv)
                     for (int j = 0; j < m; j++) {
                         const Query& q = Q[G[j]];
                         filt[q.filter]->eval(res, 0, nc, q.face, q.u, q.v, q.uw1, q.vw1, q.uw2,
-                                             q.vw2, 1.0f, 0.0f);
+                                             q.vw2, width, blur);
                     }
                 return now_thread() - t0;
             };
