@@ -4,7 +4,9 @@
  * tiled), edits and metadata. Does not own: the set layout (set.c), the inner unpacking loops
  * (ptex_unpack.c), the Ptex rules for the levels a file does not store and the
  * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
- * built later by the first Ptex-filter call).
+ * built later by the first Ptex-filter call). Stored quad faces that are tiled with every tile
+ * a constant tile of one value are listed for it (st_ptexres_set_ctiles: Ptex serves some
+ * reductions of those as constant faces, which its tanvec mode does not turn).
  *
  * Triangle meshes (mesh type 0) are read the same way: square faces (checked), three edges
  * (the fourth adjacency entry and the subface flag are ignored, as Ptex does), blocks in Ptex's
