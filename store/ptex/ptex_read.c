@@ -4,7 +4,9 @@
  * tiled), edits and metadata. Does not own: the set layout (set.c), the inner unpacking loops
  * (ptex_unpack.c), the Ptex rules for the levels a file does not store and the
  * table of on-demand reductions that Ptex's filter reads (ptexres.c: attached here, the table
- * built later by the first Ptex-filter call).
+ * built later by the first Ptex-filter call). Stored quad faces that are tiled with every tile
+ * a constant tile of one value are listed for it (st_ptexres_set_ctiles: Ptex serves some
+ * reductions of those as constant faces, which its tanvec mode does not turn).
  *
  * Triangle meshes (mesh type 0) are read the same way: square faces (checked), three edges
  * (the fourth adjacency entry and the subface flag are ignored, as Ptex does), blocks in Ptex's
@@ -59,6 +61,9 @@ typedef struct rd {
     struct libdeflate_decompressor *dd; /* made on the first stream, reused */
     uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
     size_t scratch_cap;
+    int ctiled;                 /* decode_face's last face: tiled, every tile a constant tile
+                                   of one value (tiles of 2^ct_tu x 2^ct_tv texels) */
+    uint8_t ct_tu, ct_tv;
 } rd;
 
 /* The reader's scratch of at least n bytes: grown, never shrunk, freed at the end. A planar
@@ -239,6 +244,7 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
         return st_fail(r->e, ST_EFORMAT, "%s: block at offset %llu (%llu bytes) overruns its "
                        "level (ends at %llu)", what, (unsigned long long)off,
                        (unsigned long long)size, (unsigned long long)end);
+    r->ctiled = 0;
     if (enc != PTX_ENC_TILED)
         return decode_block(r, enc, off, size, w, h, dst, stride, what);
     if (size < 6 || !in_file(r, off, size))
@@ -263,6 +269,9 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
     int rc = inflate_exact(r, off + 6, thsize, th, ntiles * 4, what);
     uint64_t pos = off + 6 + thsize, bend = off + size;
     uint32_t tw = 1u << tu, tht = 1u << tv;
+    int ctiled = 1; /* every tile constant, of tile 0's value (Ptex serves reductions of such
+                     * a face that fit in a tile as a constant face) */
+    uint64_t c0 = pos;
     for (size_t i = 0; rc == ST_OK && i < ntiles; i++) {
         uint32_t tf = ptx_rd32(th + 4 * i);
         unsigned tenc = tf >> 30;
@@ -280,9 +289,17 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
         size_t tx = i % ntu, ty = i / ntu;
         uint8_t *d = r->dry ? dst : dst + ty * tht * stride + tx * tw * r->psize;
         rc = decode_block(r, tenc, pos, tsize, tw, tht, d, stride, what);
+        if (rc == ST_OK && ctiled)
+            ctiled = tenc == PTX_ENC_CONSTANT &&
+                     (i == 0 ? (c0 = pos, 1) : !memcmp(at(r, pos), at(r, c0), r->psize));
         pos += tsize;
     }
     free(th);
+    if (rc == ST_OK && ctiled) {
+        r->ctiled = 1;
+        r->ct_tu = (uint8_t)tu;
+        r->ct_tv = (uint8_t)tv;
+    }
     return rc;
 }
 
@@ -403,6 +420,15 @@ static int pend_make(st_set *s, void *p, st_error *e)
     libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     return rc;
+}
+
+/* st_ptexres_ctile order: by face, then level */
+static int ctile_cmp(const void *a, const void *b)
+{
+    const st_ptexres_ctile *x = a, *y = b;
+    if (x->face != y->face)
+        return x->face < y->face ? -1 : 1;
+    return (x->level > y->level) - (x->level < y->level);
 }
 
 /* Parses metadata records (small or large-header form) from mem. */
@@ -569,6 +595,8 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
     st_set *s = NULL;
     ptx_faceinfo *fi = NULL;
     uint8_t *constdata = NULL, *ptxflags = NULL, *nstored = NULL;
+    st_ptexres_ctile *ct = NULL; /* stored faces whose tiles are all one constant (quads) */
+    size_t nct = 0, ctcap = 0;
     uint32_t *fdh = NULL;
     uint64_t *offs = NULL;
     uint32_t *faceids_r = NULL;
@@ -909,6 +937,20 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
                 }
                 goto done;
             }
+            if (r->ctiled && !r->tri) {
+                if (nct == ctcap) {
+                    size_t nc = ctcap ? 2 * ctcap : 16;
+                    st_ptexres_ctile *np = realloc(ct, nc * sizeof *np);
+                    if (!np) {
+                        rc = st_fail(e, ST_ENOMEM, "out of memory for the tiled faces");
+                        goto done;
+                    }
+                    ct = np;
+                    ctcap = nc;
+                }
+                ct[nct++] = (st_ptexres_ctile){.face = f, .level = (uint8_t)l, .tu = r->ct_tu,
+                                               .tv = r->ct_tv};
+            }
             if (r->dry && pend_push(pd, f, fdh[i], offs[i])) {
                 rc = st_fail(e, ST_ENOMEM, "out of memory for the stored reductions");
                 goto done;
@@ -978,8 +1020,14 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
     } else if ((rc = st_ptexres_attach(s, constdata, ptxflags, nstored, max_bytes, e))) {
         goto done;
     }
+    if (nct) {
+        qsort(ct, nct, sizeof *ct, ctile_cmp);
+        if ((rc = st_ptexres_set_ctiles(s, ct, (uint32_t)nct, e)))
+            goto done;
+    }
 
 done:
+    free(ct);
     pend_free(pd);
     libdeflate_free_decompressor(r->dd);
     free(r->scratch);

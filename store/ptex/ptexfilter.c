@@ -249,7 +249,9 @@ static inline v4f tanvec_add(v4f acc, v4f r, int rot)
 /* Kernel applied to the data of face f at the kernel's resolution (reduced first when the
  * face is smaller). In the tanvec mode a piece turned against the query face (k->rot) is
  * summed apart and its channels 0-1 turned back (tanvec_add), except, as in Ptex, on data
- * Ptex serves as a constant: a constant face, and any face at 1 x 1 (its constant value). */
+ * Ptex serves as a constant: a constant face, any face at 1 x 1 (its constant value), and a
+ * reduction Ptex makes from a tiled face whose tiles are all one constant once it fits in a
+ * tile (st_ptexres_served_const). */
 static void apply(pf *c, pk *k, int f)
 {
     if (k->uw <= 0 || k->vw <= 0)
@@ -278,7 +280,8 @@ static void apply(pf *c, pk *k, int f)
     size_t ts = c->ts;
     const uint8_t *base = d + ((size_t)k->v * resu + k->u) * ts;
     size_t rowb = (size_t)resu * ts;
-    if (__builtin_expect(c->tanvec, 0) && (k->rot & 3) && (k->ulog2 | k->vlog2)) {
+    if (__builtin_expect(c->tanvec, 0) && (k->rot & 3) &&
+        !st_ptexres_served_const(c->t, c->s, (uint32_t)f, k->ulog2, k->vlog2)) {
         v4f acc = c->acc;
         c->acc = (v4f){0, 0, 0, 0};
         v4f r = c->win ? c->win(base, rowb, ku, k->uw, kv, k->vw, c->acc)

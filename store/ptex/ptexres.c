@@ -86,7 +86,82 @@ static void ptexres_free(void *p)
     free(t->nstored);
     free(t->lanef);
     free(t->arena);
+    free(t->ctiles);
     free(t);
+}
+
+int st_ptexres_set_ctiles(st_set *s, const st_ptexres_ctile *c, uint32_t n, st_error *e)
+{
+    st_ptexres *t = (st_ptexres *)st_ptexres_get(s);
+    if (!t)
+        return st_fail(e, ST_EINVAL, "set has no Ptex table");
+    st_ptexres_ctile *cp = NULL;
+    if (n && !(cp = malloc((size_t)n * sizeof *cp)))
+        return st_fail(e, ST_ENOMEM, "out of memory for %u constant-tile records", n);
+    if (n)
+        memcpy(cp, c, (size_t)n * sizeof *cp);
+    free(t->ctiles);
+    t->ctiles = cp;
+    t->nctiles = n;
+    return ST_OK;
+}
+
+/* The ctiles record of face f's stored level l, or NULL. */
+static const st_ptexres_ctile *ctile_of(const st_ptexres *t, uint32_t f, unsigned l)
+{
+    uint32_t lo = 0, hi = t->nctiles;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        const st_ptexres_ctile *c = &t->ctiles[mid];
+        if (c->face < f || (c->face == f && c->level < l))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < t->nctiles && t->ctiles[lo].face == f && t->ctiles[lo].level == l
+               ? &t->ctiles[lo] : NULL;
+}
+
+/* What Ptex's getData(f, (ru, rv)) returns: 0 packed data (or tiles not all one constant),
+ * 1 a constant face, 2 tiles all one constant of 2^*tu x 2^*tv texels. */
+static int served_kind(const st_ptexres *t, const st_set *s, uint32_t f, int ru, int rv, int *tu,
+                       int *tv)
+{
+    const st_face *F = &s->faces[f];
+    if (ru == 0 && rv == 0)
+        return 1;
+    int redu = (int)F->ulog2 - ru, redv = (int)F->vlog2 - rv;
+    if ((redu == 0 && redv == 0) ||
+        (redu == redv && !(t->ptxflags[f] & PTX_FLAG_HASEDITS) && redu < (int)t->nstored[f])) {
+        const st_ptexres_ctile *c = ctile_of(t, f, (unsigned)redu);
+        if (!c)
+            return 0;
+        *tu = c->tu;
+        *tv = c->tv;
+        return 2;
+    }
+    /* a reduction Ptex makes: of the next larger resolution in u or in v (PtexReader::getData) */
+    int blendu = redu == redv ? (ru & 1) : redu > redv;
+    int k = served_kind(t, s, f, ru + blendu, rv + !blendu, tu, tv);
+    if (k != 2)
+        return k;
+    /* TiledFaceBase::reduce: the tile resolution kept but not over the new face's; one tile
+     * left: a constant face (the tiles are all one constant), else tiled again */
+    if (*tu > ru)
+        *tu = ru;
+    if (*tv > rv)
+        *tv = rv;
+    return *tu == ru && *tv == rv ? 1 : 2;
+}
+
+int st_ptexres_served_const(const st_ptexres *t, const st_set *s, uint32_t f, int ru, int rv)
+{
+    if (ru == 0 && rv == 0)
+        return 1;
+    if (!t->nctiles)
+        return 0;
+    int tu = 0, tv = 0;
+    return served_kind(t, s, f, ru, rv, &tu, &tv) == 1;
 }
 
 const st_ptexres *st_ptexres_get(const st_set *s)

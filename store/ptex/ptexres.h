@@ -51,6 +51,16 @@
 
 #define ST_PTEXRES_MAGIC 0x50545852u /* "PTXR" */
 
+/* A stored face (level 0, or a stored square reduction `level`) of a .ptx file that is tiled
+ * (tiles of 2^tu x 2^tv texels) with every tile a constant tile of one and the same value.
+ * Ptex's reader serves a reduction it makes from such a face as a constant face once the
+ * reduction fits in one tile (PtexReader::TiledFaceBase::reduce), which matters to the tanvec
+ * edge filter mode: Ptex does not turn data it serves as constant (st_ptexres_served_const). */
+typedef struct st_ptexres_ctile {
+    uint32_t face;
+    uint8_t  level, tu, tv, pad;
+} st_ptexres_ctile;
+
 typedef struct st_ptexres {
     uint32_t        magic;        /* ST_PTEXRES_MAGIC */
     uint32_t        nfaces;
@@ -78,6 +88,10 @@ typedef struct st_ptexres {
     struct st_ptexres_deferred *def; /* what makes them while pending, freed once made */
     size_t          def_bytes;    /* its memory, counted by st_set_memory (0 once freed) */
     st_error        levels_err;   /* the failure, read once `levels` is 2 (acquire) */
+    st_ptexres_ctile *ctiles;     /* stored faces whose tiles are all one constant, sorted by
+                                     face then level (st_ptexres_set_ctiles; not kept by
+                                     native set files) */
+    uint32_t        nctiles;
 } st_ptexres;
 
 /* What a reader keeps to make a set's levels later (st_ptexres_attach_deferred). make inflates
@@ -120,6 +134,17 @@ int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const ui
  * with constpx + f * texel size, or NULL) and attaches the table lazily. Arguments as above. */
 int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
                       const uint8_t *nstored, size_t max_bytes, st_error *e);
+
+/* Records the stored faces of s (attached record) whose tiles are all one constant (a .ptx
+ * reader's finding; c sorted by face then level, copied). ST_ENOMEM, ST_EINVAL (no record). */
+int st_ptexres_set_ctiles(st_set *s, const st_ptexres_ctile *c, uint32_t n, st_error *e);
+
+/* 1 when Ptex's reader serves quad face f (not constant) at resolution (ru, rv), 0 <= ru <=
+ * ulog2, 0 <= rv <= vlog2, as a constant face: (0, 0), or a reduction it makes (not level 0,
+ * not a stored square reduction of a face without edits) whose chain of 2:1 reductions (u or
+ * v, the order of st_ptexres_fill_levels) starts at a stored face listed in t->ctiles and has
+ * reached a resolution that fits in one of its tiles; else 0. */
+int st_ptexres_served_const(const st_ptexres *t, const st_set *s, uint32_t f, int ru, int rv);
 
 /* The built table of s: builds it on the first call (thread-safe; later calls are one atomic
  * load). NULL when s has no table (e NULL-safe) or the build failed (ST_ENOMEM or over

@@ -4,9 +4,11 @@
  * (the kernel piece's quarter turns, adjedge) comes back with its vector turned the other way:
  * (x, y) -> (-y, x) per quarter turn. The other channels, Discard and Clamp, the point filter,
  * an unturned neighbour and a neighbour read at 1 x 1 (Ptex serves that as a constant, which
- * it never turns) are as without the mode. The mode survives the Ptex writer and reader and
- * the native set file. The GPU-style filters' Traverse turns likewise (a 1 x 1 neighbour too),
- * across edges and across corners into the diagonal face.
+ * it never turns) are as without the mode; nor is a reduction Ptex serves as a constant face
+ * turned (a stored tiled face whose tiles are all one constant, reduced until it fits in a
+ * tile). The mode survives the Ptex writer and reader and the native set file. The GPU-style
+ * filters' Traverse turns likewise (a 1 x 1 neighbour too), across edges and across corners
+ * into the diagonal face.
  *
  * The check uses linearity instead of a second implementation: with the neighbour's texels
  * zeroed the filter gives Z = A / W (the query face's share), with them N = (A + B) / W; the
@@ -26,6 +28,7 @@
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "sample.h"
+#include "ptexres.h"
 #include "set.h"
 #include "testdata.h"
 
@@ -346,6 +349,104 @@ static void constant_vector_field_stays_constant_across_edges_and_corners(void *
             if (!efm)
                 assert_true(mixed > 0 || (r[0] == r[1] && r[1] == r[2] && r[2] == r[3]));
         }
+/* Ptex serves a reduction it makes from a tiled face whose tiles are all one constant as a
+ * constant face once it fits in one tile (PtexReader::TiledFaceBase::reduce), and does not
+ * turn it. Face 1 (128 x 256 floats x 4) is a 2 x 2 checker: level 0 is tiled and varies,
+ * its stored level 1 (64 x 128, 128 KiB: two 64 x 64 tiles) is one value, so the writer
+ * stores its tiles as constant tiles. Face 0's right edge meets face 1's bottom edge (one
+ * quarter turn). Resolution (6, 6) of face 1 is Ptex's v-reduction of level 1 to one tile: a
+ * constant face, not turned; (5, 5) is the stored level 2: turned. */
+static st_set *checker_pair(unsigned efm)
+{
+    st_face_desc fd[2];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 2; f++) {
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
+        fd[f].w = 128;
+        fd[f].h = 256;
+    }
+    fd[0].adjface[1] = 1;
+    fd[0].adjedge[1] = 0;
+    fd[1].adjface[0] = 0;
+    fd[1].adjedge[0] = 1;
+    st_set_info info = {.nfaces = 2, .nchan = 4, .dtype = ST_DT_F32, .alpha_chan = -1,
+                        .kind = ST_KIND_PERFACE, .edgefilter = (uint8_t)efm};
+    st_set *s, *r;
+    st_error e = {0};
+    assert_int_equal(st_set_create(&info, fd, 0, &s, &e), 0);
+    static const float c0[4] = {0.25f, 0.75f, 0.5f, 0.5f}, c1[4] = {-0.5f, 0.0f, 1.0f, 0.5f};
+    for (uint32_t f = 0; f < 2; f++) {
+        float *p = (float *)st_face_level(s, f, 0);
+        for (uint32_t j = 0; j < 256; j++)
+            for (uint32_t i = 0; i < 128; i++) {
+                float *t = p + 4 * (j * 128 + i);
+                unsigned c = ((i & 1) << 1) | (j & 1);
+                if (f == 0) {
+                    t[0] = 0.1f + 0.001f * (float)i, t[1] = 0.3f + 0.002f * (float)j;
+                    t[2] = 0.5f, t[3] = 0.25f * (float)((i + j) & 1);
+                } else {
+                    t[0] = c0[c], t[1] = c1[c], t[2] = 0.125f * (float)c, t[3] = 1.0f;
+                }
+            }
+    }
+    st_set_build_mips(s, UINT32_MAX);
+    assert_int_equal(st_ptexfilter_prepare(s, &e), 0);
+    void *buf;
+    size_t len;
+    assert_int_equal(st_ptex_write_mem(s, &buf, &len, &e), 0);
+    st_set_free(s);
+    assert_int_equal(st_ptex_read_mem(buf, len, 0, &r, &e), 0);
+    free(buf);
+    return r;
+}
+
+static void constant_tiled_reduction_is_not_turned(void **state)
+{
+    (void)state;
+    st_set *none = checker_pair(ST_EDGEFILTER_NONE), *tv = checker_pair(ST_EDGEFILTER_TANVEC);
+    const st_ptexres *t = st_ptexres_get(tv);
+    assert_non_null(t);
+    /* face 1: (6, 6) and its reductions in u or v made from it: constant; level 0, the
+     * stored levels and what is made from those: not */
+    static const int want[][3] = {{6, 6, 1}, {6, 5, 1}, {6, 3, 1}, {6, 0, 1}, {0, 0, 1},
+                                  {7, 8, 0}, {6, 7, 0}, {5, 6, 0}, {5, 5, 0}, {4, 6, 0},
+                                  {7, 7, 0}, {3, 3, 0}};
+    for (size_t i = 0; i < sizeof want / sizeof want[0]; i++)
+        if (st_ptexres_served_const(t, tv, 1, want[i][0], want[i][1]) != want[i][2])
+            fail_msg("face 1 (%d, %d): served const %d, want %d", want[i][0], want[i][1],
+                     !want[i][2], want[i][2]);
+    assert_int_equal(st_ptexres_served_const(t, tv, 0, 6, 6), 0); /* face 0: no constant tiles */
+    static const unsigned filters[] = {ST_FILTER_PTEX_BILINEAR, ST_FILTER_PTEX_BOX,
+                                       ST_FILTER_PTEX_GAUSSIAN, ST_FILTER_PTEX_BICUBIC,
+                                       ST_FILTER_PTEX_MITCHELL};
+    /* near face 0's right edge at footprints 2^-6 (face 1 read at (6, 6): as without the
+     * mode, bit for bit) and 2^-5 (read at the stored (5, 5): turned, so channels 0-1 differ) */
+    for (int k = 5; k <= 6; k++) {
+        float w = 1.0f / (float)(1 << k);
+        st_query q[4];
+        for (int i = 0; i < 4; i++)
+            q[i] = (st_query){.face = 0, .u = 1.0f - w * (0.25f + 0.25f * (float)i), .v = 0.5f,
+                              .dudx = w, .dvdy = w};
+        for (size_t fi = 0; fi < sizeof filters / sizeof filters[0]; fi++) {
+            st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = (uint8_t)filters[fi]};
+            float n[16], v[16], cov[4];
+            uint8_t st[4];
+            assert_int_equal(st_ptexfilter_batch(none, &o, q, 4, n, cov, st), 0);
+            assert_int_equal(st_ptexfilter_batch(tv, &o, q, 4, v, cov, st), 0);
+            if (k == 6) {
+                assert_memory_equal(v, n, sizeof n);
+            } else {
+                float d = 0.0f;
+                for (int i = 0; i < 4; i++)
+                    d += fabsf(v[4 * i] - n[4 * i]) + fabsf(v[4 * i + 1] - n[4 * i + 1]);
+                if (!(d > 1e-3f))
+                    fail_msg("filter %u: footprint 2^-5 not turned (%g)", filters[fi], d);
+            }
+        }
+    }
+    st_set_free(none);
+    st_set_free(tv);
 }
 
 int main(void)
@@ -356,6 +457,7 @@ int main(void)
         cmocka_unit_test(mode_survives_the_writers),
         cmocka_unit_test(gpu_filters_turn_the_vector),
         cmocka_unit_test(constant_vector_field_stays_constant_across_edges_and_corners),
+        cmocka_unit_test(constant_tiled_reduction_is_not_turned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
