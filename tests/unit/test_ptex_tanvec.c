@@ -349,6 +349,8 @@ static void constant_vector_field_stays_constant_across_edges_and_corners(void *
             if (!efm)
                 assert_true(mixed > 0 || (r[0] == r[1] && r[1] == r[2] && r[2] == r[3]));
         }
+}
+
 /* Ptex serves a reduction it makes from a tiled face whose tiles are all one constant as a
  * constant face once it fits in one tile (PtexReader::TiledFaceBase::reduce), and does not
  * turn it. Face 1 (128 x 256 floats x 4) is a 2 x 2 checker: level 0 is tiled and varies,
