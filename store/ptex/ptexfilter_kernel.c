@@ -358,28 +358,33 @@ void pk_params_init(pk_params *p, unsigned ftype, float sharpness, int avx2)
 typedef float v4f __attribute__((vector_size(16)));
 typedef int32_t v4i __attribute__((vector_size(16)));
 
+/* The kernel function at the four points xv (the gaussian by pk_exp2_4, the bicubic family's
+ * two cubic pieces chosen by |x| < 1, < 2, else 0). */
+static inline __attribute__((always_inline)) v4f kernel4(const pk_params *p, v4f xv)
+{
+    if (p->ftype == ST_FILTER_PTEX_GAUSSIAN)
+        return pk_exp2_4(xv * xv * -2.0f * 1.44269504f);
+    const float *c = p->coeffs;
+    v4i xb;
+    memcpy(&xb, &xv, 16);
+    xb &= 0x7fffffff;
+    v4f a, r;
+    memcpy(&a, &xb, 16);
+    v4f inner = (c[0] * a + c[1]) * a * a + c[2];
+    v4f outer = ((c[3] * a + c[4]) * a + c[5]) * a + c[6];
+    v4i m1 = a < 1.0f, m2 = a < 2.0f, ib, ob;
+    memcpy(&ib, &inner, 16);
+    memcpy(&ob, &outer, 16);
+    v4i rb = (ib & m1) | (ob & ~m1 & m2);
+    memcpy(&r, &rb, 16);
+    return r;
+}
+
 static void kernel_eval(const pk_params *p, float x1, float step, float *w, int n)
 {
-    const float *c = p->coeffs;
     for (int i = 0; i < n; i += 4) {
-        v4f r, iv = {(float)i, (float)(i + 1), (float)(i + 2), (float)(i + 3)};
-        v4f xv = x1 + iv * step;
-        if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
-            r = pk_exp2_4(xv * xv * -2.0f * 1.44269504f);
-        } else {
-            v4i xb;
-            memcpy(&xb, &xv, 16);
-            xb &= 0x7fffffff;
-            v4f a;
-            memcpy(&a, &xb, 16);
-            v4f inner = (c[0] * a + c[1]) * a * a + c[2];
-            v4f outer = ((c[3] * a + c[4]) * a + c[5]) * a + c[6];
-            v4i m1 = a < 1.0f, m2 = a < 2.0f, ib, ob;
-            memcpy(&ib, &inner, 16);
-            memcpy(&ob, &outer, 16);
-            v4i rb = (ib & m1) | (ob & ~m1 & m2);
-            memcpy(&r, &rb, 16);
-        }
+        v4f iv = {(float)i, (float)(i + 1), (float)(i + 2), (float)(i + 3)};
+        v4f r = kernel4(p, x1 + iv * step);
         memcpy(w + i, &r, sizeof r);
     }
 }
@@ -388,26 +393,10 @@ static void kernel_eval(const pk_params *p, float x1, float step, float *w, int 
  * them): kernel_eval's operations on given points. */
 static void kernel_at(const pk_params *p, const float *x, float *w, int n)
 {
-    const float *c = p->coeffs;
     for (int i = 0; i < n; i += 4) {
-        v4f r, xv;
+        v4f xv;
         memcpy(&xv, x + i, 16);
-        if (p->ftype == ST_FILTER_PTEX_GAUSSIAN) {
-            r = pk_exp2_4(xv * xv * -2.0f * 1.44269504f);
-        } else {
-            v4i xb;
-            memcpy(&xb, &xv, 16);
-            xb &= 0x7fffffff;
-            v4f a;
-            memcpy(&a, &xb, 16);
-            v4f inner = (c[0] * a + c[1]) * a * a + c[2];
-            v4f outer = ((c[3] * a + c[4]) * a + c[5]) * a + c[6];
-            v4i m1 = a < 1.0f, m2 = a < 2.0f, ib, ob;
-            memcpy(&ib, &inner, 16);
-            memcpy(&ob, &outer, 16);
-            v4i rb = (ib & m1) | (ob & ~m1 & m2);
-            memcpy(&r, &rb, 16);
-        }
+        v4f r = kernel4(p, xv);
         memcpy(w + i, &r, sizeof r);
     }
 }
