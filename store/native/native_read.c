@@ -305,11 +305,44 @@ static int check_ext(st_set *s, unsigned kind, const uint8_t *p, size_t n, st_er
         return check_atlas(s, p, n, e);
     case ST_EXT_PTEXRES: {
         uint32_t nf = s->info.nfaces;
-        if (s->info.kind != ST_KIND_PERFACE || n != (size_t)nf * (2 + st_texel_size(s)))
+        size_t base = (size_t)nf * (2 + st_texel_size(s));
+        if (s->info.kind != ST_KIND_PERFACE || n < base)
             return st_fail(e, ST_EFORMAT, "native Ptex record: wrong size or set kind");
+        st_ptexres_ctile *ct = NULL;
+        uint32_t nct = 0;
+        if (n > base) { /* the constant-tile list (docs/native.md) */
+            const uint8_t *c = p + base;
+            if (n - base < 4)
+                return st_fail(e, ST_EFORMAT, "native Ptex record: truncated constant-tile list");
+            memcpy(&nct, c, 4);
+            if (nct == 0 || nct > (uint32_t)((n - base - 4) / 8) || n - base - 4 != (size_t)nct * 8)
+                return st_fail(e, ST_EFORMAT, "native Ptex record: constant-tile list of %u "
+                               "entries in %zu bytes", nct, n - base - 4);
+            if (!(ct = malloc((size_t)nct * sizeof *ct)))
+                return st_fail(e, ST_ENOMEM, "out of memory");
+            for (uint32_t i = 0; i < nct; i++) {
+                const uint8_t *x = c + 4 + (size_t)i * 8;
+                memcpy(&ct[i].face, x, 4);
+                ct[i].level = x[4], ct[i].tu = x[5], ct[i].tv = x[6], ct[i].pad = 0;
+                /* a face of the set, a stored level, tiles no larger than the format allows,
+                 * sorted by face then level without repeats (st_ptexres_set_ctiles' order) */
+                if (ct[i].face >= nf || x[4] >= s->faces[ct[i].face].nlevels || x[5] > 15 ||
+                    x[6] > 15 || x[7] ||
+                    (i && (ct[i].face < ct[i - 1].face ||
+                           (ct[i].face == ct[i - 1].face && ct[i].level <= ct[i - 1].level)))) {
+                    free(ct);
+                    return st_fail(e, ST_EFORMAT, "native Ptex record: constant-tile entry %u "
+                                   "out of range or order", i);
+                }
+            }
+        }
         /* flags and stored-level counts (copied); the constant values that follow are the
          * faces' last levels, which the table reads: the levels are never written */
-        return st_ptexres_attach_lazy(s, p, p + nf, 0, e);
+        int rc = st_ptexres_attach_lazy(s, p, p + nf, 0, e);
+        if (!rc && nct)
+            rc = st_ptexres_set_ctiles(s, ct, nct, e);
+        free(ct);
+        return rc;
     }
     default:
         return st_fail(e, ST_EFORMAT, "native extension kind %u unknown", kind);

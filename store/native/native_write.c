@@ -174,6 +174,20 @@ static int put_ptex(nbuf *b, const st_set *s, st_error *e)
      * the file for format version 1, the reader takes it from the level */
     for (uint32_t f = 0; f < n; f++)
         nb_put(b, st_face_level(s, f, s->faces[f].nlevels - 1u), ts);
+    /* the stored faces whose tiles are all one constant (ptexres.h), when there are any: u32
+     * count, then 8 bytes each (u32 face, u8 level, u8 tu, u8 tv, u8 0) */
+    if (t->nctiles) {
+        uint8_t w[8];
+        uint32_t c = t->nctiles;
+        memcpy(w, &c, 4);
+        nb_put(b, w, 4);
+        for (uint32_t i = 0; i < c; i++) {
+            const st_ptexres_ctile *x = &t->ctiles[i];
+            memcpy(w, &x->face, 4);
+            w[4] = x->level, w[5] = x->tu, w[6] = x->tv, w[7] = 0;
+            nb_put(b, w, 8);
+        }
+    }
     return ST_OK;
 }
 

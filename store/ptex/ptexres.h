@@ -89,8 +89,8 @@ typedef struct st_ptexres {
     size_t          def_bytes;    /* its memory, counted by st_set_memory (0 once freed) */
     st_error        levels_err;   /* the failure, read once `levels` is 2 (acquire) */
     st_ptexres_ctile *ctiles;     /* stored faces whose tiles are all one constant, sorted by
-                                     face then level (st_ptexres_set_ctiles; not kept by
-                                     native set files) */
+                                     face then level (st_ptexres_set_ctiles; kept by
+                                     native set files, not by the .ptx writer) */
     uint32_t        nctiles;
 } st_ptexres;
 

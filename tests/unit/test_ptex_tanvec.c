@@ -28,6 +28,7 @@
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "sample.h"
+#include "crc32c.h"
 #include "ptexres.h"
 #include "set.h"
 #include "testdata.h"
@@ -424,6 +425,18 @@ static void constant_tiled_reduction_is_not_turned(void **state)
                                        ST_FILTER_PTEX_MITCHELL};
     /* near face 0's right edge at footprints 2^-6 (face 1 read at (6, 6): as without the
      * mode, bit for bit) and 2^-5 (read at the stored (5, 5): turned, so channels 0-1 differ) */
+    /* the native copy (what the daemon serves from its data dir) keeps the list */
+    char dir[512], path[600];
+    assert_int_equal(st_test_mkdtemp(dir, sizeof dir, "tanvec-ct"), 0);
+    snprintf(path, sizeof path, "%s/set.stx", dir);
+    st_error e = {0};
+    assert_int_equal(st_native_write(path, tv, NULL, &e), 0);
+    st_set *nat = NULL;
+    assert_int_equal(st_native_open(path, 0, NULL, &nat, &e), 0);
+    const st_ptexres *tn = st_ptexres_get(nat);
+    assert_non_null(tn);
+    assert_int_equal(tn->nctiles, t->nctiles);
+    assert_memory_equal(tn->ctiles, t->ctiles, t->nctiles * sizeof *t->ctiles);
     for (int k = 5; k <= 6; k++) {
         float w = 1.0f / (float)(1 << k);
         st_query q[4];
@@ -436,6 +449,9 @@ static void constant_tiled_reduction_is_not_turned(void **state)
             uint8_t st[4];
             assert_int_equal(st_ptexfilter_batch(none, &o, q, 4, n, cov, st), 0);
             assert_int_equal(st_ptexfilter_batch(tv, &o, q, 4, v, cov, st), 0);
+            float nv[16];
+            assert_int_equal(st_ptexfilter_batch(nat, &o, q, 4, nv, cov, st), 0);
+            assert_memory_equal(nv, v, sizeof v);
             if (k == 6) {
                 assert_memory_equal(v, n, sizeof n);
             } else {
@@ -447,6 +463,50 @@ static void constant_tiled_reduction_is_not_turned(void **state)
             }
         }
     }
+    st_set_free(nat);
+    /* a list entry out of range, its CRCs made right again (a crafted file): refused */
+    FILE *fp = fopen(path, "r+b");
+    assert_non_null(fp);
+    uint8_t h[4096];
+    assert_int_equal(fread(h, 1, sizeof h, fp), sizeof h);
+    uint32_t nsec;
+    memcpy(&nsec, h + 24, 4);
+    int found = 0;
+    for (uint32_t i = 0; i < nsec; i++) {
+        uint8_t *ent = h + 1024 + 32 * i;
+        uint32_t id;
+        uint64_t off, size;
+        memcpy(&id, ent, 4);
+        memcpy(&off, ent + 8, 8);
+        memcpy(&size, ent + 16, 8);
+        if (id != 4)
+            continue;
+        uint8_t *sec = malloc(size);
+        assert_non_null(sec);
+        assert_int_equal(fseek(fp, (long)off, SEEK_SET), 0);
+        assert_int_equal(fread(sec, 1, size, fp), size);
+        size_t base = (size_t)tv->info.nfaces * (2 + st_texel_size(tv));
+        assert_true(size == base + 4 + 8 * (size_t)t->nctiles);
+        uint32_t bad = tv->info.nfaces; /* one past the last face */
+        memcpy(sec + base + 4, &bad, 4);
+        uint32_t crc = stu_crc32c(0, sec, size);
+        memcpy(ent + 24, &crc, 4);
+        assert_int_equal(fseek(fp, (long)off, SEEK_SET), 0);
+        assert_int_equal(fwrite(sec, 1, size, fp), size);
+        free(sec);
+        found = 1;
+    }
+    assert_true(found);
+    uint32_t hcrc = stu_crc32c(0, h, 4092);
+    memcpy(h + 4092, &hcrc, 4);
+    assert_int_equal(fseek(fp, 0, SEEK_SET), 0);
+    assert_int_equal(fwrite(h, 1, sizeof h, fp), sizeof h);
+    assert_int_equal(fclose(fp), 0);
+    nat = NULL;
+    assert_int_equal(st_native_open(path, 0, NULL, &nat, &e), ST_EFORMAT);
+    assert_null(nat);
+    assert_non_null(strstr(e.msg, "constant-tile"));
+    st_test_rmtree(dir);
     st_set_free(none);
     st_set_free(tv);
 }
