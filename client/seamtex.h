@@ -138,7 +138,8 @@ enum {
     STC_CAP_PTEX_FILTERS  = 1u << 6,
     STC_CAP_AUTH          = 1u << 7,   /* the server has a token: mutations need it */
     STC_CAP_COMPACT       = 1u << 8,   /* compact SAMPLE queries, f16 replies */
-    STC_CAP_SHM           = 1u << 9    /* shared-memory sampling (stc_shm_attach) */
+    STC_CAP_SHM           = 1u << 9,   /* shared-memory sampling (stc_shm_attach) */
+    STC_CAP_LERP          = 1u << 10   /* STC_WANT_LERP (Ptex's lerp option) */
 };
 typedef struct stc_server {
     unsigned version;                 /* protocol version in use */
@@ -224,7 +225,7 @@ enum { STC_WANT_COVERAGE = 1, STC_WANT_STATUS = 2, STC_WANT_UV16 = 4, STC_WANT_F
 /* LERP (stc_sample only; in want, although no part of the result: the SAMPLE flag bit 5):
  * Ptex's lerp filter option, the gaussian and bicubic-family kernels blended toward the next
  * lower resolution as PtexFilter::Options::lerp does; other filters ignore it. A server
- * older than session 26 answers INVALID (bit 5 was reserved). */
+ * whose caps lack STC_CAP_LERP answers INVALID (bit 5 is reserved there). */
 enum { STC_WANT_LERP = 32 };
 typedef struct stc_sample_opts {
     unsigned mode, filter, zero_rule, max_aniso;

@@ -213,7 +213,8 @@ enum stp_caps {
     STP_CAP_PTEX_FILTERS  = 1u << 6,
     STP_CAP_AUTH          = 1u << 7,  /* the server has a token (mutations need it) */
     STP_CAP_COMPACT       = 1u << 8,  /* SAMPLE flags UV16 / FACE16 and outfmt f16 (4.4) */
-    STP_CAP_SHM           = 1u << 9   /* Unix connections: SHM_ATTACH and SAMPLE flag SHM (4.12) */
+    STP_CAP_SHM           = 1u << 9,  /* Unix connections: SHM_ATTACH and SAMPLE flag SHM (4.12) */
+    STP_CAP_LERP          = 1u << 10  /* SAMPLE flag LERP, bit 5: Ptex's lerp option (4.4) */
 };
 
 /* ---- byte helpers --------------------------------------------------------------------------- */

@@ -55,7 +55,7 @@ int sts_h_hello(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *o
     memset(&r, 0, sizeof r);
     r.version = STP_VERSION;
     r.caps = STP_CAP_PIPELINE | STP_CAP_SAMPLE_DIR | STP_CAP_COMPRESS | STP_CAP_FETCH |
-             STP_CAP_PTEX_FILTERS | STP_CAP_COMPACT;
+             STP_CAP_PTEX_FILTERS | STP_CAP_COMPACT | STP_CAP_LERP;
     if (STS_LIVE(c->srv, upload_keep))
         r.caps |= STP_CAP_UPLOAD_RESUME;
     if (!sts_token_allows(c->srv, 0))

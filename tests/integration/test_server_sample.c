@@ -33,6 +33,7 @@ static void hello_reports_limits_and_caps(void **state)
     const stc_server *s = stc_server_info(c);
     assert_int_equal(s->version, 1);
     assert_true(s->caps & STP_CAP_PIPELINE);
+    assert_true(s->caps & STP_CAP_LERP);
     assert_false(s->caps & STP_CAP_OUT_OF_ORDER);
     assert_false(s->caps & STP_CAP_AUTH);
     assert_int_equal(s->max_body, 64u << 20);
