@@ -61,7 +61,9 @@ static const opt OPTS[] = {
      "worker threads for heavy requests: big SAMPLE batches, upload commits, imports (default 2)"},
     {"max-batch", T_U32, O(max_batch), 0, 1, "N", "queries per SAMPLE request (default 1048576)"},
     {"heavy-batch", T_U32, O(heavy_batch), 0, 1, "N",
-     "SAMPLE batches larger than N queries run on a worker (default 16384)"},
+     "SAMPLE batches whose body, queries counted as 28 bytes, is over N x 28 bytes (name\n"
+     "and parameters included: from N - 1 queries with a short name) run on a worker\n"
+     "(default 16384)"},
     {"split-batch", T_U32, O(split_batch), 0, 1, "N",
      "SAMPLE batches of N queries or more are sampled in parts by the thread that has them and "
      "idle workers together; 0 = never (default 2048)"},
