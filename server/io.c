@@ -1039,10 +1039,45 @@ static int conn_quiet(sts_conn *c)
     return r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);
 }
 
+/* Closing a socket whose input holds unread bytes makes the kernel send a reset, and a reset
+ * makes the peer's kernel drop the replies it has received but the client has not read yet.
+ * So a stopping server does not close a quiet connection at once: it shuts its sending side
+ * (the client reads every reply, then end of stream), reads and drops whatever the client
+ * still sends (requests after the stop get no reply), and closes at the client's end of
+ * stream, an error, or LINGER_MS later. */
+#define LINGER_MS 2000
+
+static void linger_drain(sts_conn *c)
+{
+    uint8_t b[4096];
+    for (int i = 0; i < 64; i++) {
+        ssize_t r = recv(c->fd, b, sizeof b, MSG_DONTWAIT);
+        if (r > 0 || (r < 0 && errno == EINTR))
+            continue; /* dropped */
+        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+            break;    /* nothing more for now */
+        conn_close(c); /* the client's end of stream, or an error */
+        return;
+    }
+    if (sts_now_ms() >= c->linger_until)
+        conn_close(c);
+}
+
+static void linger_start(sts_conn *c)
+{
+    shutdown(c->fd, SHUT_WR);
+    c->linger_until = sts_now_ms() + LINGER_MS;
+    if (c->ev_mask != STS_EV_READ) {
+        sts_ev_mod(c->io->ev, c->fd, STS_EV_READ, c);
+        c->ev_mask = STS_EV_READ;
+    }
+    linger_drain(c);
+}
+
 /* At stop (SIGTERM): no new connections; every request a client sent before the stop is
- * still read and answered; a connection is closed once it is quiet (see conn_quiet) or has
- * hung up. When forced (the grace period is over) whatever is not on a worker is closed.
- * Returns connections left. */
+ * still read and answered; a connection is shut once it is quiet (see conn_quiet) and closed
+ * after lingering (linger_start), or when it has hung up. When forced (the grace period is
+ * over) whatever is not on a worker is closed. Returns connections left. */
 static uint32_t drain_step(sts_io *io, int force)
 {
     sts_conn *c = io->conns;
@@ -1051,9 +1086,11 @@ static uint32_t drain_step(sts_io *io, int force)
         if (!c->busy) {
             if (force) {
                 conn_close(c);
+            } else if (c->linger_until && !c->dead) {
+                linger_drain(c);
             } else if (!c->dead && conn_flush(c) == 0) {
                 if (conn_quiet(c))
-                    conn_close(c);
+                    linger_start(c);
                 else
                     set_interest(c);
             }
@@ -1095,6 +1132,10 @@ void *sts_io_main(void *arg)
                 sts_conn *c = p;
                 if (c->dead)
                     continue;
+                if (c->linger_until) { /* shut at stop: input is dropped (linger_start) */
+                    linger_drain(c);
+                    continue;
+                }
                 if (evs[i].events & STS_EV_WRITE) {
                     if (conn_flush(c) != 0)
                         continue;

@@ -52,6 +52,9 @@ struct sts_conn {
     uint8_t   close_after;   /* close once `out` is flushed (bad magic, refused connection) */
     uint8_t   dead;          /* peer gone or error: free as soon as not busy */
     uint8_t   paused;        /* not reading (backpressure or busy) */
+    int64_t   linger_until;  /* stopping: our side shut (SHUT_WR) after the last reply; input
+                                is read and dropped until the peer's end or this monotonic ms,
+                                then closed (io.c, linger_start); 0 = not lingering */
     unsigned  ev_mask;       /* events registered with the poller */
     uint8_t   unix_sock;     /* a Unix-domain connection: may pass descriptors (shm.h) */
     uint8_t   in_pad;        /* where a read into an empty input buffer starts (0-3): the last

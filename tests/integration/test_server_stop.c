@@ -15,6 +15,7 @@
  * it 20 s (deploy/seamtexd.service: TimeoutStopSec=20).
  */
 #include <errno.h>
+#include <poll.h>
 #include <setjmp.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -318,12 +319,66 @@ full:
     st_daemon_cleanup(&d);
 }
 
+/* A quiet connection at stop is shut (end of stream after its last reply), not closed while
+ * the client may still send: a close with unread input makes the kernel reset the
+ * connection, and the reset drops replies the client has received but not read (an outside
+ * client lost two: pc26b). Here the client leaves a PING's reply unread, waits for the
+ * daemon's end of stream, then sends a request after the stop: it must still read the reply,
+ * then the end of stream, never ECONNRESET. */
+static void a_request_after_the_stop_does_not_reset_the_unread_replies(void **state)
+{
+    (void)state;
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, NULL), 0);
+    int fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    uint8_t ping[STP_HEADER_SIZE + 2];
+    size_t n = st_wire_frame(ping, "STX1", 1, STP_OP_PING, 0, 7, (const uint8_t *)"p1", 2, 2);
+    assert_int_equal(st_wire_send_all(fd, ping, n), 0);
+    assert_int_equal(st_daemon_signal(&d, SIGTERM), 0);
+    wait_sigterm_taken(&d);
+    /* the daemon's side ends (FIN) once the reply is out: seen without reading the reply */
+    struct pollfd pf = {fd, POLLRDHUP, 0};
+    int up = 0;
+    for (int k = 0; k < 2000 && !up; k++) {
+        if (poll(&pf, 1, 10) > 0 && (pf.revents & (POLLRDHUP | POLLHUP | POLLERR)))
+            up = 1;
+    }
+    assert_true(up);
+    n = st_wire_frame(ping, "STX1", 1, STP_OP_PING, 0, 8, (const uint8_t *)"p2", 2, 2);
+    (void)send(fd, ping, n, MSG_NOSIGNAL);   /* after the stop: may go unanswered */
+    st_sleep_ms(200);                        /* a reset, if any, has come back by now */
+    uint8_t buf[256];
+    size_t got = 0;
+    for (;;) {
+        ssize_t r = recv(fd, buf + got, sizeof buf - got, 0);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r < 0)
+            fail_msg("reading the reply sent before the stop: %s", strerror(errno));
+        if (r == 0)
+            break;
+        got += (size_t)r;
+        assert_true(got < sizeof buf);
+    }
+    assert_int_equal(got, STP_HEADER_SIZE + 2);   /* PING 7's reply, then the end of stream */
+    stp_header h;
+    int reason = 0;
+    assert_int_equal(stp_parse_header(buf, got, UINT32_MAX, &h, &reason), STP_OK);
+    assert_int_equal(h.reqid, 7);
+    close(fd);
+    assert_int_equal(st_daemon_stop(&d, STOP_MS), 0);
+    st_daemon_cleanup(&d);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(sigterm_during_split_batches_answers_each_whole),
         cmocka_unit_test(sigterm_keeps_a_commit_sent_before_it_and_drops_unfinished_uploads),
         cmocka_unit_test(sigterm_does_not_wait_past_the_grace_for_a_client_that_never_reads),
+        cmocka_unit_test(a_request_after_the_stop_does_not_reset_the_unread_replies),
     };
     return cmocka_run_group_tests_name("server_stop", tests, NULL, NULL);
 }
