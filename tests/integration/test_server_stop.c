@@ -247,16 +247,23 @@ static void sigterm_keeps_a_commit_sent_before_it_and_drops_unfinished_uploads(v
     st_daemon_cleanup(&d);
 }
 
+/* A daemon of its own with one raw connection to it (the fd). */
+static int start_and_connect(st_daemon *d)
+{
+    assert_int_equal(st_daemon_init(d), 0);
+    assert_int_equal(st_daemon_start(d, NULL), 0);
+    int fd = st_daemon_connect(d);
+    assert_true(fd >= 0);
+    return fd;
+}
+
 /* ---- a client that never reads ------------------------------------------------------------- */
 
 static void sigterm_does_not_wait_past_the_grace_for_a_client_that_never_reads(void **state)
 {
     (void)state;
     st_daemon d;
-    assert_int_equal(st_daemon_init(&d), 0);
-    assert_int_equal(st_daemon_start(&d, NULL), 0);
-    int fd = st_daemon_connect(&d);
-    assert_true(fd >= 0);
+    int fd = start_and_connect(&d);
     /* SAMPLE requests of 8192 queries (~230 KB each, ~140 KB of reply), sent until the socket
      * takes no more: the daemon answers until the unsent replies pass conn-out-cap (4 MiB),
      * then stops reading the connection; nobody reads the replies */
@@ -329,10 +336,7 @@ static void a_request_after_the_stop_does_not_reset_the_unread_replies(void **st
 {
     (void)state;
     st_daemon d;
-    assert_int_equal(st_daemon_init(&d), 0);
-    assert_int_equal(st_daemon_start(&d, NULL), 0);
-    int fd = st_daemon_connect(&d);
-    assert_true(fd >= 0);
+    int fd = start_and_connect(&d);
     uint8_t ping[STP_HEADER_SIZE + 2];
     size_t n = st_wire_frame(ping, "STX1", 1, STP_OP_PING, 0, 7, (const uint8_t *)"p1", 2, 2);
     assert_int_equal(st_wire_send_all(fd, ping, n), 0);
