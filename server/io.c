@@ -366,7 +366,50 @@ static void conn_close(sts_conn *c)
     }
 }
 
-/* Writes what is pending. Returns -1 when the connection died (and was closed). */
+/* Closing a socket whose input holds unread bytes makes the kernel reset the connection, and
+ * the reset drops what is still unsent in its send queue: replies the client has not received
+ * yet. So a connection the server ends (at stop once quiet, after a bad magic, a refusal or a
+ * request timeout: close_after) is not closed at once: its sending side is shut (the client
+ * reads every reply, then end of stream), whatever the client still sends is read and dropped
+ * (requests after that get no reply), and it is closed at the client's end of stream, an
+ * error, or LINGER_MS later (checked on its events, at stop and by idle_scan). */
+#define LINGER_MS 2000
+
+static void linger_drain(sts_conn *c)
+{
+    uint8_t b[4096];
+    for (int i = 0; i < 64; i++) {
+        ssize_t r = recv(c->fd, b, sizeof b, MSG_DONTWAIT);
+        if (r > 0 || (r < 0 && errno == EINTR))
+            continue; /* dropped */
+        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+            break;    /* nothing more for now */
+        conn_close(c); /* the client's end of stream, or an error */
+        return;
+    }
+    if (sts_now_ms() >= c->linger_until)
+        conn_close(c);
+}
+
+static void linger_start(sts_conn *c)
+{
+    shutdown(c->fd, SHUT_WR);
+    c->linger_until = sts_now_ms() + LINGER_MS;
+    /* nothing buffered is served any more: dropped with its buffers (the out queue is empty) */
+    c->in.start = c->in.len;
+    c->in2.start = c->in2.len;
+    c->skip = 0;
+    c->req_start_ms = 0;
+    release_idle_buffers(c);
+    if (c->ev_mask != STS_EV_READ) {
+        sts_ev_mod(c->io->ev, c->fd, STS_EV_READ, c);
+        c->ev_mask = STS_EV_READ;
+    }
+    linger_drain(c);
+}
+
+/* Writes what is pending. Returns -1 when the connection died (and was closed) or is ended
+ * (close_after: lingering, linger_start). */
 static int conn_flush(sts_conn *c)
 {
     sts_server *srv = c->io->srv;
@@ -390,7 +433,7 @@ static int conn_flush(sts_conn *c)
         if (c->in.cap <= KEEP_SMALL && c->in2.cap <= KEEP_SMALL && c->out.cap <= KEEP_SMALL)
             release_idle_buffers(c);  /* small: malloc reuses the chunks, no page faults */
         if (c->close_after) {
-            conn_close(c);
+            linger_start(c);
             return -1;
         }
     }
@@ -1002,7 +1045,10 @@ static void idle_scan(sts_io *io, int64_t now)
     sts_conn *c = io->conns;
     while (c) {
         sts_conn *next = c->next;
-        if (deadline && !c->busy && !c->dead && c->req_start_ms &&
+        if (c->linger_until) {
+            if (!c->dead && now >= c->linger_until)
+                conn_close(c);
+        } else if (deadline && !c->busy && !c->dead && c->req_start_ms &&
             now - c->req_start_ms > request_allowance_ms(srv, c)) {
             STS_STAT_ADD(srv, conns_request_timeout, 1);
             sts_logkv(&srv->log, STS_INFO,
@@ -1037,41 +1083,6 @@ static int conn_quiet(sts_conn *c)
     uint8_t b;
     ssize_t r = recv(c->fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
     return r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);
-}
-
-/* Closing a socket whose input holds unread bytes makes the kernel send a reset, and a reset
- * makes the peer's kernel drop the replies it has received but the client has not read yet.
- * So a stopping server does not close a quiet connection at once: it shuts its sending side
- * (the client reads every reply, then end of stream), reads and drops whatever the client
- * still sends (requests after the stop get no reply), and closes at the client's end of
- * stream, an error, or LINGER_MS later. */
-#define LINGER_MS 2000
-
-static void linger_drain(sts_conn *c)
-{
-    uint8_t b[4096];
-    for (int i = 0; i < 64; i++) {
-        ssize_t r = recv(c->fd, b, sizeof b, MSG_DONTWAIT);
-        if (r > 0 || (r < 0 && errno == EINTR))
-            continue; /* dropped */
-        if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
-            break;    /* nothing more for now */
-        conn_close(c); /* the client's end of stream, or an error */
-        return;
-    }
-    if (sts_now_ms() >= c->linger_until)
-        conn_close(c);
-}
-
-static void linger_start(sts_conn *c)
-{
-    shutdown(c->fd, SHUT_WR);
-    c->linger_until = sts_now_ms() + LINGER_MS;
-    if (c->ev_mask != STS_EV_READ) {
-        sts_ev_mod(c->io->ev, c->fd, STS_EV_READ, c);
-        c->ev_mask = STS_EV_READ;
-    }
-    linger_drain(c);
 }
 
 /* At stop (SIGTERM): no new connections; every request a client sent before the stop is

@@ -6,6 +6,7 @@
  * One daemon with defaults for the group (tests/common/daemon_fixture.h) on 127.0.0.1 port 0;
  * frames are written byte by byte (tests/common/wire.h). Nothing here needs SEAMTEX_DATA.
  */
+#include <errno.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -296,11 +297,70 @@ static void split_reads_answer_every_pipeline_like_single_frames(void **state)
     free(q);
 }
 
+/* PROTOCOL.md 2.1: after a bad magic the replies already queued still go out, then the
+ * connection ends. The daemon used to close the socket with the garbage that followed still
+ * unread, which makes the kernel reset the connection and drop what of the replies it had
+ * not sent yet. Here a SAMPLE whose reply (about 3 MB) outgrows the socket buffers is followed
+ * by a bad magic and more garbage, sent before the client reads anything: the whole reply must
+ * arrive, then the end of stream. */
+static void a_bad_magic_after_a_big_reply_does_not_cut_it(void **state)
+{
+    (void)state;
+    enum { NQ = 131072 };
+    stc_query *q = st_default_set_queries(NQ, 9);
+    assert_non_null(q);
+    float *q7 = malloc((size_t)NQ * 7 * sizeof *q7);
+    uint8_t *body = malloc(64 + (size_t)NQ * 28), *frame = malloc(128 + (size_t)NQ * 28);
+    assert_non_null(q7);
+    assert_non_null(body);
+    assert_non_null(frame);
+    for (size_t i = 0; i < NQ; i++) {
+        float *p = q7 + i * 7;
+        p[0] = (float)q[i].face, p[1] = q[i].u, p[2] = q[i].v, p[3] = q[i].dudx;
+        p[4] = q[i].dvdx, p[5] = q[i].dudy, p[6] = q[i].dvdy;
+    }
+    size_t blen = st_wire_sample_body(body, "default", NQ, q7, NQ);
+    size_t flen = st_wire_frame(frame, "STX1", 1, STP_OP_SAMPLE, 0, 5, body, (uint32_t)blen,
+                                (uint32_t)blen);
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    assert_int_equal(st_wire_send_all(fd, frame, flen), 0);
+    static uint8_t junk[65536];
+    memset(junk, 'x', sizeof junk);   /* "xxxx": not the magic */
+    assert_int_equal(st_wire_send_all(fd, junk, sizeof junk), 0);
+    st_sleep_ms(300);                 /* the daemon has answered and met the bad magic */
+    (void)send(fd, junk, sizeof junk, MSG_NOSIGNAL | MSG_DONTWAIT); /* more, left unread */
+    size_t cap = 64 + (size_t)NQ * 24, got = 0;
+    uint8_t *reply = malloc(cap);
+    assert_non_null(reply);
+    for (;;) {
+        ssize_t r = recv(fd, reply + got, cap - got, 0);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r < 0)
+            fail_msg("after %zu bytes of the reply: %s", got, strerror(errno));
+        if (r == 0)
+            break;
+        got += (size_t)r;
+        assert_true(got < cap);
+    }
+    assert_true(got >= ST_WIRE_HEADER);
+    assert_int_equal(stp_rd32(reply + 8), 5);                 /* the SAMPLE's reply */
+    assert_int_equal(got, ST_WIRE_HEADER + stp_rd32(reply + 16)); /* whole, then the end */
+    close(fd);
+    free(reply);
+    free(frame);
+    free(body);
+    free(q7);
+    free(q);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(malformed_frames_get_their_status),
         cmocka_unit_test(split_reads_answer_every_pipeline_like_single_frames),
+        cmocka_unit_test(a_bad_magic_after_a_big_reply_does_not_cut_it),
     };
     static const char *const args[] = {"--heavy-batch", "2048", NULL};
     st_group_args = args;
