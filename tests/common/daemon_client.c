@@ -7,6 +7,8 @@
 #include <string.h>
 
 #include "wait.h"
+#include "wire.h"
+#include "proto.h"
 
 stc_conn *st_daemon_client(const st_daemon *d, const char *token)
 {
@@ -93,4 +95,28 @@ stc_query *st_default_set_queries(size_t n, uint32_t seed)
         q[i].dudy = (i % 97) ? 0.0f : NAN;
     }
     return q;
+}
+
+uint8_t *st_default_sample_frame(size_t n, uint32_t seed, uint32_t reqid, size_t *len)
+{
+    stc_query *q = st_default_set_queries(n, seed);
+    float *q7 = malloc((n ? n : 1) * 7 * sizeof *q7);
+    uint8_t *body = malloc(64 + n * 28), *frame = malloc(128 + n * 28);
+    if (q && q7 && body && frame) {
+        for (size_t i = 0; i < n; i++) {
+            float *p = q7 + i * 7;
+            p[0] = (float)q[i].face, p[1] = q[i].u, p[2] = q[i].v, p[3] = q[i].dudx;
+            p[4] = q[i].dvdx, p[5] = q[i].dudy, p[6] = q[i].dvdy;
+        }
+        size_t blen = st_wire_sample_body(body, "default", (uint32_t)n, q7, (uint32_t)n);
+        *len = st_wire_frame(frame, "STX1", 1, STP_OP_SAMPLE, 0, reqid, body, (uint32_t)blen,
+                             (uint32_t)blen);
+    } else {
+        free(frame);
+        frame = NULL;
+    }
+    free(q);
+    free(q7);
+    free(body);
+    return frame;
 }

@@ -44,4 +44,8 @@ uint32_t st_rng_next(uint32_t *s);
  * past the end; the same seed gives the same queries. NULL when out of memory. */
 stc_query *st_default_set_queries(size_t n, uint32_t seed);
 
+/* A whole SAMPLE frame (reqid, st_wire_sample_body's parameters) of n of those queries for
+ * raw-socket tests: malloc'd (the caller frees), its length in *len; NULL when out of memory. */
+uint8_t *st_default_sample_frame(size_t n, uint32_t seed, uint32_t reqid, size_t *len);
+
 #endif

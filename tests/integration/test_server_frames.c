@@ -307,21 +307,9 @@ static void a_bad_magic_after_a_big_reply_does_not_cut_it(void **state)
 {
     (void)state;
     enum { NQ = 131072 };
-    stc_query *q = st_default_set_queries(NQ, 9);
-    assert_non_null(q);
-    float *q7 = malloc((size_t)NQ * 7 * sizeof *q7);
-    uint8_t *body = malloc(64 + (size_t)NQ * 28), *frame = malloc(128 + (size_t)NQ * 28);
-    assert_non_null(q7);
-    assert_non_null(body);
+    size_t flen;
+    uint8_t *frame = st_default_sample_frame(NQ, 9, 5, &flen);
     assert_non_null(frame);
-    for (size_t i = 0; i < NQ; i++) {
-        float *p = q7 + i * 7;
-        p[0] = (float)q[i].face, p[1] = q[i].u, p[2] = q[i].v, p[3] = q[i].dudx;
-        p[4] = q[i].dvdx, p[5] = q[i].dudy, p[6] = q[i].dvdy;
-    }
-    size_t blen = st_wire_sample_body(body, "default", NQ, q7, NQ);
-    size_t flen = st_wire_frame(frame, "STX1", 1, STP_OP_SAMPLE, 0, 5, body, (uint32_t)blen,
-                                (uint32_t)blen);
     int fd = st_daemon_connect(&D1);
     assert_true(fd >= 0);
     assert_int_equal(st_wire_send_all(fd, frame, flen), 0);
@@ -350,9 +338,6 @@ static void a_bad_magic_after_a_big_reply_does_not_cut_it(void **state)
     close(fd);
     free(reply);
     free(frame);
-    free(body);
-    free(q7);
-    free(q);
 }
 
 int main(void)

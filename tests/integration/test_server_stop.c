@@ -268,26 +268,9 @@ static void sigterm_does_not_wait_past_the_grace_for_a_client_that_never_reads(v
      * takes no more: the daemon answers until the unsent replies pass conn-out-cap (4 MiB),
      * then stops reading the connection; nobody reads the replies */
     enum { NQ = 8192 };
-    stc_query *q = st_default_set_queries(NQ, 5);
-    assert_non_null(q);
-    float *q7 = malloc((size_t)NQ * 7 * sizeof *q7);
-    uint8_t *body = malloc(64 + (size_t)NQ * 28), *frame = malloc(128 + (size_t)NQ * 28);
-    assert_non_null(q7);
-    assert_non_null(body);
+    size_t flen;
+    uint8_t *frame = st_default_sample_frame(NQ, 5, 1, &flen);
     assert_non_null(frame);
-    for (size_t i = 0; i < NQ; i++) {
-        float *p = q7 + i * 7;
-        p[0] = (float)q[i].face;
-        p[1] = q[i].u;
-        p[2] = q[i].v;
-        p[3] = q[i].dudx;
-        p[4] = q[i].dvdx;
-        p[5] = q[i].dudy;
-        p[6] = q[i].dvdy;
-    }
-    size_t blen = st_wire_sample_body(body, "default", NQ, q7, NQ);
-    size_t flen = st_wire_frame(frame, "STX1", 1, STP_OP_SAMPLE, 0, 1, body, (uint32_t)blen,
-                                (uint32_t)blen);
     size_t sent_frames = 0;
     for (int k = 0; k < 400; k++) {
         size_t off = 0;
@@ -319,9 +302,6 @@ full:
     /* it waited for the grace period, then closed the connection with its work left */
     assert_int_equal(st_wait_file_has(d.log, "grace period over: closing 1 connection", 1000), 0);
     close(fd);
-    free(q);
-    free(q7);
-    free(body);
     free(frame);
     st_daemon_cleanup(&d);
 }
