@@ -73,6 +73,52 @@ void sts_cluster_set_catalogue(sts_cluster *cl, sts_cl_entry *cat, size_t n)
     free(old);
 }
 
+void sts_cluster_set_served(sts_cluster *cl, struct sts_cl_served *sv, size_t n, uint64_t gen)
+{
+    pthread_mutex_lock(&cl->mu);
+    struct sts_cl_served *old = cl->served;
+    cl->served = sv;
+    cl->nserved = sv ? n : 0;
+    cl->serve_gen = gen;
+    pthread_mutex_unlock(&cl->mu);
+    free(old);
+}
+
+int sts_cluster_serves(sts_cluster *cl, const st_setref *ref)
+{
+    if (!ref->source_bytes)
+        return 1;   /* not from the data dir (the built-in set): not the cluster's */
+    pthread_mutex_lock(&cl->mu);
+    int ok = ref->gen >= cl->serve_gen;
+    size_t lo = 0, hi = cl->nserved;
+    while (!ok && lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        int c = strcmp(cl->served[mid].name, ref->name);
+        if (!c) {
+            ok = cl->served[mid].gen == ref->gen;
+            break;
+        }
+        if (c < 0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    pthread_mutex_unlock(&cl->mu);
+    return ok;
+}
+
+int sts_get_served(sts_server *srv, const char *name, st_setref **ref, st_error *e)
+{
+    int rc = st_registry_get(srv->reg, name, ref, e);
+    if (rc || !srv->cluster || sts_cluster_serves(srv->cluster, *ref))
+        return rc;
+    st_setref_release(*ref);
+    *ref = NULL;
+    STS_CL_ADD(srv->cluster, reads_unconfirmed, 1);
+    return st_fail(e, ST_ENOTFOUND, "this node's copy of '%s' is not confirmed current by the "
+                   "cluster catalogue", name);
+}
+
 static int cmp_entry(const void *a, const void *b)
 {
     return strcmp(((const sts_cl_entry *)a)->name, ((const sts_cl_entry *)b)->name);
@@ -350,6 +396,8 @@ int sts_cluster_init(sts_server *srv)
     }
     snprintf(cl->self, sizeof cl->self, "%s", srv->cfg.node_id);
     cl->inc = new_incarnation();
+    /* the data dir is loaded: its copies wait for the catalogue (sts_cluster_serves) */
+    cl->serve_gen = st_registry_next_gen(srv->reg);
     cl->replicas = srv->cfg.replicas;
     cl->quorum = srv->cfg.write_quorum ? srv->cfg.write_quorum : srv->cfg.replicas;
     pthread_mutex_init(&cl->mu, NULL);
@@ -447,6 +495,7 @@ void sts_cluster_free(sts_server *srv)
     scl_etcd_close(cl->etcd_r);
     free(cl->members);
     free(cl->cat);
+    free(cl->served);
     free(cl->orphans);
     free(cl->gone);
     sts_cluster_doubt_free(cl);
@@ -531,6 +580,7 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("in_doubt", (uint64_t)__atomic_load_n(&cl->in_doubt, __ATOMIC_RELAXED));
     K("writes_in_doubt", C(writes_in_doubt));
     K("doubts_undone", C(doubts_undone));
+    K("reads_unconfirmed", C(reads_unconfirmed));
 #undef K
 #undef C
     return n;

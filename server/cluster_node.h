@@ -12,9 +12,11 @@
  *
  * Shared state and its locks (no lock is held across I/O):
  *   cl->mu       guards the view: members[] (sorted by id), epoch, cat[] (catalogue snapshot
- *                of the last repair pass, sorted by name). Writers: the membership thread
- *                (members, epoch), the repair thread and the write path (cat). Readers:
- *                handlers (CLUSTER, MOVED), the write path (owners), the repair thread.
+ *                of the last repair pass, sorted by name), served[] and serve_gen (the local
+ *                copies reads may use). Writers: the membership thread (members, epoch), the
+ *                repair thread (cat, served) and the write path (cat). Readers: handlers
+ *                (CLUSTER, MOVED, every read of a set), the write path (owners), the repair
+ *                thread.
  *   cl->etcd_mu  guards cl->etcd_w, the etcd handle of the write path (workers, job thread),
  *                and the op key's state (op_rev, op_seq, doubt); the membership and repair
  *                threads have their own handles (the membership thread takes etcd_mu, with
@@ -29,6 +31,7 @@
 #include <stdint.h>
 
 #include "catalog.h"
+#include "registry.h"
 #include "dispatch.h"
 #include "etcd.h"
 #include "proto.h"
@@ -57,6 +60,7 @@ typedef struct sts_cl_counters {
     uint64_t copies_pushed, copies_received, copies_dropped, push_failures, push_bytes;
     uint64_t moved, refused_unavailable, under_replicated, claims, claims_lost;
     uint64_t writes_in_doubt, doubts_undone;   /* cluster_fence.c */
+    uint64_t reads_unconfirmed;   /* reads of a local copy the catalogue did not confirm */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -71,6 +75,15 @@ typedef struct sts_cluster {
     sts_cl_member  *members;  size_t nmembers;
     uint64_t        epoch;
     sts_cl_entry   *cat;      size_t ncat;
+    /* under mu: the local copies this node serves to reads (docs/cluster.md "Reads and
+     * MOVED"): served[] (sorted by name) holds the copies the last repair pass confirmed, by
+     * registry generation; a copy published since that pass began (gen >= serve_gen) is
+     * served too. Before the first pass serve_gen is the registry's generation at start
+     * (after the data dir was loaded) and served[] is empty: no copy from the data dir is
+     * served before the catalogue has confirmed it. */
+    struct sts_cl_served { char name[STP_MAX_NAME + 1]; uint64_t gen; } *served;
+    size_t          nserved;
+    uint64_t        serve_gen;
 
     pthread_mutex_t etcd_mu;
     scl_etcd       *etcd_w;            /* write path */
@@ -128,6 +141,19 @@ void sts_cluster_note_set(sts_cluster *cl, const char *name, uint32_t crc32,
                           const char (*holders)[STP_MAX_NODE_ID + 1], int nholders);
 /* Replaces the catalogue snapshot (takes ownership of cat). */
 void sts_cluster_set_catalogue(sts_cluster *cl, sts_cl_entry *cat, size_t n);
+/* Replaces the list of confirmed local copies (takes ownership of s, sorted by name) and the
+ * generation from which copies are served unconfirmed (the repair pass). */
+void sts_cluster_set_served(sts_cluster *cl, struct sts_cl_served *s, size_t n, uint64_t gen);
+/* 1 when this node may answer a read from its local copy ref: the built-in set (not from
+ * the data dir), a copy the last repair pass confirmed current (its generation in
+ * served[]), or one published since that pass began. 0 otherwise: a copy from before a
+ * restart that the catalogue has not confirmed yet, one of a set deleted or replaced
+ * meanwhile; the read is then answered as for a set the node does not hold. */
+int  sts_cluster_serves(sts_cluster *cl, const st_setref *ref);
+/* The registry lookup of the read requests (INFO, SAMPLE, SAMPLE_DIR, FETCH_OPEN, COMPRESS
+ * source): st_registry_get, and in a cluster sts_cluster_serves (ST_ENOTFOUND with a message
+ * when the copy is not served). */
+int  sts_get_served(sts_server *srv, const char *name, st_setref **ref, st_error *e);
 /* CLUSTER: the membership as this node sees it (PROTOCOL.md 4.11); UNSUPPORTED without
  * --cluster. */
 STS_HANDLER(sts_h_cluster);

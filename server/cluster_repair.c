@@ -146,9 +146,43 @@ static int seen_long_enough(sts_cluster *cl, const struct sts_cl_orphan *was, si
     return now - since > 2000 * (int64_t)cl->srv->cfg.lease_ttl;
 }
 
+/* 1 when (name, gen) is in the served list the last pass installed (sorted by name; the
+ * repair thread is its only writer, so it reads it without the lock) */
+static int was_served(const sts_cluster *cl, const char *name, uint64_t gen)
+{
+    size_t lo = 0, hi = cl->nserved;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        int c = strcmp(cl->served[mid].name, name);
+        if (!c)
+            return cl->served[mid].gen == gen;
+        if (c < 0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return 0;
+}
+
+/* Whether reads may use local copy r (published before this pass began) by catalogue entry e
+ * (NULL: the catalogue does not record the name): the copy of the contents recorded (ok, or
+ * pending: the contents being written) yes; other contents recorded ok (replaced while this
+ * node was away) no; other contents pending (a replace in flight) or no record (deleted, or a
+ * delete in doubt about to be put back) only when the last pass served this very copy - a
+ * node that was down over a delete or replace never serves the old copy after it returns. */
+static int confirm(const sts_cluster *cl, const st_setref *r, const sts_cl_entry *e)
+{
+    if (e && e->crc32 == r->source_crc)
+        return 1;
+    if (e && e->state == SCL_SET_OK)
+        return 0;
+    return was_served(cl, r->name, r->gen);
+}
+
 static void pass(sts_cluster *cl)
 {
     sts_server *srv = cl->srv;
+    uint64_t g0 = st_registry_next_gen(srv->reg);   /* copies published from now on: not judged */
     int64_t t0 = wall_ms();
     char skey[SCL_KEY_MAX], ckey[SCL_KEY_MAX];
     scl_key_set(skey, cl->prefix, "");
@@ -220,12 +254,17 @@ static void pass(sts_cluster *cl)
     size_t nr = refs ? st_registry_snapshot(srv->reg, refs, cap) : 0;
     char *mine = calloc(nc ? nc : 1, 1);   /* 1: a current local copy */
     struct sts_cl_orphan *gone = calloc(nr ? nr : 1, sizeof *gone);
-    size_t ngone = 0;
+    struct sts_cl_served *served = calloc(nr ? nr : 1, sizeof *served);
+    size_t ngone = 0, nserved = 0;
     for (size_t i = 0; mine && i < nr; i++) {
         st_setref *r = refs[i];
         if (!r->source_bytes)
             continue;   /* not from the data dir (the built-in set): not the cluster's */
         sts_cl_entry *e = find_entry(cat, nc, r->name);
+        if (served && r->gen < g0 && confirm(cl, r, e)) {   /* refs[] is sorted by name */
+            snprintf(served[nserved].name, sizeof served[0].name, "%s", r->name);
+            served[nserved++].gen = r->gen;
+        }
         int settled = r->created_ms < t0 - 2000;   /* published before the catalogue was read */
         if (!e) {
             /* deleted, unless this node's delete of it is in doubt or was applied late by
@@ -252,6 +291,12 @@ static void pass(sts_cluster *cl)
     for (size_t i = 0; i < nr; i++)
         st_setref_release(refs[i]);
     free(refs);
+    /* reads use what this pass confirmed from now on (with no list, for want of memory, the
+     * copies published since the last pass began still are) */
+    if (served && mine)
+        sts_cluster_set_served(cl, served, nserved, g0);
+    else
+        free(served);
     free(cl->gone);
     cl->gone = gone;
     cl->ngone = gone ? ngone : 0;
@@ -342,8 +387,9 @@ void *sts_cluster_repair_main(void *arg)
 {
     sts_cluster *cl = arg;
     int ms = (int)cl->srv->cfg.repair_interval * 1000;
-    while (!sts_cluster_nap(cl, ms))
+    do   /* a pass at once: the copies from the data dir are served once one confirms them */
         if (sts_cluster_etcd_ok(cl))
             pass(cl);
+    while (!sts_cluster_nap(cl, ms));
     return NULL;
 }

@@ -22,14 +22,15 @@
 #include "workers.h"
 
 /* Looks a set up by a name the decoder has already held to the name rule (protocol/stp_name.h:
- * a bad name was answered INVALID before the handler ran); replies NOT_FOUND itself and
+ * a bad name was answered INVALID before the handler ran), as a read may use it (in a cluster
+ * only a copy the catalogue confirmed: sts_get_served); replies NOT_FOUND or MOVED itself and
  * returns NULL. */
 static st_setref *get_set(sts_ctx *c, const stp_header *h, const char *name, stp_buf *out)
 {
     st_error e;
     st_error_clear(&e);
     st_setref *ref = NULL;
-    if (st_registry_get(c->srv->reg, name, &ref, &e) != 0) {
+    if (sts_get_served(c->srv, name, &ref, &e) != 0) {
         sts_reply_not_here(c->srv, out, h, name, e.msg);
         return NULL;
     }
@@ -94,6 +95,16 @@ int sts_h_list(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *ou
         return 0;
     }
     size_t n = st_registry_snapshot(c->srv->reg, refs, total);
+    if (c->srv->cluster) {   /* in a cluster, the copies reads may use (sts_cluster_serves) */
+        size_t k = 0;
+        for (size_t i = 0; i < n; i++) {
+            if (sts_cluster_serves(c->srv->cluster, refs[i]))
+                refs[k++] = refs[i];
+            else
+                st_setref_release(refs[i]);
+        }
+        n = k;
+    }
     size_t first = rq.first < n ? rq.first : n;
     size_t count = n - first;
     size_t cap = rq.max ? rq.max : 65536;

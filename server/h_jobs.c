@@ -336,7 +336,7 @@ int sts_h_compress(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf
         return 0;
     }
     st_setref *src = NULL;
-    if (st_registry_get(srv->reg, rq.name, &src, &e) != 0) {
+    if (sts_get_served(srv, rq.name, &src, &e) != 0) {
         sts_reply_not_here(srv, out, h, rq.name, e.msg);
         return 0;
     }
@@ -544,7 +544,7 @@ int sts_h_fetch_open(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_b
     st_error e;
     st_error_clear(&e);
     st_setref *ref = NULL;
-    if (st_registry_get(srv->reg, rq.name, &ref, &e)) {   /* the decoder checked the name */
+    if (sts_get_served(srv, rq.name, &ref, &e)) {   /* the decoder checked the name */
         sts_reply_not_here(srv, out, h, rq.name, e.msg);
         return 0;
     }

@@ -186,6 +186,14 @@ int st_registry_remove(st_registry *r, const char *name, st_error *e)
     return 0;
 }
 
+uint64_t st_registry_next_gen(st_registry *r)
+{
+    pthread_mutex_lock(&r->mu);
+    uint64_t g = r->next_gen;
+    pthread_mutex_unlock(&r->mu);
+    return g;
+}
+
 size_t st_registry_count(st_registry *r)
 {
     pthread_mutex_lock(&r->mu);

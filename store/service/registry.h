@@ -81,6 +81,10 @@ int st_registry_remove(st_registry *r, const char *name, st_error *e);
 /* Number of names. */
 size_t st_registry_count(st_registry *r);
 
+/* The generation the next set published will get: every set published after this call has a
+ * gen >= the value returned, every set published before it a smaller one. */
+uint64_t st_registry_next_gen(st_registry *r);
+
 /* Takes references to up to max sets, sorted by name, into out[]; returns how many. The
  * caller releases each one. */
 size_t st_registry_snapshot(st_registry *r, st_setref **out, size_t max);

@@ -19,6 +19,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -95,11 +96,16 @@ static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(voi
     assert_int_equal(st_etcd_pause(&ETCD, 0), 0);
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_cluster_node_start(&NODE[i], URL, i, 2, 2), 0);
-    for (int i = 0; i < 2; i++) {
+    for (int i = 0; i < 2; i++) {   /* once the catalogue has confirmed the copy */
         c = st_daemon_client(&NODE[i], NULL);
         assert_non_null(c);
         float got = 0;
-        assert_int_equal(st_red_at(c, "kept", &got), 0);
+        int64_t t0 = st_now_ms();
+        while ((rc = st_red_at(c, "kept", &got)) != 0 && st_now_ms() - t0 < 30000)
+            nanosleep(&(struct timespec){0, 20 * 1000 * 1000}, NULL);
+        print_message("node %d serves it %lld ms after its restart\n", i,
+                      (long long)(st_now_ms() - t0));
+        assert_int_equal(rc, 0);
         assert_true(got == red);
         stc_close(c);
     }
