@@ -276,7 +276,12 @@ static PyObject *client_close(st_py_client *self, PyObject *unused)
     if (!self->lock || !self->conn)
         Py_RETURN_NONE;
     if (st_py_client_enter(self) < 0) {
-        PyErr_Clear();            /* closed meanwhile: fine */
+        /* closed meanwhile by another thread: fine. Called from a progress callback of a
+         * call on this Client: StateError (closing under that call is not possible; it used
+         * to return None with the Client still open). */
+        if (!PyErr_ExceptionMatches(st_py_closed_error()))
+            return NULL;
+        PyErr_Clear();
         Py_RETURN_NONE;
     }
     stc_conn *c = self->conn;

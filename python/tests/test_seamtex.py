@@ -474,6 +474,26 @@ def test_progress_callback_cannot_reenter_its_client(client, data):
     assert "py-reenter" not in [s["name"] for s in client.ls()]
 
 
+def test_close_in_a_progress_callback_is_not_silently_ignored(client, data):
+    """close() from its own call's progress callback cannot close the connection under that
+    call: it raises StateError (which aborts the transfer) instead of returning None with the
+    Client still open, as it used to."""
+    seen = []
+
+    def cb(done, total):
+        client.close()
+        seen.append(client.closed)       # not reached
+
+    with pytest.raises(seamtex.StateError, match="progress callback"):
+        client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-close-cb", progress=cb,
+                      chunk=65536)
+    assert seen == [] and not client.closed
+    assert "py-close-cb" not in [s["name"] for s in client.ls()]
+    client.close()
+    client.close()
+    assert client.closed
+
+
 def test_upload_options_and_errors(client, data, tmp_path):
     with pytest.raises(seamtex.Invalid):
         client.upload(data / "images" / "brick.png", "py-brick", colour="red")
