@@ -487,14 +487,22 @@ static int options_string(PyObject *kw, char *out, size_t cap)
                                       : PyObject_Str(v);
         if (!s)
             return -1;
-        const char *ks = PyUnicode_AsUTF8(k), *vs = PyUnicode_AsUTF8(s);
+        Py_ssize_t kn = 0, vn = 0;
+        const char *ks = PyUnicode_AsUTF8AndSize(k, &kn), *vs = PyUnicode_AsUTF8AndSize(s, &vn);
         if (!ks || !vs) {
             Py_DECREF(s);
             return -1;
         }
-        if (strpbrk(vs, " \t\n=") || !*vs) {
-            PyErr_Format(PyExc_ValueError, "upload option %s=%R: a value must be non-empty "
-                         "and hold no blank or '='", ks, v);
+        /* a NUL would cut the C string short: texture="a\0b" used to send texture=a */
+        int bad = !vn || !kn || (size_t)vn != strlen(vs) || (size_t)kn != strlen(ks) ||
+                  strchr(ks, '=');
+        for (Py_ssize_t i = 0; i < vn && !bad; i++)
+            bad = (unsigned char)vs[i] <= ' ' || vs[i] == '=' || vs[i] == 0x7f;
+        for (Py_ssize_t i = 0; i < kn && !bad; i++)
+            bad = (unsigned char)ks[i] <= ' ' || ks[i] == 0x7f;
+        if (bad) {
+            PyErr_Format(PyExc_ValueError, "upload option %R=%R: a name and a value must be "
+                         "non-empty and hold no blank, control character or '='", k, v);
             Py_DECREF(s);
             return -1;
         }

@@ -506,6 +506,21 @@ def test_upload_options_and_errors(client, data, tmp_path):
     client.delete("py-brick")
 
 
+def test_upload_option_with_a_nul_is_refused_not_cut(client, data):
+    """An option value (or name) holding a NUL or a control character is refused before
+    anything is sent: texture="py-nt\\0x" used to go out as texture=py-nt (the C string cut at
+    the NUL) and upload against the wrong texture."""
+    duck = data / "meshes" / "duck"
+    client.upload(duck / "DuckCM.png", "py-nt", replace=True)
+    for bad in ("py-nt\0x", "py-nt\r", "py-nt\x7f"):
+        with pytest.raises(ValueError, match="control character"):
+            client.upload(duck / "Duck.obj", "py-nt-duck", texture=bad)
+    with pytest.raises(ValueError, match="control character"):
+        client.upload(duck / "Duck.obj", "py-nt-duck", **{"texture\0x": "py-nt"})
+    assert "py-nt-duck" not in [s["name"] for s in client.ls()]
+    client.delete("py-nt")
+
+
 def test_compress_job_and_fetch(client, data, tmp_path):
     duck = data / "meshes" / "duck"
     client.upload(duck / "DuckCM.png", "py-duck-tex", replace=True)
