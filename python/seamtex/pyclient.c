@@ -659,8 +659,12 @@ static PyObject *client_job_wait(st_py_client *self, PyObject *args)
         left = PyFloat_AsDouble(timeout_o);
         if (left == -1.0 && PyErr_Occurred())
             return NULL;
+        if (isnan(left)) {      /* NaN used to poll in a busy loop until the job ended */
+            PyErr_SetString(PyExc_ValueError, "timeout must be a number of seconds or None");
+            return NULL;
+        }
         if (left < 0)
-            left = 0;
+            left = 0;           /* passed already: one poll, then TimedOut */
     }
     stc_job j;
     memset(&j, 0, sizeof j);

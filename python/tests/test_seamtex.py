@@ -576,6 +576,30 @@ def test_fetch_every_protocol_format(client, data, tmp_path):
         client.delete(s)
 
 
+def test_job_wait_zero_polls_once(client):
+    """wait(timeout=0) (or a negative one) polls once and raises TimedOut while the job runs;
+    it used to wait for the whole job (libseamtex took 0 ms as "no deadline"). NaN is a
+    ValueError (it used to spin until the job ended)."""
+    job = client.compress("default", "py-wait0", level=9, replace=True)
+    try:
+        for t in (0, -1.0):
+            with pytest.raises(seamtex.TimedOut):
+                job.wait(timeout=t)
+        with pytest.raises(ValueError, match="timeout"):
+            job.wait(timeout=float("nan"))
+        assert job.status()["state"] in ("queued", "running")
+    finally:
+        job.cancel()
+        try:
+            job.wait(timeout=120)
+        except seamtex.Canceled:
+            pass
+        try:
+            client.delete("py-wait0")
+        except seamtex.NotFound:
+            pass
+
+
 def test_job_cancel_and_timeout(client, data):
     client.upload(data / "images" / "StillLife.jpg", "py-still", replace=True)
     job = client.compress("py-still", "py-still-bc1", level=9, replace=True)
