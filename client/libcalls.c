@@ -635,7 +635,8 @@ int stc_job_cancel(stc_conn *c, uint64_t job_id, stc_job *out)
 int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out)
 {
     stc_job tmp, *j = out ? out : &tmp;
-    int64_t dl = stc__deadline(wait_ms);
+    /* wait_ms 0: one poll (stc__deadline takes 0 as "none", which made it wait for ever) */
+    int64_t dl = wait_ms < 0 ? -1 : stc__now_ms() + wait_ms;
     long sleep_ms = 5;
     for (;;) {
         int rc = stc_job_status(c, job_id, j);

@@ -46,8 +46,9 @@ static const char *const USAGE =
 "that set's first reachable owner (docs/cluster.md); `cluster` asks the seeds.\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
-"HOST defaults to $SEAMTEX_HOST or 127.0.0.1, PORT to $SEAMTEX_PORT or 7450, TOKEN to\n"
-"$SEAMTEX_TOKEN; HOST unix:/path connects to a daemon's Unix socket (PORT unused).\n"
+"-h, -p, -t are also --host, --port, --token. HOST defaults to $SEAMTEX_HOST or 127.0.0.1,\n"
+"PORT to $SEAMTEX_PORT or 7450, TOKEN to $SEAMTEX_TOKEN; HOST unix:/path connects to a\n"
+"daemon's Unix socket (PORT unused).\n"
 "`seamtex COMMAND --help` describes a command. --json (ls, info, stats,\n"
 "compress, cluster) prints one JSON document instead of text (keys: seamtex(1), docs/client.md).\n"
 "Exit status: 0 ok, 1 the server refused or a file failed, 2 usage, 3 connection.\n";

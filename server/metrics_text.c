@@ -14,7 +14,8 @@
  * seamtex_requests_total counts them when answered), op_<op>_p50_us / _p99_us (Prometheus
  * computes quantiles from the histogram), op_<op>_* and cold_first_us_* (rendered as the
  * histograms), queries and queries_<mode>_<filter> (rendered as seamtex_queries_total by mode
- * and filter, whose sum is `queries`), metrics_port.
+ * and filter, whose sum is `queries`), io<i>_* (rendered as seamtex_io_thread_* by thread),
+ * metrics_port.
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -118,6 +119,8 @@ static const mrow ROWS[] = {
      "Shared-memory SAMPLE requests whose reply did not fit the room given."},
     {"shm_fds_dropped", "seamtex_shm_fds_dropped_total", M_COUNTER, "", 0,
      "Descriptors closed on receipt: a connection held 4 no SHM_ATTACH had taken."},
+    {"shm_overlap_copies", "seamtex_shm_overlap_copies_total", M_COUNTER, "", 0,
+     "Shared-memory SAMPLEs whose queries were copied first (reply room overlapping them)."},
     {"sets", "seamtex_sets", M_GAUGE, "", 0, "Texture sets held now."},
     {"set_memory", "seamtex_set_memory_bytes", M_GAUGE, "", 0,
      "Bytes the sets hold in memory now (the sum of LIST's memory)."},
@@ -163,6 +166,10 @@ static const char *const STRUCTURED[] = {
 
 static int structured(const char *key)
 {
+    unsigned i;
+    char rest[16];
+    if (sscanf(key, "io%u_%15s", &i, rest) == 2)   /* io<i>_*: render_io's families */
+        return 1;
     for (size_t i = 0; i < sizeof STRUCTURED / sizeof STRUCTURED[0]; i++) {
         const char *p = STRUCTURED[i];
         size_t n = strlen(p);
@@ -257,6 +264,37 @@ static void render_rest(stp_buf *out, const stp_stat *s, size_t n)
             out_printf(out, "%s %llu\n", name, (unsigned long long)s[i].v.u);
         else
             out_printf(out, "%s %.17g\n", name, s[i].v.f);
+    }
+}
+
+/* The per-I/O-thread STATS keys io<i>_conns, io<i>_accepted and io<i>_cpu (with --pin-io) as
+ * three families labelled thread="<i>"; a family none of whose keys is sent (io_cpu without
+ * pin-io) is left out. */
+static void render_io(stp_buf *out, const stp_stat *s, size_t n)
+{
+    static const struct {
+        const char *suffix, *name, *type, *help;
+    } FAM[] = {
+        {"conns", "seamtex_io_thread_connections", "gauge",
+         "Client connections open now, by the I/O thread serving them."},
+        {"accepted", "seamtex_io_thread_accepted_total", "counter",
+         "Connections handed to each I/O thread since start."},
+        {"cpu", "seamtex_io_thread_cpu", "gauge",
+         "The CPU each I/O thread is pinned to (pin-io yes)."},
+    };
+    for (size_t f = 0; f < sizeof FAM / sizeof FAM[0]; f++) {
+        int any = 0;
+        for (size_t k = 0; k < n; k++) {
+            unsigned i;
+            char suf[16];
+            if (sscanf(s[k].key, "io%u_%15s", &i, suf) != 2 || strcmp(suf, FAM[f].suffix) ||
+                s[k].type != STP_STAT_U64)
+                continue;
+            if (!any++)
+                family(out, FAM[f].name, FAM[f].type, FAM[f].help);
+            out_printf(out, "%s{thread=\"%u\"} %llu\n", FAM[f].name, i,
+                       (unsigned long long)s[k].v.u);
+        }
     }
 }
 
@@ -360,6 +398,7 @@ int sts_metrics_render(sts_server *srv, stp_buf *out)
     out_printf(out, "seamtex_build_info{version=\"%s\",protocol=\"%d\"} 1\n", STS_VERSION,
                STP_VERSION);
     render_rows(out, s, n);
+    render_io(out, s, n);
     render_rest(out, s, n);
     free(s);
     render_queries(out, srv);

@@ -15,9 +15,10 @@ without its page (or documented without existing) fails here:
   seamtexd.8       every long flag `seamtexd --help` prints appears in the page; every flag the
                    page lists as an item (.It Fl \\-x) is in --help
   seamtex.1        every command of `seamtex --help` has its item (.It Cm x); every long option
-                   of `seamtex --help` and of each `seamtex COMMAND --help` appears
-  seamtex-bench.1  every long option of `seamtex-bench --help` appears
-  seamtex-render.1 every long option of `seamtex-render --help` appears
+                   of `seamtex --help` and of each `seamtex COMMAND --help` appears; every
+                   flag the page lists as an item is in one of those helps
+  seamtex-bench.1  every long option of `seamtex-bench --help` appears, every item's in it
+  seamtex-render.1 every long option of `seamtex-render --help` appears, every item's in it
   libseamtex.3     every stc_ function declared in client/seamtex.h, client/seamtex_cluster.h or
                    client/seamtex_etcd.h
                    has its .Fn line, and every .Fn stc_x line of the page names a declared
@@ -84,18 +85,23 @@ def pyi_names(path):
     return names
 
 
+def item_flags(src):
+    """The long flags a page defines: those on its list items (.It Fl \\-x ...)."""
+    items = re.findall(r"^\.It .*$", src, re.M)
+    return sorted({"--" + m for it in items for m in re.findall(r"Fl \\-([a-z][a-z0-9-]*)", it)})
+
+
 def content(man, h):
     errs = []
     src = {p: open(os.path.join(man, p)).read()
-           for p in ("seamtexd.8", "seamtex.1", "seamtex-bench.1", "libseamtex.3",
-                     "seamtex-python.3")}
+           for p in ("seamtexd.8", "seamtex.1", "seamtex-bench.1", "seamtex-render.1",
+                     "libseamtex.3", "seamtex-python.3")}
     # seamtexd.8
     text = render(os.path.join(man, "seamtexd.8"))
     for f in sorted(set(LONG.findall(h["seamtexd"]))):
         if not has_word(text, f):
             errs.append(f"seamtexd.8 does not document {f} (seamtexd --help has it)")
-    items = re.findall(r"^\.It .*$", src["seamtexd.8"], re.M)
-    for f in sorted({"--" + m for it in items for m in re.findall(r"Fl \\-([a-z][a-z0-9-]*)", it)}):
+    for f in item_flags(src["seamtexd.8"]):
         if not has_word(h["seamtexd"], f):
             errs.append(f"seamtexd.8 documents {f}, which seamtexd --help does not list")
     # seamtex.1
@@ -111,16 +117,27 @@ def content(man, h):
     for f in sorted(set(LONG.findall(h["seamtex"]))):
         if not has_word(text, f):
             errs.append(f"seamtex.1 does not document {f} (seamtex --help has it)")
+    helps = h["seamtex"] + "\n".join(h["cmd"].values())
+    for f in item_flags(src["seamtex.1"]):
+        if not has_word(helps, f):
+            errs.append(f"seamtex.1 documents {f}, which neither seamtex --help nor a "
+                        "seamtex COMMAND --help lists")
     # seamtex-bench.1
     text = render(os.path.join(man, "seamtex-bench.1"))
     for f in sorted(set(LONG.findall(h["bench"]))):
         if not has_word(text, f):
             errs.append(f"seamtex-bench.1 does not document {f}")
+    for f in item_flags(src["seamtex-bench.1"]):
+        if not has_word(h["bench"], f):
+            errs.append(f"seamtex-bench.1 documents {f}, which seamtex-bench --help does not list")
     # seamtex-render.1
     text = render(os.path.join(man, "seamtex-render.1"))
     for f in sorted(set(LONG.findall(h["render"]))):
         if not has_word(text, f):
             errs.append(f"seamtex-render.1 does not document {f}")
+    for f in item_flags(src["seamtex-render.1"]):
+        if not has_word(h["render"], f):
+            errs.append(f"seamtex-render.1 documents {f}, which seamtex-render --help does not list")
     # libseamtex.3
     if not h["decl"]:
         errs.append("no stc_ function found in client/seamtex.h or client/seamtex_cluster.h")
@@ -151,6 +168,8 @@ MUTATIONS = [
     ("seamtexd.8", r"^\.Sh SIGNALS", r".It Fl \\-no-such-flag\n.Sh SIGNALS"),
     ("seamtex.1", r"^\.It Cm compress.*\n", ""),
     ("seamtex.1", r"^.*retries.*\n", ""),
+    ("seamtex.1", r"^\.It Cm compress", r".It Fl \\-no-such-option\n.It Cm compress"),
+    ("seamtex-bench.1", r"^\.Sh EXAMPLES", r".It Fl \\-no-such-option\n.Sh EXAMPLES"),
     ("seamtex-bench.1", r"^.*spin-us.*\n", ""),
     ("seamtex-render.1", r"^.*breakdown.*\n", ""),
     ("libseamtex.3", r"^.*stc_job_wait.*\n", ""),

@@ -20,12 +20,10 @@
 
 /* ---- lock and errors --------------------------------------------------------------------------- */
 
-int st_py_client_enter(st_py_client *self)
+/* Takes the lock, waiting with the GIL released; raises StateError when this thread holds it
+ * already (a progress callback of a call on this Client). */
+static int lock_take(st_py_client *self)
 {
-    if (!self->lock) {
-        PyErr_SetString(st_py_closed_error(), "the Client is not initialised");
-        return -1;
-    }
     unsigned long me = PyThread_get_thread_ident();
     if (!PyThread_acquire_lock(self->lock, NOWAIT_LOCK)) {
         if (self->owner == me) {  /* only this thread can have stored its own ident */
@@ -38,6 +36,17 @@ int st_py_client_enter(st_py_client *self)
         Py_END_ALLOW_THREADS
     }
     self->owner = me;
+    return 0;
+}
+
+int st_py_client_enter(st_py_client *self)
+{
+    if (!self->lock) {
+        PyErr_SetString(st_py_closed_error(), "the Client is not initialised");
+        return -1;
+    }
+    if (lock_take(self) < 0)
+        return -1;
     if (!self->conn) {
         self->owner = 0;
         PyThread_release_lock(self->lock);
@@ -51,6 +60,29 @@ void st_py_client_leave(st_py_client *self)
 {
     self->owner = 0;
     PyThread_release_lock(self->lock);
+}
+
+int st_py_uint_arg(PyObject *o, const char *what, unsigned long max, unsigned *out)
+{
+    if (!o || o == Py_None)
+        return 0;
+    PyObject *ix = PyNumber_Index(o);
+    if (!ix) {
+        PyErr_Format(PyExc_TypeError, "%s must be an integer, not %.80s", what,
+                     Py_TYPE(o)->tp_name);
+        return -1;
+    }
+    int over = 0;
+    long long v = PyLong_AsLongLongAndOverflow(ix, &over);
+    Py_DECREF(ix);
+    if (v == -1 && PyErr_Occurred())
+        return -1;
+    if (over || v < 0 || (unsigned long long)v > max) {
+        PyErr_Format(PyExc_ValueError, "%s is 0..%lu, not %R", what, max, o);
+        return -1;
+    }
+    *out = (unsigned)v;
+    return 0;
 }
 
 double st_py_now(void)
@@ -139,21 +171,24 @@ static int ms_of(double secs)
     return secs * 1000.0 > 2e9 ? 2000000000 : (int)ceil(secs * 1000.0);
 }
 
+static int client_connect(st_py_client *self, const char *host, unsigned port,
+                          const char *token, double timeout, const char *cname,
+                          PyObject *shm_o, Py_ssize_t shm_bytes);
+
 static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
 {
     static char *kwlist[] = {"host", "port", "token", "timeout", "numpy", "client_name", "shm",
                              "shm_bytes", NULL};
     const char *host = "127.0.0.1", *token = NULL, *cname = "seamtex-python";
     unsigned port = 7450;
-    PyObject *timeout_o = NULL, *numpy_o = Py_None, *shm_o = NULL;   /* NULL: "auto" */
+    PyObject *port_o = NULL, *timeout_o = NULL, *numpy_o = Py_None;
+    PyObject *shm_o = NULL;   /* NULL: "auto" */
     Py_ssize_t shm_bytes = ST_PY_SHM_DEFAULT;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|sIzO$OsOn:Client", kwlist, &host, &port, &token,
-                                     &timeout_o, &numpy_o, &cname, &shm_o, &shm_bytes))
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "|sOzO$OsOn:Client", kwlist, &host, &port_o,
+                                     &token, &timeout_o, &numpy_o, &cname, &shm_o, &shm_bytes))
         return -1;
-    if (port > 65535) {
-        PyErr_Format(PyExc_ValueError, "port %u is not 0..65535", port);
+    if (st_py_uint_arg(port_o, "port", 65535, &port) < 0)
         return -1;
-    }
     double timeout = 10.0;
     if (timeout_o && timeout_o != Py_None) {
         timeout = PyFloat_AsDouble(timeout_o);
@@ -169,13 +204,32 @@ static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
     self->numpy = numpy_o == Py_None ? -1 : PyObject_IsTrue(numpy_o);
     if (self->numpy < -1 || (numpy_o != Py_None && self->numpy < 0))
         return -1;
-    if (self->conn) {             /* __init__ called again: start over */
-        stc_close(self->conn);
-        self->conn = NULL;
-    }
     if (!self->lock && !(self->lock = PyThread_allocate_lock())) {
         PyErr_NoMemory();
         return -1;
+    }
+    /* The lock for the whole (re)connect: __init__ called again on an open Client waits for
+     * another thread's call on the old connection to finish before closing it (it used to
+     * close it under that call), and no call starts on the new one before it is set up. */
+    if (lock_take(self) < 0)
+        return -1;
+    int rc = client_connect(self, host, port, token, timeout, cname, shm_o, shm_bytes);
+    st_py_client_leave(self);
+    return rc;
+}
+
+/* client_init's connect, the lock held: closes the old connection (__init__ called again),
+ * connects, says HELLO, attaches shared memory as asked. */
+static int client_connect(st_py_client *self, const char *host, unsigned port,
+                          const char *token, double timeout, const char *cname,
+                          PyObject *shm_o, Py_ssize_t shm_bytes)
+{
+    if (self->conn) {             /* __init__ called again: start over */
+        stc_conn *old = self->conn;
+        self->conn = NULL;
+        Py_BEGIN_ALLOW_THREADS
+        stc_close(old);
+        Py_END_ALLOW_THREADS
     }
     stc_opts o;
     memset(&o, 0, sizeof o);
@@ -222,7 +276,12 @@ static PyObject *client_close(st_py_client *self, PyObject *unused)
     if (!self->lock || !self->conn)
         Py_RETURN_NONE;
     if (st_py_client_enter(self) < 0) {
-        PyErr_Clear();            /* closed meanwhile: fine */
+        /* closed meanwhile by another thread: fine. Called from a progress callback of a
+         * call on this Client: StateError (closing under that call is not possible; it used
+         * to return None with the Client still open). */
+        if (!PyErr_ExceptionMatches(st_py_closed_error()))
+            return NULL;
+        PyErr_Clear();
         Py_RETURN_NONE;
     }
     stc_conn *c = self->conn;
@@ -339,14 +398,18 @@ static PyObject *client_info(st_py_client *self, PyObject *args, PyObject *kw)
     if (!PyArg_ParseTupleAndKeywords(args, kw, "s|O:info", kwlist, &name, &faces))
         return NULL;
     if (faces != Py_None) {
-        if (PyLong_Check(faces)) {
-            count = (unsigned)PyLong_AsUnsignedLong(faces);
-        } else if (!PyArg_ParseTuple(faces, "II", &first, &count)) {
+        if (PyIndex_Check(faces)) {
+            if (st_py_uint_arg(faces, "faces", UINT32_MAX, &count) < 0)
+                return NULL;
+        } else if (!PyTuple_Check(faces) || PyTuple_GET_SIZE(faces) != 2) {
             PyErr_SetString(PyExc_TypeError, "faces must be a count or a (first, count) tuple");
             return NULL;
-        }
-        if (PyErr_Occurred())
+        } else if (st_py_uint_arg(PyTuple_GET_ITEM(faces, 0), "faces' first", UINT32_MAX,
+                                  &first) < 0 ||
+                   st_py_uint_arg(PyTuple_GET_ITEM(faces, 1), "faces' count", UINT32_MAX,
+                                  &count) < 0) {
             return NULL;
+        }
     }
     stc_info in;
     int rc;
@@ -424,14 +487,22 @@ static int options_string(PyObject *kw, char *out, size_t cap)
                                       : PyObject_Str(v);
         if (!s)
             return -1;
-        const char *ks = PyUnicode_AsUTF8(k), *vs = PyUnicode_AsUTF8(s);
+        Py_ssize_t kn = 0, vn = 0;
+        const char *ks = PyUnicode_AsUTF8AndSize(k, &kn), *vs = PyUnicode_AsUTF8AndSize(s, &vn);
         if (!ks || !vs) {
             Py_DECREF(s);
             return -1;
         }
-        if (strpbrk(vs, " \t\n=") || !*vs) {
-            PyErr_Format(PyExc_ValueError, "upload option %s=%R: a value must be non-empty "
-                         "and hold no blank or '='", ks, v);
+        /* a NUL would cut the C string short: texture="a\0b" used to send texture=a */
+        int bad = !vn || !kn || (size_t)vn != strlen(vs) || (size_t)kn != strlen(ks) ||
+                  strchr(ks, '=');
+        for (Py_ssize_t i = 0; i < vn && !bad; i++)
+            bad = (unsigned char)vs[i] <= ' ' || vs[i] == '=' || vs[i] == 0x7f;
+        for (Py_ssize_t i = 0; i < kn && !bad; i++)
+            bad = (unsigned char)ks[i] <= ' ' || ks[i] == 0x7f;
+        if (bad) {
+            PyErr_Format(PyExc_ValueError, "upload option %R=%R: a name and a value must be "
+                         "non-empty and hold no blank, control character or '='", k, v);
             Py_DECREF(s);
             return -1;
         }
@@ -455,7 +526,7 @@ static PyObject *client_upload(st_py_client *self, PyObject *args, PyObject *kw)
     const char *name = NULL, *hint = NULL;
     int replace = 0, resume = 0;
     unsigned chunk = 0;
-    PyObject *prog = Py_None, *path_o = NULL;
+    PyObject *prog = Py_None, *path_o = NULL, *chunk_o = NULL;
     if (!mine || !opts)
         goto out;
     Py_ssize_t pos = 0;
@@ -469,8 +540,10 @@ static PyObject *client_upload(st_py_client *self, PyObject *args, PyObject *kw)
     }
     static char *kwlist[] = {"path", "name", "replace", "resume", "progress", "hint", "chunk",
                              NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, mine, "Os|$ppOzI:upload", kwlist, &path_o, &name,
-                                     &replace, &resume, &prog, &hint, &chunk))
+    if (!PyArg_ParseTupleAndKeywords(args, mine, "Os|$ppOzO:upload", kwlist, &path_o, &name,
+                                     &replace, &resume, &prog, &hint, &chunk_o))
+        goto out;
+    if (st_py_uint_arg(chunk_o, "chunk", UINT32_MAX, &chunk) < 0)
         goto out;
     if (!PyUnicode_FSConverter(path_o, &path_b))
         goto out;
@@ -539,13 +612,11 @@ static PyObject *client_compress_start(st_py_client *self, PyObject *args, PyObj
     unsigned level = 5;
     int seam = 1, replace = 0, rc;
     uint64_t id = 0;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "ss|I$pp:compress", kwlist, &src, &dst, &level,
-                                     &seam, &replace))
+    PyObject *level_o = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "ss|O$pp:compress", kwlist, &src, &dst, &level_o,
+                                     &seam, &replace) ||
+        st_py_uint_arg(level_o, "level", 9, &level) < 0)
         return NULL;
-    if (level > 9) {
-        PyErr_Format(PyExc_ValueError, "level %u is not 0..9", level);
-        return NULL;
-    }
     unsigned flags = (seam ? STC_COMPRESS_SEAM_AWARE : 0) | (replace ? STC_COMPRESS_REPLACE : 0);
     CALL_OR_FAIL(self, rc, stc_compress(c, src, dst, level, flags, &id));
     st_py_client_leave(self);
@@ -588,8 +659,12 @@ static PyObject *client_job_wait(st_py_client *self, PyObject *args)
         left = PyFloat_AsDouble(timeout_o);
         if (left == -1.0 && PyErr_Occurred())
             return NULL;
+        if (isnan(left)) {      /* NaN used to poll in a busy loop until the job ended */
+            PyErr_SetString(PyExc_ValueError, "timeout must be a number of seconds or None");
+            return NULL;
+        }
         if (left < 0)
-            left = 0;
+            left = 0;           /* passed already: one poll, then TimedOut */
     }
     stc_job j;
     memset(&j, 0, sizeof j);
@@ -622,15 +697,13 @@ static PyObject *client_job_wait(st_py_client *self, PyObject *args)
 
 /* ---- fetch ------------------------------------------------------------------------------------- */
 
-/* The fetch formats by name (wire numbers, protocol/proto.h enum stp_fetch_format); a number
- * is passed through as it is, so formats the server has and this table lacks still work. */
-static const struct {
-    const char *name;
-    unsigned    value;
-} FETCH_FORMATS[] = {
-    {"ptx", STP_FETCH_PTX},
-    {"dds", STP_FETCH_DDS},
-};
+/* The fetch formats by name: the protocol's list (protocol/proto_lists.h STP_FETCH_FORMATS,
+ * parsed by stp_fetch_format_parse, case-insensitive), so a format the protocol gains is
+ * known here without an edit. A number is passed to libseamtex as it is (which refuses one
+ * its protocol list lacks with InvalidArgument). */
+#define FETCH_NAME_(NAME, str, value) " " str
+static const char FETCH_NAMES[] = STP_FETCH_FORMATS(FETCH_NAME_);
+#undef FETCH_NAME_
 
 static int fetch_format(PyObject *fmt, const char *path, unsigned *out)
 {
@@ -638,6 +711,7 @@ static int fetch_format(PyObject *fmt, const char *path, unsigned *out)
     if (fmt && fmt != Py_None && PyLong_Check(fmt)) {
         unsigned long v = PyLong_AsUnsignedLong(fmt);
         if (PyErr_Occurred() || v > 255) {
+            PyErr_Clear();
             PyErr_SetString(PyExc_ValueError, "a fetch format number is 0..255");
             return -1;
         }
@@ -650,19 +724,19 @@ static int fetch_format(PyObject *fmt, const char *path, unsigned *out)
     } else {
         const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
         if (!dot || (slash && dot < slash)) {
-            PyErr_Format(PyExc_ValueError, "%s has no extension: pass format='ptx' or 'dds'",
-                         path);
+            PyErr_Format(PyExc_ValueError, "%s has no extension: pass format= one of:%s", path,
+                         FETCH_NAMES);
             return -1;
         }
         name = dot + 1;
     }
-    for (size_t i = 0; i < sizeof FETCH_FORMATS / sizeof FETCH_FORMATS[0]; i++)
-        if (!strcasecmp(name, FETCH_FORMATS[i].name)) {
-            *out = FETCH_FORMATS[i].value;
-            return 0;
-        }
-    PyErr_Format(PyExc_ValueError, "unknown fetch format '%s' (known: ptx, dds; a number is "
-                 "passed through to the server)", name);
+    int f = stp_fetch_format_parse(name);
+    if (f >= 0) {
+        *out = (unsigned)f;
+        return 0;
+    }
+    PyErr_Format(PyExc_ValueError, "unknown fetch format '%s' (one of:%s; a number is passed "
+                 "through to the server)", name, FETCH_NAMES);
     return -1;
 }
 
@@ -819,8 +893,9 @@ static PyMethodDef client_methods[] = {
     {"fetch", (PyCFunction)(void (*)(void))client_fetch, METH_VARARGS | METH_KEYWORDS,
      "fetch(name, path, format=None, *, progress=None) -> None\n\n"
      "Downloads a set to path (written to path + '.part', checked against the server's\n"
-     "CRC32C, renamed onto path). format: 'ptx', 'dds', or the wire number (passed through);\n"
-     "default: from path's extension."},
+     "CRC32C, renamed onto path). format: 'ptx', 'dds', 'exr', 'png', 'obj' (the protocol's\n"
+     "list; which fits which set kind: PROTOCOL.md 4.10) or the wire number; default: from\n"
+     "path's extension."},
     {NULL, NULL, 0, NULL},
 };
 

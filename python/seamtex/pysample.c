@@ -10,7 +10,7 @@
  * Does not own: batching against the server's max_batch and pipelining (stc_sample does it).
  *
  * Rules (docs/python.md): face takes integer formats (b h i l q and unsigned), each value
- * 0..2^32-1; u, v, derivatives and directions take float32 'f' or float64 'd' (converted to
+ * 0..2^32-1; a numpy scalar or 0-d array is a number, like a Python one; u, v, derivatives and directions take float32 'f' or float64 'd' (converted to
  * float32, the wire type). Native or little-endian byte order. Mismatched lengths raise
  * ValueError. A NaN or infinity raises ValueError (naming the array and index) unless
  * nonfinite='status', which sends it and lets the server answer NONFINITE for that query.
@@ -58,9 +58,14 @@ static int col_get(PyObject *o, const char *name, int is_int, int ncomp, col *c)
     if (ncomp == 1 && (PyLong_Check(o) || (!is_int && PyFloat_Check(o)))) {
         c->kind = COL_SCALAR;
         if (is_int) {
-            c->i = PyLong_AsLongLong(o);
+            int over = 0;
+            c->i = PyLong_AsLongLongAndOverflow(o, &over);
             if (c->i == -1 && PyErr_Occurred())
                 return -1;
+            if (over) {
+                PyErr_Format(PyExc_ValueError, "%s = %R is not a face id 0..2^32-1", name, o);
+                return -1;
+            }
             if (c->i < 0 || c->i > (long long)UINT32_MAX) {
                 PyErr_Format(PyExc_ValueError, "%s = %lld is not a face id 0..2^32-1", name, c->i);
                 return -1;
@@ -107,6 +112,35 @@ static int col_get(PyObject *o, const char *name, int is_int, int ncomp, col *c)
     } else if (t == 'd' && c->view.itemsize == 8) {
         c->kind = COL_F64;
         ok = 1;
+    }
+    if (ncomp == 1 && c->view.ndim == 0 && !is_int && !ok &&
+        (t == 'b' || t == 'h' || t == 'i' || t == 'l' || t == 'q' || t == 'B' || t == 'H' ||
+         t == 'I' || t == 'L' || t == 'Q'))
+        ok = 1;                  /* an integer scalar for a float column, as a Python int is */
+    if (ok && ncomp == 1 && c->view.ndim == 0) {
+        /* a numpy scalar (np.uint32(3), np.float32(0.5), arr[i]) or a 0-d array: a number,
+         * broadcast like a Python one; read through the number protocol */
+        col_release(c);
+        c->kind = COL_SCALAR;
+        if (is_int) {
+            PyObject *ix = PyNumber_Index(o);
+            if (!ix)
+                return -1;
+            int over = 0;
+            c->i = PyLong_AsLongLongAndOverflow(ix, &over);
+            Py_DECREF(ix);
+            if (c->i == -1 && PyErr_Occurred())
+                return -1;
+            if (over || c->i < 0 || c->i > (long long)UINT32_MAX) {
+                PyErr_Format(PyExc_ValueError, "%s = %R is not a face id 0..2^32-1", name, o);
+                return -1;
+            }
+        } else {
+            c->f = PyFloat_AsDouble(o);
+            if (c->f == -1.0 && PyErr_Occurred())
+                return -1;
+        }
+        return 0;
     }
     if (!ok) {
         PyErr_Format(PyExc_TypeError, "%s must hold %s in native byte order, not format '%s'",
@@ -200,7 +234,7 @@ static const char FORMAT_NAMES[] = STP_OUTFMTS(NAME_STR4_);
 
 typedef struct sopts {
     const char *mode, *filter, *format, *zero_rule, *nonfinite;
-    unsigned    max_aniso;
+    PyObject   *max_aniso;        /* None or an int 0..255 */
     float       sharpness, width, blur;
     PyObject   *out;
     int         lerp;             /* sample(): Ptex's lerp option (SAMPLE flag bit 5) */
@@ -235,11 +269,10 @@ static int opts_to_stc(const sopts *s, stc_sample_opts *o, int *pass_nonfinite)
         PyErr_Format(PyExc_ValueError, "nonfinite='%s': 'raise' or 'status'", s->nonfinite);
         return -1;
     }
-    if (s->max_aniso > 255) {
-        PyErr_SetString(PyExc_ValueError, "max_aniso is 0..255");
+    unsigned aniso = 0;
+    if (st_py_uint_arg(s->max_aniso, "max_aniso", 255, &aniso) < 0)
         return -1;
-    }
-    o->max_aniso = s->max_aniso;
+    o->max_aniso = aniso;
     o->sharpness = s->sharpness;
     o->width = s->width;
     o->blur = s->blur;
@@ -509,7 +542,7 @@ static int send_uv(const call *c, const void *q, stc_sample_result *res)
     return stc_sample(c->self->conn, c->name, &c->so, q, (size_t)c->n, res);
 }
 
-#define SOPTS_DEFAULT {"traverse", "bilinear", "f32", "nan", "raise", 0, 0, 0, 0, NULL}
+#define SOPTS_DEFAULT {"traverse", "bilinear", "f32", "nan", "raise", NULL, 0, 0, 0, NULL}
 
 PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
 {
@@ -521,7 +554,7 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
     call c = {.self = self, .s = SOPTS_DEFAULT, .qsize = sizeof(stc_query),
               .pack = pack_uv, .send = send_uv};
     sopts *s = &c.s;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sOOO|OOOO$ssssIfffsOp:sample", kwlist, &c.name,
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sOOO|OOOO$ssssOfffsOp:sample", kwlist, &c.name,
                                      &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &s->mode,
                                      &s->filter, &s->format, &s->zero_rule, &s->max_aniso,
                                      &s->sharpness, &s->width, &s->blur, &s->nonfinite, &s->out,
@@ -571,7 +604,7 @@ PyObject *st_py_sample_dir(st_py_client *self, PyObject *args, PyObject *kw)
     call c = {.self = self, .s = SOPTS_DEFAULT, .qsize = sizeof(stc_dir_query),
               .pack = pack_dir, .send = send_dir};
     sopts *s = &c.s;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|OOO$ssssIfffsO:sample_dir", kwlist, &c.name,
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|OOO$ssssOfffsO:sample_dir", kwlist, &c.name,
                                      &o[0], &o[1], &o[2], &o[3], &s->mode, &s->filter,
                                      &s->format, &s->zero_rule, &s->max_aniso, &s->sharpness,
                                      &s->width, &s->blur, &s->nonfinite, &s->out))

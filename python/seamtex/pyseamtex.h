@@ -48,6 +48,11 @@ typedef struct st_py_client {
 /* CLOCK_MONOTONIC in seconds. */
 double st_py_now(void);
 
+/* An integer argument `what` of 0..max into *out (None keeps *out); TypeError for a
+ * non-integer, ValueError naming the argument for one out of range (PyArg's "I" would wrap
+ * it silently: chunk=2**32 + 1 became 1). Returns -1 with the exception set. */
+int st_py_uint_arg(PyObject *o, const char *what, unsigned long max, unsigned *out);
+
 /* The client's scratch block of at least bytes (lock held; GIL not needed); NULL when out of
  * memory. */
 void *st_py_client_scratch(st_py_client *self, size_t bytes);

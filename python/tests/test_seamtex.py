@@ -282,6 +282,95 @@ def test_bad_arguments_raise_clear_errors(client):
     client.ping()  # still usable after each
 
 
+
+def test_numpy_scalars_are_numbers(client):
+    """A numpy scalar (what indexing an array gives) or a 0-d array is a number, broadcast like
+    a Python one: it used to raise "face must be one-dimensional, not 0-dimensional"."""
+    face, u, v, _ = queries(10)
+    ref, _, _ = client.sample("default", int(face[3]), float(u[3]), float(v[3]), dudx=0.01)
+    got, _, _ = client.sample("default", face[3], u[3], v[3], dudx=np.float32(0.01))
+    assert np.array_equal(got, ref)
+    for f in (np.uint32(face[3]), np.int64(face[3]), np.array(face[3]), np.uint8(face[3] % 256)):
+        want, _, _ = client.sample("default", int(f), 0.5, 0.25)
+        assert np.array_equal(client.sample("default", f, np.float32(0.5), np.array(0.25))[0],
+                              want)
+    assert np.array_equal(client.sample("default", 1, np.int64(0), 0.5)[0],   # ints for u, too
+                          client.sample("default", 1, 0.0, 0.5)[0])
+    many, _, _ = client.sample("default", face, np.float64(0.5), np.float32(0.5))  # broadcast
+    assert many.shape == (10, 4)
+    with pytest.raises(TypeError, match="face must hold integers"):
+        client.sample("default", np.float32(1), 0.5, 0.5)
+    with pytest.raises(ValueError, match="face = -1 is not a face id"):
+        client.sample("default", np.int32(-1), 0.5, 0.5)
+    with pytest.raises(ValueError, match="is not a face id"):
+        client.sample("default", 2**70, 0.5, 0.5)
+    with pytest.raises(ValueError, match=r"u\[0\] is NaN"):
+        client.sample("default", 0, np.float32("nan"), 0.5)
+
+
+def test_integer_arguments_are_range_checked(daemon, client):
+    """port, faces, chunk, level and max_aniso are checked, not wrapped modulo 2^32 (PyArg's
+    "I"): faces=(0, 2**32) used to ask for 0 records, chunk=2**32 + 1 sent 1-byte chunks."""
+    with pytest.raises(ValueError, match="port is 0..65535"):
+        seamtex.Client("127.0.0.1", 2**32 + daemon.port)
+    with pytest.raises(ValueError, match="port is 0..65535"):
+        seamtex.Client("127.0.0.1", -1)
+    with pytest.raises(ValueError, match="faces' count is 0..4294967295"):
+        client.info("default", faces=(0, 2**32))
+    with pytest.raises(ValueError, match="faces' first is 0..4294967295"):
+        client.info("default", faces=(-1, 2))
+    with pytest.raises(ValueError, match="faces is 0..4294967295"):
+        client.info("default", faces=-1)
+    with pytest.raises(TypeError, match="faces must be a count or a"):
+        client.info("default", faces=(1, 2, 3))
+    with pytest.raises(TypeError, match="must be an integer"):
+        client.info("default", faces=(0, 2.5))
+    assert [f["id"] for f in client.info("default", faces=(np.uint32(5), 2))["faces"]] == [5, 6]
+    with pytest.raises(ValueError, match="max_aniso is 0..255"):
+        client.sample("default", 0, 0.5, 0.5, max_aniso=2**32)
+    with pytest.raises(ValueError, match="max_aniso is 0..255"):
+        client.sample("default", 0, 0.5, 0.5, max_aniso=-1)
+    with pytest.raises(ValueError, match="level is 0..9"):
+        client.compress("default", "py-never", level=2**32 + 1)
+    with pytest.raises(ValueError, match="chunk is 0..4294967295"):
+        client.upload(__file__, "py-never", chunk=2**32 + 1)
+    with pytest.raises(ValueError, match="chunk is 0..4294967295"):
+        client.upload(__file__, "py-never", chunk=-1)
+    assert "py-never" not in [s["name"] for s in client.ls()]
+    client.ping()
+
+
+def test_init_again_waits_for_a_call_in_flight(daemon):
+    """Client.__init__ on an open Client (another thread mid-call) used to stc_close the
+    connection under that call (use after free); now it waits for the call, then reconnects."""
+    c = daemon.client(shm=False)
+    n = 2_000_000
+    face = np.zeros(n, np.uint32)
+    u = np.full(n, 0.5, np.float32)
+    ended = {}
+    calling = threading.Event()
+
+    def big():
+        calling.set()
+        try:
+            vals, _, st = c.sample("default", face, u, u, filter="trilinear", dudx=0.01)
+            ended["ok"] = vals.shape == (n, 4) and not st.any()
+        except Exception as e:  # pragma: no cover - reported below
+            ended["ok"] = repr(e)
+        ended["t"] = time.monotonic()
+
+    t = threading.Thread(target=big)
+    t.start()
+    calling.wait()
+    time.sleep(0.1)             # the call is packing or on the wire by now (it takes > 0.3 s)
+    c.__init__(daemon.host, daemon.port, shm=False)
+    reinit = time.monotonic()
+    t.join()
+    assert ended["ok"] is True
+    assert reinit >= ended["t"]
+    c.ping()
+    c.close()
+
 def test_large_batch_is_split_by_the_library(daemon):
     # more than the server's max_batch when the daemon is told so
     d = type(daemon)("--max-batch", "1000")
@@ -385,6 +474,26 @@ def test_progress_callback_cannot_reenter_its_client(client, data):
     assert "py-reenter" not in [s["name"] for s in client.ls()]
 
 
+def test_close_in_a_progress_callback_is_not_silently_ignored(client, data):
+    """close() from its own call's progress callback cannot close the connection under that
+    call: it raises StateError (which aborts the transfer) instead of returning None with the
+    Client still open, as it used to."""
+    seen = []
+
+    def cb(done, total):
+        client.close()
+        seen.append(client.closed)       # not reached
+
+    with pytest.raises(seamtex.StateError, match="progress callback"):
+        client.upload(data / "ptex-ref" / "cube8_k6_u8.ptx", "py-close-cb", progress=cb,
+                      chunk=65536)
+    assert seen == [] and not client.closed
+    assert "py-close-cb" not in [s["name"] for s in client.ls()]
+    client.close()
+    client.close()
+    assert client.closed
+
+
 def test_upload_options_and_errors(client, data, tmp_path):
     with pytest.raises(seamtex.Invalid):
         client.upload(data / "images" / "brick.png", "py-brick", colour="red")
@@ -395,6 +504,21 @@ def test_upload_options_and_errors(client, data, tmp_path):
     r = client.upload(data / "images" / "brick.png", "py-brick", colorspace="srgb")
     assert r["kind"] == "atlas"
     client.delete("py-brick")
+
+
+def test_upload_option_with_a_nul_is_refused_not_cut(client, data):
+    """An option value (or name) holding a NUL or a control character is refused before
+    anything is sent: texture="py-nt\\0x" used to go out as texture=py-nt (the C string cut at
+    the NUL) and upload against the wrong texture."""
+    duck = data / "meshes" / "duck"
+    client.upload(duck / "DuckCM.png", "py-nt", replace=True)
+    for bad in ("py-nt\0x", "py-nt\r", "py-nt\x7f"):
+        with pytest.raises(ValueError, match="control character"):
+            client.upload(duck / "Duck.obj", "py-nt-duck", texture=bad)
+    with pytest.raises(ValueError, match="control character"):
+        client.upload(duck / "Duck.obj", "py-nt-duck", **{"texture\0x": "py-nt"})
+    assert "py-nt-duck" not in [s["name"] for s in client.ls()]
+    client.delete("py-nt")
 
 
 def test_compress_job_and_fetch(client, data, tmp_path):
@@ -426,6 +550,54 @@ def test_compress_job_and_fetch(client, data, tmp_path):
         client.compress("py-none", "py-none-bc1").wait()
     for s in ("py-duck-bc1", "py-duck", "py-duck-tex"):
         client.delete(s)
+
+
+def test_fetch_every_protocol_format(client, data, tmp_path):
+    """fetch knows every format of the protocol's list (png, obj, exr too, as `seamtex fetch`
+    does), by extension and by name; a format the set cannot be written as is the server's
+    Unsupported, naming the ones it can."""
+    duck = data / "meshes" / "duck"
+    client.upload(duck / "DuckCM.png", "py-fx-tex", replace=True)
+    client.upload(duck / "Duck.obj", "py-fx", texture="py-fx-tex", replace=True)
+    client.fetch("py-fx", tmp_path / "duck.png")
+    assert (tmp_path / "duck.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    client.fetch("py-fx", tmp_path / "duck.OBJ")              # case-insensitive, like the CLI
+    assert b"\nv " in (tmp_path / "duck.OBJ").read_bytes()
+    client.fetch("py-fx", tmp_path / "duck-as-png.bin", format="png")
+    assert (tmp_path / "duck-as-png.bin").read_bytes() == (tmp_path / "duck.png").read_bytes()
+    with pytest.raises(seamtex.Unsupported, match="png obj"):
+        client.fetch("py-fx", tmp_path / "duck.exr")
+    assert not (tmp_path / "duck.exr").exists()
+    with pytest.raises(ValueError, match="ptx dds exr png obj"):
+        client.fetch("py-fx", tmp_path / "duck.xyz")
+    with pytest.raises(ValueError, match="no extension"):
+        client.fetch("py-fx", tmp_path / "duck")
+    for s in ("py-fx", "py-fx-tex"):
+        client.delete(s)
+
+
+def test_job_wait_zero_polls_once(client):
+    """wait(timeout=0) (or a negative one) polls once and raises TimedOut while the job runs;
+    it used to wait for the whole job (libseamtex took 0 ms as "no deadline"). NaN is a
+    ValueError (it used to spin until the job ended)."""
+    job = client.compress("default", "py-wait0", level=9, replace=True)
+    try:
+        for t in (0, -1.0):
+            with pytest.raises(seamtex.TimedOut):
+                job.wait(timeout=t)
+        with pytest.raises(ValueError, match="timeout"):
+            job.wait(timeout=float("nan"))
+        assert job.status()["state"] in ("queued", "running")
+    finally:
+        job.cancel()
+        try:
+            job.wait(timeout=120)
+        except seamtex.Canceled:
+            pass
+        try:
+            client.delete("py-wait0")
+        except seamtex.NotFound:
+            pass
 
 
 def test_job_cancel_and_timeout(client, data):

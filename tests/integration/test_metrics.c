@@ -3,7 +3,8 @@
  * it refuses.
  *
  * Owns: these behaviours: promtool (Debian's prometheus package) finds zero problems in a
- * scrape; scrapes taken while clients sample show counters that never go back, and a scrape
+ * scrape, and every STATS key has a typed family (no untyped fallback); scrapes taken while
+ * clients sample show counters that never go back, and a scrape
  * after the load agrees with STATS key by key (one set of counters); every HTTP request other
  * than GET / HEAD /metrics gets its 4xx; hostile clients (a 10 MB header, a byte-a-moment
  * sender, binary garbage, a flood of connections) get a 4xx or a closed connection while the
@@ -306,6 +307,67 @@ static void promtool_finds_zero_problems(void **state)
                 == 2);
     free(e.s);
     free(text);
+    stc_close(c);
+    assert_int_equal(st_daemon_down(&d, 20000), 0);
+}
+
+/* Every STATS key has a typed family: none falls back to seamtex_stat_<key> (untyped), the
+ * fallback meant for a key added to STATS before metrics_text.c names it. io<i>_conns,
+ * io<i>_accepted, io<i>_cpu (with --pin-io yes) and shm_overlap_copies used to. The per-thread
+ * families carry thread="<i>" and agree with STATS; promtool stays silent. */
+static void every_stats_key_has_a_typed_family(void **state)
+{
+    (void)state;
+    static const char *const args[] = {"--metrics-listen", "127.0.0.1:0", "--io-threads", "2",
+                                       "--pin-io", "yes", NULL};
+    st_daemon d;
+    assert_int_equal(st_daemon_up(&d, args), 0);
+    int port = metrics_port(&d);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    assert_int_equal(st_wait_stat(&d, c, "conns_current", ST_STAT_EQ, 1, 60000), 0);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    char *text = scrape(port);
+    if (strstr(text, " untyped\n") || strstr(text, "seamtex_stat_")) {
+        fprintf(stderr, "an untyped fallback family in /metrics:\n%s\n", text);
+        fail();
+    }
+    char out[8192];
+    int rc = promtool_check(&d, text, out, sizeof out);
+    if (rc != 0 || out[0])
+        fprintf(stderr, "promtool check metrics: exit %d:\n%s\n", rc, out);
+    assert_int_equal(rc, 0);
+    assert_string_equal(out, "");
+    expo e;
+    parse(text, &e);
+    free(text);
+    /* nothing but the scrape between STATS and it: the per-thread keys are the same */
+    uint64_t conns = 0;
+    for (unsigned i = 0; i < 2; i++) {
+        static const char *const suf[3] = {"conns", "accepted", "cpu"};
+        static const char *const fam[3] = {"seamtex_io_thread_connections",
+                                           "seamtex_io_thread_accepted_total",
+                                           "seamtex_io_thread_cpu"};
+        for (int k = 0; k < 3; k++) {
+            char key[32], series[96];
+            snprintf(key, sizeof key, "io%u_%s", i, suf[k]);
+            snprintf(series, sizeof series, "%s{thread=\"%u\"}", fam[k], i);
+            const stc_stat *x = stc_stat_find(st, n, key);
+            assert_non_null(x);
+            assert_true(value(&e, series) == (double)x->u);
+            const sample *sm = find(&e, series);
+            assert_string_equal(sm->type, k == 1 ? "counter" : "gauge");
+            if (k == 0)
+                conns += x->u;
+        }
+    }
+    assert_true((double)conns == value(&e, "seamtex_connections"));
+    assert_true(value(&e, "seamtex_shm_overlap_copies_total") ==
+                (double)stc_stat_find(st, n, "shm_overlap_copies")->u);
+    assert_string_equal(find(&e, "seamtex_shm_overlap_copies_total")->type, "counter");
+    free(e.s);
     stc_close(c);
     assert_int_equal(st_daemon_down(&d, 20000), 0);
 }
@@ -718,6 +780,7 @@ int main(void)
     signal(SIGPIPE, SIG_IGN);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(promtool_finds_zero_problems),
+        cmocka_unit_test(every_stats_key_has_a_typed_family),
         cmocka_unit_test(scrapes_under_load_are_monotonic_and_match_stats),
         cmocka_unit_test(only_get_metrics_is_served),
         cmocka_unit_test(hostile_clients_do_not_harm_the_daemon),

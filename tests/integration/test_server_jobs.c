@@ -122,6 +122,29 @@ static void compress_job_fetch_dds_and_cancel(void **state)
     stc_close(c);
 }
 
+/* stc_job_wait with wait_ms 0 polls once: a running job gives STC_ETIMEDOUT at once (it used
+ * to wait for ever, 0 being taken as "no deadline"; seamtex.h says only a negative wait_ms
+ * does that), and the connection stays usable. */
+static void job_wait_zero_polls_once(void **state)
+{
+    (void)state;
+    stc_conn *c = st_daemon_client(&D1, NULL);
+    assert_non_null(c);
+    uint64_t job = 0;
+    stc_job js;
+    /* level 9 of the default set takes seconds: running when polled right after */
+    assert_int_equal(stc_compress(c, "default", "bc1-wait0", 9, STC_COMPRESS_SEAM_AWARE, &job), 0);
+    memset(&js, 0, sizeof js);
+    assert_int_equal(stc_job_wait(c, job, 0, &js), STC_ETIMEDOUT);
+    assert_true(js.state == STC_JOB_QUEUED || js.state == STC_JOB_RUNNING);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(stc_job_cancel(c, job, &js), 0);
+    int rc = stc_job_wait(c, job, JOB_DEADLINE_MS, &js);
+    assert_true(rc == 0 || rc == STC_ESERVERCANCELED);
+    stc_delete(c, "bc1-wait0");
+    stc_close(c);
+}
+
 /* --job-threads spreads a job's encoding over threads; the blocks do not depend on it. */
 static void job_threads_give_the_same_blocks(void **state)
 {
@@ -151,6 +174,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(compress_job_fetch_dds_and_cancel),
+        cmocka_unit_test(job_wait_zero_polls_once),
         cmocka_unit_test(job_threads_give_the_same_blocks),
     };
     static const char *const args[] = {"--heavy-batch", "2048", NULL};
