@@ -68,16 +68,23 @@ void st_cube_face_dir(unsigned face, float u, float v, float dir[3])
 
 static float dot3(const float *a, const float *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-static int major_face(const float d[3])
+/* Major axis 0..2 of a direction (ties: x, then y, as OpenEXR), -1 for a zero, NaN or
+ * infinite one. Each component is tested alone: a sum of magnitudes would overflow to
+ * infinity for finite directions near FLT_MAX and refuse them. */
+static int major_axis(const float d[3])
 {
     float ax = fabsf(d[0]), ay = fabsf(d[1]), az = fabsf(d[2]);
-    if (!(ax + ay + az > 0.0f) || !isfinite(ax + ay + az))
+    if (!isfinite(ax) || !isfinite(ay) || !isfinite(az))
         return -1;
     if (ax >= ay && ax >= az)
-        return d[0] > 0 ? 0 : 1;
-    if (ay >= az)
-        return d[1] > 0 ? 2 : 3;
-    return d[2] > 0 ? 4 : 5;
+        return ax > 0.0f ? 0 : -1;
+    return ay >= az ? 1 : 2;
+}
+
+static int major_face(const float d[3])
+{
+    int a = major_axis(d);
+    return a < 0 ? -1 : 2 * a + (d[a] > 0 ? 0 : 1);
 }
 
 static float clamp01(float x) { return x < 0.0f ? 0.0f : x > 1.0f ? 1.0f : x; }
@@ -95,12 +102,14 @@ int st_cube_dir_to_face(const float dir[3], float *u, float *v)
 
 void st_cube_fixup_dir(const float dir[3], float n, float lod, float out[3])
 {
-    float m = fmaxf(fmaxf(fabsf(dir[0]), fabsf(dir[1])), fabsf(dir[2]));
+    /* the major axis by the lookup's own rule: at an exact tie (a cube edge or corner) the
+     * tied component that does not pick the face is scaled too, as OpenEXR's lookup does */
+    int a = major_axis(dir);
     float scale = n > 0 ? 1.0f - exp2f(lod > 0 ? lod : 0) / n : 1.0f;
     if (scale < 0)
         scale = 0;
     for (int k = 0; k < 3; k++)
-        out[k] = fabsf(dir[k]) != m ? dir[k] * scale : dir[k];
+        out[k] = k != a ? dir[k] * scale : dir[k];
 }
 
 /* uv derivative of the face mapping along a direction change dd at direction d on face f */

@@ -69,7 +69,9 @@ void st_cube_face_dir(unsigned face, float u, float v, float dir[3]);
 int st_cube_dir_to_face(const float dir[3], float *u, float *v);
 
 /* Castano's edge-fixup of a direction for a face of n texels at level lod (0 = level 0):
- * the two minor components are scaled by 1 - 2^lod / n ((n-1)/n at lod 0). */
+ * the two components other than the major axis (ties: x, then y, the face rule) are scaled
+ * by 1 - 2^lod / n ((n-1)/n at lod 0); at an exact tie (a cube edge or corner) the tied
+ * component is scaled too, so the lookup lands where OpenEXR's does. */
 void st_cube_fixup_dir(const float dir[3], float n, float lod, float out[3]);
 
 enum st_cube_lookup {

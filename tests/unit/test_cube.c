@@ -431,6 +431,88 @@ static void castano_fixup_scales_the_minor_components(void **state)
     assert_float_equal(o[1], -1.0f, 1e-6);
 }
 
+/* Finite directions whose magnitudes sum past FLT_MAX (components near FLT_MAX) are valid:
+ * they pick a face and (u, v) as the same direction scaled down does (OpenEXR's
+ * CubeMap::faceAndPixelPosition answers them; they were refused as non-finite). */
+static void huge_finite_directions_get_their_face(void **state)
+{
+    (void)state;
+    st_set_info in = {.nchan = 1, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, 8, 0, &s, &e), ST_OK);
+    const float M = 3.4028235e38f; /* FLT_MAX */
+    const float huge[4][3] = {{M, -M, 0.5f * M}, {M, M, M}, {-M, 0.0f, 0.7f * M}, {0.25f * M, -M, M}};
+    for (int i = 0; i < 4; i++) {
+        float small[3], u, v, su, sv;
+        for (int k = 0; k < 3; k++)
+            small[k] = huge[i][k] * 0x1p-100f;
+        int fs = st_cube_dir_to_face(small, &su, &sv);
+        assert_true(fs >= 0);
+        assert_int_equal(st_cube_dir_to_face(huge[i], &u, &v), fs);
+        assert_float_equal(u, su, 1e-6);
+        assert_float_equal(v, sv, 1e-6);
+        for (unsigned lookup = 0; lookup < 2; lookup++) {
+            st_cube_query q, qs;
+            memset(&q, 0, sizeof q);
+            memset(&qs, 0, sizeof qs);
+            memcpy(q.dir, huge[i], sizeof q.dir);
+            memcpy(qs.dir, small, sizeof qs.dir);
+            q.cone = qs.cone = 0.01f;
+            st_query fq, fqs;
+            uint8_t st, sts;
+            st_cube_queries(s, lookup, &q, 1, &fq, &st);
+            st_cube_queries(s, lookup, &qs, 1, &fqs, &sts);
+            assert_int_equal(sts, ST_Q_OK);
+            assert_int_equal(st, ST_Q_OK);
+            assert_int_equal(fq.face, fqs.face);
+            assert_float_equal(fq.u, fqs.u, 1e-6);
+            assert_float_equal(fq.v, fqs.v, 1e-6);
+        }
+    }
+    st_set_free(s);
+}
+
+/* At an exact tie of the two largest components (a cube edge; all three: a corner) the fixup
+ * lookup scales every component but the one that picks the face, so pixel centre 0 / n-1
+ * lands on the edge exactly as OpenEXR's lookup puts it: u n - 1/2 = (s + 1)/2 (n - 1).
+ * (The tied component was left unscaled, half a texel off: u = 0 or 1.) */
+static void fixup_lookup_at_edge_and_corner_ties_matches_openexr(void **state)
+{
+    (void)state;
+    const uint32_t n = 16;
+    st_set_info in = {.nchan = 1, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, n, 0, &s, &e), ST_OK);
+    const float d0[4][3] = {{1, 1, 0.3f}, {-1, -1, -1}, {0.5f, -0.2f, 0.5f}, {0.1f, -2, 2}};
+    /* OpenEXR's face and in-face pixel (x right, y down; centres 0 .. n-1 span the face) */
+    const int face[4] = {0, 1, 0, 3};
+    const float px[4][2] = {{(0.3f + 1) / 2 * (n - 1), 0},         /* +X: s = z, t = -y */
+                            {(float)(n - 1), (float)(n - 1)},       /* -X: s = -z, t = -y */
+                            {(float)(n - 1), (0.4f + 1) / 2 * (n - 1)},                 /* +X, z tied */
+                            {(0.05f + 1) / 2 * (n - 1), (float)(n - 1)}}; /* -Y: s = x/2, t = z/2 */
+    for (int i = 0; i < 4; i++) {
+        st_cube_query q;
+        memset(&q, 0, sizeof q);
+        memcpy(q.dir, d0[i], sizeof q.dir);
+        st_query fq;
+        uint8_t st;
+        st_cube_queries(s, ST_CUBE_LOOKUP_FIXUP, &q, 1, &fq, &st);
+        assert_int_equal(st, ST_Q_OK);
+        assert_int_equal(fq.face, face[i]);
+        assert_float_equal(fq.u * n - 0.5f, px[i][0], 1e-4);
+        assert_float_equal(fq.v * n - 0.5f, px[i][1], 1e-4);
+    }
+    /* the fixup direction itself: the tied y is scaled, x (the face's axis) is not */
+    float d[3] = {1, -1, 0.5f}, o[3];
+    st_cube_fixup_dir(d, 8, 0, o);
+    assert_float_equal(o[0], 1.0f, 0);
+    assert_float_equal(o[1], -7.0f / 8.0f, 1e-6);
+    assert_float_equal(o[2], 0.5f * 7.0f / 8.0f, 1e-6);
+    st_set_free(s);
+}
+
 static void baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse(void **state)
 {
     (void)state;
@@ -726,6 +808,8 @@ int main(void)
         cmocka_unit_test(traverse_is_continuous_across_every_edge_and_corner_and_clamp_is_not),
         cmocka_unit_test(latlong_and_cube_versions_of_a_scene_agree_away_from_seams),
         cmocka_unit_test(castano_fixup_scales_the_minor_components),
+        cmocka_unit_test(huge_finite_directions_get_their_face),
+        cmocka_unit_test(fixup_lookup_at_edge_and_corner_ties_matches_openexr),
         cmocka_unit_test(baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse),
         cmocka_unit_test(layouts_round_trip_exactly),
         cmocka_unit_test(cross_images_are_continuous_across_their_internal_edges),
