@@ -141,7 +141,8 @@ int st_cube_from_image(const st_image *img, st_cube_layout layout, uint32_t face
  * 6:1 strip_h, 4:3 cross_h, 3:4 cross_v, 2:1 latlong; -1 when none fits. */
 int st_cube_guess_layout(const st_image *img);
 
-/* From six square images of the same size, dtype and channel count. */
+/* From six square images of the same size, dtype and channel count. conv outside
+ * st_cube_faces_conv: ST_EINVAL. */
 int st_cube_from_faces(const st_image faces[6], st_cube_faces_conv conv, size_t max_bytes,
                        st_set **out, st_error *e);
 

@@ -196,6 +196,9 @@ int st_cube_from_faces(const st_image faces[6], st_cube_faces_conv conv, size_t 
                        st_set **out, st_error *e)
 {
     *out = NULL;
+    if ((unsigned)conv > ST_CUBE_FACES_GL_FLIPPED)
+        return st_fail(e, ST_EINVAL, "six-face convention %d unknown (0 exr, 1 gl, 2 gl-flipped)",
+                       (int)conv);
     for (int f = 0; f < 6; f++) {
         if (!faces[f].data || faces[f].w != faces[f].h)
             return st_fail(e, ST_EINVAL, "cube face %d: %ux%u is not square", f, faces[f].w, faces[f].h);

@@ -513,6 +513,34 @@ static void fixup_lookup_at_edge_and_corner_ties_matches_openexr(void **state)
     st_set_free(s);
 }
 
+/* st_cube_from_faces knows three conventions; any other value is refused (it was taken as
+ * the GL one: +Z and -Z exchanged without a word). */
+static void six_faces_with_an_unknown_convention_are_refused(void **state)
+{
+    (void)state;
+    float px[6][4];
+    st_image faces[6];
+    memset(faces, 0, sizeof faces);
+    for (int f = 0; f < 6; f++) {
+        for (int k = 0; k < 4; k++)
+            px[f][k] = (float)(f * 4 + k);
+        faces[f].w = faces[f].h = 2;
+        faces[f].nchan = 1;
+        faces[f].dtype = ST_DT_F32;
+        faces[f].alpha_chan = -1;
+        faces[f].data = px[f];
+    }
+    st_set *s = NULL;
+    st_error e;
+    for (int conv = 0; conv <= 2; conv++) {
+        assert_int_equal(st_cube_from_faces(faces, (st_cube_faces_conv)conv, 0, &s, &e), ST_OK);
+        st_set_free(s);
+    }
+    assert_int_equal(st_cube_from_faces(faces, (st_cube_faces_conv)3, 0, &s, &e), ST_EINVAL);
+    assert_null(s);
+    assert_non_null(strstr(e.msg, "convention"));
+}
+
 static void baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse(void **state)
 {
     (void)state;
@@ -810,6 +838,7 @@ int main(void)
         cmocka_unit_test(castano_fixup_scales_the_minor_components),
         cmocka_unit_test(huge_finite_directions_get_their_face),
         cmocka_unit_test(fixup_lookup_at_edge_and_corner_ties_matches_openexr),
+        cmocka_unit_test(six_faces_with_an_unknown_convention_are_refused),
         cmocka_unit_test(baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse),
         cmocka_unit_test(layouts_round_trip_exactly),
         cmocka_unit_test(cross_images_are_continuous_across_their_internal_edges),
