@@ -121,13 +121,18 @@ static void uv_deriv(int f, const float d[3], const float dd[3], float *du, floa
     *dv = (dot3(dd, FT[f]) * dn - dot3(d, FT[f]) * ddn) * inv;
 }
 
-/* One query: face, uv and footprint in uv units; lod0 is used by the fixup lookup. */
+/* One query: face, uv and footprint in uv units; lod0 is used by the fixup lookup.
+ * Returns 0, or the status of a query that gets no value: ST_Q_NONFINITE (a zero / non-finite
+ * direction, a non-finite cone or footprint), ST_Q_BAD_FOOTPRINT (a negative cone: neither a
+ * cone nor the "derivatives" of cone == 0). */
 static int map_query(const st_set *cube, unsigned lookup, const st_cube_query *q, st_query *fq)
 {
     float d[3] = {q->dir[0], q->dir[1], q->dir[2]};
     int f = major_face(d);
     if (f < 0 || !isfinite(q->cone))
-        return -1;
+        return ST_Q_NONFINITE;
+    if (q->cone < 0.0f)
+        return ST_Q_BAD_FOOTPRINT;
     float dn = fabsf(dot3(d, FN[f]));
     /* normalise so the major component is 1: derivatives scale with it */
     float dxs[3], dys[3];
@@ -153,7 +158,7 @@ static int map_query(const st_set *cube, unsigned lookup, const st_cube_query *q
         uv_deriv(f, d, dys, &dudy, &dvdy);
     }
     if (!isfinite(dudx + dvdx + dudy + dvdy))
-        return -1;
+        return ST_Q_NONFINITE;
     if (lookup == ST_CUBE_LOOKUP_FIXUP) {
         float n = (float)cube->faces[0].w;
         float lx = sqrtf(dudx * dudx + dvdx * dvdx), ly = sqrtf(dudy * dudy + dvdy * dvdy);
@@ -163,7 +168,7 @@ static int map_query(const st_set *cube, unsigned lookup, const st_cube_query *q
         st_cube_fixup_dir(d, n, lod, fd);
         int g = major_face(fd);
         if (g < 0)
-            return -1;
+            return ST_Q_NONFINITE;
         f = g;
         float gn = dot3(fd, FN[f]);
         s = dot3(fd, FS[f]) / gn;
@@ -183,11 +188,12 @@ void st_cube_queries(const st_set *cube, unsigned lookup, const st_cube_query *q
                      st_query *fq, uint8_t *status)
 {
     for (size_t i = 0; i < n; i++) {
-        if (map_query(cube, lookup, &q[i], &fq[i])) {
+        int r = map_query(cube, lookup, &q[i], &fq[i]);
+        if (r) {
             memset(&fq[i], 0, sizeof fq[i]);
             fq[i].u = fq[i].v = 0.5f;
             if (status)
-                status[i] = ST_Q_NONFINITE;
+                status[i] = (uint8_t)r;
         } else if (status) {
             status[i] = ST_Q_OK;
         }

@@ -83,7 +83,8 @@ enum st_cube_lookup {
 
 /* One direction query: dir (any length > 0) and a footprint given either as a cone angle
  * (full apex angle in radians, > 0) or, when cone == 0, as the direction derivatives
- * ddx and ddy (same units as dir; zero derivatives = a point lookup). */
+ * ddx and ddy (same units as dir; zero derivatives = a point lookup). A negative cone is
+ * neither: its query gets ST_Q_BAD_FOOTPRINT. */
 typedef struct st_cube_query {
     float dir[3];
     float cone;
@@ -93,7 +94,8 @@ typedef struct st_cube_query {
 /* Maps every query to (face, u, v, footprint) and samples with st_sample_batch in chunks
  * (no allocation). cube: any set st_cube_is_cube accepts, BC1 cubes included. Arguments and
  * results as st_sample_batch: out n * nchan floats, coverage and status (out required, the
- * other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE. Returns the
+ * other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE, a negative cone
+ * ST_Q_BAD_FOOTPRINT. Returns the
  * number of queries not ST_Q_OK, or a negative ST_E* code (nothing written). lookup is an
  * st_cube_lookup. Traverse mode gives seamless filtering across edges and corners; Clamp
  * shows the seams; Discard renormalises inside the face. */
@@ -106,7 +108,8 @@ int st_cube_sample_dir(const st_set *cube, const st_sample_opts *o, unsigned loo
 int st_cube_is_cube(const st_set *s);
 
 /* Converts direction queries to face queries (what st_cube_sample_dir does before sampling);
- * status gets ST_Q_NONFINITE for a bad direction (its query is face 0, centre). */
+ * status gets ST_Q_NONFINITE for a bad direction or a non-finite cone / footprint,
+ * ST_Q_BAD_FOOTPRINT for a negative cone (such a query is face 0, centre). */
 void st_cube_queries(const st_set *cube, unsigned lookup, const st_cube_query *q, size_t n,
                      st_query *fq, uint8_t *status);
 

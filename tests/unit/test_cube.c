@@ -202,6 +202,25 @@ static void footprints_from_derivatives_and_cones_follow_the_projection(void **s
     q.cone = NAN;
     st_cube_queries(s, 0, &q, 1, &fq, &st);
     assert_int_equal(st, ST_Q_NONFINITE);
+    /* a negative cone is neither a cone nor the derivatives of cone == 0: refused, not a
+     * silent point lookup (with zero ddx / ddy as SAMPLE_DIR's cone form sends them) */
+    q.cone = -0.01f;
+    for (unsigned lookup = 0; lookup < 2; lookup++) {
+        st_cube_queries(s, lookup, &q, 1, &fq, &st);
+        assert_int_equal(st, ST_Q_BAD_FOOTPRINT);
+    }
+    st_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.filter = ST_FILTER_BILINEAR;
+    float val;
+    float cov = 1;
+    assert_int_equal(st_cube_sample_dir(s, &so, 0, &q, 1, &val, &cov, &st), 1);
+    assert_int_equal(st, ST_Q_BAD_FOOTPRINT);
+    assert_true(isnan(val));
+    assert_float_equal(cov, 0, 0);
+    q.cone = -INFINITY;
+    st_cube_queries(s, 0, &q, 1, &fq, &st);
+    assert_int_equal(st, ST_Q_NONFINITE);
     st_set_free(s);
 }
 
