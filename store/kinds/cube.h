@@ -171,8 +171,9 @@ int st_cube_bake_fixup(const st_set *cube, size_t max_bytes, st_set **out, st_er
 
 
 /* Lays level `level` of a cube set out as one image in `layout` (strip or cross; not
- * latlong): exact texel copies. out->data is malloc'ed; the caller frees it with
- * st_image_free. */
+ * latlong): exact texel copies; out->envmap is ST_ENVMAP_CUBE for the vertical strip (OpenEXR's
+ * envmap=cube layout) and ST_ENVMAP_NONE for the others. out->data is malloc'ed; the caller
+ * frees it with st_image_free. */
 int st_cube_to_image(const st_set *cube, unsigned level, st_cube_layout layout, st_image *out,
                      st_error *e);
 

@@ -462,7 +462,9 @@ int st_cube_to_image(const st_set *cube, unsigned level, st_cube_layout layout, 
     out->dtype = cube->info.dtype;
     out->colorspace = cube->info.colorspace;
     out->alpha_chan = cube->info.alpha_chan;
-    out->envmap = ST_ENVMAP_CUBE;
+    /* only the vertical strip is OpenEXR's envmap=cube layout: a cross or a horizontal strip
+     * tagged so would be read as a vertical strip (and refused: it does not fit 1 x 6) */
+    out->envmap = layout == ST_CUBE_STRIP_V ? ST_ENVMAP_CUBE : ST_ENVMAP_NONE;
     out->nlevels_file = 1;
     out->data = img;
     return ST_OK;

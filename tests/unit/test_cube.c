@@ -560,6 +560,50 @@ static void six_faces_with_an_unknown_convention_are_refused(void **state)
     assert_non_null(strstr(e.msg, "convention"));
 }
 
+/* st_cube_write: an EXR vertical strip is tagged envmap=cube (OpenEXR's layout) and imports
+ * back as the same cube with no option; the other layouts carry no envmap (a cross tagged
+ * envmap=cube would be read as a vertical strip) and come back with cube=auto. (The strip was
+ * written untagged and came back as a one-face atlas.) */
+static void written_layouts_import_back_as_the_same_cube(void **state)
+{
+    (void)state;
+    const uint32_t n = 4;
+    st_set_info in = {.nchan = 3, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *c = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, n, 0, &c, &e), ST_OK);
+    for (unsigned f = 0; f < 6; f++) {
+        float *t = (float *)st_face_level(c, f, 0);
+        for (uint32_t k = 0; k < n * n * 3; k++)
+            t[k] = (float)(f * 1000 + k);
+    }
+    st_set_build_mips(c, UINT32_MAX);
+    static const char *const name[4] = {"strip_v", "strip_h", "cross_h", "cross_v"};
+    for (unsigned l = 0; l < 4; l++) {
+        char p[512];
+        snprintf(p, sizeof p, "%s/written_%s.exr", tmpdir, name[l]);
+        assert_int_equal(st_cube_write(c, 0, (st_cube_layout)l, p, &e), ST_OK);
+        for (unsigned opt = 0; opt < 2; opt++) {
+            st_import_opts o;
+            st_import_opts_init(&o);
+            o.cube = opt ? ST_IMPORT_CUBE_AUTO : ST_IMPORT_CUBE_NONE;
+            st_set *b = NULL;
+            assert_int_equal(st_import_file(p, &o, &b, &e), ST_OK);
+            if (!opt && l != ST_CUBE_STRIP_V) {
+                assert_int_equal(b->info.kind, ST_KIND_ATLAS);
+                st_set_free(b);
+                continue;
+            }
+            assert_int_equal(b->info.kind, ST_KIND_CUBE);
+            for (unsigned f = 0; f < 6; f++)
+                assert_memory_equal(st_face_level(b, f, 0), st_face_level(c, f, 0),
+                                    (size_t)n * n * 3 * sizeof(float));
+            st_set_free(b);
+        }
+    }
+    st_set_free(c);
+}
+
 static void baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse(void **state)
 {
     (void)state;
@@ -858,6 +902,7 @@ int main(void)
         cmocka_unit_test(huge_finite_directions_get_their_face),
         cmocka_unit_test(fixup_lookup_at_edge_and_corner_ties_matches_openexr),
         cmocka_unit_test(six_faces_with_an_unknown_convention_are_refused),
+        cmocka_unit_test(written_layouts_import_back_as_the_same_cube),
         cmocka_unit_test(baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse),
         cmocka_unit_test(layouts_round_trip_exactly),
         cmocka_unit_test(cross_images_are_continuous_across_their_internal_edges),
