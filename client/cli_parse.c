@@ -39,9 +39,14 @@ int cli_parse_float(const char *s, float *out)
         return -1;
     /* a finite value past float's range is refused like strtod's own overflow above
      * (converting it would be undefined behaviour); "nan" and "inf" stay accepted: the server
-     * answers such a query with the NONFINITE status */
-    if (isfinite(v) && fabs(v) > FLT_MAX)
-        return -1;
+     * answers such a query with the NONFINITE status. Past FLT_MAX but below the midpoint
+     * 2^128 - 2^103 rounds to FLT_MAX: that is how FLT_MAX is printed (%.8g "3.4028235e+38",
+     * %.9g "3.40282347e+38", both a little above it) */
+    if (isfinite(v) && fabs(v) > FLT_MAX) {
+        if (fabs(v) >= 0x1.ffffffp127)
+            return -1;
+        v = v > 0 ? FLT_MAX : -FLT_MAX;
+    }
     *out = (float)v;
     return 0;
 }

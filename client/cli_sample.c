@@ -176,7 +176,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
     const char *qfile = NULL, *set = NULL;
     stc_query one;
     stc_dir_query onedir;
-    float cone = -1.0f;
+    float cone = 0.0f;
+    int have_cone = 0;
     memset(&one, 0, sizeof one);
     memset(&onedir, 0, sizeof onedir);
 
@@ -226,6 +227,7 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
                   : !strcmp(a, "--blur") ? &o.blur : !strcmp(a, "--cone") ? &cone : NULL;
         if (fp) {
             bad = cli_parse_float(v, fp);
+            have_cone |= fp == &cone;
         } else if (!strcmp(a, "--queries")) {
             qfile = v;
         } else if (!strcmp(a, "--mode")) {
@@ -260,7 +262,7 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             return CLI_USAGE;
         }
     }
-    if (!set || (qfile && npos) || (!qfile && npos != 3) || (cone >= 0.0f && !dir)) {
+    if (!set || (qfile && npos) || (!qfile && npos != 3) || (have_cone && !dir)) {
         fputs(SAMPLE_USAGE, stderr);
         return CLI_USAGE;
     }
@@ -288,8 +290,9 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
         fprintf(stderr, "seamtex sample: %s must be numbers\n", dir ? "X Y Z" : "FACE U V");
         return CLI_USAGE;
     }
-    if (dir && cone >= 0.0f) {
-        /* a cone footprint: ddx[0] is the full angle, the other five floats are 0 */
+    if (dir && have_cone) {
+        /* a cone footprint: ddx[0] is the full angle, the other five floats are 0 (a NaN or
+         * negative angle goes as it is: the server answers NONFINITE / BAD_FOOTPRINT) */
         o.footprint = 1;
         stc_dir_query *d = q;
         for (size_t i = 0; i < n; i++) {

@@ -9,7 +9,10 @@
 #include "cube.h"
 
 /* Writes level `level` of a cube set as one image in `layout` (strip or cross; not latlong)
- * through st_image_write (format from the extension, e.g. .exr or .png). */
+ * through st_image_write_img (format from the extension, e.g. .exr or .png; the set's colour
+ * space recorded). An EXR vertical strip carries envmap=cube, so it imports back as the same
+ * cube with no option; the other layouts carry no envmap tag (cube=auto or the layout's
+ * option imports them). */
 int st_cube_write(const st_set *cube, unsigned level, st_cube_layout layout, const char *path,
                   st_error *e);
 

@@ -68,16 +68,23 @@ void st_cube_face_dir(unsigned face, float u, float v, float dir[3])
 
 static float dot3(const float *a, const float *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-static int major_face(const float d[3])
+/* Major axis 0..2 of a direction (ties: x, then y, as OpenEXR), -1 for a zero, NaN or
+ * infinite one. Each component is tested alone: a sum of magnitudes would overflow to
+ * infinity for finite directions near FLT_MAX and refuse them. */
+static int major_axis(const float d[3])
 {
     float ax = fabsf(d[0]), ay = fabsf(d[1]), az = fabsf(d[2]);
-    if (!(ax + ay + az > 0.0f) || !isfinite(ax + ay + az))
+    if (!isfinite(ax) || !isfinite(ay) || !isfinite(az))
         return -1;
     if (ax >= ay && ax >= az)
-        return d[0] > 0 ? 0 : 1;
-    if (ay >= az)
-        return d[1] > 0 ? 2 : 3;
-    return d[2] > 0 ? 4 : 5;
+        return ax > 0.0f ? 0 : -1;
+    return ay >= az ? 1 : 2;
+}
+
+static int major_face(const float d[3])
+{
+    int a = major_axis(d);
+    return a < 0 ? -1 : 2 * a + (d[a] > 0 ? 0 : 1);
 }
 
 static float clamp01(float x) { return x < 0.0f ? 0.0f : x > 1.0f ? 1.0f : x; }
@@ -95,12 +102,14 @@ int st_cube_dir_to_face(const float dir[3], float *u, float *v)
 
 void st_cube_fixup_dir(const float dir[3], float n, float lod, float out[3])
 {
-    float m = fmaxf(fmaxf(fabsf(dir[0]), fabsf(dir[1])), fabsf(dir[2]));
+    /* the major axis by the lookup's own rule: at an exact tie (a cube edge or corner) the
+     * tied component that does not pick the face is scaled too, as OpenEXR's lookup does */
+    int a = major_axis(dir);
     float scale = n > 0 ? 1.0f - exp2f(lod > 0 ? lod : 0) / n : 1.0f;
     if (scale < 0)
         scale = 0;
     for (int k = 0; k < 3; k++)
-        out[k] = fabsf(dir[k]) != m ? dir[k] * scale : dir[k];
+        out[k] = k != a ? dir[k] * scale : dir[k];
 }
 
 /* uv derivative of the face mapping along a direction change dd at direction d on face f */
@@ -112,13 +121,18 @@ static void uv_deriv(int f, const float d[3], const float dd[3], float *du, floa
     *dv = (dot3(dd, FT[f]) * dn - dot3(d, FT[f]) * ddn) * inv;
 }
 
-/* One query: face, uv and footprint in uv units; lod0 is used by the fixup lookup. */
+/* One query: face, uv and footprint in uv units; lod0 is used by the fixup lookup.
+ * Returns 0, or the status of a query that gets no value: ST_Q_NONFINITE (a zero / non-finite
+ * direction, a non-finite cone or footprint), ST_Q_BAD_FOOTPRINT (a negative cone: neither a
+ * cone nor the "derivatives" of cone == 0). */
 static int map_query(const st_set *cube, unsigned lookup, const st_cube_query *q, st_query *fq)
 {
     float d[3] = {q->dir[0], q->dir[1], q->dir[2]};
     int f = major_face(d);
     if (f < 0 || !isfinite(q->cone))
-        return -1;
+        return ST_Q_NONFINITE;
+    if (q->cone < 0.0f)
+        return ST_Q_BAD_FOOTPRINT;
     float dn = fabsf(dot3(d, FN[f]));
     /* normalise so the major component is 1: derivatives scale with it */
     float dxs[3], dys[3];
@@ -144,7 +158,7 @@ static int map_query(const st_set *cube, unsigned lookup, const st_cube_query *q
         uv_deriv(f, d, dys, &dudy, &dvdy);
     }
     if (!isfinite(dudx + dvdx + dudy + dvdy))
-        return -1;
+        return ST_Q_NONFINITE;
     if (lookup == ST_CUBE_LOOKUP_FIXUP) {
         float n = (float)cube->faces[0].w;
         float lx = sqrtf(dudx * dudx + dvdx * dvdx), ly = sqrtf(dudy * dudy + dvdy * dvdy);
@@ -154,7 +168,7 @@ static int map_query(const st_set *cube, unsigned lookup, const st_cube_query *q
         st_cube_fixup_dir(d, n, lod, fd);
         int g = major_face(fd);
         if (g < 0)
-            return -1;
+            return ST_Q_NONFINITE;
         f = g;
         float gn = dot3(fd, FN[f]);
         s = dot3(fd, FS[f]) / gn;
@@ -174,11 +188,12 @@ void st_cube_queries(const st_set *cube, unsigned lookup, const st_cube_query *q
                      st_query *fq, uint8_t *status)
 {
     for (size_t i = 0; i < n; i++) {
-        if (map_query(cube, lookup, &q[i], &fq[i])) {
+        int r = map_query(cube, lookup, &q[i], &fq[i]);
+        if (r) {
             memset(&fq[i], 0, sizeof fq[i]);
             fq[i].u = fq[i].v = 0.5f;
             if (status)
-                status[i] = ST_Q_NONFINITE;
+                status[i] = (uint8_t)r;
         } else if (status) {
             status[i] = ST_Q_OK;
         }

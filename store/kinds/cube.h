@@ -69,7 +69,9 @@ void st_cube_face_dir(unsigned face, float u, float v, float dir[3]);
 int st_cube_dir_to_face(const float dir[3], float *u, float *v);
 
 /* Castano's edge-fixup of a direction for a face of n texels at level lod (0 = level 0):
- * the two minor components are scaled by 1 - 2^lod / n ((n-1)/n at lod 0). */
+ * the two components other than the major axis (ties: x, then y, the face rule) are scaled
+ * by 1 - 2^lod / n ((n-1)/n at lod 0); at an exact tie (a cube edge or corner) the tied
+ * component is scaled too, so the lookup lands where OpenEXR's does. */
 void st_cube_fixup_dir(const float dir[3], float n, float lod, float out[3]);
 
 enum st_cube_lookup {
@@ -81,7 +83,8 @@ enum st_cube_lookup {
 
 /* One direction query: dir (any length > 0) and a footprint given either as a cone angle
  * (full apex angle in radians, > 0) or, when cone == 0, as the direction derivatives
- * ddx and ddy (same units as dir; zero derivatives = a point lookup). */
+ * ddx and ddy (same units as dir; zero derivatives = a point lookup). A negative cone is
+ * neither: its query gets ST_Q_BAD_FOOTPRINT. */
 typedef struct st_cube_query {
     float dir[3];
     float cone;
@@ -91,7 +94,8 @@ typedef struct st_cube_query {
 /* Maps every query to (face, u, v, footprint) and samples with st_sample_batch in chunks
  * (no allocation). cube: any set st_cube_is_cube accepts, BC1 cubes included. Arguments and
  * results as st_sample_batch: out n * nchan floats, coverage and status (out required, the
- * other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE. Returns the
+ * other two may be NULL). A zero / non-finite direction gets ST_Q_NONFINITE, a negative cone
+ * ST_Q_BAD_FOOTPRINT. Returns the
  * number of queries not ST_Q_OK, or a negative ST_E* code (nothing written). lookup is an
  * st_cube_lookup. Traverse mode gives seamless filtering across edges and corners; Clamp
  * shows the seams; Discard renormalises inside the face. */
@@ -104,7 +108,8 @@ int st_cube_sample_dir(const st_set *cube, const st_sample_opts *o, unsigned loo
 int st_cube_is_cube(const st_set *s);
 
 /* Converts direction queries to face queries (what st_cube_sample_dir does before sampling);
- * status gets ST_Q_NONFINITE for a bad direction (its query is face 0, centre). */
+ * status gets ST_Q_NONFINITE for a bad direction or a non-finite cone / footprint,
+ * ST_Q_BAD_FOOTPRINT for a negative cone (such a query is face 0, centre). */
 void st_cube_queries(const st_set *cube, unsigned lookup, const st_cube_query *q, size_t n,
                      st_query *fq, uint8_t *status);
 
@@ -139,7 +144,8 @@ int st_cube_from_image(const st_image *img, st_cube_layout layout, uint32_t face
  * 6:1 strip_h, 4:3 cross_h, 3:4 cross_v, 2:1 latlong; -1 when none fits. */
 int st_cube_guess_layout(const st_image *img);
 
-/* From six square images of the same size, dtype and channel count. */
+/* From six square images of the same size, dtype and channel count. conv outside
+ * st_cube_faces_conv: ST_EINVAL. */
 int st_cube_from_faces(const st_image faces[6], st_cube_faces_conv conv, size_t max_bytes,
                        st_set **out, st_error *e);
 
@@ -165,8 +171,9 @@ int st_cube_bake_fixup(const st_set *cube, size_t max_bytes, st_set **out, st_er
 
 
 /* Lays level `level` of a cube set out as one image in `layout` (strip or cross; not
- * latlong): exact texel copies. out->data is malloc'ed; the caller frees it with
- * st_image_free. */
+ * latlong): exact texel copies; out->envmap is ST_ENVMAP_CUBE for the vertical strip (OpenEXR's
+ * envmap=cube layout) and ST_ENVMAP_NONE for the others. out->data is malloc'ed; the caller
+ * frees it with st_image_free. */
 int st_cube_to_image(const st_set *cube, unsigned level, st_cube_layout layout, st_image *out,
                      st_error *e);
 

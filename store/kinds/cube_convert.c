@@ -196,6 +196,9 @@ int st_cube_from_faces(const st_image faces[6], st_cube_faces_conv conv, size_t 
                        st_set **out, st_error *e)
 {
     *out = NULL;
+    if ((unsigned)conv > ST_CUBE_FACES_GL_FLIPPED)
+        return st_fail(e, ST_EINVAL, "six-face convention %d unknown (0 exr, 1 gl, 2 gl-flipped)",
+                       (int)conv);
     for (int f = 0; f < 6; f++) {
         if (!faces[f].data || faces[f].w != faces[f].h)
             return st_fail(e, ST_EINVAL, "cube face %d: %ux%u is not square", f, faces[f].w, faces[f].h);
@@ -459,7 +462,9 @@ int st_cube_to_image(const st_set *cube, unsigned level, st_cube_layout layout, 
     out->dtype = cube->info.dtype;
     out->colorspace = cube->info.colorspace;
     out->alpha_chan = cube->info.alpha_chan;
-    out->envmap = ST_ENVMAP_CUBE;
+    /* only the vertical strip is OpenEXR's envmap=cube layout: a cross or a horizontal strip
+     * tagged so would be read as a vertical strip (and refused: it does not fit 1 x 6) */
+    out->envmap = layout == ST_CUBE_STRIP_V ? ST_ENVMAP_CUBE : ST_ENVMAP_NONE;
     out->nlevels_file = 1;
     out->data = img;
     return ST_OK;

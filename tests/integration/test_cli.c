@@ -368,6 +368,19 @@ static void sample_dir_answers_on_a_cube_map_and_refuses_other_sets(void **state
     assert_true(json_num(js, "completed") == 20);
     assert_true(json_num(js, "errors") == 0);
     assert_int_equal(BENCH("-o", "sample-dir", "-s", "default", "-d", "0.2"), 1);
+    /* FLT_MAX as printf prints it (%.8g, %.9g: a little above FLT_MAX, rounding to it) is a
+     * direction like any other; past the rounding midpoint (3.5e38) it is still refused */
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "3.4028235e+38", "-3.40282347e+38", "0"), 0);
+    assert_int_equal(count_lines_ending(OUT, " OK"), 1);
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "3.5e38", "0", "0"), 2);
+    /* a NaN or negative cone reaches the server and is answered, not dropped for a point
+     * lookup */
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "1", "0", "0", "--cone", "nan"), 0);
+    assert_int_equal(count_lines_ending(OUT, " NONFINITE"), 1);
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "1", "0", "0", "--cone", "-0.1"), 0);
+    assert_int_equal(count_lines_ending(OUT, " BAD_FOOTPRINT"), 1);
+    assert_int_equal(CLI("sample", "cli-wavy", "--dir", "1", "0", "0", "--cone", "0"), 0);
+    assert_int_equal(count_lines_ending(OUT, " OK"), 1);
     assert_int_equal(CLI("delete", "cli-wavy"), 0);
 }
 

@@ -202,6 +202,25 @@ static void footprints_from_derivatives_and_cones_follow_the_projection(void **s
     q.cone = NAN;
     st_cube_queries(s, 0, &q, 1, &fq, &st);
     assert_int_equal(st, ST_Q_NONFINITE);
+    /* a negative cone is neither a cone nor the derivatives of cone == 0: refused, not a
+     * silent point lookup (with zero ddx / ddy as SAMPLE_DIR's cone form sends them) */
+    q.cone = -0.01f;
+    for (unsigned lookup = 0; lookup < 2; lookup++) {
+        st_cube_queries(s, lookup, &q, 1, &fq, &st);
+        assert_int_equal(st, ST_Q_BAD_FOOTPRINT);
+    }
+    st_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.filter = ST_FILTER_BILINEAR;
+    float val;
+    float cov = 1;
+    assert_int_equal(st_cube_sample_dir(s, &so, 0, &q, 1, &val, &cov, &st), 1);
+    assert_int_equal(st, ST_Q_BAD_FOOTPRINT);
+    assert_true(isnan(val));
+    assert_float_equal(cov, 0, 0);
+    q.cone = -INFINITY;
+    st_cube_queries(s, 0, &q, 1, &fq, &st);
+    assert_int_equal(st, ST_Q_NONFINITE);
     st_set_free(s);
 }
 
@@ -429,6 +448,160 @@ static void castano_fixup_scales_the_minor_components(void **state)
     st_cube_fixup_dir(d, 8, 1.5f, o); /* 1 - 2^lod / n */
     assert_float_equal(o[0], 0.5f * (1.0f - exp2f(1.5f) / 8.0f), 1e-6);
     assert_float_equal(o[1], -1.0f, 1e-6);
+}
+
+/* Finite directions whose magnitudes sum past FLT_MAX (components near FLT_MAX) are valid:
+ * they pick a face and (u, v) as the same direction scaled down does (OpenEXR's
+ * CubeMap::faceAndPixelPosition answers them; they were refused as non-finite). */
+static void huge_finite_directions_get_their_face(void **state)
+{
+    (void)state;
+    st_set_info in = {.nchan = 1, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, 8, 0, &s, &e), ST_OK);
+    const float M = 3.4028235e38f; /* FLT_MAX */
+    const float huge[4][3] = {{M, -M, 0.5f * M}, {M, M, M}, {-M, 0.0f, 0.7f * M}, {0.25f * M, -M, M}};
+    for (int i = 0; i < 4; i++) {
+        float small[3], u, v, su, sv;
+        for (int k = 0; k < 3; k++)
+            small[k] = huge[i][k] * 0x1p-100f;
+        int fs = st_cube_dir_to_face(small, &su, &sv);
+        assert_true(fs >= 0);
+        assert_int_equal(st_cube_dir_to_face(huge[i], &u, &v), fs);
+        assert_float_equal(u, su, 1e-6);
+        assert_float_equal(v, sv, 1e-6);
+        for (unsigned lookup = 0; lookup < 2; lookup++) {
+            st_cube_query q, qs;
+            memset(&q, 0, sizeof q);
+            memset(&qs, 0, sizeof qs);
+            memcpy(q.dir, huge[i], sizeof q.dir);
+            memcpy(qs.dir, small, sizeof qs.dir);
+            q.cone = qs.cone = 0.01f;
+            st_query fq, fqs;
+            uint8_t st, sts;
+            st_cube_queries(s, lookup, &q, 1, &fq, &st);
+            st_cube_queries(s, lookup, &qs, 1, &fqs, &sts);
+            assert_int_equal(sts, ST_Q_OK);
+            assert_int_equal(st, ST_Q_OK);
+            assert_int_equal(fq.face, fqs.face);
+            assert_float_equal(fq.u, fqs.u, 1e-6);
+            assert_float_equal(fq.v, fqs.v, 1e-6);
+        }
+    }
+    st_set_free(s);
+}
+
+/* At an exact tie of the two largest components (a cube edge; all three: a corner) the fixup
+ * lookup scales every component but the one that picks the face, so pixel centre 0 / n-1
+ * lands on the edge exactly as OpenEXR's lookup puts it: u n - 1/2 = (s + 1)/2 (n - 1).
+ * (The tied component was left unscaled, half a texel off: u = 0 or 1.) */
+static void fixup_lookup_at_edge_and_corner_ties_matches_openexr(void **state)
+{
+    (void)state;
+    const uint32_t n = 16;
+    st_set_info in = {.nchan = 1, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, n, 0, &s, &e), ST_OK);
+    const float d0[4][3] = {{1, 1, 0.3f}, {-1, -1, -1}, {0.5f, -0.2f, 0.5f}, {0.1f, -2, 2}};
+    /* OpenEXR's face and in-face pixel (x right, y down; centres 0 .. n-1 span the face) */
+    const int face[4] = {0, 1, 0, 3};
+    const float px[4][2] = {{(0.3f + 1) / 2 * (n - 1), 0},         /* +X: s = z, t = -y */
+                            {(float)(n - 1), (float)(n - 1)},       /* -X: s = -z, t = -y */
+                            {(float)(n - 1), (0.4f + 1) / 2 * (n - 1)},                 /* +X, z tied */
+                            {(0.05f + 1) / 2 * (n - 1), (float)(n - 1)}}; /* -Y: s = x/2, t = z/2 */
+    for (int i = 0; i < 4; i++) {
+        st_cube_query q;
+        memset(&q, 0, sizeof q);
+        memcpy(q.dir, d0[i], sizeof q.dir);
+        st_query fq;
+        uint8_t st;
+        st_cube_queries(s, ST_CUBE_LOOKUP_FIXUP, &q, 1, &fq, &st);
+        assert_int_equal(st, ST_Q_OK);
+        assert_int_equal(fq.face, face[i]);
+        assert_float_equal(fq.u * n - 0.5f, px[i][0], 1e-4);
+        assert_float_equal(fq.v * n - 0.5f, px[i][1], 1e-4);
+    }
+    /* the fixup direction itself: the tied y is scaled, x (the face's axis) is not */
+    float d[3] = {1, -1, 0.5f}, o[3];
+    st_cube_fixup_dir(d, 8, 0, o);
+    assert_float_equal(o[0], 1.0f, 0);
+    assert_float_equal(o[1], -7.0f / 8.0f, 1e-6);
+    assert_float_equal(o[2], 0.5f * 7.0f / 8.0f, 1e-6);
+    st_set_free(s);
+}
+
+/* st_cube_from_faces knows three conventions; any other value is refused (it was taken as
+ * the GL one: +Z and -Z exchanged without a word). */
+static void six_faces_with_an_unknown_convention_are_refused(void **state)
+{
+    (void)state;
+    float px[6][4];
+    st_image faces[6];
+    memset(faces, 0, sizeof faces);
+    for (int f = 0; f < 6; f++) {
+        for (int k = 0; k < 4; k++)
+            px[f][k] = (float)(f * 4 + k);
+        faces[f].w = faces[f].h = 2;
+        faces[f].nchan = 1;
+        faces[f].dtype = ST_DT_F32;
+        faces[f].alpha_chan = -1;
+        faces[f].data = px[f];
+    }
+    st_set *s = NULL;
+    st_error e;
+    for (int conv = 0; conv <= 2; conv++) {
+        assert_int_equal(st_cube_from_faces(faces, (st_cube_faces_conv)conv, 0, &s, &e), ST_OK);
+        st_set_free(s);
+    }
+    assert_int_equal(st_cube_from_faces(faces, (st_cube_faces_conv)3, 0, &s, &e), ST_EINVAL);
+    assert_null(s);
+    assert_non_null(strstr(e.msg, "convention"));
+}
+
+/* st_cube_write: an EXR vertical strip is tagged envmap=cube (OpenEXR's layout) and imports
+ * back as the same cube with no option; the other layouts carry no envmap (a cross tagged
+ * envmap=cube would be read as a vertical strip) and come back with cube=auto. (The strip was
+ * written untagged and came back as a one-face atlas.) */
+static void written_layouts_import_back_as_the_same_cube(void **state)
+{
+    (void)state;
+    const uint32_t n = 4;
+    st_set_info in = {.nchan = 3, .dtype = ST_DT_F32, .alpha_chan = -1};
+    st_set *c = NULL;
+    st_error e;
+    assert_int_equal(st_cube_create(&in, n, 0, &c, &e), ST_OK);
+    for (unsigned f = 0; f < 6; f++) {
+        float *t = (float *)st_face_level(c, f, 0);
+        for (uint32_t k = 0; k < n * n * 3; k++)
+            t[k] = (float)(f * 1000 + k);
+    }
+    st_set_build_mips(c, UINT32_MAX);
+    static const char *const name[4] = {"strip_v", "strip_h", "cross_h", "cross_v"};
+    for (unsigned l = 0; l < 4; l++) {
+        char p[512];
+        snprintf(p, sizeof p, "%s/written_%s.exr", tmpdir, name[l]);
+        assert_int_equal(st_cube_write(c, 0, (st_cube_layout)l, p, &e), ST_OK);
+        for (unsigned opt = 0; opt < 2; opt++) {
+            st_import_opts o;
+            st_import_opts_init(&o);
+            o.cube = opt ? ST_IMPORT_CUBE_AUTO : ST_IMPORT_CUBE_NONE;
+            st_set *b = NULL;
+            assert_int_equal(st_import_file(p, &o, &b, &e), ST_OK);
+            if (!opt && l != ST_CUBE_STRIP_V) {
+                assert_int_equal(b->info.kind, ST_KIND_ATLAS);
+                st_set_free(b);
+                continue;
+            }
+            assert_int_equal(b->info.kind, ST_KIND_CUBE);
+            for (unsigned f = 0; f < 6; f++)
+                assert_memory_equal(st_face_level(b, f, 0), st_face_level(c, f, 0),
+                                    (size_t)n * n * 3 * sizeof(float));
+            st_set_free(b);
+        }
+    }
+    st_set_free(c);
 }
 
 static void baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse(void **state)
@@ -726,6 +899,10 @@ int main(void)
         cmocka_unit_test(traverse_is_continuous_across_every_edge_and_corner_and_clamp_is_not),
         cmocka_unit_test(latlong_and_cube_versions_of_a_scene_agree_away_from_seams),
         cmocka_unit_test(castano_fixup_scales_the_minor_components),
+        cmocka_unit_test(huge_finite_directions_get_their_face),
+        cmocka_unit_test(fixup_lookup_at_edge_and_corner_ties_matches_openexr),
+        cmocka_unit_test(six_faces_with_an_unknown_convention_are_refused),
+        cmocka_unit_test(written_layouts_import_back_as_the_same_cube),
         cmocka_unit_test(baked_edge_fixup_faces_are_seamless_with_clamp_and_match_traverse),
         cmocka_unit_test(layouts_round_trip_exactly),
         cmocka_unit_test(cross_images_are_continuous_across_their_internal_edges),
