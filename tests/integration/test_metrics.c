@@ -35,6 +35,7 @@
 
 #include "../common/daemon_client.h"
 #include "../common/daemon_fixture.h"
+#include "../common/etcd_fixture.h"
 #include "../common/wait.h"
 #include "seamtex.h"
 
@@ -370,6 +371,53 @@ static void every_stats_key_has_a_typed_family(void **state)
     free(e.s);
     stc_close(c);
     assert_int_equal(st_daemon_down(&d, 20000), 0);
+}
+
+/* A cluster node (etcd on loopback): its cluster_* STATS keys come out as typed families too
+ * (they were untyped seamtex_stat_cluster_* fallbacks), promtool finds nothing, and each agrees
+ * with STATS. */
+static void a_cluster_nodes_keys_have_typed_families(void **state)
+{
+    (void)state;
+    st_etcd etcd;
+    assert_int_equal(st_etcd_start(&etcd, "/metrics"), 0);
+    const char *args[] = {"--cluster", etcd.url, "--node-id", "m0", "--advertise", "127.0.0.1:0",
+                          "--metrics-listen", "127.0.0.1:0", NULL};
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, args), 0);
+    assert_int_equal(st_wait_stat(&d, NULL, "cluster_repair_passes", ST_STAT_GE, 1, 60000), 0);
+    int port = metrics_port(&d);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    char *text = scrape(port);
+    if (strstr(text, " untyped\n") || strstr(text, "seamtex_stat_")) {
+        fprintf(stderr, "an untyped fallback family in /metrics:\n%s\n", text);
+        fail();
+    }
+    char out[8192];
+    int rc = promtool_check(&d, text, out, sizeof out);
+    if (rc != 0 || out[0])
+        fprintf(stderr, "promtool check metrics: exit %d:\n%s\n", rc, out);
+    assert_int_equal(rc, 0);
+    assert_string_equal(out, "");
+    expo e;
+    parse(text, &e);
+    free(text);
+    assert_true(value(&e, "seamtex_cluster_members") == 1.0);
+    assert_string_equal(find(&e, "seamtex_cluster_members")->type, "gauge");
+    assert_true(value(&e, "seamtex_cluster_etcd_up") == 1.0);
+    assert_true(value(&e, "seamtex_cluster_lease_grants_total") ==
+                (double)stc_stat_find(st, n, "cluster_lease_grants")->u);
+    assert_string_equal(find(&e, "seamtex_cluster_reads_unconfirmed_total")->type, "counter");
+    free(e.s);
+    stc_close(c);
+    assert_int_equal(st_daemon_down(&d, 20000), 0);
+    st_daemon_cleanup(&d);
+    st_etcd_stop(&etcd);
 }
 
 /* ---- under load ---------------------------------------------------------------------------- */
@@ -781,6 +829,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(promtool_finds_zero_problems),
         cmocka_unit_test(every_stats_key_has_a_typed_family),
+        cmocka_unit_test(a_cluster_nodes_keys_have_typed_families),
         cmocka_unit_test(scrapes_under_load_are_monotonic_and_match_stats),
         cmocka_unit_test(only_get_metrics_is_served),
         cmocka_unit_test(hostile_clients_do_not_harm_the_daemon),
