@@ -203,8 +203,11 @@ int cli_connect(cli_ctx *ctx)
 int cli_fail(cli_ctx *ctx, const char *what, int code)
 {
     const char *m = ctx->conn ? stc_errmsg(ctx->conn) : "";
-    fprintf(stderr, "%s: %s: %s%s%s\n", ctx->prog, what, stc_strerror(code), m && *m ? ": " : "",
-            m ? m : "");
+    if (stc_is_server_error(code) && m && *m)   /* the library's "OPCODE: STATUS: text" */
+        fprintf(stderr, "%s: %s: %s\n", ctx->prog, what, m);
+    else
+        fprintf(stderr, "%s: %s: %s%s%s\n", ctx->prog, what, stc_strerror(code),
+                m && *m ? ": " : "", m ? m : "");
     if (stc_is_server_error(code))
         return CLI_SERVER;
     switch (code) {
