@@ -46,6 +46,30 @@ static void col_release(col *c)
     c->held = 0;
 }
 
+/* Number o (a Python int or float, a numpy scalar, a 0-d array) as a broadcast column: an
+ * integer (a face id 0..2^32-1) when is_int, else a float. */
+static int scalar_get(PyObject *o, const char *name, int is_int, col *c)
+{
+    c->kind = COL_SCALAR;
+    if (!is_int) {
+        c->f = PyFloat_AsDouble(o);
+        return c->f == -1.0 && PyErr_Occurred() ? -1 : 0;
+    }
+    PyObject *ix = PyNumber_Index(o);
+    if (!ix)
+        return -1;
+    int over = 0;
+    c->i = PyLong_AsLongLongAndOverflow(ix, &over);
+    Py_DECREF(ix);
+    if (c->i == -1 && PyErr_Occurred())
+        return -1;
+    if (over || c->i < 0 || c->i > (long long)UINT32_MAX) {
+        PyErr_Format(PyExc_ValueError, "%s = %R is not a face id 0..2^32-1", name, o);
+        return -1;
+    }
+    return 0;
+}
+
 /* o (None, a number, or a buffer) as column `name` of ncomp components (1, or 3 for
  * directions). is_int: integers wanted (face), else floats. */
 static int col_get(PyObject *o, const char *name, int is_int, int ncomp, col *c)
@@ -55,28 +79,8 @@ static int col_get(PyObject *o, const char *name, int is_int, int ncomp, col *c)
     c->n = -1;                   /* no length of its own */
     if (!o || o == Py_None)
         return 0;
-    if (ncomp == 1 && (PyLong_Check(o) || (!is_int && PyFloat_Check(o)))) {
-        c->kind = COL_SCALAR;
-        if (is_int) {
-            int over = 0;
-            c->i = PyLong_AsLongLongAndOverflow(o, &over);
-            if (c->i == -1 && PyErr_Occurred())
-                return -1;
-            if (over) {
-                PyErr_Format(PyExc_ValueError, "%s = %R is not a face id 0..2^32-1", name, o);
-                return -1;
-            }
-            if (c->i < 0 || c->i > (long long)UINT32_MAX) {
-                PyErr_Format(PyExc_ValueError, "%s = %lld is not a face id 0..2^32-1", name, c->i);
-                return -1;
-            }
-        } else {
-            c->f = PyFloat_AsDouble(o);
-            if (c->f == -1.0 && PyErr_Occurred())
-                return -1;
-        }
-        return 0;
-    }
+    if (ncomp == 1 && (PyLong_Check(o) || (!is_int && PyFloat_Check(o))))
+        return scalar_get(o, name, is_int, c);
     if (PyObject_GetBuffer(o, &c->view, PyBUF_RECORDS_RO) < 0) {
         PyErr_Clear();
         PyErr_Format(PyExc_TypeError, "%s must be %s or an object with the buffer protocol "
@@ -121,26 +125,7 @@ static int col_get(PyObject *o, const char *name, int is_int, int ncomp, col *c)
         /* a numpy scalar (np.uint32(3), np.float32(0.5), arr[i]) or a 0-d array: a number,
          * broadcast like a Python one; read through the number protocol */
         col_release(c);
-        c->kind = COL_SCALAR;
-        if (is_int) {
-            PyObject *ix = PyNumber_Index(o);
-            if (!ix)
-                return -1;
-            int over = 0;
-            c->i = PyLong_AsLongLongAndOverflow(ix, &over);
-            Py_DECREF(ix);
-            if (c->i == -1 && PyErr_Occurred())
-                return -1;
-            if (over || c->i < 0 || c->i > (long long)UINT32_MAX) {
-                PyErr_Format(PyExc_ValueError, "%s = %R is not a face id 0..2^32-1", name, o);
-                return -1;
-            }
-        } else {
-            c->f = PyFloat_AsDouble(o);
-            if (c->f == -1.0 && PyErr_Occurred())
-                return -1;
-        }
-        return 0;
+        return scalar_get(o, name, is_int, c);
     }
     if (!ok) {
         PyErr_Format(PyExc_TypeError, "%s must hold %s in native byte order, not format '%s'",

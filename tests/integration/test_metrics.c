@@ -312,6 +312,35 @@ static void promtool_finds_zero_problems(void **state)
     assert_int_equal(st_daemon_down(&d, 20000), 0);
 }
 
+/* No family of the scrape text is an untyped fallback (seamtex_stat_<key>: a STATS key
+ * without a row in metrics_text.c), and promtool check metrics finds nothing. */
+static void assert_typed_and_clean(const st_daemon *d, const char *text)
+{
+    if (strstr(text, " untyped\n") || strstr(text, "seamtex_stat_")) {
+        fprintf(stderr, "an untyped fallback family in /metrics:\n%s\n", text);
+        fail();
+    }
+    char out[8192];
+    int rc = promtool_check(d, text, out, sizeof out);
+    if (rc != 0 || out[0])
+        fprintf(stderr, "promtool check metrics: exit %d:\n%s\n", rc, out);
+    assert_int_equal(rc, 0);
+    assert_string_equal(out, "");
+}
+
+/* STATS of c, then a scrape of d's metrics (checked as above) parsed into *e: nothing but the
+ * scrape between the two (the metrics port is asked for first: that is a connection too). */
+static void stats_and_scrape(const st_daemon *d, stc_conn *c, const stc_stat **st, size_t *n,
+                             expo *e)
+{
+    int port = metrics_port(d);
+    assert_int_equal(stc_stats(c, st, n), 0);
+    char *text = scrape(port);
+    assert_typed_and_clean(d, text);
+    parse(text, e);
+    free(text);
+}
+
 /* Every STATS key has a typed family: none falls back to seamtex_stat_<key> (untyped), the
  * fallback meant for a key added to STATS before metrics_text.c names it. io<i>_conns,
  * io<i>_accepted, io<i>_cpu (with --pin-io yes) and shm_overlap_copies used to. The per-thread
@@ -323,27 +352,13 @@ static void every_stats_key_has_a_typed_family(void **state)
                                        "--pin-io", "yes", NULL};
     st_daemon d;
     assert_int_equal(st_daemon_up(&d, args), 0);
-    int port = metrics_port(&d);
     stc_conn *c = st_daemon_client(&d, NULL);
     assert_non_null(c);
     assert_int_equal(st_wait_stat(&d, c, "conns_current", ST_STAT_EQ, 1, 60000), 0);
     const stc_stat *st;
     size_t n;
-    assert_int_equal(stc_stats(c, &st, &n), 0);
-    char *text = scrape(port);
-    if (strstr(text, " untyped\n") || strstr(text, "seamtex_stat_")) {
-        fprintf(stderr, "an untyped fallback family in /metrics:\n%s\n", text);
-        fail();
-    }
-    char out[8192];
-    int rc = promtool_check(&d, text, out, sizeof out);
-    if (rc != 0 || out[0])
-        fprintf(stderr, "promtool check metrics: exit %d:\n%s\n", rc, out);
-    assert_int_equal(rc, 0);
-    assert_string_equal(out, "");
     expo e;
-    parse(text, &e);
-    free(text);
+    stats_and_scrape(&d, c, &st, &n, &e);
     /* nothing but the scrape between STATS and it: the per-thread keys are the same */
     uint64_t conns = 0;
     for (unsigned i = 0; i < 2; i++) {
@@ -387,26 +402,12 @@ static void a_cluster_nodes_keys_have_typed_families(void **state)
     assert_int_equal(st_daemon_init(&d), 0);
     assert_int_equal(st_daemon_start(&d, args), 0);
     assert_int_equal(st_wait_stat(&d, NULL, "cluster_repair_passes", ST_STAT_GE, 1, 60000), 0);
-    int port = metrics_port(&d);
     stc_conn *c = st_daemon_client(&d, NULL);
     assert_non_null(c);
     const stc_stat *st;
     size_t n;
-    assert_int_equal(stc_stats(c, &st, &n), 0);
-    char *text = scrape(port);
-    if (strstr(text, " untyped\n") || strstr(text, "seamtex_stat_")) {
-        fprintf(stderr, "an untyped fallback family in /metrics:\n%s\n", text);
-        fail();
-    }
-    char out[8192];
-    int rc = promtool_check(&d, text, out, sizeof out);
-    if (rc != 0 || out[0])
-        fprintf(stderr, "promtool check metrics: exit %d:\n%s\n", rc, out);
-    assert_int_equal(rc, 0);
-    assert_string_equal(out, "");
     expo e;
-    parse(text, &e);
-    free(text);
+    stats_and_scrape(&d, c, &st, &n, &e);
     assert_true(value(&e, "seamtex_cluster_members") == 1.0);
     assert_string_equal(find(&e, "seamtex_cluster_members")->type, "gauge");
     assert_true(value(&e, "seamtex_cluster_etcd_up") == 1.0);
