@@ -39,12 +39,14 @@ using OIIO::TypeDesc;
 uint32_t cap_dim(const st_image_caps *c) { return c && c->max_dim ? c->max_dim : ST_MAX_DIM; }
 size_t cap_bytes(const st_image_caps *c) { return c && c->max_bytes ? c->max_bytes : ((size_t)2 << 30); }
 
-/* OIIO format -> the st_dtype kept in memory. */
+/* OIIO format -> the st_dtype kept in memory. Signed 8/16-bit data (a TIFF with
+ * SampleFormat=INT: normal or height maps) becomes float, OIIO's -1..1 normalisation: read as
+ * u8/u16 its negative half was clamped to 0, a silent wrong answer. */
 unsigned pick_dtype(TypeDesc t)
 {
     switch (t.basetype) {
-    case TypeDesc::UINT8: case TypeDesc::INT8: return ST_DT_U8;
-    case TypeDesc::UINT16: case TypeDesc::INT16: return ST_DT_U16;
+    case TypeDesc::UINT8: return ST_DT_U8;
+    case TypeDesc::UINT16: return ST_DT_U16;
     case TypeDesc::HALF: return ST_DT_HALF;
     default: return ST_DT_F32;
     }
