@@ -916,21 +916,25 @@ static void exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused(void **state)
     }
 }
 
-/* A little-endian uncompressed TIFF, 1 sample of SampleFormat INT (2), 16 bits, w x 1. */
-static size_t int16_tiff(uint8_t *b, const int16_t *v, int w)
+/* A little-endian uncompressed TIFF, 1 sample of SampleFormat INT (2), 16 bits, w x 1; with
+ * omit_bps its BitsPerSample tag is left out (1 bit by the TIFF default). */
+static size_t int16_tiff(uint8_t *b, const int16_t *v, int w, int omit_bps)
 {
     memcpy(b, "II*\0", 4);
     put32(b + 4, 8);
     uint8_t *d = b + 8;
     enum { NTAG = 10 };
-    d[0] = NTAG;
+    int ntag = omit_bps ? NTAG - 1 : NTAG;
+    d[0] = (uint8_t)ntag;
     d[1] = 0;
-    size_t data = 8 + 2 + 12 * NTAG + 4;
+    size_t data = 8 + 2 + 12 * (size_t)ntag + 4;
     static const uint16_t tags[NTAG][2] = {{256, 3}, {257, 3}, {258, 3}, {259, 3}, {262, 3},
                                            {273, 4}, {277, 3}, {278, 3}, {279, 4}, {339, 3}};
     uint32_t vals[NTAG] = {(uint32_t)w, 1, 16, 1, 1, (uint32_t)data, 1, 1, (uint32_t)(2 * w), 2};
-    for (int k = 0; k < NTAG; k++) {
-        uint8_t *t = d + 2 + 12 * k;
+    for (int k = 0, o = 0; k < NTAG; k++) {
+        if (omit_bps && tags[k][0] == 258)
+            continue;
+        uint8_t *t = d + 2 + 12 * o++;
         t[0] = (uint8_t)tags[k][0];
         t[1] = (uint8_t)(tags[k][0] >> 8);
         t[2] = (uint8_t)tags[k][1];
@@ -938,7 +942,7 @@ static size_t int16_tiff(uint8_t *b, const int16_t *v, int w)
         put32(t + 4, 1);
         put32(t + 8, vals[k]);
     }
-    put32(d + 2 + 12 * NTAG, 0);
+    put32(d + 2 + 12 * ntag, 0);
     memcpy(b + data, v, 2 * (size_t)w);
     return data + 2 * (size_t)w;
 }
@@ -950,7 +954,7 @@ static void signed_16_bit_tiff_keeps_its_negative_values(void **state)
     (void)state;
     const int16_t v[4] = {-32767, -16384, 0, 32767};
     uint8_t b[512];
-    size_t len = int16_tiff(b, v, 4);
+    size_t len = int16_tiff(b, v, 4, 0);
     char p[512];
     tmp_path(p, sizeof p, "int16.tif");
     write_file(p, b, len);
@@ -968,6 +972,29 @@ static void signed_16_bit_tiff_keeps_its_negative_values(void **state)
     for (int k = 0; k < 4; k++)
         assert_float_equal(f[k], v[k] / 32767.0, 1e-4);
     st_image_free(&img);
+}
+
+/* img27: a TIFF without BitsPerSample is 1-bit by the TIFF default (Pillow writes 1-bit images
+ * so); OpenImageIO 2.4 reads it as 8-bit past the end of the strip and makes texels up without
+ * an error. It is refused with a reason. */
+static void tiff_without_bits_per_sample_is_refused_not_made_up(void **state)
+{
+    (void)state;
+    const int16_t v[4] = {-32767, -16384, 0, 32767};
+    uint8_t b[512];
+    size_t len = int16_tiff(b, v, 4, 1);
+    char p[512];
+    tmp_path(p, sizeof p, "nobps.tif");
+    write_file(p, b, len);
+    st_error e;
+    st_error_clear(&e);
+    st_image img;
+    assert_int_equal(st_image_read(p, NULL, &img, &e), ST_EUNSUPPORTED);
+    assert_null(img.data);
+    assert_non_null(strstr(e.msg, "BitsPerSample"));
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_EUNSUPPORTED);
+    assert_null(s);
 }
 
 static void upload_options_are_parsed_strictly(void **state)
@@ -1116,6 +1143,7 @@ int main(void)
         cmocka_unit_test(exr_grey_with_alpha_keeps_both_and_chroma_with_alpha_is_refused),
         cmocka_unit_test(exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused),
         cmocka_unit_test(signed_16_bit_tiff_keeps_its_negative_values),
+        cmocka_unit_test(tiff_without_bits_per_sample_is_refused_not_made_up),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
