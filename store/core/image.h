@@ -36,6 +36,8 @@ typedef struct st_image {
     int8_t   alpha_chan;   /* -1 none */
     uint8_t  envmap;       /* st_envmap: from EXR's envmap attribute / OIIO's textureformat */
     uint8_t  nlevels_file; /* mip levels the file holds (information only; level 0 is read) */
+    uint8_t  premultiplied; /* 1: colour is stored premultiplied by alpha_chan (EXR with alpha,
+                              associated-alpha TIFF); texels are never converted */
     void    *data;         /* w*h*nchan*dtype_size bytes, rows top first, channels interleaved */
 } st_image;
 

@@ -417,6 +417,7 @@ static int read_with(const char *path, exr_context_initializer_t *init, const ra
     out->dtype = (uint8_t)j.out_dt;
     out->colorspace = ST_CS_LINEAR;
     out->alpha_chan = (int8_t)alpha;
+    out->premultiplied = alpha >= 0; /* OpenEXR stores colour premultiplied by alpha */
     out->data = data;
     const exr_attribute_t *env = NULL;
     if (exr_get_attribute_by_name(ctx, 0, "envmap", &env) == EXR_ERR_SUCCESS && env &&

@@ -240,6 +240,10 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     out->data = data;
     std::string cs = sp.get_string_attribute("oiio:ColorSpace");
     std::string fmt = in->format_name();
+    /* stored premultiplied: EXR (OpenEXR's convention; the DWAA/DWAB fallback) and a TIFF whose
+     * alpha is associated (OIIO marks unassociated alpha it kept with oiio:UnassociatedAlpha) */
+    out->premultiplied = alpha >= 0 && (fmt == "openexr" ||
+                                        (fmt == "tiff" && !sp.get_int_attribute("oiio:UnassociatedAlpha", 0)));
     if (dt == ST_DT_HALF || dt == ST_DT_F32 || fmt == "hdr" || fmt == "openexr")
         out->colorspace = ST_CS_LINEAR;
     else if (cs == "Linear" || cs == "linear")

@@ -69,6 +69,7 @@ static void cube_info_of(const st_image *img, st_set_info *info)
     info->dtype = img->dtype;
     info->alpha_chan = img->alpha_chan;
     info->colorspace = img->colorspace;
+    info->premultiplied = img->alpha_chan >= 0 && img->premultiplied;
 }
 
 static uint32_t pow2_near(uint32_t x)
@@ -459,6 +460,7 @@ int st_cube_to_image(const st_set *cube, unsigned level, st_cube_layout layout, 
     out->dtype = cube->info.dtype;
     out->colorspace = cube->info.colorspace;
     out->alpha_chan = cube->info.alpha_chan;
+    out->premultiplied = cube->info.premultiplied;
     out->envmap = ST_ENVMAP_CUBE;
     out->nlevels_file = 1;
     out->data = img;

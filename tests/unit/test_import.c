@@ -997,6 +997,41 @@ static void tiff_without_bits_per_sample_is_refused_not_made_up(void **state)
     assert_null(s);
 }
 
+/* img27: the set's premultiplied flag says how alpha is stored: an EXR's colour is
+ * premultiplied (OpenEXR's convention), a PNG's is straight; texels stay as stored. */
+static void premultiplied_flag_follows_the_file(void **state)
+{
+    (void)state;
+    enum { W = 8, H = 4 };
+    char p[512];
+    st_error e;
+    st_error_clear(&e);
+    const char *rgba[4] = {"R", "G", "B", "A"};
+    const float v[4] = {0.25f, 0.125f, 0.0625f, 0.5f};
+    st_set *s = NULL;
+    tmp_path(p, sizeof p, "pm_rgba.exr");
+    write_exr_channels(p, W, H, 4, rgba, v);
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.alpha_chan, 3);
+    assert_int_equal(s->info.premultiplied, 1);
+    st_set_free(s);
+    tmp_path(p, sizeof p, "pm_rgb.exr");
+    write_exr_channels(p, W, H, 3, rgba, v);
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.premultiplied, 0);
+    st_set_free(s);
+    uint8_t px[W * H * 4];
+    for (size_t i = 0; i < sizeof px; i++)
+        px[i] = (uint8_t)(i * 7);
+    tmp_path(p, sizeof p, "pm_rgba.png");
+    assert_int_equal(st_image_write(p, W, H, 4, ST_DT_U8, px, &e), ST_OK);
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.alpha_chan, 3);
+    assert_int_equal(s->info.premultiplied, 0);
+    assert_memory_equal(st_face_level(s, 0, 0), px, sizeof px); /* as stored, not premultiplied */
+    st_set_free(s);
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -1144,6 +1179,7 @@ int main(void)
         cmocka_unit_test(exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused),
         cmocka_unit_test(signed_16_bit_tiff_keeps_its_negative_values),
         cmocka_unit_test(tiff_without_bits_per_sample_is_refused_not_made_up),
+        cmocka_unit_test(premultiplied_flag_follows_the_file),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
