@@ -7,7 +7,8 @@
  *
  * Precision is kept: 8-bit -> ST_DT_U8, 16-bit -> ST_DT_U16, half -> ST_DT_HALF, 32-bit
  * float -> ST_DT_F32; other formats (int32, double, 10/12-bit packed) are converted to the
- * nearest of these (float for anything wider than 16 bits). More than 4 channels: the first
+ * nearest of these (float for anything wider than 16 bits); signed 8/16-bit data -> float
+ * (-1..1, OpenImageIO's normalisation: u8/u16 would clamp the negative half to 0). More than 4 channels: the first
  * R,G,B,A by name (else the first 4). Colour space: "sRGB" for 8-bit files that OIIO reports
  * as sRGB (or unknown 8/16-bit PNG/JPEG/TIFF/BMP), linear for float/half and HDR/EXR.
  *
@@ -35,6 +36,8 @@ typedef struct st_image {
     int8_t   alpha_chan;   /* -1 none */
     uint8_t  envmap;       /* st_envmap: from EXR's envmap attribute / OIIO's textureformat */
     uint8_t  nlevels_file; /* mip levels the file holds (information only; level 0 is read) */
+    uint8_t  premultiplied; /* 1: colour is stored premultiplied by alpha_chan (EXR with alpha,
+                              associated-alpha TIFF); texels are never converted */
     void    *data;         /* w*h*nchan*dtype_size bytes, rows top first, channels interleaved */
 } st_image;
 

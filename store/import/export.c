@@ -175,6 +175,7 @@ int st_export_mem(const st_set *s, int format, const char *tmpdir, void **buf, s
         const st_face *F = &s->faces[0];
         st_image img = {.w = F->w, .h = F->h, .nchan = s->info.nchan, .dtype = s->info.dtype,
                         .colorspace = s->info.colorspace, .alpha_chan = s->info.alpha_chan,
+                        .premultiplied = s->info.premultiplied,
                         .envmap = ST_ENVMAP_NONE, .nlevels_file = 1,
                         .data = st_face_level(s, 0, 0)};
         if (F->flags & ST_FACE_CONSTANT)

@@ -2,7 +2,7 @@
  *
  * Owns: st_exr_read, st_exr_is_magic. Reads part 0, level 0 (scanline or tiled, any level
  * mode), channels R,G,B,A by name (of the default layer, else of the first layer with a
- * "<layer>.R"; else Y; else up to 4 channels in file order), half kept as half, float and
+ * "<layer>.R"; else Y, with its A as a second channel; else up to 4 channels in file order), half kept as half, float and
  * uint as float. Does not own: other image formats (image_oiio.cpp).
  *
  * Why planes: OpenEXR 3.1.5's default unpacker mis-orders 4-channel half data decoded to
@@ -16,6 +16,7 @@
 
 #include <OpenEXR/openexr.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
@@ -124,11 +125,98 @@ static int read_part(exr_context_t ctx, const char *path, exr_job *j, st_error *
     return ST_OK;
 }
 
+/* The bytes of the file being read, for the ripmap check below: a file (path) or a buffer. */
+typedef struct raw_src {
+    const char    *path;          /* NULL: buf */
+    const uint8_t *buf;
+    uint64_t       size;
+} raw_src;
+
+static int raw_read(FILE *f, const raw_src *src, uint64_t off, void *dst, size_t n)
+{
+    if (off > src->size || n > src->size - off)
+        return -1;
+    if (!f) {
+        memcpy(dst, src->buf + off, n);
+        return 0;
+    }
+    return fseeko(f, (off_t)off, SEEK_SET) || fread(dst, 1, n, f) != n ? -1 : 0;
+}
+
+static uint32_t le32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* A single-part ripmap file: OpenEXR 3.1.5's C API maps the tiles of rip levels (x, y > 0) to
+ * the wrong chunks (exr_read_tile_chunk_info on a valid file answers BAD_CHUNK_LEADER), so
+ * these chunks are checked from the file's own chunk offset table: after the header (its
+ * attributes, each name\0 type\0 int32 size value, end at an empty name) come chunk_count
+ * uint64 offsets, each to a tile leader (int32 x, y, level x, level y, packed size) whose
+ * data must end inside the file. Returns 0 when every chunk is inside. */
+static int ripmap_chunks_inside(exr_context_t ctx, const raw_src *src)
+{
+    int32_t nchunks = 0;
+    if (exr_get_chunk_count(ctx, 0, &nchunks) != EXR_ERR_SUCCESS || nchunks < 1)
+        return -1;
+    FILE *f = NULL;
+    if (src->path && !(f = fopen(src->path, "rb")))
+        return -1;
+    int bad = 0;
+    uint64_t pos = 8;
+    uint8_t b[256];
+    for (int attr = 0; !bad; attr++) {
+        /* name, then type: NUL-terminated strings of at most 255 bytes */
+        size_t strs[2] = {0, 0};
+        for (int k = 0; k < 2 && !bad; k++) {
+            size_t got = src->size - pos < sizeof b ? (size_t)(src->size - pos) : sizeof b;
+            if (pos >= src->size || raw_read(f, src, pos, b, got)) {
+                bad = 1;
+                break;
+            }
+            uint8_t *z = memchr(b, 0, got);
+            if (!z) {
+                bad = 1;
+                break;
+            }
+            strs[k] = (size_t)(z - b);
+            pos += strs[k] + 1;
+            if (k == 0 && strs[0] == 0)
+                break; /* end of the header */
+        }
+        if (bad || strs[0] == 0 || attr > 100000)
+            break;
+        if (raw_read(f, src, pos, b, 4)) {
+            bad = 1;
+            break;
+        }
+        pos += 4 + (uint64_t)le32(b);
+    }
+    uint64_t table_end = pos + 8 * (uint64_t)nchunks;
+    for (int32_t i = 0; i < nchunks && !bad; i++) {
+        uint64_t off;
+        uint8_t o[8];
+        if (raw_read(f, src, pos + 8 * (uint64_t)i, o, 8)) {
+            bad = 1;
+            break;
+        }
+        off = (uint64_t)le32(o) | (uint64_t)le32(o + 4) << 32;
+        if (off < table_end || raw_read(f, src, off, b, 20) || (int32_t)le32(b + 16) < 0 ||
+            le32(b + 16) > src->size - off - 20)
+            bad = 1;
+    }
+    if (f)
+        fclose(f);
+    return bad ? -1 : 0;
+}
+
 /* Every chunk of every level of a tiled part must lie inside the file: only level 0 is
  * decoded, but a file cut inside its smaller levels is still a truncated file and is refused
  * (a scanline part has one level, all of whose chunks read_part decodes). */
-static int tiled_chunks_inside(exr_context_t ctx, const char *path, uint64_t fsize, st_error *e)
+static int tiled_chunks_inside(exr_context_t ctx, const char *path, const raw_src *src,
+                               st_error *e)
 {
+    uint64_t fsize = src->size;
     exr_storage_t st;
     if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS || st != EXR_STORAGE_TILED)
         return ST_OK;
@@ -140,6 +228,14 @@ static int tiled_chunks_inside(exr_context_t ctx, const char *path, uint64_t fsi
         exr_get_tile_levels(ctx, 0, &lx, &ly) != EXR_ERR_SUCCESS || lx < 1 || ly < 1 ||
         lx > 64 || ly > 64)
         return st_fail(e, ST_EFORMAT, "%s: bad tile description", path);
+    int nparts = 0;
+    if (lm == EXR_TILE_RIPMAP_LEVELS && exr_get_count(ctx, &nparts) == EXR_ERR_SUCCESS &&
+        nparts == 1) {
+        if (ripmap_chunks_inside(ctx, src))
+            return st_fail(e, ST_EFORMAT, "%s: truncated or corrupt: a chunk of the ripmap is "
+                           "not inside the file", path);
+        ly = 1; /* the rip levels (x, 0) are still checked through the library below */
+    }
     for (int32_t vy = 0; vy < ly; vy++)
         for (int32_t vx = 0; vx < lx; vx++) {
             if (lm != EXR_TILE_RIPMAP_LEVELS && vx != vy)
@@ -164,8 +260,8 @@ static int tiled_chunks_inside(exr_context_t ctx, const char *path, uint64_t fsi
 }
 
 /* Reads part 0 of the file opened with init (the library's own file I/O, or a memory
- * stream); path names it in messages; fsize is its size in bytes. */
-static int read_with(const char *path, exr_context_initializer_t *init, uint64_t fsize,
+ * stream); path names it in messages; src gives its bytes and size (the ripmap check reads the chunk table). */
+static int read_with(const char *path, exr_context_initializer_t *init, const raw_src *src,
                      const st_image_caps *caps, st_image *out, st_error *e)
 {
     memset(out, 0, sizeof *out);
@@ -230,6 +326,13 @@ static int read_with(const char *path, exr_context_initializer_t *init, uint64_t
                     j.chan_idx[j.nsel++] = c;
                 }
             }
+        /* an A without R, G or B is not a colour image: Y + A (a grey image with alpha) and
+         * Y, RY, BY, A (luminance/chroma) are decided below; taking A alone would import a
+         * YA file as its alpha and let a chroma file through as grey */
+        if (j.nsel == 1 && alpha == 0) {
+            j.nsel = 0;
+            alpha = -1;
+        }
     }
     if (j.nsel == 0) {
         /* Luminance/chroma images (OpenEXR's RgbaOutputFile with WRITE_YC: Y plus RY, BY,
@@ -256,14 +359,25 @@ static int read_with(const char *path, exr_context_initializer_t *init, uint64_t
                 y = c;
         }
         j.chan_idx[j.nsel++] = y >= 0 ? y : 0;
+        if (y >= 0) {
+            /* Y's alpha: "A" next to "Y", "<layer>.A" next to "<layer>.Y" */
+            const char *yn = chl->entries[y].name.str;
+            size_t pl = strlen(yn) - 1;
+            for (int c = 0; c < chl->num_channels; c++) {
+                const char *nm = chl->entries[c].name.str;
+                if (strlen(nm) == pl + 1 && !strncmp(nm, yn, pl) && nm[pl] == 'A') {
+                    alpha = 1;
+                    j.chan_idx[j.nsel++] = c;
+                    break;
+                }
+            }
+        }
         if (y < 0 && chl->num_channels > 1) {
             /* no RGB(A)/Y names: take up to 4 channels in file order */
             j.nsel = 0;
             for (int c = 0; c < chl->num_channels && j.nsel < 4; c++)
                 j.chan_idx[j.nsel++] = c;
         }
-    } else if (j.nsel == 1 && alpha == 0) {
-        alpha = -1; /* alpha alone: a single channel */
     }
     int allhalf = 1;
     for (int k = 0; k < j.nsel; k++)
@@ -286,7 +400,7 @@ static int read_with(const char *path, exr_context_initializer_t *init, uint64_t
         }
     }
     if ((rc = read_part(ctx, path, &j, e)) != ST_OK ||
-        (rc = tiled_chunks_inside(ctx, path, fsize, e)) != ST_OK)
+        (rc = tiled_chunks_inside(ctx, path, src, e)) != ST_OK)
         goto done;
     uint8_t *data = malloc(total);
     if (!data) {
@@ -303,6 +417,7 @@ static int read_with(const char *path, exr_context_initializer_t *init, uint64_t
     out->dtype = (uint8_t)j.out_dt;
     out->colorspace = ST_CS_LINEAR;
     out->alpha_chan = (int8_t)alpha;
+    out->premultiplied = alpha >= 0; /* OpenEXR stores colour premultiplied by alpha */
     out->data = data;
     const exr_attribute_t *env = NULL;
     if (exr_get_attribute_by_name(ctx, 0, "envmap", &env) == EXR_ERR_SUCCESS && env &&
@@ -330,7 +445,8 @@ int st_exr_read(const char *path, const st_image_caps *caps, st_image *out, st_e
         return st_fail(e, ST_ENOTFOUND, "%s: not a readable OpenEXR file: cannot stat", path);
     }
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    return read_with(path, &init, (uint64_t)sb.st_size, caps, out, e);
+    raw_src src = {path, NULL, (uint64_t)sb.st_size};
+    return read_with(path, &init, &src, caps, out, e);
 }
 
 /* A memory stream for the OpenEXR C API: pread semantics on a caller-owned buffer. */
@@ -366,5 +482,6 @@ int st_exr_read_mem(const void *buf, size_t len, const char *name, const st_imag
     init.user_data = &m;
     init.read_fn = mem_read;
     init.size_fn = mem_size;
-    return read_with(name ? name : "(memory)", &init, (uint64_t)len, caps, out, e);
+    raw_src src = {NULL, buf, (uint64_t)len};
+    return read_with(name ? name : "(memory)", &init, &src, caps, out, e);
 }

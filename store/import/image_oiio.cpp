@@ -1,6 +1,7 @@
 /* store/import/image_oiio.cpp - the thin C++ shim between seamtex and OpenImageIO 2.4.
  *
- * Owns: st_image_read (any format OIIO reads), st_image_write, st_image_read_any (EXR by
+ * Owns: st_image_read (any format OIIO reads; refuses truncated PNGs and TIFFs without
+ * BitsPerSample, which OIIO 2.4 misreads silently), st_image_write, st_image_read_any (EXR by
  * magic goes to exr.c), st_image_free, st_image_bytes. Does not own: EXR decoding (exr.c),
  * texture sets (import.c). Nothing here is on a hot path: one call per file.
  *
@@ -39,12 +40,14 @@ using OIIO::TypeDesc;
 uint32_t cap_dim(const st_image_caps *c) { return c && c->max_dim ? c->max_dim : ST_MAX_DIM; }
 size_t cap_bytes(const st_image_caps *c) { return c && c->max_bytes ? c->max_bytes : ((size_t)2 << 30); }
 
-/* OIIO format -> the st_dtype kept in memory. */
+/* OIIO format -> the st_dtype kept in memory. Signed 8/16-bit data (a TIFF with
+ * SampleFormat=INT: normal or height maps) becomes float, OIIO's -1..1 normalisation: read as
+ * u8/u16 its negative half was clamped to 0, a silent wrong answer. */
 unsigned pick_dtype(TypeDesc t)
 {
     switch (t.basetype) {
-    case TypeDesc::UINT8: case TypeDesc::INT8: return ST_DT_U8;
-    case TypeDesc::UINT16: case TypeDesc::INT16: return ST_DT_U16;
+    case TypeDesc::UINT8: return ST_DT_U8;
+    case TypeDesc::UINT16: return ST_DT_U16;
     case TypeDesc::HALF: return ST_DT_HALF;
     default: return ST_DT_F32;
     }
@@ -99,15 +102,52 @@ int png_truncated(FILE *f)
     return 1;
 }
 
+/* A classic TIFF whose first directory has no BitsPerSample tag (258) means 1 bit per sample
+ * by the TIFF default (Pillow writes its 1-bit images so); OIIO 2.4 takes 8 bits, reads past
+ * the strip and returns made-up texels with no error. Such a file is refused before OIIO sees
+ * it. Returns 1 for such a file, 0 when fine, not a classic TIFF, or unreadable here (OIIO
+ * then reports what it finds). */
+int tiff_without_bits_per_sample(FILE *f)
+{
+    unsigned char h[8];
+    if (fseek(f, 0, SEEK_SET) || fread(h, 1, 8, f) != 8)
+        return 0;
+    bool le = !memcmp(h, "II*\0", 4), be = !memcmp(h, "MM\0*", 4);
+    if (!le && !be)
+        return 0;
+    auto u16 = [le](const unsigned char *p) {
+        return (unsigned)(le ? p[0] | p[1] << 8 : p[0] << 8 | p[1]);
+    };
+    uint32_t ifd = le ? (uint32_t)h[4] | (uint32_t)h[5] << 8 | (uint32_t)h[6] << 16 | (uint32_t)h[7] << 24
+                      : (uint32_t)h[4] << 24 | (uint32_t)h[5] << 16 | (uint32_t)h[6] << 8 | h[7];
+    unsigned char c[2];
+    if (fseek(f, (long)ifd, SEEK_SET) || fread(c, 1, 2, f) != 2)
+        return 0;
+    unsigned n = u16(c);
+    for (unsigned k = 0; k < n; k++) {
+        unsigned char t[12];
+        if (fread(t, 1, 12, f) != 12)
+            return 0;
+        if (u16(t) == 258)
+            return 0;
+    }
+    return n > 0;
+}
+
 int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
         return st_fail(e, ST_ENOTFOUND, "%s: cannot open", path);
     int trunc = png_truncated(f);
+    int nobps = trunc ? 0 : tiff_without_bits_per_sample(f);
     fclose(f);
     if (trunc)
         return st_fail(e, ST_EFORMAT, "%s: truncated PNG (its chunks do not reach IEND)", path);
+    if (nobps)
+        return st_fail(e, ST_EUNSUPPORTED, "%s: a TIFF without a BitsPerSample tag (1 bit per "
+                       "sample by default) is not read: OpenImageIO 2.4 would take it as 8-bit "
+                       "and make texels up; write the tag", path);
     /* keep alpha unassociated, as stored: texels are data, not pre-composited colour */
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
@@ -200,6 +240,10 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     out->data = data;
     std::string cs = sp.get_string_attribute("oiio:ColorSpace");
     std::string fmt = in->format_name();
+    /* stored premultiplied: EXR (OpenEXR's convention; the DWAA/DWAB fallback) and a TIFF whose
+     * alpha is associated (OIIO marks unassociated alpha it kept with oiio:UnassociatedAlpha) */
+    out->premultiplied = alpha >= 0 && (fmt == "openexr" ||
+                                        (fmt == "tiff" && !sp.get_int_attribute("oiio:UnassociatedAlpha", 0)));
     if (dt == ST_DT_HALF || dt == ST_DT_F32 || fmt == "hdr" || fmt == "openexr")
         out->colorspace = ST_CS_LINEAR;
     else if (cs == "Linear" || cs == "linear")

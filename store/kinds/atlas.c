@@ -157,6 +157,7 @@ int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st
     info.nchan = img->nchan;
     info.dtype = img->dtype;
     info.alpha_chan = img->alpha_chan;
+    info.premultiplied = img->alpha_chan >= 0 && img->premultiplied;
     info.kind = ST_KIND_ATLAS;
     info.colorspace = img->colorspace;
     st_face_desc fd;

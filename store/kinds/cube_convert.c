@@ -69,6 +69,7 @@ static void cube_info_of(const st_image *img, st_set_info *info)
     info->dtype = img->dtype;
     info->alpha_chan = img->alpha_chan;
     info->colorspace = img->colorspace;
+    info->premultiplied = img->alpha_chan >= 0 && img->premultiplied;
 }
 
 static uint32_t pow2_near(uint32_t x)
@@ -462,6 +463,7 @@ int st_cube_to_image(const st_set *cube, unsigned level, st_cube_layout layout, 
     out->dtype = cube->info.dtype;
     out->colorspace = cube->info.colorspace;
     out->alpha_chan = cube->info.alpha_chan;
+    out->premultiplied = cube->info.premultiplied;
     /* only the vertical strip is OpenEXR's envmap=cube layout: a cross or a horizontal strip
      * tagged so would be read as a vertical strip (and refused: it does not fit 1 x 6) */
     out->envmap = layout == ST_CUBE_STRIP_V ? ST_ENVMAP_CUBE : ST_ENVMAP_NONE;

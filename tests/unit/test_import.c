@@ -735,6 +735,303 @@ static void exr_luminance_chroma_images_are_refused_not_made_grey(void **state)
     st_image_free(&img);
 }
 
+/* img27: a Y + A file is a grey image with alpha (it came in as its A channel alone, grey),
+ * and Y, RY, BY, A is refused as luminance/chroma (the A let it through as grey). */
+static void exr_grey_with_alpha_keeps_both_and_chroma_with_alpha_is_refused(void **state)
+{
+    (void)state;
+    enum { W = 8, H = 4 };
+    char p[512];
+    st_error e;
+    st_image img;
+    const char *ya[2] = {"Y", "A"};
+    const float v[4] = {0.5f, 0.25f, -0.125f, 0.75f};
+    tmp_path(p, sizeof p, "ya.exr");
+    write_exr_channels(p, W, H, 2, ya, v);
+    st_error_clear(&e);
+    assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 2);
+    assert_int_equal(img.alpha_chan, 1);
+    const uint16_t *t = img.data;
+    for (int x = 0; x < W; x++) {
+        assert_true(st_half_to_float(t[2 * x]) == st_half_to_float(st_float_to_half(0.5f + x / 64.0f)));
+        assert_true(st_half_to_float(t[2 * x + 1]) == st_half_to_float(st_float_to_half(0.25f + x / 64.0f)));
+    }
+    st_image_free(&img);
+    /* the same in a layer: mask.Y + mask.A */
+    const char *lya[2] = {"mask.Y", "mask.A"};
+    tmp_path(p, sizeof p, "layer_ya.exr");
+    write_exr_channels(p, W, H, 2, lya, v);
+    assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 2);
+    assert_int_equal(img.alpha_chan, 1);
+    st_image_free(&img);
+    /* alpha alone is still one channel */
+    const char *a1[1] = {"A"};
+    tmp_path(p, sizeof p, "a.exr");
+    write_exr_channels(p, W, H, 1, a1, v + 1);
+    assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_OK);
+    assert_int_equal(img.nchan, 1);
+    assert_int_equal(img.alpha_chan, -1);
+    st_image_free(&img);
+    const char *yca[4] = {"Y", "RY", "BY", "A"};
+    tmp_path(p, sizeof p, "yca.exr");
+    write_exr_channels(p, W, H, 4, yca, v);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_EFORMAT);
+    assert_non_null(strstr(e.msg, "luminance/chroma"));
+    assert_null(s);
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    p[2] = (uint8_t)(v >> 16);
+    p[3] = (uint8_t)(v >> 24);
+}
+
+/* An uncompressed single-part ripmap EXR, assembled by the file format's rules: w x h, one
+ * half channel Y, 1 x 1 tiles, ROUND_DOWN; texel (x, y) of level (lx, ly) holds
+ * x + 10 y + 100 lx + 1000 ly (all exact in half). Returns its size. */
+static size_t ripmap_exr(uint8_t *b, int w, int h)
+{
+    size_t n = 0;
+#define ATTR(name, type, size)                                                                   \
+    do {                                                                                         \
+        memcpy(b + n, name, strlen(name) + 1);                                                   \
+        n += strlen(name) + 1;                                                                   \
+        memcpy(b + n, type, strlen(type) + 1);                                                   \
+        n += strlen(type) + 1;                                                                   \
+        put32(b + n, size);                                                                      \
+        n += 4;                                                                                  \
+    } while (0)
+    put32(b, 20000630u);
+    put32(b + 4, 2u | 0x200u); /* version 2, tiled */
+    n = 8;
+    ATTR("channels", "chlist", 2 + 16 + 1);
+    memcpy(b + n, "Y", 2);
+    n += 2;
+    put32(b + n, 1); /* half */
+    memset(b + n + 4, 0, 4);
+    put32(b + n + 8, 1);
+    put32(b + n + 12, 1);
+    n += 16;
+    b[n++] = 0;
+    ATTR("compression", "compression", 1);
+    b[n++] = 0;
+    ATTR("dataWindow", "box2i", 16);
+    put32(b + n, 0); put32(b + n + 4, 0); put32(b + n + 8, (uint32_t)w - 1); put32(b + n + 12, (uint32_t)h - 1);
+    n += 16;
+    ATTR("displayWindow", "box2i", 16);
+    put32(b + n, 0); put32(b + n + 4, 0); put32(b + n + 8, (uint32_t)w - 1); put32(b + n + 12, (uint32_t)h - 1);
+    n += 16;
+    ATTR("lineOrder", "lineOrder", 1);
+    b[n++] = 0;
+    float one = 1.0f, zero = 0.0f;
+    ATTR("pixelAspectRatio", "float", 4);
+    memcpy(b + n, &one, 4);
+    n += 4;
+    ATTR("screenWindowCenter", "v2f", 8);
+    memcpy(b + n, &zero, 4);
+    memcpy(b + n + 4, &zero, 4);
+    n += 8;
+    ATTR("screenWindowWidth", "float", 4);
+    memcpy(b + n, &one, 4);
+    n += 4;
+    ATTR("tiles", "tiledesc", 9);
+    put32(b + n, 1);
+    put32(b + n + 4, 1);
+    b[n + 8] = 2; /* RIPMAP_LEVELS, ROUND_DOWN */
+    n += 9;
+    b[n++] = 0; /* end of header */
+#undef ATTR
+    int nlx = 1, nly = 1;
+    while ((w >> nlx) >= 1) nlx++;
+    while ((h >> nly) >= 1) nly++;
+    nlx--, nly--;
+    nlx++, nly++;
+    size_t nchunks = 0;
+    for (int ly = 0; ly < nly; ly++)
+        for (int lx = 0; lx < nlx; lx++)
+            nchunks += (size_t)(w >> lx) * (size_t)(h >> ly);
+    size_t table = n, pos = n + 8 * nchunks, k = 0;
+    for (int ly = 0; ly < nly; ly++)
+        for (int lx = 0; lx < nlx; lx++)
+            for (int y = 0; y < h >> ly; y++)
+                for (int x = 0; x < w >> lx; x++, k++) {
+                    uint64_t off = pos;
+                    memcpy(b + table + 8 * k, &off, 8); /* little-endian host */
+                    put32(b + pos, (uint32_t)x);
+                    put32(b + pos + 4, (uint32_t)y);
+                    put32(b + pos + 8, (uint32_t)lx);
+                    put32(b + pos + 12, (uint32_t)ly);
+                    put32(b + pos + 16, 2);
+                    uint16_t hv = st_float_to_half((float)(x + 10 * y + 100 * lx + 1000 * ly));
+                    memcpy(b + pos + 20, &hv, 2);
+                    pos += 22;
+                }
+    return pos;
+}
+
+/* img27: OpenEXR 3.1.5's C API maps the tiles of rip levels (x, y > 0) to the wrong chunks, so
+ * the truncation check refused every valid ripmap file; the check now reads those chunks from
+ * the file's offset table, and a ripmap cut short is still refused. */
+static void exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused(void **state)
+{
+    (void)state;
+    enum { W = 4, H = 2 };
+    static uint8_t b[8192];
+    size_t len = ripmap_exr(b, W, H);
+    char p[512];
+    tmp_path(p, sizeof p, "ripmap.exr");
+    write_file(p, b, len);
+    st_error e;
+    st_error_clear(&e);
+    st_image img;
+    int rc = st_exr_read(p, NULL, &img, &e);
+    if (rc)
+        print_message("ripmap: %s\n", e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_int_equal(img.w, W);
+    assert_int_equal(img.h, H);
+    assert_int_equal(img.nchan, 1);
+    assert_int_equal(img.dtype, ST_DT_HALF);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            assert_true(st_half_to_float(((uint16_t *)img.data)[y * W + x]) == (float)(x + 10 * y));
+    st_image_free(&img);
+    assert_int_equal(st_exr_read_mem(b, len, "ripmap", NULL, &img, &e), ST_OK);
+    st_image_free(&img);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    st_set_free(s);
+    /* cut inside the last rip level (1 texel: level (2, 1)), and inside the table */
+    size_t cuts[3] = {len - 1, len - 22, len / 2};
+    for (int k = 0; k < 3; k++) {
+        write_file(p, b, cuts[k]);
+        assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_EFORMAT);
+        assert_null(img.data);
+        assert_int_equal(st_exr_read_mem(b, cuts[k], "cut", NULL, &img, &e), ST_EFORMAT);
+    }
+}
+
+/* A little-endian uncompressed TIFF, 1 sample of SampleFormat INT (2), 16 bits, w x 1; with
+ * omit_bps its BitsPerSample tag is left out (1 bit by the TIFF default). */
+static size_t int16_tiff(uint8_t *b, const int16_t *v, int w, int omit_bps)
+{
+    memcpy(b, "II*\0", 4);
+    put32(b + 4, 8);
+    uint8_t *d = b + 8;
+    enum { NTAG = 10 };
+    int ntag = omit_bps ? NTAG - 1 : NTAG;
+    d[0] = (uint8_t)ntag;
+    d[1] = 0;
+    size_t data = 8 + 2 + 12 * (size_t)ntag + 4;
+    static const uint16_t tags[NTAG][2] = {{256, 3}, {257, 3}, {258, 3}, {259, 3}, {262, 3},
+                                           {273, 4}, {277, 3}, {278, 3}, {279, 4}, {339, 3}};
+    uint32_t vals[NTAG] = {(uint32_t)w, 1, 16, 1, 1, (uint32_t)data, 1, 1, (uint32_t)(2 * w), 2};
+    for (int k = 0, o = 0; k < NTAG; k++) {
+        if (omit_bps && tags[k][0] == 258)
+            continue;
+        uint8_t *t = d + 2 + 12 * o++;
+        t[0] = (uint8_t)tags[k][0];
+        t[1] = (uint8_t)(tags[k][0] >> 8);
+        t[2] = (uint8_t)tags[k][1];
+        t[3] = 0;
+        put32(t + 4, 1);
+        put32(t + 8, vals[k]);
+    }
+    put32(d + 2 + 12 * ntag, 0);
+    memcpy(b + data, v, 2 * (size_t)w);
+    return data + 2 * (size_t)w;
+}
+
+/* img27: signed 16-bit TIFF data came in as u16 with every negative value clamped to 0; it is
+ * float now (OpenImageIO's -1..1 normalisation), signs kept. */
+static void signed_16_bit_tiff_keeps_its_negative_values(void **state)
+{
+    (void)state;
+    const int16_t v[4] = {-32767, -16384, 0, 32767};
+    uint8_t b[512];
+    size_t len = int16_tiff(b, v, 4, 0);
+    char p[512];
+    tmp_path(p, sizeof p, "int16.tif");
+    write_file(p, b, len);
+    st_error e;
+    st_error_clear(&e);
+    st_image img;
+    int rc = st_image_read(p, NULL, &img, &e);
+    if (rc)
+        print_message("int16 tiff: %s\n", e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_int_equal(img.w, 4);
+    assert_int_equal(img.nchan, 1);
+    assert_int_equal(img.dtype, ST_DT_F32);
+    const float *f = img.data;
+    for (int k = 0; k < 4; k++)
+        assert_float_equal(f[k], v[k] / 32767.0, 1e-4);
+    st_image_free(&img);
+}
+
+/* img27: a TIFF without BitsPerSample is 1-bit by the TIFF default (Pillow writes 1-bit images
+ * so); OpenImageIO 2.4 reads it as 8-bit past the end of the strip and makes texels up without
+ * an error. It is refused with a reason. */
+static void tiff_without_bits_per_sample_is_refused_not_made_up(void **state)
+{
+    (void)state;
+    const int16_t v[4] = {-32767, -16384, 0, 32767};
+    uint8_t b[512];
+    size_t len = int16_tiff(b, v, 4, 1);
+    char p[512];
+    tmp_path(p, sizeof p, "nobps.tif");
+    write_file(p, b, len);
+    st_error e;
+    st_error_clear(&e);
+    st_image img;
+    assert_int_equal(st_image_read(p, NULL, &img, &e), ST_EUNSUPPORTED);
+    assert_null(img.data);
+    assert_non_null(strstr(e.msg, "BitsPerSample"));
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_EUNSUPPORTED);
+    assert_null(s);
+}
+
+/* img27: the set's premultiplied flag says how alpha is stored: an EXR's colour is
+ * premultiplied (OpenEXR's convention), a PNG's is straight; texels stay as stored. */
+static void premultiplied_flag_follows_the_file(void **state)
+{
+    (void)state;
+    enum { W = 8, H = 4 };
+    char p[512];
+    st_error e;
+    st_error_clear(&e);
+    const char *rgba[4] = {"R", "G", "B", "A"};
+    const float v[4] = {0.25f, 0.125f, 0.0625f, 0.5f};
+    st_set *s = NULL;
+    tmp_path(p, sizeof p, "pm_rgba.exr");
+    write_exr_channels(p, W, H, 4, rgba, v);
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.alpha_chan, 3);
+    assert_int_equal(s->info.premultiplied, 1);
+    st_set_free(s);
+    tmp_path(p, sizeof p, "pm_rgb.exr");
+    write_exr_channels(p, W, H, 3, rgba, v);
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.premultiplied, 0);
+    st_set_free(s);
+    uint8_t px[W * H * 4];
+    for (size_t i = 0; i < sizeof px; i++)
+        px[i] = (uint8_t)(i * 7);
+    tmp_path(p, sizeof p, "pm_rgba.png");
+    assert_int_equal(st_image_write(p, W, H, 4, ST_DT_U8, px, &e), ST_OK);
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.alpha_chan, 3);
+    assert_int_equal(s->info.premultiplied, 0);
+    assert_memory_equal(st_face_level(s, 0, 0), px, sizeof px); /* as stored, not premultiplied */
+    st_set_free(s);
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -878,6 +1175,11 @@ int main(void)
         cmocka_unit_test(caps_on_dimension_and_bytes_are_enforced),
         cmocka_unit_test(truncated_files_are_refused_cleanly),
         cmocka_unit_test(exr_luminance_chroma_images_are_refused_not_made_grey),
+        cmocka_unit_test(exr_grey_with_alpha_keeps_both_and_chroma_with_alpha_is_refused),
+        cmocka_unit_test(exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused),
+        cmocka_unit_test(signed_16_bit_tiff_keeps_its_negative_values),
+        cmocka_unit_test(tiff_without_bits_per_sample_is_refused_not_made_up),
+        cmocka_unit_test(premultiplied_flag_follows_the_file),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
