@@ -125,7 +125,8 @@ static const opt OPTS[] = {
     {"lease-ttl", T_U32, O(lease_ttl), 0, 0, "SECONDS",
      "the membership lease: a node that stops renewing it leaves after SECONDS (default 5)"},
     {"repair-interval", T_U32, O(repair_interval), 0, 0, "SECONDS",
-     "seconds between repair passes (also run on every membership change; default 5)"},
+     "seconds between repair passes (also run at start and on every membership change;\n"
+     "default 5)"},
 };
 #define NOPTS (sizeof OPTS / sizeof OPTS[0])
 
