@@ -128,6 +128,23 @@ static void edge_to_a_triangle_without_uvs_is_not_a_seam(void **state)
     st_mesh_free(m);
 }
 
+/* Texture coordinates are compared by value: an exporter that writes "vt -0 0" on one side of
+ * an edge and "vt 0 0" on the other (printf of a negative zero) makes no seam (mesh27: it
+ * used to be one, with two charts, when the UVs were compared bitwise). */
+static void negative_zero_uv_is_the_same_coordinate_as_zero(void **state)
+{
+    (void)state;
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt -0 0\nvt -0.0 1\n"
+                         "f 1/1 2/2 3/3\nf 1/5 3/3 4/6\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->seams->nseams, 0);
+    assert_int_equal(m->seams->ncharts, 1);
+    assert_int_equal(m->seams->nboundary, 4);
+    st_mesh_free(m);
+}
+
 typedef struct expect {
     const char *rel;
     int draco;
@@ -320,6 +337,7 @@ int main(void)
         cmocka_unit_test(welding_merges_split_positions_before_seams),
         cmocka_unit_test(three_triangles_on_one_edge_are_non_manifold),
         cmocka_unit_test(edge_to_a_triangle_without_uvs_is_not_a_seam),
+        cmocka_unit_test(negative_zero_uv_is_the_same_coordinate_as_zero),
         cmocka_unit_test(shared_meshes_match_the_data_readme),
         cmocka_unit_test(draco_mesh_without_uvs_is_refused_with_enouv),
         cmocka_unit_test(duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps),
