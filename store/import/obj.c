@@ -53,7 +53,7 @@ static int vec_push(vec *v, const void *x, size_t limit)
 }
 
 typedef struct corner {
-    int64_t p, t, n;   /* resolved 0-based indices (t, n = -1 none); checked at the end */
+    int64_t p, t;      /* resolved 0-based indices (t = -1 none); checked at the end */
 } corner;
 
 typedef struct tri_rec {
@@ -68,6 +68,8 @@ typedef struct parser {
     uint32_t cur_mat;
     uint32_t nfaces;
     uint64_t nvn;              /* vn statements: normals are not kept, their indices checked */
+    int64_t  max_n;            /* largest 0-based vn index a face names (-1 none) ... */
+    uint32_t max_n_line;       /* ... and its line; checked at the end like v and vt */
     st_error *e;
 } parser;
 
@@ -276,13 +278,13 @@ static void read_mtl(parser *P, const char *file, size_t flen)
 static int parse_face(parser *P, const char *s, const char *end, uint32_t line)
 {
     int n = 0;
-    corner first = {0, 0, 0}, prev = {0, 0, 0};
+    corner first = {0, 0}, prev = {0, 0};
     int64_t np = (int64_t)P->pos.n, nt = (int64_t)P->uv.n, nn = (int64_t)P->nvn;
     for (;;) {
         s = skip_ws(s, end);
         if (s >= end)
             break;
-        corner c = {0, -1, -1};
+        corner c = {0, -1};
         int64_t idx[3] = {0, 0, 0};
         int have[3] = {0, 0, 0};
         for (int part = 0; part < 3; part++) {
@@ -329,10 +331,14 @@ static int parse_face(parser *P, const char *s, const char *end, uint32_t line)
                                line, (long long)idx[1]);
         }
         if (have[2]) {
-            c.n = idx[2] < 0 ? nn + idx[2] : idx[2] - 1;
-            if (c.n < 0)
+            int64_t cn = idx[2] < 0 ? nn + idx[2] : idx[2] - 1;
+            if (cn < 0)
                 return st_fail(P->e, ST_EFORMAT, "line %u: relative vn index %lld before the first vn",
                                line, (long long)idx[2]);
+            if (cn > P->max_n) {
+                P->max_n = cn;
+                P->max_n_line = line;
+            }
         }
         if (n == 0)
             first = c;
@@ -442,6 +448,9 @@ static int parse_line(parser *P, const char *s, const char *end, uint32_t line)
 
 static int build_mesh(parser *P, st_mesh **out)
 {
+    if (P->max_n >= (int64_t)P->nvn)
+        return st_fail(P->e, ST_EFORMAT, "line %u: vn index %lld out of range (%llu vn)",
+                       P->max_n_line, (long long)P->max_n + 1, (unsigned long long)P->nvn);
     size_t nt = P->tris.n;
     st_mesh *m;
     int rc = st_mesh_alloc((uint32_t)P->pos.n, (uint32_t)P->uv.n, (uint32_t)nt, &m, P->e);
@@ -465,11 +474,6 @@ static int build_mesh(parser *P, st_mesh **out)
                 st_mesh_free(m);
                 return st_fail(P->e, ST_EFORMAT, "line %u: vt index %lld out of range (%zu vt)",
                                t[i].line, (long long)c->t + 1, P->uv.n);
-            }
-            if (c->n >= (int64_t)P->nvn) {
-                st_mesh_free(m);
-                return st_fail(P->e, ST_EFORMAT, "line %u: vn index %lld out of range (%llu vn)",
-                               t[i].line, (long long)c->n + 1, (unsigned long long)P->nvn);
             }
             m->tri_pos[i * 3 + k] = (uint32_t)c->p;
             m->tri_uv[i * 3 + k] = c->t < 0 ? ST_MESH_NO_UV : (uint32_t)c->t;
@@ -510,6 +514,7 @@ int st_obj_read_mem(const char *buf, size_t len, const char *base_dir, const st_
     P.tris.esz = sizeof(tri_rec);
     P.mats.esz = sizeof(st_material);
     P.e = e;
+    P.max_n = -1;
     /* material 0 = "default" for faces before any usemtl */
     find_mat(&P, "default", 7);
     int rc = ST_OK;
