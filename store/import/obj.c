@@ -2,10 +2,14 @@
  *
  * Owns: st_obj_read_mem, st_obj_read_file. Does not own: seams (seams.c), textures.
  *
- * Handled: v (x y z [w]), vt (u [v [w]]), vn (skipped), f with i, i/j, i/j/k, i//k corners
+ * Handled: v (x y z [w], or x y z r g b: the first three kept), vt (u [v [w]]), vn (counted, not
+ * kept: faces' vn indices are range-checked), f with i, i/j, i/j/k, i//k corners
  * and negative (relative) indices, polygons (fan-triangulated), g / o / s (ignored), usemtl,
- * mtllib (several names on a line; .mtl newmtl and map_Kd with options and Windows '\'
- * paths), comments, CRLF line ends and backslash line continuation. mtllib and map_Kd paths
+ * mtllib (several names on a line; .mtl newmtl and map_Kd with the spec's options, names
+ * with spaces and Windows '\' paths, relative to the .mtl's folder), comments (whole lines:
+ * "v 1 2 3 # x" is refused naming the token), CRLF line ends and backslash line continuation.
+ * Numbers are C's strtof (so hex floats are accepted). Material names are kept to 127 bytes
+ * (names equal in their first 127 bytes are one material). mtllib and map_Kd paths
  * are only followed when relative and inside the OBJ's folder (no "..", not absolute), and
  * never with caps->no_side_files (the daemon's uploads).
  *
@@ -63,6 +67,9 @@ typedef struct parser {
     vec pos, uv, tris, mats;   /* float[3], float[2], tri_rec, st_material */
     uint32_t cur_mat;
     uint32_t nfaces;
+    uint64_t nvn;              /* vn statements: normals are not kept, their indices checked */
+    int64_t  max_n;            /* largest 0-based vn index a face names (-1 none) ... */
+    uint32_t max_n_line;       /* ... and its line; checked at the end like v and vt */
     st_error *e;
 } parser;
 
@@ -73,10 +80,14 @@ static const char *skip_ws(const char *s, const char *end)
     return s;
 }
 
-/* Parses up to n floats; returns how many were read, -1 on a non-finite value. */
-static int parse_floats(const char *s, const char *end, float *out, int n)
+/* Parses up to n floats; returns how many were read, -1 on a non-finite value, -2 on a token
+ * that is not a number (*bad, *badlen: the token, for the message). Tokens up to 255
+ * characters are read (a 64-character cap refused numbers written with many digits as
+ * "needs 3 numbers"). */
+static int parse_floats(const char *s, const char *end, float *out, int n, const char **bad,
+                        int *badlen)
 {
-    char buf[64];
+    char buf[256];
     int k = 0;
     while (k < n) {
         s = skip_ws(s, end);
@@ -86,6 +97,8 @@ static int parse_floats(const char *s, const char *end, float *out, int n)
         while (t < end && !isspace((unsigned char)*t))
             t++;
         size_t len = (size_t)(t - s);
+        *bad = s;
+        *badlen = len > 40 ? 40 : (int)len;
         if (len >= sizeof buf)
             return -2;
         memcpy(buf, s, len);
@@ -103,16 +116,19 @@ static int parse_floats(const char *s, const char *end, float *out, int n)
     return k;
 }
 
+/* Material names are kept to their first 127 bytes, and looked up the same way: a longer
+ * name compared at full length never matched its stored copy, so each usemtl of it made a
+ * new material without the MTL's map_Kd (and 4097 of them refused the file). */
 static int find_mat(parser *P, const char *name, size_t len)
 {
     st_material *m = P->mats.p;
+    if (len >= sizeof m[0].name)
+        len = sizeof m[0].name - 1;
     for (size_t i = 0; i < P->mats.n; i++)
         if (strlen(m[i].name) == len && !memcmp(m[i].name, name, len))
             return (int)i;
     st_material nm;
     memset(&nm, 0, sizeof nm);
-    if (len >= sizeof nm.name)
-        len = sizeof nm.name - 1;
     memcpy(nm.name, name, len);
     if (vec_push(&P->mats, &nm, ST_MESH_MAX_MATERIALS))
         return -1;
@@ -135,20 +151,69 @@ static int safe_rel(const char *p)
     return 1;
 }
 
-/* Resolves an MTL map path: options skipped (last token), '\' -> '/', "./" dropped, made
- * relative to the .mtl's folder. */
+/* The options of an MTL map statement (the MTL spec) and how many arguments each takes;
+ * -o, -s and -t take one to three numbers (-3). */
+static const struct { const char *opt; int nargs; } MAP_OPTS[] = {
+    {"-blendu", 1}, {"-blendv", 1}, {"-boost", 1}, {"-cc", 1},     {"-clamp", 1}, {"-mm", 2},
+    {"-o", -3},     {"-s", -3},     {"-t", -3},    {"-texres", 1}, {"-bm", 1},    {"-imfchan", 1},
+    {"-type", 1}};
+
+static const char *next_tok(const char *s, const char *end, const char **te)
+{
+    s = skip_ws(s, end);
+    const char *t = s;
+    while (t < end && !isspace((unsigned char)*t))
+        t++;
+    *te = t;
+    return s;
+}
+
+static int is_number(const char *s, const char *te)
+{
+    char buf[64];
+    size_t l = (size_t)(te - s);
+    if (l == 0 || l >= sizeof buf)
+        return 0;
+    memcpy(buf, s, l);
+    buf[l] = 0;
+    char *ep;
+    (void)strtod(buf, &ep);
+    return ep != buf && !*ep;
+}
+
+/* Resolves an MTL map path: the options skipped by the spec's argument counts, and the rest
+ * of the line is the file name (spaces kept: "map_Kd my tex.png" names "my tex.png"; taking
+ * the last token named "tex.png"), '\' -> '/', "./" dropped, made relative to the .mtl's
+ * folder (dir). */
 static void resolve_map(const char *dir, const char *s, const char *end, char *out, size_t cap)
 {
-    /* last whitespace-separated token */
     while (end > s && isspace((unsigned char)end[-1]))
         end--;
-    const char *t = end;
-    while (t > s && !isspace((unsigned char)t[-1]))
-        t--;
+    const char *te, *t = next_tok(s, end, &te);
+    for (;;) {
+        int nargs = 0;
+        for (size_t i = 0; i < sizeof MAP_OPTS / sizeof MAP_OPTS[0]; i++)
+            if (strlen(MAP_OPTS[i].opt) == (size_t)(te - t) &&
+                !memcmp(t, MAP_OPTS[i].opt, (size_t)(te - t)))
+                nargs = MAP_OPTS[i].nargs;
+        if (!nargs)
+            break;
+        t = next_tok(te, end, &te);
+        if (nargs > 0) {
+            for (int k = 0; k < nargs && t < end; k++)
+                t = next_tok(te, end, &te);
+        } else {
+            /* one to three numbers, never the last token (the file name) */
+            for (int k = 0; k < -nargs && te < end && is_number(t, te); k++)
+                t = next_tok(te, end, &te);
+        }
+    }
     char name[512];
-    size_t len = (size_t)(end - t);
-    if (len >= sizeof name)
-        len = sizeof name - 1;
+    size_t len = t < end ? (size_t)(end - t) : 0;
+    if (len >= sizeof name) {
+        out[0] = 0; /* too long: no texture rather than a wrong one */
+        return;
+    }
     memcpy(name, t, len);
     name[len] = 0;
     for (char *c = name; *c; c++)
@@ -186,6 +251,9 @@ static void read_mtl(parser *P, const char *file, size_t flen)
     FILE *f = fopen(path, "rb");
     if (!f)
         return; /* a missing .mtl is not an error */
+    char mtldir[1024];   /* map_Kd names are relative to the .mtl's folder */
+    snprintf(mtldir, sizeof mtldir, "%s", path);
+    *strrchr(mtldir, '/') = 0;
     char line[1024];
     int cur = -1;
     while (fgets(line, sizeof line, f)) {
@@ -201,7 +269,7 @@ static void read_mtl(parser *P, const char *file, size_t flen)
             cur = find_mat(P, nm, (size_t)(ne - nm));
         } else if (cur >= 0 && !strncmp(s, "map_Kd", 6) && isspace((unsigned char)s[6])) {
             st_material *m = &((st_material *)P->mats.p)[cur];
-            resolve_map(P->base_dir, s + 6, end, m->map_kd, sizeof m->map_kd);
+            resolve_map(mtldir, s + 6, end, m->map_kd, sizeof m->map_kd);
         }
     }
     fclose(f);
@@ -211,7 +279,7 @@ static int parse_face(parser *P, const char *s, const char *end, uint32_t line)
 {
     int n = 0;
     corner first = {0, 0}, prev = {0, 0};
-    int64_t np = (int64_t)P->pos.n, nt = (int64_t)P->uv.n;
+    int64_t np = (int64_t)P->pos.n, nt = (int64_t)P->uv.n, nn = (int64_t)P->nvn;
     for (;;) {
         s = skip_ws(s, end);
         if (s >= end)
@@ -262,6 +330,16 @@ static int parse_face(parser *P, const char *s, const char *end, uint32_t line)
                 return st_fail(P->e, ST_EFORMAT, "line %u: relative vt index %lld before the first vt",
                                line, (long long)idx[1]);
         }
+        if (have[2]) {
+            int64_t cn = idx[2] < 0 ? nn + idx[2] : idx[2] - 1;
+            if (cn < 0)
+                return st_fail(P->e, ST_EFORMAT, "line %u: relative vn index %lld before the first vn",
+                               line, (long long)idx[2]);
+            if (cn > P->max_n) {
+                P->max_n = cn;
+                P->max_n_line = line;
+            }
+        }
         if (n == 0)
             first = c;
         if (n >= 2) {
@@ -298,9 +376,14 @@ static int parse_line(parser *P, const char *s, const char *end, uint32_t line)
     size_t kl = (size_t)(s - kw);
     if (kl == 1 && kw[0] == 'v') {
         float p[4];
-        int k = parse_floats(s, end, p, 4);
+        const char *bad = "";
+        int bl = 0;
+        int k = parse_floats(s, end, p, 4, &bad, &bl);
         if (k == -1)
             return st_fail(P->e, ST_EFORMAT, "line %u: vertex with a NaN or infinite coordinate", line);
+        if (k == -2)
+            return st_fail(P->e, ST_EFORMAT, "line %u: vertex: '%.*s' is not a number (no comments "
+                           "after a statement)", line, bl, bad);
         if (k < 3)
             return st_fail(P->e, ST_EFORMAT, "line %u: vertex needs 3 numbers", line);
         int r = vec_push(&P->pos, p, P->max_verts);
@@ -310,9 +393,14 @@ static int parse_line(parser *P, const char *s, const char *end, uint32_t line)
     }
     if (kl == 2 && kw[0] == 'v' && kw[1] == 't') {
         float t[3] = {0, 0, 0};
-        int k = parse_floats(s, end, t, 3);
+        const char *bad = "";
+        int bl = 0;
+        int k = parse_floats(s, end, t, 3, &bad, &bl);
         if (k == -1)
             return st_fail(P->e, ST_EFORMAT, "line %u: texture coordinate is NaN or infinite", line);
+        if (k == -2)
+            return st_fail(P->e, ST_EFORMAT, "line %u: vt: '%.*s' is not a number (no comments "
+                           "after a statement)", line, bl, bad);
         if (k < 1)
             return st_fail(P->e, ST_EFORMAT, "line %u: vt needs at least one number", line);
         if (fabsf(t[0]) > 1e6f || fabsf(t[1]) > 1e6f)
@@ -326,6 +414,10 @@ static int parse_line(parser *P, const char *s, const char *end, uint32_t line)
     }
     if (kl == 1 && kw[0] == 'f')
         return parse_face(P, s, end, line);
+    if (kl == 2 && kw[0] == 'v' && kw[1] == 'n') {
+        P->nvn++; /* normals are not kept; faces' vn indices are range-checked against them */
+        return ST_OK;
+    }
     if (kl == 6 && !memcmp(kw, "usemtl", 6)) {
         const char *nm = skip_ws(s, end);
         const char *ne = end;
@@ -351,11 +443,14 @@ static int parse_line(parser *P, const char *s, const char *end, uint32_t line)
         }
         return ST_OK;
     }
-    return ST_OK; /* vn, vp, g, o, s, l, p and unknown statements are ignored */
+    return ST_OK; /* vp, g, o, s, l, p and unknown statements are ignored */
 }
 
 static int build_mesh(parser *P, st_mesh **out)
 {
+    if (P->max_n >= (int64_t)P->nvn)
+        return st_fail(P->e, ST_EFORMAT, "line %u: vn index %lld out of range (%llu vn)",
+                       P->max_n_line, (long long)P->max_n + 1, (unsigned long long)P->nvn);
     size_t nt = P->tris.n;
     st_mesh *m;
     int rc = st_mesh_alloc((uint32_t)P->pos.n, (uint32_t)P->uv.n, (uint32_t)nt, &m, P->e);
@@ -419,6 +514,7 @@ int st_obj_read_mem(const char *buf, size_t len, const char *base_dir, const st_
     P.tris.esz = sizeof(tri_rec);
     P.mats.esz = sizeof(st_material);
     P.e = e;
+    P.max_n = -1;
     /* material 0 = "default" for faces before any usemtl */
     find_mat(&P, "default", 7);
     int rc = ST_OK;

@@ -53,13 +53,16 @@ static void raster_tri(uint8_t *mask, uint32_t w, uint32_t h, const float *a, co
     double area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
     if (area == 0 || !isfinite(area))
         return;
-    double minx = fmin(ax, fmin(bx, cx)), maxx = fmax(ax, fmax(bx, cx));
-    double miny = fmin(ay, fmin(by, cy)), maxy = fmax(ay, fmax(by, cy));
-    long i0 = (long)floor(minx), i1 = (long)ceil(maxx), j0 = (long)floor(miny), j1 = (long)ceil(maxy);
-    if (i0 < 0) i0 = 0;
-    if (j0 < 0) j0 = 0;
-    if (i1 > (long)w - 1) i1 = (long)w - 1;
-    if (j1 > (long)h - 1) j1 = (long)h - 1;
+    /* the box is clipped to the image in double before it becomes an integer: Draco UVs are
+     * any finite float, and (long) of 1e20 * w is undefined (on x86 LONG_MIN, which left a
+     * triangle covering the whole image out of the mask) */
+    double minx = fmax(floor(fmin(ax, fmin(bx, cx))), 0);
+    double maxx = fmin(ceil(fmax(ax, fmax(bx, cx))), (double)w - 1);
+    double miny = fmax(floor(fmin(ay, fmin(by, cy))), 0);
+    double maxy = fmin(ceil(fmax(ay, fmax(by, cy))), (double)h - 1);
+    if (minx > maxx || miny > maxy)
+        return;
+    long i0 = (long)minx, i1 = (long)maxx, j0 = (long)miny, j1 = (long)maxy;
     double sgn = area > 0 ? 1 : -1;
     for (long j = j0; j <= j1; j++)
         for (long i = i0; i <= i1; i++) {
@@ -269,8 +272,10 @@ int st_atlas_sample(const st_set *s, const st_sample_opts *o, unsigned flags, co
         if (chart) {
             for (size_t k = 0; k < m; k++) {
                 const st_query *x = &fq[k];
-                if (!isfinite(x->u) || !isfinite(x->v)) {
-                    st[k] = ST_Q_NONFINITE;
+                if (!isfinite(x->u) || !isfinite(x->v) || fabsf(x->u) > ST_MAX_COORD ||
+                    fabsf(x->v) > ST_MAX_COORD) {
+                    /* as st_sample_batch refuses them (and (long) of u * w stays defined) */
+                    st[k] = isfinite(x->u) && isfinite(x->v) ? ST_Q_BAD_FOOTPRINT : ST_Q_NONFINITE;
                     cv[k] = 0;
                     for (unsigned c = 0; c < nc; c++)
                         out[(i0 + k) * nc + c] = NAN;

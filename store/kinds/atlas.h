@@ -55,9 +55,11 @@ void st_atlas_ext(st_atlas *a, st_set_ext *x);
 enum { ST_ATLAS_CHART_DISCARD = 0x100 };   /* extra bit in st_atlas_sample's flags */
 
 /* Samples n (u, v) queries of texture space with footprint (face field ignored, set to 0).
- * mode / filter from o; Traverse is sampled as Clamp. With flags & ST_ATLAS_CHART_DISCARD
- * in Discard mode, taps outside the chart mask are dropped too (point / bilinear filters;
- * others fall back to face Discard). Results as st_sample_batch. */
+ * mode / filter from o, every mode as st_sample_batch takes it (Traverse drops the taps
+ * beyond the image border, see above). With flags & ST_ATLAS_CHART_DISCARD in Discard mode,
+ * taps outside the chart mask are dropped too (point / bilinear filters; others fall back to
+ * face Discard); |u|, |v| over ST_MAX_COORD are ST_Q_BAD_FOOTPRINT there as well. Results as
+ * st_sample_batch. */
 int st_atlas_sample(const st_set *s, const st_sample_opts *o, unsigned flags,
                     const st_query *q, size_t n, float *out, float *coverage, uint8_t *status);
 

@@ -26,7 +26,8 @@
  *   - boundary edge:     used by exactly one triangle side;
  *   - non-manifold edge: used by three or more triangle sides;
  *   - seam edge:         used by exactly two triangles whose texture coordinates along it
- *                        differ (compared by value, so duplicated vt entries are not seams).
+ *                        differ (compared by value: duplicated vt entries, and -0 against +0,
+ *                        are not seams).
  *                        Both triangles must have UVs: an edge between a triangle with UVs and
  *                        one without is counted in nuv_border, not as a seam.
  *   - charts:            connected components of triangles across manifold non-seam edges

@@ -75,6 +75,14 @@ static void side_uv(const st_mesh *m, uint32_t t, unsigned k, uint32_t lo, float
     out[1][1] = b[1];
 }
 
+/* The two UV segments are equal by value (so -0 and +0 are the same coordinate; a bitwise
+ * compare made an edge between vt 0 0 and vt -0 0 a seam). UVs are finite (readers refuse
+ * NaN), so == is an equivalence here. */
+static int same_segment(float a[2][2], float b[2][2])
+{
+    return a[0][0] == b[0][0] && a[0][1] == b[0][1] && a[1][0] == b[1][0] && a[1][1] == b[1][1];
+}
+
 static int push_edge(st_mesh_edge **arr, uint32_t *n, uint32_t *cap, const st_mesh_edge *x)
 {
     if (*n == *cap) {
@@ -152,7 +160,7 @@ int st_mesh_find_seams(st_mesh *m, st_error *e)
             if (h0 && h1) {
                 side_uv(m, t0, sd[i].edge, lo, se.uv[0]);
                 side_uv(m, t1, sd[i + 1].edge, lo, se.uv[1]);
-                seam = memcmp(se.uv[0], se.uv[1], sizeof se.uv[0]) != 0;
+                seam = !same_segment(se.uv[0], se.uv[1]);
                 if (!seam)
                     parent[uf_find(parent, t0)] = uf_find(parent, t1);
             } else if (h0 || h1) {

@@ -580,6 +580,103 @@ static void obj_over_the_caps_is_refused(void **state)
     assert_null(m);
 }
 
+/* MTL map statements as other tools write them (mesh27): the spec's options are skipped by
+ * their argument counts and the rest of the line is the name, spaces included (taking the last
+ * token read "map_Kd my tex.png" as "tex.png": another file, or none); names are relative to
+ * the .mtl's folder, which mtllib may put in a subfolder. */
+static void mtl_map_names_keep_spaces_skip_options_and_follow_the_mtl_folder(void **state)
+{
+    (void)state;
+    char sub[512], mp[512];
+    tmp_path(sub, sizeof sub, "mats");
+    mkdir(sub, 0700);
+    tmp_path(mp, sizeof mp, "mats/spaces.mtl");
+    const char *mtl = "newmtl a\nmap_Kd my tex.png\n"
+                      "newmtl b\r\n\tmap_Kd -s 1 1 1 -o 0 0 -bm 0.5 -clamp on Diffuse Map.png \r\n"
+                      "newmtl c\nmap_Kd -blendu off -mm 0 1 .\\Sub Dir\\wood.png\n"
+                      "newmtl d\nmap_Kd -s 2 1.png\n";
+    write_file(mp, mtl, strlen(mtl));
+    const char *obj = "mtllib mats/spaces.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                      "usemtl a\nf 1 2 3\nusemtl b\nf 1 2 3\nusemtl c\nf 1 2 3\nusemtl d\nf 1 2 3\n";
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_obj_read_mem(obj, strlen(obj), tmpdir, NULL, &m, &e), ST_OK);
+    const char *want[] = {"mats/my tex.png", "mats/Diffuse Map.png", "mats/Sub Dir/wood.png",
+                          "mats/1.png"};
+    for (int i = 0; i < 4; i++) {
+        char w[600];
+        snprintf(w, sizeof w, "%s/%s", tmpdir, want[i]);
+        assert_string_equal(m->mats[m->tri_mat[i]].map_kd, w);
+    }
+    st_mesh_free(m);
+}
+
+/* A material name longer than the 127 bytes kept is looked up by those 127 bytes (mesh27: each
+ * usemtl of it made a new material without the MTL's map_Kd, and 4097 of them refused the
+ * file as "more than 4096 materials"). */
+static void long_material_names_stay_one_material(void **state)
+{
+    (void)state;
+    char name[201];
+    memset(name, 'M', 200);
+    name[200] = 0;
+    char mtl[400], mp[512];
+    snprintf(mtl, sizeof mtl, "newmtl %s\nmap_Kd long.png\n", name);
+    tmp_path(mp, sizeof mp, "long.mtl");
+    write_file(mp, mtl, strlen(mtl));
+    enum { N = 5000 };
+    size_t cap = 64 + (size_t)N * 260;
+    char *obj = malloc(cap);
+    assert_non_null(obj);
+    size_t len = (size_t)snprintf(obj, cap, "mtllib long.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for (int i = 0; i < N; i++)
+        len += (size_t)snprintf(obj + len, cap - len, "usemtl %s\nf 1 2 3\n", name);
+    st_mesh *m = NULL;
+    st_error e;
+    int rc = st_obj_read_mem(obj, len, tmpdir, NULL, &m, &e);
+    if (rc)
+        print_message("long names: %s\n", e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_int_equal(m->ntri, N);
+    assert_int_equal(m->nmat, 2);   /* "default" and the long one */
+    char w[600];
+    snprintf(w, sizeof w, "%s/long.png", tmpdir);
+    assert_string_equal(m->mats[m->tri_mat[N - 1]].map_kd, w);
+    st_mesh_free(m);
+    free(obj);
+}
+
+/* vn indices are range-checked like v and vt ones; a token that is not a number is named (a
+ * comment after a statement is one); numbers with many digits are read. */
+static void obj_vn_indices_junk_tokens_and_long_numbers(void **state)
+{
+    (void)state;
+    st_mesh *m = NULL;
+    st_error e;
+    const char *vn = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//2 3//1\n";
+    assert_int_equal(st_obj_read_mem(vn, strlen(vn), NULL, NULL, &m, &e), ST_EFORMAT);
+    assert_non_null(strstr(e.msg, "line 5: vn index 2 out of range"));
+    assert_null(m);
+    const char *vnrel = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-1 2//-2 3//-1\n";
+    assert_int_equal(st_obj_read_mem(vnrel, strlen(vnrel), NULL, NULL, &m, &e), ST_EFORMAT);
+    assert_non_null(strstr(e.msg, "relative vn index -2"));
+    const char *ok = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 1 0 0\nf 1//1 2//2 3//-1\n";
+    assert_int_equal(st_obj_read_mem(ok, strlen(ok), NULL, NULL, &m, &e), ST_OK);
+    st_mesh_free(m);
+    const char *cm = "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    assert_int_equal(st_obj_read_mem(cm, strlen(cm), NULL, NULL, &m, &e), ST_EFORMAT);
+    assert_non_null(strstr(e.msg, "line 1: vertex: '#' is not a number"));
+    const char *vt = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 abc\nf 1/1 2/1 3/1\n";
+    assert_int_equal(st_obj_read_mem(vt, strlen(vt), NULL, NULL, &m, &e), ST_EFORMAT);
+    assert_non_null(strstr(e.msg, "line 4: vt: 'abc' is not a number"));
+    char longn[200];
+    snprintf(longn, sizeof longn, "v 0.%s 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+             "11111111111111111111111111111111111111111111111111111111111111111111111111111111");
+    assert_int_equal(st_obj_read_mem(longn, strlen(longn), NULL, NULL, &m, &e), ST_OK);
+    assert_float_equal(m->pos[0], 0.11111111f, 1e-7);
+    st_mesh_free(m);
+}
+
 /* A PNG whose header claims w x h (valid CRCs, no pixel data). */
 static void huge_png(uint32_t w, uint32_t h)
 {
@@ -1170,6 +1267,9 @@ int main(void)
         cmocka_unit_test(failed_image_reads_leave_the_image_empty),
         cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
         cmocka_unit_test(obj_over_the_caps_is_refused),
+        cmocka_unit_test(mtl_map_names_keep_spaces_skip_options_and_follow_the_mtl_folder),
+        cmocka_unit_test(long_material_names_stay_one_material),
+        cmocka_unit_test(obj_vn_indices_junk_tokens_and_long_numbers),
         cmocka_unit_test(huge_png_dimensions_are_refused_before_allocation),
         cmocka_unit_test(exr_with_a_huge_data_window_is_refused),
         cmocka_unit_test(caps_on_dimension_and_bytes_are_enforced),

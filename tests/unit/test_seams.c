@@ -128,6 +128,23 @@ static void edge_to_a_triangle_without_uvs_is_not_a_seam(void **state)
     st_mesh_free(m);
 }
 
+/* Texture coordinates are compared by value: an exporter that writes "vt -0 0" on one side of
+ * an edge and "vt 0 0" on the other (printf of a negative zero) makes no seam (mesh27: it
+ * used to be one, with two charts, when the UVs were compared bitwise). */
+static void negative_zero_uv_is_the_same_coordinate_as_zero(void **state)
+{
+    (void)state;
+    st_mesh *m = obj_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt -0 0\nvt -0.0 1\n"
+                         "f 1/1 2/2 3/3\nf 1/5 3/3 4/6\n");
+    st_error e;
+    assert_int_equal(st_mesh_find_seams(m, &e), ST_OK);
+    assert_int_equal(m->seams->nseams, 0);
+    assert_int_equal(m->seams->ncharts, 1);
+    assert_int_equal(m->seams->nboundary, 4);
+    st_mesh_free(m);
+}
+
 typedef struct expect {
     const char *rel;
     int draco;
@@ -311,6 +328,49 @@ static void atlas_sampling_takes_the_modes_as_the_wire_does(void **state)
     st_set_free(s);
 }
 
+/* A Draco mesh may hold any finite UV: a triangle (0,0) (1e20,0) (0,1e20) covers the whole
+ * image, and its chart mask must too (mesh27: the bounding box went through (long) of 1e20 * w,
+ * undefined, LONG_MIN on x86, and the mask stayed empty, so chart Discard found no texel);
+ * chart Discard refuses |u| over ST_MAX_COORD as st_sample_batch does. */
+static void huge_uvs_keep_the_chart_mask_and_chart_discard_defined(void **state)
+{
+    (void)state;
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_mesh_alloc(3, 3, 1, &m, &e), ST_OK);
+    const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const float uv[6] = {0, 0, 1e20f, 0, 0, 1e20f};
+    memcpy(m->pos, pos, sizeof pos);
+    memcpy(m->uv, uv, sizeof uv);
+    for (uint32_t k = 0; k < 3; k++)
+        m->tri_pos[k] = m->tri_uv[k] = k;
+    uint8_t px[8 * 8];
+    for (int i = 0; i < 64; i++)
+        px[i] = (uint8_t)(i * 3);
+    st_image img = {.w = 8, .h = 8, .nchan = 1, .dtype = ST_DT_U8, .alpha_chan = -1, .data = px};
+    st_set *s = NULL;
+    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
+    const st_atlas *a = st_atlas_get(s);
+    size_t covered = 0;
+    for (size_t i = 0; i < 64; i++)
+        covered += a->chart_mask[i];
+    assert_int_equal(covered, 64);
+    st_sample_opts o = {.mode = ST_MODE_DISCARD, .filter = ST_FILTER_POINT};
+    st_query q[2];
+    memset(q, 0, sizeof q);
+    q[0].u = 0.5f;
+    q[0].v = 0.5f;
+    q[1].u = 1e30f;
+    q[1].v = 0.5f;
+    float out[2], cov[2];
+    uint8_t st[2];
+    assert_int_equal(st_atlas_sample(s, &o, ST_ATLAS_CHART_DISCARD, q, 2, out, cov, st), 1);
+    assert_int_equal(st[0], ST_Q_OK);
+    assert_float_equal(out[0], (float)px[4 * 8 + 4] / 255.0f, 1e-6);
+    assert_int_equal(st[1], ST_Q_BAD_FOOTPRINT);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -320,10 +380,12 @@ int main(void)
         cmocka_unit_test(welding_merges_split_positions_before_seams),
         cmocka_unit_test(three_triangles_on_one_edge_are_non_manifold),
         cmocka_unit_test(edge_to_a_triangle_without_uvs_is_not_a_seam),
+        cmocka_unit_test(negative_zero_uv_is_the_same_coordinate_as_zero),
         cmocka_unit_test(shared_meshes_match_the_data_readme),
         cmocka_unit_test(draco_mesh_without_uvs_is_refused_with_enouv),
         cmocka_unit_test(duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps),
         cmocka_unit_test(atlas_sampling_takes_the_modes_as_the_wire_does),
+        cmocka_unit_test(huge_uvs_keep_the_chart_mask_and_chart_discard_defined),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
