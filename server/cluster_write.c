@@ -306,7 +306,7 @@ int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int
     uint64_t gen = have_gen ? ref->gen : 0;
     st_setref_release(ref);
     st = sts_cluster_replicate(cl, &c, kind, msg, cap);
-    if (st && have_gen)
+    if (st && have_gen && !c.repeat)   /* a repeat's copy holds the recorded contents */
         sts_cluster_refuse_copy(cl, name, gen);
     return st;
 }

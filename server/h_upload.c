@@ -507,8 +507,9 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         /* acknowledged only once W owners hold it durably and the catalogue says so */
         int cst = sts_cluster_replicate(srv->cluster, &claim, done.kind, msg, sizeof msg);
         if (cst) {
-            /* the write did not take effect: the copy just published is not read either */
-            if (have_gen)
+            /* the write did not take effect: the copy just published is not read either
+             * (unless the catalogue already records these very contents: a repeat) */
+            if (have_gen && !claim.repeat)
                 sts_cluster_refuse_copy(srv->cluster, u->name, gen);
             refuse(c, h, out, u->name, cst, msg, NULL);
             goto fail;
