@@ -103,8 +103,22 @@ int sts_cluster_serves(sts_cluster *cl, const st_setref *ref)
         else
             hi = mid;
     }
+    for (size_t i = 0; ok && i < cl->nrefused; i++)
+        ok = !(cl->refused[i].gen == ref->gen && !strcmp(cl->refused[i].name, ref->name));
     pthread_mutex_unlock(&cl->mu);
     return ok;
+}
+
+void sts_cluster_refuse_copy(sts_cluster *cl, const char *name, uint64_t gen)
+{
+    pthread_mutex_lock(&cl->mu);
+    struct sts_cl_served *r = &cl->refused[cl->refused_next];
+    snprintf(r->name, sizeof r->name, "%s", name);
+    r->gen = gen;
+    cl->refused_next = (cl->refused_next + 1) % STS_CL_MAX_REFUSED;
+    if (cl->nrefused < STS_CL_MAX_REFUSED)
+        cl->nrefused++;
+    pthread_mutex_unlock(&cl->mu);
 }
 
 int sts_get_served(sts_server *srv, const char *name, st_setref **ref, st_error *e)

@@ -40,6 +40,7 @@
 typedef struct sts_server sts_server;
 
 #define STS_CL_MAX_HOLDERS 16
+#define STS_CL_MAX_REFUSED 64   /* refused copies remembered (sts_cluster_refuse_copy) */
 
 typedef struct sts_cl_member {
     char     id[STP_MAX_NODE_ID + 1];
@@ -84,6 +85,11 @@ typedef struct sts_cluster {
     struct sts_cl_served { char name[STP_MAX_NAME + 1]; uint64_t gen; } *served;
     size_t          nserved;
     uint64_t        serve_gen;
+    /* under mu: local copies of writes this node refused (UNAVAILABLE, EXISTS after the
+     * claim: sts_cluster_refuse_copy), never served whatever the rules above say - the write
+     * did not take effect. A ring: the oldest entry goes when it is full. */
+    struct sts_cl_served refused[STS_CL_MAX_REFUSED];
+    size_t          nrefused, refused_next;
 
     pthread_mutex_t etcd_mu;
     scl_etcd       *etcd_w;            /* write path */
@@ -150,6 +156,11 @@ void sts_cluster_set_served(sts_cluster *cl, struct sts_cl_served *s, size_t n, 
  * restart that the catalogue has not confirmed yet, one of a set deleted or replaced
  * meanwhile; the read is then answered as for a set the node does not hold. */
 int  sts_cluster_serves(sts_cluster *cl, const st_setref *ref);
+/* The local copy of name at registry generation gen belongs to a write this node refused
+ * after publishing it (its claim taken back, or to be taken back when etcd answers): reads
+ * never use it (MOVED to a current holder, or NOT_FOUND), until a later write or push
+ * publishes the name again. */
+void sts_cluster_refuse_copy(sts_cluster *cl, const char *name, uint64_t gen);
 /* The registry lookup of the read requests (INFO, SAMPLE, SAMPLE_DIR, FETCH_OPEN, COMPRESS
  * source): st_registry_get, and in a cluster sts_cluster_serves (ST_ENOTFOUND with a message
  * when the copy is not served). */

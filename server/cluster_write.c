@@ -301,7 +301,14 @@ int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int
             local_delete(srv, name);   /* the cluster has other contents under this name */
         return st;
     }
-    return sts_cluster_replicate(cl, &c, kind, msg, cap);
+    st_setref *ref = NULL;   /* the copy the write published: not served if it is refused */
+    int have_gen = st_registry_get(srv->reg, name, &ref, NULL) == 0;
+    uint64_t gen = have_gen ? ref->gen : 0;
+    st_setref_release(ref);
+    st = sts_cluster_replicate(cl, &c, kind, msg, cap);
+    if (st && have_gen && !c.repeat)   /* a repeat's copy holds the recorded contents */
+        sts_cluster_refuse_copy(cl, name, gen);
+    return st;
 }
 
 int sts_cluster_delete(sts_cluster *cl, const char *name,

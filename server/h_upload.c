@@ -485,6 +485,16 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         m.bytes = u->total;
         rc = publish_cb(&pa, &m, u->path);
     }
+    uint64_t gen = 0;   /* the generation published: a refused write's copy is not served */
+    int have_gen = 0;
+    if (!rc && clustered) {
+        st_setref *ref = NULL;
+        if (st_registry_get(srv->reg, u->name, &ref, NULL) == 0) {
+            gen = ref->gen;
+            have_gen = 1;
+        }
+        st_setref_release(ref);
+    }
     pthread_mutex_unlock(&srv->commit_mu);
     if (rc) {
         if (clustered)
@@ -497,6 +507,10 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         /* acknowledged only once W owners hold it durably and the catalogue says so */
         int cst = sts_cluster_replicate(srv->cluster, &claim, done.kind, msg, sizeof msg);
         if (cst) {
+            /* the write did not take effect: the copy just published is not read either
+             * (unless the catalogue already records these very contents: a repeat) */
+            if (have_gen && !claim.repeat)
+                sts_cluster_refuse_copy(srv->cluster, u->name, gen);
             refuse(c, h, out, u->name, cst, msg, NULL);
             goto fail;
         }
