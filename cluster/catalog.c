@@ -26,6 +26,11 @@ void scl_key_all_copies(char *out, const char *prefix)
     snprintf(out, SCL_KEY_MAX, "%s/copies/", prefix);
 }
 
+void scl_key_prev(char *out, const char *prefix, const char *name)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/prev/%s", prefix, name);
+}
+
 void scl_key_op(char *out, const char *prefix, const char *id)
 {
     snprintf(out, SCL_KEY_MAX, "%s/ops/%s", prefix, id);

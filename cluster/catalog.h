@@ -21,6 +21,10 @@ void scl_key_set(char *out, const char *prefix, const char *name);
 void scl_key_copies(char *out, const char *prefix, const char *name, const char *id);
 /* "<prefix>/copies/" */
 void scl_key_all_copies(char *out, const char *prefix);
+/* "<prefix>/prev/<name>": the record a pending REPLACE claim replaced, put in the claim's own
+ * transaction (so its mod_revision is the claim's): what abandoning that claim records again
+ * (server/cluster_repair.c, docs/cluster.md "Repair and rebalance") */
+void scl_key_prev(char *out, const char *prefix, const char *name);
 /* "<prefix>/ops/<id>": the node's op key (server/cluster_fence.c, docs/cluster.md "Writes in
  * doubt") */
 void scl_key_op(char *out, const char *prefix, const char *id);

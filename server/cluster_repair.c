@@ -1,10 +1,12 @@
 /* server/cluster_repair.c - the repair thread (docs/cluster.md "Repair and rebalance").
  *
- * Owns: one pass over the catalogue, run on every membership change and every
+ * Owns: one pass over the catalogue, run at start, on every membership change and every
  * --repair-interval seconds: the copies/ keys of this node's copies kept true, stale and
  * forgotten copies dropped (a set the catalogue lacks, after two lease TTLs), copies pushed
  * to owners that lack one (by the first live holder in the ranking only, so one node pushes
- * each set), extra copies dropped once every owner has confirmed its own, abandoned claims removed; then the catalogue snapshot the handlers use
+ * each set), extra copies dropped once every owner has confirmed its own, abandoned claims
+ * removed (a REPLACE's: the record it replaced put back, from prev/), the local copies reads
+ * may use confirmed (sts_cluster_set_served); then the catalogue snapshot the handlers use
  * (MOVED) is replaced. Does not own: the membership (cluster_node.c), the write path.
  * Nothing happens while etcd is unreachable.
  */
@@ -325,16 +327,31 @@ static void pass(sts_cluster *cl)
                 seen_long_enough(cl, cl->orphans, cl->norphans, e->name, rows[i].mod_rev, next,
                                  &nnext)) {
                 /* a claim whose node is gone, or was restarted since (its write path died
-                 * with the process that claimed): abandoned */
-                char key[SCL_KEY_MAX];
+                 * with the process that claimed): abandoned. A REPLACE's claim gives the
+                 * name back to the contents it replaced (their record, kept under prev/ by
+                 * the claim's own transaction: the same mod_revision), else the name is
+                 * freed. */
+                char key[SCL_KEY_MAX], pkey[SCL_KEY_MAX];
                 scl_key_set(key, cl->prefix, e->name);
+                scl_key_prev(pkey, cl->prefix, e->name);
+                scl_kvs pv = {0};
+                scl_setrec prev;
+                int restore = scl_etcd_range(cl->etcd_r, pkey, 0, &pv) == SCL_OK && pv.n == 1 &&
+                              pv.v[0].mod_rev == rows[i].mod_rev &&
+                              scl_setrec_parse(pv.v[0].val, &prev) == 0 &&
+                              prev.state == SCL_SET_OK;
                 scl_cmp cmp = {key, SCL_CMP_MOD, rows[i].mod_rev};
-                scl_op op = {SCL_OP_DEL, key, NULL, 0};
+                scl_op ops[2] = {{SCL_OP_DEL, key, NULL, 0}, {SCL_OP_DEL, pkey, NULL, 0}};
+                if (restore)
+                    ops[0] = (scl_op){SCL_OP_PUT, key, pv.v[0].val, 0};
                 int ok = 0;
-                sts_cluster_note_etcd(cl, scl_etcd_txn(cl->etcd_r, &cmp, 1, &op, 1, &ok, NULL));
+                sts_cluster_note_etcd(cl, scl_etcd_txn(cl->etcd_r, &cmp, 1, ops, 2, &ok, NULL));
                 if (ok)
-                    sts_logf(&srv->log, STS_INFO, "cluster: abandoned claim of '%s' by '%s' removed",
-                             e->name, rows[i].rec.origin);
+                    sts_logf(&srv->log, STS_INFO, "cluster: abandoned claim of '%s' by '%s' %s",
+                             e->name, rows[i].rec.origin, restore
+                             ? "undone: the contents it replaced are recorded again"
+                             : "removed");
+                scl_kvs_free(&pv);
             }
             continue;
         }

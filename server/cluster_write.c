@@ -155,7 +155,13 @@ int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32
             cmp.rev = mod;
         }
         scl_setrec_format(val, sizeof val, r);
-        scl_op op = {SCL_OP_PUT, key, val, 0};
+        /* a REPLACE of acknowledged contents keeps their record beside the claim (prev/, in
+         * the same transaction): abandoning the claim records them again (cluster_repair.c) */
+        char pkey[SCL_KEY_MAX], pval[2048];
+        scl_key_prev(pkey, cl->prefix, name);
+        scl_op ops[2] = {{SCL_OP_PUT, key, val, 0}, {SCL_OP_PUT, pkey, pval, 0}};
+        size_t nops = c->had_prev && c->prev.state == SCL_SET_OK &&
+                      scl_setrec_format(pval, sizeof pval, &c->prev) == 0 ? 2 : 1;
         int ok = 0;
         int64_t rev = 0;
         sts_cl_doubt d;
@@ -163,7 +169,7 @@ int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32
         d.kind = STS_DOUBT_CLAIM;
         snprintf(d.name, sizeof d.name, "%s", name);
         d.claim = *c;
-        int rc = sts_cluster_wtxn(cl, cl->etcd_w, &cmp, 1, &op, 1, &ok, &rev, &d);
+        int rc = sts_cluster_wtxn(cl, cl->etcd_w, &cmp, 1, ops, nops, &ok, &rev, &d);
         if (rc != SCL_OK) {
             status = rc == SCL_EUNREACHABLE ? unavailable(cl, msg, cap, "upload") : STP_S_INTERNAL;
             if (rc != SCL_EUNREACHABLE)
@@ -236,13 +242,17 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg,
     c->rec.kind = kind;
     scl_setrec_format(val, sizeof val, &c->rec);
     scl_copy_format(cval, c->rec.crc32);
-    scl_op ops[18];
+    scl_op ops[19];
     size_t nops = 0;
     ops[nops++] = (scl_op){SCL_OP_PUT, key, val, 0};
     for (int i = 0; i < nack; i++) {
         scl_key_copies(ckeys[i], cl->prefix, c->name, acked[i]);
         ops[nops++] = (scl_op){SCL_OP_PUT, ckeys[i], cval, 0};
     }
+    char pkey[SCL_KEY_MAX];   /* the replaced record kept for an abandon: no longer needed */
+    scl_key_prev(pkey, cl->prefix, c->name);
+    if (c->had_prev)
+        ops[nops++] = (scl_op){SCL_OP_DEL, pkey, NULL, 0};
     scl_cmp cmp = {key, SCL_CMP_MOD, c->mod_rev};
     int ok = 0;
     sts_cl_doubt *d = calloc(1, sizeof *d);
