@@ -605,6 +605,14 @@ static int build_set(st_face_desc *fd, uint32_t nf, int srgb, uint8_t src_kind,
     return ST_OK;
 }
 
+/* 2..7 trailing bytes that begin one of seamtex's chunk magics: a seamtex file cut inside
+ * the magic (refused: reading on would drop the record or the trailer without a word). */
+static int cut_chunk_magic(const uint8_t *p, size_t n)
+{
+    return n >= 2 && n < 8 && (!memcmp(p, SET_MAGIC, n) || !memcmp(p, TRAILER_MAGIC, n) ||
+                               !memcmp(p, MIXED_MAGIC, n));
+}
+
 /* Reads the STFACES1 layout: the table is at offset `at`, just after face 0's levels (`mips`
  * of them, which must be all of face 0's levels). */
 static int read_mixed(const uint8_t *buf, size_t len, size_t face0_off, size_t at,
@@ -690,11 +698,14 @@ int st_dds_read_mem(const uint8_t *buf, size_t len, size_t max_bytes, st_set **o
         return st_fail(e, ST_EFORMAT, "DDS claims %u mip levels, a %ux%u texture has at most %u",
                        mips, W, H, nfull);
     uint32_t caps2 = get32(h + 108);
-    int cube = (caps2 & 0x200u) != 0;
+    int dx10 = !memcmp(h + 80, "DX10", 4);
+    /* a DX10 file says cube in its misc flags (as DirectXTex reads it); caps2 is then only a
+     * hint: taking it would read a 72-face array as a cube of its first 6 faces */
+    int cube = !dx10 && (caps2 & 0x200u) != 0;
     uint32_t nf = 1;
     size_t off = 128;
     int srgb = 0;
-    if (!memcmp(h + 80, "DX10", 4)) {
+    if (dx10) {
         if (len < 148)
             return st_fail(e, ST_EFORMAT, "DDS DX10 header truncated");
         uint32_t fmt = get32(buf + 128), dim = get32(buf + 132), misc = get32(buf + 136),
@@ -717,7 +728,7 @@ int st_dds_read_mem(const uint8_t *buf, size_t len, size_t max_bytes, st_set **o
         return st_fail(e, ST_EUNSUPPORTED, "DDS FourCC '%.4s' is not DXT1 or DX10", (const char *)h + 80);
     }
     if (cube) {
-        if ((caps2 & DDSCAPS2_CUBE_ALL) != DDSCAPS2_CUBE_ALL && memcmp(h + 80, "DX10", 4))
+        if ((caps2 & DDSCAPS2_CUBE_ALL) != DDSCAPS2_CUBE_ALL && !dx10)
             return st_fail(e, ST_EUNSUPPORTED, "DDS cube map without all six faces");
         if (W != H)
             return st_fail(e, ST_EFORMAT, "DDS cube faces are %ux%u, not square", W, H);
@@ -731,22 +742,37 @@ int st_dds_read_mem(const uint8_t *buf, size_t len, size_t max_bytes, st_set **o
     /* faces of several sizes: face 0 is the texture, the table and the other faces follow */
     if (nf == 1 && !cube && len - end >= 16 && !memcmp(buf + end, MIXED_MAGIC, 8))
         return read_mixed(buf, len, off, end, mips, srgb, max_bytes, out, e);
-    /* seamtex's chunks: the set record, the adjacency trailer (unknown bytes are ignored) */
+    /* seamtex's chunks: the set record, the adjacency trailer (other bytes are ignored; a
+     * chunk that is there but damaged or cut short is refused) */
     set_rec rec;
     memset(&rec, 0, sizeof rec);
     const uint8_t *tr = NULL;
     uint8_t src_kind = cube ? ST_KIND_CUBE : nf == 1 ? ST_KIND_ATLAS : ST_KIND_PERFACE;
     size_t pos = end;
+    if (cut_chunk_magic(buf + pos, len - pos))
+        return st_fail(e, ST_EFORMAT, "DDS truncated: %zu bytes of a seamtex chunk at offset %zu",
+                       len - pos, pos);
     if (len - pos >= 8 && !memcmp(buf + pos, SET_MAGIC, 8)) {
         int rc = parse_set_record(buf, len, pos, nf, &rec, &pos, e);
         if (rc)
             return rc;
     }
-    if (len - pos >= 16 && !memcmp(buf + pos, TRAILER_MAGIC, 8) && get32(buf + pos + 8) == nf &&
-        (len - pos - 16) / TRAILER_FACE >= nf) {
+    if (len - pos >= 8 && !memcmp(buf + pos, TRAILER_MAGIC, 8)) {
+        /* the adjacency trailer is there: a damaged one is refused, not skipped (the set
+         * would come back without its adjacency, every face edge a boundary) */
+        if (len - pos < 16 || get32(buf + pos + 8) != nf || (len - pos - 16) / TRAILER_FACE < nf)
+            return st_fail(e, ST_EFORMAT, "DDS adjacency trailer at offset %zu damaged: %zu bytes "
+                           "for %u faces (the file has %u)", pos, len - pos,
+                           len - pos >= 16 ? get32(buf + pos + 8) : 0, nf);
         tr = buf + pos + 16;
         if (buf[pos + 12] <= ST_KIND_ATLAS)
             src_kind = buf[pos + 12];
+    } else if (len - pos >= 8 && !memcmp(buf + pos, MIXED_MAGIC, 8)) {
+        return st_fail(e, ST_EFORMAT, "DDS face table at offset %zu truncated (%zu bytes)", pos,
+                       len - pos);
+    } else if (cut_chunk_magic(buf + pos, len - pos)) {
+        return st_fail(e, ST_EFORMAT, "DDS truncated: %zu bytes of a seamtex chunk at offset %zu",
+                       len - pos, pos);
     }
     st_face_desc *fd = calloc(nf, sizeof *fd);
     if (!fd)

@@ -1224,6 +1224,90 @@ static void dds_write_file_replaces_atomically(void **state)
     st_set_free(s);
 }
 
+/* bc27: a damaged adjacency trailer, a seamtex file cut inside a chunk magic and a DX10 array
+ * whose caps2 also says "cube" were read without a word: the set came back without its
+ * adjacency, without its set record (sRGB read as linear), or as the first 6 of 8 faces. */
+static void dds_refuses_damaged_trailers_and_reads_dx10_arrays_by_their_header(void **state)
+{
+    (void)state;
+    st_set *s = two_face_set(3, 0), *b = NULL, *t = NULL;
+    st_error e;
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    uint8_t *buf;
+    size_t len;
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    size_t tpos = 0, rpos = 0;
+    for (size_t i = 128; i + 8 <= len; i++) {
+        if (!memcmp(buf + i, "STADJ001", 8))
+            tpos = i;
+        if (!memcmp(buf + i, "STSET001", 8))
+            rpos = i;
+    }
+    assert_true(rpos > 0 && tpos > rpos);
+    /* cut anywhere inside the trailer from its second byte on (at its start: a file without
+     * one, read as such; one trailing byte is any foreign file's junk) */
+    for (size_t cut = tpos + 2; cut < len; cut++) {
+        int rc = st_dds_read_mem(buf, cut, 0, &t, &e);
+        assert_int_equal(rc, ST_EFORMAT);
+        assert_null(t);
+    }
+    assert_int_equal(st_dds_read_mem(buf, tpos, 0, &t, &e), ST_OK);
+    st_set_free(t);
+    /* a wrong face count in the trailer */
+    uint8_t *bad = malloc(len);
+    assert_non_null(bad);
+    for (uint32_t n = 0; n < 4; n++) {
+        if (n == 2)
+            continue;
+        memcpy(bad, buf, len);
+        memcpy(bad + tpos + 8, &n, 4);
+        assert_int_equal(st_dds_read_mem(bad, len, 0, &t, &e), ST_EFORMAT);
+        assert_null(t);
+    }
+    /* cut inside the set record's magic: refused, not read as a file without a record */
+    for (size_t cut = rpos + 2; cut < rpos + 8; cut++) {
+        assert_int_equal(st_dds_read_mem(buf, cut, 0, &t, &e), ST_EFORMAT);
+        assert_null(t);
+    }
+    free(bad);
+    free(buf);
+    st_set_free(b);
+    st_set_free(s);
+
+    /* 8 square faces of one size: a DX10 array; caps2 "cube, all faces" does not make it a
+     * cube of its first 6 faces (DX10 files say cube in their misc flags) */
+    st_face_desc fd[8];
+    memset(fd, 0, sizeof fd);
+    for (int f = 0; f < 8; f++) {
+        fd[f].w = fd[f].h = 8;
+        for (int k = 0; k < 4; k++)
+            fd[f].adjface[k] = -1;
+    }
+    st_set_info in = {.nfaces = 8, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1};
+    assert_int_equal(st_set_create(&in, fd, 0, &s, &e), ST_OK);
+    for (size_t i = 0; i < s->texel_bytes; i++)
+        s->texels[i] = (uint8_t)(i * 29);
+    st_set_build_mips(s, UINT32_MAX);
+    assert_int_equal(st_bc1_compress_set(s, NULL, NULL, NULL, NULL, &b, &e), ST_OK);
+    assert_int_equal(st_dds_write_mem(b, &buf, &len, &e), ST_OK);
+    assert_memory_equal(buf + 84, "DX10", 4);
+    uint32_t caps2 = 0xFE00;
+    memcpy(buf + 112, &caps2, 4);
+    assert_int_equal(st_dds_read_mem(buf, len, 0, &t, &e), ST_OK);
+    assert_int_equal(t->info.nfaces, 8);
+    assert_int_equal(t->info.kind, ST_KIND_BC1);
+    for (uint32_t f = 0; f < 8; f++)
+        for (unsigned l = 0; l < b->faces[f].nlevels; l++) {
+            size_t lb = (size_t)((st_level_w(&b->faces[f], l) + 3) / 4) *
+                        ((st_level_h(&b->faces[f], l) + 3) / 4) * 8;
+            assert_memory_equal(st_face_level(t, f, l), st_face_level(b, f, l), lb);
+        }
+    st_set_free(t);
+    free(buf);
+    st_set_free(b);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1253,6 +1337,7 @@ int main(void)
         cmocka_unit_test(every_kind_of_bc1_set_survives_dds),
         cmocka_unit_test(dds_without_the_set_record_reads_as_before),
         cmocka_unit_test(dds_refuses_a_damaged_set_record),
+        cmocka_unit_test(dds_refuses_damaged_trailers_and_reads_dx10_arrays_by_their_header),
         cmocka_unit_test(dds_write_file_replaces_atomically),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
