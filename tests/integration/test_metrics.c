@@ -328,12 +328,12 @@ static void assert_typed_and_clean(const st_daemon *d, const char *text)
     assert_string_equal(out, "");
 }
 
-/* STATS of c, then a scrape of d's metrics (checked as above) parsed into *e: nothing but the
- * scrape between the two (the metrics port is asked for first: that is a connection too). */
-static void stats_and_scrape(const st_daemon *d, stc_conn *c, const stc_stat **st, size_t *n,
-                             expo *e)
+/* STATS of c, then a scrape of d's metrics at port (checked as above) parsed into *e: nothing
+ * but the scrape between the two. The caller asks for the port before c's connection is
+ * counted (metrics_port opens a connection of its own: its close must not fall between). */
+static void stats_and_scrape(const st_daemon *d, int port, stc_conn *c, const stc_stat **st,
+                             size_t *n, expo *e)
 {
-    int port = metrics_port(d);
     assert_int_equal(stc_stats(c, st, n), 0);
     char *text = scrape(port);
     assert_typed_and_clean(d, text);
@@ -352,13 +352,14 @@ static void every_stats_key_has_a_typed_family(void **state)
                                        "--pin-io", "yes", NULL};
     st_daemon d;
     assert_int_equal(st_daemon_up(&d, args), 0);
+    int port = metrics_port(&d);
     stc_conn *c = st_daemon_client(&d, NULL);
     assert_non_null(c);
     assert_int_equal(st_wait_stat(&d, c, "conns_current", ST_STAT_EQ, 1, 60000), 0);
     const stc_stat *st;
     size_t n;
     expo e;
-    stats_and_scrape(&d, c, &st, &n, &e);
+    stats_and_scrape(&d, port, c, &st, &n, &e);
     /* nothing but the scrape between STATS and it: the per-thread keys are the same */
     uint64_t conns = 0;
     for (unsigned i = 0; i < 2; i++) {
@@ -402,12 +403,13 @@ static void a_cluster_nodes_keys_have_typed_families(void **state)
     assert_int_equal(st_daemon_init(&d), 0);
     assert_int_equal(st_daemon_start(&d, args), 0);
     assert_int_equal(st_wait_stat(&d, NULL, "cluster_repair_passes", ST_STAT_GE, 1, 60000), 0);
+    int port = metrics_port(&d);
     stc_conn *c = st_daemon_client(&d, NULL);
     assert_non_null(c);
     const stc_stat *st;
     size_t n;
     expo e;
-    stats_and_scrape(&d, c, &st, &n, &e);
+    stats_and_scrape(&d, port, c, &st, &n, &e);
     assert_true(value(&e, "seamtex_cluster_members") == 1.0);
     assert_string_equal(find(&e, "seamtex_cluster_members")->type, "gauge");
     assert_true(value(&e, "seamtex_cluster_etcd_up") == 1.0);
