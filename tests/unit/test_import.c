@@ -1044,21 +1044,29 @@ static size_t int16_tiff(uint8_t *b, const int16_t *v, int w, int omit_bps)
     return data + 2 * (size_t)w;
 }
 
+/* Writes int16_tiff of the 4 values v (omit_bps as there) to the temporary file `file` (its
+ * path into p) and reads it with st_image_read; returns what that returns. */
+static int read_int16_tiff(const int16_t *v, int omit_bps, const char *file, char *p, size_t cap,
+                           st_image *img, st_error *e)
+{
+    uint8_t b[512];
+    size_t len = int16_tiff(b, v, 4, omit_bps);
+    tmp_path(p, cap, file);
+    write_file(p, b, len);
+    st_error_clear(e);
+    return st_image_read(p, NULL, img, e);
+}
+
 /* img27: signed 16-bit TIFF data came in as u16 with every negative value clamped to 0; it is
  * float now (OpenImageIO's -1..1 normalisation), signs kept. */
 static void signed_16_bit_tiff_keeps_its_negative_values(void **state)
 {
     (void)state;
     const int16_t v[4] = {-32767, -16384, 0, 32767};
-    uint8_t b[512];
-    size_t len = int16_tiff(b, v, 4, 0);
     char p[512];
-    tmp_path(p, sizeof p, "int16.tif");
-    write_file(p, b, len);
     st_error e;
-    st_error_clear(&e);
     st_image img;
-    int rc = st_image_read(p, NULL, &img, &e);
+    int rc = read_int16_tiff(v, 0, "int16.tif", p, sizeof p, &img, &e);
     if (rc)
         print_message("int16 tiff: %s\n", e.msg);
     assert_int_equal(rc, ST_OK);
@@ -1078,15 +1086,10 @@ static void tiff_without_bits_per_sample_is_refused_not_made_up(void **state)
 {
     (void)state;
     const int16_t v[4] = {-32767, -16384, 0, 32767};
-    uint8_t b[512];
-    size_t len = int16_tiff(b, v, 4, 1);
     char p[512];
-    tmp_path(p, sizeof p, "nobps.tif");
-    write_file(p, b, len);
     st_error e;
-    st_error_clear(&e);
     st_image img;
-    assert_int_equal(st_image_read(p, NULL, &img, &e), ST_EUNSUPPORTED);
+    assert_int_equal(read_int16_tiff(v, 1, "nobps.tif", p, sizeof p, &img, &e), ST_EUNSUPPORTED);
     assert_null(img.data);
     assert_non_null(strstr(e.msg, "BitsPerSample"));
     st_set *s = NULL;
