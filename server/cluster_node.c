@@ -84,25 +84,26 @@ void sts_cluster_set_served(sts_cluster *cl, struct sts_cl_served *sv, size_t n,
     free(old);
 }
 
+static int cmp_served(const void *a, const void *b)
+{
+    return strcmp(((const struct sts_cl_served *)a)->name, ((const struct sts_cl_served *)b)->name);
+}
+
+uint64_t sts_cluster_served_gen(const sts_cluster *cl, const char *name)
+{
+    struct sts_cl_served key;
+    snprintf(key.name, sizeof key.name, "%s", name);
+    const struct sts_cl_served *s =
+        cl->nserved ? bsearch(&key, cl->served, cl->nserved, sizeof *s, cmp_served) : NULL;
+    return s ? s->gen : 0;
+}
+
 int sts_cluster_serves(sts_cluster *cl, const st_setref *ref)
 {
     if (!ref->source_bytes)
         return 1;   /* not from the data dir (the built-in set): not the cluster's */
     pthread_mutex_lock(&cl->mu);
-    int ok = ref->gen >= cl->serve_gen;
-    size_t lo = 0, hi = cl->nserved;
-    while (!ok && lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        int c = strcmp(cl->served[mid].name, ref->name);
-        if (!c) {
-            ok = cl->served[mid].gen == ref->gen;
-            break;
-        }
-        if (c < 0)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
+    int ok = ref->gen >= cl->serve_gen || sts_cluster_served_gen(cl, ref->name) == ref->gen;
     for (size_t i = 0; ok && i < cl->nrefused; i++)
         ok = !(cl->refused[i].gen == ref->gen && !strcmp(cl->refused[i].name, ref->name));
     pthread_mutex_unlock(&cl->mu);

@@ -156,6 +156,9 @@ void sts_cluster_set_served(sts_cluster *cl, struct sts_cl_served *s, size_t n, 
  * restart that the catalogue has not confirmed yet, one of a set deleted or replaced
  * meanwhile; the read is then answered as for a set the node does not hold. */
 int  sts_cluster_serves(sts_cluster *cl, const st_setref *ref);
+/* The registry generation served[] confirms for name, 0 for none (generations start at 1).
+ * The caller holds mu, or is the repair thread (served[]'s only writer). */
+uint64_t sts_cluster_served_gen(const sts_cluster *cl, const char *name);
 /* The local copy of name at registry generation gen belongs to a write this node refused
  * after publishing it (its claim taken back, or to be taken back when etcd answers): reads
  * never use it (MOVED to a current holder, or NOT_FOUND), until a later write or push

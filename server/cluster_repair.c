@@ -148,24 +148,6 @@ static int seen_long_enough(sts_cluster *cl, const struct sts_cl_orphan *was, si
     return now - since > 2000 * (int64_t)cl->srv->cfg.lease_ttl;
 }
 
-/* 1 when (name, gen) is in the served list the last pass installed (sorted by name; the
- * repair thread is its only writer, so it reads it without the lock) */
-static int was_served(const sts_cluster *cl, const char *name, uint64_t gen)
-{
-    size_t lo = 0, hi = cl->nserved;
-    while (lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        int c = strcmp(cl->served[mid].name, name);
-        if (!c)
-            return cl->served[mid].gen == gen;
-        if (c < 0)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return 0;
-}
-
 /* Whether reads may use local copy r (published before this pass began) by catalogue entry e
  * (NULL: the catalogue does not record the name): the copy of the contents recorded (ok, or
  * pending: the contents being written) yes; other contents recorded ok (replaced while this
@@ -178,7 +160,7 @@ static int confirm(const sts_cluster *cl, const st_setref *r, const sts_cl_entry
         return 1;
     if (e && e->state == SCL_SET_OK)
         return 0;
-    return was_served(cl, r->name, r->gen);
+    return sts_cluster_served_gen(cl, r->name) == r->gen;   /* the last pass's list */
 }
 
 static void pass(sts_cluster *cl)

@@ -18,7 +18,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include <cmocka.h>
 
@@ -169,6 +168,17 @@ static void claim_of_a_restarted_origin_is_abandoned(void **state)
 static uint64_t claims_before;
 static int n0_claimed(void *arg) { (void)arg; return st_daemon_stat(&N[0], "cluster_claims") > claims_before; }
 
+/* n0 serves "kept" with the second contents: its local commit of the REPLACE is done */
+static int n0_serves_second(void *arg)
+{
+    (void)arg;
+    stc_conn *c = st_daemon_client(&N[0], NULL);
+    float r = -1;
+    int rc = c ? st_red_at(c, "kept", &r) : -1;
+    stc_close(c);
+    return rc == 0 && r == red[1];
+}
+
 static int replace_rc = -1;
 
 static void *replace_main(void *arg)
@@ -217,8 +227,8 @@ static void replace_claim_of_a_restarted_origin_gives_the_name_back(void **state
     assert_int_equal(st_daemon_signal(&N[1], SIGSTOP), 0);
     pthread_t up;
     assert_int_equal(pthread_create(&up, NULL, replace_main, NULL), 0);
-    int claimed = st_wait_until(n0_claimed, NULL, DEADLINE_MS) == 0;
-    nanosleep(&(struct timespec){0, 300 * 1000 * 1000}, NULL);   /* its local commit */
+    int claimed = st_wait_until(n0_claimed, NULL, DEADLINE_MS) == 0 &&
+                  st_wait_until(n0_serves_second, NULL, DEADLINE_MS) == 0;   /* committed */
     st_daemon_kill(&N[0]);
     st_daemon_signal(&N[1], SIGCONT);
     pthread_join(up, NULL);

@@ -19,7 +19,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include <cmocka.h>
 
@@ -146,7 +145,7 @@ static void a_returning_node_does_not_serve_deleted_or_replaced_copies(void **st
             stc_cluster_close(cl2);
         }
         rounds++;
-        nanosleep(&(struct timespec){0, 10 * 1000 * 1000}, NULL);   /* 10 ms: many rounds, no spin */
+        st_sleep_ms(10);   /* the rounds are the watch: a pause between them, not a spin */
     }
     print_message("%d rounds over n1's return\n", rounds);
     if (served_gone || listed_gone)

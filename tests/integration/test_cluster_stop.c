@@ -19,7 +19,6 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -51,6 +50,15 @@ static void url_with_holes(void)
         n += snprintf(URL + n, sizeof URL - (size_t)n, ",127.0.0.1:%d", port);
     }
     snprintf(URL + n, sizeof URL - (size_t)n, "%s", slash);
+}
+
+typedef struct kept_read { stc_conn *c; float red; } kept_read;
+
+/* st_wait_until's condition: "kept" read through k->c (its red into k->red) */
+static int reads_kept(void *arg)
+{
+    kept_read *k = arg;
+    return st_red_at(k->c, "kept", &k->red) == 0;
 }
 
 static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(void **state)
@@ -97,17 +105,14 @@ static void sigterm_with_etcd_unresponsive_exits_and_keeps_acknowledged_sets(voi
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_cluster_node_start(&NODE[i], URL, i, 2, 2), 0);
     for (int i = 0; i < 2; i++) {   /* once the catalogue has confirmed the copy */
-        c = st_daemon_client(&NODE[i], NULL);
-        assert_non_null(c);
-        float got = 0;
+        kept_read k = {st_daemon_client(&NODE[i], NULL), 0};
+        assert_non_null(k.c);
         int64_t t0 = st_now_ms();
-        while ((rc = st_red_at(c, "kept", &got)) != 0 && st_now_ms() - t0 < 30000)
-            nanosleep(&(struct timespec){0, 20 * 1000 * 1000}, NULL);
+        assert_int_equal(st_wait_until(reads_kept, &k, 30000), 0);
         print_message("node %d serves it %lld ms after its restart\n", i,
                       (long long)(st_now_ms() - t0));
-        assert_int_equal(rc, 0);
-        assert_true(got == red);
-        stc_close(c);
+        assert_true(k.red == red);
+        stc_close(k.c);
     }
     for (int i = 0; i < 2; i++)
         assert_int_equal(st_daemon_down(&NODE[i], STOP_MS), 0);

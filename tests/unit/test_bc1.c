@@ -12,6 +12,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "../common/faces.h"
 #include "bc1.h"
 #include "bc1_texel.h"
 #include "defaultset.h"
@@ -407,16 +408,8 @@ static void images_of_any_size_round_trip(void **state)
 static st_set *two_face_set(unsigned nchan, int alpha)
 {
     st_face_desc fd[2];
-    memset(fd, 0, sizeof fd);
-    for (int f = 0; f < 2; f++) {
-        fd[f].w = fd[f].h = 16;
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
-    }
-    fd[0].adjface[1] = 1;
-    fd[0].adjedge[1] = 3;
-    fd[1].adjface[3] = 0;
-    fd[1].adjedge[3] = 1;
+    st_test_faces(fd, 2, 16, 16);
+    st_test_join(fd, 0, 1, 1, 3);
     st_set_info in = {.nfaces = 2, .nchan = (uint8_t)nchan, .dtype = ST_DT_U8,
                       .alpha_chan = (int8_t)(alpha ? (int)nchan - 1 : -1)};
     st_set *s = NULL;
@@ -618,11 +611,7 @@ static void dds_writes_a_single_face_as_a_legacy_dxt1_texture(void **state)
 {
     (void)state;
     st_face_desc fd;
-    memset(&fd, 0, sizeof fd);
-    fd.w = 20;
-    fd.h = 12;
-    for (int k = 0; k < 4; k++)
-        fd.adjface[k] = -1;
+    st_test_faces(&fd, 1, 20, 12);
     st_set_info in = {.nfaces = 1, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1,
                       .kind = ST_KIND_ATLAS};
     st_set *s = NULL, *b = NULL, *r = NULL;
@@ -709,18 +698,14 @@ static void dds_keeps_per_face_sets_of_mixed_sizes(void **state)
     (void)state;
     /* three faces in a row: 8x8, 16x4, 4x4 (a constant one) */
     st_face_desc fd[3];
-    memset(fd, 0, sizeof fd);
     uint32_t W[3] = {8, 16, 4}, H[3] = {8, 4, 4};
+    st_test_faces(fd, 3, 0, 0);
     for (int f = 0; f < 3; f++) {
         fd[f].w = W[f];
         fd[f].h = H[f];
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
     }
-    fd[0].adjface[1] = 1; fd[0].adjedge[1] = 3;
-    fd[1].adjface[3] = 0; fd[1].adjedge[3] = 1;
-    fd[1].adjface[1] = 2; fd[1].adjedge[1] = 3;
-    fd[2].adjface[3] = 1; fd[2].adjedge[3] = 1;
+    st_test_join(fd, 0, 1, 1, 3);
+    st_test_join(fd, 1, 1, 2, 3);
     fd[2].flags = ST_FACE_CONSTANT;
     st_set_info in = {.nfaces = 3, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1};
     st_set *s = NULL, *b = NULL, *r = NULL;
@@ -1090,11 +1075,7 @@ static void every_kind_of_bc1_set_survives_dds(void **state)
     static const uint32_t atl[3][2] = {{20, 12}, {37, 5}, {3, 1}};
     for (int i = 0; i < 3; i++) {
         st_face_desc af;
-        memset(&af, 0, sizeof af);
-        af.w = atl[i][0];
-        af.h = atl[i][1];
-        for (int k = 0; k < 4; k++)
-            af.adjface[k] = -1;
+        st_test_faces(&af, 1, atl[i][0], atl[i][1]);
         st_set_info ai = {.nfaces = 1, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
                           .kind = ST_KIND_ATLAS};
         assert_int_equal(st_set_create(&ai, &af, 0, &s, &e), ST_OK);
@@ -1277,12 +1258,7 @@ static void dds_refuses_damaged_trailers_and_reads_dx10_arrays_by_their_header(v
     /* 8 square faces of one size: a DX10 array; caps2 "cube, all faces" does not make it a
      * cube of its first 6 faces (DX10 files say cube in their misc flags) */
     st_face_desc fd[8];
-    memset(fd, 0, sizeof fd);
-    for (int f = 0; f < 8; f++) {
-        fd[f].w = fd[f].h = 8;
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
-    }
+    st_test_faces(fd, 8, 8, 8);
     st_set_info in = {.nfaces = 8, .nchan = 3, .dtype = ST_DT_U8, .alpha_chan = -1};
     assert_int_equal(st_set_create(&in, fd, 0, &s, &e), ST_OK);
     for (size_t i = 0; i < s->texel_bytes; i++)

@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../common/faces.h"
 #include "native.h"
 #include "ptex.h"
 #include "ptexfilter.h"
@@ -40,16 +41,9 @@
 static st_set *pair(int ae, unsigned efm, int zero_nb, int nb1x1)
 {
     st_face_desc fd[2];
-    memset(fd, 0, sizeof fd);
-    for (int f = 0; f < 2; f++)
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
-    fd[0].w = fd[0].h = 8;
+    st_test_faces(fd, 2, 8, 8);
     fd[1].w = fd[1].h = nb1x1 ? 1 : 8;
-    fd[0].adjface[1] = 1;
-    fd[0].adjedge[1] = (int8_t)ae;
-    fd[1].adjface[ae] = 0;
-    fd[1].adjedge[ae] = 1;
+    st_test_join(fd, 0, 1, 1, ae);
     st_set_info info = {.nfaces = 2, .nchan = 3, .dtype = ST_DT_F32, .alpha_chan = -1,
                         .kind = ST_KIND_PERFACE, .edgefilter = (uint8_t)efm};
     st_set *s;

@@ -25,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../common/faces.h"
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
@@ -178,15 +179,10 @@ static void lerp_axis_matches_the_model(void **state)
 static st_set *three_faces(void)
 {
     st_face_desc fd[3];
-    memset(fd, 0, sizeof fd);
-    for (int f = 0; f < 3; f++)
-        for (int k = 0; k < 4; k++)
-            fd[f].adjface[k] = -1;
-    fd[0].w = fd[0].h = 16;
+    st_test_faces(fd, 3, 16, 16);
     fd[1].w = fd[1].h = 8;
-    fd[2].w = fd[2].h = 16;
-    fd[0].adjface[1] = 1, fd[0].adjedge[1] = 3, fd[1].adjface[3] = 0, fd[1].adjedge[3] = 1;
-    fd[0].adjface[2] = 2, fd[0].adjedge[2] = 0, fd[2].adjface[0] = 0, fd[2].adjedge[0] = 2;
+    st_test_join(fd, 0, 1, 1, 3);
+    st_test_join(fd, 0, 2, 2, 0);
     st_set_info info = {.nfaces = 3, .nchan = 2, .dtype = ST_DT_F32, .alpha_chan = -1,
                         .kind = ST_KIND_PERFACE};
     st_set *s;
