@@ -183,7 +183,8 @@ int sts_cluster_moved(sts_cluster *cl, const char *name, char *addr, size_t cap)
     sts_cl_entry key;
     snprintf(key.name, sizeof key.name, "%s", name);
     const sts_cl_entry *e = cl->cat ? bsearch(&key, cl->cat, cl->ncat, sizeof *cl->cat, cmp_entry) : NULL;
-    if (e && e->state == SCL_SET_OK) {
+    int recorded = e && e->state == SCL_SET_OK;
+    if (recorded) {
         /* a live node with a current copy, in ranking order (owners first) */
         for (size_t r = 0; r < no && !moved; r++) {
             const sts_cl_member *m = &cl->members[order[r]];
@@ -207,10 +208,15 @@ int sts_cluster_moved(sts_cluster *cl, const char *name, char *addr, size_t cap)
         if (!self_owner && R > 0) {
             snprintf(addr, cap, "%s", cl->members[order[0]].addr);
             moved = 1;
+        } else if (recorded) {
+            /* the catalogue records the set (ok) but no live member holds a current copy and
+             * this node serves none: it exists, nobody can serve it now - not NOT_FOUND */
+            snprintf(addr, cap, "set '%s' exists but no live node holds a copy", name);
+            moved = -1;
         }
     }
     pthread_mutex_unlock(&cl->mu);
-    if (moved)
+    if (moved > 0)
         STS_CL_ADD(cl, moved, 1);
     return moved;
 }
@@ -218,9 +224,12 @@ int sts_cluster_moved(sts_cluster *cl, const char *name, char *addr, size_t cap)
 void sts_reply_not_here(sts_server *srv, stp_buf *out, const stp_header *h, const char *name,
                         const char *msg)
 {
-    char addr[STP_MAX_NODE_ADDR + 1];
-    if (srv->cluster && sts_cluster_moved(srv->cluster, name, addr, sizeof addr))
+    char addr[STP_MAX_NAME + 64 > STP_MAX_NODE_ADDR + 1 ? STP_MAX_NAME + 64 : STP_MAX_NODE_ADDR + 1];
+    int m = srv->cluster ? sts_cluster_moved(srv->cluster, name, addr, sizeof addr) : 0;
+    if (m > 0)
         sts_reply_error(out, h, STP_S_MOVED, addr);
+    else if (m < 0)
+        sts_reply_error(out, h, STP_S_UNAVAILABLE, addr);
     else
         sts_reply_st(out, h, ST_ENOTFOUND, msg);
 }

@@ -139,8 +139,9 @@ int  sts_cluster_etcd_ok(sts_cluster *cl);
 void sts_cluster_note_etcd(sts_cluster *cl, int rc);
 /* Copies of the membership: ids[] point into *members (the caller frees *members). */
 size_t sts_cluster_members(sts_cluster *cl, sts_cl_member **members, uint64_t *epoch);
-/* For a set this node does not hold: 1 and the address of a node to ask (MOVED), 0 when the
- * request is NOT_FOUND here. */
+/* For a set this node does not hold: 1 and the address of a node to ask (MOVED) in addr; -1
+ * and a message in addr (UNAVAILABLE) when the catalogue records the set but no live member
+ * holds a copy and this node is one of its owners; 0 when the request is NOT_FOUND here. */
 int  sts_cluster_moved(sts_cluster *cl, const char *name, char *addr, size_t cap);
 /* Adds or replaces (holders != NULL) or removes (holders NULL) one entry of the snapshot. */
 void sts_cluster_note_set(sts_cluster *cl, const char *name, uint32_t crc32,
@@ -172,7 +173,8 @@ int  sts_get_served(sts_server *srv, const char *name, st_setref **ref, st_error
  * --cluster. */
 STS_HANDLER(sts_h_cluster);
 /* The reply for a set this node does not hold: MOVED with a node's address when the cluster
- * knows where it is (docs/cluster.md), else NOT_FOUND with msg. Works without a cluster. */
+ * knows where it is (docs/cluster.md), UNAVAILABLE when the catalogue records it but no live
+ * node holds a copy, else NOT_FOUND with msg. Works without a cluster. */
 void sts_reply_not_here(sts_server *srv, stp_buf *out, const stp_header *h, const char *name,
                         const char *msg);
 /* Sleeps up to ms, or until a kick or stop; 1 when stopping (the repair thread). */
