@@ -19,8 +19,9 @@
 
 typedef struct st_bc1_quality {
     double   psnr;          /* RGB PSNR (dB) of the decoded level 0 against the source's, over
-                               the texels inside charts (all texels of per-face and cube sets);
-                               99 when identical */
+                               the texels inside charts (all texels of per-face and cube sets)
+                               but those transparent (alpha < 0.5) in both, which BC1 stores as
+                               transparent black; 99 when identical */
     double   seam_rms_src;  /* seam RMS per channel (0..255) of the source */
     double   seam_rms_bc1;  /* the same of the decoded BC1 set */
     uint32_t nseams;        /* seams (edge pairs) measured; 0: the set has no seams */

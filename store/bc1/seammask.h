@@ -103,7 +103,8 @@ int st_seam_mask_planes(const st_seam_sys *sys, float alpha, float outside_weigh
 double st_seam_rms_rgba8(const st_seam_sys *sys, const uint8_t *rgba);
 
 /* PSNR (dB, RGB) between two global RGBA8 buffers over the texels inside charts (all texels
- * when inside is NULL); 99 when identical. */
+ * when inside is NULL), leaving out the texels transparent (alpha < 128) in both: BC1's
+ * punch-through stores them as transparent black by design; 99 when identical. */
 double st_seam_psnr_inside(const st_seam_sys *sys, const uint8_t *a, const uint8_t *b);
 
 /* ---- seam-aware BC1 (bc1_seam.c) ----------------------------------------------------------
