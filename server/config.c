@@ -86,7 +86,7 @@ static const opt OPTS[] = {
      "threads one compress job encodes with; 0 = one per core (default 1: jobs leave the\n"
      "other cores to the requests)"},
     {"max-set-bytes", T_SIZE, O(max_set_bytes), 0, 1, "BYTES",
-     "texel memory of one imported set (default 8G)"},
+     "texel memory of one imported set, and its mesh's at 128 bytes a triangle (default 8G)"},
     {"memory-budget", T_SIZE, O(memory_budget), 0, 1, "BYTES",
      "texture memory kept resident (pages of native files mapped in seamtexd, plus built\n"
      "Ptex tables); the least recently sampled sets are released past it and fault back in\n"

@@ -313,9 +313,18 @@ static int mesh_to_set(const char *path, int fmt, const st_import_opts *o, st_im
                        st_set **out, st_error *e)
 {
     st_mesh_caps mc = {0, 0, o->max_bytes, o->no_side_files};
+    /* the mesh stays with the set: its memory counts against the same cap as the texels */
+    if (o->max_bytes && o->max_bytes / ST_MESH_BYTES_PER_TRI < ST_MESH_MAX_TRIS)
+        mc.max_tris = (uint32_t)(o->max_bytes / ST_MESH_BYTES_PER_TRI);
     st_mesh *m = NULL;
     int rc = fmt == ST_FMT_OBJ ? st_obj_read_file(path, &mc, &m, e)
                                : st_draco_read_file(path, &mc, &m, e);
+    if (rc == ST_ETOOBIG && mc.max_tris) {
+        char m0[sizeof e->msg];
+        snprintf(m0, sizeof m0, "%s", e->msg);
+        return st_fail(e, ST_ETOOBIG, "%s (a byte cap of %zu allows %u triangles, about %u bytes "
+                       "each)", m0, o->max_bytes, mc.max_tris, ST_MESH_BYTES_PER_TRI);
+    }
     if (rc)
         return rc;
     if ((rc = st_mesh_require_uv(m, e)) != ST_OK) {

@@ -50,6 +50,9 @@
 
 #define ST_MESH_NO_UV        UINT32_MAX
 #define ST_MESH_MAX_TRIS     (1u << 26)   /* default cap on triangles */
+/* What a triangle of an imported mesh costs in memory, reader and seams together (measured
+ * about 130 bytes, docs/import.md): an import's byte cap allows max_bytes / this many. */
+#define ST_MESH_BYTES_PER_TRI 128u
 #define ST_MESH_MAX_VERTS    (1u << 26)   /* default cap on positions / uvs */
 #define ST_MESH_MAX_MATERIALS 4096
 

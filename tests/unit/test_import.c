@@ -580,6 +580,37 @@ static void obj_over_the_caps_is_refused(void **state)
     assert_null(m);
 }
 
+/* The mesh stays with its set, so its memory (about ST_MESH_BYTES_PER_TRI a triangle) counts
+ * against the import's byte cap: a mesh of 300 triangles under a cap that allows 100 is
+ * TOO_LARGE naming the cap, before any texture is looked for; under a cap that allows them it
+ * reads (and then wants its texture). Without the rule the mesh was read whatever the cap. */
+static void mesh_triangles_count_against_the_byte_cap(void **state)
+{
+    (void)state;
+    char path[512];
+    tmp_path(path, sizeof path, "tris300.obj");
+    char *obj = malloc(64 * 310);
+    assert_non_null(obj);
+    size_t n = (size_t)sprintf(obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n");
+    for (int i = 0; i < 300; i++)
+        n += (size_t)sprintf(obj + n, "f 1/1 2/2 3/3\n");
+    write_file(path, obj, n);
+    free(obj);
+    st_import_opts o;
+    st_import_opts_init(&o);
+    o.max_bytes = 100 * ST_MESH_BYTES_PER_TRI;
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_import_file(path, &o, &s, &e), ST_ETOOBIG);
+    assert_null(s);
+    printf("# %s\n", e.msg);
+    assert_non_null(strstr(e.msg, "allows 100 triangles"));
+    o.max_bytes = 400 * ST_MESH_BYTES_PER_TRI;
+    assert_int_equal(st_import_file(path, &o, &s, &e), ST_EINVAL); /* read; no texture */
+    assert_non_null(strstr(e.msg, "texture"));
+    remove(path);
+}
+
 /* MTL map statements as other tools write them (mesh27): the spec's options are skipped by
  * their argument counts and the rest of the line is the name, spaces included (taking the last
  * token read "map_Kd my tex.png" as "tex.png": another file, or none); names are relative to
@@ -1270,6 +1301,7 @@ int main(void)
         cmocka_unit_test(failed_image_reads_leave_the_image_empty),
         cmocka_unit_test(obj_nan_uv_and_out_of_range_indices_are_refused_naming_the_line),
         cmocka_unit_test(obj_over_the_caps_is_refused),
+        cmocka_unit_test(mesh_triangles_count_against_the_byte_cap),
         cmocka_unit_test(mtl_map_names_keep_spaces_skip_options_and_follow_the_mtl_folder),
         cmocka_unit_test(long_material_names_stay_one_material),
         cmocka_unit_test(obj_vn_indices_junk_tokens_and_long_numbers),
