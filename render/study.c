@@ -273,7 +273,7 @@ static int closeups(study *S, const rm_mesh *m, rs_sampler *net, const char *tex
             "differ most at 1x; crops of %u pixels magnified %ux (closeup_seam.png: columns "
             "Clamp, Discard, Traverse; rows 1x, 4x)\n", c->frame, w, h, cx, cy, cw, zoom);
     (void)tex;
-    /* BC1: the same seam magnified, at 2x the close-ups' resolution, Traverse 4x */
+    /* BC1: the same seam magnified, at 2x the close-ups' resolution, Clamp 4x */
     if (S->conn) {
         char names[2][300];
         const unsigned flags[2] = { STC_COMPRESS_REPLACE,
