@@ -305,6 +305,10 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
             printf("%s reference %ux%u x%u^2 %s frame %u: %.1f ms, %llu queries -> %s\n",
                    j->base, c->width, c->height, c->reference, MODE_NAMES[mode], frame,
                    rt_now_ms() - t0, (unsigned long long)st.queries, path);
+        if (st.refused)
+            fprintf(stderr, "seamtex-render: %s reference frame %u: %llu of %llu queries "
+                    "refused by the sampler, drawn magenta\n", j->base, frame,
+                    (unsigned long long)st.refused, (unsigned long long)st.queries);
         return 0;
     }
     double tr[1000], ts[1000], tt[1000], tin[1000], tsh[1000];
@@ -370,8 +374,20 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         if (st.shm_batches)
             printf(" (%llu of %llu batches through shared memory)",
                    (unsigned long long)st.shm_batches, (unsigned long long)st.batches);
+        if (j->t.clamped_derivs)
+            printf("; %llu with derivatives scaled down to %.0f",
+                   (unsigned long long)j->t.clamped_derivs, RR_MAX_DERIV);
+        if (st.refused)
+            printf("; %llu refused by the sampler, drawn magenta",
+                   (unsigned long long)st.refused);
         printf(" -> %s\n", path);
     }
+    if (st.refused)
+        fprintf(stderr, "seamtex-render: %s %s frame %u: %llu of %llu queries refused by the "
+                "sampler (status BAD_FOOTPRINT, NONFINITE or BAD_FACE: |u|, |v| or a derivative "
+                "over 1e4, or a face the set lacks), drawn magenta\n", j->base,
+                MODE_NAMES[mode], frame, (unsigned long long)st.refused,
+                (unsigned long long)st.queries);
     return 0;
 }
 
