@@ -147,7 +147,7 @@ typedef struct rr_target {
 /* The largest derivative (texture units per pixel) a query carries: a helper lane extrapolated
  * past a plane's horizon gives ~1e26 and more, over the sampler's 1e4 (BAD_FOOTPRINT); the four
  * derivatives are then scaled together to this bound (a power of two under 1e4; the largest
- * seen on the study's orbits without a horizon is 1856), far beyond any face's coarsest level:
+ * other one on the study's teapot orbit is 1856, a silhouette), far beyond any face's coarsest level:
  * the lookup is the coarsest level's, as with a GPU's clamped LOD. */
 #define RR_MAX_DERIV 8192.0
 
