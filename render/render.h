@@ -147,8 +147,8 @@ typedef struct rr_target {
 /* The largest derivative (texture units per pixel) a query carries: a helper lane extrapolated
  * past a plane's horizon gives ~1e26 and more, over the sampler's 1e4 (BAD_FOOTPRINT); the four
  * derivatives are then scaled together to this bound (a power of two under 1e4; the largest
- * other one on the study's teapot orbit is 1856, a silhouette), far beyond any face's coarsest level:
- * the lookup is the coarsest level's, as with a GPU's clamped LOD. */
+ * other one on the study's teapot orbit is 1856, a silhouette), far beyond any face's
+ * coarsest level: the lookup is the coarsest level's, as with a GPU's clamped LOD. */
 #define RR_MAX_DERIV 8192.0
 
 int  rr_target_init(rr_target *t, unsigned width, unsigned height, unsigned msaa, char *msg,
