@@ -15,8 +15,8 @@ typedef struct app_cfg {
     const char *host;
     unsigned    port;                  /* 0: no daemon (only --inproc) */
     const char *set;                   /* set name on the daemon; NULL: from the file name */
-    const char *texture;               /* texture file; NULL: MESH.ptx beside the mesh, else the
-                                          OBJ itself (an atlas mesh with its map_Kd) */
+    const char *texture;               /* texture file; NULL: MESH.ptx beside the mesh (an atlas
+                                          mesh needs its image here) */
     int         no_upload;             /* the set is on the daemon already */
     int         inproc;                /* sample in-process */
     const char *meshes[APP_MAX_MESHES];
@@ -41,9 +41,9 @@ typedef struct app_cfg {
     int         quiet;
 } app_cfg;
 
-/* The file that becomes the mesh's set and the kind of mesh: --texture or a .ptx beside the
- * OBJ (Ptex mesh); otherwise the OBJ itself (atlas mesh) with *image = --texture, an image.
- * path is a caller's buffer of cap bytes. -1 with a message when neither is there. */
+/* The file that becomes the mesh's set and the kind of mesh: a --texture .ptx or a .ptx beside
+ * the OBJ (Ptex mesh); with a --texture image, the OBJ itself (atlas mesh) with *image = that
+ * image. path is a caller's buffer of cap bytes. -1 with a message when neither is there. */
 int app_texture_for(const app_cfg *c, const char *mesh, char *path, size_t cap, int *kind,
                     const char **image, char *msg, size_t ml);
 /* The set name for a texture file: "render-" + its base name without extension, cleaned to

@@ -1,6 +1,6 @@
 /* render/frame.c - one frame of seamtex-render end to end: rasterise, sample every fragment's
  * query through the sampler (daemon or in-process) in one call, shade (texture times the light
- * term) and box-resolve.
+ * term; a query the sampler refused drawn magenta and counted) and box-resolve.
  *
  * Owns: the order of those steps, their timing, the sampling options a frame uses (Toth's
  * setup: anisotropic filtering, 16 probes; Discard's zero-coverage rule is Listing 1 lines
@@ -62,6 +62,17 @@ int rf_render(const rm_mesh *m, const rc_camera *cam, const rf_opts *o, rs_sampl
     if (t->nfrag && s->sample(s, &so, t->queries, t->nfrag, rgba, NULL, st, msg, ml) != 0)
         goto out;
     double t2 = rt_now_ms();
+    /* A query the sampler refused comes back NaN (docs/sampler.md "Bad queries"): drawn
+     * magenta and counted, never a silent black pixel (NaN would also poison the pixel's other
+     * fragments in the resolve). */
+    for (size_t i = 0; i < t->nfrag; i++) {
+        float *c = rgba + 4 * i;
+        if (isnan(c[0]) || isnan(c[1]) || isnan(c[2])) {
+            c[0] = 1, c[1] = 0, c[2] = 1, c[3] = 1;
+            if (st)
+                st->refused++;
+        }
+    }
     rr_resolve(t, rgba, o->bg, rgb);
     double t3 = rt_now_ms();
     if (tm)

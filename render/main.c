@@ -29,8 +29,8 @@ static void usage(FILE *f)
 "  --host H            daemon address (default 127.0.0.1), or unix:PATH (no --port)\n"
 "  -p, --port P        daemon port (needed unless --inproc or a unix: host)\n"
 "  --set NAME          the set to sample (default: render-<texture base name>)\n"
-"  --texture FILE      the texture: a .ptx (Ptex mesh) or an image; default MESH.ptx beside\n"
-"                      the mesh, else the OBJ itself is uploaded as an atlas set (map_Kd)\n"
+"  --texture FILE      the texture: a .ptx (Ptex mesh) or an image (atlas mesh); default\n"
+"                      MESH.ptx beside the mesh (an atlas mesh needs --texture IMAGE)\n"
 "  --no-upload         the set is on the daemon already (otherwise uploaded, replacing)\n"
 "  --inproc            sample in-process with the store's sampler instead of the daemon\n"
 "  --batch N           queries per SAMPLE request (default 16384, at most max_batch)\n"
@@ -50,7 +50,8 @@ static void usage(FILE *f)
 "  --frame I           the frame to render (default 0)\n"
 "  --all-frames        every frame of the orbit\n"
 "  --elev DEG          elevation (default 25)   --azim DEG  azimuth of frame 0 (default 30)\n"
-"  --dist X            distance in bounding radii (default 0.8)   --fov DEG (default 40)\n"
+"  --dist X            distance, 1: the bounding sphere fits the view (default 0.8)\n"
+"  --fov DEG           vertical field of view (default 40)\n"
 "Output:\n"
 "  --out DIR           where PNGs go (default .)\n"
 "  --strip K           also an animation strip of K frames spread over the orbit\n"
@@ -61,7 +62,7 @@ static void usage(FILE *f)
 "  --quiet             no per-frame lines\n"
 "Study (--toth DIR): --frames (>= 1), --size (default 320x240), --ref-ss SS (default 8),\n"
 "  --closeup N (crop of the seam close-ups, default 40), --bc1-level L (default 5);\n"
-"  writes DIR/fig5_*.csv, DIR/table1*.csv, close-ups and DIR/README.txt\n"
+"  writes DIR/fig5_*.csv, DIR/table1*.csv, the close-ups and DIR/bc1.txt\n"
 "  -h, --help          this text\n");
 }
 
@@ -82,6 +83,39 @@ static int parse_double(const char *s, double lo, double hi, double *out)
     if (end == s || *end || !(v >= lo && v <= hi))
         return -1;
     *out = v;
+    return 0;
+}
+
+/* The largest multisample target the job draws must fit the rasteriser's limits
+ * (rr_target_init: 1..16384 per axis, at most 2^28 samples): a frame at --msaa, the reference
+ * at --reference SS x SS the size (1 sample), and for --toth the frames at 8x, the reference at
+ * --ref-ss, the close-ups at twice the size and the BC1 pictures at four times, both at 4x.
+ * Refused here, with the flags named, before anything is loaded or uploaded. */
+static int check_targets(const app_cfg *c)
+{
+    typedef struct tgt { unsigned scale, msaa; const char *what; } tgt;
+    tgt t[4];
+    int n = 0;
+    if (c->toth) {
+        t[n++] = (tgt){ 1, 8, "--toth draws frames at 8x" };
+        t[n++] = (tgt){ c->ref_ss, 1, "--toth draws the reference at --ref-ss" };
+        t[n++] = (tgt){ 2, 4, "--toth draws close-ups at twice --size, 4x" };
+        t[n++] = (tgt){ 4, 4, "--toth draws BC1 pictures at four times --size, 4x" };
+    } else if (c->reference) {
+        t[n++] = (tgt){ c->reference, 1, "--reference draws at SS x SS the size" };
+    } else {
+        t[n++] = (tgt){ 1, c->msaa, "--msaa" };
+    }
+    for (int i = 0; i < n; i++) {
+        uint64_t w = (uint64_t)c->width * t[i].scale, h = (uint64_t)c->height * t[i].scale;
+        if (w > 16384 || h > 16384 || w * h * t[i].msaa > (1ull << 28)) {
+            fprintf(stderr, "seamtex-render: bad value for --size: '%ux%u': %s, a %llux%llu "
+                    "target at %ux: at most 16384 per axis and 2^28 samples\n", c->width,
+                    c->height, t[i].what, (unsigned long long)w, (unsigned long long)h,
+                    t[i].msaa);
+            return -1;
+        }
+    }
     return 0;
 }
 
@@ -211,6 +245,8 @@ static int parse_args(int argc, char **argv, app_cfg *c)
         c->width = 320;
         c->height = 240;
     }
+    if (check_targets(c) != 0)
+        return -1;
     for (int i = optind; i < argc; i++) {
         if (c->nmeshes == APP_MAX_MESHES) {
             fprintf(stderr, "seamtex-render: at most %d meshes\n", APP_MAX_MESHES);
@@ -270,6 +306,10 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
             printf("%s reference %ux%u x%u^2 %s frame %u: %.1f ms, %llu queries -> %s\n",
                    j->base, c->width, c->height, c->reference, MODE_NAMES[mode], frame,
                    rt_now_ms() - t0, (unsigned long long)st.queries, path);
+        if (st.refused)
+            fprintf(stderr, "seamtex-render: %s reference frame %u: %llu of %llu queries "
+                    "refused by the sampler, drawn magenta\n", j->base, frame,
+                    (unsigned long long)st.refused, (unsigned long long)st.queries);
         return 0;
     }
     double tr[1000], ts[1000], tt[1000], tin[1000], tsh[1000];
@@ -335,8 +375,20 @@ static int render_one(frame_job *j, unsigned frame, unsigned mode, float *rgb, c
         if (st.shm_batches)
             printf(" (%llu of %llu batches through shared memory)",
                    (unsigned long long)st.shm_batches, (unsigned long long)st.batches);
+        if (j->t.clamped_derivs)
+            printf("; %llu with derivatives scaled down to %.0f",
+                   (unsigned long long)j->t.clamped_derivs, RR_MAX_DERIV);
+        if (st.refused)
+            printf("; %llu refused by the sampler, drawn magenta",
+                   (unsigned long long)st.refused);
         printf(" -> %s\n", path);
     }
+    if (st.refused)
+        fprintf(stderr, "seamtex-render: %s %s frame %u: %llu of %llu queries refused by the "
+                "sampler (status BAD_FOOTPRINT, NONFINITE or BAD_FACE: |u|, |v| or a derivative "
+                "over 1e4, or a face the set lacks), drawn magenta\n", j->base,
+                MODE_NAMES[mode], frame, (unsigned long long)st.refused,
+                (unsigned long long)st.queries);
     return 0;
 }
 

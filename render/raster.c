@@ -278,6 +278,18 @@ static int frag_pass(rr_target *t, const tri_setup *s, uint32_t tri, uint32_t fa
                 double dvdx = c[2 * row + 1][1] - c[2 * row][1];
                 double dudy = c[2 + col][0] - c[col][0];
                 double dvdy = c[2 + col][1] - c[col][1];
+                /* A helper lane past the plane's horizon (or within 1e-30 of it) is
+                 * extrapolated to huge uv: derivatives of 1e26 and beyond, which the sampler
+                 * refuses (BAD_FOOTPRINT over 1e4, NONFINITE once the float overflows). Scale
+                 * the four together, keeping the footprint's shape, so that none exceeds
+                 * RR_MAX_DERIV: the lookup then lands on the coarsest level, as a GPU's clamped
+                 * LOD does. */
+                double dmax = fmax(fmax(fabs(dudx), fabs(dvdx)), fmax(fabs(dudy), fabs(dvdy)));
+                if (!(dmax <= RR_MAX_DERIV)) {
+                    double k = isfinite(dmax) ? RR_MAX_DERIV / dmax : 0;
+                    dudx *= k, dvdx *= k, dudy *= k, dvdy *= k;
+                    t->clamped_derivs++;
+                }
                 double px = qx + col + 0.5, py = qy + row + 0.5;
                 double e[3] = { edge(s, 0, px, py), edge(s, 1, px, py), edge(s, 2, px, py) };
                 double a[5];
@@ -324,6 +336,7 @@ int rr_rasterise(rr_target *t, const rm_mesh *m, const rc_camera *cam, char *msg
     memset(t->owner, 0xff, n * sizeof *t->owner);
     t->nfrag = 0;
     t->helper_lanes = 0;
+    t->clamped_derivs = 0;
     tri_setup s;
     for (uint32_t i = 0; i < m->ntris; i++)
         if (setup(t, m, cam, i, &s))

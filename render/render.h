@@ -77,6 +77,9 @@ void rc_orbit_camera(const rc_orbit *o, const rm_mesh *m, unsigned i, unsigned w
 
 typedef struct rs_stats {
     uint64_t queries, batches, bytes_out, bytes_in;
+    uint64_t refused;                 /* queries whose values came back NaN (a status other
+                                         than OK: BAD_FOOTPRINT, NONFINITE, BAD_FACE; or NaN
+                                         texels): drawn magenta by rf_render */
     uint64_t zero_coverage;           /* queries answered by the zero rule (coverage 0) */
     uint64_t shm_batches;             /* batches whose queries and reply went through the
                                          shared-memory region (rs_net_shm) */
@@ -137,7 +140,16 @@ typedef struct rr_target {
     stc_query *queries;
     size_t   nfrag, cap;
     uint64_t helper_lanes;            /* 2x2-quad lanes evaluated only for derivatives */
+    uint64_t clamped_derivs;          /* fragments whose derivatives were scaled down to
+                                         RR_MAX_DERIV (a lane past the plane's horizon) */
 } rr_target;
+
+/* The largest derivative (texture units per pixel) a query carries: a helper lane extrapolated
+ * past a plane's horizon gives ~1e26 and more, over the sampler's 1e4 (BAD_FOOTPRINT); the four
+ * derivatives are then scaled together to this bound (a power of two under 1e4; the largest
+ * other one on the study's teapot orbit is 1856, a silhouette), far beyond any face's
+ * coarsest level: the lookup is the coarsest level's, as with a GPU's clamped LOD. */
+#define RR_MAX_DERIV 8192.0
 
 int  rr_target_init(rr_target *t, unsigned width, unsigned height, unsigned msaa, char *msg,
                     size_t ml);

@@ -136,8 +136,14 @@ static int shot(study *S, const rm_mesh *m, const rc_camera *cam, unsigned w, un
     o.height = h;
     o.msaa = msaa;
     o.mode = mode;
-    rs_stats ign = { 0 };
-    return rf_render(m, cam, &o, s, t, rgb, tm, st ? st : &ign, msg, ml);
+    rs_stats ign = { 0 }, *sp = st ? st : &ign;
+    uint64_t r0 = sp->refused;
+    int rc = rf_render(m, cam, &o, s, t, rgb, tm, sp, msg, ml);
+    if (rc == 0 && sp->refused > r0)
+        fprintf(stderr, "seamtex-render --toth: %ux%u %ux mode %u: %llu queries refused by the "
+                "sampler, drawn magenta\n", w, h, msaa, mode,
+                (unsigned long long)(sp->refused - r0));
+    return rc;
 }
 
 /* The pixel where a and b differ most among pixels whose (2r+1)^2 neighbourhood is covered
@@ -273,7 +279,7 @@ static int closeups(study *S, const rm_mesh *m, rs_sampler *net, const char *tex
             "differ most at 1x; crops of %u pixels magnified %ux (closeup_seam.png: columns "
             "Clamp, Discard, Traverse; rows 1x, 4x)\n", c->frame, w, h, cx, cy, cw, zoom);
     (void)tex;
-    /* BC1: the same seam magnified, at 2x the close-ups' resolution, Traverse 4x */
+    /* BC1: the same seam magnified, at 2x the close-ups' resolution, Clamp 4x */
     if (S->conn) {
         char names[2][300];
         const unsigned flags[2] = { STC_COMPRESS_REPLACE,

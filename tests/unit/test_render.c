@@ -3,8 +3,9 @@
  * triangle covers the count of samples worked out by hand, an edge-on triangle none), a
  * full-screen quad on a constant face (every pixel the same colour), derivatives and shading
  * points of a tilted plane against a ray-cast of the same plane, the Mitchell-Netravali filter,
- * and Traverse renders of generated cubes whose seams are no rougher than their interiors
- * (where Clamp's are).
+ * Traverse renders of generated cubes whose seams are no rougher than their interiors
+ * (where Clamp's are), derivatives bounded where helper lanes pass a plane's horizon, and
+ * queries the sampler refuses drawn magenta and counted.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -412,6 +413,123 @@ static void test_traverse_cube_seams_smooth(void **state)
     }
 }
 
+/* A ground plane seen at a grazing angle (elevation 0.2 degrees): the 2x2 quads along its far
+ * edge have helper lanes past the plane's horizon, extrapolated to uv of 1e26 and more. The
+ * queries' derivatives stay finite and within RR_MAX_DERIV (the sampler refuses a derivative
+ * over 1e4 with NaN values, which came out as black pixels), the same at 1e3 and 1e-12 scale
+ * (at 1e-12 the float derivatives overflowed to infinity), and every covered pixel is the
+ * face's colour times the light: no NaN, no black, no refused query. */
+static void test_horizon_derivatives_bounded(void **state)
+{
+    (void)state;
+    char msg[256];
+    st_set *set = st_fixture_rgba8_faces(8);
+    assert_non_null(set);
+    for (size_t i = 0; i < 8 * 8; i++) {
+        uint8_t *t = st_face_level(set, 0, 0) + 4 * i;
+        t[0] = 200, t[1] = 100, t[2] = 50, t[3] = 255;
+    }
+    st_set_build_mips(set, 0);
+    rs_sampler *s = rs_inproc_new(write_ptx(set, "ground"), NULL, msg, sizeof msg);
+    assert_non_null(s);
+    const double scales[2] = { 1e3, 1e-12 };
+    for (int k = 0; k < 2; k++) {
+        float a = (float)scales[k];
+        const float pos[12] = { -a, 0, -a, a, 0, -a, a, 0, a, -a, 0, a };
+        const uint32_t quad[4] = { 0, 1, 2, 3 };
+        rm_mesh *m = rm_from_quads(pos, 4, quad, 1, msg, sizeof msg);
+        assert_non_null(m);
+        rc_orbit orb = { .frames = 120, .elev_deg = 0.2, .dist = 0.8, .fov_deg = 40,
+                         .azim0_deg = 30 };
+        rc_camera cam;
+        rc_orbit_camera(&orb, m, 0, 320, 240, &cam);
+        rf_opts o = { .width = 320, .height = 240, .msaa = 4, .mode = 1, .filter = 3,
+                      .max_aniso = 16, .unlit = 1, .bg = { 0, 0, 0 } };
+        float *rgb = malloc(320 * 240 * 3 * sizeof *rgb);
+        rr_target t = { 0 };
+        rs_stats st = { 0 };
+        assert_int_equal(rf_render(m, &cam, &o, s, &t, rgb, NULL, &st, msg, sizeof msg), 0);
+        assert_true(t.nfrag > 100);
+        for (size_t i = 0; i < t.nfrag; i++) {
+            const stc_query *q = &t.queries[i];
+            const float d[4] = { q->dudx, q->dvdx, q->dudy, q->dvdy };
+            for (int j = 0; j < 4; j++)
+                if (!(fabsf(d[j]) <= RR_MAX_DERIV))
+                    fail_msg("scale %g: query %zu derivative %d is %g", scales[k], i, j,
+                             (double)d[j]);
+        }
+        assert_int_equal(st.refused, 0);
+        assert_true(t.clamped_derivs > 0);   /* the case is exercised */
+        /* every query is answered with the face's colour, and no covered pixel is black */
+        float *vals = malloc(t.nfrag * 4 * sizeof *vals);
+        stc_sample_opts so = { .mode = 1, .filter = 3, .zero_rule = 1, .max_aniso = 16 };
+        rs_stats ign = { 0 };
+        assert_int_equal(s->sample(s, &so, t.queries, t.nfrag, vals, NULL, &ign, msg,
+                                   sizeof msg), 0);
+        for (size_t i = 0; i < t.nfrag; i++) {
+            if (!(fabsf(vals[4 * i] - 200 / 255.0f) < 1e-4f &&
+                  fabsf(vals[4 * i + 1] - 100 / 255.0f) < 1e-4f))
+                fail_msg("scale %g: query %zu gave (%g, %g)", scales[k], i,
+                         (double)vals[4 * i], (double)vals[4 * i + 1]);
+            const float *px = rgb + 3 * t.frags[i].pixel;
+            if (!(px[0] > 0.01f))
+                fail_msg("scale %g: pixel %u is %g", scales[k], t.frags[i].pixel, (double)px[0]);
+        }
+        free(vals);
+        rr_target_free(&t);
+        free(rgb);
+        rm_free(m);
+    }
+    rs_free(s);
+    st_set_free(set);
+}
+
+/* An atlas mesh whose texture coordinates are 2e4 (tiling; the OBJ importer takes up to 1e6)
+ * makes queries the sampler refuses (|u| over 1e4: BAD_FOOTPRINT, NaN values). They are counted
+ * and drawn magenta: before, the NaN went through the resolve into a black PNG pixel, with
+ * nothing said. */
+static void test_refused_queries_counted_magenta(void **state)
+{
+    (void)state;
+    char msg[256], png[128], obj[128];
+    float img[4 * 4 * 3];
+    for (size_t i = 0; i < 4 * 4 * 3; i++)
+        img[i] = 0.5f;
+    snprintf(png, sizeof png, "%s/grey.png", tmpdir);
+    assert_int_equal(ri_write_png(png, img, 4, 4, msg, sizeof msg), 0);
+    snprintf(obj, sizeof obj, "%s/tile.obj", tmpdir);
+    FILE *f = fopen(obj, "w");
+    assert_non_null(f);
+    fprintf(f, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+               "vt 20000 0\nvt 20001 0\nvt 20001 1\nvt 20000 1\nf 1/1 2/2 3/3 4/4\n");
+    assert_int_equal(fclose(f), 0);
+    rm_mesh *m = rm_load_obj(obj, RM_ATLAS, msg, sizeof msg);
+    assert_non_null(m);
+    rs_sampler *s = rs_inproc_new(obj, png, msg, sizeof msg);
+    if (!s)
+        fail_msg("%s", msg);
+    rc_orbit orb = { .frames = 120, .elev_deg = 25, .dist = 0.8, .fov_deg = 40, .azim0_deg = 30 };
+    rc_camera cam;
+    rc_orbit_camera(&orb, m, 0, 64, 48, &cam);
+    rf_opts o = { .width = 64, .height = 48, .msaa = 1, .mode = 2, .filter = 3, .max_aniso = 16,
+                  .unlit = 1, .bg = { 0, 0, 0 } };
+    float rgb[64 * 48 * 3];
+    rr_target t = { 0 };
+    rs_stats st = { 0 };
+    assert_int_equal(rf_render(m, &cam, &o, s, &t, rgb, NULL, &st, msg, sizeof msg), 0);
+    assert_true(t.nfrag > 100);
+    for (size_t i = 0; i < t.nfrag; i++) {
+        const float *p = rgb + 3 * t.frags[i].pixel;
+        if (!(fabsf(p[0] - 1) < 1e-6f && fabsf(p[1]) < 1e-6f && fabsf(p[2] - 1) < 1e-6f))
+            fail_msg("pixel %u is (%g, %g, %g), not magenta", t.frags[i].pixel, (double)p[0],
+                     (double)p[1], (double)p[2]);
+    }
+    assert_int_equal(st.refused, t.nfrag);
+    rr_target_free(&t);
+    rs_free(s);
+    rm_free(m);
+}
+
 static int setup_dir(void **state)
 {
     (void)state;
@@ -437,6 +555,8 @@ int main(void)
         cmocka_unit_test(test_centroid_when_centre_outside),
         cmocka_unit_test(test_mitchell),
         cmocka_unit_test(test_traverse_cube_seams_smooth),
+        cmocka_unit_test(test_horizon_derivatives_bounded),
+        cmocka_unit_test(test_refused_queries_counted_magenta),
     };
     return cmocka_run_group_tests(tests, setup_dir, teardown_dir);
 }
