@@ -371,6 +371,16 @@ static int mesh_to_set(const char *path, int fmt, const st_import_opts *o, st_im
         st_mesh_free(m);
         return rc;
     }
+    if (img.envmap != ST_ENVMAP_NONE) {
+        /* a file that imports as a cube map on its own is one here too: as the daemon's
+         * texture= refuses a cube set, so does a texture file */
+        rc = st_fail(e, ST_EINVAL, "%s: the texture to pair a mesh with must be an atlas image, "
+                     "not an environment map (envmap=%s)", tex,
+                     img.envmap == ST_ENVMAP_CUBE ? "cube" : "latlong");
+        st_image_free(&img);
+        st_mesh_free(m); /* after the message: tex may be one of its materials' names */
+        return rc;
+    }
     rc = st_atlas_from_image(&img, m, o->max_bytes, out, e);
     if (rc == ST_OK) {
         st_atlas *a = st_set_ext_get(*out, ST_EXT_ATLAS);

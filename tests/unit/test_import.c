@@ -462,6 +462,21 @@ static void draco_duck_pairs_with_its_texture(void **state)
     st_set *s2 = NULL;
     assert_int_equal(st_import_file(drc, &o, &s2, &e), ST_OK);
     assert_memory_equal(s2->texels, s->texels, s->texel_bytes);
+    /* an environment map is no atlas texture, as a file as well as a set (the daemon's
+     * texture= refuses a cube set; seamtex-render --inproc drew the strip as an atlas) */
+    const char *envs[] = {"env/StageEnvCube.exr", "env/StageEnvLatLong.exr"};
+    for (int i = 0; i < 2; i++) {
+        char env[1024];
+        if (st_test_data_path(env, sizeof env, envs[i]))
+            continue;
+        st_import_opts_init(&o);
+        o.texture_path = env;
+        st_set *s3 = NULL;
+        assert_int_equal(st_import_file(drc, &o, &s3, &e), ST_EINVAL);
+        assert_null(s3);
+        printf("# %s\n", e.msg);
+        assert_non_null(strstr(e.msg, i ? "envmap=latlong" : "envmap=cube"));
+    }
     st_set_free(t);
     st_set_free(s2);
     st_set_free(s);
