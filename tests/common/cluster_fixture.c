@@ -23,6 +23,18 @@ int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned 
     return st_daemon_start(d, args);
 }
 
+stc_cluster *st_cluster_open_nodes(const st_daemon *nodes, int n)
+{
+    char seeds[512], msg[256];
+    size_t len = 0;
+    seeds[0] = 0;
+    for (int i = 0; i < n && len < sizeof seeds; i++)
+        len += (size_t)snprintf(seeds + len, sizeof seeds - len, "%s127.0.0.1:%d", i ? "," : "",
+                                nodes[i].port);
+    int err = 0;
+    return stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+}
+
 int st_cluster_all_see(const st_daemon *nodes, int n, uint64_t members)
 {
     for (int i = 0; i < n; i++)

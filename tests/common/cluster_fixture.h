@@ -1,10 +1,10 @@
 /* tests/common/cluster_fixture.h - the pieces of a loopback seamtex cluster shared by the
- * cluster tests (test_cluster, test_cluster_soak).
+ * cluster tests (tests/integration/test_cluster*.c).
  *
  * Owns: starting node i of a cluster (seamtexd --cluster <etcd> --node-id n<i>, 2 s leases, a
  * repair pass every second, no default set) with a chosen R and W; .ptx files of distinct
  * contents ("tints": face 0 repainted) to upload; reading the red channel at the middle of
- * face 0, which tells a tint apart. Does not own: etcd (etcd_fixture.h), the daemon process
+ * face 0, which tells a tint apart; a cluster client seeded with the nodes. Does not own: etcd (etcd_fixture.h), the daemon process
  * (daemon_fixture.h), what a test checks.
  */
 #ifndef ST_CLUSTER_FIXTURE_H
@@ -22,6 +22,9 @@ int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned 
 /* 1 when each of the n nodes counts `members` members and reaches etcd (STATS
  * cluster_members, cluster_etcd_ok). */
 int st_cluster_all_see(const st_daemon *nodes, int n, uint64_t members);
+
+/* A cluster client with the n nodes as seeds (127.0.0.1:port each), or NULL. */
+stc_cluster *st_cluster_open_nodes(const st_daemon *nodes, int n);
 
 /* Writes n tint files <dir>/tint<t>.ptx (tint t * step) and their paths into files[t]
  * (each cap bytes). 0 or -1. */

@@ -47,14 +47,6 @@ static int n0_alone(void *arg)
     return st_cluster_all_see(N, 1, 1);
 }
 
-static stc_cluster *open_seeds(void)
-{
-    char seeds[64], msg[256];
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
-    int err = 0;
-    return stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
-}
-
 /* 1 when node i's LIST names set */
 static int lists(stc_conn *c, const char *set)
 {
@@ -69,7 +61,7 @@ static int lists(stc_conn *c, const char *set)
 
 static void a_just_acknowledged_upload_is_served_by_both_owners(void)
 {
-    stc_cluster *cl = open_seeds();
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     for (int t = 0; t < 6; t++) {
         char name[32];
@@ -99,7 +91,7 @@ static void a_returning_node_does_not_serve_deleted_or_replaced_copies(void **st
         assert_int_equal(st_cluster_node_start(&N[i], ETCD.url, i, 2, 0), 0);
     if (st_wait_until(both_see, (void *)(intptr_t)2, DEADLINE_MS) != 0)
         fail_msg("the nodes never saw each other");
-    stc_cluster *cl = open_seeds();
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
     assert_true(red[0] != red[1]);
@@ -137,7 +129,7 @@ static void a_returning_node_does_not_serve_deleted_or_replaced_copies(void **st
             served_new |= r == red[1];
         }
         stc_close(c1);
-        stc_cluster *cl2 = open_seeds();   /* the cluster client, n1 among its seeds */
+        stc_cluster *cl2 = st_cluster_open_nodes(N, 2);   /* the cluster client, n1 among its seeds */
         if (cl2) {
             served_gone += st_cluster_red_at(cl2, "gone", &r) == 0;
             if (st_cluster_red_at(cl2, "swap", &r) == 0)

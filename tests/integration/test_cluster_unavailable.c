@@ -64,10 +64,7 @@ static void a_set_whose_holders_are_down_is_unavailable_not_missing(void **state
         assert_int_equal(st_cluster_node_start(&N[i], ETCD.url, i, 1, 1), 0);
     if (st_wait_until(all_see_two, NULL, DEADLINE_MS) != 0)
         fail_msg("the nodes never saw each other");
-    char seeds[64], msg[256];
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
-    int err = 0;
-    stc_cluster *cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     assert_int_equal(stc_cluster_upload_file(cl, files[0], "solo", NULL, NULL), 0);
     float red0 = -1;
@@ -97,8 +94,7 @@ static void a_set_whose_holders_are_down_is_unavailable_not_missing(void **state
     assert_non_null(strstr(stc_errmsg(c), "no live node holds a copy"));
     assert_int_equal(st_red_at(c, "never", &r), STC_ENOTFOUND);
     stc_close(c);
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d", N[other].port);
-    cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+    cl = st_cluster_open_nodes(&N[other], 1);
     assert_non_null(cl);
     assert_int_equal(st_cluster_red_at(cl, "solo", &r), STC_EUNAVAILABLE);
     assert_int_equal(st_cluster_red_at(cl, "never", &r), STC_ENOTFOUND);
@@ -108,8 +104,7 @@ static void a_set_whose_holders_are_down_is_unavailable_not_missing(void **state
     assert_int_equal(st_cluster_node_start(&N[owner], ETCD.url, owner, 1, 1), 0);
     if (st_wait_until(all_see_two, NULL, DEADLINE_MS) != 0)
         fail_msg("the restarted owner never rejoined");
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
-    struct reads rd = {.cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg), .red = -1};
+    struct reads rd = {.cl = st_cluster_open_nodes(N, 2), .red = -1};
     assert_non_null(rd.cl);
     if (st_wait_until(solo_reads, &rd, DEADLINE_MS) != 0)
         fail_msg("'solo' never read again after its holder returned");
