@@ -4,8 +4,8 @@
  * Owns: starting node i of a cluster (seamtexd --cluster <etcd> --node-id n<i>, 2 s leases, a
  * repair pass every second, no default set) with a chosen R and W; .ptx files of distinct
  * contents ("tints": face 0 repainted) to upload; reading the red channel at the middle of
- * face 0, which tells a tint apart; a cluster client seeded with the nodes. Does not own: etcd (etcd_fixture.h), the daemon process
- * (daemon_fixture.h), what a test checks.
+ * face 0, which tells a tint apart; a cluster client seeded with the nodes. Does not own:
+ * etcd (etcd_fixture.h), the daemon process (daemon_fixture.h), what a test checks.
  */
 #ifndef ST_CLUSTER_FIXTURE_H
 #define ST_CLUSTER_FIXTURE_H
