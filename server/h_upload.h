@@ -29,4 +29,14 @@ int sts_import_path(sts_server *srv, const char *path, const char *fmt, const ch
  * the registry. 0, ST_ENOTFOUND, or another store code. DELETE and the cluster's repair. */
 int sts_delete_local(sts_server *srv, const char *name);
 
+/* A cluster write's staged copy (store/service/datadir.h "Staged copies"): published under its
+ * set's name, replacing this node's copy in the data dir and the registry (under commit_mu),
+ * from set when given (ownership passes) or imported from the staged source; ST_ENOTFOUND
+ * when another thread published or dropped it meanwhile. The write path once the write is
+ * recorded, and the repair pass for a copy the catalogue records "ok". */
+int sts_publish_staged(sts_server *srv, const char *id, st_set *set, int *replaced, st_error *e);
+
+/* Drops staged copy id (logged with why; quiet when it is gone already). */
+void sts_drop_staged(sts_server *srv, const char *id, const char *why);
+
 #endif
