@@ -171,7 +171,8 @@ static void staged_broken(void *arg, const char *id, const char *why)
              id, why);
 }
 
-/* The staged copies of writes (this node's uploads; datadir.h "Staged copies") against the
+/* The staged copies of writes (this node's uploads and COMPRESS results, and pushes of other
+ * nodes' writes; datadir.h "Staged copies") against the
  * catalogue just read: the contents recorded "ok" are published here (the write was recorded
  * but its node did not get to publish them: killed, or a publish that failed); recorded
  * "pending" they wait (the write is in flight, or its claim is abandoned later); other

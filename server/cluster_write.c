@@ -15,6 +15,7 @@
 #include "server.h"
 
 #define PUSH_TIMEOUT_MS 30000
+#define PUBLISH_TIMEOUT_MS 30000   /* the receiver imports the staged copy again */
 
 /* The manifest of this node's copy of name and the path of its stored source; 0 or -1. */
 static int local_source(sts_server *srv, const char *name, st_manifest *m, char *spath,
@@ -39,14 +40,14 @@ static void node_token(sts_server *srv, char out[STS_TOKEN_MAX + 1])
 
 /* Pushes the source file spath (manifest m) to the node at addr as the copy of name. */
 static int push_source(sts_cluster *cl, const char *name, const st_manifest *m,
-                       const char *spath, const char *addr, char *msg, size_t cap)
+                       const char *spath, int stage, const char *addr, char *msg, size_t cap)
 {
     sts_server *srv = cl->srv;
     char token[STS_TOKEN_MAX + 1];
     node_token(srv, token);
     uint32_t crc = 0;
-    int rc = scl_peer_push(addr, token, spath, name, m->format, m->options, PUSH_TIMEOUT_MS,
-                           &crc, msg, cap);
+    int rc = scl_peer_push(addr, token, spath, name, m->format, m->options, stage,
+                           PUSH_TIMEOUT_MS, &crc, msg, cap);
     if (rc == 0) {
         STS_CL_ADD(cl, copies_pushed, 1);
         STS_CL_ADD(cl, push_bytes, m->bytes);
@@ -68,7 +69,7 @@ int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *
         snprintf(msg, cap, "no local copy of '%s' to push: %s", name, e.msg);
         return -1;
     }
-    return push_source(cl, name, &m, spath, addr, msg, cap);
+    return push_source(cl, name, &m, spath, 0, addr, msg, cap);
 }
 
 /* reads sets/<name>; 1 found (rec, mod), 0 absent, < 0 an etcd error (noted); with raw, a
@@ -224,22 +225,27 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char
     size_t order[16];
     size_t R = sts_cluster_rank(m, n, c->name, order, cl->replicas < 16 ? cl->replicas : 16);
     char acked[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ID + 1];   /* the owners and this node */
+    char addrs[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ADDR + 1];  /* acked[i]'s, "" for this node */
     int nack = 0, self_owner = 0;
     char why[512] = "";
     for (size_t i = 0; i < R; i++) {
         const sts_cl_member *o = &m[order[i]];
         if (!strcmp(o->id, cl->self)) {
             self_owner = 1;
+            addrs[nack][0] = 0;
             snprintf(acked[nack++], sizeof acked[0], "%s", o->id);
             continue;
         }
         char pm[512];
         if (!have_src)
             snprintf(pm, sizeof pm, "no local copy to push: %.200s", se.msg);
-        if (have_src && push_source(cl, c->name, &sm, spath, o->addr, pm, sizeof pm) == 0)
+        if (have_src && push_source(cl, c->name, &sm, spath, stage != NULL, o->addr, pm,
+                                    sizeof pm) == 0) {
+            snprintf(addrs[nack], sizeof addrs[0], "%s", o->addr);
             snprintf(acked[nack++], sizeof acked[0], "%s", o->id);
-        else
+        } else {
             snprintf(why, sizeof why, "%s", pm);
+        }
     }
     free(m);
     size_t need = cl->quorum < R ? cl->quorum : R;
@@ -251,8 +257,10 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char
     }
     /* finalize: the record "ok" with its kind, and a copies/ key per holder (this node's own
      * copy too when it is not an owner: repair drops it once the owners confirmed theirs) */
-    if (!self_owner)
+    if (!self_owner) {
+        addrs[nack][0] = 0;
         snprintf(acked[nack++], sizeof acked[0], "%s", cl->self);
+    }
     char key[SCL_KEY_MAX], val[2048], ckeys[17][SCL_KEY_MAX], cval[9];
     scl_key_set(key, cl->prefix, c->name);
     c->rec.state = SCL_SET_OK;
@@ -294,6 +302,17 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char
         return STP_S_EXISTS;
     }
     sts_cluster_note_set(cl, c->name, c->rec.crc32, (const char (*)[STP_MAX_NODE_ID + 1])acked, nack);
+    /* recorded: the receivers publish the copies they staged (one that misses this does it
+     * at its next repair pass, which finds the write recorded) */
+    for (int i = 0; stage && i < nack; i++) {
+        if (!addrs[i][0])
+            continue;
+        char pm[512], token[STS_TOKEN_MAX + 1];
+        node_token(cl->srv, token);
+        if (scl_peer_publish(addrs[i], token, c->name, c->rec.crc32, PUBLISH_TIMEOUT_MS, pm,
+                             sizeof pm) != 0)
+            sts_logf(&cl->srv->log, STS_WARN, "cluster: %s (its repair pass publishes it)", pm);
+    }
     return 0;
 }
 

@@ -1,6 +1,6 @@
 /* server/h_upload.c - the upload handlers and DELETE.
  *
- * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format and options
+ * Owns: the UPLOAD_*, REPLICA_PUBLISH and DELETE handlers, import of a source file by format and options
  * (sts_import_path, also used by the start-up load), publishing a committed set, publishing
  * or dropping a cluster write's staged copy (sts_publish_staged, sts_drop_staged). Does not
  * own: the table of uploads and their life (uploads.c), loading the data dir at start
@@ -14,6 +14,8 @@
  * In a cluster (not a REPLICA push) the file is claimed, then staged (datadir.h "Staged
  * copies"), pushed and recorded (cluster_write.c), and published (sts_publish_staged) only
  * once recorded: a refused write drops its staged copy and leaves this node's copy as it was.
+ * A REPLICA push with STAGE is staged likewise, and published by REPLICA_PUBLISH (or by the
+ * repair pass, cluster_repair.c).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -554,6 +556,22 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
             refuse(c, h, out, u->name, cst, msg, NULL);
             goto fail;
         }
+    } else if (srv->cluster && (u->flags & STP_UF_STAGE)) {
+        /* a push of a write not recorded yet: staged until the writer's REPLICA_PUBLISH (or
+         * this node's repair pass finds the write recorded); what this node serves stays */
+        pthread_mutex_unlock(&srv->commit_mu);
+        char sid[64];
+        rc = st_datadir_stage(srv->dd, u->name, u->path, u->fmt, u->options, u->total, sid,
+                              sizeof sid, &e);
+        u->path[0] = 0;
+        st_set_free(set);   /* imported again from the staged source when published */
+        if (rc) {
+            name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+            refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
+            goto fail;
+        }
+        STS_CL_ADD(srv->cluster, copies_received, 1);
+        STS_CL_ADD(srv->cluster, copies_staged, 1);
     } else {
         if (srv->dd) {
             /* writes the native file too; pa.set becomes the mapped set before publish_cb */
@@ -593,6 +611,57 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
 fail:
     STS_STAT_ADD(srv, uploads_failed, 1);
     sts_uploads_finish_commit(srv, u, NULL);
+    return 0;
+}
+
+int sts_h_replica_publish(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    sts_server *srv = c->srv;
+    char name[STP_MAX_NAME + 1];
+    uint32_t crc = 0;
+    const char *why = NULL;
+    int st = stp_dec_replica_publish(body, h->body_len, name, &crc, &why);
+    if (st)
+        return sts_reply_bad(out, h, st, why);
+    if (!srv->cluster || !srv->dd) {
+        sts_reply_error(out, h, STP_S_UNSUPPORTED, "REPLICA_PUBLISH is for cluster nodes; this "
+                        "server is not in a cluster");
+        return 0;
+    }
+    st_error e;
+    st_error_clear(&e);
+    st_datadir_staged *s = NULL;
+    size_t n = 0;
+    int rc = st_datadir_staged_list(srv->dd, &s, &n, NULL, NULL, &e);
+    if (rc) {
+        sts_reply_st(out, h, rc, e.msg);
+        return 0;
+    }
+    rc = ST_ENOTFOUND;
+    for (size_t i = 0; rc == ST_ENOTFOUND && i < n; i++)
+        if (!strcmp(s[i].m.name, name) && s[i].m.crc == crc) {
+            st_error_clear(&e);
+            rc = sts_publish_staged(srv, s[i].id, NULL, NULL, &e);
+        }
+    free(s);
+    if (rc == ST_ENOTFOUND) {
+        /* published already (this node's repair pass found the write recorded first)? */
+        st_setref *ref = NULL;
+        int have = st_registry_get(srv->reg, name, &ref, NULL) == 0 && ref->source_crc == crc;
+        st_setref_release(ref);
+        if (!have) {
+            sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32");
+            return 0;
+        }
+        rc = 0;
+    }
+    if (rc) {
+        sts_reply_st(out, h, rc, e.msg);
+        return 0;
+    }
+    sts_logf(&srv->log, STS_INFO, "cluster: staged copy of '%s' published (the write is recorded)",
+             name);
+    stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
     return 0;
 }
 

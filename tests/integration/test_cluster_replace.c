@@ -28,6 +28,7 @@
 #include <cmocka.h>
 
 #include "datadir.h"
+#include "stp_cluster.h"
 
 #include "../common/cluster_fixture.h"
 #include "../common/daemon_client.h"
@@ -39,14 +40,15 @@
 #define LEASE "5"    /* s: n1 a member while n0 takes the REPLACE, on a slow machine too */
 
 static st_etcd ETCD;
-static st_daemon N[2];
+static st_daemon N[3];
 static char files[2][300];
 static float red[2];
 
 /* node i of the cluster, R = W = 2, with LEASE (cluster_fixture.h's nodes have 2 s) */
 static int start_node(int i)
 {
-    const char *id = i ? "n1" : "n0";
+    static const char *const ids[] = {"n0", "n1", "n2"};
+    const char *id = ids[i];
     const char *args[] = {"--cluster", ETCD.url, "--node-id", id, "--advertise", "127.0.0.1:0",
                           "--replicas", "2", "--write-quorum", "2", "--lease-ttl", LEASE,
                           "--repair-interval", "1", "--no-default-set", NULL};
@@ -330,16 +332,142 @@ static void recorded_contents_staged_at_a_crash_are_published_at_restart(void **
     st_etcd_stop(&ETCD);
 }
 
+static char owned[16];   /* a set name whose two owners of {n0, n1, n2} are n1 and n2 */
+
+static int three_members(void *arg)
+{
+    (void)arg;
+    return st_cluster_all_see(N, 3, 3);
+}
+
+/* the red value node i reads for set name: 0 and *r, or the read's status */
+static int red_of(int i, const char *name, float *r)
+{
+    stc_conn *c = st_daemon_client(&N[i], NULL);
+    int rc = c ? st_red_at(c, name, r) : -1;
+    stc_close(c);
+    return rc;
+}
+
+static int n1_alone_of_two(void *arg)
+{
+    (void)arg;
+    return st_cluster_all_see(&N[1], 1, 2);
+}
+
+/* cl27's defect 2 and the rest of 7: a push of a write that then ends refused reached an owner
+ * - a taker that is not an owner pushes to both owners, one of them is dead. The receiver used
+ * to publish the push at once: it served the refused contents until its next pass, and had
+ * replaced its copy of the acknowledged ones (with the other owner gone: none left). Now it
+ * stages the push, publishes it on the writer's REPLICA_PUBLISH once the write is recorded -
+ * an acknowledged write reads on both owners right after its OK - and drops it otherwise. */
+static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **state)
+{
+    (void)state;
+    assert_int_equal(st_etcd_start(&ETCD, "/replace-pushed"), 0);
+    for (int i = 0; i < 3; i++) {
+        st_daemon_cleanup(&N[i]);
+        assert_int_equal(st_daemon_init(&N[i]), 0);
+    }
+    assert_int_equal(st_cluster_tint_files(N[0].dir, 2, 40, files), 0);
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(start_node(i), 0);
+    if (st_wait_until(three_members, NULL, DEADLINE_MS) != 0)
+        fail_msg("the nodes never saw each other");
+    const char *ids[3] = {"n0", "n1", "n2"};
+    owned[0] = 0;
+    for (int k = 0; k < 200 && !owned[0]; k++) {
+        char name[16];
+        size_t own[2];
+        snprintf(name, sizeof name, "r%d", k);
+        stp_hrw_rank(ids, 3, name, own, 2);
+        if (own[0] != 0 && own[1] != 0)
+            snprintf(owned, sizeof owned, "%s", name);
+    }
+    assert_true(owned[0] != 0);
+    char seeds[96], msg[256];
+    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d,127.0.0.1:%d", N[0].port,
+             N[1].port, N[2].port);
+    int err = 0;
+    stc_cluster *cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+    assert_non_null(cl);
+    assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
+    stc_cluster_close(cl);
+
+    /* an acknowledged write through n0 (not an owner): both owners read it at once */
+    stc_conn *c0 = st_daemon_client(&N[0], NULL);
+    assert_non_null(c0);
+    assert_int_equal(stc_upload_file(c0, files[0], owned, NULL, NULL), 0);
+    stc_close(c0);
+    for (int i = 1; i < 3; i++) {
+        float r = -1;
+        int rc = red_of(i, owned, &r);
+        if (rc != 0 || r != red[0])
+            fail_msg("right after the OK n%d reads %s as %d (red %g), not the written %g", i,
+                     owned, rc, r, red[0]);
+    }
+    uint64_t staged1 = st_daemon_stat(&N[1], "cluster_copies_staged");
+
+    /* n2 dies; the REPLACE through n0 reaches n1 only and is refused */
+    st_daemon_kill(&N[2]);
+    c0 = st_daemon_client(&N[0], NULL);
+    assert_non_null(c0);
+    stc_upload_opts uo = {.flags = STC_UPLOAD_REPLACE};
+    int rc = stc_upload_file(c0, files[1], owned, &uo, NULL);
+    stc_close(c0);
+    if (rc != STC_EUNAVAILABLE)
+        fail_msg("the REPLACE was answered %d, not UNAVAILABLE (did n2's lease run out?)", rc);
+
+    /* n1 reads A at once, while n2's lease runs, and after it ended (n1 and n0 the owners:
+     * n1's copy is the only one of A left) */
+    int reads = 0, wrong = 0, missing = 0;
+    float r = -1;
+    int64_t t0 = st_now_ms();
+    while (!n1_alone_of_two(NULL) && st_now_ms() - t0 < DEADLINE_MS) {
+        wrong += red_of(1, owned, &r) == 0 ? r != red[0] : (missing++, 0);
+        reads++;
+        st_sleep_ms(20);
+    }
+    passes_before = st_daemon_stat(&N[1], "cluster_repair_passes");
+    while (st_daemon_stat(&N[1], "cluster_repair_passes") < passes_before + 2 &&
+           st_now_ms() - t0 < DEADLINE_MS) {
+        wrong += red_of(1, owned, &r) == 0 ? r != red[0] : (missing++, 0);
+        reads++;
+        st_sleep_ms(20);
+    }
+    int64_t t1 = st_now_ms();
+    while (st_now_ms() - t1 < 2500) {
+        wrong += red_of(1, owned, &r) == 0 ? r != red[0] : (missing++, 0);
+        reads++;
+        st_sleep_ms(20);
+    }
+    print_message("%d reads of %s on n1 after the refusal: %d missing, %d other contents\n",
+                  reads, owned, missing, wrong);
+    if (missing || wrong) {
+        st_daemon_dump_log(&N[1], 30);
+        fail_msg("n1 lost the acknowledged contents: %d of %d reads missing, %d other contents",
+                 missing, reads, wrong);
+    }
+    /* the refused copy was staged on n1, never published there, and dropped by its pass */
+    assert_int_equal(st_daemon_stat(&N[1], "cluster_copies_staged"), staged1 + 1);
+    assert_int_equal(staged_count(1), 0);
+    assert_true(st_daemon_stat(&N[1], "cluster_staged_dropped") >= 1);
+    for (int i = 0; i < 2; i++)
+        st_daemon_down(&N[i], 10000);
+    st_etcd_stop(&ETCD);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(a_refused_replace_keeps_the_acknowledged_copy),
         cmocka_unit_test(a_refused_compress_keeps_the_target),
         cmocka_unit_test(recorded_contents_staged_at_a_crash_are_published_at_restart),
+        cmocka_unit_test(a_refused_write_pushed_to_an_owner_is_not_published_there),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     st_etcd_stop(&ETCD);
-    for (int i = 0; i < 2; i++)
+    for (int i = 0; i < 3; i++)
         st_daemon_cleanup(&N[i]);
     return rc;
 }
