@@ -1104,6 +1104,9 @@ int st_datadir_staged_list(st_datadir *d, st_datadir_staged **out, size_t *count
             rc = st_fail(e, mrc, "%s", me.msg);
             break;
         }
+        struct stat dst;
+        if (mrc == ST_ENOTFOUND && lstat(p, &dst) != 0)
+            continue;   /* published or dropped by another thread since readdir saw it */
         if (mrc) {   /* never silently dropped */
             if (report)
                 report(arg, de->d_name, me.msg);
