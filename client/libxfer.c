@@ -113,7 +113,8 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     bg.crc32c = crc;
     bg.flags = (o && (o->flags & STC_UPLOAD_REPLACE) ? STP_UF_REPLACE : 0) |
                (o && (o->flags & STC_UPLOAD_RESUME) ? STP_UF_RESUME : 0) |
-               (o && (o->flags & STC_UPLOAD_REPLICA) ? STP_UF_REPLICA : 0);
+               (o && (o->flags & STC_UPLOAD_REPLICA) ? STP_UF_REPLICA : 0) |
+               (o && (o->flags & STC_UPLOAD_STAGE) ? STP_UF_STAGE : 0);
     if ((rc = start_req(c, STP_OP_UPLOAD_BEGIN, &id)) != 0 ||
         (rc = xfer_encoded(c, stp_enc_upload_begin(&c->out, id, (uint32_t)c->timeout_ms, &bg))) != 0 ||
         (rc = roundtrip(c, id, &f)) != 0)

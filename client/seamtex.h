@@ -270,7 +270,8 @@ int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
  * The whole file's CRC32C is checked at commit either way. */
 typedef int (*stc_progress_fn)(void *user, uint64_t done, uint64_t total);
 enum { STC_UPLOAD_REPLACE = 1, STC_UPLOAD_RESUME = 2,
-       STC_UPLOAD_REPLICA = 4   /* node-to-node copy in a cluster (seamtexd uses it) */ };
+       STC_UPLOAD_REPLICA = 4,  /* node-to-node copy in a cluster (seamtexd uses it) */
+       STC_UPLOAD_STAGE = 8     /* with REPLICA: staged until published (seamtexd uses it) */ };
 typedef struct stc_upload_opts {
     const char     *hint;             /* "ptx", "png", ...; NULL = from the file extension */
     const char     *options;          /* "texture=<set> cube=latlong:512"; NULL = none */

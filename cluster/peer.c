@@ -1,8 +1,9 @@
-/* cluster/peer.c - node-to-node copies and deletes (peer.h), built on libseamtex. */
+/* cluster/peer.c - node-to-node copies, publishes and deletes (peer.h), built on libseamtex. */
 #include <stdio.h>
 #include <string.h>
 
 #include "peer.h"
+#include "proto.h"
 #include "seamtex.h"
 #include "stp_cluster.h"
 
@@ -30,8 +31,8 @@ static stc_conn *dial(const char *addr, const char *token, int timeout_ms, int *
 }
 
 int scl_peer_push(const char *addr, const char *token, const char *path, const char *name,
-                  const char *hint, const char *options, int timeout_ms, uint32_t *crc32c,
-                  char *msg, size_t cap)
+                  const char *hint, const char *options, int stage, int timeout_ms,
+                  uint32_t *crc32c, char *msg, size_t cap)
 {
     int rc = 0;
     stc_conn *c = dial(addr, token, timeout_ms, &rc, msg, cap);
@@ -41,7 +42,7 @@ int scl_peer_push(const char *addr, const char *token, const char *path, const c
     memset(&uo, 0, sizeof uo);
     uo.hint = hint && *hint ? hint : NULL;
     uo.options = options && *options ? options : NULL;
-    uo.flags = STC_UPLOAD_REPLACE | STC_UPLOAD_REPLICA;
+    uo.flags = STC_UPLOAD_REPLACE | STC_UPLOAD_REPLICA | (stage ? STC_UPLOAD_STAGE : 0);
     stc_upload_result res;
     rc = stc_upload_file(c, path, name, &uo, &res);
     if (rc)
@@ -64,4 +65,34 @@ int scl_peer_delete(const char *addr, const char *token, const char *name, int t
         snprintf(msg, cap, "delete of '%s' on %s: %s", name, addr, stc_errmsg(c));
     stc_close(c);
     return rc == STC_ENOTFOUND ? 0 : rc;
+}
+
+int scl_peer_publish(const char *addr, const char *token, const char *name, uint32_t crc32,
+                     int timeout_ms, char *msg, size_t cap)
+{
+    int rc = 0;
+    stc_conn *c = dial(addr, token, timeout_ms, &rc, msg, cap);
+    if (!c)
+        return rc;
+    stp_buf b;
+    stp_buf_init(&b);
+    uint32_t id = 0;
+    stc_reply r;
+    memset(&r, 0, sizeof r);
+    if (stp_put_replica_publish(&b, name, crc32) != 0)
+        rc = STC_ENOMEM;
+    if (!rc)
+        rc = stc_append_raw(c, STP_OP_REPLICA_PUBLISH, stp_buf_head(&b), stp_buf_avail(&b), &id);
+    if (!rc)
+        rc = stc_flush(c);
+    if (!rc)
+        rc = stc_get_reply(c, -1, &r);
+    if (!rc && r.status)
+        rc = r.status;
+    if (rc)
+        snprintf(msg, cap, "publish of '%s' on %s: %s", name, addr,
+                 r.status && rc == r.status ? r.errmsg : stc_errmsg(c));
+    stp_buf_free(&b);
+    stc_close(c);
+    return rc;
 }

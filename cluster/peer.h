@@ -1,8 +1,9 @@
 /* cluster/peer.h - node-to-node requests over the seamtex wire protocol (libseamtex).
  *
  * Owns: pushing a stored source file to another node as a REPLICA upload (its CRC-32C is
- * computed from the file and checked by the receiver at commit: end to end), forwarding a
- * DELETE. Does not own: choosing the target (cluster_node.c), the protocol (protocol/).
+ * computed from the file and checked by the receiver at commit: end to end; with STAGE the
+ * receiver keeps it staged), telling a node to publish its staged copy (REPLICA_PUBLISH),
+ * forwarding a DELETE. Does not own: choosing the target (cluster_node.c), the protocol (protocol/).
  * Blocking; each call opens and closes its own connection. Returns 0 or an STC_E* code, with
  * a message in msg.
  */
@@ -12,9 +13,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* stage: the copy of a write not recorded yet (REPLICA + STAGE: the receiver stages it until
+ * scl_peer_publish or its own repair pass publishes it) */
 int scl_peer_push(const char *addr, const char *token, const char *path, const char *name,
-                  const char *hint, const char *options, int timeout_ms, uint32_t *crc32c,
-                  char *msg, size_t cap);
+                  const char *hint, const char *options, int stage, int timeout_ms,
+                  uint32_t *crc32c, char *msg, size_t cap);
+/* REPLICA_PUBLISH: the receiver publishes its staged copy of name whose source has CRC-32
+ * crc32 (the write has been recorded). */
+int scl_peer_publish(const char *addr, const char *token, const char *name, uint32_t crc32,
+                     int timeout_ms, char *msg, size_t cap);
 int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
                     char *msg, size_t cap);
 

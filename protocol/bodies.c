@@ -794,6 +794,25 @@ int stp_dec_name_req(const uint8_t *body, size_t len, char name[STP_MAX_NAME + 1
     return s ? s : np ? name_fail(why, SET_NAME_WHY, np) : 0;
 }
 
+int stp_put_replica_publish(stp_buf *b, const char *name, uint32_t crc32)
+{
+    stp_put_str(b, name);
+    stp_put_u32(b, crc32);
+    return b->err ? -1 : 0;
+}
+
+int stp_dec_replica_publish(const uint8_t *body, size_t len, char name[STP_MAX_NAME + 1],
+                            uint32_t *crc32, const char **why)
+{
+    stp_rd rd;
+    int np;
+    stp_rd_init(&rd, body, len);
+    get_name(&rd, name, &np);
+    *crc32 = stp_get_u32(&rd);
+    int s = finish(&rd, why, "body must be a name and a u32 crc32");
+    return s ? s : np ? name_fail(why, SET_NAME_WHY, np) : 0;
+}
+
 int stp_enc_id_req(stp_buf *b, uint8_t opcode, uint32_t reqid, uint32_t timeout_ms, uint64_t id)
 {
     size_t at = stp_frame_begin(b, opcode, 0, reqid, 0, timeout_ms);
@@ -852,8 +871,10 @@ int stp_dec_upload_begin(const uint8_t *body, size_t len, stp_upload_begin *r, c
         return s;
     if (np)
         return name_fail(why, SET_NAME_WHY, np);
-    if (r->flags & ~(uint32_t)(STP_UF_REPLACE | STP_UF_RESUME | STP_UF_REPLICA))
+    if (r->flags & ~(uint32_t)(STP_UF_REPLACE | STP_UF_RESUME | STP_UF_REPLICA | STP_UF_STAGE))
         return fail(why, "unknown flag bits", STP_S_INVALID);
+    if ((r->flags & STP_UF_STAGE) && !(r->flags & STP_UF_REPLICA))
+        return fail(why, "flag STAGE needs REPLICA", STP_S_INVALID);
     return 0;
 }
 

@@ -573,14 +573,22 @@ int stp_enc_name_req(stp_buf *b, uint8_t opcode, uint32_t reqid, uint32_t timeou
 int stp_dec_name_req(const uint8_t *body, size_t len, char name[STP_MAX_NAME + 1],
                      const char **why);
 int stp_enc_id_req(stp_buf *b, uint8_t opcode, uint32_t reqid, uint32_t timeout_ms, uint64_t id);
+/* REPLICA_PUBLISH (4.11): the set's name and the CRC-32 (zlib) of the staged source. The body
+ * alone (no frame) for stc_append_raw; the decoder checks the name rule. */
+int stp_put_replica_publish(stp_buf *b, const char *name, uint32_t crc32);
+int stp_dec_replica_publish(const uint8_t *body, size_t len, char name[STP_MAX_NAME + 1],
+                            uint32_t *crc32, const char **why);
 int stp_dec_id_req(const uint8_t *body, size_t len, uint64_t *id, const char **why);
 
 /* -- UPLOAD -- */
 enum stp_upload_flags {
     STP_UF_REPLACE = 1,   /* replace an existing set of that name on commit */
     STP_UF_RESUME  = 2,   /* reattach to an unfinished upload of the same name, size and crc */
-    STP_UF_REPLICA = 4    /* node-to-node copy inside a cluster (docs/cluster.md): REPLACE
+    STP_UF_REPLICA = 4,   /* node-to-node copy inside a cluster (docs/cluster.md): REPLACE
                              implied, no catalogue claim, no further copies */
+    STP_UF_STAGE   = 8    /* with REPLICA: the copy of a write not recorded yet; the receiver
+                             stages it at COMMIT (not published) until REPLICA_PUBLISH or its
+                             repair pass finds the write recorded */
 };
 typedef struct stp_upload_begin {
     char     name[STP_MAX_NAME + 1];      /* the set to create */

@@ -39,6 +39,7 @@
     X(FETCH_READ,    fetch_read,    0x24, 0)             \
     X(FETCH_CLOSE,   fetch_close,   0x25, 0)             \
     X(CLUSTER,       cluster,       0x30, 0)             \
+    X(REPLICA_PUBLISH, replica_publish, 0x31, 1)         \
     X(SHM_ATTACH,    shm_attach,    0x08, 0)
 
 /* Reply statuses: X(NAME, value, client_error). Values are dense from 0. client_error is the

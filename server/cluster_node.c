@@ -104,22 +104,8 @@ int sts_cluster_serves(sts_cluster *cl, const st_setref *ref)
         return 1;   /* not from the data dir (the built-in set): not the cluster's */
     pthread_mutex_lock(&cl->mu);
     int ok = ref->gen >= cl->serve_gen || sts_cluster_served_gen(cl, ref->name) == ref->gen;
-    for (size_t i = 0; ok && i < cl->nrefused; i++)
-        ok = !(cl->refused[i].gen == ref->gen && !strcmp(cl->refused[i].name, ref->name));
     pthread_mutex_unlock(&cl->mu);
     return ok;
-}
-
-void sts_cluster_refuse_copy(sts_cluster *cl, const char *name, uint64_t gen)
-{
-    pthread_mutex_lock(&cl->mu);
-    struct sts_cl_served *r = &cl->refused[cl->refused_next];
-    snprintf(r->name, sizeof r->name, "%s", name);
-    r->gen = gen;
-    cl->refused_next = (cl->refused_next + 1) % STS_CL_MAX_REFUSED;
-    if (cl->nrefused < STS_CL_MAX_REFUSED)
-        cl->nrefused++;
-    pthread_mutex_unlock(&cl->mu);
 }
 
 int sts_get_served(sts_server *srv, const char *name, st_setref **ref, st_error *e)
@@ -605,6 +591,9 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("writes_in_doubt", C(writes_in_doubt));
     K("doubts_undone", C(doubts_undone));
     K("reads_unconfirmed", C(reads_unconfirmed));
+    K("copies_staged", C(copies_staged));
+    K("staged_published", C(staged_published));
+    K("staged_dropped", C(staged_dropped));
 #undef K
 #undef C
     return n;

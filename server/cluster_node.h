@@ -5,7 +5,8 @@
  *                     snapshot), CLUSTER, MOVED, STATS keys
  *   cluster_repair.c  the repair thread: a pass over the catalogue (push, drop, forget)
  *   cluster_write.c   the write path run by a COMMIT, DELETE or COMPRESS job on its own thread:
- *                     claim, local commit (the caller's), pushes, finalize / take back
+ *                     claim, staging (the caller's), pushes, finalize, publishing the staged
+ *                     copy / take back and drop it
  *   cluster_fence.c   the write path's transactions and the node's op key: a write whose
  *                     outcome is unknown (etcd did not answer) is fenced and made to match
  *                     the UNAVAILABLE its request was answered with
@@ -40,7 +41,6 @@
 typedef struct sts_server sts_server;
 
 #define STS_CL_MAX_HOLDERS 16
-#define STS_CL_MAX_REFUSED 64   /* refused copies remembered (sts_cluster_refuse_copy) */
 
 typedef struct sts_cl_member {
     char     id[STP_MAX_NODE_ID + 1];
@@ -62,6 +62,7 @@ typedef struct sts_cl_counters {
     uint64_t moved, refused_unavailable, under_replicated, claims, claims_lost;
     uint64_t writes_in_doubt, doubts_undone;   /* cluster_fence.c */
     uint64_t reads_unconfirmed;   /* reads of a local copy the catalogue did not confirm */
+    uint64_t copies_staged, staged_published, staged_dropped;   /* the write path's copies */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -85,11 +86,6 @@ typedef struct sts_cluster {
     struct sts_cl_served { char name[STP_MAX_NAME + 1]; uint64_t gen; } *served;
     size_t          nserved;
     uint64_t        serve_gen;
-    /* under mu: local copies of writes this node refused (UNAVAILABLE, EXISTS after the
-     * claim: sts_cluster_refuse_copy), never served whatever the rules above say - the write
-     * did not take effect. A ring: the oldest entry goes when it is full. */
-    struct sts_cl_served refused[STS_CL_MAX_REFUSED];
-    size_t          nrefused, refused_next;
 
     pthread_mutex_t etcd_mu;
     scl_etcd       *etcd_w;            /* write path */
@@ -160,11 +156,6 @@ int  sts_cluster_serves(sts_cluster *cl, const st_setref *ref);
 /* The registry generation served[] confirms for name, 0 for none (generations start at 1).
  * The caller holds mu, or is the repair thread (served[]'s only writer). */
 uint64_t sts_cluster_served_gen(const sts_cluster *cl, const char *name);
-/* The local copy of name at registry generation gen belongs to a write this node refused
- * after publishing it (its claim taken back, or to be taken back when etcd answers): reads
- * never use it (MOVED to a current holder, or NOT_FOUND), until a later write or push
- * publishes the name again. */
-void sts_cluster_refuse_copy(sts_cluster *cl, const char *name, uint64_t gen);
 /* The registry lookup of the read requests (INFO, SAMPLE, SAMPLE_DIR, FETCH_OPEN, COMPRESS
  * source): st_registry_get, and in a cluster sts_cluster_serves (ST_ENOTFOUND with a message
  * when the copy is not served). */
@@ -202,22 +193,26 @@ typedef struct sts_cl_claim {
 int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32_t crc32,
                       uint64_t size, const char *fmt, const char *options, int replace,
                       sts_cl_claim *c, char *msg, size_t cap);
-/* Takes a claim back (the local commit failed or the quorum was not reached). */
+/* Takes a claim back (staging failed or the quorum was not reached). */
 void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c);
-/* Steps 4-5: pushes the committed local copy to the other owners, then finalizes. kind: the
- * set's kind. Returns 0 or a wire status (UNAVAILABLE short of the quorum), msg set. */
-int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg, size_t cap);
+/* Steps 4-5: pushes this node's copy to the other owners, then finalizes. kind: the set's
+ * kind; stage: the staged copy of an upload (datadir.h), NULL for the published copy (a
+ * COMPRESS result). This node's own copy counts towards W (the staged one is durable). Returns
+ * 0 or a wire status (UNAVAILABLE short of the quorum), msg set. */
+int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char *stage,
+                          char *msg, size_t cap);
 /* DELETE in a cluster: records the delete, removes the local copy (through the caller's
  * function), forwards to the other holders. Returns a wire status. */
 int sts_cluster_delete(sts_cluster *cl, const char *name,
                        int (*local_delete)(sts_server *srv, const char *name), char *msg,
                        size_t cap);
-/* A set this node has just published (a COMPRESS result): claimed, pushed to the owners and
- * finalized as an upload is; when the claim loses, the local copy is removed through
- * local_delete. Returns a wire status. */
-int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int kind,
-                             int (*local_delete)(sts_server *srv, const char *name), char *msg,
-                             size_t cap);
+/* A COMPRESS result written to path (a data dir temp file, bytes long, format fmt; set: the
+ * result, ownership passes): claimed, staged, pushed to the owners and finalized as an upload
+ * is, then published here; a refused write drops its staged copy and leaves this node's copy
+ * of the name as it was. path is gone afterwards. Returns a wire status, msg set. */
+int sts_cluster_record_file(sts_cluster *cl, const char *name, int replace, int kind,
+                            const char *path, const char *fmt, uint64_t bytes, st_set *set,
+                            char *msg, size_t cap);
 /* ---- cluster_fence.c ---- */
 enum { STS_DOUBT_CLAIM, STS_DOUBT_FINALIZE, STS_DOUBT_UNCLAIM, STS_DOUBT_DELETE,
        STS_DOUBT_RESTORE };

@@ -5,7 +5,8 @@
  * forgotten copies dropped (a set the catalogue lacks, after two lease TTLs), copies pushed
  * to owners that lack one (by the first live holder in the ranking only, so one node pushes
  * each set), extra copies dropped once every owner has confirmed its own, abandoned claims
- * removed (a REPLACE's: the record it replaced put back, from prev/), the local copies reads
+ * removed (a REPLACE's: the record it replaced put back, from prev/), the staged copies of
+ * this node's writes published or dropped by the catalogue, the local copies reads
  * may use confirmed (sts_cluster_set_served); then the catalogue snapshot the handlers use
  * (MOVED) is replaced. Does not own: the membership (cluster_node.c), the write path.
  * Nothing happens while etcd is unreachable.
@@ -153,19 +154,92 @@ static int seen_long_enough(sts_cluster *cl, const struct sts_cl_orphan *was, si
  * pending: the contents being written) yes; other contents recorded ok (replaced while this
  * node was away) no; other contents pending (a replace in flight) or no record (deleted, or a
  * delete in doubt about to be put back) only when the last pass served this very copy - a
- * node that was down over a delete or replace never serves the old copy after it returns. */
-static int confirm(const sts_cluster *cl, const st_setref *r, const sts_cl_entry *e)
+ * node that was down over a delete or replace never serves the old copy after it returns.
+ * For a replace in flight, a copy published since the last pass began (gen >= prev_gen, the
+ * serve_gen that pass set) was served too: a recorded write's or a repair push's, so the
+ * contents the pending claim has not replaced (without this, a copy written a moment before
+ * a REPLACE that then fails went unserved until the pass after the claim was taken back). */
+static int confirm(const sts_cluster *cl, const st_setref *r, const sts_cl_entry *e,
+                   uint64_t prev_gen)
 {
     if (e && e->crc32 == r->source_crc)
         return 1;
     if (e && e->state == SCL_SET_OK)
         return 0;
+    if (e && r->gen >= prev_gen)
+        return 1;
     return sts_cluster_served_gen(cl, r->name) == r->gen;   /* the last pass's list */
+}
+
+static void staged_broken(void *arg, const char *id, const char *why)
+{
+    sts_cluster *cl = arg;
+    sts_logf(&cl->srv->log, STS_WARN, "cluster: staged copy %s unreadable (%s): moved to broken/",
+             id, why);
+}
+
+/* The staged copies of writes (this node's uploads and COMPRESS results, and pushes of other
+ * nodes' writes; datadir.h "Staged copies") against the
+ * catalogue just read: the contents recorded "ok" are published here (the write was recorded
+ * but its node did not get to publish them: killed, or a publish that failed); recorded
+ * "pending" they wait (the write is in flight, or its claim is abandoned later); other
+ * contents or no record: the write was refused, taken back or abandoned, and the staged copy
+ * goes - once it is older than the catalogue read by a margin (a copy staged after the read
+ * may belong to a claim the read did not see), and never while this node has a write on the
+ * set in doubt (its outcome decides). Runs before the pass looks at the registry, so a copy
+ * published here is judged as published since the pass began. */
+static void resolve_staged(sts_cluster *cl, const sts_cl_entry *cat, size_t nc, int64_t t0)
+{
+    sts_server *srv = cl->srv;
+    st_datadir_staged *s = NULL;
+    size_t n = 0;
+    st_error e;
+    st_error_clear(&e);
+    if (st_datadir_staged_list(srv->dd, &s, &n, staged_broken, cl, &e) != 0) {
+        sts_logf(&srv->log, STS_WARN, "cluster: staged copies not listed: %s", e.msg);
+        return;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const char *name = s[i].m.name;
+        if (sts_cluster_doubts(cl, name))
+            continue;
+        const sts_cl_entry *en = find_entry((sts_cl_entry *)cat, nc, name);
+        if (en && en->crc32 == s[i].m.crc) {
+            if (en->state != SCL_SET_OK)
+                continue;   /* the write is in flight */
+            st_setref *ref = NULL;   /* published already (a crash after its commit, or a
+                                        plain push of the same contents): not again */
+            int have = st_registry_get(srv->reg, name, &ref, NULL) == 0 &&
+                       ref->source_crc == s[i].m.crc;
+            st_setref_release(ref);
+            if (have) {
+                sts_drop_staged(srv, s[i].id, "this node holds these contents already");
+                continue;
+            }
+            st_error_clear(&e);
+            st_manifest still;
+            int rc = sts_publish_staged(srv, s[i].id, NULL, NULL, &e);
+            if (rc == 0)
+                sts_logf(&srv->log, STS_INFO, "cluster: staged copy %s of '%s' published: the "
+                         "cluster records these contents", s[i].id, name);
+            else if (rc != ST_ENOTFOUND &&
+                     st_datadir_staged_read(srv->dd, s[i].id, &still, NULL, 0, NULL) == 0)
+                sts_logf(&srv->log, STS_WARN, "cluster: staged copy %s of '%s' could not be "
+                         "published: %s", s[i].id, name, e.msg);   /* (not: gone meanwhile) */
+        } else if (s[i].mtime_ms < t0 - 2000) {
+            sts_drop_staged(srv, s[i].id, en ? "the cluster records other contents"
+                                             : "the cluster does not record the set");
+        }
+    }
+    free(s);
 }
 
 static void pass(sts_cluster *cl)
 {
     sts_server *srv = cl->srv;
+    pthread_mutex_lock(&cl->mu);
+    uint64_t prev_gen = cl->serve_gen;   /* copies published since the last pass began */
+    pthread_mutex_unlock(&cl->mu);
     uint64_t g0 = st_registry_next_gen(srv->reg);   /* copies published from now on: not judged */
     int64_t t0 = wall_ms();
     char skey[SCL_KEY_MAX], ckey[SCL_KEY_MAX];
@@ -232,6 +306,8 @@ static void pass(sts_cluster *cl)
         sts_cluster_set_catalogue(cl, early, nc);
     }
 
+    resolve_staged(cl, cat, nc, t0);
+
     /* this node's copies */
     size_t cap = st_registry_count(srv->reg) + 16;
     st_setref **refs = calloc(cap, sizeof *refs);
@@ -245,7 +321,7 @@ static void pass(sts_cluster *cl)
         if (!r->source_bytes)
             continue;   /* not from the data dir (the built-in set): not the cluster's */
         sts_cl_entry *e = find_entry(cat, nc, r->name);
-        if (served && r->gen < g0 && confirm(cl, r, e)) {   /* refs[] is sorted by name */
+        if (served && r->gen < g0 && confirm(cl, r, e, prev_gen)) {   /* refs[] is sorted by name */
             snprintf(served[nserved].name, sizeof served[0].name, "%s", r->name);
             served[nserved++].gen = r->gen;
         }

@@ -1,6 +1,6 @@
 /* server/cluster_write.c - the cluster's write path (docs/cluster.md "Writes"): the claim in
- * etcd, pushes of the committed copy to the other owners, the finalizing transaction, taking
- * a claim back, DELETE. Runs on the thread of the request (a worker for COMMIT and DELETE),
+ * etcd, pushes of the staged copy to the other owners, the finalizing transaction, taking
+ * a claim back, a COMPRESS result's write (staged and published as an upload's), DELETE. Runs on the thread of the request (a worker for COMMIT and DELETE),
  * never on an I/O thread; etcd calls go through cl->etcd_w under cl->etcd_mu, and every
  * transaction through sts_cluster_wtxn (cluster_fence.c: a write etcd did not answer is
  * settled so that it matches its UNAVAILABLE reply).
@@ -10,10 +10,12 @@
 #include <string.h>
 
 #include "cluster_node.h"
+#include "h_upload.h"
 #include "peer.h"
 #include "server.h"
 
 #define PUSH_TIMEOUT_MS 30000
+#define PUBLISH_TIMEOUT_MS 30000   /* the receiver imports the staged copy again */
 
 /* The manifest of this node's copy of name and the path of its stored source; 0 or -1. */
 static int local_source(sts_server *srv, const char *name, st_manifest *m, char *spath,
@@ -36,31 +38,38 @@ static void node_token(sts_server *srv, char out[STS_TOKEN_MAX + 1])
     pthread_mutex_unlock(&srv->cfg_mu);
 }
 
-int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap)
+/* Pushes the source file spath (manifest m) to the node at addr as the copy of name. */
+static int push_source(sts_cluster *cl, const char *name, const st_manifest *m,
+                       const char *spath, int stage, const char *addr, char *msg, size_t cap)
 {
     sts_server *srv = cl->srv;
-    char spath[4096];
-    st_manifest m;
-    st_error e;
-    if (local_source(srv, name, &m, spath, sizeof spath, &e) != 0) {
-        snprintf(msg, cap, "no local copy of '%s' to push: %s", name, e.msg);
-        return -1;
-    }
     char token[STS_TOKEN_MAX + 1];
     node_token(srv, token);
     uint32_t crc = 0;
-    int rc = scl_peer_push(addr, token, spath, name, m.format, m.options, PUSH_TIMEOUT_MS, &crc,
-                           msg, cap);
+    int rc = scl_peer_push(addr, token, spath, name, m->format, m->options, stage,
+                           PUSH_TIMEOUT_MS, &crc, msg, cap);
     if (rc == 0) {
         STS_CL_ADD(cl, copies_pushed, 1);
-        STS_CL_ADD(cl, push_bytes, m.bytes);
+        STS_CL_ADD(cl, push_bytes, m->bytes);
         sts_logf(&srv->log, STS_INFO, "cluster: copy of '%s' (%llu bytes) pushed to %s", name,
-                 (unsigned long long)m.bytes, addr);
+                 (unsigned long long)m->bytes, addr);
     } else {
         STS_CL_ADD(cl, push_failures, 1);
         sts_logf(&srv->log, STS_WARN, "cluster: %s", msg);
     }
     return rc;
+}
+
+int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap)
+{
+    char spath[4096];
+    st_manifest m;
+    st_error e;
+    if (local_source(cl->srv, name, &m, spath, sizeof spath, &e) != 0) {
+        snprintf(msg, cap, "no local copy of '%s' to push: %s", name, e.msg);
+        return -1;
+    }
+    return push_source(cl, name, &m, spath, 0, addr, msg, cap);
 }
 
 /* reads sets/<name>; 1 found (rec, mod), 0 absent, < 0 an etcd error (noted); with raw, a
@@ -202,27 +211,41 @@ void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c)
                  "%s); settled when etcd answers again", c->name, scl_etcd_errmsg(cl->etcd_w));
 }
 
-int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg, size_t cap)
+int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char *stage,
+                          char *msg, size_t cap)
 {
+    char spath[4096];   /* the copy pushed: the staged one, or the published one */
+    st_manifest sm;
+    st_error se;
+    int have_src = stage ? st_datadir_staged_read(cl->srv->dd, stage, &sm, spath, sizeof spath,
+                                                  &se) == 0
+                         : local_source(cl->srv, c->name, &sm, spath, sizeof spath, &se) == 0;
     sts_cl_member *m = NULL;
     size_t n = sts_cluster_members(cl, &m, NULL);
     size_t order[16];
     size_t R = sts_cluster_rank(m, n, c->name, order, cl->replicas < 16 ? cl->replicas : 16);
     char acked[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ID + 1];   /* the owners and this node */
+    char addrs[STS_CL_MAX_HOLDERS + 1][STP_MAX_NODE_ADDR + 1];  /* acked[i]'s, "" for this node */
     int nack = 0, self_owner = 0;
     char why[512] = "";
     for (size_t i = 0; i < R; i++) {
         const sts_cl_member *o = &m[order[i]];
         if (!strcmp(o->id, cl->self)) {
             self_owner = 1;
+            addrs[nack][0] = 0;
             snprintf(acked[nack++], sizeof acked[0], "%s", o->id);
             continue;
         }
         char pm[512];
-        if (sts_cluster_push(cl, c->name, o->addr, pm, sizeof pm) == 0)
+        if (!have_src)
+            snprintf(pm, sizeof pm, "no local copy to push: %.200s", se.msg);
+        if (have_src && push_source(cl, c->name, &sm, spath, stage != NULL, o->addr, pm,
+                                    sizeof pm) == 0) {
+            snprintf(addrs[nack], sizeof addrs[0], "%s", o->addr);
             snprintf(acked[nack++], sizeof acked[0], "%s", o->id);
-        else
+        } else {
             snprintf(why, sizeof why, "%s", pm);
+        }
     }
     free(m);
     size_t need = cl->quorum < R ? cl->quorum : R;
@@ -234,8 +257,10 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg,
     }
     /* finalize: the record "ok" with its kind, and a copies/ key per holder (this node's own
      * copy too when it is not an owner: repair drops it once the owners confirmed theirs) */
-    if (!self_owner)
+    if (!self_owner) {
+        addrs[nack][0] = 0;
         snprintf(acked[nack++], sizeof acked[0], "%s", cl->self);
+    }
     char key[SCL_KEY_MAX], val[2048], ckeys[17][SCL_KEY_MAX], cval[9];
     scl_key_set(key, cl->prefix, c->name);
     c->rec.state = SCL_SET_OK;
@@ -277,47 +302,72 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, char *msg,
         return STP_S_EXISTS;
     }
     sts_cluster_note_set(cl, c->name, c->rec.crc32, (const char (*)[STP_MAX_NODE_ID + 1])acked, nack);
+    /* recorded: the receivers publish the copies they staged (one that misses this does it
+     * at its next repair pass, which finds the write recorded) */
+    for (int i = 0; stage && i < nack; i++) {
+        if (!addrs[i][0])
+            continue;
+        char pm[512], token[STS_TOKEN_MAX + 1];
+        node_token(cl->srv, token);
+        if (scl_peer_publish(addrs[i], token, c->name, c->rec.crc32, PUBLISH_TIMEOUT_MS, pm,
+                             sizeof pm) != 0)
+            sts_logf(&cl->srv->log, STS_WARN, "cluster: %s (its repair pass publishes it)", pm);
+    }
     return 0;
 }
 
-int sts_cluster_record_local(sts_cluster *cl, const char *name, int replace, int kind,
-                             int (*local_delete)(sts_server *srv, const char *name), char *msg,
-                             size_t cap)
+int sts_cluster_record_file(sts_cluster *cl, const char *name, int replace, int kind,
+                            const char *path, const char *fmt, uint64_t bytes, st_set *set,
+                            char *msg, size_t cap)
 {
     sts_server *srv = cl->srv;
-    char spath[4096];
-    st_manifest m;
+    uint32_t c32c = 0, c32 = 0;
+    uint64_t got = 0;
     st_error e;
-    if (local_source(srv, name, &m, spath, sizeof spath, &e) != 0) {
-        snprintf(msg, cap, "set '%s' is not in the data dir: the cluster cannot copy it", name);
-        return STP_S_UNSUPPORTED;
+    st_error_clear(&e);
+    FILE *f = fopen(path, "rbe");
+    if (f) {
+        uint8_t buf[65536];
+        size_t k;
+        while ((k = fread(buf, 1, sizeof buf, f)) > 0)
+            c32c = stp_crc32c(c32c, buf, k);
+        fclose(f);
     }
-    uint32_t c32c = 0;
-    FILE *f = fopen(spath, "rbe");
-    if (!f) {
-        snprintf(msg, cap, "cannot read the stored '%s'", name);
+    if (!f || st_file_crc(path, &got, &c32, &e) != 0 || got != bytes) {
+        st_datadir_discard(path);
+        st_set_free(set);
+        snprintf(msg, cap, "cannot read the result written for '%s'", name);
         return STP_S_IO;
     }
-    uint8_t buf[65536];
-    size_t k;
-    while ((k = fread(buf, 1, sizeof buf, f)) > 0)
-        c32c = stp_crc32c(c32c, buf, k);
-    fclose(f);
     sts_cl_claim c;
-    int st = sts_cluster_claim(cl, name, c32c, m.crc, m.bytes, m.format, m.options, replace, &c,
-                               msg, cap);
+    int st = sts_cluster_claim(cl, name, c32c, c32, bytes, fmt, "", replace, &c, msg, cap);
     if (st) {
-        if (st != STP_S_UNAVAILABLE)
-            local_delete(srv, name);   /* the cluster has other contents under this name */
+        st_datadir_discard(path);
+        st_set_free(set);
         return st;
     }
-    st_setref *ref = NULL;   /* the copy the write published: not served if it is refused */
-    int have_gen = st_registry_get(srv->reg, name, &ref, NULL) == 0;
-    uint64_t gen = have_gen ? ref->gen : 0;
-    st_setref_release(ref);
-    st = sts_cluster_replicate(cl, &c, kind, msg, cap);
-    if (st && have_gen && !c.repeat)   /* a repeat's copy holds the recorded contents */
-        sts_cluster_refuse_copy(cl, name, gen);
+    /* staged, not published, until the write is recorded (as an upload: h_upload.c) */
+    char sid[64];
+    int rc = st_datadir_stage(srv->dd, name, path, fmt, "", bytes, sid, sizeof sid, &e);
+    if (rc) {
+        sts_cluster_unclaim(cl, &c);
+        st_set_free(set);
+        snprintf(msg, cap, "staging the result for '%s' failed", name);
+        return sts_status_from_st(rc);
+    }
+    STS_CL_ADD(cl, copies_staged, 1);
+    st = sts_cluster_replicate(cl, &c, kind, sid, msg, cap);
+    if (st && !c.repeat) {
+        st_set_free(set);
+        sts_drop_staged(srv, sid, "the write was refused");
+        return st;
+    }
+    st_error pe;
+    st_error_clear(&pe);
+    rc = sts_publish_staged(srv, sid, set, NULL, &pe);
+    if (rc && rc != ST_ENOTFOUND)
+        sts_logf(&srv->log, STS_WARN, "cluster: the recorded copy of '%s' is staged but could "
+                 "not be published here yet (%s): the repair pass tries again", name, pe.msg);
     return st;
 }
 

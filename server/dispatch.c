@@ -56,6 +56,7 @@ enum {
     STS_CAP_FETCH_READ    = 64,
     STS_CAP_FETCH_CLOSE   = 64,
     STS_CAP_CLUSTER       = 64,
+    STS_CAP_REPLICA_PUBLISH = 512,
     STS_CAP_SHM_ATTACH    = 64
 };
 
@@ -82,6 +83,7 @@ enum {
     STS_RUN_FETCH_READ    = 0,
     STS_RUN_FETCH_CLOSE   = 0,
     STS_RUN_CLUSTER       = 0,
+    STS_RUN_REPLICA_PUBLISH = STS_H_HEAVY,
     STS_RUN_SHM_ATTACH    = 0
 };
 

@@ -109,6 +109,42 @@ static int store_result(sts_server *srv, sts_job *j, st_set *bc1, st_error *e)
     return rc;
 }
 
+/* Writes bc1 as a DDS file into a data dir temp file (path, *len); ST_EUNSUPPORTED when the
+ * set has no DDS form. bc1 stays the caller's. */
+static int dds_tmp(sts_server *srv, const st_set *bc1, char *path, size_t cap, size_t *len,
+                   st_error *e)
+{
+    uint8_t *buf = NULL;
+    int rc = st_dds_write_mem(bc1, &buf, len, e);
+    if (rc)
+        return rc;
+    int fd = -1;
+    rc = st_datadir_tmpfile(srv->dd, path, cap, &fd, e);
+    if (rc) {
+        free(buf);
+        return rc;
+    }
+    size_t done = 0;
+    int werr = 0;
+    while (done < *len) {
+        ssize_t w = write(fd, buf + done, *len - done);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            werr = w < 0 ? errno : EIO;
+            break;
+        }
+        done += (size_t)w;
+    }
+    close(fd);
+    free(buf);
+    if (done != *len) {
+        st_datadir_discard(path);
+        return st_fail(e, ST_EIO, "writing the DDS file failed: %s", strerror(werr));
+    }
+    return 0;
+}
+
 static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_error *e)
 {
     if (!(j->flags & STP_CF_REPLACE)) {
@@ -120,40 +156,15 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
         }
     }
     if (srv->dd) {
-        uint8_t *buf = NULL;
+        char path[4096];
         size_t len = 0;
-        int rc = st_dds_write_mem(bc1, &buf, &len, e);
+        int rc = dds_tmp(srv, bc1, path, sizeof path, &len, e);
         if (rc == 0) {
-            char path[4096];
-            int fd = -1;
-            rc = st_datadir_tmpfile(srv->dd, path, sizeof path, &fd, e);
-            if (rc == 0) {
-                size_t done = 0;
-                int werr = 0;
-                while (done < len) {
-                    ssize_t w = write(fd, buf + done, len - done);
-                    if (w < 0 && errno == EINTR)
-                        continue;
-                    if (w <= 0) {
-                        werr = w < 0 ? errno : EIO;
-                        break;
-                    }
-                    done += (size_t)w;
-                }
-                close(fd);
-                free(buf);
-                if (done != len) {
-                    st_datadir_discard(path);
-                    st_set_free(bc1);
-                    return st_fail(e, ST_EIO, "writing the DDS file failed: %s", strerror(werr));
-                }
-                pub_arg pa = {srv, bc1, e};
-                rc = st_datadir_commit_set(srv->dd, j->target, path, "dds", "", len,
-                                           srv->cfg.native ? &pa.set : NULL, pub_cb, &pa, e);
-                st_set_free(pa.set);
-                return rc;
-            }
-            free(buf);
+            pub_arg pa = {srv, bc1, e};
+            rc = st_datadir_commit_set(srv->dd, j->target, path, "dds", "", len,
+                                       srv->cfg.native ? &pa.set : NULL, pub_cb, &pa, e);
+            st_set_free(pa.set);
+            return rc;
         }
         if (rc != ST_EUNSUPPORTED) {
             st_set_free(bc1);
@@ -163,6 +174,27 @@ static int store_result_locked(sts_server *srv, sts_job *j, st_set *bc1, st_erro
                  (unsigned long long)j->hd.id, j->target, e->msg);
     }
     return st_registry_put(srv->reg, j->target, bc1, NULL, STS_LIVE(srv, max_sets), NULL, e);
+}
+
+/* In a cluster: the result is claimed, staged, copied to its owners and published like an
+ * upload (sts_cluster_record_file); a wire status, msg set. */
+static int record_result(sts_server *srv, sts_job *j, st_set *bc1, char *msg, size_t cap)
+{
+    char path[4096];
+    size_t len = 0;
+    st_error e;
+    st_error_clear(&e);
+    int rc = dds_tmp(srv, bc1, path, sizeof path, &len, &e);
+    if (rc) {
+        st_set_free(bc1);
+        if (rc == ST_EUNSUPPORTED)
+            snprintf(msg, cap, "'%.64s' has no DDS form: the cluster cannot copy it", j->target);
+        else
+            sts_scrub_paths(e.msg, msg, cap);
+        return rc == ST_EUNSUPPORTED ? STP_S_UNSUPPORTED : sts_status_from_st(rc);
+    }
+    return sts_cluster_record_file(srv->cluster, j->target, (j->flags & STP_CF_REPLACE) != 0,
+                                   STP_KIND_BC1, path, "dds", len, bc1, msg, cap);
 }
 
 static void run_job(sts_server *srv, sts_job *j)
@@ -186,14 +218,13 @@ static void run_job(sts_server *srv, sts_job *j)
     if (rc == 0 && !measured)
         sts_logf(&srv->log, STS_WARN, "job %llu: no quality report: %s", (unsigned long long)j->hd.id,
                  me.msg);
-    if (rc == 0)
-        rc = store_result(srv, j, bc1, &e);
     /* in a cluster the result is claimed and copied to its owners like an upload */
     int wst = 0;
     char cmsg[sizeof e.msg] = "";
     if (rc == 0 && srv->cluster)
-        wst = sts_cluster_record_local(srv->cluster, j->target, (j->flags & STP_CF_REPLACE) != 0,
-                                       STP_KIND_BC1, sts_delete_local, cmsg, sizeof cmsg);
+        wst = record_result(srv, j, bc1, cmsg, sizeof cmsg);
+    else if (rc == 0)
+        rc = store_result(srv, j, bc1, &e);
     if (wst) {
         rc = ST_EIO;   /* for the counters below; the job's result is the wire status */
         snprintf(e.msg, sizeof e.msg, "%s", cmsg);

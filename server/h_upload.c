@@ -1,7 +1,8 @@
 /* server/h_upload.c - the upload handlers and DELETE.
  *
- * Owns: the UPLOAD_* and DELETE handlers, import of a source file by format and options
- * (sts_import_path, also used by the start-up load), publishing a committed set. Does not
+ * Owns: the UPLOAD_*, REPLICA_PUBLISH and DELETE handlers, import of a source file by format and options
+ * (sts_import_path, also used by the start-up load), publishing a committed set, publishing
+ * or dropping a cluster write's staged copy (sts_publish_staged, sts_drop_staged). Does not
  * own: the table of uploads and their life (uploads.c), loading the data dir at start
  * (startup.c), the on-disk commit protocol (store/datadir.c), the registry
  * (store/registry.c), the file readers (store/import.c).
@@ -10,6 +11,11 @@
  * validated before anything is published), commits it to the data dir (fsync + rename, see
  * datadir.h) and only then publishes it in the registry and replies OK. Without a data dir
  * the set lives in memory only. UPLOAD_BEGIN with RESUME takes over a kept upload (uploads.h).
+ * In a cluster (not a REPLICA push) the file is claimed, then staged (datadir.h "Staged
+ * copies"), pushed and recorded (cluster_write.c), and published (sts_publish_staged) only
+ * once recorded: a refused write drops its staged copy and leaves this node's copy as it was.
+ * A REPLICA push with STAGE is staged likewise, and published by REPLICA_PUBLISH (or by the
+ * repair pass, cluster_repair.c).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -123,6 +129,48 @@ static int publish_cb(void *arg, const st_manifest *m, const char *source_path)
     pa->set = NULL;
     return st_registry_put(pa->srv->reg, m->name, s, &src, STS_LIVE(pa->srv, max_sets),
                            &pa->replaced, pa->e);
+}
+
+int sts_publish_staged(sts_server *srv, const char *id, st_set *set, int *replaced, st_error *e)
+{
+    if (!set) {
+        st_manifest m;
+        char src[4096];
+        int rc = st_datadir_staged_read(srv->dd, id, &m, src, sizeof src, e);
+        if (!rc)
+            rc = sts_import_path(srv, src, m.format, m.options, &set, e);
+        if (rc)
+            return rc;
+    }
+    publish_arg pa = {srv, set, 0, e};
+    pthread_mutex_lock(&srv->commit_mu);
+    int rc = st_datadir_publish_staged(srv->dd, id, srv->cfg.native ? &pa.set : NULL,
+                                       publish_cb, &pa, e);
+    pthread_mutex_unlock(&srv->commit_mu);
+    st_set_free(pa.set);  /* not published when the commit failed early */
+    if (replaced)
+        *replaced = pa.replaced;
+    if (!rc && srv->cluster)
+        STS_CL_ADD(srv->cluster, staged_published, 1);
+    return rc;
+}
+
+void sts_drop_staged(sts_server *srv, const char *id, const char *why)
+{
+    st_error e;
+    st_error_clear(&e);
+    st_manifest m;
+    int known = st_datadir_staged_read(srv->dd, id, &m, NULL, 0, &e) == 0;
+    pthread_mutex_lock(&srv->commit_mu);
+    int rc = st_datadir_drop_staged(srv->dd, id, &e);
+    pthread_mutex_unlock(&srv->commit_mu);
+    if (rc == ST_ENOTFOUND)
+        return;   /* published or dropped by another thread meanwhile */
+    if (rc == 0 && srv->cluster)
+        STS_CL_ADD(srv->cluster, staged_dropped, 1);
+    sts_logf(&srv->log, rc ? STS_WARN : STS_INFO, "cluster: staged copy %s of '%s' %s (%s)%s%s",
+             id, known ? m.name : "?", rc ? "could not be dropped" : "dropped", why,
+             rc ? ": " : "", rc ? e.msg : "");
 }
 
 /* ---- handlers -------------------------------------------------------------------------------- */
@@ -471,51 +519,82 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     done.nfaces = set->info.nfaces;
     done.memory = st_set_memory(set);
     publish_arg pa = {srv, set, 0, &e};
-    if (srv->dd) {
-        /* writes the native file too; pa.set becomes the mapped set before publish_cb */
-        rc = st_datadir_commit_set(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
-                                   srv->cfg.native ? &pa.set : NULL, publish_cb, &pa, &e);
-        u->path[0] = 0;  /* the data dir owns (or removed) the file now */
-        st_set_free(pa.set);  /* not published when the commit failed early */
-    } else {
-        st_manifest m;
-        memset(&m, 0, sizeof m);
-        snprintf(m.name, sizeof m.name, "%s", u->name);
-        snprintf(m.format, sizeof m.format, "%s", u->fmt);
-        m.bytes = u->total;
-        rc = publish_cb(&pa, &m, u->path);
-    }
-    uint64_t gen = 0;   /* the generation published: a refused write's copy is not served */
-    int have_gen = 0;
-    if (!rc && clustered) {
-        st_setref *ref = NULL;
-        if (st_registry_get(srv->reg, u->name, &ref, NULL) == 0) {
-            gen = ref->gen;
-            have_gen = 1;
-        }
-        st_setref_release(ref);
-    }
-    pthread_mutex_unlock(&srv->commit_mu);
-    if (rc) {
-        if (clustered)
-            sts_cluster_unclaim(srv->cluster, &claim);
-        name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
-        refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
-        goto fail;
-    }
     if (clustered) {
+        /* staged, not published: the copy this node holds (and serves) stays the acknowledged
+         * one until the write is recorded (docs/cluster.md "Writes": staged copies) */
+        pthread_mutex_unlock(&srv->commit_mu);
+        char sid[64];
+        rc = st_datadir_stage(srv->dd, u->name, u->path, u->fmt, u->options, u->total, sid,
+                              sizeof sid, &e);
+        u->path[0] = 0;  /* the data dir owns (or removed) the file now */
+        if (rc) {
+            sts_cluster_unclaim(srv->cluster, &claim);
+            st_set_free(set);
+            name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+            refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
+            goto fail;
+        }
+        STS_CL_ADD(srv->cluster, copies_staged, 1);
         /* acknowledged only once W owners hold it durably and the catalogue says so */
-        int cst = sts_cluster_replicate(srv->cluster, &claim, done.kind, msg, sizeof msg);
-        if (cst) {
-            /* the write did not take effect: the copy just published is not read either
-             * (unless the catalogue already records these very contents: a repeat) */
-            if (have_gen && !claim.repeat)
-                sts_cluster_refuse_copy(srv->cluster, u->name, gen);
+        int cst = sts_cluster_replicate(srv->cluster, &claim, done.kind, sid, msg, sizeof msg);
+        if (cst && !claim.repeat) {
+            /* the write did not take effect: its copy goes, the old one stays served */
+            st_set_free(set);
+            sts_drop_staged(srv, sid, "the write was refused");
             refuse(c, h, out, u->name, cst, msg, NULL);
             goto fail;
         }
-    } else if (srv->cluster) {
+        /* recorded (or a repeat of the recorded contents): published here now */
+        st_error pe;
+        st_error_clear(&pe);
+        int prc = sts_publish_staged(srv, sid, set, &pa.replaced, &pe);
+        if (prc && prc != ST_ENOTFOUND)
+            sts_logf(&srv->log, STS_WARN, "cluster: the recorded copy of '%s' is staged but "
+                     "could not be published here yet (%s): the repair pass tries again",
+                     u->name, pe.msg);
+        if (cst) {
+            refuse(c, h, out, u->name, cst, msg, NULL);
+            goto fail;
+        }
+    } else if (srv->cluster && (u->flags & STP_UF_STAGE)) {
+        /* a push of a write not recorded yet: staged until the writer's REPLICA_PUBLISH (or
+         * this node's repair pass finds the write recorded); what this node serves stays */
+        pthread_mutex_unlock(&srv->commit_mu);
+        char sid[64];
+        rc = st_datadir_stage(srv->dd, u->name, u->path, u->fmt, u->options, u->total, sid,
+                              sizeof sid, &e);
+        u->path[0] = 0;
+        st_set_free(set);   /* imported again from the staged source when published */
+        if (rc) {
+            name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+            refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
+            goto fail;
+        }
         STS_CL_ADD(srv->cluster, copies_received, 1);
+        STS_CL_ADD(srv->cluster, copies_staged, 1);
+    } else {
+        if (srv->dd) {
+            /* writes the native file too; pa.set becomes the mapped set before publish_cb */
+            rc = st_datadir_commit_set(srv->dd, u->name, u->path, u->fmt, u->options, u->total,
+                                       srv->cfg.native ? &pa.set : NULL, publish_cb, &pa, &e);
+            u->path[0] = 0;  /* the data dir owns (or removed) the file now */
+            st_set_free(pa.set);  /* not published when the commit failed early */
+        } else {
+            st_manifest m;
+            memset(&m, 0, sizeof m);
+            snprintf(m.name, sizeof m.name, "%s", u->name);
+            snprintf(m.format, sizeof m.format, "%s", u->fmt);
+            m.bytes = u->total;
+            rc = publish_cb(&pa, &m, u->path);
+        }
+        pthread_mutex_unlock(&srv->commit_mu);
+        if (rc) {
+            name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+            refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
+            goto fail;
+        }
+        if (srv->cluster)
+            STS_CL_ADD(srv->cluster, copies_received, 1);
     }
     STS_STAT_ADD(srv, uploads_committed, 1);
     sts_logkv(&srv->log, STS_INFO,
@@ -532,6 +611,57 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
 fail:
     STS_STAT_ADD(srv, uploads_failed, 1);
     sts_uploads_finish_commit(srv, u, NULL);
+    return 0;
+}
+
+int sts_h_replica_publish(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *out)
+{
+    sts_server *srv = c->srv;
+    char name[STP_MAX_NAME + 1];
+    uint32_t crc = 0;
+    const char *why = NULL;
+    int st = stp_dec_replica_publish(body, h->body_len, name, &crc, &why);
+    if (st)
+        return sts_reply_bad(out, h, st, why);
+    if (!srv->cluster || !srv->dd) {
+        sts_reply_error(out, h, STP_S_UNSUPPORTED, "REPLICA_PUBLISH is for cluster nodes; this "
+                        "server is not in a cluster");
+        return 0;
+    }
+    st_error e;
+    st_error_clear(&e);
+    st_datadir_staged *s = NULL;
+    size_t n = 0;
+    int rc = st_datadir_staged_list(srv->dd, &s, &n, NULL, NULL, &e);
+    if (rc) {
+        sts_reply_st(out, h, rc, e.msg);
+        return 0;
+    }
+    rc = ST_ENOTFOUND;
+    for (size_t i = 0; rc == ST_ENOTFOUND && i < n; i++)
+        if (!strcmp(s[i].m.name, name) && s[i].m.crc == crc) {
+            st_error_clear(&e);
+            rc = sts_publish_staged(srv, s[i].id, NULL, NULL, &e);
+        }
+    free(s);
+    if (rc == ST_ENOTFOUND) {
+        /* published already (this node's repair pass found the write recorded first)? */
+        st_setref *ref = NULL;
+        int have = st_registry_get(srv->reg, name, &ref, NULL) == 0 && ref->source_crc == crc;
+        st_setref_release(ref);
+        if (!have) {
+            sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32");
+            return 0;
+        }
+        rc = 0;
+    }
+    if (rc) {
+        sts_reply_st(out, h, rc, e.msg);
+        return 0;
+    }
+    sts_logf(&srv->log, STS_INFO, "cluster: staged copy of '%s' published (the write is recorded)",
+             name);
+    stp_enc_empty(out, h->opcode, STP_F_REPLY, h->reqid, 0);
     return 0;
 }
 

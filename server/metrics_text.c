@@ -202,6 +202,12 @@ static const mrow ROWS[] = {
      "Writes refused UNAVAILABLE that etcd applied later, undone."},
     {"cluster_reads_unconfirmed", "seamtex_cluster_reads_unconfirmed_total", M_COUNTER, "", 0,
      "Reads of a local copy the catalogue had not confirmed, answered MOVED or NOT_FOUND."},
+    {"cluster_copies_staged", "seamtex_cluster_copies_staged_total", M_COUNTER, "", 0,
+     "Uploads this node took whose copy it staged until the write was recorded."},
+    {"cluster_staged_published", "seamtex_cluster_staged_published_total", M_COUNTER, "", 0,
+     "Staged copies published once their write was recorded."},
+    {"cluster_staged_dropped", "seamtex_cluster_staged_dropped_total", M_COUNTER, "", 0,
+     "Staged copies dropped: their write was refused or abandoned."},
 };
 #define NROWS (sizeof ROWS / sizeof ROWS[0])
 

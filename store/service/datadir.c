@@ -301,8 +301,8 @@ int st_datadir_open(const char *path, st_datadir **out, st_error *e)
     pthread_mutex_init(&d->mu, NULL);
     char p[PATHCAP];
     int rc = mkdir_p1(d->root, e);
-    static const char *const subs[] = {"sets", "tmp", "trash", "broken"};
-    for (int i = 0; !rc && i < 4; i++) {
+    static const char *const subs[] = {"sets", "tmp", "trash", "broken", "staged"};
+    for (int i = 0; !rc && i < 5; i++) {
         pathf(p, "%s/%s", d->root, subs[i]);
         rc = mkdir_p1(p, e);
     }
@@ -388,9 +388,8 @@ static void restore_native(int touched, int had_nat, const char *prevnat, const 
     unlink(prevnat);
 }
 
-int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
-                          const char *options, uint64_t bytes, st_set **set,
-                          st_publish_fn publish, void *arg, st_error *e)
+/* The checks of a commit's arguments (name, format, options). */
+static int commit_args(const char *name, const char *fmt, const char *options, st_error *e)
 {
     int rc = st_name_check(name, name ? strlen(name) : 0, e);
     if (!rc)
@@ -402,6 +401,26 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
             if ((unsigned char)*p < 0x20 || (unsigned char)*p > 0x7e)
                 rc = st_fail(e, ST_EINVAL, "import options must be printable ASCII");
     }
+    return rc;
+}
+
+static int commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                      const char *options, uint64_t bytes, const uint32_t *want_crc,
+                      st_set **set, st_publish_fn publish, void *arg, st_error *e);
+
+int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                          const char *options, uint64_t bytes, st_set **set,
+                          st_publish_fn publish, void *arg, st_error *e)
+{
+    return commit_set(d, name, tmp_path, fmt, options, bytes, NULL, set, publish, arg, e);
+}
+
+/* want_crc (may be NULL): the CRC-32 the file must have (a staged copy's manifest's) */
+static int commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                      const char *options, uint64_t bytes, const uint32_t *want_crc,
+                      st_set **set, st_publish_fn publish, void *arg, st_error *e)
+{
+    int rc = commit_args(name, fmt, options, e);
     uint64_t got_bytes = 0;
     uint32_t got_crc = 0;
     if (!rc)
@@ -409,6 +428,9 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
     if (!rc && got_bytes != bytes)
         rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
                      got_bytes, bytes);
+    if (!rc && want_crc && got_crc != *want_crc)
+        rc = st_fail(e, ST_ECORRUPT, "file has crc32 %08x, %08x was recorded", got_crc,
+                     *want_crc);
     if (!rc)
         rc = fsync_path(tmp_path, 0, e);
     if (rc) {
@@ -916,4 +938,209 @@ int st_datadir_load(st_datadir *d, st_publish_fn load, void *arg,
         .report = report ? adapter_report : NULL, .no_native = 1,
     };
     return st_datadir_load_sets(d, &L, e);
+}
+
+/* ---- staged copies ---------------------------------------------------------------------------- */
+
+/* A staged id names one directory entry made by new_id: [0-9a-f-], 1..63 bytes. */
+static int staged_id_ok(const char *id)
+{
+    size_t n = id ? strlen(id) : 0;
+    if (n == 0 || n >= 64)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        if (!((id[i] >= '0' && id[i] <= '9') || (id[i] >= 'a' && id[i] <= 'f') || id[i] == '-'))
+            return 0;
+    return 1;
+}
+
+int st_datadir_stage(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                     const char *options, uint64_t bytes, char *id_out, size_t cap, st_error *e)
+{
+    id_out[0] = 0;
+    int rc = commit_args(name, fmt, options, e);
+    uint64_t got_bytes = 0;
+    uint32_t got_crc = 0;
+    if (!rc)
+        rc = st_file_crc(tmp_path, &got_bytes, &got_crc, e);
+    if (!rc && got_bytes != bytes)
+        rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
+                     got_bytes, bytes);
+    if (!rc)
+        rc = fsync_path(tmp_path, 0, e);
+    char id[64];
+    new_id(d, id, sizeof id);
+    if (!rc && strlen(id) >= cap)
+        rc = st_fail(e, ST_EINVAL, "staged id buffer too small");
+    if (rc) {
+        st_datadir_discard(tmp_path);
+        return rc;
+    }
+    st_manifest m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.name, sizeof m.name, "%s", name);
+    snprintf(m.format, sizeof m.format, "%s", fmt);
+    m.bytes = bytes;
+    m.crc = got_crc;
+    snprintf(m.options, sizeof m.options, "%s", options ? options : "");
+    snprintf(m.source, sizeof m.source, "source-%s.%s", id, fmt);
+    /* built whole in tmp/ (emptied at open), then one rename into staged/: staged/ only ever
+     * holds complete copies */
+    char build[PATHCAP], src[PATHCAP], man[PATHCAP], dst[PATHCAP], staged[PATHCAP];
+    pathf(build, "%s/tmp/%s.stage", d->root, id);
+    pathf(src, "%s/%s", build, m.source);
+    pathf(man, "%s/manifest", build);
+    pathf(staged, "%s/staged", d->root);
+    pathf(dst, "%s/%s", staged, id);
+    if (mkdir(build, 0700) != 0)
+        rc = st_fail(e, ST_EIO, "mkdir %s: %s", build, strerror(errno));
+    if (!rc && rename(tmp_path, src) != 0)
+        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", tmp_path, src, strerror(errno));
+    if (!rc)
+        rc = manifest_write(man, &m, e);
+    if (!rc)
+        rc = fsync_path(build, 1, e);
+    if (!rc && rename(build, dst) != 0)
+        rc = st_fail(e, ST_EIO, "rename %s -> %s: %s", build, dst, strerror(errno));
+    if (!rc)
+        rc = fsync_path(staged, 1, e);
+    if (rc) {
+        st_datadir_discard(tmp_path);
+        rm_rf(build);
+        if (rename(dst, build) == 0)   /* renamed but not durable: not a staged copy */
+            rm_rf(build);
+        return rc;
+    }
+    snprintf(id_out, cap, "%s", id);
+    return 0;
+}
+
+int st_datadir_staged_read(st_datadir *d, const char *id, st_manifest *m, char *source,
+                           size_t cap, st_error *e)
+{
+    if (!staged_id_ok(id))
+        return st_fail(e, ST_EINVAL, "bad staged id");
+    char man[PATHCAP];
+    pathf(man, "%s/staged/%s/manifest", d->root, id);
+    int rc = st_manifest_read(man, m, e);
+    if (!rc && source) {
+        int n = snprintf(source, cap, "%s/staged/%s/%s", d->root, id, m->source);
+        if (n < 0 || (size_t)n >= cap)
+            rc = st_fail(e, ST_EINVAL, "source path buffer too small");
+    }
+    return rc;
+}
+
+int st_datadir_drop_staged(st_datadir *d, const char *id, st_error *e)
+{
+    if (!staged_id_ok(id))
+        return st_fail(e, ST_EINVAL, "bad staged id");
+    char src[PATHCAP], dst[PATHCAP], staged[PATHCAP];
+    pathf(staged, "%s/staged", d->root);
+    pathf(src, "%s/%s", staged, id);
+    pathf(dst, "%s/trash/staged.%s", d->root, id);
+    if (rename(src, dst) != 0) {
+        int err = errno;
+        if (err == ENOENT)
+            return st_fail(e, ST_ENOTFOUND, "no staged copy %s", id);
+        return st_fail(e, ST_EIO, "rename %s -> %s: %s", src, dst, strerror(err));
+    }
+    int rc = fsync_path(staged, 1, e);
+    rm_rf(dst);
+    return rc;
+}
+
+int st_datadir_publish_staged(st_datadir *d, const char *id, st_set **set,
+                              st_publish_fn publish, void *arg, st_error *e)
+{
+    st_manifest m;
+    char src[PATHCAP], link_path[PATHCAP], lid[64];
+    int rc = st_datadir_staged_read(d, id, &m, src, sizeof src, e);
+    if (rc)
+        return rc;
+    /* the commit takes a hard link: the staged copy stays whole until the set is committed
+     * (a crash before that leaves it for the next start to publish or drop) */
+    new_id(d, lid, sizeof lid);
+    pathf(link_path, "%s/tmp/%s.part", d->root, lid);
+    if (link(src, link_path) != 0)
+        return st_fail(e, errno == ENOENT ? ST_ENOTFOUND : ST_EIO, "link %s -> %s: %s", src,
+                       link_path, strerror(errno));
+    rc = commit_set(d, m.name, link_path, m.format, m.options, m.bytes, &m.crc, set, publish,
+                    arg, e);
+    if (rc)
+        return rc;
+    st_error ignore;
+    st_datadir_drop_staged(d, id, &ignore);   /* a leftover is dropped at the next pass */
+    return 0;
+}
+
+int st_datadir_staged_list(st_datadir *d, st_datadir_staged **out, size_t *count,
+                           void (*report)(void *arg, const char *id, const char *why),
+                           void *arg, st_error *e)
+{
+    *out = NULL;
+    *count = 0;
+    char staged[PATHCAP];
+    pathf(staged, "%s/staged", d->root);
+    DIR *dp = opendir(staged);
+    if (!dp)
+        return st_fail(e, ST_EIO, "open %s: %s", staged, strerror(errno));
+    st_datadir_staged *v = NULL;
+    size_t n = 0, cap = 0;
+    struct dirent *de;
+    int rc = 0;
+    while (!rc && (de = readdir(dp))) {
+        if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
+            continue;
+        char p[PATHCAP];
+        pathf(p, "%s/%s", staged, de->d_name);
+        st_error me;
+        st_error_clear(&me);
+        st_manifest m;
+        int mrc = staged_id_ok(de->d_name)
+                      ? st_datadir_staged_read(d, de->d_name, &m, NULL, 0, &me)
+                      : st_fail(&me, ST_EFORMAT, "not a staged id");
+        if (mrc == ST_ENOMEM || mrc == ST_EIO) {
+            rc = st_fail(e, mrc, "%s", me.msg);
+            break;
+        }
+        struct stat dst;
+        if (mrc == ST_ENOTFOUND && lstat(p, &dst) != 0)
+            continue;   /* published or dropped by another thread since readdir saw it */
+        if (mrc) {   /* never silently dropped */
+            if (report)
+                report(arg, de->d_name, me.msg);
+            char dst[PATHCAP], id[64];
+            new_id(d, id, sizeof id);
+            pathf(dst, "%s/broken/staged.%.100s.%s", d->root, de->d_name, id);
+            rename(p, dst);
+            continue;
+        }
+        struct stat st;
+        char man[PATHCAP];
+        pathf(man, "%s/manifest", p);
+        if (n == cap) {
+            cap = cap ? cap * 2 : 8;
+            st_datadir_staged *nv = realloc(v, cap * sizeof *nv);
+            if (!nv) {
+                rc = st_fail(e, ST_ENOMEM, "listing %s: out of memory", staged);
+                break;
+            }
+            v = nv;
+        }
+        memcpy(v[n].id, de->d_name, strlen(de->d_name) + 1);   /* staged_id_ok: < 64 bytes */
+        v[n].m = m;
+        v[n].mtime_ms = stat(man, &st) == 0
+                            ? (int64_t)st.st_mtim.tv_sec * 1000 + st.st_mtim.tv_nsec / 1000000
+                            : 0;
+        n++;
+    }
+    closedir(dp);
+    if (rc) {
+        free(v);
+        return rc;
+    }
+    *out = v;
+    *count = n;
+    return 0;
 }

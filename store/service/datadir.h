@@ -15,6 +15,10 @@
  *   <dir>/trash/<name>.<id>                 deleted sets on their way out; emptied at open
  *   <dir>/broken/<name>.<id>                sets that failed their checksum or import at load,
  *                                           moved aside (never silently dropped)
+ *   <dir>/staged/<id>/manifest, source-...  a staged copy: contents received for set <name>
+ *                                           (the manifest's) but not published under it yet
+ *                                           (a cluster write waiting for its quorum, see
+ *                                           "Staged copies" below); kept across a restart
  * In trash/ and broken/ the name is cut so that "<name>.<id>" fits NAME_MAX (255 bytes).
  * A set name (1..255 bytes, protocol/stp_name.h) is a plain file name, so sets/<name> is one
  * directory entry of at most NAME_MAX bytes; the root may be up to PATHCAP - 512 bytes.
@@ -39,6 +43,18 @@
  * upload was never acknowledged and is removed; files a manifest does not name are leftovers
  * of an interrupted replace and are removed; a source whose size or CRC-32 differs from its
  * manifest is moved to broken/.
+ *
+ * Staged copies (st_datadir_stage / _publish_staged / _drop_staged / _staged_list): a cluster
+ * node keeps the new contents of a write that is not acknowledged yet beside the set it
+ * replaces, which stays what sets/<name> holds and what is served. Staging builds
+ * tmp/<id>.stage/ (the source renamed in, a manifest written, both fsynced) and renames it to
+ * staged/<id> (fsync staged/): staged/ only ever holds complete copies. Publishing commits a
+ * hard link of the staged source through the commit protocol above (its CRC-32 checked
+ * against the staged manifest), then removes staged/<id>: a crash at any point leaves the old
+ * set or the new one in sets/<name>, and the staged copy whole until the new one is
+ * committed. Dropping renames staged/<id> into trash/. What to do with a staged copy left by a
+ * crash is the caller's decision (the cluster's repair pass asks the catalogue); open leaves
+ * staged/ alone.
  *
  * Manifest (text, one "key value" per line, in this order):
  *   seamtex-set 1 | name <name> | source <file> | format <ext> | bytes <n> | crc32 <8 hex> |
@@ -157,6 +173,40 @@ typedef struct st_datadir_loader {
  * set fails for a reason that says nothing about it (ST_ENOMEM, ST_EIO: the set is left in
  * place, not moved to broken/, and the load stops, as st_datadir_load). */
 int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e);
+
+/* Stages tmp_path (complete, from st_datadir_tmpfile) as new contents for set name (see
+ * "Staged copies"): checks its size against bytes, records its CRC-32, makes it durable under
+ * staged/<id>; the id (at most 63 bytes of [0-9a-f-]) goes to id_out. tmp_path is gone
+ * afterwards (moved, or removed on failure). Nothing under sets/ changes. */
+int st_datadir_stage(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
+                     const char *options, uint64_t bytes, char *id_out, size_t cap, st_error *e);
+
+/* The manifest of staged copy id (m->name: the set it is for) and, when source is not NULL,
+ * the path of its source file. ST_ENOTFOUND when it is gone. */
+int st_datadir_staged_read(st_datadir *d, const char *id, st_manifest *m, char *source,
+                           size_t cap, st_error *e);
+
+/* Commits staged copy id as its set (st_datadir_commit_set's protocol and arguments: set may
+ * be NULL, publish runs under the commit mutex), then removes the staged copy. On failure the
+ * staged copy stays and sets/<name> is as it was; ST_ENOTFOUND when the staged copy is gone
+ * (published or dropped by another caller). */
+int st_datadir_publish_staged(st_datadir *d, const char *id, st_set **set,
+                              st_publish_fn publish, void *arg, st_error *e);
+
+/* Removes staged copy id durably (ST_ENOTFOUND when it is gone). */
+int st_datadir_drop_staged(st_datadir *d, const char *id, st_error *e);
+
+typedef struct st_datadir_staged {
+    char        id[64];
+    st_manifest m;
+    int64_t     mtime_ms;   /* when it was staged (its manifest's mtime, wall clock ms) */
+} st_datadir_staged;
+
+/* The staged copies (*out malloc'ed, the caller frees it). One whose manifest cannot be read
+ * is moved to broken/staged.<id>.<id> and reported (report may be NULL). */
+int st_datadir_staged_list(st_datadir *d, st_datadir_staged **out, size_t *count,
+                           void (*report)(void *arg, const char *id, const char *why),
+                           void *arg, st_error *e);
 
 /* Reads and checks one manifest file. */
 int st_manifest_read(const char *path, st_manifest *m, st_error *e);

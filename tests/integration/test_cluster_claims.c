@@ -1,14 +1,16 @@
 /* tests/integration/test_cluster_claims.c - a pending claim whose origin node was killed
- * between its claim (and local commit) and the write quorum, and restarted at once, is
+ * between its claim (and staging its copy) and the write quorum, and restarted at once, is
  * abandoned (docs/cluster.md "Repair"): the name is free again and the refused upload's copy
  * goes. Claims carry the origin's incarnation; the restarted node is a member again, but of
  * another incarnation.
  *
  * Deterministic: 2 nodes with R=2 and W=2 on a real etcd; n1 is stopped (SIGSTOP) so that
- * n0's push of the upload to n1 waits; n0 is killed once the upload is committed on it (LIST
- * shows it), n1 continued, n0 restarted with its data dir. Leases of 5 s keep n1 a member
+ * n0's push of the upload to n1 waits; n0 is killed once the upload is staged on it (STATS
+ * cluster_copies_staged; the staged copy is kept across the restart until the catalogue
+ * decides), n1 continued, n0 restarted with its data dir. Leases of 5 s keep n1 a member
  * while it is stopped and n0 one across its restart. Waits are deadlines against a hang.
  */
+#include <dirent.h>
 #include <pthread.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -59,21 +61,31 @@ static stc_cluster *open_both(void)
     return stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
 }
 
-/* 1 when node i lists name */
-static int lists(int i, const char *name)
+/* n0 has staged one more upload than before (its copy is durable, not published) */
+static uint64_t staged_before;
+static int n0_staged(void *arg)
 {
-    stc_conn *c = st_daemon_client(&N[i], NULL);
-    const stc_set_entry *sets;
-    size_t n;
-    int found = 0;
-    if (c && stc_list(c, &sets, &n) == 0)
-        for (size_t k = 0; k < n; k++)
-            found |= !strcmp(sets[k].name, name);
-    stc_close(c);
-    return found;
+    (void)arg;
+    return st_daemon_stat(&N[0], "cluster_copies_staged") > staged_before;
 }
 
-static int n0_lists_stuck(void *arg) { (void)arg; return lists(0, "stuck"); }
+/* entries in <data-dir of node i>/staged (-1: no such folder) */
+static int staged_count(int i)
+{
+    char p[400];
+    snprintf(p, sizeof p, "%s/staged", N[i].datadir);
+    DIR *d = opendir(p);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *de;
+    while ((de = readdir(d)))
+        n += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
+    closedir(d);
+    return n;
+}
+
+static int n0_staged_none(void *arg) { (void)arg; return staged_count(0) == 0; }
 
 static int upload_rc = -1;
 
@@ -138,10 +150,11 @@ static void claim_of_a_restarted_origin_is_abandoned(void **state)
     start_pair("/claims");
 
     /* n0 claims and commits "stuck", then waits on its push to the stopped n1 */
+    staged_before = st_daemon_stat(&N[0], "cluster_copies_staged");
     assert_int_equal(st_daemon_signal(&N[1], SIGSTOP), 0);
     pthread_t up;
     assert_int_equal(pthread_create(&up, NULL, upload_main, NULL), 0);
-    int committed = st_wait_until(n0_lists_stuck, NULL, DEADLINE_MS) == 0;
+    int committed = st_wait_until(n0_staged, NULL, DEADLINE_MS) == 0;
     st_daemon_kill(&N[0]);
     st_daemon_signal(&N[1], SIGCONT);
     pthread_join(up, NULL);
@@ -160,6 +173,9 @@ static void claim_of_a_restarted_origin_is_abandoned(void **state)
     }
     if (st_wait_until(both_serve_second, NULL, DEADLINE_MS) != 0)
         fail_msg("the second contents are not on both nodes");
+    /* the killed upload's staged copy goes (the catalogue records other contents) */
+    if (st_wait_until(n0_staged_none, NULL, DEADLINE_MS) != 0)
+        fail_msg("n0 keeps the staged copy of the abandoned upload");
     for (int i = 0; i < 2; i++)
         st_daemon_down(&N[i], 10000);
     st_etcd_stop(&ETCD);
@@ -167,17 +183,6 @@ static void claim_of_a_restarted_origin_is_abandoned(void **state)
 
 static uint64_t claims_before;
 static int n0_claimed(void *arg) { (void)arg; return st_daemon_stat(&N[0], "cluster_claims") > claims_before; }
-
-/* n0 serves "kept" with the second contents: its local commit of the REPLACE is done */
-static int n0_serves_second(void *arg)
-{
-    (void)arg;
-    stc_conn *c = st_daemon_client(&N[0], NULL);
-    float r = -1;
-    int rc = c ? st_red_at(c, "kept", &r) : -1;
-    stc_close(c);
-    return rc == 0 && r == red[1];
-}
 
 static int replace_rc = -1;
 
@@ -224,11 +229,17 @@ static void replace_claim_of_a_restarted_origin_gives_the_name_back(void **state
 
     /* n0 claims the REPLACE, then waits on its push to the stopped n1; killed there */
     claims_before = st_daemon_stat(&N[0], "cluster_claims");
+    staged_before = st_daemon_stat(&N[0], "cluster_copies_staged");
     assert_int_equal(st_daemon_signal(&N[1], SIGSTOP), 0);
     pthread_t up;
     assert_int_equal(pthread_create(&up, NULL, replace_main, NULL), 0);
     int claimed = st_wait_until(n0_claimed, NULL, DEADLINE_MS) == 0 &&
-                  st_wait_until(n0_serves_second, NULL, DEADLINE_MS) == 0;   /* committed */
+                  st_wait_until(n0_staged, NULL, DEADLINE_MS) == 0;   /* staged durably */
+    /* while the REPLACE waits on its push, n0 still serves the acknowledged contents */
+    float mid = -1;
+    stc_conn *c0 = claimed ? st_daemon_client(&N[0], NULL) : NULL;
+    int mid_rc = c0 ? st_red_at(c0, "kept", &mid) : -1;
+    stc_close(c0);
     st_daemon_kill(&N[0]);
     st_daemon_signal(&N[1], SIGCONT);
     pthread_join(up, NULL);
@@ -236,6 +247,10 @@ static void replace_claim_of_a_restarted_origin_gives_the_name_back(void **state
         fail_msg("n0 never claimed the replace");
     if (replace_rc == 0)
         fail_msg("the replace was acknowledged: n1 left (its lease ran out) before n0 claimed");
+    if (mid_rc != 0 || mid != red[0])
+        fail_msg("during the replace n0 read 'kept' as %d (red %g), not the acknowledged %g",
+                 mid_rc, mid, red[0]);
+    assert_int_equal(staged_count(0), 1);   /* kept across the kill: the catalogue decides */
     assert_int_equal(start_node(0), 0);
     if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
         fail_msg("the nodes did not see each other again");
@@ -244,6 +259,10 @@ static void replace_claim_of_a_restarted_origin_gives_the_name_back(void **state
         st_daemon_dump_log(&N[1], 20);
         fail_msg("the acknowledged contents are gone after the abandoned replace");
     }
+    /* the abandoned replace's staged copy goes; nothing of it was ever published */
+    if (st_wait_until(n0_staged_none, NULL, DEADLINE_MS) != 0)
+        fail_msg("n0 keeps the staged copy of the abandoned replace");
+    assert_int_equal(st_daemon_stat(&N[0], "cluster_staged_published"), 0);
     for (int i = 0; i < 2; i++)
         st_daemon_down(&N[i], 10000);
     st_etcd_stop(&ETCD);

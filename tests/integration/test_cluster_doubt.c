@@ -154,13 +154,29 @@ static int delete_direct(int i, const char *name)
     return rc;
 }
 
-/* uploads name (tint 0) through n1 and waits until both nodes serve it */
+static uint64_t passes_at[2];
+
+/* each node has run two repair passes since passes_at: one began after the set was published */
+static int two_passes_each(void *arg)
+{
+    (void)arg;
+    return st_daemon_stat(&N[0], "cluster_repair_passes") >= passes_at[0] + 2 &&
+           st_daemon_stat(&N[1], "cluster_repair_passes") >= passes_at[1] + 2;
+}
+
+/* uploads name (tint 0) through n1 and waits until both nodes serve it and have confirmed
+ * their copies (a pass that began after the publish: a copy published since the last pass
+ * began and never confirmed is not served while its record is away, e.g. a late delete) */
 static void put_set(const char *name)
 {
     assert_int_equal(upload_direct(1, 0, name), 0);
     served s = {name, red[0]};
     if (st_wait_until(both_serve, &s, DEADLINE_MS) != 0)
         fail_msg("'%s' is not on both nodes", name);
+    for (int i = 0; i < 2; i++)
+        passes_at[i] = st_daemon_stat(&N[i], "cluster_repair_passes");
+    if (st_wait_until(two_passes_each, NULL, DEADLINE_MS) != 0)
+        fail_msg("the repair passes stopped");
 }
 
 /* the set stays recorded and served by both nodes for KEEP_MS, checked every 200 ms */

@@ -824,6 +824,35 @@ static void upload_bodies_round_trip(void **state)
     assert_string_equal(bg2.hint, "obj");
     assert_true(bg2.total_size == bg.total_size && bg2.crc32c == bg.crc32c);
     prefixes_refused(f.body, f.h.body_len, w_upload_begin, &bg2);
+    /* STAGE (a cluster node's push of a write not recorded yet) only with REPLICA */
+    bg.flags = STP_UF_REPLICA | STP_UF_STAGE;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_upload_begin(&f.b, 1, 0, &bg), 0);
+    frame_parse(&f, STP_OP_UPLOAD_BEGIN, 1, 0);
+    assert_int_equal(stp_dec_upload_begin(f.body, f.h.body_len, &bg2, NULL), 0);
+    assert_int_equal(bg2.flags, STP_UF_REPLICA | STP_UF_STAGE);
+    bg.flags = STP_UF_REPLACE | STP_UF_STAGE;
+    stp_buf_clear(&f.b);
+    assert_int_equal(stp_enc_upload_begin(&f.b, 1, 0, &bg), 0);
+    frame_parse(&f, STP_OP_UPLOAD_BEGIN, 1, 0);
+    assert_int_equal(stp_dec_upload_begin(f.body, f.h.body_len, &bg2, NULL), STP_S_INVALID);
+    /* REPLICA_PUBLISH: a name and a CRC-32; a bad name is INVALID, a short body refused */
+    stp_buf rp;
+    stp_buf_init(&rp);
+    assert_int_equal(stp_put_replica_publish(&rp, "mesh1", 0xCBF43926u), 0);
+    char rname[STP_MAX_NAME + 1];
+    uint32_t rcrc = 0;
+    assert_int_equal(stp_dec_replica_publish(stp_buf_head(&rp), stp_buf_avail(&rp), rname,
+                                             &rcrc, NULL), 0);
+    assert_string_equal(rname, "mesh1");
+    assert_int_equal(rcrc, 0xCBF43926u);
+    assert_int_not_equal(stp_dec_replica_publish(stp_buf_head(&rp), stp_buf_avail(&rp) - 1,
+                                                 rname, &rcrc, NULL), 0);
+    stp_buf_clear(&rp);
+    assert_int_equal(stp_put_replica_publish(&rp, "../x", 1), 0);
+    assert_int_equal(stp_dec_replica_publish(stp_buf_head(&rp), stp_buf_avail(&rp), rname,
+                                             &rcrc, NULL), STP_S_INVALID);
+    stp_buf_free(&rp);
 
     stp_upload_begin_reply br = { 42, 100, 65536 }, br2;
     stp_buf_clear(&f.b);
@@ -1138,7 +1167,7 @@ static void status_and_opcode_names_come_from_the_lists(void **state)
         {0x13, "UPLOAD_ABORT", 1}, {0x14, "UPLOAD_STATUS", 0}, {0x15, "DELETE", 1},
         {0x20, "COMPRESS", 1}, {0x21, "JOB_STATUS", 0}, {0x22, "JOB_CANCEL", 1},
         {0x23, "FETCH_OPEN", 0}, {0x24, "FETCH_READ", 0}, {0x25, "FETCH_CLOSE", 0},
-        {0x30, "CLUSTER", 0}, {0x08, "SHM_ATTACH", 0},
+        {0x30, "CLUSTER", 0}, {0x31, "REPLICA_PUBLISH", 1}, {0x08, "SHM_ATTACH", 0},
     };
     unsigned named = 0;
     for (unsigned op = 0; op < 256; op++)
