@@ -137,16 +137,33 @@ static int read_lines(const char *path, int dir, void **out, size_t *count)
     return CLI_OK;
 }
 
+/* A query number as the shortest of %g and %.9g that reads back as the float sent, so the
+ * echoed query is the one sampled (10000.001 is past the 1e4 limit; %g printed "10000"). */
+static void print_qnum(const char *sep, float x)
+{
+    char b[32];
+    snprintf(b, sizeof b, "%g", x);
+    if (x == x && strtof(b, NULL) != x)
+        snprintf(b, sizeof b, "%.9g", x);
+    printf("%s%s", sep, b);
+}
+
 /* One text line per query: the query, the values, the coverage and the status. */
 static void print_text(const void *queries, int dir, const stc_sample_result *r)
 {
     for (uint32_t i = 0; i < r->count; i++) {
         if (dir) {
             const stc_dir_query *q = (const stc_dir_query *)queries + i;
-            printf("%g %g %g:", q->dir[0], q->dir[1], q->dir[2]);
+            print_qnum("", q->dir[0]);
+            print_qnum(" ", q->dir[1]);
+            print_qnum(" ", q->dir[2]);
+            printf(":");
         } else {
             const stc_query *q = (const stc_query *)queries + i;
-            printf("%u %g %g:", q->face, q->u, q->v);
+            printf("%u", q->face);
+            print_qnum(" ", q->u);
+            print_qnum(" ", q->v);
+            printf(":");
         }
         for (unsigned c = 0; c < r->nchan; c++) {
             size_t k = (size_t)i * r->nchan + c;
@@ -187,7 +204,8 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             fputs(SAMPLE_USAGE, stdout);
             return CLI_OK;
         }
-        if (a[0] != '-' || a[1] == '\0' || (a[1] >= '0' && a[1] <= '9') || a[1] == '.') {
+        float num;   /* a negative number is a value, "-inf" and "-nan" too (as "inf", "nan") */
+        if (a[0] != '-' || a[1] == '\0' || cli_parse_float(a, &num) == 0) {
             if (!set)
                 set = a;
             else if (npos < 4)

@@ -142,6 +142,7 @@ typedef enum st_ext_kind {
 struct st_set;
 struct st_sample_opts;
 struct st_query;
+struct st_chart_ids;
 
 /* A filter family that an extension's module provides (the Ptex filters, ptex/): the sampler
  * (sample/) calls it for the filter ids it does not implement itself, so the sampler never
@@ -161,6 +162,8 @@ typedef struct st_set_ext {
     size_t         (*memory)(const void *data);  /* bytes data holds (NULL: 0) */
     st_ext_filter_fn filter;     /* NULL: this extension adds no filters */
     st_ext_levels_fn levels;     /* NULL: every level is made (see st_set_levels) */
+    const struct st_chart_ids *charts; /* an atlas's chart id per texel of every level, which
+                                    Discard reads (sample/sample.h); NULL or nlevels 0: none */
 } st_set_ext;
 
 typedef struct st_set {

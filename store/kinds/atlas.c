@@ -6,8 +6,14 @@
  *
  * The chart mask is rasterised once per mesh (texel centres inside a UV triangle, clipped to
  * the image, then dilated by one texel so bilinear taps at chart borders stay in), costing
- * w*h bytes. Chart-relative Discard is done here for point and bilinear filters at level 0
- * (the mask exists for level 0 only); other filters fall back to the sampler's face Discard.
+ * w*h bytes. Chart-relative Discard with that mask (ST_ATLAS_CHART_DISCARD) is done here for
+ * point and bilinear filters at level 0 (the mask exists for level 0 only); other filters fall
+ * back to the sampler's Discard.
+ *
+ * The chart ids (st_atlas_build_chart_ids) are rasterised the same way, undilated, with the
+ * mesh's chart of each triangle, and reduced level by level like the box mips (the majority
+ * of the texels each level averages); the sampler's Discard reads them through
+ * set->ext.charts (2 bytes per texel of every level, 8/3 bytes per level-0 texel).
  */
 #include "atlas.h"
 
@@ -22,6 +28,7 @@ void st_atlas_free(void *p)
         return;
     st_mesh_free(a->mesh);
     free(a->chart_mask);
+    free(a->chart_id);
     free(a);
 }
 
@@ -35,17 +42,21 @@ const st_atlas *st_atlas_get(const st_set *s)
 static size_t atlas_memory(const void *p)
 {
     const st_atlas *a = p;
-    return sizeof *a + st_mesh_memory(a->mesh) + (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0);
+    return sizeof *a + st_mesh_memory(a->mesh) +
+           (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0) + a->chart_id_bytes;
 }
 
 void st_atlas_ext(st_atlas *a, st_set_ext *x)
 {
     *x = (st_set_ext){.kind = ST_EXT_ATLAS, .data = a, .free = st_atlas_free,
-                      .memory = atlas_memory};
+                      .memory = atlas_memory, .charts = &a->ids};
 }
 
-static void raster_tri(uint8_t *mask, uint32_t w, uint32_t h, const float *a, const float *b,
-                       const float *c)
+/* Marks the texels whose centre lies in triangle abc (uv): mask[] = 1 when mask is not NULL;
+ * ids[] = id when ids is not NULL and the texel has no id yet or a larger one (so where charts
+ * overlap in uv, the lowest chart wins, whatever the triangle order). */
+static void raster_tri(uint8_t *mask, uint16_t *ids, uint16_t id, uint32_t w, uint32_t h,
+                       const float *a, const float *b, const float *c)
 {
     /* texel space: x = u*w, y = v*h; texel (i, j) centre at (i+.5, j+.5) */
     double ax = a[0] * (double)w, ay = a[1] * (double)h, bx = b[0] * (double)w, by = b[1] * (double)h;
@@ -70,9 +81,85 @@ static void raster_tri(uint8_t *mask, uint32_t w, uint32_t h, const float *a, co
             double w0 = ((bx - px) * (cy - py) - (by - py) * (cx - px)) * sgn;
             double w1 = ((cx - px) * (ay - py) - (cy - py) * (ax - px)) * sgn;
             double w2 = ((ax - px) * (by - py) - (ay - py) * (bx - px)) * sgn;
-            if (w0 >= 0 && w1 >= 0 && w2 >= 0)
-                mask[(size_t)j * w + (size_t)i] = 1;
+            if (w0 >= 0 && w1 >= 0 && w2 >= 0) {
+                size_t k = (size_t)j * w + (size_t)i;
+                if (mask)
+                    mask[k] = 1;
+                if (ids && (!ids[k] || id < ids[k]))
+                    ids[k] = id;
+            }
         }
+}
+
+/* Level l's id of a texel: the id most of its (up to 4) level l-1 texels with an id hold (the
+ * texels the box mip averages, set.c's reduce_level), the lowest on a tie; 0 when none has. */
+static void reduce_ids(const uint16_t *src, uint32_t sw, uint32_t sh, uint16_t *dst, uint32_t dw,
+                       uint32_t dh)
+{
+    uint32_t xs = sw > 1 ? 2 : 1, ys = sh > 1 ? 2 : 1;
+    for (uint32_t y = 0; y < dh; y++)
+        for (uint32_t x = 0; x < dw; x++) {
+            uint16_t c[4];
+            unsigned n = 0;
+            for (uint32_t j = 0; j < ys; j++)
+                for (uint32_t i = 0; i < xs; i++) {
+                    uint16_t v = src[(size_t)(y * ys + j) * sw + (x * xs + i)];
+                    if (v)
+                        c[n++] = v;
+                }
+            uint16_t best = 0;
+            unsigned bestn = 0;
+            for (unsigned k = 0; k < n; k++) {
+                unsigned cnt = 0;
+                for (unsigned m = 0; m < n; m++)
+                    cnt += c[m] == c[k];
+                if (cnt > bestn || (cnt == bestn && c[k] < best)) {
+                    best = c[k];
+                    bestn = cnt;
+                }
+            }
+            dst[(size_t)y * dw + x] = best;
+        }
+}
+
+int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
+{
+    free(a->chart_id);
+    a->chart_id = NULL;
+    a->chart_id_bytes = 0;
+    memset(&a->ids, 0, sizeof a->ids);
+    const st_mesh *m = a->mesh;
+    if (!m || !m->seams || !m->seams->tri_chart || m->seams->ncharts > 65534 || !s ||
+        s->info.nfaces < 1)
+        return ST_OK; /* no ids: Discard takes the image as one face */
+    const st_face *F = &s->faces[0];
+    unsigned nl = F->nlevels;
+    size_t off[ST_MAX_LEVELS], total = 0;
+    for (unsigned l = 0; l < nl; l++) {
+        off[l] = total;
+        total += (size_t)st_level_w(F, l) * st_level_h(F, l);
+    }
+    uint16_t *ids = calloc(total ? total : 1, sizeof *ids);
+    if (!ids)
+        return st_fail(e, ST_ENOMEM, "out of memory for the chart ids of a %ux%u atlas", F->w, F->h);
+    for (uint32_t t = 0; t < m->ntri; t++) {
+        const uint32_t *u = &m->tri_uv[(size_t)t * 3];
+        uint32_t ch = m->seams->tri_chart[t];
+        if (u[0] == ST_MESH_NO_UV || u[1] == ST_MESH_NO_UV || u[2] == ST_MESH_NO_UV ||
+            ch >= m->seams->ncharts)
+            continue;
+        raster_tri(NULL, ids, (uint16_t)(ch + 1), F->w, F->h, &m->uv[(size_t)u[0] * 2],
+                   &m->uv[(size_t)u[1] * 2], &m->uv[(size_t)u[2] * 2]);
+    }
+    for (unsigned l = 1; l < nl; l++)
+        reduce_ids(ids + off[l - 1], st_level_w(F, l - 1), st_level_h(F, l - 1), ids + off[l],
+                   st_level_w(F, l), st_level_h(F, l));
+    a->chart_id = ids;
+    a->chart_id_bytes = total * sizeof *ids;
+    for (unsigned l = 0; l < nl; l++)
+        a->ids.level[l] = ids + off[l];
+    a->ids.nlevels = nl;
+    return ST_OK;
 }
 
 static int build_mask(st_atlas *a, const st_mesh *m, uint32_t w, uint32_t h, st_error *e)
@@ -89,7 +176,7 @@ static int build_mask(st_atlas *a, const st_mesh *m, uint32_t w, uint32_t h, st_
         const uint32_t *u = &m->tri_uv[(size_t)t * 3];
         if (u[0] == ST_MESH_NO_UV || u[1] == ST_MESH_NO_UV || u[2] == ST_MESH_NO_UV)
             continue;
-        raster_tri(mask, w, h, &m->uv[(size_t)u[0] * 2], &m->uv[(size_t)u[1] * 2],
+        raster_tri(mask, NULL, 0, w, h, &m->uv[(size_t)u[0] * 2], &m->uv[(size_t)u[1] * 2],
                    &m->uv[(size_t)u[2] * 2]);
     }
     for (uint32_t j = 0; j < h; j++)
@@ -133,6 +220,10 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
     a->mesh = NULL;
     free(a->chart_mask);
     a->chart_mask = NULL;
+    free(a->chart_id);
+    a->chart_id = NULL;
+    a->chart_id_bytes = 0;
+    memset(&a->ids, 0, sizeof a->ids);
     if (!mesh)
         return ST_OK;
     int rc = st_mesh_find_seams(mesh, e);
@@ -143,7 +234,13 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
         return rc;
     }
     a->mesh = mesh;
-    return ST_OK;
+    if ((rc = st_atlas_build_chart_ids(a, s, e)) != ST_OK) {
+        a->mesh = NULL;
+        st_mesh_free(mesh);
+        free(a->chart_mask);
+        a->chart_mask = NULL;
+    }
+    return rc;
 }
 
 int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st_set **out,

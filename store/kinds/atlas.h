@@ -12,7 +12,9 @@
  * boundaries, so Traverse, having no neighbour to go to, drops the taps beyond the image
  * border and renormalises (coverage < 1 there), as Discard does; st_atlas_sample with
  * ST_ATLAS_CHART_DISCARD also discards taps on texels outside every chart (the chart mask),
- * renormalising.
+ * renormalising. Discard without that flag is chart Discard (sample.c, docs/sampler.md): taps
+ * on texels not of the query's chart are dropped, at every level, from the chart ids kept
+ * here (set->ext.charts).
  *
  * Ownership: the atlas owns its mesh (freed by st_atlas_free, which is the set's ext_free).
  */
@@ -33,6 +35,11 @@ typedef struct st_atlas {
     uint8_t  *chart_mask;  /* w*h bytes of level 0, 1 where a UV'd triangle covers the texel
                               centre (conservatively dilated by one texel), NULL when no mesh */
     uint32_t  mask_w, mask_h;
+    uint16_t *chart_id;    /* chart id (chart + 1, 0 none) per texel of every level of face 0,
+                              the levels one after another; NULL when no mesh or more than
+                              65534 charts (docs/sampler.md, "Chart Discard") */
+    size_t    chart_id_bytes;
+    st_chart_ids ids;      /* chart_id's levels, what set->ext.charts points to */
     char      texture_name[256]; /* file the texture came from (information) */
 } st_atlas;
 
@@ -41,6 +48,10 @@ typedef struct st_atlas {
  * when not NULL its seams are found and a chart mask rasterised. */
 int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st_set **out,
                         st_error *e);
+
+/* (Re)builds a's chart ids for face 0 of s from a->mesh (seams found): called when a mesh is
+ * attached and when a native file is read (the ids are not stored). */
+int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e);
 
 /* Attaches a mesh to an existing atlas set (replacing an old one); takes it over. */
 int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e);

@@ -272,6 +272,11 @@ static int check_atlas(st_set *s, const uint8_t *p, size_t n, st_error *e)
     if (c.at != c.n)
         goto bad;
     a->mesh = m;
+    /* the chart ids are not stored: they are rasterised again from the mesh */
+    if ((rc = st_atlas_build_chart_ids(a, s, e)) != ST_OK) {
+        st_atlas_free(a);
+        return rc;
+    }
     st_set_ext x;
     st_atlas_ext(a, &x);
     st_set_ext_attach(s, &x);

@@ -10,7 +10,10 @@
  * probes into one st_acc (sum of w*T per channel, sum of w) and ends with sum(wT)/sum(w);
  * the coverage is sum(w). A probe whose taps all fall inside the face takes the fast path,
  * identical for every mode, so modes agree exactly in face interiors and Traverse costs what
- * Discard costs there.
+ * Discard costs there. Discard on an atlas with chart ids (set->ext.charts) runs in variants
+ * of its own (CH = 1): the query's chart is found once (query_chart), and a probe takes the
+ * fast path only when its four taps are of that chart; otherwise st_probe_bilinear_chart
+ * drops the others (docs/sampler.md, "Chart Discard"). Other sets never pay for the check.
  */
 #include "sample_internal.h"
 
@@ -74,13 +77,22 @@ ST_AI void bc1_texel_at(const st_view *v, int32_t i, int32_t j, uint8_t rgba[4])
 
 ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
                           unsigned level, float u, float v, float pw, st_acc *a, int DT,
-                          unsigned nch)
+                          unsigned nch, int CH)
 {
     st_view V;
     st_view_init(&V, s, f, level);
     float x = u * (float)V.w - 0.5f, y = v * (float)V.h - 0.5f;
     int32_t i0 = st_ifloor(x), j0 = st_ifloor(y);
     float fx = x - (float)i0, fy = y - (float)j0;
+    if (CH && fp->chart) { /* chart Discard: the fast path when all four taps are the chart's */
+        const uint16_t c = (uint16_t)fp->chart;
+        const uint16_t *r = fp->ch->level[level] + (size_t)j0 * (size_t)V.w + (size_t)i0;
+        if (!((uint32_t)i0 < (uint32_t)(V.w - 1) && (uint32_t)j0 < (uint32_t)(V.h - 1) &&
+              r[0] == c && r[1] == c && r[V.w] == c && r[V.w + 1] == c)) {
+            st_probe_bilinear_chart(s, fp, level, &V, i0, j0, fx, fy, pw, a);
+            return;
+        }
+    }
     if (!((uint32_t)i0 < (uint32_t)(V.w - 1) && (uint32_t)j0 < (uint32_t)(V.h - 1))) {
         st_probe_bilinear_edge(s, mode, fp, f, level, &V, i0, j0, fx, fy, pw, a);
         return;
@@ -131,7 +143,7 @@ ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint3
 
 ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
                        unsigned level, float u, float v, float pw, st_acc *a, int DT,
-                       unsigned nch)
+                       unsigned nch, int CH)
 {
     st_view V;
     st_view_init(&V, s, f, level);
@@ -141,6 +153,10 @@ ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t
         i = V.w - 1;
     if (j == V.h && v <= 1.0f)
         j = V.h - 1;
+    if (CH && fp->chart &&
+        !((uint32_t)i < (uint32_t)V.w && (uint32_t)j < (uint32_t)V.h &&
+          fp->ch->level[level][(size_t)j * (size_t)V.w + (size_t)i] == fp->chart))
+        return; /* chart Discard: beyond the image or not the query's chart */
     if (!((uint32_t)i < (uint32_t)V.w && (uint32_t)j < (uint32_t)V.h)) {
         st_probe_point_edge(s, mode, fp, f, level, &V, i, j, pw, a);
         return;
@@ -162,19 +178,54 @@ ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t
 
 ST_AI void probe_trilinear(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
                            unsigned nl, float lod, float u, float v, float pw, st_acc *a, int DT,
-                           unsigned nch)
+                           unsigned nch, int CH)
 {
     if (!(lod > 0.0f)) {
-        probe_bilinear(s, mode, fp, f, 0, u, v, pw, a, DT, nch);
+        probe_bilinear(s, mode, fp, f, 0, u, v, pw, a, DT, nch, CH);
     } else if (lod >= (float)(nl - 1)) {
-        probe_bilinear(s, mode, fp, f, nl - 1, u, v, pw, a, DT, nch);
+        probe_bilinear(s, mode, fp, f, nl - 1, u, v, pw, a, DT, nch, CH);
     } else {
         unsigned L0 = (unsigned)lod;
         float t = lod - (float)L0;
-        probe_bilinear(s, mode, fp, f, L0, u, v, pw * (1.0f - t), a, DT, nch);
+        probe_bilinear(s, mode, fp, f, L0, u, v, pw * (1.0f - t), a, DT, nch, CH);
         if (t > 0.0f)
-            probe_bilinear(s, mode, fp, f, L0 + 1, u, v, pw * t, a, DT, nch);
+            probe_bilinear(s, mode, fp, f, L0 + 1, u, v, pw * t, a, DT, nch, CH);
     }
+}
+
+/* ---- chart Discard (atlas sets) ------------------------------------------------------------ */
+
+/* The chart of a query at (u, v) (docs/sampler.md, "Chart Discard"): the id of the level-0
+ * texel holding (u, v) (the image the closed square, as for point); when that texel has none,
+ * the id of the nearest texel centre (binary32 squared distance in texels, the first in row
+ * order on a tie) among its 3 x 3 neighbours that have one; else 0 (no chart). */
+static unsigned query_chart(const st_chart_ids *ch, const st_face *F, float u, float v)
+{
+    const int32_t W = (int32_t)F->w, H = (int32_t)F->h;
+    const uint16_t *m = ch->level[0];
+    float x = u * (float)W, y = v * (float)H;
+    int32_t i = st_ifloor(x), j = st_ifloor(y);
+    if (i == W && u <= 1.0f)
+        i = W - 1;
+    if (j == H && v <= 1.0f)
+        j = H - 1;
+    if ((uint32_t)i < (uint32_t)W && (uint32_t)j < (uint32_t)H && m[(size_t)j * W + i])
+        return m[(size_t)j * W + i];
+    unsigned best = 0;
+    float bd = INFINITY;
+    for (int32_t jj = j - 1; jj <= j + 1; jj++)
+        for (int32_t ii = i - 1; ii <= i + 1; ii++) {
+            if (!((uint32_t)ii < (uint32_t)W && (uint32_t)jj < (uint32_t)H))
+                continue;
+            unsigned id = m[(size_t)jj * W + ii];
+            float dx = x - ((float)ii + 0.5f), dy = y - ((float)jj + 0.5f);
+            float d = dx * dx + dy * dy;
+            if (id && d < bd) {
+                bd = d;
+                best = id;
+            }
+        }
+    return best;
 }
 
 /* ---- one query ---------------------------------------------------------------------------- */
@@ -186,7 +237,7 @@ static void write_nan(float *out, unsigned nch)
 }
 
 ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, const st_query *q,
-                     float *out, float *cov, int DT, unsigned NCH)
+                     float *out, float *cov, int DT, unsigned NCH, int CH)
 {
     unsigned nch = NCH ? NCH : s->info.nchan;
     int bad = st_check_query(s, q);
@@ -204,7 +255,11 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
     const float rho2 = rx2 > ry2 ? rx2 : ry2;
     st_acc a = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f, 0};
     /* lodadj NaN: Traverse's slow path derives min(lod, 0) from rho2 only when it needs it */
-    st_fp fp = {q->dudx, q->dvdx, q->dudy, q->dvdy, rho2, NAN};
+    st_fp fp = {q->dudx, q->dvdx, q->dudy, q->dvdy, rho2, NAN, NULL, 0};
+    if (CH) { /* chart Discard on an atlas: the query's chart */
+        fp.ch = s->ext.charts;
+        fp.chart = query_chart(fp.ch, F, q->u, q->v);
+    }
     float lod = -INFINITY;
     unsigned level = 0;
 
@@ -214,14 +269,14 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
         if (rho2 > 2.0f) /* lod > 0.5: a minified footprint, not level 0 */
             level = st_nearest_level(lod = st_lod_of_rho2(rho2), nl);
         if (o->filter == ST_FILTER_POINT)
-            probe_point(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch);
+            probe_point(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch, CH);
         else
-            probe_bilinear(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch);
+            probe_bilinear(s, mode, &fp, f, level, q->u, q->v, 1.0f, &a, DT, nch, CH);
         break;
     case ST_FILTER_TRILINEAR:
         lod = st_lod_of_rho2(rho2);
         fp.lodadj = lod < 0.0f ? lod : 0.0f;
-        probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
+        probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch, CH);
         break;
     default: { /* ST_FILTER_ANISO */
         float rx = sqrtf(rx2), ry = sqrtf(ry2);
@@ -247,13 +302,13 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
         }
         fp.lodadj = lod < 0.0f ? lod : 0.0f;
         if (N == 1) {
-            probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch);
+            probe_trilinear(s, mode, &fp, f, nl, lod, q->u, q->v, 1.0f, &a, DT, nch, CH);
         } else {
             float pw = 1.0f / (float)N;
             for (unsigned k = 0; k < N; k++) {
                 float t = ((float)k + 0.5f) * pw - 0.5f;
                 probe_trilinear(s, mode, &fp, f, nl, lod, q->u + t * mu, q->v + t * mv, pw, &a, DT,
-                                nch);
+                                nch, CH);
             }
         }
         break;
@@ -289,14 +344,14 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
 }
 
 ST_AI size_t run(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
-                 float *out, float *coverage, uint8_t *status, int DT, unsigned NCH)
+                 float *out, float *coverage, uint8_t *status, int DT, unsigned NCH, int CH)
 {
     unsigned nch = NCH ? NCH : s->info.nchan;
     unsigned maxa = o->max_aniso ? o->max_aniso : 16;
     size_t bad = 0;
     for (size_t i = 0; i < n; i++) {
         float cv;
-        int st = sample_one(s, o, maxa, &q[i], out + i * nch, &cv, DT, NCH);
+        int st = sample_one(s, o, maxa, &q[i], out + i * nch, &cv, DT, NCH, CH);
         if (coverage)
             coverage[i] = cv;
         if (status)
@@ -306,20 +361,27 @@ ST_AI size_t run(const st_set *s, const st_sample_opts *o, const st_query *q, si
     return bad;
 }
 
-#define ST_VARIANT(name, DT, NCH)                                                            \
+#define ST_VARIANT(name, DT, NCH, CH)                                                        \
     static __attribute__((noinline)) size_t name(const st_set *s, const st_sample_opts *o,  \
                                                  const st_query *q, size_t n, float *out,   \
                                                  float *cov, uint8_t *st)                   \
     {                                                                                        \
-        return run(s, o, q, n, out, cov, st, DT, NCH);                                       \
+        return run(s, o, q, n, out, cov, st, DT, NCH, CH);                                   \
     }
-ST_VARIANT(run_u8x4, ST_DT_U8, 4)
-ST_VARIANT(run_u8, ST_DT_U8, 0)
-ST_VARIANT(run_u16, ST_DT_U16, 0)
-ST_VARIANT(run_half, ST_DT_HALF, 0)
-ST_VARIANT(run_f32x4, ST_DT_F32, 4)
-ST_VARIANT(run_f32, ST_DT_F32, 0)
-ST_VARIANT(run_bc1, DT_BC1, 4)
+ST_VARIANT(run_u8x4, ST_DT_U8, 4, 0)
+ST_VARIANT(run_u8, ST_DT_U8, 0, 0)
+ST_VARIANT(run_u16, ST_DT_U16, 0, 0)
+ST_VARIANT(run_half, ST_DT_HALF, 0, 0)
+ST_VARIANT(run_f32x4, ST_DT_F32, 4, 0)
+ST_VARIANT(run_f32, ST_DT_F32, 0, 0)
+ST_VARIANT(run_bc1, DT_BC1, 4, 0)
+/* chart Discard on atlas sets (never BC1: a BC1 set keeps no mesh) */
+ST_VARIANT(run_u8x4_ch, ST_DT_U8, 4, 1)
+ST_VARIANT(run_u8_ch, ST_DT_U8, 0, 1)
+ST_VARIANT(run_u16_ch, ST_DT_U16, 0, 1)
+ST_VARIANT(run_half_ch, ST_DT_HALF, 0, 1)
+ST_VARIANT(run_f32x4_ch, ST_DT_F32, 4, 1)
+ST_VARIANT(run_f32_ch, ST_DT_F32, 0, 1)
 
 int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                     float *out, float *coverage, uint8_t *status)
@@ -351,7 +413,21 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
     if (n > (size_t)INT32_MAX)
         return ST_ETOOBIG;
     size_t bad;
-    if (s->info.kind == ST_KIND_BC1)
+    const st_chart_ids *ch = s->ext.charts;
+    if (o->mode == ST_MODE_DISCARD && s->info.kind == ST_KIND_ATLAS && ch &&
+        ch->nlevels == s->faces[0].nlevels && ch->nlevels) {
+        /* chart Discard (docs/sampler.md): taps off the query's chart are dropped */
+        if (s->info.dtype == ST_DT_U8)
+            bad = s->info.nchan == 4 ? run_u8x4_ch(s, o, q, n, out, coverage, status)
+                                     : run_u8_ch(s, o, q, n, out, coverage, status);
+        else if (s->info.dtype == ST_DT_U16)
+            bad = run_u16_ch(s, o, q, n, out, coverage, status);
+        else if (s->info.dtype == ST_DT_HALF)
+            bad = run_half_ch(s, o, q, n, out, coverage, status);
+        else
+            bad = s->info.nchan == 4 ? run_f32x4_ch(s, o, q, n, out, coverage, status)
+                                     : run_f32_ch(s, o, q, n, out, coverage, status);
+    } else if (s->info.kind == ST_KIND_BC1)
         bad = run_bc1(s, o, q, n, out, coverage, status);
     else if (s->info.dtype == ST_DT_U8)
         bad = s->info.nchan == 4 ? run_u8x4(s, o, q, n, out, coverage, status)

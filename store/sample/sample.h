@@ -77,6 +77,15 @@ enum st_qstatus {
 #define ST_MAX_COORD 1.0e4f  /* |u|, |v| above this are refused, not sampled */
 #define ST_MAX_DERIV 1.0e4f  /* footprint components above this are refused */
 
+/* Chart ids of an atlas set's face 0 at every level, for chart Discard (docs/sampler.md,
+ * "Chart Discard"; built by kinds/atlas.c and reached through set->ext.charts). level[L]
+ * holds st_level_w x st_level_h ids of level L, row by row: 0 for a texel of no chart, else
+ * the chart's index (mesh.h) + 1. nlevels 0: no ids (Discard takes the image as one face). */
+typedef struct st_chart_ids {
+    unsigned nlevels;
+    const uint16_t *level[ST_MAX_LEVELS];
+} st_chart_ids;
+
 /* Samples n queries. out receives n * nchan floats (NaN for a query whose status is not OK),
  * coverage n floats and status n bytes (either may be NULL). Returns the number of queries
  * whose status is not ST_Q_OK, or a negative ST_E* code for invalid options (nothing written).

@@ -1,6 +1,7 @@
 /* store/sample/sample_tap.c - the sampler's slow path: probes with taps outside their face.
  *
- * Owns: the per-tap rules of the three modes (Discard drops the tap, Clamp clamps its index,
+ * Owns: the per-tap rules of the three modes (Discard drops the tap - on an atlas also a tap on
+ * a texel of another chart than the query's (st_probe_bilinear_chart), Clamp clamps its index,
  * Traverse reads it from the neighbour across the edge or the diagonal face across the
  * corner), the edge and corner uv mappings, the choice of the neighbour's level, the turn of
  * channels 0-1 of what Traverse reads in a turned neighbour of a set in Ptex's tanvec edge
@@ -391,6 +392,20 @@ void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uin
         if (w[k] == 0.0f)
             continue; /* a zero-weight tap neither reads nor counts */
         outside_tap(s, mode, fp, f, level, v, i0 + (k & 1), j0 + (k >> 1), 0, pw * w[k], a);
+    }
+}
+
+void st_probe_bilinear_chart(const st_set *s, const st_fp *fp, unsigned level, const st_view *v,
+                             int32_t i0, int32_t j0, float fx, float fy, float pw, st_acc *a)
+{
+    float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    const uint16_t *m = fp->ch->level[level];
+    for (int k = 0; k < 4; k++) {
+        int32_t i = i0 + (k & 1), j = j0 + (k >> 1);
+        if (w[k] == 0.0f || !((uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h) ||
+            m[(size_t)j * (size_t)v->w + (size_t)i] != fp->chart)
+            continue; /* zero weight, beyond the image or not of the query's chart: dropped */
+        add_tap(s, v, i, j, pw * w[k], a);
     }
 }
 

@@ -212,6 +212,28 @@ static void sample_reports_a_bad_face_per_query(void **state)
     assert_non_null(strstr(OUT, "BAD_FACE"));
 }
 
+/* "-inf" and "-nan" are numbers like "inf", "nan" and "-0.5" (they were taken for unknown
+ * options, exit 2), and the echoed query is the float that was sampled: 10000.001 is past
+ * the 1e4 limit, and %g echoed it as "10000" beside BAD_FOOTPRINT. */
+static void sample_takes_negative_infinity_and_echoes_the_exact_query(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("sample", "default", "3", "-inf", "0.5"), 0);
+    assert_non_null(strstr(OUT, "3 -inf 0.5:"));
+    assert_non_null(strstr(OUT, "NONFINITE"));
+    assert_int_equal(CLI("sample", "default", "3", "0.5", "-nan"), 0);
+    assert_non_null(strstr(OUT, "NONFINITE"));
+    assert_int_equal(CLI("sample", "default", "3", "0.5", "0.5", "--dudx", "-inf"), 0);
+    assert_non_null(strstr(OUT, "NONFINITE"));
+    assert_int_equal(CLI("sample", "default", "3", "10000.001", "0.5", "--mode", "clamp"), 0);
+    assert_non_null(strstr(OUT, "3 10000.001 0.5:"));
+    assert_non_null(strstr(OUT, "BAD_FOOTPRINT"));
+    assert_int_equal(CLI("sample", "default", "3", "-10000", "0.98", "--mode", "clamp"), 0);
+    assert_non_null(strstr(OUT, "3 -10000 0.98:"));     /* %g kept where it reads back */
+    assert_non_null(strstr(OUT, " OK"));
+    assert_int_equal(CLI("sample", "default", "3", "-x", "0.5"), 2);   /* still an option */
+}
+
 static void sample_binary_writes_count_times_channels_floats(void **state)
 {
     (void)state;
@@ -874,6 +896,7 @@ int main(void)
         cmocka_unit_test(sample_one_query_prints_four_values_coverage_and_ok),
         cmocka_unit_test(sample_query_file_answers_every_line_in_each_mode),
         cmocka_unit_test(sample_reports_a_bad_face_per_query),
+        cmocka_unit_test(sample_takes_negative_infinity_and_echoes_the_exact_query),
         cmocka_unit_test(sample_binary_writes_count_times_channels_floats),
         cmocka_unit_test(sample_compact_sends_the_rounded_queries),
         cmocka_unit_test(an_unknown_set_exits_1_with_the_servers_message),

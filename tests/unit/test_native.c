@@ -314,6 +314,12 @@ static void test_atlas_and_bc1(void **st)
     assert_string_equal(x->texture_name, y->texture_name);
     assert_int_equal(x->mask_w, y->mask_w);
     assert_memory_equal(x->chart_mask, y->chart_mask, (size_t)x->mask_w * x->mask_h);
+    /* the chart ids of chart Discard are not in the file: rebuilt from the mesh, the same */
+    assert_true(x->ids.nlevels > 0);
+    assert_int_equal(y->ids.nlevels, x->ids.nlevels);
+    assert_int_equal(y->chart_id_bytes, x->chart_id_bytes);
+    assert_memory_equal(x->chart_id, y->chart_id, x->chart_id_bytes);
+    assert_ptr_equal(m->ext.charts, &y->ids);
     assert_int_equal(y->mesh->ntri, 2);
     assert_memory_equal(x->mesh->tri_weld, y->mesh->tri_weld, 6 * 4);
     assert_int_equal(y->mesh->seams->nseams, 1);

@@ -264,7 +264,9 @@ static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(voi
     float v1[4], v2[4], c1, c2;
     uint8_t s1, s2;
     assert_true(st_atlas_sample(s, &o, ST_ATLAS_CHART_DISCARD, &q, 1, v1, &c1, &s1) >= 0);
-    assert_true(st_atlas_sample(s, &o, 0, &q, 1, v2, &c2, &s2) >= 0);
+    st_sample_opts oc = o;
+    oc.mode = ST_MODE_CLAMP; /* the image alone (SAMPLE's Discard is chart Discard: below) */
+    assert_true(st_atlas_sample(s, &oc, 0, &q, 1, v2, &c2, &s2) >= 0);
     assert_int_equal(s1, ST_Q_OK);
     assert_float_equal(c1, 0.5f, 1e-3);  /* half the bilinear weight was outside the chart */
     assert_float_equal(c2, 1.0f, 1e-3);
@@ -274,16 +276,20 @@ static void duck_atlas_has_a_chart_mask_and_chart_discard_drops_outside_taps(voi
     st_set_free(s);
 }
 
-/* st_atlas_sample (without chart discard) is st_sample_batch on face 0 in every mode, the path
- * SAMPLE takes over the wire: Traverse at the image border drops the taps beyond it and
- * renormalises (the border is a boundary), which is Discard's value and coverage there; Clamp
- * gives coverage 1. (It used to take Traverse as Clamp, unlike the daemon.) */
+/* st_atlas_sample (without the masked discard) is st_sample_batch on face 0 in every mode, the
+ * path SAMPLE takes over the wire: Traverse at the image border drops the taps beyond it and
+ * renormalises (the border is a boundary), which is the image Discard's value and coverage
+ * there (Discard of the same image without its mesh: with the mesh, Discard is chart Discard);
+ * Clamp gives coverage 1. (It used to take Traverse as Clamp, unlike the daemon.) */
 static void atlas_sampling_takes_the_modes_as_the_wire_does(void **state)
 {
     (void)state;
     st_set *s = duck_atlas();
     if (!s)
         skip();
+    st_set *plain = duck_atlas(); /* the image alone */
+    st_error e;
+    assert_int_equal(st_atlas_attach_mesh(plain, NULL, &e), ST_OK);
     enum { N = 64 };
     st_query q[N];
     memset(q, 0, sizeof q);
@@ -311,6 +317,8 @@ static void atlas_sampling_takes_the_modes_as_the_wire_does(void **state)
             assert_memory_equal(a, b, N * s->info.nchan * sizeof(float));
             assert_memory_equal(ca, cb, sizeof ca);
             assert_memory_equal(sa, sb, sizeof sa);
+            if (modes[m] == ST_MODE_DISCARD) /* the image Discard */
+                assert_true(st_sample_batch(plain, &o, q0, N, a, ca, sa) >= 0);
             memcpy(out[m], a, sizeof a);
             memcpy(cov[m], ca, sizeof ca);
         }
@@ -325,6 +333,7 @@ static void atlas_sampling_takes_the_modes_as_the_wire_does(void **state)
         if (f)
             assert_true(border >= N / 4); /* the queries do reach past the border */
     }
+    st_set_free(plain);
     st_set_free(s);
 }
 
@@ -371,10 +380,167 @@ static void huge_uvs_keep_the_chart_mask_and_chart_discard_defined(void **state)
     st_set_free(s);
 }
 
+/* atl28b: chart Discard. A 64 x 32 RGBA8 atlas of two charts side by side - A (a quad over
+ * columns 0..27, red with a gradient) and B (columns 36..63, green) - with an 8-texel blue
+ * gutter between them. */
+static st_set *two_chart_atlas(void)
+{
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_mesh_alloc(8, 8, 4, &m, &e), ST_OK);
+    /* two unit squares apart in 3D (no shared edge: two charts), uv quads [0, 28/64] and
+     * [36/64, 1] by [0, 1] */
+    const float pos[24] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 3, 0, 0, 4, 0, 0, 4, 1, 0, 3, 1, 0};
+    const float uv[16] = {0, 0, 28 / 64.0f, 0, 28 / 64.0f, 1, 0, 1,
+                          36 / 64.0f, 0, 1, 0, 1, 1, 36 / 64.0f, 1};
+    const uint32_t tri[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
+    memcpy(m->pos, pos, sizeof pos);
+    memcpy(m->uv, uv, sizeof uv);
+    memcpy(m->tri_pos, tri, sizeof tri);
+    memcpy(m->tri_uv, tri, sizeof tri);
+    static uint8_t px[32][64][4];
+    for (int j = 0; j < 32; j++)
+        for (int i = 0; i < 64; i++) {
+            uint8_t g = (uint8_t)(64 + (i * 3 + j * 5) % 128);
+            px[j][i][0] = i < 28 ? g : 0;
+            px[j][i][1] = i >= 36 ? g : 0;
+            px[j][i][2] = i >= 28 && i < 36 ? 255 : 0;
+            px[j][i][3] = 255;
+        }
+    st_image img = {.w = 64, .h = 32, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
+                    .data = &px[0][0][0]};
+    st_set *s = NULL;
+    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
+    const st_atlas *a = st_atlas_get(s);
+    assert_int_equal(a->mesh->seams->ncharts, 2);
+    assert_int_equal(a->ids.nlevels, s->faces[0].nlevels);
+    return s;
+}
+
+/* Near the seam, Discard keeps to the query's chart at every level (no green from B, no blue
+ * from the gutter at level 0) and says how much it dropped (coverage < 1), where Clamp bleeds
+ * B's green in from the coarser levels with coverage 1. */
+static void chart_discard_does_not_bleed_the_other_chart_at_any_level(void **state)
+{
+    (void)state;
+    st_set *s = two_chart_atlas();
+    struct {
+        uint8_t filter;
+        float du, dv; /* footprint in texels of level 0 along u and v */
+    } cases[] = {
+        {ST_FILTER_BILINEAR, 0, 0},    /* level 0: taps on columns 27 and 28 (the gutter) */
+        {ST_FILTER_BILINEAR, 16, 16},  /* level 4: its column 2 is mostly B */
+        {ST_FILTER_TRILINEAR, 12, 12}, /* levels 3 and 4 */
+        {ST_FILTER_ANISO, 32, 4},      /* 8 probes along u at level 2, reaching into B */
+        {ST_FILTER_POINT, 0, 0},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+        for (int k = 0; k < 8; k++) {
+            st_query q = {.face = 0, .u = (27.55f + 0.05f * (float)k) / 64.0f,
+                          .v = (4.0f + 3.0f * (float)k) / 32.0f,
+                          .dudx = cases[c].du / 64.0f, .dvdy = cases[c].dv / 32.0f};
+            float d[4], cl[4], cd, cc;
+            uint8_t sd, sc;
+            st_sample_opts od = {.mode = ST_MODE_DISCARD, .filter = cases[c].filter,
+                                 .max_aniso = 8};
+            st_sample_opts oc = od;
+            oc.mode = ST_MODE_CLAMP;
+            assert_int_equal(st_sample_batch(s, &od, &q, 1, d, &cd, &sd), 0);
+            assert_int_equal(st_sample_batch(s, &oc, &q, 1, cl, &cc, &sc), 0);
+            assert_int_equal(sd, ST_Q_OK);
+            assert_float_equal(cc, 1.0f, 0.0f);
+            assert_float_equal(d[1], 0.0f, 0.0f); /* nothing of B's green */
+            assert_true(d[0] > 0.2f);             /* A's red, renormalised */
+            if (cases[c].filter == ST_FILTER_POINT) {
+                assert_float_equal(cd, 1.0f, 0.0f); /* the query's own texel, in A */
+                continue;
+            }
+            assert_true(cd < 1.0f);
+            if (cases[c].du == 0)
+                assert_float_equal(d[2], 0.0f, 0.0f); /* nor the gutter's blue at level 0 */
+            if (cases[c].du >= 12) {
+                print_message("filter %u k %d: clamp green %.4f, discard coverage %.4f\n",
+                              cases[c].filter, k, cl[1], cd);
+                assert_true(cl[1] > 0.01f); /* Clamp bleeds B */
+            } else {
+                assert_true(cl[2] > 0.01f); /* Clamp bleeds the gutter */
+            }
+        }
+    }
+    st_set_free(s);
+}
+
+/* Where a query's footprint lies well inside its chart, Discard takes the fast path as Clamp
+ * and Traverse do: the three agree bit for bit, coverage exactly 1. */
+static void chart_discard_equals_clamp_bit_for_bit_inside_a_chart(void **state)
+{
+    (void)state;
+    st_set *s = two_chart_atlas();
+    enum { N = 512 };
+    st_query q[N];
+    unsigned r = 12345;
+    for (int i = 0; i < N; i++) {
+        r = r * 1103515245u + 12345u;
+        float a = (float)(r >> 8) / 16777216.0f;
+        r = r * 1103515245u + 12345u;
+        float b = (float)(r >> 8) / 16777216.0f;
+        r = r * 1103515245u + 12345u;
+        float f = (float)(r >> 8) / 16777216.0f * 2.0f; /* up to 2 texels: levels 0..2 */
+        int chart_b = i & 1;
+        /* columns 6..20 of A or 42..56 of B, rows 3..28: inside the chart at levels 0..2 */
+        q[i] = (st_query){.face = 0, .u = ((chart_b ? 42.0f : 6.0f) + 14.0f * a) / 64.0f,
+                          .v = (3.0f + 25.0f * b) / 32.0f, .dudx = f / 64.0f,
+                          .dvdx = (i % 3) * f / 128.0f, .dudy = 0, .dvdy = f / 32.0f};
+        if (i % 5 == 0)
+            q[i].dudx = q[i].dvdx = q[i].dvdy = 0;
+    }
+    static const uint8_t filters[4] = {ST_FILTER_POINT, ST_FILTER_BILINEAR, ST_FILTER_TRILINEAR,
+                                       ST_FILTER_ANISO};
+    for (int f = 0; f < 4; f++) {
+        float out[3][N * 4], cov[3][N];
+        uint8_t st[3][N];
+        for (int m = 0; m < 3; m++) {
+            st_sample_opts o = {.mode = (uint8_t)m, .filter = filters[f], .max_aniso = 4};
+            assert_int_equal(st_sample_batch(s, &o, q, N, out[m], cov[m], st[m]), 0);
+        }
+        assert_memory_equal(out[ST_MODE_DISCARD], out[ST_MODE_CLAMP], sizeof out[0]);
+        assert_memory_equal(out[ST_MODE_TRAVERSE], out[ST_MODE_CLAMP], sizeof out[0]);
+        for (int i = 0; i < N; i++)
+            assert_float_equal(cov[ST_MODE_DISCARD][i], 1.0f, 0.0f);
+    }
+    st_set_free(s);
+}
+
+/* The chart of a query in the gutter is the nearest chart texel among the 3 x 3 around it;
+ * with none there, Discard takes the image as one face (the rule before chart Discard). */
+static void chart_discard_in_the_gutter(void **state)
+{
+    (void)state;
+    st_set *s = two_chart_atlas();
+    st_sample_opts o = {.mode = ST_MODE_DISCARD, .filter = ST_FILTER_BILINEAR};
+    st_query q[2] = {{.face = 0, .u = 28.2f / 64.0f, .v = 0.5f},  /* gutter column 28 */
+                     {.face = 0, .u = 32.0f / 64.0f, .v = 0.5f}}; /* gutter middle */
+    float out[8], cov[2];
+    uint8_t st[2];
+    assert_int_equal(st_sample_batch(s, &o, q, 2, out, cov, st), 0);
+    /* column 27 (A) is the nearest: the taps on 27 and 28 keep 27 alone */
+    const uint8_t *p = st_face_level(s, 0, 0) + ((size_t)15 * 64 + 27) * 4;
+    const uint8_t *p2 = st_face_level(s, 0, 0) + ((size_t)16 * 64 + 27) * 4;
+    assert_float_equal(out[0], 0.5f * (p[0] + p2[0]) / 255.0f, 1e-5);
+    assert_float_equal(cov[0], 0.3f, 1e-5);
+    /* no chart within a texel: the image as one face, the gutter's blue, coverage 1 */
+    assert_float_equal(out[6], 1.0f, 0.0f);
+    assert_float_equal(cov[1], 1.0f, 0.0f);
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(two_triangles_with_split_uvs_make_one_seam),
+        cmocka_unit_test(chart_discard_does_not_bleed_the_other_chart_at_any_level),
+        cmocka_unit_test(chart_discard_equals_clamp_bit_for_bit_inside_a_chart),
+        cmocka_unit_test(chart_discard_in_the_gutter),
         cmocka_unit_test(shared_uvs_are_not_a_seam_even_with_duplicate_vt_entries),
         cmocka_unit_test(mirrored_chart_is_flagged),
         cmocka_unit_test(welding_merges_split_positions_before_seams),
