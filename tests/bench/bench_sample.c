@@ -1,9 +1,10 @@
 /* tests/bench/bench_sample.c - single-thread throughput of st_sample_batch: queries per second
- * for every mode x filter, on a cache-resident set and on a ~400 MB set, with random and with
+ * for every mode x filter, on a cache-resident set, on a ~400 MB set and on an atlas set (the
+ * shared duck: image + UV mesh, whose Discard is chart Discard), with random and with
  * coherent (scanline-ordered) queries, plus the Traverse / Discard cost ratio and a plain C
  * bilinear loop over one 2048^2 RGBA8 array as an in-process baseline.
  *
- * Usage: bench_sample [--json PATH] [--big-mb N] [--no-big] [--reps N] [--secs S]
+ * Usage: bench_sample [--json PATH] [--big-mb N] [--no-big] [--no-atlas] [--reps N] [--secs S]
  *
  * Footprints (level-0 texels of the query's face): point and bilinear 1 texel (level 0);
  * trilinear 1.5 texels (lod 0.58: two levels); aniso 8:1 (major 8 texels in a random
@@ -17,6 +18,8 @@
 #include <time.h>
 
 #include "../common/cube_fixture.h"
+#include "../common/testdata.h"
+#include "import.h"
 #include "quadmesh.h"
 #include "sample.h"
 #include "../common/benchstat.h"
@@ -193,7 +196,7 @@ int main(int argc, char **argv)
 {
     const char *json = NULL;
     double big_mb = 400, secs = 0.08;
-    int reps = 7, no_big = 0;
+    int reps = 7, no_big = 0, no_atlas = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--json") && i + 1 < argc)
             json = argv[++i];
@@ -205,8 +208,10 @@ int main(int argc, char **argv)
             secs = atof(argv[++i]);
         else if (!strcmp(argv[i], "--no-big"))
             no_big = 1;
+        else if (!strcmp(argv[i], "--no-atlas"))
+            no_atlas = 1;
         else {
-            fprintf(stderr, "usage: %s [--json PATH] [--big-mb N] [--no-big] [--reps N] "
+            fprintf(stderr, "usage: %s [--json PATH] [--big-mb N] [--no-big] [--no-atlas] [--reps N] "
                             "[--secs S]\n", argv[0]);
             return 2;
         }
@@ -222,13 +227,14 @@ int main(int argc, char **argv)
     c.st = malloc(BATCH);
 
     /* (a) cache-resident: 6 faces of 64 x 64 RGBA8; (b) a cube of 256 x 256 RGBA8 faces,
-     * subdivided until the texels reach about big_mb */
+     * subdivided until the texels reach about big_mb; (c) the duck atlas (SEAMTEX_DATA) */
     unsigned big_n = (unsigned)ceil(sqrt(big_mb * 1e6 / (6.0 * 65536 * 4 * 4.0 / 3)));
-    struct { const char *name; unsigned n, lg; } sets[2] = {{"cache", 1, 6}, {"big", big_n, 8}};
+    struct { const char *name; unsigned n, lg; } sets[3] = {{"cache", 1, 6}, {"big", big_n, 8},
+                                                            {"atlas", 0, 0}};
     const char *mname[3] = {"discard", "traverse", "clamp"};
     const char *fname[4] = {"point", "bilinear", "trilinear", "aniso8"};
-    double res[2][2][3][4], best[2][2][3][4], rat[2][2][4];
-    double setmb[2] = {0, 0};
+    double res[3][2][3][4], best[3][2][3][4], rat[3][2][4];
+    double setmb[3] = {0, 0, 0};
     memset(res, 0, sizeof res);
     memset(rat, 0, sizeof rat);
     memset(best, 0, sizeof best);
@@ -243,12 +249,29 @@ int main(int argc, char **argv)
     }
     printf("bench_sample: single thread, M queries per CPU-second (median of %d x %.2fs), RGBA8; "
            "load at start: %s\n", reps, secs, load);
-    for (int si = 0; si < 2; si++) {
-        if (si == 1 && no_big)
-            break;
+    for (int si = 0; si < 3; si++) {
+        if ((si == 1 && no_big) || (si == 2 && no_atlas))
+            continue;
         st_quadmesh mesh;
+        memset(&mesh, 0, sizeof mesh);
         double t0 = st_bench_now();
-        st_set *s = build_set(sets[si].n, sets[si].lg, &mesh);
+        st_set *s = NULL;
+        if (si < 2) {
+            s = build_set(sets[si].n, sets[si].lg, &mesh);
+        } else {
+            char obj[1024], png[1024];
+            st_import_opts io;
+            st_error e;
+            st_import_opts_init(&io);
+            io.texture_path = png;
+            if (st_test_data_path(obj, sizeof obj, "meshes/duck/Duck.obj") ||
+                st_test_data_path(png, sizeof png, "meshes/duck/DuckCM.png")) {
+                printf("\nset atlas: no shared data (SEAMTEX_DATA), skipped\n");
+                continue;
+            }
+            if (st_import_file(obj, &io, &s, &e) != 0)
+                fprintf(stderr, "atlas: %s\n", e.msg);
+        }
         if (!s) {
             fprintf(stderr, "could not build set %s\n", sets[si].name);
             return 1;
@@ -289,7 +312,8 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
         st_set_free(s);
-        st_quadmesh_free(&mesh);
+        if (si < 2)
+            st_quadmesh_free(&mesh);
     }
     double plain[2];
     for (int ord = 0; ord < 2; ord++)
@@ -313,10 +337,11 @@ int main(int argc, char **argv)
                     "\"best\": \"fastest rep\",\n", reps, secs);
         fprintf(fp, "  \"footprints\": {\"point\": \"1 texel\", \"bilinear\": \"1 texel\", "
                     "\"trilinear\": \"1.5 texels\", \"aniso8\": \"8 x 1 texels\"},\n");
-        fprintf(fp, "  \"sets\": {\"cache\": %.2f, \"big\": %.2f},\n", setmb[0], setmb[1]);
+        fprintf(fp, "  \"sets\": {\"cache\": %.2f, \"big\": %.2f, \"atlas\": %.2f},\n", setmb[0],
+                setmb[1], setmb[2]);
         fprintf(fp, "  \"results\": [\n");
         int first = 1;
-        for (int si = 0; si < 2; si++)
+        for (int si = 0; si < 3; si++)
             for (int ord = 0; ord < 2; ord++)
                 for (int m = 0; m < 3; m++)
                     for (int f = 0; f < 4; f++) {
@@ -330,7 +355,7 @@ int main(int argc, char **argv)
                     }
         fprintf(fp, "\n  ],\n  \"traverse_over_discard_cost\": [\n");
         first = 1;
-        for (int si = 0; si < 2; si++)
+        for (int si = 0; si < 3; si++)
             for (int ord = 0; ord < 2; ord++)
                 for (int f = 0; f < 4; f++) {
                     if (res[si][ord][1][f] <= 0)
