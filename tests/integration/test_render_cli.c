@@ -12,13 +12,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmocka.h>
 
+#include "../common/testdata.h"
 #include "unix_daemon.h"
 
-static char errpath[64], studydir[64];
+static char scratch[256], errpath[512], studydir[512];
 
 /* Runs seamtex-render --inproc ARGS... /nonexistent/m.obj; the exit status, stderr in errpath. */
 static int render(const char *const *args)
@@ -84,9 +86,11 @@ static void test_size_limits_per_job(void **state)
 
 int main(void)
 {
-    snprintf(errpath, sizeof errpath, "/tmp/test_render_cli.%d.err", (int)getpid());
-    snprintf(studydir, sizeof studydir, "/tmp/test_render_cli.XXXXXX");
-    if (!mkdtemp(studydir))
+    if (st_test_mkdtemp(scratch, sizeof scratch, "render_cli") != 0)
+        return 1;
+    snprintf(errpath, sizeof errpath, "%s/stderr.txt", scratch);
+    snprintf(studydir, sizeof studydir, "%s/study", scratch);
+    if (mkdir(studydir, 0700) != 0)
         return 1;
     FILE *f = fopen(errpath, "w");
     if (!f)
@@ -96,10 +100,7 @@ int main(void)
         cmocka_unit_test(test_size_limits_per_job),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
-    unlink(errpath);
-    char rm[128];
-    snprintf(rm, sizeof rm, "rm -rf %s", studydir);
-    if (system(rm) != 0)
+    if (st_test_rmtree(scratch) != 0)
         rc = 1;
     return rc;
 }
