@@ -9,7 +9,8 @@
  * DELETE frees the space: the refused upload then succeeds. A restart on the same data dir
  * shows exactly the acknowledged sets, whole. FETCH of an atlas set as PNG (written through a
  * temp file in the data dir) on a disk full to the last byte is IO, never an OK with a cut
- * file. The tmpfs is unmounted in the group teardown and,
+ * file. A file-size limit (RLIMIT_FSIZE, on a daemon of its own) refuses an upload with IO
+ * "File too large" and the daemon lives on. The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
 #include <errno.h>
@@ -24,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mount.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <sys/wait.h>
@@ -374,6 +376,43 @@ static void test_fetch_png_on_full_disk(void **state)
     unlink(got);
 }
 
+/* A file-size limit (ulimit -f, systemd LimitFSIZE=) refuses the write that passes it with
+ * EFBIG; the kernel also sends SIGXFSZ, whose default action killed seamtexd at its first
+ * upload or native file over the limit (dur28). Now the upload is refused with IO "File too
+ * large", the daemon serves on, and with the limit lifted the same upload succeeds. Needs no
+ * mount: its own daemon, the limit set on it with prlimit(2). */
+static void test_file_size_limit(void **state)
+{
+    (void)state;
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, NULL), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    size_t len = 0;
+    void *big = make_big(7, &len);
+    assert_non_null(big);
+    struct rlimit old, rl;
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, NULL, &old), 0);
+    rl = old;
+    rl.rlim_cur = 256 << 10;                   /* the soft limit: the hard one stays */
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, &rl, NULL), 0);
+    stc_upload_opts o = {.hint = "ptx"};
+    stc_upload_result r;
+    int rc = stc_upload_buffer(c, big, len, "over", &o, &r);
+    printf("# file-size limit 256 KiB: upload of %zu bytes: %s \"%s\"\n", len,
+           stc_strerror(rc), rc ? stc_errmsg(c) : "");
+    assert_int_equal(rc, STC_ESERVERIO);
+    assert_non_null(strcasestr(stc_errmsg(c), "file too large"));
+    assert_int_equal(stc_ping(c), 0);          /* alive, same connection */
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, &old, NULL), 0);
+    assert_int_equal(stc_upload_buffer(c, big, len, "over", &o, &r), 0);
+    stc_close(c);
+    free(big);
+    assert_int_equal(st_daemon_stop(&d, 20000), 0);
+    st_daemon_cleanup(&d);
+}
+
 static int group_setup(void **state)
 {
     (void)state;
@@ -409,6 +448,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_full_disk),
         cmocka_unit_test(test_fetch_png_on_full_disk),
+        cmocka_unit_test(test_file_size_limit),
     };
     return cmocka_run_group_tests_name("full_disk", tests, group_setup, group_teardown);
 }
