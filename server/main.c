@@ -2,8 +2,8 @@
  *
  * Owns: the process: flags and config file, the signal mask (SIGTERM, SIGINT and SIGHUP are
  * blocked in every thread and taken synchronously here with sigwaitinfo, so no handler and no
- * global flag are needed; SIGPIPE and SIGXFSZ are ignored), exit codes (0 clean stop, 1 start failure,
- * 2 bad usage). Runs in the foreground: it never forks (a Debian OpenImageIO quirk hangs in
+ * global flag are needed; SIGPIPE and SIGXFSZ are ignored), exit codes (0 clean stop, 1 start
+ * failure, 2 bad usage). Runs in the foreground: it never forks (a Debian OpenImageIO quirk hangs in
  * exit() after fork, and service managers want the foreground anyway).
  */
 #include <signal.h>

@@ -165,7 +165,7 @@ static void on_write(sts_server *srv, mconn *c)
 
 /* Returns 0, or the errno of an accept that failed for want of file descriptors (EMFILE,
  * ENFILE): the listener then stays readable, so the caller leaves it out of its poll for a
- * second rather than spin on it (dur28: the thread logged this ~1M times a second). */
+ * second rather than spin on it (dur28: the thread logged it ~32,000 times a second). */
 static int on_accept(sts_server *srv, mconn *conns)
 {
     for (;;) {
