@@ -19,6 +19,7 @@
  */
 #include <arpa/inet.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <stdio.h>
@@ -911,6 +912,46 @@ static void take_adopted(sts_io *io)
     }
 }
 
+/* accept4 failed with EMFILE / ENFILE while connections wait in the backlog. The listener
+ * stays readable (level-triggered), so returning would wake this loop again at once: before
+ * dur28 an fd limit below the connections offered spun the I/O threads and logged the
+ * warning millions of times a minute. Instead the spare descriptor is closed, one waiting
+ * connection accepted and answered BUSY ("out of file descriptors"), and the spare taken
+ * again; 1 when one was shed (the caller goes on with the backlog). Without a spare (another
+ * thread holds it, or it could not be reopened) the listener leaves this thread's poller
+ * until its next 1 s tick. One log line per 10 s, with the count shed since the last one. */
+static int accept_starved(sts_io *io, int err)
+{
+    sts_server *srv = io->srv;
+    int shed = 0;
+    int spare = __atomic_exchange_n(&srv->spare_fd, -1, __ATOMIC_ACQ_REL);
+    if (spare >= 0) {
+        close(spare);
+        int fd = accept4(srv->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd >= 0) {
+            reject(srv, fd, STP_S_BUSY,
+                   "out of file descriptors: the server cannot take a connection now");
+            __atomic_add_fetch(&srv->starved_shed, 1, __ATOMIC_RELAXED);
+            shed = 1;
+        }
+        __atomic_store_n(&srv->spare_fd, open("/dev/null", O_RDONLY | O_CLOEXEC),
+                         __ATOMIC_RELEASE);
+    }
+    if (!shed && !io->listen_paused && sts_ev_del(io->ev, srv->listen_fd) == 0)
+        io->listen_paused = 1;
+    int64_t now = sts_now_ms();
+    int64_t last = __atomic_load_n(&srv->starved_log_ms, __ATOMIC_RELAXED);
+    if ((last == 0 || now - last >= 10000) &&
+        __atomic_compare_exchange_n(&srv->starved_log_ms, &last, now, 0, __ATOMIC_RELAXED,
+                                    __ATOMIC_RELAXED)) {
+        uint64_t n = __atomic_exchange_n(&srv->starved_shed, 0, __ATOMIC_RELAXED);
+        sts_logf(&srv->log, STS_WARN, "accept: %s: %llu connections answered BUSY in the last "
+                 "10 s (raise the fd limit or lower max-conns)", strerror(err),
+                 (unsigned long long)n);
+    }
+    return shed;
+}
+
 static void do_accept(sts_io *io)
 {
     sts_server *srv = io->srv;
@@ -920,9 +961,8 @@ static void do_accept(sts_io *io)
         int fd = accept4(srv->listen_fd, (struct sockaddr *)&sa, &salen,
                          SOCK_NONBLOCK | SOCK_CLOEXEC);
         if (fd < 0) {
-            if (errno == EMFILE || errno == ENFILE)
-                sts_logf(&srv->log, STS_WARN, "accept: %s (raise the fd limit or max-conns)",
-                         strerror(errno));
+            if ((errno == EMFILE || errno == ENFILE) && accept_starved(io, errno))
+                continue;
             return;
         }
         if (__atomic_load_n(&srv->stopping, __ATOMIC_RELAXED)) {
@@ -1126,7 +1166,8 @@ void *sts_io_main(void *arg)
         int stopping = __atomic_load_n(&srv->stopping, __ATOMIC_ACQUIRE);
         if (stopping) {
             if (listening) {
-                sts_ev_del(io->ev, srv->listen_fd);
+                if (!io->listen_paused)
+                    sts_ev_del(io->ev, srv->listen_fd);
                 listening = 0;
             }
             if (drain_step(io, stopping >= 2) == 0)
@@ -1173,6 +1214,10 @@ void *sts_io_main(void *arg)
         if (now - last_scan >= 1000) {
             idle_scan(io, now);
             last_scan = now;
+            /* back to accepting after an fd shortage paused it (accept_starved) */
+            if (io->listen_paused && listening && !stopping &&
+                sts_ev_add(io->ev, srv->listen_fd, STS_EV_READ | STS_EV_EXCLUSIVE, srv) == 0)
+                io->listen_paused = 0;
         }
     }
     /* the loop ends with no connection left; a task still out would have kept one */

@@ -105,6 +105,10 @@ struct sts_io {
                                           a second old (0 = none): eviction candidates */
     uint32_t        evict_req;     /* atomic: evictions other threads asked of this one */
     int             cpu;           /* the CPU this thread is pinned to (pin-io), -1 = none */
+    int             listen_paused; /* out of file descriptors with no spare to shed with: the
+                                      listener is out of this poller until the next 1 s tick
+                                      (io.c: accept_starved), so a readable listener whose
+                                      accept fails cannot spin the loop */
     /* Two input buffers (a split read's pair) and one output buffer (<= 64 KiB each) that a
      * connection of this thread released when everything was answered, kept for the next
      * connection that reads: a request / reply cycle then neither mallocs and frees them nor

@@ -2,8 +2,8 @@
  *
  * Owns: the process: flags and config file, the signal mask (SIGTERM, SIGINT and SIGHUP are
  * blocked in every thread and taken synchronously here with sigwaitinfo, so no handler and no
- * global flag are needed; SIGPIPE is ignored), exit codes (0 clean stop, 1 start failure,
- * 2 bad usage). Runs in the foreground: it never forks (a Debian OpenImageIO quirk hangs in
+ * global flag are needed; SIGPIPE and SIGXFSZ are ignored), exit codes (0 clean stop, 1 start
+ * failure, 2 bad usage). Runs in the foreground: it never forks (a Debian OpenImageIO quirk hangs in
  * exit() after fork, and service managers want the foreground anyway).
  */
 #include <signal.h>
@@ -33,6 +33,9 @@ int main(int argc, char **argv)
     sigaddset(&set, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &set, NULL);  /* before any thread exists: all inherit it */
     signal(SIGPIPE, SIG_IGN);
+    /* a file-size limit (ulimit -f, LimitFSIZE=) must fail the one write with EFBIG - an IO
+     * reply, "File too large" - not kill the daemon with SIGXFSZ (dur28) */
+    signal(SIGXFSZ, SIG_IGN);
 
     static sts_server srv;  /* large (per-opcode counters); lives for the whole process */
     if (sts_server_init(&srv, &cfg) != 0 || sts_server_start(&srv) != 0) {

@@ -24,7 +24,8 @@
  *   headers past 8 KiB                                           431
  * A request body is never read. After its response the connection is half-closed and what the
  * client still sends is read and dropped (up to 64 KiB or 1 s) so that the response is not
- * lost to a reset.
+ * lost to a reset. Out of file descriptors (EMFILE), the listener sits out of the poll for a
+ * second at a time, with one warning per 10 s, instead of waking the thread again at once.
  */
 #include <errno.h>
 #include <netdb.h>
@@ -162,16 +163,21 @@ static void on_write(sts_server *srv, mconn *c)
         c->deadline_ms = linger;
 }
 
-static void on_accept(sts_server *srv, mconn *conns)
+/* Returns 0, or the errno of an accept that failed for want of file descriptors (EMFILE,
+ * ENFILE): the listener then stays readable, so the caller leaves it out of its poll for a
+ * second rather than spin on it (dur28: the thread logged it ~32,000 times a second). */
+static int on_accept(sts_server *srv, mconn *conns)
 {
     for (;;) {
         int fd = accept4(srv->metrics.fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
         if (fd < 0) {
             if (errno == EINTR || errno == ECONNABORTED)
                 continue;
+            if (errno == EMFILE || errno == ENFILE)
+                return errno;
             if (errno != EAGAIN)
                 sts_logf(&srv->log, STS_WARN, "metrics: accept: %s", strerror(errno));
-            return;
+            return 0;
         }
         mconn *slot = NULL, *oldest = NULL;
         for (int i = 0; i < STS_METRICS_MAX_CONNS && !slot; i++) {
@@ -193,6 +199,7 @@ static void on_accept(sts_server *srv, mconn *conns)
         slot->drained = 0;
         stp_buf_init(&slot->out);
     }
+    return 0;
 }
 
 static void *metrics_main(void *arg)
@@ -208,11 +215,15 @@ static void *metrics_main(void *arg)
         conns[i].fd = -1;
     struct pollfd pfd[2 + STS_METRICS_MAX_CONNS];
     mconn *who[2 + STS_METRICS_MAX_CONNS];
+    int64_t paused_until = 0, starved_log_ms = 0;  /* out of fds: on_accept */
     for (;;) {
         int n = 0, timeout = -1;
         int64_t now = sts_now_ms();
         pfd[n++] = (struct pollfd){m->wakefd, POLLIN, 0};
-        pfd[n++] = (struct pollfd){m->fd, POLLIN, 0};
+        /* a negative fd is ignored by poll: the listener sits out a pause */
+        pfd[n++] = (struct pollfd){now < paused_until ? -1 : m->fd, POLLIN, 0};
+        if (now < paused_until)
+            timeout = (int)(paused_until - now);
         for (int i = 0; i < STS_METRICS_MAX_CONNS; i++) {
             mconn *c = &conns[i];
             if (c->fd < 0)
@@ -247,8 +258,18 @@ static void *metrics_main(void *arg)
             if (c->fd >= 0 && c->state == C_WRITE)
                 on_write(srv, c);                          /* most responses go at once */
         }
-        if (pfd[1].revents)
-            on_accept(srv, conns);
+        if (pfd[1].revents) {
+            int err = on_accept(srv, conns);
+            if (err) {
+                int64_t t = sts_now_ms();
+                paused_until = t + 1000;
+                if (starved_log_ms == 0 || t - starved_log_ms >= 10000) {
+                    starved_log_ms = t;
+                    sts_logf(&srv->log, STS_WARN, "metrics: accept: %s (scrapes wait; raise "
+                             "the fd limit)", strerror(err));
+                }
+            }
+        }
     }
     for (int i = 0; i < STS_METRICS_MAX_CONNS; i++)
         if (conns[i].fd >= 0)

@@ -158,6 +158,7 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     memset(srv, 0, sizeof *srv);
     srv->cfg = *cfg;
     srv->listen_fd = -1;
+    srv->spare_fd = open("/dev/null", O_RDONLY | O_CLOEXEC);  /* io.c: accept_starved */
     srv->token_gen = 1;
     srv->started_ms = sts_now_ms();
     sts_log_set_level(&srv->log, cfg->log_level);
@@ -402,6 +403,8 @@ void sts_server_free(sts_server *srv)
     srv->io = NULL;
     if (srv->listen_fd >= 0)
         close(srv->listen_fd);
+    if (srv->spare_fd >= 0)
+        close(srv->spare_fd);
     sts_metrics_close(srv);
     sts_unix_unlink(&srv->ulisten);
     sts_cluster_free(srv);

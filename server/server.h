@@ -97,6 +97,13 @@ struct sts_server {
     st_registry    *reg;
     st_datadir     *dd;           /* NULL without --data-dir */
     int             listen_fd;
+    int             spare_fd;     /* atomic: /dev/null, held so that at EMFILE / ENFILE an I/O
+                                     thread can close it, accept one waiting connection and
+                                     answer it BUSY instead of leaving the listener readable
+                                     (io.c: accept_starved); -1 while in use */
+    int64_t         starved_log_ms; /* atomic: when the last "out of file descriptors" line was
+                                       logged (one per 10 s, with the count since) */
+    uint64_t        starved_shed;   /* atomic: connections shed that way since that line */
     int             port;         /* bound port (0 on a Unix socket) */
     sts_unix_listener ulisten;    /* --listen unix:PATH (listen_unix.h) */
     sts_io         *io;           /* cfg.io_threads of them (io.h) */

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "atlas.h"
@@ -121,6 +122,25 @@ static int image_mem(const st_image *img, const char *ext, const char *tmpdir, v
         return st_fail(e, ST_EIO, "cannot create a temp file for the export: %s", strerror(errno));
     close(fd);
     int rc = st_image_write_img(path, img, e);
+    /* OpenImageIO 2.4 reports success for a file its writes could not fill (a full disk left
+     * a 0-byte PNG, served as the set): the file must read back as this image before it is
+     * handed out. */
+    if (rc == ST_OK) {
+        st_image back;
+        st_error be;
+        st_error_clear(&be);
+        st_image_caps caps = {0, SIZE_MAX / 2};
+        int brc = st_image_read_any(path, &caps, &back, &be);
+        int same = brc == ST_OK && back.w == img->w && back.h == img->h;
+        st_image_free(&back);
+        if (!same) {
+            struct statvfs vfs;
+            int full = statvfs(dir, &vfs) == 0 && vfs.f_bavail == 0;
+            rc = st_fail(e, ST_EIO, "the %s file written for the export does not read back "
+                         "(%.200s)%s", ext, brc ? be.msg : "another size",
+                         full ? ": No space left on device" : "");
+        }
+    }
     if (rc == ST_OK)
         rc = st_file_read(path, SIZE_MAX / 2, buf, len, e);
     unlink(path);

@@ -16,7 +16,9 @@
  *   BC1                      DDS     the BC1 set (bc1/dds.c)                  the same BC1 set
  *
  * Does not own: the writers themselves (ptex/, bc1/dds.c, image_io.h). Images go through a
- * temp file in the caller's folder (OpenImageIO writes files), removed before returning.
+ * temp file in the caller's folder (OpenImageIO writes files), removed before returning; the
+ * file must read back as the image (same size) before its bytes are handed out: OpenImageIO
+ * 2.4 reports success for a file a full disk cut short (ST_EIO, "No space left on device").
  *
  * Ownership: *buf is malloc'ed; the caller frees it.
  */

@@ -580,6 +580,17 @@ int st_datadir_delete(st_datadir *d, const char *name,
     pathf(setdir, "%s/%s", sets, name);
     aside_path(dst, trash, name, id);
     pthread_mutex_lock(&d->mu);
+    /* as a commit: a manifest that cannot be read (a set left unloaded at start because of
+     * its permissions, or a failing disk) says nothing about what is there: touch nothing */
+    char man[PATHCAP];
+    pathf(man, "%s/manifest", setdir);
+    st_manifest old;
+    st_error oe;
+    int orc = st_manifest_read(man, &old, &oe);
+    if (orc && orc != ST_ENOTFOUND && orc != ST_EFORMAT && orc != ST_EUNSUPPORTED) {
+        pthread_mutex_unlock(&d->mu);
+        return st_fail(e, orc, "%s", oe.msg);
+    }
     if (rename(setdir, dst) != 0) {
         int err = errno;
         pthread_mutex_unlock(&d->mu);
@@ -711,6 +722,35 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         move_broken(d, "badname", setdir);
         return 0;
     }
+    /* An entry that is not a directory (a file an operator left in sets/) is no set: it goes
+     * to broken/ (never removed) instead of failing the start with ENOTDIR. */
+    struct stat dst;
+    if (stat(setdir, &dst) == 0 && !S_ISDIR(dst.st_mode)) {
+        if (L->report)
+            L->report(L->arg, name, "not a set directory: moved to broken/");
+        move_broken(d, name, setdir);
+        return 0;
+    }
+    /* A set this process may not read (its directory or manifest has the wrong owner or
+     * mode) says nothing about the set and nothing about the others: it stays where it is,
+     * unloaded and reported, and the start goes on (a commit of that name refuses with EIO,
+     * as it cannot read the manifest either). Fixing its permissions loads it next start. */
+    const char *denied = NULL;
+    if (faccessat(AT_FDCWD, setdir, R_OK | X_OK, AT_EACCESS) != 0 &&
+        (errno == EACCES || errno == EPERM))
+        denied = "its directory";
+    else if (faccessat(AT_FDCWD, man, R_OK, AT_EACCESS) != 0 &&
+             (errno == EACCES || errno == EPERM))
+        denied = "its manifest";
+    if (denied) {
+        if (L->report) {
+            char w[160];
+            snprintf(w, sizeof w, "%s cannot be read (%s): left in place, not loaded; fix its "
+                     "permissions and restart", denied, strerror(EACCES));
+            L->report(L->arg, name, w);
+        }
+        return 0;
+    }
     st_manifest m;
     int rc = st_manifest_read(man, &m, &err);
     if (rc == ST_ENOTFOUND) {
@@ -737,7 +777,9 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
             closedir(sd);
         pathf(src, "%s/%s", setdir, m.source);
         if (stat(src, &sst) != 0)
-            rc = st_fail(&err, ST_EIO, "source %s: %s", m.source, strerror(errno));
+            /* gone (deleted by hand): the set is bad, not the disk; a failing call stays EIO */
+            rc = st_fail(&err, errno == ENOENT || errno == ENOTDIR ? ST_ECORRUPT : ST_EIO,
+                         "source %s: %s", m.source, strerror(errno));
         else if ((uint64_t)sst.st_size != m.bytes)
             rc = st_fail(&err, ST_ECORRUPT, "source has %llu bytes, manifest says %llu",
                          (unsigned long long)sst.st_size, (unsigned long long)m.bytes);

@@ -171,7 +171,10 @@ typedef struct st_datadir_loader {
  * the set served from it. A set whose source is bad or does not import is moved to broken/.
  * Returns the number of sets published, or a negative code when sets/ cannot be read or a
  * set fails for a reason that says nothing about it (ST_ENOMEM, ST_EIO: the set is left in
- * place, not moved to broken/, and the load stops, as st_datadir_load). */
+ * place, not moved to broken/, and the load stops, as st_datadir_load). Not a set, nor a
+ * reason to stop: an entry of sets/ that is not a directory (moved to broken/ and reported), a
+ * set whose directory or manifest this process may not read (EACCES: left in place, reported,
+ * not loaded), a manifest whose source file is missing (the set moved to broken/). */
 int st_datadir_load_sets(st_datadir *d, const st_datadir_loader *L, st_error *e);
 
 /* Stages tmp_path (complete, from st_datadir_tmpfile) as new contents for set name (see

@@ -7,7 +7,10 @@
  * A COMPRESS whose result does not fit fails the same way (the job's result). Reads keep
  * working on the full disk (LIST, FETCH_OPEN of every stored set byte for byte, SAMPLE, PING).
  * DELETE frees the space: the refused upload then succeeds. A restart on the same data dir
- * shows exactly the acknowledged sets, whole. The tmpfs is unmounted in the group teardown and,
+ * shows exactly the acknowledged sets, whole. FETCH of an atlas set as PNG (written through a
+ * temp file in the data dir) on a disk full to the last byte is IO, never an OK with a cut
+ * file. A file-size limit (RLIMIT_FSIZE, on a daemon of its own) refuses an upload with IO
+ * "File too large" and the daemon lives on. The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
 #include <errno.h>
@@ -22,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mount.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <sys/wait.h>
@@ -33,6 +37,7 @@
 #include "../common/daemon_fixture.h"
 #include "../common/testdata.h"
 #include "fdio.h"
+#include "image_io.h"
 #include "ptex.h"
 #include "set.h"
 
@@ -275,6 +280,139 @@ static void test_full_disk(void **state)
     check_reads();
 }
 
+/* Fills the data dir's file system to the last byte with a file of its own (removed by the
+ * caller); returns its path's length (0 on failure). */
+static size_t fill_disk(char *path, size_t cap)
+{
+    snprintf(path, cap, "%s/filler", D.datadir);
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0)
+        return 0;
+    static char block[65536];
+    memset(block, 0x5a, sizeof block);
+    for (size_t n = sizeof block; n > 0; n /= 2)
+        while (write(fd, block, n) == (ssize_t)n)
+            ;
+    close(fd);
+    return strlen(path);
+}
+
+/* FETCH of an atlas set as PNG goes through a temp file in the data dir's tmp/ (store/import/
+ * export.c). On a full disk OpenImageIO 2.4 reported success for a PNG it could not write, and
+ * FETCH_OPEN answered OK with an empty (or cut) file and its CRC: a silent wrong answer (dur28).
+ * Now the export reads the file back first: IO "... No space left on device"; with space again
+ * the same bytes as before. */
+static void test_fetch_png_on_full_disk(void **state)
+{
+    (void)state;
+    if (SKIP_WHY[0]) {
+        printf("# SKIP %s\n", SKIP_WHY);
+        skip();
+    }
+    /* a 256 x 256 RGB image of noise (~190 KiB as PNG), made here, uploaded as an atlas set */
+    enum { W = 256 };
+    unsigned char *px = malloc(W * W * 3);
+    assert_non_null(px);
+    unsigned x = 28u;
+    for (size_t k = 0; k < W * W * 3; k++) {
+        x = x * 1103515245u + 12345u;
+        px[k] = (unsigned char)(x >> 16);
+    }
+    char src[400], ref[400], got[400], filler[400];
+    snprintf(src, sizeof src, "%s/noise.png", D.dir);
+    snprintf(ref, sizeof ref, "%s/ref.png", D.dir);
+    snprintf(got, sizeof got, "%s/got.png", D.dir);
+    st_error e;
+    assert_int_equal(st_image_write(src, W, W, 3, ST_DT_U8, px, &e), 0);
+    free(px);
+    stc_upload_opts o = {.hint = "png"};
+    stc_upload_result r;
+    int rc = -1;
+    for (int i = 0; i < NBIG && rc != 0; i++) {      /* make room when the disk is still full */
+        rc = stc_upload_file(C, src, "pic", &o, &r);
+        char big[32];
+        snprintf(big, sizeof big, "big-%d", i);
+        if (rc != 0 && STORED[i] && stc_delete(C, big) == 0)
+            STORED[i] = 0;
+    }
+    assert_int_equal(rc, 0);
+    assert_int_equal(stc_fetch_file(C, "pic", STC_FETCH_PNG, ref, NULL, NULL), 0);
+    /* the disk full to the last byte: FETCH refuses clearly, or (never) answers the same bytes */
+    assert_true(fill_disk(filler, sizeof filler) > 0);
+    rc = stc_fetch_file(C, "pic", STC_FETCH_PNG, got, NULL, NULL);
+    printf("# full disk: FETCH_OPEN png of an atlas set: %s \"%s\"\n", stc_strerror(rc),
+           rc ? stc_errmsg(C) : "");
+    if (rc == 0) {
+        void *a = NULL, *b = NULL;
+        size_t na = 0, nb = 0;
+        assert_int_equal(stu_read_file(ref, 1u << 30, &a, &na), 0);
+        assert_int_equal(stu_read_file(got, 1u << 30, &b, &nb), 0);
+        int same = na == nb && !memcmp(a, b, na);
+        if (!same)
+            fprintf(stderr, "FETCH png on a full disk answered OK with %zu bytes, not %zu\n",
+                    nb, na);
+        free(a);
+        free(b);
+        assert_true(same);
+    } else {
+        assert_int_equal(rc, STC_ESERVERIO);
+        assert_non_null(strcasestr(stc_errmsg(C), "no space left on device"));
+    }
+    assert_int_equal(tmp_entries(), 0);
+    assert_int_equal(stc_ping(C), 0);
+    /* space again: the same bytes as before */
+    assert_int_equal(unlink(filler), 0);
+    assert_int_equal(stc_fetch_file(C, "pic", STC_FETCH_PNG, got, NULL, NULL), 0);
+    void *a = NULL, *b = NULL;
+    size_t na = 0, nb = 0;
+    assert_int_equal(stu_read_file(ref, 1u << 30, &a, &na), 0);
+    assert_int_equal(stu_read_file(got, 1u << 30, &b, &nb), 0);
+    assert_true(na == nb && !memcmp(a, b, na));
+    free(a);
+    free(b);
+    assert_int_equal(stc_delete(C, "pic"), 0);
+    unlink(src);
+    unlink(ref);
+    unlink(got);
+}
+
+/* A file-size limit (ulimit -f, systemd LimitFSIZE=) refuses the write that passes it with
+ * EFBIG; the kernel also sends SIGXFSZ, whose default action killed seamtexd at its first
+ * upload or native file over the limit (dur28). Now the upload is refused with IO "File too
+ * large", the daemon serves on, and with the limit lifted the same upload succeeds. Needs no
+ * mount: its own daemon, the limit set on it with prlimit(2). */
+static void test_file_size_limit(void **state)
+{
+    (void)state;
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, NULL), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    size_t len = 0;
+    void *big = make_big(7, &len);
+    assert_non_null(big);
+    struct rlimit old, rl;
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, NULL, &old), 0);
+    rl = old;
+    rl.rlim_cur = 256 << 10;                   /* the soft limit: the hard one stays */
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, &rl, NULL), 0);
+    stc_upload_opts o = {.hint = "ptx"};
+    stc_upload_result r;
+    int rc = stc_upload_buffer(c, big, len, "over", &o, &r);
+    printf("# file-size limit 256 KiB: upload of %zu bytes: %s \"%s\"\n", len,
+           stc_strerror(rc), rc ? stc_errmsg(c) : "");
+    assert_int_equal(rc, STC_ESERVERIO);
+    assert_non_null(strcasestr(stc_errmsg(c), "file too large"));
+    assert_int_equal(stc_ping(c), 0);          /* alive, same connection */
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, &old, NULL), 0);
+    assert_int_equal(stc_upload_buffer(c, big, len, "over", &o, &r), 0);
+    stc_close(c);
+    free(big);
+    assert_int_equal(st_daemon_stop(&d, 20000), 0);
+    st_daemon_cleanup(&d);
+}
+
 static int group_setup(void **state)
 {
     (void)state;
@@ -309,6 +447,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_full_disk),
+        cmocka_unit_test(test_fetch_png_on_full_disk),
+        cmocka_unit_test(test_file_size_limit),
     };
     return cmocka_run_group_tests_name("full_disk", tests, group_setup, group_teardown);
 }

@@ -8,10 +8,13 @@
  * after the load agrees with STATS key by key (one set of counters); every HTTP request other
  * than GET / HEAD /metrics gets its 4xx; hostile clients (a 10 MB header, a byte-a-moment
  * sender, binary garbage, a flood of connections) get a 4xx or a closed connection while the
- * data port keeps answering PING and SAMPLE and /metrics keeps answering scrapes. Each test
+ * data port keeps answering PING and SAMPLE and /metrics keeps answering scrapes; at the fd
+ * limit a waiting scrape does not spin the metrics thread, and is answered once descriptors
+ * are free. Each test
  * starts its own daemon on 127.0.0.1 port 0 with --metrics-listen 127.0.0.1:0 (the port is
  * read from STATS metrics_port). A missing /usr/bin/promtool fails the test.
  */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <pthread.h>
@@ -24,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <netinet/in.h>
@@ -815,6 +819,92 @@ static void hostile_clients_do_not_harm_the_daemon(void **state)
     assert_int_equal(st_daemon_down(&d, 20000), 0);
 }
 
+/* Lines of the daemon's log that contain needle. */
+static int log_lines_with(const st_daemon *d, const char *needle)
+{
+    FILE *f = fopen(d->log, "r");
+    if (!f)
+        return -1;
+    char line[1024];
+    int n = 0;
+    while (fgets(line, sizeof line, f))
+        n += strstr(line, needle) != NULL;
+    fclose(f);
+    return n;
+}
+
+/* The daemon at its fd limit while a scraper connects (dur28): accept4 fails with EMFILE and
+ * the listener stays readable. Before, the metrics thread polled it again at once, logging
+ * "metrics: accept: Too many open files" about a million times a second for as long as the
+ * scraper waited. Now the listener sits out a second at a time with one warning per 10 s, the
+ * data path serves on, and once descriptors are free the waiting scrape is answered. */
+static void fd_shortage_does_not_spin_the_metrics_thread(void **state)
+{
+    (void)state;
+    st_daemon d;
+    assert_int_equal(st_daemon_up(&d, METRICS_ARGS), 0);
+    int port = metrics_port(&d);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    /* the limit just above the highest descriptor, then data connections until the holes
+     * below it are taken (the first BUSY answer says so): not one descriptor is left */
+    char path[64];
+    snprintf(path, sizeof path, "/proc/%d/fd", (int)d.pid);
+    int maxfd = -1;
+    DIR *dir = opendir(path);
+    assert_non_null(dir);
+    for (struct dirent *de; (de = readdir(dir));)
+        if (de->d_name[0] != '.' && atoi(de->d_name) > maxfd)
+            maxfd = atoi(de->d_name);
+    closedir(dir);
+    struct rlimit old, rl;
+    assert_int_equal(prlimit(d.pid, RLIMIT_NOFILE, NULL, &old), 0);
+    rl = old;
+    rl.rlim_cur = (rlim_t)maxfd + 1;
+    assert_int_equal(prlimit(d.pid, RLIMIT_NOFILE, &rl, NULL), 0);
+    enum { FILL = 900 };
+    static int fill[FILL];
+    int nfill = 0, busy = 0;
+    for (int i = 0; i < FILL && !busy; i++, nfill++) {
+        fill[i] = st_daemon_connect(&d);
+        assert_true(fill[i] >= 0);
+        uint8_t frame[24] = {'S', 'T', 'X', '1', 1, 0x02, 0, 0, 1};   /* PING, reqid 1 */
+        assert_int_equal(send_all(fill[i], frame, sizeof frame), 0);
+        uint8_t reply[24];
+        size_t got = 0;
+        while (got < sizeof reply && st_wait_readable(fill[i], 10000)) {
+            ssize_t r = recv(fill[i], reply + got, sizeof reply - got, 0);
+            if (r <= 0)
+                break;
+            got += (size_t)r;
+        }
+        assert_int_equal(got, sizeof reply);   /* served, or BUSY when none was left */
+        busy += reply[12] == 9;
+    }
+    printf("# highest fd %d, fd limit %d: data connection %d answered BUSY\n", maxfd,
+           maxfd + 1, nfill);
+    assert_true(busy > 0);
+    int fd = connect_port(port);               /* completes in the kernel's backlog */
+    const char *req = "GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n";
+    assert_int_equal(send_all(fd, req, strlen(req)), 0);
+    assert_int_equal(st_wait_file_has(d.log, "metrics: accept:", 10000), 0);
+    for (int i = 0; i < 50; i++)               /* the data path is served meanwhile */
+        assert_int_equal(stc_ping(c), 0);
+    int lines = log_lines_with(&d, "metrics: accept:");
+    printf("# 'metrics: accept:' warnings while the scrape waits: %d\n", lines);
+    assert_true(lines >= 1 && lines <= 2);
+    assert_int_equal(prlimit(d.pid, RLIMIT_NOFILE, &old, NULL), 0);
+    size_t len;
+    char *resp = read_to_close(fd, &len);      /* answered after the pause */
+    assert_int_equal(status_of(resp), 200);
+    free(resp);
+    close(fd);
+    for (int i = 0; i < nfill; i++)
+        close(fill[i]);
+    stc_close(c);
+    assert_int_equal(st_daemon_down(&d, 20000), 0);
+}
+
 /* --metrics-listen with a bare port means loopback; a bad address stops the start. */
 static void bad_metrics_address_is_refused(void **state)
 {
@@ -837,6 +927,7 @@ int main(void)
         cmocka_unit_test(only_get_metrics_is_served),
         cmocka_unit_test(hostile_clients_do_not_harm_the_daemon),
         cmocka_unit_test(bad_metrics_address_is_refused),
+        cmocka_unit_test(fd_shortage_does_not_spin_the_metrics_thread),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

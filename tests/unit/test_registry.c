@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 #include <ftw.h>
 
@@ -495,6 +496,116 @@ static void datadir_stages_publishes_and_drops(void **state)
     st_test_rmtree(root);
 }
 
+/* Loads root as a process that may not read what root can (uid/gid 65534 when run as root,
+ * after handing it the tree; else this process): the count of sets loaded, or a negative
+ * code; *reports gets the loader's reports. Runs in a child so the test keeps its uid. */
+static int load_as_user(const char *root, int *reports, const char *del, int *del_rc)
+{
+    int pfd[2];
+    if (pipe(pfd) != 0)
+        return -1000;
+    pid_t pid = fork();
+    if (pid == 0) {
+        close(pfd[0]);
+        if (geteuid() == 0) {
+            char cmd[512];
+            snprintf(cmd, sizeof cmd, "chown -R 65534:65534 '%s'", root);
+            if (system(cmd) != 0 || setgid(65534) != 0 || setuid(65534) != 0)
+                _exit(3);
+        }
+        loaded l;
+        memset(&l, 0, sizeof l);
+        st_datadir *d = NULL;
+        st_error e;
+        int res[3] = {-2000, 0, 0};
+        if (st_datadir_open(root, &d, &e) == 0) {
+            res[0] = st_datadir_load(d, load_cb, &l, report_cb, &e);
+            res[1] = l.reports;
+            if (del)  /* a set not loaded is not deleted blind either */
+                res[2] = st_datadir_delete(d, del, NULL, NULL, &e);
+            st_datadir_close(d);
+        }
+        ssize_t w = write(pfd[1], res, sizeof res);
+        _exit(w == (ssize_t)sizeof res ? 0 : 4);
+    }
+    close(pfd[1]);
+    int res[3] = {-3000, 0, 0};
+    ssize_t r = read(pfd[0], res, sizeof res);
+    close(pfd[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (r != (ssize_t)sizeof res)
+        return -4000;
+    *reports = res[1];
+    if (del_rc)
+        *del_rc = res[2];
+    return res[0];
+}
+
+/* Damage an operator may leave in sets/ stops nothing but the set it touches (dur28): a file
+ * that is not a set directory goes to broken/, a set whose source file was deleted goes to
+ * broken/, a set whose directory or manifest cannot be read stays in place unloaded; the
+ * other sets load, and a DELETE of the unloaded set is refused (IO) rather than removing what
+ * it cannot read. Before, each of these failed the whole start (ENOTDIR, ENOENT and EACCES
+ * were taken for a failing disk). */
+static void datadir_load_survives_stray_and_unreadable_entries(void **state)
+{
+    (void)state;
+    char root[] = "/tmp/st-datadir-XXXXXX";
+    assert_non_null(mkdtemp(root));
+    st_datadir *d = NULL;
+    st_error e;
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    assert_int_equal(commit_text(d, "good", "fine", "ptx"), 0);
+    assert_int_equal(commit_text(d, "nosource", "to be deleted by hand", "ptx"), 0);
+    assert_int_equal(commit_text(d, "closeddir", "mode 000 dir", "ptx"), 0);
+    assert_int_equal(commit_text(d, "closedman", "mode 000 manifest", "ptx"), 0);
+    st_datadir_close(d);
+    char p[1024];
+    snprintf(p, sizeof p, "%s/sets/junk", root);           /* an operator's note */
+    write_file(p, "not a set");
+    st_manifest m;
+    snprintf(p, sizeof p, "%s/sets/nosource/manifest", root);
+    assert_int_equal(st_manifest_read(p, &m, &e), 0);
+    snprintf(p, sizeof p, "%s/sets/nosource/%s", root, m.source);
+    assert_int_equal(unlink(p), 0);
+
+    /* the stray file and the missing source, as whoever runs the test */
+    chmod(root, 0755);
+    loaded l;
+    memset(&l, 0, sizeof l);
+    assert_int_equal(st_datadir_open(root, &d, &e), 0);
+    assert_int_equal(st_datadir_load(d, load_cb, &l, report_cb, &e), 3);
+    assert_int_equal(l.reports, 2);
+    st_datadir_close(d);
+    snprintf(p, sizeof p, "%s/broken", root);
+    assert_int_equal(count_entries(p), 2);                 /* junk and nosource, kept */
+    snprintf(p, sizeof p, "%s/sets", root);
+    assert_int_equal(count_entries(p), 3);
+
+    /* unreadable: left in place, the others load */
+    snprintf(p, sizeof p, "%s/sets/closeddir", root);
+    assert_int_equal(chmod(p, 0), 0);
+    snprintf(p, sizeof p, "%s/sets/closedman/manifest", root);
+    assert_int_equal(chmod(p, 0), 0);
+    int reports = 0, del_rc = 0;
+    assert_int_equal(load_as_user(root, &reports, "closedman", &del_rc), 1);
+    assert_int_equal(reports, 2);
+    assert_int_equal(del_rc, ST_EIO);   /* its manifest cannot be read: not deleted */
+    snprintf(p, sizeof p, "%s/sets", root);
+    assert_int_equal(count_entries(p), 3);                 /* nothing moved or removed */
+    snprintf(p, sizeof p, "%s/broken", root);
+    assert_int_equal(count_entries(p), 2);
+    /* permissions put right: everything loads again */
+    snprintf(p, sizeof p, "%s/sets/closeddir", root);
+    assert_int_equal(chmod(p, 0700), 0);
+    snprintf(p, sizeof p, "%s/sets/closedman/manifest", root);
+    assert_int_equal(chmod(p, 0600), 0);
+    assert_int_equal(load_as_user(root, &reports, NULL, NULL), 3);
+    assert_int_equal(reports, 0);
+    st_test_rmtree(root);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -504,6 +615,7 @@ int main(void)
         cmocka_unit_test(datadir_commits_replaces_deletes_and_reloads),
         cmocka_unit_test(datadir_takes_255_byte_names),
         cmocka_unit_test(datadir_stages_publishes_and_drops),
+        cmocka_unit_test(datadir_load_survives_stray_and_unreadable_entries),
     };
     return cmocka_run_group_tests_name("registry", tests, NULL, NULL);
 }
