@@ -122,6 +122,19 @@ static void new_id(st_datadir *d, char *out, size_t cap)
              (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec, (unsigned)getpid(), c);
 }
 
+/* The manifest of a new source file source-<id>.<fmt> (commit and stage alike). */
+static void manifest_fill(st_manifest *m, const char *name, const char *fmt, uint64_t bytes,
+                          uint32_t crc, const char *options, const char *id)
+{
+    memset(m, 0, sizeof *m);
+    snprintf(m->name, sizeof m->name, "%s", name);
+    snprintf(m->format, sizeof m->format, "%s", fmt);
+    m->bytes = bytes;
+    m->crc = crc;
+    snprintf(m->options, sizeof m->options, "%s", options ? options : "");
+    snprintf(m->source, sizeof m->source, "source-%s.%s", id, fmt);
+}
+
 /* "<dir>/<name>.<id>" for trash/ and broken/, the name cut so that the last component fits
  * NAME_MAX (255 bytes): a 255-byte set name plus its id would not. */
 static void aside_path(char *out, const char *dir, const char *name, const char *id)
@@ -438,16 +451,10 @@ static int commit_set(st_datadir *d, const char *name, const char *tmp_path, con
         return rc;
     }
 
-    st_manifest m;
-    memset(&m, 0, sizeof m);
-    snprintf(m.name, sizeof m.name, "%s", name);
-    snprintf(m.format, sizeof m.format, "%s", fmt);
-    m.bytes = bytes;
-    m.crc = got_crc;
-    snprintf(m.options, sizeof m.options, "%s", options ? options : "");
     char id[64];
     new_id(d, id, sizeof id);
-    snprintf(m.source, sizeof m.source, "source-%s.%s", id, fmt);
+    st_manifest m;
+    manifest_fill(&m, name, fmt, bytes, got_crc, options, id);
 
     char setdir[PATHCAP], src[PATHCAP], man[PATHCAP], mantmp[PATHCAP], sets[PATHCAP];
     char ntmp[PATHCAP], nat[PATHCAP];
@@ -1019,13 +1026,7 @@ int st_datadir_stage(st_datadir *d, const char *name, const char *tmp_path, cons
         return rc;
     }
     st_manifest m;
-    memset(&m, 0, sizeof m);
-    snprintf(m.name, sizeof m.name, "%s", name);
-    snprintf(m.format, sizeof m.format, "%s", fmt);
-    m.bytes = bytes;
-    m.crc = got_crc;
-    snprintf(m.options, sizeof m.options, "%s", options ? options : "");
-    snprintf(m.source, sizeof m.source, "source-%s.%s", id, fmt);
+    manifest_fill(&m, name, fmt, bytes, got_crc, options, id);
     /* built whole in tmp/ (emptied at open), then one rename into staged/: staged/ only ever
      * holds complete copies */
     char build[PATHCAP], src[PATHCAP], man[PATHCAP], dst[PATHCAP], staged[PATHCAP];
