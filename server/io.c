@@ -827,6 +827,13 @@ static void reject(sts_server *srv, int fd, int status, const char *msg)
         (void)w;
     }
     stp_buf_free(&b);
+    /* no lingering here (the descriptor is wanted back at once), but the request the client
+     * sent right after connecting is usually queued by now: read and dropped, so that the
+     * close sends an end of stream after the answer, not a reset that may discard it */
+    shutdown(fd, SHUT_WR);
+    uint8_t drop[512];
+    for (int i = 0; i < 16 && recv(fd, drop, sizeof drop, MSG_DONTWAIT) > 0; i++)
+        ;
     close(fd);
     STS_STAT_ADD(srv, conns_rejected, 1);
 }

@@ -92,6 +92,19 @@ int st_daemon_connect(const st_daemon *d)
     return fd;
 }
 
+int st_daemon_log_count(const st_daemon *d, const char *needle)
+{
+    FILE *f = fopen(d->log, "r");
+    if (!f)
+        return -1;
+    char line[1024];
+    int n = 0;
+    while (fgets(line, sizeof line, f))
+        n += strstr(line, needle) != NULL;
+    fclose(f);
+    return n;
+}
+
 void st_daemon_dump_log(const st_daemon *d, int lines)
 {
     FILE *f = fopen(d->log, "r");

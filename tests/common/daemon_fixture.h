@@ -69,6 +69,9 @@ int st_daemon_connect(const st_daemon *d);
 /* Prints the last lines of the daemon's log to stderr (for failure messages). */
 void st_daemon_dump_log(const st_daemon *d, int lines);
 
+/* How many lines of the daemon's log contain needle; -1 when the log cannot be read. */
+int st_daemon_log_count(const st_daemon *d, const char *needle);
+
 /* One daemon shared by a cmocka group: st_group_setup starts ST_GROUP with the arguments in
  * st_group_args (NULL-terminated; NULL for none), st_group_teardown stops it and fails the
  * group unless it exited 0. Pass them to cmocka_run_group_tests. */

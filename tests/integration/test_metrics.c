@@ -819,20 +819,6 @@ static void hostile_clients_do_not_harm_the_daemon(void **state)
     assert_int_equal(st_daemon_down(&d, 20000), 0);
 }
 
-/* Lines of the daemon's log that contain needle. */
-static int log_lines_with(const st_daemon *d, const char *needle)
-{
-    FILE *f = fopen(d->log, "r");
-    if (!f)
-        return -1;
-    char line[1024];
-    int n = 0;
-    while (fgets(line, sizeof line, f))
-        n += strstr(line, needle) != NULL;
-    fclose(f);
-    return n;
-}
-
 /* The daemon at its fd limit while a scraper connects (dur28): accept4 fails with EMFILE and
  * the listener stays readable. Before, the metrics thread polled it again at once, logging
  * "metrics: accept: Too many open files" about a million times a second for as long as the
@@ -890,7 +876,7 @@ static void fd_shortage_does_not_spin_the_metrics_thread(void **state)
     assert_int_equal(st_wait_file_has(d.log, "metrics: accept:", 10000), 0);
     for (int i = 0; i < 50; i++)               /* the data path is served meanwhile */
         assert_int_equal(stc_ping(c), 0);
-    int lines = log_lines_with(&d, "metrics: accept:");
+    int lines = st_daemon_log_count(&d, "metrics: accept:");
     printf("# 'metrics: accept:' warnings while the scrape waits: %d\n", lines);
     assert_true(lines >= 1 && lines <= 2);
     assert_int_equal(prlimit(d.pid, RLIMIT_NOFILE, &old, NULL), 0);
