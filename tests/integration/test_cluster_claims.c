@@ -10,7 +10,6 @@
  * decides), n1 continued, n0 restarted with its data dir. Leases of 5 s keep n1 a member
  * while it is stopped and n0 one across its restart. Waits are deadlines against a hang.
  */
-#include <dirent.h>
 #include <pthread.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -26,6 +25,7 @@
 #include "../common/cluster_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/etcd_fixture.h"
+#include "../common/testdata.h"
 #include "../common/wait.h"
 #include "seamtex_cluster.h"
 
@@ -69,20 +69,12 @@ static int n0_staged(void *arg)
     return st_daemon_stat(&N[0], "cluster_copies_staged") > staged_before;
 }
 
-/* entries in <data-dir of node i>/staged (-1: no such folder) */
+/* entries in <data-dir of node i>/staged */
 static int staged_count(int i)
 {
     char p[400];
     snprintf(p, sizeof p, "%s/staged", N[i].datadir);
-    DIR *d = opendir(p);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *de;
-    while ((de = readdir(d)))
-        n += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
-    closedir(d);
-    return n;
+    return st_test_dir_entries(p);
 }
 
 static int n0_staged_none(void *arg) { (void)arg; return staged_count(0) == 0; }

@@ -15,7 +15,6 @@
  * only owner: it used to drop its copy, B, as stale), hold no staged copy, and after both
  * nodes are killed and restarted (etcd keeps the catalogue) both read A.
  */
-#include <dirent.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -33,6 +32,7 @@
 #include "../common/cluster_fixture.h"
 #include "../common/daemon_client.h"
 #include "../common/etcd_fixture.h"
+#include "../common/testdata.h"
 #include "../common/wait.h"
 #include "seamtex_cluster.h"
 
@@ -98,20 +98,12 @@ static int both_serve_first(void *arg)
     return red_on(0, &r0) == 0 && r0 == red[0] && red_on(1, &r1) == 0 && r1 == red[0];
 }
 
-/* entries in <data-dir of node i>/staged (-1: no such folder) */
+/* entries in <data-dir of node i>/staged */
 static int staged_count(int i)
 {
     char p[400];
     snprintf(p, sizeof p, "%s/staged", N[i].datadir);
-    DIR *d = opendir(p);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *de;
-    while ((de = readdir(d)))
-        n += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
-    closedir(d);
-    return n;
+    return st_test_dir_entries(p);
 }
 
 static uint64_t passes_before;

@@ -2,7 +2,6 @@
  * directly (no daemon): name rules, reference counting under concurrent replace/delete,
  * commit/replace/delete/load, and the crash leftovers the loader must clean or set aside.
  */
-#include <dirent.h>
 #include <pthread.h>
 #include <sched.h>
 #include <setjmp.h>
@@ -182,18 +181,6 @@ static void write_file(const char *path, const char *text)
     fclose(f);
 }
 
-static int count_entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *de;
-    while ((de = readdir(d)))
-        n += strcmp(de->d_name, ".") && strcmp(de->d_name, "..");
-    closedir(d);
-    return n;
-}
 
 typedef struct loaded {
     char names[16][ST_NAME_MAX + 1];
@@ -271,7 +258,7 @@ static void datadir_commits_replaces_deletes_and_reloads(void **state)
     assert_int_equal(st_datadir_commit(d, "fmt", p, "P/X", "", 0, NULL, NULL, &e), ST_EINVAL);
     /* one source per set after a replace */
     snprintf(p, sizeof p, "%s/sets/alpha", root);
-    assert_int_equal(count_entries(p), 2);
+    assert_int_equal(st_test_dir_entries(p), 2);
     st_manifest m;
     snprintf(p, sizeof p, "%s/sets/alpha/manifest", root);
     assert_int_equal(st_manifest_read(p, &m, &e), 0);
@@ -306,15 +293,15 @@ static void datadir_commits_replaces_deletes_and_reloads(void **state)
     assert_int_equal(l.busy_first, 2);
     assert_int_equal(l.reports, 3);            /* newbie removed, gamma + torn set aside */
     snprintf(p, sizeof p, "%s/tmp", root);
-    assert_int_equal(count_entries(p), 0);
+    assert_int_equal(st_test_dir_entries(p), 0);
     snprintf(p, sizeof p, "%s/sets/newbie", root);
     assert_int_not_equal(access(p, F_OK), 0);
     snprintf(p, sizeof p, "%s/sets/alpha", root);
-    assert_int_equal(count_entries(p), 2);     /* orphan removed */
+    assert_int_equal(st_test_dir_entries(p), 2);     /* orphan removed */
     snprintf(p, sizeof p, "%s/broken", root);
-    assert_int_equal(count_entries(p), 2);     /* gamma and torn, not dropped */
+    assert_int_equal(st_test_dir_entries(p), 2);     /* gamma and torn, not dropped */
     snprintf(p, sizeof p, "%s/sets", root);
-    assert_int_equal(count_entries(p), 2);
+    assert_int_equal(st_test_dir_entries(p), 2);
     st_datadir_close(d);
 
     /* a flipped byte in a committed source is caught by the CRC at load */
@@ -359,12 +346,12 @@ static void datadir_takes_255_byte_names(void **state)
     assert_int_equal(l.reports, 1);            /* b failed its import: set aside, not lost */
     char p[8192];
     snprintf(p, sizeof p, "%s/broken", root);
-    assert_int_equal(count_entries(p), 1);
+    assert_int_equal(st_test_dir_entries(p), 1);
     assert_int_equal(st_datadir_delete(d, a, NULL, NULL, &e), 0);
     snprintf(p, sizeof p, "%s/sets", root);
-    assert_int_equal(count_entries(p), 0);
+    assert_int_equal(st_test_dir_entries(p), 0);
     snprintf(p, sizeof p, "%s/trash", root);
-    assert_int_equal(count_entries(p), 0);
+    assert_int_equal(st_test_dir_entries(p), 0);
     st_datadir_close(d);
     st_test_rmtree(root);
 }
@@ -427,7 +414,7 @@ static void datadir_stages_publishes_and_drops(void **state)
     assert_int_equal(st_datadir_open(root, &d, &e), 0);
     assert_int_equal(st_datadir_load(d, load_cb, &l, report_cb, &e), 1);   /* alpha, old */
     snprintf(p, sizeof p, "%s/tmp", root);
-    assert_int_equal(count_entries(p), 0);
+    assert_int_equal(st_test_dir_entries(p), 0);
     st_datadir_staged *s = NULL;
     size_t n = 0;
     int reports = 0;
@@ -449,7 +436,7 @@ static void datadir_stages_publishes_and_drops(void **state)
     assert_int_equal(committed_bytes(root, "alpha"), 5);
     assert_int_equal(st_datadir_publish_staged(d, id1, NULL, NULL, NULL, &e), ST_ENOTFOUND);
     snprintf(p, sizeof p, "%s/sets/alpha", root);
-    assert_int_equal(count_entries(p), 2);   /* manifest + the new source */
+    assert_int_equal(st_test_dir_entries(p), 2);   /* manifest + the new source */
     /* dropped: nothing of it stays */
     assert_int_equal(st_datadir_drop_staged(d, id2, &e), 0);
     assert_int_equal(st_datadir_drop_staged(d, id2, &e), ST_ENOTFOUND);
@@ -487,11 +474,11 @@ static void datadir_stages_publishes_and_drops(void **state)
     assert_string_equal(s[0].id, id3);
     free(s);
     snprintf(p, sizeof p, "%s/broken", root);
-    assert_int_equal(count_entries(p), 1);
+    assert_int_equal(st_test_dir_entries(p), 1);
     assert_int_equal(st_datadir_publish_staged(d, id3, NULL, NULL, NULL, &e), 0);
     assert_int_equal(committed_bytes(root, "alpha"), 7);
     snprintf(p, sizeof p, "%s/staged", root);
-    assert_int_equal(count_entries(p), 0);
+    assert_int_equal(st_test_dir_entries(p), 0);
     st_datadir_close(d);
     st_test_rmtree(root);
 }
@@ -579,9 +566,9 @@ static void datadir_load_survives_stray_and_unreadable_entries(void **state)
     assert_int_equal(l.reports, 2);
     st_datadir_close(d);
     snprintf(p, sizeof p, "%s/broken", root);
-    assert_int_equal(count_entries(p), 2);                 /* junk and nosource, kept */
+    assert_int_equal(st_test_dir_entries(p), 2);                 /* junk and nosource, kept */
     snprintf(p, sizeof p, "%s/sets", root);
-    assert_int_equal(count_entries(p), 3);
+    assert_int_equal(st_test_dir_entries(p), 3);
 
     /* unreadable: left in place, the others load */
     snprintf(p, sizeof p, "%s/sets/closeddir", root);
@@ -593,9 +580,9 @@ static void datadir_load_survives_stray_and_unreadable_entries(void **state)
     assert_int_equal(reports, 2);
     assert_int_equal(del_rc, ST_EIO);   /* its manifest cannot be read: not deleted */
     snprintf(p, sizeof p, "%s/sets", root);
-    assert_int_equal(count_entries(p), 3);                 /* nothing moved or removed */
+    assert_int_equal(st_test_dir_entries(p), 3);                 /* nothing moved or removed */
     snprintf(p, sizeof p, "%s/broken", root);
-    assert_int_equal(count_entries(p), 2);
+    assert_int_equal(st_test_dir_entries(p), 2);
     /* permissions put right: everything loads again */
     snprintf(p, sizeof p, "%s/sets/closeddir", root);
     assert_int_equal(chmod(p, 0700), 0);
