@@ -428,24 +428,34 @@ int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path,
     return commit_set(d, name, tmp_path, fmt, options, bytes, NULL, set, publish, arg, e);
 }
 
+/* The checks a new source file passes before it becomes a set's (committed or staged): the
+ * arguments, its size against the announced bytes, its CRC-32 (into *crc; against *want_crc
+ * when given: a staged copy's manifest's), and an fsync. */
+static int check_source(const char *name, const char *tmp_path, const char *fmt,
+                        const char *options, uint64_t bytes, const uint32_t *want_crc,
+                        uint32_t *crc, st_error *e)
+{
+    int rc = commit_args(name, fmt, options, e);
+    uint64_t got_bytes = 0;
+    if (!rc)
+        rc = st_file_crc(tmp_path, &got_bytes, crc, e);
+    if (!rc && got_bytes != bytes)
+        rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
+                     got_bytes, bytes);
+    if (!rc && want_crc && *crc != *want_crc)
+        rc = st_fail(e, ST_ECORRUPT, "file has crc32 %08x, %08x was recorded", *crc, *want_crc);
+    if (!rc)
+        rc = fsync_path(tmp_path, 0, e);
+    return rc;
+}
+
 /* want_crc (may be NULL): the CRC-32 the file must have (a staged copy's manifest's) */
 static int commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
                       const char *options, uint64_t bytes, const uint32_t *want_crc,
                       st_set **set, st_publish_fn publish, void *arg, st_error *e)
 {
-    int rc = commit_args(name, fmt, options, e);
-    uint64_t got_bytes = 0;
     uint32_t got_crc = 0;
-    if (!rc)
-        rc = st_file_crc(tmp_path, &got_bytes, &got_crc, e);
-    if (!rc && got_bytes != bytes)
-        rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
-                     got_bytes, bytes);
-    if (!rc && want_crc && got_crc != *want_crc)
-        rc = st_fail(e, ST_ECORRUPT, "file has crc32 %08x, %08x was recorded", got_crc,
-                     *want_crc);
-    if (!rc)
-        rc = fsync_path(tmp_path, 0, e);
+    int rc = check_source(name, tmp_path, fmt, options, bytes, want_crc, &got_crc, e);
     if (rc) {
         st_datadir_discard(tmp_path);
         return rc;
@@ -1007,16 +1017,8 @@ int st_datadir_stage(st_datadir *d, const char *name, const char *tmp_path, cons
                      const char *options, uint64_t bytes, char *id_out, size_t cap, st_error *e)
 {
     id_out[0] = 0;
-    int rc = commit_args(name, fmt, options, e);
-    uint64_t got_bytes = 0;
     uint32_t got_crc = 0;
-    if (!rc)
-        rc = st_file_crc(tmp_path, &got_bytes, &got_crc, e);
-    if (!rc && got_bytes != bytes)
-        rc = st_fail(e, ST_ECORRUPT, "upload has %" PRIu64 " bytes, %" PRIu64 " were announced",
-                     got_bytes, bytes);
-    if (!rc)
-        rc = fsync_path(tmp_path, 0, e);
+    int rc = check_source(name, tmp_path, fmt, options, bytes, NULL, &got_crc, e);
     char id[64];
     new_id(d, id, sizeof id);
     if (!rc && strlen(id) >= cap)
