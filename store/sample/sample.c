@@ -383,6 +383,24 @@ ST_VARIANT(run_half_ch, ST_DT_HALF, 0, 1)
 ST_VARIANT(run_f32x4_ch, ST_DT_F32, 4, 1)
 ST_VARIANT(run_f32_ch, ST_DT_F32, 0, 1)
 
+typedef size_t (*run_fn)(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
+                         float *out, float *cov, uint8_t *st);
+/* The variants by [chart Discard][run_index]: u8 RGBA, u8, u16, half, f32 RGBA, f32. */
+static const run_fn RUNS[2][6] = {
+    {run_u8x4, run_u8, run_u16, run_half, run_f32x4, run_f32},
+    {run_u8x4_ch, run_u8_ch, run_u16_ch, run_half_ch, run_f32x4_ch, run_f32_ch},
+};
+
+static unsigned run_index(const st_set_info *in)
+{
+    switch (in->dtype) {
+    case ST_DT_U8: return in->nchan == 4 ? 0 : 1;
+    case ST_DT_U16: return 2;
+    case ST_DT_HALF: return 3;
+    default: return in->nchan == 4 ? 4 : 5;
+    }
+}
+
 int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                     float *out, float *coverage, uint8_t *status)
 {
@@ -412,33 +430,13 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
         return ST_EINVAL;
     if (n > (size_t)INT32_MAX)
         return ST_ETOOBIG;
-    size_t bad;
     const st_chart_ids *ch = s->ext.charts;
-    if (o->mode == ST_MODE_DISCARD && s->info.kind == ST_KIND_ATLAS && ch &&
-        ch->nlevels == s->faces[0].nlevels && ch->nlevels) {
-        /* chart Discard (docs/sampler.md): taps off the query's chart are dropped */
-        if (s->info.dtype == ST_DT_U8)
-            bad = s->info.nchan == 4 ? run_u8x4_ch(s, o, q, n, out, coverage, status)
-                                     : run_u8_ch(s, o, q, n, out, coverage, status);
-        else if (s->info.dtype == ST_DT_U16)
-            bad = run_u16_ch(s, o, q, n, out, coverage, status);
-        else if (s->info.dtype == ST_DT_HALF)
-            bad = run_half_ch(s, o, q, n, out, coverage, status);
-        else
-            bad = s->info.nchan == 4 ? run_f32x4_ch(s, o, q, n, out, coverage, status)
-                                     : run_f32_ch(s, o, q, n, out, coverage, status);
-    } else if (s->info.kind == ST_KIND_BC1)
-        bad = run_bc1(s, o, q, n, out, coverage, status);
-    else if (s->info.dtype == ST_DT_U8)
-        bad = s->info.nchan == 4 ? run_u8x4(s, o, q, n, out, coverage, status)
-                                 : run_u8(s, o, q, n, out, coverage, status);
-    else if (s->info.dtype == ST_DT_U16)
-        bad = run_u16(s, o, q, n, out, coverage, status);
-    else if (s->info.dtype == ST_DT_HALF)
-        bad = run_half(s, o, q, n, out, coverage, status);
-    else
-        bad = s->info.nchan == 4 ? run_f32x4(s, o, q, n, out, coverage, status)
-                                 : run_f32(s, o, q, n, out, coverage, status);
+    /* chart Discard (docs/sampler.md): taps off the query's chart are dropped */
+    int chart = o->mode == ST_MODE_DISCARD && s->info.kind == ST_KIND_ATLAS && ch &&
+                ch->nlevels == s->faces[0].nlevels && ch->nlevels;
+    size_t bad = s->info.kind == ST_KIND_BC1 /* never chart Discard: a BC1 set keeps no mesh */
+                     ? run_bc1(s, o, q, n, out, coverage, status)
+                     : RUNS[chart][run_index(&s->info)](s, o, q, n, out, coverage, status);
     return (int)bad;
 }
 
