@@ -53,14 +53,6 @@ static int both_members(void *arg)
     return st_cluster_all_see(N, 2, 2);
 }
 
-static stc_cluster *open_both(void)
-{
-    char seeds[64], msg[256];
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
-    int err = 0;
-    return stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
-}
-
 /* n0 has staged one more upload than before (its copy is durable, not published) */
 static uint64_t staged_before;
 static int n0_staged(void *arg)
@@ -95,7 +87,7 @@ static void *upload_main(void *arg)
 static int name_free(void *arg)
 {
     (void)arg;
-    stc_cluster *cl = open_both();
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     int rc = cl ? stc_cluster_upload_file(cl, files[1], "stuck", NULL, NULL) : -1;
     stc_cluster_close(cl);
     return rc == 0;
@@ -129,7 +121,7 @@ static void start_pair(const char *prefix)
         assert_int_equal(start_node(i), 0);
     if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
         fail_msg("the nodes never saw each other");
-    stc_cluster *cl = open_both();
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
     stc_cluster_close(cl);
@@ -212,7 +204,7 @@ static void replace_claim_of_a_restarted_origin_gives_the_name_back(void **state
 {
     (void)state;
     start_pair("/claims-replace");
-    stc_cluster *cl = open_both();
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     assert_int_equal(stc_cluster_upload_file(cl, files[0], "kept", NULL, NULL), 0);
     stc_cluster_close(cl);

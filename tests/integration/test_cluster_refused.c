@@ -53,10 +53,7 @@ static void a_refused_upload_is_not_read_on_the_node_that_took_it(void **state)
         assert_int_equal(st_cluster_node_start(&N[i], ETCD.url, i, 2, 0), 0);
     if (st_wait_until(both_see, NULL, DEADLINE_MS) != 0)
         fail_msg("the nodes never saw each other");
-    char seeds[64], msg[256];
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
-    int err = 0;
-    stc_cluster *cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
     assert_true(red[0] != red[1]);

@@ -127,10 +127,7 @@ static void start_pair(const char *prefix)
         assert_int_equal(start_node(i), 0);
     if (st_wait_until(both_members, NULL, DEADLINE_MS) != 0)
         fail_msg("the nodes never saw each other");
-    char seeds[64], msg[256];
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d", N[0].port, N[1].port);
-    int err = 0;
-    stc_cluster *cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+    stc_cluster *cl = st_cluster_open_nodes(N, 2);
     assert_non_null(cl);
     assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
     assert_true(red[0] != red[1]);
@@ -387,11 +384,7 @@ static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **sta
             snprintf(owned, sizeof owned, "%s", name);
     }
     assert_true(owned[0] != 0);
-    char seeds[96], msg[256];
-    snprintf(seeds, sizeof seeds, "127.0.0.1:%d,127.0.0.1:%d,127.0.0.1:%d", N[0].port,
-             N[1].port, N[2].port);
-    int err = 0;
-    stc_cluster *cl = stc_cluster_open(seeds, NULL, &err, msg, sizeof msg);
+    stc_cluster *cl = st_cluster_open_nodes(N, 3);
     assert_non_null(cl);
     assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
     stc_cluster_close(cl);
