@@ -131,6 +131,22 @@ static const char *write_ptx(const st_set *s, const char *name)
     return path;
 }
 
+/* An in-process sampler of one 8 x 8 face of a single colour (200, 100, 50, 255), written as
+ * a .ptx named after tag. */
+static rs_sampler *constant_face_sampler(const char *tag, char *msg, size_t cap)
+{
+    st_set *set = st_fixture_rgba8_faces(8);
+    assert_non_null(set);
+    for (size_t i = 0; i < 8 * 8; i++) {
+        uint8_t *t = st_face_level(set, 0, 0) + 4 * i;
+        t[0] = 200, t[1] = 100, t[2] = 50, t[3] = 255;
+    }
+    st_set_build_mips(set, 0);
+    const char *path = write_ptx(set, tag);
+    st_set_free(set);
+    return rs_inproc_new(path, NULL, msg, cap);
+}
+
 static void test_fullscreen_constant_face(void **state)
 {
     (void)state;
@@ -140,14 +156,7 @@ static void test_fullscreen_constant_face(void **state)
     char msg[256];
     rm_mesh *m = rm_from_quads(pos, 4, quad, 1, msg, sizeof msg);
     assert_non_null(m);
-    st_set *set = st_fixture_rgba8_faces(8);
-    assert_non_null(set);
-    for (size_t i = 0; i < 8 * 8; i++) {
-        uint8_t *t = st_face_level(set, 0, 0) + 4 * i;
-        t[0] = 200, t[1] = 100, t[2] = 50, t[3] = 255;
-    }
-    st_set_build_mips(set, 0);
-    rs_sampler *s = rs_inproc_new(write_ptx(set, "const"), NULL, msg, sizeof msg);
+    rs_sampler *s = constant_face_sampler("const", msg, sizeof msg);
     assert_non_null(s);
     rc_camera cam = front_camera();
     for (unsigned msaa = 1; msaa <= 8; msaa *= 2)
@@ -172,7 +181,6 @@ static void test_fullscreen_constant_face(void **state)
             rr_target_free(&t);
         }
     rs_free(s);
-    st_set_free(set);
     rm_free(m);
 }
 
@@ -423,14 +431,7 @@ static void test_horizon_derivatives_bounded(void **state)
 {
     (void)state;
     char msg[256];
-    st_set *set = st_fixture_rgba8_faces(8);
-    assert_non_null(set);
-    for (size_t i = 0; i < 8 * 8; i++) {
-        uint8_t *t = st_face_level(set, 0, 0) + 4 * i;
-        t[0] = 200, t[1] = 100, t[2] = 50, t[3] = 255;
-    }
-    st_set_build_mips(set, 0);
-    rs_sampler *s = rs_inproc_new(write_ptx(set, "ground"), NULL, msg, sizeof msg);
+    rs_sampler *s = constant_face_sampler("ground", msg, sizeof msg);
     assert_non_null(s);
     const double scales[2] = { 1e3, 1e-12 };
     for (int k = 0; k < 2; k++) {
@@ -481,7 +482,6 @@ static void test_horizon_derivatives_bounded(void **state)
         rm_free(m);
     }
     rs_free(s);
-    st_set_free(set);
 }
 
 /* An atlas mesh whose texture coordinates are 2e4 (tiling; the OBJ importer takes up to 1e6)
