@@ -98,14 +98,93 @@ uint64_t sts_cluster_served_gen(const sts_cluster *cl, const char *name)
     return s ? s->gen : 0;
 }
 
+/* under mu */
+static int is_hidden(const sts_cluster *cl, const char *name, uint64_t gen)
+{
+    for (size_t i = 0; i < cl->nhidden; i++)
+        if (cl->hidden[i].gen == gen && !strcmp(cl->hidden[i].name, name))
+            return 1;
+    return 0;
+}
+
 int sts_cluster_serves(sts_cluster *cl, const st_setref *ref)
 {
     if (!ref->source_bytes)
         return 1;   /* not from the data dir (the built-in set): not the cluster's */
     pthread_mutex_lock(&cl->mu);
-    int ok = ref->gen >= cl->serve_gen || sts_cluster_served_gen(cl, ref->name) == ref->gen;
+    int ok = (ref->gen >= cl->serve_gen || sts_cluster_served_gen(cl, ref->name) == ref->gen) &&
+             !(cl->nhidden && is_hidden(cl, ref->name, ref->gen));
     pthread_mutex_unlock(&cl->mu);
     return ok;
+}
+
+uint64_t sts_cluster_hide(sts_cluster *cl, const char *name)
+{
+    st_setref *ref = NULL;
+    if (st_registry_get(cl->srv->reg, name, &ref, NULL) != 0)
+        return 0;
+    uint64_t gen = ref->source_bytes ? ref->gen : 0;
+    st_setref_release(ref);
+    if (!gen)
+        return 0;
+    pthread_mutex_lock(&cl->mu);
+    if (cl->nhidden == cl->hidden_cap) {
+        size_t cap = cl->hidden_cap ? 2 * cl->hidden_cap : 8;
+        struct sts_cl_hidden *h = realloc(cl->hidden, cap * sizeof *h);
+        if (!h) {
+            pthread_mutex_unlock(&cl->mu);
+            return 0;
+        }
+        cl->hidden = h;
+        cl->hidden_cap = cap;
+    }
+    struct sts_cl_hidden *h = &cl->hidden[cl->nhidden++];
+    snprintf(h->name, sizeof h->name, "%s", name);
+    h->gen = gen;
+    h->seq = ++cl->hide_seq;
+    pthread_mutex_unlock(&cl->mu);
+    STS_CL_ADD(cl, copies_hidden, 1);
+    return gen;
+}
+
+void sts_cluster_unhide(sts_cluster *cl, const char *name, uint64_t gen, uint64_t seq_max)
+{
+    pthread_mutex_lock(&cl->mu);
+    for (size_t i = 0; i < cl->nhidden;)
+        if (cl->hidden[i].gen == gen && cl->hidden[i].seq <= seq_max &&
+            !strcmp(cl->hidden[i].name, name))
+            cl->hidden[i] = cl->hidden[--cl->nhidden];
+        else
+            i++;
+    pthread_mutex_unlock(&cl->mu);
+}
+
+uint64_t sts_cluster_hide_seq(sts_cluster *cl)
+{
+    pthread_mutex_lock(&cl->mu);
+    uint64_t s = cl->hide_seq;
+    pthread_mutex_unlock(&cl->mu);
+    return s;
+}
+
+void sts_cluster_hidden_prune(sts_cluster *cl, uint64_t seq_max)
+{
+    /* a copy of the list, so that the registry is not asked under mu */
+    pthread_mutex_lock(&cl->mu);
+    size_t n = cl->nhidden;
+    struct sts_cl_hidden *h = n ? malloc(n * sizeof *h) : NULL;
+    if (h)
+        memcpy(h, cl->hidden, n * sizeof *h);
+    pthread_mutex_unlock(&cl->mu);
+    for (size_t i = 0; h && i < n; i++) {
+        st_setref *ref = NULL;
+        int held = st_registry_get(cl->srv->reg, h[i].name, &ref, NULL) == 0 &&
+                   ref->gen == h[i].gen;
+        st_setref_release(ref);
+        if (!held && h[i].seq <= seq_max)
+            sts_cluster_unhide(cl, h[i].name, h[i].gen, seq_max);
+    }
+    free(h);
 }
 
 int sts_get_served(sts_server *srv, const char *name, st_setref **ref, st_error *e)
@@ -506,6 +585,7 @@ void sts_cluster_free(sts_server *srv)
     free(cl->members);
     free(cl->cat);
     free(cl->served);
+    free(cl->hidden);
     free(cl->orphans);
     free(cl->gone);
     sts_cluster_doubt_free(cl);
@@ -594,6 +674,7 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("copies_staged", C(copies_staged));
     K("staged_published", C(staged_published));
     K("staged_dropped", C(staged_dropped));
+    K("copies_hidden", C(copies_hidden));
 #undef K
 #undef C
     return n;

@@ -13,9 +13,9 @@
  *
  * Shared state and its locks (no lock is held across I/O):
  *   cl->mu       guards the view: members[] (sorted by id), epoch, cat[] (catalogue snapshot
- *                of the last repair pass, sorted by name), served[] and serve_gen (the local
- *                copies reads may use). Writers: the membership thread (members, epoch), the
- *                repair thread (cat, served) and the write path (cat). Readers: handlers
+ *                of the last repair pass, sorted by name), served[], serve_gen and hidden[]
+ *                (the local copies reads may use). Writers: the membership thread (members, epoch), the
+ *                repair thread (cat, served, hidden) and the write path (cat; hidden: DELETE). Readers: handlers
  *                (CLUSTER, MOVED, every read of a set), the write path (owners), the repair
  *                thread.
  *   cl->etcd_mu  guards cl->etcd_w, the etcd handle of the write path (workers, job thread),
@@ -63,6 +63,7 @@ typedef struct sts_cl_counters {
     uint64_t writes_in_doubt, doubts_undone;   /* cluster_fence.c */
     uint64_t reads_unconfirmed;   /* reads of a local copy the catalogue did not confirm */
     uint64_t copies_staged, staged_published, staged_dropped;   /* the write path's copies */
+    uint64_t copies_hidden;   /* copies hidden by a DELETE this node could not record */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -86,6 +87,14 @@ typedef struct sts_cluster {
     struct sts_cl_served { char name[STP_MAX_NAME + 1]; uint64_t gen; } *served;
     size_t          nserved;
     uint64_t        serve_gen;
+    /* under mu: copies hidden from reads whatever served[] says (sts_cluster_hide: a DELETE
+     * this node got but could not record, e.g. forwarded by the node that deleted the set
+     * while this one could not reach etcd), by registry generation, each with the value of
+     * hide_seq that hid it; a repair pass shows one again only when its catalogue, read after
+     * the hide, records the copy's contents (docs/cluster.md "Reads and MOVED") */
+    struct sts_cl_hidden { char name[STP_MAX_NAME + 1]; uint64_t gen, seq; } *hidden;
+    size_t          nhidden, hidden_cap;
+    uint64_t        hide_seq;
 
     pthread_mutex_t etcd_mu;
     scl_etcd       *etcd_w;            /* write path */
@@ -156,6 +165,19 @@ int  sts_cluster_serves(sts_cluster *cl, const st_setref *ref);
 /* The registry generation served[] confirms for name, 0 for none (generations start at 1).
  * The caller holds mu, or is the repair thread (served[]'s only writer). */
 uint64_t sts_cluster_served_gen(const sts_cluster *cl, const char *name);
+/* Hides this node's copy of name (the registry's current one, if it is from the data dir)
+ * from reads until a repair pass whose catalogue was read after this call records it with
+ * the copy's contents; returns the copy's generation, 0 when there is none or no memory
+ * (nothing hidden). Called by DELETE before it tries to record the delete. */
+uint64_t sts_cluster_hide(sts_cluster *cl, const char *name);
+/* Shows the copy (name, gen) to reads again if it was hidden by a call that returned a
+ * hide_seq <= seq_max (UINT64_MAX: whenever it was hidden). */
+void sts_cluster_unhide(sts_cluster *cl, const char *name, uint64_t gen, uint64_t seq_max);
+/* The hide_seq of the latest hide (under mu); the repair pass reads it before etcd. */
+uint64_t sts_cluster_hide_seq(sts_cluster *cl);
+/* The repair pass: forgets the hidden copies hidden by hide_seq <= seq_max that the registry
+ * no longer holds (deleted or replaced since). */
+void sts_cluster_hidden_prune(sts_cluster *cl, uint64_t seq_max);
 /* The registry lookup of the read requests (INFO, SAMPLE, SAMPLE_DIR, FETCH_OPEN, COMPRESS
  * source): st_registry_get, and in a cluster sts_cluster_serves (ST_ENOTFOUND with a message
  * when the copy is not served). */

@@ -7,7 +7,8 @@
  * each set), extra copies dropped once every owner has confirmed its own, abandoned claims
  * removed (a REPLACE's: the record it replaced put back, from prev/), the staged copies of
  * this node's writes published or dropped by the catalogue, the local copies reads
- * may use confirmed (sts_cluster_set_served); then the catalogue snapshot the handlers use
+ * may use confirmed (sts_cluster_set_served; a copy a DELETE hid is shown again once the
+ * catalogue records its contents); then the catalogue snapshot the handlers use
  * (MOVED) is replaced. Does not own: the membership (cluster_node.c), the write path.
  * Nothing happens while etcd is unreachable.
  */
@@ -239,6 +240,7 @@ static void pass(sts_cluster *cl)
     sts_server *srv = cl->srv;
     pthread_mutex_lock(&cl->mu);
     uint64_t prev_gen = cl->serve_gen;   /* copies published since the last pass began */
+    uint64_t hseq = cl->hide_seq;        /* copies hidden before the catalogue is read */
     pthread_mutex_unlock(&cl->mu);
     uint64_t g0 = st_registry_next_gen(srv->reg);   /* copies published from now on: not judged */
     int64_t t0 = wall_ms();
@@ -325,6 +327,8 @@ static void pass(sts_cluster *cl)
             snprintf(served[nserved].name, sizeof served[0].name, "%s", r->name);
             served[nserved++].gen = r->gen;
         }
+        if (e && e->state == SCL_SET_OK && r->source_crc == e->crc32)
+            sts_cluster_unhide(cl, r->name, r->gen, hseq);   /* recorded: the delete was not */
         int settled = r->created_ms < t0 - 2000;   /* published before the catalogue was read */
         if (!e) {
             /* deleted, unless this node's delete of it is in doubt or was applied late by
@@ -351,6 +355,7 @@ static void pass(sts_cluster *cl)
     for (size_t i = 0; i < nr; i++)
         st_setref_release(refs[i]);
     free(refs);
+    sts_cluster_hidden_prune(cl, hseq);
     /* reads use what this pass confirmed from now on (with no list, for want of memory, the
      * copies published since the last pass began still are) */
     if (served && mine)

@@ -736,9 +736,16 @@ int sts_h_delete(sts_ctx *c, const stp_header *h, const uint8_t *body, stp_buf *
     st_error e;   /* name follows the name rule: stp_dec_name_req checked it */
     st_error_clear(&e);
     if (srv->cluster) {
-        /* recorded in the catalogue before any copy is removed (cluster_write.c) */
+        /* recorded in the catalogue before any copy is removed (cluster_write.c). This
+         * node's copy is hidden from reads first: a DELETE it cannot record (etcd out of
+         * reach) may be one forwarded by the node that deleted the set and answered OK, so
+         * the copy stays hidden until a repair pass finds the set recorded (docs/cluster.md
+         * "Reads and MOVED"); a refusal for another reason shows it again at once */
         char msg[512];
+        uint64_t hid = sts_cluster_hide(srv->cluster, name);
         int cst = sts_cluster_delete(srv->cluster, name, sts_delete_local, msg, sizeof msg);
+        if (hid && cst && cst != STP_S_UNAVAILABLE)
+            sts_cluster_unhide(srv->cluster, name, hid, UINT64_MAX);
         if (cst) {
             sts_reply_error(out, h, cst, msg);
             return 0;

@@ -208,6 +208,8 @@ static const mrow ROWS[] = {
      "Staged copies published once their write was recorded."},
     {"cluster_staged_dropped", "seamtex_cluster_staged_dropped_total", M_COUNTER, "", 0,
      "Staged copies dropped: their write was refused or abandoned."},
+    {"cluster_copies_hidden", "seamtex_cluster_copies_hidden_total", M_COUNTER, "", 0,
+     "Local copies hidden from reads by a DELETE this node could not record."},
 };
 #define NROWS (sizeof ROWS / sizeof ROWS[0])
 

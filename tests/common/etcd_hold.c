@@ -28,6 +28,7 @@ struct st_etcd_hold {
     pthread_t       acceptor;
     pthread_mutex_t mu;               /* holding, the queue, held contents, conns */
     int             holding, muting;
+    int             cut;              /* atomic: every connection closed */
     int             pass;             /* transactions still let through while holding/muting */
     held           *first, **last;
     pthread_t       conns[MAX_CONNS];
@@ -37,6 +38,7 @@ struct st_etcd_hold {
 typedef struct conn_arg { st_etcd_hold *p; int fd; } conn_arg;
 
 static int stopping(st_etcd_hold *p) { return __atomic_load_n(&p->stop, __ATOMIC_RELAXED); }
+static int cut(st_etcd_hold *p) { return __atomic_load_n(&p->cut, __ATOMIC_RELAXED); }
 
 static int connect_etcd(int port)
 {
@@ -83,9 +85,9 @@ static void *conn_main(void *arg)
     int in_body = 0;
     held *h = NULL;   /* the kept request being read, when in_body */
     int mute = 0;     /* a transaction was muted: nothing more goes back to the client */
-    while (u >= 0 && ib && !stopping(p)) {
+    while (u >= 0 && ib && !stopping(p) && !cut(p)) {
         struct pollfd pf[2] = {{c, POLLIN, 0}, {u, POLLIN, 0}};
-        if (poll(pf, 2, 100) < 0)
+        if (poll(pf, 2, 20) < 0 || cut(p))
             break;
         if (pf[1].revents) {
             ssize_t r = recv(u, rb, sizeof rb, 0);
@@ -170,6 +172,10 @@ static void *accept_main(void *arg)
         int fd = accept4(p->lfd, NULL, NULL, SOCK_CLOEXEC);
         if (fd < 0)
             continue;
+        if (cut(p)) {
+            close(fd);
+            continue;
+        }
         conn_arg *a = malloc(sizeof *a);
         pthread_mutex_lock(&p->mu);
         int ok = a && p->nconns < MAX_CONNS;
@@ -221,6 +227,7 @@ static void set_mode(st_etcd_hold *p, int holding, int muting, int pass)
 void st_etcd_hold_on(st_etcd_hold *p, int pass) { set_mode(p, 1, 0, pass); }
 void st_etcd_hold_mute(st_etcd_hold *p, int pass) { set_mode(p, 0, 1, pass); }
 void st_etcd_hold_off(st_etcd_hold *p) { set_mode(p, 0, 0, 0); }
+void st_etcd_hold_cut(st_etcd_hold *p, int on) { __atomic_store_n(&p->cut, on, __ATOMIC_RELAXED); }
 
 int st_etcd_hold_count(st_etcd_hold *p)
 {

@@ -1,12 +1,14 @@
 /* tests/common/etcd_hold.h - a loopback proxy in front of a test etcd that can hold its
  * transactions: the way to make "etcd applied a write after the node gave up on it" happen
  * on purpose (a paused etcd does it only sometimes: it may or may not still run a request
- * whose client has gone when it continues).
+ * whose client has gone when it continues); and that can cut its node off etcd while the
+ * other nodes still reach it.
  *
  * Owns: a listening socket on a free loopback port, one thread accepting and one thread per
  * connection relaying bytes to etcd's client port. While holding, a request `POST
  * /v3/kv/txn` is kept (never forwarded, never answered: its client times out); every other
- * request goes through (muting: a transaction is forwarded but its answer dropped). A replay sends the kept requests to etcd in the order they came,
+ * request goes through (muting: a transaction is forwarded but its answer dropped; cut: every
+ * connection is closed). A replay sends the kept requests to etcd in the order they came,
  * each on its own connection, and waits until etcd answers each (then it has applied it),
  * whether or not its client is still there. Does not own: etcd (etcd_fixture.h).
  */
@@ -27,6 +29,10 @@ void st_etcd_hold_on(st_etcd_hold *p, int pass);
  * on that connection) never reach the client, which times out: a reply lost after the
  * write. */
 void st_etcd_hold_mute(st_etcd_hold *p, int pass);
+/* Cuts the node off (on = 1) or lets it through again (0): while cut, every connection to
+ * the proxy is closed, those open and new ones, before anything reaches etcd: an etcd the
+ * node cannot reach at all (its calls fail at once). */
+void st_etcd_hold_cut(st_etcd_hold *p, int on);
 /* Stops holding and muting: transactions go through again; the kept ones stay kept. */
 void st_etcd_hold_off(st_etcd_hold *p);
 /* Sends the kept (complete) transactions to etcd; returns how many etcd answered. */

@@ -26,6 +26,11 @@
  *      etcd applies through the proxy but whose answer the proxy drops (muting) is tried on
  *      the second endpoint, fails its compares there, and is answered OK (the op key holds
  *      its tag: it was done), not BUSY.
+ *   7. n0 cut off etcd (the proxy closes every connection), n1 deletes a set both hold and
+ *      forwards the delete to n0, which cannot record it: DELETE is answered OK and n0 no
+ *      longer serves its copy (it used to, for up to two lease TTLs: cl27's defect 3).
+ *   8. a DELETE through n0 while it is cut off: UNAVAILABLE, n0 hides its copy (n1 serves
+ *      the set), and serves it again once its repair pass finds the set recorded.
  * 1-4 fail on the code before the fix (no op key, no resolution): the replayed transaction
  * takes effect; 5 fails without the data dir's record of the doubt (the restarted node
  * knows nothing of it: the set is deleted); 6 answers BUSY for a delete that was done.
@@ -345,6 +350,50 @@ static void delete_refused_by_a_node_killed_since_is_put_back(void **state)
         fail_msg("n0 did not settle the delete it found in its data dir");
 }
 
+static int deleted_everywhere(void *arg)
+{
+    return not_recorded(arg) && neither_serves(arg);
+}
+
+static void holder_cut_off_etcd_stops_serving_a_set_deleted_elsewhere(void **state)
+{
+    (void)state;
+    put_set("g");
+    uint64_t hidden0 = st_daemon_stat(&N[0], "cluster_copies_hidden");
+    /* n0 cannot reach etcd; n1 deletes the set and forwards the delete to n0, which cannot
+     * record it: the DELETE is answered OK, and n0 must not serve its copy after that */
+    st_etcd_hold_cut(PROXY, 1);
+    int rc = delete_direct(1, "g");
+    float r0 = red_on(0, "g");
+    uint64_t hidden = st_daemon_stat(&N[0], "cluster_copies_hidden");
+    st_etcd_hold_cut(PROXY, 0);
+    assert_int_equal(rc, 0);
+    if (r0 >= 0)
+        fail_msg("n0 served the deleted 'g' (red %g) right after DELETE OK", r0);
+    assert_int_equal(hidden, hidden0 + 1);   /* the forwarded delete reached n0 and hid it */
+    if (st_wait_until(deleted_everywhere, "g", DEADLINE_MS) != 0)
+        fail_msg("'g' is still recorded or served once n0 reaches etcd again");
+}
+
+static void delete_refused_for_want_of_etcd_hides_the_copy_until_etcd_is_back(void **state)
+{
+    (void)state;
+    put_set("h");
+    st_etcd_hold_cut(PROXY, 1);
+    int rc = delete_direct(0, "h");
+    float r0 = red_on(0, "h"), r1 = red_on(1, "h");
+    st_etcd_hold_cut(PROXY, 0);
+    assert_int_equal(rc, STC_EUNAVAILABLE);
+    if (r0 >= 0)
+        fail_msg("n0 served 'h' (red %g) after a DELETE it could not record", r0);
+    assert_true(r1 == red[0]);   /* the set is not deleted: its other owner serves it */
+    /* once n0 reaches etcd again its repair pass finds 'h' recorded: served again */
+    served s = {"h", red[0]};
+    if (st_wait_until(both_serve, &s, DEADLINE_MS) != 0)
+        fail_msg("n0 does not serve 'h' again (red %g)", red_on(0, "h"));
+    assert_int_equal(recorded("h", 1), 1);
+}
+
 static void reply_lost_on_one_endpoint_is_done_on_the_next(void **state)
 {
     (void)state;
@@ -389,6 +438,8 @@ int main(void)
         cmocka_unit_test(claim_applied_late_is_taken_back),
         cmocka_unit_test(finalize_applied_late_is_taken_back),
         cmocka_unit_test(delete_refused_by_a_node_killed_since_is_put_back),
+        cmocka_unit_test(holder_cut_off_etcd_stops_serving_a_set_deleted_elsewhere),
+        cmocka_unit_test(delete_refused_for_want_of_etcd_hides_the_copy_until_etcd_is_back),
         cmocka_unit_test(reply_lost_on_one_endpoint_is_done_on_the_next),
     };
     int rc = cmocka_run_group_tests(tests, setup, teardown);
