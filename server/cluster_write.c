@@ -16,6 +16,7 @@
 
 #define PUSH_TIMEOUT_MS 30000
 #define PUBLISH_TIMEOUT_MS 30000   /* the receiver imports the staged copy again */
+#define TELL_TIMEOUT_MS 5000       /* a holder of stale contents only hides them */
 
 /* The manifest of this node's copy of name and the path of its stored source; 0 or -1. */
 static int local_source(sts_server *srv, const char *name, st_manifest *m, char *spath,
@@ -211,6 +212,52 @@ void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c)
                  "%s); settled when etcd answers again", c->name, scl_etcd_errmsg(cl->etcd_w));
 }
 
+/* A REPLACE just recorded: every member that holds a copy of other contents (a copies/ key
+ * with another CRC) but got no push - not an owner in this node's view: a node joining, or an
+ * extra copy repair has not dropped yet - is sent the same REPLICA_PUBLISH, on which it hides
+ * its stale copy from reads (h_upload.c; before, it served the replaced contents until its next
+ * repair pass: cl27's defect 5). Best effort: one it misses drops its copy at that pass. */
+static void tell_stale_holders(sts_cluster *cl, const sts_cl_claim *c,
+                               const char (*acked)[STP_MAX_NODE_ID + 1], int nack)
+{
+    char ckey[SCL_KEY_MAX];
+    scl_key_copies(ckey, cl->prefix, c->name, "");
+    scl_kvs copies;
+    memset(&copies, 0, sizeof copies);
+    pthread_mutex_lock(&cl->etcd_mu);
+    int rc = scl_etcd_range(cl->etcd_w, ckey, 1, &copies);
+    pthread_mutex_unlock(&cl->etcd_mu);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return;
+    sts_cl_member *m = NULL;
+    size_t n = sts_cluster_members(cl, &m, NULL);
+    size_t plen = strlen(ckey);
+    for (size_t i = 0; i < copies.n; i++) {
+        const char *id = copies.v[i].key + plen;
+        uint32_t crc = 0;
+        int told = copies.v[i].key_len <= plen ||
+                   scl_copy_parse(copies.v[i].val, &crc) != 0 || crc == c->rec.crc32;
+        for (int k = 0; !told && k < nack; k++)
+            told = !strcmp(acked[k], id);
+        for (size_t j = 0; !told && j < n; j++)
+            if (!strcmp(m[j].id, id)) {
+                char pm[512], token[STS_TOKEN_MAX + 1];
+                node_token(cl->srv, token);
+                int prc = scl_peer_publish(m[j].addr, token, c->name, c->rec.crc32,
+                                           TELL_TIMEOUT_MS, pm, sizeof pm);
+                if (prc && prc != STP_S_NOT_FOUND)   /* NOT_FOUND: it hid its stale copy */
+                    sts_logf(&cl->srv->log, STS_WARN, "cluster: %s", pm);
+                else
+                    sts_logf(&cl->srv->log, STS_INFO, "cluster: %s told that '%s' was replaced",
+                             m[j].id, c->name);
+                told = 1;
+            }
+    }
+    free(m);
+    scl_kvs_free(&copies);
+}
+
 int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char *stage,
                           char *msg, size_t cap)
 {
@@ -313,6 +360,8 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char
                              sizeof pm) != 0)
             sts_logf(&cl->srv->log, STS_WARN, "cluster: %s (its repair pass publishes it)", pm);
     }
+    if (c->had_prev)
+        tell_stale_holders(cl, c, (const char (*)[STP_MAX_NODE_ID + 1])acked, nack);
     return 0;
 }
 

@@ -647,10 +647,22 @@ int sts_h_replica_publish(sts_ctx *c, const stp_header *h, const uint8_t *body, 
     if (rc == ST_ENOTFOUND) {
         /* published already (this node's repair pass found the write recorded first)? */
         st_setref *ref = NULL;
-        int have = st_registry_get(srv->reg, name, &ref, NULL) == 0 && ref->source_crc == crc;
+        int got = st_registry_get(srv->reg, name, &ref, NULL) == 0;
+        int have = got && ref->source_crc == crc;
+        int stale = got && !have && ref->source_bytes;
         st_setref_release(ref);
         if (!have) {
-            sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32");
+            /* the write of other contents is recorded: a copy of other contents here is stale
+             * (a holder that got no push: cluster_write.c), hidden until the repair pass that
+             * drops it */
+            if (stale && sts_cluster_hide(srv->cluster, name)) {
+                sts_logf(&srv->log, STS_INFO, "cluster: '%s' replaced elsewhere: this node's "
+                         "copy of other contents is hidden from reads", name);
+                sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32; "
+                                "this node's copy of other contents is hidden (stale)");
+            } else {
+                sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32");
+            }
             return 0;
         }
         rc = 0;

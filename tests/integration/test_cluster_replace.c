@@ -44,15 +44,21 @@ static st_daemon N[3];
 static char files[2][300];
 static float red[2];
 
-/* node i of the cluster, R = W = 2, with LEASE (cluster_fixture.h's nodes have 2 s) */
-static int start_node(int i)
+/* node i of the cluster, R = W = 2, with LEASE (cluster_fixture.h's nodes have 2 s), a repair
+ * pass every `every` seconds */
+static int start_node_every(int i, const char *every)
 {
     static const char *const ids[] = {"n0", "n1", "n2"};
     const char *id = ids[i];
     const char *args[] = {"--cluster", ETCD.url, "--node-id", id, "--advertise", "127.0.0.1:0",
                           "--replicas", "2", "--write-quorum", "2", "--lease-ttl", LEASE,
-                          "--repair-interval", "1", "--no-default-set", NULL};
+                          "--repair-interval", every, "--no-default-set", NULL};
     return st_daemon_start(&N[i], args);
+}
+
+static int start_node(int i)
+{
+    return start_node_every(i, "1");
 }
 
 static int both_members(void *arg)
@@ -360,17 +366,18 @@ static int n1_alone_of_two(void *arg)
  * replaced its copy of the acknowledged ones (with the other owner gone: none left). Now it
  * stages the push, publishes it on the writer's REPLICA_PUBLISH once the write is recorded -
  * an acknowledged write reads on both owners right after its OK - and drops it otherwise. */
-static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **state)
+/* etcd under prefix, 3 nodes (fresh data dirs; n0's repair pass every n0_every seconds)
+ * members of it, owned[] a name n1 and n2 own, the tints' reds known */
+static void start_three(const char *prefix, const char *n0_every)
 {
-    (void)state;
-    assert_int_equal(st_etcd_start(&ETCD, "/replace-pushed"), 0);
+    assert_int_equal(st_etcd_start(&ETCD, prefix), 0);
     for (int i = 0; i < 3; i++) {
         st_daemon_cleanup(&N[i]);
         assert_int_equal(st_daemon_init(&N[i]), 0);
     }
     assert_int_equal(st_cluster_tint_files(N[0].dir, 2, 40, files), 0);
     for (int i = 0; i < 3; i++)
-        assert_int_equal(start_node(i), 0);
+        assert_int_equal(start_node_every(i, i ? "1" : n0_every), 0);
     if (st_wait_until(three_members, NULL, DEADLINE_MS) != 0)
         fail_msg("the nodes never saw each other");
     const char *ids[3] = {"n0", "n1", "n2"};
@@ -388,6 +395,12 @@ static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **sta
     assert_non_null(cl);
     assert_int_equal(st_cluster_tint_reds(cl, 2, files, red), 0);
     stc_cluster_close(cl);
+}
+
+static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **state)
+{
+    (void)state;
+    start_three("/replace-pushed", "1");
 
     /* an acknowledged write through n0 (not an owner): both owners read it at once */
     stc_conn *c0 = st_daemon_client(&N[0], NULL);
@@ -452,6 +465,47 @@ static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **sta
     st_etcd_stop(&ETCD);
 }
 
+/* cl27's defect 5: a node that holds a copy but is not an owner in the writer's view gets no
+ * push of a REPLACE, and served the replaced contents until its next repair pass. Here n0 (not
+ * an owner of the name, its repair pass every 60 s) took the first upload and keeps its copy,
+ * served; a REPLACE through n1 is recorded: right after its OK, n0 must not read the old
+ * contents (the writer tells it with REPLICA_PUBLISH, and n0 hides its stale copy), while the
+ * owners read the new ones. */
+static void a_replace_hides_the_old_copy_of_a_holder_that_is_not_an_owner(void **state)
+{
+    (void)state;
+    start_three("/replace-stale", "60");
+    stc_conn *c0 = st_daemon_client(&N[0], NULL);
+    assert_non_null(c0);
+    assert_int_equal(stc_upload_file(c0, files[0], owned, NULL, NULL), 0);
+    stc_close(c0);
+    float r = -1;
+    assert_int_equal(red_of(0, owned, &r), 0);   /* n0's own copy, published and served */
+    assert_true(r == red[0]);
+    uint64_t hidden0 = st_daemon_stat(&N[0], "cluster_copies_hidden");
+
+    stc_conn *c1 = st_daemon_client(&N[1], NULL);
+    assert_non_null(c1);
+    stc_upload_opts uo = {.flags = STC_UPLOAD_REPLACE};
+    assert_int_equal(stc_upload_file(c1, files[1], owned, &uo, NULL), 0);
+    stc_close(c1);
+    float r0 = -1;
+    int rc0 = red_of(0, owned, &r0);
+    if (rc0 == 0 && r0 == red[0]) {
+        st_daemon_dump_log(&N[0], 20);
+        fail_msg("right after the REPLACE's OK n0 reads %s with the replaced contents", owned);
+    }
+    assert_int_equal(st_daemon_stat(&N[0], "cluster_copies_hidden"), hidden0 + 1);
+    for (int i = 1; i < 3; i++) {
+        r = -1;
+        if (red_of(i, owned, &r) != 0 || r != red[1])
+            fail_msg("right after the REPLACE's OK owner n%d reads %g, not %g", i, r, red[1]);
+    }
+    for (int i = 0; i < 3; i++)
+        st_daemon_down(&N[i], 10000);
+    st_etcd_stop(&ETCD);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -459,6 +513,7 @@ int main(void)
         cmocka_unit_test(a_refused_compress_keeps_the_target),
         cmocka_unit_test(recorded_contents_staged_at_a_crash_are_published_at_restart),
         cmocka_unit_test(a_refused_write_pushed_to_an_owner_is_not_published_there),
+        cmocka_unit_test(a_replace_hides_the_old_copy_of_a_holder_that_is_not_an_owner),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     st_etcd_stop(&ETCD);
