@@ -29,6 +29,7 @@ void st_atlas_free(void *p)
     st_mesh_free(a->mesh);
     free(a->chart_mask);
     free(a->chart_id);
+    free(a->chart_link);
     free(a);
 }
 
@@ -43,7 +44,8 @@ static size_t atlas_memory(const void *p)
 {
     const st_atlas *a = p;
     return sizeof *a + st_mesh_memory(a->mesh) +
-           (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0) + a->chart_id_bytes;
+           (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0) + a->chart_id_bytes +
+           a->chart_link_bytes;
 }
 
 void st_atlas_ext(st_atlas *a, st_set_ext *x)
@@ -124,6 +126,7 @@ static void reduce_ids(const uint16_t *src, uint32_t sw, uint32_t sh, uint16_t *
 
 int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
 {
+    st_atlas_free_links(a);
     free(a->chart_id);
     a->chart_id = NULL;
     a->chart_id_bytes = 0;
@@ -159,7 +162,14 @@ int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
     for (unsigned l = 0; l < nl; l++)
         a->ids.level[l] = ids + off[l];
     a->ids.nlevels = nl;
-    return ST_OK;
+    int rc = st_atlas_build_links(a, s, e);
+    if (rc) {   /* nothing half-built: no ids either */
+        free(a->chart_id);
+        a->chart_id = NULL;
+        a->chart_id_bytes = 0;
+        memset(&a->ids, 0, sizeof a->ids);
+    }
+    return rc;
 }
 
 static int build_mask(st_atlas *a, const st_mesh *m, uint32_t w, uint32_t h, st_error *e)
@@ -220,6 +230,7 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
     a->mesh = NULL;
     free(a->chart_mask);
     a->chart_mask = NULL;
+    st_atlas_free_links(a);
     free(a->chart_id);
     a->chart_id = NULL;
     a->chart_id_bytes = 0;

@@ -14,7 +14,8 @@
  * ST_ATLAS_CHART_DISCARD also discards taps on texels outside every chart (the chart mask),
  * renormalising. Discard without that flag is chart Discard (sample.c, docs/sampler.md): taps
  * on texels not of the query's chart are dropped, at every level, from the chart ids kept
- * here (set->ext.charts).
+ * here (set->ext.charts); Traverse is chart Traverse: such taps read the texel linked to them
+ * across a UV seam (atlas_links.c), and are dropped where there is none.
  *
  * Ownership: the atlas owns its mesh (freed by st_atlas_free, which is the set's ext_free).
  */
@@ -39,7 +40,10 @@ typedef struct st_atlas {
                               the levels one after another; NULL when no mesh or more than
                               65534 charts (docs/sampler.md, "Chart Discard") */
     size_t    chart_id_bytes;
-    st_chart_ids ids;      /* chart_id's levels, what set->ext.charts points to */
+    st_chart_link *chart_link; /* chart Traverse's links of every level (atlas_links.c), the
+                              levels one after another; NULL when none */
+    size_t    chart_link_bytes;
+    st_chart_ids ids;      /* chart_id's and chart_link's levels, what set->ext.charts points to */
     char      texture_name[256]; /* file the texture came from (information) */
 } st_atlas;
 
@@ -52,6 +56,14 @@ int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st
 /* (Re)builds a's chart ids for face 0 of s from a->mesh (seams found): called when a mesh is
  * attached and when a native file is read (the ids are not stored). */
 int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e);
+
+/* How far past a seam side's UV edge (in texels of each level) chart Traverse links texels. */
+#define ST_CHART_LINK_BAND 4
+
+/* (Re)builds a's chart Traverse links from a->mesh's seams and a's chart ids (atlas_links.c;
+ * called by st_atlas_build_chart_ids); ST_ENOMEM leaves none. */
+int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e);
+void st_atlas_free_links(st_atlas *a);
 
 /* Attaches a mesh to an existing atlas set (replacing an old one); takes it over. */
 int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e);

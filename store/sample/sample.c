@@ -10,10 +10,12 @@
  * probes into one st_acc (sum of w*T per channel, sum of w) and ends with sum(wT)/sum(w);
  * the coverage is sum(w). A probe whose taps all fall inside the face takes the fast path,
  * identical for every mode, so modes agree exactly in face interiors and Traverse costs what
- * Discard costs there. Discard on an atlas with chart ids (set->ext.charts) runs in variants
- * of its own (CH = 1): the query's chart is found once (query_chart), and a probe takes the
- * fast path only when its four taps are of that chart; otherwise st_probe_bilinear_chart
- * drops the others (docs/sampler.md, "Chart Discard"). Other sets never pay for the check.
+ * Discard costs there. Discard and Traverse on an atlas with chart ids (set->ext.charts) run
+ * in variants of their own (CH = 1): the query's chart is found once (query_chart), and a
+ * probe takes the fast path only when its four taps are of that chart; otherwise
+ * st_probe_bilinear_chart drops the others (Discard) or reads the texels linked to them across
+ * a UV seam (Traverse; docs/sampler.md, "Chart Discard", "Chart Traverse"). Other sets never
+ * pay for the check.
  */
 #include "sample_internal.h"
 
@@ -84,12 +86,12 @@ ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint3
     float x = u * (float)V.w - 0.5f, y = v * (float)V.h - 0.5f;
     int32_t i0 = st_ifloor(x), j0 = st_ifloor(y);
     float fx = x - (float)i0, fy = y - (float)j0;
-    if (CH && fp->chart) { /* chart Discard: the fast path when all four taps are the chart's */
+    if (CH && fp->chart) { /* chart modes: the fast path when all four taps are the chart's */
         const uint16_t c = (uint16_t)fp->chart;
         const uint16_t *r = fp->ch->level[level] + (size_t)j0 * (size_t)V.w + (size_t)i0;
         if (!((uint32_t)i0 < (uint32_t)(V.w - 1) && (uint32_t)j0 < (uint32_t)(V.h - 1) &&
               r[0] == c && r[1] == c && r[V.w] == c && r[V.w + 1] == c)) {
-            st_probe_bilinear_chart(s, fp, level, &V, i0, j0, fx, fy, pw, a);
+            st_probe_bilinear_chart(s, mode, fp, level, &V, i0, j0, fx, fy, pw, a);
             return;
         }
     }
@@ -155,8 +157,11 @@ ST_AI void probe_point(const st_set *s, unsigned mode, const st_fp *fp, uint32_t
         j = V.h - 1;
     if (CH && fp->chart &&
         !((uint32_t)i < (uint32_t)V.w && (uint32_t)j < (uint32_t)V.h &&
-          fp->ch->level[level][(size_t)j * (size_t)V.w + (size_t)i] == fp->chart))
-        return; /* chart Discard: beyond the image or not the query's chart */
+          fp->ch->level[level][(size_t)j * (size_t)V.w + (size_t)i] == fp->chart)) {
+        /* beyond the image or not the query's chart: dropped, or read across a seam */
+        st_probe_point_chart(s, mode, fp, level, &V, i, j, pw, a);
+        return;
+    }
     if (!((uint32_t)i < (uint32_t)V.w && (uint32_t)j < (uint32_t)V.h)) {
         st_probe_point_edge(s, mode, fp, f, level, &V, i, j, pw, a);
         return;
@@ -193,7 +198,7 @@ ST_AI void probe_trilinear(const st_set *s, unsigned mode, const st_fp *fp, uint
     }
 }
 
-/* ---- chart Discard (atlas sets) ------------------------------------------------------------ */
+/* ---- chart Discard and Traverse (atlas sets) ------------------------------------------------ */
 
 /* The chart of a query at (u, v) (docs/sampler.md, "Chart Discard"): the id of the level-0
  * texel holding (u, v) (the image the closed square, as for point); when that texel has none,
@@ -256,7 +261,7 @@ ST_AI int sample_one(const st_set *s, const st_sample_opts *o, unsigned maxa, co
     st_acc a = {{0.0f, 0.0f, 0.0f, 0.0f}, 0.0f, 0};
     /* lodadj NaN: Traverse's slow path derives min(lod, 0) from rho2 only when it needs it */
     st_fp fp = {q->dudx, q->dvdx, q->dudy, q->dvdy, rho2, NAN, NULL, 0};
-    if (CH) { /* chart Discard on an atlas: the query's chart */
+    if (CH) { /* chart Discard or Traverse on an atlas: the query's chart */
         fp.ch = s->ext.charts;
         fp.chart = query_chart(fp.ch, F, q->u, q->v);
     }
@@ -375,7 +380,7 @@ ST_VARIANT(run_half, ST_DT_HALF, 0, 0)
 ST_VARIANT(run_f32x4, ST_DT_F32, 4, 0)
 ST_VARIANT(run_f32, ST_DT_F32, 0, 0)
 ST_VARIANT(run_bc1, DT_BC1, 4, 0)
-/* chart Discard on atlas sets (never BC1: a BC1 set keeps no mesh) */
+/* chart Discard and Traverse on atlas sets (never BC1: a BC1 set keeps no mesh) */
 ST_VARIANT(run_u8x4_ch, ST_DT_U8, 4, 1)
 ST_VARIANT(run_u8_ch, ST_DT_U8, 0, 1)
 ST_VARIANT(run_u16_ch, ST_DT_U16, 0, 1)
@@ -385,7 +390,7 @@ ST_VARIANT(run_f32_ch, ST_DT_F32, 0, 1)
 
 typedef size_t (*run_fn)(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                          float *out, float *cov, uint8_t *st);
-/* The variants by [chart Discard][run_index]: u8 RGBA, u8, u16, half, f32 RGBA, f32. */
+/* The variants by [chart mode][run_index]: u8 RGBA, u8, u16, half, f32 RGBA, f32. */
 static const run_fn RUNS[2][6] = {
     {run_u8x4, run_u8, run_u16, run_half, run_f32x4, run_f32},
     {run_u8x4_ch, run_u8_ch, run_u16_ch, run_half_ch, run_f32x4_ch, run_f32_ch},
@@ -431,10 +436,12 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
     if (n > (size_t)INT32_MAX)
         return ST_ETOOBIG;
     const st_chart_ids *ch = s->ext.charts;
-    /* chart Discard (docs/sampler.md): taps off the query's chart are dropped */
-    int chart = o->mode == ST_MODE_DISCARD && s->info.kind == ST_KIND_ATLAS && ch &&
-                ch->nlevels == s->faces[0].nlevels && ch->nlevels;
-    size_t bad = s->info.kind == ST_KIND_BC1 /* never chart Discard: a BC1 set keeps no mesh */
+    /* chart Discard and chart Traverse (docs/sampler.md): taps off the query's chart are
+     * dropped, or (Traverse) read from the texel linked to them across a seam */
+    int chart = (o->mode == ST_MODE_DISCARD || o->mode == ST_MODE_TRAVERSE) &&
+                s->info.kind == ST_KIND_ATLAS && ch && ch->nlevels == s->faces[0].nlevels &&
+                ch->nlevels;
+    size_t bad = s->info.kind == ST_KIND_BC1 /* never a chart mode: a BC1 set keeps no mesh */
                      ? run_bc1(s, o, q, n, out, coverage, status)
                      : RUNS[chart][run_index(&s->info)](s, o, q, n, out, coverage, status);
     return (int)bad;

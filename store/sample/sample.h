@@ -77,14 +77,32 @@ enum st_qstatus {
 #define ST_MAX_COORD 1.0e4f  /* |u|, |v| above this are refused, not sampled */
 #define ST_MAX_DERIV 1.0e4f  /* footprint components above this are refused */
 
-/* Chart ids of an atlas set's face 0 at every level, for chart Discard (docs/sampler.md,
- * "Chart Discard"; built by kinds/atlas.c and reached through set->ext.charts). level[L]
- * holds st_level_w x st_level_h ids of level L, row by row: 0 for a texel of no chart, else
- * the chart's index (mesh.h) + 1. nlevels 0: no ids (Discard takes the image as one face). */
+/* A link of chart Traverse: the texel of level L whose index (row * width + column) is
+ * `texel`, seen from chart `chart` (id, as in st_chart_ids), reads texel `to` of the same level
+ * instead - the texel under the point the seam's unfolding maps the texel centre to
+ * (docs/sampler.md, "Chart Traverse"). */
+typedef struct st_chart_link {
+    uint32_t texel, to;
+    uint16_t chart, pad;
+} st_chart_link;
+
+/* Chart ids of an atlas set's face 0 at every level, for chart Discard and chart Traverse
+ * (docs/sampler.md, "Chart Discard", "Chart Traverse"; built by kinds/atlas.c and reached
+ * through set->ext.charts). level[L] holds st_level_w x st_level_h ids of level L, row by row:
+ * 0 for a texel of no chart, else the chart's index (mesh.h) + 1. nlevels 0: no ids (Discard
+ * takes the image as one face). link[L]: nlink[L] links of level L sorted by (texel, chart),
+ * at most one per pair (may be none). */
 typedef struct st_chart_ids {
     unsigned nlevels;
     const uint16_t *level[ST_MAX_LEVELS];
+    const st_chart_link *link[ST_MAX_LEVELS];
+    size_t nlink[ST_MAX_LEVELS];
 } st_chart_ids;
+
+/* The texel chart `chart` reads for texel index `texel` of level L under chart Traverse:
+ * 1 and *to, or 0 when there is no link (the tap is dropped, as by Discard). */
+int st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel, unsigned chart,
+                       uint32_t *to);
 
 /* Samples n queries. out receives n * nchan floats (NaN for a query whose status is not OK),
  * coverage n floats and status n bytes (either may be NULL). Returns the number of queries

@@ -27,7 +27,7 @@ typedef struct st_fp {
     float dudx, dvdx, dudy, dvdy;
     float rho2;    /* max(|(dudx W0, dvdx H0)|, |(dudy W0, dvdy H0)|)^2 in the query's face */
     float lodadj;  /* min(lod, 0): how far below level 0 the footprint asked (magnification) */
-    const st_chart_ids *ch; /* chart Discard on an atlas: the set's chart ids, else unused */
+    const st_chart_ids *ch; /* chart Discard / Traverse on an atlas: the set's ids, else unused */
     unsigned chart;         /* the query's chart id (chart + 1); 0: none, image Discard */
 } st_fp;
 
@@ -75,11 +75,17 @@ void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uin
                             unsigned level, const st_view *v, int32_t i0, int32_t j0, float fx,
                             float fy, float pw, st_acc *a);
 
-/* Chart Discard (an atlas, fp->chart != 0): a bilinear probe whose four taps are not all
- * inside the level and of the query's chart; taps outside the level or on a texel of another
- * chart (fp->ch at `level`) are dropped, the rest added. */
-void st_probe_bilinear_chart(const st_set *s, const st_fp *fp, unsigned level, const st_view *v,
-                             int32_t i0, int32_t j0, float fx, float fy, float pw, st_acc *a);
+/* Chart Discard and Traverse (an atlas, fp->chart != 0): a bilinear probe whose four taps are
+ * not all inside the level and of the query's chart; taps outside the level or on a texel of
+ * another chart (fp->ch at `level`) are dropped - in Traverse (mode) read from their linked
+ * texel when they have one (st_chart_link_find) - the rest added. */
+void st_probe_bilinear_chart(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
+                             const st_view *v, int32_t i0, int32_t j0, float fx, float fy,
+                             float pw, st_acc *a);
+/* The tap (i, j) of a point probe that is not of the query's chart: chart Traverse reads its
+ * linked texel, if any; otherwise dropped. */
+void st_probe_point_chart(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
+                          const st_view *v, int32_t i, int32_t j, float pw, st_acc *a);
 
 /* The same for the one tap of a point probe. */
 void st_probe_point_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,

@@ -3,7 +3,8 @@
  * Owns: the per-tap rules of the three modes (Discard drops the tap - on an atlas also a tap on
  * a texel of another chart than the query's (st_probe_bilinear_chart), Clamp clamps its index,
  * Traverse reads it from the neighbour across the edge or the diagonal face across the
- * corner), the edge and corner uv mappings, the choice of the neighbour's level, the turn of
+ * corner - on an atlas a tap of another chart from the texel linked to it across a UV seam,
+ * st_chart_link_find), the edge and corner uv mappings, the choice of the neighbour's level, the turn of
  * channels 0-1 of what Traverse reads in a turned neighbour of a set in Ptex's tanvec edge
  * filter mode (tanvec_rot), and the generic (any dtype, BC1) texel fetch. Does not own: option and query validation, level
  * selection, the in-face fast path (sample.c).
@@ -395,18 +396,59 @@ void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uin
     }
 }
 
-void st_probe_bilinear_chart(const st_set *s, const st_fp *fp, unsigned level, const st_view *v,
-                             int32_t i0, int32_t j0, float fx, float fy, float pw, st_acc *a)
+int st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel, unsigned chart,
+                       uint32_t *to)
+{
+    const st_chart_link *l = ch->link[level];
+    size_t lo = 0, hi = ch->nlink[level];
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (l[mid].texel < texel || (l[mid].texel == texel && l[mid].chart < chart))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo < ch->nlink[level] && l[lo].texel == texel && l[lo].chart == chart) {
+        *to = l[lo].to;
+        return 1;
+    }
+    return 0;
+}
+
+/* A tap of texel (i, j) not of the query's chart: chart Traverse reads the texel linked to it
+ * across a seam (the same level), chart Discard - and Traverse without a link - drops it. */
+static void chart_tap(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
+                      const st_view *v, int32_t i, int32_t j, float w, st_acc *a)
+{
+    uint32_t to;
+    if (mode == ST_MODE_TRAVERSE && (uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h &&
+        st_chart_link_find(fp->ch, level, (uint32_t)j * (uint32_t)v->w + (uint32_t)i, fp->chart,
+                           &to))
+        add_tap(s, v, (int32_t)(to % (uint32_t)v->w), (int32_t)(to / (uint32_t)v->w), w, a);
+}
+
+void st_probe_bilinear_chart(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
+                             const st_view *v, int32_t i0, int32_t j0, float fx, float fy,
+                             float pw, st_acc *a)
 {
     float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
     const uint16_t *m = fp->ch->level[level];
     for (int k = 0; k < 4; k++) {
         int32_t i = i0 + (k & 1), j = j0 + (k >> 1);
-        if (w[k] == 0.0f || !((uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h) ||
-            m[(size_t)j * (size_t)v->w + (size_t)i] != fp->chart)
-            continue; /* zero weight, beyond the image or not of the query's chart: dropped */
-        add_tap(s, v, i, j, pw * w[k], a);
+        if (w[k] == 0.0f)
+            continue; /* a zero-weight tap neither reads nor counts */
+        if ((uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h &&
+            m[(size_t)j * (size_t)v->w + (size_t)i] == fp->chart)
+            add_tap(s, v, i, j, pw * w[k], a);
+        else /* beyond the image or not of the query's chart */
+            chart_tap(s, mode, fp, level, v, i, j, pw * w[k], a);
     }
+}
+
+void st_probe_point_chart(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
+                          const st_view *v, int32_t i, int32_t j, float pw, st_acc *a)
+{
+    chart_tap(s, mode, fp, level, v, i, j, pw, a);
 }
 
 void st_probe_point_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,

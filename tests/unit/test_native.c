@@ -319,6 +319,12 @@ static void test_atlas_and_bc1(void **st)
     assert_int_equal(y->ids.nlevels, x->ids.nlevels);
     assert_int_equal(y->chart_id_bytes, x->chart_id_bytes);
     assert_memory_equal(x->chart_id, y->chart_id, x->chart_id_bytes);
+    /* and so are chart Traverse's links across the seam */
+    assert_true(x->ids.nlink[0] > 0);
+    assert_int_equal(y->chart_link_bytes, x->chart_link_bytes);
+    assert_memory_equal(x->chart_link, y->chart_link, x->chart_link_bytes);
+    for (unsigned l = 0; l < x->ids.nlevels; l++)
+        assert_int_equal(y->ids.nlink[l], x->ids.nlink[l]);
     assert_ptr_equal(m->ext.charts, &y->ids);
     assert_int_equal(y->mesh->ntri, 2);
     assert_memory_equal(x->mesh->tri_weld, y->mesh->tri_weld, 6 * 4);
