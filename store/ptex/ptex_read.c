@@ -39,12 +39,25 @@
 #include <libdeflate.h>
 
 #include "ptex_format.h"
+#include "ptex_inflate.h"
 #include "ptex_unpack.h"
 #include "ptexres.h"
 #include "fileio.h"
 #include "bigalloc.h"
 
 #define PTX_MAX_LEVELS 16u
+
+/* Streams that inflate to at most this many bytes go through ptex_inflate.h (no heap, no
+ * per-stream table of 2^11 entries), larger ones through libdeflate (faster per byte). */
+#ifndef PTX_SMALL_INFLATE
+#define PTX_SMALL_INFLATE 16384u
+#endif
+#ifndef PTX_SMALL_DYN
+#define PTX_SMALL_DYN 4u
+#endif
+#ifndef PTX_SMALL_DYN_BYTES
+#define PTX_SMALL_DYN_BYTES 2048u
+#endif
 
 typedef struct rd {
     const uint8_t *buf;         /* the bytes from file offset `origin` on */
@@ -58,7 +71,8 @@ typedef struct rd {
     int tri;                    /* a triangle mesh: square faces, three edges */
     size_t csize, psize;        /* bytes per channel, per pixel */
     st_error *e;
-    struct libdeflate_decompressor *dd; /* made on the first stream, reused */
+    struct libdeflate_decompressor *dd; /* made on the first stream it inflates, reused */
+    unsigned ndyn;              /* streams of a dynamic-code first block seen so far */
     uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
     size_t scratch_cap;
     int ctiled;                 /* decode_face's last face: tiled, every tile a constant tile
@@ -136,6 +150,26 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (rc)
         return rc;
     const uint8_t *p = at(r, off);
+    /* ptex_inflate.h: small streams of stored and fixed-code blocks, and the first few of
+     * dynamic-code blocks (its tables cost more per stream than libdeflate's; libdeflate's
+     * first use costs more than a few of them) */
+    if (outlen <= PTX_SMALL_INFLATE &&
+        (zlen < 3 || ((p[2] >> 1) & 3) != 2 ||
+         (outlen <= PTX_SMALL_DYN_BYTES && r->ndyn++ < PTX_SMALL_DYN))) {
+        size_t got = 0;
+        const char *why = "";
+        int ir = st_ptx_inflate(p, zlen, out, outlen, &got, &why);
+        if (ir == ST_PTX_INFL_OVER)
+            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to more "
+                           "than the declared %zu bytes", what, (unsigned long long)off, outlen);
+        if (ir != ST_PTX_INFL_OK)
+            return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
+                           (unsigned long long)off, why);
+        if (got != outlen)
+            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %zu "
+                           "bytes, declared %zu", what, (unsigned long long)off, got, outlen);
+        return ST_OK;
+    }
     if (!r->dd && !(r->dd = libdeflate_alloc_decompressor()))
         return st_fail(r->e, ST_ENOMEM, "out of memory for the inflater");
     size_t got = 0;
@@ -417,7 +451,8 @@ static int pend_make(st_set *s, void *p, st_error *e)
                 break;
             }
         }
-    libdeflate_free_decompressor(r->dd);
+    if (r->dd) /* none when every stream went through ptex_inflate.h: no call into libdeflate */
+        libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     return rc;
 }
@@ -1029,7 +1064,8 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
 done:
     free(ct);
     pend_free(pd);
-    libdeflate_free_decompressor(r->dd);
+    if (r->dd) /* none when every stream went through ptex_inflate.h: no call into libdeflate */
+        libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     free(work);
     free(fedits);
