@@ -1,5 +1,6 @@
 /* util/fdio.c - blocking file-descriptor helpers (see fdio.h). */
 #include "fdio.h"
+#include "loadpath.h"
 
 #include "bigalloc.h"
 
@@ -31,7 +32,7 @@ int stu_write_all(int fd, const void *buf, size_t n)
     return 0;
 }
 
-int stu_read_all(int fd, void *buf, size_t n)
+STU_LOADPATH int stu_read_all(int fd, void *buf, size_t n)
 {
     uint8_t *p = buf;
     while (n) {
@@ -50,7 +51,7 @@ int stu_read_all(int fd, void *buf, size_t n)
     return 0;
 }
 
-int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
+STU_LOADPATH int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
 {
     *out = NULL;
     *len = 0;

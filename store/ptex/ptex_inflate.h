@@ -5,7 +5,7 @@
  * tables of 2^11 entries per stream and its decompressor is an 11 KB allocation zeroed on
  * creation: on a fresh process that is 3 fresh heap pages and its code pages, and on a
  * 400-byte output most of the work. This one decodes with a root table sized to the code
- * (at most 2^10 entries, on the stack) and a canonical fallback for longer codes, keeps
+ * (at most 2^9 entries, on the stack) and a canonical fallback for longer codes, keeps
  * everything on the stack, and computes the Adler-32 itself, so a small stream touches no
  * heap and no other library.
  *
@@ -35,7 +35,7 @@
  * blocks keeps a small stack.
  *
  * A Huffman code is decoded by a root table indexed by the next rbits bits (rbits = the
- * code's longest length, capped at 10 for literals / lengths, 8 for distances, 7 for the
+ * code's longest length, capped at 9 for literals / lengths, 7 for distances and for the
  * code-length code): entry = length << 9 | symbol, 0 for a code longer than the root, which
  * is then decoded canonically bit by bit from the counts and the sorted symbols.
  */
@@ -46,17 +46,21 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "loadpath.h"
+
 enum {
     ST_PTX_INFL_OK = 0,     /* *got bytes written (may be fewer than outlen: caller checks) */
     ST_PTX_INFL_BAD = 1,    /* malformed, truncated, or a wrong check value: *why says which */
     ST_PTX_INFL_OVER = 2,   /* the stream inflates to more than outlen bytes */
 };
 
-enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 10 };
+/* root table bits at most: literal/length, distance codes (small tables: a small stream
+ * decodes a few hundred symbols, and the tables are on the stack) */
+enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 9, PI_DIST_RMAX = 7 };
 
 typedef struct pi_huff {
     uint16_t count[16];         /* codes of each length; count[0] unused symbols */
-    uint16_t sym[288];          /* symbols by (length, value): canonical order */
+    uint16_t *sym;              /* symbols by (length, value): canonical order */
     uint16_t *root;             /* 1 << rbits entries */
     unsigned rbits, mask;       /* mask = (1 << rbits) - 1 */
 } pi_huff;
@@ -123,7 +127,7 @@ static const uint8_t *pi_align(pi_bits *s)
 
 /* Builds h from n code lengths (0..15); rmax caps the root table. 0, or -1 for an
  * over-subscribed or (as zlib) an incomplete code. */
-static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
+STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
 {
     memset(h->count, 0, sizeof h->count);
     for (unsigned i = 0; i < n; i++)
@@ -305,10 +309,11 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
 
 /* The code lengths of a dynamic block, then its codes (not inlined: its tables stay off the
  * caller's frame). */
-__attribute__((noinline)) static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
+__attribute__((noinline)) STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
 {
-    uint16_t lroot[1 << PI_LIT_RMAX], droot[1 << 8];
-    pi_huff lh = {.root = lroot}, dh = {.root = droot}, *lit = &lh, *dist = &dh;
+    uint16_t lroot[1 << PI_LIT_RMAX], droot[1 << PI_DIST_RMAX], lsym[286], dsym[30];
+    pi_huff lh = {.root = lroot, .sym = lsym}, dh = {.root = droot, .sym = dsym};
+    pi_huff *lit = &lh, *dist = &dh;
     /* the order of the code-length code's lengths: 16 17 18 0 8 7 9 6 10 5 11 4 12 3 13 2 14
      * 1 15, five bits each in two constants (no table in memory) */
     const uint64_t ord0 = (uint64_t)16 | 17ull << 5 | 18ull << 10 | 0ull << 15 | 8ull << 20 |
@@ -381,7 +386,7 @@ __attribute__((noinline)) static int pi_dynamic(pi_bits *s, uint8_t *out, size_t
         *why = "invalid literal/lengths set";
         return ST_PTX_INFL_BAD;
     }
-    if (pi_build(dist, cl + nlen, ndist, 8, PI_DIST)) {
+    if (pi_build(dist, cl + nlen, ndist, PI_DIST_RMAX, PI_DIST)) {
         *why = "invalid distances set";
         return ST_PTX_INFL_BAD;
     }
@@ -420,7 +425,7 @@ static uint32_t pi_adler32(const uint8_t *p, size_t n)
 }
 
 /* Inflates the zlib stream at in (inlen bytes, header included) into out (outlen bytes). */
-static int st_ptx_inflate(const uint8_t *in, size_t inlen, uint8_t *out, size_t outlen,
+STU_LOADPATH static int st_ptx_inflate(const uint8_t *in, size_t inlen, uint8_t *out, size_t outlen,
                           size_t *got, const char **why)
 {
     pi_bits s = {.p = in + (inlen < 2 ? inlen : 2), .end = in + inlen};

@@ -20,6 +20,7 @@
  * arena is checked against max_bytes.
  */
 #include "ptexres.h"
+#include "loadpath.h"
 #include "ptexfilter.h"
 
 #include <stdatomic.h>
@@ -448,7 +449,7 @@ static int ptexres_levels(const st_set *s, st_error *e)
     return st_fail(e, t->levels_err.code, "%s", t->levels_err.msg);
 }
 
-static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+STU_LOADPATH static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
                          size_t max_bytes, st_ptexres_deferred *def, st_error *e)
 {
     if (s->ext.kind != ST_EXT_NONE)
@@ -506,7 +507,7 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     return attach_record(s, ptxflags, nstored, max_bytes, NULL, e);
 }
 
-int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
+STU_LOADPATH int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
                                const uint8_t *nstored, size_t max_bytes, st_error *e)
 {
     st_ptexres_deferred *def = malloc(sizeof *def);
@@ -525,7 +526,7 @@ int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const ui
     return rc;
 }
 
-int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+STU_LOADPATH int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
                       const uint8_t *nstored, size_t max_bytes, st_error *e)
 {
     if (s->ext.kind != ST_EXT_NONE)
