@@ -45,6 +45,9 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "loadpath.h"
 
@@ -57,6 +60,15 @@ enum {
 /* root table bits at most: literal/length, distance codes (small tables: a small stream
  * decodes a few hundred symbols, and the tables are on the stack) */
 enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 9, PI_DIST_RMAX = 7 };
+
+/* Copy and fill loops stay loops (GCC would make library calls of them): a first call into
+ * libc from deep in a dynamic block's frame binds the symbol there, and the binding's saved
+ * register state reached a fresh stack page. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define PI_NOLIBC __attribute__((optimize("no-tree-loop-distribute-patterns")))
+#else
+#define PI_NOLIBC
+#endif
 
 typedef struct pi_huff {
     uint16_t count[16];         /* codes of each length; count[0] unused symbols */
@@ -127,7 +139,7 @@ static const uint8_t *pi_align(pi_bits *s)
 
 /* Builds h from n code lengths (0..15); rmax caps the root table. 0, or -1 for an
  * over-subscribed or (as zlib) an incomplete code. */
-STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
+PI_NOLIBC STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
 {
     memset(h->count, 0, sizeof h->count);
     for (unsigned i = 0; i < n; i++)
@@ -155,17 +167,25 @@ STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, un
     unsigned rb = maxlen < rmax ? maxlen : rmax;
     h->rbits = rb;
     h->mask = (1u << rb) - 1;
-    if (maxlen > rb || left > 0 || !maxlen)
-        memset(h->root, 0, sizeof *h->root << rb); /* entries no short code fills */
-    /* the codes of up to rb bits in canonical order, each at its bit-reversed code (the
-     * stream's bit order) and every entry that has it as its low bits; rc is the reversed
-     * code, incremented in reversed order (a longer code extends it with zero bits) */
+    /* the codes in canonical order: one of up to rb bits fills its bit-reversed code (the
+     * stream's bit order) and every entry that has it as its low bits; a longer one zeroes
+     * the entry of its first rb bits (decoded bit by bit then). rc is the reversed code,
+     * incremented in reversed order (a longer code extends it with zero bits). Every entry
+     * is written so (a complete code covers the table), but for the two codes allowed
+     * incomplete: none (root[0]) and one code of length 1 (root[1]). */
+    h->root[0] = 0;
+    if (left > 0 && maxlen == 1)
+        h->root[1] = 0;
     unsigned rc = 0, k = 0;
-    for (unsigned len = 1; len <= rb; len++)
+    for (unsigned len = 1; len <= maxlen; len++)
         for (unsigned c = 0; c < h->count[len]; c++, k++) {
-            uint16_t e = (uint16_t)(len << 9 | h->sym[k]);
-            for (unsigned j = rc; j <= h->mask; j += 1u << len)
-                h->root[j] = e;
+            if (len <= rb) {
+                uint16_t e = (uint16_t)(len << 9 | h->sym[k]);
+                for (unsigned j = rc; j <= h->mask; j += 1u << len)
+                    h->root[j] = e;
+            } else {
+                h->root[rc & h->mask] = 0;
+            }
             unsigned inc = 1u << (len - 1);
             while (rc & inc)
                 inc >>= 1;
@@ -237,7 +257,7 @@ static inline int pi_fixed_dist(pi_bits *s)
 
 /* Inflates one block's codes into out: with lit / dist, or the fixed code (fix, a constant
  * at each call: two copies). */
-static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix, uint8_t *out,
+PI_NOLIBC static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix, uint8_t *out,
                         size_t outlen, size_t *pos, const char **why)
 {
     size_t o = *pos;
@@ -292,11 +312,24 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
             return ST_PTX_INFL_OVER;
         const uint8_t *from = out + o - d;
         uint8_t *to = out + o;
-        if (d >= len)
-            memcpy(to, from, len);
-        else
+        if (d >= 8 && outlen - o >= len + 8) {
+            /* 8 bytes a step, each read at least 8 behind its write (already written even
+             * when the match overlaps itself); up to 7 bytes past the match are written and
+             * later overwritten (there is room) */
+            for (unsigned i = 0; i < len; i += 8)
+                memcpy(to + i, from + i, 8);
+        } else if (outlen - o >= (size_t)len + 16) {
+            /* a short distance: the first dd bytes one by one (dd the multiple of d from 8
+             * to 14), then 8 bytes a step from dd behind (the same bytes: dd is a period) */
+            unsigned dd = (unsigned)d * ((8 + (unsigned)d - 1) / (unsigned)d);
+            for (unsigned i = 0; i < dd; i++)
+                to[i] = from[i];
+            for (unsigned i = dd; i < len; i += 8)
+                memcpy(to + i, to + i - dd, 8);
+        } else {
             for (unsigned i = 0; i < len; i++)
                 to[i] = from[i];
+        }
         o += len;
     }
     *pos = o;
@@ -309,7 +342,7 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
 
 /* The code lengths of a dynamic block, then its codes (not inlined: its tables stay off the
  * caller's frame). */
-__attribute__((noinline)) STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
+__attribute__((noinline)) PI_NOLIBC STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
 {
     uint16_t lroot[1 << PI_LIT_RMAX], droot[1 << PI_DIST_RMAX], lsym[286], dsym[30];
     pi_huff lh = {.root = lroot, .sym = lsym}, dh = {.root = droot, .sym = dsym};
@@ -371,7 +404,8 @@ __attribute__((noinline)) STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t
             *why = "invalid bit length repeat";
             return ST_PTX_INFL_BAD;
         }
-        memset(cl + i, v, rep);
+        for (unsigned k = 0; k < rep; k++)
+            cl[i + k] = v;
         i += rep;
     }
     if (pi_overran(s)) {
@@ -400,20 +434,39 @@ static int pi_fixed(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const 
 
 static uint32_t pi_adler32(const uint8_t *p, size_t n)
 {
-    uint32_t a = 1, b = 0;
+    uint64_t a = 1, b = 0;
     while (n) {
-        size_t k = n < 5552 ? n : 5552; /* the most bytes before b can overflow */
+        size_t k = n < 5552 ? n : 5552; /* the most bytes before b can overflow 32 bits */
         n -= k;
-        for (; k >= 4; k -= 4, p += 4) {
-            a += p[0];
-            b += a;
-            a += p[1];
-            b += a;
-            a += p[2];
-            b += a;
-            a += p[3];
-            b += a;
+#if defined(__SSE2__)
+        /* 16 bytes a step: over a chunk of k bytes b gains k * a (the a it starts with),
+         * 16 times the bytes summed before each step, and each step's bytes weighted 16..1 */
+        size_t k16 = k & ~(size_t)15;
+        if (k16) {
+            const __m128i zero = _mm_setzero_si128();
+            const __m128i wlo = _mm_setr_epi16(16, 15, 14, 13, 12, 11, 10, 9);
+            const __m128i whi = _mm_setr_epi16(8, 7, 6, 5, 4, 3, 2, 1);
+            __m128i va = zero, vp = zero, vb = zero;
+            b += a * k16;
+            for (size_t i = 0; i < k16; i += 16) {
+                __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(p + i));
+                vp = _mm_add_epi64(vp, va);
+                va = _mm_add_epi64(va, _mm_sad_epu8(v, zero));
+                vb = _mm_add_epi32(vb, _mm_madd_epi16(_mm_unpacklo_epi8(v, zero), wlo));
+                vb = _mm_add_epi32(vb, _mm_madd_epi16(_mm_unpackhi_epi8(v, zero), whi));
+            }
+            uint64_t sa = (uint64_t)_mm_cvtsi128_si64(va) +
+                          (uint64_t)_mm_cvtsi128_si64(_mm_unpackhi_epi64(va, va));
+            uint64_t sp = (uint64_t)_mm_cvtsi128_si64(vp) +
+                          (uint64_t)_mm_cvtsi128_si64(_mm_unpackhi_epi64(vp, vp));
+            vb = _mm_add_epi32(vb, _mm_shuffle_epi32(vb, _MM_SHUFFLE(1, 0, 3, 2)));
+            vb = _mm_add_epi32(vb, _mm_shuffle_epi32(vb, _MM_SHUFFLE(2, 3, 0, 1)));
+            b += 16 * sp + (uint32_t)_mm_cvtsi128_si32(vb);
+            a += sa;
+            p += k16;
+            k -= k16;
         }
+#endif
         for (; k; k--) {
             a += *p++;
             b += a;
@@ -421,7 +474,7 @@ static uint32_t pi_adler32(const uint8_t *p, size_t n)
         a %= 65521;
         b %= 65521;
     }
-    return b << 16 | a;
+    return (uint32_t)(b << 16 | a);
 }
 
 /* Inflates the zlib stream at in (inlen bytes, header included) into out (outlen bytes). */

@@ -33,6 +33,7 @@
 #include "ptex.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -59,6 +60,9 @@
 #ifndef PTX_SMALL_DYN_BYTES
 #define PTX_SMALL_DYN_BYTES 2048u
 #endif
+#ifndef PTX_SMALL_LEVEL0
+#define PTX_SMALL_LEVEL0 32768u /* zipped bytes of level 0 */
+#endif
 
 typedef struct rd {
     const uint8_t *buf;         /* the bytes from file offset `origin` on */
@@ -74,12 +78,30 @@ typedef struct rd {
     st_error *e;
     struct libdeflate_decompressor *dd; /* made on the first stream it inflates, reused */
     unsigned ndyn;              /* streams of a dynamic-code first block seen so far */
+    int dyn_all;                /* level 0 is small: all its streams through ptex_inflate.h */
     uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
     size_t scratch_cap;
     int ctiled;                 /* decode_face's last face: tiled, every tile a constant tile
                                    of one value (tiles of 2^ct_tu x 2^ct_tv texels) */
     uint8_t ct_tu, ct_tv;
 } rd;
+
+/* Puts a prefix (printf-formatted) before e's message, keeping rc. Off the import's path and
+ * its stack: the copy of the message is on this frame, not on the reader's (a deeper stack
+ * reached a fresh page in a fresh process). */
+__attribute__((noinline, cold, format(printf, 3, 4)))
+static void err_prefix(st_error *e, int rc, const char *fmt, ...)
+{
+    if (!e)
+        return;
+    char pre[ST_ERRMSG_LEN], tmp[ST_ERRMSG_LEN];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(pre, sizeof pre, fmt, ap);
+    va_end(ap);
+    snprintf(tmp, sizeof tmp, "%s", e->msg);
+    st_fail(e, rc, "%s%s", pre, tmp);
+}
 
 /* The reader's scratch of at least n bytes: grown, never shrunk, freed at the end. A planar
  * block is at most a tile or a face (the Ptex writer tiles faces over 64 KiB), so it stays
@@ -158,7 +180,7 @@ STU_LOADPATH static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *
      * first use costs more than a few of them) */
     if (outlen <= PTX_SMALL_INFLATE &&
         (zlen < 3 || ((p[2] >> 1) & 3) != 2 ||
-         (outlen <= PTX_SMALL_DYN_BYTES && r->ndyn++ < PTX_SMALL_DYN))) {
+         r->dyn_all || (outlen <= PTX_SMALL_DYN_BYTES && r->ndyn++ < PTX_SMALL_DYN))) {
         size_t got = 0;
         const char *why = "";
         int ir = st_ptx_inflate(p, zlen, out, outlen, &got, &why);
@@ -353,11 +375,8 @@ STU_LOADPATH static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, u
         return st_fail(r->e, ST_EFORMAT, "level %u header: %u zipped bytes cannot hold %u face "
                        "headers", level, hsize, nf);
     int rc = inflate_exact(r, pos, hsize, tmp, (size_t)nf * 4, "");
-    if (rc && r->e) {
-        char m[ST_ERRMSG_LEN];
-        snprintf(m, sizeof m, "%s", r->e->msg);
-        st_fail(r->e, rc, "level %u header%s", level, m);
-    }
+    if (rc)
+        err_prefix(r->e, rc, "level %u header", level);
     if (rc == ST_OK) {
         uint64_t o = pos + hsize, end = pos + lsize;
         for (uint32_t i = 0; i < nf; i++) {
@@ -447,11 +466,7 @@ static int pend_make(st_set *s, void *p, st_error *e)
             const st_face *F = &s->faces[k->face];
             if ((rc = decode_face(r, k->fdh, k->off, d->lend[l], F->ulog2 - l, F->vlog2 - l,
                                   st_face_level(s, k->face, l), ""))) {
-                if (e) {
-                    char tmp[ST_ERRMSG_LEN];
-                    snprintf(tmp, sizeof tmp, "%s", e->msg);
-                    st_fail(e, rc, "level %u face %u%s", l, k->face, tmp);
-                }
+                err_prefix(e, rc, "level %u face %u", l, k->face);
                 break;
             }
         }
@@ -919,6 +934,10 @@ STU_LOADPATH static int read_mem(const void *buf, size_t len, size_t max_bytes, 
         goto done;
     }
     uint64_t lpos = ldpos, lend_all = ldpos + ldsize;
+    /* a small level 0: every stream of it through ptex_inflate.h, dynamic ones too (its
+     * per-byte cost over libdeflate's, about 8 instructions a zipped byte, stays under
+     * libdeflate's first use in a process: its code and decompressor, 100-200 us) */
+    r->dyn_all = ptx_rd64(b + lipos) <= PTX_SMALL_LEVEL0;
     for (unsigned l = 0; l < nlevels; l++) {
         if (pd && l > 0) {
             pd->first[l] = (uint32_t)pd->nblk;
@@ -969,11 +988,7 @@ STU_LOADPATH static int read_mem(const void *buf, size_t len, size_t max_bytes, 
              * face was a few percent of importing a file of small faces) */
             if ((rc = decode_face(r, fdh[i], offs[i], end, F->ulog2 - l, F->vlog2 - l,
                                   r->dry ? NULL : st_face_level(s, f, l), ""))) {
-                if (e) {
-                    char tmp[ST_ERRMSG_LEN];
-                    snprintf(tmp, sizeof tmp, "%s", e->msg);
-                    st_fail(e, rc, "level %u face %u%s", l, f, tmp);
-                }
+                err_prefix(e, rc, "level %u face %u", l, f);
                 goto done;
             }
             if (r->ctiled && !r->tri) {
@@ -1102,11 +1117,8 @@ STU_LOADPATH static int read_file(const char *path, size_t max_bytes, int eager,
     if (rc)
         return rc;
     rc = read_mem(buf, len, max_bytes, eager, &buf, out, e); /* may keep buf (NULL then) */
-    if (rc && e) {
-        char tmp[ST_ERRMSG_LEN];
-        snprintf(tmp, sizeof tmp, "%s", e->msg);
-        st_fail(e, rc, "%s: %s", path, tmp);
-    }
+    if (rc)
+        err_prefix(e, rc, "%s: ", path);
     free(buf);
     return rc;
 }
