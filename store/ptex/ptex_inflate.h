@@ -32,7 +32,10 @@
  * check value (a run on phantom zeros cannot loop: every symbol writes output, ends a block,
  * or fails, and the output is bounded). The fixed code is decoded without tables (by code
  * ranges); a dynamic block's tables are on its own frame, so a stream of stored and fixed
- * blocks keeps a small stack.
+ * blocks keeps a small stack. Copies and fills are loops of our own (GCC 12 -O2 emits no
+ * library call in pi_codes, pi_build, pi_dynamic; only a stored block's copy is memcpy):
+ * a first call into libc from deep in a dynamic block's frame would bind the symbol there,
+ * and the binding's saved register state reached a fresh stack page.
  *
  * A Huffman code is decoded by a root table indexed by the next rbits bits (rbits = the
  * code's longest length, capped at 9 for literals / lengths, 7 for distances and for the
@@ -61,14 +64,6 @@ enum {
  * decodes a few hundred symbols, and the tables are on the stack) */
 enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 9, PI_DIST_RMAX = 7 };
 
-/* Copy and fill loops stay loops (GCC would make library calls of them): a first call into
- * libc from deep in a dynamic block's frame binds the symbol there, and the binding's saved
- * register state reached a fresh stack page. */
-#if defined(__GNUC__) && !defined(__clang__)
-#define PI_NOLIBC __attribute__((optimize("no-tree-loop-distribute-patterns")))
-#else
-#define PI_NOLIBC
-#endif
 
 typedef struct pi_huff {
     uint16_t count[16];         /* codes of each length; count[0] unused symbols */
@@ -139,7 +134,7 @@ static const uint8_t *pi_align(pi_bits *s)
 
 /* Builds h from n code lengths (0..15); rmax caps the root table. 0, or -1 for an
  * over-subscribed or (as zlib) an incomplete code. */
-PI_NOLIBC STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
+STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
 {
     memset(h->count, 0, sizeof h->count);
     for (unsigned i = 0; i < n; i++)
@@ -257,7 +252,7 @@ static inline int pi_fixed_dist(pi_bits *s)
 
 /* Inflates one block's codes into out: with lit / dist, or the fixed code (fix, a constant
  * at each call: two copies). */
-PI_NOLIBC static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix, uint8_t *out,
+static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix, uint8_t *out,
                         size_t outlen, size_t *pos, const char **why)
 {
     size_t o = *pos;
@@ -342,7 +337,7 @@ PI_NOLIBC static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_hu
 
 /* The code lengths of a dynamic block, then its codes (not inlined: its tables stay off the
  * caller's frame). */
-__attribute__((noinline)) PI_NOLIBC STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
+__attribute__((noinline)) STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
 {
     uint16_t lroot[1 << PI_LIT_RMAX], droot[1 << PI_DIST_RMAX], lsym[286], dsym[30];
     pi_huff lh = {.root = lroot, .sym = lsym}, dh = {.root = droot, .sym = dsym};
