@@ -304,6 +304,29 @@ static void hand_made_streams_get_their_refusals(void **state)
     put(&w, 1, 3); /* three codes of length 1 */
     put(&w, 0, 8);
     expect_refused(&w, 8, "invalid code lengths set");
+    /* a dynamic block whose literal/length code is incomplete (two codes of length 2: zlib
+     * allows an incomplete code only as a single code of length 1) */
+    start(&w);
+    put(&w, 1, 1);
+    put(&w, 2, 2);
+    put(&w, 0, 5);  /* 257 literal/length codes */
+    put(&w, 0, 5);  /* 1 distance code */
+    put(&w, 14, 4); /* 18 code-length code lengths: up to the one for 1 */
+    {
+        /* for 16 17 18 0 8 7 9 6 10 5 11 4 12 3 13 2 14 1: 0 -> 00, 1 -> 01, 2 -> 10, 18 -> 11 */
+        static const unsigned cll[18] = {0, 0, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2};
+        for (int i = 0; i < 18; i++)
+            put(&w, cll[i], 3);
+    }
+    put_code(&w, 2, 2);  /* literal 0: length 2 */
+    put_code(&w, 3, 2);  /* 18: 138 zeros */
+    put(&w, 127, 7);
+    put_code(&w, 3, 2);  /* 18: 117 zeros (literals 1-255 done) */
+    put(&w, 106, 7);
+    put_code(&w, 2, 2);  /* 256: length 2 */
+    put_code(&w, 1, 2);  /* the distance code: length 1 */
+    put(&w, 0, 8);
+    expect_refused(&w, 8, "invalid literal/lengths set");
     /* a fixed block cut inside its codes */
     start(&w);
     put(&w, 1, 1);
