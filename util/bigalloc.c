@@ -23,13 +23,15 @@ static size_t plan(size_t n, int use, int *huge)
     return n ? (n + 63) & ~(size_t)63 : 64;
 }
 
-STU_LOADPATH size_t stu_big_footprint(size_t n, int use)
+STU_LOADPATH
+size_t stu_big_footprint(size_t n, int use)
 {
     int huge;
     return n > SIZE_MAX / 2 ? n : plan(n, use, &huge);
 }
 
-STU_LOADPATH void *stu_big_alloc(size_t n, int use)
+STU_LOADPATH
+void *stu_big_alloc(size_t n, int use)
 {
     if (n > SIZE_MAX / 2) {
         errno = ENOMEM;

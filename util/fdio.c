@@ -32,7 +32,8 @@ int stu_write_all(int fd, const void *buf, size_t n)
     return 0;
 }
 
-STU_LOADPATH int stu_read_all(int fd, void *buf, size_t n)
+STU_LOADPATH
+int stu_read_all(int fd, void *buf, size_t n)
 {
     uint8_t *p = buf;
     while (n) {
@@ -51,7 +52,8 @@ STU_LOADPATH int stu_read_all(int fd, void *buf, size_t n)
     return 0;
 }
 
-STU_LOADPATH int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
+STU_LOADPATH
+int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
 {
     *out = NULL;
     *len = 0;

@@ -11,7 +11,8 @@
 
 #include "fdio.h"
 
-STU_LOADPATH int st_file_read(const char *path, size_t cap, void **out, size_t *len, st_error *e)
+STU_LOADPATH
+int st_file_read(const char *path, size_t cap, void **out, size_t *len, st_error *e)
 {
     if (stu_read_file(path, cap, out, len) == 0)
         return ST_OK;

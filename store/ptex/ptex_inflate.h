@@ -136,7 +136,8 @@ static const uint8_t *pi_align(pi_bits *s)
 
 /* Builds h from n code lengths (0..15); rmax caps the root table. 0, or -1 for an
  * over-subscribed or (as zlib) an incomplete code. */
-STU_LOADPATH static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
+STU_LOADPATH
+static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
 {
     memset(h->count, 0, sizeof h->count);
     for (unsigned i = 0; i < n; i++)
@@ -254,8 +255,8 @@ static inline int pi_fixed_dist(pi_bits *s)
 
 /* Inflates one block's codes into out: with lit / dist, or the fixed code (fix, a constant
  * at each call: two copies). */
-static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix, uint8_t *out,
-                        size_t outlen, size_t *pos, const char **why)
+static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix,
+                           uint8_t *out, size_t outlen, size_t *pos, const char **why)
 {
     size_t o = *pos;
     for (;;) {
@@ -339,7 +340,8 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
 
 /* The code lengths of a dynamic block, then its codes (not inlined: its tables stay off the
  * caller's frame). */
-__attribute__((noinline)) STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
+__attribute__((noinline)) STU_LOADPATH
+static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
 {
     uint16_t lroot[1 << PI_LIT_RMAX], droot[1 << PI_DIST_RMAX], lsym[286], dsym[30];
     pi_huff lh = {.root = lroot, .sym = lsym}, dh = {.root = droot, .sym = dsym};
@@ -362,7 +364,8 @@ __attribute__((noinline)) STU_LOADPATH static int pi_dynamic(pi_bits *s, uint8_t
     for (unsigned i = 0; i < ncode; i++) {
         if (s->bc < 3)
             pi_refill(s);
-        unsigned at = i < 12 ? (unsigned)(ord0 >> (5 * i)) & 31 : (unsigned)(ord1 >> (5 * (i - 12))) & 31;
+        unsigned at = i < 12 ? (unsigned)(ord0 >> (5 * i)) & 31
+                             : (unsigned)(ord1 >> (5 * (i - 12))) & 31;
         lens[at] = (uint8_t)pi_take(s, 3);
     }
     if (pi_build(lit, lens, 19, 7, PI_CODES)) {
@@ -475,7 +478,8 @@ static uint32_t pi_adler32(const uint8_t *p, size_t n)
 }
 
 /* Inflates the zlib stream at in (inlen bytes, header included) into out (outlen bytes). */
-STU_LOADPATH static int st_ptx_inflate(const uint8_t *in, size_t inlen, uint8_t *out, size_t outlen,
+STU_LOADPATH
+static int st_ptx_inflate(const uint8_t *in, size_t inlen, uint8_t *out, size_t outlen,
                           size_t *got, const char **why)
 {
     pi_bits s = {.p = in + (inlen < 2 ? inlen : 2), .end = in + inlen};

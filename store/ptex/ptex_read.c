@@ -108,7 +108,8 @@ static void err_prefix(st_error *e, int rc, const char *fmt, ...)
  * in the cache between the inflate and the interleave. The first block needing it is
  * usually the largest (level 0 comes first); its size rounded up to 4 KiB (to 64 bytes under
  * 4 KiB), from util/bigalloc.c so that its pages are faulted in by one call. */
-STU_LOADPATH static uint8_t *scratch(rd *r, size_t n)
+STU_LOADPATH
+static uint8_t *scratch(rd *r, size_t n)
 {
     if (n > r->scratch_cap) {
         /* a small block's scratch stays small (a whole fresh page for a 48-byte block was a
@@ -168,7 +169,8 @@ static const char *zlib_bad_reason(rd *r, const uint8_t *p, uint64_t zlen, void 
  * bytes than declared. */
 static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what);
 
-STU_LOADPATH static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
+STU_LOADPATH
+static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
                          const char *what)
 {
     int rc = zip_check(r, off, zlen, outlen, what);
@@ -214,7 +216,8 @@ STU_LOADPATH static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *
 /* Everything inflate_exact checks before inflating: the block inside the file, the zip-ratio
  * bound, the size cap and the 2-byte zlib header (so that only the deflate data and its
  * Adler-32 are left for the inflate). */
-STU_LOADPATH static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what)
+STU_LOADPATH
+static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what)
 {
     if (!in_file(r, off, zlen))
         return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu (%llu bytes) overruns "
@@ -239,7 +242,8 @@ STU_LOADPATH static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t out
     return ST_OK;
 }
 
-STU_LOADPATH static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
+STU_LOADPATH
+static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
                       size_t stride)
 {
     for (uint32_t x = 0; x < w; x++)
@@ -252,7 +256,8 @@ STU_LOADPATH static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, u
  * interleaved into dst (row stride bytes). A one-channel block that fills its rows is
  * inflated straight into dst (planar is interleaved then) and difference-decoded there; any
  * other block inflates into the reader's scratch and is interleaved from it in one pass. */
-STU_LOADPATH static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32_t w, uint32_t h,
+STU_LOADPATH
+static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32_t w, uint32_t h,
                         uint8_t *dst, size_t stride, const char *what)
 {
     if (!in_file(r, off, size))
@@ -292,7 +297,8 @@ STU_LOADPATH static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t
 }
 
 /* Face data header at [off, off+size) for a face of resolution (ulog2, vlog2); may be tiled. */
-STU_LOADPATH static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned ulog2,
+STU_LOADPATH
+static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned ulog2,
                        unsigned vlog2, uint8_t *dst, const char *what)
 {
     unsigned enc = fdh >> 30;
@@ -365,7 +371,8 @@ STU_LOADPATH static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t 
 /* Reads a level header: nf FaceDataHeaders (inflated into tmp, nf * 4 bytes) and the offsets
  * of their blocks. Messages name "level L header", formatted only on failure (the first
  * snprintf of a process faults in a few pages of libc's printf code). */
-STU_LOADPATH static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize, uint32_t nf,
+STU_LOADPATH
+static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize, uint32_t nf,
                              uint8_t *tmp, uint32_t *fdh, uint64_t *offs, unsigned level)
 {
     if (hsize > lsize)
@@ -423,7 +430,8 @@ typedef struct pend {
     uint8_t *constdata;         /* nfaces texels */
 } pend;
 
-STU_LOADPATH static void pend_free(void *p)
+STU_LOADPATH
+static void pend_free(void *p)
 {
     pend *d = p;
     if (!d)
@@ -434,7 +442,8 @@ STU_LOADPATH static void pend_free(void *p)
     free(d);
 }
 
-STU_LOADPATH static int pend_push(pend *d, uint32_t f, uint32_t fdh, uint64_t off)
+STU_LOADPATH
+static int pend_push(pend *d, uint32_t f, uint32_t fdh, uint64_t off)
 {
     if (d->nblk == d->cap) {
         size_t nc = d->cap ? 2 * d->cap : 16; /* from 256 B: a small file's few blocks fit in
@@ -497,7 +506,8 @@ static size_t meta_tsize(unsigned t)
     return t < 6 ? sz[t] : 0;
 }
 
-STU_LOADPATH static int meta_put(rd *r, st_set *s, const char *key, unsigned type, const uint8_t *data,
+STU_LOADPATH
+static int meta_put(rd *r, st_set *s, const char *key, unsigned type, const uint8_t *data,
                     uint32_t dsize)
 {
     size_t ts = meta_tsize(type);
@@ -540,7 +550,8 @@ STU_LOADPATH static int meta_put(rd *r, st_set *s, const char *key, unsigned typ
     return rc;
 }
 
-STU_LOADPATH static int parse_meta(rd *r, meta_ctx *m, const uint8_t *p, size_t n, int large)
+STU_LOADPATH
+static int parse_meta(rd *r, meta_ctx *m, const uint8_t *p, size_t n, int large)
 {
     size_t i = 0;
     while (i < n) {
@@ -589,7 +600,8 @@ STU_LOADPATH static int parse_meta(rd *r, meta_ctx *m, const uint8_t *p, size_t 
     return ST_OK;
 }
 
-STU_LOADPATH static int read_meta_block(rd *r, meta_ctx *m, uint64_t pos, uint32_t zs, uint32_t ms, int large)
+STU_LOADPATH
+static int read_meta_block(rd *r, meta_ctx *m, uint64_t pos, uint32_t zs, uint32_t ms, int large)
 {
     if (!ms)
         return ST_OK;
@@ -618,7 +630,8 @@ typedef struct meta_edit {
     uint32_t zs, ms;
 } meta_edit;
 
-STU_LOADPATH static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nfaces)
+STU_LOADPATH
+static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nfaces)
 {
     if (fi->ulog2 < 0 || fi->vlog2 < 0 || fi->ulog2 > (int)ST_MAX_LOG2 || fi->vlog2 > (int)ST_MAX_LOG2)
         return st_fail(r->e, ST_EFORMAT, "face %u: resolution 2^%d x 2^%d not in 1..%u", f,
@@ -636,7 +649,8 @@ STU_LOADPATH static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f
 /* own: the caller's pointer to buf when the reader may keep buf (a buffer from
  * util/bigalloc.c, freed with free()): a deferred import with stored reductions takes it and
  * sets *own to NULL. */
-STU_LOADPATH static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, void **own,
+STU_LOADPATH
+static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, void **own,
                     st_set **out, st_error *e)
 {
     *out = NULL;
@@ -1097,7 +1111,8 @@ done:
     return ST_OK;
 }
 
-STU_LOADPATH int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
+STU_LOADPATH
+int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
 {
     return read_mem(buf, len, max_bytes, 0, NULL, out, e);
 }
@@ -1108,7 +1123,8 @@ int st_ptex_read_mem_eager(const void *buf, size_t len, size_t max_bytes, st_set
     return read_mem(buf, len, max_bytes, 1, NULL, out, e);
 }
 
-STU_LOADPATH static int read_file(const char *path, size_t max_bytes, int eager, st_set **out, st_error *e)
+STU_LOADPATH
+static int read_file(const char *path, size_t max_bytes, int eager, st_set **out, st_error *e)
 {
     *out = NULL;
     void *buf;
@@ -1123,7 +1139,8 @@ STU_LOADPATH static int read_file(const char *path, size_t max_bytes, int eager,
     return rc;
 }
 
-STU_LOADPATH int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
+STU_LOADPATH
+int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
 {
     return read_file(path, max_bytes, 0, out, e);
 }

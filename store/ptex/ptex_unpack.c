@@ -65,7 +65,8 @@ __attribute__((target("avx2"))) static size_t undiff16_avx2(uint16_t *q, size_t 
 }
 #endif
 
-STU_LOADPATH void st_ptx_undiff(size_t csize, uint8_t *p, size_t bytes)
+STU_LOADPATH
+void st_ptx_undiff(size_t csize, uint8_t *p, size_t bytes)
 {
     size_t i = 0;
 #ifdef UNDIFF_AVX2
@@ -133,7 +134,8 @@ STU_LOADPATH void st_ptx_undiff(size_t csize, uint8_t *p, size_t bytes)
         }                                                                                     \
     } while (0)
 
-STU_LOADPATH void st_ptx_planar_to_rows(size_t csize, unsigned nc, const uint8_t *src, uint32_t w,
+STU_LOADPATH
+void st_ptx_planar_to_rows(size_t csize, unsigned nc, const uint8_t *src, uint32_t w,
                            uint32_t h, uint8_t *dst, size_t stride)
 {
     size_t plane = (size_t)w * h * csize; /* bytes of one channel plane */

@@ -449,7 +449,8 @@ static int ptexres_levels(const st_set *s, st_error *e)
     return st_fail(e, t->levels_err.code, "%s", t->levels_err.msg);
 }
 
-STU_LOADPATH static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
+STU_LOADPATH
+static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
                          size_t max_bytes, st_ptexres_deferred *def, st_error *e)
 {
     if (s->ext.kind != ST_EXT_NONE)
@@ -507,7 +508,8 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     return attach_record(s, ptxflags, nstored, max_bytes, NULL, e);
 }
 
-STU_LOADPATH int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
+STU_LOADPATH
+int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
                                const uint8_t *nstored, size_t max_bytes, st_error *e)
 {
     st_ptexres_deferred *def = malloc(sizeof *def);
@@ -526,7 +528,8 @@ STU_LOADPATH int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred
     return rc;
 }
 
-STU_LOADPATH int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
+STU_LOADPATH
+int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
                       const uint8_t *nstored, size_t max_bytes, st_error *e)
 {
     if (s->ext.kind != ST_EXT_NONE)
