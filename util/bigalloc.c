@@ -1,5 +1,6 @@
 /* util/bigalloc.c - large buffers on transparent huge pages (see bigalloc.h). */
 #include "bigalloc.h"
+#include "loadpath.h"
 
 #include <errno.h>
 #include <stdint.h>
@@ -22,12 +23,14 @@ static size_t plan(size_t n, int use, int *huge)
     return n ? (n + 63) & ~(size_t)63 : 64;
 }
 
+STU_LOADPATH
 size_t stu_big_footprint(size_t n, int use)
 {
     int huge;
     return n > SIZE_MAX / 2 ? n : plan(n, use, &huge);
 }
 
+STU_LOADPATH
 void *stu_big_alloc(size_t n, int use)
 {
     if (n > SIZE_MAX / 2) {

@@ -1,6 +1,7 @@
 /* store/core/fileio.c - whole-file reads and atomic whole-file writes (see fileio.h), on top
  * of util/fdio.h. */
 #include "fileio.h"
+#include "loadpath.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -10,6 +11,7 @@
 
 #include "fdio.h"
 
+STU_LOADPATH
 int st_file_read(const char *path, size_t cap, void **out, size_t *len, st_error *e)
 {
     if (stu_read_file(path, cap, out, len) == 0)

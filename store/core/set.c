@@ -6,6 +6,7 @@
  * hostile adjacency table cannot loop.
  */
 #include "set.h"
+#include "loadpath.h"
 #include "trilevel.h"
 #include "bigalloc.h"
 
@@ -30,6 +31,7 @@ static size_t arena_size(size_t bytes)
  * (util/bigalloc.h, a long-lived buffer; st_set_memory counts its whole huge pages). Every
  * importer writes its whole arena right away; with 4 KiB pages the page faults of a large
  * Ptex import cost more CPU than its decoding. alloc is a multiple of 64. */
+STU_LOADPATH
 static uint8_t *arena_alloc(size_t alloc)
 {
     return stu_big_alloc(alloc, STU_BIG_KEEP);
@@ -54,6 +56,7 @@ static size_t face_block_bytes(size_t nfaces, size_t nlev)
 {
     return stu_big_footprint(nfaces * sizeof(st_face) + nlev * sizeof(uint64_t), STU_BIG_KEEP);
 }
+STU_LOADPATH
 static st_face *face_block(size_t nfaces, size_t nlev)
 {
     return stu_big_alloc(nfaces * sizeof(st_face) + nlev * sizeof(uint64_t), STU_BIG_KEEP);
@@ -72,6 +75,7 @@ static size_t level_unit_size(const st_set_info *info, size_t tsize)
     return info->kind == ST_KIND_BC1 ? 8 : tsize;
 }
 
+STU_LOADPATH
 int st_set_check_adjacency(const st_set *s, st_error *e)
 {
     uint32_t n = s->info.nfaces;
@@ -114,6 +118,7 @@ int st_set_check_adjacency(const st_set *s, st_error *e)
 /* Walks around the vertex at corner c of face f (Ptex order: cross edge c, then the edge
  * after the one we arrived on). Fills valence and, for a regular interior vertex, the
  * diagonal face and its corner. */
+STU_LOADPATH
 static void corner_walk(st_set *s, uint32_t f, unsigned c)
 {
     /* a triangle has three edges: the next edge is (e + 1) % 3, the one before (e + 2) % 3 */
@@ -173,6 +178,7 @@ static void corner_walk(st_set *s, uint32_t f, unsigned c)
     }
 }
 
+STU_LOADPATH
 static int set_create(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
                       int zero, st_set **out, st_error *e)
 {
@@ -309,6 +315,7 @@ int st_set_create(const st_set_info *info, const st_face_desc *fd, size_t max_by
     return set_create(info, fd, max_bytes, 1, out, e);
 }
 
+STU_LOADPATH
 int st_set_create_unzeroed(const st_set_info *info, const st_face_desc *fd, size_t max_bytes,
                            st_set **out, st_error *e)
 {
@@ -412,6 +419,7 @@ static size_t meta_type_size(unsigned type)
     return type < 6 ? sz[type] : 0;
 }
 
+STU_LOADPATH
 int st_set_meta_add(st_set *s, const char *key, unsigned type, const void *data, uint32_t count,
                     st_error *e)
 {
@@ -481,6 +489,7 @@ size_t st_set_memory(const st_set *s)
     return m;
 }
 
+STU_LOADPATH
 void st_set_ext_attach(st_set *s, const st_set_ext *x)
 {
     /* the old extension may hold what the levels past level 0 are made from: make them now

@@ -33,18 +33,36 @@
 #include "ptex.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <libdeflate.h>
 
 #include "ptex_format.h"
+#include "ptex_inflate.h"
 #include "ptex_unpack.h"
 #include "ptexres.h"
 #include "fileio.h"
 #include "bigalloc.h"
+#include "loadpath.h"
 
 #define PTX_MAX_LEVELS 16u
+
+/* Streams that inflate to at most this many bytes go through ptex_inflate.h (no heap, no
+ * per-stream table of 2^11 entries), larger ones through libdeflate (faster per byte). */
+#ifndef PTX_SMALL_INFLATE
+#define PTX_SMALL_INFLATE 16384u
+#endif
+#ifndef PTX_SMALL_DYN
+#define PTX_SMALL_DYN 4u
+#endif
+#ifndef PTX_SMALL_DYN_BYTES
+#define PTX_SMALL_DYN_BYTES 2048u
+#endif
+#ifndef PTX_SMALL_LEVEL0
+#define PTX_SMALL_LEVEL0 32768u /* zipped bytes of level 0 */
+#endif
 
 typedef struct rd {
     const uint8_t *buf;         /* the bytes from file offset `origin` on */
@@ -58,7 +76,9 @@ typedef struct rd {
     int tri;                    /* a triangle mesh: square faces, three edges */
     size_t csize, psize;        /* bytes per channel, per pixel */
     st_error *e;
-    struct libdeflate_decompressor *dd; /* made on the first stream, reused */
+    struct libdeflate_decompressor *dd; /* made on the first stream it inflates, reused */
+    unsigned ndyn;              /* streams of a dynamic-code first block seen so far */
+    int dyn_all;                /* level 0 is small: all its streams through ptex_inflate.h */
     uint8_t *scratch;           /* planar blocks of several channels inflate here (reused) */
     size_t scratch_cap;
     int ctiled;                 /* decode_face's last face: tiled, every tile a constant tile
@@ -66,15 +86,35 @@ typedef struct rd {
     uint8_t ct_tu, ct_tv;
 } rd;
 
+/* Puts a prefix (printf-formatted) before e's message, keeping rc. Off the import's path and
+ * its stack: the copy of the message is on this frame, not on the reader's (a deeper stack
+ * reached a fresh page in a fresh process). */
+__attribute__((noinline, cold, format(printf, 3, 4)))
+static void err_prefix(st_error *e, int rc, const char *fmt, ...)
+{
+    if (!e)
+        return;
+    char pre[ST_ERRMSG_LEN], tmp[ST_ERRMSG_LEN];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(pre, sizeof pre, fmt, ap);
+    va_end(ap);
+    snprintf(tmp, sizeof tmp, "%s", e->msg);
+    st_fail(e, rc, "%s%s", pre, tmp);
+}
+
 /* The reader's scratch of at least n bytes: grown, never shrunk, freed at the end. A planar
  * block is at most a tile or a face (the Ptex writer tiles faces over 64 KiB), so it stays
  * in the cache between the inflate and the interleave. The first block needing it is
- * usually the largest (level 0 comes first); its size rounded up to 4 KiB, from
- * util/bigalloc.c so that its pages are faulted in by one call. */
+ * usually the largest (level 0 comes first); its size rounded up to 4 KiB (to 64 bytes under
+ * 4 KiB), from util/bigalloc.c so that its pages are faulted in by one call. */
+STU_LOADPATH
 static uint8_t *scratch(rd *r, size_t n)
 {
     if (n > r->scratch_cap) {
-        size_t cap = (n + 4095) & ~(size_t)4095;
+        /* a small block's scratch stays small (a whole fresh page for a 48-byte block was a
+         * page fault of a small file's import) */
+        size_t cap = n < 4096 ? (n + 63) & ~(size_t)63 : (n + 4095) & ~(size_t)4095;
         uint8_t *p = stu_big_alloc(cap, STU_BIG_TEMP);
         if (!p)
             return NULL;
@@ -129,6 +169,7 @@ static const char *zlib_bad_reason(rd *r, const uint8_t *p, uint64_t zlen, void 
  * bytes than declared. */
 static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what);
 
+STU_LOADPATH
 static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t outlen,
                          const char *what)
 {
@@ -136,6 +177,26 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (rc)
         return rc;
     const uint8_t *p = at(r, off);
+    /* ptex_inflate.h: small streams of stored and fixed-code blocks, and the first few of
+     * dynamic-code blocks (its tables cost more per stream than libdeflate's; libdeflate's
+     * first use costs more than a few of them) */
+    if (outlen <= PTX_SMALL_INFLATE &&
+        (zlen < 3 || ((p[2] >> 1) & 3) != 2 ||
+         r->dyn_all || (outlen <= PTX_SMALL_DYN_BYTES && r->ndyn++ < PTX_SMALL_DYN))) {
+        size_t got = 0;
+        const char *why = "";
+        int ir = st_ptx_inflate(p, zlen, out, outlen, &got, &why);
+        if (ir == ST_PTX_INFL_OVER)
+            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to more "
+                           "than the declared %zu bytes", what, (unsigned long long)off, outlen);
+        if (ir != ST_PTX_INFL_OK)
+            return st_fail(r->e, ST_EFORMAT, "%s: bad zlib stream at offset %llu (%s)", what,
+                           (unsigned long long)off, why);
+        if (got != outlen)
+            return st_fail(r->e, ST_EFORMAT, "%s: zip block at offset %llu inflates to %zu "
+                           "bytes, declared %zu", what, (unsigned long long)off, got, outlen);
+        return ST_OK;
+    }
     if (!r->dd && !(r->dd = libdeflate_alloc_decompressor()))
         return st_fail(r->e, ST_ENOMEM, "out of memory for the inflater");
     size_t got = 0;
@@ -155,6 +216,7 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
 /* Everything inflate_exact checks before inflating: the block inside the file, the zip-ratio
  * bound, the size cap and the 2-byte zlib header (so that only the deflate data and its
  * Adler-32 are left for the inflate). */
+STU_LOADPATH
 static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const char *what)
 {
     if (!in_file(r, off, zlen))
@@ -180,6 +242,7 @@ static int zip_check(rd *r, uint64_t off, uint64_t zlen, size_t outlen, const ch
     return ST_OK;
 }
 
+STU_LOADPATH
 static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, uint8_t *dst,
                       size_t stride)
 {
@@ -193,6 +256,7 @@ static void fill_rect(const rd *r, const uint8_t *px, uint32_t w, uint32_t h, ui
  * interleaved into dst (row stride bytes). A one-channel block that fills its rows is
  * inflated straight into dst (planar is interleaved then) and difference-decoded there; any
  * other block inflates into the reader's scratch and is interleaved from it in one pass. */
+STU_LOADPATH
 static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32_t w, uint32_t h,
                         uint8_t *dst, size_t stride, const char *what)
 {
@@ -233,6 +297,7 @@ static int decode_block(rd *r, unsigned enc, uint64_t off, uint64_t size, uint32
 }
 
 /* Face data header at [off, off+size) for a face of resolution (ulog2, vlog2); may be tiled. */
+STU_LOADPATH
 static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned ulog2,
                        unsigned vlog2, uint8_t *dst, const char *what)
 {
@@ -306,6 +371,7 @@ static int decode_face(rd *r, uint32_t fdh, uint64_t off, uint64_t end, unsigned
 /* Reads a level header: nf FaceDataHeaders (inflated into tmp, nf * 4 bytes) and the offsets
  * of their blocks. Messages name "level L header", formatted only on failure (the first
  * snprintf of a process faults in a few pages of libc's printf code). */
+STU_LOADPATH
 static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize, uint32_t nf,
                              uint8_t *tmp, uint32_t *fdh, uint64_t *offs, unsigned level)
 {
@@ -316,11 +382,8 @@ static int read_level_header(rd *r, uint64_t pos, uint64_t lsize, uint32_t hsize
         return st_fail(r->e, ST_EFORMAT, "level %u header: %u zipped bytes cannot hold %u face "
                        "headers", level, hsize, nf);
     int rc = inflate_exact(r, pos, hsize, tmp, (size_t)nf * 4, "");
-    if (rc && r->e) {
-        char m[ST_ERRMSG_LEN];
-        snprintf(m, sizeof m, "%s", r->e->msg);
-        st_fail(r->e, rc, "level %u header%s", level, m);
-    }
+    if (rc)
+        err_prefix(r->e, rc, "level %u header", level);
     if (rc == ST_OK) {
         uint64_t o = pos + hsize, end = pos + lsize;
         for (uint32_t i = 0; i < nf; i++) {
@@ -367,6 +430,7 @@ typedef struct pend {
     uint8_t *constdata;         /* nfaces texels */
 } pend;
 
+STU_LOADPATH
 static void pend_free(void *p)
 {
     pend *d = p;
@@ -378,10 +442,12 @@ static void pend_free(void *p)
     free(d);
 }
 
+STU_LOADPATH
 static int pend_push(pend *d, uint32_t f, uint32_t fdh, uint64_t off)
 {
     if (d->nblk == d->cap) {
-        size_t nc = d->cap ? 2 * d->cap : 256;
+        size_t nc = d->cap ? 2 * d->cap : 16; /* from 256 B: a small file's few blocks fit in
+                                                 the heap page already in use */
         pend_blk *nb = realloc(d->blk, nc * sizeof *nb);
         if (!nb)
             return -1;
@@ -409,15 +475,12 @@ static int pend_make(st_set *s, void *p, st_error *e)
             const st_face *F = &s->faces[k->face];
             if ((rc = decode_face(r, k->fdh, k->off, d->lend[l], F->ulog2 - l, F->vlog2 - l,
                                   st_face_level(s, k->face, l), ""))) {
-                if (e) {
-                    char tmp[ST_ERRMSG_LEN];
-                    snprintf(tmp, sizeof tmp, "%s", e->msg);
-                    st_fail(e, rc, "level %u face %u%s", l, k->face, tmp);
-                }
+                err_prefix(e, rc, "level %u face %u", l, k->face);
                 break;
             }
         }
-    libdeflate_free_decompressor(r->dd);
+    if (r->dd) /* none when every stream went through ptex_inflate.h: no call into libdeflate */
+        libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     return rc;
 }
@@ -443,6 +506,7 @@ static size_t meta_tsize(unsigned t)
     return t < 6 ? sz[t] : 0;
 }
 
+STU_LOADPATH
 static int meta_put(rd *r, st_set *s, const char *key, unsigned type, const uint8_t *data,
                     uint32_t dsize)
 {
@@ -486,6 +550,7 @@ static int meta_put(rd *r, st_set *s, const char *key, unsigned type, const uint
     return rc;
 }
 
+STU_LOADPATH
 static int parse_meta(rd *r, meta_ctx *m, const uint8_t *p, size_t n, int large)
 {
     size_t i = 0;
@@ -535,6 +600,7 @@ static int parse_meta(rd *r, meta_ctx *m, const uint8_t *p, size_t n, int large)
     return ST_OK;
 }
 
+STU_LOADPATH
 static int read_meta_block(rd *r, meta_ctx *m, uint64_t pos, uint32_t zs, uint32_t ms, int large)
 {
     if (!ms)
@@ -564,6 +630,7 @@ typedef struct meta_edit {
     uint32_t zs, ms;
 } meta_edit;
 
+STU_LOADPATH
 static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nfaces)
 {
     if (fi->ulog2 < 0 || fi->vlog2 < 0 || fi->ulog2 > (int)ST_MAX_LOG2 || fi->vlog2 > (int)ST_MAX_LOG2)
@@ -582,6 +649,7 @@ static int check_faceinfo(rd *r, const ptx_faceinfo *fi, uint32_t f, uint32_t nf
 /* own: the caller's pointer to buf when the reader may keep buf (a buffer from
  * util/bigalloc.c, freed with free()): a deferred import with stored reductions takes it and
  * sets *own to NULL. */
+STU_LOADPATH
 static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, void **own,
                     st_set **out, st_error *e)
 {
@@ -880,6 +948,10 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         goto done;
     }
     uint64_t lpos = ldpos, lend_all = ldpos + ldsize;
+    /* a small level 0: every stream of it through ptex_inflate.h, dynamic ones too (its
+     * per-byte cost over libdeflate's, about 8 instructions a zipped byte, stays under
+     * libdeflate's first use in a process: its code and decompressor, 100-200 us) */
+    r->dyn_all = ptx_rd64(b + lipos) <= PTX_SMALL_LEVEL0;
     for (unsigned l = 0; l < nlevels; l++) {
         if (pd && l > 0) {
             pd->first[l] = (uint32_t)pd->nblk;
@@ -930,11 +1002,7 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
              * face was a few percent of importing a file of small faces) */
             if ((rc = decode_face(r, fdh[i], offs[i], end, F->ulog2 - l, F->vlog2 - l,
                                   r->dry ? NULL : st_face_level(s, f, l), ""))) {
-                if (e) {
-                    char tmp[ST_ERRMSG_LEN];
-                    snprintf(tmp, sizeof tmp, "%s", e->msg);
-                    st_fail(e, rc, "level %u face %u%s", l, f, tmp);
-                }
+                err_prefix(e, rc, "level %u face %u", l, f);
                 goto done;
             }
             if (r->ctiled && !r->tri) {
@@ -1029,7 +1097,8 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
 done:
     free(ct);
     pend_free(pd);
-    libdeflate_free_decompressor(r->dd);
+    if (r->dd) /* none when every stream went through ptex_inflate.h: no call into libdeflate */
+        libdeflate_free_decompressor(r->dd);
     free(r->scratch);
     free(work);
     free(fedits);
@@ -1042,6 +1111,7 @@ done:
     return ST_OK;
 }
 
+STU_LOADPATH
 int st_ptex_read_mem(const void *buf, size_t len, size_t max_bytes, st_set **out, st_error *e)
 {
     return read_mem(buf, len, max_bytes, 0, NULL, out, e);
@@ -1053,6 +1123,7 @@ int st_ptex_read_mem_eager(const void *buf, size_t len, size_t max_bytes, st_set
     return read_mem(buf, len, max_bytes, 1, NULL, out, e);
 }
 
+STU_LOADPATH
 static int read_file(const char *path, size_t max_bytes, int eager, st_set **out, st_error *e)
 {
     *out = NULL;
@@ -1062,15 +1133,13 @@ static int read_file(const char *path, size_t max_bytes, int eager, st_set **out
     if (rc)
         return rc;
     rc = read_mem(buf, len, max_bytes, eager, &buf, out, e); /* may keep buf (NULL then) */
-    if (rc && e) {
-        char tmp[ST_ERRMSG_LEN];
-        snprintf(tmp, sizeof tmp, "%s", e->msg);
-        st_fail(e, rc, "%s: %s", path, tmp);
-    }
+    if (rc)
+        err_prefix(e, rc, "%s: ", path);
     free(buf);
     return rc;
 }
 
+STU_LOADPATH
 int st_ptex_read_file(const char *path, size_t max_bytes, st_set **out, st_error *e)
 {
     return read_file(path, max_bytes, 0, out, e);

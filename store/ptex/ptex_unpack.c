@@ -9,6 +9,7 @@
  * the plain loop.
  */
 #include "ptex_unpack.h"
+#include "loadpath.h"
 
 #include <string.h>
 #ifdef __SSE2__
@@ -64,6 +65,7 @@ __attribute__((target("avx2"))) static size_t undiff16_avx2(uint16_t *q, size_t 
 }
 #endif
 
+STU_LOADPATH
 void st_ptx_undiff(size_t csize, uint8_t *p, size_t bytes)
 {
     size_t i = 0;
@@ -132,6 +134,7 @@ void st_ptx_undiff(size_t csize, uint8_t *p, size_t bytes)
         }                                                                                     \
     } while (0)
 
+STU_LOADPATH
 void st_ptx_planar_to_rows(size_t csize, unsigned nc, const uint8_t *src, uint32_t w,
                            uint32_t h, uint8_t *dst, size_t stride)
 {

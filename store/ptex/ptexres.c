@@ -20,6 +20,7 @@
  * arena is checked against max_bytes.
  */
 #include "ptexres.h"
+#include "loadpath.h"
 #include "ptexfilter.h"
 
 #include <stdatomic.h>
@@ -448,6 +449,7 @@ static int ptexres_levels(const st_set *s, st_error *e)
     return st_fail(e, t->levels_err.code, "%s", t->levels_err.msg);
 }
 
+STU_LOADPATH
 static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nstored,
                          size_t max_bytes, st_ptexres_deferred *def, st_error *e)
 {
@@ -463,23 +465,19 @@ static int attach_record(st_set *s, const uint8_t *ptxflags, const uint8_t *nsto
     t->ptxflags = calloc((size_t)n + 3, 1); /* + 3: the bilinear lanes read 32 bits at a face */
     t->nstored = malloc(n);
     t->lanef = calloc((size_t)n + 3, 1);
-    int mx = !t->ptxflags || !t->nstored || !t->lanef ? -1 : pthread_mutex_init(&t->lock, NULL);
-    if (mx == 0 && pthread_rwlock_init(&t->pin, NULL)) {
-        pthread_mutex_destroy(&t->lock);
-        mx = -1;
-    }
-    if (mx == 0 && pthread_mutex_init(&t->levels_lock, NULL)) {
-        pthread_rwlock_destroy(&t->pin);
-        pthread_mutex_destroy(&t->lock);
-        mx = -1;
-    }
-    if (mx) {
+    if (!t->ptxflags || !t->nstored || !t->lanef) {
         free(t->ptxflags);
         free(t->nstored);
         free(t->lanef);
         free(t);
         return st_fail(e, ST_ENOMEM, "out of memory for the Ptex table");
     }
+    /* the default attributes by the static initializers (what pthread_*_init(.., NULL) sets,
+     * without calling into libc: in a fresh process those two calls - their code, their
+     * binding and the default attribute read - were 20-40 us of a 200 us import) */
+    t->lock = (pthread_mutex_t)PTHREAD_MUTEX_INITIALIZER;
+    t->levels_lock = (pthread_mutex_t)PTHREAD_MUTEX_INITIALIZER;
+    t->pin = (pthread_rwlock_t)PTHREAD_RWLOCK_INITIALIZER;
     atomic_init(&t->built, 0);
     atomic_init(&t->levels, def ? 0 : 1);
     t->def = def;
@@ -510,6 +508,7 @@ int st_ptexres_attach_lazy(st_set *s, const uint8_t *ptxflags, const uint8_t *ns
     return attach_record(s, ptxflags, nstored, max_bytes, NULL, e);
 }
 
+STU_LOADPATH
 int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const uint8_t *ptxflags,
                                const uint8_t *nstored, size_t max_bytes, st_error *e)
 {
@@ -529,6 +528,7 @@ int st_ptexres_attach_deferred(st_set *s, const st_ptexres_deferred *d, const ui
     return rc;
 }
 
+STU_LOADPATH
 int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags,
                       const uint8_t *nstored, size_t max_bytes, st_error *e)
 {

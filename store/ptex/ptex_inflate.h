@@ -1,0 +1,545 @@
+/* store/ptex/ptex_inflate.h - a small zlib-stream inflater for the Ptex reader's small blocks.
+ *
+ * Why: a Ptex file of small faces is hundreds of zlib streams of a few hundred bytes, and a
+ * small file is a handful of them. libdeflate (which the reader keeps for the larger streams
+ * of larger files: ptex_read.c's inflate_exact says which) sets up decode tables of 2^11
+ * entries per stream and its decompressor is an 11 KB allocation zeroed on creation: in a
+ * fresh process 3 fresh heap pages, its code pages and its symbol bindings, more than a small
+ * file's whole import. This one decodes the fixed code by code range with no table, a dynamic
+ * code with a root table sized to the code (at most 2^9 entries, on the stack) and a canonical
+ * fallback for longer codes, and computes the Adler-32 itself (SSE2), so a small stream
+ * touches no heap and no other library. Per byte it is slower than libdeflate on large
+ * dynamic streams (its table set-up too: ~8 K instructions a block against ~4.4 K).
+ *
+ * Owns: decoding one zlib stream (RFC 1950 / 1951) of stored, fixed and dynamic blocks into a
+ * caller buffer of known size. The 2-byte zlib header is the caller's (ptex_read.c checks
+ * it); in points at it. Does the same checks as zlib and libdeflate: bad block type, stored
+ * length mismatch, over-subscribed or incomplete codes (an incomplete literal/length or
+ * distance code is allowed only as a single code of length 1, as zlib allows it), missing
+ * end-of-block code, bad repeat, invalid symbols, a distance too far back, truncated input,
+ * a missing or wrong Adler-32. Bytes after the Adler-32 are ignored (as libdeflate's
+ * libdeflate_zlib_decompress does).
+ * Threading: a pure function on caller memory; about 2.5 KB of stack for a dynamic-code block.
+ *
+ * Header-only (static functions), included by ptex_read.c alone (and its unit test): its code
+ * then sits in the reader's object, next to the reader's code. A fresh process pays for every
+ * 64 KiB window of code it first runs (a page fault of about 10 us on the project's VM), and
+ * as a separate object the linker placed it megabytes away from the reader.
+ *
+ * Bits are read LSB first from a 64-bit buffer, refilled (to at least 56 bits) whenever fewer
+ * are left than the next step can take: 15 for a code, 33 for a length's extra bits with
+ * the distance code and its extra bits, 14 for a code-length code with its extra bits.
+ * Past the end of the input the buffer is filled with zero bytes that are counted (`over`);
+ * consuming any of them is a truncated stream, checked at every block end and before the
+ * check value (a run on phantom zeros cannot loop: every symbol writes output, ends a block,
+ * or fails, and the output is bounded). The fixed code is decoded without tables (by code
+ * ranges); a dynamic block's tables are on its own frame, so a stream of stored and fixed
+ * blocks keeps a small stack. Copies and fills are loops of our own (GCC 12 -O2 emits no
+ * library call in pi_codes, pi_build, pi_dynamic; only a stored block's copy is memcpy):
+ * a first call into libc from deep in a dynamic block's frame would bind the symbol there,
+ * and the binding's saved register state reached a fresh stack page.
+ *
+ * A Huffman code is decoded by a root table indexed by the next rbits bits (rbits = the
+ * code's longest length, capped at 9 for literals / lengths, 7 for distances and for the
+ * code-length code): entry = length << 9 | symbol, 0 for a code longer than the root, which
+ * is then decoded canonically bit by bit from the counts and the sorted symbols.
+ */
+#ifndef ST_PTEX_INFLATE_H
+#define ST_PTEX_INFLATE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "loadpath.h"
+
+enum {
+    ST_PTX_INFL_OK = 0,     /* *got bytes written (may be fewer than outlen: caller checks) */
+    ST_PTX_INFL_BAD = 1,    /* malformed, truncated, or a wrong check value: *why says which */
+    ST_PTX_INFL_OVER = 2,   /* the stream inflates to more than outlen bytes */
+};
+
+/* root table bits at most: literal/length, distance codes (small tables: a small stream
+ * decodes a few hundred symbols, and the tables are on the stack) */
+enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 9, PI_DIST_RMAX = 7 };
+
+
+typedef struct pi_huff {
+    uint16_t count[16];         /* codes of each length; count[0] unused symbols */
+    uint16_t *sym;              /* symbols by (length, value): canonical order */
+    uint16_t *root;             /* 1 << rbits entries */
+    unsigned rbits, mask;       /* mask = (1 << rbits) - 1 */
+} pi_huff;
+
+typedef struct pi_bits {
+    const uint8_t *p, *end;
+    uint64_t bb;                /* bits not yet consumed, LSB first; above bc: 0 or the next */
+    unsigned bc;                /* valid bits in bb */
+    size_t over;                /* zero bytes loaded past the end of the input */
+} pi_bits;
+
+static inline uint64_t pi_rd64le(const uint8_t *p)
+{
+    uint64_t v;
+    memcpy(&v, p, 8);
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+    v = __builtin_bswap64(v);
+#endif
+    return v;
+}
+
+/* At least 56 bits in the buffer. */
+static inline void pi_refill(pi_bits *s)
+{
+    if (s->end - s->p >= 8) {
+        s->bb |= pi_rd64le(s->p) << s->bc;
+        s->p += (63 - s->bc) >> 3;
+        s->bc |= 56;
+        return;
+    }
+    while (s->bc <= 56) {
+        if (s->p < s->end)
+            s->bb |= (uint64_t)*s->p++ << s->bc;
+        else
+            s->over++;
+        s->bc += 8;
+    }
+}
+
+static inline unsigned pi_take(pi_bits *s, unsigned n)
+{
+    unsigned v = (unsigned)(s->bb & (((uint64_t)1 << n) - 1));
+    s->bb >>= n;
+    s->bc -= n;
+    return v;
+}
+
+/* Consumed any of the zero bytes past the input? */
+static inline int pi_overran(const pi_bits *s)
+{
+    return s->over * 8 > s->bc;
+}
+
+/* Drops the bits up to the next byte boundary; the next input byte then. NULL when that is
+ * past the end of the input. */
+static const uint8_t *pi_align(pi_bits *s)
+{
+    pi_take(s, s->bc & 7);
+    size_t inbuf = s->bc >> 3;           /* whole bytes in the buffer, phantoms included */
+    if (s->over > inbuf)
+        return NULL;
+    return s->p - (inbuf - s->over);
+}
+
+/* Builds h from n code lengths (0..15); rmax caps the root table. 0, or -1 for an
+ * over-subscribed or (as zlib) an incomplete code. */
+STU_LOADPATH
+static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
+{
+    memset(h->count, 0, sizeof h->count);
+    for (unsigned i = 0; i < n; i++)
+        h->count[lens[i]]++;
+    unsigned maxlen = 0;
+    int left = 1;
+    for (unsigned len = 1; len < 16; len++) {
+        left <<= 1;
+        left -= h->count[len];
+        if (left < 0)
+            return -1;
+        if (h->count[len])
+            maxlen = len;
+    }
+    if (maxlen && left > 0 && (kind == PI_CODES || maxlen != 1))
+        return -1; /* incomplete: only a single code of length 1 may be (no code at all is
+                      allowed too: any symbol decoded then fails) */
+    uint16_t offs[16];
+    offs[1] = 0;
+    for (unsigned len = 1; len < 15; len++)
+        offs[len + 1] = (uint16_t)(offs[len] + h->count[len]);
+    for (unsigned i = 0; i < n; i++)
+        if (lens[i])
+            h->sym[offs[lens[i]]++] = (uint16_t)i;
+    unsigned rb = maxlen < rmax ? maxlen : rmax;
+    h->rbits = rb;
+    h->mask = (1u << rb) - 1;
+    /* the codes in canonical order: one of up to rb bits fills its bit-reversed code (the
+     * stream's bit order) and every entry that has it as its low bits; a longer one zeroes
+     * the entry of its first rb bits (decoded bit by bit then). rc is the reversed code,
+     * incremented in reversed order (a longer code extends it with zero bits). Every entry
+     * is written so (a complete code covers the table), but for the two codes allowed
+     * incomplete: none (root[0]) and one code of length 1 (root[1]). */
+    h->root[0] = 0;
+    if (left > 0 && maxlen == 1)
+        h->root[1] = 0;
+    unsigned rc = 0, k = 0;
+    for (unsigned len = 1; len <= maxlen; len++)
+        for (unsigned c = 0; c < h->count[len]; c++, k++) {
+            if (len <= rb) {
+                uint16_t e = (uint16_t)(len << 9 | h->sym[k]);
+                for (unsigned j = rc; j <= h->mask; j += 1u << len)
+                    h->root[j] = e;
+            } else {
+                h->root[rc & h->mask] = 0;
+            }
+            unsigned inc = 1u << (len - 1);
+            while (rc & inc)
+                inc >>= 1;
+            rc = inc ? (rc & (inc - 1)) + inc : 0;
+        }
+    return 0;
+}
+
+/* The next symbol of h (the buffer holds at least 15 bits); -1 for a bit pattern that is no
+ * code (an incomplete or empty code). */
+static inline int pi_decode(pi_bits *s, const pi_huff *h)
+{
+    unsigned e = h->root[s->bb & h->mask];
+    if (e) {
+        pi_take(s, e >> 9);
+        return (int)(e & 511);
+    }
+    int code = 0, first = 0, index = 0;
+    for (unsigned len = 1; len < 16; len++) {
+        code |= (int)((s->bb >> (len - 1)) & 1);
+        int count = h->count[len];
+        if (code - count < first) {
+            pi_take(s, len);
+            return h->sym[index + (code - first)];
+        }
+        index += count;
+        first += count;
+        first <<= 1;
+        code <<= 1;
+    }
+    return -1;
+}
+
+/* The low 8 bits of x in reverse order. */
+static inline unsigned pi_rev8(unsigned x)
+{
+    return (unsigned)((((x & 0xffu) * 0x80200802ull) & 0x0884422110ull) * 0x0101010101ull >> 32) &
+           0xffu;
+}
+
+/* The next literal/length symbol of the fixed code (RFC 1951 3.2.6), without a table: the
+ * next 9 bits in code order, then by range: 7-bit codes 0-23 are 256-279, 8-bit codes
+ * 48-191 are 0-143 and 192-199 are 280-287, 9-bit codes 400-511 are 144-255. */
+static inline int pi_fixed_lit(pi_bits *s)
+{
+    unsigned x = (unsigned)s->bb;
+    unsigned c9 = pi_rev8(x) << 1 | ((x >> 8) & 1);
+    if (c9 < 24u << 2) {
+        pi_take(s, 7);
+        return (int)(256 + (c9 >> 2));
+    }
+    if (c9 < 192u << 1) {
+        pi_take(s, 8);
+        return (int)((c9 >> 1) - 48);
+    }
+    if (c9 < 200u << 1) {
+        pi_take(s, 8);
+        return (int)(280 + (c9 >> 1) - 192);
+    }
+    pi_take(s, 9);
+    return (int)(144 + c9 - 400);
+}
+
+/* The next distance symbol of the fixed code: 5 bits in code order (30 and 31 invalid). */
+static inline int pi_fixed_dist(pi_bits *s)
+{
+    return (int)(pi_rev8(pi_take(s, 5)) >> 3);
+}
+
+/* Inflates one block's codes into out: with lit / dist, or the fixed code (fix, a constant
+ * at each call: two copies). */
+static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix,
+                           uint8_t *out, size_t outlen, size_t *pos, const char **why)
+{
+    size_t o = *pos;
+    for (;;) {
+        if (s->bc < 15)
+            pi_refill(s); /* a code: literals take several per refill */
+        int sym = fix ? pi_fixed_lit(s) : pi_decode(s, lit);
+        if (sym < 256) {
+            if (sym < 0) {
+                *why = "invalid literal/length code";
+                return ST_PTX_INFL_BAD;
+            }
+            if (o == outlen)
+                return ST_PTX_INFL_OVER;
+            out[o++] = (uint8_t)sym;
+            continue;
+        }
+        if (sym == 256)
+            break;
+        if (s->bc < 33)
+            pi_refill(s); /* length extra bits, distance code and its extra bits */
+        unsigned li = (unsigned)sym - 257, len;
+        if (li >= 29) {
+            *why = "invalid literal/length code";
+            return ST_PTX_INFL_BAD;
+        }
+        if (li < 8) {
+            len = 3 + li;
+        } else if (li == 28) {
+            len = 258;
+        } else {
+            unsigned x = (li >> 2) - 1;
+            len = ((4 + (li & 3)) << x) + 3 + pi_take(s, x);
+        }
+        int ds = fix ? pi_fixed_dist(s) : pi_decode(s, dist);
+        if (ds < 0 || ds >= 30) {
+            *why = "invalid distance code";
+            return ST_PTX_INFL_BAD;
+        }
+        size_t d;
+        if (ds < 4) {
+            d = (size_t)ds + 1;
+        } else {
+            unsigned x = ((unsigned)ds >> 1) - 1;
+            d = ((size_t)(2 + (ds & 1)) << x) + 1 + pi_take(s, x);
+        }
+        if (d > o) {
+            *why = "invalid distance too far back";
+            return ST_PTX_INFL_BAD;
+        }
+        if (len > outlen - o)
+            return ST_PTX_INFL_OVER;
+        const uint8_t *from = out + o - d;
+        uint8_t *to = out + o;
+        if (d >= 8 && outlen - o >= len + 8) {
+            /* 8 bytes a step, each read at least 8 behind its write (already written even
+             * when the match overlaps itself); up to 7 bytes past the match are written and
+             * later overwritten (there is room) */
+            for (unsigned i = 0; i < len; i += 8)
+                memcpy(to + i, from + i, 8);
+        } else if (outlen - o >= (size_t)len + 16) {
+            /* a short distance: the first dd bytes one by one (dd the multiple of d from 8
+             * to 14), then 8 bytes a step from dd behind (the same bytes: dd is a period) */
+            unsigned dd = (unsigned)d * ((8 + (unsigned)d - 1) / (unsigned)d);
+            for (unsigned i = 0; i < dd; i++)
+                to[i] = from[i];
+            for (unsigned i = dd; i < len; i += 8)
+                memcpy(to + i, to + i - dd, 8);
+        } else {
+            for (unsigned i = 0; i < len; i++)
+                to[i] = from[i];
+        }
+        o += len;
+    }
+    *pos = o;
+    if (pi_overran(s)) {
+        *why = "invalid or truncated deflate data";
+        return ST_PTX_INFL_BAD;
+    }
+    return ST_PTX_INFL_OK;
+}
+
+/* The code lengths of a dynamic block, then its codes (not inlined: its tables stay off the
+ * caller's frame). */
+__attribute__((noinline)) STU_LOADPATH
+static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
+{
+    uint16_t lroot[1 << PI_LIT_RMAX], droot[1 << PI_DIST_RMAX], lsym[286], dsym[30];
+    pi_huff lh = {.root = lroot, .sym = lsym}, dh = {.root = droot, .sym = dsym};
+    pi_huff *lit = &lh, *dist = &dh;
+    /* the order of the code-length code's lengths: 16 17 18 0 8 7 9 6 10 5 11 4 12 3 13 2 14
+     * 1 15, five bits each in two constants (no table in memory) */
+    const uint64_t ord0 = (uint64_t)16 | 17ull << 5 | 18ull << 10 | 0ull << 15 | 8ull << 20 |
+                          7ull << 25 | 9ull << 30 | 6ull << 35 | 10ull << 40 | 5ull << 45 |
+                          11ull << 50 | 4ull << 55;
+    const uint64_t ord1 = (uint64_t)12 | 3ull << 5 | 13ull << 10 | 2ull << 15 | 14ull << 20 |
+                          1ull << 25 | 15ull << 30;
+    uint8_t lens[19];
+    pi_refill(s);
+    unsigned nlen = pi_take(s, 5) + 257, ndist = pi_take(s, 5) + 1, ncode = pi_take(s, 4) + 4;
+    if (nlen > 286 || ndist > 30) {
+        *why = "too many length or distance symbols";
+        return ST_PTX_INFL_BAD;
+    }
+    memset(lens, 0, 19);
+    for (unsigned i = 0; i < ncode; i++) {
+        if (s->bc < 3)
+            pi_refill(s);
+        unsigned at = i < 12 ? (unsigned)(ord0 >> (5 * i)) & 31
+                             : (unsigned)(ord1 >> (5 * (i - 12))) & 31;
+        lens[at] = (uint8_t)pi_take(s, 3);
+    }
+    if (pi_build(lit, lens, 19, 7, PI_CODES)) {
+        *why = "invalid code lengths set";
+        return ST_PTX_INFL_BAD;
+    }
+    unsigned n = nlen + ndist;
+    uint8_t cl[286 + 30];
+    for (unsigned i = 0; i < n;) {
+        if (s->bc < 14)
+            pi_refill(s);
+        int sym = pi_decode(s, lit);
+        if (sym < 0) {
+            *why = "invalid code lengths set";
+            return ST_PTX_INFL_BAD;
+        }
+        if (sym < 16) {
+            cl[i++] = (uint8_t)sym;
+            continue;
+        }
+        unsigned rep;
+        uint8_t v = 0;
+        if (sym == 16) {
+            if (i == 0) {
+                *why = "invalid bit length repeat";
+                return ST_PTX_INFL_BAD;
+            }
+            v = cl[i - 1];
+            rep = 3 + pi_take(s, 2);
+        } else if (sym == 17) {
+            rep = 3 + pi_take(s, 3);
+        } else {
+            rep = 11 + pi_take(s, 7);
+        }
+        if (rep > n - i) {
+            *why = "invalid bit length repeat";
+            return ST_PTX_INFL_BAD;
+        }
+        for (unsigned k = 0; k < rep; k++)
+            cl[i + k] = v;
+        i += rep;
+    }
+    if (pi_overran(s)) {
+        *why = "invalid or truncated deflate data";
+        return ST_PTX_INFL_BAD;
+    }
+    if (cl[256] == 0) {
+        *why = "invalid code -- missing end-of-block";
+        return ST_PTX_INFL_BAD;
+    }
+    if (pi_build(lit, cl, nlen, PI_LIT_RMAX, PI_LIT)) {
+        *why = "invalid literal/lengths set";
+        return ST_PTX_INFL_BAD;
+    }
+    if (pi_build(dist, cl + nlen, ndist, PI_DIST_RMAX, PI_DIST)) {
+        *why = "invalid distances set";
+        return ST_PTX_INFL_BAD;
+    }
+    return pi_codes(s, lit, dist, 0, out, outlen, pos, why);
+}
+
+static int pi_fixed(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const char **why)
+{
+    return pi_codes(s, NULL, NULL, 1, out, outlen, pos, why);
+}
+
+static uint32_t pi_adler32(const uint8_t *p, size_t n)
+{
+    uint64_t a = 1, b = 0;
+    while (n) {
+        size_t k = n < 5552 ? n : 5552; /* the most bytes before b can overflow 32 bits */
+        n -= k;
+#if defined(__SSE2__)
+        /* 16 bytes a step: over a chunk of k bytes b gains k * a (the a it starts with),
+         * 16 times the bytes summed before each step, and each step's bytes weighted 16..1 */
+        size_t k16 = k & ~(size_t)15;
+        if (k16) {
+            const __m128i zero = _mm_setzero_si128();
+            const __m128i wlo = _mm_setr_epi16(16, 15, 14, 13, 12, 11, 10, 9);
+            const __m128i whi = _mm_setr_epi16(8, 7, 6, 5, 4, 3, 2, 1);
+            __m128i va = zero, vp = zero, vb = zero;
+            b += a * k16;
+            for (size_t i = 0; i < k16; i += 16) {
+                __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(p + i));
+                vp = _mm_add_epi64(vp, va);
+                va = _mm_add_epi64(va, _mm_sad_epu8(v, zero));
+                vb = _mm_add_epi32(vb, _mm_madd_epi16(_mm_unpacklo_epi8(v, zero), wlo));
+                vb = _mm_add_epi32(vb, _mm_madd_epi16(_mm_unpackhi_epi8(v, zero), whi));
+            }
+            uint64_t sa = (uint64_t)_mm_cvtsi128_si64(va) +
+                          (uint64_t)_mm_cvtsi128_si64(_mm_unpackhi_epi64(va, va));
+            uint64_t sp = (uint64_t)_mm_cvtsi128_si64(vp) +
+                          (uint64_t)_mm_cvtsi128_si64(_mm_unpackhi_epi64(vp, vp));
+            vb = _mm_add_epi32(vb, _mm_shuffle_epi32(vb, _MM_SHUFFLE(1, 0, 3, 2)));
+            vb = _mm_add_epi32(vb, _mm_shuffle_epi32(vb, _MM_SHUFFLE(2, 3, 0, 1)));
+            b += 16 * sp + (uint32_t)_mm_cvtsi128_si32(vb);
+            a += sa;
+            p += k16;
+            k -= k16;
+        }
+#endif
+        for (; k; k--) {
+            a += *p++;
+            b += a;
+        }
+        a %= 65521;
+        b %= 65521;
+    }
+    return (uint32_t)(b << 16 | a);
+}
+
+/* Inflates the zlib stream at in (inlen bytes, header included) into out (outlen bytes). */
+STU_LOADPATH
+static int st_ptx_inflate(const uint8_t *in, size_t inlen, uint8_t *out, size_t outlen,
+                          size_t *got, const char **why)
+{
+    pi_bits s = {.p = in + (inlen < 2 ? inlen : 2), .end = in + inlen};
+    size_t o = 0;
+    *got = 0;
+    *why = "invalid or truncated deflate data";
+    int last;
+    do {
+        pi_refill(&s);
+        last = (int)pi_take(&s, 1);
+        unsigned type = pi_take(&s, 2);
+        int rc;
+        if (type == 0) {
+            const uint8_t *q = pi_align(&s);
+            if (!q || s.end - q < 4) {
+                *why = "invalid or truncated deflate data";
+                return ST_PTX_INFL_BAD;
+            }
+            unsigned len = q[0] | (unsigned)q[1] << 8, nlen = q[2] | (unsigned)q[3] << 8;
+            if (len != (~nlen & 0xffffu)) {
+                *why = "invalid stored block lengths";
+                return ST_PTX_INFL_BAD;
+            }
+            q += 4;
+            if ((size_t)(s.end - q) < len) {
+                *why = "invalid or truncated deflate data";
+                return ST_PTX_INFL_BAD;
+            }
+            if (len > outlen - o)
+                return ST_PTX_INFL_OVER;
+            memcpy(out + o, q, len);
+            o += len;
+            s.p = q + len;
+            s.bb = 0;
+            s.bc = 0;
+            s.over = 0;
+            rc = ST_PTX_INFL_OK;
+        } else if (type == 1) {
+            rc = pi_fixed(&s, out, outlen, &o, why);
+        } else if (type == 2) {
+            rc = pi_dynamic(&s, out, outlen, &o, why);
+        } else {
+            *why = "invalid block type";
+            return ST_PTX_INFL_BAD;
+        }
+        if (rc)
+            return rc;
+    } while (!last);
+    const uint8_t *q = pi_align(&s);
+    if (!q || s.end - q < 4) {
+        *why = "truncated: no check value";
+        return ST_PTX_INFL_BAD;
+    }
+    uint32_t want = (uint32_t)q[0] << 24 | (uint32_t)q[1] << 16 | (uint32_t)q[2] << 8 | q[3];
+    if (pi_adler32(out, o) != want) {
+        *why = "incorrect data check";
+        return ST_PTX_INFL_BAD;
+    }
+    *got = o;
+    return ST_PTX_INFL_OK;
+}
+
+#endif
