@@ -397,16 +397,24 @@ static void start_three(const char *prefix, const char *n0_every)
     stc_cluster_close(cl);
 }
 
+/* uploads tint `file` as owned[] through node i (a REPLACE when replace is set); the status */
+static int upload_through(int i, int file, int replace)
+{
+    stc_conn *c = st_daemon_client(&N[i], NULL);
+    assert_non_null(c);
+    stc_upload_opts uo = {.flags = replace ? STC_UPLOAD_REPLACE : 0};
+    int rc = stc_upload_file(c, files[file], owned, &uo, NULL);
+    stc_close(c);
+    return rc;
+}
+
 static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **state)
 {
     (void)state;
     start_three("/replace-pushed", "1");
 
     /* an acknowledged write through n0 (not an owner): both owners read it at once */
-    stc_conn *c0 = st_daemon_client(&N[0], NULL);
-    assert_non_null(c0);
-    assert_int_equal(stc_upload_file(c0, files[0], owned, NULL, NULL), 0);
-    stc_close(c0);
+    assert_int_equal(upload_through(0, 0, 0), 0);
     for (int i = 1; i < 3; i++) {
         float r = -1;
         int rc = red_of(i, owned, &r);
@@ -418,11 +426,7 @@ static void a_refused_write_pushed_to_an_owner_is_not_published_there(void **sta
 
     /* n2 dies; the REPLACE through n0 reaches n1 only and is refused */
     st_daemon_kill(&N[2]);
-    c0 = st_daemon_client(&N[0], NULL);
-    assert_non_null(c0);
-    stc_upload_opts uo = {.flags = STC_UPLOAD_REPLACE};
-    int rc = stc_upload_file(c0, files[1], owned, &uo, NULL);
-    stc_close(c0);
+    int rc = upload_through(0, 1, 1);
     if (rc != STC_EUNAVAILABLE)
         fail_msg("the REPLACE was answered %d, not UNAVAILABLE (did n2's lease run out?)", rc);
 
@@ -475,20 +479,13 @@ static void a_replace_hides_the_old_copy_of_a_holder_that_is_not_an_owner(void *
 {
     (void)state;
     start_three("/replace-stale", "60");
-    stc_conn *c0 = st_daemon_client(&N[0], NULL);
-    assert_non_null(c0);
-    assert_int_equal(stc_upload_file(c0, files[0], owned, NULL, NULL), 0);
-    stc_close(c0);
+    assert_int_equal(upload_through(0, 0, 0), 0);
     float r = -1;
     assert_int_equal(red_of(0, owned, &r), 0);   /* n0's own copy, published and served */
     assert_true(r == red[0]);
     uint64_t hidden0 = st_daemon_stat(&N[0], "cluster_copies_hidden");
 
-    stc_conn *c1 = st_daemon_client(&N[1], NULL);
-    assert_non_null(c1);
-    stc_upload_opts uo = {.flags = STC_UPLOAD_REPLACE};
-    assert_int_equal(stc_upload_file(c1, files[1], owned, &uo, NULL), 0);
-    stc_close(c1);
+    assert_int_equal(upload_through(1, 1, 1), 0);
     float r0 = -1;
     int rc0 = red_of(0, owned, &r0);
     if (rc0 == 0 && r0 == red[0]) {

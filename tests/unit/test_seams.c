@@ -387,6 +387,21 @@ static void huge_uvs_keep_the_chart_mask_and_chart_discard_defined(void **state)
     st_set_free(s);
 }
 
+/* The atlas set of a w x h RGBA8 image (px, copied) and mesh m (taken over), which has two
+ * charts and their ids at every level. */
+static st_set *two_charts_of(const uint8_t *px, uint32_t w, uint32_t h, st_mesh *m)
+{
+    st_image img = {.w = w, .h = h, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
+                    .data = (void *)px};
+    st_set *s = NULL;
+    st_error e;
+    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
+    const st_atlas *a = st_atlas_get(s);
+    assert_int_equal(a->mesh->seams->ncharts, 2);
+    assert_int_equal(a->ids.nlevels, s->faces[0].nlevels);
+    return s;
+}
+
 /* atl28b: chart Discard. A 64 x 32 RGBA8 atlas of two charts side by side - A (a quad over
  * columns 0..27, red with a gradient) and B (columns 36..63, green) - with an 8-texel blue
  * gutter between them. */
@@ -414,14 +429,7 @@ static st_set *two_chart_atlas(void)
             px[j][i][2] = i >= 28 && i < 36 ? 255 : 0;
             px[j][i][3] = 255;
         }
-    st_image img = {.w = 64, .h = 32, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
-                    .data = &px[0][0][0]};
-    st_set *s = NULL;
-    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
-    const st_atlas *a = st_atlas_get(s);
-    assert_int_equal(a->mesh->seams->ncharts, 2);
-    assert_int_equal(a->ids.nlevels, s->faces[0].nlevels);
-    return s;
+    return two_charts_of(&px[0][0][0], 64, 32, m);
 }
 
 /* Near the seam, Discard keeps to the query's chart at every level (no green from B, no blue
@@ -583,13 +591,9 @@ static st_set *seam_atlas(int turn)
             px[j][i][2] = x < 0 ? 255 : 0;
             px[j][i][3] = 255;
         }
-    st_image img = {.w = 64, .h = 64, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
-                    .data = &px[0][0][0]};
-    st_set *s = NULL;
-    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
+    st_set *s = two_charts_of(&px[0][0][0], 64, 64, m);
     const st_atlas *a = st_atlas_get(s);
     assert_int_equal(a->mesh->seams->nseams, 1);
-    assert_int_equal(a->mesh->seams->ncharts, 2);
     assert_true(a->ids.nlink[0] > 0);
     return s;
 }
