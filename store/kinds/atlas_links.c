@@ -21,7 +21,8 @@
  * sides reach one texel for one chart, the nearest edge wins (then the lower seam index). A
  * texel past a boundary edge, or farther than the band, has no link: Traverse drops it, as
  * Ptex's Traverse does past a mesh boundary. A level whose candidates would outnumber its
- * texels plus 64 a seam gets no links (bounded memory and time whatever the mesh).
+ * texels plus 128 a seam, or whose bands cover more than 8 times its texels plus 512 a seam,
+ * gets no links (memory and time in proportion to the image and the mesh, whatever the mesh).
  */
 #include "atlas.h"
 
@@ -148,9 +149,11 @@ static int unfold_map(const st_mesh *m, const st_seam_edge *se, int k, seam_map 
 }
 
 /* Adds the candidates of one seam side at one level (w x h texels, ids) to out; 0, ST_ENOMEM,
- * or ST_ETOOBIG when the level would hold more than cap of them. */
+ * or ST_ETOOBIG when the level would hold more than cap of them or the texels looked at
+ * would exceed *work (decremented by those looked at). */
 static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, int k,
-                      const uint16_t *ids, uint32_t w, uint32_t h, size_t cap, cands *out)
+                      const uint16_t *ids, uint32_t w, uint32_t h, size_t cap, size_t *work,
+                      cands *out)
 {
     seam_map M;
     if (unfold_map(m, se, k, &M))
@@ -176,6 +179,9 @@ static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, i
     if (minx > maxx || miny > maxy)
         return 0;
     for (long j = (long)miny; j <= (long)maxy; j++) {
+        if (!*work)
+            return ST_ETOOBIG;
+        (*work)--;   /* the row itself, whatever its span */
         /* the row's texels within `band` of the edge's line: an interval (the whole box's
          * width for a horizontal edge), so the work is the band's area, not the box's */
         double lo = minx, hi = maxx, py0 = j + 0.5;
@@ -184,6 +190,12 @@ static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, i
             double x1 = ax + (ex * (py0 - ay) + band * len) / ey - 0.5;
             lo = fmax(lo, ceil(fmin(x0, x1)));
             hi = fmin(hi, floor(fmax(x0, x1)));
+        }
+        if (lo <= hi) {
+            size_t span = (size_t)(hi - lo) + 1;
+            if (span > *work)
+                return ST_ETOOBIG;
+            *work -= span;
         }
         for (long i = (long)lo; lo <= hi && i <= (long)hi; i++) {
             size_t idx = (size_t)j * w + (size_t)i;
@@ -243,15 +255,19 @@ int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e)
     for (unsigned l = 0; l < a->ids.nlevels && !rc; l++) {
         uint32_t w = st_level_w(F, l), h = st_level_h(F, l);
         /* a level's candidates (every seam side's band, before one per texel and chart is
-         * kept) are capped at its texels plus 64 a seam: a real atlas has a fraction of that
-         * (the duck's level 0: under a tenth); past it (a mesh of huge overlapping seams) the
-         * level gets no links - Traverse there is chart Discard - rather than memory and time
-         * without bound */
-        size_t cap = (size_t)w * h + 64 * (size_t)m->seams->nseams;
+         * kept) are capped at its texels plus 128 a seam, and the texels looked at to find
+         * them at 8 times its texels plus 512 a seam (a side's band is at least 9 x 9): the
+         * four shared textured meshes take at most 27 % and 32 % of these at any level; past
+         * them (a mesh of huge overlapping seams) the level gets no links
+         * - Traverse there is chart Discard - rather than memory and time out of proportion
+         * to the image and the mesh */
+        size_t cap = (size_t)w * h + 128 * (size_t)m->seams->nseams;
+        size_t work = 8 * (size_t)w * h + 512 * (size_t)m->seams->nseams;
         int r = 0;
         for (uint32_t i = 0; i < m->seams->nseams && !r; i++)
             for (int k = 0; k < 2 && !r; k++)
-                r = side_cands(m, &m->seams->seams[i], i, k, a->ids.level[l], w, h, cap, &lv[l]);
+                r = side_cands(m, &m->seams->seams[i], i, k, a->ids.level[l], w, h, cap, &work,
+                               &lv[l]);
         if (r == ST_ETOOBIG)
             lv[l].n = 0;
         else if (r)

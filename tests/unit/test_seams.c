@@ -659,6 +659,62 @@ static void chart_traverse_reads_across_the_seam(void **state)
     }
 }
 
+/* A mesh of 400 seams each drawn across the whole of a 1024^2 image (a hostile upload: each
+ * seam side's band is about 26 K texels of level 0): level 0's bands would cover more than 8
+ * times its texels plus 512 a seam, so it gets no links (Traverse is chart Discard there) -
+ * the import neither fails nor takes time and memory out of proportion - while levels whose
+ * bands fit keep theirs, and sampling works in every mode. */
+static void seams_over_the_whole_image_are_bounded(void **state)
+{
+    (void)state;
+    enum { NP = 400, W = 1024 };
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_mesh_alloc(4 * NP, 6 * NP, 2 * NP, &m, &e), ST_OK);
+    for (uint32_t p = 0; p < NP; p++) {
+        /* 3D: A B C and A B D, the pair apart from every other pair */
+        const float pos[12] = {0, 0, (float)p, 1, 1, (float)p, 1, 0, (float)p, 0, 1, (float)p};
+        memcpy(&m->pos[p * 12], pos, sizeof pos);
+        /* A B along the image's diagonal on one side, a slightly other diagonal on the other */
+        float d = 0.0005f * (float)(1 + p % 7);
+        const float uv[12] = {d, 0, 1, 1 - d, 1, 0, 0, d, 1 - d, 1, 0, 1};
+        memcpy(&m->uv[p * 12], uv, sizeof uv);
+        const uint32_t tp[6] = {4 * p, 4 * p + 1, 4 * p + 2, 4 * p, 4 * p + 1, 4 * p + 3};
+        const uint32_t tu[6] = {6 * p, 6 * p + 1, 6 * p + 2, 6 * p + 3, 6 * p + 4, 6 * p + 5};
+        memcpy(&m->tri_pos[p * 6], tp, sizeof tp);
+        memcpy(&m->tri_uv[p * 6], tu, sizeof tu);
+    }
+    uint8_t *px = calloc((size_t)W * W, 4);
+    assert_non_null(px);
+    st_image img = {.w = W, .h = W, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3, .data = px};
+    st_set *s = NULL;
+    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
+    free(px);
+    const st_atlas *a = st_atlas_get(s);
+    assert_int_equal(a->mesh->seams->nseams, NP);
+    assert_true(a->ids.nlevels > 0);
+    assert_int_equal(a->ids.nlink[0], 0);
+    size_t coarse = 0;
+    for (unsigned l = 1; l < a->ids.nlevels; l++)
+        coarse += a->ids.nlink[l];
+    print_message("links by level 0 / coarser: %zu / %zu\n", a->ids.nlink[0], coarse);
+    assert_true(coarse > 0);
+    st_query q[64];
+    memset(q, 0, sizeof q);
+    for (int i = 0; i < 64; i++) {
+        q[i].u = (float)i / 64.0f;
+        q[i].v = 1.0f - (float)i / 64.0f;
+        q[i].dudx = q[i].dvdy = (float)(i % 4) / 256.0f;
+    }
+    for (unsigned mode = 0; mode < 3; mode++) {
+        st_sample_opts o = {.mode = (uint8_t)mode, .filter = ST_FILTER_TRILINEAR};
+        float out[64 * 4], cov[64];
+        uint8_t st[64];
+        assert_true(st_sample_batch(s, &o, q, 64, out, cov, st) >= 0);
+    }
+    st_set_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -667,6 +723,7 @@ int main(void)
         cmocka_unit_test(chart_discard_equals_clamp_bit_for_bit_inside_a_chart),
         cmocka_unit_test(chart_discard_in_the_gutter),
         cmocka_unit_test(chart_traverse_reads_across_the_seam),
+        cmocka_unit_test(seams_over_the_whole_image_are_bounded),
         cmocka_unit_test(shared_uvs_are_not_a_seam_even_with_duplicate_vt_entries),
         cmocka_unit_test(mirrored_chart_is_flagged),
         cmocka_unit_test(welding_merges_split_positions_before_seams),
