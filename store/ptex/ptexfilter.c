@@ -986,6 +986,24 @@ static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float 
     return 1;
 }
 
+/* A Traverse query on face f whose ring is all zero (ptexres.h's ST_PTEXRES_ZRING: every
+ * face the split reaches is constant with a texel of zero bytes, no corner changes the
+ * weight) with a kernel of weight w (its pk_weight, zeros stripped, not empty) in (0, +inf):
+ * every path (const_write inside the face, the walk or eval_kernel's split across it) sums
+ * +0 (each piece adds 0 times a finite weight: +-0) and divides by w, so the result is +0
+ * times 1 / (w one), written here without the walk. 1 when written; else 0, nothing
+ * written. */
+static inline int zero_ring_q(const pf *c, int f, float w, float *out)
+{
+    uint32_t wb;
+    memcpy(&wb, &w, sizeof wb);
+    if (c->mode != ST_MODE_TRAVERSE || !(c->t->lanef[f] & ST_PTEXRES_ZRING) ||
+        wb - 1u >= 0x7f7fffffu)
+        return 0;
+    pf_put_scaled(out, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f}, 1.0f / (w * one_value(c->dt)), c->nc);
+    return 1;
+}
+
 /* eval's kernel path for the bilinear kernel of lane j of lk (its resolution, first texel and
  * fractions; a query of its own passes lane 0 of a local one: the lanes' hand-over passes
  * its set-up as it lies, with no copy) on face f (open_face: plain or constant) in every
@@ -1010,6 +1028,10 @@ static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
     c->acc = (v4f){0, 0, 0, 0};
     float su = p2_sum(k.ku, k.uw), sv = p2_sum(k.kv, k.vw);
     float total = su * sv;
+    if (zero_ring_q(c, (int)f, total, out)) {
+        *cov = 1.0f;
+        return 1;
+    }
     c->weight = total;
     if (c->mode == ST_MODE_DISCARD) {
         /* split_walk's Discard at depth 0 (the overhang dropped in the order r, l, t, b, the
@@ -1712,6 +1734,20 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
                                                   const st_sample_opts *o, const st_query *q,
                                                   const st_face *F, float *out, float *cov)
 {
+    if (pp->ftype == ST_FILTER_PTEX_GAUSSIAN && c->mode == ST_MODE_TRAVERSE &&
+        (c->t->lanef[q->face] & ST_PTEXRES_ZRING)) {
+        /* zero_ring_q's result without the kernel: a gaussian kernel's weight is in (0,
+         * +inf) and far from both ends for any width (u, v in [0, 1): pk_width4_axis picks a
+         * step of at most one texel on each axis, so some tap lies within half a texel of
+         * the centre, weight exp(-2 x^2) >= exp(-1/2) (or, at widths of half a face and more,
+         * hermite taps whose nearest weighs > 0.6, two that sum to 1), and no tap is
+         * negative, past 1 or NaN; at most 16 taps an axis): 1 / (w one) is positive and
+         * finite, and +0 times it is +0 */
+        for (unsigned ch = 0; ch < c->nc; ch++)
+            out[ch] = 0.0f;
+        *cov = 1.0f;
+        return ST_Q_OK;
+    }
     float bu = (fabsf(q->dudx) + fabsf(q->dudy)) * c->width + c->blur;
     float bv = (fabsf(q->dvdx) + fabsf(q->dvdy)) * c->width + c->blur;
     pk k;
@@ -1727,6 +1763,8 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
         return eval(c, pp, o, q, out, cov);
     *cov = 1.0f;
     int f = (int)q->face;
+    if (zero_ring_q(c, f, w, out))
+        return ST_Q_OK;
     if (pk_in_face(&k)) {
         /* const_inside's test with this weight */
         if (k.ulog2 <= F->ulog2 && k.vlog2 <= F->vlog2 && keeps_whole(c, w)) {
