@@ -986,19 +986,29 @@ static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float 
     return 1;
 }
 
-/* A Traverse query on face f whose ring is all zero (ptexres.h's ST_PTEXRES_ZRING: every
- * face the split reaches is constant with a texel of zero bytes, no corner changes the
- * weight) with a kernel of weight w (its pk_weight, zeros stripped, not empty) in (0, +inf):
- * every path (const_write inside the face, the walk or eval_kernel's split across it) sums
- * +0 (each piece adds 0 times a finite weight: +-0) and divides by w, so the result is +0
- * times 1 / (w one), written here without the walk. 1 when written; else 0, nothing
- * written. */
+/* Face f reads as zero in c's mode: in Traverse its ring is all zero (ptexres.h's
+ * ST_PTEXRES_ZRING: every face the split reaches is constant with a texel of zero bytes, no
+ * corner changes the weight), in Clamp the face itself (ST_PTEXRES_ZFACE: Clamp folds the
+ * kernel onto f at every edge and keeps its whole weight); never in Discard (its weight is
+ * what it keeps, and its coverage needs it). */
+static inline int zero_in_mode(const pf *c, int f)
+{
+    unsigned bit = c->mode == ST_MODE_TRAVERSE ? ST_PTEXRES_ZRING
+                   : c->mode == ST_MODE_CLAMP  ? ST_PTEXRES_ZFACE
+                                               : 0u;
+    return (c->t->lanef[f] & bit) != 0;
+}
+
+/* A query on face f that reads as zero (zero_in_mode) with a kernel of weight w (its
+ * pk_weight, zeros stripped, not empty) in (0, +inf): every path (const_write inside the
+ * face, the walk or fold, or eval_kernel's split across it) sums +0 (each piece adds 0 times
+ * a finite weight: +-0) and divides by w, so the result is +0 times 1 / (w one), written
+ * here without the walk, coverage 1. 1 when written; else 0, nothing written. */
 static inline int zero_ring_q(const pf *c, int f, float w, float *out)
 {
     uint32_t wb;
     memcpy(&wb, &w, sizeof wb);
-    if (c->mode != ST_MODE_TRAVERSE || !(c->t->lanef[f] & ST_PTEXRES_ZRING) ||
-        wb - 1u >= 0x7f7fffffu)
+    if (!zero_in_mode(c, f) || wb - 1u >= 0x7f7fffffu)
         return 0;
     pf_put_scaled(out, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f}, 1.0f / (w * one_value(c->dt)), c->nc);
     return 1;
@@ -1734,15 +1744,18 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
                                                   const st_sample_opts *o, const st_query *q,
                                                   const st_face *F, float *out, float *cov)
 {
-    if (pp->ftype == ST_FILTER_PTEX_GAUSSIAN && c->mode == ST_MODE_TRAVERSE &&
-        (c->t->lanef[q->face] & ST_PTEXRES_ZRING)) {
-        /* zero_ring_q's result without the kernel: a gaussian kernel's weight is in (0,
-         * +inf) and far from both ends for any width (u, v in [0, 1): pk_width4_axis picks a
-         * step of at most one texel on each axis, so some tap lies within half a texel of
-         * the centre, weight exp(-2 x^2) >= exp(-1/2) (or, at widths of half a face and more,
-         * hermite taps whose nearest weighs > 0.6, two that sum to 1), and no tap is
-         * negative, past 1 or NaN; at most 16 taps an axis): 1 / (w one) is positive and
-         * finite, and +0 times it is +0 */
+    if ((pp->ftype == ST_FILTER_PTEX_GAUSSIAN || pp->ftype == ST_FILTER_PTEX_BOX) &&
+        zero_in_mode(c, (int)q->face)) {
+        /* zero_ring_q's result without the kernel: the kernel's weight is in (0, +inf) and
+         * far from both ends for any width, so 1 / (w one) is positive and finite, and +0
+         * times it is +0. The gaussian (u, v in [0, 1)): pk_width4_axis picks a step of at
+         * most one texel on each axis, so some tap lies within half a texel of the centre,
+         * weight exp(-2 x^2) >= exp(-1/2) (or, at widths of half a face and more, hermite
+         * taps whose nearest weighs > 0.6, two that sum to 1), and no tap is negative, past
+         * 1 or NaN; at most 16 taps an axis. The box: each axis' taps are the coverage of
+         * texels of the level the width picks (the width clamped to [a texel of the face,
+         * 1], NaN to 1), in [0, 1], summing to the width in that level's texels, 1 to 2;
+         * at most 3 taps an axis */
         for (unsigned ch = 0; ch < c->nc; ch++)
             out[ch] = 0.0f;
         *cov = 1.0f;

@@ -554,7 +554,8 @@ static int zero_face(const st_set *s, const uint64_t *base, const uint8_t *const
     return 1;
 }
 
-/* lanef's ST_PTEXRES_ZRING bit of face f (ptexres.h): f, each neighbour across an edge and
+/* lanef's ST_PTEXRES_ZFACE bit of face f (ptexres.h): f constant, not a subface, with a
+ * texel of zero bytes (zero_face). Its ST_PTEXRES_ZRING bit: f, each neighbour across an edge and
  * the diagonal face of each corner that has neighbours across both its edges are constant,
  * not subfaces, with a texel of zero bytes, and each such corner is a regular vertex (the set's cornerface). Those are
  * every face Ptex's Traverse split (splitAndApply) reaches from f: its pieces go across an
@@ -579,8 +580,10 @@ static void zero_ring(st_ptexres *t, const st_set *s, const uint64_t *base,
             if (ok && F->adjface[e] >= 0 && F->adjface[(e + 3) & 3] >= 0)
                 ok = F->cornerface[e] >= 0 && zero_face(s, base, px, ts, F->cornerface[e]);
         }
-        ok = ok && s->info.meshtype != ST_MESH_TRIANGLE;
-        t->lanef[f] = (uint8_t)((t->lanef[f] & ~ST_PTEXRES_ZRING) | (ok ? ST_PTEXRES_ZRING : 0u));
+        int tri = s->info.meshtype == ST_MESH_TRIANGLE;
+        unsigned bits = (ok && !tri ? ST_PTEXRES_ZRING : 0u) |
+                        (!tri && zero_face(s, base, px, ts, (int32_t)f) ? ST_PTEXRES_ZFACE : 0u);
+        t->lanef[f] = (uint8_t)((t->lanef[f] & ~(ST_PTEXRES_ZRING | ST_PTEXRES_ZFACE)) | bits);
     }
 }
 
