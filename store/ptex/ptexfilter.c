@@ -30,7 +30,10 @@
  * and calls the fused path per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
- * registers).
+ * registers). A query on a face that reads as zero in its mode (ptexres.h's zero bits: in
+ * Traverse the face and every face its split reaches constant zero, in Clamp the face) is
+ * +0 once its kernel's weight is known to be positive and finite (zero_ring_q), without the
+ * walk.
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds

@@ -17,7 +17,8 @@
  * allocation; one pass from large to small resolutions fills the arena. Built once under
  * the record's mutex; readers test `built` with acquire ordering, so a thread that sees 1
  * sees every pointer and texel. Sizes were already checked when the set was created; the
- * arena is checked against max_bytes.
+ * arena is checked against max_bytes. The build also sets the faces' zero bits in lanef
+ * (zero_ring: constant faces of zero texels, and faces whose whole Traverse ring is such).
  */
 #include "ptexres.h"
 #include "ptexfilter.h"
