@@ -30,7 +30,10 @@
  * and calls the fused path per query for the lanes left). A
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
- * registers).
+ * registers). A query on a face that reads as zero in its mode (ptexres.h's zero bits: in
+ * Traverse the face and every face its split reaches constant zero, in Clamp the face) is
+ * +0 once its kernel's weight is known to be positive and finite (zero_ring_q), without the
+ * walk.
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
@@ -986,6 +989,34 @@ static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float 
     return 1;
 }
 
+/* Face f reads as zero in c's mode: in Traverse its ring is all zero (ptexres.h's
+ * ST_PTEXRES_ZRING: every face the split reaches is constant with a texel of zero bytes, no
+ * corner changes the weight), in Clamp the face itself (ST_PTEXRES_ZFACE: Clamp folds the
+ * kernel onto f at every edge and keeps its whole weight); never in Discard (its weight is
+ * what it keeps, and its coverage needs it). */
+static inline int zero_in_mode(const pf *c, int f)
+{
+    unsigned bit = c->mode == ST_MODE_TRAVERSE ? ST_PTEXRES_ZRING
+                   : c->mode == ST_MODE_CLAMP  ? ST_PTEXRES_ZFACE
+                                               : 0u;
+    return (c->t->lanef[f] & bit) != 0;
+}
+
+/* A query on face f that reads as zero (zero_in_mode) with a kernel of weight w (its
+ * pk_weight, zeros stripped, not empty) in (0, +inf): every path (const_write inside the
+ * face, the walk or fold, or eval_kernel's split across it) sums +0 (each piece adds 0 times
+ * a finite weight: +-0) and divides by w, so the result is +0 times 1 / (w one), written
+ * here without the walk, coverage 1. 1 when written; else 0, nothing written. */
+static inline int zero_ring_q(const pf *c, int f, float w, float *out)
+{
+    uint32_t wb;
+    memcpy(&wb, &w, sizeof wb);
+    if (!zero_in_mode(c, f) || wb - 1u >= 0x7f7fffffu)
+        return 0;
+    pf_put_scaled(out, (pf_v4){0.0f, 0.0f, 0.0f, 0.0f}, 1.0f / (w * one_value(c->dt)), c->nc);
+    return 1;
+}
+
 /* eval's kernel path for the bilinear kernel of lane j of lk (its resolution, first texel and
  * fractions; a query of its own passes lane 0 of a local one: the lanes' hand-over passes
  * its set-up as it lies, with no copy) on face f (open_face: plain or constant) in every
@@ -1010,6 +1041,10 @@ static int bilinear_walk(pf *c, const pf_lanes_kern *lk, unsigned j, uint32_t f,
     c->acc = (v4f){0, 0, 0, 0};
     float su = p2_sum(k.ku, k.uw), sv = p2_sum(k.kv, k.vw);
     float total = su * sv;
+    if (zero_ring_q(c, (int)f, total, out)) {
+        *cov = 1.0f;
+        return 1;
+    }
     c->weight = total;
     if (c->mode == ST_MODE_DISCARD) {
         /* split_walk's Discard at depth 0 (the overhang dropped in the order r, l, t, b, the
@@ -1712,6 +1747,23 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
                                                   const st_sample_opts *o, const st_query *q,
                                                   const st_face *F, float *out, float *cov)
 {
+    if ((pp->ftype == ST_FILTER_PTEX_GAUSSIAN || pp->ftype == ST_FILTER_PTEX_BOX) &&
+        zero_in_mode(c, (int)q->face)) {
+        /* zero_ring_q's result without the kernel: the kernel's weight is in (0, +inf) and
+         * far from both ends for any width, so 1 / (w one) is positive and finite, and +0
+         * times it is +0. The gaussian (u, v in [0, 1)): pk_width4_axis picks a step of at
+         * most one texel on each axis, so some tap lies within half a texel of the centre,
+         * weight exp(-2 x^2) >= exp(-1/2) (or, at widths of half a face and more, hermite
+         * taps whose nearest weighs > 0.6, two that sum to 1), and no tap is negative, past
+         * 1 or NaN; at most 16 taps an axis. The box: each axis' taps are the coverage of
+         * texels of the level the width picks (the width clamped to [a texel of the face,
+         * 1], NaN to 1), in [0, 1], summing to the width in that level's texels, 1 to 2;
+         * at most 3 taps an axis */
+        for (unsigned ch = 0; ch < c->nc; ch++)
+            out[ch] = 0.0f;
+        *cov = 1.0f;
+        return ST_Q_OK;
+    }
     float bu = (fabsf(q->dudx) + fabsf(q->dudy)) * c->width + c->blur;
     float bv = (fabsf(q->dvdx) + fabsf(q->dvdy)) * c->width + c->blur;
     pk k;
@@ -1727,6 +1779,8 @@ __attribute__((noinline)) static int kernel_const(pf *c, const pk_params *pp,
         return eval(c, pp, o, q, out, cov);
     *cov = 1.0f;
     int f = (int)q->face;
+    if (zero_ring_q(c, f, w, out))
+        return ST_Q_OK;
     if (pk_in_face(&k)) {
         /* const_inside's test with this weight */
         if (k.ulog2 <= F->ulog2 && k.vlog2 <= F->vlog2 && keeps_whole(c, w)) {

@@ -17,7 +17,8 @@
  * allocation; one pass from large to small resolutions fills the arena. Built once under
  * the record's mutex; readers test `built` with acquire ordering, so a thread that sees 1
  * sees every pointer and texel. Sizes were already checked when the set was created; the
- * arena is checked against max_bytes.
+ * arena is checked against max_bytes. The build also sets the faces' zero bits in lanef
+ * (zero_ring: constant faces of zero texels, and faces whose whole Traverse ring is such).
  */
 #include "ptexres.h"
 #include "loadpath.h"
@@ -538,6 +539,55 @@ int st_ptexres_attach(st_set *s, const uint8_t *constpx, const uint8_t *ptxflags
     return rc ? rc : st_ptexres_attach_lazy(s, ptxflags, nstored, max_bytes, e);
 }
 
+/* Face f is constant with a texel of ts zero bytes (px: the built table's entries). */
+static int zero_face(const st_set *s, const uint64_t *base, const uint8_t *const *px, size_t ts,
+                     int32_t f)
+{
+    if (f < 0)
+        return 1; /* a mesh boundary: no face to read */
+    const st_face *F = &s->faces[f];
+    if ((F->flags & (ST_FACE_CONSTANT | ST_FACE_SUBFACE)) != ST_FACE_CONSTANT)
+        return 0;
+    const uint8_t *d = px[base[f]];
+    for (size_t i = 0; i < ts; i++)
+        if (d[i])
+            return 0;
+    return 1;
+}
+
+/* lanef's ST_PTEXRES_ZFACE bit of face f (ptexres.h): f constant, not a subface, with a
+ * texel of zero bytes (zero_face). Its ST_PTEXRES_ZRING bit: f, each neighbour across an edge and
+ * the diagonal face of each corner that has neighbours across both its edges are constant,
+ * not subfaces, with a texel of zero bytes, and each such corner is a regular vertex (the set's cornerface). Those are
+ * every face Ptex's Traverse split (splitAndApply) reaches from f: its pieces go across an
+ * edge to the neighbour, or past a corner to the corner's faces, never further (no subface
+ * to re-split on); and the split changes the kernel's weight only at a corner that is not
+ * regular (applyToCorner: valence 2, 3 or 5+). So with the bit set every piece adds texel 0
+ * times a weight to the sum, and the sum stays +0 whatever the weights are (finite ones: a
+ * product with +-0 is +-0, and +0 + -0 is +0), and the division is by the kernel's whole
+ * weight. Quad meshes only (never set on triangle meshes: ptextri_filter.c has its own
+ * walk). */
+static void zero_ring(st_ptexres *t, const st_set *s, const uint64_t *base,
+                      const uint8_t *const *px)
+{
+    uint32_t n = s->info.nfaces;
+    size_t ts = st_texel_size(s);
+    for (uint32_t f = 0; f < n; f++) {
+        const st_face *F = &s->faces[f];
+        int ok = zero_face(s, base, px, ts, (int32_t)f);
+        for (int e = 0; ok && e < 4; e++) {
+            ok = zero_face(s, base, px, ts, F->adjface[e]);
+            /* corner e lies between edges e and e - 1 */
+            if (ok && F->adjface[e] >= 0 && F->adjface[(e + 3) & 3] >= 0)
+                ok = F->cornerface[e] >= 0 && zero_face(s, base, px, ts, F->cornerface[e]);
+        }
+        int tri = s->info.meshtype == ST_MESH_TRIANGLE;
+        unsigned bits = (ok && !tri ? ST_PTEXRES_ZRING : 0u) |
+                        (!tri && zero_face(s, base, px, ts, (int32_t)f) ? ST_PTEXRES_ZFACE : 0u);
+        t->lanef[f] = (uint8_t)((t->lanef[f] & ~(ST_PTEXRES_ZRING | ST_PTEXRES_ZFACE)) | bits);
+    }
+}
+
 /* Builds px and the arena of t for s (t->lock held). */
 static int build_table(st_ptexres *t, const st_set *s, st_error *e)
 {
@@ -610,6 +660,7 @@ static int build_table(st_ptexres *t, const st_set *s, st_error *e)
             }
         }
     }
+    zero_ring(t, s, base, pxs);
     t->base = base;
     t->px = pxs;
     t->arena = arena;

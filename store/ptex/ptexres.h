@@ -51,6 +51,13 @@
 
 #define ST_PTEXRES_MAGIC 0x50545852u /* "PTXR" */
 
+/* lanef bits set by the table's build (ptexres.c, zero_ring: what they check and why that
+ * suffices). ZRING: a Traverse kernel of the face (a quad mesh) reaches only faces that are
+ * constant with a texel of zero bytes, and its split never changes its weight. ZFACE: the
+ * face itself is such a face (Clamp reads no other) */
+#define ST_PTEXRES_ZRING 1u
+#define ST_PTEXRES_ZFACE 2u
+
 /* A stored face (level 0, or a stored square reduction `level`) of a .ptx file that is tiled
  * (tiles of 2^tu x 2^tv texels) with every tile a constant tile of one and the same value.
  * Ptex's reader serves a reduction it makes from such a face as a constant face once the
@@ -67,8 +74,9 @@ typedef struct st_ptexres {
     uint8_t        *ptxflags;     /* per face: Ptex FaceInfo flags (PTX_FLAG_*), then 3 zero
                                      bytes (ptexfilter_lanes.c reads 32 bits at a face) */
     uint8_t        *nstored;      /* per face: set levels that hold stored reductions (>= 1) */
-    uint8_t        *lanef;        /* per face: ptxflags' PTX_FLAG_NBCONSTANT bit, and bit
-                                     4 + e set when edge e is a mesh boundary (adjface < 0),
+    uint8_t        *lanef;        /* per face: ptxflags' PTX_FLAG_NBCONSTANT bit, bit 4 + e
+                                     set when edge e is a mesh boundary (adjface < 0), and
+                                     ST_PTEXRES_ZRING and _ZFACE (set by the table's build),
                                      then 3 zero bytes (the bilinear lanes read 32 bits at a
                                      face: one gather for both) */
     size_t          max_bytes;    /* cap on the arena */

@@ -12,7 +12,10 @@
  * triangle's, every mode. The lanes that pf_cst8_select's functions serve 8 at a time
  * (session 20: the box's and the width-4 filters' kernels inside a constant face) are
  * counted through klanes8 on the same blocks, so that the comparison is known to cover
- * them. */
+ * them. Faces whose whole ring is constant zero (session 29: ptexres.c's zero_ring flags
+ * them, and a Traverse query there is written +0 without the kernel's walk) are checked
+ * against the rule worked out here by Ptex's own walk around each corner, and their
+ * kernels that overhang them against the general path. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -20,11 +23,13 @@
 #include <cmocka.h>
 
 #include <stdio.h>
+#include <string.h>
 
 #include "ptex.h"
 #include "ptexfilter.h"
 #include "ptexfilter_kernel.h"
 #include "ptexfilter_lanes.h"
+#include "ptexres.h"
 #include "sample.h"
 #include "../common/pffiles.h"
 #include "../common/pfpaths.h"
@@ -210,11 +215,132 @@ static void walked_const_kernels_match_the_general_path(void **state)
     assert_true(over * 3 > (long)found * NQ); /* a good share overhang (fewer: bad test) */
 }
 
+/* Face f (or a mesh boundary, f < 0) is constant, not a subface, with a texel of zero bytes. */
+static int zero_face(const st_set *s, int32_t f)
+{
+    if (f < 0)
+        return 1;
+    const st_face *F = &s->faces[f];
+    if ((F->flags & (ST_FACE_CONSTANT | ST_FACE_SUBFACE)) != ST_FACE_CONSTANT)
+        return 0;
+    const uint8_t *d = st_face_level(s, (uint32_t)f, 0);
+    for (size_t i = 0; i < st_texel_size(s); i++)
+        if (d[i])
+            return 0;
+    return 1;
+}
+
+/* The faces Ptex's Traverse split reaches from f all zero (zero_face) and its weight never
+ * changed, worked out as PtexSeparableFilter::splitAndApply walks: the neighbour across each
+ * edge, and where both edges of a corner have one, the faces around the corner's vertex by
+ * applyToCorner's steps (to the next face across the edge, then the edge after the one
+ * arrived by), which must come back to (f, corner) after 4 (valence 4: the one diagonal
+ * face; any other count changes the weight). */
+static int expect_zero_ring(const st_set *s, uint32_t f)
+{
+    const st_face *F = &s->faces[f];
+    if (!zero_face(s, (int32_t)f))
+        return 0;
+    for (int e = 0; e < 4; e++) {
+        if (!zero_face(s, F->adjface[e]))
+            return 0;
+        if (F->adjface[e] < 0 || F->adjface[(e + 3) & 3] < 0)
+            continue;
+        int32_t af = (int32_t)f, ae = e, steps = 0, diag = -1;
+        for (;;) {
+            int32_t nf = s->faces[af].adjface[ae];
+            ae = (s->faces[af].adjedge[ae] + 1) % 4;
+            af = nf;
+            steps++;
+            if (af < 0 || (af == (int32_t)f && ae == e) || steps > 10)
+                break;
+            if (steps == 2)
+                diag = af;
+        }
+        if (af != (int32_t)f || steps != 4 || !zero_face(s, diag))
+            return 0;
+    }
+    return 1;
+}
+
+/* evblur (64 of its 66 faces constant black, 2 white; boundaries, and a vertex of valence 5)
+ * as read, with every face black but one, and all black: the faces the table flags
+ * ST_PTEXRES_ZRING are the ones expect_zero_ring finds (some of them, and not all, in each
+ * form), those it flags ST_PTEXRES_ZFACE the ones zero_face finds; kernels of every filter
+ * on flagged faces (and on any face, a quarter of them), overhanging edges and corners at
+ * footprints of 1 to 64 texels, every mode, give the general path's bits (Traverse and Clamp
+ * take the shortcut: +0, with the same status and coverage; Discard does not). */
+static void zero_ring_faces_match_the_general_path(void **state)
+{
+    (void)state;
+    static const float fps[] = {1.0f, 2.5f, 4.0f, 9.0f, 16.0f, 31.0f, 64.0f};
+    static st_query q[NQ];
+    uint32_t rng = 47;
+    long compared = 0;
+    for (int form = 0; form < 3; form++) {
+        char path[1024];
+        st_set *s;
+        int r = st_pf_read_shared("ptx/wdas-ptex-2009/nonquad/evblur/pPlane1.ptx", path,
+                                  sizeof path, &s);
+        if (r == 0) {
+            print_message("SEAMTEX_DATA (%s) lacks evblur: skipped\n", st_test_data_dir());
+            skip();
+        }
+        assert_int_equal(r, 1);
+        size_t ts = st_texel_size(s);
+        /* form 1: every face black but face 35; form 2: all black (before the table) */
+        for (uint32_t f = 0; form && f < s->info.nfaces; f++)
+            if (s->faces[f].flags & ST_FACE_CONSTANT)
+                memset(st_face_level(s, f, 0), form == 1 && f == 35 ? 0xff : 0, ts);
+        st_error e;
+        const st_ptexres *t = st_ptexres_table(s, &e);
+        assert_non_null(t);
+        uint32_t flagged = 0, cand[64], nc = 0;
+        for (uint32_t f = 0; f < s->info.nfaces; f++) {
+            int got = (t->lanef[f] & ST_PTEXRES_ZRING) != 0;
+            if (got != expect_zero_ring(s, f))
+                fail_msg("form %d face %u: flag %d, expected %d", form, f, got, !got);
+            flagged += (uint32_t)got;
+            if (got && nc < 64)
+                cand[nc++] = f;
+            got = (t->lanef[f] & ST_PTEXRES_ZFACE) != 0;
+            if (got != zero_face(s, (int32_t)f))
+                fail_msg("form %d face %u: face flag %d, expected %d", form, f, got, !got);
+        }
+        print_message("form %d: %u of %u faces flagged\n", form, flagged, s->info.nfaces);
+        assert_true(flagged > 0 && flagged < s->info.nfaces);
+        for (int j = 0; j < NQ; j++) {
+            /* a flagged face (3 in 4), or any (Clamp's zero faces next to white ones) */
+            uint32_t f = j % 4 ? cand[(uint32_t)(st_test_rndf(&rng) * (float)nc) % nc]
+                               : (uint32_t)(st_test_rndf(&rng) * (float)s->info.nfaces) %
+                                     s->info.nfaces;
+            const st_face *F = &s->faces[f];
+            float fu = fps[(int)(st_test_rndf(&rng) * 7) % 7];
+            float fv = j % 3 == 1 ? fps[(int)(st_test_rndf(&rng) * 7) % 7] : fu;
+            float du = st_test_rndf(&rng) * fu / (float)F->w;
+            float dv = st_test_rndf(&rng) * fv / (float)F->h;
+            float u = j % 4 == 3 ? st_test_rndf(&rng) : st_test_rndf(&rng) < 0.5f ? du : 1.0f - du;
+            float v = j % 2 ? st_test_rndf(&rng) : st_test_rndf(&rng) < 0.5f ? dv : 1.0f - dv;
+            u = u < 0.99999994f ? u : 0.99999994f;
+            v = v < 0.99999994f ? v : 0.99999994f;
+            q[j] = (st_query){.face = f, .u = u, .v = v, .dudx = fu / (float)F->w,
+                              .dvdy = fv / (float)F->h, .dvdx = j % 5 == 2 ? dv : 0.0f};
+        }
+        long n = st_pf_paths_agree(s, q, NQ, path, filters, NF);
+        if (n < 0)
+            fail();
+        compared += n;
+        st_set_free(s);
+    }
+    print_message("%ld queries compared\n", compared);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(const_faces_match_the_general_path),
         cmocka_unit_test(walked_const_kernels_match_the_general_path),
+        cmocka_unit_test(zero_ring_faces_match_the_general_path),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
