@@ -31,9 +31,10 @@
  * bilinear 2 x 2 kernel that overhangs a plain face takes its own walk (bilinear_walk on
  * pk2 pieces; in Traverse over plain faces ptexfilter_simd.c's pf_edge2, the same walk in
  * registers). A query on a face that reads as zero in its mode (ptexres.h's zero bits: in
- * Traverse the face and every face its split reaches constant zero, in Clamp the face) is
- * +0 once its kernel's weight is known to be positive and finite (zero_ring_q), without the
- * walk.
+ * Traverse the face and every face its split reaches constant zero, in Clamp the face, in
+ * Discard the face when no coverage is asked for and the kernel is the gaussian, the box or
+ * bilinear) is +0 once its kernel's weight is known to be positive and finite (zero_ring_q),
+ * without the walk.
  *
  * Data comes from the set's Ptex resolution table (ptexres.h), which a set read from a .ptx
  * has (st_ptexfilter_prepare attaches it to any per-face set); the first call on a set builds
@@ -132,6 +133,9 @@ typedef struct pf {
     int tanvec;              /* Ptex's tanvec edge filter mode in Traverse (the set's mode
                               * tanvec, 2+ channels): apply rotates channels 0-1 of each
                               * rotated piece (tanvec_add); the batch takes the general path */
+    int zdis;                /* Discard reads a zero face as zero (zero_in_mode): the caller
+                              * asks no coverage and the filter is the gaussian, the box or
+                              * bilinear, whose weight kept in the face is positive */
 } pf;
 
 static float one_value(unsigned dt)
@@ -992,13 +996,17 @@ static int bilinear_fold(pf *c, int ru, int rv, int ui, int vi, float fu, float 
 /* Face f reads as zero in c's mode: in Traverse its ring is all zero (ptexres.h's
  * ST_PTEXRES_ZRING: every face the split reaches is constant with a texel of zero bytes, no
  * corner changes the weight), in Clamp the face itself (ST_PTEXRES_ZFACE: Clamp folds the
- * kernel onto f at every edge and keeps its whole weight); never in Discard (its weight is
- * what it keeps, and its coverage needs it). */
+ * kernel onto f at every edge and keeps its whole weight); in Discard the face itself too,
+ * but only with c->zdis: Discard divides by the weight it keeps in f, which is positive for
+ * those kernels (the tap of the texel holding (u, v), in f, weighs > 0: the gaussian's
+ * within half a texel of the centre, the box's covering it, bilinear's >= 1/4), so its sum of
+ * +0 pieces over it is +0 as well; without c->zdis the coverage (kept / total) is wanted, or a
+ * kernel with negative taps might keep a weight <= 0 (the zero rule). */
 static inline int zero_in_mode(const pf *c, int f)
 {
     unsigned bit = c->mode == ST_MODE_TRAVERSE ? ST_PTEXRES_ZRING
-                   : c->mode == ST_MODE_CLAMP  ? ST_PTEXRES_ZFACE
-                                               : 0u;
+                   : c->mode == ST_MODE_CLAMP || c->zdis ? ST_PTEXRES_ZFACE
+                                                         : 0u;
     return (c->t->lanef[f] & bit) != 0;
 }
 
@@ -2418,6 +2426,9 @@ static int batch(const st_set *s, const st_sample_opts *o, const st_query *q, si
             .bu = s->info.border_u, .bv = s->info.border_v};
     c.kind = c.dt == ST_DT_U8 ? PF_U8 : c.dt == ST_DT_F32 && c.nc >= 3 ? PF_F32 : PF_OTHER;
     c.tanvec = tanvec;
+    c.zdis = o->mode == ST_MODE_DISCARD && !coverage &&
+             (o->filter == ST_FILTER_PTEX_GAUSSIAN || o->filter == ST_FILTER_PTEX_BOX ||
+              o->filter == ST_FILTER_PTEX_BILINEAR);
     c.fast = general ? NULL : pf_fast_select(c.dt, c.nc, o->filter);
     c.win = pf_window_select(c.dt, c.nc);
     c.small = general ? NULL : pf_small_select(c.dt, c.nc);
