@@ -30,9 +30,12 @@
  * every instance gives the same bits (tests/unit/test_ptextri_outputs.c). The weights are not
  * libm's expf per tap (Ptex's; st_ptextri_batch_pertap keeps it for the tests, the old
  * bits): the read sweeps (Traverse, Discard's kept taps, Clamp's kernels inside the face)
- * weigh the kept taps of rows of 3 taps or more four at a time with the quad filters'
- * polynomial exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex-log.md, "trix"), shorter
- * rows one expf a tap; Clamp's fold sweeps and
+ * at a level of 8 x 8 texels or more run a piece's rows a lane, eight rows at a time
+ * (rows_apply_t: every kept tap weighed by the quad filters' polynomial exp, pk_exp2_4's
+ * operations, each row summed in its own lane, the lanes added by one tree; docs/ptex-log.md,
+ * "tri29"); at smaller levels they weigh the kept taps of rows of 3 taps or more four at a
+ * time with that exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex-log.md, "trix"),
+ * shorter rows one expf a tap; Clamp's fold sweeps and
  * Discard's whole-kernel weight (seamtex's own, no Ptex reference) step them by recurrence
  * (pt_rec, pt_cur: within about 1e-6 of the per-tap expf; docs/ptex-log.md, "Session 13,
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
@@ -47,8 +50,9 @@
  * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
- * docs/ptex-log.md, "trip24") and at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
- * row_read4 and row_step weigh them; docs/ptex-log.md, "tp25").
+ * docs/ptex-log.md, "trip24"), at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
+ * row_read4 and row_step weigh them; docs/ptex-log.md, "tp25") and at resolution 3 or more
+ * (piece_rn: piece_bounds, then rows_apply_t as the long way's sweep2_t calls it; "tri29").
  */
 #include "ptextri.h"
 
@@ -63,6 +67,9 @@
 
 #ifdef __SSE2__
 #include <emmintrin.h>
+#endif
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#include <immintrin.h>
 #endif
 
 #define PT_MAX_DEPTH  24   /* edge crossings in a row; a closed mesh needs a few */
@@ -129,10 +136,11 @@ typedef struct tc {
     /* a piece at resolution 0 applied whole, without its sweeps' bounds (piece_r1: Traverse,
      * Discard without coverage); 0: not done (the caller takes the long way) */
     int (*p1)(struct tc *c, const tk *k, const uint8_t *data);
-    /* the same for a piece at resolution 1 of a face with texels (piece_r2) and at resolution
-     * 2 (piece_r4: its AVX2 instance when avx2) */
+    /* the same for a piece at resolution 1 of a face with texels (piece_r2), at resolution 2
+     * (piece_r4: its AVX2 instance when avx2) and at 3 or more (piece_rn: the same) */
     int (*p2)(struct tc *c, const tk *k, const uint8_t *data);
     int (*p4)(struct tc *c, const tk *k, const uint8_t *data);
+    int (*pn)(struct tc *c, const tk *k, const uint8_t *data);
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1687,6 +1695,206 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     return wsum;
 }
 
+/* The read sweeps' rows a lane (rows_apply_t): the rows of a piece's two sweeps (upright rows
+ * first, then inverted ones) eight at a time, one row a lane of 8-lane vectors (one 256-bit
+ * register in the AVX2 instances, two SSE halves in the others; each lane the same operations
+ * either way). A lane starts its row as row_span does (the same float operations: the same Q,
+ * DQ) and steps the float chain Q += DQ, DQ += DDQ a tap as row_step does (the same Q a tap,
+ * so the same kept taps, Q < 1); every tap of every lane is weighed by pt_exp2_8 (pk_exp2_4's
+ * operations lane by lane, as row_read4 weighs rows of 3 taps or more; no libm expf), its
+ * texel fetched and added to the lane's own sums, a tap not kept (or past its row) adding +0
+ * (its texel not used). So a lane's sums
+ * are its row's kept taps in tap order; the piece's are the eight lanes' added by one fixed
+ * tree (hsum8), then added to c->acc and c->weight once. No branch a tap or a row: the steps
+ * of eight rows run as long as the longest. Pieces at R >= PT_LANES_MIN_R only (both in
+ * sweep2_t and piece_rn), so every build takes the same rows for the same piece
+ * (docs/ptex-log.md, "tri29"). */
+typedef float pt_v8f __attribute__((vector_size(32)));
+/* the rows a lane from resolution 3 (R = 8) up: below, a piece's few taps cost less by the
+ * row functions (piece_r2, piece_r4; docs/ptex-log.md, "tri29") */
+#define PT_LANES_MIN_R 8
+typedef int32_t pt_v8i __attribute__((vector_size(32)));
+
+/* pk_exp2_4 on eight lanes: the same operations lane by lane, so the same value a lane. */
+__attribute__((always_inline)) static inline void pt_exp2_8(const pt_v8f *yin, pt_v8f *out)
+{
+#define PT_C8(c) {c, c, c, c, c, c, c, c}
+    const pt_v8f k0 = PT_C8(-126.0f), half = PT_C8(0.5f), one = PT_C8(1.0f);
+    const pt_v8f k3 = PT_C8(0.693147181f), k4 = PT_C8(0.240226507f),
+                 k5 = PT_C8(0.0555041087f), k6 = PT_C8(0.00961812911f),
+                 k7 = PT_C8(0.00133335581f), k8 = PT_C8(0.000154035304f);
+#undef PT_C8
+    pt_v8f y = *yin;
+    /* maxps(k0, y): k0 where k0 > y, else y (a NaN y: y) */
+    pt_v8i lo = k0 > y, yb, mb;
+    memcpy(&yb, &y, 32);
+    memcpy(&mb, &k0, 32);
+    yb = (yb & ~lo) | (mb & lo);
+    memcpy(&y, &yb, 32);
+    pt_v8i ii = __builtin_convertvector(y - half, pt_v8i); /* y <= 0: nearest */
+    pt_v8f f = y - __builtin_convertvector(ii, pt_v8f);
+    pt_v8f q = one + f * (k3 + f * (k4 + f * (k5 + f * (k6 + f * (k7 + f * k8)))));
+    pt_v8i bits = (ii + 127) << 23;
+    pt_v8f sc;
+    memcpy(&sc, &bits, 32);
+    *out = q * sc;
+}
+
+/* GCC takes the lane stores of t below for reads of an uninitialised vector */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+/* Channels 0..NC-1 of the texels idx of data (texel_chan's values) where kept, +0 elsewhere
+ * (a lane not kept reads texel 0, whatever it holds, and is then cleared): a lane at a time
+ * (AVX2's gathers were slower on the comparison's files: docs/ptex-log.md, "tri29"). */
+__attribute__((always_inline)) static inline void lanes_texels(const uint8_t *data,
+                                                               const pt_v8i *idx,
+                                                               const pt_v8i *kept, pt_v8f *out,
+                                                               unsigned DT, unsigned NC)
+{
+    const size_t ts = st_dtype_size(DT) * NC;
+    pt_v8i si = *idx & *kept;
+    pt_v8f t[4] = {{0}, {0}, {0}, {0}};
+#pragma GCC unroll 8
+    for (int L = 0; L < 8; L++) {
+        const uint8_t *px = data + (size_t)(uint32_t)si[L] * ts;
+#pragma GCC unroll 4
+        for (unsigned ch = 0; ch < NC; ch++)
+            t[ch][L] = texel_chan(px, ch, DT);
+    }
+#pragma GCC unroll 4
+    for (unsigned ch = 0; ch < NC; ch++) {
+        pt_v8i tb;
+        memcpy(&tb, &t[ch], 32);
+        tb &= *kept;
+        memcpy(&out[ch], &tb, 32);
+    }
+}
+#pragma GCC diagnostic pop
+
+static inline int32_t fbits(float x)
+{
+    int32_t b;
+    memcpy(&b, &x, 4);
+    return b;
+}
+
+/* The sum of x's eight lanes, always by one tree: (l0 + l4) + (l2 + l6), + (l1 + l5) +
+ * (l3 + l7). */
+__attribute__((always_inline)) static inline float hsum8(const pt_v8f *x)
+{
+    pt_v4f h = __builtin_shufflevector(*x, *x, 0, 1, 2, 3) +
+               __builtin_shufflevector(*x, *x, 4, 5, 6, 7);
+    pt_v4f q = h + __builtin_shufflevector(h, h, 2, 3, 0, 1);
+    return q[0] + q[1];
+}
+
+/* A sweep's rows as sweep_t clips them (b: its index bounds lo 0..2, hi 0..2): the first row
+ * in *y1, the count returned (0: none). */
+static inline int sweep_rows(int R, const int *b, int *y1)
+{
+    int a = b[1], z = b[4];
+    if (a < R - b[5] - b[3] + 1)
+        a = R - b[5] - b[3] + 1;
+    if (z > R - b[2] - b[0])
+        z = R - b[2] - b[0];
+    *y1 = a;
+    return z > a ? z - a : 0;
+}
+
+/* Whether sweep_t takes its fast path on a sweep with bounds b (every row inside the R x R
+ * level; the condition sweep_t tests, on the same clipped rows). */
+static inline int sweep_inside(int R, const int *b)
+{
+    int y1, n = sweep_rows(R, b, &y1);
+    return y1 >= 0 && y1 + n <= R && b[0] >= 0 && b[3] <= R;
+}
+
+/* The read sweeps' rows of one piece at resolution R (texels at data; both sweeps' rows inside
+ * the level, sweep_inside): eb, ob the upright and inverted sweeps' index bounds (lo 0..2,
+ * hi 0..2), ev_ok, od_ok which are valid; (eu, evv) and (ou, ov) their centres, the upright
+ * ellipse Ak, Bk, Ck (the inverted one: Ck, Bk, Ak), wscale 1 / R^2. Adds the kept taps' sums
+ * to c->acc's channel lanes and their weight to c->weight (see above). */
+__attribute__((always_inline)) static inline void
+rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, int ev_ok,
+             int od_ok, float eu, float evv, float ou, float ov, float Ak, float Bk, float Ck,
+             float wscale, unsigned DT, unsigned NC)
+{
+    int y1e = 0, y1o = 0;
+    const int ne = ev_ok ? sweep_rows(R, eb, &y1e) : 0;
+    const int no = od_ok ? sweep_rows(R, ob, &y1o) : 0;
+    const int total = ne + no;
+    const int rsh = __builtin_ctz((unsigned)R); /* R is a power of two */
+    const float gs = -0.5f * (PT_WIDTH * PT_WIDTH), glf = gs * 1.44269504f;
+    const pt_v8i lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    const pt_v8f z8 = {0, 0, 0, 0, 0, 0, 0, 0};
+    pt_v8f acc[4] = {z8, z8, z8, z8}, wacc = z8;
+    for (int g = 0; g < total; g += 8) {
+        pt_v8i id = lane + g;
+        pt_v8i up = id < ne, live = id < total;
+        pt_v8i y = (up & (y1e + id)) | (~up & (y1o + id - ne));
+#define PT_SELI(E, O) ((up & (E)) | (~up & (O)))
+        pt_v8i lo0 = PT_SELI(eb[0], ob[0]), lo2 = PT_SELI(eb[2], ob[2]);
+        pt_v8i hi0 = PT_SELI(eb[3], ob[3]), hi2 = PT_SELI(eb[5], ob[5]);
+#undef PT_SELI
+        /* the sweep's ellipse and centre a lane: selects of the bits, no lane inserts */
+        pt_v8f A, C, u, v;
+        pt_v8i Ab = (up & fbits(Ak)) | (~up & fbits(Ck)), Cb = (up & fbits(Ck)) | (~up & fbits(Ak));
+        pt_v8i ub = (up & fbits(eu)) | (~up & fbits(ou)), vb = (up & fbits(evv)) | (~up & fbits(ov));
+        memcpy(&A, &Ab, 32);
+        memcpy(&C, &Cb, 32);
+        memcpy(&u, &ub, 32);
+        memcpy(&v, &vb, 32);
+        /* row_span a lane: x1 = max(lo[0], R - y - hi[2]), x2 = min(hi[0], R - y - lo[2]) */
+        pt_v8i xw = R - y, t = xw - hi2, m = lo0 > t;
+        pt_v8i a = (lo0 & m) | (t & ~m);
+        pt_v8i t2 = xw - lo2;
+        m = hi0 < t2;
+        pt_v8i x2 = (hi0 & m) | (t2 & ~m);
+        pt_v8i n = (x2 - a) & live;
+        pt_v8f U = __builtin_convertvector(a, pt_v8f) - u;
+        pt_v8f V = __builtin_convertvector(y, pt_v8f) - v;
+        pt_v8f DQ = A * (2.0f * U + 1.0f) + Bk * V;
+        pt_v8f Q = A * U * U + (Bk * U + C * V) * V;
+        const pt_v8f DDQ = 2.0f * A;
+        pt_v8i idx = (y << rsh) + a;
+        /* the longest row's taps: the lanes' maximum by three halvings */
+        pt_v8i mx = n, o = __builtin_shufflevector(mx, mx, 4, 5, 6, 7, 0, 1, 2, 3);
+        m = mx > o;
+        mx = (mx & m) | (o & ~m);
+        o = __builtin_shufflevector(mx, mx, 2, 3, 0, 1, 6, 7, 4, 5);
+        m = mx > o;
+        mx = (mx & m) | (o & ~m);
+        o = __builtin_shufflevector(mx, mx, 1, 0, 3, 2, 5, 4, 7, 6);
+        m = mx > o;
+        mx = (mx & m) | (o & ~m);
+        const int maxn = mx[0];
+        for (int j = 0; j < maxn; j++, idx += 1) {
+            pt_v8i kept = (j < n) & (Q < 1.0f);
+            pt_v8f yq = Q * glf, w;
+            pt_exp2_8(&yq, &w);
+            w = w * wscale;
+            pt_v8i wb;
+            memcpy(&wb, &w, 32);
+            wb &= kept;
+            memcpy(&w, &wb, 32);
+            pt_v8f tx[4];
+            lanes_texels(data, &idx, &kept, tx, DT, NC);
+#pragma GCC unroll 4
+            for (unsigned ch = 0; ch < NC; ch++)
+                acc[ch] += tx[ch] * w;
+            wacc += w;
+            Q += DQ;
+            DQ += DDQ;
+        }
+    }
+    pt_v4f add = {0.0f, 0.0f, 0.0f, 0.0f};
+#pragma GCC unroll 4
+    for (unsigned ch = 0; ch < NC; ch++)
+        add[ch] = hsum8(&acc[ch]);
+    c->acc += add;
+    c->weight += hsum8(&wacc);
+}
+
 typedef void (*sweep_fn)(tc *c, const ti *ev, const ti *od, const uint8_t *data,
                          int constant);
 
@@ -1697,6 +1905,14 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
                                                            int how, int REC, unsigned DT,
                                                            unsigned NC)
 {
+    /* a read sweep pair (pk_exp2_4's weights) whose rows lie inside the level: a row a lane */
+    if (how == SW_READ && REC && !constant && ev->R >= PT_LANES_MIN_R &&
+        (!ev->valid || sweep_inside(ev->R, ev->lo)) &&
+        (!od->valid || sweep_inside(od->R, od->lo))) {
+        rows_apply_t(c, data, ev->R, ev->lo, od->lo, ev->valid, od->valid, ev->u, ev->v, od->u,
+                     od->v, ev->A, ev->B, ev->C, ev->wscale, DT, NC);
+        return;
+    }
     float w = c->weight;
     pt_kf kf = {.set = 0}; /* the factors once a piece, for both sweeps */
     if (ev->valid)
@@ -1755,9 +1971,9 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
                                      int constant)                                          \
     {                                                                                        \
         if (constant)                                                                        \
-            sweep2_t(c, ev, od, d, 1, SW_FOLD, REC, DT, NC);                                 \
+            sweep2_t(c, ev, od, d, 1, SW_FOLD, REC, DT, NC);                              \
         else                                                                                 \
-            sweep2_t(c, ev, od, d, 0, SW_FOLD, REC, DT, NC);                                 \
+            sweep2_t(c, ev, od, d, 0, SW_FOLD, REC, DT, NC);                              \
     }
 #define PT_SWEEP_NC(DT) PT_SWEEP(DT, 1) PT_SWEEP(DT, 2) PT_SWEEP(DT, 3) PT_SWEEP(DT, 4)
 PT_SWEEP_NC(0)
@@ -1916,7 +2132,7 @@ r2_add(pt_v4f acc, const uint8_t *const *px, const float *w, int i0, int i1, int
     return acc;
 }
 
-/* A whole piece's (piece_r2_t, piece_r4_t) bounds at resolution fR, as iterators_t with clamp
+/* A whole piece's (piece_r2_t, piece_r4_t, piece_rn_t) bounds at resolution fR, as iterators_t with clamp
  * makes them: the twelve index bounds in ia, ib, ic (bound_lanes' lanes: ev lo 0..2 hi 0 | ev
  * hi 1, 2 od lo 0, 1 | od lo 2 hi 0..2) and the ellipse's Ak, Bk, Ck. Returns sweeps_valid's
  * bits (0: no valid sweep), or -1 when a bound is past 2^30 (iterators takes libm's ceilf
@@ -2170,6 +2386,64 @@ PT_P4_NC(1)
 PT_P4_NC(2)
 PT_P4_NC(3)
 
+/* A piece k clamped into its face at resolution res >= 3 (the face's R x R level, texels at
+ * data, not a constant face), applied as iterators_clamped and c->rd (sweep2_t with constant 0)
+ * apply it, without the two ti structs, the sweep call or its per-sweep set-up: the bounds by
+ * piece_bounds (iterators' operations on the same values), then rows_apply_t with the values
+ * iterators_t gives the sweeps (centres, ellipse, 1 / R^2) - the same operations on the same
+ * values as the long way. A clamped piece's rows lie inside the level (its lower bounds are at
+ * least 0, its upper ones at most 1); should one not (sweep_inside), or a bound be past 2^30
+ * (where iterators takes libm's ceilf), returns 0: the caller takes the long way. */
+__attribute__((always_inline)) static inline int piece_rn_t(tc *c, const tk *k,
+                                                            const uint8_t *data, unsigned DT,
+                                                            unsigned NC)
+{
+    const int res = k->res, R = 1 << res;
+    const float fR = (float)R, third = (float)(1 / 3.0);
+    pt_v4i ia, ib, ic;
+    float Ak, Bk, Ck;
+    const int valid = piece_bounds(k, fR, &ia, &ib, &ic, &Ak, &Bk, &Ck);
+    if (valid <= 0)
+        return valid + 1; /* -1: the long way (0); 0: no valid sweep, nothing to add (1) */
+    const int ev_ok = valid & 1, od_ok = valid >> 1;
+    const int eb[6] = {ia[0], ia[1], ia[2], ia[3], ib[0], ib[1]};
+    const int ob[6] = {ib[2], ib[3], ic[0], ic[1], ic[2], ic[3]};
+    if ((ev_ok && !sweep_inside(R, eb)) || (od_ok && !sweep_inside(R, ob)))
+        return 0;
+    uint32_t wsb = (uint32_t)(127 - 2 * res) << 23; /* 1 / R^2, as iterators_t */
+    float wscale;
+    memcpy(&wscale, &wsb, 4);
+    rows_apply_t(c, data, R, eb, ob, ev_ok, od_ok, k->u * fR - third, k->v * fR - third,
+                 (1.0f - k->v) * fR - third, (1.0f - k->u) * fR - third, Ak, Bk, Ck, wscale,
+                 DT, NC);
+    return 1;
+}
+
+/* piece_rn a texel type and channel count, and (x86 with GCC or clang) its AVX2 instance,
+ * which the lean build takes when the lean sweeps take theirs (tc.avx2): the same C, so the
+ * same operations on the same values (no FMA), in VEX encodings. */
+#ifdef PT_AVX2
+#define PT_PN_AVX2(DT, NC)                                                                   \
+    __attribute__((target("avx2"))) static int piece_rna_##DT##_##NC(tc *c, const tk *k,    \
+                                                                     const uint8_t *d)       \
+    {                                                                                        \
+        return piece_rn_t(c, k, d, DT, NC);                                                  \
+    }
+#else
+#define PT_PN_AVX2(DT, NC)
+#endif
+#define PT_PN(DT, NC)                                                                        \
+    static int piece_rn_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                    \
+    {                                                                                        \
+        return piece_rn_t(c, k, d, DT, NC);                                                  \
+    }                                                                                        \
+    PT_PN_AVX2(DT, NC)
+#define PT_PN_NC(DT) PT_PN(DT, 1) PT_PN(DT, 2) PT_PN(DT, 3) PT_PN(DT, 4)
+PT_PN_NC(0)
+PT_PN_NC(1)
+PT_PN_NC(2)
+PT_PN_NC(3)
+
 typedef int (*piece_r1_fnp)(tc *c, const tk *k, const uint8_t *d);
 
 static piece_r1_fnp piece_r1_fn(unsigned dt, unsigned nc)
@@ -2202,6 +2476,22 @@ static piece_r1_fnp piece_r4_fn(unsigned dt, unsigned nc, int avx2)
 #endif
     (void)avx2;
     return p4[dt][nc - 1];
+}
+
+static piece_r1_fnp piece_rn_fn(unsigned dt, unsigned nc, int avx2)
+{
+#define PT_ROW(DT) {piece_rn_##DT##_1, piece_rn_##DT##_2, piece_rn_##DT##_3, piece_rn_##DT##_4}
+    static const piece_r1_fnp pn[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+#ifdef PT_AVX2
+#define PT_ROW(DT) {piece_rna_##DT##_1, piece_rna_##DT##_2, piece_rna_##DT##_3, piece_rna_##DT##_4}
+    static const piece_r1_fnp pna[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#undef PT_ROW
+    if (avx2)
+        return pna[dt][nc - 1];
+#endif
+    (void)avx2;
+    return pn[dt][nc - 1];
 }
 
 /* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
@@ -2297,6 +2587,10 @@ __attribute__((always_inline)) static inline void apply_face_its_t(tc *c, tk *k,
     /* FUSE: a piece at resolution 2 of a face with texels by piece_r4 */
     if (FUSE && k->res == 2 && c->p4 && !(F->flags & ST_FACE_CONSTANT) &&
         c->p4(c, k, st_face_level(c->s, f, F->ulog2 - 2u)))
+        return;
+    /* FUSE: a piece at resolution 3 or more of a face with texels by piece_rn */
+    if (FUSE && k->res >= 3 && c->pn && !(F->flags & ST_FACE_CONSTANT) &&
+        c->pn(c, k, st_face_level(c->s, f, F->ulog2 - (unsigned)k->res)))
         return;
 #ifdef PT_TRAV_AVX2
     if (AVX)
@@ -2613,8 +2907,10 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     proto.p1 = lean ? piece_r1_fn(proto.dt, nc) : NULL;
     proto.p2 = lean ? piece_r2_fn(proto.dt, nc) : NULL;
     proto.p4 = lean ? piece_r4_fn(proto.dt, nc, proto.avx2) : NULL;
+    proto.pn = lean ? piece_rn_fn(proto.dt, nc, proto.avx2) : NULL;
     tk_cache kc = {.valid = 0};
     int bad = 0;
+
     for (size_t i = 0; i < n; i++) {
         const st_query *qi = &q[i];
         float *oi = out + i * nc, cov = 0.0f;

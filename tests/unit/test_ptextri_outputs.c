@@ -285,7 +285,10 @@ static void pair_free(pair_bufs *b)
 /* st_ptextri_batch against st_ptextri_batch_pertap (every weight one libm expf, the old
  * build's outputs: the hashes above) on the same sets and queries. The read sweeps (Traverse,
  * Discard, Clamp's kernels inside the face) take the weights by the shared polynomial exp
- * (pk_exp2_4, four taps at a time), Clamp's folded sweeps and Discard's whole-kernel weight
+ * (pk_exp2_4, four taps at a time; at levels of 8 x 8 texels or more every kept tap, each
+ * row summed in a lane of its own and the lanes added after: rows_apply_t, which moves the
+ * sums' order as well - measured 3.9e-7 at most, session 29), Clamp's folded sweeps and
+ * Discard's whole-kernel weight
  * (the coverage's denominator) step them by recurrence (pt_rec): the same taps, so the same
  * statuses, and each weight within about 1e-6 relatively of the expf's (the polynomial's
  * 2e-7, the roundings of the exponent's argument in either); a value, a weighted mean of
@@ -389,7 +392,9 @@ static void the_shared_exp2_is_within_3e_7_of_exp2(void **state)
  * derivative at a time. The lean builds' own shortcuts are checked the same way: the kernel's
  * shape taken from the query before (same footprint and face size) and the read sweeps of
  * pieces at resolution 0, 1 and 2 (piece_r1, piece_r2, piece_r4 and its AVX2 instance: the
- * large, middling and small footprints on triangle.ptx's 4-texel faces).
+ * large, middling and small footprints on triangle.ptx's 4-texel faces) and at 3 or more
+ * (piece_rn and its AVX2 instance, against the general build's sweep2_t: both run the rows a
+ * lane, rows_apply_t, on the 32-texel faces).
  * Checks that the recurrence ran: Clamp's values differ from the per-tap expf's in some
  * groups. */
 static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
