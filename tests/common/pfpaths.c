@@ -57,6 +57,18 @@ long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char 
                     done = -1;
                     break;
                 }
+            /* and without the coverage array (a caller that asks none: the filters may skip
+             * what only the coverage needs): the same values and statuses */
+            memset(out[0], 0x5a, n * nc * sizeof(float));
+            int b2 = done >= 0 ? st_ptexfilter_batch(s, &o, q, n, out[0], NULL, st[0]) : b1;
+            for (size_t i = 0; done >= 0 && i < n; i++)
+                if (b2 != b1 || memcmp(&out[0][i * nc], &out[1][i * nc], nc * sizeof(float)) ||
+                    st[0][i] != st[1][i]) {
+                    fprintf(stderr, "%s mode %u filter %u query %zu, no coverage asked: %.9g != "
+                            "%.9g (status %u, %u)\n", what, m, filters[fi], i,
+                            (double)out[0][i * nc], (double)out[1][i * nc], st[0][i], st[1][i]);
+                    done = -1;
+                }
             if (done >= 0)
                 done += (long)n;
         }

@@ -21,7 +21,8 @@ extern const unsigned st_pf_kernel_filters[ST_PF_NKERNEL_FILTERS];
 /* Samples the n queries q with st_ptexfilter_batch (every fast path allowed) and with
  * pf_batch_path(PF_PATH_GENERAL), for each of the nf filters and each mode (Discard,
  * Traverse, Clamp; sharpness 0.3): the failure counts, every output value, coverage and
- * status must be the same bits. Returns the queries compared (n x nf x 3), or -1 after
+ * status must be the same bits, and the values and statuses again when st_ptexfilter_batch
+ * is asked for no coverage. Returns the queries compared (n x nf x 3), or -1 after
  * printing the first difference to stderr, labelled with what. */
 long st_pf_paths_agree(const st_set *s, const st_query *q, size_t n, const char *what,
                        const unsigned *filters, size_t nf);
