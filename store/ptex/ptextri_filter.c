@@ -2360,31 +2360,34 @@ __attribute__((always_inline)) static inline int piece_r4_t(tc *c, const tk *k,
     return 1;
 }
 
-/* piece_r4 a texel type and channel count, and (x86 with GCC or clang) its AVX2 instance,
- * which Traverse's split_apply_avx2 calls when the lean sweeps run theirs (tc.avx2): the same
- * C, so the same operations on the same values (no FMA), in VEX encodings - about 10% fewer
- * instructions than the SSE build at triangle fp 0.25 (docs/ptex-log.md, "tp25"). */
+/* A piece template T (piece_r4_t, piece_rn_t below) per texel type and channel count, NAME_DT_NC,
+ * and (x86 with GCC or clang) its AVX2 instance NAMEa_DT_NC, which Traverse's split_apply_avx2
+ * calls when the lean sweeps run theirs (tc.avx2): the same C, so the same operations on the
+ * same values (no FMA), in VEX encodings - for piece_r4 about 10% fewer instructions than the
+ * SSE build at triangle fp 0.25 (docs/ptex-log.md, "tp25"). */
 #ifdef PT_AVX2
-#define PT_P4_AVX2(DT, NC)                                                                   \
-    __attribute__((target("avx2"))) static int piece_r4a_##DT##_##NC(tc *c, const tk *k,    \
-                                                                     const uint8_t *d)       \
+#define PT_PIECE_AVX2(NAME, T, DT, NC)                                                       \
+    __attribute__((target("avx2"))) static int NAME##a_##DT##_##NC(tc *c, const tk *k,      \
+                                                                   const uint8_t *d)         \
     {                                                                                        \
-        return piece_r4_t(c, k, d, DT, NC);                                                  \
+        return T(c, k, d, DT, NC);                                                           \
     }
 #else
-#define PT_P4_AVX2(DT, NC)
+#define PT_PIECE_AVX2(NAME, T, DT, NC)
 #endif
-#define PT_P4(DT, NC)                                                                        \
-    static int piece_r4_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                    \
+#define PT_PIECE(NAME, T, DT, NC)                                                            \
+    static int NAME##_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                      \
     {                                                                                        \
-        return piece_r4_t(c, k, d, DT, NC);                                                  \
+        return T(c, k, d, DT, NC);                                                           \
     }                                                                                        \
-    PT_P4_AVX2(DT, NC)
-#define PT_P4_NC(DT) PT_P4(DT, 1) PT_P4(DT, 2) PT_P4(DT, 3) PT_P4(DT, 4)
-PT_P4_NC(0)
-PT_P4_NC(1)
-PT_P4_NC(2)
-PT_P4_NC(3)
+    PT_PIECE_AVX2(NAME, T, DT, NC)
+#define PT_PIECE_NC(NAME, T, DT)                                                             \
+    PT_PIECE(NAME, T, DT, 1) PT_PIECE(NAME, T, DT, 2) PT_PIECE(NAME, T, DT, 3)               \
+    PT_PIECE(NAME, T, DT, 4)
+#define PT_PIECES(NAME, T)                                                                   \
+    PT_PIECE_NC(NAME, T, 0) PT_PIECE_NC(NAME, T, 1) PT_PIECE_NC(NAME, T, 2)                  \
+    PT_PIECE_NC(NAME, T, 3)
+PT_PIECES(piece_r4, piece_r4_t)
 
 /* A piece k clamped into its face at resolution res >= 3 (the face's R x R level, texels at
  * data, not a constant face), applied as iterators_clamped and c->rd (sweep2_t with constant 0)
@@ -2419,30 +2422,9 @@ __attribute__((always_inline)) static inline int piece_rn_t(tc *c, const tk *k,
     return 1;
 }
 
-/* piece_rn a texel type and channel count, and (x86 with GCC or clang) its AVX2 instance,
- * which the lean build takes when the lean sweeps take theirs (tc.avx2): the same C, so the
- * same operations on the same values (no FMA), in VEX encodings. */
-#ifdef PT_AVX2
-#define PT_PN_AVX2(DT, NC)                                                                   \
-    __attribute__((target("avx2"))) static int piece_rna_##DT##_##NC(tc *c, const tk *k,    \
-                                                                     const uint8_t *d)       \
-    {                                                                                        \
-        return piece_rn_t(c, k, d, DT, NC);                                                  \
-    }
-#else
-#define PT_PN_AVX2(DT, NC)
-#endif
-#define PT_PN(DT, NC)                                                                        \
-    static int piece_rn_##DT##_##NC(tc *c, const tk *k, const uint8_t *d)                    \
-    {                                                                                        \
-        return piece_rn_t(c, k, d, DT, NC);                                                  \
-    }                                                                                        \
-    PT_PN_AVX2(DT, NC)
-#define PT_PN_NC(DT) PT_PN(DT, 1) PT_PN(DT, 2) PT_PN(DT, 3) PT_PN(DT, 4)
-PT_PN_NC(0)
-PT_PN_NC(1)
-PT_PN_NC(2)
-PT_PN_NC(3)
+/* piece_rn per texel type and channel count, and its AVX2 instances (PT_PIECES above), which
+ * the lean build takes when the lean sweeps take theirs (tc.avx2). */
+PT_PIECES(piece_rn, piece_rn_t)
 
 typedef int (*piece_r1_fnp)(tc *c, const tk *k, const uint8_t *d);
 
