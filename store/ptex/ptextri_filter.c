@@ -1740,9 +1740,12 @@ __attribute__((always_inline)) static inline void pt_exp2_8(const pt_v8f *yin, p
     *out = q * sc;
 }
 
-/* GCC takes the lane stores of t below for reads of an uninitialised vector */
+/* GCC takes the lane stores of t below for reads of an uninitialised vector (clang has no
+ * such warning, and refuses an unknown one under -Werror) */
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 /* Channels 0..NC-1 of the texels idx of data (texel_chan's values) where kept, +0 elsewhere
  * (a lane not kept reads texel 0, whatever it holds, and is then cleared): a lane at a time
  * (AVX2's gathers were slower on the comparison's files: docs/ptex-log.md, "tri29"). */
@@ -1769,7 +1772,9 @@ __attribute__((always_inline)) static inline void lanes_texels(const uint8_t *da
         memcpy(&out[ch], &tb, 32);
     }
 }
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 static inline int32_t fbits(float x)
 {
