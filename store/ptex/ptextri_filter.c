@@ -2449,37 +2449,32 @@ static piece_r1_fnp piece_r2_fn(unsigned dt, unsigned nc)
     return p2[dt][nc - 1];
 }
 
-static piece_r1_fnp piece_r4_fn(unsigned dt, unsigned nc, int avx2)
-{
-#define PT_ROW(DT) {piece_r4_##DT##_1, piece_r4_##DT##_2, piece_r4_##DT##_3, piece_r4_##DT##_4}
-    static const piece_r1_fnp p4[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
-#undef PT_ROW
+/* NAME_fn: the instance of PT_PIECES(NAME, ...) for a texel type and channel count, its AVX2
+ * one when avx2 (and the build has them). */
 #ifdef PT_AVX2
-#define PT_ROW(DT) {piece_r4a_##DT##_1, piece_r4a_##DT##_2, piece_r4a_##DT##_3, piece_r4a_##DT##_4}
-    static const piece_r1_fnp p4a[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
-#undef PT_ROW
-    if (avx2)
-        return p4a[dt][nc - 1];
+#define PT_PIECE_AVX2_ROWS(NAME)                                                             \
+    static const piece_r1_fnp pa[4][4] = {PT_ROW(NAME##a, 0), PT_ROW(NAME##a, 1),            \
+                                          PT_ROW(NAME##a, 2), PT_ROW(NAME##a, 3)};           \
+    if (avx2)                                                                                \
+        return pa[dt][nc - 1];
+#else
+#define PT_PIECE_AVX2_ROWS(NAME)
 #endif
-    (void)avx2;
-    return p4[dt][nc - 1];
-}
-
-static piece_r1_fnp piece_rn_fn(unsigned dt, unsigned nc, int avx2)
-{
-#define PT_ROW(DT) {piece_rn_##DT##_1, piece_rn_##DT##_2, piece_rn_##DT##_3, piece_rn_##DT##_4}
-    static const piece_r1_fnp pn[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
+#define PT_ROW(N, DT) {N##_##DT##_1, N##_##DT##_2, N##_##DT##_3, N##_##DT##_4}
+#define PT_PIECE_FN(NAME)                                                                    \
+    static piece_r1_fnp NAME##_fn(unsigned dt, unsigned nc, int avx2)                        \
+    {                                                                                        \
+        static const piece_r1_fnp p[4][4] = {PT_ROW(NAME, 0), PT_ROW(NAME, 1),               \
+                                             PT_ROW(NAME, 2), PT_ROW(NAME, 3)};              \
+        PT_PIECE_AVX2_ROWS(NAME)                                                             \
+        (void)avx2;                                                                          \
+        return p[dt][nc - 1];                                                                \
+    }
+PT_PIECE_FN(piece_r4)
+PT_PIECE_FN(piece_rn)
+#undef PT_PIECE_FN
 #undef PT_ROW
-#ifdef PT_AVX2
-#define PT_ROW(DT) {piece_rna_##DT##_1, piece_rna_##DT##_2, piece_rna_##DT##_3, piece_rna_##DT##_4}
-    static const piece_r1_fnp pna[4][4] = {PT_ROW(0), PT_ROW(1), PT_ROW(2), PT_ROW(3)};
-#undef PT_ROW
-    if (avx2)
-        return pna[dt][nc - 1];
-#endif
-    (void)avx2;
-    return pn[dt][nc - 1];
-}
+#undef PT_PIECE_AVX2_ROWS
 
 /* SW_WEIGHT reads nothing: the lean instance, the general one and one with the per-tap expf
  * (tc.wt; kf: the piece's factors, shared by its two sweeps, the same values either sweep
