@@ -350,7 +350,12 @@ void st_set_free(st_set *s)
     free(s);
 }
 
-static void reduce_level(const st_set *s, uint32_t f, unsigned l)
+/* Level l of face f from level l - 1: each texel the mean of the (up to 2 x 2) texels above
+ * it. With labels (sid: one per texel of level l - 1, did: of level l) a texel labelled d != 0
+ * takes the mean of those of its texels labelled d alone (d is one of theirs: see
+ * st_set_build_mips_labelled); label 0, or no labels, the mean of all of them. */
+static void reduce_level(const st_set *s, uint32_t f, unsigned l, const uint16_t *sid,
+                         const uint16_t *did)
 {
     const st_face *F = &s->faces[f];
     unsigned nc = s->info.nchan, dt = s->info.dtype;
@@ -364,17 +369,34 @@ static void reduce_level(const st_set *s, uint32_t f, unsigned l)
     for (uint32_t y = 0; y < dh; y++) {
         for (uint32_t x = 0; x < dw; x++) {
             float acc[ST_MAX_CHANNELS] = {0};
+            uint16_t d = did ? did[(size_t)y * dw + x] : 0;
+            unsigned n = 0;
             for (uint32_t j = 0; j < ys; j++)
                 for (uint32_t i = 0; i < xs; i++) {
-                    const uint8_t *p = src + ((size_t)(y * ys + j) * sw + (x * xs + i)) * ts;
+                    size_t t = (size_t)(y * ys + j) * sw + (x * xs + i);
+                    if (d && sid[t] != d)
+                        continue;
+                    const uint8_t *p = src + t * ts;
                     for (unsigned c = 0; c < nc; c++)
                         acc[c] += st_channel_get(dt, p, c);
+                    n++;
                 }
+            float k = n == xs * ys ? norm : 1.0f / (float)(n ? n : 1);
             uint8_t *q = dst + ((size_t)y * dw + x) * ts;
             for (unsigned c = 0; c < nc; c++)
-                st_channel_put(dt, q, c, acc[c] * norm);
+                st_channel_put(dt, q, c, acc[c] * k);
         }
     }
+}
+
+void st_set_build_mips_labelled(st_set *s, uint32_t f, const uint16_t *const *ids)
+{
+    if (s->info.kind == ST_KIND_BC1 || s->info.meshtype == ST_MESH_TRIANGLE ||
+        f >= s->info.nfaces || (s->faces[f].flags & ST_FACE_CONSTANT))
+        return;
+    (void)st_set_levels(s, NULL);
+    for (unsigned l = 1; l < s->faces[f].nlevels; l++)
+        reduce_level(s, f, l, ids ? ids[l - 1] : NULL, ids ? ids[l] : NULL);
 }
 
 void st_set_build_mips(st_set *s, uint32_t f)
@@ -393,7 +415,7 @@ void st_set_build_mips(st_set *s, uint32_t f)
                 st_tri_reduce(s->info.dtype, s->info.nchan, st_face_level(s, i, l - 1),
                               st_level_w(&s->faces[i], l - 1), st_face_level(s, i, l));
             else
-                reduce_level(s, i, l);
+                reduce_level(s, i, l, NULL, NULL);
         }
     }
 }

@@ -268,6 +268,15 @@ void st_set_free(st_set *s);
  * a non-power-of-two face is dropped, as a 2x2 box would). Constant faces are left alone. */
 void st_set_build_mips(st_set *s, uint32_t f);
 
+/* As st_set_build_mips for one quad face f, with a label per texel of every level (ids[l]:
+ * st_level_w x st_level_h labels of level l, row by row; NULL: no labels): a texel of level l
+ * labelled d != 0 is the mean of those of its (up to 2 x 2) level l - 1 texels labelled d, so
+ * one region's texels never average another's (an atlas's charts: kinds/atlas.c); a texel
+ * labelled 0 the mean of all of them. Each label d != 0 of level l must be the label of at
+ * least one of its level l - 1 texels (the rule an atlas's chart ids are reduced by); a texel
+ * where none is gets the mean of none, 0. Triangle, BC1 and constant faces are left alone. */
+void st_set_build_mips_labelled(st_set *s, uint32_t f, const uint16_t *const *ids);
+
 /* Returns 1 when every level-0 texel of face f is bit-identical (importers use it to decide
  * whether to store a face as constant; nothing is changed). */
 int st_face_is_uniform(const st_set *s, uint32_t f);

@@ -13,7 +13,10 @@
  * The chart ids (st_atlas_build_chart_ids) are rasterised the same way, undilated, with the
  * mesh's chart of each triangle, and reduced level by level like the box mips (the majority
  * of the texels each level averages); the sampler's Discard reads them through
- * set->ext.charts (2 bytes per texel of every level, 8/3 bytes per level-0 texel).
+ * set->ext.charts (2 bytes per texel of every level, 8/3 bytes per level-0 texel). With ids,
+ * st_atlas_attach_mesh rebuilds the image's levels >= 1 per chart (st_set_build_mips_labelled:
+ * a chart's coarse texel averages that chart's texels alone, never the gutter or another
+ * chart); without, they are the box means of the whole image.
  */
 #include "atlas.h"
 
@@ -235,8 +238,10 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
     a->chart_id = NULL;
     a->chart_id_bytes = 0;
     memset(&a->ids, 0, sizeof a->ids);
-    if (!mesh)
+    if (!mesh) {
+        st_set_build_mips(s, 0); /* no charts: box means over the whole image */
         return ST_OK;
+    }
     int rc = st_mesh_find_seams(mesh, e);
     if (rc == ST_OK)
         rc = build_mask(a, mesh, s->faces[0].w, s->faces[0].h, e);
@@ -250,8 +255,12 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
         st_mesh_free(mesh);
         free(a->chart_mask);
         a->chart_mask = NULL;
+        return rc;
     }
-    return rc;
+    /* per-chart mips: a coarse texel of a chart averages that chart's texels alone, never the
+     * gutter's or another chart's (no ids: the box means of the whole image) */
+    st_set_build_mips_labelled(s, 0, a->ids.nlevels ? a->ids.level : NULL);
+    return ST_OK;
 }
 
 int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st_set **out,
@@ -284,7 +293,8 @@ int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st
     }
     st_set *s = *out;
     memcpy(st_face_level(s, 0, 0), img->data, (size_t)img->w * img->h * st_texel_size(s));
-    st_set_build_mips(s, 0);
+    if (!mesh)
+        st_set_build_mips(s, 0); /* else st_atlas_attach_mesh builds them, per chart */
     st_atlas *a = calloc(1, sizeof *a);
     if (!a) {
         st_set_free(s);

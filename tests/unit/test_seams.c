@@ -659,6 +659,81 @@ static void chart_traverse_reads_across_the_seam(void **state)
     }
 }
 
+/* Per-chart mips: a texel of level L >= 1 with a chart id is the mean of those of its level
+ * L - 1 texels with that id alone - no gutter, no other chart - and a texel without an id the
+ * mean of all of its texels (the box mean). */
+static void per_chart_mips_keep_each_chart_to_itself(void **state)
+{
+    (void)state;
+    st_set *s = two_chart_atlas();
+    const st_atlas *a = st_atlas_get(s);
+    const st_face *F = &s->faces[0];
+    uint16_t ida = a->ids.level[0][0], idb = a->ids.level[0][63];
+    assert_true(ida && idb && ida != idb);
+    unsigned mixed = 0; /* chart texels whose 2 x 2 holds the gutter or the other chart */
+    for (unsigned l = 1; l < F->nlevels; l++) {
+        uint32_t sw = st_level_w(F, l - 1), dw = st_level_w(F, l), dh = st_level_h(F, l);
+        uint32_t xs = sw > 1 ? 2 : 1, ys = st_level_h(F, l - 1) > 1 ? 2 : 1;
+        const uint8_t *src = st_face_level(s, 0, l - 1), *dst = st_face_level(s, 0, l);
+        for (uint32_t y = 0; y < dh; y++)
+            for (uint32_t x = 0; x < dw; x++) {
+                uint16_t d = a->ids.level[l][y * dw + x];
+                float acc[4] = {0};
+                unsigned n = 0, other = 0;
+                for (uint32_t j = 0; j < ys; j++)
+                    for (uint32_t i = 0; i < xs; i++) {
+                        size_t t = (size_t)(y * ys + j) * sw + x * xs + i;
+                        if (d && a->ids.level[l - 1][t] != d) {
+                            other++;
+                            continue;
+                        }
+                        for (int c = 0; c < 4; c++)
+                            acc[c] += src[t * 4 + c];
+                        n++;
+                    }
+                mixed += d && other;
+                const uint8_t *p = dst + ((size_t)y * dw + x) * 4;
+                for (int c = 0; c < 4; c++)
+                    if (fabsf((float)p[c] - acc[c] / (float)n) > 0.5f + 1e-3f)
+                        fail_msg("level %u texel (%u, %u) id %u channel %d: %u, the mean of its "
+                                 "%u texels of that id %g", l, x, y, d, c, p[c], n,
+                                 acc[c] / (float)n);
+                if (d == ida)
+                    assert_true(p[1] == 0 && p[2] == 0); /* A: red alone */
+                else if (d == idb)
+                    assert_true(p[0] == 0 && p[2] == 0); /* B: green alone */
+            }
+    }
+    assert_true(mixed > 0); /* the case was met: chart texels next to the gutter */
+    st_set_free(s);
+    /* sampled: trilinear across A's edge at levels 3 and 4, where a texel of A takes 4 of
+     * its 8 columns from the gutter - Traverse and Discard read no blue and stay near the
+     * surface's ramps: Traverse within 8 steps of 255, Discard (which renormalises A's taps
+     * alone) within 15 (box mips over the whole image gave blue 73-107 and red 36-62 steps
+     * short: a texel of A there averaged the gutter) */
+    for (int turn = 0; turn < 3; turn++) {
+        s = seam_atlas(turn);
+        for (int k = 0; k < 6; k++) {
+            float tx = 26.0f + 0.3f * (float)k, ty = 8.3f + 2.0f * (float)k;
+            st_query q = {.face = 0, .u = tx / 64.0f, .v = ty / 64.0f, .dudx = 12.0f / 64.0f,
+                          .dvdy = 12.0f / 64.0f};
+            float fx = tx / 28.0f / 2.0f, fy = ty / 28.0f;
+            for (uint8_t mode = ST_MODE_DISCARD; mode <= ST_MODE_TRAVERSE; mode++) {
+                st_sample_opts o = {.mode = mode, .filter = ST_FILTER_TRILINEAR};
+                float t[4], ct;
+                uint8_t st;
+                assert_int_equal(st_sample_batch(s, &o, &q, 1, t, &ct, &st), 0);
+                float tol = mode == ST_MODE_TRAVERSE ? 8.0f : 15.0f;
+                if (t[2] != 0.0f || fabsf(t[0] - fx) * 255.0f > tol ||
+                    fabsf(t[1] - fy) * 255.0f > tol)
+                    fail_msg("turn %d k %d mode %u: (%g %g %g), the surface (%g %g 0)", turn, k,
+                             mode, t[0], t[1], t[2], fx, fy);
+            }
+        }
+        st_set_free(s);
+    }
+}
+
 /* A mesh of 400 seams each drawn across the whole of a 1024^2 image (a hostile upload: each
  * seam side's band is about 26 K texels of level 0): level 0's bands would cover more than 8
  * times its texels plus 512 a seam, so it gets no links (Traverse is chart Discard there) -
@@ -724,6 +799,7 @@ int main(void)
         cmocka_unit_test(chart_discard_in_the_gutter),
         cmocka_unit_test(chart_traverse_reads_across_the_seam),
         cmocka_unit_test(seams_over_the_whole_image_are_bounded),
+        cmocka_unit_test(per_chart_mips_keep_each_chart_to_itself),
         cmocka_unit_test(shared_uvs_are_not_a_seam_even_with_duplicate_vt_entries),
         cmocka_unit_test(mirrored_chart_is_flagged),
         cmocka_unit_test(welding_merges_split_positions_before_seams),
