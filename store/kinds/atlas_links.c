@@ -222,7 +222,13 @@ static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, i
             size_t to = (size_t)y2 * w + (size_t)x2;
             if (ids[to] != c2)
                 continue;   /* not landing in the other chart: no link */
-            cand x = {{(uint32_t)idx, (uint32_t)to, c, 0}, (float)d, seam};
+            /* where in texel `to` the carried centre lies, in 256ths (the read is bilinear
+             * there: sample_tap.c) */
+            double fu = floor((u2 * (double)w - x2) * 256.0), fv = floor((v2 * (double)h - y2) * 256.0);
+            fu = fu < 0 ? 0 : fu > 255 ? 255 : fu;
+            fv = fv < 0 ? 0 : fv > 255 ? 255 : fv;
+            cand x = {{(uint32_t)idx, (uint32_t)to, c, (uint16_t)((unsigned)fu | (unsigned)fv << 8)},
+                      (float)d, seam};
             if (out->n >= cap)
                 return ST_ETOOBIG;
             if (push(out, &x))

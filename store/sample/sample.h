@@ -78,12 +78,13 @@ enum st_qstatus {
 #define ST_MAX_DERIV 1.0e4f  /* footprint components above this are refused */
 
 /* A link of chart Traverse: the texel of level L whose index (row * width + column) is
- * `texel`, seen from chart `chart` (id, as in st_chart_ids), reads texel `to` of the same level
- * instead - the texel under the point the seam's unfolding maps the texel centre to
- * (docs/sampler.md, "Chart Traverse"). */
+ * `texel`, seen from chart `chart` (id, as in st_chart_ids), reads the same level at the point
+ * the seam's unfolding maps the texel centre to (docs/sampler.md, "Chart Traverse"): `to` is
+ * the texel under that point, `frac` where in it the point lies, in 256ths of a texel (bits
+ * 0-7 along u, 8-15 along v). */
 typedef struct st_chart_link {
     uint32_t texel, to;
-    uint16_t chart, pad;
+    uint16_t chart, frac;
 } st_chart_link;
 
 /* Chart ids of an atlas set's face 0 at every level, for chart Discard and chart Traverse
@@ -99,10 +100,10 @@ typedef struct st_chart_ids {
     size_t nlink[ST_MAX_LEVELS];
 } st_chart_ids;
 
-/* The texel chart `chart` reads for texel index `texel` of level L under chart Traverse:
- * 1 and *to, or 0 when there is no link (the tap is dropped, as by Discard). */
-int st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel, unsigned chart,
-                       uint32_t *to);
+/* The link of texel index `texel` of level L seen from chart `chart` under chart Traverse, or
+ * NULL when there is none (the tap is dropped, as by Discard). */
+const st_chart_link *st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel,
+                                        unsigned chart);
 
 /* Samples n queries. out receives n * nchan floats (NaN for a query whose status is not OK),
  * coverage n floats and status n bytes (either may be NULL). Returns the number of queries

@@ -396,8 +396,8 @@ void st_probe_bilinear_edge(const st_set *s, unsigned mode, const st_fp *fp, uin
     }
 }
 
-int st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel, unsigned chart,
-                       uint32_t *to)
+const st_chart_link *st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel,
+                                        unsigned chart)
 {
     const st_chart_link *l = ch->link[level];
     size_t lo = 0, hi = ch->nlink[level];
@@ -408,23 +408,51 @@ int st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel, u
         else
             hi = mid;
     }
-    if (lo < ch->nlink[level] && l[lo].texel == texel && l[lo].chart == chart) {
-        *to = l[lo].to;
-        return 1;
-    }
-    return 0;
+    if (lo < ch->nlink[level] && l[lo].texel == texel && l[lo].chart == chart)
+        return &l[lo];
+    return NULL;
 }
 
-/* A tap of texel (i, j) not of the query's chart: chart Traverse reads the texel linked to it
- * across a seam (the same level), chart Discard - and Traverse without a link - drops it. */
+/* A tap of texel (i, j) not of the query's chart: chart Traverse reads the other chart across
+ * the seam at the point its link carries the texel's centre to (the same level) - bilinear
+ * there over the 2 x 2 texels around the point that are of the other chart, their weights
+ * renormalised (the texel under the point is one of them, with at least a quarter of the
+ * weight), or that one texel for the point filter (bilinear 0) - and chart Discard, like
+ * Traverse without a link, drops it. */
 static void chart_tap(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
-                      const st_view *v, int32_t i, int32_t j, float w, st_acc *a)
+                      const st_view *v, int32_t i, int32_t j, float w, int bilinear, st_acc *a)
 {
-    uint32_t to;
-    if (mode == ST_MODE_TRAVERSE && (uint32_t)i < (uint32_t)v->w && (uint32_t)j < (uint32_t)v->h &&
-        st_chart_link_find(fp->ch, level, (uint32_t)j * (uint32_t)v->w + (uint32_t)i, fp->chart,
-                           &to))
-        add_tap(s, v, (int32_t)(to % (uint32_t)v->w), (int32_t)(to / (uint32_t)v->w), w, a);
+    if (mode != ST_MODE_TRAVERSE || (uint32_t)i >= (uint32_t)v->w || (uint32_t)j >= (uint32_t)v->h)
+        return;
+    const st_chart_link *l =
+        st_chart_link_find(fp->ch, level, (uint32_t)j * (uint32_t)v->w + (uint32_t)i, fp->chart);
+    if (!l)
+        return;
+    int32_t ti = (int32_t)(l->to % (uint32_t)v->w), tj = (int32_t)(l->to / (uint32_t)v->w);
+    if (!bilinear) {
+        add_tap(s, v, ti, tj, w, a);
+        return;
+    }
+    /* the point, in texels of the level less half a texel: its 2 x 2 around it */
+    float px = (float)ti + ((float)(l->frac & 255) + 0.5f) / 256.0f - 0.5f;
+    float py = (float)tj + ((float)(l->frac >> 8) + 0.5f) / 256.0f - 0.5f;
+    int32_t i0 = (int32_t)floorf(px), j0 = (int32_t)floorf(py);
+    float fx = px - (float)i0, fy = py - (float)j0;
+    float wk[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    const uint16_t *m = fp->ch->level[level];
+    uint16_t other = m[l->to];
+    int keep[4];
+    float sum = 0;
+    for (int k = 0; k < 4; k++) {
+        int32_t x = i0 + (k & 1), y = j0 + (k >> 1);
+        keep[k] = wk[k] > 0.0f && (uint32_t)x < (uint32_t)v->w && (uint32_t)y < (uint32_t)v->h &&
+                  m[(size_t)y * (size_t)v->w + (size_t)x] == other;
+        if (keep[k])
+            sum += wk[k];
+    }
+    for (int k = 0; k < 4; k++)
+        if (keep[k])
+            add_tap(s, v, i0 + (k & 1), j0 + (k >> 1), w * (wk[k] / sum), a);
 }
 
 void st_probe_bilinear_chart(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
@@ -441,14 +469,14 @@ void st_probe_bilinear_chart(const st_set *s, unsigned mode, const st_fp *fp, un
             m[(size_t)j * (size_t)v->w + (size_t)i] == fp->chart)
             add_tap(s, v, i, j, pw * w[k], a);
         else /* beyond the image or not of the query's chart */
-            chart_tap(s, mode, fp, level, v, i, j, pw * w[k], a);
+            chart_tap(s, mode, fp, level, v, i, j, pw * w[k], 1, a);
     }
 }
 
 void st_probe_point_chart(const st_set *s, unsigned mode, const st_fp *fp, unsigned level,
                           const st_view *v, int32_t i, int32_t j, float pw, st_acc *a)
 {
-    chart_tap(s, mode, fp, level, v, i, j, pw, a);
+    chart_tap(s, mode, fp, level, v, i, j, pw, 0, a);
 }
 
 void st_probe_point_edge(const st_set *s, unsigned mode, const st_fp *fp, uint32_t f,
