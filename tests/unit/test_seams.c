@@ -555,7 +555,10 @@ static void chart_discard_in_the_gutter(void **state)
  * quarter (turn 1) or mirrored (turn 2) - the rest a blue gutter. Every chart texel holds the
  * surface function red = x / 2, green = y at its centre, so reading across the seam on the
  * surface continues the same straight ramps. */
-static st_set *seam_atlas(int turn)
+/* The two unit squares of seam_atlas in 3D, A over [0, 1] x [0, 1] and B over [1, 2] x [0, 1]
+ * sharing x = 1, two triangles each, with the UVs uv: A's corners (0,0) (1,0) (1,1) (0,1), then
+ * B's (1,0) (2,0) (2,1) (1,1), 8 pairs. */
+static st_mesh *two_squares(const float uv[16])
 {
     st_mesh *m = NULL;
     st_error e;
@@ -563,6 +566,25 @@ static st_set *seam_atlas(int turn)
     const float pos[18] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 2, 0, 0, 2, 1, 0};
     const uint32_t tp[12] = {0, 1, 2, 0, 2, 3, 1, 4, 5, 1, 5, 2};
     const uint32_t tu[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
+    memcpy(m->pos, pos, sizeof pos);
+    memcpy(m->tri_pos, tp, sizeof tp);
+    memcpy(m->tri_uv, tu, sizeof tu);
+    memcpy(m->uv, uv, 16 * sizeof *uv);
+    return m;
+}
+
+/* An RGBA8 texel of the two squares' surface at (x, y): red = x / 2, green = y; x < 0 is the
+ * gutter, blue. */
+static void surface_texel(uint8_t *p, float x, float y)
+{
+    p[0] = x < 0 ? 0 : (uint8_t)lrintf(x / 2.0f * 255.0f);
+    p[1] = x < 0 ? 0 : (uint8_t)lrintf(y * 255.0f);
+    p[2] = x < 0 ? 255 : 0;
+    p[3] = 255;
+}
+
+static st_set *seam_atlas(int turn)
+{
     const float o = 36.0f / 64.0f, z = 28.0f / 64.0f;
     /* A's corners (0,0) (1,0) (1,1) (0,1); B's (1,0) (2,0) (2,1) (1,1) as placed */
     const float uv[3][16] = {
@@ -570,10 +592,7 @@ static st_set *seam_atlas(int turn)
         {0, 0, z, 0, z, z, 0, z, o + z, 0, o + z, z, o, z, o, 0},  /* 1 - y -> u, x - 1 -> v */
         {0, 0, z, 0, z, z, 0, z, o, 0, o, z, o + z, z, o + z, 0},  /* y -> u, x - 1 -> v */
     };
-    memcpy(m->pos, pos, sizeof pos);
-    memcpy(m->tri_pos, tp, sizeof tp);
-    memcpy(m->tri_uv, tu, sizeof tu);
-    memcpy(m->uv, uv[turn], sizeof uv[turn]);
+    st_mesh *m = two_squares(uv[turn]);
     static uint8_t px[64][64][4];
     for (int j = 0; j < 64; j++)
         for (int i = 0; i < 64; i++) {
@@ -586,10 +605,7 @@ static st_set *seam_atlas(int turn)
                 x = 1.0f + (turn == 0 ? a : b);
                 y = turn == 0 ? b : turn == 1 ? 1.0f - a : a;
             }
-            px[j][i][0] = x < 0 ? 0 : (uint8_t)lrintf(x / 2.0f * 255.0f);
-            px[j][i][1] = x < 0 ? 0 : (uint8_t)lrintf(y * 255.0f);
-            px[j][i][2] = x < 0 ? 255 : 0;
-            px[j][i][3] = 255;
+            surface_texel(px[j][i], x, y);
         }
     st_set *s = two_charts_of(&px[0][0][0], 64, 64, m);
     const st_atlas *a = st_atlas_get(s);
@@ -743,19 +759,10 @@ static void per_chart_mips_keep_each_chart_to_itself(void **state)
 static void chart_traverse_reads_between_texels_of_a_denser_chart(void **state)
 {
     (void)state;
-    st_mesh *m = NULL;
-    st_error e;
-    assert_int_equal(st_mesh_alloc(6, 8, 4, &m, &e), ST_OK);
-    const float pos[18] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 2, 0, 0, 2, 1, 0};
-    const uint32_t tp[12] = {0, 1, 2, 0, 2, 3, 1, 4, 5, 1, 5, 2};
-    const uint32_t tu[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
     const float az = 28.0f / 96.0f, av = 28.0f / 64.0f, b0 = 44.0f / 96.0f, b1 = 84.0f / 96.0f,
                 bv = 40.0f / 64.0f;
     const float uv[16] = {0, 0, az, 0, az, av, 0, av, b0, 0, b1, 0, b1, bv, b0, bv};
-    memcpy(m->pos, pos, sizeof pos);
-    memcpy(m->tri_pos, tp, sizeof tp);
-    memcpy(m->tri_uv, tu, sizeof tu);
-    memcpy(m->uv, uv, sizeof uv);
+    st_mesh *m = two_squares(uv);
     static uint8_t px[64][96][4];
     for (int j = 0; j < 64; j++)
         for (int i = 0; i < 96; i++) {
@@ -767,10 +774,7 @@ static void chart_traverse_reads_between_texels_of_a_denser_chart(void **state)
                 x = 1.0f + (i - 44 + 0.5f) / 40.0f;
                 y = (j + 0.5f) / 40.0f;
             }
-            px[j][i][0] = x < 0 ? 0 : (uint8_t)lrintf(x / 2.0f * 255.0f);
-            px[j][i][1] = x < 0 ? 0 : (uint8_t)lrintf(y * 255.0f);
-            px[j][i][2] = x < 0 ? 255 : 0;
-            px[j][i][3] = 255;
+            surface_texel(px[j][i], x, y);
         }
     st_set *s = two_charts_of(&px[0][0][0], 96, 64, m);
     assert_true(st_atlas_get(s)->ids.nlink[0] > 0);
