@@ -924,14 +924,19 @@ static void take_adopted(sts_io *io)
  * dur28 an fd limit below the connections offered spun the I/O threads and logged the
  * warning millions of times a minute. Instead the spare descriptor is closed, one waiting
  * connection accepted and answered BUSY ("out of file descriptors"), and the spare taken
- * again; 1 when one was shed (the caller goes on with the backlog). Without a spare (another
- * thread holds it, or it could not be reopened) the listener leaves this thread's poller
- * until its next 1 s tick. One log line per 10 s, with the count shed since the last one. */
+ * again; 1 when one was shed (the caller goes on with the backlog). Called with accept_mu
+ * held, as every accept4 is: before, another I/O thread's accept could take the slot the
+ * spare had just freed, this accept then failed, the spare could not be reopened, and with
+ * no spare left the waiting connections were never answered while the limit held (seen as a
+ * connection without an answer in test_server_limits at load ~5). Without a spare (it could
+ * not be reopened: some other open took the slot) the listener leaves this thread's poller
+ * until its next 1 s tick, which tries to reopen it (spare_reopen). One log line per 10 s,
+ * with the count shed since the last one. */
 static int accept_starved(sts_io *io, int err)
 {
     sts_server *srv = io->srv;
     int shed = 0;
-    int spare = __atomic_exchange_n(&srv->spare_fd, -1, __ATOMIC_ACQ_REL);
+    int spare = __atomic_load_n(&srv->spare_fd, __ATOMIC_RELAXED);
     if (spare >= 0) {
         close(spare);
         int fd = accept4(srv->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
@@ -941,8 +946,7 @@ static int accept_starved(sts_io *io, int err)
             __atomic_add_fetch(&srv->starved_shed, 1, __ATOMIC_RELAXED);
             shed = 1;
         }
-        __atomic_store_n(&srv->spare_fd, open("/dev/null", O_RDONLY | O_CLOEXEC),
-                         __ATOMIC_RELEASE);
+        __atomic_store_n(&srv->spare_fd, open("/dev/null", O_RDONLY | O_CLOEXEC), __ATOMIC_RELAXED);
     }
     if (!shed && !io->listen_paused && sts_ev_del(io->ev, srv->listen_fd) == 0)
         io->listen_paused = 1;
@@ -959,16 +963,31 @@ static int accept_starved(sts_io *io, int err)
     return shed;
 }
 
+/* The spare descriptor, when accept_starved could not reopen it: taken again once a slot is
+ * free (each I/O thread's 1 s tick). */
+static void spare_reopen(sts_server *srv)
+{
+    pthread_mutex_lock(&srv->accept_mu);
+    if (__atomic_load_n(&srv->spare_fd, __ATOMIC_RELAXED) < 0)
+        __atomic_store_n(&srv->spare_fd, open("/dev/null", O_RDONLY | O_CLOEXEC), __ATOMIC_RELAXED);
+    pthread_mutex_unlock(&srv->accept_mu);
+}
+
 static void do_accept(sts_io *io)
 {
     sts_server *srv = io->srv;
     for (int i = 0; i < 64; i++) {
         struct sockaddr_storage sa;
         socklen_t salen = sizeof sa;
+        pthread_mutex_lock(&srv->accept_mu);
         int fd = accept4(srv->listen_fd, (struct sockaddr *)&sa, &salen,
                          SOCK_NONBLOCK | SOCK_CLOEXEC);
+        int err = fd < 0 ? errno : 0, shed = 0;
+        if (fd < 0 && (err == EMFILE || err == ENFILE))
+            shed = accept_starved(io, err);
+        pthread_mutex_unlock(&srv->accept_mu);
         if (fd < 0) {
-            if ((errno == EMFILE || errno == ENFILE) && accept_starved(io, errno))
+            if (shed)
                 continue;
             return;
         }
@@ -1222,6 +1241,8 @@ void *sts_io_main(void *arg)
             idle_scan(io, now);
             last_scan = now;
             /* back to accepting after an fd shortage paused it (accept_starved) */
+            if (__atomic_load_n(&srv->spare_fd, __ATOMIC_RELAXED) < 0)
+                spare_reopen(srv);
             if (io->listen_paused && listening && !stopping &&
                 sts_ev_add(io->ev, srv->listen_fd, STS_EV_READ | STS_EV_EXCLUSIVE, srv) == 0)
                 io->listen_paused = 0;

@@ -166,6 +166,7 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
     srv->metrics.fd = srv->metrics.wakefd = -1;
     pthread_mutex_init(&srv->cfg_mu, NULL);
     pthread_mutex_init(&srv->commit_mu, NULL);
+    pthread_mutex_init(&srv->accept_mu, NULL);
     sts_handles_init(&srv->uploads);
     sts_handles_init(&srv->fetches);
     raise_nofile(srv);

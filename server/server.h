@@ -97,10 +97,13 @@ struct sts_server {
     st_registry    *reg;
     st_datadir     *dd;           /* NULL without --data-dir */
     int             listen_fd;
-    int             spare_fd;     /* atomic: /dev/null, held so that at EMFILE / ENFILE an I/O
-                                     thread can close it, accept one waiting connection and
-                                     answer it BUSY instead of leaving the listener readable
-                                     (io.c: accept_starved); -1 while in use */
+    int             spare_fd;     /* /dev/null, held so that at EMFILE / ENFILE an I/O thread
+                                     can close it, accept one waiting connection and answer it
+                                     BUSY instead of leaving the listener readable (io.c:
+                                     accept_starved); -1 while it could not be reopened (retried
+                                     each I/O tick); atomic, changed under accept_mu */
+    pthread_mutex_t accept_mu;    /* every accept4 and the spare's close / reopen: no other
+                                     I/O thread's accept can take the slot the spare frees */
     int64_t         starved_log_ms; /* atomic: when the last "out of file descriptors" line was
                                        logged (one per 10 s, with the count since) */
     uint64_t        starved_shed;   /* atomic: connections shed that way since that line */
