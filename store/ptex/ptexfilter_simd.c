@@ -74,7 +74,9 @@
  * The Traverse walk of a bilinear 2 x 2 kernel over plain faces (pf_edge2_select,
  * ptexfilter_walk.h): ptexfilter.c's split walk for that kernel, its pieces in registers and
  * their windows summed inline by the same small-window code (no call per piece, which
- * spilled every piece around each call).
+ * spilled every piece around each call); at a corner of valence other than 4
+ * (tv_corner_other) corner_other_small's steps on the one-texel corner piece, the walk's
+ * weight changed as it changes it.
  *
  * The width-4 filters' kernels on faces without neighbours, 8 at a time after klanes8:
  * kernel_r0's of a face or more (pf_r0x8_select), kernel_iso's of half a face to a face
@@ -2205,9 +2207,71 @@ PF_TARGET int tv_across(const pf_walk *w, tv2 k, const st_face *F, int eid, __m1
     return tv_apply(w, tv_rotate(k, eid - F->adjedge[eid] + 2), F->adjface[eid], acc, DT, NC);
 }
 
-/* corner_small at a regular vertex (valence 4, no subface around it) */
-PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, unsigned DT,
-                        unsigned NC)
+/* corner_other_small (ptexfilter.c: apply_to_corner at a vertex of valence other than 4,
+ * no subface around it) for a one-texel piece k: its ring walk; with two faces or more
+ * between the neighbours the piece rotated, made symmetric (p2_make_symmetric on one texel:
+ * the coarser resolution, the two weights' sum in both, the first scaled down to the
+ * initial weight) and applied on each, *wt adjusted; with none, dropped, its weight
+ * removed from *wt; 0 (decline) with one (a ring open past it: untested), a subface, or a
+ * piece tv_apply declines. */
+PF_TARGET int tv_corner_other(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, float *wt,
+                              unsigned DT, unsigned NC)
+{
+    enum { MAXV = 10 }; /* apply_to_corner's */
+    int af = f, ae = eid, cface[MAXV], cedge[MAXV], ncorners = 0;
+    if (k.nu != 1 || k.nv != 1)
+        return 0;
+    for (int i = 0; i < MAXV; i++) {
+        const st_face *A = &w->faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || (af == f && ae == eid)) {
+            ncorners = i - 2;
+            break;
+        }
+        if (w->faces[af].flags & ST_FACE_SUBFACE)
+            return 0;
+        cface[i] = af;
+        cedge[i] = ae;
+    }
+    if (ncorners == 1)
+        return 0;
+    if (ncorners < 1) { /* p2_weight of the one-texel piece */
+        *wt -= (0.0f + k.w[0]) * (0.0f + k.w[2]);
+        return 1;
+    }
+    tv2 s = tv_rotate(k, eid + 2);
+    float ku0 = s.w[0], kv0 = s.w[2];
+    float w0 = (0.0f + ku0) * (0.0f + kv0); /* p2_weight */
+    for (; s.lu > s.lv; s.lu--)             /* p2_downres of one tap */
+        s.u /= 2;
+    for (; s.lv > s.lu; s.lv--)
+        s.v /= 2;
+    float sum = ku0 + kv0, a = sum, nw = 0;
+    nw += sum;
+    nw *= nw;
+    float scale = nw == 0 ? 1.f : w0 / nw;
+    if (scale < 1) {
+        if (scale < -1) {
+            a *= -1;
+            nw = -nw;
+        } else {
+            a *= scale;
+            nw = w0;
+        }
+    }
+    s.w = _mm_setr_ps(a, 0.0f, sum, 0.0f);
+    for (int i = 1; i <= ncorners; i++)
+        if (!tv_apply(w, tv_rotate(s, 2 - cedge[i] + 2), cface[i], acc, DT, NC))
+            return 0;
+    *wt += nw * (float)ncorners - w0;
+    return 1;
+}
+
+/* corner_small at a regular vertex (valence 4, no subface around it); at the others
+ * tv_corner_other. */
+PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, float *wt,
+                        unsigned DT, unsigned NC)
 {
     int af = f, ae = eid, cf = -1, ce = 0;
     for (int i = 0; i < 4; i++) {
@@ -2215,7 +2279,7 @@ PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, un
         af = A->adjface[ae];
         ae = (A->adjedge[ae] + 1) % 4;
         if (af < 0 || (w->faces[af].flags & ST_FACE_SUBFACE) || (af == f && ae == eid) != (i == 3))
-            return 0;
+            return tv_corner_other(w, k, f, eid, acc, wt, DT, NC);
         if (i == 1) {
             cf = af;
             ce = ae;
@@ -2275,11 +2339,13 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
         (ev >= 0 && (F->adjface[ev] < 0 || k.nv != 2 || k.v != (st ? resv - 1 : -1))))
         return 0; /* a boundary (folds), or not a one-tap overhang */
     __m128 acc = _mm_setzero_ps();
+    /* bilinear_walk's weight: p2_weight, changed at a corner of valence other than 4 */
+    float weight = pk_accumulate(ku, nu) * pk_accumulate(kv, nv);
     if (eu >= 0) {
         tv2 ka = tv_split_u(&k, sr, resu);
         if (ev >= 0) {
             tv2 kc = tv_split_v(&ka, st, resv); /* that piece's corner */
-            if (!tv_corner(w, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0), &acc, DT, NC))
+            if (!tv_corner(w, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0), &acc, &weight, DT, NC))
                 return 0;
         }
         if (!tv_across(w, ka, F, eu, &acc, DT, NC))
@@ -2299,7 +2365,7 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
                            k.nv, (pf_v4)acc, DT, NC);
     /* bilinear_walk's division: by the total weight (p2_weight) times the type's one value */
     float one = DT == ST_DT_U8 ? 255.0f : DT == ST_DT_U16 ? 65535.0f : 1.0f;
-    float scale = 1.0f / (pk_accumulate(ku, nu) * pk_accumulate(kv, nv) * one);
+    float scale = 1.0f / (weight * one);
     for (unsigned ch = 0; ch < NC; ch++)
         out[ch] = sum[ch] * scale;
     return 1;
