@@ -541,8 +541,9 @@ __attribute__((always_inline)) static inline void bilinear_write(const pf *c, co
  * 0: no weight buffers to copy, no calls per operation), the pieces summed by c->small (bit
  * for bit pf_apply_avx2 on such windows) in the same order; what is left out is the general
  * path's overhead (eval's prologue, pk_build, the window loop's dispatch, pk's bookkeeping).
- * Anything rarer - a corner of valence other than 4, a subface neighbour, a constant face -
- * goes to the general functions with the pk the general path would hold at that point, so
+ * A corner of valence other than 4 without subfaces around it takes corner_other_small
+ * (apply_to_corner's steps on the pk2). Anything rarer - a subface neighbour, a constant
+ * face - goes to the general functions with the pk the general path would hold at that point, so
  * the results are those of eval bit for bit (test_ptexfilter_paths checks it on every shared
  * file). */
 
@@ -743,8 +744,86 @@ static void across_small(pf *c, pk2 *k, int f, int eid)
     apply_small(c, k, af);
 }
 
-/* apply_to_corner when no face around the vertex is a subface and the vertex is regular
- * (valence 4: one diagonal face); else the general one. */
+/* pk_make_symmetric on a pk2: the finer axis reduced (p2_downres: pk_downres_run's steps on
+ * at most 2 weights), both cut to the shorter, each pair of weights summed into both, the
+ * squared sum scaled down to the initial weight; its operations in its order. */
+static inline float p2_make_symmetric(pk2 *k, float initial_weight)
+{
+    while (k->ulog2 > k->vlog2) {
+        p2_downres(&k->u, &k->uw, k->ku);
+        k->ulog2--;
+    }
+    while (k->vlog2 > k->ulog2) {
+        p2_downres(&k->v, &k->vw, k->kv);
+        k->vlog2--;
+    }
+    k->uw = k->vw = k->uw < k->vw ? k->uw : k->vw;
+    float nw = 0;
+    for (int i = 0; i < k->uw && i < 2; i++) {
+        float sum = k->ku[i] + k->kv[i];
+        k->ku[i] = k->kv[i] = sum;
+        nw += sum;
+    }
+    nw *= nw;
+    float scale = nw == 0 ? 1.f : initial_weight / nw;
+    if (scale < 1) {
+        if (scale < -1) {
+            for (int i = 0; i < k->uw && i < 2; i++)
+                k->ku[i] *= -1;
+            nw = -nw;
+        } else {
+            for (int i = 0; i < k->uw && i < 2; i++)
+                k->ku[i] *= scale;
+            nw = initial_weight;
+        }
+    }
+    return nw;
+}
+
+/* apply_to_corner at depth 0 on a pk2 when no face around the vertex is a subface (f is
+ * not one: the pk2 walk's faces): its ring walk, and its steps - the piece made symmetric
+ * and put on each face between the neighbours, the weight adjusted, or, with none, dropped,
+ * its weight removed - with the pk2 operations (p2_rotate, p2_weight, p2_make_symmetric,
+ * apply_small; apply_to_corner_face without subfaces is pk_rotate then apply). Returns 0
+ * (nothing done) when a face of the ring is a subface, or with one face between the
+ * neighbours (the ring open past it: corner_small takes the closed one). */
+static int corner_other_small(pf *c, pk2 *k, int f, int eid)
+{
+    enum { MAXV = 10 }; /* apply_to_corner's */
+    int af = f, ae = eid, cface[MAXV], cedge[MAXV], ncorners = 0;
+    for (int i = 0; i < MAXV; i++) {
+        const st_face *A = &c->s->faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || (af == f && ae == eid)) {
+            ncorners = i - 2;
+            break;
+        }
+        if (is_subface(c, af))
+            return 0;
+        cface[i] = af;
+        cedge[i] = ae;
+    }
+    if (ncorners == 1) /* corner_small took the closed ring; an open one: untested here */
+        return 0;
+    if (ncorners > 1) {
+        p2_rotate(k, eid + 2);
+        float w0 = p2_weight(k);
+        float nw = p2_make_symmetric(k, w0);
+        for (int i = 1; i <= ncorners; i++) {
+            pk2 kc = *k;
+            p2_rotate(&kc, 2 - cedge[i] + 2);
+            apply_small(c, &kc, cface[i]);
+        }
+        c->weight += nw * (float)ncorners - w0;
+    } else {
+        c->weight -= p2_weight(k);
+    }
+    return 1;
+}
+
+/* apply_to_corner when no face around the vertex is a subface: a regular vertex (valence 4:
+ * one diagonal face) here, the others in corner_other_small; else the general one. */
 static void corner_small(pf *c, pk2 *k, int f, int eid)
 {
     int af = f, ae = eid, cf = -1, ce = 0;
@@ -764,6 +843,8 @@ static void corner_small(pf *c, pk2 *k, int f, int eid)
             return;
         }
     }
+    if (corner_other_small(c, k, f, eid))
+        return;
     pk g;
     pk2_to_pk(&g, k);
     apply_to_corner(c, &g, f, eid, 0);

@@ -37,11 +37,16 @@
  * The width-4 filters' common case 8 queries at a time (pf_w4x8_select, after
  * ptexfilter_lanes.c's klanes8 has classified the block): w4_body's set-up and taps lane by
  * lane in 8-lane vectors (one lane a query), its operations in its order, so bit for bit;
- * the kernels that overhang their face handed over as w4_body hands them over; a query on a
- * texel centre, whose bicubic-family tap 0 is zero, stripped as w4_tail strips it (3 taps one
- * texel on, w4x8_lead). The 4 x 4 window: for 1-channel u8 and u16 texels in the vectors too (w4x8_body: the window rows
- * gathered); for the other types and channel counts (w4x8_each) per lane served, w4_tail's
- * own window loop on the taps transposed out of the vectors.
+ * the kernels that overhang their face handed over as w4_body hands them over; a query on or
+ * near a texel centre, whose kernel has zero taps at an end of an axis (the bicubic family's
+ * tap at distance 2, (0, k, k', k''); Catmull-Rom's at distance 1 too, (0, 0, 1, 0)),
+ * stripped as w4_tail strips it, lane by lane (w4x8_strip: the taps moved down by the
+ * leading zeros, +0 from the stripped length on, the window's first texel moved on and its
+ * test against the face redone). The 4 x 4 window: for 1-channel u8 and u16 texels in the
+ * vectors too (w4x8_body: the window rows gathered, a stripped lane's rows past its length
+ * masked off); for the other types and channel counts (w4x8_each) per lane served, w4_tail's
+ * own window loop on the taps transposed out of the vectors (a stripped lane: window_fused,
+ * or w4_win1 for 1 channel, on its stripped shape).
  *
  * The box filter's in-face case 8 queries at a time (pf_box8_select, after klanes8): box_axes'
  * set-up of both axes, its zero-weight test, the inside test, the weight and the scale lane
@@ -69,7 +74,9 @@
  * The Traverse walk of a bilinear 2 x 2 kernel over plain faces (pf_edge2_select,
  * ptexfilter_walk.h): ptexfilter.c's split walk for that kernel, its pieces in registers and
  * their windows summed inline by the same small-window code (no call per piece, which
- * spilled every piece around each call).
+ * spilled every piece around each call); at a corner of valence other than 4
+ * (tv_corner_other) corner_other_small's steps on the one-texel corner piece, the walk's
+ * weight changed as it changes it.
  *
  * The width-4 filters' kernels on faces without neighbours, 8 at a time after klanes8:
  * kernel_r0's of a face or more (pf_r0x8_select), kernel_iso's of half a face to a face
@@ -887,6 +894,42 @@ PF_TARGET __m256 bcast8(__m256 a, int j)
         }                                                                                   \
     } while (0)
 
+/* w4_tail's 1-channel window: nu, nv <= 8 taps from lane 0 of ku, kv (+0 past them), the
+ * window's first texel at base, rows rowb bytes apart: PF_W4ROWS down the rows, then the
+ * dot with the column weights and the fold (window4's operations for nu <= 4). */
+PF_TARGET float w4_win1(const uint8_t *base, size_t rowb, __m256 ku, __m256 kv, int nu, int nv,
+                        unsigned DT)
+{
+    const __m256i idx8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 z8 = _mm256_setzero_ps();
+    int short4 = nu <= 4;
+    __m128 tail4 = _mm_castsi128_ps(_mm_cmpgt_epi32(_mm_set1_epi32(nu), _mm_setr_epi32(0, 1, 2, 3)));
+    __m256 tail8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu), idx8));
+    __m128 c4 = _mm_setzero_ps();
+    __m256 c8 = _mm256_setzero_ps();
+    switch (nv) {
+    case 1: PF_W4ROWS(1); break;
+    case 2: PF_W4ROWS(2); break;
+    case 3: PF_W4ROWS(3); break;
+    case 4: PF_W4ROWS(4); break;
+    case 5: PF_W4ROWS(5); break;
+    case 6: PF_W4ROWS(6); break;
+    case 7: PF_W4ROWS(7); break;
+    default: PF_W4ROWS(8); break;
+    }
+    const __m128 z = _mm_setzero_ps();
+    __m128 q;
+    if (short4)
+        q = _mm_add_ps(_mm_fmadd_ps(c4, _mm256_castps256_ps128(ku), z), z);
+    else {
+        __m256 s8 = _mm256_fmadd_ps(c8, ku, z8);
+        q = _mm_add_ps(_mm256_castps256_ps128(s8), _mm256_extractf128_ps(s8, 1));
+    }
+    __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
+    __m128 res = _mm_add_ss(z, _mm_add_ss(h, _mm_movehdup_ps(h)));
+    return _mm_cvtss_f32(res);
+}
+
 /* w4_body's second half: the taps ku, kv (from lane 0, +0 past nu, nv), their sums s
  * (lanes 0, 1), the window's first texel (u0, v0) at resolution (ru, rv). STRIP: strips
  * zero taps at the ends first (pk_strip_zeros, strip8) and tests the window against the
@@ -940,32 +983,7 @@ PF_TARGET int w4_tail(__m256 ku, __m256 kv, __m128 s, int nu, int nv, int u0, in
     float one = DT == 0 ? 255.0f : DT == 1 ? 65535.0f : 1.0f;
     float scale = 1.0f / (total * one);
     if (NC == 1) {
-        int short4 = nu <= 4;
-        __m128 tail4 = _mm_castsi128_ps(_mm_cmpgt_epi32(_mm_set1_epi32(nu), _mm_setr_epi32(0, 1, 2, 3)));
-        __m256 tail8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nu), idx8));
-        __m128 c4 = _mm_setzero_ps();
-        __m256 c8 = _mm256_setzero_ps();
-        switch (nv) {
-        case 1: PF_W4ROWS(1); break;
-        case 2: PF_W4ROWS(2); break;
-        case 3: PF_W4ROWS(3); break;
-        case 4: PF_W4ROWS(4); break;
-        case 5: PF_W4ROWS(5); break;
-        case 6: PF_W4ROWS(6); break;
-        case 7: PF_W4ROWS(7); break;
-        default: PF_W4ROWS(8); break;
-        }
-        const __m128 z = _mm_setzero_ps();
-        __m128 q;
-        if (short4)
-            q = _mm_add_ps(_mm_fmadd_ps(c4, _mm256_castps256_ps128(ku), z), z);
-        else {
-            __m256 s8 = _mm256_fmadd_ps(c8, ku, z8);
-            q = _mm_add_ps(_mm256_castps256_ps128(s8), _mm256_extractf128_ps(s8, 1));
-        }
-        __m128 h = _mm_add_ps(q, _mm_movehl_ps(q, q));
-        __m128 res = _mm_add_ss(z, _mm_add_ss(h, _mm_movehdup_ps(h)));
-        out[0] = _mm_cvtss_f32(res) * scale;
+        out[0] = w4_win1(base, rowb, ku, kv, nu, nv, DT) * scale;
         return 1;
     }
     float kub[32], kvb[8]; /* window() may name up to 4 vectors of lanes (it reads < nu) */
@@ -1164,11 +1182,12 @@ PF_TARGET __m256i w4x8_axis(__m256 x, __m256 bw, __m256i lg, __m256i *r, __m256i
     return ok;
 }
 
-/* Tap t of 8 queries (x1 + t * st, kernel8's function), stored to k; *sum += it, and the
- * lanes where it is zero (w4_body strips those) cleared from *ok, but for tap 0: its zero
- * lanes go to *lead (w4x8_lead strips them). */
+/* Tap t of 8 queries (x1 + t * st, kernel8's function), stored to k; *sum += it, and *z the
+ * lanes where it is zero (+0 or -0; not NaN: strip8's compare), which w4_tail strips when
+ * they lie at an end of the axis (w4x8_ends). The gaussian's taps that count are never zero:
+ * *z is left alone for it. */
 PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float *k,
-                          __m256 *sum, __m256i *ok, __m256i *lead, int G)
+                          __m256 *sum, __m256i *z, int G)
 {
     /* The lanes that count (w4x8_axis' common case) have a step st = 1 / uwpix in (1/2, 1]
      * and x1 in [-2, -1], so |x| <= 2: tap 0 is x1 itself (x1 + 0 st differs from it only
@@ -1183,50 +1202,65 @@ PF_TARGET __m256 w4x8_tap(const pk_params *p, __m256 x1, __m256 st, int t, float
         w = exp2_8(y);
     } else {
         w = kernel8_as(p, x, 0);
-        __m256i z = _mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ));
-        if (t)
-            *ok = _mm256_andnot_si256(z, *ok);
-        else
-            *lead = z;
+        *z = _mm256_castps_si256(_mm256_cmp_ps(w, _mm256_setzero_ps(), _CMP_EQ_OQ));
     }
     *sum = _mm256_add_ps(*sum, w);
     _mm256_storeu_ps(k, w);
     return w;
 }
 
-/* The lanes of lead (tap 0 zero, taps 1 to 3 not: a query on a texel centre, a bicubic-family
- * tap at distance 2) stripped as w4_tail strips them (pk_strip_zeros): taps 1 to 3 moved to
- * 0 to 2, +0 after them, the window's first texel *u0 one texel on; the other lanes left as
- * they are. The taps' sum is not touched: w4_tail's is the sum before the strip. */
-PF_TARGET void w4x8_lead(float (*tk)[8], __m256i lead, __m256i *u0)
+/* w4_tail's strip of one axis (pk_strip_zeros), lane by lane: z[t] the lanes whose tap t is
+ * zero. Sets *lead, the zero taps before the first nonzero one (0..3), and *n, the taps from
+ * it to the last nonzero one (1..4; interior zeros kept, as strip8 keeps them); returns the
+ * lanes whose 4 taps are all zero (w4_tail declines those). */
+PF_TARGET __m256i w4x8_ends(const __m256i *z, __m256i *lead, __m256i *n)
 {
-    __m256 m = _mm256_castsi256_ps(lead);
-    __m256 k1 = _mm256_loadu_ps(tk[1]), k2 = _mm256_loadu_ps(tk[2]), k3 = _mm256_loadu_ps(tk[3]);
-    _mm256_storeu_ps(tk[0], _mm256_blendv_ps(_mm256_loadu_ps(tk[0]), k1, m));
-    _mm256_storeu_ps(tk[1], _mm256_blendv_ps(k1, k2, m));
-    _mm256_storeu_ps(tk[2], _mm256_blendv_ps(k2, k3, m));
-    _mm256_storeu_ps(tk[3], _mm256_andnot_ps(m, k3));
-    *u0 = _mm256_sub_epi32(*u0, lead); /* lead lanes are -1 */
+    __m256i z01 = _mm256_and_si256(z[0], z[1]), z012 = _mm256_and_si256(z01, z[2]);
+    __m256i z32 = _mm256_and_si256(z[3], z[2]), z321 = _mm256_and_si256(z32, z[1]);
+    /* the masks are -1 where set: minus their sums count the zeros at each end */
+    __m256i a = _mm256_add_epi32(_mm256_add_epi32(z[0], z01), z012); /* -lead */
+    __m256i b = _mm256_add_epi32(_mm256_add_epi32(z[3], z32), z321); /* -trail */
+    *lead = _mm256_sub_epi32(_mm256_setzero_si256(), a);
+    *n = _mm256_add_epi32(_mm256_set1_epi32(4), _mm256_add_epi32(a, b));
+    return _mm256_and_si256(z012, z[3]);
 }
 
-/* w4_tail's test after a strip along one axis: the window of 4 + lead taps (lead -1: 3)
- * from u0 overhangs the face (u0 < 0 or past 2^r). */
-PF_TARGET __m256i w4x8_over(__m256i u0, __m256i lead, __m256i r)
+/* The taps tk[0..3] of each lane moved lead lanes down (tap lead to 0: w4_tail's permute by
+ * the leading zeros), and every tap from n on made +0 (w4_tail's mask of the lanes past the
+ * stripped length): lanes with lead 0 and n 4 are left as they are. */
+PF_TARGET void w4x8_shift(float (*tk)[8], __m256i lead, __m256i n)
 {
-    __m256i end = _mm256_add_epi32(u0, _mm256_add_epi32(_mm256_set1_epi32(4), lead));
+    __m256 k0 = _mm256_loadu_ps(tk[0]), k1 = _mm256_loadu_ps(tk[1]);
+    __m256 k2 = _mm256_loadu_ps(tk[2]), k3 = _mm256_loadu_ps(tk[3]);
+    const __m256i one = _mm256_set1_epi32(1), two = _mm256_set1_epi32(2);
+    __m256 m1 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(lead, one), one));
+    __m256 m2 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(lead, two), two));
+    /* by 1 where lead is odd, then by 2 where lead is 2 or 3 */
+    k0 = _mm256_blendv_ps(k0, k1, m1);
+    k1 = _mm256_blendv_ps(k1, k2, m1);
+    k2 = _mm256_blendv_ps(k2, k3, m1);
+    k3 = _mm256_andnot_ps(m1, k3);
+    k0 = _mm256_blendv_ps(k0, k2, m2);
+    k1 = _mm256_blendv_ps(k1, k3, m2);
+    k2 = _mm256_andnot_ps(m2, k2);
+    k3 = _mm256_andnot_ps(m2, k3);
+    /* +0 from tap n on (n >= 1 in every lane that counts) */
+    k1 = _mm256_and_ps(k1, _mm256_castsi256_ps(_mm256_cmpgt_epi32(n, one)));
+    k2 = _mm256_and_ps(k2, _mm256_castsi256_ps(_mm256_cmpgt_epi32(n, two)));
+    k3 = _mm256_and_ps(k3, _mm256_castsi256_ps(_mm256_cmpgt_epi32(n, _mm256_set1_epi32(3))));
+    _mm256_storeu_ps(tk[0], k0);
+    _mm256_storeu_ps(tk[1], k1);
+    _mm256_storeu_ps(tk[2], k2);
+    _mm256_storeu_ps(tk[3], k3);
+}
+
+/* w4_tail's test after a strip along one axis: the window of n taps from u0 overhangs the
+ * face (u0 < 0 or past 2^r). */
+PF_TARGET __m256i w4x8_over(__m256i u0, __m256i n, __m256i r)
+{
+    __m256i end = _mm256_add_epi32(u0, n);
     return _mm256_or_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), u0),
                            _mm256_cmpgt_epi32(end, _mm256_sllv_epi32(_mm256_set1_epi32(1), r)));
-}
-
-/* Both axes' strip (w4x8_lead on the lanes zu, zv) and w4_tail's test of the window after
- * it (*ou, *ov: w4x8_over at resolutions ru, rv). */
-PF_TARGET void w4x8_strip(float (*tu)[8], float (*tv)[8], __m256i zu, __m256i zv, __m256i ru,
-                          __m256i rv, __m256i *u0, __m256i *v0, __m256i *ou, __m256i *ov)
-{
-    w4x8_lead(tu, zu, u0);
-    w4x8_lead(tv, zv, v0);
-    *ou = w4x8_over(*u0, zu, ru);
-    *ov = w4x8_over(*v0, zv, rv);
 }
 
 /* The first NCOL (<= 4) texels of one window row of 8 queries, type DT (u8 or u16), 1
@@ -1397,10 +1431,34 @@ PF_TARGET __m256i w4x8_axes(const pf_klanes *k, w4x8_ax *a)
                                           &a->rv, &a->v0, &a->xv, &a->stv, &a->ov));
 }
 
+/* The strip of both axes of the lanes of *ok with a zero tap at an end (w4_tail's, above):
+ * zu, zv the zero taps (w4x8_tap), tu, tv the taps, moved in place (w4x8_shift); the
+ * window's first texel (a->u0, a->v0) moved on by the leading zeros and the overhang test
+ * (a->ou, a->ov) redone on the stripped lengths, which go to *nu, *nv (4 in the other
+ * lanes). Lanes with every tap of an axis zero are cleared from *ok (w4_tail declines them).
+ * Returns the lanes of *ok stripped (a zero at an end of either axis). */
+PF_TARGET __m256i w4x8_strip(float (*tu)[8], float (*tv)[8], const __m256i *zu,
+                             const __m256i *zv, w4x8_ax *a, __m256i *ok, __m256i *nu,
+                             __m256i *nv)
+{
+    __m256i au, av;
+    __m256i dead = _mm256_or_si256(w4x8_ends(zu, &au, nu), w4x8_ends(zv, &av, nv));
+    *ok = _mm256_andnot_si256(dead, *ok);
+    w4x8_shift(tu, au, *nu);
+    w4x8_shift(tv, av, *nv);
+    a->u0 = _mm256_add_epi32(a->u0, au);
+    a->v0 = _mm256_add_epi32(a->v0, av);
+    a->ou = w4x8_over(a->u0, *nu, a->ru);
+    a->ov = w4x8_over(a->v0, *nv, a->rv);
+    __m256i ends = _mm256_or_si256(_mm256_or_si256(zu[0], zu[3]), _mm256_or_si256(zv[0], zv[3]));
+    return _mm256_and_si256(ends, *ok);
+}
+
 /* 8 queries of a width-4 filter on 1-channel u8 or u16 texels (DT), the block's set-up k
  * (klanes8): the lanes of k->fast that w4_body would serve in its common case (4 x 4 taps,
- * none zero, the window inside the face, total weight > 0), or with w4_tail's strip of a
- * zero tap 0 (w4x8_lead: the window after it inside the face), get w4_body's result, lane by
+ * none zero, the window inside the face, total weight > 0), or with w4_tail's strip of the
+ * zero taps at either end of an axis (w4x8_strip: the window after it inside the face), get
+ * w4_body's result, lane by
  * lane its operations in its order, so bit for bit; out[j] for those lanes j written, their
  * mask returned. The lanes of that case but for a window that overhangs the face get the
  * kernel w4_body hands over in kout[j] and its weight in wout[j], their mask in *over. The other lanes are left alone
@@ -1419,22 +1477,27 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
         return *over = 0;
     float tu[4][8], tv[4][8]; /* the taps: the window's, and the kernels handed over */
     __m256 sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
-    __m256i zv = _mm256_setzero_si256(), zu = zv; /* the lanes whose tap 0 is zero */
+    __m256i zu[4], zv[4]; /* the lanes whose tap t is zero */
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        w4x8_tap(p, a.xv, a.stv, t, tv[t], &sv, &ok, &zv, G);
+        w4x8_tap(p, a.xv, a.stv, t, tv[t], &sv, &zv[t], G);
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        w4x8_tap(p, a.xu, a.stu, t, tu[t], &su, &ok, &zu, G);
+        w4x8_tap(p, a.xu, a.stu, t, tu[t], &su, &zu[t], G);
     /* the weight su sv (pk_weight's (0 + k0 + .. + k3) (0 + ..)) */
     __m256 total = _mm256_mul_ps(su, sv);
-    zu = _mm256_and_si256(zu, ok);
-    zv = _mm256_and_si256(zv, ok);
-    __m256i lead = _mm256_or_si256(zu, zv), hand = ok;
-    if (!G && !_mm256_testz_si256(lead, lead)) {
-        /* tap 0 zero (on a texel centre): w4_tail strips it, a 3-tap axis one texel on,
-         * and tests the window against the face again; of those, the ones still
-         * overhanging are left to the per-query path (not handed over) */
-        w4x8_strip(tu, tv, zu, zv, a.ru, a.rv, &a.u0, &a.v0, &a.ou, &a.ov);
-        hand = _mm256_andnot_si256(lead, ok);
+    __m256i hand = ok, nv = _mm256_set1_epi32(4); /* nv: the rows of each lane's window */
+    if (!G) {
+        __m256i ends = _mm256_or_si256(_mm256_or_si256(zu[0], zu[3]),
+                                       _mm256_or_si256(zv[0], zv[3]));
+        if (!_mm256_testz_si256(ends, ok)) {
+            /* a zero tap at an end (on or near a texel centre: the bicubic family's tap at
+             * distance 2, Catmull-Rom's at 1 too): w4_tail strips the zeros at both ends,
+             * the window moved on by the leading ones, and tests it against the face
+             * again; of those, the ones still overhanging are left to the per-query path
+             * (not handed over) */
+            __m256i nu;
+            __m256i strip = w4x8_strip(tu, tv, zu, zv, &a, &ok, &nu, &nv);
+            hand = _mm256_andnot_si256(strip, ok);
+        }
     }
     /* the window overhangs the face: handed over (w4_tail's hand_over) */
     __m256i out_of = _mm256_or_si256(a.ou, a.ov);
@@ -1458,17 +1521,17 @@ PF_TARGET unsigned w4x8_body(const pk_params *p, const pf_klanes *k, float *out,
     __m256i resu = _mm256_sllv_epi32(one, a.ru);
     __m256i ae, ao, re, ro;
     w4x8_rows(de, dof, a.u0, a.v0, resu, sh, &ae, &ao, &re, &ro);
-    /* w4_tail's window: fma(t, kv_j, col) down the rows from +0. A lane stripped along v has
-     * 3 rows: its fourth (past the face, perhaps past the level) is not read but gathered as
-     * 0 and weighted +0, so col + (+0): col (never -0: a sum from +0). One stripped along u
-     * has its fourth column weighted +0 in the dot: +0, as in w4_tail (integer texels are
-     * finite), read from the row's next texel (inside the face, or the arena's slack) */
-    __m256i me3 = _mm256_slli_epi64(_mm256_andnot_si256(zv, ok), 32),
-            mo3 = _mm256_andnot_si256(zv, ok);
+    /* w4_tail's window: fma(t, kv_j, col) down the rows from +0. A lane stripped along v to
+     * nv rows: its rows from nv on (past the face, perhaps past the level) are not read but
+     * gathered as 0 and weighted +0, so col + (+0): col (never -0: a sum from +0). One
+     * stripped along u to nu taps has its columns from nu on weighted +0 in the dot: +0, as
+     * in w4_tail (integer texels are finite), read from the row's next texels (inside the
+     * face, or the arena's slack) */
     __m256 col[4] = {zf, zf, zf, zf};
     _Pragma("GCC unroll 4") for (int j = 0; j < 4; j++) {
         __m256 t[4];
-        w4x8_row(ae, ao, j == 3 ? me3 : me, j == 3 ? mo3 : mo, DT, t, 4);
+        __m256i mj = j ? _mm256_and_si256(ok, _mm256_cmpgt_epi32(nv, _mm256_set1_epi32(j))) : ok;
+        w4x8_row(ae, ao, j ? _mm256_slli_epi64(mj, 32) : me, j ? mj : mo, DT, t, 4);
         __m256 w = _mm256_loadu_ps(kv[j]);
         _Pragma("GCC unroll 4") for (int i = 0; i < 4; i++)
             col[i] = _mm256_fmadd_ps(t[i], w, col[i]);
@@ -1589,23 +1652,24 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
         return *over = 0;
     float tu[4][8], tv[4][8]; /* the taps, for the kernels handed over */
     __m256 ku[4], kv[4], sv = _mm256_setzero_ps(), su = _mm256_setzero_ps();
-    __m256i zv = _mm256_setzero_si256(), zu = zv; /* the lanes whose tap 0 is zero */
+    __m256i zu[4], zv[4]; /* the lanes whose tap t is zero */
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &ok, &zv, G);
+        kv[t] = w4x8_tap(p, xv, stv, t, tv[t], &sv, &zv[t], G);
     _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++)
-        ku[t] = w4x8_tap(p, xu, stu, t, tu[t], &su, &ok, &zu, G);
+        ku[t] = w4x8_tap(p, xu, stu, t, tu[t], &su, &zu[t], G);
     __m256 total = _mm256_mul_ps(su, sv);
-    zu = _mm256_and_si256(zu, ok);
-    zv = _mm256_and_si256(zv, ok);
-    __m256i lead = _mm256_or_si256(zu, zv), hand = ok;
-    unsigned strip = 0; /* the lanes stripped (w4x8_body's lead) */
-    if (!G && !_mm256_testz_si256(lead, lead)) {
-        if (NC == 1) { /* w4_tail's 1-channel rows: left to the per-query path */
-            ok = hand = _mm256_andnot_si256(lead, ok);
-        } else { /* as w4x8_body; each such lane's window is w4_tail's window_fused */
-            w4x8_strip(tu, tv, zu, zv, ru, rv, &u0, &v0, &ou, &ov);
-            hand = _mm256_andnot_si256(lead, ok);
-            strip = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(lead));
+    __m256i hand = ok, nu = _mm256_set1_epi32(4), nv = nu;
+    unsigned strip = 0; /* the lanes stripped (as in w4x8_body) */
+    if (!G) {
+        __m256i ends = _mm256_or_si256(_mm256_or_si256(zu[0], zu[3]),
+                                       _mm256_or_si256(zv[0], zv[3]));
+        if (!_mm256_testz_si256(ends, ok)) {
+            /* as w4x8_body; each such lane's window is w4_tail's (window_fused, or w4_win1
+             * for 1 channel) on its stripped taps */
+            __m256i sl = w4x8_strip(tu, tv, zu, zv, &a, &ok, &nu, &nv);
+            u0 = a.u0, v0 = a.v0, ou = a.ou, ov = a.ov;
+            hand = _mm256_andnot_si256(sl, ok);
+            strip = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(sl));
             _Pragma("GCC unroll 4") for (int t = 0; t < 4; t++) {
                 ku[t] = _mm256_loadu_ps(tu[t]);
                 kv[t] = _mm256_loadu_ps(tv[t]);
@@ -1651,17 +1715,25 @@ PF_TARGET unsigned w4x8_each(const pk_params *p, const pf_klanes *k, float *out,
         }
         return done;
     }
-    int ZU[8], ZV[8]; /* -1: that axis stripped to 3 taps */
-    _mm256_storeu_si256((__m256i *)(void *)ZU, zu);
-    _mm256_storeu_si256((__m256i *)(void *)ZV, zv);
+    int NU[8], NV[8]; /* the taps of each axis after the strip */
+    _mm256_storeu_si256((__m256i *)(void *)NU, nu);
+    _mm256_storeu_si256((__m256i *)(void *)NV, nv);
     for (unsigned m = done; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
         const uint8_t *base = (const uint8_t *)(uintptr_t)A[j];
-        __m128 acc = strip >> j & 1
-                         ? window_fused(base, (size_t)RB[j], DT, NC, KU + 4 * j, 4 + ZU[j],
-                                        KV + 4 * j, 4 + ZV[j])
-                         : w4x8_win(base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC);
-        w4x8_put(out + (size_t)j * NC, acc, S[j], NC);
+        if (!(strip >> j & 1)) {
+            w4x8_put(out + (size_t)j * NC,
+                     w4x8_win(base, (size_t)RB[j], KU + 4 * j, KV + 4 * j, DT, NC), S[j], NC);
+        } else if (NC == 1) { /* w4_tail's 1-channel window on the lane's taps, +0 past */
+            __m256 kuj = _mm256_zextps128_ps256(_mm_loadu_ps(KU + 4 * j));
+            __m256 kvj = _mm256_zextps128_ps256(_mm_loadu_ps(KV + 4 * j));
+            out[j] = w4_win1(base, (size_t)RB[j], kuj, kvj, NU[j], NV[j], DT) * S[j];
+        } else {
+            w4x8_put(out + (size_t)j * NC,
+                     window_fused(base, (size_t)RB[j], DT, NC, KU + 4 * j, NU[j], KV + 4 * j,
+                                  NV[j]),
+                     S[j], NC);
+        }
     }
     return done;
 }
@@ -2135,9 +2207,71 @@ PF_TARGET int tv_across(const pf_walk *w, tv2 k, const st_face *F, int eid, __m1
     return tv_apply(w, tv_rotate(k, eid - F->adjedge[eid] + 2), F->adjface[eid], acc, DT, NC);
 }
 
-/* corner_small at a regular vertex (valence 4, no subface around it) */
-PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, unsigned DT,
-                        unsigned NC)
+/* corner_other_small (ptexfilter.c: apply_to_corner at a vertex of valence other than 4,
+ * no subface around it) for a one-texel piece k: its ring walk; with two faces or more
+ * between the neighbours the piece rotated, made symmetric (p2_make_symmetric on one texel:
+ * the coarser resolution, the two weights' sum in both, the first scaled down to the
+ * initial weight) and applied on each, *wt adjusted; with none, dropped, its weight
+ * removed from *wt; 0 (decline) with one (a ring open past it: untested), a subface, or a
+ * piece tv_apply declines. */
+PF_TARGET int tv_corner_other(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, float *wt,
+                              unsigned DT, unsigned NC)
+{
+    enum { MAXV = 10 }; /* apply_to_corner's */
+    int af = f, ae = eid, cface[MAXV], cedge[MAXV], ncorners = 0;
+    if (k.nu != 1 || k.nv != 1)
+        return 0;
+    for (int i = 0; i < MAXV; i++) {
+        const st_face *A = &w->faces[af];
+        af = A->adjface[ae];
+        ae = (A->adjedge[ae] + 1) % 4;
+        if (af < 0 || (af == f && ae == eid)) {
+            ncorners = i - 2;
+            break;
+        }
+        if (w->faces[af].flags & ST_FACE_SUBFACE)
+            return 0;
+        cface[i] = af;
+        cedge[i] = ae;
+    }
+    if (ncorners == 1)
+        return 0;
+    if (ncorners < 1) { /* p2_weight of the one-texel piece */
+        *wt -= (0.0f + k.w[0]) * (0.0f + k.w[2]);
+        return 1;
+    }
+    tv2 s = tv_rotate(k, eid + 2);
+    float ku0 = s.w[0], kv0 = s.w[2];
+    float w0 = (0.0f + ku0) * (0.0f + kv0); /* p2_weight */
+    for (; s.lu > s.lv; s.lu--)             /* p2_downres of one tap */
+        s.u /= 2;
+    for (; s.lv > s.lu; s.lv--)
+        s.v /= 2;
+    float sum = ku0 + kv0, a = sum, nw = 0;
+    nw += sum;
+    nw *= nw;
+    float scale = nw == 0 ? 1.f : w0 / nw;
+    if (scale < 1) {
+        if (scale < -1) {
+            a *= -1;
+            nw = -nw;
+        } else {
+            a *= scale;
+            nw = w0;
+        }
+    }
+    s.w = _mm_setr_ps(a, 0.0f, sum, 0.0f);
+    for (int i = 1; i <= ncorners; i++)
+        if (!tv_apply(w, tv_rotate(s, 2 - cedge[i] + 2), cface[i], acc, DT, NC))
+            return 0;
+    *wt += nw * (float)ncorners - w0;
+    return 1;
+}
+
+/* corner_small at a regular vertex (valence 4, no subface around it); at the others
+ * tv_corner_other. */
+PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, float *wt,
+                        unsigned DT, unsigned NC)
 {
     int af = f, ae = eid, cf = -1, ce = 0;
     for (int i = 0; i < 4; i++) {
@@ -2145,7 +2279,7 @@ PF_TARGET int tv_corner(const pf_walk *w, tv2 k, int f, int eid, __m128 *acc, un
         af = A->adjface[ae];
         ae = (A->adjedge[ae] + 1) % 4;
         if (af < 0 || (w->faces[af].flags & ST_FACE_SUBFACE) || (af == f && ae == eid) != (i == 3))
-            return 0;
+            return tv_corner_other(w, k, f, eid, acc, wt, DT, NC);
         if (i == 1) {
             cf = af;
             ce = ae;
@@ -2205,11 +2339,13 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
         (ev >= 0 && (F->adjface[ev] < 0 || k.nv != 2 || k.v != (st ? resv - 1 : -1))))
         return 0; /* a boundary (folds), or not a one-tap overhang */
     __m128 acc = _mm_setzero_ps();
+    /* bilinear_walk's weight: p2_weight, changed at a corner of valence other than 4 */
+    float weight = pk_accumulate(ku, nu) * pk_accumulate(kv, nv);
     if (eu >= 0) {
         tv2 ka = tv_split_u(&k, sr, resu);
         if (ev >= 0) {
             tv2 kc = tv_split_v(&ka, st, resv); /* that piece's corner */
-            if (!tv_corner(w, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0), &acc, DT, NC))
+            if (!tv_corner(w, kc, f, sr ? (st ? 2 : 1) : (st ? 3 : 0), &acc, &weight, DT, NC))
                 return 0;
         }
         if (!tv_across(w, ka, F, eu, &acc, DT, NC))
@@ -2229,7 +2365,7 @@ PF_TARGET int edge2_body(const pf_walk *w, int f, int ulog2, int vlog2, int u, i
                            k.nv, (pf_v4)acc, DT, NC);
     /* bilinear_walk's division: by the total weight (p2_weight) times the type's one value */
     float one = DT == ST_DT_U8 ? 255.0f : DT == ST_DT_U16 ? 65535.0f : 1.0f;
-    float scale = 1.0f / (pk_accumulate(ku, nu) * pk_accumulate(kv, nv) * one);
+    float scale = 1.0f / (weight * one);
     for (unsigned ch = 0; ch < NC; ch++)
         out[ch] = sum[ch] * scale;
     return 1;

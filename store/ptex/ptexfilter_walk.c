@@ -14,7 +14,9 @@
  * kernel at resolution 1 x 1 of at most 2 x 2 taps folds in fold_r0 (two taps an axis, the
  * face's one texel), which pf_walk_kernel_r0 (ptexfilter.c's kernel_r0) reaches at once;
  * it also sums such a kernel's one-texel pieces over a regular corner (lean_two's) or over a
- * boundary and one edge (lean_fold_one's) in one pf_small4 / pf_small2 call.
+ * boundary and one edge (lean_fold_one's) in one pf_small4 / pf_small2 call, and over a
+ * corner without a cornerface (valence 3, or 5 and more: lean_two3's and walk_two's with
+ * corner_other's) in r0_other, its one-texel pk operations written out.
  * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
  * (put_const without the reduction, the flips as reversed sums).
  */
@@ -1076,6 +1078,90 @@ int pf_walk_kernel_cst(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weigh
     return pf_walk_kernel(w, k0, f, acc, weight);
 }
 
+/* pf_walk_kernel_r0's kernel (2 x 2 taps at resolution 1 x 1) over corner c of plain face f
+ * whose vertex has no cornerface (valence other than 4), both edges eu, ev to neighbours:
+ * what lean_two3 (valence 3, the corner's piece dropped) or walk_two with corner() /
+ * corner_other (the rest) does, written out for one-texel pieces, in walk_two's order: the
+ * corner's piece (dropped, its weight removed, at valence 3 or when the ring walk comes back
+ * or stops with no face between the two neighbours; with two or more, made symmetric with
+ * pk_make_symmetric's operations and put on each, the weight adjusted as corner_other
+ * adjusts it; with one, declined), the u edge's piece on au, the v edge's on av, the rest
+ * on f. A rotation of a one-texel piece at resolution 1 reverses one weight (the
+ * same value) and, when odd, swaps the axes. kp*, kr*: the parts past each edge and left on
+ * f. Returns 0 (nothing written) when a face reached is a subface or constant: the general
+ * walk then. */
+__attribute__((noinline)) static int r0_other(const pf_walk *w, int f, int c, int eu, int ev,
+                                              const float *kpu, const float *kru,
+                                              const float *kpv, const float *krv, pf_v4 *acc,
+                                              float *weight)
+{
+    enum { MAXV = 10 }; /* corner_other's */
+    const st_face *faces = w->faces, *F = &faces[f];
+    const unsigned sc = ST_FACE_SUBFACE | ST_FACE_CONSTANT;
+    int au = F->adjface[eu], av = F->adjface[ev];
+    if ((faces[au].flags | faces[av].flags | F->flags) & sc)
+        return 0;
+    int cface[MAXV], cedge[MAXV], ncorners = 0;
+    if (F->valence[c] != 3) { /* corner(): valence 3 drops the piece at once */
+        int af = f, ae = c;
+        for (int i = 0; i < MAXV; i++) { /* corner_other's ring walk */
+            const st_face *A = &faces[af];
+            af = A->adjface[ae];
+            ae = (A->adjedge[ae] + 1) % 4;
+            if (af < 0 || (af == f && ae == c)) {
+                ncorners = i - 2;
+                break;
+            }
+            if (faces[af].flags & sc)
+                return 0;
+            cface[i] = af;
+            cedge[i] = ae;
+        }
+    }
+    /* one face between the neighbours without a cornerface: a ring open at a mesh
+     * boundary past it (no shared file has one: left to the general walk, untested here) */
+    if (ncorners == 1)
+        return 0;
+    const uint8_t *const *px = w->px;
+    const uint64_t *bs = w->base;
+    size_t ts = w->ts;
+    pf_window_fn sm = w->small; /* 1 x 1 windows */
+    pf_v4 a = *acc;
+    float wt = *weight;
+    if (ncorners > 1) {
+        /* pk_rotate(k, c + 2), pk_weight, pk_make_symmetric on the one-texel piece */
+        int r = c + 2;
+        float k0 = r & 1 ? kpv[0] : kpu[0], k1 = r & 1 ? kpu[0] : kpv[0];
+        float w0 = pk_accumulate(&k0, 1) * pk_accumulate(&k1, 1);
+        float sum = k0 + k1, ku = sum, kv = sum, nw = 0;
+        nw += sum;
+        nw *= nw;
+        float scale = nw == 0 ? 1.f : w0 / nw;
+        if (scale < 1) {
+            if (scale < -1) {
+                ku *= -1;
+                nw = -nw;
+            } else {
+                ku *= scale;
+                nw = w0;
+            }
+        }
+        for (int i = 1; i <= ncorners; i++) {
+            int ri = 2 - cedge[i] + 2;
+            a = sm(px[bs[cface[i]]], ts, ri & 1 ? &kv : &ku, 1, ri & 1 ? &ku : &kv, 1, a);
+        }
+        wt += nw * (float)ncorners - w0;
+    } else {
+        wt -= pk_accumulate(kpu, 1) * pk_accumulate(kpv, 1);
+    }
+    int ra = eu - F->adjedge[eu] + 2, rb = ev - F->adjedge[ev] + 2;
+    a = sm(px[bs[au]], ts, ra & 1 ? krv : kpu, 1, ra & 1 ? kpu : krv, 1, a);
+    a = sm(px[bs[av]], ts, rb & 1 ? kpv : kru, 1, rb & 1 ? kru : kpv, 1, a);
+    *acc = sm(px[bs[f]], ts, kru, 1, krv, 1, a);
+    *weight = wt;
+    return 1;
+}
+
 int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
     const st_face *faces = w->faces, *F = &faces[f];
@@ -1113,6 +1199,9 @@ int pf_walk_kernel_r0(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight
                 *acc = w->small4(&t, w->ts, *acc);
                 return 1;
             }
+            /* no cornerface (valence 3, or 5 and more): lean_two3's / walk_two's pieces */
+            if (dg < 0 && r0_other(w, f, c, eu, ev, kpu, kru, kpv, krv, acc, weight))
+                return 1;
         } else if ((au & av) >= 0) {
             /* one edge to a neighbour an, the other at the mesh boundary, an and f neither
              * a subface nor constant: lean_fold_body's case (the overhang 1 < 2 taps): the

@@ -361,7 +361,8 @@ static unsigned check_block(pf_w4x8_fn w8, pf_fast_fn fast, const pk_params *p,
  * (pf_fast_select) on the same queries, for every texel type, channel count 1..4 and width-4
  * filter: blocks of 8 random queries on three faces of different sizes (so each lane reads
  * its own table), widths under a texel, powers of two (4 x 4 taps, the batch's case; half of
- * those on a texel centre, where the bicubic family's tap 0 is zero and stripped) and
+ * those on a texel centre, where the bicubic family's tap 0 is zero and stripped, and
+ * Catmull-Rom's taps 0, 1 and 3 too: (0, 0, 1, 0), stripped at both ends) and
  * arbitrary, some lanes not offered. A lane the batch serves must be one the fused path
  * serves, with the same output bytes (every channel); a lane it hands over one the fused
  * path hands over, with the same kernel and its pk_weight; a lane it leaves alone may be
@@ -371,7 +372,7 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
 {
     (void)state;
     ST_SKIP_WITHOUT_AVX2();
-    long served = 0, handed = 0, left = 0, centred = 0;
+    long served = 0, handed = 0, left = 0, centred = 0, crom = 0, one_fl = 0;
     for (unsigned dt = ST_DT_U8; dt <= ST_DT_F32; dt++)
         for (unsigned nc = 1; nc <= 4; nc++) {
             uint8_t *px[NF][8 * 8];
@@ -415,19 +416,24 @@ static void batch_of_8_is_the_fused_path_bit_for_bit(void **state)
                     }
                     unsigned done = check_block(w8, fast, &p, &k, nc, 0, &served, &handed, &left);
                     for (int j = 0; j < 8; j++)
-                        if (centre[j] && (done >> j & 1) && ft != ST_FILTER_PTEX_GAUSSIAN &&
-                            !(nc == 1 && dt >= ST_DT_HALF))
+                        if (centre[j] && (done >> j & 1) && ft != ST_FILTER_PTEX_GAUSSIAN) {
                             centred++;
+                            crom += ft == ST_FILTER_PTEX_CATMULLROM;
+                            one_fl += nc == 1 && dt >= ST_DT_HALF;
+                        }
                 }
             }
             tables_free(px);
         }
     print_message("%ld lanes served by the batch, identical; %ld handed over, identical; "
                   "%ld left to the per-query path; %ld served on a texel centre (the "
-                  "bicubic family's zero tap 0 stripped)\n", served, handed, left, centred);
+                  "bicubic family's zero taps stripped; Catmull-Rom's %ld, 1-channel half "
+                  "and float %ld)\n", served, handed, left, centred, crom, one_fl);
     assert_true(served > 16 * 4 * 300);  /* every type and channel count is exercised */
     assert_true(handed > 16 * 4 * 20);
-    assert_true(centred > 14 * 4 * 30);  /* w4x8_lead's lanes too */
+    assert_true(centred > 16 * 4 * 30);  /* the strip's lanes too */
+    assert_true(crom > 16 * 30);         /* stripped at both ends */
+    assert_true(one_fl > 2 * 4 * 30);    /* w4x8_each's 1-channel strip */
 }
 
 /* The box filter's 8-query path (pf_box8_select) against the per-query fused path

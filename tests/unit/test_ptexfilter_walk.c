@@ -397,7 +397,9 @@ static void one_texel_kernels_match_the_general_path(void **state)
  * neighbours and their corner is a regular vertex, or one has a neighbour and the other is
  * a mesh boundary, pf_walk_kernel_r0 sums its four (two) one-texel windows in one
  * pf_small4 (pf_small2) call, the weights swapped by odd rotations, the boundary axis
- * folded (dropped at a black border). Widths of a face or more, the axes alike or not, (u, v)
+ * folded (dropped at a black border); where their corner has no cornerface (valence 3:
+ * dropped; 5 and more: shared, made symmetric), r0_other (session 30) sums the pieces in
+ * walk_two's order. Widths of a face or more, the axes alike or not, (u, v)
  * anywhere; files with rotated neighbours of every rotation (cube8_k6_u8_rot), 1 to 4
  * channels of u8 to float (cube8_k7varrot_f32, teapot, rand_lo: u16), mesh boundaries
  * (rand_lo, holeycube), valence-3 and 5 corners (cube1_k6_u8, holeycube: no cornerface);
