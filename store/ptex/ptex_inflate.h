@@ -64,14 +64,17 @@ enum {
 
 /* root table bits at most: literal/length, distance codes (small tables: a small stream
  * decodes a few hundred symbols, and the tables are on the stack) */
-enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 9, PI_DIST_RMAX = 7 };
+enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 10, PI_DIST_RMAX = 8 };
 
 
 typedef struct pi_huff {
     uint16_t count[16];         /* codes of each length; count[0] unused symbols */
+    uint16_t first[16];         /* the canonical code of each length's first symbol */
+    uint16_t index[16];         /* sym[] position of each length's first symbol */
     uint16_t *sym;              /* symbols by (length, value): canonical order */
-    uint16_t *root;             /* 1 << rbits entries */
+    uint16_t *root;             /* 1 << rbits entries: symbol << 4 | length; 0: longer code */
     unsigned rbits, mask;       /* mask = (1 << rbits) - 1 */
+    unsigned maxlen;            /* the longest code's length */
 } pi_huff;
 
 typedef struct pi_bits {
@@ -134,14 +137,20 @@ static const uint8_t *pi_align(pi_bits *s)
     return s->p - (inbuf - s->over);
 }
 
-/* Builds h from n code lengths (0..15); rmax caps the root table. 0, or -1 for an
- * over-subscribed or (as zlib) an incomplete code. */
+/* Builds h from n code lengths (0..15); rmax caps the root table; cnt: the lengths' counts
+ * when the caller has them (the code-length decoder counts runs), or NULL. 0, or -1 for an
+ * over-subscribed or (as zlib) an incomplete code. h->sym has room for n symbols. */
 STU_LOADPATH
-static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind)
+static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, int kind,
+                    const uint16_t *cnt)
 {
-    memset(h->count, 0, sizeof h->count);
-    for (unsigned i = 0; i < n; i++)
-        h->count[lens[i]]++;
+    if (cnt) {
+        memcpy(h->count, cnt, sizeof h->count);
+    } else {
+        memset(h->count, 0, sizeof h->count);
+        for (unsigned i = 0; i < n; i++)
+            h->count[lens[i]]++;
+    }
     unsigned maxlen = 0;
     int left = 1;
     for (unsigned len = 1; len < 16; len++) {
@@ -156,40 +165,77 @@ static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, 
         return -1; /* incomplete: only a single code of length 1 may be (no code at all is
                       allowed too: any symbol decoded then fails) */
     uint16_t offs[16];
+    h->first[1] = 0;
+    h->index[1] = 0;
     offs[1] = 0;
-    for (unsigned len = 1; len < 15; len++)
-        offs[len + 1] = (uint16_t)(offs[len] + h->count[len]);
+    for (unsigned len = 1; len < 15; len++) {
+        h->first[len + 1] = (uint16_t)((h->first[len] + h->count[len]) << 1);
+        h->index[len + 1] = offs[len + 1] = (uint16_t)(h->index[len] + h->count[len]);
+    }
+    /* symbols of length 0 go past the coded ones (no branch on the length) */
+    offs[0] = (uint16_t)(h->index[15] + h->count[15]);
     for (unsigned i = 0; i < n; i++)
-        if (lens[i])
-            h->sym[offs[lens[i]]++] = (uint16_t)i;
+        h->sym[offs[lens[i]]++] = (uint16_t)i;
     unsigned rb = maxlen < rmax ? maxlen : rmax;
     h->rbits = rb;
     h->mask = (1u << rb) - 1;
-    /* the codes in canonical order: one of up to rb bits fills its bit-reversed code (the
-     * stream's bit order) and every entry that has it as its low bits; a longer one zeroes
-     * the entry of its first rb bits (decoded bit by bit then). rc is the reversed code,
-     * incremented in reversed order (a longer code extends it with zero bits). Every entry
-     * is written so (a complete code covers the table), but for the two codes allowed
-     * incomplete: none (root[0]) and one code of length 1 (root[1]). */
-    h->root[0] = 0;
-    if (left > 0 && maxlen == 1)
-        h->root[1] = 0;
+    h->maxlen = maxlen;
+    /* The root table grows by doubling: while its size is 2^len, entry j holds the code of
+     * at most len bits whose bit-reversed value (the stream's bit order) is j mod 2^its
+     * length, or 0. Doubling it (a copy of its lower half into its upper half) keeps that
+     * true for the codes already in it; then each code of length len + 1 has exactly one
+     * entry to write. So the table costs one store per code of up to rb bits and one copy
+     * of 2^rb entries in all, instead of 2^(rb - len) stores per code. An entry left 0 is the
+     * prefix of a longer code (decoded canonically: pi_decode) or no code at all (for the
+     * two codes allowed incomplete). rc is the code's reversed value, incremented in
+     * reversed order (a longer code extends it with zero bits: the same value). */
+    uint16_t *t = h->root;
+    t[0] = 0;
+    t[1] = 0;
     unsigned rc = 0, k = 0;
-    for (unsigned len = 1; len <= maxlen; len++)
-        for (unsigned c = 0; c < h->count[len]; c++, k++) {
-            if (len <= rb) {
-                uint16_t e = (uint16_t)(len << 9 | h->sym[k]);
-                for (unsigned j = rc; j <= h->mask; j += 1u << len)
-                    h->root[j] = e;
+    for (unsigned len = 1; len <= rb; len++) {
+        if (len > 1) {
+            unsigned half = 1u << (len - 1);
+            if (half >= 4) {
+                for (unsigned j = 0; j < half; j += 4) {
+                    uint64_t v;
+                    memcpy(&v, t + j, 8);
+                    memcpy(t + half + j, &v, 8);
+                }
             } else {
-                h->root[rc & h->mask] = 0;
+                for (unsigned j = 0; j < half; j++)
+                    t[half + j] = t[j];
             }
+        }
+        for (unsigned c = 0; c < h->count[len]; c++, k++) {
+            t[rc] = (uint16_t)(h->sym[k] << 4 | len);
             unsigned inc = 1u << (len - 1);
             while (rc & inc)
                 inc >>= 1;
             rc = inc ? (rc & (inc - 1)) + inc : 0;
         }
+    }
     return 0;
+}
+
+/* A code longer than the root table: canonically, one length after the other from the
+ * root's bits + 1 (the buffer holds at least 15 bits); -1 for a bit pattern that is no code
+ * (an incomplete or empty code). */
+static inline unsigned pi_rev8(unsigned x);
+__attribute__((noinline))
+static int pi_decode_long(pi_bits *s, const pi_huff *h)
+{
+    unsigned x = (unsigned)s->bb;
+    unsigned rev = (pi_rev8(x) << 8 | pi_rev8(x >> 8)) >> 1; /* the next 15 bits, first at
+                                                                bit 14 */
+    for (unsigned len = h->rbits + 1; len <= h->maxlen; len++) {
+        unsigned c = (rev >> (15 - len)) - h->first[len];
+        if (c < h->count[len]) {
+            pi_take(s, len);
+            return h->sym[h->index[len] + c];
+        }
+    }
+    return -1;
 }
 
 /* The next symbol of h (the buffer holds at least 15 bits); -1 for a bit pattern that is no
@@ -198,23 +244,10 @@ static inline int pi_decode(pi_bits *s, const pi_huff *h)
 {
     unsigned e = h->root[s->bb & h->mask];
     if (e) {
-        pi_take(s, e >> 9);
-        return (int)(e & 511);
+        pi_take(s, e & 15);
+        return (int)(e >> 4);
     }
-    int code = 0, first = 0, index = 0;
-    for (unsigned len = 1; len < 16; len++) {
-        code |= (int)((s->bb >> (len - 1)) & 1);
-        int count = h->count[len];
-        if (code - count < first) {
-            pi_take(s, len);
-            return h->sym[index + (code - first)];
-        }
-        index += count;
-        first += count;
-        first <<= 1;
-        code <<= 1;
-    }
-    return -1;
+    return pi_decode_long(s, h);
 }
 
 /* The low 8 bits of x in reverse order. */
@@ -253,82 +286,165 @@ static inline int pi_fixed_dist(pi_bits *s)
     return (int)(pi_rev8(pi_take(s, 5)) >> 3);
 }
 
+/* Copies a match of len bytes from d bytes back (d <= o, len <= outlen - o). */
+static inline void pi_copy(uint8_t *out, size_t o, size_t outlen, size_t d, unsigned len)
+{
+    const uint8_t *from = out + o - d;
+    uint8_t *to = out + o;
+    if (d >= 8 && outlen - o >= len + 8) {
+        /* 8 bytes a step, each read at least 8 behind its write (already written even
+         * when the match overlaps itself); up to 7 bytes past the match are written and
+         * later overwritten (there is room) */
+        for (unsigned i = 0; i < len; i += 8)
+            memcpy(to + i, from + i, 8);
+    } else if (outlen - o >= (size_t)len + 16) {
+        /* a short distance: the first dd bytes one by one (dd the multiple of d from 8
+         * to 14), then 8 bytes a step from dd behind (the same bytes: dd is a period) */
+        unsigned dd = (unsigned)d * ((8 + (unsigned)d - 1) / (unsigned)d);
+        for (unsigned i = 0; i < dd; i++)
+            to[i] = from[i];
+        for (unsigned i = dd; i < len; i += 8)
+            memcpy(to + i, to + i - dd, 8);
+    } else {
+        for (unsigned i = 0; i < len; i++)
+            to[i] = from[i];
+    }
+}
+
+/* A length symbol's match (sym 257..285 checked here): its length's extra bits, the
+ * distance code and its extra bits (the buffer is refilled first), then the copy. */
+__attribute__((always_inline))
+static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fix, uint8_t *out,
+                           size_t outlen, size_t *po, const char **why)
+{
+    size_t o = *po;
+    if (s->bc < 33)
+        pi_refill(s); /* length extra bits, distance code and its extra bits */
+    unsigned li = sym - 257, len;
+    if (li >= 29) {
+        *why = "invalid literal/length code";
+        return ST_PTX_INFL_BAD;
+    }
+    if (li < 8) {
+        len = 3 + li;
+    } else if (li == 28) {
+        len = 258;
+    } else {
+        unsigned x = (li >> 2) - 1;
+        len = ((4 + (li & 3)) << x) + 3 + pi_take(s, x);
+    }
+    int ds = fix ? pi_fixed_dist(s) : pi_decode(s, dist);
+    if (ds < 0 || ds >= 30) {
+        *why = "invalid distance code";
+        return ST_PTX_INFL_BAD;
+    }
+    size_t d;
+    if (ds < 4) {
+        d = (size_t)ds + 1;
+    } else {
+        unsigned x = ((unsigned)ds >> 1) - 1;
+        d = ((size_t)(2 + (ds & 1)) << x) + 1 + pi_take(s, x);
+    }
+    if (d > o) {
+        *why = "invalid distance too far back";
+        return ST_PTX_INFL_BAD;
+    }
+    if (len > outlen - o)
+        return ST_PTX_INFL_OVER;
+    pi_copy(out, o, outlen, d, len);
+    *po = o + len;
+    return ST_PTX_INFL_OK;
+}
+
 /* Inflates one block's codes into out: with lit / dist, or the fixed code (fix, a constant
  * at each call: two copies). */
 static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix,
                            uint8_t *out, size_t outlen, size_t *pos, const char **why)
 {
     size_t o = *pos;
-    for (;;) {
-        if (s->bc < 15)
-            pi_refill(s); /* a code: literals take several per refill */
-        int sym = fix ? pi_fixed_lit(s) : pi_decode(s, lit);
-        if (sym < 256) {
-            if (sym < 0) {
-                *why = "invalid literal/length code";
-                return ST_PTX_INFL_BAD;
+    if (fix) {
+        for (;;) {
+            if (s->bc < 15)
+                pi_refill(s); /* a code: literals take several per refill */
+            int sym = pi_fixed_lit(s);
+            if (sym < 256) {
+                if (o == outlen)
+                    return ST_PTX_INFL_OVER;
+                out[o++] = (uint8_t)sym;
+                continue;
             }
-            if (o == outlen)
-                return ST_PTX_INFL_OVER;
-            out[o++] = (uint8_t)sym;
-            continue;
+            if (sym == 256)
+                break;
+            int rc = pi_match(s, (unsigned)sym, NULL, 1, out, outlen, &o, why);
+            if (rc)
+                return rc;
         }
-        if (sym == 256)
-            break;
-        if (s->bc < 33)
-            pi_refill(s); /* length extra bits, distance code and its extra bits */
-        unsigned li = (unsigned)sym - 257, len;
-        if (li >= 29) {
-            *why = "invalid literal/length code";
-            return ST_PTX_INFL_BAD;
+    } else {
+        /* the bit buffer in locals: the byte stores to out may alias *s, so with the buffer
+         * in *s the compiler reloads it after every literal */
+        const uint16_t *root = lit->root;
+        const uint64_t mask = lit->mask;
+        uint64_t bb = s->bb;
+        unsigned bc = s->bc;
+        const uint8_t *p = s->p, *end = s->end;
+        for (;;) {
+            if (bc < 30) { /* two codes of the root (at most 15 bits each) */
+                if (end - p >= 8) {
+                    bb |= pi_rd64le(p) << bc;
+                    p += (63 - bc) >> 3;
+                    bc |= 56;
+                } else {
+                    s->bb = bb, s->bc = bc, s->p = p;
+                    pi_refill(s);
+                    bb = s->bb, bc = s->bc, p = s->p;
+                }
+            }
+            unsigned e = root[bb & mask];
+            if (e - 1 < 0xfffu) { /* a literal of the root table: two in a row */
+                bb >>= e & 15;
+                bc -= e & 15;
+                if (o == outlen)
+                    return ST_PTX_INFL_OVER;
+                out[o++] = (uint8_t)(e >> 4);
+                e = root[bb & mask];
+                if (e - 1 < 0xfffu) {
+                    bb >>= e & 15;
+                    bc -= e & 15;
+                    if (o == outlen)
+                        return ST_PTX_INFL_OVER;
+                    out[o++] = (uint8_t)(e >> 4);
+                    continue;
+                }
+            }
+            int sym;
+            if (e) {
+                bb >>= e & 15;
+                bc -= e & 15;
+                sym = (int)(e >> 4);
+            } else {
+                s->bb = bb, s->bc = bc, s->p = p;
+                sym = pi_decode_long(s, lit);
+                bb = s->bb, bc = s->bc;
+            }
+            if (sym < 256) {
+                if (sym < 0) {
+                    *why = "invalid literal/length code";
+                    return ST_PTX_INFL_BAD;
+                }
+                if (o == outlen)
+                    return ST_PTX_INFL_OVER;
+                out[o++] = (uint8_t)sym;
+                continue;
+            }
+            if (sym == 256)
+                break;
+            s->bb = bb, s->bc = bc, s->p = p;
+            int rc = pi_match(s, (unsigned)sym, dist, 0, out, outlen, &o, why);
+            if (rc)
+                return rc;
+            bb = s->bb, bc = s->bc, p = s->p;
         }
-        if (li < 8) {
-            len = 3 + li;
-        } else if (li == 28) {
-            len = 258;
-        } else {
-            unsigned x = (li >> 2) - 1;
-            len = ((4 + (li & 3)) << x) + 3 + pi_take(s, x);
-        }
-        int ds = fix ? pi_fixed_dist(s) : pi_decode(s, dist);
-        if (ds < 0 || ds >= 30) {
-            *why = "invalid distance code";
-            return ST_PTX_INFL_BAD;
-        }
-        size_t d;
-        if (ds < 4) {
-            d = (size_t)ds + 1;
-        } else {
-            unsigned x = ((unsigned)ds >> 1) - 1;
-            d = ((size_t)(2 + (ds & 1)) << x) + 1 + pi_take(s, x);
-        }
-        if (d > o) {
-            *why = "invalid distance too far back";
-            return ST_PTX_INFL_BAD;
-        }
-        if (len > outlen - o)
-            return ST_PTX_INFL_OVER;
-        const uint8_t *from = out + o - d;
-        uint8_t *to = out + o;
-        if (d >= 8 && outlen - o >= len + 8) {
-            /* 8 bytes a step, each read at least 8 behind its write (already written even
-             * when the match overlaps itself); up to 7 bytes past the match are written and
-             * later overwritten (there is room) */
-            for (unsigned i = 0; i < len; i += 8)
-                memcpy(to + i, from + i, 8);
-        } else if (outlen - o >= (size_t)len + 16) {
-            /* a short distance: the first dd bytes one by one (dd the multiple of d from 8
-             * to 14), then 8 bytes a step from dd behind (the same bytes: dd is a period) */
-            unsigned dd = (unsigned)d * ((8 + (unsigned)d - 1) / (unsigned)d);
-            for (unsigned i = 0; i < dd; i++)
-                to[i] = from[i];
-            for (unsigned i = dd; i < len; i += 8)
-                memcpy(to + i, to + i - dd, 8);
-        } else {
-            for (unsigned i = 0; i < len; i++)
-                to[i] = from[i];
-        }
-        o += len;
+        s->bb = bb, s->bc = bc, s->p = p;
     }
     *pos = o;
     if (pi_overran(s)) {
@@ -368,12 +484,14 @@ static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, cons
                              : (unsigned)(ord1 >> (5 * (i - 12))) & 31;
         lens[at] = (uint8_t)pi_take(s, 3);
     }
-    if (pi_build(lit, lens, 19, 7, PI_CODES)) {
+    if (pi_build(lit, lens, 19, 7, PI_CODES, NULL)) {
         *why = "invalid code lengths set";
         return ST_PTX_INFL_BAD;
     }
     unsigned n = nlen + ndist;
     uint8_t cl[286 + 30];
+    uint16_t cnt[2][16]; /* the literal/length and the distance lengths' counts */
+    memset(cnt, 0, sizeof cnt);
     for (unsigned i = 0; i < n;) {
         if (s->bc < 14)
             pi_refill(s);
@@ -383,6 +501,7 @@ static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, cons
             return ST_PTX_INFL_BAD;
         }
         if (sym < 16) {
+            cnt[i >= nlen][sym]++;
             cl[i++] = (uint8_t)sym;
             continue;
         }
@@ -406,6 +525,12 @@ static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, cons
         }
         for (unsigned k = 0; k < rep; k++)
             cl[i + k] = v;
+        if (i + rep <= nlen || i >= nlen) {
+            cnt[i >= nlen][v] = (uint16_t)(cnt[i >= nlen][v] + rep);
+        } else { /* a run across the two codes' lengths */
+            cnt[0][v] = (uint16_t)(cnt[0][v] + nlen - i);
+            cnt[1][v] = (uint16_t)(cnt[1][v] + i + rep - nlen);
+        }
         i += rep;
     }
     if (pi_overran(s)) {
@@ -416,11 +541,11 @@ static int pi_dynamic(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, cons
         *why = "invalid code -- missing end-of-block";
         return ST_PTX_INFL_BAD;
     }
-    if (pi_build(lit, cl, nlen, PI_LIT_RMAX, PI_LIT)) {
+    if (pi_build(lit, cl, nlen, PI_LIT_RMAX, PI_LIT, cnt[0])) {
         *why = "invalid literal/lengths set";
         return ST_PTX_INFL_BAD;
     }
-    if (pi_build(dist, cl + nlen, ndist, PI_DIST_RMAX, PI_DIST)) {
+    if (pi_build(dist, cl + nlen, ndist, PI_DIST_RMAX, PI_DIST, cnt[1])) {
         *why = "invalid distances set";
         return ST_PTX_INFL_BAD;
     }
