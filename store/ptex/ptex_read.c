@@ -61,7 +61,7 @@
 #define PTX_SMALL_DYN_BYTES 2048u
 #endif
 #ifndef PTX_SMALL_LEVEL0
-#define PTX_SMALL_LEVEL0 32768u /* zipped bytes of level 0 */
+#define PTX_SMALL_LEVEL0 131072u /* zipped bytes of level 0 (or of the deferred levels) */
 #endif
 
 typedef struct rd {
@@ -427,6 +427,7 @@ typedef struct pend {
     uint32_t first[PTX_MAX_LEVELS + 1]; /* blk[first[l], first[l+1]) are level l's (l >= 1) */
     uint64_t lend[PTX_MAX_LEVELS];      /* file offset where level l ends */
     unsigned nlevels;
+    int dyn_all;                /* the stored reductions are small: all through ptex_inflate.h */
     uint8_t *constdata;         /* nfaces texels */
 } pend;
 
@@ -464,7 +465,7 @@ static int pend_make(st_set *s, void *p, st_error *e)
 {
     pend *d = p;
     rd R = {.buf = d->zip, .len = d->zlen, .origin = d->origin, .max_bytes = d->max_bytes,
-            .dt = d->dt, .nc = d->nc, .tri = (int)d->tri, .e = e};
+            .dt = d->dt, .nc = d->nc, .tri = (int)d->tri, .e = e, .dyn_all = d->dyn_all};
     rd *r = &R;
     r->csize = st_dtype_size(d->dt);
     r->psize = r->csize * d->nc;
@@ -1033,6 +1034,8 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
     r->dry = 0;
     if (pd) {
         pd->nlevels = nlevels;
+        /* pd->origin: where level 1 starts (until the file buffer is kept below) */
+        pd->dyn_all = nlevels > 1 && lpos - pd->origin <= PTX_SMALL_LEVEL0;
         pd->first[nlevels > 1 ? nlevels : 1] = (uint32_t)pd->nblk;
         /* the blocks, when one is kept: the file buffer itself, or a copy of the level data
          * from level 1 on */
