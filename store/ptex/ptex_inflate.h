@@ -53,6 +53,10 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define PI_AVX2 1 /* an AVX2 Adler-32 when the CPU has it (target attribute, runtime check) */
+#endif
 
 #include "loadpath.h"
 
@@ -291,7 +295,17 @@ static inline void pi_copy(uint8_t *out, size_t o, size_t outlen, size_t d, unsi
 {
     const uint8_t *from = out + o - d;
     uint8_t *to = out + o;
-    if (d >= 8 && outlen - o >= len + 8) {
+    if (d >= 16 && outlen - o >= len + 16) {
+        /* 16 bytes a step, each read at least 16 behind its write; up to 15 bytes past
+         * the match written and later overwritten */
+        for (unsigned i = 0; i < len; i += 16) {
+            uint64_t v0, v1;
+            memcpy(&v0, from + i, 8);
+            memcpy(&v1, from + i + 8, 8);
+            memcpy(to + i, &v0, 8);
+            memcpy(to + i + 8, &v1, 8);
+        }
+    } else if (d >= 8 && outlen - o >= len + 8) {
         /* 8 bytes a step, each read at least 8 behind its write (already written even
          * when the match overlaps itself); up to 7 bytes past the match are written and
          * later overwritten (there is room) */
@@ -313,7 +327,6 @@ static inline void pi_copy(uint8_t *out, size_t o, size_t outlen, size_t d, unsi
 
 /* A length symbol's match (sym 257..285 checked here): its length's extra bits, the
  * distance code and its extra bits (the buffer is refilled first), then the copy. */
-__attribute__((always_inline))
 static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fix, uint8_t *out,
                            size_t outlen, size_t *po, const char **why)
 {
@@ -438,11 +451,65 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
             }
             if (sym == 256)
                 break;
-            s->bb = bb, s->bc = bc, s->p = p;
-            int rc = pi_match(s, (unsigned)sym, dist, 0, out, outlen, &o, why);
-            if (rc)
-                return rc;
-            bb = s->bb, bc = s->bc, p = s->p;
+            /* a match (pi_match's steps, on the local buffer) */
+            if (bc < 33) { /* length extra bits, distance code and its extra bits */
+                if (end - p >= 8) {
+                    bb |= pi_rd64le(p) << bc;
+                    p += (63 - bc) >> 3;
+                    bc |= 56;
+                } else {
+                    s->bb = bb, s->bc = bc, s->p = p;
+                    pi_refill(s);
+                    bb = s->bb, bc = s->bc, p = s->p;
+                }
+            }
+            unsigned li = (unsigned)sym - 257, len;
+            if (li >= 29) {
+                *why = "invalid literal/length code";
+                return ST_PTX_INFL_BAD;
+            }
+            if (li < 8) {
+                len = 3 + li;
+            } else if (li == 28) {
+                len = 258;
+            } else {
+                unsigned x = (li >> 2) - 1;
+                len = ((4 + (li & 3)) << x) + 3 + (unsigned)(bb & ((1u << x) - 1));
+                bb >>= x;
+                bc -= x;
+            }
+            unsigned de = dist->root[bb & dist->mask];
+            int ds;
+            if (de) {
+                bb >>= de & 15;
+                bc -= de & 15;
+                ds = (int)(de >> 4);
+            } else {
+                s->bb = bb, s->bc = bc, s->p = p;
+                ds = pi_decode_long(s, dist);
+                bb = s->bb, bc = s->bc;
+            }
+            if ((unsigned)ds >= 30) {
+                *why = "invalid distance code";
+                return ST_PTX_INFL_BAD;
+            }
+            size_t d;
+            if (ds < 4) {
+                d = (size_t)ds + 1;
+            } else {
+                unsigned x = ((unsigned)ds >> 1) - 1;
+                d = ((size_t)(2 + (ds & 1)) << x) + 1 + (size_t)(bb & ((1u << x) - 1));
+                bb >>= x;
+                bc -= x;
+            }
+            if (d > o) {
+                *why = "invalid distance too far back";
+                return ST_PTX_INFL_BAD;
+            }
+            if (len > outlen - o)
+                return ST_PTX_INFL_OVER;
+            pi_copy(out, o, outlen, d, len);
+            o += len;
         }
         s->bb = bb, s->bc = bc, s->p = p;
     }
@@ -557,12 +624,57 @@ static int pi_fixed(pi_bits *s, uint8_t *out, size_t outlen, size_t *pos, const 
     return pi_codes(s, NULL, NULL, 1, out, outlen, pos, why);
 }
 
+#ifdef PI_AVX2
+/* The Adler-32 sums over k32 bytes (a multiple of 32, at most 5552), 32 bytes a step: b
+ * gains k32 * a (the a it starts with), 32 times the bytes summed before each step, and each
+ * step's bytes weighted 32..1 (pairs of bytes times weights summed into 16 bits, then into
+ * 32). Sums not reduced modulo 65521 here. */
+__attribute__((target("avx2")))
+static void pi_adler32_avx2(const uint8_t *p, size_t k32, uint64_t *pa, uint64_t *pb)
+{
+    const __m256i zero = _mm256_setzero_si256();
+    const __m256i w = _mm256_setr_epi8(32, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19,
+                                       18, 17, 16, 15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4,
+                                       3, 2, 1);
+    const __m256i ones = _mm256_set1_epi16(1);
+    __m256i va = zero, vp = zero, vb = zero;
+    for (size_t i = 0; i < k32; i += 32) {
+        __m256i v = _mm256_loadu_si256((const __m256i *)(const void *)(p + i));
+        vp = _mm256_add_epi64(vp, va);
+        va = _mm256_add_epi64(va, _mm256_sad_epu8(v, zero));
+        vb = _mm256_add_epi32(vb, _mm256_madd_epi16(_mm256_maddubs_epi16(v, w), ones));
+    }
+    __m128i a2 = _mm_add_epi64(_mm256_castsi256_si128(va), _mm256_extracti128_si256(va, 1));
+    __m128i p2 = _mm_add_epi64(_mm256_castsi256_si128(vp), _mm256_extracti128_si256(vp, 1));
+    __m128i b4 = _mm_add_epi32(_mm256_castsi256_si128(vb), _mm256_extracti128_si256(vb, 1));
+    b4 = _mm_add_epi32(b4, _mm_shuffle_epi32(b4, _MM_SHUFFLE(1, 0, 3, 2)));
+    b4 = _mm_add_epi32(b4, _mm_shuffle_epi32(b4, _MM_SHUFFLE(2, 3, 0, 1)));
+    uint64_t sa = (uint64_t)_mm_cvtsi128_si64(a2) +
+                  (uint64_t)_mm_cvtsi128_si64(_mm_unpackhi_epi64(a2, a2));
+    uint64_t sp = (uint64_t)_mm_cvtsi128_si64(p2) +
+                  (uint64_t)_mm_cvtsi128_si64(_mm_unpackhi_epi64(p2, p2));
+    *pb += *pa * k32 + 32 * sp + (uint32_t)_mm_cvtsi128_si32(b4);
+    *pa += sa;
+}
+#endif
+
 static uint32_t pi_adler32(const uint8_t *p, size_t n)
 {
     uint64_t a = 1, b = 0;
+#ifdef PI_AVX2
+    int avx2 = n >= 64 && __builtin_cpu_supports("avx2"); /* what libgcc found at start-up */
+#endif
     while (n) {
         size_t k = n < 5552 ? n : 5552; /* the most bytes before b can overflow 32 bits */
         n -= k;
+#ifdef PI_AVX2
+        if (avx2 && k >= 32) {
+            size_t k32 = k & ~(size_t)31;
+            pi_adler32_avx2(p, k32, &a, &b);
+            p += k32;
+            k -= k32;
+        }
+#endif
 #if defined(__SSE2__)
         /* 16 bytes a step: over a chunk of k bytes b gains k * a (the a it starts with),
          * 16 times the bytes summed before each step, and each step's bytes weighted 16..1 */

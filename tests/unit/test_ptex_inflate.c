@@ -335,6 +335,27 @@ static void hand_made_streams_get_their_refusals(void **state)
     expect_refused(&w, 8, "invalid or truncated deflate data");
 }
 
+/* Matches from far back (distance codes 24-29, 11-13 extra bits): noise, then the same noise
+ * again d0 bytes later, with a few bytes changed so that it is several matches */
+static void far_matches(void **state)
+{
+    (void)state;
+    static const size_t d0s[] = {2100, 3000, 7000, 9000, 12000, 16000, 16385, 19990};
+    for (size_t t = 0; t < sizeof d0s / sizeof d0s[0]; t++) {
+        size_t n = MAXN, d0 = d0s[t];
+        for (size_t i = 0; i < n; i++)
+            src[i] = (uint8_t)(i < d0 || rnd() % 97 == 0 ? rnd() : src[i - d0]);
+        size_t zl = zip(n, 6, Z_DEFAULT_STRATEGY, 0);
+        size_t g = 0;
+        const char *why = NULL;
+        memset(got, 0xa5, n + 1);
+        assert_int_equal(st_ptx_inflate(z, zl, got, n, &g, &why), ST_PTX_INFL_OK);
+        assert_int_equal(g, n);
+        assert_memory_equal(got, src, n);
+        assert_int_equal(got[n], 0xa5);
+    }
+}
+
 /* canonical codes (RFC 1951 3.2.2) of n code lengths */
 static void canon(const uint8_t *lens, unsigned n, unsigned *codes)
 {
@@ -435,6 +456,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(dynamic_repeats_across_the_two_codes),
+        cmocka_unit_test(far_matches),
         cmocka_unit_test(inflates_every_stream_zlib_makes),
         cmocka_unit_test(damaged_streams_get_zlibs_outcome),
         cmocka_unit_test(hand_made_streams_get_their_refusals),
