@@ -746,6 +746,12 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         lmddata = len; /* unused when lmdmem is 0; keeps the sums below from wrapping */
     pos += lmddata;
 
+    /* a small level 0: every stream of the file through ptex_inflate.h, dynamic ones too,
+     * from the face info on (on small streams it is the faster of the two since session 30,
+     * and libdeflate's first use in a process - its code, its decompressor - costs 100-200
+     * us); the level info lies inside the file (it ends where the level data starts) */
+    r->dyn_all = ptx_rd64(b + lipos) <= PTX_SMALL_LEVEL0;
+
     /* face info */
     size_t fibytes = (size_t)nfaces * PTX_FACEINFO_SIZE;
     if (!zip_bound_ok(fisize, fibytes))
@@ -949,10 +955,6 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         goto done;
     }
     uint64_t lpos = ldpos, lend_all = ldpos + ldsize;
-    /* a small level 0: every stream of it through ptex_inflate.h, dynamic ones too (its
-     * per-byte cost over libdeflate's, about 8 instructions a zipped byte, stays under
-     * libdeflate's first use in a process: its code and decompressor, 100-200 us) */
-    r->dyn_all = ptx_rd64(b + lipos) <= PTX_SMALL_LEVEL0;
     for (unsigned l = 0; l < nlevels; l++) {
         if (pd && l > 0) {
             pd->first[l] = (uint32_t)pd->nblk;
