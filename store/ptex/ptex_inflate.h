@@ -76,7 +76,8 @@ typedef struct pi_huff {
     uint16_t first[16];         /* the canonical code of each length's first symbol */
     uint16_t index[16];         /* sym[] position of each length's first symbol */
     uint16_t *sym;              /* symbols by (length, value): canonical order */
-    uint16_t *root;             /* 1 << rbits entries: symbol << 4 | length; 0: longer code */
+    uint16_t *root;             /* 1 << rbits entries: symbol << 6 | length (the low 6 bits
+                                   a shift count as x86 takes it); 0: longer code */
     unsigned rbits, mask;       /* mask = (1 << rbits) - 1 */
     unsigned maxlen;            /* the longest code's length */
 } pi_huff;
@@ -212,7 +213,7 @@ static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, 
             }
         }
         for (unsigned c = 0; c < h->count[len]; c++, k++) {
-            t[rc] = (uint16_t)(h->sym[k] << 4 | len);
+            t[rc] = (uint16_t)(h->sym[k] << 6 | len);
             unsigned inc = 1u << (len - 1);
             while (rc & inc)
                 inc >>= 1;
@@ -248,8 +249,8 @@ static inline int pi_decode(pi_bits *s, const pi_huff *h)
 {
     unsigned e = h->root[s->bb & h->mask];
     if (e) {
-        pi_take(s, e & 15);
-        return (int)(e >> 4);
+        pi_take(s, e & 63);
+        return (int)(e >> 6);
     }
     return pi_decode_long(s, h);
 }
@@ -401,39 +402,49 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
         unsigned bc = s->bc;
         const uint8_t *p = s->p, *end = s->end;
         for (;;) {
-            if (bc < 30) { /* two codes of the root (at most 15 bits each) */
-                if (end - p >= 8) {
-                    bb |= pi_rd64le(p) << bc;
-                    p += (63 - bc) >> 3;
-                    bc |= 56;
-                } else {
-                    s->bb = bb, s->bc = bc, s->p = p;
-                    pi_refill(s);
-                    bb = s->bb, bc = s->bc, p = s->p;
-                }
+            /* the buffer refilled at every step, without a branch while 8 input bytes are
+             * left (bits above bc are 0 or the next ones: OR-ing them again is harmless):
+             * at least 56 bits, or 45 near the end */
+            if (end - p >= 8) {
+                bb |= pi_rd64le(p) << bc;
+                p += (63 - bc) >> 3;
+                bc |= 56;
+            } else if (bc < 45) {
+                s->bb = bb, s->bc = bc, s->p = p;
+                pi_refill(s);
+                bb = s->bb, bc = s->bc, p = s->p;
             }
             unsigned e = root[bb & mask];
-            if (e - 1 < 0xfffu) { /* a literal of the root table: two in a row */
-                bb >>= e & 15;
-                bc -= e & 15;
-                if (o == outlen)
-                    return ST_PTX_INFL_OVER;
-                out[o++] = (uint8_t)(e >> 4);
-                e = root[bb & mask];
-                if (e - 1 < 0xfffu) {
-                    bb >>= e & 15;
-                    bc -= e & 15;
+            if (e - 1 < 0x3fffu) { /* literals of the root table: up to three in a row */
+                bb >>= e & 63;
+                bc -= e & 63;
+                if (outlen - o < 3) { /* near the end of the output: one, checked */
                     if (o == outlen)
                         return ST_PTX_INFL_OVER;
-                    out[o++] = (uint8_t)(e >> 4);
+                    out[o++] = (uint8_t)(e >> 6);
                     continue;
                 }
+                out[o++] = (uint8_t)(e >> 6);
+                e = root[bb & mask];
+                if (e - 1 < 0x3fffu) {
+                    bb >>= e & 63;
+                    bc -= e & 63;
+                    out[o++] = (uint8_t)(e >> 6);
+                    e = root[bb & mask];
+                    if (e - 1 < 0x3fffu) {
+                        bb >>= e & 63;
+                        bc -= e & 63;
+                        out[o++] = (uint8_t)(e >> 6);
+                        continue;
+                    }
+                }
+                /* a root literal takes at most 10 bits: at least 25 are left for e */
             }
             int sym;
             if (e) {
-                bb >>= e & 15;
-                bc -= e & 15;
-                sym = (int)(e >> 4);
+                bb >>= e & 63;
+                bc -= e & 63;
+                sym = (int)(e >> 6);
             } else {
                 s->bb = bb, s->bc = bc, s->p = p;
                 sym = pi_decode_long(s, lit);
@@ -481,9 +492,9 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
             unsigned de = dist->root[bb & dist->mask];
             int ds;
             if (de) {
-                bb >>= de & 15;
-                bc -= de & 15;
-                ds = (int)(de >> 4);
+                bb >>= de & 63;
+                bc -= de & 63;
+                ds = (int)(de >> 6);
             } else {
                 s->bb = bb, s->bc = bc, s->p = p;
                 ds = pi_decode_long(s, dist);
