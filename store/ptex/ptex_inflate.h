@@ -54,7 +54,6 @@
  * lengths' counts come from the code-length decoder (a repeat adds its count at once) and
  * the symbols are sorted by length without a branch (unused ones go past the used ones).
  */
- */
 #ifndef ST_PTEX_INFLATE_H
 #define ST_PTEX_INFLATE_H
 
