@@ -6,7 +6,7 @@
  * entries per stream and its decompressor is an 11 KB allocation zeroed on creation: in a
  * fresh process 3 fresh heap pages, its code pages and its symbol bindings, more than a small
  * file's whole import. This one decodes the fixed code by code range with no table, a dynamic
- * code with a root table sized to the code (at most 2^10 entries, on the stack, built by
+ * code with a root table sized to the code (at most 2^9 entries, on the stack, built by
  * doubling) and a canonical decoder for longer codes, and computes the Adler-32 itself (SSE2,
  * AVX2 when the CPU has it), so a small stream touches no heap and no other library. On the
  * small streams of small files it is the faster of the two (teapot's 448 level-0 streams,
@@ -21,7 +21,7 @@
  * end-of-block code, bad repeat, invalid symbols, a distance too far back, truncated input,
  * a missing or wrong Adler-32. Bytes after the Adler-32 are ignored (as libdeflate's
  * libdeflate_zlib_decompress does).
- * Threading: a pure function on caller memory; about 4 KB of stack for a dynamic-code block.
+ * Threading: a pure function on caller memory; about 3 KB of stack for a dynamic-code block.
  *
  * Header-only (static functions), included by ptex_read.c alone (and its unit test): its code
  * then sits in the reader's object, next to the reader's code. A fresh process pays for every
@@ -44,7 +44,7 @@
  * and the binding's saved register state reached a fresh stack page.
  *
  * A Huffman code is decoded by a root table indexed by the next rbits bits (rbits = the
- * code's longest length, capped at 10 for literals / lengths, 8 for distances, 7 for the
+ * code's longest length, capped at 9 for literals / lengths, 8 for distances, 7 for the
  * code-length code): entry = symbol << 6 | length (the low 6 bits are the shift count as
  * x86's shift takes it, so the literal chain - look up, shift - has no mask in it), 0 for a
  * code longer than the root, which is then decoded canonically from the root's length + 1
@@ -78,7 +78,7 @@ enum {
 
 /* root table bits at most: literal/length, distance codes (small tables: a small stream
  * decodes a few hundred symbols, and the tables are on the stack) */
-enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 10, PI_DIST_RMAX = 8 };
+enum { PI_CODES, PI_LIT, PI_DIST, PI_LIT_RMAX = 9, PI_DIST_RMAX = 8 };
 
 
 typedef struct pi_huff {
@@ -448,7 +448,7 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
                         continue;
                     }
                 }
-                /* a root literal takes at most 10 bits: at least 25 are left for e */
+                /* a root literal takes at most 9 bits: at least 27 are left for e */
             }
             int sym;
             if (e) {
