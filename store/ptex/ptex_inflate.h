@@ -187,9 +187,19 @@ static int pi_build(pi_huff *h, const uint8_t *lens, unsigned n, unsigned rmax, 
         h->first[len + 1] = (uint16_t)((h->first[len] + h->count[len]) << 1);
         h->index[len + 1] = offs[len + 1] = (uint16_t)(h->index[len] + h->count[len]);
     }
-    /* symbols of length 0 go past the coded ones (no branch on the length) */
+    /* symbols of length 0 go past the coded ones (no branch on the length); eight unused
+     * symbols in a row are skipped at once (a small stream's codes use few of the 286) */
     offs[0] = (uint16_t)(h->index[15] + h->count[15]);
-    for (unsigned i = 0; i < n; i++)
+    unsigned i = 0;
+    for (; i + 8 <= n; i += 8) {
+        uint64_t w;
+        memcpy(&w, lens + i, 8);
+        if (!w)
+            continue;
+        for (unsigned j = i; j < i + 8; j++)
+            h->sym[offs[lens[j]]++] = (uint16_t)j;
+    }
+    for (; i < n; i++)
         h->sym[offs[lens[i]]++] = (uint16_t)i;
     unsigned rb = maxlen < rmax ? maxlen : rmax;
     h->rbits = rb;
