@@ -11,16 +11,13 @@
 #define PAGE ((uintptr_t)4096)
 #define POPULATE_FROM ((size_t)16 << 10) /* below: at most 4 faults, about one madvise */
 #define TEMP_HUGE_FROM ((size_t)256 << 10)
-#define FILE_HUGE_FROM ((size_t)96 << 10) /* a file read whole (bigalloc.h) */
 #define KEEP_HUGE_FROM (HUGE_PAGE / 3) /* 2/3 MiB: the rounding adds at most twice n */
 
 /* The bytes to allocate for n: a multiple of 64, or of the huge page when the buffer goes on
  * huge pages (*huge 1). n <= SIZE_MAX / 2. */
 static size_t plan(size_t n, int use, int *huge)
 {
-    *huge = n >= (use == STU_BIG_FILE   ? FILE_HUGE_FROM
-                  : use == STU_BIG_TEMP ? TEMP_HUGE_FROM
-                                        : KEEP_HUGE_FROM);
+    *huge = n >= (use == STU_BIG_TEMP ? TEMP_HUGE_FROM : KEEP_HUGE_FROM);
     if (*huge)
         return (n + HUGE_PAGE - 1) & ~(HUGE_PAGE - 1);
     return n ? (n + 63) & ~(size_t)63 : 64;
@@ -45,7 +42,7 @@ void *stu_big_alloc(size_t n, int use)
     /* a small temporary buffer from malloc: glibc serves it from its heap, where freeing it
      * is not an munmap (which cost about as much as reading a 130 KiB file) */
     void *p = NULL;
-    if (!huge && use != STU_BIG_KEEP)
+    if (!huge && use == STU_BIG_TEMP)
         p = malloc(r);
     else if (posix_memalign(&p, huge ? HUGE_PAGE : 64, r) != 0)
         p = NULL;   /* not aligned_alloc: C11 wants its size a multiple of the alignment,

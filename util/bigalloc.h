@@ -17,16 +17,7 @@
  *   pages from 2/3 MiB on (the rounding adds at most twice n, and less than 2 MiB); a set
  *   of 0.7-1.3 MiB was the import's slowest case: 170-330 fresh 4 KiB pages, 4-7 ms of
  *   faults, more than its decoding (before: from 4/3 MiB on).
- * - STU_BIG_TEMP (a buffer freed soon, like a scratch being written): rounded up from 256 KiB
- *   on.
- * - STU_BIG_FILE (a whole file read into memory, util/fdio.c; freed after parsing, or kept
- *   by the Ptex reader for the levels it makes later): as TEMP, but from 96 KiB on. Measured
- *   2026-12-05 (fresh processes, 21 alternated rounds, load 4-5): importing tri.ptx (123 KiB)
- *   0.94 -> 0.86 ms of CPU and teapot.ptx (130 KiB) 1.90 -> 1.82 with the file on a huge
- *   page; the same rule for TEMP (a Ptex reader's planar scratch of ~100 KiB on a huge page)
- *   made envcube.ptx 1.31 -> 1.50 ms and uv.ptx 1.35 -> 1.62, and 48 KiB for FILE gained
- *   nothing on the 56-63 KiB files: a huge page costs 150-300 us here, the first write of a
- *   fresh 4 KiB page 5-8 us.
+ * - STU_BIG_TEMP (a buffer freed soon, like a file being parsed): rounded up from 256 KiB on.
  * stu_big_footprint says how many bytes a buffer of n really holds (for memory accounting).
  *
  * Pre-faulting (2026-12-03): a buffer of 16 KiB or more has its n bytes (not the rounding
@@ -46,7 +37,7 @@
 
 #include <stddef.h>
 
-enum { STU_BIG_KEEP = 0, STU_BIG_TEMP = 1, STU_BIG_FILE = 2 };
+enum { STU_BIG_KEEP = 0, STU_BIG_TEMP = 1 };
 
 void *stu_big_alloc(size_t n, int use);
 

@@ -78,7 +78,7 @@ int stu_read_file(const char *path, size_t cap, void **out, size_t *len)
         goto fail;
     }
     size_t n = (size_t)st.st_size;
-    uint8_t *b = stu_big_alloc(n + 1, STU_BIG_FILE);
+    uint8_t *b = stu_big_alloc(n + 1, STU_BIG_TEMP);
     if (!b) {
         errno = ENOMEM;
         goto fail;

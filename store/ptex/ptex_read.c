@@ -1046,7 +1046,7 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
             *own = NULL;
             pd->origin = 0;
             pd->zlen = len;
-            pd->zbytes = stu_big_footprint(len + 1, STU_BIG_FILE); /* as util/fdio.c reads */
+            pd->zbytes = stu_big_footprint(len + 1, STU_BIG_TEMP); /* as util/fdio.c reads */
         } else if (pd->nblk) {
             pd->zlen = (size_t)(lpos - pd->origin);
             if (!(pd->zip = malloc(pd->zlen))) {

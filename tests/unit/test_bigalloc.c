@@ -118,13 +118,6 @@ static void large_buffers_follow_the_rounding_rule(void **state)
     memset(p, 1, MIB);
     assert_int_equal(marked_huge(p), 1);
     free(p);
-    /* a 100 KiB file read whole: huge (from 96 KiB on) */
-    p = stu_big_alloc(100 << 10, STU_BIG_FILE);
-    assert_non_null(p);
-    assert_int_equal((uintptr_t)p % (2 * MIB), 0);
-    memset(p, 1, 100 << 10);
-    assert_int_equal(marked_huge(p), 1);
-    free(p);
 }
 
 static void footprint_is_what_is_reserved(void **state)
@@ -134,11 +127,6 @@ static void footprint_is_what_is_reserved(void **state)
     assert_int_equal(stu_big_footprint(100, STU_BIG_KEEP), 128);
     assert_int_equal(stu_big_footprint(MIB / 2, STU_BIG_KEEP), MIB / 2);
     assert_int_equal(stu_big_footprint(MIB / 2, STU_BIG_TEMP), 2 * MIB);
-    /* a whole file goes on a huge page from 96 KiB on, a temporary buffer from 256 KiB on */
-    assert_int_equal(stu_big_footprint((96 << 10) - 64, STU_BIG_FILE), (96 << 10) - 64);
-    assert_int_equal(stu_big_footprint(96 << 10, STU_BIG_FILE), 2 * MIB);
-    assert_int_equal(stu_big_footprint(96 << 10, STU_BIG_TEMP), 96 << 10);
-    assert_int_equal(stu_big_footprint((256 << 10) - 64, STU_BIG_TEMP), (256 << 10) - 64);
     assert_int_equal(stu_big_footprint(MIB, STU_BIG_KEEP), 2 * MIB);
     assert_int_equal(stu_big_footprint(2 * MIB + 64, STU_BIG_KEEP), 4 * MIB);
     assert_int_equal(stu_big_footprint(640 << 10, STU_BIG_KEEP), 640 << 10); /* < 2/3 MiB */
@@ -195,7 +183,7 @@ static void buffers_from_16_kib_are_resident_before_they_are_written(void **stat
         skip();
     size_t sizes[] = {16 << 10, 100 << 10, 300 << 10, 3 * MIB};
     for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++)
-        for (int use = STU_BIG_KEEP; use <= STU_BIG_FILE; use++) {
+        for (int use = STU_BIG_KEEP; use <= STU_BIG_TEMP; use++) {
             uint8_t *p = stu_big_alloc(sizes[i], use);
             assert_non_null(p);
             long pg = sysconf(_SC_PAGESIZE), want = (long)(sizes[i] / (size_t)pg);
@@ -218,7 +206,7 @@ static void impossible_sizes_fail_with_enomem(void **state)
     (void)state;
     size_t sizes[] = {SIZE_MAX, SIZE_MAX - 63, SIZE_MAX / 2 + 1, (size_t)1 << 62};
     for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++)
-        for (int use = STU_BIG_KEEP; use <= STU_BIG_FILE; use++) {
+        for (int use = STU_BIG_KEEP; use <= STU_BIG_TEMP; use++) {
             errno = 0;
             assert_null(stu_big_alloc(sizes[i], use));
             assert_int_equal(errno, ENOMEM);
