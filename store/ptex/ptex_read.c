@@ -177,9 +177,9 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (rc)
         return rc;
     const uint8_t *p = at(r, off);
-    /* ptex_inflate.h: small streams of stored and fixed-code blocks, and the first few of
-     * dynamic-code blocks (its tables cost more per stream than libdeflate's; libdeflate's
-     * first use costs more than a few of them) */
+    /* ptex_inflate.h: small streams of stored and fixed-code blocks; dynamic-code ones of a
+     * small file (dyn_all), else the first few small ones (in a large file libdeflate, faster
+     * a byte on large dynamic streams, is used anyway and its first use is paid once) */
     if (outlen <= PTX_SMALL_INFLATE &&
         (zlen < 3 || ((p[2] >> 1) & 3) != 2 ||
          r->dyn_all || (outlen <= PTX_SMALL_DYN_BYTES && r->ndyn++ < PTX_SMALL_DYN))) {
