@@ -61,7 +61,7 @@
 #define PTX_SMALL_DYN_BYTES 2048u
 #endif
 #ifndef PTX_SMALL_LEVEL0
-#define PTX_SMALL_LEVEL0 32768u /* zipped bytes of level 0 */
+#define PTX_SMALL_LEVEL0 131072u /* zipped bytes of level 0 (or of the deferred levels) */
 #endif
 
 typedef struct rd {
@@ -177,9 +177,9 @@ static int inflate_exact(rd *r, uint64_t off, uint64_t zlen, void *out, size_t o
     if (rc)
         return rc;
     const uint8_t *p = at(r, off);
-    /* ptex_inflate.h: small streams of stored and fixed-code blocks, and the first few of
-     * dynamic-code blocks (its tables cost more per stream than libdeflate's; libdeflate's
-     * first use costs more than a few of them) */
+    /* ptex_inflate.h: small streams of stored and fixed-code blocks; dynamic-code ones of a
+     * small file (dyn_all), else the first few small ones (in a large file libdeflate, faster
+     * a byte on large dynamic streams, is used anyway and its first use is paid once) */
     if (outlen <= PTX_SMALL_INFLATE &&
         (zlen < 3 || ((p[2] >> 1) & 3) != 2 ||
          r->dyn_all || (outlen <= PTX_SMALL_DYN_BYTES && r->ndyn++ < PTX_SMALL_DYN))) {
@@ -427,6 +427,7 @@ typedef struct pend {
     uint32_t first[PTX_MAX_LEVELS + 1]; /* blk[first[l], first[l+1]) are level l's (l >= 1) */
     uint64_t lend[PTX_MAX_LEVELS];      /* file offset where level l ends */
     unsigned nlevels;
+    int dyn_all;                /* the stored reductions are small: all through ptex_inflate.h */
     uint8_t *constdata;         /* nfaces texels */
 } pend;
 
@@ -464,7 +465,7 @@ static int pend_make(st_set *s, void *p, st_error *e)
 {
     pend *d = p;
     rd R = {.buf = d->zip, .len = d->zlen, .origin = d->origin, .max_bytes = d->max_bytes,
-            .dt = d->dt, .nc = d->nc, .tri = (int)d->tri, .e = e};
+            .dt = d->dt, .nc = d->nc, .tri = (int)d->tri, .e = e, .dyn_all = d->dyn_all};
     rd *r = &R;
     r->csize = st_dtype_size(d->dt);
     r->psize = r->csize * d->nc;
@@ -745,6 +746,12 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         lmddata = len; /* unused when lmdmem is 0; keeps the sums below from wrapping */
     pos += lmddata;
 
+    /* a small level 0: every stream of the file through ptex_inflate.h, dynamic ones too,
+     * from the face info on (on small streams it is the faster of the two since session 30,
+     * and libdeflate's first use in a process - its code, its decompressor - costs 100-200
+     * us); the level info lies inside the file (it ends where the level data starts) */
+    r->dyn_all = ptx_rd64(b + lipos) <= PTX_SMALL_LEVEL0;
+
     /* face info */
     size_t fibytes = (size_t)nfaces * PTX_FACEINFO_SIZE;
     if (!zip_bound_ok(fisize, fibytes))
@@ -948,10 +955,6 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
         goto done;
     }
     uint64_t lpos = ldpos, lend_all = ldpos + ldsize;
-    /* a small level 0: every stream of it through ptex_inflate.h, dynamic ones too (its
-     * per-byte cost over libdeflate's, about 8 instructions a zipped byte, stays under
-     * libdeflate's first use in a process: its code and decompressor, 100-200 us) */
-    r->dyn_all = ptx_rd64(b + lipos) <= PTX_SMALL_LEVEL0;
     for (unsigned l = 0; l < nlevels; l++) {
         if (pd && l > 0) {
             pd->first[l] = (uint32_t)pd->nblk;
@@ -1033,6 +1036,8 @@ static int read_mem(const void *buf, size_t len, size_t max_bytes, int eager, vo
     r->dry = 0;
     if (pd) {
         pd->nlevels = nlevels;
+        /* pd->origin: where level 1 starts (until the file buffer is kept below) */
+        pd->dyn_all = nlevels > 1 && lpos - pd->origin <= PTX_SMALL_LEVEL0;
         pd->first[nlevels > 1 ? nlevels : 1] = (uint32_t)pd->nblk;
         /* the blocks, when one is kept: the file buffer itself, or a copy of the level data
          * from level 1 on */

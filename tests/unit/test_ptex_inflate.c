@@ -335,9 +335,128 @@ static void hand_made_streams_get_their_refusals(void **state)
     expect_refused(&w, 8, "invalid or truncated deflate data");
 }
 
+/* Matches from far back (distance codes 24-29, 11-13 extra bits): noise, then the same noise
+ * again d0 bytes later, with a few bytes changed so that it is several matches */
+static void far_matches(void **state)
+{
+    (void)state;
+    static const size_t d0s[] = {2100, 3000, 7000, 9000, 12000, 16000, 16385, 19990};
+    for (size_t t = 0; t < sizeof d0s / sizeof d0s[0]; t++) {
+        size_t n = MAXN, d0 = d0s[t];
+        for (size_t i = 0; i < n; i++)
+            src[i] = (uint8_t)(i < d0 || rnd() % 97 == 0 ? rnd() : src[i - d0]);
+        size_t zl = zip(n, 6, Z_DEFAULT_STRATEGY, 0);
+        size_t g = 0;
+        const char *why = NULL;
+        memset(got, 0xa5, n + 1);
+        assert_int_equal(st_ptx_inflate(z, zl, got, n, &g, &why), ST_PTX_INFL_OK);
+        assert_int_equal(g, n);
+        assert_memory_equal(got, src, n);
+        assert_int_equal(got[n], 0xa5);
+    }
+}
+
+/* canonical codes (RFC 1951 3.2.2) of n code lengths */
+static void canon(const uint8_t *lens, unsigned n, unsigned *codes)
+{
+    unsigned cnt[16] = {0}, next[16];
+    for (unsigned i = 0; i < n; i++)
+        cnt[lens[i]]++;
+    cnt[0] = 0;
+    unsigned c = 0;
+    for (unsigned l = 1; l < 16; l++) {
+        c = (c + cnt[l - 1]) << 1;
+        next[l] = c;
+    }
+    for (unsigned i = 0; i < n; i++)
+        codes[i] = lens[i] ? next[lens[i]]++ : 0;
+}
+
+/* Dynamic blocks whose code-length sequence repeats a length (code 16) across the end of
+ * the literal/length lengths into the distance lengths (RFC 1951 allows it; zlib's deflate
+ * never writes it), or from exactly the first distance length on: both inflate to "abaaba". */
+static void dynamic_repeats_across_the_two_codes(void **state)
+{
+    (void)state;
+    enum { NLEN = 260, NDIST = 8 };
+    /* literal/length: 'a' 2, 'b' 3, 256 2, 257-259 3 (complete); distance: 8 codes of 3 */
+    uint8_t lens[NLEN + NDIST] = {0};
+    lens['a'] = 2;
+    lens['b'] = 3;
+    lens[256] = 2;
+    lens[257] = lens[258] = lens[259] = 3;
+    for (int i = 0; i < NDIST; i++)
+        lens[NLEN + i] = 3;
+    unsigned lc[NLEN], dc[NDIST];
+    canon(lens, NLEN, lc);
+    canon(lens + NLEN, NDIST, dc);
+    /* the code-length code: 0, 3, 16 of 2 bits, 2 and 18 of 3 (complete) */
+    uint8_t cll[19] = {0};
+    cll[0] = cll[3] = cll[16] = 2;
+    cll[2] = cll[18] = 3;
+    unsigned cc[19];
+    canon(cll, 19, cc);
+    static const uint8_t order[19] = {16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2,
+                                      14, 1, 15};
+    for (int variant = 0; variant < 2; variant++) {
+        bw w;
+        start(&w);
+        put(&w, 1, 1);
+        put(&w, 2, 2);
+        put(&w, NLEN - 257, 5);
+        put(&w, NDIST - 1, 5);
+        put(&w, 19 - 4, 4);
+        for (int i = 0; i < 19; i++)
+            put(&w, cll[order[i]], 3);
+        put_code(&w, cc[18], cll[18]); /* 97 zeros */
+        put(&w, 97 - 11, 7);
+        put_code(&w, cc[2], cll[2]);   /* 'a' */
+        put_code(&w, cc[3], cll[3]);   /* 'b' */
+        put_code(&w, cc[18], cll[18]); /* 138 zeros */
+        put(&w, 127, 7);
+        put_code(&w, cc[18], cll[18]); /* 19 zeros: up to 255 */
+        put(&w, 19 - 11, 7);
+        put_code(&w, cc[2], cll[2]);   /* 256 */
+        if (variant == 0) {
+            put_code(&w, cc[3], cll[3]);   /* 257 */
+            put_code(&w, cc[16], cll[16]); /* 258, 259, distance 0-3: across the end */
+            put(&w, 6 - 3, 2);
+            put_code(&w, cc[16], cll[16]); /* distance 4-6 */
+            put(&w, 3 - 3, 2);
+            put_code(&w, cc[3], cll[3]);   /* distance 7 */
+        } else {
+            for (int i = 0; i < 3; i++)
+                put_code(&w, cc[3], cll[3]); /* 257-259 */
+            put_code(&w, cc[16], cll[16]);   /* distance 0-5: from the first on */
+            put(&w, 6 - 3, 2);
+            put_code(&w, cc[3], cll[3]);     /* distance 6, 7 */
+            put_code(&w, cc[3], cll[3]);
+        }
+        put_code(&w, lc['a'], 2);
+        put_code(&w, lc['b'], 3);
+        put_code(&w, lc['a'], 2);
+        put_code(&w, lc[257], 3); /* length 3 */
+        put_code(&w, dc[2], 3);   /* distance 3 */
+        put_code(&w, lc[256], 2);
+        adler_of(&w, (const uint8_t *)"abaaba", 6);
+        size_t g = 0;
+        const char *why = NULL;
+        assert_int_equal(st_ptx_inflate(w.b, w.n, got, 6, &g, &why), ST_PTX_INFL_OK);
+        assert_int_equal(g, 6);
+        assert_memory_equal(got, "abaaba", 6);
+        /* zlib agrees */
+        memcpy(z, w.b, w.n);
+        size_t zn = 0;
+        assert_true(zlib_ok(w.n, 6, &zn));
+        assert_int_equal(zn, 6);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(dynamic_repeats_across_the_two_codes),
+        cmocka_unit_test(far_matches),
         cmocka_unit_test(inflates_every_stream_zlib_makes),
         cmocka_unit_test(damaged_streams_get_zlibs_outcome),
         cmocka_unit_test(hand_made_streams_get_their_refusals),
