@@ -346,6 +346,19 @@ static inline void pi_copy(uint8_t *out, size_t o, size_t outlen, size_t d, unsi
     }
 }
 
+/* Length code li (symbol - 257, 0..28): the length before its extra bits, and *nx their count
+ * (RFC 1951 3.2.5). */
+static inline unsigned pi_len_base(unsigned li, unsigned *nx)
+{
+    if (li < 8 || li == 28) {
+        *nx = 0;
+        return li == 28 ? 258 : 3 + li;
+    }
+    unsigned x = (li >> 2) - 1;
+    *nx = x;
+    return ((4 + (li & 3)) << x) + 3;
+}
+
 /* A length symbol's match (sym 257..285 checked here): its length's extra bits, the
  * distance code and its extra bits (the buffer is refilled first), then the copy. */
 static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fix, uint8_t *out,
@@ -354,19 +367,12 @@ static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fi
     size_t o = *po;
     if (s->bc < 33)
         pi_refill(s); /* length extra bits, distance code and its extra bits */
-    unsigned li = sym - 257, len;
+    unsigned li = sym - 257, nx;
     if (li >= 29) {
         *why = "invalid literal/length code";
         return ST_PTX_INFL_BAD;
     }
-    if (li < 8) {
-        len = 3 + li;
-    } else if (li == 28) {
-        len = 258;
-    } else {
-        unsigned x = (li >> 2) - 1;
-        len = ((4 + (li & 3)) << x) + 3 + pi_take(s, x);
-    }
+    unsigned len = pi_len_base(li, &nx) + pi_take(s, nx);
     int ds = fix ? pi_fixed_dist(s) : pi_decode(s, dist);
     if (ds < 0 || ds >= 30) {
         *why = "invalid distance code";
@@ -494,21 +500,14 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
                     bb = s->bb, bc = s->bc, p = s->p;
                 }
             }
-            unsigned li = (unsigned)sym - 257, len;
+            unsigned li = (unsigned)sym - 257, nx;
             if (li >= 29) {
                 *why = "invalid literal/length code";
                 return ST_PTX_INFL_BAD;
             }
-            if (li < 8) {
-                len = 3 + li;
-            } else if (li == 28) {
-                len = 258;
-            } else {
-                unsigned x = (li >> 2) - 1;
-                len = ((4 + (li & 3)) << x) + 3 + (unsigned)(bb & ((1u << x) - 1));
-                bb >>= x;
-                bc -= x;
-            }
+            unsigned len = pi_len_base(li, &nx) + (unsigned)(bb & ((1u << nx) - 1));
+            bb >>= nx;
+            bc -= nx;
             unsigned de = dist->root[bb & dist->mask];
             int ds;
             if (de) {

@@ -700,20 +700,27 @@ static inline void p2_downres(int *x, int *n, float *w)
     *x /= 2;
 }
 
+/* A piece of at most 2 x 2 texels taken down to resolution 2^ul x 2^vl where it is finer:
+ * p2_downres along u, then along v, a level at a time. */
+__attribute__((always_inline)) static inline void p2_reduce_to(pk2 *k, int ul, int vl)
+{
+    while (k->ulog2 > ul) {
+        p2_downres(&k->u, &k->uw, k->ku);
+        k->ulog2--;
+    }
+    while (k->vlog2 > vl) {
+        p2_downres(&k->v, &k->vw, k->kv);
+        k->vlog2--;
+    }
+}
+
 /* apply() for a piece of at most 2 x 2 texels. */
 __attribute__((always_inline)) static inline void apply_small(pf *c, pk2 *k, int f)
 {
     const st_face *F = &c->s->faces[f];
     if (k->uw <= 0 || k->vw <= 0)
         return;
-    while (k->ulog2 > F->ulog2) {
-        p2_downres(&k->u, &k->uw, k->ku);
-        k->ulog2--;
-    }
-    while (k->vlog2 > F->vlog2) {
-        p2_downres(&k->v, &k->vw, k->kv);
-        k->vlog2--;
-    }
+    p2_reduce_to(k, F->ulog2, F->vlog2);
     if (__builtin_expect(F->flags & ST_FACE_CONSTANT, 0)) {
         /* apply's constant face: its texel times the weight left (no window guard) */
         c->acc += load_any(c->dt, c->nc, c->t->px[c->t->base[f]]) * p2_weight(k);
@@ -749,14 +756,8 @@ static void across_small(pf *c, pk2 *k, int f, int eid)
  * squared sum scaled down to the initial weight; its operations in its order. */
 static inline float p2_make_symmetric(pk2 *k, float initial_weight)
 {
-    while (k->ulog2 > k->vlog2) {
-        p2_downres(&k->u, &k->uw, k->ku);
-        k->ulog2--;
-    }
-    while (k->vlog2 > k->ulog2) {
-        p2_downres(&k->v, &k->vw, k->kv);
-        k->vlog2--;
-    }
+    int m = k->ulog2 < k->vlog2 ? k->ulog2 : k->vlog2;
+    p2_reduce_to(k, m, m);
     k->uw = k->vw = k->uw < k->vw ? k->uw : k->vw;
     float nw = 0;
     for (int i = 0; i < k->uw && i < 2; i++) {
