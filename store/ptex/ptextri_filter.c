@@ -117,6 +117,7 @@ enum { PT_LEAN, PT_PERTAP, PT_GENERAL, PT_LEAN_BASE }; /* the builds st_ptextri_
                                                        * without the AVX2 instances) */
 
 struct pt_kf;
+struct pt_kfc;
 
 typedef struct tc {
     const st_set *s;
@@ -141,6 +142,9 @@ typedef struct tc {
     int (*p2)(struct tc *c, const tk *k, const uint8_t *data);
     int (*p4)(struct tc *c, const tk *k, const uint8_t *data);
     int (*pn)(struct tc *c, const tk *k, const uint8_t *data);
+    /* the last piece's recurrence factors and their key (kf_get; the lean builds' own, else
+     * NULL), kept across the batch's queries */
+    struct pt_kfc *kfc;
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1125,6 +1129,34 @@ __attribute__((always_inline)) static inline void kf_set(pt_kf *kf, const ti *it
     kf->ixy = e[3];
 }
 
+/* The factors of the last piece that needed them and their key, the upright sweep's A, B, C
+ * (kf_set's inputs in its frame: the inverted sweep's A and C swapped, which kf_set swaps
+ * back, lane by lane the same operations), kept over a batch: a query whose kernel has the
+ * last one's shape at the same resolution (a fixed footprint) takes them instead of kf_set's
+ * four exps - the same function of the same values, so the same bits. */
+typedef struct pt_kfc {
+    int valid;
+    float key[3];
+    pt_kf kf;
+} pt_kfc;
+
+__attribute__((always_inline)) static inline void kf_get(pt_kf *kf, const ti *it, pt_kfc *kc)
+{
+    if (!kc) {
+        kf_set(kf, it);
+        return;
+    }
+    const float key[3] = {it->odd ? it->C : it->A, it->B, it->odd ? it->A : it->C};
+    if (kc->valid && memcmp(key, kc->key, sizeof key) == 0) {
+        *kf = kc->kf;
+        return;
+    }
+    kf_set(kf, it);
+    memcpy(kc->key, key, sizeof key);
+    kc->kf = *kf;
+    kc->valid = 1;
+}
+
 /* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double. */
 __attribute__((always_inline)) static inline void cur_seed(pt_cur *cu, const ti *it, int x,
                                                            int y, float wscale)
@@ -1464,6 +1496,11 @@ static inline int fold_band_only(const ti *it, int y1, int y2)
  * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
  * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
  * weights, texels and order. */
+/* The rows [y1, y2) of a lean Clamp fold sweep over a level with texels, orientation ODD (the
+ * sweep's it->odd, a constant here so that the loop holds one lean_fold_row): each row's kept
+ * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
+ * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
+ * weights, texels and order. */
 __attribute__((always_inline)) static inline pt_v4f
 lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int y2,
                pt_cur *cu, float DDQ, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
@@ -1562,7 +1599,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     if (REC && how != SW_READ && DDQ > 0.0f &&
         (y2 - y1) * (it->hi[0] - it->lo[0]) >= 16) {
         if (!kf->set)
-            kf_set(kf, it);
+            kf_get(kf, it, c->kfc);
         /* the weights by recurrence (pt_rec): each row's kept taps [xk, xl) found with the
          * float Q of the per-tap loop below (the same taps), the cursor moved to xk */
         pt_cur cu = {.seeded = 0, .kxx = it->odd ? kf->kyy : kf->kxx, .kxy = kf->kxy,
@@ -2685,20 +2722,25 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
 {
     const st_face *F = &c->s->faces[f];
     int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
+    int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
+    /* a kernel inside the face (clamping it into the face, as iterators does, would leave its
+     * bounds as they are) reads every tap in place: the read sweeps, Traverse's and Discard's
+     * for such a kernel, the same taps and sums as the fold sweep with the per-tap expf. It is
+     * applied as Traverse applies a piece (apply_face: its sweeps clamped, which leaves them as
+     * they are, nothing when neither is valid, and the lean builds' pieces applied whole,
+     * piece_r1 .. piece_rn: the same bits as the read sweeps; docs/ptex-log.md, "tri30"). */
+    if (!constant && kernel_in_face(k)) {
+        tk kc = *k;
+        apply_face(c, &kc, f);
+        return;
+    }
     ti ev, od;
     iterators(c->avx2, k, res, &ev, &od);
-    int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)res);
     if (!ev.valid && !od.valid)
         return;
-    /* a kernel inside the face (clamping it into the face, as iterators does, would leave its
-     * bounds as they are) reads every tap in place: the read sweeps, Traverse's and Discard's
-     * for such a kernel, the same taps and sums as the fold sweep with the per-tap expf */
-    if (!constant && kernel_in_face(k))
-        c->rd(c, &ev, &od, data, 0);
-    else
-        c->fold(c, &ev, &od, data, constant);
+    c->fold(c, &ev, &od, data, constant);
 }
 
 static float one_value(unsigned dt)
@@ -2891,6 +2933,8 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     proto.p4 = lean ? piece_r4_fn(proto.dt, nc, proto.avx2) : NULL;
     proto.pn = lean ? piece_rn_fn(proto.dt, nc, proto.avx2) : NULL;
     tk_cache kc = {.valid = 0};
+    pt_kfc kfc = {.valid = 0};
+    proto.kfc = lean ? &kfc : NULL;
     int bad = 0;
 
     for (size_t i = 0; i < n; i++) {
