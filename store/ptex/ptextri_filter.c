@@ -44,11 +44,11 @@
  * "Session 15, tri8"). Clamp's lean fold rows find their kept runs eight rows at a time
  * (rows_kept8), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
  * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex-log.md,
- * "tri10"). st_ptextri_batch and _baseline also take two shortcuts of their own (docs/ptex-log.md,
- * "tri23"), which the general and per-tap builds do not, so the tests compare them: a query
- * whose footprint and face size are the last query's reuses its kernel shape (tk_shape,
- * tk_cache) and the recurrence's factors (pt_kfc, kf_get: "tri30"), and Traverse's and
- * Discard's pieces - and Clamp's kernels inside the face ("tri30") - at resolution 0 (a 1 x 1 level: one tap at
+ * "tri10"). st_ptextri_batch and _baseline also take shortcuts of their own ("tri23", "tri30"),
+ * which the general and per-tap builds do not, so the tests compare them: a query whose
+ * footprint and face size are the last query's reuses its kernel shape (tk_shape, tk_cache)
+ * and the recurrence's factors (pt_kfc, kf_get), and Traverse's and Discard's pieces and
+ * Clamp's kernels inside the face (apply_folded) at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
  * docs/ptex-log.md, "trip24"), at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
