@@ -41,13 +41,14 @@
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
  * general rows' taps, texels, weights and order with less work a row); the general rows stay
  * for st_ptextri_batch_general, which the tests compare them with bit for bit (docs/ptex-log.md,
- * "Session 15, tri8"). Clamp's lean fold rows find their kept runs four rows at a time
- * (rows_kept4), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
+ * "Session 15, tri8"). Clamp's lean fold rows find their kept runs eight rows at a time
+ * (rows_kept8), and the lean fold and whole-weight sweeps have AVX2 instances, chosen at run
  * time, the same C and bits as the baseline ones (st_ptextri_batch_baseline; docs/ptex-log.md,
- * "tri10"). st_ptextri_batch and _baseline also take two shortcuts of their own (docs/ptex-log.md,
- * "tri23"), which the general and per-tap builds do not, so the tests compare them: a query
- * whose footprint and face size are the last query's reuses its kernel shape (tk_shape,
- * tk_cache), and Traverse's and Discard's pieces at resolution 0 (a 1 x 1 level: one tap at
+ * "tri10"). st_ptextri_batch and _baseline also take shortcuts of their own ("tri23", "tri30"),
+ * which the general and per-tap builds do not, so the tests compare them: a query whose
+ * footprint and face size are the last query's reuses its kernel shape (tk_shape, tk_cache)
+ * and the recurrence's factors (pt_kfc, kf_get), and Traverse's and Discard's pieces and
+ * Clamp's kernels inside the face (apply_folded) at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
  * docs/ptex-log.md, "trip24"), at resolution 2 (piece_r4: rows of up to 4 taps, weighed as
@@ -117,6 +118,7 @@ enum { PT_LEAN, PT_PERTAP, PT_GENERAL, PT_LEAN_BASE }; /* the builds st_ptextri_
                                                        * without the AVX2 instances) */
 
 struct pt_kf;
+struct pt_kfc;
 
 typedef struct tc {
     const st_set *s;
@@ -141,6 +143,9 @@ typedef struct tc {
     int (*p2)(struct tc *c, const tk *k, const uint8_t *data);
     int (*p4)(struct tc *c, const tk *k, const uint8_t *data);
     int (*pn)(struct tc *c, const tk *k, const uint8_t *data);
+    /* the last piece's recurrence factors and their key (kf_get; the lean builds' own, else
+     * NULL), kept across the batch's queries */
+    struct pt_kfc *kfc;
 } tc;
 
 static inline float fmaxf_(float a, float b) { return a > b ? a : b; }
@@ -1125,6 +1130,34 @@ __attribute__((always_inline)) static inline void kf_set(pt_kf *kf, const ti *it
     kf->ixy = e[3];
 }
 
+/* The factors of the last piece that needed them and their key, the upright sweep's A, B, C
+ * (kf_set's inputs in its frame: the inverted sweep's A and C swapped, which kf_set swaps
+ * back, lane by lane the same operations), kept over a batch: a query whose kernel has the
+ * last one's shape at the same resolution (a fixed footprint) takes them instead of kf_set's
+ * four exps - the same function of the same values, so the same bits. */
+typedef struct pt_kfc {
+    int valid;
+    float key[3];
+    pt_kf kf;
+} pt_kfc;
+
+__attribute__((always_inline)) static inline void kf_get(pt_kf *kf, const ti *it, pt_kfc *kc)
+{
+    if (!kc) {
+        kf_set(kf, it);
+        return;
+    }
+    const float key[3] = {it->odd ? it->C : it->A, it->B, it->odd ? it->A : it->C};
+    if (kc->valid && memcmp(key, kc->key, sizeof key) == 0) {
+        *kf = kc->kf;
+        return;
+    }
+    kf_set(kf, it);
+    memcpy(kc->key, key, sizeof key);
+    kc->kf = *kf;
+    kc->valid = 1;
+}
+
 /* The cursor at tap (x, y) of sweep it, from the sweep's quadratic form in double. */
 __attribute__((always_inline)) static inline void cur_seed(pt_cur *cu, const ti *it, int x,
                                                            int y, float wscale)
@@ -1383,63 +1416,64 @@ __attribute__((always_inline)) static inline int kept_end(int xk, int x2, float 
     return xl;
 }
 
-/* The kept runs [xk, xl) of four rows y0 .. y0 + 3 of a recurrence sweep (rows from y2 on keep
+
+typedef float pt_v8f __attribute__((vector_size(32)));
+typedef int32_t pt_v8i __attribute__((vector_size(32)));
+
+/* The kept runs [xk, xl) of eight rows y0 .. y0 + 7 of a recurrence sweep (rows from y2 on keep
  * nothing), as row_first_kept and kept_end find them, a row a lane: row_span's bounds, Q and
  * DQ (each lane the scalar expressions' operations in their order: the same floats), then the
- * float Q chain stepped over the rows' spans together. Returns a mask of the rows that keep a
- * tap (bit r: row y0 + r).
+ * float Q chain stepped over the rows' spans together, as long as the longest span (n counts
+ * down by one a step in every lane: a lane is live while its span is above the step count).
+ * Returns a mask of the rows that keep a tap (bit r: row y0 + r).
  * The kept taps of a row are one run, so counting is enough: DDQ > 0, so DQ never decreases
  * (rounding is monotone) and Q, once it has risen, never falls (Q + DQ rounds to >= Q when
  * DQ >= 0; a NaN stays a NaN). So no row keeps a tap, then not one, then another: if Q_i < 1
  * <= Q_j (or Q_j NaN) and i < j < k, Q rose somewhere in (i, j] (a NaN does not come back to
  * Q_k < 1), and from there Q_k >= Q_j >= 1. With the run [p, p + c) of a row's steps, the
- * steps at and after its first kept one number N - p (N steps in all) and the kept ones c. */
-__attribute__((always_inline)) static inline unsigned rows_kept4(const ti *it, int R, int y0,
+ * steps at and after its first kept one number N - p (N steps in all) and the kept ones c.
+ * Eight rows a group (rows_kept4's four until tri30): a sweep of 5-8 rows (the whole kernel at
+ * footprint 4 on a 32-texel face) steps its rows' chains once, in one 256-bit register in
+ * the AVX2 instances (docs/ptex-log.md, "tri30"). */
+__attribute__((always_inline)) static inline unsigned rows_kept8(const ti *it, int R, int y0,
                                                                  int y2, float DDQ, int *xk,
                                                                  int *xl)
 {
-    const pt_v4i yv = (pt_v4i){0, 1, 2, 3} + y0, xw = R - yv;
-    pt_v4i lo0 = it->lo[0] - (pt_v4i){0, 0, 0, 0}, t = xw - it->hi[2], m = lo0 > t;
-    pt_v4i a = (lo0 & m) | (t & ~m); /* max(lo[0], R - y - hi[2]) */
-    pt_v4i hi0 = it->hi[0] - (pt_v4i){0, 0, 0, 0}, t2 = xw - it->lo[2];
+    const pt_v8i z = {0, 0, 0, 0, 0, 0, 0, 0};
+    const pt_v8i yv = (pt_v8i){0, 1, 2, 3, 4, 5, 6, 7} + y0, xw = R - yv;
+    pt_v8i lo0 = z + it->lo[0], t = xw - it->hi[2], m = lo0 > t;
+    pt_v8i a = (lo0 & m) | (t & ~m); /* max(lo[0], R - y - hi[2]) */
+    pt_v8i hi0 = z + it->hi[0], t2 = xw - it->lo[2];
     m = hi0 < t2;
-    pt_v4i x2 = (hi0 & m) | (t2 & ~m);      /* min(hi[0], R - y - lo[2]) */
-    pt_v4i n = (x2 - a) & (yv < y2); /* taps left in the row (none past y2) */
+    pt_v8i x2 = (hi0 & m) | (t2 & ~m);      /* min(hi[0], R - y - lo[2]) */
+    pt_v8i n = (x2 - a) & (yv < y2); /* taps left in the row (none past y2) */
     const float A = it->A, B = it->B, C = it->C;
-    pt_v4f U = __builtin_convertvector(a, pt_v4f) - it->u;
-    pt_v4f V = __builtin_convertvector(yv, pt_v4f) - it->v;
-    pt_v4f DQ = A * (2.0f * U + 1.0f) + B * V;
-    pt_v4f Q = A * U * U + (B * U + C * V) * V;
-    pt_v4i z = {0, 0, 0, 0}, started = z, after = z, kept = z;
-    int N = 0;
-    for (;;) {
-        pt_v4i live = n > 0; /* -1 where the step is in the row */
-#ifdef __SSE2__
-        if (!_mm_movemask_ps((__m128)live))
-            break;
-#else
-        if (!(live[0] | live[1] | live[2] | live[3]))
-            break;
-#endif
-        pt_v4i k = (Q < 1.0f) & live;
+    pt_v8f U = __builtin_convertvector(a, pt_v8f) - it->u;
+    pt_v8f V = __builtin_convertvector(yv, pt_v8f) - it->v;
+    pt_v8f DQ = A * (2.0f * U + 1.0f) + B * V;
+    pt_v8f Q = A * U * U + (B * U + C * V) * V;
+    pt_v8i started = z, after = z, kept = z;
+    /* the steps: as many as the longest span (none when no span is above 0) */
+    int steps = 0;
+    for (int i = 0; i < 8; i++)
+        steps = n[i] > steps ? n[i] : steps;
+    for (int N = 0; N < steps; N++) {
+        pt_v8i k = (Q < 1.0f) & (n > N);
         started |= k;
         after -= started; /* a true compare is -1 */
         kept -= k;
         Q += DQ;
         DQ += DDQ;
-        n -= 1;
-        N++;
     }
-    pt_v4i first = a + (N - after);
-    pt_v4i last = first + kept;
-    memcpy(xk, &first, 16);
-    memcpy(xl, &last, 16);
-#ifdef __SSE2__
-    return (unsigned)_mm_movemask_ps((__m128)(kept > 0));
-#else
-    pt_v4i has = kept > 0;
-    return (has[0] & 1u) | (has[1] & 2u) | (has[2] & 4u) | (has[3] & 8u);
-#endif
+    pt_v8i first = a + (steps - after);
+    pt_v8i last = first + kept;
+    memcpy(xk, &first, 32);
+    memcpy(xl, &last, 32);
+    pt_v8i has = kept > 0;
+    unsigned mask = 0;
+    for (int i = 0; i < 8; i++)
+        mask |= (unsigned)(has[i] & 1) << i;
+    return mask;
 }
 
 /* Whether every tap of sweep it's rows [y1, y2) lies in the band proper past the diagonal
@@ -1464,15 +1498,20 @@ static inline int fold_band_only(const ti *it, int y1, int y2)
  * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
  * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
  * weights, texels and order. */
+/* The rows [y1, y2) of a lean Clamp fold sweep over a level with texels, orientation ODD (the
+ * sweep's it->odd, a constant here so that the loop holds one lean_fold_row): each row's kept
+ * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
+ * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
+ * weights, texels and order. */
 __attribute__((always_inline)) static inline pt_v4f
 lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int y2,
                pt_cur *cu, float DDQ, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
                unsigned DT, unsigned NC)
 {
     const int R = it->R;
-    for (int y0 = y1; y0 < y2; y0 += 4) {
-        int xks[4], xls[4];
-        for (unsigned rows = rows_kept4(it, R, y0, y2, DDQ, xks, xls); rows; rows &= rows - 1) {
+    for (int y0 = y1; y0 < y2; y0 += 8) {
+        int xks[8], xls[8];
+        for (unsigned rows = rows_kept8(it, R, y0, y2, DDQ, xks, xls); rows; rows &= rows - 1) {
             int r = __builtin_ctz(rows), y = y0 + r, xk = xks[r], xl = xls[r];
             cur_to(cu, it, xk, y, wscale);
             double G = cu->G, E = cu->Ex;
@@ -1562,7 +1601,7 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
     if (REC && how != SW_READ && DDQ > 0.0f &&
         (y2 - y1) * (it->hi[0] - it->lo[0]) >= 16) {
         if (!kf->set)
-            kf_set(kf, it);
+            kf_get(kf, it, c->kfc);
         /* the weights by recurrence (pt_rec): each row's kept taps [xk, xl) found with the
          * float Q of the per-tap loop below (the same taps), the cursor moved to xk */
         pt_cur cu = {.seeded = 0, .kxx = it->odd ? kf->kyy : kf->kxx, .kxy = kf->kxy,
@@ -1709,11 +1748,9 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
  * of eight rows run as long as the longest. Pieces at R >= PT_LANES_MIN_R only (both in
  * sweep2_t and piece_rn), so every build takes the same rows for the same piece
  * (docs/ptex-log.md, "tri29"). */
-typedef float pt_v8f __attribute__((vector_size(32)));
 /* the rows a lane from resolution 3 (R = 8) up: below, a piece's few taps cost less by the
  * row functions (piece_r2, piece_r4; docs/ptex-log.md, "tri29") */
 #define PT_LANES_MIN_R 8
-typedef int32_t pt_v8i __attribute__((vector_size(32)));
 
 /* pk_exp2_4 on eight lanes: the same operations lane by lane, so the same value a lane. */
 __attribute__((always_inline)) static inline void pt_exp2_8(const pt_v8f *yin, pt_v8f *out)
@@ -2685,20 +2722,25 @@ static void apply_folded(tc *c, const tk *k, uint32_t f)
 {
     const st_face *F = &c->s->faces[f];
     int res = k->res > (int)F->ulog2 ? (int)F->ulog2 : k->res;
+    int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
+    /* a kernel inside the face (clamping it into the face, as iterators does, would leave its
+     * bounds as they are) reads every tap in place: the read sweeps, Traverse's and Discard's
+     * for such a kernel, the same taps and sums as the fold sweep with the per-tap expf. It is
+     * applied as Traverse applies a piece (apply_face: its sweeps clamped, which leaves them as
+     * they are, nothing when neither is valid, and the lean builds' pieces applied whole,
+     * piece_r1 .. piece_rn: the same bits as the read sweeps; docs/ptex-log.md, "tri30"). */
+    if (!constant && kernel_in_face(k)) {
+        tk kc = *k;
+        apply_face(c, &kc, f);
+        return;
+    }
     ti ev, od;
     iterators(c->avx2, k, res, &ev, &od);
-    int constant = (F->flags & ST_FACE_CONSTANT) || res == 0;
     const uint8_t *data = st_face_level(c->s, f, (F->flags & ST_FACE_CONSTANT) ? 0
                                                      : F->ulog2 - (unsigned)res);
     if (!ev.valid && !od.valid)
         return;
-    /* a kernel inside the face (clamping it into the face, as iterators does, would leave its
-     * bounds as they are) reads every tap in place: the read sweeps, Traverse's and Discard's
-     * for such a kernel, the same taps and sums as the fold sweep with the per-tap expf */
-    if (!constant && kernel_in_face(k))
-        c->rd(c, &ev, &od, data, 0);
-    else
-        c->fold(c, &ev, &od, data, constant);
+    c->fold(c, &ev, &od, data, constant);
 }
 
 static float one_value(unsigned dt)
@@ -2891,6 +2933,8 @@ __attribute__((always_inline)) static inline int tri_batch(const st_set *s,
     proto.p4 = lean ? piece_r4_fn(proto.dt, nc, proto.avx2) : NULL;
     proto.pn = lean ? piece_rn_fn(proto.dt, nc, proto.avx2) : NULL;
     tk_cache kc = {.valid = 0};
+    pt_kfc kfc = {.valid = 0};
+    proto.kfc = lean ? &kfc : NULL;
     int bad = 0;
 
     for (size_t i = 0; i < n; i++) {
