@@ -396,6 +396,21 @@ static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fi
     return ST_PTX_INFL_OK;
 }
 
+/* The fast loop's symbol from root entry e of table tbl, on its local bit buffer (bb, bc, p):
+ * the entry's symbol and length when it holds one, else pi_decode_long on the state. */
+#define PI_ROOT_OR_LONG(e, sym, tbl)                                                             \
+    do {                                                                                        \
+        if (e) {                                                                                \
+            bb >>= (e) & 63;                                                                    \
+            bc -= (e) & 63;                                                                     \
+            (sym) = (int)((e) >> 6);                                                            \
+        } else {                                                                                \
+            s->bb = bb, s->bc = bc, s->p = p;                                                   \
+            (sym) = pi_decode_long(s, (tbl));                                                   \
+            bb = s->bb, bc = s->bc;                                                             \
+        }                                                                                       \
+    } while (0)
+
 /* Inflates one block's codes into out: with lit / dist, or the fixed code (fix, a constant
  * at each call: two copies). */
 static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, int fix,
@@ -467,15 +482,7 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
                 /* a root literal takes at most 9 bits: at least 27 are left for e */
             }
             int sym;
-            if (e) {
-                bb >>= e & 63;
-                bc -= e & 63;
-                sym = (int)(e >> 6);
-            } else {
-                s->bb = bb, s->bc = bc, s->p = p;
-                sym = pi_decode_long(s, lit);
-                bb = s->bb, bc = s->bc;
-            }
+            PI_ROOT_OR_LONG(e, sym, lit);
             if (sym < 256) {
                 if (sym < 0) {
                     *why = "invalid literal/length code";
@@ -510,15 +517,7 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
             bc -= nx;
             unsigned de = dist->root[bb & dist->mask];
             int ds;
-            if (de) {
-                bb >>= de & 63;
-                bc -= de & 63;
-                ds = (int)(de >> 6);
-            } else {
-                s->bb = bb, s->bc = bc, s->p = p;
-                ds = pi_decode_long(s, dist);
-                bb = s->bb, bc = s->bc;
-            }
+            PI_ROOT_OR_LONG(de, ds, dist);
             if ((unsigned)ds >= 30) {
                 *why = "invalid distance code";
                 return ST_PTX_INFL_BAD;
@@ -550,6 +549,7 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
     }
     return ST_PTX_INFL_OK;
 }
+#undef PI_ROOT_OR_LONG
 
 /* The code lengths of a dynamic block, then its codes (not inlined: its tables stay off the
  * caller's frame). */
