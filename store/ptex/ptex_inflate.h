@@ -346,6 +346,19 @@ static inline void pi_copy(uint8_t *out, size_t o, size_t outlen, size_t d, unsi
     }
 }
 
+/* Distance code ds (0..29): the distance before its extra bits, and *nx their count (RFC 1951
+ * 3.2.5). */
+static inline size_t pi_dist_base(unsigned ds, unsigned *nx)
+{
+    if (ds < 4) {
+        *nx = 0;
+        return (size_t)ds + 1;
+    }
+    unsigned x = (ds >> 1) - 1;
+    *nx = x;
+    return ((size_t)(2 + (ds & 1)) << x) + 1;
+}
+
 /* Length code li (symbol - 257, 0..28): the length before its extra bits, and *nx their count
  * (RFC 1951 3.2.5). */
 static inline unsigned pi_len_base(unsigned li, unsigned *nx)
@@ -378,13 +391,9 @@ static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fi
         *why = "invalid distance code";
         return ST_PTX_INFL_BAD;
     }
-    size_t d;
-    if (ds < 4) {
-        d = (size_t)ds + 1;
-    } else {
-        unsigned x = ((unsigned)ds >> 1) - 1;
-        d = ((size_t)(2 + (ds & 1)) << x) + 1 + pi_take(s, x);
-    }
+    unsigned dx;
+    size_t d = pi_dist_base((unsigned)ds, &dx);
+    d += pi_take(s, dx);
     if (d > o) {
         *why = "invalid distance too far back";
         return ST_PTX_INFL_BAD;
@@ -522,15 +531,10 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
                 *why = "invalid distance code";
                 return ST_PTX_INFL_BAD;
             }
-            size_t d;
-            if (ds < 4) {
-                d = (size_t)ds + 1;
-            } else {
-                unsigned x = ((unsigned)ds >> 1) - 1;
-                d = ((size_t)(2 + (ds & 1)) << x) + 1 + (size_t)(bb & ((1u << x) - 1));
-                bb >>= x;
-                bc -= x;
-            }
+            unsigned dx;
+            size_t d = pi_dist_base((unsigned)ds, &dx) + (size_t)(bb & ((1u << dx) - 1));
+            bb >>= dx;
+            bc -= dx;
             if (d > o) {
                 *why = "invalid distance too far back";
                 return ST_PTX_INFL_BAD;
