@@ -17,10 +17,15 @@
  * A texel of level L is linked for chart c (the side's chart id) when its centre lies within
  * ST_CHART_LINK_BAND texels of the side's UV edge (at that level), on the far side of the edge
  * from C (or within half a texel of it), and its id is not c; its link is the texel under the
- * carried centre, kept only when that texel's id is the other side's chart. Where several seam
- * sides reach one texel for one chart, the nearest edge wins (then the lower seam index). A
- * texel past a boundary edge, or farther than the band, has no link: Traverse drops it, as
- * Ptex's Traverse does past a mesh boundary. A level whose candidates would outnumber its
+ * carried centre, kept only when that texel's id is the other side's chart. Near a seam's end
+ * (a UV vertex where several seams meet, as at a chart corner) the carried centre can land past
+ * the other chart's own border: then it is carried once more, across a seam side of that chart
+ * at the same vertex whose edge it lies past (within the band), and linked when it lands in
+ * that side's other chart (not the texel's own: a vertex whose charts' angles sum to less
+ * than a turn has no surface there). Where several seam sides reach one texel for one chart, a
+ * single carry wins over two, then the nearest edge (then the lower seam index). A texel past
+ * a boundary edge, or farther than the band, has no link: Traverse drops it, as Ptex's
+ * Traverse does past a mesh boundary. A level whose candidates would outnumber its
  * texels plus 128 a seam, or whose bands cover more than 8 times its texels plus 512 a seam,
  * gets no links (memory and time in proportion to the image and the mesh, whatever the mesh).
  */
@@ -34,6 +39,7 @@ typedef struct cand {
     st_chart_link l;
     float d;        /* distance of the texel centre from the seam side, in texels */
     uint32_t seam;  /* for a deterministic choice on equal distances */
+    uint32_t hops;  /* 1, or 2 when carried across a second seam at a vertex */
 } cand;
 
 typedef struct cands {
@@ -48,6 +54,8 @@ static int cand_cmp(const void *a, const void *b)
         return x->l.texel < y->l.texel ? -1 : 1;
     if (x->l.chart != y->l.chart)
         return x->l.chart < y->l.chart ? -1 : 1;
+    if (x->hops != y->hops)
+        return x->hops < y->hops ? -1 : 1;
     if (x->d != y->d)
         return x->d < y->d ? -1 : 1;
     return x->seam < y->seam ? -1 : x->seam > y->seam;
@@ -148,34 +156,172 @@ static int unfold_map(const st_mesh *m, const st_seam_edge *se, int k, seam_map 
     return 0;
 }
 
-/* Adds the candidates of one seam side at one level (w x h texels, ids) to out; 0, ST_ENOMEM,
- * or ST_ETOOBIG when the level would hold more than cap of them or the texels looked at
- * would exceed *work (decremented by those looked at). */
-static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, int k,
-                      const uint16_t *ids, uint32_t w, uint32_t h, size_t cap, size_t *work,
-                      cands *out)
+/* A seam side's UV edge in texels of one level (w x h): A, the edge A -> B, its length, and
+ * the sign that makes a signed distance positive on C's side. 0, or -1 when degenerate. */
+typedef struct edge_tx { double ax, ay, ex, ey, len2, len, sgn; } edge_tx;
+
+static int edge_in_texels(const float *pa, const float *pb, const float *pc, uint32_t w,
+                          uint32_t h, edge_tx *E)
 {
-    seam_map M;
-    if (unfold_map(m, se, k, &M))
+    E->ax = pa[0] * (double)w;
+    E->ay = pa[1] * (double)h;
+    E->ex = pb[0] * (double)w - E->ax;
+    E->ey = pb[1] * (double)h - E->ay;
+    E->len2 = E->ex * E->ex + E->ey * E->ey;
+    double side_c = E->ex * (pc[1] * (double)h - E->ay) - E->ey * (pc[0] * (double)w - E->ax);
+    if (!(E->len2 > 0) || !(side_c != 0) || !isfinite(E->len2) || !isfinite(side_c))
+        return -1;
+    E->len = sqrt(E->len2);
+    E->sgn = side_c > 0 ? 1 : -1;
+    return 0;
+}
+
+/* The distance (texels) of point (px, py) from the edge's segment when the point is past the
+ * edge's line (at most half a texel on C's side) and within the band; -1 otherwise. *tt: where
+ * along the edge its nearest point is (0 at A, 1 at B). */
+static double past_edge(const edge_tx *E, double px, double py, double *tt)
+{
+    double sdist = (E->ex * (py - E->ay) - E->ey * (px - E->ax)) / E->len * E->sgn;
+    if (sdist > 0.5)
+        return -1;   /* on the chart's side of this edge: not past it */
+    double t = ((px - E->ax) * E->ex + (py - E->ay) * E->ey) / E->len2;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    double dx = px - (E->ax + t * E->ex), dy = py - (E->ay + t * E->ey);
+    double d = sqrt(dx * dx + dy * dy);
+    *tt = t;
+    return d > ST_CHART_LINK_BAND ? -1 : d;
+}
+
+/* Carries normalised (u, v) across the seam: M's image. */
+static void carry(const seam_map *M, double u, double v, double *u2, double *v2)
+{
+    u -= M->p[0];
+    v -= M->p[1];
+    *u2 = M->o[0] + M->J[0][0] * u + M->J[0][1] * v;
+    *v2 = M->o[1] + M->J[1][0] * u + M->J[1][1] * v;
+}
+
+/* What a second carry needs: every seam side's map (2 per seam: seam * 2 + k; ok[] 0 for a
+ * degenerate one) and, per weld id, the seam sides that end there (CSR: at[v] .. at[v + 1]). */
+typedef struct hops {
+    seam_map *map;
+    uint8_t  *ok;
+    uint32_t *at, *side;
+} hops;
+
+static void hops_free(hops *H)
+{
+    free(H->map);
+    free(H->ok);
+    free(H->at);
+    free(H->side);
+    memset(H, 0, sizeof *H);
+}
+
+static int hops_build(const st_mesh *m, hops *H)
+{
+    const st_seams *S = m->seams;
+    size_t ns = S->nseams, nw = m->nweld;
+    size_t nside = ns ? 2 * ns : 1;   /* at least one byte: malloc(0) may be NULL */
+    H->map = malloc(nside * sizeof *H->map);
+    H->ok = malloc(nside);
+    H->at = calloc(nw + 2, sizeof *H->at);
+    H->side = malloc(2 * nside * sizeof *H->side);
+    if (!H->map || !H->ok || !H->at || !H->side)
+        return -1;
+    for (size_t i = 0; i < ns; i++)
+        for (int k = 0; k < 2; k++)
+            H->ok[2 * i + (size_t)k] = unfold_map(m, &S->seams[i], k, &H->map[2 * i + (size_t)k]) == 0;
+    for (size_t i = 0; i < ns; i++)
+        for (int e = 0; e < 2; e++)
+            if (S->seams[i].pos[e] < nw)
+                H->at[S->seams[i].pos[e] + 2] += 2;   /* its two sides */
+    for (size_t v = 0; v < nw; v++)
+        H->at[v + 2] += H->at[v + 1];
+    for (size_t i = 0; i < ns; i++)
+        for (int e = 0; e < 2; e++) {
+            uint32_t v = S->seams[i].pos[e];
+            if (v < nw)
+                for (int k = 0; k < 2; k++)
+                    H->side[H->at[v + 1]++] = (uint32_t)(2 * i) + (uint32_t)k;
+        }
+    return 0;
+}
+
+/* The texel and the point (normalised u, v) where (u, v) of chart c2's UV plane - carried there
+ * across seam `from` of chart c, near its end at weld id `vert`, and past c2's own border -
+ * lands when carried across a seam side of chart c2 that ends at `vert` and whose edge it is
+ * past: the nearest such edge's, when it lands in that side's other chart, which is not c.
+ * 1 found, 0 none, ST_ETOOBIG past the work budget (a side looked at is a unit of it). */
+static int second_carry(const st_mesh *m, const hops *H, uint32_t from, uint32_t vert,
+                        uint16_t c, uint16_t c2, double u, double v, const uint16_t *ids,
+                        uint32_t w, uint32_t h, size_t *work, size_t *to, double *uo,
+                        double *vo)
+{
+    const st_seams *S = m->seams;
+    if (vert >= m->nweld)
+        return 0;
+    double best = -1;
+    for (uint32_t a = H->at[vert]; a < H->at[vert + 1]; a++) {
+        if (!*work)
+            return ST_ETOOBIG;
+        (*work)--;
+        uint32_t sd = H->side[a], seam = sd / 2;
+        int k = (int)(sd % 2);
+        const st_seam_edge *se = &S->seams[seam];
+        if (seam == from || !H->ok[sd] || S->tri_chart[se->tri[k]] + 1 != c2)
+            continue;
+        uint16_t c3 = (uint16_t)(S->tri_chart[se->tri[1 - k]] + 1);
+        if (c3 == c || c3 == c2)
+            continue;
+        uint32_t t = se->tri[k];
+        unsigned ka = corner_of(m, t, se->pos[0]), kb = corner_of(m, t, se->pos[1]);
+        edge_tx E;
+        if (ka > 2 || kb > 2 || ka == kb ||
+            edge_in_texels(uv_at(m, t, ka), uv_at(m, t, kb), uv_at(m, t, 3 - ka - kb), w, h, &E))
+            continue;
+        double tt, d = past_edge(&E, u * (double)w, v * (double)h, &tt);
+        if (d < 0 || (best >= 0 && d >= best))
+            continue;
+        double u3, v3;
+        carry(&H->map[sd], u, v, &u3, &v3);
+        double x3 = floor(u3 * (double)w), y3 = floor(v3 * (double)h);
+        if (!(x3 >= 0 && x3 < (double)w && y3 >= 0 && y3 < (double)h))
+            continue;
+        size_t at = (size_t)y3 * w + (size_t)x3;
+        if (ids[at] != c3)
+            continue;
+        best = d;
+        *to = at;
+        *uo = u3;
+        *vo = v3;
+    }
+    return best >= 0;
+}
+
+/* Adds the candidates of one seam side at one level (w x h texels, ids) to out; 0, ST_ENOMEM,
+ * or ST_ETOOBIG when the level would hold more than cap of them or the texels (and second
+ * carries' seam sides) looked at would exceed *work (decremented by those looked at). */
+static int side_cands(const st_mesh *m, const hops *H, uint32_t seam, int k, const uint16_t *ids,
+                      uint32_t w, uint32_t h, size_t cap, size_t *work, cands *out)
+{
+    const st_seam_edge *se = &m->seams->seams[seam];
+    const seam_map *M = &H->map[2 * (size_t)seam + (size_t)k];
+    if (!H->ok[2 * (size_t)seam + (size_t)k])
         return 0;
     uint32_t t = se->tri[k], t2 = se->tri[1 - k];
     unsigned ka = corner_of(m, t, se->pos[0]), kb = corner_of(m, t, se->pos[1]);
-    const float *pa = uv_at(m, t, ka), *pb = uv_at(m, t, kb), *pc = uv_at(m, t, 3 - ka - kb);
     uint16_t c = (uint16_t)(m->seams->tri_chart[t] + 1);
     uint16_t c2 = (uint16_t)(m->seams->tri_chart[t2] + 1);
-    /* texel space of this level */
-    double ax = pa[0] * (double)w, ay = pa[1] * (double)h;
-    double bx = pb[0] * (double)w, by = pb[1] * (double)h;
-    double cx = pc[0] * (double)w, cy = pc[1] * (double)h;
-    double ex = bx - ax, ey = by - ay, len2 = ex * ex + ey * ey;
-    double side_c = ex * (cy - ay) - ey * (cx - ax);   /* C's side of the edge */
-    if (!(len2 > 0) || !(side_c != 0) || !isfinite(len2) || !isfinite(side_c))
+    edge_tx E;   /* texel space of this level */
+    if (edge_in_texels(uv_at(m, t, ka), uv_at(m, t, kb), uv_at(m, t, 3 - ka - kb), w, h, &E))
         return 0;
-    const double band = ST_CHART_LINK_BAND, len = sqrt(len2);
-    double minx = fmax(floor(fmin(ax, bx) - band), 0);
-    double maxx = fmin(ceil(fmax(ax, bx) + band), (double)w - 1);
-    double miny = fmax(floor(fmin(ay, by) - band), 0);
-    double maxy = fmin(ceil(fmax(ay, by) + band), (double)h - 1);
+    const double band = ST_CHART_LINK_BAND;
+    double bx = E.ax + E.ex, by = E.ay + E.ey;
+    double minx = fmax(floor(fmin(E.ax, bx) - band), 0);
+    double maxx = fmin(ceil(fmax(E.ax, bx) + band), (double)w - 1);
+    double miny = fmax(floor(fmin(E.ay, by) - band), 0);
+    double maxy = fmin(ceil(fmax(E.ay, by) + band), (double)h - 1);
     if (minx > maxx || miny > maxy)
         return 0;
     for (long j = (long)miny; j <= (long)maxy; j++) {
@@ -185,9 +331,9 @@ static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, i
         /* the row's texels within `band` of the edge's line: an interval (the whole box's
          * width for a horizontal edge), so the work is the band's area, not the box's */
         double lo = minx, hi = maxx, py0 = j + 0.5;
-        if (ey != 0) {
-            double x0 = ax + (ex * (py0 - ay) - band * len) / ey - 0.5;
-            double x1 = ax + (ex * (py0 - ay) + band * len) / ey - 0.5;
+        if (E.ey != 0) {
+            double x0 = E.ax + (E.ex * (py0 - E.ay) - band * E.len) / E.ey - 0.5;
+            double x1 = E.ax + (E.ex * (py0 - E.ay) + band * E.len) / E.ey - 0.5;
             lo = fmax(lo, ceil(fmin(x0, x1)));
             hi = fmin(hi, floor(fmax(x0, x1)));
         }
@@ -201,34 +347,38 @@ static int side_cands(const st_mesh *m, const st_seam_edge *se, uint32_t seam, i
             size_t idx = (size_t)j * w + (size_t)i;
             if (ids[idx] == c)
                 continue;   /* the chart's own texel: read as it is */
-            double px = i + 0.5, py = j + 0.5;
-            /* signed distance from the edge's line, positive on C's side */
-            double sdist = (ex * (py - ay) - ey * (px - ax)) / len * (side_c > 0 ? 1 : -1);
-            if (sdist > 0.5)
-                continue;   /* on the chart's side of this edge: not past it */
-            double tt = ((px - ax) * ex + (py - ay) * ey) / len2;
-            tt = tt < 0 ? 0 : tt > 1 ? 1 : tt;
-            double dx = px - (ax + tt * ex), dy = py - (ay + tt * ey);
-            double d = sqrt(dx * dx + dy * dy);
-            if (d > band)
+            double px = i + 0.5, py = j + 0.5, tt;
+            double d = past_edge(&E, px, py, &tt);
+            if (d < 0)
                 continue;
             /* carry the centre across (normalised uv), then the texel under it */
-            double u = px / (double)w - M.p[0], v = py / (double)h - M.p[1];
-            double u2 = M.o[0] + M.J[0][0] * u + M.J[0][1] * v;
-            double v2 = M.o[1] + M.J[1][0] * u + M.J[1][1] * v;
+            double u2, v2;
+            carry(M, px / (double)w, py / (double)h, &u2, &v2);
             double x2 = floor(u2 * (double)w), y2 = floor(v2 * (double)h);
-            if (!(x2 >= 0 && x2 < (double)w && y2 >= 0 && y2 < (double)h))
-                continue;
-            size_t to = (size_t)y2 * w + (size_t)x2;
-            if (ids[to] != c2)
-                continue;   /* not landing in the other chart: no link */
+            size_t to = 0;
+            uint32_t hops_n = 1;
+            int lands = x2 >= 0 && x2 < (double)w && y2 >= 0 && y2 < (double)h;
+            if (lands)
+                to = (size_t)y2 * w + (size_t)x2;
+            if (!lands || ids[to] != c2) {
+                /* past the other chart's own border: near an end of the seam, carried across
+                 * one of that chart's seams at that vertex (see above) */
+                int r = second_carry(m, H, seam, se->pos[tt < 0.5 ? 0 : 1], c, c2, u2, v2, ids,
+                                     w, h, work, &to, &u2, &v2);
+                if (r < 0)
+                    return r;
+                if (!r)
+                    continue;   /* not landing in another chart: no link */
+                hops_n = 2;
+            }
             /* where in texel `to` the carried centre lies, in 256ths (the read is bilinear
              * there: sample_tap.c) */
-            double fu = floor((u2 * (double)w - x2) * 256.0), fv = floor((v2 * (double)h - y2) * 256.0);
+            double fu = floor((u2 * (double)w - (double)(to % w)) * 256.0);
+            double fv = floor((v2 * (double)h - (double)(to / w)) * 256.0);
             fu = fu < 0 ? 0 : fu > 255 ? 255 : fu;
             fv = fv < 0 ? 0 : fv > 255 ? 255 : fv;
             cand x = {{(uint32_t)idx, (uint32_t)to, c, (uint16_t)((unsigned)fu | (unsigned)fv << 8)},
-                      (float)d, seam};
+                      (float)d, seam, hops_n};
             if (out->n >= cap)
                 return ST_ETOOBIG;
             if (push(out, &x))
@@ -258,6 +408,12 @@ int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e)
     memset(lv, 0, sizeof lv);
     size_t total = 0;
     int rc = ST_OK;
+    hops H = {0};
+    if (hops_build(m, &H)) {
+        hops_free(&H);
+        return st_fail(e, ST_ENOMEM, "out of memory for the seam links of a %ux%u atlas", F->w,
+                       F->h);
+    }
     for (unsigned l = 0; l < a->ids.nlevels && !rc; l++) {
         uint32_t w = st_level_w(F, l), h = st_level_h(F, l);
         /* a level's candidates (every seam side's band, before one per texel and chart is
@@ -272,8 +428,7 @@ int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e)
         int r = 0;
         for (uint32_t i = 0; i < m->seams->nseams && !r; i++)
             for (int k = 0; k < 2 && !r; k++)
-                r = side_cands(m, &m->seams->seams[i], i, k, a->ids.level[l], w, h, cap, &work,
-                               &lv[l]);
+                r = side_cands(m, &H, i, k, a->ids.level[l], w, h, cap, &work, &lv[l]);
         if (r == ST_ETOOBIG)
             lv[l].n = 0;
         else if (r)
@@ -291,6 +446,7 @@ int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e)
         lv[l].n = n;
         total += n;
     }
+    hops_free(&H);
     st_chart_link *links = rc ? NULL : malloc((total ? total : 1) * sizeof *links);
     if (!rc && !links)
         rc = st_fail(e, ST_ENOMEM, "out of memory for the seam links of a %ux%u atlas", F->w, F->h);

@@ -802,6 +802,125 @@ static void chart_traverse_reads_between_texels_of_a_denser_chart(void **state)
     st_set_free(s);
 }
 
+/* Four unit squares of a plane in 3D - (a, b) over [a, a + 1] x [b, b + 1], a, b in {0, 1} -
+ * meeting at the vertex (1, 1), each its own chart in a 72 x 72 atlas: square (a, b) over
+ * texels [4 + 36a, 32 + 36a) x [4 + 36b, 32 + 36b), (1, 1) turned a quarter, the rest a blue
+ * gutter (4 texels at the image's border: a tap beyond the image has no link);
+ * every chart texel holds red = x / 2, green = y / 2 of its centre on the surface. */
+static st_set *four_charts_at_a_vertex(void)
+{
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_mesh_alloc(9, 16, 8, &m, &e), ST_OK);
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++) {
+            m->pos[(j * 3 + i) * 3] = (float)i;
+            m->pos[(j * 3 + i) * 3 + 1] = (float)j;
+            m->pos[(j * 3 + i) * 3 + 2] = 0;
+        }
+    for (int q = 0; q < 4; q++) {
+        int a = q & 1, b = q >> 1;
+        uint32_t c[4] = {(uint32_t)(b * 3 + a), (uint32_t)(b * 3 + a + 1),
+                         (uint32_t)((b + 1) * 3 + a + 1), (uint32_t)((b + 1) * 3 + a)};
+        float ox = 4.0f + 36.0f * (float)a, oy = 4.0f + 36.0f * (float)b;
+        /* the corners' texel places: (0,0) (28,0) (28,28) (0,28), square (1, 1) turned */
+        const float loc[2][8] = {{0, 0, 28, 0, 28, 28, 0, 28}, {28, 0, 28, 28, 0, 28, 0, 0}};
+        for (int k = 0; k < 4; k++) {
+            m->uv[(q * 4 + k) * 2] = (ox + loc[q == 3][2 * k]) / 72.0f;
+            m->uv[(q * 4 + k) * 2 + 1] = (oy + loc[q == 3][2 * k + 1]) / 72.0f;
+        }
+        const int tri[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++) {
+            m->tri_pos[q * 6 + k] = c[tri[k]];
+            m->tri_uv[q * 6 + k] = (uint32_t)(q * 4 + tri[k]);
+        }
+    }
+    static uint8_t px[72][72][4];
+    for (int j = 0; j < 72; j++)
+        for (int i = 0; i < 72; i++) {
+            int a = i >= 40, b = j >= 40, li = i - 4 - 36 * a, lj = j - 4 - 36 * b;
+            uint8_t *p = px[j][i];
+            if (li < 0 || lj < 0 || li >= 28 || lj >= 28) {
+                p[0] = p[1] = 0;
+                p[2] = p[3] = 255;
+                continue;
+            }
+            float sx = (li + 0.5f) / 28.0f, ty = (lj + 0.5f) / 28.0f;
+            float x = (float)a + sx, y = (float)b + ty;
+            if (a && b) {   /* turned: texel-local (s, t) = (1 - (y - 1), x - 1) */
+                x = 1.0f + ty;
+                y = 2.0f - sx;
+            }
+            p[0] = (uint8_t)lrintf(x / 2.0f * 255.0f);
+            p[1] = (uint8_t)lrintf(y / 2.0f * 255.0f);
+            p[2] = 0;
+            p[3] = 255;
+        }
+    st_image img = {.w = 72, .h = 72, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3,
+                    .data = &px[0][0][0]};
+    st_set *s = NULL;
+    assert_int_equal(st_atlas_from_image(&img, m, 0, &s, &e), ST_OK);
+    const st_atlas *at = st_atlas_get(s);
+    assert_int_equal(at->mesh->seams->ncharts, 4);
+    assert_int_equal(at->mesh->seams->nseams, 4);
+    return s;
+}
+
+/* Where four charts meet at a vertex, a tap past the query's chart's corner lies in the chart
+ * diagonally across the vertex, which shares no seam with the query's chart: it is carried
+ * across the seam to a neighbour and on across that neighbour's seam at the same vertex. So
+ * Traverse near the corner reads every tap (coverage 1), on the surface's ramps (red = x / 2,
+ * green = y / 2), no gutter blue - before, those taps had no link and were dropped (bilinear
+ * 0.2 texels from the corner: coverage 0.91) - from each of the four charts' corners, at level
+ * 0 and coarser levels. */
+static void chart_traverse_reads_across_a_vertex_of_four_charts(void **state)
+{
+    (void)state;
+    st_set *s = four_charts_at_a_vertex();
+    struct {
+        uint8_t filter;
+        float fp;   /* footprint in level-0 texels */
+        float tol;  /* steps of 255 */
+    } cases[] = {
+        {ST_FILTER_BILINEAR, 0, 1.0f},
+        {ST_FILTER_BILINEAR, 2, 1.5f},    /* level 1 */
+        {ST_FILTER_TRILINEAR, 3, 2.0f},   /* levels 1 and 2 */
+    };
+    /* each chart's corner at the shared vertex, in its own texels, and the surface there */
+    for (int q = 0; q < 4; q++)
+        for (size_t c = 0; c < sizeof cases / sizeof *cases; c++)
+            for (int k = 0; k < 5; k++) {
+                /* d: how far inside the chart, from its corner, in level-0 texels */
+                float d = 0.2f + 0.15f * (float)k, dd = d * (1.0f + 0.3f * (float)(k & 1));
+                float a = q & 1, b = q >> 1, tx, ty, x, y;
+                if (q == 3) {   /* turned: the vertex (1, 1) is texel-local (28, 0) */
+                    tx = 40.0f + 28.0f - d;
+                    ty = 40.0f + dd;
+                    x = 1.0f + dd / 28.0f;
+                    y = 1.0f + d / 28.0f;
+                } else {
+                    tx = a ? 40.0f + d : 32.0f - d;
+                    ty = b ? 40.0f + dd : 32.0f - dd;
+                    x = a ? 1.0f + d / 28.0f : 1.0f - d / 28.0f;
+                    y = b ? 1.0f + dd / 28.0f : 1.0f - dd / 28.0f;
+                }
+                st_query qq = {.face = 0, .u = tx / 72.0f, .v = ty / 72.0f,
+                               .dudx = cases[c].fp / 72.0f, .dvdy = cases[c].fp / 72.0f};
+                st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = cases[c].filter};
+                float t[4], ct;
+                uint8_t st;
+                assert_int_equal(st_sample_batch(s, &o, &qq, 1, t, &ct, &st), 0);
+                float er = fabsf(t[0] - x / 2.0f) * 255.0f, eg = fabsf(t[1] - y / 2.0f) * 255.0f;
+                if (fabsf(ct - 1.0f) > 1e-6f || t[2] != 0.0f || er > cases[c].tol ||
+                    eg > cases[c].tol)
+                    fail_msg("chart %d filter %u fp %g d %g: Traverse (%g %g %g) coverage %g, "
+                             "the surface (%g %g 0): %g %g steps", q, cases[c].filter,
+                             (double)cases[c].fp, (double)d, t[0], t[1], t[2], ct, x / 2.0f,
+                             y / 2.0f, er, eg);
+            }
+    st_set_free(s);
+}
+
 /* A mesh of 400 seams each drawn across the whole of a 1024^2 image (a hostile upload: each
  * seam side's band is about 26 K texels of level 0): level 0's bands would cover more than 8
  * times its texels plus 512 a seam, so it gets no links (Traverse is chart Discard there) -
@@ -869,6 +988,7 @@ int main(void)
         cmocka_unit_test(seams_over_the_whole_image_are_bounded),
         cmocka_unit_test(per_chart_mips_keep_each_chart_to_itself),
         cmocka_unit_test(chart_traverse_reads_between_texels_of_a_denser_chart),
+        cmocka_unit_test(chart_traverse_reads_across_a_vertex_of_four_charts),
         cmocka_unit_test(shared_uvs_are_not_a_seam_even_with_duplicate_vt_entries),
         cmocka_unit_test(mirrored_chart_is_flagged),
         cmocka_unit_test(welding_merges_split_positions_before_seams),
