@@ -1054,7 +1054,8 @@ typedef int64_t pt_v4l __attribute__((vector_size(32)));
 
 /* exp of the four lanes of x (out = e^x), x clamped to [-700, 700], to about 1e-14 relatively:
  * x = n ln 2 + r, |r| <= ln 2 / 2 (n by the 1.5 * 2^52 rounding trick; ln 2 in two parts, the
- * first exact times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15),
+ * first exact times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15;
+ * evaluated by Estrin's scheme),
  * times 2^n made in the exponent bits. Inline, in place of libm's exp and expf for the
  * recurrence's factors. Generic vectors: one 256-bit vector where the caller is built for AVX2
  * (the fold sweeps' AVX2 instances), two SSE2 halves elsewhere; each lane the same operations
@@ -1095,17 +1096,21 @@ __attribute__((always_inline)) static inline void pt_exp4(const double *xin, dou
     memcpy(&mb, &magic, 32);
     pt_v4d n = k - magic;
     pt_v4d r = (x - n * 0x1.62e4p-1) - n * 0x1.7f7d1cf79abcap-20;
-    pt_v4d p = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    /* Estrin's scheme: pairs, then r^2, r^4, r^8 (a chain of about 10 operations, not
+     * Horner's 22; docs/ptex-log.md, "Session 31, tri31") */
+    pt_v4d r2 = r * r;
+    pt_v4d r4 = r2 * r2;
+    pt_v4d r8 = r4 * r4;
+    pt_v4d p01 = r + 1.0;
+    pt_v4d p23 = r * (1.0 / 6.0) + 0.5;
+    pt_v4d p45 = r * (1.0 / 120.0) + 1.0 / 24.0;
+    pt_v4d p67 = r * (1.0 / 5040.0) + 1.0 / 720.0;
+    pt_v4d p89 = r * (1.0 / 362880.0) + 1.0 / 40320.0;
+    pt_v4d pab = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
+    pt_v4d q0 = p23 * r2 + p01;
+    pt_v4d q1 = p67 * r2 + p45;
+    pt_v4d q2 = pab * r2 + p89;
+    pt_v4d p = (q1 * r4 + q0) + q2 * r8;
     pt_v4l sb = (kb - mb + 1023) << 52;
     pt_v4d sc;
     memcpy(&sc, &sb, 32);
