@@ -1054,7 +1054,8 @@ typedef int64_t pt_v4l __attribute__((vector_size(32)));
 
 /* exp of the four lanes of x (out = e^x), x clamped to [-700, 700], to about 1e-14 relatively:
  * x = n ln 2 + r, |r| <= ln 2 / 2 (n by the 1.5 * 2^52 rounding trick; ln 2 in two parts, the
- * first exact times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15),
+ * first exact times n), e^r by its Taylor polynomial of degree 11 (truncation below 7e-15;
+ * evaluated by Estrin's scheme),
  * times 2^n made in the exponent bits. Inline, in place of libm's exp and expf for the
  * recurrence's factors. Generic vectors: one 256-bit vector where the caller is built for AVX2
  * (the fold sweeps' AVX2 instances), two SSE2 halves elsewhere; each lane the same operations
@@ -1095,17 +1096,21 @@ __attribute__((always_inline)) static inline void pt_exp4(const double *xin, dou
     memcpy(&mb, &magic, 32);
     pt_v4d n = k - magic;
     pt_v4d r = (x - n * 0x1.62e4p-1) - n * 0x1.7f7d1cf79abcap-20;
-    pt_v4d p = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    /* Estrin's scheme: pairs, then r^2, r^4, r^8 (a chain of about 10 operations, not
+     * Horner's 22; docs/ptex-log.md, "Session 31, tri31") */
+    pt_v4d r2 = r * r;
+    pt_v4d r4 = r2 * r2;
+    pt_v4d r8 = r4 * r4;
+    pt_v4d p01 = r + 1.0;
+    pt_v4d p23 = r * (1.0 / 6.0) + 0.5;
+    pt_v4d p45 = r * (1.0 / 120.0) + 1.0 / 24.0;
+    pt_v4d p67 = r * (1.0 / 5040.0) + 1.0 / 720.0;
+    pt_v4d p89 = r * (1.0 / 362880.0) + 1.0 / 40320.0;
+    pt_v4d pab = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
+    pt_v4d q0 = p23 * r2 + p01;
+    pt_v4d q1 = p67 * r2 + p45;
+    pt_v4d q2 = pab * r2 + p89;
+    pt_v4d p = (q1 * r4 + q0) + q2 * r8;
     pt_v4l sb = (kb - mb + 1023) << 52;
     pt_v4d sc;
     memcpy(&sc, &sb, 32);
@@ -1742,12 +1747,14 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
  * so the same kept taps, Q < 1); every tap of every lane is weighed by pt_exp2_8 (pk_exp2_4's
  * operations lane by lane, as row_read4 weighs rows of 3 taps or more; no libm expf), its
  * texel fetched and added to the lane's own sums, a tap not kept (or past its row) adding +0
- * (its texel not used). So a lane's sums
- * are its row's kept taps in tap order; the piece's are the eight lanes' added by one fixed
- * tree (hsum8), then added to c->acc and c->weight once. No branch a tap or a row: the steps
- * of eight rows run as long as the longest. Pieces at R >= PT_LANES_MIN_R only (both in
- * sweep2_t and piece_rn), so every build takes the same rows for the same piece
- * (docs/ptex-log.md, "tri29"). */
+ * (its texel not used). So a lane's sums are its row's kept taps in tap order; the piece's
+ * are the eight lanes' added by one fixed tree (hsum8), then added to c->acc and c->weight
+ * once. No branch a tap or a row: the steps of eight rows run as long as the longest; a step
+ * where no lane keeps its tap only adds +0 to the sums and steps the chain (no exp, no
+ * texels; the same bits). Float texels of three or four channels are loaded 16 bytes a lane
+ * and transposed to the channels' vectors by shuffles (lanes_texels; docs/ptex-log.md,
+ * "Session 31, tri31"). Pieces at R >= PT_LANES_MIN_R only (both in sweep2_t and piece_rn),
+ * so every build takes the same rows for the same piece (docs/ptex-log.md, "tri29"). */
 /* the rows a lane from resolution 3 (R = 8) up: below, a piece's few taps cost less by the
  * row functions (piece_r2, piece_r4; docs/ptex-log.md, "tri29") */
 #define PT_LANES_MIN_R 8
@@ -1785,14 +1792,46 @@ __attribute__((always_inline)) static inline void pt_exp2_8(const pt_v8f *yin, p
 #endif
 /* Channels 0..NC-1 of the texels idx of data (texel_chan's values) where kept, +0 elsewhere
  * (a lane not kept reads texel 0, whatever it holds, and is then cleared): a lane at a time
- * (AVX2's gathers were slower on the comparison's files: docs/ptex-log.md, "tri29"). */
+ * (AVX2's gathers were slower on the comparison's files: docs/ptex-log.md, "tri29"); float
+ * texels of 3-4 channels as one 16-byte load a lane and a transpose when `wide` (three
+ * channels: the caller has checked that the 4 bytes past every texel read are in the level). */
 __attribute__((always_inline)) static inline void lanes_texels(const uint8_t *data,
                                                                const pt_v8i *idx,
                                                                const pt_v8i *kept, pt_v8f *out,
-                                                               unsigned DT, unsigned NC)
+                                                               int wide, unsigned DT, unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     pt_v8i si = *idx & *kept;
+    if (DT == ST_DT_F32 && NC >= 3 && wide) {
+        /* each lane's texel as one 16-byte load (three channels: 4 bytes past the texel,
+         * inside the level: the caller's `wide`), the 8 x 4 block transposed by shuffles to
+         * the channels' vectors: the same values as the loads a lane below */
+        pt_v4f x[8];
+#pragma GCC unroll 8
+        for (int L = 0; L < 8; L++)
+            memcpy(&x[L], data + (size_t)(uint32_t)si[L] * ts, 16);
+        pt_v8f y0 = __builtin_shufflevector(x[0], x[4], 0, 1, 2, 3, 4, 5, 6, 7);
+        pt_v8f y1 = __builtin_shufflevector(x[1], x[5], 0, 1, 2, 3, 4, 5, 6, 7);
+        pt_v8f y2 = __builtin_shufflevector(x[2], x[6], 0, 1, 2, 3, 4, 5, 6, 7);
+        pt_v8f y3 = __builtin_shufflevector(x[3], x[7], 0, 1, 2, 3, 4, 5, 6, 7);
+        pt_v8f a01 = __builtin_shufflevector(y0, y1, 0, 8, 1, 9, 4, 12, 5, 13);
+        pt_v8f a23 = __builtin_shufflevector(y2, y3, 0, 8, 1, 9, 4, 12, 5, 13);
+        pt_v8f b01 = __builtin_shufflevector(y0, y1, 2, 10, 3, 11, 6, 14, 7, 15);
+        pt_v8f b23 = __builtin_shufflevector(y2, y3, 2, 10, 3, 11, 6, 14, 7, 15);
+        pt_v8f t[4];
+        t[0] = __builtin_shufflevector(a01, a23, 0, 1, 8, 9, 4, 5, 12, 13);
+        t[1] = __builtin_shufflevector(a01, a23, 2, 3, 10, 11, 6, 7, 14, 15);
+        t[2] = __builtin_shufflevector(b01, b23, 0, 1, 8, 9, 4, 5, 12, 13);
+        t[3] = __builtin_shufflevector(b01, b23, 2, 3, 10, 11, 6, 7, 14, 15);
+#pragma GCC unroll 4
+        for (unsigned ch = 0; ch < NC; ch++) {
+            pt_v8i tb;
+            memcpy(&tb, &t[ch], 32);
+            tb &= *kept;
+            memcpy(&out[ch], &tb, 32);
+        }
+        return;
+    }
     pt_v8f t[4] = {{0}, {0}, {0}, {0}};
 #pragma GCC unroll 8
     for (int L = 0; L < 8; L++) {
@@ -1910,8 +1949,33 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
         m = mx > o;
         mx = (mx & m) | (o & ~m);
         const int maxn = mx[0];
+        /* 16-byte texel loads when no lane's row reaches the level's last texel (the 4 bytes
+         * past a three-channel float texel are then the next texel's) */
+        pt_v8i end = ((y << rsh) + x2) & live;
+        pt_v8i em = end, eo = __builtin_shufflevector(em, em, 4, 5, 6, 7, 0, 1, 2, 3);
+        m = em > eo;
+        em = (em & m) | (eo & ~m);
+        eo = __builtin_shufflevector(em, em, 2, 3, 0, 1, 6, 7, 4, 5);
+        m = em > eo;
+        em = (em & m) | (eo & ~m);
+        eo = __builtin_shufflevector(em, em, 1, 0, 3, 2, 5, 4, 7, 6);
+        m = em > eo;
+        em = (em & m) | (eo & ~m);
+        const int wide = NC == 4 || em[0] < R * R;
         for (int j = 0; j < maxn; j++, idx += 1) {
             pt_v8i kept = (j < n) & (Q < 1.0f);
+            pt_v4i kh = __builtin_shufflevector(kept, kept, 0, 1, 2, 3) |
+                        __builtin_shufflevector(kept, kept, 4, 5, 6, 7);
+            if (!mask4(kh)) {
+                /* no lane keeps this step's tap: each lane adds +0 (a -0 sum becomes +0),
+                 * the weights' sums are unchanged (never -0) */
+#pragma GCC unroll 4
+                for (unsigned ch = 0; ch < NC; ch++)
+                    acc[ch] += z8;
+                Q += DQ;
+                DQ += DDQ;
+                continue;
+            }
             pt_v8f yq = Q * glf, w;
             pt_exp2_8(&yq, &w);
             w = w * wscale;
@@ -1920,7 +1984,7 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
             wb &= kept;
             memcpy(&w, &wb, 32);
             pt_v8f tx[4];
-            lanes_texels(data, &idx, &kept, tx, DT, NC);
+            lanes_texels(data, &idx, &kept, tx, wide, DT, NC);
 #pragma GCC unroll 4
             for (unsigned ch = 0; ch < NC; ch++)
                 acc[ch] += tx[ch] * w;
