@@ -955,9 +955,13 @@ __attribute__((always_inline)) static inline void fold_r0(const pf_walk *w, cons
     *acc = w->small(w->px[w->base[f]], w->ts, &a, 1, &b, 1, *acc);
 }
 
-/* pf_walk_fold, inline where the boundary walk takes it */
-__attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
-                                                      int discard, pf_v4 *acc, float *weight)
+/* pf_walk_fold on kernel k0's window and resolution with its weights ku, kv (k0's own, or
+ * copies of them: the merges write into them), inline where the boundary walk and
+ * pf_walk_fold8 take it */
+__attribute__((always_inline)) static inline int fold_w(const pf_walk *w, const pk *k0,
+                                                        float *ku, float *kv, int f,
+                                                        int discard, pf_v4 *acc,
+                                                        float *weight)
 {
     const st_face *F = &w->faces[f];
     int cst = (F->flags & ST_FACE_CONSTANT) != 0;
@@ -969,12 +973,11 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     if ((u >= resu) | (u + uw <= 0) | (v >= resv) | (v + vw <= 0))
         return 0;
     int blu = discard || w->black_u, blv = discard || w->black_v;
-    float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
     if (!(ru | rv) && uw <= 2 && vw <= 2 && !cst) {
         fold_r0(w, ku, kv, u, v, uw, vw, blu, blv, f, acc, discard ? weight : NULL);
         return 1;
     }
-    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
+    /* pk_merge_r, _l, _t, _b in split_walk's order on the weights (in place, as they
      * do; Discard and a black border only move the window) */
     pf_fold_axis(resu, &u, &uw, &ku, blu);
     pf_fold_axis(resv, &v, &vw, &kv, blv);
@@ -993,9 +996,28 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     return 1;
 }
 
+/* pf_walk_fold, inline where the boundary walk takes it */
+__attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
+                                                      int discard, pf_v4 *acc, float *weight)
+{
+    return fold_w(w, k0, k0->kub + k0->ku0, k0->kvb + k0->kv0, f, discard, acc, weight);
+}
+
 int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float *weight)
 {
     return fold(w, k0, f, discard, acc, weight);
+}
+
+unsigned pf_walk_fold8(const pf_walk *w, pk *ks, unsigned mask, const st_query *q,
+                       pf_v4 *acc)
+{
+    unsigned done = 0;
+    for (unsigned m = mask; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        if (fold(w, ks + j, (int)q[j].face, 0, &acc[j], NULL))
+            done |= 1u << j;
+    }
+    return done;
 }
 
 /* ---- Traverse's entry (ptexfilter.c's walk() and kernel_walk_w) ------------------------ */
