@@ -1586,17 +1586,12 @@ __attribute__((always_inline)) static inline int kernel_walk_wr(pf *c, pk *k, in
 }
 
 /* kernel_walk_wr with pf_walk_kernel in Traverse (r0: pf_walk_kernel_r0, for kernel_r0's
- * kernels at resolution 1 x 1). Here a kernel of pf_walk_kernel_r0's shape (resolution
- * 1 x 1, at most 2 x 2 taps from u, v >= -1: the box at footprints of a face or more) takes
- * it too, with the same results (its one-texel corners, r0_other, instead of walk_two's pk
- * copies at a corner of valence other than 4; since session 31). */
+ * kernels at resolution 1 x 1). */
 __attribute__((always_inline)) static inline int kernel_walk_w(pf *c, pk *k, int f,
                                                                float weight, float *out,
                                                                float *cov)
 {
-    int r0 = !(k->ulog2 | k->vlog2) & (k->uw <= 2) & (k->vw <= 2) & (k->u >= -1) &
-             (k->v >= -1);
-    return kernel_walk_wr(c, k, f, weight, out, cov, r0);
+    return kernel_walk_wr(c, k, f, weight, out, cov, 0);
 }
 
 /* kernel_walk_w with the kernel's weight pk_weight(k). */
@@ -2403,7 +2398,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                  * takes them (bl; ks, kwb) and given to kernel_built, coverage and status
                  * written; then the other lanes (each query on its own: any order) */
                 unsigned bl = 0, nf = k.plain & ~(k.fast | k.cst | k.nonb | cs) & 0xffu;
-                if (__builtin_popcount(nf) >= B8_MIN && c->b8)
+                if (pf_bits_atleast(nf, B8_MIN) && c->b8)
                     bl = c->b8(pp, &k, nf, ks, kwb);
                 for (unsigned m = bl; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);

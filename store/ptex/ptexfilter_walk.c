@@ -1054,6 +1054,32 @@ static inline unsigned overhung(const pk *k0)
            (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
 }
 
+static int r0_other(const pf_walk *w, int f, int c, int eu, int ev, const float *kpu,
+                    const float *kru, const float *kpv, const float *krv, pf_v4 *acc,
+                    float *weight);
+
+/* pf_walk_kernel's kernel over one u and one v edge, both to neighbours, whose corner has no
+ * cornerface: one of pf_walk_kernel_r0's shape (2 x 2 taps at resolution 1 x 1 from u, v in
+ * {-1, 0}: the box at footprints of a face or more, whose kernels do not go through
+ * kernel_r0) takes r0_other's one-texel pieces as pf_walk_kernel_r0 gives them (since
+ * session 31: walk_two's pk copies and corner_other at a vertex of valence 5 and more were
+ * about 1150 instructions a call on teapot's box at fp 16); else, or where r0_other
+ * declines, lean_two3. */
+__attribute__((noinline)) static int two_nocorner(const pf_walk *w, pk *k0, int f, int t,
+                                                  pf_v4 *acc, float *weight)
+{
+    int u = k0->u, v = k0->v;
+    if (!(k0->ulog2 | k0->vlog2) && k0->uw == 2 && k0->vw == 2 && (unsigned)(u + 1) < 2u &&
+        (unsigned)(v + 1) < 2u) {
+        int hu = u == 0, hv = v == 0, c = corner_between(hu, hv);
+        const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+        if (r0_other(w, f, c, hu ? 1 : 3, hv ? 2 : 0, ku + hu, ku + !hu, kv + hv, kv + !hv,
+                     acc, weight))
+            return 1;
+    }
+    return lean_two3(w, k0, f, t, acc, weight);
+}
+
 int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
     unsigned m = overhung(k0);
@@ -1072,7 +1098,7 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
          * vertex, lean_two3 (a valence-3 corner's piece dropped) where it has no cornerface */
         return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
                    ? lean_two(w, k0, f, t, acc, weight)
-                   : lean_two3(w, k0, f, t, acc, weight);
+                   : two_nocorner(w, k0, f, t, acc, weight);
     }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, m, acc, weight);
