@@ -16,7 +16,9 @@
  * it also sums such a kernel's one-texel pieces over a regular corner (lean_two's) or over a
  * boundary and one edge (lean_fold_one's) in one pf_small4 / pf_small2 call, and over a
  * corner without a cornerface (valence 3, or 5 and more: lean_two3's and walk_two's with
- * corner_other's) in r0_other, its one-texel pk operations written out.
+ * corner_other's) in r0_other, its one-texel pk operations written out; pf_walk_kernel sends
+ * any kernel of that shape over such a corner there too (two_nocorner: the box's). pf_walk_fold8
+ * is pf_walk_fold for a block's lanes in one call (ptexfilter.c's kernel_fold8).
  * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
  * (put_const without the reduction, the flips as reversed sums).
  */
