@@ -2198,7 +2198,7 @@ static unsigned kernel_r0x8(pf *c, const pf_klanes *k, float *out, float *cov, u
  * weight and coverage) and its division, at out + j * nc, coverage (when cov) and status
  * (when st) written. Returns the lanes served; the others (an overhang as wide as the
  * window, Discard keeping no weight) are left. */
-__attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k, const pk *ks,
+__attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k, pk *ks,
                                                        const float *kw, unsigned mask,
                                                        const st_query *q, float *out,
                                                        float *cov, uint8_t *st)
@@ -2207,16 +2207,37 @@ __attribute__((noinline)) static unsigned kernel_fold8(pf *c, const pf_klanes *k
     int blu = dis || c->walk.black_u, blv = dis || c->walk.black_v;
     float one = one_value(c->dt);
     unsigned done = 0, nc = c->nc;
+    /* the lanes pf_walk_fold takes: in Traverse and Clamp every lane it folds is served,
+     * so in one call, in place (a lane it declines keeps ks[j] as it was); Discard, which may
+     * leave a folded lane to the per-query path, on a copy per lane */
+    unsigned gen = 0, gok = 0;
+    for (unsigned m = mask; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        const pk *kj = ks + j;
+        gen |= (unsigned)(((kj->ulog2 | kj->vlog2) | (kj->uw > 2) | (kj->vw > 2)) != 0) << j;
+    }
+    pf_v4 gacc[8];
+    if (gen && !dis) {
+        for (unsigned m = gen; m; m &= m - 1)
+            gacc[__builtin_ctz(m)] = (pf_v4){0.0f, 0.0f, 0.0f, 0.0f};
+        gok = pf_walk_fold8(&c->walk, ks, gen, q, gacc);
+    }
     for (unsigned m = mask; m; m &= m - 1) {
         unsigned j = (unsigned)__builtin_ctz(m);
         const pk *kj = ks + j;
         int u = kj->u, v = kj->v;
         float weight = kw[j], cv = 1.0f;
         pf_v4 acc = {0.0f, 0.0f, 0.0f, 0.0f};
-        if ((kj->ulog2 | kj->vlog2) | (kj->uw > 2) | (kj->vw > 2)) {
-            pk kc = *kj; /* pf_walk_fold folds in place; a lane it declines keeps ks[j] */
-            if (!pf_walk_fold(&c->walk, &kc, (int)q[j].face, dis, &acc, &weight))
-                continue;
+        if (gen >> j & 1) {
+            if (!dis) {
+                if (!(gok >> j & 1))
+                    continue;
+                acc = gacc[j];
+            } else {
+                pk kc = *kj; /* pf_walk_fold folds in place; a lane it declines keeps ks[j] */
+                if (!pf_walk_fold(&c->walk, &kc, (int)q[j].face, dis, &acc, &weight))
+                    continue;
+            }
         } else {
             if ((u >= 1) | (u + kj->uw <= 0) | (v >= 1) | (v + kj->vw <= 0))
                 continue;
@@ -2377,7 +2398,7 @@ __attribute__((always_inline)) static inline int kernel_run_with(
                  * takes them (bl; ks, kwb) and given to kernel_built, coverage and status
                  * written; then the other lanes (each query on its own: any order) */
                 unsigned bl = 0, nf = k.plain & ~(k.fast | k.cst | k.nonb | cs) & 0xffu;
-                if (__builtin_popcount(nf) >= B8_MIN && c->b8)
+                if (pf_bits_atleast(nf, B8_MIN) && c->b8)
                     bl = c->b8(pp, &k, nf, ks, kwb);
                 for (unsigned m = bl; m; m &= m - 1) {
                     unsigned j = (unsigned)__builtin_ctz(m);

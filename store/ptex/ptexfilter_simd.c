@@ -1368,7 +1368,7 @@ PF_TARGET unsigned w4x8_hand(__m256i ok, __m256i out_of, __m256 total, __m256i r
                        offsetof(pk, rot) == 32 && PK_MAX >= 8,
                    "pk: ulog2 vlog2 u v, then uw vw ku0 kv0, rot");
     const __m128i shape = _mm_setr_epi32(4, 4, 0, 0); /* uw, vw, ku0, kv0 */
-    if (__builtin_popcount(ho) >= 3) {
+    if (pf_bits_atleast(ho, 3)) {
         float KU[32], KV[32], RO[32]; /* lane j's at 4 j */
         __m256 ro[4] = {_mm256_castsi256_ps(ru), _mm256_castsi256_ps(rv),
                         _mm256_castsi256_ps(u0), _mm256_castsi256_ps(v0)};
@@ -3018,7 +3018,7 @@ PF_TARGET unsigned b8(const pk_params *p, const pf_klanes *k, unsigned m, pk *ko
     __m256 r0 = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(k->bu), c1, _CMP_GE_OQ),
                               _mm256_cmp_ps(_mm256_loadu_ps(k->bv), c1, _CMP_GE_OQ));
     m &= ~(unsigned)_mm256_movemask_ps(r0);
-    if (__builtin_popcount(m) < 4)
+    if (!pf_bits_atleast(m, 4))
         return 0;
     b8_ax au, av;
     __m256i lgu = _mm256_loadu_si256((const __m256i *)(const void *)k->ulog2);

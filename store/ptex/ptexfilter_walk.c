@@ -16,7 +16,9 @@
  * it also sums such a kernel's one-texel pieces over a regular corner (lean_two's) or over a
  * boundary and one edge (lean_fold_one's) in one pf_small4 / pf_small2 call, and over a
  * corner without a cornerface (valence 3, or 5 and more: lean_two3's and walk_two's with
- * corner_other's) in r0_other, its one-texel pk operations written out.
+ * corner_other's) in r0_other, its one-texel pk operations written out; pf_walk_kernel sends
+ * any kernel of that shape over such a corner there too (two_nocorner: the box's). pf_walk_fold8
+ * is pf_walk_fold for a block's lanes in one call (ptexfilter.c's kernel_fold8).
  * The lean walks' constant-face instances (cst) sum a piece on a constant face in lean_const
  * (put_const without the reduction, the flips as reversed sums).
  */
@@ -955,9 +957,13 @@ __attribute__((always_inline)) static inline void fold_r0(const pf_walk *w, cons
     *acc = w->small(w->px[w->base[f]], w->ts, &a, 1, &b, 1, *acc);
 }
 
-/* pf_walk_fold, inline where the boundary walk takes it */
-__attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
-                                                      int discard, pf_v4 *acc, float *weight)
+/* pf_walk_fold on kernel k0's window and resolution with its weights ku, kv (k0's own, or
+ * copies of them: the merges write into them), inline where the boundary walk and
+ * pf_walk_fold8 take it */
+__attribute__((always_inline)) static inline int fold_w(const pf_walk *w, const pk *k0,
+                                                        float *ku, float *kv, int f,
+                                                        int discard, pf_v4 *acc,
+                                                        float *weight)
 {
     const st_face *F = &w->faces[f];
     int cst = (F->flags & ST_FACE_CONSTANT) != 0;
@@ -969,12 +975,11 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     if ((u >= resu) | (u + uw <= 0) | (v >= resv) | (v + vw <= 0))
         return 0;
     int blu = discard || w->black_u, blv = discard || w->black_v;
-    float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
     if (!(ru | rv) && uw <= 2 && vw <= 2 && !cst) {
         fold_r0(w, ku, kv, u, v, uw, vw, blu, blv, f, acc, discard ? weight : NULL);
         return 1;
     }
-    /* pk_merge_r, _l, _t, _b in split_walk's order on k's own weights (in place, as they
+    /* pk_merge_r, _l, _t, _b in split_walk's order on the weights (in place, as they
      * do; Discard and a black border only move the window) */
     pf_fold_axis(resu, &u, &uw, &ku, blu);
     pf_fold_axis(resv, &v, &vw, &kv, blv);
@@ -993,9 +998,28 @@ __attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, 
     return 1;
 }
 
+/* pf_walk_fold, inline where the boundary walk takes it */
+__attribute__((always_inline)) static inline int fold(const pf_walk *w, pk *k0, int f,
+                                                      int discard, pf_v4 *acc, float *weight)
+{
+    return fold_w(w, k0, k0->kub + k0->ku0, k0->kvb + k0->kv0, f, discard, acc, weight);
+}
+
 int pf_walk_fold(const pf_walk *w, pk *k0, int f, int discard, pf_v4 *acc, float *weight)
 {
     return fold(w, k0, f, discard, acc, weight);
+}
+
+unsigned pf_walk_fold8(const pf_walk *w, pk *ks, unsigned mask, const st_query *q,
+                       pf_v4 *acc)
+{
+    unsigned done = 0;
+    for (unsigned m = mask; m; m &= m - 1) {
+        unsigned j = (unsigned)__builtin_ctz(m);
+        if (fold(w, ks + j, (int)q[j].face, 0, &acc[j], NULL))
+            done |= 1u << j;
+    }
+    return done;
 }
 
 /* ---- Traverse's entry (ptexfilter.c's walk() and kernel_walk_w) ------------------------ */
@@ -1032,6 +1056,32 @@ static inline unsigned overhung(const pk *k0)
            (unsigned)(k0->v + k0->vw > resv) << 2 | (unsigned)(k0->v < 0) << 3;
 }
 
+static int r0_other(const pf_walk *w, int f, int c, int eu, int ev, const float *kpu,
+                    const float *kru, const float *kpv, const float *krv, pf_v4 *acc,
+                    float *weight);
+
+/* pf_walk_kernel's kernel over one u and one v edge, both to neighbours, whose corner has no
+ * cornerface: one of pf_walk_kernel_r0's shape (2 x 2 taps at resolution 1 x 1 from u, v in
+ * {-1, 0}: the box at footprints of a face or more, whose kernels do not go through
+ * kernel_r0) takes r0_other's one-texel pieces as pf_walk_kernel_r0 gives them (since
+ * session 31: walk_two's pk copies and corner_other at a vertex of valence 5 and more were
+ * about 1150 instructions a call on teapot's box at fp 16); else, or where r0_other
+ * declines, lean_two3. */
+__attribute__((noinline)) static int two_nocorner(const pf_walk *w, pk *k0, int f, int t,
+                                                  pf_v4 *acc, float *weight)
+{
+    int u = k0->u, v = k0->v;
+    if (!(k0->ulog2 | k0->vlog2) && k0->uw == 2 && k0->vw == 2 && (unsigned)(u + 1) < 2u &&
+        (unsigned)(v + 1) < 2u) {
+        int hu = u == 0, hv = v == 0, c = corner_between(hu, hv);
+        const float *ku = k0->kub + k0->ku0, *kv = k0->kvb + k0->kv0;
+        if (r0_other(w, f, c, hu ? 1 : 3, hv ? 2 : 0, ku + hu, ku + !hu, kv + hv, kv + !hv,
+                     acc, weight))
+            return 1;
+    }
+    return lean_two3(w, k0, f, t, acc, weight);
+}
+
 int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
 {
     unsigned m = overhung(k0);
@@ -1050,7 +1100,7 @@ int pf_walk_kernel(const pf_walk *w, pk *k0, int f, pf_v4 *acc, float *weight)
          * vertex, lean_two3 (a valence-3 corner's piece dropped) where it has no cornerface */
         return w->faces[f].cornerface[corner_between(t & 1, t >> 1)] >= 0
                    ? lean_two(w, k0, f, t, acc, weight)
-                   : lean_two3(w, k0, f, t, acc, weight);
+                   : two_nocorner(w, k0, f, t, acc, weight);
     }
     if ((adj[0] | adj[1] | adj[2] | adj[3]) < 0)
         return walk_boundary(w, k0, f, m, acc, weight);

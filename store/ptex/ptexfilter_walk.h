@@ -137,6 +137,15 @@ static inline void pf_fold_axis(int res, int *at, int *n, float **w, int black)
  * overhang as wide as the window. */
 int pf_walk_fold(const pf_walk *w, pk *k, int f, int discard, pf_v4 *acc, float *weight);
 
+/* Clamp's pf_walk_fold (Traverse's at a mesh boundary without neighbours: the same merges)
+ * for the lanes of mask, in one call: bit j the kernel ks[j] of face q[j].face, folded in
+ * place as pf_walk_fold folds it, its sum added to acc[j]. Returns the lanes folded; a lane
+ * it declines keeps its kernel and acc[j] as they were (pf_walk_fold declines before any
+ * change). For ptexfilter.c's kernel_fold8, which serves every lane folded (Discard, which
+ * may not, takes pf_walk_fold on a copy). */
+unsigned pf_walk_fold8(const pf_walk *w, pk *ks, unsigned mask, const st_query *q,
+                       pf_v4 *acc);
+
 /* The Traverse filter of a bilinear 2 x 2 kernel (ptexfilter.c's bilinear_walk: first texel
  * (u, v) at resolution (ulog2, vlog2), fractions fu, fv: weights 1 - fu, fu and 1 - fv, fv,
  * a zero fraction's tap left out) that overhangs face f (plain), for the common
