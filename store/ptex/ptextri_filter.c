@@ -1425,6 +1425,20 @@ __attribute__((always_inline)) static inline int kept_end(int xk, int x2, float 
 typedef float pt_v8f __attribute__((vector_size(32)));
 typedef int32_t pt_v8i __attribute__((vector_size(32)));
 
+/* The largest of x's eight lanes, by three halvings. */
+__attribute__((always_inline)) static inline int32_t pt_v8i_max(pt_v8i x)
+{
+    pt_v8i o = __builtin_shufflevector(x, x, 4, 5, 6, 7, 0, 1, 2, 3), m = x > o;
+    x = (x & m) | (o & ~m);
+    o = __builtin_shufflevector(x, x, 2, 3, 0, 1, 6, 7, 4, 5);
+    m = x > o;
+    x = (x & m) | (o & ~m);
+    o = __builtin_shufflevector(x, x, 1, 0, 3, 2, 5, 4, 7, 6);
+    m = x > o;
+    x = (x & m) | (o & ~m);
+    return x[0];
+}
+
 /* The kept runs [xk, xl) of eight rows y0 .. y0 + 7 of a recurrence sweep (rows from y2 on keep
  * nothing), as row_first_kept and kept_end find them, a row a lane: row_span's bounds, Q and
  * DQ (each lane the scalar expressions' operations in their order: the same floats), then the
@@ -1938,30 +1952,10 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
         pt_v8f Q = A * U * U + (Bk * U + C * V) * V;
         const pt_v8f DDQ = 2.0f * A;
         pt_v8i idx = (y << rsh) + a;
-        /* the longest row's taps: the lanes' maximum by three halvings */
-        pt_v8i mx = n, o = __builtin_shufflevector(mx, mx, 4, 5, 6, 7, 0, 1, 2, 3);
-        m = mx > o;
-        mx = (mx & m) | (o & ~m);
-        o = __builtin_shufflevector(mx, mx, 2, 3, 0, 1, 6, 7, 4, 5);
-        m = mx > o;
-        mx = (mx & m) | (o & ~m);
-        o = __builtin_shufflevector(mx, mx, 1, 0, 3, 2, 5, 4, 7, 6);
-        m = mx > o;
-        mx = (mx & m) | (o & ~m);
-        const int maxn = mx[0];
+        const int maxn = pt_v8i_max(n);   /* the longest row's taps */
         /* 16-byte texel loads when no lane's row reaches the level's last texel (the 4 bytes
          * past a three-channel float texel are then the next texel's) */
-        pt_v8i end = ((y << rsh) + x2) & live;
-        pt_v8i em = end, eo = __builtin_shufflevector(em, em, 4, 5, 6, 7, 0, 1, 2, 3);
-        m = em > eo;
-        em = (em & m) | (eo & ~m);
-        eo = __builtin_shufflevector(em, em, 2, 3, 0, 1, 6, 7, 4, 5);
-        m = em > eo;
-        em = (em & m) | (eo & ~m);
-        eo = __builtin_shufflevector(em, em, 1, 0, 3, 2, 5, 4, 7, 6);
-        m = em > eo;
-        em = (em & m) | (eo & ~m);
-        const int wide = NC == 4 || em[0] < R * R;
+        const int wide = NC == 4 || pt_v8i_max(((y << rsh) + x2) & live) < R * R;
         for (int j = 0; j < maxn; j++, idx += 1) {
             pt_v8i kept = (j < n) & (Q < 1.0f);
             pt_v4i kh = __builtin_shufflevector(kept, kept, 0, 1, 2, 3) |
