@@ -1816,6 +1816,7 @@ __attribute__((always_inline)) static inline void lanes_texels(const uint8_t *da
 {
     const size_t ts = st_dtype_size(DT) * NC;
     pt_v8i si = *idx & *kept;
+    pt_v8f t[4] = {{0}, {0}, {0}, {0}};
     if (DT == ST_DT_F32 && NC >= 3 && wide) {
         /* each lane's texel as one 16-byte load (three channels: 4 bytes past the texel,
          * inside the level: the caller's `wide`), the 8 x 4 block transposed by shuffles to
@@ -1832,27 +1833,18 @@ __attribute__((always_inline)) static inline void lanes_texels(const uint8_t *da
         pt_v8f a23 = __builtin_shufflevector(y2, y3, 0, 8, 1, 9, 4, 12, 5, 13);
         pt_v8f b01 = __builtin_shufflevector(y0, y1, 2, 10, 3, 11, 6, 14, 7, 15);
         pt_v8f b23 = __builtin_shufflevector(y2, y3, 2, 10, 3, 11, 6, 14, 7, 15);
-        pt_v8f t[4];
         t[0] = __builtin_shufflevector(a01, a23, 0, 1, 8, 9, 4, 5, 12, 13);
         t[1] = __builtin_shufflevector(a01, a23, 2, 3, 10, 11, 6, 7, 14, 15);
         t[2] = __builtin_shufflevector(b01, b23, 0, 1, 8, 9, 4, 5, 12, 13);
         t[3] = __builtin_shufflevector(b01, b23, 2, 3, 10, 11, 6, 7, 14, 15);
-#pragma GCC unroll 4
-        for (unsigned ch = 0; ch < NC; ch++) {
-            pt_v8i tb;
-            memcpy(&tb, &t[ch], 32);
-            tb &= *kept;
-            memcpy(&out[ch], &tb, 32);
-        }
-        return;
-    }
-    pt_v8f t[4] = {{0}, {0}, {0}, {0}};
+    } else {
 #pragma GCC unroll 8
-    for (int L = 0; L < 8; L++) {
-        const uint8_t *px = data + (size_t)(uint32_t)si[L] * ts;
+        for (int L = 0; L < 8; L++) {
+            const uint8_t *px = data + (size_t)(uint32_t)si[L] * ts;
 #pragma GCC unroll 4
-        for (unsigned ch = 0; ch < NC; ch++)
-            t[ch][L] = texel_chan(px, ch, DT);
+            for (unsigned ch = 0; ch < NC; ch++)
+                t[ch][L] = texel_chan(px, ch, DT);
+        }
     }
 #pragma GCC unroll 4
     for (unsigned ch = 0; ch < NC; ch++) {
