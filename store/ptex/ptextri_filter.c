@@ -1425,10 +1425,11 @@ __attribute__((always_inline)) static inline int kept_end(int xk, int x2, float 
 typedef float pt_v8f __attribute__((vector_size(32)));
 typedef int32_t pt_v8i __attribute__((vector_size(32)));
 
-/* The largest of x's eight lanes, by three halvings. */
-__attribute__((always_inline)) static inline int32_t pt_v8i_max(pt_v8i x)
+/* The largest of *v's eight lanes, by three halvings (by pointer: a 32-byte vector passed by
+ * value changes the ABI where AVX is not enabled). */
+__attribute__((always_inline)) static inline int32_t pt_v8i_max(const pt_v8i *v)
 {
-    pt_v8i o = __builtin_shufflevector(x, x, 4, 5, 6, 7, 0, 1, 2, 3), m = x > o;
+    pt_v8i x = *v, o = __builtin_shufflevector(x, x, 4, 5, 6, 7, 0, 1, 2, 3), m = x > o;
     x = (x & m) | (o & ~m);
     o = __builtin_shufflevector(x, x, 2, 3, 0, 1, 6, 7, 4, 5);
     m = x > o;
@@ -1944,10 +1945,11 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
         pt_v8f Q = A * U * U + (Bk * U + C * V) * V;
         const pt_v8f DDQ = 2.0f * A;
         pt_v8i idx = (y << rsh) + a;
-        const int maxn = pt_v8i_max(n);   /* the longest row's taps */
+        const int maxn = pt_v8i_max(&n);   /* the longest row's taps */
         /* 16-byte texel loads when no lane's row reaches the level's last texel (the 4 bytes
          * past a three-channel float texel are then the next texel's) */
-        const int wide = NC == 4 || pt_v8i_max(((y << rsh) + x2) & live) < R * R;
+        pt_v8i end = ((y << rsh) + x2) & live;
+        const int wide = NC == 4 || pt_v8i_max(&end) < R * R;
         for (int j = 0; j < maxn; j++, idx += 1) {
             pt_v8i kept = (j < n) & (Q < 1.0f);
             pt_v4i kh = __builtin_shufflevector(kept, kept, 0, 1, 2, 3) |
