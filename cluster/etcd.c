@@ -243,11 +243,18 @@ static void add_prefix_end(json_object *o, const char *key)
 
 int scl_etcd_range(scl_etcd *e, const char *key, int prefix, scl_kvs *out)
 {
+    return scl_etcd_range_at(e, key, prefix, 0, out);
+}
+
+int scl_etcd_range_at(scl_etcd *e, const char *key, int prefix, int64_t rev, scl_kvs *out)
+{
     memset(out, 0, sizeof *out);
     json_object *rq = json_object_new_object(), *r = NULL;
     add_b64(rq, "key", key, strlen(key));
     if (prefix)
         add_prefix_end(rq, key);
+    if (rev > 0)
+        json_object_object_add(rq, "revision", json_object_new_int64(rev));
     int rc = post(e, "/v3/kv/range", rq, &r);
     json_object_put(rq);
     if (rc == SCL_OK)

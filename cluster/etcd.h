@@ -56,6 +56,9 @@ void scl_kvs_free(scl_kvs *k);
 
 /* Reads key (prefix 0) or every key starting with key (prefix 1), sorted by key. */
 int scl_etcd_range(scl_etcd *e, const char *key, int prefix, scl_kvs *out);
+/* The same as the store was at revision rev (> 0; 0: now), so that two reads see one state
+ * (a revision etcd has compacted away is an error reply: SCL_EBADREPLY). */
+int scl_etcd_range_at(scl_etcd *e, const char *key, int prefix, int64_t rev, scl_kvs *out);
 int scl_etcd_put(scl_etcd *e, const char *key, const char *val, int64_t lease);
 /* Deletes key, or every key under it with prefix 1. */
 int scl_etcd_delete(scl_etcd *e, const char *key, int prefix);

@@ -250,7 +250,11 @@ static void pass(sts_cluster *cl)
     scl_kvs sets, copies;
     int rc = scl_etcd_range(cl->etcd_r, skey, 1, &sets);
     if (rc == SCL_OK) {
-        rc = scl_etcd_range(cl->etcd_r, ckey, 1, &copies);
+        /* the copies/ keys as they were when sets/ was read: read later, a write between the
+         * two (a late DELETE: the record read, its copies/ keys gone) made every holder look
+         * like it lacked its copy, and the set was pushed again to nodes that held it - a
+         * copy whose record then came back (put back) went unserved until their next pass */
+        rc = scl_etcd_range_at(cl->etcd_r, ckey, 1, sets.revision, &copies);
         if (rc != SCL_OK)
             scl_kvs_free(&sets);
     }
