@@ -265,8 +265,10 @@ static const char *cube_kind_name(unsigned v)
 
 /* A cube conversion the file's format cannot take is refused, never ignored (PROTOCOL.md 4.8:
  * a client that asked for a cube map must not get another kind of set with OK). Images take
- * the layouts (image_to_set), a Ptex file `ptex` (6 faces, checked once read), a BC1 DDS none;
- * `none` and `auto` fit every format. */
+ * the layouts (image_to_set), a Ptex file `ptex` (6 faces, checked once read), a mesh none;
+ * `none` and `auto` fit every format but a BC1 DDS (`none` only: its own case below).
+ * cube_lenient skips the check: images and DDS files were refused before session 32 already,
+ * so only Ptex files and meshes can have been recorded with a kind they cannot take. */
 static int cube_option_fits(int fmt, const st_import_opts *o, const char *path, st_error *e)
 {
     if (o->cube == ST_IMPORT_CUBE_NONE || o->cube == ST_IMPORT_CUBE_AUTO || o->cube_lenient)
