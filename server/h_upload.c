@@ -653,12 +653,18 @@ int sts_h_replica_publish(sts_ctx *c, const stp_header *h, const uint8_t *body, 
         int got = st_registry_get(srv->reg, name, &ref, NULL) == 0;
         int have = got && ref->source_crc == crc;
         int stale = got && !have && ref->source_bytes;
+        uint32_t mine = got ? ref->source_crc : 0;
         st_setref_release(ref);
         if (!have) {
             /* the write of other contents is recorded: a copy of other contents here is stale
              * (a holder that got no push: cluster_write.c), hidden until the repair pass that
-             * drops it */
-            if (stale && sts_cluster_hide(srv->cluster, name)) {
+             * drops it. Unless the catalogue, asked now, records this copy's contents: then
+             * the message names contents nobody recorded (a client's mistake, pc32), and the
+             * current copy stays served; with etcd unreachable the message is believed. */
+            if (stale && sts_cluster_records(srv->cluster, name, mine) == 1) {
+                sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32; "
+                                "the catalogue records this node's copy, which stays served");
+            } else if (stale && sts_cluster_hide(srv->cluster, name)) {
                 sts_logf(&srv->log, STS_INFO, "cluster: '%s' replaced elsewhere: this node's "
                          "copy of other contents is hidden from reads", name);
                 sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32; "
