@@ -170,6 +170,10 @@ uint64_t sts_cluster_served_gen(const sts_cluster *cl, const char *name);
  * the copy's contents; returns the copy's generation, 0 when there is none or no memory
  * (nothing hidden). Called by DELETE before it tries to record the delete. */
 uint64_t sts_cluster_hide(sts_cluster *cl, const char *name);
+/* 1 when etcd's catalogue records name with contents crc32 (state OK), 0 when it records
+ * something else or nothing, < 0 an etcd error (noted). A fresh read (cluster_write.c, under
+ * etcd_mu): REPLICA_PUBLISH asks it before hiding a copy (h_upload.c). */
+int sts_cluster_records(sts_cluster *cl, const char *name, uint32_t crc32);
 /* Shows the copy (name, gen) to reads again if it was hidden by a call that returned a
  * hide_seq <= seq_max (UINT64_MAX: whenever it was hidden). */
 void sts_cluster_unhide(sts_cluster *cl, const char *name, uint64_t gen, uint64_t seq_max);

@@ -1,6 +1,7 @@
 /* server/cluster_write.c - the cluster's write path (docs/cluster.md "Writes"): the claim in
  * etcd, pushes of the staged copy to the other owners, the finalizing transaction, taking
- * a claim back, a COMPRESS result's write (staged and published as an upload's), DELETE. Runs on the thread of the request (a worker for COMMIT and DELETE),
+ * a claim back, a COMPRESS result's write (staged and published as an upload's), DELETE, and
+ * the one-record catalogue read REPLICA_PUBLISH asks before hiding a copy (sts_cluster_records). Runs on the thread of the request (a worker for COMMIT and DELETE),
  * never on an I/O thread; etcd calls go through cl->etcd_w under cl->etcd_mu, and every
  * transaction through sts_cluster_wtxn (cluster_fence.c: a write etcd did not answer is
  * settled so that it matches its UNAVAILABLE reply).
@@ -198,6 +199,20 @@ int sts_cluster_claim(sts_cluster *cl, const char *name, uint32_t crc32c, uint32
     }
     pthread_mutex_unlock(&cl->etcd_mu);
     return status;
+}
+
+int sts_cluster_records(sts_cluster *cl, const char *name, uint32_t crc32)
+{
+    char key[SCL_KEY_MAX];
+    scl_key_set(key, cl->prefix, name);
+    scl_setrec rec;
+    int64_t mod = 0;
+    pthread_mutex_lock(&cl->etcd_mu);
+    int found = read_rec(cl, key, &rec, &mod, NULL);
+    pthread_mutex_unlock(&cl->etcd_mu);
+    if (found < 0)
+        return found;
+    return found == 1 && rec.state == SCL_SET_OK && rec.crc32 == crc32;
 }
 
 void sts_cluster_unclaim(sts_cluster *cl, const sts_cl_claim *c)

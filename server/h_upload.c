@@ -82,7 +82,7 @@ static int hint_check(const char *hint, st_error *e)
 }
 
 int sts_import_path(sts_server *srv, const char *path, const char *fmt, const char *options,
-                    st_set **out, st_error *e)
+                    int recorded, st_set **out, st_error *e)
 {
     *out = NULL;
     (void)fmt; /* the importer goes by the content's magic (the extension came from it) */
@@ -90,6 +90,7 @@ int sts_import_path(sts_server *srv, const char *path, const char *fmt, const ch
     st_import_opts_init(&o);
     o.max_bytes = (size_t)STS_LIVE(srv, max_set_bytes);
     o.no_side_files = 1; /* the uploads folder holds other clients' uploads: never read them */
+    o.cube_lenient = (uint8_t)(recorded != 0);
     char texture[STP_MAX_NAME + 1];
     int rc = parse_options(options, &o, texture, sizeof texture, e);
     if (rc)
@@ -138,7 +139,7 @@ int sts_publish_staged(sts_server *srv, const char *id, st_set *set, int *replac
         char src[4096];
         int rc = st_datadir_staged_read(srv->dd, id, &m, src, sizeof src, e);
         if (!rc)
-            rc = sts_import_path(srv, src, m.format, m.options, &set, e);
+            rc = sts_import_path(srv, src, m.format, m.options, 1, &set, e);
         if (rc)
             return rc;
     }
@@ -462,7 +463,9 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
         }
     }
     st_set *set = NULL;
-    int rc = sts_import_path(srv, u->path, u->fmt, u->options, &set, &e);
+    /* a replica is a copy of a set a node accepted, perhaps one before session 32: recorded */
+    int rc = sts_import_path(srv, u->path, u->fmt, u->options, (u->flags & STP_UF_REPLICA) != 0,
+                             &set, &e);
     if (rc) {
         if (rc == ST_EBUSY)
             rc = ST_ENOTFOUND;  /* a texture= set that is not there */
@@ -650,12 +653,18 @@ int sts_h_replica_publish(sts_ctx *c, const stp_header *h, const uint8_t *body, 
         int got = st_registry_get(srv->reg, name, &ref, NULL) == 0;
         int have = got && ref->source_crc == crc;
         int stale = got && !have && ref->source_bytes;
+        uint32_t mine = got ? ref->source_crc : 0;
         st_setref_release(ref);
         if (!have) {
             /* the write of other contents is recorded: a copy of other contents here is stale
              * (a holder that got no push: cluster_write.c), hidden until the repair pass that
-             * drops it */
-            if (stale && sts_cluster_hide(srv->cluster, name)) {
+             * drops it. Unless the catalogue, asked now, records this copy's contents: then
+             * the message names contents nobody recorded (a client's mistake, pc32), and the
+             * current copy stays served; with etcd unreachable the message is believed. */
+            if (stale && sts_cluster_records(srv->cluster, name, mine) == 1) {
+                sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32; "
+                                "the catalogue records this node's copy, which stays served");
+            } else if (stale && sts_cluster_hide(srv->cluster, name)) {
                 sts_logf(&srv->log, STS_INFO, "cluster: '%s' replaced elsewhere: this node's "
                          "copy of other contents is hidden from reads", name);
                 sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32; "

@@ -24,10 +24,11 @@ STS_HANDLER(sts_h_replica_publish);
 /* Imports one file into a new set, with the upload's options ("texture=<set>", "cube=...",
  * "colorspace=..."); the reader is chosen by the content's magic (fmt is the extension the
  * file was given from it). On success *out is a set the caller owns (st_set_free, or hand
- * it to the registry); ST_EBUSY when a texture= set is not loaded. Used by UPLOAD_COMMIT and
- * by the start-up load (startup.c). */
+ * it to the registry); ST_EBUSY when a texture= set is not loaded. Used by UPLOAD_COMMIT
+ * (recorded 0) and by the start-up load (startup.c) and staged copies (recorded 1: options a
+ * manifest recorded are taken as they were accepted then, st_import_opts.cube_lenient). */
 int sts_import_path(sts_server *srv, const char *path, const char *fmt, const char *options,
-                    st_set **out, st_error *e);
+                    int recorded, st_set **out, st_error *e);
 
 /* Removes set `name` from this node: durably from the data dir (when it is there), then from
  * the registry. 0, ST_ENOTFOUND, or another store code. DELETE and the cluster's repair. */

@@ -20,7 +20,7 @@ static int import_cb(void *arg, const st_manifest *m, const char *source_path, s
                      st_error *e)
 {
     load_arg *la = arg;
-    int rc = sts_import_path(la->srv, source_path, m->format, m->options, out, e);
+    int rc = sts_import_path(la->srv, source_path, m->format, m->options, 1, out, e);
     if (rc && rc != ST_EBUSY)
         sts_logf(&la->srv->log, STS_ERROR, "data dir: set '%s' (%s) does not import: %s",
                  m->name, source_path, e->msg);

@@ -37,6 +37,7 @@ BENCH_BINS += $(patsubst tests/bench/%.c,$(B)/bench/%,$(BENCH_SRC))
 # tests of cluster/'s decoders, and the doubt test (it reads etcd), see its headers and json-c
 $(B)/tests/unit/test_etcd_reply.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
 $(B)/tests/integration/test_cluster_doubt.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
+$(B)/tests/integration/test_cluster_publish.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
 
 $(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
 	@mkdir -p $(@D)

@@ -255,6 +255,35 @@ static int import_six(const char *pattern, const st_import_opts *o, st_image_cap
     return rc;
 }
 
+static const char *cube_kind_name(unsigned v)
+{
+    for (size_t i = 0; i < sizeof CUBE_KINDS / sizeof CUBE_KINDS[0]; i++)
+        if (CUBE_KINDS[i].v == v)
+            return CUBE_KINDS[i].name;
+    return v == ST_IMPORT_CUBE_SIX ? "six" : "?";
+}
+
+/* A cube conversion the file's format cannot take is refused, never ignored (PROTOCOL.md 4.8:
+ * a client that asked for a cube map must not get another kind of set with OK). Images take
+ * the layouts (image_to_set), a Ptex file `ptex` (6 faces, checked once read), a mesh none;
+ * `none` and `auto` fit every format but a BC1 DDS (`none` only: its own case below).
+ * cube_lenient skips the check: images and DDS files were refused before session 32 already,
+ * so only Ptex files and meshes can have been recorded with a kind they cannot take. */
+static int cube_option_fits(int fmt, const st_import_opts *o, const char *path, st_error *e)
+{
+    if (o->cube == ST_IMPORT_CUBE_NONE || o->cube == ST_IMPORT_CUBE_AUTO || o->cube_lenient)
+        return ST_OK;
+    if (fmt == ST_FMT_PTEX && o->cube == ST_IMPORT_CUBE_PTEX)
+        return ST_OK;
+    if (fmt == ST_FMT_PTEX)
+        return st_fail(e, ST_EINVAL, "%s: cube=%s applies to images; a Ptex file takes "
+                       "cube=ptex (a 6-face file), auto or none", path, cube_kind_name(o->cube));
+    if (fmt == ST_FMT_OBJ || fmt == ST_FMT_DRACO)
+        return st_fail(e, ST_EINVAL, "%s: cube=%s does not apply to a mesh (an atlas set; "
+                       "only cube=none or auto)", path, cube_kind_name(o->cube));
+    return ST_OK;
+}
+
 static int is_env_ptex(const st_set *s, const char *path, const st_import_opts *o)
 {
     if (s->info.nfaces != 6)
@@ -288,7 +317,9 @@ static int image_to_set(st_image *img, const st_import_opts *o, st_set **out, st
     if (layout >= 0)
         return st_cube_from_image(img, (st_cube_layout)layout, o->face_size, o->max_bytes, out, e);
     if (o->cube != ST_IMPORT_CUBE_NONE && o->cube != ST_IMPORT_CUBE_AUTO)
-        return st_fail(e, ST_EINVAL, "cube conversion %u does not apply to this image", o->cube);
+        return st_fail(e, ST_EINVAL, "cube=%s does not apply to an image (it takes strip_v, "
+                       "strip_h, cross_h, cross_v, latlong, auto or none)",
+                       cube_kind_name(o->cube));
     return st_atlas_from_image(img, NULL, o->max_bytes, out, e);
 }
 
@@ -424,13 +455,21 @@ int st_import_file(const char *path, const st_import_opts *opts, st_set **out, s
     if (hn == 0)
         return st_fail(e, ST_EFORMAT, "%s: empty file", path);
     int fmt = opts->format ? opts->format : st_import_detect(head, hn, path);
-    int rc;
+    int rc = cube_option_fits(fmt, opts, path, e);
+    if (rc)
+        return rc;
     switch (fmt) {
     case ST_FMT_PTEX: {
         st_set *p = NULL;
         rc = st_ptex_read_file(path, opts->max_bytes, &p, e);
         if (rc)
             return rc;
+        if (opts->cube == ST_IMPORT_CUBE_PTEX && p->info.nfaces != 6 && !opts->cube_lenient) {
+            rc = st_fail(e, ST_EINVAL, "%s: cube=ptex needs a 6-face Ptex file; this one has "
+                         "%u faces", path, p->info.nfaces);
+            st_set_free(p);
+            return rc;
+        }
         /* Ptex has no colour space: a set seamtex wrote as sRGB says so in its metadata */
         const st_meta_entry *cs = st_set_meta_find(p, ST_META_COLORSPACE);
         if (cs && cs->type == 0 && cs->count == 5 && !memcmp(cs->data, "srgb", 5))

@@ -74,6 +74,10 @@ typedef struct st_import_opts {
     uint8_t  no_side_files;     /* 1: open no file the input names (an OBJ's mtllib / map_Kd);
                                    the daemon's uploads, whose folder holds other clients'
                                    uploads: a mesh there pairs only with texture= */
+    uint8_t  cube_lenient;      /* 1: a cube kind a Ptex file or a mesh cannot take is ignored
+                                   (the file imported as without it), as before session 32;
+                                   0 (default): ST_EINVAL. For files recorded with their options
+                                   before the check (a data dir's manifests) */
 } st_import_opts;
 
 /* Fills o with defaults (everything auto / zero). */

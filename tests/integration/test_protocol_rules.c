@@ -4,7 +4,8 @@
  * (bit 5, Ptex's lerp, reaching the sampler),
  * the values of queries that fail (BAD_FACE, NONFINITE, BAD_FOOTPRINT), HELLO with
  * min > max and a second HELLO, a chunk over max_chunk, another connection's upload id,
- * FETCH_READ with max_len 0.
+ * FETCH_READ with max_len 0; (pc32) a cube= upload option the file cannot take is INVALID at
+ * COMMIT, while a data dir's set recorded with one before that check still loads.
  *
  * One daemon for the group (tests/common/daemon_fixture.h), --max-batch 4, on 127.0.0.1 port
  * 0, with its built-in set "default" (per-face, 384 faces, 4 channels u8). Frames are built
@@ -17,10 +18,12 @@
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <cmocka.h>
+#include <zlib.h>
 
 #include "../common/daemon_client.h"
 #include "../common/wire.h"
@@ -508,6 +511,152 @@ static void fetch_read_max_len_zero_reads_a_chunk(void **state)
     close(fd);
 }
 
+/* Uploads file (n bytes) as set name with options on connection fd, reqids from *reqid up;
+ * checks the commit's status and, when OK, the set's kind (the first byte after the name). */
+static void upload_with(int fd, uint32_t *reqid, const char *name, const char *options,
+                        const uint8_t *file, size_t n, int status, int kind)
+{
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_upload_begin ub;
+    memset(&ub, 0, sizeof ub);
+    snprintf(ub.name, sizeof ub.name, "%s", name);
+    snprintf(ub.hint, sizeof ub.hint, "ptx");
+    snprintf(ub.options, sizeof ub.options, "%s", options);
+    ub.total_size = n;
+    ub.crc32c = stp_crc32c(0, file, n);
+    ub.flags = STP_UF_REPLACE;
+    assert_int_equal(stp_enc_upload_begin(&b, *reqid, 0, &ub), 0);
+    reply r;
+    roundtrip(fd, &b, (*reqid)++, STP_S_OK, &r);
+    stp_upload_begin_reply br;
+    assert_int_equal(stp_dec_upload_begin_reply(r.body, r.h.body_len, &br, NULL), 0);
+    free(r.body);
+    for (size_t off = 0; off < n;) {
+        size_t len = n - off < br.max_chunk ? n - off : br.max_chunk;
+        stp_upload_chunk ch = {br.upload_id, off, (uint32_t)len, file + off};
+        assert_int_equal(stp_enc_upload_chunk(&b, *reqid, 0, &ch), 0);
+        expect(fd, &b, (*reqid)++, STP_S_OK);
+        off += len;
+    }
+    assert_int_equal(stp_enc_id_req(&b, STP_OP_UPLOAD_COMMIT, *reqid, 0, br.upload_id), 0);
+    roundtrip(fd, &b, (*reqid)++, status, &r);
+    if (status == STP_S_OK) {
+        assert_true(r.h.body_len > 3);
+        size_t nl = (size_t)r.body[0] | (size_t)r.body[1] << 8;
+        assert_true(r.h.body_len > 2 + nl);
+        assert_int_equal(r.body[2 + nl], kind);
+    } else {
+        assert_non_null(strstr((const char *)r.body, "cube="));
+    }
+    free(r.body);
+    stp_buf_free(&b);
+}
+
+/* The built-in set "default" fetched as a Ptex file (384 faces: not an environment cube), on
+ * connection fd with reqids from *reqid up; *n its bytes. */
+static uint8_t *fetch_default_ptx(int fd, uint32_t *reqid, size_t *n)
+{
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_fetch_open fo;
+    memset(&fo, 0, sizeof fo);
+    snprintf(fo.name, sizeof fo.name, "default");
+    fo.format = STP_FETCH_PTX;
+    assert_int_equal(stp_enc_fetch_open(&b, *reqid, 0, &fo), 0);
+    reply r;
+    roundtrip(fd, &b, (*reqid)++, STP_S_OK, &r);
+    stp_fetch_open_reply orp;
+    assert_int_equal(stp_dec_fetch_open_reply(r.body, r.h.body_len, &orp, NULL), 0);
+    free(r.body);
+    uint8_t *file = malloc(orp.total_size);
+    assert_non_null(file);
+    for (uint64_t off = 0; off < orp.total_size;) {
+        stp_fetch_read rd = {orp.fetch_id, off, 0};
+        assert_int_equal(stp_enc_fetch_read(&b, *reqid, 0, &rd), 0);
+        roundtrip(fd, &b, (*reqid)++, STP_S_OK, &r);
+        stp_fetch_data d;
+        assert_int_equal(stp_dec_fetch_data(r.body, r.h.body_len, &d, NULL), 0);
+        assert_true(d.len > 0 && d.offset == off);
+        memcpy(file + off, d.data, d.len);
+        off += d.len;
+        free(r.body);
+    }
+    stp_buf_free(&b);
+    *n = (size_t)orp.total_size;
+    return file;
+}
+
+/* PROTOCOL.md 4.8 (pc32): a cube= conversion the file cannot take is INVALID at COMMIT, as it
+ * is for an image and a BC1 DDS, never an OK with a set of another kind. */
+static void cube_options_a_ptex_file_cannot_take_are_invalid(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    uint32_t reqid = 1;
+    size_t n = 0;
+    uint8_t *file = fetch_default_ptx(fd, &reqid, &n);
+    upload_with(fd, &reqid, "protorules-ptx", "cube=strip_v", file, n, STP_S_INVALID, 0);
+    upload_with(fd, &reqid, "protorules-ptx", "cube=latlong:64", file, n, STP_S_INVALID, 0);
+    upload_with(fd, &reqid, "protorules-ptx", "cube=ptex", file, n, STP_S_INVALID, 0);
+    upload_with(fd, &reqid, "protorules-ptx", "cube=auto", file, n, STP_S_OK, STP_KIND_PERFACE);
+    upload_with(fd, &reqid, "protorules-ptx", "", file, n, STP_S_OK, STP_KIND_PERFACE);
+    free(file);
+    close(fd);
+}
+
+/* ... while a data dir's set recorded with such options before the check (its manifest says
+ * cube=strip_v on a Ptex file; no native file, so the start rebuilds it from the source) still
+ * loads, as the per-face set it was. */
+static void recorded_cube_options_still_load(void **state)
+{
+    (void)state;
+    int fd = st_daemon_connect(&D1);
+    assert_true(fd >= 0);
+    uint32_t reqid = 1;
+    size_t n = 0;
+    uint8_t *file = fetch_default_ptx(fd, &reqid, &n);
+    close(fd);
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    char p[700];
+    snprintf(p, sizeof p, "mkdir -p '%s/sets/old'", d.datadir);
+    assert_int_equal(system(p), 0);
+    snprintf(p, sizeof p, "%s/sets/old/source-1.ptx", d.datadir);
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(file, 1, n, f), n);
+    assert_int_equal(fclose(f), 0);
+    snprintf(p, sizeof p, "%s/sets/old/manifest", d.datadir);
+    f = fopen(p, "wb");
+    assert_non_null(f);
+    fprintf(f, "seamtex-set 1\nname old\nsource source-1.ptx\nformat ptx\nbytes %zu\n"
+            "crc32 %08lx\noptions cube=strip_v\nend\n", n, crc32(crc32(0L, Z_NULL, 0), file, (uInt)n));
+    assert_int_equal(fclose(f), 0);
+    free(file);
+    static const char *const args[] = {"--no-default-set", NULL};
+    assert_int_equal(st_daemon_start(&d, args), 0);
+    fd = st_daemon_connect(&d);
+    assert_true(fd >= 0);
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_info_req ir;
+    memset(&ir, 0, sizeof ir);
+    snprintf(ir.name, sizeof ir.name, "old");
+    assert_int_equal(stp_enc_info_req(&b, 1, 0, &ir), 0);
+    reply r;
+    roundtrip(fd, &b, 1, STP_S_OK, &r);
+    assert_true(r.h.body_len >= 8);
+    assert_int_equal(r.body[0] | r.body[1] << 8, 384);   /* nfaces */
+    assert_int_equal(r.body[7], STP_KIND_PERFACE);
+    free(r.body);
+    stp_buf_free(&b);
+    close(fd);
+    assert_int_equal(st_daemon_stop(&d, 20000), 0);
+    st_daemon_cleanup(&d);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -520,6 +669,8 @@ int main(void)
         cmocka_unit_test(hello_version_ranges_and_a_second_hello),
         cmocka_unit_test(chunk_over_max_chunk_and_foreign_upload_ids),
         cmocka_unit_test(fetch_read_max_len_zero_reads_a_chunk),
+        cmocka_unit_test(cube_options_a_ptex_file_cannot_take_are_invalid),
+        cmocka_unit_test(recorded_cube_options_still_load),
     };
     static const char *const args[] = {"--max-batch", "4", NULL};
     st_group_args = args;
