@@ -33,6 +33,7 @@ void st_atlas_free(void *p)
     free(a->chart_mask);
     free(a->chart_id);
     free(a->chart_link);
+    st_atlas_free_locate(a);
     free(a);
 }
 
@@ -48,7 +49,7 @@ static size_t atlas_memory(const void *p)
     const st_atlas *a = p;
     return sizeof *a + st_mesh_memory(a->mesh) +
            (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0) + a->chart_id_bytes +
-           a->chart_link_bytes;
+           a->chart_link_bytes + a->loc.bytes;
 }
 
 void st_atlas_ext(st_atlas *a, st_set_ext *x)
@@ -130,6 +131,7 @@ static void reduce_ids(const uint16_t *src, uint32_t sw, uint32_t sh, uint16_t *
 int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
 {
     st_atlas_free_links(a);
+    st_atlas_free_locate(a);
     free(a->chart_id);
     a->chart_id = NULL;
     a->chart_id_bytes = 0;
@@ -166,7 +168,10 @@ int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
         a->ids.level[l] = ids + off[l];
     a->ids.nlevels = nl;
     int rc = st_atlas_build_links(a, s, e);
+    if (rc == ST_OK)
+        rc = st_atlas_build_locate(a, s, e);
     if (rc) {   /* nothing half-built: no ids either */
+        st_atlas_free_links(a);
         free(a->chart_id);
         a->chart_id = NULL;
         a->chart_id_bytes = 0;
@@ -234,6 +239,7 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
     free(a->chart_mask);
     a->chart_mask = NULL;
     st_atlas_free_links(a);
+    st_atlas_free_locate(a);
     free(a->chart_id);
     a->chart_id = NULL;
     a->chart_id_bytes = 0;

@@ -31,6 +31,17 @@
 #include "sample.h"
 #include "set.h"
 
+/* The query chart's triangle lists (atlas_locate.c; what st_chart_ids' near_ and tri_ pointers
+ * point to): bits 1 bit a level-0 texel, rank set bits before each 64-bit word, off / tri the
+ * near texels' triangle lists, xy 6 doubles a triangle, id its chart + 1 (0: not listed). */
+typedef struct st_atlas_locate {
+    uint64_t *bits;
+    uint32_t *rank, *off, *tri;
+    double   *xy;
+    uint16_t *id;
+    size_t    bytes;
+} st_atlas_locate;
+
 typedef struct st_atlas {
     st_mesh  *mesh;        /* may be NULL: a plain image set */
     uint8_t  *chart_mask;  /* w*h bytes of level 0, 1 where a UV'd triangle covers the texel
@@ -43,7 +54,9 @@ typedef struct st_atlas {
     st_chart_link *chart_link; /* chart Traverse's links of every level (atlas_links.c), the
                               levels one after another; NULL when none */
     size_t    chart_link_bytes;
-    st_chart_ids ids;      /* chart_id's and chart_link's levels, what set->ext.charts points to */
+    st_atlas_locate loc;   /* the query chart's triangle lists (atlas_locate.c) */
+    st_chart_ids ids;      /* chart_id's and chart_link's levels and loc, what set->ext.charts
+                              points to */
     char      texture_name[256]; /* file the texture came from (information) */
 } st_atlas;
 
@@ -64,6 +77,12 @@ int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e);
  * called by st_atlas_build_chart_ids); ST_ENOMEM leaves none. */
 int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e);
 void st_atlas_free_links(st_atlas *a);
+
+/* (Re)builds a's triangle lists for the query's chart at triangle resolution from a->mesh and
+ * a's level-0 chart ids (atlas_locate.c; called by st_atlas_build_chart_ids); ST_ENOMEM leaves
+ * none. A mesh whose lists would be too long gets none (ST_OK): the texel rule. */
+int st_atlas_build_locate(st_atlas *a, const st_set *s, st_error *e);
+void st_atlas_free_locate(st_atlas *a);
 
 /* Attaches a mesh to an existing atlas set (replacing an old one); takes it over. */
 int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e);

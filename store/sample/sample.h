@@ -98,6 +98,17 @@ typedef struct st_chart_ids {
     const uint16_t *level[ST_MAX_LEVELS];
     const st_chart_link *link[ST_MAX_LEVELS];
     size_t nlink[ST_MAX_LEVELS];
+    /* The query's chart at triangle resolution (kinds/atlas_locate.c; docs/sampler.md, "Chart
+     * Discard"): near_bits has a bit per level-0 texel (row by row, 64 to a word), set where a
+     * UV triangle of a chart other than the texel's id reaches the texel's square (and may own
+     * a point of it); near_rank[w] counts the bits set before word w; the r-th near texel's
+     * triangles are near_tri[near_off[r] .. near_off[r + 1]), by chart, lowest first; triangle
+     * t is counter-clockwise at tri_xy[6 t ..] in level-0 texel space (x = u W, y = v H), of
+     * chart tri_id[t] - 1. near_bits NULL: none (the texel rule). */
+    const uint64_t *near_bits;
+    const uint32_t *near_rank, *near_off, *near_tri;
+    const double *tri_xy;
+    const uint16_t *tri_id;
 } st_chart_ids;
 
 /* The link of texel index `texel` of level L seen from chart `chart` under chart Traverse, or

@@ -1,6 +1,6 @@
 /* tests/fuzz/fuzz_obj.c - libFuzzer target for the OBJ reader, seam detection and what an atlas
- * set builds from a mesh (chart mask, chart ids, chart Traverse's seam links: kinds/atlas.c,
- * atlas_links.c): any bytes must give a mesh or a clean error, never a crash, leak or
+ * set builds from a mesh (chart mask, chart ids, chart Traverse's seam links, the query chart's
+ * triangle lists: kinds/atlas.c, atlas_links.c, atlas_locate.c): any bytes must give a mesh or a clean error, never a crash, leak or
  * unbounded allocation (caps are set small so the fuzzer explores parsing, not memory), and a
  * mesh with texture coordinates must make an atlas set of a small image that samples in every
  * mode. Seeds: tests/fuzz/seeds/fuzz_obj/. */

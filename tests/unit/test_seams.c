@@ -549,6 +549,60 @@ static void chart_discard_in_the_gutter(void **state)
     st_set_free(s);
 }
 
+/* The query's chart at triangle resolution: two charts that touch in UV with no gutter, A
+ * over [0, 30.4] texels and B over [30.4, 64] (x), two unit squares apart in 3D (no seam between
+ * them). Column 30's centre (30.5) lies in B, so its id is B's; a query at x = 30.2 lies in A's
+ * triangle, and Discard and Traverse read A there (the texel rule took B: green, coverage 0.7). */
+static void query_chart_is_the_triangle_s_where_charts_touch(void **state)
+{
+    (void)state;
+    st_mesh *m = NULL;
+    st_error e;
+    assert_int_equal(st_mesh_alloc(8, 8, 4, &m, &e), ST_OK);
+    const float pos[24] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 3, 0, 0, 4, 0, 0, 4, 1, 0, 3, 1, 0};
+    const float x = 30.4f / 64.0f;
+    const float uv[16] = {0, 0, x, 0, x, 1, 0, 1, x, 0, 1, 0, 1, 1, x, 1};
+    const uint32_t tri[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
+    memcpy(m->pos, pos, sizeof pos);
+    memcpy(m->uv, uv, sizeof uv);
+    memcpy(m->tri_pos, tri, sizeof tri);
+    memcpy(m->tri_uv, tri, sizeof tri);
+    static uint8_t px[32][64][4];
+    for (int j = 0; j < 32; j++)
+        for (int i = 0; i < 64; i++) {
+            uint8_t g = (uint8_t)(64 + (i * 3 + j * 5) % 128);
+            px[j][i][0] = i < 30 ? g : 0;
+            px[j][i][1] = i >= 30 ? g : 0;
+            px[j][i][2] = 0;
+            px[j][i][3] = 255;
+        }
+    st_set *s = two_charts_of(&px[0][0][0], 64, 32, m);
+    const st_atlas *a = st_atlas_get(s);
+    assert_int_equal(a->ids.level[0][16 * 64 + 30], a->ids.level[0][16 * 64 + 40]);   /* B's */
+    assert_non_null(a->ids.near_bits);
+    const uint8_t *p15 = st_face_level(s, 0, 0) + ((size_t)15 * 64 + 29) * 4;
+    const uint8_t *p16 = st_face_level(s, 0, 0) + ((size_t)16 * 64 + 29) * 4;
+    for (int mode = 0; mode < 2; mode++) {
+        st_sample_opts o = {.mode = mode ? ST_MODE_TRAVERSE : ST_MODE_DISCARD,
+                            .filter = ST_FILTER_BILINEAR};
+        /* in A (left of 30.4), on column 30 (B's id); then in B on the same texel */
+        st_query q[2] = {{.face = 0, .u = 30.2f / 64.0f, .v = 0.5f},
+                         {.face = 0, .u = 30.6f / 64.0f, .v = 0.5f}};
+        float out[8], cov[2];
+        uint8_t st[2];
+        assert_int_equal(st_sample_batch(s, &o, q, 2, out, cov, st), 0);
+        /* A: column 29's two rows alone (column 30 is B's: dropped), red, no green */
+        assert_float_equal(out[0], 0.5f * (p15[0] + p16[0]) / 255.0f, 1e-5);
+        assert_float_equal(out[1], 0.0f, 0.0f);
+        assert_float_equal(cov[0], 0.3f, 1e-5);
+        /* B: columns 30 and 31 are B's, no red */
+        assert_float_equal(out[4], 0.0f, 0.0f);
+        assert_true(out[5] > 0.0f);
+        assert_float_equal(cov[1], 1.0f, 1e-6);
+    }
+    st_set_free(s);
+}
+
 /* Chart Traverse. A 64 x 64 RGBA8 atlas of two unit squares side by side in 3D, A over
  * [0, 1] x [0, 1] and B over [1, 2] x [0, 1], sharing the edge x = 1 (a UV seam): A's chart at
  * columns and rows 0..27, B's at columns 36..63, rows 0..27 - as A is (turn 0), turned a
@@ -984,6 +1038,7 @@ int main(void)
         cmocka_unit_test(chart_discard_does_not_bleed_the_other_chart_at_any_level),
         cmocka_unit_test(chart_discard_equals_clamp_bit_for_bit_inside_a_chart),
         cmocka_unit_test(chart_discard_in_the_gutter),
+        cmocka_unit_test(query_chart_is_the_triangle_s_where_charts_touch),
         cmocka_unit_test(chart_traverse_reads_across_the_seam),
         cmocka_unit_test(seams_over_the_whole_image_are_bounded),
         cmocka_unit_test(per_chart_mips_keep_each_chart_to_itself),
