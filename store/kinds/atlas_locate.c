@@ -99,6 +99,45 @@ static inline size_t rank_of(const st_atlas_locate *l, size_t k)
     return l->rank[k >> 6] + (size_t)__builtin_popcountll(below);
 }
 
+enum { PASS_MARK, PASS_COUNT, PASS_FILL };
+
+/* Every (triangle, texel) pair where the triangle reaches the texel: PASS_MARK sets the bits of
+ * the near texels; PASS_COUNT counts each near texel's triangles into off[r + 1] and the total
+ * into *total (-1, stopping, past cap); PASS_FILL writes them at off[r]++. */
+static int walk(st_atlas_locate *l, const uint16_t *ids, uint32_t W, uint32_t H, size_t ntri,
+                int pass, size_t cap, size_t *total)
+{
+    for (size_t t = 0; t < ntri; t++) {
+        long i0, i1, j0, j1;
+        const double *x = &l->xy[t * 6];
+        if (!l->id[t] || !tri_box(x, W, H, &i0, &i1, &j0, &j1))
+            continue;
+        for (long j = j0; j <= j1; j++)
+            for (long i = i0; i <= i1; i++) {
+                size_t k = (size_t)j * W + (size_t)i;
+                int near = l->bits[k >> 6] >> (k & 63) & 1;
+                if (pass == PASS_MARK) {
+                    if (!near && ids[k] != l->id[t] &&
+                        (!ids[k] || l->id[t] < ids[k] || !inside(ids, W, H, i, j)) &&
+                        reaches(x, (double)i, (double)j))
+                        l->bits[k >> 6] |= UINT64_C(1) << (k & 63);
+                    continue;
+                }
+                if (!near || !reaches(x, (double)i, (double)j))
+                    continue;
+                size_t r = rank_of(l, k);
+                if (pass == PASS_FILL) {
+                    l->tri[l->off[r]++] = (uint32_t)t;
+                } else {
+                    if (++*total > cap || *total >= UINT32_MAX)
+                        return -1;
+                    l->off[r + 1]++;
+                }
+            }
+    }
+    return 0;
+}
+
 int st_atlas_build_locate(st_atlas *a, const st_set *s, st_error *e)
 {
     st_atlas_free_locate(a);
@@ -141,19 +180,8 @@ int st_atlas_build_locate(st_atlas *a, const st_set *s, st_error *e)
         l->id[t] = (uint16_t)(ch + 1);
     }
     /* near texels */
-    for (size_t t = 0; t < ntri; t++) {
-        long i0, i1, j0, j1;
-        if (!l->id[t] || !tri_box(&l->xy[t * 6], W, H, &i0, &i1, &j0, &j1))
-            continue;
-        for (long j = j0; j <= j1; j++)
-            for (long i = i0; i <= i1; i++) {
-                size_t k = (size_t)j * W + (size_t)i;
-                if (ids[k] != l->id[t] && !(l->bits[k >> 6] >> (k & 63) & 1) &&
-                    (!ids[k] || l->id[t] < ids[k] || !inside(ids, W, H, i, j)) &&
-                    reaches(&l->xy[t * 6], (double)i, (double)j))
-                    l->bits[k >> 6] |= UINT64_C(1) << (k & 63);
-            }
-    }
+    size_t total = 0;
+    walk(l, ids, W, H, ntri, PASS_MARK, 0, &total);
     size_t nnear = 0;
     for (size_t w = 0; w < words; w++) {
         l->rank[w] = (uint32_t)nnear;
@@ -167,40 +195,18 @@ int st_atlas_build_locate(st_atlas *a, const st_set *s, st_error *e)
     l->off = calloc(nnear + 1, sizeof *l->off);
     if (!l->off)
         goto nomem;
-    /* the lists: counted, bounded, filled in triangle order */
-    const size_t cap = 8 * n + 64 * ntri;
-    size_t total = 0;
-    for (int fill = 0; fill < 2; fill++) {
-        for (size_t t = 0; t < ntri; t++) {
-            long i0, i1, j0, j1;
-            if (!l->id[t] || !tri_box(&l->xy[t * 6], W, H, &i0, &i1, &j0, &j1))
-                continue;
-            for (long j = j0; j <= j1; j++)
-                for (long i = i0; i <= i1; i++) {
-                    size_t k = (size_t)j * W + (size_t)i;
-                    if (!(l->bits[k >> 6] >> (k & 63) & 1) ||
-                        !reaches(&l->xy[t * 6], (double)i, (double)j))
-                        continue;
-                    size_t r = rank_of(l, k);
-                    if (fill)
-                        l->tri[l->off[r]++] = (uint32_t)t;
-                    else if (++total > cap || total >= UINT32_MAX) {
-                        st_atlas_free_locate(a);   /* too many: the texel rule for all */
-                        return ST_OK;
-                    } else {
-                        l->off[r + 1]++;
-                    }
-                }
-        }
-        if (!fill) {
-            for (size_t r = 0; r < nnear; r++)
-                l->off[r + 1] += l->off[r];
-            l->tri = malloc((total ? total : 1) * sizeof *l->tri);
-            if (!l->tri)
-                goto nomem;
-            /* filled by bumping each start: shifted back after */
-        }
+    /* the lists: counted, bounded, filled in triangle order (each start bumped past its
+     * entries, shifted back after) */
+    if (walk(l, ids, W, H, ntri, PASS_COUNT, 8 * n + 64 * ntri, &total) != 0) {
+        st_atlas_free_locate(a);   /* too many: the texel rule for all */
+        return ST_OK;
     }
+    for (size_t r = 0; r < nnear; r++)
+        l->off[r + 1] += l->off[r];
+    l->tri = malloc((total ? total : 1) * sizeof *l->tri);
+    if (!l->tri)
+        goto nomem;
+    walk(l, ids, W, H, ntri, PASS_FILL, 0, &total);
     for (size_t r = nnear; r > 0; r--)
         l->off[r] = l->off[r - 1];
     l->off[0] = 0;

@@ -402,24 +402,29 @@ static st_set *two_charts_of(const uint8_t *px, uint32_t w, uint32_t h, st_mesh 
     return s;
 }
 
-/* atl28b: chart Discard. A 64 x 32 RGBA8 atlas of two charts side by side - A (a quad over
- * columns 0..27, red with a gradient) and B (columns 36..63, green) - with an 8-texel blue
- * gutter between them. */
-static st_set *two_chart_atlas(void)
+/* Two unit squares apart in 3D (no shared edge: two charts), two triangles each, the first
+ * over u in [0, a], the second over [b, 1], v in [0, 1]. */
+static st_mesh *two_apart(float a, float b)
 {
     st_mesh *m = NULL;
     st_error e;
     assert_int_equal(st_mesh_alloc(8, 8, 4, &m, &e), ST_OK);
-    /* two unit squares apart in 3D (no shared edge: two charts), uv quads [0, 28/64] and
-     * [36/64, 1] by [0, 1] */
     const float pos[24] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 3, 0, 0, 4, 0, 0, 4, 1, 0, 3, 1, 0};
-    const float uv[16] = {0, 0, 28 / 64.0f, 0, 28 / 64.0f, 1, 0, 1,
-                          36 / 64.0f, 0, 1, 0, 1, 1, 36 / 64.0f, 1};
+    const float uv[16] = {0, 0, a, 0, a, 1, 0, 1, b, 0, 1, 0, 1, 1, b, 1};
     const uint32_t tri[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
     memcpy(m->pos, pos, sizeof pos);
     memcpy(m->uv, uv, sizeof uv);
     memcpy(m->tri_pos, tri, sizeof tri);
     memcpy(m->tri_uv, tri, sizeof tri);
+    return m;
+}
+
+/* atl28b: chart Discard. A 64 x 32 RGBA8 atlas of two charts side by side - A (a quad over
+ * columns 0..27, red with a gradient) and B (columns 36..63, green) - with an 8-texel blue
+ * gutter between them. */
+static st_set *two_chart_atlas(void)
+{
+    st_mesh *m = two_apart(28 / 64.0f, 36 / 64.0f);   /* uv [0, 28/64] and [36/64, 1] */
     static uint8_t px[32][64][4];
     for (int j = 0; j < 32; j++)
         for (int i = 0; i < 64; i++) {
@@ -556,17 +561,7 @@ static void chart_discard_in_the_gutter(void **state)
 static void query_chart_is_the_triangle_s_where_charts_touch(void **state)
 {
     (void)state;
-    st_mesh *m = NULL;
-    st_error e;
-    assert_int_equal(st_mesh_alloc(8, 8, 4, &m, &e), ST_OK);
-    const float pos[24] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 3, 0, 0, 4, 0, 0, 4, 1, 0, 3, 1, 0};
-    const float x = 30.4f / 64.0f;
-    const float uv[16] = {0, 0, x, 0, x, 1, 0, 1, x, 0, 1, 0, 1, 1, x, 1};
-    const uint32_t tri[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
-    memcpy(m->pos, pos, sizeof pos);
-    memcpy(m->uv, uv, sizeof uv);
-    memcpy(m->tri_pos, tri, sizeof tri);
-    memcpy(m->tri_uv, tri, sizeof tri);
+    st_mesh *m = two_apart(30.4f / 64.0f, 30.4f / 64.0f);
     static uint8_t px[32][64][4];
     for (int j = 0; j < 32; j++)
         for (int i = 0; i < 64; i++) {
