@@ -47,7 +47,9 @@
  * "tri10"). st_ptextri_batch and _baseline also take shortcuts of their own ("tri23", "tri30"),
  * which the general and per-tap builds do not, so the tests compare them: a query whose
  * footprint and face size are the last query's reuses its kernel shape (tk_shape, tk_cache)
- * and the recurrence's factors (pt_kfc, kf_get), and Traverse's and Discard's pieces and
+ * and the recurrence's factors (pt_kfc, kf_get), Clamp's inverted fold sweep's first rows and
+ * cursor seed are made before the upright sweep's rows (fold_pre: the two sweeps' dependent
+ * chains overlap; "Session 32, tri32"), and Traverse's and Discard's pieces and
  * Clamp's kernels inside the face (apply_folded) at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
@@ -1496,6 +1498,40 @@ __attribute__((always_inline)) static inline unsigned rows_kept8(const ti *it, i
     return mask;
 }
 
+/* A lean fold sweep's start made ahead (fold_pre): its first group of rows' kept runs
+ * (rows_kept8 from y0, the sweep's first row) and the cursor seeded at its first kept tap
+ * (cur_seed), so that the seed's exp runs while the other sweep's rows are read
+ * (docs/ptex-log.md, "Session 32, tri32"). ok: made (the sweep takes the lean fold rows). */
+typedef struct pt_pre {
+    int ok;
+    unsigned rows;
+    int xks[8], xls[8];
+    pt_cur cu;
+} pt_pre;
+
+/* pt_pre of sweep it when sweep_t would take the lean fold rows on it (a level with texels):
+ * sweep_t's rows [y1, y2) and its test for the recurrence, the same operations on the same
+ * values, then rows_kept8 on the first group and cur_seed at its first kept tap - what
+ * lean_fold_rows and cur_to compute there (so the same bits). */
+__attribute__((always_inline)) static inline void fold_pre(const ti *it, pt_pre *pre)
+{
+    const int R = it->R;
+    const float DDQ = 2.0f * it->A;
+    int y1 = it->lo[1], y2 = it->hi[1];
+    if (y1 < R - it->hi[2] - it->hi[0] + 1)
+        y1 = R - it->hi[2] - it->hi[0] + 1;
+    if (y2 > R - it->lo[2] - it->lo[0])
+        y2 = R - it->lo[2] - it->lo[0];
+    pre->ok = DDQ > 0.0f && (y2 - y1) * (it->hi[0] - it->lo[0]) >= 16 && y1 < y2;
+    if (!pre->ok)
+        return;
+    pre->rows = rows_kept8(it, R, y1, y2, DDQ, pre->xks, pre->xls);
+    if (pre->rows) {
+        int r = __builtin_ctz(pre->rows);
+        cur_seed(&pre->cu, it, pre->xks[r], y1 + r, it->wscale);
+    }
+}
+
 /* Whether every tap of sweep it's rows [y1, y2) lies in the band proper past the diagonal
  * edge: a tap that fold_tap pulls back onto u + v = 1 (upright x, y >= 0, x + y >= R;
  * inverted x, y <= R - 1, x + y <= R - 1) with 0 < d = x - y + R < 2R, which lean_fold_row
@@ -1517,21 +1553,24 @@ static inline int fold_band_only(const ti *it, int y1, int y2)
  * sweep's it->odd, a constant here so that the loop holds one lean_fold_row): each row's kept
  * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
  * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
- * weights, texels and order. */
-/* The rows [y1, y2) of a lean Clamp fold sweep over a level with texels, orientation ODD (the
- * sweep's it->odd, a constant here so that the loop holds one lean_fold_row): each row's kept
- * taps [xk, xl) found with the float Q of the per-tap loop (the same taps), the cursor moved
- * to xk, the row read by lean_fold_row; as sweep_t's general recurrence rows, the same
- * weights, texels and order. */
+ * weights, texels and order. pre (or NULL): the first group of rows made ahead (fold_pre). */
 __attribute__((always_inline)) static inline pt_v4f
 lean_fold_rows(int ODD, int BAND, const ti *it, const uint8_t *data, int y1, int y2,
                pt_cur *cu, float DDQ, float wscale, pt_v4f one, pt_v4f acc, float *wsum4,
-               unsigned DT, unsigned NC)
+               const pt_pre *pre, unsigned DT, unsigned NC)
 {
     const int R = it->R;
     for (int y0 = y1; y0 < y2; y0 += 8) {
         int xks[8], xls[8];
-        for (unsigned rows = rows_kept8(it, R, y0, y2, DDQ, xks, xls); rows; rows &= rows - 1) {
+        unsigned rows;
+        if (pre && y0 == y1) { /* the first group, made ahead */
+            rows = pre->rows;
+            memcpy(xks, pre->xks, sizeof xks);
+            memcpy(xls, pre->xls, sizeof xls);
+        } else {
+            rows = rows_kept8(it, R, y0, y2, DDQ, xks, xls);
+        }
+        for (; rows; rows &= rows - 1) {
             int r = __builtin_ctz(rows), y = y0 + r, xk = xks[r], xl = xls[r];
             cur_to(cu, it, xk, y, wscale);
             double G = cu->G, E = cu->Ex;
@@ -1568,7 +1607,8 @@ __attribute__((always_inline)) static inline pt_v4f lane3_cleared(pt_v4f acc)
 __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                                                            const uint8_t *data, int constant,
                                                            int how, int REC, pt_kf *kf,
-                                                           unsigned DT, unsigned NC)
+                                                           const pt_pre *pre, unsigned DT,
+                                                           unsigned NC)
 {
     const size_t ts = st_dtype_size(DT) * NC;
     const int R = it->R;
@@ -1629,18 +1669,26 @@ __attribute__((always_inline)) static inline float sweep_t(tc *c, const ti *it,
                      .ixy = kf->ixy}; /* seeded at its first kept tap */
         if (REC == 2 && how == SW_FOLD && !constant) {
             int band = fold_band_only(it, y1, y2);
+            if (pre && pre->rows) { /* seeded ahead at the first kept tap: cur_to moves 0 */
+                cu.seeded = 1;
+                cu.x = pre->cu.x;
+                cu.y = pre->cu.y;
+                cu.G = pre->cu.G;
+                cu.Ex = pre->cu.Ex;
+                cu.Ey = pre->cu.Ey;
+            }
             if (it->odd && band)
                 acc = lean_fold_rows(1, 1, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
-                                     &wsum4, DT, NC);
+                                     &wsum4, pre, DT, NC);
             else if (it->odd)
                 acc = lean_fold_rows(1, 0, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
-                                     &wsum4, DT, NC);
+                                     &wsum4, pre, DT, NC);
             else if (band)
                 acc = lean_fold_rows(0, 1, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
-                                     &wsum4, DT, NC);
+                                     &wsum4, NULL, DT, NC);
             else
                 acc = lean_fold_rows(0, 0, it, data, y1, y2, &cu, DDQ, wscale, one, acc,
-                                     &wsum4, DT, NC);
+                                     &wsum4, NULL, DT, NC);
             y2 = y1; /* done: the loop below visits nothing */
         }
         for (int y = y1; y < y2; y++) {
@@ -2009,10 +2057,20 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
     }
     float w = c->weight;
     pt_kf kf = {.set = 0}; /* the factors once a piece, for both sweeps */
+    if (how == SW_FOLD && REC == 2 && !constant && ev->valid && od->valid) {
+        /* the lean fold rows of both sweeps: the inverted sweep's start made first (fold_pre),
+         * so that its seed's exp overlaps the upright sweep's rows */
+        pt_pre pre;
+        fold_pre(od, &pre);
+        w += sweep_t(c, ev, data, 0, SW_FOLD, 2, &kf, NULL, DT, NC);
+        w += sweep_t(c, od, data, 0, SW_FOLD, 2, &kf, pre.ok ? &pre : NULL, DT, NC);
+        c->weight = w;
+        return;
+    }
     if (ev->valid)
-        w += sweep_t(c, ev, data, constant, how, REC, &kf, DT, NC);
+        w += sweep_t(c, ev, data, constant, how, REC, &kf, NULL, DT, NC);
     if (od->valid)
-        w += sweep_t(c, od, data, constant, how, REC, &kf, DT, NC);
+        w += sweep_t(c, od, data, constant, how, REC, &kf, NULL, DT, NC);
     c->weight = w;
 }
 
@@ -2571,17 +2629,17 @@ PT_PIECE_FN(piece_rn)
 __attribute__((noinline)) static float sweep_weight_pertap(tc *c, const ti *it, pt_kf *kf)
 {
     (void)kf;
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 0, NULL, NULL, ST_DT_F32, 1);
 }
 
 __attribute__((noinline)) static float sweep_weight_general(tc *c, const ti *it, pt_kf *kf)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, kf, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 1, kf, NULL, ST_DT_F32, 1);
 }
 
 __attribute__((noinline)) static float sweep_weight_lean(tc *c, const ti *it, pt_kf *kf)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, NULL, ST_DT_F32, 1);
 }
 
 #ifdef PT_AVX2
@@ -2589,7 +2647,7 @@ __attribute__((noinline, target("avx2"))) static float sweep_weight_lean_avx2(tc
                                                                             const ti *it,
                                                                             pt_kf *kf)
 {
-    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, ST_DT_F32, 1);
+    return sweep_t(c, it, NULL, 0, SW_WEIGHT, 2, kf, NULL, ST_DT_F32, 1);
 }
 #endif
 
