@@ -93,12 +93,6 @@ static int inside(const uint16_t *ids, uint32_t W, uint32_t H, long i, long j)
     return 1;
 }
 
-static inline size_t rank_of(const st_atlas_locate *l, size_t k)
-{
-    uint64_t below = l->bits[k >> 6] & ((UINT64_C(1) << (k & 63)) - 1);
-    return l->rank[k >> 6] + (size_t)__builtin_popcountll(below);
-}
-
 enum { PASS_MARK, PASS_COUNT, PASS_FILL };
 
 /* Every (triangle, texel) pair where the triangle reaches the texel: PASS_MARK sets the bits of
@@ -115,7 +109,7 @@ static int walk(st_atlas_locate *l, const uint16_t *ids, uint32_t W, uint32_t H,
         for (long j = j0; j <= j1; j++)
             for (long i = i0; i <= i1; i++) {
                 size_t k = (size_t)j * W + (size_t)i;
-                int near = l->bits[k >> 6] >> (k & 63) & 1;
+                int near = st_bit_get(l->bits, k);
                 if (pass == PASS_MARK) {
                     if (!near && ids[k] != l->id[t] &&
                         (!ids[k] || l->id[t] < ids[k] || !inside(ids, W, H, i, j)) &&
@@ -125,7 +119,7 @@ static int walk(st_atlas_locate *l, const uint16_t *ids, uint32_t W, uint32_t H,
                 }
                 if (!near || !reaches(x, (double)i, (double)j))
                     continue;
-                size_t r = rank_of(l, k);
+                size_t r = st_bit_rank(l->bits, l->rank, k);
                 if (pass == PASS_FILL) {
                     l->tri[l->off[r]++] = (uint32_t)t;
                 } else {

@@ -206,8 +206,7 @@ ST_AI void probe_trilinear(const st_set *s, unsigned mode, const st_fp *fp, uint
 __attribute__((noinline, cold)) static unsigned chart_at_point(const st_chart_ids *ch, size_t k,
                                                                double x, double y)
 {
-    uint64_t below = ch->near_bits[k >> 6] & ((UINT64_C(1) << (k & 63)) - 1);
-    size_t r = ch->near_rank[k >> 6] + (size_t)__builtin_popcountll(below);
+    size_t r = st_bit_rank(ch->near_bits, ch->near_rank, k);
     for (uint32_t n = ch->near_off[r]; n < ch->near_off[r + 1]; n++) {
         uint32_t t = ch->near_tri[n];
         const double *p = &ch->tri_xy[(size_t)t * 6];
@@ -237,7 +236,7 @@ static unsigned query_chart(const st_chart_ids *ch, const st_face *F, float u, f
         j = H - 1;
     if ((uint32_t)i < (uint32_t)W && (uint32_t)j < (uint32_t)H) {
         size_t k = (size_t)j * (size_t)W + (size_t)i;
-        if (ch->near_bits && (ch->near_bits[k >> 6] >> (k & 63) & 1)) {
+        if (ch->near_bits && st_bit_get(ch->near_bits, k)) {
             unsigned t = chart_at_point(ch, k, (double)u * W, (double)v * H);
             if (t)
                 return t;

@@ -111,6 +111,18 @@ typedef struct st_chart_ids {
     const uint16_t *tri_id;
 } st_chart_ids;
 
+/* Bit k of a bitmap of 64-bit words, and its rank: the bits set before it, rank[w] counting
+ * those of the words before word w (st_chart_ids' near_bits and near_rank). */
+static inline int st_bit_get(const uint64_t *bits, size_t k)
+{
+    return (int)(bits[k >> 6] >> (k & 63) & 1);
+}
+static inline size_t st_bit_rank(const uint64_t *bits, const uint32_t *rank, size_t k)
+{
+    uint64_t below = bits[k >> 6] & ((UINT64_C(1) << (k & 63)) - 1);
+    return rank[k >> 6] + (size_t)__builtin_popcountll(below);
+}
+
 /* The link of texel index `texel` of level L seen from chart `chart` under chart Traverse, or
  * NULL when there is none (the tap is dropped, as by Discard). */
 const st_chart_link *st_chart_link_find(const st_chart_ids *ch, unsigned level, uint32_t texel,
