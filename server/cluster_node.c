@@ -31,6 +31,9 @@ void sts_cluster_note_etcd(sts_cluster *cl, int rc)
     int was = __atomic_exchange_n(&cl->etcd_ok, ok, __ATOMIC_RELAXED);
     if (!ok)
         STS_CL_ADD(cl, etcd_errors, 1);
+    if (ok && __atomic_load_n(&cl->recheck, __ATOMIC_RELAXED) &&
+        __atomic_exchange_n(&cl->recheck, 0, __ATOMIC_RELAXED))
+        sts_cluster_kick(cl);   /* a publish left unchecked: the catalogue decides now */
     if (was != ok)
         sts_logf(&cl->srv->log, ok ? STS_INFO : STS_WARN, "cluster: etcd %s", ok
                  ? "reachable again: uploads, deletes and compress jobs accepted"
@@ -297,6 +300,13 @@ void sts_reply_not_here(sts_server *srv, stp_buf *out, const stp_header *h, cons
         sts_reply_error(out, h, STP_S_UNAVAILABLE, addr);
     else
         sts_reply_st(out, h, ST_ENOTFOUND, msg);
+}
+
+void sts_cluster_recheck(sts_cluster *cl)
+{
+    __atomic_store_n(&cl->recheck, 1, __ATOMIC_RELAXED);
+    if (sts_cluster_etcd_ok(cl) && __atomic_exchange_n(&cl->recheck, 0, __ATOMIC_RELAXED))
+        sts_cluster_kick(cl);
 }
 
 void sts_cluster_kick(sts_cluster *cl)

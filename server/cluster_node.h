@@ -106,6 +106,9 @@ typedef struct sts_cluster {
     int             stop;              /* under wake_mu (set atomically: it is the abort
                                           flag of etcd_m and etcd_r, scl_etcd_set_abort) */
     int             kick;              /* under wake_mu: run a repair pass now */
+    int             recheck;           /* atomic: a REPLICA_PUBLISH could not be checked
+                                          against etcd (sts_cluster_recheck): kick a repair
+                                          pass when etcd answers again */
     pthread_mutex_t wake_mu;
     pthread_cond_t  wake;
     pthread_t       member_thread, repair_thread;
@@ -194,6 +197,10 @@ STS_HANDLER(sts_h_cluster);
  * node holds a copy, else NOT_FOUND with msg. Works without a cluster. */
 void sts_reply_not_here(sts_server *srv, stp_buf *out, const stp_header *h, const char *name,
                         const char *msg);
+/* A REPLICA_PUBLISH named other contents than this node's copy while etcd could not be
+ * asked (h_upload.c): a repair pass is run as soon as etcd answers again (now, if it already
+ * does), so the catalogue, not the message, decides whether the copy is stale. */
+void sts_cluster_recheck(sts_cluster *cl);
 /* Sleeps up to ms, or until a kick or stop; 1 when stopping (the repair thread). */
 int  sts_cluster_nap(sts_cluster *cl, int ms);
 /* Wakes the repair thread for a pass now. */

@@ -660,10 +660,23 @@ int sts_h_replica_publish(sts_ctx *c, const stp_header *h, const uint8_t *body, 
              * (a holder that got no push: cluster_write.c), hidden until the repair pass that
              * drops it. Unless the catalogue, asked now, records this copy's contents: then
              * the message names contents nobody recorded (a client's mistake, pc32), and the
-             * current copy stays served; with etcd unreachable the message is believed. */
-            if (stale && sts_cluster_records(srv->cluster, name, mine) == 1) {
+             * current copy stays served. With etcd unreachable the message cannot be checked
+             * and is not believed: the copy stays served, as every copy is while etcd is away,
+             * and the repair pass run as soon as etcd answers again decides (one unverifiable
+             * message takes no set off the air; left33). */
+            int rec = stale ? sts_cluster_records(srv->cluster, name, mine) : 0;
+            if (rec == 1) {
                 sts_reply_error(out, h, STP_S_NOT_FOUND, "no staged copy of that set and crc32; "
                                 "the catalogue records this node's copy, which stays served");
+            } else if (rec < 0) {
+                sts_cluster_recheck(srv->cluster);
+                sts_logf(&srv->log, STS_WARN, "cluster: REPLICA_PUBLISH names other contents of "
+                         "'%s' than this node's copy and etcd cannot be asked: the copy stays "
+                         "served until a repair pass reads the catalogue", name);
+                sts_reply_error(out, h, STP_S_UNAVAILABLE, "cluster coordinator (etcd) "
+                                "unreachable: the publish cannot be checked against the "
+                                "catalogue; this node's copy of other contents stays served "
+                                "until its repair pass reads the catalogue");
             } else if (stale && sts_cluster_hide(srv->cluster, name)) {
                 sts_logf(&srv->log, STS_INFO, "cluster: '%s' replaced elsewhere: this node's "
                          "copy of other contents is hidden from reads", name);

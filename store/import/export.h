@@ -19,6 +19,7 @@
  * temp file in the caller's folder (OpenImageIO writes files), removed before returning; the
  * file must read back as the image (same size) before its bytes are handed out: OpenImageIO
  * 2.4 reports success for a file a full disk cut short (ST_EIO, "No space left on device").
+ * Every format's bytes are a function of the set alone (no time stamp: image_io.h).
  *
  * Ownership: *buf is malloc'ed; the caller frees it.
  */

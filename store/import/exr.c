@@ -148,61 +148,77 @@ static uint32_t le32(const uint8_t *p)
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
-/* A single-part ripmap file: OpenEXR 3.1.5's C API maps the tiles of rip levels (x, y > 0) to
- * the wrong chunks (exr_read_tile_chunk_info on a valid file answers BAD_CHUNK_LEADER), so
- * these chunks are checked from the file's own chunk offset table: after the header (its
- * attributes, each name\0 type\0 int32 size value, end at an empty name) come chunk_count
- * uint64 offsets, each to a tile leader (int32 x, y, level x, level y, packed size) whose
- * data must end inside the file. Returns 0 when every chunk is inside. */
+/* Moves *pos past one header (attributes, each name\0 type\0 int32 size value, ended by an
+ * empty name). Returns 0, or -1 when the header does not end inside the file. */
+static int skip_header(FILE *f, const raw_src *src, uint64_t *pos)
+{
+    uint8_t b[256];
+    for (int attr = 0; attr <= 100000; attr++) {
+        /* name, then type: NUL-terminated strings of at most 255 bytes */
+        size_t strs[2] = {0, 0};
+        for (int k = 0; k < 2; k++) {
+            if (*pos >= src->size)
+                return -1;
+            size_t got = src->size - *pos < sizeof b ? (size_t)(src->size - *pos) : sizeof b;
+            if (raw_read(f, src, *pos, b, got))
+                return -1;
+            uint8_t *z = memchr(b, 0, got);
+            if (!z)
+                return -1;
+            strs[k] = (size_t)(z - b);
+            *pos += strs[k] + 1;
+            if (k == 0 && strs[0] == 0)
+                return 0; /* end of the header */
+        }
+        if (raw_read(f, src, *pos, b, 4))
+            return -1;
+        *pos += 4 + (uint64_t)le32(b);
+    }
+    return -1;
+}
+
+/* A ripmap part 0: OpenEXR 3.1.5's C API maps the tiles of rip levels (x, y > 0) to the wrong
+ * chunks (exr_read_tile_chunk_info on a valid file answers BAD_CHUNK_LEADER), so part 0's
+ * chunks are checked from the file's own chunk offset tables (OpenEXR file layout): after the
+ * magic and the version field come the headers - one, or in a multi-part file (version flag
+ * bit 12) one per part followed by an empty header (a lone NUL) - then one offset table per
+ * part in header order, each chunk_count uint64 offsets, part 0's first. Each of part 0's
+ * offsets leads to a tile leader (in a multi-part file an int32 part number, which must be 0,
+ * first; then int32 x, y, level x, level y, packed size) whose data must end inside the file.
+ * Returns 0 when every chunk is inside. */
 static int ripmap_chunks_inside(exr_context_t ctx, const raw_src *src)
 {
     int32_t nchunks = 0;
-    if (exr_get_chunk_count(ctx, 0, &nchunks) != EXR_ERR_SUCCESS || nchunks < 1)
+    int nparts = 0;
+    if (exr_get_chunk_count(ctx, 0, &nchunks) != EXR_ERR_SUCCESS || nchunks < 1 ||
+        exr_get_count(ctx, &nparts) != EXR_ERR_SUCCESS || nparts < 1)
         return -1;
     FILE *f = NULL;
     if (src->path && !(f = fopen(src->path, "rb")))
         return -1;
-    int bad = 0;
-    uint64_t pos = 8;
-    uint8_t b[256];
-    for (int attr = 0; !bad; attr++) {
-        /* name, then type: NUL-terminated strings of at most 255 bytes */
-        size_t strs[2] = {0, 0};
-        for (int k = 0; k < 2 && !bad; k++) {
-            size_t got = src->size - pos < sizeof b ? (size_t)(src->size - pos) : sizeof b;
-            if (pos >= src->size || raw_read(f, src, pos, b, got)) {
-                bad = 1;
-                break;
-            }
-            uint8_t *z = memchr(b, 0, got);
-            if (!z) {
-                bad = 1;
-                break;
-            }
-            strs[k] = (size_t)(z - b);
-            pos += strs[k] + 1;
-            if (k == 0 && strs[0] == 0)
-                break; /* end of the header */
-        }
-        if (bad || strs[0] == 0 || attr > 100000)
-            break;
-        if (raw_read(f, src, pos, b, 4)) {
-            bad = 1;
-            break;
-        }
-        pos += 4 + (uint64_t)le32(b);
+    uint8_t b[24];
+    int bad = raw_read(f, src, 4, b, 4);
+    int multi = !bad && (le32(b) & 0x1000u) != 0;
+    uint64_t pos = 8, all_chunks = 0;
+    for (int p = 0; p < (multi ? nparts : 1) && !bad; p++) {
+        int32_t n = 0;
+        bad = skip_header(f, src, &pos) || exr_get_chunk_count(ctx, p, &n) != EXR_ERR_SUCCESS ||
+              n < 0;
+        all_chunks += (uint64_t)(n > 0 ? n : 0);
     }
-    uint64_t table_end = pos + 8 * (uint64_t)nchunks;
+    if (!bad && multi) /* the empty header that ends the list */
+        bad = raw_read(f, src, pos++, b, 1) || b[0] != 0;
+    size_t lead = multi ? 24 : 20; /* the leader, up to and with the packed size */
+    uint64_t table_end = pos + 8 * all_chunks;
     for (int32_t i = 0; i < nchunks && !bad; i++) {
-        uint64_t off;
         uint8_t o[8];
         if (raw_read(f, src, pos + 8 * (uint64_t)i, o, 8)) {
             bad = 1;
             break;
         }
-        off = (uint64_t)le32(o) | (uint64_t)le32(o + 4) << 32;
-        if (off < table_end || raw_read(f, src, off, b, 20) || (int32_t)le32(b + 16) < 0 ||
-            le32(b + 16) > src->size - off - 20)
+        uint64_t off = (uint64_t)le32(o) | (uint64_t)le32(o + 4) << 32;
+        if (off < table_end || raw_read(f, src, off, b, lead) || (multi && le32(b) != 0) ||
+            (int32_t)le32(b + lead - 4) < 0 || le32(b + lead - 4) > src->size - off - lead)
             bad = 1;
     }
     if (f)
@@ -228,9 +244,7 @@ static int tiled_chunks_inside(exr_context_t ctx, const char *path, const raw_sr
         exr_get_tile_levels(ctx, 0, &lx, &ly) != EXR_ERR_SUCCESS || lx < 1 || ly < 1 ||
         lx > 64 || ly > 64)
         return st_fail(e, ST_EFORMAT, "%s: bad tile description", path);
-    int nparts = 0;
-    if (lm == EXR_TILE_RIPMAP_LEVELS && exr_get_count(ctx, &nparts) == EXR_ERR_SUCCESS &&
-        nparts == 1) {
+    if (lm == EXR_TILE_RIPMAP_LEVELS) {
         if (ripmap_chunks_inside(ctx, src))
             return st_fail(e, ST_EFORMAT, "%s: truncated or corrupt: a chunk of the ripmap is "
                            "not inside the file", path);

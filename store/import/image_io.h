@@ -24,6 +24,8 @@ int st_image_read_any(const char *path, const st_image_caps *caps, st_image *out
 
 /* Writes w x h x nchan texels of dtype (rows top first, interleaved) to path; the format
  * comes from the extension (.png for 8/16-bit, .exr for half/float, .tif, .hdr, .jpg...).
+ * A PNG or EXR is a function of the texels and the attributes given (an EXR's `capDate` is
+ * written empty, not the wall clock OpenImageIO would stamp), so FETCH is byte-stable.
  * ST_EUNSUPPORTED when OIIO cannot write that format (e.g. .dds). */
 int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
                    const void *data, st_error *e);

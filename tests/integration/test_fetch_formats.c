@@ -1,10 +1,10 @@
 /* tests/integration/test_fetch_formats.c - FETCH of every set kind: a cube (from an EXR cube)
  * and an OBJ atlas (mesh + PNG image) are fetched in every format that fits them, the fetched
  * files are uploaded back under new names and sampled at the same queries as the originals:
- * identical values. A format that does not fit is UNSUPPORTED naming the ones that do. Open
- * fetches count against max-memory and conn-fetch-cap: a connection that opens fetches
- * without closing them is refused (BUSY), the daemon's fetch memory stays under the cap, and
- * closing fetches frees the room.
+ * identical values; an EXR fetched twice a second apart is the same bytes. A format that
+ * does not fit is UNSUPPORTED naming the ones that do. Open fetches count against max-memory
+ * and conn-fetch-cap: a connection that opens fetches without closing them is refused (BUSY),
+ * the daemon's fetch memory stays under the cap, and closing fetches frees the room.
  *
  * Daemons on 127.0.0.1 port 0 (tests/common/daemon_fixture.h). Needs SEAMTEX_DATA
  * (env/StageEnvCube.exr, meshes/duck/Duck.obj + DuckCM.png); skipped without it.
@@ -149,6 +149,20 @@ static void every_set_kind_fetches_and_uploads_back(void **state)
     upload(c, p, "env_from_exr", NULL);
     same_dir_samples(c, "env", "env_from_ptx");
     same_dir_samples(c, "env", "env_from_exr");
+    /* fetched again with the wall clock a second on: the same bytes (4.10; an EXR carried its
+     * time of writing as capDate before) */
+    usleep(1100 * 1000);
+    char again[720];
+    snprintf(again, sizeof again, "%s/env_again.exr", dir);
+    assert_int_equal(stc_fetch_file(c, "env", STC_FETCH_EXR, again, NULL, NULL), 0);
+    size_t la = 0, lb = 0;
+    char *fa = st_test_read_file(p, &la), *fb = st_test_read_file(again, &lb);
+    assert_non_null(fa);
+    assert_non_null(fb);
+    assert_int_equal(la, lb);
+    assert_memory_equal(fa, fb, la);
+    free(fa);
+    free(fb);
 
     /* an atlas: its image (.png at u8) and its mesh (.obj, uploaded with texture=) */
     upload(c, png, "duck_tex", NULL);

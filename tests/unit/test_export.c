@@ -9,12 +9,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <cmocka.h>
 
 #include "atlas.h"
 #include "bc1.h"
 #include "cube.h"
 #include "export.h"
+#include "image_io.h"
 #include "import.h"
 #include "mesh.h"
 #include "../common/testdata.h"
@@ -188,6 +190,81 @@ static void a_float_atlas_image_comes_back_as_exr(void **state)
     st_set_free(a);
 }
 
+/* Exports s as `format` with the process's local clock set to the time zone tz (OpenImageIO
+ * 2.4 stamps an EXR it is not given a date for with the local time: two zones are two
+ * clocks, without waiting for one to tick) and returns the bytes. */
+static void *export_in_zone(const st_set *s, int format, const char *tz, size_t *len)
+{
+    setenv("TZ", tz, 1);
+    tzset();
+    void *buf = NULL;
+    st_error e;
+    st_error_clear(&e);
+    int rc = st_export_mem(s, format, tmpdir, &buf, len, &e);
+    if (rc)
+        print_message("export in %s: %s\n", tz, e.msg);
+    assert_int_equal(rc, ST_OK);
+    return buf;
+}
+
+/* The EXR written for a set is a function of the set (PROTOCOL.md 4.10: FETCH is byte-stable):
+ * two exports with clocks 5 h and 1.1 s apart give the same bytes, whose header's capDate
+ * is empty, and the file still imports as the set. An atlas image written here (always run),
+ * and the shared float cube when the data is there. */
+static void an_exr_export_is_the_same_bytes_whatever_the_clock(void **state)
+{
+    (void)state;
+    enum { W = 16, H = 8 };
+    uint16_t px[W * H * 4];
+    for (unsigned i = 0; i < W * H * 4; i++)
+        px[i] = (uint16_t)(0x3c00 + (i * 37u) % 1024u); /* halves in [1, 2) */
+    char src[512];
+    snprintf(src, sizeof src, "%s/stable_src.exr", tmpdir);
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_image_write(src, W, H, 4, ST_DT_HALF, px, &e), ST_OK);
+    st_set *sets[2] = {NULL, NULL};
+    assert_int_equal(st_import_file(src, NULL, &sets[0], &e), ST_OK);
+    assert_int_equal(sets[0]->info.kind, ST_KIND_ATLAS);
+    sets[1] = import_shared("env/StageEnvCube.exr", NULL);
+    for (int k = 0; k < 2 && sets[k]; k++) {
+        size_t la = 0, lb = 0, lc = 0;
+        void *a = export_in_zone(sets[k], ST_EXPORT_EXR, "UTC0", &la);
+        void *b = export_in_zone(sets[k], ST_EXPORT_EXR, "EST5", &lb);
+        struct timespec pause = {1, 100000000};
+        nanosleep(&pause, NULL);
+        void *c = export_in_zone(sets[k], ST_EXPORT_EXR, "UTC0", &lc);
+        unsetenv("TZ");
+        tzset();
+        assert_int_equal(la, lb);
+        assert_memory_equal(a, b, la);
+        assert_int_equal(la, lc);
+        assert_memory_equal(a, c, la);
+        /* the header's capDate, if any, is empty: name, type "string", a 4-byte size of 0 (the
+         * header ends well before 4 KiB here) */
+        static const char cap[] = "capDate\0string";
+        size_t head = la < 4096 ? la : 4096;
+        for (size_t i = 0; i + sizeof cap + 4 <= head; i++)
+            if (!memcmp((const char *)a + i, cap, sizeof cap))
+                assert_memory_equal((const char *)a + i + sizeof cap, "\0\0\0\0", 4);
+        free(b);
+        free(c);
+        char path[512];
+        snprintf(path, sizeof path, "%s/stable_%d.exr", tmpdir, k);
+        FILE *f = fopen(path, "wb");
+        assert_non_null(f);
+        assert_int_equal(fwrite(a, 1, la, f), la);
+        fclose(f);
+        free(a);
+        st_set *r = NULL;
+        assert_int_equal(st_import_file(path, NULL, &r, &e), ST_OK);
+        assert_same_texels(sets[k], r);
+        st_set_free(r);
+    }
+    st_set_free(sets[0]);
+    st_set_free(sets[1]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -195,6 +272,7 @@ int main(void)
         cmocka_unit_test(a_cube_comes_back_from_a_ptex_env_cube_and_an_exr_cube),
         cmocka_unit_test(an_atlas_comes_back_as_its_image_and_its_mesh),
         cmocka_unit_test(a_float_atlas_image_comes_back_as_exr),
+        cmocka_unit_test(an_exr_export_is_the_same_bytes_whatever_the_clock),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

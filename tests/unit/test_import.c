@@ -934,10 +934,15 @@ static void put32(uint8_t *p, uint32_t v)
     p[3] = (uint8_t)(v >> 24);
 }
 
-/* An uncompressed single-part ripmap EXR, assembled by the file format's rules: w x h, one
- * half channel Y, 1 x 1 tiles, ROUND_DOWN; texel (x, y) of level (lx, ly) holds
- * x + 10 y + 100 lx + 1000 ly (all exact in half). Returns its size. */
-static size_t ripmap_exr(uint8_t *b, int w, int h)
+/* An uncompressed ripmap EXR, assembled by the file format's rules (OpenEXR file layout): w x
+ * h, one half channel Y, 1 x 1 tiles, ROUND_DOWN; texel (x, y) of level (lx, ly) holds
+ * x + 10 y + 100 lx + 1000 ly (all exact in half). Single-part, or with multipart a
+ * multi-part file (version flag bit 12) whose part 0 is that ripmap and part 1 a 1 x 1
+ * scanline image: each header names its part, type and chunkCount, an empty header ends the
+ * list, the two offset tables follow in part order, every chunk starts with its part number,
+ * and part 1's chunk comes first in the file (so the last bytes are the ripmap's smallest rip
+ * level). Returns its size. */
+static size_t ripmap_exr(uint8_t *b, int w, int h, int multipart)
 {
     size_t n = 0;
 #define ATTR(name, type, size)                                                                   \
@@ -949,62 +954,96 @@ static size_t ripmap_exr(uint8_t *b, int w, int h)
         put32(b + n, size);                                                                      \
         n += 4;                                                                                  \
     } while (0)
-    put32(b, 20000630u);
-    put32(b + 4, 2u | 0x200u); /* version 2, tiled */
-    n = 8;
-    ATTR("channels", "chlist", 2 + 16 + 1);
-    memcpy(b + n, "Y", 2);
-    n += 2;
-    put32(b + n, 1); /* half */
-    memset(b + n + 4, 0, 4);
-    put32(b + n + 8, 1);
-    put32(b + n + 12, 1);
-    n += 16;
-    b[n++] = 0;
-    ATTR("compression", "compression", 1);
-    b[n++] = 0;
-    ATTR("dataWindow", "box2i", 16);
-    put32(b + n, 0); put32(b + n + 4, 0); put32(b + n + 8, (uint32_t)w - 1); put32(b + n + 12, (uint32_t)h - 1);
-    n += 16;
-    ATTR("displayWindow", "box2i", 16);
-    put32(b + n, 0); put32(b + n + 4, 0); put32(b + n + 8, (uint32_t)w - 1); put32(b + n + 12, (uint32_t)h - 1);
-    n += 16;
-    ATTR("lineOrder", "lineOrder", 1);
-    b[n++] = 0;
-    float one = 1.0f, zero = 0.0f;
-    ATTR("pixelAspectRatio", "float", 4);
-    memcpy(b + n, &one, 4);
-    n += 4;
-    ATTR("screenWindowCenter", "v2f", 8);
-    memcpy(b + n, &zero, 4);
-    memcpy(b + n + 4, &zero, 4);
-    n += 8;
-    ATTR("screenWindowWidth", "float", 4);
-    memcpy(b + n, &one, 4);
-    n += 4;
-    ATTR("tiles", "tiledesc", 9);
-    put32(b + n, 1);
-    put32(b + n + 4, 1);
-    b[n + 8] = 2; /* RIPMAP_LEVELS, ROUND_DOWN */
-    n += 9;
-    b[n++] = 0; /* end of header */
-#undef ATTR
+#define STRATTR(name, value)                                                                     \
+    do {                                                                                         \
+        ATTR(name, "string", (uint32_t)strlen(value));                                           \
+        memcpy(b + n, value, strlen(value));                                                     \
+        n += strlen(value);                                                                      \
+    } while (0)
     int nlx = 1, nly = 1;
     while ((w >> nlx) >= 1) nlx++;
     while ((h >> nly) >= 1) nly++;
-    nlx--, nly--;
-    nlx++, nly++;
     size_t nchunks = 0;
     for (int ly = 0; ly < nly; ly++)
         for (int lx = 0; lx < nlx; lx++)
             nchunks += (size_t)(w >> lx) * (size_t)(h >> ly);
-    size_t table = n, pos = n + 8 * nchunks, k = 0;
+    put32(b, 20000630u);
+    put32(b + 4, multipart ? 2u | 0x1000u : 2u | 0x200u); /* version 2, multi-part or tiled */
+    n = 8;
+    float one = 1.0f, zero = 0.0f;
+    for (int part = 0; part < (multipart ? 2 : 1); part++) {
+        ATTR("channels", "chlist", 2 + 16 + 1);
+        memcpy(b + n, "Y", 2);
+        n += 2;
+        put32(b + n, 1); /* half */
+        memset(b + n + 4, 0, 4);
+        put32(b + n + 8, 1);
+        put32(b + n + 12, 1);
+        n += 16;
+        b[n++] = 0;
+        ATTR("compression", "compression", 1);
+        b[n++] = 0;
+        int dw = part ? 1 : w, dh = part ? 1 : h; /* part 1: 1 x 1 */
+        ATTR("dataWindow", "box2i", 16);
+        put32(b + n, 0); put32(b + n + 4, 0); put32(b + n + 8, (uint32_t)dw - 1); put32(b + n + 12, (uint32_t)dh - 1);
+        n += 16;
+        ATTR("displayWindow", "box2i", 16);
+        put32(b + n, 0); put32(b + n + 4, 0); put32(b + n + 8, (uint32_t)w - 1); put32(b + n + 12, (uint32_t)h - 1);
+        n += 16;
+        ATTR("lineOrder", "lineOrder", 1);
+        b[n++] = 0;
+        ATTR("pixelAspectRatio", "float", 4);
+        memcpy(b + n, &one, 4);
+        n += 4;
+        ATTR("screenWindowCenter", "v2f", 8);
+        memcpy(b + n, &zero, 4);
+        memcpy(b + n + 4, &zero, 4);
+        n += 8;
+        ATTR("screenWindowWidth", "float", 4);
+        memcpy(b + n, &one, 4);
+        n += 4;
+        if (part == 0) {
+            ATTR("tiles", "tiledesc", 9);
+            put32(b + n, 1);
+            put32(b + n + 4, 1);
+            b[n + 8] = 2; /* RIPMAP_LEVELS, ROUND_DOWN */
+            n += 9;
+        }
+        if (multipart) {
+            ATTR("chunkCount", "int", 4);
+            put32(b + n, part ? 1u : (uint32_t)nchunks);
+            n += 4;
+            STRATTR("name", part ? "flat" : "rip");
+            STRATTR("type", part ? "scanlineimage" : "tiledimage");
+        }
+        b[n++] = 0; /* end of header */
+    }
+    if (multipart)
+        b[n++] = 0; /* the empty header: end of the list */
+#undef STRATTR
+#undef ATTR
+    size_t table = n, pos = n + 8 * nchunks + (multipart ? 8 : 0), k = 0;
+    if (multipart) {
+        /* part 1's table and its one chunk: part 1, y 0, 2 bytes, a half 7 */
+        uint64_t off = pos;
+        memcpy(b + table + 8 * nchunks, &off, 8); /* little-endian host */
+        put32(b + pos, 1);
+        put32(b + pos + 4, 0);
+        put32(b + pos + 8, 2);
+        uint16_t hv = st_float_to_half(7.0f);
+        memcpy(b + pos + 12, &hv, 2);
+        pos += 14;
+    }
     for (int ly = 0; ly < nly; ly++)
         for (int lx = 0; lx < nlx; lx++)
             for (int y = 0; y < h >> ly; y++)
                 for (int x = 0; x < w >> lx; x++, k++) {
                     uint64_t off = pos;
-                    memcpy(b + table + 8 * k, &off, 8); /* little-endian host */
+                    memcpy(b + table + 8 * k, &off, 8);
+                    if (multipart) {
+                        put32(b + pos, 0); /* part 0 */
+                        pos += 4;
+                    }
                     put32(b + pos, (uint32_t)x);
                     put32(b + pos + 4, (uint32_t)y);
                     put32(b + pos + 8, (uint32_t)lx);
@@ -1025,7 +1064,7 @@ static void exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused(void **state)
     (void)state;
     enum { W = 4, H = 2 };
     static uint8_t b[8192];
-    size_t len = ripmap_exr(b, W, H);
+    size_t len = ripmap_exr(b, W, H, 0);
     char p[512];
     tmp_path(p, sizeof p, "ripmap.exr");
     write_file(p, b, len);
@@ -1057,6 +1096,65 @@ static void exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused(void **state)
         assert_null(img.data);
         assert_int_equal(st_exr_read_mem(b, cuts[k], "cut", NULL, &img, &e), ST_EFORMAT);
     }
+}
+
+/* img27's Left: a multi-part file whose part 0 is a ripmap was still refused (the offset-table
+ * check knew single-part files only, and the library's mapping of the rip levels is wrong in
+ * a multi-part file too). Now part 0's chunks are found through the multi-part layout; a cut
+ * inside the ripmap, or a part 0 offset that leads to another part's chunk, is refused. */
+static void exr_multipart_ripmap_imports_part_0_and_a_cut_one_is_refused(void **state)
+{
+    (void)state;
+    enum { W = 4, H = 2 };
+    static uint8_t b[8192];
+    size_t len = ripmap_exr(b, W, H, 1);
+    char p[512];
+    tmp_path(p, sizeof p, "ripmap_mp.exr");
+    write_file(p, b, len);
+    st_error e;
+    st_error_clear(&e);
+    st_image img;
+    int rc = st_exr_read(p, NULL, &img, &e);
+    if (rc)
+        print_message("multi-part ripmap: %s\n", e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_int_equal(img.w, W);
+    assert_int_equal(img.h, H);
+    assert_int_equal(img.nchan, 1);
+    assert_int_equal(img.dtype, ST_DT_HALF);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            assert_true(st_half_to_float(((uint16_t *)img.data)[y * W + x]) == (float)(x + 10 * y));
+    st_image_free(&img);
+    assert_int_equal(st_exr_read_mem(b, len, "ripmap_mp", NULL, &img, &e), ST_OK);
+    st_image_free(&img);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.nfaces, 1);
+    st_set_free(s);
+    /* cut inside the last rip level (1 texel: level (2, 1)), a whole tile short, and inside
+     * the tables */
+    size_t cuts[3] = {len - 1, len - 26, len / 2};
+    for (int k = 0; k < 3; k++) {
+        write_file(p, b, cuts[k]);
+        assert_int_equal(st_exr_read(p, NULL, &img, &e), ST_EFORMAT);
+        assert_null(img.data);
+        assert_int_equal(st_exr_read_mem(b, cuts[k], "cut", NULL, &img, &e), ST_EFORMAT);
+    }
+    /* the last rip tile's offset pointed at part 1's chunk: not part 0's, refused */
+    int nlx = 3, nly = 2;
+    size_t nchunks = 0;
+    for (int ly = 0; ly < nly; ly++)
+        for (int lx = 0; lx < nlx; lx++)
+            nchunks += (size_t)(W >> lx) * (size_t)(H >> ly);
+    uint64_t part1_off, last;
+    size_t table = len - 14 - 26 * nchunks - 8 * (nchunks + 1); /* part 0's table */
+    memcpy(&part1_off, b + table + 8 * nchunks, 8);
+    memcpy(&last, b + table + 8 * (nchunks - 1), 8);
+    assert_int_equal(last, len - 26); /* the table is where it is thought to be */
+    memcpy(b + table + 8 * (nchunks - 1), &part1_off, 8);
+    assert_int_equal(st_exr_read_mem(b, len, "wrong part", NULL, &img, &e), ST_EFORMAT);
+    assert_null(img.data);
 }
 
 /* A little-endian uncompressed TIFF, 1 sample of SampleFormat INT (2), 16 bits, w x 1; with
@@ -1327,6 +1425,7 @@ int main(void)
         cmocka_unit_test(exr_luminance_chroma_images_are_refused_not_made_grey),
         cmocka_unit_test(exr_grey_with_alpha_keeps_both_and_chroma_with_alpha_is_refused),
         cmocka_unit_test(exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused),
+        cmocka_unit_test(exr_multipart_ripmap_imports_part_0_and_a_cut_one_is_refused),
         cmocka_unit_test(signed_16_bit_tiff_keeps_its_negative_values),
         cmocka_unit_test(tiff_without_bits_per_sample_is_refused_not_made_up),
         cmocka_unit_test(premultiplied_flag_follows_the_file),
