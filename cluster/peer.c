@@ -94,5 +94,5 @@ int scl_peer_publish(const char *addr, const char *token, const char *name, uint
                  r.status && rc == r.status ? r.errmsg : stc_errmsg(c));
     stp_buf_free(&b);
     stc_close(c);
-    return rc;
+    return rc == STC_ENOTFOUND ? SCL_PEER_NOT_FOUND : rc;
 }

@@ -5,7 +5,7 @@
  * receiver keeps it staged), telling a node to publish its staged copy (REPLICA_PUBLISH),
  * forwarding a DELETE. Does not own: choosing the target (cluster_node.c), the protocol (protocol/).
  * Blocking; each call opens and closes its own connection. Returns 0 or an STC_E* code, with
- * a message in msg.
+ * a message in msg (scl_peer_publish: also SCL_PEER_NOT_FOUND).
  */
 #ifndef SCL_PEER_H
 #define SCL_PEER_H
@@ -19,7 +19,10 @@ int scl_peer_push(const char *addr, const char *token, const char *path, const c
                   const char *hint, const char *options, int stage, int timeout_ms,
                   uint32_t *crc32c, char *msg, size_t cap);
 /* REPLICA_PUBLISH: the receiver publishes its staged copy of name whose source has CRC-32
- * crc32 (the write has been recorded). */
+ * crc32 (the write has been recorded). SCL_PEER_NOT_FOUND (msg filled) when the receiver has
+ * no staged copy of those contents and answers NOT_FOUND: after a REPLACE, a holder of the
+ * old contents that hid its copy (PROTOCOL.md 4.11). */
+enum { SCL_PEER_NOT_FOUND = 1 };
 int scl_peer_publish(const char *addr, const char *token, const char *name, uint32_t crc32,
                      int timeout_ms, char *msg, size_t cap);
 int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,

@@ -261,7 +261,7 @@ static void tell_stale_holders(sts_cluster *cl, const sts_cl_claim *c,
                 node_token(cl->srv, token);
                 int prc = scl_peer_publish(m[j].addr, token, c->name, c->rec.crc32,
                                            TELL_TIMEOUT_MS, pm, sizeof pm);
-                if (prc && prc != STP_S_NOT_FOUND)   /* NOT_FOUND: it hid its stale copy */
+                if (prc && prc != SCL_PEER_NOT_FOUND)   /* it hid its stale copy */
                     sts_logf(&cl->srv->log, STS_WARN, "cluster: %s", pm);
                 else
                     sts_logf(&cl->srv->log, STS_INFO, "cluster: %s told that '%s' was replaced",

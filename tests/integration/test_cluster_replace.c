@@ -493,6 +493,13 @@ static void a_replace_hides_the_old_copy_of_a_holder_that_is_not_an_owner(void *
         fail_msg("right after the REPLACE's OK n0 reads %s with the replaced contents", owned);
     }
     assert_int_equal(st_daemon_stat(&N[0], "cluster_copies_hidden"), hidden0 + 1);
+    /* and the writer's log says n0 was told (n0's NOT_FOUND is that answer, not a failure) */
+    char told[200];
+    snprintf(told, sizeof told, "n0 told that '%s' was replaced", owned);
+    if (st_daemon_log_count(&N[1], told) != 1) {
+        st_daemon_dump_log(&N[1], 20);
+        fail_msg("n1's log should say \"%s\" once", told);
+    }
     for (int i = 1; i < 3; i++) {
         r = -1;
         if (red_of(i, owned, &r) != 0 || r != red[1])
