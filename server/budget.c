@@ -4,12 +4,14 @@
  * Owns: the budget thread, the cold/hot state of sets (st_set.last_use_ms, st_set.cold), the
  * STATS figures of stored and resident bytes, releases, major faults and the latency of first
  * samples to a cold set. Does not own: the mapping and its release (store/native/native.h),
- * the lazy Ptex tables (store/ptex/ptexres.h), the registry.
+ * the lazy Ptex tables (store/ptex/ptexres.h), an atlas's lazy chart data (store/kinds/atlas.h),
+ * the registry.
  *
  * Resident texture memory = the pages of every mapped native file present in this process's
  * page tables (/proc/self/pagemap; where it cannot be read, the file's pages in the page cache
- * by mincore: store/native/native.h, st_native_meter) + every built lazy Ptex table + every
- * heap set (sets that have no native file: the built-in default set, or a set whose native
+ * by mincore: store/native/native.h, st_native_meter) + what every mapped set holds on the
+ * heap (st_set_heap_memory: a built lazy Ptex table, an atlas's mesh, chart mask and built
+ * chart data, metadata) + every heap set (sets that have no native file: the built-in default set, or a set whose native
  * file could not be written; they cannot be released and are counted as they are). A pass
  * (sts_budget_pass) runs every BUDGET_TICK_MS on the budget thread, at once when a sample wakes
  * a released set, and on a sampling thread when its look (every BUDGET_LOOK_MS, look()) finds
@@ -18,7 +20,8 @@
  * full passes resident is estimated from statm (one read, whatever the number of sets), and the
  * sets are looked at only past the high mark (95% of the budget). Then the least recently
  * sampled mapped sets are released, whole (st_native_release: MADV_COLD + MADV_DONTNEED on the
- * mapping, the file stays in the page cache; and the Ptex table dropped), until resident is
+ * mapping, the file stays in the page cache; the Ptex table and an atlas's chart data dropped,
+ * rebuilt by the next sample that needs them), until resident is
  * under 90% of the budget (sts_budget_plan). A released set stays published: the next sample
  * faults in only the pages it touches, from the page cache while the kernel keeps them there
  * (the kernel, not the budget, decides when the page cache lets a file go; released pages are
@@ -43,6 +46,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "atlas.h"
 #include "native.h"
 #include "ptexres.h"
 #include "server.h"
@@ -87,7 +91,9 @@ uint64_t sts_budget_set_resident(st_set *s, const st_native_meter *m, uint64_t n
         /* a sample stamped in this same ms counts as "since" (>=): measured again next tick */
         __atomic_store_n(&s->res_ms, now_ms ? now_ms : 1, __ATOMIC_RELAXED);
     }
-    return res + st_ptexres_built_bytes(s);
+    /* and what the set holds on the heap: a built Ptex table, an atlas's mesh, mask and
+     * built chart data, metadata */
+    return res + st_set_heap_memory(s);
 }
 
 typedef struct cand {
@@ -111,7 +117,7 @@ static size_t snapshot(sts_server *srv, st_setref ***out)
 }
 
 /* Resident now from statm: the process's mapped file pages less the base (what is not a set),
- * plus the heap sets and Ptex tables of the last measured pass; *ok = 0 when it cannot be
+ * plus the heap sets and the mapped sets' heap bytes of the last measured pass; *ok = 0 when it cannot be
  * made (the budget thread not started, no measured pass yet, statm unreadable). */
 static uint64_t estimate(sts_budget *b, int *ok)
 {
@@ -191,7 +197,7 @@ void sts_budget_pass(sts_server *srv, uint64_t budget)
             r = sts_budget_set_resident(s, &m, now, full);
             total += r;
             if (s->map) {
-                uint64_t t = st_ptexres_built_bytes(s);
+                uint64_t t = st_set_heap_memory(s);
                 mapped += r > t ? r - t : 0;
             }
         }
@@ -206,7 +212,7 @@ void sts_budget_pass(sts_server *srv, uint64_t budget)
                 continue;
             st_set *s = c[i].ref->set;
             size_t unmapped = st_native_release(s, &m);
-            size_t freed = unmapped + st_ptexres_drop(s);
+            size_t freed = unmapped + st_ptexres_drop(s) + st_atlas_charts_drop(s);
             mapped -= unmapped < mapped ? unmapped : mapped;
             other_freed += freed - unmapped;
             __atomic_store_n(&s->cold, 1, __ATOMIC_RELAXED);
@@ -220,7 +226,8 @@ void sts_budget_pass(sts_server *srv, uint64_t budget)
     }
     int64_t fp = b->started ? file_pages_now(b->statm_fd) : -1;
     if (est) {
-        /* the releases left statm by themselves; the Ptex tables dropped leave the rest */
+        /* the releases left statm by themselves; the Ptex tables and atlas chart data
+         * dropped leave the rest */
         uint64_t o = __atomic_load_n(&b->other_bytes, __ATOMIC_RELAXED);
         __atomic_store_n(&b->other_bytes, o > other_freed ? o - other_freed : 0,
                          __ATOMIC_RELAXED);

@@ -26,7 +26,8 @@ typedef struct sts_budget {
     int             base_ok;         /* atomic: base_pages and other_bytes are set */
     int64_t         base_pages;      /* atomic: statm's file pages that are not the sets'
                                       * (executable, libraries) at the last measured pass */
-    uint64_t        other_bytes;     /* atomic: heap sets + Ptex tables then, less drops since */
+    uint64_t        other_bytes;     /* atomic: heap sets + mapped sets' heap bytes
+                                        then, less drops since */
     uint64_t        look_ms;         /* atomic: the last look at the estimate (touch) */
     uint64_t        resident;        /* atomic: last measured by the thread */
     uint64_t        releases;        /* atomic: sets released */
@@ -53,7 +54,8 @@ void sts_budget_cold_done(struct sts_server *srv, int64_t t0_us, uint32_t nqueri
  * the low mark it releases down to (90%). A budget of 0 (unlimited) never releases. */
 int sts_budget_plan(uint64_t total, uint64_t budget, uint64_t *goal);
 /* Resident bytes of s as the budget counts them (its mapped pages as the meter counts them,
- * native.h, + built Ptex table; or the whole heap set). The figure of a mapping is taken again
+ * native.h, + what it holds on the heap, st_set_heap_memory: a built Ptex table, an atlas's
+ * mesh, mask and built chart data; or the whole heap set). The figure of a mapping is taken again
  * only when `full` or when s was sampled (last_use_ms) since the last one; otherwise the last
  * figure is reused: pages of a set nobody samples can only leave, so it stays an upper bound
  * until the next full pass. now_ms is the monotonic clock in ms (sts_now_ms). */

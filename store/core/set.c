@@ -491,6 +491,17 @@ const st_meta_entry *st_set_meta_find(const st_set *s, const char *key)
     return NULL;
 }
 
+/* Heap bytes of the set's metadata and extension. */
+static size_t meta_ext_memory(const st_set *s)
+{
+    size_t m = 0;
+    for (uint32_t i = 0; i < s->nmeta; i++)
+        m += strlen(s->meta[i].key) + 1 + meta_type_size(s->meta[i].type) * s->meta[i].count;
+    if (s->ext.data && s->ext.memory)
+        m += s->ext.memory(s->ext.data);
+    return m;
+}
+
 size_t st_set_memory(const st_set *s)
 {
     /* an arena of its own: what it really holds (huge pages are allocated whole) */
@@ -504,11 +515,12 @@ size_t st_set_memory(const st_set *s)
         m += (size_t)s->info.nfaces * sizeof(st_face) + nlev * sizeof(uint64_t);
     else /* one block from util/bigalloc.c, with its rounding */
         m += face_block_bytes(s->info.nfaces, nlev);
-    for (uint32_t i = 0; i < s->nmeta; i++)
-        m += strlen(s->meta[i].key) + 1 + meta_type_size(s->meta[i].type) * s->meta[i].count;
-    if (s->ext.data && s->ext.memory)
-        m += s->ext.memory(s->ext.data);
-    return m;
+    return m + meta_ext_memory(s);
+}
+
+size_t st_set_heap_memory(const st_set *s)
+{
+    return s->map ? meta_ext_memory(s) : st_set_memory(s);
 }
 
 STU_LOADPATH

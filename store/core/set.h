@@ -164,6 +164,13 @@ typedef struct st_set_ext {
     st_ext_levels_fn levels;     /* NULL: every level is made (see st_set_levels) */
     const struct st_chart_ids *charts; /* an atlas's chart id per texel of every level, which
                                     Discard reads (sample/sample.h); NULL or nlevels 0: none */
+    /* With charts: builds them when they are not (an atlas opened from a native file builds
+     * them on its first chart-mode sample) and pins them until charts_unpin, so that no
+     * memory-budget drop frees them meanwhile; the sampler calls it once per chart-mode batch
+     * before reading charts. ST_OK (pinned) or an ST_E* code (nothing pinned). NULL: charts
+     * is always built. */
+    int            (*charts_pin)(const struct st_set *s, st_error *e);
+    void           (*charts_unpin)(const struct st_set *s);
 } st_set_ext;
 
 typedef struct st_set {
@@ -293,6 +300,12 @@ const st_meta_entry *st_set_meta_find(const st_set *s, const char *key);
  * allocated, whole huge pages included (util/bigalloc.h) - metadata and its extension, as
  * the extension's memory callback counts it). */
 size_t st_set_memory(const st_set *s);
+
+/* Bytes the set holds on the heap besides its record and texture data: its metadata and its
+ * extension (as the extension's memory callback counts it: a built Ptex table, an atlas's
+ * mesh, chart mask and built chart data). For a heap set (no mapping) every byte it holds,
+ * st_set_memory. What the memory budget counts of a mapped set beside its mapped pages. */
+size_t st_set_heap_memory(const st_set *s);
 
 /* The set's extension data when it is of kind k, else NULL. */
 static inline void *st_set_ext_get(const st_set *s, st_ext_kind k)

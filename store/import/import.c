@@ -365,7 +365,7 @@ static int mesh_to_set(const char *path, int fmt, const st_import_opts *o, st_im
     if (o->texture) {
         rc = copy_atlas_texture(o->texture, out, e);
         if (rc == ST_OK) {
-            st_atlas *a = calloc(1, sizeof *a);
+            st_atlas *a = st_atlas_new();
             if (!a) {
                 st_mesh_free(m);
                 return st_fail(e, ST_ENOMEM, "out of memory for the atlas");

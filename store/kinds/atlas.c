@@ -17,12 +17,42 @@
  * st_atlas_attach_mesh rebuilds the image's levels >= 1 per chart (st_set_build_mips_labelled:
  * a chart's coarse texel averages that chart's texels alone, never the gutter or another
  * chart); without, they are the box means of the whole image.
+ *
+ * An atlas opened from a native file builds them on its first chart-mode sample instead
+ * (st_atlas_charts_pin, atlas.h), and the memory budget may drop them again
+ * (st_atlas_charts_drop); the native file stores the mesh and the mask, not the ids.
  */
 #include "atlas.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+st_atlas *st_atlas_new(void)
+{
+    st_atlas *a = calloc(1, sizeof *a);
+    if (!a)
+        return NULL;
+    /* the default attributes by the static initializers (what pthread_*_init(.., NULL) sets,
+     * and no call that can fail) */
+    a->charts_lock = (pthread_mutex_t)PTHREAD_MUTEX_INITIALIZER;
+    a->charts_pin = (pthread_rwlock_t)PTHREAD_RWLOCK_INITIALIZER;
+    atomic_init(&a->charts_built, 0);
+    return a;
+}
+
+/* Frees the chart data (ids, links, triangle lists) and marks it not built. */
+static void free_charts(st_atlas *a)
+{
+    atomic_store_explicit(&a->charts_built, 0, memory_order_release);
+    __atomic_store_n(&a->charts_bytes, 0, __ATOMIC_RELAXED);
+    st_atlas_free_links(a);
+    st_atlas_free_locate(a);
+    free(a->chart_id);
+    a->chart_id = NULL;
+    a->chart_id_bytes = 0;
+    memset(&a->ids, 0, sizeof a->ids);
+}
 
 void st_atlas_free(void *p)
 {
@@ -31,9 +61,9 @@ void st_atlas_free(void *p)
         return;
     st_mesh_free(a->mesh);
     free(a->chart_mask);
-    free(a->chart_id);
-    free(a->chart_link);
-    st_atlas_free_locate(a);
+    free_charts(a);
+    pthread_mutex_destroy(&a->charts_lock);
+    pthread_rwlock_destroy(&a->charts_pin);
     free(a);
 }
 
@@ -47,15 +77,72 @@ const st_atlas *st_atlas_get(const st_set *s)
 static size_t atlas_memory(const void *p)
 {
     const st_atlas *a = p;
+    /* the chart data once built (a drop may zero it meanwhile) */
     return sizeof *a + st_mesh_memory(a->mesh) +
-           (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0) + a->chart_id_bytes +
-           a->chart_link_bytes + a->loc.bytes;
+           (a->chart_mask ? (size_t)a->mask_w * a->mask_h : 0) +
+           __atomic_load_n(&a->charts_bytes, __ATOMIC_RELAXED);
+}
+
+int st_atlas_charts_pin(const st_set *s, st_error *e)
+{
+    st_atlas *a = (st_atlas *)(uintptr_t)st_atlas_get(s);
+    if (!a)
+        return st_fail(e, ST_EINVAL, "not an atlas set");
+    for (;;) {
+        pthread_rwlock_rdlock(&a->charts_pin);
+        if (atomic_load_explicit(&a->charts_built, memory_order_acquire))
+            return ST_OK; /* a drop needs the exclusive side: the data stays until unpinned */
+        pthread_rwlock_unlock(&a->charts_pin);
+        int rc = ST_OK;
+        pthread_mutex_lock(&a->charts_lock); /* (re)build once, then pin again */
+        if (!atomic_load_explicit(&a->charts_built, memory_order_relaxed))
+            rc = st_atlas_build_chart_ids(a, s, e);
+        pthread_mutex_unlock(&a->charts_lock);
+        if (rc)
+            return rc;
+    }
+}
+
+void st_atlas_charts_unpin(const st_set *s)
+{
+    st_atlas *a = (st_atlas *)(uintptr_t)st_atlas_get(s);
+    if (a)
+        pthread_rwlock_unlock(&a->charts_pin);
+}
+
+size_t st_atlas_charts_drop(const st_set *s)
+{
+    st_atlas *a = (st_atlas *)(uintptr_t)st_atlas_get(s);
+    if (!a || !atomic_load_explicit(&a->charts_built, memory_order_acquire))
+        return 0;
+    if (pthread_rwlock_trywrlock(&a->charts_pin) != 0)
+        return 0; /* a sampler is reading it: it is not cold */
+    size_t freed = 0;
+    pthread_mutex_lock(&a->charts_lock); /* no build in progress either */
+    if (atomic_load_explicit(&a->charts_built, memory_order_relaxed)) {
+        freed = __atomic_load_n(&a->charts_bytes, __ATOMIC_RELAXED);
+        free_charts(a);
+    }
+    pthread_mutex_unlock(&a->charts_lock);
+    pthread_rwlock_unlock(&a->charts_pin);
+    return freed;
+}
+
+size_t st_atlas_charts_built_bytes(const st_set *s)
+{
+    const st_atlas *a = st_atlas_get(s);
+    if (!a || !atomic_load_explicit(&((st_atlas *)(uintptr_t)a)->charts_built,
+                                    memory_order_acquire))
+        return 0;
+    return __atomic_load_n(&a->charts_bytes, __ATOMIC_RELAXED);
 }
 
 void st_atlas_ext(st_atlas *a, st_set_ext *x)
 {
     *x = (st_set_ext){.kind = ST_EXT_ATLAS, .data = a, .free = st_atlas_free,
-                      .memory = atlas_memory, .charts = &a->ids};
+                      .memory = atlas_memory, .charts = &a->ids,
+                      .charts_pin = st_atlas_charts_pin,
+                      .charts_unpin = st_atlas_charts_unpin};
 }
 
 /* Marks the texels whose centre lies in triangle abc (uv): mask[] = 1 when mask is not NULL;
@@ -128,18 +215,23 @@ static void reduce_ids(const uint16_t *src, uint32_t sw, uint32_t sh, uint16_t *
         }
 }
 
+/* Marks a's chart data built: what it holds, then the flag (release). */
+static void charts_built(st_atlas *a)
+{
+    __atomic_store_n(&a->charts_bytes, a->chart_id_bytes + a->chart_link_bytes + a->loc.bytes,
+                     __ATOMIC_RELAXED);
+    atomic_store_explicit(&a->charts_built, 1, memory_order_release);
+}
+
 int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
 {
-    st_atlas_free_links(a);
-    st_atlas_free_locate(a);
-    free(a->chart_id);
-    a->chart_id = NULL;
-    a->chart_id_bytes = 0;
-    memset(&a->ids, 0, sizeof a->ids);
+    free_charts(a);
     const st_mesh *m = a->mesh;
     if (!m || !m->seams || !m->seams->tri_chart || m->seams->ncharts > 65534 || !s ||
-        s->info.nfaces < 1)
-        return ST_OK; /* no ids: Discard takes the image as one face */
+        s->info.nfaces < 1) {
+        charts_built(a); /* none to build */
+        return ST_OK;    /* no ids: Discard takes the image as one face */
+    }
     const st_face *F = &s->faces[0];
     unsigned nl = F->nlevels;
     size_t off[ST_MAX_LEVELS], total = 0;
@@ -170,13 +262,10 @@ int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e)
     int rc = st_atlas_build_links(a, s, e);
     if (rc == ST_OK)
         rc = st_atlas_build_locate(a, s, e);
-    if (rc) {   /* nothing half-built: no ids either */
-        st_atlas_free_links(a);
-        free(a->chart_id);
-        a->chart_id = NULL;
-        a->chart_id_bytes = 0;
-        memset(&a->ids, 0, sizeof a->ids);
-    }
+    if (rc)   /* nothing half-built: no ids either, and not marked built */
+        free_charts(a);
+    else
+        charts_built(a);
     return rc;
 }
 
@@ -225,7 +314,7 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
     st_atlas *a = (st_atlas *)st_atlas_get(s);
     if (!a) {
         st_set_ext_attach(s, NULL);
-        a = calloc(1, sizeof *a);
+        a = st_atlas_new();
         if (!a) {
             st_mesh_free(mesh);
             return st_fail(e, ST_ENOMEM, "out of memory for the atlas");
@@ -238,13 +327,9 @@ int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e)
     a->mesh = NULL;
     free(a->chart_mask);
     a->chart_mask = NULL;
-    st_atlas_free_links(a);
-    st_atlas_free_locate(a);
-    free(a->chart_id);
-    a->chart_id = NULL;
-    a->chart_id_bytes = 0;
-    memset(&a->ids, 0, sizeof a->ids);
+    free_charts(a);
     if (!mesh) {
+        charts_built(a); /* none */
         st_set_build_mips(s, 0); /* no charts: box means over the whole image */
         return ST_OK;
     }
@@ -301,7 +386,7 @@ int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st
     memcpy(st_face_level(s, 0, 0), img->data, (size_t)img->w * img->h * st_texel_size(s));
     if (!mesh)
         st_set_build_mips(s, 0); /* else st_atlas_attach_mesh builds them, per chart */
-    st_atlas *a = calloc(1, sizeof *a);
+    st_atlas *a = st_atlas_new();
     if (!a) {
         st_set_free(s);
         *out = NULL;

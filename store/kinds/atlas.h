@@ -17,11 +17,24 @@
  * here (set->ext.charts); Traverse is chart Traverse: such taps read the texel linked to them
  * across a UV seam (atlas_links.c), and are dropped where there is none.
  *
+ * When the chart data is built (ids, links, triangle lists: st_atlas_build_chart_ids): at once
+ * for an atlas made from an image and a mesh (its per-chart mips need the ids); for one opened
+ * from a native file, lazily, by the first chart Discard / chart Traverse sample (the set
+ * extension's charts_pin hook, which st_sample_batch calls once per batch in those modes: the
+ * build runs once under charts_lock, the batch holds the shared side of charts_pin while it
+ * reads). st_set_memory counts the data once built (charts_bytes); the memory budget may drop
+ * it again (st_atlas_charts_drop: only with the exclusive side of charts_pin, tried, never
+ * waited for, so never under a sampler), and the next chart-mode sample rebuilds it, the same
+ * bytes (the ids are a function of the mesh and the face's size). Clamp, the plain modes of
+ * other sets and st_atlas_sample's mask Discard never build it.
+ *
  * Ownership: the atlas owns its mesh (freed by st_atlas_free, which is the set's ext_free).
  */
 #ifndef ST_ATLAS_H
 #define ST_ATLAS_H
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -56,9 +69,18 @@ typedef struct st_atlas {
     size_t    chart_link_bytes;
     st_atlas_locate loc;   /* the query chart's triangle lists (atlas_locate.c) */
     st_chart_ids ids;      /* chart_id's and chart_link's levels and loc, what set->ext.charts
-                              points to */
+                              points to; read only while pinned (st_atlas_charts_pin) */
+    /* chart_id, chart_link, loc and ids are built (st_atlas_build_chart_ids): read once 1
+     * (acquire); 0 until the first chart-mode sample of a native atlas and after a drop */
+    atomic_int       charts_built;
+    size_t           charts_bytes;   /* what they hold once built (atomic reads), else 0 */
+    pthread_mutex_t  charts_lock;    /* serialises the build and the drop */
+    pthread_rwlock_t charts_pin;     /* shared: a sampler reading them; exclusive: a drop */
     char      texture_name[256]; /* file the texture came from (information) */
 } st_atlas;
+
+/* A new empty atlas record (no mesh, nothing built), or NULL when out of memory. */
+st_atlas *st_atlas_new(void);
 
 /* Makes an ST_KIND_ATLAS set of the image (copied; level 0 = the image, mips by box
  * reduction). mesh (may be NULL) is taken over by the set (also on failure it is freed);
@@ -66,8 +88,11 @@ typedef struct st_atlas {
 int st_atlas_from_image(const st_image *img, st_mesh *mesh, size_t max_bytes, st_set **out,
                         st_error *e);
 
-/* (Re)builds a's chart ids for face 0 of s from a->mesh (seams found): called when a mesh is
- * attached and when a native file is read (the ids are not stored). */
+/* (Re)builds a's chart ids for face 0 of s from a->mesh (seams found), with the links and the
+ * triangle lists, and marks them built (charts_built, charts_bytes): called when a mesh is
+ * attached, and under charts_lock by the first chart-mode sample of an atlas opened from a
+ * native file (the ids are not stored). The caller holds charts_lock, or the set is not
+ * published yet. */
 int st_atlas_build_chart_ids(st_atlas *a, const st_set *s, st_error *e);
 
 /* How far past a seam side's UV edge (in texels of each level) chart Traverse links texels. */
@@ -86,6 +111,20 @@ void st_atlas_free_locate(st_atlas *a);
 
 /* Attaches a mesh to an existing atlas set (replacing an old one); takes it over. */
 int st_atlas_attach_mesh(st_set *s, st_mesh *mesh, st_error *e);
+
+/* The set extension's charts_pin hook (set.h): builds a's chart data when it is not built
+ * (once, under charts_lock) and holds the shared side of charts_pin, so that no drop frees it
+ * until st_atlas_charts_unpin. ST_OK (pinned; the ids may still be none: no mesh, or more than
+ * 65534 charts), or ST_ENOMEM from the build (nothing pinned; a later call tries again). */
+int st_atlas_charts_pin(const st_set *s, st_error *e);
+void st_atlas_charts_unpin(const st_set *s);
+
+/* Frees the built chart data of atlas set s when no sampler has it pinned (the next chart-mode
+ * sample rebuilds it); returns the bytes freed (0: not an atlas, not built, or pinned). */
+size_t st_atlas_charts_drop(const st_set *s);
+
+/* Bytes the built chart data of s holds (0: not an atlas or not built). */
+size_t st_atlas_charts_built_bytes(const st_set *s);
 
 /* The atlas of a set, NULL when the set is not an atlas or has no ext. */
 const st_atlas *st_atlas_get(const st_set *s);

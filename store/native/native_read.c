@@ -149,7 +149,7 @@ static int check_atlas(st_set *s, const uint8_t *p, size_t n, st_error *e)
 {
     cur c = {p, n, 0, 0};
     uint32_t parts = cur_u32(&c), mw = cur_u32(&c), mh = cur_u32(&c);
-    st_atlas *a = calloc(1, sizeof *a);
+    st_atlas *a = st_atlas_new();
     if (!a)
         return st_fail(e, ST_ENOMEM, "out of memory for the atlas");
     st_mesh *m = NULL;
@@ -272,11 +272,9 @@ static int check_atlas(st_set *s, const uint8_t *p, size_t n, st_error *e)
     if (c.at != c.n)
         goto bad;
     a->mesh = m;
-    /* the chart ids are not stored: they are rasterised again from the mesh */
-    if ((rc = st_atlas_build_chart_ids(a, s, e)) != ST_OK) {
-        st_atlas_free(a);
-        return rc;
-    }
+    /* the chart ids are not stored, nor made here: the first chart Discard / chart Traverse
+     * sample rasterises them from the mesh (st_atlas_charts_pin), and the memory budget may
+     * drop them again */
     st_set_ext x;
     st_atlas_ext(a, &x);
     st_set_ext_attach(s, &x);

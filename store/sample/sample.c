@@ -15,7 +15,9 @@
  * probe takes the fast path only when its four taps are of that chart; otherwise
  * st_probe_bilinear_chart drops the others (Discard) or reads the texels linked to them across
  * a UV seam (Traverse; docs/sampler.md, "Chart Discard", "Chart Traverse"). Other sets never
- * pay for the check.
+ * pay for the check. A chart-mode batch pins the chart data first (set->ext.charts_pin: built
+ * there when an atlas opened from its native file has none yet, and kept from the memory
+ * budget's drop until the batch ends): once per batch, never per query.
  */
 #include "sample_internal.h"
 
@@ -467,11 +469,22 @@ int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q,
     /* chart Discard and chart Traverse (docs/sampler.md): taps off the query's chart are
      * dropped, or (Traverse) read from the texel linked to them across a seam */
     int chart = (o->mode == ST_MODE_DISCARD || o->mode == ST_MODE_TRAVERSE) &&
-                s->info.kind == ST_KIND_ATLAS && ch && ch->nlevels == s->faces[0].nlevels &&
-                ch->nlevels;
+                s->info.kind == ST_KIND_ATLAS && ch;
+    /* the chart data may be built lazily (an atlas opened from a native file) and dropped by
+     * the memory budget: built if need be, and pinned while this batch reads it */
+    int pinned = 0;
+    if (chart && s->ext.charts_pin) {
+        int prc = s->ext.charts_pin(s, NULL);
+        if (prc)
+            return prc;
+        pinned = 1;
+    }
+    chart = chart && ch->nlevels == s->faces[0].nlevels && ch->nlevels;
     size_t bad = s->info.kind == ST_KIND_BC1 /* never a chart mode: a BC1 set keeps no mesh */
                      ? run_bc1(s, o, q, n, out, coverage, status)
                      : RUNS[chart][run_index(&s->info)](s, o, q, n, out, coverage, status);
+    if (pinned)
+        s->ext.charts_unpin(s);
     return (int)bad;
 }
 

@@ -133,7 +133,10 @@ const st_chart_link *st_chart_link_find(const st_chart_ids *ch, unsigned level, 
  * whose status is not ST_Q_OK, or a negative ST_E* code for invalid options (nothing written).
  * A Ptex-family filter on a set of another kind than per-face is ST_EUNSUPPORTED. On a
  * triangle-mesh set (info.meshtype ST_MESH_TRIANGLE) bilinear, trilinear and aniso are
- * ST_EUNSUPPORTED; point reads the small triangle holding (u, v) (sample_tri.c). */
+ * ST_EUNSUPPORTED; point reads the small triangle holding (u, v) (sample_tri.c). A chart Discard
+ * or chart Traverse batch on an atlas whose chart data is not built builds it first
+ * (set->ext.charts_pin: an atlas opened from a native file, or one the memory budget dropped);
+ * should that fail, ST_ENOMEM (nothing written). */
 int st_sample_batch(const st_set *s, const st_sample_opts *o, const st_query *q, size_t n,
                     float *out, float *coverage, uint8_t *status);
 

@@ -9,7 +9,10 @@
  *     the low mark and no further: the recently sampled ones keep their pages, the released
  *     ones count 0 and read back the same bytes; a heap set is counted and never released;
  *   - between full passes a pass takes resident from /proc/self/statm, so pages mapped since
- *     the last pass count even for sets no sample stamped.
+ *     the last pass count even for sets no sample stamped;
+ *   - an atlas set mapped from its native file counts its heap (mesh, mask, its chart data once
+ *     a chart-mode sample built it); a release drops the chart data with the pages unless a
+ *     sampler has it pinned, and the next chart sample rebuilds it, the same outputs.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -18,8 +21,10 @@
 #include <cmocka.h>
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "atlas.h"
 #include "budget.h"
 #include "registry.h"
 #include "native.h"
@@ -255,6 +260,118 @@ static void test_pass_between_full_passes_counts_what_statm_sees(void **st)
     assert_int_equal(st_test_rmtree(dir), 0);
 }
 
+/* A small atlas set (a 64 x 48 RGBA8 image, a quad folded at its diagonal into two charts). */
+static st_set *small_atlas(void)
+{
+    st_mesh *msh = NULL;
+    st_error e;
+    assert_int_equal(st_mesh_alloc(4, 6, 2, &msh, &e), 0);
+    static const float pos[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const float uv[12] = {0.05f, 0.05f, 0.45f, 0.05f, 0.45f, 0.45f,
+                                 0.55f, 0.55f, 0.95f, 0.95f, 0.55f, 0.95f};
+    static const uint32_t tp[6] = {0, 1, 2, 0, 2, 3}, tu[6] = {0, 1, 2, 3, 4, 5};
+    memcpy(msh->pos, pos, sizeof pos);
+    memcpy(msh->uv, uv, sizeof uv);
+    memcpy(msh->tri_pos, tp, sizeof tp);
+    memcpy(msh->tri_uv, tu, sizeof tu);
+    msh->tri_face[1] = 1;
+    st_image img = {.w = 64, .h = 48, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = -1};
+    img.data = malloc(64 * 48 * 4);
+    for (int i = 0; i < 64 * 48 * 4; i++)
+        ((uint8_t *)img.data)[i] = (uint8_t)(i * 13 + i / 97);
+    st_set *s = NULL;
+    assert_int_equal(st_atlas_from_image(&img, msh, 0, &s, &e), 0);
+    free(img.data);
+    return s;
+}
+
+/* An atlas set mapped from its native file: resident counts its pages and what it holds on the
+ * heap (mesh, mask, and its chart data once a chart-mode sample built it); a release drops the
+ * chart data with the pages, unless a sampler has it pinned, and the next chart sample
+ * rebuilds it with the same outputs. */
+static void test_atlas_chart_data_counted_and_released(void **st)
+{
+    (void)st;
+    st_native_meter mt;
+    if (st_native_meter_open(&mt) != ST_NATIVE_COUNT_MAPPED) {
+        printf("# /proc/self/pagemap cannot be read here: skipped\n");
+        skip();
+    }
+    char dir[512], path[700];
+    assert_int_equal(st_test_mkdtemp(dir, sizeof dir, "budgetatlas"), 0);
+    snprintf(path, sizeof path, "%s/a.native", dir);
+    static sts_server srv;
+    memset(&srv, 0, sizeof srv);
+    srv.reg = st_registry_create();
+    assert_non_null(srv.reg);
+    st_set *h = small_atlas(), *m = NULL;
+    st_error e;
+    assert_int_equal(st_native_write(path, h, NULL, &e), 0);
+    assert_int_equal(st_native_open(path, 0, NULL, &m, &e), 0);
+    assert_int_equal(st_registry_put(srv.reg, "atlas", m, NULL, 0, NULL, &e), 0);
+    const st_atlas *ha = st_atlas_get(h);
+    size_t built = ha->chart_id_bytes + ha->chart_link_bytes + ha->loc.bytes;
+    assert_true(built > 0);
+    /* opened: the heap holds the mesh and the mask, no chart data, and resident counts them */
+    assert_int_equal(st_atlas_charts_built_bytes(m), 0);
+    size_t heap0 = st_set_heap_memory(m);
+    assert_true(heap0 > 0);
+    uint64_t now = (uint64_t)sts_now_ms();
+    assert_int_equal(sts_budget_set_resident(m, &mt, now, 1), st_native_resident(m, &mt) + heap0);
+
+    enum { N = 256 };
+    st_query q[N];
+    for (int i = 0; i < N; i++)
+        q[i] = (st_query){.u = (float)(i % 16) / 16 + 0.01f, .v = (float)(i / 16) / 16 + 0.02f,
+                          .dudx = 0.02f, .dvdy = 0.02f};
+    static float ref[N * 4], out[N * 4];
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_TRILINEAR};
+    assert_true(st_sample_batch(h, &o, q, N, ref, NULL, NULL) >= 0);
+    assert_true(st_sample_batch(m, &o, q, N, out, NULL, NULL) >= 0);
+    assert_memory_equal(out, ref, sizeof out);
+    assert_int_equal(st_atlas_charts_built_bytes(m), built);
+    assert_int_equal(st_set_heap_memory(m), heap0 + built);
+    uint64_t R = st_native_resident(m, &mt);
+    assert_true(R > 0);
+    assert_int_equal(sts_budget_set_resident(m, &mt, now + 1, 1), R + heap0 + built);
+    uint64_t stored, resident;
+    sts_budget_measure(&srv, &stored, &resident);
+    assert_int_equal(stored, st_set_memory(m));
+    assert_true(resident >= heap0 + built);
+
+    /* a budget under the set: the pass releases it whole, the chart data with the pages */
+    m->last_use_ms = now;
+    sts_budget_pass(&srv, 4096);
+    assert_int_equal(srv.budget.releases, 1);
+    assert_int_equal(srv.budget.released_bytes, R + built);
+    assert_int_equal(m->cold, 1);
+    assert_int_equal(st_atlas_charts_built_bytes(m), 0);
+    assert_int_equal(st_set_heap_memory(m), heap0);
+    /* the next chart sample rebuilds it: the same outputs */
+    memset(out, 0, sizeof out);
+    assert_true(st_sample_batch(m, &o, q, N, out, NULL, NULL) >= 0);
+    assert_memory_equal(out, ref, sizeof out);
+    assert_int_equal(st_atlas_charts_built_bytes(m), built);
+
+    /* a sampler holding the data while a release runs keeps it: only the pages go */
+    assert_int_equal(st_atlas_charts_pin(m, &e), ST_OK);
+    m->last_use_ms = (uint64_t)sts_now_ms();
+    uint64_t before = srv.budget.released_bytes;
+    sts_budget_pass(&srv, 4096);
+    assert_int_equal(srv.budget.releases, 2);
+    assert_int_equal(st_atlas_charts_built_bytes(m), built);
+    assert_true(srv.budget.released_bytes - before < built + R + 1);
+    assert_int_equal(st_native_resident(m, &mt), 0);
+    st_atlas_charts_unpin(m);
+    assert_true(st_sample_batch(m, &o, q, N, out, NULL, NULL) >= 0);
+    assert_memory_equal(out, ref, sizeof out);
+
+    st_native_meter_close(&mt);
+    st_registry_free(srv.reg);
+    st_set_free(h);
+    assert_int_equal(st_test_rmtree(dir), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -264,6 +381,7 @@ int main(void)
         cmocka_unit_test(test_resident_measured_again_only_for_sampled_sets),
         cmocka_unit_test(test_pass_releases_the_least_recently_sampled_sets_whole),
         cmocka_unit_test(test_pass_between_full_passes_counts_what_statm_sees),
+        cmocka_unit_test(test_atlas_chart_data_counted_and_released),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

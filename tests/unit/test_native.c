@@ -11,6 +11,8 @@
 
 #include <fcntl.h>
 #include <math.h>
+#include <pthread.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -365,6 +367,133 @@ static void test_atlas_and_bc1(void **st)
     st_set_free(s);
 }
 
+/* An atlas opened from its native file holds no chart data (ids, links, triangle lists) until
+ * a chart Discard / chart Traverse sample needs it; then it is built once, the same bytes as
+ * the heap atlas's, and counted (st_set_memory, st_set_heap_memory); a drop frees it unless a
+ * sampler has it pinned, and the next chart sample rebuilds it with the same outputs. */
+typedef struct chart_arg {
+    const st_set *m;
+    const st_query *q;
+    size_t n;
+    const float *ref;
+    int mismatches;
+} chart_arg;
+
+static void *chart_sampler(void *p)
+{
+    chart_arg *a = p;
+    float *out = malloc(a->n * 4 * sizeof(float));
+    st_sample_opts o = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_TRILINEAR};
+    for (int i = 0; i < 300; i++) {
+        if (st_sample_batch(a->m, &o, a->q, a->n, out, NULL, NULL) < 0 ||
+            memcmp(out, a->ref, a->n * a->m->info.nchan * sizeof(float)))
+            a->mismatches++;
+    }
+    free(out);
+    return NULL;
+}
+
+static void test_atlas_chart_data_is_lazy_counted_and_dropped(void **st)
+{
+    (void)st;
+    st_set *s = make_atlas();
+    const st_atlas *x = st_atlas_get(s);
+    size_t built = x->chart_id_bytes + x->chart_link_bytes + x->loc.bytes;
+    assert_true(x->ids.nlevels > 0 && x->chart_link_bytes > 0 && built > 0);
+    st_set *m = roundtrip(s, "atlaslazy");
+    const st_atlas *y = st_atlas_get(m);
+    /* opened: nothing rasterised */
+    assert_int_equal(y->ids.nlevels, 0);
+    assert_null(y->chart_id);
+    assert_null(y->chart_link);
+    assert_int_equal(st_atlas_charts_built_bytes(m), 0);
+    size_t mem0 = st_set_memory(m), heap0 = st_set_heap_memory(m);
+    assert_true(heap0 >= st_mesh_memory(y->mesh) + (size_t)y->mask_w * y->mask_h);
+    assert_true(heap0 < mem0);
+
+    enum { N = 512 };
+    st_query q[N];
+    make_queries(s, q, N, 4242);
+    unsigned nc = s->info.nchan;
+    static float oa[N * 4], ob[N * 4], ca[N], cb[N];
+    static uint8_t sa[N], sb[N];
+    /* Clamp and the heap-mask Discard of st_atlas_sample build nothing */
+    for (unsigned f = ST_FILTER_POINT; f <= ST_FILTER_ANISO; f++) {
+        st_sample_opts o = {.mode = ST_MODE_CLAMP, .filter = (uint8_t)f, .max_aniso = 8};
+        assert_int_equal(st_sample_batch(s, &o, q, N, oa, ca, sa),
+                         st_sample_batch(m, &o, q, N, ob, cb, sb));
+        assert_memory_equal(oa, ob, N * nc * sizeof(float));
+    }
+    st_sample_opts od = {.mode = ST_MODE_DISCARD, .filter = ST_FILTER_BILINEAR};
+    assert_true(st_atlas_sample(m, &od, ST_ATLAS_CHART_DISCARD, q, N, ob, cb, sb) >= 0);
+    assert_int_equal(st_atlas_charts_built_bytes(m), 0);
+    assert_int_equal(st_set_memory(m), mem0);
+
+    /* every chart-mode filter, twice: built by the first, the same outputs as the heap atlas,
+     * then dropped and rebuilt by the second */
+    for (int round = 0; round < 2; round++)
+        for (unsigned mode = ST_MODE_DISCARD; mode <= ST_MODE_TRAVERSE; mode++)
+            for (unsigned f = ST_FILTER_POINT; f <= ST_FILTER_ANISO; f++) {
+                st_sample_opts o = {.mode = (uint8_t)mode, .filter = (uint8_t)f, .max_aniso = 8};
+                int ra = st_sample_batch(s, &o, q, N, oa, ca, sa);
+                int rb = st_sample_batch(m, &o, q, N, ob, cb, sb);
+                assert_true(ra >= 0);
+                assert_int_equal(ra, rb);
+                assert_memory_equal(oa, ob, N * nc * sizeof(float));
+                assert_memory_equal(ca, cb, N * sizeof(float));
+                assert_memory_equal(sa, sb, N);
+                /* built once, counted, the heap atlas's bytes */
+                assert_int_equal(st_atlas_charts_built_bytes(m), built);
+                assert_int_equal(st_set_memory(m), mem0 + built);
+                assert_int_equal(st_set_heap_memory(m), heap0 + built);
+                assert_int_equal(y->ids.nlevels, x->ids.nlevels);
+                assert_memory_equal(y->chart_id, x->chart_id, x->chart_id_bytes);
+                assert_memory_equal(y->chart_link, x->chart_link, x->chart_link_bytes);
+                if (round == 0 && mode == ST_MODE_TRAVERSE && f == ST_FILTER_ANISO) {
+                    assert_int_equal(st_atlas_charts_drop(m), built);
+                    assert_int_equal(st_atlas_charts_built_bytes(m), 0);
+                    assert_int_equal(st_set_memory(m), mem0);
+                    assert_int_equal(y->ids.nlevels, 0);
+                    assert_null(y->chart_id);
+                }
+            }
+
+    /* a pinned sampler keeps it: the drop gives up, and succeeds once unpinned */
+    st_error e;
+    assert_int_equal(st_atlas_charts_pin(m, &e), ST_OK);
+    assert_int_equal(st_atlas_charts_drop(m), 0);
+    assert_int_equal(st_atlas_charts_built_bytes(m), built);
+    assert_int_equal(y->ids.nlevels, x->ids.nlevels);
+    st_atlas_charts_unpin(m);
+    assert_int_equal(st_atlas_charts_drop(m), built);
+    /* a heap set's pin (built at import) never rebuilds: the same pointers */
+    const uint16_t *hid = x->chart_id;
+    assert_int_equal(st_atlas_charts_pin(s, &e), ST_OK);
+    st_atlas_charts_unpin(s);
+    assert_ptr_equal(x->chart_id, hid);
+
+    /* samplers racing drops: every batch reads whole data, the same outputs */
+    static float ref[N * 4];
+    st_sample_opts ot = {.mode = ST_MODE_TRAVERSE, .filter = ST_FILTER_TRILINEAR};
+    assert_true(st_sample_batch(s, &ot, q, N, ref, NULL, NULL) >= 0);
+    chart_arg args[2] = {{m, q, N, ref, 0}, {m, q, N, ref, 0}};
+    pthread_t th[2];
+    for (int i = 0; i < 2; i++)
+        assert_int_equal(pthread_create(&th[i], NULL, chart_sampler, &args[i]), 0);
+    size_t drops = 0;
+    for (int i = 0; i < 2000; i++) {
+        drops += st_atlas_charts_drop(m) != 0;
+        sched_yield();
+    }
+    for (int i = 0; i < 2; i++)
+        assert_int_equal(pthread_join(th[i], NULL), 0);
+    assert_int_equal(args[0].mismatches, 0);
+    assert_int_equal(args[1].mismatches, 0);
+    print_message("# %zu drops while two samplers ran\n", drops);
+    st_set_free(m);
+    st_set_free(s);
+}
+
 /* ---- corruption ----------------------------------------------------------------------------- */
 
 static uint8_t *slurp(const char *path, size_t *len)
@@ -540,6 +669,7 @@ int main(void)
         cmocka_unit_test(test_constant_faces),
         cmocka_unit_test(test_cube),
         cmocka_unit_test(test_atlas_and_bc1),
+        cmocka_unit_test(test_atlas_chart_data_is_lazy_counted_and_dropped),
         cmocka_unit_test(test_corruption),
         cmocka_unit_test(test_texel_flip_without_verify),
     };
