@@ -11,8 +11,9 @@
  * page tables (/proc/self/pagemap; where it cannot be read, the file's pages in the page cache
  * by mincore: store/native/native.h, st_native_meter) + what every mapped set holds on the
  * heap (st_set_heap_memory: a built lazy Ptex table, an atlas's mesh, chart mask and built
- * chart data, metadata) + every heap set (sets that have no native file: the built-in default set, or a set whose native
- * file could not be written; they cannot be released and are counted as they are). A pass
+ * chart data, metadata) + every heap set (sets that have no native file: the built-in default
+ * set, or a set whose native file could not be written; they cannot be released and are
+ * counted as they are). A pass
  * (sts_budget_pass) runs every BUDGET_TICK_MS on the budget thread, at once when a sample wakes
  * a released set, and on a sampling thread when its look (every BUDGET_LOOK_MS, look()) finds
  * the estimate past the high mark. Every BUDGET_FULL_MS a pass measures every mapping
@@ -117,8 +118,8 @@ static size_t snapshot(sts_server *srv, st_setref ***out)
 }
 
 /* Resident now from statm: the process's mapped file pages less the base (what is not a set),
- * plus the heap sets and the mapped sets' heap bytes of the last measured pass; *ok = 0 when it cannot be
- * made (the budget thread not started, no measured pass yet, statm unreadable). */
+ * plus the heap sets and the mapped sets' heap bytes of the last measured pass; *ok = 0 when it
+ * cannot be made (the budget thread not started, no measured pass yet, statm unreadable). */
 static uint64_t estimate(sts_budget *b, int *ok)
 {
     *ok = 0;
