@@ -12,7 +12,9 @@
  * job thread: the encoding runs there, never on an I/O thread), JOB_CANCEL, FETCH reads and
  * closes, SAMPLE batches up to heavy-batch queries). On a worker (STS_H_HEAVY): upload chunks
  * (disk writes), commits (import + fsync), deletes (fsync), FETCH_OPEN (serialises a set),
- * and SAMPLE / SAMPLE_DIR batches over heavy-batch (STS_H_SIZED).
+ * and SAMPLE / SAMPLE_DIR batches over heavy-batch (STS_H_SIZED), and a smaller batch whose
+ * handler returns STS_DEFER (it would first build the chart data or Ptex table its set builds
+ * lazily: h_basic.c).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -203,6 +205,27 @@ void sts_reply_st(stp_buf *out, const stp_header *h, int st_code, const char *ms
     sts_reply_error(out, h, sts_status_from_st(st_code), msg && *msg ? msg : st_strerror(st_code));
 }
 
+/* Hands the request to the worker pool (the connection reads nothing more until its reply
+ * is queued: workers.c); 1, or 0 when out of memory (nothing handed over). */
+static int to_worker(sts_server *srv, sts_conn *conn, const sts_handler *hd, const stp_header *h,
+                     const uint8_t *body, int64_t t0)
+{
+    sts_task *t = calloc(1, sizeof *t);
+    if (!t)
+        return 0;
+    t->conn = conn;
+    t->hd = hd;
+    t->h = *h;
+    t->body = body;
+    t->start_ms = t0 / 1000;
+    t->start_us = t0;    /* the worker records its reply (workers.c) */
+    stp_buf_init(&t->out);
+    conn->busy = 1;
+    STS_STAT_ADD(srv, worker_tasks, 1);
+    sts_pool_submit(&srv->pool, t);
+    return 1;
+}
+
 int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t *body)
 {
     sts_server *srv = io->srv;
@@ -248,27 +271,22 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         uint64_t equiv = fixed + (uint64_t)stp_sample_peek_count(body, h->body_len) * per;
         heavy = equiv > (uint64_t)STS_LIVE(srv, heavy_batch) * per;
     }
-    if (heavy) {
-        sts_task *t = calloc(1, sizeof *t);
-        if (!t) {
-            sts_reply_error(&conn->out, h, STP_S_NOMEM, "out of memory");
-            goto replied;
-        }
-        t->conn = conn;
-        t->hd = hd;
-        t->h = *h;
-        t->body = body;
-        t->start_ms = t0 / 1000;
-        t->start_us = t0;    /* the worker records its reply (workers.c) */
-        stp_buf_init(&t->out);
-        conn->busy = 1;
-        STS_STAT_ADD(srv, worker_tasks, 1);
-        sts_pool_submit(&srv->pool, t);
+    if (heavy && to_worker(srv, conn, hd, h, body, t0))
         return 1;
+    if (heavy) {
+        sts_reply_error(&conn->out, h, STP_S_NOMEM, "out of memory");
+        goto replied;
+    }
+    sts_ctx ctx = {srv, conn, &io->scratch, t0 / 1000, 1};
+    int hr = hd->fn(&ctx, h, body, &conn->out);
+    if (hr == STS_DEFER) {   /* out untouched: a worker runs the request from the start */
+        if (to_worker(srv, conn, hd, h, body, t0))
+            return 1;
+        sts_reply_error(&conn->out, h, STP_S_NOMEM, "out of memory");
+        goto replied;
     }
     STS_STAT_ADD(srv, inline_tasks, 1);
-    sts_ctx ctx = {srv, conn, &io->scratch, t0 / 1000};
-    r = hd->fn(&ctx, h, body, &conn->out) ? 2 : 0;
+    r = hr ? 2 : 0;
     size_t added = stp_buf_avail(&conn->out) - before;
     if (added >= STP_HEADER_SIZE) {
         /* count error replies: status is at offset 12 of the frame just written, which ends

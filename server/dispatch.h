@@ -28,11 +28,16 @@ typedef struct sts_ctx {
     sts_conn    *conn;     /* on a worker: read-only fields (id, authed) only */
     sts_scratch *scratch;  /* the running thread's own */
     int64_t      start_ms; /* when the request was parsed */
+    int          on_io;    /* 1: run inline on an I/O thread (may return STS_DEFER) */
 } sts_ctx;
 
 /* A handler decodes body (body_len bytes), does the work and appends exactly one reply frame
  * to out (an error reply on failure). Return value: 0, or 1 to ask for the connection to be
- * closed after the reply. */
+ * closed after the reply; or, only when c->on_io, STS_DEFER with nothing appended to out: the
+ * request would first build data its set builds lazily (a SAMPLE that builds an atlas's chart
+ * data or a Ptex table, h_basic.c) and is run again on a worker, so that the build does not
+ * hold up the other connections of the I/O thread. */
+#define STS_DEFER (-1)
 typedef int (*sts_handler_fn)(sts_ctx *c, const stp_header *h, const uint8_t *body,
                               stp_buf *out);
 /* Declares a handler: STS_HANDLER(sts_h_ping); in the h_*.h headers. */

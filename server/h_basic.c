@@ -11,12 +11,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "atlas.h"
 #include "cube.h"
 #include "cluster_node.h"
 #include "dispatch.h"
 #include "h_basic.h"
 #include "io.h"
 #include "opstats.h"
+#include "ptexres.h"
 #include "server.h"
 #include "shm.h"
 #include "workers.h"
@@ -476,6 +478,19 @@ void sts_sample_decode(uint8_t opcode, const stp_sample_req *rq, const uint8_t *
     }
 }
 
+/* 1 when sampling s with o would first build data the set builds lazily and a memory-budget
+ * release may drop (tens to hundreds of milliseconds for a large set): an atlas's chart data
+ * for chart Discard / Traverse (kinds/atlas.h), a Ptex table for a Ptex filter (ptexres.h).
+ * A hint read without a lock: a release right after it only means the build runs here. */
+static int builds_first(const st_set *s, const st_sample_opts *o)
+{
+    if ((o->mode == ST_MODE_DISCARD || o->mode == ST_MODE_TRAVERSE) &&
+        s->info.kind == ST_KIND_ATLAS && s->ext.charts_pin && !st_atlas_charts_built_bytes(s))
+        return 1;
+    return o->filter >= ST_FILTER_PTEX_POINT && st_ptexres_get(s) &&
+           !st_ptexres_built_bytes(s);
+}
+
 int sts_sample_prepare(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out,
                        sts_sample_prep *pp)
 {
@@ -489,6 +504,11 @@ int sts_sample_prepare(sts_ctx *c, const stp_header *h, const stp_sample_req *rq
     if (!pp->ref)
         return 1;
     pp->s = pp->ref->set;
+    if (c->on_io && builds_first(pp->s, &pp->o)) {
+        st_setref_release(pp->ref);   /* a worker takes the request from the start */
+        pp->ref = NULL;
+        return 2;
+    }
     pp->cold = sts_budget_touch(c->srv, pp->ref->set);  /* a released set faults back in */
     pp->t0 = pp->cold ? sts_now_us() : 0;
     if (h->opcode == STP_OP_SAMPLE_DIR && !st_cube_is_cube(pp->s)) {
@@ -527,8 +547,9 @@ int sts_sample_finish(sts_ctx *c, const stp_header *h, const stp_sample_req *rq,
 int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out)
 {
     sts_sample_prep pp;
-    if (sts_sample_prepare(c, h, rq, out, &pp))
-        return 0;
+    int prc = sts_sample_prepare(c, h, rq, out, &pp);
+    if (prc)
+        return prc == 2 ? STS_DEFER : 0;
     const st_set *s = pp.s;
     uint32_t n = rq->count;
     if (sts_scratch_reserve(c->scratch, n ? n : 1, h->opcode == STP_OP_SAMPLE_DIR) != 0) {

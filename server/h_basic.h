@@ -22,7 +22,8 @@ STS_HANDLER(sts_h_sample_dir);
 STS_HANDLER(sts_h_stats);
 
 /* Samples a decoded SAMPLE / SAMPLE_DIR request (h->opcode tells which) whose queries are at
- * rq->raw and appends the reply (or an error) to out. Returns 0. */
+ * rq->raw and appends the reply (or an error) to out. Returns 0, or STS_DEFER (see
+ * sts_sample_prepare). */
 int sts_sample_run(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out);
 
 /* ---- the steps of sts_sample_run, shared with the shared-memory form (shm_sample.c) ---- */
@@ -37,7 +38,9 @@ typedef struct sts_sample_prep {
 } sts_sample_prep;
 /* The checks before sampling, in the order of PROTOCOL.md 4.4: options (INVALID), the set
  * (NOT_FOUND), a cube for SAMPLE_DIR (UNSUPPORTED). 0 with *pp filled (the caller then calls
- * sts_sample_finish), 1 when an error reply was appended to out (nothing held). */
+ * sts_sample_finish), 1 when an error reply was appended to out (nothing held), 2 (only on an
+ * I/O thread, c->on_io) when the batch would first build the set's lazy chart data or Ptex
+ * table: nothing appended or held, the caller returns STS_DEFER (dispatch.h). */
 int sts_sample_prepare(sts_ctx *c, const stp_header *h, const stp_sample_req *rq, stp_buf *out,
                        sts_sample_prep *pp);
 /* After sampling rq->count queries with result rc (bad queries, or a negative ST_E* code from

@@ -142,8 +142,9 @@ int sts_shm_sample(sts_ctx *c, const stp_header *h, stp_sample_req *rq, stp_buf 
         return 0;
     }
     sts_sample_prep pp;
-    if (sts_sample_prepare(c, h, rq, out, &pp))
-        return 0;
+    int prc = sts_sample_prepare(c, h, rq, out, &pp);
+    if (prc)
+        return prc == 2 ? STS_DEFER : 0;
     uint32_t n = rq->count;
     unsigned nchan = pp.s->info.nchan;
     /* the sampler's refusal of the options comes before the reply's size, as on the socket

@@ -267,7 +267,7 @@ static void *worker_main(void *arg)
                      (long long)(now - t->start_ms), limit);
             sts_reply_error(&t->out, &t->h, STP_S_TIMEOUT, msg);
         } else {
-            sts_ctx ctx = {srv, t->conn, &scratch, t->start_ms};
+            sts_ctx ctx = {srv, t->conn, &scratch, t->start_ms, 0};
             t->close = t->hd->fn(&ctx, &t->h, t->body, &t->out) != 0;
             if (stp_buf_avail(&t->out) >= STP_HEADER_SIZE &&
                 stp_rd16(stp_buf_head(&t->out) + 12) != STP_S_OK)

@@ -7,7 +7,9 @@
  *     sets sample exactly as before;
  *   - SIGKILL while uploads (and their native writes) are in flight loses nothing acknowledged;
  *   - a daemon whose --memory-budget is smaller than one set still serves it (releasing and
- *     faulting it back), with the budget's STATS keys.
+ *     faulting it back), with the budget's STATS keys;
+ *   - a mapped set's first sample that builds its Ptex table or atlas chart data runs on a
+ *     worker, not on the I/O thread.
  */
 #include <dirent.h>
 #include <fcntl.h>
@@ -409,12 +411,78 @@ static void test_budget_smaller_than_a_set(void **st)
     assert_int_equal(st_daemon_down(&d, 10000), 0);
 }
 
+/* 16 queries at face 0 of set in mode and filter; the call's status */
+static int sample_small(stc_conn *c, const char *set, unsigned mode, unsigned filter)
+{
+    stc_query q[16];
+    for (int i = 0; i < 16; i++)
+        q[i] = (stc_query){.face = 0, .u = 0.03f + 0.06f * (float)i, .v = 0.5f, .dudx = 0.02f,
+                           .dvdy = 0.02f};
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = mode;
+    o.filter = filter;
+    o.outfmt = STC_OUT_F32;
+    stc_sample_result r;
+    return stc_sample(c, set, &o, q, 16, &r);
+}
+
+/* A set mapped from its native file builds its Ptex table (and an atlas its chart data) on
+ * the first sample that needs it, which can take a large set hundreds of milliseconds: such
+ * a first batch, however small, runs on a worker, not on the I/O thread that holds other
+ * connections (dispatch.h, STS_DEFER); the batches after it, and those that need no build,
+ * run inline. */
+static void test_lazy_builds_run_on_a_worker(void **st)
+{
+    (void)st;
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, NODEF), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    size_t len;
+    void *p = st_fixture_default_ptx(&len, 3);
+    upload_buf(c, p, len, "big");
+    free(p);
+    int atlas = upload_file(c, "meshes/duck/DuckCM.png", "ducktex", NULL) == 0 &&
+                upload_file(c, "meshes/duck/Duck.obj", "duck", "texture=ducktex") == 0;
+    stc_close(c);
+    restart(&d, NODEF);   /* mapped: no table, no chart data built */
+    c = st_daemon_client(&d, NULL);
+    struct { const char *set; unsigned mode, filter; int to_worker; } rows[] = {
+        {"big", 1, 1, 0},    /* bilinear Traverse: no table needed */
+        {"big", 1, 12, 1},   /* ptex-bicubic: builds the table, on a worker */
+        {"big", 1, 12, 0},   /* built: inline */
+        {"big", 2, 11, 0},   /* any Ptex filter now: inline */
+        {"duck", 2, 1, 0},   /* Clamp on an atlas: no chart data needed */
+        {"duck", 0, 1, 1},   /* chart Discard: builds the chart data, on a worker */
+        {"duck", 1, 1, 0},   /* chart Traverse, built: inline */
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        if (!atlas && !strcmp(rows[i].set, "duck"))
+            continue;
+        uint64_t w = st_conn_stat(c, "worker_tasks");
+        int rc = sample_small(c, rows[i].set, rows[i].mode, rows[i].filter);
+        if (rc)
+            fail_msg("row %zu: sample of %s: %d", i, rows[i].set, rc);
+        uint64_t w2 = st_conn_stat(c, "worker_tasks");
+        if (w2 != w + (uint64_t)rows[i].to_worker)
+            fail_msg("row %zu (%s, mode %u, filter %u): worker_tasks %llu -> %llu, want +%d", i,
+                     rows[i].set, rows[i].mode, rows[i].filter, (unsigned long long)w,
+                     (unsigned long long)w2, rows[i].to_worker);
+    }
+    if (!atlas)
+        print_message("(no shared data: the atlas rows were skipped)\n");
+    stc_close(c);
+    assert_int_equal(st_daemon_down(&d, 10000), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_upgrade_corrupt_rebuild),
         cmocka_unit_test(test_kill_during_native_writes),
         cmocka_unit_test(test_budget_smaller_than_a_set),
+        cmocka_unit_test(test_lazy_builds_run_on_a_worker),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
