@@ -277,6 +277,7 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         sts_reply_error(&conn->out, h, STP_S_NOMEM, "out of memory");
         goto replied;
     }
+    STS_STAT_ADD(srv, inline_tasks, 1);   /* before the handler: STATS counts itself */
     sts_ctx ctx = {srv, conn, &io->scratch, t0 / 1000, 1};
     int hr = hd->fn(&ctx, h, body, &conn->out);
     if (hr == STS_DEFER) {   /* out untouched: a worker runs the request from the start */
@@ -285,7 +286,6 @@ int sts_dispatch(sts_io *io, sts_conn *conn, const stp_header *h, const uint8_t 
         sts_reply_error(&conn->out, h, STP_S_NOMEM, "out of memory");
         goto replied;
     }
-    STS_STAT_ADD(srv, inline_tasks, 1);
     r = hr ? 2 : 0;
     size_t added = stp_buf_avail(&conn->out) - before;
     if (added >= STP_HEADER_SIZE) {
