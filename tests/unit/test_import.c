@@ -1056,6 +1056,34 @@ static size_t ripmap_exr(uint8_t *b, int w, int h, int multipart)
     return pos;
 }
 
+/* The W x H ripmap file b (len bytes; ripmap_exr) read as its level 0 (texel (x, y) =
+ * x + 10 y, half) from the file at p, from memory, and imported as a one-face set. */
+static void ripmap_reads_level_0(const uint8_t *b, size_t len, const char *p, int W, int H)
+{
+    write_file(p, b, len);
+    st_error e;
+    st_error_clear(&e);
+    st_image img;
+    int rc = st_exr_read(p, NULL, &img, &e);
+    if (rc)
+        print_message("%s: %s\n", p, e.msg);
+    assert_int_equal(rc, ST_OK);
+    assert_int_equal(img.w, W);
+    assert_int_equal(img.h, H);
+    assert_int_equal(img.nchan, 1);
+    assert_int_equal(img.dtype, ST_DT_HALF);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            assert_true(st_half_to_float(((uint16_t *)img.data)[y * W + x]) == (float)(x + 10 * y));
+    st_image_free(&img);
+    assert_int_equal(st_exr_read_mem(b, len, p, NULL, &img, &e), ST_OK);
+    st_image_free(&img);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
+    assert_int_equal(s->info.nfaces, 1);
+    st_set_free(s);
+}
+
 /* img27: OpenEXR 3.1.5's C API maps the tiles of rip levels (x, y > 0) to the wrong chunks, so
  * the truncation check refused every valid ripmap file; the check now reads those chunks from
  * the file's offset table, and a ripmap cut short is still refused. */
@@ -1067,27 +1095,10 @@ static void exr_ripmap_imports_level_0_and_a_cut_ripmap_is_refused(void **state)
     size_t len = ripmap_exr(b, W, H, 0);
     char p[512];
     tmp_path(p, sizeof p, "ripmap.exr");
-    write_file(p, b, len);
+    ripmap_reads_level_0(b, len, p, W, H);
     st_error e;
     st_error_clear(&e);
     st_image img;
-    int rc = st_exr_read(p, NULL, &img, &e);
-    if (rc)
-        print_message("ripmap: %s\n", e.msg);
-    assert_int_equal(rc, ST_OK);
-    assert_int_equal(img.w, W);
-    assert_int_equal(img.h, H);
-    assert_int_equal(img.nchan, 1);
-    assert_int_equal(img.dtype, ST_DT_HALF);
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++)
-            assert_true(st_half_to_float(((uint16_t *)img.data)[y * W + x]) == (float)(x + 10 * y));
-    st_image_free(&img);
-    assert_int_equal(st_exr_read_mem(b, len, "ripmap", NULL, &img, &e), ST_OK);
-    st_image_free(&img);
-    st_set *s = NULL;
-    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
-    st_set_free(s);
     /* cut inside the last rip level (1 texel: level (2, 1)), and inside the table */
     size_t cuts[3] = {len - 1, len - 22, len / 2};
     for (int k = 0; k < 3; k++) {
@@ -1110,28 +1121,10 @@ static void exr_multipart_ripmap_imports_part_0_and_a_cut_one_is_refused(void **
     size_t len = ripmap_exr(b, W, H, 1);
     char p[512];
     tmp_path(p, sizeof p, "ripmap_mp.exr");
-    write_file(p, b, len);
+    ripmap_reads_level_0(b, len, p, W, H);
     st_error e;
     st_error_clear(&e);
     st_image img;
-    int rc = st_exr_read(p, NULL, &img, &e);
-    if (rc)
-        print_message("multi-part ripmap: %s\n", e.msg);
-    assert_int_equal(rc, ST_OK);
-    assert_int_equal(img.w, W);
-    assert_int_equal(img.h, H);
-    assert_int_equal(img.nchan, 1);
-    assert_int_equal(img.dtype, ST_DT_HALF);
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++)
-            assert_true(st_half_to_float(((uint16_t *)img.data)[y * W + x]) == (float)(x + 10 * y));
-    st_image_free(&img);
-    assert_int_equal(st_exr_read_mem(b, len, "ripmap_mp", NULL, &img, &e), ST_OK);
-    st_image_free(&img);
-    st_set *s = NULL;
-    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_OK);
-    assert_int_equal(s->info.nfaces, 1);
-    st_set_free(s);
     /* cut inside the last rip level (1 texel: level (2, 1)), a whole tile short, and inside
      * the tables */
     size_t cuts[3] = {len - 1, len - 26, len / 2};
