@@ -87,6 +87,16 @@ int st_red_at(stc_conn *c, const char *set, float *red)
     return rc;
 }
 
+float st_red_on(const st_daemon *d, const char *set)
+{
+    stc_conn *c = st_daemon_client(d, NULL);
+    float r = -1;
+    if (!c || st_red_at(c, set, &r) != 0)
+        r = -1;
+    stc_close(c);
+    return r;
+}
+
 int st_cluster_red_at(stc_cluster *cl, const char *set, float *red)
 {
     stc_sample_opts o;

@@ -40,6 +40,9 @@ void st_red_query(stc_sample_opts *o, stc_query *q);
 int st_red_at(stc_conn *c, const char *set, float *red);
 /* The same through the cluster client. */
 int st_cluster_red_at(stc_cluster *cl, const char *set, float *red);
+/* The red channel of set read from node d alone (a connection of its own), or -1 when d does
+ * not serve it. */
+float st_red_on(const st_daemon *d, const char *set);
 
 /* Runs `$SEAMTEX_BUILD/seamtex --cluster where args...` (posix_spawn: no fork in a process
  * linking OIIO; args NULL-terminated, at most 12), its stdout into out (cap bytes, through a

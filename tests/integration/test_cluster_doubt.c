@@ -93,17 +93,6 @@ static int copy_keys(const char *name)
     return n;
 }
 
-/* red of name read directly from node i (other than a number: not served there) */
-static float red_on(int i, const char *name)
-{
-    stc_conn *c = st_daemon_client(&N[i], NULL);
-    float r = -1;
-    if (!c || st_red_at(c, name, &r) != 0)
-        r = -1;
-    stc_close(c);
-    return r;
-}
-
 static int both_members(void *arg)
 {
     (void)arg;
@@ -115,13 +104,13 @@ typedef struct served { const char *name; float red; } served;
 static int both_serve(void *arg)
 {
     const served *s = arg;
-    return red_on(0, s->name) == s->red && red_on(1, s->name) == s->red;
+    return st_red_on(&N[0], s->name) == s->red && st_red_on(&N[1], s->name) == s->red;
 }
 
 static int neither_serves(void *arg)
 {
     const char *name = arg;
-    return red_on(0, name) < 0 && red_on(1, name) < 0;
+    return st_red_on(&N[0], name) < 0 && st_red_on(&N[1], name) < 0;
 }
 
 static int settled(void *arg)
@@ -192,7 +181,7 @@ static void stays(const char *name)
         if (!both_serve(&s) || recorded(name, 1) != 1) {
             st_daemon_dump_log(&N[0], 30);
             fail_msg("'%s' is gone after %d ms (recorded %d, n0 %g, n1 %g)", name, t * 200,
-                     recorded(name, 1), red_on(0, name), red_on(1, name));
+                     recorded(name, 1), st_red_on(&N[0], name), st_red_on(&N[1], name));
         }
         st_sleep_ms(200);
     }
@@ -388,7 +377,7 @@ static void holder_cut_off_etcd_stops_serving_a_set_deleted_elsewhere(void **sta
      * record it: the DELETE is answered OK, and n0 must not serve its copy after that */
     st_etcd_hold_cut(PROXY, 1);
     int rc = delete_direct(1, "g");
-    float r0 = red_on(0, "g");
+    float r0 = st_red_on(&N[0], "g");
     uint64_t hidden = st_daemon_stat(&N[0], "cluster_copies_hidden");
     st_etcd_hold_cut(PROXY, 0);
     assert_int_equal(rc, 0);
@@ -405,7 +394,7 @@ static void delete_refused_for_want_of_etcd_hides_the_copy_until_etcd_is_back(vo
     put_set("h");
     st_etcd_hold_cut(PROXY, 1);
     int rc = delete_direct(0, "h");
-    float r0 = red_on(0, "h"), r1 = red_on(1, "h");
+    float r0 = st_red_on(&N[0], "h"), r1 = st_red_on(&N[1], "h");
     st_etcd_hold_cut(PROXY, 0);
     assert_int_equal(rc, STC_EUNAVAILABLE);
     if (r0 >= 0)
@@ -414,7 +403,7 @@ static void delete_refused_for_want_of_etcd_hides_the_copy_until_etcd_is_back(vo
     /* once n0 reaches etcd again its repair pass finds 'h' recorded: served again */
     served s = {"h", red[0]};
     if (st_wait_until(both_serve, &s, DEADLINE_MS) != 0)
-        fail_msg("n0 does not serve 'h' again (red %g)", red_on(0, "h"));
+        fail_msg("n0 does not serve 'h' again (red %g)", st_red_on(&N[0], "h"));
     assert_int_equal(recorded("h", 1), 1);
 }
 

@@ -80,7 +80,7 @@ static void a_publish_of_unrecorded_contents_hides_no_current_copy(void **state)
         snprintf(addr, sizeof addr, "127.0.0.1:%d", N[holder].port);
         int st = scl_peer_publish(addr, "", "pub", 0x12345678u + (uint32_t)round, 5000, msg,
                                   sizeof msg);
-        if (st != STC_ENOTFOUND)
+        if (st != SCL_PEER_NOT_FOUND)   /* the receiver's NOT_FOUND (peer.h) */
             fail_msg("REPLICA_PUBLISH of unrecorded contents: status %d (%s), want NOT_FOUND",
                      st, msg);
         /* read at once, then for two repair intervals */
@@ -98,24 +98,14 @@ static void a_publish_of_unrecorded_contents_hides_no_current_copy(void **state)
     }
 }
 
-static float red_on(int i, const char *name)
-{
-    stc_conn *c = st_daemon_client(&N[i], NULL);
-    float r = -1;
-    if (!c || st_red_at(c, name, &r) != 0)
-        r = -1;
-    stc_close(c);
-    return r;
-}
-
 static int n0_serves(void *arg)
 {
-    return red_on(0, arg) >= 0;
+    return st_red_on(&N[0], arg) >= 0;
 }
 
 static int n0_does_not_serve(void *arg)
 {
-    return red_on(0, arg) < 0;
+    return st_red_on(&N[0], arg) < 0;
 }
 
 /* A name whose owner (R = 1) is n0, the node behind the proxy. */
@@ -144,7 +134,7 @@ static int refused_on_n0(const char *name, int ms, int *reads)
     int refused = 0;
     *reads = 0;
     for (int64_t t0 = st_now_ms(); st_now_ms() - t0 < ms; (*reads)++) {
-        refused += red_on(0, name) < 0;
+        refused += st_red_on(&N[0], name) < 0;
         st_sleep_ms(20);
     }
     return refused;
