@@ -41,7 +41,8 @@ int st_ptextri_batch_pertap(const st_set *s, const st_sample_opts *o, const st_q
 /* st_ptextri_batch with Clamp's fold sweeps and Discard's whole-kernel weight sweeps stepped
  * by recurrence through the general rows (row_clamp: row_same, row_step, row_band_t) instead
  * of the lean ones st_ptextri_batch runs: the same taps, texels, weights and order, so the
- * same bits in every output. For tests. */
+ * same bits in every output. Clamp's kernels at levels of 8 x 8 texels or more run the rows
+ * a lane with the fold a lane (rows_apply_t, fold_idx8) in both builds alike. For tests. */
 int st_ptextri_batch_general(const st_set *s, const st_sample_opts *o, const st_query *q,
                              size_t n, float *out, float *coverage, uint8_t *status);
 
@@ -59,5 +60,13 @@ int st_ptextri_batch_baseline(const st_set *s, const st_sample_opts *o, const st
  * x + y >= R; inverted y <= R - 1, x <= R - 1, x + y <= R - 1. */
 int st_ptextri_band_check(int R, int odd, int y, int xa, int xb, const float *texels,
                           int recurrence);
+
+/* For tests: whether Clamp's fold a lane (fold_idx8, which the lean and general builds' fold
+ * sweeps at levels of 8 x 8 texels or more run, eight rows at a time) gives every tap the
+ * texel fold_tap gives it: lanes L = 0..7 are rows y0 + L of an R x R level (R a power of two
+ * up to 2^15), upright where bit L of upmask is set, else inverted, starting at tap x0 - L and
+ * stepped over nx taps as the sweeps step them. Returns the number of taps whose texel
+ * differs (-1: R or nx out of range). */
+int st_ptextri_fold_check(int R, int y0, int x0, int nx, unsigned upmask);
 
 #endif

@@ -23,7 +23,9 @@
  * Each row is cut into runs (row_clamp): taps inside the face read in place, runs that fold
  * onto one texel or onto a line of texels read without the fold; the band past the diagonal
  * edge is walked (row_band_t: the same texels as folding each tap, fold_tap, which the
- * per-tap build st_ptextri_batch_pertap keeps).
+ * per-tap build st_ptextri_batch_pertap keeps). At levels of 8 x 8 texels or more the lean
+ * and general builds instead run Clamp's whole kernel a row a lane (rows_apply_t with FOLD,
+ * below), each tap's texel by fold_tap's operations a lane (fold_idx8).
  *
  * Speed: the sweeps and the point filter's batch loop are instances per texel type and
  * channel count (no per-tap switch); the arithmetic and its order are the same in each, so
@@ -35,8 +37,12 @@
  * operations, each row summed in its own lane, the lanes added by one tree; docs/ptex-log.md,
  * "tri29"); at smaller levels they weigh the kept taps of rows of 3 taps or more four at a
  * time with that exp (row_read4, pk_exp2_4: within about 2e-7; docs/ptex-log.md, "trix"),
- * shorter rows one expf a tap; Clamp's fold sweeps and
- * Discard's whole-kernel weight (seamtex's own, no Ptex reference) step them by recurrence
+ * shorter rows one expf a tap. Clamp's kernels that overhang the face, at a level of 8 x 8
+ * texels or more, run through the same rows a lane (rows_apply_t with FOLD: the whole
+ * kernel's rows, each tap's texel by fold_idx8 - fold_tap's float and int operations a lane,
+ * made eight steps ahead of the taps' work - and weighed by pk_exp2_4's operations;
+ * docs/ptex-log.md, "Session 33, tri33"). Discard's whole-kernel weight, and Clamp's fold
+ * sweeps at smaller levels (seamtex's own, no Ptex reference), step them by recurrence
  * (pt_rec, pt_cur: within about 1e-6 of the per-tap expf; docs/ptex-log.md, "Session 13,
  * tri6"). Those recurrence sweeps run lean rows (lean_fold_row, lean_band, lean_run: the
  * general rows' taps, texels, weights and order with less work a row); the general rows stay
@@ -48,8 +54,9 @@
  * which the general and per-tap builds do not, so the tests compare them: a query whose
  * footprint and face size are the last query's reuses its kernel shape (tk_shape, tk_cache)
  * and the recurrence's factors (pt_kfc, kf_get), Clamp's inverted fold sweep's first rows and
- * cursor seed are made before the upright sweep's rows (fold_pre: the two sweeps' dependent
- * chains overlap; "Session 32, tri32"), and Traverse's and Discard's pieces and
+ * cursor seed (levels below 8 x 8) are made before the upright sweep's rows (fold_pre: the
+ * two sweeps' dependent chains overlap; "Session 32, tri32"), and Traverse's and Discard's
+ * pieces and
  * Clamp's kernels inside the face (apply_folded) at resolution 0 (a 1 x 1 level: one tap at
  * most) are applied whole (piece_r1) instead of by iterators and the sweeps, as are those at
  * resolution 1 of a face with texels (piece_r2: at most three upright taps and one inverted;
@@ -1950,10 +1957,97 @@ static inline int sweep_inside(int R, const int *b)
  * hi 0..2), ev_ok, od_ok which are valid; (eu, evv) and (ou, ov) their centres, the upright
  * ellipse Ak, Bk, Ck (the inverted one: Ck, Bk, Ak), wscale 1 / R^2. Adds the kept taps' sums
  * to c->acc's channel lanes and their weight to c->weight (see above). */
+/* *d = a where m (-1 or 0 a lane), d elsewhere (by pointer: a 32-byte vector passed or
+ * returned by value changes the ABI where AVX is not enabled) */
+__attribute__((always_inline)) static inline void sel8f(pt_v8f *d, const pt_v8i *m,
+                                                        const pt_v8f *a)
+{
+    pt_v8i ab, db;
+    memcpy(&ab, a, 32);
+    memcpy(&db, d, 32);
+    db = (ab & *m) | (db & ~*m);
+    memcpy(d, &db, 32);
+}
+
+/* Clamp's fold (fold_tap, then st_tri_texel_t) a lane: *idx, the texel index ty R + tx that
+ * the tap of each lane reads, from the tap's centroid in texel units as fold_tap makes it -
+ * (float)X + off, (float)Y + off, with X, Y, off the lane's (upright rows: x, y, 1/3; inverted
+ * rows: R-1-y, R-1-x, 2/3) - and then fold_tap's operations in its order on each lane: the
+ * clamps to >= 0, the pull-back onto cu + cv = R (t = 0.5 (cu + cv - R), its two corrections
+ * in order), st_tri_texel_t's truncation, its clamp to R - 1 (its clamp to 0 is not needed:
+ * cu, cv >= 0 here, so their int parts are too), its fractions and its even / odd choice. The
+ * same float and int operations on the same values: the same texel as fold_tap, for every
+ * tap, inside the face or not (fold_tap gives a tap inside the face its own texel). */
+__attribute__((always_inline)) static inline void fold_idx8(const pt_v8i *X, const pt_v8i *Y,
+                                                            const pt_v8f *off, int R, int rsh,
+                                                            pt_v8i *idx)
+{
+    const pt_v8f z = {0, 0, 0, 0, 0, 0, 0, 0};
+    const float fR = (float)R;
+    const pt_v8f fRv = z + fR;
+    pt_v8f cu = __builtin_convertvector(*X, pt_v8f) + *off;
+    pt_v8f cv = __builtin_convertvector(*Y, pt_v8f) + *off;
+    pt_v8i m = cu < 0.0f;
+    sel8f(&cu, &m, &z);
+    m = cv < 0.0f;
+    sel8f(&cv, &m, &z);
+    pt_v8i pb = cu + cv > fR;
+    pt_v8f t = 0.5f * (cu + cv - fR);
+    pt_v8f pu = cu - t, pv = cv - t;
+    m = pu < 0.0f;
+    sel8f(&pv, &m, &fRv);
+    sel8f(&pu, &m, &z);
+    m = pv < 0.0f;
+    sel8f(&pu, &m, &fRv);
+    sel8f(&pv, &m, &z);
+    sel8f(&cu, &pb, &pu);
+    sel8f(&cv, &pb, &pv);
+    const int r1 = R - 1;
+    pt_v8i ui = __builtin_convertvector(cu, pt_v8i), vi = __builtin_convertvector(cv, pt_v8i);
+    m = ui > r1;
+    ui = (ui & ~m) | (r1 & m);
+    m = vi > r1;
+    vi = (vi & ~m) | (r1 & m);
+    pt_v8f uf = cu - __builtin_convertvector(ui, pt_v8f);
+    pt_v8f vf = cv - __builtin_convertvector(vi, pt_v8f);
+    pt_v8i e = uf + vf <= 1.0f;
+    pt_v8i tx = (ui & e) | ((r1 - vi) & ~e), ty = (vi & e) | ((r1 - ui) & ~e);
+    *idx = (ty << rsh) + tx;
+}
+
+/* fold_idx8's X, Y and off a lane at a row's first tap a (row y; up: -1 in upright rows, 0 in
+ * inverted ones), and their step to the next tap (X by 1 in upright rows, Y by -1 in inverted
+ * ones): rows_apply_t's and st_ptextri_fold_check's. */
+__attribute__((always_inline)) static inline void fold_start8(const pt_v8i *up, const pt_v8i *a,
+                                                              const pt_v8i *y, int R, pt_v8i *X,
+                                                              pt_v8i *Y, pt_v8f *off)
+{
+    const pt_v8i r1 = (pt_v8i){0, 0, 0, 0, 0, 0, 0, 0} + (R - 1);
+    *X = (*up & *a) | (~*up & (r1 - *y));
+    *Y = (*up & *y) | (~*up & (r1 - *a));
+    pt_v8i ob = (*up & fbits(1.0f / 3.0f)) | (~*up & fbits(2.0f / 3.0f));
+    memcpy(off, &ob, 32);
+}
+
+__attribute__((always_inline)) static inline void fold_step8(const pt_v8i *up, pt_v8i *X,
+                                                             pt_v8i *Y)
+{
+    *X -= *up;
+    *Y += ~*up;
+}
+
+/* FOLD (Clamp's whole kernel, not clamped into the face: rows past the level; the lean and
+ * general builds at R >= PT_LANES_MIN_R, from sweep2_t): each tap's texel is fold_idx8's
+ * (made eight steps at a time ahead of the taps' exp, loads and sums: each step's fold is a
+ * long dependent chain) instead of the row's stepped index. The same taps as the
+ * recurrence fold sweeps (the same float Q chain, Q < 1) and the same texels (fold_tap's
+ * rule); the weights pk_exp2_4's instead of the recurrence's (about 1e-6 relatively) and the
+ * sums a row a lane, so Clamp's values move by float rounding (docs/ptex-log.md, "Session 33,
+ * tri33"). */
 __attribute__((always_inline)) static inline void
 rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, int ev_ok,
              int od_ok, float eu, float evv, float ou, float ov, float Ak, float Bk, float Ck,
-             float wscale, unsigned DT, unsigned NC)
+             float wscale, int FOLD, unsigned DT, unsigned NC)
 {
     int y1e = 0, y1o = 0;
     const int ne = ev_ok ? sweep_rows(R, eb, &y1e) : 0;
@@ -1992,13 +2086,30 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
         pt_v8f DQ = A * (2.0f * U + 1.0f) + Bk * V;
         pt_v8f Q = A * U * U + (Bk * U + C * V) * V;
         const pt_v8f DDQ = 2.0f * A;
-        pt_v8i idx = (y << rsh) + a;
         const int maxn = pt_v8i_max(&n);   /* the longest row's taps */
-        /* 16-byte texel loads when no lane's row reaches the level's last texel (the 4 bytes
-         * past a three-channel float texel are then the next texel's) */
-        pt_v8i end = ((y << rsh) + x2) & live;
-        const int wide = NC == 4 || pt_v8i_max(&end) < R * R;
+        pt_v8i idx, X, Y, fidx[8];
+        pt_v8f off;
+        int wide;
+        if (!FOLD) {
+            idx = (y << rsh) + a;
+            /* 16-byte texel loads when no lane's row reaches the level's last texel (the 4
+             * bytes past a three-channel float texel are then the next texel's) */
+            pt_v8i end = ((y << rsh) + x2) & live;
+            wide = NC == 4 || pt_v8i_max(&end) < R * R;
+        } else {
+            fold_start8(&up, &a, &y, R, &X, &Y, &off);
+            idx = y;
+            wide = NC == 4;
+        }
         for (int j = 0; j < maxn; j++, idx += 1) {
+            if (FOLD && !(j & 7)) {
+                /* the next eight steps' texels made first, apart from the taps' work: each
+                 * step's fold is a long dependent chain, the steps' chains independent */
+                for (int i = 0; i < 8 && i < maxn - j; i++) {
+                    fold_idx8(&X, &Y, &off, R, rsh, &fidx[i]);
+                    fold_step8(&up, &X, &Y);
+                }
+            }
             pt_v8i kept = (j < n) & (Q < 1.0f);
             pt_v4i kh = __builtin_shufflevector(kept, kept, 0, 1, 2, 3) |
                         __builtin_shufflevector(kept, kept, 4, 5, 6, 7);
@@ -2011,6 +2122,15 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
                 Q += DQ;
                 DQ += DDQ;
                 continue;
+            }
+            if (FOLD) {
+                idx = fidx[j & 7];
+                /* 16-byte loads unless a kept lane reads the level's last texel */
+                if (NC == 3) {
+                    pt_v8i last = (idx == R * R - 1) & kept;
+                    wide = !mask4(__builtin_shufflevector(last, last, 0, 1, 2, 3) |
+                                  __builtin_shufflevector(last, last, 4, 5, 6, 7));
+                }
             }
             pt_v8f yq = Q * glf, w;
             pt_exp2_8(&yq, &w);
@@ -2037,6 +2157,32 @@ rows_apply_t(tc *c, const uint8_t *data, int R, const int *eb, const int *ob, in
     c->weight += hsum8(&wacc);
 }
 
+int st_ptextri_fold_check(int R, int y0, int x0, int nx, unsigned upmask)
+{
+    if (R < 1 || (R & (R - 1)) || R > (1 << 15) || nx < 0)
+        return -1;
+    const int rsh = __builtin_ctz((unsigned)R);
+    pt_v8i up, a, y, X, Y, idx;
+    pt_v8f off;
+    for (int L = 0; L < 8; L++) {
+        up[L] = (upmask >> L & 1u) ? -1 : 0;
+        a[L] = x0 - L; /* rows starting at different taps */
+        y[L] = y0 + L;
+    }
+    fold_start8(&up, &a, &y, R, &X, &Y, &off);
+    int bad = 0;
+    for (int j = 0; j < nx; j++) {
+        fold_idx8(&X, &Y, &off, R, rsh, &idx);
+        fold_step8(&up, &X, &Y);
+        for (int L = 0; L < 8; L++) {
+            int tx, ty;
+            fold_tap(R, up[L] ? 0 : 1, a[L] + j, y[L], &tx, &ty);
+            bad += idx[L] != ty * R + tx;
+        }
+    }
+    return bad;
+}
+
 typedef void (*sweep_fn)(tc *c, const ti *ev, const ti *od, const uint8_t *data,
                          int constant);
 
@@ -2052,7 +2198,15 @@ __attribute__((always_inline)) static inline void sweep2_t(tc *c, const ti *ev, 
         (!ev->valid || sweep_inside(ev->R, ev->lo)) &&
         (!od->valid || sweep_inside(od->R, od->lo))) {
         rows_apply_t(c, data, ev->R, ev->lo, od->lo, ev->valid, od->valid, ev->u, ev->v, od->u,
-                     od->v, ev->A, ev->B, ev->C, ev->wscale, DT, NC);
+                     od->v, ev->A, ev->B, ev->C, ev->wscale, 0, DT, NC);
+        return;
+    }
+    /* Clamp's whole kernel (a fold sweep pair of a level with texels) at R >= PT_LANES_MIN_R,
+     * in the builds whose weights are not the per-tap expf (REC: the lean and the general
+     * one): a row a lane as above, each tap's texel by fold_idx8 (fold_tap's rule) */
+    if (how == SW_FOLD && REC && !constant && ev->R >= PT_LANES_MIN_R) {
+        rows_apply_t(c, data, ev->R, ev->lo, od->lo, ev->valid, od->valid, ev->u, ev->v, od->u,
+                     od->v, ev->A, ev->B, ev->C, ev->wscale, 1, DT, NC);
         return;
     }
     float w = c->weight;
@@ -2570,7 +2724,7 @@ __attribute__((always_inline)) static inline int piece_rn_t(tc *c, const tk *k,
     memcpy(&wscale, &wsb, 4);
     rows_apply_t(c, data, R, eb, ob, ev_ok, od_ok, k->u * fR - third, k->v * fR - third,
                  (1.0f - k->v) * fR - third, (1.0f - k->u) * fR - third, Ak, Bk, Ck, wscale,
-                 DT, NC);
+                 0, DT, NC);
     return 1;
 }
 

@@ -538,6 +538,47 @@ static void clamp_band_walk_reads_the_folded_texels(void **state)
     assert_int_equal(bad, 0);
 }
 
+/* Clamp's whole kernel at levels of 8 x 8 texels or more runs eight rows at a time, a row a
+ * lane (ptextri_filter.c, rows_apply_t with fold_idx8): each lane must read, tap by tap, the
+ * texel fold_tap gives (the per-tap build's fold). Every tap (x, y) with |x|, |y| <= 2R + 10
+ * (kernel bounds stay within 1 of a centre in [0, 1], so the taps lie within 2R + 2), rows of
+ * both orientations and mixed in one group, for R = 1 .. 1024 (every tap) and 2^15 (rows near
+ * the face's corners and edges). */
+static void clamp_fold_lanes_read_the_folded_texels(void **state)
+{
+    (void)state;
+    static const unsigned masks[] = {0xffu, 0x00u, 0x0fu, 0xf0u, 0x55u};
+    long checked = 0, bad = 0;
+    for (int R = 1; R <= 1024; R *= 2) {
+        int far = 2 * R + 10;
+        for (size_t mi = 0; mi < sizeof masks / sizeof masks[0]; mi++) {
+            if (R > 256 && mi > 1)
+                continue;
+            for (int y0 = -far; y0 <= far; y0 += 8) {
+                int r = st_ptextri_fold_check(R, y0, -far + 7, 2 * far + 1, masks[mi]);
+                assert_true(r >= 0);
+                bad += r;
+                checked += 8L * (2 * far + 1);
+            }
+        }
+    }
+    {
+        const int R = 1 << 15, far = 2 * R + 10;
+        static const int ys[] = {-far, -R, -9, -1, 0, R - 9, R - 1, R, 2 * R - 8, far - 8};
+        for (size_t i = 0; i < sizeof ys / sizeof ys[0]; i++)
+            for (int mi = 0; mi < 2; mi++) {
+                int r = st_ptextri_fold_check(R, ys[i], -far + 7, 2 * far + 1, masks[mi]);
+                assert_true(r >= 0);
+                bad += r;
+                checked += 8L * (2 * far + 1);
+            }
+    }
+    print_message("%ld taps folded a lane checked against fold_tap, %ld differ\n", checked,
+                  bad);
+    assert_true(checked > 10000000);
+    assert_int_equal(bad, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -553,6 +594,7 @@ int main(void)
         cmocka_unit_test(a_point_across_an_edge_lands_on_the_neighbours_side),
         cmocka_unit_test(triangle_sets_are_checked_and_bc1_refuses_them),
         cmocka_unit_test(clamp_band_walk_reads_the_folded_texels),
+        cmocka_unit_test(clamp_fold_lanes_read_the_folded_texels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -287,7 +287,10 @@ static void pair_free(pair_bufs *b)
  * Discard, Clamp's kernels inside the face) take the weights by the shared polynomial exp
  * (pk_exp2_4, four taps at a time; at levels of 8 x 8 texels or more every kept tap, each
  * row summed in a lane of its own and the lanes added after: rows_apply_t, which moves the
- * sums' order as well - measured 3.9e-7 at most, session 29), Clamp's folded sweeps and
+ * sums' order as well - measured 3.9e-7 at most, session 29; Clamp's kernels that overhang
+ * the face at those levels the same way, each tap's texel by fold_tap's rule a lane since
+ * session 33: 5.4e-7 at most, a wrong texel for folded taps moves values far more than
+ * 1e-5), Clamp's folded sweeps at smaller levels and
  * Discard's whole-kernel weight
  * (the coverage's denominator) step them by recurrence (pt_rec): the same taps, so the same
  * statuses, and each weight within about 1e-6 relatively of the expf's (the polynomial's
@@ -394,7 +397,11 @@ static void the_shared_exp2_is_within_3e_7_of_exp2(void **state)
  * pieces at resolution 0, 1 and 2 (piece_r1, piece_r2, piece_r4 and its AVX2 instance: the
  * large, middling and small footprints on triangle.ptx's 4-texel faces) and at 3 or more
  * (piece_rn and its AVX2 instance, against the general build's sweep2_t: both run the rows a
- * lane, rows_apply_t, on the 32-texel faces).
+ * lane, rows_apply_t, on the 32-texel faces). Clamp's overhanging kernels at levels of 8 x 8
+ * or more run the rows a lane with the fold a lane in both builds (rows_apply_t with FOLD),
+ * so here they are compared lane code with lane code; their texels are checked against
+ * fold_tap in test_ptextri.c (clamp_fold_lanes_read_the_folded_texels) and their values
+ * against the per-tap build above (fast_weights_match_the_per_tap_expf).
  * Checks that the recurrence ran: Clamp's values differ from the per-tap expf's in some
  * groups. */
 static void lean_sweeps_match_the_general_sweeps_bit_for_bit(void **state)
