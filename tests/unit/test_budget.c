@@ -29,6 +29,7 @@
 #include "registry.h"
 #include "native.h"
 #include "server.h"
+#include "../common/atlas_fixture.h"
 #include "../common/ptx_fixture.h"
 #include "../common/testdata.h"
 
@@ -263,18 +264,9 @@ static void test_pass_between_full_passes_counts_what_statm_sees(void **st)
 /* A small atlas set (a 64 x 48 RGBA8 image, a quad folded at its diagonal into two charts). */
 static st_set *small_atlas(void)
 {
-    st_mesh *msh = NULL;
+    st_mesh *msh = st_fixture_folded_quad();
+    assert_non_null(msh);
     st_error e;
-    assert_int_equal(st_mesh_alloc(4, 6, 2, &msh, &e), 0);
-    static const float pos[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-    static const float uv[12] = {0.05f, 0.05f, 0.45f, 0.05f, 0.45f, 0.45f,
-                                 0.55f, 0.55f, 0.95f, 0.95f, 0.55f, 0.95f};
-    static const uint32_t tp[6] = {0, 1, 2, 0, 2, 3}, tu[6] = {0, 1, 2, 3, 4, 5};
-    memcpy(msh->pos, pos, sizeof pos);
-    memcpy(msh->uv, uv, sizeof uv);
-    memcpy(msh->tri_pos, tp, sizeof tp);
-    memcpy(msh->tri_uv, tu, sizeof tu);
-    msh->tri_face[1] = 1;
     st_image img = {.w = 64, .h = 48, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = -1};
     img.data = malloc(64 * 48 * 4);
     for (int i = 0; i < 64 * 48 * 4; i++)

@@ -29,6 +29,7 @@
 #include "ptexfilter.h"
 #include "ptexres.h"
 #include "sample.h"
+#include "../common/atlas_fixture.h"
 #include "../common/cube_fixture.h"
 #include "../common/ptx_fixture.h"
 #include "../common/testdata.h"
@@ -277,19 +278,10 @@ static void test_cube(void **st)
 /* An atlas: image + a small mesh with a UV seam, and its BC1 compression */
 static st_set *make_atlas(void)
 {
-    st_mesh *m = NULL;
-    st_error e;
     /* a quad folded at its diagonal, the two triangles in separate charts (a seam) */
-    assert_int_equal(st_mesh_alloc(4, 6, 2, &m, &e), 0);
-    static const float pos[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-    static const float uv[12] = {0.05f, 0.05f, 0.45f, 0.05f, 0.45f, 0.45f,
-                                 0.55f, 0.55f, 0.95f, 0.95f, 0.55f, 0.95f};
-    static const uint32_t tp[6] = {0, 1, 2, 0, 2, 3}, tu[6] = {0, 1, 2, 3, 4, 5};
-    memcpy(m->pos, pos, sizeof pos);
-    memcpy(m->uv, uv, sizeof uv);
-    memcpy(m->tri_pos, tp, sizeof tp);
-    memcpy(m->tri_uv, tu, sizeof tu);
-    m->tri_face[1] = 1;
+    st_mesh *m = st_fixture_folded_quad();
+    assert_non_null(m);
+    st_error e;
     st_image img = {.w = 48, .h = 40, .nchan = 4, .dtype = ST_DT_U8, .alpha_chan = 3};
     img.data = malloc(48 * 40 * 4);
     uint32_t seed = 3;
