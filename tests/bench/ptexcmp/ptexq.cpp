@@ -3,6 +3,7 @@
 //
 // usage: ptexq FILE.ptx QUERIES.txt [--dump OUT] [--values OUT] [--reps N] [--min-ms M]
 //              [--whole] [--check] [--sharpness S] [--width W] [--blur B] [--lerp]
+//              [--noedgeblend]
 //   QUERIES.txt  lines `faceid u v uw1 vw1 uw2 vw2 filter [-> c0 c1 c2 [c3]]` (the format of
 //                shared/data/ptex-ref/ref_*.txt; blank and '#' lines skipped)
 //   --dump OUT   each query line again, in the reference form: the query text up to the
@@ -19,6 +20,9 @@
 //   --reps 0     no timing (dump / check only)
 //   --sharpness S  PtexFilter::Options::sharpness (the `bicubic` filter only; default 0: the
 //                  B-spline); --lerp  Options::lerp = true (default false)
+//   --noedgeblend  Options::noedgeblend = true (default false): no neighbour is read, the
+//                  kernel merged at every edge by the border mode (compare with seamtex's
+//                  Clamp: bench_ptex --modes clamp)
 //   --width W      eval's width (default 1; 0 is read as 1, as seamtex reads it)
 //   --blur B       eval's blur (default 0)
 //                these apply to every query of the run (the same meaning as bench_ptex's
@@ -64,7 +68,7 @@ int usage()
 {
     fprintf(stderr, "usage: ptexq FILE.ptx QUERIES.txt [--dump OUT] [--values OUT] [--reps N]"
                     " [--min-ms M] [--whole] [--check] [--sharpness S] [--width W] [--blur B]"
-                    " [--lerp]\n");
+                    " [--lerp] [--noedgeblend]\n");
     return 2;
 }
 
@@ -114,7 +118,7 @@ int main(int argc, char** argv)
     const char* values = 0;
     int reps = 3;
     double min_s = 0.015;
-    bool whole = false, check = false, lerp = false;
+    bool whole = false, check = false, lerp = false, noedgeblend = false;
     float sharpness = 0.0f, width = 1.0f, blur = 0.0f;
     for (int i = 3; i < argc; i++) {
         std::string a = argv[i];
@@ -125,6 +129,7 @@ int main(int argc, char** argv)
         else if (a == "--whole") whole = true;
         else if (a == "--check") check = true;
         else if (a == "--lerp") lerp = true;
+        else if (a == "--noedgeblend") noedgeblend = true;
         else if (a == "--sharpness" && i + 1 < argc) sharpness = strtof(argv[++i], 0);
         else if (a == "--width" && i + 1 < argc) width = strtof(argv[++i], 0);
         else if (a == "--blur" && i + 1 < argc) blur = strtof(argv[++i], 0);
@@ -158,7 +163,7 @@ int main(int argc, char** argv)
 
     PtexFilter* filt[8];
     for (int f = 0; f < 8; f++) {
-        PtexFilter::Options opts(kTypes[f], lerp, sharpness, false);
+        PtexFilter::Options opts(kTypes[f], lerp, sharpness, noedgeblend);
         filt[f] = PtexFilter::getFilter(tx, opts);
     }
 
