@@ -443,9 +443,17 @@ int main(int argc, char **argv)
         case O_HELP: usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
-        if (bad) {
-            fprintf(stderr, "seamtex-bench: bad value for -%c: '%s'\n", ch < 256 ? ch : '-',
-                    optarg ? optarg : "");
+        if (bad) {   /* named as given: -c, or --proto for an option without a letter */
+            const char *lname = "";
+            for (const struct option *o = opts; ch >= 256 && o->name; o++)
+                if (o->val == ch)
+                    lname = o->name;
+            if (ch < 256)
+                fprintf(stderr, "seamtex-bench: bad value for -%c: '%s'\n", ch,
+                        optarg ? optarg : "");
+            else
+                fprintf(stderr, "seamtex-bench: bad value for --%s: '%s'\n", lname,
+                        optarg ? optarg : "");
             return 2;
         }
     }

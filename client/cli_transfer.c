@@ -168,11 +168,16 @@ int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv)
             char probe[16];
             snprintf(probe, sizeof probe, "x.%.8s", argv[++i]);
             int f = strlen(argv[i]) <= 8 ? stc_fetch_format_for_path(probe) : -1;
-            if (f < 0)
-                return usage_out(FETCH_USAGE, 0);
+            if (f < 0) {
+                fprintf(stderr, "seamtex fetch: --format takes ptx, dds, exr, png or obj, not "
+                        "'%s'\n", argv[i]);
+                return CLI_USAGE;
+            }
             fmt = (unsigned)f;
         } else if (argv[i][0] == '-') {
-            return usage_out(FETCH_USAGE, 0);
+            fprintf(stderr, "seamtex fetch: %s %s (see seamtex fetch --help)\n", argv[i],
+                    strcmp(argv[i], "--format") ? "is not an option" : "needs a value");
+            return CLI_USAGE;
         } else if (!set) {
             set = argv[i];
         } else if (!file) {
@@ -260,8 +265,10 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
             continue;
         }
         if (!strcmp(a, "--level") && i + 1 < argc) {
-            if (cli_parse_u32(argv[++i], &level) || level > 9)
-                return usage_out(COMPRESS_USAGE, 0);
+            if (cli_parse_u32(argv[++i], &level) || level > 9) {
+                fprintf(stderr, "seamtex compress: --level takes 0..9, not '%s'\n", argv[i]);
+                return CLI_USAGE;
+            }
         } else if (!strcmp(a, "--naive")) {
             flags &= ~(unsigned)STC_COMPRESS_SEAM_AWARE;
         } else if (!strcmp(a, "--replace")) {
@@ -269,7 +276,9 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
         } else if (!strcmp(a, "--no-wait")) {
             wait = 0;
         } else if (a[0] == '-') {
-            return usage_out(COMPRESS_USAGE, 0);
+            fprintf(stderr, "seamtex compress: %s %s (see seamtex compress --help)\n", a,
+                    strcmp(a, "--level") ? "is not an option" : "needs a value");
+            return CLI_USAGE;
         } else if (!set) {
             set = a;
         } else if (!target) {

@@ -166,6 +166,16 @@ void cli_progress_end(cli_progress *p)
         fputc('\n', stderr);
 }
 
+int cli_check_env_port(const cli_ctx *ctx)
+{
+    if (ctx->bad_env_port && !stu_is_unix_addr(ctx->host)) {   /* not 7450 behind one's back */
+        fprintf(stderr, "%s: bad SEAMTEX_PORT '%s': not a port 1..65535\n", ctx->prog,
+                ctx->bad_env_port);
+        return CLI_USAGE;
+    }
+    return CLI_OK;
+}
+
 int cli_connect(cli_ctx *ctx)
 {
     if (ctx->cluster_seeds && ctx->route_set) {   /* --cluster: the set's owner */
@@ -180,6 +190,9 @@ int cli_connect(cli_ctx *ctx)
         stc_close(ctx->conn);
         ctx->conn = NULL;
     }
+    int rc = cli_check_env_port(ctx);
+    if (rc)
+        return rc;
     stc_opts o;
     memset(&o, 0, sizeof o);
     o.token = ctx->token;
@@ -591,6 +604,8 @@ int main(int argc, char **argv)
         uint32_t p;
         if (cli_parse_u32(env, &p) == 0 && p > 0 && p < 65536)
             ctx.port = p;
+        else
+            ctx.bad_env_port = env;   /* refused when a command connects, unless -p */
     }
     if ((env = getenv("SEAMTEX_TOKEN")) && *env)
         ctx.token = env;
@@ -616,6 +631,7 @@ int main(int argc, char **argv)
                 return CLI_USAGE;
             }
             ctx.port = u;
+            ctx.bad_env_port = NULL;
         } else if (!strcmp(a, "-t") || !strcmp(a, "--token")) {
             ctx.token = v;
         } else if (!strcmp(a, "--cluster")) {
@@ -635,8 +651,9 @@ int main(int argc, char **argv)
     unsigned seed_port = 0;
     if (ctx.cluster_seeds) {
         char first[300];
-        if (cli_cluster_first_seed(&ctx, first, sizeof first) != CLI_OK)
-            return CLI_CONNECT;
+        int rc = cli_cluster_first_seed(&ctx, first, sizeof first);
+        if (rc != CLI_OK)
+            return rc;
         char *comma = strchr(first, ',');
         if (comma)
             *comma = 0;
@@ -647,6 +664,7 @@ int main(int argc, char **argv)
         }
         ctx.host = seed_host;
         ctx.port = seed_port;
+        ctx.bad_env_port = NULL;
     }
     int rc = i >= argc ? repl(&ctx) : dispatch(&ctx, argc - i, argv + i);
     if (!ctx.conn_borrowed)

@@ -604,6 +604,68 @@ static void bench_refuses_a_non_loopback_host(void **state)
     assert_int_equal(BENCH("--rate", "-5"), 2);
 }
 
+/* `seamtex cluster` (and --cluster routing) on a daemon that is not in a cluster: the server
+ * answers CLUSTER with UNSUPPORTED, a refusal (exit 1 with its message), not a lost
+ * connection (3) with an empty message. */
+static void cluster_on_a_daemon_outside_a_cluster_exits_1_with_its_message(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("cluster"), 1);
+    assert_non_null(strstr(ERR, "UNSUPPORTED"));
+    assert_non_null(strstr(ERR, "not in a cluster"));
+    assert_int_equal(CLI("cluster", "--json"), 1);
+    assert_int_equal(OUTLEN, 0);
+    char seed[64];
+    snprintf(seed, sizeof seed, "127.0.0.1:%s", PORT);
+    assert_int_equal(runv(bin("seamtex"), NULL,
+                          (const char *const[]){ "--cluster", seed, "info", "default", NULL }), 1);
+    assert_non_null(strstr(ERR, "not in a cluster"));
+    /* a command without a set goes to the first seed, which answers it */
+    assert_int_equal(runv(bin("seamtex"), NULL,
+                          (const char *const[]){ "--cluster", seed, "ping", NULL }), 0);
+}
+
+/* $SEAMTEX_PORT is the default port (seamtex(1) ENVIRONMENT); one that is not a port is
+ * refused (2) rather than silently replaced by 7450, where another daemon may answer. -p
+ * replaces it, and --help needs no port. */
+static void seamtex_port_from_the_environment_and_a_bad_one_refused(void **state)
+{
+    (void)state;
+    setenv("SEAMTEX_PORT", PORT, 1);
+    int ok = runv(bin("seamtex"), NULL, (const char *const[]){ "ping", NULL });
+    setenv("SEAMTEX_PORT", "74x50", 1);
+    int bad = runv(bin("seamtex"), NULL, (const char *const[]){ "ping", NULL });
+    char err[sizeof ERR];
+    snprintf(err, sizeof err, "%s", ERR);
+    int bad_cluster = runv(bin("seamtex"), NULL, (const char *const[]){ "cluster", NULL });
+    int replaced = CLI("ping");
+    int help = runv(bin("seamtex"), NULL, (const char *const[]){ "ping", "--help", NULL });
+    unsetenv("SEAMTEX_PORT");
+    assert_int_equal(ok, 0);
+    assert_int_equal(bad, 2);
+    assert_non_null(strstr(err, "SEAMTEX_PORT '74x50'"));
+    assert_int_equal(bad_cluster, 2);
+    assert_int_equal(replaced, 0);
+    assert_int_equal(help, 0);
+}
+
+/* A refused value is named with the option it was given to, not only answered with the
+ * usage text (or, in seamtex-bench, as "--" for options without a letter). */
+static void a_bad_value_names_its_option(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("compress", "default", "x", "--level", "10"), 2);
+    assert_non_null(strstr(ERR, "--level takes 0..9, not '10'"));
+    assert_int_equal(CLI("fetch", "default", "x.ptx", "--format", "tiff"), 2);
+    assert_non_null(strstr(ERR, "--format takes ptx, dds, exr, png or obj, not 'tiff'"));
+    assert_int_equal(BENCH("--proto", "gopher"), 2);
+    assert_non_null(strstr(ERR, "bad value for --proto: 'gopher'"));
+    assert_int_equal(BENCH("--outfmt", "f64"), 2);
+    assert_non_null(strstr(ERR, "bad value for --outfmt: 'f64'"));
+    assert_int_equal(BENCH("-c", "0"), 2);
+    assert_non_null(strstr(ERR, "bad value for -c: '0'"));
+}
+
 /* ---- --json ------------------------------------------------------------------------------ */
 
 /* OUT parsed strictly as one JSON document (UTF-8 validated, nothing after it but a newline). */
@@ -913,6 +975,9 @@ int main(void)
         cmocka_unit_test(bench_reports_its_cpu_over_the_measured_window),
         cmocka_unit_test(bench_sample_pipeline_with_a_low_water_mark_answers_every_request),
         cmocka_unit_test(bench_refuses_a_non_loopback_host),
+        cmocka_unit_test(cluster_on_a_daemon_outside_a_cluster_exits_1_with_its_message),
+        cmocka_unit_test(seamtex_port_from_the_environment_and_a_bad_one_refused),
+        cmocka_unit_test(a_bad_value_names_its_option),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
         cmocka_unit_test(info_json_matches_the_text_and_the_library),
         cmocka_unit_test(stats_json_has_every_counter_with_its_value),
