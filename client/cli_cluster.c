@@ -31,6 +31,8 @@ static stc_cluster *open_cluster(cli_ctx *ctx, int *code)
     o.token = ctx->token;
     o.client_name = "seamtex-cli";
     o.request_timeout_ms = ctx->timeout_ms;
+    o.connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
+                                                 0: the library's 5 s (the cluster's 2 s) */
     int err = 0;
     char msg[512] = "";
     ctx->cluster = stc_cluster_open_url(seeds, &o, &err, msg, sizeof msg);

@@ -198,6 +198,8 @@ int cli_connect(cli_ctx *ctx)
     o.token = ctx->token;
     o.client_name = "seamtex-cli";
     o.request_timeout_ms = ctx->timeout_ms;
+    o.connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
+                                                 0: the library's 5 s (the cluster's 2 s) */
     char msg[256] = "";
     int err = 0;
     ctx->conn = stc_connect_opts(ctx->host, ctx->port, &o, &err, msg, sizeof msg);

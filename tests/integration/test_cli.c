@@ -23,6 +23,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <json-c/json.h>
@@ -649,6 +650,38 @@ static void seamtex_port_from_the_environment_and_a_bad_one_refused(void **state
     assert_int_equal(help, 0);
 }
 
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec / 1e9;
+}
+
+/* --timeout bounds the whole wait, HELLO included: a server that accepts and never answers
+ * makes `seamtex --timeout 200 ping` give up (exit 3, ETIMEDOUT) long before the library's
+ * 5 s connect default, which it used to wait out whatever --timeout said. */
+static void timeout_bounds_the_connect_and_hello_too(void **state)
+{
+    (void)state;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);   /* listens, never accepts: the kernel does */
+    assert_true(fd >= 0);
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+    socklen_t al = sizeof a;
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    assert_int_equal(listen(fd, 4), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    char port[16];
+    snprintf(port, sizeof port, "%u", ntohs(a.sin_port));
+    double t0 = now_s();
+    int rc = runv(bin("seamtex"), NULL,
+                  (const char *const[]){ "-p", port, "--timeout", "200", "ping", NULL });
+    double took = now_s() - t0;
+    close(fd);
+    assert_int_equal(rc, 3);
+    assert_non_null(strstr(ERR, "ETIMEDOUT"));
+    assert_true(took < 4.0);   /* 0.2 s asked; the old wait was 5 s */
+}
+
 /* A refused value is named with the option it was given to, not only answered with the
  * usage text (or, in seamtex-bench, as "--" for options without a letter). */
 static void a_bad_value_names_its_option(void **state)
@@ -978,6 +1011,7 @@ int main(void)
         cmocka_unit_test(cluster_on_a_daemon_outside_a_cluster_exits_1_with_its_message),
         cmocka_unit_test(seamtex_port_from_the_environment_and_a_bad_one_refused),
         cmocka_unit_test(a_bad_value_names_its_option),
+        cmocka_unit_test(timeout_bounds_the_connect_and_hello_too),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
         cmocka_unit_test(info_json_matches_the_text_and_the_library),
         cmocka_unit_test(stats_json_has_every_counter_with_its_value),
