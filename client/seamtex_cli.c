@@ -562,8 +562,11 @@ static int repl(cli_ctx *ctx)
     char *line = NULL;
     size_t cap = 0;
     for (;;) {
-        if (tty) {
-            printf("seamtex %s:%u> ", ctx->host, ctx->port);
+        if (tty) {   /* a unix: host has no port (seamtex(1)) */
+            if (stu_is_unix_addr(ctx->host))
+                printf("seamtex %s> ", ctx->host);
+            else
+                printf("seamtex %s:%u> ", ctx->host, ctx->port);
             fflush(stdout);
         }
         if (getline(&line, &cap, stdin) < 0)

@@ -682,6 +682,65 @@ static void timeout_bounds_the_connect_and_hello_too(void **state)
     assert_true(took < 4.0);   /* 0.2 s asked; the old wait was 5 s */
 }
 
+/* Runs seamtex with stdin and stdout on a pseudo-terminal (interactive mode prompts only on a
+ * terminal), writes `input`, and collects what the terminal shows into OUT (input echo
+ * included). Returns the exit status. */
+static int run_on_a_tty(const char *const *args, const char *input)
+{
+    int m = posix_openpt(O_RDWR | O_NOCTTY);
+    assert_true(m >= 0);
+    assert_int_equal(grantpt(m), 0);
+    assert_int_equal(unlockpt(m), 0);
+    const char *slave = ptsname(m);
+    assert_non_null(slave);
+    const char *argv[16];
+    int ac = 0;
+    argv[ac++] = bin("seamtex");
+    for (int i = 0; args[i] && ac < 15; i++)
+        argv[ac++] = args[i];
+    argv[ac] = NULL;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 0, slave, O_RDWR | O_NOCTTY, 0);
+    posix_spawn_file_actions_addopen(&fa, 1, slave, O_RDWR | O_NOCTTY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, ERRF, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addclose(&fa, m);
+    pid_t pid;
+    assert_int_equal(posix_spawn(&pid, argv[0], &fa, NULL, (char *const *)argv, environ), 0);
+    posix_spawn_file_actions_destroy(&fa);
+    assert_true(write(m, input, strlen(input)) == (ssize_t)strlen(input));
+    size_t n = 0;
+    for (;;) {                           /* EIO once the child closed the terminal */
+        ssize_t r = read(m, OUT + n, sizeof OUT - 1 - n);
+        if (r <= 0)
+            break;
+        n += (size_t)r;
+    }
+    OUT[n] = '\0';
+    OUTLEN = n;
+    close(m);
+    int st;
+    while (waitpid(pid, &st, 0) < 0)
+        ;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/* The interactive prompt names the server as -h and -p give it; a unix: host has no port
+ * (seamtex(1): "the port is then unused"), so none is shown (it printed ":7450"). The
+ * prompt comes before any connection: no daemon is needed for it. */
+static void the_prompt_names_a_unix_host_without_a_port(void **state)
+{
+    (void)state;
+    assert_int_equal(run_on_a_tty((const char *const[]){ "-p", PORT, NULL }, "quit\n"), 0);
+    char want[64];
+    snprintf(want, sizeof want, "seamtex 127.0.0.1:%s> ", PORT);
+    assert_non_null(strstr(OUT, want));
+    assert_int_equal(run_on_a_tty((const char *const[]){ "-h", "unix:/nonexistent/seamtex.sock",
+                                                         NULL }, "quit\n"), 0);
+    assert_non_null(strstr(OUT, "seamtex unix:/nonexistent/seamtex.sock> "));
+    assert_null(strstr(OUT, "sock:"));
+}
+
 /* A refused value is named with the option it was given to, not only answered with the
  * usage text (or, in seamtex-bench, as "--" for options without a letter). */
 static void a_bad_value_names_its_option(void **state)
@@ -1012,6 +1071,7 @@ int main(void)
         cmocka_unit_test(seamtex_port_from_the_environment_and_a_bad_one_refused),
         cmocka_unit_test(a_bad_value_names_its_option),
         cmocka_unit_test(timeout_bounds_the_connect_and_hello_too),
+        cmocka_unit_test(the_prompt_names_a_unix_host_without_a_port),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
         cmocka_unit_test(info_json_matches_the_text_and_the_library),
         cmocka_unit_test(stats_json_has_every_counter_with_its_value),
