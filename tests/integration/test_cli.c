@@ -756,6 +756,12 @@ static void a_bad_value_names_its_option(void **state)
     assert_non_null(strstr(ERR, "bad value for --outfmt: 'f64'"));
     assert_int_equal(BENCH("-c", "0"), 2);
     assert_non_null(strstr(ERR, "bad value for -c: '0'"));
+    /* options of --dir queries and of face queries, crossed: usage, refused before sending
+     * (--lerp with --dir went to the server, whose INVALID made it exit 1) */
+    assert_int_equal(CLI("sample", "default", "--dir", "1", "0", "0", "--lerp"), 2);
+    assert_non_null(strstr(ERR, "--lerp is for face queries, not --dir"));
+    assert_int_equal(CLI("sample", "default", "0", "0.5", "0.5", "--cone", "0.1"), 2);
+    assert_non_null(strstr(ERR, "--cone is a footprint of --dir queries"));
 }
 
 /* ---- --json ------------------------------------------------------------------------------ */
