@@ -25,8 +25,9 @@ static int usage_out(const char *text, int help)
 
 static const char *const UPLOAD_USAGE =
 "usage: seamtex upload FILE NAME [options]\n"
-"Uploads FILE (Ptex .ptx, an image, EXR, OBJ or Draco mesh) as set NAME.\n"
-"  --format HINT      ptx | png | jpg | exr | hdr | obj | drc (default: from the extension)\n"
+"Uploads FILE (Ptex .ptx, an image, EXR, OBJ or Draco mesh, BC1 .dds) as set NAME.\n"
+"  --format HINT      ptx | png | jpg | exr | hdr | obj | drc | dds | tif | tga | bmp\n"
+"                     (default: FILE's extension, which must be one of those)\n"
 "  --texture SET      for a mesh: the set holding its texture (atlas)\n"
 "  --cube SPEC        for an environment map: cube layout, e.g. latlong:512 or strip_v\n"
 "                     (none auto strip_v strip_h cross_h cross_v latlong[:N] ptex)\n"
