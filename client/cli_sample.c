@@ -39,7 +39,7 @@ static const char *const SAMPLE_USAGE =
 "  --max-aniso N  --sharpness S  --width W  --blur B\n"
 "  --lerp             Ptex's lerp option: the ptex-gaussian and bicubic-family kernels\n"
 "                     blended toward the next lower resolution (not with --dir)\n"
-"  --binary           write the values raw (little-endian, count x channels) to stdout\n"
+"  --binary           write the values raw (native byte order, count x channels) to stdout\n"
 "  --format f32|unorm8|unorm16|f16   value format on the wire and in --binary output\n"
 "                     (f32; f16 travels as binary16 and is written as f32)\n"
 "  --compact          send the queries compact (PROTOCOL.md 4.4.1): u, v rounded to\n"
