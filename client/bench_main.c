@@ -658,7 +658,7 @@ int main(int argc, char **argv)
         bench_result *r = &res[t];
         if (ths[t].err[0]) {
             fprintf(stderr, "seamtex-bench: %s\n", ths[t].err);
-            rc = 1;
+            rc = ths[t].no_conn ? 3 : rc == 3 ? 3 : 1;   /* seamtex-bench(1) EXIT STATUS */
         }
         stc_hist_merge(&all->corrected, &r->corrected);
         stc_hist_merge(&all->service, &r->service);

@@ -341,6 +341,15 @@ static void no_server_exits_3(void **state)
     assert_non_null(strstr(ERR, "cannot connect"));
     assert_int_equal(runv(bin("seamtex-bench"), NULL,
                           (const char *const[]){ "-p", port, "-d", "0.1", NULL }), 3);
+    /* the same through libseamtex's handles (--lib, --cluster): it was 1 */
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "--lib", "-p", port, "-o", "sample", "-d", "0.1",
+                                                 "-w", "0", NULL }), 3);
+    char seed[64];
+    snprintf(seed, sizeof seed, "127.0.0.1:%s", port);
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "--cluster", seed, "-o", "sample", "-d", "0.1",
+                                                 "-w", "0", NULL }), 3);
 }
 
 static void upload_ls_sample_delete_round_trip(void **state)
@@ -620,6 +629,11 @@ static void cluster_on_a_daemon_outside_a_cluster_exits_1_with_its_message(void 
     snprintf(seed, sizeof seed, "127.0.0.1:%s", PORT);
     assert_int_equal(runv(bin("seamtex"), NULL,
                           (const char *const[]){ "--cluster", seed, "info", "default", NULL }), 1);
+    assert_non_null(strstr(ERR, "not in a cluster"));
+    /* seamtex-bench --cluster: the seed answered and refused: 1, not 3 */
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "--cluster", seed, "-o", "sample", "-d", "0.1",
+                                                 "-w", "0", NULL }), 1);
     assert_non_null(strstr(ERR, "not in a cluster"));
     /* a command without a set goes to the first seed, which answers it */
     assert_int_equal(runv(bin("seamtex"), NULL,
