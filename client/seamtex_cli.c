@@ -218,8 +218,12 @@ int cli_connect(cli_ctx *ctx)
 int cli_fail(cli_ctx *ctx, const char *what, int code)
 {
     const char *m = ctx->conn ? stc_errmsg(ctx->conn) : "";
+    /* PERM after a HELLO that carried a token: the token was wrong, not missing */
+    const char *wrong = code == STC_EPERM && ctx->token && ctx->conn &&
+                        !stc_server_info(ctx->conn)->authenticated
+                        ? " (the token given, -t or $SEAMTEX_TOKEN, was not accepted)" : "";
     if (stc_is_server_error(code) && m && *m)   /* the library's "OPCODE: STATUS: text" */
-        fprintf(stderr, "%s: %s: %s\n", ctx->prog, what, m);
+        fprintf(stderr, "%s: %s: %s%s\n", ctx->prog, what, m, wrong);
     else
         fprintf(stderr, "%s: %s: %s%s%s\n", ctx->prog, what, stc_strerror(code),
                 m && *m ? ": " : "", m ? m : "");

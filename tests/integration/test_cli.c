@@ -755,6 +755,37 @@ static void the_prompt_names_a_unix_host_without_a_port(void **state)
     assert_null(strstr(OUT, "sock:"));
 }
 
+/* A daemon with a token: a mutation without it is PERM (exit 1); with a wrong one the CLI
+ * says that the token it sent was not accepted (the server's message asks for "the server's
+ * token" either way); with the right one, from $SEAMTEX_TOKEN, it runs. */
+static void a_wrong_token_is_named_as_such(void **state)
+{
+    (void)state;
+    st_daemon t;
+    assert_int_equal(st_daemon_init(&t), 0);
+    const char *extra[] = {"--token", "s3cret", NULL};
+    assert_int_equal(st_daemon_start(&t, extra), 0);
+    char port[16];
+    snprintf(port, sizeof port, "%d", t.port);
+    int none = runv(bin("seamtex"), NULL,
+                    (const char *const[]){ "-p", port, "delete", "default", NULL });
+    int none_named = strstr(ERR, "PERM") && !strstr(ERR, "not accepted");
+    int wrong = runv(bin("seamtex"), NULL,
+                     (const char *const[]){ "-p", port, "-t", "guess", "delete", "default", NULL });
+    int wrong_named = strstr(ERR, "PERM") && strstr(ERR, "was not accepted");
+    setenv("SEAMTEX_TOKEN", "s3cret", 1);
+    int right = runv(bin("seamtex"), NULL,
+                     (const char *const[]){ "-p", port, "delete", "default", NULL });
+    unsetenv("SEAMTEX_TOKEN");
+    assert_int_equal(st_daemon_stop(&t, 10000), 0);
+    st_daemon_cleanup(&t);
+    assert_int_equal(none, 1);
+    assert_true(none_named);
+    assert_int_equal(wrong, 1);
+    assert_true(wrong_named);
+    assert_int_equal(right, 0);
+}
+
 /* A refused value is named with the option it was given to, not only answered with the
  * usage text (or, in seamtex-bench, as "--" for options without a letter). */
 static void a_bad_value_names_its_option(void **state)
@@ -1092,6 +1123,7 @@ int main(void)
         cmocka_unit_test(a_bad_value_names_its_option),
         cmocka_unit_test(timeout_bounds_the_connect_and_hello_too),
         cmocka_unit_test(the_prompt_names_a_unix_host_without_a_port),
+        cmocka_unit_test(a_wrong_token_is_named_as_such),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
         cmocka_unit_test(info_json_matches_the_text_and_the_library),
         cmocka_unit_test(stats_json_has_every_counter_with_its_value),
