@@ -138,6 +138,7 @@ typedef struct bench_thread {
     unsigned    lowat_k;       /* SO_RCVLOWAT: wake for this many whole replies (0 = off) */
     bench_result *res;         /* caller-owned, zeroed, histograms reset */
     char        err[256];      /* first fatal error of the thread */
+    int         no_conn;       /* --cluster / --lib: its handle could not connect (exit 3) */
 } bench_thread;
 
 static inline uint64_t bench_now_ns(void)

@@ -67,6 +67,8 @@ static void opts_of(const bench_cfg *cfg, const lib_ctx *x, uint64_t *rng, stc_s
         o->want = STC_WANT_UV16 | (x->nfaces <= 65536 ? STC_WANT_FACE16 : 0);
 }
 
+/* 0, or -1 with msg set; -2 when no connection could be made (a server that answered and
+ * refused, e.g. CLUSTER from a node outside a cluster, is -1). */
 static int open_handle(lib_ctx *x, const bench_cfg *cfg, char *msg, size_t ml)
 {
     snprintf(x->names, sizeof x->names, "%s", cfg->set);
@@ -87,7 +89,7 @@ static int open_handle(lib_ctx *x, const bench_cfg *cfg, char *msg, size_t ml)
     if (cfg->cluster) {
         x->cl = stc_cluster_open_url(cfg->cluster, &o, &err, msg, ml);
         if (!x->cl)
-            return -1;
+            return stc_is_server_error(err) ? -1 : -2;
         rc = stc_cluster_info(x->cl, x->sets[0], 0, 0, &info);
         if (rc)
             snprintf(msg, ml, "info %s: %s %s", x->sets[0], stc_strerror(rc),
@@ -95,7 +97,7 @@ static int open_handle(lib_ctx *x, const bench_cfg *cfg, char *msg, size_t ml)
     } else {
         x->c = stc_connect_opts(cfg->host, (unsigned)atoi(cfg->port), &o, &err, msg, ml);
         if (!x->c)
-            return -1;
+            return stc_is_server_error(err) ? -1 : -2;
         rc = stc_info_get(x->c, x->sets[0], 0, 0, &info);
         if (rc)
             snprintf(msg, ml, "info %s: %s %s", x->sets[0], stc_strerror(rc), stc_errmsg(x->c));
@@ -227,8 +229,9 @@ int bench_lib_run(bench_thread *th)
     lib_ctx x;
     memset(&x, 0, sizeof x);
     x.rng = th->cfg->seed * 7919u + th->index + 1;
-    int rc = -1;
-    if (open_handle(&x, th->cfg, th->err, sizeof th->err) == 0) {
+    int rc = -1, opened = open_handle(&x, th->cfg, th->err, sizeof th->err);
+    th->no_conn = opened == -2;
+    if (opened == 0) {
         uint64_t now = bench_now_ns();     /* every thread begins at the same instant */
         if (now < th->t_start) {
             struct timespec ts = { (time_t)((th->t_start - now) / 1000000000ull),

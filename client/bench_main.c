@@ -443,9 +443,17 @@ int main(int argc, char **argv)
         case O_HELP: usage(stdout); return 0;
         default: usage(stderr); return 2;
         }
-        if (bad) {
-            fprintf(stderr, "seamtex-bench: bad value for -%c: '%s'\n", ch < 256 ? ch : '-',
-                    optarg ? optarg : "");
+        if (bad) {   /* named as given: -c, or --proto for an option without a letter */
+            const char *lname = "";
+            for (const struct option *o = opts; ch >= 256 && o->name; o++)
+                if (o->val == ch)
+                    lname = o->name;
+            if (ch < 256)
+                fprintf(stderr, "seamtex-bench: bad value for -%c: '%s'\n", ch,
+                        optarg ? optarg : "");
+            else
+                fprintf(stderr, "seamtex-bench: bad value for --%s: '%s'\n", lname,
+                        optarg ? optarg : "");
             return 2;
         }
     }
@@ -650,7 +658,7 @@ int main(int argc, char **argv)
         bench_result *r = &res[t];
         if (ths[t].err[0]) {
             fprintf(stderr, "seamtex-bench: %s\n", ths[t].err);
-            rc = 1;
+            rc = ths[t].no_conn ? 3 : rc == 3 ? 3 : 1;   /* seamtex-bench(1) EXIT STATUS */
         }
         stc_hist_merge(&all->corrected, &r->corrected);
         stc_hist_merge(&all->service, &r->service);

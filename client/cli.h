@@ -34,9 +34,14 @@ typedef struct cli_ctx {
     const char *route_set;     /* the set the command names (routing under --cluster) */
     struct stc_cluster *cluster;   /* opened by the first routed command (cli_cluster.c) */
     int         conn_borrowed; /* conn belongs to cluster */
+    const char *bad_env_port;  /* $SEAMTEX_PORT when it is not a port and -p did not replace it */
 } cli_ctx;
 
-/* Opens ctx->conn; on failure prints why and returns CLI_CONNECT. */
+/* CLI_USAGE after saying so when $SEAMTEX_PORT is not a port, -p did not replace it and the
+ * host is not a unix: address; else CLI_OK. */
+int cli_check_env_port(const cli_ctx *ctx);
+/* Opens ctx->conn; on failure prints why and returns CLI_CONNECT (cli_check_env_port's
+ * CLI_USAGE first). */
 int cli_connect(cli_ctx *ctx);
 /* Prints "seamtex: <what>: <error>" for a failed library call and returns the exit code. */
 int cli_fail(cli_ctx *ctx, const char *what, int code);

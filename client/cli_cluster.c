@@ -12,10 +12,15 @@
 #include "seamtex_cluster.h"
 #include "seamtex_etcd.h"
 
-static stc_cluster *open_cluster(cli_ctx *ctx)
+/* The cluster handle, opened once. NULL after printing why, with *code the exit code: 1 when a
+ * seed answered and refused (a daemon not in a cluster answers CLUSTER with UNSUPPORTED), 3
+ * when none could be reached. */
+static stc_cluster *open_cluster(cli_ctx *ctx, int *code)
 {
     if (ctx->cluster)
         return ctx->cluster;
+    if (!ctx->cluster_seeds && (*code = cli_check_env_port(ctx)) != CLI_OK)
+        return NULL;
     char seeds[300];
     if (ctx->cluster_seeds)
         snprintf(seeds, sizeof seeds, "%s", ctx->cluster_seeds);
@@ -26,11 +31,18 @@ static stc_cluster *open_cluster(cli_ctx *ctx)
     o.token = ctx->token;
     o.client_name = "seamtex-cli";
     o.request_timeout_ms = ctx->timeout_ms;
+    o.connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
+                                                 0: the library's 5 s (the cluster's 2 s) */
     int err = 0;
     char msg[512] = "";
     ctx->cluster = stc_cluster_open_url(seeds, &o, &err, msg, sizeof msg);
-    if (!ctx->cluster)
-        fprintf(stderr, "%s: cluster %s: %s: %s\n", ctx->prog, seeds, stc_strerror(err), msg);
+    if (!ctx->cluster) {
+        if (stc_is_server_error(err) && msg[0])   /* the server's "OPCODE: STATUS: text" */
+            fprintf(stderr, "%s: cluster %s: %s\n", ctx->prog, seeds, msg);
+        else
+            fprintf(stderr, "%s: cluster %s: %s: %s\n", ctx->prog, seeds, stc_strerror(err), msg);
+        *code = stc_is_server_error(err) ? CLI_SERVER : CLI_CONNECT;
+    }
     return ctx->cluster;
 }
 
@@ -40,19 +52,21 @@ int cli_cluster_first_seed(cli_ctx *ctx, char *out, size_t cap)
         snprintf(out, cap, "%s", ctx->cluster_seeds);
         return CLI_OK;
     }
-    stc_cluster *cl = open_cluster(ctx);
+    int code = CLI_CONNECT;
+    stc_cluster *cl = open_cluster(ctx, &code);
     const stc_cluster_node *nodes;
     if (!cl || stc_cluster_nodes(cl, &nodes) == 0)
-        return CLI_CONNECT;
+        return code;
     snprintf(out, cap, "%s", nodes[0].addr);
     return CLI_OK;
 }
 
 int cli_connect_routed(cli_ctx *ctx, const char *set)
 {
-    stc_cluster *cl = open_cluster(ctx);
+    int code = CLI_CONNECT;
+    stc_cluster *cl = open_cluster(ctx, &code);
     if (!cl)
-        return CLI_CONNECT;
+        return code;
     size_t order[256];
     size_t n = stc_cluster_rank(cl, set, order, 256);
     for (size_t r = 0; r < n; r++) {
@@ -95,9 +109,10 @@ int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv)
             return CLI_USAGE;
         }
     }
-    stc_cluster *cl = open_cluster(ctx);
+    int code = CLI_CONNECT;
+    stc_cluster *cl = open_cluster(ctx, &code);
     if (!cl)
-        return CLI_CONNECT;
+        return code;
     const stc_cluster_node *nodes;
     size_t nn = stc_cluster_nodes(cl, &nodes);
     unsigned R = stc_cluster_replicas(cl);

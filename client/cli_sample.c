@@ -39,7 +39,7 @@ static const char *const SAMPLE_USAGE =
 "  --max-aniso N  --sharpness S  --width W  --blur B\n"
 "  --lerp             Ptex's lerp option: the ptex-gaussian and bicubic-family kernels\n"
 "                     blended toward the next lower resolution (not with --dir)\n"
-"  --binary           write the values raw (little-endian, count x channels) to stdout\n"
+"  --binary           write the values raw (native byte order, count x channels) to stdout\n"
 "  --format f32|unorm8|unorm16|f16   value format on the wire and in --binary output\n"
 "                     (f32; f16 travels as binary16 and is written as f32)\n"
 "  --compact          send the queries compact (PROTOCOL.md 4.4.1): u, v rounded to\n"
@@ -280,13 +280,22 @@ int cli_cmd_sample(cli_ctx *ctx, int argc, char **argv)
             return CLI_USAGE;
         }
     }
-    if (!set || (qfile && npos) || (!qfile && npos != 3) || (have_cone && !dir)) {
+    if (have_cone && !dir) {
+        fprintf(stderr, "seamtex sample: --cone is a footprint of --dir queries\n");
+        return CLI_USAGE;
+    }
+    if (!set || (qfile && npos) || (!qfile && npos != 3)) {
         fputs(SAMPLE_USAGE, stderr);
         return CLI_USAGE;
     }
     if (dir && (o.want & STC_WANT_UV16)) {
         fprintf(stderr, "seamtex sample: --compact is for face queries, not --dir (PROTOCOL.md "
                         "4.4.1: the compact layouts are SAMPLE's)\n");
+        return CLI_USAGE;
+    }
+    if (dir && lerp) {   /* refused here like --compact, not sent for the server's INVALID */
+        fprintf(stderr, "seamtex sample: --lerp is for face queries, not --dir (the lerp flag "
+                        "is SAMPLE's, PROTOCOL.md 4.4)\n");
         return CLI_USAGE;
     }
     if (binary && isatty(STDOUT_FILENO)) {

@@ -25,8 +25,9 @@ static int usage_out(const char *text, int help)
 
 static const char *const UPLOAD_USAGE =
 "usage: seamtex upload FILE NAME [options]\n"
-"Uploads FILE (Ptex .ptx, an image, EXR, OBJ or Draco mesh) as set NAME.\n"
-"  --format HINT      ptx | png | jpg | exr | hdr | obj | drc (default: from the extension)\n"
+"Uploads FILE (Ptex .ptx, an image, EXR, OBJ or Draco mesh, BC1 .dds) as set NAME.\n"
+"  --format HINT      ptx | png | jpg | exr | hdr | obj | drc | dds | tif | tga | bmp\n"
+"                     (default: FILE's extension, which must be one of those)\n"
 "  --texture SET      for a mesh: the set holding its texture (atlas)\n"
 "  --cube SPEC        for an environment map: cube layout, e.g. latlong:512 or strip_v\n"
 "                     (none auto strip_v strip_h cross_h cross_v latlong[:N] ptex)\n"
@@ -168,11 +169,16 @@ int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv)
             char probe[16];
             snprintf(probe, sizeof probe, "x.%.8s", argv[++i]);
             int f = strlen(argv[i]) <= 8 ? stc_fetch_format_for_path(probe) : -1;
-            if (f < 0)
-                return usage_out(FETCH_USAGE, 0);
+            if (f < 0) {
+                fprintf(stderr, "seamtex fetch: --format takes ptx, dds, exr, png or obj, not "
+                        "'%s'\n", argv[i]);
+                return CLI_USAGE;
+            }
             fmt = (unsigned)f;
         } else if (argv[i][0] == '-') {
-            return usage_out(FETCH_USAGE, 0);
+            fprintf(stderr, "seamtex fetch: %s %s (see seamtex fetch --help)\n", argv[i],
+                    strcmp(argv[i], "--format") ? "is not an option" : "needs a value");
+            return CLI_USAGE;
         } else if (!set) {
             set = argv[i];
         } else if (!file) {
@@ -260,8 +266,10 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
             continue;
         }
         if (!strcmp(a, "--level") && i + 1 < argc) {
-            if (cli_parse_u32(argv[++i], &level) || level > 9)
-                return usage_out(COMPRESS_USAGE, 0);
+            if (cli_parse_u32(argv[++i], &level) || level > 9) {
+                fprintf(stderr, "seamtex compress: --level takes 0..9, not '%s'\n", argv[i]);
+                return CLI_USAGE;
+            }
         } else if (!strcmp(a, "--naive")) {
             flags &= ~(unsigned)STC_COMPRESS_SEAM_AWARE;
         } else if (!strcmp(a, "--replace")) {
@@ -269,7 +277,9 @@ int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv)
         } else if (!strcmp(a, "--no-wait")) {
             wait = 0;
         } else if (a[0] == '-') {
-            return usage_out(COMPRESS_USAGE, 0);
+            fprintf(stderr, "seamtex compress: %s %s (see seamtex compress --help)\n", a,
+                    strcmp(a, "--level") ? "is not an option" : "needs a value");
+            return CLI_USAGE;
         } else if (!set) {
             set = a;
         } else if (!target) {

@@ -78,7 +78,7 @@ static int bad_reply(stc_conn *c, const char *why)
     return stc__break(c, STC_EPROTO, "malformed reply: %s", why ? why : "?");
 }
 
-static int check_name(stc_conn *c, const char *name)
+int stc__check_name(stc_conn *c, const char *name)
 {
     if (!stp_name_valid_cstr(name))
         return stc__fail(c, STC_EINVAL, "'%s' is not a valid set name (1..255 of A-Z a-z 0-9 . _ -, "
@@ -114,7 +114,7 @@ int stc_delete(stc_conn *c, const char *set)
     stc_frame f;
     uint32_t id;
     int rc = stc__begin_blocking(c);
-    if (rc || (rc = check_name(c, set)) != 0 || (rc = start(c, STP_OP_DELETE, 0, &id)) != 0)
+    if (rc || (rc = stc__check_name(c, set)) != 0 || (rc = start(c, STP_OP_DELETE, 0, &id)) != 0)
         return rc;
     if ((rc = encoded(c, stp_enc_name_req(&c->out, STP_OP_DELETE, id, tmo(c), set))) != 0)
         return rc;
@@ -310,7 +310,7 @@ int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t fac
     stc_frame f;
     uint32_t id;
     int rc = stc__begin_blocking(c);
-    if (rc || (rc = check_name(c, set)) != 0)
+    if (rc || (rc = stc__check_name(c, set)) != 0)
         return rc;
     if (!out)
         return stc__fail(c, STC_EINVAL, "out is NULL");
@@ -337,7 +337,7 @@ int stc_reply_info(stc_conn *c, const stc_reply *r, stc_info *out)
 int stc__fill_params(stc_conn *c, const char *set, const stc_sample_opts *o, size_t n,
                      stp_sample_params *p)
 {
-    int rc = check_name(c, set);
+    int rc = stc__check_name(c, set);
     if (rc)
         return rc;
     if (!o)
@@ -577,7 +577,7 @@ int stc_compress(stc_conn *c, const char *set, const char *target, unsigned leve
     const char *why = NULL;
     uint32_t id;
     int rc = stc__begin_blocking(c);
-    if (rc || (rc = check_name(c, set)) != 0 || (rc = check_name(c, target)) != 0)
+    if (rc || (rc = stc__check_name(c, set)) != 0 || (rc = stc__check_name(c, target)) != 0)
         return rc;
     if (level > 9 || flags > 3 || !job_id)
         return stc__fail(c, STC_EINVAL, "level over 9, unknown flags or job_id NULL");
@@ -787,7 +787,7 @@ int stc_append_info(stc_conn *c, const char *set, uint32_t *reqid)
 {
     uint32_t id;
     int rc = stc__begin(c);
-    if (rc || (rc = check_name(c, set)) != 0)
+    if (rc || (rc = stc__check_name(c, set)) != 0)
         return rc;
     if (!reqid)
         return stc__fail(c, STC_EINVAL, "reqid is NULL");

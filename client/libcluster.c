@@ -81,8 +81,10 @@ static int ask_cluster(stc_cluster *cl, stc_conn *c)
     stc_reply r;
     if (rc == 0)
         rc = stc_get_reply(c, -1, &r);
-    if (rc == 0 && r.status)
-        rc = r.status;
+    if (rc == 0 && r.status) {   /* refused (UNSUPPORTED: not a cluster node): its message */
+        snprintf(cl->msg, sizeof cl->msg, "%s", r.errmsg);
+        return r.status;
+    }
     if (rc) {
         snprintf(cl->msg, sizeof cl->msg, "CLUSTER: %s", stc_errmsg(c));
         return rc;

@@ -77,6 +77,9 @@ typedef struct stc_frame {
 /* Records an error message (and returns code). Sticky codes also break the connection. */
 int stc__fail(stc_conn *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 int stc__break(stc_conn *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+/* 0, or STC_EINVAL with the rule in the message when name is not a valid set name (every
+ * call that sends one: libcalls.c, libxfer.c). */
+int stc__check_name(stc_conn *c, const char *name);
 /* Start of every call: drops the previously returned reply, checks the sticky error, clears
  * the message. */
 int stc__begin(stc_conn *c);

@@ -97,8 +97,8 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     int rc, inflight = 0, win = window_size(c);
     uint64_t sent, acked;
 
-    if (!stp_name_valid_cstr(set))
-        return stc__fail(c, STC_EINVAL, "'%s' is not a valid set name", set ? set : "(null)");
+    if ((rc = stc__check_name(c, set)) != 0)
+        return rc;
     if (o && o->options && strlen(o->options) > STP_MAX_OPTIONS)
         return stc__fail(c, STC_EINVAL, "options longer than %d bytes", STP_MAX_OPTIONS);
     if (hint && strlen(hint) > STP_MAX_HINT)
@@ -303,8 +303,12 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
         int f = stc_fetch_format_for_path(path);
         format = f < 0 ? STC_FETCH_PTX : (unsigned)f;   /* no known extension: Ptex */
     }
-    if (!stp_name_valid_cstr(set) || !path || !stp_fetch_format_name(format))
-        return stc__fail(c, STC_EINVAL, "bad set name, path or format");
+    if ((rc = stc__check_name(c, set)) != 0)
+        return rc;
+    if (!path)
+        return stc__fail(c, STC_EINVAL, "path is NULL");
+    if (!stp_fetch_format_name(format))
+        return stc__fail(c, STC_EINVAL, "fetch format %u is not one libseamtex knows", format);
     if ((size_t)snprintf(part, sizeof part, "%s.part", path) >= sizeof part)
         return stc__fail(c, STC_EINVAL, "path too long");
 

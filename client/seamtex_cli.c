@@ -166,6 +166,16 @@ void cli_progress_end(cli_progress *p)
         fputc('\n', stderr);
 }
 
+int cli_check_env_port(const cli_ctx *ctx)
+{
+    if (ctx->bad_env_port && !stu_is_unix_addr(ctx->host)) {   /* not 7450 behind one's back */
+        fprintf(stderr, "%s: bad SEAMTEX_PORT '%s': not a port 1..65535\n", ctx->prog,
+                ctx->bad_env_port);
+        return CLI_USAGE;
+    }
+    return CLI_OK;
+}
+
 int cli_connect(cli_ctx *ctx)
 {
     if (ctx->cluster_seeds && ctx->route_set) {   /* --cluster: the set's owner */
@@ -180,11 +190,16 @@ int cli_connect(cli_ctx *ctx)
         stc_close(ctx->conn);
         ctx->conn = NULL;
     }
+    int rc = cli_check_env_port(ctx);
+    if (rc)
+        return rc;
     stc_opts o;
     memset(&o, 0, sizeof o);
     o.token = ctx->token;
     o.client_name = "seamtex-cli";
     o.request_timeout_ms = ctx->timeout_ms;
+    o.connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
+                                                 0: the library's 5 s (the cluster's 2 s) */
     char msg[256] = "";
     int err = 0;
     ctx->conn = stc_connect_opts(ctx->host, ctx->port, &o, &err, msg, sizeof msg);
@@ -203,8 +218,12 @@ int cli_connect(cli_ctx *ctx)
 int cli_fail(cli_ctx *ctx, const char *what, int code)
 {
     const char *m = ctx->conn ? stc_errmsg(ctx->conn) : "";
+    /* PERM after a HELLO that carried a token: the token was wrong, not missing */
+    const char *wrong = code == STC_EPERM && ctx->token && ctx->conn &&
+                        !stc_server_info(ctx->conn)->authenticated
+                        ? " (the token given, -t or $SEAMTEX_TOKEN, was not accepted)" : "";
     if (stc_is_server_error(code) && m && *m)   /* the library's "OPCODE: STATUS: text" */
-        fprintf(stderr, "%s: %s: %s\n", ctx->prog, what, m);
+        fprintf(stderr, "%s: %s: %s%s\n", ctx->prog, what, m, wrong);
     else
         fprintf(stderr, "%s: %s: %s%s%s\n", ctx->prog, what, stc_strerror(code),
                 m && *m ? ": " : "", m ? m : "");
@@ -547,8 +566,11 @@ static int repl(cli_ctx *ctx)
     char *line = NULL;
     size_t cap = 0;
     for (;;) {
-        if (tty) {
-            printf("seamtex %s:%u> ", ctx->host, ctx->port);
+        if (tty) {   /* a unix: host has no port (seamtex(1)) */
+            if (stu_is_unix_addr(ctx->host))
+                printf("seamtex %s> ", ctx->host);
+            else
+                printf("seamtex %s:%u> ", ctx->host, ctx->port);
             fflush(stdout);
         }
         if (getline(&line, &cap, stdin) < 0)
@@ -591,6 +613,8 @@ int main(int argc, char **argv)
         uint32_t p;
         if (cli_parse_u32(env, &p) == 0 && p > 0 && p < 65536)
             ctx.port = p;
+        else
+            ctx.bad_env_port = env;   /* refused when a command connects, unless -p */
     }
     if ((env = getenv("SEAMTEX_TOKEN")) && *env)
         ctx.token = env;
@@ -616,6 +640,7 @@ int main(int argc, char **argv)
                 return CLI_USAGE;
             }
             ctx.port = u;
+            ctx.bad_env_port = NULL;
         } else if (!strcmp(a, "-t") || !strcmp(a, "--token")) {
             ctx.token = v;
         } else if (!strcmp(a, "--cluster")) {
@@ -635,8 +660,9 @@ int main(int argc, char **argv)
     unsigned seed_port = 0;
     if (ctx.cluster_seeds) {
         char first[300];
-        if (cli_cluster_first_seed(&ctx, first, sizeof first) != CLI_OK)
-            return CLI_CONNECT;
+        int rc = cli_cluster_first_seed(&ctx, first, sizeof first);
+        if (rc != CLI_OK)
+            return rc;
         char *comma = strchr(first, ',');
         if (comma)
             *comma = 0;
@@ -647,6 +673,7 @@ int main(int argc, char **argv)
         }
         ctx.host = seed_host;
         ctx.port = seed_port;
+        ctx.bad_env_port = NULL;
     }
     int rc = i >= argc ? repl(&ctx) : dispatch(&ctx, argc - i, argv + i);
     if (!ctx.conn_borrowed)

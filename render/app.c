@@ -6,6 +6,7 @@
  */
 #include "app.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -19,6 +20,10 @@ int app_texture_for(const app_cfg *c, const char *mesh, char *path, size_t cap, 
     *image = NULL;
     if (n < 4 || strcmp(mesh + n - 4, ".obj") != 0 || n + 1 > cap) {
         snprintf(msg, ml, "%.300s: the mesh must be an .obj file", mesh);
+        return -1;
+    }
+    if (access(mesh, R_OK) != 0) {   /* said first: not "no .ptx beside it" for a mistyped mesh */
+        snprintf(msg, ml, "%.300s: cannot read the mesh: %s", mesh, strerror(errno));
         return -1;
     }
     if (c->texture) {

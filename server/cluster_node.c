@@ -478,6 +478,32 @@ static uint64_t new_incarnation(void)
     return v ? v : 1;
 }
 
+int sts_cluster_config_check(const struct sts_config *c, char *prefix, size_t prefix_cap,
+                             char *err, size_t errcap)
+{
+    char pfx[256], e[256], host[256];
+    unsigned port;
+    if (!c->cluster[0])
+        return 0;
+    if (scl_etcd_url_check(c->cluster, prefix ? prefix : pfx, prefix ? prefix_cap : sizeof pfx,
+                           e, sizeof e) != 0) {
+        snprintf(err, errcap, "cluster: %s", e);
+        return -1;
+    }
+    if (stp_node_id_check(c->node_id, strlen(c->node_id)) != 0) {
+        snprintf(err, errcap, "node-id: '%s' is not 1..64 bytes of [A-Za-z0-9._-]", c->node_id);
+        return -1;
+    }
+    /* port 0: the port this server binds (sts_cluster_start; tests listen on port 0) */
+    size_t n = strlen(c->advertise);
+    if (stp_split_addr(c->advertise, host, sizeof host, &port) != 0 &&
+        (n < 3 || strcmp(c->advertise + n - 2, ":0") != 0)) {
+        snprintf(err, errcap, "advertise: '%s' is not HOST:PORT", c->advertise);
+        return -1;
+    }
+    return 0;
+}
+
 int sts_cluster_init(sts_server *srv)
 {
     sts_cluster *cl = calloc(1, sizeof *cl);
@@ -485,11 +511,9 @@ int sts_cluster_init(sts_server *srv)
         return -1;
     cl->srv = srv;
     cl->etcd_ok = 1;   /* until a call says otherwise */
-    char err[256];
-    if (scl_etcd_url_check(srv->cfg.cluster, cl->prefix, sizeof cl->prefix, err, sizeof err) != 0 ||
-        stp_node_id_check(srv->cfg.node_id, strlen(srv->cfg.node_id)) != 0) {
-        sts_logf(&srv->log, STS_ERROR, "cluster: %s", stp_node_id_check(srv->cfg.node_id,
-                 strlen(srv->cfg.node_id)) ? "node-id must be 1..64 bytes of [A-Za-z0-9._-]" : err);
+    char err[512];
+    if (sts_cluster_config_check(&srv->cfg, cl->prefix, sizeof cl->prefix, err, sizeof err)) {
+        sts_logf(&srv->log, STS_ERROR, "%s", err);
         free(cl);
         return -1;
     }

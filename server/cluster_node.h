@@ -135,6 +135,13 @@ typedef struct sts_cluster {
 #define STS_CL_ADD(cl, f, v) __atomic_add_fetch(&(cl)->n.f, (v), __ATOMIC_RELAXED)
 
 /* ---- cluster_node.c ---- */
+struct sts_config;
+/* The cluster flags' form (--cluster URL, --node-id, --advertise), checked by main before
+ * anything starts so that a bad one is a bad flag (exit 2, seamtexd(8)), not a start failure
+ * after the data dir was loaded. 0 (also without --cluster), or -1 with err set; prefix (may
+ * be NULL) receives the URL's key prefix. */
+int  sts_cluster_config_check(const struct sts_config *c, char *prefix, size_t prefix_cap,
+                              char *err, size_t errcap);
 /* Opens the etcd handles (srv->cluster set); 0 or -1 (logged). Called by sts_server_init. */
 int  sts_cluster_init(sts_server *srv);
 /* Registers the node (one try; the membership thread retries) and starts both threads. */

@@ -32,7 +32,8 @@ static const opt OPTS[] = {
      "durable set store; every acknowledged upload is on disk there (default: none,\n"
      "sets live in memory only and vanish at exit)"},
     {"token", T_STR, O(token), S(token), 1, "SECRET",
-     "shared token required for uploads, deletes and compress jobs (default: none)"},
+     "shared token required for uploads, deletes, compress jobs and job cancels;\n"
+     "reads stay open (default: none)"},
     {"token-file", T_STR, O(token_file), S(token_file), 1, "FILE",
      "read the token from FILE (first line) instead of the command line"},
     {"port-file", T_STR, O(port_file), S(port_file), 0, "FILE",

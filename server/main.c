@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cluster_node.h"
 #include "server.h"
 
 int main(int argc, char **argv)
@@ -21,7 +22,8 @@ int main(int argc, char **argv)
     if (rc == 1)
         return 0;
     if (rc < 0 || sts_config_load_token(&cfg, err, sizeof err) != 0 ||
-        sts_config_check(&cfg, err, sizeof err) != 0) {
+        sts_config_check(&cfg, err, sizeof err) != 0 ||
+        sts_cluster_config_check(&cfg, NULL, 0, err, sizeof err) != 0) {
         fprintf(stderr, "seamtexd: %s\n", err);
         return 2;
     }

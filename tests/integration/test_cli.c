@@ -23,6 +23,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <json-c/json.h>
@@ -340,6 +341,15 @@ static void no_server_exits_3(void **state)
     assert_non_null(strstr(ERR, "cannot connect"));
     assert_int_equal(runv(bin("seamtex-bench"), NULL,
                           (const char *const[]){ "-p", port, "-d", "0.1", NULL }), 3);
+    /* the same through libseamtex's handles (--lib, --cluster): it was 1 */
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "--lib", "-p", port, "-o", "sample", "-d", "0.1",
+                                                 "-w", "0", NULL }), 3);
+    char seed[64];
+    snprintf(seed, sizeof seed, "127.0.0.1:%s", port);
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "--cluster", seed, "-o", "sample", "-d", "0.1",
+                                                 "-w", "0", NULL }), 3);
 }
 
 static void upload_ls_sample_delete_round_trip(void **state)
@@ -602,6 +612,201 @@ static void bench_refuses_a_non_loopback_host(void **state)
     assert_non_null(strstr(ERR, "not a loopback address"));
     assert_int_equal(BENCH("--conns", "0"), 2);
     assert_int_equal(BENCH("--rate", "-5"), 2);
+}
+
+/* `seamtex cluster` (and --cluster routing) on a daemon that is not in a cluster: the server
+ * answers CLUSTER with UNSUPPORTED, a refusal (exit 1 with its message), not a lost
+ * connection (3) with an empty message. */
+static void cluster_on_a_daemon_outside_a_cluster_exits_1_with_its_message(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("cluster"), 1);
+    assert_non_null(strstr(ERR, "UNSUPPORTED"));
+    assert_non_null(strstr(ERR, "not in a cluster"));
+    assert_int_equal(CLI("cluster", "--json"), 1);
+    assert_int_equal(OUTLEN, 0);
+    char seed[64];
+    snprintf(seed, sizeof seed, "127.0.0.1:%s", PORT);
+    assert_int_equal(runv(bin("seamtex"), NULL,
+                          (const char *const[]){ "--cluster", seed, "info", "default", NULL }), 1);
+    assert_non_null(strstr(ERR, "not in a cluster"));
+    /* seamtex-bench --cluster: the seed answered and refused: 1, not 3 */
+    assert_int_equal(runv(bin("seamtex-bench"), NULL,
+                          (const char *const[]){ "--cluster", seed, "-o", "sample", "-d", "0.1",
+                                                 "-w", "0", NULL }), 1);
+    assert_non_null(strstr(ERR, "not in a cluster"));
+    /* a command without a set goes to the first seed, which answers it */
+    assert_int_equal(runv(bin("seamtex"), NULL,
+                          (const char *const[]){ "--cluster", seed, "ping", NULL }), 0);
+}
+
+/* $SEAMTEX_PORT is the default port (seamtex(1) ENVIRONMENT); one that is not a port is
+ * refused (2) rather than silently replaced by 7450, where another daemon may answer. -p
+ * replaces it, and --help needs no port. */
+static void seamtex_port_from_the_environment_and_a_bad_one_refused(void **state)
+{
+    (void)state;
+    setenv("SEAMTEX_PORT", PORT, 1);
+    int ok = runv(bin("seamtex"), NULL, (const char *const[]){ "ping", NULL });
+    setenv("SEAMTEX_PORT", "74x50", 1);
+    int bad = runv(bin("seamtex"), NULL, (const char *const[]){ "ping", NULL });
+    char err[sizeof ERR];
+    snprintf(err, sizeof err, "%s", ERR);
+    int bad_cluster = runv(bin("seamtex"), NULL, (const char *const[]){ "cluster", NULL });
+    int replaced = CLI("ping");
+    int help = runv(bin("seamtex"), NULL, (const char *const[]){ "ping", "--help", NULL });
+    unsetenv("SEAMTEX_PORT");
+    assert_int_equal(ok, 0);
+    assert_int_equal(bad, 2);
+    assert_non_null(strstr(err, "SEAMTEX_PORT '74x50'"));
+    assert_int_equal(bad_cluster, 2);
+    assert_int_equal(replaced, 0);
+    assert_int_equal(help, 0);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec / 1e9;
+}
+
+/* --timeout bounds the whole wait, HELLO included: a server that accepts and never answers
+ * makes `seamtex --timeout 200 ping` give up (exit 3, ETIMEDOUT) long before the library's
+ * 5 s connect default, which it used to wait out whatever --timeout said. */
+static void timeout_bounds_the_connect_and_hello_too(void **state)
+{
+    (void)state;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);   /* listens, never accepts: the kernel does */
+    assert_true(fd >= 0);
+    struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+    socklen_t al = sizeof a;
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    assert_int_equal(listen(fd, 4), 0);
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    char port[16];
+    snprintf(port, sizeof port, "%u", ntohs(a.sin_port));
+    double t0 = now_s();
+    int rc = runv(bin("seamtex"), NULL,
+                  (const char *const[]){ "-p", port, "--timeout", "200", "ping", NULL });
+    double took = now_s() - t0;
+    close(fd);
+    assert_int_equal(rc, 3);
+    assert_non_null(strstr(ERR, "ETIMEDOUT"));
+    assert_true(took < 4.0);   /* 0.2 s asked; the old wait was 5 s */
+}
+
+/* Runs seamtex with stdin and stdout on a pseudo-terminal (interactive mode prompts only on a
+ * terminal), writes `input`, and collects what the terminal shows into OUT (input echo
+ * included). Returns the exit status. */
+static int run_on_a_tty(const char *const *args, const char *input)
+{
+    int m = posix_openpt(O_RDWR | O_NOCTTY);
+    assert_true(m >= 0);
+    assert_int_equal(grantpt(m), 0);
+    assert_int_equal(unlockpt(m), 0);
+    const char *slave = ptsname(m);
+    assert_non_null(slave);
+    const char *argv[16];
+    int ac = 0;
+    argv[ac++] = bin("seamtex");
+    for (int i = 0; args[i] && ac < 15; i++)
+        argv[ac++] = args[i];
+    argv[ac] = NULL;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 0, slave, O_RDWR | O_NOCTTY, 0);
+    posix_spawn_file_actions_addopen(&fa, 1, slave, O_RDWR | O_NOCTTY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, ERRF, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addclose(&fa, m);
+    pid_t pid;
+    assert_int_equal(posix_spawn(&pid, argv[0], &fa, NULL, (char *const *)argv, environ), 0);
+    posix_spawn_file_actions_destroy(&fa);
+    assert_true(write(m, input, strlen(input)) == (ssize_t)strlen(input));
+    size_t n = 0;
+    for (;;) {                           /* EIO once the child closed the terminal */
+        ssize_t r = read(m, OUT + n, sizeof OUT - 1 - n);
+        if (r <= 0)
+            break;
+        n += (size_t)r;
+    }
+    OUT[n] = '\0';
+    OUTLEN = n;
+    close(m);
+    int st;
+    while (waitpid(pid, &st, 0) < 0)
+        ;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/* The interactive prompt names the server as -h and -p give it; a unix: host has no port
+ * (seamtex(1): "the port is then unused"), so none is shown (it printed ":7450"). The
+ * prompt comes before any connection: no daemon is needed for it. */
+static void the_prompt_names_a_unix_host_without_a_port(void **state)
+{
+    (void)state;
+    assert_int_equal(run_on_a_tty((const char *const[]){ "-p", PORT, NULL }, "quit\n"), 0);
+    char want[64];
+    snprintf(want, sizeof want, "seamtex 127.0.0.1:%s> ", PORT);
+    assert_non_null(strstr(OUT, want));
+    assert_int_equal(run_on_a_tty((const char *const[]){ "-h", "unix:/nonexistent/seamtex.sock",
+                                                         NULL }, "quit\n"), 0);
+    assert_non_null(strstr(OUT, "seamtex unix:/nonexistent/seamtex.sock> "));
+    assert_null(strstr(OUT, "sock:"));
+}
+
+/* A daemon with a token: a mutation without it is PERM (exit 1); with a wrong one the CLI
+ * says that the token it sent was not accepted (the server's message asks for "the server's
+ * token" either way); with the right one, from $SEAMTEX_TOKEN, it runs. */
+static void a_wrong_token_is_named_as_such(void **state)
+{
+    (void)state;
+    st_daemon t;
+    assert_int_equal(st_daemon_init(&t), 0);
+    const char *extra[] = {"--token", "s3cret", NULL};
+    assert_int_equal(st_daemon_start(&t, extra), 0);
+    char port[16];
+    snprintf(port, sizeof port, "%d", t.port);
+    int none = runv(bin("seamtex"), NULL,
+                    (const char *const[]){ "-p", port, "delete", "default", NULL });
+    int none_named = strstr(ERR, "PERM") && !strstr(ERR, "not accepted");
+    int wrong = runv(bin("seamtex"), NULL,
+                     (const char *const[]){ "-p", port, "-t", "guess", "delete", "default", NULL });
+    int wrong_named = strstr(ERR, "PERM") && strstr(ERR, "was not accepted");
+    setenv("SEAMTEX_TOKEN", "s3cret", 1);
+    int right = runv(bin("seamtex"), NULL,
+                     (const char *const[]){ "-p", port, "delete", "default", NULL });
+    unsetenv("SEAMTEX_TOKEN");
+    assert_int_equal(st_daemon_stop(&t, 10000), 0);
+    st_daemon_cleanup(&t);
+    assert_int_equal(none, 1);
+    assert_true(none_named);
+    assert_int_equal(wrong, 1);
+    assert_true(wrong_named);
+    assert_int_equal(right, 0);
+}
+
+/* A refused value is named with the option it was given to, not only answered with the
+ * usage text (or, in seamtex-bench, as "--" for options without a letter). */
+static void a_bad_value_names_its_option(void **state)
+{
+    (void)state;
+    assert_int_equal(CLI("compress", "default", "x", "--level", "10"), 2);
+    assert_non_null(strstr(ERR, "--level takes 0..9, not '10'"));
+    assert_int_equal(CLI("fetch", "default", "x.ptx", "--format", "tiff"), 2);
+    assert_non_null(strstr(ERR, "--format takes ptx, dds, exr, png or obj, not 'tiff'"));
+    assert_int_equal(BENCH("--proto", "gopher"), 2);
+    assert_non_null(strstr(ERR, "bad value for --proto: 'gopher'"));
+    assert_int_equal(BENCH("--outfmt", "f64"), 2);
+    assert_non_null(strstr(ERR, "bad value for --outfmt: 'f64'"));
+    assert_int_equal(BENCH("-c", "0"), 2);
+    assert_non_null(strstr(ERR, "bad value for -c: '0'"));
+    /* options of --dir queries and of face queries, crossed: usage, refused before sending
+     * (--lerp with --dir went to the server, whose INVALID made it exit 1) */
+    assert_int_equal(CLI("sample", "default", "--dir", "1", "0", "0", "--lerp"), 2);
+    assert_non_null(strstr(ERR, "--lerp is for face queries, not --dir"));
+    assert_int_equal(CLI("sample", "default", "0", "0.5", "0.5", "--cone", "0.1"), 2);
+    assert_non_null(strstr(ERR, "--cone is a footprint of --dir queries"));
 }
 
 /* ---- --json ------------------------------------------------------------------------------ */
@@ -913,6 +1118,12 @@ int main(void)
         cmocka_unit_test(bench_reports_its_cpu_over_the_measured_window),
         cmocka_unit_test(bench_sample_pipeline_with_a_low_water_mark_answers_every_request),
         cmocka_unit_test(bench_refuses_a_non_loopback_host),
+        cmocka_unit_test(cluster_on_a_daemon_outside_a_cluster_exits_1_with_its_message),
+        cmocka_unit_test(seamtex_port_from_the_environment_and_a_bad_one_refused),
+        cmocka_unit_test(a_bad_value_names_its_option),
+        cmocka_unit_test(timeout_bounds_the_connect_and_hello_too),
+        cmocka_unit_test(the_prompt_names_a_unix_host_without_a_port),
+        cmocka_unit_test(a_wrong_token_is_named_as_such),
         cmocka_unit_test(ls_json_lists_what_the_library_lists),
         cmocka_unit_test(info_json_matches_the_text_and_the_library),
         cmocka_unit_test(stats_json_has_every_counter_with_its_value),

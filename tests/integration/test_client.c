@@ -451,6 +451,19 @@ static void server_status_is_not_sticky(void **state)
     assert_string_equal(stc_errmsg(c), "");
     /* a name the protocol does not allow is refused before anything is sent */
     assert_int_equal(stc_info_get(c, "../etc", 0, 0, &inf), STC_EINVAL);
+    /* every call says the same about a bad name (the rule included), and fetch says which of
+     * its arguments it refuses (it said "bad set name, path or format") */
+    const char *rule = "is not a valid set name (1..255 of A-Z a-z 0-9 . _ -";
+    assert_non_null(strstr(stc_errmsg(c), rule));
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, "x", 1, "a/b", NULL, &ur), STC_EINVAL);
+    assert_non_null(strstr(stc_errmsg(c), rule));
+    assert_int_equal(stc_fetch_file(c, "a/b", STC_FETCH_PTX, "/nonexistent/x", NULL, NULL),
+                     STC_EINVAL);
+    assert_non_null(strstr(stc_errmsg(c), rule));
+    assert_int_equal(stc_fetch_file(c, "ok", 99, "/nonexistent/x", NULL, NULL), STC_EINVAL);
+    assert_non_null(strstr(stc_errmsg(c), "format 99"));
+    assert_int_equal(stc_error(c), 0);
     stc_close(c);
     mock_stop(m);
 }

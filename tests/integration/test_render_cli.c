@@ -84,6 +84,16 @@ static void test_size_limits_per_job(void **state)
     REFUSED("--size", "16385x1");
 }
 
+/* A mesh that cannot be read is named as such (exit 1), not reported as a mesh without a
+ * .ptx beside it, which sent one looking for the texture. */
+static void test_a_missing_mesh_is_named(void **state)
+{
+    (void)state;
+    assert_int_equal(render((const char *const[]){ "--size", "64x48", NULL }), 1);
+    assert_true(err_has("/nonexistent/m.obj: cannot read the mesh"));
+    assert_false(err_has("beside it"));
+}
+
 int main(void)
 {
     if (st_test_mkdtemp(scratch, sizeof scratch, "render_cli") != 0)
@@ -98,6 +108,7 @@ int main(void)
     fclose(f);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_size_limits_per_job),
+        cmocka_unit_test(test_a_missing_mesh_is_named),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     if (st_test_rmtree(scratch) != 0)

@@ -1,6 +1,7 @@
 /* tests/integration/test_server_lifecycle.c - seamtexd's life: the token guards mutations
  * only, SIGHUP reloads limits and token (a broken config is refused), a restart loads the sets
- * and cleans what a crash left, SIGTERM finishes the requests in flight, bad flags are named.
+ * and cleans what a crash left, SIGTERM finishes the requests in flight, bad flags are named
+ * (exit 2, the cluster flags' form included).
  *
  * Each test starts its own daemon (tests/common/daemon_fixture.h) on 127.0.0.1 port 0 with a
  * temp data dir; nothing here needs SEAMTEX_DATA.
@@ -271,6 +272,42 @@ static void help_teaches_every_flag(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* The form of --cluster, --node-id and --advertise is a flag's: a bad one exits 2 naming it
+ * (seamtexd(8) EXIT STATUS), before the data dir is loaded; it used to be found when the
+ * cluster started, after the data dir, and exit 1 as a start failure. */
+static int start_status(const char *const *extra, const char *named)
+{
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_not_equal(st_daemon_start(&d, extra), 0);
+    int status = d.exit_status;
+    FILE *f = fopen(d.log, "r");
+    char line[512];
+    int found = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (strstr(line, named))
+            found = 1;
+    if (f)
+        fclose(f);
+    st_daemon_cleanup(&d);
+    assert_true(found);
+    return status;
+}
+
+static void a_bad_cluster_flag_exits_2(void **state)
+{
+    (void)state;
+    const char *node[] = {"--cluster", "etcd://127.0.0.1:1/t", "--node-id", "a b",
+                          "--advertise", "127.0.0.1:0", NULL};
+    assert_int_equal(start_status(node, "node-id: 'a b'"), 2);
+    const char *url[] = {"--cluster", "http://127.0.0.1:1/t", "--node-id", "n1",
+                         "--advertise", "127.0.0.1:0", NULL};
+    assert_int_equal(start_status(url, "etcd://"), 2);
+    const char *adv[] = {"--cluster", "etcd://127.0.0.1:1/t", "--node-id", "n1",
+                         "--advertise", "nowhere", NULL};
+    assert_int_equal(start_status(adv, "advertise: 'nowhere'"), 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -279,6 +316,7 @@ int main(void)
         cmocka_unit_test(restart_loads_sets_and_cleans_leftovers),
         cmocka_unit_test(sigterm_finishes_requests_in_flight),
         cmocka_unit_test(help_teaches_every_flag),
+        cmocka_unit_test(a_bad_cluster_flag_exits_2),
     };
     return cmocka_run_group_tests_name("server_lifecycle", tests, NULL, NULL);
 }
