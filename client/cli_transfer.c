@@ -140,6 +140,9 @@ int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv)
     if (res.resumed_from)
         fprintf(stderr, "seamtex upload: resumed at byte %llu (the whole file's CRC32C was "
                 "checked at commit)\n", (unsigned long long)res.resumed_from);
+    else if (flags & STC_UPLOAD_RESUME)   /* asked for by --resume, not by a retry */
+        fprintf(stderr, "seamtex upload: the server held nothing of this upload to resume; "
+                "sent from the start\n");
     char b[32];
     printf("uploaded %s as %s: %s, %u faces, %u x %s, %s in memory (crc32c %08x)\n", file,
            res.name, cli_kind_name(res.kind), res.nfaces, res.nchan, cli_dtype_name(res.dtype),

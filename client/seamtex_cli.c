@@ -603,6 +603,16 @@ static int repl(cli_ctx *ctx)
 }
 
 
+/* rc, or CLI_SERVER when standard output could not be written (a full disk, a closed pipe) */
+static int flushed(int rc)
+{
+    if (fflush(stdout) != 0 && rc == CLI_OK) {
+        fprintf(stderr, "seamtex: writing the output failed\n");
+        rc = CLI_SERVER;
+    }
+    return rc;
+}
+
 int main(int argc, char **argv)
 {
     cli_ctx ctx = { .host = "127.0.0.1", .port = DEFAULT_PORT, .prog = "seamtex" };
@@ -624,7 +634,7 @@ int main(int argc, char **argv)
         const char *a = argv[i];
         if (cli_is_help(a)) {
             fputs(USAGE, stdout);
-            return CLI_OK;
+            return flushed(CLI_OK);
         }
         if (i + 1 >= argc) {
             fprintf(stderr, "seamtex: option %s needs a value\n%s", a, USAGE);
@@ -679,9 +689,5 @@ int main(int argc, char **argv)
     if (!ctx.conn_borrowed)
         stc_close(ctx.conn);
     stc_cluster_close(ctx.cluster);
-    if (fflush(stdout) != 0 && rc == CLI_OK) {
-        fprintf(stderr, "seamtex: writing the output failed\n");
-        rc = CLI_SERVER;
-    }
-    return rc;
+    return flushed(rc);
 }

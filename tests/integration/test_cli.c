@@ -62,9 +62,9 @@ static const char *bin(const char *name)
 }
 
 /* Runs a program (NULL-terminated argv after the program name), stdin from `in` (or
- * /dev/null), and returns its exit status (128 + signal when killed); OUT and ERR hold its
- * output. */
-static int runv(const char *prog, const char *in, const char *const *args)
+ * /dev/null), stdout to `out`, and returns its exit status (128 + signal when killed); OUT and
+ * ERR hold its output (OUT: what `out` holds when it is OUTF). */
+static int runv_to(const char *prog, const char *in, const char *out, const char *const *args)
 {
     const char *argv[64];
     int ac = 0;
@@ -75,7 +75,7 @@ static int runv(const char *prog, const char *in, const char *const *args)
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_addopen(&fa, 0, in ? in : "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 1, OUTF, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_addopen(&fa, 2, ERRF, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     pid_t pid;
     int rc = posix_spawn(&pid, prog, &fa, NULL, (char *const *)argv, environ);
@@ -90,6 +90,11 @@ static int runv(const char *prog, const char *in, const char *const *args)
     if (getenv("TEST_CLI_VERBOSE"))
         fprintf(stderr, "$ %s ... -> %d\n%s%s", prog, code, OUT, ERR);
     return code;
+}
+
+static int runv(const char *prog, const char *in, const char *const *args)
+{
+    return runv_to(prog, in, OUTF, args);
 }
 
 static char PORT[16];
@@ -323,6 +328,23 @@ static void bad_usage_exits_2(void **state)
     assert_non_null(strstr(OUT, "usage: seamtex sample"));
 }
 
+/* Output that cannot be written (a full disk: /dev/full) is an error, exit 1 - the usage
+ * text of --help too (it exited 0) */
+static void an_unwritable_output_exits_1(void **state)
+{
+    (void)state;
+    if (access("/dev/full", W_OK)) {
+        print_message("no /dev/full here: skipped\n");
+        skip();
+    }
+    static const char *const cases[][3] = {{"--help", NULL}, {"ping", "--help", NULL},
+                                           {"-?", NULL}};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        assert_int_equal(runv_to(bin("seamtex"), NULL, "/dev/full", cases[k]), 1);
+        assert_non_null(strstr(ERR, "writing the output failed"));
+    }
+}
+
 static void no_server_exits_3(void **state)
 {
     (void)state;
@@ -374,6 +396,7 @@ static void upload_ls_sample_delete_round_trip(void **state)
     /* --resume with nothing kept on the server: a whole upload, no "resumed" line */
     assert_int_equal(CLI("upload", ptx, "cli-cube", "--resume", "--retries", "0"), 0);
     assert_null(strstr(ERR, "resumed at"));
+    assert_non_null(strstr(ERR, "held nothing of this upload to resume"));
     assert_int_equal(CLI("delete", "cli-cube"), 0);
     assert_int_equal(CLI("upload", ptx, "cli-cube", "--retries", "many"), 2);
 }
@@ -1107,6 +1130,7 @@ int main(void)
         cmocka_unit_test(an_unknown_set_exits_1_with_the_servers_message),
         cmocka_unit_test(bad_usage_exits_2),
         cmocka_unit_test(no_server_exits_3),
+        cmocka_unit_test(an_unwritable_output_exits_1),
         cmocka_unit_test(upload_ls_sample_delete_round_trip),
         cmocka_unit_test(sample_dir_answers_on_a_cube_map_and_refuses_other_sets),
         cmocka_unit_test(compress_reports_sizes_and_fetch_writes_a_ptex_file),
