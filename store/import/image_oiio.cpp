@@ -183,9 +183,11 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     } else {
         for (int i = 0; i < sp.nchannels; i++)
             sel[nsel++] = i;
-        alpha = sp.alpha_channel >= 0 && sp.alpha_channel < 4 ? sp.alpha_channel : -1;
-        if (alpha < 0 && (nsel == 4 || nsel == 2))
-            alpha = nsel - 1;
+        /* the alpha OIIO reports, never a guess from the count: a 2-channel TIFF (R, G: a
+         * normal or flow map) or an RGB TIFF with an unspecified extra sample has none, and
+         * calling its last channel alpha made INFO say alpha + premultiplied and COMPRESS
+         * punch BC1 holes where that channel is under 0.5 */
+        alpha = sp.alpha_channel >= 0 && sp.alpha_channel < sp.nchannels ? sp.alpha_channel : -1;
     }
     unsigned dt = pick_dtype(sp.format);
     size_t bytes = st_image_bytes((uint32_t)sp.width, (uint32_t)sp.height, (unsigned)nsel, dt, caps);

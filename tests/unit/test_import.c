@@ -1269,6 +1269,90 @@ static void premultiplied_flag_follows_the_file(void **state)
     st_set_free(s);
 }
 
+/* A little-endian uncompressed 8-bit TIFF, w x h, spp samples per pixel, PhotometricInterpretation
+ * photometric (1 grey, 2 RGB), ExtraSamples `extra` (0 unspecified, 1 associated alpha, 2
+ * unassociated alpha) or no ExtraSamples tag when extra < 0; texels px (w * h * spp bytes). */
+static size_t u8_tiff(uint8_t *b, int w, int h, int spp, int photometric, int extra,
+                      const uint8_t *px)
+{
+    memcpy(b, "II*\0", 4);
+    put32(b + 4, 8);
+    int ntag = extra < 0 ? 9 : 10;
+    uint8_t *d = b + 8;
+    d[0] = (uint8_t)ntag;
+    d[1] = 0;
+    size_t bps = 8 + 2 + 12 * (size_t)ntag + 4; /* BitsPerSample array, then the strip */
+    size_t data = bps + 2 * (size_t)spp;
+    const uint16_t tags[10] = {256, 257, 258, 259, 262, 273, 277, 278, 279, 338};
+    const uint16_t types[10] = {3, 3, 3, 3, 3, 4, 3, 3, 4, 3};
+    const uint32_t counts[10] = {1, 1, (uint32_t)spp, 1, 1, 1, 1, 1, 1, 1};
+    uint32_t vals[10] = {(uint32_t)w, (uint32_t)h, (uint32_t)bps, 1, (uint32_t)photometric,
+                         (uint32_t)data, (uint32_t)spp, (uint32_t)h,
+                         (uint32_t)(w * h * spp), (uint32_t)(extra < 0 ? 0 : extra)};
+    if (spp <= 2)
+        vals[2] = spp == 1 ? 8 : 8u | 8u << 16; /* fits the tag: inline */
+    for (int k = 0; k < ntag; k++) {
+        uint8_t *t = d + 2 + 12 * k;
+        t[0] = (uint8_t)tags[k];
+        t[1] = (uint8_t)(tags[k] >> 8);
+        t[2] = (uint8_t)types[k];
+        t[3] = 0;
+        put32(t + 4, counts[k]);
+        put32(t + 8, vals[k]);
+    }
+    put32(d + 2 + 12 * ntag, 0);
+    for (int c = 0; c < spp; c++) {
+        b[bps + 2 * c] = 8;
+        b[bps + 2 * c + 1] = 0;
+    }
+    memcpy(b + data, px, (size_t)(w * h * spp));
+    return data + (size_t)(w * h * spp);
+}
+
+/* imp34: the last channel of a 2- or 4-channel image was taken as alpha whenever OpenImageIO
+ * reported none: a 2-channel TIFF (R, G: a normal or flow map, as oiiotool writes it) or an
+ * RGB TIFF with an unspecified extra sample came in with alpha_chan 1 / 3 and premultiplied 1,
+ * and COMPRESS then punched transparent BC1 texels wherever that channel was under 0.5. The
+ * alpha is what the file says (ExtraSamples 1 or 2), texels as stored either way. */
+static void tiff_channels_are_alpha_only_when_the_file_says_so(void **state)
+{
+    (void)state;
+    enum { W = 3, H = 2 };
+    static const struct {
+        int spp, photometric, extra, alpha, premultiplied;
+    } cases[] = {
+        {2, 1, -1, -1, 0}, /* R, G */
+        {2, 1, 0, -1, 0},  /* grey + an unspecified extra sample */
+        {4, 2, 0, -1, 0},  /* RGB + an unspecified extra sample */
+        {2, 1, 1, 1, 1},   /* grey + associated alpha */
+        {4, 2, 2, 3, 0},   /* RGB + unassociated alpha */
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        uint8_t px[W * H * 4], b[1024];
+        for (size_t i = 0; i < sizeof px; i++)
+            px[i] = (uint8_t)(i * 37 + 5);
+        size_t len = u8_tiff(b, W, H, cases[k].spp, cases[k].photometric, cases[k].extra, px);
+        char p[512];
+        tmp_path(p, sizeof p, "alpha.tif");
+        write_file(p, b, len);
+        st_error e;
+        st_error_clear(&e);
+        st_set *s = NULL;
+        int rc = st_import_file(p, NULL, &s, &e);
+        if (rc)
+            print_message("case %zu: %s\n", k, e.msg);
+        assert_int_equal(rc, ST_OK);
+        if (s->info.alpha_chan != cases[k].alpha)
+            print_message("case %zu: alpha_chan %d, the file says %d\n", k, s->info.alpha_chan,
+                          cases[k].alpha);
+        assert_int_equal(s->info.nchan, cases[k].spp);
+        assert_int_equal(s->info.alpha_chan, cases[k].alpha);
+        assert_int_equal(s->info.premultiplied, cases[k].premultiplied);
+        assert_memory_equal(st_face_level(s, 0, 0), px, (size_t)(W * H * cases[k].spp));
+        st_set_free(s);
+    }
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -1422,6 +1506,7 @@ int main(void)
         cmocka_unit_test(signed_16_bit_tiff_keeps_its_negative_values),
         cmocka_unit_test(tiff_without_bits_per_sample_is_refused_not_made_up),
         cmocka_unit_test(premultiplied_flag_follows_the_file),
+        cmocka_unit_test(tiff_channels_are_alpha_only_when_the_file_says_so),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
