@@ -1353,6 +1353,52 @@ static void tiff_channels_are_alpha_only_when_the_file_says_so(void **state)
     }
 }
 
+/* imp34: an EXR whose channels are X, Y, Z (a position or normal map, CIE XYZ; also in a layer:
+ * N.X, N.Y, N.Z) came in as its Y channel alone, a grey image of one component, because a Y
+ * with no R, G, B is read as luminance. A Y beside an X is a vector's: X, Y, Z in that order;
+ * a Y beside only a Z (depth) and an A is still grey + alpha. */
+static void exr_xyz_channels_are_a_vector_not_luminance(void **state)
+{
+    (void)state;
+    enum { W = 4, H = 2 };
+    static const struct {
+        const char *names[3];
+        int nch, want_nchan, want_alpha;
+        int order[3]; /* the file channel (index into names) of each set channel */
+    } cases[] = {
+        {{"X", "Y", "Z"}, 3, 3, -1, {0, 1, 2}},
+        {{"N.Z", "N.Y", "N.X"}, 3, 3, -1, {2, 1, 0}},
+        {{"Y", "X", NULL}, 2, 2, -1, {1, 0, -1}},
+        {{"Z", "A", "Y"}, 3, 2, 1, {2, 1, -1}}, /* luminance, alpha; depth left out */
+    };
+    const float v[3] = {0.25f, 0.5f, 0.75f};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        char p[512];
+        tmp_path(p, sizeof p, "xyz.exr");
+        write_exr_channels(p, W, H, cases[k].nch, cases[k].names, v);
+        st_error e;
+        st_error_clear(&e);
+        st_set *s = NULL;
+        int rc = st_import_file(p, NULL, &s, &e);
+        if (rc)
+            print_message("case %zu: %s\n", k, e.msg);
+        assert_int_equal(rc, ST_OK);
+        if (s->info.nchan != cases[k].want_nchan)
+            print_message("case %zu: %u channels, want %d\n", k, s->info.nchan,
+                          cases[k].want_nchan);
+        assert_int_equal(s->info.nchan, cases[k].want_nchan);
+        assert_int_equal(s->info.alpha_chan, cases[k].want_alpha);
+        const uint8_t *t = st_face_level(s, 0, 0);
+        size_t ts = st_texel_size(s);
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                for (int c = 0; c < cases[k].want_nchan; c++)
+                    assert_float_equal(st_channel_get(s->info.dtype, t + (size_t)(y * W + x) * ts, (unsigned)c),
+                                       v[cases[k].order[c]] + (float)x / 64.0f, 1e-3);
+        st_set_free(s);
+    }
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -1507,6 +1553,7 @@ int main(void)
         cmocka_unit_test(tiff_without_bits_per_sample_is_refused_not_made_up),
         cmocka_unit_test(premultiplied_flag_follows_the_file),
         cmocka_unit_test(tiff_channels_are_alpha_only_when_the_file_says_so),
+        cmocka_unit_test(exr_xyz_channels_are_a_vector_not_luminance),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
