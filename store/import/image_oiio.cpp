@@ -265,7 +265,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
 }
 
 int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
-               const void *data, int envmap, int colorspace, st_error *e)
+               const void *data, int envmap, int colorspace, int alpha, st_error *e)
 {
     if (!w || !h || w > ST_MAX_DIM || h > ST_MAX_DIM || nchan < 1 || nchan > 4 ||
         !st_dtype_size(dtype))
@@ -296,8 +296,13 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
         spec.attribute("oiio:ColorSpace", "Linear");
     else if (colorspace == ST_CS_SRGB)
         spec.attribute("oiio:ColorSpace", "sRGB");
-    if (nchan == 4 || nchan == 2)
-        spec.alpha_channel = (int)nchan - 1;
+    /* alpha as the image says; PNG has no 2- or 4-channel form without one. A grey + alpha
+     * image goes to EXR as Y, A (OIIO's default names R, G uploaded back without alpha) */
+    if (ext == "png" && (nchan == 4 || nchan == 2))
+        alpha = (int)nchan - 1;
+    spec.alpha_channel = alpha >= 0 && alpha < (int)nchan ? alpha : -1;
+    if (ext == "exr" && nchan == 2 && spec.alpha_channel == 1)
+        spec.channelnames = {"Y", "A"};
     spec.attribute("oiio:UnassociatedAlpha", 1); /* write texels as given */
     /* A file written here is a function of its image (FETCH is byte-stable, PROTOCOL.md 4.10):
      * OpenImageIO 2.4's EXR writer stamps a file it is given no "DateTime" with the local wall
@@ -360,7 +365,8 @@ extern "C" int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned
                               unsigned dtype, const void *data, st_error *e)
 {
     try {
-        return write_impl(path, w, h, nchan, dtype, data, ST_ENVMAP_NONE, -1, e);
+        return write_impl(path, w, h, nchan, dtype, data, ST_ENVMAP_NONE, -1,
+                          nchan == 4 || nchan == 2 ? (int)nchan - 1 : -1, e);
     } catch (const std::bad_alloc &) {
         return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
     } catch (...) {
@@ -372,7 +378,7 @@ extern "C" int st_image_write_img(const char *path, const st_image *img, st_erro
 {
     try {
         return write_impl(path, img->w, img->h, img->nchan, img->dtype, img->data, img->envmap,
-                          img->colorspace, e);
+                          img->colorspace, img->alpha_chan, e);
     } catch (const std::bad_alloc &) {
         return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
     } catch (...) {
