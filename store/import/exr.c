@@ -414,6 +414,14 @@ static int read_with(const char *path, exr_context_initializer_t *init, const ra
                 j.chan_idx[j.nsel++] = c;
         }
     }
+    for (int k = 0; k < j.nsel; k++) {
+        const exr_attr_chlist_entry_t *ce = &chl->entries[j.chan_idx[k]];
+        if (ce->x_sampling != 1 || ce->y_sampling != 1) {
+            rc = st_fail(e, ST_EUNSUPPORTED, "%s: channel %s is subsampled (%d x %d), which is "
+                         "not read", path, ce->name.str, ce->x_sampling, ce->y_sampling);
+            goto done;
+        }
+    }
     int allhalf = 1;
     for (int k = 0; k < j.nsel; k++)
         if (chl->entries[j.chan_idx[k]].pixel_type != EXR_PIXEL_HALF)

@@ -77,6 +77,25 @@ const char *ext_of(const char *path)
     return dot && (!slash || dot > slash) ? dot + 1 : "";
 }
 
+/* An OpenImageIO message as one line: libpng and others leave several lines ("PNG read error:
+ * Not enough image data\nPNG library error"), which broke the daemon's one-line log records
+ * and the protocol's message. Line breaks and other control bytes become "; " / a space. */
+std::string one_line(std::string m)
+{
+    while (!m.empty() && (m.back() == '\n' || m.back() == '\r' || m.back() == ' '))
+        m.pop_back();
+    std::string o;
+    for (char ch : m) {
+        if (ch == '\n')
+            o += "; ";
+        else if ((unsigned char)ch < 0x20 || ch == 0x7f)
+            o += ' ';
+        else
+            o += ch;
+    }
+    return o;
+}
+
 /* A PNG's chunk list must reach IEND inside the file. Checked before OIIO sees the file:
  * OIIO 2.4's PNG read callback builds a std::string and libpng then longjmps over it when the
  * file ends early, which leaks on every truncated upload. Returns 0 when fine or not a PNG. */
@@ -153,7 +172,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
     if (!in) {
-        std::string msg = OIIO::geterror();
+        std::string msg = one_line(OIIO::geterror());
         return st_fail(e, ST_EFORMAT, "%s: not an image OpenImageIO reads (%.160s)", path,
                        msg.c_str());
     }
@@ -226,7 +245,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
      * fills the missing part with grey and OIIO keeps "Premature end of JPEG file" in the
      * input's error state (has_error() stays false). Any message left by the read refuses
      * the file: a texture that is partly made up is a silent wrong answer. */
-    std::string msg = in->geterror();
+    std::string msg = one_line(in->geterror());
     if (!ok || !msg.empty()) {
         free(data);
         return st_fail(e, ST_EFORMAT, "%s: %s: %.160s", path,
@@ -278,7 +297,7 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
         return st_fail(e, ST_EUNSUPPORTED, "%s: OpenImageIO cannot write DDS (use bc1.h)", path);
     auto outp = ImageOutput::create(path);
     if (!outp) {
-        std::string msg = OIIO::geterror(); /* also clears OIIO's pending per-thread message */
+        std::string msg = one_line(OIIO::geterror()); /* also clears OIIO's pending per-thread message */
         return st_fail(e, ST_EUNSUPPORTED, "%s: no writer for this extension (%.120s)", path,
                        msg.c_str());
     }
@@ -313,13 +332,13 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
     if (ext == "exr")
         spec.attribute("DateTime", "");
     if (!outp->open(path, spec)) {
-        std::string msg = outp->geterror();
+        std::string msg = one_line(outp->geterror());
         return st_fail(e, ST_EIO, "%s: cannot open for writing: %.160s", path, msg.c_str());
     }
     bool ok = outp->write_image(oiio_type(dtype), data);
     ok = outp->close() && ok;
     if (!ok) {
-        std::string msg = outp->geterror();
+        std::string msg = one_line(outp->geterror());
         return st_fail(e, ST_EIO, "%s: write failed: %.160s", path, msg.c_str());
     }
     return ST_OK;
@@ -353,10 +372,31 @@ extern "C" int st_image_read_any(const char *path, const st_image_caps *caps, st
     size_t n = fread(head, 1, 4, f);
     fclose(f);
     if (st_exr_is_magic(head, n)) {
-        int rc = st_exr_read(path, caps, out, e);
-        if (rc != ST_EUNSUPPORTED)
+        st_error ee;
+        st_error_clear(&ee);
+        int rc = st_exr_read(path, caps, out, &ee);
+        if (rc != ST_EUNSUPPORTED) {
+            if (rc && e)
+                *e = ee;
             return rc;
-        /* a compression the OpenEXR 3.1 C API does not decode (DWAA/DWAB): OIIO's reader */
+        }
+        /* a compression the OpenEXR 3.1 C API does not decode (DWAA/DWAB): OIIO's reader. When
+         * that fails too, the C API's reason stays first and its code (UNSUPPORTED): a deep
+         * file was refused with OIIO's "read_native_scanlines without an open file". */
+        st_error oe;
+        st_error_clear(&oe);
+        rc = st_image_read(path, caps, out, &oe);
+        if (rc == ST_OK)
+            return ST_OK;
+        if (rc == ST_ENOMEM) {
+            if (e)
+                *e = oe;
+            return rc;
+        }
+        size_t pl = strlen(path);
+        const char *why = !strncmp(oe.msg, path, pl) && !strncmp(oe.msg + pl, ": ", 2)
+                              ? oe.msg + pl + 2 : oe.msg;
+        return st_fail(e, ST_EUNSUPPORTED, "%.160s (OpenImageIO: %.90s)", ee.msg, why);
     }
     return st_image_read(path, caps, out, e);
 }

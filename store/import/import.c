@@ -490,9 +490,9 @@ int st_import_file(const char *path, const st_import_opts *opts, st_set **out, s
     case ST_FMT_EXR:
     case ST_FMT_IMAGE: {
         st_image img;
-        rc = fmt == ST_FMT_EXR ? st_exr_read(path, &caps, &img, e) : st_image_read(path, &caps, &img, e);
-        if (rc == ST_EUNSUPPORTED && fmt == ST_FMT_EXR)
-            rc = st_image_read(path, &caps, &img, e); /* e.g. DWAB, which the 3.1 C API lacks */
+        /* EXR: the C API, then OIIO for what the 3.1 C API lacks (DWAA/DWAB; image_io.h) */
+        rc = fmt == ST_FMT_EXR ? st_image_read_any(path, &caps, &img, e)
+                               : st_image_read(path, &caps, &img, e);
         if (rc)
             return rc;
         rc = image_to_set(&img, opts, out, e);

@@ -1399,6 +1399,157 @@ static void exr_xyz_channels_are_a_vector_not_luminance(void **state)
     }
 }
 
+/* A deep scanline EXR of w x 2 (one half channel R, 1..w samples per pixel), through the C API. */
+static void write_deep_exr(const char *path, int w)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    exr_context_t ctx = NULL;
+    int part = 0;
+    assert_int_equal(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_add_part(ctx, "deep", EXR_STORAGE_DEEP_SCANLINE, &part), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_initialize_required_attr_simple(ctx, part, w, 2, EXR_COMPRESSION_NONE),
+                     EXR_ERR_SUCCESS);
+    assert_int_equal(exr_add_channel(ctx, part, "R", EXR_PIXEL_HALF, EXR_PERCEPTUALLY_LOGARITHMIC,
+                                     1, 1), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_write_header(ctx), EXR_ERR_SUCCESS);
+    int32_t counts[16];
+    uint16_t vals[16 * 17 / 2];
+    assert_true(w <= 16);
+    for (int x = 0, n = 0; x < w; x++) /* cumulative sample counts */
+        counts[x] = n += x + 1;
+    for (int i = 0; i < counts[w - 1]; i++)
+        vals[i] = st_float_to_half((float)i / 16.0f);
+    for (int y = 0; y < 2; y++) {
+        exr_chunk_info_t ci;
+        assert_int_equal(exr_write_scanline_chunk_info(ctx, part, y, &ci), EXR_ERR_SUCCESS);
+        size_t vb = 2 * (size_t)counts[w - 1];
+        assert_int_equal(exr_write_deep_scanline_chunk(ctx, part, y, vals, vb, vb, counts,
+                                                       4 * (size_t)w), EXR_ERR_SUCCESS);
+    }
+    assert_int_equal(exr_finish(&ctx), EXR_ERR_SUCCESS);
+}
+
+/* An EXR of R, G at full resolution and B sampled every 2 x 2 pixels (w, h even). */
+static void write_subsampled_exr(const char *path, int w, int h)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    exr_context_t ctx = NULL;
+    int part = 0;
+    assert_int_equal(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_add_part(ctx, "main", EXR_STORAGE_SCANLINE, &part), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_NONE),
+                     EXR_ERR_SUCCESS);
+    static const char *names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; c++)
+        assert_int_equal(exr_add_channel(ctx, part, names[c], EXR_PIXEL_HALF,
+                                         EXR_PERCEPTUALLY_LOGARITHMIC, c == 2 ? 2 : 1,
+                                         c == 2 ? 2 : 1), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_write_header(ctx), EXR_ERR_SUCCESS);
+    uint16_t *rows = calloc((size_t)w * 3, sizeof *rows);
+    assert_non_null(rows);
+    for (int i = 0; i < w * 3; i++)
+        rows[i] = st_float_to_half((float)i / 64.0f);
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    for (int y = 0; y < h; y++) {
+        exr_chunk_info_t ci;
+        assert_int_equal(exr_write_scanline_chunk_info(ctx, part, y, &ci), EXR_ERR_SUCCESS);
+        if (y == 0)
+            assert_int_equal(exr_encoding_initialize(ctx, part, &ci, &enc), EXR_ERR_SUCCESS);
+        else
+            assert_int_equal(exr_encoding_update(ctx, part, &ci, &enc), EXR_ERR_SUCCESS);
+        for (int k = 0; k < enc.channel_count; k++) {
+            enc.channels[k].encode_from_ptr = (const uint8_t *)(rows + k * w);
+            enc.channels[k].user_pixel_stride = 2 * enc.channels[k].x_samples;
+            enc.channels[k].user_line_stride = 2 * w;
+        }
+        assert_int_equal(exr_encoding_choose_default_routines(ctx, part, &enc), EXR_ERR_SUCCESS);
+        assert_int_equal(exr_encoding_run(ctx, part, &enc), EXR_ERR_SUCCESS);
+    }
+    exr_encoding_destroy(ctx, &enc);
+    assert_int_equal(exr_finish(&ctx), EXR_ERR_SUCCESS);
+    free(rows);
+}
+
+/* imp34: a deep EXR was refused with OpenImageIO's "called OpenEXRInput::read_native_scanlines
+ * without an open file" (FORMAT): the C API's "deep" refusal (UNSUPPORTED) sent the file on to
+ * OIIO's reader, the fallback meant for DWAA/DWAB, whose failure replaced the reason. Now the
+ * C API's reason and code stay, OIIO's is added; a subsampled colour channel is named the same
+ * way. A subsampled channel that is not read (R, G + a subsampled Z) is no reason to refuse. */
+static void exr_deep_and_subsampled_files_are_refused_with_their_reason(void **state)
+{
+    (void)state;
+    char p[512];
+    st_error e;
+    st_set *s = NULL;
+    tmp_path(p, sizeof p, "deep.exr");
+    write_deep_exr(p, 4);
+    st_error_clear(&e);
+    int rc = st_import_file(p, NULL, &s, &e);
+    print_message("deep: %s\n", e.msg);
+    assert_int_equal(rc, ST_EUNSUPPORTED);
+    assert_null(s);
+    assert_non_null(strstr(e.msg, "deep EXR"));
+    st_image img;
+    st_error_clear(&e);
+    assert_int_equal(st_image_read_any(p, NULL, &img, &e), ST_EUNSUPPORTED);
+    assert_null(img.data);
+    assert_non_null(strstr(e.msg, "deep EXR"));
+
+    tmp_path(p, sizeof p, "sub.exr");
+    write_subsampled_exr(p, 8, 4);
+    st_error_clear(&e);
+    rc = st_import_file(p, NULL, &s, &e);
+    print_message("subsampled: %s\n", e.msg);
+    assert_int_equal(rc, ST_EUNSUPPORTED);
+    assert_null(s);
+    assert_non_null(strstr(e.msg, "channel B is subsampled"));
+}
+
+/* imp34: OpenImageIO's messages may hold line breaks (libpng: "PNG read error: Not enough
+ * image data\nPNG library error"), which went into the daemon's one-line log records and the
+ * protocol's message as they were. They are one line now. */
+static void image_reader_messages_are_one_line(void **state)
+{
+    (void)state;
+    /* a 64 x 64 grey PNG whose IDAT holds 10 rows: its chunks reach IEND, its data does not */
+    uint8_t raw[65 * 10], z[256], b[512];
+    memset(raw, 0, sizeof raw);
+    uLongf zl = sizeof z;
+    assert_int_equal(compress(z, &zl, raw, sizeof raw), Z_OK);
+    size_t n = 0;
+    memcpy(b, "\x89PNG\r\n\x1a\n", 8);
+    n = 8;
+    const uint8_t ihdr[13] = {0, 0, 0, 64, 0, 0, 0, 64, 8, 0, 0, 0, 0};
+    const struct { const char *type; const uint8_t *d; size_t len; } ch[3] = {
+        {"IHDR", ihdr, sizeof ihdr}, {"IDAT", z, zl}, {"IEND", NULL, 0}};
+    for (int k = 0; k < 3; k++) {
+        uint8_t *c = b + n;
+        c[0] = (uint8_t)(ch[k].len >> 24);
+        c[1] = (uint8_t)(ch[k].len >> 16);
+        c[2] = (uint8_t)(ch[k].len >> 8);
+        c[3] = (uint8_t)ch[k].len;
+        memcpy(c + 4, ch[k].type, 4);
+        if (ch[k].len)
+            memcpy(c + 8, ch[k].d, ch[k].len);
+        uint32_t crc = (uint32_t)crc32(0, c + 4, (uInt)(4 + ch[k].len));
+        c[8 + ch[k].len] = (uint8_t)(crc >> 24);
+        c[9 + ch[k].len] = (uint8_t)(crc >> 16);
+        c[10 + ch[k].len] = (uint8_t)(crc >> 8);
+        c[11 + ch[k].len] = (uint8_t)crc;
+        n += 12 + ch[k].len;
+    }
+    char p[512];
+    tmp_path(p, sizeof p, "short.png");
+    write_file(p, b, n);
+    st_error e;
+    st_error_clear(&e);
+    st_set *s = NULL;
+    assert_int_equal(st_import_file(p, NULL, &s, &e), ST_EFORMAT);
+    print_message("short IDAT: %s\n", e.msg);
+    for (const char *c = e.msg; *c; c++)
+        assert_true((unsigned char)*c >= 0x20);
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -1554,6 +1705,8 @@ int main(void)
         cmocka_unit_test(premultiplied_flag_follows_the_file),
         cmocka_unit_test(tiff_channels_are_alpha_only_when_the_file_says_so),
         cmocka_unit_test(exr_xyz_channels_are_a_vector_not_luminance),
+        cmocka_unit_test(exr_deep_and_subsampled_files_are_refused_with_their_reason),
+        cmocka_unit_test(image_reader_messages_are_one_line),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
