@@ -1550,6 +1550,63 @@ static void image_reader_messages_are_one_line(void **state)
         assert_true((unsigned char)*c >= 0x20);
 }
 
+/* Imports path with o->cube = cube (and cube_lenient); returns the code, the set freed. */
+static int import_cube_opt(const char *path, int cube, int lenient, int *kind, st_error *e)
+{
+    st_import_opts o;
+    st_import_opts_init(&o);
+    o.cube = (uint8_t)cube;
+    o.cube_lenient = (uint8_t)lenient;
+    st_set *s = NULL;
+    st_error_clear(e);
+    int rc = st_import_file(path, &o, &s, e);
+    *kind = s ? s->info.kind : -1;
+    st_set_free(s);
+    return rc;
+}
+
+/* imp34: an OpenEXR cube map (envmap=cube: a vertical strip) imported with cube=latlong was
+ * resampled as if its strip were a lat-long panorama, a wrong cube with OK (cube=cross_h /
+ * strip_h likewise where the aspect fitted); and a tagged cube of a shape no layout takes was
+ * refused with no option but became a plain atlas with cube=auto. The file's tag now decides:
+ * strip_v, auto and none read the strip (or refuse it), the other layouts are refused. */
+static void exr_cube_maps_take_no_other_layout(void **state)
+{
+    (void)state;
+    uint16_t px[4 * 24 * 3];
+    for (size_t i = 0; i < sizeof px / sizeof px[0]; i++)
+        px[i] = st_float_to_half((float)(i % 97) / 97.0f);
+    char ok[512], bad[512];
+    tmp_path(ok, sizeof ok, "cube_tag.exr");
+    tmp_path(bad, sizeof bad, "cube_tag_bad.exr");
+    st_error e;
+    st_image img = {.w = 4, .h = 24, .nchan = 3, .dtype = ST_DT_HALF, .alpha_chan = -1,
+                    .colorspace = ST_CS_LINEAR, .envmap = ST_ENVMAP_CUBE, .nlevels_file = 1,
+                    .data = px};
+    assert_int_equal(st_image_write_img(ok, &img, &e), ST_OK);
+    img.h = 20; /* 4 x 20: no cube layout */
+    assert_int_equal(st_image_write_img(bad, &img, &e), ST_OK);
+    int kind;
+    assert_int_equal(import_cube_opt(ok, ST_IMPORT_CUBE_NONE, 0, &kind, &e), ST_OK);
+    assert_int_equal(kind, ST_KIND_CUBE);
+    assert_int_equal(import_cube_opt(ok, ST_IMPORT_CUBE_AUTO, 0, &kind, &e), ST_OK);
+    assert_int_equal(kind, ST_KIND_CUBE);
+    assert_int_equal(import_cube_opt(ok, ST_IMPORT_CUBE_STRIP_V, 0, &kind, &e), ST_OK);
+    assert_int_equal(kind, ST_KIND_CUBE);
+    int rc = import_cube_opt(ok, ST_IMPORT_CUBE_LATLONG, 0, &kind, &e);
+    if (rc == ST_OK)
+        print_message("cube=latlong on an envmap=cube file: OK, kind %d\n", kind);
+    assert_int_equal(rc, ST_EINVAL);
+    assert_non_null(strstr(e.msg, "envmap=cube"));
+    /* a set recorded with that option before the check still rebuilds as it was */
+    assert_int_equal(import_cube_opt(ok, ST_IMPORT_CUBE_LATLONG, 1, &kind, &e), ST_OK);
+    assert_int_equal(import_cube_opt(bad, ST_IMPORT_CUBE_NONE, 0, &kind, &e), ST_EINVAL);
+    rc = import_cube_opt(bad, ST_IMPORT_CUBE_AUTO, 0, &kind, &e);
+    if (rc == ST_OK)
+        print_message("cube=auto on a 4x20 envmap=cube file: OK, kind %d\n", kind);
+    assert_int_equal(rc, ST_EINVAL);
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -1707,6 +1764,7 @@ int main(void)
         cmocka_unit_test(exr_xyz_channels_are_a_vector_not_luminance),
         cmocka_unit_test(exr_deep_and_subsampled_files_are_refused_with_their_reason),
         cmocka_unit_test(image_reader_messages_are_one_line),
+        cmocka_unit_test(exr_cube_maps_take_no_other_layout),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
