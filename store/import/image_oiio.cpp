@@ -153,6 +153,36 @@ int tiff_without_bits_per_sample(FILE *f)
     return n > 0;
 }
 
+/* Reads channels [chb, che) of subimage 0, level 0 into dst (rows of rowbytes) in bands of
+ * about 16 MiB (whole tile rows for a tiled file), stopping at the first band that fails or
+ * leaves a message (libjpeg's "Premature end of JPEG file" returns success with one). OIIO's
+ * read_image goes on through every row of a file that ends early, collecting a message per
+ * row: a 200-byte TIFF declaring 20000 x 20000 RGB took 12 s and 1.4 GB before its refusal
+ * (with the daemon's 8 GiB set cap, an upload of a few bytes could take the memory of several
+ * such sets). Returns what the failing (or last) read returned; msg holds the reader's
+ * message, empty when there was none. */
+bool read_banded(ImageInput *in, const ImageSpec &sp, int chb, int che, TypeDesc t, uint8_t *dst,
+                 size_t rowbytes, std::string &msg)
+{
+    int band = (int)(((size_t)16 << 20) / (rowbytes ? rowbytes : 1));
+    if (band < 1)
+        band = 1;
+    if (sp.tile_width > 0 && sp.tile_height > 0)
+        band = (band + sp.tile_height - 1) / sp.tile_height * sp.tile_height;
+    for (int y = 0; y < sp.height; y += band) {
+        int y1 = sp.height - y < band ? sp.height : y + band;
+        uint8_t *at = dst + (size_t)y * rowbytes;
+        bool ok = sp.tile_width > 0
+                      ? in->read_tiles(0, 0, sp.x, sp.x + sp.width, sp.y + y, sp.y + y1, sp.z,
+                                       sp.z + (sp.depth > 0 ? sp.depth : 1), chb, che, t, at)
+                      : in->read_scanlines(0, 0, sp.y + y, sp.y + y1, sp.z, chb, che, t, at);
+        msg = one_line(in->geterror());
+        if (!ok || !msg.empty())
+            return ok; /* a message with true: the caller refuses the file all the same */
+    }
+    return true;
+}
+
 int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
 {
     FILE *f = fopen(path, "rb");
@@ -223,21 +253,25 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
         if (sel[i] != sel[0] + i)
             contiguous = false;
     bool ok;
+    std::string msg;
+    size_t tsz = st_dtype_size(dt);
     if (contiguous) {
-        ok = in->read_image(0, 0, sel[0], sel[0] + nsel, oiio_type(dt), data);
+        ok = read_banded(in.get(), sp, sel[0], sel[0] + nsel, oiio_type(dt), (uint8_t *)data,
+                         (size_t)sp.width * (size_t)nsel * tsz, msg);
     } else {
         void *tmp = malloc(full);
         if (!tmp) {
             free(data);
             return st_fail(e, ST_ENOMEM, "%s: out of memory for %zu bytes", path, full);
         }
-        ok = in->read_image(0, 0, 0, sp.nchannels, oiio_type(dt), tmp);
+        ok = read_banded(in.get(), sp, 0, sp.nchannels, oiio_type(dt), (uint8_t *)tmp,
+                         (size_t)sp.width * (size_t)sp.nchannels * tsz, msg);
         if (ok) {
-            size_t cs = st_dtype_size(dt), npx = (size_t)sp.width * sp.height;
+            size_t npx = (size_t)sp.width * sp.height;
             for (size_t p = 0; p < npx; p++)
                 for (int c = 0; c < nsel; c++)
-                    memcpy((uint8_t *)data + (p * nsel + c) * cs,
-                           (uint8_t *)tmp + (p * sp.nchannels + sel[c]) * cs, cs);
+                    memcpy((uint8_t *)data + (p * nsel + c) * tsz,
+                           (uint8_t *)tmp + (p * sp.nchannels + sel[c]) * tsz, tsz);
         }
         free(tmp);
     }
@@ -245,7 +279,6 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
      * fills the missing part with grey and OIIO keeps "Premature end of JPEG file" in the
      * input's error state (has_error() stays false). Any message left by the read refuses
      * the file: a texture that is partly made up is a silent wrong answer. */
-    std::string msg = one_line(in->geterror());
     if (!ok || !msg.empty()) {
         free(data);
         return st_fail(e, ST_EFORMAT, "%s: %s: %.160s", path,

@@ -9,7 +9,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 #include <zlib.h>
 #include <OpenEXR/openexr.h>
@@ -1607,6 +1609,70 @@ static void exr_cube_maps_take_no_other_layout(void **state)
     assert_int_equal(rc, ST_EINVAL);
 }
 
+/* imp34: a 200-byte TIFF declaring a 16000 x 16000 grey image (256 MB decoded, under the caps)
+ * with one 100-byte strip is refused, but OpenImageIO's read_image went on through all 16000
+ * rows, filling the whole buffer and collecting a message per row (a 20000^2 RGB one: 12 s,
+ * 1.4 GB; the daemon's set cap is 8 GiB). The read is banded now and stops at the first band
+ * that fails: the import's peak memory stays far below the declared size. Measured in a child
+ * (its peak resident size from wait4), against this process's resident size. */
+static void a_small_file_declaring_a_huge_image_is_refused_without_decoding_it(void **state)
+{
+    (void)state;
+    enum { W = 16000, H = 16000 };
+    uint8_t b[512];
+    memset(b, 0, sizeof b);
+    memcpy(b, "II*\0", 4);
+    put32(b + 4, 8);
+    b[8] = 9;
+    static const uint16_t tags[9][2] = {{256, 4}, {257, 4}, {258, 3}, {259, 3}, {262, 3},
+                                        {273, 4}, {277, 3}, {278, 4}, {279, 4}};
+    const uint32_t data = 8 + 2 + 12 * 9 + 4;
+    const uint32_t vals[9] = {W, H, 8, 1, 1, data, 1, H, (uint32_t)W * H};
+    for (int k = 0; k < 9; k++) {
+        uint8_t *t = b + 10 + 12 * k;
+        t[0] = (uint8_t)tags[k][0];
+        t[1] = (uint8_t)(tags[k][0] >> 8);
+        t[2] = (uint8_t)tags[k][1];
+        put32(t + 4, 1);
+        if (tags[k][1] == 3) {
+            t[8] = (uint8_t)vals[k];
+            t[9] = (uint8_t)(vals[k] >> 8);
+        } else {
+            put32(t + 8, vals[k]);
+        }
+    }
+    char p[512];
+    tmp_path(p, sizeof p, "huge_decl.tif");
+    write_file(p, b, data + 100);
+    long page = sysconf(_SC_PAGESIZE);
+    long pages = 0;
+    FILE *f = fopen("/proc/self/statm", "r");
+    assert_non_null(f);
+    long total = 0;
+    assert_int_equal(fscanf(f, "%ld %ld", &total, &pages), 2);
+    fclose(f);
+    long self_kb = pages * (page / 1024);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        st_error e;
+        st_set *s = NULL;
+        int rc = st_import_file(p, NULL, &s, &e);
+        _exit(rc == ST_EFORMAT ? 0 : 1);
+    }
+    int status = 0;
+    struct rusage ru;
+    assert_int_equal(wait4(pid, &status, 0, &ru), pid);
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 0); /* refused as truncated */
+    long grew_kb = ru.ru_maxrss - self_kb;
+    print_message("peak %ld KB in the child, %ld KB here: %ld KB for a %d MB image\n",
+                  ru.ru_maxrss, self_kb, grew_kb, W / 1000 * H / 1000);
+#ifndef __SANITIZE_ADDRESS__ /* AddressSanitizer's allocator and shadow change the figures */
+    assert_true(grew_kb < 96 * 1024);
+#endif
+}
+
 static void upload_options_are_parsed_strictly(void **state)
 {
     (void)state;
@@ -1765,6 +1831,7 @@ int main(void)
         cmocka_unit_test(exr_deep_and_subsampled_files_are_refused_with_their_reason),
         cmocka_unit_test(image_reader_messages_are_one_line),
         cmocka_unit_test(exr_cube_maps_take_no_other_layout),
+        cmocka_unit_test(a_small_file_declaring_a_huge_image_is_refused_without_decoding_it),
         cmocka_unit_test(ptex_env_cube_is_recognised_by_its_layout_not_its_name),
         cmocka_unit_test(detection_uses_magic_before_extension),
         cmocka_unit_test(upload_options_are_parsed_strictly),
