@@ -15,6 +15,10 @@
  *                                                                              image set>: the atlas
  *   BC1                      DDS     the BC1 set (bc1/dds.c)                  the same BC1 set
  *
+ * Alpha: an EXR carries the set's (grey + alpha as Y, A; no alpha: none); a PNG has no 2- or
+ * 4-channel form without alpha, so such a u8 / u16 set without one comes back with its last
+ * channel as alpha, and a premultiplied one (associated-alpha TIFF) comes back flagged straight.
+ *
  * Does not own: the writers themselves (ptex/, bc1/dds.c, image_io.h). Images go through a
  * temp file in the caller's folder (OpenImageIO writes files), removed before returning; the
  * file must read back as the image (same size) before its bytes are handed out: OpenImageIO

@@ -2,7 +2,7 @@
  *
  * Owns: st_exr_read, st_exr_is_magic. Reads part 0, level 0 (scanline or tiled, any level
  * mode), channels R,G,B,A by name (of the default layer, else of the first layer with a
- * "<layer>.R"; else Y, with its A as a second channel; else up to 4 channels in file order), half kept as half, float and
+ * "<layer>.R"; else X, Y, Z when the Y has an X beside it; else Y, with its A as a second channel; else up to 4 channels in file order), half kept as half, float and
  * uint as float. Does not own: other image formats (image_oiio.cpp).
  *
  * Why planes: OpenEXR 3.1.5's default unpacker mis-orders 4-channel half data decoded to
@@ -313,7 +313,8 @@ static int read_with(const char *path, exr_context_initializer_t *init, const ra
     j.w = (int32_t)w;
     j.h = (int32_t)h;
     /* channel selection by name (the list is sorted alphabetically): R,G,B,A of the default
-     * layer, else of the first layer that has a ".R" (e.g. "diffuse.R"), else Y */
+     * layer, else of the first layer that has a ".R" (e.g. "diffuse.R"), else X,Y,Z of the
+     * first Y's layer when it has an X, else Y (with its A) */
     static const char *rgba[4] = {"R", "G", "B", "A"};
     char layer[64] = "";
     int alpha = -1;
@@ -372,7 +373,27 @@ static int read_with(const char *path, exr_context_initializer_t *init, const ra
             if (y < 0 && (!strcmp(nm, "Y") || (l >= 2 && !strcmp(nm + l - 2, ".Y"))))
                 y = c;
         }
-        j.chan_idx[j.nsel++] = y >= 0 ? y : 0;
+        /* a Y beside an X of its layer is a vector's component (a position or normal map,
+         * CIE XYZ), not luminance: the layer's X, Y and Z (if any) in that order, no alpha
+         * (taking Y alone made a grey image of one component). A Z without an X is depth
+         * beside a luminance Y and is left out. */
+        int xyz[3] = {-1, y, -1};
+        if (y >= 0) {
+            const char *yn = chl->entries[y].name.str;
+            size_t pl = strlen(yn) - 1;
+            for (int c = 0; c < chl->num_channels; c++) {
+                const char *nm = chl->entries[c].name.str;
+                if (strlen(nm) == pl + 1 && !strncmp(nm, yn, pl) && (nm[pl] == 'X' || nm[pl] == 'Z'))
+                    xyz[nm[pl] == 'X' ? 0 : 2] = c;
+            }
+        }
+        if (xyz[0] >= 0) {
+            for (int k = 0; k < 3; k++)
+                if (xyz[k] >= 0)
+                    j.chan_idx[j.nsel++] = xyz[k];
+            y = -2; /* selected: no alpha, no file-order fallback */
+        } else
+            j.chan_idx[j.nsel++] = y >= 0 ? y : 0;
         if (y >= 0) {
             /* Y's alpha: "A" next to "Y", "<layer>.A" next to "<layer>.Y" */
             const char *yn = chl->entries[y].name.str;
@@ -386,11 +407,19 @@ static int read_with(const char *path, exr_context_initializer_t *init, const ra
                 }
             }
         }
-        if (y < 0 && chl->num_channels > 1) {
+        if (y == -1 && chl->num_channels > 1) {
             /* no RGB(A)/Y names: take up to 4 channels in file order */
             j.nsel = 0;
             for (int c = 0; c < chl->num_channels && j.nsel < 4; c++)
                 j.chan_idx[j.nsel++] = c;
+        }
+    }
+    for (int k = 0; k < j.nsel; k++) {
+        const exr_attr_chlist_entry_t *ce = &chl->entries[j.chan_idx[k]];
+        if (ce->x_sampling != 1 || ce->y_sampling != 1) {
+            rc = st_fail(e, ST_EUNSUPPORTED, "%s: channel %s is subsampled (%d x %d), which is "
+                         "not read", path, ce->name.str, ce->x_sampling, ce->y_sampling);
+            goto done;
         }
     }
     int allhalf = 1;

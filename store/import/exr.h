@@ -2,7 +2,7 @@
  *
  * Owns: reading one part of an EXR (scanline or tiled, one level or mip-mapped: level 0 is
  * read; half, float and uint channels) into an st_image, taking R,G,B,A by channel name: of
- * the default layer, else of the first layer with a "<layer>.R" channel; else Y (or
+ * the default layer, else of the first layer with a "<layer>.R" channel; else X, Y, Z of a Y's layer that has an X (a vector, no alpha); else Y (or
  * "<layer>.Y") as one channel, two with the A (or "<layer>.A") beside it (alpha_chan 1); an A
  * with no R, G or B does not hide a Y or a chroma file; else up to 4 channels in file order. Does not own: other
  * formats.

@@ -30,8 +30,10 @@ int st_image_read_any(const char *path, const st_image_caps *caps, st_image *out
 int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
                    const void *data, st_error *e);
 
-/* As st_image_write, for a whole st_image: also records its colour space (sRGB or linear)
- * and its envmap kind (an EXR cube strip gets envmap=cube, so it reads back as a cube). */
+/* As st_image_write (which takes the last of 2 or 4 channels as alpha), for a whole st_image:
+ * also records its colour space (sRGB or linear), its envmap kind (an EXR cube strip gets
+ * envmap=cube, so it reads back as a cube) and its alpha channel (none: none, except in a PNG,
+ * which has no 2- or 4-channel form without alpha; an EXR of grey + alpha has channels Y, A). */
 int st_image_write_img(const char *path, const st_image *img, st_error *e);
 
 #endif

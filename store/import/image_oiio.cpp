@@ -77,6 +77,25 @@ const char *ext_of(const char *path)
     return dot && (!slash || dot > slash) ? dot + 1 : "";
 }
 
+/* An OpenImageIO message as one line: libpng and others leave several lines ("PNG read error:
+ * Not enough image data\nPNG library error"), which broke the daemon's one-line log records
+ * and the protocol's message. Line breaks and other control bytes become "; " / a space. */
+std::string one_line(std::string m)
+{
+    while (!m.empty() && (m.back() == '\n' || m.back() == '\r' || m.back() == ' '))
+        m.pop_back();
+    std::string o;
+    for (char ch : m) {
+        if (ch == '\n')
+            o += "; ";
+        else if ((unsigned char)ch < 0x20 || ch == 0x7f)
+            o += ' ';
+        else
+            o += ch;
+    }
+    return o;
+}
+
 /* A PNG's chunk list must reach IEND inside the file. Checked before OIIO sees the file:
  * OIIO 2.4's PNG read callback builds a std::string and libpng then longjmps over it when the
  * file ends early, which leaks on every truncated upload. Returns 0 when fine or not a PNG. */
@@ -134,6 +153,36 @@ int tiff_without_bits_per_sample(FILE *f)
     return n > 0;
 }
 
+/* Reads channels [chb, che) of subimage 0, level 0 into dst (rows of rowbytes) in bands of
+ * about 16 MiB (whole tile rows for a tiled file), stopping at the first band that fails or
+ * leaves a message (libjpeg's "Premature end of JPEG file" returns success with one). OIIO's
+ * read_image goes on through every row of a file that ends early, collecting a message per
+ * row: a 200-byte TIFF declaring 20000 x 20000 RGB took 12 s and 1.4 GB before its refusal
+ * (with the daemon's 8 GiB set cap, an upload of a few bytes could take the memory of several
+ * such sets). Returns what the failing (or last) read returned; msg holds the reader's
+ * message, empty when there was none. */
+bool read_banded(ImageInput *in, const ImageSpec &sp, int chb, int che, TypeDesc t, uint8_t *dst,
+                 size_t rowbytes, std::string &msg)
+{
+    int band = (int)(((size_t)16 << 20) / (rowbytes ? rowbytes : 1));
+    if (band < 1)
+        band = 1;
+    if (sp.tile_width > 0 && sp.tile_height > 0)
+        band = (band + sp.tile_height - 1) / sp.tile_height * sp.tile_height;
+    for (int y = 0; y < sp.height; y += band) {
+        int y1 = sp.height - y < band ? sp.height : y + band;
+        uint8_t *at = dst + (size_t)y * rowbytes;
+        bool ok = sp.tile_width > 0
+                      ? in->read_tiles(0, 0, sp.x, sp.x + sp.width, sp.y + y, sp.y + y1, sp.z,
+                                       sp.z + (sp.depth > 0 ? sp.depth : 1), chb, che, t, at)
+                      : in->read_scanlines(0, 0, sp.y + y, sp.y + y1, sp.z, chb, che, t, at);
+        msg = one_line(in->geterror());
+        if (!ok || !msg.empty())
+            return ok; /* a message with true: the caller refuses the file all the same */
+    }
+    return true;
+}
+
 int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_error *e)
 {
     FILE *f = fopen(path, "rb");
@@ -153,7 +202,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
     if (!in) {
-        std::string msg = OIIO::geterror();
+        std::string msg = one_line(OIIO::geterror());
         return st_fail(e, ST_EFORMAT, "%s: not an image OpenImageIO reads (%.160s)", path,
                        msg.c_str());
     }
@@ -183,9 +232,11 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
     } else {
         for (int i = 0; i < sp.nchannels; i++)
             sel[nsel++] = i;
-        alpha = sp.alpha_channel >= 0 && sp.alpha_channel < 4 ? sp.alpha_channel : -1;
-        if (alpha < 0 && (nsel == 4 || nsel == 2))
-            alpha = nsel - 1;
+        /* the alpha OIIO reports, never a guess from the count: a 2-channel TIFF (R, G: a
+         * normal or flow map) or an RGB TIFF with an unspecified extra sample has none, and
+         * calling its last channel alpha made INFO say alpha + premultiplied and COMPRESS
+         * punch BC1 holes where that channel is under 0.5 */
+        alpha = sp.alpha_channel >= 0 && sp.alpha_channel < sp.nchannels ? sp.alpha_channel : -1;
     }
     unsigned dt = pick_dtype(sp.format);
     size_t bytes = st_image_bytes((uint32_t)sp.width, (uint32_t)sp.height, (unsigned)nsel, dt, caps);
@@ -202,21 +253,25 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
         if (sel[i] != sel[0] + i)
             contiguous = false;
     bool ok;
+    std::string msg;
+    size_t tsz = st_dtype_size(dt);
     if (contiguous) {
-        ok = in->read_image(0, 0, sel[0], sel[0] + nsel, oiio_type(dt), data);
+        ok = read_banded(in.get(), sp, sel[0], sel[0] + nsel, oiio_type(dt), (uint8_t *)data,
+                         (size_t)sp.width * (size_t)nsel * tsz, msg);
     } else {
         void *tmp = malloc(full);
         if (!tmp) {
             free(data);
             return st_fail(e, ST_ENOMEM, "%s: out of memory for %zu bytes", path, full);
         }
-        ok = in->read_image(0, 0, 0, sp.nchannels, oiio_type(dt), tmp);
+        ok = read_banded(in.get(), sp, 0, sp.nchannels, oiio_type(dt), (uint8_t *)tmp,
+                         (size_t)sp.width * (size_t)sp.nchannels * tsz, msg);
         if (ok) {
-            size_t cs = st_dtype_size(dt), npx = (size_t)sp.width * sp.height;
+            size_t npx = (size_t)sp.width * sp.height;
             for (size_t p = 0; p < npx; p++)
                 for (int c = 0; c < nsel; c++)
-                    memcpy((uint8_t *)data + (p * nsel + c) * cs,
-                           (uint8_t *)tmp + (p * sp.nchannels + sel[c]) * cs, cs);
+                    memcpy((uint8_t *)data + (p * nsel + c) * tsz,
+                           (uint8_t *)tmp + (p * sp.nchannels + sel[c]) * tsz, tsz);
         }
         free(tmp);
     }
@@ -224,7 +279,6 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
      * fills the missing part with grey and OIIO keeps "Premature end of JPEG file" in the
      * input's error state (has_error() stays false). Any message left by the read refuses
      * the file: a texture that is partly made up is a silent wrong answer. */
-    std::string msg = in->geterror();
     if (!ok || !msg.empty()) {
         free(data);
         return st_fail(e, ST_EFORMAT, "%s: %s: %.160s", path,
@@ -263,7 +317,7 @@ int read_impl(const char *path, const st_image_caps *caps, st_image *out, st_err
 }
 
 int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigned dtype,
-               const void *data, int envmap, int colorspace, st_error *e)
+               const void *data, int envmap, int colorspace, int alpha, st_error *e)
 {
     if (!w || !h || w > ST_MAX_DIM || h > ST_MAX_DIM || nchan < 1 || nchan > 4 ||
         !st_dtype_size(dtype))
@@ -276,7 +330,7 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
         return st_fail(e, ST_EUNSUPPORTED, "%s: OpenImageIO cannot write DDS (use bc1.h)", path);
     auto outp = ImageOutput::create(path);
     if (!outp) {
-        std::string msg = OIIO::geterror(); /* also clears OIIO's pending per-thread message */
+        std::string msg = one_line(OIIO::geterror()); /* also clears OIIO's pending per-thread message */
         return st_fail(e, ST_EUNSUPPORTED, "%s: no writer for this extension (%.120s)", path,
                        msg.c_str());
     }
@@ -294,8 +348,13 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
         spec.attribute("oiio:ColorSpace", "Linear");
     else if (colorspace == ST_CS_SRGB)
         spec.attribute("oiio:ColorSpace", "sRGB");
-    if (nchan == 4 || nchan == 2)
-        spec.alpha_channel = (int)nchan - 1;
+    /* alpha as the image says; PNG has no 2- or 4-channel form without one. A grey + alpha
+     * image goes to EXR as Y, A (OIIO's default names R, G uploaded back without alpha) */
+    if (ext == "png" && (nchan == 4 || nchan == 2))
+        alpha = (int)nchan - 1;
+    spec.alpha_channel = alpha >= 0 && alpha < (int)nchan ? alpha : -1;
+    if (ext == "exr" && nchan == 2 && spec.alpha_channel == 1)
+        spec.channelnames = {"Y", "A"};
     spec.attribute("oiio:UnassociatedAlpha", 1); /* write texels as given */
     /* A file written here is a function of its image (FETCH is byte-stable, PROTOCOL.md 4.10):
      * OpenImageIO 2.4's EXR writer stamps a file it is given no "DateTime" with the local wall
@@ -306,13 +365,13 @@ int write_impl(const char *path, uint32_t w, uint32_t h, unsigned nchan, unsigne
     if (ext == "exr")
         spec.attribute("DateTime", "");
     if (!outp->open(path, spec)) {
-        std::string msg = outp->geterror();
+        std::string msg = one_line(outp->geterror());
         return st_fail(e, ST_EIO, "%s: cannot open for writing: %.160s", path, msg.c_str());
     }
     bool ok = outp->write_image(oiio_type(dtype), data);
     ok = outp->close() && ok;
     if (!ok) {
-        std::string msg = outp->geterror();
+        std::string msg = one_line(outp->geterror());
         return st_fail(e, ST_EIO, "%s: write failed: %.160s", path, msg.c_str());
     }
     return ST_OK;
@@ -346,10 +405,31 @@ extern "C" int st_image_read_any(const char *path, const st_image_caps *caps, st
     size_t n = fread(head, 1, 4, f);
     fclose(f);
     if (st_exr_is_magic(head, n)) {
-        int rc = st_exr_read(path, caps, out, e);
-        if (rc != ST_EUNSUPPORTED)
+        st_error ee;
+        st_error_clear(&ee);
+        int rc = st_exr_read(path, caps, out, &ee);
+        if (rc != ST_EUNSUPPORTED) {
+            if (rc && e)
+                *e = ee;
             return rc;
-        /* a compression the OpenEXR 3.1 C API does not decode (DWAA/DWAB): OIIO's reader */
+        }
+        /* a compression the OpenEXR 3.1 C API does not decode (DWAA/DWAB): OIIO's reader. When
+         * that fails too, the C API's reason stays first and its code (UNSUPPORTED): a deep
+         * file was refused with OIIO's "read_native_scanlines without an open file". */
+        st_error oe;
+        st_error_clear(&oe);
+        rc = st_image_read(path, caps, out, &oe);
+        if (rc == ST_OK)
+            return ST_OK;
+        if (rc == ST_ENOMEM) {
+            if (e)
+                *e = oe;
+            return rc;
+        }
+        size_t pl = strlen(path);
+        const char *why = !strncmp(oe.msg, path, pl) && !strncmp(oe.msg + pl, ": ", 2)
+                              ? oe.msg + pl + 2 : oe.msg;
+        return st_fail(e, ST_EUNSUPPORTED, "%.160s (OpenImageIO: %.90s)", ee.msg, why);
     }
     return st_image_read(path, caps, out, e);
 }
@@ -358,7 +438,8 @@ extern "C" int st_image_write(const char *path, uint32_t w, uint32_t h, unsigned
                               unsigned dtype, const void *data, st_error *e)
 {
     try {
-        return write_impl(path, w, h, nchan, dtype, data, ST_ENVMAP_NONE, -1, e);
+        return write_impl(path, w, h, nchan, dtype, data, ST_ENVMAP_NONE, -1,
+                          nchan == 4 || nchan == 2 ? (int)nchan - 1 : -1, e);
     } catch (const std::bad_alloc &) {
         return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
     } catch (...) {
@@ -370,7 +451,7 @@ extern "C" int st_image_write_img(const char *path, const st_image *img, st_erro
 {
     try {
         return write_impl(path, img->w, img->h, img->nchan, img->dtype, img->data, img->envmap,
-                          img->colorspace, e);
+                          img->colorspace, img->alpha_chan, e);
     } catch (const std::bad_alloc &) {
         return st_fail(e, ST_ENOMEM, "%s: out of memory in OpenImageIO", path);
     } catch (...) {

@@ -305,7 +305,8 @@ static int image_to_set(st_image *img, const st_import_opts *o, st_set **out, st
     case ST_IMPORT_CUBE_CROSS_V: layout = ST_CUBE_CROSS_V; break;
     case ST_IMPORT_CUBE_LATLONG: layout = ST_CUBE_LATLONG; break;
     case ST_IMPORT_CUBE_AUTO:
-        layout = st_cube_guess_layout(img);
+        /* an OpenEXR cube map is its vertical strip (or refused), never an atlas by its aspect */
+        layout = img->envmap == ST_ENVMAP_CUBE ? ST_CUBE_STRIP_V : st_cube_guess_layout(img);
         if (layout == ST_CUBE_LATLONG && img->envmap != ST_ENVMAP_LATLONG)
             layout = -1; /* a 2:1 photo stays an image unless it says it is an environment */
         break;
@@ -314,6 +315,13 @@ static int image_to_set(st_image *img, const st_import_opts *o, st_set **out, st
             layout = ST_CUBE_STRIP_V; /* OpenEXR envmap=cube is a vertical strip */
         break;
     }
+    /* an OpenEXR cube map says what it is: read as a lat-long image, a horizontal strip or a
+     * cross its vertical strip would make a wrong cube without a word (cube_lenient: as before,
+     * for sets recorded with that option) */
+    if (img->envmap == ST_ENVMAP_CUBE && layout >= 0 && layout != ST_CUBE_STRIP_V &&
+        !o->cube_lenient)
+        return st_fail(e, ST_EINVAL, "the file is an OpenEXR cube map (envmap=cube, a vertical "
+                       "strip); cube=%s does not apply to it", cube_kind_name(o->cube));
     if (layout >= 0)
         return st_cube_from_image(img, (st_cube_layout)layout, o->face_size, o->max_bytes, out, e);
     if (o->cube != ST_IMPORT_CUBE_NONE && o->cube != ST_IMPORT_CUBE_AUTO)
@@ -490,9 +498,9 @@ int st_import_file(const char *path, const st_import_opts *opts, st_set **out, s
     case ST_FMT_EXR:
     case ST_FMT_IMAGE: {
         st_image img;
-        rc = fmt == ST_FMT_EXR ? st_exr_read(path, &caps, &img, e) : st_image_read(path, &caps, &img, e);
-        if (rc == ST_EUNSUPPORTED && fmt == ST_FMT_EXR)
-            rc = st_image_read(path, &caps, &img, e); /* e.g. DWAB, which the 3.1 C API lacks */
+        /* EXR: the C API, then OIIO for what the 3.1 C API lacks (DWAA/DWAB; image_io.h) */
+        rc = fmt == ST_FMT_EXR ? st_image_read_any(path, &caps, &img, e)
+                               : st_image_read(path, &caps, &img, e);
         if (rc)
             return rc;
         rc = image_to_set(&img, opts, out, e);

@@ -16,6 +16,7 @@
 #include "bc1.h"
 #include "cube.h"
 #include "export.h"
+#include "half.h"
 #include "image_io.h"
 #include "import.h"
 #include "mesh.h"
@@ -190,6 +191,36 @@ static void a_float_atlas_image_comes_back_as_exr(void **state)
     st_set_free(a);
 }
 
+/* imp34: a half grey + alpha atlas went out as an EXR of channels R, G (OpenImageIO's default
+ * names for two channels), which uploads back as two channels without alpha and not
+ * premultiplied: not an equivalent set. It goes out as Y, A now; a 2-channel set without
+ * alpha stays R, G and comes back without one. */
+static void a_grey_alpha_exr_comes_back_with_its_alpha(void **state)
+{
+    (void)state;
+    enum { W = 8, H = 4 };
+    uint16_t px[W * H * 2];
+    for (int i = 0; i < W * H * 2; i++)
+        px[i] = st_float_to_half((float)i / 64.0f);
+    for (int alpha = -1; alpha <= 1; alpha += 2) {
+        st_image img = {.w = W, .h = H, .nchan = 2, .dtype = ST_DT_HALF,
+                        .colorspace = ST_CS_LINEAR, .alpha_chan = (int8_t)alpha,
+                        .premultiplied = alpha >= 0, .nlevels_file = 1, .data = px};
+        st_set *a = NULL;
+        st_error e;
+        st_error_clear(&e);
+        assert_int_equal(st_atlas_from_image(&img, NULL, 0, &a, &e), ST_OK);
+        st_set *r = round_trip(a, ST_EXPORT_EXR, "ya.exr", NULL);
+        if (r->info.alpha_chan != alpha)
+            print_message("alpha %d came back as %d\n", alpha, r->info.alpha_chan);
+        assert_int_equal(r->info.alpha_chan, alpha);
+        assert_int_equal(r->info.premultiplied, alpha >= 0);
+        assert_same_texels(a, r);
+        st_set_free(r);
+        st_set_free(a);
+    }
+}
+
 /* Exports s as `format` with the process's local clock set to the time zone tz (OpenImageIO
  * 2.4 stamps an EXR it is not given a date for with the local time: two zones are two
  * clocks, without waiting for one to tick) and returns the bytes. */
@@ -272,6 +303,7 @@ int main(void)
         cmocka_unit_test(a_cube_comes_back_from_a_ptex_env_cube_and_an_exr_cube),
         cmocka_unit_test(an_atlas_comes_back_as_its_image_and_its_mesh),
         cmocka_unit_test(a_float_atlas_image_comes_back_as_exr),
+        cmocka_unit_test(a_grey_alpha_exr_comes_back_with_its_alpha),
         cmocka_unit_test(an_exr_export_is_the_same_bytes_whatever_the_clock),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
