@@ -182,9 +182,10 @@ static void exr_channels_come_in_rgba_order_from_the_c_api(void **state)
 }
 
 /* Writes a w x h scanline EXR (no compression) through the OpenEXR C API with the given
- * half channels; values[c] is channel c's constant plus x / 64. */
-static void write_exr_channels(const char *path, int w, int h, int nch, const char *const *names,
-                               const float *values)
+ * half channels; values[c] is channel c's constant plus x / 64; channel c sampled every
+ * samp[c] pixels in x and y (samp NULL: every pixel; w, h multiples of it). */
+static void write_exr_sampled(const char *path, int w, int h, int nch, const char *const *names,
+                              const float *values, const int *samp)
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     exr_context_t ctx = NULL;
@@ -195,7 +196,8 @@ static void write_exr_channels(const char *path, int w, int h, int nch, const ch
                      EXR_ERR_SUCCESS);
     for (int c = 0; c < nch; c++)
         assert_true(exr_add_channel(ctx, part, names[c], EXR_PIXEL_HALF,
-                                    EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1) == EXR_ERR_SUCCESS);
+                                    EXR_PERCEPTUALLY_LOGARITHMIC, samp ? samp[c] : 1,
+                                    samp ? samp[c] : 1) == EXR_ERR_SUCCESS);
     assert_int_equal(exr_write_header(ctx), EXR_ERR_SUCCESS);
     /* the C API keeps channels sorted by name: fill each by its name */
     const exr_attr_chlist_t *chl = NULL;
@@ -217,7 +219,7 @@ static void write_exr_channels(const char *path, int w, int h, int nch, const ch
             for (int x = 0; x < w; x++)
                 rows[k * w + x] = st_float_to_half(values[c] + (float)x / 64.0f);
             enc.channels[k].encode_from_ptr = (const uint8_t *)(rows + k * w);
-            enc.channels[k].user_pixel_stride = 2;
+            enc.channels[k].user_pixel_stride = 2 * enc.channels[k].x_samples;
             enc.channels[k].user_line_stride = 2 * w;
         }
         assert_int_equal(exr_encoding_choose_default_routines(ctx, part, &enc), EXR_ERR_SUCCESS);
@@ -226,6 +228,12 @@ static void write_exr_channels(const char *path, int w, int h, int nch, const ch
     exr_encoding_destroy(ctx, &enc);
     assert_int_equal(exr_finish(&ctx), EXR_ERR_SUCCESS);
     free(rows);
+}
+
+static void write_exr_channels(const char *path, int w, int h, int nch, const char *const *names,
+                               const float *values)
+{
+    write_exr_sampled(path, w, h, nch, names, values, NULL);
 }
 
 static void exr_takes_rgba_by_name_from_extra_channels_and_layers(void **state)
@@ -1435,42 +1443,10 @@ static void write_deep_exr(const char *path, int w)
 /* An EXR of R, G at full resolution and B sampled every 2 x 2 pixels (w, h even). */
 static void write_subsampled_exr(const char *path, int w, int h)
 {
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    exr_context_t ctx = NULL;
-    int part = 0;
-    assert_int_equal(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init), EXR_ERR_SUCCESS);
-    assert_int_equal(exr_add_part(ctx, "main", EXR_STORAGE_SCANLINE, &part), EXR_ERR_SUCCESS);
-    assert_int_equal(exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_NONE),
-                     EXR_ERR_SUCCESS);
-    static const char *names[3] = {"R", "G", "B"};
-    for (int c = 0; c < 3; c++)
-        assert_int_equal(exr_add_channel(ctx, part, names[c], EXR_PIXEL_HALF,
-                                         EXR_PERCEPTUALLY_LOGARITHMIC, c == 2 ? 2 : 1,
-                                         c == 2 ? 2 : 1), EXR_ERR_SUCCESS);
-    assert_int_equal(exr_write_header(ctx), EXR_ERR_SUCCESS);
-    uint16_t *rows = calloc((size_t)w * 3, sizeof *rows);
-    assert_non_null(rows);
-    for (int i = 0; i < w * 3; i++)
-        rows[i] = st_float_to_half((float)i / 64.0f);
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    for (int y = 0; y < h; y++) {
-        exr_chunk_info_t ci;
-        assert_int_equal(exr_write_scanline_chunk_info(ctx, part, y, &ci), EXR_ERR_SUCCESS);
-        if (y == 0)
-            assert_int_equal(exr_encoding_initialize(ctx, part, &ci, &enc), EXR_ERR_SUCCESS);
-        else
-            assert_int_equal(exr_encoding_update(ctx, part, &ci, &enc), EXR_ERR_SUCCESS);
-        for (int k = 0; k < enc.channel_count; k++) {
-            enc.channels[k].encode_from_ptr = (const uint8_t *)(rows + k * w);
-            enc.channels[k].user_pixel_stride = 2 * enc.channels[k].x_samples;
-            enc.channels[k].user_line_stride = 2 * w;
-        }
-        assert_int_equal(exr_encoding_choose_default_routines(ctx, part, &enc), EXR_ERR_SUCCESS);
-        assert_int_equal(exr_encoding_run(ctx, part, &enc), EXR_ERR_SUCCESS);
-    }
-    exr_encoding_destroy(ctx, &enc);
-    assert_int_equal(exr_finish(&ctx), EXR_ERR_SUCCESS);
-    free(rows);
+    static const char *const names[3] = {"R", "G", "B"};
+    static const float values[3] = {0.25f, 0.5f, 0.75f};
+    static const int samp[3] = {1, 1, 2};
+    write_exr_sampled(path, w, h, 3, names, values, samp);
 }
 
 /* imp34: a deep EXR was refused with OpenImageIO's "called OpenEXRInput::read_native_scanlines
