@@ -1320,6 +1320,19 @@ static size_t u8_tiff(uint8_t *b, int w, int h, int spp, int photometric, int ex
     return data + (size_t)(w * h * spp);
 }
 
+/* Imports p (case k of a table) and fails, naming the case and the reason, unless it imports. */
+static st_set *import_case_ok(const char *p, size_t k)
+{
+    st_error e;
+    st_error_clear(&e);
+    st_set *s = NULL;
+    int rc = st_import_file(p, NULL, &s, &e);
+    if (rc)
+        print_message("case %zu: %s\n", k, e.msg);
+    assert_int_equal(rc, ST_OK);
+    return s;
+}
+
 /* imp34: the last channel of a 2- or 4-channel image was taken as alpha whenever OpenImageIO
  * reported none: a 2-channel TIFF (R, G: a normal or flow map, as oiiotool writes it) or an
  * RGB TIFF with an unspecified extra sample came in with alpha_chan 1 / 3 and premultiplied 1,
@@ -1346,13 +1359,7 @@ static void tiff_channels_are_alpha_only_when_the_file_says_so(void **state)
         char p[512];
         tmp_path(p, sizeof p, "alpha.tif");
         write_file(p, b, len);
-        st_error e;
-        st_error_clear(&e);
-        st_set *s = NULL;
-        int rc = st_import_file(p, NULL, &s, &e);
-        if (rc)
-            print_message("case %zu: %s\n", k, e.msg);
-        assert_int_equal(rc, ST_OK);
+        st_set *s = import_case_ok(p, k);
         if (s->info.alpha_chan != cases[k].alpha)
             print_message("case %zu: alpha_chan %d, the file says %d\n", k, s->info.alpha_chan,
                           cases[k].alpha);
@@ -1387,13 +1394,7 @@ static void exr_xyz_channels_are_a_vector_not_luminance(void **state)
         char p[512];
         tmp_path(p, sizeof p, "xyz.exr");
         write_exr_channels(p, W, H, cases[k].nch, cases[k].names, v);
-        st_error e;
-        st_error_clear(&e);
-        st_set *s = NULL;
-        int rc = st_import_file(p, NULL, &s, &e);
-        if (rc)
-            print_message("case %zu: %s\n", k, e.msg);
-        assert_int_equal(rc, ST_OK);
+        st_set *s = import_case_ok(p, k);
         if (s->info.nchan != cases[k].want_nchan)
             print_message("case %zu: %u channels, want %d\n", k, s->info.nchan,
                           cases[k].want_nchan);
