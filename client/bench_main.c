@@ -444,16 +444,13 @@ int main(int argc, char **argv)
         default: usage(stderr); return 2;
         }
         if (bad) {   /* named as given: -c, or --proto for an option without a letter */
-            const char *lname = "";
+            char name[40] = "--";
+            if (ch < 256)
+                snprintf(name, sizeof name, "-%c", ch);
             for (const struct option *o = opts; ch >= 256 && o->name; o++)
                 if (o->val == ch)
-                    lname = o->name;
-            if (ch < 256)
-                fprintf(stderr, "seamtex-bench: bad value for -%c: '%s'\n", ch,
-                        optarg ? optarg : "");
-            else
-                fprintf(stderr, "seamtex-bench: bad value for --%s: '%s'\n", lname,
-                        optarg ? optarg : "");
+                    snprintf(name, sizeof name, "--%s", o->name);
+            fprintf(stderr, "seamtex-bench: bad value for %s: '%s'\n", name, optarg ? optarg : "");
             return 2;
         }
     }

@@ -40,6 +40,9 @@ typedef struct cli_ctx {
 /* CLI_USAGE after saying so when $SEAMTEX_PORT is not a port, -p did not replace it and the
  * host is not a unix: address; else CLI_OK. */
 int cli_check_env_port(const cli_ctx *ctx);
+/* The connection options of every command (token, client name, --timeout for the connect,
+ * HELLO and each request), for cli_connect and the cluster handle alike. */
+void cli_conn_opts(const cli_ctx *ctx, stc_opts *o);
 /* Opens ctx->conn; on failure prints why and returns CLI_CONNECT (cli_check_env_port's
  * CLI_USAGE first). */
 int cli_connect(cli_ctx *ctx);

@@ -27,12 +27,7 @@ static stc_cluster *open_cluster(cli_ctx *ctx, int *code)
     else
         snprintf(seeds, sizeof seeds, "%s:%u", ctx->host, ctx->port);
     stc_opts o;
-    memset(&o, 0, sizeof o);
-    o.token = ctx->token;
-    o.client_name = "seamtex-cli";
-    o.request_timeout_ms = ctx->timeout_ms;
-    o.connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
-                                                 0: the library's 5 s (the cluster's 2 s) */
+    cli_conn_opts(ctx, &o);
     int err = 0;
     char msg[512] = "";
     ctx->cluster = stc_cluster_open_url(seeds, &o, &err, msg, sizeof msg);

@@ -176,6 +176,16 @@ int cli_check_env_port(const cli_ctx *ctx)
     return CLI_OK;
 }
 
+void cli_conn_opts(const cli_ctx *ctx, stc_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->token = ctx->token;
+    o->client_name = "seamtex-cli";
+    o->request_timeout_ms = ctx->timeout_ms;
+    o->connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
+                                                  0: the library's 5 s (the cluster's 2 s) */
+}
+
 int cli_connect(cli_ctx *ctx)
 {
     if (ctx->cluster_seeds && ctx->route_set) {   /* --cluster: the set's owner */
@@ -194,12 +204,7 @@ int cli_connect(cli_ctx *ctx)
     if (rc)
         return rc;
     stc_opts o;
-    memset(&o, 0, sizeof o);
-    o.token = ctx->token;
-    o.client_name = "seamtex-cli";
-    o.request_timeout_ms = ctx->timeout_ms;
-    o.connect_timeout_ms = ctx->timeout_ms;   /* --timeout bounds the connect and HELLO too;
-                                                 0: the library's 5 s (the cluster's 2 s) */
+    cli_conn_opts(ctx, &o);
     char msg[256] = "";
     int err = 0;
     ctx->conn = stc_connect_opts(ctx->host, ctx->port, &o, &err, msg, sizeof msg);

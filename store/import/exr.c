@@ -2,8 +2,8 @@
  *
  * Owns: st_exr_read, st_exr_is_magic. Reads part 0, level 0 (scanline or tiled, any level
  * mode), channels R,G,B,A by name (of the default layer, else of the first layer with a
- * "<layer>.R"; else X, Y, Z when the Y has an X beside it; else Y, with its A as a second channel; else up to 4 channels in file order), half kept as half, float and
- * uint as float. Does not own: other image formats (image_oiio.cpp).
+ * "<layer>.R"; else X, Y, Z when the Y has an X beside it; else Y, with its A as a second
+ * channel; else up to 4 channels in file order), half kept as half, float and uint as float. Does not own: other image formats (image_oiio.cpp).
  *
  * Why planes: OpenEXR 3.1.5's default unpacker mis-orders 4-channel half data decoded to
  * interleaved float (fixed upstream in 3.3). Each selected channel is therefore decoded into
