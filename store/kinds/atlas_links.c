@@ -437,7 +437,8 @@ int st_atlas_build_links(st_atlas *a, const st_set *s, st_error *e)
         if (rc)
             break;
         /* one link per (texel, chart): the nearest seam side's */
-        qsort(lv[l].v, lv[l].n, sizeof *lv[l].v, cand_cmp);
+        if (lv[l].n > 1) /* lv[l].v is NULL when a level has no candidates */
+            qsort(lv[l].v, lv[l].n, sizeof *lv[l].v, cand_cmp);
         size_t n = 0;
         for (size_t i = 0; i < lv[l].n; i++)
             if (!n || lv[l].v[i].l.texel != lv[l].v[n - 1].l.texel ||

@@ -90,9 +90,11 @@ ST_AI void probe_bilinear(const st_set *s, unsigned mode, const st_fp *fp, uint3
     float fx = x - (float)i0, fy = y - (float)j0;
     if (CH && fp->chart) { /* chart modes: the fast path when all four taps are the chart's */
         const uint16_t c = (uint16_t)fp->chart;
-        const uint16_t *r = fp->ch->level[level] + (size_t)j0 * (size_t)V.w + (size_t)i0;
+        const uint16_t *r = fp->ch->level[level];
+        /* the ids' row pointer is formed only inside the level (i0 or j0 may be -1) */
         if (!((uint32_t)i0 < (uint32_t)(V.w - 1) && (uint32_t)j0 < (uint32_t)(V.h - 1) &&
-              r[0] == c && r[1] == c && r[V.w] == c && r[V.w + 1] == c)) {
+              (r += (size_t)j0 * (size_t)V.w + (size_t)i0, r[0] == c) && r[1] == c &&
+              r[V.w] == c && r[V.w + 1] == c)) {
             st_probe_bilinear_chart(s, mode, fp, level, &V, i0, j0, fx, fy, pw, a);
             return;
         }
