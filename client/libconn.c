@@ -206,6 +206,13 @@ int stc__begin(stc_conn *c)
 {
     if (!c)
         return STC_EINVAL;
+    /* After fork the child holds the same socket (and shared-memory region) with the same
+     * request ids: its requests and the parent's would interleave, each could read the
+     * other's replies (wrong results through the region, ProtocolError for the parent). Only
+     * stc_close of the copy is allowed there; it leaves the parent's connection alone. */
+    if (c->pid != (long)getpid())
+        return stc__fail(c, STC_ESTATE, "this connection was opened by process %ld: a child "
+                         "after fork must open its own (stc_close on the copy is fine)", c->pid);
     if (c->hold) {
         stp_buf_consume(&c->in, c->hold);
         c->hold = 0;
@@ -742,6 +749,7 @@ connected:
         CONNECT_FAIL(STC_ENOMEM, "out of memory");
     }
     c->fd = fd;
+    c->pid = (long)getpid();
     c->next_reqid = 1;
     c->timeout_ms = o && o->request_timeout_ms > 0 ? o->request_timeout_ms : 0;
     c->max_body = o && o->max_body ? o->max_body : STC_DEFAULT_MAX_BODY;

@@ -11,6 +11,10 @@
  * THREADING: a connection is used by one thread at a time (one connection per thread, or
  * your own lock around it). Different connections are independent; the library has no
  * global state. Writes use MSG_NOSIGNAL, so a closed peer never raises SIGPIPE.
+ * FORK: a connection belongs to the process that opened it. In a child after fork(2) every
+ * call on an inherited connection returns STC_ESTATE (the socket, the shared-memory region
+ * and the request ids would be shared with the parent: replies could go to the wrong
+ * process); stc_close on the child's copy is allowed and leaves the parent's connection alone.
  *
  * OWNERSHIP: stc_connect returns a connection the caller frees with stc_close (NULL accepted).
  * Everything a call hands back through a pointer into the library (lists, stats, sample
@@ -253,7 +257,8 @@ typedef struct stc_sample_result {
                                          4 ZERO_COVERAGE), or NULL when not asked for */
 } stc_sample_result;
 /* A batch over the server's max_batch is split into pipelined parts and reassembled, so n is
- * not limited by the server (only by memory). */
+ * not limited by the server, only by memory and by res->count: at most 2^32-1 (UINT32_MAX)
+ * queries a call, more is STC_EINVAL. */
 int stc_sample(stc_conn *c, const char *set, const stc_sample_opts *o, const stc_query *q,
                size_t n, stc_sample_result *res);
 int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
@@ -273,9 +278,11 @@ enum { STC_UPLOAD_REPLACE = 1, STC_UPLOAD_RESUME = 2,
        STC_UPLOAD_REPLICA = 4,  /* node-to-node copy in a cluster (seamtexd uses it) */
        STC_UPLOAD_STAGE = 8     /* with REPLICA: staged until published (seamtexd uses it) */ };
 typedef struct stc_upload_opts {
-    const char     *hint;             /* "ptx", "png", ...; NULL = from the file extension */
-    const char     *options;          /* "texture=<set> cube=latlong:512"; NULL = none */
-    unsigned        flags;            /* STC_UPLOAD_* */
+    const char     *hint;             /* "ptx", "png", ... (at most 15 bytes, else STC_EINVAL);
+                                         NULL = from the file extension */
+    const char     *options;          /* "texture=<set> cube=latlong:512" (at most 1023 bytes);
+                                         NULL = none */
+    unsigned        flags;            /* STC_UPLOAD_* (another bit: STC_EINVAL) */
     uint32_t        chunk;            /* bytes per chunk; 0 = min(1 MiB, server max_chunk) */
     stc_progress_fn progress;
     void           *user;
