@@ -128,7 +128,7 @@ void stc_close(stc_conn *c);
 const char *stc_errmsg(const stc_conn *c);
 /* The sticky error of c (0 while the connection is healthy). */
 int stc_error(const stc_conn *c);
-/* Per-request timeout for later calls; 0 = none. */
+/* Per-request timeout for later calls; 0 (or negative) = none. */
 void stc_set_timeout(stc_conn *c, int timeout_ms);
 
 /* Capability bits of stc_server.caps (PROTOCOL.md 4.1). */
@@ -328,7 +328,9 @@ int stc_compress(stc_conn *c, const char *set, const char *target, unsigned leve
 int stc_job_status(stc_conn *c, uint64_t job_id, stc_job *out);
 int stc_job_cancel(stc_conn *c, uint64_t job_id, stc_job *out);   /* out may be NULL */
 /* Polls until the job is DONE/FAILED/CANCELED or wait_ms passes (STC_ETIMEDOUT; < 0 =
- * forever). Returns 0 when DONE, the job's result code when FAILED. */
+ * forever; each poll is a request under the request timeout). Returns 0 when DONE, the job's
+ * result code when FAILED (STC_EINTERNAL when it gives none), STC_ESERVERCANCELED when
+ * CANCELED. */
 int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out);
 
 /* FETCH formats (PROTOCOL.md 4.10: which fits which set kind). STC_FETCH_AUTO picks the
