@@ -35,6 +35,7 @@
 #include "../common/wire.h"
 #include "proto.h"
 #include "seamtex.h"
+#include "seamtex_cluster.h"
 
 /* ---- scripted mock server ------------------------------------------------------------------- */
 
@@ -839,6 +840,27 @@ static void a_child_after_fork_cannot_use_the_parents_connection(void **state)
     mock_stop(m);
 }
 
+/* py35: stc_cluster_open wrote *err through a NULL err on failure (a crash; stc_connect_opts
+ * and stc_cluster_open_etcd take NULL), and stc_cluster_conn indexed past the nodes for an i
+ * out of range. */
+static void cluster_open_takes_a_null_err_and_conn_checks_its_index(void **state)
+{
+    (void)state;
+    assert_null(stc_cluster_open("", NULL, NULL, NULL, 0));          /* no seed */
+    mock *m = mock_start(M_NORMAL);                                   /* no CLUSTER: refused */
+    char seeds[64];
+    snprintf(seeds, sizeof seeds, "127.0.0.1:%d", m->port);
+    assert_null(stc_cluster_open(seeds, NULL, NULL, NULL, 0));
+    int err = 0;
+    char msg[128];
+    assert_null(stc_cluster_open(seeds, NULL, &err, msg, sizeof msg));
+    assert_true(err != 0);
+    err = 0;
+    assert_null(stc_cluster_conn(NULL, 0, &err));   /* the index check's NULL half */
+    assert_int_equal(err, STC_EINVAL);
+    mock_stop(m);
+}
+
 static void fetch_writes_the_file_and_checks_crc(void **state)
 {
     (void)state;
@@ -1372,6 +1394,7 @@ int main(void)
         cmocka_unit_test(a_batch_over_2_32_queries_is_refused_not_dropped),
         cmocka_unit_test(upload_refuses_a_long_hint_and_unknown_flags),
         cmocka_unit_test(a_child_after_fork_cannot_use_the_parents_connection),
+        cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
