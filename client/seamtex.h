@@ -211,7 +211,8 @@ typedef struct stc_info {
     uint32_t face_first, nrec;        /* per-face records asked for */
     const stc_face *faces;            /* nrec records, owned by c */
 } stc_info;
-/* Facts about one set; face_count > 0 also asks for per-face records from face_first. */
+/* Facts about one set; face_count > 0 also asks for per-face records from face_first: those
+ * that exist, at most face_count and at most 2^20 a call (the server's cap), out->nrec of them. */
 int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t face_count,
                  stc_info *out);
 
