@@ -25,6 +25,9 @@ struct stc_conn {
     int      fd;
     long     pid;                 /* the process that connected (getpid): a child after fork
                                      gets STC_ESTATE, the socket and request ids are shared */
+    volatile uint8_t *forkpage;   /* a page of 1s the kernel zeroes in a child
+                                     (MADV_WIPEONFORK): the fork check without a getpid system
+                                     call per call (1.3-1.7 us each on this VM); NULL: getpid */
     int      sticky;              /* 0, or the error that broke the connection */
     char     msg[1024];           /* message of the last failure */
     int      timeout_ms;          /* per-request timeout, 0 = none */

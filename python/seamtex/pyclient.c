@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <pthread.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -40,12 +41,24 @@ static int lock_take(st_py_client *self)
     return 0;
 }
 
+volatile unsigned long st_py_fork_gen;
+
+static void on_fork_child(void)
+{
+    st_py_fork_gen++;
+}
+
+int st_py_fork_watch(void)
+{
+    return pthread_atfork(NULL, NULL, on_fork_child) == 0 ? 0 : -1;
+}
+
 /* 1 in a child after fork: the connection is the parent's (its socket, region and request
  * ids are shared; using it there crossed replies: the parent's Client broke with
  * ProtocolError, and through shared memory results came back wrong). */
 static int forked(const st_py_client *self)
 {
-    return self->conn && self->pid != (long)getpid();
+    return self->conn && self->fork_gen != st_py_fork_gen;
 }
 
 /* In such a child: drops this process's copy of the connection (stc_close leaves the parent's
@@ -286,6 +299,7 @@ static int client_connect(st_py_client *self, const char *host, unsigned port,
     }
     self->conn = c;
     self->pid = (long)getpid();
+    self->fork_gen = st_py_fork_gen;
     self->timeout = timeout;
     snprintf(self->host, sizeof self->host, "%s", host);
     self->port = port;

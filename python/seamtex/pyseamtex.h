@@ -33,9 +33,10 @@ typedef struct st_py_client {
     stc_conn          *conn;      /* NULL once closed */
     PyThread_type_lock lock;      /* held by the thread using conn */
     unsigned long      owner;     /* that thread's ident while it holds the lock, else 0 */
-    long               pid;       /* the process that connected: after fork a child's calls
-                                     raise StateError (libseamtex refuses them too) before
-                                     the lock, which a parent's thread may have held */
+    long               pid;       /* the process that connected (for the message) */
+    unsigned long      fork_gen;  /* st_py_fork_gen then: after fork a child's calls raise
+                                     StateError (libseamtex refuses them too) before the
+                                     lock, which a parent's thread may have held */
     double             timeout;   /* seconds per request; <= 0 = none */
     int                numpy;     /* -1 auto, 0 never, 1 always: arrays returned by sample */
     char               host[256];
@@ -47,6 +48,12 @@ typedef struct st_py_client {
     size_t             shm_bytes; /* the shared-memory region attached (pyshm.c), 0: none */
     char               shm_why[256];  /* why there is none */
 } st_py_client;
+
+/* Forks this process has gone through as a child (pthread_atfork, registered by
+ * st_py_fork_watch at import): a Client connected at another count is its parent's. A load,
+ * where getpid is a system call per call (1.3-2 us on this VM). */
+extern volatile unsigned long st_py_fork_gen;
+int st_py_fork_watch(void);
 
 /* CLOCK_MONOTONIC in seconds. */
 double st_py_now(void);
