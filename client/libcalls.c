@@ -490,6 +490,10 @@ static int sample_blocking(stc_conn *c, int dir, const char *set, const stc_samp
         return rc;
     if (!res)
         return stc__fail(c, STC_EINVAL, "result is NULL");
+    /* the result's count is 32 bits; a bigger n also made (n + per - 1) wrap, so that n near
+     * SIZE_MAX came out as 0 parts: 0 returned with nothing sampled and res left unset */
+    if (n > UINT32_MAX)
+        return stc__fail(c, STC_EINVAL, "batch of %zu queries: at most 2^32-1 in one call", n);
     per = c->server.max_batch ? c->server.max_batch : n;
     if (per == 0)
         per = 1;

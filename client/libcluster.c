@@ -48,6 +48,13 @@ static int add_node(stc_cluster *cl, const char *id, const char *addr)
 
 stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err)
 {
+    if (!cl || i >= cl->n) {      /* i from outside: it used to index past the nodes */
+        if (err)
+            *err = STC_EINVAL;
+        if (cl)
+            snprintf(cl->msg, sizeof cl->msg, "node %zu: the view has %zu nodes", i, cl->n);
+        return NULL;
+    }
     cl_node *d = &cl->nodes[i];
     if (d->conn && stc_error(d->conn)) {
         stc_close(d->conn);
@@ -58,7 +65,8 @@ stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err)
     char host[256];
     unsigned port;
     if (stp_split_addr(d->addr, host, sizeof host, &port) != 0) {
-        *err = STC_EINVAL;
+        if (err)
+            *err = STC_EINVAL;
         snprintf(cl->msg, sizeof cl->msg, "bad node address '%s'", d->addr);
         return NULL;
     }
@@ -152,6 +160,10 @@ int stc_cluster_refresh(stc_cluster *cl)
 stc_cluster *stc_cluster_open(const char *seeds, const stc_opts *opts, int *err, char *errmsg,
                               size_t errmsg_len)
 {
+    int dummy;
+    if (!err)                     /* may be NULL, as for stc_connect_opts and
+                                     stc_cluster_open_etcd (a failure used to crash here) */
+        err = &dummy;
     stc_cluster *cl = calloc(1, sizeof *cl);
     if (!cl) {
         *err = STC_ENOMEM;

@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
@@ -206,6 +207,13 @@ int stc__begin(stc_conn *c)
 {
     if (!c)
         return STC_EINVAL;
+    /* After fork the child holds the same socket (and shared-memory region) with the same
+     * request ids: its requests and the parent's would interleave, each could read the
+     * other's replies (wrong results through the region, ProtocolError for the parent). Only
+     * stc_close of the copy is allowed there; it leaves the parent's connection alone. */
+    if (c->forkpage ? !c->forkpage[0] : c->pid != (long)getpid())
+        return stc__fail(c, STC_ESTATE, "this connection was opened by process %ld: a child "
+                         "after fork must open its own (stc_close on the copy is fine)", c->pid);
     if (c->hold) {
         stp_buf_consume(&c->in, c->hold);
         c->hold = 0;
@@ -673,6 +681,27 @@ static int hello(stc_conn *c, const stc_opts *o, int64_t deadline)
     return 0;
 }
 
+/* c->forkpage: one page that a fork gives the child zeroed, so that stc__begin tells a child
+ * from the connecting process by a load instead of a getpid system call (without
+ * MADV_WIPEONFORK, Linux before 4.14: NULL, and getpid it is). */
+static void fork_guard(stc_conn *c)
+{
+    long pg = sysconf(_SC_PAGESIZE);
+    size_t len = pg > 0 ? (size_t)pg : 4096;
+    void *p = mmap(NULL, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    c->forkpage = NULL;
+    if (p == MAP_FAILED)
+        return;
+#ifdef MADV_WIPEONFORK
+    if (madvise(p, len, MADV_WIPEONFORK) == 0) {
+        ((uint8_t *)p)[0] = 1;
+        c->forkpage = p;
+        return;
+    }
+#endif
+    munmap(p, len);
+}
+
 stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, int *err,
                            char *errmsg, size_t errmsg_len)
 {
@@ -742,6 +771,8 @@ connected:
         CONNECT_FAIL(STC_ENOMEM, "out of memory");
     }
     c->fd = fd;
+    c->pid = (long)getpid();
+    fork_guard(c);
     c->next_reqid = 1;
     c->timeout_ms = o && o->request_timeout_ms > 0 ? o->request_timeout_ms : 0;
     c->max_body = o && o->max_body ? o->max_body : STC_DEFAULT_MAX_BODY;
@@ -796,5 +827,9 @@ void stc_close(stc_conn *c)
     free(c->stats);
     free(c->faces);
     stc__shm_free(c);
+    if (c->forkpage) {
+        long pg = sysconf(_SC_PAGESIZE);
+        munmap((void *)c->forkpage, pg > 0 ? (size_t)pg : 4096);
+    }
     free(c);
 }

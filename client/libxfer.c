@@ -101,8 +101,15 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
         return rc;
     if (o && o->options && strlen(o->options) > STP_MAX_OPTIONS)
         return stc__fail(c, STC_EINVAL, "options longer than %d bytes", STP_MAX_OPTIONS);
+    /* a path's long extension is no hint (ext_hint gives ""); a long hint the caller named
+     * is refused, as an unknown short one is by the server (it used to be dropped silently,
+     * and the file imported by its magic) */
     if (hint && strlen(hint) > STP_MAX_HINT)
-        hint = "";
+        return stc__fail(c, STC_EINVAL, "hint '%.40s' is longer than %d bytes", hint,
+                         STP_MAX_HINT);
+    if (o && (o->flags & ~(unsigned)(STC_UPLOAD_REPLACE | STC_UPLOAD_RESUME | STC_UPLOAD_REPLICA |
+                                     STC_UPLOAD_STAGE)))
+        return stc__fail(c, STC_EINVAL, "unknown upload flags 0x%x", o->flags);
     crc = stp_crc32c(0, data, len);
 
     memset(&bg, 0, sizeof bg);

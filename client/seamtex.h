@@ -11,6 +11,10 @@
  * THREADING: a connection is used by one thread at a time (one connection per thread, or
  * your own lock around it). Different connections are independent; the library has no
  * global state. Writes use MSG_NOSIGNAL, so a closed peer never raises SIGPIPE.
+ * FORK: a connection belongs to the process that opened it. In a child after fork(2) every
+ * call on an inherited connection returns STC_ESTATE (the socket, the shared-memory region
+ * and the request ids would be shared with the parent: replies could go to the wrong
+ * process); stc_close on the child's copy is allowed and leaves the parent's connection alone.
  *
  * OWNERSHIP: stc_connect returns a connection the caller frees with stc_close (NULL accepted).
  * Everything a call hands back through a pointer into the library (lists, stats, sample
@@ -124,7 +128,7 @@ void stc_close(stc_conn *c);
 const char *stc_errmsg(const stc_conn *c);
 /* The sticky error of c (0 while the connection is healthy). */
 int stc_error(const stc_conn *c);
-/* Per-request timeout for later calls; 0 = none. */
+/* Per-request timeout for later calls; 0 (or negative) = none. */
 void stc_set_timeout(stc_conn *c, int timeout_ms);
 
 /* Capability bits of stc_server.caps (PROTOCOL.md 4.1). */
@@ -207,7 +211,8 @@ typedef struct stc_info {
     uint32_t face_first, nrec;        /* per-face records asked for */
     const stc_face *faces;            /* nrec records, owned by c */
 } stc_info;
-/* Facts about one set; face_count > 0 also asks for per-face records from face_first. */
+/* Facts about one set; face_count > 0 also asks for per-face records from face_first: those
+ * that exist, at most face_count and at most 2^20 a call (the server's cap), out->nrec of them. */
 int stc_info_get(stc_conn *c, const char *set, uint32_t face_first, uint32_t face_count,
                  stc_info *out);
 
@@ -253,7 +258,8 @@ typedef struct stc_sample_result {
                                          4 ZERO_COVERAGE), or NULL when not asked for */
 } stc_sample_result;
 /* A batch over the server's max_batch is split into pipelined parts and reassembled, so n is
- * not limited by the server (only by memory). */
+ * not limited by the server, only by memory and by res->count: at most 2^32-1 (UINT32_MAX)
+ * queries a call, more is STC_EINVAL. */
 int stc_sample(stc_conn *c, const char *set, const stc_sample_opts *o, const stc_query *q,
                size_t n, stc_sample_result *res);
 int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
@@ -273,9 +279,11 @@ enum { STC_UPLOAD_REPLACE = 1, STC_UPLOAD_RESUME = 2,
        STC_UPLOAD_REPLICA = 4,  /* node-to-node copy in a cluster (seamtexd uses it) */
        STC_UPLOAD_STAGE = 8     /* with REPLICA: staged until published (seamtexd uses it) */ };
 typedef struct stc_upload_opts {
-    const char     *hint;             /* "ptx", "png", ...; NULL = from the file extension */
-    const char     *options;          /* "texture=<set> cube=latlong:512"; NULL = none */
-    unsigned        flags;            /* STC_UPLOAD_* */
+    const char     *hint;             /* "ptx", "png", ... (at most 15 bytes, else STC_EINVAL);
+                                         NULL = from the file extension */
+    const char     *options;          /* "texture=<set> cube=latlong:512" (at most 1023 bytes);
+                                         NULL = none */
+    unsigned        flags;            /* STC_UPLOAD_* (another bit: STC_EINVAL) */
     uint32_t        chunk;            /* bytes per chunk; 0 = min(1 MiB, server max_chunk) */
     stc_progress_fn progress;
     void           *user;
@@ -321,7 +329,9 @@ int stc_compress(stc_conn *c, const char *set, const char *target, unsigned leve
 int stc_job_status(stc_conn *c, uint64_t job_id, stc_job *out);
 int stc_job_cancel(stc_conn *c, uint64_t job_id, stc_job *out);   /* out may be NULL */
 /* Polls until the job is DONE/FAILED/CANCELED or wait_ms passes (STC_ETIMEDOUT; < 0 =
- * forever). Returns 0 when DONE, the job's result code when FAILED. */
+ * forever; each poll is a request under the request timeout). Returns 0 when DONE, the job's
+ * result code when FAILED (STC_EINTERNAL when it gives none), STC_ESERVERCANCELED when
+ * CANCELED. */
 int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out);
 
 /* FETCH formats (PROTOCOL.md 4.10: which fits which set kind). STC_FETCH_AUTO picks the

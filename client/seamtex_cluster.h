@@ -35,7 +35,8 @@ typedef struct stc_cluster_node {
 
 /* Opens from seeds "HOST:PORT[,HOST:PORT...]": the first seed that answers CLUSTER gives the
  * membership. opts (may be NULL) applies to every connection; a request timeout of 0 becomes
- * 5000 ms (failover needs one). NULL on failure with *err and errmsg set. */
+ * 5000 ms (failover needs one). NULL on failure with *err and errmsg set (err, errmsg may
+ * be NULL / 0). */
 stc_cluster *stc_cluster_open(const char *seeds, const stc_opts *opts, int *err, char *errmsg,
                               size_t errmsg_len);
 void stc_cluster_close(stc_cluster *cl);
@@ -49,7 +50,8 @@ unsigned stc_cluster_replicas(const stc_cluster *cl);
 /* The ranking of the nodes for set (owners first: the first stc_cluster_replicas); writes up
  * to max node indices into idx; returns how many. */
 size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t max);
-/* The connection to node i (opened now if needed); NULL with *err on failure. Owned by cl. */
+/* The connection to node i (opened now if needed); NULL with *err on failure (STC_EINVAL
+ * for i past the nodes). Owned by cl. */
 stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err);
 
 /* Runs fn(conn, arg) on the set's first owner, then on the next node in the ranking while fn

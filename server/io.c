@@ -603,6 +603,30 @@ static void conn_process(sts_conn *c)
     note_partial(c);
 }
 
+/* Flushes c, then sets its interest. A parse that backpressure stopped (conn_process: output
+ * over conn-out-cap) goes on here once the flush brought the output back under the cap: when
+ * the peer reads fast the flush sends it all, no EPOLLOUT comes to resume the parse, and a
+ * complete request left in the input waited for the peer's next bytes (a PING pipelined
+ * behind a SAMPLE whose reply was over the cap went unanswered until the client timed out,
+ * 2 rounds in 5 at --conn-out-cap 64K). 0, or -1 when c was closed. */
+static int conn_flush_resume(sts_conn *c)
+{
+    sts_server *srv = c->io->srv;
+    for (;;) {
+        int stopped = stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap);
+        if (conn_flush(c) != 0)
+            return -1;
+        if (!stopped || c->busy || c->close_after ||
+            stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
+            break;
+        conn_process(c);   /* each round answers at least one frame, or finds none */
+        if (c->dead)
+            return -1;
+    }
+    set_interest(c);
+    return 0;
+}
+
 /* One read into the input (split in two buffers when a big SAMPLE frame ends it), then every
  * complete frame answered (conn_process). Returns 1 when the read filled all the room it was
  * offered (more is likely waiting in the socket), 0 when it did not or read nothing, -1 when
@@ -721,8 +745,7 @@ static void conn_readable(sts_conn *c)
     }
     c->read_hint = c->wake_bytes <= READ_MIN * 2 ? 0
                    : c->wake_bytes < HINT_MAX ? c->wake_bytes : HINT_MAX;
-    if (conn_flush(c) == 0)
-        set_interest(c);
+    conn_flush_resume(c);
 }
 
 /* ---- eviction ------------------------------------------------------------------------------
@@ -1091,8 +1114,7 @@ static void take_completions(sts_io *io)
         conn_process(c);   /* pipelined requests that waited behind this one */
         if (c->dead)
             continue;
-        if (conn_flush(c) == 0)
-            set_interest(c);
+        conn_flush_resume(c);
     }
 }
 
@@ -1218,9 +1240,8 @@ void *sts_io_main(void *arg)
                     if (conn_flush(c) != 0)
                         continue;
                     conn_process(c);  /* backpressure released: parse what waited */
-                    if (c->dead || conn_flush(c) != 0)
+                    if (c->dead || conn_flush_resume(c) != 0)
                         continue;
-                    set_interest(c);
                 }
                 if (evs[i].events & STS_EV_ERROR) {
                     if (!c->busy && !(c->ev_mask & STS_EV_READ)) {

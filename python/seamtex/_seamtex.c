@@ -75,6 +75,14 @@ PyMODINIT_FUNC PyInit__seamtex(void)
 {
     if (PyType_Ready(&st_py_client_type) < 0 || PyType_Ready(&st_py_array_type) < 0)
         return NULL;
+    static int watching;          /* once per process, however often the module is created */
+    if (!watching) {
+        if (st_py_fork_watch() < 0) {
+            PyErr_SetString(PyExc_OSError, "pthread_atfork failed");
+            return NULL;
+        }
+        watching = 1;
+    }
     PyObject *m = PyModule_Create(&seamtex_module);
     if (!m)
         return NULL;

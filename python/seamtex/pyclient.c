@@ -14,7 +14,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <pthread.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "proto.h"
 
@@ -39,10 +41,56 @@ static int lock_take(st_py_client *self)
     return 0;
 }
 
+volatile unsigned long st_py_fork_gen;
+
+static void on_fork_child(void)
+{
+    st_py_fork_gen++;
+}
+
+int st_py_fork_watch(void)
+{
+    return pthread_atfork(NULL, NULL, on_fork_child) == 0 ? 0 : -1;
+}
+
+/* 1 in a child after fork: the connection is the parent's (its socket, region and request
+ * ids are shared; using it there crossed replies: the parent's Client broke with
+ * ProtocolError, and through shared memory results came back wrong). */
+static int forked(const st_py_client *self)
+{
+    return self->conn && self->fork_gen != st_py_fork_gen;
+}
+
+/* In such a child: drops this process's copy of the connection (stc_close leaves the parent's
+ * alone) and gives the Client a fresh lock (a parent's thread may have held the old one at the
+ * fork; no thread here waits on it). */
+static void forget_parents(st_py_client *self)
+{
+    PyThread_type_lock fresh = PyThread_allocate_lock();
+    stc_close(self->conn);
+    self->conn = NULL;
+    free(self->scratch);
+    self->scratch = NULL;
+    self->scratch_cap = 0;
+    self->shm_bytes = 0;
+    if (fresh) {
+        PyThread_free_lock(self->lock);
+        self->lock = fresh;
+    }
+    self->owner = 0;
+}
+
 int st_py_client_enter(st_py_client *self)
 {
     if (!self->lock) {
-        PyErr_SetString(st_py_closed_error(), "the Client is not initialised");
+        st_py_raise_closed("the Client is not initialised");
+        return -1;
+    }
+    if (forked(self)) {
+        char m[200];
+        snprintf(m, sizeof m, "this Client was connected by process %ld: after fork a child "
+                 "must open its own Client (close() here is fine)", self->pid);
+        st_py_raise(STC_ESTATE, m);
         return -1;
     }
     if (lock_take(self) < 0)
@@ -50,7 +98,7 @@ int st_py_client_enter(st_py_client *self)
     if (!self->conn) {
         self->owner = 0;
         PyThread_release_lock(self->lock);
-        PyErr_SetString(st_py_closed_error(), "the Client is closed");
+        st_py_raise_closed("the Client is closed");
         return -1;
     }
     return 0;
@@ -208,6 +256,8 @@ static int client_init(st_py_client *self, PyObject *args, PyObject *kw)
         PyErr_NoMemory();
         return -1;
     }
+    if (forked(self))             /* __init__ again in a child after fork */
+        forget_parents(self);
     /* The lock for the whole (re)connect: __init__ called again on an open Client waits for
      * another thread's call on the old connection to finish before closing it (it used to
      * close it under that call), and no call starts on the new one before it is set up. */
@@ -248,6 +298,8 @@ static int client_connect(st_py_client *self, const char *host, unsigned port,
         return -1;
     }
     self->conn = c;
+    self->pid = (long)getpid();
+    self->fork_gen = st_py_fork_gen;
     self->timeout = timeout;
     snprintf(self->host, sizeof self->host, "%s", host);
     self->port = port;
@@ -275,6 +327,10 @@ static PyObject *client_close(st_py_client *self, PyObject *unused)
     (void)unused;
     if (!self->lock || !self->conn)
         Py_RETURN_NONE;
+    if (forked(self)) {
+        forget_parents(self);
+        Py_RETURN_NONE;
+    }
     if (st_py_client_enter(self) < 0) {
         /* closed meanwhile by another thread: fine. Called from a progress callback of a
          * call on this Client: StateError (closing under that call is not possible; it used
@@ -300,7 +356,7 @@ static PyObject *client_enter_ctx(st_py_client *self, PyObject *unused)
 {
     (void)unused;
     if (!self->conn) {
-        PyErr_SetString(st_py_closed_error(), "the Client is closed");
+        st_py_raise_closed("the Client is closed");
         return NULL;
     }
     Py_INCREF(self);
@@ -708,6 +764,13 @@ static const char FETCH_NAMES[] = STP_FETCH_FORMATS(FETCH_NAME_);
 static int fetch_format(PyObject *fmt, const char *path, unsigned *out)
 {
     const char *name;
+    if (fmt && fmt != Py_None && (PyBool_Check(fmt) || !(PyLong_Check(fmt) ||
+                                                        PyUnicode_Check(fmt)))) {
+        /* a float or bytes used to raise "bad argument type for built-in operation" */
+        PyErr_Format(PyExc_TypeError, "format must be a name (one of:%s), a wire number or "
+                     "None, not %.80s", FETCH_NAMES, Py_TYPE(fmt)->tp_name);
+        return -1;
+    }
     if (fmt && fmt != Py_None && PyLong_Check(fmt)) {
         unsigned long v = PyLong_AsUnsignedLong(fmt);
         if (PyErr_Occurred() || v > 255) {
@@ -805,7 +868,12 @@ static int client_set_timeout(st_py_client *self, PyObject *v, void *closure)
 {
     (void)closure;
     double t = 0;
-    if (v && v != Py_None) {
+    if (!v) {                   /* del c.timeout used to mean "no timeout" without a word */
+        PyErr_SetString(PyExc_AttributeError, "timeout cannot be deleted (set it to None for "
+                        "no timeout)");
+        return -1;
+    }
+    if (v != Py_None) {
         t = PyFloat_AsDouble(v);
         if (t == -1.0 && PyErr_Occurred())
             return -1;

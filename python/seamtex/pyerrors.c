@@ -154,16 +154,16 @@ fail:
     return -1;
 }
 
-PyObject *st_py_raise(int code, const char *msg)
+/* Raises cls(msg) with .status (the name of code, None for code 0), .code and .message. */
+static PyObject *raise_as(PyObject *cls, int code, const char *msg)
 {
-    PyObject *cls = st_py_raise_class(code);
-    if (!msg || !*msg)
-        msg = stc_strerror(code);
     PyObject *e = PyObject_CallFunction(cls, "s", msg);
     if (!e)
         return NULL;
-    PyObject *st = PyUnicode_FromString(stc_strerror(code)), *cd = PyLong_FromLong(code),
-             *ms = PyUnicode_FromString(msg);
+    PyObject *st = code ? PyUnicode_FromString(stc_strerror(code)) : Py_None,
+             *cd = PyLong_FromLong(code), *ms = PyUnicode_FromString(msg);
+    if (!code)
+        Py_INCREF(st);
     if (st && cd && ms) {
         PyObject_SetAttrString(e, "status", st);
         PyObject_SetAttrString(e, "code", cd);
@@ -176,6 +176,19 @@ PyObject *st_py_raise(int code, const char *msg)
         PyErr_SetObject((PyObject *)Py_TYPE(e), e);
     Py_DECREF(e);
     return NULL;
+}
+
+PyObject *st_py_raise(int code, const char *msg)
+{
+    if (!msg || !*msg)
+        msg = stc_strerror(code);
+    return raise_as(st_py_raise_class(code), code, msg);
+}
+
+PyObject *st_py_raise_closed(const char *msg)
+{
+    /* its message in .message too (it used to be the class's "", only str(e) had it) */
+    return raise_as(g_closed, 0, msg);
 }
 
 PyObject *st_py_raise_class(int code)

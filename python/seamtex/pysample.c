@@ -547,6 +547,14 @@ PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
         return NULL;
     if (opts_to_stc(s, &c.so, &c.pass_nf) < 0)
         return NULL;
+    for (int i = 0; i < 3; i++)   /* None read as "not given" = 0: sample(name, None, u, v)
+                                     used to sample face 0, a None u or v the edge 0 */
+        if (o[i] == Py_None) {
+            PyErr_Format(PyExc_TypeError, "%s must be %s or an object with the buffer protocol "
+                         "(numpy array, array.array, memoryview), not None", names[i],
+                         i ? "a number" : "an int");
+            return NULL;
+        }
     PyObject *r = call_begin(&c, o, names, 7, is_int, ncomp) < 0 ? NULL : call_run(&c);
     call_end(&c);
     return r;

@@ -33,6 +33,10 @@ typedef struct st_py_client {
     stc_conn          *conn;      /* NULL once closed */
     PyThread_type_lock lock;      /* held by the thread using conn */
     unsigned long      owner;     /* that thread's ident while it holds the lock, else 0 */
+    long               pid;       /* the process that connected (for the message) */
+    unsigned long      fork_gen;  /* st_py_fork_gen then: after fork a child's calls raise
+                                     StateError (libseamtex refuses them too) before the
+                                     lock, which a parent's thread may have held */
     double             timeout;   /* seconds per request; <= 0 = none */
     int                numpy;     /* -1 auto, 0 never, 1 always: arrays returned by sample */
     char               host[256];
@@ -44,6 +48,12 @@ typedef struct st_py_client {
     size_t             shm_bytes; /* the shared-memory region attached (pyshm.c), 0: none */
     char               shm_why[256];  /* why there is none */
 } st_py_client;
+
+/* Forks this process has gone through as a child (pthread_atfork, registered by
+ * st_py_fork_watch at import): a Client connected at another count is its parent's. A load,
+ * where getpid is a system call per call (1.3-2 us on this VM). */
+extern volatile unsigned long st_py_fork_gen;
+int st_py_fork_watch(void);
 
 /* CLOCK_MONOTONIC in seconds. */
 double st_py_now(void);
@@ -60,8 +70,9 @@ void *st_py_client_scratch(st_py_client *self, size_t bytes);
 extern PyTypeObject st_py_client_type;
 
 /* Takes the client's lock (GIL released while waiting); raises (and returns -1) when the
- * client is closed, or when the calling thread holds it already (a progress callback calling
- * its own Client would otherwise wait for itself forever). */
+ * client is closed, when the calling thread holds it already (a progress callback calling
+ * its own Client would otherwise wait for itself forever) or when this is not the process
+ * that connected (a child after fork: StateError). */
 int st_py_client_enter(st_py_client *self);
 void st_py_client_leave(st_py_client *self);
 /* Raises the exception for rc (an stc_err code) with the connection's message; call with the
@@ -110,5 +121,8 @@ PyObject *st_py_raise(int code, const char *msg);
 PyObject *st_py_raise_class(int code);
 /* The class for "the client is closed". */
 PyObject *st_py_closed_error(void);
+/* Raises ClosedError with message msg (also its .message; .status None, .code 0: no
+ * libseamtex code). Returns NULL. */
+PyObject *st_py_raise_closed(const char *msg);
 
 #endif

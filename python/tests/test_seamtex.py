@@ -371,6 +371,100 @@ def test_init_again_waits_for_a_call_in_flight(daemon):
     c.ping()
     c.close()
 
+def test_none_for_face_u_or_v_is_a_type_error(client):
+    """py35: None for face, u or v was read as "not given": sample("default", None, 0.5, 0.5)
+    sampled face 0 and a None u or v the edge 0, without a word."""
+    for i, name in enumerate(("face", "u", "v")):
+        args = [3, 0.5, 0.5]
+        args[i] = None
+        with pytest.raises(TypeError, match="%s must be .* not None" % name):
+            client.sample("default", *args)
+    client.sample("default", 3, 0.5, 0.5, dudx=None)   # the derivatives may be None (= 0)
+
+
+def _fork_child(body):
+    """Runs body() in a forked child; its exit status: 0 when it returned True, 1 when it
+    returned something else, 2 when it raised; -1 when it had not ended after 20 s (killed)."""
+    pid = os.fork()
+    if pid == 0:   # no pytest in here: only the exit status goes back
+        code = 2
+        try:
+            code = 0 if body() is True else 1
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return os.waitstatus_to_exitcode(status)
+        time.sleep(0.02)
+    os.kill(pid, 9)
+    os.waitpid(pid, 0)
+    return -1
+
+
+def test_a_fork_child_cannot_use_the_parents_client(daemon):
+    """py35: a Client used in a child after fork shared the parent's socket and request ids:
+    the parent's Client broke with ProtocolError (and through shared memory results came back
+    wrong). The child gets StateError naming fork, even while a parent's thread held the
+    Client's lock at the fork (it waited for ever); close() there leaves the parent's Client
+    working."""
+    c = daemon.client(shm=False)
+    face, u, v, _ = queries(1000)
+    ref = c.sample("default", face, u, v)[0].copy()
+
+    def child():
+        try:
+            c.ping()
+            return False
+        except seamtex.StateError as e:
+            ok = "fork" in str(e) and e.status == "ESTATE"
+        try:
+            c.sample("default", face, u, v)
+            return False
+        except seamtex.StateError:
+            pass
+        c.close()
+        c.close()
+        return ok and c.closed
+
+    assert _fork_child(child) == 0
+    assert np.array_equal(c.sample("default", face, u, v)[0], ref)
+    assert c.ping() > 0
+
+    # a fork while another thread is in a call on the Client (holding its lock)
+    n = 2_000_000
+    big = np.zeros(n, np.uint32), np.full(n, 0.5, np.float32)
+    in_call = threading.Event()
+
+    def long_call():
+        in_call.set()
+        c.sample("default", big[0], big[1], big[1], filter="trilinear", dudx=0.01)
+
+    t = threading.Thread(target=long_call)
+    t.start()
+    in_call.wait()
+    time.sleep(0.05)
+    assert _fork_child(child) == 0
+    t.join()
+    assert np.array_equal(c.sample("default", face, u, v)[0], ref)
+    c.close()
+
+
+def test_a_fork_child_may_open_its_own_client(daemon):
+    c = daemon.client(shm=False)
+
+    def child():
+        c.__init__(daemon.host, daemon.port, shm=False)   # a new connection of its own
+        ok = c.ping() > 0 and c.info("default")["nfaces"] == 384
+        c.close()
+        return ok
+
+    assert _fork_child(child) == 0
+    assert c.ping() > 0
+    c.close()
+
+
 def test_large_batch_is_split_by_the_library(daemon):
     # more than the server's max_batch when the daemon is told so
     d = type(daemon)("--max-batch", "1000")
@@ -635,6 +729,33 @@ def test_token_is_needed_for_mutations(data):
             c.delete("py-brick")
     finally:
         assert d.stop() == 0
+
+
+def test_fetch_format_of_a_wrong_type_names_it(client, tmp_path):
+    """py35: format=1.0 or b"ptx" raised "bad argument type for built-in operation", and
+    format=True fetched as format 1 (dds)."""
+    for bad in (1.0, b"ptx", True):
+        with pytest.raises(TypeError, match="format must be a name"):
+            client.fetch("default", str(tmp_path / "x.ptx"), bad)
+    client.fetch("default", str(tmp_path / "x.ptx"), 0)
+
+
+def test_timeout_cannot_be_deleted(client):
+    """py35: del c.timeout set "no timeout" silently."""
+    client.timeout = 3
+    with pytest.raises(AttributeError, match="None for no timeout"):
+        del client.timeout
+    assert client.timeout == 3.0
+
+
+def test_closed_error_carries_its_message(daemon):
+    """py35: ClosedError's .message was the class's "" (only str(e) had the text)."""
+    c = daemon.client()
+    c.close()
+    with pytest.raises(seamtex.ClosedError) as e:
+        c.ping()
+    assert e.value.message == str(e.value) == "the Client is closed"
+    assert e.value.status is None and e.value.code == 0
 
 
 def test_threads_share_a_client_safely(client):

@@ -25,6 +25,7 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 #include <cmocka.h>
@@ -34,6 +35,7 @@
 #include "../common/wire.h"
 #include "proto.h"
 #include "seamtex.h"
+#include "seamtex_cluster.h"
 
 /* ---- scripted mock server ------------------------------------------------------------------- */
 
@@ -755,6 +757,110 @@ static void upload_sends_chunks_with_checksum_and_aborts_on_cancel(void **state)
     mock_stop(m);
 }
 
+/* py35: n over 2^32-1 is refused: (n + per - 1) wrapped for n near SIZE_MAX, so such a call
+ * made 0 parts and returned 0 with nothing sampled and the result unset (the result's count is
+ * 32 bits anyway). */
+static void a_batch_over_2_32_queries_is_refused_not_dropped(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 5000);
+    stc_query q[1] = { { 0, 0.25f, 0.5f, 0, 0, 0, 0 } };
+    stc_dir_query dq[1] = { { { 1, 0, 0 }, { 0, 0, 0 }, { 0, 0, 0 } } };
+    stc_sample_opts o;
+    stc_sample_result res;
+    memset(&o, 0, sizeof o);
+    o.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    assert_int_equal(stc_sample(c, "tex", &o, q, SIZE_MAX, &res), STC_EINVAL);
+    assert_int_equal(stc_sample(c, "tex", &o, q, SIZE_MAX - 1000, &res), STC_EINVAL);
+    assert_int_equal(stc_sample_dir(c, "tex", &o, dq, SIZE_MAX, &res), STC_EINVAL);
+    assert_int_equal(stc_sample(c, "tex", &o, q, (size_t)UINT32_MAX + 1, &res), STC_EINVAL);
+    assert_non_null(strstr(stc_errmsg(c), "2^32-1"));
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(stc_sample(c, "tex", &o, q, 1, &res), 0);   /* usable, not sticky */
+    assert_int_equal(res.count, 1);
+    stc_close(c);
+    mock_stop(m);
+}
+
+/* py35: a hint longer than the protocol's 15 bytes was dropped silently (the server then
+ * imported the file by its magic) while a short unknown one is refused; unknown flag bits
+ * were ignored. Both are STC_EINVAL now, before anything is sent. */
+static void upload_refuses_a_long_hint_and_unknown_flags(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 5000);
+    stc_upload_opts o;
+    stc_upload_result res;
+    memset(&o, 0, sizeof o);
+    o.hint = "averyveryverylonghint";
+    assert_int_equal(stc_upload_buffer(c, "abc", 3, "up", &o, &res), STC_EINVAL);
+    assert_non_null(strstr(stc_errmsg(c), "hint"));
+    assert_int_equal(m->up_total, 0);               /* no UPLOAD_BEGIN reached the server */
+    o.hint = "ptx";
+    o.flags = 0x80;
+    assert_int_equal(stc_upload_buffer(c, "abc", 3, "up", &o, &res), STC_EINVAL);
+    assert_int_equal(m->up_total, 0);
+    o.flags = STC_UPLOAD_REPLACE;
+    o.hint = "0123456789abcde";                     /* 15 bytes: sent as it is */
+    assert_int_equal(stc_upload_buffer(c, "abc", 3, "up", &o, &res), 0);
+    assert_int_equal(m->up_got, 3);
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+    mock_stop(m);
+}
+
+/* py35: a connection used in a child after fork shared the parent's socket and request ids:
+ * replies crossed (the parent's connection broke with EPROTO, and through a shared-memory
+ * region results came back wrong). A child's call is STC_ESTATE now; its stc_close leaves the
+ * parent's connection working. */
+static void a_child_after_fork_cannot_use_the_parents_connection(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 5000);
+    assert_int_equal(stc_ping(c), 0);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {                   /* no cmocka asserts in the child: its exit status says */
+        int rc = stc_ping(c), ok = rc == STC_ESTATE && strstr(stc_errmsg(c), "fork") != NULL;
+        uint32_t id;
+        ok = ok && stc_append_ping(c, NULL, 0, &id) == STC_ESTATE;
+        stc_close(c);
+        _exit(ok ? 0 : 1);
+    }
+    int status = 0;
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+    assert_int_equal(stc_ping(c), 0);               /* the parent's connection is untouched */
+    assert_int_equal(stc_error(c), 0);
+    stc_close(c);
+    mock_stop(m);
+}
+
+/* py35: stc_cluster_open wrote *err through a NULL err on failure (a crash; stc_connect_opts
+ * and stc_cluster_open_etcd take NULL), and stc_cluster_conn indexed past the nodes for an i
+ * out of range. */
+static void cluster_open_takes_a_null_err_and_conn_checks_its_index(void **state)
+{
+    (void)state;
+    assert_null(stc_cluster_open("", NULL, NULL, NULL, 0));          /* no seed */
+    mock *m = mock_start(M_NORMAL);                                   /* no CLUSTER: refused */
+    char seeds[64];
+    snprintf(seeds, sizeof seeds, "127.0.0.1:%d", m->port);
+    assert_null(stc_cluster_open(seeds, NULL, NULL, NULL, 0));
+    int err = 0;
+    char msg[128];
+    assert_null(stc_cluster_open(seeds, NULL, &err, msg, sizeof msg));
+    assert_true(err != 0);
+    err = 0;
+    assert_null(stc_cluster_conn(NULL, 0, &err));   /* the index check's NULL half */
+    assert_int_equal(err, STC_EINVAL);
+    mock_stop(m);
+}
+
 static void fetch_writes_the_file_and_checks_crc(void **state)
 {
     (void)state;
@@ -1285,6 +1391,10 @@ int main(void)
         cmocka_unit_test(sample_results_in_every_format),
         cmocka_unit_test(upload_sends_chunks_with_checksum_and_aborts_on_cancel),
         cmocka_unit_test(fetch_writes_the_file_and_checks_crc),
+        cmocka_unit_test(a_batch_over_2_32_queries_is_refused_not_dropped),
+        cmocka_unit_test(upload_refuses_a_long_hint_and_unknown_flags),
+        cmocka_unit_test(a_child_after_fork_cannot_use_the_parents_connection),
+        cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),

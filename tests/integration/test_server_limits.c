@@ -1,6 +1,7 @@
 /* tests/integration/test_server_limits.c - seamtexd's limits, each with a daemon of its
  * own: --max-conns refuses with BUSY, --idle-timeout closes idle connections, --max-upload and
- * --max-frame hold, --conn-out-cap pauses reading a client that does not read its replies,
+ * --max-frame hold, --conn-out-cap pauses reading a client that does not read its replies
+ * (and a request behind a reply over it is answered once the reply is sent),
  * thousands of idle connections are held and served, and an fd limit below the connections
  * offered answers the surplus BUSY without spinning.
  *
@@ -219,6 +220,54 @@ static void unread_replies_pause_reading(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* py35: a request pipelined behind one whose reply passes conn-out-cap is answered without
+ * more bytes from the client. The parse stopped at the cap used to resume only on EPOLLOUT;
+ * when the flush after a worker's SAMPLE sent the whole reply at once (a client that reads)
+ * no EPOLLOUT came, and the PING behind it waited until the client's next bytes (6 rounds of
+ * 10 here, each until the client's timeout). */
+static void a_request_behind_a_reply_over_the_cap_is_answered(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--conn-out-cap", "64K", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    enum { N = 100000 };      /* a worker's SAMPLE; its reply (2.1 MB) is over the cap */
+    stc_query *q = calloc(N, sizeof *q);
+    assert_non_null(q);
+    for (size_t i = 0; i < N; i++) {
+        q[i].face = (uint32_t)(i % 384);
+        q[i].u = 0.3f;
+        q[i].v = 0.6f;
+    }
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    so.mode = 1;
+    so.filter = 1;
+    so.want = STC_WANT_COVERAGE | STC_WANT_STATUS;
+    for (int round = 0; round < 10; round++) {
+        uint32_t a, b;
+        stc_reply r;
+        assert_int_equal(stc_append_sample(c, "default", &so, q, N, &a), 0);
+        assert_int_equal(stc_append_ping(c, NULL, 0, &b), 0);
+        assert_int_equal(stc_flush(c), 0);
+        for (int k = 0; k < 2; k++) {
+            int rc = stc_get_reply(c, 10000, &r);
+            if (rc)
+                fail_msg("round %d, reply %d of 2: %s (%s)", round, k + 1, stc_strerror(rc),
+                         stc_errmsg(c));
+            assert_int_equal(r.status, 0);
+            assert_int_equal(r.reqid, k ? b : a);
+        }
+    }
+    free(q);
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* Clients that trickle a request one byte a second do not hold the server: with every slot
  * taken by them, a new client is served at once (the oldest half-sent connection is evicted
  * for it), and every trickler is closed once its frame is past request-timeout. */
@@ -411,6 +460,7 @@ int main(void)
         cmocka_unit_test(idle_connections_are_closed),
         cmocka_unit_test(upload_and_frame_caps_hold),
         cmocka_unit_test(unread_replies_pause_reading),
+        cmocka_unit_test(a_request_behind_a_reply_over_the_cap_is_answered),
         cmocka_unit_test(trickling_clients_do_not_hold_every_slot),
         cmocka_unit_test(thousands_of_idle_connections_are_held_and_served),
         cmocka_unit_test(fd_shortage_answers_busy_and_does_not_spin),
