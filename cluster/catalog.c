@@ -36,6 +36,11 @@ void scl_key_op(char *out, const char *prefix, const char *id)
     snprintf(out, SCL_KEY_MAX, "%s/ops/%s", prefix, id);
 }
 
+void scl_key_mark(char *out, const char *prefix)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/cluster", prefix);
+}
+
 /* the incarnation as 16 hex digits (a JSON number cannot hold 64 bits exactly) */
 static void add_inc(json_object *o, uint64_t inc)
 {

@@ -28,6 +28,9 @@ void scl_key_prev(char *out, const char *prefix, const char *name);
 /* "<prefix>/ops/<id>": the node's op key (server/cluster_fence.c, docs/cluster.md "Writes in
  * doubt") */
 void scl_key_op(char *out, const char *prefix, const char *id);
+/* "<prefix>/cluster": the catalogue's identity, 16 hex digits drawn by the node that found the
+ * prefix without one (server/cluster_mark.c, docs/cluster.md "Catalogue lost") */
+void scl_key_mark(char *out, const char *prefix);
 
 /* The op key's value: {"inc":"<16 hex digits>","seq":N,"op":"<what>","set":"<name>"}; -1 when
  * it does not fit cap. Only the node that wrote it reads it back (compared as bytes). */

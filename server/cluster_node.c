@@ -460,10 +460,10 @@ static void *member_main(void *arg)
 
 /* ---- life --------------------------------------------------------------------------------- */
 
-/* A random 64-bit id for this process (never 0): the claims it makes carry it, so that the
- * other nodes can tell a claim of a process that is gone when the node restarted meanwhile
- * (docs/cluster.md "Repair"). */
-static uint64_t new_incarnation(void)
+/* A random 64-bit id (never 0): this process's incarnation - the claims it makes carry it, so
+ * that the other nodes can tell a claim of a process that is gone when the node restarted
+ * meanwhile (docs/cluster.md "Repair") - and a new catalogue's mark (cluster_mark.c). */
+uint64_t sts_cluster_random_id(void)
 {
     uint64_t v = 0;
     FILE *f = fopen("/dev/urandom", "rbe");
@@ -518,7 +518,7 @@ int sts_cluster_init(sts_server *srv)
         return -1;
     }
     snprintf(cl->self, sizeof cl->self, "%s", srv->cfg.node_id);
-    cl->inc = new_incarnation();
+    cl->inc = sts_cluster_random_id();
     /* the data dir is loaded: its copies wait for the catalogue (sts_cluster_serves) */
     cl->serve_gen = st_registry_next_gen(srv->reg);
     cl->replicas = srv->cfg.replicas;
@@ -709,6 +709,7 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("staged_published", C(staged_published));
     K("staged_dropped", C(staged_dropped));
     K("copies_hidden", C(copies_hidden));
+    K("sets_rerecorded", C(sets_rerecorded));
 #undef K
 #undef C
     return n;
