@@ -74,6 +74,10 @@ typedef struct sts_cluster {
     char            addr[STP_MAX_NODE_ADDR + 1];   /* advertised, port filled in at start */
     unsigned        replicas, quorum;
     uint64_t        inc;               /* this process's incarnation: random, drawn at init */
+    int64_t         node_rev;          /* atomic: revision of this process's put of nodes/<id>
+                                          (the leave deletes only that one) */
+    uint64_t        other_inc;         /* membership thread: another process of this id seen
+                                          (logged once) */
 
     pthread_mutex_t mu;                /* the view, see above */
     sts_cl_member  *members;  size_t nmembers;
