@@ -10,8 +10,14 @@
  * against that catalogue: the node drops nothing, records its sets again (only names still
  * free) and then keeps the new mark; the next pass is an ordinary one.
  *
- * Owns: the mark key's reading and creation, the cluster-id file. Does not own: recording
- * the sets again (cluster_write.c, sts_cluster_rerecord), the pass (cluster_repair.c).
+ * The cluster's settings live beside the mark: `PREFIX/config` = {"replicas":R,
+ * "write_quorum":W}, put by the first node that finds none. Nodes that disagree on R place
+ * sets differently (one pushes a copy the others drop as extra, over and over), so a node
+ * started with other --replicas / --write-quorum than the key's refuses to start.
+ *
+ * Owns: the mark key's reading and creation, the cluster-id file, the config key's check at
+ * start. Does not own: recording the sets again (cluster_write.c, sts_cluster_rerecord), the
+ * pass (cluster_repair.c).
  */
 #include <inttypes.h>
 #include <stdio.h>
@@ -137,4 +143,42 @@ int sts_cluster_mark_check(sts_cluster *cl, int64_t rev)
              "or was restored from an older backup; nothing is dropped, this node's sets are "
              "recorded again", cl->prefix, known, seen ? "another" : "none");
     return 1;
+}
+
+int sts_cluster_settings_check(sts_cluster *cl)
+{
+    char key[SCL_KEY_MAX], val[64];
+    scl_key_config(key, cl->prefix);
+    if (scl_config_format(val, sizeof val, cl->replicas, cl->quorum) != 0)
+        return -1;
+    scl_cmp cmp = {key, SCL_CMP_CREATE, 0};
+    scl_op op = {SCL_OP_PUT, key, val, 0};
+    int ok = 0;
+    int rc = scl_etcd_txn(cl->etcd_m, &cmp, 1, &op, 1, &ok, NULL);
+    scl_kvs kv = {0};
+    if (rc == SCL_OK && !ok)
+        rc = scl_etcd_range(cl->etcd_m, key, 0, &kv);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK) {
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: the cluster's settings (%s) not checked: "
+                 "etcd did not answer", key);
+        return 0;
+    }
+    if (ok) {
+        sts_logf(&cl->srv->log, STS_INFO, "cluster: settings recorded: %s", val);
+        return 0;
+    }
+    unsigned r = 0, w = 0;
+    int parsed = kv.n == 1 && scl_config_parse(kv.v[0].val, &r, &w) == 0;
+    scl_kvs_free(&kv);
+    if (!parsed) {
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: %s holds no settings record: not checked", key);
+        return 0;
+    }
+    if (r == cl->replicas && w == cl->quorum)
+        return 0;
+    sts_logf(&cl->srv->log, STS_ERROR, "cluster: this cluster has replicas %u, write quorum %u "
+             "(%s); this node was started with --replicas %u --write-quorum %u: refused (to "
+             "change them, docs/cluster.md \"Flags\")", r, w, key, cl->replicas, cl->quorum);
+    return -1;
 }

@@ -609,6 +609,8 @@ int sts_cluster_start(sts_server *srv)
     } else {
         snprintf(cl->addr, sizeof cl->addr, "%s", srv->cfg.advertise);
     }
+    if (sts_cluster_settings_check(cl) != 0)
+        return -1;   /* other replicas / write quorum than the cluster's */
     int reg = register_node(cl, 1);
     if (reg == -2)
         return -1;   /* the id is another live process's */

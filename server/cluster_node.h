@@ -329,6 +329,9 @@ int sts_cluster_mark_check(sts_cluster *cl, int64_t rev);
 /* Keeps the mark the last check saw in the data dir (after every local set was recorded
  * again); 0 or -1. */
 int sts_cluster_mark_adopt(sts_cluster *cl);
+/* At start: puts PREFIX/config with this node's replicas and write quorum when there is none;
+ * -1 (logged) when it holds others; 0 also when etcd does not answer (not checked, logged). */
+int sts_cluster_settings_check(sts_cluster *cl);
 /* 64 random bits, never 0 (incarnations, the catalogue's mark). */
 uint64_t sts_cluster_random_id(void);
 

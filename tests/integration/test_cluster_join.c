@@ -1,6 +1,8 @@
-/* tests/integration/test_cluster_nodeid.c - one node id, one process (docs/cluster.md
- * "Node ids"): two nodes started with the same --node-id must not both act as that node,
- * and the one that goes must not take the other out of the cluster.
+/* tests/integration/test_cluster_join.c - what a node checks when it joins a cluster: its id
+ * and the cluster's settings (docs/cluster.md "Node ids", "Flags").
+ *
+ * One node id, one process: two nodes started with the same --node-id must not both act as
+ * that node, and the one that goes must not take the other out of the cluster.
  *
  * 2 nodes n0, n1 (R = W = 2, 2 s leases) on a real etcd. (1) A third process started with
  * --node-id n1 (its own port and data dir) while n1 answers: it refuses to start and says
@@ -10,6 +12,10 @@
  * (SIGTERM, a graceful leave): n1 is a member again at its own address, and stays one past a
  * lease TTL. Before, the leaver deleted nodes/n1 whoever had put it last, and n1 - alive,
  * its lease kept alive - was out of the membership for good, without a word in its log.
+ * (3) A node started with --replicas 3, or --write-quorum 1, against the cluster's 2 / 2
+ * (PREFIX/config, put by the first node) refuses to start and names both; one with 2 / 2
+ * joins. Before, it joined and placed sets by its own R: it pushed third copies that the
+ * others dropped as extra, over and over (clu35's probe).
  */
 #include <setjmp.h>
 #include <signal.h>
@@ -92,6 +98,22 @@ static void the_leave_of_another_process_of_the_id_keeps_the_node_in(void **stat
     assert_true(n1_home());
     assert_true(st_daemon_log_count(&N[1], "registering again") +
                 st_daemon_log_count(&D, "its key was another process's") >= 1);
+}
+
+static void a_node_with_other_replicas_or_quorum_refuses_to_start(void **state)
+{
+    (void)state;
+    static const unsigned rw[2][2] = {{3, 2}, {2, 1}};
+    for (int k = 0; k < 2; k++) {
+        if (st_cluster_node_start(&D, ETCD.url, 2, rw[k][0], rw[k][1]) == 0) {
+            st_daemon_kill(&D);
+            fail_msg("n2 started with --replicas %u --write-quorum %u in a 2 / 2 cluster",
+                     rw[k][0], rw[k][1]);
+        }
+    }
+    assert_int_equal(st_daemon_log_count(&D, "this cluster has replicas 2, write quorum 2"), 2);
+    assert_int_equal(st_cluster_node_start(&D, ETCD.url, 2, 2, 2), 0);
+    st_daemon_down(&D, 10000);
     for (int i = 0; i < 2; i++)
         st_daemon_down(&N[i], 10000);
     st_etcd_stop(&ETCD);
@@ -102,6 +124,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(a_second_process_with_a_live_nodes_id_refuses_to_start),
         cmocka_unit_test(the_leave_of_another_process_of_the_id_keeps_the_node_in),
+        cmocka_unit_test(a_node_with_other_replicas_or_quorum_refuses_to_start),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     st_etcd_stop(&ETCD);
