@@ -32,6 +32,8 @@ typedef struct cli_ctx {
     const char *cluster_seeds; /* --cluster HOST:PORT,... or etcd:// URL: set commands go to
                                   an owner */
     const char *route_set;     /* the set the command names (routing under --cluster) */
+    int         route_held;    /* the command reads route_set (not upload, delete): routed to
+                                  a node that serves it (MOVED followed, NOT_FOUND not final) */
     struct stc_cluster *cluster;   /* opened by the first routed command (cli_cluster.c) */
     int         conn_borrowed; /* conn belongs to cluster */
     const char *bad_env_port;  /* $SEAMTEX_PORT when it is not a port and -p did not replace it */

@@ -1,7 +1,8 @@
 /* client/cli_cluster.c - the CLI's cluster side: `seamtex cluster` (nodes, sets per node,
  * under-replicated sets; text or --json), `ls` under --cluster (every node's LIST, each set
- * once) and routing of set commands under --cluster (the connection goes to the set's first
- * reachable owner, stc_cluster's ranking).
+ * once) and routing of set commands under --cluster (the connection goes to a node that
+ * serves the set, found by stc_cluster's rules, or for upload and delete to the set's first
+ * reachable owner).
  * Does not own: the routing rules (client/libcluster.c), the JSON writer (cli_json.c), the
  * other commands.
  */
@@ -57,12 +58,30 @@ int cli_cluster_first_seed(cli_ctx *ctx, char *out, size_t cap)
     return CLI_OK;
 }
 
+static int probe_info(stc_conn *c, void *set)
+{
+    stc_info in;
+    return stc_info_get(c, set, 0, 0, &in);
+}
+
 int cli_connect_routed(cli_ctx *ctx, const char *set)
 {
     int code = CLI_CONNECT;
     stc_cluster *cl = open_cluster(ctx, &code);
     if (!cl)
         return code;
+    if (ctx->route_held) {
+        /* a command that reads the set goes to a node that serves it: an INFO routed by the
+         * cluster client's rules (an owner that lacks its copy answers MOVED: followed;
+         * NOT_FOUND from one owner is not final). Otherwise, the first reachable owner, whose
+         * answer the command reports. */
+        stc_conn *used = NULL;
+        if (stc_cluster_call(cl, set, probe_info, (void *)set, &used) == 0 && used) {
+            ctx->conn = used;
+            ctx->conn_borrowed = 1;
+            return CLI_OK;
+        }
+    }
     size_t order[256];
     size_t n = stc_cluster_rank(cl, set, order, 256);
     for (size_t r = 0; r < n; r++) {

@@ -42,9 +42,9 @@ static const char *const USAGE =
 "  cluster [--json]             the cluster's nodes, sets per node, under-replicated sets\n"
 "\n"
 "--cluster HOST:PORT,... (seed nodes of a cluster) or etcd://HOST:PORT[,...]/PREFIX (the\n"
-"cluster's etcd: its registered nodes are the seeds): each command that names a set goes to\n"
-"that set's first reachable owner (docs/cluster.md); `cluster` asks the seeds; `ls` lists\n"
-"every node's sets, each once.\n"
+"cluster's etcd: its registered nodes are the seeds): a command that reads a set goes to a\n"
+"node that serves it, upload and delete to the set's first reachable owner (docs/cluster.md);\n"
+"`cluster` asks the seeds; `ls` lists every node's sets, each once.\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "-h, -p, -t are also --host, --port, --token. HOST defaults to $SEAMTEX_HOST or 127.0.0.1,\n"
@@ -536,6 +536,8 @@ static int dispatch(cli_ctx *ctx, int argc, char **argv)
     /* under --cluster a command that names a set is sent to that set's owner: the set is the
      * first word after the command (upload: the second) that is not an option */
     ctx->route_set = NULL;
+    ctx->route_held = strcmp(argv[0], "upload") && strcmp(argv[0], "delete") &&
+                      strcmp(argv[0], "rm");
     int want = !strcmp(argv[0], "upload") ? 2 : 1, seen = 0;
     if (strcmp(argv[0], "cluster") && strcmp(argv[0], "stats") && strcmp(argv[0], "ping") &&
         strcmp(argv[0], "ls") && strcmp(argv[0], "list"))
