@@ -32,6 +32,8 @@ typedef struct cli_ctx {
     const char *cluster_seeds; /* --cluster HOST:PORT,... or etcd:// URL: set commands go to
                                   an owner */
     const char *route_set;     /* the set the command names (routing under --cluster) */
+    int         route_held;    /* the command reads route_set (not upload, delete): routed to
+                                  a node that serves it (MOVED followed, NOT_FOUND not final) */
     struct stc_cluster *cluster;   /* opened by the first routed command (cli_cluster.c) */
     int         conn_borrowed; /* conn belongs to cluster */
     const char *bad_env_port;  /* $SEAMTEX_PORT when it is not a port and -p did not replace it */
@@ -89,6 +91,10 @@ int cli_cmd_upload(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_fetch(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_compress(cli_ctx *ctx, int argc, char **argv);
 int cli_cmd_cluster(cli_ctx *ctx, int argc, char **argv);
+/* `ls` under --cluster: the sets of every node (LIST), each once, sorted by name, in *sets (n
+ * entries; free *sets and *keep, which holds the names). CLI_OK, or the code of a node that
+ * did not answer (said on stderr; the list holds the other nodes' sets). */
+int cli_cluster_list(cli_ctx *ctx, stc_set_entry **sets, size_t *n, void **keep);
 /* --cluster: points ctx->conn at the first reachable node of set's ranking (cli_cluster.c). */
 int cli_connect_routed(cli_ctx *ctx, const char *set);
 /* --cluster: the seed list (HOST:PORT,...) into out, or for an etcd:// URL the address of the

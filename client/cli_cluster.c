@@ -1,6 +1,8 @@
 /* client/cli_cluster.c - the CLI's cluster side: `seamtex cluster` (nodes, sets per node,
- * under-replicated sets; text or --json) and routing of set commands under --cluster (the
- * connection goes to the set's first reachable owner, stc_cluster's ranking).
+ * under-replicated sets; text or --json), `ls` under --cluster (every node's LIST, each set
+ * once) and routing of set commands under --cluster (the connection goes to a node that
+ * serves the set, found by stc_cluster's rules, or for upload and delete to the set's first
+ * reachable owner).
  * Does not own: the routing rules (client/libcluster.c), the JSON writer (cli_json.c), the
  * other commands.
  */
@@ -56,12 +58,30 @@ int cli_cluster_first_seed(cli_ctx *ctx, char *out, size_t cap)
     return CLI_OK;
 }
 
+static int probe_info(stc_conn *c, void *set)
+{
+    stc_info in;
+    return stc_info_get(c, set, 0, 0, &in);
+}
+
 int cli_connect_routed(cli_ctx *ctx, const char *set)
 {
     int code = CLI_CONNECT;
     stc_cluster *cl = open_cluster(ctx, &code);
     if (!cl)
         return code;
+    if (ctx->route_held) {
+        /* a command that reads the set goes to a node that serves it: an INFO routed by the
+         * cluster client's rules (an owner that lacks its copy answers MOVED: followed;
+         * NOT_FOUND from one owner is not final). Otherwise, the first reachable owner, whose
+         * answer the command reports. */
+        stc_conn *used = NULL;
+        if (stc_cluster_call(cl, set, probe_info, (void *)set, &used) == 0 && used) {
+            ctx->conn = used;
+            ctx->conn_borrowed = 1;
+            return CLI_OK;
+        }
+    }
     size_t order[256];
     size_t n = stc_cluster_rank(cl, set, order, 256);
     for (size_t r = 0; r < n; r++) {
@@ -75,6 +95,77 @@ int cli_connect_routed(cli_ctx *ctx, const char *set)
     }
     fprintf(stderr, "%s: no node of the cluster answers: %s\n", ctx->prog, stc_cluster_errmsg(cl));
     return CLI_CONNECT;
+}
+
+typedef struct listed {
+    stc_set_entry e;
+    char          name[256];
+} listed;
+
+static int cmp_listed(const void *a, const void *b)
+{
+    return strcmp(((const listed *)a)->name, ((const listed *)b)->name);
+}
+
+int cli_cluster_list(cli_ctx *ctx, stc_set_entry **out, size_t *nout, void **keep)
+{
+    *out = NULL;
+    *nout = 0;
+    *keep = NULL;
+    int code = CLI_CONNECT;
+    stc_cluster *cl = open_cluster(ctx, &code);
+    if (!cl)
+        return code;
+    const stc_cluster_node *nodes;
+    size_t nn = stc_cluster_nodes(cl, &nodes), nl = 0, cap = 0;
+    listed *l = NULL;
+    int rc = CLI_OK;
+    for (size_t i = 0; i < nn; i++) {
+        int err = 0;
+        stc_conn *c = stc_cluster_conn(cl, i, &err);
+        const stc_set_entry *sets = NULL;
+        size_t n = 0;
+        int e = c ? stc_list(c, &sets, &n) : err;
+        if (e) {
+            fprintf(stderr, "%s: ls: node %s at %s: %s: its sets may be missing below\n",
+                    ctx->prog, nodes[i].id, nodes[i].addr, c ? stc_errmsg(c) : stc_strerror(e));
+            rc = stc_is_server_error(e) ? CLI_SERVER : CLI_CONNECT;
+            continue;
+        }
+        for (size_t k = 0; k < n; k++) {
+            if (nl == cap) {
+                cap = cap ? 2 * cap : 64;
+                listed *g = realloc(l, cap * sizeof *l);
+                if (!g) {
+                    free(l);
+                    fprintf(stderr, "%s: ls: out of memory\n", ctx->prog);
+                    return CLI_SERVER;
+                }
+                l = g;
+            }
+            l[nl].e = sets[k];
+            snprintf(l[nl].name, sizeof l[nl].name, "%s", sets[k].name);
+            nl++;
+        }
+    }
+    if (nl)
+        qsort(l, nl, sizeof *l, cmp_listed);
+    stc_set_entry *o = malloc((nl ? nl : 1) * sizeof *o);
+    if (!o) {
+        free(l);
+        fprintf(stderr, "%s: ls: out of memory\n", ctx->prog);
+        return CLI_SERVER;
+    }
+    size_t n = 0;
+    for (size_t i = 0; i < nl; i++)   /* each set once: the copies of a set are the same set */
+        if (!n || strcmp(o[n - 1].name, l[i].name)) {
+            o[n] = l[i].e;
+            o[n++].name = l[i].name;
+        }
+    *out = o;
+    *nout = n;
+    *keep = l;
+    return rc;
 }
 
 typedef struct holding {

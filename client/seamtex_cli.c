@@ -42,8 +42,9 @@ static const char *const USAGE =
 "  cluster [--json]             the cluster's nodes, sets per node, under-replicated sets\n"
 "\n"
 "--cluster HOST:PORT,... (seed nodes of a cluster) or etcd://HOST:PORT[,...]/PREFIX (the\n"
-"cluster's etcd: its registered nodes are the seeds): each command that names a set goes to\n"
-"that set's first reachable owner (docs/cluster.md); `cluster` asks the seeds.\n"
+"cluster's etcd: its registered nodes are the seeds): a command that reads a set goes to a\n"
+"node that serves it, upload and delete to the set's first reachable owner (docs/cluster.md);\n"
+"`cluster` asks the seeds; `ls` lists every node's sets, each once.\n"
 "Without a COMMAND, commands are read one per line from stdin (a prompt on a terminal),\n"
 "over one connection, like redis-cli; 'quit' or end of input stops.\n"
 "-h, -p, -t are also --host, --port, --token. HOST defaults to $SEAMTEX_HOST or 127.0.0.1,\n"
@@ -264,21 +265,42 @@ static int cmd_ping(cli_ctx *ctx, int argc, char **argv)
     return CLI_OK;
 }
 
+static int print_sets(const stc_set_entry *s, size_t n, int json, int rc);
+
 static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
 {
     int rc = CLI_OK;
     int json = json_only_args(argc, argv, "usage: seamtex ls [--json]\nLists the sets: name, "
-                              "kind, channels, type, faces, memory.\n", &rc);
+                              "kind, channels, type, faces, memory. Under --cluster: every "
+                              "node's sets, each once (exit 3 when a node does not answer).\n", &rc);
     if (json < 0)
-        return rc;
-    rc = cli_connect(ctx);
-    if (rc)
         return rc;
     const stc_set_entry *s;
     size_t n;
-    int e = stc_list(ctx->conn, &s, &n);
-    if (e)
-        return cli_fail(ctx, "ls", e);
+    stc_set_entry *all = NULL;
+    void *keep = NULL;
+    if (ctx->cluster_seeds) {   /* the cluster's sets: every node's */
+        rc = cli_cluster_list(ctx, &all, &n, &keep);
+        if (!all)
+            return rc;
+        s = all;
+    } else {
+        rc = cli_connect(ctx);
+        if (rc)
+            return rc;
+        int e = stc_list(ctx->conn, &s, &n);
+        if (e)
+            return cli_fail(ctx, "ls", e);
+    }
+    rc = print_sets(s, n, json, rc);
+    free(all);
+    free(keep);
+    return rc;
+}
+
+/* ls's output: a table, or --json; rc is returned (the JSON writer's failure instead) */
+static int print_sets(const stc_set_entry *s, size_t n, int json, int rc)
+{
     if (json) {
         cli_json j;
         cli_json_begin(&j, stdout);
@@ -297,7 +319,8 @@ static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
         }
         cli_json_close(&j);
         cli_json_close(&j);
-        return cli_json_finish(&j);
+        int jr = cli_json_finish(&j);
+        return jr ? jr : rc;
     }
     printf("%-32s %-8s %4s %-5s %9s %12s\n", "NAME", "KIND", "CHAN", "TYPE", "FACES", "MEMORY");
     for (size_t i = 0; i < n; i++) {
@@ -306,7 +329,7 @@ static int cmd_ls(cli_ctx *ctx, int argc, char **argv)
                cli_dtype_name(s[i].dtype), s[i].nfaces, cli_bytes(s[i].memory, b, sizeof b));
     }
     printf("(%zu set%s)\n", n, n == 1 ? "" : "s");
-    return CLI_OK;
+    return rc;
 }
 
 /* `seamtex info --json`: the same facts as the text, sizes in bytes. */
@@ -513,6 +536,8 @@ static int dispatch(cli_ctx *ctx, int argc, char **argv)
     /* under --cluster a command that names a set is sent to that set's owner: the set is the
      * first word after the command (upload: the second) that is not an option */
     ctx->route_set = NULL;
+    ctx->route_held = strcmp(argv[0], "upload") && strcmp(argv[0], "delete") &&
+                      strcmp(argv[0], "rm");
     int want = !strcmp(argv[0], "upload") ? 2 : 1, seen = 0;
     if (strcmp(argv[0], "cluster") && strcmp(argv[0], "stats") && strcmp(argv[0], "ping") &&
         strcmp(argv[0], "ls") && strcmp(argv[0], "list"))

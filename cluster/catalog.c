@@ -36,6 +36,22 @@ void scl_key_op(char *out, const char *prefix, const char *id)
     snprintf(out, SCL_KEY_MAX, "%s/ops/%s", prefix, id);
 }
 
+void scl_key_mark(char *out, const char *prefix)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/cluster", prefix);
+}
+
+void scl_key_config(char *out, const char *prefix)
+{
+    snprintf(out, SCL_KEY_MAX, "%s/config", prefix);
+}
+
+int scl_config_format(char *out, size_t cap, unsigned replicas, unsigned write_quorum)
+{
+    int n = snprintf(out, cap, "{\"replicas\":%u,\"write_quorum\":%u}", replicas, write_quorum);
+    return n > 0 && (size_t)n < cap ? 0 : -1;
+}
+
 /* the incarnation as 16 hex digits (a JSON number cannot hold 64 bits exactly) */
 static void add_inc(json_object *o, uint64_t inc)
 {
@@ -184,4 +200,19 @@ int scl_copy_parse(const char *val, uint32_t *crc32)
         return -1;
     *crc32 = (uint32_t)strtoul(val, NULL, 16);
     return 0;
+}
+
+int scl_config_parse(const char *json, unsigned *replicas, unsigned *write_quorum)
+{
+    json_object *o = json_tokener_parse(json);
+    int64_t r = 0, w = 0;
+    int rc = o && json_object_is_type(o, json_type_object) &&
+             get_i64(o, "replicas", 1, 255, &r) == 0 && get_i64(o, "write_quorum", 1, 255, &w) == 0
+             ? 0 : -1;
+    json_object_put(o);
+    if (rc == 0) {
+        *replicas = (unsigned)r;
+        *write_quorum = (unsigned)w;
+    }
+    return rc;
 }

@@ -1,6 +1,7 @@
 /* cluster/catalog.h - the records seamtexd keeps in etcd (docs/cluster.md "Keys").
  *
- * Owns: the key names under the prefix (nodes/, sets/, copies/, ops/), the JSON of a node
+ * Owns: the key names under the prefix (nodes/, sets/, copies/, ops/, cluster, config), the
+ * JSON of the config record, of a node
  * record, of a set record and of an op key, and their parsing (every field checked). Does not
  * own: when records are written (server/cluster_*.c), the HTTP (etcd.h).
  */
@@ -28,6 +29,15 @@ void scl_key_prev(char *out, const char *prefix, const char *name);
 /* "<prefix>/ops/<id>": the node's op key (server/cluster_fence.c, docs/cluster.md "Writes in
  * doubt") */
 void scl_key_op(char *out, const char *prefix, const char *id);
+/* "<prefix>/cluster": the catalogue's identity, 16 hex digits drawn by the node that found the
+ * prefix without one (server/cluster_mark.c, docs/cluster.md "Catalogue lost") */
+void scl_key_mark(char *out, const char *prefix);
+/* "<prefix>/config": the cluster's settings {"replicas":R,"write_quorum":W}, put by the first
+ * node that finds none; a node started with others refuses to start (server/cluster_mark.c) */
+void scl_key_config(char *out, const char *prefix);
+int scl_config_format(char *out, size_t cap, unsigned replicas, unsigned write_quorum);
+/* 0, or -1 when the JSON is not a config record (R and W 1..255) */
+int scl_config_parse(const char *json, unsigned *replicas, unsigned *write_quorum);
 
 /* The op key's value: {"inc":"<16 hex digits>","seq":N,"op":"<what>","set":"<name>"}; -1 when
  * it does not fit cap. Only the node that wrote it reads it back (compared as bytes). */

@@ -53,6 +53,18 @@ int scl_peer_push(const char *addr, const char *token, const char *path, const c
     return rc;
 }
 
+int scl_peer_ping(const char *addr, int timeout_ms)
+{
+    int rc = 0;
+    char msg[320];
+    stc_conn *c = dial(addr, NULL, timeout_ms, &rc, msg, sizeof msg);
+    if (!c)
+        return rc ? rc : STC_ECONNECT;
+    rc = stc_ping(c);
+    stc_close(c);
+    return rc;
+}
+
 int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
                     char *msg, size_t cap)
 {

@@ -3,7 +3,8 @@
  * Owns: pushing a stored source file to another node as a REPLICA upload (its CRC-32C is
  * computed from the file and checked by the receiver at commit: end to end; with STAGE the
  * receiver keeps it staged), telling a node to publish its staged copy (REPLICA_PUBLISH),
- * forwarding a DELETE. Does not own: choosing the target (cluster_node.c), the protocol (protocol/).
+ * forwarding a DELETE, asking whether a node answers (PING). Does not own: choosing the
+ * target (cluster_node.c), the protocol (protocol/).
  * Blocking; each call opens and closes its own connection. Returns 0 or an STC_E* code, with
  * a message in msg (scl_peer_publish: also SCL_PEER_NOT_FOUND).
  */
@@ -25,6 +26,9 @@ int scl_peer_push(const char *addr, const char *token, const char *path, const c
 enum { SCL_PEER_NOT_FOUND = 1 };
 int scl_peer_publish(const char *addr, const char *token, const char *name, uint32_t crc32,
                      int timeout_ms, char *msg, size_t cap);
+/* 0 when a server answers PING at addr within timeout_ms (connect and reply), else the
+ * STC_E* code (seamtexd: is the process that registered a node id still there?) */
+int scl_peer_ping(const char *addr, int timeout_ms);
 int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
                     char *msg, size_t cap);
 

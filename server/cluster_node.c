@@ -16,6 +16,7 @@
 
 #include "cluster_node.h"
 #include "dispatch.h"
+#include "peer.h"
 #include "server.h"
 
 int sts_cluster_etcd_ok(sts_cluster *cl)
@@ -319,15 +320,42 @@ void sts_cluster_kick(sts_cluster *cl)
 
 /* ---- membership thread -------------------------------------------------------------------- */
 
-static int register_node(sts_cluster *cl)
+/* Whether nodes/<id> names another process of this id that is still there: another
+ * incarnation at another address that answers PING (a restart on the same address, or a
+ * process that does not answer within a second, is this node's earlier self, gone). */
+static int id_in_use(sts_cluster *cl, const char *key, char *addr, size_t cap)
 {
-    char key[SCL_KEY_MAX], val[512];
-    int64_t lease = 0;
+    scl_kvs kv;
+    uint64_t inc = 0;
+    int rc = scl_etcd_range(cl->etcd_m, key, 0, &kv);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return 0;
+    int other = kv.n == 1 && scl_node_parse(kv.v[0].val, addr, cap, &inc) == 0 &&
+                inc != cl->inc && strcmp(addr, cl->addr) != 0;
+    scl_kvs_free(&kv);
+    return other && scl_peer_ping(addr, 1000) == 0;
+}
+
+/* Grants a lease and puts nodes/<id>. At start (first), a node id that another live process
+ * has registered is refused: -2 (two processes of one id would each act as that node). */
+static int register_node(sts_cluster *cl, int first)
+{
+    char key[SCL_KEY_MAX], val[512], other[STP_MAX_NODE_ADDR + 1];
+    int64_t lease = 0, rev = 0;
+    scl_key_node(key, cl->prefix, cl->self);
+    if (first && id_in_use(cl, key, other, sizeof other)) {
+        sts_logf(&cl->srv->log, STS_ERROR, "cluster: node id '%s' is in use: a live process "
+                 "registered it at %s (two nodes started with the same --node-id?)", cl->self,
+                 other);
+        return -2;
+    }
     int rc = scl_etcd_grant(cl->etcd_m, cl->srv->cfg.lease_ttl, &lease);
     if (rc == SCL_OK) {
-        scl_key_node(key, cl->prefix, cl->self);
         scl_node_format(val, sizeof val, cl->addr, cl->inc);
-        rc = scl_etcd_put(cl->etcd_m, key, val, lease);
+        scl_op op = {SCL_OP_PUT, key, val, lease};
+        int ok = 0;
+        rc = scl_etcd_txn(cl->etcd_m, NULL, 0, &op, 1, &ok, &rev);
     }
     sts_cluster_note_etcd(cl, rc);
     if (rc != SCL_OK) {
@@ -336,6 +364,7 @@ static int register_node(sts_cluster *cl)
         return -1;
     }
     cl->lease = lease;
+    __atomic_store_n(&cl->node_rev, rev, __ATOMIC_RELAXED);
     STS_CL_ADD(cl, lease_grants, 1);
     sts_logf(&cl->srv->log, STS_INFO, "cluster: node '%s' registered at %s (lease %llds)",
              cl->self, cl->addr, (long long)cl->srv->cfg.lease_ttl);
@@ -372,6 +401,22 @@ static void poll_members(sts_cluster *cl)
     if (!m)
         return;
     qsort(m, n, sizeof *m, cmp_member);
+    /* this node's own key: gone while its lease runs (another process of this id deleted it
+     * when it left), or another process's */
+    const sts_cl_member *me = NULL;
+    for (size_t i = 0; i < n && !me; i++)
+        if (!strcmp(m[i].id, cl->self))
+            me = &m[i];
+    if (cl->lease && !me) {
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: the key of node '%s' is gone while its lease "
+                 "runs (another process of this id left?): registering again", cl->self);
+        cl->lease = 0;   /* the membership thread registers again at once */
+    } else if (me && me->inc && me->inc != cl->inc && me->inc != cl->other_inc) {
+        sts_logf(&cl->srv->log, STS_ERROR, "cluster: node id '%s' is registered by another "
+                 "process at %s: two nodes run with the same --node-id; this one (%s) is not "
+                 "a member while that one runs", cl->self, me->addr, cl->addr);
+        cl->other_inc = me->inc;
+    }
     pthread_mutex_lock(&cl->mu);
     int changed = n != cl->nmembers || (n && memcmp(m, cl->members, n * sizeof *m) != 0);
     if (changed) {
@@ -430,7 +475,7 @@ static void *member_main(void *arg)
     int64_t next_keep = sts_now_ms() + ttl_ms / 3;
     do {
         if (!cl->lease) {
-            register_node(cl);
+            register_node(cl, 0);
             next_keep = sts_now_ms() + ttl_ms / 3;
         } else if (sts_now_ms() >= next_keep) {
             int64_t ttl = 0;
@@ -460,10 +505,10 @@ static void *member_main(void *arg)
 
 /* ---- life --------------------------------------------------------------------------------- */
 
-/* A random 64-bit id for this process (never 0): the claims it makes carry it, so that the
- * other nodes can tell a claim of a process that is gone when the node restarted meanwhile
- * (docs/cluster.md "Repair"). */
-static uint64_t new_incarnation(void)
+/* A random 64-bit id (never 0): this process's incarnation - the claims it makes carry it, so
+ * that the other nodes can tell a claim of a process that is gone when the node restarted
+ * meanwhile (docs/cluster.md "Repair") - and a new catalogue's mark (cluster_mark.c). */
+uint64_t sts_cluster_random_id(void)
 {
     uint64_t v = 0;
     FILE *f = fopen("/dev/urandom", "rbe");
@@ -518,7 +563,7 @@ int sts_cluster_init(sts_server *srv)
         return -1;
     }
     snprintf(cl->self, sizeof cl->self, "%s", srv->cfg.node_id);
-    cl->inc = new_incarnation();
+    cl->inc = sts_cluster_random_id();
     /* the data dir is loaded: its copies wait for the catalogue (sts_cluster_serves) */
     cl->serve_gen = st_registry_next_gen(srv->reg);
     cl->replicas = srv->cfg.replicas;
@@ -564,7 +609,12 @@ int sts_cluster_start(sts_server *srv)
     } else {
         snprintf(cl->addr, sizeof cl->addr, "%s", srv->cfg.advertise);
     }
-    if (register_node(cl) == 0)
+    if (sts_cluster_settings_check(cl) != 0)
+        return -1;   /* other replicas / write quorum than the cluster's */
+    int reg = register_node(cl, 1);
+    if (reg == -2)
+        return -1;   /* the id is another live process's */
+    if (reg == 0)
         poll_members(cl);
     if (pthread_create(&cl->member_thread, NULL, member_main, cl) != 0)
         return -1;
@@ -595,13 +645,18 @@ void sts_cluster_stop(sts_server *srv)
         pthread_join(cl->repair_thread, NULL);
     cl->threads = 0;
     if (cl->lease && sts_cluster_etcd_ok(cl)) {
-        /* a graceful leave: the others need not wait for the lease */
+        /* a graceful leave: the others need not wait for the lease. Only this process's key:
+         * one another process of this id put since is not this node's to delete */
         char key[SCL_KEY_MAX];
         scl_key_node(key, cl->prefix, cl->self);
         scl_etcd_set_abort(cl->etcd_m, NULL);
-        int rc = scl_etcd_delete(cl->etcd_m, key, 0);
+        scl_cmp cmp = {key, SCL_CMP_MOD, __atomic_load_n(&cl->node_rev, __ATOMIC_RELAXED)};
+        scl_op op = {SCL_OP_DEL, key, NULL, 0};
+        int ok = 0;
+        int rc = scl_etcd_txn(cl->etcd_m, &cmp, 1, &op, 1, &ok, NULL);
         sts_logf(&srv->log, rc ? STS_WARN : STS_INFO, "cluster: node '%s' %s", cl->self,
-                 rc ? "could not leave: etcd did not answer; its lease ends it" : "left");
+                 rc ? "could not leave: etcd did not answer; its lease ends it"
+                 : ok ? "left" : "left (its key was another process's: kept)");
     } else if (cl->lease) {
         sts_logf(&srv->log, STS_INFO, "cluster: etcd unreachable: node '%s' leaves when its "
                  "lease expires (%u s)", cl->self, srv->cfg.lease_ttl);
@@ -709,6 +764,7 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("staged_published", C(staged_published));
     K("staged_dropped", C(staged_dropped));
     K("copies_hidden", C(copies_hidden));
+    K("sets_rerecorded", C(sets_rerecorded));
 #undef K
 #undef C
     return n;

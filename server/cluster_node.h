@@ -64,6 +64,7 @@ typedef struct sts_cl_counters {
     uint64_t reads_unconfirmed;   /* reads of a local copy the catalogue did not confirm */
     uint64_t copies_staged, staged_published, staged_dropped;   /* the write path's copies */
     uint64_t copies_hidden;   /* copies hidden by a DELETE this node could not record */
+    uint64_t sets_rerecorded;   /* local sets recorded again after a catalogue loss */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -73,6 +74,10 @@ typedef struct sts_cluster {
     char            addr[STP_MAX_NODE_ADDR + 1];   /* advertised, port filled in at start */
     unsigned        replicas, quorum;
     uint64_t        inc;               /* this process's incarnation: random, drawn at init */
+    int64_t         node_rev;          /* atomic: revision of this process's put of nodes/<id>
+                                          (the leave deletes only that one) */
+    uint64_t        other_inc;         /* membership thread: another process of this id seen
+                                          (logged once) */
 
     pthread_mutex_t mu;                /* the view, see above */
     sts_cl_member  *members;  size_t nmembers;
@@ -129,6 +134,8 @@ typedef struct sts_cluster {
     struct sts_cl_doubt *doubt;        /* the write whose outcome is unknown, or NULL */
     int             in_doubt;          /* atomic: doubt != NULL (a hint for other threads) */
     char            doubt_set[STP_MAX_NAME + 1];   /* under mu: the set of the write in doubt */
+    uint64_t        mark_seen;         /* repair thread only: the PREFIX/cluster id the last
+                                          sts_cluster_mark_check read (0 none) */
     sts_cl_counters n;                 /* atomics */
 } sts_cluster;
 
@@ -306,5 +313,26 @@ void sts_cluster_doubt_load(sts_cluster *cl);
 /* Pushes the local copy of name to the node at addr (the repair thread and the write path):
  * 0, or non-zero with msg set. */
 int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap);
+
+/* Records this node's copy of name (set kind) in a catalogue that has lost it: the record
+ * (state ok, version 1, this node as origin) and this node's copies/ key, only while the name
+ * is free (cluster_write.c). 0 when etcd answered (recorded, or taken meanwhile), -1 else. */
+int sts_cluster_rerecord(sts_cluster *cl, const char *name, int kind);
+
+/* The catalogue's identity (cluster_mark.c, docs/cluster.md "Catalogue lost"): checks the
+ * PREFIX/cluster key at revision rev against the one kept in <data-dir>/cluster-id. 0: the
+ * catalogue this node knows (or the first it joins: the id is kept now); 1: not the one
+ * its data dir knows (etcd lost its data, or a prefix found without a mark): the pass must
+ * drop nothing, record its sets again (sts_cluster_rerecord) and then call
+ * sts_cluster_mark_adopt; < 0: an etcd error. */
+int sts_cluster_mark_check(sts_cluster *cl, int64_t rev);
+/* Keeps the mark the last check saw in the data dir (after every local set was recorded
+ * again); 0 or -1. */
+int sts_cluster_mark_adopt(sts_cluster *cl);
+/* At start: puts PREFIX/config with this node's replicas and write quorum when there is none;
+ * -1 (logged) when it holds others; 0 also when etcd does not answer (not checked, logged). */
+int sts_cluster_settings_check(sts_cluster *cl);
+/* 64 random bits, never 0 (incarnations, the catalogue's mark). */
+uint64_t sts_cluster_random_id(void);
 
 #endif

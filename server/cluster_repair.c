@@ -9,7 +9,9 @@
  * this node's writes published or dropped by the catalogue, the local copies reads
  * may use confirmed (sts_cluster_set_served; a copy a DELETE hid is shown again once the
  * catalogue records its contents); then the catalogue snapshot the handlers use
- * (MOVED) is replaced. Does not own: the membership (cluster_node.c), the write path.
+ * (MOVED) is replaced. A catalogue without the mark this node's data dir keeps (etcd lost its
+ * data: cluster_mark.c) is not judged: the node's sets are recorded again first. Does not
+ * own: the membership (cluster_node.c), the write path.
  * Nothing happens while etcd is unreachable.
  */
 #include <stdio.h>
@@ -235,6 +237,30 @@ static void resolve_staged(sts_cluster *cl, const sts_cl_entry *cat, size_t nc, 
     free(s);
 }
 
+/* A catalogue that is not the one the data dir knows (sts_cluster_mark_check: etcd lost its
+ * data): nothing is judged against it; every local set it does not record is recorded again
+ * (the name still free), and once all are, the data dir keeps the catalogue's mark and the
+ * next pass, run at once, is an ordinary one. Reads meanwhile use what the last pass
+ * confirmed. */
+static void record_again(sts_cluster *cl, const sts_cl_entry *cat, size_t nc)
+{
+    sts_server *srv = cl->srv;
+    size_t cap = st_registry_count(srv->reg) + 16;
+    st_setref **refs = calloc(cap, sizeof *refs);
+    size_t nr = refs ? st_registry_snapshot(srv->reg, refs, cap) : 0;
+    int all = refs != NULL;
+    for (size_t i = 0; i < nr; i++) {
+        st_setref *r = refs[i];
+        if (r->source_bytes && !find_entry((sts_cl_entry *)cat, nc, r->name) &&
+            sts_cluster_rerecord(cl, r->name, r->set->info.kind) != 0)
+            all = 0;
+        st_setref_release(r);
+    }
+    free(refs);
+    if (all && sts_cluster_mark_adopt(cl) == 0)
+        sts_cluster_kick(cl);
+}
+
 static void pass(sts_cluster *cl)
 {
     sts_server *srv = cl->srv;
@@ -261,6 +287,13 @@ static void pass(sts_cluster *cl)
     sts_cluster_note_etcd(cl, rc);
     if (rc != SCL_OK)
         return;
+    /* the catalogue read is the one this node's data dir knows, or etcd has lost its data */
+    int lost = sts_cluster_mark_check(cl, sets.revision);
+    if (lost < 0) {
+        scl_kvs_free(&sets);
+        scl_kvs_free(&copies);
+        return;
+    }
     STS_CL_ADD(cl, repair_passes, 1);
     sts_cl_member *m = NULL;
     size_t nm = sts_cluster_members(cl, &m, NULL);
@@ -296,7 +329,9 @@ static void pass(sts_cluster *cl)
     }
     scl_kvs_free(&sets);
     scl_kvs_free(&copies);
-    if (!cat || !rows) {
+    if (!cat || !rows || lost) {
+        if (cat && rows)
+            record_again(cl, cat, nc);
         free(cat);
         free(rows);
         free(m);

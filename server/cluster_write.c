@@ -32,6 +32,66 @@ static int local_source(sts_server *srv, const char *name, st_manifest *m, char 
     return 0;
 }
 
+/* The CRC-32C of the file at path (the wire checksum an upload of it carries); 0 or -1. */
+static int file_crc32c(const char *path, uint32_t *out)
+{
+    uint32_t c = 0;
+    FILE *f = fopen(path, "rbe");
+    if (!f)
+        return -1;
+    uint8_t buf[65536];
+    size_t k;
+    while ((k = fread(buf, 1, sizeof buf, f)) > 0)
+        c = stp_crc32c(c, buf, k);
+    int bad = ferror(f);
+    fclose(f);
+    *out = c;
+    return bad ? -1 : 0;
+}
+
+int sts_cluster_rerecord(sts_cluster *cl, const char *name, int kind)
+{
+    char spath[4096], key[SCL_KEY_MAX], ckey[SCL_KEY_MAX], val[2048], cval[9];
+    st_manifest m;
+    st_error e;
+    scl_setrec r;
+    memset(&r, 0, sizeof r);
+    if (local_source(cl->srv, name, &m, spath, sizeof spath, &e) != 0 ||
+        file_crc32c(spath, &r.crc32c) != 0) {
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: '%s' not recorded again: its source cannot "
+                 "be read", name);
+        return -1;
+    }
+    r.crc32 = m.crc;
+    r.size = m.bytes;
+    snprintf(r.fmt, sizeof r.fmt, "%s", m.format);
+    snprintf(r.options, sizeof r.options, "%s", m.options);
+    r.version = 1;
+    r.state = SCL_SET_OK;
+    snprintf(r.origin, sizeof r.origin, "%s", cl->self);
+    r.inc = cl->inc;
+    r.kind = kind;
+    if (scl_setrec_format(val, sizeof val, &r) != 0)
+        return -1;
+    scl_key_set(key, cl->prefix, name);
+    scl_key_copies(ckey, cl->prefix, name, cl->self);
+    scl_copy_format(cval, m.crc);
+    /* only a free name: a name another node recorded first keeps that node's contents */
+    scl_cmp cmp = {key, SCL_CMP_CREATE, 0};
+    scl_op ops[2] = {{SCL_OP_PUT, key, val, 0}, {SCL_OP_PUT, ckey, cval, 0}};
+    int ok = 0;
+    int rc = scl_etcd_txn(cl->etcd_r, &cmp, 1, ops, 2, &ok, NULL);
+    sts_cluster_note_etcd(cl, rc);
+    if (rc != SCL_OK)
+        return -1;
+    if (ok) {
+        STS_CL_ADD(cl, sets_rerecorded, 1);
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: '%s' recorded again from this node's copy "
+                 "(crc32 %08x): the catalogue had lost it", name, (unsigned)m.crc);
+    }
+    return 0;
+}
+
 /* The token this node sends to the others (they share it). */
 static void node_token(sts_server *srv, char out[STS_TOKEN_MAX + 1])
 {
@@ -389,15 +449,7 @@ int sts_cluster_record_file(sts_cluster *cl, const char *name, int replace, int 
     uint64_t got = 0;
     st_error e;
     st_error_clear(&e);
-    FILE *f = fopen(path, "rbe");
-    if (f) {
-        uint8_t buf[65536];
-        size_t k;
-        while ((k = fread(buf, 1, sizeof buf, f)) > 0)
-            c32c = stp_crc32c(c32c, buf, k);
-        fclose(f);
-    }
-    if (!f || st_file_crc(path, &got, &c32, &e) != 0 || got != bytes) {
+    if (file_crc32c(path, &c32c) != 0 || st_file_crc(path, &got, &c32, &e) != 0 || got != bytes) {
         st_datadir_discard(path);
         st_set_free(set);
         snprintf(msg, cap, "cannot read the result written for '%s'", name);

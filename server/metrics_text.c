@@ -210,6 +210,8 @@ static const mrow ROWS[] = {
      "Staged copies dropped: their write was refused or abandoned."},
     {"cluster_copies_hidden", "seamtex_cluster_copies_hidden_total", M_COUNTER, "", 0,
      "Local copies hidden from reads by a DELETE this node could not record."},
+    {"cluster_sets_rerecorded", "seamtex_cluster_sets_rerecorded_total", M_COUNTER, "", 0,
+     "Local sets recorded again in a catalogue that had lost them (etcd's data lost)."},
 };
 #define NROWS (sizeof ROWS / sizeof ROWS[0])
 

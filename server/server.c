@@ -325,7 +325,7 @@ int sts_server_start(sts_server *srv)
         }
     }
     if (srv->cluster && sts_cluster_start(srv) != 0) {
-        sts_logf(&srv->log, STS_ERROR, "cannot start the cluster threads");
+        sts_logf(&srv->log, STS_ERROR, "cannot start the cluster node");
         return -1;
     }
     if (sts_metrics_start(srv) != 0 || write_port_file(srv) != 0)

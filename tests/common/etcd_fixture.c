@@ -48,12 +48,18 @@ static int answers(void *arg)
     return ok;
 }
 
+static int spawn(st_etcd *e, const char *bin);
+
+static const char *etcd_bin(void)
+{
+    const char *bin = getenv("SEAMTEX_ETCD");
+    return bin && *bin ? bin : "/usr/bin/etcd";
+}
+
 int st_etcd_start(st_etcd *e, const char *prefix)
 {
     memset(e, 0, sizeof *e);
-    const char *bin = getenv("SEAMTEX_ETCD");
-    if (!bin || !*bin)
-        bin = "/usr/bin/etcd";
+    const char *bin = etcd_bin();
     if (access(bin, X_OK) != 0) {
         fprintf(stderr, "etcd not found at %s (install etcd-server: deploy/install-deps.sh)\n", bin);
         return -1;
@@ -64,6 +70,13 @@ int st_etcd_start(st_etcd *e, const char *prefix)
         return -1;
     e->client_port = free_port();
     e->peer_port = free_port();
+    snprintf(e->url, sizeof e->url, "etcd://127.0.0.1:%d%s", e->client_port, prefix);
+    return spawn(e, bin);
+}
+
+/* runs etcd on e's ports and dir and waits until it answers */
+static int spawn(st_etcd *e, const char *bin)
+{
     char data[300], cu[64], pu[64], ic[96], logp[300];
     snprintf(data, sizeof data, "%s/data", e->dir);
     snprintf(cu, sizeof cu, "http://127.0.0.1:%d", e->client_port);
@@ -84,13 +97,29 @@ int st_etcd_start(st_etcd *e, const char *prefix)
         e->pid = 0;
         return -1;
     }
-    snprintf(e->url, sizeof e->url, "etcd://127.0.0.1:%d%s", e->client_port, prefix);
     if (st_wait_until(answers, e, 30000) != 0) {
         fprintf(stderr, "etcd did not answer on port %d (log %s)\n", e->client_port, logp);
         return -1;
     }
     st_sleep_ms(500);   /* a leader first */
     return 0;
+}
+
+int st_etcd_restart(st_etcd *e, int wipe)
+{
+    if (e->pid <= 0)
+        return -1;
+    kill(e->pid, SIGCONT);
+    kill(e->pid, SIGKILL);
+    waitpid(e->pid, NULL, 0);
+    e->pid = 0;
+    if (wipe) {
+        char cmd[400];
+        snprintf(cmd, sizeof cmd, "rm -rf '%s/data'", e->dir);
+        if (system(cmd) != 0)
+            return -1;
+    }
+    return spawn(e, etcd_bin());
 }
 
 int st_etcd_pause(st_etcd *e, int paused)

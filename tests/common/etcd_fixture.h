@@ -1,7 +1,7 @@
 /* tests/common/etcd_fixture.h - a real etcd for cluster tests and benchmarks.
  *
  * Owns: starting /usr/bin/etcd (or $SEAMTEX_ETCD) on loopback on two free ports with its data
- * in a mkdtemp dir, waiting until it answers, stopping, pausing (SIGSTOP / SIGCONT: "etcd
+ * in a mkdtemp dir, waiting until it answers, restarting (its data kept or wiped), stopping, pausing (SIGSTOP / SIGCONT: "etcd
  * unreachable") and removing it. etcd is a declared dependency (deploy/install-deps.sh): a
  * missing binary fails the start, it is never a skip.
  */
@@ -19,6 +19,9 @@ typedef struct st_etcd {
 
 /* 0, or -1 with the reason on stderr. prefix: the cluster's key prefix ("/t"). */
 int  st_etcd_start(st_etcd *e, const char *prefix);
+/* Kills etcd (SIGKILL) and starts it again on the same ports; wipe: with its data dir
+ * removed first (an etcd that lost its data: no keys, revisions from 1). 0 or -1. */
+int  st_etcd_restart(st_etcd *e, int wipe);
 /* SIGSTOP (paused) or SIGCONT to etcd; a pause returns once every etcd thread has stopped
  * (st_wait_stopped). 0, or -1 when etcd is not running or did not stop within 10 s. */
 int  st_etcd_pause(st_etcd *e, int paused);

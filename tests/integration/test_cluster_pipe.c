@@ -11,7 +11,8 @@
  *     to a node that dropped its copy come back MOVED and are re-routed: every reply correct;
  *   - stc_cluster_open_etcd on the cluster's etcd URL sees the live nodes and serves a
  *     pipelined stream; a bad URL, an etcd that does not answer and a prefix without nodes
- *     are refused with their codes; `seamtex --cluster etcd://...` routes a command.
+ *     are refused with their codes; `seamtex --cluster etcd://...` routes a command, and
+ *     its `ls` lists every set of the cluster once (before: the first node's sets only).
  * Waits are deadlines against a hang, never speed checks.
  */
 #include <pthread.h>
@@ -354,6 +355,19 @@ static void pipelined_reads_survive_kill_moved_and_open_from_etcd(void **state)
     if (st != 0)
         fail_msg("seamtex --cluster %s info p03: exit %d: %s", ETCD.url, st, out);
     assert_non_null(strstr(out, "p03"));
+    /* ls lists the cluster's sets, every node's, each once (it listed the first node's) */
+    const char *ls[] = {"ls", "--json", NULL};
+    st = st_cluster_cli(NODE[0].dir, ETCD.url, ls, out, sizeof out);
+    if (st != 0 || !strstr(out, "\"count\": 12,"))
+        fail_msg("seamtex --cluster %s ls --json: exit %d: %s", ETCD.url, st, out);
+    for (int s = 0; s < NSETS; s++) {
+        char name[40], *at = out;
+        int seen = 0;
+        snprintf(name, sizeof name, "\"name\": \"p%02d\"", s);
+        while ((at = strstr(at, name)) != NULL && ++seen)
+            at++;
+        assert_int_equal(seen, 1);
+    }
 
     stc_cluster_close(cl);
     for (int i = 0; i < NNODES; i++)

@@ -9,9 +9,15 @@
  *    asks the next owner, and answers NOT_FOUND only when every owner says so; when an owner
  *    cannot be reached, it asks the rest of the ranking too.
  *
+ *  - the CLI under --cluster follows the same rules (an owner that answers MOVED for a set
+ *    another node holds: `seamtex --cluster ... sample` and `info` read it there; they
+ *    failed with "MOVED: HOST:PORT" before, the CLI sending every command to the first
+ *    reachable owner as it was).
+ *
  * The scripted node is a thread in this test speaking the wire protocol: HELLO is answered
- * UNKNOWN_OPCODE (version 1 defaults), CLUSTER with the membership the test sets, SAMPLE with
- * the status and message the test sets. The set itself lives on a real plain seamtexd.
+ * UNKNOWN_OPCODE (version 1 defaults), CLUSTER with the membership the test sets, SAMPLE and
+ * INFO with the status and message the test sets. The set itself lives on a real plain
+ * seamtexd.
  */
 #include <errno.h>
 #include <netinet/in.h>
@@ -105,7 +111,7 @@ static int answer(scripted *s, int fd)
         r.nodes = nodes;
         stp_enc_cluster_reply(&out, h.reqid, &r);
         s->clusters++;
-    } else if (h.opcode == STP_OP_SAMPLE) {
+    } else if (h.opcode == STP_OP_SAMPLE || h.opcode == STP_OP_INFO) {
         stp_enc_error(&out, h.opcode, h.reqid, s->sample_status, s->sample_msg);
         s->samples++;
     } else {
@@ -408,9 +414,40 @@ static void not_found_with_an_owner_unreachable_asks_the_rest(void **state)
     scripted_stop(&s);
 }
 
+/* the CLI: "a" owns the set first and answers MOVED to "d", which holds it */
+static void the_cli_follows_moved_to_the_node_that_holds_the_set(void **state)
+{
+    (void)state;
+    scripted s;
+    assert_int_equal(scripted_start(&s), 0);
+    script_members(&s, 2, daddr, NULL);
+    script_sample(&s, STP_S_MOVED, daddr);
+    char name[32], seeds[40], out[4096];
+    const char *ids[2] = {"a", "d"};
+    for (int k = 0;; k++) {   /* a name of its own (the daemon keeps the other cases' sets) */
+        snprintf(name, sizeof name, "cli%d", k);
+        size_t order[2];
+        stp_hrw_rank(ids, 2, name, order, 2);
+        if (order[0] == 0)
+            break;
+    }
+    upload_to_daemon(name);
+    snprintf(seeds, sizeof seeds, "127.0.0.1:%d", s.port);
+    const char *sample[] = {"sample", name, "0", "0.5", "0.5", NULL};
+    int st = st_cluster_cli(D.dir, seeds, sample, out, sizeof out);
+    if (st != 0 || !strstr(out, "OK"))
+        fail_msg("seamtex --cluster %s sample %s: exit %d: %s", seeds, name, st, out);
+    const char *info[] = {"info", name, NULL};
+    st = st_cluster_cli(D.dir, seeds, info, out, sizeof out);
+    if (st != 0 || !strstr(out, name))
+        fail_msg("seamtex --cluster %s info %s: exit %d: %s", seeds, name, st, out);
+    scripted_stop(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(the_cli_follows_moved_to_the_node_that_holds_the_set),
         cmocka_unit_test(not_found_with_an_owner_unreachable_asks_the_rest),
         cmocka_unit_test(results_survive_the_refresh_after_a_moved),
         cmocka_unit_test(not_found_from_one_owner_asks_the_next),
