@@ -11,8 +11,9 @@
  * the output is written with one send: a pipelined burst of N requests costs one read and
  * one write, not N (once 64 KiB of replies are pending they are sent at once, so a
  * pipeline of big SAMPLE replies streams instead of waiting for the whole burst). Level-triggered polling keeps the loop fair between connections.
- * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
- * (nor parsed) until the peer drains them. Memory: buffers are allocated when data arrives
+ * Backpressure: when a connection's unsent replies pass conn-out-cap, or while the daemon's
+ * buffers are past max-memory and it has any, it is no longer read (nor parsed) until the
+ * peer drains them (out_backed_up). Memory: buffers are allocated when data arrives
  * and released as soon as everything is parsed and answered (small ones to the thread's
  * spare slots, which the next connection that reads takes), so an idle connection holds
  * only its struct (~200 bytes) plus the kernel's socket.
@@ -100,6 +101,21 @@ static void account(sts_conn *c)
     else if (now < c->mem)
         __atomic_sub_fetch(&srv->mem_used, c->mem - now, __ATOMIC_RELAXED);
     c->mem = now;
+}
+
+/* 1 when the connection's unsent replies hold it back (it is neither read nor parsed until
+ * the peer drains them): past conn-out-cap, or any at all while the connection buffers and
+ * open fetches together are past max-memory (sts_mem_take). Replies are written without a
+ * check of their own, so the second rule is what bounds many clients that never read: each
+ * stops at its first reply left unsent once the daemon is at max-memory, not at conn-out-cap
+ * (N x 4 MiB). A connection whose replies have all gone is always served. */
+static int out_backed_up(const sts_conn *c)
+{
+    size_t pending = stp_buf_avail(&c->out);
+    if (!pending)
+        return 0;
+    sts_server *srv = c->io->srv;
+    return pending > STS_LIVE(srv, conn_out_cap) || sts_mem_take(srv, 0) != 0;
 }
 
 /* Where compaction puts the unparsed bytes p[0 .. avail): 0, or for a SAMPLE frame (whose
@@ -312,8 +328,9 @@ static void set_interest(sts_conn *c)
     sts_server *srv = c->io->srv;
     unsigned want = 0;
     size_t pending = stp_buf_avail(&c->out);
-    int over = pending > STS_LIVE(srv, conn_out_cap);
-    if (!c->dead && !c->busy && !c->close_after && !over)
+    account(c);
+    int over = out_backed_up(c);
+    if (!c->dead && !c->busy && !c->close_after && !over && !c->held)
         want |= STS_EV_READ;  /* also while stopping: requests already sent get answered */
     if (pending)
         want |= STS_EV_WRITE;
@@ -441,6 +458,26 @@ static int conn_flush(sts_conn *c)
     return 0;
 }
 
+static void conn_process(sts_conn *c);
+
+/* Writes what is pending and, while the output empties and frames wait that backpressure
+ * held back (c->held), parses on: with the daemon at max-memory a connection may leave one
+ * reply unsent (out_backed_up), so each reply the socket takes lets it answer the next frame
+ * already read, and it is read again only once those are answered (set_interest), so its
+ * input does not grow while it is held. -1 as conn_flush. */
+static int conn_serve(sts_conn *c)
+{
+    for (;;) {
+        if (conn_flush(c) != 0)
+            return -1;
+        if (!c->held || stp_buf_avail(&c->out))
+            return 0;
+        conn_process(c);
+        if (c->dead)
+            return -1;
+    }
+}
+
 /* Sends what the socket takes now, without closing on error (conn_flush, run after the
  * parse loop, sees the error again and closes). Used inside the parse loop once big replies
  * pile up, so the peer can start reading the first while the next are computed. */
@@ -478,7 +515,7 @@ static void refuse(sts_conn *c, const stp_header *h, int status, const char *msg
 static void note_partial(sts_conn *c)
 {
     int partial = c->in.len > c->in.start || c->in2.len > c->in2.start || c->skip;
-    if (!partial || c->busy || stp_buf_avail(&c->out) > STS_LIVE(c->io->srv, conn_out_cap))
+    if (!partial || c->busy || out_backed_up(c))
         c->req_start_ms = 0;
     else if (!c->req_start_ms)
         c->req_start_ms = sts_now_ms();
@@ -498,9 +535,13 @@ static int64_t request_allowance_ms(sts_server *srv, const sts_conn *c)
 static void conn_process(sts_conn *c)
 {
     sts_server *srv = c->io->srv;
+    c->held = 0;
     while (!c->busy && !c->close_after && !c->dead) {
-        if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
-            break;  /* backpressure: answer the rest once the peer has read */
+        account(c);   /* the replies written so far count against max-memory */
+        if (out_backed_up(c)) {
+            c->held = 1;   /* backpressure: answer the rest once the peer has read */
+            break;
+        }
         size_t avail = c->in.len - c->in.start;
         if (c->skip) {
             size_t n = avail < c->skip ? avail : (size_t)c->skip;
@@ -704,14 +745,13 @@ static int read_once(sts_conn *c)
 #define HINT_MAX  (KEEP_SMALL - 64)
 static void conn_readable(sts_conn *c)
 {
-    sts_server *srv = c->io->srv;
     if (c->busy || c->close_after)
         return;
     c->wake_bytes = 0;
     for (int k = 0; k < READS_MAX; k++) {
         if (k && (c->busy || c->close_after))
             break;
-        if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
+        if (out_backed_up(c) || c->held)
             break;   /* backpressure: set_interest stops reading */
         int rc = read_once(c);
         if (rc == -2)
@@ -721,7 +761,7 @@ static void conn_readable(sts_conn *c)
     }
     c->read_hint = c->wake_bytes <= READ_MIN * 2 ? 0
                    : c->wake_bytes < HINT_MAX ? c->wake_bytes : HINT_MAX;
-    if (conn_flush(c) == 0)
+    if (conn_serve(c) == 0)
         set_interest(c);
 }
 
@@ -1091,7 +1131,7 @@ static void take_completions(sts_io *io)
         conn_process(c);   /* pipelined requests that waited behind this one */
         if (c->dead)
             continue;
-        if (conn_flush(c) == 0)
+        if (conn_serve(c) == 0)
             set_interest(c);
     }
 }
@@ -1165,7 +1205,7 @@ static uint32_t drain_step(sts_io *io, int force)
                 conn_close(c);
             } else if (c->linger_until && !c->dead) {
                 linger_drain(c);
-            } else if (!c->dead && conn_flush(c) == 0) {
+            } else if (!c->dead && conn_serve(c) == 0) {
                 if (conn_quiet(c))
                     linger_start(c);
                 else
@@ -1218,7 +1258,7 @@ void *sts_io_main(void *arg)
                     if (conn_flush(c) != 0)
                         continue;
                     conn_process(c);  /* backpressure released: parse what waited */
-                    if (c->dead || conn_flush(c) != 0)
+                    if (c->dead || conn_serve(c) != 0)
                         continue;
                     set_interest(c);
                 }

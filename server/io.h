@@ -52,6 +52,8 @@ struct sts_conn {
     uint8_t   close_after;   /* close once `out` is flushed (bad magic, refused connection) */
     uint8_t   dead;          /* peer gone or error: free as soon as not busy */
     uint8_t   paused;        /* not reading (backpressure or busy) */
+    uint8_t   held;          /* conn_process stopped at backpressure with input unparsed: not
+                                read again until that is parsed (io.c, conn_serve) */
     int64_t   linger_until;  /* stopping: our side shut (SHUT_WR) after the last reply; input
                                 is read and dropped until the peer's end or this monotonic ms,
                                 then closed (io.c, linger_start); 0 = not lingering */

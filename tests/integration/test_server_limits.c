@@ -1,6 +1,7 @@
 /* tests/integration/test_server_limits.c - seamtexd's limits, each with a daemon of its
  * own: --max-conns refuses with BUSY, --idle-timeout closes idle connections, --max-upload and
  * --max-frame hold, --conn-out-cap pauses reading a client that does not read its replies,
+ * many such clients together stay within --max-memory,
  * thousands of idle connections are held and served, and an fd limit below the connections
  * offered answers the surplus BUSY without spinning.
  *
@@ -219,6 +220,80 @@ static void unread_replies_pause_reading(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* Many clients that pipeline small requests with big replies (STATS: 24 bytes in, ~4 KiB out)
+ * and never read (pc35): each is paused at conn-out-cap, but together they must not take the
+ * daemon's connection buffers past max-memory. Before, a reply grew the output buffer without
+ * counting it (buffer_memory said 1.4 MB while 40 such clients held 165 MB of the daemon's
+ * RSS) and nothing but conn-out-cap stopped a connection, so N clients held N x 4 MiB
+ * whatever max-memory said. Now a connection with replies unsent is not parsed further while
+ * the buffers are past max-memory: the overshoot is one reply per connection. */
+static void clients_that_never_read_stay_within_max_memory(void **state)
+{
+    (void)state;
+    enum { N = 16 };
+    st_daemon d;
+    const char *extra[] = {"--max-memory", "8M", "--conn-out-cap", "4M", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *good = st_daemon_client(&d, NULL);
+    assert_non_null(good);
+    assert_int_equal(stc_ping(good), 0);
+    long rss0 = st_proc_status_field(d.pid, "VmRSS");
+    assert_true(rss0 > 0);
+    static uint8_t burst[24 * 1024];
+    for (size_t i = 0; i < sizeof burst / 24; i++)
+        st_wire_frame(burst + i * 24, "STX1", 1, STP_OP_STATS, 0, (uint32_t)i + 1, NULL, 0, 0);
+    int fds[N];
+    size_t off[N];
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+        int small = 16 * 1024;
+        setsockopt(fds[i], SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+        setsockopt(fds[i], SOL_SOCKET, SO_SNDBUF, &small, sizeof small);
+        off[i] = 0;
+    }
+    /* send until every client was paused and no socket has taken a byte for a second (each
+     * one's socket is then full both ways); 60 s at most */
+    int64_t end = st_now_ms() + 60000, last_progress = st_now_ms(), next_check = 0;
+    uint64_t pauses = 0;
+    while (st_now_ms() < end && (pauses < N || st_now_ms() - last_progress < 1000)) {
+        if (pauses < N && st_now_ms() >= next_check) {
+            pauses = st_conn_stat(good, "backpressure_pauses");
+            next_check = st_now_ms() + 200;
+        }
+        int progress = 0;
+        for (int i = 0; i < N; i++) {
+            ssize_t w = send(fds[i], burst + off[i], sizeof burst - off[i],
+                             MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (w > 0) {
+                off[i] = (off[i] + (size_t)w) % sizeof burst;
+                progress = 1;
+            }
+        }
+        if (progress)
+            last_progress = st_now_ms();
+        else
+            st_sleep_ms(10);
+    }
+    long rss = st_proc_status_field(d.pid, "VmRSS");
+    uint64_t mem = st_conn_stat(good, "buffer_memory");
+    printf("# %d clients that never read, max-memory 8M: buffer_memory %.1f MB, daemon RSS "
+           "+%.1f MB\n", N, mem / 1e6, (rss - rss0) / 1e3);
+    assert_true(pauses >= N && pauses != UINT64_MAX);
+    /* the buffers: max-memory plus, per client, one ~4 KiB reply (its buffer 8-16 KiB) and
+     * an input buffer (32-64 KiB); the RSS: that and malloc's slack, well under N x 4 MiB */
+    assert_true(mem <= (8u << 20) + N * (256u << 10));
+    assert_true(rss - rss0 < 32 * 1024);
+    assert_int_equal(stc_ping(good), 0);   /* the well-behaved client is served throughout */
+    for (int i = 0; i < N; i++)
+        close(fds[i]);
+    assert_int_equal(st_wait_stat(&d, good, "buffer_memory", ST_STAT_LE, 1u << 20, 10000), 0);
+    stc_close(good);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* Clients that trickle a request one byte a second do not hold the server: with every slot
  * taken by them, a new client is served at once (the oldest half-sent connection is evicted
  * for it), and every trickler is closed once its frame is past request-timeout. */
@@ -411,6 +486,7 @@ int main(void)
         cmocka_unit_test(idle_connections_are_closed),
         cmocka_unit_test(upload_and_frame_caps_hold),
         cmocka_unit_test(unread_replies_pause_reading),
+        cmocka_unit_test(clients_that_never_read_stay_within_max_memory),
         cmocka_unit_test(trickling_clients_do_not_hold_every_slot),
         cmocka_unit_test(thousands_of_idle_connections_are_held_and_served),
         cmocka_unit_test(fd_shortage_answers_busy_and_does_not_spin),
