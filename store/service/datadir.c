@@ -10,7 +10,6 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
-#include <ftw.h>
 #include <inttypes.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -70,21 +69,6 @@ static int fsync_path(const char *path, int dir, st_error *e)
     return 0;
 }
 
-static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb; (void)ftw;
-    if (flag == FTW_DP)
-        rmdir(p);
-    else
-        unlink(p);
-    return 0;  /* keep going: best effort */
-}
-
-static void rm_rf(const char *path)
-{
-    nftw(path, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
-}
-
 static int mkdir_p1(const char *path, st_error *e)
 {
     if (mkdir(path, 0700) == 0 || errno == EEXIST) {
@@ -108,7 +92,7 @@ static void empty_dir(const char *dir)
         if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
             continue;
         pathf(p, "%s/%s", dir, de->d_name);
-        rm_rf(p);
+        (void)stu_remove_tree(p);
     }
     closedir(dp);
 }
@@ -619,7 +603,7 @@ int st_datadir_delete(st_datadir *d, const char *name,
     if (!rc && unpublish)
         rc = unpublish(arg, name);
     pthread_mutex_unlock(&d->mu);
-    rm_rf(dst);
+    (void)stu_remove_tree(dst);
     return rc;
 }
 
@@ -773,7 +757,7 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
     if (rc == ST_ENOTFOUND) {
         if (L->report)
             L->report(L->arg, name, "no manifest (interrupted upload): removed");
-        rm_rf(setdir);
+        (void)stu_remove_tree(setdir);
         return 0;
     }
     if (!rc && strcmp(m.name, name) != 0)
@@ -788,7 +772,7 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
                 !strcmp(de->d_name, ST_DATADIR_NATIVE))
                 continue;
             pathf(src, "%s/%s", setdir, de->d_name);
-            rm_rf(src);
+            (void)stu_remove_tree(src);
         }
         if (sd)
             closedir(sd);
@@ -1051,9 +1035,9 @@ int st_datadir_stage(st_datadir *d, const char *name, const char *tmp_path, cons
         rc = fsync_path(staged, 1, e);
     if (rc) {
         st_datadir_discard(tmp_path);
-        rm_rf(build);
+        (void)stu_remove_tree(build);
         if (rename(dst, build) == 0)   /* renamed but not durable: not a staged copy */
-            rm_rf(build);
+            (void)stu_remove_tree(build);
         return rc;
     }
     snprintf(id_out, cap, "%s", id);
@@ -1091,7 +1075,7 @@ int st_datadir_drop_staged(st_datadir *d, const char *id, st_error *e)
         return st_fail(e, ST_EIO, "rename %s -> %s: %s", src, dst, strerror(err));
     }
     int rc = fsync_path(staged, 1, e);
-    rm_rf(dst);
+    (void)stu_remove_tree(dst);
     return rc;
 }
 
