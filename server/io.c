@@ -49,6 +49,12 @@
 #define FLUSH_AT   (64u << 10)   /* replies pending past this are sent inside the parse loop */
 #define SPLIT_MIN  (16u << 10)   /* SAMPLE frames from this long on end a read at their end
                                     (split reads, conn_readable) */
+#define ROOM_STEP  (1u << 20)    /* a frame's room is reserved whole up to this (every SAMPLE
+                                    of up to ~37k queries: the read path is unchanged); a longer
+                                    one's grows with what has arrived (conn_process): a header
+                                    alone claiming a 64 MiB body held 64 MiB of max-memory for
+                                    the 517 s its deadline allowed, and 16 such connections (33
+                                    bytes sent each) made every other big frame BUSY (pc35) */
 
 int sts_scratch_reserve(sts_scratch *s, size_t n, int dir)
 {
@@ -572,6 +578,24 @@ static int64_t request_allowance_ms(sts_server *srv, const sts_conn *c)
     return (int64_t)STS_LIVE(srv, request_timeout) * 1000 + (int64_t)(body * 1000 / (rate ? rate : 1));
 }
 
+/* 1 when the frame in progress is past its deadline (request_allowance_ms), or - once
+ * request-timeout has passed since its first byte - has fewer bytes here than
+ * request-min-rate for the time since (a frame whose room is held: not a refused body being
+ * skipped). The second rule stops a header that claims a big body from holding its room for
+ * the whole allowance (5 s + 512 s for 64 MiB) while sending nothing. */
+static int request_too_slow(sts_server *srv, const sts_conn *c, int64_t now)
+{
+    int64_t elapsed = now - c->req_start_ms;
+    if (elapsed > request_allowance_ms(srv, c))
+        return 1;
+    int64_t grace = (int64_t)STS_LIVE(srv, request_timeout) * 1000;
+    uint64_t rate = STS_LIVE(srv, request_min_rate);
+    if (c->skip || elapsed <= grace || !rate)
+        return 0;
+    uint64_t got = (uint64_t)(c->in.len - c->in.start) + in2_avail(c);
+    return got < (uint64_t)(elapsed - grace) * rate / 1000;
+}
+
 /* Parses and answers every complete frame in the input (see the file comment). */
 static void conn_process(sts_conn *c)
 {
@@ -663,10 +687,15 @@ static void conn_process(sts_conn *c)
                     break;
                 continue;
             }
-            /* the frame is not all here: make room for it, within the memory limit */
-            if (c->in.cap - c->in.start < total) {
-                uint64_t grow = total > c->in.cap ? total - c->in.cap : 0;
-                if (sts_mem_take(srv, grow) != 0 || in_reserve(c, total) != 0) {
+            /* the frame is not all here: make room for it, within the memory limit - all of
+             * it up to ROOM_STEP, else twice what has arrived (at least ROOM_STEP), grown as
+             * more arrives (this runs after every read) */
+            size_t room = total;
+            if (total > ROOM_STEP)
+                room = avail < ROOM_STEP / 2 ? ROOM_STEP : avail < total / 2 ? avail * 2 : total;
+            if (c->in.cap - c->in.start < room) {
+                uint64_t grow = room > c->in.cap ? room - c->in.cap : 0;
+                if (sts_mem_take(srv, grow) != 0 || in_reserve(c, room) != 0) {
                     STS_STAT_ADD(srv, mem_rejected, 1);
                     refuse(c, &h, STP_S_BUSY, "server buffer memory is at max-memory; retry");
                     in_consume(c, STP_HEADER_SIZE);
@@ -1204,7 +1233,7 @@ static void idle_scan(sts_io *io, int64_t now)
             if (!c->dead && now >= c->linger_until)
                 conn_close(c);
         } else if (deadline && !c->busy && !c->dead && c->req_start_ms &&
-            now - c->req_start_ms > request_allowance_ms(srv, c)) {
+                   request_too_slow(srv, c, now)) {
             STS_STAT_ADD(srv, conns_request_timeout, 1);
             sts_logkv(&srv->log, STS_INFO,
                       STS_FIELDS(STS_FS("event", "conn_request_timeout"), STS_FS("peer", c->peer),

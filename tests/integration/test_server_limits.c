@@ -2,7 +2,8 @@
  * own: --max-conns refuses with BUSY, --idle-timeout closes idle connections, --max-upload and
  * --max-frame hold, --conn-out-cap pauses reading a client that does not read its replies,
  * many such clients together stay within --max-memory, a client that pipelines costly
- * requests without end does not hold its I/O thread from the others,
+ * requests without end does not hold its I/O thread from the others, a header claiming a big
+ * body holds neither max-memory nor its connection for long,
  * thousands of idle connections are held and served, and an fd limit below the connections
  * offered answers the surplus BUSY without spinning.
  *
@@ -382,6 +383,61 @@ static void a_pipelining_client_does_not_hold_its_thread(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* Connections that send a frame header claiming a big body and then nothing (pc35). Before,
+ * each got its whole room reserved against max-memory at once and kept it for the frame's
+ * whole allowance, request-timeout + body / request-min-rate (for a 64 MiB SAMPLE: 5 + 512 s):
+ * 16 such connections, 33 bytes sent each, made every other client's big frame BUSY for
+ * that long. Now a frame's room past 1 MiB grows with what has arrived, and once
+ * request-timeout has passed a frame must have come at request-min-rate since. */
+static void a_header_claiming_a_big_body_holds_neither_memory_nor_its_slot(void **state)
+{
+    (void)state;
+    enum { N = 4 };
+    st_daemon d;
+    const char *extra[] = {"--max-memory", "64M", "--request-timeout", "2", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *good = st_daemon_client(&d, NULL);
+    assert_non_null(good);
+    uint8_t head[64];
+    size_t hl = st_wire_frame(head, "STX1", 1, STP_OP_SAMPLE, 0, 1, NULL, 0, 16u << 20);
+    memcpy(head + hl, "\x07\x00" "default", 9);
+    int fds[N];
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+        assert_int_equal(st_wire_send_all(fds[i], head, hl + 9), 0);
+    }
+    /* every slow frame has its room (before: 4 x 16 MiB, all of max-memory; now 1 MiB each) */
+    assert_int_equal(st_wait_stat(&d, good, "buffer_memory", ST_STAT_GE, N << 20, 10000), 0);
+    uint64_t mem = st_conn_stat(good, "buffer_memory");
+    printf("# %d headers claiming 16 MiB bodies: buffer_memory %.1f MB\n", N, mem / 1e6);
+    assert_true(mem < (16u << 20));
+    /* a well-behaved client's big frame (4096 queries, 114 KiB) is served, not BUSY */
+    stc_query *q = st_default_set_queries(4096, 7);
+    assert_non_null(q);
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    stc_sample_result r;
+    assert_int_equal(stc_sample(good, "default", &o, q, 4096, &r), 0);
+    free(q);
+    /* and the slow ones are closed soon after request-timeout (before: 2 + 128 s) */
+    for (int i = 0; i < N; i++) {
+        st_wire_reply w;
+        assert_int_equal(st_wire_read_reply(fds[i], &w, 10000), 0);
+        assert_int_equal(w.status, STP_S_TIMEOUT);
+        assert_int_equal(w.reqid, 0);
+        assert_true(st_wire_peer_closed(fds[i], 5000));
+        close(fds[i]);
+    }
+    assert_true(st_conn_stat(good, "conns_request_timeout") >= N);
+    stc_close(good);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* Clients that trickle a request one byte a second do not hold the server: with every slot
  * taken by them, a new client is served at once (the oldest half-sent connection is evicted
  * for it), and every trickler is closed once its frame is past request-timeout. */
@@ -576,6 +632,7 @@ int main(void)
         cmocka_unit_test(unread_replies_pause_reading),
         cmocka_unit_test(clients_that_never_read_stay_within_max_memory),
         cmocka_unit_test(a_pipelining_client_does_not_hold_its_thread),
+        cmocka_unit_test(a_header_claiming_a_big_body_holds_neither_memory_nor_its_slot),
         cmocka_unit_test(trickling_clients_do_not_hold_every_slot),
         cmocka_unit_test(thousands_of_idle_connections_are_held_and_served),
         cmocka_unit_test(fd_shortage_answers_busy_and_does_not_spin),
