@@ -353,8 +353,9 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
 }
 
 /* Writes set as tmp/<id>.native for source m (fsynced); "" in path when it fails (the set is
- * then committed without one and gets it at the next start). */
-static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path)
+ * then committed without one and gets it at the next start), and why (may be NULL) says why. */
+static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path,
+                       st_error *why)
 {
     char id[64];
     new_id(d, id, sizeof id);
@@ -365,10 +366,19 @@ static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, c
     src.crc = m->crc;
     snprintf(src.name, sizeof src.name, "%s", m->source);
     int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    int ok = fd >= 0 && st_native_write_fd(fd, set, &src, NULL) == 0 && fsync(fd) == 0;
+    st_error we;
+    st_error_clear(&we);
+    int rc = fd < 0 ? st_fail(&we, ST_EIO, "create: %s", strerror(errno))
+                    : st_native_write_fd(fd, set, &src, &we);
+    if (!rc && fsync(fd) != 0)
+        rc = st_fail(&we, ST_EIO, "fsync: %s", strerror(errno));
+    if (rc && !we.msg[0])
+        st_fail(&we, rc, "%s", st_strerror(rc));
     if (fd >= 0)
         close(fd);
-    if (!ok) {
+    if (rc && why)
+        *why = we;
+    if (rc) {
         unlink(path);
         path[0] = 0;
     }
@@ -461,7 +471,7 @@ static int commit_set(st_datadir *d, const char *name, const char *tmp_path, con
     /* the native file is written (and fsynced) before the lock: it is the long part */
     ntmp[0] = 0;
     if (set && *set)
-        native_tmp(d, *set, &m, ntmp);
+        native_tmp(d, *set, &m, ntmp, NULL);
 
     char prev[PATHCAP];   /* a hard link to the old manifest, to roll back to */
     pathf(prev, "%s/tmp/%s.prev", d->root, id);
@@ -848,8 +858,10 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         if (!rc) {
             char ntmp[PATHCAP];
             ntmp[0] = 0;
+            st_error nwe;
+            st_error_clear(&nwe);
             if (!L->no_native)
-                native_tmp(d, set, &m, ntmp);
+                native_tmp(d, set, &m, ntmp, &nwe);
             st_set *mapped = NULL;
             if (ntmp[0] && rename(ntmp, nat) == 0 && fsync_path(setdir, 1, NULL) == 0 &&
                 st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {
@@ -862,7 +874,8 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
             } else if (!L->no_native) {
                 if (ntmp[0])
                     unlink(ntmp);
-                say(L, name, "native file could not be written: served from memory");
+                say(L, name, "native file could not be written (%s): served from memory, "
+                    "written at a later start", nwe.msg[0] ? nwe.msg : strerror(errno));
             }
             rc = L->publish(L->arg, &m, set, &err);
         }
