@@ -47,7 +47,8 @@ static const opt OPTS[] = {
      "size at request-min-rate; else the connection is closed; 0 = no deadline (default 5)"},
     {"request-min-rate", T_SIZE, O(request_min_rate), 0, 1, "BYTES",
      "the slowest rate, per second, a request body may arrive at (default 128K: a 4 MiB\n"
-     "chunk may take request-timeout + 32 s)"},
+     "chunk may take request-timeout + 32 s; past request-timeout, what has arrived must\n"
+     "keep up with it)"},
     {"max-frame", T_SIZE, O(max_frame), 0, 1, "BYTES",
      "largest request body; larger ones get TOO_LARGE and are skipped (default 64M)"},
     {"max-upload", T_SIZE, O(max_upload), 0, 1, "BYTES",

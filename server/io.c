@@ -10,9 +10,12 @@
  * every complete frame in the buffer is parsed and answered into the output buffer, then
  * the output is written with one send: a pipelined burst of N requests costs one read and
  * one write, not N (once 64 KiB of replies are pending they are sent at once, so a
- * pipeline of big SAMPLE replies streams instead of waiting for the whole burst). Level-triggered polling keeps the loop fair between connections.
- * Backpressure: when a connection's unsent replies pass conn-out-cap it is no longer read
- * (nor parsed) until the peer drains them. Memory: buffers are allocated when data arrives
+ * pipeline of big SAMPLE replies streams instead of waiting for the whole burst). Level-triggered polling keeps the loop fair between connections,
+ * and a wake-up parses at most a time slice (~2 ms) of frames: the rest waits for the loop's
+ * next pass (the ready list, "Time slices").
+ * Backpressure: when a connection's unsent replies pass conn-out-cap, or while the daemon's
+ * buffers are past max-memory and it has any, it is no longer read (nor parsed) until the
+ * peer drains them (out_backed_up). Memory: buffers are allocated when data arrives
  * and released as soon as everything is parsed and answered (small ones to the thread's
  * spare slots, which the next connection that reads takes), so an idle connection holds
  * only its struct (~200 bytes) plus the kernel's socket.
@@ -46,6 +49,12 @@
 #define FLUSH_AT   (64u << 10)   /* replies pending past this are sent inside the parse loop */
 #define SPLIT_MIN  (16u << 10)   /* SAMPLE frames from this long on end a read at their end
                                     (split reads, conn_readable) */
+#define ROOM_STEP  (1u << 20)    /* a frame's room is reserved whole up to this (every SAMPLE
+                                    of up to ~37k queries: the read path is unchanged); a longer
+                                    one's grows with what has arrived (conn_process): a header
+                                    alone claiming a 64 MiB body held 64 MiB of max-memory for
+                                    the 517 s its deadline allowed, and 16 such connections (33
+                                    bytes sent each) made every other big frame BUSY (pc35) */
 
 int sts_scratch_reserve(sts_scratch *s, size_t n, int dir)
 {
@@ -100,6 +109,21 @@ static void account(sts_conn *c)
     else if (now < c->mem)
         __atomic_sub_fetch(&srv->mem_used, c->mem - now, __ATOMIC_RELAXED);
     c->mem = now;
+}
+
+/* 1 when the connection's unsent replies hold it back (it is neither read nor parsed until
+ * the peer drains them): past conn-out-cap, or any at all while the connection buffers and
+ * open fetches together are past max-memory (sts_mem_take). Replies are written without a
+ * check of their own, so the second rule is what bounds many clients that never read: each
+ * stops at its first reply left unsent once the daemon is at max-memory, not at conn-out-cap
+ * (N x 4 MiB). A connection whose replies have all gone is always served. */
+static int out_backed_up(const sts_conn *c)
+{
+    size_t pending = stp_buf_avail(&c->out);
+    if (!pending)
+        return 0;
+    sts_server *srv = c->io->srv;
+    return pending > STS_LIVE(srv, conn_out_cap) || sts_mem_take(srv, 0) != 0;
 }
 
 /* Where compaction puts the unparsed bytes p[0 .. avail): 0, or for a SAMPLE frame (whose
@@ -305,6 +329,44 @@ static void out_take_spare(sts_conn *c)
     account(c);
 }
 
+/* ---- time slices -----------------------------------------------------------------------------
+ * A wake-up of one connection parses at most about SLICE_MS of its frames; with frames left
+ * it yields: it goes on its thread's ready list, is not read meanwhile, and the loop's next
+ * pass (after an epoll_wait that does not sleep) parses on, after the other connections'
+ * events. Before, one wake-up answered every frame read, up to conn-out-cap of replies: 1000
+ * pipelined STATS (24 bytes each, ~30-80 us to answer) held the thread 30-80 ms a client,
+ * and 40 such clients kept a PING of a well-behaved client waiting up to 9.2 s (pc35). A
+ * frame already begun is never cut; the check reads the clock conn_process reads anyway. */
+#define SLICE_MS 2
+
+static void ready_push(sts_conn *c)
+{
+    if (c->yielded)
+        return;
+    c->yielded = 1;
+    c->ready_next = c->io->ready;
+    c->io->ready = c;
+}
+
+static void ready_unlink(sts_conn **list, sts_conn *c)
+{
+    for (sts_conn **p = list; *p; p = &(*p)->ready_next)
+        if (*p == c) {
+            *p = c->ready_next;
+            return;
+        }
+}
+
+static void ready_remove(sts_conn *c)
+{
+    if (!c->yielded)
+        return;
+    ready_unlink(&c->io->ready, c);
+    ready_unlink(&c->io->ready_pass, c);
+    c->yielded = 0;
+    c->ready_next = NULL;
+}
+
 /* ---- connection lifetime ------------------------------------------------------------------ */
 
 static void set_interest(sts_conn *c)
@@ -312,14 +374,15 @@ static void set_interest(sts_conn *c)
     sts_server *srv = c->io->srv;
     unsigned want = 0;
     size_t pending = stp_buf_avail(&c->out);
-    int over = pending > STS_LIVE(srv, conn_out_cap);
-    if (!c->dead && !c->busy && !c->close_after && !over)
+    account(c);
+    int over = out_backed_up(c);
+    if (!c->dead && !c->busy && !c->close_after && !over && !c->held && !c->yielded)
         want |= STS_EV_READ;  /* also while stopping: requests already sent get answered */
     if (pending)
         want |= STS_EV_WRITE;
     if (over && !c->paused)
         STS_STAT_ADD(srv, backpressure_pauses, 1);
-    c->paused = !(want & STS_EV_READ);
+    c->paused = (uint8_t)over;
     if (want != c->ev_mask) {
         sts_ev_mod(c->io->ev, c->fd, want, c);
         c->ev_mask = want;
@@ -332,6 +395,7 @@ static void conn_free(sts_conn *c)
     sts_server *srv = io->srv;
     sts_ev_del(io->ev, c->fd);
     close(c->fd);
+    ready_remove(c);
     if (c->prev)
         c->prev->next = c->next;
     else
@@ -441,6 +505,26 @@ static int conn_flush(sts_conn *c)
     return 0;
 }
 
+static void conn_process(sts_conn *c);
+
+/* Writes what is pending and, while the output empties and frames wait that backpressure
+ * held back (c->held), parses on: with the daemon at max-memory a connection may leave one
+ * reply unsent (out_backed_up), so each reply the socket takes lets it answer the next frame
+ * already read, and it is read again only once those are answered (set_interest), so its
+ * input does not grow while it is held. -1 as conn_flush. */
+static int conn_serve(sts_conn *c)
+{
+    for (;;) {
+        if (conn_flush(c) != 0)
+            return -1;
+        if (!c->held || stp_buf_avail(&c->out))
+            return 0;
+        conn_process(c);
+        if (c->dead)
+            return -1;
+    }
+}
+
 /* Sends what the socket takes now, without closing on error (conn_flush, run after the
  * parse loop, sees the error again and closes). Used inside the parse loop once big replies
  * pile up, so the peer can start reading the first while the next are computed. */
@@ -478,7 +562,7 @@ static void refuse(sts_conn *c, const stp_header *h, int status, const char *msg
 static void note_partial(sts_conn *c)
 {
     int partial = c->in.len > c->in.start || c->in2.len > c->in2.start || c->skip;
-    if (!partial || c->busy || stp_buf_avail(&c->out) > STS_LIVE(c->io->srv, conn_out_cap))
+    if (!partial || c->busy || c->yielded || out_backed_up(c))
         c->req_start_ms = 0;
     else if (!c->req_start_ms)
         c->req_start_ms = sts_now_ms();
@@ -494,13 +578,42 @@ static int64_t request_allowance_ms(sts_server *srv, const sts_conn *c)
     return (int64_t)STS_LIVE(srv, request_timeout) * 1000 + (int64_t)(body * 1000 / (rate ? rate : 1));
 }
 
+/* 1 when the frame in progress is past its deadline (request_allowance_ms), or - once
+ * request-timeout has passed since its first byte - has fewer bytes here than
+ * request-min-rate for the time since (a frame whose room is held: not a refused body being
+ * skipped). The second rule stops a header that claims a big body from holding its room for
+ * the whole allowance (5 s + 512 s for 64 MiB) while sending nothing. */
+static int request_too_slow(sts_server *srv, const sts_conn *c, int64_t now)
+{
+    int64_t elapsed = now - c->req_start_ms;
+    if (elapsed > request_allowance_ms(srv, c))
+        return 1;
+    int64_t grace = (int64_t)STS_LIVE(srv, request_timeout) * 1000;
+    uint64_t rate = STS_LIVE(srv, request_min_rate);
+    if (c->skip || elapsed <= grace || !rate)
+        return 0;
+    uint64_t got = (uint64_t)(c->in.len - c->in.start) + in2_avail(c);
+    return got < (uint64_t)(elapsed - grace) * rate / 1000;
+}
+
 /* Parses and answers every complete frame in the input (see the file comment). */
 static void conn_process(sts_conn *c)
 {
     sts_server *srv = c->io->srv;
+    c->held = 0;
+    int64_t t0 = sts_now_ms();
+    unsigned nframes = 0;
     while (!c->busy && !c->close_after && !c->dead) {
-        if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
-            break;  /* backpressure: answer the rest once the peer has read */
+        account(c);   /* the replies written so far count against max-memory */
+        if (out_backed_up(c)) {
+            c->held = 1;   /* backpressure: answer the rest once the peer has read */
+            break;
+        }
+        if (nframes && c->last_ms - t0 >= SLICE_MS &&
+            (c->in.len > c->in.start || in2_avail(c))) {
+            ready_push(c);   /* its time slice is used: the rest in the loop's next pass */
+            break;
+        }
         size_t avail = c->in.len - c->in.start;
         if (c->skip) {
             size_t n = avail < c->skip ? avail : (size_t)c->skip;
@@ -574,10 +687,15 @@ static void conn_process(sts_conn *c)
                     break;
                 continue;
             }
-            /* the frame is not all here: make room for it, within the memory limit */
-            if (c->in.cap - c->in.start < total) {
-                uint64_t grow = total > c->in.cap ? total - c->in.cap : 0;
-                if (sts_mem_take(srv, grow) != 0 || in_reserve(c, total) != 0) {
+            /* the frame is not all here: make room for it, within the memory limit - all of
+             * it up to ROOM_STEP, else twice what has arrived (at least ROOM_STEP), grown as
+             * more arrives (this runs after every read) */
+            size_t room = total;
+            if (total > ROOM_STEP)
+                room = avail < ROOM_STEP / 2 ? ROOM_STEP : avail < total / 2 ? avail * 2 : total;
+            if (c->in.cap - c->in.start < room) {
+                uint64_t grow = room > c->in.cap ? room - c->in.cap : 0;
+                if (sts_mem_take(srv, grow) != 0 || in_reserve(c, room) != 0) {
                     STS_STAT_ADD(srv, mem_rejected, 1);
                     refuse(c, &h, STP_S_BUSY, "server buffer memory is at max-memory; retry");
                     in_consume(c, STP_HEADER_SIZE);
@@ -589,6 +707,7 @@ static void conn_process(sts_conn *c)
         }
         c->last_ms = sts_now_ms();
         c->req_start_ms = 0;   /* the frame is whole: its deadline is met */
+        nframes++;
         c->in_pad = (uint8_t)in_pad(head, avail);
         c->next_total = h.opcode == STP_OP_SAMPLE && total >= SPLIT_MIN ? (uint32_t)total : 0;
         int d = sts_dispatch(c->io, c, &h, head + STP_HEADER_SIZE);
@@ -601,30 +720,6 @@ static void conn_process(sts_conn *c)
             try_send(c);
     }
     note_partial(c);
-}
-
-/* Flushes c, then sets its interest. A parse that backpressure stopped (conn_process: output
- * over conn-out-cap) goes on here once the flush brought the output back under the cap: when
- * the peer reads fast the flush sends it all, no EPOLLOUT comes to resume the parse, and a
- * complete request left in the input waited for the peer's next bytes (a PING pipelined
- * behind a SAMPLE whose reply was over the cap went unanswered until the client timed out,
- * 2 rounds in 5 at --conn-out-cap 64K). 0, or -1 when c was closed. */
-static int conn_flush_resume(sts_conn *c)
-{
-    sts_server *srv = c->io->srv;
-    for (;;) {
-        int stopped = stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap);
-        if (conn_flush(c) != 0)
-            return -1;
-        if (!stopped || c->busy || c->close_after ||
-            stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
-            break;
-        conn_process(c);   /* each round answers at least one frame, or finds none */
-        if (c->dead)
-            return -1;
-    }
-    set_interest(c);
-    return 0;
 }
 
 /* One read into the input (split in two buffers when a big SAMPLE frame ends it), then every
@@ -728,15 +823,14 @@ static int read_once(sts_conn *c)
 #define HINT_MAX  (KEEP_SMALL - 64)
 static void conn_readable(sts_conn *c)
 {
-    sts_server *srv = c->io->srv;
     if (c->busy || c->close_after)
         return;
     c->wake_bytes = 0;
     for (int k = 0; k < READS_MAX; k++) {
         if (k && (c->busy || c->close_after))
             break;
-        if (stp_buf_avail(&c->out) > STS_LIVE(srv, conn_out_cap))
-            break;   /* backpressure: set_interest stops reading */
+        if (out_backed_up(c) || c->held || c->yielded)
+            break;   /* backpressure, or frames left for the next pass: not read now */
         int rc = read_once(c);
         if (rc == -2)
             return;
@@ -745,7 +839,8 @@ static void conn_readable(sts_conn *c)
     }
     c->read_hint = c->wake_bytes <= READ_MIN * 2 ? 0
                    : c->wake_bytes < HINT_MAX ? c->wake_bytes : HINT_MAX;
-    conn_flush_resume(c);
+    if (conn_serve(c) == 0)
+        set_interest(c);
 }
 
 /* ---- eviction ------------------------------------------------------------------------------
@@ -1114,7 +1209,8 @@ static void take_completions(sts_io *io)
         conn_process(c);   /* pipelined requests that waited behind this one */
         if (c->dead)
             continue;
-        conn_flush_resume(c);
+        if (conn_serve(c) == 0)
+            set_interest(c);
     }
 }
 
@@ -1137,7 +1233,7 @@ static void idle_scan(sts_io *io, int64_t now)
             if (!c->dead && now >= c->linger_until)
                 conn_close(c);
         } else if (deadline && !c->busy && !c->dead && c->req_start_ms &&
-            now - c->req_start_ms > request_allowance_ms(srv, c)) {
+                   request_too_slow(srv, c, now)) {
             STS_STAT_ADD(srv, conns_request_timeout, 1);
             sts_logkv(&srv->log, STS_INFO,
                       STS_FIELDS(STS_FS("event", "conn_request_timeout"), STS_FS("peer", c->peer),
@@ -1187,7 +1283,7 @@ static uint32_t drain_step(sts_io *io, int force)
                 conn_close(c);
             } else if (c->linger_until && !c->dead) {
                 linger_drain(c);
-            } else if (!c->dead && conn_flush(c) == 0) {
+            } else if (!c->dead && conn_serve(c) == 0) {
                 if (conn_quiet(c))
                     linger_start(c);
                 else
@@ -1221,7 +1317,7 @@ void *sts_io_main(void *arg)
             if (drain_step(io, stopping >= 2) == 0)
                 break;
         }
-        int n = sts_ev_wait(io->ev, evs, 256, stopping ? 20 : 1000);
+        int n = sts_ev_wait(io->ev, evs, 256, io->ready ? 0 : stopping ? 20 : 1000);
         for (int i = 0; i < n; i++) {
             void *p = evs[i].ptr;
             if (p == srv) {
@@ -1240,8 +1336,9 @@ void *sts_io_main(void *arg)
                     if (conn_flush(c) != 0)
                         continue;
                     conn_process(c);  /* backpressure released: parse what waited */
-                    if (c->dead || conn_flush_resume(c) != 0)
+                    if (c->dead || conn_serve(c) != 0)
                         continue;
+                    set_interest(c);
                 }
                 if (evs[i].events & STS_EV_ERROR) {
                     if (!c->busy && !(c->ev_mask & STS_EV_READ)) {
@@ -1254,6 +1351,21 @@ void *sts_io_main(void *arg)
                 else if ((evs[i].events & STS_EV_ERROR) && c->busy)
                     conn_close(c);  /* freed when the worker's reply comes back */
             }
+        }
+        /* connections that yielded their time slice (above) parse on, each one slice more */
+        io->ready_pass = io->ready;
+        io->ready = NULL;
+        sts_conn *c;
+        while ((c = io->ready_pass)) {
+            io->ready_pass = c->ready_next;
+            c->ready_next = NULL;
+            c->yielded = 0;
+            if (c->dead || c->linger_until)
+                continue;
+            conn_process(c);
+            if (c->dead || conn_serve(c) != 0)
+                continue;
+            set_interest(c);
         }
         if (__atomic_load_n(&io->evict_req, __ATOMIC_RELAXED))
             take_evictions(io);

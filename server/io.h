@@ -51,7 +51,13 @@ struct sts_conn {
     uint8_t   busy;          /* a request is out on a worker */
     uint8_t   close_after;   /* close once `out` is flushed (bad magic, refused connection) */
     uint8_t   dead;          /* peer gone or error: free as soon as not busy */
-    uint8_t   paused;        /* not reading (backpressure or busy) */
+    uint8_t   paused;        /* not reading for backpressure (counted once per pause) */
+    uint8_t   held;          /* conn_process stopped at backpressure with input unparsed: not
+                                read again until that is parsed (io.c, conn_serve) */
+    uint8_t   yielded;       /* conn_process used its time slice with frames left: on its I/O
+                                thread's ready list, parsed on in the loop's next pass, not
+                                read meanwhile (io.c, "Time slices") */
+    sts_conn *ready_next;    /* the ready list (io->ready or io->ready_pass) */
     int64_t   linger_until;  /* stopping: our side shut (SHUT_WR) after the last reply; input
                                 is read and dropped until the peer's end or this monotonic ms,
                                 then closed (io.c, linger_start); 0 = not lingering */
@@ -96,6 +102,8 @@ struct sts_io {
     sts_task       *done;          /* finished tasks to hand back */
     sts_conn       *adopt;         /* connections another thread accepted for this one */
     sts_conn       *conns;         /* list of live connections */
+    sts_conn       *ready;         /* connections that yielded their time slice (io.c) */
+    sts_conn       *ready_pass;    /* the ones the loop's current pass is serving */
     uint32_t        nconns;        /* atomic: live connections, adopt list included (the
                                       acceptor picks the thread with the fewest) */
     uint64_t        accepted;      /* atomic: connections assigned to this thread (STATS) */

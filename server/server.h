@@ -126,9 +126,12 @@ struct sts_server {
     int             stopping;     /* atomic: 1 drain, 2 force-close what is left */
     uint32_t        token_gen;    /* bumped when the token changes (under cfg_mu) */
     int64_t         started_ms;
-    char            tmpdir[1600]; /* absolute: the data dir's tmp/, else $TMPDIR or /tmp; where
+    char            tmpdir[1600]; /* absolute: the data dir's tmp/, else a folder of this
+                                     daemon's own under $TMPDIR or /tmp (private_tmpdir); where
                                      uploads without a data dir and FETCH's image writers put
                                      their temp files (server paths never reach a reply) */
+    int             tmpdir_fd;    /* that own folder, flock'ed for the daemon's life; -1 with a
+                                     data dir */
 };
 
 /* ---- server.c ------------------------------------------------------------------------------- */

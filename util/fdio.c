@@ -6,6 +6,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <ftw.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -131,4 +132,22 @@ int stu_fsync_parent(const char *path)
     else
         *slash = 0;
     return stu_fsync_dir(dir);
+}
+
+static int remove_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb;
+    (void)ftw;
+    if (flag == FTW_DP)
+        rmdir(p);
+    else
+        unlink(p);
+    return 0;  /* keep going: best effort */
+}
+
+int stu_remove_tree(const char *path)
+{
+    nftw(path, remove_cb, 16, FTW_DEPTH | FTW_PHYS);
+    struct stat st;
+    return lstat(path, &st) == 0 ? -1 : 0;
 }

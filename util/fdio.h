@@ -2,7 +2,7 @@
  * server, client), libc only.
  *
  * Owns: writing a whole buffer, reading a whole buffer, reading a whole file under a cap,
- * fsyncing a folder. Does not own: any error convention above errno (callers turn -1/errno
+ * fsyncing a folder, removing a tree. Does not own: any error convention above errno (callers turn -1/errno
  * into their layer's codes: ST_E* in store/, statuses in server/, STC_E* in client/).
  *
  * Convention: 0 on success, -1 with errno set on failure. EINTR is retried. A short write or
@@ -34,5 +34,10 @@ int stu_fsync_dir(const char *dir);
 
 /* fsyncs the folder that holds `path`. */
 int stu_fsync_parent(const char *path);
+
+/* Removes path and, for a folder, everything under it (symbolic links themselves, never
+ * what they point to). Best effort: goes on past what it cannot remove; 0, or -1 when path
+ * is still there afterwards. */
+int stu_remove_tree(const char *path);
 
 #endif

@@ -10,7 +10,6 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
-#include <ftw.h>
 #include <inttypes.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -70,21 +69,6 @@ static int fsync_path(const char *path, int dir, st_error *e)
     return 0;
 }
 
-static int rm_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb; (void)ftw;
-    if (flag == FTW_DP)
-        rmdir(p);
-    else
-        unlink(p);
-    return 0;  /* keep going: best effort */
-}
-
-static void rm_rf(const char *path)
-{
-    nftw(path, rm_cb, 16, FTW_DEPTH | FTW_PHYS);
-}
-
 static int mkdir_p1(const char *path, st_error *e)
 {
     if (mkdir(path, 0700) == 0 || errno == EEXIST) {
@@ -108,7 +92,7 @@ static void empty_dir(const char *dir)
         if (!strcmp(de->d_name, ".") || !strcmp(de->d_name, ".."))
             continue;
         pathf(p, "%s/%s", dir, de->d_name);
-        rm_rf(p);
+        (void)stu_remove_tree(p);
     }
     closedir(dp);
 }
@@ -369,8 +353,9 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
 }
 
 /* Writes set as tmp/<id>.native for source m (fsynced); "" in path when it fails (the set is
- * then committed without one and gets it at the next start). */
-static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path)
+ * then committed without one and gets it at the next start), and why (may be NULL) says why. */
+static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path,
+                       st_error *why)
 {
     char id[64];
     new_id(d, id, sizeof id);
@@ -381,10 +366,19 @@ static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, c
     src.crc = m->crc;
     snprintf(src.name, sizeof src.name, "%s", m->source);
     int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    int ok = fd >= 0 && st_native_write_fd(fd, set, &src, NULL) == 0 && fsync(fd) == 0;
+    st_error we;
+    st_error_clear(&we);
+    int rc = fd < 0 ? st_fail(&we, ST_EIO, "create: %s", strerror(errno))
+                    : st_native_write_fd(fd, set, &src, &we);
+    if (!rc && fsync(fd) != 0)
+        rc = st_fail(&we, ST_EIO, "fsync: %s", strerror(errno));
+    if (rc && !we.msg[0])
+        st_fail(&we, rc, "%s", st_strerror(rc));
     if (fd >= 0)
         close(fd);
-    if (!ok) {
+    if (rc && why)
+        *why = we;
+    if (rc) {
         unlink(path);
         path[0] = 0;
     }
@@ -477,7 +471,7 @@ static int commit_set(st_datadir *d, const char *name, const char *tmp_path, con
     /* the native file is written (and fsynced) before the lock: it is the long part */
     ntmp[0] = 0;
     if (set && *set)
-        native_tmp(d, *set, &m, ntmp);
+        native_tmp(d, *set, &m, ntmp, NULL);
 
     char prev[PATHCAP];   /* a hard link to the old manifest, to roll back to */
     pathf(prev, "%s/tmp/%s.prev", d->root, id);
@@ -619,7 +613,7 @@ int st_datadir_delete(st_datadir *d, const char *name,
     if (!rc && unpublish)
         rc = unpublish(arg, name);
     pthread_mutex_unlock(&d->mu);
-    rm_rf(dst);
+    (void)stu_remove_tree(dst);
     return rc;
 }
 
@@ -773,7 +767,7 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
     if (rc == ST_ENOTFOUND) {
         if (L->report)
             L->report(L->arg, name, "no manifest (interrupted upload): removed");
-        rm_rf(setdir);
+        (void)stu_remove_tree(setdir);
         return 0;
     }
     if (!rc && strcmp(m.name, name) != 0)
@@ -788,7 +782,7 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
                 !strcmp(de->d_name, ST_DATADIR_NATIVE))
                 continue;
             pathf(src, "%s/%s", setdir, de->d_name);
-            rm_rf(src);
+            (void)stu_remove_tree(src);
         }
         if (sd)
             closedir(sd);
@@ -864,8 +858,10 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
         if (!rc) {
             char ntmp[PATHCAP];
             ntmp[0] = 0;
+            st_error nwe;
+            st_error_clear(&nwe);
             if (!L->no_native)
-                native_tmp(d, set, &m, ntmp);
+                native_tmp(d, set, &m, ntmp, &nwe);
             st_set *mapped = NULL;
             if (ntmp[0] && rename(ntmp, nat) == 0 && fsync_path(setdir, 1, NULL) == 0 &&
                 st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {
@@ -878,7 +874,8 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
             } else if (!L->no_native) {
                 if (ntmp[0])
                     unlink(ntmp);
-                say(L, name, "native file could not be written: served from memory");
+                say(L, name, "native file could not be written (%s): served from memory, "
+                    "written at a later start", nwe.msg[0] ? nwe.msg : strerror(errno));
             }
             rc = L->publish(L->arg, &m, set, &err);
         }
@@ -1051,9 +1048,9 @@ int st_datadir_stage(st_datadir *d, const char *name, const char *tmp_path, cons
         rc = fsync_path(staged, 1, e);
     if (rc) {
         st_datadir_discard(tmp_path);
-        rm_rf(build);
+        (void)stu_remove_tree(build);
         if (rename(dst, build) == 0)   /* renamed but not durable: not a staged copy */
-            rm_rf(build);
+            (void)stu_remove_tree(build);
         return rc;
     }
     snprintf(id_out, cap, "%s", id);
@@ -1091,7 +1088,7 @@ int st_datadir_drop_staged(st_datadir *d, const char *id, st_error *e)
         return st_fail(e, ST_EIO, "rename %s -> %s: %s", src, dst, strerror(err));
     }
     int rc = fsync_path(staged, 1, e);
-    rm_rf(dst);
+    (void)stu_remove_tree(dst);
     return rc;
 }
 

@@ -58,6 +58,8 @@ static int stat_holds(void *arg)
     sc->last = sc->c ? st_conn_stat(sc->c, sc->key) : st_daemon_stat(sc->d, sc->key);
     if (sc->cmp == ST_STAT_EQ)
         return sc->last == sc->value;
+    if (sc->cmp == ST_STAT_LE)
+        return sc->last <= sc->value;
     return sc->last != UINT64_MAX && sc->last >= sc->value;
 }
 
@@ -68,7 +70,7 @@ int st_wait_stat(const st_daemon *d, stc_conn *c, const char *key, st_stat_cmp c
     if (st_wait_until(stat_holds, &sc, timeout_ms) == 0)
         return 0;
     fprintf(stderr, "st_wait_stat: %s is %llu after %d ms, want %s %llu\n", key,
-            (unsigned long long)sc.last, timeout_ms, cmp == ST_STAT_EQ ? "==" : ">=",
+            (unsigned long long)sc.last, timeout_ms, cmp == ST_STAT_EQ ? "==" : cmp == ST_STAT_LE ? "<=" : ">=",
             (unsigned long long)value);
     return -1;
 }

@@ -28,7 +28,8 @@ uint64_t st_daemon_stat(const st_daemon *d, const char *key);
 
 typedef enum st_stat_cmp {
     ST_STAT_EQ,   /* counter == value */
-    ST_STAT_GE    /* counter >= value (and not UINT64_MAX) */
+    ST_STAT_GE,   /* counter >= value (and not UINT64_MAX) */
+    ST_STAT_LE    /* counter <= value */
 } st_stat_cmp;
 
 /* Waits until counter `key` compares to value as cmp says, reading it through c (c NULL: a

@@ -316,19 +316,26 @@ static int logged_stopped(const st_daemon *d)
     return found;
 }
 
-/* the pid tracing this process (LeakSanitizer's stop-the-world), 0 when none */
-static long tracer_of(pid_t pid)
+long st_proc_status_field(pid_t pid, const char *key)
 {
     char path[64], line[256];
     snprintf(path, sizeof path, "/proc/%d/status", (int)pid);
     FILE *f = fopen(path, "r");
-    long tracer = 0;
+    size_t kl = strlen(key);
+    long v = -1;
     while (f && fgets(line, sizeof line, f))
-        if (strncmp(line, "TracerPid:", 10) == 0)
-            tracer = atol(line + 10);
+        if (strncmp(line, key, kl) == 0 && line[kl] == ':')
+            v = atol(line + kl + 1);
     if (f)
         fclose(f);
-    return tracer;
+    return v;
+}
+
+/* the pid tracing this process (LeakSanitizer's stop-the-world), 0 when none */
+static long tracer_of(pid_t pid)
+{
+    long t = st_proc_status_field(pid, "TracerPid");
+    return t < 0 ? 0 : t;
 }
 
 int st_daemon_stop(st_daemon *d, int timeout_ms)

@@ -66,6 +66,10 @@ int st_daemon_down(st_daemon *d, int timeout_ms);
 /* Connects a blocking TCP socket to the daemon; fd or -1. */
 int st_daemon_connect(const st_daemon *d);
 
+/* A numeric field of /proc/<pid>/status ("VmRSS", "VmHWM" in kB, "TracerPid"); -1 when it
+ * cannot be read. */
+long st_proc_status_field(pid_t pid, const char *key);
+
 /* Prints the last lines of the daemon's log to stderr (for failure messages). */
 void st_daemon_dump_log(const st_daemon *d, int lines);
 

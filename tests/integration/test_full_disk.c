@@ -9,7 +9,8 @@
  * DELETE frees the space: the refused upload then succeeds. A restart on the same data dir
  * shows exactly the acknowledged sets, whole. FETCH of an atlas set as PNG (written through a
  * temp file in the data dir) on a disk full to the last byte is IO, never an OK with a cut
- * file. A file-size limit (RLIMIT_FSIZE, on a daemon of its own) refuses an upload with IO
+ * file. A set whose native file is missing at a start on the full disk is served from memory
+ * and the log says why. A file-size limit (RLIMIT_FSIZE, on a daemon of its own) refuses an upload with IO
  * "File too large" and the daemon lives on. The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
@@ -376,6 +377,48 @@ static void test_fetch_png_on_full_disk(void **state)
     unlink(got);
 }
 
+/* A set whose native file is missing at start, on a full disk: it cannot be built, the set is
+ * served from memory (whole: check_reads), and the log says why (pc35: before, "native file
+ * could not be written: served from memory", with no reason). With space again, the next
+ * start builds it. */
+static void test_native_file_on_full_disk_says_why(void **state)
+{
+    (void)state;
+    if (SKIP_WHY[0]) {
+        printf("# SKIP %s\n", SKIP_WHY);
+        skip();
+    }
+    int i = 0;
+    while (i < NBIG && !STORED[i])
+        i++;
+    assert_true(i < NBIG);
+    char nat[400], filler[400];
+    snprintf(nat, sizeof nat, "%s/sets/big-%d/set.native", D.datadir, i);
+    stc_close(C);
+    C = NULL;
+    assert_int_equal(st_daemon_stop(&D, 20000), 0);
+    assert_int_equal(unlink(nat), 0);
+    assert_true(fill_disk(filler, sizeof filler) > 0);
+    assert_int_equal(st_daemon_start(&D, NULL), 0);
+    C = st_daemon_client(&D, NULL);
+    assert_non_null(C);
+    check_reads();
+    int why = st_daemon_log_count(&D, "No space left on device): served from memory");
+    printf("# full disk: a native file that cannot be built at start: %d log line(s) with the "
+           "reason\n", why);
+    assert_true(why >= 1);   /* this set, and any committed without one while the disk was full */
+    /* space again: the next start builds it */
+    assert_int_equal(unlink(filler), 0);
+    stc_close(C);
+    C = NULL;
+    assert_int_equal(st_daemon_stop(&D, 20000), 0);
+    assert_int_equal(st_daemon_start(&D, NULL), 0);
+    C = st_daemon_client(&D, NULL);
+    assert_non_null(C);
+    check_reads();
+    assert_int_equal(access(nat, F_OK), 0);
+}
+
 /* A file-size limit (ulimit -f, systemd LimitFSIZE=) refuses the write that passes it with
  * EFBIG; the kernel also sends SIGXFSZ, whose default action killed seamtexd at its first
  * upload or native file over the limit (dur28). Now the upload is refused with IO "File too
@@ -448,6 +491,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_full_disk),
         cmocka_unit_test(test_fetch_png_on_full_disk),
+        cmocka_unit_test(test_native_file_on_full_disk_says_why),
         cmocka_unit_test(test_file_size_limit),
     };
     return cmocka_run_group_tests_name("full_disk", tests, group_setup, group_teardown);

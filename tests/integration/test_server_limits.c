@@ -2,6 +2,9 @@
  * own: --max-conns refuses with BUSY, --idle-timeout closes idle connections, --max-upload and
  * --max-frame hold, --conn-out-cap pauses reading a client that does not read its replies
  * (and a request behind a reply over it is answered once the reply is sent),
+ * many such clients together stay within --max-memory, a client that pipelines costly
+ * requests without end does not hold its I/O thread from the others, a header claiming a big
+ * body holds neither max-memory nor its connection for long,
  * thousands of idle connections are held and served, and an fd limit below the connections
  * offered answers the surplus BUSY without spinning.
  *
@@ -9,6 +12,7 @@
  * from STATS (tests/common/daemon_client.h). Nothing here needs SEAMTEX_DATA.
  */
 #include <poll.h>
+#include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -268,6 +272,224 @@ static void a_request_behind_a_reply_over_the_cap_is_answered(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* Many clients that pipeline small requests with big replies (STATS: 24 bytes in, ~4 KiB out)
+ * and never read (pc35): each is paused at conn-out-cap, but together they must not take the
+ * daemon's connection buffers past max-memory. Before, a reply grew the output buffer without
+ * counting it (buffer_memory said 1.4 MB while 40 such clients held 165 MB of the daemon's
+ * RSS) and nothing but conn-out-cap stopped a connection, so N clients held N x 4 MiB
+ * whatever max-memory said. Now a connection with replies unsent is not parsed further while
+ * the buffers are past max-memory: the overshoot is one reply per connection. */
+static void clients_that_never_read_stay_within_max_memory(void **state)
+{
+    (void)state;
+    enum { N = 16 };
+    st_daemon d;
+    const char *extra[] = {"--max-memory", "8M", "--conn-out-cap", "4M", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *good = st_daemon_client(&d, NULL);
+    assert_non_null(good);
+    assert_int_equal(stc_ping(good), 0);
+    long rss0 = st_proc_status_field(d.pid, "VmRSS");
+    assert_true(rss0 > 0);
+    static uint8_t burst[24 * 1024];
+    for (size_t i = 0; i < sizeof burst / 24; i++)
+        st_wire_frame(burst + i * 24, "STX1", 1, STP_OP_STATS, 0, (uint32_t)i + 1, NULL, 0, 0);
+    int fds[N];
+    size_t off[N];
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+        int small = 16 * 1024;
+        setsockopt(fds[i], SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+        setsockopt(fds[i], SOL_SOCKET, SO_SNDBUF, &small, sizeof small);
+        off[i] = 0;
+    }
+    /* send until every client was paused and no socket has taken a byte for a second (each
+     * one's socket is then full both ways); 60 s at most */
+    int64_t end = st_now_ms() + 60000, last_progress = st_now_ms(), next_check = 0;
+    uint64_t pauses = 0;
+    while (st_now_ms() < end && (pauses < N || st_now_ms() - last_progress < 1000)) {
+        if (pauses < N && st_now_ms() >= next_check) {
+            pauses = st_conn_stat(good, "backpressure_pauses");
+            next_check = st_now_ms() + 200;
+        }
+        int progress = 0;
+        for (int i = 0; i < N; i++) {
+            ssize_t w = send(fds[i], burst + off[i], sizeof burst - off[i],
+                             MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (w > 0) {
+                off[i] = (off[i] + (size_t)w) % sizeof burst;
+                progress = 1;
+            }
+        }
+        if (progress)
+            last_progress = st_now_ms();
+        else
+            st_sleep_ms(10);
+    }
+    long rss = st_proc_status_field(d.pid, "VmRSS");
+    uint64_t mem = st_conn_stat(good, "buffer_memory");
+    printf("# %d clients that never read, max-memory 8M: buffer_memory %.1f MB, daemon RSS "
+           "+%.1f MB\n", N, mem / 1e6, (rss - rss0) / 1e3);
+    assert_true(pauses >= N && pauses != UINT64_MAX);
+    /* the buffers: max-memory plus, per client, one ~4 KiB reply (its buffer 8-16 KiB) and
+     * an input buffer (32-64 KiB); the RSS: that and malloc's slack, well under N x 4 MiB */
+    assert_true(mem <= (8u << 20) + N * (256u << 10));
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+    /* (a sanitizer's allocator keeps freed blocks in quarantine: its RSS is not the buffers) */
+    assert_true(rss - rss0 < 32 * 1024);
+#endif
+    assert_int_equal(stc_ping(good), 0);   /* the well-behaved client is served throughout */
+    for (int i = 0; i < N; i++)
+        close(fds[i]);
+    assert_int_equal(st_wait_stat(&d, good, "buffer_memory", ST_STAT_LE, 1u << 20, 10000), 0);
+    stc_close(good);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+/* A client that pipelines STATS as fast as it can (each ~4 KiB of reply and tens of us to
+ * answer) and reads its replies. */
+typedef struct flooder {
+    int fd;
+    volatile int stop;
+    uint64_t sent;
+} flooder;
+
+static void *flood(void *arg)
+{
+    flooder *f = arg;
+    static uint8_t burst[64 * 1024 / 24 * 24], sink[1 << 16];
+    for (size_t i = 0; i < sizeof burst / 24; i++)
+        st_wire_frame(burst + i * 24, "STX1", 1, STP_OP_STATS, 0, (uint32_t)i + 1, NULL, 0, 0);
+    size_t off = 0;
+    while (!f->stop) {
+        struct pollfd p = {f->fd, POLLIN | POLLOUT, 0};
+        if (poll(&p, 1, 100) <= 0)
+            continue;
+        if (p.revents & POLLIN)
+            while (recv(f->fd, sink, sizeof sink, MSG_DONTWAIT) > 0)
+                ;
+        if (p.revents & POLLOUT) {
+            ssize_t w = send(f->fd, burst + off, sizeof burst - off, MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (w > 0) {
+                off = (off + (size_t)w) % sizeof burst;
+                f->sent += (uint64_t)w / 24;
+            }
+        }
+        if (p.revents & (POLLERR | POLLHUP))
+            break;
+    }
+    return NULL;
+}
+
+/* A client pipelining costly requests does not hold its I/O thread (pc35): one wake-up used
+ * to answer every frame read - 4 reads of up to 64 KiB, ~10,900 STATS, hundreds of ms - while
+ * the other connections of that thread waited (40 such clients delayed a PING by up to 9.2 s).
+ * Now a wake-up parses about 2 ms of frames and the rest waits for the loop's next pass.
+ * Measured as work, not time: how many requests the daemon parsed between a well-behaved
+ * client's two STATS around its PING (its own two included). */
+static void a_pipelining_client_does_not_hold_its_thread(void **state)
+{
+    (void)state;
+    st_daemon d;
+    const char *extra[] = {"--io-threads", "1", "--conn-out-cap", "64M", "--no-default-set",
+                           NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *good = st_daemon_client(&d, NULL);
+    assert_non_null(good);
+    flooder f = {st_daemon_connect(&d), 0, 0};
+    assert_true(f.fd >= 0);
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, flood, &f), 0);
+    /* the flood is on: the daemon parses its frames by thousands */
+    assert_int_equal(st_wait_stat(&d, good, "req_stats", ST_STAT_GE, 20000, 30000), 0);
+    enum { ROUNDS = 15 };
+    uint64_t between[ROUNDS];
+    for (int i = 0; i < ROUNDS; i++) {
+        uint64_t a = st_conn_stat(good, "requests");
+        assert_int_equal(stc_ping(good), 0);
+        uint64_t b = st_conn_stat(good, "requests");
+        between[i] = b - a;
+    }
+    f.stop = 1;
+    pthread_join(th, NULL);
+    close(f.fd);
+    /* the median round */
+    for (int i = 0; i < ROUNDS; i++)
+        for (int j = i + 1; j < ROUNDS; j++)
+            if (between[j] < between[i]) {
+                uint64_t t = between[i];
+                between[i] = between[j];
+                between[j] = t;
+            }
+    printf("# requests parsed around a PING while another client pipelines STATS: median %llu, "
+           "max %llu (%llu STATS sent)\n", (unsigned long long)between[ROUNDS / 2],
+           (unsigned long long)between[ROUNDS - 1], (unsigned long long)f.sent);
+    /* a slice is ~2 ms: some hundreds of STATS; a whole wake-up was ~10,900 */
+    assert_true(between[ROUNDS / 2] < 3000);
+    stc_close(good);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
+/* Connections that send a frame header claiming a big body and then nothing (pc35). Before,
+ * each got its whole room reserved against max-memory at once and kept it for the frame's
+ * whole allowance, request-timeout + body / request-min-rate (for a 64 MiB SAMPLE: 5 + 512 s):
+ * 16 such connections, 33 bytes sent each, made every other client's big frame BUSY for
+ * that long. Now a frame's room past 1 MiB grows with what has arrived, and once
+ * request-timeout has passed a frame must have come at request-min-rate since. */
+static void a_header_claiming_a_big_body_holds_neither_memory_nor_its_slot(void **state)
+{
+    (void)state;
+    enum { N = 4 };
+    st_daemon d;
+    const char *extra[] = {"--max-memory", "64M", "--request-timeout", "2", NULL};
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, extra), 0);
+    stc_conn *good = st_daemon_client(&d, NULL);
+    assert_non_null(good);
+    uint8_t head[64];
+    size_t hl = st_wire_frame(head, "STX1", 1, STP_OP_SAMPLE, 0, 1, NULL, 0, 16u << 20);
+    memcpy(head + hl, "\x07\x00" "default", 9);
+    int fds[N];
+    for (int i = 0; i < N; i++) {
+        fds[i] = st_daemon_connect(&d);
+        assert_true(fds[i] >= 0);
+        assert_int_equal(st_wire_send_all(fds[i], head, hl + 9), 0);
+    }
+    /* every slow frame has its room (before: 4 x 16 MiB, all of max-memory; now 1 MiB each) */
+    assert_int_equal(st_wait_stat(&d, good, "buffer_memory", ST_STAT_GE, N << 20, 10000), 0);
+    uint64_t mem = st_conn_stat(good, "buffer_memory");
+    printf("# %d headers claiming 16 MiB bodies: buffer_memory %.1f MB\n", N, mem / 1e6);
+    assert_true(mem < (16u << 20));
+    /* a well-behaved client's big frame (4096 queries, 114 KiB) is served, not BUSY */
+    stc_query *q = st_default_set_queries(4096, 7);
+    assert_non_null(q);
+    stc_sample_opts o;
+    memset(&o, 0, sizeof o);
+    o.mode = 1;
+    o.filter = 1;
+    stc_sample_result r;
+    assert_int_equal(stc_sample(good, "default", &o, q, 4096, &r), 0);
+    free(q);
+    /* and the slow ones are closed soon after request-timeout (before: 2 + 128 s) */
+    for (int i = 0; i < N; i++) {
+        st_wire_reply w;
+        assert_int_equal(st_wire_read_reply(fds[i], &w, 10000), 0);
+        assert_int_equal(w.status, STP_S_TIMEOUT);
+        assert_int_equal(w.reqid, 0);
+        assert_true(st_wire_peer_closed(fds[i], 5000));
+        close(fds[i]);
+    }
+    assert_true(st_conn_stat(good, "conns_request_timeout") >= N);
+    stc_close(good);
+    assert_int_equal(st_daemon_stop(&d, 10000), 0);
+    st_daemon_cleanup(&d);
+}
+
 /* Clients that trickle a request one byte a second do not hold the server: with every slot
  * taken by them, a new client is served at once (the oldest half-sent connection is evicted
  * for it), and every trickler is closed once its frame is past request-timeout. */
@@ -461,6 +683,9 @@ int main(void)
         cmocka_unit_test(upload_and_frame_caps_hold),
         cmocka_unit_test(unread_replies_pause_reading),
         cmocka_unit_test(a_request_behind_a_reply_over_the_cap_is_answered),
+        cmocka_unit_test(clients_that_never_read_stay_within_max_memory),
+        cmocka_unit_test(a_pipelining_client_does_not_hold_its_thread),
+        cmocka_unit_test(a_header_claiming_a_big_body_holds_neither_memory_nor_its_slot),
         cmocka_unit_test(trickling_clients_do_not_hold_every_slot),
         cmocka_unit_test(thousands_of_idle_connections_are_held_and_served),
         cmocka_unit_test(fd_shortage_answers_busy_and_does_not_spin),

@@ -1,11 +1,13 @@
 /* tests/integration/test_server_upload.c - uploads to seamtexd: upload, INFO, FETCH and
  * DELETE round trip, a wrong checksum, concurrent uploads of one name, a dropped upload resumed
- * on a new connection, kept uploads expiring.
+ * on a new connection, kept uploads expiring, and a killed daemon's uploads without a data
+ * dir removed at the next start.
  *
  * One daemon with defaults for the group, plus daemons of their own for the upload-keep
  * settings (tests/common/daemon_fixture.h), on 127.0.0.1 port 0 with temp data dirs. Upload
  * data is made in-process (tests/common/ptx_fixture.h): nothing here needs SEAMTEX_DATA.
  */
+#include <ftw.h>
 #include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -13,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -319,6 +322,87 @@ static void dropped_upload_resumes_on_a_new_connection(void **state)
     free(ptx);
 }
 
+/* Bytes of the files under a folder, and how many entries (files and folders) it holds. */
+static uint64_t tree_bytes;
+static int tree_entries;
+static int tree_cb(const char *p, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)p;
+    if (ftw->level == 0)
+        return 0;
+    tree_entries++;
+    if (flag == FTW_F)
+        tree_bytes += (uint64_t)sb->st_size;
+    return 0;
+}
+static uint64_t tree_measure(const char *dir)
+{
+    tree_bytes = 0;
+    tree_entries = 0;
+    nftw(dir, tree_cb, 16, FTW_PHYS);
+    return tree_bytes;
+}
+
+/* Without a data dir an upload in progress is a temp file under $TMPDIR (pc35). A killed
+ * daemon cannot remove it: before, it stayed there for good (252 MiB from 63 uploads begun,
+ * in the probe), since nothing at start could tell a dead daemon's files from a live one's.
+ * Now each daemon keeps its temp files in a folder of its own, locked for its life: the next
+ * start removes a dead daemon's folder and leaves a running daemon's alone; a clean stop
+ * removes its own. */
+static void a_killed_daemons_uploads_without_a_data_dir_go_at_the_next_start(void **state)
+{
+    (void)state;
+    size_t len;
+    uint8_t *ptx = st_fixture_default_ptx(&len, 5);
+    assert_non_null(ptx);
+    st_daemon a, b;
+    assert_int_equal(st_daemon_init(&a), 0);
+    assert_int_equal(st_daemon_init(&b), 0);
+    char base[400], *old = getenv("TMPDIR") ? strdup(getenv("TMPDIR")) : NULL;
+    snprintf(base, sizeof base, "%s/tmpbase", a.dir);
+    assert_int_equal(mkdir(base, 0700), 0);
+    setenv("TMPDIR", base, 1);   /* inherited by the daemons started below */
+    const char *extra[] = {"--data-dir", "", "--no-default-set", NULL};
+    assert_int_equal(st_daemon_start(&a, extra), 0);
+    uint64_t id;
+    int fd = raw_partial_upload(&a, "gone", ptx, len, 2 * 65536, &id);
+    assert_true(tree_measure(base) >= 2 * 65536);
+    st_daemon_kill(&a);
+    close(fd);
+    assert_true(tree_measure(base) >= 2 * 65536);   /* what the kill left */
+    /* another daemon starts on the same TMPDIR: the dead one's files go */
+    assert_int_equal(st_daemon_start(&b, extra), 0);
+    assert_int_equal(tree_measure(base), 0);
+    assert_int_equal(st_daemon_log_count(&b, "removed 1 temp folder"), 1);
+    /* b's upload in progress is left alone when a starts again beside it */
+    int fdb = raw_partial_upload(&b, "live", ptx, len, 2 * 65536, &id);
+    assert_int_equal(st_daemon_start(&a, extra), 0);
+    assert_true(tree_measure(base) >= 2 * 65536);
+    close(fdb);
+    stc_conn *c = st_daemon_client(&b, NULL);
+    assert_non_null(c);
+    stc_upload_opts uo;
+    memset(&uo, 0, sizeof uo);
+    uo.hint = "ptx";
+    stc_upload_result ur;
+    assert_int_equal(stc_upload_buffer(c, ptx, len, "whole", &uo, &ur), 0);
+    stc_close(c);
+    /* a clean stop removes each daemon's own folder */
+    assert_int_equal(st_daemon_stop(&a, 10000), 0);
+    assert_int_equal(st_daemon_stop(&b, 10000), 0);
+    tree_measure(base);
+    assert_int_equal(tree_entries, 0);
+    if (old) {
+        setenv("TMPDIR", old, 1);
+        free(old);
+    } else {
+        unsetenv("TMPDIR");
+    }
+    st_daemon_cleanup(&a);
+    st_daemon_cleanup(&b);
+    free(ptx);
+}
+
 /* Kept uploads go after upload-keep seconds; with upload-keep 0 nothing is kept and the
  * server does not offer RESUME. */
 static void kept_uploads_expire_and_can_be_turned_off(void **state)
@@ -401,6 +485,7 @@ int main(void)
         cmocka_unit_test(upload_with_a_corrupt_stored_reduction_is_refused),
         cmocka_unit_test(dropped_upload_resumes_on_a_new_connection),
         cmocka_unit_test(kept_uploads_expire_and_can_be_turned_off),
+        cmocka_unit_test(a_killed_daemons_uploads_without_a_data_dir_go_at_the_next_start),
         cmocka_unit_test(concurrent_uploads_of_one_name_one_wins),
     };
     static const char *const args[] = {"--heavy-batch", "2048", NULL};
