@@ -316,7 +316,22 @@ int sts_h_upload_begin(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         refuse(c, h, out, rq.name, sts_status_from_st(rc), e.msg, NULL);
         return 0;
     }
-    if (sts_uploads_insert(srv, u) != 0) {
+    sts_upload_room room = {0, 0, 0};
+    int ins = sts_uploads_insert(srv, u, &room);
+    if (ins == -2) {
+        /* refused now rather than at a CHUNK once much of the file is sent (upl35); the
+         * message ends with the errno text of a full disk, as the other refusals of one do */
+        char msg[320];
+        snprintf(msg, sizeof msg, "upload of %llu bytes does not fit: %llu bytes free on the "
+                 "upload disk, %llu promised to uploads in progress, %llu kept free: %s",
+                 (unsigned long long)rq.total_size, (unsigned long long)room.avail,
+                 (unsigned long long)room.promised, (unsigned long long)room.headroom,
+                 strerror(ENOSPC));
+        sts_upload_free(u);
+        refuse(c, h, out, rq.name, STP_S_IO, msg, NULL);
+        return 0;
+    }
+    if (ins != 0) {
         sts_upload_free(u);
         refuse(c, h, out, rq.name, STP_S_BUSY, "too many uploads in progress (max-uploads)",
                NULL);
@@ -372,7 +387,8 @@ int sts_h_upload_chunk(sts_ctx *c, const stp_header *h, const uint8_t *body, stp
         done += (size_t)w;
     }
     u->crc = stp_crc32c(u->crc, rq.data, rq.len);
-    u->received += rq.len;
+    /* after the bytes are on disk: the disk check of another BEGIN reads it (uploads.h) */
+    __atomic_store_n(&u->received, u->received + rq.len, __ATOMIC_RELEASE);
     STS_STAT_ADD(c->srv, upload_bytes, rq.len);
     stp_upload_progress p = {u->received, u->total};
     stp_enc_upload_progress(out, h->opcode, h->reqid, &p);

@@ -6,6 +6,7 @@
  */
 #include <stdlib.h>
 #include <string.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "uploads.h"
@@ -184,22 +185,60 @@ int sts_uploads_done_reply(sts_server *srv, uint64_t id, uint64_t conn_id, stp_u
     return found;
 }
 
-int sts_uploads_insert(sts_server *srv, sts_upload *u)
+#define HEADROOM_MAX (64ull << 20)
+
+static uint64_t add_sat(uint64_t a, uint64_t b)
+{
+    return a > UINT64_MAX - b ? UINT64_MAX : a + b;
+}
+
+/* The disk check (uploads.h), under the table's lock; `skip` is a KEPT record about to be
+ * dropped for this one (its promise goes with it). The promises are summed before the free
+ * space is read: a chunk's bytes are written before its `received` grows, so a chunk landing
+ * in between is counted twice (refuses early) but never missed. 1 when u fits. */
+static int room_locked(sts_server *srv, const sts_upload *u, const sts_upload *skip,
+                       sts_upload_room *room)
+{
+    uint64_t promised = 0;
+    for (sts_handle *h = srv->uploads.list; h; h = h->next) {
+        const sts_upload *o = UP(h);
+        if (o == skip || o->state == STS_UP_DONE)
+            continue;
+        uint64_t got = __atomic_load_n(&o->received, __ATOMIC_ACQUIRE);
+        promised = add_sat(promised, got < o->total ? o->total - got : 0);
+    }
+    struct statvfs v;
+    if (u->fd < 0 || fstatvfs(u->fd, &v) != 0)
+        return 1;
+    uint64_t size = (uint64_t)v.f_blocks * v.f_frsize;
+    room->avail = (uint64_t)v.f_bavail * v.f_frsize;
+    room->promised = promised;
+    room->headroom = size / 64 < HEADROOM_MAX ? size / 64 : HEADROOM_MAX;
+    return add_sat(add_sat(u->total, promised), room->headroom) <= room->avail;
+}
+
+int sts_uploads_insert(sts_server *srv, sts_upload *u, sts_upload_room *room)
 {
     uint64_t cap = STS_LIVE(srv, max_uploads);
     sts_handles_lock(&srv->uploads);
-    sts_upload *evicted = NULL;
+    sts_upload *oldest = NULL;
     if (srv->uploads.live >= cap) {
         /* full: a live upload goes before the oldest one kept for resume */
-        sts_upload *oldest = NULL;
         for (sts_handle *h = srv->uploads.list; h; h = h->next)
             if (UP(h)->state == STS_UP_KEPT && (!oldest || UP(h)->since_ms < oldest->since_ms))
                 oldest = UP(h);
-        if (oldest) {
-            evicted = oldest;
-            sts_handles_unlink_locked(&srv->uploads, &oldest->hd);
+        if (!oldest) {   /* max-uploads says so before the disk does (BUSY) */
+            sts_handles_unlock(&srv->uploads);
+            return -1;
         }
     }
+    if (!room_locked(srv, u, oldest, room)) {
+        sts_handles_unlock(&srv->uploads);
+        return -2;
+    }
+    sts_upload *evicted = oldest;
+    if (oldest)
+        sts_handles_unlink_locked(&srv->uploads, &oldest->hd);
     int full = sts_handles_add_locked(&srv->uploads, &u->hd, cap) != 0;
     sts_handles_unlock(&srv->uploads);
     if (evicted) {

@@ -9,6 +9,8 @@
  * are not DONE count against max-uploads). A HELD upload is used without the lock by the one connection that holds it (its
  * requests run one at a time); a COMMITTING one by the worker running its COMMIT; KEPT and
  * DONE records are touched only under the lock, since the sweep may drop them at any time.
+ * Exception: `received` of a HELD upload is read by other threads (the disk check at
+ * UPLOAD_BEGIN sums what is still promised), so it is stored and read atomically.
  *
  * Ownership: records are allocated by the UPLOAD_BEGIN handler and owned by the table once
  * inserted; sts_upload_free closes the temp file and removes it.
@@ -35,7 +37,9 @@ struct sts_upload {
     char        hint[STP_MAX_HINT + 1];      /* as the client sent it (matched on RESUME) */
     char        fmt[STP_MAX_HINT + 1];       /* the format the file is imported as */
     char        options[STP_MAX_OPTIONS + 1];
-    uint64_t    total, received;
+    uint64_t    total;
+    uint64_t    received;    /* written by the holder with __atomic_store_n: the disk check of
+                              * another BEGIN reads it under the table's lock (uploads.c) */
     uint32_t    crc_want, crc;
     uint32_t    flags;
     int         state;
@@ -57,9 +61,21 @@ void sts_upload_drop_conn(sts_server *srv, uint64_t conn_id);
 /* Drops kept and DONE uploads older than upload-keep (the I/O threads call it once a second). */
 void sts_uploads_sweep(sts_server *srv, int64_t now_ms);
 
+/* The disk check of UPLOAD_BEGIN (upl35): what sts_uploads_insert saw. */
+typedef struct sts_upload_room {
+    uint64_t avail;      /* free bytes of the temp files' file system (f_bavail * f_frsize) */
+    uint64_t promised;   /* bytes the uploads in the table still expect (total - received) */
+    uint64_t headroom;   /* kept free: 1/64 of the file system's size, at most 64 MiB */
+} sts_upload_room;
+
 /* Adds a new HELD record and gives it an id. When the table is full the oldest KEPT upload
- * is dropped to make room; returns -1 (nothing added) when it is full of live uploads. */
-int sts_uploads_insert(sts_server *srv, sts_upload *u);
+ * is dropped to make room; returns -1 (nothing added) when it is full of live uploads.
+ * Before that, under the table's lock (so two BEGINs cannot both take the same free bytes):
+ * u->total + the bytes promised to the HELD, KEPT and COMMITTING uploads + the headroom
+ * must fit in the free space of the file system of u->fd (its temp file), else -2, nothing
+ * added, *room says why. A record's promise ends when it leaves the table or becomes DONE.
+ * When fstatvfs fails the check is skipped (the old behaviour: a full disk shows at CHUNK). */
+int sts_uploads_insert(sts_server *srv, sts_upload *u, sts_upload_room *room);
 
 /* UPLOAD_BEGIN with RESUME: finds the record of the same name, size, CRC32C, hint and options
  * and gives it to conn_id: a KEPT upload becomes HELD again; a DONE one is lent so that COMMIT

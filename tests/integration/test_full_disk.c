@@ -11,7 +11,10 @@
  * temp file in the data dir) on a disk full to the last byte is IO, never an OK with a cut
  * file. A set whose native file is missing at a start on the full disk is served from memory
  * and the log says why. A file-size limit (RLIMIT_FSIZE, on a daemon of its own) refuses an upload with IO
- * "File too large" and the daemon lives on. The tmpfs is unmounted in the group teardown and,
+ * "File too large" and the daemon lives on. UPLOAD_BEGIN refuses at once (IO, the message
+ * naming the free bytes) an upload that does not fit with what is promised to the uploads in
+ * progress, and an abort or a commit gives the promise back (upl35; run first, on the empty
+ * disk, on a raw socket so that the uploads stay open between the steps). The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
 #include <errno.h>
@@ -37,8 +40,10 @@
 #include "../common/daemon_client.h"
 #include "../common/daemon_fixture.h"
 #include "../common/testdata.h"
+#include "../common/wire.h"
 #include "fdio.h"
 #include "image_io.h"
+#include "proto.h"
 #include "ptex.h"
 #include "set.h"
 
@@ -215,6 +220,142 @@ static unsigned long free_kib(void)
 {
     struct statvfs v;
     return statvfs(D.datadir, &v) == 0 ? (unsigned long)(v.f_bavail * v.f_frsize / 1024) : 0;
+}
+
+/* ---- UPLOAD_BEGIN's disk check, on a raw socket ---- */
+
+static uint32_t REQID = 1;
+
+/* Sends the frame in b (freed) and reads its reply into *r; the reply's status. */
+static unsigned roundtrip(int fd, stp_buf *b, st_wire_reply *r)
+{
+    assert_int_equal(st_wire_send_all(fd, stp_buf_head(b), stp_buf_avail(b)), 0);
+    stp_buf_free(b);
+    assert_int_equal(st_wire_read_reply(fd, r, 60000), 0);
+    if (r->status) {
+        size_t n = r->len < sizeof r->body ? r->len : sizeof r->body - 1;
+        r->body[n] = 0;
+    }
+    return r->status;
+}
+
+/* UPLOAD_BEGIN of `size` bytes; the status, the upload id in *id or the message in msg. */
+static unsigned begin_raw(int fd, const char *name, uint64_t size, uint32_t crc, uint64_t *id,
+                          char *msg, size_t cap)
+{
+    stp_buf b;
+    stp_buf_init(&b);
+    stp_upload_begin ub;
+    memset(&ub, 0, sizeof ub);
+    snprintf(ub.name, sizeof ub.name, "%s", name);
+    snprintf(ub.hint, sizeof ub.hint, "ptx");
+    ub.total_size = size;
+    ub.crc32c = crc;
+    assert_int_equal(stp_enc_upload_begin(&b, REQID++, 0, &ub), 0);
+    st_wire_reply r;
+    unsigned st = roundtrip(fd, &b, &r);
+    if (st == 0)
+        *id = stp_rd64(r.body);
+    size_t n = st ? strlen((const char *)r.body) : 0;
+    n = n < cap - 1 ? n : cap - 1;
+    memcpy(msg, r.body, n);
+    msg[n] = 0;
+    return st;
+}
+
+static unsigned id_req(int fd, uint8_t op, uint64_t id)
+{
+    stp_buf b;
+    stp_buf_init(&b);
+    assert_int_equal(stp_enc_id_req(&b, op, REQID++, 0, id), 0);
+    st_wire_reply r;
+    return roundtrip(fd, &b, &r);
+}
+
+static uint64_t free_bytes(void)
+{
+    struct statvfs v;
+    assert_int_equal(statvfs(D.datadir, &v), 0);
+    return (uint64_t)v.f_bavail * v.f_frsize;
+}
+
+/* A refusal at BEGIN for want of disk: IO, "No space left on device", the free bytes named
+ * (at most what the test saw free a moment ago, and not far below it). */
+static void assert_no_room(unsigned st, const char *msg, uint64_t seen_free)
+{
+    if (st != STP_S_IO)
+        fail_msg("BEGIN: status %u (\"%s\"), wanted IO (%u)", st, msg, (unsigned)STP_S_IO);
+    assert_non_null(strcasestr(msg, "no space left on device"));
+    const char *p = strstr(msg, "does not fit: ");
+    assert_non_null(p);
+    unsigned long long named = 0;
+    assert_int_equal(sscanf(p, "does not fit: %llu bytes free", &named), 1);
+    assert_true(named <= seen_free && named + (512u << 10) >= seen_free);
+}
+
+static void begin_refuses_what_the_disk_cannot_hold(void **state)
+{
+    (void)state;
+    if (SKIP_WHY[0]) {
+        printf("# SKIP %s\n", SKIP_WHY);
+        skip();
+    }
+    int fd = st_daemon_connect(&D);
+    assert_true(fd >= 0);
+    char msg[600];
+    uint64_t a = 0, b = 0;
+    /* more than is free: refused at BEGIN, nothing left in tmp/ */
+    uint64_t f = free_bytes();
+    unsigned st = begin_raw(fd, "nofit", f + (1u << 20), 0, &a, msg, sizeof msg);
+    printf("# %s, %llu bytes free: BEGIN of %llu bytes: %u \"%s\"\n", HOW,
+           (unsigned long long)f, (unsigned long long)(f + (1u << 20)), st, msg);
+    if (st == 0)
+        id_req(fd, STP_OP_UPLOAD_ABORT, a);
+    assert_no_room(st, msg, f);
+    assert_int_equal(tmp_entries(), 0);
+    /* two that each fit but not together: the second is refused; after an abort it fits */
+    f = free_bytes();
+    uint64_t part = f * 6 / 10;
+    assert_int_equal(begin_raw(fd, "part-a", part, 0, &a, msg, sizeof msg), 0);
+    st = begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg);
+    if (st == 0)
+        id_req(fd, STP_OP_UPLOAD_ABORT, b);
+    assert_no_room(st, msg, f);
+    assert_int_equal(tmp_entries(), 1);                    /* part-a's temp file only */
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, a), 0);
+    assert_int_equal(begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg), 0);
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, b), 0);
+    /* the same with a commit: while big-0 is begun, what fits beside it only is refused */
+    f = free_bytes();
+    uint32_t crc = stp_crc32c(0, BIG[0], BIGLEN[0]);
+    assert_int_equal(begin_raw(fd, "big-0", BIGLEN[0], crc, &a, msg, sizeof msg), 0);
+    uint64_t beside = f - BIGLEN[0] / 2;
+    st = begin_raw(fd, "beside", beside, 0, &b, msg, sizeof msg);
+    if (st == 0)
+        id_req(fd, STP_OP_UPLOAD_ABORT, b);
+    assert_no_room(st, msg, f);
+    stp_buf cb;
+    stp_buf_init(&cb);
+    stp_upload_chunk ch = {a, 0, (uint32_t)BIGLEN[0], BIG[0]};
+    assert_int_equal(stp_enc_upload_chunk(&cb, REQID++, 0, &ch), 0);
+    st_wire_reply r;
+    assert_int_equal(roundtrip(fd, &cb, &r), 0);
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_COMMIT, a), 0);
+    STORED[0] = 1;
+    /* committed: nothing is promised any more, what is free now can be begun */
+    f = free_bytes();
+    uint64_t most = f - f / 8;
+    st = begin_raw(fd, "after-commit", most, 0, &b, msg, sizeof msg);
+    if (st)
+        fail_msg("BEGIN of %llu bytes after the commit, %llu free: %u \"%s\"",
+                 (unsigned long long)most, (unsigned long long)f, st, msg);
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, b), 0);
+    close(fd);
+    assert_int_equal(tmp_entries(), 0);
+    check_reads();
+    /* the disk as test_full_disk expects it: empty of big sets */
+    assert_int_equal(stc_delete(C, "big-0"), 0);
+    STORED[0] = 0;
 }
 
 static void test_full_disk(void **state)
@@ -489,6 +630,7 @@ static int group_teardown(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(begin_refuses_what_the_disk_cannot_hold),
         cmocka_unit_test(test_full_disk),
         cmocka_unit_test(test_fetch_png_on_full_disk),
         cmocka_unit_test(test_native_file_on_full_disk_says_why),
