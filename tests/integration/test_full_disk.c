@@ -14,9 +14,11 @@
  * "File too large" and the daemon lives on. UPLOAD_BEGIN refuses at once (IO, the message
  * naming the free bytes) an upload that does not fit with what is promised to the uploads in
  * progress, and an abort or a commit gives the promise back (upl35; run first, on the empty
- * disk, on a raw socket so that the uploads stay open between the steps). The tmpfs is unmounted in the group teardown and,
+ * disk, on a raw socket so that the uploads stay open between the steps); the same without a
+ * data dir, on a daemon of its own whose $TMPDIR is on the small disk. The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -358,6 +360,76 @@ static void begin_refuses_what_the_disk_cannot_hold(void **state)
     STORED[0] = 0;
 }
 
+/* Regular files under dir, recursively (the no-data-dir daemon's temp folder). */
+static int files_under(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
+            char p[1024];
+            struct stat st;
+            snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+            if (lstat(p, &st) == 0)
+                n += S_ISDIR(st.st_mode) ? files_under(p) : 1;
+        }
+    closedir(d);
+    return n;
+}
+
+/* Without a data dir the uploads' temp files are in the daemon's folder under $TMPDIR: the
+ * same check on that file system (TMPDIR on the small disk). */
+static void begin_checks_the_temp_folder_without_a_data_dir(void **state)
+{
+    (void)state;
+    if (SKIP_WHY[0]) {
+        printf("# SKIP %s\n", SKIP_WHY);
+        skip();
+    }
+    st_daemon e;
+    assert_int_equal(st_daemon_init(&e), 0);
+    char base[400], *old = getenv("TMPDIR") ? strdup(getenv("TMPDIR")) : NULL;
+    snprintf(base, sizeof base, "%s/nodd-tmp", D.datadir);
+    assert_int_equal(mkdir(base, 0700), 0);
+    setenv("TMPDIR", base, 1);   /* inherited by the daemon started below */
+    const char *extra[] = {"--data-dir", "", "--no-default-set", NULL};
+    int started = st_daemon_start(&e, extra);
+    if (old)
+        setenv("TMPDIR", old, 1);
+    else
+        unsetenv("TMPDIR");
+    free(old);
+    assert_int_equal(started, 0);
+    int fd = st_daemon_connect(&e);
+    assert_true(fd >= 0);
+    char msg[600];
+    uint64_t a = 0, b = 0;
+    uint64_t f = free_bytes();
+    unsigned st = begin_raw(fd, "nofit", f + (1u << 20), 0, &a, msg, sizeof msg);
+    printf("# no data dir, TMPDIR on the %s, %llu bytes free: BEGIN of %llu bytes: %u \"%s\"\n",
+           HOW, (unsigned long long)f, (unsigned long long)(f + (1u << 20)), st, msg);
+    assert_no_room(st, msg, f);
+    f = free_bytes();
+    uint64_t part = f * 6 / 10;
+    assert_int_equal(begin_raw(fd, "part-a", part, 0, &a, msg, sizeof msg), 0);
+    assert_int_equal(files_under(base), 1);
+    st = begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg);
+    assert_no_room(st, msg, f);
+    assert_int_equal(files_under(base), 1);
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, a), 0);
+    assert_int_equal(begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg), 0);
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, b), 0);
+    assert_int_equal(files_under(base), 0);
+    close(fd);
+    assert_int_equal(st_daemon_stop(&e, 20000), 0);
+    st_daemon_cleanup(&e);
+    assert_int_equal(files_under(base), 0);
+    rmdir(base);
+}
+
 static void test_full_disk(void **state)
 {
     (void)state;
@@ -631,6 +703,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(begin_refuses_what_the_disk_cannot_hold),
+        cmocka_unit_test(begin_checks_the_temp_folder_without_a_data_dir),
         cmocka_unit_test(test_full_disk),
         cmocka_unit_test(test_fetch_png_on_full_disk),
         cmocka_unit_test(test_native_file_on_full_disk_says_why),
