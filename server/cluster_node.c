@@ -395,6 +395,7 @@ static void poll_members(sts_cluster *cl)
             scl_node_parse(kvs.v[i].val, m[n].addr, sizeof m[n].addr, &m[n].inc) != 0)
             continue;
         snprintf(m[n].id, sizeof m[n].id, "%s", id);
+        m[n].key_rev = kvs.v[i].create_rev;
         n++;
     }
     scl_kvs_free(&kvs);
@@ -677,6 +678,7 @@ void sts_cluster_free(sts_server *srv)
     free(cl->hidden);
     free(cl->orphans);
     free(cl->gone);
+    free(cl->backoff);
     sts_cluster_doubt_free(cl);
     pthread_mutex_destroy(&cl->mu);
     pthread_mutex_destroy(&cl->etcd_mu);
@@ -765,6 +767,7 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("staged_dropped", C(staged_dropped));
     K("copies_hidden", C(copies_hidden));
     K("sets_rerecorded", C(sets_rerecorded));
+    K("pushes_backed_off", C(pushes_backed_off));
 #undef K
 #undef C
     return n;

@@ -46,6 +46,8 @@ typedef struct sts_cl_member {
     char     id[STP_MAX_NODE_ID + 1];
     char     addr[STP_MAX_NODE_ADDR + 1];
     uint64_t inc;                        /* its incarnation (0: a node that does not say) */
+    int64_t  key_rev;                    /* create_revision of its nodes/ key: new each time
+                                            the node registers (a restart, a new lease) */
 } sts_cl_member;
 
 typedef struct sts_cl_entry {            /* one set of the catalogue snapshot */
@@ -65,6 +67,7 @@ typedef struct sts_cl_counters {
     uint64_t copies_staged, staged_published, staged_dropped;   /* the write path's copies */
     uint64_t copies_hidden;   /* copies hidden by a DELETE this node could not record */
     uint64_t sets_rerecorded;   /* local sets recorded again after a catalogue loss */
+    uint64_t pushes_backed_off;   /* repair pushes not tried: their backoff had not run out */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -127,6 +130,20 @@ typedef struct sts_cluster {
      * after two lease TTLs: a delete in doubt may be put back meanwhile) */
     struct sts_cl_orphan *gone;
     size_t          ngone;
+    /* repair thread only: the repair pushes that failed, per (set contents, target process),
+     * each with its consecutive failures and the time before which it is not tried again
+     * (docs/cluster.md "Repair and rebalance", backoff) */
+    struct sts_cl_backoff {
+        char     name[STP_MAX_NAME + 1];
+        uint32_t crc;
+        char     node[STP_MAX_NODE_ID + 1];
+        uint64_t inc;
+        int64_t  key_rev;
+        unsigned fails;
+        int      seen;                   /* wanted by the current pass */
+        int64_t  next_ms;                /* monotonic */
+    } *backoff;
+    size_t          nbackoff, backoff_cap;
     /* the op key (cluster_fence.c), under etcd_mu */
     int64_t         op_rev;            /* mod_revision of ops/<self> as last written or read */
     int             op_known;          /* op_rev has been read since start */
@@ -310,8 +327,9 @@ int  sts_cluster_doubt_save(sts_cluster *cl, const sts_cl_doubt *d);
  * logged and removed. */
 void sts_cluster_doubt_load(sts_cluster *cl);
 
-/* Pushes the local copy of name to the node at addr (the repair thread and the write path):
- * 0, or non-zero with msg set. */
+/* Pushes the local copy of name to the node at addr (the repair thread): 0, or non-zero
+ * with msg set; a failure is counted, not logged (the repair thread logs it once per
+ * backoff). */
 int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *msg, size_t cap);
 
 /* Records this node's copy of name (set kind) in a catalogue that has lost it: the record

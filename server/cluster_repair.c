@@ -4,7 +4,7 @@
  * --repair-interval seconds: the copies/ keys of this node's copies kept true, stale and
  * forgotten copies dropped (a set the catalogue lacks, after two lease TTLs), copies pushed
  * to owners that lack one (by the first live holder in the ranking only, so one node pushes
- * each set), extra copies dropped once every owner has confirmed its own, abandoned claims
+ * each set; a push that failed backs off, per set and target process), extra copies dropped once every owner has confirmed its own, abandoned claims
  * removed (a REPLACE's: the record it replaced put back, from prev/), the staged copies of
  * this node's writes published or dropped by the catalogue, the local copies reads
  * may use confirmed (sts_cluster_set_served; a copy a DELETE hid is shown again once the
@@ -261,6 +261,94 @@ static void record_again(sts_cluster *cl, const sts_cl_entry *cat, size_t nc)
         sts_cluster_kick(cl);
 }
 
+/* ---- the backoff of repair pushes that fail (docs/cluster.md "Repair and rebalance") ----
+ * Per (set contents, target process): a node that cannot take one copy (a set over its
+ * limits) may take the others, and each (set, node) is judged by its own pushes. The first
+ * failure waits one --repair-interval, each further one twice the last, up to
+ * BACKOFF_CAP_MS (or the interval, if longer). Other contents (a replace), another process
+ * of the node (a restart) or a new registration of it (a new lease: another create_revision
+ * of its key) are another key: they start afresh. An entry that no pass wants any more (the
+ * push succeeded, the node or the set is gone, another node pushes now) is dropped at the
+ * end of the pass. */
+#define BACKOFF_CAP_MS 60000
+
+static struct sts_cl_backoff *backoff_find(sts_cluster *cl, const sts_cl_entry *e,
+                                           const sts_cl_member *o)
+{
+    for (size_t i = 0; i < cl->nbackoff; i++) {
+        struct sts_cl_backoff *b = &cl->backoff[i];
+        if (b->crc == e->crc32 && b->inc == o->inc && b->key_rev == o->key_rev &&
+            !strcmp(b->name, e->name) && !strcmp(b->node, o->id))
+            return b;
+    }
+    return NULL;
+}
+
+/* the wait after `fails` consecutive failures, in ms */
+static int64_t backoff_delay(const sts_cluster *cl, unsigned fails)
+{
+    int64_t base = 1000 * (int64_t)cl->srv->cfg.repair_interval, cap = BACKOFF_CAP_MS;
+    if (base < 1)
+        base = 1;
+    if (cap < base)
+        cap = base;
+    int64_t d = base;
+    for (unsigned k = 1; k < fails && d < cap; k++)
+        d *= 2;
+    return d < cap ? d : cap;
+}
+
+/* a failed push of e to o, with the push's message: a new entry (logged) or one more
+ * failure of an entry b (logged at debug level only) */
+static void backoff_failed(sts_cluster *cl, struct sts_cl_backoff *b, const sts_cl_entry *e,
+                           const sts_cl_member *o, const char *msg)
+{
+    sts_server *srv = cl->srv;
+    if (!b) {
+        if (cl->nbackoff == cl->backoff_cap) {
+            size_t cap = cl->backoff_cap ? 2 * cl->backoff_cap : 16;
+            struct sts_cl_backoff *nb = realloc(cl->backoff, cap * sizeof *nb);
+            if (!nb) {   /* no memory: not backed off, logged as before */
+                sts_logf(&srv->log, STS_WARN, "cluster: %s", msg);
+                return;
+            }
+            cl->backoff = nb;
+            cl->backoff_cap = cap;
+        }
+        b = &cl->backoff[cl->nbackoff++];
+        memset(b, 0, sizeof *b);
+        snprintf(b->name, sizeof b->name, "%s", e->name);
+        snprintf(b->node, sizeof b->node, "%s", o->id);
+        b->crc = e->crc32;
+        b->inc = o->inc;
+        b->key_rev = o->key_rev;
+    }
+    b->fails++;
+    b->seen = 1;
+    int64_t d = backoff_delay(cl, b->fails);
+    b->next_ms = sts_now_ms() + d;
+    if (b->fails == 1)
+        sts_logf(&srv->log, STS_WARN, "cluster: %s; the push of '%s' to node '%s' backs off: "
+                 "tried again in %lld s at the earliest, the wait doubling with each failure "
+                 "up to %lld s (not logged again until it succeeds)", msg, e->name, o->id,
+                 (long long)(d / 1000), (long long)(backoff_delay(cl, 64) / 1000));
+    else
+        sts_logf(&srv->log, STS_DEBUG, "cluster: %s (failure %u in a row; next try in %lld s)",
+                 msg, b->fails, (long long)(d / 1000));
+}
+
+/* drops the entries the pass did not want and clears the mark of the others */
+static void backoff_prune(sts_cluster *cl)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < cl->nbackoff; i++)
+        if (cl->backoff[i].seen) {
+            cl->backoff[k] = cl->backoff[i];
+            cl->backoff[k++].seen = 0;
+        }
+    cl->nbackoff = k;
+}
+
 static void pass(sts_cluster *cl)
 {
     sts_server *srv = cl->srv;
@@ -469,10 +557,22 @@ static void pass(sts_cluster *cl)
                     const sts_cl_member *o = &m[order[r]];
                     if (holds(e, o->id))
                         continue;
+                    struct sts_cl_backoff *b = backoff_find(cl, e, o);
+                    if (b && sts_now_ms() < b->next_ms) {
+                        b->seen = 1;   /* failed lately: not yet */
+                        STS_CL_ADD(cl, pushes_backed_off, 1);
+                        continue;
+                    }
                     char msg[512];
                     if (sts_cluster_push(cl, e->name, o->addr, msg, sizeof msg) == 0) {
                         put_copy_key(cl, e->name, o->id, e->crc32, rows[i].mod_rev);
                         add_holder(e, o->id);
+                        if (b)   /* not marked seen: dropped at the end of the pass */
+                            sts_logf(&srv->log, STS_INFO, "cluster: the push of '%s' to node "
+                                     "'%s' succeeded after %u failed tries: backoff ended",
+                                     e->name, o->id, b->fails);
+                    } else {
+                        backoff_failed(cl, b, e, o, msg);
                     }
                 }
             }
@@ -492,6 +592,8 @@ static void pass(sts_cluster *cl)
             under++;
     }
     __atomic_store_n(&cl->n.under_replicated, under, __ATOMIC_RELAXED);
+    if (order && mine)
+        backoff_prune(cl);   /* the pushes this pass did not want: succeeded, or not owed */
     free(cl->orphans);
     cl->orphans = next;
     cl->norphans = next ? nnext : 0;

@@ -100,9 +100,11 @@ static void node_token(sts_server *srv, char out[STS_TOKEN_MAX + 1])
     pthread_mutex_unlock(&srv->cfg_mu);
 }
 
-/* Pushes the source file spath (manifest m) to the node at addr as the copy of name. */
+/* Pushes the source file spath (manifest m) to the node at addr as the copy of name; a
+ * failure is counted, and logged unless quiet (the caller logs it). */
 static int push_source(sts_cluster *cl, const char *name, const st_manifest *m,
-                       const char *spath, int stage, const char *addr, char *msg, size_t cap)
+                       const char *spath, int stage, const char *addr, int quiet, char *msg,
+                       size_t cap)
 {
     sts_server *srv = cl->srv;
     char token[STS_TOKEN_MAX + 1];
@@ -117,7 +119,8 @@ static int push_source(sts_cluster *cl, const char *name, const st_manifest *m,
                  (unsigned long long)m->bytes, addr);
     } else {
         STS_CL_ADD(cl, push_failures, 1);
-        sts_logf(&srv->log, STS_WARN, "cluster: %s", msg);
+        if (!quiet)
+            sts_logf(&srv->log, STS_WARN, "cluster: %s", msg);
     }
     return rc;
 }
@@ -131,7 +134,7 @@ int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *
         snprintf(msg, cap, "no local copy of '%s' to push: %s", name, e.msg);
         return -1;
     }
-    return push_source(cl, name, &m, spath, 0, addr, msg, cap);
+    return push_source(cl, name, &m, spath, 0, addr, 1, msg, cap);
 }
 
 /* reads sets/<name>; 1 found (rec, mod), 0 absent, < 0 an etcd error (noted); with raw, a
@@ -361,7 +364,7 @@ int sts_cluster_replicate(sts_cluster *cl, sts_cl_claim *c, int kind, const char
         char pm[512];
         if (!have_src)
             snprintf(pm, sizeof pm, "no local copy to push: %.200s", se.msg);
-        if (have_src && push_source(cl, c->name, &sm, spath, stage != NULL, o->addr, pm,
+        if (have_src && push_source(cl, c->name, &sm, spath, stage != NULL, o->addr, 0, pm,
                                     sizeof pm) == 0) {
             snprintf(addrs[nack], sizeof addrs[0], "%s", o->addr);
             snprintf(acked[nack++], sizeof acked[0], "%s", o->id);

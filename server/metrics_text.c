@@ -212,6 +212,8 @@ static const mrow ROWS[] = {
      "Local copies hidden from reads by a DELETE this node could not record."},
     {"cluster_sets_rerecorded", "seamtex_cluster_sets_rerecorded_total", M_COUNTER, "", 0,
      "Local sets recorded again in a catalogue that had lost them (etcd's data lost)."},
+    {"cluster_pushes_backed_off", "seamtex_cluster_pushes_backed_off_total", M_COUNTER, "", 0,
+     "Repair pushes not tried: a recent failure's backoff had not run out."},
 };
 #define NROWS (sizeof ROWS / sizeof ROWS[0])
 
