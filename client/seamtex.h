@@ -98,7 +98,8 @@ enum stc_err {
 /* 1 when code is a server status (the connection is fine); its stp_status number. */
 static inline int stc_is_server_error(int code) { return code <= -STC_SERVER_BASE; }
 static inline int stc_server_status(int code) { return code <= -STC_SERVER_BASE ? -code - STC_SERVER_BASE : 0; }
-/* Stable short name of a code: "OK", "EIO", "NOT_FOUND", ... */
+/* Stable short name of a code: "OK", "EIO", "NOT_FOUND", ...; "?" for any code that is
+ * none of these (local or server range alike). */
 const char *stc_strerror(int code);
 
 typedef struct stc_conn stc_conn;

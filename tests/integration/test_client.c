@@ -861,6 +861,26 @@ static void cluster_open_takes_a_null_err_and_conn_checks_its_index(void **state
     mock_stop(m);
 }
 
+/* py35: stc_strerror said "E?" for an unknown local code and "?" for an unknown server one
+ * (and "OK" for -STC_SERVER_BASE, which is no error): one answer, "?", for every unknown. */
+static void strerror_has_one_name_for_every_unknown_code(void **state)
+{
+    (void)state;
+    assert_string_equal(stc_strerror(STC_OK), "OK");
+    assert_string_equal(stc_strerror(STC_EINVAL), "EINVAL");
+    assert_string_equal(stc_strerror(STC_ECANCELED), "ECANCELED");
+    assert_string_equal(stc_strerror(STC_EBADREQUEST), "BAD_REQUEST");
+    assert_string_equal(stc_strerror(STC_EUNAVAILABLE), "UNAVAILABLE");
+    const int unknown[] = { STC_ECANCELED - 1, -50, -(STC_SERVER_BASE - 1), -STC_SERVER_BASE,
+                            STC_EUNAVAILABLE - 1, -(STC_SERVER_BASE + 1000), 1, 12345,
+                            INT32_MIN, INT32_MAX };
+    for (size_t i = 0; i < sizeof unknown / sizeof unknown[0]; i++) {
+        const char *n = stc_strerror(unknown[i]);
+        if (strcmp(n, "?") != 0)
+            fail_msg("stc_strerror(%d) = \"%s\", not \"?\"", unknown[i], n);
+    }
+}
+
 static void fetch_writes_the_file_and_checks_crc(void **state)
 {
     (void)state;
@@ -1395,6 +1415,7 @@ int main(void)
         cmocka_unit_test(upload_refuses_a_long_hint_and_unknown_flags),
         cmocka_unit_test(a_child_after_fork_cannot_use_the_parents_connection),
         cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
+        cmocka_unit_test(strerror_has_one_name_for_every_unknown_code),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
