@@ -861,6 +861,64 @@ static void cluster_open_takes_a_null_err_and_conn_checks_its_index(void **state
     mock_stop(m);
 }
 
+/* py35: the cluster functions other than close and conn crashed on a NULL handle: each now
+ * gives STC_EINVAL, or an empty answer where it returns no code (libseamtex(3)). */
+static int never_called(stc_conn *c, void *arg)
+{
+    (void)c;
+    (void)arg;
+    fail_msg("fn called for a NULL handle");
+    return 0;
+}
+
+static void cluster_functions_take_a_null_handle(void **state)
+{
+    (void)state;
+    stc_cluster *cl = NULL;
+    assert_int_equal(stc_cluster_refresh(cl), STC_EINVAL);
+    const stc_cluster_node *nodes = (const stc_cluster_node *)&nodes;
+    assert_int_equal(stc_cluster_nodes(cl, &nodes), 0);
+    assert_null(nodes);
+    assert_int_equal(stc_cluster_replicas(cl), 0);
+    size_t idx[4];
+    assert_int_equal(stc_cluster_rank(cl, "set", idx, 4), 0);
+    int err = 0;
+    assert_null(stc_cluster_conn(cl, 0, &err));
+    assert_int_equal(err, STC_EINVAL);
+    stc_conn *used = (stc_conn *)&used;
+    assert_int_equal(stc_cluster_call(cl, "set", never_called, NULL, &used), STC_EINVAL);
+    assert_null(used);
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    stc_query q;
+    memset(&q, 0, sizeof q);
+    stc_sample_result res;
+    stc_info inf;
+    assert_int_equal(stc_cluster_sample(cl, "set", &so, &q, 1, &res), STC_EINVAL);
+    assert_int_equal(stc_cluster_info(cl, "set", 0, 0, &inf), STC_EINVAL);
+    assert_int_equal(stc_cluster_upload_file(cl, "/nonexistent", "set", NULL, NULL), STC_EINVAL);
+    assert_int_equal(stc_cluster_delete(cl, "set"), STC_EINVAL);
+    stc_cluster_counters cnt;
+    memset(&cnt, 0xff, sizeof cnt);
+    stc_cluster_get_counters(cl, &cnt);
+    assert_true(cnt.calls == 0 && cnt.failovers == 0 && cnt.moved == 0 && cnt.refreshes == 0);
+    uint32_t reqid;
+    stc_dir_query dq;
+    memset(&dq, 0, sizeof dq);
+    assert_int_equal(stc_cluster_append_sample(cl, "set", &so, &q, 1, &reqid), STC_EINVAL);
+    assert_int_equal(stc_cluster_append_sample_dir(cl, "set", &so, &dq, 1, &reqid), STC_EINVAL);
+    assert_int_equal(stc_cluster_append_info(cl, "set", &reqid), STC_EINVAL);
+    assert_int_equal(stc_cluster_flush(cl), STC_EINVAL);
+    stc_cluster_reply r;
+    assert_int_equal(stc_cluster_get_reply(cl, 0, &r), STC_EINVAL);
+    assert_int_equal(stc_cluster_reply_sample(NULL, &res), STC_EINVAL);
+    assert_int_equal(stc_cluster_reply_info(NULL, &inf), STC_EINVAL);
+    assert_int_equal(stc_cluster_pending(cl), 0);
+    assert_int_equal(stc_cluster_discard_pending(cl), 0);
+    assert_string_equal(stc_cluster_errmsg(cl), "");
+    stc_cluster_close(cl);
+}
+
 /* py35: stc_strerror said "E?" for an unknown local code and "?" for an unknown server one
  * (and "OK" for -STC_SERVER_BASE, which is no error): one answer, "?", for every unknown. */
 static void strerror_has_one_name_for_every_unknown_code(void **state)
@@ -1416,6 +1474,7 @@ int main(void)
         cmocka_unit_test(a_child_after_fork_cannot_use_the_parents_connection),
         cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
         cmocka_unit_test(strerror_has_one_name_for_every_unknown_code),
+        cmocka_unit_test(cluster_functions_take_a_null_handle),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
