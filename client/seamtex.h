@@ -269,7 +269,9 @@ int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
 /* Uploads. progress(user, sent, total) is called after each acknowledged chunk; returning
  * non-zero aborts the upload (UPLOAD_ABORT is sent) and the call returns STC_ECANCELED.
  * On any failure after UPLOAD_BEGIN the library sends UPLOAD_ABORT when the connection is
- * still usable, so the server never keeps a half-made set. When the connection breaks
+ * still usable, so the server never keeps a half-made set (after a timeout its reply is
+ * waited for 1000 ms at most: an upload with timeout T returns within about T + 1 s from a
+ * server that stops answering; the same for a fetch's FETCH_CLOSE). When the connection breaks
  * instead, a server with STC_CAP_UPLOAD_RESUME keeps the partial upload for a while
  * (seamtexd: upload-keep, default 600 s): calling again on a new connection with
  * STC_UPLOAD_RESUME and the same file, name, hint and options continues from the bytes the

@@ -64,6 +64,8 @@ typedef struct mock {
     size_t fetch_len;
     stp_buf held;                  /* M_REVERSE: replies held back */
     int nheld;
+    int mute;                      /* set by a test: requests are read and not answered */
+    int muted_cleanups;            /* UPLOAD_ABORTs and FETCH_CLOSEs read while muted */
 } mock;
 
 /* The mock sends whole frames; a failed send shows as the client's error. */
@@ -270,8 +272,11 @@ static void mock_serve(mock *m, int fd)
             int r = stp_parse_header(stp_buf_head(&in), stp_buf_avail(&in), 1u << 20, &h, &reason);
             if (r != STP_OK || stp_buf_avail(&in) < STP_HEADER_SIZE + (size_t)h.body_len)
                 break;
-            int rc = m->mode == M_SILENT ? 0
-                     : mock_handle(m, fd, &h, stp_buf_head(&in) + STP_HEADER_SIZE);
+            int mute = __atomic_load_n(&m->mute, __ATOMIC_ACQUIRE);
+            if (mute && (h.opcode == STP_OP_UPLOAD_ABORT || h.opcode == STP_OP_FETCH_CLOSE))
+                __atomic_add_fetch(&m->muted_cleanups, 1, __ATOMIC_RELEASE);
+            int rc = m->mode == M_SILENT || mute
+                     ? 0 : mock_handle(m, fd, &h, stp_buf_head(&in) + STP_HEADER_SIZE);
             stp_buf_consume(&in, STP_HEADER_SIZE + h.body_len);
             if (rc < 0)
                 goto out;
@@ -858,6 +863,69 @@ static void cluster_open_takes_a_null_err_and_conn_checks_its_index(void **state
     err = 0;
     assert_null(stc_cluster_conn(NULL, 0, &err));   /* the index check's NULL half */
     assert_int_equal(err, STC_EINVAL);
+    mock_stop(m);
+}
+
+/* py35: an upload or fetch that timed out waited a second full timeout for its UPLOAD_ABORT /
+ * FETCH_CLOSE: with a server that stops answering mid-transfer a call with timeout T took 2 T.
+ * The clean-up wait after a timeout is 1 s at most (libseamtex(3)): T + 1 s, and the clean-up
+ * request is sent all the same. */
+typedef struct mute_at_first { mock *m; } mute_at_first;
+static int mute_on_progress(void *user, uint64_t done, uint64_t total)
+{
+    (void)done;
+    (void)total;
+    __atomic_store_n(&((mute_at_first *)user)->m->mute, 1, __ATOMIC_RELEASE);
+    return 0;
+}
+
+static int muted_cleanup_seen(void *arg)
+{
+    return __atomic_load_n(&((mock *)arg)->muted_cleanups, __ATOMIC_ACQUIRE) > 0;
+}
+
+static void a_timed_out_transfer_waits_briefly_for_its_cleanup(void **state)
+{
+    (void)state;
+    enum { T = 3000, ALLOWANCE = 1000, SLACK = 1500 };   /* 2 T = 6000 > T + ALLOWANCE + SLACK */
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, T);
+    size_t n = 40000;                                    /* 40 chunks of the mock's 1000 */
+    uint8_t *data = malloc(n);
+    for (size_t i = 0; i < n; i++)
+        data[i] = (uint8_t)(i * 7);
+    mute_at_first u = { m };
+    stc_upload_opts o;
+    memset(&o, 0, sizeof o);
+    o.progress = mute_on_progress;
+    o.user = &u;
+    int64_t t0 = st_now_ms();
+    assert_int_equal(stc_upload_buffer(c, data, n, "up", &o, NULL), STC_ETIMEDOUT);
+    int64_t took = st_now_ms() - t0;
+    if (took < T || took > T + ALLOWANCE + SLACK)
+        fail_msg("upload with timeout %d ms that timed out took %lld ms", T, (long long)took);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the abort was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    assert_int_equal(stc_ping(c), 0);                   /* not sticky: late replies dropped */
+
+    __atomic_store_n(&m->muted_cleanups, 0, __ATOMIC_RELEASE);
+    m->fetch_len = n;
+    m->fetch = data;                                     /* freed by mock_stop */
+    char dir[] = "/tmp/stc-fetchto-XXXXXX", path[300];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/out.ptx", dir);
+    t0 = st_now_ms();
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, mute_on_progress, &u),
+                     STC_ETIMEDOUT);
+    took = st_now_ms() - t0;
+    if (took < T || took > T + ALLOWANCE + SLACK)
+        fail_msg("fetch with timeout %d ms that timed out took %lld ms", T, (long long)took);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the close was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(access(path, F_OK), -1);            /* nothing left behind */
+    rmdir(dir);
+    stc_close(c);
     mock_stop(m);
 }
 
@@ -1475,6 +1543,7 @@ int main(void)
         cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
         cmocka_unit_test(strerror_has_one_name_for_every_unknown_code),
         cmocka_unit_test(cluster_functions_take_a_null_handle),
+        cmocka_unit_test(a_timed_out_transfer_waits_briefly_for_its_cleanup),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
