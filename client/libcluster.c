@@ -13,9 +13,15 @@
 
 const char *stc_cluster_errmsg(const stc_cluster *cl) { return cl ? cl->msg : ""; }
 
-void stc_cluster_get_counters(const stc_cluster *cl, stc_cluster_counters *out) { *out = cl->cnt; }
+/* Every entry point that takes a handle accepts NULL (libseamtex(3)): STC_EINVAL from those
+ * that return a code, an empty answer from the others. */
+void stc_cluster_get_counters(const stc_cluster *cl, stc_cluster_counters *out)
+{
+    if (out)
+        *out = cl ? cl->cnt : (stc_cluster_counters){ 0, 0, 0, 0 };
+}
 
-unsigned stc_cluster_replicas(const stc_cluster *cl) { return cl->replicas; }
+unsigned stc_cluster_replicas(const stc_cluster *cl) { return cl ? cl->replicas : 0; }
 
 static int is_conn_error(int rc)
 {
@@ -140,6 +146,8 @@ static int ask_cluster(stc_cluster *cl, stc_conn *c)
 
 int stc_cluster_refresh(stc_cluster *cl)
 {
+    if (!cl)
+        return STC_EINVAL;
     if (stc__cluster_pipe_pending(cl))   /* node indices are in use (libcluster_pipe.c) */
         return STC_ESTATE;
     int rc = STC_ECONNECT;
@@ -222,6 +230,11 @@ void stc_cluster_close(stc_cluster *cl)
 
 size_t stc_cluster_nodes(stc_cluster *cl, const stc_cluster_node **nodes)
 {
+    if (!cl || !nodes) {
+        if (nodes)
+            *nodes = NULL;
+        return 0;
+    }
     for (size_t i = 0; i < cl->n; i++) {
         cl->pub[i].id = cl->nodes[i].id;
         cl->pub[i].addr = cl->nodes[i].addr;
@@ -232,6 +245,8 @@ size_t stc_cluster_nodes(stc_cluster *cl, const stc_cluster_node **nodes)
 
 size_t stc_cluster_rank(stc_cluster *cl, const char *set, size_t *idx, size_t max)
 {
+    if (!cl || !set || (max && !idx))
+        return 0;
     for (size_t i = 0; i < cl->n; i++)
         cl->ids[i] = cl->nodes[i].id;
     return stp_hrw_rank(cl->ids, cl->n, set, idx, max);
@@ -343,6 +358,14 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
 int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
                      stc_conn **used)
 {
+    if (used)
+        *used = NULL;
+    if (!cl)
+        return STC_EINVAL;
+    if (!set || !fn) {
+        snprintf(cl->msg, sizeof cl->msg, "set or function is NULL");
+        return STC_EINVAL;
+    }
     if (stc__cluster_pipe_pending(cl)) {
         snprintf(cl->msg, sizeof cl->msg, "pipelined requests are outstanding: read their "
                  "replies with stc_cluster_get_reply before a blocking call");

@@ -108,9 +108,12 @@ const char *stc_strerror(int code)
     STC_LOCAL_ERRORS(X)
 #undef X
     default:
-        if (stc_is_server_error(code))
+        /* a server code: a status the protocol lists, OK (-STC_SERVER_BASE) not being one;
+         * anything else, local or server, unknown: "?" (the protocol's own unknown name) */
+        if (stc_is_server_error(code) && stc_server_status(code) > 0 &&
+            stc_server_status(code) < STP_S_COUNT_)
             return stp_status_name((unsigned)stc_server_status(code));
-        return "E?";
+        return "?";
     }
 }
 

@@ -19,6 +19,10 @@
 
 #define XFER_WINDOW        8
 #define XFER_DEFAULT_CHUNK (1u << 20)
+/* After a timeout the clean-up request (UPLOAD_ABORT, FETCH_CLOSE) is waited for at most this
+ * long (or the request timeout when shorter), so that a transfer with timeout T returns within
+ * about T + this allowance from a server that stopped answering, not 2 T (libseamtex(3)). */
+#define XFER_CLEANUP_AFTER_TIMEOUT_MS 1000
 
 static int start_req(stc_conn *c, uint8_t op, uint32_t *id)
 {
@@ -34,10 +38,11 @@ static int xfer_encoded(stc_conn *c, int st)
     return stc__enc_error(c, st);
 }
 
-/* One request/reply on the blocking path; 0 with an OK reply in *f. */
-static int roundtrip(stc_conn *c, uint32_t id, stc_frame *f)
+/* One request/reply on the blocking path, waiting up to timeout_ms (0 = none); 0 with an OK
+ * reply in *f. */
+static int roundtrip_within(stc_conn *c, uint32_t id, int timeout_ms, stc_frame *f)
 {
-    int64_t dl = stc__deadline(c->timeout_ms);
+    int64_t dl = stc__deadline(timeout_ms);
     int rc = stc__flush(c, dl);
     if (rc == STC_ETIMEDOUT)
         stc__pend_abandon(c, id);
@@ -48,6 +53,11 @@ static int roundtrip(stc_conn *c, uint32_t id, stc_frame *f)
     return f->h.status ? stc__status_error(c, f) : 0;
 }
 
+static int roundtrip(stc_conn *c, uint32_t id, stc_frame *f)
+{
+    return roundtrip_within(c, id, c->timeout_ms, f);
+}
+
 static int window_size(const stc_conn *c)
 {
     uint32_t w = c->server.max_inflight ? c->server.max_inflight : 1;
@@ -55,22 +65,27 @@ static int window_size(const stc_conn *c)
 }
 
 /* Sends id-only request op for `xid` and waits, keeping the caller's error message: used to
- * clean up (UPLOAD_ABORT, FETCH_CLOSE) after a failure. */
-static void cleanup_call(stc_conn *c, uint8_t op, uint64_t xid)
+ * clean up (UPLOAD_ABORT, FETCH_CLOSE) after a failure. `after` is the failure's code: after a
+ * timeout the wait is XFER_CLEANUP_AFTER_TIMEOUT_MS at most (the request is sent all the same;
+ * a late reply is dropped). */
+static void cleanup_call(stc_conn *c, uint8_t op, uint64_t xid, int after)
 {
     char keep[sizeof c->msg];
     stc_frame f;
     uint32_t id;
+    int wait_ms = c->timeout_ms;
     if (c->sticky)
         return;
+    if (after == STC_ETIMEDOUT && (wait_ms <= 0 || wait_ms > XFER_CLEANUP_AFTER_TIMEOUT_MS))
+        wait_ms = XFER_CLEANUP_AFTER_TIMEOUT_MS;
     memcpy(keep, c->msg, sizeof keep);
     if (c->hold) {
         stp_buf_consume(&c->in, c->hold);
         c->hold = 0;
     }
     if (start_req(c, op, &id) == 0 &&
-        xfer_encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)c->timeout_ms, xid)) == 0)
-        (void)roundtrip(c, id, &f);
+        xfer_encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)wait_ms, xid)) == 0)
+        (void)roundtrip_within(c, id, wait_ms, &f);
     if (c->hold) {
         stp_buf_consume(&c->in, c->hold);
         c->hold = 0;
@@ -129,7 +144,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     if (stp_dec_upload_begin_reply(f.body, f.h.body_len, &br, &why) != 0)
         return stc__break(c, STC_EPROTO, "malformed UPLOAD_BEGIN reply: %s", why);
     if (br.received > len) {
-        cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id);
+        cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, 0);
         return stc__break(c, STC_EPROTO, "the server holds more bytes than the file has");
     }
 
@@ -202,7 +217,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
         /* A failed commit has dropped the upload on the server already; a timed-out one
          * may still finish, so abort it explicitly. */
         if (rc == STC_ETIMEDOUT)
-            cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id);
+            cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, rc);
         return rc;
     }
     if (out) {
@@ -223,7 +238,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
 
 fail:
     abandon_all(c, ids, inflight);
-    cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id);
+    cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, rc);
     return rc;
 }
 
@@ -397,12 +412,12 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
         rc = stc__fail(c, STC_EFILE, "rename %s: %s", path, strerror(errno));
         goto fail;
     }
-    cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id);
+    cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id, 0);
     return 0;
 
 fail:
     abandon_all(c, ids, inflight);
-    cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id);
+    cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id, rc);
     if (fd >= 0)
         close(fd);
     unlink(part);

@@ -98,7 +98,8 @@ enum stc_err {
 /* 1 when code is a server status (the connection is fine); its stp_status number. */
 static inline int stc_is_server_error(int code) { return code <= -STC_SERVER_BASE; }
 static inline int stc_server_status(int code) { return code <= -STC_SERVER_BASE ? -code - STC_SERVER_BASE : 0; }
-/* Stable short name of a code: "OK", "EIO", "NOT_FOUND", ... */
+/* Stable short name of a code: "OK", "EIO", "NOT_FOUND", ...; "?" for any code that is
+ * none of these (local or server range alike). */
 const char *stc_strerror(int code);
 
 typedef struct stc_conn stc_conn;
@@ -268,7 +269,9 @@ int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
 /* Uploads. progress(user, sent, total) is called after each acknowledged chunk; returning
  * non-zero aborts the upload (UPLOAD_ABORT is sent) and the call returns STC_ECANCELED.
  * On any failure after UPLOAD_BEGIN the library sends UPLOAD_ABORT when the connection is
- * still usable, so the server never keeps a half-made set. When the connection breaks
+ * still usable, so the server never keeps a half-made set (after a timeout its reply is
+ * waited for 1000 ms at most: an upload with timeout T returns within about T + 1 s from a
+ * server that stops answering; the same for a fetch's FETCH_CLOSE). When the connection breaks
  * instead, a server with STC_CAP_UPLOAD_RESUME keeps the partial upload for a while
  * (seamtexd: upload-keep, default 600 s): calling again on a new connection with
  * STC_UPLOAD_RESUME and the same file, name, hint and options continues from the bytes the

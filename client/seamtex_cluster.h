@@ -15,7 +15,10 @@
  * Results of a routed call (sample values, info faces, messages) are owned by the connection
  * that answered and valid until the next call on this handle.
  * ERRORS: as seamtex.h; a call fails with a connection error only when every node tried
- * failed; stc_cluster_errmsg says why.
+ * failed; stc_cluster_errmsg says why. Every function that takes a handle accepts NULL:
+ * STC_EINVAL from those that return a code (stc_cluster_conn: NULL with *err STC_EINVAL),
+ * "" from stc_cluster_errmsg, 0 (and *nodes NULL) from the counts, zeros from
+ * stc_cluster_get_counters.
  */
 #ifndef SEAMTEX_CLUSTER_H
 #define SEAMTEX_CLUSTER_H
@@ -60,7 +63,8 @@ stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err);
  * rest of the ranking): NOT_FOUND is returned only when no node asked holds the set. A call
  * that fails on what may be a stale view refreshes it and routes once more; otherwise the
  * view is refreshed at the start of the next call, so results stay valid until then.
- * *used (may be NULL) gets the connection that answered. Returns fn's last result. */
+ * *used (may be NULL) gets the connection that answered (NULL when none did). Returns fn's
+ * last result; STC_EINVAL for a NULL set or fn. */
 typedef int (*stc_cluster_fn)(stc_conn *c, void *arg);
 int stc_cluster_call(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
                      stc_conn **used);

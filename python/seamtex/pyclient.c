@@ -80,7 +80,8 @@ static void forget_parents(st_py_client *self)
     self->owner = 0;
 }
 
-int st_py_client_enter(st_py_client *self)
+/* The checks before the lock, shared by st_py_client_enter and st_py_client_usable. */
+static int usable_before_lock(st_py_client *self)
 {
     if (!self->lock) {
         st_py_raise_closed("the Client is not initialised");
@@ -93,6 +94,24 @@ int st_py_client_enter(st_py_client *self)
         st_py_raise(STC_ESTATE, m);
         return -1;
     }
+    return 0;
+}
+
+int st_py_client_usable(st_py_client *self)
+{
+    if (usable_before_lock(self) < 0)
+        return -1;
+    if (!self->conn) {
+        st_py_raise_closed("the Client is closed");
+        return -1;
+    }
+    return 0;
+}
+
+int st_py_client_enter(st_py_client *self)
+{
+    if (usable_before_lock(self) < 0)
+        return -1;
     if (lock_take(self) < 0)
         return -1;
     if (!self->conn) {
@@ -106,6 +125,7 @@ int st_py_client_enter(st_py_client *self)
 
 void st_py_client_leave(st_py_client *self)
 {
+    stc_shm_counts(self->conn, &self->via_shm, &self->via_sock);   /* NULL conn: 0, 0 */
     self->owner = 0;
     PyThread_release_lock(self->lock);
 }
@@ -297,6 +317,8 @@ static int client_connect(st_py_client *self, const char *host, unsigned port,
         st_py_raise(err, msg);
         return -1;
     }
+    self->hello = *stc_server_info(c);
+    self->via_shm = self->via_sock = 0;
     self->conn = c;
     self->pid = (long)getpid();
     self->fork_gen = st_py_fork_gen;
@@ -845,10 +867,10 @@ static PyObject *client_get_closed(st_py_client *self, void *closure)
 static PyObject *client_get_server(st_py_client *self, void *closure)
 {
     (void)closure;
-    if (st_py_client_enter(self) < 0)
+    /* no lock: HELLO's facts never change (it used to wait behind another thread's call) */
+    if (st_py_client_usable(self) < 0)
         return NULL;
-    stc_server s = *stc_server_info(self->conn);
-    st_py_client_leave(self);
+    const stc_server s = self->hello;
     return Py_BuildValue("{s:I,s:I,s:I,s:I,s:I,s:I,s:O,s:s}", "version", s.version, "caps",
                          (unsigned)s.caps, "max_body", (unsigned)s.max_body, "max_batch",
                          (unsigned)s.max_batch, "max_chunk", (unsigned)s.max_chunk,

@@ -47,6 +47,10 @@ typedef struct st_py_client {
     double             times[3];  /* the last sample call: packing, stc_sample, copying out (s) */
     size_t             shm_bytes; /* the shared-memory region attached (pyshm.c), 0: none */
     char               shm_why[256];  /* why there is none */
+    /* Read by Client.server and shm_status without the lock (they used to wait behind another
+     * thread's long call): written, like conn, only with the GIL held, which orders them. */
+    stc_server         hello;     /* what HELLO told, copied at connect (it never changes) */
+    uint64_t           via_shm, via_sock;  /* stc_shm_counts as of the last call's end */
 } st_py_client;
 
 /* Forks this process has gone through as a child (pthread_atfork, registered by
@@ -74,7 +78,11 @@ extern PyTypeObject st_py_client_type;
  * its own Client would otherwise wait for itself forever) or when this is not the process
  * that connected (a child after fork: StateError). */
 int st_py_client_enter(st_py_client *self);
+/* Gives the lock back (GIL held), keeping the shared-memory counts for shm_status. */
 void st_py_client_leave(st_py_client *self);
+/* For the attributes read without the lock (server, shm_status; GIL held): raises as
+ * st_py_client_enter does for a closed Client or a child after fork, without waiting. */
+int st_py_client_usable(st_py_client *self);
 /* Raises the exception for rc (an stc_err code) with the connection's message; call with the
  * lock held (the message belongs to the connection). Returns NULL. */
 PyObject *st_py_client_fail(st_py_client *self, int rc);

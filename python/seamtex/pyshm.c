@@ -73,11 +73,11 @@ int st_py_shm_open(st_py_client *self, PyObject *shm_o, Py_ssize_t bytes)
 PyObject *st_py_shm_status(st_py_client *self, void *closure)
 {
     (void)closure;
-    uint64_t via_shm = 0, via_sock = 0;
-    if (st_py_client_enter(self) < 0)
+    /* no lock (it used to wait behind another thread's call): the counts as of the end of
+     * the last call (st_py_client_leave keeps them), the region fixed at connect */
+    if (st_py_client_usable(self) < 0)
         return NULL;
-    stc_shm_counts(self->conn, &via_shm, &via_sock);
-    st_py_client_leave(self);
+    uint64_t via_shm = self->via_shm, via_sock = self->via_sock;
     PyObject *why = self->shm_bytes ? Py_None : PyUnicode_FromString(self->shm_why);
     if (!why)
         return NULL;

@@ -6,9 +6,15 @@ Results through the region equal the socket path's byte for byte (f32, unorm8, f
 coverage and status, footprints, several calls on one region); a call too big for the region
 goes over the socket and still matches; a daemon that refuses (over --shm-max: TooLarge;
 --shm-max 0: Unsupported) or a TCP address raises with shm=True and falls back with
-shm="auto" (the default), the reason in shm_status; bad arguments raise ValueError.
+shm="auto" (the default), the reason in shm_status; bad arguments raise ValueError;
+server and shm_status answer while another thread's call waits on a stopped daemon.
 Run: /usr/bin/python3 -m pytest -q python/tests/test_shm.py
 """
+
+import os
+import signal
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -129,3 +135,71 @@ def test_bad_arguments(unix_daemon):
     c.close()
     with pytest.raises(seamtex.ClosedError):
         c.shm_status
+
+
+def stopped(pid):
+    """1 when every thread of pid is stopped (SIGSTOP is taken by one thread at a time)."""
+    tasks = "/proc/%d/task" % pid
+    for t in os.listdir(tasks):
+        with open("%s/%s/stat" % (tasks, t)) as f:
+            if f.read().rsplit(")", 1)[1].split()[0] not in ("T", "t"):
+                return False
+    return True
+
+
+def test_server_and_shm_status_answer_during_another_threads_call():
+    """lib35 (py35's list): Client.server and shm_status took the Client's lock, so they waited
+    behind another thread's call (for ever with timeout=None and a stopped daemon). HELLO's
+    facts are kept at connect and the shared-memory counts at each call's end: both answer
+    at once. The other thread's ping cannot end before SIGCONT (no timeout), which the test
+    checks, so the reads ran while it was in its call."""
+    d = started()
+    try:
+        with d.client(shm=True, timeout=None) as c:
+            face, u, v, _ = queries(100)
+            c.sample("default", face, u, v)
+            hello = c.server
+            before = c.shm_status
+            assert before["via_shm"] == 1 and before["attached"] is True
+            os.kill(d.proc.pid, signal.SIGSTOP)
+            deadline = time.monotonic() + 30
+            while not stopped(d.proc.pid):
+                assert time.monotonic() < deadline
+                time.sleep(0.01)
+            calling = threading.Event()
+            ended = {}
+
+            def long_call():
+                calling.set()
+                c.ping()
+                ended["t"] = time.monotonic()
+
+            a = threading.Thread(target=long_call)
+            a.start()
+            calling.wait()
+            time.sleep(0.3)          # the ping has the lock by now (it waits on the socket)
+            got = {}
+
+            def reads():
+                got["server"] = c.server
+                got["shm"] = c.shm_status
+
+            b = threading.Thread(target=reads)
+            b.start()
+            b.join(10)
+            answered = not b.is_alive()
+            cont = time.monotonic()
+            os.kill(d.proc.pid, signal.SIGCONT)
+            a.join(60)
+            b.join(60)
+            assert not a.is_alive() and ended["t"] >= cont   # the ping was waiting all along
+            assert answered, "server / shm_status waited for the other thread's call"
+            assert got["server"] == hello
+            assert got["shm"] == before
+        with pytest.raises(seamtex.ClosedError):
+            c.server
+        with pytest.raises(seamtex.ClosedError):
+            c.shm_status
+    finally:
+        os.kill(d.proc.pid, signal.SIGCONT)
+        assert d.stop() == 0

@@ -64,6 +64,8 @@ typedef struct mock {
     size_t fetch_len;
     stp_buf held;                  /* M_REVERSE: replies held back */
     int nheld;
+    int mute;                      /* set by a test: requests are read and not answered */
+    int muted_cleanups;            /* UPLOAD_ABORTs and FETCH_CLOSEs read while muted */
 } mock;
 
 /* The mock sends whole frames; a failed send shows as the client's error. */
@@ -270,8 +272,11 @@ static void mock_serve(mock *m, int fd)
             int r = stp_parse_header(stp_buf_head(&in), stp_buf_avail(&in), 1u << 20, &h, &reason);
             if (r != STP_OK || stp_buf_avail(&in) < STP_HEADER_SIZE + (size_t)h.body_len)
                 break;
-            int rc = m->mode == M_SILENT ? 0
-                     : mock_handle(m, fd, &h, stp_buf_head(&in) + STP_HEADER_SIZE);
+            int mute = __atomic_load_n(&m->mute, __ATOMIC_ACQUIRE);
+            if (mute && (h.opcode == STP_OP_UPLOAD_ABORT || h.opcode == STP_OP_FETCH_CLOSE))
+                __atomic_add_fetch(&m->muted_cleanups, 1, __ATOMIC_RELEASE);
+            int rc = m->mode == M_SILENT || mute
+                     ? 0 : mock_handle(m, fd, &h, stp_buf_head(&in) + STP_HEADER_SIZE);
             stp_buf_consume(&in, STP_HEADER_SIZE + h.body_len);
             if (rc < 0)
                 goto out;
@@ -861,6 +866,147 @@ static void cluster_open_takes_a_null_err_and_conn_checks_its_index(void **state
     mock_stop(m);
 }
 
+/* py35: an upload or fetch that timed out waited a second full timeout for its UPLOAD_ABORT /
+ * FETCH_CLOSE: with a server that stops answering mid-transfer a call with timeout T took 2 T.
+ * The clean-up wait after a timeout is 1 s at most (libseamtex(3)): T + 1 s, and the clean-up
+ * request is sent all the same. */
+typedef struct mute_at_first { mock *m; } mute_at_first;
+static int mute_on_progress(void *user, uint64_t done, uint64_t total)
+{
+    (void)done;
+    (void)total;
+    __atomic_store_n(&((mute_at_first *)user)->m->mute, 1, __ATOMIC_RELEASE);
+    return 0;
+}
+
+static int muted_cleanup_seen(void *arg)
+{
+    return __atomic_load_n(&((mock *)arg)->muted_cleanups, __ATOMIC_ACQUIRE) > 0;
+}
+
+static void a_timed_out_transfer_waits_briefly_for_its_cleanup(void **state)
+{
+    (void)state;
+    enum { T = 3000, ALLOWANCE = 1000, SLACK = 1500 };   /* 2 T = 6000 > T + ALLOWANCE + SLACK */
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, T);
+    size_t n = 40000;                                    /* 40 chunks of the mock's 1000 */
+    uint8_t *data = malloc(n);
+    for (size_t i = 0; i < n; i++)
+        data[i] = (uint8_t)(i * 7);
+    mute_at_first u = { m };
+    stc_upload_opts o;
+    memset(&o, 0, sizeof o);
+    o.progress = mute_on_progress;
+    o.user = &u;
+    int64_t t0 = st_now_ms();
+    assert_int_equal(stc_upload_buffer(c, data, n, "up", &o, NULL), STC_ETIMEDOUT);
+    int64_t took = st_now_ms() - t0;
+    if (took < T || took > T + ALLOWANCE + SLACK)
+        fail_msg("upload with timeout %d ms that timed out took %lld ms", T, (long long)took);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the abort was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    assert_int_equal(stc_ping(c), 0);                   /* not sticky: late replies dropped */
+
+    __atomic_store_n(&m->muted_cleanups, 0, __ATOMIC_RELEASE);
+    m->fetch_len = n;
+    m->fetch = data;                                     /* freed by mock_stop */
+    char dir[] = "/tmp/stc-fetchto-XXXXXX", path[300];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/out.ptx", dir);
+    t0 = st_now_ms();
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, mute_on_progress, &u),
+                     STC_ETIMEDOUT);
+    took = st_now_ms() - t0;
+    if (took < T || took > T + ALLOWANCE + SLACK)
+        fail_msg("fetch with timeout %d ms that timed out took %lld ms", T, (long long)took);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the close was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(access(path, F_OK), -1);            /* nothing left behind */
+    rmdir(dir);
+    stc_close(c);
+    mock_stop(m);
+}
+
+/* py35: the cluster functions other than close and conn crashed on a NULL handle: each now
+ * gives STC_EINVAL, or an empty answer where it returns no code (libseamtex(3)). */
+static int never_called(stc_conn *c, void *arg)
+{
+    (void)c;
+    (void)arg;
+    fail_msg("fn called for a NULL handle");
+    return 0;
+}
+
+static void cluster_functions_take_a_null_handle(void **state)
+{
+    (void)state;
+    stc_cluster *cl = NULL;
+    assert_int_equal(stc_cluster_refresh(cl), STC_EINVAL);
+    const stc_cluster_node *nodes = (const stc_cluster_node *)&nodes;
+    assert_int_equal(stc_cluster_nodes(cl, &nodes), 0);
+    assert_null(nodes);
+    assert_int_equal(stc_cluster_replicas(cl), 0);
+    size_t idx[4];
+    assert_int_equal(stc_cluster_rank(cl, "set", idx, 4), 0);
+    int err = 0;
+    assert_null(stc_cluster_conn(cl, 0, &err));
+    assert_int_equal(err, STC_EINVAL);
+    stc_conn *used = (stc_conn *)&used;
+    assert_int_equal(stc_cluster_call(cl, "set", never_called, NULL, &used), STC_EINVAL);
+    assert_null(used);
+    stc_sample_opts so;
+    memset(&so, 0, sizeof so);
+    stc_query q;
+    memset(&q, 0, sizeof q);
+    stc_sample_result res;
+    stc_info inf;
+    assert_int_equal(stc_cluster_sample(cl, "set", &so, &q, 1, &res), STC_EINVAL);
+    assert_int_equal(stc_cluster_info(cl, "set", 0, 0, &inf), STC_EINVAL);
+    assert_int_equal(stc_cluster_upload_file(cl, "/nonexistent", "set", NULL, NULL), STC_EINVAL);
+    assert_int_equal(stc_cluster_delete(cl, "set"), STC_EINVAL);
+    stc_cluster_counters cnt;
+    memset(&cnt, 0xff, sizeof cnt);
+    stc_cluster_get_counters(cl, &cnt);
+    assert_true(cnt.calls == 0 && cnt.failovers == 0 && cnt.moved == 0 && cnt.refreshes == 0);
+    uint32_t reqid;
+    stc_dir_query dq;
+    memset(&dq, 0, sizeof dq);
+    assert_int_equal(stc_cluster_append_sample(cl, "set", &so, &q, 1, &reqid), STC_EINVAL);
+    assert_int_equal(stc_cluster_append_sample_dir(cl, "set", &so, &dq, 1, &reqid), STC_EINVAL);
+    assert_int_equal(stc_cluster_append_info(cl, "set", &reqid), STC_EINVAL);
+    assert_int_equal(stc_cluster_flush(cl), STC_EINVAL);
+    stc_cluster_reply r;
+    assert_int_equal(stc_cluster_get_reply(cl, 0, &r), STC_EINVAL);
+    assert_int_equal(stc_cluster_reply_sample(NULL, &res), STC_EINVAL);
+    assert_int_equal(stc_cluster_reply_info(NULL, &inf), STC_EINVAL);
+    assert_int_equal(stc_cluster_pending(cl), 0);
+    assert_int_equal(stc_cluster_discard_pending(cl), 0);
+    assert_string_equal(stc_cluster_errmsg(cl), "");
+    stc_cluster_close(cl);
+}
+
+/* py35: stc_strerror said "E?" for an unknown local code and "?" for an unknown server one
+ * (and "OK" for -STC_SERVER_BASE, which is no error): one answer, "?", for every unknown. */
+static void strerror_has_one_name_for_every_unknown_code(void **state)
+{
+    (void)state;
+    assert_string_equal(stc_strerror(STC_OK), "OK");
+    assert_string_equal(stc_strerror(STC_EINVAL), "EINVAL");
+    assert_string_equal(stc_strerror(STC_ECANCELED), "ECANCELED");
+    assert_string_equal(stc_strerror(STC_EBADREQUEST), "BAD_REQUEST");
+    assert_string_equal(stc_strerror(STC_EUNAVAILABLE), "UNAVAILABLE");
+    const int unknown[] = { STC_ECANCELED - 1, -50, -(STC_SERVER_BASE - 1), -STC_SERVER_BASE,
+                            STC_EUNAVAILABLE - 1, -(STC_SERVER_BASE + 1000), 1, 12345,
+                            INT32_MIN, INT32_MAX };
+    for (size_t i = 0; i < sizeof unknown / sizeof unknown[0]; i++) {
+        const char *n = stc_strerror(unknown[i]);
+        if (strcmp(n, "?") != 0)
+            fail_msg("stc_strerror(%d) = \"%s\", not \"?\"", unknown[i], n);
+    }
+}
+
 static void fetch_writes_the_file_and_checks_crc(void **state)
 {
     (void)state;
@@ -1395,6 +1541,9 @@ int main(void)
         cmocka_unit_test(upload_refuses_a_long_hint_and_unknown_flags),
         cmocka_unit_test(a_child_after_fork_cannot_use_the_parents_connection),
         cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
+        cmocka_unit_test(strerror_has_one_name_for_every_unknown_code),
+        cmocka_unit_test(cluster_functions_take_a_null_handle),
+        cmocka_unit_test(a_timed_out_transfer_waits_briefly_for_its_cleanup),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
