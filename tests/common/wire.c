@@ -3,6 +3,7 @@
 
 #include <netinet/in.h>
 #include <poll.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -130,4 +131,21 @@ size_t st_wire_sample_body(uint8_t *out, const char *name, uint32_t claimed_coun
         o += 28;
     }
     return o;
+}
+
+int st_wire_upload_begin(stp_buf *b, uint32_t reqid, const char *name, const char *hint,
+                         const char *options, uint64_t total_size, uint32_t crc32c,
+                         uint32_t flags)
+{
+    stp_upload_begin ub;
+    memset(&ub, 0, sizeof ub);
+    if (snprintf(ub.name, sizeof ub.name, "%s", name) >= (int)sizeof ub.name ||
+        snprintf(ub.hint, sizeof ub.hint, "%s", hint ? hint : "") >= (int)sizeof ub.hint ||
+        snprintf(ub.options, sizeof ub.options, "%s", options ? options : "") >=
+            (int)sizeof ub.options)
+        return -1;
+    ub.total_size = total_size;
+    ub.crc32c = crc32c;
+    ub.flags = flags;
+    return stp_enc_upload_begin(b, reqid, 0, &ub);
 }

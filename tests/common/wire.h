@@ -3,8 +3,8 @@
  * for benchmarks that talk to a socket directly.
  *
  * Owns: writing a request frame byte by byte (any magic, version, flags, claimed length),
- * sending a buffer whole, reading one reply frame with a deadline, telling a closed peer, and
- * a SAMPLE body (traverse, bilinear, f32 with statuses). Does not own: the protocol's encoders
+ * sending a buffer whole, reading one reply frame with a deadline, telling a closed peer, a
+ * SAMPLE body (traverse, bilinear, f32 with statuses) and an UPLOAD_BEGIN frame. Does not own: the protocol's encoders
  * (protocol/proto.h) or connections (daemon_fixture.h connects, daemon_client.h speaks
  * through libseamtex).
  */
@@ -13,6 +13,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+
+#include "proto.h"
 
 #define ST_WIRE_HEADER 24
 
@@ -49,5 +51,12 @@ int st_wire_peer_closed(int fd, int timeout_ms);
  * dvdy) from q7. out must hold 34 + strlen(name) + 28 * nq bytes. Returns the body size. */
 size_t st_wire_sample_body(uint8_t *out, const char *name, uint32_t claimed_count,
                            const float *q7, uint32_t nq);
+
+/* Appends an UPLOAD_BEGIN frame to b (protocol/proto.h's encoder): set `name`, format `hint`
+ * and import `options` (NULL: none), total_size, crc32c and flags (STP_UF_*). 0, or the
+ * encoder's error (a name, hint or options too long). */
+int st_wire_upload_begin(stp_buf *b, uint32_t reqid, const char *name, const char *hint,
+                         const char *options, uint64_t total_size, uint32_t crc32c,
+                         uint32_t flags);
 
 #endif

@@ -247,13 +247,7 @@ static unsigned begin_raw(int fd, const char *name, uint64_t size, uint32_t crc,
 {
     stp_buf b;
     stp_buf_init(&b);
-    stp_upload_begin ub;
-    memset(&ub, 0, sizeof ub);
-    snprintf(ub.name, sizeof ub.name, "%s", name);
-    snprintf(ub.hint, sizeof ub.hint, "ptx");
-    ub.total_size = size;
-    ub.crc32c = crc;
-    assert_int_equal(stp_enc_upload_begin(&b, REQID++, 0, &ub), 0);
+    assert_int_equal(st_wire_upload_begin(&b, REQID++, name, "ptx", NULL, size, crc, 0), 0);
     st_wire_reply r;
     unsigned st = roundtrip(fd, &b, &r);
     if (st == 0)

@@ -518,15 +518,9 @@ static void upload_with(int fd, uint32_t *reqid, const char *name, const char *o
 {
     stp_buf b;
     stp_buf_init(&b);
-    stp_upload_begin ub;
-    memset(&ub, 0, sizeof ub);
-    snprintf(ub.name, sizeof ub.name, "%s", name);
-    snprintf(ub.hint, sizeof ub.hint, "ptx");
-    snprintf(ub.options, sizeof ub.options, "%s", options);
-    ub.total_size = n;
-    ub.crc32c = stp_crc32c(0, file, n);
-    ub.flags = STP_UF_REPLACE;
-    assert_int_equal(stp_enc_upload_begin(&b, *reqid, 0, &ub), 0);
+    assert_int_equal(st_wire_upload_begin(&b, *reqid, name, "ptx", options, n,
+                                          stp_crc32c(0, file, n), STP_UF_REPLACE),
+                     0);
     reply r;
     roundtrip(fd, &b, (*reqid)++, STP_S_OK, &r);
     stp_upload_begin_reply br;

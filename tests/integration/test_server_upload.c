@@ -64,13 +64,8 @@ static int raw_partial_upload(const st_daemon *d, const char *name, const uint8_
     assert_true(fd >= 0);
     stp_buf b;
     stp_buf_init(&b);
-    stp_upload_begin ub;
-    memset(&ub, 0, sizeof ub);
-    snprintf(ub.name, sizeof ub.name, "%s", name);
-    snprintf(ub.hint, sizeof ub.hint, "ptx");
-    ub.total_size = len;
-    ub.crc32c = stp_crc32c(0, data, len);
-    assert_int_equal(stp_enc_upload_begin(&b, 1, 0, &ub), 0);
+    assert_int_equal(st_wire_upload_begin(&b, 1, name, "ptx", NULL, len, stp_crc32c(0, data, len), 0),
+                     0);
     assert_int_equal(st_wire_send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
     st_wire_reply r;
     assert_int_equal(st_wire_read_reply(fd, &r, 5000), 0);
@@ -220,13 +215,7 @@ static void upload_with_wrong_crc_is_corrupt(void **state)
     uint8_t body[512], frame[1024];
     stp_buf b;
     stp_buf_init(&b);
-    stp_upload_begin ub;
-    memset(&ub, 0, sizeof ub);
-    snprintf(ub.name, sizeof ub.name, "crcbad");
-    snprintf(ub.hint, sizeof ub.hint, "ptx");
-    ub.total_size = 4;
-    ub.crc32c = 0x12345678;
-    assert_int_equal(stp_enc_upload_begin(&b, 1, 0, &ub), 0);
+    assert_int_equal(st_wire_upload_begin(&b, 1, "crcbad", "ptx", NULL, 4, 0x12345678, 0), 0);
     assert_int_equal(st_wire_send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
     st_wire_reply r;
     assert_int_equal(st_wire_read_reply(fd, &r, 5000), 0);

@@ -32,14 +32,7 @@ static unsigned begin_raw(int fd, const char *name, const char *hint, const char
     static uint32_t reqid = 1;
     stp_buf b;
     stp_buf_init(&b);
-    stp_upload_begin ub;
-    memset(&ub, 0, sizeof ub);
-    snprintf(ub.name, sizeof ub.name, "%s", name);
-    snprintf(ub.hint, sizeof ub.hint, "%s", hint);
-    snprintf(ub.options, sizeof ub.options, "%s", options);
-    ub.total_size = 1000;
-    ub.crc32c = 0;
-    assert_int_equal(stp_enc_upload_begin(&b, reqid++, 0, &ub), 0);
+    assert_int_equal(st_wire_upload_begin(&b, reqid++, name, hint, options, 1000, 0, 0), 0);
     assert_int_equal(st_wire_send_all(fd, stp_buf_head(&b), stp_buf_avail(&b)), 0);
     stp_buf_free(&b);
     st_wire_reply r;
