@@ -289,6 +289,44 @@ static void assert_no_room(unsigned st, const char *msg, uint64_t seen_free)
     assert_true(named <= seen_free && named + (512u << 10) >= seen_free);
 }
 
+/* The two BEGIN checks both daemons get (fd: a connection; temp_files(dir) counts the
+ * uploads' temp files in dir): one BEGIN of more than is free is refused, and of two BEGINs
+ * that each fit but not together the second is refused until the first is aborted. */
+static void begins_that_do_not_fit(int fd, const char *what, int (*temp_files)(const char *),
+                                   const char *dir)
+{
+    char msg[600];
+    uint64_t a = 0, b = 0;
+    uint64_t f = free_bytes();
+    unsigned st = begin_raw(fd, "nofit", f + (1u << 20), 0, &a, msg, sizeof msg);
+    printf("# %s, %llu bytes free: BEGIN of %llu bytes: %u \"%s\"\n", what,
+           (unsigned long long)f, (unsigned long long)(f + (1u << 20)), st, msg);
+    if (st == 0)
+        id_req(fd, STP_OP_UPLOAD_ABORT, a);
+    assert_no_room(st, msg, f);
+    assert_int_equal(temp_files(dir), 0);
+    f = free_bytes();
+    uint64_t part = f * 6 / 10;
+    assert_int_equal(begin_raw(fd, "part-a", part, 0, &a, msg, sizeof msg), 0);
+    assert_int_equal(temp_files(dir), 1);
+    st = begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg);
+    if (st == 0)
+        id_req(fd, STP_OP_UPLOAD_ABORT, b);
+    assert_no_room(st, msg, f);
+    assert_int_equal(temp_files(dir), 1);                  /* part-a's temp file only */
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, a), 0);
+    assert_int_equal(begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg), 0);
+    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, b), 0);
+    assert_int_equal(temp_files(dir), 0);
+}
+
+/* tmp_entries for begins_that_do_not_fit (the data dir's tmp/; dir unused). */
+static int tmp_entries_in(const char *dir)
+{
+    (void)dir;
+    return tmp_entries();
+}
+
 static void begin_refuses_what_the_disk_cannot_hold(void **state)
 {
     (void)state;
@@ -298,31 +336,12 @@ static void begin_refuses_what_the_disk_cannot_hold(void **state)
     }
     int fd = st_daemon_connect(&D);
     assert_true(fd >= 0);
+    begins_that_do_not_fit(fd, HOW, tmp_entries_in, NULL);
     char msg[600];
     uint64_t a = 0, b = 0;
-    /* more than is free: refused at BEGIN, nothing left in tmp/ */
-    uint64_t f = free_bytes();
-    unsigned st = begin_raw(fd, "nofit", f + (1u << 20), 0, &a, msg, sizeof msg);
-    printf("# %s, %llu bytes free: BEGIN of %llu bytes: %u \"%s\"\n", HOW,
-           (unsigned long long)f, (unsigned long long)(f + (1u << 20)), st, msg);
-    if (st == 0)
-        id_req(fd, STP_OP_UPLOAD_ABORT, a);
-    assert_no_room(st, msg, f);
-    assert_int_equal(tmp_entries(), 0);
-    /* two that each fit but not together: the second is refused; after an abort it fits */
-    f = free_bytes();
-    uint64_t part = f * 6 / 10;
-    assert_int_equal(begin_raw(fd, "part-a", part, 0, &a, msg, sizeof msg), 0);
-    st = begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg);
-    if (st == 0)
-        id_req(fd, STP_OP_UPLOAD_ABORT, b);
-    assert_no_room(st, msg, f);
-    assert_int_equal(tmp_entries(), 1);                    /* part-a's temp file only */
-    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, a), 0);
-    assert_int_equal(begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg), 0);
-    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, b), 0);
+    unsigned st;
     /* the same with a commit: while big-0 is begun, what fits beside it only is refused */
-    f = free_bytes();
+    uint64_t f = free_bytes();
     uint32_t crc = stp_crc32c(0, BIG[0], BIGLEN[0]);
     assert_int_equal(begin_raw(fd, "big-0", BIGLEN[0], crc, &a, msg, sizeof msg), 0);
     uint64_t beside = f - BIGLEN[0] / 2;
@@ -399,24 +418,9 @@ static void begin_checks_the_temp_folder_without_a_data_dir(void **state)
     assert_int_equal(started, 0);
     int fd = st_daemon_connect(&e);
     assert_true(fd >= 0);
-    char msg[600];
-    uint64_t a = 0, b = 0;
-    uint64_t f = free_bytes();
-    unsigned st = begin_raw(fd, "nofit", f + (1u << 20), 0, &a, msg, sizeof msg);
-    printf("# no data dir, TMPDIR on the %s, %llu bytes free: BEGIN of %llu bytes: %u \"%s\"\n",
-           HOW, (unsigned long long)f, (unsigned long long)(f + (1u << 20)), st, msg);
-    assert_no_room(st, msg, f);
-    f = free_bytes();
-    uint64_t part = f * 6 / 10;
-    assert_int_equal(begin_raw(fd, "part-a", part, 0, &a, msg, sizeof msg), 0);
-    assert_int_equal(files_under(base), 1);
-    st = begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg);
-    assert_no_room(st, msg, f);
-    assert_int_equal(files_under(base), 1);
-    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, a), 0);
-    assert_int_equal(begin_raw(fd, "part-b", part, 0, &b, msg, sizeof msg), 0);
-    assert_int_equal(id_req(fd, STP_OP_UPLOAD_ABORT, b), 0);
-    assert_int_equal(files_under(base), 0);
+    char what[200];
+    snprintf(what, sizeof what, "no data dir, TMPDIR on the %s", HOW);
+    begins_that_do_not_fit(fd, what, files_under, base);
     close(fd);
     assert_int_equal(st_daemon_stop(&e, 20000), 0);
     st_daemon_cleanup(&e);
