@@ -663,6 +663,9 @@ static int hello(stc_conn *c, const stc_opts *o, int64_t deadline)
     if ((rc = stc__pend_add(c, id, STP_OP_HELLO, 0)) != 0 || (rc = stc__flush(c, deadline)) != 0)
         return rc;
     rc = stc__wait(c, id, 0, deadline, &f);
+    if (rc == STC_ETIMEDOUT)        /* stc_connect_opts closes it: no late reply to drop */
+        return stc__fail(c, rc, "no reply within the connect timeout (the connection is "
+                         "closed)");
     if (rc)
         return rc;
     if (f.h.status == STP_S_UNKNOWN_OPCODE)

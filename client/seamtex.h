@@ -118,7 +118,9 @@ typedef struct stc_opts {
 
 /* Connects (TCP; host is a name or address, IPv4 or IPv6; or a Unix socket: host
  * "unix:/path", port ignored), then sends HELLO unless opts->no_hello. opts may be NULL (defaults). On failure returns NULL, stores the code in
- * *err and a message in errmsg (errmsg_len bytes, may be NULL / 0). */
+ * *err and a message in errmsg (errmsg_len bytes, may be NULL / 0). A connect timeout (the
+ * connect or the wait for HELLO's reply) is STC_ETIMEDOUT; the connection is closed, so no late
+ * reply is waited for. */
 stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *opts, int *err,
                            char *errmsg, size_t errmsg_len);
 /* Shorthand: defaults except the connect timeout. */
