@@ -198,12 +198,15 @@ static int take_room(stc_conn *c, uint8_t opcode, uint8_t flags, uint8_t outfmt,
 
 size_t stc_shm_request_bytes(int dir, size_t n, unsigned outfmt)
 {
-    if (n == 0 || n > UINT32_MAX)
+    if (n == 0 || n > UINT32_MAX || outfmt > UINT8_MAX)
         return 0;
     uint8_t op = dir ? STP_OP_SAMPLE_DIR : STP_OP_SAMPLE;
     uint64_t q = align_up(stp_sample_query_bytes(op, 0, (uint32_t)n));
-    uint64_t rep = align_up(stp_sample_reply_bytes((uint32_t)n, 4, (uint8_t)outfmt,
-                                                   STP_SF_COVERAGE | STP_SF_STATUS));
+    uint64_t rep = stp_sample_reply_bytes((uint32_t)n, 4, (uint8_t)outfmt,
+                                          STP_SF_COVERAGE | STP_SF_STATUS);
+    if (!rep)                       /* an unknown outfmt */
+        return 0;
+    rep = align_up(rep);
     return q + rep > SIZE_MAX ? 0 : (size_t)(q + rep);
 }
 

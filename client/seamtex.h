@@ -175,7 +175,8 @@ int stc_shm_attach(stc_conn *c, size_t bytes);
 /* The bytes one request of n queries (dir 0: SAMPLE, 1: SAMPLE_DIR; any layout) with replies
  * in outfmt (enum stc_outfmt) takes in the region: its queries and its reply room, each rounded
  * up to the region's span alignment. A region of k times this holds k such requests at once
- * (one more than the requests in flight, for the reply last read in place). 0 when n is 0. */
+ * (one more than the requests in flight, for the reply last read in place). 0 when n is 0 or
+ * over 2^32 - 1, or outfmt is not an STC_OUT_* value. */
 size_t stc_shm_request_bytes(int dir, size_t n, unsigned outfmt);
 /* Requests sent through the region and over the socket since the connection opened. */
 void stc_shm_counts(const stc_conn *c, uint64_t *via_shm, uint64_t *via_socket);

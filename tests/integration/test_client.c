@@ -1012,6 +1012,26 @@ static void strerror_has_one_name_for_every_unknown_code(void **state)
     }
 }
 
+/* py35: stc_shm_request_bytes gave a size (the queries alone) for an unknown outfmt, and an
+ * outfmt past 255 was cut to a known one: 0 for every unknown one now, as for n 0. */
+static void shm_request_bytes_refuses_an_unknown_outfmt(void **state)
+{
+    (void)state;
+    const unsigned known[] = { STC_OUT_F32, STC_OUT_UNORM8, STC_OUT_UNORM16, STC_OUT_F16 };
+    for (int dir = 0; dir <= 1; dir++) {
+        for (size_t i = 0; i < sizeof known / sizeof known[0]; i++) {
+            assert_true(stc_shm_request_bytes(dir, 1000, known[i]) > 1000 * 12);
+            assert_int_equal(stc_shm_request_bytes(dir, 0, known[i]), 0);
+        }
+        const unsigned unknown[] = { STC_OUT_F16 + 1, 255, 256, 256 + STC_OUT_F32, ~0u };
+        for (size_t i = 0; i < sizeof unknown / sizeof unknown[0]; i++) {
+            size_t b = stc_shm_request_bytes(dir, 1000, unknown[i]);
+            if (b != 0)
+                fail_msg("stc_shm_request_bytes(%d, 1000, %u) = %zu, not 0", dir, unknown[i], b);
+        }
+    }
+}
+
 static void fetch_writes_the_file_and_checks_crc(void **state)
 {
     (void)state;
@@ -1547,6 +1567,7 @@ int main(void)
         cmocka_unit_test(a_child_after_fork_cannot_use_the_parents_connection),
         cmocka_unit_test(cluster_open_takes_a_null_err_and_conn_checks_its_index),
         cmocka_unit_test(strerror_has_one_name_for_every_unknown_code),
+        cmocka_unit_test(shm_request_bytes_refuses_an_unknown_outfmt),
         cmocka_unit_test(cluster_functions_take_a_null_handle),
         cmocka_unit_test(a_timed_out_transfer_waits_briefly_for_its_cleanup),
     };
