@@ -289,6 +289,17 @@ static void assert_no_room(unsigned st, const char *msg, uint64_t seen_free)
     assert_true(named <= seen_free && named + (512u << 10) >= seen_free);
 }
 
+/* Stops the daemon D and starts it again on the same data dir, C a new connection to it. */
+static void restart_daemon(void)
+{
+    stc_close(C);
+    C = NULL;
+    assert_int_equal(st_daemon_stop(&D, 20000), 0);
+    assert_int_equal(st_daemon_start(&D, NULL), 0);
+    C = st_daemon_client(&D, NULL);
+    assert_non_null(C);
+}
+
 /* The two BEGIN checks both daemons get (fd: a connection; temp_files(dir) counts the
  * uploads' temp files in dir): one BEGIN of more than is free is refused, and of two BEGINs
  * that each fit but not together the second is refused until the first is aborted. */
@@ -483,12 +494,7 @@ static void test_full_disk(void **state)
            free_kib());
     check_reads();
     /* a restart shows exactly the acknowledged sets, whole */
-    stc_close(C);
-    C = NULL;
-    assert_int_equal(st_daemon_stop(&D, 20000), 0);
-    assert_int_equal(st_daemon_start(&D, NULL), 0);
-    C = st_daemon_client(&D, NULL);
-    assert_non_null(C);
+    restart_daemon();
     check_reads();
 }
 
@@ -620,12 +626,7 @@ static void test_native_file_on_full_disk_says_why(void **state)
     assert_true(why >= 1);   /* this set, and any committed without one while the disk was full */
     /* space again: the next start builds it */
     assert_int_equal(unlink(filler), 0);
-    stc_close(C);
-    C = NULL;
-    assert_int_equal(st_daemon_stop(&D, 20000), 0);
-    assert_int_equal(st_daemon_start(&D, NULL), 0);
-    C = st_daemon_client(&D, NULL);
-    assert_non_null(C);
+    restart_daemon();
     check_reads();
     assert_int_equal(access(nat, F_OK), 0);
 }
