@@ -1725,11 +1725,11 @@ __attribute__((always_inline)) static inline float iso_axis(float u, float uw, i
 __attribute__((noinline)) static int kernel_iso(pf *c, const st_query *q, int ulog2, int vlog2,
                                                 float bu, float bv, float *out, float *cov)
 {
-    float ku[12], kv[12]; /* pk_strip_axis12 reads 4 (12 for more taps: none here) */
-    /* a width of a face or more writes 2 taps; the lanes past them are loaded, then masked
-     * off: zeroed so that no indeterminate value is read (and gcc -O1 sees it) */
-    memset(ku, 0, 4 * sizeof *ku);
-    memset(kv, 0, 4 * sizeof *kv);
+    /* pk_strip_axis12 reads 4 (12 for more taps: none here); a width of a face or more
+     * writes 2 taps, and the lanes past them are loaded, then masked off: zeroed, so that
+     * no indeterminate value is read (gcc -O1 cannot tell that n <= 4 keeps the loads of
+     * lanes 4..11 from running) */
+    float ku[12] = {0}, kv[12] = {0};
     int lu, lv, u, v, nu, nv, au, av;
     float su = iso_axis(q->u, bu, ulog2, &lu, &u, &nu, &au, ku);
     float sv = iso_axis(q->v, bv, vlog2, &lv, &v, &nv, &av, kv);
