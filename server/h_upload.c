@@ -29,6 +29,7 @@
 #include "h_upload.h"
 #include "import.h"
 #include "io.h"
+#include "native.h"
 #include "ptex.h"
 #include "server.h"
 #include "stp_name.h"
@@ -492,6 +493,29 @@ int sts_h_upload_commit(sts_ctx *c, const stp_header *h, const uint8_t *body, st
     /* in a cluster: claim the name in the catalogue first (docs/cluster.md "Writes") */
     sts_cl_claim claim;
     int clustered = srv->cluster && !(u->flags & STP_UF_REPLICA);
+    /* the native file this commit writes, promised against the free disk beside the bodies
+     * and native files promised to the other uploads (res36), or refused before it is written */
+    if (srv->dd && srv->cfg.native && !clustered && !(srv->cluster && (u->flags & STP_UF_STAGE))) {
+        uint64_t nbytes = 0;
+        sts_upload_room room = {0, 0, 0};
+        rc = st_native_size(set, &nbytes, &e);
+        if (!rc && sts_uploads_promise_native(srv, u, u->path, nbytes, &room) != 0) {
+            st_set_free(set);
+            snprintf(msg, sizeof msg, "the set's native file of %llu bytes does not fit: %llu "
+                     "bytes free on the data disk, %llu promised to uploads in progress, %llu "
+                     "kept free: %s", (unsigned long long)nbytes, (unsigned long long)room.avail,
+                     (unsigned long long)room.promised, (unsigned long long)room.headroom,
+                     strerror(ENOSPC));
+            refuse(c, h, out, u->name, STP_S_IO, msg, NULL);
+            goto fail;
+        }
+        if (rc) {
+            st_set_free(set);
+            name_for_path(e.msg, tmp_path, u->name, msg, sizeof msg);
+            refuse(c, h, out, u->name, sts_status_from_st(rc), msg, e.msg);
+            goto fail;
+        }
+    }
     if (clustered) {
         uint64_t fbytes = 0;
         uint32_t fcrc = 0;

@@ -192,12 +192,15 @@ static uint64_t add_sat(uint64_t a, uint64_t b)
     return a > UINT64_MAX - b ? UINT64_MAX : a + b;
 }
 
-/* The disk check (uploads.h), under the table's lock; `skip` is a KEPT record about to be
- * dropped for this one (its promise goes with it). The promises are summed before the free
- * space is read: a chunk's bytes are written before its `received` grows, so a chunk landing
- * in between is counted twice (refuses early) but never missed. 1 when u fits. */
-static int room_locked(sts_server *srv, const sts_upload *u, const sts_upload *skip,
-                       sts_upload_room *room)
+/* The disk check (uploads.h), under the table's lock: `need` more bytes on the file system of
+ * fd (or of path when fd < 0); `skip` is a KEPT record about to be dropped for this one (its
+ * promise goes with it). The promises are the body bytes the unfinished uploads still expect
+ * (total - received) and the native files their COMMITs are writing (res36). They are summed
+ * before the free space is read: a chunk's bytes are written before its `received` grows and
+ * a native file's before its record leaves the table, so bytes landing in between are
+ * counted twice (refuses early) but never missed. 1 when need fits. */
+static int room_locked(sts_server *srv, uint64_t need, int fd, const char *path,
+                       const sts_upload *skip, sts_upload_room *room)
 {
     uint64_t promised = 0;
     for (sts_handle *h = srv->uploads.list; h; h = h->next) {
@@ -206,15 +209,27 @@ static int room_locked(sts_server *srv, const sts_upload *u, const sts_upload *s
             continue;
         uint64_t got = __atomic_load_n(&o->received, __ATOMIC_ACQUIRE);
         promised = add_sat(promised, got < o->total ? o->total - got : 0);
+        promised = add_sat(promised, o->native);
     }
     struct statvfs v;
-    if (u->fd < 0 || fstatvfs(u->fd, &v) != 0)
+    if (fd >= 0 ? fstatvfs(fd, &v) != 0 : !path || !path[0] || statvfs(path, &v) != 0)
         return 1;
     uint64_t size = (uint64_t)v.f_blocks * v.f_frsize;
     room->avail = (uint64_t)v.f_bavail * v.f_frsize;
     room->promised = promised;
     room->headroom = size / 64 < HEADROOM_MAX ? size / 64 : HEADROOM_MAX;
-    return add_sat(add_sat(u->total, promised), room->headroom) <= room->avail;
+    return add_sat(add_sat(need, promised), room->headroom) <= room->avail;
+}
+
+int sts_uploads_promise_native(sts_server *srv, sts_upload *u, const char *dir, uint64_t bytes,
+                               sts_upload_room *room)
+{
+    sts_handles_lock(&srv->uploads);
+    int fits = room_locked(srv, bytes, -1, dir, NULL, room);
+    if (fits)
+        u->native = bytes;
+    sts_handles_unlock(&srv->uploads);
+    return fits ? 0 : -1;
 }
 
 int sts_uploads_insert(sts_server *srv, sts_upload *u, sts_upload_room *room)
@@ -232,7 +247,7 @@ int sts_uploads_insert(sts_server *srv, sts_upload *u, sts_upload_room *room)
             return -1;
         }
     }
-    if (!room_locked(srv, u, oldest, room)) {
+    if (!room_locked(srv, u->total, u->fd, NULL, oldest, room)) {
         sts_handles_unlock(&srv->uploads);
         return -2;
     }

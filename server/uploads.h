@@ -43,6 +43,8 @@ struct sts_upload {
     uint32_t    crc_want, crc;
     uint32_t    flags;
     int         state;
+    uint64_t    native;      /* COMMITTING: bytes of free disk promised to the set's native
+                              * file (sts_uploads_promise_native; set and read under the lock) */
     int64_t     since_ms;    /* KEPT: when its connection closed; DONE: when committed */
     uint64_t    gen;         /* DONE: registry generation of the set it made */
     stp_upload_done done;    /* DONE: the COMMIT reply */
@@ -64,18 +66,29 @@ void sts_uploads_sweep(sts_server *srv, int64_t now_ms);
 /* The disk check of UPLOAD_BEGIN (upl35): what sts_uploads_insert saw. */
 typedef struct sts_upload_room {
     uint64_t avail;      /* free bytes of the temp files' file system (f_bavail * f_frsize) */
-    uint64_t promised;   /* bytes the uploads in the table still expect (total - received) */
+    uint64_t promised;   /* bytes the uploads in the table still expect (total - received),
+                          * and the native files of the ones committing */
     uint64_t headroom;   /* kept free: 1/64 of the file system's size, at most 64 MiB */
 } sts_upload_room;
 
 /* Adds a new HELD record and gives it an id. When the table is full the oldest KEPT upload
  * is dropped to make room; returns -1 (nothing added) when it is full of live uploads.
  * Before that, under the table's lock (so two BEGINs cannot both take the same free bytes):
- * u->total + the bytes promised to the HELD, KEPT and COMMITTING uploads + the headroom
+ * u->total + the bytes promised to the HELD, KEPT and COMMITTING uploads (and the native
+ * files of the COMMITTING ones, sts_uploads_promise_native) + the headroom
  * must fit in the free space of the file system of u->fd (its temp file), else -2, nothing
  * added, *room says why. A record's promise ends when it leaves the table or becomes DONE.
  * When fstatvfs fails the check is skipped (the old behaviour: a full disk shows at CHUNK). */
 int sts_uploads_insert(sts_server *srv, sts_upload *u, sts_upload_room *room);
+
+/* UPLOAD_COMMIT with a data dir and native files, once the set is imported (res36): the
+ * native file's `bytes` + the bytes promised to the other unfinished uploads (bodies still to
+ * come, native files being written) + the headroom must fit in the free space of the file
+ * system of dir (u's file, in the data dir's tmp/). Then u->native = bytes, a promise that
+ * ends with u's record as the others do, and 0; else -1, *room says why. When statvfs fails
+ * the check is skipped (0). */
+int sts_uploads_promise_native(sts_server *srv, sts_upload *u, const char *dir, uint64_t bytes,
+                               sts_upload_room *room);
 
 /* UPLOAD_BEGIN with RESUME: finds the record of the same name, size, CRC32C, hint and options
  * and gives it to conn_id: a KEPT upload becomes HELD again; a DONE one is lent so that COMMIT

@@ -128,6 +128,12 @@ typedef struct st_native_source {
  * must be 0; nothing is fsynced: the caller's commit protocol does that). src may be NULL. */
 int st_native_write_fd(int fd, const st_set *s, const st_native_source *src, st_error *e);
 
+/* The size in bytes of the native file st_native_write_fd would write for s (exact: the same
+ * layout; the small sections are serialised to measure them). Builds every level of a
+ * deferred Ptex import first, as the writer does. The daemon promises this many bytes of
+ * free disk before it writes the file (docs/daemon.md "Free space for uploads"). */
+int st_native_size(const st_set *s, uint64_t *bytes, st_error *e);
+
 /* Writes s to path crash-safely: "<path>.tmp", fsync, rename, fsync of the folder. */
 int st_native_write(const char *path, const st_set *s, const st_native_source *src,
                     st_error *e);

@@ -1,6 +1,6 @@
 /* store/native/native_write.c - writes a set as a native file (format table in native.h).
  *
- * Owns: st_native_write_fd, st_native_write. The small sections (metadata, extension) are
+ * Owns: st_native_write_fd, st_native_write, st_native_size. The small sections (metadata, extension) are
  * serialised into a buffer first; the face table, level offsets and texel arena are written
  * straight from the set. Every section's CRC-32C (the texels' too) is computed before the
  * header is written, so the file is written front to back in one pass.
@@ -220,52 +220,80 @@ static int write_zeros(int fd, uint64_t n)
     return 0;
 }
 
-int st_native_write_fd(int fd, const st_set *s, const st_native_source *src, st_error *e)
+/* A native file of s as it will be written: the small sections serialised (the caller frees
+ * meta->p and ext->p, also on failure), the five sections placed (CRCs not computed yet), the
+ * file's size. Builds every level first (a deferred Ptex import's, set.h). */
+static int layout(const st_set *s, nbuf *meta, nbuf *ext, uint8_t *ext_kind, uint64_t *nlevp,
+                  nsec sec[5], uint64_t *file_size, st_error *e)
 {
-    int lrc = st_set_levels(s, e); /* every level is written: a deferred Ptex import's (set.h) */
-    if (lrc)
-        return lrc;
+    int rc = st_set_levels(s, e); /* every level is written: a deferred Ptex import's (set.h) */
+    if (rc)
+        return rc;
     uint64_t nlev = 0;
     for (uint32_t f = 0; f < s->info.nfaces; f++)
         nlev += s->faces[f].nlevels;
-    nbuf meta = {0}, ext = {0};
-    put_meta(&meta, s);
-    int rc = ST_OK;
-    uint8_t ext_kind = ST_EXT_NONE;
+    put_meta(meta, s);
+    *ext_kind = ST_EXT_NONE;
     if (st_set_ext_get(s, ST_EXT_BC1)) {
-        ext_kind = ST_EXT_BC1;
-        nb_put(&ext, st_set_ext_get(s, ST_EXT_BC1), sizeof(st_bc1_ext));
+        *ext_kind = ST_EXT_BC1;
+        nb_put(ext, st_set_ext_get(s, ST_EXT_BC1), sizeof(st_bc1_ext));
     } else if (st_set_ext_get(s, ST_EXT_ATLAS)) {
-        ext_kind = ST_EXT_ATLAS;
-        put_atlas(&ext, st_set_ext_get(s, ST_EXT_ATLAS));
+        *ext_kind = ST_EXT_ATLAS;
+        put_atlas(ext, st_set_ext_get(s, ST_EXT_ATLAS));
     } else if (st_set_ext_get(s, ST_EXT_PTEXRES)) {
-        ext_kind = ST_EXT_PTEXRES;
-        rc = put_ptex(&ext, s, e);
+        *ext_kind = ST_EXT_PTEXRES;
+        rc = put_ptex(ext, s, e);
     }
-    if (!rc && (meta.oom || ext.oom))
+    if (!rc && (meta->oom || ext->oom))
         rc = st_fail(e, ST_ENOMEM, "out of memory serialising the native file");
+    if (rc)
+        return rc;
+    nsec plan[5] = {
+        {ST_NSEC_FACES, (const uint8_t *)s->faces, (uint64_t)s->info.nfaces * 64, 0, 0},
+        {ST_NSEC_LEVELS, (const uint8_t *)s->level_off, nlev * 8, 0, 0},
+        {ST_NSEC_META, meta->p, meta->n, 0, 0},
+        {ST_NSEC_EXT, ext->p, ext->n, 0, 0},
+        {ST_NSEC_TEXELS, s->texels, s->texel_bytes, 0, 0},
+    };
+    uint64_t off = ST_NATIVE_PAGE;
+    for (int i = 0; i < 5; i++) {
+        sec[i] = plan[i];
+        sec[i].off = off;
+        off = page_up(off + sec[i].size + (sec[i].id == ST_NSEC_TEXELS ? ST_NATIVE_SLACK : 0));
+        if (off == sec[i].off)
+            off += ST_NATIVE_PAGE; /* an empty section still owns its page */
+    }
+    *nlevp = nlev;
+    *file_size = off;
+    return ST_OK;
+}
+
+int st_native_size(const st_set *s, uint64_t *bytes, st_error *e)
+{
+    nbuf meta = {0}, ext = {0};
+    uint8_t ext_kind;
+    uint64_t nlev;
+    nsec sec[5];
+    int rc = layout(s, &meta, &ext, &ext_kind, &nlev, sec, bytes, e);
+    free(meta.p);
+    free(ext.p);
+    return rc;
+}
+
+int st_native_write_fd(int fd, const st_set *s, const st_native_source *src, st_error *e)
+{
+    nbuf meta = {0}, ext = {0};
+    uint8_t ext_kind;
+    uint64_t nlev, file_size;
+    nsec sec[5];
+    int rc = layout(s, &meta, &ext, &ext_kind, &nlev, sec, &file_size, e);
     if (rc) {
         free(meta.p);
         free(ext.p);
         return rc;
     }
-
-    nsec sec[5] = {
-        {ST_NSEC_FACES, (const uint8_t *)s->faces, (uint64_t)s->info.nfaces * 64, 0, 0},
-        {ST_NSEC_LEVELS, (const uint8_t *)s->level_off, nlev * 8, 0, 0},
-        {ST_NSEC_META, meta.p, meta.n, 0, 0},
-        {ST_NSEC_EXT, ext.p, ext.n, 0, 0},
-        {ST_NSEC_TEXELS, s->texels, s->texel_bytes, 0, 0},
-    };
-    uint64_t off = ST_NATIVE_PAGE;
-    for (int i = 0; i < 5; i++) {
-        sec[i].off = off;
+    for (int i = 0; i < 5; i++)
         sec[i].crc = stu_crc32c(0, sec[i].p, (size_t)sec[i].size);
-        off = page_up(off + sec[i].size + (sec[i].id == ST_NSEC_TEXELS ? ST_NATIVE_SLACK : 0));
-        if (off == sec[i].off)
-            off += ST_NATIVE_PAGE; /* an empty section still owns its page */
-    }
-    uint64_t file_size = off;
 
     uint8_t h[ST_NATIVE_PAGE];
     memset(h, 0, sizeof h);

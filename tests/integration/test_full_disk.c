@@ -15,7 +15,9 @@
  * naming the free bytes) an upload that does not fit with what is promised to the uploads in
  * progress, and an abort or a commit gives the promise back (upl35; run first, on the empty
  * disk, on a raw socket so that the uploads stay open between the steps); the same without a
- * data dir, on a daemon of its own whose $TMPDIR is on the small disk. The tmpfs is unmounted in the group teardown and,
+ * data dir, on a daemon of its own whose $TMPDIR is on the small disk. UPLOAD_COMMIT promises
+ * the set's native file the same way: a commit that would take bytes promised to another
+ * upload's chunks is IO, and the other upload can write all of them (res36). The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
 #include <dirent.h>
@@ -384,6 +386,95 @@ static void begin_refuses_what_the_disk_cannot_hold(void **state)
     STORED[0] = 0;
 }
 
+/* Headroom the daemon keeps free on the data disk (docs/daemon.md "Free space for uploads"). */
+static uint64_t headroom_bytes(void)
+{
+    struct statvfs v;
+    assert_int_equal(statvfs(D.datadir, &v), 0);
+    uint64_t size = (uint64_t)v.f_blocks * v.f_frsize;
+    return size / 64 < (64ull << 20) ? size / 64 : (64ull << 20);
+}
+
+/* UPLOAD_COMMIT writes the set's native file (about its texels' size, more than the .ptx)
+ * after the body: res36 promises it against the free disk beside what UPLOAD_BEGIN promised
+ * to the uploads in progress. big-0 is sent whole, then a second upload is begun of nearly
+ * all the rest of the disk: committing big-0 now would take bytes promised to the second
+ * one. The commit is refused (IO "... native file ... No space left on device"), big-0 is
+ * not listed and leaves nothing in tmp/, and every byte of the second upload can still be
+ * written. Before res36 the commit wrote its native file and the second upload failed at
+ * UPLOAD_CHUNK ("write: No space left on device") though BEGIN had accepted it. Once the
+ * second upload is aborted big-0 uploads and has its native file. */
+static void commit_promises_the_native_file(void **state)
+{
+    (void)state;
+    if (SKIP_WHY[0]) {
+        printf("# SKIP %s\n", SKIP_WHY);
+        skip();
+    }
+    int fd = st_daemon_connect(&D);
+    assert_true(fd >= 0);
+    char msg[600];
+    uint64_t a = 0, b = 0;
+    uint32_t crc = stp_crc32c(0, BIG[0], BIGLEN[0]);
+    assert_int_equal(begin_raw(fd, "big-0", BIGLEN[0], crc, &a, msg, sizeof msg), 0);
+    stp_buf cb;
+    stp_buf_init(&cb);
+    stp_upload_chunk ch = {a, 0, (uint32_t)BIGLEN[0], BIG[0]};
+    assert_int_equal(stp_enc_upload_chunk(&cb, REQID++, 0, &ch), 0);
+    st_wire_reply r;
+    assert_int_equal(roundtrip(fd, &cb, &r), 0);
+    /* big-0's body is on the disk; the second upload takes all but 128 KiB of the rest */
+    uint64_t f = free_bytes(), keep = headroom_bytes();
+    uint64_t rest = f - keep - (128u << 10);
+    unsigned st = begin_raw(fd, "rest", rest, 0, &b, msg, sizeof msg);
+    if (st)
+        fail_msg("BEGIN of %llu bytes, %llu free: %u \"%s\"", (unsigned long long)rest,
+                 (unsigned long long)f, st, msg);
+    stp_buf_init(&cb);
+    assert_int_equal(stp_enc_id_req(&cb, STP_OP_UPLOAD_COMMIT, REQID++, 0, a), 0);
+    st = roundtrip(fd, &cb, &r);
+    snprintf(msg, sizeof msg, "%.500s", st ? (const char *)r.body : "");
+    printf("# %s, %llu bytes free, %llu promised to 'rest': COMMIT of big-0 (%zu bytes, its "
+           "native file ~1.4 MB): %u \"%s\"\n", HOW, (unsigned long long)f,
+           (unsigned long long)rest, BIGLEN[0], st, msg);
+    /* every byte promised to 'rest' can be written */
+    static uint8_t zeros[1u << 20];
+    uint64_t off = 0;
+    unsigned cst = 0;
+    while (off < rest && cst == 0) {
+        uint32_t n = rest - off < sizeof zeros ? (uint32_t)(rest - off) : (uint32_t)sizeof zeros;
+        stp_upload_chunk c2 = {b, off, n, zeros};
+        stp_buf_init(&cb);
+        assert_int_equal(stp_enc_upload_chunk(&cb, REQID++, 0, &c2), 0);
+        cst = roundtrip(fd, &cb, &r);
+        if (cst == 0)
+            off += n;
+    }
+    printf("# 'rest': %llu of %llu promised bytes written (chunk status %u%s%s)\n",
+           (unsigned long long)off, (unsigned long long)rest, cst, cst ? ": " : "",
+           cst ? (const char *)r.body : "");
+    /* the disk as the tests after this one expect it, whatever the outcome */
+    unsigned ast = id_req(fd, STP_OP_UPLOAD_ABORT, b);
+    close(fd);
+    if (st == 0)
+        stc_delete(C, "big-0");
+    assert_int_equal(cst, 0);
+    assert_int_equal(st, STP_S_IO);
+    assert_non_null(strstr(msg, "native file"));
+    assert_non_null(strcasestr(msg, "no space left on device"));
+    assert_int_equal(ast, 0);
+    assert_int_equal(tmp_entries(), 0);   /* the refused commit left nothing behind */
+    check_reads();                        /* big-0 is not listed */
+    /* with the space back big-0 is committed, with its native file */
+    assert_int_equal(upload(0), 0);
+    char nat[400];
+    snprintf(nat, sizeof nat, "%s/sets/big-0/set.native", D.datadir);
+    assert_int_equal(access(nat, F_OK), 0);
+    check_reads();
+    assert_int_equal(stc_delete(C, "big-0"), 0);
+    STORED[0] = 0;
+}
+
 /* Regular files under dir, recursively (the no-data-dir daemon's temp folder). */
 static int files_under(const char *dir)
 {
@@ -702,6 +793,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(begin_refuses_what_the_disk_cannot_hold),
+        cmocka_unit_test(commit_promises_the_native_file),
         cmocka_unit_test(begin_checks_the_temp_folder_without_a_data_dir),
         cmocka_unit_test(test_full_disk),
         cmocka_unit_test(test_fetch_png_on_full_disk),
