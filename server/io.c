@@ -55,6 +55,12 @@
                                     alone claiming a 64 MiB body held 64 MiB of max-memory for
                                     the 517 s its deadline allowed, and 16 such connections (33
                                     bytes sent each) made every other big frame BUSY (pc35) */
+#define ROOM_AHEAD (READ_MIN * 2) /* past half of max-memory a frame's room is at most
+                                    twice what has arrived, at least this (the size of a new
+                                    input buffer): room ahead of a body's bytes cannot take
+                                    the second half. Before, 64 headers claiming 1 MiB each
+                                    made every other big frame BUSY for 5-6 s under
+                                    --max-memory 64M (1000 under the default 1G; res36) */
 
 int sts_scratch_reserve(sts_scratch *s, size_t n, int dir)
 {
@@ -693,6 +699,13 @@ static void conn_process(sts_conn *c)
             size_t room = total;
             if (total > ROOM_STEP)
                 room = avail < ROOM_STEP / 2 ? ROOM_STEP : avail < total / 2 ? avail * 2 : total;
+            /* room past twice what has arrived is taken ahead of its bytes: only while the
+             * buffers stay under half of max-memory; else the frame's room grows as its bytes
+             * arrive (ROOM_AHEAD) */
+            size_t earned = avail < ROOM_AHEAD / 2 ? ROOM_AHEAD : avail * 2;
+            if (room > earned && c->in.cap - c->in.start < room &&
+                sts_mem_take_ahead(srv, room > c->in.cap ? room - c->in.cap : 0) != 0)
+                room = earned;
             if (c->in.cap - c->in.start < room) {
                 uint64_t grow = room > c->in.cap ? room - c->in.cap : 0;
                 if (sts_mem_take(srv, grow) != 0 || in_reserve(c, room) != 0) {

@@ -48,11 +48,21 @@ int64_t sts_now_us(void)
     return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
-int sts_mem_take(sts_server *srv, uint64_t n)
+static int mem_fits(sts_server *srv, uint64_t n, uint64_t limit)
 {
     uint64_t used = __atomic_load_n(&srv->mem_used, __ATOMIC_RELAXED) +
                     __atomic_load_n(&srv->fetch_mem, __ATOMIC_RELAXED);
-    return used + n > STS_LIVE(srv, max_memory) ? -1 : 0;
+    return used + n > limit ? -1 : 0;
+}
+
+int sts_mem_take(sts_server *srv, uint64_t n)
+{
+    return mem_fits(srv, n, STS_LIVE(srv, max_memory));
+}
+
+int sts_mem_take_ahead(sts_server *srv, uint64_t n)
+{
+    return mem_fits(srv, n, STS_LIVE(srv, max_memory) / 2);
 }
 
 uint32_t sts_token_check(sts_server *srv, const char *token)

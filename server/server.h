@@ -165,5 +165,8 @@ int sts_tcp_listen(sts_server *srv, const char *what, const char *host, int port
  * of every buffer) and open fetches (srv->fetch_mem): 0 when n more bytes fit under
  * max-memory. */
 int sts_mem_take(sts_server *srv, uint64_t n);
+/* The same against half of max-memory: for room reserved ahead of the bytes it is for (a
+ * frame's body that has not arrived), which may not take the second half (res36, io.c). */
+int sts_mem_take_ahead(sts_server *srv, uint64_t n);
 
 #endif
