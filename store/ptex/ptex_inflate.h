@@ -385,7 +385,8 @@ static inline int pi_match(pi_bits *s, unsigned sym, const pi_huff *dist, int fi
         *why = "invalid literal/length code";
         return ST_PTX_INFL_BAD;
     }
-    unsigned len = pi_len_base(li, &nx) + pi_take(s, nx);
+    unsigned len = pi_len_base(li, &nx); /* nx is read only after this call has set it */
+    len += pi_take(s, nx);
     int ds = fix ? pi_fixed_dist(s) : pi_decode(s, dist);
     if (ds < 0 || ds >= 30) {
         *why = "invalid distance code";
@@ -521,7 +522,10 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
                 *why = "invalid literal/length code";
                 return ST_PTX_INFL_BAD;
             }
-            unsigned len = pi_len_base(li, &nx) + (unsigned)(bb & ((1u << nx) - 1));
+            /* two statements: the call sets nx, which the mask reads (the operands of one +
+             * are unsequenced: gcc -O1 read nx before the call) */
+            unsigned len = pi_len_base(li, &nx);
+            len += (unsigned)(bb & ((1u << nx) - 1));
             bb >>= nx;
             bc -= nx;
             unsigned de = dist->root[bb & dist->mask];
@@ -532,7 +536,8 @@ static inline int pi_codes(pi_bits *s, const pi_huff *lit, const pi_huff *dist, 
                 return ST_PTX_INFL_BAD;
             }
             unsigned dx;
-            size_t d = pi_dist_base((unsigned)ds, &dx) + (size_t)(bb & ((1u << dx) - 1));
+            size_t d = pi_dist_base((unsigned)ds, &dx);
+            d += (size_t)(bb & ((1u << dx) - 1));
             bb >>= dx;
             bc -= dx;
             if (d > o) {
