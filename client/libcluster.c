@@ -333,6 +333,7 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
                 t = u;
                 continue;
             }
+            snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
             break;
         }
         if (is_conn_error(rc)) {
@@ -346,6 +347,12 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
             t = notfound ? stc__cluster_next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
+        /* the node's answer, a refusal (FORMAT, EXISTS, ...) or the result: its message is the
+         * call's (stc_cluster_errmsg; "" after a success) */
+        if (rc)
+            snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
+        else
+            cl->msg[0] = 0;
         break;
     }
     if (notfound && is_conn_error(rc))

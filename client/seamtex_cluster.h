@@ -15,7 +15,8 @@
  * Results of a routed call (sample values, info faces, messages) are owned by the connection
  * that answered and valid until the next call on this handle.
  * ERRORS: as seamtex.h; a call fails with a connection error only when every node tried
- * failed; stc_cluster_errmsg says why. Every function that takes a handle accepts NULL:
+ * failed; stc_cluster_errmsg says why (a node's refusal as "node ID: its message"; "" after a
+ * routed call that succeeded). Every function that takes a handle accepts NULL:
  * STC_EINVAL from those that return a code (stc_cluster_conn: NULL with *err STC_EINVAL),
  * "" from stc_cluster_errmsg, 0 (and *nodes NULL) from the counts, zeros from
  * stc_cluster_get_counters.

@@ -325,6 +325,34 @@ static int pipelined_red(stc_cluster *cl, const char *name, float *red)
     return rc;
 }
 
+/* a node's refusal (not NOT_FOUND, not a lost connection) is the call's answer, and
+ * stc_cluster_errmsg gives its message (it was empty: a cluster upload refused with FORMAT
+ * printed "upload s00: "); a later success leaves no message behind */
+static void a_refusal_s_message_is_the_call_s_message(void **state)
+{
+    (void)state;
+    scripted s;
+    assert_int_equal(scripted_start(&s), 0);
+    script_members(&s, 1, NULL, NULL);
+    script_sample(&s, STP_S_BAD_REQUEST, "query 3: face 99 out of range");
+    stc_cluster *cl = open_at(&s);
+    float red = -1;
+    assert_int_equal(st_cluster_red_at(cl, "anything", &red), STC_EBADREQUEST);
+    const char *m = stc_cluster_errmsg(cl);
+    if (!strstr(m, "query 3: face 99 out of range") || !strstr(m, "node a"))
+        fail_msg("stc_cluster_errmsg: \"%s\"", m);
+
+    /* "a" now says NOT_FOUND and the daemon ("d") holds "tint": the call succeeds (on "d",
+     * after "a" when "a" ranks first) and leaves no message */
+    script_members(&s, 2, daddr, NULL);
+    script_sample(&s, STP_S_NOT_FOUND, "no such set here yet");
+    assert_int_equal(stc_cluster_refresh(cl), 0);
+    assert_red(cl, "tint");
+    assert_string_equal(stc_cluster_errmsg(cl), "");
+    stc_cluster_close(cl);
+    scripted_stop(&s);
+}
+
 static void not_found_from_one_owner_asks_the_next(void **state)
 {
     (void)state;
@@ -451,6 +479,7 @@ int main(void)
         cmocka_unit_test(not_found_with_an_owner_unreachable_asks_the_rest),
         cmocka_unit_test(results_survive_the_refresh_after_a_moved),
         cmocka_unit_test(not_found_from_one_owner_asks_the_next),
+        cmocka_unit_test(a_refusal_s_message_is_the_call_s_message),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
