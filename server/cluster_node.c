@@ -589,6 +589,7 @@ int sts_cluster_init(sts_server *srv)
      * workers) are let finish: an acknowledged write has all of them behind it */
     scl_etcd_set_abort(cl->etcd_m, &cl->stop);
     scl_etcd_set_abort(cl->etcd_r, &cl->stop);
+    sts_cluster_mark_load(cl);   /* before any etcd call: the revision watch */
     sts_cluster_doubt_load(cl);
     return 0;
 }
@@ -768,6 +769,7 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("copies_hidden", C(copies_hidden));
     K("sets_rerecorded", C(sets_rerecorded));
     K("pushes_backed_off", C(pushes_backed_off));
+    K("etcd_went_back", C(etcd_went_back));
 #undef K
 #undef C
     return n;
