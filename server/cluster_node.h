@@ -168,6 +168,11 @@ typedef struct sts_cluster {
     int64_t         back_from;         /* repair thread only: etcd went back from this
                                           revision and the catalogue is not adopted yet (the
                                           WARN is logged once), 0 none */
+    int             advertise_ok;      /* atomic: the last self-check found this node at its
+                                          advertised address (STATS cluster_advertise_ok) */
+    int             adv_state;         /* repair thread only: -1 not checked yet, 0 failing,
+                                          1 ok (a change is logged) */
+    int64_t         adv_next_ms;       /* repair thread only: the next self-check (monotonic) */
     sts_cl_counters n;                 /* atomics */
 } sts_cluster;
 
@@ -251,6 +256,10 @@ void sts_cluster_recheck(sts_cluster *cl);
 int  sts_cluster_nap(sts_cluster *cl, int ms);
 /* Wakes the repair thread for a pass now. */
 void sts_cluster_kick(sts_cluster *cl);
+/* The repair thread, before each pass: whether this node's --advertise address reaches this
+ * node (a CLUSTER there names this node's id); checked each pass until it does, then once a
+ * minute; a change is logged (WARN while it does not), never fatal (docs/cluster.md). */
+void sts_cluster_advertise_check(sts_cluster *cl);
 /* STATS keys; returns how many were written (at most cap). */
 size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap);
 /* Ranks the members for name: owners first. order[] gets up to k member indices. */

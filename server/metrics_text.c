@@ -217,6 +217,8 @@ static const mrow ROWS[] = {
     {"cluster_etcd_went_back", "seamtex_cluster_etcd_went_back_total", M_COUNTER, "", 0,
      "Times etcd answered with a revision below one this node had seen (restored from an "
      "older snapshot): its sets recorded again, nothing dropped."},
+    {"cluster_advertise_ok", "seamtex_cluster_advertise_ok", M_GAUGE, "", 0,
+     "1 when this node's --advertise address reached this node at the last check, else 0."},
 };
 #define NROWS (sizeof ROWS / sizeof ROWS[0])
 
