@@ -637,8 +637,9 @@ int sts_cluster_start(sts_server *srv)
 void sts_cluster_advertise_check(sts_cluster *cl)
 {
     int64_t now = sts_now_ms();
-    if (cl->adv_state == 1 && now < cl->adv_next_ms)
-        return;
+    if ((cl->adv_state == 1 && now < cl->adv_next_ms) ||
+        __atomic_load_n(&cl->stop, __ATOMIC_RELAXED))
+        return;   /* (stopping: no new connection that could hold the stop) */
     char id[STP_MAX_NODE_ID + 1] = "", msg[512] = "";
     int rc = scl_peer_self_id(cl->addr, 1000, id, sizeof id, msg, sizeof msg);
     if (rc == 0 && strcmp(id, cl->self) != 0) {

@@ -256,7 +256,7 @@ void sts_cluster_recheck(sts_cluster *cl);
 int  sts_cluster_nap(sts_cluster *cl, int ms);
 /* Wakes the repair thread for a pass now. */
 void sts_cluster_kick(sts_cluster *cl);
-/* The repair thread, before each pass: whether this node's --advertise address reaches this
+/* The repair thread, after each pass: whether this node's --advertise address reaches this
  * node (a CLUSTER there names this node's id); checked each pass until it does, then once a
  * minute; a change is logged (WARN while it does not), never fatal (docs/cluster.md). */
 void sts_cluster_advertise_check(sts_cluster *cl);

@@ -616,9 +616,9 @@ void *sts_cluster_repair_main(void *arg)
     sts_cluster *cl = arg;
     int ms = (int)cl->srv->cfg.repair_interval * 1000;
     do {   /* a pass at once: the copies from the data dir are served once one confirms them */
-        sts_cluster_advertise_check(cl);
         if (sts_cluster_etcd_ok(cl))
             pass(cl);
+        sts_cluster_advertise_check(cl);   /* after the pass: never delays it */
     } while (!sts_cluster_nap(cl, ms));
     return NULL;
 }
