@@ -75,7 +75,8 @@ static uint64_t file_mark(sts_cluster *cl, int64_t *rev)
     void *buf = NULL;
     size_t len = 0;
     st_error e;
-    *rev = 0;
+    if (rev)
+        *rev = 0;
     if (mark_path(cl, path, sizeof path) != 0 || st_file_read(path, 4096, &buf, &len, &e) != 0)
         return 0;
     const char *s = buf, *nl = memchr(s, '\n', len);
@@ -84,7 +85,7 @@ static uint64_t file_mark(sts_cluster *cl, int64_t *rev)
     if (nl && nl - s == 17 + (ptrdiff_t)plen && s[16] == ' ' && !memcmp(s + 17, cl->prefix, plen))
         id = parse_id(s, 16);
     const char *r = nl ? nl + 1 : NULL, *end = s + len;
-    if (id && r && end - r > 4 && !memcmp(r, "rev ", 4)) {
+    if (rev && id && r && end - r > 4 && !memcmp(r, "rev ", 4)) {
         int64_t v = 0;
         const char *q = r + 4;
         while (q < end && *q >= '0' && *q <= '9' && v < INT64_MAX / 10 - 9)
@@ -145,7 +146,7 @@ void sts_cluster_rev_keep(sts_cluster *cl, int64_t rec_rev)
         (rec_rev && rec_rev <= cl->rev_kept))
         return;
     if (file_keep(cl, cl->mark_seen, rev) != 0) {
-        cl->rev_kept = rev;   /* logged once: not tried again before the revision moves on */
+        cl->rev_kept = rev;   /* (logged) not tried again before the revision moves on */
         cl->checks_unkept = 0;
     }
 }
@@ -162,9 +163,7 @@ int sts_cluster_mark_check(sts_cluster *cl, int64_t rev)
     uint64_t seen = kv.n == 1 ? parse_id(kv.v[0].val, kv.v[0].val_len) : 0;
     int other = kv.n == 1 && !seen;   /* a value that is not a mark: left alone */
     scl_kvs_free(&kv);
-    int64_t kept_rev;   /* cl->rev_kept is its copy */
-    uint64_t known = file_mark(cl, &kept_rev);
-    (void)kept_rev;
+    uint64_t known = file_mark(cl, NULL);   /* (its revision: cl->rev_kept, from init on) */
     cl->mark_seen = seen;
     cl->pass_rev = rev;
     if (seen && seen == known) {
