@@ -1,7 +1,7 @@
 /* cluster/etcd.c - etcd v3 JSON gateway client (etcd.h).
  *
  * Owns: the HTTP exchange (one curl easy handle per scl_etcd, reused: keep-alive), building
- * request JSON. Does not own: key meanings, decoding the replies and base64 (etcd_reply.c).
+ * request JSON, the revision watch (etcd.h). Does not own: key meanings, decoding the replies and base64 (etcd_reply.c).
  */
 #include <curl/curl.h>
 #include <json.h>
@@ -18,6 +18,7 @@ struct scl_etcd {
     int   nend, cur;            /* cur: the endpoint that answered last */
     int   timeout_ms;
     const int *abort;           /* scl_etcd_set_abort; NULL = none */
+    scl_revwatch *revw;         /* scl_etcd_set_revwatch; NULL = none */
     char  prefix[256];
     char  msg[256];
     char *resp; size_t resp_len, resp_cap;
@@ -131,6 +132,49 @@ void scl_etcd_close(scl_etcd *e)
 
 void scl_etcd_set_abort(scl_etcd *e, const int *flag) { e->abort = flag; }
 
+void scl_etcd_set_revwatch(scl_etcd *e, scl_revwatch *w) { e->revw = w; }
+
+void scl_revwatch_seed(scl_revwatch *w, int64_t rev)
+{
+    int64_t t = __atomic_load_n(&w->top, __ATOMIC_ACQUIRE);
+    while (rev > t && !__atomic_compare_exchange_n(&w->top, &t, rev, 0, __ATOMIC_ACQ_REL,
+                                                   __ATOMIC_ACQUIRE))
+        ;
+}
+
+int64_t scl_revwatch_top(scl_revwatch *w) { return __atomic_load_n(&w->top, __ATOMIC_ACQUIRE); }
+
+int scl_revwatch_back(scl_revwatch *w, int64_t *from, int64_t *to)
+{
+    *from = __atomic_load_n(&w->back_from, __ATOMIC_ACQUIRE);
+    *to = __atomic_load_n(&w->back_to, __ATOMIC_ACQUIRE);
+    return *from != 0;
+}
+
+void scl_revwatch_reset(scl_revwatch *w, int64_t rev)
+{
+    __atomic_add_fetch(&w->gen, 1, __ATOMIC_ACQ_REL);
+    __atomic_store_n(&w->top, rev, __ATOMIC_RELEASE);
+    __atomic_store_n(&w->back_from, 0, __ATOMIC_RELEASE);
+    __atomic_store_n(&w->back_to, 0, __ATOMIC_RELEASE);
+}
+
+/* a kv reply at revision rev to a request sent when the watch held top0 (generation gen0) */
+static void revwatch_note(scl_revwatch *w, int64_t top0, uint64_t gen0, int64_t rev)
+{
+    if (rev <= 0)
+        return;
+    if (rev < top0 && __atomic_load_n(&w->gen, __ATOMIC_ACQUIRE) == gen0) {
+        int64_t f = __atomic_load_n(&w->back_from, __ATOMIC_ACQUIRE);
+        while (top0 > f && !__atomic_compare_exchange_n(&w->back_from, &f, top0, 0,
+                                                        __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+            ;
+        __atomic_store_n(&w->back_to, rev, __ATOMIC_RELEASE);
+        return;   /* the top stays: later replies below it went back too */
+    }
+    scl_revwatch_seed(w, rev);
+}
+
 static int aborted(const scl_etcd *e)
 {
     return e->abort && __atomic_load_n(e->abort, __ATOMIC_RELAXED);
@@ -156,6 +200,11 @@ static int post(scl_etcd *e, const char *path, json_object *body, json_object **
     const char *js = json_object_to_json_string_ext(body, JSON_C_TO_STRING_PLAIN);
     struct curl_slist *hdr = curl_slist_append(NULL, "Content-Type: application/json");
     int rc = SCL_EUNREACHABLE;
+    /* the revision watch: kv calls only (etcd.h); gen before top, so that a reset between
+     * the two reads is seen as one */
+    scl_revwatch *w = e->revw && !strncmp(path, "/v3/kv/", 7) ? e->revw : NULL;
+    uint64_t gen0 = w ? __atomic_load_n(&w->gen, __ATOMIC_ACQUIRE) : 0;
+    int64_t top0 = w ? scl_revwatch_top(w) : 0;
     for (int t = 0; t < e->nend; t++) {
         int k = (e->cur + t) % e->nend;
         if (aborted(e)) {
@@ -213,6 +262,8 @@ static int post(scl_etcd *e, const char *path, json_object *body, json_object **
         }
         e->cur = k;
         *out = j;
+        if (w)
+            revwatch_note(w, top0, gen0, scl_reply_header_revision(j));
         rc = SCL_OK;
         break;
     }

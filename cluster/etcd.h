@@ -39,6 +39,30 @@ void scl_etcd_close(scl_etcd *e);
  * about a second (libcurl's progress callback) instead of waiting out its deadline on every
  * endpoint: what lets a stopping server leave an etcd that stopped answering. */
 void scl_etcd_set_abort(scl_etcd *e, const int *flag);
+/* The revision watch (docs/cluster.md "Catalogue lost"): etcd's revision only grows, and an
+ * etcd restored from a snapshot or backup answers with a lower one than its clients have seen.
+ * A watch, shared by the handles of one client (set with scl_etcd_set_revwatch; not owned,
+ * must outlive their calls), holds the highest header.revision of their /v3/kv/ replies
+ * (range, put, deleterange, txn: linearizable, so a reply to a request sent after revision r
+ * was seen carries r or more from a store that did not go back; lease replies are not
+ * watched: a follower fills their header from its own store). A kv reply whose revision is
+ * below the highest the watch held when its request was sent marks the watch "went back"
+ * (from: that highest, to: the reply's) until scl_revwatch_reset. Fields: atomics, use the
+ * functions. */
+typedef struct scl_revwatch {
+    int64_t  top;                       /* the highest revision seen (or seeded) */
+    int64_t  back_from, back_to;        /* 0: not gone back since the last reset */
+    uint64_t gen;                       /* resets: a reply to a request sent before one is
+                                           not judged against the new top */
+} scl_revwatch;
+void scl_etcd_set_revwatch(scl_etcd *e, scl_revwatch *w);
+/* top = max(top, rev): a revision remembered from an earlier process */
+void scl_revwatch_seed(scl_revwatch *w, int64_t rev);
+int64_t scl_revwatch_top(scl_revwatch *w);
+/* 1 with *from, *to when a reply went back since the last reset, else 0 */
+int scl_revwatch_back(scl_revwatch *w, int64_t *from, int64_t *to);
+/* Forgets the highest revision and any going back: top = rev (the catalogue adopted). */
+void scl_revwatch_reset(scl_revwatch *w, int64_t rev);
 const char *scl_etcd_prefix(const scl_etcd *e);
 const char *scl_etcd_errmsg(const scl_etcd *e);
 

@@ -136,6 +136,16 @@ static int reply_revision(json_object *r, int64_t *rev, char *msg, size_t cap)
     return hdr ? reply_i64(hdr, "revision", 0, rev, msg, cap) : 0;
 }
 
+int64_t scl_reply_header_revision(json_object *r)
+{
+    char msg[128];
+    int64_t rev = 0;
+    if (!json_object_is_type(r, json_type_object) ||
+        reply_revision(r, &rev, msg, sizeof msg) != 0)
+        return 0;
+    return rev;
+}
+
 /* kv[field]: absent = "" (proto3); else a base64 string */
 static char *reply_b64(json_object *kv, const char *field, int required, size_t *len, char *msg,
                      size_t cap)

@@ -36,6 +36,9 @@ int scl_reply_range(json_object *r, scl_kvs *out, char *msg, size_t cap);
 int scl_reply_grant(json_object *r, int64_t *lease, char *msg, size_t cap);
 /* /v3/lease/keepalive: result.TTL (0 when etcd no longer knows the lease) */
 int scl_reply_keepalive(json_object *r, int64_t *ttl, char *msg, size_t cap);
+/* header.revision of any reply; 0 when absent or not a non-negative int64 (etcd.c's revision
+ * watch: never an error of its own, the call's decoder judges the reply) */
+int64_t scl_reply_header_revision(json_object *r);
 /* /v3/kv/txn: succeeded, header.revision */
 int scl_reply_txn(json_object *r, int *succeeded, int64_t *revision, char *msg, size_t cap);
 

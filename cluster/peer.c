@@ -65,6 +65,39 @@ int scl_peer_ping(const char *addr, int timeout_ms)
     return rc;
 }
 
+int scl_peer_self_id(const char *addr, int timeout_ms, char *id, size_t idcap, char *msg,
+                     size_t cap)
+{
+    int rc = 0;
+    stc_conn *c = dial(addr, NULL, timeout_ms, &rc, msg, cap);
+    if (!c)
+        return rc ? rc : STC_ECONNECT;
+    uint32_t reqid;
+    stc_reply r;
+    rc = stc_append_raw(c, STP_OP_CLUSTER, NULL, 0, &reqid);
+    if (rc == 0)
+        rc = stc_flush(c);
+    if (rc == 0)
+        rc = stc_get_reply(c, -1, &r);
+    if (rc) {
+        snprintf(msg, cap, "CLUSTER on %s: %s", addr, stc_errmsg(c));
+    } else if (r.status) {
+        snprintf(msg, cap, "CLUSTER on %s: %s", addr, r.errmsg);
+        rc = r.status;
+    } else {
+        stp_cluster_reply cr;
+        const char *why = NULL;
+        if (stp_dec_cluster_reply(r.body, r.body_len, &cr, &why) != 0) {
+            snprintf(msg, cap, "CLUSTER on %s: %s", addr, why ? why : "bad reply");
+            rc = STC_EPROTO;
+        } else {
+            snprintf(id, idcap, "%s", cr.self_id);
+        }
+    }
+    stc_close(c);
+    return rc;
+}
+
 int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
                     char *msg, size_t cap)
 {

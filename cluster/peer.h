@@ -3,7 +3,8 @@
  * Owns: pushing a stored source file to another node as a REPLICA upload (its CRC-32C is
  * computed from the file and checked by the receiver at commit: end to end; with STAGE the
  * receiver keeps it staged), telling a node to publish its staged copy (REPLICA_PUBLISH),
- * forwarding a DELETE, asking whether a node answers (PING). Does not own: choosing the
+ * forwarding a DELETE, asking whether a node answers (PING) and which node answers at an
+ * address (CLUSTER). Does not own: choosing the
  * target (cluster_node.c), the protocol (protocol/).
  * Blocking; each call opens and closes its own connection. Returns 0 or an STC_E* code, with
  * a message in msg (scl_peer_publish: also SCL_PEER_NOT_FOUND).
@@ -29,6 +30,10 @@ int scl_peer_publish(const char *addr, const char *token, const char *name, uint
 /* 0 when a server answers PING at addr within timeout_ms (connect and reply), else the
  * STC_E* code (seamtexd: is the process that registered a node id still there?) */
 int scl_peer_ping(const char *addr, int timeout_ms);
+/* CLUSTER at addr: 0 and the answering node's id in id (idcap bytes), else the STC_E* code or
+ * the reply's status, with msg set (seamtexd: does its --advertise address reach it?) */
+int scl_peer_self_id(const char *addr, int timeout_ms, char *id, size_t idcap, char *msg,
+                     size_t cap);
 int scl_peer_delete(const char *addr, const char *token, const char *name, int timeout_ms,
                     char *msg, size_t cap);
 

@@ -569,6 +569,7 @@ int sts_cluster_init(sts_server *srv)
     cl->serve_gen = st_registry_next_gen(srv->reg);
     cl->replicas = srv->cfg.replicas;
     cl->quorum = srv->cfg.write_quorum ? srv->cfg.write_quorum : srv->cfg.replicas;
+    cl->adv_state = -1;   /* the advertised address not checked yet */
     pthread_mutex_init(&cl->mu, NULL);
     pthread_mutex_init(&cl->etcd_mu, NULL);
     pthread_mutex_init(&cl->wake_mu, NULL);
@@ -589,6 +590,7 @@ int sts_cluster_init(sts_server *srv)
      * workers) are let finish: an acknowledged write has all of them behind it */
     scl_etcd_set_abort(cl->etcd_m, &cl->stop);
     scl_etcd_set_abort(cl->etcd_r, &cl->stop);
+    sts_cluster_mark_load(cl);   /* before any etcd call: the revision watch */
     sts_cluster_doubt_load(cl);
     return 0;
 }
@@ -627,6 +629,35 @@ int sts_cluster_start(sts_server *srv)
              "quorum %u, lease %us, repair every %us", cl->prefix, cl->self, cl->addr,
              cl->replicas, cl->quorum, srv->cfg.lease_ttl, srv->cfg.repair_interval);
     return 0;
+}
+
+/* an advertised address that reaches the node is checked again this often */
+#define ADVERTISE_RECHECK_MS 60000
+
+void sts_cluster_advertise_check(sts_cluster *cl)
+{
+    int64_t now = sts_now_ms();
+    if ((cl->adv_state == 1 && now < cl->adv_next_ms) ||
+        __atomic_load_n(&cl->stop, __ATOMIC_RELAXED))
+        return;   /* (stopping: no new connection that could hold the stop) */
+    char id[STP_MAX_NODE_ID + 1] = "", msg[512] = "";
+    int rc = scl_peer_self_id(cl->addr, 1000, id, sizeof id, msg, sizeof msg);
+    if (rc == 0 && strcmp(id, cl->self) != 0) {
+        snprintf(msg, sizeof msg, "node '%s' answers there", id);
+        rc = -1;
+    }
+    int ok = rc == 0;
+    __atomic_store_n(&cl->advertise_ok, ok, __ATOMIC_RELAXED);
+    if (ok && cl->adv_state == 0)
+        sts_logf(&cl->srv->log, STS_INFO, "cluster: the advertised address %s reaches this "
+                 "node again", cl->addr);
+    else if (!ok && cl->adv_state != 0)
+        sts_logf(&cl->srv->log, STS_WARN, "cluster: the advertised address %s does not reach "
+                 "this node (%s): other nodes and clients cannot reach it there (check "
+                 "--advertise); checked again every repair pass (STATS cluster_advertise_ok 0)",
+                 cl->addr, msg);
+    cl->adv_state = ok;
+    cl->adv_next_ms = now + ADVERTISE_RECHECK_MS;
 }
 
 void sts_cluster_stop(sts_server *srv)
@@ -768,6 +799,8 @@ size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap)
     K("copies_hidden", C(copies_hidden));
     K("sets_rerecorded", C(sets_rerecorded));
     K("pushes_backed_off", C(pushes_backed_off));
+    K("etcd_went_back", C(etcd_went_back));
+    K("advertise_ok", (uint64_t)__atomic_load_n(&cl->advertise_ok, __ATOMIC_RELAXED));
 #undef K
 #undef C
     return n;

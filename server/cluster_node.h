@@ -68,6 +68,7 @@ typedef struct sts_cl_counters {
     uint64_t copies_hidden;   /* copies hidden by a DELETE this node could not record */
     uint64_t sets_rerecorded;   /* local sets recorded again after a catalogue loss */
     uint64_t pushes_backed_off;   /* repair pushes not tried: their backoff had not run out */
+    uint64_t etcd_went_back;   /* etcd answered with a revision below one seen (cluster_mark.c) */
 } sts_cl_counters;
 
 typedef struct sts_cluster {
@@ -153,6 +154,25 @@ typedef struct sts_cluster {
     char            doubt_set[STP_MAX_NAME + 1];   /* under mu: the set of the write in doubt */
     uint64_t        mark_seen;         /* repair thread only: the PREFIX/cluster id the last
                                           sts_cluster_mark_check read (0 none) */
+    scl_revwatch    revw;              /* the highest etcd revision the three handles have
+                                          seen (seeded from the cluster-id file), and whether
+                                          etcd went back below it (etcd.h, cluster_mark.c) */
+    int64_t         rev_kept;          /* repair thread only (and init): the revision the
+                                          cluster-id file keeps */
+    int64_t         pass_rev;          /* repair thread only: the revision of the catalogue
+                                          the last sts_cluster_mark_check judged */
+    int64_t         keep_top;          /* repair thread only: the watch's highest revision as
+                                          of that check: what sts_cluster_rev_keep keeps */
+    unsigned        checks_unkept;     /* repair thread only: ordinary passes since
+                                          cluster-id was last written */
+    int64_t         back_from;         /* repair thread only: etcd went back from this
+                                          revision and the catalogue is not adopted yet (the
+                                          WARN is logged once), 0 none */
+    int             advertise_ok;      /* atomic: the last self-check found this node at its
+                                          advertised address (STATS cluster_advertise_ok) */
+    int             adv_state;         /* repair thread only: -1 not checked yet, 0 failing,
+                                          1 ok (a change is logged) */
+    int64_t         adv_next_ms;       /* repair thread only: the next self-check (monotonic) */
     sts_cl_counters n;                 /* atomics */
 } sts_cluster;
 
@@ -236,6 +256,10 @@ void sts_cluster_recheck(sts_cluster *cl);
 int  sts_cluster_nap(sts_cluster *cl, int ms);
 /* Wakes the repair thread for a pass now. */
 void sts_cluster_kick(sts_cluster *cl);
+/* The repair thread, after each pass: whether this node's --advertise address reaches this
+ * node (a CLUSTER there names this node's id); checked each pass until it does, then once a
+ * minute; a change is logged (WARN while it does not), never fatal (docs/cluster.md). */
+void sts_cluster_advertise_check(sts_cluster *cl);
 /* STATS keys; returns how many were written (at most cap). */
 size_t sts_cluster_stats(sts_cluster *cl, stp_stat *s, size_t cap);
 /* Ranks the members for name: owners first. order[] gets up to k member indices. */
@@ -338,15 +362,27 @@ int sts_cluster_push(sts_cluster *cl, const char *name, const char *addr, char *
 int sts_cluster_rerecord(sts_cluster *cl, const char *name, int kind);
 
 /* The catalogue's identity (cluster_mark.c, docs/cluster.md "Catalogue lost"): checks the
- * PREFIX/cluster key at revision rev against the one kept in <data-dir>/cluster-id. 0: the
- * catalogue this node knows (or the first it joins: the id is kept now); 1: not the one
- * its data dir knows (etcd lost its data, or a prefix found without a mark): the pass must
+ * PREFIX/cluster key at revision rev against the one kept in <data-dir>/cluster-id, and the
+ * revision watch. 0: the catalogue this node knows (or the first it joins: the id is kept
+ * now); 1: not the one its data dir knows (etcd lost its data, or a prefix found without a
+ * mark, or etcd went back to a revision below one this node has seen: restored from an older
+ * snapshot or backup, its mark with it): the pass must
  * drop nothing, record its sets again (sts_cluster_rerecord) and then call
  * sts_cluster_mark_adopt; < 0: an etcd error. */
 int sts_cluster_mark_check(sts_cluster *cl, int64_t rev);
-/* Keeps the mark the last check saw in the data dir (after every local set was recorded
- * again); 0 or -1. */
+/* Keeps the mark the last check saw in the data dir with the revision of the catalogue that
+ * check read (after every local set was recorded again), and makes that revision the watch's
+ * highest; 0 or -1. */
 int sts_cluster_mark_adopt(sts_cluster *cl);
+/* At init, before any etcd call: the revision the cluster-id file keeps seeds the watch. */
+void sts_cluster_mark_load(sts_cluster *cl);
+/* Called by an ordinary pass before it drops a local or staged copy (rec_rev 0), and for each
+ * local copy it confirms current (rec_rev: its record's mod_revision): keeps the highest
+ * revision seen (as of the pass's check) in the cluster-id file when it is above the kept one
+ * and something is at stake (a drop, or a record newer than the kept revision); the check
+ * also keeps it every 10th ordinary pass while it moves. docs/cluster.md "Catalogue lost"; at most one
+ * write a pass. */
+void sts_cluster_rev_keep(sts_cluster *cl, int64_t rec_rev);
 /* At start: puts PREFIX/config with this node's replicas and write quorum when there is none;
  * -1 (logged) when it holds others; 0 also when etcd does not answer (not checked, logged). */
 int sts_cluster_settings_check(sts_cluster *cl);

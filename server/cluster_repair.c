@@ -10,7 +10,9 @@
  * may use confirmed (sts_cluster_set_served; a copy a DELETE hid is shown again once the
  * catalogue records its contents); then the catalogue snapshot the handlers use
  * (MOVED) is replaced. A catalogue without the mark this node's data dir keeps (etcd lost its
- * data: cluster_mark.c) is not judged: the node's sets are recorded again first. Does not
+ * data: cluster_mark.c), or read from an etcd that went back to a revision below one this node
+ * has seen (restored from an older snapshot), is not judged: the node's sets are recorded
+ * again first. Before a pass drops anything it keeps its revision in the data dir. Does not
  * own: the membership (cluster_node.c), the write path.
  * Nothing happens while etcd is unreachable.
  */
@@ -120,6 +122,7 @@ static void drop_copy_key(sts_cluster *cl, const char *name)
 
 static void drop_local(sts_cluster *cl, const char *name, const char *why)
 {
+    sts_cluster_rev_keep(cl, 0);   /* a drop: the revision judged is kept first */
     int rc = sts_delete_local(cl->srv, name);
     if (rc == 0 || rc == ST_ENOTFOUND) {
         STS_CL_ADD(cl, copies_dropped, 1);
@@ -230,6 +233,7 @@ static void resolve_staged(sts_cluster *cl, const sts_cl_entry *cat, size_t nc, 
                 sts_logf(&srv->log, STS_WARN, "cluster: staged copy %s of '%s' could not be "
                          "published: %s", s[i].id, name, e.msg);   /* (not: gone meanwhile) */
         } else if (s[i].mtime_ms < t0 - 2000) {
+            sts_cluster_rev_keep(cl, 0);   /* a drop: the revision judged is kept first */
             sts_drop_staged(srv, s[i].id, en ? "the cluster records other contents"
                                              : "the cluster does not record the set");
         }
@@ -238,7 +242,7 @@ static void resolve_staged(sts_cluster *cl, const sts_cl_entry *cat, size_t nc, 
 }
 
 /* A catalogue that is not the one the data dir knows (sts_cluster_mark_check: etcd lost its
- * data): nothing is judged against it; every local set it does not record is recorded again
+ * data, or went back in time): nothing is judged against it; every local set it does not record is recorded again
  * (the name still free), and once all are, the data dir keeps the catalogue's mark and the
  * next pass, run at once, is an ordinary one. Reads meanwhile use what the last pass
  * confirmed. */
@@ -257,7 +261,7 @@ static void record_again(sts_cluster *cl, const sts_cl_entry *cat, size_t nc)
         st_setref_release(r);
     }
     free(refs);
-    if (all && sts_cluster_mark_adopt(cl) == 0)
+    if (all && sts_cluster_mark_adopt(cl) == 0)   /* the mark, and the pass's revision */
         sts_cluster_kick(cl);
 }
 
@@ -473,6 +477,9 @@ static void pass(sts_cluster *cl)
             }
         } else {
             mine[e - cat] = 1;
+            /* a copy recorded after the revision the data dir keeps: kept now, so that an
+             * etcd restored to before its record is caught after a restart too */
+            sts_cluster_rev_keep(cl, rows[e - cat].mod_rev);
             if (!holds(e, cl->self)) {
                 put_copy_key(cl, r->name, cl->self, e->crc32, rows[e - cat].mod_rev);
                 add_holder(e, cl->self);
@@ -608,9 +615,10 @@ void *sts_cluster_repair_main(void *arg)
 {
     sts_cluster *cl = arg;
     int ms = (int)cl->srv->cfg.repair_interval * 1000;
-    do   /* a pass at once: the copies from the data dir are served once one confirms them */
+    do {   /* a pass at once: the copies from the data dir are served once one confirms them */
         if (sts_cluster_etcd_ok(cl))
             pass(cl);
-    while (!sts_cluster_nap(cl, ms));
+        sts_cluster_advertise_check(cl);   /* after the pass: never delays it */
+    } while (!sts_cluster_nap(cl, ms));
     return NULL;
 }

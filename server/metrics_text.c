@@ -214,6 +214,11 @@ static const mrow ROWS[] = {
      "Local sets recorded again in a catalogue that had lost them (etcd's data lost)."},
     {"cluster_pushes_backed_off", "seamtex_cluster_pushes_backed_off_total", M_COUNTER, "", 0,
      "Repair pushes not tried: a recent failure's backoff had not run out."},
+    {"cluster_etcd_went_back", "seamtex_cluster_etcd_went_back_total", M_COUNTER, "", 0,
+     "Times etcd answered with a revision below one this node had seen (restored from an "
+     "older snapshot): its sets recorded again, nothing dropped."},
+    {"cluster_advertise_ok", "seamtex_cluster_advertise_ok", M_GAUGE, "", 0,
+     "1 when this node's --advertise address reached this node at the last check, else 0."},
 };
 #define NROWS (sizeof ROWS / sizeof ROWS[0])
 

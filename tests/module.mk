@@ -34,10 +34,12 @@ TEST_BINS += $(patsubst tests/%.c,$(B)/tests/%,$(TEST_SRC))
 BENCH_SRC := $(sort $(wildcard tests/bench/bench_*.c))
 BENCH_BINS += $(patsubst tests/bench/%.c,$(B)/bench/%,$(BENCH_SRC))
 
-# tests of cluster/'s decoders, and the doubt test (it reads etcd), see its headers and json-c
+# tests of cluster/'s decoders, and the tests that read or write etcd themselves, see its
+# headers and json-c
 $(B)/tests/unit/test_etcd_reply.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
 $(B)/tests/integration/test_cluster_doubt.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
 $(B)/tests/integration/test_cluster_publish.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
+$(B)/tests/integration/test_cluster_rewind.o: MODINC := $(INC_TESTS) -Icluster $(CLUSTER_PKG_CFLAGS)
 
 $(B)/tests/%: $(B)/tests/%.o $(ST_LINK)
 	@mkdir -p $(@D)

@@ -122,6 +122,33 @@ int st_etcd_restart(st_etcd *e, int wipe)
     return spawn(e, etcd_bin());
 }
 
+/* kills etcd, runs the shell command fmt (with e->dir for each %s, at most two) and starts
+ * etcd again */
+static int down_run_up(st_etcd *e, const char *fmt)
+{
+    if (e->pid <= 0)
+        return -1;
+    kill(e->pid, SIGCONT);
+    kill(e->pid, SIGKILL);
+    waitpid(e->pid, NULL, 0);
+    e->pid = 0;
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, fmt, e->dir, e->dir, e->dir);
+    if (system(cmd) != 0)
+        return -1;
+    return spawn(e, etcd_bin());
+}
+
+int st_etcd_save(st_etcd *e)
+{
+    return down_run_up(e, "rm -rf '%s/saved' && cp -a '%s/data' '%s/saved'");
+}
+
+int st_etcd_restore(st_etcd *e)
+{
+    return down_run_up(e, "rm -rf '%s/data' && cp -a '%s/saved' '%s/data'");
+}
+
 int st_etcd_pause(st_etcd *e, int paused)
 {
     if (e->pid <= 0 || kill(e->pid, paused ? SIGSTOP : SIGCONT) != 0)

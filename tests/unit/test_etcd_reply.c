@@ -3,6 +3,8 @@
  * them and on the hostile or broken ones that must be refused with a message rather than read
  * as zeros: a reply that is not an object, an int64 that is not a decimal string, a negative
  * revision, a kv without a key, a copy record strtoul alone would take (" -1", "0x..").
+ * Also the header revision any reply carries (the revision watch of etcd.c: absent or broken
+ * is 0, never a guess) and the watch's seed and reset.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -132,6 +134,43 @@ static void lease_and_txn_replies(void **state)
     json_object_put(j);
 }
 
+/* the revision watch's input (etcd.c): header.revision of any reply, 0 when absent or not a
+ * non-negative int64 - never a guess; and the watch's seed / reset */
+static void the_header_revision_and_the_watch(void **state)
+{
+    (void)state;
+    static const struct { const char *text; int64_t rev; } cases[] = {
+        {"{\"header\":{\"revision\":\"322\"},\"kvs\":[]}", 322},
+        {"{\"header\":{\"revision\":17}}", 17},
+        {"{\"header\":{}}", 0},
+        {"{}", 0},
+        {"{\"header\":{\"revision\":\"-5\"}}", 0},
+        {"{\"header\":{\"revision\":\"12x\"}}", 0},
+        {"{\"header\":\"no\"}", 0},
+        {"[1]", 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        json_object *j = json_tokener_parse(cases[i].text);
+        assert_non_null(j);
+        assert_int_equal(scl_reply_header_revision(j), cases[i].rev);
+        json_object_put(j);
+    }
+    scl_revwatch w = {0};
+    int64_t from, to;
+    scl_revwatch_seed(&w, 40);
+    scl_revwatch_seed(&w, 30);   /* never lowers */
+    assert_int_equal(scl_revwatch_top(&w), 40);
+    assert_int_equal(scl_revwatch_back(&w, &from, &to), 0);
+    w.back_from = 40, w.back_to = 12;   /* as a reply below 40 leaves it */
+    assert_int_equal(scl_revwatch_back(&w, &from, &to), 1);
+    assert_int_equal(from, 40);
+    assert_int_equal(to, 12);
+    scl_revwatch_reset(&w, 13);   /* the catalogue adopted: its revision is the top */
+    assert_int_equal(scl_revwatch_top(&w), 13);
+    assert_int_equal(scl_revwatch_back(&w, &from, &to), 0);
+    assert_int_equal(w.gen, 1);
+}
+
 static void records_are_checked(void **state)
 {
     (void)state;
@@ -189,6 +228,7 @@ int main(void)
         cmocka_unit_test(a_range_reply_decodes),
         cmocka_unit_test(a_broken_range_reply_is_refused),
         cmocka_unit_test(lease_and_txn_replies),
+        cmocka_unit_test(the_header_revision_and_the_watch),
         cmocka_unit_test(records_are_checked),
         cmocka_unit_test(base64_round_trips),
     };
