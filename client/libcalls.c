@@ -59,7 +59,7 @@ static int finish(stc_conn *c, uint32_t id, stc_frame *f)
 {
     int64_t dl = stc__deadline(c->timeout_ms);
     int rc = stc__flush(c, dl);
-    if (rc == STC_ETIMEDOUT) {
+    if (stc__gave_up(rc)) {
         stc__pend_abandon(c, id);
         return rc;
     }
@@ -518,7 +518,7 @@ static int sample_blocking(stc_conn *c, int dir, const char *set, const stc_samp
         }
         dl = stc__deadline(c->timeout_ms);
         if ((rc = stc__flush(c, dl)) != 0 || (rc = stc__wait(c, ids[got], 0, dl, &f)) != 0) {
-            if (rc == STC_ETIMEDOUT)
+            if (stc__gave_up(rc))
                 stc__pend_abandon(c, ids[got]);
             goto fail;
         }
@@ -658,7 +658,12 @@ int stc_job_wait(stc_conn *c, uint64_t job_id, int wait_ms, stc_job *out)
             return stc__fail(c, STC_ETIMEDOUT, "job %llu still running after %d ms",
                              (unsigned long long)job_id, wait_ms);
         struct timespec ts = { 0, sleep_ms * 1000000L };
-        nanosleep(&ts, NULL);
+        /* the pause between polls is a wait too: the hook after a signal (EINTR) or, with
+         * an interval, after each pause (at most 100 ms) */
+        int eintr = nanosleep(&ts, NULL) != 0;
+        if ((eintr || c->intr.every_ms > 0) && stc__interrupted(&c->intr))
+            return stc__fail(c, STC_EINTERRUPTED, "interrupted waiting for job %llu",
+                             (unsigned long long)job_id);
         if (sleep_ms < 100)
             sleep_ms *= 2;
     }

@@ -1,5 +1,6 @@
 /* client/libconn.c - libseamtex's transport: connecting (with a timeout), HELLO, the
- * non-blocking socket driven by poll with deadlines, reading frames with the protocol's
+ * non-blocking socket driven by poll with deadlines and the interrupt hook (stc_set_interrupt:
+ * asked on EINTR and every every_ms while a wait lasts), reading frames with the protocol's
  * incremental parser, the list of outstanding requests (so late replies of timed-out requests
  * are recognised and dropped), sticky errors, and the pipelined flush / get-reply calls.
  *
@@ -66,7 +67,7 @@ int stc__break(stc_conn *c, int code, const char *fmt, ...)
                    "STC_" #client " is not -(STC_SERVER_BASE + STP_S_" #NAME ")");
 STP_STATUSES(SAME_STATUS)
 #undef SAME_STATUS
-_Static_assert(STC_ECANCELED > -STC_SERVER_BASE, "local codes stay above the server's");
+_Static_assert(STC_EINTERRUPTED > -STC_SERVER_BASE, "local codes stay above the server's");
 #define SAME(a, b) _Static_assert((int)(a) == (int)(b), #a " != " #b);
 SAME(STC_CAP_PIPELINE, STP_CAP_PIPELINE)
 SAME(STC_CAP_OUT_OF_ORDER, STP_CAP_OUT_OF_ORDER)
@@ -131,6 +132,15 @@ void stc_set_timeout(stc_conn *c, int timeout_ms)
 {
     if (c)
         c->timeout_ms = timeout_ms > 0 ? timeout_ms : 0;
+}
+
+void stc_set_interrupt(stc_conn *c, stc_interrupt_fn fn, void *user, int every_ms)
+{
+    if (!c)
+        return;
+    c->intr.fn = fn;
+    c->intr.user = fn ? user : NULL;
+    c->intr.every_ms = fn && every_ms > 0 ? every_ms : 0;
 }
 
 const stc_server *stc_server_info(const stc_conn *c)
@@ -204,6 +214,41 @@ static int poll_wait_ms(int64_t deadline)
     return left > 1000000 ? 1000000 : (int)left;
 }
 
+int stc__interrupted(stc_intr *h)
+{
+    if (h->fn && h->fn(h->user)) {
+        h->said = 1;
+        return 1;
+    }
+    return 0;
+}
+
+/* stc__poll's body, inlined into the transport's own waits: the hot path (ready at once, or
+ * a reply within the first poll) pays one test of h->fn before poll(2) and nothing after. */
+static inline int wait_fd(stc_intr *h, struct pollfd *pfd, int64_t deadline)
+{
+    for (;;) {
+        int ms = poll_wait_ms(deadline), capped = 0;
+        if (h->fn && h->every_ms > 0 && (ms < 0 || ms > h->every_ms)) {
+            ms = h->every_ms;
+            capped = 1;
+        }
+        int pr = poll(pfd, 1, ms);
+        if (pr > 0 || (pr == 0 && !capped))
+            return pr;
+        if (pr < 0 && errno != EINTR)
+            return -1;
+        /* a signal, or every_ms of waiting with the deadline still ahead */
+        if (stc__interrupted(h))
+            return STC_EINTERRUPTED;
+    }
+}
+
+int stc__poll(stc_intr *h, struct pollfd *pfd, int64_t deadline)
+{
+    return wait_fd(h, pfd, deadline);
+}
+
 /* ---- call bookkeeping ------------------------------------------------------------------------- */
 
 int stc__begin(stc_conn *c)
@@ -224,6 +269,7 @@ int stc__begin(stc_conn *c)
     if (c->sticky)
         return c->sticky;   /* keep the message that broke it */
     c->msg[0] = 0;
+    c->intr.said = 0;
     return 0;
 }
 
@@ -356,14 +402,12 @@ int stc__flush(stc_conn *c, int64_t deadline)
         /* Would block: wait for room, and keep reading so the server is never stuck writing
          * replies to us while we are stuck writing requests to it. */
         struct pollfd pfd = { c->fd, POLLOUT | POLLIN, 0 };
-        int pr = poll(&pfd, 1, poll_wait_ms(deadline));
-        if (pr < 0 && errno == EINTR)
-            continue;
+        int pr = wait_fd(&c->intr, &pfd, deadline);
+        if (pr == STC_EINTERRUPTED || pr == 0)
+            return stc__fail(c, pr ? pr : STC_ETIMEDOUT, "%s sending (%zu bytes queued)",
+                             pr ? "interrupted" : "timed out", stp_buf_avail(&c->out));
         if (pr < 0)
             return stc__break(c, STC_EIO, "poll: %s", strerror(errno));
-        if (pr == 0)
-            return stc__fail(c, STC_ETIMEDOUT, "timed out sending (%zu bytes queued)",
-                             stp_buf_avail(&c->out));
         if (pfd.revents & (POLLIN | POLLHUP | POLLERR)) {
             int rc = read_some(c, 0);
             if (rc < 0)
@@ -381,9 +425,9 @@ static int fill(stc_conn *c, size_t need, int64_t deadline)
     while (stp_buf_avail(&c->in) < need) {
         /* Also push out queued requests while waiting (an append may have left some). */
         struct pollfd pfd = { c->fd, POLLIN | (stp_buf_avail(&c->out) ? POLLOUT : 0), 0 };
-        int pr = poll(&pfd, 1, poll_wait_ms(deadline));
-        if (pr < 0 && errno == EINTR)
-            continue;
+        int pr = wait_fd(&c->intr, &pfd, deadline);
+        if (pr == STC_EINTERRUPTED)
+            return pr;
         if (pr < 0)
             return stc__break(c, STC_EIO, "poll: %s", strerror(errno));
         if (pr == 0)
@@ -464,10 +508,11 @@ int stc__wait(stc_conn *c, uint32_t reqid, int reqid_any, int64_t deadline, stc_
     for (;;) {
         int rc = next_frame(c, deadline, f);
         size_t i, flen;
-        if (rc == STC_ETIMEDOUT) {
+        if (stc__gave_up(rc)) {
             if (!reqid_any)
                 stc__pend_abandon(c, reqid);
-            return stc__fail(c, STC_ETIMEDOUT, "no reply within the timeout%s",
+            return stc__fail(c, rc, "%s%s", rc == STC_ETIMEDOUT ? "no reply within the timeout"
+                             : "interrupted waiting for the reply",
                              reqid_any ? "" : " (the request is abandoned; its reply will be "
                              "dropped when it comes)");
         }
@@ -583,7 +628,10 @@ int stc_get_reply(stc_conn *c, int timeout_ms, stc_reply *r)
 
 /* ---- connecting ------------------------------------------------------------------------------- */
 
-static int connect_one(const struct addrinfo *ai, int64_t deadline, char *err, size_t errlen)
+/* The connected descriptor; -1 (a failure), -2 (the deadline passed) or -3 (the hook said
+ * stop) with the reason in err. */
+static int connect_one(const struct addrinfo *ai, int64_t deadline, stc_intr *h, char *err,
+                       size_t errlen)
 {
     int fd = socket(ai->ai_family, ai->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC,
                     ai->ai_protocol);
@@ -597,18 +645,13 @@ static int connect_one(const struct addrinfo *ai, int64_t deadline, char *err, s
             close(fd);
             return -1;
         }
-        for (;;) {
-            struct pollfd pfd = { fd, POLLOUT, 0 };
-            int pr = poll(&pfd, 1, poll_wait_ms(deadline));
-            if (pr < 0 && errno == EINTR)
-                continue;
-            if (pr <= 0) {
-                snprintf(err, errlen, pr == 0 ? "connect: timed out" : "poll: %s",
-                         strerror(errno));
-                close(fd);
-                return pr == 0 ? -2 : -1;
-            }
-            break;
+        struct pollfd pfd = { fd, POLLOUT, 0 };
+        int pr = wait_fd(h, &pfd, deadline);
+        if (pr <= 0) {
+            snprintf(err, errlen, pr == 0 ? "connect: timed out" : pr == STC_EINTERRUPTED
+                     ? "connect: interrupted" : "poll: %s", strerror(errno));
+            close(fd);
+            return pr == 0 ? -2 : pr == STC_EINTERRUPTED ? -3 : -1;
         }
         int soerr = 0;
         socklen_t sl = sizeof soerr;
@@ -663,9 +706,9 @@ static int hello(stc_conn *c, const stc_opts *o, int64_t deadline)
     if ((rc = stc__pend_add(c, id, STP_OP_HELLO, 0)) != 0 || (rc = stc__flush(c, deadline)) != 0)
         return rc;
     rc = stc__wait(c, id, 0, deadline, &f);
-    if (rc == STC_ETIMEDOUT)        /* stc_connect_opts closes it: no late reply to drop */
-        return stc__fail(c, rc, "no reply within the connect timeout (the connection is "
-                         "closed)");
+    if (stc__gave_up(rc))           /* stc_connect_opts closes it: no late reply to drop */
+        return stc__fail(c, rc, "%s (the connection is closed)", rc == STC_ETIMEDOUT
+                         ? "no reply within the connect timeout" : "interrupted");
     if (rc)
         return rc;
     if (f.h.status == STP_S_UNKNOWN_OPCODE)
@@ -715,6 +758,9 @@ stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, i
     char portstr[16], why[512] = "";
     int64_t deadline;
     int ctmo, fd = -1, rc, timed_out = 0;
+    stc_intr intr = { o ? o->interrupt : NULL, o && o->interrupt ? o->interrupt_user : NULL,
+                      o && o->interrupt && o->interrupt_every_ms > 0 ? o->interrupt_every_ms
+                      : 0, 0 };
     stc_conn *c;
 
     if (err)
@@ -740,9 +786,10 @@ stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, i
         uai.ai_socktype = SOCK_STREAM;
         uai.ai_addr = (struct sockaddr *)&sa;
         uai.ai_addrlen = salen;
-        fd = connect_one(&uai, deadline, why, sizeof why);
+        fd = connect_one(&uai, deadline, &intr, why, sizeof why);
         if (fd < 0)
-            CONNECT_FAIL(fd == -2 ? STC_ETIMEDOUT : STC_ECONNECT, "%s: %s", host, why);
+            CONNECT_FAIL(fd == -2 ? STC_ETIMEDOUT : fd == -3 ? STC_EINTERRUPTED : STC_ECONNECT,
+                         "%s: %s", host, why);
         goto connected;
     }
     if (!host || !host[0] || port == 0 || port > 65535)
@@ -758,17 +805,18 @@ stc_conn *stc_connect_opts(const char *host, unsigned port, const stc_opts *o, i
     if (rc != 0)
         CONNECT_FAIL(STC_ECONNECT, "cannot resolve %s: %s", host, gai_strerror(rc));
     for (ai = res; ai; ai = ai->ai_next) {
-        fd = connect_one(ai, deadline, why, sizeof why);
+        fd = connect_one(ai, deadline, &intr, why, sizeof why);
         if (fd >= 0)
             break;
-        if (fd == -2) {
-            timed_out = 1;
+        if (fd == -2 || fd == -3) {
+            timed_out = fd;
             break;
         }
     }
     freeaddrinfo(res);
     if (fd < 0)
-        CONNECT_FAIL(timed_out ? STC_ETIMEDOUT : STC_ECONNECT, "%s:%u: %s", host, port, why);
+        CONNECT_FAIL(timed_out == -2 ? STC_ETIMEDOUT : timed_out == -3 ? STC_EINTERRUPTED
+                     : STC_ECONNECT, "%s:%u: %s", host, port, why);
 
 connected:
     c = calloc(1, sizeof *c);
@@ -782,6 +830,7 @@ connected:
     c->next_reqid = 1;
     c->timeout_ms = o && o->request_timeout_ms > 0 ? o->request_timeout_ms : 0;
     c->max_body = o && o->max_body ? o->max_body : STC_DEFAULT_MAX_BODY;
+    c->intr = intr;
     stp_buf_init(&c->out);
     stp_buf_init(&c->in);
     defaults_server(&c->server);

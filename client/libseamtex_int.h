@@ -21,6 +21,15 @@ typedef struct stc_pend {
     uint64_t shm_off, shm_len;   /* its reply room (its queries lie before it in the span) */
 } stc_pend;
 
+/* The interrupt hook (stc_set_interrupt, stc_opts.interrupt) and whether it said stop during
+ * the current call (cleared by stc__begin). */
+typedef struct stc_intr {
+    stc_interrupt_fn fn;          /* NULL: none */
+    void            *user;
+    int              every_ms;    /* > 0: also called after each every_ms of waiting */
+    int              said;        /* it returned non-zero during this call */
+} stc_intr;
+
 struct stc_conn {
     int      fd;
     long     pid;                 /* the process that connected (getpid): a child after fork
@@ -31,6 +40,7 @@ struct stc_conn {
     int      sticky;              /* 0, or the error that broke the connection */
     char     msg[1024];           /* message of the last failure */
     int      timeout_ms;          /* per-request timeout, 0 = none */
+    stc_intr intr;                /* the interrupt hook, consulted only while waiting */
     uint32_t next_reqid;
     uint32_t max_body;            /* cap on reply bodies */
     stc_server server;
@@ -101,6 +111,20 @@ int stc__pend_add(stc_conn *c, uint32_t reqid, uint8_t opcode, int pipelined);
 void stc__pend_drop_last(stc_conn *c);
 /* Marks a pending request abandoned (its late reply will be dropped). */
 void stc__pend_abandon(stc_conn *c, uint32_t reqid);
+/* poll(2) of one descriptor until it is ready (poll's count), the deadline passes (0), the
+ * interrupt hook h says stop (STC_EINTERRUPTED; h->said set) or poll fails otherwise (-1,
+ * errno). EINTR without a stop is retried. The hook is called only when poll returns EINTR
+ * or after h->every_ms of waiting, never when the descriptor is ready at once. */
+struct pollfd;
+int stc__poll(stc_intr *h, struct pollfd *pfd, int64_t deadline);
+/* Calls the hook (when set); 1 (h->said set) when it says stop, else 0. */
+int stc__interrupted(stc_intr *h);
+/* A wait that gave up with the request still outstanding: a timeout or an interrupt (both
+ * abandon the request; its late reply is dropped). */
+static inline int stc__gave_up(int rc)
+{
+    return rc == STC_ETIMEDOUT || rc == STC_EINTERRUPTED;
+}
 /* Sends everything in c->out (reading replies meanwhile so that neither side stalls). */
 int stc__flush(stc_conn *c, int64_t deadline);
 /* Waits for the reply to `reqid` (or to any non-abandoned pending request when reqid_any),

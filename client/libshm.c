@@ -56,11 +56,16 @@ static int send_with_fd(stc_conn *c, const stp_buf *b, int fd, int64_t deadline)
         }
         if (errno != EAGAIN && errno != EWOULDBLOCK)
             return stc__break(c, STC_EIO, "sendmsg: %s", strerror(errno));
-        int64_t left = deadline < 0 ? 1000 : deadline - stc__now_ms();
-        if (left <= 0)
-            return stc__break(c, STC_ETIMEDOUT, "SHM_ATTACH could not be sent in time");
         struct pollfd p = { c->fd, POLLOUT, 0 };
-        poll(&p, 1, left > 1000 ? 1000 : (int)left);
+        int pr = stc__poll(&c->intr, &p, deadline);
+        if (pr == 0)
+            return stc__break(c, STC_ETIMEDOUT, "SHM_ATTACH could not be sent in time");
+        if (pr == STC_EINTERRUPTED) {       /* nothing of it was sent: forget it */
+            stc__pend_drop_last(c);
+            return stc__fail(c, pr, "interrupted sending SHM_ATTACH");
+        }
+        if (pr < 0)
+            return stc__break(c, STC_EIO, "poll: %s", strerror(errno));
     }
 }
 
@@ -103,7 +108,7 @@ int stc_shm_attach(stc_conn *c, size_t bytes)
         goto out;
     if ((rc = send_with_fd(c, &b, mfd, dl)) != 0 || (rc = stc__flush(c, dl)) != 0 ||
         (rc = stc__wait(c, id, 0, dl, &f)) != 0) {
-        if (rc == STC_ETIMEDOUT)
+        if (stc__gave_up(rc))
             stc__pend_abandon(c, id);
         goto out;
     }

@@ -44,7 +44,7 @@ static int roundtrip_within(stc_conn *c, uint32_t id, int timeout_ms, stc_frame 
 {
     int64_t dl = stc__deadline(timeout_ms);
     int rc = stc__flush(c, dl);
-    if (rc == STC_ETIMEDOUT)
+    if (stc__gave_up(rc))
         stc__pend_abandon(c, id);
     if (rc)
         return rc;
@@ -67,15 +67,18 @@ static int window_size(const stc_conn *c)
 /* Sends id-only request op for `xid` and waits, keeping the caller's error message: used to
  * clean up (UPLOAD_ABORT, FETCH_CLOSE) after a failure. `after` is the failure's code: after a
  * timeout the wait is XFER_CLEANUP_AFTER_TIMEOUT_MS at most (the request is sent all the same;
- * a late reply is dropped). */
-static void cleanup_call(stc_conn *c, uint8_t op, uint64_t xid, int after)
+ * a late reply is dropped); after an interrupt (or once the interrupt hook said stop) it is
+ * not waited for at all: queued, sent as far as the socket takes it now (the rest goes out
+ * with the connection's next call), its reply dropped. Returns STC_EINTERRUPTED when the hook
+ * has said stop during this call (the caller's call returns that, libseamtex(3)), else 0. */
+static int cleanup_call(stc_conn *c, uint8_t op, uint64_t xid, int after)
 {
     char keep[sizeof c->msg];
     stc_frame f;
     uint32_t id;
     int wait_ms = c->timeout_ms;
     if (c->sticky)
-        return;
+        return c->intr.said ? STC_EINTERRUPTED : 0;
     if (after == STC_ETIMEDOUT && (wait_ms <= 0 || wait_ms > XFER_CLEANUP_AFTER_TIMEOUT_MS))
         wait_ms = XFER_CLEANUP_AFTER_TIMEOUT_MS;
     memcpy(keep, c->msg, sizeof keep);
@@ -84,13 +87,34 @@ static void cleanup_call(stc_conn *c, uint8_t op, uint64_t xid, int after)
         c->hold = 0;
     }
     if (start_req(c, op, &id) == 0 &&
-        xfer_encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)wait_ms, xid)) == 0)
-        (void)roundtrip_within(c, id, wait_ms, &f);
+        xfer_encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)wait_ms, xid)) == 0) {
+        if (c->intr.said) {
+            (void)stc__flush(c, stc__now_ms());
+            stc__pend_abandon(c, id);
+        } else {
+            (void)roundtrip_within(c, id, wait_ms, &f);
+        }
+    }
     if (c->hold) {
         stp_buf_consume(&c->in, c->hold);
         c->hold = 0;
     }
     memcpy(c->msg, keep, sizeof keep);
+    return c->intr.said ? STC_EINTERRUPTED : 0;
+}
+
+/* The code a failed transfer returns after its clean-up: its own, or STC_EINTERRUPTED when
+ * the hook said stop during the clean-up (the caller's message kept, so it tells the first
+ * failure). */
+static int after_cleanup(stc_conn *c, int rc, int cleanup_rc)
+{
+    if (cleanup_rc && rc != cleanup_rc) {
+        size_t n = strlen(c->msg);
+        snprintf(c->msg + n, sizeof c->msg - n, "%s(then interrupted while cleaning up)",
+                 n ? " " : "");
+        return cleanup_rc;
+    }
+    return rc;
 }
 
 static void abandon_all(stc_conn *c, const uint32_t *ids, int n)
@@ -144,7 +168,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     if (stp_dec_upload_begin_reply(f.body, f.h.body_len, &br, &why) != 0)
         return stc__break(c, STC_EPROTO, "malformed UPLOAD_BEGIN reply: %s", why);
     if (br.received > len) {
-        cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, 0);
+        (void)cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, 0);   /* then sticky EPROTO */
         return stc__break(c, STC_EPROTO, "the server holds more bytes than the file has");
     }
 
@@ -216,8 +240,8 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
     if ((rc = roundtrip(c, id, &f)) != 0) {
         /* A failed commit has dropped the upload on the server already; a timed-out one
          * may still finish, so abort it explicitly. */
-        if (rc == STC_ETIMEDOUT)
-            cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, rc);
+        if (stc__gave_up(rc))
+            rc = after_cleanup(c, rc, cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, rc));
         return rc;
     }
     if (out) {
@@ -238,7 +262,7 @@ static int upload_mem(stc_conn *c, const uint8_t *data, size_t len, const char *
 
 fail:
     abandon_all(c, ids, inflight);
-    cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, rc);
+    rc = after_cleanup(c, rc, cleanup_call(c, STP_OP_UPLOAD_ABORT, br.upload_id, rc));
     return rc;
 }
 
@@ -412,12 +436,14 @@ int stc_fetch_file(stc_conn *c, const char *set, unsigned format, const char *pa
         rc = stc__fail(c, STC_EFILE, "rename %s: %s", path, strerror(errno));
         goto fail;
     }
-    cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id, 0);
+    /* the file is complete; an interrupt while closing still says so (the hook's rule) */
+    if ((rc = cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id, 0)) != 0)
+        return stc__fail(c, rc, "interrupted closing the fetch (%s is complete)", path);
     return 0;
 
 fail:
     abandon_all(c, ids, inflight);
-    cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id, rc);
+    rc = after_cleanup(c, rc, cleanup_call(c, STP_OP_FETCH_CLOSE, fr.fetch_id, rc));
     if (fd >= 0)
         close(fd);
     unlink(part);

@@ -25,7 +25,7 @@
  * caller's; the library does not keep pointers to them after the call returns.
  *
  * ERRORS: functions return 0 (STC_OK) or a negative code:
- *   - local codes STC_EINVAL .. STC_ECANCELED;
+ *   - local codes STC_EINVAL .. STC_EINTERRUPTED;
  *   - server statuses, -(STC_SERVER_BASE + status), e.g. STC_ENOTFOUND: the server refused
  *     this request; the connection stays usable; stc_errmsg gives the server's message.
  * A broken connection (I/O error, peer closed, protocol violation, out of memory while
@@ -33,6 +33,8 @@
  * later call (stc_error tells it); close the connection and open a new one.
  * A timeout (STC_ETIMEDOUT) is NOT sticky: the request stays outstanding, its late reply is
  * recognised by its request id and discarded, and the connection can be used at once.
+ * An interrupt (STC_EINTERRUPTED: the hook of stc_set_interrupt said stop) is handled exactly
+ * as a timeout is, with no deadline needed (Ctrl-C for a caller without a timeout).
  */
 #ifndef SEAMTEX_H
 #define SEAMTEX_H
@@ -60,7 +62,9 @@ extern "C" {
     X(ECHECKSUM, -9)   /* downloaded data did not match its checksum */                  \
     X(ESTATE,    -10)  /* a call that is not allowed now (e.g. a blocking call while     \
                           pipelined replies are unread, get_reply with nothing pending) */ \
-    X(ECANCELED, -11)  /* an upload/fetch progress callback asked to stop */
+    X(ECANCELED, -11)  /* an upload/fetch progress callback asked to stop */             \
+    X(EINTERRUPTED, -12) /* the interrupt hook (stc_set_interrupt) asked to stop a wait    \
+                          (not sticky: as ETIMEDOUT, the request is abandoned) */
 
 enum stc_err {
     STC_OK        = 0,
@@ -104,6 +108,22 @@ const char *stc_strerror(int code);
 
 typedef struct stc_conn stc_conn;
 
+/* The interrupt hook (stc_set_interrupt, stc_opts.interrupt): fn(user) is called on the
+ * calling thread while a call waits for the server (a connect, a reply, room to send, a
+ * transfer's next chunk, stc_job_wait's pause between polls): when a signal interrupts the
+ * wait (poll(2) or nanosleep(2) fails with EINTR) and, when every_ms > 0, after every every_ms
+ * of waiting. It is never called while data flows without waiting, so a call that does not
+ * wait costs nothing more. Returning non-zero stops the call: it returns STC_EINTERRUPTED,
+ * which is NOT sticky and leaves the connection as STC_ETIMEDOUT does (the request abandoned,
+ * its late reply recognised by its request id and dropped; an upload or fetch sends
+ * UPLOAD_ABORT / FETCH_CLOSE without waiting for its reply; a connect or HELLO that is
+ * interrupted closes the connection, as a connect timeout does). A call the hook stopped
+ * never returns 0: it returns STC_EINTERRUPTED (or the sticky error of a connection that
+ * broke meanwhile), even when it would have finished otherwise.
+ * The hook must not call stc_* on the same connection. (Name resolution, getaddrinfo(3) of a
+ * host name, cannot be interrupted.) */
+typedef int (*stc_interrupt_fn)(void *user);
+
 /* ---- connecting ----------------------------------------------------------------------------- */
 
 typedef struct stc_opts {
@@ -114,6 +134,10 @@ typedef struct stc_opts {
     const char *client_name;          /* informational, NULL = "libseamtex" */
     int         no_hello;             /* 1: skip the HELLO exchange (protocol v1 defaults) */
     uint32_t    max_body;             /* cap on reply bodies the client accepts; 0 = 256 MiB */
+    stc_interrupt_fn interrupt;       /* the interrupt hook for connecting and HELLO, then the
+                                         connection's (stc_set_interrupt); NULL = none */
+    void       *interrupt_user;
+    int         interrupt_every_ms;
 } stc_opts;
 
 /* Connects (TCP; host is a name or address, IPv4 or IPv6; or a Unix socket: host
@@ -133,6 +157,9 @@ const char *stc_errmsg(const stc_conn *c);
 int stc_error(const stc_conn *c);
 /* Per-request timeout for later calls; 0 (or negative) = none. */
 void stc_set_timeout(stc_conn *c, int timeout_ms);
+/* Sets (fn NULL: removes) the interrupt hook of c (stc_interrupt_fn above); every_ms <= 0:
+ * called only when a signal interrupts a wait. */
+void stc_set_interrupt(stc_conn *c, stc_interrupt_fn fn, void *user, int every_ms);
 
 /* Capability bits of stc_server.caps (PROTOCOL.md 4.1). */
 enum {

@@ -83,6 +83,18 @@ PyMODINIT_FUNC PyInit__seamtex(void)
         }
         watching = 1;
     }
+    /* the thread whose signal handlers run (st_py_interrupt asks on that one only) */
+    PyObject *th = PyImport_ImportModule("threading");
+    PyObject *mt = th ? PyObject_CallMethod(th, "main_thread", NULL) : NULL;
+    PyObject *id = mt ? PyObject_GetAttrString(mt, "ident") : NULL;
+    Py_XDECREF(th);
+    Py_XDECREF(mt);
+    if (!id)
+        return NULL;
+    st_py_main_thread = PyLong_AsUnsignedLong(id);
+    Py_DECREF(id);
+    if (PyErr_Occurred())
+        return NULL;
     PyObject *m = PyModule_Create(&seamtex_module);
     if (!m)
         return NULL;

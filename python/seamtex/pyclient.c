@@ -5,7 +5,8 @@
  * Owns: turning Python arguments into stc_* arguments and results into dicts, the Client's
  * lock (one thread on the connection at a time, the library's rule), releasing the GIL around
  * every call that waits on the network, progress callbacks (called with the GIL taken again;
- * an exception in one aborts the transfer and is re-raised).
+ * an exception in one aborts the transfer and is re-raised), the interrupt hook (Ctrl-C stops
+ * a call that waits, even with timeout=None: st_py_interrupt).
  * Does not own: the protocol, retries or resumption policy (libseamtex), numpy.
  */
 #include "pyseamtex.h"
@@ -123,8 +124,38 @@ int st_py_client_enter(st_py_client *self)
     return 0;
 }
 
+/* Hands the exception a signal handler raised during the call to Python (1), else 0. */
+static int interrupt_reraise(st_py_client *self)
+{
+    if (!self->intr_type)
+        return 0;
+    PyErr_Restore(self->intr_type, self->intr_value, self->intr_tb);
+    self->intr_type = self->intr_value = self->intr_tb = NULL;
+    return 1;
+}
+
+unsigned long st_py_main_thread;
+
+int st_py_interrupt(void *user)
+{
+    st_py_client *self = user;
+    if (self->intr_type)                /* said stop already in this call */
+        return 1;
+    if (PyThread_get_thread_ident() != st_py_main_thread)
+        return 0;                       /* handlers run on the main thread only */
+    PyGILState_STATE g = PyGILState_Ensure();
+    int stop = PyErr_CheckSignals() < 0;
+    if (stop)
+        PyErr_Fetch(&self->intr_type, &self->intr_value, &self->intr_tb);
+    PyGILState_Release(g);
+    return stop;
+}
+
 void st_py_client_leave(st_py_client *self)
 {
+    Py_CLEAR(self->intr_type);          /* none left but one a raised exception overtook */
+    Py_CLEAR(self->intr_value);
+    Py_CLEAR(self->intr_tb);
     stc_shm_counts(self->conn, &self->via_shm, &self->via_sock);   /* NULL conn: 0, 0 */
     self->owner = 0;
     PyThread_release_lock(self->lock);
@@ -174,6 +205,8 @@ void *st_py_client_scratch(st_py_client *self, size_t bytes)
 
 PyObject *st_py_client_fail(st_py_client *self, int rc)
 {
+    if (interrupt_reraise(self))
+        return NULL;
     return st_py_raise(rc, self->conn ? stc_errmsg(self->conn) : "");
 }
 
@@ -307,6 +340,9 @@ static int client_connect(st_py_client *self, const char *host, unsigned port,
     o.request_timeout_ms = ms_of(timeout);
     o.token = token;
     o.client_name = cname;
+    o.interrupt = st_py_interrupt;      /* Ctrl-C: connect, HELLO, then every call */
+    o.interrupt_user = self;
+    o.interrupt_every_ms = ST_PY_INTERRUPT_MS;
     int err = 0;
     char msg[512] = "";
     stc_conn *c;
@@ -314,7 +350,8 @@ static int client_connect(st_py_client *self, const char *host, unsigned port,
     c = stc_connect_opts(host, port, &o, &err, msg, sizeof msg);
     Py_END_ALLOW_THREADS
     if (!c) {
-        st_py_raise(err, msg);
+        if (!interrupt_reraise(self))
+            st_py_raise(err, msg);
         return -1;
     }
     self->hello = *stc_server_info(c);
@@ -337,6 +374,9 @@ static int client_connect(st_py_client *self, const char *host, unsigned port,
 
 static void client_dealloc(st_py_client *self)
 {
+    Py_CLEAR(self->intr_type);
+    Py_CLEAR(self->intr_value);
+    Py_CLEAR(self->intr_tb);
     stc_close(self->conn);
     free(self->scratch);
     if (self->lock)
@@ -725,7 +765,8 @@ static PyObject *client_job_cancel(st_py_client *self, PyObject *args)
     return job_dict(&j);
 }
 
-/* Waits in slices of at most 250 ms so that Ctrl-C is seen between them. */
+/* Waits in slices of at most 250 ms (a timeout= of its own; Ctrl-C is seen within a slice by
+ * the interrupt hook, and between slices). */
 static PyObject *client_job_wait(st_py_client *self, PyObject *args)
 {
     unsigned long long id;

@@ -37,6 +37,9 @@ static const struct {
     {STC_ECHECKSUM, "ChecksumMismatch", "Downloaded data did not match its checksum (ECHECKSUM)."},
     {STC_ESTATE,    "StateError",       "A call that is not allowed now (ESTATE)."},
     {STC_ECANCELED, "Aborted",          "A progress callback stopped a transfer (ECANCELED)."},
+    /* the interrupt hook said stop: the module raises the signal handler's exception
+     * instead (KeyboardInterrupt); the class only names the code */
+    {STC_EINTERRUPTED, "Aborted",       NULL},
 };
 
 static PyObject *builtin_base(int code)

@@ -13,7 +13,8 @@
  * shm_status), pyarray.c (Array), pyerrors.c (exceptions).
  *
  * GIL: every stc_* call that may wait on the network runs between Py_BEGIN_ALLOW_THREADS and
- * Py_END_ALLOW_THREADS. A Client holds one connection, used by one thread at a time (the
+ * Py_END_ALLOW_THREADS; while it waits, libseamtex's interrupt hook (st_py_interrupt) takes
+ * the GIL briefly on the main thread to run signal handlers (Ctrl-C). A Client holds one connection, used by one thread at a time (the
  * library's rule): st_py_client_enter takes the Client's lock (waiting for it with the GIL
  * released), st_py_client_leave gives it back.
  */
@@ -51,7 +52,23 @@ typedef struct st_py_client {
      * thread's long call): written, like conn, only with the GIL held, which orders them. */
     stc_server         hello;     /* what HELLO told, copied at connect (it never changes) */
     uint64_t           via_shm, via_sock;  /* stc_shm_counts as of the last call's end */
+    /* What a signal handler raised while this Client's call waited (KeyboardInterrupt for
+     * Ctrl-C): the libseamtex interrupt hook (st_py_interrupt) keeps it here and the call
+     * returns STC_EINTERRUPTED, which st_py_client_fail turns back into it. Written by the
+     * thread holding the lock (the GIL held); cleared by st_py_client_leave. */
+    PyObject          *intr_type, *intr_value, *intr_tb;
 } st_py_client;
+
+/* libseamtex's interrupt hook (stc_opts.interrupt, user = the Client), called while a call
+ * waits with the GIL released: on the main thread (the only one where Python runs signal
+ * handlers) it takes the GIL, runs PyErr_CheckSignals and says stop when a handler raised;
+ * on any other thread it returns 0 without the GIL. Installed with ST_PY_INTERRUPT_MS. */
+int st_py_interrupt(void *user);
+/* How often a wait asks the hook besides when a signal interrupts it (EINTR): covers a
+ * SIGINT the kernel gave to another thread of the process. */
+#define ST_PY_INTERRUPT_MS 100
+/* The main thread's ident (threading.main_thread().ident at import). */
+extern unsigned long st_py_main_thread;
 
 /* Forks this process has gone through as a child (pthread_atfork, registered by
  * st_py_fork_watch at import): a Client connected at another count is its parent's. A load,
@@ -78,13 +95,15 @@ extern PyTypeObject st_py_client_type;
  * its own Client would otherwise wait for itself forever) or when this is not the process
  * that connected (a child after fork: StateError). */
 int st_py_client_enter(st_py_client *self);
-/* Gives the lock back (GIL held), keeping the shared-memory counts for shm_status. */
+/* Gives the lock back (GIL held), keeping the shared-memory counts for shm_status (and
+ * dropping a signal's exception that another exception raised by the call has overtaken). */
 void st_py_client_leave(st_py_client *self);
 /* For the attributes read without the lock (server, shm_status; GIL held): raises as
  * st_py_client_enter does for a closed Client or a child after fork, without waiting. */
 int st_py_client_usable(st_py_client *self);
 /* Raises the exception for rc (an stc_err code) with the connection's message; call with the
- * lock held (the message belongs to the connection). Returns NULL. */
+ * lock held (the message belongs to the connection). When the interrupt hook stopped the call
+ * (STC_EINTERRUPTED) it raises what the signal handler raised instead. Returns NULL. */
 PyObject *st_py_client_fail(st_py_client *self, int rc);
 
 /* ---- shared memory (pyshm.c) ------------------------------------------------------------------ */

@@ -62,8 +62,9 @@ int st_py_shm_open(st_py_client *self, PyObject *shm_o, Py_ssize_t bytes)
         self->shm_bytes = (size_t)bytes;
         return 0;
     }
-    if (policy == 1 || stc_error(self->conn)) {   /* asked for, or the connection broke */
-        st_py_raise(rc, stc_errmsg(self->conn));
+    /* asked for, the connection broke, or Ctrl-C (the interrupt hook: its exception) */
+    if (policy == 1 || stc_error(self->conn) || rc == STC_EINTERRUPTED) {
+        st_py_client_fail(self, rc);
         return -1;
     }
     snprintf(self->shm_why, sizeof self->shm_why, "%s", stc_errmsg(self->conn));

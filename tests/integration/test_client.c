@@ -17,6 +17,7 @@
 #include <poll.h>
 #include <pthread.h>
 #include <setjmp.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -884,6 +885,13 @@ static int mute_on_progress(void *user, uint64_t done, uint64_t total)
     return 0;
 }
 
+static int mute_on_last(void *user, uint64_t done, uint64_t total)
+{
+    if (done == total)
+        __atomic_store_n(&((mute_at_first *)user)->m->mute, 1, __ATOMIC_RELEASE);
+    return 0;
+}
+
 static int muted_cleanup_seen(void *arg)
 {
     return __atomic_load_n(&((mock *)arg)->muted_cleanups, __ATOMIC_ACQUIRE) > 0;
@@ -929,6 +937,194 @@ static void a_timed_out_transfer_waits_briefly_for_its_cleanup(void **state)
     __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
     assert_int_equal(stc_ping(c), 0);
     assert_int_equal(access(path, F_OK), -1);            /* nothing left behind */
+    rmdir(dir);
+    stc_close(c);
+    mock_stop(m);
+}
+
+/* ---- the interrupt hook (stc_set_interrupt, stc_opts.interrupt) -------------------------- */
+
+/* py36: with no timeout a call waiting on a silent server could only end when the server
+ * answered (poll was retried on EINTR): Ctrl-C could not stop a Python call. The hook is asked
+ * while a call waits and stops it with STC_EINTERRUPTED, not sticky. */
+typedef struct hook_count {
+    int calls, stop_at;           /* stop_at 0: never says stop */
+    pthread_t caller;
+} hook_count;
+
+static int counting_hook(void *user)
+{
+    hook_count *h = user;
+    /* only ever the calling thread (the mock's thread never calls it) */
+    assert_true(pthread_equal(pthread_self(), h->caller));
+    h->calls++;
+    return h->stop_at && h->calls >= h->stop_at;
+}
+
+static void interrupt_hook_stops_a_wait_and_leaves_the_connection_usable(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_DELAY_PING1);         /* the first PING answered after 400 ms */
+    stc_conn *c = mock_connect(m, 0);            /* no request timeout */
+    hook_count h = { 0, 3, pthread_self() };
+    stc_set_interrupt(c, counting_hook, &h, 20);
+    assert_int_equal(stc_ping(c), STC_EINTERRUPTED);
+    assert_int_equal(h.calls, 3);                /* every 20 ms until it said stop */
+    assert_non_null(strstr(stc_errmsg(c), "interrupted"));
+    assert_string_equal(stc_strerror(STC_EINTERRUPTED), "EINTERRUPTED");
+    assert_int_equal(stc_error(c), 0);           /* not sticky */
+    assert_int_equal(stc_pending(c), 0);
+    /* the next call works: the abandoned PING's late reply comes first and is dropped */
+    h.stop_at = 0;
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(m->pings, 3);
+    /* a call that gets its reply within every_ms never asks the hook */
+    h.calls = 0;
+    stc_set_interrupt(c, counting_hook, &h, 10000);
+    for (int i = 0; i < 50; i++)
+        assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(h.calls, 0);
+    stc_set_interrupt(c, NULL, NULL, 0);
+    assert_int_equal(stc_ping(c), 0);
+    stc_close(c);
+    mock_stop(m);
+}
+
+static void on_usr1(int sig)
+{
+    (void)sig;
+}
+
+typedef struct kicker { pthread_t target; int after_ms; } kicker;
+static void *kick(void *arg)
+{
+    kicker *k = arg;
+    st_sleep_ms(k->after_ms);
+    pthread_kill(k->target, SIGUSR1);
+    return NULL;
+}
+
+/* every_ms 0: the hook is asked only when a signal interrupts the wait (poll's EINTR, which
+ * used to be retried without a word). */
+static void interrupt_hook_is_asked_when_a_signal_interrupts_the_wait(void **state)
+{
+    (void)state;
+    struct sigaction sa, old;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_usr1;               /* no SA_RESTART (poll is never restarted anyway) */
+    sigemptyset(&sa.sa_mask);
+    assert_int_equal(sigaction(SIGUSR1, &sa, &old), 0);
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 10000);        /* a bound for a broken hook, not needed */
+    __atomic_store_n(&m->mute, 1, __ATOMIC_RELEASE);   /* never answers now */
+    hook_count h = { 0, 1, pthread_self() };
+    stc_set_interrupt(c, counting_hook, &h, 0);
+    kicker k = { pthread_self(), 200 };
+    pthread_t th;
+    pthread_create(&th, NULL, kick, &k);
+    assert_int_equal(stc_ping(c), STC_EINTERRUPTED);
+    pthread_join(th, NULL);
+    assert_int_equal(h.calls, 1);
+    assert_int_equal(stc_error(c), 0);
+    /* a signal the hook lets pass: the wait goes on (here until the request timeout) */
+    h.calls = 0;
+    h.stop_at = 0;
+    stc_set_timeout(c, 600);
+    pthread_create(&th, NULL, kick, &k);
+    assert_int_equal(stc_ping(c), STC_ETIMEDOUT);
+    pthread_join(th, NULL);
+    assert_int_equal(h.calls, 1);
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    stc_set_timeout(c, 5000);
+    assert_int_equal(stc_ping(c), 0);
+    stc_close(c);
+    mock_stop(m);
+    sigaction(SIGUSR1, &old, NULL);
+}
+
+/* Connecting: the connect and HELLO's reply are waits too (stc_opts.interrupt); the
+ * connection is closed, as after a connect timeout. */
+static void interrupt_hook_stops_a_connect(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_SILENT);
+    hook_count h = { 0, 2, pthread_self() };
+    stc_opts o;
+    memset(&o, 0, sizeof o);
+    o.connect_timeout_ms = 10000;              /* a bound for a broken hook, not needed */
+    o.interrupt = counting_hook;
+    o.interrupt_user = &h;
+    o.interrupt_every_ms = 20;
+    int err = 0;
+    char msg[256] = "";
+    assert_null(stc_connect_opts("127.0.0.1", (unsigned)m->port, &o, &err, msg, sizeof msg));
+    assert_int_equal(err, STC_EINTERRUPTED);
+    assert_int_equal(h.calls, 2);
+    if (!strstr(msg, "HELLO") || !strstr(msg, "interrupted") || !strstr(msg, "closed"))
+        fail_msg("interrupted connect: \"%s\"", msg);
+    mock_stop(m);
+}
+
+/* A transfer stopped mid-way: STC_EINTERRUPTED at once, UPLOAD_ABORT / FETCH_CLOSE sent but
+ * not waited for (waiting would ask the hook again: it is asked 3 times in all), the
+ * connection usable after. */
+static void interrupt_hook_stops_a_transfer_without_waiting_for_its_cleanup(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 10000);        /* a bound for a broken hook, not needed */
+    size_t n = 40000;                                    /* 40 chunks of the mock's 1000 */
+    uint8_t *data = malloc(n);
+    for (size_t i = 0; i < n; i++)
+        data[i] = (uint8_t)(i * 7);
+    hook_count h = { 0, 3, pthread_self() };
+    stc_set_interrupt(c, counting_hook, &h, 20);
+    mute_at_first u = { m };
+    stc_upload_opts o;
+    memset(&o, 0, sizeof o);
+    o.progress = mute_on_progress;
+    o.user = &u;
+    assert_int_equal(stc_upload_buffer(c, data, n, "up", &o, NULL), STC_EINTERRUPTED);
+    assert_int_equal(h.calls, 3);      /* not asked again: the abort's reply not waited for */
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the abort was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    h.stop_at = 0;
+    assert_int_equal(stc_ping(c), 0);                    /* late replies dropped */
+
+    __atomic_store_n(&m->muted_cleanups, 0, __ATOMIC_RELEASE);
+    m->fetch_len = n;
+    m->fetch = data;                                     /* freed by mock_stop */
+    char dir[] = "/tmp/stc-fetchint-XXXXXX", path[300];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/out.ptx", dir);
+    h.calls = 0;
+    h.stop_at = 3;
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, mute_on_progress, &u),
+                     STC_EINTERRUPTED);
+    assert_int_equal(h.calls, 3);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the close was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    h.stop_at = 0;
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(access(path, F_OK), -1);            /* nothing left behind */
+    /* the hook stops the FETCH_CLOSE of a fetch that got all its data: still
+     * STC_EINTERRUPTED (a stop always shows: a Python caller's KeyboardInterrupt is not
+     * lost), the file complete and in place */
+    h.calls = 0;
+    h.stop_at = 3;
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, mute_on_last, &u),
+                     STC_EINTERRUPTED);
+    assert_int_equal(h.calls, 3);
+    assert_non_null(strstr(stc_errmsg(c), "is complete"));
+    struct stat sb;
+    assert_int_equal(stat(path, &sb), 0);
+    assert_int_equal(sb.st_size, (off_t)n);
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    h.stop_at = 0;
+    assert_int_equal(stc_ping(c), 0);
+    unlink(path);
     rmdir(dir);
     stc_close(c);
     mock_stop(m);
@@ -1000,9 +1196,10 @@ static void strerror_has_one_name_for_every_unknown_code(void **state)
     assert_string_equal(stc_strerror(STC_OK), "OK");
     assert_string_equal(stc_strerror(STC_EINVAL), "EINVAL");
     assert_string_equal(stc_strerror(STC_ECANCELED), "ECANCELED");
+    assert_string_equal(stc_strerror(STC_EINTERRUPTED), "EINTERRUPTED");
     assert_string_equal(stc_strerror(STC_EBADREQUEST), "BAD_REQUEST");
     assert_string_equal(stc_strerror(STC_EUNAVAILABLE), "UNAVAILABLE");
-    const int unknown[] = { STC_ECANCELED - 1, -50, -(STC_SERVER_BASE - 1), -STC_SERVER_BASE,
+    const int unknown[] = { STC_EINTERRUPTED - 1, -50, -(STC_SERVER_BASE - 1), -STC_SERVER_BASE,
                             STC_EUNAVAILABLE - 1, -(STC_SERVER_BASE + 1000), 1, 12345,
                             INT32_MIN, INT32_MAX };
     for (size_t i = 0; i < sizeof unknown / sizeof unknown[0]; i++) {
@@ -1570,6 +1767,10 @@ int main(void)
         cmocka_unit_test(shm_request_bytes_refuses_an_unknown_outfmt),
         cmocka_unit_test(cluster_functions_take_a_null_handle),
         cmocka_unit_test(a_timed_out_transfer_waits_briefly_for_its_cleanup),
+        cmocka_unit_test(interrupt_hook_stops_a_wait_and_leaves_the_connection_usable),
+        cmocka_unit_test(interrupt_hook_is_asked_when_a_signal_interrupts_the_wait),
+        cmocka_unit_test(interrupt_hook_stops_a_connect),
+        cmocka_unit_test(interrupt_hook_stops_a_transfer_without_waiting_for_its_cleanup),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),
