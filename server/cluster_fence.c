@@ -236,7 +236,8 @@ int sts_cluster_take_back(sts_cluster *cl, scl_etcd *h, const sts_cl_claim *c, i
     d.claim = *c;
     d.claim.mod_rev = rev;
     d.nacked = nacked;
-    memcpy(d.acked, acked, (size_t)nacked * sizeof d.acked[0]);
+    if (nacked > 0) /* acked may be NULL when none acknowledged (memcpy's NULL is UB even for 0) */
+        memcpy(d.acked, acked, (size_t)nacked * sizeof d.acked[0]);
     int ok = 0;
     int rc = sts_cluster_wtxn(cl, h, &cmp, 1, ops, n, &ok, NULL, &d);
     if (rc == SCL_OK)
