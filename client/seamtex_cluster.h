@@ -43,8 +43,8 @@ typedef struct stc_cluster_node {
  * the hook of every connection the handle opens (seamtex.h stc_set_interrupt): when it stops
  * a routed call's wait (connect, HELLO, CLUSTER, the reply), the call returns
  * STC_EINTERRUPTED at once - not a connection error: no other node is tried, the node is not
- * marked down, no failover counted; a pipelined append whose connect it stops is done with
- * that code. The handle stays usable (the abandoned reply is dropped, as on one connection).
+ * marked down, no failover counted; a pipelined append whose connect it stops returns
+ * that code (a request moved from a failed node is handed out with it). The handle stays usable (the abandoned reply is dropped, as on one connection).
  * NULL on failure with *err and errmsg set (err, errmsg may be NULL / 0). */
 stc_cluster *stc_cluster_open(const char *seeds, const stc_opts *opts, int *err, char *errmsg,
                               size_t errmsg_len);

@@ -486,7 +486,8 @@ static void name_ranked(const char *const *ids, size_t n, size_t first, size_t s
  * interrupted connect failed over to "d", which holds the set, and the call succeeded), then
  * its first owner "a" (the scripted node) reads the SAMPLE and never answers (the reply's
  * wait). Both: STC_EINTERRUPTED after ~200 ms, failovers +0, the hook asked; the handle then
- * reads the set (a's NOT_FOUND, then d). */
+ * reads the set (a's NOT_FOUND, then d). A pipelined append to b likewise returns
+ * STC_EINTERRUPTED (it was sent to d). */
 static void an_interrupted_call_does_not_fail_over(void **state)
 {
     (void)state;
@@ -543,6 +544,23 @@ static void an_interrupted_call_does_not_fail_over(void **state)
         assert_int_equal(c1.failovers - c0.failovers, 0);
         assert_int_equal(asked, k == 1 ? 1 : 0);   /* a was asked only when it was first */
         assert_true(took < 4000);                    /* the hook, not a timeout, ended it */
+        if (k == 0) {
+            /* pipelined: the append's connect to b, stopped, is the append's answer (it was
+             * sent to d instead) */
+            stc_sample_opts so;
+            stc_query q;
+            st_red_query(&so, &q);
+            uint32_t id = 0;
+            st.t0 = st_now_ms();
+            st.armed = 1;
+            rc = stc_cluster_append_sample(cl, names[k], &so, &q, 1, &id);
+            st.armed = 0;
+            stc_cluster_get_counters(cl, &c1);
+            printf("# pipelined, a HELLO never answered: %s, failovers +%llu\n",
+                   stc_strerror(rc), (unsigned long long)(c1.failovers - c0.failovers));
+            assert_int_equal(rc, STC_EINTERRUPTED);
+            assert_int_equal(c1.failovers - c0.failovers, 0);
+        }
     }
     /* the handle is usable: a answers (NOT_FOUND) and d gives the set */
     pthread_mutex_lock(&s.mu);
