@@ -77,10 +77,16 @@ stc_conn *stc_cluster_conn(stc_cluster *cl, size_t i, int *err)
         return NULL;
     }
     char em[512] = "";
-    d->conn = stc_connect_opts(host, port, &cl->opts, err, em, sizeof em);
+    /* cl->opts is the caller's stc_opts copied whole: the interrupt hook goes to every
+     * connection (stc_opts.interrupt*, and so stc_set_interrupt's) */
+    int cerr = 0;
+    d->conn = stc_connect_opts(host, port, &cl->opts, &cerr, em, sizeof em);
+    if (err)
+        *err = cerr;
     if (!d->conn) {
         snprintf(cl->msg, sizeof cl->msg, "node %s (%s): %s", d->id, d->addr, em);
-        d->down_until = stc__now_ms() + DOWN_MS;
+        if (cerr != STC_EINTERRUPTED)   /* the caller stopped it: says nothing of the node */
+            d->down_until = stc__now_ms() + DOWN_MS;
     }
     return d->conn;
 }
@@ -156,11 +162,13 @@ int stc_cluster_refresh(stc_cluster *cl)
         stc_conn *c = stc_cluster_conn(cl, i, &err);
         if (!c) {
             rc = err;
+            if (rc == STC_EINTERRUPTED)
+                return rc;            /* the caller's hook: no other node is asked */
             continue;
         }
         rc = ask_cluster(cl, c);
-        if (rc == 0)
-            return 0;
+        if (rc == 0 || rc == STC_EINTERRUPTED)
+            return rc;
     }
     return rc;
 }
@@ -297,6 +305,10 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
         tried[i] = 1;
         int err = 0;
         stc_conn *c = stc_cluster_conn(cl, i, &err);
+        if (!c && err == STC_EINTERRUPTED) {
+            rc = err;                 /* the caller's hook stopped the connect: not a node */
+            break;                    /* failure, no failover (msg: stc_cluster_conn's) */
+        }
         if (!c) {
             rc = err;
             cl->cnt.failovers++;
@@ -347,8 +359,10 @@ static int route(stc_cluster *cl, const char *set, stc_cluster_fn fn, void *arg,
             t = notfound ? stc__cluster_next_after_not_found(tries, nt, tried, owner, unreached) : t + 1;
             continue;
         }
-        /* the node's answer, a refusal (FORMAT, EXISTS, ...) or the result: its message is the
-         * call's (stc_cluster_errmsg; "" after a success) */
+        /* the node's answer, a refusal (FORMAT, EXISTS, ...) or the result, or STC_EINTERRUPTED
+         * (the caller's hook stopped the wait: returned at once, no failover, the node not
+         * marked down, its connection kept): its message is the call's (stc_cluster_errmsg;
+         * "" after a success) */
         if (rc)
             snprintf(cl->msg, sizeof cl->msg, "node %s: %s", cl->nodes[i].id, stc_errmsg(c));
         else

@@ -195,6 +195,10 @@ static int try_node(stc_cluster *cl, stc__cl_pipe *p, size_t si, size_t i, int *
         node_fail(cl, p, i);              /* broken under requests in flight: they move too */
     int err = 0;
     stc_conn *c = stc_cluster_conn(cl, i, &err);
+    if (!c && err == STC_EINTERRUPTED) {
+        *rc = err;                        /* the caller's hook stopped the connect: no failover */
+        return -1;
+    }
     if (!c) {
         *rc = err;
         p->rq[si].unreached = 1;

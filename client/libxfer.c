@@ -67,10 +67,14 @@ static int window_size(const stc_conn *c)
 /* Sends id-only request op for `xid` and waits, keeping the caller's error message: used to
  * clean up (UPLOAD_ABORT, FETCH_CLOSE) after a failure. `after` is the failure's code: after a
  * timeout the wait is XFER_CLEANUP_AFTER_TIMEOUT_MS at most (the request is sent all the same;
- * a late reply is dropped); after an interrupt (or once the interrupt hook said stop) it is
- * not waited for at all: queued, sent as far as the socket takes it now (the rest goes out
- * with the connection's next call), its reply dropped. Returns STC_EINTERRUPTED when the hook
- * has said stop during this call (the caller's call returns that, libseamtex(3)), else 0. */
+ * a late reply is dropped); after an interrupt (or once the interrupt hook said stop), and
+ * after the caller's own stop (STC_ECANCELED: its progress callback, e.g. on Ctrl-C) on a
+ * connection with an interrupt hook, it is not waited for at all: queued, sent as far as the
+ * socket takes it now (the rest goes out with the connection's next call), its reply
+ * dropped. (A caller who stopped the transfer wants out now; with no timeout the wait on a
+ * hung server never ended, and a hook that reports signals - Python's - had nothing left to
+ * report: the callback had taken the Ctrl-C.) Returns STC_EINTERRUPTED when the hook has
+ * said stop during this call (the caller's call returns that, libseamtex(3)), else 0. */
 static int cleanup_call(stc_conn *c, uint8_t op, uint64_t xid, int after)
 {
     char keep[sizeof c->msg];
@@ -88,7 +92,7 @@ static int cleanup_call(stc_conn *c, uint8_t op, uint64_t xid, int after)
     }
     if (start_req(c, op, &id) == 0 &&
         xfer_encoded(c, stp_enc_id_req(&c->out, op, id, (uint32_t)wait_ms, xid)) == 0) {
-        if (c->intr.said) {
+        if (c->intr.said || (after == STC_ECANCELED && c->intr.fn)) {
             (void)stc__flush(c, stc__now_ms());
             stc__pend_abandon(c, id);
         } else {

@@ -297,7 +297,11 @@ int stc_sample_dir(stc_conn *c, const char *set, const stc_sample_opts *o,
                    const stc_dir_query *q, size_t n, stc_sample_result *res);
 
 /* Uploads. progress(user, sent, total) is called after each acknowledged chunk; returning
- * non-zero aborts the upload (UPLOAD_ABORT is sent) and the call returns STC_ECANCELED.
+ * non-zero aborts the upload (UPLOAD_ABORT is sent) and the call returns STC_ECANCELED; on a
+ * connection with an interrupt hook (stc_set_interrupt) the abort's reply is then not waited
+ * for (sent as far as the socket takes it, the rest with the next call, its reply dropped:
+ * as after an interrupt), so a stop returns at once from a hung server too; the same for a
+ * fetch's FETCH_CLOSE.
  * On any failure after UPLOAD_BEGIN the library sends UPLOAD_ABORT when the connection is
  * still usable, so the server never keeps a half-made set (after a timeout its reply is
  * waited for 1000 ms at most: an upload with timeout T returns within about T + 1 s from a

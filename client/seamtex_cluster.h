@@ -15,7 +15,7 @@
  * Results of a routed call (sample values, info faces, messages) are owned by the connection
  * that answered and valid until the next call on this handle.
  * ERRORS: as seamtex.h; a call fails with a connection error only when every node tried
- * failed; stc_cluster_errmsg says why (a node's refusal as "node ID: its message"; "" after a
+ * failed (STC_EINTERRUPTED, the caller's interrupt hook, is returned at once: stc_cluster_open); stc_cluster_errmsg says why (a node's refusal as "node ID: its message"; "" after a
  * routed call that succeeded). Every function that takes a handle accepts NULL:
  * STC_EINVAL from those that return a code (stc_cluster_conn: NULL with *err STC_EINVAL),
  * "" from stc_cluster_errmsg, 0 (and *nodes NULL) from the counts, zeros from
@@ -39,8 +39,13 @@ typedef struct stc_cluster_node {
 
 /* Opens from seeds "HOST:PORT[,HOST:PORT...]": the first seed that answers CLUSTER gives the
  * membership. opts (may be NULL) applies to every connection; a request timeout of 0 becomes
- * 5000 ms (failover needs one). NULL on failure with *err and errmsg set (err, errmsg may
- * be NULL / 0). */
+ * 5000 ms (failover needs one). opts->interrupt (with interrupt_user, interrupt_every_ms) is
+ * the hook of every connection the handle opens (seamtex.h stc_set_interrupt): when it stops
+ * a routed call's wait (connect, HELLO, CLUSTER, the reply), the call returns
+ * STC_EINTERRUPTED at once - not a connection error: no other node is tried, the node is not
+ * marked down, no failover counted; a pipelined append whose connect it stops returns
+ * that code (a request moved from a failed node is handed out with it). The handle stays usable (the abandoned reply is dropped, as on one connection).
+ * NULL on failure with *err and errmsg set (err, errmsg may be NULL / 0). */
 stc_cluster *stc_cluster_open(const char *seeds, const stc_opts *opts, int *err, char *errmsg,
                               size_t errmsg_len);
 void stc_cluster_close(stc_cluster *cl);

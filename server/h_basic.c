@@ -670,6 +670,7 @@ size_t sts_stats_collect(sts_server *srv, stp_stat *s, size_t cap)
     U("uploads_failed", L(uploads_failed));
     U("uploads_resumed", L(uploads_resumed));
     U("uploads_expired", L(uploads_expired));
+    U("native_write_failed", L(native_write_failed));
     U("upload_bytes", L(upload_bytes));
     U("deletes", L(deletes));
     U("jobs_started", L(jobs_started));

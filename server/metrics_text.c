@@ -92,6 +92,8 @@ static const mrow ROWS[] = {
      "Kept uploads taken over by UPLOAD_BEGIN with RESUME."},
     {"uploads_expired", "seamtex_uploads_expired_total", M_COUNTER, "", 0,
      "Kept uploads dropped (upload-keep passed, or max-uploads reached)."},
+    {"native_write_failed", "seamtex_native_write_failed_total", M_COUNTER, "", 0,
+     "Data-dir commits that went on without the set's native file (logged as WARN)."},
     {"upload_bytes", "seamtex_upload_receive_bytes_total", M_COUNTER, "", 0,
      "Bytes accepted in upload chunks."},
     {"deletes", "seamtex_deletes_total", M_COUNTER, "", 0, "Sets deleted."},

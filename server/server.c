@@ -242,6 +242,18 @@ static void absolute(const char *path, char *out, size_t cap)
         snprintf(out, cap, "%s/%s", cwd, path);
 }
 
+/* The data dir's commit warning: a set committed without its native file (the disk filled
+ * after UPLOAD_COMMIT promised the room, a file-size limit, EIO). The set is served from
+ * memory and the file rebuilt at the next start; the log and STATS say why it is missing. */
+static void native_write_failed(void *arg, const char *name, const char *path, const char *why)
+{
+    sts_server *srv = arg;
+    STS_STAT_ADD(srv, native_write_failed, 1);
+    sts_logf(&srv->log, STS_WARN,
+             "set '%s' committed without its native file %s: %s (served from memory, "
+             "rebuilt at the next start)", name, path, why);
+}
+
 int sts_server_init(sts_server *srv, const sts_config *cfg)
 {
     memset(srv, 0, sizeof *srv);
@@ -285,6 +297,7 @@ int sts_server_init(sts_server *srv, const sts_config *cfg)
             sts_logf(&srv->log, STS_ERROR, "data dir: %s", e.msg);
             return -1;
         }
+        st_datadir_set_warn(srv->dd, native_write_failed, srv);
         if (sts_load_datadir(srv) < 0)
             return -1;
     } else {

@@ -75,6 +75,7 @@ typedef struct sts_stats {
     uint64_t queries, query_errors;
     uint64_t uploads_begun, uploads_committed, uploads_failed, upload_bytes, deletes;
     uint64_t uploads_resumed, uploads_expired;
+    uint64_t native_write_failed;  /* commits without their native file (server.c, WARN) */
     uint64_t jobs_started, jobs_done, jobs_failed, jobs_canceled, fetches, fetches_refused;
     uint64_t conns_request_timeout, conns_evicted;
     uint64_t shm_attached, shm_refused, shm_maps, shm_bytes;   /* shm.c; maps, bytes: now */

@@ -31,9 +31,17 @@ struct st_datadir {
     pthread_mutex_t mu;
     char            root[PATHCAP - 512];   /* leaves room for sets/<255-byte name>/<file> */
     uint64_t        counter;  /* atomic; makes ids unique inside this process */
+    st_datadir_warn_fn warn;  /* a commit went on without its native file (may be NULL) */
+    void           *warn_arg;
 };
 
 const char *st_datadir_path(const st_datadir *d) { return d->root; }
+
+void st_datadir_set_warn(st_datadir *d, st_datadir_warn_fn warn, void *arg)
+{
+    d->warn = warn;
+    d->warn_arg = arg;
+}
 
 /* ---- small helpers ------------------------------------------------------------------------ */
 
@@ -352,10 +360,11 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
     return st_datadir_commit_set(d, name, tmp_path, fmt, options, bytes, NULL, publish, arg, e);
 }
 
-/* Writes set as tmp/<id>.native for source m (fsynced); "" in path when it fails (the set is
- * then committed without one and gets it at the next start), and why (may be NULL) says why. */
-static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path,
-                       st_error *why)
+/* Writes set as tmp/<id>.native for source m (fsynced), its path in path. Returns 0, or a
+ * code and why (may be NULL) says why: the file is then removed, path still names it (the
+ * caller empties it; the set is committed without one and gets it at the next start). */
+static int native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, char *path,
+                      st_error *why)
 {
     char id[64];
     new_id(d, id, sizeof id);
@@ -378,10 +387,9 @@ static void native_tmp(st_datadir *d, const st_set *set, const st_manifest *m, c
         close(fd);
     if (rc && why)
         *why = we;
-    if (rc) {
+    if (rc)
         unlink(path);
-        path[0] = 0;
-    }
+    return rc;
 }
 
 /* Rolls sets/<name>/set.native back to what it was before a commit touched it: the old file
@@ -470,8 +478,15 @@ static int commit_set(st_datadir *d, const char *name, const char *tmp_path, con
     pathf(nat, "%s/" ST_DATADIR_NATIVE, setdir);
     /* the native file is written (and fsynced) before the lock: it is the long part */
     ntmp[0] = 0;
-    if (set && *set)
-        native_tmp(d, *set, &m, ntmp, NULL);
+    if (set && *set) {
+        st_error nwe;
+        st_error_clear(&nwe);
+        if (native_tmp(d, *set, &m, ntmp, &nwe) != 0) {
+            if (d->warn)
+                d->warn(d->warn_arg, name, ntmp, nwe.msg);
+            ntmp[0] = 0;
+        }
+    }
 
     char prev[PATHCAP];   /* a hard link to the old manifest, to roll back to */
     pathf(prev, "%s/tmp/%s.prev", d->root, id);
@@ -509,6 +524,10 @@ static int commit_set(st_datadir *d, const char *name, const char *tmp_path, con
     /* before the commit point: a crash here leaves the old manifest beside a native file that
      * names the new source, which the next start refuses and rebuilds from the old source */
     if (!rc && ntmp[0] && rename(ntmp, nat) != 0) {
+        char why[128];
+        snprintf(why, sizeof why, "rename: %s", strerror(errno));
+        if (d->warn)
+            d->warn(d->warn_arg, name, nat, why);
         unlink(ntmp);
         ntmp[0] = 0;
     }
@@ -860,8 +879,8 @@ static int load_one_native(st_datadir *d, const char *sets, const char *name,
             ntmp[0] = 0;
             st_error nwe;
             st_error_clear(&nwe);
-            if (!L->no_native)
-                native_tmp(d, set, &m, ntmp, &nwe);
+            if (!L->no_native && native_tmp(d, set, &m, ntmp, &nwe) != 0)
+                ntmp[0] = 0;
             st_set *mapped = NULL;
             if (ntmp[0] && rename(ntmp, nat) == 0 && fsync_path(setdir, 1, NULL) == 0 &&
                 st_native_open(nat, 0, NULL, &mapped, NULL) == 0) {

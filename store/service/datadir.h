@@ -94,6 +94,15 @@ int st_datadir_open(const char *path, st_datadir **out, st_error *e);
 /* Closes; NULL is accepted. */
 void st_datadir_close(st_datadir *d);
 
+/* Told when a commit goes on without the set's native file (see st_datadir_commit_set): the
+ * set, the file that could not be written or renamed, and why (strerror's text included). */
+typedef void (*st_datadir_warn_fn)(void *arg, const char *name, const char *path,
+                                   const char *why);
+
+/* Sets the commit's warning callback (NULL: none, the default). Call it before the first
+ * commit; it is not synchronised with commits in progress. */
+void st_datadir_set_warn(st_datadir *d, st_datadir_warn_fn warn, void *arg);
+
 const char *st_datadir_path(const st_datadir *d);
 
 /* Creates a new empty upload file tmp/<id>.part (O_EXCL, mode 0600). Writes its path (up to
@@ -123,7 +132,8 @@ int st_datadir_commit(st_datadir *d, const char *name, const char *tmp_path, con
 /* As st_datadir_commit, and when set and *set are not NULL also writes the set's native file
  * (see the protocol above); once committed, *set is replaced by the set opened from that file
  * (mmap; the heap set is freed) before publish runs, so the registry serves the mapping. When
- * the native file cannot be written the commit goes on without it (rebuilt at next start). */
+ * the native file cannot be written (or renamed into the set) the commit goes on without it
+ * (rebuilt at next start) and the warning callback (st_datadir_set_warn) is told why. */
 int st_datadir_commit_set(st_datadir *d, const char *name, const char *tmp_path, const char *fmt,
                           const char *options, uint64_t bytes, st_set **set,
                           st_publish_fn publish, void *arg, st_error *e);

@@ -1130,6 +1130,73 @@ static void interrupt_hook_stops_a_transfer_without_waiting_for_its_cleanup(void
     mock_stop(m);
 }
 
+static int mute_and_stop(void *user, uint64_t done, uint64_t total)
+{
+    (void)done;
+    (void)total;
+    __atomic_store_n(&((mute_at_first *)user)->m->mute, 1, __ATOMIC_RELEASE);
+    return 1;
+}
+
+/* A transfer its own progress callback stopped (Python: an exception, or Ctrl-C seen between
+ * chunks) on a connection with an interrupt hook: STC_ECANCELED at once, UPLOAD_ABORT /
+ * FETCH_CLOSE sent but not waited for (left36). It used to wait for the clean-up's reply
+ * under the request timeout - for ever with none on a hung server; Python's hook had nothing
+ * to report then (the callback had taken the Ctrl-C). The hook here never says stop and is
+ * not asked at all (the wait used to ask it every 20 ms until the timeout, the bound here). */
+static void a_transfer_its_caller_stopped_does_not_wait_for_its_cleanup(void **state)
+{
+    (void)state;
+    mock *m = mock_start(M_NORMAL);
+    stc_conn *c = mock_connect(m, 10000);        /* a bound for the unfixed wait */
+    size_t n = 40000;                                    /* 40 chunks of the mock's 1000 */
+    uint8_t *data = malloc(n);
+    for (size_t i = 0; i < n; i++)
+        data[i] = (uint8_t)(i * 5);
+    hook_count h = { 0, 0, pthread_self() };
+    stc_set_interrupt(c, counting_hook, &h, 20);
+    mute_at_first u = { m };
+    stc_upload_opts o;
+    memset(&o, 0, sizeof o);
+    o.progress = mute_and_stop;
+    o.user = &u;
+    assert_int_equal(stc_upload_buffer(c, data, n, "up", &o, NULL), STC_ECANCELED);
+    assert_int_equal(h.calls, 0);                        /* the abort's reply not waited for */
+    assert_int_equal(stc_error(c), 0);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the abort was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    assert_int_equal(stc_ping(c), 0);                    /* its late reply dropped */
+
+    __atomic_store_n(&m->muted_cleanups, 0, __ATOMIC_RELEASE);
+    m->fetch_len = n;
+    m->fetch = data;                                     /* freed by mock_stop */
+    char dir[] = "/tmp/stc-fetchstop-XXXXXX", path[300];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/out.ptx", dir);
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, mute_and_stop, &u),
+                     STC_ECANCELED);
+    assert_int_equal(h.calls, 0);
+    assert_int_equal(st_wait_until(muted_cleanup_seen, m, 5000), 0);   /* the close was sent */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    assert_int_equal(stc_ping(c), 0);
+    assert_int_equal(access(path, F_OK), -1);            /* nothing left behind */
+
+    /* without a hook the stop still waits for the clean-up's reply (as before) */
+    stc_set_interrupt(c, NULL, NULL, 0);
+    __atomic_store_n(&m->muted_cleanups, 0, __ATOMIC_RELEASE);
+    stc_set_timeout(c, 300);
+    int64_t t0 = st_now_ms();
+    assert_int_equal(stc_fetch_file(c, "set", STC_FETCH_PTX, path, mute_and_stop, &u),
+                     STC_ECANCELED);
+    assert_true(st_now_ms() - t0 >= 300);                /* waited, up to the timeout */
+    __atomic_store_n(&m->mute, 0, __ATOMIC_RELEASE);
+    stc_set_timeout(c, 10000);
+    assert_int_equal(stc_ping(c), 0);
+    rmdir(dir);
+    stc_close(c);
+    mock_stop(m);
+}
+
 /* py35: the cluster functions other than close and conn crashed on a NULL handle: each now
  * gives STC_EINVAL, or an empty answer where it returns no code (libseamtex(3)). */
 static int never_called(stc_conn *c, void *arg)
@@ -1771,6 +1838,7 @@ int main(void)
         cmocka_unit_test(interrupt_hook_is_asked_when_a_signal_interrupts_the_wait),
         cmocka_unit_test(interrupt_hook_stops_a_connect),
         cmocka_unit_test(interrupt_hook_stops_a_transfer_without_waiting_for_its_cleanup),
+        cmocka_unit_test(a_transfer_its_caller_stopped_does_not_wait_for_its_cleanup),
     };
     const struct CMUnitTest real_tests[] = {
         cmocka_unit_test(real_daemon_end_to_end),

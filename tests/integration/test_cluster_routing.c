@@ -14,6 +14,9 @@
  *    failed with "MOVED: HOST:PORT" before, the CLI sending every command to the first
  *    reachable owner as it was).
  *
+ *  - stc_cluster_open's interrupt hook reaches every node connection, and a call it stops
+ *    returns STC_EINTERRUPTED at once, neither failing over nor marking the node down.
+ *
  * The scripted node is a thread in this test speaking the wire protocol: HELLO is answered
  * UNKNOWN_OPCODE (version 1 defaults), CLUSTER with the membership the test sets, SAMPLE and
  * INFO with the status and message the test sets. The set itself lives on a real plain
@@ -56,6 +59,7 @@ typedef struct scripted {
     uint16_t  sample_status;
     char      sample_msg[64];
     int       samples, clusters;        /* requests answered */
+    int       hang;                     /* 1: SAMPLE / INFO counted, never answered */
     int       stop;                     /* atomic */
 } scripted;
 
@@ -111,6 +115,8 @@ static int answer(scripted *s, int fd)
         r.nodes = nodes;
         stp_enc_cluster_reply(&out, h.reqid, &r);
         s->clusters++;
+    } else if ((h.opcode == STP_OP_SAMPLE || h.opcode == STP_OP_INFO) && s->hang) {
+        s->samples++;                   /* a hung node: the request is read, no reply */
     } else if (h.opcode == STP_OP_SAMPLE || h.opcode == STP_OP_INFO) {
         stp_enc_error(&out, h.opcode, h.reqid, s->sample_status, s->sample_msg);
         s->samples++;
@@ -118,6 +124,10 @@ static int answer(scripted *s, int fd)
         stp_enc_error(&out, h.opcode, h.reqid, STP_S_UNKNOWN_OPCODE, "scripted node");
     }
     pthread_mutex_unlock(&s->mu);
+    if (out.len == out.start && !out.err) {
+        stp_buf_free(&out);
+        return 0;
+    }
     ssize_t w = out.err ? -1 : send(fd, out.data + out.start, out.len - out.start, MSG_NOSIGNAL);
     int rc = w == (ssize_t)(out.len - out.start) ? 0 : -1;
     stp_buf_free(&out);
@@ -442,6 +452,126 @@ static void not_found_with_an_owner_unreachable_asks_the_rest(void **state)
     scripted_stop(&s);
 }
 
+/* the interrupt hook of the test below: stops a wait once armed for 200 ms */
+typedef struct stopper {
+    int     armed, calls;
+    int64_t t0;
+} stopper;
+
+static int stop_after_200ms(void *user)
+{
+    stopper *st = user;
+    if (!st->armed)
+        return 0;
+    st->calls++;
+    return st_now_ms() - st->t0 >= 200;
+}
+
+/* a set name whose first owner among ids[0..n) is ids[first] and second ids[second] */
+static void name_ranked(const char *const *ids, size_t n, size_t first, size_t second,
+                        char *out, size_t cap)
+{
+    for (int k = 0;; k++) {
+        snprintf(out, cap, "intr%d", k);
+        size_t order[3];
+        stp_hrw_rank(ids, n, out, order, n);
+        if (order[0] == first && order[1] == second)
+            return;
+    }
+}
+
+/* stc_opts.interrupt of stc_cluster_open is every node connection's hook, and an interrupted
+ * routed call returns STC_EINTERRUPTED at once: no failover to the next node (left36). First
+ * the set's first owner "b" is a socket that accepts and never answers (its HELLO waits: the
+ * interrupted connect failed over to "d", which holds the set, and the call succeeded), then
+ * its first owner "a" (the scripted node) reads the SAMPLE and never answers (the reply's
+ * wait). Both: STC_EINTERRUPTED after ~200 ms, failovers +0, the hook asked; the handle then
+ * reads the set (a's NOT_FOUND, then d). A pipelined append to b likewise returns
+ * STC_EINTERRUPTED (it was sent to d). */
+static void an_interrupted_call_does_not_fail_over(void **state)
+{
+    (void)state;
+    scripted s;
+    assert_int_equal(scripted_start(&s), 0);
+    int hport = 0;
+    int hfd = st_wire_listen(8, &hport);     /* listens, never accepts: connects, no HELLO */
+    assert_true(hfd >= 0);
+    char haddr[32];
+    snprintf(haddr, sizeof haddr, "127.0.0.1:%d", hport);
+    script_members(&s, 2, daddr, haddr);     /* a, d, b (= the hung socket) */
+    script_sample(&s, STP_S_NOT_FOUND, "no such set here");
+    const char *ids[3] = {"a", "d", "b"};
+    char hung_connect[32], hung_reply[32];
+    name_ranked(ids, 3, 2, 1, hung_connect, sizeof hung_connect);   /* b, then d */
+    name_ranked(ids, 3, 0, 1, hung_reply, sizeof hung_reply);       /* a, then d */
+    upload_to_daemon(hung_connect);
+    upload_to_daemon(hung_reply);
+
+    stopper st = {0, 0, 0};
+    stc_opts o = {.interrupt = stop_after_200ms, .interrupt_user = &st,
+                  .interrupt_every_ms = 50};
+    char seed[32], msg[256];
+    snprintf(seed, sizeof seed, "127.0.0.1:%d", s.port);
+    int err = 0;
+    stc_cluster *cl = stc_cluster_open(seed, &o, &err, msg, sizeof msg);
+    if (!cl)
+        fail_msg("stc_cluster_open: %s", msg);
+    const char *names[2] = {hung_connect, hung_reply};
+    for (int k = 0; k < 2; k++) {
+        pthread_mutex_lock(&s.mu);
+        s.hang = k == 1;
+        int samples0 = s.samples;
+        pthread_mutex_unlock(&s.mu);
+        stc_cluster_counters c0, c1;
+        stc_cluster_get_counters(cl, &c0);
+        st.calls = 0;
+        st.t0 = st_now_ms();
+        st.armed = 1;
+        float red = -1;
+        int rc = st_cluster_red_at(cl, names[k], &red);
+        int64_t took = st_now_ms() - st.t0;
+        st.armed = 0;
+        stc_cluster_get_counters(cl, &c1);
+        pthread_mutex_lock(&s.mu);
+        int asked = s.samples - samples0;
+        pthread_mutex_unlock(&s.mu);
+        printf("# %s: %s after %lld ms, %d hook call(s), failovers +%llu, \"%s\"\n",
+               k ? "a reply never sent" : "a HELLO never answered", stc_strerror(rc),
+               (long long)took, st.calls, (unsigned long long)(c1.failovers - c0.failovers),
+               stc_cluster_errmsg(cl));
+        assert_int_equal(rc, STC_EINTERRUPTED);
+        assert_true(st.calls >= 1);
+        assert_int_equal(c1.failovers - c0.failovers, 0);
+        assert_int_equal(asked, k == 1 ? 1 : 0);   /* a was asked only when it was first */
+        assert_true(took < 4000);                    /* the hook, not a timeout, ended it */
+        if (k == 0) {
+            /* pipelined: the append's connect to b, stopped, is the append's answer (it was
+             * sent to d instead) */
+            stc_sample_opts so;
+            stc_query q;
+            st_red_query(&so, &q);
+            uint32_t id = 0;
+            st.t0 = st_now_ms();
+            st.armed = 1;
+            rc = stc_cluster_append_sample(cl, names[k], &so, &q, 1, &id);
+            st.armed = 0;
+            stc_cluster_get_counters(cl, &c1);
+            printf("# pipelined, a HELLO never answered: %s, failovers +%llu\n",
+                   stc_strerror(rc), (unsigned long long)(c1.failovers - c0.failovers));
+            assert_int_equal(rc, STC_EINTERRUPTED);
+            assert_int_equal(c1.failovers - c0.failovers, 0);
+        }
+    }
+    /* the handle is usable: a answers (NOT_FOUND) and d gives the set */
+    pthread_mutex_lock(&s.mu);
+    s.hang = 0;
+    pthread_mutex_unlock(&s.mu);
+    assert_red(cl, hung_reply);
+    stc_cluster_close(cl);
+    close(hfd);
+    scripted_stop(&s);
+}
+
 /* the CLI: "a" owns the set first and answers MOVED to "d", which holds it */
 static void the_cli_follows_moved_to_the_node_that_holds_the_set(void **state)
 {
@@ -480,6 +610,7 @@ int main(void)
         cmocka_unit_test(results_survive_the_refresh_after_a_moved),
         cmocka_unit_test(not_found_from_one_owner_asks_the_next),
         cmocka_unit_test(a_refusal_s_message_is_the_call_s_message),
+        cmocka_unit_test(an_interrupted_call_does_not_fail_over),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

@@ -17,7 +17,10 @@
  * disk, on a raw socket so that the uploads stay open between the steps); the same without a
  * data dir, on a daemon of its own whose $TMPDIR is on the small disk. UPLOAD_COMMIT promises
  * the set's native file the same way: a commit that would take bytes promised to another
- * upload's chunks is IO, and the other upload can write all of them (res36). The tmpfs is unmounted in the group teardown and,
+ * upload's chunks is IO, and the other upload can write all of them (res36). A commit whose
+native file passes a file-size limit goes on without it and says so (a WARN naming the set,
+the file and the reason; STATS native_write_failed) and the set is served and durable
+(left36). The tmpfs is unmounted in the group teardown and,
  * should the test die on an assertion, by an atexit handler.
  */
 #include <dirent.h>
@@ -759,6 +762,112 @@ static void test_file_size_limit(void **state)
     st_daemon_cleanup(&d);
 }
 
+/* The size of file rel under d's data dir (-1 when absent); a set's source is found by its
+ * prefix "source-". */
+static long long data_file_size(const st_daemon *d, const char *set, const char *prefix)
+{
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s/sets/%s", d->datadir, set);
+    DIR *dh = opendir(dir);
+    if (!dh)
+        return -1;
+    long long size = -1;
+    struct dirent *de;
+    while ((de = readdir(dh)))
+        if (!strncmp(de->d_name, prefix, strlen(prefix))) {
+            char p[900];
+            struct stat st;
+            snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+            if (stat(p, &st) == 0)
+                size = (long long)st.st_size;
+        }
+    closedir(dh);
+    return size;
+}
+
+static uint64_t stat_u64(stc_conn *c, const char *key)
+{
+    const stc_stat *st;
+    size_t n;
+    assert_int_equal(stc_stats(c, &st, &n), 0);
+    const stc_stat *k = stc_stat_find(st, n, key);
+    assert_non_null(k);
+    return k->u;
+}
+
+/* A commit whose native file cannot be written although UPLOAD_COMMIT promised its room
+ * (here a file-size limit that the small compressed source passes and the native file does
+ * not) goes on without it, as before, but no longer silently: one WARN naming the set, the
+ * file and strerror's text, and STATS native_write_failed +1 (left36). The set is served and
+ * durable: after a restart it is listed and sampled, its native file rebuilt. Needs no mount
+ * (its own daemon, the limit set with prlimit(2)). */
+static void a_commit_without_its_native_file_says_why(void **state)
+{
+    (void)state;
+    st_daemon d;
+    assert_int_equal(st_daemon_init(&d), 0);
+    assert_int_equal(st_daemon_start(&d, NULL), 0);
+    stc_conn *c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    /* flat texels: the Ptex source compresses them, the native file keeps them as they are */
+    st_set *s = st_fixture_rgba8_faces(256);
+    assert_non_null(s);
+    memset(s->texels, 0x5a, s->texel_bytes);
+    st_set_build_mips(s, UINT32_MAX);
+    void *buf = NULL;
+    size_t len = 0;
+    st_error e;
+    st_error_clear(&e);
+    assert_int_equal(st_ptex_write_mem(s, &buf, &len, &e), 0);
+    st_set_free(s);
+    stc_upload_opts o = {.hint = "ptx"};
+    stc_upload_result r;
+    assert_int_equal(stc_upload_buffer(c, buf, len, "probe", &o, &r), 0);
+    long long src = data_file_size(&d, "probe", "source-");
+    long long nat = data_file_size(&d, "probe", "set.native");
+    printf("# source %lld bytes, native file %lld bytes\n", src, nat);
+    assert_true(src > 0 && nat > 4 * src && nat > (64 << 10));
+    assert_int_equal(stat_u64(c, "native_write_failed"), 0);
+
+    struct rlimit old, rl;
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, NULL, &old), 0);
+    rl = old;
+    rl.rlim_cur = (rlim_t)(nat / 2 > 2 * src ? nat / 2 : 2 * src);
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, &rl, NULL), 0);
+    assert_int_equal(stc_upload_buffer(c, buf, len, "nonative", &o, &r), 0);
+    assert_int_equal(prlimit(d.pid, RLIMIT_FSIZE, &old, NULL), 0);
+    assert_int_equal(data_file_size(&d, "nonative", "set.native"), -1);
+    int warned = st_daemon_log_count(&d, "set 'nonative' committed without its native file");
+    int why = st_daemon_log_count(&d, "File too large");
+    int path = st_daemon_log_count(&d, ".native: writing the native file: File too large");
+    printf("# native file over the file-size limit: %d WARN line(s), %d naming the reason, "
+           "%d the file\n", warned, why, path);
+    if (warned != 1)
+        st_daemon_dump_log(&d, 20);
+    assert_int_equal(warned, 1);
+    assert_int_equal(path, 1);
+    assert_int_equal(st_daemon_log_count(&d, "WARN  set 'nonative' committed without"), 1);
+    assert_int_equal(stat_u64(c, "native_write_failed"), 1);
+    stc_sample_opts so = {.mode = 1, .filter = 1, .outfmt = STC_OUT_F32};
+    stc_query q = {0, 0.5f, 0.5f, 0, 0, 0, 0};
+    stc_sample_result sr;
+    assert_int_equal(stc_sample(c, "nonative", &so, &q, 1, &sr), 0);
+
+    /* durable: a restart lists and samples it, and builds the missing native file */
+    stc_close(c);
+    assert_int_equal(st_daemon_stop(&d, 20000), 0);
+    assert_int_equal(st_daemon_start(&d, NULL), 0);
+    c = st_daemon_client(&d, NULL);
+    assert_non_null(c);
+    assert_int_equal(stc_sample(c, "nonative", &so, &q, 1, &sr), 0);
+    assert_true(data_file_size(&d, "nonative", "set.native") > 0);
+    assert_int_equal(stat_u64(c, "native_write_failed"), 0);
+    stc_close(c);
+    free(buf);
+    assert_int_equal(st_daemon_stop(&d, 20000), 0);
+    st_daemon_cleanup(&d);
+}
+
 static int group_setup(void **state)
 {
     (void)state;
@@ -799,6 +908,7 @@ int main(void)
         cmocka_unit_test(test_fetch_png_on_full_disk),
         cmocka_unit_test(test_native_file_on_full_disk_says_why),
         cmocka_unit_test(test_file_size_limit),
+        cmocka_unit_test(a_commit_without_its_native_file_says_why),
     };
     return cmocka_run_group_tests_name("full_disk", tests, group_setup, group_teardown);
 }
