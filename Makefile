@@ -70,7 +70,11 @@ PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 
 WARN     := -Wall -Wextra -Werror
 CPPFLAGS += -D_GNU_SOURCE -MMD -MP
-CFLAGS   := -std=c11 $(OPT) -g $(WARN) -fPIC -pthread $(SANFLAGS) $(EXTRA_CFLAGS)
+# -ffp-contract=off: no a * b + c fused into one rounding unless the source asks for it (an
+# fma intrinsic). The Ptex filters' AVX2 paths must give the portable paths' bits
+# (test_ptexfilter_paths); gcc in -std=c11 already contracts nothing, but clang fuses within
+# an expression wherever FMA is enabled (the "avx2,fma" functions, -march=native).
+CFLAGS   := -std=c11 $(OPT) -g $(WARN) -ffp-contract=off -fPIC -pthread $(SANFLAGS) $(EXTRA_CFLAGS)
 CXXFLAGS := -std=c++17 $(OPT) -g $(WARN) -fPIC -pthread $(SANFLAGS) $(PKG_CFLAGS) $(EXTRA_CFLAGS)
 LDFLAGS  += -pthread $(SANFLAGS)
 LDLIBS   := $(PKG_LIBS) -ldraco -lz -lm -lstdc++ -lpthread

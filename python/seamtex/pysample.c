@@ -527,7 +527,7 @@ static int send_uv(const call *c, const void *q, stc_sample_result *res)
     return stc_sample(c->self->conn, c->name, &c->so, q, (size_t)c->n, res);
 }
 
-#define SOPTS_DEFAULT {"traverse", "bilinear", "f32", "nan", "raise", NULL, 0, 0, 0, NULL}
+#define SOPTS_DEFAULT {"traverse", "bilinear", "f32", "nan", "raise", NULL, 0, 0, 0, NULL, 0}
 
 PyObject *st_py_sample(st_py_client *self, PyObject *args, PyObject *kw)
 {
