@@ -10,6 +10,7 @@
 
 #include "daemon_client.h"
 #include "ptx_fixture.h"
+#include "wait.h"
 
 int st_cluster_node_start(st_daemon *d, const char *etcd_url, int idx, unsigned R, unsigned W)
 {
@@ -154,4 +155,26 @@ int st_cluster_cli(const char *dir, const char *where, const char *const *args, 
     if (f)
         fclose(f);
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+}
+
+int st_cluster_read_all_for(stc_cluster *cl, const char *const *names, int n, const float *want,
+                            int ms)
+{
+    int bad = 0, reads = 0;
+    for (int t = 0; t < ms; t += 50) {
+        for (int s = 0; s < n; s++) {
+            float red = -1;
+            int rc = st_cluster_red_at(cl, names[s], &red);
+            reads++;
+            if (rc != 0 || red != want[s]) {
+                if (bad < 5)
+                    fprintf(stderr, "'%s': rc %d red %g (want %g)\n", names[s], rc, red,
+                            want[s]);
+                bad++;
+            }
+        }
+        st_sleep_ms(50);
+    }
+    fprintf(stderr, "%d reads, %d failed or other contents\n", reads, bad);
+    return bad;
 }

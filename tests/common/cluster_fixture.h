@@ -40,6 +40,11 @@ void st_red_query(stc_sample_opts *o, stc_query *q);
 int st_red_at(stc_conn *c, const char *set, float *red);
 /* The same through the cluster client. */
 int st_cluster_red_at(stc_cluster *cl, const char *set, float *red);
+/* Reads each of the n sets names[] through cl every 50 ms for ms milliseconds and compares
+ * its red value with want[]; prints the first 5 misses and the totals; returns the number of
+ * reads that failed or gave other contents. */
+int st_cluster_read_all_for(stc_cluster *cl, const char *const *names, int n, const float *want,
+                            int ms);
 /* The red channel of set read from node d alone (a connection of its own), or -1 when d does
  * not serve it. */
 float st_red_on(const st_daemon *d, const char *set);

@@ -13,25 +13,9 @@
 
 #include "etcd_fixture.h"
 #include "wait.h"
+#include "wire.h"
 
 extern char **environ;
-
-static int free_port(void)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a;
-    memset(&a, 0, sizeof a);
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    int port = -1;
-    if (fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof a) == 0 &&
-        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
-        port = ntohs(a.sin_port);
-    if (fd >= 0)
-        close(fd);
-    return port;
-}
 
 static int answers(void *arg)
 {
@@ -68,8 +52,8 @@ int st_etcd_start(st_etcd *e, const char *prefix)
     snprintf(e->dir, sizeof e->dir, "%s/seamtex-etcd-XXXXXX", tmp && *tmp ? tmp : "/tmp");
     if (!mkdtemp(e->dir))
         return -1;
-    e->client_port = free_port();
-    e->peer_port = free_port();
+    e->client_port = st_wire_free_port();
+    e->peer_port = st_wire_free_port();
     snprintf(e->url, sizeof e->url, "etcd://127.0.0.1:%d%s", e->client_port, prefix);
     return spawn(e, bin);
 }

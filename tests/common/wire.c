@@ -48,6 +48,15 @@ int st_wire_listen(int backlog, int *port)
     return fd;
 }
 
+int st_wire_free_port(void)
+{
+    int port = -1, fd = st_wire_listen(1, &port);
+    if (fd < 0)
+        return -1;
+    close(fd);
+    return port;
+}
+
 int st_wire_send_all(int fd, const void *p, size_t n)
 {
     const uint8_t *b = p;

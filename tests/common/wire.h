@@ -29,6 +29,9 @@ size_t st_wire_frame(uint8_t *out, const char *magic, unsigned version, unsigned
  * given backlog; the caller accepts on it, or never does (a peer that connects and gets no
  * answer). fd, or -1. */
 int st_wire_listen(int backlog, int *port);
+/* A loopback TCP port that was free a moment ago (bound, then closed: nothing listens on it
+ * until someone binds it again), or -1. */
+int st_wire_free_port(void);
 
 /* Sends n bytes whole (blocking, no SIGPIPE). 0, or -1 when the socket fails. */
 int st_wire_send_all(int fd, const void *p, size_t n);

@@ -26,30 +26,13 @@
 #include "../common/daemon_client.h"
 #include "../common/etcd_fixture.h"
 #include "../common/wait.h"
+#include "../common/wire.h"
 
 #define DEADLINE_MS 30000
 #define WARN_TEXT "does not reach this node"
 
 static st_etcd ETCD;
 static st_daemon N[3];
-
-/* a loopback port nothing listens on (bound, then closed) */
-static int dead_port(void)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a;
-    socklen_t len = sizeof a;
-    memset(&a, 0, sizeof a);
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    int port = -1;
-    if (fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof a) == 0 &&
-        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
-        port = ntohs(a.sin_port);
-    if (fd >= 0)
-        close(fd);
-    return port;
-}
 
 static int start_node(int i, const char *advertise)
 {
@@ -76,7 +59,7 @@ static void a_wrong_advertise_is_noticed(void **state)
         assert_int_equal(st_daemon_init(&N[i]), 0);
     assert_int_equal(start_node(0, "127.0.0.1:0"), 0);
     char dead[64], other[64];
-    int port = dead_port();
+    int port = st_wire_free_port() /* nothing listens there */;
     assert_true(port > 0);
     snprintf(dead, sizeof dead, "127.0.0.1:%d", port);
     snprintf(other, sizeof other, "127.0.0.1:%d", N[0].port);

@@ -81,25 +81,6 @@ static int replicated(void *arg)
 
 /* reads every set through cl for ms milliseconds, every 50 ms; the reads that failed or gave
  * other contents */
-static int read_all_for(stc_cluster *cl, const float *want, int ms)
-{
-    int bad = 0, reads = 0;
-    for (int t = 0; t < ms; t += 50) {
-        for (int s = 0; s < NSETS; s++) {
-            float red = -1;
-            int rc = st_cluster_red_at(cl, names[s], &red);
-            reads++;
-            if (rc != 0 || red != want[s]) {
-                if (bad < 5)
-                    print_message("'%s': rc %d red %g (want %g)\n", names[s], rc, red, want[s]);
-                bad++;
-            }
-        }
-        st_sleep_ms(50);
-    }
-    print_message("%d reads, %d failed or other contents\n", reads, bad);
-    return bad;
-}
 
 static void start_all(void)
 {
@@ -210,7 +191,7 @@ static void an_etcd_restored_from_an_old_backup_loses_no_set(void **state)
     assert_int_equal(st_etcd_restore(&ETCD), 0);
     cl = st_cluster_open_nodes(N, 3);
     assert_non_null(cl);
-    assert_int_equal(read_all_for(cl, want, 7000), 0);   /* past 2 lease TTLs and passes */
+    assert_int_equal(st_cluster_read_all_for(cl, names, NSETS, want, 7000), 0);   /* past 2 lease TTLs and passes */
     if (st_wait_until(rerecorded, &rer0, DEADLINE_MS) != 0)
         fail_msg("the sets uploaded after the backup were never recorded again");
     uint64_t one = 1;
@@ -219,7 +200,7 @@ static void an_etcd_restored_from_an_old_backup_loses_no_set(void **state)
     if (st_wait_until(replicated, want, DEADLINE_MS) != 0)
         fail_msg("a set stayed on fewer than 2 nodes");
     catalogue_whole(want);
-    assert_int_equal(read_all_for(cl, want, 3000), 0);
+    assert_int_equal(st_cluster_read_all_for(cl, names, NSETS, want, 3000), 0);
     stc_cluster_close(cl);
 
     /* the whole site down; etcd restored from the same backup; the nodes start on it */
@@ -243,7 +224,7 @@ static void an_etcd_restored_from_an_old_backup_loses_no_set(void **state)
         fail_msg("a set stayed on fewer than 2 nodes after the restart");
     cl = st_cluster_open_nodes(N, 3);
     assert_non_null(cl);
-    assert_int_equal(read_all_for(cl, want, 7000), 0);
+    assert_int_equal(st_cluster_read_all_for(cl, names, NSETS, want, 7000), 0);
     catalogue_whole(want);
     stc_cluster_close(cl);
     for (int i = 0; i < 3; i++)

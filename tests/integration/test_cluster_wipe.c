@@ -67,25 +67,6 @@ static int rerecorded(void *arg)
 
 /* reads every set through cl for ms milliseconds, every 50 ms; the reads that failed or gave
  * other contents */
-static int read_all_for(stc_cluster *cl, const float *want, int ms)
-{
-    int bad = 0, reads = 0;
-    for (int t = 0; t < ms; t += 50) {
-        for (int s = 0; s < NSETS; s++) {
-            float red = -1;
-            int rc = st_cluster_red_at(cl, names[s], &red);
-            reads++;
-            if (rc != 0 || red != want[s]) {
-                if (bad < 5)
-                    print_message("'%s': rc %d red %g (want %g)\n", names[s], rc, red, want[s]);
-                bad++;
-            }
-        }
-        st_sleep_ms(50);
-    }
-    print_message("%d reads, %d failed or other contents\n", reads, bad);
-    return bad;
-}
 
 static void start_all(void)
 {
@@ -122,7 +103,7 @@ static void an_etcd_that_lost_its_data_loses_no_set(void **state)
     assert_int_equal(st_etcd_restart(&ETCD, 1), 0);
     cl = st_cluster_open_nodes(N, 3);
     assert_non_null(cl);
-    assert_int_equal(read_all_for(cl, want, 7000), 0);   /* past 2 lease TTLs and passes */
+    assert_int_equal(st_cluster_read_all_for(cl, names, NSETS, want, 7000), 0);   /* past 2 lease TTLs and passes */
     if (st_wait_until(rerecorded, NULL, DEADLINE_MS) != 0)
         fail_msg("the sets were never recorded again");
     float red;
@@ -158,7 +139,7 @@ static void an_etcd_that_lost_its_data_loses_no_set(void **state)
     assert_non_null(cl);
     want[0] = -1;   /* alpha: uploaded again, with the same contents */
     assert_int_equal(st_cluster_red_at(cl, "alpha", &want[0]), 0);
-    assert_int_equal(read_all_for(cl, want, 7000), 0);
+    assert_int_equal(st_cluster_read_all_for(cl, names, NSETS, want, 7000), 0);
     assert_int_equal(st_cluster_red_at(cl, "gone", &red), 0);
     stc_cluster_close(cl);
     for (int i = 0; i < 3; i++)
