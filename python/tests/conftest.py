@@ -66,6 +66,16 @@ class Daemon:
     def client(self, **kw):
         return seamtex.Client(self.host, self.port, **kw)
 
+    def stopped(self):
+        """True when every thread of the daemon is stopped (SIGSTOP is taken by one thread at
+        a time: a thread not yet stopped could still answer)."""
+        tasks = "/proc/%d/task" % self.proc.pid
+        for t in os.listdir(tasks):
+            with open("%s/%s/stat" % (tasks, t)) as f:
+                if f.read().rsplit(")", 1)[1].split()[0] not in ("T", "t"):
+                    return False
+        return True
+
     def stop(self):
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)

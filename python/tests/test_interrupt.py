@@ -135,16 +135,6 @@ RAISES = ["upload_raises", "fetch_raises"]
 MIDWAY = ("_midway", "_raises")
 
 
-def stopped(pid):
-    """True when every thread of pid is stopped (SIGSTOP is taken by one thread at a time)."""
-    tasks = "/proc/%d/task" % pid
-    for t in os.listdir(tasks):
-        with open("%s/%s/stat" % (tasks, t)) as f:
-            if f.read().rsplit(")", 1)[1].split()[0] not in ("T", "t"):
-                return False
-    return True
-
-
 @pytest.fixture(scope="module")
 def own_daemon():
     """A daemon of this module's own: the tests stop and continue it."""
@@ -193,13 +183,13 @@ def run_case(d, case, tmp_path):
         if not case.endswith(MIDWAY):
             os.kill(d.proc.pid, signal.SIGSTOP)
             deadline = time.monotonic() + 30
-            while not stopped(d.proc.pid):      # before the call: no thread left to answer
+            while not d.stopped():      # before the call: no thread left to answer
                 assert time.monotonic() < deadline
                 time.sleep(0.01)
         p.stdin.write("go\n")
         p.stdin.flush()
         line(p, ("calling",), 60)
-        assert stopped(d.proc.pid)
+        assert d.stopped()
         if case not in RAISES:
             time.sleep(0.3)       # the call is waiting by now (it cannot end: no timeout)
             p.send_signal(signal.SIGINT)

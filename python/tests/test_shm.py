@@ -137,16 +137,6 @@ def test_bad_arguments(unix_daemon):
         c.shm_status
 
 
-def stopped(pid):
-    """1 when every thread of pid is stopped (SIGSTOP is taken by one thread at a time)."""
-    tasks = "/proc/%d/task" % pid
-    for t in os.listdir(tasks):
-        with open("%s/%s/stat" % (tasks, t)) as f:
-            if f.read().rsplit(")", 1)[1].split()[0] not in ("T", "t"):
-                return False
-    return True
-
-
 def test_server_and_shm_status_answer_during_another_threads_call():
     """lib35 (py35's list): Client.server and shm_status took the Client's lock, so they waited
     behind another thread's call (for ever with timeout=None and a stopped daemon). HELLO's
@@ -163,7 +153,7 @@ def test_server_and_shm_status_answer_during_another_threads_call():
             assert before["via_shm"] == 1 and before["attached"] is True
             os.kill(d.proc.pid, signal.SIGSTOP)
             deadline = time.monotonic() + 30
-            while not stopped(d.proc.pid):
+            while not d.stopped():
                 assert time.monotonic() < deadline
                 time.sleep(0.01)
             calling = threading.Event()

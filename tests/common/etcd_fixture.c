@@ -89,38 +89,34 @@ static int spawn(st_etcd *e, const char *bin)
     return 0;
 }
 
-int st_etcd_restart(st_etcd *e, int wipe)
+/* kills etcd (a paused one too) and reaps it */
+static void kill_etcd(st_etcd *e)
 {
-    if (e->pid <= 0)
-        return -1;
     kill(e->pid, SIGCONT);
     kill(e->pid, SIGKILL);
     waitpid(e->pid, NULL, 0);
     e->pid = 0;
-    if (wipe) {
-        char cmd[400];
-        snprintf(cmd, sizeof cmd, "rm -rf '%s/data'", e->dir);
+}
+
+/* kills etcd, runs the shell command fmt when not NULL (with e->dir for each %s, at most
+ * three) and starts etcd again */
+static int down_run_up(st_etcd *e, const char *fmt)
+{
+    if (e->pid <= 0)
+        return -1;
+    kill_etcd(e);
+    if (fmt) {
+        char cmd[1200];
+        snprintf(cmd, sizeof cmd, fmt, e->dir, e->dir, e->dir);
         if (system(cmd) != 0)
             return -1;
     }
     return spawn(e, etcd_bin());
 }
 
-/* kills etcd, runs the shell command fmt (with e->dir for each %s, at most two) and starts
- * etcd again */
-static int down_run_up(st_etcd *e, const char *fmt)
+int st_etcd_restart(st_etcd *e, int wipe)
 {
-    if (e->pid <= 0)
-        return -1;
-    kill(e->pid, SIGCONT);
-    kill(e->pid, SIGKILL);
-    waitpid(e->pid, NULL, 0);
-    e->pid = 0;
-    char cmd[1200];
-    snprintf(cmd, sizeof cmd, fmt, e->dir, e->dir, e->dir);
-    if (system(cmd) != 0)
-        return -1;
-    return spawn(e, etcd_bin());
+    return down_run_up(e, wipe ? "rm -rf '%s/data'" : NULL);
 }
 
 int st_etcd_save(st_etcd *e)
@@ -142,12 +138,8 @@ int st_etcd_pause(st_etcd *e, int paused)
 
 void st_etcd_stop(st_etcd *e)
 {
-    if (e->pid > 0) {
-        kill(e->pid, SIGCONT);
-        kill(e->pid, SIGKILL);
-        waitpid(e->pid, NULL, 0);
-        e->pid = 0;
-    }
+    if (e->pid > 0)
+        kill_etcd(e);
     if (e->dir[0]) {
         char cmd[400];
         snprintf(cmd, sizeof cmd, "rm -rf '%s'", e->dir);
